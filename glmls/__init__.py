@@ -1,0 +1,26 @@
+"""glmls: image deformation by Moving Least Squares on the GPU, with error analysis.
+
+Conventions: points are ``(x, y)`` = (column, row) float arrays of shape (N, 2); pixel centres
+sit at integer coordinates; f(v) = v M + T with row vectors.
+"""
+
+from .config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
+from .context import GLContext, get_context
+from .errors import DegenerateHandlesError, GLUnavailableError, ReleasedError
+from .mls import MLS
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "MLS",
+    "RADIUS_WEIGHTS",
+    "TRANSFORMS",
+    "WEIGHTS",
+    "DegenerateHandlesError",
+    "GLContext",
+    "GLUnavailableError",
+    "MLSConfig",
+    "ReleasedError",
+    "__version__",
+    "get_context",
+]

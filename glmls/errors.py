@@ -1,0 +1,18 @@
+"""Exceptions raised by glmls."""
+
+from __future__ import annotations
+
+
+class GLUnavailableError(RuntimeError):
+    """No usable OpenGL 4.3 context: EGL, a driver or the GL version is missing.
+
+    The message says what was missing and which packages provide it.
+    """
+
+
+class DegenerateHandlesError(ValueError):
+    """The handles cannot define the requested transform (e.g. affine on collinear points)."""
+
+
+class ReleasedError(RuntimeError):
+    """A GPU object was used after :meth:`release`."""

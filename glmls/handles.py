@@ -1,0 +1,159 @@
+"""Validation of handles and points, the float32-friendly scaling, and handle storage on the GPU.
+
+Points are ``(x, y)`` = (column, row) float arrays of shape (N, 2); pixel centres sit at
+integer coordinates (scikit-image's convention).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import moderngl
+import numpy as np
+
+from .errors import DegenerateHandlesError
+
+
+def as_points(points: object, name: str = "points") -> np.ndarray:
+    """``points`` as a C-contiguous float64 (N, 2) array; ``ValueError``/``TypeError`` if not."""
+    array = np.asarray(points)
+    if array.dtype == object or not (
+        np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating)
+    ):
+        raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
+    if array.ndim != 2 or array.shape[1] != 2:
+        if array.size == 0 and array.ndim >= 1:
+            return np.zeros((0, 2))
+        raise ValueError(f"{name} must have shape (N, 2) as (x, y) rows, got {array.shape}")
+    array = np.ascontiguousarray(array, dtype=np.float64)
+    bad = ~np.isfinite(array).all(axis=1)
+    if bad.any():
+        raise ValueError(
+            f"{name} must be finite; row {int(np.argmax(bad))} is {array[np.argmax(bad)]}"
+        )
+    return array
+
+
+def validate_handles(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
+    """Check source points p and target points q; return them as float64 (N, 2) arrays.
+
+    Exact duplicate pairs are accepted; the same source point with two different targets is
+    a ``ValueError`` (f cannot take two values there).
+    """
+    p = as_points(src, "src")
+    q = as_points(dst, "dst")
+    if len(p) != len(q):
+        raise ValueError(f"src and dst must have the same length, got {len(p)} and {len(q)}")
+    if len(p) > 1:
+        order = np.lexsort((p[:, 1], p[:, 0]))
+        ps, qs = p[order], q[order]
+        same_p = (ps[1:] == ps[:-1]).all(axis=1)
+        conflict = same_p & (qs[1:] != qs[:-1]).any(axis=1)
+        if conflict.any():
+            k = int(np.argmax(conflict))
+            i, j = sorted((int(order[k]), int(order[k + 1])))
+            raise ValueError(
+                f"src[{i}] and src[{j}] are the same point {p[i].tolist()} with different "
+                f"targets {q[i].tolist()} and {q[j].tolist()}"
+            )
+    return p, q
+
+
+def check_affine_handles(src: np.ndarray) -> None:
+    """Affine MLS needs 3 distinct source points not on one line (0 or 1 handle is fine:
+    identity and translation)."""
+    unique = np.unique(src, axis=0)
+    if len(unique) <= 1:
+        return
+    centred = unique - unique.mean(axis=0)
+    singular = np.linalg.svd(centred, compute_uv=False)
+    if len(unique) == 2 or singular[1] <= 1e-9 * singular[0]:
+        raise DegenerateHandlesError(
+            f"affine MLS needs at least 3 source handles not on one line; got {len(unique)} "
+            "distinct points on a line. Use transform='similarity' or 'rigid', or add a handle."
+        )
+
+
+@dataclass(frozen=True)
+class Scaling:
+    """Maps pixel coordinates to the GPU's scaled ones: ``(x - center) / scale``.
+
+    Centring and scaling keep float32 coordinates near [-1, 1], where their spacing is ~1e-7
+    of the image size, instead of ~1e-4 px at x ~ 1000.
+    """
+
+    center: tuple[float, float]
+    scale: float
+
+    def to_gpu(self, points: np.ndarray) -> np.ndarray:
+        return ((points - np.asarray(self.center)) / self.scale).astype(np.float32)
+
+    def from_gpu(self, points: np.ndarray) -> np.ndarray:
+        return points.astype(np.float64) * self.scale + np.asarray(self.center)
+
+    @classmethod
+    def fit(cls, src: np.ndarray, dst: np.ndarray, shape: tuple[int, int] | None = None) -> Scaling:
+        """The scaling for the box around the handles and, if given, the image."""
+        boxes = [src, dst]
+        if shape is not None:
+            boxes.append(np.array([[-0.5, -0.5], [shape[1] - 0.5, shape[0] - 0.5]]))
+        pts = np.concatenate(boxes)
+        if len(pts) == 0:
+            return cls((0.0, 0.0), 1.0)
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        center = (lo + hi) / 2
+        scale = max(float((hi - lo).max()) / 2, 1.0)
+        return cls((float(center[0]), float(center[1])), scale)
+
+
+class HandleStorage(Protocol):
+    """How the handles reach the shaders. ``glsl_part`` is the shader file that defines
+    ``int mls_handle_count()`` and ``vec4 mls_handle(int i)``."""
+
+    glsl_part: str
+    count: int
+
+    def upload(self, packed: np.ndarray) -> None: ...
+    def bind(self, program: moderngl.ComputeShader | moderngl.Program) -> None: ...
+    def release(self) -> None: ...
+
+
+def pack_handles(src: np.ndarray, dst: np.ndarray, scaling: Scaling) -> np.ndarray:
+    """(N, 4) float32 rows (p.x, p.y, q.x, q.y) in scaled coordinates."""
+    return np.concatenate([scaling.to_gpu(src), scaling.to_gpu(dst)], axis=1)
+
+
+class SSBOHandleStorage:
+    """Handles in a std430 shader storage buffer of vec4, bound at binding 0."""
+
+    glsl_part = "handles_ssbo.glsl"
+    binding = 0
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self._ctx = ctx
+        self._buffer: moderngl.Buffer | None = None
+        self.count = 0
+
+    def upload(self, packed: np.ndarray) -> None:
+        data = np.ascontiguousarray(packed, dtype=np.float32).tobytes()
+        needed = max(len(data), 16)  # a zero-size buffer is invalid; count = 0 guards reads
+        if self._buffer is None or self._buffer.size < needed:
+            if self._buffer is not None:
+                self._buffer.release()
+            self._buffer = self._ctx.buffer(reserve=needed)
+        if data:
+            self._buffer.write(data)
+        self.count = len(packed)
+
+    def bind(self, program: moderngl.ComputeShader | moderngl.Program) -> None:
+        if self._buffer is None:
+            raise RuntimeError("handles were not uploaded")
+        self._buffer.bind_to_storage_buffer(self.binding)
+        if "u_handle_count" in program:
+            program["u_handle_count"].value = self.count
+
+    def release(self) -> None:
+        if self._buffer is not None:
+            self._buffer.release()
+            self._buffer = None

@@ -1,0 +1,294 @@
+"""The public :class:`MLS` deformation, evaluated by a compute shader."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import moderngl
+import numpy as np
+
+from .config import MLSConfig
+from .context import GLContext, get_context
+from .errors import ReleasedError
+from .handles import (
+    Scaling,
+    SSBOHandleStorage,
+    as_points,
+    check_affine_handles,
+    pack_handles,
+    validate_handles,
+)
+
+#: Points closer than this (pixels) to a handle whose weight is infinite there map to q_i.
+SNAP_DISTANCE = 1e-3
+_WEIGHT_CODES = {"idw": 0, "cressman": 1, "shepard": 2, "gaussian": 3, "linear": 4}
+_TRANSFORM_CODES = {"affine": 0, "similarity": 1, "rigid": 2}
+_LOCAL_SIZE = 64
+_WRITE_BINDINGS = {"f": 2, "M": 3}
+
+
+def as_shape(shape: object) -> tuple[int, int]:
+    """(H, W) from an image shape ``(H, W)`` or ``(H, W, C)``; ``ValueError`` otherwise."""
+    try:
+        dims = tuple(int(n) for n in shape)  # type: ignore[union-attr]
+    except (TypeError, ValueError):
+        raise TypeError(f"shape must be (H, W) integers, got {shape!r}") from None
+    if len(dims) not in (2, 3) or dims[0] < 1 or dims[1] < 1:
+        raise ValueError(f"shape must be (H, W) with H, W >= 1, got {shape!r}")
+    return dims[0], dims[1]
+
+
+def mesh_axes(shape: tuple[int, int], grid: int) -> tuple[np.ndarray, np.ndarray]:
+    """x and y of the mesh of pixel-square corners: -0.5, -0.5 + grid, ..., up to W - 0.5."""
+    if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or grid < 1:
+        raise ValueError(f"grid must be an integer >= 1 (pixels), got {grid!r}")
+    height, width = shape
+    xs = np.minimum(-0.5 + grid * np.arange(math.ceil(width / grid) + 1), width - 0.5)
+    ys = np.minimum(-0.5 + grid * np.arange(math.ceil(height / grid) + 1), height - 0.5)
+    return xs, ys
+
+
+class MLS:
+    """A Moving Least Squares deformation from source handles ``src`` (p) to ``dst`` (q).
+
+    Points are ``(x, y)`` = (column, row) rows of (N, 2) float arrays; pixel centres sit at
+    integer coordinates, so pixel (row r, column c) is the point (c, r) and covers
+    [c - 0.5, c + 0.5] x [r - 0.5, r + 0.5]. With row vectors (the paper's eq. 1),
+    ``f(v) = v @ M(v) + T(v)``.
+
+    Parameters (keyword-only; see :class:`glmls.MLSConfig` for the formulas):
+    transform ``affine`` | ``similarity`` | ``rigid``; weight ``idw`` | ``cressman`` |
+    ``shepard`` | ``gaussian`` | ``linear``; ``alpha``, ``s`` (idw); ``radius`` (pixels, the
+    image diagonal when ``None`` and an image size is known); ``interpolating`` (make any
+    weight interpolate the handles); ``shape`` (H, W) of the image, for the default radius;
+    ``ctx`` a moderngl context to render with (default: glmls's shared headless EGL one).
+
+    Special cases: no handles is the identity and one handle a translation by q - p, for every
+    transform. Affine needs 3 source handles not on one line (else
+    :class:`glmls.DegenerateHandlesError`); where a compact-support weight reaches fewer at a
+    point, that point uses the similarity solution. A point that no handle reaches stays put.
+
+    GPU objects are released by :meth:`release` (or a ``with`` block).
+    """
+
+    def __init__(
+        self,
+        src: object,
+        dst: object,
+        *,
+        transform: str = "rigid",
+        weight: str = "idw",
+        alpha: float = 1.0,
+        s: float = 1e-8,
+        radius: float | None = None,
+        interpolating: bool = False,
+        shape: Sequence[int] | None = None,
+        ctx: moderngl.Context | GLContext | None = None,
+    ) -> None:
+        config = MLSConfig(
+            transform=transform,
+            weight=weight,
+            alpha=alpha,
+            s=s,
+            radius=radius,
+            interpolating=interpolating,
+        )
+        self._setup(src, dst, config, shape, ctx)
+
+    @classmethod
+    def from_config(
+        cls,
+        src: object,
+        dst: object,
+        config: MLSConfig,
+        *,
+        shape: Sequence[int] | None = None,
+        ctx: moderngl.Context | GLContext | None = None,
+    ) -> MLS:
+        """An MLS with the settings of an :class:`MLSConfig`."""
+        if not isinstance(config, MLSConfig):
+            raise TypeError(f"config must be an MLSConfig, got {type(config).__name__}")
+        self = cls.__new__(cls)
+        self._setup(src, dst, config, shape, ctx)
+        return self
+
+    def _setup(self, src, dst, config, shape, ctx) -> None:
+        self._released = True  # until fully built, release() has nothing to free
+        src, dst = validate_handles(src, dst)
+        if config.transform == "affine":
+            check_affine_handles(src)
+        self.config = config
+        self.shape = None if shape is None else as_shape(shape)
+        if self.shape is not None:
+            config.resolve_radius(self.shape)
+        self._src, self._dst = src, dst
+        self._src.flags.writeable = False
+        self._dst.flags.writeable = False
+        self.scaling = Scaling.fit(src, dst, self.shape)
+        self._gl = get_context(ctx)
+        self._handles = SSBOHandleStorage(self._gl.mgl)
+        self._handles.upload(pack_handles(src, dst, self.scaling))
+        self._buffers: dict[str, moderngl.Buffer] = {}
+        self._released = False
+
+    # -- public API ---------------------------------------------------------------------
+
+    @property
+    def src(self) -> np.ndarray:
+        """Source handles p, (N, 2) float64, read-only."""
+        return self._src
+
+    @property
+    def dst(self) -> np.ndarray:
+        """Target handles q, (N, 2) float64, read-only."""
+        return self._dst
+
+    @property
+    def ctx(self) -> GLContext:
+        return self._gl
+
+    def __call__(self, points: object) -> np.ndarray:
+        """f(points): (K, 2) float64, evaluated on the GPU."""
+        v = as_points(points)
+        f, _ = self._evaluate_points(v, with_matrix=False)
+        return f
+
+    def matrices(self, points: object) -> tuple[np.ndarray, np.ndarray]:
+        """(M, T): (K, 2, 2) and (K, 2) float64 with ``f(v) = v @ M + T`` for each point."""
+        v = as_points(points)
+        f, m = self._evaluate_points(v, with_matrix=True)
+        return m, f - np.einsum("ki,kij->kj", v, m)
+
+    def mesh(self, shape: Sequence[int], *, grid: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """The mesh of pixel-square corners of an image of ``shape`` and its image under f.
+
+        Vertices sit at x = -0.5, -0.5 + grid, ..., W - 0.5 (the last step may be shorter),
+        likewise in y. Returns (vertices, deformed), each (rows, columns, 2) float64.
+        """
+        shape = as_shape(shape)
+        xs, ys = mesh_axes(shape, grid)
+        vertices = np.stack(np.meshgrid(xs, ys), axis=-1)
+        count = vertices.shape[0] * vertices.shape[1]
+        program = self._program(mesh=True, with_matrix=False)
+        sc = self.scaling
+        origin = sc.to_gpu(np.array([[xs[0], ys[0]]]))[0]
+        last = sc.to_gpu(np.array([[xs[-1], ys[-1]]]))[0]
+        program["u_mesh_origin"].value = tuple(origin)
+        program["u_mesh_step"].value = (grid / sc.scale, grid / sc.scale)
+        program["u_mesh_last"].value = tuple(last)
+        program["u_mesh_dims"].value = (len(xs), len(ys))
+        out = self._run(program, count, shape, with_matrix=False)
+        deformed = sc.from_gpu(out["f"]).reshape(vertices.shape)
+        return vertices, deformed
+
+    def release(self) -> None:
+        """Free this object's GPU buffers. Safe to call twice; later use raises."""
+        if self._released:
+            return
+        self._handles.release()
+        for buffer in self._buffers.values():
+            buffer.release()
+        self._buffers.clear()
+        self._released = True
+
+    @property
+    def released(self) -> bool:
+        return self._released
+
+    def __enter__(self) -> MLS:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
+
+    def __repr__(self) -> str:
+        c = self.config
+        state = ", released" if self._released else ""
+        return (
+            f"MLS({len(self._src)} handles, transform={c.transform!r}, weight={c.weight!r}, "
+            f"alpha={c.alpha}, s={c.s}, radius={c.radius}, interpolating={c.interpolating}"
+            f"{state})"
+        )
+
+    # -- GPU evaluation -----------------------------------------------------------------
+
+    def _check_alive(self) -> None:
+        if self._released:
+            raise ReleasedError("this MLS has been released; create a new one")
+
+    def _program(self, *, mesh: bool, with_matrix: bool) -> moderngl.ComputeShader:
+        self._check_alive()
+        c = self.config
+        defines = {
+            "MLS_WEIGHT": _WEIGHT_CODES[c.weight],
+            "MLS_TRANSFORM": _TRANSFORM_CODES[c.transform],
+            "MLS_INTERPOLATING": c.interpolating,
+            "MLS_ALPHA_ONE": c.alpha == 1.0,
+            "MLS_MESH": mesh,
+            "MLS_WRITE_MATRIX": with_matrix,
+        }
+        parts = (self._handles.glsl_part, "mls_core.glsl", "mls_points.comp.glsl")
+        return self._gl.compute(parts, defines)
+
+    def uniforms(self, shape: tuple[int, int] | None = None) -> dict[str, float | bool]:
+        """The MLS uniforms of ``mls_core.glsl`` for an image of ``shape`` (scaled units)."""
+        c = self.config
+        scale = self.scaling.scale
+        radius = c.resolve_radius(shape if shape is not None else self.shape)
+        alpha = c.alpha
+        log2_s = math.log2(c.s) - 2 * alpha * math.log2(scale) if c.s > 0 else -1e30
+        hit2 = (SNAP_DISTANCE / scale) ** 2
+        # idw with a tiny s is infinite at d = 0 for float32: snap there too.
+        tiny_s = c.weight == "idw" and log2_s - alpha * math.log2(hit2) < math.log2(1e-6)
+        return {
+            "u_alpha": alpha,
+            "u_log2_s": max(log2_s, -1e30),
+            "u_radius": (radius or 1.0) / scale,
+            "u_hit2": hit2,
+            "u_snap": c.infinite_at_zero or tiny_s,
+        }
+
+    def _set_uniforms(self, program, shape) -> None:
+        for name, value in self.uniforms(shape).items():
+            if name in program:
+                program[name].value = value
+        self._handles.bind(program)
+
+    def _buffer(self, name: str, nbytes: int) -> moderngl.Buffer:
+        """A cached buffer of at least ``nbytes``, grown (never shrunk) as needed."""
+        buffer = self._buffers.get(name)
+        if buffer is None or buffer.size < nbytes:
+            if buffer is not None:
+                buffer.release()
+            buffer = self._buffers[name] = self._gl.mgl.buffer(reserve=max(nbytes, 16))
+        return buffer
+
+    def _run(self, program, count: int, shape, *, with_matrix: bool) -> dict[str, np.ndarray]:
+        self._set_uniforms(program, shape)
+        outputs = {"f": 2} | ({"M": 4} if with_matrix else {})
+        for name, width in outputs.items():
+            self._buffer(name, count * width * 4).bind_to_storage_buffer(_WRITE_BINDINGS[name])
+        program["u_count"].value = count
+        max_groups = self._gl.limits["max_work_groups_x"]
+        groups = math.ceil(count / _LOCAL_SIZE)
+        for first in range(0, groups, max_groups):
+            program["u_offset"].value = first * _LOCAL_SIZE
+            program.run(group_x=min(max_groups, groups - first))
+        return {
+            name: np.frombuffer(
+                self._buffers[name].read(size=count * width * 4), dtype=np.float32
+            ).reshape(count, width)
+            for name, width in outputs.items()
+        }
+
+    def _evaluate_points(self, v: np.ndarray, *, with_matrix: bool):
+        program = self._program(mesh=False, with_matrix=with_matrix)
+        if len(v) == 0:
+            return np.zeros((0, 2)), np.zeros((0, 2, 2))
+        self._buffer("points", v.size * 4).write(self.scaling.to_gpu(v).tobytes())
+        self._buffers["points"].bind_to_storage_buffer(1)
+        out = self._run(program, len(v), None, with_matrix=with_matrix)
+        f = self.scaling.from_gpu(out["f"])
+        m = out["M"].astype(np.float64).reshape(-1, 2, 2) if with_matrix else None
+        return f, m

@@ -1,0 +1,43 @@
+// Evaluates f (and optionally M) at an arbitrary list of points, or at the vertices of a
+// regular mesh when MLS_MESH is 1 (vertex (i, j) at min(origin + (i, j) * step, last)).
+layout(local_size_x = 64) in;
+
+#if MLS_MESH
+uniform vec2 u_mesh_origin;   // scaled
+uniform vec2 u_mesh_step;     // scaled
+uniform vec2 u_mesh_last;     // scaled; the last row/column lands exactly on it
+uniform ivec2 u_mesh_dims;    // vertices per row, rows
+#else
+layout(std430, binding = 1) readonly buffer MLSPoints {
+    vec2 mls_points[];
+};
+#endif
+uniform int u_count;     // points (or vertices) in all
+uniform int u_offset;    // first index of this dispatch (dispatches are capped in size)
+
+layout(std430, binding = 2) writeonly buffer MLSOutF {
+    vec2 mls_out_f[];
+};
+#if MLS_WRITE_MATRIX
+layout(std430, binding = 3) writeonly buffer MLSOutM {
+    vec4 mls_out_m[];
+};
+#endif
+
+void main() {
+    int i = u_offset + int(gl_GlobalInvocationID.x);
+    if (i >= u_count) {
+        return;
+    }
+#if MLS_MESH
+    ivec2 ij = ivec2(i % u_mesh_dims.x, i / u_mesh_dims.x);
+    vec2 v = min(u_mesh_origin + vec2(ij) * u_mesh_step, u_mesh_last);
+#else
+    vec2 v = mls_points[i];
+#endif
+    MLSResult r = mls_eval(v);
+    mls_out_f[i] = r.f;
+#if MLS_WRITE_MATRIX
+    mls_out_m[i] = r.M;
+#endif
+}

@@ -1,0 +1,39 @@
+"""One GL context for the whole test session; GL errors are checked around every test."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import glmls
+from glmls.context import GLContext
+
+
+@pytest.fixture(scope="session")
+def gl() -> GLContext:
+    """The shared headless context (created once, released at exit)."""
+    return glmls.get_context()
+
+
+@pytest.fixture(autouse=True)
+def _no_gl_errors(request):
+    """Fail a test that leaves a GL error behind (only for tests that use the GPU)."""
+    if "gl" not in request.fixturenames:
+        yield
+        return
+    ctx = request.getfixturevalue("gl").mgl
+    assert ctx.error == "GL_NO_ERROR", "a GL error was pending before the test"
+    yield
+    assert ctx.error == "GL_NO_ERROR"
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(12345)
+
+
+def random_handles(rng, n, size=1024.0, displacement=60.0):
+    """n source handles in a size x size image and targets moved by up to ``displacement``."""
+    p = rng.uniform(0, size, (n, 2))
+    q = p + rng.uniform(-displacement, displacement, (n, 2))
+    return p, q
