@@ -34,7 +34,7 @@ def _explain(error: Exception) -> GLUnavailableError:
     elif "device" in text or "eglInitialize" in text or "eglGetDisplay" in text:
         what = f"no EGL driver answered ({text}); install {_PACKAGES_DRIVER}"
     elif "eglCreateContext" in text or "version" in text.lower():
-        what = f"the driver offers no OpenGL {REQUIRED_GL // 100}.{REQUIRED_GL % 100 // 10} core context ({text})"
+        what = f"the driver offers no OpenGL 4.3 core context ({text})"
     else:
         what = f"creating a headless EGL context failed ({text})"
     return GLUnavailableError(f"OpenGL unavailable: {what}. {_FIX}")

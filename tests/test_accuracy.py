@@ -33,6 +33,7 @@ def test_matches_reference_within_a_hundredth_pixel(gl, rng, transform, weight, 
     f_ref, m_ref, t_ref = reference.mls(p, q, v, m.config, shape=SHAPE)
     assert_allclose(f, f_ref, rtol=0, atol=0.01)  # the bound: 0.01 px
     assert_allclose(big_m, m_ref, rtol=0, atol=1e-4)
+    assert_allclose(t, t_ref, rtol=0, atol=0.1)  # T = f - v M: M's error times |v| ~ 1000
     assert_allclose(np.einsum("ki,kij->kj", v, big_m) + t, f, rtol=0, atol=1e-6)
 
 
