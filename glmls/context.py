@@ -102,8 +102,9 @@ class GLContext:
         """Release the cached programs, and the context itself if glmls created it."""
         if self.released:
             return
-        for program in self._programs.values():
-            program.release()
+        with self.mgl:  # delete in this context, whichever is current now
+            for program in self._programs.values():
+                program.release()
         self._programs.clear()
         if self.owned:
             self.mgl.release()

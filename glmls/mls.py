@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import TypeVar
 
 import moderngl
 import numpy as np
@@ -26,6 +28,20 @@ _WEIGHT_CODES = {"idw": 0, "cressman": 1, "shepard": 2, "gaussian": 3, "linear":
 _TRANSFORM_CODES = {"affine": 0, "similarity": 1, "rigid": 2}
 _LOCAL_SIZE = 64
 _WRITE_BINDINGS = {"f": 2, "M": 3}
+_R = TypeVar("_R")
+
+
+def on_gpu(method: Callable[..., _R]) -> Callable[..., _R]:
+    """Run ``method`` with this object's GL context current (another context, a window's or
+    a second headless one, may have been made current since), after checking it is alive."""
+
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        self._check_alive()
+        with self._gl.mgl:
+            return method(self, *args, **kwargs)
+
+    return wrapper
 
 
 def as_shape(shape: object) -> tuple[int, int]:
@@ -122,13 +138,14 @@ class MLS:
         self.shape = None if shape is None else as_shape(shape)
         if self.shape is not None:
             config.resolve_radius(self.shape)
-        self._src, self._dst = src, dst
+        self._src, self._dst = src.copy(), dst.copy()  # never freeze the caller's arrays
         self._src.flags.writeable = False
         self._dst.flags.writeable = False
         self.scaling = Scaling.fit(src, dst, self.shape)
         self._gl = get_context(ctx)
         self._handles = SSBOHandleStorage(self._gl.mgl)
-        self._handles.upload(pack_handles(src, dst, self.scaling))
+        with self._gl.mgl:
+            self._handles.upload(pack_handles(src, dst, self.scaling))
         self._buffers: dict[str, moderngl.Buffer] = {}
         self._released = False
 
@@ -148,18 +165,21 @@ class MLS:
     def ctx(self) -> GLContext:
         return self._gl
 
+    @on_gpu
     def __call__(self, points: object) -> np.ndarray:
         """f(points): (K, 2) float64, evaluated on the GPU."""
         v = as_points(points)
         f, _ = self._evaluate_points(v, with_matrix=False)
         return f
 
+    @on_gpu
     def matrices(self, points: object) -> tuple[np.ndarray, np.ndarray]:
         """(M, T): (K, 2, 2) and (K, 2) float64 with ``f(v) = v @ M + T`` for each point."""
         v = as_points(points)
         f, m = self._evaluate_points(v, with_matrix=True)
         return m, f - np.einsum("ki,kij->kj", v, m)
 
+    @on_gpu
     def mesh(self, shape: Sequence[int], *, grid: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """The mesh of pixel-square corners of an image of ``shape`` and its image under f.
 
@@ -186,9 +206,10 @@ class MLS:
         """Free this object's GPU buffers. Safe to call twice; later use raises."""
         if self._released:
             return
-        self._handles.release()
-        for buffer in self._buffers.values():
-            buffer.release()
+        with self._gl.mgl:
+            self._handles.release()
+            for buffer in self._buffers.values():
+                buffer.release()
         self._buffers.clear()
         self._released = True
 

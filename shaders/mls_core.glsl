@@ -73,22 +73,28 @@ MLSResult mls_identity(vec2 v) {
     return r;
 }
 
-// Similarity / rigid matrix [[A, B], [-B, A]] / norm from the weighted moments.
-vec4 mls_rotation_scale(float mu, float A, float B, float spread) {
+// N = M - I for similarity / rigid, from mu = sum w |p^|^2 and the displacement moments
+// D (see mls_eval). M = [[A, B], [-B, A]] / norm with A = mu + D11 + D22, B = D12 - D21.
+vec4 mls_rotation_scale(float mu, vec4 D, float spread) {
     // Source handles in reach coincide (their spread about p* is float32 noise against their
     // spread about v): only a translation is defined.
     if (!(mu > 1e-13 * spread)) {
-        return vec4(1.0, 0.0, 0.0, 1.0);
+        return vec4(0.0);
     }
+    float B = D.y - D.z;
 #if MLS_TRANSFORM == 2
+    float A = mu + D.x + D.w;
     float n = sqrt(A * A + B * B);
     // Targets collapsed to a point: no rotation is defined, keep the identity.
     if (n <= 1e-6 * mu) {
-        return vec4(1.0, 0.0, 0.0, 1.0);
+        return vec4(0.0);
     }
-    return vec4(A, B, -B, A) / n;
+    // A / n - 1 without cancellation for small rotations
+    float c1 = A > 0.0 ? -B * B / (n * (A + n)) : A / n - 1.0;
+    return vec4(c1, B / n, -B / n, c1);
 #else
-    return vec4(A, B, -B, A) / mu;
+    float a = (D.x + D.w) / mu;
+    return vec4(a, B / mu, -B / mu, a);
 #endif
 }
 
@@ -116,36 +122,42 @@ MLSResult mls_eval(vec2 v) {
     bool hit = u_snap && d2min <= u_hit2;
     float m = hit ? d2far : max(d2min, u_hit2);
 
-    // Pass 1: weighted centroids p*, q*, relative to v for precision.
-    vec2 pst;
-    vec2 qst;
-    if (hit) {
-        vec4 h = mls_handle(imin);
-        pst = h.xy - v;
-        qst = h.zw - v;
-    } else {
+    // Centroids and moments are taken relative to the nearest handle (o, oq): differences of
+    // nearby float32 values are exact, so p^ = p - p* keeps its precision even for points far
+    // from a tight cluster of handles.
+    vec4 ho = mls_handle(imin);
+    vec2 o = ho.xy;
+    vec2 oq = ho.zw;
+
+    // Pass 1: weighted centroids p* = o + pst and displacement e* = e(o) + est, where
+    // e(p_i) = q_i - p_i. Working with displacements keeps the identity exact and small
+    // deformations precise: f(v) = v + e* + (v - p*) N with N = M - I.
+    vec2 eo = oq - o;
+    vec2 pst = vec2(0.0);
+    vec2 est = vec2(0.0);
+    if (!hit) {   // when snapped, p* = p_i and q* = q_i exactly
         float W = 0.0;
         vec2 sp = vec2(0.0);
-        vec2 sq = vec2(0.0);
+        vec2 se = vec2(0.0);
         for (int i = 0; i < n; ++i) {
             vec4 h = mls_handle(i);
             vec2 dp = h.xy - v;
             float w = mls_weight(dot(dp, dp), m);
             W += w;
-            sp += w * dp;
-            sq += w * (h.zw - v);
+            sp += w * (h.xy - o);
+            se += w * ((h.zw - h.xy) - eo);
         }
         if (!(W > 0.0)) {
             return mls_identity(v);   // no handle reaches v
         }
         pst = sp / W;
-        qst = sq / W;
+        est = se / W;
     }
 
-    // Pass 2: moments of p^ = p - p*, q^ = q - q*.
+    // Pass 2: moments of p^ = p - p* and of the displacement e^ = e - e* (q^ = p^ + e^).
     float spread = 0.0;   // sum w |p - v|^2, the yardstick for "coincident"
     float a11 = 0.0, a12 = 0.0, a22 = 0.0;
-    vec4 b = vec4(0.0);   // b_ij = sum w p^_i q^_j as (b11, b12, b21, b22)
+    vec4 D = vec4(0.0);   // D_ij = sum w p^_i e^_j as (D11, D12, D21, D22)
     for (int i = 0; i < n; ++i) {
         vec4 h = mls_handle(i);
         vec2 dp = h.xy - v;
@@ -154,38 +166,37 @@ MLSResult mls_eval(vec2 v) {
             continue;   // the snapped handle: its p^ is 0 and its weight infinite
         }
         float w = mls_weight(d2, m);
-        vec2 ph = dp - pst;
-        vec2 qh = (h.zw - v) - qst;
-        spread += w * dot(dp, dp);
+        vec2 ph = (h.xy - o) - pst;
+        vec2 eh = ((h.zw - h.xy) - eo) - est;
+        spread += w * d2;
         a11 += w * ph.x * ph.x;
         a12 += w * ph.x * ph.y;
         a22 += w * ph.y * ph.y;
-        b += w * vec4(ph.x * qh.x, ph.x * qh.y, ph.y * qh.x, ph.y * qh.y);
+        D += w * vec4(ph.x * eh.x, ph.x * eh.y, ph.y * eh.x, ph.y * eh.y);
     }
 
     float mu = a11 + a22;
-    float A = b.x + b.w;   // sum w p^ . q^
-    float B = b.y - b.z;   // sum w p^ x q^
-    vec4 M;
+    vec4 N;   // M - I
 #if MLS_TRANSFORM == 0
     float det = a11 * a22 - a12 * a12;
     if (mu > 1e-13 * spread && det > 1e-5 * mu * mu) {
-        // M = A^-1 B with A = [[a11, a12], [a12, a22]]
+        // M = A^-1 (A + D) = I + A^-1 D, with A = [[a11, a12], [a12, a22]]
         vec2 r0 = vec2(a22, -a12) / det;
         vec2 r1 = vec2(-a12, a11) / det;
-        M = vec4(r0.x * b.x + r0.y * b.z, r0.x * b.y + r0.y * b.w,
-                 r1.x * b.x + r1.y * b.z, r1.x * b.y + r1.y * b.w);
+        N = vec4(r0.x * D.x + r0.y * D.z, r0.x * D.y + r0.y * D.w,
+                 r1.x * D.x + r1.y * D.z, r1.x * D.y + r1.y * D.w);
     } else {
         // Fewer than 3 non-collinear handles in reach: the similarity solution.
-        M = mls_rotation_scale(mu, A, B, spread);
+        N = mls_rotation_scale(mu, D, spread);
     }
 #else
-    M = mls_rotation_scale(mu, A, B, spread);
+    N = mls_rotation_scale(mu, D, spread);
 #endif
 
-    // f(v) = (v - p*) M + q*, with v - p* = -pst.
+    // f(v) = q* + (v - p*) M = v + e* + (v - p*) N
+    vec2 vp = (v - o) - pst;
     MLSResult r;
-    r.M = M;
-    r.f = v + qst - vec2(pst.x * M.x + pst.y * M.z, pst.x * M.y + pst.y * M.w);
+    r.M = N + vec4(1.0, 0.0, 0.0, 1.0);
+    r.f = v + (eo + est) + vec2(vp.x * N.x + vp.y * N.z, vp.x * N.y + vp.y * N.w);
     return r;
 }
