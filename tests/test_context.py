@@ -80,7 +80,7 @@ def test_adopted_context_is_used_and_not_released_by_glmls():
 
 
 def test_ctx_of_the_wrong_type_is_a_type_error():
-    with pytest.raises(TypeError, match="moderngl.Context"):
+    with pytest.raises(TypeError, match=r"moderngl\.Context"):
         get_context("egl")  # type: ignore[arg-type]
 
 

@@ -13,7 +13,7 @@ def test_shader_files_are_found_and_composed_with_defines():
 
 
 def test_unknown_shader_and_bad_define():
-    with pytest.raises(FileNotFoundError, match="nope.glsl"):
+    with pytest.raises(FileNotFoundError, match=r"nope\.glsl"):
         shaders.load_source("nope.glsl")
     with pytest.raises(TypeError, match="define"):
         shaders.compose([], {"A": 1.5})
