@@ -22,9 +22,11 @@ def _no_gl_errors(request):
         yield
         return
     ctx = request.getfixturevalue("gl").mgl
-    assert ctx.error == "GL_NO_ERROR", "a GL error was pending before the test"
+    with ctx:  # another context may have been made current
+        assert ctx.error == "GL_NO_ERROR", "a GL error was pending before the test"
     yield
-    assert ctx.error == "GL_NO_ERROR"
+    with ctx:
+        assert ctx.error == "GL_NO_ERROR"
 
 
 @pytest.fixture

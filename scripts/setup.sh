@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Sets glmls up on a fresh Debian/Ubuntu machine with Python >= 3.11:
+#   - the system OpenGL stack for headless rendering (EGL + Mesa; llvmpipe runs GL 4.5 on
+#     the CPU when there is no GPU) and Xvfb for the real-time window under a virtual screen;
+#   - a virtual environment in .venv with glmls installed (editable) and its test tools.
+# Safe to run again: it installs only what is missing.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PYTHON=${PYTHON:-python3}
+packages=(libegl1 libegl-mesa0 libgl1-mesa-dri xvfb xauth)
+if ! "$PYTHON" -c "import ensurepip, venv" >/dev/null 2>&1; then
+    packages+=(python3-venv)
+fi
+missing=()
+for pkg in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" \
+        || missing+=("$pkg")
+done
+if ((${#missing[@]})); then
+    echo "setup: installing system packages: ${missing[*]}" >&2
+    sudo=""
+    [ "$(id -u)" -eq 0 ] || sudo="sudo"
+    $sudo apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends \
+        "${missing[@]}" >/dev/null
+fi
+
+if [ ! -x .venv/bin/python ]; then
+    "$PYTHON" -m venv .venv
+fi
+.venv/bin/python -m pip install -q --disable-pip-version-check --upgrade pip
+.venv/bin/python -m pip install -q --disable-pip-version-check -e ".[test]"
+echo "setup: ready (.venv/bin/python, .venv/bin/glmls-example)" >&2
