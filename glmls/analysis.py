@@ -79,7 +79,7 @@ def error_field(m: MLS, shape: Sequence[int], *, grid: int = 1) -> np.ndarray:
         program["u_grid"].value = grid
         _dispatch(m, program, (width, height))
         data = out.read(size=width * height * 4)
-    return np.frombuffer(data, dtype=np.float32).reshape(height, width) * scale2
+    return np.frombuffer(data, dtype=np.float32).reshape(height, width).astype(np.float64) * scale2
 
 
 # -- statistics (eqs. 8, 9) --------------------------------------------------------------------
