@@ -130,18 +130,24 @@ class Canvas:
             raise ValueError(f"shape {self.shape} exceeds the GL texture size limit {limit}")
         self._samples = min(int(samples), mgl.max_samples) if samples > 1 else 0
         self._objects: list = []
+        # Bound again on release: moderngl rebinds "the current framebuffer" after creating
+        # one, and a released one would be a GL error (and a window wants its own back).
+        # A headless context has none bound yet: then framebuffer 0.
+        self._previous = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
         size = (width, height)
-        self._resolved = self._keep(mgl.simple_framebuffer(size, components=4))
-        if self._samples:
-            self._fbo = self._keep(
-                mgl.simple_framebuffer(size, components=4, samples=self._samples)
-            )
-        else:
-            self._fbo = self._resolved
+        # Colour only (2-D layers need no depth); moderngl's simple_framebuffer would add a
+        # multisampled depth buffer, which some drivers refuse.
+        self._resolved = self._framebuffer(size, 0)
+        self._fbo = self._framebuffer(size, self._samples) if self._samples else self._resolved
         self._released = False
         r, g, b = as_color(background, "background")
         self._fbo.use()
         self._fbo.clear(r / 255, g / 255, b / 255, 1.0)
+
+    def _framebuffer(self, size: tuple[int, int], samples: int) -> moderngl.Framebuffer:
+        mgl = self._gl.mgl
+        color = self._keep(mgl.renderbuffer(size, 4, samples=samples))
+        return self._keep(mgl.framebuffer(color_attachments=[color]))
 
     def _keep(self, obj):
         self._objects.append(obj)
@@ -321,6 +327,8 @@ class Canvas:
     def release(self) -> None:
         if self._released:
             return
+        if self._gl.mgl.fbo in (self._fbo, self._resolved):
+            self._previous.use()
         for obj in reversed(self._objects):
             obj.release()
         self._objects.clear()
