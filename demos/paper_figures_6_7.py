@@ -8,6 +8,7 @@ The deformed image comes from ``MLS.warp`` where that exists; otherwise the defo
 stands in for it, and the angular errors are drawn over the input image.
 
     python demos/paper_figures_6_7.py [--out out/paper_figures_6_7] [--grid 1]
+                                      [--cmap paper|viridis] [--percentile 99]
 """
 
 from __future__ import annotations
@@ -42,6 +43,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("out/paper_figures_6_7"))
     parser.add_argument("--grid", type=int, default=1, help="error field mesh step (pixels)")
+    parser.add_argument(
+        "--cmap", choices=["paper", "viridis"], default="paper", help="paper: white to red"
+    )
+    parser.add_argument(
+        "--percentile", type=float, default=99.0, help="upper bound of the error field colours"
+    )
     args = parser.parse_args()
 
     path = resources.files("glmls").joinpath("data/astronaut.jpg")
@@ -51,7 +58,15 @@ def main() -> None:
     dst = np.array(DRAGGED_DST + FIXED, float)
 
     with glmls.MLS(src, dst, transform="similarity", weight="idw", shape=image.shape) as m:
-        result = glmls.report(image, m, REFERENCE, grid=args.grid, out_dir=args.out)
+        result = glmls.report(
+            image,
+            m,
+            REFERENCE,
+            grid=args.grid,
+            cmap="linear" if args.cmap == "paper" else "viridis",
+            percentile=args.percentile,
+            out_dir=args.out,
+        )
     images = result.images
     middle = images.get("deformed", images.get("deformed_mesh"))
     fig6 = compose(
