@@ -4,10 +4,21 @@ Conventions: points are ``(x, y)`` = (column, row) float arrays of shape (N, 2);
 sit at integer coordinates; f(v) = v M + T with row vectors.
 """
 
+from .analysis import TriangleErrors, error_field, error_stats, triangle_errors
+from .colormaps import VIRIDIS, apply_colormap, color_limits, colorbar, linear_colormap
 from .config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
 from .context import GLContext, get_context
 from .errors import DegenerateHandlesError, GLUnavailableError, ReleasedError
 from .mls import MLS
+from .render import (
+    Canvas,
+    render_field,
+    render_handles,
+    render_mesh,
+    render_triangle_errors,
+    render_triangulation,
+)
+from .report import AnalysisReport, report
 
 __version__ = "0.1.0"
 
@@ -15,12 +26,29 @@ __all__ = [
     "MLS",
     "RADIUS_WEIGHTS",
     "TRANSFORMS",
+    "VIRIDIS",
     "WEIGHTS",
+    "AnalysisReport",
+    "Canvas",
     "DegenerateHandlesError",
     "GLContext",
     "GLUnavailableError",
     "MLSConfig",
     "ReleasedError",
+    "TriangleErrors",
     "__version__",
+    "apply_colormap",
+    "color_limits",
+    "colorbar",
+    "error_field",
+    "error_stats",
     "get_context",
+    "linear_colormap",
+    "render_field",
+    "render_handles",
+    "render_mesh",
+    "render_triangle_errors",
+    "render_triangulation",
+    "report",
+    "triangle_errors",
 ]

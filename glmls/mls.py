@@ -202,6 +202,15 @@ class MLS:
         deformed = sc.from_gpu(out["f"]).reshape(vertices.shape)
         return vertices, deformed
 
+    def error_field(self, shape: Sequence[int], *, grid: int = 1) -> np.ndarray:
+        """The MLS error field E_MLS (paper eq. 7) of an image of ``shape``: (H, W) float64.
+
+        See :func:`glmls.analysis.error_field`.
+        """
+        from .analysis import error_field
+
+        return error_field(self, shape, grid=grid)
+
     def release(self) -> None:
         """Free this object's GPU buffers. Safe to call twice; later use raises."""
         if self._released:
@@ -238,19 +247,24 @@ class MLS:
         if self._released:
             raise ReleasedError("this MLS has been released; create a new one")
 
-    def _program(self, *, mesh: bool, with_matrix: bool) -> moderngl.ComputeShader:
-        self._check_alive()
+    def defines(self) -> dict[str, int | bool]:
+        """The ``#define`` values that ``mls_core.glsl`` expects for this configuration."""
         c = self.config
-        defines = {
+        return {
             "MLS_WEIGHT": _WEIGHT_CODES[c.weight],
             "MLS_TRANSFORM": _TRANSFORM_CODES[c.transform],
             "MLS_INTERPOLATING": c.interpolating,
             "MLS_ALPHA_ONE": c.alpha == 1.0,
-            "MLS_MESH": mesh,
-            "MLS_WRITE_MATRIX": with_matrix,
         }
-        parts = (self._handles.glsl_part, "mls_core.glsl", "mls_points.comp.glsl")
-        return self._gl.compute(parts, defines)
+
+    def _compute(self, shader: str, **defines: int | bool) -> moderngl.ComputeShader:
+        """The compute program: handle storage + ``mls_core.glsl`` + ``shader`` (a file)."""
+        self._check_alive()
+        parts = (self._handles.glsl_part, "mls_core.glsl", shader)
+        return self._gl.compute(parts, self.defines() | defines)
+
+    def _program(self, *, mesh: bool, with_matrix: bool) -> moderngl.ComputeShader:
+        return self._compute("mls_points.comp.glsl", MLS_MESH=mesh, MLS_WRITE_MATRIX=with_matrix)
 
     def uniforms(self, shape: tuple[int, int] | None = None) -> dict[str, float | bool]:
         """The MLS uniforms of ``mls_core.glsl`` for an image of ``shape`` (scaled units)."""

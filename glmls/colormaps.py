@@ -1,0 +1,224 @@
+"""Colour maps for error pictures: the paper's two-colour linear map and viridis, colour
+limits (with a robust percentile upper bound), NaN colouring and a colour bar with numbers.
+
+A colour map is an (n, 3) uint8 table; a value x maps to entry round(t (n - 1)) with
+t = clip((x - lo) / (hi - lo), 0, 1). The GPU renderer (:mod:`glmls.render`) uses the same
+tables and rule; :func:`apply_colormap` is its CPU counterpart.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+
+#: Colour of undefined (NaN) values: mid grey, absent from both default maps.
+NAN_COLOR = (128, 128, 128)
+#: The paper's default extremes: white for the minimum, red for the maximum (Fig. 6).
+LOW_COLOR = (255, 255, 255)
+HIGH_COLOR = (220, 0, 0)
+
+# viridis by Stéfan van der Walt and Nathaniel J. Smith (CC0), 256 entries as 8-bit RGB,
+# rounded from the float table of matplotlib's _cm_listed.py.
+_VIRIDIS_HEX = (
+    "440154 440256 450457 450559 46075a 46085c 460a5d 460b5e 470d60 470e61 471063 "
+    "471164 471365 481467 481668 481769 48186a 481a6c 481b6d 481c6e 481d6f 481f70 "
+    "482071 482173 482374 482475 482576 482677 482878 482979 472a7a 472c7a 472d7b "
+    "472e7c 472f7d 46307e 46327e 46337f 463480 453581 453781 453882 443983 443a83 "
+    "443b84 433d84 433e85 423f85 424086 424186 414287 414487 404588 404688 3f4788 "
+    "3f4889 3e4989 3e4a89 3e4c8a 3d4d8a 3d4e8a 3c4f8a 3c508b 3b518b 3b528b 3a538b "
+    "3a548c 39558c 39568c 38588c 38598c 375a8c 375b8d 365c8d 365d8d 355e8d 355f8d "
+    "34608d 34618d 33628d 33638d 32648e 32658e 31668e 31678e 31688e 30698e 306a8e "
+    "2f6b8e 2f6c8e 2e6d8e 2e6e8e 2e6f8e 2d708e 2d718e 2c718e 2c728e 2c738e 2b748e "
+    "2b758e 2a768e 2a778e 2a788e 29798e 297a8e 297b8e 287c8e 287d8e 277e8e 277f8e "
+    "27808e 26818e 26828e 26828e 25838e 25848e 25858e 24868e 24878e 23888e 23898e "
+    "238a8d 228b8d 228c8d 228d8d 218e8d 218f8d 21908d 21918c 20928c 20928c 20938c "
+    "1f948c 1f958b 1f968b 1f978b 1f988b 1f998a 1f9a8a 1e9b8a 1e9c89 1e9d89 1f9e89 "
+    "1f9f88 1fa088 1fa188 1fa187 1fa287 20a386 20a486 21a585 21a685 22a785 22a884 "
+    "23a983 24aa83 25ab82 25ac82 26ad81 27ad81 28ae80 29af7f 2ab07f 2cb17e 2db27d "
+    "2eb37c 2fb47c 31b57b 32b67a 34b679 35b779 37b878 38b977 3aba76 3bbb75 3dbc74 "
+    "3fbc73 40bd72 42be71 44bf70 46c06f 48c16e 4ac16d 4cc26c 4ec36b 50c46a 52c569 "
+    "54c568 56c667 58c765 5ac864 5cc863 5ec962 60ca60 63cb5f 65cb5e 67cc5c 69cd5b "
+    "6ccd5a 6ece58 70cf57 73d056 75d054 77d153 7ad151 7cd250 7fd34e 81d34d 84d44b "
+    "86d549 89d548 8bd646 8ed645 90d743 93d741 95d840 98d83e 9bd93c 9dd93b a0da39 "
+    "a2da37 a5db36 a8db34 aadc32 addc30 b0dd2f b2dd2d b5de2b b8de29 bade28 bddf26 "
+    "c0df25 c2df23 c5e021 c8e020 cae11f cde11d d0e11c d2e21b d5e21a d8e219 dae319 "
+    "dde318 dfe318 e2e418 e5e419 e7e419 eae51a ece51b efe51c f1e51d f4e61e f6e620 "
+    "f8e621 fbe723 fde725"
+)
+
+
+def _table_from_hex(text: str) -> np.ndarray:
+    table = np.array([[int(h[i : i + 2], 16) for i in (0, 2, 4)] for h in text.split()], np.uint8)
+    table.flags.writeable = False
+    return table
+
+
+#: viridis, (256, 3) uint8, read-only: perceptually uniform, readable in grey and by most
+#: colour-blind viewers.
+VIRIDIS = _table_from_hex(_VIRIDIS_HEX)
+
+
+def as_color(color: object, name: str = "color") -> tuple[int, int, int]:
+    """An (r, g, b) colour of 0-255 integers; ``ValueError``/``TypeError`` otherwise."""
+    try:
+        values = tuple(color)  # type: ignore[arg-type]
+    except TypeError:
+        raise TypeError(
+            f"{name} must be an (r, g, b) sequence of 0-255 numbers, got {color!r}"
+        ) from None
+    if len(values) != 3 or not all(
+        isinstance(c, (int, float, np.integer, np.floating)) and 0 <= c <= 255 for c in values
+    ):
+        raise ValueError(f"{name} must be (r, g, b) with each in 0-255, got {color!r}")
+    return tuple(round(float(c)) for c in values)  # type: ignore[return-value]
+
+
+def linear_colormap(
+    low: Sequence[float] = LOW_COLOR, high: Sequence[float] = HIGH_COLOR, *, n: int = 256
+) -> np.ndarray:
+    """The paper's map: n colours linearly interpolated from ``low`` (minimum) to ``high``."""
+    lo, hi = np.array(as_color(low, "low"), float), np.array(as_color(high, "high"), float)
+    if isinstance(n, bool) or not isinstance(n, int) or n < 2:
+        raise ValueError(f"n must be an integer >= 2, got {n!r}")
+    t = np.linspace(0.0, 1.0, n)[:, None]
+    return np.round(lo + t * (hi - lo)).astype(np.uint8)
+
+
+def colormap(cmap: object = "viridis") -> np.ndarray:
+    """A colour table from ``"viridis"``, ``"linear"`` (white to red), a pair of colours
+    ``(low, high)`` for the paper's linear map, or an (n, 3) table of 0-255 values."""
+    if isinstance(cmap, str):
+        if cmap == "viridis":
+            return VIRIDIS
+        if cmap == "linear":
+            return linear_colormap()
+        raise ValueError(f"unknown colour map {cmap!r}; use 'viridis', 'linear' or a table")
+    table = np.asarray(cmap)
+    if table.shape == (2, 3):
+        return linear_colormap(table[0], table[1])
+    if table.ndim != 2 or table.shape[1] != 3 or len(table) < 2:
+        raise ValueError(
+            f"cmap must be a name, a (low, high) colour pair or an (n, 3) table, got {cmap!r}"
+        )
+    if not np.issubdtype(table.dtype, np.number) or table.min() < 0 or table.max() > 255:
+        raise ValueError("a colour table must hold numbers in 0-255")
+    return np.round(table).astype(np.uint8)
+
+
+def color_limits(
+    values: object,
+    *,
+    vmin: float | None = None,
+    vmax: float | None = None,
+    percentile: float | None = None,
+) -> tuple[float, float]:
+    """(lo, hi) of the colour scale: ``vmin``/``vmax`` if given, else the minimum and the
+    maximum of the non-NaN values, or, with ``percentile`` (0-100], that percentile as a
+    robust upper bound (a few huge values, e.g. near a handle, then do not wash out the rest).
+    """
+    array = np.asarray(values, dtype=np.float64)
+    finite = array[np.isfinite(array)]
+    if percentile is not None:
+        if isinstance(percentile, bool) or not 0 < float(percentile) <= 100:
+            raise ValueError(f"percentile must be in (0, 100], got {percentile!r}")
+    lo = float(vmin) if vmin is not None else (float(finite.min()) if finite.size else 0.0)
+    if vmax is not None:
+        hi = float(vmax)
+    elif not finite.size:
+        hi = lo + 1.0
+    elif percentile is not None:
+        hi = float(np.percentile(finite, float(percentile)))
+    else:
+        hi = float(finite.max())
+    if not (np.isfinite(lo) and np.isfinite(hi)) or hi < lo:
+        raise ValueError(f"colour limits must be finite with vmin <= vmax, got ({lo}, {hi})")
+    return lo, hi
+
+
+def color_indices(values: object, lo: float, hi: float, n: int) -> np.ndarray:
+    """Table index of every value (-1 for NaN): round(t (n - 1)), t clipped to [0, 1]."""
+    array = np.asarray(values, dtype=np.float64)
+    span = hi - lo
+    with np.errstate(invalid="ignore"):
+        t = np.clip((array - lo) / span, 0.0, 1.0) if span > 0 else np.zeros_like(array)
+    index = np.floor(t * (n - 1) + 0.5)
+    return np.where(np.isnan(array), -1, index).astype(np.int64)
+
+
+def apply_colormap(
+    values: object,
+    *,
+    cmap: object = "viridis",
+    vmin: float | None = None,
+    vmax: float | None = None,
+    percentile: float | None = None,
+    nan_color: Sequence[float] = NAN_COLOR,
+) -> np.ndarray:
+    """Colour an array of values on the CPU: (..., 3) uint8 (the GPU renderer's reference)."""
+    table = colormap(cmap)
+    lo, hi = color_limits(values, vmin=vmin, vmax=vmax, percentile=percentile)
+    index = color_indices(values, lo, hi, len(table))
+    out = table[np.maximum(index, 0)]
+    out[index < 0] = as_color(nan_color, "nan_color")
+    return out
+
+
+def format_number(value: float) -> str:
+    """Short tick label: 3 significant digits (whole numbers from 100 on), scientific
+    outside [0.01, 10000)."""
+    if 100 <= abs(value) < 1e4:
+        return f"{value:.0f}"
+    if value == 0 or 0.01 <= abs(value) < 100:
+        return f"{value:.3g}"
+    return f"{value:.2e}".replace("e+0", "e").replace("e-0", "e-").replace("e+", "e")
+
+
+def colorbar(
+    cmap: object,
+    lo: float,
+    hi: float,
+    *,
+    length: int = 256,
+    thickness: int = 20,
+    ticks: int = 5,
+    label: str | None = None,
+    background: Sequence[float] = (255, 255, 255),
+    text_color: Sequence[float] = (0, 0, 0),
+    font_size: int = 12,
+) -> np.ndarray:
+    """A vertical colour bar (maximum at the top) with ``ticks`` numbered ticks from ``lo`` to
+    ``hi`` and an optional ``label`` above: an (H, W, 3) uint8 image, H = ``length`` plus
+    margins. Digits are drawn with Pillow's default font."""
+    table = colormap(cmap)
+    if not (np.isfinite(lo) and np.isfinite(hi)) or hi < lo:
+        raise ValueError(f"colour bar limits must be finite with lo <= hi, got ({lo}, {hi})")
+    if isinstance(ticks, bool) or not isinstance(ticks, int) or ticks < 2:
+        raise ValueError(f"ticks must be an integer >= 2, got {ticks!r}")
+    if length < 16 or thickness < 2:
+        raise ValueError(f"length must be >= 16 and thickness >= 2, got {length}, {thickness}")
+    font = ImageFont.load_default(size=font_size)
+    values = np.linspace(lo, hi, ticks)
+    labels = [format_number(float(v)) for v in values]
+    text_width = max(int(font.getlength(text)) for text in labels)
+    margin = font_size  # room for half a label above the top tick and below the bottom one
+    top = margin + (font_size + 4 if label else 0)
+    width = max(thickness + 6 + text_width + 4, int(font.getlength(label)) + 4 if label else 0)
+    height = top + length + margin
+    image = Image.new("RGB", (width, height), as_color(background, "background"))
+    # bar: row 0 of the bar is the maximum
+    t = np.linspace(1.0, 0.0, length)
+    rows = table[np.floor(t * (len(table) - 1) + 0.5).astype(int)]
+    bar = np.repeat(rows[:, None, :], thickness, axis=1)
+    image.paste(Image.fromarray(np.ascontiguousarray(bar)), (0, top))
+    draw = ImageDraw.Draw(image)
+    ink = as_color(text_color, "text_color")
+    for value, text in zip(values, labels, strict=True):
+        frac = 0.0 if hi == lo else (value - lo) / (hi - lo)
+        y = top + round((1.0 - frac) * (length - 1))
+        draw.line([(thickness, y), (thickness + 4, y)], fill=ink)
+        draw.text((thickness + 6, y), text, fill=ink, font=font, anchor="lm")
+    if label:
+        draw.text((0, 2), label, fill=ink, font=font, anchor="la")
+    return np.asarray(image)
