@@ -64,8 +64,17 @@ def error_field(m: MLS, shape: Sequence[int], *, grid: int = 1) -> np.ndarray:
     """
     shape = as_shape(shape)
     xs_mesh, ys_mesh = mesh_axes(shape, grid)  # validates grid
+    m._check_alive()
+    with m.ctx.mgl:
+        data = _field_bytes(m, shape, grid, xs_mesh, ys_mesh)
     height, width = shape
-    scale2 = m.scaling.scale**2
+    return np.frombuffer(data, dtype=np.float32).reshape(height, width).astype(np.float64) * (
+        m.scaling.scale**2
+    )
+
+
+def _field_bytes(m: MLS, shape, grid: int, xs_mesh, ys_mesh) -> bytes:
+    height, width = shape
     if grid == 1:
         lattice = _lattice(m, shape, np.arange(width, dtype=float), np.arange(height, dtype=float))
         data = lattice.read(size=width * height * 4)
@@ -79,7 +88,7 @@ def error_field(m: MLS, shape: Sequence[int], *, grid: int = 1) -> np.ndarray:
         program["u_grid"].value = grid
         _dispatch(m, program, (width, height))
         data = out.read(size=width * height * 4)
-    return np.frombuffer(data, dtype=np.float32).reshape(height, width).astype(np.float64) * scale2
+    return data
 
 
 # -- statistics (eqs. 8, 9) --------------------------------------------------------------------

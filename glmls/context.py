@@ -8,7 +8,9 @@ wrapped in a :class:`GLContext` that also caches the compiled programs for it.
 from __future__ import annotations
 
 import atexit
-from collections.abc import Iterable, Mapping
+import functools
+from collections.abc import Callable, Iterable, Mapping
+from typing import TypeVar
 
 import moderngl
 
@@ -109,6 +111,21 @@ class GLContext:
         if self.owned:
             self.mgl.release()
         self.released = True
+
+
+_R = TypeVar("_R")
+
+
+def current(method: Callable[..., _R]) -> Callable[..., _R]:
+    """Run a method of an object holding ``self._gl`` (a :class:`GLContext`) with that context
+    current: a window or a second headless context may have been made current since."""
+
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        with self._gl.mgl:
+            return method(self, *args, **kwargs)
+
+    return wrapper
 
 
 def create_headless() -> GLContext:

@@ -11,7 +11,7 @@ import moderngl
 import numpy as np
 
 from .config import MLSConfig
-from .context import GLContext, get_context
+from .context import GLContext, current, get_context
 from .errors import ReleasedError
 from .handles import (
     Scaling,
@@ -32,14 +32,13 @@ _R = TypeVar("_R")
 
 
 def on_gpu(method: Callable[..., _R]) -> Callable[..., _R]:
-    """Run ``method`` with this object's GL context current (another context, a window's or
-    a second headless one, may have been made current since), after checking it is alive."""
+    """Check the MLS is alive, then run ``method`` with its GL context current."""
+    inner = current(method)
 
     @functools.wraps(method)
     def wrapper(self, *args, **kwargs):
         self._check_alive()
-        with self._gl.mgl:
-            return method(self, *args, **kwargs)
+        return inner(self, *args, **kwargs)
 
     return wrapper
 
@@ -202,6 +201,7 @@ class MLS:
         deformed = sc.from_gpu(out["f"]).reshape(vertices.shape)
         return vertices, deformed
 
+    @on_gpu
     def error_field(self, shape: Sequence[int], *, grid: int = 1) -> np.ndarray:
         """The MLS error field E_MLS (paper eq. 7) of an image of ``shape``: (H, W) float64.
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from .analysis import TriangleErrors
 from .colormaps import NAN_COLOR, apply_colormap, as_color, color_limits, colormap
-from .context import GLContext, get_context
+from .context import GLContext, current, get_context
 from .errors import ReleasedError
 from .handles import as_points
 from .mls import as_shape
@@ -123,6 +123,10 @@ class Canvas:
     ) -> None:
         self.shape = as_shape(shape)
         self._gl = get_context(ctx)
+        with self._gl.mgl:
+            self._setup(background, samples)
+
+    def _setup(self, background: Sequence[float], samples: int) -> None:
         mgl = self._gl.mgl
         height, width = self.shape
         limit = self._gl.limits["max_texture_size"]
@@ -171,6 +175,7 @@ class Canvas:
 
     # -- layers -----------------------------------------------------------------------------
 
+    @current
     def image(self, image: object) -> Canvas:
         """Draw an (H, W[, 3 | 4]) image of this canvas's shape over everything (opaque)."""
         rgb = as_rgb8(image)
@@ -188,6 +193,7 @@ class Canvas:
             texture.release()
         return self
 
+    @current
     def field(
         self,
         values: object,
@@ -296,6 +302,7 @@ class Canvas:
         self._solid(triangles, color, opacity, "color")
         return self
 
+    @current
     def _draw(self, positions: np.ndarray, rgba: np.ndarray) -> None:
         if len(positions) == 0:
             self._begin()
@@ -314,6 +321,7 @@ class Canvas:
 
     # -- result -----------------------------------------------------------------------------
 
+    @current
     def read(self) -> np.ndarray:
         """The picture as (H, W, 3) uint8, row 0 at the top."""
         if self._released:
@@ -324,6 +332,7 @@ class Canvas:
         data = self._resolved.read(components=3, alignment=1)
         return np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3).copy()
 
+    @current
     def release(self) -> None:
         if self._released:
             return
