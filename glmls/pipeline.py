@@ -22,7 +22,9 @@ first guess of ``backward`` follow the same rule, so the three agree on folds.
 
 from __future__ import annotations
 
+import contextlib
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -142,6 +144,12 @@ def check_options(method: object, interpolation: object, grid: object) -> None:
         raise ValueError(f"grid must be an integer >= 1 (pixels), got {grid!r}")
 
 
+def _use_texture(texture: moderngl.Texture, unit: int, linear: bool) -> None:
+    mode = moderngl.LINEAR if linear else moderngl.NEAREST
+    texture.filter = (mode, mode)
+    texture.use(unit)
+
+
 class WarpPipeline:
     """Cached GL objects and the passes that turn handles and a source texture into an image.
 
@@ -169,6 +177,19 @@ class WarpPipeline:
         """Largest image side this context can warp (the GL texture and viewport limit)."""
         info = self._gl.mgl.info
         return min(int(info["GL_MAX_TEXTURE_SIZE"]), *map(int, info["GL_MAX_VIEWPORT_DIMS"]))
+
+    @contextlib.contextmanager
+    def _keep_framebuffer(self) -> Iterator[None]:
+        """Leave the bound framebuffer as found: moderngl re-binds the bound one when it
+        creates another, and binding one of ours after we released it is a GL error."""
+        mgl = self._gl.mgl
+        bound = mgl.fbo
+        if bound is None:  # a standalone context starts with none: framebuffer 0
+            bound = mgl.detect_framebuffer(0)
+        try:
+            yield
+        finally:
+            bound.use()
 
     # -- cached GL objects --------------------------------------------------------------
 
@@ -345,15 +366,7 @@ class WarpPipeline:
             if name in program:
                 program[name].value = value
         if not coords:
-            source.filter = (
-                (moderngl.LINEAR, moderngl.LINEAR)
-                if linear
-                else (
-                    moderngl.NEAREST,
-                    moderngl.NEAREST,
-                )
-            )
-            source.use(0)
+            _use_texture(source, 0, linear)
         mgl = self._gl.mgl
         mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
         if splat:
@@ -377,6 +390,10 @@ class WarpPipeline:
         """The RGBA32F texture (s.x, s.y, residual, covered) of the backward map, output
         pixels of an image of ``shape`` (the output has the source's size)."""
         self._check_alive()
+        with self._keep_framebuffer():
+            return self._solve_inverse(mls, shape, swap=swap, grid=grid)
+
+    def _solve_inverse(self, mls: MLS, shape: tuple[int, int], *, swap: bool, grid: int):
         height, width = shape
         framebuffer = self._framebuffer("coords", (width, height))
         texture = self._textures["coords"][1]
@@ -440,12 +457,16 @@ class WarpPipeline:
         The caller clears the framebuffer to the background first. The output has the
         source's size in pixels; ``quads`` and ``splat`` scale to any viewport, ``backward``
         needs a viewport of that size. ``flip_y`` for a window, whose row 0 is at the bottom.
+        The bound framebuffer is left as found.
         """
         self._check_alive()
         check_options(method, interpolation, grid)
+        with self._keep_framebuffer():
+            self._render(mls, source, framebuffer, method, interpolation == "linear", grid, flip_y)
+
+    def _render(self, mls, source, framebuffer, method, linear, grid, flip_y) -> None:
         width, height = source.size
         shape = (height, width)
-        linear = interpolation == "linear"
         if method in ("quads", "splat"):
             framebuffer.use()
             self._draw_mesh(
@@ -460,7 +481,7 @@ class WarpPipeline:
                 flip_y=flip_y,
             )
             return
-        coords = self.solve_inverse(mls, shape, swap=method == "backward-swap", grid=grid)
+        coords = self._solve_inverse(mls, shape, swap=method == "backward-swap", grid=grid)
         program = self._gl.program(
             ("warp_fullscreen.vert.glsl",),
             ("warp_sample.glsl", "warp_backward.frag.glsl"),
@@ -470,15 +491,7 @@ class WarpPipeline:
         program["u_coords"].value = 1
         program["u_target_size"].value = (width, height)
         program["u_flip_y"].value = flip_y
-        source.filter = (
-            (moderngl.LINEAR, moderngl.LINEAR)
-            if linear
-            else (
-                moderngl.NEAREST,
-                moderngl.NEAREST,
-            )
-        )
-        source.use(0)
+        _use_texture(source, 0, linear)
         coords.use(1)
         framebuffer.use()
         self._vao(program).render(moderngl.TRIANGLES, vertices=3)
@@ -502,14 +515,12 @@ class WarpPipeline:
         clear = background_color(background, source)
         height, width = source.shape
         texture = self.upload(source)
-        framebuffer = self._framebuffer("target", (width, height))
-        framebuffer.use()
-        framebuffer.viewport = (0, 0, width, height)
-        framebuffer.clear(*clear)
-        self.render(
-            mls, texture, framebuffer, method=method, interpolation=interpolation, grid=grid
-        )
-        framebuffer.use()  # backward used its own framebuffer for the first guess
+        with self._keep_framebuffer():
+            framebuffer = self._framebuffer("target", (width, height))
+            framebuffer.use()
+            framebuffer.viewport = (0, 0, width, height)
+            framebuffer.clear(*clear)
+            self._render(mls, texture, framebuffer, method, interpolation == "linear", grid, False)
         raw = framebuffer.read(viewport=(0, 0, width, height), components=4, dtype="f4")
         values = np.frombuffer(raw, dtype=np.float32).reshape(height, width, 4)
         return source.restore(values[..., : source.channels])
