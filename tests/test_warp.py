@@ -372,3 +372,18 @@ def test_foldovers_match_the_reference_mesh(gl):
             assert folds.mask.sum() >= folds.count
     with glmls.MLS(p, p, ctx=gl) as identity:
         assert glmls.foldovers(identity, shape).count == 0
+
+
+def test_meshes_drawn_in_bands_match_one_band(gl, rng, monkeypatch):
+    """Meshes larger than a buffer band are evaluated and drawn band by band, without cracks."""
+    img = rng.integers(0, 255, (60, 57), dtype=np.uint8)
+    p = np.array([[5, 5], [50, 8], [20, 55.0]])
+    q = p + np.array([[3, 2], [-2, 4], [1, -3]])
+    with glmls.MLS(p, q, ctx=gl) as m:
+        whole = {k: m.warp(img, method=k, background=1) for k in glmls.METHODS}
+    monkeypatch.setattr(glmls.pipeline, "BAND_BYTES", 2048)  # ~4 rows per band
+    with glmls.MLS(p, q, ctx=gl) as m:
+        for method in glmls.METHODS:
+            assert_array_equal(m.warp(img, method=method, background=1), whole[method])
+    with glmls.MLS(p, p, ctx=gl) as m:
+        assert_array_equal(m.warp(img), img)
