@@ -68,7 +68,7 @@ def main() -> None:
             out_dir=args.out,
         )
     images = result.images
-    middle = images.get("deformed", images.get("deformed_mesh"))
+    middle = images["deformed"]
     fig6 = compose(
         [images["input_handles"], middle, images["error_field"], images["error_field_colorbar"]]
     )
@@ -86,7 +86,7 @@ def main() -> None:
     s = result.summary
     field, angle = s["error_field"], s["triangles"]["angle"]
     print(f"wrote {args.out}/fig6.png, fig7.png, report.json and the single pictures")
-    print(f"warp available: {s['warped']}; timings (s): {s['timings_s']}")
+    print(f"fold-overs: {s['foldovers']['cells']} cells; timings (s): {s['timings_s']}")
     print(
         f"E_MLS (px^2): mean {field['mean']:.1f}, std {field['std']:.1f}, "
         f"min {field['min']:.1f}, max {field['max']:.1f}, within 1/2/3 std {field['within']}"

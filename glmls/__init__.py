@@ -9,7 +9,9 @@ from .colormaps import VIRIDIS, apply_colormap, color_limits, colorbar, linear_c
 from .config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
 from .context import GLContext, get_context
 from .errors import DegenerateHandlesError, GLUnavailableError, ReleasedError
+from .io import imread, imwrite
 from .mls import MLS
+from .pipeline import INTERPOLATIONS, METHODS, WarpPipeline
 from .render import (
     Canvas,
     render_field,
@@ -19,10 +21,13 @@ from .render import (
     render_triangulation,
 )
 from .report import AnalysisReport, report
+from .warp import Foldovers, foldovers, warp
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "INTERPOLATIONS",
+    "METHODS",
     "MLS",
     "RADIUS_WEIGHTS",
     "TRANSFORMS",
@@ -31,18 +36,23 @@ __all__ = [
     "AnalysisReport",
     "Canvas",
     "DegenerateHandlesError",
+    "Foldovers",
     "GLContext",
     "GLUnavailableError",
     "MLSConfig",
     "ReleasedError",
     "TriangleErrors",
+    "WarpPipeline",
     "__version__",
     "apply_colormap",
     "color_limits",
     "colorbar",
     "error_field",
     "error_stats",
+    "foldovers",
     "get_context",
+    "imread",
+    "imwrite",
     "linear_colormap",
     "render_field",
     "render_handles",
@@ -51,4 +61,5 @@ __all__ = [
     "render_triangulation",
     "report",
     "triangle_errors",
+    "warp",
 ]

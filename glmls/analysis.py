@@ -65,8 +65,8 @@ def error_field(m: MLS, shape: Sequence[int], *, grid: int = 1) -> np.ndarray:
     shape = as_shape(shape)
     xs_mesh, ys_mesh = mesh_axes(shape, grid)  # validates grid
     m._check_alive()
-    with m.ctx.mgl:
-        data = _field_bytes(m, shape, grid, xs_mesh, ys_mesh)
+    m.ctx.make_current()
+    data = _field_bytes(m, shape, grid, xs_mesh, ys_mesh)
     height, width = shape
     return np.frombuffer(data, dtype=np.float32).reshape(height, width).astype(np.float64) * (
         m.scaling.scale**2

@@ -100,13 +100,18 @@ class GLContext:
             self._programs[key] = program
         return program
 
+    def make_current(self) -> None:
+        """Make this context current (EGL or a window's). It stays current afterwards:
+        moderngl's ``with ctx:`` would release it on exit, leaving no context current."""
+        self.mgl.__enter__()
+
     def release(self) -> None:
         """Release the cached programs, and the context itself if glmls created it."""
         if self.released:
             return
-        with self.mgl:  # delete in this context, whichever is current now
-            for program in self._programs.values():
-                program.release()
+        self.make_current()  # delete in this context, whichever was current
+        for program in self._programs.values():
+            program.release()
         self._programs.clear()
         if self.owned:
             self.mgl.release()
@@ -122,8 +127,8 @@ def current(method: Callable[..., _R]) -> Callable[..., _R]:
 
     @functools.wraps(method)
     def wrapper(self, *args, **kwargs):
-        with self._gl.mgl:
-            return method(self, *args, **kwargs)
+        self._gl.make_current()
+        return method(self, *args, **kwargs)
 
     return wrapper
 

@@ -21,6 +21,7 @@ from .handles import (
     pack_handles,
     validate_handles,
 )
+from .pipeline import WarpPipeline
 
 #: Points closer than this (pixels) to a handle whose weight is infinite there map to q_i.
 SNAP_DISTANCE = 1e-3
@@ -143,9 +144,10 @@ class MLS:
         self.scaling = Scaling.fit(src, dst, self.shape)
         self._gl = get_context(ctx)
         self._handles = SSBOHandleStorage(self._gl.mgl)
-        with self._gl.mgl:
-            self._handles.upload(pack_handles(src, dst, self.scaling))
+        self._gl.make_current()
+        self._handles.upload(pack_handles(src, dst, self.scaling))
         self._buffers: dict[str, moderngl.Buffer] = {}
+        self._pipeline: WarpPipeline | None = None
         self._released = False
 
     # -- public API ---------------------------------------------------------------------
@@ -197,6 +199,7 @@ class MLS:
         program["u_mesh_step"].value = (grid / sc.scale, grid / sc.scale)
         program["u_mesh_last"].value = tuple(last)
         program["u_mesh_dims"].value = (len(xs), len(ys))
+        program["u_mesh_first_row"].value = 0  # the program is shared with banded passes
         out = self._run(program, count, shape, with_matrix=False)
         deformed = sc.from_gpu(out["f"]).reshape(vertices.shape)
         return vertices, deformed
@@ -211,15 +214,95 @@ class MLS:
 
         return error_field(self, shape, grid=grid)
 
+    @on_gpu
+    def warp(
+        self,
+        image: object,
+        *,
+        method: str = "quads",
+        interpolation: str = "nearest",
+        grid: int = 1,
+        background: object = 0,
+    ) -> np.ndarray:
+        """The image deformed by f: a new array of ``image``'s shape and dtype.
+
+        ``image``: H x W or H x W x C (C in 1..4), uint8, uint16, float32 or float64 (computed
+        as float32). The output has the input's size; what f moves outside is cut off.
+
+        ``method``:
+          - ``"quads"`` (forward with polygon interpolation): the mesh of pixel-square corners,
+            step ``grid`` pixels, is deformed and the GPU rasterizer fills each deformed quad.
+          - ``"splat"`` (simple forward): each source pixel v is written at round(f(v)), gaps
+            and all.
+          - ``"backward"``: each output pixel u samples the source at s with f(s) = u (Newton's
+            method from the rasterized inverse of the mesh); ``grid`` is that guess's mesh.
+          - ``"backward-swap"``: s = the MLS map with p and q swapped, the shortcut of other MLS
+            tools; only for comparison, it is not f's inverse.
+
+        ``interpolation``: ``"nearest"`` takes one source pixel's value (no new colours);
+        ``"linear"`` interpolates bilinearly (``splat`` ignores it).
+
+        ``background``: what uncovered pixels hold: a scalar, or one value per channel; images
+        with alpha (C = 2 or 4) get alpha 0 there unless ``background`` gives it.
+
+        Fold-overs: where deformed quads overlap, the cell with the larger source row (then
+        column) is drawn last and shows; ``splat`` and ``backward`` follow the same order.
+        """
+        return self._warp_pipeline().warp(
+            self,
+            image,
+            method=method,
+            interpolation=interpolation,
+            grid=grid,
+            background=background,
+        )
+
+    @on_gpu
+    def coordinate_map(
+        self,
+        shape: Sequence[int],
+        *,
+        method: str = "backward",
+        grid: int = 1,
+        residual: bool = False,
+    ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """The (H, W, 2) float32 map from output pixels to source points (x, y): f's inverse.
+
+        For each output pixel u = (column, row), the source point s with f(s) = u, solved on
+        the GPU (``method="backward"``; ``"backward-swap"`` gives the swapped-handles shortcut
+        instead). Points outside the source image are kept (a remapper fills them with its
+        border value). Feed it to OpenCV or scikit-image::
+
+            xy = m.coordinate_map(image.shape)
+            out = cv2.remap(image, xy[..., 0], xy[..., 1], cv2.INTER_LINEAR)
+            out = skimage.transform.warp(image, np.stack([xy[..., 1], xy[..., 0]]), order=1)
+
+        ``residual=True`` also returns |f(s) - u| per pixel (float32, pixels; NaN for
+        backward-swap). Newton stops below 1e-3 px; pixels where it ends above 0.05 px (no
+        inverse found) hold its last iterate.
+        """
+        shape = as_shape(shape)
+        xy, res, _ = self._warp_pipeline().coordinate_map(self, shape, method=method, grid=grid)
+        return (xy, res) if residual else xy
+
+    def _warp_pipeline(self) -> WarpPipeline:
+        self._check_alive()
+        if self._pipeline is None:
+            self._pipeline = WarpPipeline(self._gl)
+        return self._pipeline
+
     def release(self) -> None:
         """Free this object's GPU buffers. Safe to call twice; later use raises."""
         if self._released:
             return
-        with self._gl.mgl:
-            self._handles.release()
-            for buffer in self._buffers.values():
-                buffer.release()
+        self._gl.make_current()
+        self._handles.release()
+        for buffer in self._buffers.values():
+            buffer.release()
         self._buffers.clear()
+        if self._pipeline is not None:
+            self._pipeline.release()
+            self._pipeline = None
         self._released = True
 
     @property

@@ -123,8 +123,8 @@ class Canvas:
     ) -> None:
         self.shape = as_shape(shape)
         self._gl = get_context(ctx)
-        with self._gl.mgl:
-            self._setup(background, samples)
+        self._gl.make_current()
+        self._setup(background, samples)
 
     def _setup(self, background: Sequence[float], samples: int) -> None:
         mgl = self._gl.mgl

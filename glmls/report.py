@@ -22,6 +22,7 @@ from .render import (
     render_triangle_errors,
     render_triangulation,
 )
+from .warp import foldovers
 
 if TYPE_CHECKING:
     from .mls import MLS
@@ -63,20 +64,6 @@ def _cmap_name(cmap: object) -> object:
     return cmap if isinstance(cmap, str) else np.asarray(cmap).tolist()
 
 
-def _foldovers(m: MLS, shape: tuple[int, int], grid: int) -> int | None:
-    """The warp module's fold-over count, where that module exists (else None)."""
-    import glmls
-
-    count_foldovers = getattr(glmls, "foldovers", None)
-    if count_foldovers is None:
-        return None
-    result = count_foldovers(m, shape, grid=grid)
-    result = getattr(result, "count", result)
-    if isinstance(result, (int, np.integer)):
-        return int(result)
-    return int(np.count_nonzero(np.asarray(result)))
-
-
 def report(
     image: object,
     m: MLS,
@@ -89,18 +76,21 @@ def report(
     triangle_error: str = "angle",
     triangle_percentile: float | None = 95.0,
     mesh_grid: int = 32,
+    method: str = "quads",
+    interpolation: str = "nearest",
+    warp_grid: int = 1,
     out_dir: str | Path | None = None,
 ) -> AnalysisReport:
     """Analyse the deformation ``m`` of ``image`` (H, W[, C]) as in section 5 of the paper.
 
     Computes the MLS error field (at every pixel, or on a mesh every ``grid`` pixels) and its
     statistics, the Delaunay triangulation of ``reference_points`` with its distance and
-    angular errors and their statistics, the fold-over count (where ``glmls.foldovers``
-    exists), and draws: ``input_handles`` (Fig. 6 left), ``deformed`` (``m.warp(image)``
-    where MLS has ``warp``) or else ``deformed_mesh`` (the mesh every ``mesh_grid`` pixels),
-    ``error_field`` (Fig. 6 right), ``triangulation`` (Fig. 7 centre), ``triangle_angle`` or
-    ``triangle_distance`` (``triangle_error``, Fig. 7 right: over the deformed image at f(r),
-    or over the input at r without a warp), and a ``*_colorbar`` for each colour picture.
+    angular errors and their statistics, the fold-over count of the warp's mesh, and draws:
+    ``input_handles`` (Fig. 6 left), ``deformed`` (``m.warp(image, method=, interpolation=,
+    grid=warp_grid)``, Fig. 6 centre), ``deformed_mesh`` (the mesh every ``mesh_grid``
+    pixels), ``error_field`` (Fig. 6 right), ``triangulation`` (Fig. 7 centre),
+    ``triangle_angle`` or ``triangle_distance`` (``triangle_error``, Fig. 7 right: over the
+    deformed image at f(r)), and a ``*_colorbar`` for each colour picture.
 
     ``percentile`` / ``triangle_percentile``: robust upper bound of the colour scales (None:
     the maximum); the angular error of eq. (11) explodes near right angles, hence 95 there.
@@ -121,26 +111,23 @@ def report(
     triangles = triangle_errors(m, reference_points, eps=eps)
     timings["triangle_errors"] = time.perf_counter() - tick
 
-    deformed = None
-    if hasattr(m, "warp"):
-        tick = time.perf_counter()
-        deformed = as_rgb8(m.warp(rgb), "m.warp(image)")
-        timings["warp"] = time.perf_counter() - tick
+    tick = time.perf_counter()
+    deformed = as_rgb8(
+        m.warp(rgb, method=method, interpolation=interpolation, grid=warp_grid), "m.warp(image)"
+    )
+    timings["warp"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
-    foldovers = _foldovers(m, shape, mesh_grid)
-    if foldovers is not None:
-        timings["foldovers"] = time.perf_counter() - tick
+    folds = foldovers(m, shape, grid=warp_grid).count
+    timings["foldovers"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
     images: dict[str, np.ndarray] = {"input_handles": render_handles(rgb, m.src, m.dst)}
-    if deformed is not None:
-        images["deformed"] = deformed
-    else:
-        _, mesh = m.mesh(shape, grid=mesh_grid)
-        white = np.full_like(rgb, 255)
-        picture = render_mesh(white, mesh)
-        images["deformed_mesh"] = render_handles(picture, m.src, m.dst)
+    images["deformed"] = deformed
+    _, mesh = m.mesh(shape, grid=mesh_grid)
+    images["deformed_mesh"] = render_handles(
+        render_mesh(np.full_like(rgb, 255), mesh), m.src, m.dst
+    )
     lo, hi = colormaps.color_limits(field, percentile=percentile)
     images["error_field"] = render_field(field, cmap=cmap, vmin=lo, vmax=hi)
     images["error_field_colorbar"] = colormaps.colorbar(
@@ -149,12 +136,11 @@ def report(
     images["triangulation"] = render_triangulation(rgb, triangles.points, triangles.simplices)
     values = getattr(triangles, triangle_error)
     t_lo, t_hi = colormaps.color_limits(values, percentile=triangle_percentile)
-    background = deformed if deformed is not None else rgb
     images[f"triangle_{triangle_error}"] = render_triangle_errors(
-        background,
+        deformed,
         triangles,
         which=triangle_error,
-        deformed=deformed is not None,
+        deformed=True,
         cmap=cmap,
         vmin=t_lo,
         vmax=t_hi,
@@ -189,8 +175,8 @@ def report(
         "timings_s": timings,
         "error_field": error_stats(field),
         "triangles": triangles.stats(),
-        "foldovers": foldovers,
-        "warped": deformed is not None,
+        "foldovers": {"grid": warp_grid, "cells": folds},
+        "warp": {"method": method, "interpolation": interpolation, "grid": warp_grid},
         "gl_renderer": m.ctx.mgl.info.get("GL_RENDERER"),
     }
     result = AnalysisReport(summary, images, field, triangles)

@@ -1,12 +1,16 @@
 // Evaluates f (and optionally M) at an arbitrary list of points, or at the vertices of a
 // regular mesh when MLS_MESH is 1 (vertex (i, j) at min(origin + (i, j) * step, last)).
+// A mesh too big for one buffer is evaluated in bands of rows: u_mesh_first_row is the mesh
+// row of the band's first row (0 for a whole mesh), so that vertices shared by two bands are
+// computed from the same integers and the bands meet without cracks.
 layout(local_size_x = 64) in;
 
 #if MLS_MESH
 uniform vec2 u_mesh_origin;   // scaled
 uniform vec2 u_mesh_step;     // scaled
 uniform vec2 u_mesh_last;     // scaled; the last row/column lands exactly on it
-uniform ivec2 u_mesh_dims;    // vertices per row, rows
+uniform ivec2 u_mesh_dims;    // vertices per row, rows (of this band)
+uniform int u_mesh_first_row; // mesh row of this band's first row
 #else
 layout(std430, binding = 1) readonly buffer MLSPoints {
     vec2 mls_points[];
@@ -31,6 +35,7 @@ void main() {
     }
 #if MLS_MESH
     ivec2 ij = ivec2(i % u_mesh_dims.x, i / u_mesh_dims.x);
+    ij.y += u_mesh_first_row;
     vec2 v = min(u_mesh_origin + vec2(ij) * u_mesh_step, u_mesh_last);
 #else
     vec2 v = mls_points[i];

@@ -21,12 +21,12 @@ def _no_gl_errors(request):
     if "gl" not in request.fixturenames:
         yield
         return
-    ctx = request.getfixturevalue("gl").mgl
-    with ctx:  # another context may have been made current
-        assert ctx.error == "GL_NO_ERROR", "a GL error was pending before the test"
+    gl = request.getfixturevalue("gl")
+    gl.make_current()  # another context may have been made current
+    assert gl.mgl.error == "GL_NO_ERROR", "a GL error was pending before the test"
     yield
-    with ctx:
-        assert ctx.error == "GL_NO_ERROR"
+    gl.make_current()
+    assert gl.mgl.error == "GL_NO_ERROR"
 
 
 @pytest.fixture

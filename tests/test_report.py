@@ -22,6 +22,8 @@ def test_summary_and_pictures(gl, rng, tmp_path):
     with glmls.MLS(SRC, DST, transform="similarity", ctx=gl) as m:
         result = glmls.report(image, m, REFERENCE, grid=4, out_dir=tmp_path)
         field = m.error_field((48, 60), grid=4)
+        deformed = m.warp(image)
+        folds = glmls.foldovers(m, (48, 60)).count
     summary = json.loads((tmp_path / "report.json").read_text())
     assert summary == json.loads(result.to_json())
     assert summary["configuration"]["transform"] == "similarity"
@@ -30,9 +32,12 @@ def test_summary_and_pictures(gl, rng, tmp_path):
     assert summary["error_field"] == json.loads(json.dumps(glmls.error_stats(field)))
     assert summary["triangles"] == json.loads(json.dumps(result.triangles.stats()))
     assert set(summary["timings_s"]) >= {"error_field", "triangle_errors", "render", "total"}
-    assert summary["warped"] is False and summary["foldovers"] is None
+    assert summary["warp"] == {"method": "quads", "interpolation": "nearest", "grid": 1}
+    assert summary["foldovers"] == {"grid": 1, "cells": folds}
+    assert (result.images["deformed"] == deformed).all()
     expected = {
         "input_handles",
+        "deformed",
         "deformed_mesh",
         "error_field",
         "error_field_colorbar",
@@ -49,22 +54,16 @@ def test_summary_and_pictures(gl, rng, tmp_path):
             assert picture.shape == (48, 60, 3)
 
 
-class WarpingMLS(glmls.MLS):
-    """Stands in for the warp module: "warps" by flipping the image."""
-
-    def warp(self, image):
-        return np.ascontiguousarray(np.asarray(image)[::-1])
-
-
-def test_uses_warp_and_foldovers_where_they_exist(gl, rng, monkeypatch):
-    monkeypatch.setattr(glmls, "foldovers", lambda m, shape, grid: 3, raising=False)
+def test_distance_errors_and_warp_options(gl, rng):
     image = rng.integers(0, 256, (40, 56, 3), dtype=np.uint8)
-    with WarpingMLS(SRC, DST, ctx=gl) as m:
-        result = glmls.report(image, m, REFERENCE, triangle_error="distance")
-    assert (result.images["deformed"] == image[::-1]).all()
-    assert "triangle_distance" in result.images and "deformed_mesh" not in result.images
-    assert result.summary["warped"] is True
-    assert result.summary["foldovers"] == 3
+    with glmls.MLS(SRC, DST, ctx=gl) as m:
+        result = glmls.report(
+            image, m, REFERENCE, triangle_error="distance", method="backward", warp_grid=2
+        )
+        deformed = m.warp(image, method="backward", grid=2)
+    assert (result.images["deformed"] == deformed).all()
+    assert "triangle_distance" in result.images and "triangle_angle" not in result.images
+    assert result.summary["warp"]["method"] == "backward"
     assert "warp" in result.summary["timings_s"]
 
 

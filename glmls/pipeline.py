@@ -1,0 +1,552 @@
+"""The GPU pipeline that builds deformed images: mesh on the GPU, rasterizer fills the quads.
+
+One :class:`WarpPipeline` per GL context serves :meth:`glmls.MLS.warp`, the CLI and a window:
+the handles (an :class:`~glmls.MLS`) are the only thing that changes between frames, every
+other GL object is cached by size and reused. Stages never read back in between:
+
+1. ``mls_points.comp.glsl`` (MLS_MESH) writes f at the mesh vertices into a buffer;
+2. ``warp_mesh.vert.glsl`` draws that buffer as triangles (or points, for ``splat``) and
+   ``warp_mesh.frag.glsl`` samples the source texture at the interpolated source point;
+3. ``backward``: the same draw writes the source point instead (a first guess of f⁻¹),
+   ``mls_inverse.comp.glsl`` refines it by Newton's method, and ``warp_backward.frag.glsl``
+   samples the source there.
+
+:meth:`WarpPipeline.render` draws into any framebuffer (a window's, without read-back);
+:meth:`WarpPipeline.warp` and :meth:`WarpPipeline.coordinate_map` are the numpy front ends.
+
+Fold-overs: quads are drawn in one draw call in row-major order of their source cells, and
+OpenGL writes the fragments of later primitives over those of earlier ones, so where deformed
+quads overlap the cell with the larger source row (then column) is on top. ``splat`` and the
+first guess of ``backward`` follow the same rule, so the three agree on folds.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import moderngl
+import numpy as np
+
+from .context import GLContext, current, get_context
+from .errors import ReleasedError
+from .handles import SSBOHandleStorage, pack_handles
+
+if TYPE_CHECKING:
+    from .mls import MLS
+
+METHODS = ("quads", "splat", "backward", "backward-swap")
+INTERPOLATIONS = ("nearest", "linear")
+DTYPES = (np.uint8, np.uint16, np.float32, np.float64)
+
+#: Newton on f stops below this residual |f(s) - u| (pixels) ...
+NEWTON_TOLERANCE = 1e-3
+#: ... or after this many steps; a pixel whose residual stays above NEWTON_ACCEPT (pixels) is
+#: left uncovered (no source point found).
+NEWTON_STEPS = 8
+NEWTON_ACCEPT = 0.05
+#: Largest mesh buffer (bytes) of one band; bigger meshes are evaluated band by band.
+BAND_BYTES = 1 << 26
+_LOCAL_SIZE = 64
+_MESH_BINDING = 2
+
+
+@dataclass(frozen=True)
+class SourceImage:
+    """An image prepared for the GPU: float32 (H, W, C) raw values plus what to restore."""
+
+    data: np.ndarray
+    dtype: np.dtype
+    squeeze: bool  # the input was (H, W)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.data.shape[0], self.data.shape[1]
+
+    @property
+    def channels(self) -> int:
+        return self.data.shape[2]
+
+    def restore(self, values: np.ndarray) -> np.ndarray:
+        """float32 (H, W, C) back to the input's dtype and shape."""
+        if np.issubdtype(self.dtype, np.integer):
+            top = np.iinfo(self.dtype).max
+            values = np.clip(np.rint(values), 0, top)
+        out = values.astype(self.dtype)
+        return out[..., 0] if self.squeeze else out
+
+
+def prepare_image(image: object, max_size: int) -> SourceImage:
+    """Validate an image (H x W or H x W x C, C in 1..4) and convert it to float32."""
+    array = np.asarray(image)
+    if array.dtype not in DTYPES:
+        names = ", ".join(np.dtype(d).name for d in DTYPES)
+        raise TypeError(f"image dtype must be one of {names}; got {array.dtype}")
+    if array.ndim not in (2, 3) or (array.ndim == 3 and not 1 <= array.shape[2] <= 4):
+        raise ValueError(f"image must be H x W or H x W x C with C in 1..4, got {array.shape}")
+    if array.size == 0:
+        raise ValueError(f"image is empty: shape {array.shape}")
+    height, width = array.shape[:2]
+    if max(height, width) > max_size:
+        raise ValueError(
+            f"image of {height} x {width} pixels exceeds the GL texture size limit of "
+            f"{max_size} pixels per side on this device; split it or scale it down"
+        )
+    squeeze = array.ndim == 2
+    data = np.ascontiguousarray(array.reshape(height, width, -1), dtype=np.float32)
+    return SourceImage(data, array.dtype, squeeze)
+
+
+def background_color(background: object, image: SourceImage) -> tuple[float, float, float, float]:
+    """The clear colour: ``background`` per channel, and alpha 0 for images with alpha.
+
+    ``background`` is a scalar (every colour channel), or one value per channel (C values,
+    alpha included, or C - 1 for an image with alpha, whose alpha is then 0).
+    """
+    channels = image.channels
+    has_alpha = channels in (2, 4)
+    values = np.asarray(background, dtype=object)
+    if values.ndim == 0:
+        values = np.array([background] * (channels - has_alpha), dtype=object)
+    if values.ndim != 1 or len(values) not in (channels, channels - has_alpha):
+        raise ValueError(
+            f"background must be a scalar or {channels} values (one per channel)"
+            + (f" or {channels - 1} (colour only)" if has_alpha else "")
+            + f", got {background!r}"
+        )
+    out = []
+    for value in values:
+        if isinstance(value, (bool, np.bool_)) or not isinstance(
+            value, (int, float, np.integer, np.floating)
+        ):
+            raise TypeError(f"background values must be real numbers, got {background!r}")
+        out.append(float(value))
+    if np.issubdtype(image.dtype, np.integer):
+        top = np.iinfo(image.dtype).max
+        if not all(0 <= v <= top for v in out):
+            raise ValueError(f"background {background!r} is outside 0..{top} of {image.dtype}")
+    if len(out) < channels:
+        out.append(0.0)  # transparent where nothing is drawn
+    return (*out, *[0.0] * (4 - len(out)))  # type: ignore[return-value]
+
+
+def check_options(method: object, interpolation: object, grid: object) -> None:
+    for name, value, choices in (
+        ("method", method, METHODS),
+        ("interpolation", interpolation, INTERPOLATIONS),
+    ):
+        if not isinstance(value, str) or value not in choices:
+            raise ValueError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")
+    if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or grid < 1:
+        raise ValueError(f"grid must be an integer >= 1 (pixels), got {grid!r}")
+
+
+def _use_texture(texture: moderngl.Texture, unit: int, linear: bool) -> None:
+    mode = moderngl.LINEAR if linear else moderngl.NEAREST
+    texture.filter = (mode, mode)
+    texture.use(unit)
+
+
+class WarpPipeline:
+    """Cached GL objects and the passes that turn handles and a source texture into an image.
+
+    Textures and framebuffers are kept for the last size of each role and replaced when the
+    size changes; buffers only grow (up to :data:`BAND_BYTES`). :meth:`release` frees them all;
+    the compiled programs belong to the :class:`~glmls.GLContext` and are shared.
+    """
+
+    def __init__(self, ctx: moderngl.Context | GLContext | None = None) -> None:
+        self._gl = get_context(ctx)
+        self._textures: dict[str, tuple[tuple, moderngl.Texture]] = {}
+        self._framebuffers: dict[str, tuple[int, moderngl.Framebuffer]] = {}
+        self._buffers: dict[str, moderngl.Buffer] = {}
+        self._vaos: dict[tuple, moderngl.VertexArray] = {}
+        self._index_dims = (0, 0)
+        self._swap = SSBOHandleStorage(self._gl.mgl)
+        self._released = False
+
+    @property
+    def ctx(self) -> GLContext:
+        return self._gl
+
+    @property
+    def max_image_size(self) -> int:
+        """Largest image side this context can warp (the GL texture and viewport limit)."""
+        info = self._gl.mgl.info
+        return min(int(info["GL_MAX_TEXTURE_SIZE"]), *map(int, info["GL_MAX_VIEWPORT_DIMS"]))
+
+    @contextlib.contextmanager
+    def _keep_framebuffer(self) -> Iterator[None]:
+        """Leave the bound framebuffer as found: moderngl re-binds the bound one when it
+        creates another, and binding one of ours after we released it is a GL error."""
+        mgl = self._gl.mgl
+        bound = mgl.fbo
+        if bound is None:  # a standalone context starts with none: framebuffer 0
+            bound = mgl.detect_framebuffer(0)
+        try:
+            yield
+        finally:
+            bound.use()
+
+    # -- cached GL objects --------------------------------------------------------------
+
+    def _check_alive(self) -> None:
+        if self._released:
+            raise ReleasedError("this warp pipeline has been released")
+
+    def _texture(self, role: str, size: tuple[int, int], components: int) -> moderngl.Texture:
+        key = (size, components)
+        cached = self._textures.get(role)
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        if cached is not None:
+            self._drop_texture(role)
+        texture = self._gl.mgl.texture(size, components, dtype="f4")
+        texture.repeat_x = texture.repeat_y = False
+        self._textures[role] = (key, texture)
+        return texture
+
+    def _drop_texture(self, role: str) -> None:
+        _, texture = self._textures.pop(role)
+        framebuffer = self._framebuffers.pop(role, None)
+        if framebuffer is not None:
+            framebuffer[1].release()
+        texture.release()
+
+    def _framebuffer(self, role: str, size: tuple[int, int]) -> moderngl.Framebuffer:
+        """A framebuffer around the RGBA32F texture ``role`` of ``size``."""
+        texture = self._texture(role, size, 4)
+        cached = self._framebuffers.get(role)
+        if cached is not None and cached[0] == texture.glo:
+            return cached[1]
+        framebuffer = self._gl.mgl.framebuffer(color_attachments=[texture])
+        self._framebuffers[role] = (texture.glo, framebuffer)
+        return framebuffer
+
+    def _buffer(self, name: str, nbytes: int) -> moderngl.Buffer:
+        buffer = self._buffers.get(name)
+        if buffer is None or buffer.size < nbytes:
+            if buffer is not None:
+                buffer.release()
+            buffer = self._buffers[name] = self._gl.mgl.buffer(reserve=max(nbytes, 16))
+        return buffer
+
+    def _vao(self, program: moderngl.Program, index: moderngl.Buffer | None = None):
+        """An attribute-less vertex array: the shaders index their data by gl_VertexID."""
+        key = (program.glo, None if index is None else index.glo)
+        vao = self._vaos.get(key)
+        if vao is None:
+            if index is None:
+                vao = self._gl.mgl.vertex_array(program, [])
+            else:
+                vao = self._gl.mgl.vertex_array(program, [], index_buffer=index)
+            self._vaos[key] = vao
+        return vao
+
+    def _index_buffer(self, nx: int, rows: int) -> moderngl.Buffer:
+        """Triangles (00, 10, 11), (00, 11, 01) of each cell of a band of ``rows`` rows of
+        ``nx`` vertices, row-major; a shorter band draws a prefix of it."""
+        cached = self._buffers.get("index")
+        if cached is not None and self._index_dims[0] == nx and self._index_dims[1] >= rows:
+            return cached
+        i = np.arange(nx * rows, dtype=np.uint32).reshape(rows, nx)
+        a, b, c, d = i[:-1, :-1], i[:-1, 1:], i[1:, 1:], i[1:, :-1]
+        triangles = np.stack([a, b, c, a, c, d], axis=-1)
+        if cached is not None:
+            for key in [k for k in self._vaos if k[1] == cached.glo]:
+                self._vaos.pop(key).release()
+            cached.release()
+        self._buffers["index"] = self._gl.mgl.buffer(triangles.tobytes())
+        self._index_dims = (nx, rows)
+        return self._buffers["index"]
+
+    @current
+    def release(self) -> None:
+        """Free every cached texture, framebuffer, buffer and vertex array. Idempotent."""
+        if self._released:
+            return
+        for role in list(self._textures):
+            self._drop_texture(role)
+        for _, framebuffer in self._framebuffers.values():
+            framebuffer.release()
+        for obj in [*self._buffers.values(), *self._vaos.values()]:
+            obj.release()
+        self._framebuffers.clear()
+        self._buffers.clear()
+        self._vaos.clear()
+        self._swap.release()
+        self._released = True
+
+    # -- passes -------------------------------------------------------------------------
+
+    @current
+    def upload(self, image: SourceImage, role: str = "source") -> moderngl.Texture:
+        """The source texture holding ``image``'s raw float32 values."""
+        self._check_alive()
+        height, width = image.shape
+        texture = self._texture(role, (width, height), image.channels)
+        texture.write(image.data)
+        return texture
+
+    def _dispatch(self, program: moderngl.ComputeShader, count: int) -> None:
+        max_groups = self._gl.limits["max_work_groups_x"]
+        groups = math.ceil(count / _LOCAL_SIZE)
+        for first in range(0, groups, max_groups):
+            program["u_offset"].value = first * _LOCAL_SIZE
+            program.run(group_x=min(max_groups, groups - first))
+
+    def _mesh_bands(self, mls: MLS, shape: tuple[int, int], grid: int, *, centres: bool):
+        """Evaluate f on the mesh band by band into the mesh buffer; yields (first row, dims).
+
+        ``centres``: the pixel centres (splat); else the pixel-square corners at step ``grid``.
+        Quad bands overlap by one row of vertices (computed identically in both).
+        """
+        height, width = shape
+        if centres:
+            origin, step, last = (0.0, 0.0), 1, (width - 1.0, height - 1.0)
+            nx, ny, overlap = width, height, 0
+        else:
+            origin, step = (-0.5, -0.5), grid
+            last = (width - 0.5, height - 0.5)
+            nx, ny, overlap = math.ceil(width / grid) + 1, math.ceil(height / grid) + 1, 1
+        rows_per_band = max(2, BAND_BYTES // (8 * nx))
+        if not centres:  # the index buffer: 6 uint32 per cell
+            rows_per_band = max(2, min(rows_per_band, BAND_BYTES // (24 * (nx - 1)) + 1))
+        program = mls._program(mesh=True, with_matrix=False)
+        mls._set_uniforms(program, shape)
+        sc = mls.scaling
+        program["u_mesh_origin"].value = tuple(sc.to_gpu(np.array([origin]))[0])
+        program["u_mesh_step"].value = (step / sc.scale, step / sc.scale)
+        program["u_mesh_last"].value = tuple(sc.to_gpu(np.array([last]))[0])
+        buffer = self._buffer("mesh", min(nx * ny, rows_per_band * nx) * 8)
+        first = 0
+        while True:
+            rows = min(rows_per_band, ny - first)
+            program["u_mesh_dims"].value = (nx, rows)
+            program["u_mesh_first_row"].value = first
+            program["u_count"].value = nx * rows
+            buffer.bind_to_storage_buffer(_MESH_BINDING)
+            self._dispatch(program, nx * rows)
+            self._gl.mgl.memory_barrier()
+            yield first, (nx, rows)
+            first += rows - overlap
+            if first + overlap >= ny:
+                break
+
+    def _draw_mesh(
+        self,
+        mls: MLS,
+        source: moderngl.Texture,
+        shape: tuple[int, int],
+        target_size: tuple[int, int],
+        *,
+        splat: bool,
+        linear: bool,
+        grid: int,
+        coords: bool,
+        flip_y: bool,
+    ) -> None:
+        program = self._gl.program(
+            ("warp_mesh.vert.glsl",),
+            ("warp_sample.glsl", "warp_mesh.frag.glsl"),
+            {"WARP_SPLAT": splat, "WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords},
+        )
+        sc = mls.scaling
+        values = {
+            "u_center": sc.center,
+            "u_scale": sc.scale,
+            "u_target_size": target_size,
+            "u_flip_y": flip_y,
+            "u_source_size": (shape[1], shape[0]),
+            "u_grid": grid,
+            "u_source": 0,
+        }
+        for name, value in values.items():
+            if name in program:
+                program[name].value = value
+        if not coords:
+            _use_texture(source, 0, linear)
+        mgl = self._gl.mgl
+        mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        if splat:
+            mgl.point_size = 1.0
+        for first, dims in self._mesh_bands(mls, shape, grid, centres=splat):
+            for name, value in (("u_mesh_dims", dims), ("u_first_row", first)):
+                if name in program:
+                    program[name].value = value
+            self._buffers["mesh"].bind_to_storage_buffer(_MESH_BINDING)
+            if splat:
+                self._vao(program).render(moderngl.POINTS, vertices=dims[0] * dims[1])
+            else:
+                # after _mesh_bands filled the band: the first band has the most rows
+                index = self._index_buffer(*dims)
+                cells = (dims[0] - 1) * (dims[1] - 1)
+                self._vao(program, index).render(moderngl.TRIANGLES, vertices=6 * cells)
+
+    @current
+    def solve_inverse(
+        self, mls: MLS, shape: tuple[int, int], *, swap: bool = False, grid: int = 1
+    ) -> moderngl.Texture:
+        """The RGBA32F texture (s.x, s.y, residual, covered) of the backward map, output
+        pixels of an image of ``shape`` (the output has the source's size)."""
+        self._check_alive()
+        with self._keep_framebuffer():
+            return self._solve_inverse(mls, shape, swap=swap, grid=grid)
+
+    def _solve_inverse(self, mls: MLS, shape: tuple[int, int], *, swap: bool, grid: int):
+        height, width = shape
+        framebuffer = self._framebuffer("coords", (width, height))
+        texture = self._textures["coords"][1]
+        if not swap:
+            # First guess: the rasterized piecewise linear inverse of the deformed mesh.
+            framebuffer.use()
+            framebuffer.viewport = (0, 0, width, height)
+            framebuffer.clear(0.0, 0.0, 0.0, 0.0)
+            self._draw_mesh(
+                mls,
+                texture,
+                shape,
+                (width, height),
+                splat=False,
+                linear=False,
+                grid=grid,
+                coords=True,
+                flip_y=False,
+            )
+        defines = mls.defines() | {"WARP_SWAP": swap, "WARP_NEWTON_STEPS": NEWTON_STEPS}
+        handles = mls._handles
+        if swap:
+            handles = self._swap
+            handles.upload(pack_handles(mls.dst, mls.src, mls.scaling))
+        program = self._gl.compute(
+            (handles.glsl_part, "mls_core.glsl", "mls_inverse.comp.glsl"), defines
+        )
+        mls._set_uniforms(program, shape)
+        handles.bind(program)
+        sc = mls.scaling
+        values = {
+            "u_target_size": (width, height),
+            "u_source_size": (width, height),
+            "u_center": sc.center,
+            "u_scale": sc.scale,
+            "u_tolerance": NEWTON_TOLERANCE,
+            "u_accept": NEWTON_ACCEPT,
+        }
+        for name, value in values.items():
+            if name in program:
+                program[name].value = value
+        self._gl.mgl.memory_barrier()
+        texture.bind_to_image(0, read=True, write=True)
+        program.run(group_x=math.ceil(width / 8), group_y=math.ceil(height / 8))
+        self._gl.mgl.memory_barrier()
+        return texture
+
+    @current
+    def render(
+        self,
+        mls: MLS,
+        source: moderngl.Texture,
+        framebuffer: moderngl.Framebuffer,
+        *,
+        method: str = "quads",
+        interpolation: str = "nearest",
+        grid: int = 1,
+        flip_y: bool = False,
+    ) -> None:
+        """Draw the deformed ``source`` into ``framebuffer`` (its current viewport), no read-back.
+
+        The caller clears the framebuffer to the background first. The output has the
+        source's size in pixels; ``quads`` and ``splat`` scale to any viewport, ``backward``
+        needs a viewport of that size. ``flip_y`` for a window, whose row 0 is at the bottom.
+        The bound framebuffer is left as found.
+        """
+        self._check_alive()
+        check_options(method, interpolation, grid)
+        with self._keep_framebuffer():
+            self._render(mls, source, framebuffer, method, interpolation == "linear", grid, flip_y)
+
+    def _render(self, mls, source, framebuffer, method, linear, grid, flip_y) -> None:
+        width, height = source.size
+        shape = (height, width)
+        if method in ("quads", "splat"):
+            framebuffer.use()
+            self._draw_mesh(
+                mls,
+                source,
+                shape,
+                (width, height),
+                splat=method == "splat",
+                linear=linear,
+                grid=grid,
+                coords=False,
+                flip_y=flip_y,
+            )
+            return
+        coords = self._solve_inverse(mls, shape, swap=method == "backward-swap", grid=grid)
+        program = self._gl.program(
+            ("warp_fullscreen.vert.glsl",),
+            ("warp_sample.glsl", "warp_backward.frag.glsl"),
+            {"WARP_LINEAR": linear},
+        )
+        program["u_source"].value = 0
+        program["u_coords"].value = 1
+        program["u_target_size"].value = (width, height)
+        program["u_flip_y"].value = flip_y
+        _use_texture(source, 0, linear)
+        coords.use(1)
+        framebuffer.use()
+        self._vao(program).render(moderngl.TRIANGLES, vertices=3)
+
+    # -- numpy front ends ---------------------------------------------------------------
+
+    @current
+    def warp(
+        self,
+        mls: MLS,
+        image: object,
+        *,
+        method: str = "quads",
+        interpolation: str = "nearest",
+        grid: int = 1,
+        background: object = 0,
+    ) -> np.ndarray:
+        """The deformed image as a new array of ``image``'s shape and dtype."""
+        self._check_alive()
+        check_options(method, interpolation, grid)
+        source = prepare_image(image, self.max_image_size)
+        clear = background_color(background, source)
+        height, width = source.shape
+        texture = self.upload(source)
+        with self._keep_framebuffer():
+            framebuffer = self._framebuffer("target", (width, height))
+            framebuffer.use()
+            framebuffer.viewport = (0, 0, width, height)
+            framebuffer.clear(*clear)
+            self._render(mls, texture, framebuffer, method, interpolation == "linear", grid, False)
+        raw = framebuffer.read(viewport=(0, 0, width, height), components=4, dtype="f4")
+        values = np.frombuffer(raw, dtype=np.float32).reshape(height, width, 4)
+        return source.restore(values[..., : source.channels])
+
+    @current
+    def coordinate_map(
+        self, mls: MLS, shape: tuple[int, int], *, method: str = "backward", grid: int = 1
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(map (H, W, 2) float32, residual (H, W) float32, covered (H, W) bool)."""
+        self._check_alive()
+        if method not in ("backward", "backward-swap"):
+            raise ValueError(f"unknown method {method!r}; choose backward or backward-swap")
+        check_options(method, "nearest", grid)
+        height, width = shape
+        if max(height, width) > self.max_image_size:
+            raise ValueError(
+                f"shape {shape} exceeds the GL texture size limit of {self.max_image_size} pixels"
+            )
+        texture = self.solve_inverse(mls, shape, swap=method == "backward-swap", grid=grid)
+        values = np.frombuffer(texture.read(), dtype=np.float32).reshape(height, width, 4)
+        residual = values[..., 2].copy()
+        if method == "backward-swap":
+            residual[:] = np.nan
+        return values[..., :2].copy(), residual, values[..., 3] > 0.5

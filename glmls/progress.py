@@ -1,0 +1,69 @@
+"""A small progress bar on stderr with the time left (no dependency)."""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import TextIO
+
+
+def format_seconds(seconds: float) -> str:
+    seconds = max(0, round(seconds))
+    minutes, seconds = divmod(seconds, 60)
+    hours, minutes = divmod(minutes, 60)
+    return f"{hours}:{minutes:02d}:{seconds:02d}" if hours else f"{minutes}:{seconds:02d}"
+
+
+class Progress:
+    """``with Progress(total, "tune") as bar: ... bar.advance()``; silent when ``quiet``.
+
+    On a terminal it redraws one line; otherwise it prints a line every 10 % so that logs
+    stay short.
+    """
+
+    def __init__(
+        self, total: int, label: str, *, quiet: bool = False, stream: TextIO | None = None
+    ) -> None:
+        self.total = max(int(total), 0)
+        self.label = label
+        self.quiet = quiet
+        self.stream = stream if stream is not None else sys.stderr
+        self.done = 0
+        self._start = time.perf_counter()
+        self._last_decile = -1
+        self._tty = bool(getattr(self.stream, "isatty", lambda: False)())
+
+    def __enter__(self) -> Progress:
+        self._start = time.perf_counter()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if not self.quiet and self._tty:
+            self.stream.write("\n")
+            self.stream.flush()
+
+    def line(self) -> str:
+        elapsed = time.perf_counter() - self._start
+        fraction = self.done / self.total if self.total else 1.0
+        filled = int(fraction * 24)
+        bar = "#" * filled + "-" * (24 - filled)
+        left = elapsed / self.done * (self.total - self.done) if self.done else float("nan")
+        eta = format_seconds(left) if self.done else "?"
+        return (
+            f"{self.label} [{bar}] {self.done}/{self.total} "
+            f"elapsed {format_seconds(elapsed)} left {eta}"
+        )
+
+    def advance(self, steps: int = 1) -> None:
+        self.done = min(self.done + steps, self.total)
+        if self.quiet:
+            return
+        if self._tty:
+            self.stream.write("\r" + self.line())
+            self.stream.flush()
+            return
+        decile = int(10 * self.done / self.total) if self.total else 10
+        if decile != self._last_decile:
+            self._last_decile = decile
+            self.stream.write(self.line() + "\n")
+            self.stream.flush()

@@ -1,0 +1,19 @@
+// Backward mapping: every output pixel samples the source at the point s that
+// mls_inverse.comp.glsl found for it. Needs a viewport of the output's size in pixels.
+uniform sampler2D u_coords;   // (s.x, s.y, residual, covered) per output pixel
+uniform ivec2 u_target_size;
+uniform bool u_flip_y;
+
+layout(location = 0) out vec4 out_color;
+
+void main() {
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    if (u_flip_y) {
+        p.y = u_target_size.y - 1 - p.y;
+    }
+    vec4 c = texelFetch(u_coords, p, 0);
+    if (c.w < 0.5) {
+        discard;   // no source point inside the image: the background stays
+    }
+    out_color = warp_fetch(c.xy, ivec2(0), textureSize(u_source, 0) - 1);
+}
