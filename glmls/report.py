@@ -14,6 +14,7 @@ from PIL import Image
 
 from . import colormaps
 from .analysis import error_stats, triangle_errors
+from .files import atomic_write
 from .render import (
     as_rgb8,
     render_field,
@@ -50,12 +51,13 @@ class AnalysisReport:
         """Write ``report.json`` and one PNG per picture into ``folder`` (created if needed);
         returns the paths written."""
         out = Path(folder)
-        out.mkdir(parents=True, exist_ok=True)
         paths = [out / "report.json"]
-        paths[0].write_text(self.to_json() + "\n", encoding="utf-8")
+        with atomic_write(paths[0]) as tmp:  # each file whole or not at all
+            tmp.write_text(self.to_json() + "\n", encoding="utf-8")
         for name, picture in self.images.items():
             path = out / f"{name}.png"
-            Image.fromarray(picture).save(path)
+            with atomic_write(path) as tmp:
+                Image.fromarray(picture).save(tmp)
             paths.append(path)
         return paths
 

@@ -28,3 +28,6 @@ assert np.abs(f - dst).max() < 1e-3, f
 print(f"wheel OK: glmls {glmls.__version__} from {pathlib.Path(glmls.__file__).parent}, "
       f"shaders from {root}")
 PY
+"$work/venv/bin/glmls" --quiet analyze --example --out "$work/example" >/dev/null
+test -s "$work/example/report.json" && test -s "$work/example/deformed.png"
+echo "wheel OK: glmls analyze --example from the installed wheel"

@@ -31,4 +31,4 @@ if [ ! -x .venv/bin/python ]; then
 fi
 .venv/bin/python -m pip install -q --disable-pip-version-check --upgrade pip
 .venv/bin/python -m pip install -q --disable-pip-version-check -e ".[test]"
-echo "setup: ready (.venv/bin/python, .venv/bin/glmls-example)" >&2
+echo "setup: ready (.venv/bin/python, .venv/bin/glmls)" >&2

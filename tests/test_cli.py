@@ -1,0 +1,150 @@
+"""The glmls command line, end to end in subprocesses, on small images."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import glmls
+
+ROOT = Path(__file__).resolve().parent.parent
+SRC = [[4, 4], [36, 6], [20, 30], [6, 26]]
+DST = [[6, 5], [34, 8], [24, 28], [6, 26]]
+REFERENCE = [[10, 10], [30, 10], [20, 25], [12, 22], [28, 22]]
+
+
+def glmls_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    return subprocess.run(
+        [sys.executable, "-m", "glmls.cli", *args],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+
+
+@pytest.fixture
+def inputs(tmp_path):
+    rng = np.random.default_rng(3)
+    image = rng.integers(0, 256, (32, 40, 3), dtype=np.uint8)
+    glmls.imwrite(tmp_path / "a.png", image)
+    glmls.imwrite(tmp_path / "b.png", image[::-1].copy())
+    (tmp_path / "h.json").write_text(json.dumps({"src": SRC, "dst": DST}))
+    (tmp_path / "r.json").write_text(json.dumps({"points": REFERENCE}))
+    return tmp_path
+
+
+def _no_traceback(result):
+    assert "Traceback" not in result.stderr, result.stderr
+
+
+def test_warp_one_image_matches_the_api(inputs, gl):
+    result = glmls_cli("warp", "a.png", "out.png", "--handles", "h.json", cwd=inputs)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "out.png"
+    image = glmls.imread(inputs / "a.png")
+    expected = glmls.warp(image, SRC, DST, ctx=gl)
+    assert (glmls.imread(inputs / "out.png") == expected).all()
+
+
+def test_warp_a_glob_into_a_folder_with_progress(inputs):
+    result = glmls_cli(
+        "warp", "*.png", "outdir", "--handles", "h.json", "--method", "backward",
+        "--background", "255,0,0", cwd=inputs,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert sorted(p.name for p in (inputs / "outdir").iterdir()) == ["a.png", "b.png"]
+    assert "warp [" in result.stderr and "2/2" in result.stderr
+    quiet = glmls_cli("--quiet", "warp", ".", "q", "--handles", "h.json", cwd=inputs)
+    assert quiet.returncode == 0 and quiet.stderr == ""
+
+
+def test_analyze_writes_the_report_and_pictures(inputs):
+    result = glmls_cli(
+        "analyze", "a.png", "--handles", "h.json", "--reference", "r.json", "--out", "rep",
+        "--transform", "similarity", cwd=inputs,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    summary = json.loads((inputs / "rep" / "report.json").read_text())
+    assert summary["configuration"]["transform"] == "similarity"
+    assert summary["triangles"]["triangles"] >= 3
+    assert {"error_field", "triangles", "foldovers", "timings_s"} <= set(summary)
+    for name in ("deformed", "error_field", "triangulation", "triangle_angle"):
+        assert (inputs / "rep" / f"{name}.png").is_file()
+
+
+def test_tune_is_reproducible_for_a_seed(inputs):
+    def run(out):
+        result = glmls_cli(
+            "tune", "a.png", "--handles", "h.json", "--reference", "r.json", "--out", out,
+            "--trials", "2", "--seed", "7", "--configs", "rigid:idw", "*:gaussian:radius=40",
+            cwd=inputs,
+        )  # fmt: skip
+        assert result.returncode == 0, result.stderr
+        return result, json.loads((inputs / out / "ranking.json").read_text())
+
+    first, ranking = run("t1")
+    _, again = run("t2")
+    assert ranking["ranking"] == again["ranking"]
+    assert len(ranking["ranking"]) == 5  # rigid idw alpha 1 and 2, 3 gaussians
+    assert [row["rank"] for row in ranking["ranking"]] == [1, 2, 3, 4, 5]
+    assert "rank  configuration" in first.stdout
+    assert (inputs / "t1" / "ranking.csv").read_text().startswith("transform,weight,")
+    assert (inputs / "t1" / "winner" / "report.json").is_file()
+    assert "left" in first.stderr  # progress with the time left
+
+
+@pytest.mark.parametrize(
+    ("files", "args", "message"),
+    [
+        ({"bad.json": '{"src": [[1, 2]], "dst": [[1, 2]'}, [], "bad.json: line 1: invalid JSON"),
+        ({"bad.json": '{"src": [[1, 2]]}'}, [], 'missing the key "dst"'),
+        ({"bad.json": '{"src": [[1, "x"]], "dst": [[1, 2]]}'}, [], "expected a number"),
+        ({"bad.json": '{"src": [[1, NaN]], "dst": [[1, 2]]}'}, [], "expected a finite number"),
+        ({"bad.json": '{"src": [], "dst": []}'}, [], "no handles"),
+        ({"bad.csv": "src_x,src_y,dst_x\n1,2,3\n"}, [], "bad.csv: line 1: expected the header"),
+        ({"bad.csv": "src_x,src_y,dst_x,dst_y\n1,2,3,4\n1,2\n"}, [], "line 3: expected 4"),
+        ({"bad.json": '{"src": [[1, 1], [1, 1]], "dst": [[2, 2], [3, 3]]}'}, [], "same point"),
+        ({}, ["--transform", "projective"], "invalid choice"),
+        ({}, ["--alpha", "-1"], "alpha must be > 0"),
+        ({}, ["--grid", "0"], "expected an integer >= 1"),
+    ],
+)
+def test_malformed_input_exits_2_with_a_message(inputs, files, args, message):
+    for name, text in files.items():
+        (inputs / name).write_text(text)
+    handles = next(iter(files), "h.json")
+    result = glmls_cli("warp", "a.png", "o.png", "--handles", handles, *args, cwd=inputs)
+    assert result.returncode == 2
+    assert message in result.stderr
+    _no_traceback(result)
+    assert not (inputs / "o.png").exists()
+
+
+def test_usage_errors(inputs):
+    for args, message in [
+        (["warp", "missing.png", "o.png", "--handles", "h.json"], "no such file"),
+        (["analyze", "--out", "x"], "missing IN, --handles (or use --example)"),
+        (["tune", "a.png", "--handles", "h.json", "--out", "x"], "missing --reference"),
+        (["tune", "--example", "--out", "x", "--configs", "rigid"], "expected transform:weight"),
+        (["warp", "h.json", "o.png", "--handles", "h.json"], "cannot read the image"),
+    ]:
+        result = glmls_cli(*args, cwd=inputs)
+        assert result.returncode == 2, (args, result.stderr)
+        assert message in result.stderr, (args, result.stderr)
+        _no_traceback(result)
+
+
+def test_version_and_help(inputs):
+    assert glmls_cli("--version", cwd=inputs).stdout.strip() == f"glmls {glmls.__version__}"
+    for command in ("warp", "analyze", "tune"):
+        result = glmls_cli(command, "--help", cwd=inputs)
+        assert result.returncode == 0 and "examples:" in result.stdout
