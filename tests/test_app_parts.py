@@ -168,3 +168,11 @@ def test_bad_option_values_are_usage_errors(capsys):
             parse(*argv)
         assert exit_.value.code == 2
     capsys.readouterr()
+
+
+def test_readout_lines_are_wrapped_to_the_panel():
+    from glmls.app.window import _wrap
+
+    lines = _wrap("saved /a/very/long/path/" + "x" * 100 + ".png now", 40)
+    assert all(len(line) <= 40 for line in lines)
+    assert "".join(line.strip() for line in lines).startswith("saved/a/very")

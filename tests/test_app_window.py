@@ -112,18 +112,26 @@ def test_drag_moves_the_image_and_overlays_appear(tmp_path, square):
 
     overlays = tmp_path / "overlays.png"
     result = demo(
-        str(square), "--replay", str(events(tmp_path / "b.json", "m", "e")),
-        "--screenshot", str(overlays), "--window-size", size, "--frames", "8",
+        str(square), "--replay", str(events(tmp_path / "b.json", "m", "e", "s", "j")),
+        "--screenshot", str(overlays), "--window-size", size, "--frames", "10",
+        "--out-dir", str(tmp_path / "saved"),
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
     shot = glmls.imread(overlays)
     area = image_area(shot)
     mesh_green = (area[..., 1] > 200) & (area[..., 0] < 150) & (area[..., 2] < 200)
     assert mesh_green.sum() > 500  # the wireframe
-    handle = (area[..., 0] > 230) & (area[..., 1] > 170) & (area[..., 1] < 230) & (area[..., 2] < 60)
+    red, green, blue = area[..., 0], area[..., 1], area[..., 2]
+    handle = (red > 230) & (green > 170) & (green < 230) & (blue < 60)
     assert handle.sum() > 20  # the handle's target disk
     # the error field (0 everywhere for a translation: the map's low colour, white) lightens
     assert at(shot, 85, 25)[0] > 120
+    # s and j saved the deformed image (full resolution, the input's dtype) and the handles
+    warped = glmls.imread(tmp_path / "saved" / "square-warped.png")
+    assert warped.shape == (*SHAPE, 3) and warped.dtype == np.uint8
+    assert (warped[45:65, 50:70] == 255).all() and (warped[:15] == 0).all()
+    handles = json.loads((tmp_path / "saved" / "square-handles.json").read_text())
+    assert handles == {"src": [[40.0, 40.0]], "dst": [[60.0, 55.0]]}
 
 
 @needs_xvfb

@@ -24,7 +24,7 @@ import numpy as np
 from ..analysis import error_field, error_stats, triangle_errors
 from ..colormaps import apply_colormap, format_number
 from ..context import GLContext, get_context
-from ..files import read_handles, write_handles
+from ..files import atomic_write, read_handles, write_handles
 from ..io import imwrite
 from ..mls import MLS
 from ..pipeline import WarpPipeline, prepare_image
@@ -305,7 +305,7 @@ class App:
 
     def say(self, text: str) -> None:
         self._messages.append((time.perf_counter(), text))
-        del self._messages[:-3]
+        del self._messages[:-4]
 
     def _path(self, suffix: str) -> Path:
         return self.out_dir / f"{self.name}-{suffix}"
@@ -338,12 +338,12 @@ class App:
             raise ValueError("no valid deformation to save")
         s = self.controller.settings
         image = self.image if self.image.dtype in (np.uint8, np.uint16) else self.display
-        out = self.pipeline.warp(
-            self._mls, image, method=s.method, interpolation=s.interpolation, grid=s.grid
-        )
+        # MLS.warp's own pipeline: this one's "source" texture holds the display image
+        out = self._mls.warp(image, method=s.method, interpolation=s.interpolation, grid=s.grid)
         if out.dtype not in (np.uint8, np.uint16):
             out = np.round(np.clip(out, 0, 1) * 255).astype(np.uint8)
-        imwrite(path, out)
+        with atomic_write(path) as tmp:  # creates the folder; whole file or none
+            imwrite(tmp, out)
 
     # -- per-frame work ---------------------------------------------------------------------
 
@@ -622,7 +622,7 @@ class App:
             glfw = self.window.glfw
             self.layout = layout(self.window.framebuffer_size, self.shape, 0)
             while not glfw.window_should_close(self.window.handle) and not self._quit:
-                if scripted or self._view_key() != self._last_view:
+                if scripted or self._view_key() != self._last_view or self._want_screenshot:
                     glfw.poll_events()
                 else:
                     glfw.wait_events_timeout(0.5)
@@ -634,7 +634,8 @@ class App:
                         waiting = max(event.frames - 1, 0)
                     else:
                         self.feed(event)
-                if not scripted and self._view_key() == self._last_view:
+                idle = self._view_key() == self._last_view and self._want_screenshot is None
+                if not scripted and idle:
                     continue
                 self._frame(on_frame)
                 last = scripted and self.frames >= frames  # type: ignore[operator]
@@ -670,7 +671,8 @@ class App:
     def _save_screenshot(self, path: Path, *, quiet: bool) -> None:
         self._want_screenshot = None
         try:
-            imwrite(path, self.screenshot())
+            with atomic_write(path) as tmp:
+                imwrite(tmp, self.screenshot())
             if not quiet:
                 self.say(f"saved {path}")
         except (OSError, ValueError) as error:
@@ -699,7 +701,10 @@ def _num(value: object) -> str:
 
 
 def _wrap(text: str, width: int) -> list[str]:
-    words, lines, line = text.split(), [], ""
+    """Lines of at most ``width`` characters (long words, e.g. paths, are cut)."""
+    words, lines, line = [], [], ""
+    for word in text.split():
+        words += [word[i : i + width - 2] for i in range(0, len(word), width - 2)]
     for word in words:
         if line and len(line) + 1 + len(word) > width:
             lines.append(line)
