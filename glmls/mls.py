@@ -167,6 +167,22 @@ class MLS:
         return self._gl
 
     @on_gpu
+    def set_handles(self, src: object, dst: object) -> None:
+        """Replace the handles (any count), keeping the configuration and GPU objects.
+
+        Validated like the constructor's; on error nothing changes. Cheaper than a new
+        :class:`MLS` per frame of a drag: only the handle buffer is rewritten.
+        """
+        src, dst = validate_handles(src, dst)
+        if self.config.transform == "affine":
+            check_affine_handles(src)
+        scaling = Scaling.fit(src, dst, self.shape)
+        self._handles.upload(pack_handles(src, dst, scaling))
+        self._src, self._dst, self.scaling = src.copy(), dst.copy(), scaling
+        self._src.flags.writeable = False
+        self._dst.flags.writeable = False
+
+    @on_gpu
     def __call__(self, points: object) -> np.ndarray:
         """f(points): (K, 2) float64, evaluated on the GPU."""
         v = as_points(points)

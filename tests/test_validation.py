@@ -98,3 +98,29 @@ def test_handles_are_read_only_copies(gl):
         assert m.src[0].tolist() == [0.0, 0.0]
         with pytest.raises(ValueError):
             m.src[0, 0] = 1.0
+
+
+def test_set_handles_matches_a_new_mls(gl):
+    src = np.array([[10.0, 10.0], [90.0, 20.0], [50.0, 80.0]])
+    dst = src + [[5.0, 0.0], [0.0, -4.0], [3.0, 3.0]]
+    points = np.array([[30.0, 40.0], [60.0, 60.0]])
+    with glmls.MLS(src[:1], src[:1], shape=(100, 100)) as m:
+        m.set_handles(src, dst)
+        with glmls.MLS(src, dst, shape=(100, 100)) as fresh:
+            np.testing.assert_allclose(m(points), fresh(points), atol=1e-4)
+            assert m.scaling == fresh.scaling
+        np.testing.assert_array_equal(m.dst, dst)
+        assert not m.dst.flags.writeable
+
+
+def test_set_handles_rejects_bad_handles_and_keeps_the_old(gl):
+    src = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]])
+    with glmls.MLS(src, src + 1, transform="affine") as m:
+        with pytest.raises(ValueError, match="same length"):
+            m.set_handles(src, src[:2])
+        with pytest.raises(glmls.DegenerateHandlesError):
+            m.set_handles(src[:2], src[:2])
+        np.testing.assert_array_equal(m.dst, src + 1)
+        np.testing.assert_allclose(m([[5.0, 5.0]]), [[6.0, 6.0]], atol=1e-4)
+    with pytest.raises(glmls.ReleasedError):
+        m.set_handles(src, src)

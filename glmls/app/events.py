@@ -1,0 +1,121 @@
+"""Recorded mouse and key events for ``--replay`` (the format is in ``docs/window.md``).
+
+A JSON object ``{"events": [...]}`` (or the bare list). Each entry is one of::
+
+    {"type": "press", "x": 226, "y": 40, "button": "left", "mods": ["shift"]}
+    {"type": "move", "x": 250, "y": 52}
+    {"type": "release", "x": 250, "y": 52, "button": "left"}
+    {"type": "key", "key": "e"}
+    {"type": "wait", "frames": 5}
+
+Positions are image pixels (x, y) = (column, row), so a replay does not depend on the window's
+size or pixel density. ``button`` defaults to left, ``mods`` to none. The window feeds one
+entry per frame; ``wait`` renders that many frames without an event.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..files import InputFileError
+from .controller import BUTTONS, MODIFIERS, Key, Move, Press, Release
+
+__all__ = ["Wait", "read_events"]
+
+
+@dataclass(frozen=True)
+class Wait:
+    """Render ``frames`` frames without an event (replays only)."""
+
+    frames: int
+
+
+_FIELDS = {
+    "press": {"type", "x", "y", "button", "mods"},
+    "move": {"type", "x", "y"},
+    "release": {"type", "x", "y", "button"},
+    "key": {"type", "key"},
+    "wait": {"type", "frames"},
+}
+
+
+def _number(path: Path, where: str, entry: dict, name: str) -> float:
+    if name not in entry:
+        raise InputFileError(f'{path}: {where}: missing "{name}"')
+    value = entry[name]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputFileError(f'{path}: {where}: "{name}" must be a finite number, got {value!r}')
+    return float(value)
+
+
+def _event(path: Path, where: str, entry: object):
+    if not isinstance(entry, dict):
+        raise InputFileError(f"{path}: {where}: expected an object, got {entry!r}")
+    kind = entry.get("type")
+    if kind not in _FIELDS:
+        raise InputFileError(
+            f'{path}: {where}: "type" must be one of {", ".join(_FIELDS)}, got {kind!r}'
+        )
+    unknown = sorted(set(entry) - _FIELDS[kind])
+    if unknown:
+        raise InputFileError(f"{path}: {where}: unknown field(s) {', '.join(unknown)} for {kind}")
+    if kind == "key":
+        key = entry.get("key")
+        if not isinstance(key, str) or not key:
+            raise InputFileError(f'{path}: {where}: "key" must be a non-empty string, got {key!r}')
+        return Key(key)
+    if kind == "wait":
+        frames = entry.get("frames")
+        if isinstance(frames, bool) or not isinstance(frames, int) or frames < 0:
+            raise InputFileError(
+                f'{path}: {where}: "frames" must be an integer >= 0, got {frames!r}'
+            )
+        return Wait(frames)
+    x, y = _number(path, where, entry, "x"), _number(path, where, entry, "y")
+    if kind == "move":
+        return Move(x, y)
+    button = entry.get("button", "left")
+    if button not in BUTTONS:
+        raise InputFileError(
+            f'{path}: {where}: "button" must be one of {", ".join(BUTTONS)}, got {button!r}'
+        )
+    if kind == "release":
+        return Release(x, y, button)
+    mods = entry.get("mods", [])
+    if not isinstance(mods, list) or any(m not in MODIFIERS for m in mods):
+        raise InputFileError(
+            f'{path}: {where}: "mods" must be a list of {", ".join(MODIFIERS)}, got {mods!r}'
+        )
+    return Press(x, y, button, frozenset(mods))
+
+
+def read_events(path: str | os.PathLike) -> list:
+    """The events of a replay file, in order; :class:`~glmls.files.InputFileError` (a
+    ``ValueError``) naming the file, the entry and the fault if it is malformed."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise InputFileError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputFileError(f"{path}: cannot read: {error}") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise InputFileError(f"{path}: line {error.lineno}: invalid JSON: {error.msg}") from None
+    if isinstance(data, dict):
+        if "events" not in data:
+            raise InputFileError(f'{path}: top level: missing the key "events"')
+        data = data["events"]
+    if not isinstance(data, list):
+        raise InputFileError(f"{path}: expected a list of events, got {type(data).__name__}")
+    return [_event(path, f"events[{i}]", entry) for i, entry in enumerate(data)]
+
+
+def replay_frames(events: list) -> int:
+    """Frames a replay takes: one per event, ``frames`` per wait."""
+    return sum(e.frames if isinstance(e, Wait) else 1 for e in events)

@@ -1,0 +1,196 @@
+"""What the window draws over the deformed image, in image pixel coordinates.
+
+Geometry (handles, mesh wireframe, fold-overs, reference triangles) is built on the CPU as
+triangle or line vertices and drawn by :class:`GeometryDrawer` into the image viewport;
+pictures the pipeline rendered offscreen at the image's size (splat and backward results, the
+error field) are scaled onto the viewport by :class:`PictureDrawer`. Sizes on screen (disk
+radii, line widths) are given in framebuffer pixels and divided by the layout's scale.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from ..colormaps import apply_colormap
+from ..context import GLContext
+from ..render import HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR, arrow_triangles, disk_triangles
+
+__all__ = [
+    "GeometryDrawer",
+    "PictureDrawer",
+    "folded_cells",
+    "handle_geometry",
+    "mesh_lines",
+    "triangle_geometry",
+]
+
+FOLD_COLOR = (1.0, 0.1, 0.6, 0.55)
+MESH_COLOR = (0.3, 1.0, 0.4, 0.7)
+REFERENCE_COLOR = (0.0, 1.0, 1.0, 1.0)
+PICKED_COLOR = (1.0, 1.0, 1.0, 1.0)
+#: Mesh lines closer than this on screen (framebuffer pixels) are thinned out.
+MESH_MIN_SPACING = 6.0
+
+
+def _rgba(color, alpha: float = 1.0) -> np.ndarray:
+    rgb = np.asarray(color, np.float32)[:3]
+    if rgb.max() > 1.0:
+        rgb = rgb / 255.0
+    return np.array([*rgb, alpha], np.float32)
+
+
+def _colored(positions: np.ndarray, rgba) -> np.ndarray:
+    rgba = np.asarray(rgba, np.float32)
+    if rgba.ndim == 1:
+        rgba = np.tile(rgba, (len(positions), 1))
+    return np.concatenate([positions.astype(np.float32), rgba], axis=1)
+
+
+def handle_geometry(src: np.ndarray, dst: np.ndarray, scale: float) -> np.ndarray:
+    """Triangles of the handles: an arrow p -> q, a small disk at p, a disk at q (Fig. 6 left's
+    colours). Rows: x, y, r, g, b, a."""
+    unit = 1.0 / scale  # image pixels per framebuffer pixel
+    parts = [
+        _colored(arrow_triangles(src, dst, 2.0 * unit, 9.0 * unit), _rgba(HANDLE_TARGET_COLOR)),
+        _colored(disk_triangles(src, 3.5 * unit), _rgba(HANDLE_SOURCE_COLOR)),
+        _colored(disk_triangles(dst, 6.0 * unit), (0.0, 0.0, 0.0, 0.8)),
+        _colored(disk_triangles(dst, 4.5 * unit), _rgba(HANDLE_TARGET_COLOR)),
+    ]
+    return np.concatenate(parts)
+
+
+def reference_geometry(points: np.ndarray, scale: float) -> np.ndarray:
+    """Triangles of disks at the (deformed) reference points."""
+    unit = 1.0 / scale
+    return np.concatenate(
+        [
+            _colored(disk_triangles(points, 4.0 * unit), (0.0, 0.0, 0.0, 0.8)),
+            _colored(disk_triangles(points, 2.5 * unit), REFERENCE_COLOR),
+        ]
+    )
+
+
+def mesh_lines(deformed: np.ndarray, stride: int = 1) -> np.ndarray:
+    """Line-segment vertices (pairs) along every ``stride``-th row and column of a deformed
+    mesh (rows, columns, 2), the last row and column included."""
+    rows, cols = deformed.shape[:2]
+    keep_r = sorted(set(range(0, rows, stride)) | {rows - 1})
+    keep_c = sorted(set(range(0, cols, stride)) | {cols - 1})
+    horizontal = deformed[keep_r]  # (r, cols, 2)
+    vertical = deformed[:, keep_c].transpose(1, 0, 2)  # (c, rows, 2)
+    segments = [
+        np.stack([line[:-1], line[1:]], axis=1).reshape(-1, 2)
+        for line in (*horizontal, *vertical)
+        if len(line) > 1
+    ]
+    return _colored(np.concatenate([np.zeros((0, 2)), *segments]), MESH_COLOR)
+
+
+def folded_cells(deformed: np.ndarray) -> np.ndarray:
+    """(rows - 1, columns - 1) bool: cells of which either drawn triangle, (00, 10, 11) or
+    (00, 11, 01), has negative signed area after deformation (:func:`glmls.foldovers`'s
+    rule)."""
+    a, b = deformed[:-1, :-1], deformed[:-1, 1:]
+    c, d = deformed[1:, 1:], deformed[1:, :-1]
+
+    def cross(o, x, y):
+        return (x[..., 0] - o[..., 0]) * (y[..., 1] - o[..., 1]) - (x[..., 1] - o[..., 1]) * (
+            y[..., 0] - o[..., 0]
+        )
+
+    return (cross(a, b, c) < 0) | (cross(a, c, d) < 0)
+
+
+def fold_geometry(deformed: np.ndarray, folded: np.ndarray) -> np.ndarray:
+    """Triangles of the folded cells' deformed quads."""
+    i, j = np.nonzero(folded)
+    a, b = deformed[i, j], deformed[i, j + 1]
+    c, d = deformed[i + 1, j + 1], deformed[i + 1, j]
+    tris = np.stack([a, b, c, a, c, d], axis=1).reshape(-1, 2)
+    return _colored(tris, FOLD_COLOR)
+
+
+def triangle_geometry(
+    deformed_points: np.ndarray, simplices: np.ndarray, values: np.ndarray, *, percentile=99.0
+) -> tuple[np.ndarray, np.ndarray, tuple[float, float]]:
+    """(filled triangles, edge segments, colour limits) of the deformed reference triangles,
+    each filled with its value's colour on the paper's white-to-red map (grey for NaN)."""
+    from ..colormaps import color_limits
+
+    finite = values[np.isfinite(values)]
+    limits = color_limits(finite, percentile=percentile) if finite.size else (0.0, 1.0)
+    colors = apply_colormap(values, cmap="linear", vmin=limits[0], vmax=limits[1]) / 255.0
+    rgba = np.concatenate([colors, np.full((len(colors), 1), 0.6)], axis=1)
+    corners = deformed_points[simplices].reshape(-1, 2)
+    fill = _colored(corners, np.repeat(rgba, 3, axis=0))
+    tri = deformed_points[simplices]
+    edges = np.stack([tri, np.roll(tri, -1, axis=1)], axis=2).reshape(-1, 2)
+    return fill, _colored(edges, (1.0, 1.0, 0.0, 0.9)), limits
+
+
+class GeometryDrawer:
+    """Draws x, y, r, g, b, a vertex rows (image pixels) into the current viewport."""
+
+    def __init__(self, gl: GLContext, shape: tuple[int, int]) -> None:
+        self._gl = gl
+        self._shape = shape
+        self._program = gl.program(("window_geometry.vert.glsl",), ("canvas.frag.glsl",))
+        self._buffer: moderngl.Buffer | None = None
+        self._vao: moderngl.VertexArray | None = None
+
+    def draw(self, vertices: np.ndarray, mode: int = moderngl.TRIANGLES) -> None:
+        if len(vertices) == 0:
+            return
+        mgl = self._gl.mgl
+        raw = np.ascontiguousarray(vertices, np.float32).tobytes()
+        if self._buffer is None or self._buffer.size < len(raw):
+            self._release_buffer()
+            self._buffer = mgl.buffer(reserve=max(2 * len(raw), 1 << 16))
+            self._vao = mgl.vertex_array(
+                self._program, [(self._buffer, "2f 4f", "in_position", "in_color")]
+            )
+        self._buffer.write(raw)
+        self._program["u_size"].value = (self._shape[1], self._shape[0])
+        mgl.enable(moderngl.BLEND)
+        mgl.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        self._vao.render(mode, vertices=len(vertices))  # type: ignore[union-attr]
+
+    def _release_buffer(self) -> None:
+        for obj in (self._vao, self._buffer):
+            if obj is not None:
+                obj.release()
+        self._vao = self._buffer = None
+
+    def release(self) -> None:
+        self._release_buffer()
+
+
+class PictureDrawer:
+    """An offscreen RGBA picture of the image's size, scaled onto the current viewport."""
+
+    def __init__(self, gl: GLContext, shape: tuple[int, int]) -> None:
+        self._gl = gl
+        mgl = gl.mgl
+        height, width = shape
+        self.texture = mgl.texture((width, height), 4)
+        self.texture.repeat_x = self.texture.repeat_y = False
+        self.framebuffer = mgl.framebuffer(color_attachments=[self.texture])
+        self._program = gl.program(("window_texture.vert.glsl",), ("window_texture.frag.glsl",))
+        self._vao = mgl.vertex_array(self._program, [])
+
+    def draw(self, *, opacity: float = 1.0, linear: bool = False) -> None:
+        mgl = self._gl.mgl
+        mode = moderngl.LINEAR if linear else moderngl.NEAREST
+        self.texture.filter = (mode, mode)
+        self.texture.use(0)
+        self._program["u_picture"].value = 0
+        self._program["u_opacity"].value = float(opacity)
+        mgl.enable(moderngl.BLEND)
+        mgl.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        self._vao.render(moderngl.TRIANGLES, vertices=3)
+
+    def release(self) -> None:
+        self._vao.release()
+        self.framebuffer.release()
+        self.texture.release()

@@ -1,0 +1,11 @@
+// A picture of the image's size scaled onto the viewport, blended at u_opacity; pixels the
+// picture left uncovered (alpha 0) stay transparent.
+uniform sampler2D u_picture;
+uniform float u_opacity;
+in vec2 v_uv;
+out vec4 out_color;
+
+void main() {
+    vec4 color = texture(u_picture, v_uv);
+    out_color = vec4(color.rgb, color.a * u_opacity);
+}
