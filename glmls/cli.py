@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__, data
+from .app import command as app_command
 from .config import TRANSFORMS, WEIGHTS, MLSConfig
 from .errors import GLUnavailableError
 from .files import InputFileError, atomic_write, read_handles, read_points
@@ -332,6 +333,12 @@ _EXAMPLES = {
           glmls tune photo.png --handles h.json --reference r.json --out tune/ \\
               --configs 'rigid:*' 'similarity:gaussian:radius=300' --rank-by angle
         """,
+    "demo": """
+        examples:
+          glmls demo                                   # the bundled photograph
+          glmls demo photo.png --handles h.json
+          xvfb-run -a glmls demo --replay drag.json --frames 30 --screenshot shot.png
+        """,
 }
 
 
@@ -429,7 +436,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     tune_parser.add_argument("--rank-by", choices=MEASURES, default="combined")
     tune_parser.set_defaults(run=cmd_tune)
-    for sub in (warp, analyze, tune_parser):
+    demo = _subparser(subparsers, "demo", "the real-time window")
+    app_command.configure_parser(demo)
+    demo.set_defaults(run=app_command.run)
+    for sub in (warp, analyze, tune_parser, demo):
         sub.add_argument(
             "--quiet",
             action="store_true",

@@ -145,6 +145,16 @@ def test_usage_errors(inputs):
 
 def test_version_and_help(inputs):
     assert glmls_cli("--version", cwd=inputs).stdout.strip() == f"glmls {glmls.__version__}"
-    for command in ("warp", "analyze", "tune"):
+    for command in ("warp", "analyze", "tune", "demo"):
         result = glmls_cli(command, "--help", cwd=inputs)
         assert result.returncode == 0 and "examples:" in result.stdout
+
+
+def test_demo_without_a_display_points_to_the_headless_commands(inputs, monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    result = glmls_cli("demo", "--frames", "1", cwd=inputs)
+    assert result.returncode == 1
+    assert "no display" in result.stderr and "xvfb-run" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+    _no_traceback(result)
