@@ -11,6 +11,10 @@
 //   a handle storage defining  int mls_handle_count()  and  vec4 mls_handle(int i),
 //   the handle as (p.x, p.y, q.x, q.y).
 //
+// One pass over the handles (mls_begin, mls_accumulate per handle, mls_finish) accumulates
+// every weighted moment; mls_eval(v) runs it over all handles, and callers that visit the
+// handles otherwise (tiles in shared memory, a spatial grid of bins) call the three parts.
+//
 // All coordinates are "scaled": (pixel - u_center) / u_scale, so that float32 keeps
 // sub-millipixel precision on large images. The host scales s and R to match.
 //
@@ -40,11 +44,10 @@ float mls_pow(float r) {
 // that depends on m (the squared distance to the nearest handle in use) so that the largest
 // weight is about 1: MLS is invariant to a common factor, and float32 neither overflows
 // (idw, shepard near a handle) nor underflows (gaussian far from every handle).
-float mls_weight(float d2, float m) {
+float mls_weight(float d2, float m, float sigma) {
     float w;
 #if MLS_WEIGHT == 0
-    // 1 / (s + d^(2 alpha)), times m^alpha
-    float sigma = min(exp2(u_log2_s - u_alpha * log2(m)), 1e30);
+    // 1 / (s + d^(2 alpha)), times s + m^alpha; sigma = s / m^alpha
     w = (sigma + 1.0) / (sigma + mls_pow(d2 / m));
 #elif MLS_WEIGHT == 1
     float R2 = u_radius * u_radius;
@@ -74,7 +77,7 @@ MLSResult mls_identity(vec2 v) {
 }
 
 // N = M - I for similarity / rigid, from mu = sum w |p^|^2 and the displacement moments
-// D (see mls_eval). M = [[A, B], [-B, A]] / norm with A = mu + D11 + D22, B = D12 - D21.
+// D (see mls_finish). M = [[A, B], [-B, A]] / norm with A = mu + D11 + D22, B = D12 - D21.
 vec4 mls_rotation_scale(float mu, vec4 D, float spread) {
     // Source handles in reach coincide (their spread about p* is float32 noise against their
     // spread about v): only a translation is defined.
@@ -98,82 +101,132 @@ vec4 mls_rotation_scale(float mu, vec4 D, float spread) {
 #endif
 }
 
-MLSResult mls_eval(vec2 v) {
-    int n = mls_handle_count();
-    if (n == 0) {
-        return mls_identity(v);
-    }
+// The running sums of one evaluation at v, in a single pass over the handles.
+//
+// Weighted means and central moments are updated per handle (the weighted Welford / Chan
+// update, C += w W_old / W_new (p - p*_old)(p - p*_old)^T): each handle's p - p* is taken
+// against the running centroid, so no
+// moment is a difference of large sums (the raw-moment formula sum w p^2 - W p*^2 loses the
+// digits that matter where one handle dominates the weights, next to it). Differences of
+// nearby float32 values are exact, so p - p* keeps its precision even for points far from a
+// tight cluster of handles. The normalisation distance m (see mls_weight) is the smallest d2
+// so far; when it drops, the sums are rescaled (the means do not change). Working with
+// displacements e = q - p keeps the identity exact and small deformations precise:
+// f(v) = v + e* + (v - p*) N with N = M - I.
+struct MLSAccum {
+    vec2 v;
+    float m;        // normalisation distance: the smallest d2 in the sums (>= the snap distance)
+    float sigma;    // idw: s / m^alpha
+    float W;        // sum w
+    vec2 pm;        // p*, the weighted mean of p
+    vec2 em;        // e*, the weighted mean of e = q - p
+    vec3 A;         // sum w (p - p*)(p - p*)^T as (xx, xy, yy)
+    vec4 D;         // sum w (p - p*)_i (e - e*)_j as (11, 12, 21, 22)
+    float spread;   // sum w |p - v|^2, the yardstick for "coincident"
+    float hit2;     // squared distance of the nearest handle within the snap distance
+    vec4 hit;       // that handle
+};
 
-    // Pass 0: the nearest handle (for snapping) and the normalisation distance m.
-    float d2min = 3.0e38;
-    float d2far = 3.0e38;   // nearest beyond the snapping distance
-    int imin = 0;
-    for (int i = 0; i < n; ++i) {
-        vec2 dp = mls_handle(i).xy - v;
-        float d2 = dot(dp, dp);
-        if (d2 < d2min) {
-            d2min = d2;
-            imin = i;
-        }
-        if (d2 > u_hit2) {
-            d2far = min(d2far, d2);
-        }
-    }
-    bool hit = u_snap && d2min <= u_hit2;
-    float m = hit ? d2far : max(d2min, u_hit2);
+MLSAccum mls_begin(vec2 v) {
+    MLSAccum a;
+    a.v = v;
+    a.m = 3.0e38;
+    a.sigma = 0.0;
+    a.W = 0.0;
+    a.pm = vec2(0.0);
+    a.em = vec2(0.0);
+    a.A = vec3(0.0);
+    a.D = vec4(0.0);
+    a.spread = 0.0;
+    a.hit2 = 3.0e38;
+    a.hit = vec4(0.0);
+    return a;
+}
 
-    // Centroids and moments are taken relative to the nearest handle (o, oq): differences of
-    // nearby float32 values are exact, so p^ = p - p* keeps its precision even for points far
-    // from a tight cluster of handles.
-    vec4 ho = mls_handle(imin);
-    vec2 o = ho.xy;
-    vec2 oq = ho.zw;
+// w_m(d2) / w_old(d2) when the normalisation distance drops from m_old to m (every weight is
+// a function of d2 times a factor of m, see mls_weight); <= 1, so sums only shrink.
+float mls_rescale(float m_old, float m, float sigma) {
+    float k;
+#if MLS_WEIGHT == 0
+    k = (sigma + 1.0) / (sigma + mls_pow(m_old / m));
+#elif MLS_WEIGHT == 2
+    k = sqrt(m / m_old);
+#elif MLS_WEIGHT == 3
+    k = exp((m - m_old) / (u_radius * u_radius));
+#else
+    k = 1.0;
+#endif
+#if MLS_INTERPOLATING
+    k *= mls_pow(m / m_old);
+#endif
+    return k;
+}
 
-    // Pass 1: weighted centroids p* = o + pst and displacement e* = e(o) + est, where
-    // e(p_i) = q_i - p_i. Working with displacements keeps the identity exact and small
-    // deformations precise: f(v) = v + e* + (v - p*) N with N = M - I.
-    vec2 eo = oq - o;
-    vec2 pst = vec2(0.0);
-    vec2 est = vec2(0.0);
-    if (!hit) {   // when snapped, p* = p_i and q* = q_i exactly
-        float W = 0.0;
-        vec2 sp = vec2(0.0);
-        vec2 se = vec2(0.0);
-        for (int i = 0; i < n; ++i) {
-            vec4 h = mls_handle(i);
-            vec2 dp = h.xy - v;
-            float w = mls_weight(dot(dp, dp), m);
-            W += w;
-            sp += w * (h.xy - o);
-            se += w * ((h.zw - h.xy) - eo);
+void mls_accumulate(inout MLSAccum a, vec4 h) {
+    vec2 dp = h.xy - a.v;
+    float d2 = dot(dp, dp);
+    if (u_snap && d2 <= u_hit2) {
+        // v snaps to this handle: f(v) = its q, its weight infinite (see mls_finish)
+        if (d2 < a.hit2) {
+            a.hit2 = d2;
+            a.hit = h;
         }
-        if (!(W > 0.0)) {
-            return mls_identity(v);   // no handle reaches v
-        }
-        pst = sp / W;
-        est = se / W;
+        return;
     }
+    float dm = max(d2, u_hit2);
+    if (dm < a.m) {   // a nearer handle: renormalise (rare after the first few handles)
+#if MLS_WEIGHT == 0
+        float sigma = min(exp2(u_log2_s - u_alpha * log2(dm)), 1e30);
+#else
+        float sigma = 0.0;
+#endif
+        float k = a.m < 3.0e38 ? mls_rescale(a.m, dm, sigma) : 0.0;
+        a.m = dm;
+        a.sigma = sigma;
+        a.W *= k;
+        a.A *= k;
+        a.D *= k;
+        a.spread *= k;
+    }
+    float w = mls_weight(d2, a.m, a.sigma);
+    if (w > 0.0) {   // compact weights: most handles are out of reach
+        float r = w / (a.W + w);
+        float c = a.W * r;        // w W_old / W_new: no p - p*_new, which cancels when w dominates
+        a.W += w;
+        vec2 dp0 = h.xy - a.pm;   // against the old means
+        vec2 de0 = (h.zw - h.xy) - a.em;
+        a.pm += r * dp0;
+        a.em += r * de0;
+        vec2 cp = c * dp0;
+        a.A += vec3(cp.x * dp0.x, cp.x * dp0.y, cp.y * dp0.y);
+        a.D += vec4(cp.x * de0.x, cp.x * de0.y, cp.y * de0.x, cp.y * de0.y);
+        a.spread += w * d2;
+    }
+}
 
-    // Pass 2: moments of p^ = p - p* and of the displacement e^ = e - e* (q^ = p^ + e^).
-    float spread = 0.0;   // sum w |p - v|^2, the yardstick for "coincident"
-    float a11 = 0.0, a12 = 0.0, a22 = 0.0;
-    vec4 D = vec4(0.0);   // D_ij = sum w p^_i e^_j as (D11, D12, D21, D22)
-    for (int i = 0; i < n; ++i) {
-        vec4 h = mls_handle(i);
-        vec2 dp = h.xy - v;
-        float d2 = dot(dp, dp);
-        if (hit && d2 <= u_hit2) {
-            continue;   // the snapped handle: its p^ is 0 and its weight infinite
-        }
-        float w = mls_weight(d2, m);
-        vec2 ph = (h.xy - o) - pst;
-        vec2 eh = ((h.zw - h.xy) - eo) - est;
-        spread += w * d2;
-        a11 += w * ph.x * ph.x;
-        a12 += w * ph.x * ph.y;
-        a22 += w * ph.y * ph.y;
-        D += w * vec4(ph.x * eh.x, ph.x * eh.y, ph.y * eh.x, ph.y * eh.y);
+MLSResult mls_finish(MLSAccum a) {
+    vec2 v = a.v;
+    bool hit = a.hit2 <= u_hit2;
+    if (!hit && !(a.W > 0.0)) {
+        return mls_identity(v);   // no handle reaches v (or there are none)
     }
+    vec2 pst = a.pm;
+    vec2 est = a.em;
+    vec3 A = a.A;
+    vec4 D = a.D;
+    if (hit) {
+        // Snapped: p* = p_i and q* = q_i exactly, the other handles' moments about them
+        // (parallel axis: central moments plus W times the offset of the means).
+        pst = a.hit.xy;
+        est = a.hit.zw - a.hit.xy;
+        vec2 dp = a.pm - pst;
+        vec2 de = a.em - est;
+        vec2 wp = a.W * dp;
+        A += vec3(wp.x * dp.x, wp.x * dp.y, wp.y * dp.y);
+        D += vec4(wp.x * de.x, wp.x * de.y, wp.y * de.x, wp.y * de.y);
+    }
+    float a11 = A.x, a12 = A.y, a22 = A.z;
+    float spread = a.spread;
 
     float mu = a11 + a22;
     vec4 N;   // M - I
@@ -194,9 +247,18 @@ MLSResult mls_eval(vec2 v) {
 #endif
 
     // f(v) = q* + (v - p*) M = v + e* + (v - p*) N
-    vec2 vp = (v - o) - pst;
+    vec2 vp = v - pst;
     MLSResult r;
     r.M = N + vec4(1.0, 0.0, 0.0, 1.0);
-    r.f = v + (eo + est) + vec2(vp.x * N.x + vp.y * N.z, vp.x * N.y + vp.y * N.w);
+    r.f = v + est + vec2(vp.x * N.x + vp.y * N.z, vp.x * N.y + vp.y * N.w);
     return r;
+}
+
+MLSResult mls_eval(vec2 v) {
+    MLSAccum a = mls_begin(v);
+    int n = mls_handle_count();
+    for (int i = 0; i < n; ++i) {
+        mls_accumulate(a, mls_handle(i));
+    }
+    return mls_finish(a);
 }
