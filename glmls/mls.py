@@ -15,19 +15,22 @@ from .context import GLContext, current, get_context
 from .errors import ReleasedError
 from .handles import (
     Scaling,
-    SSBOHandleStorage,
     as_points,
     check_affine_handles,
     pack_handles,
     validate_handles,
 )
 from .pipeline import WarpPipeline
+from .storage import check_storage, make_storage
 
 #: Points closer than this (pixels) to a handle whose weight is infinite there map to q_i.
 SNAP_DISTANCE = 1e-3
 _WEIGHT_CODES = {"idw": 0, "cressman": 1, "shepard": 2, "gaussian": 3, "linear": 4}
 _TRANSFORM_CODES = {"affine": 0, "similarity": 1, "rigid": 2}
 _LOCAL_SIZE = 64
+#: Handle storage unless told otherwise (docs/handles.md: the fastest on llvmpipe at every
+#: count, and the only one without a small size limit).
+DEFAULT_STORAGE = "ssbo"
 _WRITE_BINDINGS = {"f": 2, "M": 3}
 _R = TypeVar("_R")
 
@@ -78,7 +81,9 @@ class MLS:
     ``shepard`` | ``gaussian`` | ``linear``; ``alpha``, ``s`` (idw); ``radius`` (pixels, the
     image diagonal when ``None`` and an image size is known); ``interpolating`` (make any
     weight interpolate the handles); ``shape`` (H, W) of the image, for the default radius;
-    ``ctx`` a moderngl context to render with (default: glmls's shared headless EGL one).
+    ``ctx`` a moderngl context to render with (default: glmls's shared headless EGL one);
+    ``storage`` where the handles live on the GPU: ``ssbo`` (default), ``ubo`` or ``texture``
+    (see :mod:`glmls.storage`; ``ubo`` takes at most ``GL_MAX_UNIFORM_BLOCK_SIZE / 16``).
 
     Special cases: no handles is the identity and one handle a translation by q - p, for every
     transform. Affine needs 3 source handles not on one line (else
@@ -101,6 +106,7 @@ class MLS:
         interpolating: bool = False,
         shape: Sequence[int] | None = None,
         ctx: moderngl.Context | GLContext | None = None,
+        storage: str = DEFAULT_STORAGE,
     ) -> None:
         config = MLSConfig(
             transform=transform,
@@ -110,7 +116,7 @@ class MLS:
             radius=radius,
             interpolating=interpolating,
         )
-        self._setup(src, dst, config, shape, ctx)
+        self._setup(src, dst, config, shape, ctx, storage)
 
     @classmethod
     def from_config(
@@ -121,16 +127,18 @@ class MLS:
         *,
         shape: Sequence[int] | None = None,
         ctx: moderngl.Context | GLContext | None = None,
+        storage: str = DEFAULT_STORAGE,
     ) -> MLS:
         """An MLS with the settings of an :class:`MLSConfig`."""
         if not isinstance(config, MLSConfig):
             raise TypeError(f"config must be an MLSConfig, got {type(config).__name__}")
         self = cls.__new__(cls)
-        self._setup(src, dst, config, shape, ctx)
+        self._setup(src, dst, config, shape, ctx, storage)
         return self
 
-    def _setup(self, src, dst, config, shape, ctx) -> None:
+    def _setup(self, src, dst, config, shape, ctx, storage) -> None:
         self._released = True  # until fully built, release() has nothing to free
+        self.storage = check_storage(storage)
         src, dst = validate_handles(src, dst)
         if config.transform == "affine":
             check_affine_handles(src)
@@ -143,9 +151,13 @@ class MLS:
         self._dst.flags.writeable = False
         self.scaling = Scaling.fit(src, dst, self.shape)
         self._gl = get_context(ctx)
-        self._handles = SSBOHandleStorage(self._gl.mgl)
         self._gl.make_current()
-        self._handles.upload(pack_handles(src, dst, self.scaling))
+        self._handles = make_storage(self.storage, self._gl.mgl)
+        try:
+            self._handles.upload(pack_handles(src, dst, self.scaling))
+        except ValueError:
+            self._handles.release()
+            raise
         self._buffers: dict[str, moderngl.Buffer] = {}
         self._pipeline: WarpPipeline | None = None
         self._released = False
@@ -344,7 +356,7 @@ class MLS:
         """The compute program: handle storage + ``mls_core.glsl`` + ``shader`` (a file)."""
         self._check_alive()
         parts = (self._handles.glsl_part, "mls_core.glsl", shader)
-        return self._gl.compute(parts, self.defines() | defines)
+        return self._gl.compute(parts, self.defines() | dict(self._handles.defines) | defines)
 
     def _program(self, *, mesh: bool, with_matrix: bool) -> moderngl.ComputeShader:
         return self._compute("mls_points.comp.glsl", MLS_MESH=mesh, MLS_WRITE_MATRIX=with_matrix)

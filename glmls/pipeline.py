@@ -33,7 +33,8 @@ import numpy as np
 
 from .context import GLContext, current, get_context
 from .errors import ReleasedError
-from .handles import SSBOHandleStorage, pack_handles
+from .handles import pack_handles
+from .storage import HandleStorage, make_storage
 
 if TYPE_CHECKING:
     from .mls import MLS
@@ -52,6 +53,9 @@ NEWTON_ACCEPT = 0.05
 BAND_BYTES = 1 << 26
 _LOCAL_SIZE = 64
 _MESH_BINDING = 2
+_WINNER_BINDING = 4
+#: Scan-convert quads in a compute shader (False: the GL rasterizer draws 2 triangles per cell).
+COMPUTE_QUADS = True
 
 
 @dataclass(frozen=True)
@@ -165,7 +169,7 @@ class WarpPipeline:
         self._buffers: dict[str, moderngl.Buffer] = {}
         self._vaos: dict[tuple, moderngl.VertexArray] = {}
         self._index_dims = (0, 0)
-        self._swap = SSBOHandleStorage(self._gl.mgl)
+        self._swap: HandleStorage | None = None  # the swapped handles (backward-swap)
         self._released = False
 
     @property
@@ -277,7 +281,9 @@ class WarpPipeline:
         self._framebuffers.clear()
         self._buffers.clear()
         self._vaos.clear()
-        self._swap.release()
+        if self._swap is not None:
+            self._swap.release()
+            self._swap = None
         self._released = True
 
     # -- passes -------------------------------------------------------------------------
@@ -329,12 +335,75 @@ class WarpPipeline:
             program["u_mesh_first_row"].value = first
             program["u_count"].value = nx * rows
             buffer.bind_to_storage_buffer(_MESH_BINDING)
+            # Draws issued before may still read the buffer (llvmpipe shades fragments
+            # later, at a flush): order them before it is overwritten.
+            self._gl.mgl.memory_barrier()
             self._dispatch(program, nx * rows)
             self._gl.mgl.memory_barrier()
             yield first, (nx, rows)
             first += rows - overlap
             if first + overlap >= ny:
                 break
+
+    def _draw_cells(
+        self,
+        mls: MLS,
+        source: moderngl.Texture,
+        shape: tuple[int, int],
+        *,
+        linear: bool,
+        grid: int,
+        coords: bool,
+        flip_y: bool,
+    ) -> None:
+        """``quads`` by compute-shader scan conversion (warp_cells.comp.glsl) and a resolve
+        draw (warp_cells.frag.glsl) into the bound framebuffer, whose viewport must be the
+        target's size. A mesh too big for one band is evaluated twice: once for coverage,
+        once for the resolve of each band's pixels."""
+        height, width = shape
+        winner = self._buffer("winner", width * height * 4)
+        winner.clear(size=width * height * 4)
+        sc = mls.scaling
+        cells = self._gl.compute(("warp_cells.comp.glsl",))
+        values = {"u_center": sc.center, "u_scale": sc.scale, "u_target_size": (width, height)}
+        for name, value in values.items():
+            cells[name].value = value
+        bands = 0
+        for first, dims in self._mesh_bands(mls, shape, grid, centres=False):
+            cells["u_mesh_dims"].value = dims
+            cells["u_first_row"].value = first
+            self._buffers["mesh"].bind_to_storage_buffer(_MESH_BINDING)
+            winner.bind_to_storage_buffer(_WINNER_BINDING)
+            self._dispatch(cells, (dims[0] - 1) * (dims[1] - 1))
+            bands += 1
+        self._gl.mgl.memory_barrier()
+        program = self._gl.program(
+            ("warp_fullscreen.vert.glsl",),
+            ("warp_sample.glsl", "warp_cells.frag.glsl"),
+            {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords},
+        )
+        values |= {
+            "u_flip_y": flip_y,
+            "u_source_size": (width, height),
+            "u_grid": grid,
+            "u_source": 0,
+        }
+        for name, value in values.items():
+            if name in program:
+                program[name].value = value
+        if not coords:
+            _use_texture(source, 0, linear)
+        self._gl.mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        if bands == 1:
+            resolve = iter([(0, dims)])  # the whole mesh is still in the mesh buffer
+        else:
+            resolve = self._mesh_bands(mls, shape, grid, centres=False)
+        for first, dims in resolve:
+            program["u_mesh_dims"].value = dims
+            program["u_first_row"].value = first
+            self._buffers["mesh"].bind_to_storage_buffer(_MESH_BINDING)
+            winner.bind_to_storage_buffer(_WINNER_BINDING)
+            self._vao(program).render(moderngl.TRIANGLES, vertices=3)
 
     def _draw_mesh(
         self,
@@ -405,24 +474,34 @@ class WarpPipeline:
             framebuffer.use()
             framebuffer.viewport = (0, 0, width, height)
             framebuffer.clear(0.0, 0.0, 0.0, 0.0)
-            self._draw_mesh(
-                mls,
-                texture,
-                shape,
-                (width, height),
-                splat=False,
-                linear=False,
-                grid=grid,
-                coords=True,
-                flip_y=False,
-            )
+            if COMPUTE_QUADS:
+                self._draw_cells(
+                    mls, texture, shape, linear=False, grid=grid, coords=True, flip_y=False
+                )
+            else:
+                self._draw_mesh(
+                    mls,
+                    texture,
+                    shape,
+                    (width, height),
+                    splat=False,
+                    linear=False,
+                    grid=grid,
+                    coords=True,
+                    flip_y=False,
+                )
         defines = mls.defines() | {"WARP_SWAP": swap, "WARP_NEWTON_STEPS": NEWTON_STEPS}
         handles = mls._handles
         if swap:
+            if self._swap is None or self._swap.glsl_part != handles.glsl_part:
+                if self._swap is not None:
+                    self._swap.release()
+                self._swap = make_storage(mls.storage, self._gl.mgl)
             handles = self._swap
             handles.upload(pack_handles(mls.dst, mls.src, mls.scaling))
         program = self._gl.compute(
-            (handles.glsl_part, "mls_core.glsl", "mls_inverse.comp.glsl"), defines
+            (handles.glsl_part, "mls_core.glsl", "mls_inverse.comp.glsl"),
+            defines | dict(handles.defines),
         )
         mls._set_uniforms(program, shape)
         handles.bind(program)
@@ -473,6 +552,15 @@ class WarpPipeline:
         shape = (height, width)
         if method in ("quads", "splat"):
             framebuffer.use()
+            if (
+                method == "quads"
+                and COMPUTE_QUADS
+                and tuple(framebuffer.viewport) == (0, 0, width, height)
+            ):
+                self._draw_cells(
+                    mls, source, shape, linear=linear, grid=grid, coords=False, flip_y=flip_y
+                )
+                return
             self._draw_mesh(
                 mls,
                 source,

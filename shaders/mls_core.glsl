@@ -8,6 +8,7 @@
 //   MLS_TRANSFORM     0 affine, 1 similarity, 2 rigid
 //   MLS_INTERPOLATING 0 or 1: multiply the weight by 1 / d^(2 alpha)
 //   MLS_ALPHA_ONE     0 or 1: alpha == 1, so no pow() is needed
+//   MLS_UNROLL        0, or 16 / 64: at most that many handles, read at constant indices
 //   a handle storage defining  int mls_handle_count()  and  vec4 mls_handle(int i),
 //   the handle as (p.x, p.y, q.x, q.y).
 //
@@ -101,21 +102,52 @@ vec4 mls_rotation_scale(float mu, vec4 D, float spread) {
 #endif
 }
 
-// The running sums of one evaluation at v, in a single pass over the handles.
+// One evaluation at v is two passes over the handles (mls_eval; callers that visit the
+// handles otherwise, e.g. a spatial grid of bins, call the parts themselves):
 //
-// Weighted means and central moments are updated per handle (the weighted Welford / Chan
-// update, C += w W_old / W_new (p - p*_old)(p - p*_old)^T): each handle's p - p* is taken
-// against the running centroid, so no
-// moment is a difference of large sums (the raw-moment formula sum w p^2 - W p*^2 loses the
-// digits that matter where one handle dominates the weights, next to it). Differences of
-// nearby float32 values are exact, so p - p* keeps its precision even for points far from a
-// tight cluster of handles. The normalisation distance m (see mls_weight) is the smallest d2
-// so far; when it drops, the sums are rescaled (the means do not change). Working with
-// displacements e = q - p keeps the identity exact and small deformations precise:
-// f(v) = v + e* + (v - p*) N with N = M - I.
+// 1. mls_nearest_add: the nearest handle (for snapping) and the normalisation distance m,
+//    a min over d^2, a few operations per handle;
+// 2. mls_accumulate: every weighted moment at once. Weighted means and central moments are
+//    updated per handle (the weighted Welford / Chan update, C += w W_old / W_new
+//    (p - p*_old)(p - p*_old)^T): each handle's p - p* is taken against the running centroid,
+//    so no moment is a difference of large sums (the raw-moment formula sum w p^2 - W p*^2
+//    loses the digits that matter where one handle dominates the weights, next to it), and
+//    differences of nearby float32 values are exact, so p - p* keeps its precision even for
+//    points far from a tight cluster of handles.
+//
+// Both loops are branch-free: llvmpipe (and GPUs, per warp) run both sides of a branch
+// whenever lanes disagree, so a "rare" branch costs its full price on every handle.
+// Working with displacements e = q - p keeps the identity exact and small deformations
+// precise: f(v) = v + e* + (v - p*) N with N = M - I.
+struct MLSNearest {
+    float d2min;    // squared distance of the nearest handle
+    float d2far;    // ... of the nearest beyond the snapping distance
+    vec4 h;         // the nearest handle
+};
+
+MLSNearest mls_nearest_begin() {
+    MLSNearest n;
+    n.d2min = 3.0e38;
+    n.d2far = 3.0e38;
+    n.h = vec4(0.0);
+    return n;
+}
+
+// ``use``: false for an empty slot (see MLS_UNROLL), which changes nothing.
+void mls_nearest_add(inout MLSNearest n, vec4 h, vec2 v, bool use) {
+    vec2 dp = h.xy - v;
+    float d2 = use ? dot(dp, dp) : 3.0e38;
+    bool nearer = d2 < n.d2min;
+    n.h = nearer ? h : n.h;
+    n.d2min = min(n.d2min, d2);
+    n.d2far = min(n.d2far, d2 > u_hit2 ? d2 : 3.0e38);
+}
+
 struct MLSAccum {
     vec2 v;
-    float m;        // normalisation distance: the smallest d2 in the sums (>= the snap distance)
+    bool hit;       // v snaps to handle o: f(v) = its q
+    vec4 o;         // the nearest handle
+    float m;        // normalisation distance (see mls_weight)
     float sigma;    // idw: s / m^alpha
     float W;        // sum w
     vec2 pm;        // p*, the weighted mean of p
@@ -123,90 +155,50 @@ struct MLSAccum {
     vec3 A;         // sum w (p - p*)(p - p*)^T as (xx, xy, yy)
     vec4 D;         // sum w (p - p*)_i (e - e*)_j as (11, 12, 21, 22)
     float spread;   // sum w |p - v|^2, the yardstick for "coincident"
-    float hit2;     // squared distance of the nearest handle within the snap distance
-    vec4 hit;       // that handle
 };
 
-MLSAccum mls_begin(vec2 v) {
+MLSAccum mls_begin(vec2 v, MLSNearest n) {
     MLSAccum a;
     a.v = v;
-    a.m = 3.0e38;
+    a.hit = u_snap && n.d2min <= u_hit2;
+    a.o = n.h;
+    a.m = a.hit ? n.d2far : max(n.d2min, u_hit2);
+#if MLS_WEIGHT == 0
+    a.sigma = min(exp2(u_log2_s - u_alpha * log2(a.m)), 1e30);
+#else
     a.sigma = 0.0;
+#endif
     a.W = 0.0;
     a.pm = vec2(0.0);
     a.em = vec2(0.0);
     a.A = vec3(0.0);
     a.D = vec4(0.0);
     a.spread = 0.0;
-    a.hit2 = 3.0e38;
-    a.hit = vec4(0.0);
     return a;
 }
 
-// w_m(d2) / w_old(d2) when the normalisation distance drops from m_old to m (every weight is
-// a function of d2 times a factor of m, see mls_weight); <= 1, so sums only shrink.
-float mls_rescale(float m_old, float m, float sigma) {
-    float k;
-#if MLS_WEIGHT == 0
-    k = (sigma + 1.0) / (sigma + mls_pow(m_old / m));
-#elif MLS_WEIGHT == 2
-    k = sqrt(m / m_old);
-#elif MLS_WEIGHT == 3
-    k = exp((m - m_old) / (u_radius * u_radius));
-#else
-    k = 1.0;
-#endif
-#if MLS_INTERPOLATING
-    k *= mls_pow(m / m_old);
-#endif
-    return k;
-}
-
-void mls_accumulate(inout MLSAccum a, vec4 h) {
+void mls_accumulate(inout MLSAccum a, vec4 h, bool use) {
     vec2 dp = h.xy - a.v;
     float d2 = dot(dp, dp);
-    if (u_snap && d2 <= u_hit2) {
-        // v snaps to this handle: f(v) = its q, its weight infinite (see mls_finish)
-        if (d2 < a.hit2) {
-            a.hit2 = d2;
-            a.hit = h;
-        }
-        return;
-    }
-    float dm = max(d2, u_hit2);
-    if (dm < a.m) {   // a nearer handle: renormalise (rare after the first few handles)
-#if MLS_WEIGHT == 0
-        float sigma = min(exp2(u_log2_s - u_alpha * log2(dm)), 1e30);
-#else
-        float sigma = 0.0;
-#endif
-        float k = a.m < 3.0e38 ? mls_rescale(a.m, dm, sigma) : 0.0;
-        a.m = dm;
-        a.sigma = sigma;
-        a.W *= k;
-        a.A *= k;
-        a.D *= k;
-        a.spread *= k;
-    }
-    float w = mls_weight(d2, a.m, a.sigma);
-    if (w > 0.0) {   // compact weights: most handles are out of reach
-        float r = w / (a.W + w);
-        float c = a.W * r;        // w W_old / W_new: no p - p*_new, which cancels when w dominates
-        a.W += w;
-        vec2 dp0 = h.xy - a.pm;   // against the old means
-        vec2 de0 = (h.zw - h.xy) - a.em;
-        a.pm += r * dp0;
-        a.em += r * de0;
-        vec2 cp = c * dp0;
-        a.A += vec3(cp.x * dp0.x, cp.x * dp0.y, cp.y * dp0.y);
-        a.D += vec4(cp.x * de0.x, cp.x * de0.y, cp.y * de0.x, cp.y * de0.y);
-        a.spread += w * d2;
-    }
+    // The snapped handle (and duplicates of it) is left out: its weight is infinite and its
+    // p^ zero, see mls_finish. So is an empty slot (zeros: every term below is then 0).
+    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(d2, a.m, a.sigma);
+    float r = w / max(a.W + w, 1e-37);   // 0 while no handle reaches v
+    float c = a.W * r;                   // w W_old / W_new
+    a.W += w;
+    vec2 dp0 = h.xy - a.pm;              // against the old means
+    vec2 de0 = (h.zw - h.xy) - a.em;
+    a.pm += r * dp0;
+    a.em += r * de0;
+    vec2 cp = c * dp0;
+    a.A += vec3(cp.x * dp0.x, cp.x * dp0.y, cp.y * dp0.y);
+    a.D += vec4(cp.x * de0.x, cp.x * de0.y, cp.y * de0.x, cp.y * de0.y);
+    a.spread += w * d2;
 }
 
 MLSResult mls_finish(MLSAccum a) {
     vec2 v = a.v;
-    bool hit = a.hit2 <= u_hit2;
+    bool hit = a.hit;
     if (!hit && !(a.W > 0.0)) {
         return mls_identity(v);   // no handle reaches v (or there are none)
     }
@@ -217,8 +209,8 @@ MLSResult mls_finish(MLSAccum a) {
     if (hit) {
         // Snapped: p* = p_i and q* = q_i exactly, the other handles' moments about them
         // (parallel axis: central moments plus W times the offset of the means).
-        pst = a.hit.xy;
-        est = a.hit.zw - a.hit.xy;
+        pst = a.o.xy;
+        est = a.o.zw - a.o.xy;
         vec2 dp = a.pm - pst;
         vec2 de = a.em - est;
         vec2 wp = a.W * dp;
@@ -254,11 +246,38 @@ MLSResult mls_finish(MLSAccum a) {
     return r;
 }
 
+#if MLS_UNROLL
+// MLS_UNROLL (16 or 64) handle slots at constant indices, unrolled by the preprocessor: with a
+// constant index llvmpipe loads a handle once for all lanes instead of gathering it per lane
+// (1.5x faster). Slots from mls_handle_count() on are zero and given no weight.
+#define MLS_R4(F, i) F(i) F(i + 1) F(i + 2) F(i + 3)
+#define MLS_R16(F, i) MLS_R4(F, i) MLS_R4(F, i + 4) MLS_R4(F, i + 8) MLS_R4(F, i + 12)
+#define MLS_R64(F, i) MLS_R16(F, i) MLS_R16(F, i + 16) MLS_R16(F, i + 32) MLS_R16(F, i + 48)
+#define MLS_NEAR(i) mls_nearest_add(near, mls_handle(i), v, (i) < n);
+#define MLS_ACC(i) mls_accumulate(a, mls_handle(i), (i) < n);
+#endif
+
 MLSResult mls_eval(vec2 v) {
-    MLSAccum a = mls_begin(v);
     int n = mls_handle_count();
+    MLSNearest near = mls_nearest_begin();
+#if MLS_UNROLL == 16
+    MLS_R16(MLS_NEAR, 0)
+#elif MLS_UNROLL == 64
+    MLS_R64(MLS_NEAR, 0)
+#else
     for (int i = 0; i < n; ++i) {
-        mls_accumulate(a, mls_handle(i));
+        mls_nearest_add(near, mls_handle(i), v, true);
     }
+#endif
+    MLSAccum a = mls_begin(v, near);
+#if MLS_UNROLL == 16
+    MLS_R16(MLS_ACC, 0)
+#elif MLS_UNROLL == 64
+    MLS_R64(MLS_ACC, 0)
+#else
+    for (int i = 0; i < n; ++i) {
+        mls_accumulate(a, mls_handle(i), true);
+    }
+#endif
     return mls_finish(a);
 }
