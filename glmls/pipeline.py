@@ -54,6 +54,8 @@ BAND_BYTES = 1 << 26
 _LOCAL_SIZE = 64
 _MESH_BINDING = 2
 _WINNER_BINDING = 4
+_MESH_UNIT = 2  # texture units of the resolve (the source is on 0)
+_WINNER_UNIT = 3
 #: Scan-convert quads in a compute shader (False: the GL rasterizer draws 2 triangles per cell).
 COMPUTE_QUADS = True
 
@@ -65,6 +67,10 @@ class SourceImage:
     data: np.ndarray
     dtype: np.dtype
     squeeze: bool  # the input was (H, W)
+    #: ``data`` is the uint8 image itself: uploaded as an 8-bit texture (sampled as value /
+    #: 255), drawn into an 8-bit target and read back as uint8 (4x less to convert, upload,
+    #: clear and read than float32).
+    normalized: bool = False
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -75,7 +81,10 @@ class SourceImage:
         return self.data.shape[2]
 
     def restore(self, values: np.ndarray) -> np.ndarray:
-        """float32 (H, W, C) back to the input's dtype and shape."""
+        """float32 (H, W, C) (uint8 if ``normalized``) back to the input's dtype and shape."""
+        if self.normalized:
+            out = np.ascontiguousarray(values)
+            return out[..., 0] if self.squeeze else out
         if np.issubdtype(self.dtype, np.integer):
             top = np.iinfo(self.dtype).max
             values = np.clip(np.rint(values), 0, top)
@@ -83,8 +92,9 @@ class SourceImage:
         return out[..., 0] if self.squeeze else out
 
 
-def prepare_image(image: object, max_size: int) -> SourceImage:
-    """Validate an image (H x W or H x W x C, C in 1..4) and convert it to float32."""
+def prepare_image(image: object, max_size: int, *, normalized: bool = False) -> SourceImage:
+    """Validate an image (H x W or H x W x C, C in 1..4) and convert it to float32, or with
+    ``normalized`` keep a uint8 image as it is (see :attr:`SourceImage.normalized`)."""
     array = np.asarray(image)
     if array.dtype not in DTYPES:
         names = ", ".join(np.dtype(d).name for d in DTYPES)
@@ -100,6 +110,10 @@ def prepare_image(image: object, max_size: int) -> SourceImage:
             f"{max_size} pixels per side on this device; split it or scale it down"
         )
     squeeze = array.ndim == 2
+    if normalized and array.dtype == np.uint8:
+        return SourceImage(
+            np.ascontiguousarray(array.reshape(height, width, -1)), array.dtype, squeeze, True
+        )
     data = np.ascontiguousarray(array.reshape(height, width, -1), dtype=np.float32)
     return SourceImage(data, array.dtype, squeeze)
 
@@ -132,6 +146,8 @@ def background_color(background: object, image: SourceImage) -> tuple[float, flo
         top = np.iinfo(image.dtype).max
         if not all(0 <= v <= top for v in out):
             raise ValueError(f"background {background!r} is outside 0..{top} of {image.dtype}")
+    if image.normalized:
+        out = [v / 255.0 for v in out]
     if len(out) < channels:
         out.append(0.0)  # transparent where nothing is drawn
     return (*out, *[0.0] * (4 - len(out)))  # type: ignore[return-value]
@@ -201,14 +217,16 @@ class WarpPipeline:
         if self._released:
             raise ReleasedError("this warp pipeline has been released")
 
-    def _texture(self, role: str, size: tuple[int, int], components: int) -> moderngl.Texture:
-        key = (size, components)
+    def _texture(
+        self, role: str, size: tuple[int, int], components: int, dtype: str = "f4"
+    ) -> moderngl.Texture:
+        key = (size, components, dtype)
         cached = self._textures.get(role)
         if cached is not None and cached[0] == key:
             return cached[1]
         if cached is not None:
             self._drop_texture(role)
-        texture = self._gl.mgl.texture(size, components, dtype="f4")
+        texture = self._gl.mgl.texture(size, components, dtype=dtype)
         texture.repeat_x = texture.repeat_y = False
         self._textures[role] = (key, texture)
         return texture
@@ -220,9 +238,12 @@ class WarpPipeline:
             framebuffer[1].release()
         texture.release()
 
-    def _framebuffer(self, role: str, size: tuple[int, int]) -> moderngl.Framebuffer:
-        """A framebuffer around the RGBA32F texture ``role`` of ``size``."""
-        texture = self._texture(role, size, 4)
+    def _framebuffer(
+        self, role: str, size: tuple[int, int], dtype: str = "f4"
+    ) -> moderngl.Framebuffer:
+        """A framebuffer around the RGBA texture ``role`` of ``size`` (RGBA32F, or RGBA8
+        for ``dtype="f1"``)."""
+        texture = self._texture(role, size, 4, dtype)
         cached = self._framebuffers.get(role)
         if cached is not None and cached[0] == texture.glo:
             return cached[1]
@@ -290,10 +311,12 @@ class WarpPipeline:
 
     @current
     def upload(self, image: SourceImage, role: str = "source") -> moderngl.Texture:
-        """The source texture holding ``image``'s raw float32 values."""
+        """The source texture holding ``image``'s raw float32 values (8-bit normalized ones
+        for a ``normalized`` image)."""
         self._check_alive()
         height, width = image.shape
-        texture = self._texture(role, (width, height), image.channels)
+        dtype = "f1" if image.normalized else "f4"
+        texture = self._texture(role, (width, height), image.channels, dtype)
         texture.write(image.data)
         return texture
 
@@ -380,13 +403,19 @@ class WarpPipeline:
         program = self._gl.program(
             ("warp_fullscreen.vert.glsl",),
             ("warp_sample.glsl", "warp_cells.frag.glsl"),
-            {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords},
+            {
+                "WARP_LINEAR": linear,
+                "WARP_OUTPUT_COORDS": coords,
+                "WARP_CELL_PIXEL": grid == 1 and not linear and not coords,
+            },
         )
         values |= {
             "u_flip_y": flip_y,
             "u_source_size": (width, height),
             "u_grid": grid,
             "u_source": 0,
+            "u_mesh": _MESH_UNIT,
+            "u_winner": _WINNER_UNIT,
         }
         for name, value in values.items():
             if name in program:
@@ -394,15 +423,20 @@ class WarpPipeline:
         if not coords:
             _use_texture(source, 0, linear)
         self._gl.mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        winner_texture = self._texture("winner", (width, height), 1, "u4")
+        winner_texture.write(winner)  # a copy on the GPU side (a memcpy on llvmpipe)
+        winner_texture.use(_WINNER_UNIT)
         if bands == 1:
             resolve = iter([(0, dims)])  # the whole mesh is still in the mesh buffer
         else:
             resolve = self._mesh_bands(mls, shape, grid, centres=False)
         for first, dims in resolve:
-            program["u_mesh_dims"].value = dims
-            program["u_first_row"].value = first
-            self._buffers["mesh"].bind_to_storage_buffer(_MESH_BINDING)
-            winner.bind_to_storage_buffer(_WINNER_BINDING)
+            for name, value in (("u_mesh_dims", dims), ("u_first_row", first)):
+                if name in program:
+                    program[name].value = value
+            mesh_texture = self._texture("mesh", dims, 2, "f4")
+            mesh_texture.write(self._buffers["mesh"])
+            mesh_texture.use(_MESH_UNIT)
             self._vao(program).render(moderngl.TRIANGLES, vertices=3)
 
     def _draw_mesh(
@@ -474,7 +508,7 @@ class WarpPipeline:
             framebuffer.use()
             framebuffer.viewport = (0, 0, width, height)
             framebuffer.clear(0.0, 0.0, 0.0, 0.0)
-            if COMPUTE_QUADS:
+            if COMPUTE_QUADS and max(width, height) < (1 << 15):
                 self._draw_cells(
                     mls, texture, shape, linear=False, grid=grid, coords=True, flip_y=False
                 )
@@ -555,6 +589,7 @@ class WarpPipeline:
             if (
                 method == "quads"
                 and COMPUTE_QUADS
+                and max(width, height) < (1 << 15)  # the triangle keys of warp_cells
                 and tuple(framebuffer.viewport) == (0, 0, width, height)
             ):
                 self._draw_cells(
@@ -604,18 +639,21 @@ class WarpPipeline:
         """The deformed image as a new array of ``image``'s shape and dtype."""
         self._check_alive()
         check_options(method, interpolation, grid)
-        source = prepare_image(image, self.max_image_size)
+        source = prepare_image(image, self.max_image_size, normalized=True)
         clear = background_color(background, source)
         height, width = source.shape
         texture = self.upload(source)
+        dtype = "f1" if source.normalized else "f4"
         with self._keep_framebuffer():
-            framebuffer = self._framebuffer("target", (width, height))
+            framebuffer = self._framebuffer("target", (width, height), dtype)
             framebuffer.use()
             framebuffer.viewport = (0, 0, width, height)
             framebuffer.clear(*clear)
             self._render(mls, texture, framebuffer, method, interpolation == "linear", grid, False)
-        raw = framebuffer.read(viewport=(0, 0, width, height), components=4, dtype="f4")
-        values = np.frombuffer(raw, dtype=np.float32).reshape(height, width, 4)
+        components = source.channels if source.normalized else 4
+        raw = framebuffer.read(viewport=(0, 0, width, height), components=components, dtype=dtype)
+        values = np.frombuffer(raw, dtype=np.uint8 if source.normalized else np.float32)
+        values = values.reshape(height, width, components)
         return source.restore(values[..., : source.channels])
 
     @current

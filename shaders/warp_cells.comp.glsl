@@ -3,11 +3,13 @@
 // 0.5 s for the 2 million triangles of a 1024^2 image at grid 1).
 //
 // One invocation per mesh cell: the cell's two triangles (00, 10, 11) and (00, 11, 01) are
-// tested at every pixel centre of their bounding box, and each covered pixel records
-// 1 + the triangle's index (2 * row-major cell index + 0 or 1) with atomicMax. The largest
-// index wins whatever order the invocations run in, which is OpenGL's rule for one draw call
+// tested at every pixel centre of their bounding box, and each covered pixel records the
+// triangle's key 1 + (cell row << 16 | cell column << 1 | 0 or 1) with atomicMax (cells up to
+// 32767 per side). The largest key wins whatever order the invocations run in, and keys are
+// ordered as the triangles of one draw call in row-major cell order, so this is OpenGL's rule
 // (later primitives on top): where cells fold, the cell with the larger source row, then
-// column, shows, and warp_cells.frag.glsl fills the pixel from that triangle.
+// column, shows, and warp_cells.frag.glsl fills the pixel from that triangle. (Shifts, not a
+// row-major index, so that the fill decodes it without an integer division per pixel.)
 //
 // Coverage is OpenGL's: pixel centres strictly inside, and on an edge only for one of the two
 // triangles that share it (a top-left style tie rule). Each edge function is computed from
@@ -19,7 +21,7 @@ layout(std430, binding = 2) readonly buffer WarpMesh {
     vec2 warp_mesh[];   // f at the mesh vertices, scaled coordinates
 };
 layout(std430, binding = 4) buffer WarpWinner {
-    uint warp_winner[];  // per target pixel, row-major: 1 + triangle index, 0 = none
+    uint warp_winner[];  // per target pixel, row-major: the top triangle's key, 0 = none
 };
 
 uniform vec2 u_center;        // scaled -> pixels
@@ -52,7 +54,8 @@ void main() {
         return;
     }
     int cy = cell / cells_x;
-    int i00 = cy * u_mesh_dims.x + (cell - cy * cells_x);   // in the band
+    int cx = cell - cy * cells_x;
+    int i00 = cy * u_mesh_dims.x + cx;   // in the band
     vec2 p00 = vertex_px(i00);
     vec2 p10 = vertex_px(i00 + 1);
     vec2 p01 = vertex_px(i00 + u_mesh_dims.x);
@@ -68,7 +71,7 @@ void main() {
     vec2 hi = max(max(p00, p10), max(p01, p11));
     ivec2 first = max(ivec2(ceil(lo)), ivec2(0));
     ivec2 last = min(ivec2(floor(hi)), u_target_size - 1);
-    uint id0 = uint(2 * (cell + u_first_row * cells_x) + 1);   // 1 + triangle index
+    uint id0 = (uint(cy + u_first_row) << 16 | uint(cx) << 1) + 1u;   // triangle 0's key
     for (int y = first.y; y <= last.y; ++y) {
         for (int x = first.x; x <= last.x; ++x) {
             vec2 p = vec2(x, y);

@@ -7,13 +7,13 @@
 // triangle lies in its band (cell rows u_first_row .. u_first_row + rows - 2).
 //
 // Expects before it: warp_sample.glsl, and
-//   WARP_OUTPUT_COORDS 1: write (s.x, s.y, 1, 0) instead of the colour (backward's guess).
-layout(std430, binding = 2) readonly buffer WarpMesh {
-    vec2 warp_mesh[];
-};
-layout(std430, binding = 4) readonly buffer WarpWinner {
-    uint warp_winner[];
-};
+//   WARP_OUTPUT_COORDS 1: write (s.x, s.y, 1, 0) instead of the colour (backward's guess);
+//   WARP_CELL_PIXEL    1: grid 1 and nearest, the colour is the cell's own pixel.
+// Copies of the mesh (RG32F, one texel per vertex of the band) and of the winner buffer
+// (R32UI, one texel per pixel) as textures: texel fetches are vectorised on llvmpipe, storage
+// buffer reads go lane by lane (2x slower here).
+uniform sampler2D u_mesh;
+uniform usampler2D u_winner;
 
 uniform vec2 u_center;
 uniform float u_scale;
@@ -31,30 +31,33 @@ void main() {
     if (u_flip_y) {
         p.y = u_target_size.y - 1 - p.y;
     }
-    uint id = warp_winner[p.y * u_target_size.x + p.x];
+    uint id = texelFetch(u_winner, p, 0).r;
     if (id == 0u) {
         discard;
     }
-    int triangle = int(id - 1u);
-    int cell = triangle >> 1;
-    int cells_x = u_mesh_dims.x - 1;
-    ivec2 c = ivec2(cell % cells_x, cell / cells_x - u_first_row);   // in the band
+    uint key = id - 1u;   // cell row << 16 | cell column << 1 | triangle
+    int triangle = int(key & 1u);
+    ivec2 c = ivec2((key >> 1) & 0x7fffu, int(key >> 16) - u_first_row);   // in the band
     if (c.y < 0 || c.y >= u_mesh_dims.y - 1) {
         discard;   // another band's triangle
     }
+    ivec2 g = c + ivec2(0, u_first_row);   // mesh row and column
+#if WARP_CELL_PIXEL
+    // grid 1, nearest: the cell is one source pixel, whatever the point inside it
+    out_color = texelFetch(u_source, g, 0);
+    return;
+#endif
     // the triangle's corners as mesh offsets: (00, 10, 11) or (00, 11, 01)
-    ivec2 kb = (triangle & 1) == 0 ? ivec2(1, 0) : ivec2(1, 1);
-    ivec2 kc = (triangle & 1) == 0 ? ivec2(1, 1) : ivec2(0, 1);
-    int i00 = c.y * u_mesh_dims.x + c.x;
-    vec2 a = warp_mesh[i00] * u_scale + u_center;
-    vec2 b = warp_mesh[i00 + kb.y * u_mesh_dims.x + kb.x] * u_scale + u_center;
-    vec2 d = warp_mesh[i00 + kc.y * u_mesh_dims.x + kc.x] * u_scale + u_center;
+    ivec2 kb = triangle == 0 ? ivec2(1, 0) : ivec2(1, 1);
+    ivec2 kc = triangle == 0 ? ivec2(1, 1) : ivec2(0, 1);
+    vec2 a = texelFetch(u_mesh, c, 0).xy * u_scale + u_center;
+    vec2 b = texelFetch(u_mesh, c + kb, 0).xy * u_scale + u_center;
+    vec2 d = texelFetch(u_mesh, c + kc, 0).xy * u_scale + u_center;
     // barycentric coordinates of the pixel centre
     vec2 x = vec2(p);
     float area = (b.x - a.x) * (d.y - a.y) - (b.y - a.y) * (d.x - a.x);
     float lb = ((x.x - a.x) * (d.y - a.y) - (x.y - a.y) * (d.x - a.x)) / area;
     float ld = ((b.x - a.x) * (x.y - a.y) - (b.y - a.y) * (x.x - a.x)) / area;
-    ivec2 g = c + ivec2(0, u_first_row);   // mesh row and column
     vec2 s = source_point(g) * (1.0 - lb - ld) + source_point(g + kb) * lb +
              source_point(g + kc) * ld;
 #if WARP_OUTPUT_COORDS
