@@ -122,7 +122,9 @@ def configure_parser(parser: argparse.ArgumentParser) -> None:
 
 def _settings(args: argparse.Namespace) -> dict:
     base = QUICK if args.quick else FULL
-    settings = {k: getattr(args, k, None) or v for k, v in base.items()}
+    settings = {
+        k: v if getattr(args, k, None) is None else getattr(args, k) for k, v in base.items()
+    }
     if settings["repeat"] < 1:
         raise UsageError(f"--repeat must be >= 1, got {settings['repeat']}")
     if not args.timeout > 0:

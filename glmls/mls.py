@@ -10,7 +10,8 @@ from typing import TypeVar
 import moderngl
 import numpy as np
 
-from .config import MLSConfig
+from .bins import GAUSSIAN_CUT, BinBuffer, HandleBins, reach, worth_binning
+from .config import RADIUS_WEIGHTS, MLSConfig
 from .context import GLContext, current, get_context
 from .errors import ReleasedError
 from .handles import (
@@ -21,7 +22,7 @@ from .handles import (
     validate_handles,
 )
 from .pipeline import WarpPipeline
-from .storage import check_storage, make_storage
+from .storage import check_storage, make_storage, unroll_slots
 
 #: Points closer than this (pixels) to a handle whose weight is infinite there map to q_i.
 SNAP_DISTANCE = 1e-3
@@ -83,7 +84,10 @@ class MLS:
     weight interpolate the handles); ``shape`` (H, W) of the image, for the default radius;
     ``ctx`` a moderngl context to render with (default: glmls's shared headless EGL one);
     ``storage`` where the handles live on the GPU: ``ssbo`` (default), ``ubo`` or ``texture``
-    (see :mod:`glmls.storage`; ``ubo`` takes at most ``GL_MAX_UNIFORM_BLOCK_SIZE / 16``).
+    (see :mod:`glmls.storage`; ``ubo`` takes at most ``GL_MAX_UNIFORM_BLOCK_SIZE / 16``);
+    ``bins`` sort the handles into a spatial grid so that each point visits only those in
+    reach (weights with a radius; see :mod:`glmls.bins`): ``None`` (default) when it pays
+    (256+ handles, reach under a quarter of their extent), ``True`` always, ``False`` never.
 
     Special cases: no handles is the identity and one handle a translation by q - p, for every
     transform. Affine needs 3 source handles not on one line (else
@@ -107,6 +111,7 @@ class MLS:
         shape: Sequence[int] | None = None,
         ctx: moderngl.Context | GLContext | None = None,
         storage: str = DEFAULT_STORAGE,
+        bins: bool | None = None,
     ) -> None:
         config = MLSConfig(
             transform=transform,
@@ -116,7 +121,7 @@ class MLS:
             radius=radius,
             interpolating=interpolating,
         )
-        self._setup(src, dst, config, shape, ctx, storage)
+        self._setup(src, dst, config, shape, ctx, storage, bins)
 
     @classmethod
     def from_config(
@@ -128,17 +133,25 @@ class MLS:
         shape: Sequence[int] | None = None,
         ctx: moderngl.Context | GLContext | None = None,
         storage: str = DEFAULT_STORAGE,
+        bins: bool | None = None,
     ) -> MLS:
         """An MLS with the settings of an :class:`MLSConfig`."""
         if not isinstance(config, MLSConfig):
             raise TypeError(f"config must be an MLSConfig, got {type(config).__name__}")
         self = cls.__new__(cls)
-        self._setup(src, dst, config, shape, ctx, storage)
+        self._setup(src, dst, config, shape, ctx, storage, bins)
         return self
 
-    def _setup(self, src, dst, config, shape, ctx, storage) -> None:
+    def _setup(self, src, dst, config, shape, ctx, storage, bins) -> None:
         self._released = True  # until fully built, release() has nothing to free
         self.storage = check_storage(storage)
+        if bins is not None and not isinstance(bins, bool):
+            raise TypeError(f"bins must be True, False or None, got {bins!r}")
+        if bins and config.weight not in RADIUS_WEIGHTS:
+            raise ValueError(
+                f"bins need a weight with a radius ({', '.join(RADIUS_WEIGHTS)}); "
+                f"{config.weight!r} reaches every handle"
+            )
         src, dst = validate_handles(src, dst)
         if config.transform == "affine":
             check_affine_handles(src)
@@ -151,10 +164,14 @@ class MLS:
         self._dst.flags.writeable = False
         self.scaling = Scaling.fit(src, dst, self.shape)
         self._gl = get_context(ctx)
+        if bins and config.radius is None and self.shape is None:
+            raise ValueError("bins need a radius: give radius= or shape=")
+        self._bins_wanted = bins
+        self._bins: BinBuffer | None = None
         self._gl.make_current()
         self._handles = make_storage(self.storage, self._gl.mgl)
         try:
-            self._handles.upload(pack_handles(src, dst, self.scaling))
+            self._upload_handles(self.shape)
         except ValueError:
             self._handles.release()
             raise
@@ -309,6 +326,9 @@ class MLS:
             return
         self._gl.make_current()
         self._handles.release()
+        if self._bins is not None:
+            self._bins.release()
+            self._bins = None
         for buffer in self._buffers.values():
             buffer.release()
         self._buffers.clear()
@@ -338,6 +358,30 @@ class MLS:
 
     # -- GPU evaluation -----------------------------------------------------------------
 
+    def _upload_handles(self, shape: tuple[int, int] | None, use: bool | None = None) -> None:
+        """Upload the handles, sorted into bins when they are used (``use``; by default as
+        asked at construction) for the radius that ``shape`` gives (the image diagonal when
+        no radius was set)."""
+        packed = pack_handles(self._src, self._dst, self.scaling)
+        radius = self.config.radius
+        if radius is None and shape is not None and self.config.weight in RADIUS_WEIGHTS:
+            radius = self.config.resolve_radius(shape)
+        use = self._bins_wanted if use is None else use
+        if radius is not None and self.config.weight in RADIUS_WEIGHTS:
+            scaled = radius / self.scaling.scale
+            if use is None:
+                use = worth_binning(self.config.weight, scaled, packed[:, :2].astype(float))
+        else:
+            use = False
+        if self._bins is not None:
+            self._bins.release()
+            self._bins = None
+        if use:
+            bins = HandleBins.build(packed[:, :2], reach(self.config.weight, scaled))
+            packed = packed[bins.order]
+            self._bins = BinBuffer(self._gl.mgl, bins, radius=scaled)
+        self._handles.upload(packed)
+
     def _check_alive(self) -> None:
         if self._released:
             raise ReleasedError("this MLS has been released; create a new one")
@@ -345,11 +389,15 @@ class MLS:
     def defines(self) -> dict[str, int | bool]:
         """The ``#define`` values that ``mls_core.glsl`` expects for this configuration."""
         c = self.config
+        binned = self._bins is not None
+        unroll = self._handles.unrolls and not binned
         return {
             "MLS_WEIGHT": _WEIGHT_CODES[c.weight],
             "MLS_TRANSFORM": _TRANSFORM_CODES[c.transform],
             "MLS_INTERPOLATING": c.interpolating,
             "MLS_ALPHA_ONE": c.alpha == 1.0,
+            "MLS_UNROLL": unroll_slots(len(self._src)) if unroll else 0,
+            "MLS_BINS": binned,
         }
 
     def _compute(self, shader: str, **defines: int | bool) -> moderngl.ComputeShader:
@@ -383,7 +431,13 @@ class MLS:
         for name, value in self.uniforms(shape).items():
             if name in program:
                 program[name].value = value
+        if self._bins is not None and self.uniforms(shape)["u_radius"] != self._bins.radius:
+            self._upload_handles(shape, use=True)  # another image size: another radius
         self._handles.bind(program)
+        if self._bins is not None:
+            self._bins.bind(program)
+            if "u_bin_cut" in program:
+                program["u_bin_cut"].value = GAUSSIAN_CUT
 
     def _buffer(self, name: str, nbytes: int) -> moderngl.Buffer:
         """A cached buffer of at least ``nbytes``, grown (never shrunk) as needed."""

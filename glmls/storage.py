@@ -33,10 +33,12 @@ _BINDING = 0
 class HandleStorage(Protocol):
     """How the handles reach the shaders. ``glsl_part`` is the shader file that defines
     ``int mls_handle_count()`` and ``vec4 mls_handle(int i)``; ``defines`` what it needs
-    compiled in; ``capacity`` the most handles it takes on this context."""
+    compiled in; ``capacity`` the most handles it takes on this context; ``unrolls`` whether
+    reading at constant indices pays (``MLS_UNROLL``)."""
 
     glsl_part: str
     count: int
+    unrolls: bool
 
     @property
     def defines(self) -> Mapping[str, int | bool]: ...
@@ -86,9 +88,12 @@ class _BufferStorage:
         self._buffer: moderngl.Buffer | None = None
         self.count = 0
 
+    #: The handles may be read at constant indices (MLS_UNROLL).
+    unrolls = True
+
     @property
     def defines(self) -> Mapping[str, int | bool]:
-        return {"MLS_UNROLL": unroll_slots(self.count)}
+        return {}
 
     def _write(self, data: bytes, needed: int) -> None:
         if self._buffer is None or self._buffer.size < needed:
@@ -145,7 +150,7 @@ class UBOHandleStorage(_BufferStorage):
 
     @property
     def defines(self) -> Mapping[str, int | bool]:
-        return {"MLS_UBO_CAPACITY": self.capacity, "MLS_UNROLL": unroll_slots(self.count)}
+        return {"MLS_UBO_CAPACITY": self.capacity}
 
     def upload(self, packed: np.ndarray) -> None:
         packed = _as_packed(packed)
@@ -163,6 +168,7 @@ class TextureHandleStorage:
     (always read in a loop: a texel fetch gathers per lane whatever its index)."""
 
     glsl_part = "handles_texture.glsl"
+    unrolls = False
 
     def __init__(self, ctx: moderngl.Context) -> None:
         self._ctx = ctx

@@ -9,6 +9,7 @@
 //   MLS_INTERPOLATING 0 or 1: multiply the weight by 1 / d^(2 alpha)
 //   MLS_ALPHA_ONE     0 or 1: alpha == 1, so no pow() is needed
 //   MLS_UNROLL        0, or 16 / 64: at most that many handles, read at constant indices
+//   MLS_BINS          0 or 1: handles sorted into bins, visit only those in reach (below)
 //   a handle storage defining  int mls_handle_count()  and  vec4 mls_handle(int i),
 //   the handle as (p.x, p.y, q.x, q.y).
 //
@@ -65,7 +66,7 @@ float mls_weight(float d2, float m, float sigma) {
 #error "unknown MLS_WEIGHT"
 #endif
 #if MLS_INTERPOLATING
-    w /= mls_pow(d2 / m);
+    w = w > 0.0 ? w / mls_pow(d2 / m) : 0.0;   // 0, not 0/0, out of reach
 #endif
     return w;
 }
@@ -257,7 +258,73 @@ MLSResult mls_finish(MLSAccum a) {
 #define MLS_ACC(i) mls_accumulate(a, mls_handle(i), (i) < n);
 #endif
 
+#if MLS_BINS
+// Handles sorted by the bins of a square grid (glmls/bins.py): bin b's handles are
+// mls_handle(mls_bin_start[b]) .. mls_handle(mls_bin_start[b + 1] - 1), bins row-major.
+layout(std430, binding = 5) readonly buffer MLSBinStarts {
+    int mls_bin_start[];
+};
+uniform vec2 u_bin_origin;   // lower corner of bin (0, 0), scaled
+uniform float u_bin_size;    // bin side, scaled
+uniform ivec2 u_bin_dims;    // bins per row, rows
+uniform float u_bin_reach;   // R (compact weights) or R sqrt(cut) (gaussian), scaled
+uniform float u_bin_cut;     // gaussian: handles with d^2 > m + cut R^2 are left out
+
+// The bins meeting the square of half-side r around v (clamped to the grid).
+void mls_bin_range(vec2 v, float r, out ivec2 lo, out ivec2 hi) {
+    vec2 a = floor((v - r - u_bin_origin) / u_bin_size);
+    vec2 b = floor((v + r - u_bin_origin) / u_bin_size);
+    lo = ivec2(clamp(a, vec2(0.0), vec2(u_bin_dims - 1)));
+    hi = ivec2(clamp(b, vec2(0.0), vec2(u_bin_dims - 1)));
+}
+#endif
+
+// Over every handle (the plain evaluation).
+MLSResult mls_eval_all(vec2 v) {
+    int n = mls_handle_count();
+    MLSNearest near = mls_nearest_begin();
+    for (int i = 0; i < n; ++i) {
+        mls_nearest_add(near, mls_handle(i), v, true);
+    }
+    MLSAccum a = mls_begin(v, near);
+    for (int i = 0; i < n; ++i) {
+        mls_accumulate(a, mls_handle(i), true);
+    }
+    return mls_finish(a);
+}
+
 MLSResult mls_eval(vec2 v) {
+#if MLS_BINS
+    // Pass 1 over the bins within reach finds the nearest handle; a compact weight is 0
+    // beyond R, so if none is there no handle reaches v.
+    ivec2 lo, hi;
+    MLSNearest near = mls_nearest_begin();
+    mls_bin_range(v, u_bin_reach, lo, hi);
+    for (int y = lo.y; y <= hi.y; ++y) {
+        int row = y * u_bin_dims.x;
+        int end = mls_bin_start[row + hi.x + 1];
+        for (int i = mls_bin_start[row + lo.x]; i < end; ++i) {
+            mls_nearest_add(near, mls_handle(i), v, true);
+        }
+    }
+    MLSAccum a = mls_begin(v, near);
+#if MLS_WEIGHT == 3
+    // gaussian: weights are cut relative to the nearest one's; with none within the cut
+    // distance that distance is unknown: evaluate over every handle.
+    if (!(a.m <= u_bin_reach * u_bin_reach)) {
+        return mls_eval_all(v);
+    }
+    mls_bin_range(v, sqrt(a.m + u_bin_cut * u_radius * u_radius), lo, hi);
+#endif
+    for (int y = lo.y; y <= hi.y; ++y) {
+        int row = y * u_bin_dims.x;
+        int end = mls_bin_start[row + hi.x + 1];
+        for (int i = mls_bin_start[row + lo.x]; i < end; ++i) {
+            mls_accumulate(a, mls_handle(i), true);
+        }
+    }
+    return mls_finish(a);
+#else
     int n = mls_handle_count();
     MLSNearest near = mls_nearest_begin();
 #if MLS_UNROLL == 16
@@ -280,4 +347,5 @@ MLSResult mls_eval(vec2 v) {
     }
 #endif
     return mls_finish(a);
+#endif
 }
