@@ -1,4 +1,4 @@
-"""Validation of handles and points, the float32-friendly scaling, and handle storage on the GPU.
+"""Validation of handles and points and the float32-friendly scaling (storages: glmls.storage).
 
 Points are ``(x, y)`` = (column, row) float arrays of shape (N, 2); pixel centres sit at
 integer coordinates (scikit-image's convention).
@@ -7,12 +7,14 @@ integer coordinates (scikit-image's convention).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
 
-import moderngl
 import numpy as np
 
 from .errors import DegenerateHandlesError
+
+# The storages moved to glmls.storage; these names stay importable from here.
+from .storage import HandleStorage as HandleStorage
+from .storage import SSBOHandleStorage as SSBOHandleStorage
 
 
 def as_points(points: object, name: str = "points") -> np.ndarray:
@@ -107,53 +109,6 @@ class Scaling:
         return cls((float(center[0]), float(center[1])), scale)
 
 
-class HandleStorage(Protocol):
-    """How the handles reach the shaders. ``glsl_part`` is the shader file that defines
-    ``int mls_handle_count()`` and ``vec4 mls_handle(int i)``."""
-
-    glsl_part: str
-    count: int
-
-    def upload(self, packed: np.ndarray) -> None: ...
-    def bind(self, program: moderngl.ComputeShader | moderngl.Program) -> None: ...
-    def release(self) -> None: ...
-
-
 def pack_handles(src: np.ndarray, dst: np.ndarray, scaling: Scaling) -> np.ndarray:
     """(N, 4) float32 rows (p.x, p.y, q.x, q.y) in scaled coordinates."""
     return np.concatenate([scaling.to_gpu(src), scaling.to_gpu(dst)], axis=1)
-
-
-class SSBOHandleStorage:
-    """Handles in a std430 shader storage buffer of vec4, bound at binding 0."""
-
-    glsl_part = "handles_ssbo.glsl"
-    binding = 0
-
-    def __init__(self, ctx: moderngl.Context) -> None:
-        self._ctx = ctx
-        self._buffer: moderngl.Buffer | None = None
-        self.count = 0
-
-    def upload(self, packed: np.ndarray) -> None:
-        data = np.ascontiguousarray(packed, dtype=np.float32).tobytes()
-        needed = max(len(data), 16)  # a zero-size buffer is invalid; count = 0 guards reads
-        if self._buffer is None or self._buffer.size < needed:
-            if self._buffer is not None:
-                self._buffer.release()
-            self._buffer = self._ctx.buffer(reserve=needed)
-        if data:
-            self._buffer.write(data)
-        self.count = len(packed)
-
-    def bind(self, program: moderngl.ComputeShader | moderngl.Program) -> None:
-        if self._buffer is None:
-            raise RuntimeError("handles were not uploaded")
-        self._buffer.bind_to_storage_buffer(self.binding)
-        if "u_handle_count" in program:
-            program["u_handle_count"].value = self.count
-
-    def release(self) -> None:
-        if self._buffer is not None:
-            self._buffer.release()
-            self._buffer = None

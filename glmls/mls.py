@@ -10,24 +10,28 @@ from typing import TypeVar
 import moderngl
 import numpy as np
 
-from .config import MLSConfig
+from .bins import GAUSSIAN_CUT, BinBuffer, HandleBins, reach, worth_binning
+from .config import RADIUS_WEIGHTS, MLSConfig
 from .context import GLContext, current, get_context
 from .errors import ReleasedError
 from .handles import (
     Scaling,
-    SSBOHandleStorage,
     as_points,
     check_affine_handles,
     pack_handles,
     validate_handles,
 )
 from .pipeline import WarpPipeline
+from .storage import check_storage, make_storage, unroll_slots
 
 #: Points closer than this (pixels) to a handle whose weight is infinite there map to q_i.
 SNAP_DISTANCE = 1e-3
 _WEIGHT_CODES = {"idw": 0, "cressman": 1, "shepard": 2, "gaussian": 3, "linear": 4}
 _TRANSFORM_CODES = {"affine": 0, "similarity": 1, "rigid": 2}
 _LOCAL_SIZE = 64
+#: Handle storage unless told otherwise (docs/handles.md: the fastest on llvmpipe at every
+#: count, and the only one without a small size limit).
+DEFAULT_STORAGE = "ssbo"
 _WRITE_BINDINGS = {"f": 2, "M": 3}
 _R = TypeVar("_R")
 
@@ -78,7 +82,12 @@ class MLS:
     ``shepard`` | ``gaussian`` | ``linear``; ``alpha``, ``s`` (idw); ``radius`` (pixels, the
     image diagonal when ``None`` and an image size is known); ``interpolating`` (make any
     weight interpolate the handles); ``shape`` (H, W) of the image, for the default radius;
-    ``ctx`` a moderngl context to render with (default: glmls's shared headless EGL one).
+    ``ctx`` a moderngl context to render with (default: glmls's shared headless EGL one);
+    ``storage`` where the handles live on the GPU: ``ssbo`` (default), ``ubo`` or ``texture``
+    (see :mod:`glmls.storage`; ``ubo`` takes at most ``GL_MAX_UNIFORM_BLOCK_SIZE / 16``);
+    ``bins`` sort the handles into a spatial grid so that each point visits only those in
+    reach (weights with a radius; see :mod:`glmls.bins`): ``None`` (default) when it pays
+    (256+ handles, reach under a quarter of their extent), ``True`` always, ``False`` never.
 
     Special cases: no handles is the identity and one handle a translation by q - p, for every
     transform. Affine needs 3 source handles not on one line (else
@@ -101,6 +110,8 @@ class MLS:
         interpolating: bool = False,
         shape: Sequence[int] | None = None,
         ctx: moderngl.Context | GLContext | None = None,
+        storage: str = DEFAULT_STORAGE,
+        bins: bool | None = None,
     ) -> None:
         config = MLSConfig(
             transform=transform,
@@ -110,7 +121,7 @@ class MLS:
             radius=radius,
             interpolating=interpolating,
         )
-        self._setup(src, dst, config, shape, ctx)
+        self._setup(src, dst, config, shape, ctx, storage, bins)
 
     @classmethod
     def from_config(
@@ -121,16 +132,26 @@ class MLS:
         *,
         shape: Sequence[int] | None = None,
         ctx: moderngl.Context | GLContext | None = None,
+        storage: str = DEFAULT_STORAGE,
+        bins: bool | None = None,
     ) -> MLS:
         """An MLS with the settings of an :class:`MLSConfig`."""
         if not isinstance(config, MLSConfig):
             raise TypeError(f"config must be an MLSConfig, got {type(config).__name__}")
         self = cls.__new__(cls)
-        self._setup(src, dst, config, shape, ctx)
+        self._setup(src, dst, config, shape, ctx, storage, bins)
         return self
 
-    def _setup(self, src, dst, config, shape, ctx) -> None:
+    def _setup(self, src, dst, config, shape, ctx, storage, bins) -> None:
         self._released = True  # until fully built, release() has nothing to free
+        self.storage = check_storage(storage)
+        if bins is not None and not isinstance(bins, bool):
+            raise TypeError(f"bins must be True, False or None, got {bins!r}")
+        if bins and config.weight not in RADIUS_WEIGHTS:
+            raise ValueError(
+                f"bins need a weight with a radius ({', '.join(RADIUS_WEIGHTS)}); "
+                f"{config.weight!r} reaches every handle"
+            )
         src, dst = validate_handles(src, dst)
         if config.transform == "affine":
             check_affine_handles(src)
@@ -143,9 +164,17 @@ class MLS:
         self._dst.flags.writeable = False
         self.scaling = Scaling.fit(src, dst, self.shape)
         self._gl = get_context(ctx)
-        self._handles = SSBOHandleStorage(self._gl.mgl)
+        if bins and config.radius is None and self.shape is None:
+            raise ValueError("bins need a radius: give radius= or shape=")
+        self._bins_wanted = bins
+        self._bins: BinBuffer | None = None
         self._gl.make_current()
-        self._handles.upload(pack_handles(src, dst, self.scaling))
+        self._handles = make_storage(self.storage, self._gl.mgl)
+        try:
+            self._upload_handles(self.shape)
+        except ValueError:
+            self._handles.release()
+            raise
         self._buffers: dict[str, moderngl.Buffer] = {}
         self._pipeline: WarpPipeline | None = None
         self._released = False
@@ -313,6 +342,9 @@ class MLS:
             return
         self._gl.make_current()
         self._handles.release()
+        if self._bins is not None:
+            self._bins.release()
+            self._bins = None
         for buffer in self._buffers.values():
             buffer.release()
         self._buffers.clear()
@@ -342,6 +374,30 @@ class MLS:
 
     # -- GPU evaluation -----------------------------------------------------------------
 
+    def _upload_handles(self, shape: tuple[int, int] | None, use: bool | None = None) -> None:
+        """Upload the handles, sorted into bins when they are used (``use``; by default as
+        asked at construction) for the radius that ``shape`` gives (the image diagonal when
+        no radius was set)."""
+        packed = pack_handles(self._src, self._dst, self.scaling)
+        radius = self.config.radius
+        if radius is None and shape is not None and self.config.weight in RADIUS_WEIGHTS:
+            radius = self.config.resolve_radius(shape)
+        use = self._bins_wanted if use is None else use
+        if radius is not None and self.config.weight in RADIUS_WEIGHTS:
+            scaled = radius / self.scaling.scale
+            if use is None:
+                use = worth_binning(self.config.weight, scaled, packed[:, :2].astype(float))
+        else:
+            use = False
+        if self._bins is not None:
+            self._bins.release()
+            self._bins = None
+        if use:
+            bins = HandleBins.build(packed[:, :2], reach(self.config.weight, scaled))
+            packed = packed[bins.order]
+            self._bins = BinBuffer(self._gl.mgl, bins, radius=scaled)
+        self._handles.upload(packed)
+
     def _check_alive(self) -> None:
         if self._released:
             raise ReleasedError("this MLS has been released; create a new one")
@@ -349,18 +405,22 @@ class MLS:
     def defines(self) -> dict[str, int | bool]:
         """The ``#define`` values that ``mls_core.glsl`` expects for this configuration."""
         c = self.config
+        binned = self._bins is not None
+        unroll = self._handles.unrolls and not binned
         return {
             "MLS_WEIGHT": _WEIGHT_CODES[c.weight],
             "MLS_TRANSFORM": _TRANSFORM_CODES[c.transform],
             "MLS_INTERPOLATING": c.interpolating,
             "MLS_ALPHA_ONE": c.alpha == 1.0,
+            "MLS_UNROLL": unroll_slots(len(self._src)) if unroll else 0,
+            "MLS_BINS": binned,
         }
 
     def _compute(self, shader: str, **defines: int | bool) -> moderngl.ComputeShader:
         """The compute program: handle storage + ``mls_core.glsl`` + ``shader`` (a file)."""
         self._check_alive()
         parts = (self._handles.glsl_part, "mls_core.glsl", shader)
-        return self._gl.compute(parts, self.defines() | defines)
+        return self._gl.compute(parts, self.defines() | dict(self._handles.defines) | defines)
 
     def _program(self, *, mesh: bool, with_matrix: bool) -> moderngl.ComputeShader:
         return self._compute("mls_points.comp.glsl", MLS_MESH=mesh, MLS_WRITE_MATRIX=with_matrix)
@@ -387,7 +447,13 @@ class MLS:
         for name, value in self.uniforms(shape).items():
             if name in program:
                 program[name].value = value
+        if self._bins is not None and self.uniforms(shape)["u_radius"] != self._bins.radius:
+            self._upload_handles(shape, use=True)  # another image size: another radius
         self._handles.bind(program)
+        if self._bins is not None:
+            self._bins.bind(program)
+            if "u_bin_cut" in program:
+                program["u_bin_cut"].value = GAUSSIAN_CUT
 
     def _buffer(self, name: str, nbytes: int) -> moderngl.Buffer:
         """A cached buffer of at least ``nbytes``, grown (never shrunk) as needed."""

@@ -33,7 +33,8 @@ import numpy as np
 
 from .context import GLContext, current, get_context
 from .errors import ReleasedError
-from .handles import SSBOHandleStorage, pack_handles
+from .handles import pack_handles
+from .storage import HandleStorage, make_storage
 
 if TYPE_CHECKING:
     from .mls import MLS
@@ -52,6 +53,11 @@ NEWTON_ACCEPT = 0.05
 BAND_BYTES = 1 << 26
 _LOCAL_SIZE = 64
 _MESH_BINDING = 2
+_WINNER_BINDING = 4
+_MESH_UNIT = 2  # texture units of the resolve (the source is on 0)
+_WINNER_UNIT = 3
+#: Scan-convert quads in a compute shader (False: the GL rasterizer draws 2 triangles per cell).
+COMPUTE_QUADS = True
 
 
 @dataclass(frozen=True)
@@ -61,6 +67,10 @@ class SourceImage:
     data: np.ndarray
     dtype: np.dtype
     squeeze: bool  # the input was (H, W)
+    #: ``data`` is the uint8 image itself: uploaded as an 8-bit texture (sampled as value /
+    #: 255), drawn into an 8-bit target and read back as uint8 (4x less to convert, upload,
+    #: clear and read than float32).
+    normalized: bool = False
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -71,7 +81,10 @@ class SourceImage:
         return self.data.shape[2]
 
     def restore(self, values: np.ndarray) -> np.ndarray:
-        """float32 (H, W, C) back to the input's dtype and shape."""
+        """float32 (H, W, C) (uint8 if ``normalized``) back to the input's dtype and shape."""
+        if self.normalized:
+            out = np.ascontiguousarray(values)
+            return out[..., 0] if self.squeeze else out
         if np.issubdtype(self.dtype, np.integer):
             top = np.iinfo(self.dtype).max
             values = np.clip(np.rint(values), 0, top)
@@ -79,8 +92,9 @@ class SourceImage:
         return out[..., 0] if self.squeeze else out
 
 
-def prepare_image(image: object, max_size: int) -> SourceImage:
-    """Validate an image (H x W or H x W x C, C in 1..4) and convert it to float32."""
+def prepare_image(image: object, max_size: int, *, normalized: bool = False) -> SourceImage:
+    """Validate an image (H x W or H x W x C, C in 1..4) and convert it to float32, or with
+    ``normalized`` keep a uint8 image as it is (see :attr:`SourceImage.normalized`)."""
     array = np.asarray(image)
     if array.dtype not in DTYPES:
         names = ", ".join(np.dtype(d).name for d in DTYPES)
@@ -96,6 +110,10 @@ def prepare_image(image: object, max_size: int) -> SourceImage:
             f"{max_size} pixels per side on this device; split it or scale it down"
         )
     squeeze = array.ndim == 2
+    if normalized and array.dtype == np.uint8:
+        return SourceImage(
+            np.ascontiguousarray(array.reshape(height, width, -1)), array.dtype, squeeze, True
+        )
     data = np.ascontiguousarray(array.reshape(height, width, -1), dtype=np.float32)
     return SourceImage(data, array.dtype, squeeze)
 
@@ -128,6 +146,8 @@ def background_color(background: object, image: SourceImage) -> tuple[float, flo
         top = np.iinfo(image.dtype).max
         if not all(0 <= v <= top for v in out):
             raise ValueError(f"background {background!r} is outside 0..{top} of {image.dtype}")
+    if image.normalized:
+        out = [v / 255.0 for v in out]
     if len(out) < channels:
         out.append(0.0)  # transparent where nothing is drawn
     return (*out, *[0.0] * (4 - len(out)))  # type: ignore[return-value]
@@ -165,7 +185,7 @@ class WarpPipeline:
         self._buffers: dict[str, moderngl.Buffer] = {}
         self._vaos: dict[tuple, moderngl.VertexArray] = {}
         self._index_dims = (0, 0)
-        self._swap = SSBOHandleStorage(self._gl.mgl)
+        self._swap: HandleStorage | None = None  # the swapped handles (backward-swap)
         self._released = False
 
     @property
@@ -197,14 +217,16 @@ class WarpPipeline:
         if self._released:
             raise ReleasedError("this warp pipeline has been released")
 
-    def _texture(self, role: str, size: tuple[int, int], components: int) -> moderngl.Texture:
-        key = (size, components)
+    def _texture(
+        self, role: str, size: tuple[int, int], components: int, dtype: str = "f4"
+    ) -> moderngl.Texture:
+        key = (size, components, dtype)
         cached = self._textures.get(role)
         if cached is not None and cached[0] == key:
             return cached[1]
         if cached is not None:
             self._drop_texture(role)
-        texture = self._gl.mgl.texture(size, components, dtype="f4")
+        texture = self._gl.mgl.texture(size, components, dtype=dtype)
         texture.repeat_x = texture.repeat_y = False
         self._textures[role] = (key, texture)
         return texture
@@ -216,9 +238,12 @@ class WarpPipeline:
             framebuffer[1].release()
         texture.release()
 
-    def _framebuffer(self, role: str, size: tuple[int, int]) -> moderngl.Framebuffer:
-        """A framebuffer around the RGBA32F texture ``role`` of ``size``."""
-        texture = self._texture(role, size, 4)
+    def _framebuffer(
+        self, role: str, size: tuple[int, int], dtype: str = "f4"
+    ) -> moderngl.Framebuffer:
+        """A framebuffer around the RGBA texture ``role`` of ``size`` (RGBA32F, or RGBA8
+        for ``dtype="f1"``)."""
+        texture = self._texture(role, size, 4, dtype)
         cached = self._framebuffers.get(role)
         if cached is not None and cached[0] == texture.glo:
             return cached[1]
@@ -277,17 +302,21 @@ class WarpPipeline:
         self._framebuffers.clear()
         self._buffers.clear()
         self._vaos.clear()
-        self._swap.release()
+        if self._swap is not None:
+            self._swap.release()
+            self._swap = None
         self._released = True
 
     # -- passes -------------------------------------------------------------------------
 
     @current
     def upload(self, image: SourceImage, role: str = "source") -> moderngl.Texture:
-        """The source texture holding ``image``'s raw float32 values."""
+        """The source texture holding ``image``'s raw float32 values (8-bit normalized ones
+        for a ``normalized`` image)."""
         self._check_alive()
         height, width = image.shape
-        texture = self._texture(role, (width, height), image.channels)
+        dtype = "f1" if image.normalized else "f4"
+        texture = self._texture(role, (width, height), image.channels, dtype)
         texture.write(image.data)
         return texture
 
@@ -329,12 +358,86 @@ class WarpPipeline:
             program["u_mesh_first_row"].value = first
             program["u_count"].value = nx * rows
             buffer.bind_to_storage_buffer(_MESH_BINDING)
+            # Draws issued before may still read the buffer (llvmpipe shades fragments
+            # later, at a flush): order them before it is overwritten.
+            self._gl.mgl.memory_barrier()
             self._dispatch(program, nx * rows)
             self._gl.mgl.memory_barrier()
             yield first, (nx, rows)
             first += rows - overlap
             if first + overlap >= ny:
                 break
+
+    def _draw_cells(
+        self,
+        mls: MLS,
+        source: moderngl.Texture,
+        shape: tuple[int, int],
+        *,
+        linear: bool,
+        grid: int,
+        coords: bool,
+        flip_y: bool,
+    ) -> None:
+        """``quads`` by compute-shader scan conversion (warp_cells.comp.glsl) and a resolve
+        draw (warp_cells.frag.glsl) into the bound framebuffer, whose viewport must be the
+        target's size. A mesh too big for one band is evaluated twice: once for coverage,
+        once for the resolve of each band's pixels."""
+        height, width = shape
+        winner = self._buffer("winner", width * height * 4)
+        winner.clear(size=width * height * 4)
+        sc = mls.scaling
+        cells = self._gl.compute(("warp_cells.comp.glsl",))
+        values = {"u_center": sc.center, "u_scale": sc.scale, "u_target_size": (width, height)}
+        for name, value in values.items():
+            cells[name].value = value
+        bands = 0
+        for first, dims in self._mesh_bands(mls, shape, grid, centres=False):
+            cells["u_mesh_dims"].value = dims
+            cells["u_first_row"].value = first
+            self._buffers["mesh"].bind_to_storage_buffer(_MESH_BINDING)
+            winner.bind_to_storage_buffer(_WINNER_BINDING)
+            self._dispatch(cells, (dims[0] - 1) * (dims[1] - 1))
+            bands += 1
+        self._gl.mgl.memory_barrier()
+        program = self._gl.program(
+            ("warp_fullscreen.vert.glsl",),
+            ("warp_sample.glsl", "warp_cells.frag.glsl"),
+            {
+                "WARP_LINEAR": linear,
+                "WARP_OUTPUT_COORDS": coords,
+                "WARP_CELL_PIXEL": grid == 1 and not linear and not coords,
+            },
+        )
+        values |= {
+            "u_flip_y": flip_y,
+            "u_source_size": (width, height),
+            "u_grid": grid,
+            "u_source": 0,
+            "u_mesh": _MESH_UNIT,
+            "u_winner": _WINNER_UNIT,
+        }
+        for name, value in values.items():
+            if name in program:
+                program[name].value = value
+        if not coords:
+            _use_texture(source, 0, linear)
+        self._gl.mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        winner_texture = self._texture("winner", (width, height), 1, "u4")
+        winner_texture.write(winner)  # a copy on the GPU side (a memcpy on llvmpipe)
+        winner_texture.use(_WINNER_UNIT)
+        if bands == 1:
+            resolve = iter([(0, dims)])  # the whole mesh is still in the mesh buffer
+        else:
+            resolve = self._mesh_bands(mls, shape, grid, centres=False)
+        for first, dims in resolve:
+            for name, value in (("u_mesh_dims", dims), ("u_first_row", first)):
+                if name in program:
+                    program[name].value = value
+            mesh_texture = self._texture("mesh", dims, 2, "f4")
+            mesh_texture.write(self._buffers["mesh"])
+            mesh_texture.use(_MESH_UNIT)
+            self._vao(program).render(moderngl.TRIANGLES, vertices=3)
 
     def _draw_mesh(
         self,
@@ -405,24 +508,34 @@ class WarpPipeline:
             framebuffer.use()
             framebuffer.viewport = (0, 0, width, height)
             framebuffer.clear(0.0, 0.0, 0.0, 0.0)
-            self._draw_mesh(
-                mls,
-                texture,
-                shape,
-                (width, height),
-                splat=False,
-                linear=False,
-                grid=grid,
-                coords=True,
-                flip_y=False,
-            )
+            if COMPUTE_QUADS and max(width, height) < (1 << 15):
+                self._draw_cells(
+                    mls, texture, shape, linear=False, grid=grid, coords=True, flip_y=False
+                )
+            else:
+                self._draw_mesh(
+                    mls,
+                    texture,
+                    shape,
+                    (width, height),
+                    splat=False,
+                    linear=False,
+                    grid=grid,
+                    coords=True,
+                    flip_y=False,
+                )
         defines = mls.defines() | {"WARP_SWAP": swap, "WARP_NEWTON_STEPS": NEWTON_STEPS}
         handles = mls._handles
         if swap:
+            if self._swap is None or self._swap.glsl_part != handles.glsl_part:
+                if self._swap is not None:
+                    self._swap.release()
+                self._swap = make_storage(mls.storage, self._gl.mgl)
             handles = self._swap
             handles.upload(pack_handles(mls.dst, mls.src, mls.scaling))
         program = self._gl.compute(
-            (handles.glsl_part, "mls_core.glsl", "mls_inverse.comp.glsl"), defines
+            (handles.glsl_part, "mls_core.glsl", "mls_inverse.comp.glsl"),
+            defines | dict(handles.defines),
         )
         mls._set_uniforms(program, shape)
         handles.bind(program)
@@ -473,6 +586,16 @@ class WarpPipeline:
         shape = (height, width)
         if method in ("quads", "splat"):
             framebuffer.use()
+            if (
+                method == "quads"
+                and COMPUTE_QUADS
+                and max(width, height) < (1 << 15)  # the triangle keys of warp_cells
+                and tuple(framebuffer.viewport) == (0, 0, width, height)
+            ):
+                self._draw_cells(
+                    mls, source, shape, linear=linear, grid=grid, coords=False, flip_y=flip_y
+                )
+                return
             self._draw_mesh(
                 mls,
                 source,
@@ -516,18 +639,21 @@ class WarpPipeline:
         """The deformed image as a new array of ``image``'s shape and dtype."""
         self._check_alive()
         check_options(method, interpolation, grid)
-        source = prepare_image(image, self.max_image_size)
+        source = prepare_image(image, self.max_image_size, normalized=True)
         clear = background_color(background, source)
         height, width = source.shape
         texture = self.upload(source)
+        dtype = "f1" if source.normalized else "f4"
         with self._keep_framebuffer():
-            framebuffer = self._framebuffer("target", (width, height))
+            framebuffer = self._framebuffer("target", (width, height), dtype)
             framebuffer.use()
             framebuffer.viewport = (0, 0, width, height)
             framebuffer.clear(*clear)
             self._render(mls, texture, framebuffer, method, interpolation == "linear", grid, False)
-        raw = framebuffer.read(viewport=(0, 0, width, height), components=4, dtype="f4")
-        values = np.frombuffer(raw, dtype=np.float32).reshape(height, width, 4)
+        components = source.channels if source.normalized else 4
+        raw = framebuffer.read(viewport=(0, 0, width, height), components=components, dtype=dtype)
+        values = np.frombuffer(raw, dtype=np.uint8 if source.normalized else np.float32)
+        values = values.reshape(height, width, components)
         return source.restore(values[..., : source.channels])
 
     @current

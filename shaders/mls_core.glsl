@@ -8,8 +8,14 @@
 //   MLS_TRANSFORM     0 affine, 1 similarity, 2 rigid
 //   MLS_INTERPOLATING 0 or 1: multiply the weight by 1 / d^(2 alpha)
 //   MLS_ALPHA_ONE     0 or 1: alpha == 1, so no pow() is needed
+//   MLS_UNROLL        0, or 16 / 64: at most that many handles, read at constant indices
+//   MLS_BINS          0 or 1: handles sorted into bins, visit only those in reach (below)
 //   a handle storage defining  int mls_handle_count()  and  vec4 mls_handle(int i),
 //   the handle as (p.x, p.y, q.x, q.y).
+//
+// One pass over the handles (mls_begin, mls_accumulate per handle, mls_finish) accumulates
+// every weighted moment; mls_eval(v) runs it over all handles, and callers that visit the
+// handles otherwise (tiles in shared memory, a spatial grid of bins) call the three parts.
 //
 // All coordinates are "scaled": (pixel - u_center) / u_scale, so that float32 keeps
 // sub-millipixel precision on large images. The host scales s and R to match.
@@ -40,11 +46,10 @@ float mls_pow(float r) {
 // that depends on m (the squared distance to the nearest handle in use) so that the largest
 // weight is about 1: MLS is invariant to a common factor, and float32 neither overflows
 // (idw, shepard near a handle) nor underflows (gaussian far from every handle).
-float mls_weight(float d2, float m) {
+float mls_weight(float d2, float m, float sigma) {
     float w;
 #if MLS_WEIGHT == 0
-    // 1 / (s + d^(2 alpha)), times m^alpha
-    float sigma = min(exp2(u_log2_s - u_alpha * log2(m)), 1e30);
+    // 1 / (s + d^(2 alpha)), times s + m^alpha; sigma = s / m^alpha
     w = (sigma + 1.0) / (sigma + mls_pow(d2 / m));
 #elif MLS_WEIGHT == 1
     float R2 = u_radius * u_radius;
@@ -61,7 +66,7 @@ float mls_weight(float d2, float m) {
 #error "unknown MLS_WEIGHT"
 #endif
 #if MLS_INTERPOLATING
-    w /= mls_pow(d2 / m);
+    w = w > 0.0 ? w / mls_pow(d2 / m) : 0.0;   // 0, not 0/0, out of reach
 #endif
     return w;
 }
@@ -74,7 +79,7 @@ MLSResult mls_identity(vec2 v) {
 }
 
 // N = M - I for similarity / rigid, from mu = sum w |p^|^2 and the displacement moments
-// D (see mls_eval). M = [[A, B], [-B, A]] / norm with A = mu + D11 + D22, B = D12 - D21.
+// D (see mls_finish). M = [[A, B], [-B, A]] / norm with A = mu + D11 + D22, B = D12 - D21.
 vec4 mls_rotation_scale(float mu, vec4 D, float spread) {
     // Source handles in reach coincide (their spread about p* is float32 noise against their
     // spread about v): only a translation is defined.
@@ -98,82 +103,123 @@ vec4 mls_rotation_scale(float mu, vec4 D, float spread) {
 #endif
 }
 
-MLSResult mls_eval(vec2 v) {
-    int n = mls_handle_count();
-    if (n == 0) {
-        return mls_identity(v);
-    }
+// One evaluation at v is two passes over the handles (mls_eval; callers that visit the
+// handles otherwise, e.g. a spatial grid of bins, call the parts themselves):
+//
+// 1. mls_nearest_add: the nearest handle (for snapping) and the normalisation distance m,
+//    a min over d^2, a few operations per handle;
+// 2. mls_accumulate: every weighted moment at once. Weighted means and central moments are
+//    updated per handle (the weighted Welford / Chan update, C += w W_old / W_new
+//    (p - p*_old)(p - p*_old)^T): each handle's p - p* is taken against the running centroid,
+//    so no moment is a difference of large sums (the raw-moment formula sum w p^2 - W p*^2
+//    loses the digits that matter where one handle dominates the weights, next to it), and
+//    differences of nearby float32 values are exact, so p - p* keeps its precision even for
+//    points far from a tight cluster of handles.
+//
+// Both loops are branch-free: llvmpipe (and GPUs, per warp) run both sides of a branch
+// whenever lanes disagree, so a "rare" branch costs its full price on every handle.
+// Working with displacements e = q - p keeps the identity exact and small deformations
+// precise: f(v) = v + e* + (v - p*) N with N = M - I.
+struct MLSNearest {
+    float d2min;    // squared distance of the nearest handle
+    float d2far;    // ... of the nearest beyond the snapping distance
+    vec4 h;         // the nearest handle
+};
 
-    // Pass 0: the nearest handle (for snapping) and the normalisation distance m.
-    float d2min = 3.0e38;
-    float d2far = 3.0e38;   // nearest beyond the snapping distance
-    int imin = 0;
-    for (int i = 0; i < n; ++i) {
-        vec2 dp = mls_handle(i).xy - v;
-        float d2 = dot(dp, dp);
-        if (d2 < d2min) {
-            d2min = d2;
-            imin = i;
-        }
-        if (d2 > u_hit2) {
-            d2far = min(d2far, d2);
-        }
-    }
-    bool hit = u_snap && d2min <= u_hit2;
-    float m = hit ? d2far : max(d2min, u_hit2);
+MLSNearest mls_nearest_begin() {
+    MLSNearest n;
+    n.d2min = 3.0e38;
+    n.d2far = 3.0e38;
+    n.h = vec4(0.0);
+    return n;
+}
 
-    // Centroids and moments are taken relative to the nearest handle (o, oq): differences of
-    // nearby float32 values are exact, so p^ = p - p* keeps its precision even for points far
-    // from a tight cluster of handles.
-    vec4 ho = mls_handle(imin);
-    vec2 o = ho.xy;
-    vec2 oq = ho.zw;
+// ``use``: false for an empty slot (see MLS_UNROLL), which changes nothing.
+void mls_nearest_add(inout MLSNearest n, vec4 h, vec2 v, bool use) {
+    vec2 dp = h.xy - v;
+    float d2 = use ? dot(dp, dp) : 3.0e38;
+    bool nearer = d2 < n.d2min;
+    n.h = nearer ? h : n.h;
+    n.d2min = min(n.d2min, d2);
+    n.d2far = min(n.d2far, d2 > u_hit2 ? d2 : 3.0e38);
+}
 
-    // Pass 1: weighted centroids p* = o + pst and displacement e* = e(o) + est, where
-    // e(p_i) = q_i - p_i. Working with displacements keeps the identity exact and small
-    // deformations precise: f(v) = v + e* + (v - p*) N with N = M - I.
-    vec2 eo = oq - o;
-    vec2 pst = vec2(0.0);
-    vec2 est = vec2(0.0);
-    if (!hit) {   // when snapped, p* = p_i and q* = q_i exactly
-        float W = 0.0;
-        vec2 sp = vec2(0.0);
-        vec2 se = vec2(0.0);
-        for (int i = 0; i < n; ++i) {
-            vec4 h = mls_handle(i);
-            vec2 dp = h.xy - v;
-            float w = mls_weight(dot(dp, dp), m);
-            W += w;
-            sp += w * (h.xy - o);
-            se += w * ((h.zw - h.xy) - eo);
-        }
-        if (!(W > 0.0)) {
-            return mls_identity(v);   // no handle reaches v
-        }
-        pst = sp / W;
-        est = se / W;
-    }
+struct MLSAccum {
+    vec2 v;
+    bool hit;       // v snaps to handle o: f(v) = its q
+    vec4 o;         // the nearest handle
+    float m;        // normalisation distance (see mls_weight)
+    float sigma;    // idw: s / m^alpha
+    float W;        // sum w
+    vec2 pm;        // p*, the weighted mean of p
+    vec2 em;        // e*, the weighted mean of e = q - p
+    vec3 A;         // sum w (p - p*)(p - p*)^T as (xx, xy, yy)
+    vec4 D;         // sum w (p - p*)_i (e - e*)_j as (11, 12, 21, 22)
+    float spread;   // sum w |p - v|^2, the yardstick for "coincident"
+};
 
-    // Pass 2: moments of p^ = p - p* and of the displacement e^ = e - e* (q^ = p^ + e^).
-    float spread = 0.0;   // sum w |p - v|^2, the yardstick for "coincident"
-    float a11 = 0.0, a12 = 0.0, a22 = 0.0;
-    vec4 D = vec4(0.0);   // D_ij = sum w p^_i e^_j as (D11, D12, D21, D22)
-    for (int i = 0; i < n; ++i) {
-        vec4 h = mls_handle(i);
-        vec2 dp = h.xy - v;
-        float d2 = dot(dp, dp);
-        if (hit && d2 <= u_hit2) {
-            continue;   // the snapped handle: its p^ is 0 and its weight infinite
-        }
-        float w = mls_weight(d2, m);
-        vec2 ph = (h.xy - o) - pst;
-        vec2 eh = ((h.zw - h.xy) - eo) - est;
-        spread += w * d2;
-        a11 += w * ph.x * ph.x;
-        a12 += w * ph.x * ph.y;
-        a22 += w * ph.y * ph.y;
-        D += w * vec4(ph.x * eh.x, ph.x * eh.y, ph.y * eh.x, ph.y * eh.y);
+MLSAccum mls_begin(vec2 v, MLSNearest n) {
+    MLSAccum a;
+    a.v = v;
+    a.hit = u_snap && n.d2min <= u_hit2;
+    a.o = n.h;
+    a.m = a.hit ? n.d2far : max(n.d2min, u_hit2);
+#if MLS_WEIGHT == 0
+    a.sigma = min(exp2(u_log2_s - u_alpha * log2(a.m)), 1e30);
+#else
+    a.sigma = 0.0;
+#endif
+    a.W = 0.0;
+    a.pm = vec2(0.0);
+    a.em = vec2(0.0);
+    a.A = vec3(0.0);
+    a.D = vec4(0.0);
+    a.spread = 0.0;
+    return a;
+}
+
+void mls_accumulate(inout MLSAccum a, vec4 h, bool use) {
+    vec2 dp = h.xy - a.v;
+    float d2 = dot(dp, dp);
+    // The snapped handle (and duplicates of it) is left out: its weight is infinite and its
+    // p^ zero, see mls_finish. So is an empty slot (zeros: every term below is then 0).
+    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(d2, a.m, a.sigma);
+    float r = w / max(a.W + w, 1e-37);   // 0 while no handle reaches v
+    float c = a.W * r;                   // w W_old / W_new
+    a.W += w;
+    vec2 dp0 = h.xy - a.pm;              // against the old means
+    vec2 de0 = (h.zw - h.xy) - a.em;
+    a.pm += r * dp0;
+    a.em += r * de0;
+    vec2 cp = c * dp0;
+    a.A += vec3(cp.x * dp0.x, cp.x * dp0.y, cp.y * dp0.y);
+    a.D += vec4(cp.x * de0.x, cp.x * de0.y, cp.y * de0.x, cp.y * de0.y);
+    a.spread += w * d2;
+}
+
+MLSResult mls_finish(MLSAccum a) {
+    vec2 v = a.v;
+    bool hit = a.hit;
+    if (!hit && !(a.W > 0.0)) {
+        return mls_identity(v);   // no handle reaches v (or there are none)
     }
+    vec2 pst = a.pm;
+    vec2 est = a.em;
+    vec3 A = a.A;
+    vec4 D = a.D;
+    if (hit) {
+        // Snapped: p* = p_i and q* = q_i exactly, the other handles' moments about them
+        // (parallel axis: central moments plus W times the offset of the means).
+        pst = a.o.xy;
+        est = a.o.zw - a.o.xy;
+        vec2 dp = a.pm - pst;
+        vec2 de = a.em - est;
+        vec2 wp = a.W * dp;
+        A += vec3(wp.x * dp.x, wp.x * dp.y, wp.y * dp.y);
+        D += vec4(wp.x * de.x, wp.x * de.y, wp.y * de.x, wp.y * de.y);
+    }
+    float a11 = A.x, a12 = A.y, a22 = A.z;
+    float spread = a.spread;
 
     float mu = a11 + a22;
     vec4 N;   // M - I
@@ -194,9 +240,112 @@ MLSResult mls_eval(vec2 v) {
 #endif
 
     // f(v) = q* + (v - p*) M = v + e* + (v - p*) N
-    vec2 vp = (v - o) - pst;
+    vec2 vp = v - pst;
     MLSResult r;
     r.M = N + vec4(1.0, 0.0, 0.0, 1.0);
-    r.f = v + (eo + est) + vec2(vp.x * N.x + vp.y * N.z, vp.x * N.y + vp.y * N.w);
+    r.f = v + est + vec2(vp.x * N.x + vp.y * N.z, vp.x * N.y + vp.y * N.w);
     return r;
+}
+
+#if MLS_UNROLL
+// MLS_UNROLL (16 or 64) handle slots at constant indices, unrolled by the preprocessor: with a
+// constant index llvmpipe loads a handle once for all lanes instead of gathering it per lane
+// (1.5x faster). Slots from mls_handle_count() on are zero and given no weight.
+#define MLS_R4(F, i) F(i) F(i + 1) F(i + 2) F(i + 3)
+#define MLS_R16(F, i) MLS_R4(F, i) MLS_R4(F, i + 4) MLS_R4(F, i + 8) MLS_R4(F, i + 12)
+#define MLS_R64(F, i) MLS_R16(F, i) MLS_R16(F, i + 16) MLS_R16(F, i + 32) MLS_R16(F, i + 48)
+#define MLS_NEAR(i) mls_nearest_add(near, mls_handle(i), v, (i) < n);
+#define MLS_ACC(i) mls_accumulate(a, mls_handle(i), (i) < n);
+#endif
+
+#if MLS_BINS
+// Handles sorted by the bins of a square grid (glmls/bins.py): bin b's handles are
+// mls_handle(mls_bin_start[b]) .. mls_handle(mls_bin_start[b + 1] - 1), bins row-major.
+layout(std430, binding = 5) readonly buffer MLSBinStarts {
+    int mls_bin_start[];
+};
+uniform vec2 u_bin_origin;   // lower corner of bin (0, 0), scaled
+uniform float u_bin_size;    // bin side, scaled
+uniform ivec2 u_bin_dims;    // bins per row, rows
+uniform float u_bin_reach;   // R (compact weights) or R sqrt(cut) (gaussian), scaled
+uniform float u_bin_cut;     // gaussian: handles with d^2 > m + cut R^2 are left out
+
+// The bins meeting the square of half-side r around v (clamped to the grid).
+void mls_bin_range(vec2 v, float r, out ivec2 lo, out ivec2 hi) {
+    vec2 a = floor((v - r - u_bin_origin) / u_bin_size);
+    vec2 b = floor((v + r - u_bin_origin) / u_bin_size);
+    lo = ivec2(clamp(a, vec2(0.0), vec2(u_bin_dims - 1)));
+    hi = ivec2(clamp(b, vec2(0.0), vec2(u_bin_dims - 1)));
+}
+#endif
+
+// Over every handle (the plain evaluation).
+MLSResult mls_eval_all(vec2 v) {
+    int n = mls_handle_count();
+    MLSNearest near = mls_nearest_begin();
+    for (int i = 0; i < n; ++i) {
+        mls_nearest_add(near, mls_handle(i), v, true);
+    }
+    MLSAccum a = mls_begin(v, near);
+    for (int i = 0; i < n; ++i) {
+        mls_accumulate(a, mls_handle(i), true);
+    }
+    return mls_finish(a);
+}
+
+MLSResult mls_eval(vec2 v) {
+#if MLS_BINS
+    // Pass 1 over the bins within reach finds the nearest handle; a compact weight is 0
+    // beyond R, so if none is there no handle reaches v.
+    ivec2 lo, hi;
+    MLSNearest near = mls_nearest_begin();
+    mls_bin_range(v, u_bin_reach, lo, hi);
+    for (int y = lo.y; y <= hi.y; ++y) {
+        int row = y * u_bin_dims.x;
+        int end = mls_bin_start[row + hi.x + 1];
+        for (int i = mls_bin_start[row + lo.x]; i < end; ++i) {
+            mls_nearest_add(near, mls_handle(i), v, true);
+        }
+    }
+    MLSAccum a = mls_begin(v, near);
+#if MLS_WEIGHT == 3
+    // gaussian: weights are cut relative to the nearest one's; with none within the cut
+    // distance that distance is unknown: evaluate over every handle.
+    if (!(a.m <= u_bin_reach * u_bin_reach)) {
+        return mls_eval_all(v);
+    }
+    mls_bin_range(v, sqrt(a.m + u_bin_cut * u_radius * u_radius), lo, hi);
+#endif
+    for (int y = lo.y; y <= hi.y; ++y) {
+        int row = y * u_bin_dims.x;
+        int end = mls_bin_start[row + hi.x + 1];
+        for (int i = mls_bin_start[row + lo.x]; i < end; ++i) {
+            mls_accumulate(a, mls_handle(i), true);
+        }
+    }
+    return mls_finish(a);
+#else
+    int n = mls_handle_count();
+    MLSNearest near = mls_nearest_begin();
+#if MLS_UNROLL == 16
+    MLS_R16(MLS_NEAR, 0)
+#elif MLS_UNROLL == 64
+    MLS_R64(MLS_NEAR, 0)
+#else
+    for (int i = 0; i < n; ++i) {
+        mls_nearest_add(near, mls_handle(i), v, true);
+    }
+#endif
+    MLSAccum a = mls_begin(v, near);
+#if MLS_UNROLL == 16
+    MLS_R16(MLS_ACC, 0)
+#elif MLS_UNROLL == 64
+    MLS_R64(MLS_ACC, 0)
+#else
+    for (int i = 0; i < n; ++i) {
+        mls_accumulate(a, mls_handle(i), true);
+    }
+#endif
+    return mls_finish(a);
+#endif
 }

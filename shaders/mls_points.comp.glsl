@@ -30,16 +30,17 @@ layout(std430, binding = 3) writeonly buffer MLSOutM {
 
 void main() {
     int i = u_offset + int(gl_GlobalInvocationID.x);
-    if (i >= u_count) {
-        return;
-    }
+    bool live = i < u_count;
 #if MLS_MESH
     ivec2 ij = ivec2(i % u_mesh_dims.x, i / u_mesh_dims.x);
     ij.y += u_mesh_first_row;
     vec2 v = min(u_mesh_origin + vec2(ij) * u_mesh_step, u_mesh_last);
 #else
-    vec2 v = mls_points[i];
+    vec2 v = live ? mls_points[i] : vec2(0.0);
 #endif
+    if (!live) {
+        return;
+    }
     MLSResult r = mls_eval(v);
     mls_out_f[i] = r.f;
 #if MLS_WRITE_MATRIX
