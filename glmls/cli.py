@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, data
+from . import __version__, bench, data
 from .app import command as app_command
 from .config import TRANSFORMS, WEIGHTS, MLSConfig
 from .errors import GLUnavailableError
@@ -333,6 +333,11 @@ _EXAMPLES = {
           glmls tune photo.png --handles h.json --reference r.json --out tune/ \\
               --configs 'rigid:*' 'similarity:gaussian:radius=300' --rank-by angle
         """,
+    "bench": """
+        examples:
+          glmls bench --quick --out out/bench        # 1024^2, 64 handles, grid 1 and 4
+          glmls bench --sizes 512,1024 --handles 16,64 --grids 1,4 --out out/bench
+        """,
     "demo": """
         examples:
           glmls demo                                   # the bundled photograph
@@ -439,7 +444,10 @@ def build_parser() -> argparse.ArgumentParser:
     demo = _subparser(subparsers, "demo", "the real-time window")
     app_command.configure_parser(demo)
     demo.set_defaults(run=app_command.run)
-    for sub in (warp, analyze, tune_parser, demo):
+    bench_parser = _subparser(subparsers, "bench", "benchmarks against peers, same inputs")
+    bench.configure_parser(bench_parser)
+    bench_parser.set_defaults(run=bench.run)
+    for sub in (warp, analyze, tune_parser, demo, bench_parser):
         sub.add_argument(
             "--quiet",
             action="store_true",

@@ -145,7 +145,7 @@ def test_usage_errors(inputs):
 
 def test_version_and_help(inputs):
     assert glmls_cli("--version", cwd=inputs).stdout.strip() == f"glmls {glmls.__version__}"
-    for command in ("warp", "analyze", "tune", "demo"):
+    for command in ("warp", "analyze", "tune", "demo", "bench"):
         result = glmls_cli(command, "--help", cwd=inputs)
         assert result.returncode == 0 and "examples:" in result.stdout
 
