@@ -22,16 +22,17 @@ from .handles import (
     validate_handles,
 )
 from .pipeline import WarpPipeline
-from .storage import check_storage, make_storage, unroll_slots
+from .storage import check_storage, make_storage, resolve_storage, unroll_slots
 
 #: Points closer than this (pixels) to a handle whose weight is infinite there map to q_i.
 SNAP_DISTANCE = 1e-3
 _WEIGHT_CODES = {"idw": 0, "cressman": 1, "shepard": 2, "gaussian": 3, "linear": 4}
 _TRANSFORM_CODES = {"affine": 0, "similarity": 1, "rigid": 2}
 _LOCAL_SIZE = 64
-#: Handle storage unless told otherwise (docs/handles.md: the fastest on llvmpipe at every
-#: count, and the only one without a small size limit).
-DEFAULT_STORAGE = "ssbo"
+#: Handle storage unless told otherwise: the uniform block where the handles fit, else the
+#: storage buffer (docs/handles.md: the uniform block is the fastest on llvmpipe wherever it
+#: fits; only the storage buffer and the texture take tens of thousands).
+DEFAULT_STORAGE = "auto"
 _WRITE_BINDINGS = {"f": 2, "M": 3}
 _R = TypeVar("_R")
 
@@ -83,8 +84,9 @@ class MLS:
     image diagonal when ``None`` and an image size is known); ``interpolating`` (make any
     weight interpolate the handles); ``shape`` (H, W) of the image, for the default radius;
     ``ctx`` a moderngl context to render with (default: glmls's shared headless EGL one);
-    ``storage`` where the handles live on the GPU: ``ssbo`` (default), ``ubo`` or ``texture``
-    (see :mod:`glmls.storage`; ``ubo`` takes at most ``GL_MAX_UNIFORM_BLOCK_SIZE / 16``);
+    ``storage`` where the handles live on the GPU: ``auto`` (default: ``ubo`` where they fit,
+    else ``ssbo``), ``ssbo``, ``ubo`` or ``texture`` (see :mod:`glmls.storage`; ``ubo`` takes
+    at most ``GL_MAX_UNIFORM_BLOCK_SIZE / 16``, at least 1,024);
     ``bins`` sort the handles into a spatial grid so that each point visits only those in
     reach (weights with a radius; see :mod:`glmls.bins`): ``None`` (default) when it pays
     (256+ handles, reach under a quarter of their extent), ``True`` always, ``False`` never.
@@ -144,7 +146,7 @@ class MLS:
 
     def _setup(self, src, dst, config, shape, ctx, storage, bins) -> None:
         self._released = True  # until fully built, release() has nothing to free
-        self.storage = check_storage(storage)
+        check_storage(storage)
         if bins is not None and not isinstance(bins, bool):
             raise TypeError(f"bins must be True, False or None, got {bins!r}")
         if bins and config.weight not in RADIUS_WEIGHTS:
@@ -169,6 +171,8 @@ class MLS:
         self._bins_wanted = bins
         self._bins: BinBuffer | None = None
         self._gl.make_current()
+        #: The storage in use (``"auto"`` resolved for this many handles).
+        self.storage = resolve_storage(storage, self._gl.mgl, len(src))
         self._handles = make_storage(self.storage, self._gl.mgl)
         try:
             self._upload_handles(self.shape)

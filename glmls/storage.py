@@ -223,14 +223,25 @@ _CLASSES = {"ssbo": SSBOHandleStorage, "ubo": UBOHandleStorage, "texture": Textu
 
 
 def check_storage(storage: object) -> str:
-    """``storage`` if it names a storage; ``TypeError``/``ValueError`` otherwise."""
+    """``storage`` if it names a storage or ``"auto"``; ``TypeError``/``ValueError`` otherwise."""
+    choices = ("auto", *STORAGES)
     if not isinstance(storage, str):
-        raise TypeError(f"storage must be a string, one of {', '.join(STORAGES)}; got {storage!r}")
-    if storage not in _CLASSES:
-        raise ValueError(f"unknown storage {storage!r}; choose one of {', '.join(STORAGES)}")
+        raise TypeError(f"storage must be a string, one of {', '.join(choices)}; got {storage!r}")
+    if storage not in choices:
+        raise ValueError(f"unknown storage {storage!r}; choose one of {', '.join(choices)}")
     return storage
 
 
+def resolve_storage(storage: str, ctx: moderngl.Context, count: int) -> str:
+    """``"auto"``: the uniform block where the handles fit (the fastest on llvmpipe at every
+    count it takes, docs/handles.md), else the storage buffer; other names as they are."""
+    if check_storage(storage) != "auto":
+        return storage
+    return "ubo" if count <= int(ctx.info["GL_MAX_UNIFORM_BLOCK_SIZE"]) // 16 else "ssbo"
+
+
 def make_storage(storage: str, ctx: moderngl.Context) -> HandleStorage:
-    """A new, empty handle storage of kind ``storage`` (see :data:`STORAGES`)."""
-    return _CLASSES[check_storage(storage)](ctx)
+    """A new, empty handle storage of kind ``storage`` (one of :data:`STORAGES`)."""
+    if check_storage(storage) == "auto":
+        raise ValueError("resolve 'auto' with resolve_storage() first: it depends on the count")
+    return _CLASSES[storage](ctx)

@@ -46,6 +46,16 @@ def test_unroll_slots():
     assert [unroll_slots(n) for n in (0, 1, 16, 17, 64, 65, 10_000)] == [16, 16, 16, 64, 64, 0, 0]
 
 
+def test_auto_takes_the_uniform_block_where_the_handles_fit(gl):
+    capacity = UBOHandleStorage(gl.mgl).capacity
+    for n, expected in ((3, "ubo"), (capacity, "ubo"), (capacity + 1, "ssbo")):
+        p = np.stack([np.arange(n), np.zeros(n)], -1).astype(float)
+        with glmls.MLS(p, p, ctx=gl) as m:
+            assert m.storage == expected
+    with glmls.MLS(p, p, ctx=gl, storage="texture") as m:
+        assert m.storage == "texture"
+
+
 def test_bad_storage_and_capacity(gl):
     with pytest.raises(ValueError, match="unknown storage 'uniform'"):
         glmls.MLS([[0, 0]], [[1, 1]], ctx=gl, storage="uniform")

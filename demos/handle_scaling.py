@@ -1,0 +1,198 @@
+"""Time per frame against the number of handles, per handle storage and per weight.
+
+    python demos/handle_scaling.py [--size 1024] [--grid 4] [--out demos/out]
+
+One interactive frame = new handles (a new ``MLS``: upload, and sorting into bins where used),
+the deformed image drawn by ``WarpPipeline.render`` into an 8-bit framebuffer, ``finish()``.
+Handles sit on a jittered lattice over the image, targets moved by up to a quarter of the
+lattice step. Curves:
+
+- ``idw``, every handle per point, in each storage (``ssbo``, ``ubo`` up to its capacity,
+  ``texture``);
+- the weights with a radius (``cressman``, ``shepard``, ``linear``, ``gaussian``) at
+  R = ``--radius`` px with spatial bins (``bins=True``), and ``cressman`` without them.
+
+A curve stops once a frame takes longer than ``--max-seconds``. Also measured: the most
+handles each storage takes here and what the GL limits guarantee. Writes
+``handle_scaling.png`` and ``handle_scaling.csv``; ``docs/handles.md`` explains them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageDraw
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import glmls
+from glmls.pipeline import prepare_image
+from glmls.storage import STORAGES, make_storage
+
+COUNTS = [4**k for k in range(1, 9)]  # 4 .. 65,536
+
+
+def lattice_handles(n: int, size: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    side = math.ceil(math.sqrt(n))
+    step = size / side
+    grid = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2) + 0.5
+    p = grid[:n] * step + rng.uniform(-0.25, 0.25, (n, 2)) * step
+    return p, p + rng.uniform(-0.25, 0.25, (n, 2)) * step
+
+
+def frame_time(series: dict, n: int, args, gl, pipe, source, framebuffer) -> float:
+    """Median seconds of a frame (3 runs after one untimed)."""
+    p, q = lattice_handles(n, args.size)
+    times = []
+    for k in range(4):
+        start = time.perf_counter()
+        with glmls.MLS(p, q + 0.01 * k, shape=(args.size, args.size), ctx=gl, **series) as m:
+            gl.make_current()
+            framebuffer.use()
+            framebuffer.clear()
+            pipe.render(m, source, framebuffer, grid=args.grid)
+            gl.mgl.finish()
+        if k:
+            times.append(time.perf_counter() - start)
+    return float(np.median(times))
+
+
+def capacities(gl) -> dict[str, dict]:
+    """The most handles each storage takes here, whether that many evaluate, and what every
+    GL 4.3 driver must take: uniform block >= 16 KB, storage block >= 16 MB; for textures we
+    count 1,024 texels per side, the conservative minimum (newer tables list 16,384)."""
+    guaranteed = {"ubo": 16384 // 16, "ssbo": (16 << 20) // 16, "texture": 1024**2}
+    out = {}
+    for name in STORAGES:
+        storage = make_storage(name, gl.mgl)
+        capacity = storage.capacity
+        storage.release()
+        tried = min(capacity, 1 << 20)  # 1M handles: 16 MB, enough to show it works
+        p = np.random.default_rng(0).uniform(0, 1000, (tried, 2))
+        with glmls.MLS(p, p + 1, ctx=gl, storage=name) as m:
+            works = bool(np.isfinite(m(np.array([[500.0, 500.0]]))).all())
+        out[name] = {"capacity": capacity, "tried": tried, "works": works}
+        out[name]["guaranteed"] = guaranteed[name]
+    return out
+
+
+def plot(results: dict[str, list[tuple[int, float]]], path: Path, title: str) -> None:
+    colours = [
+        (31, 119, 180),
+        (255, 127, 14),
+        (44, 160, 44),
+        (214, 39, 40),
+        (148, 103, 189),
+        (140, 86, 75),
+        (227, 119, 194),
+        (127, 127, 127),
+        (23, 190, 207),
+    ]
+    width, height, left, top, right, bottom = 900, 560, 70, 40, 260, 50
+    image = Image.new("RGB", (width, height), "white")
+    draw = ImageDraw.Draw(image)
+    times = [t for points in results.values() for _, t in points]
+    lo = math.floor(math.log10(min(times)))
+    hi = max(math.ceil(math.log10(max(times))), lo + 1)
+    x0, x1 = math.log2(COUNTS[0]), math.log2(COUNTS[-1])
+
+    def xy(n: int, seconds: float) -> tuple[float, float]:
+        x = left + (width - left - right) * (math.log2(n) - x0) / (x1 - x0)
+        y = height - bottom - (height - top - bottom) * (math.log10(seconds) - lo) / (hi - lo)
+        return x, y
+
+    draw.text((left, 10), title, fill="black")
+    for decade in range(lo, hi + 1):
+        _, y = xy(COUNTS[0], 10.0**decade)
+        draw.line([(left, y), (width - right, y)], fill=(225, 225, 225))
+        draw.text((5, y - 6), f"{10.0**decade * 1e3:g} ms", fill="black")
+    for n in COUNTS:
+        x, _ = xy(n, 10.0**lo)
+        draw.line([(x, top), (x, height - bottom)], fill=(235, 235, 235))
+        draw.text((x - 12, height - bottom + 8), f"{n:,}", fill="black")
+    draw.text((left + 250, height - 18), "handles (log scale)", fill="black")
+    for i, (name, points) in enumerate(results.items()):
+        colour = colours[i % len(colours)]
+        line = [xy(n, t) for n, t in points]
+        if len(line) > 1:
+            draw.line(line, fill=colour, width=2)
+        for x, y in line:
+            draw.ellipse([x - 3, y - 3, x + 3, y + 3], fill=colour)
+        ly = top + 18 * i
+        key = [(width - right + 15, ly + 6), (width - right + 40, ly + 6)]
+        draw.line(key, fill=colour, width=3)
+        draw.text((width - right + 48, ly), name, fill="black")
+    image.save(path)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=1024)
+    parser.add_argument("--grid", type=int, default=4)
+    parser.add_argument("--radius", type=float, default=16.0, help="R of the radius weights, px")
+    parser.add_argument("--max-seconds", type=float, default=5.0)
+    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "out")
+    args = parser.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+
+    gl = glmls.get_context()
+    pipe = glmls.WarpPipeline(gl)
+    image = np.random.default_rng(1).integers(0, 255, (args.size, args.size, 3), np.uint8)
+    source = pipe.upload(prepare_image(image, pipe.max_image_size, normalized=True))
+    gl.make_current()
+    target = gl.mgl.texture((args.size, args.size), 4, dtype="f1")
+    framebuffer = gl.mgl.framebuffer(color_attachments=[target])
+
+    series: dict[str, dict] = {f"idw, {s}": {"storage": s, "bins": False} for s in STORAGES}
+    for weight in ("cressman", "shepard", "linear", "gaussian"):
+        series[f"{weight}, R {args.radius:g}, bins"] = {
+            "weight": weight,
+            "radius": args.radius,
+            "bins": True,
+        }
+    series[f"cressman, R {args.radius:g}, no bins"] = {
+        "weight": "cressman",
+        "radius": args.radius,
+        "bins": False,
+    }
+    limits = capacities(gl)
+    results: dict[str, list[tuple[int, float]]] = {}
+    rows = []
+    for name, options in series.items():
+        results[name] = []
+        cap = limits[options.get("storage", "ssbo")]["capacity"]
+        for n in COUNTS:
+            if n > cap:
+                break
+            seconds = frame_time(options, n, args, gl, pipe, source, framebuffer)
+            results[name].append((n, seconds))
+            rows.append({"series": name, "handles": n, "ms_per_frame": round(seconds * 1e3, 2)})
+            print(f"{name:<28} {n:>6} handles  {seconds * 1e3:9.1f} ms/frame", flush=True)
+            if seconds > args.max_seconds:
+                break
+    with open(args.out / "handle_scaling.csv", "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=["series", "handles", "ms_per_frame"])
+        writer.writeheader()
+        writer.writerows(rows)
+    title = (
+        f"time per frame, {args.size}^2 RGB, grid {args.grid}, llvmpipe "
+        f"({gl.mgl.info['GL_RENDERER'].split('(')[0].strip()})"
+    )
+    plot(results, args.out / "handle_scaling.png", title)
+    for name, info in limits.items():
+        print(
+            f"{name:<8} capacity here {info['capacity']:>12,} handles, guaranteed by GL 4.3 "
+            f"{info['guaranteed']:>12,}; {info['tried']:,} evaluated: {info['works']}"
+        )
+    print(f"wrote {args.out / 'handle_scaling.png'} and .csv")
+
+
+if __name__ == "__main__":
+    main()
