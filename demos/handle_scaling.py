@@ -181,10 +181,7 @@ def main() -> None:
         writer = csv.DictWriter(handle, fieldnames=["series", "handles", "ms_per_frame"])
         writer.writeheader()
         writer.writerows(rows)
-    title = (
-        f"time per frame, {args.size}^2 RGB, grid {args.grid}, llvmpipe "
-        f"({gl.mgl.info['GL_RENDERER'].split('(')[0].strip()})"
-    )
+    title = f"time per frame, {args.size}^2 RGB, grid {args.grid}, {gl.mgl.info['GL_RENDERER']}"
     plot(results, args.out / "handle_scaling.png", title)
     for name, info in limits.items():
         print(

@@ -280,7 +280,8 @@ class MLS:
 
         ``method``:
           - ``"quads"`` (forward with polygon interpolation): the mesh of pixel-square corners,
-            step ``grid`` pixels, is deformed and the GPU rasterizer fills each deformed quad.
+            step ``grid`` pixels, is deformed and each deformed quad is filled (scan-converted
+            on the GPU).
           - ``"splat"`` (simple forward): each source pixel v is written at round(f(v)), gaps
             and all.
           - ``"backward"``: each output pixel u samples the source at s with f(s) = u (Newton's

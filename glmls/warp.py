@@ -16,8 +16,9 @@ def warp(image: object, src: object, dst: object, **options: object) -> np.ndarr
 
     ``options``: those of :meth:`MLS.warp` (``method``, ``interpolation``, ``grid``,
     ``background``) and of :class:`MLS` (``transform``, ``weight``, ``alpha``, ``s``,
-    ``radius``, ``interpolating``, ``ctx``). The default radius is the image diagonal. GPU
-    objects are released before returning; keep an :class:`MLS` to warp many images.
+    ``radius``, ``interpolating``, ``ctx``, ``storage``, ``bins``). The default radius is the
+    image diagonal. GPU objects are released before returning; keep an :class:`MLS` to warp
+    many images.
     """
     warp_options = {k: options.pop(k) for k in _WARP_OPTIONS if k in options}
     array = np.asarray(image)
