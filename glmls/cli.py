@@ -21,6 +21,7 @@ import numpy as np
 
 from . import __version__, bench, data
 from .app import command as app_command
+from .argtypes import positive_int
 from .config import TRANSFORMS, WEIGHTS, MLSConfig
 from .errors import GLUnavailableError
 from .files import InputFileError, atomic_write, read_handles, read_points
@@ -38,16 +39,6 @@ IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
 
 class UsageError(Exception):
     """A mistake in the command line or its input files (exit status 2)."""
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {value}")
-    return value
 
 
 def _add_config_options(parser: argparse.ArgumentParser) -> None:
@@ -362,7 +353,7 @@ def _add_warp_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--method", choices=METHODS, default="quads")
     group.add_argument("--interpolation", choices=INTERPOLATIONS, default="nearest")
     group.add_argument(
-        "--grid", type=_positive_int, default=1, help="mesh step in pixels (default 1)"
+        "--grid", type=positive_int, default=1, help="mesh step in pixels (default 1)"
     )
 
 
@@ -381,7 +372,7 @@ def _add_example_inputs(parser: argparse.ArgumentParser, *, reference_required: 
     parser.add_argument("--out", metavar="DIR", required=True, help="output folder")
     parser.add_argument(
         "--analysis-grid",
-        type=_positive_int,
+        type=positive_int,
         default=1 if not reference_required else 4,
         help="mesh step of the error field in pixels",
     )
@@ -424,7 +415,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     tune_parser = _subparser(subparsers, "tune", "choose the best configuration automatically")
     _add_example_inputs(tune_parser, reference_required=True)
-    tune_parser.add_argument("--trials", type=_positive_int, default=5)
+    tune_parser.add_argument("--trials", type=positive_int, default=5)
     tune_parser.add_argument("--seed", type=int, default=0)
     tune_parser.add_argument(
         "--jitter",

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..argtypes import positive_float, positive_int
 from ..config import TRANSFORMS, WEIGHTS
 from ..errors import GLUnavailableError
 from ..files import InputFileError, read_handles, read_points
@@ -21,26 +22,6 @@ from ..files import InputFileError, read_handles, read_points
 __all__ = ["configure_parser", "run"]
 
 _CONSTRUCTIONS = {"quads-nearest": 0, "quads-linear": 1, "splat": 2, "backward": 3}
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {value}")
-    return value
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text}")
-    return value
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -74,9 +55,9 @@ def configure_parser(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--transform", choices=TRANSFORMS, default="rigid")
     parser.add_argument("--weight", choices=WEIGHTS, default="idw")
-    parser.add_argument("--alpha", type=_positive_float, default=1.0, help="idw power")
+    parser.add_argument("--alpha", type=positive_float, default=1.0, help="idw power")
     parser.add_argument(
-        "--radius", type=_positive_float, help="radius weights' R in pixels (default: diagonal)"
+        "--radius", type=positive_float, help="radius weights' R in pixels (default: diagonal)"
     )
     parser.add_argument(
         "--construction",
@@ -84,13 +65,13 @@ def configure_parser(parser: argparse.ArgumentParser) -> None:
         default="quads-nearest",
         help="how the deformed image is built (default: quads-nearest)",
     )
-    parser.add_argument("--grid", type=_positive_int, default=4, help="mesh step in pixels")
+    parser.add_argument("--grid", type=positive_int, default=4, help="mesh step in pixels")
     parser.add_argument(
         "--replay", type=Path, metavar="EVENTS.json", help="feed recorded events, one per frame"
     )
     parser.add_argument(
         "--frames",
-        type=_positive_int,
+        type=positive_int,
         metavar="N",
         help="render N frames, then exit (default with --replay or --screenshot: until the "
         "events are done)",
