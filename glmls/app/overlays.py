@@ -15,6 +15,7 @@ import numpy as np
 from ..colormaps import apply_colormap
 from ..context import GLContext
 from ..render import HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR, arrow_triangles, disk_triangles
+from .vertices import StreamingVertices
 
 __all__ = [
     "GeometryDrawer",
@@ -136,34 +137,14 @@ class GeometryDrawer:
         self._gl = gl
         self._shape = shape
         self._program = gl.program(("window_geometry.vert.glsl",), ("canvas.frag.glsl",))
-        self._buffer: moderngl.Buffer | None = None
-        self._vao: moderngl.VertexArray | None = None
+        self._vertices = StreamingVertices(gl, self._program, "2f 4f", "in_position", "in_color")
 
     def draw(self, vertices: np.ndarray, mode: int = moderngl.TRIANGLES) -> None:
-        if len(vertices) == 0:
-            return
-        mgl = self._gl.mgl
-        raw = np.ascontiguousarray(vertices, np.float32).tobytes()
-        if self._buffer is None or self._buffer.size < len(raw):
-            self._release_buffer()
-            self._buffer = mgl.buffer(reserve=max(2 * len(raw), 1 << 16))
-            self._vao = mgl.vertex_array(
-                self._program, [(self._buffer, "2f 4f", "in_position", "in_color")]
-            )
-        self._buffer.write(raw)
         self._program["u_size"].value = (self._shape[1], self._shape[0])
-        mgl.enable(moderngl.BLEND)
-        mgl.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
-        self._vao.render(mode, vertices=len(vertices))  # type: ignore[union-attr]
-
-    def _release_buffer(self) -> None:
-        for obj in (self._vao, self._buffer):
-            if obj is not None:
-                obj.release()
-        self._vao = self._buffer = None
+        self._vertices.draw(vertices, mode)
 
     def release(self) -> None:
-        self._release_buffer()
+        self._vertices.release()
 
 
 class PictureDrawer:

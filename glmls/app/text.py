@@ -15,6 +15,7 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 from ..context import GLContext
+from .vertices import StreamingVertices
 
 __all__ = ["GlyphAtlas", "TextRenderer"]
 
@@ -125,38 +126,19 @@ class TextRenderer:
         self._texture = mgl.texture((width, height), 1, atlas.image.tobytes(), alignment=1)
         self._texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._program = gl.program(("window_text.vert.glsl",), ("window_text.frag.glsl",))
-        self._buffer: moderngl.Buffer | None = None
-        self._vao: moderngl.VertexArray | None = None
+        self._vertices = StreamingVertices(
+            gl, self._program, "2f 2f 4f", "in_position", "in_uv", "in_color"
+        )
 
     def draw(self, parts: Iterable[np.ndarray], screen: tuple[int, int]) -> None:
         """Draw the vertex arrays ``parts`` (from :meth:`GlyphAtlas.quads` / ``rectangle``)
         in order; ``screen`` is the framebuffer's (width, height)."""
         data = np.concatenate([np.zeros((0, 8), np.float32), *parts]).astype(np.float32)
-        if len(data) == 0:
-            return
-        mgl = self._gl.mgl
-        raw = data.tobytes()
-        if self._buffer is None or self._buffer.size < len(raw):
-            self._release_buffer()
-            self._buffer = mgl.buffer(reserve=max(len(raw) * 2, 1 << 16))
-            self._vao = mgl.vertex_array(
-                self._program,
-                [(self._buffer, "2f 2f 4f", "in_position", "in_uv", "in_color")],
-            )
-        self._buffer.write(raw)
         self._program["u_screen"].value = screen
         self._program["u_atlas"].value = 0
         self._texture.use(0)
-        mgl.enable(moderngl.BLEND)
-        mgl.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
-        self._vao.render(moderngl.TRIANGLES, vertices=len(data))  # type: ignore[union-attr]
-
-    def _release_buffer(self) -> None:
-        for obj in (self._vao, self._buffer):
-            if obj is not None:
-                obj.release()
-        self._vao = self._buffer = None
+        self._vertices.draw(data)
 
     def release(self) -> None:
-        self._release_buffer()
+        self._vertices.release()
         self._texture.release()
