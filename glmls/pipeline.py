@@ -6,12 +6,14 @@ other GL object is cached by size and reused. Stages never read back in between:
 
 1. ``mls_points.comp.glsl`` (MLS_MESH) writes f at the mesh vertices into a buffer;
 2. quads: ``warp_cells.comp.glsl`` scan-converts every deformed cell in a compute shader,
-   keeping per pixel the key of the top triangle (atomicMax), and ``warp_cells.frag.glsl``
-   fills each pixel from that triangle (its interpolated source point, sampled). This is the
+   keeping per pixel the key of the top triangle (atomicMax), then the pixels are filled
+   from that triangle (see :meth:`WarpPipeline._draw_cells`: nearest colours of 8-bit images
+   are written by the scan conversion itself, fold-overs fixed up after). This is the
    rasterizer's job without its per-triangle setup (~0.25 us per triangle on llvmpipe: 0.5 s
    for the 2 million triangles of a 1024^2 image at grid 1). It needs a viewport of the
    image's size (``warp``, and ``render`` into such a viewport); other viewports (a window
-   scaling the image) and ``COMPUTE_QUADS = False`` use the GL rasterizer:
+   scaling the image), keys too long for 32 bits and ``COMPUTE_QUADS = False`` use the GL
+   rasterizer:
    ``warp_mesh.vert.glsl`` draws the buffer as triangles (or points, for ``splat``) and
    ``warp_mesh.frag.glsl`` samples the source texture at the interpolated source point;
 3. ``backward``: the same draw writes the source point instead (a first guess of f⁻¹),
@@ -66,10 +68,19 @@ BAND_BYTES = 1 << 26
 _LOCAL_SIZE = 64
 _MESH_BINDING = 2
 _WINNER_BINDING = 4
+_PACKED_SOURCE_BINDING = 5
+_PACKED_TARGET_BINDING = 6
+_FIXUPS_BINDING = 7
+_FIXUP_DISPATCH_BINDING = 8
 _MESH_UNIT = 2  # texture units of the resolve (the source is on 0)
 _WINNER_UNIT = 3
 #: Scan-convert quads in a compute shader (False: the GL rasterizer draws 2 triangles per cell).
 COMPUTE_QUADS = True
+#: Capacity of the fix-up list of the fused nearest quads (pixels where triangles overlap,
+#: see _draw_cells): one pixel in FIXUP_FRACTION, at least FIXUP_MIN. Beyond it (heavy
+#: fold-overs) the fix-up pass redoes every pixel instead: slower, same result.
+FIXUP_MIN = 4096
+FIXUP_FRACTION = 8
 
 
 @dataclass(frozen=True)
@@ -174,6 +185,53 @@ def check_options(method: object, interpolation: object, grid: object) -> None:
             raise ValueError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")
     if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or grid < 1:
         raise ValueError(f"grid must be an integer >= 1 (pixels), got {grid!r}")
+
+
+def cell_key_layout(
+    shape: tuple[int, int], grid: int, *, source_pixel: bool
+) -> tuple[int, int, int] | None:
+    """Bit layout of warp_cells.comp.glsl's triangle keys, (sub bits, column shift, row shift),
+    or None where a key would not fit in 31 bits (the rasterizer draws those meshes).
+
+    A key is cell row, cell column, triangle and, with ``source_pixel``, the chosen source
+    pixel's column and row inside the cell (``sub bits`` each), most significant first: keys
+    order triangles as one draw call in row-major cell order would (later ones on top).
+    """
+    height, width = shape
+    rows, columns = math.ceil(height / grid), math.ceil(width / grid)
+    sub_bits = (grid - 1).bit_length() if source_pixel else 0
+    col_shift = 1 + 2 * sub_bits
+    row_shift = col_shift + (columns - 1).bit_length()
+    if row_shift + (rows - 1).bit_length() > 31:
+        return None
+    return sub_bits, col_shift, row_shift
+
+
+def _as_rgba8(data: np.ndarray) -> np.ndarray:
+    """(H, W, C) uint8 as (H, W, 4), channels filled as GL fills them when sampling."""
+    if data.shape[2] == 4:
+        return data
+    out = np.zeros((*data.shape[:2], 4), np.uint8)
+    out[..., : data.shape[2]] = data
+    out[..., 3] = 255
+    return out
+
+
+def _packable(source: moderngl.Texture, target: object) -> bool:
+    """Can the fused nearest path write ``target``: RGBA8 textures of one size."""
+    return (
+        isinstance(target, moderngl.Texture)
+        and target.size == source.size
+        and (source.components, source.dtype) == (4, "f1")
+        and (target.components, target.dtype) == (4, "f1")
+    )
+
+
+def _set_uniforms(program, values: dict[str, object]) -> None:
+    """Set those of ``values`` the program uses (the compiler drops unused uniforms)."""
+    for name, value in values.items():
+        if name in program:
+            program[name].value = value
 
 
 def _use_texture(texture: moderngl.Texture, unit: int, linear: bool) -> None:
@@ -327,8 +385,13 @@ class WarpPipeline:
         for a ``normalized`` image)."""
         self._check_alive()
         height, width = image.shape
-        dtype = "f1" if image.normalized else "f4"
-        texture = self._texture(role, (width, height), image.channels, dtype)
+        if image.normalized:
+            # RGBA8 whatever the channels, as GL samples fewer (missing: 0, alpha: 1): texels
+            # of one uint32 let the nearest resolve copy them whole (_draw_cells).
+            texture = self._texture(role, (width, height), 4, "f1")
+            texture.write(_as_rgba8(image.data))
+            return texture
+        texture = self._texture(role, (width, height), image.channels, "f4")
         texture.write(image.data)
         return texture
 
@@ -393,62 +456,134 @@ class WarpPipeline:
         grid: int,
         coords: bool,
         flip_y: bool,
-    ) -> None:
-        """``quads`` by compute-shader scan conversion (warp_cells.comp.glsl) and a resolve
-        draw (warp_cells.frag.glsl) into the bound framebuffer, whose viewport must be the
-        target's size. A mesh too big for one band is evaluated twice: once for coverage,
-        once for the resolve of each band's pixels."""
+        target: object = None,
+    ) -> bool:
+        """``quads`` by compute-shader scan conversion (warp_cells.comp.glsl) into the bound
+        framebuffer, whose viewport must be the target's size; False (nothing drawn) where
+        the triangle keys do not fit in 32 bits.
+
+        Three ways to fill the pixels, fastest first:
+
+        - nearest, into an RGBA8 texture ``target`` from an RGBA8 source: the scan conversion
+          writes the colours itself and warp_cells_fixup.comp.glsl corrects fold-overs;
+        - nearest otherwise: the scan picks each pixel's source pixel, and a draw
+          (warp_cells_nearest.frag.glsl) copies it;
+        - linear or source points: warp_cells.frag.glsl interpolates the winning triangle;
+          a mesh too big for one band is evaluated twice (coverage, then each band's pixels).
+        """
         height, width = shape
+        nearest = not linear and not coords
+        layout = cell_key_layout(shape, grid, source_pixel=nearest)
+        if layout is None:
+            return False
+        sub_bits, col_shift, row_shift = layout
+        fused = nearest and not flip_y and _packable(source, target)
+        sc = mls.scaling
+        values = {
+            "u_center": sc.center,
+            "u_scale": sc.scale,
+            "u_target_size": (width, height),
+            "u_source_size": (width, height),
+            "u_grid": grid,
+            "u_sub_bits": sub_bits,
+            "u_col_shift": col_shift,
+            "u_row_shift": row_shift,
+            "u_fixup_capacity": max(FIXUP_MIN, width * height // FIXUP_FRACTION),
+        }
         winner = self._buffer("winner", width * height * 4)
         winner.clear(size=width * height * 4)
-        sc = mls.scaling
-        cells = self._gl.compute(("warp_cells.comp.glsl",))
-        values = {"u_center": sc.center, "u_scale": sc.scale, "u_target_size": (width, height)}
-        for name, value in values.items():
-            cells[name].value = value
+        if fused:
+            self._prepare_fused(source, target, values["u_fixup_capacity"])
+        cells = self._gl.compute(
+            ("warp_cells_packed.glsl", "warp_cells.comp.glsl"),
+            {"WARP_CELLS_SOURCE": nearest, "WARP_CELLS_FUSED": fused},
+        )
+        _set_uniforms(cells, values)
         bands = 0
         for first, dims in self._mesh_bands(mls, shape, grid, centres=False, indexed=False):
             cells["u_mesh_dims"].value = dims
             cells["u_first_row"].value = first
             self._buffers["mesh"].bind_to_storage_buffer(_MESH_BINDING)
             winner.bind_to_storage_buffer(_WINNER_BINDING)
+            if fused:
+                self._bind_fused()
             self._dispatch(cells, (dims[0] - 1) * (dims[1] - 1))
             bands += 1
         self._gl.mgl.memory_barrier()
-        program = self._gl.program(
-            ("warp_fullscreen.vert.glsl",),
-            ("warp_sample.glsl", "warp_cells.frag.glsl"),
-            {
-                "WARP_LINEAR": linear,
-                "WARP_OUTPUT_COORDS": coords,
-                "WARP_CELL_PIXEL": grid == 1 and not linear and not coords,
-            },
-        )
-        values |= {
-            "u_flip_y": flip_y,
-            "u_source_size": (width, height),
-            "u_grid": grid,
-            "u_source": 0,
-            "u_mesh": _MESH_UNIT,
-            "u_winner": _WINNER_UNIT,
-        }
-        for name, value in values.items():
-            if name in program:
-                program[name].value = value
+        if fused:
+            self._fix_up(values, target)
+        else:
+            whole_mesh = dims if bands == 1 else None
+            self._resolve(mls, source, values, linear, coords, flip_y, whole_mesh)
+        return True
+
+    def _prepare_fused(
+        self, source: moderngl.Texture, target: moderngl.Texture, capacity: int
+    ) -> None:
+        """The packed buffers of warp_cells_packed.glsl: copies of the source and of the
+        target (its background), and an empty fix-up list."""
+        width, height = source.size
+        source.read_into(self._buffer("packed source", width * height * 4))
+        # one spare texel at the end: uncovered lanes of the scan write there
+        target.read_into(self._buffer("packed target", (width * height + 1) * 4))
+        self._buffer("fixups", 16 + 4 * capacity).clear(size=16)
+
+    def _bind_fused(self) -> None:
+        self._buffers["packed source"].bind_to_storage_buffer(_PACKED_SOURCE_BINDING)
+        self._buffers["packed target"].bind_to_storage_buffer(_PACKED_TARGET_BINDING)
+        self._buffers["fixups"].bind_to_storage_buffer(_FIXUPS_BINDING)
+
+    def _fix_up(self, values: dict[str, object], target: moderngl.Texture) -> None:
+        """warp_cells_fixup.comp.glsl over the listed pixels (an indirect dispatch sized on
+        the GPU: no read-back), then the packed target back into the texture."""
+        parts = ("warp_cells_packed.glsl", "warp_cells_fixup.comp.glsl")
+        args = self._gl.compute(parts, {"WARP_FIXUP_ARGS": True})
+        fixup = self._gl.compute(parts, {"WARP_FIXUP_ARGS": False})
+        dispatch = self._buffer("fixup dispatch", 16)
+        self._bind_fused()
+        self._buffers["winner"].bind_to_storage_buffer(_WINNER_BINDING)
+        dispatch.bind_to_storage_buffer(_FIXUP_DISPATCH_BINDING)
+        for program in (args, fixup):
+            _set_uniforms(program, values)
+        args.run(group_x=1)
+        self._gl.mgl.memory_barrier()
+        fixup.run_indirect(dispatch)
+        self._gl.mgl.memory_barrier()
+        target.write(self._buffers["packed target"])
+
+    def _resolve(self, mls, source, values, linear, coords, flip_y, whole_mesh) -> None:
+        """Fill the bound framebuffer from the winner buffer with full-viewport draws.
+        ``whole_mesh``: the dims of the mesh still in the mesh buffer, None if it was done
+        in bands (it is then evaluated again, band by band)."""
+        if not linear and not coords:
+            program = self._gl.program(
+                ("warp_fullscreen.vert.glsl",), ("warp_cells_nearest.frag.glsl",)
+            )
+        else:
+            program = self._gl.program(
+                ("warp_fullscreen.vert.glsl",),
+                ("warp_sample.glsl", "warp_cells.frag.glsl"),
+                {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords},
+            )
+        units = {"u_source": 0, "u_mesh": _MESH_UNIT, "u_winner": _WINNER_UNIT}
+        _set_uniforms(program, values | units | {"u_flip_y": flip_y})
         if not coords:
             _use_texture(source, 0, linear)
         self._gl.mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        width, height = values["u_target_size"]
         winner_texture = self._texture("winner", (width, height), 1, "u4")
-        winner_texture.write(winner)  # a copy on the GPU side (a memcpy on llvmpipe)
+        winner_texture.write(self._buffers["winner"])  # a copy on the GPU side
         winner_texture.use(_WINNER_UNIT)
-        if bands == 1:
-            resolve = iter([(0, dims)])  # the whole mesh is still in the mesh buffer
+        if not linear and not coords:
+            self._vao(program).render(moderngl.TRIANGLES, vertices=3)
+            return
+        if whole_mesh is not None:
+            bands = iter([(0, whole_mesh)])
         else:
-            resolve = self._mesh_bands(mls, shape, grid, centres=False, indexed=False)
-        for first, dims in resolve:
-            for name, value in (("u_mesh_dims", dims), ("u_first_row", first)):
-                if name in program:
-                    program[name].value = value
+            grid = values["u_grid"]
+            bands = self._mesh_bands(mls, (height, width), grid, centres=False, indexed=False)
+        for first, dims in bands:
+            _set_uniforms(program, {"u_mesh_dims": dims, "u_first_row": first})
             mesh_texture = self._texture("mesh", dims, 2, "f4")
             mesh_texture.write(self._buffers["mesh"])
             mesh_texture.use(_MESH_UNIT)
@@ -523,11 +658,10 @@ class WarpPipeline:
             framebuffer.use()
             framebuffer.viewport = (0, 0, width, height)
             framebuffer.clear(0.0, 0.0, 0.0, 0.0)
-            if COMPUTE_QUADS and max(width, height) < (1 << 15):
-                self._draw_cells(
-                    mls, texture, shape, linear=False, grid=grid, coords=True, flip_y=False
-                )
-            else:
+            drawn = COMPUTE_QUADS and self._draw_cells(
+                mls, texture, shape, linear=False, grid=grid, coords=True, flip_y=False
+            )
+            if not drawn:
                 self._draw_mesh(
                     mls,
                     texture,
@@ -604,12 +738,18 @@ class WarpPipeline:
             if (
                 method == "quads"
                 and COMPUTE_QUADS
-                and max(width, height) < (1 << 15)  # the triangle keys of warp_cells
                 and tuple(framebuffer.viewport) == (0, 0, width, height)
-            ):
-                self._draw_cells(
-                    mls, source, shape, linear=linear, grid=grid, coords=False, flip_y=flip_y
+                and self._draw_cells(
+                    mls,
+                    source,
+                    shape,
+                    linear=linear,
+                    grid=grid,
+                    coords=False,
+                    flip_y=flip_y,
+                    target=framebuffer.color_attachments[0],
                 )
+            ):
                 return
             self._draw_mesh(
                 mls,

@@ -46,11 +46,11 @@ float mls_pow(float r) {
 // that depends on m (the squared distance to the nearest handle in use) so that the largest
 // weight is about 1: MLS is invariant to a common factor, and float32 neither overflows
 // (idw, shepard near a handle) nor underflows (gaussian far from every handle).
-float mls_weight(float d2, float m, float sigma) {
+float mls_weight(float d2, float m, float inv_m, float sigma) {
     float w;
 #if MLS_WEIGHT == 0
     // 1 / (s + d^(2 alpha)), times s + m^alpha; sigma = s / m^alpha
-    w = (sigma + 1.0) / (sigma + mls_pow(d2 / m));
+    w = (sigma + 1.0) / (sigma + mls_pow(d2 * inv_m));
 #elif MLS_WEIGHT == 1
     float R2 = u_radius * u_radius;
     w = max(0.0, (R2 - d2) / (R2 + d2));
@@ -66,7 +66,7 @@ float mls_weight(float d2, float m, float sigma) {
 #error "unknown MLS_WEIGHT"
 #endif
 #if MLS_INTERPOLATING
-    w = w > 0.0 ? w / mls_pow(d2 / m) : 0.0;   // 0, not 0/0, out of reach
+    w = w > 0.0 ? w / mls_pow(d2 * inv_m) : 0.0;   // 0, not 0/0, out of reach
 #endif
     return w;
 }
@@ -108,13 +108,14 @@ vec4 mls_rotation_scale(float mu, vec4 D, float spread) {
 //
 // 1. mls_nearest_add: the nearest handle (for snapping) and the normalisation distance m,
 //    a min over d^2, a few operations per handle;
-// 2. mls_accumulate: every weighted moment at once. Weighted means and central moments are
-//    updated per handle (the weighted Welford / Chan update, C += w W_old / W_new
-//    (p - p*_old)(p - p*_old)^T): each handle's p - p* is taken against the running centroid,
-//    so no moment is a difference of large sums (the raw-moment formula sum w p^2 - W p*^2
-//    loses the digits that matter where one handle dominates the weights, next to it), and
-//    differences of nearby float32 values are exact, so p - p* keeps its precision even for
-//    points far from a tight cluster of handles.
+// 2. mls_accumulate: every weighted moment at once, as plain sums about the nearest handle
+//    o (P = p - p_o, E = e - e_o); mls_finish turns them into the means and central moments
+//    (C = sum w P P^T - (sum w P)(sum w P)^T / W). About o, not the origin: differences of
+//    nearby float32 values are exact, so P keeps its precision even for points far from a
+//    tight cluster of handles, and where one handle dominates the weights (next to it) it is
+//    o itself, adds nothing to the sums, and the correction term is second order in the
+//    small weights, so no digits are lost. (A running-centroid Welford update is as precise
+//    here and costs a division per handle more.)
 //
 // Both loops are branch-free: llvmpipe (and GPUs, per warp) run both sides of a branch
 // whenever lanes disagree, so a "rare" branch costs its full price on every handle.
@@ -147,14 +148,15 @@ void mls_nearest_add(inout MLSNearest n, vec4 h, vec2 v, bool use) {
 struct MLSAccum {
     vec2 v;
     bool hit;       // v snaps to handle o: f(v) = its q
-    vec4 o;         // the nearest handle
+    vec4 o;         // the nearest handle: moments are taken about it
     float m;        // normalisation distance (see mls_weight)
+    float inv_m;    // 1 / m
     float sigma;    // idw: s / m^alpha
     float W;        // sum w
-    vec2 pm;        // p*, the weighted mean of p
-    vec2 em;        // e*, the weighted mean of e = q - p
-    vec3 A;         // sum w (p - p*)(p - p*)^T as (xx, xy, yy)
-    vec4 D;         // sum w (p - p*)_i (e - e*)_j as (11, 12, 21, 22)
+    vec2 P;         // sum w P, with P = p - p_o
+    vec2 E;         // sum w E, with E = e - e_o, e = q - p
+    vec3 PP;        // sum w P P^T as (xx, xy, yy)
+    vec4 PE;        // sum w P_i E_j as (11, 12, 21, 22)
     float spread;   // sum w |p - v|^2, the yardstick for "coincident"
 };
 
@@ -164,16 +166,17 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
     a.hit = u_snap && n.d2min <= u_hit2;
     a.o = n.h;
     a.m = a.hit ? n.d2far : max(n.d2min, u_hit2);
+    a.inv_m = 1.0 / a.m;
 #if MLS_WEIGHT == 0
     a.sigma = min(exp2(u_log2_s - u_alpha * log2(a.m)), 1e30);
 #else
     a.sigma = 0.0;
 #endif
     a.W = 0.0;
-    a.pm = vec2(0.0);
-    a.em = vec2(0.0);
-    a.A = vec3(0.0);
-    a.D = vec4(0.0);
+    a.P = vec2(0.0);
+    a.E = vec2(0.0);
+    a.PP = vec3(0.0);
+    a.PE = vec4(0.0);
     a.spread = 0.0;
     return a;
 }
@@ -183,17 +186,18 @@ void mls_accumulate(inout MLSAccum a, vec4 h, bool use) {
     float d2 = dot(dp, dp);
     // The snapped handle (and duplicates of it) is left out: its weight is infinite and its
     // p^ zero, see mls_finish. So is an empty slot (zeros: every term below is then 0).
-    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(d2, a.m, a.sigma);
-    float r = w / max(a.W + w, 1e-37);   // 0 while no handle reaches v
-    float c = a.W * r;                   // w W_old / W_new
+    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
+    // Moments about the nearest handle, not about the origin: the differences of nearby
+    // float32 values are exact, the nearest handle (the heaviest) adds nothing to them, and
+    // the central moments in mls_finish lose no digits where one handle dominates.
+    vec2 P = h.xy - a.o.xy;
+    vec2 E = (h.zw - h.xy) - (a.o.zw - a.o.xy);
+    vec2 wP = w * P;
     a.W += w;
-    vec2 dp0 = h.xy - a.pm;              // against the old means
-    vec2 de0 = (h.zw - h.xy) - a.em;
-    a.pm += r * dp0;
-    a.em += r * de0;
-    vec2 cp = c * dp0;
-    a.A += vec3(cp.x * dp0.x, cp.x * dp0.y, cp.y * dp0.y);
-    a.D += vec4(cp.x * de0.x, cp.x * de0.y, cp.y * de0.x, cp.y * de0.y);
+    a.P += wP;
+    a.E += w * E;
+    a.PP += vec3(wP.x * P.x, wP.x * P.y, wP.y * P.y);
+    a.PE += vec4(wP.x * E.x, wP.x * E.y, wP.y * E.x, wP.y * E.y);
     a.spread += w * d2;
 }
 
@@ -203,21 +207,20 @@ MLSResult mls_finish(MLSAccum a) {
     if (!hit && !(a.W > 0.0)) {
         return mls_identity(v);   // no handle reaches v (or there are none)
     }
-    vec2 pst = a.pm;
-    vec2 est = a.em;
-    vec3 A = a.A;
-    vec4 D = a.D;
-    if (hit) {
-        // Snapped: p* = p_i and q* = q_i exactly, the other handles' moments about them
-        // (parallel axis: central moments plus W times the offset of the means).
-        pst = a.o.xy;
-        est = a.o.zw - a.o.xy;
-        vec2 dp = a.pm - pst;
-        vec2 de = a.em - est;
-        vec2 wp = a.W * dp;
-        A += vec3(wp.x * dp.x, wp.x * dp.y, wp.y * dp.y);
-        D += vec4(wp.x * de.x, wp.x * de.y, wp.y * de.x, wp.y * de.y);
+    vec2 pst = a.o.xy;
+    vec2 est = a.o.zw - a.o.xy;
+    vec3 A = a.PP;
+    vec4 D = a.PE;
+    if (!hit) {
+        // p* = p_o + sum w P / W, e* likewise, and the moments about them
+        vec2 dp = a.P / a.W;
+        vec2 de = a.E / a.W;
+        pst += dp;
+        est += de;
+        A -= vec3(a.P.x * dp.x, a.P.x * dp.y, a.P.y * dp.y);
+        D -= vec4(a.P.x * de.x, a.P.x * de.y, a.P.y * de.x, a.P.y * de.y);
     }
+    // Snapped: p* = p_o and q* = q_o exactly, and the moments about them are the sums.
     float a11 = A.x, a12 = A.y, a22 = A.z;
     float spread = a.spread;
 

@@ -4,12 +4,20 @@
 //
 // One invocation per mesh cell: the cell's two triangles (00, 10, 11) and (00, 11, 01) are
 // tested at every pixel centre of their bounding box, and each covered pixel records the
-// triangle's key 1 + (cell row << 16 | cell column << 1 | 0 or 1) with atomicMax (cells up to
-// 32767 per side). The largest key wins whatever order the invocations run in, and keys are
-// ordered as the triangles of one draw call in row-major cell order, so this is OpenGL's rule
-// (later primitives on top): where cells fold, the cell with the larger source row, then
-// column, shows, and warp_cells.frag.glsl fills the pixel from that triangle. (Shifts, not a
-// row-major index, so that the fill decodes it without an integer division per pixel.)
+// triangle's key with atomicMax. A key is 1 + the bit fields, most significant first,
+// cell row | cell column | triangle (0, 1) | [WARP_CELLS_SOURCE: the nearest source pixel's
+// row and column inside the cell, u_sub_bits each], at the shifts glmls.pipeline's
+// cell_key_layout chose (31 bits at most). The largest key wins whatever order the
+// invocations run in, and keys are ordered as the triangles of one draw call in row-major
+// cell order, so this is OpenGL's rule (later primitives on top): where cells fold, the cell
+// with the larger source row, then column, shows. (Bit fields, not a row-major index, so
+// that the fills decode them without an integer division per pixel.)
+//
+// The fills: warp_cells.frag.glsl interpolates the winning triangle (linear, source points);
+// with WARP_CELLS_SOURCE (nearest) the key holds the source pixel and
+// warp_cells_nearest.frag.glsl copies it; with WARP_CELLS_FUSED as well (RGBA8 source and
+// target) this shader writes the colours itself (warp_cells_packed.glsl) and
+// warp_cells_fixup.comp.glsl corrects the pixels that more than one triangle reached.
 //
 // Coverage is OpenGL's: pixel centres strictly inside, and on an edge only for one of the two
 // triangles that share it (a top-left style tie rule). Each edge function is computed from
@@ -30,6 +38,13 @@ uniform ivec2 u_target_size;  // W, H in pixels
 uniform ivec2 u_mesh_dims;    // vertices per row, rows (of this band)
 uniform int u_first_row;      // mesh row of the band's first row (bands: see WarpPipeline)
 uniform int u_offset;         // first cell of this dispatch
+uniform int u_sub_bits;       // key layout, see above (shifts of the low end of each field)
+uniform int u_col_shift;
+uniform int u_row_shift;
+#if WARP_CELLS_SOURCE
+uniform int u_grid;           // mesh step in pixels
+uniform ivec2 u_source_size;  // W, H of the source image
+#endif
 
 vec2 vertex_px(int i) {
     return warp_mesh[i] * u_scale + u_center;
@@ -71,7 +86,18 @@ void main() {
     vec2 hi = max(max(p00, p10), max(p01, p11));
     ivec2 first = max(ivec2(ceil(lo)), ivec2(0));
     ivec2 last = min(ivec2(floor(hi)), u_target_size - 1);
-    uint id0 = (uint(cy + u_first_row) << 16 | uint(cx) << 1) + 1u;   // triangle 0's key
+    int row = cy + u_first_row;
+    uint id0 = (uint(row) << u_row_shift | uint(cx) << u_col_shift) + 1u;   // triangle 0's key
+    uint id1 = id0 + (1u << (2 * u_sub_bits));
+#if WARP_CELLS_SOURCE
+    // the cell's source pixels and the inverse areas of its triangles (barycentrics)
+    ivec2 cell_lo = ivec2(cx, row) * u_grid;
+    ivec2 cell_hi = min(cell_lo + u_grid - 1, u_source_size - 1);
+    vec2 s00 = vec2(cell_lo) - 0.5;
+    vec2 size = min(vec2(cell_lo + u_grid) - 0.5, vec2(u_source_size) - 0.5) - s00;
+    float inv0 = 1.0 / edge(p00, p10, p11);
+    float inv1 = 1.0 / edge(p00, p11, p01);
+#endif
     for (int y = first.y; y <= last.y; ++y) {
         for (int x = first.x; x <= last.x; ++x) {
             vec2 p = vec2(x, y);
@@ -82,19 +108,48 @@ void main() {
             float e_c = edge(p01, p11, p);   // 01 -> 11
             float e_e = edge(p00, p01, p);   // 00 -> 01
             uint id = 0u;
+#if WARP_CELLS_SOURCE
+            vec2 t = vec2(0.0);   // where in the cell's source rectangle, 0..1 (barycentric)
+#endif
             // triangle 0: 00 -> 10 -> 11 -> 00
             if (s0 != 0.0 && covers(s0 * e_a, s0 * (p10 - p00)) &&
                 covers(s0 * e_b, s0 * (p11 - p10)) && covers(-s0 * e_d, s0 * (p00 - p11))) {
                 id = id0;
+#if WARP_CELLS_SOURCE
+                t = vec2(1.0 - e_b * inv0, e_a * inv0);
+#endif
             }
             // triangle 1: 00 -> 11 -> 01 -> 00 (drawn after triangle 0: it wins)
             if (s1 != 0.0 && covers(s1 * e_d, s1 * (p11 - p00)) &&
                 covers(-s1 * e_c, s1 * (p01 - p11)) && covers(-s1 * e_e, s1 * (p00 - p01))) {
-                id = id0 + 1u;
+                id = id1;
+#if WARP_CELLS_SOURCE
+                t = vec2(-e_e * inv1, 1.0 + e_c * inv1);
+#endif
             }
-            if (id != 0u) {
-                atomicMax(warp_winner[y * u_target_size.x + x], id);
+            // Branch-free from here: llvmpipe runs buffer accesses under a divergent branch
+            // lane by lane with mask tests, about twice the cost. An uncovered pixel (id 0)
+            // changes nothing: atomicMax with 0, its colour into a spare texel.
+#if WARP_CELLS_SOURCE
+            // nearest: the source pixel containing the point, clamped to the cell
+            ivec2 sp = clamp(ivec2(floor(s00 + t * size + 0.5)), cell_lo, cell_hi) - cell_lo;
+            id += id != 0u ? uint(sp.y << u_sub_bits | sp.x) : 0u;
+#endif
+            int i = y * u_target_size.x + x;
+            uint before = atomicMax(warp_winner[i], id);
+#if WARP_CELLS_FUSED
+            // Every triangle writes its colour, in any order; one that finds the pixel
+            // taken lists it for warp_cells_fixup.comp.glsl, which writes the winner's.
+            ivec2 s = cell_lo + sp;
+            int spare = u_target_size.x * u_target_size.y;
+            warp_target[id != 0u ? i : spare] = warp_source[s.y * u_source_size.x + s.x];
+            if (before != 0u && id != 0u) {
+                uint k = atomicAdd(warp_fixup_count, 1u);
+                if (k < uint(u_fixup_capacity)) {
+                    warp_fixups[k] = uint(i);
+                }
             }
+#endif
         }
     }
 }

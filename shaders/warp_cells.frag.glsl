@@ -7,8 +7,8 @@
 // triangle lies in its band (cell rows u_first_row .. u_first_row + rows - 2).
 //
 // Expects before it: warp_sample.glsl, and
-//   WARP_OUTPUT_COORDS 1: write (s.x, s.y, 1, 0) instead of the colour (backward's guess);
-//   WARP_CELL_PIXEL    1: grid 1 and nearest, the colour is the cell's own pixel.
+//   WARP_OUTPUT_COORDS 1: write (s.x, s.y, 1, 0) instead of the colour (backward's guess).
+// Nearest colours take the shorter way of warp_cells_nearest.frag.glsl.
 // Copies of the mesh (RG32F, one texel per vertex of the band) and of the winner buffer
 // (R32UI, one texel per pixel) as textures: texel fetches are vectorised on llvmpipe, storage
 // buffer reads go lane by lane (2x slower here).
@@ -19,6 +19,8 @@ uniform vec2 u_center;
 uniform float u_scale;
 uniform ivec2 u_target_size;
 uniform bool u_flip_y;
+uniform int u_col_shift;      // key layout, see warp_cells.comp.glsl (no source pixel bits)
+uniform int u_row_shift;
 
 layout(location = 0) out vec4 out_color;
 
@@ -35,18 +37,14 @@ void main() {
     if (id == 0u) {
         discard;
     }
-    uint key = id - 1u;   // cell row << 16 | cell column << 1 | triangle
+    uint key = id - 1u;   // cell row, cell column, triangle
     int triangle = int(key & 1u);
-    ivec2 c = ivec2((key >> 1) & 0x7fffu, int(key >> 16) - u_first_row);   // in the band
+    uint columns = key & ((1u << u_row_shift) - 1u);
+    ivec2 c = ivec2(columns >> u_col_shift, int(key >> u_row_shift) - u_first_row);   // in the band
     if (c.y < 0 || c.y >= u_mesh_dims.y - 1) {
         discard;   // another band's triangle
     }
     ivec2 g = c + ivec2(0, u_first_row);   // mesh row and column
-#if WARP_CELL_PIXEL
-    // grid 1, nearest: the cell is one source pixel, whatever the point inside it
-    out_color = texelFetch(u_source, g, 0);
-    return;
-#endif
     // the triangle's corners as mesh offsets: (00, 10, 11) or (00, 11, 01)
     ivec2 kb = triangle == 0 ? ivec2(1, 0) : ivec2(1, 1);
     ivec2 kc = triangle == 0 ? ivec2(1, 1) : ivec2(0, 1);

@@ -387,3 +387,107 @@ def test_meshes_drawn_in_bands_match_one_band(gl, rng, monkeypatch):
             assert_array_equal(m.warp(img, method=method, background=1), whole[method])
     with glmls.MLS(p, p, ctx=gl) as m:
         assert_array_equal(m.warp(img), img)
+
+
+# -- the fused nearest quads (warp_cells.comp.glsl writes colours, fix-ups on folds) ----------
+
+
+def folded_case():
+    """A small image whose mesh folds (the centre handle dragged past its neighbours)."""
+    shape = (40, 48)
+    p = np.array([[10, 10], [38, 8], [24, 20], [12, 32], [36, 30.0]])
+    q = p.copy()
+    q[2] = [44, 21]
+    return shape, p, q
+
+
+def count_calls(monkeypatch, owner, name):
+    calls = []
+    method = getattr(owner, name)
+
+    def spy(*args, **kwargs):
+        calls.append(name)
+        return method(*args, **kwargs)
+
+    monkeypatch.setattr(owner, name, spy)
+    return calls
+
+
+@pytest.mark.parametrize("grid", [1, 3, 4])
+def test_fused_quads_match_the_resolve_draw_on_folds(gl, monkeypatch, grid):
+    """uint8 RGBA images take the fused path (colours written by the scan conversion, folds
+    fixed up after); uint16 ones the resolve draw. Both show the same source pixels."""
+    shape, p, q = folded_case()
+    coords16 = coordinate_image(*shape)
+    coords8 = coords16.astype(np.uint8)  # x, y < 256
+    fixups = count_calls(monkeypatch, glmls.WarpPipeline, "_fix_up")
+    with glmls.MLS(p, q, ctx=gl) as m:
+        assert glmls.foldovers(m, shape, grid).count > 0
+        fused = m.warp(coords8, grid=grid, background=255)
+        assert fixups, "the fused path was not taken"
+        drawn = m.warp(coords16, grid=grid, background=SENTINEL)
+    covered = drawn[..., 0] != SENTINEL
+    assert_array_equal(fused[..., :2][covered], drawn[..., :2][covered])
+    assert (fused[~covered] == 255).all()
+
+
+@pytest.mark.parametrize("capacity", [1, 3])
+def test_fused_quads_survive_an_overflowing_fixup_list(gl, monkeypatch, capacity):
+    """More overlapping pixels than the fix-up list holds: every pixel is redone."""
+    shape, p, q = folded_case()
+    img = coordinate_image(*shape).astype(np.uint8)
+    with glmls.MLS(p, q, ctx=gl) as m:
+        expected = m.warp(img, background=255)
+        monkeypatch.setattr(glmls.pipeline, "FIXUP_MIN", capacity)
+        monkeypatch.setattr(glmls.pipeline, "FIXUP_FRACTION", 10**9)
+        assert_array_equal(m.warp(img, background=255), expected)
+
+
+def test_fused_quads_keep_the_callers_background(gl, rng):
+    """render() fills only covered pixels of an RGBA8 target: what was there stays."""
+    shape, p, q = folded_case()
+    img = rng.integers(0, 255, (*shape, 4), dtype=np.uint8)
+    pipe = glmls.WarpPipeline(gl)
+    with glmls.MLS(p, q, ctx=gl) as m:
+        expected = m.warp(img, background=(1, 2, 3, 4))
+        source = pipe.upload(glmls.pipeline.prepare_image(img, 4096, normalized=True))
+        target = gl.mgl.texture((shape[1], shape[0]), 4, dtype="f1")
+        bound = gl.mgl.fbo or gl.mgl.detect_framebuffer(0)
+        framebuffer = gl.mgl.framebuffer(color_attachments=[target])
+        try:
+            framebuffer.use()
+            framebuffer.clear(1 / 255, 2 / 255, 3 / 255, 4 / 255)
+            pipe.render(m, source, framebuffer)
+            out = np.frombuffer(target.read(), np.uint8).reshape(*shape, 4)
+        finally:
+            bound.use()  # never leave a released framebuffer bound
+            framebuffer.release()
+            target.release()
+            pipe.release()
+    assert_array_equal(out, expected)
+
+
+def test_rasterizer_quads_agree_with_the_compute_scan_conversion(gl, rng, monkeypatch):
+    """The GL rasterizer path (other viewports, keys too long) covers the same pixels with
+    the same source pixels, but for pixel centres within rounding of an edge."""
+    shape = (64, 80)
+    p, q = smooth_handles(shape, rng)
+    img = coordinate_image(*shape)
+    with glmls.MLS(p, q, ctx=gl) as m:
+        scan = m.warp(img, grid=4, background=SENTINEL)
+        monkeypatch.setattr(glmls.pipeline, "cell_key_layout", lambda *a, **k: None)
+        raster = m.warp(img, grid=4, background=SENTINEL)
+    same = (scan == raster).all(axis=-1)
+    assert same.mean() > 0.99
+
+
+def test_cell_keys_fit_in_31_bits_or_are_refused():
+    layout = glmls.pipeline.cell_key_layout
+    assert layout((1024, 1024), 4, source_pixel=True) == (2, 5, 13)
+    assert layout((1024, 1024), 1, source_pixel=True) == (0, 1, 11)
+    assert layout((1024, 1024), 4, source_pixel=False) == (0, 1, 9)
+    assert layout((16384, 16384), 1, source_pixel=True) == (0, 1, 15)  # 29 bits
+    assert layout((32768, 32768), 1, source_pixel=True) == (0, 1, 16)  # 31 bits
+    assert layout((40000, 40000), 1, source_pixel=True) is None
+    assert layout((30000, 30000), 3, source_pixel=True) is None  # 14 + 14 + 1 + 4 bits
+    assert layout((30000, 30000), 3, source_pixel=False) is not None

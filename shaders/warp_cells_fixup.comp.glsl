@@ -1,0 +1,54 @@
+// After the fused scan conversion (warp_cells.comp.glsl, WARP_CELLS_FUSED): each pixel that
+// more than one triangle reached gets the colour of the one on top, decoded from its key
+// (cell row, cell column, triangle, source pixel in the cell). If more pixels were listed
+// than the list holds, every covered pixel is redone instead. Dispatched indirectly, with
+// the size WARP_FIXUP_ARGS wrote from the count, so nothing is read back.
+//
+// Expects before it: warp_cells_packed.glsl.
+layout(local_size_x = 64) in;
+
+layout(std430, binding = 4) readonly buffer WarpWinner {
+    uint warp_winner[];   // per target pixel, row-major: the top triangle's key, 0 = none
+};
+layout(std430, binding = 8) buffer WarpFixupDispatch {
+    uvec4 warp_fixup_groups;   // x, y, z work groups of the fix-up dispatch
+};
+
+uniform ivec2 u_target_size;
+uniform int u_grid;           // mesh step in pixels
+uniform int u_sub_bits;       // key layout, see warp_cells.comp.glsl
+uniform int u_col_shift;
+uniform int u_row_shift;
+
+#define WARP_GROUPS_X 32768u
+
+bool overflowed() {
+    return warp_fixup_count > uint(u_fixup_capacity);
+}
+
+void main() {
+#if WARP_FIXUP_ARGS
+    // one invocation: the work groups for the listed pixels, or for all of them
+    uint n = overflowed() ? uint(u_target_size.x * u_target_size.y) : warp_fixup_count;
+    uint groups = (n + 63u) / 64u;
+    warp_fixup_groups = uvec4(min(groups, WARP_GROUPS_X), (groups + WARP_GROUPS_X - 1u) /
+                              WARP_GROUPS_X, 1u, 0u);
+#else
+    uint j = gl_GlobalInvocationID.y * gl_NumWorkGroups.x * 64u + gl_GlobalInvocationID.x;
+    bool all_pixels = overflowed();
+    if (j >= (all_pixels ? uint(u_target_size.x * u_target_size.y) : warp_fixup_count)) {
+        return;
+    }
+    uint i = all_pixels ? j : warp_fixups[j];
+    uint id = warp_winner[i];
+    if (id == 0u) {
+        return;   // uncovered (all pixels redone): the background stays
+    }
+    uint key = id - 1u;
+    uint sub_mask = (1u << u_sub_bits) - 1u;
+    ivec2 sub = ivec2(key & sub_mask, (key >> u_sub_bits) & sub_mask);
+    uint columns = key & ((1u << u_row_shift) - 1u);
+    ivec2 s = ivec2(columns >> u_col_shift, key >> u_row_shift) * u_grid + sub;
+    warp_target[i] = warp_source[s.y * u_target_size.x + s.x];
+#endif
+}

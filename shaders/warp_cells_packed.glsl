@@ -1,0 +1,17 @@
+// The buffers of the fused nearest path of the quads (WARP_CELLS_FUSED): warp_cells.comp.glsl
+// writes each covered pixel's colour as it scan-converts, and warp_cells_fixup.comp.glsl then
+// corrects the pixels where triangles overlap (fold-overs). Texels are packed RGBA8, one
+// uint32 each: storage buffer accesses go lane by lane on llvmpipe, and texel fetches or
+// fragment outputs convert each channel besides (about twice the cost there).
+layout(std430, binding = 5) readonly buffer WarpSource {
+    uint warp_source[];   // the source image, row-major
+};
+layout(std430, binding = 6) buffer WarpTarget {
+    uint warp_target[];   // the target texture's texels (its background on entry), row-major
+};
+layout(std430, binding = 7) buffer WarpFixups {
+    uint warp_fixup_count;   // pixels a second triangle reached (may exceed the capacity)
+    uint warp_fixup_pad[3];
+    uint warp_fixups[];      // their indices, the first u_fixup_capacity of them
+};
+uniform int u_fixup_capacity;
