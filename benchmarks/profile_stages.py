@@ -3,9 +3,10 @@
 ``python benchmarks/profile_stages.py [--size 1024] [--handles 64] [--storage ubo]``
 
 Every stage is followed by ``ctx.finish()`` (so the stages do not overlap as they do in a real
-frame): mesh evaluation (mls_points.comp.glsl), scan conversion (warp_cells.comp.glsl), the
-fill (warp_cells.frag.glsl), and for comparison the GL rasterizer path (two triangles per
-cell). Median and min of ``--repeat`` runs, milliseconds.
+frame): mesh evaluation (mls_points.comp.glsl), a whole frame by compute scan conversion
+(warp_cells.comp.glsl writing the colours of an 8-bit image, fold-overs fixed up by
+warp_cells_fixup.comp.glsl), the same frame with the GL rasterizer drawing two triangles per
+cell, and ``m.warp`` (numpy in and out). Median and min of ``--repeat`` runs, milliseconds.
 """
 
 from __future__ import annotations
