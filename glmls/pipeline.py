@@ -538,7 +538,7 @@ class WarpPipeline:
     def _fix_up(self, values: dict[str, object], target: moderngl.Texture) -> None:
         """warp_cells_fixup.comp.glsl over the listed pixels (an indirect dispatch sized on
         the GPU: no read-back), then the packed target back into the texture."""
-        parts = ("warp_cells_packed.glsl", "warp_cells_fixup.comp.glsl")
+        parts = ("warp_cells_packed.glsl", "warp_cells_key.glsl", "warp_cells_fixup.comp.glsl")
         args = self._gl.compute(parts, {"WARP_FIXUP_ARGS": True})
         fixup = self._gl.compute(parts, {"WARP_FIXUP_ARGS": False})
         dispatch = self._buffer("fixup dispatch", 16)
@@ -559,7 +559,8 @@ class WarpPipeline:
         in bands (it is then evaluated again, band by band)."""
         if not linear and not coords:
             program = self._gl.program(
-                ("warp_fullscreen.vert.glsl",), ("warp_cells_nearest.frag.glsl",)
+                ("warp_fullscreen.vert.glsl",),
+                ("warp_cells_key.glsl", "warp_cells_nearest.frag.glsl"),
             )
         else:
             program = self._gl.program(

@@ -4,7 +4,7 @@
 // than the list holds, every covered pixel is redone instead. Dispatched indirectly, with
 // the size WARP_FIXUP_ARGS wrote from the count, so nothing is read back.
 //
-// Expects before it: warp_cells_packed.glsl.
+// Expects before it: warp_cells_packed.glsl, warp_cells_key.glsl.
 layout(local_size_x = 64) in;
 
 layout(std430, binding = 4) readonly buffer WarpWinner {
@@ -15,10 +15,6 @@ layout(std430, binding = 8) buffer WarpFixupDispatch {
 };
 
 uniform ivec2 u_target_size;
-uniform int u_grid;           // mesh step in pixels
-uniform int u_sub_bits;       // key layout, see warp_cells.comp.glsl
-uniform int u_col_shift;
-uniform int u_row_shift;
 
 #define WARP_GROUPS_X 32768u
 
@@ -44,11 +40,7 @@ void main() {
     if (id == 0u) {
         return;   // uncovered (all pixels redone): the background stays
     }
-    uint key = id - 1u;
-    uint sub_mask = (1u << u_sub_bits) - 1u;
-    ivec2 sub = ivec2(key & sub_mask, (key >> u_sub_bits) & sub_mask);
-    uint columns = key & ((1u << u_row_shift) - 1u);
-    ivec2 s = ivec2(columns >> u_col_shift, key >> u_row_shift) * u_grid + sub;
+    ivec2 s = warp_key_source_pixel(id);
     warp_target[i] = warp_source[s.y * u_target_size.x + s.x];
 #endif
 }

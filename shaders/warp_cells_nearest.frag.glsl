@@ -4,15 +4,13 @@
 // fetch per pixel, no mesh: this pass is the same for a mesh evaluated in bands. Drawn as one
 // full-viewport triangle; the viewport has the target's size. Pixels no triangle covers are
 // discarded (the background stays).
+//
+// Expects before it: warp_cells_key.glsl.
 uniform sampler2D u_source;
 uniform usampler2D u_winner;
 
 uniform ivec2 u_target_size;
 uniform bool u_flip_y;
-uniform int u_grid;           // mesh step in pixels
-uniform int u_sub_bits;       // key layout, see warp_cells.comp.glsl
-uniform int u_col_shift;
-uniform int u_row_shift;
 
 layout(location = 0) out vec4 out_color;
 
@@ -25,10 +23,5 @@ void main() {
     if (id == 0u) {
         discard;
     }
-    uint key = id - 1u;
-    uint sub_mask = (1u << u_sub_bits) - 1u;
-    ivec2 sub = ivec2(key & sub_mask, (key >> u_sub_bits) & sub_mask);
-    uint columns = key & ((1u << u_row_shift) - 1u);
-    ivec2 cell = ivec2(columns >> u_col_shift, key >> u_row_shift);
-    out_color = texelFetch(u_source, cell * u_grid + sub, 0);
+    out_color = texelFetch(u_source, warp_key_source_pixel(id), 0);
 }

@@ -1,0 +1,15 @@
+// Decoding of the triangle keys of warp_cells.comp.glsl (WARP_CELLS_SOURCE): the source pixel
+// that the winning triangle chose for a target pixel.
+uniform int u_grid;           // mesh step in pixels
+uniform int u_sub_bits;       // key layout, see warp_cells.comp.glsl
+uniform int u_col_shift;
+uniform int u_row_shift;
+
+// id: a nonzero key (1 + the bit fields).
+ivec2 warp_key_source_pixel(uint id) {
+    uint key = id - 1u;
+    uint sub_mask = (1u << u_sub_bits) - 1u;
+    ivec2 sub = ivec2(key & sub_mask, (key >> u_sub_bits) & sub_mask);
+    uint columns = key & ((1u << u_row_shift) - 1u);
+    return ivec2(columns >> u_col_shift, key >> u_row_shift) * u_grid + sub;
+}
