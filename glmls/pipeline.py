@@ -557,7 +557,8 @@ class WarpPipeline:
         """Fill the bound framebuffer from the winner buffer with full-viewport draws.
         ``whole_mesh``: the dims of the mesh still in the mesh buffer, None if it was done
         in bands (it is then evaluated again, band by band)."""
-        if not linear and not coords:
+        nearest = not linear and not coords
+        if nearest:
             program = self._gl.program(
                 ("warp_fullscreen.vert.glsl",),
                 ("warp_cells_key.glsl", "warp_cells_nearest.frag.glsl"),
@@ -577,7 +578,7 @@ class WarpPipeline:
         winner_texture = self._texture("winner", (width, height), 1, "u4")
         winner_texture.write(self._buffers["winner"])  # a copy on the GPU side
         winner_texture.use(_WINNER_UNIT)
-        if not linear and not coords:
+        if nearest:
             self._vao(program).render(moderngl.TRIANGLES, vertices=3)
             return
         if whole_mesh is not None:

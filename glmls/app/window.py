@@ -28,6 +28,7 @@ from ..files import atomic_write, read_handles, write_handles
 from ..io import imwrite
 from ..mls import MLS
 from ..pipeline import WarpPipeline, prepare_image
+from ..render import as_rgb8
 from .controller import BINDINGS, OVERLAYS, Controller, Key, Move, Press, Release, Settings
 from .events import Wait
 from .layout import layout
@@ -220,9 +221,8 @@ class App:
         self.gl: GLContext = get_context(mgl)  # glmls adopts the window's context
         self.pipeline = WarpPipeline(self.gl)
         # 8-bit, as the framebuffer: nearest quads then take the pipeline's fused path
-        display8 = np.round(self.display * 255.0).astype(np.uint8)
         self.source = self.pipeline.upload(
-            prepare_image(display8, self.pipeline.max_image_size, normalized=True)
+            prepare_image(as_rgb8(self.display), self.pipeline.max_image_size, normalized=True)
         )
         self.geometry = GeometryDrawer(self.gl, self.shape)
         self.picture = PictureDrawer(self.gl, self.shape)
