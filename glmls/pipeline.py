@@ -72,10 +72,14 @@ _PACKED_SOURCE_BINDING = 5
 _PACKED_TARGET_BINDING = 6
 _FIXUPS_BINDING = 7
 _FIXUP_DISPATCH_BINDING = 8
+_CHECK_BINDING = 9
 _MESH_UNIT = 2  # texture units of the resolve (the source is on 0)
 _WINNER_UNIT = 3
 #: Scan-convert quads in a compute shader (False: the GL rasterizer draws 2 triangles per cell).
 COMPUTE_QUADS = True
+#: Fused nearest quads: first the fast pass without keys, redone with keys only where the
+#: mesh is not shown to be an embedding (warp_cells_check.comp.glsl).
+FAST_EMBEDDED = True
 #: Capacity of the fix-up list of the fused nearest quads (pixels where triangles overlap,
 #: see _draw_cells): one pixel in FIXUP_FRACTION, at least FIXUP_MIN. Beyond it (heavy
 #: fold-overs) the fix-up pass redoes every pixel instead: slower, same result.
@@ -227,6 +231,15 @@ def _packable(source: moderngl.Texture, target: object) -> bool:
         and (source.components, source.dtype) == (4, "f1")
         and (target.components, target.dtype) == (4, "f1")
     )
+
+
+def _rows_per_band(nx: int, *, indexed: bool) -> int:
+    """Mesh rows of ``nx`` vertices per band: the mesh buffer within BAND_BYTES and, where
+    ``indexed`` (the GL rasterizer's quads), the index buffer too (6 uint32 per cell)."""
+    rows = max(2, BAND_BYTES // (8 * nx))
+    if indexed:
+        rows = max(2, min(rows, BAND_BYTES // (24 * (nx - 1)) + 1))
+    return rows
 
 
 def _set_uniforms(program, values: dict[str, object]) -> None:
@@ -421,9 +434,7 @@ class WarpPipeline:
             origin, step = (-0.5, -0.5), grid
             last = (width - 0.5, height - 0.5)
             nx, ny, overlap = math.ceil(width / grid) + 1, math.ceil(height / grid) + 1, 1
-        rows_per_band = max(2, BAND_BYTES // (8 * nx))
-        if not centres and indexed:  # the index buffer: 6 uint32 per cell
-            rows_per_band = max(2, min(rows_per_band, BAND_BYTES // (24 * (nx - 1)) + 1))
+        rows_per_band = _rows_per_band(nx, indexed=indexed and not centres)
         program = mls._program(mesh=True, with_matrix=False)
         mls._set_uniforms(program, shape)
         sc = mls.scaling
@@ -467,7 +478,9 @@ class WarpPipeline:
         Three ways to fill the pixels, fastest first:
 
         - nearest, into an RGBA8 texture ``target`` from an RGBA8 source: the scan conversion
-          writes the colours itself and warp_cells_fixup.comp.glsl corrects fold-overs;
+          writes the colours itself and warp_cells_fixup.comp.glsl corrects fold-overs; a
+          mesh in one band is first drawn without keys or atomics and redrawn with them only
+          where warp_cells_check.comp.glsl cannot show it is an embedding (``_scan_fast``);
         - nearest otherwise: the scan picks each pixel's source pixel, and a draw
           (warp_cells_nearest.frag.glsl) copies it;
         - linear or source points: warp_cells.frag.glsl interpolates the winning triangle;
@@ -492,14 +505,14 @@ class WarpPipeline:
             "u_row_shift": row_shift,
             "u_fixup_capacity": max(FIXUP_MIN, width * height // FIXUP_FRACTION),
         }
-        winner = self._buffer("winner", width * height * 4)
-        winner.clear(size=width * height * 4)
+        # padded to whole uvec4s for the clear of warp_cells_check.comp.glsl
+        winner = self._buffer("winner", (width * height + 3) // 4 * 16)
+        fast = fused and FAST_EMBEDDED and self._one_band(shape, grid)
+        if not fast:  # the fast path clears it on the GPU if and when it needs it
+            winner.clear(size=width * height * 4)
         if fused:
             self._prepare_fused(source, target, values["u_fixup_capacity"])
-        cells = self._gl.compute(
-            ("warp_cells_packed.glsl", "warp_cells.comp.glsl"),
-            {"WARP_CELLS_SOURCE": nearest, "WARP_CELLS_FUSED": fused},
-        )
+        cells = self._cells_program(nearest=nearest, fused=fused, fast=False)
         _set_uniforms(cells, values)
         bands = 0
         for first, dims in self._mesh_bands(mls, shape, grid, centres=False, indexed=False):
@@ -509,7 +522,10 @@ class WarpPipeline:
             winner.bind_to_storage_buffer(_WINNER_BINDING)
             if fused:
                 self._bind_fused()
-            self._dispatch(cells, (dims[0] - 1) * (dims[1] - 1))
+            if fast:
+                self._scan_fast(cells, values | {"u_mesh_dims": dims, "u_first_row": first})
+            else:
+                self._dispatch(cells, (dims[0] - 1) * (dims[1] - 1))
             bands += 1
         self._gl.mgl.memory_barrier()
         if fused:
@@ -518,6 +534,43 @@ class WarpPipeline:
             whole_mesh = dims if bands == 1 else None
             self._resolve(mls, source, values, linear, coords, flip_y, whole_mesh)
         return True
+
+    def _cells_program(self, *, nearest: bool, fused: bool, fast: bool):
+        return self._gl.compute(
+            ("warp_cells_packed.glsl", "warp_cells.comp.glsl"),
+            {"WARP_CELLS_SOURCE": nearest, "WARP_CELLS_FUSED": fused, "WARP_CELLS_FAST": fast},
+        )
+
+    @staticmethod
+    def _one_band(shape: tuple[int, int], grid: int) -> bool:
+        """Is the quads mesh of ``shape`` at ``grid`` evaluated in a single band?"""
+        height, width = shape
+        nx, ny = math.ceil(width / grid) + 1, math.ceil(height / grid) + 1
+        return _rows_per_band(nx, indexed=False) >= ny
+
+    def _scan_fast(self, keyed: moderngl.ComputeShader, values: dict[str, object]) -> None:
+        """The fused scan of a whole mesh (one band): the pass without keys, the embedding
+        test, and the keyed pass ``keyed`` (after a clear of the winner buffer) dispatched
+        with zero work groups where the mesh is an embedding (warp_cells_check.comp.glsl)."""
+        gl = self._gl
+        parts = ("warp_cells_packed.glsl", "warp_cells_check.comp.glsl")
+        stages = [gl.compute(parts, {"WARP_CHECK_STAGE": stage}) for stage in range(3)]
+        fast = self._cells_program(nearest=True, fused=True, fast=True)
+        for program in (fast, *stages):
+            _set_uniforms(program, values)
+        check = self._buffer("check", 48)
+        check.clear(size=16)
+        check.bind_to_storage_buffer(_CHECK_BINDING)
+        nx, ny = values["u_mesh_dims"]
+        stages[0].run(group_x=math.ceil((2 * (nx - 1) + 2 * (ny - 1)) / _LOCAL_SIZE))
+        self._dispatch(fast, (nx - 1) * (ny - 1))
+        gl.mgl.memory_barrier()
+        stages[1].run(group_x=1)
+        gl.mgl.memory_barrier()
+        stages[2].run_indirect(check, offset=16)
+        gl.mgl.memory_barrier()
+        keyed["u_offset"].value = 0
+        keyed.run_indirect(check, offset=32)
 
     def _prepare_fused(
         self, source: moderngl.Texture, target: moderngl.Texture, capacity: int

@@ -19,6 +19,12 @@
 // target) this shader writes the colours itself (warp_cells_packed.glsl) and
 // warp_cells_fixup.comp.glsl corrects the pixels that more than one triangle reached.
 //
+// WARP_CELLS_FAST (with FUSED): the optimistic pass for a mesh that may be an embedding:
+// no keys, no atomics, each covered pixel just gets its colour. A cell that is not strictly
+// positively oriented counts itself in warp_check_bad and draws nothing; together with the
+// boundary test of warp_cells_check.comp.glsl this decides whether the keyed pass above must
+// redo the picture (see there for why no pixel is then covered twice).
+//
 // Coverage is OpenGL's: pixel centres strictly inside, and on an edge only for one of the two
 // triangles that share it (a top-left style tie rule). Each edge function is computed from
 // the edge's endpoints in mesh-index order, with `precise`, so the two triangles on either
@@ -83,7 +89,9 @@ void span(vec2 a, vec2 b, float s, float y, inout float left, inout float right)
 
 void main() {
     int cells_x = u_mesh_dims.x - 1;
-    int cell = u_offset + int(gl_GlobalInvocationID.x);
+    // 2-D dispatches (indirect, see warp_cells_check.comp.glsl) continue row after row
+    int cell = u_offset + int(gl_WorkGroupID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x +
+                              gl_GlobalInvocationID.x);
     if (cell >= cells_x * (u_mesh_dims.y - 1)) {
         return;
     }
@@ -98,6 +106,12 @@ void main() {
     // Orientation of each triangle; degenerate ones cover nothing (as in OpenGL).
     float s0 = sign(edge(p00, p10, p11));
     float s1 = sign(edge(p00, p11, p01));
+#if WARP_CELLS_FAST
+    if (!(s0 > 0.0 && s1 > 0.0)) {
+        atomicAdd(warp_check_bad, 1u);   // folded or degenerate: the keyed pass redoes all
+        return;
+    }
+#endif
     if (s0 == 0.0 && s1 == 0.0) {
         return;
     }
@@ -171,8 +185,14 @@ void main() {
             id += id != 0u ? uint(sp.y << u_sub_bits | sp.x) : 0u;
 #endif
             int i = y * u_target_size.x + x;
+#if WARP_CELLS_FAST
+            ivec2 s = cell_lo + sp;
+            int spare = u_target_size.x * u_target_size.y;
+            warp_target[id != 0u ? i : spare] = warp_source[s.y * u_source_size.x + s.x];
+#else
             uint before = atomicMax(warp_winner[i], id);
-#if WARP_CELLS_FUSED
+#endif
+#if WARP_CELLS_FUSED && !WARP_CELLS_FAST
             // Every triangle writes its colour, in any order; one that finds the pixel
             // taken lists it for warp_cells_fixup.comp.glsl, which writes the winner's.
             ivec2 s = cell_lo + sp;

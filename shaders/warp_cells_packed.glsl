@@ -15,3 +15,12 @@ layout(std430, binding = 7) buffer WarpFixups {
     uint warp_fixups[];      // their indices, the first u_fixup_capacity of them
 };
 uniform int u_fixup_capacity;
+
+// The embedding test of the fast pass (WARP_CELLS_FAST, warp_cells_check.comp.glsl).
+layout(std430, binding = 9) buffer WarpCheck {
+    uint warp_check_bad;         // cells not strictly positive, boundary edges not turning
+    uint warp_check_crossings;   // boundary edges crossing the ray from the centre to +x
+    uint warp_check_pad[2];
+    uvec4 warp_check_clear;      // work groups of the winner clear (indirect dispatch)
+    uvec4 warp_check_scan;       // work groups of the keyed scan (indirect dispatch)
+};

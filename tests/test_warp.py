@@ -491,3 +491,114 @@ def test_cell_keys_fit_in_31_bits_or_are_refused():
     assert layout((40000, 40000), 1, source_pixel=True) is None
     assert layout((30000, 30000), 3, source_pixel=True) is None  # 14 + 14 + 1 + 4 bits
     assert layout((30000, 30000), 3, source_pixel=False) is not None
+
+
+# -- the fast pass of the fused quads (no keys where the mesh is an embedding) ---------------
+
+
+def spy_embedding(monkeypatch):
+    """Record (bad, crossings) of warp_cells_check.comp.glsl after each fast scan."""
+    seen = []
+    scan = glmls.WarpPipeline._scan_fast
+
+    def spy(self, *args, **kwargs):
+        scan(self, *args, **kwargs)
+        counts = np.frombuffer(self._buffers["check"].read(size=8), np.uint32)
+        seen.append((int(counts[0]), int(counts[1])))
+
+    monkeypatch.setattr(glmls.WarpPipeline, "_scan_fast", spy)
+    return seen
+
+
+def warp_both_ways(m, img, monkeypatch, **kwargs):
+    """(fast path, keyed pass only) pictures of ``img``."""
+    fast = m.warp(img, **kwargs)
+    monkeypatch.setattr(glmls.pipeline, "FAST_EMBEDDED", False)
+    keyed = m.warp(img, **kwargs)
+    monkeypatch.setattr(glmls.pipeline, "FAST_EMBEDDED", True)
+    return fast, keyed
+
+
+@pytest.mark.parametrize("grid", [1, 3, 4])
+def test_fast_quads_equal_the_keyed_pass_where_the_mesh_embeds(gl, rng, monkeypatch, grid):
+    """Fold-free deformations are recognised as embeddings and drawn without keys; every
+    pixel shows the same source pixel as with the keyed pass."""
+    shape = (72, 96)
+    img = coordinate_image(*shape).astype(np.uint8)
+    seen = spy_embedding(monkeypatch)
+    for transform in ("affine", "similarity", "rigid"):
+        p, q = smooth_handles(shape, rng)
+        with glmls.MLS(p, q, transform=transform, ctx=gl) as m:
+            assert glmls.foldovers(m, shape, grid).count == 0
+            fast, keyed = warp_both_ways(m, img, monkeypatch, grid=grid, background=255)
+        assert seen[-1] == (0, 1), "the mesh was not recognised as an embedding"
+        assert_array_equal(fast, keyed)
+
+
+@pytest.mark.parametrize("grid", [1, 4])
+def test_fast_quads_fall_back_to_the_keyed_pass_on_folds(gl, monkeypatch, grid):
+    shape, p, q = folded_case()
+    img = coordinate_image(*shape).astype(np.uint8)
+    seen = spy_embedding(monkeypatch)
+    with glmls.MLS(p, q, ctx=gl) as m:
+        fast, keyed = warp_both_ways(m, img, monkeypatch, grid=grid, background=255)
+    assert seen[-1][0] > 0, "folded cells were not counted"
+    assert_array_equal(fast, keyed)
+
+
+def boundary_check(gl, mesh):
+    """Run the boundary stages of warp_cells_check.comp.glsl on ``mesh`` (rows, cols, 2),
+    pixel coordinates: (bad, crossings, clear groups, scan groups)."""
+    rows, cols = mesh.shape[:2]
+    parts = ("warp_cells_packed.glsl", "warp_cells_check.comp.glsl")
+    stages = [gl.compute(parts, {"WARP_CHECK_STAGE": s}) for s in (0, 1)]
+    vertices = gl.mgl.buffer(np.ascontiguousarray(mesh, np.float32).tobytes())
+    check = gl.mgl.buffer(reserve=48)
+    try:
+        check.clear()
+        vertices.bind_to_storage_buffer(2)
+        check.bind_to_storage_buffer(9)
+        for program in stages:
+            for name, value in (
+                ("u_center", (0.0, 0.0)),
+                ("u_scale", 1.0),
+                ("u_mesh_dims", (cols, rows)),
+                ("u_target_size", (64, 64)),
+            ):
+                if name in program:
+                    program[name].value = value
+        edges = 2 * (rows - 1) + 2 * (cols - 1)
+        stages[0].run(group_x=(edges + 63) // 64)
+        gl.mgl.memory_barrier()
+        stages[1].run(group_x=1)
+        gl.mgl.memory_barrier()
+        out = np.frombuffer(check.read(), np.uint32)
+    finally:
+        vertices.release()
+        check.release()
+    return int(out[0]), int(out[1]), tuple(out[4:7]), tuple(out[8:11])
+
+
+def ring_mesh(turns, rows=9, cols=9, radius=20.0, centre=(32.0, 32.0)):
+    """A mesh whose boundary vertices go ``turns`` times around a circle, counter-clockwise
+    in the triangles' sense (from +x towards +y, y down), with its centre vertex at the centre."""
+    mesh = np.zeros((rows, cols, 2))
+    ij = [(i, 0) for i in range(cols - 1)] + [(cols - 1, j) for j in range(rows - 1)]
+    ij += [(i, rows - 1) for i in range(cols - 1, 0, -1)] + [(0, j) for j in range(rows - 1, 0, -1)]
+    for t, (i, j) in enumerate(ij):
+        angle = 2 * np.pi * turns * t / len(ij)
+        mesh[j, i] = centre[0] + radius * np.cos(angle), centre[1] + radius * np.sin(angle)
+    mesh[rows // 2, cols // 2] = centre
+    return mesh
+
+
+def test_embedding_check_counts_how_often_the_boundary_goes_around(gl):
+    """Star-shaped from the centre vertex and once around: an embedding (nothing to redo);
+    twice around (each edge still turning the right way) or the wrong way round: not."""
+    cells = 8 * 8
+    assert boundary_check(gl, ring_mesh(1)) == (0, 1, (0, 1, 1), (0, 1, 1))
+    bad, crossings, clear, scan = boundary_check(gl, ring_mesh(2))
+    assert (bad, crossings) == (0, 2)
+    assert clear == ((64 * 64 // 4 + 63) // 64, 1, 1) and scan == ((cells + 63) // 64, 1, 1)
+    bad, crossings, _, scan = boundary_check(gl, ring_mesh(-1))
+    assert bad == 32 and scan[0] > 0
