@@ -25,8 +25,9 @@ import numpy as np
 
 #: ln(1 / tau): gaussian weights below tau = exp(-30) ~ 9.4e-14 of the largest are left out.
 GAUSSIAN_CUT = 30.0
-#: Bin side as a fraction of the reach: smaller bins fit the disc of reach better (fewer
-#: handles visited) but cost more rows; 1/2 visits ~(2.5 reach)^2 instead of (3 reach)^2.
+#: Bin side as a fraction of the radius R (for gaussian too, whose reach is R sqrt(30)):
+#: smaller bins fit the disc of reach better (fewer handles visited) but cost more rows, and
+#: the nearest handle is first looked for within one bin side (see mls_core.glsl).
 BIN_FRACTION = 0.5
 #: At most this many bins per side (the start table stays <= 4 MB).
 MAX_BINS = 1024
@@ -56,12 +57,14 @@ class HandleBins:
     reach: float
 
     @classmethod
-    def build(cls, points: np.ndarray, reach_: float) -> HandleBins:
-        """Bins for ``points`` (N, 2) in scaled coordinates, sized for ``reach_``."""
+    def build(cls, points: np.ndarray, reach_: float, *, size: float | None = None) -> HandleBins:
+        """Bins for ``points`` (N, 2) in scaled coordinates, of side ``size`` (default:
+        BIN_FRACTION x ``reach_``; more where the bins would exceed MAX_BINS per side), for
+        points that look as far as ``reach_``."""
         lo = points.min(axis=0) if len(points) else np.zeros(2)
         hi = points.max(axis=0) if len(points) else np.zeros(2)
         extent = float(max((hi - lo).max(), 1e-12))
-        size = max(reach_ * BIN_FRACTION, extent / (MAX_BINS - 1))
+        size = max(reach_ * BIN_FRACTION if size is None else size, extent / (MAX_BINS - 1))
         dims = np.minimum(np.floor((hi - lo) / size).astype(int) + 1, MAX_BINS)
         cell = np.minimum(np.floor((points - lo) / size).astype(int), dims - 1)
         key = cell[:, 1] * dims[0] + cell[:, 0]

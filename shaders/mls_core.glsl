@@ -280,6 +280,29 @@ void mls_bin_range(vec2 v, float r, out ivec2 lo, out ivec2 hi) {
     lo = ivec2(clamp(a, vec2(0.0), vec2(u_bin_dims - 1)));
     hi = ivec2(clamp(b, vec2(0.0), vec2(u_bin_dims - 1)));
 }
+
+// The nearest handle among those in the bins lo..hi.
+void mls_nearest_bins(inout MLSNearest near, vec2 v, ivec2 lo, ivec2 hi) {
+    for (int y = lo.y; y <= hi.y; ++y) {
+        int row = y * u_bin_dims.x;
+        int end = mls_bin_start[row + hi.x + 1];
+        for (int i = mls_bin_start[row + lo.x]; i < end; ++i) {
+            mls_nearest_add(near, mls_handle(i), v, true);
+        }
+    }
+}
+
+// The columns of bin row y that meet the disc of radius r around v (within lo.x..hi.x):
+// the disc's chord at the row's nearest edge. With the rows this visits about the disc's
+// area of handles, not its square's (4 / pi as many).
+ivec2 mls_bin_chord(vec2 v, float r, int y, ivec2 lo, ivec2 hi) {
+    float y0 = u_bin_origin.y + float(y) * u_bin_size;
+    float dy = max(0.0, max(y0 - v.y, v.y - (y0 + u_bin_size)));
+    float half_width = sqrt(max(r * r - dy * dy, 0.0));
+    float a = floor((v.x - half_width - u_bin_origin.x) / u_bin_size);
+    float b = floor((v.x + half_width - u_bin_origin.x) / u_bin_size);
+    return ivec2(clamp(a, float(lo.x), float(hi.x + 1)), clamp(b, float(lo.x - 1), float(hi.x)));
+}
 #endif
 
 // Over every handle (the plain evaluation).
@@ -298,31 +321,38 @@ MLSResult mls_eval_all(vec2 v) {
 
 MLSResult mls_eval(vec2 v) {
 #if MLS_BINS
-    // Pass 1 over the bins within reach finds the nearest handle; a compact weight is 0
-    // beyond R, so if none is there no handle reaches v.
+    // Pass 1 finds the nearest handle, first in the bins within one bin side of v: what it
+    // finds there within that distance is the nearest (every handle outside is farther),
+    // and so is the nearest beyond the snapping distance if that matters. Else over the
+    // bins within reach: a compact weight is 0 beyond R, so if none is there no handle
+    // reaches v.
     ivec2 lo, hi;
     MLSNearest near = mls_nearest_begin();
-    mls_bin_range(v, u_bin_reach, lo, hi);
-    for (int y = lo.y; y <= hi.y; ++y) {
-        int row = y * u_bin_dims.x;
-        int end = mls_bin_start[row + hi.x + 1];
-        for (int i = mls_bin_start[row + lo.x]; i < end; ++i) {
-            mls_nearest_add(near, mls_handle(i), v, true);
-        }
+    mls_bin_range(v, u_bin_size, lo, hi);
+    mls_nearest_bins(near, v, lo, hi);
+    float near2 = u_bin_size * u_bin_size;
+    bool snapped = u_snap && near.d2min <= u_hit2;
+    if (!(near.d2min <= near2 && (!snapped || near.d2far <= near2))) {
+        mls_bin_range(v, u_bin_reach, lo, hi);
+        mls_nearest_bins(near, v, lo, hi);   // the handles seen twice change no minimum
     }
     MLSAccum a = mls_begin(v, near);
+    float r = u_bin_reach;
 #if MLS_WEIGHT == 3
     // gaussian: weights are cut relative to the nearest one's; with none within the cut
     // distance that distance is unknown: evaluate over every handle.
     if (!(a.m <= u_bin_reach * u_bin_reach)) {
         return mls_eval_all(v);
     }
-    mls_bin_range(v, sqrt(a.m + u_bin_cut * u_radius * u_radius), lo, hi);
+    r = sqrt(a.m + u_bin_cut * u_radius * u_radius);
 #endif
+    // Pass 2 over the disc of radius r, row by row.
+    mls_bin_range(v, r, lo, hi);
     for (int y = lo.y; y <= hi.y; ++y) {
+        ivec2 columns = mls_bin_chord(v, r, y, lo, hi);
         int row = y * u_bin_dims.x;
-        int end = mls_bin_start[row + hi.x + 1];
-        for (int i = mls_bin_start[row + lo.x]; i < end; ++i) {
+        int end = mls_bin_start[row + max(columns.y, columns.x - 1) + 1];
+        for (int i = mls_bin_start[row + columns.x]; i < end; ++i) {
             mls_accumulate(a, mls_handle(i), true);
         }
     }
