@@ -5,7 +5,8 @@
 Every stage is followed by ``ctx.finish()`` (so the stages do not overlap as they do in a real
 frame): mesh evaluation (mls_points.comp.glsl), a whole frame by compute scan conversion
 (warp_cells.comp.glsl writing the colours of an 8-bit image, fold-overs fixed up by
-warp_cells_fixup.comp.glsl), the same frame with the GL rasterizer drawing two triangles per
+warp_cells_fixup.comp.glsl; first without keys where the mesh is an embedding), the same
+frame with the keyed scan only, the same frame with the GL rasterizer drawing two triangles per
 cell, and ``m.warp`` (numpy in and out). Median and min of ``--repeat`` runs, milliseconds.
 """
 
@@ -67,6 +68,9 @@ def main() -> None:
             timed(gl, lambda g=grid: list(pipe._mesh_bands(m, shape, g, centres=False)), n),
         )
         print("  frame, compute scan conversion", timed(gl, frame, args.repeat))
+        pipeline.FAST_EMBEDDED = False
+        print("  frame, keyed scan only       ", timed(gl, frame, args.repeat))
+        pipeline.FAST_EMBEDDED = True
         pipeline.COMPUTE_QUADS = False
         print("  frame, GL rasterizer        ", timed(gl, frame, args.repeat))
         pipeline.COMPUTE_QUADS = True
