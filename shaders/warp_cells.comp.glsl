@@ -185,19 +185,17 @@ void main() {
             id += id != 0u ? uint(sp.y << u_sub_bits | sp.x) : 0u;
 #endif
             int i = y * u_target_size.x + x;
-#if WARP_CELLS_FAST
-            ivec2 s = cell_lo + sp;
-            int spare = u_target_size.x * u_target_size.y;
-            warp_target[id != 0u ? i : spare] = warp_source[s.y * u_source_size.x + s.x];
-#else
+#if !WARP_CELLS_FAST
             uint before = atomicMax(warp_winner[i], id);
 #endif
-#if WARP_CELLS_FUSED && !WARP_CELLS_FAST
-            // Every triangle writes its colour, in any order; one that finds the pixel
-            // taken lists it for warp_cells_fixup.comp.glsl, which writes the winner's.
+#if WARP_CELLS_FUSED
+            // Every triangle writes its colour, in any order; with keys, one that finds the
+            // pixel taken lists it for warp_cells_fixup.comp.glsl, which writes the winner's.
             ivec2 s = cell_lo + sp;
             int spare = u_target_size.x * u_target_size.y;
             warp_target[id != 0u ? i : spare] = warp_source[s.y * u_source_size.x + s.x];
+#endif
+#if WARP_CELLS_FUSED && !WARP_CELLS_FAST
             if (before != 0u && id != 0u) {
                 uint k = atomicAdd(warp_fixup_count, 1u);
                 if (k < uint(u_fixup_capacity)) {

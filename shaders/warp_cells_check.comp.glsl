@@ -30,8 +30,6 @@ uniform float u_scale;
 uniform ivec2 u_mesh_dims;    // vertices per row, rows (the whole mesh)
 uniform ivec2 u_target_size;
 
-#define WARP_GROUPS_X 32768u
-
 vec2 vertex_px(ivec2 ij) {
     return warp_mesh[ij.y * u_mesh_dims.x + ij.x] * u_scale + u_center;
 }
@@ -52,11 +50,6 @@ ivec2 boundary_vertex(int t) {
         return ivec2(n.x - t, n.y);
     }
     return ivec2(0, n.y - (t - n.x));
-}
-
-uvec4 groups(uint items) {
-    uint g = (items + 63u) / 64u;
-    return uvec4(min(g, WARP_GROUPS_X), (g + WARP_GROUPS_X - 1u) / WARP_GROUPS_X, 1u, 0u);
 }
 
 void main() {
@@ -82,8 +75,8 @@ void main() {
     uvec4 none = uvec4(0u, 1u, 1u, 0u);
     uint pixels = uint(u_target_size.x * u_target_size.y);
     uint cells = uint((u_mesh_dims.x - 1) * (u_mesh_dims.y - 1));
-    warp_check_clear = embedded ? none : groups((pixels + 3u) / 4u);
-    warp_check_scan = embedded ? none : groups(cells);
+    warp_check_clear = embedded ? none : warp_groups((pixels + 3u) / 4u);
+    warp_check_scan = embedded ? none : warp_groups(cells);
 #else
     uint j = gl_WorkGroupID.y * gl_NumWorkGroups.x * 64u + gl_GlobalInvocationID.x;
     uint pixels = uint(u_target_size.x * u_target_size.y);

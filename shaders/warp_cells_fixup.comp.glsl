@@ -16,8 +16,6 @@ layout(std430, binding = 8) buffer WarpFixupDispatch {
 
 uniform ivec2 u_target_size;
 
-#define WARP_GROUPS_X 32768u
-
 bool overflowed() {
     return warp_fixup_count > uint(u_fixup_capacity);
 }
@@ -26,9 +24,7 @@ void main() {
 #if WARP_FIXUP_ARGS
     // one invocation: the work groups for the listed pixels, or for all of them
     uint n = overflowed() ? uint(u_target_size.x * u_target_size.y) : warp_fixup_count;
-    uint groups = (n + 63u) / 64u;
-    warp_fixup_groups = uvec4(min(groups, WARP_GROUPS_X), (groups + WARP_GROUPS_X - 1u) /
-                              WARP_GROUPS_X, 1u, 0u);
+    warp_fixup_groups = warp_groups(n);
 #else
     uint j = gl_GlobalInvocationID.y * gl_NumWorkGroups.x * 64u + gl_GlobalInvocationID.x;
     bool all_pixels = overflowed();

@@ -24,3 +24,12 @@ layout(std430, binding = 9) buffer WarpCheck {
     uvec4 warp_check_clear;      // work groups of the winner clear (indirect dispatch)
     uvec4 warp_check_scan;       // work groups of the keyed scan (indirect dispatch)
 };
+
+// Work groups (of 64) for a 1-D count of items in an indirect dispatch: rows of at most
+// WARP_GROUPS_X groups (the shaders index gl_WorkGroupID.y * gl_NumWorkGroups.x + x).
+#define WARP_GROUPS_X 32768u
+
+uvec4 warp_groups(uint items) {
+    uint g = (items + 63u) / 64u;
+    return uvec4(min(g, WARP_GROUPS_X), (g + WARP_GROUPS_X - 1u) / WARP_GROUPS_X, 1u, 0u);
+}
