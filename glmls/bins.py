@@ -57,14 +57,14 @@ class HandleBins:
     reach: float
 
     @classmethod
-    def build(cls, points: np.ndarray, reach_: float, *, size: float | None = None) -> HandleBins:
-        """Bins for ``points`` (N, 2) in scaled coordinates, of side ``size`` (default:
-        BIN_FRACTION x ``reach_``; more where the bins would exceed MAX_BINS per side), for
-        points that look as far as ``reach_``."""
+    def build(cls, points: np.ndarray, reach_: float, radius: float) -> HandleBins:
+        """Bins for ``points`` (N, 2) in scaled coordinates, of side BIN_FRACTION x ``radius``
+        (more where the bins would exceed MAX_BINS per side), for points that look as far as
+        ``reach_``."""
         lo = points.min(axis=0) if len(points) else np.zeros(2)
         hi = points.max(axis=0) if len(points) else np.zeros(2)
         extent = float(max((hi - lo).max(), 1e-12))
-        size = max(reach_ * BIN_FRACTION if size is None else size, extent / (MAX_BINS - 1))
+        size = max(radius * BIN_FRACTION, extent / (MAX_BINS - 1))
         dims = np.minimum(np.floor((hi - lo) / size).astype(int) + 1, MAX_BINS)
         cell = np.minimum(np.floor((points - lo) / size).astype(int), dims - 1)
         key = cell[:, 1] * dims[0] + cell[:, 0]

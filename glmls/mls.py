@@ -10,7 +10,7 @@ from typing import TypeVar
 import moderngl
 import numpy as np
 
-from .bins import BIN_FRACTION, GAUSSIAN_CUT, BinBuffer, HandleBins, reach, worth_binning
+from .bins import GAUSSIAN_CUT, BinBuffer, HandleBins, reach, worth_binning
 from .config import RADIUS_WEIGHTS, MLSConfig
 from .context import GLContext, current, get_context
 from .errors import ReleasedError
@@ -398,9 +398,7 @@ class MLS:
             self._bins.release()
             self._bins = None
         if use:
-            bins = HandleBins.build(
-                packed[:, :2], reach(self.config.weight, scaled), size=BIN_FRACTION * scaled
-            )
+            bins = HandleBins.build(packed[:, :2], reach(self.config.weight, scaled), scaled)
             packed = packed[bins.order]
             self._bins = BinBuffer(self._gl.mgl, bins, radius=scaled)
         self._handles.upload(packed)

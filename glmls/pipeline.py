@@ -233,6 +233,12 @@ def _packable(source: moderngl.Texture, target: object) -> bool:
     )
 
 
+def _corner_mesh_dims(shape: tuple[int, int], grid: int) -> tuple[int, int]:
+    """Vertices per row and rows of the mesh of pixel-square corners at step ``grid``."""
+    height, width = shape
+    return math.ceil(width / grid) + 1, math.ceil(height / grid) + 1
+
+
 def _rows_per_band(nx: int, *, indexed: bool) -> int:
     """Mesh rows of ``nx`` vertices per band: the mesh buffer within BAND_BYTES and, where
     ``indexed`` (the GL rasterizer's quads), the index buffer too (6 uint32 per cell)."""
@@ -433,7 +439,7 @@ class WarpPipeline:
         else:
             origin, step = (-0.5, -0.5), grid
             last = (width - 0.5, height - 0.5)
-            nx, ny, overlap = math.ceil(width / grid) + 1, math.ceil(height / grid) + 1, 1
+            (nx, ny), overlap = _corner_mesh_dims(shape, grid), 1
         rows_per_band = _rows_per_band(nx, indexed=indexed and not centres)
         program = mls._program(mesh=True, with_matrix=False)
         mls._set_uniforms(program, shape)
@@ -544,8 +550,7 @@ class WarpPipeline:
     @staticmethod
     def _one_band(shape: tuple[int, int], grid: int) -> bool:
         """Is the quads mesh of ``shape`` at ``grid`` evaluated in a single band?"""
-        height, width = shape
-        nx, ny = math.ceil(width / grid) + 1, math.ceil(height / grid) + 1
+        nx, ny = _corner_mesh_dims(shape, grid)
         return _rows_per_band(nx, indexed=False) >= ny
 
     def _scan_fast(self, keyed: moderngl.ComputeShader, values: dict[str, object]) -> None:

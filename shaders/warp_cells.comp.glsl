@@ -89,9 +89,7 @@ void span(vec2 a, vec2 b, float s, float y, inout float left, inout float right)
 
 void main() {
     int cells_x = u_mesh_dims.x - 1;
-    // 2-D dispatches (indirect, see warp_cells_check.comp.glsl) continue row after row
-    int cell = u_offset + int(gl_WorkGroupID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x +
-                              gl_GlobalInvocationID.x);
+    int cell = u_offset + int(warp_item());   // 2-D when indirect (warp_cells_check.comp.glsl)
     if (cell >= cells_x * (u_mesh_dims.y - 1)) {
         return;
     }

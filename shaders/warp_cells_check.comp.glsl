@@ -78,7 +78,7 @@ void main() {
     warp_check_clear = embedded ? none : warp_groups((pixels + 3u) / 4u);
     warp_check_scan = embedded ? none : warp_groups(cells);
 #else
-    uint j = gl_WorkGroupID.y * gl_NumWorkGroups.x * 64u + gl_GlobalInvocationID.x;
+    uint j = warp_item();
     uint pixels = uint(u_target_size.x * u_target_size.y);
     if (j < (pixels + 3u) / 4u) {
         warp_winner4[j] = uvec4(0u);

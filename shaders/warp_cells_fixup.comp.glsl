@@ -26,7 +26,7 @@ void main() {
     uint n = overflowed() ? uint(u_target_size.x * u_target_size.y) : warp_fixup_count;
     warp_fixup_groups = warp_groups(n);
 #else
-    uint j = gl_GlobalInvocationID.y * gl_NumWorkGroups.x * 64u + gl_GlobalInvocationID.x;
+    uint j = warp_item();
     bool all_pixels = overflowed();
     if (j >= (all_pixels ? uint(u_target_size.x * u_target_size.y) : warp_fixup_count)) {
         return;

@@ -26,10 +26,16 @@ layout(std430, binding = 9) buffer WarpCheck {
 };
 
 // Work groups (of 64) for a 1-D count of items in an indirect dispatch: rows of at most
-// WARP_GROUPS_X groups (the shaders index gl_WorkGroupID.y * gl_NumWorkGroups.x + x).
+// WARP_GROUPS_X groups (warp_item() below numbers the invocations row after row).
 #define WARP_GROUPS_X 32768u
 
 uvec4 warp_groups(uint items) {
     uint g = (items + 63u) / 64u;
     return uvec4(min(g, WARP_GROUPS_X), (g + WARP_GROUPS_X - 1u) / WARP_GROUPS_X, 1u, 0u);
+}
+
+// This invocation's item in such a dispatch (or in a 1-D one) of 64-wide work groups.
+uint warp_item() {
+    return (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * 64u +
+           gl_LocalInvocationID.x;
 }

@@ -67,7 +67,7 @@ def test_bins_follow_the_image_radius(gl, rng):
 
 def test_bins_sort_every_handle_once(rng):
     points = rng.uniform(-1, 1, (1000, 2))
-    bins = HandleBins.build(points, 0.1)
+    bins = HandleBins.build(points, 0.1, 0.1)
     assert sorted(bins.order) == list(range(1000))
     assert bins.starts[0] == 0 and bins.starts[-1] == 1000
     assert (np.diff(bins.starts) >= 0).all()
