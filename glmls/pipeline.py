@@ -619,12 +619,12 @@ class WarpPipeline:
         if nearest:
             program = self._gl.program(
                 ("warp_fullscreen.vert.glsl",),
-                ("warp_cells_key.glsl", "warp_cells_nearest.frag.glsl"),
+                ("warp_target.glsl", "warp_cells_key.glsl", "warp_cells_nearest.frag.glsl"),
             )
         else:
             program = self._gl.program(
                 ("warp_fullscreen.vert.glsl",),
-                ("warp_sample.glsl", "warp_cells.frag.glsl"),
+                ("warp_target.glsl", "warp_sample.glsl", "warp_cells.frag.glsl"),
                 {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords},
             )
         units = {"u_source": 0, "u_mesh": _MESH_UNIT, "u_winner": _WINNER_UNIT}
@@ -828,7 +828,7 @@ class WarpPipeline:
         coords = self._solve_inverse(mls, shape, swap=method == "backward-swap", grid=grid)
         program = self._gl.program(
             ("warp_fullscreen.vert.glsl",),
-            ("warp_sample.glsl", "warp_backward.frag.glsl"),
+            ("warp_target.glsl", "warp_sample.glsl", "warp_backward.frag.glsl"),
             {"WARP_LINEAR": linear},
         )
         program["u_source"].value = 0

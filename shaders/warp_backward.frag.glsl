@@ -1,16 +1,12 @@
 // Backward mapping: every output pixel samples the source at the point s that
 // mls_inverse.comp.glsl found for it. Needs a viewport of the output's size in pixels.
+// Expects before it: warp_target.glsl, warp_sample.glsl.
 uniform sampler2D u_coords;   // (s.x, s.y, residual, covered) per output pixel
-uniform ivec2 u_target_size;
-uniform bool u_flip_y;
 
 layout(location = 0) out vec4 out_color;
 
 void main() {
-    ivec2 p = ivec2(gl_FragCoord.xy);
-    if (u_flip_y) {
-        p.y = u_target_size.y - 1 - p.y;
-    }
+    ivec2 p = warp_target_pixel();
     vec4 c = texelFetch(u_coords, p, 0);
     if (c.w < 0.5) {
         discard;   // no source point inside the image: the background stays

@@ -6,7 +6,7 @@
 // A mesh evaluated in bands is resolved band by band: each draw fills the pixels whose
 // triangle lies in its band (cell rows u_first_row .. u_first_row + rows - 2).
 //
-// Expects before it: warp_sample.glsl, and
+// Expects before it: warp_target.glsl, warp_sample.glsl, and
 //   WARP_OUTPUT_COORDS 1: write (s.x, s.y, 1, 0) instead of the colour (backward's guess).
 // Nearest colours take the shorter way of warp_cells_nearest.frag.glsl.
 // Copies of the mesh (RG32F, one texel per vertex of the band) and of the winner buffer
@@ -17,8 +17,6 @@ uniform usampler2D u_winner;
 
 uniform vec2 u_center;
 uniform float u_scale;
-uniform ivec2 u_target_size;
-uniform bool u_flip_y;
 uniform int u_col_shift;      // key layout, see warp_cells.comp.glsl (no source pixel bits)
 uniform int u_row_shift;
 
@@ -29,10 +27,7 @@ vec2 source_point(ivec2 ij) {
 }
 
 void main() {
-    ivec2 p = ivec2(gl_FragCoord.xy);
-    if (u_flip_y) {
-        p.y = u_target_size.y - 1 - p.y;
-    }
+    ivec2 p = warp_target_pixel();
     uint id = texelFetch(u_winner, p, 0).r;
     if (id == 0u) {
         discard;

@@ -5,20 +5,14 @@
 // full-viewport triangle; the viewport has the target's size. Pixels no triangle covers are
 // discarded (the background stays).
 //
-// Expects before it: warp_cells_key.glsl.
+// Expects before it: warp_target.glsl, warp_cells_key.glsl.
 uniform sampler2D u_source;
 uniform usampler2D u_winner;
-
-uniform ivec2 u_target_size;
-uniform bool u_flip_y;
 
 layout(location = 0) out vec4 out_color;
 
 void main() {
-    ivec2 p = ivec2(gl_FragCoord.xy);
-    if (u_flip_y) {
-        p.y = u_target_size.y - 1 - p.y;
-    }
+    ivec2 p = warp_target_pixel();
     uint id = texelFetch(u_winner, p, 0).r;
     if (id == 0u) {
         discard;

@@ -602,3 +602,43 @@ def test_embedding_check_counts_how_often_the_boundary_goes_around(gl):
     assert clear == ((64 * 64 // 4 + 63) // 64, 1, 1) and scan == ((cells + 63) // 64, 1, 1)
     bad, crossings, _, scan = boundary_check(gl, ring_mesh(-1))
     assert bad == 32 and scan[0] > 0
+
+
+@pytest.mark.parametrize(
+    "method, interpolation",
+    [("quads", "nearest"), ("quads", "linear"), ("backward", "nearest")],
+)
+def test_render_flip_y_draws_rows_bottom_up(gl, rng, method, interpolation):
+    """flip_y (a window's framebuffer, row 0 at the bottom) gives the same picture upside
+    down, for each full-viewport fill (warp_target.glsl)."""
+    shape = (40, 56)
+    p, q = smooth_handles(shape, rng)
+    img = rng.integers(0, 255, (*shape, 4), dtype=np.uint8)
+    pipe = glmls.WarpPipeline(gl)
+    target = gl.mgl.texture((shape[1], shape[0]), 4, dtype="f1")
+    bound = gl.mgl.fbo or gl.mgl.detect_framebuffer(0)
+    framebuffer = gl.mgl.framebuffer(color_attachments=[target])
+    pictures = []
+    try:
+        with glmls.MLS(p, q, ctx=gl) as m:
+            source = pipe.upload(glmls.pipeline.prepare_image(img, 4096, normalized=True))
+            for flip_y in (False, True):
+                framebuffer.use()
+                framebuffer.clear()
+                pipe.render(
+                    m,
+                    source,
+                    framebuffer,
+                    method=method,
+                    interpolation=interpolation,
+                    grid=2,
+                    flip_y=flip_y,
+                )
+                pictures.append(np.frombuffer(target.read(), np.uint8).reshape(*shape, 4))
+    finally:
+        bound.use()
+        framebuffer.release()
+        target.release()
+        pipe.release()
+    assert pictures[0].any()
+    assert_array_equal(pictures[1], pictures[0][::-1])
