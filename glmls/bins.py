@@ -7,12 +7,15 @@ the shader (``mls_core.glsl`` with ``MLS_BINS``) walks only the bins that meet t
 half-side ``reach`` around the point: one contiguous run of sorted handles per bin row, from
 a table of where each bin's handles start (a storage buffer at binding 5).
 
-Gaussian cut: a handle is left out when its weight is below ``exp(-GAUSSIAN_CUT)`` times the
-nearest handle's (whose weight is the largest): d^2 > m + GAUSSIAN_CUT R^2, m the nearest's
-squared distance. The left-out weight is at most N exp(-30) ~ N 9.4e-14 of the total (6e-9
-for 65,536 handles), so f moves by at most that fraction of the handles' extent: ~1e-5 px on a
-1024^2 image, below float32's rounding. Points with no handle within R sqrt(GAUSSIAN_CUT)
-evaluate over all handles (then the cut distance is not known in advance).
+Gaussian cut: weights are normalised so that the nearest handle's is 1 (it is the largest),
+and a handle is left out when its weight is below tau W1 / N: d^2 > m + R^2 ln(N / (tau W1)),
+m the nearest's squared distance, N the handle count, tau = GAUSSIAN_TOLERANCE = 2^-24
+(float32's unit roundoff) and W1 >= 1 a lower bound of the total weight: the weights of the
+handles in the bins next to the point (all kept), or 1 (the nearest alone). At most N handles
+are left out, so the left-out weight is below tau W1 <= tau W: under one float32 rounding of
+the total. The denser the handles, the larger W1 and the nearer the cut (65,536 handles on a
+1024^2 image, R = 16 px: ~4.9 R instead of 5.3 R with W1 = 1). Points with no handle within
+R sqrt(ln(N / tau)) evaluate over all handles (then the cut distance is not known in advance).
 """
 
 from __future__ import annotations
@@ -23,9 +26,9 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-#: ln(1 / tau): gaussian weights below tau = exp(-30) ~ 9.4e-14 of the largest are left out.
-GAUSSIAN_CUT = 30.0
-#: Bin side as a fraction of the radius R (for gaussian too, whose reach is R sqrt(30)):
+#: The gaussian weights left out sum to less than this fraction of the total (see above).
+GAUSSIAN_TOLERANCE = 2.0**-24
+#: Bin side as a fraction of the radius R (for gaussian too, whose reach is ~5 R):
 #: smaller bins fit the disc of reach better (fewer handles visited) but cost more rows, and
 #: the nearest handle is first looked for within one bin side (see mls_core.glsl).
 BIN_FRACTION = 0.5
@@ -38,9 +41,15 @@ AUTO_MAX_REACH = 0.25
 _BINDING = 5
 
 
-def reach(weight: str, radius: float) -> float:
-    """How far (scaled units) a point looks for handles: R, or R sqrt(GAUSSIAN_CUT)."""
-    factor = math.sqrt(GAUSSIAN_CUT) if weight == "gaussian" else 1.0
+def gaussian_cut(count: int) -> float:
+    """ln(N / tau) for N = ``count`` handles: the gaussian cut's exponent with W1 = 1."""
+    return math.log(max(count, 1) / GAUSSIAN_TOLERANCE)
+
+
+def reach(weight: str, radius: float, count: int) -> float:
+    """How far (scaled units) a point looks for handles among ``count``: R for the compact
+    weights, R sqrt(ln(N / tau)) for the gaussian."""
+    factor = math.sqrt(gaussian_cut(count)) if weight == "gaussian" else 1.0
     return radius * factor * (1.0 + 1e-5)  # a margin against rounding at the bin edges
 
 
@@ -86,6 +95,7 @@ class HandleBins:
             "u_bin_size": self.size,
             "u_bin_dims": self.dims,
             "u_bin_reach": self.reach,
+            "u_bin_cut": gaussian_cut(len(self.order)),
         }
 
 
@@ -94,7 +104,7 @@ def worth_binning(weight: str, radius: float | None, points: np.ndarray) -> bool
     if weight == "idw" or radius is None or len(points) < AUTO_MIN_HANDLES:
         return False
     extent = float((points.max(axis=0) - points.min(axis=0)).max())
-    return reach(weight, radius) < AUTO_MAX_REACH * extent
+    return reach(weight, radius, len(points)) < AUTO_MAX_REACH * extent
 
 
 class BinBuffer:

@@ -10,7 +10,7 @@ from typing import TypeVar
 import moderngl
 import numpy as np
 
-from .bins import GAUSSIAN_CUT, BinBuffer, HandleBins, reach, worth_binning
+from .bins import BinBuffer, HandleBins, reach, worth_binning
 from .config import RADIUS_WEIGHTS, MLSConfig
 from .context import GLContext, current, get_context
 from .errors import ReleasedError
@@ -398,7 +398,8 @@ class MLS:
             self._bins.release()
             self._bins = None
         if use:
-            bins = HandleBins.build(packed[:, :2], reach(self.config.weight, scaled), scaled)
+            reach_ = reach(self.config.weight, scaled, len(packed))
+            bins = HandleBins.build(packed[:, :2], reach_, scaled)
             packed = packed[bins.order]
             self._bins = BinBuffer(self._gl.mgl, bins, radius=scaled)
         self._handles.upload(packed)
@@ -457,8 +458,6 @@ class MLS:
         self._handles.bind(program)
         if self._bins is not None:
             self._bins.bind(program)
-            if "u_bin_cut" in program:
-                program["u_bin_cut"].value = GAUSSIAN_CUT
 
     def _buffer(self, name: str, nbytes: int) -> moderngl.Buffer:
         """A cached buffer of at least ``nbytes``, grown (never shrunk) as needed."""

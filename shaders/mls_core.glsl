@@ -271,7 +271,7 @@ uniform vec2 u_bin_origin;   // lower corner of bin (0, 0), scaled
 uniform float u_bin_size;    // bin side, scaled
 uniform ivec2 u_bin_dims;    // bins per row, rows
 uniform float u_bin_reach;   // R (compact weights) or R sqrt(cut) (gaussian), scaled
-uniform float u_bin_cut;     // gaussian: handles with d^2 > m + cut R^2 are left out
+uniform float u_bin_cut;     // gaussian: ln(N / tau), see mls_weight_bound
 
 // The bins meeting the square of half-side r around v (clamped to the grid).
 void mls_bin_range(vec2 v, float r, out ivec2 lo, out ivec2 hi) {
@@ -291,6 +291,29 @@ void mls_nearest_bins(inout MLSNearest near, vec2 v, ivec2 lo, ivec2 hi) {
         }
     }
 }
+
+#if MLS_WEIGHT == 3
+// 2^-24 = glmls.bins.GAUSSIAN_TOLERANCE: the left-out weights sum to less than this share.
+const float MLS_GAUSSIAN_TOLERANCE = 5.9604645e-8;
+
+// W1, a lower bound of the total weight at a.v for the gaussian cut (glmls/bins.py): the
+// weights of the handles in the bins lo..hi that every cut keeps (weight >= tolerance, so
+// within the disc whose bins pass 2 walks), and at least the nearest handle's, 1.
+float mls_weight_bound(MLSAccum a, ivec2 lo, ivec2 hi) {
+    float w1 = 0.0;
+    for (int y = lo.y; y <= hi.y; ++y) {
+        int row = y * u_bin_dims.x;
+        int end = mls_bin_start[row + hi.x + 1];
+        for (int i = mls_bin_start[row + lo.x]; i < end; ++i) {
+            vec2 dp = mls_handle(i).xy - a.v;
+            float d2 = dot(dp, dp);
+            float w = (u_snap && d2 <= u_hit2) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
+            w1 += w >= MLS_GAUSSIAN_TOLERANCE ? w : 0.0;
+        }
+    }
+    return max(w1, 1.0);
+}
+#endif
 
 // The columns of bin row y that meet the disc of radius r around v (within lo.x..hi.x):
 // the disc's chord at the row's nearest edge. With the rows this visits about the disc's
@@ -330,6 +353,7 @@ MLSResult mls_eval(vec2 v) {
     MLSNearest near = mls_nearest_begin();
     mls_bin_range(v, u_bin_size, lo, hi);
     mls_nearest_bins(near, v, lo, hi);
+    ivec2 lo1 = lo, hi1 = hi;
     float near2 = u_bin_size * u_bin_size;
     bool snapped = u_snap && near.d2min <= u_hit2;
     if (!(near.d2min <= near2 && (!snapped || near.d2far <= near2))) {
@@ -339,12 +363,13 @@ MLSResult mls_eval(vec2 v) {
     MLSAccum a = mls_begin(v, near);
     float r = u_bin_reach;
 #if MLS_WEIGHT == 3
-    // gaussian: weights are cut relative to the nearest one's; with none within the cut
-    // distance that distance is unknown: evaluate over every handle.
+    // gaussian: weights below tau W1 / N of the nearest one's are left out (glmls/bins.py);
+    // with no handle within reach the cut distance is unknown: evaluate over every handle.
     if (!(a.m <= u_bin_reach * u_bin_reach)) {
         return mls_eval_all(v);
     }
-    r = sqrt(a.m + u_bin_cut * u_radius * u_radius);
+    float cut = u_bin_cut - log(mls_weight_bound(a, lo1, hi1));
+    r = sqrt(a.m + cut * u_radius * u_radius);
 #endif
     // Pass 2 over the disc of radius r, row by row.
     mls_bin_range(v, r, lo, hi);

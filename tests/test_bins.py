@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import math
+import re
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
 import glmls
 from glmls import reference
-from glmls.bins import HandleBins, worth_binning
+from glmls.bins import GAUSSIAN_TOLERANCE, HandleBins, gaussian_cut, worth_binning
+from glmls.shaders import load_source
 
 SHAPE = (512, 512)
 
@@ -44,6 +48,26 @@ def test_binned_equals_plain_and_reference(gl, rng, options):
     assert_allclose(f_bins, f_plain, rtol=0, atol=tolerance)
     f_ref, _, _ = reference.mls(p, q, v[:300], shape=SHAPE, **options)
     assert_allclose(f_bins[:300], f_ref, rtol=0, atol=0.01)
+
+
+def test_dense_gaussian_cut_equals_plain(gl, rng):
+    """Where many handles are near a point, W1 >> 1 moves the gaussian cut nearer."""
+    p, q = dense_handles(rng, 4000, size=256.0, displacement=2.0)  # ~30 within R of a point
+    v = rng.uniform(0, 255, (1000, 2))
+    options = {"weight": "gaussian", "radius": 8.0, "shape": (256, 256), "ctx": gl}
+    with glmls.MLS(p, q, bins=False, **options) as plain:
+        f_plain = plain(v)
+    with glmls.MLS(p, q, bins=True, **options) as binned:
+        assert binned._bins is not None
+        f_bins = binned(v)
+    assert_allclose(f_bins, f_plain, rtol=0, atol=2e-4)
+
+
+def test_shader_tolerance_is_the_python_one():
+    source = load_source("mls_core.glsl")
+    match = re.search(r"MLS_GAUSSIAN_TOLERANCE = ([0-9.e+-]+);", source)
+    assert match and float(match.group(1)) == pytest.approx(GAUSSIAN_TOLERANCE, rel=1e-7)
+    assert gaussian_cut(65536) == pytest.approx(math.log(65536) + 24 * math.log(2))
 
 
 def test_binned_warp_equals_plain(gl, rng):
