@@ -281,6 +281,19 @@ void mls_bin_range(vec2 v, float r, out ivec2 lo, out ivec2 hi) {
     hi = ivec2(clamp(b, vec2(0.0), vec2(u_bin_dims - 1)));
 }
 
+// Whether the nearest handle found in the bins lo..hi, those meeting the square of
+// half-side ``side`` around v, is the nearest of all: it is within ``side`` (every handle
+// outside the square is farther), or the bins are the whole grid. The same for the nearest
+// beyond the snapping distance where v snaps (the normalisation distance, see mls_begin).
+bool mls_nearest_certain(MLSNearest near, float side, ivec2 lo, ivec2 hi) {
+    if (all(equal(lo, ivec2(0))) && all(equal(hi, u_bin_dims - 1))) {
+        return true;
+    }
+    bool snapped = u_snap && near.d2min <= u_hit2;
+    float side2 = side * side;
+    return near.d2min <= side2 && (!snapped || near.d2far <= side2);
+}
+
 // The nearest handle among those in the bins lo..hi.
 void mls_nearest_bins(inout MLSNearest near, vec2 v, ivec2 lo, ivec2 hi) {
     for (int y = lo.y; y <= hi.y; ++y) {
@@ -328,46 +341,31 @@ ivec2 mls_bin_chord(vec2 v, float r, int y, ivec2 lo, ivec2 hi) {
 }
 #endif
 
-// Over every handle (the plain evaluation).
-MLSResult mls_eval_all(vec2 v) {
-    int n = mls_handle_count();
-    MLSNearest near = mls_nearest_begin();
-    for (int i = 0; i < n; ++i) {
-        mls_nearest_add(near, mls_handle(i), v, true);
-    }
-    MLSAccum a = mls_begin(v, near);
-    for (int i = 0; i < n; ++i) {
-        mls_accumulate(a, mls_handle(i), true);
-    }
-    return mls_finish(a);
-}
-
 MLSResult mls_eval(vec2 v) {
 #if MLS_BINS
-    // Pass 1 finds the nearest handle, first in the bins within one bin side of v: what it
-    // finds there within that distance is the nearest (every handle outside is farther),
-    // and so is the nearest beyond the snapping distance if that matters. Else over the
-    // bins within reach: a compact weight is 0 beyond R, so if none is there no handle
-    // reaches v.
+    // Pass 1 finds the nearest handle, first in the bins within one bin side of v, then
+    // within reach: a compact weight is 0 beyond R, so if none is there no handle reaches
+    // v. The gaussian goes on in squares of twice the side until the nearest is certain.
     ivec2 lo, hi;
     MLSNearest near = mls_nearest_begin();
     mls_bin_range(v, u_bin_size, lo, hi);
     mls_nearest_bins(near, v, lo, hi);
     ivec2 lo1 = lo, hi1 = hi;
-    float near2 = u_bin_size * u_bin_size;
-    bool snapped = u_snap && near.d2min <= u_hit2;
-    if (!(near.d2min <= near2 && (!snapped || near.d2far <= near2))) {
-        mls_bin_range(v, u_bin_reach, lo, hi);
+    float side = u_bin_size;
+    for (int k = 0; k < 40 && !mls_nearest_certain(near, side, lo, hi); ++k) {
+#if MLS_WEIGHT != 3
+        if (side >= u_bin_reach) {
+            break;
+        }
+#endif
+        side = max(2.0 * side, u_bin_reach);
+        mls_bin_range(v, side, lo, hi);
         mls_nearest_bins(near, v, lo, hi);   // the handles seen twice change no minimum
     }
     MLSAccum a = mls_begin(v, near);
     float r = u_bin_reach;
 #if MLS_WEIGHT == 3
-    // gaussian: weights below tau W1 / N of the nearest one's are left out (glmls/bins.py);
-    // with no handle within reach the cut distance is unknown: evaluate over every handle.
-    if (!(a.m <= u_bin_reach * u_bin_reach)) {
-        return mls_eval_all(v);
-    }
+    // gaussian: weights below tau W1 / N of the nearest one's are left out (glmls/bins.py)
     float cut = u_bin_cut - log(mls_weight_bound(a, lo1, hi1));
     r = sqrt(a.m + cut * u_radius * u_radius);
 #endif

@@ -63,6 +63,19 @@ def test_dense_gaussian_cut_equals_plain(gl, rng):
     assert_allclose(f_bins, f_plain, rtol=0, atol=2e-4)
 
 
+def test_gaussian_far_from_every_handle_equals_plain(gl, rng):
+    """Points with no handle within reach widen their search (no pass over every handle)."""
+    p, q = dense_handles(rng, 600, size=64.0, displacement=1.0)  # a cluster in one corner
+    v = np.concatenate([rng.uniform(0, 511, (1000, 2)), [[-900.0, 2000.0], [511.0, 511.0]]])
+    options = {"weight": "gaussian", "radius": 2.0, "shape": SHAPE, "ctx": gl}
+    with glmls.MLS(p, q, bins=False, **options) as plain:
+        f_plain = plain(v)
+    with glmls.MLS(p, q, bins=True, **options) as binned:
+        assert binned._bins is not None
+        f_bins = binned(v)
+    assert_allclose(f_bins, f_plain, rtol=0, atol=2e-4)
+
+
 def test_shader_tolerance_is_the_python_one():
     source = load_source("mls_core.glsl")
     match = re.search(r"MLS_GAUSSIAN_TOLERANCE = ([0-9.e+-]+);", source)
