@@ -341,11 +341,29 @@ ivec2 mls_bin_chord(vec2 v, float r, int y, ivec2 lo, ivec2 hi) {
 }
 #endif
 
+// Both passes over every handle, in storage order (the plain evaluation).
+void mls_nearest_all(inout MLSNearest near, vec2 v) {
+    int n = mls_handle_count();
+    for (int i = 0; i < n; ++i) {
+        mls_nearest_add(near, mls_handle(i), v, true);
+    }
+}
+
+void mls_accumulate_all(inout MLSAccum a) {
+    int n = mls_handle_count();
+    for (int i = 0; i < n; ++i) {
+        mls_accumulate(a, mls_handle(i), true);
+    }
+}
+
 MLSResult mls_eval(vec2 v) {
 #if MLS_BINS
     // Pass 1 finds the nearest handle, first in the bins within one bin side of v, then
     // within reach: a compact weight is 0 beyond R, so if none is there no handle reaches
     // v. The gaussian goes on in squares of twice the side until the nearest is certain.
+    // Where a square or the disc spans more bin rows than there are handles (a few handles
+    // far apart), walking its rows costs more than visiting every handle: that is done.
+    int n = mls_handle_count();
     ivec2 lo, hi;
     MLSNearest near = mls_nearest_begin();
     mls_bin_range(v, u_bin_size, lo, hi);
@@ -360,6 +378,10 @@ MLSResult mls_eval(vec2 v) {
 #endif
         side = max(2.0 * side, u_bin_reach);
         mls_bin_range(v, side, lo, hi);
+        if (hi.y - lo.y >= n) {
+            mls_nearest_all(near, v);
+            break;
+        }
         mls_nearest_bins(near, v, lo, hi);   // the handles seen twice change no minimum
     }
     MLSAccum a = mls_begin(v, near);
@@ -369,8 +391,13 @@ MLSResult mls_eval(vec2 v) {
     float cut = u_bin_cut - log(mls_weight_bound(a, lo1, hi1));
     r = sqrt(a.m + cut * u_radius * u_radius);
 #endif
-    // Pass 2 over the disc of radius r, row by row.
+    // Pass 2 over the disc of radius r, row by row (or over every handle, which adds
+    // only weights that are zero or within the cut's tolerance).
     mls_bin_range(v, r, lo, hi);
+    if (hi.y - lo.y >= n) {
+        mls_accumulate_all(a);
+        return mls_finish(a);
+    }
     for (int y = lo.y; y <= hi.y; ++y) {
         ivec2 columns = mls_bin_chord(v, r, y, lo, hi);
         int row = y * u_bin_dims.x;
@@ -388,9 +415,7 @@ MLSResult mls_eval(vec2 v) {
 #elif MLS_UNROLL == 64
     MLS_R64(MLS_NEAR, 0)
 #else
-    for (int i = 0; i < n; ++i) {
-        mls_nearest_add(near, mls_handle(i), v, true);
-    }
+    mls_nearest_all(near, v);
 #endif
     MLSAccum a = mls_begin(v, near);
 #if MLS_UNROLL == 16
@@ -398,9 +423,7 @@ MLSResult mls_eval(vec2 v) {
 #elif MLS_UNROLL == 64
     MLS_R64(MLS_ACC, 0)
 #else
-    for (int i = 0; i < n; ++i) {
-        mls_accumulate(a, mls_handle(i), true);
-    }
+    mls_accumulate_all(a);
 #endif
     return mls_finish(a);
 #endif

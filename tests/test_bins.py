@@ -76,6 +76,21 @@ def test_gaussian_far_from_every_handle_equals_plain(gl, rng):
     assert_allclose(f_bins, f_plain, rtol=0, atol=2e-4)
 
 
+@pytest.mark.parametrize("weight, radius, n", [("gaussian", 3.0, 8), ("cressman", 40.0, 4)])
+def test_few_handles_far_apart_equal_plain(gl, rng, weight, radius, n):
+    """More bin rows than handles: the points visit every handle instead of the rows."""
+    p = rng.uniform(0, 512, (n, 2))
+    q = p + rng.uniform(-5, 5, p.shape)
+    v = rng.uniform(0, 511, (2000, 2))
+    options = {"weight": weight, "radius": radius, "shape": SHAPE, "ctx": gl}
+    with glmls.MLS(p, q, bins=False, **options) as plain:
+        f_plain = plain(v)
+    with glmls.MLS(p, q, bins=True, **options) as binned:
+        assert binned._bins.bins.dims[1] > n
+        f_bins = binned(v)
+    assert_allclose(f_bins, f_plain, rtol=0, atol=2e-4)
+
+
 def test_shader_tolerance_is_the_python_one():
     source = load_source("mls_core.glsl")
     match = re.search(r"MLS_GAUSSIAN_TOLERANCE = ([0-9.e+-]+);", source)
