@@ -26,6 +26,8 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
+from .handles import point_bounds
+
 #: The gaussian weights left out sum to less than this fraction of the total (see above).
 GAUSSIAN_TOLERANCE = 2.0**-24
 #: Bin side as a fraction of the radius R (for gaussian too, whose reach is ~5 R):
@@ -70,8 +72,7 @@ class HandleBins:
         """Bins for ``points`` (N, 2) in scaled coordinates, of side BIN_FRACTION x ``radius``
         (more where the bins would exceed MAX_BINS per side), for points that look as far as
         ``reach_``."""
-        lo = points.min(axis=0) if len(points) else np.zeros(2)
-        hi = points.max(axis=0) if len(points) else np.zeros(2)
+        lo, hi = point_bounds(points) if len(points) else (np.zeros(2), np.zeros(2))
         extent = float(max((hi - lo).max(), 1e-12))
         size = max(radius * BIN_FRACTION, extent / (MAX_BINS - 1))
         dims = np.minimum(np.floor((hi - lo) / size).astype(int) + 1, MAX_BINS)
@@ -103,7 +104,8 @@ def worth_binning(weight: str, radius: float | None, points: np.ndarray) -> bool
     """The automatic choice: many handles and a reach well inside their extent."""
     if weight == "idw" or radius is None or len(points) < AUTO_MIN_HANDLES:
         return False
-    extent = float((points.max(axis=0) - points.min(axis=0)).max())
+    lo, hi = point_bounds(points)
+    extent = float((hi - lo).max())
     return reach(weight, radius, len(points)) < AUTO_MAX_REACH * extent
 
 

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import glmls
+from glmls.handles import _same_source_pair
 
 P = [[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]]
 
@@ -18,6 +19,7 @@ P = [[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]]
         (P, P[:2], ValueError, "same length, got 3 and 2"),
         ([[0, np.nan]], [[0, 0]], ValueError, "src must be finite; row 0"),
         ([[0, 0]], [[np.inf, 0]], ValueError, "dst must be finite"),
+        ([[0, 0], [1, 1], [np.inf, 2]], P, ValueError, "src must be finite; row 2"),
         ([["a", "b"]], [[0, 0]], TypeError, "src must be real numbers"),
         ([[1 + 1j, 0]], [[0, 0]], TypeError, "src must be real numbers"),
         ([[1, 1], [1, 1]], [[2, 2], [3, 3]], ValueError, r"src\[0\] and src\[1\] are the same"),
@@ -71,6 +73,23 @@ def test_empty_points_give_empty_results(gl):
         assert m(np.zeros((0, 2))).shape == (0, 2)
         big_m, t = m.matrices([])
         assert big_m.shape == (0, 2, 2) and t.shape == (0, 2)
+
+
+def test_same_source_pairs_match_brute_force():
+    """Ties in x are common on a lattice: the pair found conflicts, and one is found iff any."""
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        p = rng.integers(0, 4, (12, 2)).astype(float)
+        q = p + rng.integers(0, 2, (12, 2))  # same p: often the same q, sometimes not
+        conflicts = {
+            (i, j)
+            for i in range(12)
+            for j in range(i + 1, 12)
+            if (p[i] == p[j]).all() and (q[i] != q[j]).any()
+        }
+        pair = _same_source_pair(p, q)
+        assert (pair is None) == (not conflicts)
+        assert pair is None or pair in conflicts
 
 
 def test_exact_duplicate_pairs_are_accepted(gl):
