@@ -181,12 +181,17 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
     return a;
 }
 
+// The weight at a.v of a handle at squared distance d2. The snapped handle (and duplicates
+// of it) is left out: its weight is infinite and its p^ zero, see mls_finish.
+float mls_handle_weight(MLSAccum a, float d2) {
+    return (u_snap && d2 <= u_hit2) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
+}
+
 void mls_accumulate(inout MLSAccum a, vec4 h, bool use) {
     vec2 dp = h.xy - a.v;
     float d2 = dot(dp, dp);
-    // The snapped handle (and duplicates of it) is left out: its weight is infinite and its
-    // p^ zero, see mls_finish. So is an empty slot (zeros: every term below is then 0).
-    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
+    // An empty slot gets no weight (zeros: every term below is then 0).
+    float w = use ? mls_handle_weight(a, d2) : 0.0;
     // Moments about the nearest handle, not about the origin: the differences of nearby
     // float32 values are exact, the nearest handle (the heaviest) adds nothing to them, and
     // the central moments in mls_finish lose no digits where one handle dominates.
@@ -294,12 +299,18 @@ bool mls_nearest_certain(MLSNearest near, float side, ivec2 lo, ivec2 hi) {
     return near.d2min <= side2 && (!snapped || near.d2far <= side2);
 }
 
+// The sorted handles of bins x0..x1 of bin row y: indices run.x .. run.y - 1 (none when
+// x1 < x0, an empty chord).
+ivec2 mls_bin_run(int y, int x0, int x1) {
+    int row = y * u_bin_dims.x;
+    return ivec2(mls_bin_start[row + x0], mls_bin_start[row + max(x1, x0 - 1) + 1]);
+}
+
 // The nearest handle among those in the bins lo..hi.
 void mls_nearest_bins(inout MLSNearest near, vec2 v, ivec2 lo, ivec2 hi) {
     for (int y = lo.y; y <= hi.y; ++y) {
-        int row = y * u_bin_dims.x;
-        int end = mls_bin_start[row + hi.x + 1];
-        for (int i = mls_bin_start[row + lo.x]; i < end; ++i) {
+        ivec2 run = mls_bin_run(y, lo.x, hi.x);
+        for (int i = run.x; i < run.y; ++i) {
             mls_nearest_add(near, mls_handle(i), v, true);
         }
     }
@@ -315,12 +326,11 @@ const float MLS_GAUSSIAN_TOLERANCE = 5.9604645e-8;
 float mls_weight_bound(MLSAccum a, ivec2 lo, ivec2 hi) {
     float w1 = 0.0;
     for (int y = lo.y; y <= hi.y; ++y) {
-        int row = y * u_bin_dims.x;
-        int end = mls_bin_start[row + hi.x + 1];
-        for (int i = mls_bin_start[row + lo.x]; i < end; ++i) {
+        ivec2 run = mls_bin_run(y, lo.x, hi.x);
+        for (int i = run.x; i < run.y; ++i) {
             vec2 dp = mls_handle(i).xy - a.v;
             float d2 = dot(dp, dp);
-            float w = (u_snap && d2 <= u_hit2) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
+            float w = mls_handle_weight(a, d2);
             w1 += w >= MLS_GAUSSIAN_TOLERANCE ? w : 0.0;
         }
     }
@@ -400,9 +410,8 @@ MLSResult mls_eval(vec2 v) {
     }
     for (int y = lo.y; y <= hi.y; ++y) {
         ivec2 columns = mls_bin_chord(v, r, y, lo, hi);
-        int row = y * u_bin_dims.x;
-        int end = mls_bin_start[row + max(columns.y, columns.x - 1) + 1];
-        for (int i = mls_bin_start[row + columns.x]; i < end; ++i) {
+        ivec2 run = mls_bin_run(y, columns.x, columns.y);
+        for (int i = run.x; i < run.y; ++i) {
             mls_accumulate(a, mls_handle(i), true);
         }
     }

@@ -22,6 +22,15 @@ def dense_handles(rng, n, size=512.0, displacement=4.0):
     return p, p + rng.uniform(-displacement, displacement, p.shape)
 
 
+def plain_and_binned(p, q, v, **options):
+    """f at ``v`` evaluated over all handles and through bins, and the bins used."""
+    with glmls.MLS(p, q, bins=False, **options) as plain:
+        f_plain = plain(v)
+    with glmls.MLS(p, q, bins=True, **options) as binned:
+        assert binned._bins is not None
+        return f_plain, binned(v), binned._bins.bins
+
+
 @pytest.mark.parametrize(
     "options",
     [
@@ -37,11 +46,7 @@ def test_binned_equals_plain_and_reference(gl, rng, options):
     p, q = dense_handles(rng, 1500)
     # points everywhere, on handles, and outside every handle's reach
     v = np.concatenate([rng.uniform(-0.5, 511.5, (1500, 2)), p[:50], [[-300.0, 900.0]]])
-    with glmls.MLS(p, q, shape=SHAPE, ctx=gl, bins=False, **options) as plain:
-        f_plain = plain(v)
-    with glmls.MLS(p, q, shape=SHAPE, ctx=gl, bins=True, **options) as binned:
-        assert binned._bins is not None
-        f_bins = binned(v)
+    f_plain, f_bins, _ = plain_and_binned(p, q, v, shape=SHAPE, ctx=gl, **options)
     # The sums run in another order: float32 rounding, which the ill-conditioned affine fits
     # of a few handles in reach amplify (measured 3e-5 px; affine 3e-3 px at worst).
     tolerance = 5e-3 if options.get("transform") == "affine" else 2e-4
@@ -55,11 +60,7 @@ def test_dense_gaussian_cut_equals_plain(gl, rng):
     p, q = dense_handles(rng, 4000, size=256.0, displacement=2.0)  # ~30 within R of a point
     v = rng.uniform(0, 255, (1000, 2))
     options = {"weight": "gaussian", "radius": 8.0, "shape": (256, 256), "ctx": gl}
-    with glmls.MLS(p, q, bins=False, **options) as plain:
-        f_plain = plain(v)
-    with glmls.MLS(p, q, bins=True, **options) as binned:
-        assert binned._bins is not None
-        f_bins = binned(v)
+    f_plain, f_bins, _ = plain_and_binned(p, q, v, **options)
     assert_allclose(f_bins, f_plain, rtol=0, atol=2e-4)
 
 
@@ -68,11 +69,7 @@ def test_gaussian_far_from_every_handle_equals_plain(gl, rng):
     p, q = dense_handles(rng, 600, size=64.0, displacement=1.0)  # a cluster in one corner
     v = np.concatenate([rng.uniform(0, 511, (1000, 2)), [[-900.0, 2000.0], [511.0, 511.0]]])
     options = {"weight": "gaussian", "radius": 2.0, "shape": SHAPE, "ctx": gl}
-    with glmls.MLS(p, q, bins=False, **options) as plain:
-        f_plain = plain(v)
-    with glmls.MLS(p, q, bins=True, **options) as binned:
-        assert binned._bins is not None
-        f_bins = binned(v)
+    f_plain, f_bins, _ = plain_and_binned(p, q, v, **options)
     assert_allclose(f_bins, f_plain, rtol=0, atol=2e-4)
 
 
@@ -83,11 +80,8 @@ def test_few_handles_far_apart_equal_plain(gl, rng, weight, radius, n):
     q = p + rng.uniform(-5, 5, p.shape)
     v = rng.uniform(0, 511, (2000, 2))
     options = {"weight": weight, "radius": radius, "shape": SHAPE, "ctx": gl}
-    with glmls.MLS(p, q, bins=False, **options) as plain:
-        f_plain = plain(v)
-    with glmls.MLS(p, q, bins=True, **options) as binned:
-        assert binned._bins.bins.dims[1] > n
-        f_bins = binned(v)
+    f_plain, f_bins, bins = plain_and_binned(p, q, v, **options)
+    assert bins.dims[1] > n
     assert_allclose(f_bins, f_plain, rtol=0, atol=2e-4)
 
 
