@@ -22,15 +22,17 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import glmls
+from glmls.gl import bindings
+from glmls.gl.shaders import common_defines, define_value
 
 SOURCE = """
 #version 430
 #extension GL_ARB_shader_ballot : enable
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Hs { vec4 hs[]; };
-layout(std140, binding = 0) uniform Hu { vec4 hu[HANDLES]; };
-uniform sampler2D u_tex;
-layout(std430, binding = 1) writeonly buffer O { vec2 o[]; };
+layout(std430, binding = BIND_HANDLES) readonly buffer Hs { vec4 hs[]; };
+layout(std140, binding = BIND_HANDLES_BLOCK) uniform Hu { vec4 hu[HANDLES]; };
+layout(binding = BIND_HANDLE_TEXTURE) uniform sampler2D u_tex;
+layout(std430, binding = BIND_DEFORMED) writeonly buffer O { vec2 o[]; };
 uniform int u_n;
 uniform int u_points;
 shared vec4 tile[64];
@@ -97,14 +99,15 @@ def main() -> None:
     groups = (args.points + 63) // 64
     buffers = [ctx.buffer(handles.tobytes()), ctx.buffer(reserve=groups * 64 * 8)]
     texture = ctx.texture((n, 1), 4, handles.tobytes(), dtype="f4")
-    buffers[0].bind_to_storage_buffer(0)
-    buffers[0].bind_to_uniform_block(0)
-    buffers[1].bind_to_storage_buffer(1)
-    texture.use(0)
+    buffers[0].bind_to_storage_buffer(bindings.HANDLES.index)
+    buffers[0].bind_to_uniform_block(bindings.HANDLES_BLOCK.index)
+    buffers[1].bind_to_storage_buffer(bindings.DEFORMED.index)
+    texture.use(bindings.HANDLE_TEXTURE.index)
+    table = "".join(f"#define {k} {define_value(v)}\n" for k, v in common_defines().items())
     for mode, name in MODES.items():
         if mode == 3 and "GL_ARB_shader_ballot" not in ctx.extensions:
             continue
-        header = f"#version 430\n#define MODE {mode}\n#define HANDLES {n}"
+        header = f"#version 430\n{table}#define MODE {mode}\n#define HANDLES {n}"
         program = ctx.compute_shader(SOURCE.replace("#version 430", header, 1))
         program["u_n"] = n
         if "u_points" in program:

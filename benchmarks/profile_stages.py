@@ -3,11 +3,12 @@
 ``python benchmarks/profile_stages.py [--size 1024] [--handles 64] [--storage ubo]``
 
 Every stage is followed by ``ctx.finish()`` (so the stages do not overlap as they do in a real
-frame): mesh evaluation (mls_points.comp.glsl), a whole frame by compute scan conversion
-(warp_cells.comp.glsl writing the colours of an 8-bit image, fold-overs fixed up by
-warp_cells_fixup.comp.glsl; first without keys where the mesh is an embedding), the same
+frame): mesh evaluation (mls/points.comp.glsl), a whole frame by compute scan conversion
+(warp/cells.comp.glsl writing the colours of an 8-bit image, fold-overs fixed up by
+warp/cells_fixup.comp.glsl; first without keys where the mesh is an embedding), the same
 frame with the keyed scan only, the same frame with the GL rasterizer drawing two triangles per
-cell, and ``m.warp`` (numpy in and out). Median and min of ``--repeat`` runs, milliseconds.
+cell, and ``m.warp`` (numpy in and out). Each path is a pipeline with its own
+:class:`~glmls.imaging.options.PipelineOptions`. Median and min of ``--repeat`` runs, ms.
 """
 
 from __future__ import annotations
@@ -22,8 +23,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import glmls
-import glmls.pipeline as pipeline
-from glmls.bench_cases import make_inputs
+from glmls.cli.bench.cases import make_inputs
+from glmls.core.mesh import MeshLattice
+from glmls.engine.passes import evaluate_lattice
+from glmls.imaging.options import PipelineOptions
+from glmls.imaging.source import prepare_image
 
 
 def timed(gl, step, repeat: int) -> str:
@@ -48,36 +52,48 @@ def main() -> None:
     image, src, dst = make_inputs(args.size, args.handles)
     shape = image.shape[:2]
     m = glmls.MLS(src, dst, shape=shape, storage=args.storage)
-    gl = m.ctx.mgl
-    pipe = m._warp_pipeline()
-    source = pipe.upload(pipeline.prepare_image(image, pipe.max_image_size, normalized=True))
-    framebuffer = pipe._framebuffer("profile", (args.size, args.size), "f1")
+    gl = m.ctx
+    paths = {
+        "frame, compute scan conversion": glmls.WarpPipeline.of(gl),
+        "frame, keyed scan only        ": glmls.WarpPipeline(
+            gl, options=PipelineOptions(fast_embedded=False)
+        ),
+        "frame, GL rasterizer          ": glmls.WarpPipeline(
+            gl, options=PipelineOptions(compute_quads=False)
+        ),
+    }
+    limit = paths["frame, compute scan conversion"].max_image_size
+    prepared = prepare_image(image, limit, normalized=True)
+    target = gl.mgl.texture((args.size, args.size), 4, dtype="f1")
+    framebuffer = gl.mgl.framebuffer(color_attachments=[target])
+    mesh = gl.mgl.buffer(reserve=MeshLattice.corners(shape, 1).count * 8)
 
-    n = args.repeat
     for grid in (1, 4, 8):
-
-        def frame(grid: int = grid) -> None:
-            framebuffer.use()
-            framebuffer.viewport = (0, 0, args.size, args.size)
-            framebuffer.clear()
-            pipe.render(m, source, framebuffer, grid=grid)
-
+        lattice = MeshLattice.corners(shape, grid)
         print(f"grid {grid}:")
         print(
-            "  mesh (MLS at every vertex)",
-            timed(gl, lambda g=grid: list(pipe._mesh_bands(m, shape, g, centres=False)), n),
+            "  mesh (MLS at every vertex)    ",
+            timed(gl.mgl, lambda lat=lattice: evaluate_lattice(m.kernel, lat, mesh), args.repeat),
         )
-        print("  frame, compute scan conversion", timed(gl, frame, args.repeat))
-        pipeline.FAST_EMBEDDED = False
-        print("  frame, keyed scan only       ", timed(gl, frame, args.repeat))
-        pipeline.FAST_EMBEDDED = True
-        pipeline.COMPUTE_QUADS = False
-        print("  frame, GL rasterizer        ", timed(gl, frame, args.repeat))
-        pipeline.COMPUTE_QUADS = True
+        for name, pipe in paths.items():
+            source = pipe.upload(prepared, "profile")
+
+            def frame(pipe=pipe, source=source, grid=grid) -> None:
+                framebuffer.use()
+                framebuffer.viewport = (0, 0, args.size, args.size)
+                framebuffer.clear()
+                pipe.render(m, source, framebuffer, grid=grid)
+
+            print(f"  {name}", timed(gl.mgl, frame, args.repeat))
         print(
-            "  m.warp (numpy in and out)   ",
-            timed(gl, lambda g=grid: m.warp(image, grid=g), args.repeat),
+            "  m.warp (numpy in and out)     ",
+            timed(gl.mgl, lambda g=grid: m.warp(image, grid=g), args.repeat),
         )
+    for obj in (mesh, framebuffer, target):
+        obj.release()
+    for name, pipe in paths.items():
+        if not name.startswith("frame, compute"):
+            pipe.release()
     m.release()
 
 

@@ -35,9 +35,9 @@ from PIL import Image, ImageDraw
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import glmls
-from glmls.bins import gaussian_cut
-from glmls.pipeline import prepare_image
-from glmls.storage import STORAGES, make_storage
+from glmls.core.weights import gaussian_cut
+from glmls.engine.storage import STORAGES, make_storage
+from glmls.imaging.source import prepare_image
 
 COUNTS = [4**k for k in range(1, 9)]  # 4 .. 65,536
 
@@ -88,6 +88,13 @@ def capacities(gl) -> dict[str, dict]:
         out[name] = {"capacity": capacity, "tried": tried, "works": works}
         out[name]["guaranteed"] = guaranteed[name]
     return out
+
+
+def make_capacity(gl, name: str) -> int:
+    storage = make_storage(name, gl.mgl)
+    capacity = storage.capacity
+    storage.release()
+    return capacity
 
 
 def plot(results: dict[str, list[tuple[int, float]]], path: Path, title: str) -> None:
@@ -147,13 +154,21 @@ def main() -> None:
     parser.add_argument("--radius", type=float, default=16.0, help="R of the radius weights, px")
     parser.add_argument("--max-seconds", type=float, default=5.0)
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "out")
+    parser.add_argument(
+        "--counts", help="handle counts to time, comma-separated (default 4, 16, ..., 65536)"
+    )
+    parser.add_argument("--series", help="only the series whose name contains this text")
+    parser.add_argument(
+        "--no-capacities", action="store_true", help="skip evaluating each storage's capacity"
+    )
     args = parser.parse_args()
+    counts = [int(n) for n in args.counts.split(",")] if args.counts else COUNTS
     args.out.mkdir(parents=True, exist_ok=True)
 
     gl = glmls.get_context()
-    pipe = glmls.WarpPipeline(gl)
+    pipe = glmls.WarpPipeline.of(gl)
     image = np.random.default_rng(1).integers(0, 255, (args.size, args.size, 3), np.uint8)
-    source = pipe.upload(prepare_image(image, pipe.max_image_size, normalized=True))
+    source = pipe.upload(prepare_image(image, pipe.max_image_size, normalized=True), "demo")
     gl.make_current()
     target = gl.mgl.texture((args.size, args.size), 4, dtype="f1")
     framebuffer = gl.mgl.framebuffer(color_attachments=[target])
@@ -175,13 +190,16 @@ def main() -> None:
         "radius": args.radius,
         "bins": False,
     }
-    limits = capacities(gl)
+    if args.series:
+        series = {name: options for name, options in series.items() if args.series in name}
+    limits = {} if args.no_capacities else capacities(gl)
     results: dict[str, list[tuple[int, float]]] = {}
     rows = []
     for name, options in series.items():
         results[name] = []
-        cap = limits[options.get("storage", "ssbo")]["capacity"]
-        for n in COUNTS:
+        storage = options.get("storage", "ssbo")
+        cap = limits[storage]["capacity"] if limits else make_capacity(gl, storage)
+        for n in counts:
             if n > cap:
                 break
             seconds = frame_time(options, n, args, gl, pipe, source, framebuffer)

@@ -21,7 +21,7 @@ import numpy as np
 from PIL import Image
 
 import glmls
-from glmls.report import compose
+from glmls.analysis.report import compose
 
 # Four dragged handles (hair up, mouth corners out and up, chin down) ...
 DRAGGED_SRC = [[228, 20], [203, 142], [243, 142], [223, 175]]

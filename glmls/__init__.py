@@ -2,28 +2,39 @@
 
 Conventions: points are ``(x, y)`` = (column, row) float arrays of shape (N, 2); pixel centres
 sit at integer coordinates; f(v) = v M + T with row vectors.
+
+The package is layered, each layer importing only those before it: ``core`` (numpy: settings,
+the weight registry, handles, the mesh lattice, the float64 ``reference``), ``gl`` (contexts,
+shaders, bindings, resources), ``engine`` (the MLS kernel and its passes), ``imaging`` (the
+construction of deformed images), ``mls`` (the :class:`MLS` facade), then ``analysis``,
+``files``, ``app`` (the window) and ``cli``.
 """
 
-from .analysis import TriangleErrors, error_field, error_stats, triangle_errors
-from .colormaps import VIRIDIS, apply_colormap, color_limits, colorbar, linear_colormap
-from .config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
-from .context import GLContext, get_context
-from .errors import DegenerateHandlesError, GLUnavailableError, ReleasedError
-from .io import imread, imwrite
-from .mls import MLS
-from .pipeline import INTERPOLATIONS, METHODS, WarpPipeline
-from .render import (
-    Canvas,
+from . import data
+from .analysis import colormaps
+from .analysis.canvas import Canvas
+from .analysis.colormaps import VIRIDIS, apply_colormap, color_limits, colorbar, linear_colormap
+from .analysis.field import error_field
+from .analysis.foldovers import Foldovers, foldovers
+from .analysis.pictures import (
     render_field,
     render_handles,
     render_mesh,
     render_triangle_errors,
     render_triangulation,
 )
-from .report import AnalysisReport, report
-from .warp import Foldovers, foldovers, warp
-
-__version__ = "0.1.0"
+from .analysis.report import AnalysisReport, report
+from .analysis.stats import error_stats
+from .analysis.triangles import TriangleErrors, triangle_errors
+from .core import reference
+from .core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
+from .errors import DegenerateHandlesError, GLUnavailableError, ReleasedError
+from .files.images import imread, imwrite
+from .gl.context import GLContext, get_context
+from .imaging.pipeline import WarpPipeline
+from .imaging.source import INTERPOLATIONS, METHODS
+from .mls import MLS, warp
+from .version import __version__
 
 __all__ = [
     "INTERPOLATIONS",
@@ -47,6 +58,8 @@ __all__ = [
     "apply_colormap",
     "color_limits",
     "colorbar",
+    "colormaps",
+    "data",
     "error_field",
     "error_stats",
     "foldovers",
@@ -54,6 +67,7 @@ __all__ = [
     "imread",
     "imwrite",
     "linear_colormap",
+    "reference",
     "render_field",
     "render_handles",
     "render_mesh",

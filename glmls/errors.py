@@ -16,3 +16,7 @@ class DegenerateHandlesError(ValueError):
 
 class ReleasedError(RuntimeError):
     """A GPU object was used after :meth:`release`."""
+
+
+class InputFileError(ValueError):
+    """A malformed input file; the message names the file, the line or entry, and the fault."""

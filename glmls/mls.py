@@ -1,39 +1,26 @@
-"""The public :class:`MLS` deformation, evaluated by a compute shader."""
+"""The public :class:`MLS` deformation and the one-call :func:`warp`: the facade over the
+engine (:mod:`glmls.engine`, f on the GPU) and the image construction (:mod:`glmls.imaging`)."""
 
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Callable, Sequence
 from typing import TypeVar
 
 import moderngl
 import numpy as np
 
-from .bins import BinBuffer, HandleBins, reach, worth_binning
-from .config import RADIUS_WEIGHTS, MLSConfig
-from .context import GLContext, current, get_context
-from .errors import ReleasedError
-from .handles import (
-    Scaling,
-    as_points,
-    check_affine_handles,
-    pack_handles,
-    validate_handles,
-)
-from .pipeline import WarpPipeline
-from .storage import check_storage, make_storage, resolve_storage, unroll_slots
+from .core.config import MLSConfig
+from .core.handles import Scaling, as_points, check_affine_handles, validate_handles
+from .core.mesh import MeshLattice, as_shape
+from .engine.error_field import error_field as evaluate_error_field
+from .engine.kernel import DEFAULT_STORAGE, MLSKernel
+from .engine.passes import evaluate_lattice, evaluate_points
+from .gl.context import GLContext, current, get_context
+from .imaging.pipeline import WarpPipeline
 
-#: Points closer than this (pixels) to a handle whose weight is infinite there map to q_i.
-SNAP_DISTANCE = 1e-3
-_WEIGHT_CODES = {"idw": 0, "cressman": 1, "shepard": 2, "gaussian": 3, "linear": 4}
-_TRANSFORM_CODES = {"affine": 0, "similarity": 1, "rigid": 2}
-_LOCAL_SIZE = 64
-#: Handle storage unless told otherwise: the uniform block where the handles fit, else the
-#: storage buffer (docs/handles.md: the uniform block is the fastest on llvmpipe wherever it
-#: fits; only the storage buffer and the texture take tens of thousands).
-DEFAULT_STORAGE = "auto"
-_WRITE_BINDINGS = {"f": 2, "M": 3}
+__all__ = ["MLS", "warp"]
+
 _R = TypeVar("_R")
 
 
@@ -43,31 +30,10 @@ def on_gpu(method: Callable[..., _R]) -> Callable[..., _R]:
 
     @functools.wraps(method)
     def wrapper(self, *args, **kwargs):
-        self._check_alive()
+        self.kernel.check_alive()
         return inner(self, *args, **kwargs)
 
     return wrapper
-
-
-def as_shape(shape: object) -> tuple[int, int]:
-    """(H, W) from an image shape ``(H, W)`` or ``(H, W, C)``; ``ValueError`` otherwise."""
-    try:
-        dims = tuple(int(n) for n in shape)  # type: ignore[union-attr]
-    except (TypeError, ValueError):
-        raise TypeError(f"shape must be (H, W) integers, got {shape!r}") from None
-    if len(dims) not in (2, 3) or dims[0] < 1 or dims[1] < 1:
-        raise ValueError(f"shape must be (H, W) with H, W >= 1, got {shape!r}")
-    return dims[0], dims[1]
-
-
-def mesh_axes(shape: tuple[int, int], grid: int) -> tuple[np.ndarray, np.ndarray]:
-    """x and y of the mesh of pixel-square corners: -0.5, -0.5 + grid, ..., up to W - 0.5."""
-    if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or grid < 1:
-        raise ValueError(f"grid must be an integer >= 1 (pixels), got {grid!r}")
-    height, width = shape
-    xs = np.minimum(-0.5 + grid * np.arange(math.ceil(width / grid) + 1), width - 0.5)
-    ys = np.minimum(-0.5 + grid * np.arange(math.ceil(height / grid) + 1), height - 0.5)
-    return xs, ys
 
 
 class MLS:
@@ -78,25 +44,24 @@ class MLS:
     [c - 0.5, c + 0.5] x [r - 0.5, r + 0.5]. With row vectors (the paper's eq. 1),
     ``f(v) = v @ M(v) + T(v)``.
 
-    Parameters (keyword-only; see :class:`glmls.MLSConfig` for the formulas):
-    transform ``affine`` | ``similarity`` | ``rigid``; weight ``idw`` | ``cressman`` |
-    ``shepard`` | ``gaussian`` | ``linear``; ``alpha``, ``s`` (idw); ``radius`` (pixels, the
-    image diagonal when ``None`` and an image size is known); ``interpolating`` (make any
-    weight interpolate the handles); ``shape`` (H, W) of the image, for the default radius;
-    ``ctx`` a moderngl context to render with (default: glmls's shared headless EGL one);
-    ``storage`` where the handles live on the GPU: ``auto`` (default: ``ubo`` where they fit,
-    else ``ssbo``), ``ssbo``, ``ubo`` or ``texture`` (see :mod:`glmls.storage`; ``ubo`` takes
-    at most ``GL_MAX_UNIFORM_BLOCK_SIZE / 16``, at least 1,024);
-    ``bins`` sort the handles into a spatial grid so that each point visits only those in
-    reach (weights with a radius; see :mod:`glmls.bins`): ``None`` (default) when it pays
-    (256+ handles, reach under a quarter of their extent), ``True`` always, ``False`` never.
+    Parameters (keyword-only; :class:`glmls.MLSConfig` has the formulas): ``transform``,
+    ``weight`` (:data:`glmls.WEIGHTS`), ``alpha``, ``s`` (idw), ``radius`` (pixels; the image
+    diagonal when ``None`` and an image size is known), ``interpolating`` (make any weight
+    interpolate the handles); ``shape`` (H, W) of the image, for the default radius; ``ctx``
+    a moderngl context to render with (default: glmls's shared headless EGL one);
+    ``storage`` where the handles live on the GPU: ``auto`` (default: ``ubo`` where they
+    fit, else ``ssbo``), ``ssbo``, ``ubo`` or ``texture`` (:mod:`glmls.engine.storage`);
+    ``bins``: sort the handles into a spatial grid so that each point visits only those in
+    reach (radius weights, :mod:`glmls.engine.bins`): ``None`` (default) where it pays,
+    ``True`` always, ``False`` never.
 
     Special cases: no handles is the identity and one handle a translation by q - p, for every
     transform. Affine needs 3 source handles not on one line (else
     :class:`glmls.DegenerateHandlesError`); where a compact-support weight reaches fewer at a
     point, that point uses the similarity solution. A point that no handle reaches stays put.
 
-    GPU objects are released by :meth:`release` (or a ``with`` block).
+    GPU objects are released by :meth:`release` (or a ``with`` block); the images it builds
+    come from its context's shared :class:`~glmls.WarpPipeline`.
     """
 
     def __init__(
@@ -145,43 +110,38 @@ class MLS:
         return self
 
     def _setup(self, src, dst, config, shape, ctx, storage, bins) -> None:
-        self._released = True  # until fully built, release() has nothing to free
-        check_storage(storage)
-        if bins is not None and not isinstance(bins, bool):
-            raise TypeError(f"bins must be True, False or None, got {bins!r}")
-        if bins and config.weight not in RADIUS_WEIGHTS:
-            raise ValueError(
-                f"bins need a weight with a radius ({', '.join(RADIUS_WEIGHTS)}); "
-                f"{config.weight!r} reaches every handle"
-            )
-        src, dst = validate_handles(src, dst)
-        if config.transform == "affine":
-            check_affine_handles(src)
         self.config = config
         self.shape = None if shape is None else as_shape(shape)
         if self.shape is not None:
             config.resolve_radius(self.shape)
+        src, dst = self._validate(src, dst)
+        self._gl = get_context(ctx)
+        self._gl.make_current()
+        self._options = {"shape": self.shape, "storage": storage, "bins": bins}
+        self._kernel = MLSKernel(self._gl, config, **self._options)  # type: ignore[arg-type]
+        self._swapped: MLSKernel | None = None
+        try:
+            self._store(src, dst)
+        except ValueError:
+            self._kernel.release()
+            raise
+
+    def _validate(self, src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
+        src, dst = validate_handles(src, dst)
+        if self.config.transform == "affine":
+            check_affine_handles(src)
+        return src, dst
+
+    def _store(self, src: np.ndarray, dst: np.ndarray) -> None:
+        """The one way handles get in: the kernel's upload, then the read-only copies."""
+        scaling = Scaling.fit(src, dst, self.shape)
+        self._kernel.upload(src, dst, scaling)
         self._src, self._dst = src.copy(), dst.copy()  # never freeze the caller's arrays
         self._src.flags.writeable = False
         self._dst.flags.writeable = False
-        self.scaling = Scaling.fit(src, dst, self.shape)
-        self._gl = get_context(ctx)
-        if bins and config.radius is None and self.shape is None:
-            raise ValueError("bins need a radius: give radius= or shape=")
-        self._bins_wanted = bins
-        self._bins: BinBuffer | None = None
-        self._gl.make_current()
-        #: The storage in use (``"auto"`` resolved for this many handles).
-        self.storage = resolve_storage(storage, self._gl.mgl, len(src))
-        self._handles = make_storage(self.storage, self._gl.mgl)
-        try:
-            self._upload_handles(self.shape)
-        except ValueError:
-            self._handles.release()
-            raise
-        self._buffers: dict[str, moderngl.Buffer] = {}
-        self._pipeline: WarpPipeline | None = None
-        self._released = False
+        if self._swapped is not None:
+            self._swapped.release()
+            self._swapped = None
 
     # -- public API ---------------------------------------------------------------------
 
@@ -199,35 +159,61 @@ class MLS:
     def ctx(self) -> GLContext:
         return self._gl
 
+    @property
+    def kernel(self) -> MLSKernel:
+        """The handles on the GPU and the defines and uniforms of the passes over f."""
+        return self._kernel
+
+    @property
+    def scaling(self) -> Scaling:
+        """The GPU's coordinates: (pixel - center) / scale."""
+        return self._kernel.scaling
+
+    @property
+    def storage(self) -> str:
+        """The handle storage in use (``"auto"`` resolved for this many handles)."""
+        return self._kernel.storage
+
+    def defines(self) -> dict[str, object]:
+        """The ``#define`` values of the MLS shaders for this configuration (the kernel's)."""
+        return self._kernel.defines()
+
+    def uniforms(self, shape: tuple[int, int] | None = None) -> dict[str, float | bool]:
+        """The MLS uniforms for an image of ``shape``, in scaled units (the kernel's)."""
+        return self._kernel.uniforms(shape)
+
     @on_gpu
     def set_handles(self, src: object, dst: object) -> None:
-        """Replace the handles (any count), keeping the configuration and GPU objects.
+        """Replace the handles (any count), keeping the configuration.
 
         Validated like the constructor's; on error nothing changes. Cheaper than a new
-        :class:`MLS` per frame of a drag: only the handle buffer is rewritten.
+        :class:`MLS` per frame of a drag: the handles go through the same upload as the
+        constructor's (storage for their count, spatial bins rebuilt), nothing is compiled.
         """
-        src, dst = validate_handles(src, dst)
-        if self.config.transform == "affine":
-            check_affine_handles(src)
-        scaling = Scaling.fit(src, dst, self.shape)
-        self._handles.upload(pack_handles(src, dst, scaling))
-        self._src, self._dst, self.scaling = src.copy(), dst.copy(), scaling
-        self._src.flags.writeable = False
-        self._dst.flags.writeable = False
+        self._store(*self._validate(src, dst))
+
+    def swapped_kernel(self) -> MLSKernel:
+        """The kernel of the MLS map with p and q swapped (``backward-swap``), made on first
+        use with this configuration and scaling."""
+        self._kernel.check_alive()
+        if self._swapped is None:
+            swapped = MLSKernel(self._gl, self.config, **self._options)  # type: ignore[arg-type]
+            swapped.upload(self._dst, self._src, self.scaling)
+            self._swapped = swapped
+        return self._swapped
 
     @on_gpu
     def __call__(self, points: object) -> np.ndarray:
         """f(points): (K, 2) float64, evaluated on the GPU."""
-        v = as_points(points)
-        f, _ = self._evaluate_points(v, with_matrix=False)
+        f, _ = evaluate_points(self._kernel, as_points(points), with_matrix=False)
         return f
 
     @on_gpu
     def matrices(self, points: object) -> tuple[np.ndarray, np.ndarray]:
         """(M, T): (K, 2, 2) and (K, 2) float64 with ``f(v) = v @ M + T`` for each point."""
         v = as_points(points)
-        f, m = self._evaluate_points(v, with_matrix=True)
-        return m, f - np.einsum("ki,kij->kj", v, m)
+        f, m = evaluate_points(self._kernel, v, with_matrix=True)
+        return m, f - np.einsum("ki,kij->kj", v, m)  # type: ignore[return-value]
 
     @on_gpu
     def mesh(self, shape: Sequence[int], *, grid: int = 1) -> tuple[np.ndarray, np.ndarray]:
@@ -236,32 +222,26 @@ class MLS:
         Vertices sit at x = -0.5, -0.5 + grid, ..., W - 0.5 (the last step may be shorter),
         likewise in y. Returns (vertices, deformed), each (rows, columns, 2) float64.
         """
-        shape = as_shape(shape)
-        xs, ys = mesh_axes(shape, grid)
-        vertices = np.stack(np.meshgrid(xs, ys), axis=-1)
-        count = vertices.shape[0] * vertices.shape[1]
-        program = self._program(mesh=True, with_matrix=False)
-        sc = self.scaling
-        origin = sc.to_gpu(np.array([[xs[0], ys[0]]]))[0]
-        last = sc.to_gpu(np.array([[xs[-1], ys[-1]]]))[0]
-        program["u_mesh_origin"].value = tuple(origin)
-        program["u_mesh_step"].value = (grid / sc.scale, grid / sc.scale)
-        program["u_mesh_last"].value = tuple(last)
-        program["u_mesh_dims"].value = (len(xs), len(ys))
-        program["u_mesh_first_row"].value = 0  # the program is shared with banded passes
-        out = self._run(program, count, shape, with_matrix=False)
-        deformed = sc.from_gpu(out["f"]).reshape(vertices.shape)
-        return vertices, deformed
+        lattice = MeshLattice.corners(shape, grid)
+        vertices = lattice.points()
+        buffer = self._kernel.scratch.buffer("mesh", lattice.count * 8)
+        count = evaluate_lattice(self._kernel, lattice, buffer)
+        self._gl.mgl.memory_barrier()
+        out = np.frombuffer(buffer.read(size=count * 8), np.float32).reshape(-1, 2)
+        return vertices, self.scaling.from_gpu(out).reshape(vertices.shape)
 
     @on_gpu
     def error_field(self, shape: Sequence[int], *, grid: int = 1) -> np.ndarray:
         """The MLS error field E_MLS (paper eq. 7) of an image of ``shape``: (H, W) float64.
 
-        See :func:`glmls.analysis.error_field`.
+        E_MLS(v) = sum_i |p_i M_v + T_v - q_i|^2 at every pixel centre, in square pixels,
+        unweighted so that configurations with different weights compare fairly. ``grid``
+        = 1 evaluates every pixel centre; ``grid`` > 1 the vertices of :meth:`mesh`'s mesh,
+        interpolated bilinearly to the pixel centres (both on the GPU). float32 on the GPU:
+        expect a relative error of ~1e-6 to 1e-5.
         """
-        from .analysis import error_field
-
-        return error_field(self, shape, grid=grid)
+        lattice = MeshLattice.corners(shape, grid)  # validates shape and grid
+        return evaluate_error_field(self._kernel, lattice.shape, grid=lattice.grid)
 
     @on_gpu
     def warp(
@@ -278,27 +258,23 @@ class MLS:
         ``image``: H x W or H x W x C (C in 1..4), uint8, uint16, float32 or float64 (computed
         as float32). The output has the input's size; what f moves outside is cut off.
 
-        ``method``:
-          - ``"quads"`` (forward with polygon interpolation): the mesh of pixel-square corners,
-            step ``grid`` pixels, is deformed and each deformed quad is filled (scan-converted
-            on the GPU).
-          - ``"splat"`` (simple forward): each source pixel v is written at round(f(v)), gaps
-            and all.
-          - ``"backward"``: each output pixel u samples the source at s with f(s) = u (Newton's
-            method from the rasterized inverse of the mesh); ``grid`` is that guess's mesh.
-          - ``"backward-swap"``: s = the MLS map with p and q swapped, the shortcut of other MLS
-            tools; only for comparison, it is not f's inverse.
+        ``method``: ``"quads"`` (forward with polygon interpolation: the mesh of pixel-square
+        corners, step ``grid`` pixels, is deformed and each deformed quad filled);
+        ``"splat"`` (simple forward: each source pixel v written at round(f(v)), gaps and
+        all); ``"backward"`` (each output pixel u samples the source at s with f(s) = u,
+        Newton's method from the rasterized inverse of the mesh, ``grid`` that guess's mesh);
+        ``"backward-swap"`` (s = the MLS map with p and q swapped, the shortcut of other MLS
+        tools; only for comparison, it is not f's inverse).
 
         ``interpolation``: ``"nearest"`` takes one source pixel's value (no new colours);
-        ``"linear"`` interpolates bilinearly (``splat`` ignores it).
-
-        ``background``: what uncovered pixels hold: a scalar, or one value per channel; images
-        with alpha (C = 2 or 4) get alpha 0 there unless ``background`` gives it.
+        ``"linear"`` interpolates bilinearly (``splat`` ignores it). ``background``: what
+        uncovered pixels hold: a scalar, or one value per channel; images with alpha (C = 2
+        or 4) get alpha 0 there unless ``background`` gives it.
 
         Fold-overs: where deformed quads overlap, the cell with the larger source row (then
         column) is drawn last and shows; ``splat`` and ``backward`` follow the same order.
         """
-        return self._warp_pipeline().warp(
+        return WarpPipeline.of(self._gl).warp(
             self,
             image,
             method=method,
@@ -321,46 +297,29 @@ class MLS:
         For each output pixel u = (column, row), the source point s with f(s) = u, solved on
         the GPU (``method="backward"``; ``"backward-swap"`` gives the swapped-handles shortcut
         instead). Points outside the source image are kept (a remapper fills them with its
-        border value). Feed it to OpenCV or scikit-image::
-
-            xy = m.coordinate_map(image.shape)
-            out = cv2.remap(image, xy[..., 0], xy[..., 1], cv2.INTER_LINEAR)
-            out = skimage.transform.warp(image, np.stack([xy[..., 1], xy[..., 0]]), order=1)
+        border value): ``cv2.remap(image, xy[..., 0], xy[..., 1], cv2.INTER_LINEAR)``, or
+        ``skimage.transform.warp(image, np.stack([xy[..., 1], xy[..., 0]]), order=1)``.
 
         ``residual=True`` also returns |f(s) - u| per pixel (float32, pixels; NaN for
         backward-swap). Newton stops below 1e-3 px; pixels where it ends above 0.05 px (no
         inverse found) hold its last iterate.
         """
-        shape = as_shape(shape)
-        xy, res, _ = self._warp_pipeline().coordinate_map(self, shape, method=method, grid=grid)
+        xy, res, _ = WarpPipeline.of(self._gl).coordinate_map(self, shape, method=method, grid=grid)
         return (xy, res) if residual else xy
 
-    def _warp_pipeline(self) -> WarpPipeline:
-        self._check_alive()
-        if self._pipeline is None:
-            self._pipeline = WarpPipeline(self._gl)
-        return self._pipeline
-
     def release(self) -> None:
-        """Free this object's GPU buffers. Safe to call twice; later use raises."""
-        if self._released:
+        """Free this object's GPU buffers. Safe to call twice; later use raises
+        :class:`glmls.ReleasedError`."""
+        if self._kernel.released:
             return
-        self._gl.make_current()
-        self._handles.release()
-        if self._bins is not None:
-            self._bins.release()
-            self._bins = None
-        for buffer in self._buffers.values():
-            buffer.release()
-        self._buffers.clear()
-        if self._pipeline is not None:
-            self._pipeline.release()
-            self._pipeline = None
-        self._released = True
+        if self._swapped is not None:
+            self._swapped.release()
+            self._swapped = None
+        self._kernel.release()
 
     @property
     def released(self) -> bool:
-        return self._released
+        return self._kernel.released
 
     def __enter__(self) -> MLS:
         return self
@@ -370,129 +329,29 @@ class MLS:
 
     def __repr__(self) -> str:
         c = self.config
-        state = ", released" if self._released else ""
+        state = ", released" if self.released else ""
         return (
             f"MLS({len(self._src)} handles, transform={c.transform!r}, weight={c.weight!r}, "
             f"alpha={c.alpha}, s={c.s}, radius={c.radius}, interpolating={c.interpolating}"
             f"{state})"
         )
 
-    # -- GPU evaluation -----------------------------------------------------------------
 
-    def _upload_handles(self, shape: tuple[int, int] | None, use: bool | None = None) -> None:
-        """Upload the handles, sorted into bins when they are used (``use``; by default as
-        asked at construction) for the radius that ``shape`` gives (the image diagonal when
-        no radius was set)."""
-        packed = pack_handles(self._src, self._dst, self.scaling)
-        radius = self.config.radius
-        if radius is None and shape is not None and self.config.weight in RADIUS_WEIGHTS:
-            radius = self.config.resolve_radius(shape)
-        use = self._bins_wanted if use is None else use
-        if radius is not None and self.config.weight in RADIUS_WEIGHTS:
-            scaled = radius / self.scaling.scale
-            if use is None:
-                use = worth_binning(self.config.weight, scaled, packed[:, :2].astype(float))
-        else:
-            use = False
-        if self._bins is not None:
-            self._bins.release()
-            self._bins = None
-        if use:
-            reach_ = reach(self.config.weight, scaled, len(packed))
-            bins = HandleBins.build(packed[:, :2], reach_, scaled)
-            packed = packed[bins.order]
-            self._bins = BinBuffer(self._gl.mgl, bins, radius=scaled)
-        self._handles.upload(packed)
+_WARP_OPTIONS = ("method", "interpolation", "grid", "background")
 
-    def _check_alive(self) -> None:
-        if self._released:
-            raise ReleasedError("this MLS has been released; create a new one")
 
-    def defines(self) -> dict[str, int | bool]:
-        """The ``#define`` values that ``mls_core.glsl`` expects for this configuration."""
-        c = self.config
-        binned = self._bins is not None
-        unroll = self._handles.unrolls and not binned
-        return {
-            "MLS_WEIGHT": _WEIGHT_CODES[c.weight],
-            "MLS_TRANSFORM": _TRANSFORM_CODES[c.transform],
-            "MLS_INTERPOLATING": c.interpolating,
-            "MLS_ALPHA_ONE": c.alpha == 1.0,
-            "MLS_UNROLL": unroll_slots(len(self._src)) if unroll else 0,
-            "MLS_BINS": binned,
-        }
+def warp(image: object, src: object, dst: object, **options: object) -> np.ndarray:
+    """Deform ``image`` by the MLS map taking handles ``src`` (p) to ``dst`` (q).
 
-    def _compute(self, shader: str, **defines: int | bool) -> moderngl.ComputeShader:
-        """The compute program: handle storage + ``mls_core.glsl`` + ``shader`` (a file)."""
-        self._check_alive()
-        parts = (self._handles.glsl_part, "mls_core.glsl", shader)
-        return self._gl.compute(parts, self.defines() | dict(self._handles.defines) | defines)
-
-    def _program(self, *, mesh: bool, with_matrix: bool) -> moderngl.ComputeShader:
-        return self._compute("mls_points.comp.glsl", MLS_MESH=mesh, MLS_WRITE_MATRIX=with_matrix)
-
-    def uniforms(self, shape: tuple[int, int] | None = None) -> dict[str, float | bool]:
-        """The MLS uniforms of ``mls_core.glsl`` for an image of ``shape`` (scaled units)."""
-        c = self.config
-        scale = self.scaling.scale
-        radius = c.resolve_radius(shape if shape is not None else self.shape)
-        alpha = c.alpha
-        log2_s = math.log2(c.s) - 2 * alpha * math.log2(scale) if c.s > 0 else -1e30
-        hit2 = (SNAP_DISTANCE / scale) ** 2
-        # idw with a tiny s is infinite at d = 0 for float32: snap there too.
-        tiny_s = c.weight == "idw" and log2_s - alpha * math.log2(hit2) < math.log2(1e-6)
-        return {
-            "u_alpha": alpha,
-            "u_log2_s": max(log2_s, -1e30),
-            "u_radius": (radius or 1.0) / scale,
-            "u_hit2": hit2,
-            "u_snap": c.infinite_at_zero or tiny_s,
-        }
-
-    def _set_uniforms(self, program, shape) -> None:
-        for name, value in self.uniforms(shape).items():
-            if name in program:
-                program[name].value = value
-        if self._bins is not None and self.uniforms(shape)["u_radius"] != self._bins.radius:
-            self._upload_handles(shape, use=True)  # another image size: another radius
-        self._handles.bind(program)
-        if self._bins is not None:
-            self._bins.bind(program)
-
-    def _buffer(self, name: str, nbytes: int) -> moderngl.Buffer:
-        """A cached buffer of at least ``nbytes``, grown (never shrunk) as needed."""
-        buffer = self._buffers.get(name)
-        if buffer is None or buffer.size < nbytes:
-            if buffer is not None:
-                buffer.release()
-            buffer = self._buffers[name] = self._gl.mgl.buffer(reserve=max(nbytes, 16))
-        return buffer
-
-    def _run(self, program, count: int, shape, *, with_matrix: bool) -> dict[str, np.ndarray]:
-        self._set_uniforms(program, shape)
-        outputs = {"f": 2} | ({"M": 4} if with_matrix else {})
-        for name, width in outputs.items():
-            self._buffer(name, count * width * 4).bind_to_storage_buffer(_WRITE_BINDINGS[name])
-        program["u_count"].value = count
-        max_groups = self._gl.limits["max_work_groups_x"]
-        groups = math.ceil(count / _LOCAL_SIZE)
-        for first in range(0, groups, max_groups):
-            program["u_offset"].value = first * _LOCAL_SIZE
-            program.run(group_x=min(max_groups, groups - first))
-        return {
-            name: np.frombuffer(
-                self._buffers[name].read(size=count * width * 4), dtype=np.float32
-            ).reshape(count, width)
-            for name, width in outputs.items()
-        }
-
-    def _evaluate_points(self, v: np.ndarray, *, with_matrix: bool):
-        program = self._program(mesh=False, with_matrix=with_matrix)
-        if len(v) == 0:
-            return np.zeros((0, 2)), np.zeros((0, 2, 2))
-        self._buffer("points", v.size * 4).write(self.scaling.to_gpu(v).tobytes())
-        self._buffers["points"].bind_to_storage_buffer(1)
-        out = self._run(program, len(v), None, with_matrix=with_matrix)
-        f = self.scaling.from_gpu(out["f"])
-        m = out["M"].astype(np.float64).reshape(-1, 2, 2) if with_matrix else None
-        return f, m
+    ``options``: those of :meth:`MLS.warp` (``method``, ``interpolation``, ``grid``,
+    ``background``) and of :class:`MLS` (``transform``, ``weight``, ``alpha``, ``s``,
+    ``radius``, ``interpolating``, ``ctx``, ``storage``, ``bins``). The default radius is the
+    image diagonal. The MLS's GPU objects are released before returning (the context's
+    shared pipeline keeps its cached textures for the next call); keep an :class:`MLS` to
+    warp many images with the same handles.
+    """
+    warp_options = {k: options.pop(k) for k in _WARP_OPTIONS if k in options}
+    array = np.asarray(image)
+    shape = array.shape[:2] if array.ndim in (2, 3) and array.size else None
+    with MLS(src, dst, shape=shape, **options) as m:  # type: ignore[arg-type]
+        return m.warp(array, **warp_options)  # type: ignore[arg-type]

@@ -15,11 +15,13 @@ import pathlib
 import numpy as np
 
 import glmls
-from glmls import data, shaders
+from glmls import data
+from glmls.gl.shaders import library
 
-root = pathlib.Path(str(shaders.shader_root()))
+root = pathlib.Path(str(library().root))
 assert "site-packages" in str(root), f"shaders not from the installed wheel: {root}"
-assert (root / "mls_core.glsl").is_file()
+for name in ("mls/core.glsl", "mls/visit.glsl", "warp/cells.comp.glsl", "draw/text.frag.glsl"):
+    assert (root / name).is_file(), name
 image = data.astronaut()
 src, dst = data.astronaut_handles()
 with glmls.MLS(src, dst, shape=image.shape) as m:

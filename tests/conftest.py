@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import glmls
-from glmls.context import GLContext
+from glmls.gl.context import GLContext
 
 
 @pytest.fixture(scope="session")
@@ -32,10 +32,3 @@ def _no_gl_errors(request):
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(12345)
-
-
-def random_handles(rng, n, size=1024.0, displacement=60.0):
-    """n source handles in a size x size image and targets moved by up to ``displacement``."""
-    p = rng.uniform(0, size, (n, 2))
-    q = p + rng.uniform(-displacement, displacement, (n, 2))
-    return p, q

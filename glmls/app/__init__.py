@@ -1,13 +1,14 @@
-"""The real-time window (the paper's interactive IDS): ``glmls demo`` / ``python -m glmls.app``.
+"""The real-time window (the paper's interactive IDS), opened by ``glmls demo``.
 
-:mod:`.controller` holds the interaction logic (no window), :mod:`.window` the glfw window that
-runs :class:`glmls.WarpPipeline` in its own GL context, :mod:`.command` the command line.
-Importing this package does not import glfw; opening a window does.
+:mod:`.controller` holds the interaction logic (no window; :mod:`.events` its events and
+replays), :mod:`.session` what is computed (the MLS and the analysis), :mod:`.view` and
+:mod:`.overlays` what is drawn, :mod:`.hud` the text, :mod:`.glfw_window` the operating-system
+window, and :mod:`.window` the :class:`~glmls.app.window.App` that runs them. Importing this
+package does not import glfw; opening a window does.
 """
 
-from .command import configure_parser, run
-from .controller import BINDINGS, Controller, Key, Move, Press, Release, Settings
-from .events import Wait, read_events
+from .controller import BINDINGS, Controller, Settings
+from .events import Key, Move, Press, Release, Wait, read_events
 
 __all__ = [
     "BINDINGS",
@@ -18,7 +19,5 @@ __all__ = [
     "Release",
     "Settings",
     "Wait",
-    "configure_parser",
     "read_events",
-    "run",
 ]

@@ -13,8 +13,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..config import RADIUS_WEIGHTS, WEIGHTS, image_diagonal
-from ..handles import as_points
+from ..core.config import MLSConfig, image_diagonal
+from ..core.handles import as_points
+from ..core.weights import WEIGHTS
+from .events import BUTTONS, Event, Key, Move, Press, Release
 
 __all__ = [
     "BINDINGS",
@@ -23,10 +25,6 @@ __all__ = [
     "GRIDS",
     "OVERLAYS",
     "Controller",
-    "Key",
-    "Move",
-    "Press",
-    "Release",
     "Settings",
     "pick",
 ]
@@ -43,8 +41,6 @@ GRIDS = (1, 2, 4, 8, 16, 32)
 TRANSFORM_ORDER = ("rigid", "similarity", "affine")
 OVERLAYS = ("handles", "mesh", "error", "angle", "folds")
 COMMANDS = ("save_image", "save_handles", "save_screenshot", "load_handles", "quit")
-BUTTONS = ("left", "right")
-MODIFIERS = ("shift", "ctrl", "alt")
 #: Smallest and largest idw alpha, and the step of + / -.
 ALPHA_RANGE = (0.25, 4.0)
 ALPHA_STEP = 0.25
@@ -57,7 +53,7 @@ UNDO_DEPTH = 100
 BINDINGS: tuple[tuple[tuple[str, ...], str, str], ...] = (
     (("F1", "?"), "help", "show / hide this help"),
     (("t",), "transform", "cycle transform: rigid, similarity, affine"),
-    (("w",), "weight", "cycle weight: idw, cressman, shepard, gaussian, linear"),
+    (("w",), "weight", f"cycle weight: {', '.join(WEIGHTS)}"),
     (("+", "="), "raise", "raise the weight's parameter (idw alpha, else radius)"),
     (("-",), "lower", "lower the weight's parameter"),
     (("c",), "construction", "cycle construction: quads nearest/linear, splat, backward"),
@@ -81,46 +77,6 @@ BINDINGS: tuple[tuple[tuple[str, ...], str, str], ...] = (
 _ACTIONS = {key: action for keys, action, _ in BINDINGS for key in keys}
 
 
-# -- events -----------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Press:
-    """A mouse button pressed at image point (x, y)."""
-
-    x: float
-    y: float
-    button: str = "left"
-    mods: frozenset[str] = frozenset()
-
-
-@dataclass(frozen=True)
-class Move:
-    """The cursor moved to image point (x, y)."""
-
-    x: float
-    y: float
-
-
-@dataclass(frozen=True)
-class Release:
-    """A mouse button released at image point (x, y)."""
-
-    x: float
-    y: float
-    button: str = "left"
-
-
-@dataclass(frozen=True)
-class Key:
-    """A key: the character typed ("t", "G", "?") or a name ("F1", "Escape", "Ctrl+Z")."""
-
-    key: str
-
-
-Event = Press | Move | Release | Key
-
-
 # -- settings ---------------------------------------------------------------------------------
 
 
@@ -128,12 +84,15 @@ Event = Press | Move | Release | Key
 class Settings:
     """What the window shows: the MLS configuration and the image construction."""
 
-    transform: str = "rigid"
-    weight: str = "idw"
-    alpha: float = 1.0
-    radius: float | None = None  # pixels; None: the image diagonal
+    config: MLSConfig = field(default_factory=MLSConfig)
     construction: int = 0  # index into CONSTRUCTIONS
     grid: int = 4
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.config, MLSConfig):
+            raise TypeError(f"config must be an MLSConfig, got {type(self.config).__name__}")
+        if not 0 <= self.construction < len(CONSTRUCTIONS):
+            raise ValueError(f"construction must be in 0..{len(CONSTRUCTIONS) - 1}")
 
     @property
     def method(self) -> str:
@@ -145,10 +104,10 @@ class Settings:
 
     def parameter(self, shape: tuple[int, int]) -> str:
         """The weight's parameter as text, e.g. ``alpha 1.25`` or ``R 362 px``."""
-        if self.weight in RADIUS_WEIGHTS:
-            radius = self.radius if self.radius is not None else image_diagonal(shape)
-            return f"R {radius:.0f} px"
-        return f"alpha {self.alpha:g}"
+        config = self.config
+        if config.uses_radius:
+            return f"R {config.resolve_radius(shape):.0f} px"
+        return f"alpha {config.alpha:g}"
 
 
 def _next(values: Sequence, value, step: int = 1):
@@ -346,24 +305,27 @@ class Controller:
         self.settings = replace(self.settings, **changes)
         self.revision += 1
 
+    def _reconfigure(self, **changes: object) -> None:
+        self._configure(config=replace(self.settings.config, **changes))
+
     def _do_help(self) -> None:
         self.help_visible = not self.help_visible
 
     def _do_transform(self) -> None:
-        self._configure(transform=_next(TRANSFORM_ORDER, self.settings.transform))
+        self._reconfigure(transform=_next(TRANSFORM_ORDER, self.settings.config.transform))
 
     def _do_weight(self) -> None:
-        self._configure(weight=_next(WEIGHTS, self.settings.weight))
+        self._reconfigure(weight=_next(WEIGHTS, self.settings.config.weight))
 
     def _parameter(self, up: bool) -> None:
-        s = self.settings
-        if s.weight in RADIUS_WEIGHTS:
-            radius = s.radius if s.radius is not None else image_diagonal(self.shape)
-            radius = radius * RADIUS_FACTOR if up else radius / RADIUS_FACTOR
-            self._configure(radius=min(max(radius, 1.0), 100 * image_diagonal(self.shape)))
+        config = self.settings.config
+        if config.uses_radius:
+            radius = config.resolve_radius(self.shape)
+            radius = radius * RADIUS_FACTOR if up else radius / RADIUS_FACTOR  # type: ignore[operator]
+            self._reconfigure(radius=min(max(radius, 1.0), 100 * image_diagonal(self.shape)))
         else:
-            alpha = s.alpha + (ALPHA_STEP if up else -ALPHA_STEP)
-            self._configure(alpha=min(max(alpha, ALPHA_RANGE[0]), ALPHA_RANGE[1]))
+            alpha = config.alpha + (ALPHA_STEP if up else -ALPHA_STEP)
+            self._reconfigure(alpha=min(max(alpha, ALPHA_RANGE[0]), ALPHA_RANGE[1]))
 
     def _do_raise(self) -> None:
         self._parameter(up=True)

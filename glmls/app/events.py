@@ -1,4 +1,5 @@
-"""Recorded mouse and key events for ``--replay`` (the format is in ``docs/window.md``).
+"""The window's events (mouse and keys, in image pixels) and their recording for ``--replay``
+(the format is in ``docs/window.md``).
 
 A JSON object ``{"events": [...]}`` (or the bare list). Each entry is one of::
 
@@ -21,10 +22,59 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..files import InputFileError
-from .controller import BUTTONS, MODIFIERS, Key, Move, Press, Release
+from ..errors import InputFileError
 
-__all__ = ["Wait", "read_events"]
+__all__ = [
+    "BUTTONS",
+    "MODIFIERS",
+    "Event",
+    "Key",
+    "Move",
+    "Press",
+    "Release",
+    "Wait",
+    "read_events",
+]
+
+BUTTONS = ("left", "right")
+MODIFIERS = ("shift", "ctrl", "alt")
+
+
+@dataclass(frozen=True)
+class Press:
+    """A mouse button pressed at image point (x, y)."""
+
+    x: float
+    y: float
+    button: str = "left"
+    mods: frozenset[str] = frozenset()
+
+
+@dataclass(frozen=True)
+class Move:
+    """The cursor moved to image point (x, y)."""
+
+    x: float
+    y: float
+
+
+@dataclass(frozen=True)
+class Release:
+    """A mouse button released at image point (x, y)."""
+
+    x: float
+    y: float
+    button: str = "left"
+
+
+@dataclass(frozen=True)
+class Key:
+    """A key: the character typed ("t", "G", "?") or a name ("F1", "Escape", "Ctrl+Z")."""
+
+    key: str
+
+
+Event = Press | Move | Release | Key
 
 
 @dataclass(frozen=True)

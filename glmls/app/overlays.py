@@ -12,17 +12,20 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ..colormaps import apply_colormap
-from ..context import GLContext
-from ..render import HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR, arrow_triangles, disk_triangles
+from ..analysis.canvas import HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR
+from ..analysis.colormaps import apply_colormap, color_limits
+from ..analysis.shapes import arrow_triangles, disk_triangles
+from ..gl import bindings
+from ..gl.context import GLContext
 from .vertices import StreamingVertices
 
 __all__ = [
     "GeometryDrawer",
     "PictureDrawer",
-    "folded_cells",
+    "fold_geometry",
     "handle_geometry",
     "mesh_lines",
+    "reference_geometry",
     "triangle_geometry",
 ]
 
@@ -88,21 +91,6 @@ def mesh_lines(deformed: np.ndarray, stride: int = 1) -> np.ndarray:
     return _colored(np.concatenate([np.zeros((0, 2)), *segments]), MESH_COLOR)
 
 
-def folded_cells(deformed: np.ndarray) -> np.ndarray:
-    """(rows - 1, columns - 1) bool: cells of which either drawn triangle, (00, 10, 11) or
-    (00, 11, 01), has negative signed area after deformation (:func:`glmls.foldovers`'s
-    rule)."""
-    a, b = deformed[:-1, :-1], deformed[:-1, 1:]
-    c, d = deformed[1:, 1:], deformed[1:, :-1]
-
-    def cross(o, x, y):
-        return (x[..., 0] - o[..., 0]) * (y[..., 1] - o[..., 1]) - (x[..., 1] - o[..., 1]) * (
-            y[..., 0] - o[..., 0]
-        )
-
-    return (cross(a, b, c) < 0) | (cross(a, c, d) < 0)
-
-
 def fold_geometry(deformed: np.ndarray, folded: np.ndarray) -> np.ndarray:
     """Triangles of the folded cells' deformed quads."""
     i, j = np.nonzero(folded)
@@ -117,8 +105,6 @@ def triangle_geometry(
 ) -> tuple[np.ndarray, np.ndarray, tuple[float, float]]:
     """(filled triangles, edge segments, colour limits) of the deformed reference triangles,
     each filled with its value's colour on the paper's white-to-red map (grey for NaN)."""
-    from ..colormaps import color_limits
-
     finite = values[np.isfinite(values)]
     limits = color_limits(finite, percentile=percentile) if finite.size else (0.0, 1.0)
     colors = apply_colormap(values, cmap="linear", vmin=limits[0], vmax=limits[1]) / 255.0
@@ -136,11 +122,12 @@ class GeometryDrawer:
     def __init__(self, gl: GLContext, shape: tuple[int, int]) -> None:
         self._gl = gl
         self._shape = shape
-        self._program = gl.program(("window_geometry.vert.glsl",), ("canvas.frag.glsl",))
+        self._program = gl.program("draw/geometry.vert.glsl", "draw/color.frag.glsl")
         self._vertices = StreamingVertices(gl, self._program, "2f 4f", "in_position", "in_color")
 
     def draw(self, vertices: np.ndarray, mode: int = moderngl.TRIANGLES) -> None:
         self._program["u_size"].value = (self._shape[1], self._shape[0])
+        self._program["u_flip_y"].value = True  # image row 0 at the top of the window
         self._vertices.draw(vertices, mode)
 
     def release(self) -> None:
@@ -157,15 +144,14 @@ class PictureDrawer:
         self.texture = mgl.texture((width, height), 4)
         self.texture.repeat_x = self.texture.repeat_y = False
         self.framebuffer = mgl.framebuffer(color_attachments=[self.texture])
-        self._program = gl.program(("window_texture.vert.glsl",), ("window_texture.frag.glsl",))
+        self._program = gl.program("common/fullscreen.vert.glsl", "draw/picture.frag.glsl")
         self._vao = mgl.vertex_array(self._program, [])
 
     def draw(self, *, opacity: float = 1.0, linear: bool = False) -> None:
         mgl = self._gl.mgl
         mode = moderngl.LINEAR if linear else moderngl.NEAREST
         self.texture.filter = (mode, mode)
-        self.texture.use(0)
-        self._program["u_picture"].value = 0
+        self.texture.use(bindings.PICTURE.index)
         self._program["u_opacity"].value = float(opacity)
         mgl.enable(moderngl.BLEND)
         mgl.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA

@@ -14,7 +14,8 @@ import moderngl
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from ..context import GLContext
+from ..gl import bindings
+from ..gl.context import GLContext
 from .vertices import StreamingVertices
 
 __all__ = ["GlyphAtlas", "TextRenderer"]
@@ -125,7 +126,7 @@ class TextRenderer:
         height, width = atlas.image.shape
         self._texture = mgl.texture((width, height), 1, atlas.image.tobytes(), alignment=1)
         self._texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self._program = gl.program(("window_text.vert.glsl",), ("window_text.frag.glsl",))
+        self._program = gl.program("draw/text.vert.glsl", "draw/text.frag.glsl")
         self._vertices = StreamingVertices(
             gl, self._program, "2f 2f 4f", "in_position", "in_uv", "in_color"
         )
@@ -135,8 +136,7 @@ class TextRenderer:
         in order; ``screen`` is the framebuffer's (width, height)."""
         data = np.concatenate([np.zeros((0, 8), np.float32), *parts]).astype(np.float32)
         self._program["u_screen"].value = screen
-        self._program["u_atlas"].value = 0
-        self._texture.use(0)
+        self._texture.use(bindings.GLYPHS.index)
         self._vertices.draw(data)
 
     def release(self) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ..context import GLContext
+from ..gl.context import GLContext
 
 
 class StreamingVertices:

@@ -1,0 +1,7 @@
+"""``python -m glmls``: the ``glmls`` command line."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

@@ -1,0 +1,303 @@
+"""An offscreen picture rasterised by OpenGL: a :class:`Canvas` is an RGBA8 framebuffer (4x
+multisampled where the driver allows) of an image's size; layers are drawn in order (an image,
+a colour-mapped field, filled triangles, lines, disks, arrows) and :meth:`Canvas.read` returns
+the picture top-down as (H, W, 3) uint8. Geometry is given in image pixel coordinates,
+(x, y) = (column, row), pixel centres at integers.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import moderngl
+import numpy as np
+
+from ..core.handles import as_points
+from ..core.mesh import as_shape
+from ..errors import ReleasedError
+from ..gl import bindings
+from ..gl.context import GLContext, current, get_context
+from .colormaps import NAN_COLOR, as_color, color_limits, colormap
+from .shapes import arrow_triangles, disk_triangles, segment_triangles
+
+__all__ = ["EDGE_COLOR", "HANDLE_SOURCE_COLOR", "HANDLE_TARGET_COLOR", "Canvas", "as_rgb8"]
+
+_FULLSCREEN = "common/fullscreen.vert.glsl"
+
+#: Default drawing colours (RGB 0-255).
+HANDLE_SOURCE_COLOR = (30, 144, 255)
+HANDLE_TARGET_COLOR = (255, 200, 0)
+EDGE_COLOR = (255, 255, 0)
+
+
+def as_rgb8(image: object, name: str = "image") -> np.ndarray:
+    """An image as (H, W, 3) uint8: grey (H, W), RGB or RGBA (alpha dropped); uint8, or
+    floats in [0, 1]."""
+    array = np.asarray(image)
+    if array.ndim == 2:
+        array = np.repeat(array[:, :, None], 3, axis=2)
+    if array.ndim != 3 or array.shape[2] not in (3, 4) or min(array.shape[:2]) < 1:
+        raise ValueError(f"{name} must be (H, W), (H, W, 3) or (H, W, 4), got {array.shape}")
+    array = array[:, :, :3]
+    if array.dtype == np.uint8:
+        return np.ascontiguousarray(array)
+    if np.issubdtype(array.dtype, np.floating):
+        if not np.isfinite(array).all():
+            raise ValueError(f"{name} holds NaN or infinite values")
+        return np.ascontiguousarray(np.round(np.clip(array, 0.0, 1.0) * 255).astype(np.uint8))
+    raise TypeError(f"{name} must be uint8 or float in [0, 1], got dtype {array.dtype}")
+
+
+def _rgba(color: object, opacity: float, name: str) -> tuple[float, float, float, float]:
+    if not 0.0 <= float(opacity) <= 1.0:
+        raise ValueError(f"opacity must be in [0, 1], got {opacity!r}")
+    r, g, b = as_color(color, name)
+    return (r / 255, g / 255, b / 255, float(opacity))
+
+
+def _positive(name: str, value: float) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+        raise ValueError(f"{name} must be a positive number, got {value!r}")
+    return float(value)
+
+
+class Canvas:
+    """An offscreen picture of ``shape`` (H, W), drawn in layers, read back top-down.
+
+    ``samples``: multisampling (antialiased edges) when the driver offers it; 0 for none.
+    Release with :meth:`release` or a ``with`` block.
+    """
+
+    def __init__(
+        self,
+        shape: Sequence[int],
+        *,
+        background: Sequence[float] = (0, 0, 0),
+        samples: int = 4,
+        ctx: moderngl.Context | GLContext | None = None,
+    ) -> None:
+        self.shape = as_shape(shape)
+        self._gl = get_context(ctx)
+        self._gl.make_current()
+        self._setup(background, samples)
+
+    def _setup(self, background: Sequence[float], samples: int) -> None:
+        mgl = self._gl.mgl
+        height, width = self.shape
+        limit = self._gl.limits["max_texture_size"]
+        if max(height, width) > limit:
+            raise ValueError(f"shape {self.shape} exceeds the GL texture size limit {limit}")
+        self._samples = min(int(samples), mgl.max_samples) if samples > 1 else 0
+        self._objects: list = []
+        # Bound again on release: moderngl rebinds "the current framebuffer" after creating
+        # one, and a released one would be a GL error (and a window wants its own back).
+        # A headless context has none bound yet: then framebuffer 0.
+        self._previous = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
+        size = (width, height)
+        # Colour only (2-D layers need no depth); moderngl's simple_framebuffer would add a
+        # multisampled depth buffer, which some drivers refuse.
+        self._resolved = self._framebuffer(size, 0)
+        self._fbo = self._framebuffer(size, self._samples) if self._samples else self._resolved
+        self._released = False
+        r, g, b = as_color(background, "background")
+        self._fbo.use()
+        self._fbo.clear(r / 255, g / 255, b / 255, 1.0)
+
+    def _framebuffer(self, size: tuple[int, int], samples: int) -> moderngl.Framebuffer:
+        mgl = self._gl.mgl
+        color = self._keep(mgl.renderbuffer(size, 4, samples=samples))
+        return self._keep(mgl.framebuffer(color_attachments=[color]))
+
+    def _keep(self, obj):
+        self._objects.append(obj)
+        return obj
+
+    def _begin(self) -> moderngl.Context:
+        if self._released:
+            raise ReleasedError("this Canvas has been released")
+        mgl = self._gl.mgl
+        self._fbo.use()
+        mgl.enable(moderngl.BLEND)
+        mgl.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        return mgl
+
+    def _fullscreen(self, program: moderngl.Program) -> None:
+        vao = self._gl.mgl.vertex_array(program, [])
+        try:
+            vao.render(moderngl.TRIANGLES, vertices=3)
+        finally:
+            vao.release()
+
+    # -- layers -----------------------------------------------------------------------------
+
+    @current
+    def image(self, image: object) -> Canvas:
+        """Draw an (H, W[, 3 | 4]) image of this canvas's shape over everything (opaque)."""
+        rgb = as_rgb8(image)
+        if rgb.shape[:2] != self.shape:
+            raise ValueError(f"image is {rgb.shape[:2]}, the canvas {self.shape}")
+        mgl = self._begin()
+        program = self._gl.program(_FULLSCREEN, "draw/image.frag.glsl")
+        texture = mgl.texture(self.shape[::-1], 3, rgb.tobytes(), alignment=1)
+        try:
+            texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            texture.use(bindings.PICTURE.index)
+            self._fullscreen(program)
+        finally:
+            texture.release()
+        return self
+
+    @current
+    def field(
+        self,
+        values: object,
+        *,
+        cmap: object = "viridis",
+        vmin: float | None = None,
+        vmax: float | None = None,
+        percentile: float | None = None,
+        nan_color: Sequence[float] = NAN_COLOR,
+        opacity: float = 1.0,
+    ) -> tuple[float, float]:
+        """Draw an (H, W) scalar field through a colour map; returns its limits (lo, hi)."""
+        array = np.asarray(values, dtype=np.float64)
+        if array.shape != self.shape:
+            raise ValueError(f"values must have the canvas shape {self.shape}, got {array.shape}")
+        if np.isinf(array).any():
+            raise ValueError("values must be finite or NaN")
+        lo, hi = color_limits(array, vmin=vmin, vmax=vmax, percentile=percentile)
+        table = colormap(cmap)
+        defined = ~np.isnan(array)
+        packed = np.stack([np.where(defined, array, 0.0), defined], axis=-1).astype(np.float32)
+        lut = np.concatenate([table, np.full((len(table), 1), 255, np.uint8)], axis=1)
+        mgl = self._begin()
+        program = self._gl.program(_FULLSCREEN, "draw/colormap.frag.glsl")
+        texture = mgl.texture(self.shape[::-1], 2, packed.tobytes(), dtype="f4")
+        lut_texture = mgl.texture((len(lut), 1), 4, lut.tobytes())
+        try:
+            for binding, tex in ((bindings.VALUES, texture), (bindings.COLOR_TABLE, lut_texture)):
+                tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+                tex.use(binding.index)
+            program["u_table_size"].value = len(table)
+            program["u_limits"].value = (lo, hi)
+            program["u_nan_color"].value = _rgba(nan_color, 1.0, "nan_color")
+            program["u_opacity"].value = float(opacity)
+            self._fullscreen(program)
+        finally:
+            texture.release()
+            lut_texture.release()
+        return lo, hi
+
+    def triangles(self, vertices: object, colors: object, *, opacity: float = 1.0) -> Canvas:
+        """Fill triangles (T, 3, 2) with one colour each: (T, 3) 0-255 or a single (r, g, b)."""
+        tris = np.asarray(vertices, dtype=np.float64)
+        if tris.ndim != 3 or tris.shape[1:] != (3, 2):
+            raise ValueError(f"vertices must have shape (T, 3, 2), got {tris.shape}")
+        rgb = np.asarray(colors, dtype=np.float64)
+        if rgb.shape == (3,):
+            rgb = np.broadcast_to(rgb, (len(tris), 3))
+        if rgb.shape != (len(tris), 3) or rgb.min(initial=0) < 0 or rgb.max(initial=0) > 255:
+            raise ValueError(f"colors must be (r, g, b) or ({len(tris)}, 3) in 0-255")
+        rgba = np.concatenate([rgb / 255, np.full((len(tris), 1), float(opacity))], axis=1)
+        self._draw(tris.reshape(-1, 2), np.repeat(rgba, 3, axis=0))
+        return self
+
+    def _solid(self, positions: np.ndarray, color, opacity: float, name: str) -> None:
+        rgba = np.tile(_rgba(color, opacity, name), (len(positions), 1))
+        self._draw(positions, rgba)
+
+    def lines(
+        self,
+        a: object,
+        b: object,
+        *,
+        color: Sequence[float] = EDGE_COLOR,
+        width: float = 1.5,
+        opacity: float = 1.0,
+    ) -> Canvas:
+        """Segments a[k] -> b[k] ((K, 2) each), ``width`` pixels wide."""
+        a, b = as_points(a, "a"), as_points(b, "b")
+        if a.shape != b.shape:
+            raise ValueError(f"a and b must have the same shape, got {a.shape} and {b.shape}")
+        self._solid(segment_triangles(a, b, _positive("width", width)), color, opacity, "color")
+        return self
+
+    def disks(
+        self,
+        centres: object,
+        *,
+        color: Sequence[float] = EDGE_COLOR,
+        radius: float = 3.0,
+        opacity: float = 1.0,
+    ) -> Canvas:
+        """Filled disks of ``radius`` pixels around (K, 2) centres."""
+        centres = as_points(centres, "centres")
+        triangles = disk_triangles(centres, _positive("radius", radius))
+        self._solid(triangles, color, opacity, "color")
+        return self
+
+    def arrows(
+        self,
+        src: object,
+        dst: object,
+        *,
+        color: Sequence[float] = HANDLE_TARGET_COLOR,
+        width: float = 2.0,
+        head: float = 10.0,
+        opacity: float = 1.0,
+    ) -> Canvas:
+        """Arrows src[k] -> dst[k] with a head ``head`` pixels long."""
+        src, dst = as_points(src, "src"), as_points(dst, "dst")
+        if src.shape != dst.shape:
+            raise ValueError(f"src and dst must have the same shape, got {src.shape}, {dst.shape}")
+        triangles = arrow_triangles(src, dst, _positive("width", width), _positive("head", head))
+        self._solid(triangles, color, opacity, "color")
+        return self
+
+    @current
+    def _draw(self, positions: np.ndarray, rgba: np.ndarray) -> None:
+        if len(positions) == 0:
+            self._begin()
+            return
+        data = np.concatenate([positions, rgba], axis=1).astype(np.float32)
+        mgl = self._begin()
+        program = self._gl.program("draw/geometry.vert.glsl", "draw/color.frag.glsl")
+        program["u_size"].value = (self.shape[1], self.shape[0])
+        program["u_flip_y"].value = False
+        buffer = mgl.buffer(data.tobytes())
+        vao = mgl.vertex_array(program, [(buffer, "2f 4f", "in_position", "in_color")])
+        try:
+            vao.render(moderngl.TRIANGLES)
+        finally:
+            vao.release()
+            buffer.release()
+
+    # -- result -----------------------------------------------------------------------------
+
+    @current
+    def read(self) -> np.ndarray:
+        """The picture as (H, W, 3) uint8, row 0 at the top."""
+        if self._released:
+            raise ReleasedError("this Canvas has been released")
+        if self._fbo is not self._resolved:
+            self._gl.mgl.copy_framebuffer(self._resolved, self._fbo)
+        height, width = self.shape
+        data = self._resolved.read(components=3, alignment=1)
+        return np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3).copy()
+
+    @current
+    def release(self) -> None:
+        if self._released:
+            return
+        if self._gl.mgl.fbo in (self._fbo, self._resolved):
+            self._previous.use()
+        for obj in reversed(self._objects):
+            obj.release()
+        self._objects.clear()
+        self._released = True
+
+    def __enter__(self) -> Canvas:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()

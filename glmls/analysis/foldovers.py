@@ -1,0 +1,50 @@
+"""Fold-overs: the mesh cells that f turns over (where the deformed image shows the cell drawn
+last). One rule, used by :func:`foldovers` and the window's overlay alike."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import NamedTuple, Protocol
+
+import numpy as np
+
+from ..core.mesh import MeshLattice
+
+__all__ = ["Foldovers", "folded_cells", "foldovers"]
+
+
+class HasMesh(Protocol):
+    def mesh(self, shape: Sequence[int], *, grid: int = 1) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+class Foldovers(NamedTuple):
+    """Mesh cells that f turns over: ``count`` cells; ``mask`` (H, W) bool marks the source
+    pixels of those cells."""
+
+    count: int
+    mask: np.ndarray
+
+
+def _cross(o: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    return (x[..., 0] - o[..., 0]) * (y[..., 1] - o[..., 1]) - (x[..., 1] - o[..., 1]) * (
+        y[..., 0] - o[..., 0]
+    )
+
+
+def folded_cells(deformed: np.ndarray) -> np.ndarray:
+    """(rows - 1, columns - 1) bool for a deformed mesh (rows, columns, 2): cells of which
+    either drawn triangle, (00, 10, 11) or (00, 11, 01), has negative signed area after
+    deformation (this includes every cell whose deformed quad has negative area)."""
+    a, b = deformed[:-1, :-1], deformed[:-1, 1:]
+    c, d = deformed[1:, 1:], deformed[1:, :-1]
+    return (_cross(a, b, c) < 0) | (_cross(a, c, d) < 0)
+
+
+def foldovers(m: HasMesh, shape: object, grid: int = 1) -> Foldovers:
+    """The cells of the mesh of ``shape`` (step ``grid``) that fold over under ``m``'s f
+    (:func:`folded_cells`). Where cells fold, the rasterized image shows the one drawn last
+    (see :meth:`glmls.MLS.warp`)."""
+    lattice = MeshLattice.corners(shape, grid)  # validates shape and grid
+    _, deformed = m.mesh(lattice.shape, grid=lattice.grid)
+    folded = folded_cells(deformed)
+    return Foldovers(int(folded.sum()), lattice.cell_mask(folded))

@@ -1,0 +1,201 @@
+"""One call that analyses a deformation of one image: statistics, timings and pictures."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+from PIL import Image
+
+from ..files.atomic import atomic_write
+from . import colormaps
+from .canvas import as_rgb8
+from .foldovers import foldovers
+from .pictures import (
+    render_field,
+    render_handles,
+    render_mesh,
+    render_triangle_errors,
+    render_triangulation,
+)
+from .stats import error_stats
+from .triangles import triangle_errors
+
+if TYPE_CHECKING:
+    from ..mls import MLS
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class AnalysisReport:
+    """What :func:`report` found.
+
+    - ``summary``: JSON-ready dict (configuration, timings in seconds, statistics);
+    - ``images``: name -> (H, W, 3) uint8 picture;
+    - ``field``: the MLS error field (H, W) float64; ``triangles``: the
+      :class:`glmls.TriangleErrors`.
+    """
+
+    summary: dict
+    images: dict[str, np.ndarray]
+    field: np.ndarray
+    triangles: object
+
+    def to_json(self, **options: object) -> str:
+        return json.dumps(self.summary, **({"indent": 2} | options))  # type: ignore[arg-type]
+
+    def save(self, folder: str | Path) -> list[Path]:
+        """Write ``report.json`` and one PNG per picture into ``folder`` (created if needed);
+        returns the paths written."""
+        out = Path(folder)
+        paths = [out / "report.json"]
+        with atomic_write(paths[0]) as tmp:  # each file whole or not at all
+            tmp.write_text(self.to_json() + "\n", encoding="utf-8")
+        for name, picture in self.images.items():
+            path = out / f"{name}.png"
+            with atomic_write(path) as tmp:
+                Image.fromarray(picture).save(tmp)
+            paths.append(path)
+        return paths
+
+
+def _cmap_name(cmap: object) -> object:
+    return cmap if isinstance(cmap, str) else np.asarray(cmap).tolist()
+
+
+def report(
+    image: object,
+    m: MLS,
+    reference_points: object,
+    *,
+    grid: int = 1,
+    eps: float = 1e-6,
+    cmap: object = "viridis",
+    percentile: float | None = None,
+    triangle_error: str = "angle",
+    triangle_percentile: float | None = 95.0,
+    mesh_grid: int = 32,
+    method: str = "quads",
+    interpolation: str = "nearest",
+    warp_grid: int = 1,
+    out_dir: str | Path | None = None,
+) -> AnalysisReport:
+    """Analyse the deformation ``m`` of ``image`` (H, W[, C]) as in section 5 of the paper.
+
+    Computes the MLS error field (at every pixel, or on a mesh every ``grid`` pixels) and its
+    statistics, the Delaunay triangulation of ``reference_points`` with its distance and
+    angular errors and their statistics, the fold-over count of the warp's mesh, and draws:
+    ``input_handles`` (Fig. 6 left), ``deformed`` (``m.warp(image, method=, interpolation=,
+    grid=warp_grid)``, Fig. 6 centre), ``deformed_mesh`` (the mesh every ``mesh_grid``
+    pixels), ``error_field`` (Fig. 6 right), ``triangulation`` (Fig. 7 centre),
+    ``triangle_angle`` or ``triangle_distance`` (``triangle_error``, Fig. 7 right: over the
+    deformed image at f(r)), and a ``*_colorbar`` for each colour picture.
+
+    ``percentile`` / ``triangle_percentile``: robust upper bound of the colour scales (None:
+    the maximum); the angular error of eq. (11) explodes near right angles, hence 95 there.
+    ``out_dir``: also write ``report.json`` and the PNGs there.
+    """
+    rgb = as_rgb8(image)
+    shape = rgb.shape[:2]
+    if triangle_error not in ("angle", "distance"):
+        raise ValueError(f"triangle_error must be 'angle' or 'distance', got {triangle_error!r}")
+    timings: dict[str, float] = {}
+    start = time.perf_counter()
+
+    tick = time.perf_counter()
+    field = m.error_field(shape, grid=grid)
+    timings["error_field"] = time.perf_counter() - tick
+
+    tick = time.perf_counter()
+    triangles = triangle_errors(m, reference_points, eps=eps)
+    timings["triangle_errors"] = time.perf_counter() - tick
+
+    tick = time.perf_counter()
+    deformed = as_rgb8(
+        m.warp(rgb, method=method, interpolation=interpolation, grid=warp_grid), "m.warp(image)"
+    )
+    timings["warp"] = time.perf_counter() - tick
+
+    tick = time.perf_counter()
+    folds = foldovers(m, shape, grid=warp_grid).count
+    timings["foldovers"] = time.perf_counter() - tick
+
+    tick = time.perf_counter()
+    images: dict[str, np.ndarray] = {"input_handles": render_handles(rgb, m.src, m.dst)}
+    images["deformed"] = deformed
+    _, mesh = m.mesh(shape, grid=mesh_grid)
+    images["deformed_mesh"] = render_handles(
+        render_mesh(np.full_like(rgb, 255), mesh), m.src, m.dst
+    )
+    lo, hi = colormaps.color_limits(field, percentile=percentile)
+    images["error_field"] = render_field(field, cmap=cmap, vmin=lo, vmax=hi)
+    images["error_field_colorbar"] = colormaps.colorbar(
+        cmap, lo, hi, length=max(64, shape[0] - 40), label="E_MLS (px^2)"
+    )
+    images["triangulation"] = render_triangulation(rgb, triangles.points, triangles.simplices)
+    values = getattr(triangles, triangle_error)
+    t_lo, t_hi = colormaps.color_limits(values, percentile=triangle_percentile)
+    images[f"triangle_{triangle_error}"] = render_triangle_errors(
+        deformed,
+        triangles,
+        which=triangle_error,
+        deformed=True,
+        cmap=cmap,
+        vmin=t_lo,
+        vmax=t_hi,
+    )
+    images[f"triangle_{triangle_error}_colorbar"] = colormaps.colorbar(
+        cmap, t_lo, t_hi, length=max(64, shape[0] - 40), label=f"{triangle_error} error"
+    )
+    timings["render"] = time.perf_counter() - tick
+    timings["total"] = time.perf_counter() - start
+
+    config = dataclasses.asdict(m.config)
+    summary = {
+        "image": {"height": shape[0], "width": shape[1]},
+        "configuration": config
+        | {
+            "radius_used": m.config.resolve_radius(shape),
+            "handles": len(m.src),
+            "src": m.src.tolist(),
+            "dst": m.dst.tolist(),
+        },
+        "analysis": {
+            "grid": grid,
+            "eps": eps,
+            "reference_points": len(triangles.points),
+            "cmap": _cmap_name(cmap),
+            "percentile": percentile,
+            "triangle_error": triangle_error,
+            "triangle_percentile": triangle_percentile,
+            "error_field_limits": [lo, hi],
+            "triangle_limits": [t_lo, t_hi],
+        },
+        "timings_s": timings,
+        "error_field": error_stats(field),
+        "triangles": triangles.stats(),
+        "foldovers": {"grid": warp_grid, "cells": folds},
+        "warp": {"method": method, "interpolation": interpolation, "grid": warp_grid},
+        "gl_renderer": m.ctx.mgl.info.get("GL_RENDERER"),
+    }
+    result = AnalysisReport(summary, images, field, triangles)
+    if out_dir is not None:
+        result.save(out_dir)
+    return result
+
+
+def compose(pictures: Sequence[np.ndarray], *, gap: int = 8, background: int = 255) -> np.ndarray:
+    """Pictures side by side, top-aligned, on a ``background`` grey level: (H, W, 3) uint8."""
+    pictures = [as_rgb8(p) for p in pictures]
+    height = max(p.shape[0] for p in pictures)
+    width = sum(p.shape[1] for p in pictures) + gap * (len(pictures) - 1)
+    out = np.full((height, width, 3), background, np.uint8)
+    x = 0
+    for picture in pictures:
+        out[: picture.shape[0], x : x + picture.shape[1]] = picture
+        x += picture.shape[1] + gap
+    return out

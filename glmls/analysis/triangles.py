@@ -1,0 +1,153 @@
+"""The reference-triangle errors of "Extensions to the MLS method for image deformation"
+(section 5, eqs. 10, 11): the Delaunay triangulation of user points, and how f changes each
+triangle's edge lengths and angles.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import Delaunay, QhullError
+
+from ..core.handles import as_points
+from .stats import error_stats
+
+__all__ = [
+    "TriangleErrors",
+    "check_reference_points",
+    "delaunay",
+    "triangle_errors",
+    "triangle_errors_from_points",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class TriangleErrors:
+    """Per-triangle errors of a deformation over the Delaunay triangulation of reference points.
+
+    - ``points`` (N, 2): the reference points r; ``deformed_points`` (N, 2): f(r).
+    - ``simplices`` (T, 3): vertex indices of each triangle (scipy's order, counter-clockwise
+      in (x, y)).
+    - ``distance`` (T,): eq. (10), the mean relative change of the three edge lengths.
+    - ``angle`` (T,): eq. (11), the mean over the three corners of
+      (|cos a - cos a'| + eps) / (|cos a| + eps); NaN where f collapses an edge to a point.
+    - ``flipped`` (T,): whether f reverses the triangle's orientation (a fold-over).
+    - ``eps``: the epsilon of eq. (11).
+    """
+
+    points: np.ndarray
+    deformed_points: np.ndarray
+    simplices: np.ndarray
+    distance: np.ndarray
+    angle: np.ndarray
+    flipped: np.ndarray
+    eps: float
+
+    def stats(self) -> dict[str, object]:
+        """JSON-ready statistics: triangle count, flipped count, distance and angle stats."""
+        return {
+            "triangles": len(self.simplices),
+            "flipped": int(self.flipped.sum()),
+            "distance": error_stats(self.distance),
+            "angle": error_stats(self.angle),
+        }
+
+
+def check_reference_points(points: object) -> np.ndarray:
+    """The reference points as (N, 2) float64; ``ValueError`` unless they can be triangulated
+    (at least 3, finite, no duplicates, not all on one line)."""
+    r = as_points(points, "reference_points")  # raises ValueError on NaN / inf
+    if len(r) < 3:
+        raise ValueError(f"reference_points: a triangulation needs at least 3 points, got {len(r)}")
+    order = np.lexsort((r[:, 1], r[:, 0]))
+    same = (r[order[1:]] == r[order[:-1]]).all(axis=1)
+    if same.any():
+        k = int(np.argmax(same))
+        i, j = sorted((int(order[k]), int(order[k + 1])))
+        raise ValueError(
+            f"reference_points[{i}] and reference_points[{j}] are the same point {r[i].tolist()}"
+        )
+    centred = r - r.mean(axis=0)
+    singular = np.linalg.svd(centred, compute_uv=False)
+    if singular[1] <= 1e-10 * singular[0]:
+        raise ValueError("reference_points all lie on one line: no triangle can be formed")
+    return r
+
+
+def delaunay(points: object) -> tuple[np.ndarray, np.ndarray]:
+    """(points (N, 2) float64, simplices (T, 3) int) of the Delaunay triangulation.
+
+    Unlike a bare ``scipy.spatial.Delaunay``, points that Qhull would silently leave out
+    (near-duplicates, in ``coplanar``) raise ``ValueError``.
+    """
+    r = check_reference_points(points)
+    try:
+        tri = Delaunay(r)
+    except QhullError as error:
+        raise ValueError(f"reference_points cannot be triangulated: {error}") from None
+    if len(tri.coplanar):
+        left = sorted(int(i) for i in tri.coplanar[:, 0])
+        raise ValueError(
+            f"reference_points {left} coincide (within Qhull's precision) with other points "
+            "and were left out of the triangulation; remove or move them"
+        )
+    return r, np.ascontiguousarray(tri.simplices, dtype=np.int64)
+
+
+def _corner_cosines(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For triangles (T, 3, 2): the cosine of the angle at each corner k (T, 3), and the length
+    of edge k, from corner k to corner k + 1 (T, 3)."""
+    edges = np.roll(corners, -1, axis=1) - corners  # edge k: corner k -> corner k+1
+    lengths = np.hypot(edges[..., 0], edges[..., 1])
+    # angle at corner k between the edges to k+1 and to k-1 (the reversed edge k-1)
+    before = -np.roll(edges, 1, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cosine = (edges * before).sum(-1) / (lengths * np.roll(lengths, 1, axis=1))
+    return np.clip(cosine, -1.0, 1.0), lengths
+
+
+def triangle_errors_from_points(
+    points: np.ndarray, deformed: np.ndarray, simplices: np.ndarray, *, eps: float = 1e-6
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(distance, angle, flipped) per triangle from r, f(r) and the triangles (eqs. 10, 11)."""
+    ref = points[simplices]
+    out = deformed[simplices]
+    cos_ref, len_ref = _corner_cosines(ref)
+    cos_out, len_out = _corner_cosines(out)
+    distance = np.mean(np.abs(len_ref - len_out) / len_ref, axis=1)
+    angle = np.mean((np.abs(cos_ref - cos_out) + eps) / (np.abs(cos_ref) + eps), axis=1)
+
+    def signed_area(t: np.ndarray) -> np.ndarray:
+        a, b = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+        return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+
+    flipped = np.sign(signed_area(ref)) * np.sign(signed_area(out)) < 0
+    return distance, angle, flipped
+
+
+def triangle_errors(
+    m: Callable[[np.ndarray], np.ndarray],
+    reference_points: object,
+    *,
+    eps: float = 1e-6,
+) -> TriangleErrors:
+    """Distance (eq. 10) and angular (eq. 11) errors of every triangle of the Delaunay
+    triangulation of ``reference_points`` (user points, distinct from the handles).
+
+    ``m`` is a :class:`glmls.MLS` or any function mapping (K, 2) points to (K, 2) points. Raises
+    ``ValueError`` for fewer than 3 points, NaN, duplicates or points all on one line.
+    A uniform scale by s gives angle ~0 (exactly eps / (|cos a| + eps) per corner) and
+    distance = |s - 1|.
+    """
+    if isinstance(eps, bool) or not isinstance(eps, (int, float)) or not eps > 0:
+        raise ValueError(f"eps must be a positive number, got {eps!r}")
+    r, simplices = delaunay(reference_points)
+    deformed = np.array(m(r), dtype=np.float64)  # a copy: we freeze it
+    if deformed.shape != r.shape:
+        raise ValueError(f"m(points) returned shape {deformed.shape}, expected {r.shape}")
+    distance, angle, flipped = triangle_errors_from_points(r, deformed, simplices, eps=eps)
+    for array in (r, deformed, simplices, distance, angle, flipped):
+        array.flags.writeable = False
+    return TriangleErrors(r, deformed, simplices, distance, angle, flipped, float(eps))

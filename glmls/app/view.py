@@ -1,0 +1,194 @@
+"""What the window draws each frame: the deformed image straight into the window's framebuffer
+with the context's shared :class:`~glmls.WarpPipeline`, the overlays and the text. The view
+owns its textures (the displayed image, the error field's colours) and drawers."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import moderngl
+import numpy as np
+
+from ..analysis.canvas import as_rgb8
+from ..gl.context import GLContext
+from ..imaging.pipeline import WarpPipeline
+from ..imaging.source import prepare_image, texture_data, texture_form
+from .controller import Controller, Settings
+from .layout import Layout
+from .overlays import GeometryDrawer, PictureDrawer, handle_geometry, reference_geometry
+from .session import Analysis, Session
+from .text import GlyphAtlas, TextRenderer
+
+__all__ = ["BACKGROUND", "FIELD_OPACITY", "TEXT_SIZE", "View", "display_image"]
+
+#: Text size (points at a content scale of 1).
+TEXT_SIZE = 13
+FIELD_OPACITY = 0.7
+BACKGROUND = (0.13, 0.13, 0.14)
+_STAGES = ("warp", "overlays", "text")
+
+
+def display_image(image: np.ndarray) -> np.ndarray:
+    """An image as float32 RGB in [0, 1] for the window's 8-bit framebuffer: the pipeline
+    writes the texture's raw values, so 0-255 values would all show white."""
+    array = np.asarray(image)
+    if array.ndim == 2:
+        array = array[:, :, None]
+    if array.ndim != 3 or not 1 <= array.shape[2] <= 4:
+        raise ValueError(f"image must be H x W or H x W x C with C in 1..4, got {array.shape}")
+    if np.issubdtype(array.dtype, np.integer):
+        values = array.astype(np.float32) / float(np.iinfo(array.dtype).max)
+    elif np.issubdtype(array.dtype, np.floating):
+        values = np.clip(array.astype(np.float32), 0.0, 1.0)
+    else:
+        raise TypeError(f"image dtype must be integer or float, got {array.dtype}")
+    colour = values[..., :3] if values.shape[2] >= 3 else np.repeat(values[..., :1], 3, axis=2)
+    return np.ascontiguousarray(colour)
+
+
+class View:
+    """The window's GL objects on context ``gl`` for a displayed image ``display`` (H, W, 3
+    float RGB in [0, 1], :func:`display_image`)."""
+
+    def __init__(self, gl: GLContext, display: np.ndarray) -> None:
+        self.gl = gl
+        self.shape = (display.shape[0], display.shape[1])
+        self.pipeline = WarpPipeline.of(gl)
+        # 8-bit, as the framebuffer: nearest quads then take the pipeline's fused path
+        self.source = self._texture(as_rgb8(display))
+        self._field: moderngl.Texture | None = None
+        self._field_key: tuple = ()
+        self.geometry = GeometryDrawer(gl, self.shape)
+        self.picture = PictureDrawer(gl, self.shape)
+        self.field_picture = PictureDrawer(gl, self.shape)
+        self.text: TextRenderer | None = None
+        self._atlas_size = 0
+        # Two sets of timer queries, used in turn: a frame reads the set of the frame before,
+        # whose GPU work is done by then, so reading never stalls the frame being drawn.
+        self._query_sets = [{name: gl.mgl.query(time=True) for name in _STAGES} for _ in (0, 1)]
+        self._queries = self._query_sets[0]
+        #: GPU seconds of each stage of the frame before last.
+        self.timings: dict[str, float] = {}
+
+    def _texture(self, rgb: np.ndarray, texture: moderngl.Texture | None = None):
+        """``rgb`` (H, W, 3 uint8) in an RGBA8 texture of the view's own (``texture`` reused
+        where it has that size)."""
+        image = prepare_image(rgb, self.pipeline.max_image_size, normalized=True)
+        form = texture_form(image)
+        if texture is None or (texture.size, texture.components, texture.dtype) != form:
+            if texture is not None:
+                texture.release()
+            texture = self.gl.mgl.texture(form[0], form[1], dtype=form[2])
+            texture.repeat_x = texture.repeat_y = False
+        texture.write(texture_data(image))
+        return texture
+
+    def text_renderer(self, size: int) -> TextRenderer:
+        """The text renderer with a glyph atlas of ``size`` pixels (made again on change)."""
+        if self.text is None or size != self._atlas_size:
+            if self.text is not None:
+                self.text.release()
+            self.text = TextRenderer(self.gl, GlyphAtlas(size))
+            self._atlas_size = size
+        return self.text
+
+    def draw(
+        self,
+        layout: Layout,
+        controller: Controller,
+        session: Session,
+        analysis: Analysis,
+        text: Sequence[np.ndarray],
+    ) -> None:
+        """One frame into the window's back buffer."""
+        mgl = self.gl.mgl
+        self.gl.make_current()
+        c, s, mls = controller, controller.settings, session.mls
+        framebuffer = layout.framebuffer
+        screen = mgl.screen
+        screen.use()
+        screen.viewport = (0, 0, *framebuffer)
+        screen.clear(*BACKGROUND, 1.0)
+        screen.clear(0.0, 0.0, 0.0, 1.0, viewport=layout.viewport)
+        with self._queries["warp"]:
+            if mls is not None:
+                self._draw_image(screen, layout, session, s)
+        with self._queries["overlays"]:
+            screen.viewport = layout.viewport
+            if mls is not None and c.overlays["error"] and analysis.field_colours is not None:
+                if analysis.key != self._field_key:  # upload once per analysis
+                    self._field = self._texture(analysis.field_colours, self._field)
+                    self._field_key = analysis.key
+                self._offscreen(self.field_picture, self._field, session, s)
+                screen.use()
+                screen.viewport = layout.viewport
+                self.field_picture.draw(opacity=FIELD_OPACITY, linear=True)
+            for vertices, mode in analysis.geometry:
+                self.geometry.draw(vertices, mode)
+            if c.overlays["handles"] or c.reference_mode:
+                self.geometry.draw(handle_geometry(c.src, c.dst, layout.scale))
+            if (c.reference_mode or c.overlays["angle"]) and len(c.reference):
+                points = session.deformed_reference()
+                self.geometry.draw(reference_geometry(points, layout.scale))
+        with self._queries["text"]:
+            screen.viewport = (0, 0, *framebuffer)
+            if self.text is not None:
+                self.text.draw(text, framebuffer)
+
+    def _draw_image(self, screen, layout: Layout, session: Session, s: Settings) -> None:
+        if s.method == "quads" and s.interpolation == "linear":
+            # drawn at the screen's resolution: bilinear detail where the window magnifies.
+            # Nearest quads go through the picture: the compute scan conversion writes it
+            # directly (an image-sized RGBA8 target), 2-3x faster than the rasterizer here.
+            screen.viewport = layout.viewport
+            self.pipeline.render(
+                session.mls,  # type: ignore[arg-type]
+                self.source,
+                screen,
+                method="quads",
+                interpolation=s.interpolation,
+                grid=s.grid,
+                flip_y=True,
+            )
+            return
+        self._offscreen(self.picture, self.source, session, s)
+        screen.use()
+        screen.viewport = layout.viewport
+        self.picture.draw(opacity=1.0, linear=False)
+
+    def _offscreen(self, picture: PictureDrawer, source, session: Session, s: Settings) -> None:
+        picture.framebuffer.use()
+        picture.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
+        self.pipeline.render(
+            session.mls,  # type: ignore[arg-type]
+            source,
+            picture.framebuffer,
+            method=s.method,
+            interpolation=s.interpolation,
+            grid=s.grid,
+            flip_y=False,
+        )
+
+    def next_frame(self, frames: int) -> None:
+        """After frame number ``frames``: switch query sets and read the other one's times
+        (the frame before this one's, done by now)."""
+        self._queries = self._query_sets[frames % 2]
+        if frames >= 2:
+            for name, query in self._queries.items():
+                self.timings[name] = query.elapsed / 1e9
+
+    def screenshot(self, framebuffer: tuple[int, int]) -> np.ndarray:
+        """The back buffer just drawn, (H, W, 3) uint8, top row first."""
+        width, height = framebuffer
+        data = self.gl.mgl.screen.read(viewport=(0, 0, width, height), components=3, alignment=1)
+        return np.frombuffer(data, np.uint8).reshape(height, width, 3)[::-1].copy()
+
+    def release(self) -> None:
+        self.gl.make_current()
+        for obj in (self.geometry, self.picture, self.field_picture, self.text):
+            if obj is not None:
+                obj.release()
+        for texture in (self.source, self._field):
+            if texture is not None:
+                texture.release()
+        self._query_sets.clear()  # moderngl's Query has no release(); the context frees them

@@ -1,0 +1,359 @@
+"""``glmls bench``: glmls against the tools a user would pick instead, on the same inputs.
+
+Each case (tool, mode, image size, handle count, grid, transform; see
+:mod:`glmls.cli.bench.cases`) runs in a fresh Python process, so its peak memory is its own
+(VmHWM: the whole process, interpreter and libraries included). The table gives the median of
+the timed runs with their spread (min-max), the peak memory, and each row's time as a ratio to
+glmls end to end on the same image, handles, grid and transform, measured in the same run.
+Results also go to ``bench.csv`` and ``bench.png`` in ``--out``.
+
+``python -m glmls.cli.bench --quick`` is a CI-sized run (1024^2, 64 handles, grid 1 and 4, rigid;
+molesq affine); the full matrix is 512/1024/2048 x 16/64/256 handles x grid 1/4/8 x every
+transform.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import subprocess
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from ...core.config import TRANSFORMS
+from .cases import (
+    GRIDLESS_TOOLS,
+    MLS_TOOLS,
+    MOLESQ_TRANSFORMS,
+    TOOLS,
+    Case,
+    available,
+    run_case,
+)
+
+HELP = "benchmarks against peers, same inputs"
+EXAMPLES = """
+examples:
+  glmls bench --quick --out out/bench        # 1024^2, 64 handles, grid 1 and 4
+  glmls bench --sizes 512,1024 --handles 16,64 --grids 1,4 --out out/bench
+"""
+
+QUICK = {
+    "sizes": [1024],
+    "handles": [64],
+    "grids": [1, 4],
+    "transforms": ["rigid"],
+    "repeat": 3,
+}
+FULL = {
+    "sizes": [512, 1024, 2048],
+    "handles": [16, 64, 256],
+    "grids": [1, 4, 8],
+    "transforms": list(TRANSFORMS),
+    "repeat": 5,
+}
+COLUMNS = (
+    "tool",
+    "mode",
+    "size",
+    "handles",
+    "grid",
+    "transform",
+    "status",
+    "median_s",
+    "min_s",
+    "max_s",
+    "runs",
+    "peak_mb",
+    "ratio",
+)
+
+
+class UsageError(ValueError):
+    """A bad command line (exit status 2)."""
+
+
+def _int_list(text: str) -> list[int]:
+    try:
+        values = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected integers separated by commas, got {text!r}"
+        ) from None
+    if not values or min(values) < 1:
+        raise argparse.ArgumentTypeError(f"expected positive integers, got {text!r}")
+    return values
+
+
+def _name_list(choices: Sequence[str]):
+    def parse(text: str) -> list[str]:
+        values = [v.strip() for v in text.split(",") if v.strip()]
+        bad = [v for v in values if v not in choices]
+        if bad or not values:
+            raise argparse.ArgumentTypeError(
+                f"unknown {', '.join(bad) or 'empty list'}; choose from {', '.join(choices)}"
+            )
+        return values
+
+    return parse
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    """Add ``glmls bench``'s options to ``parser``."""
+    parser.description = "Time glmls against other image-warping tools on the same inputs."
+    parser.add_argument(
+        "--quick", action="store_true", help="a CI-sized subset (1024^2, 64 handles, grid 1, 4)"
+    )
+    parser.add_argument("--sizes", type=_int_list, help="image sides, e.g. 512,1024,2048")
+    parser.add_argument("--handles", type=_int_list, help="handle counts, e.g. 16,64,256")
+    parser.add_argument("--grids", type=_int_list, help="mesh steps in pixels, e.g. 1,4,8")
+    parser.add_argument("--transforms", type=_name_list(TRANSFORMS), help="affine,similarity,rigid")
+    parser.add_argument(
+        "--tools",
+        type=_name_list(TOOLS),
+        default=list(TOOLS),
+        help=f"which tools (default all that are installed): {','.join(TOOLS)}",
+    )
+    parser.add_argument("--repeat", type=int, help="timed runs per case (default 5; quick 3)")
+    parser.add_argument(
+        "--timeout", type=float, default=600.0, help="seconds per case before it is abandoned"
+    )
+    parser.add_argument(
+        "--out", type=Path, default=Path("bench-out"), help="folder for bench.csv and bench.png"
+    )
+    parser.add_argument("--worker", help=argparse.SUPPRESS)  # one case, in a child process
+
+
+def _settings(args: argparse.Namespace) -> dict:
+    base = QUICK if args.quick else FULL
+    settings = {
+        k: v if getattr(args, k, None) is None else getattr(args, k) for k, v in base.items()
+    }
+    if settings["repeat"] < 1:
+        raise UsageError(f"--repeat must be >= 1, got {settings['repeat']}")
+    if not args.timeout > 0:
+        raise UsageError(f"--timeout must be > 0, got {args.timeout}")
+    return settings
+
+
+def plan(settings: dict, tools: Sequence[str]) -> list[Case]:
+    """The cases to run: every glmls combination (end to end and per frame), and each peer
+    where it applies (molesq: affine only; scikit-image and OpenCV: transform and grid do not
+    apply, run once per size and handle count)."""
+    cases = []
+    for size in settings["sizes"]:
+        for handles in settings["handles"]:
+            for tool in tools:
+                transforms = settings["transforms"]
+                if tool == "molesq":
+                    transforms = [t for t in transforms if t in MOLESQ_TRANSFORMS] or ["affine"]
+                elif tool not in MLS_TOOLS:
+                    transforms = ["-"]
+                grids = [0] if tool in GRIDLESS_TOOLS else settings["grids"]
+                modes = ("e2e", "frame") if tool == "glmls" else ("e2e",)
+                for transform in transforms:
+                    for grid in grids:
+                        for mode in modes:
+                            cases.append(Case(tool, mode, size, handles, grid, transform))
+    return cases
+
+
+def _spawn(case: Case, repeat: int, timeout: float) -> dict:
+    payload = json.dumps({"case": case.to_dict(), "repeat": repeat})
+    command = [sys.executable, "-m", "glmls.cli.bench", "--worker", payload]
+    try:
+        done = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return {"status": f"timeout after {timeout:g} s"}
+    lines = [line for line in done.stdout.splitlines() if line.startswith("{")]
+    if done.returncode != 0 or not lines:
+        tail = (done.stderr.strip().splitlines() or ["no output"])[-1]
+        return {"status": f"failed: {tail[:200]}"}
+    return {"status": "ok"} | json.loads(lines[-1])
+
+
+def _median(values: list[float]) -> float:
+    ordered = sorted(values)
+    mid = len(ordered) // 2
+    return ordered[mid] if len(ordered) % 2 else (ordered[mid - 1] + ordered[mid]) / 2
+
+
+def summarise(case: Case, result: dict) -> dict:
+    row = case.to_dict() | {"status": result["status"]}
+    times = result.get("times")
+    if times:
+        row |= {
+            "median_s": _median(times),
+            "min_s": min(times),
+            "max_s": max(times),
+            "runs": len(times),
+            "peak_mb": result["peak_mb"],
+        }
+    return row
+
+
+def add_ratios(rows: list[dict]) -> None:
+    """ratio = a row's median / glmls end to end's on the same size, handles and transform
+    (grid: the same, or 1 for the tools without one; peers: glmls rigid where they have no
+    transform)."""
+    base = {
+        (r["size"], r["handles"], r["grid"], r["transform"]): r["median_s"]
+        for r in rows
+        if r["tool"] == "glmls" and r["mode"] == "e2e" and "median_s" in r
+    }
+    for row in rows:
+        if "median_s" not in row:
+            continue
+        grid = row["grid"] or 1
+        transform = row["transform"] if row["transform"] != "-" else "rigid"
+        ref = base.get((row["size"], row["handles"], grid, transform))
+        if ref is None:  # e.g. molesq (affine) when glmls ran rigid only
+            ref = next(
+                (v for k, v in base.items() if k[:3] == (row["size"], row["handles"], grid)),
+                None,
+            )
+        if ref:
+            row["ratio"] = row["median_s"] / ref
+
+
+def _ms(seconds: float) -> str:
+    return f"{seconds * 1e3:.1f}" if seconds < 10 else f"{seconds * 1e3:.0f}"
+
+
+def format_table(rows: list[dict]) -> str:
+    header = (
+        f"{'tool':<12} {'mode':<5} {'size':>5} {'hdl':>4} {'grid':>4} {'transform':<10} "
+        f"{'median ms':>10} {'(min-max)':>17} {'peak MB':>8} {'x glmls':>8}"
+    )
+    lines = [header, "-" * len(header)]
+    for r in rows:
+        grid = str(r["grid"]) if r["grid"] else "-"
+        prefix = (
+            f"{r['tool']:<12} {r['mode']:<5} {r['size']:>5} {r['handles']:>4} {grid:>4} "
+            f"{r['transform']:<10} "
+        )
+        if "median_s" not in r:
+            lines.append(prefix + r["status"])
+            continue
+        spread = f"({_ms(r['min_s'])}-{_ms(r['max_s'])})"
+        ratio = f"{r['ratio']:.2f}" if "ratio" in r else ""
+        lines.append(
+            prefix + f"{_ms(r['median_s']):>10} {spread:>17} {r['peak_mb']:>8.0f} {ratio:>8}"
+        )
+    return "\n".join(lines)
+
+
+def write_csv(rows: list[dict], path: Path) -> None:
+    with open(path, "w", newline="", encoding="utf-8") as handle:
+        writer = csv.DictWriter(handle, fieldnames=COLUMNS, extrasaction="ignore")
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: row.get(k, "") for k in COLUMNS})
+
+
+def plot(rows: list[dict], path: Path) -> None:
+    """Horizontal bars of the median time per case on a log scale (Pillow only)."""
+    from PIL import Image, ImageDraw
+
+    done = [r for r in rows if "median_s" in r]
+    if not done:
+        return
+    colours = {
+        "glmls": (31, 119, 180),
+        "reference": (127, 127, 127),
+        "molesq": (255, 127, 14),
+        "skimage-pwa": (44, 160, 44),
+        "skimage-tps": (148, 103, 189),
+        "opencv-tps": (214, 39, 40),
+    }
+    bar, label_w, plot_w, top = 16, 330, 560, 40
+    height = top + bar * len(done) + 50
+    image = Image.new("RGB", (label_w + plot_w + 90, height), "white")
+    draw = ImageDraw.Draw(image)
+    lo = math.floor(math.log10(min(r["median_s"] for r in done)))
+    hi = math.ceil(math.log10(max(r["median_s"] for r in done)))
+    hi = max(hi, lo + 1)
+
+    def x_of(seconds: float) -> float:
+        return label_w + plot_w * (math.log10(seconds) - lo) / (hi - lo)
+
+    draw.text((10, 10), "median time per case (log scale); lines: min-max", fill="black")
+    for decade in range(lo, hi + 1):
+        x = x_of(10.0**decade)
+        draw.line([(x, top - 5), (x, height - 40)], fill=(220, 220, 220))
+        draw.text((x - 15, height - 35), _ms(10.0**decade) + " ms", fill="black")
+    for i, r in enumerate(done):
+        y = top + i * bar
+        grid = f"g{r['grid']}" if r["grid"] else ""
+        label = f"{r['tool']} {r['mode']} {r['size']}^2 {r['handles']}h {grid} {r['transform']}"
+        draw.text((10, y + 2), label.replace(" -", ""), fill="black")
+        colour = colours.get(r["tool"], (0, 0, 0))
+        if r["tool"] == "glmls" and r["mode"] == "frame":
+            colour = (120, 180, 230)
+        draw.rectangle([label_w, y + 3, x_of(r["median_s"]), y + bar - 3], fill=colour)
+        draw.line(
+            [(x_of(r["min_s"]), y + bar // 2), (x_of(r["max_s"]), y + bar // 2)], fill="black"
+        )
+    image.save(path)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the benchmark for parsed ``args``: 0 when every case ran, 1 when some failed,
+    2 for a bad command line. Messages are one line on stderr."""
+    try:
+        if args.worker is not None:
+            return _worker(args.worker)
+        settings = _settings(args)
+        tools = []
+        for tool in args.tools:
+            why = available(tool)
+            if why is None:
+                tools.append(tool)
+            else:
+                print(f"glmls bench: skipping {tool}: {why}", file=sys.stderr)
+        if "glmls" not in tools:
+            raise UsageError("glmls must be among --tools: ratios are against it")
+        cases = plan(settings, tools)
+        args.out.mkdir(parents=True, exist_ok=True)
+        rows = []
+        for number, case in enumerate(cases, 1):
+            print(
+                f"[{number}/{len(cases)}] {case.tool} {case.mode} {case.size}^2 "
+                f"{case.handles} handles grid {case.grid or '-'} {case.transform}",
+                file=sys.stderr,
+                flush=True,
+            )
+            rows.append(summarise(case, _spawn(case, settings["repeat"], args.timeout)))
+        add_ratios(rows)
+        print(format_table(rows))
+        write_csv(rows, args.out / "bench.csv")
+        plot(rows, args.out / "bench.png")
+        print(f"wrote {args.out / 'bench.csv'} and {args.out / 'bench.png'}", file=sys.stderr)
+        failed = [r for r in rows if r["status"] != "ok"]
+        return 1 if failed else 0
+    except UsageError as error:
+        print(f"glmls bench: {error}", file=sys.stderr)
+        return 2
+    except (OSError, RuntimeError, ValueError) as error:
+        print(f"glmls bench: {error}", file=sys.stderr)
+        return 1
+
+
+def _worker(payload: str) -> int:
+    request = json.loads(payload)
+    result = run_case(Case(**request["case"]), int(request["repeat"]))
+    print(json.dumps(result), flush=True)
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="glmls bench")
+    configure(parser)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exit_:  # argparse has printed its one-line usage error
+        return int(exit_.code or 0)
+    return run(args)

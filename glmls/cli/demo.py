@@ -1,0 +1,158 @@
+"""``glmls demo``: the real-time window (the paper's interactive system) from the command line.
+
+Exit status: 0 done, 2 bad input (arguments, image, handles or events file), 1 runtime failure
+(no display, no OpenGL 4.3), each with a one-line message on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import GLUnavailableError, InputFileError
+from ..files.landmarks import read_handles, read_points
+from .options import add_config_options, config_from_args, positive_int
+
+__all__ = ["configure", "run"]
+
+HELP = "the real-time window"
+EXAMPLES = """
+examples:
+  glmls demo                                   # the bundled photograph
+  glmls demo photo.png --handles h.json
+  xvfb-run -a glmls demo --replay drag.json --frames 30 --screenshot shot.png
+"""
+_CONSTRUCTIONS = {"quads-nearest": 0, "quads-linear": 1, "splat": 2, "backward": 3}
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected WIDTHxHEIGHT, e.g. 900x600, got {text!r}"
+        ) from None
+    if not (64 <= width <= 16384 and 64 <= height <= 16384):
+        raise argparse.ArgumentTypeError(f"window size must be 64..16384 per side, got {text}")
+    return width, height
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    """Add the window's arguments to ``parser``."""
+    parser.description = (
+        "Open the real-time MLS window: drag handles, switch transforms, weights and image "
+        "constructions, and see the error fields live (F1 in the window lists the keys)."
+    )
+    parser.add_argument(
+        "image",
+        metavar="IMAGE",
+        nargs="?",
+        type=Path,
+        help="image to deform (default: the bundled photograph with its handles)",
+    )
+    parser.add_argument("--handles", type=Path, help="handles file (JSON, CSV or BigWarp)")
+    parser.add_argument(
+        "--reference", type=Path, help="reference points (JSON or CSV) for the angle errors"
+    )
+    add_config_options(parser)
+    parser.add_argument(
+        "--construction",
+        choices=tuple(_CONSTRUCTIONS),
+        default="quads-nearest",
+        help="how the deformed image is built (default: quads-nearest)",
+    )
+    parser.add_argument("--grid", type=positive_int, default=4, help="mesh step in pixels")
+    parser.add_argument(
+        "--replay", type=Path, metavar="EVENTS.json", help="feed recorded events, one per frame"
+    )
+    parser.add_argument(
+        "--frames",
+        type=positive_int,
+        metavar="N",
+        help="render N frames, then exit (default with --replay or --screenshot: until the "
+        "events are done)",
+    )
+    parser.add_argument(
+        "--screenshot", type=Path, metavar="OUT.png", help="save the last frame, then exit"
+    )
+    parser.add_argument(
+        "--out-dir", type=Path, default=Path("."), help="where the s, j and S keys save"
+    )
+    parser.add_argument("--window-size", type=_size, metavar="WxH", help="window size")
+
+
+def _fail(status: int, message: str) -> int:
+    print(f"glmls demo: error: {message}", file=sys.stderr)
+    return status
+
+
+def _inputs(args: argparse.Namespace):
+    """(image, name, src, dst, reference) from the arguments; raises ValueError/OSError."""
+    from .. import data
+    from ..files.images import imread
+
+    if args.image is None:
+        image, name = data.astronaut(), "astronaut"
+        src, dst = data.astronaut_handles()
+        reference = data.astronaut_reference_points()
+    else:
+        try:
+            image = imread(args.image)
+        except FileNotFoundError:
+            raise InputFileError(f"{args.image}: no such file") from None
+        except OSError as error:
+            raise InputFileError(f"{args.image}: cannot read the image: {error}") from None
+        name = args.image.stem
+        src = dst = np.zeros((0, 2))
+        reference = np.zeros((0, 2))
+    if args.handles is not None:
+        src, dst = read_handles(args.handles)
+    if args.reference is not None:
+        reference = read_points(args.reference)
+    return image, name, src, dst, reference
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the window for parsed arguments; returns the exit status."""
+    from ..app.controller import Settings
+    from ..app.events import read_events, replay_frames
+    from ..app.window import App, NoDisplayError
+
+    try:
+        image, name, src, dst, reference = _inputs(args)
+        events = read_events(args.replay) if args.replay is not None else None
+        settings = Settings(
+            config=config_from_args(args),
+            construction=_CONSTRUCTIONS[args.construction],
+            grid=args.grid,
+        )
+        app = App(
+            image,
+            src,
+            dst,
+            reference=reference,
+            settings=settings,
+            name=name,
+            out_dir=args.out_dir,
+            handles_path=args.handles,
+            window_size=args.window_size,
+        )
+    except (ValueError, TypeError) as error:
+        return _fail(2, str(error))
+    frames = args.frames
+    if frames is None and (events is not None or args.screenshot is not None):
+        frames = replay_frames(events or []) + 1
+    try:
+        app.run(events=events, frames=frames, screenshot=args.screenshot)
+    except (NoDisplayError, GLUnavailableError) as error:
+        return _fail(1, str(error))
+    except (ValueError, TypeError) as error:  # e.g. an image over the GL texture limit
+        return _fail(2, str(error))
+    except OSError as error:  # the screenshot could not be written
+        return _fail(1, str(error))
+    except KeyboardInterrupt:
+        return 130
+    return 0

@@ -1,0 +1,126 @@
+"""The inputs of the ``glmls`` commands: images named by a file, folder or glob, the bundled
+example, handle and reference files, and the MLS they make. Every mistake is a
+:class:`~glmls.cli.options.UsageError` naming the file."""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .. import data
+from ..core.config import MLSConfig
+from ..files.atomic import atomic_write
+from ..files.images import imread, imwrite
+from ..files.landmarks import read_handles, read_points
+from ..mls import MLS
+from .options import UsageError, positive_int
+
+__all__ = [
+    "IMAGE_SUFFIXES",
+    "add_example_inputs",
+    "example_or_files",
+    "image_inputs",
+    "make_mls",
+    "read_image",
+    "say",
+    "write_image",
+]
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
+
+
+def image_inputs(pattern: str) -> tuple[list[Path], bool]:
+    """The images named by ``pattern`` (a file, a folder or a glob) and whether it is many."""
+    path = Path(pattern)
+    if path.is_dir():
+        files = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+        many = True
+    elif path.is_file():
+        return [path], False
+    else:
+        many = glob.has_magic(pattern)
+        if not many:
+            raise UsageError(f"{pattern}: no such file or folder")
+        files = sorted(Path(p) for p in glob.glob(pattern) if Path(p).is_file())
+    if not files:
+        raise UsageError(f"{pattern}: no images found")
+    return files, many
+
+
+def read_image(path: Path) -> np.ndarray:
+    try:
+        return imread(path)
+    except FileNotFoundError:
+        raise UsageError(f"{path}: no such file") from None
+    except (OSError, ValueError) as error:
+        raise UsageError(f"{path}: cannot read the image: {error}") from None
+
+
+def write_image(path: Path, image: np.ndarray) -> None:
+    with atomic_write(path) as tmp:
+        imwrite(tmp, image)
+
+
+def make_mls(src, dst, config: MLSConfig, shape) -> MLS:
+    try:
+        return MLS.from_config(src, dst, config, shape=shape)
+    except (TypeError, ValueError) as error:
+        raise UsageError(f"handles: {error}") from None
+
+
+def say(args: argparse.Namespace, message: str) -> None:
+    """A message on stderr unless ``--quiet``."""
+    if not args.quiet:
+        print(message, file=sys.stderr)
+
+
+def add_example_inputs(parser: argparse.ArgumentParser, *, reference_required: bool) -> None:
+    """IN, --handles, --reference, --example, --out, --analysis-grid and --cmap."""
+    parser.add_argument("input", metavar="IN", nargs="?", help="the image")
+    parser.add_argument("--handles", metavar="H", help="handles file (JSON, CSV or BigWarp)")
+    parser.add_argument(
+        "--reference",
+        metavar="R",
+        help="reference points file (JSON or CSV)"
+        + ("" if reference_required else "; default: the source handles"),
+    )
+    parser.add_argument(
+        "--example", action="store_true", help="use the bundled photograph, handles and points"
+    )
+    parser.add_argument("--out", metavar="DIR", required=True, help="output folder")
+    parser.add_argument(
+        "--analysis-grid",
+        type=positive_int,
+        default=1 if not reference_required else 4,
+        help="mesh step of the error field in pixels",
+    )
+    parser.add_argument(
+        "--cmap",
+        choices=("viridis", "linear"),
+        default="viridis",
+        help="colour map: viridis, or the paper's two-colour linear map",
+    )
+
+
+def example_or_files(args: argparse.Namespace, *, need_reference: bool):
+    """(image, src, dst, reference or None, name) from --example or the given files."""
+    if args.example:
+        return (
+            data.astronaut(),
+            *data.astronaut_handles(),
+            data.astronaut_reference_points(),
+            "astronaut (bundled example)",
+        )
+    missing = [o for o, v in (("IN", args.input), ("--handles", args.handles)) if v is None]
+    if need_reference and args.reference is None:
+        missing.append("--reference")
+    if missing:
+        raise UsageError(f"missing {', '.join(missing)} (or use --example)")
+    image = read_image(Path(args.input))
+    src, dst = read_handles(args.handles)
+    reference = read_points(args.reference) if args.reference else None
+    return image, src, dst, reference, str(args.input)

@@ -1,0 +1,75 @@
+"""The ``glmls`` command line: ``warp``, ``analyze``, ``tune``, ``demo`` and ``bench``, each a
+module of this package with ``HELP``, ``EXAMPLES``, ``configure(parser)`` and ``run(args)``.
+
+Exit status: 0 on success, 2 for usage and input errors (bad options, malformed files), 1 for
+failures while running (no OpenGL, an unreadable image...). Messages and progress go to
+stderr, results to stdout or files; a user's mistake never prints a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import textwrap
+from collections.abc import Sequence
+
+from ..errors import GLUnavailableError, InputFileError
+from ..version import __version__
+from . import analyze, bench, demo, tune, warp
+from .options import UsageError
+
+__all__ = ["EXIT_FAILURE", "EXIT_USAGE", "build_parser", "main"]
+
+EXIT_USAGE = 2
+EXIT_FAILURE = 1
+COMMANDS = {"warp": warp, "analyze": analyze, "tune": tune, "demo": demo, "bench": bench}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="glmls",
+        description="Image deformation by Moving Least Squares on the GPU, with error analysis.",
+    )
+    parser.add_argument("--version", action="version", version=f"glmls {__version__}")
+    parser.add_argument("--quiet", action="store_true", help="no progress or messages")
+    subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, command in COMMANDS.items():
+        sub = subparsers.add_parser(
+            name,
+            help=command.HELP,
+            description=command.HELP,
+            epilog=textwrap.dedent(command.EXAMPLES),
+            formatter_class=argparse.RawDescriptionHelpFormatter,
+        )
+        command.configure(sub)
+        sub.add_argument(
+            "--quiet",
+            action="store_true",
+            default=argparse.SUPPRESS,
+            help="no progress or messages",
+        )
+        sub.set_defaults(run=command.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.run(args)
+    except (UsageError, InputFileError) as error:
+        print(f"glmls {args.command}: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    except GLUnavailableError as error:
+        print(f"glmls {args.command}: {error}", file=sys.stderr)
+        return EXIT_FAILURE
+    except OSError as error:
+        print(f"glmls {args.command}: {error}", file=sys.stderr)
+        return EXIT_FAILURE
+    except KeyboardInterrupt:
+        print(f"glmls {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,130 @@
+"""MLS settings: the transform, the distance weight (``glmls.core.weights``) and its parameters."""
+
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import dataclass, field
+
+from .weights import RADIUS_WEIGHTS, REGISTRY, WEIGHTS, Weight
+
+__all__ = [
+    "RADIUS_WEIGHTS",
+    "TRANSFORMS",
+    "WEIGHTS",
+    "MLSConfig",
+    "image_diagonal",
+    "transform_code",
+]
+
+#: The transforms of Schaefer et al. (2006); a transform's index is its code in the shaders
+#: (``MLS_TRANSFORM`` in ``glmls/shaders/mls/core.glsl``).
+TRANSFORMS = ("affine", "similarity", "rigid")
+
+
+def transform_code(name: str) -> int:
+    """``MLS_TRANSFORM`` of a transform name."""
+    return TRANSFORMS.index(name)
+
+
+def _choice(name: str, value: object, choices: tuple[str, ...]) -> str:
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be a string, one of {', '.join(choices)}; got {value!r}")
+    if value not in choices:
+        raise ValueError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")
+    return value
+
+
+def _real(name: str, value: object) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {value!r}")
+    number = float(value)
+    if not math.isfinite(number):
+        raise ValueError(f"{name} must be finite, got {number}")
+    return number
+
+
+@dataclass(frozen=True)
+class MLSConfig:
+    """How f is built from the handles.
+
+    - ``transform``: ``affine``, ``similarity`` or ``rigid`` (Schaefer et al. 2006).
+    - ``weight``: a name of :data:`glmls.core.weights.REGISTRY` (d = distance from the
+      evaluated point to a source handle, R = ``radius``): ``idw`` 1 / (s + d^(2 alpha));
+      ``cressman`` max(0, (R² - d²) / (R² + d²)); ``shepard`` max(0, (R - d) / (R d));
+      ``gaussian`` exp(-d² / R²); ``linear`` max(0, R - d).
+    - ``alpha`` (> 0): idw power, also used by ``interpolating``.
+    - ``s`` (>= 0): idw's adjusting term, in pixel units (squared when alpha = 1).
+    - ``radius`` (> 0): R in pixels; ``None`` means the image diagonal where an image size is
+      known (the paper's best choice); the radius weights need one or the other.
+    - ``interpolating``: multiply the weight by 1 / d^(2 alpha), so that f(p_i) = q_i for
+      every weight. Cressman, Gaussian and linear weights are finite at d = 0, so without this
+      f(p_i) can miss q_i (by tens of pixels when R is wide).
+
+    Each field's ``metadata["help"]`` is its one-line description (the command line's help).
+    """
+
+    transform: str = field(default="rigid", metadata={"help": "MLS transform"})
+    weight: str = field(default="idw", metadata={"help": "distance weight (paper's Table 1)"})
+    alpha: float = field(default=1.0, metadata={"help": "idw power (and interpolating's)"})
+    s: float = field(default=1e-8, metadata={"help": "idw adjusting term"})
+    radius: float | None = field(
+        default=None, metadata={"help": "influence radius in pixels (default: image diagonal)"}
+    )
+    interpolating: bool = field(
+        default=False, metadata={"help": "make any weight interpolate the handles"}
+    )
+
+    def __post_init__(self) -> None:
+        _choice("transform", self.transform, TRANSFORMS)
+        _choice("weight", self.weight, tuple(REGISTRY))
+        alpha = _real("alpha", self.alpha)
+        if alpha <= 0:
+            raise ValueError(f"alpha must be > 0, got {alpha}")
+        s = _real("s", self.s)
+        if s < 0:
+            raise ValueError(f"s must be >= 0, got {s}")
+        object.__setattr__(self, "alpha", alpha)
+        object.__setattr__(self, "s", s)
+        if self.radius is not None:
+            radius = _real("radius", self.radius)
+            if radius <= 0:
+                raise ValueError(f"radius must be > 0, got {radius}")
+            object.__setattr__(self, "radius", radius)
+        if not isinstance(self.interpolating, bool):
+            raise TypeError(f"interpolating must be True or False, got {self.interpolating!r}")
+
+    @property
+    def weight_entry(self) -> Weight:
+        """The weight's entry in :data:`glmls.core.weights.REGISTRY`."""
+        return REGISTRY[self.weight]
+
+    @property
+    def uses_radius(self) -> bool:
+        return self.weight_entry.needs_radius
+
+    @property
+    def infinite_at_zero(self) -> bool:
+        """Whether w(0) is infinite, so that MLS interpolates the handles exactly."""
+        return self.interpolating or self.weight_entry.infinite_at_zero(self)
+
+    def resolve_radius(self, shape: tuple[int, int] | None) -> float | None:
+        """R in pixels: the given radius, else the diagonal of an image of ``shape`` (H, W).
+
+        Raises ``ValueError`` when a radius weight has neither.
+        """
+        if not self.uses_radius:
+            return self.radius
+        if self.radius is not None:
+            return self.radius
+        if shape is None:
+            raise ValueError(
+                f"weight {self.weight!r} needs an influence radius: pass radius=R (pixels), "
+                "or shape=(H, W) to use the image diagonal"
+            )
+        return image_diagonal(shape)
+
+
+def image_diagonal(shape: tuple[int, int]) -> float:
+    """Length of the diagonal of an H x W image, in pixels."""
+    return math.hypot(shape[0], shape[1])

@@ -1,0 +1,131 @@
+"""Validation of handles and points, and the float32-friendly scaling the GPU works in.
+
+Points are ``(x, y)`` = (column, row) float arrays of shape (N, 2); pixel centres sit at
+integer coordinates (scikit-image's convention).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import DegenerateHandlesError
+
+
+def as_points(points: object, name: str = "points") -> np.ndarray:
+    """``points`` as a C-contiguous float64 (N, 2) array; ``ValueError``/``TypeError`` if not."""
+    array = np.asarray(points)
+    if array.dtype == object or not (
+        np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating)
+    ):
+        raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
+    if array.ndim != 2 or array.shape[1] != 2:
+        if array.size == 0 and array.ndim >= 1:
+            return np.zeros((0, 2))
+        raise ValueError(f"{name} must have shape (N, 2) as (x, y) rows, got {array.shape}")
+    array = np.ascontiguousarray(array, dtype=np.float64)
+    if not np.isfinite(array).all():
+        row = int(np.argmax(~np.isfinite(array[:, 0]) | ~np.isfinite(array[:, 1])))
+        raise ValueError(f"{name} must be finite; row {row} is {array[row]}")
+    return array
+
+
+def point_bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The (x, y) minimum and maximum of non-empty (N, 2) ``points``. Column by column:
+    numpy's ``min(axis=0)`` over two columns is ~35x slower (1.8 ms for 65,536 points)."""
+    lo = np.array([points[:, 0].min(), points[:, 1].min()])
+    hi = np.array([points[:, 0].max(), points[:, 1].max()])
+    return lo, hi
+
+
+def _same_source_pair(p: np.ndarray, q: np.ndarray) -> tuple[int, int] | None:
+    """Indices i < j of the first two handles (in (x, y) order) with the same source point
+    and different targets, or None."""
+    order = np.argsort(p[:, 0], kind="stable")
+    tie = p[order[1:], 0] == p[order[:-1], 0]
+    if not tie.any():
+        return None  # all x differ (the usual case): no full (x, y) sort needed
+    shares_x = np.concatenate([tie, [False]]) | np.concatenate([[False], tie])
+    sub = order[shares_x]
+    sub = sub[np.lexsort((p[sub, 1], p[sub, 0]))]
+    ps, qs = p[sub], q[sub]
+    same_p = (ps[1:, 0] == ps[:-1, 0]) & (ps[1:, 1] == ps[:-1, 1])
+    conflict = same_p & ((qs[1:, 0] != qs[:-1, 0]) | (qs[1:, 1] != qs[:-1, 1]))
+    if not conflict.any():
+        return None
+    k = int(np.argmax(conflict))
+    i, j = sorted((int(sub[k]), int(sub[k + 1])))
+    return i, j
+
+
+def validate_handles(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
+    """Check source points p and target points q; return them as float64 (N, 2) arrays.
+
+    Exact duplicate pairs are accepted; the same source point with two different targets is
+    a ``ValueError`` (f cannot take two values there).
+    """
+    p = as_points(src, "src")
+    q = as_points(dst, "dst")
+    if len(p) != len(q):
+        raise ValueError(f"src and dst must have the same length, got {len(p)} and {len(q)}")
+    pair = _same_source_pair(p, q) if len(p) > 1 else None
+    if pair is not None:
+        i, j = pair
+        raise ValueError(
+            f"src[{i}] and src[{j}] are the same point {p[i].tolist()} with different "
+            f"targets {q[i].tolist()} and {q[j].tolist()}"
+        )
+    return p, q
+
+
+def check_affine_handles(src: np.ndarray) -> None:
+    """Affine MLS needs 3 distinct source points not on one line (0 or 1 handle is fine:
+    identity and translation)."""
+    unique = np.unique(src, axis=0)
+    if len(unique) <= 1:
+        return
+    centred = unique - unique.mean(axis=0)
+    singular = np.linalg.svd(centred, compute_uv=False)
+    if len(unique) == 2 or singular[1] <= 1e-9 * singular[0]:
+        raise DegenerateHandlesError(
+            f"affine MLS needs at least 3 source handles not on one line; got {len(unique)} "
+            "distinct points on a line. Use transform='similarity' or 'rigid', or add a handle."
+        )
+
+
+@dataclass(frozen=True)
+class Scaling:
+    """Maps pixel coordinates to the GPU's scaled ones: ``(x - center) / scale``.
+
+    Centring and scaling keep float32 coordinates near [-1, 1], where their spacing is ~1e-7
+    of the image size, instead of ~1e-4 px at x ~ 1000.
+    """
+
+    center: tuple[float, float]
+    scale: float
+
+    def to_gpu(self, points: np.ndarray) -> np.ndarray:
+        return ((points - np.asarray(self.center)) / self.scale).astype(np.float32)
+
+    def from_gpu(self, points: np.ndarray) -> np.ndarray:
+        return points.astype(np.float64) * self.scale + np.asarray(self.center)
+
+    @classmethod
+    def fit(cls, src: np.ndarray, dst: np.ndarray, shape: tuple[int, int] | None = None) -> Scaling:
+        """The scaling for the box around the handles and, if given, the image."""
+        boxes = [src, dst]
+        if shape is not None:
+            boxes.append(np.array([[-0.5, -0.5], [shape[1] - 0.5, shape[0] - 0.5]]))
+        pts = np.concatenate(boxes)
+        if len(pts) == 0:
+            return cls((0.0, 0.0), 1.0)
+        lo, hi = point_bounds(pts)
+        center = (lo + hi) / 2
+        scale = max(float((hi - lo).max()) / 2, 1.0)
+        return cls((float(center[0]), float(center[1])), scale)
+
+
+def pack_handles(src: np.ndarray, dst: np.ndarray, scaling: Scaling) -> np.ndarray:
+    """(N, 4) float32 rows (p.x, p.y, q.x, q.y) in scaled coordinates."""
+    return np.concatenate([scaling.to_gpu(src), scaling.to_gpu(dst)], axis=1)

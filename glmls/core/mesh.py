@@ -1,0 +1,175 @@
+"""The lattice of points where f is evaluated for an image: one value object for its geometry.
+
+Two kinds, both for an image of ``shape`` (H, W) with pixel centres at integer coordinates:
+
+- ``corners`` (step ``grid``): the pixel-square corners x = -0.5, -0.5 + grid, ..., up to
+  W - 0.5 (the last step may be shorter), likewise in y. The quads of the paper's forward
+  method are its cells; the error field at ``grid`` > 1 is evaluated there.
+- ``centres``: the pixel centres x = 0 .. W - 1, y = 0 .. H - 1 (the simple forward method
+  and the error field at ``grid`` = 1).
+
+Every pass asks a :class:`MeshLattice` for its sizes, bands and uniforms instead of working
+them out again; the shaders compute point (i, j) as ``min(origin + (i, j) step, last)``
+(``glmls/shaders/mls/lattice.glsl``), so that vertices shared by two bands are identical.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from .handles import Scaling
+
+__all__ = ["KINDS", "MeshLattice", "as_shape", "check_grid"]
+
+KINDS = ("corners", "centres")
+
+
+def as_shape(shape: object) -> tuple[int, int]:
+    """(H, W) from an image shape ``(H, W)`` or ``(H, W, C)``; ``ValueError`` otherwise."""
+    try:
+        dims = tuple(int(n) for n in shape)  # type: ignore[union-attr]
+    except (TypeError, ValueError):
+        raise TypeError(f"shape must be (H, W) integers, got {shape!r}") from None
+    if len(dims) not in (2, 3) or dims[0] < 1 or dims[1] < 1:
+        raise ValueError(f"shape must be (H, W) with H, W >= 1, got {shape!r}")
+    return dims[0], dims[1]
+
+
+def check_grid(grid: object) -> int:
+    """``grid`` if it is an integer >= 1 (a mesh step in pixels); ``ValueError`` otherwise."""
+    if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or grid < 1:
+        raise ValueError(f"grid must be an integer >= 1 (pixels), got {grid!r}")
+    return int(grid)
+
+
+@dataclass(frozen=True)
+class MeshLattice:
+    """The evaluation lattice of an image of ``shape`` (H, W): ``corners`` every ``grid``
+    pixels, or the pixel ``centres`` (``grid`` 1). Build with :meth:`corners` or
+    :meth:`centres`, which validate."""
+
+    shape: tuple[int, int]
+    grid: int = 1
+    kind: str = "corners"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "shape", as_shape(self.shape))
+        object.__setattr__(self, "grid", check_grid(self.grid))
+        if self.kind not in KINDS:
+            raise ValueError(f"kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
+        if self.kind == "centres" and self.grid != 1:
+            raise ValueError("the lattice of pixel centres has grid 1")
+
+    @classmethod
+    def corners(cls, shape: object, grid: object = 1) -> MeshLattice:
+        return cls(shape, grid, "corners")  # type: ignore[arg-type]
+
+    @classmethod
+    def centres(cls, shape: object) -> MeshLattice:
+        return cls(shape, 1, "centres")  # type: ignore[arg-type]
+
+    # -- geometry in pixels ---------------------------------------------------------------
+
+    @property
+    def dims(self) -> tuple[int, int]:
+        """(points per row, rows)."""
+        height, width = self.shape
+        if self.kind == "centres":
+            return width, height
+        return math.ceil(width / self.grid) + 1, math.ceil(height / self.grid) + 1
+
+    @property
+    def count(self) -> int:
+        nx, ny = self.dims
+        return nx * ny
+
+    @property
+    def cells(self) -> tuple[int, int]:
+        """(cells per row, rows of cells) between the points."""
+        nx, ny = self.dims
+        return nx - 1, ny - 1
+
+    @property
+    def origin(self) -> tuple[float, float]:
+        """Point (0, 0), pixels."""
+        return (0.0, 0.0) if self.kind == "centres" else (-0.5, -0.5)
+
+    @property
+    def last(self) -> tuple[float, float]:
+        """The last point of the last row, pixels: every coordinate is clamped to it."""
+        height, width = self.shape
+        if self.kind == "centres":
+            return width - 1.0, height - 1.0
+        return width - 0.5, height - 0.5
+
+    @property
+    def axes(self) -> tuple[np.ndarray, np.ndarray]:
+        """x of the points of a row and y of the rows, pixels."""
+        nx, ny = self.dims
+        (x0, y0), (x1, y1) = self.origin, self.last
+        xs = np.minimum(x0 + self.grid * np.arange(nx), x1)
+        ys = np.minimum(y0 + self.grid * np.arange(ny), y1)
+        return xs, ys
+
+    def points(self) -> np.ndarray:
+        """Every point, (rows, points per row, 2) float64 (x, y)."""
+        xs, ys = self.axes
+        return np.stack(np.meshgrid(xs, ys), axis=-1)
+
+    def cell_mask(self, cells: np.ndarray) -> np.ndarray:
+        """(H, W) bool: the pixels of the (corner lattice's) cells marked in ``cells``
+        (rows of cells, cells per row)."""
+        height, width = self.shape
+        grid = self.grid
+        return np.repeat(np.repeat(cells, grid, axis=0), grid, axis=1)[:height, :width]
+
+    # -- bands ----------------------------------------------------------------------------
+
+    @property
+    def band_overlap(self) -> int:
+        """Rows two consecutive bands share: one for cells (a cell needs both its rows)."""
+        return 1 if self.kind == "corners" else 0
+
+    def rows_per_band(self, band_bytes: int, *, bytes_per_point: int = 8, indexed: bool = False):
+        """Rows of a band whose buffer of ``bytes_per_point`` per point stays within
+        ``band_bytes``; where ``indexed`` (the GL rasterizer's quads, 6 uint32 indices per
+        cell), the index buffer too. At least 2."""
+        nx = self.dims[0]
+        rows = max(2, band_bytes // (bytes_per_point * nx))
+        if indexed:
+            rows = max(2, min(rows, band_bytes // (24 * max(nx - 1, 1)) + 1))
+        return rows
+
+    def bands(self, rows_per_band: int) -> Iterator[tuple[int, int]]:
+        """(first row, rows) of each band of at most ``rows_per_band`` rows, in order; bands
+        of cells overlap by one row (:attr:`band_overlap`)."""
+        ny = self.dims[1]
+        overlap = self.band_overlap
+        first = 0
+        while True:
+            rows = min(rows_per_band, ny - first)
+            yield first, rows
+            first += rows - overlap
+            if first + overlap >= ny:
+                return
+
+    def one_band(self, rows_per_band: int) -> bool:
+        return rows_per_band >= self.dims[1]
+
+    # -- uniforms of glmls/shaders/mls/lattice.glsl ----------------------------------------
+
+    def uniforms(self, scaling: Scaling) -> dict[str, object]:
+        """Origin, step and last point in the GPU's scaled coordinates, and the dims."""
+        origin = scaling.to_gpu(np.array([self.origin]))[0]
+        last = scaling.to_gpu(np.array([self.last]))[0]
+        step = self.grid / scaling.scale
+        return {
+            "u_lattice_origin": (float(origin[0]), float(origin[1])),
+            "u_lattice_step": (step, step),
+            "u_lattice_last": (float(last[0]), float(last[1])),
+            "u_lattice_dims": self.dims,
+        }

@@ -1,0 +1,182 @@
+"""The registry of distance weights (Table 1 of "Extensions to the MLS method for image
+deformation"): everything glmls knows about each weight, in one table.
+
+Configuration, shaders, spatial bins, the float64 reference, the command line and the window
+all read :data:`REGISTRY`; none of them names an individual weight. Adding a weight is one
+:class:`Weight` entry here and one GLSL function ``float mls_weight_<name>(float d2, float m,
+float inv_m, float sigma)`` in ``glmls/shaders/mls/weights.glsl`` (the README's "Adding a
+weight" says how).
+
+Distances: d is the distance from the evaluated point to a source handle, R the influence
+radius, alpha and s the idw parameters (all in pixels here; the shaders get them scaled).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+#: Where a weight reaches: every handle (no spatial bins), exactly 0 from d = R on
+#: ("radius"), or never 0 but cut where its tail is negligible ("gaussian").
+SUPPORTS = ("everywhere", "radius", "gaussian")
+#: The gaussian cut leaves out weights summing to less than this share of the total
+#: (float32's unit roundoff; see :func:`reach` and ``glmls/engine/bins.py``).
+GAUSSIAN_TOLERANCE = 2.0**-24
+
+
+class WeightParameters(Protocol):
+    """What a weight may depend on (an :class:`~glmls.MLSConfig` has these)."""
+
+    @property
+    def alpha(self) -> float: ...
+    @property
+    def s(self) -> float: ...
+
+
+@dataclass(frozen=True)
+class Weight:
+    """One distance weight.
+
+    - ``name``: as users spell it (``weight="cressman"``);
+    - ``formula``: w(d) as text, for help and documentation;
+    - ``needs_radius``: it has an influence radius R (``radius=``, default the image
+      diagonal);
+    - ``support``: one of :data:`SUPPORTS`;
+    - ``infinite_at_zero``: whether w(0) is infinite for these parameters, so that MLS
+      interpolates the handles exactly (f(p_i) = q_i);
+    - ``uses_s``: the shaders compute idw's scaled s per point (``MLS_WEIGHT_USES_S``);
+    - ``reference``: the float64 formula, w for squared distances ``d2`` (K, N) with +inf
+      where infinite, a common factor per row allowed (MLS ignores it).
+
+    The GLSL function is ``mls_weight_<name>`` (:attr:`glsl_function`).
+    """
+
+    name: str
+    formula: str
+    needs_radius: bool
+    support: str
+    infinite_at_zero: Callable[[WeightParameters], bool]
+    reference: Callable[[np.ndarray, WeightParameters, float | None], np.ndarray]
+    uses_s: bool = False
+
+    def __post_init__(self) -> None:
+        if self.support not in SUPPORTS:
+            raise ValueError(f"support must be one of {', '.join(SUPPORTS)}, got {self.support}")
+        if self.needs_radius == (self.support == "everywhere"):
+            raise ValueError(f"weight {self.name!r}: a radius and a bounded reach go together")
+
+    @property
+    def glsl_function(self) -> str:
+        """The GLSL function of ``glmls/shaders/mls/weights.glsl`` that computes it."""
+        return f"mls_weight_{self.name}"
+
+    def reach(self, radius: float, count: int) -> float | None:
+        """How far (in the units of ``radius``) a point looks for handles among ``count``:
+        None for every handle; R where the weight is 0 from R on; R sqrt(ln(N / tau)) for the
+        gaussian, whose weights below tau / N of the nearest one's (tau =
+        :data:`GAUSSIAN_TOLERANCE`) are left out. With a margin against rounding at the edges.
+        """
+        if self.support == "everywhere":
+            return None
+        factor = math.sqrt(gaussian_cut(count)) if self.support == "gaussian" else 1.0
+        return radius * factor * (1.0 + 1e-5)
+
+
+def gaussian_cut(count: int) -> float:
+    """ln(N / tau) for N = ``count`` handles: the gaussian cut's exponent (see bins)."""
+    return math.log(max(count, 1) / GAUSSIAN_TOLERANCE)
+
+
+# -- the float64 formulas ------------------------------------------------------------------------
+
+
+def _idw(d2: np.ndarray, params: WeightParameters, radius: float | None) -> np.ndarray:
+    return 1.0 / (params.s + d2**params.alpha)
+
+
+def _cressman(d2: np.ndarray, params: WeightParameters, radius: float | None) -> np.ndarray:
+    return np.maximum(0.0, (radius**2 - d2) / (radius**2 + d2))  # type: ignore[operator]
+
+
+def _shepard(d2: np.ndarray, params: WeightParameters, radius: float | None) -> np.ndarray:
+    d = np.sqrt(d2)
+    return np.where(d < radius, (radius - d) / (radius * d), 0.0)  # type: ignore[operator]
+
+
+def _gaussian(d2: np.ndarray, params: WeightParameters, radius: float | None) -> np.ndarray:
+    # divided by its value at the nearest handle, so that it does not underflow far away
+    return np.exp(-(d2 - d2.min(axis=1, keepdims=True)) / radius**2)  # type: ignore[operator]
+
+
+def _linear(d2: np.ndarray, params: WeightParameters, radius: float | None) -> np.ndarray:
+    return np.maximum(0.0, radius - np.sqrt(d2))  # type: ignore[operator]
+
+
+def _never(params: WeightParameters) -> bool:
+    return False
+
+
+#: Every weight, in the order users cycle through them.
+REGISTRY: dict[str, Weight] = {
+    w.name: w
+    for w in (
+        Weight(
+            "idw",
+            "1 / (s + d^(2 alpha))",
+            needs_radius=False,
+            support="everywhere",
+            infinite_at_zero=lambda params: params.s == 0.0,
+            reference=_idw,
+            uses_s=True,
+        ),
+        Weight(
+            "cressman",
+            "max(0, (R^2 - d^2) / (R^2 + d^2))",
+            needs_radius=True,
+            support="radius",
+            infinite_at_zero=_never,
+            reference=_cressman,
+        ),
+        Weight(
+            "shepard",
+            "max(0, (R - d) / (R d))",
+            needs_radius=True,
+            support="radius",
+            infinite_at_zero=lambda params: True,
+            reference=_shepard,
+        ),
+        Weight(
+            "gaussian",
+            "exp(-d^2 / R^2)",
+            needs_radius=True,
+            support="gaussian",
+            infinite_at_zero=_never,
+            reference=_gaussian,
+        ),
+        Weight(
+            "linear",
+            "max(0, R - d)",
+            needs_radius=True,
+            support="radius",
+            infinite_at_zero=_never,
+            reference=_linear,
+        ),
+    )
+}
+
+#: The weights' names.
+WEIGHTS = tuple(REGISTRY)
+#: Weights with an influence radius R.
+RADIUS_WEIGHTS = tuple(name for name, w in REGISTRY.items() if w.needs_radius)
+
+
+def weight(name: str) -> Weight:
+    """The registry entry of ``name``; ``ValueError`` naming the choices if unknown."""
+    try:
+        return REGISTRY[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown weight {name!r}; choose one of {', '.join(WEIGHTS)}") from None

@@ -1,0 +1,235 @@
+"""The GPU MLS of one configuration: handle storage, spatial bins, defines and uniforms behind
+one upload path.
+
+An :class:`MLSKernel` is what every pass over f needs (the points and lattice passes, the error
+field, the backward map): :meth:`MLSKernel.program` compiles a pass with the kernel's defines,
+:meth:`MLSKernel.bind` sets its uniforms and binds the handles. Handles reach the GPU only
+through :meth:`MLSKernel.upload`, which chooses the storage for their count, sorts them into
+bins where that pays (or where asked) and writes them; a pass over an image whose size gives
+another radius (``radius=None``: the image diagonal) rebuilds the bins through the same path.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import moderngl
+import numpy as np
+
+from ..core.config import MLSConfig, image_diagonal, transform_code
+from ..core.handles import Scaling, pack_handles
+from ..core.weights import GAUSSIAN_TOLERANCE, RADIUS_WEIGHTS
+from ..errors import ReleasedError
+from ..gl.context import GLContext
+from ..gl.dispatch import set_uniforms
+from ..gl.resources import Resources
+from .bins import BinBuffer, HandleBins, worth_binning
+from .storage import HandleStorage, check_storage, make_storage, resolve_storage, unroll_slots
+
+__all__ = ["DEFAULT_STORAGE", "SNAP_DISTANCE", "MLSKernel"]
+
+#: Points closer than this (pixels) to a handle whose weight is infinite there map to q_i.
+SNAP_DISTANCE = 1e-3
+#: Handle storage unless told otherwise: the uniform block where the handles fit, else the
+#: storage buffer (docs/handles.md: the uniform block is the fastest on llvmpipe wherever it
+#: fits; only the storage buffer and the texture take tens of thousands).
+DEFAULT_STORAGE = "auto"
+
+
+class MLSKernel:
+    """The handles of one MLS on the GPU, for ``config`` on context ``gl``.
+
+    ``shape``: the image size (H, W) that gives the radius where ``config.radius`` is None
+    (passes over another image size use theirs); ``storage``: ``auto`` or one of
+    :data:`glmls.engine.storage.STORAGES`; ``bins``: None (where it pays), True or False.
+    Raises ``ValueError``/``TypeError`` for bad options. Empty until :meth:`upload`.
+    """
+
+    def __init__(
+        self,
+        gl: GLContext,
+        config: MLSConfig,
+        *,
+        shape: tuple[int, int] | None = None,
+        storage: str = DEFAULT_STORAGE,
+        bins: bool | None = None,
+    ) -> None:
+        check_storage(storage)
+        if bins is not None and not isinstance(bins, bool):
+            raise TypeError(f"bins must be True, False or None, got {bins!r}")
+        if bins and not config.uses_radius:
+            raise ValueError(
+                f"bins need a weight with a radius ({', '.join(RADIUS_WEIGHTS)}); "
+                f"{config.weight!r} reaches every handle"
+            )
+        if bins and config.radius is None and shape is None:
+            raise ValueError("bins need a radius: give radius= or shape=")
+        self.gl = gl
+        self.config = config
+        self.shape = shape
+        self.scaling = Scaling((0.0, 0.0), 1.0)
+        self._storage_request = storage
+        self._bins_request = bins
+        self._storage: HandleStorage | None = None
+        self._bins: BinBuffer | None = None
+        self._packed = np.zeros((0, 4), np.float32)
+        #: Scratch buffers of the passes (points in, f and M out, error fields).
+        self.scratch = Resources(gl, "this MLS")
+        self._released = False
+
+    # -- the one upload path ------------------------------------------------------------
+
+    def upload(self, src: np.ndarray, dst: np.ndarray, scaling: Scaling) -> None:
+        """Put validated handles p = ``src``, q = ``dst`` ((N, 2) float64) on the GPU in the
+        coordinates of ``scaling``: the storage for N handles (``auto`` chooses again), in
+        bins where they are used. On error (too many handles for the storage) nothing
+        changes."""
+        self.check_alive()
+        self.gl.make_current()
+        packed = pack_handles(src, dst, scaling)
+        name = resolve_storage(self._storage_request, self.gl.mgl, len(packed))
+        storage = self._storage
+        if storage is None or storage.name != name:
+            storage = make_storage(name, self.gl.mgl)
+        if len(packed) > storage.capacity:
+            capacity = storage.capacity
+            if storage is not self._storage:
+                storage.release()
+            raise ValueError(
+                f"{len(packed)} handles exceed the {name} handle storage's capacity of "
+                f"{capacity} on this GL driver; use storage='ssbo'"
+            )
+        if storage is not self._storage:
+            if self._storage is not None:
+                self._storage.release()
+            self._storage = storage
+        self._packed, self.scaling = packed, scaling
+        self._write(self.radius(None), self._bins_request)
+
+    def _write(self, radius: float | None, use_bins: bool | None) -> None:
+        """Sort the packed handles into bins for ``radius`` (scaled) where ``use_bins`` (None:
+        where it pays), then write them to the storage."""
+        packed = self._packed
+        if radius is None or not self.config.uses_radius:
+            use_bins = False
+        elif use_bins is None:
+            use_bins = worth_binning(self.config.weight, radius, packed[:, :2].astype(float))
+        if self._bins is not None:
+            self._bins.release()
+            self._bins = None
+        if use_bins:
+            reach = self.config.weight_entry.reach(radius, len(packed))  # type: ignore[arg-type]
+            bins = HandleBins.build(packed[:, :2].astype(float), reach, radius)  # type: ignore[arg-type]
+            packed = packed[bins.order]
+            self._bins = BinBuffer(self.gl.mgl, bins, radius=radius)  # type: ignore[arg-type]
+        self._storage.upload(packed)  # type: ignore[union-attr]
+
+    def radius(self, shape: tuple[int, int] | None) -> float | None:
+        """R in scaled units for an image of ``shape`` (the kernel's own when None); None
+        without a radius (idw, or no size to take the diagonal of)."""
+        config = self.config
+        if not config.uses_radius:
+            return None
+        radius = config.radius
+        if radius is None:
+            shape = shape if shape is not None else self.shape
+            if shape is None:
+                return None
+            radius = image_diagonal(shape)
+        return radius / self.scaling.scale
+
+    # -- what the passes need -----------------------------------------------------------
+
+    @property
+    def count(self) -> int:
+        return len(self._packed)
+
+    @property
+    def storage(self) -> str:
+        """The handle storage in use (``auto`` resolved for the handle count)."""
+        return self._storage.name if self._storage is not None else self._storage_request
+
+    @property
+    def bins(self) -> HandleBins | None:
+        """The spatial bins in use, or None."""
+        return self._bins.bins if self._bins is not None else None
+
+    def defines(self) -> dict[str, object]:
+        """The ``#define`` values of ``glmls/shaders/mls/`` for this configuration."""
+        config = self.config
+        entry = config.weight_entry
+        binned = self._bins is not None
+        storage = self._storage
+        unroll = storage is not None and storage.unrolls and not binned
+        return {
+            "MLS_WEIGHT_FUNCTION": entry.glsl_function,
+            "MLS_WEIGHT_USES_S": entry.uses_s,
+            "MLS_REACH_GAUSSIAN": entry.support == "gaussian",
+            "MLS_GAUSSIAN_TOLERANCE": GAUSSIAN_TOLERANCE,
+            "MLS_TRANSFORM": transform_code(config.transform),
+            "MLS_INTERPOLATING": config.interpolating,
+            "MLS_ALPHA_ONE": config.alpha == 1.0,
+            "MLS_UNROLL": unroll_slots(self.count) if unroll else 0,
+            "MLS_BINS": binned,
+        } | dict(storage.defines if storage is not None else {})
+
+    def uniforms(self, shape: tuple[int, int] | None = None) -> dict[str, float | bool]:
+        """The uniforms of ``glmls/shaders/mls/core.glsl`` for an image of ``shape`` (scaled
+        units; the kernel's own shape when None)."""
+        c = self.config
+        scale = self.scaling.scale
+        radius = c.resolve_radius(shape if shape is not None else self.shape)
+        alpha = c.alpha
+        log2_s = math.log2(c.s) - 2 * alpha * math.log2(scale) if c.s > 0 else -1e30
+        hit2 = (SNAP_DISTANCE / scale) ** 2
+        # idw with a tiny s is infinite at d = 0 for float32: snap there too.
+        tiny_s = c.weight_entry.uses_s and log2_s - alpha * math.log2(hit2) < math.log2(1e-6)
+        return {
+            "u_alpha": alpha,
+            "u_log2_s": max(log2_s, -1e30),
+            "u_radius": (radius or 1.0) / scale,
+            "u_hit2": hit2,
+            "u_snap": c.infinite_at_zero or tiny_s,
+        }
+
+    def program(self, entry: str, defines: Mapping[str, object] | None = None):
+        """The compute program of ``entry`` (a pass including ``mls/visit.glsl``) with this
+        kernel's defines and ``defines``."""
+        self.check_alive()
+        return self.gl.compute(entry, self.defines() | dict(defines or {}))
+
+    def bind(self, program: moderngl.ComputeShader, shape: tuple[int, int] | None = None) -> None:
+        """Make ``program`` evaluate this kernel's f for an image of ``shape``: uniforms,
+        handles and bins (built again first if that image gives another radius)."""
+        self.check_alive()
+        if self._bins is not None:
+            radius = self.radius(shape)
+            if radius != self._bins.radius:
+                self._write(radius, True)  # another image size: another radius
+        set_uniforms(program, self.uniforms(shape))
+        self._storage.bind(program)  # type: ignore[union-attr]
+        if self._bins is not None:
+            self._bins.bind(program)
+
+    # -- life -----------------------------------------------------------------------------
+
+    def check_alive(self) -> None:
+        if self._released:
+            raise ReleasedError("this MLS has been released; create a new one")
+
+    @property
+    def released(self) -> bool:
+        return self._released
+
+    def release(self) -> None:
+        """Free the handle storage, the bins and the scratch buffers. Idempotent."""
+        if self._released:
+            return
+        self.gl.make_current()
+        if self._storage is not None:
+            self._storage.release()
+        if self._bins is not None:
+            self._bins.release()
+        self.scratch.release()
+        self._released = True

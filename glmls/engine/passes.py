@@ -1,0 +1,91 @@
+"""The passes that evaluate f on the GPU (``glmls/shaders/mls/points.comp.glsl``): at a list of
+points, read back; or on a :class:`~glmls.core.mesh.MeshLattice`, band by band into a buffer
+that stays on the GPU for the image passes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import moderngl
+import numpy as np
+
+from ..core.mesh import MeshLattice
+from ..gl import bindings
+from ..gl.dispatch import run_1d, set_uniforms
+from .kernel import MLSKernel
+
+__all__ = ["POINTS_PASS", "evaluate_lattice", "evaluate_points", "lattice_bands"]
+
+POINTS_PASS = "mls/points.comp.glsl"
+
+
+def _max_groups(kernel: MLSKernel, max_groups: int | None) -> int:
+    return max_groups if max_groups is not None else kernel.gl.limits["max_work_groups_x"]
+
+
+def evaluate_points(
+    kernel: MLSKernel, points: np.ndarray, *, with_matrix: bool, max_groups: int | None = None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """f at ``points`` ((K, 2) float64 pixels) as (K, 2) float64, and M as (K, 2, 2) float64
+    where ``with_matrix`` (else None). ``max_groups``: work groups per dispatch (the GL
+    limit by default)."""
+    program = kernel.program(POINTS_PASS, {"MLS_LATTICE": False, "MLS_WRITE_MATRIX": with_matrix})
+    count = len(points)
+    if count == 0:
+        return np.zeros((0, 2)), (np.zeros((0, 2, 2)) if with_matrix else None)
+    scratch = kernel.scratch
+    source = scratch.buffer("points", count * 8)
+    source.write(kernel.scaling.to_gpu(points).tobytes())
+    source.bind_to_storage_buffer(bindings.POINTS.index)
+    kernel.bind(program)
+    f_out = scratch.buffer("f", count * 8)
+    f_out.bind_to_storage_buffer(bindings.DEFORMED.index)
+    if with_matrix:
+        scratch.buffer("M", count * 16).bind_to_storage_buffer(bindings.MATRICES.index)
+    run_1d(program, count, max_groups=_max_groups(kernel, max_groups))
+    kernel.gl.mgl.memory_barrier()  # the shader's writes before the read
+    f = np.frombuffer(f_out.read(size=count * 8), np.float32).reshape(count, 2)
+    if not with_matrix:
+        return kernel.scaling.from_gpu(f), None
+    m = np.frombuffer(scratch.cached("M").read(size=count * 16), np.float32)
+    return kernel.scaling.from_gpu(f), m.astype(np.float64).reshape(count, 2, 2)
+
+
+def evaluate_lattice(
+    kernel: MLSKernel,
+    lattice: MeshLattice,
+    target: moderngl.Buffer,
+    *,
+    first_row: int = 0,
+    rows: int | None = None,
+    max_groups: int | None = None,
+) -> int:
+    """f (scaled) at ``rows`` rows of ``lattice`` from ``first_row`` (all by default) into
+    ``target`` from its start; returns the number of points written. The radius is the one
+    of the lattice's image."""
+    nx, ny = lattice.dims
+    rows = ny - first_row if rows is None else rows
+    program = kernel.program(POINTS_PASS, {"MLS_LATTICE": True, "MLS_WRITE_MATRIX": False})
+    kernel.bind(program, lattice.shape)
+    set_uniforms(program, lattice.uniforms(kernel.scaling) | {"u_first_row": first_row})
+    target.bind_to_storage_buffer(bindings.DEFORMED.index)
+    run_1d(program, nx * rows, max_groups=_max_groups(kernel, max_groups))
+    return nx * rows
+
+
+def lattice_bands(
+    kernel: MLSKernel, lattice: MeshLattice, target: moderngl.Buffer, rows_per_band: int
+) -> Iterator[tuple[int, tuple[int, int]]]:
+    """Evaluate f on ``lattice`` band by band into ``target`` (large enough for
+    ``rows_per_band`` rows); yields (first row, (points per row, rows)) once each band is in
+    the buffer. Bands of cells overlap by a row, computed identically in both."""
+    mgl = kernel.gl.mgl
+    nx = lattice.dims[0]
+    for first, rows in lattice.bands(rows_per_band):
+        # Draws issued before may still read the buffer (llvmpipe shades fragments later, at
+        # a flush): order them before it is overwritten.
+        mgl.memory_barrier()
+        evaluate_lattice(kernel, lattice, target, first_row=first, rows=rows)
+        mgl.memory_barrier()
+        yield first, (nx, rows)

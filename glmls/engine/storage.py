@@ -1,0 +1,243 @@
+"""Where the handles live on the GPU: a storage buffer, a uniform block or a texture.
+
+Every storage is a shader file (``glmls/shaders/mls/handles_<name>.glsl``, chosen by the
+``MLS_STORAGE`` define) defining ``int mls_handle_count()`` and ``vec4 mls_handle(int i)`` (the
+handle as ``(p.x, p.y, q.x, q.y)``, scaled) plus the GL object behind it. They differ in how many
+handles fit and how fast a shader reads them (``docs/handles.md`` has the measurements):
+
+========== ============================ ====================== ==========================
+storage     GL object                    guaranteed by GL 4.3    llvmpipe (this driver)
+========== ============================ ====================== ==========================
+``ssbo``    std430 shader storage buffer 16 MB: 1,048,576       128 MB: 8,388,608
+``ubo``     std140 uniform block         16 KB: 1,024           64 KB: 4,096
+``texture`` RGBA32F 2D texture           16384² texels           16384² texels
+========== ============================ ====================== ==========================
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Protocol
+
+import moderngl
+import numpy as np
+
+from ..gl import bindings
+
+#: The storages; a storage's index is its ``MLS_STORAGE`` code in the shaders.
+STORAGES = ("ssbo", "ubo", "texture")
+#: Handle counts up to which buffer storages compile the evaluation unrolled (MLS_UNROLL in
+#: glmls/shaders/mls/visit.glsl): constant indices let llvmpipe load each handle once for all lanes.
+UNROLL_SLOTS = (16, 64)
+
+
+class HandleStorage(Protocol):
+    """How the handles reach the shaders. ``name`` is one of :data:`STORAGES`; ``defines``
+    what the shaders need compiled in (``MLS_STORAGE`` and the storage's own); ``capacity``
+    the most handles it takes on this context; ``unrolls`` whether reading at constant indices
+    pays (``MLS_UNROLL``)."""
+
+    name: str
+    count: int
+    unrolls: bool
+
+    @property
+    def defines(self) -> Mapping[str, int | bool]: ...
+    @property
+    def capacity(self) -> int: ...
+    def upload(self, packed: np.ndarray) -> None: ...
+    def bind(self, program: moderngl.ComputeShader | moderngl.Program) -> None: ...
+    def release(self) -> None: ...
+
+
+def _as_packed(packed: np.ndarray) -> np.ndarray:
+    packed = np.ascontiguousarray(packed, dtype=np.float32)
+    if packed.ndim != 2 or packed.shape[1] != 4:
+        raise ValueError(f"packed handles must be (N, 4) float32, got shape {packed.shape}")
+    return packed
+
+
+def _check_capacity(name: str, count: int, capacity: int) -> None:
+    if count > capacity:
+        raise ValueError(
+            f"{count} handles exceed the {name} handle storage's capacity of {capacity} on this "
+            "GL driver; use storage='ssbo'"
+        )
+
+
+def unroll_slots(count: int) -> int:
+    """The MLS_UNROLL slots for ``count`` handles: the smallest of :data:`UNROLL_SLOTS` that
+    holds them, or 0 (a loop) for more."""
+    return next((slots for slots in UNROLL_SLOTS if count <= slots), 0)
+
+
+def _padded(packed: np.ndarray) -> bytes:
+    """The handles followed by zero rows up to the unrolled slots (empty slots read zeros)."""
+    slots = max(unroll_slots(len(packed)), len(packed))
+    data = np.zeros((max(slots, 1), 4), np.float32)
+    data[: len(packed)] = packed
+    return data.tobytes()
+
+
+class _BufferStorage:
+    """Shared by the buffer-backed storages: one buffer, grown as needed, never shrunk."""
+
+    name = ""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self._ctx = ctx
+        self._buffer: moderngl.Buffer | None = None
+        self.count = 0
+
+    #: The handles may be read at constant indices (MLS_UNROLL).
+    unrolls = True
+
+    @property
+    def defines(self) -> Mapping[str, int | bool]:
+        return {"MLS_STORAGE": STORAGES.index(self.name)}
+
+    def _write(self, data: bytes, needed: int) -> None:
+        if self._buffer is None or self._buffer.size < needed:
+            if self._buffer is not None:
+                self._buffer.release()
+            self._buffer = self._ctx.buffer(reserve=needed)
+        if data:
+            self._buffer.write(data)
+
+    def _bind_count(self, program: moderngl.ComputeShader | moderngl.Program) -> None:
+        if self._buffer is None:
+            raise RuntimeError("handles were not uploaded")
+        if "u_handle_count" in program:
+            program["u_handle_count"].value = self.count
+
+    def release(self) -> None:
+        if self._buffer is not None:
+            self._buffer.release()
+            self._buffer = None
+
+
+class SSBOHandleStorage(_BufferStorage):
+    """Handles in a std430 shader storage buffer of vec4 (binding ``HANDLES``)."""
+
+    name = "ssbo"
+
+    @property
+    def capacity(self) -> int:
+        return int(self._ctx.info["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"]) // 16
+
+    def upload(self, packed: np.ndarray) -> None:
+        packed = _as_packed(packed)
+        _check_capacity("ssbo", len(packed), self.capacity)
+        data = _padded(packed)
+        self._write(data, len(data))
+        self.count = len(packed)
+
+    def bind(self, program: moderngl.ComputeShader | moderngl.Program) -> None:
+        self._bind_count(program)
+        self._buffer.bind_to_storage_buffer(bindings.HANDLES.index)  # type: ignore[union-attr]
+
+
+class UBOHandleStorage(_BufferStorage):
+    """Handles in a std140 uniform block of vec4 (binding ``HANDLES_BLOCK``), as long as the
+    driver allows (``GL_MAX_UNIFORM_BLOCK_SIZE``; the bound buffer always has the block's full
+    length)."""
+
+    name = "ubo"
+
+    @property
+    def capacity(self) -> int:
+        return int(self._ctx.info["GL_MAX_UNIFORM_BLOCK_SIZE"]) // 16
+
+    @property
+    def defines(self) -> Mapping[str, int | bool]:
+        return {"MLS_STORAGE": STORAGES.index(self.name), "MLS_UBO_CAPACITY": self.capacity}
+
+    def upload(self, packed: np.ndarray) -> None:
+        packed = _as_packed(packed)
+        _check_capacity("ubo", len(packed), self.capacity)
+        self._write(_padded(packed), 16 * self.capacity)
+        self.count = len(packed)
+
+    def bind(self, program: moderngl.ComputeShader | moderngl.Program) -> None:
+        self._bind_count(program)
+        self._buffer.bind_to_uniform_block(bindings.HANDLES_BLOCK.index)  # type: ignore[union-attr]
+
+
+class TextureHandleStorage:
+    """Handles in an RGBA32F 2D texture, row by row, on texture unit ``HANDLE_TEXTURE``
+    (always read in a loop: a texel fetch gathers per lane whatever its index)."""
+
+    name = "texture"
+    unrolls = False
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self._ctx = ctx
+        self._texture: moderngl.Texture | None = None
+        self._width = 1
+        self.count = 0
+
+    @property
+    def defines(self) -> Mapping[str, int | bool]:
+        return {"MLS_STORAGE": STORAGES.index(self.name)}
+
+    @property
+    def capacity(self) -> int:
+        return int(self._ctx.info["GL_MAX_TEXTURE_SIZE"]) ** 2
+
+    def upload(self, packed: np.ndarray) -> None:
+        packed = _as_packed(packed)
+        _check_capacity("texture", len(packed), self.capacity)
+        side = int(self._ctx.info["GL_MAX_TEXTURE_SIZE"])
+        width = max(1, min(len(packed), side))
+        rows = max(1, -(-len(packed) // width))
+        data = np.zeros((rows * width, 4), np.float32)
+        data[: len(packed)] = packed
+        if self._texture is None or self._texture.size != (width, rows):
+            if self._texture is not None:
+                self._texture.release()
+            self._texture = self._ctx.texture((width, rows), 4, dtype="f4")
+            self._texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self._texture.write(data.tobytes())
+        self._width = width
+        self.count = len(packed)
+
+    def bind(self, program: moderngl.ComputeShader | moderngl.Program) -> None:
+        if self._texture is None:
+            raise RuntimeError("handles were not uploaded")
+        self._texture.use(bindings.HANDLE_TEXTURE.index)
+        for name, value in (("u_handle_count", self.count), ("u_handle_width", self._width)):
+            if name in program:
+                program[name].value = value
+
+    def release(self) -> None:
+        if self._texture is not None:
+            self._texture.release()
+            self._texture = None
+
+
+_CLASSES = {"ssbo": SSBOHandleStorage, "ubo": UBOHandleStorage, "texture": TextureHandleStorage}
+
+
+def check_storage(storage: object) -> str:
+    """``storage`` if it names a storage or ``"auto"``; ``TypeError``/``ValueError`` otherwise."""
+    choices = ("auto", *STORAGES)
+    if not isinstance(storage, str):
+        raise TypeError(f"storage must be a string, one of {', '.join(choices)}; got {storage!r}")
+    if storage not in choices:
+        raise ValueError(f"unknown storage {storage!r}; choose one of {', '.join(choices)}")
+    return storage
+
+
+def resolve_storage(storage: str, ctx: moderngl.Context, count: int) -> str:
+    """``"auto"``: the uniform block where the handles fit (the fastest on llvmpipe at every
+    count it takes, docs/handles.md), else the storage buffer; other names as they are."""
+    if check_storage(storage) != "auto":
+        return storage
+    return "ubo" if count <= int(ctx.info["GL_MAX_UNIFORM_BLOCK_SIZE"]) // 16 else "ssbo"
+
+
+def make_storage(storage: str, ctx: moderngl.Context) -> HandleStorage:
+    """A new, empty handle storage of kind ``storage`` (one of :data:`STORAGES`)."""
+    if check_storage(storage) == "auto":
+        raise ValueError("resolve 'auto' with resolve_storage() first: it depends on the count")
+    return _CLASSES[storage](ctx)

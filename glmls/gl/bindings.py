@@ -1,0 +1,109 @@
+"""The one table of GL binding points: every buffer, uniform block, texture unit and image unit
+a glmls shader uses, each with an index of its own.
+
+The shader loader (:mod:`glmls.gl.shaders`) defines each entry's :attr:`Binding.define` in every
+program, so GLSL writes ``layout(std430, binding = BIND_DEFORMED)`` and Python
+``buffer.bind_to_storage_buffer(DEFORMED.index)``: no binding number is written anywhere else.
+Indices are distinct within each kind (GL keeps one namespace per kind), so a buffer bound for
+one pass can never be read by another through a shared number.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["ALL", "KINDS", "Binding", "defines", "needed"]
+
+#: Binding namespaces, with the GL limit that bounds each one's indices.
+KINDS = {
+    "storage": "GL_MAX_SHADER_STORAGE_BUFFER_BINDINGS",
+    "uniform": "GL_MAX_UNIFORM_BUFFER_BINDINGS",
+    "texture": "GL_MAX_COMBINED_TEXTURE_IMAGE_UNITS",
+    "image": "GL_MAX_IMAGE_UNITS",
+}
+
+
+@dataclass(frozen=True)
+class Binding:
+    """One binding point: ``name`` (the GLSL define is ``BIND_<name>``), its ``kind`` (a key
+    of :data:`KINDS`) and ``index``."""
+
+    name: str
+    kind: str
+    index: int
+    what: str
+
+    @property
+    def define(self) -> str:
+        return f"BIND_{self.name}"
+
+
+# -- storage buffers ---------------------------------------------------------------------------
+HANDLES = Binding("HANDLES", "storage", 0, "handles (p.x, p.y, q.x, q.y), the ssbo storage")
+POINTS = Binding("POINTS", "storage", 1, "points to evaluate f at")
+DEFORMED = Binding("DEFORMED", "storage", 2, "f at the points or mesh vertices (scaled)")
+MATRICES = Binding("MATRICES", "storage", 3, "M at the points")
+BIN_STARTS = Binding("BIN_STARTS", "storage", 4, "where each spatial bin's handles start")
+ERROR_VERTICES = Binding("ERROR_VERTICES", "storage", 5, "the error field at mesh vertices")
+ERROR_FIELD = Binding("ERROR_FIELD", "storage", 6, "the error field written by a pass")
+WINNER = Binding("WINNER", "storage", 7, "per target pixel, the key of the top triangle")
+PACKED_SOURCE = Binding("PACKED_SOURCE", "storage", 8, "the source image, RGBA8 texels")
+PACKED_TARGET = Binding("PACKED_TARGET", "storage", 9, "the target image, RGBA8 texels")
+FIXUPS = Binding("FIXUPS", "storage", 10, "pixels that more than one triangle reached")
+FIXUP_DISPATCH = Binding("FIXUP_DISPATCH", "storage", 11, "work groups of the fix-up pass")
+CHECK = Binding("CHECK", "storage", 12, "the embedding test's counts and dispatch sizes")
+# -- uniform blocks ----------------------------------------------------------------------------
+HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
+# -- texture units -----------------------------------------------------------------------------
+SOURCE = Binding("SOURCE", "texture", 0, "the source image being warped")
+COORDS = Binding("COORDS", "texture", 1, "backward: the source point of each output pixel")
+MESH = Binding("MESH", "texture", 2, "f at the mesh vertices of a band (RG32F)")
+WINNER_TEXTURE = Binding("WINNER_TEXTURE", "texture", 3, "a copy of the winner buffer (R32UI)")
+HANDLE_TEXTURE = Binding("HANDLE_TEXTURE", "texture", 4, "handles, the texture storage")
+PICTURE = Binding("PICTURE", "texture", 5, "an image or picture drawn onto a viewport")
+VALUES = Binding("VALUES", "texture", 6, "a scalar field to colour (value, defined)")
+COLOR_TABLE = Binding("COLOR_TABLE", "texture", 7, "a colour map, n x 1 RGBA8")
+GLYPHS = Binding("GLYPHS", "texture", 8, "the glyph atlas of on-screen text")
+# -- image units -------------------------------------------------------------------------------
+INVERSE_MAP = Binding("INVERSE_MAP", "image", 0, "backward: guess in, source points out")
+
+ALL = (
+    HANDLES,
+    POINTS,
+    DEFORMED,
+    MATRICES,
+    BIN_STARTS,
+    ERROR_VERTICES,
+    ERROR_FIELD,
+    WINNER,
+    PACKED_SOURCE,
+    PACKED_TARGET,
+    FIXUPS,
+    FIXUP_DISPATCH,
+    CHECK,
+    HANDLES_BLOCK,
+    SOURCE,
+    COORDS,
+    MESH,
+    WINNER_TEXTURE,
+    HANDLE_TEXTURE,
+    PICTURE,
+    VALUES,
+    COLOR_TABLE,
+    GLYPHS,
+    INVERSE_MAP,
+)
+
+
+def defines() -> dict[str, int]:
+    """``BIND_<name>`` -> index for every binding: defined in every glmls program."""
+    return {binding.define: binding.index for binding in ALL}
+
+
+def needed() -> dict[str, int]:
+    """For each kind's GL limit, how many binding points the table needs (highest index + 1)."""
+    out: dict[str, int] = {}
+    for binding in ALL:
+        limit = KINDS[binding.kind]
+        out[limit] = max(out.get(limit, 0), binding.index + 1)
+    return out

@@ -1,0 +1,53 @@
+"""Running programs: their uniforms, and compute dispatches over many items.
+
+GL caps each dispatch's work-group count (``GL_MAX_COMPUTE_WORK_GROUP_COUNT``, at least
+65,535 per axis); larger runs are split into several dispatches, each told where it starts.
+The work-group sizes are defines of every program (``LOCAL_SIZE``, ``LOCAL_SIZE_2D``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import moderngl
+
+__all__ = ["LOCAL_SIZE", "LOCAL_SIZE_2D", "run_1d", "run_2d", "set_uniforms"]
+
+#: local_size_x of the one-dimensional compute shaders.
+LOCAL_SIZE = 64
+#: local_size_x and _y of the two-dimensional ones.
+LOCAL_SIZE_2D = 8
+
+
+def set_uniforms(
+    program: moderngl.Program | moderngl.ComputeShader, values: Mapping[str, object]
+) -> None:
+    """Set those of ``values`` that ``program`` uses (compilers drop unused uniforms)."""
+    for name, value in values.items():
+        if name in program:
+            program[name].value = value
+
+
+def run_1d(program: moderngl.ComputeShader, count: int, *, max_groups: int) -> None:
+    """Run ``program`` on items 0 .. ``count`` - 1 in groups of :data:`LOCAL_SIZE`, at most
+    ``max_groups`` groups per dispatch. The shader reads ``u_offset`` (the first item of the
+    dispatch) and ``u_count`` when it declares them."""
+    if "u_count" in program:
+        program["u_count"].value = count
+    groups = math.ceil(count / LOCAL_SIZE)
+    for first in range(0, groups, max_groups):
+        if "u_offset" in program:
+            program["u_offset"].value = first * LOCAL_SIZE
+        program.run(group_x=min(max_groups, groups - first))
+
+
+def run_2d(program: moderngl.ComputeShader, dims: tuple[int, int], *, max_groups: int) -> None:
+    """Run ``program`` on a ``dims`` = (columns, rows) lattice in 8 x 8 groups, one dispatch
+    (``u_dims`` tells the shader the lattice); ``ValueError`` past ``max_groups`` per axis."""
+    groups = (math.ceil(dims[0] / LOCAL_SIZE_2D), math.ceil(dims[1] / LOCAL_SIZE_2D))
+    if max(groups) > max_groups:
+        raise ValueError(f"lattice of {dims[0]} x {dims[1]} points is too large for one dispatch")
+    if "u_dims" in program:
+        program["u_dims"].value = dims
+    program.run(group_x=groups[0], group_y=groups[1])

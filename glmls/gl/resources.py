@@ -1,0 +1,131 @@
+"""Cached GL objects of one owner: buffers that only grow, one texture (and framebuffer) per
+role replaced when its size changes, attribute-less vertex arrays per program.
+
+Owners (an MLS kernel's scratch buffers, a warp pipeline) keep a :class:`Resources` and call
+:meth:`Resources.release` when they go; nothing else frees these objects.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Hashable
+
+import moderngl
+
+from ..errors import ReleasedError
+from .context import GLContext
+
+__all__ = ["Resources"]
+
+
+class Resources:
+    """GL objects cached by name or role for one owner on ``gl`` (see the module docstring);
+    ``owner`` names it in the error once released."""
+
+    def __init__(self, gl: GLContext, owner: str = "this GL cache") -> None:
+        self._gl = gl
+        self._owner = owner
+        self._buffers: dict[str, tuple[Hashable, moderngl.Buffer]] = {}
+        self._textures: dict[str, tuple[tuple, moderngl.Texture]] = {}
+        self._framebuffers: dict[str, tuple[int, moderngl.Framebuffer]] = {}
+        self._vaos: dict[tuple, moderngl.VertexArray] = {}
+        self._released = False
+
+    def check_alive(self) -> None:
+        if self._released:
+            raise ReleasedError(f"{self._owner} has been released")
+
+    def buffer(self, name: str, nbytes: int) -> moderngl.Buffer:
+        """A buffer of at least ``nbytes`` (at least 16), grown (never shrunk) as needed."""
+        cached = self._buffers.get(name)
+        if cached is not None and cached[1].size >= nbytes:
+            return cached[1]
+        return self._replace_buffer(
+            name, None, lambda: self._gl.mgl.buffer(reserve=max(nbytes, 16))
+        )
+
+    def cached(self, name: str) -> moderngl.Buffer:
+        """The buffer last made under ``name`` (``KeyError`` if none)."""
+        return self._buffers[name][1]
+
+    def keyed_buffer(self, name: str, key: Hashable, make: Callable[[], bytes]) -> moderngl.Buffer:
+        """The buffer holding ``make()``, made again only when ``key`` changes."""
+        cached = self._buffers.get(name)
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        return self._replace_buffer(name, key, lambda: self._gl.mgl.buffer(make()))
+
+    def _replace_buffer(self, name: str, key: Hashable, make: Callable[[], moderngl.Buffer]):
+        self.check_alive()
+        old = self._buffers.pop(name, None)
+        if old is not None:
+            for vao_key in [k for k in self._vaos if k[1] == old[1].glo]:
+                self._vaos.pop(vao_key).release()
+            old[1].release()
+        buffer = make()
+        self._buffers[name] = (key, buffer)
+        return buffer
+
+    def texture(
+        self, role: str, size: tuple[int, int], components: int, dtype: str = "f4"
+    ) -> moderngl.Texture:
+        """The texture of ``role``, made again (with its framebuffer) when size, components
+        or dtype change; clamped to its edges."""
+        self.check_alive()
+        key = (tuple(size), components, dtype)
+        cached = self._textures.get(role)
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        if cached is not None:
+            self._drop_texture(role)
+        texture = self._gl.mgl.texture(size, components, dtype=dtype)
+        texture.repeat_x = texture.repeat_y = False
+        self._textures[role] = (key, texture)
+        return texture
+
+    def _drop_texture(self, role: str) -> None:
+        _, texture = self._textures.pop(role)
+        framebuffer = self._framebuffers.pop(role, None)
+        if framebuffer is not None:
+            framebuffer[1].release()
+        texture.release()
+
+    def framebuffer(self, role: str, size: tuple[int, int], dtype: str = "f4"):
+        """A framebuffer around the RGBA texture ``role`` of ``size`` (RGBA32F, or RGBA8 for
+        ``dtype="f1"``)."""
+        texture = self.texture(role, size, 4, dtype)
+        cached = self._framebuffers.get(role)
+        if cached is not None and cached[0] == texture.glo:
+            return cached[1]
+        framebuffer = self._gl.mgl.framebuffer(color_attachments=[texture])
+        self._framebuffers[role] = (texture.glo, framebuffer)
+        return framebuffer
+
+    def vertex_array(
+        self, program: moderngl.Program, index: moderngl.Buffer | None = None
+    ) -> moderngl.VertexArray:
+        """An attribute-less vertex array: the shaders index their data by gl_VertexID."""
+        self.check_alive()
+        key = (program.glo, None if index is None else index.glo)
+        vao = self._vaos.get(key)
+        if vao is None:
+            if index is None:
+                vao = self._gl.mgl.vertex_array(program, [])
+            else:
+                vao = self._gl.mgl.vertex_array(program, [], index_buffer=index)
+            self._vaos[key] = vao
+        return vao
+
+    def release(self) -> None:
+        """Free every object. Idempotent; later use raises :class:`glmls.ReleasedError`."""
+        if self._released:
+            return
+        self._gl.make_current()
+        for role in list(self._textures):
+            self._drop_texture(role)
+        for vao in self._vaos.values():
+            vao.release()
+        for _, buffer in self._buffers.values():
+            buffer.release()
+        self._vaos.clear()
+        self._buffers.clear()
+        self._released = True

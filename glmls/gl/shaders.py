@@ -1,0 +1,180 @@
+"""Loading and composing the GLSL files in ``glmls/shaders`` (``common/``, ``mls/``, ``warp/``,
+``draw/``).
+
+A program's stage is one entry file; its ``#include "folder/file.glsl"`` lines (paths from the
+shader root) are resolved here, each file at most once per program, an include cycle being an
+error. The composed source is ``#version``, then a ``#define`` for every binding point of
+:mod:`glmls.gl.bindings`, the work-group sizes of :mod:`glmls.gl.dispatch` and the program's own
+configuration, then the files.
+
+Compile errors name the file and line: the loader keeps, for every line of the composed
+source, the file and line it came from, and rewrites the driver's locations (Mesa's
+``0:12(5)``, NVIDIA's ``0(12)``, ``ERROR: 0:12:`` elsewhere) with them. (Drivers disagree on
+``#line``'s source-string numbers, Mesa ignores them, so the map is the loader's.)
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from importlib import resources
+from importlib.resources.abc import Traversable
+
+from . import bindings
+from .dispatch import LOCAL_SIZE, LOCAL_SIZE_2D
+
+__all__ = [
+    "GLSL_VERSION",
+    "ComposedSource",
+    "ShaderCompileError",
+    "ShaderLibrary",
+    "common_defines",
+    "define_value",
+    "library",
+]
+
+GLSL_VERSION = "#version 430 core"
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*(//.*)?$')
+_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+#: Where drivers put source 0's line numbers: Mesa "0:12(5)", NVIDIA "0(12)", others
+#: "ERROR: 0:12:".
+_LOCATIONS = (
+    (re.compile(r"(?<![\w.])0:(\d+)\((\d+)\)"), "{file}:{line}({col})"),
+    (re.compile(r"(?<![\w.:])0\((\d+)\)"), "{file}({line})"),
+    (re.compile(r"((?:ERROR|WARNING): )0:(\d+):"), "{prefix}{file}:{line}:"),
+)
+_STAGES = ("compute_shader", "vertex_shader", "fragment_shader", "geometry_shader")
+
+
+class ShaderCompileError(RuntimeError):
+    """A glmls shader failed to compile or link; the message names file and line."""
+
+
+def define_value(value: object) -> str:
+    """A ``#define`` value: bool (0/1), int, finite float (a GLSL float literal) or an
+    identifier (e.g. a GLSL function name); ``TypeError``/``ValueError`` otherwise."""
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    if isinstance(value, int):
+        return str(value) if value >= 0 else f"({value})"
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise ValueError(f"#define values must be finite, got {value!r}")
+        text = repr(value)  # round-trips; always has a '.' or an exponent: a float literal
+        return text if value >= 0 else f"({text})"
+    if isinstance(value, str) and _IDENTIFIER.fullmatch(value):
+        return value
+    raise TypeError(f"#define values must be bool, int, float or an identifier, got {value!r}")
+
+
+@dataclass(frozen=True)
+class ComposedSource:
+    """One stage's GLSL: ``text``, and for each of its lines (1-based) the file and line it
+    came from (``"<defines>"`` for the prologue)."""
+
+    text: str
+    origins: tuple[tuple[str, int], ...]
+
+    def locate(self, line: int) -> tuple[str, int]:
+        if 1 <= line <= len(self.origins):
+            return self.origins[line - 1]
+        return ("<composed>", line)
+
+    def explain(self, message: str) -> str:
+        """``message`` with the driver's line numbers replaced by file:line."""
+
+        def mesa(match: re.Match) -> str:
+            file, line = self.locate(int(match.group(1)))
+            return f"{file}:{line}({match.group(2)})"
+
+        def nvidia(match: re.Match) -> str:
+            file, line = self.locate(int(match.group(1)))
+            return f"{file}({line})"
+
+        def other(match: re.Match) -> str:
+            file, line = self.locate(int(match.group(2)))
+            return f"{match.group(1)}{file}:{line}:"
+
+        for (pattern, _), replace in zip(_LOCATIONS, (mesa, nvidia, other), strict=True):
+            message = pattern.sub(replace, message)
+        return message
+
+
+def common_defines() -> dict[str, object]:
+    """What every glmls program is compiled with: the binding points (``BIND_*``) and the
+    work-group sizes the dispatches assume (``LOCAL_SIZE``, ``LOCAL_SIZE_2D``)."""
+    return bindings.defines() | {"LOCAL_SIZE": LOCAL_SIZE, "LOCAL_SIZE_2D": LOCAL_SIZE_2D}
+
+
+class ShaderLibrary:
+    """The GLSL files under ``root`` and their composition (see the module docstring).
+
+    ``common``: defines every composed source gets (by default :func:`common_defines`).
+    """
+
+    def __init__(self, root: Traversable, *, common: Mapping[str, object] | None = None):
+        self.root = root
+        self.common = dict(common_defines() if common is None else common)
+        self.source = functools.cache(self._read)
+
+    def _read(self, name: str) -> str:
+        path = self.root
+        for part in name.split("/"):
+            path = path.joinpath(part)
+        if not path.is_file():
+            raise FileNotFoundError(f"no shader named {name!r} in {self.root}")
+        return path.read_text(encoding="utf-8")
+
+    def compose(self, entry: str, defines: Mapping[str, object] | None = None) -> ComposedSource:
+        """The source of the stage whose entry file is ``entry``, with ``defines``."""
+        lines = [GLSL_VERSION]
+        merged = self.common | dict(defines or {})
+        for key in sorted(merged):
+            if not _IDENTIFIER.fullmatch(key):
+                raise ValueError(f"#define names must be identifiers, got {key!r}")
+            lines.append(f"#define {key} {define_value(merged[key])}")
+        origins = [("<defines>", k + 1) for k in range(len(lines))]
+        self._expand(entry, lines, origins, seen=set(), stack=())
+        return ComposedSource("\n".join(lines) + "\n", tuple(origins))
+
+    def _expand(self, name, lines, origins, *, seen: set[str], stack: tuple[str, ...]) -> None:
+        if name in stack:
+            raise ShaderCompileError("#include cycle: " + " -> ".join((*stack, name)))
+        if name in seen:
+            return  # each file once per program
+        seen.add(name)
+        for number, line in enumerate(self.source(name).splitlines(), 1):
+            match = _INCLUDE.match(line)
+            if match is None:
+                lines.append(line)
+                origins.append((name, number))
+                continue
+            try:
+                self._expand(match.group(1), lines, origins, seen=seen, stack=(*stack, name))
+            except FileNotFoundError as error:
+                raise FileNotFoundError(f"{name}:{number}: {error}") from None
+
+    def explain(self, message: str, stages: Mapping[str, ComposedSource]) -> str:
+        """A driver's compile log with each stage's lines mapped to file:line (moderngl
+        heads each stage's log with its name, e.g. ``fragment_shader``)."""
+        parts = re.split(r"^(" + "|".join(_STAGES) + r")$", message, flags=re.MULTILINE)
+        out, current = [parts[0]], None
+        for part in parts[1:]:
+            if part in _STAGES:
+                current = part
+                out.append(part)
+            else:
+                source = stages.get(current or "")
+                out.append(source.explain(part) if source is not None else part)
+        if len(parts) == 1 and len(stages) == 1:
+            return next(iter(stages.values())).explain(message)
+        return "".join(out)
+
+
+@functools.cache
+def library() -> ShaderLibrary:
+    """The shaders shipped inside the package (``glmls/shaders``)."""
+    return ShaderLibrary(resources.files("glmls").joinpath("shaders"))

@@ -1,0 +1,267 @@
+"""The quads of the paper's forward method scan-converted in a compute shader
+(``glmls/shaders/warp/cells.comp.glsl``): the GL rasterizer's job without its per-triangle setup
+(~0.25 us per triangle on llvmpipe: 0.5 s for the 2 million triangles of a 1024^2 image at
+grid 1). It needs a viewport of the image's size; other viewports, and keys too long for
+31 bits, take the rasterizer (:mod:`glmls.imaging.raster`).
+
+Fold-overs: each covered pixel keeps the key (cell row, cell column, triangle) of the top
+triangle with atomicMax, so the result does not depend on the order the invocations run in and
+is the one draw call in row-major cell order would give (later triangles on top).
+
+Three ways to fill the pixels, fastest first:
+
+- nearest, into an RGBA8 texture from an RGBA8 source ("fused"): the scan conversion writes
+  the colours itself and ``warp/cells_fixup.comp.glsl`` corrects fold-overs; a mesh in one
+  band is first drawn without keys or atomics and redrawn with them only where
+  ``warp/cells_check.comp.glsl`` cannot show it is an embedding ("fast");
+- nearest otherwise: the scan picks each pixel's source pixel, and a draw
+  (``warp/cells_nearest.frag.glsl``) copies it;
+- linear or source points: ``warp/cells.frag.glsl`` interpolates the winning triangle; a mesh
+  too big for one band is evaluated twice (coverage, then each band's pixels).
+"""
+
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+from ..core.mesh import MeshLattice
+from ..engine.kernel import MLSKernel
+from ..gl import bindings
+from ..gl.context import GLContext
+from ..gl.dispatch import LOCAL_SIZE, run_1d, set_uniforms
+from ..gl.resources import Resources
+from .bands import MeshBands
+from .options import PipelineOptions
+
+__all__ = ["PATHS", "CellScan", "key_layout"]
+
+#: The ways :meth:`CellScan.draw` filled the pixels (:attr:`CellScan.last_path`).
+PATHS = ("fused fast", "fused", "nearest", "interpolated")
+
+
+def key_layout(lattice: MeshLattice, *, source_pixel: bool) -> tuple[int, int, int] | None:
+    """Bit layout of ``warp/cells.comp.glsl``'s triangle keys, (sub bits, column shift, row
+    shift), or None where a key would not fit in 31 bits (the rasterizer draws those meshes).
+
+    A key is cell row, cell column, triangle and, with ``source_pixel``, the chosen source
+    pixel's column and row inside the cell (``sub bits`` each), most significant first: keys
+    order triangles as one draw call in row-major cell order would (later ones on top).
+    """
+    columns, rows = lattice.cells
+    sub_bits = (lattice.grid - 1).bit_length() if source_pixel else 0
+    col_shift = 1 + 2 * sub_bits
+    row_shift = col_shift + (columns - 1).bit_length()
+    if row_shift + (rows - 1).bit_length() > 31:
+        return None
+    return sub_bits, col_shift, row_shift
+
+
+def _packable(source: moderngl.Texture, target: object) -> bool:
+    """Can the fused nearest path write ``target``: RGBA8 textures of one size."""
+    return (
+        isinstance(target, moderngl.Texture)
+        and target.size == source.size
+        and (source.components, source.dtype) == (4, "f1")
+        and (target.components, target.dtype) == (4, "f1")
+    )
+
+
+class CellScan:
+    """The compute scan conversion of a pipeline (its GL objects are the pipeline's)."""
+
+    def __init__(
+        self, gl: GLContext, resources: Resources, options: PipelineOptions, bands: MeshBands
+    ) -> None:
+        self._gl = gl
+        self._resources = resources
+        self._options = options
+        self._bands = bands
+        #: How the last :meth:`draw` filled the pixels: one of :data:`PATHS`, or None.
+        self.last_path: str | None = None
+
+    def draw(
+        self,
+        kernel: MLSKernel,
+        source: moderngl.Texture,
+        lattice: MeshLattice,
+        *,
+        linear: bool,
+        coords: bool,
+        flip_y: bool,
+        target: object = None,
+    ) -> bool:
+        """The quads of ``lattice`` (corners of the source image) into the bound framebuffer,
+        whose viewport has the image's size; ``target`` is its colour texture. False
+        (nothing drawn) where the triangle keys do not fit in 31 bits. ``coords``: write the
+        source points instead of colours (the backward method's first guess)."""
+        height, width = lattice.shape
+        nearest = not linear and not coords
+        layout = key_layout(lattice, source_pixel=nearest)
+        if layout is None:
+            return False
+        sub_bits, col_shift, row_shift = layout
+        fused = nearest and not flip_y and _packable(source, target)
+        sc = kernel.scaling
+        values = {
+            "u_center": sc.center,
+            "u_scale": sc.scale,
+            "u_target_size": (width, height),
+            "u_source_size": (width, height),
+            "u_grid": lattice.grid,
+            "u_sub_bits": sub_bits,
+            "u_col_shift": col_shift,
+            "u_row_shift": row_shift,
+            "u_fixup_capacity": self._options.fixup_capacity(width * height),
+        }
+        # padded to whole uvec4s for the clear of warp/cells_check.comp.glsl
+        winner = self._resources.buffer("winner", (width * height + 3) // 4 * 16)
+        fast = fused and self._options.fast_embedded and self._bands.one_band(lattice)
+        if not fast:  # the fast path clears it on the GPU if and when it needs it
+            winner.clear(size=width * height * 4)
+        if fused:
+            self._prepare_fused(source, target, values["u_fixup_capacity"])  # type: ignore[arg-type]
+        cells = self._program(nearest=nearest, fused=fused, fast=False)
+        set_uniforms(cells, values)
+        bands = 0
+        for first, dims in self._bands(kernel, lattice):
+            set_uniforms(cells, {"u_mesh_dims": dims, "u_first_row": first})
+            self._bands.buffer.bind_to_storage_buffer(bindings.DEFORMED.index)
+            winner.bind_to_storage_buffer(bindings.WINNER.index)
+            if fused:
+                self._bind_fused()
+            if fast:
+                self._scan_fast(cells, values | {"u_mesh_dims": dims, "u_first_row": first})
+            else:
+                run_1d(cells, (dims[0] - 1) * (dims[1] - 1), max_groups=self._max_groups)
+            bands += 1
+        self._gl.mgl.memory_barrier()
+        if fused:
+            self._fix_up(values, target)  # type: ignore[arg-type]
+            self.last_path = "fused fast" if fast else "fused"
+        else:
+            whole_mesh = dims if bands == 1 else None
+            self._resolve(kernel, source, lattice, values, linear, coords, flip_y, whole_mesh)
+            self.last_path = "nearest" if nearest else "interpolated"
+        return True
+
+    @property
+    def _max_groups(self) -> int:
+        return self._gl.limits["max_work_groups_x"]
+
+    def embedding_counts(self) -> tuple[int, int]:
+        """(cells not strictly positive, boundary crossings) that the last fast scan counted
+        (``warp/cells_check.comp.glsl``; (0, 1) means an embedding). Reads back: for tests
+        and diagnostics, not frames."""
+        self._gl.mgl.memory_barrier()
+        counts = np.frombuffer(self._resources.cached("check").read(size=8), np.uint32)
+        return int(counts[0]), int(counts[1])
+
+    def _program(self, *, nearest: bool, fused: bool, fast: bool) -> moderngl.ComputeShader:
+        return self._gl.compute(
+            "warp/cells.comp.glsl",
+            {"WARP_CELLS_SOURCE": nearest, "WARP_CELLS_FUSED": fused, "WARP_CELLS_FAST": fast},
+        )
+
+    def _scan_fast(self, keyed: moderngl.ComputeShader, values: dict[str, object]) -> None:
+        """The fused scan of a whole mesh (one band): the pass without keys, the embedding
+        test, and the keyed pass ``keyed`` (after a clear of the winner buffer) dispatched
+        with zero work groups where the mesh is an embedding (warp/cells_check.comp.glsl)."""
+        gl = self._gl
+        stages = [
+            gl.compute("warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage})
+            for stage in range(3)
+        ]
+        fast = self._program(nearest=True, fused=True, fast=True)
+        for program in (fast, *stages):
+            set_uniforms(program, values)
+        check = self._resources.buffer("check", 48)
+        check.clear(size=16)
+        check.bind_to_storage_buffer(bindings.CHECK.index)
+        nx, ny = values["u_mesh_dims"]  # type: ignore[misc]
+        stages[0].run(group_x=math.ceil((2 * (nx - 1) + 2 * (ny - 1)) / LOCAL_SIZE))
+        run_1d(fast, (nx - 1) * (ny - 1), max_groups=self._max_groups)
+        gl.mgl.memory_barrier()
+        stages[1].run(group_x=1)
+        gl.mgl.memory_barrier()
+        stages[2].run_indirect(check, offset=16)
+        gl.mgl.memory_barrier()
+        keyed["u_offset"].value = 0
+        keyed.run_indirect(check, offset=32)
+
+    def _prepare_fused(
+        self, source: moderngl.Texture, target: moderngl.Texture, capacity: int
+    ) -> None:
+        """The packed buffers of warp/cells_packed.glsl: copies of the source and of the
+        target (its background), and an empty fix-up list."""
+        width, height = source.size
+        resources = self._resources
+        source.read_into(resources.buffer("packed source", width * height * 4))
+        # one spare texel at the end: uncovered lanes of the scan write there
+        target.read_into(resources.buffer("packed target", (width * height + 1) * 4))
+        resources.buffer("fixups", 16 + 4 * capacity).clear(size=16)
+
+    def _bind_fused(self) -> None:
+        cached = self._resources.cached
+        cached("packed source").bind_to_storage_buffer(bindings.PACKED_SOURCE.index)
+        cached("packed target").bind_to_storage_buffer(bindings.PACKED_TARGET.index)
+        cached("fixups").bind_to_storage_buffer(bindings.FIXUPS.index)
+
+    def _fix_up(self, values: dict[str, object], target: moderngl.Texture) -> None:
+        """warp/cells_fixup.comp.glsl over the listed pixels (an indirect dispatch sized on
+        the GPU: no read-back), then the packed target back into the texture."""
+        entry = "warp/cells_fixup.comp.glsl"
+        args = self._gl.compute(entry, {"WARP_FIXUP_ARGS": True})
+        fixup = self._gl.compute(entry, {"WARP_FIXUP_ARGS": False})
+        dispatch = self._resources.buffer("fixup dispatch", 16)
+        self._bind_fused()
+        self._resources.cached("winner").bind_to_storage_buffer(bindings.WINNER.index)
+        dispatch.bind_to_storage_buffer(bindings.FIXUP_DISPATCH.index)
+        for program in (args, fixup):
+            set_uniforms(program, values)
+        args.run(group_x=1)
+        self._gl.mgl.memory_barrier()
+        fixup.run_indirect(dispatch)
+        self._gl.mgl.memory_barrier()
+        target.write(self._resources.cached("packed target"))
+
+    def _resolve(self, kernel, source, lattice, values, linear, coords, flip_y, whole_mesh):
+        """Fill the bound framebuffer from the winner buffer with full-viewport draws.
+        ``whole_mesh``: the dims of the mesh still in the mesh buffer, None if it was done
+        in bands (it is then evaluated again, band by band)."""
+        nearest = not linear and not coords
+        vertex = "common/fullscreen.vert.glsl"
+        if nearest:
+            program = self._gl.program(vertex, "warp/cells_nearest.frag.glsl")
+        else:
+            program = self._gl.program(
+                vertex,
+                "warp/cells.frag.glsl",
+                {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords},
+            )
+        set_uniforms(program, values | {"u_flip_y": flip_y})
+        if not coords:
+            mode = moderngl.LINEAR if linear else moderngl.NEAREST
+            source.filter = (mode, mode)
+            source.use(bindings.SOURCE.index)
+        self._gl.mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        width, height = values["u_target_size"]
+        winner_texture = self._resources.texture("winner", (width, height), 1, "u4")
+        winner_texture.write(self._resources.cached("winner"))  # a copy on the GPU side
+        winner_texture.use(bindings.WINNER_TEXTURE.index)
+        vao = self._resources.vertex_array(program)
+        if nearest:
+            vao.render(moderngl.TRIANGLES, vertices=3)
+            return
+        if whole_mesh is not None:
+            bands = iter([(0, whole_mesh)])
+        else:
+            bands = self._bands(kernel, lattice)
+        for first, dims in bands:
+            set_uniforms(program, {"u_mesh_dims": dims, "u_first_row": first})
+            mesh_texture = self._resources.texture("mesh", dims, 2, "f4")
+            mesh_texture.write(self._bands.buffer)
+            mesh_texture.use(bindings.MESH.index)
+            vao.render(moderngl.TRIANGLES, vertices=3)

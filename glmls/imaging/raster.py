@@ -1,0 +1,96 @@
+"""The deformed mesh drawn by the GL rasterizer (``glmls/shaders/warp/mesh.vert.glsl`` and
+``mesh.frag.glsl``): two triangles per cell for the quads of viewports other than the image's
+size (a window scaling the image), and one point per pixel for the simple forward method.
+
+Fold-overs: the cells are drawn in one draw call per band in row-major order of their source
+cells, and OpenGL writes later primitives over earlier ones, so where deformed quads overlap
+the cell with the larger source row (then column) is on top, as with the compute scan.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from ..core.mesh import MeshLattice
+from ..engine.kernel import MLSKernel
+from ..gl import bindings
+from ..gl.context import GLContext
+from ..gl.dispatch import set_uniforms
+from ..gl.resources import Resources
+from .bands import MeshBands
+
+__all__ = ["MeshRaster"]
+
+
+class MeshRaster:
+    """The rasterizer path of a pipeline (its GL objects are the pipeline's)."""
+
+    def __init__(self, gl: GLContext, resources: Resources, bands: MeshBands) -> None:
+        self._gl = gl
+        self._resources = resources
+        self._bands = bands
+
+    def draw(
+        self,
+        kernel: MLSKernel,
+        source: moderngl.Texture,
+        lattice: MeshLattice,
+        target_size: tuple[int, int],
+        *,
+        linear: bool,
+        coords: bool,
+        flip_y: bool,
+    ) -> None:
+        """Draw ``lattice`` (the corners every ``grid`` pixels: quads; the pixel centres:
+        splat) of the source image into the bound framebuffer, ``target_size`` (W, H)
+        pixels mapped onto its viewport."""
+        splat = lattice.kind == "centres"
+        program = self._gl.program(
+            "warp/mesh.vert.glsl",
+            "warp/mesh.frag.glsl",
+            {"WARP_SPLAT": splat, "WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords},
+        )
+        height, width = lattice.shape
+        sc = kernel.scaling
+        values = {
+            "u_center": sc.center,
+            "u_scale": sc.scale,
+            "u_target_size": target_size,
+            "u_flip_y": flip_y,
+            "u_source_size": (width, height),
+            "u_grid": lattice.grid,
+        }
+        set_uniforms(program, values)
+        if not coords:
+            mode = moderngl.LINEAR if linear else moderngl.NEAREST
+            source.filter = (mode, mode)
+            source.use(bindings.SOURCE.index)
+        mgl = self._gl.mgl
+        mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        if splat:
+            mgl.point_size = 1.0
+        first_band = min(self._bands.rows_per_band(lattice, indexed=True), lattice.dims[1])
+        for first, dims in self._bands(kernel, lattice, indexed=not splat):
+            set_uniforms(program, {"u_mesh_dims": dims, "u_first_row": first})
+            self._bands.buffer.bind_to_storage_buffer(bindings.DEFORMED.index)
+            if splat:
+                vao = self._resources.vertex_array(program)
+                vao.render(moderngl.POINTS, vertices=dims[0] * dims[1])
+            else:
+                # the first band has the most rows: later ones draw a prefix of its indices
+                index = self._index_buffer(dims[0], first_band)
+                cells = (dims[0] - 1) * (dims[1] - 1)
+                vao = self._resources.vertex_array(program, index)
+                vao.render(moderngl.TRIANGLES, vertices=6 * cells)
+
+    def _index_buffer(self, nx: int, rows: int) -> moderngl.Buffer:
+        """Triangles (00, 10, 11), (00, 11, 01) of each cell of a band of ``rows`` rows of
+        ``nx`` vertices, row-major."""
+
+        def indices() -> bytes:
+            i = np.arange(nx * rows, dtype=np.uint32).reshape(rows, nx)
+            a, b, c, d = i[:-1, :-1], i[:-1, 1:], i[1:, 1:], i[1:, :-1]
+            return np.stack([a, b, c, a, c, d], axis=-1).tobytes()
+
+        return self._resources.keyed_buffer("index", (nx, rows), indices)

@@ -1,0 +1,163 @@
+"""Images on their way to the GPU: validation, the form they are uploaded in, the background
+of uncovered pixels, and the conversion back to the caller's dtype and shape.
+
+uint8 images stay 8-bit: an RGBA8 texture sampled as value / 255, an RGBA8 target and a uint8
+read-back (:attr:`SourceImage.normalized`); other dtypes go through float32 (raw values).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.mesh import check_grid
+
+__all__ = [
+    "DTYPES",
+    "INTERPOLATIONS",
+    "METHODS",
+    "SourceImage",
+    "as_rgba8",
+    "background_color",
+    "check_options",
+    "prepare_image",
+    "texture_data",
+    "texture_form",
+]
+
+#: How the deformed image is built (see :meth:`glmls.MLS.warp`).
+METHODS = ("quads", "splat", "backward", "backward-swap")
+INTERPOLATIONS = ("nearest", "linear")
+DTYPES = (np.uint8, np.uint16, np.float32, np.float64)
+
+
+@dataclass(frozen=True)
+class SourceImage:
+    """An image prepared for the GPU: float32 (H, W, C) raw values plus what to restore."""
+
+    data: np.ndarray
+    dtype: np.dtype
+    squeeze: bool  # the input was (H, W)
+    #: ``data`` is the uint8 image itself: uploaded as an 8-bit texture (sampled as value /
+    #: 255), drawn into an 8-bit target and read back as uint8 (4x less to convert, upload,
+    #: clear and read than float32).
+    normalized: bool = False
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.data.shape[0], self.data.shape[1]
+
+    @property
+    def channels(self) -> int:
+        return self.data.shape[2]
+
+    def restore(self, values: np.ndarray) -> np.ndarray:
+        """float32 (H, W, C) (uint8 if ``normalized``) back to the input's dtype and shape."""
+        if self.normalized:
+            out = np.ascontiguousarray(values)
+            return out[..., 0] if self.squeeze else out
+        if np.issubdtype(self.dtype, np.integer):
+            top = np.iinfo(self.dtype).max
+            values = np.clip(np.rint(values), 0, top)
+        out = values.astype(self.dtype)
+        return out[..., 0] if self.squeeze else out
+
+
+def prepare_image(image: object, max_size: int, *, normalized: bool = False) -> SourceImage:
+    """Validate an image (H x W or H x W x C, C in 1..4) and convert it to float32, or with
+    ``normalized`` keep a uint8 image as it is (see :attr:`SourceImage.normalized`)."""
+    array = np.asarray(image)
+    if array.dtype not in DTYPES:
+        names = ", ".join(np.dtype(d).name for d in DTYPES)
+        raise TypeError(f"image dtype must be one of {names}; got {array.dtype}")
+    if array.ndim not in (2, 3) or (array.ndim == 3 and not 1 <= array.shape[2] <= 4):
+        raise ValueError(f"image must be H x W or H x W x C with C in 1..4, got {array.shape}")
+    if array.size == 0:
+        raise ValueError(f"image is empty: shape {array.shape}")
+    height, width = array.shape[:2]
+    if max(height, width) > max_size:
+        raise ValueError(
+            f"image of {height} x {width} pixels exceeds the GL texture size limit of "
+            f"{max_size} pixels per side on this device; split it or scale it down"
+        )
+    squeeze = array.ndim == 2
+    if normalized and array.dtype == np.uint8:
+        return SourceImage(
+            np.ascontiguousarray(array.reshape(height, width, -1)), array.dtype, squeeze, True
+        )
+    data = np.ascontiguousarray(array.reshape(height, width, -1), dtype=np.float32)
+    return SourceImage(data, array.dtype, squeeze)
+
+
+def background_color(background: object, image: SourceImage) -> tuple[float, float, float, float]:
+    """The clear colour: ``background`` per channel, and alpha 0 for images with alpha.
+
+    ``background`` is a scalar (every colour channel), or one value per channel (C values,
+    alpha included, or C - 1 for an image with alpha, whose alpha is then 0).
+    """
+    channels = image.channels
+    has_alpha = channels in (2, 4)
+    values = np.asarray(background, dtype=object)
+    if values.ndim == 0:
+        values = np.array([background] * (channels - has_alpha), dtype=object)
+    if values.ndim != 1 or len(values) not in (channels, channels - has_alpha):
+        raise ValueError(
+            f"background must be a scalar or {channels} values (one per channel)"
+            + (f" or {channels - 1} (colour only)" if has_alpha else "")
+            + f", got {background!r}"
+        )
+    out = []
+    for value in values:
+        if isinstance(value, (bool, np.bool_)) or not isinstance(
+            value, (int, float, np.integer, np.floating)
+        ):
+            raise TypeError(f"background values must be real numbers, got {background!r}")
+        out.append(float(value))
+    if np.issubdtype(image.dtype, np.integer):
+        top = np.iinfo(image.dtype).max
+        if not all(0 <= v <= top for v in out):
+            raise ValueError(f"background {background!r} is outside 0..{top} of {image.dtype}")
+    if image.normalized:
+        out = [v / 255.0 for v in out]
+    if len(out) < channels:
+        out.append(0.0)  # transparent where nothing is drawn
+    return (*out, *[0.0] * (4 - len(out)))  # type: ignore[return-value]
+
+
+def check_options(method: object, interpolation: object, grid: object) -> None:
+    """``ValueError`` naming a bad ``method``, ``interpolation`` or ``grid``."""
+    for name, value, choices in (
+        ("method", method, METHODS),
+        ("interpolation", interpolation, INTERPOLATIONS),
+    ):
+        if not isinstance(value, str) or value not in choices:
+            raise ValueError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")
+    check_grid(grid)
+
+
+def as_rgba8(data: np.ndarray) -> np.ndarray:
+    """(H, W, C) uint8 as (H, W, 4), channels filled as GL fills them when sampling."""
+    if data.shape[2] == 4:
+        return data
+    flat = data.reshape(-1, data.shape[2])
+    out = np.zeros((flat.shape[0], 4), np.uint8)
+    out[:, 3] = 255
+    for channel in range(data.shape[2]):  # one strided copy per channel: 4x faster here
+        out[:, channel] = flat[:, channel]
+    return out.reshape(*data.shape[:2], 4)
+
+
+def texture_form(image: SourceImage) -> tuple[tuple[int, int], int, str]:
+    """(size, components, dtype) of the texture that holds ``image``: RGBA8 for a normalized
+    image, whatever its channels (GL samples fewer as missing 0, alpha 1, and texels of one
+    uint32 let the fused quads copy them whole), else float32 with its channels."""
+    height, width = image.shape
+    if image.normalized:
+        return (width, height), 4, "f1"
+    return (width, height), image.channels, "f4"
+
+
+def texture_data(image: SourceImage) -> np.ndarray:
+    """What to write into the texture of :func:`texture_form`."""
+    return as_rgba8(image.data) if image.normalized else image.data

@@ -1,0 +1,239 @@
+// Moving Least Squares deformation (Schaefer, McPhail & Warren 2006) with the distance
+// weights of Table 1 of "Extensions to the MLS method for image deformation".
+//
+// The one MLS implementation of glmls: the weights and the transforms. How the handles are
+// visited (all of them, unrolled, or through spatial bins) is mls/visit.glsl, which every pass
+// that needs f, M or T includes (it includes this file).
+//
+// Defines (glmls.engine.kernel.MLSKernel.defines):
+//   MLS_WEIGHT_FUNCTION  the weight in use, a function of mls/weights.glsl
+//   MLS_WEIGHT_USES_S    0 or 1: the weight needs idw's s, scaled per point (sigma)
+//   MLS_TRANSFORM        index in glmls.core.config.TRANSFORMS: 0 affine, 1 similarity, 2 rigid
+//   MLS_INTERPOLATING    0 or 1: multiply the weight by 1 / d^(2 alpha)
+//   MLS_ALPHA_ONE        0 or 1: alpha == 1, so no pow() is needed
+//   MLS_STORAGE          where the handles live (mls/handles.glsl)
+//
+// One pass over the handles (mls_begin, mls_accumulate per handle, mls_finish) accumulates
+// every weighted moment; mls/visit.glsl's mls_eval(v) runs it.
+//
+// All coordinates are "scaled": (pixel - u_center) / u_scale, so that float32 keeps
+// sub-millipixel precision on large images. The host scales s and R to match.
+//
+// Row-vector convention of the paper (eq. 1): f(v) = v M + T. M is returned as
+// vec4(m00, m01, m10, m11), i.e. f.x = v.x m00 + v.y m10, f.y = v.x m01 + v.y m11.
+
+#include "mls/handles.glsl"
+
+uniform float u_alpha;      // idw / interpolating power
+uniform float u_log2_s;     // log2 of the scaled idw s; -1e30 when s == 0
+uniform float u_radius;     // scaled influence radius R
+uniform float u_hit2;       // squared snapping distance (scaled)
+uniform bool u_snap;        // weight is (effectively) infinite at d = 0: f(p_i) = q_i exactly
+
+struct MLSResult {
+    vec2 f;   // f(v), scaled coordinates
+    vec4 M;   // linear part, see above
+};
+
+float mls_pow(float r) {
+#if MLS_ALPHA_ONE
+    return r;
+#else
+    return r > 0.0 ? exp2(u_alpha * log2(r)) : 0.0;
+#endif
+}
+
+#include "mls/weights.glsl"
+
+// Weight of a handle at squared distance d2 (see mls/weights.glsl for m, inv_m and sigma).
+float mls_weight(float d2, float m, float inv_m, float sigma) {
+    float w = MLS_WEIGHT_FUNCTION(d2, m, inv_m, sigma);
+#if MLS_INTERPOLATING
+    w = w > 0.0 ? w / mls_pow(d2 * inv_m) : 0.0;   // 0, not 0/0, out of reach
+#endif
+    return w;
+}
+
+MLSResult mls_identity(vec2 v) {
+    MLSResult r;
+    r.f = v;
+    r.M = vec4(1.0, 0.0, 0.0, 1.0);
+    return r;
+}
+
+// N = M - I for similarity / rigid, from mu = sum w |p^|^2 and the displacement moments
+// D (see mls_finish). M = [[A, B], [-B, A]] / norm with A = mu + D11 + D22, B = D12 - D21.
+vec4 mls_rotation_scale(float mu, vec4 D, float spread) {
+    // Source handles in reach coincide (their spread about p* is float32 noise against their
+    // spread about v): only a translation is defined.
+    if (!(mu > 1e-13 * spread)) {
+        return vec4(0.0);
+    }
+    float B = D.y - D.z;
+#if MLS_TRANSFORM == 2
+    float A = mu + D.x + D.w;
+    float n = sqrt(A * A + B * B);
+    // Targets collapsed to a point: no rotation is defined, keep the identity.
+    if (n <= 1e-6 * mu) {
+        return vec4(0.0);
+    }
+    // A / n - 1 without cancellation for small rotations
+    float c1 = A > 0.0 ? -B * B / (n * (A + n)) : A / n - 1.0;
+    return vec4(c1, B / n, -B / n, c1);
+#else
+    float a = (D.x + D.w) / mu;
+    return vec4(a, B / mu, -B / mu, a);
+#endif
+}
+
+// One evaluation at v is two passes over the handles (mls_eval; callers that visit the
+// handles otherwise, e.g. a spatial grid of bins, call the parts themselves):
+//
+// 1. mls_nearest_add: the nearest handle (for snapping) and the normalisation distance m,
+//    a min over d^2, a few operations per handle;
+// 2. mls_accumulate: every weighted moment at once, as plain sums about the nearest handle
+//    o (P = p - p_o, E = e - e_o); mls_finish turns them into the means and central moments
+//    (C = sum w P P^T - (sum w P)(sum w P)^T / W). About o, not the origin: differences of
+//    nearby float32 values are exact, so P keeps its precision even for points far from a
+//    tight cluster of handles, and where one handle dominates the weights (next to it) it is
+//    o itself, adds nothing to the sums, and the correction term is second order in the
+//    small weights, so no digits are lost. (A running-centroid Welford update is as precise
+//    here and costs a division per handle more.)
+//
+// Both loops are branch-free: llvmpipe (and GPUs, per warp) run both sides of a branch
+// whenever lanes disagree, so a "rare" branch costs its full price on every handle.
+// Working with displacements e = q - p keeps the identity exact and small deformations
+// precise: f(v) = v + e* + (v - p*) N with N = M - I.
+struct MLSNearest {
+    float d2min;    // squared distance of the nearest handle
+    float d2far;    // ... of the nearest beyond the snapping distance
+    vec4 h;         // the nearest handle
+};
+
+MLSNearest mls_nearest_begin() {
+    MLSNearest n;
+    n.d2min = 3.0e38;
+    n.d2far = 3.0e38;
+    n.h = vec4(0.0);
+    return n;
+}
+
+// ``use``: false for an empty slot (see MLS_UNROLL), which changes nothing.
+void mls_nearest_add(inout MLSNearest n, vec4 h, vec2 v, bool use) {
+    vec2 dp = h.xy - v;
+    float d2 = use ? dot(dp, dp) : 3.0e38;
+    bool nearer = d2 < n.d2min;
+    n.h = nearer ? h : n.h;
+    n.d2min = min(n.d2min, d2);
+    n.d2far = min(n.d2far, d2 > u_hit2 ? d2 : 3.0e38);
+}
+
+struct MLSAccum {
+    vec2 v;
+    bool hit;       // v snaps to handle o: f(v) = its q
+    vec4 o;         // the nearest handle: moments are taken about it
+    float m;        // normalisation distance (see mls_weight)
+    float inv_m;    // 1 / m
+    float sigma;    // idw: s / m^alpha
+    float W;        // sum w
+    vec2 P;         // sum w P, with P = p - p_o
+    vec2 E;         // sum w E, with E = e - e_o, e = q - p
+    vec3 PP;        // sum w P P^T as (xx, xy, yy)
+    vec4 PE;        // sum w P_i E_j as (11, 12, 21, 22)
+    float spread;   // sum w |p - v|^2, the yardstick for "coincident"
+};
+
+MLSAccum mls_begin(vec2 v, MLSNearest n) {
+    MLSAccum a;
+    a.v = v;
+    a.hit = u_snap && n.d2min <= u_hit2;
+    a.o = n.h;
+    a.m = a.hit ? n.d2far : max(n.d2min, u_hit2);
+    a.inv_m = 1.0 / a.m;
+#if MLS_WEIGHT_USES_S
+    a.sigma = min(exp2(u_log2_s - u_alpha * log2(a.m)), 1e30);
+#else
+    a.sigma = 0.0;
+#endif
+    a.W = 0.0;
+    a.P = vec2(0.0);
+    a.E = vec2(0.0);
+    a.PP = vec3(0.0);
+    a.PE = vec4(0.0);
+    a.spread = 0.0;
+    return a;
+}
+
+// The weight at a.v of a handle at squared distance d2. The snapped handle (and duplicates
+// of it) is left out: its weight is infinite and its p^ zero, see mls_finish.
+float mls_handle_weight(MLSAccum a, float d2) {
+    return (u_snap && d2 <= u_hit2) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
+}
+
+void mls_accumulate(inout MLSAccum a, vec4 h, bool use) {
+    vec2 dp = h.xy - a.v;
+    float d2 = dot(dp, dp);
+    // An empty slot gets no weight (zeros: every term below is then 0).
+    float w = use ? mls_handle_weight(a, d2) : 0.0;
+    // Moments about the nearest handle, not about the origin: the differences of nearby
+    // float32 values are exact, the nearest handle (the heaviest) adds nothing to them, and
+    // the central moments in mls_finish lose no digits where one handle dominates.
+    vec2 P = h.xy - a.o.xy;
+    vec2 E = (h.zw - h.xy) - (a.o.zw - a.o.xy);
+    vec2 wP = w * P;
+    a.W += w;
+    a.P += wP;
+    a.E += w * E;
+    a.PP += vec3(wP.x * P.x, wP.x * P.y, wP.y * P.y);
+    a.PE += vec4(wP.x * E.x, wP.x * E.y, wP.y * E.x, wP.y * E.y);
+    a.spread += w * d2;
+}
+
+MLSResult mls_finish(MLSAccum a) {
+    vec2 v = a.v;
+    bool hit = a.hit;
+    if (!hit && !(a.W > 0.0)) {
+        return mls_identity(v);   // no handle reaches v (or there are none)
+    }
+    vec2 pst = a.o.xy;
+    vec2 est = a.o.zw - a.o.xy;
+    vec3 A = a.PP;
+    vec4 D = a.PE;
+    if (!hit) {
+        // p* = p_o + sum w P / W, e* likewise, and the moments about them
+        vec2 dp = a.P / a.W;
+        vec2 de = a.E / a.W;
+        pst += dp;
+        est += de;
+        A -= vec3(a.P.x * dp.x, a.P.x * dp.y, a.P.y * dp.y);
+        D -= vec4(a.P.x * de.x, a.P.x * de.y, a.P.y * de.x, a.P.y * de.y);
+    }
+    // Snapped: p* = p_o and q* = q_o exactly, and the moments about them are the sums.
+    float a11 = A.x, a12 = A.y, a22 = A.z;
+    float spread = a.spread;
+
+    float mu = a11 + a22;
+    vec4 N;   // M - I
+#if MLS_TRANSFORM == 0
+    float det = a11 * a22 - a12 * a12;
+    if (mu > 1e-13 * spread && det > 1e-5 * mu * mu) {
+        // M = A^-1 (A + D) = I + A^-1 D, with A = [[a11, a12], [a12, a22]]
+        vec2 r0 = vec2(a22, -a12) / det;
+        vec2 r1 = vec2(-a12, a11) / det;
+        N = vec4(r0.x * D.x + r0.y * D.z, r0.x * D.y + r0.y * D.w,
+                 r1.x * D.x + r1.y * D.z, r1.x * D.y + r1.y * D.w);
+    } else {
+        // Fewer than 3 non-collinear handles in reach: the similarity solution.
+        N = mls_rotation_scale(mu, D, spread);
+    }
+#else
+    N = mls_rotation_scale(mu, D, spread);
+#endif
+
+    // f(v) = q* + (v - p*) M = v + e* + (v - p*) N
+    vec2 vp = v - pst;
+    MLSResult r;
+    r.M = N + vec4(1.0, 0.0, 0.0, 1.0);
+    r.f = v + est + vec2(vp.x * N.x + vp.y * N.z, vp.x * N.y + vp.y * N.w);
+    return r;
+}

@@ -1,0 +1,191 @@
+// The ways of visiting the handles for one evaluation, mls_eval(v): every handle in a loop,
+// unrolled at constant indices (MLS_UNROLL), or only those in reach through a spatial grid of
+// bins (MLS_BINS). Every pass that needs f, M or T includes this file.
+//
+// Defines (besides those of core.glsl):
+//   MLS_UNROLL          0, or 16 / 64: at most that many handles, read at constant indices
+//   MLS_BINS            0 or 1: handles sorted into bins, visit only those in reach (below)
+//   MLS_REACH_GAUSSIAN  0 or 1 (with MLS_BINS): the weight never reaches 0 and is cut where
+//                       its tail is negligible (glmls.core.weights, support "gaussian")
+//   MLS_GAUSSIAN_TOLERANCE  that cut's tolerance, glmls.core.weights.GAUSSIAN_TOLERANCE
+#include "mls/core.glsl"
+
+#if MLS_UNROLL
+// MLS_UNROLL (16 or 64) handle slots at constant indices, unrolled by the preprocessor: with a
+// constant index llvmpipe loads a handle once for all lanes instead of gathering it per lane
+// (1.5x faster). Slots from mls_handle_count() on are zero and given no weight.
+#define MLS_R4(F, i) F(i) F(i + 1) F(i + 2) F(i + 3)
+#define MLS_R16(F, i) MLS_R4(F, i) MLS_R4(F, i + 4) MLS_R4(F, i + 8) MLS_R4(F, i + 12)
+#define MLS_R64(F, i) MLS_R16(F, i) MLS_R16(F, i + 16) MLS_R16(F, i + 32) MLS_R16(F, i + 48)
+#define MLS_NEAR(i) mls_nearest_add(near, mls_handle(i), v, (i) < n);
+#define MLS_ACC(i) mls_accumulate(a, mls_handle(i), (i) < n);
+#endif
+
+#if MLS_BINS
+// Handles sorted by the bins of a square grid (glmls/engine/bins.py): bin b's handles are
+// mls_handle(mls_bin_start[b]) .. mls_handle(mls_bin_start[b + 1] - 1), bins row-major.
+layout(std430, binding = BIND_BIN_STARTS) readonly buffer MLSBinStarts {
+    int mls_bin_start[];
+};
+uniform vec2 u_bin_origin;   // lower corner of bin (0, 0), scaled
+uniform float u_bin_size;    // bin side, scaled
+uniform ivec2 u_bin_dims;    // bins per row, rows
+uniform float u_bin_reach;   // R (compact weights) or R sqrt(cut) (gaussian), scaled
+uniform float u_bin_cut;     // gaussian: ln(N / tau), see mls_weight_bound
+
+// The bins meeting the square of half-side r around v (clamped to the grid).
+void mls_bin_range(vec2 v, float r, out ivec2 lo, out ivec2 hi) {
+    vec2 a = floor((v - r - u_bin_origin) / u_bin_size);
+    vec2 b = floor((v + r - u_bin_origin) / u_bin_size);
+    lo = ivec2(clamp(a, vec2(0.0), vec2(u_bin_dims - 1)));
+    hi = ivec2(clamp(b, vec2(0.0), vec2(u_bin_dims - 1)));
+}
+
+// Whether the nearest handle found in the bins lo..hi, those meeting the square of
+// half-side ``side`` around v, is the nearest of all: it is within ``side`` (every handle
+// outside the square is farther), or the bins are the whole grid. The same for the nearest
+// beyond the snapping distance where v snaps (the normalisation distance, see mls_begin).
+bool mls_nearest_certain(MLSNearest near, float side, ivec2 lo, ivec2 hi) {
+    if (all(equal(lo, ivec2(0))) && all(equal(hi, u_bin_dims - 1))) {
+        return true;
+    }
+    bool snapped = u_snap && near.d2min <= u_hit2;
+    float side2 = side * side;
+    return near.d2min <= side2 && (!snapped || near.d2far <= side2);
+}
+
+// The sorted handles of bins x0..x1 of bin row y: indices run.x .. run.y - 1 (none when
+// x1 < x0, an empty chord).
+ivec2 mls_bin_run(int y, int x0, int x1) {
+    int row = y * u_bin_dims.x;
+    return ivec2(mls_bin_start[row + x0], mls_bin_start[row + max(x1, x0 - 1) + 1]);
+}
+
+// The nearest handle among those in the bins lo..hi.
+void mls_nearest_bins(inout MLSNearest near, vec2 v, ivec2 lo, ivec2 hi) {
+    for (int y = lo.y; y <= hi.y; ++y) {
+        ivec2 run = mls_bin_run(y, lo.x, hi.x);
+        for (int i = run.x; i < run.y; ++i) {
+            mls_nearest_add(near, mls_handle(i), v, true);
+        }
+    }
+}
+
+#if MLS_REACH_GAUSSIAN
+// W1, a lower bound of the total weight at a.v for the gaussian cut (glmls/engine/bins.py): the
+// weights of the handles in the bins lo..hi that every cut keeps (weight >= tolerance, so
+// within the disc whose bins pass 2 walks), and at least the nearest handle's, 1.
+float mls_weight_bound(MLSAccum a, ivec2 lo, ivec2 hi) {
+    float w1 = 0.0;
+    for (int y = lo.y; y <= hi.y; ++y) {
+        ivec2 run = mls_bin_run(y, lo.x, hi.x);
+        for (int i = run.x; i < run.y; ++i) {
+            vec2 dp = mls_handle(i).xy - a.v;
+            float d2 = dot(dp, dp);
+            float w = mls_handle_weight(a, d2);
+            w1 += w >= MLS_GAUSSIAN_TOLERANCE ? w : 0.0;
+        }
+    }
+    return max(w1, 1.0);
+}
+#endif
+
+// The columns of bin row y that meet the disc of radius r around v (within lo.x..hi.x):
+// the disc's chord at the row's nearest edge. With the rows this visits about the disc's
+// area of handles, not its square's (4 / pi as many).
+ivec2 mls_bin_chord(vec2 v, float r, int y, ivec2 lo, ivec2 hi) {
+    float y0 = u_bin_origin.y + float(y) * u_bin_size;
+    float dy = max(0.0, max(y0 - v.y, v.y - (y0 + u_bin_size)));
+    float half_width = sqrt(max(r * r - dy * dy, 0.0));
+    float a = floor((v.x - half_width - u_bin_origin.x) / u_bin_size);
+    float b = floor((v.x + half_width - u_bin_origin.x) / u_bin_size);
+    return ivec2(clamp(a, float(lo.x), float(hi.x + 1)), clamp(b, float(lo.x - 1), float(hi.x)));
+}
+#endif
+
+// Both passes over every handle, in storage order (the plain evaluation).
+void mls_nearest_all(inout MLSNearest near, vec2 v) {
+    int n = mls_handle_count();
+    for (int i = 0; i < n; ++i) {
+        mls_nearest_add(near, mls_handle(i), v, true);
+    }
+}
+
+void mls_accumulate_all(inout MLSAccum a) {
+    int n = mls_handle_count();
+    for (int i = 0; i < n; ++i) {
+        mls_accumulate(a, mls_handle(i), true);
+    }
+}
+
+MLSResult mls_eval(vec2 v) {
+#if MLS_BINS
+    // Pass 1 finds the nearest handle, first in the bins within one bin side of v, then
+    // within reach: a compact weight is 0 beyond R, so if none is there no handle reaches
+    // v. The gaussian goes on in squares of twice the side until the nearest is certain.
+    // Where a square or the disc spans more bin rows than there are handles (a few handles
+    // far apart), walking its rows costs more than visiting every handle: that is done.
+    int n = mls_handle_count();
+    ivec2 lo, hi;
+    MLSNearest near = mls_nearest_begin();
+    mls_bin_range(v, u_bin_size, lo, hi);
+    mls_nearest_bins(near, v, lo, hi);
+    ivec2 lo1 = lo, hi1 = hi;
+    float side = u_bin_size;
+    for (int k = 0; k < 40 && !mls_nearest_certain(near, side, lo, hi); ++k) {
+#if !MLS_REACH_GAUSSIAN
+        if (side >= u_bin_reach) {
+            break;
+        }
+#endif
+        side = max(2.0 * side, u_bin_reach);
+        mls_bin_range(v, side, lo, hi);
+        if (hi.y - lo.y >= n) {
+            mls_nearest_all(near, v);
+            break;
+        }
+        mls_nearest_bins(near, v, lo, hi);   // the handles seen twice change no minimum
+    }
+    MLSAccum a = mls_begin(v, near);
+    float r = u_bin_reach;
+#if MLS_REACH_GAUSSIAN
+    // gaussian: weights below tau W1 / N of the nearest one's are left out (glmls/engine/bins.py)
+    float cut = u_bin_cut - log(mls_weight_bound(a, lo1, hi1));
+    r = sqrt(a.m + cut * u_radius * u_radius);
+#endif
+    // Pass 2 over the disc of radius r, row by row (or over every handle, which adds
+    // only weights that are zero or within the cut's tolerance).
+    mls_bin_range(v, r, lo, hi);
+    if (hi.y - lo.y >= n) {
+        mls_accumulate_all(a);
+        return mls_finish(a);
+    }
+    for (int y = lo.y; y <= hi.y; ++y) {
+        ivec2 columns = mls_bin_chord(v, r, y, lo, hi);
+        ivec2 run = mls_bin_run(y, columns.x, columns.y);
+        for (int i = run.x; i < run.y; ++i) {
+            mls_accumulate(a, mls_handle(i), true);
+        }
+    }
+    return mls_finish(a);
+#else
+    int n = mls_handle_count();
+    MLSNearest near = mls_nearest_begin();
+#if MLS_UNROLL == 16
+    MLS_R16(MLS_NEAR, 0)
+#elif MLS_UNROLL == 64
+    MLS_R64(MLS_NEAR, 0)
+#else
+    mls_nearest_all(near, v);
+#endif
+    MLSAccum a = mls_begin(v, near);
+#if MLS_UNROLL == 16
+    MLS_R16(MLS_ACC, 0)
+#elif MLS_UNROLL == 64
+    MLS_R64(MLS_ACC, 0)
+#else
+    mls_accumulate_all(a);
+#endif
+    return mls_finish(a);
+#endif
+}

@@ -1,0 +1,38 @@
+// The distance weights of Table 1 of "Extensions to the MLS method for image deformation",
+// one function per entry of glmls.core.weights.REGISTRY, named mls_weight_<name>: the
+// registry defines MLS_WEIGHT_FUNCTION as the one in use. A new weight is one function here
+// and one registry entry.
+//
+// Every function takes the squared distance d2 of a handle and the normalisation of the
+// point: m, the squared distance of the nearest handle in use, inv_m = 1 / m, and sigma =
+// s / m^alpha (idw only, MLS_WEIGHT_USES_S). A weight may be divided by any factor common to
+// all handles at a point (MLS ignores it): they are scaled so that the largest is about 1,
+// so that float32 neither overflows (idw, shepard near a handle) nor underflows (gaussian far
+// from every handle). Distances are scaled (see core.glsl); u_radius is R, scaled.
+
+// 1 / (s + d^(2 alpha)), times s + m^alpha
+float mls_weight_idw(float d2, float m, float inv_m, float sigma) {
+    return (sigma + 1.0) / (sigma + mls_pow(d2 * inv_m));
+}
+
+// max(0, (R^2 - d^2) / (R^2 + d^2))
+float mls_weight_cressman(float d2, float m, float inv_m, float sigma) {
+    float R2 = u_radius * u_radius;
+    return max(0.0, (R2 - d2) / (R2 + d2));
+}
+
+// max(0, (R - d) / (R d)), times sqrt(m)
+float mls_weight_shepard(float d2, float m, float inv_m, float sigma) {
+    float d = sqrt(d2);
+    return d < u_radius ? (1.0 - d / u_radius) * sqrt(m / d2) : 0.0;
+}
+
+// exp(-d^2 / R^2), divided by its value at the nearest handle
+float mls_weight_gaussian(float d2, float m, float inv_m, float sigma) {
+    return exp(-(d2 - m) / (u_radius * u_radius));
+}
+
+// max(0, R - d)
+float mls_weight_linear(float d2, float m, float inv_m, float sigma) {
+    return max(0.0, u_radius - sqrt(d2));
+}

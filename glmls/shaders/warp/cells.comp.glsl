@@ -1,0 +1,208 @@
+// Scan conversion of the deformed mesh in a compute shader: the rasterizer's job for the
+// "quads" method, without its per-triangle setup cost (llvmpipe spends ~0.25 us per triangle,
+// 0.5 s for the 2 million triangles of a 1024^2 image at grid 1).
+//
+// One invocation per mesh cell: the cell's two triangles (00, 10, 11) and (00, 11, 01) are
+// tested at every pixel centre of their bounding box, and each covered pixel records the
+// triangle's key with atomicMax. A key is 1 + the bit fields, most significant first,
+// cell row | cell column | triangle (0, 1) | [WARP_CELLS_SOURCE: the nearest source pixel's
+// row and column inside the cell, u_sub_bits each], at the shifts glmls.imaging.cells's
+// key_layout chose (31 bits at most). The largest key wins whatever order the
+// invocations run in, and keys are ordered as the triangles of one draw call in row-major
+// cell order, so this is OpenGL's rule (later primitives on top): where cells fold, the cell
+// with the larger source row, then column, shows. (Bit fields, not a row-major index, so
+// that the fills decode them without an integer division per pixel.)
+//
+// The fills: warp/cells.frag.glsl interpolates the winning triangle (linear, source points);
+// with WARP_CELLS_SOURCE (nearest) the key holds the source pixel and
+// warp/cells_nearest.frag.glsl copies it; with WARP_CELLS_FUSED as well (RGBA8 source and
+// target) this shader writes the colours itself (warp/cells_packed.glsl) and
+// warp/cells_fixup.comp.glsl corrects the pixels that more than one triangle reached.
+//
+// WARP_CELLS_FAST (with FUSED): the optimistic pass for a mesh that may be an embedding:
+// no keys, no atomics, each covered pixel just gets its colour. A cell that is not strictly
+// positively oriented counts itself in warp_check_bad and draws nothing; together with the
+// boundary test of warp/cells_check.comp.glsl this decides whether the keyed pass above must
+// redo the picture (see there for why no pixel is then covered twice).
+//
+// Coverage is OpenGL's: pixel centres strictly inside, and on an edge only for one of the two
+// triangles that share it (a top-left style tie rule). Each edge function is computed from
+// the edge's endpoints in mesh-index order, with `precise`, so the two triangles on either
+// side of an edge see exactly opposite values and no pixel is lost or drawn twice on a seam.
+layout(local_size_x = LOCAL_SIZE) in;
+
+#include "warp/cells_packed.glsl"
+#include "common/lattice.glsl"
+
+layout(std430, binding = BIND_DEFORMED) readonly buffer WarpMesh {
+    vec2 warp_mesh[];   // f at the mesh vertices, scaled coordinates
+};
+layout(std430, binding = BIND_WINNER) buffer WarpWinner {
+    uint warp_winner[];  // per target pixel, row-major: the top triangle's key, 0 = none
+};
+
+uniform vec2 u_center;        // scaled -> pixels
+uniform float u_scale;
+uniform ivec2 u_target_size;  // W, H in pixels
+uniform ivec2 u_mesh_dims;    // vertices per row, rows (of this band)
+uniform int u_first_row;      // mesh row of the band's first row (glmls.core.mesh bands)
+uniform int u_offset;         // first cell of this dispatch
+uniform int u_sub_bits;       // key layout, see above (shifts of the low end of each field)
+uniform int u_col_shift;
+uniform int u_row_shift;
+#if WARP_CELLS_SOURCE
+uniform ivec2 u_source_size;  // W, H of the source image
+#endif
+
+vec2 vertex_px(int i) {
+    return warp_mesh[i] * u_scale + u_center;
+}
+
+// The edge function of edge (a, b), a before b in mesh order, at p.
+float edge(vec2 a, vec2 b, vec2 p) {
+    precise float e = (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);
+    return e;
+}
+
+// Is an edge value e (already multiplied by the triangle's orientation) covering? d is the
+// edge's direction along the triangle's counter-clockwise boundary.
+bool covers(float e, vec2 d) {
+    return e > 0.0 || (e == 0.0 && (d.y > 0.0 || (d.y == 0.0 && d.x > 0.0)));
+}
+
+#define SPAN_MARGIN 0.01
+
+// Narrow [left, right] to where the row y is on the inner side of the edge a -> b of a
+// convex quad of orientation s (edge(a, b, p) s >= 0 inside).
+void span(vec2 a, vec2 b, float s, float y, inout float left, inout float right) {
+    vec2 d = b - a;
+    if (d.y == 0.0) {
+        // parallel to the rows: all of the row is on one side
+        right = s * d.x * (y - a.y) >= 0.0 ? right : left - 1.0;
+        return;
+    }
+    float x = a.x + d.x * (y - a.y) / d.y;   // where the edge crosses the row
+    if (s * d.y > 0.0) {
+        right = min(right, x);
+    } else {
+        left = max(left, x);
+    }
+}
+
+void main() {
+    int cells_x = u_mesh_dims.x - 1;
+    int cell = u_offset + int(dispatch_item());   // 2-D when indirect (warp/cells_check)
+    if (cell >= cells_x * (u_mesh_dims.y - 1)) {
+        return;
+    }
+    int cy = cell / cells_x;
+    int cx = cell - cy * cells_x;
+    int i00 = cy * u_mesh_dims.x + cx;   // in the band
+    vec2 p00 = vertex_px(i00);
+    vec2 p10 = vertex_px(i00 + 1);
+    vec2 p01 = vertex_px(i00 + u_mesh_dims.x);
+    vec2 p11 = vertex_px(i00 + u_mesh_dims.x + 1);
+
+    // Orientation of each triangle; degenerate ones cover nothing (as in OpenGL).
+    float s0 = sign(edge(p00, p10, p11));
+    float s1 = sign(edge(p00, p11, p01));
+#if WARP_CELLS_FAST
+    if (!(s0 > 0.0 && s1 > 0.0)) {
+        atomicAdd(warp_check_bad, 1u);   // folded or degenerate: the keyed pass redoes all
+        return;
+    }
+#endif
+    if (s0 == 0.0 && s1 == 0.0) {
+        return;
+    }
+    vec2 lo = min(min(p00, p10), min(p01, p11));
+    vec2 hi = max(max(p00, p10), max(p01, p11));
+    ivec2 first = max(ivec2(ceil(lo)), ivec2(0));
+    ivec2 last = min(ivec2(floor(hi)), u_target_size - 1);
+    int row = cy + u_first_row;
+    uint id0 = (uint(row) << u_row_shift | uint(cx) << u_col_shift) + 1u;   // triangle 0's key
+    uint id1 = id0 + (1u << (2 * u_sub_bits));
+#if WARP_CELLS_SOURCE
+    // the cell's source pixels and the inverse areas of its triangles (barycentrics)
+    ivec2 cell_lo = ivec2(cx, row) * u_grid;
+    ivec2 cell_hi = min(cell_lo + u_grid - 1, u_source_size - 1);
+    vec2 s00 = lattice_corner(ivec2(cx, row), u_source_size);
+    vec2 size = lattice_corner(ivec2(cx, row) + 1, u_source_size) - s00;
+    float inv0 = 1.0 / edge(p00, p10, p11);
+    float inv1 = 1.0 / edge(p00, p11, p01);
+#endif
+    // A convex quad (both diagonals split it into triangles of one orientation: no fold)
+    // covers, on each pixel row, a span between its outer edges: only the pixels of that
+    // span (widened by SPAN_MARGIN against rounding) are tested, about 2/3 of the box at
+    // grid 4. Other quads test their whole bounding box.
+    float s2 = sign(edge(p10, p11, p01));
+    float s3 = sign(edge(p10, p01, p00));
+    bool convex = s0 != 0.0 && s0 == s1 && s0 == s2 && s0 == s3;
+    for (int y = first.y; y <= last.y; ++y) {
+        float left = float(first.x);
+        float right = float(last.x);
+        if (convex) {
+            span(p00, p10, s0, float(y), left, right);
+            span(p10, p11, s0, float(y), left, right);
+            span(p11, p01, s0, float(y), left, right);
+            span(p01, p00, s0, float(y), left, right);
+        }
+        int x_end = min(last.x, int(floor(right + SPAN_MARGIN)));
+        for (int x = max(first.x, int(ceil(left - SPAN_MARGIN))); x <= x_end; ++x) {
+            vec2 p = vec2(x, y);
+            // the five edges, in mesh-index order (00 < 10 < 01 < 11)
+            float e_a = edge(p00, p10, p);   // 00 -> 10
+            float e_b = edge(p10, p11, p);   // 10 -> 11
+            float e_d = edge(p00, p11, p);   // the diagonal 00 -> 11
+            float e_c = edge(p01, p11, p);   // 01 -> 11
+            float e_e = edge(p00, p01, p);   // 00 -> 01
+            uint id = 0u;
+#if WARP_CELLS_SOURCE
+            vec2 t = vec2(0.0);   // where in the cell's source rectangle, 0..1 (barycentric)
+#endif
+            // triangle 0: 00 -> 10 -> 11 -> 00
+            if (s0 != 0.0 && covers(s0 * e_a, s0 * (p10 - p00)) &&
+                covers(s0 * e_b, s0 * (p11 - p10)) && covers(-s0 * e_d, s0 * (p00 - p11))) {
+                id = id0;
+#if WARP_CELLS_SOURCE
+                t = vec2(1.0 - e_b * inv0, e_a * inv0);
+#endif
+            }
+            // triangle 1: 00 -> 11 -> 01 -> 00 (drawn after triangle 0: it wins)
+            if (s1 != 0.0 && covers(s1 * e_d, s1 * (p11 - p00)) &&
+                covers(-s1 * e_c, s1 * (p01 - p11)) && covers(-s1 * e_e, s1 * (p00 - p01))) {
+                id = id1;
+#if WARP_CELLS_SOURCE
+                t = vec2(-e_e * inv1, 1.0 + e_c * inv1);
+#endif
+            }
+            // Branch-free from here: llvmpipe runs buffer accesses under a divergent branch
+            // lane by lane with mask tests, about twice the cost. An uncovered pixel (id 0)
+            // changes nothing: atomicMax with 0, its colour into a spare texel.
+#if WARP_CELLS_SOURCE
+            // nearest: the source pixel containing the point, clamped to the cell
+            ivec2 sp = clamp(ivec2(floor(s00 + t * size + 0.5)), cell_lo, cell_hi) - cell_lo;
+            id += id != 0u ? uint(sp.y << u_sub_bits | sp.x) : 0u;
+#endif
+            int i = y * u_target_size.x + x;
+#if !WARP_CELLS_FAST
+            uint before = atomicMax(warp_winner[i], id);
+#endif
+#if WARP_CELLS_FUSED
+            // Every triangle writes its colour, in any order; with keys, one that finds the
+            // pixel taken lists it for warp/cells_fixup.comp.glsl, which writes the winner's.
+            ivec2 s = cell_lo + sp;
+            int spare = u_target_size.x * u_target_size.y;
+            warp_target[id != 0u ? i : spare] = warp_source[s.y * u_source_size.x + s.x];
+#endif
+#if WARP_CELLS_FUSED && !WARP_CELLS_FAST
+            if (before != 0u && id != 0u) {
+                uint k = atomicAdd(warp_fixup_count, 1u);
+                if (k < uint(u_fixup_capacity)) {
+                    warp_fixups[k] = uint(i);
+                }
+            }
+#endif
+        }
+    }
+}

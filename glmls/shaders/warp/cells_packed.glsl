@@ -1,0 +1,28 @@
+// The buffers of the fused nearest path of the quads (WARP_CELLS_FUSED): warp/cells.comp.glsl
+// writes each covered pixel's colour as it scan-converts, and warp/cells_fixup.comp.glsl then
+// corrects the pixels where triangles overlap (fold-overs). Texels are packed RGBA8, one
+// uint32 each: storage buffer accesses go lane by lane on llvmpipe, and texel fetches or
+// fragment outputs convert each channel besides (about twice the cost there).
+#include "common/groups.glsl"
+
+layout(std430, binding = BIND_PACKED_SOURCE) readonly buffer WarpSource {
+    uint warp_source[];   // the source image, row-major
+};
+layout(std430, binding = BIND_PACKED_TARGET) buffer WarpTarget {
+    uint warp_target[];   // the target texture's texels (its background on entry), row-major
+};
+layout(std430, binding = BIND_FIXUPS) buffer WarpFixups {
+    uint warp_fixup_count;   // pixels a second triangle reached (may exceed the capacity)
+    uint warp_fixup_pad[3];
+    uint warp_fixups[];      // their indices, the first u_fixup_capacity of them
+};
+uniform int u_fixup_capacity;
+
+// The embedding test of the fast pass (WARP_CELLS_FAST, warp/cells_check.comp.glsl).
+layout(std430, binding = BIND_CHECK) buffer WarpCheck {
+    uint warp_check_bad;         // cells not strictly positive, boundary edges not turning
+    uint warp_check_crossings;   // boundary edges crossing the ray from the centre to +x
+    uint warp_check_pad[2];
+    uvec4 warp_check_clear;      // work groups of the winner clear (indirect dispatch)
+    uvec4 warp_check_scan;       // work groups of the keyed scan (indirect dispatch)
+};

@@ -1,0 +1,66 @@
+// The backward map: for each output pixel u, the source point s with f(s) = u.
+//
+//   WARP_SWAP 0: Newton's method on f, from the guess in u_map (the rasterized piecewise
+//                linear inverse of the mesh, where it covers u) or from u itself. The Jacobian
+//                is taken by forward differences: the MLS Jacobian is not M (M varies with v).
+//             1: s = the MLS map built with the handles swapped (q -> p), the shortcut other
+//                MLS tools take: the program evaluates that map's kernel. Residual unknown (-1).
+//   WARP_NEWTON_STEPS  the most Newton steps.
+//
+// u_map (rgba32f), per pixel: in (x, y, covered, 0) of the guess, pixels; out (s.x, s.y,
+// |f(s) - u| in pixels, covered), covered = converged and s inside the source image.
+layout(local_size_x = LOCAL_SIZE_2D, local_size_y = LOCAL_SIZE_2D) in;
+
+#include "mls/visit.glsl"
+
+layout(rgba32f, binding = BIND_INVERSE_MAP) uniform image2D u_map;
+
+uniform ivec2 u_target_size;   // W, H of the output
+uniform ivec2 u_source_size;   // W, H of the source
+uniform vec2 u_center;         // scaled -> pixels
+uniform float u_scale;
+uniform float u_tolerance;     // stop below this residual, pixels
+uniform float u_accept;        // a residual above this (pixels) leaves the pixel uncovered
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (p.x >= u_target_size.x || p.y >= u_target_size.y) {
+        return;
+    }
+    vec2 u = (vec2(p) - u_center) / u_scale;
+#if WARP_SWAP
+    vec2 s = mls_eval(u).f;
+    float residual = -1.0;
+    bool converged = true;
+#else
+    vec4 guess = imageLoad(u_map, p);
+    vec2 s = guess.z > 0.5 ? (guess.xy - u_center) / u_scale : u;
+    float tolerance = u_tolerance / u_scale;
+    float h = 0.25 / u_scale;   // a quarter pixel: float32 noise in f is ~1e-4 of it
+    float residual = 0.0;
+    for (int k = 0; ; ++k) {
+        vec2 r = mls_eval(s).f - u;
+        residual = length(r);
+        if (residual <= tolerance || k == WARP_NEWTON_STEPS) {
+            break;
+        }
+        vec2 fs = r + u;
+        vec2 jx = (mls_eval(s + vec2(h, 0.0)).f - fs) / h;   // df/dx
+        vec2 jy = (mls_eval(s + vec2(0.0, h)).f - fs) / h;   // df/dy
+        float det = jx.x * jy.y - jy.x * jx.y;
+        if (!(abs(det) > 1e-12)) {
+            break;   // f is singular here (a fold's edge): keep the best point so far
+        }
+        vec2 step = vec2(jy.y * r.x - jy.x * r.y, jx.x * r.y - jx.y * r.x) / det;
+        // Far from the solution, go at most a tenth of the image per step.
+        float len = length(step);
+        s -= len > 0.2 ? step * (0.2 / len) : step;
+    }
+    residual *= u_scale;
+    bool converged = residual <= u_accept;
+#endif
+    vec2 sp = s * u_scale + u_center;
+    bool inside = all(greaterThanEqual(sp, vec2(-0.5))) &&
+                  all(lessThanEqual(sp, vec2(u_source_size) - 0.5));
+    imageStore(u_map, p, vec4(sp, residual, (converged && inside) ? 1.0 : 0.0));
+}

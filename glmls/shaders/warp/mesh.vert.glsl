@@ -1,0 +1,45 @@
+// Draws the deformed mesh (quads) or the deformed pixel centres (splat). There are no vertex
+// attributes: gl_VertexID is the vertex's index in the band (quads: through the cached index
+// buffer, two triangles (00, 10, 11) and (00, 11, 01) per cell, cells in row-major source
+// order), and the deformed positions come from the buffer that mls/points.comp.glsl
+// (MLS_LATTICE) filled, so nothing goes back to the CPU in between.
+//
+//   WARP_SPLAT  0: quads; 1: one point per source pixel (the paper's simple forward).
+//
+// Coordinates: pixel centres at integers, (x, y) = (column, row). u_target_size pixels map
+// onto the viewport; image row 0 lands on the framebuffer's first row, which is what
+// glReadPixels returns first, so images come back top-down without a flip. A window, whose
+// row 0 is at the bottom of the screen, sets u_flip_y.
+
+#include "common/lattice.glsl"
+
+layout(std430, binding = BIND_DEFORMED) readonly buffer WarpMesh {
+    vec2 warp_mesh[];   // f at the band's vertices, scaled coordinates
+};
+
+uniform vec2 u_center;        // scaled -> pixels: pixel = scaled * u_scale + u_center
+uniform float u_scale;
+uniform ivec2 u_target_size;  // W, H of the deformed image, in pixels
+uniform bool u_flip_y;
+uniform ivec2 u_source_size;  // W, H of the source image
+uniform ivec2 u_mesh_dims;    // vertices per row, rows of this band
+uniform int u_first_row;      // mesh row (splat: pixel row) of the band's first row
+
+out vec2 v_source;            // undeformed source point, pixels
+#if WARP_SPLAT
+flat out ivec2 v_pixel;
+#endif
+
+void main() {
+    int i = gl_VertexID;
+    ivec2 ij = ivec2(i % u_mesh_dims.x, i / u_mesh_dims.x + u_first_row);
+#if WARP_SPLAT
+    v_pixel = ij;
+    v_source = vec2(ij);
+#else
+    v_source = lattice_corner(ij, u_source_size);
+#endif
+    vec2 pixel = warp_mesh[i] * u_scale + u_center;
+    vec2 ndc = (pixel + 0.5) / vec2(u_target_size) * 2.0 - 1.0;
+    gl_Position = vec4(ndc.x, u_flip_y ? -ndc.y : ndc.y, 0.0, 1.0);
+}

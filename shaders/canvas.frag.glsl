@@ -1,7 +1,0 @@
-// Flat colour per vertex (premultiplied by nothing: blending is src_alpha, 1 - src_alpha).
-in vec4 v_color;
-out vec4 out_color;
-
-void main() {
-    out_color = v_color;
-}

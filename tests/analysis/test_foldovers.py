@@ -1,0 +1,43 @@
+"""Fold-overs: the cells f turns over, against the float64 reference mesh."""
+
+from __future__ import annotations
+
+import numpy as np
+from helpers import cross, reference_mesh
+from numpy.testing import assert_array_equal
+
+import glmls
+from glmls.analysis.foldovers import folded_cells
+
+
+def test_foldovers_match_the_reference_mesh(gl):
+    shape = (30, 40)
+    p = np.array([[8, 8], [32, 8], [20, 15], [8, 24], [32, 24.0]])
+    q = p.copy()
+    q[2] = [30, 16]
+    with glmls.MLS(p, q, ctx=gl) as m:
+        for grid in (1, 3):
+            folds = glmls.foldovers(m, shape, grid)
+            f = reference_mesh(m, shape, grid)
+            a, b, c, d = f[:-1, :-1], f[:-1, 1:], f[1:, 1:], f[1:, :-1]
+            ref = (cross(b - a, c - a) < 0) | (cross(c - a, d - a) < 0)
+            assert folds.count == ref.sum() > 0
+            # the mask is exactly the source pixels of the folded cells
+            rows, cols = np.nonzero(ref)
+            expected = np.zeros(shape, bool)
+            for r, c_ in zip(rows, cols, strict=True):
+                expected[r * grid : (r + 1) * grid, c_ * grid : (c_ + 1) * grid] = True
+            assert_array_equal(folds.mask, expected)
+    with glmls.MLS(p, p, ctx=gl) as identity:
+        assert glmls.foldovers(identity, shape).count == 0
+
+
+def test_folded_cells_of_a_turned_quad():
+    """A mesh of one cell: mirrored in x it folds; corner 11 pulled across the diagonal's
+    far side turns one triangle over, which is enough."""
+    square = np.array([[[0.0, 0.0], [1.0, 0.0]], [[0.0, 1.0], [1.0, 1.0]]])
+    assert not folded_cells(square).any()
+    assert folded_cells(square[:, ::-1]).all()
+    dented = square.copy()
+    dented[1, 1] = [-0.5, 0.5]  # triangle (00, 11, 01) turns over, (00, 10, 11) does not
+    assert folded_cells(dented).all()

@@ -1,0 +1,125 @@
+"""report(): JSON-ready summary, pictures, optional warp and fold-overs; the demo runs."""
+
+from __future__ import annotations
+
+import json
+import runpy
+import sys
+
+import numpy as np
+import pytest
+from PIL import Image
+from scipy.spatial import Delaunay
+
+import glmls
+from glmls.core import reference
+
+SRC = [[10.0, 10.0], [50.0, 12.0], [30.0, 40.0], [12.0, 44.0]]
+DST = [[14.0, 8.0], [50.0, 12.0], [33.0, 36.0], [12.0, 44.0]]
+REFERENCE = [[5.0, 5.0], [55.0, 6.0], [30.0, 25.0], [8.0, 42.0], [52.0, 40.0]]
+
+
+def formula_field(points, shape):
+    """E_MLS (eq. 7) at ``points`` with M, T of the float64 reference (similarity, idw)."""
+    p, q = np.array(SRC), np.array(DST)
+    _, big_m, t = reference.mls(p, q, points, transform="similarity", shape=shape)
+    mapped = np.einsum("ni,kij->knj", p, big_m) + t[:, None, :]
+    return ((mapped - q[None]) ** 2).sum(axis=(1, 2))
+
+
+def angle_errors(points, deformed, eps=1e-6):
+    """Eq. (11) per Delaunay triangle, written out here."""
+    out = []
+    for tri in Delaunay(points).simplices:
+        errors = []
+        for k in range(3):
+            corners = [points[tri[(k + j) % 3]] for j in range(3)]
+            moved = [deformed[tri[(k + j) % 3]] for j in range(3)]
+            cos = []
+            for a, b, c in (corners, moved):
+                u, w = b - a, c - a
+                cos.append(u @ w / np.linalg.norm(u) / np.linalg.norm(w))
+            errors.append((abs(cos[0] - cos[1]) + eps) / (abs(cos[0]) + eps))
+        out.append(np.mean(errors))
+    return np.array(out)
+
+
+def test_summary_and_pictures(gl, rng, tmp_path):
+    shape = (48, 60)
+    image = rng.integers(0, 256, (*shape, 3), dtype=np.uint8)
+    with glmls.MLS(SRC, DST, transform="similarity", ctx=gl) as m:
+        result = glmls.report(image, m, REFERENCE, grid=1, out_dir=tmp_path)
+        deformed = m.warp(image)
+        folds = glmls.foldovers(m, shape).count
+    summary = json.loads((tmp_path / "report.json").read_text())
+    assert summary == json.loads(result.to_json())
+    assert summary["configuration"]["transform"] == "similarity"
+    assert summary["configuration"]["handles"] == 4
+    assert summary["analysis"]["grid"] == 1
+    # the statistics against the float64 formula at every pixel (eqs. 7-9)
+    pixels = np.stack(np.meshgrid(np.arange(60.0), np.arange(48.0)), -1).reshape(-1, 2)
+    field = formula_field(pixels, shape)
+    stats = summary["error_field"]
+    assert stats["count"] == 48 * 60 and stats["nan_count"] == 0
+    for key, value in (("mean", field.mean()), ("std", field.std()), ("max", field.max())):
+        assert stats[key] == pytest.approx(value, rel=1e-4), key
+    assert stats["min"] == pytest.approx(field.min(), rel=1e-3, abs=1e-4)
+    within = [np.mean(np.abs(field - field.mean()) <= k * field.std()) for k in (1, 2, 3)]
+    assert stats["within"] == pytest.approx(within, abs=2 / field.size)
+    # the triangles against eq. (11) written out, with f from the float64 reference
+    points = np.array(REFERENCE)
+    f, _, _ = reference.mls(SRC, DST, points, transform="similarity")
+    angles = angle_errors(points, f)
+    assert summary["triangles"]["triangles"] == len(angles)
+    assert summary["triangles"]["angle"]["mean"] == pytest.approx(angles.mean(), rel=1e-3)
+    assert summary["triangles"]["angle"]["max"] == pytest.approx(angles.max(), rel=1e-3)
+    assert set(summary["timings_s"]) >= {"error_field", "triangle_errors", "render", "total"}
+    assert summary["warp"] == {"method": "quads", "interpolation": "nearest", "grid": 1}
+    assert summary["foldovers"] == {"grid": 1, "cells": folds}
+    assert (result.images["deformed"] == deformed).all()
+    expected = {
+        "input_handles",
+        "deformed",
+        "deformed_mesh",
+        "error_field",
+        "error_field_colorbar",
+        "triangulation",
+        "triangle_angle",
+        "triangle_angle_colorbar",
+    }
+    assert set(result.images) == expected
+    for name, picture in result.images.items():
+        assert picture.dtype == np.uint8 and picture.ndim == 3
+        saved = np.asarray(Image.open(tmp_path / f"{name}.png"))
+        assert (saved == picture).all()
+        if "colorbar" not in name:
+            assert picture.shape == (*shape, 3)
+
+
+def test_distance_errors_and_warp_options(gl, rng):
+    image = rng.integers(0, 256, (40, 56, 3), dtype=np.uint8)
+    with glmls.MLS(SRC, DST, ctx=gl) as m:
+        result = glmls.report(
+            image, m, REFERENCE, triangle_error="distance", method="backward", warp_grid=2
+        )
+        deformed = m.warp(image, method="backward", grid=2)
+    assert (result.images["deformed"] == deformed).all()
+    assert "triangle_distance" in result.images and "triangle_angle" not in result.images
+    assert result.summary["warp"]["method"] == "backward"
+    assert "warp" in result.summary["timings_s"]
+
+
+def test_bad_arguments(gl):
+    with glmls.MLS(SRC, DST, ctx=gl) as m:
+        with pytest.raises(ValueError, match="triangle_error"):
+            glmls.report(np.zeros((8, 8)), m, REFERENCE, triangle_error="area")
+        with pytest.raises(ValueError, match="at least 3"):
+            glmls.report(np.zeros((8, 8)), m, REFERENCE[:2])
+
+
+def test_demo_writes_the_figures(gl, tmp_path, monkeypatch):
+    argv = ["paper_figures_6_7.py", "--out", str(tmp_path), "--grid", "8"]
+    monkeypatch.setattr(sys, "argv", argv)
+    runpy.run_path("demos/paper_figures_6_7.py", run_name="__main__")
+    for name in ("fig6.png", "fig7.png", "report.json", "error_field.png", "triangle_angle.png"):
+        assert (tmp_path / name).is_file()

@@ -1,0 +1,130 @@
+"""Reference-triangle errors (paper eqs. 10, 11) against the formulas, and degenerate input."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from helpers import random_handles
+from numpy.testing import assert_allclose
+
+import glmls
+from glmls import reference
+
+SHAPE = (512, 512)
+
+
+def formula_errors(r, fr, simplices, eps):
+    """Eqs. (10) and (11) triangle by triangle, corner by corner, with math.* in float64."""
+    distance, angle = [], []
+    for tri in simplices:
+        d_sum = a_sum = 0.0
+        for k in range(3):
+            i, j, h = tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]
+            before = math.dist(r[i], r[j])
+            after = math.dist(fr[i], fr[j])
+            d_sum += abs(before - after) / before
+
+            def cos_at(pts, c, a, b):
+                u, v = pts[a] - pts[c], pts[b] - pts[c]
+                return float(u @ v) / (math.hypot(*u) * math.hypot(*v))
+
+            cos_a, cos_b = cos_at(r, i, j, h), cos_at(fr, i, j, h)
+            a_sum += (abs(cos_a - cos_b) + eps) / (abs(cos_a) + eps)
+        distance.append(d_sum / 3)
+        angle.append(a_sum / 3)
+    return np.array(distance), np.array(angle)
+
+
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_matches_formulas_with_a_float64_deformation(gl, rng, transform):
+    p, q = random_handles(rng, 10, size=512.0, displacement=40.0)
+    r = rng.uniform(0, 512, (40, 2))
+    config = glmls.MLSConfig(transform=transform)
+
+    def f(points):
+        return reference.mls(p, q, points, config, shape=SHAPE)[0]
+
+    errors = glmls.triangle_errors(f, r, eps=1e-6)
+    assert_allclose(errors.deformed_points, f(r), rtol=0, atol=0)
+    distance, angle = formula_errors(r, f(r), errors.simplices, 1e-6)
+    assert_allclose(errors.distance, distance, rtol=1e-12)
+    assert_allclose(errors.angle, angle, rtol=1e-12)
+    assert errors.simplices.shape == (len(errors.distance), 3)
+
+
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_gpu_deformation_matches_float64(gl, rng, transform):
+    p, q = random_handles(rng, 10, size=512.0, displacement=40.0)
+    r = rng.uniform(0, 512, (40, 2))
+    with glmls.MLS(p, q, transform=transform, shape=SHAPE, ctx=gl) as m:
+        errors = glmls.triangle_errors(m, r)
+    f_r = reference.mls(p, q, r, m.config, shape=SHAPE)[0]
+    assert_allclose(errors.deformed_points, f_r, rtol=0, atol=0.01)
+    distance, angle = formula_errors(r, f_r, errors.simplices, 1e-6)
+    # f(r) within 0.01 px moves relative lengths and cosines of ~50 px edges by < 1e-3
+    assert_allclose(errors.distance, distance, rtol=0, atol=1e-3)
+    assert_allclose(errors.angle, angle, rtol=1e-3, atol=1e-3)
+
+
+@pytest.mark.parametrize("transform", ["similarity", "affine"])
+@pytest.mark.parametrize("factor", [0.5, 1.5])
+def test_uniform_scale_has_no_angular_error(gl, rng, transform, factor):
+    """The paper's argument: scaling changes lengths only."""
+    p = rng.uniform(0, 512, (8, 2))
+    r = rng.uniform(0, 512, (30, 2))
+    eps = 1e-6
+    with glmls.MLS(p, factor * p + 3.0, transform=transform, ctx=gl) as m:
+        errors = glmls.triangle_errors(m, r, eps=eps)
+    assert_allclose(errors.distance, abs(factor - 1), rtol=0, atol=1e-5)
+    # unchanged cosines leave eps / (|cos a| + eps) per corner, plus float32 noise
+    assert errors.angle.max() < 1e-3
+    assert np.median(errors.angle) < 1e-4
+    assert not errors.flipped.any()
+
+
+def test_mirror_flips_every_triangle(rng):
+    r = rng.uniform(0, 100, (12, 2))
+    errors = glmls.triangle_errors(lambda v: v * [-1.0, 1.0], r)
+    assert errors.flipped.all()
+    assert_allclose(errors.distance, 0.0, atol=1e-15)
+    assert errors.stats()["flipped"] == len(errors.simplices)
+
+
+def test_collapsed_edge_gives_nan_angle(rng):
+    r = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]])
+    errors = glmls.triangle_errors(lambda v: np.where(v[:, :1] > 5, 0.0, v), r)
+    assert np.isnan(errors.angle).all()
+    assert errors.stats()["angle"]["nan_count"] == 1
+
+
+@pytest.mark.parametrize(
+    ("points", "match"),
+    [
+        ([[0.0, 0.0], [1.0, 1.0]], "at least 3"),
+        ([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0], [5.0, 5.0]], "one line"),
+        ([[0.0, 0.0], [1.0, 0.0], [np.nan, 1.0]], "finite"),
+        ([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 0.0]], r"\[1\] and reference_points\[3\]"),
+        ([[100.0, 100.0], [200.0, 100.0], [100.0, 200.0], [100.0 + 1e-12, 100.0]], "coincide"),
+        ([[0.0, 0.0, 0.0]], "shape"),
+    ],
+)
+def test_degenerate_points_raise(points, match):
+    with pytest.raises(ValueError, match=match):
+        glmls.triangle_errors(lambda v: v, points)
+
+
+def test_bad_eps_and_bad_mapping():
+    r = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
+    for eps in (0.0, -1.0, True, "1"):
+        with pytest.raises(ValueError, match="eps"):
+            glmls.triangle_errors(lambda v: v, r, eps=eps)
+    with pytest.raises(ValueError, match="returned shape"):
+        glmls.triangle_errors(lambda v: v[:2], r)
+
+
+def test_results_are_read_only(rng):
+    errors = glmls.triangle_errors(lambda v: 2 * v, rng.uniform(0, 9, (6, 2)))
+    with pytest.raises(ValueError, match="read-only"):
+        errors.angle[0] = 1.0

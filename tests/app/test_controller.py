@@ -1,0 +1,269 @@
+"""The window's interaction logic, without a window: picking, editing, undo, key bindings."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from glmls.app.controller import (
+    BINDINGS,
+    COMMANDS,
+    CONSTRUCTIONS,
+    Controller,
+    Key,
+    Move,
+    Press,
+    Release,
+    Settings,
+    pick,
+)
+from glmls.core.config import WEIGHTS, image_diagonal
+
+SRC = np.array([[10.0, 10.0], [50.0, 10.0], [30.0, 40.0]])
+
+
+def make(**options) -> Controller:
+    return Controller(SRC, SRC + [2.0, 0.0], (60, 80), pick_radius=5.0, **options)
+
+
+def drag(c: Controller, a, b, **press) -> None:
+    c.feed(Press(*a, **press))
+    c.feed(Move(*b))
+    c.feed(Release(*b))
+
+
+def test_pick_within_radius_only():
+    points = np.array([[0.0, 0.0], [10.0, 0.0]])
+    assert pick(points, 1.0, 1.0, 2.0) == 0
+    assert pick(points, 8.5, 0.0, 2.0) == 1
+    assert pick(points, 5.0, 0.0, 2.0) is None  # between, out of reach
+    assert pick(points, 5.0, 0.0, 5.0) == 1  # a tie goes to the later (drawn on top)
+    assert pick(np.zeros((0, 2)), 0, 0, 10) is None
+
+
+def test_drag_moves_the_target_only():
+    c = make()
+    drag(c, (12, 10), (20, 25))
+    np.testing.assert_array_equal(c.dst[0], [20, 25])
+    np.testing.assert_array_equal(c.src, SRC)
+    assert len(c.src) == 3 and not c.dragging
+
+
+def test_shift_drag_moves_the_source():
+    c = make()
+    drag(c, (50, 10), (55, 20), mods=frozenset({"shift"}))
+    np.testing.assert_array_equal(c.src[1], [55, 20])
+    np.testing.assert_array_equal(c.dst[1], [52, 10])
+
+
+def test_click_on_empty_space_adds_a_handle_with_p_equal_q():
+    c = make()
+    revision = c.revision
+    c.feed(Press(70, 50))
+    c.feed(Release(70, 50))
+    assert len(c.src) == 4
+    np.testing.assert_array_equal(c.src[3], [70, 50])
+    np.testing.assert_array_equal(c.dst[3], [70, 50])
+    assert c.revision > revision
+
+
+def test_press_on_empty_space_and_drag_pulls_the_new_handle():
+    c = make()
+    drag(c, (70, 50), (75, 45))
+    np.testing.assert_array_equal(c.src[3], [70, 50])
+    np.testing.assert_array_equal(c.dst[3], [75, 45])
+
+
+def test_right_click_deletes_by_target_or_source():
+    c = make()
+    c.feed(Press(32, 40, "right"))  # q of handle 2
+    assert len(c.src) == 2
+    c.feed(Press(10, 10, "right"))  # p of handle 0 (q is 2 px away too)
+    assert len(c.src) == 1
+    c.feed(Press(0, 59, "right"))  # nothing there
+    assert len(c.src) == 1
+
+
+def test_drags_stay_on_the_image():
+    c = make()
+    drag(c, (12, 10), (-100, 500))
+    np.testing.assert_array_equal(c.dst[0], [-0.5, 59.5])
+
+
+def test_undo_reverts_each_edit_in_turn():
+    c = make()
+    start = (c.src.copy(), c.dst.copy())
+    drag(c, (12, 10), (20, 20))
+    c.feed(Press(70, 50))
+    c.feed(Release(70, 50))
+    c.feed(Press(52, 10, "right"))
+    assert len(c.src) == 3 and c.undo_depth == 3
+    c.feed(Key("u"))
+    assert len(c.src) == 4
+    c.feed(Key("Ctrl+Z"))
+    assert len(c.src) == 3
+    c.feed(Key("Backspace"))
+    np.testing.assert_array_equal(c.src, start[0])
+    np.testing.assert_array_equal(c.dst, start[1])
+    c.feed(Key("u"))
+    assert c.message == "nothing to undo"
+
+
+def test_a_click_that_moves_nothing_leaves_no_undo_step():
+    c = make()
+    c.feed(Press(12, 10))
+    c.feed(Release(12, 10))
+    assert c.undo_depth == 0
+
+
+def test_reset_and_restore():
+    c = make()
+    c.feed(Key("r"))
+    np.testing.assert_array_equal(c.dst, c.src)
+    drag(c, (30, 40), (35, 45), mods=frozenset({"shift"}))
+    c.feed(Key("R"))
+    np.testing.assert_array_equal(c.src, SRC)
+    np.testing.assert_array_equal(c.dst, SRC + [2.0, 0.0])
+    c.feed(Key("u"))
+    np.testing.assert_array_equal(c.src[2], [35, 45])
+
+
+def test_reference_mode_adds_moves_and_deletes_reference_points():
+    c = make()
+    c.feed(Key("p"))
+    assert c.reference_mode
+    c.feed(Press(5, 50))
+    c.feed(Release(5, 50))
+    drag(c, (5, 50), (8, 52))
+    np.testing.assert_array_equal(c.reference, [[8, 52]])
+    assert len(c.src) == 3  # handles untouched
+    c.feed(Press(8, 52, "right"))
+    assert len(c.reference) == 0
+    c.feed(Key("u"))
+    assert len(c.reference) == 1
+    c.feed(Key("p"))
+    drag(c, (8, 52), (9, 9))  # back in handle mode: a new handle, not the reference point
+    assert len(c.src) == 4
+
+
+def test_key_bindings_cycle_the_settings():
+    c = make()
+    seen = set()
+    for _ in range(3):
+        seen.add(c.settings.config.transform)
+        c.feed(Key("t"))
+    assert seen == {"rigid", "similarity", "affine"} and c.settings.config.transform == "rigid"
+    weights = []
+    for _ in WEIGHTS:
+        weights.append(c.settings.config.weight)
+        c.feed(Key("w"))
+    assert weights == list(WEIGHTS)
+    constructions = []
+    for _ in CONSTRUCTIONS:
+        constructions.append((c.settings.method, c.settings.interpolation))
+        c.feed(Key("c"))
+    assert constructions == list(CONSTRUCTIONS)
+
+
+def test_parameter_keys_change_alpha_or_radius():
+    c = make()
+    c.feed(Key("+"))
+    c.feed(Key("="))
+    assert c.settings.config.alpha == 1.5
+    for _ in range(20):
+        c.feed(Key("-"))
+    assert c.settings.config.alpha == 0.25
+    c.feed(Key("w"))  # cressman: a radius weight
+    assert c.settings.config.radius is None
+    c.feed(Key("+"))
+    assert c.settings.config.radius == pytest.approx(1.25 * image_diagonal((60, 80)))
+    assert c.settings.parameter((60, 80)) == "R 125 px"
+
+
+def test_grid_keys_step_through_powers_of_two():
+    c = make(settings=Settings(grid=4))
+    c.feed(Key("g"))
+    assert c.settings.grid == 2
+    for _ in range(5):
+        c.feed(Key("G"))
+    assert c.settings.grid == 32
+
+
+def test_overlay_and_help_toggles():
+    c = make()
+    assert c.overlays == {
+        "handles": True,
+        "mesh": False,
+        "error": False,
+        "angle": False,
+        "folds": False,
+    }
+    for key, name in (
+        ("h", "handles"),
+        ("m", "mesh"),
+        ("e", "error"),
+        ("a", "angle"),
+        ("f", "folds"),
+    ):
+        before = c.overlays[name]
+        c.feed(Key(key))
+        assert c.overlays[name] is not before
+    c.feed(Key("F1"))
+    assert c.help_visible
+    c.feed(Key("?"))
+    assert not c.help_visible
+
+
+@pytest.mark.parametrize(
+    ("key", "command"),
+    [
+        ("s", "save_image"),
+        ("j", "save_handles"),
+        ("S", "save_screenshot"),
+        ("l", "load_handles"),
+        ("q", "quit"),
+        ("Escape", "quit"),
+    ],
+)
+def test_commands_go_to_the_window(key, command):
+    c = make()
+    revision = c.revision
+    assert c.feed(Key(key)) == [command]
+    assert c.revision == revision
+
+
+def test_unknown_keys_do_nothing():
+    c = make()
+    assert c.feed(Key("Z")) == []
+    assert c.feed(Key("F9")) == []
+
+
+def test_every_binding_is_unique_and_known():
+    keys = [key for keys, _, _ in BINDINGS for key in keys]
+    assert len(keys) == len(set(keys))
+    c = make()
+    for keys, action, _ in BINDINGS:
+        result = c.feed(Key(keys[0]))
+        assert result == ([action] if action in COMMANDS else [])
+
+
+def test_revision_changes_only_when_handles_or_settings_do():
+    c = make()
+    r = c.revision
+    c.feed(Move(1, 1))  # not dragging
+    c.feed(Key("h"))
+    assert c.revision == r
+    drag(c, (12, 10), (13, 10))
+    assert c.revision > r
+
+
+def test_bad_events_and_inputs():
+    c = make()
+    with pytest.raises(ValueError, match="unknown mouse button 'middle'"):
+        c.feed(Press(0, 0, "middle"))
+    with pytest.raises(TypeError, match="unknown event"):
+        c.feed("t")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="same shape"):
+        Controller(SRC, SRC[:2], (10, 10))
+    with pytest.raises(ValueError, match="src must be finite"):
+        Controller([[np.nan, 0]], [[0, 0]], (10, 10))

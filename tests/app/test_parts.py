@@ -1,0 +1,178 @@
+"""The window's parts that need no window: layout, replay files, glyph atlas, overlay geometry,
+the command line's input errors."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+import pytest
+
+from glmls.analysis.foldovers import folded_cells
+from glmls.app.events import Key, Move, Press, Release, Wait, read_events, replay_frames
+from glmls.app.layout import layout
+from glmls.app.overlays import mesh_lines
+from glmls.app.text import GlyphAtlas
+from glmls.app.view import display_image
+from glmls.cli.demo import configure, run
+from glmls.errors import InputFileError
+
+# -- layout -------------------------------------------------------------------------------------
+
+
+def test_layout_letterboxes_beside_the_panel():
+    lay = layout((900, 600), (300, 400), panel=300)  # H 300, W 400 in a 600 x 600 area
+    assert lay.viewport == (300, 75, 600, 450)
+    assert lay.scale == 1.5
+
+
+def test_layout_drops_the_panel_when_narrow():
+    lay = layout((500, 800), (100, 100), panel=300)
+    assert lay.panel == 0
+    assert lay.viewport == (0, 150, 500, 500)
+
+
+def test_cursor_to_image_and_back_with_high_dpi():
+    lay = layout((1800, 1200), (300, 400), panel=600)  # a 2x framebuffer
+    # image pixel (0, 0)'s centre and the far corner, in window units (half the pixels)
+    fx, fy = lay.to_framebuffer(0, 0)
+    assert lay.to_image(fx / 2, fy / 2, pixel_ratio=2.0) == pytest.approx((0, 0))
+    x, y = lay.to_image((1800 - 0.001) / 2, (1200 - 150 - 0.001) / 2, pixel_ratio=2.0)
+    assert (x, y) == pytest.approx((399.5, 299.5), abs=1e-2)
+
+
+# -- replay files -------------------------------------------------------------------------------
+
+
+def test_read_events(tmp_path):
+    path = tmp_path / "e.json"
+    entries = [
+        {"type": "press", "x": 1, "y": 2.5, "button": "right", "mods": ["shift"]},
+        {"type": "move", "x": 3, "y": 4},
+        {"type": "release", "x": 3, "y": 4},
+        {"type": "key", "key": "F1"},
+        {"type": "wait", "frames": 4},
+    ]
+    path.write_text(json.dumps({"events": entries}))
+    events = read_events(path)
+    assert events == [
+        Press(1, 2.5, "right", frozenset({"shift"})),
+        Move(3, 4),
+        Release(3, 4, "left"),
+        Key("F1"),
+        Wait(4),
+    ]
+    assert replay_frames(events) == 8
+    path.write_text(json.dumps(entries[:2]))  # a bare list works too
+    assert len(read_events(path)) == 2
+
+
+@pytest.mark.parametrize(
+    ("content", "match"),
+    [
+        ("{", "line 1: invalid JSON"),
+        ("{}", 'missing the key "events"'),
+        ('{"events": 3}', "expected a list of events"),
+        ('[{"type": "jump"}]', r'events\[0\]: "type" must be one of press'),
+        ('[{"type": "move", "x": 1}]', r'events\[0\]: missing "y"'),
+        ('[{"type": "move", "x": "1", "y": 2}]', '"x" must be a finite number'),
+        ('[{"type": "press", "x": 1, "y": 2, "button": "middle"}]', '"button" must be one of'),
+        ('[{"type": "press", "x": 1, "y": 2, "mods": ["meta"]}]', '"mods" must be a list'),
+        ('[{"type": "key", "key": ""}]', '"key" must be a non-empty string'),
+        ('[{"type": "wait", "frames": -1}]', '"frames" must be an integer >= 0'),
+        ('[{"type": "move", "x": 1, "y": 2, "z": 3}]', "unknown field"),
+    ],
+)
+def test_bad_events_files_name_the_fault(tmp_path, content, match):
+    path = tmp_path / "bad.json"
+    path.write_text(content)
+    with pytest.raises(InputFileError, match=match):
+        read_events(path)
+
+
+def test_missing_events_file(tmp_path):
+    with pytest.raises(InputFileError, match="no such file"):
+        read_events(tmp_path / "none.json")
+
+
+# -- text, images, geometry ---------------------------------------------------------------------
+
+
+def test_glyph_atlas_lays_out_text():
+    atlas = GlyphAtlas(14)
+    assert atlas.image.dtype == np.uint8 and atlas.image.max() == 255
+    quads = atlas.quads("ab c\nd", 10, 20)
+    assert quads.shape == (4 * 6, 8)  # spaces draw nothing
+    assert quads[:, 1].min() == 20
+    assert quads[-6:, 1].min() == 20 + atlas.line_height  # "d" on the second line
+    assert atlas.width("ab") == pytest.approx(atlas.advance["a"] + atlas.advance["b"])
+    assert atlas.quads("", 0, 0).shape == (0, 8)
+    assert atlas.rectangle(0, 0, 5, 5, (1, 1, 1, 1)).shape == (6, 8)
+    with pytest.raises(ValueError, match="size must be an integer >= 4"):
+        GlyphAtlas(2)
+
+
+def test_display_image_normalises_for_an_8_bit_window():
+    grey16 = np.full((2, 3), 65535, np.uint16)
+    out = display_image(grey16)
+    assert out.shape == (2, 3, 3) and out.dtype == np.float32 and out.max() == 1.0
+    rgba = np.zeros((2, 2, 4), np.uint8)
+    assert display_image(rgba).shape == (2, 2, 3)
+    with pytest.raises(ValueError, match="H x W or H x W x C"):
+        display_image(np.zeros((2, 2, 5)))
+
+
+def test_folded_cells_matches_the_fold_rule():
+    ys, xs = np.mgrid[0:3, 0:3].astype(float)
+    mesh = np.stack([xs, ys], axis=-1)
+    assert not folded_cells(mesh).any()
+    mesh[1, 1] = [2.5, 2.5]  # pulled across the far corner: cells around it turn over
+    folded = folded_cells(mesh)
+    assert folded.shape == (2, 2) and folded[1, 1] and folded.any()
+
+
+def test_mesh_lines_keep_the_border():
+    ys, xs = np.mgrid[0:5, 0:4].astype(float)
+    lines = mesh_lines(np.stack([xs, ys], axis=-1), stride=2)
+    # rows 0, 2, 4 (3 segments each) and columns 0, 2, 3 (4 segments each), 2 vertices each
+    assert lines.shape == (2 * (3 * 3 + 3 * 4), 6)
+
+
+# -- command line -------------------------------------------------------------------------------
+
+
+def parse(*argv: str) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog="glmls demo")
+    configure(parser)
+    return parser.parse_args(argv)
+
+
+def test_bad_events_file_exits_2_before_any_window(tmp_path, capsys):
+    path = tmp_path / "bad.json"
+    path.write_text('[{"type": "move"}]')
+    assert run(parse("--replay", str(path))) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("glmls demo: error: ") and 'missing "x"' in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_missing_image_exits_2(tmp_path, capsys):
+    assert run(parse(str(tmp_path / "none.png"))) == 2
+    assert "no such file" in capsys.readouterr().err
+
+
+def test_bad_option_values_are_usage_errors(capsys):
+    for argv in (["--frames", "0"], ["--grid", "x"], ["--window-size", "10x10"]):
+        with pytest.raises(SystemExit) as exit_:
+            parse(*argv)
+        assert exit_.value.code == 2
+    capsys.readouterr()
+
+
+def test_readout_lines_are_wrapped_to_the_panel():
+    from glmls.app.hud import wrap
+
+    lines = wrap("saved /a/very/long/path/" + "x" * 100 + ".png now", 40)
+    assert all(len(line) <= 40 for line in lines)
+    assert "".join(line.strip() for line in lines).startswith("saved/a/very")

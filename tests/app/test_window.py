@@ -1,0 +1,161 @@
+"""End to end: the real window under ``xvfb-run``, driven by a replay file, checked on its
+screenshots; and the message when there is no display."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import glmls
+from glmls.app.layout import layout
+from glmls.app.text import GlyphAtlas
+from glmls.app.window import PANEL_CHARS, TEXT_SIZE
+
+ROOT = str(Path(glmls.__file__).resolve().parent.parent)
+XVFB = shutil.which("xvfb-run")
+needs_xvfb = pytest.mark.skipif(
+    XVFB is None, reason="xvfb-run is not installed (scripts/setup.sh installs xvfb xauth)"
+)
+WINDOW = (800, 300)
+SHAPE = (100, 100)
+BLUE = (0, 0, 160)
+
+
+def _env(**changes: str | None) -> dict[str, str]:
+    env = dict(os.environ, PYTHONPATH=ROOT)
+    for key, value in changes.items():
+        if value is None:
+            env.pop(key, None)
+        else:
+            env[key] = value
+    return env
+
+
+def demo(*args: str, xvfb: bool = True, env: dict | None = None, cwd=None):
+    command = [sys.executable, "-m", "glmls", "demo", *args]
+    if xvfb:
+        command = [XVFB, "-a", *command]
+    return subprocess.run(
+        command, capture_output=True, text=True, env=env or _env(), timeout=120, cwd=cwd
+    )
+
+
+@pytest.fixture(scope="module")
+def square(tmp_path_factory) -> Path:
+    """A blue 100 x 100 image with a white 20 x 20 square at rows and columns 30..49."""
+    image = np.zeros((*SHAPE, 3), np.uint8)
+    image[:] = BLUE
+    image[30:50, 30:50] = 255
+    path = tmp_path_factory.mktemp("window") / "square.png"
+    glmls.imwrite(path, image)
+    return path
+
+
+def events(path: Path, *keys: str) -> Path:
+    """Press on empty space at (40, 40) (adds a handle there), drag it to (60, 55), then keys."""
+    entries = [
+        {"type": "press", "x": 40, "y": 40},
+        {"type": "move", "x": 50, "y": 48},
+        {"type": "move", "x": 60, "y": 55},
+        {"type": "release", "x": 60, "y": 55},
+        *({"type": "key", "key": key} for key in keys),
+        {"type": "wait", "frames": 2},
+    ]
+    path.write_text(json.dumps({"events": entries}))
+    return path
+
+
+def at(shot: np.ndarray, x: float, y: float) -> np.ndarray:
+    """The screenshot's colour at image point (x, y)."""
+    panel = round(PANEL_CHARS * GlyphAtlas(TEXT_SIZE).advance["M"]) + 24
+    lay = layout(WINDOW, SHAPE, panel)
+    fx, fy = lay.to_framebuffer(x, y)
+    return shot[int(fy), int(fx)].astype(int)
+
+
+def image_area(shot: np.ndarray) -> np.ndarray:
+    panel = round(PANEL_CHARS * GlyphAtlas(TEXT_SIZE).advance["M"]) + 24
+    vx, vy, vw, vh = layout(WINDOW, SHAPE, panel).viewport
+    top = WINDOW[1] - (vy + vh)
+    return shot[top : top + vh, vx : vx + vw].astype(int)
+
+
+@needs_xvfb
+def test_drag_moves_the_image_and_overlays_appear(tmp_path, square):
+    size = f"{WINDOW[0]}x{WINDOW[1]}"
+    plain = tmp_path / "plain.png"
+    result = demo(
+        str(square), "--replay", str(events(tmp_path / "a.json", "h")),
+        "--screenshot", str(plain), "--window-size", size,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    shot = glmls.imread(plain)
+    assert shot.shape == (WINDOW[1], WINDOW[0], 3)
+    # one handle is a translation by (20, 15): the square now covers columns 50..69, rows 45..64
+    assert (at(shot, 60, 55) > 240).all()
+    assert (at(shot, 52, 47) > 240).all()
+    np.testing.assert_allclose(at(shot, 35, 35), BLUE, atol=8)  # where the square was
+    np.testing.assert_allclose(at(shot, 80, 80), BLUE, atol=8)
+    assert (at(shot, 5, 5) < 8).all()  # uncovered by the shifted image: background
+    # the readout is drawn in the window: light text pixels in the panel
+    assert (shot[:, :200] > 200).all(axis=2).sum() > 200
+    area = image_area(shot)
+    mesh_green = (area[..., 1] > 200) & (area[..., 0] < 150) & (area[..., 2] < 200)
+    assert mesh_green.sum() == 0
+
+    overlays = tmp_path / "overlays.png"
+    result = demo(
+        str(square), "--replay", str(events(tmp_path / "b.json", "m", "e", "s", "j")),
+        "--screenshot", str(overlays), "--window-size", size, "--frames", "10",
+        "--out-dir", str(tmp_path / "saved"),
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    shot = glmls.imread(overlays)
+    area = image_area(shot)
+    mesh_green = (area[..., 1] > 200) & (area[..., 0] < 150) & (area[..., 2] < 200)
+    assert mesh_green.sum() > 500  # the wireframe
+    red, green, blue = area[..., 0], area[..., 1], area[..., 2]
+    handle = (red > 230) & (green > 170) & (green < 230) & (blue < 60)
+    assert handle.sum() > 20  # the handle's target disk
+    # the error field (0 everywhere for a translation: the map's low colour, white) lightens
+    assert at(shot, 85, 25)[0] > 120
+    # s and j saved the deformed image (full resolution, the input's dtype) and the handles
+    warped = glmls.imread(tmp_path / "saved" / "square-warped.png")
+    assert warped.shape == (*SHAPE, 3) and warped.dtype == np.uint8
+    assert (warped[45:65, 50:70] == 255).all() and (warped[:15] == 0).all()
+    handles = json.loads((tmp_path / "saved" / "square-handles.json").read_text())
+    assert handles == {"src": [[40.0, 40.0]], "dst": [[60.0, 55.0]]}
+
+
+@needs_xvfb
+@pytest.mark.parametrize("option", ["--frames", "--screenshot", "--replay"])
+def test_each_option_works_alone(tmp_path, square, option):
+    if option == "--frames":
+        args = ["--frames", "2", str(square)]
+    elif option == "--replay":
+        args = ["--replay", str(events(tmp_path / "e.json")), str(square)]
+    else:  # the default image
+        args = ["--screenshot", str(tmp_path / "shot.png")]
+    result = demo(*args, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stderr == ""
+    if option == "--screenshot":
+        assert glmls.imread(tmp_path / "shot.png").ndim == 3
+
+
+def test_no_display_is_a_one_line_message(tmp_path):
+    env = _env(DISPLAY=None, WAYLAND_DISPLAY=None)
+    result = demo("--frames", "1", xvfb=False, env=env, cwd=tmp_path)
+    assert result.returncode == 1
+    assert "Traceback" not in result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert lines[0].startswith("glmls demo: error: no display")
+    assert "headless" in lines[0]

@@ -1,0 +1,88 @@
+"""The mesh lattice of an image: corners and centres, bands, masks, uniforms (no GPU)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+from glmls.core.handles import Scaling
+from glmls.core.mesh import MeshLattice, as_shape
+
+
+def test_corners_are_pixel_square_corners():
+    xs, ys = MeshLattice.corners((3, 5), 2).axes
+    assert_allclose(xs, [-0.5, 1.5, 3.5, 4.5])
+    assert_allclose(ys, [-0.5, 1.5, 2.5])
+    xs, _ = MeshLattice.corners((3, 5), 1).axes
+    assert_allclose(xs, np.arange(6) - 0.5)
+    lattice = MeshLattice.corners((3, 5), 2)
+    assert lattice.dims == (4, 3) and lattice.cells == (3, 2) and lattice.count == 12
+    assert lattice.points().shape == (3, 4, 2)
+    assert lattice.last == (4.5, 2.5)
+
+
+def test_centres_are_the_pixel_centres():
+    lattice = MeshLattice.centres((3, 5))
+    xs, ys = lattice.axes
+    assert_array_equal(xs, np.arange(5)) and assert_array_equal(ys, np.arange(3))
+    assert lattice.dims == (5, 3) and lattice.band_overlap == 0
+    with pytest.raises(ValueError, match="grid 1"):
+        MeshLattice((3, 5), 2, "centres")
+
+
+@pytest.mark.parametrize("grid", [0, -1, 1.5, True])
+def test_bad_grid(grid):
+    with pytest.raises(ValueError, match="grid must be an integer >= 1"):
+        MeshLattice.corners((4, 4), grid)
+
+
+def test_bad_shape_and_kind():
+    with pytest.raises(ValueError, match="shape"):
+        as_shape((0, 4))
+    with pytest.raises(TypeError, match="shape"):
+        as_shape(5)
+    with pytest.raises(ValueError, match="kind"):
+        MeshLattice((4, 4), 1, "edges")
+
+
+@pytest.mark.parametrize("rows_per_band", [2, 3, 5, 100])
+def test_bands_cover_every_cell_row_once(rows_per_band):
+    """Bands of cells overlap by one row of points: each cell row is in exactly one band."""
+    lattice = MeshLattice.corners((37, 10), 3)  # 14 rows of points, 13 of cells
+    covered = []
+    for first, rows in lattice.bands(rows_per_band):
+        assert 2 <= rows <= rows_per_band
+        covered += range(first, first + rows - 1)  # the band's cell rows
+    assert covered == list(range(lattice.cells[1]))
+    assert lattice.one_band(rows_per_band) == (rows_per_band >= lattice.dims[1])
+
+
+def test_bands_of_centres_do_not_overlap():
+    lattice = MeshLattice.centres((7, 4))
+    assert list(lattice.bands(3)) == [(0, 3), (3, 3), (6, 1)]
+
+
+def test_rows_per_band_fit_the_budget():
+    lattice = MeshLattice.corners((1000, 1000), 1)  # 1001 points per row, 8 bytes each
+    assert lattice.rows_per_band(80_080) == 10
+    assert lattice.rows_per_band(80_080, indexed=True) == 4  # 24 bytes per cell of indices
+    assert lattice.rows_per_band(16) == 2  # at least one row of cells
+
+
+def test_cell_mask_marks_the_pixels_of_each_cell():
+    lattice = MeshLattice.corners((5, 7), 3)  # cells of 3 x 3, the last ones shorter
+    cells = np.zeros(lattice.cells[::-1], bool)
+    cells[1, 2] = True
+    mask = lattice.cell_mask(cells)
+    assert mask.shape == (5, 7)
+    assert_array_equal(np.argwhere(mask), [[3, 6], [4, 6]])
+
+
+def test_uniforms_are_in_scaled_coordinates():
+    scaling = Scaling((10.0, 20.0), 4.0)
+    values = MeshLattice.corners((8, 12), 2).uniforms(scaling)
+    assert_allclose(values["u_lattice_origin"], ((-0.5 - 10) / 4, (-0.5 - 20) / 4))
+    assert_allclose(values["u_lattice_step"], (0.5, 0.5))
+    assert_allclose(values["u_lattice_last"], ((11.5 - 10) / 4, (7.5 - 20) / 4))
+    assert values["u_lattice_dims"] == (7, 5)

@@ -1,0 +1,145 @@
+"""Bad input gets a ValueError/TypeError that names the problem."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import glmls
+from glmls.core.handles import _same_source_pair
+
+P = [[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]]
+
+
+@pytest.mark.parametrize(
+    ("src", "dst", "error", "match"),
+    [
+        ([[0, 0, 0]], [[0, 0, 0]], ValueError, r"src must have shape \(N, 2\)"),
+        ([0, 0], [0, 0], ValueError, r"shape \(N, 2\)"),
+        (P, P[:2], ValueError, "same length, got 3 and 2"),
+        ([[0, np.nan]], [[0, 0]], ValueError, "src must be finite; row 0"),
+        ([[0, 0]], [[np.inf, 0]], ValueError, "dst must be finite"),
+        ([[0, 0], [1, 1], [np.inf, 2]], P, ValueError, "src must be finite; row 2"),
+        ([["a", "b"]], [[0, 0]], TypeError, "src must be real numbers"),
+        ([[1 + 1j, 0]], [[0, 0]], TypeError, "src must be real numbers"),
+        ([[1, 1], [1, 1]], [[2, 2], [3, 3]], ValueError, r"src\[0\] and src\[1\] are the same"),
+    ],
+)
+def test_bad_handles(src, dst, error, match):
+    with pytest.raises(error, match=match):
+        glmls.MLS(src, dst)
+
+
+@pytest.mark.parametrize(
+    ("options", "error", "match"),
+    [
+        ({"transform": "projective"}, ValueError, "choose one of affine, similarity, rigid"),
+        ({"weight": "cubic"}, ValueError, "choose one of idw, cressman, shepard"),
+        ({"transform": 3}, TypeError, "transform must be a string"),
+        ({"alpha": 0}, ValueError, "alpha must be > 0"),
+        ({"alpha": -1.0}, ValueError, "alpha must be > 0"),
+        ({"alpha": float("nan")}, ValueError, "alpha must be finite"),
+        ({"alpha": "1"}, TypeError, "alpha must be a real number"),
+        ({"s": -1e-3}, ValueError, "s must be >= 0"),
+        ({"radius": 0}, ValueError, "radius must be > 0"),
+        ({"radius": -5.0}, ValueError, "radius must be > 0"),
+        ({"radius": float("inf")}, ValueError, "radius must be finite"),
+        ({"interpolating": 1}, TypeError, "interpolating must be True or False"),
+        ({"shape": (0, 5)}, ValueError, "H, W >= 1"),
+        ({"shape": "big"}, TypeError, "shape must be"),
+    ],
+)
+def test_bad_options(options, error, match):
+    with pytest.raises(error, match=match):
+        glmls.MLS(P, P, **options)
+
+
+def test_radius_weight_without_radius_or_shape(gl):
+    with glmls.MLS(P, P, weight="gaussian", ctx=gl) as m:
+        with pytest.raises(ValueError, match="needs an influence radius"):
+            m([[1.0, 1.0]])
+    with glmls.MLS(P, P, weight="gaussian", shape=(20, 30), ctx=gl) as m:
+        assert m.uniforms()["u_radius"] == pytest.approx(np.hypot(20, 30) / m.scaling.scale)
+
+
+@pytest.mark.parametrize("points", [[[1, 2, 3]], np.zeros((2, 2, 2)), [[np.nan, 1]]])
+def test_bad_points(gl, points):
+    with glmls.MLS(P, P, ctx=gl) as m, pytest.raises(ValueError, match="points"):
+        m(points)
+
+
+def test_empty_points_give_empty_results(gl):
+    with glmls.MLS(P, P, ctx=gl) as m:
+        assert m(np.zeros((0, 2))).shape == (0, 2)
+        big_m, t = m.matrices([])
+        assert big_m.shape == (0, 2, 2) and t.shape == (0, 2)
+
+
+def test_same_source_pairs_match_brute_force():
+    """Ties in x are common on a lattice: the pair found conflicts, and one is found iff any."""
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        p = rng.integers(0, 4, (12, 2)).astype(float)
+        q = p + rng.integers(0, 2, (12, 2))  # same p: often the same q, sometimes not
+        conflicts = {
+            (i, j)
+            for i in range(12)
+            for j in range(i + 1, 12)
+            if (p[i] == p[j]).all() and (q[i] != q[j]).any()
+        }
+        pair = _same_source_pair(p, q)
+        assert (pair is None) == (not conflicts)
+        assert pair is None or pair in conflicts
+
+
+def test_exact_duplicate_pairs_are_accepted(gl):
+    src = [[0, 0], [0, 0], [10, 0], [0, 10]]
+    dst = [[1, 1], [1, 1], [11, 1], [1, 11]]
+    with glmls.MLS(src, dst, transform="affine", ctx=gl) as m:
+        np.testing.assert_allclose(m([[5.0, 5.0]]), [[6.0, 6.0]], atol=1e-3)
+
+
+def test_release_twice_is_harmless_and_use_after_release_is_clear(gl):
+    m = glmls.MLS(P, P, ctx=gl)
+    m.release()
+    m.release()
+    assert m.released and "released" in repr(m)
+    with pytest.raises(glmls.ReleasedError, match="released"):
+        m([[1.0, 1.0]])
+    with pytest.raises(glmls.ReleasedError):
+        m.mesh((4, 4))
+
+
+def test_handles_are_read_only_copies(gl):
+    src = np.array(P)
+    with glmls.MLS(src, src, ctx=gl) as m:
+        src[0] = 99
+        assert m.src[0].tolist() == [0.0, 0.0]
+        with pytest.raises(ValueError):
+            m.src[0, 0] = 1.0
+
+
+def test_set_handles_matches_a_new_mls(gl):
+    src = np.array([[10.0, 10.0], [90.0, 20.0], [50.0, 80.0]])
+    dst = src + [[5.0, 0.0], [0.0, -4.0], [3.0, 3.0]]
+    points = np.array([[30.0, 40.0], [60.0, 60.0]])
+    with glmls.MLS(src[:1], src[:1], shape=(100, 100)) as m:
+        m.set_handles(src, dst)
+        with glmls.MLS(src, dst, shape=(100, 100)) as fresh:
+            np.testing.assert_allclose(m(points), fresh(points), atol=1e-4)
+            assert m.scaling == fresh.scaling
+        np.testing.assert_array_equal(m.dst, dst)
+        assert not m.dst.flags.writeable
+
+
+def test_set_handles_rejects_bad_handles_and_keeps_the_old(gl):
+    src = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]])
+    with glmls.MLS(src, src + 1, transform="affine") as m:
+        with pytest.raises(ValueError, match="same length"):
+            m.set_handles(src, src[:2])
+        with pytest.raises(glmls.DegenerateHandlesError):
+            m.set_handles(src[:2], src[:2])
+        np.testing.assert_array_equal(m.dst, src + 1)
+        np.testing.assert_allclose(m([[5.0, 5.0]]), [[6.0, 6.0]], atol=1e-4)
+    with pytest.raises(glmls.ReleasedError):
+        m.set_handles(src, src)

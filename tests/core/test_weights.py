@@ -1,0 +1,127 @@
+"""The registry of weights: the one place that knows each weight. Its entries match the
+paper's Table 1, the shaders have one function per entry, and a new weight is one entry plus
+one GLSL function."""
+
+from __future__ import annotations
+
+import re
+import shutil
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+import glmls
+from glmls.app.controller import BINDINGS
+from glmls.cli.main import build_parser
+from glmls.core import reference
+from glmls.core.config import MLSConfig
+from glmls.core.weights import RADIUS_WEIGHTS, REGISTRY, WEIGHTS, Weight, weight
+from glmls.gl.context import GLContext
+from glmls.gl.shaders import ShaderLibrary
+
+SHADERS = Path(str(resources.files("glmls").joinpath("shaders")))
+SIGNATURE = r"float mls_weight_(\w+)\(float d2, float m, float inv_m, float sigma\)"
+
+
+def test_the_paper_weights_and_their_properties():
+    assert WEIGHTS == ("idw", "cressman", "shepard", "gaussian", "linear")
+    assert RADIUS_WEIGHTS == ("cressman", "shepard", "gaussian", "linear")
+    assert glmls.WEIGHTS == WEIGHTS and glmls.RADIUS_WEIGHTS == RADIUS_WEIGHTS
+    infinite = {name for name in WEIGHTS if REGISTRY[name].infinite_at_zero(MLSConfig(s=1.0))}
+    assert infinite == {"shepard"}
+    assert REGISTRY["idw"].infinite_at_zero(MLSConfig(s=0.0))
+    assert REGISTRY["idw"].reach(10.0, 100) is None
+    assert REGISTRY["linear"].reach(10.0, 100) == pytest.approx(10.0, rel=1e-4)
+    gaussian = 10 * np.sqrt(np.log(100 * 2**24))
+    assert REGISTRY["gaussian"].reach(10.0, 100) == pytest.approx(gaussian, rel=1e-4)
+    with pytest.raises(ValueError, match="unknown weight 'cubic'; choose one of idw, cressman"):
+        weight("cubic")
+
+
+@pytest.mark.parametrize(
+    "name, d, expected",
+    [
+        # Table 1 at R = 4 (and idw with s = 0.5, alpha = 1): w(d) by hand
+        ("idw", 2.0, 1 / (0.5 + 4.0)),
+        ("cressman", 2.0, (16 - 4) / (16 + 4)),
+        ("cressman", 5.0, 0.0),
+        ("shepard", 1.0, (4 - 1) / (4 * 1)),
+        ("shepard", 4.0, 0.0),
+        ("linear", 1.5, 2.5),
+        ("linear", 9.0, 0.0),
+    ],
+)
+def test_reference_formulas_are_table_1(name, d, expected):
+    config = MLSConfig(weight=name, s=0.5, radius=4.0)
+    w = REGISTRY[name].reference(np.array([[d * d]]), config, 4.0)
+    assert w[0, 0] == pytest.approx(expected)
+
+
+def test_the_gaussian_is_table_1_up_to_a_common_factor():
+    config = MLSConfig(weight="gaussian", radius=4.0)
+    d2 = np.array([[1.0, 4.0, 9.0]])
+    w = reference.weights(d2, config, 4.0)
+    assert_allclose(w / w[0, 0], np.exp(-d2 / 16) / np.exp(-1 / 16))
+
+
+def test_every_entry_has_one_glsl_function_and_no_other():
+    text = (SHADERS / "mls" / "weights.glsl").read_text()
+    assert sorted(re.findall(SIGNATURE, text)) == sorted(REGISTRY)
+    for entry in REGISTRY.values():
+        assert entry.glsl_function == f"mls_weight_{entry.name}"
+
+
+def test_the_window_and_the_command_line_list_every_weight():
+    help_text = next(text for keys, action, text in BINDINGS if action == "weight")
+    assert all(name in help_text for name in WEIGHTS)
+    parser = build_parser()
+    args = parser.parse_args(["warp", "a.png", "b.png", "--handles", "h", "--weight", "linear"])
+    assert args.weight == "linear"
+
+
+def test_a_sixth_weight_is_one_entry_and_one_glsl_function(gl, tmp_path, monkeypatch, rng):
+    """Wendland's C2 function (1 - d/R)^4 (4 d/R + 1), compact like cressman: added to the
+    registry and to a copy of the shaders, it runs on the GPU, bins included, and matches
+    its float64 formula."""
+
+    def wendland(d2, params, radius):
+        t = np.sqrt(d2) / radius
+        return np.where(t < 1, (1 - t) ** 4 * (4 * t + 1), 0.0)
+
+    monkeypatch.setitem(
+        REGISTRY,
+        "wendland",
+        Weight(
+            "wendland",
+            "(1 - d/R)^4 (4 d/R + 1)",
+            needs_radius=True,
+            support="radius",
+            infinite_at_zero=lambda params: False,
+            reference=wendland,
+        ),
+    )
+    shaders = tmp_path / "shaders"
+    shutil.copytree(SHADERS, shaders)
+    with open(shaders / "mls" / "weights.glsl", "a") as glsl:
+        glsl.write(
+            "\nfloat mls_weight_wendland(float d2, float m, float inv_m, float sigma) {\n"
+            "    float t = sqrt(d2) / u_radius;\n"
+            "    return t < 1.0 ? pow(1.0 - t, 4.0) * (4.0 * t + 1.0) : 0.0;\n"
+            "}\n"
+        )
+    own = GLContext(gl.mgl, owned=False, shaders=ShaderLibrary(shaders))
+    p = rng.uniform(0, 256, (600, 2))
+    q = p + rng.uniform(-3, 3, p.shape)
+    v = rng.uniform(0, 255, (500, 2))
+    try:
+        for bins in (False, True):
+            with glmls.MLS(p, q, weight="wendland", radius=24.0, ctx=own, bins=bins) as m:
+                f = m(v)
+                assert (m.kernel.bins is not None) == bins
+            f_ref, _, _ = reference.mls(p, q, v, weight="wendland", radius=24.0)
+            assert_allclose(f, f_ref, rtol=0, atol=0.01)
+    finally:
+        own.release()

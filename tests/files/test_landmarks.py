@@ -1,0 +1,106 @@
+"""Handle and reference-point files: every format, and malformed files named precisely."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from glmls.errors import InputFileError
+from glmls.files import atomic_write, read_handles, read_points, write_handles
+
+
+def _write(tmp_path, name, text):
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_json_csv_and_bigwarp_handles(tmp_path):
+    src, dst = np.array([[1.0, 2.0], [3.5, 4.0]]), np.array([[1.5, 2.0], [3.0, 5.0]])
+    for name in ("h.json", "h.csv"):
+        write_handles(tmp_path / name, src, dst)
+        got = read_handles(tmp_path / name)
+        assert_allclose(got[0], src)
+        assert_allclose(got[1], dst)
+    bigwarp = _write(
+        tmp_path,
+        "landmarks.csv",
+        '"Pt-0","true","1.0","2.0","1.5","2.0"\n'
+        '"Pt-1","false","9","9","9","9"\n'
+        '"Pt-2","true","3.5","4.0","3.0","5.0"\n',
+    )
+    got = read_handles(bigwarp)
+    assert_allclose(got[0], src)
+    assert_allclose(got[1], dst)
+
+
+def test_reference_points(tmp_path):
+    assert_allclose(
+        read_points(_write(tmp_path, "r.json", '{"points": [[1, 2], [3, 4]]}')), [[1, 2], [3, 4]]
+    )
+    assert_allclose(read_points(_write(tmp_path, "r.csv", "x,y\n1,2\n3,4\n")), [[1, 2], [3, 4]])
+
+
+@pytest.mark.parametrize(
+    ("name", "text", "message"),
+    [
+        ("h.json", '{"src": [[1, 2]], "dst": [[1, 2]', "line 1: invalid JSON"),
+        ("h.json", '{"src": [[1, 2]]}', 'missing the key "dst"'),
+        (
+            "h.json",
+            '{"src": [[1, "a"]], "dst": [[1, 2]]}',
+            "\"src\"[0]: expected a number, got 'a'",
+        ),
+        ("h.json", '{"src": [[1, NaN]], "dst": [[1, 2]]}', '"src"[0]: expected a finite number'),
+        ("h.json", '{"src": [[1, 2, 3]], "dst": [[1, 2]]}', '"src"[0]: expected an [x, y] pair'),
+        ("h.json", '{"src": [], "dst": []}', "content: no handles"),
+        ("h.json", '{"src": [[1, 2]], "dst": [[1, 2], [3, 4]]}', "1 sources but 2 targets"),
+        ("h.json", "[1, 2]", "expected a JSON object"),
+        ("h.csv", "src_x,src_y,dst_x\n1,2,3\n", "line 1: expected the header"),
+        ("h.csv", "src_x,src_y,dst_x,dst_y\n1,2,3,4\n5,6,7\n", "line 3: expected 4 columns, got 3"),
+        ("h.csv", "src_x,src_y,dst_x,dst_y\n1,2,x,4\n", "line 2: expected a number, got 'x'"),
+        ("h.csv", "src_x,src_y,dst_x,dst_y\n1,2,nan,4\n", "line 2: expected a finite number"),
+        ("h.csv", "src_x,src_y,dst_x,dst_y\n", "content: no handles"),
+        ("h.csv", "", "content: no handles"),
+        ("h.csv", '"P","true","1","2","3"\n', "line 1: expected 6 BigWarp columns, got 5"),
+        ("h.csv", '"P","true","1","2","3","4","5","6"\n', "3D BigWarp landmarks"),
+        ("h.csv", '"P","false","1","2","3","4"\n', "no active BigWarp landmarks"),
+    ],
+)
+def test_malformed_handle_files(tmp_path, name, text, message):
+    path = _write(tmp_path, name, text)
+    with pytest.raises(InputFileError) as info:
+        read_handles(path)
+    assert str(info.value).startswith(str(path))
+    assert message in str(info.value)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(InputFileError, match="no such file"):
+        read_handles(tmp_path / "nope.json")
+
+
+@pytest.mark.parametrize(
+    ("name", "text", "message"),
+    [
+        ("r.json", '{"pts": []}', 'missing the key "points"'),
+        ("r.csv", "x,y\n1\n", "line 2: expected 2 columns, got 1"),
+        ("r.csv", "a,b\n1,2\n", "expected the header x,y"),
+        ("r.json", '{"points": []}', "no points"),
+    ],
+)
+def test_malformed_point_files(tmp_path, name, text, message):
+    with pytest.raises(InputFileError, match=message.replace("[", r"\[")):
+        read_points(_write(tmp_path, name, text))
+
+
+def test_atomic_write_leaves_nothing_on_failure(tmp_path):
+    target = tmp_path / "out.txt"
+    with pytest.raises(RuntimeError), atomic_write(target) as tmp:
+        tmp.write_text("partial")
+        raise RuntimeError("boom")
+    assert list(tmp_path.iterdir()) == []
+    with atomic_write(target) as tmp:
+        tmp.write_text("whole")
+    assert target.read_text() == "whole" and len(list(tmp_path.iterdir())) == 1

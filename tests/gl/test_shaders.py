@@ -1,0 +1,152 @@
+"""The shader loader: #include resolved once per program, cycles refused, defines (floats and
+identifiers too), compile errors naming file and line, programs compiled once."""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+import pytest
+
+from glmls.gl import bindings
+from glmls.gl.context import GLContext
+from glmls.gl.shaders import ShaderCompileError, ShaderLibrary, define_value, library
+
+COMPUTE_MAIN = """\
+layout(local_size_x = 1) in;
+#include "lib/out.glsl"
+void main() {
+    out_values[0] = VALUE;
+    out_values[1] = float(COUNT);
+}
+"""
+OUT = """\
+layout(std430, binding = BIND_DEFORMED) writeonly buffer Out {
+    float out_values[];
+};
+"""
+
+
+@pytest.fixture
+def shader_dir(tmp_path):
+    (tmp_path / "lib").mkdir()
+    (tmp_path / "lib" / "out.glsl").write_text(OUT)
+    (tmp_path / "main.comp.glsl").write_text(COMPUTE_MAIN)
+    return tmp_path
+
+
+def test_includes_are_resolved_once_with_the_origin_of_every_line(shader_dir):
+    (shader_dir / "twice.glsl").write_text('#include "lib/out.glsl"\n#include "lib/out.glsl"\n')
+    source = ShaderLibrary(shader_dir).compose("twice.glsl", {"VALUE": 1.5})
+    assert source.text.startswith("#version 430 core\n")
+    assert source.text.count("buffer Out") == 1
+    assert "#define VALUE 1.5" in source.text
+    assert f"#define BIND_DEFORMED {bindings.DEFORMED.index}" in source.text  # the table
+    lines = source.text.splitlines()
+    buffer_line = next(k for k, line in enumerate(lines, 1) if "buffer Out" in line)
+    assert source.locate(buffer_line) == ("lib/out.glsl", 1)
+    assert source.locate(1) == ("<defines>", 1)
+
+
+def test_include_cycles_and_missing_files_are_named(shader_dir):
+    (shader_dir / "a.glsl").write_text('#include "b.glsl"\n')
+    (shader_dir / "b.glsl").write_text('\n#include "a.glsl"\n')
+    library_ = ShaderLibrary(shader_dir)
+    with pytest.raises(ShaderCompileError, match=r"a\.glsl -> b\.glsl -> a\.glsl"):
+        library_.compose("a.glsl")
+    (shader_dir / "c.glsl").write_text('// comment\n#include "nope/missing.glsl"\n')
+    with pytest.raises(FileNotFoundError, match=r"c\.glsl:2: .*nope/missing\.glsl"):
+        library_.compose("c.glsl")
+
+
+def test_define_values():
+    assert define_value(True) == "1" and define_value(False) == "0"
+    assert define_value(7) == "7" and define_value(-3) == "(-3)"
+    assert define_value(2.0**-24) == "5.960464477539063e-08"
+    assert define_value(1.0) == "1.0" and define_value(-0.5) == "(-0.5)"
+    assert define_value("mls_weight_idw") == "mls_weight_idw"
+    for bad in (float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="finite"):
+            define_value(bad)
+    for bad in ("two words", "1abc", None, [1]):
+        with pytest.raises(TypeError, match="define values"):
+            define_value(bad)
+
+
+@pytest.mark.parametrize("value", [2.0**-24, 0.1, -1234.5678, 1e30, 3.0])
+def test_float_defines_reach_the_gpu_as_float32(gl, shader_dir, value):
+    """A float define is a GLSL float literal: the shader sees float32(value)."""
+    own = GLContext(gl.mgl, owned=False, shaders=ShaderLibrary(shader_dir))
+    out = gl.mgl.buffer(reserve=8)
+    try:
+        program = own.compute("main.comp.glsl", {"VALUE": value, "COUNT": 12})
+        out.bind_to_storage_buffer(bindings.DEFORMED.index)
+        program.run(group_x=1)
+        gl.mgl.memory_barrier()
+        values = np.frombuffer(out.read(), np.float32)
+    finally:
+        out.release()
+        own.release()
+    assert values[0] == np.float32(value)
+    assert values[1] == 12.0
+
+
+def test_compile_errors_name_the_file_and_line(gl, shader_dir):
+    (shader_dir / "lib" / "broken.glsl").write_text(
+        "// fine\nfloat broken() {\n    return nope;\n}\n"
+    )
+    (shader_dir / "bad.comp.glsl").write_text(
+        'layout(local_size_x = 1) in;\n#include "lib/broken.glsl"\nvoid main() {}\n'
+    )
+    own = GLContext(gl.mgl, owned=False, shaders=ShaderLibrary(shader_dir))
+    try:
+        with pytest.raises(ShaderCompileError, match=r"lib/broken\.glsl:3\(\d+\): error"):
+            own.compute("bad.comp.glsl")
+        (shader_dir / "ok.vert.glsl").write_text("void main() { gl_Position = vec4(0.0); }\n")
+        (shader_dir / "bad.frag.glsl").write_text("out vec4 c;\n\nvoid main() { c = missing; }\n")
+        with pytest.raises(ShaderCompileError, match=r"fragment_shader[\s\S]*bad\.frag\.glsl:3"):
+            own.program("ok.vert.glsl", "bad.frag.glsl")
+    finally:
+        own.release()
+    assert gl.mgl.error == "GL_NO_ERROR"
+
+
+def test_driver_locations_of_other_vendors_are_mapped(shader_dir):
+    source = ShaderLibrary(shader_dir).compose("main.comp.glsl")
+    line = next(k for k, text in enumerate(source.text.splitlines(), 1) if "out_values[1]" in text)
+    assert source.explain(f"0({line}) : error C1008: x") == "main.comp.glsl(5) : error C1008: x"
+    assert source.explain(f"ERROR: 0:{line}: x") == "ERROR: main.comp.glsl:5: x"
+    assert source.explain(f"0:{line}(7): error: x") == "main.comp.glsl:5(7): error: x"
+
+
+def test_every_packaged_shader_compiles(gl):
+    """The entry files (stages) of glmls/shaders compile with their defines' usual values."""
+    mls = {
+        "MLS_WEIGHT_FUNCTION": "mls_weight_gaussian",
+        "MLS_WEIGHT_USES_S": 0,
+        "MLS_REACH_GAUSSIAN": 1,
+        "MLS_GAUSSIAN_TOLERANCE": 2.0**-24,
+        "MLS_TRANSFORM": 0,
+        "MLS_INTERPOLATING": 1,
+        "MLS_ALPHA_ONE": 0,
+        "MLS_UNROLL": 0,
+        "MLS_BINS": 1,
+        "MLS_STORAGE": 0,
+    }
+    gl.compute("mls/points.comp.glsl", mls | {"MLS_LATTICE": 1, "MLS_WRITE_MATRIX": 1})
+    gl.compute("mls/error_field.comp.glsl", mls | {"MLS_ERROR_INTERPOLATE": 0})
+    gl.compute("warp/inverse.comp.glsl", mls | {"WARP_SWAP": 0, "WARP_NEWTON_STEPS": 8})
+    for storage in (1, 2):
+        extra = {"MLS_STORAGE": storage, "MLS_UBO_CAPACITY": 1024, "MLS_BINS": 0, "MLS_UNROLL": 16}
+        gl.compute("mls/points.comp.glsl", mls | extra | {"MLS_LATTICE": 0, "MLS_WRITE_MATRIX": 0})
+    warp = {"WARP_LINEAR": 1, "WARP_OUTPUT_COORDS": 0}
+    gl.program("warp/mesh.vert.glsl", "warp/mesh.frag.glsl", warp | {"WARP_SPLAT": 0})
+    gl.program("common/fullscreen.vert.glsl", "warp/cells.frag.glsl", warp)
+    gl.program("common/fullscreen.vert.glsl", "draw/picture.frag.glsl")
+
+
+def test_programs_are_compiled_once(gl):
+    defines = {"MLS_ERROR_INTERPOLATE": True}
+    entry = "mls/error_field.comp.glsl"
+    assert gl.compute(entry, defines) is gl.compute(entry, dict(defines))
+    assert library() is library()
+    assert isinstance(gl.compute(entry, defines), moderngl.ComputeShader)

@@ -1,0 +1,82 @@
+"""Helpers shared by the tests (``pythonpath = ["tests"]`` in pyproject.toml)."""
+
+from __future__ import annotations
+
+import gc
+
+import moderngl
+import numpy as np
+
+from glmls.core import reference
+from glmls.core.mesh import MeshLattice
+
+#: Background of the coordinate images: no pixel holds it.
+SENTINEL = 65535
+
+
+def random_handles(rng, n, size=1024.0, displacement=60.0):
+    """n source handles in a size x size image and targets moved by up to ``displacement``."""
+    p = rng.uniform(0, size, (n, 2))
+    q = p + rng.uniform(-displacement, displacement, (n, 2))
+    return p, q
+
+
+def coordinate_image(height, width):
+    """uint16 (H, W, 3): each pixel holds its own x and y (and 0)."""
+    yy, xx = np.mgrid[0:height, 0:width]
+    return np.dstack([xx, yy, np.zeros_like(xx)]).astype(np.uint16)
+
+
+def smooth_handles(shape, rng, displacement=None):
+    """A jittered 3 x 3 lattice of handles over the image, targets moved by up to
+    ``displacement`` (8 % of the image by default): a typical, fold-free deformation."""
+    height, width = shape
+    displacement = displacement or 0.08 * min(shape)
+    lattice = np.stack(np.meshgrid([0.15, 0.5, 0.85], [0.15, 0.5, 0.85]), -1).reshape(-1, 2)
+    p = lattice * [width - 1, height - 1] + rng.uniform(-0.05, 0.05, (9, 2)) * [width, height]
+    return p, p + rng.uniform(-displacement, displacement, p.shape)
+
+
+def reference_mesh(m, shape, grid=1):
+    """Float64 f at the mesh of pixel-square corners, (rows, columns, 2)."""
+    v = MeshLattice.corners(shape, grid).points()
+    f, _, _ = reference.mls(m.src, m.dst, v.reshape(-1, 2), m.config, shape=shape)
+    return f.reshape(v.shape)
+
+
+def folded_case():
+    """A small image whose mesh folds (the centre handle dragged past its neighbours)."""
+    shape = (40, 48)
+    p = np.array([[10, 10], [38, 8], [24, 20], [12, 32], [36, 30.0]])
+    q = p.copy()
+    q[2] = [44, 21]
+    return shape, p, q
+
+
+def cross(a, b):
+    """z of the cross product of 2-vectors (last axis)."""
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+_GL_TYPES = (
+    moderngl.Buffer,
+    moderngl.Texture,
+    moderngl.Framebuffer,
+    moderngl.Renderbuffer,
+    moderngl.VertexArray,
+    moderngl.Program,
+    moderngl.ComputeShader,
+)
+
+
+def live_gl_objects(*types: type) -> int:
+    """moderngl objects (of ``types``, default all) not yet released (a released one's mglo
+    is an InvalidObject)."""
+    gc.collect()
+    return sum(
+        1
+        for obj in gc.get_objects()
+        if isinstance(obj, types or _GL_TYPES)
+        and obj.glo not in (0, None)
+        and type(obj.mglo).__name__ != "InvalidObject"
+    )

@@ -1,0 +1,105 @@
+"""Image formats: every dtype and channel count, strides, orientation, bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import smooth_handles
+from numpy.testing import assert_array_equal
+
+import glmls
+
+DTYPES = [np.uint8, np.uint16, np.float32, np.float64]
+SHAPES = [(5, 7), (5, 7, 1), (5, 7, 2), (5, 7, 3), (5, 7, 4), (1, 1), (1, 9), (9, 1, 3)]
+
+
+def _image(rng, shape, dtype):
+    if np.issubdtype(dtype, np.integer):
+        return rng.integers(0, np.iinfo(dtype).max, shape, endpoint=True).astype(dtype)
+    return rng.normal(0, 100, shape).astype(dtype)
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+@pytest.mark.parametrize("shape", SHAPES)
+def test_identity_returns_the_input_exactly(gl, rng, dtype, shape):
+    img = _image(rng, shape, dtype)
+    p = np.array([[0, 0], [3, 1], [1, 4.0]])
+    expected = img.astype(np.float32).astype(dtype)  # float64 is computed as float32
+    with glmls.MLS(p, p, ctx=gl) as m:
+        for method in ("quads", "backward", "splat"):
+            out = m.warp(img, method=method)
+            assert out.dtype == img.dtype and out.shape == img.shape
+            assert_array_equal(out, expected, err_msg=method)
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+def test_every_dtype_and_channel_count_round_trips(gl, rng, dtype):
+    p = np.array([[1, 1], [6, 2], [3, 5.0]])
+    q = p + np.array([[0.7, 0.2], [-0.4, 0.5], [0.3, -0.6]])
+    with glmls.MLS(p, q, ctx=gl) as m:
+        for channels in (None, 1, 2, 3, 4):
+            shape = (8, 9) if channels is None else (8, 9, channels)
+            img = _image(rng, shape, dtype)
+            for method in glmls.METHODS:
+                for interpolation in glmls.INTERPOLATIONS:
+                    out = m.warp(img, method=method, interpolation=interpolation)
+                    assert out.dtype == img.dtype and out.shape == img.shape
+
+
+def test_strided_and_reversed_arrays(gl, rng):
+    base = rng.integers(0, 255, (20, 30, 4), dtype=np.uint8)
+    p, q = smooth_handles((10, 15), rng)
+    with glmls.MLS(p, q, ctx=gl) as m:
+        for view in (base[::2, ::-2], base[::-1, :15, 2], base[:10, :15].transpose(1, 0, 2)):
+            assert not view.flags.c_contiguous
+            assert_array_equal(m.warp(view), m.warp(np.ascontiguousarray(view)))
+
+
+def test_rows_come_back_top_down(gl):
+    img = np.zeros((6, 4), np.uint8)
+    img[0] = 200  # the top row
+    p = np.array([[0, 0], [3, 0], [0, 5.0]])
+    q = p + np.array([0, 1])  # everything one row down
+    with glmls.MLS(p, q, ctx=gl) as m:
+        for method in glmls.METHODS:
+            out = m.warp(img, method=method, background=7)
+            assert_array_equal(out[:, 0], [7, 200, 0, 0, 0, 0], err_msg=method)
+
+
+def test_bad_images_and_options(gl):
+    with glmls.MLS([[0, 0]], [[1, 1]], ctx=gl) as m:
+        for bad in (np.zeros((0, 3)), np.zeros((3, 0, 2))):
+            with pytest.raises(ValueError, match="empty"):
+                m.warp(bad)
+        for dtype in (bool, np.complex64, np.int64):
+            with pytest.raises(TypeError, match="dtype"):
+                m.warp(np.zeros((2, 2), dtype))
+        with pytest.raises(ValueError, match=r"C in 1\.\.4"):
+            m.warp(np.zeros((2, 2, 5), np.uint8))
+        with pytest.raises(ValueError, match=r"C in 1\.\.4"):
+            m.warp(np.zeros(5, np.uint8))
+        limit = gl.limits["max_texture_size"]
+        with pytest.raises(ValueError, match=f"limit of {limit}"):
+            m.warp(np.zeros((1, limit + 1), np.uint8))
+        img = np.zeros((3, 3, 4), np.uint8)
+        with pytest.raises(ValueError, match="'bilinear'"):
+            m.warp(img, interpolation="bilinear")
+        with pytest.raises(ValueError, match="'inverse'"):
+            m.warp(img, method="inverse")
+        with pytest.raises(ValueError, match="grid"):
+            m.warp(img, grid=0)
+        with pytest.raises(ValueError, match="background"):
+            m.warp(img, background=(1, 2))
+        with pytest.raises(ValueError, match=r"outside 0\.\.255"):
+            m.warp(img, background=256)
+        with pytest.raises(TypeError):
+            m.warp(img, "quads")  # options are keyword-only
+
+
+def test_background_per_channel_and_alpha(gl):
+    img = np.full((4, 4, 4), 100, np.uint8)
+    with glmls.MLS([[0, 0]], [[40, 40]], ctx=gl) as m:  # moves everything out of view
+        assert_array_equal(m.warp(img, background=5)[0, 0], [5, 5, 5, 0])
+        assert_array_equal(m.warp(img, background=(1, 2, 3))[0, 0], [1, 2, 3, 0])
+        assert_array_equal(m.warp(img, background=(1, 2, 3, 4))[0, 0], [1, 2, 3, 4])
+        assert_array_equal(m.warp(img[..., :3], background=(1, 2, 3))[0, 0], [1, 2, 3])

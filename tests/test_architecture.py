@@ -1,0 +1,143 @@
+"""The package's shape (README "Architecture", ../shared/design.md): layers that import one way,
+no import cycle, no module reaching into another's private names, small modules and classes."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parent.parent / "glmls"
+
+#: Each layer may import itself and the layers before it, nothing after it.
+LAYERS = (
+    ("glmls.errors", "glmls.version"),
+    ("glmls.core", "glmls.files", "glmls.data"),
+    ("glmls.gl",),
+    ("glmls.engine",),
+    ("glmls.imaging",),
+    ("glmls.mls",),
+    ("glmls.analysis",),
+    ("glmls.app",),
+    ("glmls.cli",),
+    ("glmls", "glmls.__main__"),  # the package root re-exports the public API
+)
+MAX_MODULE_LINES = 500
+MAX_CLASS_LINES = 300
+
+
+def module_name(path: Path) -> str:
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+MODULES = {module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
+
+
+def layer(module: str) -> int:
+    best = None
+    for rank, prefixes in enumerate(LAYERS):
+        for prefix in prefixes:
+            if module == prefix or (prefix != "glmls" and module.startswith(prefix + ".")):
+                if best is None or len(prefix) > best[1]:
+                    best = (rank, len(prefix))
+    assert best is not None, f"{module} is in no layer"
+    return best[0]
+
+
+def imports(module: str) -> set[str]:
+    """The glmls modules ``module`` imports (anywhere in it, type-checking imports too)."""
+    path = MODULES[module]
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found |= {a.name for a in node.names if a.name.split(".")[0] == "glmls"}
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[: len(base) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            if target.split(".")[0] != "glmls":
+                continue
+            for alias in node.names:
+                sub = f"{target}.{alias.name}"
+                found.add(sub if sub in MODULES else target)
+    return found - {module}
+
+
+GRAPH = {module: imports(module) for module in MODULES}
+
+
+def test_every_import_points_down_the_layers():
+    upward = [
+        f"{module} ({layer(module)}) imports {target} ({layer(target)})"
+        for module, targets in GRAPH.items()
+        for target in targets
+        if layer(target) > layer(module)
+    ]
+    assert not upward, "\n".join(upward)
+
+
+def test_no_import_cycle():
+    state: dict[str, int] = {}  # 1 visiting, 2 done
+
+    def visit(module: str, stack: list[str]) -> None:
+        state[module] = 1
+        for target in sorted(GRAPH[module]):
+            if target == "glmls" or target not in GRAPH:
+                continue  # the root only re-exports
+            if state.get(target) == 1:
+                cycle = stack[stack.index(target) :] + [target]
+                pytest.fail("import cycle: " + " -> ".join(cycle))
+            if target not in state:
+                visit(target, [*stack, target])
+        state[module] = 2
+
+    for module in sorted(GRAPH):
+        if module not in state:
+            visit(module, [module])
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not name.startswith("__")
+
+
+def test_no_module_uses_another_modules_private_names():
+    found = []
+    for module, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                found += [f"{module}: imports {a.name}" for a in node.names if _private(a.name)]
+            elif isinstance(node, ast.Attribute) and _private(node.attr):
+                owner = node.value
+                if not (isinstance(owner, ast.Name) and owner.id in ("self", "cls")):
+                    found.append(f"{module}:{node.lineno}: .{node.attr}")
+    assert not found, "\n".join(found)
+
+
+def test_modules_and_classes_stay_small():
+    large = []
+    for module, path in MODULES.items():
+        lines = len(path.read_text().splitlines())
+        if lines > MAX_MODULE_LINES:
+            large.append(f"{module}: {lines} lines")
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ClassDef):
+                size = node.end_lineno - node.lineno + 1  # type: ignore[operator]
+                if size > MAX_CLASS_LINES:
+                    large.append(f"{module}.{node.name}: {size} lines")
+    assert not large, "\n".join(large)
+
+
+def test_the_layers_are_real():
+    """Every layer holds modules (the table is not stale) and the core needs no OpenGL."""
+    for prefixes in LAYERS:
+        assert any(layer(m) == LAYERS.index(prefixes) for m in MODULES), prefixes
+    for module, path in MODULES.items():
+        if module.startswith("glmls.core"):
+            text = path.read_text()
+            assert "moderngl" not in text and "glcontext" not in text, module
