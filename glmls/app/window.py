@@ -73,20 +73,15 @@ class App:
         )
         self.frame_times: deque[float] = deque(maxlen=240)
         self.frames = 0
+        #: Seconds of the last frame's stages: CPU (handles, analysis) and GPU (warp,
+        #: overlays, text); kept after the window closes.
+        self.timings: dict[str, float] = {}
         self.layout: Layout = layout((1, 1), self.shape, 0)
         self._messages: list[tuple[float, str]] = []
         self._last_view: tuple = ()
         self._want_screenshot: Path | None = None
         self._quit = False
         self.window: GlfwWindow | None = None
-
-    @property
-    def timings(self) -> dict[str, float]:
-        """Seconds of the last frame's stages: CPU (handles, analysis) and GPU (warp,
-        overlays, text)."""
-        if self.window is None:
-            return {}
-        return self.session.timings | self.view.timings
 
     # -- window set-up ----------------------------------------------------------------------
 
@@ -266,6 +261,7 @@ class App:
         self.frames += 1
         self.frame_times.append(time.perf_counter())
         self.view.next_frame(self.frames)
+        self.timings = self.session.timings | self.view.timings
         if on_frame is not None:
             on_frame(self)
 
