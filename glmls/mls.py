@@ -297,8 +297,8 @@ class MLS:
         For each output pixel u = (column, row), the source point s with f(s) = u, solved on
         the GPU (``method="backward"``; ``"backward-swap"`` gives the swapped-handles shortcut
         instead). Points outside the source image are kept (a remapper fills them with its
-        border value): ``cv2.remap(image, xy[..., 0], xy[..., 1], cv2.INTER_LINEAR)``, or
-        ``skimage.transform.warp(image, np.stack([xy[..., 1], xy[..., 0]]), order=1)``.
+        border value): ``cv2.remap(image, xy[..., 0], xy[..., 1], cv2.INTER_LINEAR)``, or per
+        channel ``skimage.transform.warp(channel, np.stack([xy[..., 1], xy[..., 0]]))``.
 
         ``residual=True`` also returns |f(s) - u| per pixel (float32, pixels; NaN for
         backward-swap). Newton stops below 1e-3 px; pixels where it ends above 0.05 px (no
