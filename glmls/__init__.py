@@ -28,7 +28,7 @@ from .analysis.stats import error_stats
 from .analysis.triangles import TriangleErrors, triangle_errors
 from .core import reference
 from .core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
-from .errors import DegenerateHandlesError, GLUnavailableError, ReleasedError
+from .errors import ContextError, DegenerateHandlesError, GLUnavailableError, ReleasedError
 from .files.images import imread, imwrite
 from .gl.context import GLContext, get_context
 from .imaging.pipeline import WarpPipeline
@@ -46,6 +46,7 @@ __all__ = [
     "WEIGHTS",
     "AnalysisReport",
     "Canvas",
+    "ContextError",
     "DegenerateHandlesError",
     "Foldovers",
     "GLContext",

@@ -15,7 +15,12 @@ class DegenerateHandlesError(ValueError):
 
 
 class ReleasedError(RuntimeError):
-    """A GPU object was used after :meth:`release`."""
+    """A GPU object was used after :meth:`release`, or after its GL context was released."""
+
+
+class ContextError(RuntimeError):
+    """A GL context was used from a thread where it cannot be current: one that another thread
+    keeps current (a window's, or bound with ``make_current()``). The message says the rule."""
 
 
 class InputFileError(ValueError):

@@ -116,7 +116,6 @@ class MLS:
             config.resolve_radius(self.shape)
         src, dst = self._validate(src, dst)
         self._gl = get_context(ctx)
-        self._gl.make_current()
         self._options = {"shape": self.shape, "storage": storage, "bins": bins}
         self._kernel = MLSKernel(self._gl, config, **self._options)  # type: ignore[arg-type]
         self._swapped: MLSKernel | None = None

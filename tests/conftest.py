@@ -22,11 +22,11 @@ def _no_gl_errors(request):
         yield
         return
     gl = request.getfixturevalue("gl")
-    gl.make_current()  # another context may have been made current
-    assert gl.mgl.error == "GL_NO_ERROR", "a GL error was pending before the test"
+    with gl:
+        assert gl.mgl.error == "GL_NO_ERROR", "a GL error was pending before the test"
     yield
-    gl.make_current()
-    assert gl.mgl.error == "GL_NO_ERROR"
+    with gl:
+        assert gl.mgl.error == "GL_NO_ERROR"
 
 
 @pytest.fixture

@@ -106,15 +106,31 @@ def _private(name: str) -> bool:
     return name.startswith("_") and not name.startswith("__")
 
 
+def own_private_names(tree: ast.AST) -> set[str]:
+    """Private names a module defines itself: its functions, classes and ``self._x``."""
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.ClassDef)) and _private(node.name):
+            names.add(node.name)
+        elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store):
+            owner = node.value
+            if isinstance(owner, ast.Name) and owner.id == "self" and _private(node.attr):
+                names.add(node.attr)
+    return names
+
+
 def test_no_module_uses_another_modules_private_names():
     found = []
     for module, path in MODULES.items():
-        for node in ast.walk(ast.parse(path.read_text())):
+        tree = ast.parse(path.read_text())
+        own = own_private_names(tree)
+        for node in ast.walk(tree):
             if isinstance(node, ast.ImportFrom):
                 found += [f"{module}: imports {a.name}" for a in node.names if _private(a.name)]
             elif isinstance(node, ast.Attribute) and _private(node.attr):
                 owner = node.value
-                if not (isinstance(owner, ast.Name) and owner.id in ("self", "cls")):
+                on_self = isinstance(owner, ast.Name) and owner.id in ("self", "cls")
+                if not on_self and node.attr not in own:
                     found.append(f"{module}:{node.lineno}: .{node.attr}")
     assert not found, "\n".join(found)
 

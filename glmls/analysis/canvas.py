@@ -78,8 +78,8 @@ class Canvas:
     ) -> None:
         self.shape = as_shape(shape)
         self._gl = get_context(ctx)
-        self._gl.make_current()
-        self._setup(background, samples)
+        with self._gl.use():
+            self._setup(background, samples)
 
     def _setup(self, background: Sequence[float], samples: int) -> None:
         mgl = self._gl.mgl
@@ -285,14 +285,16 @@ class Canvas:
         data = self._resolved.read(components=3, alignment=1)
         return np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3).copy()
 
-    @current
     def release(self) -> None:
+        """Free the canvas's GL objects (only the references where its context is gone)."""
         if self._released:
             return
-        if self._gl.mgl.fbo in (self._fbo, self._resolved):
-            self._previous.use()
-        for obj in reversed(self._objects):
-            obj.release()
+        if self._gl.usable:
+            with self._gl.use():
+                if self._gl.mgl.fbo in (self._fbo, self._resolved):
+                    self._previous.use()
+                for obj in reversed(self._objects):
+                    obj.release()
         self._objects.clear()
         self._released = True
 

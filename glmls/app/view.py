@@ -101,8 +101,11 @@ class View:
         text: Sequence[np.ndarray],
     ) -> None:
         """One frame into the window's back buffer."""
+        with self.gl.use():
+            self._draw(layout, controller, session, analysis, text)
+
+    def _draw(self, layout, controller, session, analysis, text) -> None:
         mgl = self.gl.mgl
-        self.gl.make_current()
         c, s, mls = controller, controller.settings, session.mls
         framebuffer = layout.framebuffer
         screen = mgl.screen
@@ -180,15 +183,18 @@ class View:
     def screenshot(self, framebuffer: tuple[int, int]) -> np.ndarray:
         """The back buffer just drawn, (H, W, 3) uint8, top row first."""
         width, height = framebuffer
-        data = self.gl.mgl.screen.read(viewport=(0, 0, width, height), components=3, alignment=1)
+        with self.gl.use():
+            screen = self.gl.mgl.screen
+            data = screen.read(viewport=(0, 0, width, height), components=3, alignment=1)
         return np.frombuffer(data, np.uint8).reshape(height, width, 3)[::-1].copy()
 
     def release(self) -> None:
-        self.gl.make_current()
-        for obj in (self.geometry, self.picture, self.field_picture, self.text):
-            if obj is not None:
-                obj.release()
-        for texture in (self.source, self._field):
-            if texture is not None:
-                texture.release()
+        if self.gl.usable:
+            with self.gl.use():
+                for obj in (self.geometry, self.picture, self.field_picture, self.text):
+                    if obj is not None:
+                        obj.release()
+                for texture in (self.source, self._field):
+                    if texture is not None:
+                        texture.release()
         self._query_sets.clear()  # moderngl's Query has no release(); the context frees them

@@ -285,7 +285,6 @@ class App:
         """Release every GL object, glmls's programs for this context, and the window."""
         if self.window is None:
             return
-        self.gl.make_current()
         self.session.release()
         self.view.release()
         self.gl.release()  # shared pipeline and programs, before the context goes

@@ -29,7 +29,11 @@ def error_field(kernel: MLSKernel, shape: tuple[int, int], *, grid: int = 1) -> 
     ~1e-6 to 1e-5.
     """
     lattice = MeshLattice.centres(shape) if grid == 1 else MeshLattice.corners(shape, grid)
-    kernel.gl.make_current()
+    with kernel.gl.use():
+        return _error_field(kernel, lattice, grid)
+
+
+def _error_field(kernel: MLSKernel, lattice: MeshLattice, grid: int) -> np.ndarray:
     max_groups = kernel.gl.limits["max_work_groups_x"]
     program = kernel.program(ERROR_PASS, {"MLS_ERROR_INTERPOLATE": False})
     kernel.bind(program, lattice.shape)

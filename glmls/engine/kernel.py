@@ -86,8 +86,10 @@ class MLSKernel:
         bins where they are used. On error (too many handles for the storage) nothing
         changes."""
         self.check_alive()
-        self.gl.make_current()
-        packed = pack_handles(src, dst, scaling)
+        with self.gl.use():
+            self._upload(pack_handles(src, dst, scaling), scaling)
+
+    def _upload(self, packed: np.ndarray, scaling: Scaling) -> None:
         name = resolve_storage(self._storage_request, self.gl.mgl, len(packed))
         storage = self._storage
         if storage is None or storage.name != name:
@@ -197,26 +199,31 @@ class MLSKernel:
         """The compute program of ``entry`` (a pass including ``mls/visit.glsl``) with this
         kernel's defines and ``defines``."""
         self.check_alive()
-        return self.gl.compute(entry, self.defines() | dict(defines or {}))
+        with self.gl.use():
+            return self.gl.compute(entry, self.defines() | dict(defines or {}))
 
     def bind(self, program: moderngl.ComputeShader, shape: tuple[int, int] | None = None) -> None:
         """Make ``program`` evaluate this kernel's f for an image of ``shape``: uniforms,
         handles and bins (built again first if that image gives another radius)."""
         self.check_alive()
-        if self._bins is not None:
-            radius = self.radius(shape)
-            if radius != self._bins.radius:
-                self._write(radius, True)  # another image size: another radius
-        set_uniforms(program, self.uniforms(shape))
-        self._storage.bind(program)  # type: ignore[union-attr]
-        if self._bins is not None:
-            self._bins.bind(program)
+        with self.gl.use():
+            if self._bins is not None:
+                radius = self.radius(shape)
+                if radius != self._bins.radius:
+                    self._write(radius, True)  # another image size: another radius
+            set_uniforms(program, self.uniforms(shape))
+            self._storage.bind(program)  # type: ignore[union-attr]
+            if self._bins is not None:
+                self._bins.bind(program)
 
     # -- life -----------------------------------------------------------------------------
 
     def check_alive(self) -> None:
+        """``ReleasedError`` once released (or its context), ``GLUnavailableError`` in a
+        process forked from the one that made it."""
         if self._released:
             raise ReleasedError("this MLS has been released; create a new one")
+        self.gl.check_usable()
 
     @property
     def released(self) -> bool:
@@ -226,10 +233,11 @@ class MLSKernel:
         """Free the handle storage, the bins and the scratch buffers. Idempotent."""
         if self._released:
             return
-        self.gl.make_current()
-        if self._storage is not None:
-            self._storage.release()
-        if self._bins is not None:
-            self._bins.release()
+        if self.gl.usable:
+            with self.gl.use():
+                if self._storage is not None:
+                    self._storage.release()
+                if self._bins is not None:
+                    self._bins.release()
         self.scratch.release()
         self._released = True

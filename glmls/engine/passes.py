@@ -30,10 +30,17 @@ def evaluate_points(
     """f at ``points`` ((K, 2) float64 pixels) as (K, 2) float64, and M as (K, 2, 2) float64
     where ``with_matrix`` (else None). ``max_groups``: work groups per dispatch (the GL
     limit by default)."""
-    program = kernel.program(POINTS_PASS, {"MLS_LATTICE": False, "MLS_WRITE_MATRIX": with_matrix})
     count = len(points)
     if count == 0:
+        kernel.check_alive()
         return np.zeros((0, 2)), (np.zeros((0, 2, 2)) if with_matrix else None)
+    with kernel.gl.use():
+        return _evaluate_points(kernel, points, with_matrix, _max_groups(kernel, max_groups))
+
+
+def _evaluate_points(kernel, points, with_matrix, max_groups):
+    count = len(points)
+    program = kernel.program(POINTS_PASS, {"MLS_LATTICE": False, "MLS_WRITE_MATRIX": with_matrix})
     scratch = kernel.scratch
     source = scratch.buffer("points", count * 8)
     source.write(kernel.scaling.to_gpu(points).tobytes())
@@ -43,7 +50,7 @@ def evaluate_points(
     f_out.bind_to_storage_buffer(bindings.DEFORMED.index)
     if with_matrix:
         scratch.buffer("M", count * 16).bind_to_storage_buffer(bindings.MATRICES.index)
-    run_1d(program, count, max_groups=_max_groups(kernel, max_groups))
+    run_1d(program, count, max_groups=max_groups)
     kernel.gl.mgl.memory_barrier()  # the shader's writes before the read
     f = np.frombuffer(f_out.read(size=count * 8), np.float32).reshape(count, 2)
     if not with_matrix:
@@ -66,11 +73,12 @@ def evaluate_lattice(
     of the lattice's image."""
     nx, ny = lattice.dims
     rows = ny - first_row if rows is None else rows
-    program = kernel.program(POINTS_PASS, {"MLS_LATTICE": True, "MLS_WRITE_MATRIX": False})
-    kernel.bind(program, lattice.shape)
-    set_uniforms(program, lattice.uniforms(kernel.scaling) | {"u_first_row": first_row})
-    target.bind_to_storage_buffer(bindings.DEFORMED.index)
-    run_1d(program, nx * rows, max_groups=_max_groups(kernel, max_groups))
+    with kernel.gl.use():
+        program = kernel.program(POINTS_PASS, {"MLS_LATTICE": True, "MLS_WRITE_MATRIX": False})
+        kernel.bind(program, lattice.shape)
+        set_uniforms(program, lattice.uniforms(kernel.scaling) | {"u_first_row": first_row})
+        target.bind_to_storage_buffer(bindings.DEFORMED.index)
+        run_1d(program, nx * rows, max_groups=_max_groups(kernel, max_groups))
     return nx * rows
 
 

@@ -1,26 +1,54 @@
-"""The one place where glmls creates or adopts OpenGL contexts.
+"""The one place where glmls creates or adopts OpenGL contexts, and the rules for using them
+from threads and processes.
 
 By default glmls renders headless through EGL (``moderngl.create_context(standalone=True,
-backend="egl", require=430)``); a window hands in its own context instead. Each context is
-wrapped in a :class:`GLContext` that also caches the programs compiled for it and the objects
-shared by everything that renders with it (:meth:`GLContext.shared`, e.g. the one warp
-pipeline per context).
+backend="egl", require=430)``), one shared context per process; a window hands in its own
+context instead. Each context is wrapped in a :class:`GLContext` that also caches the programs
+compiled for it and the objects shared by everything that renders with it
+(:meth:`GLContext.shared`, e.g. the one warp pipeline per context).
+
+Threads: a GL context is current in at most one thread at a time. glmls makes its contexts
+current only for the duration of a call (:meth:`GLContext.use`: the context's lock, bind,
+restore what was bound before), so any thread may use them, one call at a time; several
+threads calling at once wait for each other. A context that is kept current in one thread (a
+window's, adopted in its thread; or one bound with :meth:`GLContext.make_current`) can only be
+used from that thread: another raises :class:`~glmls.ContextError`.
+
+Processes: GL drivers do not survive ``fork()`` (Mesa's worker threads are gone, so any GL
+call in the child would hang). A process forked from one in which glmls made a GL context
+raises :class:`~glmls.GLUnavailableError` at once, saying to use the ``spawn`` start method; a
+process forked before glmls touched GL makes its own context on first use.
 """
 
 from __future__ import annotations
 
 import atexit
+import contextlib
 import functools
+import os
+import threading
+from collections import OrderedDict
 from collections.abc import Callable, Hashable, Mapping
 from typing import Protocol, TypeVar
 
 import moderngl
 
-from ..errors import GLUnavailableError
+from ..errors import ContextError, GLUnavailableError, ReleasedError
 from . import bindings
 from .shaders import ComposedSource, ShaderCompileError, ShaderLibrary, library
 
 REQUIRED_GL = 430
+#: Compute programs kept compiled per context (each is ~0.1-0.2 MB on llvmpipe, every
+#: configuration together ~1 GB): the least recently used beyond this are released.
+MAX_PROGRAMS = 128
+_MIN_PROGRAMS = 16  # one image pass uses up to ~8: never evict one while it runs
+_FORK = (
+    "OpenGL unavailable: glmls made a GL context in process {pid}, and this process was "
+    "forked from it; GL drivers do not survive fork (any GL call here would hang). Use the "
+    "'spawn' start method (multiprocessing.get_context('spawn'); PyTorch: "
+    "DataLoader(..., multiprocessing_context='spawn')), or make the first glmls GL call in "
+    "the worker processes only."
+)
 
 _PACKAGES_EGL = "libegl1"
 _PACKAGES_DRIVER = "libegl-mesa0 libgl1-mesa-dri"
@@ -52,29 +80,107 @@ class Releasable(Protocol):
 _T = TypeVar("_T", bound=Releasable)
 
 
+class _ThreadState(threading.local):
+    def __init__(self) -> None:
+        #: The GLContext glmls has bound in this thread (None: none of glmls's).
+        self.current: GLContext | None = None
+        #: Open ``with context:`` blocks of this thread, innermost last.
+        self.blocks: list[contextlib.AbstractContextManager] = []
+
+
+_thread = _ThreadState()
+
+
+class _Binding:
+    """One outermost :meth:`GLContext.use` block: the lock, bind, then restore."""
+
+    __slots__ = ("context", "previous")
+
+    def __init__(self, context: GLContext) -> None:
+        self.context = context
+        self.previous: GLContext | None = None
+
+    def __enter__(self) -> GLContext:
+        context = self.context
+        context.check_usable()
+        context._lock.acquire()
+        try:
+            if _thread.current is not context:
+                context._check_thread()
+                self.previous = _thread.current
+                context.mgl.__enter__()
+                _thread.current = context
+            else:  # bound by another block of this thread meanwhile
+                self.previous = context
+        except BaseException:
+            context._lock.release()
+            raise
+        return context
+
+    def __exit__(self, *exc: object) -> None:
+        context, previous = self.context, self.previous
+        try:
+            if previous is context or context._held_by == threading.get_ident():
+                pass  # still wanted here (make_current() inside the block)
+            elif previous is not None and previous.alive and not previous.released:
+                previous.mgl.__enter__()
+                _thread.current = previous
+            else:
+                if context.alive:
+                    context.mgl.__exit__(None, None, None)
+                _thread.current = None
+        finally:
+            context._lock.release()
+
+
+def _alive(ident: int) -> bool:
+    return any(thread.ident == ident for thread in threading.enumerate())
+
+
 class GLContext:
     """A moderngl context plus the glmls programs compiled for it and the objects shared by
     everything that renders with it.
 
     ``owned`` contexts (made by :func:`create_headless`) are released with :meth:`release`;
-    borrowed ones (a window's) are left to their owner, only glmls's objects are released.
-    ``shaders``: where programs come from (the package's shaders by default).
+    borrowed ones (a window's, adopted in the thread where it is current) are left to their
+    owner, only glmls's objects are released. ``shaders``: where programs come from (the
+    package's shaders by default); ``max_programs``: compute programs kept compiled (least
+    recently used released first).
     """
 
     def __init__(
-        self, mgl: moderngl.Context, *, owned: bool, shaders: ShaderLibrary | None = None
+        self,
+        mgl: moderngl.Context,
+        *,
+        owned: bool,
+        shaders: ShaderLibrary | None = None,
+        max_programs: int = MAX_PROGRAMS,
     ) -> None:
         if mgl.version_code < REQUIRED_GL:
             raise GLUnavailableError(
                 f"OpenGL unavailable: glmls needs OpenGL {REQUIRED_GL // 100}.3 core "
                 f"(compute shaders), this context is {mgl.version_code}. {_FIX}"
             )
+        if isinstance(max_programs, bool) or not isinstance(max_programs, int):
+            raise TypeError(f"max_programs must be an integer, got {max_programs!r}")
+        if max_programs < _MIN_PROGRAMS:
+            raise ValueError(f"max_programs must be >= {_MIN_PROGRAMS}, got {max_programs}")
         _check_binding_limits(mgl)
         self.mgl = mgl
         self.owned = owned
         self.shaders = shaders if shaders is not None else library()
-        self._programs: dict[tuple, moderngl.ComputeShader | moderngl.Program] = {}
+        self.max_programs = max_programs
+        self.pid = os.getpid()
+        self._programs: OrderedDict[tuple, moderngl.ComputeShader] = OrderedDict()
+        self._render_programs: dict[tuple, moderngl.Program] = {}
         self._shared: dict[Hashable, Releasable] = {}
+        self._lock = threading.RLock()
+        #: The thread keeping this context current outside glmls's calls, if any: the
+        #: adopting thread for a borrowed context, else the caller of make_current().
+        self._held_by: int | None = None
+        if not owned:  # a window's: current in the thread that adopts it, and stays so
+            self._held_by = threading.get_ident()
+            _thread.current = self
         self.released = False
 
     @property
@@ -89,31 +195,126 @@ class GLContext:
             "max_viewport": min(int(v) for v in info["GL_MAX_VIEWPORT_DIMS"]),
         }
 
+    # -- being current ----------------------------------------------------------------------
+
+    @property
+    def alive(self) -> bool:
+        """Whether the moderngl context still exists (its owner may have released it)."""
+        return type(self.mgl.mglo).__name__ != "InvalidObject"
+
+    def check_usable(self) -> None:
+        """``ReleasedError`` once released, ``GLUnavailableError`` in a forked child."""
+        if self.pid != os.getpid():
+            raise GLUnavailableError(_FORK.format(pid=self.pid))
+        if self.released or not self.alive:
+            raise ReleasedError(
+                "the GL context of this object has been released (GLContext.release(), or "
+                "its window closed): its GPU objects are gone; create them again"
+            )
+
+    def _check_thread(self) -> None:
+        holder = self._held_by
+        if holder is not None and holder != threading.get_ident() and _alive(holder):
+            kind = "a window's, adopted" if not self.owned else "bound with make_current()"
+            raise ContextError(
+                f"this GL context is current in another thread ({kind} there): a GL context "
+                "is current in one thread at a time, so use it from that thread (or call "
+                "unbind() there first); glmls's own headless context works from any thread"
+            )
+
+    def use(self) -> contextlib.AbstractContextManager[GLContext]:
+        """This context current in the calling thread for the ``with`` block (reentrant; other
+        threads wait), then what glmls had bound before is bound again."""
+        if _thread.current is self:  # inside a glmls call already, or kept current here
+            return contextlib.nullcontext(self)
+        return _Binding(self)
+
+    def __enter__(self) -> GLContext:
+        """``with context:`` is :meth:`use`."""
+        block = self.use()
+        block.__enter__()
+        _thread.blocks.append(block)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        _thread.blocks.pop().__exit__(*exc)  # type: ignore[arg-type]
+
+    @property
+    def usable(self) -> bool:
+        """Whether GL calls can be made here (not released, this process, not kept current
+        by another live thread): release paths skip the GL calls where not."""
+        holder = self._held_by
+        return (
+            not self.released
+            and self.pid == os.getpid()
+            and self.alive
+            and (holder in (None, threading.get_ident()) or not _alive(holder))
+        )
+
+    def make_current(self) -> None:
+        """Bind this context in the calling thread until :meth:`unbind` (for raw moderngl
+        calls between glmls's; glmls's own calls do not need it). While bound here, other
+        threads cannot use it."""
+        self.check_usable()
+        with self._lock:
+            self._check_thread()
+            me = threading.get_ident()
+            previous = _thread.current
+            if previous is not self:
+                self.mgl.__enter__()
+                if previous is not None and previous._held_by == me:
+                    previous._held_by = None
+                _thread.current = self
+            self._held_by = me
+
+    def unbind(self) -> None:
+        """Undo :meth:`make_current` in the calling thread."""
+        with self._lock:
+            if self._held_by == threading.get_ident():
+                self._held_by = None
+            if _thread.current is self and self.alive:
+                self.mgl.__exit__(None, None, None)
+                _thread.current = None
+
+    # -- programs and shared objects --------------------------------------------------------
+
     def compute(self, entry: str, defines: Mapping[str, object] | None = None):
         """The compute program whose entry file is ``entry`` (e.g. ``"mls/points.comp.glsl"``)
-        with ``defines`` (compiled once per context)."""
-        key = ("compute", entry, _frozen(defines))
+        with ``defines``: compiled once, kept while among the ``max_programs`` most recently
+        used. Call it within :meth:`use` (glmls's calls are)."""
+        key = (entry, _frozen(defines))
         program = self._programs.get(key)
         if program is None:
             source = self.shaders.compose(entry, defines)
             program = self._compile({"compute_shader": source}, self._compute_shader)
             self._programs[key] = program
+            while len(self._programs) > self.max_programs:
+                _, oldest = self._programs.popitem(last=False)
+                oldest.release()
+        else:
+            self._programs.move_to_end(key)
         return program
 
     def program(
         self, vertex: str, fragment: str, defines: Mapping[str, object] | None = None
     ) -> moderngl.Program:
-        """The vertex/fragment program of these entry files and defines (compiled once)."""
-        key = ("render", vertex, fragment, _frozen(defines))
-        program = self._programs.get(key)
+        """The vertex/fragment program of these entry files and defines (compiled once; the
+        drawing programs are a small fixed set, kept for the context's life)."""
+        key = (vertex, fragment, _frozen(defines))
+        program = self._render_programs.get(key)
         if program is None:
             stages = {
                 "vertex_shader": self.shaders.compose(vertex, defines),
                 "fragment_shader": self.shaders.compose(fragment, defines),
             }
             program = self._compile(stages, self.mgl.program)
-            self._programs[key] = program
+            self._render_programs[key] = program
         return program
+
+    @property
+    def compiled(self) -> int:
+        """How many programs are compiled now."""
+        return len(self._programs) + len(self._render_programs)
 
     def _compute_shader(self, compute_shader: str) -> moderngl.ComputeShader:
         return self.mgl.compute_shader(compute_shader)
@@ -127,43 +328,43 @@ class GLContext:
     def shared(self, key: Hashable, factory: Callable[[], _T]) -> _T:
         """The object stored under ``key`` for this context, made by ``factory()`` on first
         use: one per context, released with it (or by :meth:`release_shared`)."""
-        obj = self._shared.get(key)
-        if obj is None:
-            obj = self._shared[key] = factory()
-        return obj  # type: ignore[return-value]
+        with self._lock:
+            obj = self._shared.get(key)
+            if obj is None:
+                obj = self._shared[key] = factory()
+            return obj  # type: ignore[return-value]
 
     def release_shared(self) -> None:
         """Release the shared objects (e.g. the warp pipeline's cached textures and buffers);
         they are made again when next needed."""
-        self.make_current()
-        while self._shared:
-            _, obj = self._shared.popitem()
-            obj.release()
-
-    def make_current(self) -> None:
-        """Make this context current (EGL or a window's). It stays current afterwards:
-        moderngl's ``with ctx:`` would release it on exit, leaving no context current."""
-        self.mgl.__enter__()
-
-    @property
-    def alive(self) -> bool:
-        """Whether the moderngl context still exists (its owner may have released it)."""
-        return type(self.mgl.mglo).__name__ != "InvalidObject"
+        with self.use():
+            while self._shared:
+                _, obj = self._shared.popitem()
+                obj.release()
 
     def release(self) -> None:
         """Release the shared objects, the cached programs, and the context itself if glmls
-        created it. Where the context is already gone, only the references are dropped."""
+        created it. Objects made on it raise :class:`~glmls.ReleasedError` afterwards. Where
+        the context is gone already, or belongs to another process or thread, only the
+        references are dropped."""
         if self.released:
             return
-        if self.alive:
-            self.release_shared()  # makes it current: delete in this context
-            for program in self._programs.values():
-                program.release()
-            if self.owned:
-                self.mgl.release()
-        self._shared.clear()
-        self._programs.clear()
-        self.released = True
+        with self._lock:
+            if self.usable:
+                with self.use():
+                    while self._shared:
+                        self._shared.popitem()[1].release()
+                    for program in [*self._programs.values(), *self._render_programs.values()]:
+                        program.release()
+                if self.owned:
+                    self.unbind()
+                    self.mgl.release()
+            self._shared.clear()
+            self._programs.clear()
+            self._render_programs.clear()
+            if _thread.current is self:
+                _thread.current = None
+            self.released = True
 
 
 def _frozen(defines: Mapping[str, object] | None) -> tuple:
@@ -186,60 +387,105 @@ _R = TypeVar("_R")
 
 def current(method: Callable[..., _R]) -> Callable[..., _R]:
     """Run a method of an object holding ``self._gl`` (a :class:`GLContext`) with that context
-    current: a window or a second headless context may have been made current since."""
+    current (:meth:`GLContext.use`)."""
 
     @functools.wraps(method)
     def wrapper(self, *args, **kwargs):
-        self._gl.make_current()
-        return method(self, *args, **kwargs)
+        with self._gl.use():
+            return method(self, *args, **kwargs)
 
     return wrapper
 
 
-def create_headless() -> GLContext:
-    """A new offscreen OpenGL 4.3+ core context through EGL (no display needed)."""
-    try:
-        mgl = moderngl.create_context(standalone=True, backend="egl", require=REQUIRED_GL)
-    except Exception as error:  # glcontext raises bare Exception
-        raise _explain(error) from error
-    return GLContext(mgl, owned=True)
-
-
+#: Processes in which glmls made or adopted a GL context (inherited by forked children).
+_gl_pids: set[int] = set()
+_registry_lock = threading.RLock()
 _default: GLContext | None = None
 #: Every live wrapper by id() of its moderngl context: one GLContext per moderngl context.
 _wrappers: dict[int, GLContext] = {}
 
 
-def get_context(ctx: moderngl.Context | GLContext | None = None) -> GLContext:
-    """The :class:`GLContext` to use: the shared headless one, or a wrapper of ``ctx``.
+def _check_process() -> None:
+    """GL in a process forked from one that used GL would hang: raise instead."""
+    pid = os.getpid()
+    parents = _gl_pids - {pid}
+    if parents:
+        raise GLUnavailableError(_FORK.format(pid=min(parents)))
 
-    Passing a window's moderngl context makes glmls render into it with the same pipeline.
+
+def create_headless(
+    *, shaders: ShaderLibrary | None = None, max_programs: int = MAX_PROGRAMS
+) -> GLContext:
+    """A new offscreen OpenGL 4.3+ core context through EGL (no display needed), owned by
+    glmls, compiling from ``shaders`` (the package's by default). Usable from any thread (see
+    the module docstring); threads that should render in parallel can each have their own
+    (``MLS(..., ctx=...)``). Release it with :meth:`GLContext.release`."""
+    _check_process()
+    previous = _thread.current
+    try:
+        mgl = moderngl.create_context(standalone=True, backend="egl", require=REQUIRED_GL)
+    except Exception as error:  # glcontext raises bare Exception
+        raise _explain(error) from error
+    _gl_pids.add(os.getpid())
+    try:
+        context = GLContext(mgl, owned=True, shaders=shaders, max_programs=max_programs)
+    finally:
+        # creation made it current here: bind again what glmls had bound before
+        if previous is not None and previous.alive and not previous.released:
+            previous.mgl.__enter__()
+        else:
+            mgl.__exit__(None, None, None)
+    return context
+
+
+def get_context(ctx: moderngl.Context | GLContext | None = None) -> GLContext:
+    """The :class:`GLContext` to use: the process's shared headless one, or a wrapper of
+    ``ctx``.
+
+    Passing a window's moderngl context (current in the calling thread) makes glmls render
+    into it with the same pipeline.
     """
     global _default
     if isinstance(ctx, GLContext):
         return ctx
-    if ctx is None:
-        if _default is None or _default.released:
-            _default = create_headless()
-            _wrappers[id(_default.mgl)] = _default
-        return _default
-    if not isinstance(ctx, moderngl.Context):
-        raise TypeError(f"ctx must be a moderngl.Context or None, got {type(ctx).__name__}")
-    wrapper = _wrappers.get(id(ctx))
-    if wrapper is None or wrapper.released or wrapper.mgl is not ctx:
-        wrapper = _wrappers[id(ctx)] = GLContext(ctx, owned=False)
-    return wrapper
+    with _registry_lock:
+        if ctx is None:
+            if _default is None or _default.released or _default.pid != os.getpid():
+                _default = create_headless()
+                _wrappers[id(_default.mgl)] = _default
+            return _default
+        if not isinstance(ctx, moderngl.Context):
+            raise TypeError(f"ctx must be a moderngl.Context or None, got {type(ctx).__name__}")
+        _check_process()
+        wrapper = _wrappers.get(id(ctx))
+        if wrapper is None or wrapper.released or wrapper.mgl is not ctx:
+            wrapper = _wrappers[id(ctx)] = GLContext(ctx, owned=False)
+            _gl_pids.add(os.getpid())
+        return wrapper
 
 
 def release_all() -> None:
-    """Release the shared headless context and glmls's objects in every adopted context."""
+    """Release the shared headless context and glmls's objects in every adopted context (of
+    this process: a forked child leaves its parent's alone)."""
     global _default
-    for wrapper in [w for w in _wrappers.values() if w is not _default]:
-        wrapper.release()
-    if _default is not None:
-        _default.release()
+    with _registry_lock:
+        mine = [w for w in _wrappers.values() if w.pid == os.getpid()]
+        for wrapper in [w for w in mine if w is not _default]:
+            wrapper.release()
+        if _default is not None and _default.pid == os.getpid():
+            _default.release()
         _default = None
-    _wrappers.clear()
+        _wrappers.clear()
 
 
+def _after_fork_in_child() -> None:
+    """Forget the parent's contexts without touching them (their driver state is not ours)."""
+    global _default, _wrappers, _registry_lock
+    _default = None
+    _wrappers = {}
+    _registry_lock = threading.RLock()
+    _thread.current = None
+
+
+os.register_at_fork(after_in_child=_after_fork_in_child)
 atexit.register(release_all)

@@ -107,6 +107,9 @@ class Resources:
         self.check_alive()
         key = (program.glo, None if index is None else index.glo)
         vao = self._vaos.get(key)
+        if vao is not None and vao.program is not program:  # a released program's name reused
+            vao.release()
+            vao = None
         if vao is None:
             if index is None:
                 vao = self._gl.mgl.vertex_array(program, [])
@@ -116,16 +119,20 @@ class Resources:
         return vao
 
     def release(self) -> None:
-        """Free every object. Idempotent; later use raises :class:`glmls.ReleasedError`."""
+        """Free every object. Idempotent; later use raises :class:`glmls.ReleasedError`.
+        Where the context is gone (or not usable here) the references are only dropped."""
         if self._released:
             return
-        self._gl.make_current()
-        for role in list(self._textures):
-            self._drop_texture(role)
-        for vao in self._vaos.values():
-            vao.release()
-        for _, buffer in self._buffers.values():
-            buffer.release()
+        if self._gl.usable:
+            with self._gl.use():
+                for role in list(self._textures):
+                    self._drop_texture(role)
+                for vao in self._vaos.values():
+                    vao.release()
+                for _, buffer in self._buffers.values():
+                    buffer.release()
+        self._textures.clear()
+        self._framebuffers.clear()
         self._vaos.clear()
         self._buffers.clear()
         self._released = True

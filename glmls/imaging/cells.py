@@ -30,7 +30,7 @@ import numpy as np
 from ..core.mesh import MeshLattice
 from ..engine.kernel import MLSKernel
 from ..gl import bindings
-from ..gl.context import GLContext
+from ..gl.context import GLContext, current
 from ..gl.dispatch import LOCAL_SIZE, run_1d, set_uniforms
 from ..gl.resources import Resources
 from .bands import MeshBands
@@ -82,6 +82,7 @@ class CellScan:
         #: How the last :meth:`draw` filled the pixels: one of :data:`PATHS`, or None.
         self.last_path: str | None = None
 
+    @current
     def draw(
         self,
         kernel: MLSKernel,
@@ -151,6 +152,7 @@ class CellScan:
     def _max_groups(self) -> int:
         return self._gl.limits["max_work_groups_x"]
 
+    @current
     def embedding_counts(self) -> tuple[int, int]:
         """(cells not strictly positive, boundary crossings) that the last fast scan counted
         (``warp/cells_check.comp.glsl``; (0, 1) means an embedding). Reads back: for tests

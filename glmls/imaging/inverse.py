@@ -14,7 +14,7 @@ import moderngl
 from ..core.mesh import MeshLattice
 from ..engine.kernel import MLSKernel
 from ..gl import bindings
-from ..gl.context import GLContext
+from ..gl.context import GLContext, current
 from ..gl.dispatch import run_2d, set_uniforms
 from ..gl.resources import Resources
 from .cells import CellScan
@@ -48,6 +48,7 @@ class InverseSolver:
         self._cells = cells
         self._raster = raster
 
+    @current
     def solve(
         self, kernel: MLSKernel, lattice: MeshLattice, *, swap: bool = False
     ) -> moderngl.Texture:

@@ -263,7 +263,6 @@ class WarpPipeline:
             residual[:] = np.nan
         return values[..., :2].copy(), residual, values[..., 3] > 0.5
 
-    @current
     def release(self) -> None:
         """Free every cached texture, framebuffer, buffer and vertex array. Idempotent."""
         self._resources.release()

@@ -15,7 +15,7 @@ import numpy as np
 from ..core.mesh import MeshLattice
 from ..engine.kernel import MLSKernel
 from ..gl import bindings
-from ..gl.context import GLContext
+from ..gl.context import GLContext, current
 from ..gl.dispatch import set_uniforms
 from ..gl.resources import Resources
 from .bands import MeshBands
@@ -31,6 +31,7 @@ class MeshRaster:
         self._resources = resources
         self._bands = bands
 
+    @current
     def draw(
         self,
         kernel: MLSKernel,

@@ -19,7 +19,7 @@ from glmls.cli.main import build_parser
 from glmls.core import reference
 from glmls.core.config import MLSConfig
 from glmls.core.weights import RADIUS_WEIGHTS, REGISTRY, WEIGHTS, Weight, weight
-from glmls.gl.context import GLContext
+from glmls.gl.context import create_headless
 from glmls.gl.shaders import ShaderLibrary
 
 SHADERS = Path(str(resources.files("glmls").joinpath("shaders")))
@@ -112,7 +112,7 @@ def test_a_sixth_weight_is_one_entry_and_one_glsl_function(gl, tmp_path, monkeyp
             "    return t < 1.0 ? pow(1.0 - t, 4.0) * (4.0 * t + 1.0) : 0.0;\n"
             "}\n"
         )
-    own = GLContext(gl.mgl, owned=False, shaders=ShaderLibrary(shaders))
+    own = create_headless(shaders=ShaderLibrary(shaders))
     p = rng.uniform(0, 256, (600, 2))
     q = p + rng.uniform(-3, 3, p.shape)
     v = rng.uniform(0, 255, (500, 2))

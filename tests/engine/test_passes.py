@@ -31,13 +31,14 @@ def test_dispatches_are_split_at_the_work_group_limit(gl, rng):
     with glmls.MLS(p, q, ctx=gl) as m:
         f, _ = evaluate_points(m.kernel, v, with_matrix=False, max_groups=3)  # 192 per dispatch
         lattice = MeshLattice.corners((40, 50), 2)
-        buffer = gl.mgl.buffer(reserve=lattice.count * 8)
-        try:
-            count = evaluate_lattice(m.kernel, lattice, buffer, max_groups=2)
-            gl.mgl.memory_barrier()
-            mesh = np.frombuffer(buffer.read(), np.float32).reshape(-1, 2)
-        finally:
-            buffer.release()
+        with gl:  # raw moderngl calls: the context current for the block
+            buffer = gl.mgl.buffer(reserve=lattice.count * 8)
+            try:
+                count = evaluate_lattice(m.kernel, lattice, buffer, max_groups=2)
+                gl.mgl.memory_barrier()
+                mesh = np.frombuffer(buffer.read(), np.float32).reshape(-1, 2)
+            finally:
+                buffer.release()
     assert_allclose(f, reference.mls(p, q, v)[0], atol=1e-3)
     assert count == lattice.count
     expected = reference.mls(p, q, lattice.points().reshape(-1, 2))[0]
@@ -50,12 +51,13 @@ def test_lattice_bands_write_from_the_band_start(gl, rng):
     lattice = MeshLattice.corners((40, 60), 4)
     nx = lattice.dims[0]
     with glmls.MLS(p, q, ctx=gl) as m:
-        buffer = gl.mgl.buffer(reserve=5 * nx * 8)
-        try:
-            evaluate_lattice(m.kernel, lattice, buffer, first_row=5, rows=5)
-            gl.mgl.memory_barrier()
-            band = np.frombuffer(buffer.read(), np.float32).reshape(5, nx, 2)
-        finally:
-            buffer.release()
+        with gl:
+            buffer = gl.mgl.buffer(reserve=5 * nx * 8)
+            try:
+                evaluate_lattice(m.kernel, lattice, buffer, first_row=5, rows=5)
+                gl.mgl.memory_barrier()
+                band = np.frombuffer(buffer.read(), np.float32).reshape(5, nx, 2)
+            finally:
+                buffer.release()
         whole = m.mesh((40, 60), grid=4)[1]
     assert_allclose(m.scaling.from_gpu(band), whole[5:10], rtol=0, atol=1e-5)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from glmls.gl import bindings
-from glmls.gl.context import GLContext
+from glmls.gl.context import create_headless
 from glmls.gl.shaders import ShaderCompileError, ShaderLibrary, define_value, library
 
 COMPUTE_MAIN = """\
@@ -75,16 +75,16 @@ def test_define_values():
 @pytest.mark.parametrize("value", [2.0**-24, 0.1, -1234.5678, 1e30, 3.0])
 def test_float_defines_reach_the_gpu_as_float32(gl, shader_dir, value):
     """A float define is a GLSL float literal: the shader sees float32(value)."""
-    own = GLContext(gl.mgl, owned=False, shaders=ShaderLibrary(shader_dir))
-    out = gl.mgl.buffer(reserve=8)
+    own = create_headless(shaders=ShaderLibrary(shader_dir))
     try:
-        program = own.compute("main.comp.glsl", {"VALUE": value, "COUNT": 12})
-        out.bind_to_storage_buffer(bindings.DEFORMED.index)
-        program.run(group_x=1)
-        gl.mgl.memory_barrier()
-        values = np.frombuffer(out.read(), np.float32)
+        with own:
+            out = own.mgl.buffer(reserve=8)
+            program = own.compute("main.comp.glsl", {"VALUE": value, "COUNT": 12})
+            out.bind_to_storage_buffer(bindings.DEFORMED.index)
+            program.run(group_x=1)
+            own.mgl.memory_barrier()
+            values = np.frombuffer(out.read(), np.float32)
     finally:
-        out.release()
         own.release()
     assert values[0] == np.float32(value)
     assert values[1] == 12.0
@@ -97,17 +97,22 @@ def test_compile_errors_name_the_file_and_line(gl, shader_dir):
     (shader_dir / "bad.comp.glsl").write_text(
         'layout(local_size_x = 1) in;\n#include "lib/broken.glsl"\nvoid main() {}\n'
     )
-    own = GLContext(gl.mgl, owned=False, shaders=ShaderLibrary(shader_dir))
+    own = create_headless(shaders=ShaderLibrary(shader_dir))
     try:
-        with pytest.raises(ShaderCompileError, match=r"lib/broken\.glsl:3\(\d+\): error"):
-            own.compute("bad.comp.glsl")
-        (shader_dir / "ok.vert.glsl").write_text("void main() { gl_Position = vec4(0.0); }\n")
-        (shader_dir / "bad.frag.glsl").write_text("out vec4 c;\n\nvoid main() { c = missing; }\n")
-        with pytest.raises(ShaderCompileError, match=r"fragment_shader[\s\S]*bad\.frag\.glsl:3"):
-            own.program("ok.vert.glsl", "bad.frag.glsl")
+        with own:
+            with pytest.raises(ShaderCompileError, match=r"lib/broken\.glsl:3\(\d+\): error"):
+                own.compute("bad.comp.glsl")
+            (shader_dir / "ok.vert.glsl").write_text("void main() { gl_Position = vec4(0.0); }\n")
+            (shader_dir / "bad.frag.glsl").write_text(
+                "out vec4 c;\n\nvoid main() { c = missing; }\n"
+            )
+            with pytest.raises(
+                ShaderCompileError, match=r"fragment_shader[\s\S]*bad\.frag\.glsl:3"
+            ):
+                own.program("ok.vert.glsl", "bad.frag.glsl")
+            assert own.mgl.error == "GL_NO_ERROR"
     finally:
         own.release()
-    assert gl.mgl.error == "GL_NO_ERROR"
 
 
 def test_driver_locations_of_other_vendors_are_mapped(shader_dir):
@@ -119,6 +124,11 @@ def test_driver_locations_of_other_vendors_are_mapped(shader_dir):
 
 
 def test_every_packaged_shader_compiles(gl):
+    with gl:
+        compile_every_entry(gl)
+
+
+def compile_every_entry(gl):
     """The entry files (stages) of glmls/shaders compile with their defines' usual values."""
     mls = {
         "MLS_WEIGHT_FUNCTION": "mls_weight_gaussian",
@@ -147,6 +157,7 @@ def test_every_packaged_shader_compiles(gl):
 def test_programs_are_compiled_once(gl):
     defines = {"MLS_ERROR_INTERPOLATE": True}
     entry = "mls/error_field.comp.glsl"
-    assert gl.compute(entry, defines) is gl.compute(entry, dict(defines))
+    with gl:
+        assert gl.compute(entry, defines) is gl.compute(entry, dict(defines))
+        assert isinstance(gl.compute(entry, defines), moderngl.ComputeShader)
     assert library() is library()
-    assert isinstance(gl.compute(entry, defines), moderngl.ComputeShader)

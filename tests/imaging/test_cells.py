@@ -80,6 +80,11 @@ def test_fused_quads_survive_an_overflowing_fixup_list(gl, pipeline, capacity):
 
 def render_into_texture(gl, pipe, m, img, *, clear=(0, 0, 0, 0), **options):
     """``pipe.render`` of ``img`` into an RGBA8 framebuffer of its size, read back."""
+    with gl:  # raw moderngl calls around the pipeline's
+        return _render_into_texture(gl, pipe, m, img, clear, options)
+
+
+def _render_into_texture(gl, pipe, m, img, clear, options):
     shape = img.shape[:2]
     source = pipe.upload(prepare_image(img, pipe.max_image_size, normalized=True), "test")
     target = gl.mgl.texture((shape[1], shape[0]), 4, dtype="f1")
@@ -179,6 +184,11 @@ def test_fast_quads_fall_back_to_the_keyed_pass_on_folds(gl, pipeline, grid):
 def boundary_check(gl, mesh):
     """Run the boundary stages of warp/cells_check.comp.glsl on ``mesh`` (rows, cols, 2),
     pixel coordinates: (bad, crossings, clear groups, scan groups)."""
+    with gl:
+        return _boundary_check(gl, mesh)
+
+
+def _boundary_check(gl, mesh):
     rows, cols = mesh.shape[:2]
     entry = "warp/cells_check.comp.glsl"
     stages = [gl.compute(entry, {"WARP_CHECK_STAGE": s}) for s in (0, 1)]

@@ -147,15 +147,14 @@ def _glmls_frame(case: Case, image, src, dst) -> Callable[[int], None]:
     gl = get_context()
     pipe = WarpPipeline.of(gl)
     source = pipe.upload(prepare_image(image, pipe.max_image_size, normalized=True), "bench")
-    gl.make_current()
-    target = gl.mgl.texture(source.size, 4, dtype="f1")
-    framebuffer = gl.mgl.framebuffer(color_attachments=[target])
+    with gl:
+        target = gl.mgl.texture(source.size, 4, dtype="f1")
+        framebuffer = gl.mgl.framebuffer(color_attachments=[target])
     rng = np.random.default_rng(1)
     moves = rng.uniform(-2, 2, (64, *dst.shape))  # the handles move every frame
 
     def step(k: int) -> None:
-        with MLS(src, dst + moves[k % 64], transform=case.transform, ctx=gl) as m:
-            gl.make_current()
+        with MLS(src, dst + moves[k % 64], transform=case.transform, ctx=gl) as m, gl:
             framebuffer.use()
             framebuffer.clear()
             pipe.render(m, source, framebuffer, grid=case.grid)

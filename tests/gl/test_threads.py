@@ -1,0 +1,265 @@
+"""glmls from threads and processes: any thread may use glmls's contexts (one call at a time),
+a forked child of a GL process raises at once instead of hanging, a child forked before any GL
+works, spawn pools work, released contexts raise ReleasedError. Process cases run in a fresh
+interpreter with a timeout, so that a hang fails the test."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+import threading
+from concurrent.futures import ThreadPoolExecutor
+
+import moderngl
+import numpy as np
+import pytest
+from numpy.testing import assert_array_equal
+
+import glmls
+from glmls.gl.context import create_headless, get_context
+
+SRC = np.array([[10.0, 10.0], [50.0, 12.0], [30.0, 40.0], [12.0, 44.0]])
+DST = np.array([[14.0, 8.0], [50.0, 12.0], [33.0, 36.0], [12.0, 44.0]])
+COMMON = """
+import multiprocessing, os, sys
+import numpy as np
+import glmls
+SRC = np.array([[10.0, 10.0], [50.0, 12.0], [30.0, 40.0], [12.0, 44.0]])
+DST = np.array([[14.0, 8.0], [50.0, 12.0], [33.0, 36.0], [12.0, 44.0]])
+
+def image(seed):
+    return np.random.default_rng(seed).integers(0, 255, (48, 56, 3), dtype=np.uint8)
+
+def warp(seed):
+    return glmls.warp(image(seed), SRC, DST, weight="gaussian", radius=30.0)
+"""
+
+
+def run_script(body: str, tmp_path, timeout: float = 120) -> subprocess.CompletedProcess:
+    """``body`` after COMMON, as a script file (spawned workers import its functions)."""
+    script = tmp_path / "script.py"
+    script.write_text(COMMON + "\n" + textwrap.dedent(body))
+    done = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, timeout=timeout
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    return done
+
+
+def image(seed):
+    return np.random.default_rng(seed).integers(0, 255, (48, 56, 3), dtype=np.uint8)
+
+
+# -- processes ---------------------------------------------------------------------------------
+
+
+def test_a_fork_of_a_gl_process_raises_at_once_instead_of_hanging(tmp_path):
+    out = run_script(
+        """
+        warp(0)  # the parent uses GL
+        read, write = os.pipe()
+        pid = os.fork()
+        if pid == 0:
+            try:
+                warp(1)
+                message = "no error"
+            except glmls.GLUnavailableError as error:
+                message = "GLUnavailableError: " + str(error)
+            os.write(write, message.encode())
+            os._exit(0)
+        os.close(write)
+        os.waitpid(pid, 0)
+        print(os.read(read, 4096).decode())
+        warp(2)  # the parent still works
+        """,
+        tmp_path,
+    ).stdout
+    assert "GLUnavailableError" in out and "'spawn' start method" in out
+    assert "forked" in out
+
+
+def test_a_fork_pool_after_the_parent_warped_fails_fast_with_the_advice(tmp_path):
+    out = run_script(
+        """
+        warp(0)
+        with multiprocessing.get_context("fork").Pool(2) as pool:
+            try:
+                pool.map(warp, range(4))
+                print("no error")
+            except glmls.GLUnavailableError as error:
+                print("GLUnavailableError:", error)
+        """,
+        tmp_path,
+        timeout=60,
+    ).stdout
+    assert out.startswith("GLUnavailableError:") and "spawn" in out
+
+
+def test_a_fork_pool_made_before_any_gl_works(tmp_path):
+    """Workers forked before the parent touched GL make their own contexts (a DataLoader
+    whose workers warp, the main process not)."""
+    run_script(
+        """
+        with multiprocessing.get_context("fork").Pool(2) as pool:
+            results = pool.map(warp, range(4))
+        for seed, result in enumerate(results):  # now the parent uses GL too
+            assert np.array_equal(result, warp(seed)), seed
+        """,
+        tmp_path,
+    )
+
+
+def test_a_spawn_pool_works_after_the_parent_warped(tmp_path):
+    run_script(
+        """
+        if __name__ == "__main__":
+            expected = [warp(seed) for seed in range(4)]
+            with multiprocessing.get_context("spawn").Pool(2) as pool:
+                results = pool.map(warp, range(4))
+            for a, b in zip(results, expected):
+                assert np.array_equal(a, b)
+        """,
+        tmp_path,
+    )
+
+
+def test_releasing_the_default_context_leaves_clear_errors(tmp_path):
+    out = run_script(
+        """
+        m = glmls.MLS(SRC, DST)
+        expected = m(SRC)
+        glmls.get_context().release()
+        for call in (lambda: m(SRC), lambda: m.warp(image(0)), lambda: m.error_field((8, 8))):
+            try:
+                call()
+            except glmls.ReleasedError as error:
+                print("ReleasedError:", error)
+        m.release()  # harmless
+        with glmls.MLS(SRC, DST) as fresh:  # a new default context
+            assert np.allclose(fresh(SRC), expected, atol=1e-6)
+        """,
+        tmp_path,
+    ).stdout
+    assert out.count("ReleasedError:") == 3 and "context" in out
+
+
+# -- threads -----------------------------------------------------------------------------------
+
+
+def test_warp_from_other_threads_and_from_several_at_once(gl):
+    expected = {seed: glmls.warp(image(seed), SRC, DST, ctx=gl) for seed in range(6)}
+    result = {}
+    thread = threading.Thread(target=lambda: result.update(one=glmls.warp(image(0), SRC, DST)))
+    thread.start()
+    thread.join(60)
+    assert_array_equal(result["one"], expected[0])
+    with ThreadPoolExecutor(3) as pool:  # a web server's pool: they take turns
+        outputs = list(pool.map(lambda seed: glmls.warp(image(seed), SRC, DST), range(6)))
+    for seed, out in enumerate(outputs):
+        assert_array_equal(out, expected[seed])
+
+
+def test_an_mls_made_on_one_thread_works_on_another(gl):
+    holder = {}
+
+    def make():
+        holder["m"] = glmls.MLS(SRC, DST, ctx=gl)
+
+    thread = threading.Thread(target=make)
+    thread.start()
+    thread.join(60)
+    m = holder["m"]
+    try:
+        with ThreadPoolExecutor(2) as pool:
+            points = list(pool.map(lambda _: m(SRC), range(4)))
+        for f in points:
+            np.testing.assert_allclose(f, DST, atol=1e-3)
+        np.testing.assert_allclose(m(SRC), DST, atol=1e-3)  # and here
+    finally:
+        m.release()
+
+
+def test_a_context_kept_current_elsewhere_names_the_rule(gl):
+    own = create_headless()
+    try:
+        own.make_current()  # kept current in this thread
+        errors = []
+
+        def use():
+            try:
+                glmls.MLS(SRC, DST, ctx=own)
+            except glmls.ContextError as error:
+                errors.append(str(error))
+
+        thread = threading.Thread(target=use)
+        thread.start()
+        thread.join(60)
+        assert errors and "current in another thread" in errors[0] and "unbind()" in errors[0]
+        own.unbind()
+        thread = threading.Thread(target=use)
+        thread.start()
+        thread.join(60)
+        assert len(errors) == 1  # now it works from the other thread
+    finally:
+        own.release()
+
+
+def test_an_adopted_context_belongs_to_its_thread():
+    mgl = moderngl.create_context(standalone=True, backend="egl", require=430)
+    try:
+        wrapper = get_context(mgl)  # adopted here, where it is current
+        with glmls.MLS(SRC, DST, ctx=wrapper) as m:
+            np.testing.assert_allclose(m(SRC), DST, atol=1e-3)
+            errors = []
+
+            def use():
+                try:
+                    m(SRC)
+                except glmls.ContextError as error:
+                    errors.append(str(error))
+
+            thread = threading.Thread(target=use)
+            thread.start()
+            thread.join(60)
+        assert errors and "a window's, adopted" in errors[0]
+        wrapper.release()
+    finally:
+        mgl.release()
+
+
+def test_a_released_own_context_raises_released_error():
+    own = create_headless()
+    m = glmls.MLS(SRC, DST, ctx=own)
+    own.release()
+    with pytest.raises(glmls.ReleasedError, match="context"):
+        m(SRC)
+    with pytest.raises(glmls.ReleasedError):
+        m.warp(image(0))
+    m.release()  # harmless
+
+
+# -- the program cache -------------------------------------------------------------------------
+
+
+def test_the_program_cache_stays_bounded():
+    """Every configuration compiles its own programs: the cache keeps the most recently used
+    ``max_programs`` and releases the others; evicted ones are compiled again on demand."""
+    own = create_headless(max_programs=16)
+    points = np.array([[20.0, 20.0], [40.0, 30.0]])
+    try:
+        first = None
+        for interpolating in (False, True):
+            for transform in glmls.TRANSFORMS:
+                for weight in glmls.WEIGHTS:
+                    options = {"weight": weight, "radius": 80.0, "interpolating": interpolating}
+                    with glmls.MLS(SRC, DST, transform=transform, ctx=own, **options) as m:
+                        f = m(points)
+                        first = f if first is None else first
+                    assert own.compiled <= 16
+        with glmls.MLS(SRC, DST, transform="affine", ctx=own, radius=80.0) as m:
+            np.testing.assert_allclose(m(points), first, rtol=0, atol=0)  # compiled again
+    finally:
+        own.release()
+    with pytest.raises(ValueError, match="max_programs must be >= 16"):
+        create_headless(max_programs=4)
