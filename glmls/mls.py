@@ -11,7 +11,13 @@ import moderngl
 import numpy as np
 
 from .core.config import MLSConfig
-from .core.handles import Scaling, as_points, check_affine_handles, validate_handles
+from .core.handles import (
+    Scaling,
+    as_points,
+    check_affine_handles,
+    check_coordinates,
+    validate_handles,
+)
 from .core.mesh import MeshLattice, as_shape
 from .engine.error_field import error_field as evaluate_error_field
 from .engine.kernel import DEFAULT_STORAGE, MLSKernel
@@ -204,13 +210,13 @@ class MLS:
     @on_gpu
     def __call__(self, points: object) -> np.ndarray:
         """f(points): (K, 2) float64, evaluated on the GPU."""
-        f, _ = evaluate_points(self._kernel, as_points(points), with_matrix=False)
+        f, _ = evaluate_points(self._kernel, _points(points), with_matrix=False)
         return f
 
     @on_gpu
     def matrices(self, points: object) -> tuple[np.ndarray, np.ndarray]:
         """(M, T): (K, 2, 2) and (K, 2) float64 with ``f(v) = v @ M + T`` for each point."""
-        v = as_points(points)
+        v = _points(points)
         f, m = evaluate_points(self._kernel, v, with_matrix=True)
         return m, f - np.einsum("ki,kij->kj", v, m)  # type: ignore[return-value]
 
@@ -334,6 +340,10 @@ class MLS:
             f"alpha={c.alpha}, s={c.s}, radius={c.radius}, interpolating={c.interpolating}"
             f"{state})"
         )
+
+
+def _points(points: object) -> np.ndarray:
+    return check_coordinates(as_points(points), "points")
 
 
 _WARP_OPTIONS = ("method", "interpolation", "grid", "background")

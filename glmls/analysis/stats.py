@@ -31,10 +31,14 @@ def error_stats(values: object) -> dict[str, float | int | list[float] | None]:
     }
     if finite.size == 0:
         return stats | {"mean": None, "std": None, "min": None, "max": None, "within": None}
-    mean = float(finite.mean())
-    std = float(np.sqrt(np.mean((finite - mean) ** 2)))
-    deviation = np.abs(finite - mean)
+    # in units of the largest magnitude: sums of values near the float64 limit do not overflow
+    unit = float(np.abs(finite).max()) or 1.0
+    scaled = finite / unit
+    mean = float(scaled.mean())
+    deviation = np.abs(scaled - mean)
+    std = float(np.sqrt(np.mean(deviation**2)))
     within = [float(np.count_nonzero(deviation <= k * std)) / finite.size for k in (1, 2, 3)]
+    mean, std = mean * unit, std * unit
     return stats | {
         "mean": mean,
         "std": std,

@@ -12,6 +12,11 @@ import numpy as np
 
 from ..errors import DegenerateHandlesError
 
+#: Handles and points must lie within this many pixels of the origin in x and y: the GPU
+#: works in float32 on coordinates scaled to the handles' and image's extent, which keeps
+#: ~1e-7 of that extent (0.1 px for handles a million pixels apart).
+COORDINATE_LIMIT = 1e6
+
 
 def as_points(points: object, name: str = "points") -> np.ndarray:
     """``points`` as a C-contiguous float64 (N, 2) array; ``ValueError``/``TypeError`` if not."""
@@ -29,6 +34,21 @@ def as_points(points: object, name: str = "points") -> np.ndarray:
         row = int(np.argmax(~np.isfinite(array[:, 0]) | ~np.isfinite(array[:, 1])))
         raise ValueError(f"{name} must be finite; row {row} is {array[row]}")
     return array
+
+
+def check_coordinates(points: np.ndarray, name: str = "points") -> np.ndarray:
+    """``points`` ((N, 2) float64) if every coordinate lies within :data:`COORDINATE_LIMIT`;
+    ``ValueError`` naming the range and the first row beyond it otherwise."""
+    if len(points):
+        beyond = np.abs(points).max(axis=1) > COORDINATE_LIMIT
+        if beyond.any():
+            row = int(np.argmax(beyond))
+            raise ValueError(
+                f"{name} must lie within ±{COORDINATE_LIMIT:.0e} px of the origin in x and y "
+                f"(float32 on the GPU keeps ~1e-7 of the coordinates' extent); row {row} is "
+                f"{points[row].tolist()}"
+            )
+    return points
 
 
 def point_bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -65,8 +85,8 @@ def validate_handles(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
     Exact duplicate pairs are accepted; the same source point with two different targets is
     a ``ValueError`` (f cannot take two values there).
     """
-    p = as_points(src, "src")
-    q = as_points(dst, "dst")
+    p = check_coordinates(as_points(src, "src"), "src")
+    q = check_coordinates(as_points(dst, "dst"), "dst")
     if len(p) != len(q):
         raise ValueError(f"src and dst must have the same length, got {len(p)} and {len(q)}")
     pair = _same_source_pair(p, q) if len(p) > 1 else None

@@ -23,9 +23,11 @@ import numpy as np
 
 from .handles import Scaling
 
-__all__ = ["KINDS", "MeshLattice", "as_shape", "check_grid"]
+__all__ = ["KINDS", "MAX_GRID", "MeshLattice", "as_shape", "check_grid"]
 
 KINDS = ("corners", "centres")
+#: The largest mesh step (pixels): beyond any image side, and the shaders' integers hold it.
+MAX_GRID = 1 << 20
 
 
 def as_shape(shape: object) -> tuple[int, int]:
@@ -40,9 +42,14 @@ def as_shape(shape: object) -> tuple[int, int]:
 
 
 def check_grid(grid: object) -> int:
-    """``grid`` if it is an integer >= 1 (a mesh step in pixels); ``ValueError`` otherwise."""
-    if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or grid < 1:
-        raise ValueError(f"grid must be an integer >= 1 (pixels), got {grid!r}")
+    """``grid`` as an int if it is an integer (numpy's too) from 1 to :data:`MAX_GRID` (a mesh
+    step in pixels); ``ValueError`` otherwise."""
+    if (
+        isinstance(grid, bool)
+        or not isinstance(grid, (int, np.integer))
+        or not 1 <= grid <= MAX_GRID
+    ):
+        raise ValueError(f"grid must be an integer from 1 to {MAX_GRID} (pixels), got {grid!r}")
     return int(grid)
 
 

@@ -94,26 +94,38 @@ def gaussian_cut(count: int) -> float:
 # -- the float64 formulas ------------------------------------------------------------------------
 
 
+# Written with d^2 / R^2 rather than R^2 (the same weights up to a common factor), so that a
+# radius whose square overflows (1e300) or underflows (1e-200) still gives finite weights.
+
+
+def _ratio(d2: np.ndarray, radius: float) -> np.ndarray:
+    """d^2 / R^2, bounded by 1e300; 0 where d = 0 (also when R^2 underflows)."""
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        t = d2 / (radius * radius) if radius * radius > 0 else np.where(d2 > 0, np.inf, 0.0)
+    return np.minimum(np.nan_to_num(t, nan=0.0, posinf=1e300), 1e300)
+
+
 def _idw(d2: np.ndarray, params: WeightParameters, radius: float | None) -> np.ndarray:
     return 1.0 / (params.s + d2**params.alpha)
 
 
 def _cressman(d2: np.ndarray, params: WeightParameters, radius: float | None) -> np.ndarray:
-    return np.maximum(0.0, (radius**2 - d2) / (radius**2 + d2))  # type: ignore[operator]
+    t = _ratio(d2, radius)  # type: ignore[arg-type]
+    return np.maximum(0.0, (1.0 - t) / (1.0 + t))  # (R^2 - d^2) / (R^2 + d^2)
 
 
 def _shepard(d2: np.ndarray, params: WeightParameters, radius: float | None) -> np.ndarray:
     d = np.sqrt(d2)
-    return np.where(d < radius, (radius - d) / (radius * d), 0.0)  # type: ignore[operator]
+    return np.where(d < radius, (1.0 - d / radius) / d, 0.0)  # type: ignore[operator]
 
 
 def _gaussian(d2: np.ndarray, params: WeightParameters, radius: float | None) -> np.ndarray:
     # divided by its value at the nearest handle, so that it does not underflow far away
-    return np.exp(-(d2 - d2.min(axis=1, keepdims=True)) / radius**2)  # type: ignore[operator]
+    return np.exp(-_ratio(d2 - d2.min(axis=1, keepdims=True), radius))  # type: ignore[arg-type]
 
 
 def _linear(d2: np.ndarray, params: WeightParameters, radius: float | None) -> np.ndarray:
-    return np.maximum(0.0, radius - np.sqrt(d2))  # type: ignore[operator]
+    return np.maximum(0.0, 1.0 - np.sqrt(_ratio(d2, radius)))  # type: ignore[arg-type]
 
 
 def _never(params: WeightParameters) -> bool:

@@ -63,7 +63,8 @@ class HandleBins:
         ``reach_``."""
         lo, hi = point_bounds(points) if len(points) else (np.zeros(2), np.zeros(2))
         extent = float(max((hi - lo).max(), 1e-12))
-        size = max(radius * BIN_FRACTION, extent / (MAX_BINS - 1))
+        # at most the extent (a huge radius: one bin, a finite size), at least MAX_BINS per side
+        size = max(min(radius * BIN_FRACTION, extent), extent / (MAX_BINS - 1))
         dims = np.minimum(np.floor((hi - lo) / size).astype(int) + 1, MAX_BINS)
         cell = np.minimum(np.floor((points - lo) / size).astype(int), dims - 1)
         key = cell[:, 1] * dims[0] + cell[:, 0]

@@ -33,7 +33,7 @@ def test_centres_are_the_pixel_centres():
 
 @pytest.mark.parametrize("grid", [0, -1, 1.5, True])
 def test_bad_grid(grid):
-    with pytest.raises(ValueError, match="grid must be an integer >= 1"):
+    with pytest.raises(ValueError, match="grid must be an integer from 1 to"):
         MeshLattice.corners((4, 4), grid)
 
 

@@ -41,23 +41,25 @@ def test_the_paper_weights_and_their_properties():
         weight("cubic")
 
 
-@pytest.mark.parametrize(
-    "name, d, expected",
-    [
-        # Table 1 at R = 4 (and idw with s = 0.5, alpha = 1): w(d) by hand
-        ("idw", 2.0, 1 / (0.5 + 4.0)),
-        ("cressman", 2.0, (16 - 4) / (16 + 4)),
-        ("cressman", 5.0, 0.0),
-        ("shepard", 1.0, (4 - 1) / (4 * 1)),
-        ("shepard", 4.0, 0.0),
-        ("linear", 1.5, 2.5),
-        ("linear", 9.0, 0.0),
-    ],
-)
-def test_reference_formulas_are_table_1(name, d, expected):
+TABLE_1 = {  # the paper's formulas at R = 4 (idw: s = 0.5, alpha = 1)
+    "idw": lambda d: 1 / (0.5 + d**2),
+    "cressman": lambda d: max(0.0, (16 - d**2) / (16 + d**2)),
+    "shepard": lambda d: max(0.0, (4 - d) / (4 * d)),
+    "gaussian": lambda d: np.exp(-(d**2) / 16),
+    "linear": lambda d: max(0.0, 4 - d),
+}
+
+
+@pytest.mark.parametrize("name", list(TABLE_1))
+def test_reference_formulas_are_table_1_up_to_a_common_factor(name):
+    """MLS ignores a factor common to all handles at a point; the registry's formulas use one
+    to stay finite for extreme radii. Ratios of weights, and zeros, are the paper's."""
     config = MLSConfig(weight=name, s=0.5, radius=4.0)
-    w = REGISTRY[name].reference(np.array([[d * d]]), config, 4.0)
-    assert w[0, 0] == pytest.approx(expected)
+    distances = np.array([1.0, 1.5, 2.0, 3.9, 4.0, 5.0])
+    w = REGISTRY[name].reference(distances[None] ** 2, config, 4.0)[0]
+    table = np.array([TABLE_1[name](d) for d in distances])
+    assert_allclose(w / w[0], table / table[0], rtol=1e-12, atol=1e-15)
+    assert ((w == 0) == (table == 0)).all()
 
 
 def test_the_gaussian_is_table_1_up_to_a_common_factor():

@@ -7,18 +7,26 @@
 // point: m, the squared distance of the nearest handle in use, inv_m = 1 / m, and sigma =
 // s / m^alpha (idw only, MLS_WEIGHT_USES_S). A weight may be divided by any factor common to
 // all handles at a point (MLS ignores it): they are scaled so that the largest is about 1,
-// so that float32 neither overflows (idw, shepard near a handle) nor underflows (gaussian far
-// from every handle). Distances are scaled (see core.glsl); u_radius is R, scaled.
+// so that float32 neither overflows (idw, shepard near a handle, any weight of a huge R) nor
+// underflows (gaussian far from every handle). Distances are scaled (see core.glsl); u_radius
+// is R, scaled, which float32 may round to 0 (R far below a pixel) or to inf (R beyond ~1e38):
+// both limits give finite weights (no handle but one on the point reaches it; flat weights).
+
+// d2 / R^2, bounded so that (1 - t) / (1 + t) stays finite; 0 on the point itself.
+float mls_radius_ratio(float d2) {
+    float R2 = u_radius * u_radius;
+    return R2 > 0.0 ? min(d2 / R2, 1e30) : (d2 > 0.0 ? 1e30 : 0.0);
+}
 
 // 1 / (s + d^(2 alpha)), times s + m^alpha
 float mls_weight_idw(float d2, float m, float inv_m, float sigma) {
     return (sigma + 1.0) / (sigma + mls_pow(d2 * inv_m));
 }
 
-// max(0, (R^2 - d^2) / (R^2 + d^2))
+// max(0, (R^2 - d^2) / (R^2 + d^2)) = max(0, (1 - t) / (1 + t)), t = d^2 / R^2
 float mls_weight_cressman(float d2, float m, float inv_m, float sigma) {
-    float R2 = u_radius * u_radius;
-    return max(0.0, (R2 - d2) / (R2 + d2));
+    float t = mls_radius_ratio(d2);
+    return max(0.0, (1.0 - t) / (1.0 + t));
 }
 
 // max(0, (R - d) / (R d)), times sqrt(m)
@@ -27,12 +35,13 @@ float mls_weight_shepard(float d2, float m, float inv_m, float sigma) {
     return d < u_radius ? (1.0 - d / u_radius) * sqrt(m / d2) : 0.0;
 }
 
-// exp(-d^2 / R^2), divided by its value at the nearest handle
+// exp(-d^2 / R^2), divided by its value at the nearest handle (m; handles nearer than m, all
+// within the snapping distance, count as the nearest)
 float mls_weight_gaussian(float d2, float m, float inv_m, float sigma) {
-    return exp(-(d2 - m) / (u_radius * u_radius));
+    return exp(-mls_radius_ratio(max(d2 - m, 0.0)));
 }
 
-// max(0, R - d)
+// max(0, R - d), divided by R
 float mls_weight_linear(float d2, float m, float inv_m, float sigma) {
-    return max(0.0, u_radius - sqrt(d2));
+    return max(0.0, 1.0 - sqrt(mls_radius_ratio(d2)));
 }
