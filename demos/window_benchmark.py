@@ -19,7 +19,8 @@ import time
 
 import numpy as np
 
-from glmls.app.controller import Key, Move, Press, Release, Settings
+from glmls.app.controller import CONSTRUCTIONS, Settings
+from glmls.app.events import Key, Move, Press, Release
 from glmls.app.window import App, NoDisplayError
 from glmls.data import astronaut, astronaut_handles
 
@@ -55,7 +56,8 @@ def main(argv: list[str] | None = None) -> int:
     dst = np.concatenate([dst, EXTRA]).astype(float)
     assert len(src) == 16
     width, height = (int(v) for v in args.window_size.split("x"))
-    settings = Settings(grid=args.grid, construction=args.construction)
+    method, interpolation = CONSTRUCTIONS[args.construction]
+    settings = Settings(method=method, interpolation=interpolation, grid=args.grid)
     app = App(image, src, dst, settings=settings, name="astronaut", window_size=(width, height))
     app.controller.reference = np.zeros((0, 2))
     events = [Key(k) for k in args.overlay]

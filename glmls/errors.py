@@ -25,3 +25,8 @@ class ContextError(RuntimeError):
 
 class InputFileError(ValueError):
     """A malformed input file; the message names the file, the line or entry, and the fault."""
+
+
+class ImageWarning(UserWarning):
+    """An image was read, but not all of it (the first frame of an animation or of a
+    multi-page TIFF)."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -83,6 +83,7 @@ def report(
     interpolation: str = "nearest",
     warp_grid: int = 1,
     out_dir: str | Path | None = None,
+    on_stage: Callable[[str], None] | None = None,
 ) -> AnalysisReport:
     """Analyse the deformation ``m`` of ``image`` (H, W[, C]) as in section 5 of the paper.
 
@@ -97,8 +98,10 @@ def report(
 
     ``percentile`` / ``triangle_percentile``: robust upper bound of the colour scales (None:
     the maximum); the angular error of eq. (11) explodes near right angles, hence 95 there.
-    ``out_dir``: also write ``report.json`` and the PNGs there.
+    ``out_dir``: also write ``report.json`` and the PNGs there. ``on_stage(name)`` is called
+    as each stage begins (error field, triangles, warp, fold-overs, pictures), for progress.
     """
+    stage = on_stage if on_stage is not None else (lambda name: None)
     rgb = as_rgb8(image)
     shape = rgb.shape[:2]
     if triangle_error not in ("angle", "distance"):
@@ -107,24 +110,29 @@ def report(
     start = time.perf_counter()
 
     tick = time.perf_counter()
+    stage("error field")
     field = m.error_field(shape, grid=grid)
     timings["error_field"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
+    stage("triangles")
     triangles = triangle_errors(m, reference_points, eps=eps)
     timings["triangle_errors"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
+    stage("warp")
     deformed = as_rgb8(
         m.warp(rgb, method=method, interpolation=interpolation, grid=warp_grid), "m.warp(image)"
     )
     timings["warp"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
+    stage("fold-overs")
     folds = foldovers(m, shape, grid=warp_grid).count
     timings["foldovers"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
+    stage("pictures")
     images: dict[str, np.ndarray] = {"input_handles": render_handles(rgb, m.src, m.dst)}
     images["deformed"] = deformed
     _, mesh = m.mesh(shape, grid=mesh_grid)

@@ -16,6 +16,7 @@ import numpy as np
 from ..core.config import MLSConfig, image_diagonal
 from ..core.handles import as_points
 from ..core.weights import WEIGHTS
+from ..imaging.source import check_options
 from .events import BUTTONS, Event, Key, Move, Press, Release
 
 __all__ = [
@@ -85,22 +86,14 @@ class Settings:
     """What the window shows: the MLS configuration and the image construction."""
 
     config: MLSConfig = field(default_factory=MLSConfig)
-    construction: int = 0  # index into CONSTRUCTIONS
+    method: str = "quads"
+    interpolation: str = "nearest"
     grid: int = 4
 
     def __post_init__(self) -> None:
         if not isinstance(self.config, MLSConfig):
             raise TypeError(f"config must be an MLSConfig, got {type(self.config).__name__}")
-        if not 0 <= self.construction < len(CONSTRUCTIONS):
-            raise ValueError(f"construction must be in 0..{len(CONSTRUCTIONS) - 1}")
-
-    @property
-    def method(self) -> str:
-        return CONSTRUCTIONS[self.construction][0]
-
-    @property
-    def interpolation(self) -> str:
-        return CONSTRUCTIONS[self.construction][1]
+        check_options(self.method, self.interpolation, self.grid)
 
     def parameter(self, shape: tuple[int, int]) -> str:
         """The weight's parameter as text, e.g. ``alpha 1.25`` or ``R 362 px``."""
@@ -334,7 +327,10 @@ class Controller:
         self._parameter(up=False)
 
     def _do_construction(self) -> None:
-        self._configure(construction=(self.settings.construction + 1) % len(CONSTRUCTIONS))
+        pair = (self.settings.method, self.settings.interpolation)
+        index = CONSTRUCTIONS.index(pair) if pair in CONSTRUCTIONS else -1
+        method, interpolation = CONSTRUCTIONS[(index + 1) % len(CONSTRUCTIONS)]
+        self._configure(method=method, interpolation=interpolation)
 
     def _grid(self, step: int) -> None:
         index = GRIDS.index(self.settings.grid) if self.settings.grid in GRIDS else 2

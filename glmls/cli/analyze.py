@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 
 from ..analysis.report import report
-from .inputs import add_example_inputs, example_or_files, make_mls, say
+from .inputs import add_example_inputs, example_or_files, make_mls, say, warn_about_handles
 from .options import UsageError, add_config_options, add_warp_options, config_from_args
+from .progress import Ticker
 
 HELP = "error analysis of one deformation"
 EXAMPLES = """
@@ -25,10 +26,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     image, src, dst, reference, name = example_or_files(args, need_reference=False)
+    warn_about_handles(args, src, image.shape)
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")
         reference = src
-    with make_mls(src, dst, config, image.shape) as m:
+    with make_mls(src, dst, config, image.shape) as m, Ticker("analyze", quiet=args.quiet) as tick:
         try:
             result = report(
                 image,
@@ -39,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
                 interpolation=args.interpolation,
                 warp_grid=args.grid,
                 cmap=args.cmap,
+                on_stage=tick.stage,
             )
         except ValueError as error:
             raise UsageError(str(error)) from None

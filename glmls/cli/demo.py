@@ -14,7 +14,15 @@ import numpy as np
 
 from ..errors import GLUnavailableError, InputFileError
 from ..files.landmarks import read_handles, read_points
-from .options import add_config_options, config_from_args, positive_int
+from .inputs import read_image
+from .options import (
+    UsageError,
+    add_config_options,
+    add_max_pixels,
+    add_warp_options,
+    config_from_args,
+    positive_int,
+)
 
 __all__ = ["configure", "run"]
 
@@ -25,7 +33,13 @@ examples:
   glmls demo photo.png --handles h.json
   xvfb-run -a glmls demo --replay drag.json --frames 30 --screenshot shot.png
 """
-_CONSTRUCTIONS = {"quads-nearest": 0, "quads-linear": 1, "splat": 2, "backward": 3}
+#: The former --construction's names, still accepted: (method, interpolation).
+_CONSTRUCTIONS = {
+    "quads-nearest": ("quads", "nearest"),
+    "quads-linear": ("quads", "linear"),
+    "splat": ("splat", "nearest"),
+    "backward": ("backward", "linear"),
+}
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -58,13 +72,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--reference", type=Path, help="reference points (JSON or CSV) for the angle errors"
     )
     add_config_options(parser)
+    add_warp_options(parser, grid=4)
     parser.add_argument(
-        "--construction",
-        choices=tuple(_CONSTRUCTIONS),
-        default="quads-nearest",
-        help="how the deformed image is built (default: quads-nearest)",
-    )
-    parser.add_argument("--grid", type=positive_int, default=4, help="mesh step in pixels")
+        "--construction", choices=tuple(_CONSTRUCTIONS), help=argparse.SUPPRESS
+    )  # the former name of --method/--interpolation
     parser.add_argument(
         "--replay", type=Path, metavar="EVENTS.json", help="feed recorded events, one per frame"
     )
@@ -79,9 +90,16 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--screenshot", type=Path, metavar="OUT.png", help="save the last frame, then exit"
     )
     parser.add_argument(
-        "--out-dir", type=Path, default=Path("."), help="where the s, j and S keys save"
+        "--out",
+        "--out-dir",
+        dest="out",
+        type=Path,
+        default=Path("."),
+        metavar="DIR",
+        help="where the s, j and S keys save",
     )
     parser.add_argument("--window-size", type=_size, metavar="WxH", help="window size")
+    add_max_pixels(parser)
 
 
 def _fail(status: int, message: str) -> int:
@@ -92,7 +110,6 @@ def _fail(status: int, message: str) -> int:
 def _inputs(args: argparse.Namespace):
     """(image, name, src, dst, reference) from the arguments; raises ValueError/OSError."""
     from .. import data
-    from ..files.images import imread
 
     if args.image is None:
         image, name = data.astronaut(), "astronaut"
@@ -100,11 +117,9 @@ def _inputs(args: argparse.Namespace):
         reference = data.astronaut_reference_points()
     else:
         try:
-            image = imread(args.image)
-        except FileNotFoundError:
-            raise InputFileError(f"{args.image}: no such file") from None
-        except OSError as error:
-            raise InputFileError(f"{args.image}: cannot read the image: {error}") from None
+            image = read_image(args.image, args.max_pixels)
+        except UsageError as error:
+            raise InputFileError(str(error)) from None
         name = args.image.stem
         src = dst = np.zeros((0, 2))
         reference = np.zeros((0, 2))
@@ -124,9 +139,15 @@ def run(args: argparse.Namespace) -> int:
     try:
         image, name, src, dst, reference = _inputs(args)
         events = read_events(args.replay) if args.replay is not None else None
+        method, interpolation = (
+            _CONSTRUCTIONS[args.construction]
+            if args.construction is not None
+            else (args.method, args.interpolation)
+        )
         settings = Settings(
             config=config_from_args(args),
-            construction=_CONSTRUCTIONS[args.construction],
+            method=method,
+            interpolation=interpolation,
             grid=args.grid,
         )
         app = App(
@@ -136,7 +157,7 @@ def run(args: argparse.Namespace) -> int:
             reference=reference,
             settings=settings,
             name=name,
-            out_dir=args.out_dir,
+            out_dir=args.out,
             handles_path=args.handles,
             window_size=args.window_size,
         )

@@ -7,17 +7,19 @@ from __future__ import annotations
 import argparse
 import glob
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
 
 from .. import data
 from ..core.config import MLSConfig
+from ..errors import ImageWarning
 from ..files.atomic import atomic_write
-from ..files.images import imread, imwrite
+from ..files.images import DEFAULT_MAX_PIXELS, imread, imwrite
 from ..files.landmarks import read_handles, read_points
 from ..mls import MLS
-from .options import UsageError, positive_int
+from .options import UsageError, add_max_pixels, handle_warnings, positive_int
 
 __all__ = [
     "IMAGE_SUFFIXES",
@@ -27,6 +29,7 @@ __all__ = [
     "make_mls",
     "read_image",
     "say",
+    "warn_about_handles",
     "write_image",
 ]
 
@@ -51,13 +54,24 @@ def image_inputs(pattern: str) -> tuple[list[Path], bool]:
     return files, many
 
 
-def read_image(path: Path) -> np.ndarray:
+def read_image(path: Path, max_pixels: int = DEFAULT_MAX_PIXELS) -> np.ndarray:
     try:
-        return imread(path)
+        return _read(path, max_pixels)
     except FileNotFoundError:
         raise UsageError(f"{path}: no such file") from None
-    except (OSError, ValueError) as error:
-        raise UsageError(f"{path}: cannot read the image: {error}") from None
+    except ValueError as error:  # imread's messages name the file
+        raise UsageError(str(error)) from None
+    except OSError as error:
+        raise UsageError(f"{path}: cannot read the image: {error.strerror or error}") from None
+
+
+def _read(path: Path, max_pixels: int) -> np.ndarray:
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ImageWarning)
+        image = imread(path, max_pixels=max_pixels)
+    for warning in caught:
+        print(f"glmls: warning: {warning.message}", file=sys.stderr)
+    return image
 
 
 def write_image(path: Path, image: np.ndarray) -> None:
@@ -78,6 +92,12 @@ def say(args: argparse.Namespace, message: str) -> None:
         print(message, file=sys.stderr)
 
 
+def warn_about_handles(args: argparse.Namespace, src: np.ndarray, shape) -> None:
+    """Warnings on stderr (not errors) for handles that look like another convention."""
+    for message in handle_warnings(src, shape[:2]):
+        say(args, f"glmls {args.command}: warning: {message}")
+
+
 def add_example_inputs(parser: argparse.ArgumentParser, *, reference_required: bool) -> None:
     """IN, --handles, --reference, --example, --out, --analysis-grid and --cmap."""
     parser.add_argument("input", metavar="IN", nargs="?", help="the image")
@@ -92,6 +112,7 @@ def add_example_inputs(parser: argparse.ArgumentParser, *, reference_required: b
         "--example", action="store_true", help="use the bundled photograph, handles and points"
     )
     parser.add_argument("--out", metavar="DIR", required=True, help="output folder")
+    add_max_pixels(parser)
     parser.add_argument(
         "--analysis-grid",
         type=positive_int,
@@ -120,7 +141,7 @@ def example_or_files(args: argparse.Namespace, *, need_reference: bool):
         missing.append("--reference")
     if missing:
         raise UsageError(f"missing {', '.join(missing)} (or use --example)")
-    image = read_image(Path(args.input))
+    image = read_image(Path(args.input), args.max_pixels)
     src, dst = read_handles(args.handles)
     reference = read_points(args.reference) if args.reference else None
     return image, src, dst, reference, str(args.input)

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from ..errors import GLUnavailableError, InputFileError
 from ..version import __version__
 from . import analyze, bench, demo, tune, warp
-from .options import UsageError
+from .options import HelpFormatter, UsageError
 
 __all__ = ["EXIT_FAILURE", "EXIT_USAGE", "build_parser", "main"]
 
@@ -39,7 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
             help=command.HELP,
             description=command.HELP,
             epilog=textwrap.dedent(command.EXAMPLES),
-            formatter_class=argparse.RawDescriptionHelpFormatter,
+            formatter_class=HelpFormatter,
         )
         command.configure(sub)
         sub.add_argument(

@@ -8,14 +8,21 @@ import argparse
 import dataclasses
 import math
 
+import numpy as np
+
 from ..core.config import TRANSFORMS, WEIGHTS, MLSConfig
+from ..files.images import DEFAULT_MAX_PIXELS
 from ..imaging.source import INTERPOLATIONS, METHODS
 
 __all__ = [
+    "HelpFormatter",
     "UsageError",
     "add_config_options",
+    "add_max_pixels",
     "add_warp_options",
     "config_from_args",
+    "fit_background",
+    "handle_warnings",
     "parse_background",
     "positive_float",
     "positive_int",
@@ -27,6 +34,22 @@ _CHOICES = {"transform": TRANSFORMS, "weight": WEIGHTS}
 
 class UsageError(ValueError):
     """A mistake in the command line or its input files (exit status 2)."""
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Examples kept as written, and every option's default after its help (where it has one:
+    an option without a value of its own says what happens in its help)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        if default is None or default is False or default == argparse.SUPPRESS:
+            return text
+        if "%(default)" in text:
+            return text
+        if not action.option_strings:
+            return text
+        return f"{text} (default: %(default)s)"
 
 
 def positive_int(text: str) -> int:
@@ -63,8 +86,7 @@ def add_config_options(parser: argparse.ArgumentParser) -> None:
         elif f.name in _CHOICES:
             group.add_argument(flag, choices=_CHOICES[f.name], default=f.default, help=text)
         else:
-            default = f" (default {f.default:g})" if isinstance(f.default, float) else ""
-            group.add_argument(flag, type=float, default=f.default, help=text + default)
+            group.add_argument(flag, type=float, default=f.default, help=text)
 
 
 def config_from_args(args: argparse.Namespace) -> MLSConfig:
@@ -75,13 +97,75 @@ def config_from_args(args: argparse.Namespace) -> MLSConfig:
         raise UsageError(str(error)) from None
 
 
-def add_warp_options(parser: argparse.ArgumentParser) -> None:
+def add_warp_options(parser: argparse.ArgumentParser, *, grid: int = 1) -> None:
+    """--method, --interpolation and --grid (default ``grid``)."""
     group = parser.add_argument_group("image construction")
-    group.add_argument("--method", choices=METHODS, default="quads")
-    group.add_argument("--interpolation", choices=INTERPOLATIONS, default="nearest")
     group.add_argument(
-        "--grid", type=positive_int, default=1, help="mesh step in pixels (default 1)"
+        "--method",
+        choices=METHODS,
+        default="quads",
+        help="quads: forward with polygon interpolation; splat: simple forward; backward: "
+        "f's inverse; backward-swap: the swapped-handles shortcut, for comparison",
     )
+    group.add_argument(
+        "--interpolation",
+        choices=INTERPOLATIONS,
+        default="nearest",
+        help="nearest: one source pixel's value (no new colours); linear: bilinear",
+    )
+    group.add_argument("--grid", type=positive_int, default=grid, help="mesh step in pixels")
+
+
+def add_max_pixels(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--max-pixels",
+        type=positive_int,
+        default=DEFAULT_MAX_PIXELS,
+        metavar="N",
+        help="refuse input images of more pixels (a guard against decompression bombs)",
+    )
+
+
+def fit_background(background: float | tuple[float, ...], channels: int):
+    """``background`` for an image of ``channels`` channels in a batch of mixed images: a grey
+    image (C = 1, or 2 with alpha) takes a colour's first value (and its alpha, if given and
+    the image has one), an RGB image an RGBA background's colour."""
+    if not isinstance(background, tuple):
+        return background
+    has_alpha = channels in (2, 4)
+    colour = channels - has_alpha
+    if len(background) in (channels, colour):
+        return background
+    if colour == 1 and len(background) >= 3:
+        values = (background[0], *((background[3],) if has_alpha and len(background) == 4 else ()))
+        return values[0] if len(values) == 1 else values
+    if colour == 3 and len(background) == 4:
+        return background[:3]
+    return background
+
+
+def handle_warnings(src: np.ndarray, shape: tuple[int, int]) -> list[str]:
+    """Warnings for handles that look like another convention than pixels (x, y) = (column,
+    row) on an image of ``shape``: all within [0, 1] x [0, 1] (normalised coordinates), or
+    mostly outside the image (perhaps (row, column))."""
+    height, width = shape
+    if len(src) == 0:
+        return []
+    x, y = src[:, 0], src[:, 1]
+    if max(height, width) > 4 and (src >= 0).all() and (src <= 1).all():
+        return [
+            f"every handle lies within [0, 1] x [0, 1] of a {width} x {height} image: "
+            "normalised coordinates? glmls takes pixels, (x, y) = (column, row)"
+        ]
+    inside = (x >= -0.5) & (x <= width - 0.5) & (y >= -0.5) & (y <= height - 0.5)
+    if inside.mean() >= 0.5:
+        return []
+    swapped = (y >= -0.5) & (y <= width - 0.5) & (x >= -0.5) & (x <= height - 0.5)
+    hint = (
+        "; (row, column) order? glmls takes (x, y) = (column, row)" if swapped.mean() > 0.5 else ""
+    )
+    outside = int((~inside).sum())
+    return [f"{outside} of {len(src)} handles lie outside the {width} x {height} image{hint}"]
 
 
 def parse_background(text: str) -> float | tuple[float, ...]:

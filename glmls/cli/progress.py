@@ -1,8 +1,10 @@
-"""A small progress bar on stderr with the time left (no dependency)."""
+"""Progress on stderr: a bar with the time left for batches (:class:`Progress`), and a line
+every few seconds for one long step (:class:`Ticker`). No dependency."""
 
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from typing import TextIO
 
@@ -66,4 +68,62 @@ class Progress:
         if decile != self._last_decile:
             self._last_decile = decile
             self.stream.write(self.line() + "\n")
+            self.stream.flush()
+
+
+class Ticker:
+    """``with Ticker("analyze") as ticker: ... ticker.stage("pictures")``: silent for the first
+    ``after`` seconds, then a line every ``every`` seconds with the stage and the time spent
+    (one redrawn line on a terminal), so that a long single step shows it is working."""
+
+    def __init__(
+        self,
+        label: str,
+        *,
+        quiet: bool = False,
+        after: float = 2.0,
+        every: float = 5.0,
+        stream: TextIO | None = None,
+    ) -> None:
+        self.label = label
+        self.quiet = quiet
+        self.after = after
+        self.every = every
+        self.stream = stream if stream is not None else sys.stderr
+        self.current = ""
+        self._start = time.perf_counter()
+        self._done = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._printed = False
+        self._tty = bool(getattr(self.stream, "isatty", lambda: False)())
+
+    def stage(self, name: str) -> None:
+        self.current = name
+
+    def __enter__(self) -> Ticker:
+        self._start = time.perf_counter()
+        if not self.quiet:
+            self._thread = threading.Thread(target=self._run, daemon=True)
+            self._thread.start()
+        return self
+
+    def _run(self) -> None:
+        if self._done.wait(self.after):
+            return
+        while True:
+            elapsed = format_seconds(time.perf_counter() - self._start)
+            stage = f" {self.current}" if self.current else ""
+            line = f"{self.label}:{stage} ... {elapsed}"
+            self.stream.write(("\r" + line) if self._tty else line + "\n")
+            self.stream.flush()
+            self._printed = True
+            if self._done.wait(self.every):
+                return
+
+    def __exit__(self, *exc: object) -> None:
+        self._done.set()
+        if self._thread is not None:
+            self._thread.join()
+        if self._printed and self._tty:
+            self.stream.write("\n")
             self.stream.flush()

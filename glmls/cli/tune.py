@@ -12,7 +12,7 @@ from ..analysis.report import report
 from ..analysis.tune import MEASURES, label, parse_config, search_space, tune
 from ..core.config import MLSConfig
 from ..files.atomic import atomic_write
-from .inputs import add_example_inputs, example_or_files, make_mls, say
+from .inputs import add_example_inputs, example_or_files, make_mls, say, warn_about_handles
 from .options import UsageError, positive_int
 from .progress import Progress
 
@@ -27,8 +27,10 @@ examples:
 
 def configure(parser: argparse.ArgumentParser) -> None:
     add_example_inputs(parser, reference_required=True)
-    parser.add_argument("--trials", type=positive_int, default=5)
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--trials", type=positive_int, default=5, help="random deformations per configuration"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="seed of the random deformations")
     parser.add_argument(
         "--jitter",
         type=float,
@@ -42,7 +44,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="SPEC",
         help="transform:weight[:name=value,...], * for all (default: all 42)",
     )
-    parser.add_argument("--rank-by", choices=MEASURES, default="combined")
+    parser.add_argument(
+        "--rank-by",
+        choices=MEASURES,
+        default="combined",
+        help="combined: mls and angle, each relative to the best; or one measure alone",
+    )
 
 
 _TABLE_COLUMNS = (
@@ -80,6 +87,7 @@ def _csv_text(rows: list[dict]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     image, src, dst, reference, name = example_or_files(args, need_reference=True)
+    warn_about_handles(args, src, image.shape)
     shape = image.shape[:2]
     try:
         configs = (

@@ -1,54 +1,221 @@
-"""Reading and writing images with Pillow, keeping 16-bit PNGs 16-bit.
+"""Reading and writing images without loss of depth.
 
-Pillow keeps 16-bit greyscale PNGs (mode ``I;16``) but reduces 16-bit colour and grey+alpha
-PNGs to 8 bits, and cannot write them; those go through the small PNG codec below (zlib and
-numpy), so that a uint16 RGB(A) image survives ``imwrite`` then ``imread`` unchanged.
+- PNG: Pillow, except 16-bit colour and grey-with-alpha PNGs (Pillow reduces them to 8 bits),
+  which imagecodecs (libpng) decodes and encodes.
+- TIFF: tifffile (16-bit colour, float32, float64 as they are).
+- Everything else Pillow reads: JPEG, BMP, WebP, GIF, ...; the EXIF orientation is applied, and
+  an animated image gives its first frame with an :class:`~glmls.errors.ImageWarning`.
+
+A corrupt or truncated file raises ``ValueError`` naming the file; an image larger than
+``max_pixels`` (default :data:`DEFAULT_MAX_PIXELS`, the largest texture OpenGL drivers commonly
+take) raises ``ValueError`` before it is decoded.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import struct
+import threading
+import warnings
 import zlib
+from collections.abc import Iterator
+from pathlib import Path
 
+import imagecodecs
 import numpy as np
-from PIL import Image
+import tifffile
+from PIL import Image, ImageOps, UnidentifiedImageError
 
-_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-_COLOR_TYPES = {2: 3, 4: 2, 6: 4}  # 16-bit PNG colour types Pillow reduces -> channels
-_CHANNEL_TYPES = {2: 4, 3: 2, 4: 6}
+from ..errors import ImageWarning
+
+__all__ = ["DEFAULT_MAX_PIXELS", "WRITABLE", "check_writable", "imread", "imwrite"]
+
+#: Images of more pixels are refused unless ``max_pixels`` says otherwise: 16384 x 16384, the
+#: texture limit of common OpenGL drivers (a 4-channel float32 copy of it is 4 GB).
+DEFAULT_MAX_PIXELS = 16384 * 16384
+#: What each output suffix takes: dtypes, and whether an alpha channel fits.
+WRITABLE = {
+    ".png": (("uint8", "uint16"), True),
+    ".tif": (("uint8", "uint16", "float32", "float64"), True),
+    ".tiff": (("uint8", "uint16", "float32", "float64"), True),
+    ".jpg": (("uint8",), False),
+    ".jpeg": (("uint8",), False),
+    ".bmp": (("uint8",), True),
+    ".webp": (("uint8",), True),
+}
+_PNG = b"\x89PNG\r\n\x1a\n"
+_TIFF = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
+#: Decoding failures of a corrupt file, whichever library meets them.
+_CORRUPT = (
+    OSError,
+    SyntaxError,
+    ValueError,
+    EOFError,
+    IndexError,
+    KeyError,
+    struct.error,
+    zlib.error,
+    RuntimeError,
+    tifffile.TiffFileError,
+)
+_pillow_lock = threading.Lock()
 
 
-def imread(path: str | os.PathLike) -> np.ndarray:
-    """An image file as an array: H x W (grey) or H x W x C, uint8 or uint16 (16-bit PNG).
+def _too_large(path: Path, width: int, height: int, max_pixels: int) -> None:
+    if width * height > max_pixels:
+        raise ValueError(
+            f"{path}: {width} x {height} = {width * height:,} pixels exceeds the limit of "
+            f"{max_pixels:,} (raise it with max_pixels=, or glmls's --max-pixels)"
+        )
 
-    Palette and other modes are converted to RGB or RGBA.
+
+def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> np.ndarray:
+    """An image file as an array: H x W (grey) or H x W x C; uint8, uint16 (16-bit PNG and
+    TIFF), float32 or float64 (TIFF). Palette and other modes become RGB or RGBA.
+
+    ``FileNotFoundError``/``PermissionError`` for a missing or unreadable file, ``ValueError``
+    naming the file for a corrupt or unsupported one, or one of more than ``max_pixels``.
     """
+    path = Path(path)
     with open(path, "rb") as file:
-        head = file.read(26)
-    if head[:8] == _PNG_SIGNATURE and head[24] == 16 and head[25] in _COLOR_TYPES:
-        return _read_png16(path)
-    with Image.open(path) as image:
+        head = file.read(32)
+    try:
+        if head.startswith(_PNG) and len(head) >= 26 and head[24] == 16:
+            return _read_png16(path, head, max_pixels)
+        if head[:4] in _TIFF:
+            return _read_tiff(path, max_pixels)
+        return _read_pillow(path, max_pixels)
+    except _CORRUPT as error:
+        if isinstance(error, (FileNotFoundError, PermissionError, IsADirectoryError)):
+            raise
+        if isinstance(error, ValueError) and str(error).startswith(str(path)):
+            raise  # already ours
+        raise ValueError(f"{path}: not a readable image (corrupt or truncated?): {error}") from None
+
+
+def _read_png16(path: Path, head: bytes, max_pixels: int) -> np.ndarray:
+    width, height = struct.unpack(">II", head[16:24])
+    _too_large(path, width, height, max_pixels)
+    try:
+        return np.asarray(imagecodecs.png_decode(path.read_bytes()))
+    except (imagecodecs.PngError, UnicodeDecodeError) as error:
+        raise ValueError(f"{path}: corrupt or truncated 16-bit PNG ({error})") from None
+
+
+def _read_tiff(path: Path, max_pixels: int) -> np.ndarray:
+    with tifffile.TiffFile(path) as tiff:
+        page = tiff.pages[0]
+        shape = page.shape
+        _too_large(path, shape[1] if len(shape) > 1 else 1, shape[0], max_pixels)
+        if len(tiff.pages) > 1:
+            warnings.warn(
+                f"{path}: {len(tiff.pages)} pages; reading the first", ImageWarning, stacklevel=4
+            )
+        array = page.asarray()
+        orientation = page.tags.get("Orientation")
+        code = int(orientation.value) if orientation is not None else 1
+    if array.ndim == 3 and array.shape[0] in (3, 4) and array.shape[2] not in (1, 2, 3, 4):
+        array = np.moveaxis(array, 0, -1)  # planar storage
+    return _orient(np.ascontiguousarray(array), code)
+
+
+def _orient(array: np.ndarray, code: int) -> np.ndarray:
+    """Apply an EXIF/TIFF orientation (1 = as stored, 2-8 = flips and quarter turns)."""
+    flip, turns, transpose = {
+        2: (True, 0, False),
+        3: (False, 2, False),
+        4: (True, 2, False),
+        5: (False, 0, True),
+        6: (False, 3, False),
+        7: (True, 1, False),
+        8: (False, 1, False),
+    }.get(code, (False, 0, False))
+    if transpose:
+        return np.ascontiguousarray(np.swapaxes(array, 0, 1))
+    if flip:
+        array = array[:, ::-1]
+    return np.ascontiguousarray(np.rot90(array, turns)) if turns else array
+
+
+@contextlib.contextmanager
+def _pillow_limit(max_pixels: int) -> Iterator[None]:
+    """Pillow's own decompression-bomb limit set to ours while it opens the file (its warning
+    silenced: glmls checks the size itself)."""
+    with _pillow_lock, warnings.catch_warnings():
+        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+        saved = Image.MAX_IMAGE_PIXELS
+        Image.MAX_IMAGE_PIXELS = max_pixels
+        try:
+            yield
+        finally:
+            Image.MAX_IMAGE_PIXELS = saved
+
+
+def _read_pillow(path: Path, max_pixels: int) -> np.ndarray:
+    try:
+        with _pillow_limit(max_pixels):
+            image = Image.open(path)
+    except Image.DecompressionBombError as error:
+        raise ValueError(f"{path}: {error}") from None
+    except UnidentifiedImageError:
+        size = path.stat().st_size
+        with open(path, "rb") as file:
+            png = file.read(8) == _PNG
+        if png:
+            raise ValueError(f"{path}: corrupt or truncated PNG ({size} bytes)") from None
+        raise ValueError(f"{path}: not an image format glmls reads ({size} bytes)") from None
+    with image:
+        _too_large(path, *image.size, max_pixels)
+        frames = getattr(image, "n_frames", 1)
+        if frames > 1:
+            warnings.warn(f"{path}: {frames} frames; reading the first", ImageWarning, stacklevel=4)
         image.load()
-        mode = image.mode
-        if mode in ("I;16", "I;16B", "I;16L"):
-            return np.asarray(image).astype(np.uint16)
-        if mode == "I":
-            array = np.asarray(image)
-            if array.min() >= 0 and array.max() <= 65535:
-                return array.astype(np.uint16)
-            return array
-        if mode == "F":
-            return np.asarray(image, dtype=np.float32)
-        if mode not in ("L", "LA", "RGB", "RGBA"):
-            alpha = "A" in mode or "transparency" in image.info
-            image = image.convert("RGBA" if alpha else "RGB")
-        return np.asarray(image).copy()
+        oriented = ImageOps.exif_transpose(image) or image
+        return _as_array(oriented)
+
+
+def _as_array(image: Image.Image) -> np.ndarray:
+    mode = image.mode
+    if mode in ("I;16", "I;16B", "I;16L"):
+        return np.asarray(image).astype(np.uint16)
+    if mode == "I":
+        array = np.asarray(image)
+        if array.size and array.min() >= 0 and array.max() <= 65535:
+            return array.astype(np.uint16)
+        return array
+    if mode == "F":
+        return np.asarray(image, dtype=np.float32)
+    if mode not in ("L", "LA", "RGB", "RGBA"):
+        alpha = "A" in mode or "transparency" in image.info
+        image = image.convert("RGBA" if alpha else "RGB")
+    return np.asarray(image).copy()
+
+
+def _channels(array: np.ndarray) -> int:
+    return 1 if array.ndim == 2 else array.shape[2]
+
+
+def check_writable(path: str | os.PathLike, dtype: object = None, channels: int | None = None):
+    """``ValueError`` unless ``path``'s suffix names a format glmls writes, for ``dtype`` and
+    ``channels`` where given (call it before any work, then again with the image)."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in WRITABLE:
+        known = ", ".join(WRITABLE)
+        raise ValueError(f"{path}: unknown image format {suffix or '(no suffix)'}; use {known}")
+    dtypes, alpha = WRITABLE[suffix]
+    if dtype is not None and np.dtype(dtype).name not in dtypes:  # type: ignore[call-overload]
+        fits = [s for s, (d, _) in WRITABLE.items() if np.dtype(dtype).name in d]  # type: ignore[call-overload]
+        where = f"; write it as {' or '.join(fits)}" if fits else ""
+        raise ValueError(f"{path}: {suffix} cannot hold {np.dtype(dtype).name} images{where}")  # type: ignore[call-overload]
+    if channels is not None and channels in (2, 4) and not alpha:
+        raise ValueError(f"{path}: {suffix} has no alpha channel; write .png, .tif or .webp")
 
 
 def imwrite(path: str | os.PathLike, image: object) -> None:
-    """Write a uint8 or uint16 image (H x W or H x W x C, C in 1..4); the format follows the
-    file name. uint16 needs PNG (or TIFF for greyscale)."""
+    """Write an H x W or H x W x C image (C in 1..4): uint8 to any format of
+    :data:`WRITABLE`, uint16 to PNG or TIFF, float32 and float64 to TIFF. The format follows
+    the suffix; ``ValueError`` before writing anything where it cannot hold the image."""
     array = np.asarray(image)
     if array.ndim == 3 and array.shape[2] == 1:
         array = array[..., 0]
@@ -56,92 +223,15 @@ def imwrite(path: str | os.PathLike, image: object) -> None:
         raise ValueError(f"image must be H x W or H x W x C with C in 1..4, got {array.shape}")
     if array.size == 0:
         raise ValueError(f"image is empty: shape {array.shape}")
-    if array.dtype == np.uint16 and array.ndim == 3:
-        if not str(path).lower().endswith(".png"):
-            raise ValueError(f"16-bit colour images can only be written as PNG, not {path}")
-        _write_png16(path, array)
-        return
-    if array.dtype == np.uint16:
-        Image.fromarray(np.ascontiguousarray(array)).save(path)  # mode I;16
-        return
-    if array.dtype != np.uint8:
-        raise TypeError(
-            f"imwrite takes uint8 or uint16 images, got {array.dtype}; scale and convert first"
-        )
-    Image.fromarray(np.ascontiguousarray(array)).save(path)
-
-
-def _chunk(kind: bytes, data: bytes) -> bytes:
-    crc = zlib.crc32(kind + data) & 0xFFFFFFFF
-    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", crc)
-
-
-def _write_png16(path: str | os.PathLike, array: np.ndarray) -> None:
-    height, width, channels = array.shape
-    rows = np.ascontiguousarray(array, dtype=">u2").reshape(height, width * channels)
-    raw = np.concatenate([np.zeros((height, 1), np.uint8), rows.view(np.uint8)], axis=1)
-    header = struct.pack(">IIBBBBB", width, height, 16, _CHANNEL_TYPES[channels], 0, 0, 0)
-    with open(path, "wb") as file:
-        file.write(_PNG_SIGNATURE)
-        file.write(_chunk(b"IHDR", header))
-        file.write(_chunk(b"IDAT", zlib.compress(raw.tobytes(), 6)))
-        file.write(_chunk(b"IEND", b""))
-
-
-def _read_png16(path: str | os.PathLike) -> np.ndarray:
-    with open(path, "rb") as file:
-        data = file.read()
-    pos, idat, header = 8, [], b""
-    while pos < len(data):
-        (length,) = struct.unpack(">I", data[pos : pos + 4])
-        kind = data[pos + 4 : pos + 8]
-        body = data[pos + 8 : pos + 8 + length]
-        if kind == b"IHDR":
-            header = body
-        elif kind == b"IDAT":
-            idat.append(body)
-        elif kind == b"IEND":
-            break
-        pos += 12 + length
-    width, height, _, color_type, _, _, interlace = struct.unpack(">IIBBBBB", header)
-    if interlace:
-        raise ValueError(f"interlaced 16-bit colour PNGs are not supported: {path}")
-    channels = _COLOR_TYPES[color_type]
-    bpp = 2 * channels
-    stride = width * bpp
-    raw = np.frombuffer(zlib.decompress(b"".join(idat)), np.uint8).reshape(height, stride + 1)
-    out = np.zeros((height, stride), np.uint8)
-    prev = np.zeros(stride, np.uint8)
-    for r in range(height):
-        kind, line = raw[r, 0], raw[r, 1:]
-        if kind == 0:
-            row = line.copy()
-        elif kind == 1:  # Sub: a running sum per byte of the pixel, mod 256
-            row = np.cumsum(line.reshape(width, bpp), axis=0, dtype=np.uint64)
-            row = (row % 256).astype(np.uint8).ravel()
-        elif kind == 2:
-            row = line + prev
-        else:  # Average and Paeth depend on the left neighbour just decoded: pixel by pixel
-            row = _unfilter_sequential(kind, line.astype(np.int32), prev.astype(np.int32), bpp)
-        out[r] = row
-        prev = out[r]
-    return out.view(">u2").reshape(height, width, channels).astype(np.uint16)
-
-
-def _unfilter_sequential(kind: int, line: np.ndarray, prev: np.ndarray, bpp: int) -> np.ndarray:
-    row = np.zeros_like(line)
-    zero = np.zeros(bpp, np.int32)
-    for x in range(0, len(line), bpp):
-        left = row[x - bpp : x] if x else zero
-        up = prev[x : x + bpp]
-        if kind == 3:
-            predictor = (left + up) // 2
-        elif kind == 4:
-            upleft = prev[x - bpp : x] if x else zero
-            p = left + up - upleft
-            pa, pb, pc = np.abs(p - left), np.abs(p - up), np.abs(p - upleft)
-            predictor = np.where((pa <= pb) & (pa <= pc), left, np.where(pb <= pc, up, upleft))
-        else:
-            raise ValueError(f"bad PNG filter type {kind}")
-        row[x : x + bpp] = (line[x : x + bpp] + predictor) % 256
-    return row.astype(np.uint8)
+    check_writable(path, array.dtype, _channels(array))
+    suffix = Path(path).suffix.lower()
+    array = np.ascontiguousarray(array)
+    if suffix in (".tif", ".tiff"):
+        channels = _channels(array)
+        photometric = "rgb" if channels >= 3 else "minisblack"
+        extra = ["unassalpha"] if channels in (2, 4) else None
+        tifffile.imwrite(path, array, photometric=photometric, extrasamples=extra)
+    elif array.dtype == np.uint16:
+        Path(path).write_bytes(imagecodecs.png_encode(array, level=6))
+    else:
+        Image.fromarray(array).save(path)

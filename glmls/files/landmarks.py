@@ -74,6 +74,8 @@ def _load_json(path: Path) -> dict:
         data = json.loads(_read_text(path))
     except json.JSONDecodeError as error:
         raise _fail(path, f"line {error.lineno}", f"invalid JSON: {error.msg}") from None
+    except RecursionError:
+        raise _fail(path, "content", "JSON nested too deeply to be handles or points") from None
     if not isinstance(data, dict):
         raise _fail(path, "top level", f"expected a JSON object, got {type(data).__name__}")
     return data
@@ -82,7 +84,10 @@ def _load_json(path: Path) -> dict:
 def _csv_rows(path: Path) -> list[tuple[int, list[str]]]:
     """(line number, fields) of the non-blank rows."""
     reader = csv.reader(io.StringIO(_read_text(path)))
-    return [(reader.line_num, [f.strip() for f in row]) for row in reader if any(row)]
+    try:
+        return [(reader.line_num, [f.strip() for f in row]) for row in reader if any(row)]
+    except csv.Error as error:  # e.g. a field over csv's limit of 131,072 characters
+        raise _fail(path, f"line {reader.line_num}", f"not a CSV table: {error}") from None
 
 
 def _table(path: Path, rows, columns: int) -> np.ndarray:

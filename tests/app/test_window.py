@@ -114,7 +114,7 @@ def test_drag_moves_the_image_and_overlays_appear(tmp_path, square):
     result = demo(
         str(square), "--replay", str(events(tmp_path / "b.json", "m", "e", "s", "j")),
         "--screenshot", str(overlays), "--window-size", size, "--frames", "10",
-        "--out-dir", str(tmp_path / "saved"),
+        "--out", str(tmp_path / "saved"),
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
     shot = glmls.imread(overlays)

@@ -135,7 +135,7 @@ def test_usage_errors(inputs):
         (["analyze", "--out", "x"], "missing IN, --handles (or use --example)"),
         (["tune", "a.png", "--handles", "h.json", "--out", "x"], "missing --reference"),
         (["tune", "--example", "--out", "x", "--configs", "rigid"], "expected transform:weight"),
-        (["warp", "h.json", "o.png", "--handles", "h.json"], "cannot read the image"),
+        (["warp", "h.json", "o.png", "--handles", "h.json"], "h.json: not an image format"),
     ]:
         result = glmls_cli(*args, cwd=inputs)
         assert result.returncode == 2, (args, result.stderr)

@@ -1,16 +1,26 @@
-"""imread / imwrite keep dtypes and channels, 16-bit PNGs included."""
+"""imread / imwrite: dtypes and channels kept (16-bit PNG, 16-bit and float TIFF), EXIF
+orientation, animations, and every corrupt or oversized file a ValueError naming it."""
 
 from __future__ import annotations
 
 import struct
 import zlib
+from importlib import resources
 
 import numpy as np
 import pytest
 from numpy.testing import assert_array_equal
+from PIL import Image
 
 import glmls
-from glmls.files.images import _PNG_SIGNATURE, _chunk
+from glmls.errors import ImageWarning
+from glmls.files.images import check_writable
+
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+def chunk(kind: bytes, data: bytes) -> bytes:
+    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
 
 
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
@@ -24,7 +34,21 @@ def test_png_round_trip(tmp_path, rng, dtype, shape):
     assert_array_equal(back, img)
 
 
-def _encode_with_every_filter(img: np.ndarray, color_type: int) -> bytes:
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32, np.float64])
+@pytest.mark.parametrize("shape", [(5, 6), (5, 6, 2), (5, 6, 3), (5, 6, 4)])
+def test_tiff_round_trip(tmp_path, rng, dtype, shape):
+    if np.issubdtype(dtype, np.integer):
+        img = rng.integers(0, np.iinfo(dtype).max, shape, endpoint=True).astype(dtype)
+    else:
+        img = rng.normal(0, 100, shape).astype(dtype)
+    path = tmp_path / "image.tif"
+    glmls.imwrite(path, img)
+    back = glmls.imread(path)
+    assert back.dtype == dtype
+    assert_array_equal(back, img)
+
+
+def encode_with_every_filter(img: np.ndarray, color_type: int) -> bytes:
     """A 16-bit PNG whose rows cycle through the five filter types (as libpng may write)."""
     height, width, channels = img.shape
     bpp = 2 * channels
@@ -45,32 +69,96 @@ def _encode_with_every_filter(img: np.ndarray, color_type: int) -> bytes:
         out.append(bytes([kind]) + filtered.astype(np.uint8).tobytes())
         prev = line
     header = struct.pack(">IIBBBBB", width, height, 16, color_type, 0, 0, 0)
-    return (
-        _PNG_SIGNATURE
-        + _chunk(b"IHDR", header)
-        + _chunk(b"IDAT", zlib.compress(b"".join(out)))
-        + _chunk(b"IEND", b"")
-    )
+    idat = zlib.compress(b"".join(out))
+    return PNG + chunk(b"IHDR", header) + chunk(b"IDAT", idat) + chunk(b"IEND", b"")
 
 
 def test_16_bit_colour_png_with_every_filter(tmp_path, rng):
     img = rng.integers(0, 65535, (11, 6, 4), endpoint=True).astype(np.uint16)
     path = tmp_path / "filtered.png"
-    path.write_bytes(_encode_with_every_filter(img, 6))
+    path.write_bytes(encode_with_every_filter(img, 6))
     assert_array_equal(glmls.imread(path), img)
 
 
-def test_imwrite_rejects_what_it_cannot_keep(tmp_path):
-    with pytest.raises(TypeError, match="float32"):
-        glmls.imwrite(tmp_path / "a.png", np.zeros((2, 2), np.float32))
-    with pytest.raises(ValueError, match="PNG"):
-        glmls.imwrite(tmp_path / "a.jpg", np.zeros((2, 2, 3), np.uint16))
-    with pytest.raises(ValueError, match="empty"):
-        glmls.imwrite(tmp_path / "a.png", np.zeros((0, 2), np.uint8))
+def test_corrupt_files_are_value_errors_naming_the_file(tmp_path, rng):
+    whole = tmp_path / "whole.png"
+    glmls.imwrite(whole, rng.integers(0, 65535, (40, 30, 3)).astype(np.uint16))
+    jpeg = tmp_path / "photo.jpg"
+    Image.fromarray(rng.integers(0, 255, (64, 64, 3)).astype(np.uint8)).save(jpeg)
+    cases = {
+        "half16.png": whole.read_bytes()[: whole.stat().st_size // 2],
+        "signature.png": PNG,
+        "empty.png": b"",
+        "noise.png": rng.integers(0, 255, 300).astype(np.uint8).tobytes(),
+        "half.jpg": jpeg.read_bytes()[: jpeg.stat().st_size // 2],
+        "header.tif": b"II*\x00" + b"\x00" * 20,
+    }
+    for name, data in cases.items():
+        path = tmp_path / name
+        path.write_bytes(data)
+        with pytest.raises(ValueError, match=str(path)):
+            glmls.imread(path)
+    with pytest.raises(FileNotFoundError):
+        glmls.imread(tmp_path / "missing.png")
+
+
+def test_oversized_images_are_refused_before_decoding(tmp_path):
+    """A header that declares 20000 x 20000 pixels: refused at once, not a 1.6 GB decode."""
+    for depth in (8, 16):
+        header = struct.pack(">IIBBBBB", 20000, 20000, depth, 2, 0, 0, 0)
+        path = tmp_path / f"bomb{depth}.png"
+        path.write_bytes(PNG + chunk(b"IHDR", header) + chunk(b"IEND", b""))
+        with pytest.raises(ValueError, match=r"20000 x 20000 = 400,000,000 pixels exceeds"):
+            glmls.imread(path)
+    small = tmp_path / "small.png"
+    glmls.imwrite(small, np.zeros((10, 10), np.uint8))
+    with pytest.raises(ValueError, match="max_pixels"):
+        glmls.imread(small, max_pixels=50)
+    assert glmls.imread(small, max_pixels=100).shape == (10, 10)
+    assert Image.MAX_IMAGE_PIXELS != 50  # Pillow's own limit is left as it was
+
+
+def test_exif_orientation_is_applied(tmp_path):
+    """A JPEG stored landscape with orientation 6 (rotate 90 clockwise to view) reads
+    portrait, its first stored column now its first row."""
+    stored = np.zeros((40, 60, 3), np.uint8)
+    stored[:, :10] = 255  # a white band on the stored image's left
+    image = Image.fromarray(stored)
+    exif = image.getexif()
+    exif[0x0112] = 6
+    path = tmp_path / "rotated.jpg"
+    image.save(path, exif=exif, quality=100)
+    read = glmls.imread(path)
+    assert read.shape == (60, 40, 3)
+    assert read[:8].mean() > 200 and read[-8:].mean() < 50  # the band is now on top
+
+
+def test_animations_give_their_first_frame_with_a_warning(tmp_path):
+    frames = [Image.new("L", (8, 6), v) for v in (10, 200)]
+    path = tmp_path / "anim.gif"
+    frames[0].save(path, save_all=True, append_images=frames[1:])
+    with pytest.warns(ImageWarning, match="2 frames; reading the first"):
+        first = glmls.imread(path)
+    assert first.shape[:2] == (6, 8)
+
+
+def test_imwrite_refuses_what_it_cannot_keep_before_writing(tmp_path):
+    cases = [
+        ("a.png", np.zeros((2, 2), np.float32), r"\.png cannot hold float32.*\.tif"),
+        ("a.jpg", np.zeros((2, 2, 3), np.uint16), r"\.jpg cannot hold uint16.*\.png or \.tif"),
+        ("a.jpg", np.zeros((2, 2, 4), np.uint8), "no alpha channel"),
+        ("a.xyz", np.zeros((2, 2), np.uint8), r"unknown image format \.xyz"),
+        ("noext", np.zeros((2, 2), np.uint8), r"unknown image format \(no suffix\)"),
+        ("a.png", np.zeros((0, 2), np.uint8), "empty"),
+        ("a.tif", np.zeros((2, 2), np.int64), "cannot hold int64"),
+    ]
+    for name, image, message in cases:
+        with pytest.raises(ValueError, match=message):
+            glmls.imwrite(tmp_path / name, image)
+        assert not (tmp_path / name).exists()
+    check_writable("out.PNG", np.uint16, 4)  # suffixes in any case
 
 
 def test_reads_the_bundled_photograph():
-    from importlib import resources
-
     img = glmls.imread(resources.files("glmls") / "data" / "astronaut.jpg")
     assert img.shape == (512, 512, 3) and img.dtype == np.uint8
