@@ -28,15 +28,23 @@ from .analysis.stats import error_stats
 from .analysis.triangles import TriangleErrors, triangle_errors
 from .core import reference
 from .core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
-from .errors import ContextError, DegenerateHandlesError, GLUnavailableError, ReleasedError
+from .errors import (
+    BorderWarning,
+    ContextError,
+    DegenerateHandlesError,
+    GLUnavailableError,
+    ReleasedError,
+)
 from .files.images import imread, imwrite
 from .gl.context import GLContext, get_context
+from .imaging.frame import Bounds
 from .imaging.pipeline import WarpPipeline
-from .imaging.source import INTERPOLATIONS, METHODS
+from .imaging.source import BORDERS, INTERPOLATIONS, METHODS
 from .mls import MLS, warp
 from .version import __version__
 
 __all__ = [
+    "BORDERS",
     "INTERPOLATIONS",
     "METHODS",
     "MLS",
@@ -45,6 +53,8 @@ __all__ = [
     "VIRIDIS",
     "WEIGHTS",
     "AnalysisReport",
+    "BorderWarning",
+    "Bounds",
     "Canvas",
     "ContextError",
     "DegenerateHandlesError",

@@ -27,6 +27,12 @@ class InputFileError(ValueError):
     """A malformed input file; the message names the file, the line or entry, and the fault."""
 
 
+class BorderWarning(UserWarning):
+    """A border mode could not fill the whole output canvas: the canvas lies farther past
+    the image than the forward methods' mesh may reach (or f shrinks the plane that much);
+    the pixels beyond keep the background."""
+
+
 class ImageWarning(UserWarning):
     """An image was read, but not all of it (the first frame of an animation or of a
     multi-page TIFF)."""

@@ -23,7 +23,7 @@ from .engine.error_field import error_field as evaluate_error_field
 from .engine.kernel import DEFAULT_STORAGE, MLSKernel
 from .engine.passes import evaluate_lattice, evaluate_points
 from .gl.context import GLContext, current, get_context
-from .imaging.pipeline import WarpPipeline
+from .imaging.deformed import DeformedImages
 
 __all__ = ["MLS", "warp"]
 
@@ -42,7 +42,7 @@ def on_gpu(method: Callable[..., _R]) -> Callable[..., _R]:
     return wrapper
 
 
-class MLS:
+class MLS(DeformedImages):
     """A Moving Least Squares deformation from source handles ``src`` (p) to ``dst`` (q).
 
     Points are ``(x, y)`` = (column, row) rows of (N, 2) float arrays; pixel centres sit at
@@ -248,70 +248,6 @@ class MLS:
         lattice = MeshLattice.corners(shape, grid)  # validates shape and grid
         return evaluate_error_field(self._kernel, lattice.shape, grid=lattice.grid)
 
-    @on_gpu
-    def warp(
-        self,
-        image: object,
-        *,
-        method: str = "quads",
-        interpolation: str = "nearest",
-        grid: int = 1,
-        background: object = 0,
-    ) -> np.ndarray:
-        """The image deformed by f: a new array of ``image``'s shape and dtype.
-
-        ``image``: H x W or H x W x C (C in 1..4), uint8, uint16, float32 or float64 (computed
-        as float32). The output has the input's size; what f moves outside is cut off.
-
-        ``method``: ``"quads"`` (forward with polygon interpolation: the mesh of pixel-square
-        corners, step ``grid`` pixels, is deformed and each deformed quad filled);
-        ``"splat"`` (simple forward: each source pixel v written at round(f(v)), gaps and
-        all); ``"backward"`` (each output pixel u samples the source at s with f(s) = u,
-        Newton's method from the rasterized inverse of the mesh, ``grid`` that guess's mesh);
-        ``"backward-swap"`` (s = the MLS map with p and q swapped, the shortcut of other MLS
-        tools; only for comparison, it is not f's inverse).
-
-        ``interpolation``: ``"nearest"`` takes one source pixel's value (no new colours);
-        ``"linear"`` interpolates bilinearly (``splat`` ignores it). ``background``: what
-        uncovered pixels hold: a scalar, or one value per channel; images with alpha (C = 2
-        or 4) get alpha 0 there unless ``background`` gives it.
-
-        Fold-overs: where deformed quads overlap, the cell with the larger source row (then
-        column) is drawn last and shows; ``splat`` and ``backward`` follow the same order.
-        """
-        return WarpPipeline.of(self._gl).warp(
-            self,
-            image,
-            method=method,
-            interpolation=interpolation,
-            grid=grid,
-            background=background,
-        )
-
-    @on_gpu
-    def coordinate_map(
-        self,
-        shape: Sequence[int],
-        *,
-        method: str = "backward",
-        grid: int = 1,
-        residual: bool = False,
-    ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
-        """The (H, W, 2) float32 map from output pixels to source points (x, y): f's inverse.
-
-        For each output pixel u = (column, row), the source point s with f(s) = u, solved on
-        the GPU (``method="backward"``; ``"backward-swap"`` gives the swapped-handles shortcut
-        instead). Points outside the source image are kept (a remapper fills them with its
-        border value): ``cv2.remap(image, xy[..., 0], xy[..., 1], cv2.INTER_LINEAR)``, or per
-        channel ``skimage.transform.warp(channel, np.stack([xy[..., 1], xy[..., 0]]))``.
-
-        ``residual=True`` also returns |f(s) - u| per pixel (float32, pixels; NaN for
-        backward-swap). Newton stops below 1e-3 px; pixels where it ends above 0.05 px (no
-        inverse found) hold its last iterate.
-        """
-        xy, res, _ = WarpPipeline.of(self._gl).coordinate_map(self, shape, method=method, grid=grid)
-        return (xy, res) if residual else xy
-
     def release(self) -> None:
         """Free this object's GPU buffers. Safe to call twice; later use raises
         :class:`glmls.ReleasedError`."""
@@ -346,18 +282,26 @@ def _points(points: object) -> np.ndarray:
     return check_coordinates(as_points(points), "points")
 
 
-_WARP_OPTIONS = ("method", "interpolation", "grid", "background")
+_WARP_OPTIONS = (
+    "method",
+    "interpolation",
+    "grid",
+    "background",
+    "border",
+    "output_shape",
+    "origin",
+)
 
 
 def warp(image: object, src: object, dst: object, **options: object) -> np.ndarray:
     """Deform ``image`` by the MLS map taking handles ``src`` (p) to ``dst`` (q).
 
     ``options``: those of :meth:`MLS.warp` (``method``, ``interpolation``, ``grid``,
-    ``background``) and of :class:`MLS` (``transform``, ``weight``, ``alpha``, ``s``,
-    ``radius``, ``interpolating``, ``ctx``, ``storage``, ``bins``). The default radius is the
-    image diagonal. The MLS's GPU objects are released before returning (the context's
-    shared pipeline keeps its cached textures for the next call); keep an :class:`MLS` to
-    warp many images with the same handles.
+    ``background``, ``border``, ``output_shape``, ``origin``) and of :class:`MLS`
+    (``transform``, ``weight``, ``alpha``, ``s``, ``radius``, ``interpolating``, ``ctx``,
+    ``storage``, ``bins``). The default radius is the image diagonal. The MLS's GPU objects
+    are released before returning (the context's shared pipeline keeps its cached textures
+    for the next call); keep an :class:`MLS` to warp many images with the same handles.
     """
     warp_options = {k: options.pop(k) for k in _WARP_OPTIONS if k in options}
     array = np.asarray(image)

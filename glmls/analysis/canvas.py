@@ -17,6 +17,7 @@ from ..core.mesh import as_shape
 from ..errors import ReleasedError
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
+from ..gl.dispatch import set_uniforms
 from .colormaps import NAN_COLOR, as_color, color_limits, colormap
 from .shapes import arrow_triangles, disk_triangles, segment_triangles
 
@@ -262,7 +263,8 @@ class Canvas:
         data = np.concatenate([positions, rgba], axis=1).astype(np.float32)
         mgl = self._begin()
         program = self._gl.program("draw/geometry.vert.glsl", "draw/color.frag.glsl")
-        program["u_size"].value = (self.shape[1], self.shape[0])
+        # the program is shared (a window's overlays set another origin): set every uniform
+        set_uniforms(program, {"u_size": (self.shape[1], self.shape[0]), "u_origin": (0.0, 0.0)})
         program["u_flip_y"].value = False
         buffer = mgl.buffer(data.tobytes())
         vao = mgl.vertex_array(program, [(buffer, "2f 4f", "in_position", "in_color")])

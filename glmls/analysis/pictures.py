@@ -90,6 +90,13 @@ def render_triangulation(
         return canvas.read()
 
 
+def _origin(origin: object) -> np.ndarray:
+    point = np.asarray(origin, dtype=np.float64)
+    if point.shape != (2,) or not np.all(np.isfinite(point)):
+        raise ValueError(f"origin must be two finite numbers (x0, y0), got {origin!r}")
+    return point
+
+
 def _edges(points: np.ndarray, simplices: object) -> tuple[np.ndarray, np.ndarray]:
     """The distinct edges of the triangles, as endpoint arrays."""
     tri = np.asarray(simplices)
@@ -116,13 +123,15 @@ def render_triangle_errors(
     opacity: float = 0.7,
     edge_color: Sequence[float] | None = (0, 0, 0),
     width: float = 1.0,
+    origin: Sequence[float] = (0.0, 0.0),
     ctx: moderngl.Context | GLContext | None = None,
 ) -> np.ndarray:
     """Triangles filled with the colour of their ``which`` error (``"angle"``, eq. 11, or
     ``"distance"``, eq. 10) over ``image`` (Fig. 7 right).
 
     ``deformed``: draw the triangles at f(r) (over the deformed image, as in the paper) or at
-    r (over the input image). ``edge_color`` None leaves the edges out.
+    r (over the input image). ``edge_color`` None leaves the edges out. ``origin``: the
+    point that ``image``'s pixel (0, 0) shows (that of a warp's output canvas).
     """
     if which not in ("angle", "distance"):
         raise ValueError(f"which must be 'angle' or 'distance', got {which!r}")
@@ -133,7 +142,7 @@ def render_triangle_errors(
         values, cmap=cmap, vmin=vmin, vmax=vmax, percentile=percentile, nan_color=nan_color
     )
     rgb = as_rgb8(image)
-    points = errors.deformed_points if deformed else errors.points
+    points = (errors.deformed_points if deformed else errors.points) - _origin(origin)
     with Canvas(rgb.shape[:2], ctx=ctx) as canvas:
         canvas.image(rgb)
         canvas.triangles(points[errors.simplices], colors, opacity=opacity)
@@ -149,14 +158,17 @@ def render_mesh(
     *,
     color: Sequence[float] = (40, 40, 40),
     width: float = 1.0,
+    origin: Sequence[float] = (0.0, 0.0),
     ctx: moderngl.Context | GLContext | None = None,
 ) -> np.ndarray:
     """The lines of a deformed mesh (rows, columns, 2), e.g. ``MLS.mesh(...)[1]``, over
-    ``image``: a picture of f where no warped image is at hand."""
+    ``image``: a picture of f where no warped image is at hand. ``origin``: the point that
+    ``image``'s pixel (0, 0) shows."""
     rgb = as_rgb8(image)
     grid = np.asarray(deformed, dtype=np.float64)
     if grid.ndim != 3 or grid.shape[2] != 2 or min(grid.shape[:2]) < 2:
         raise ValueError(f"deformed must be a (rows, columns, 2) mesh, got {grid.shape}")
+    grid = grid - _origin(origin)
     a = np.concatenate([grid[:, :-1].reshape(-1, 2), grid[:-1, :].reshape(-1, 2)])
     b = np.concatenate([grid[:, 1:].reshape(-1, 2), grid[1:, :].reshape(-1, 2)])
     with Canvas(rgb.shape[:2], ctx=ctx) as canvas:

@@ -13,6 +13,7 @@ import numpy as np
 from PIL import Image
 
 from ..files.atomic import atomic_write
+from ..imaging.source import check_options
 from . import colormaps
 from .canvas import as_rgb8
 from .foldovers import foldovers
@@ -82,6 +83,8 @@ def report(
     method: str = "quads",
     interpolation: str = "nearest",
     warp_grid: int = 1,
+    border: str = "constant",
+    fit: bool = False,
     out_dir: str | Path | None = None,
     on_stage: Callable[[str], None] | None = None,
 ) -> AnalysisReport:
@@ -96,6 +99,10 @@ def report(
     ``triangle_angle`` or ``triangle_distance`` (``triangle_error``, Fig. 7 right: over the
     deformed image at f(r)), and a ``*_colorbar`` for each colour picture.
 
+    ``border``: the warp's border mode (:meth:`MLS.warp`); ``fit``: draw the deformed
+    pictures on the canvas that shows the whole deformed image (:meth:`MLS.bounds`) instead
+    of the input's frame.
+
     ``percentile`` / ``triangle_percentile``: robust upper bound of the colour scales (None:
     the maximum); the angular error of eq. (11) explodes near right angles, hence 95 there.
     ``out_dir``: also write ``report.json`` and the PNGs there. ``on_stage(name)`` is called
@@ -106,6 +113,7 @@ def report(
     shape = rgb.shape[:2]
     if triangle_error not in ("angle", "distance"):
         raise ValueError(f"triangle_error must be 'angle' or 'distance', got {triangle_error!r}")
+    check_options(method, interpolation, warp_grid, border)  # before the long stages
     timings: dict[str, float] = {}
     start = time.perf_counter()
 
@@ -121,8 +129,20 @@ def report(
 
     tick = time.perf_counter()
     stage("warp")
+    canvas = m.bounds(shape, grid=warp_grid) if fit else None
+    output_shape = shape if canvas is None else canvas.output_shape
+    origin = (0.0, 0.0) if canvas is None else canvas.origin
     deformed = as_rgb8(
-        m.warp(rgb, method=method, interpolation=interpolation, grid=warp_grid), "m.warp(image)"
+        m.warp(
+            rgb,
+            method=method,
+            interpolation=interpolation,
+            grid=warp_grid,
+            border=border,
+            output_shape=output_shape,
+            origin=origin,
+        ),
+        "m.warp(image)",
     )
     timings["warp"] = time.perf_counter() - tick
 
@@ -136,8 +156,9 @@ def report(
     images: dict[str, np.ndarray] = {"input_handles": render_handles(rgb, m.src, m.dst)}
     images["deformed"] = deformed
     _, mesh = m.mesh(shape, grid=mesh_grid)
+    blank = np.full((*output_shape, 3), 255, np.uint8)
     images["deformed_mesh"] = render_handles(
-        render_mesh(np.full_like(rgb, 255), mesh), m.src, m.dst
+        render_mesh(blank, mesh, origin=origin), m.src - origin, m.dst - origin
     )
     lo, hi = colormaps.color_limits(field, percentile=percentile)
     images["error_field"] = render_field(field, cmap=cmap, vmin=lo, vmax=hi)
@@ -155,6 +176,7 @@ def report(
         cmap=cmap,
         vmin=t_lo,
         vmax=t_hi,
+        origin=origin,
     )
     images[f"triangle_{triangle_error}_colorbar"] = colormaps.colorbar(
         cmap, t_lo, t_hi, length=max(64, shape[0] - 40), label=f"{triangle_error} error"
@@ -187,7 +209,14 @@ def report(
         "error_field": error_stats(field),
         "triangles": triangles.stats(),
         "foldovers": {"grid": warp_grid, "cells": folds},
-        "warp": {"method": method, "interpolation": interpolation, "grid": warp_grid},
+        "warp": {
+            "method": method,
+            "interpolation": interpolation,
+            "grid": warp_grid,
+            "border": border,
+            "output_shape": list(output_shape),
+            "origin": list(origin),
+        },
         "gl_renderer": m.ctx.mgl.info.get("GL_RENDERER"),
     }
     result = AnalysisReport(summary, images, field, triangles)

@@ -16,7 +16,7 @@ import numpy as np
 from ..core.config import MLSConfig, image_diagonal
 from ..core.handles import as_points
 from ..core.weights import WEIGHTS
-from ..imaging.source import check_options
+from ..imaging.source import BORDERS, check_options
 from .events import BUTTONS, Event, Key, Move, Press, Release
 
 __all__ = [
@@ -60,6 +60,8 @@ BINDINGS: tuple[tuple[tuple[str, ...], str, str], ...] = (
     (("c",), "construction", "cycle construction: quads nearest/linear, splat, backward"),
     (("g",), "grid_finer", "finer grid (step / 2)"),
     (("G",), "grid_coarser", "coarser grid (step x 2)"),
+    (("b",), "border", f"cycle border: {', '.join(BORDERS)}"),
+    (("o",), "fit", "fit view: the whole deformed image / the input's frame"),
     (("h",), "overlay_handles", "overlay: handles (p -> q arrows)"),
     (("m",), "overlay_mesh", "overlay: deformed mesh wireframe"),
     (("e",), "overlay_error", "overlay: MLS error field (eq. 7)"),
@@ -83,17 +85,22 @@ _ACTIONS = {key: action for keys, action, _ in BINDINGS for key in keys}
 
 @dataclass(frozen=True)
 class Settings:
-    """What the window shows: the MLS configuration and the image construction."""
+    """What the window shows: the MLS configuration, the image construction, and whether
+    the view fits the whole deformed image (``fit``) or shows the input's frame."""
 
     config: MLSConfig = field(default_factory=MLSConfig)
     method: str = "quads"
     interpolation: str = "nearest"
     grid: int = 4
+    border: str = "constant"
+    fit: bool = False
 
     def __post_init__(self) -> None:
         if not isinstance(self.config, MLSConfig):
             raise TypeError(f"config must be an MLSConfig, got {type(self.config).__name__}")
-        check_options(self.method, self.interpolation, self.grid)
+        check_options(self.method, self.interpolation, self.grid, self.border)
+        if not isinstance(self.fit, bool):
+            raise TypeError(f"fit must be True or False, got {self.fit!r}")
 
     def parameter(self, shape: tuple[int, int]) -> str:
         """The weight's parameter as text, e.g. ``alpha 1.25`` or ``R 362 px``."""
@@ -341,6 +348,12 @@ class Controller:
 
     def _do_grid_coarser(self) -> None:
         self._grid(+1)
+
+    def _do_border(self) -> None:
+        self._configure(border=_next(BORDERS, self.settings.border))
+
+    def _do_fit(self) -> None:
+        self._configure(fit=not self.settings.fit)
 
     def _do_reference_mode(self) -> None:
         self._release()

@@ -71,6 +71,8 @@ def readout(
         f"weight     {s.config.weight}, {s.parameter(shape)}   (w, +/-)",
         f"construct  {s.method} {s.interpolation}   (c)",
         f"grid       {s.grid} px   (g/G)",
+        f"border     {s.border}   (b)",
+        f"view       {'fit: whole deformed image' if s.fit else 'input frame'}   (o)",
         f"handles    {len(c.src)}   reference {len(c.reference)}",
         f"mode       {'REFERENCE POINTS' if c.reference_mode else 'handles'}   (p)",
         f"overlays   {' '.join(on) or 'none'}",

@@ -19,12 +19,15 @@ MIN_IMAGE_SHARE = 0.5
 @dataclass(frozen=True)
 class Layout:
     """The image's viewport ``(x, y, width, height)`` in framebuffer pixels (GL's origin,
-    bottom left) for an image of ``shape`` (H, W), and the panel's width."""
+    bottom left) for a canvas of ``shape`` (H, W) whose pixel (0, 0) is image point
+    ``origin`` (the input's frame: (0, 0); the fit view: the deformed image's bounds), and
+    the panel's width."""
 
     framebuffer: tuple[int, int]
     viewport: tuple[int, int, int, int]
     panel: int
     shape: tuple[int, int]
+    origin: tuple[float, float] = (0.0, 0.0)
 
     @property
     def scale(self) -> float:
@@ -42,18 +45,26 @@ class Layout:
         vx, vy, _, vh = self.viewport
         top = self.framebuffer[1] - (vy + vh)  # the viewport's top row, counted from the top
         sx, sy = self._scales
-        return (fx - vx) / sx - 0.5, (fy - top) / sy - 0.5
+        ox, oy = self.origin
+        return (fx - vx) / sx - 0.5 + ox, (fy - top) / sy - 0.5 + oy
 
     def to_framebuffer(self, x: float, y: float) -> tuple[float, float]:
         """Framebuffer position (y down) of image point (x, y)."""
         vx, vy, _, vh = self.viewport
         top = self.framebuffer[1] - (vy + vh)
         sx, sy = self._scales
-        return vx + (x + 0.5) * sx, top + (y + 0.5) * sy
+        ox, oy = self.origin
+        return vx + (x - ox + 0.5) * sx, top + (y - oy + 0.5) * sy
 
 
-def layout(framebuffer: tuple[int, int], shape: tuple[int, int], panel: int) -> Layout:
-    """Fit an image of ``shape`` (H, W) beside a ``panel`` pixels wide, keeping its aspect."""
+def layout(
+    framebuffer: tuple[int, int],
+    shape: tuple[int, int],
+    panel: int,
+    origin: tuple[float, float] = (0.0, 0.0),
+) -> Layout:
+    """Fit a canvas of ``shape`` (H, W) from image point ``origin`` beside a ``panel``
+    pixels wide, keeping its aspect."""
     fb_width, fb_height = max(int(framebuffer[0]), 1), max(int(framebuffer[1]), 1)
     height, width = shape
     if fb_width - panel < MIN_IMAGE_SHARE * fb_width:
@@ -63,4 +74,4 @@ def layout(framebuffer: tuple[int, int], shape: tuple[int, int], panel: int) -> 
     vw, vh = max(round(width * scale), 1), max(round(height * scale), 1)
     vx = panel + (area - vw) // 2
     vy = (fb_height - vh) // 2
-    return Layout((fb_width, fb_height), (vx, vy, vw, vh), panel, (height, width))
+    return Layout((fb_width, fb_height), (vx, vy, vw, vh), panel, (height, width), origin)

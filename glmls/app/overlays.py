@@ -17,6 +17,8 @@ from ..analysis.colormaps import apply_colormap, color_limits
 from ..analysis.shapes import arrow_triangles, disk_triangles
 from ..gl import bindings
 from ..gl.context import GLContext
+from ..gl.dispatch import set_uniforms
+from ..imaging.frame import Frame
 from .vertices import StreamingVertices
 
 __all__ = [
@@ -117,16 +119,18 @@ def triangle_geometry(
 
 
 class GeometryDrawer:
-    """Draws x, y, r, g, b, a vertex rows (image pixels) into the current viewport."""
+    """Draws x, y, r, g, b, a vertex rows (image pixels) into the current viewport, which
+    shows the canvas :attr:`frame` (the image's own by default)."""
 
     def __init__(self, gl: GLContext, shape: tuple[int, int]) -> None:
         self._gl = gl
-        self._shape = shape
         self._program = gl.program("draw/geometry.vert.glsl", "draw/color.frag.glsl")
         self._vertices = StreamingVertices(gl, self._program, "2f 4f", "in_position", "in_color")
+        self.frame = Frame(shape)
 
     def draw(self, vertices: np.ndarray, mode: int = moderngl.TRIANGLES) -> None:
-        self._program["u_size"].value = (self._shape[1], self._shape[0])
+        self._program["u_size"].value = self.frame.size
+        set_uniforms(self._program, {"u_origin": self.frame.origin})
         self._program["u_flip_y"].value = True  # image row 0 at the top of the window
         self._vertices.draw(vertices, mode)
 
@@ -135,17 +139,27 @@ class GeometryDrawer:
 
 
 class PictureDrawer:
-    """An offscreen RGBA picture of the image's size, scaled onto the current viewport."""
+    """An offscreen RGBA picture of a canvas's size (:meth:`resize`), scaled onto the
+    current viewport."""
 
     def __init__(self, gl: GLContext, shape: tuple[int, int]) -> None:
         self._gl = gl
-        mgl = gl.mgl
-        height, width = shape
-        self.texture = mgl.texture((width, height), 4)
-        self.texture.repeat_x = self.texture.repeat_y = False
-        self.framebuffer = mgl.framebuffer(color_attachments=[self.texture])
         self._program = gl.program("common/fullscreen.vert.glsl", "draw/picture.frag.glsl")
-        self._vao = mgl.vertex_array(self._program, [])
+        self._vao = gl.mgl.vertex_array(self._program, [])
+        self._make(shape)
+
+    def _make(self, shape: tuple[int, int]) -> None:
+        height, width = shape
+        self.texture = self._gl.mgl.texture((width, height), 4)
+        self.texture.repeat_x = self.texture.repeat_y = False
+        self.framebuffer = self._gl.mgl.framebuffer(color_attachments=[self.texture])
+
+    def resize(self, shape: tuple[int, int]) -> None:
+        """A picture of ``shape`` (H, W) from now on (its texture made again on change)."""
+        if self.texture.size != (shape[1], shape[0]):
+            self.framebuffer.release()
+            self.texture.release()
+            self._make(shape)
 
     def draw(self, *, opacity: float = 1.0, linear: bool = False) -> None:
         mgl = self._gl.mgl

@@ -16,6 +16,8 @@ from ..analysis.foldovers import folded_cells
 from ..analysis.stats import error_stats
 from ..analysis.triangles import triangle_errors
 from ..gl.context import GLContext
+from ..imaging.frame import Bounds, Frame
+from ..imaging.pipeline import WarpPipeline
 from ..mls import MLS
 from .controller import Controller
 from .overlays import fold_geometry, mesh_lines, triangle_geometry
@@ -55,6 +57,9 @@ class Session:
         self.timings: dict[str, float] = {}
         self._config_key: object = None
         self._reference: tuple[tuple, np.ndarray] = ((), np.zeros((0, 2)))
+        #: What the view shows: the input's frame, or with ``fit`` the deformed image's
+        #: bounds joined with the input's frame (so that the handles stay in view).
+        self.canvas = Frame(shape)
 
     def sync(self) -> None:
         """Bring the MLS up to the controller's revision: a new MLS when the configuration
@@ -77,7 +82,22 @@ class Session:
         except ValueError as error:  # includes DegenerateHandlesError: keep the last valid f
             self.error = str(error)
         self.revision = c.revision
+        self.canvas = self._canvas()
         self.timings["handles"] = time.perf_counter() - start
+
+    def _canvas(self) -> Frame:
+        s, m = self.controller.settings, self.mls
+        if not s.fit or m is None:
+            return Frame(self.shape)
+        b = m.bounds(self.shape, grid=s.grid)
+        height, width = self.shape
+        limit = WarpPipeline.of(self.gl).max_image_size
+        joined = Bounds(
+            min(b.x0, -0.5), min(b.y0, -0.5), max(b.x1, width - 0.5), max(b.y1, height - 0.5)
+        )
+        if max(joined.output_shape) > limit:  # f blows the image up past the GL limit
+            return Frame(self.shape)
+        return joined.frame
 
     def analyse(self, scale: float) -> Analysis:
         """The analysis overlays that are on, for the view's ``scale`` (framebuffer pixels

@@ -122,7 +122,8 @@ class View:
                 if analysis.key != self._field_key:  # upload once per analysis
                     self._field = self._texture(analysis.field_colours, self._field)
                     self._field_key = analysis.key
-                self._offscreen(self.field_picture, self._field, session, s)
+                # the field is f's on the image only: nothing past its border
+                self._offscreen(self.field_picture, self._field, session, s, "constant")
                 screen.use()
                 screen.viewport = layout.viewport
                 self.field_picture.draw(opacity=FIELD_OPACITY, linear=True)
@@ -139,6 +140,7 @@ class View:
                 self.text.draw(text, framebuffer)
 
     def _draw_image(self, screen, layout: Layout, session: Session, s: Settings) -> None:
+        self.geometry.frame = session.canvas
         if s.method == "quads" and s.interpolation == "linear":
             # drawn at the screen's resolution: bilinear detail where the window magnifies.
             # Nearest quads go through the picture: the compute scan conversion writes it
@@ -152,14 +154,17 @@ class View:
                 interpolation=s.interpolation,
                 grid=s.grid,
                 flip_y=True,
+                border=s.border,
+                frame=session.canvas,
             )
             return
-        self._offscreen(self.picture, self.source, session, s)
+        self._offscreen(self.picture, self.source, session, s, s.border)
         screen.use()
         screen.viewport = layout.viewport
         self.picture.draw(opacity=1.0, linear=False)
 
-    def _offscreen(self, picture: PictureDrawer, source, session: Session, s: Settings) -> None:
+    def _offscreen(self, picture: PictureDrawer, source, session: Session, s, border) -> None:
+        picture.resize(session.canvas.shape)
         picture.framebuffer.use()
         picture.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
         self.pipeline.render(
@@ -170,6 +175,8 @@ class View:
             interpolation=s.interpolation,
             grid=s.grid,
             flip_y=False,
+            border=border,
+            frame=session.canvas,
         )
 
     def next_frame(self, frames: int) -> None:

@@ -152,9 +152,17 @@ class App:
         mls = self.session.mls if self.window is not None else None
         if mls is None:
             raise ValueError("no valid deformation to save")
-        s = self.controller.settings
+        s, canvas = self.controller.settings, self.session.canvas
         image = self.image if self.image.dtype in (np.uint8, np.uint16) else self.display
-        out = mls.warp(image, method=s.method, interpolation=s.interpolation, grid=s.grid)
+        out = mls.warp(
+            image,
+            method=s.method,
+            interpolation=s.interpolation,
+            grid=s.grid,
+            border=s.border,
+            output_shape=canvas.shape,
+            origin=canvas.origin,
+        )
         if out.dtype not in (np.uint8, np.uint16):
             out = np.round(np.clip(out, 0, 1) * 255).astype(np.uint8)
         with atomic_write(path) as tmp:  # creates the folder; whole file or none
@@ -196,8 +204,9 @@ class App:
         size = max(8, round(TEXT_SIZE * window.content_scale * window.pixel_ratio))
         text = self.view.text_renderer(size)
         panel = round(PANEL_CHARS * text.atlas.advance["M"]) + 24
-        self.layout = layout(framebuffer, self.shape, panel)
         self.session.sync()
+        canvas = self.session.canvas
+        self.layout = layout(framebuffer, canvas.shape, panel, canvas.origin)
         analysis = self.session.analyse(self.layout.scale)
         quads = text_quads(
             text.atlas,

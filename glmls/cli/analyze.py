@@ -5,7 +5,14 @@ from __future__ import annotations
 import argparse
 
 from ..analysis.report import report
-from .inputs import add_example_inputs, example_or_files, make_mls, say, warn_about_handles
+from .inputs import (
+    add_example_inputs,
+    example_or_files,
+    make_mls,
+    reported_warnings,
+    say,
+    warn_about_handles,
+)
 from .options import UsageError, add_config_options, add_warp_options, config_from_args
 from .progress import Ticker
 
@@ -30,7 +37,8 @@ def run(args: argparse.Namespace) -> int:
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")
         reference = src
-    with make_mls(src, dst, config, image.shape) as m, Ticker("analyze", quiet=args.quiet) as tick:
+    ticker = Ticker("analyze", quiet=args.quiet)
+    with make_mls(src, dst, config, image.shape) as m, ticker as tick, reported_warnings("analyze"):
         try:
             result = report(
                 image,
@@ -40,6 +48,8 @@ def run(args: argparse.Namespace) -> int:
                 method=args.method,
                 interpolation=args.interpolation,
                 warp_grid=args.grid,
+                border=args.border,
+                fit=args.fit,
                 cmap=args.cmap,
                 on_stage=tick.stage,
             )

@@ -149,6 +149,8 @@ def run(args: argparse.Namespace) -> int:
             method=method,
             interpolation=interpolation,
             grid=args.grid,
+            border=args.border,
+            fit=args.fit,
         )
         app = App(
             image,

@@ -5,16 +5,18 @@ example, handle and reference files, and the MLS they make. Every mistake is a
 from __future__ import annotations
 
 import argparse
+import contextlib
 import glob
 import sys
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
 from .. import data
 from ..core.config import MLSConfig
-from ..errors import ImageWarning
+from ..errors import BorderWarning, ImageWarning
 from ..files.atomic import atomic_write
 from ..files.images import DEFAULT_MAX_PIXELS, imread, imwrite
 from ..files.landmarks import read_handles, read_points
@@ -72,6 +74,17 @@ def _read(path: Path, max_pixels: int) -> np.ndarray:
     for warning in caught:
         print(f"glmls: warning: {warning.message}", file=sys.stderr)
     return image
+
+
+@contextlib.contextmanager
+def reported_warnings(prefix: str) -> Iterator[None]:
+    """glmls's warnings inside the block (a border mode that could not fill the canvas) as
+    one line each on stderr, ``prefix: warning: ...``, instead of Python's two."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", BorderWarning)
+        yield
+    for warning in caught:
+        print(f"{prefix}: warning: {warning.message}", file=sys.stderr)
 
 
 def write_image(path: Path, image: np.ndarray) -> None:

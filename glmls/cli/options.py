@@ -12,7 +12,7 @@ import numpy as np
 
 from ..core.config import TRANSFORMS, WEIGHTS, MLSConfig
 from ..files.images import DEFAULT_MAX_PIXELS
-from ..imaging.source import INTERPOLATIONS, METHODS
+from ..imaging.source import BORDERS, INTERPOLATIONS, METHODS
 
 __all__ = [
     "HelpFormatter",
@@ -98,7 +98,7 @@ def config_from_args(args: argparse.Namespace) -> MLSConfig:
 
 
 def add_warp_options(parser: argparse.ArgumentParser, *, grid: int = 1) -> None:
-    """--method, --interpolation and --grid (default ``grid``)."""
+    """--method, --interpolation, --grid (default ``grid``), --border and --fit."""
     group = parser.add_argument_group("image construction")
     group.add_argument(
         "--method",
@@ -114,6 +114,20 @@ def add_warp_options(parser: argparse.ArgumentParser, *, grid: int = 1) -> None:
         help="nearest: one source pixel's value (no new colours); linear: bilinear",
     )
     group.add_argument("--grid", type=positive_int, default=grid, help="mesh step in pixels")
+    group.add_argument(
+        "--border",
+        choices=BORDERS,
+        default="constant",
+        help="what lies beyond the image (numpy.pad's names): constant: the background; "
+        "edge: the edge pixels repeated; symmetric: mirrored with them; reflect: mirrored "
+        "about them; wrap: the image repeated",
+    )
+    group.add_argument(
+        "--fit",
+        action="store_true",
+        help="show the whole deformed image: the output canvas grows to its bounds, so "
+        "nothing is cut off (default: the input's size and place)",
+    )
 
 
 def add_max_pixels(parser: argparse.ArgumentParser) -> None:

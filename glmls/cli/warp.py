@@ -8,7 +8,15 @@ from pathlib import Path
 
 from ..files.images import check_writable
 from ..files.landmarks import read_handles
-from .inputs import image_inputs, make_mls, read_image, say, warn_about_handles, write_image
+from .inputs import (
+    image_inputs,
+    make_mls,
+    read_image,
+    reported_warnings,
+    say,
+    warn_about_handles,
+    write_image,
+)
 from .options import (
     UsageError,
     add_config_options,
@@ -25,6 +33,8 @@ EXAMPLES = """
 examples:
   glmls warp photo.png out.png --handles handles.json --transform similarity
   glmls warp 'frames/*.png' warped/ --handles landmarks.csv --method backward --keep-going
+  glmls warp photo.png out.png --handles handles.json --border edge
+  glmls warp photo.png whole.png --handles handles.json --fit
 """
 
 
@@ -92,11 +102,20 @@ def run(args: argparse.Namespace) -> int:
                     "interpolation": args.interpolation,
                     "grid": args.grid,
                     "background": fit_background(args.background, channels),
+                    "border": args.border,
                 }
                 with make_mls(src, dst, config, image.shape) as m:
-                    with Ticker(f"warp {source}", quiet=args.quiet or many):
+                    ticker = Ticker(f"warp {source}", quiet=args.quiet or many)
+                    with ticker, reported_warnings(f"glmls warp: {source}"):
                         try:
+                            if args.fit:
+                                bounds = m.bounds(image.shape, grid=args.grid)
+                                options["output_shape"] = bounds.output_shape
+                                options["origin"] = bounds.origin
                             result = m.warp(image, **options)
+                            if args.fit and not many:
+                                (h, w), (x0, y0) = bounds.output_shape, bounds.origin
+                                say(args, f"warp: {w} x {h} pixels from ({x0:g}, {y0:g})")
                         except (TypeError, ValueError) as error:
                             raise UsageError(f"{source}: {error}") from None
                 write_image(target, result)

@@ -8,9 +8,14 @@ Two kinds, both for an image of ``shape`` (H, W) with pixel centres at integer c
 - ``centres``: the pixel centres x = 0 .. W - 1, y = 0 .. H - 1 (the simple forward method
   and the error field at ``grid`` = 1).
 
+A ``margin`` of m pixels extends either kind by m pixels past every side of the image (the
+border modes of the forward methods: the source continues there by the border rule). The
+``shape`` stays the image's, so that f (its default radius) does not depend on the margin.
+
 Every pass asks a :class:`MeshLattice` for its sizes, bands and uniforms instead of working
 them out again; the shaders compute point (i, j) as ``min(origin + (i, j) step, last)``
-(``glmls/shaders/mls/lattice.glsl``), so that vertices shared by two bands are identical.
+(``glmls/shaders/mls/lattice.glsl``), so that vertices shared by two bands are identical;
+the image passes use the lattice's own pixels (``glmls/shaders/common/lattice.glsl``).
 """
 
 from __future__ import annotations
@@ -23,11 +28,13 @@ import numpy as np
 
 from .handles import Scaling
 
-__all__ = ["KINDS", "MAX_GRID", "MeshLattice", "as_shape", "check_grid"]
+__all__ = ["KINDS", "MAX_GRID", "MAX_MARGIN", "MeshLattice", "as_shape", "check_grid"]
 
 KINDS = ("corners", "centres")
 #: The largest mesh step (pixels): beyond any image side, and the shaders' integers hold it.
 MAX_GRID = 1 << 20
+#: The largest margin (pixels) past the image: the shaders' integers hold the lattice's sides.
+MAX_MARGIN = 1 << 24
 
 
 def as_shape(shape: object) -> tuple[int, int]:
@@ -56,12 +63,13 @@ def check_grid(grid: object) -> int:
 @dataclass(frozen=True)
 class MeshLattice:
     """The evaluation lattice of an image of ``shape`` (H, W): ``corners`` every ``grid``
-    pixels, or the pixel ``centres`` (``grid`` 1). Build with :meth:`corners` or
-    :meth:`centres`, which validate."""
+    pixels, or the pixel ``centres`` (``grid`` 1), ``margin`` pixels past every side. Build
+    with :meth:`corners` or :meth:`centres`, which validate."""
 
     shape: tuple[int, int]
     grid: int = 1
     kind: str = "corners"
+    margin: int = 0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "shape", as_shape(self.shape))
@@ -70,21 +78,44 @@ class MeshLattice:
             raise ValueError(f"kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
         if self.kind == "centres" and self.grid != 1:
             raise ValueError("the lattice of pixel centres has grid 1")
+        margin = self.margin
+        if (
+            isinstance(margin, bool)
+            or not isinstance(margin, (int, np.integer))
+            or not 0 <= margin <= MAX_MARGIN
+        ):
+            raise ValueError(f"margin must be an integer from 0 to {MAX_MARGIN}, got {margin!r}")
+        object.__setattr__(self, "margin", int(margin))
 
     @classmethod
-    def corners(cls, shape: object, grid: object = 1) -> MeshLattice:
-        return cls(shape, grid, "corners")  # type: ignore[arg-type]
+    def corners(cls, shape: object, grid: object = 1, *, margin: int = 0) -> MeshLattice:
+        return cls(shape, grid, "corners", margin)  # type: ignore[arg-type]
 
     @classmethod
-    def centres(cls, shape: object) -> MeshLattice:
-        return cls(shape, 1, "centres")  # type: ignore[arg-type]
+    def centres(cls, shape: object, *, margin: int = 0) -> MeshLattice:
+        return cls(shape, 1, "centres", margin)  # type: ignore[arg-type]
+
+    def with_margin(self, margin: int) -> MeshLattice:
+        """This lattice extended ``margin`` pixels past every side of the image."""
+        return MeshLattice(self.shape, self.grid, self.kind, margin)
 
     # -- geometry in pixels ---------------------------------------------------------------
 
     @property
+    def padded_shape(self) -> tuple[int, int]:
+        """(H, W) of the lattice's pixel domain: the image and its margin."""
+        height, width = self.shape
+        return height + 2 * self.margin, width + 2 * self.margin
+
+    @property
+    def offset(self) -> tuple[int, int]:
+        """(x, y) of the image pixel that is the lattice's pixel (0, 0)."""
+        return -self.margin, -self.margin
+
+    @property
     def dims(self) -> tuple[int, int]:
         """(points per row, rows)."""
-        height, width = self.shape
+        height, width = self.padded_shape
         if self.kind == "centres":
             return width, height
         return math.ceil(width / self.grid) + 1, math.ceil(height / self.grid) + 1
@@ -102,16 +133,16 @@ class MeshLattice:
 
     @property
     def origin(self) -> tuple[float, float]:
-        """Point (0, 0), pixels."""
-        return (0.0, 0.0) if self.kind == "centres" else (-0.5, -0.5)
+        """Point (0, 0), image pixels."""
+        first = -float(self.margin) - (0.0 if self.kind == "centres" else 0.5)
+        return first, first
 
     @property
     def last(self) -> tuple[float, float]:
-        """The last point of the last row, pixels: every coordinate is clamped to it."""
+        """The last point of the last row, image pixels: every coordinate is clamped to it."""
         height, width = self.shape
-        if self.kind == "centres":
-            return width - 1.0, height - 1.0
-        return width - 0.5, height - 0.5
+        end = self.margin - (1.0 if self.kind == "centres" else 0.5)
+        return width + end, height + end
 
     @property
     def axes(self) -> tuple[np.ndarray, np.ndarray]:
@@ -127,12 +158,25 @@ class MeshLattice:
         xs, ys = self.axes
         return np.stack(np.meshgrid(xs, ys), axis=-1)
 
+    def boundary(self) -> np.ndarray:
+        """The points on the lattice's border, (K, 2) float64 (x, y), each once, in the
+        triangles' turning sense: the first row left to right, the last column down, the
+        last row back, the first column up."""
+        xs, ys = self.axes
+        top = np.stack([xs[:-1], np.full(len(xs) - 1, ys[0])], axis=-1)
+        right = np.stack([np.full(len(ys) - 1, xs[-1]), ys[:-1]], axis=-1)
+        bottom = np.stack([xs[:0:-1], np.full(len(xs) - 1, ys[-1])], axis=-1)
+        left = np.stack([np.full(len(ys) - 1, xs[0]), ys[:0:-1]], axis=-1)
+        ring = np.concatenate([top, right, bottom, left])
+        return ring if len(ring) else np.array([[xs[0], ys[0]]])
+
     def cell_mask(self, cells: np.ndarray) -> np.ndarray:
-        """(H, W) bool: the pixels of the (corner lattice's) cells marked in ``cells``
-        (rows of cells, cells per row)."""
+        """(H, W) bool: the image's pixels in the (corner lattice's) cells marked in
+        ``cells`` (rows of cells, cells per row)."""
         height, width = self.shape
-        grid = self.grid
-        return np.repeat(np.repeat(cells, grid, axis=0), grid, axis=1)[:height, :width]
+        grid, m = self.grid, self.margin
+        mask = np.repeat(np.repeat(cells, grid, axis=0), grid, axis=1)
+        return mask[m : m + height, m : m + width]
 
     # -- bands ----------------------------------------------------------------------------
 
@@ -167,7 +211,16 @@ class MeshLattice:
     def one_band(self, rows_per_band: int) -> bool:
         return rows_per_band >= self.dims[1]
 
-    # -- uniforms of glmls/shaders/mls/lattice.glsl ----------------------------------------
+    # -- uniforms -------------------------------------------------------------------------
+
+    def pixel_uniforms(self) -> dict[str, object]:
+        """The uniforms of ``glmls/shaders/common/lattice.glsl`` (the lattice's own pixels)."""
+        height, width = self.padded_shape
+        return {
+            "u_grid": self.grid,
+            "u_lattice_size": (width, height),
+            "u_lattice_offset": self.offset,
+        }
 
     def uniforms(self, scaling: Scaling) -> dict[str, object]:
         """Origin, step and last point in the GPU's scaled coordinates, and the dims."""

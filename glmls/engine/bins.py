@@ -31,6 +31,7 @@ import numpy as np
 from ..core.handles import point_bounds
 from ..core.weights import REGISTRY, gaussian_cut
 from ..gl import bindings
+from ..gl.dispatch import set_uniforms
 
 #: Bin side as a fraction of the radius R (for gaussian too, whose reach is ~5 R):
 #: smaller bins fit the disc of reach better (fewer handles visited) but cost more rows, and
@@ -115,9 +116,7 @@ class BinBuffer:
         if self._buffer is None:
             raise RuntimeError("the bin table was released")
         self._buffer.bind_to_storage_buffer(bindings.BIN_STARTS.index)
-        for name, value in self.bins.uniforms().items():
-            if name in program:
-                program[name].value = value
+        set_uniforms(program, self.bins.uniforms())
 
     def release(self) -> None:
         if self._buffer is not None:

@@ -25,27 +25,34 @@ def _max_groups(kernel: MLSKernel, max_groups: int | None) -> int:
 
 
 def evaluate_points(
-    kernel: MLSKernel, points: np.ndarray, *, with_matrix: bool, max_groups: int | None = None
+    kernel: MLSKernel,
+    points: np.ndarray,
+    *,
+    with_matrix: bool,
+    shape: tuple[int, int] | None = None,
+    max_groups: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """f at ``points`` ((K, 2) float64 pixels) as (K, 2) float64, and M as (K, 2, 2) float64
-    where ``with_matrix`` (else None). ``max_groups``: work groups per dispatch (the GL
-    limit by default)."""
+    where ``with_matrix`` (else None). ``shape``: the image whose default radius applies
+    (None: the kernel's own). ``max_groups``: work groups per dispatch (the GL limit by
+    default)."""
     count = len(points)
     if count == 0:
         kernel.check_alive()
         return np.zeros((0, 2)), (np.zeros((0, 2, 2)) if with_matrix else None)
     with kernel.gl.use():
-        return _evaluate_points(kernel, points, with_matrix, _max_groups(kernel, max_groups))
+        groups = _max_groups(kernel, max_groups)
+        return _evaluate_points(kernel, points, with_matrix, shape, groups)
 
 
-def _evaluate_points(kernel, points, with_matrix, max_groups):
+def _evaluate_points(kernel, points, with_matrix, shape, max_groups):
     count = len(points)
     program = kernel.program(POINTS_PASS, {"MLS_LATTICE": False, "MLS_WRITE_MATRIX": with_matrix})
     scratch = kernel.scratch
     source = scratch.buffer("points", count * 8)
     source.write(kernel.scaling.to_gpu(points).tobytes())
     source.bind_to_storage_buffer(bindings.POINTS.index)
-    kernel.bind(program)
+    kernel.bind(program, shape)
     f_out = scratch.buffer("f", count * 8)
     f_out.bind_to_storage_buffer(bindings.DEFORMED.index)
     if with_matrix:

@@ -23,6 +23,7 @@ import moderngl
 import numpy as np
 
 from ..gl import bindings
+from ..gl.dispatch import set_uniforms
 
 #: The storages; a storage's index is its ``MLS_STORAGE`` code in the shaders.
 STORAGES = ("ssbo", "ubo", "texture")
@@ -107,8 +108,7 @@ class _BufferStorage:
     def _bind_count(self, program: moderngl.ComputeShader | moderngl.Program) -> None:
         if self._buffer is None:
             raise RuntimeError("handles were not uploaded")
-        if "u_handle_count" in program:
-            program["u_handle_count"].value = self.count
+        set_uniforms(program, {"u_handle_count": self.count})
 
     def release(self) -> None:
         if self._buffer is not None:
@@ -205,9 +205,7 @@ class TextureHandleStorage:
         if self._texture is None:
             raise RuntimeError("handles were not uploaded")
         self._texture.use(bindings.HANDLE_TEXTURE.index)
-        for name, value in (("u_handle_count", self.count), ("u_handle_width", self._width)):
-            if name in program:
-                program[name].value = value
+        set_uniforms(program, {"u_handle_count": self.count, "u_handle_width": self._width})
 
     def release(self) -> None:
         if self._texture is not None:

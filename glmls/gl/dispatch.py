@@ -25,20 +25,19 @@ def set_uniforms(
 ) -> None:
     """Set those of ``values`` that ``program`` uses (compilers drop unused uniforms)."""
     for name, value in values.items():
-        if name in program:
-            program[name].value = value
+        member = program.get(name, None)  # `name in program` would walk every member
+        if member is not None:
+            member.value = value
 
 
 def run_1d(program: moderngl.ComputeShader, count: int, *, max_groups: int) -> None:
     """Run ``program`` on items 0 .. ``count`` - 1 in groups of :data:`LOCAL_SIZE`, at most
     ``max_groups`` groups per dispatch. The shader reads ``u_offset`` (the first item of the
     dispatch) and ``u_count`` when it declares them."""
-    if "u_count" in program:
-        program["u_count"].value = count
+    set_uniforms(program, {"u_count": count})
     groups = math.ceil(count / LOCAL_SIZE)
     for first in range(0, groups, max_groups):
-        if "u_offset" in program:
-            program["u_offset"].value = first * LOCAL_SIZE
+        set_uniforms(program, {"u_offset": first * LOCAL_SIZE})
         program.run(group_x=min(max_groups, groups - first))
 
 
@@ -48,6 +47,5 @@ def run_2d(program: moderngl.ComputeShader, dims: tuple[int, int], *, max_groups
     groups = (math.ceil(dims[0] / LOCAL_SIZE_2D), math.ceil(dims[1] / LOCAL_SIZE_2D))
     if max(groups) > max_groups:
         raise ValueError(f"lattice of {dims[0]} x {dims[1]} points is too large for one dispatch")
-    if "u_dims" in program:
-        program["u_dims"].value = dims
+    set_uniforms(program, {"u_dims": dims})
     program.run(group_x=groups[0], group_y=groups[1])

@@ -138,6 +138,7 @@ class ShaderLibrary:
             lines.append(f"#define {key} {define_value(merged[key])}")
         origins = [("<defines>", k + 1) for k in range(len(lines))]
         self._expand(entry, lines, origins, seen=set(), stack=())
+        _check_conditions(lines, origins)
         return ComposedSource("\n".join(lines) + "\n", tuple(origins))
 
     def _expand(self, name, lines, origins, *, seen: set[str], stack: tuple[str, ...]) -> None:
@@ -172,6 +173,95 @@ class ShaderLibrary:
         if len(parts) == 1 and len(stages) == 1:
             return next(iter(stages.values())).explain(message)
         return "".join(out)
+
+
+_DIRECTIVE = re.compile(r"^\s*#\s*(define|undef|ifdef|ifndef|if|elif|else|endif)\b\s*(.*)$")
+_DEFINED = re.compile(r"\bdefined\s*(?:\(\s*(\w+)\s*\)|(\w+))")
+_TOKEN = re.compile(r"\s*(\d+[uU]?|[A-Za-z_]\w*|&&|\|\||==|!=|<=|>=|[-+*/%<>()!~])")
+_PYTHON = {"&&": " and ", "||": " or ", "!": " not ", "/": "//"}
+
+
+class _Conditions:
+    """The preprocessor's state while :func:`_check_conditions` walks a composed source."""
+
+    def __init__(self) -> None:
+        self.macros: dict[str, str] = {}
+        self.stack: list[tuple[bool, bool]] = []  # (group active, a branch was taken)
+
+    @property
+    def active(self) -> bool:
+        return all(active for active, _ in self.stack)
+
+    def value(self, expression: str, where: str) -> bool:
+        """``expression`` of a #if in an active group, its macros expanded; an undefined
+        macro is an error."""
+        text = _DEFINED.sub(
+            lambda m: "1" if (m.group(1) or m.group(2)) in self.macros else "0", expression
+        )
+        for _ in range(8):  # macros defined as other macros
+            words = [w for w in _IDENTIFIER.findall(text) if not w.isdigit()]
+            missing = [w for w in words if w not in self.macros]
+            if missing:
+                raise ShaderCompileError(
+                    f"{where}: #if uses {missing[0]}, which is not defined: pass it as a "
+                    "define of the program (or give it a default with #ifndef)"
+                )
+            if not words:
+                break
+            text = _IDENTIFIER.sub(lambda m: self.macros.get(m.group(), m.group()), text)
+        tokens, position = [], 0
+        while position < len(text.rstrip()):
+            match = _TOKEN.match(text, position)
+            if match is None:
+                return True  # beyond this check (e.g. float literals): the driver decides
+            token = match.group(1).rstrip("uU")
+            tokens.append(_PYTHON.get(token, token))
+            position = match.end()
+        try:  # only numbers, operators and parentheses are left: C's meaning in Python
+            return bool(eval("".join(tokens), {"__builtins__": {}}))
+        except Exception:
+            return True
+
+
+def _check_conditions(lines: list[str], origins: list[tuple[str, int]]) -> None:
+    """A ``#if`` on a macro that is not defined is an error in the GLSL specification (no
+    default of 0, unlike C): Mesa lets it pass, NVIDIA's compiler does not. Catch it here,
+    on every driver, naming the file and line (groups the preprocessor skips are not
+    evaluated, as a compiler would not)."""
+    state = _Conditions()
+    for line, (name, number) in zip(lines, origins, strict=True):
+        match = _DIRECTIVE.match(line)
+        if match is None:
+            continue
+        kind, rest = match.group(1), match.group(2).split("//")[0].strip()
+        where = f"{name}:{number}"
+        if kind in ("define", "undef"):
+            if state.active:
+                word = _IDENTIFIER.match(rest)
+                if word is not None and kind == "define":
+                    state.macros[word.group()] = rest[word.end() :].strip() or "1"
+                elif word is not None:
+                    state.macros.pop(word.group(), None)
+        elif kind in ("if", "ifdef", "ifndef"):
+            taken = False
+            if state.active:
+                if kind == "if":
+                    taken = state.value(rest, where)
+                else:
+                    taken = (rest in state.macros) == (kind == "ifdef")
+            state.stack.append((taken, taken))
+        elif not state.stack:
+            raise ShaderCompileError(f"{where}: #{kind} without #if")
+        elif kind == "elif":
+            _, done = state.stack.pop()
+            outer = state.active
+            taken = not done and outer and state.value(rest, where)
+            state.stack.append((taken, done or taken))
+        elif kind == "else":
+            _, done = state.stack.pop()
+            state.stack.append((not done, True))
+        else:
+            state.stack.pop()
 
 
 @functools.cache

@@ -1,7 +1,7 @@
 """The quads of the paper's forward method scan-converted in a compute shader
 (``glmls/shaders/warp/cells.comp.glsl``): the GL rasterizer's job without its per-triangle setup
 (~0.25 us per triangle on llvmpipe: 0.5 s for the 2 million triangles of a 1024^2 image at
-grid 1). It needs a viewport of the image's size; other viewports, and keys too long for
+grid 1). It needs a viewport of the output canvas's size; other viewports, and keys too long for
 31 bits, take the rasterizer (:mod:`glmls.imaging.raster`).
 
 Fold-overs: each covered pixel keeps the key (cell row, cell column, triangle) of the top
@@ -34,6 +34,7 @@ from ..gl.context import GLContext, current
 from ..gl.dispatch import LOCAL_SIZE, run_1d, set_uniforms
 from ..gl.resources import Resources
 from .bands import MeshBands
+from .frame import Frame
 from .options import PipelineOptions
 
 __all__ = ["PATHS", "CellScan", "key_layout"]
@@ -59,11 +60,11 @@ def key_layout(lattice: MeshLattice, *, source_pixel: bool) -> tuple[int, int, i
     return sub_bits, col_shift, row_shift
 
 
-def _packable(source: moderngl.Texture, target: object) -> bool:
-    """Can the fused nearest path write ``target``: RGBA8 textures of one size."""
+def _packable(source: moderngl.Texture | None, target: object) -> bool:
+    """Can the fused nearest path write ``target`` from ``source``: RGBA8 textures."""
     return (
-        isinstance(target, moderngl.Texture)
-        and target.size == source.size
+        isinstance(source, moderngl.Texture)
+        and isinstance(target, moderngl.Texture)
         and (source.components, source.dtype) == (4, "f1")
         and (target.components, target.dtype) == (4, "f1")
     )
@@ -86,18 +87,22 @@ class CellScan:
     def draw(
         self,
         kernel: MLSKernel,
-        source: moderngl.Texture,
+        source: moderngl.Texture | None,
         lattice: MeshLattice,
+        frame: Frame,
         *,
         linear: bool,
         coords: bool,
         flip_y: bool,
+        border: int = 0,
         target: object = None,
     ) -> bool:
-        """The quads of ``lattice`` (corners of the source image) into the bound framebuffer,
-        whose viewport has the image's size; ``target`` is its colour texture. False
-        (nothing drawn) where the triangle keys do not fit in 31 bits. ``coords``: write the
-        source points instead of colours (the backward method's first guess)."""
+        """The quads of ``lattice`` (corners of the source image, possibly with a margin)
+        into the bound framebuffer, whose viewport has the size of ``frame`` (the output
+        canvas); ``target`` is its colour texture. False (nothing drawn) where the triangle
+        keys do not fit in 31 bits. ``coords``: write the source points instead of colours
+        (the backward method's first guess; ``source`` unused). ``border``: the code of the
+        rule for source pixels past the image (``WARP_BORDER``)."""
         height, width = lattice.shape
         nearest = not linear and not coords
         layout = key_layout(lattice, source_pixel=nearest)
@@ -109,22 +114,24 @@ class CellScan:
         values = {
             "u_center": sc.center,
             "u_scale": sc.scale,
-            "u_target_size": (width, height),
+            **frame.uniforms(),
             "u_source_size": (width, height),
-            "u_grid": lattice.grid,
+            **lattice.pixel_uniforms(),
             "u_sub_bits": sub_bits,
             "u_col_shift": col_shift,
             "u_row_shift": row_shift,
-            "u_fixup_capacity": self._options.fixup_capacity(width * height),
+            "u_fixup_capacity": self._options.fixup_capacity(frame.pixels),
         }
+        border = 0 if coords else border
+        pixels = frame.pixels
         # padded to whole uvec4s for the clear of warp/cells_check.comp.glsl
-        winner = self._resources.buffer("winner", (width * height + 3) // 4 * 16)
+        winner = self._resources.buffer("winner", (pixels + 3) // 4 * 16)
         fast = fused and self._options.fast_embedded and self._bands.one_band(lattice)
         if not fast:  # the fast path clears it on the GPU if and when it needs it
-            winner.clear(size=width * height * 4)
+            winner.clear(size=pixels * 4)
         if fused:
             self._prepare_fused(source, target, values["u_fixup_capacity"])  # type: ignore[arg-type]
-        cells = self._program(nearest=nearest, fused=fused, fast=False)
+        cells = self._program(nearest=nearest, fused=fused, fast=False, border=border)
         set_uniforms(cells, values)
         bands = 0
         for first, dims in self._bands(kernel, lattice):
@@ -134,17 +141,20 @@ class CellScan:
             if fused:
                 self._bind_fused()
             if fast:
-                self._scan_fast(cells, values | {"u_mesh_dims": dims, "u_first_row": first})
+                band = values | {"u_mesh_dims": dims, "u_first_row": first}
+                self._scan_fast(cells, band, border)
             else:
                 run_1d(cells, (dims[0] - 1) * (dims[1] - 1), max_groups=self._max_groups)
             bands += 1
         self._gl.mgl.memory_barrier()
         if fused:
-            self._fix_up(values, target)  # type: ignore[arg-type]
+            self._fix_up(values, target, border)  # type: ignore[arg-type]
             self.last_path = "fused fast" if fast else "fused"
         else:
             whole_mesh = dims if bands == 1 else None
-            self._resolve(kernel, source, lattice, values, linear, coords, flip_y, whole_mesh)
+            self._resolve(
+                kernel, source, lattice, values, (linear, coords, flip_y, border), whole_mesh
+            )
             self.last_path = "nearest" if nearest else "interpolated"
         return True
 
@@ -161,13 +171,22 @@ class CellScan:
         counts = np.frombuffer(self._resources.cached("check").read(size=8), np.uint32)
         return int(counts[0]), int(counts[1])
 
-    def _program(self, *, nearest: bool, fused: bool, fast: bool) -> moderngl.ComputeShader:
+    def _program(
+        self, *, nearest: bool, fused: bool, fast: bool, border: int
+    ) -> moderngl.ComputeShader:
         return self._gl.compute(
             "warp/cells.comp.glsl",
-            {"WARP_CELLS_SOURCE": nearest, "WARP_CELLS_FUSED": fused, "WARP_CELLS_FAST": fast},
+            {
+                "WARP_CELLS_SOURCE": nearest,
+                "WARP_CELLS_FUSED": fused,
+                "WARP_CELLS_FAST": fast,
+                "WARP_BORDER": border if fused else 0,
+            },
         )
 
-    def _scan_fast(self, keyed: moderngl.ComputeShader, values: dict[str, object]) -> None:
+    def _scan_fast(
+        self, keyed: moderngl.ComputeShader, values: dict[str, object], border: int
+    ) -> None:
         """The fused scan of a whole mesh (one band): the pass without keys, the embedding
         test, and the keyed pass ``keyed`` (after a clear of the winner buffer) dispatched
         with zero work groups where the mesh is an embedding (warp/cells_check.comp.glsl)."""
@@ -176,7 +195,7 @@ class CellScan:
             gl.compute("warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage})
             for stage in range(3)
         ]
-        fast = self._program(nearest=True, fused=True, fast=True)
+        fast = self._program(nearest=True, fused=True, fast=True, border=border)
         for program in (fast, *stages):
             set_uniforms(program, values)
         check = self._resources.buffer("check", 48)
@@ -202,7 +221,9 @@ class CellScan:
         resources = self._resources
         source.read_into(resources.buffer("packed source", width * height * 4))
         # one spare texel at the end: uncovered lanes of the scan write there
-        target.read_into(resources.buffer("packed target", (width * height + 1) * 4))
+        target_width, target_height = target.size
+        spare = (target_width * target_height + 1) * 4
+        target.read_into(resources.buffer("packed target", spare))
         resources.buffer("fixups", 16 + 4 * capacity).clear(size=16)
 
     def _bind_fused(self) -> None:
@@ -211,12 +232,12 @@ class CellScan:
         cached("packed target").bind_to_storage_buffer(bindings.PACKED_TARGET.index)
         cached("fixups").bind_to_storage_buffer(bindings.FIXUPS.index)
 
-    def _fix_up(self, values: dict[str, object], target: moderngl.Texture) -> None:
+    def _fix_up(self, values: dict[str, object], target: moderngl.Texture, border: int) -> None:
         """warp/cells_fixup.comp.glsl over the listed pixels (an indirect dispatch sized on
         the GPU: no read-back), then the packed target back into the texture."""
         entry = "warp/cells_fixup.comp.glsl"
         args = self._gl.compute(entry, {"WARP_FIXUP_ARGS": True})
-        fixup = self._gl.compute(entry, {"WARP_FIXUP_ARGS": False})
+        fixup = self._gl.compute(entry, {"WARP_FIXUP_ARGS": False, "WARP_BORDER": border})
         dispatch = self._resources.buffer("fixup dispatch", 16)
         self._bind_fused()
         self._resources.cached("winner").bind_to_storage_buffer(bindings.WINNER.index)
@@ -229,22 +250,28 @@ class CellScan:
         self._gl.mgl.memory_barrier()
         target.write(self._resources.cached("packed target"))
 
-    def _resolve(self, kernel, source, lattice, values, linear, coords, flip_y, whole_mesh):
-        """Fill the bound framebuffer from the winner buffer with full-viewport draws.
-        ``whole_mesh``: the dims of the mesh still in the mesh buffer, None if it was done
-        in bands (it is then evaluated again, band by band)."""
+    def _resolve(self, kernel, source, lattice, values, how, whole_mesh):
+        """Fill the bound framebuffer from the winner buffer with full-viewport draws;
+        ``how``: (linear, coords, flip_y, border). ``whole_mesh``: the dims of the mesh
+        still in the mesh buffer, None if it was done in bands (it is then evaluated
+        again, band by band)."""
+        linear, coords, flip_y, border = how
         nearest = not linear and not coords
         vertex = "common/fullscreen.vert.glsl"
         if nearest:
-            program = self._gl.program(vertex, "warp/cells_nearest.frag.glsl")
+            program = self._gl.program(
+                vertex,
+                "warp/cells_nearest.frag.glsl",
+                {"WARP_LINEAR": False, "WARP_BORDER": border},
+            )
         else:
             program = self._gl.program(
                 vertex,
                 "warp/cells.frag.glsl",
-                {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords},
+                {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords, "WARP_BORDER": border},
             )
         set_uniforms(program, values | {"u_flip_y": flip_y})
-        if not coords:
+        if source is not None and not coords:
             mode = moderngl.LINEAR if linear else moderngl.NEAREST
             source.filter = (mode, mode)
             source.use(bindings.SOURCE.index)

@@ -18,6 +18,7 @@ from ..gl.context import GLContext, current
 from ..gl.dispatch import run_2d, set_uniforms
 from ..gl.resources import Resources
 from .cells import CellScan
+from .frame import Frame
 from .options import PipelineOptions
 from .raster import MeshRaster
 
@@ -50,41 +51,44 @@ class InverseSolver:
 
     @current
     def solve(
-        self, kernel: MLSKernel, lattice: MeshLattice, *, swap: bool = False
+        self,
+        kernel: MLSKernel,
+        lattice: MeshLattice,
+        frame: Frame,
+        *,
+        swap: bool = False,
+        border: int = 0,
     ) -> moderngl.Texture:
         """The RGBA32F texture (s.x, s.y, residual in pixels, covered) of the output pixels of
-        ``lattice``'s image (the output has the source's size; ``lattice.grid`` is the first
-        guess's mesh). ``swap``: ``kernel`` is the swapped-handles map, evaluated once per
-        pixel (residual -1). Leaves the texture's framebuffer bound."""
+        ``frame`` for ``lattice``'s image (``lattice`` is the first guess's mesh: its grid,
+        and its margin past the image for a border mode). ``swap``: ``kernel`` is the
+        swapped-handles map, evaluated once per pixel (residual -1). ``border`` 0
+        (constant): pixels whose source point lies outside the image are not covered; other
+        modes keep them. Leaves the texture's framebuffer bound."""
         height, width = lattice.shape
-        framebuffer = self._resources.framebuffer("coords", (width, height))
-        texture = self._resources.texture("coords", (width, height), 4, "f4")
+        framebuffer = self._resources.framebuffer("coords", frame.size)
+        texture = self._resources.texture("coords", frame.size, 4, "f4")
         if not swap:
             framebuffer.use()
-            framebuffer.viewport = (0, 0, width, height)
+            framebuffer.viewport = (0, 0, *frame.size)
             framebuffer.clear(0.0, 0.0, 0.0, 0.0)
             drawn = self._options.compute_quads and self._cells.draw(
-                kernel, texture, lattice, linear=False, coords=True, flip_y=False
+                kernel, None, lattice, frame, linear=False, coords=True, flip_y=False
             )
             if not drawn:
                 self._raster.draw(
-                    kernel,
-                    texture,
-                    lattice,
-                    (width, height),
-                    linear=False,
-                    coords=True,
-                    flip_y=False,
+                    kernel, None, lattice, frame, linear=False, coords=True, flip_y=False
                 )
         program = kernel.program(
-            "warp/inverse.comp.glsl", {"WARP_SWAP": swap, "WARP_NEWTON_STEPS": NEWTON_STEPS}
+            "warp/inverse.comp.glsl",
+            {"WARP_SWAP": swap, "WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": border},
         )
         kernel.bind(program, lattice.shape)
         sc = kernel.scaling
         set_uniforms(
             program,
             {
-                "u_target_size": (width, height),
+                **frame.uniforms(),
                 "u_source_size": (width, height),
                 "u_center": sc.center,
                 "u_scale": sc.scale,
@@ -94,6 +98,6 @@ class InverseSolver:
         )
         self._gl.mgl.memory_barrier()
         texture.bind_to_image(bindings.INVERSE_MAP.index, read=True, write=True)
-        run_2d(program, (width, height), max_groups=self._gl.limits["max_work_groups_x"])
+        run_2d(program, frame.size, max_groups=self._gl.limits["max_work_groups_x"])
         self._gl.mgl.memory_barrier()
         return texture

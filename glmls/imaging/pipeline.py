@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Iterator
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 import moderngl
 import numpy as np
@@ -34,10 +34,12 @@ from ..gl.dispatch import set_uniforms
 from ..gl.resources import Resources
 from .bands import MeshBands
 from .cells import CellScan
+from .frame import Bounds, Frame, border_margin, deformed_bounds, make_frame
 from .inverse import InverseSolver
 from .options import PipelineOptions
 from .raster import MeshRaster
 from .source import (
+    BORDERS,
     SourceImage,
     background_color,
     check_options,
@@ -47,6 +49,16 @@ from .source import (
 )
 
 __all__ = ["Deformation", "WarpPipeline"]
+
+
+class _How(NamedTuple):
+    """One construction's choices, as the passes take them."""
+
+    method: str
+    linear: bool
+    grid: int
+    border: int  # the index in BORDERS: WARP_BORDER
+    flip_y: bool
 
 
 class Deformation(Protocol):
@@ -137,74 +149,140 @@ class WarpPipeline:
         interpolation: str = "nearest",
         grid: int = 1,
         flip_y: bool = False,
+        border: str = "constant",
+        frame: Frame | None = None,
     ) -> None:
         """Draw the deformed ``source`` into ``framebuffer`` (its current viewport), no read-back.
 
-        The caller clears the framebuffer to the background first. The output has the
-        source's size in pixels; ``quads`` and ``splat`` scale to any viewport, ``backward``
-        needs a viewport of that size. ``flip_y`` for a window, whose row 0 is at the bottom.
-        The bound framebuffer is left as found.
+        The caller clears the framebuffer to the background first. The output is ``frame``
+        (default: the source's size and place, see :func:`~glmls.imaging.frame.make_frame`);
+        ``quads`` and ``splat`` scale it to any viewport, ``backward`` needs a viewport of
+        its size. ``border``: one of :data:`~glmls.imaging.source.BORDERS`. ``flip_y`` for a
+        window, whose row 0 is at the bottom. The bound framebuffer is left as found.
         """
         self._resources.check_alive()
-        check_options(method, interpolation, grid)
+        check_options(method, interpolation, grid, border)
+        width, height = source.size
+        if frame is None:
+            frame = Frame((height, width))
+        how = _How(method, interpolation == "linear", grid, BORDERS.index(border), flip_y)
         with self._keep_framebuffer():
-            self._render(mls, source, framebuffer, method, interpolation == "linear", grid, flip_y)
+            self._render(mls, source, framebuffer, how, frame)
 
-    def _render(self, mls, source, framebuffer, method, linear, grid, flip_y) -> None:
+    def _render(self, mls, source, framebuffer, how: _How, frame: Frame) -> None:
         width, height = source.size
         shape = (height, width)
         kernel = mls.kernel
-        if method in ("quads", "splat"):
+        if how.method in ("quads", "splat"):
             framebuffer.use()
-            if method == "splat":
-                lattice = MeshLattice.centres(shape)
-            else:
-                lattice = MeshLattice.corners(shape, grid)
-                whole_viewport = tuple(framebuffer.viewport) == (0, 0, width, height)
-                if (
-                    self.options.compute_quads
-                    and whole_viewport
-                    and self.cells.draw(
-                        kernel,
-                        source,
-                        lattice,
-                        linear=linear,
-                        coords=False,
-                        flip_y=flip_y,
-                        target=framebuffer.color_attachments[0],
-                    )
-                ):
-                    return
+            splat = how.method == "splat"
+            lattice = self._lattice(kernel, shape, 1 if splat else how.grid, how.border, frame)
+            if splat:
+                lattice = MeshLattice.centres(shape, margin=lattice.margin)
+            elif (
+                self.options.compute_quads
+                and tuple(framebuffer.viewport) == (0, 0, *frame.size)
+                and self.cells.draw(
+                    kernel,
+                    source,
+                    lattice,
+                    frame,
+                    linear=how.linear,
+                    coords=False,
+                    flip_y=how.flip_y,
+                    border=how.border,
+                    target=framebuffer.color_attachments[0],
+                )
+            ):
+                return
             self.raster.draw(
-                kernel, source, lattice, (width, height), linear=linear, coords=False, flip_y=flip_y
+                kernel,
+                source,
+                lattice,
+                frame,
+                linear=how.linear,
+                coords=False,
+                flip_y=how.flip_y,
+                border=how.border,
             )
             return
-        swap = method == "backward-swap"
-        coords = self._solve(mls, shape, swap=swap, grid=grid)
+        swap = how.method == "backward-swap"
+        coords = self._solve(mls, shape, frame, swap=swap, grid=how.grid, border=how.border)
         program = self._gl.program(
-            "common/fullscreen.vert.glsl", "warp/backward.frag.glsl", {"WARP_LINEAR": linear}
+            "common/fullscreen.vert.glsl",
+            "warp/backward.frag.glsl",
+            {"WARP_LINEAR": how.linear, "WARP_BORDER": how.border},
         )
-        set_uniforms(program, {"u_target_size": (width, height), "u_flip_y": flip_y})
-        mode = moderngl.LINEAR if linear else moderngl.NEAREST
+        set_uniforms(
+            program,
+            {"u_target_size": frame.size, "u_flip_y": how.flip_y, "u_source_size": (width, height)},
+        )
+        mode = moderngl.LINEAR if how.linear else moderngl.NEAREST
         source.filter = (mode, mode)
         source.use(bindings.SOURCE.index)
         coords.use(bindings.COORDS.index)
         framebuffer.use()
         self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
 
-    def _solve(self, mls: Deformation, shape, *, swap: bool, grid: int) -> moderngl.Texture:
+    def _lattice(self, kernel, shape, grid, border, frame, *, forward=True) -> MeshLattice:
+        """The corner lattice of the quads: with a border mode, extended past the image as
+        far as ``frame`` needs (:func:`~glmls.imaging.frame.border_margin`)."""
+        lattice = MeshLattice.corners(shape, grid)
+        if border == 0:
+            return lattice
+        return lattice.with_margin(border_margin(kernel, lattice, frame, warn=forward))
+
+    def _solve(self, mls, shape, frame: Frame, *, swap: bool, grid: int, border: int):
         kernel = mls.swapped_kernel() if swap else mls.kernel
-        return self._inverse.solve(kernel, MeshLattice.corners(shape, grid), swap=swap)
+        lattice = (
+            MeshLattice.corners(shape, grid)
+            if swap
+            else self._lattice(kernel, shape, grid, border, frame, forward=False)
+        )
+        return self._inverse.solve(kernel, lattice, frame, swap=swap, border=border)
 
     @current
     def solve_inverse(
-        self, mls: Deformation, shape: tuple[int, int], *, swap: bool = False, grid: int = 1
+        self,
+        mls: Deformation,
+        shape: tuple[int, int],
+        *,
+        swap: bool = False,
+        grid: int = 1,
+        border: str = "constant",
+        frame: Frame | None = None,
     ) -> moderngl.Texture:
-        """The RGBA32F texture (s.x, s.y, residual, covered) of the backward map, output
-        pixels of an image of ``shape`` (the output has the source's size)."""
+        """The RGBA32F texture (s.x, s.y, residual, covered) of the backward map of an image
+        of ``shape``, output pixels of ``frame`` (default: the image's). ``border``
+        ``constant``: pixels whose source point is outside the image are not covered."""
         self._resources.check_alive()
+        check_options("backward", "nearest", grid, border)
+        shape = as_shape(shape)
+        frame = Frame(shape) if frame is None else frame
         with self._keep_framebuffer():
-            return self._solve(mls, as_shape(shape), swap=swap, grid=grid)
+            return self._solve(
+                mls, shape, frame, swap=swap, grid=grid, border=BORDERS.index(border)
+            )
+
+    @current
+    def bounds(self, mls: Deformation, shape: object, *, grid: int = 1) -> Bounds:
+        """The :class:`~glmls.imaging.frame.Bounds` of the deformed image of ``shape``: its
+        quads' corners at ``grid`` under f, evaluated band by band on the GPU."""
+        self._resources.check_alive()
+        lattice = MeshLattice.corners(shape, grid)  # validates
+        if max(lattice.shape) > self.max_image_size:
+            raise ValueError(
+                f"shape {lattice.shape} exceeds the GL texture size limit of "
+                f"{self.max_image_size} pixels"
+            )
+        kernel = mls.kernel
+
+        def bands():
+            for _, (nx, rows) in self._bands(kernel, lattice):
+                raw = self._bands.buffer.read(size=nx * rows * 8)
+                yield np.frombuffer(raw, np.float32).reshape(-1, 2)
+
+        return deformed_bounds(bands(), kernel)
 
     # -- numpy front ends ----------------------------------------------------------------
 
@@ -218,46 +296,59 @@ class WarpPipeline:
         interpolation: str = "nearest",
         grid: int = 1,
         background: object = 0,
+        border: str = "constant",
+        output_shape: object = None,
+        origin: object = None,
     ) -> np.ndarray:
-        """The deformed image as a new array of ``image``'s shape and dtype."""
+        """The deformed image as a new array of ``image``'s dtype and channels, of
+        ``output_shape`` (default: the image's); see :meth:`glmls.MLS.warp`."""
         self._resources.check_alive()
-        check_options(method, interpolation, grid)
+        check_options(method, interpolation, grid, border)
         source = prepare_image(image, self.max_image_size, normalized=True)
+        frame = make_frame(output_shape, origin, source.shape, self.max_image_size)
         clear = background_color(background, source)
-        height, width = source.shape
         texture = self.upload(source)
         dtype = "f1" if source.normalized else "f4"
+        how = _How(method, interpolation == "linear", grid, BORDERS.index(border), False)
         with self._keep_framebuffer():
-            framebuffer = self._resources.framebuffer("target", (width, height), dtype)
+            framebuffer = self._resources.framebuffer("target", frame.size, dtype)
             framebuffer.use()
-            framebuffer.viewport = (0, 0, width, height)
+            framebuffer.viewport = (0, 0, *frame.size)
             framebuffer.clear(*clear)
-            self._render(mls, texture, framebuffer, method, interpolation == "linear", grid, False)
+            self._render(mls, texture, framebuffer, how, frame)
         components = source.channels if source.normalized else 4
-        raw = framebuffer.read(viewport=(0, 0, width, height), components=components, dtype=dtype)
+        raw = framebuffer.read(viewport=(0, 0, *frame.size), components=components, dtype=dtype)
         values = np.frombuffer(raw, dtype=np.uint8 if source.normalized else np.float32)
-        values = values.reshape(height, width, components)
+        values = values.reshape(*frame.shape, components)
         return source.restore(values[..., : source.channels])
 
     @current
     def coordinate_map(
-        self, mls: Deformation, shape: object, *, method: str = "backward", grid: int = 1
+        self,
+        mls: Deformation,
+        shape: object,
+        *,
+        method: str = "backward",
+        grid: int = 1,
+        border: str = "constant",
+        output_shape: object = None,
+        origin: object = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(map (H, W, 2) float32, residual (H, W) float32, covered (H, W) bool)."""
+        """(map (H, W, 2) float32, residual (H, W) float32, covered (H, W) bool) over the
+        output canvas (``output_shape``, ``origin``; default: the image's)."""
         self._resources.check_alive()
         if method not in ("backward", "backward-swap"):
             raise ValueError(f"unknown method {method!r}; choose backward or backward-swap")
-        check_options(method, "nearest", grid)
-        height, width = as_shape(shape)
-        if max(height, width) > self.max_image_size:
-            raise ValueError(
-                f"shape {(height, width)} exceeds the GL texture size limit of "
-                f"{self.max_image_size} pixels"
-            )
+        check_options(method, "nearest", grid, border)
+        shape = as_shape(shape)
+        limit = self.max_image_size
+        if max(shape) > limit:
+            raise ValueError(f"shape {shape} exceeds the GL texture size limit of {limit} pixels")
+        frame = make_frame(output_shape, origin, shape, limit)
         texture = self.solve_inverse(
-            mls, (height, width), swap=method == "backward-swap", grid=grid
+            mls, shape, swap=method == "backward-swap", grid=grid, border=border, frame=frame
         )
-        values = np.frombuffer(texture.read(), dtype=np.float32).reshape(height, width, 4)
+        values = np.frombuffer(texture.read(), dtype=np.float32).reshape(*frame.shape, 4)
         residual = values[..., 2].copy()
         if method == "backward-swap":
             residual[:] = np.nan

@@ -1,6 +1,7 @@
 """The deformed mesh drawn by the GL rasterizer (``glmls/shaders/warp/mesh.vert.glsl`` and
-``mesh.frag.glsl``): two triangles per cell for the quads of viewports other than the image's
-size (a window scaling the image), and one point per pixel for the simple forward method.
+``mesh.frag.glsl``): two triangles per cell for the quads of viewports other than the output
+canvas's size (a window scaling the image) and of meshes whose keys are too long for the
+compute scan, and one point per pixel for the simple forward method.
 
 Fold-overs: the cells are drawn in one draw call per band in row-major order of their source
 cells, and OpenGL writes later primitives over earlier ones, so where deformed quads overlap
@@ -19,6 +20,7 @@ from ..gl.context import GLContext, current
 from ..gl.dispatch import set_uniforms
 from ..gl.resources import Resources
 from .bands import MeshBands
+from .frame import Frame
 
 __all__ = ["MeshRaster"]
 
@@ -35,35 +37,42 @@ class MeshRaster:
     def draw(
         self,
         kernel: MLSKernel,
-        source: moderngl.Texture,
+        source: moderngl.Texture | None,
         lattice: MeshLattice,
-        target_size: tuple[int, int],
+        frame: Frame,
         *,
         linear: bool,
         coords: bool,
         flip_y: bool,
+        border: int = 0,
     ) -> None:
         """Draw ``lattice`` (the corners every ``grid`` pixels: quads; the pixel centres:
-        splat) of the source image into the bound framebuffer, ``target_size`` (W, H)
-        pixels mapped onto its viewport."""
+        splat; either possibly with a margin past the image) of the source image into the
+        bound framebuffer, the output canvas ``frame`` mapped onto its viewport. ``border``:
+        the code of the rule for source pixels past the image (``WARP_BORDER``)."""
         splat = lattice.kind == "centres"
         program = self._gl.program(
             "warp/mesh.vert.glsl",
             "warp/mesh.frag.glsl",
-            {"WARP_SPLAT": splat, "WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords},
+            {
+                "WARP_SPLAT": splat,
+                "WARP_LINEAR": linear,
+                "WARP_OUTPUT_COORDS": coords,
+                "WARP_BORDER": 0 if coords else border,
+            },
         )
         height, width = lattice.shape
         sc = kernel.scaling
         values = {
             "u_center": sc.center,
             "u_scale": sc.scale,
-            "u_target_size": target_size,
+            **frame.uniforms(),
             "u_flip_y": flip_y,
             "u_source_size": (width, height),
-            "u_grid": lattice.grid,
+            **lattice.pixel_uniforms(),
         }
         set_uniforms(program, values)
-        if not coords:
+        if source is not None and not coords:
             mode = moderngl.LINEAR if linear else moderngl.NEAREST
             source.filter = (mode, mode)
             source.use(bindings.SOURCE.index)

@@ -14,6 +14,7 @@ import numpy as np
 from ..core.mesh import check_grid
 
 __all__ = [
+    "BORDERS",
     "DTYPES",
     "INTERPOLATIONS",
     "METHODS",
@@ -29,6 +30,11 @@ __all__ = [
 #: How the deformed image is built (see :meth:`glmls.MLS.warp`).
 METHODS = ("quads", "splat", "backward", "backward-swap")
 INTERPOLATIONS = ("nearest", "linear")
+#: What lies beyond the source image, with numpy.pad's (and scikit-image's) meanings:
+#: ``constant`` the background; ``edge`` the edge pixel repeated; ``symmetric`` mirrored with
+#: the edge pixel (a b c | c b a); ``reflect`` mirrored about it (a b c | b a); ``wrap`` the
+#: image repeated. A mode's index is its ``WARP_BORDER`` code in the shaders.
+BORDERS = ("constant", "edge", "symmetric", "reflect", "wrap")
 DTYPES = (np.uint8, np.uint16, np.float32, np.float64)
 
 
@@ -125,11 +131,14 @@ def background_color(background: object, image: SourceImage) -> tuple[float, flo
     return (*out, *[0.0] * (4 - len(out)))  # type: ignore[return-value]
 
 
-def check_options(method: object, interpolation: object, grid: object) -> None:
-    """``ValueError`` naming a bad ``method``, ``interpolation`` or ``grid``."""
+def check_options(
+    method: object, interpolation: object, grid: object, border: object = "constant"
+) -> None:
+    """``ValueError`` naming a bad ``method``, ``interpolation``, ``grid`` or ``border``."""
     for name, value, choices in (
         ("method", method, METHODS),
         ("interpolation", interpolation, INTERPOLATIONS),
+        ("border", border, BORDERS),
     ):
         if not isinstance(value, str) or value not in choices:
             raise ValueError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")

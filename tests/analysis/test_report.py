@@ -74,7 +74,14 @@ def test_summary_and_pictures(gl, rng, tmp_path):
     assert summary["triangles"]["angle"]["mean"] == pytest.approx(angles.mean(), rel=1e-3)
     assert summary["triangles"]["angle"]["max"] == pytest.approx(angles.max(), rel=1e-3)
     assert set(summary["timings_s"]) >= {"error_field", "triangle_errors", "render", "total"}
-    assert summary["warp"] == {"method": "quads", "interpolation": "nearest", "grid": 1}
+    assert summary["warp"] == {
+        "method": "quads",
+        "interpolation": "nearest",
+        "grid": 1,
+        "border": "constant",
+        "output_shape": [48, 60],
+        "origin": [0.0, 0.0],
+    }
     assert summary["foldovers"] == {"grid": 1, "cells": folds}
     assert (result.images["deformed"] == deformed).all()
     expected = {
@@ -123,3 +130,39 @@ def test_demo_writes_the_figures(gl, tmp_path, monkeypatch):
     runpy.run_path("demos/paper_figures_6_7.py", run_name="__main__")
     for name in ("fig6.png", "fig7.png", "report.json", "error_field.png", "triangle_angle.png"):
         assert (tmp_path / name).is_file()
+
+
+def test_fit_and_border_draw_on_the_whole_deformed_image(gl, rng):
+    shape = (48, 60)
+    image = rng.integers(0, 256, (*shape, 3), dtype=np.uint8)
+    dst = np.array(DST) + [[-9.0, -6.0], [9.0, -6.0], [9.0, 8.0], [-9.0, 8.0]]  # pushed out
+    with glmls.MLS(SRC, dst, transform="similarity", ctx=gl) as m:
+        result = glmls.report(image, m, REFERENCE, border="edge", fit=True)
+        b = m.bounds(shape)
+        whole = m.warp(image, border="edge", output_shape=b.output_shape, origin=b.origin)
+        moved = m(np.array(REFERENCE))
+    warp = result.summary["warp"]
+    assert warp["border"] == "edge"
+    assert warp["output_shape"] == list(b.output_shape) and warp["origin"] == list(b.origin)
+    np.testing.assert_array_equal(result.images["deformed"], whole)
+    for name in ("deformed_mesh", "triangle_angle"):
+        assert result.images[name].shape[:2] == b.output_shape, name
+    # the triangles sit at f(r) - origin on the canvas: a vertex's pixel is the edge colour
+    picture = result.images["triangle_angle"].astype(int)
+    for x, y in moved - b.origin:
+        assert picture[round(y), round(x)].sum() < 3 * 90  # dark edge lines meet
+
+
+def test_pictures_take_the_canvas_origin(gl):
+    mesh = np.stack(np.meshgrid(np.linspace(3, 40, 6), np.linspace(5, 30, 5)), -1)
+    blank = np.full((40, 50, 3), 255, np.uint8)
+    shifted = glmls.render_mesh(blank, mesh, origin=(-4.0, 2.5))
+    np.testing.assert_array_equal(shifted, glmls.render_mesh(blank, mesh - [-4.0, 2.5]))
+    with pytest.raises(ValueError, match="origin"):
+        glmls.render_mesh(blank, mesh, origin=(0.0, np.inf))
+
+
+def test_report_refuses_a_bad_border_before_any_work(gl):
+    with glmls.MLS(SRC, DST, ctx=gl) as m:
+        with pytest.raises(ValueError, match="unknown border 'clamp'; choose one of constant"):
+            glmls.report(np.zeros((20, 20), np.uint8), m, REFERENCE, border="clamp")

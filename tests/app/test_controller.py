@@ -18,6 +18,7 @@ from glmls.app.controller import (
     pick,
 )
 from glmls.core.config import WEIGHTS, image_diagonal
+from glmls.imaging.source import BORDERS
 
 SRC = np.array([[10.0, 10.0], [50.0, 10.0], [30.0, 40.0]])
 
@@ -163,6 +164,30 @@ def test_key_bindings_cycle_the_settings():
         constructions.append((c.settings.method, c.settings.interpolation))
         c.feed(Key("c"))
     assert constructions == list(CONSTRUCTIONS)
+
+
+def test_border_and_fit_keys():
+    c = make()
+    borders = []
+    for _ in BORDERS:
+        borders.append(c.settings.border)
+        r = c.revision
+        c.feed(Key("b"))
+        assert c.revision > r  # the window redraws
+    assert borders == list(BORDERS) and c.settings.border == "constant"
+    assert not c.settings.fit
+    c.feed(Key("o"))
+    assert c.settings.fit
+    c.feed(Key("o"))
+    assert not c.settings.fit
+
+
+def test_settings_validate_border_and_fit():
+    assert Settings(border="wrap", fit=True).border == "wrap"
+    with pytest.raises(ValueError, match="unknown border 'mirror'; choose one of constant"):
+        Settings(border="mirror")
+    with pytest.raises(TypeError, match="fit must be True or False"):
+        Settings(fit="yes")  # type: ignore[arg-type]
 
 
 def test_parameter_keys_change_alpha_or_radius():

@@ -42,6 +42,17 @@ def test_cursor_to_image_and_back_with_high_dpi():
     assert (x, y) == pytest.approx((399.5, 299.5), abs=1e-2)
 
 
+def test_layout_of_a_canvas_from_another_origin():
+    """The fit view: a canvas of (H, W) whose pixel (0, 0) is image point (-20, -10)."""
+    lay = layout((900, 600), (320, 440), panel=300, origin=(-20.0, -10.0))
+    fx, fy = lay.to_framebuffer(-20.5, -10.5)  # the canvas's top left corner
+    vx, vy, vw, vh = lay.viewport
+    assert (fx, fy) == pytest.approx((vx, 600 - vy - vh))
+    assert lay.to_framebuffer(419.5, 309.5) == pytest.approx((vx + vw, 600 - vy))
+    for point in ((0.0, 0.0), (123.5, 77.25), (-20.0, 300.0)):
+        assert lay.to_image(*lay.to_framebuffer(*point)) == pytest.approx(point)
+
+
 # -- replay files -------------------------------------------------------------------------------
 
 

@@ -135,6 +135,39 @@ def test_drag_moves_the_image_and_overlays_appear(tmp_path, square):
 
 
 @needs_xvfb
+def test_border_key_and_fit_view(tmp_path, square):
+    """The drag translates by (20, 15): b (edge) fills the sliver it leaves; o (fit) shows
+    the whole moved image, its canvas (-0.5 .. 119.5, -0.5 .. 114.5) letterboxed."""
+    size = f"{WINDOW[0]}x{WINDOW[1]}"
+    shots = {}
+    for name, keys in {"edge": ["b"], "fit": ["o", "s"]}.items():
+        shots[name] = tmp_path / f"{name}.png"
+        result = demo(
+            str(square), "--replay", str(events(tmp_path / f"{name}.json", *keys)),
+            "--screenshot", str(shots[name]), "--window-size", size, "--frames", "8",
+            "--out", str(tmp_path / "saved"),
+        )  # fmt: skip
+        assert result.returncode == 0, result.stderr
+    edge = glmls.imread(shots["edge"])
+    np.testing.assert_allclose(at(edge, 5, 5), BLUE, atol=8)  # was background
+    fit = glmls.imread(shots["fit"])
+    panel = round(PANEL_CHARS * GlyphAtlas(TEXT_SIZE).advance["M"]) + 24
+    lay = layout(WINDOW, (115, 120), panel, origin=(0.0, 0.0))
+
+    def fit_at(x, y):
+        fx, fy = lay.to_framebuffer(x, y)
+        return fit[int(fy), int(fx)].astype(int)
+
+    assert (fit_at(52, 47) > 240).all() and (fit_at(67, 62) > 240).all()  # the moved square
+    np.testing.assert_allclose(fit_at(115, 110), BLUE, atol=8)  # past the input's frame
+    assert (fit_at(5, 5) < 8).all()  # uncovered, the constant border
+    # s saved what the view shows: the whole moved image on its canvas
+    warped = glmls.imread(tmp_path / "saved" / "square-warped.png")
+    assert warped.shape == (115, 120, 3)
+    assert (warped[45:65, 50:70] == 255).all() and warped[15:, 20:].any(axis=-1).all()
+
+
+@needs_xvfb
 @pytest.mark.parametrize("option", ["--frames", "--screenshot", "--replay"])
 def test_each_option_works_alone(tmp_path, square, option):
     if option == "--frames":

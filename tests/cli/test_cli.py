@@ -67,6 +67,32 @@ def test_warp_a_glob_into_a_folder_with_progress(inputs):
     assert quiet.returncode == 0 and quiet.stderr == ""
 
 
+def test_warp_border_and_fit_match_the_api(inputs, gl):
+    image = glmls.imread(inputs / "a.png")
+    result = glmls_cli(
+        "warp", "a.png", "edge.png", "--handles", "h.json", "--border", "edge",
+        "--method", "backward", cwd=inputs,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    expected = glmls.warp(image, SRC, DST, ctx=gl, border="edge", method="backward")
+    assert (glmls.imread(inputs / "edge.png") == expected).all()
+    result = glmls_cli("warp", "a.png", "fit.png", "--handles", "h.json", "--fit", cwd=inputs)
+    assert result.returncode == 0, result.stderr
+    with glmls.MLS(SRC, DST, shape=image.shape, ctx=gl) as m:
+        b = m.bounds(image.shape)
+        expected = m.warp(image, output_shape=b.output_shape, origin=b.origin)
+    assert b.output_shape != image.shape[:2]
+    fit = glmls.imread(inputs / "fit.png")
+    assert fit.shape[:2] == b.output_shape and (fit == expected).all()
+    (h, w), (x0, y0) = b.output_shape, b.origin
+    assert f"{w} x {h} pixels from ({x0:g}, {y0:g})" in result.stderr
+    bad = glmls_cli(
+        "warp", "a.png", "x.png", "--handles", "h.json", "--border", "mirror", cwd=inputs
+    )
+    assert bad.returncode == 2 and "invalid choice: 'mirror'" in bad.stderr
+    assert not (inputs / "x.png").exists()
+
+
 def test_analyze_writes_the_report_and_pictures(inputs):
     result = glmls_cli(
         "analyze", "a.png", "--handles", "h.json", "--reference", "r.json", "--out", "rep",
@@ -79,6 +105,16 @@ def test_analyze_writes_the_report_and_pictures(inputs):
     assert {"error_field", "triangles", "foldovers", "timings_s"} <= set(summary)
     for name in ("deformed", "error_field", "triangulation", "triangle_angle"):
         assert (inputs / "rep" / f"{name}.png").is_file()
+    fit = glmls_cli(
+        "analyze", "a.png", "--handles", "h.json", "--out", "fit", "--border", "wrap", "--fit",
+        cwd=inputs,
+    )  # fmt: skip
+    assert fit.returncode == 0, fit.stderr
+    warp = json.loads((inputs / "fit" / "report.json").read_text())["warp"]
+    assert warp["border"] == "wrap" and warp["output_shape"] != [32, 40]
+    for name in ("deformed", "deformed_mesh", "triangle_angle"):
+        picture = glmls.imread(inputs / "fit" / f"{name}.png")
+        assert list(picture.shape[:2]) == warp["output_shape"], name
 
 
 def test_tune_is_reproducible_for_a_seed(inputs):

@@ -38,7 +38,7 @@ def test_shaders_bind_only_through_the_table():
 
 
 def test_every_program_gets_the_table():
-    source = library().compose("mls/points.comp.glsl").text
+    source = library().compose("draw/color.frag.glsl").text
     for binding in bindings.ALL:
         assert f"#define {binding.define} {binding.index}\n" in source
 

@@ -144,7 +144,8 @@ def compile_every_entry(gl):
     }
     gl.compute("mls/points.comp.glsl", mls | {"MLS_LATTICE": 1, "MLS_WRITE_MATRIX": 1})
     gl.compute("mls/error_field.comp.glsl", mls | {"MLS_ERROR_INTERPOLATE": 0})
-    gl.compute("warp/inverse.comp.glsl", mls | {"WARP_SWAP": 0, "WARP_NEWTON_STEPS": 8})
+    inverse = {"WARP_SWAP": 0, "WARP_NEWTON_STEPS": 8, "WARP_BORDER": 0}
+    gl.compute("warp/inverse.comp.glsl", mls | inverse)
     for storage in (1, 2):
         extra = {"MLS_STORAGE": storage, "MLS_UBO_CAPACITY": 1024, "MLS_BINS": 0, "MLS_UNROLL": 16}
         gl.compute("mls/points.comp.glsl", mls | extra | {"MLS_LATTICE": 0, "MLS_WRITE_MATRIX": 0})
@@ -152,6 +153,36 @@ def compile_every_entry(gl):
     gl.program("warp/mesh.vert.glsl", "warp/mesh.frag.glsl", warp | {"WARP_SPLAT": 0})
     gl.program("common/fullscreen.vert.glsl", "warp/cells.frag.glsl", warp)
     gl.program("common/fullscreen.vert.glsl", "draw/picture.frag.glsl")
+    for border in range(5):  # glmls.imaging.source.BORDERS
+        linear = {"WARP_LINEAR": 1, "WARP_BORDER": border}
+        gl.program("common/fullscreen.vert.glsl", "warp/backward.frag.glsl", linear)
+        nearest = {"WARP_LINEAR": 0, "WARP_BORDER": border}
+        gl.program("common/fullscreen.vert.glsl", "warp/cells_nearest.frag.glsl", nearest)
+        cells = {"WARP_CELLS_SOURCE": 1, "WARP_CELLS_FUSED": 1, "WARP_BORDER": border}
+        gl.compute("warp/cells.comp.glsl", cells | {"WARP_CELLS_FAST": 1})
+        gl.compute("warp/cells_fixup.comp.glsl", {"WARP_FIXUP_ARGS": 0, "WARP_BORDER": border})
+    for stage in range(3):
+        gl.compute("warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage})
+
+
+def test_an_undefined_macro_in_a_condition_names_its_line(tmp_path):
+    """GLSL has no default of 0 for an undefined macro in #if (NVIDIA refuses it; Mesa
+    does not): the loader refuses it on every driver. Skipped groups are not evaluated."""
+    (tmp_path / "lib").mkdir()
+    (tmp_path / "lib" / "part.glsl").write_text(
+        "#ifndef HAS_DEFAULT\n#define HAS_DEFAULT 3\n#endif\n"
+        "#if HAS_DEFAULT == 3 && defined(GIVEN)\nint a;\n#elif MISSING\nint b;\n#endif\n"
+    )
+    (tmp_path / "main.comp.glsl").write_text(
+        '#if GIVEN\n#include "lib/part.glsl"\n#else\n#if NOT_EVALUATED\n#endif\n#endif\n'
+    )
+    lib = ShaderLibrary(tmp_path, common={})
+    lib.compose("main.comp.glsl", {"GIVEN": 1})  # HAS_DEFAULT by #ifndef; #elif not reached
+    with pytest.raises(ShaderCompileError, match=r"main.comp.glsl:1: #if uses GIVEN"):
+        lib.compose("main.comp.glsl")
+    (tmp_path / "lib" / "part.glsl").write_text("#if 0\n#elif MISSING\n#endif\n")
+    with pytest.raises(ShaderCompileError, match=r"lib/part.glsl:2: #if uses MISSING"):
+        ShaderLibrary(tmp_path, common={}).compose("main.comp.glsl", {"GIVEN": 1})
 
 
 def test_programs_are_compiled_once(gl):

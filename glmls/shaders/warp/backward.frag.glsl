@@ -1,5 +1,6 @@
 // Backward mapping: every output pixel samples the source at the point s that
-// warp/inverse.comp.glsl found for it. Needs a viewport of the output's size in pixels.
+// warp/inverse.comp.glsl found for it (outside the image: by the border rule). Needs a
+// viewport of the output's size in pixels.
 #include "warp/target.glsl"
 #include "warp/sample.glsl"
 
@@ -11,7 +12,7 @@ void main() {
     ivec2 p = warp_target_pixel();
     vec4 c = texelFetch(u_coords, p, 0);
     if (c.w < 0.5) {
-        discard;   // no source point inside the image: the background stays
+        discard;   // no source point (constant border: none inside the image)
     }
-    out_color = warp_fetch(c.xy, ivec2(0), textureSize(u_source, 0) - 1);
+    out_color = warp_sample(c.xy);
 }

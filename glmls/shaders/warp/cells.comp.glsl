@@ -25,6 +25,11 @@
 // boundary test of warp/cells_check.comp.glsl this decides whether the keyed pass above must
 // redo the picture (see there for why no pixel is then covered twice).
 //
+// The mesh is a glmls.core.mesh.MeshLattice (corners), possibly with a margin past the image
+// (border modes): cells and source pixels are the lattice's own, the source pixel of lattice
+// pixel p is p + u_lattice_offset, read by the border rule (common/border.glsl). Target
+// pixels are the output frame's (warp/frame.glsl).
+//
 // Coverage is OpenGL's: pixel centres strictly inside, and on an edge only for one of the two
 // triangles that share it (a top-left style tie rule). Each edge function is computed from
 // the edge's endpoints in mesh-index order, with `precise`, so the two triangles on either
@@ -32,6 +37,7 @@
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "warp/cells_packed.glsl"
+#include "warp/frame.glsl"
 #include "common/lattice.glsl"
 
 layout(std430, binding = BIND_DEFORMED) readonly buffer WarpMesh {
@@ -41,8 +47,6 @@ layout(std430, binding = BIND_WINNER) buffer WarpWinner {
     uint warp_winner[];  // per target pixel, row-major: the top triangle's key, 0 = none
 };
 
-uniform vec2 u_center;        // scaled -> pixels
-uniform float u_scale;
 uniform ivec2 u_target_size;  // W, H in pixels
 uniform ivec2 u_mesh_dims;    // vertices per row, rows (of this band)
 uniform int u_first_row;      // mesh row of the band's first row (glmls.core.mesh bands)
@@ -50,12 +54,10 @@ uniform int u_offset;         // first cell of this dispatch
 uniform int u_sub_bits;       // key layout, see above (shifts of the low end of each field)
 uniform int u_col_shift;
 uniform int u_row_shift;
-#if WARP_CELLS_SOURCE
-uniform ivec2 u_source_size;  // W, H of the source image
-#endif
+uniform ivec2 u_source_size;  // W, H of the source image (the fused colours)
 
 vec2 vertex_px(int i) {
-    return warp_mesh[i] * u_scale + u_center;
+    return warp_output_point(warp_mesh[i]);
 }
 
 // The edge function of edge (a, b), a before b in mesh order, at p.
@@ -125,9 +127,9 @@ void main() {
 #if WARP_CELLS_SOURCE
     // the cell's source pixels and the inverse areas of its triangles (barycentrics)
     ivec2 cell_lo = ivec2(cx, row) * u_grid;
-    ivec2 cell_hi = min(cell_lo + u_grid - 1, u_source_size - 1);
-    vec2 s00 = lattice_corner(ivec2(cx, row), u_source_size);
-    vec2 size = lattice_corner(ivec2(cx, row) + 1, u_source_size) - s00;
+    ivec2 cell_hi = min(cell_lo + u_grid - 1, u_lattice_size - 1);
+    vec2 s00 = lattice_corner(ivec2(cx, row));
+    vec2 size = lattice_corner(ivec2(cx, row) + 1) - s00;
     float inv0 = 1.0 / edge(p00, p10, p11);
     float inv1 = 1.0 / edge(p00, p11, p01);
 #endif
@@ -191,7 +193,7 @@ void main() {
 #if WARP_CELLS_FUSED
             // Every triangle writes its colour, in any order; with keys, one that finds the
             // pixel taken lists it for warp/cells_fixup.comp.glsl, which writes the winner's.
-            ivec2 s = cell_lo + sp;
+            ivec2 s = lattice_source_pixel(cell_lo + sp, u_source_size);
             int spare = u_target_size.x * u_target_size.y;
             warp_target[id != 0u ? i : spare] = warp_source[s.y * u_source_size.x + s.x];
 #endif

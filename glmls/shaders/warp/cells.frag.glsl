@@ -13,13 +13,11 @@
 // buffer reads go lane by lane (2x slower here).
 #include "warp/target.glsl"
 #include "warp/sample.glsl"
-#include "common/lattice.glsl"
+#include "warp/frame.glsl"
 
 layout(binding = BIND_MESH) uniform sampler2D u_mesh;
 layout(binding = BIND_WINNER_TEXTURE) uniform usampler2D u_winner;
 
-uniform vec2 u_center;
-uniform float u_scale;
 uniform ivec2 u_mesh_dims;    // vertices per row, rows of this band
 uniform int u_first_row;      // mesh row of the band's first row
 uniform int u_col_shift;      // key layout, see warp/cells.comp.glsl (no source pixel bits)
@@ -28,7 +26,7 @@ uniform int u_row_shift;
 layout(location = 0) out vec4 out_color;
 
 vec2 source_point(ivec2 ij) {
-    return lattice_corner(ij, u_source_size);
+    return lattice_corner(ij);
 }
 
 void main() {
@@ -48,9 +46,9 @@ void main() {
     // the triangle's corners as mesh offsets: (00, 10, 11) or (00, 11, 01)
     ivec2 kb = triangle == 0 ? ivec2(1, 0) : ivec2(1, 1);
     ivec2 kc = triangle == 0 ? ivec2(1, 1) : ivec2(0, 1);
-    vec2 a = texelFetch(u_mesh, c, 0).xy * u_scale + u_center;
-    vec2 b = texelFetch(u_mesh, c + kb, 0).xy * u_scale + u_center;
-    vec2 d = texelFetch(u_mesh, c + kc, 0).xy * u_scale + u_center;
+    vec2 a = warp_output_point(texelFetch(u_mesh, c, 0).xy);
+    vec2 b = warp_output_point(texelFetch(u_mesh, c + kb, 0).xy);
+    vec2 d = warp_output_point(texelFetch(u_mesh, c + kc, 0).xy);
     // barycentric coordinates of the pixel centre
     vec2 x = vec2(p);
     float area = (b.x - a.x) * (d.y - a.y) - (b.y - a.y) * (d.x - a.x);
@@ -59,9 +57,9 @@ void main() {
     vec2 s = source_point(g) * (1.0 - lb - ld) + source_point(g + kb) * lb +
              source_point(g + kc) * ld;
 #if WARP_OUTPUT_COORDS
-    out_color = vec4(s, 1.0, 0.0);
+    out_color = vec4(s + vec2(u_lattice_offset), 1.0, 0.0);   // source pixels
 #else
     ivec2 first = g * u_grid;
-    out_color = warp_fetch(s, first, min(first + u_grid - 1, u_source_size - 1));
+    out_color = warp_fetch(s, first, min(first + u_grid - 1, u_lattice_size - 1));
 #endif
 }

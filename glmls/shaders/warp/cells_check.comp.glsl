@@ -18,6 +18,7 @@
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "warp/cells_packed.glsl"
+#include "warp/frame.glsl"
 
 layout(std430, binding = BIND_DEFORMED) readonly buffer WarpMesh {
     vec2 warp_mesh[];   // f at the mesh vertices, scaled coordinates
@@ -26,13 +27,11 @@ layout(std430, binding = BIND_WINNER) writeonly buffer WarpWinner {
     uvec4 warp_winner4[];   // the keys, four per element
 };
 
-uniform vec2 u_center;
-uniform float u_scale;
 uniform ivec2 u_mesh_dims;    // vertices per row, rows (the whole mesh)
 uniform ivec2 u_target_size;
 
 vec2 vertex_px(ivec2 ij) {
-    return warp_mesh[ij.y * u_mesh_dims.x + ij.x] * u_scale + u_center;
+    return warp_output_point(warp_mesh[ij.y * u_mesh_dims.x + ij.x]);
 }
 
 // Boundary vertex t, counter-clockwise in the triangles' sense (00 -> 10 -> 11 -> 01):

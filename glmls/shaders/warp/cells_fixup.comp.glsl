@@ -8,6 +8,7 @@ layout(local_size_x = LOCAL_SIZE) in;
 
 #include "warp/cells_packed.glsl"
 #include "warp/cells_key.glsl"
+#include "common/lattice.glsl"
 
 layout(std430, binding = BIND_WINNER) readonly buffer WarpWinner {
     uint warp_winner[];   // per target pixel, row-major: the top triangle's key, 0 = none
@@ -17,6 +18,7 @@ layout(std430, binding = BIND_FIXUP_DISPATCH) buffer WarpFixupDispatch {
 };
 
 uniform ivec2 u_target_size;
+uniform ivec2 u_source_size;
 
 bool overflowed() {
     return warp_fixup_count > uint(u_fixup_capacity);
@@ -38,7 +40,7 @@ void main() {
     if (id == 0u) {
         return;   // uncovered (all pixels redone): the background stays
     }
-    ivec2 s = warp_key_source_pixel(id);
-    warp_target[i] = warp_source[s.y * u_target_size.x + s.x];
+    ivec2 s = lattice_source_pixel(warp_key_source_pixel(id), u_source_size);
+    warp_target[i] = warp_source[s.y * u_source_size.x + s.x];
 #endif
 }

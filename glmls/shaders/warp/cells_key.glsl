@@ -6,7 +6,7 @@ uniform int u_sub_bits;       // key layout, see warp/cells.comp.glsl
 uniform int u_col_shift;
 uniform int u_row_shift;
 
-// id: a nonzero key (1 + the bit fields).
+// id: a nonzero key (1 + the bit fields); the pixel in the lattice's coordinates.
 ivec2 warp_key_source_pixel(uint id) {
     uint key = id - 1u;
     uint sub_mask = (1u << u_sub_bits) - 1u;

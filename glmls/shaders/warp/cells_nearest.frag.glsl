@@ -6,8 +6,8 @@
 // discarded (the background stays).
 #include "warp/target.glsl"
 #include "warp/cells_key.glsl"
+#include "warp/sample.glsl"
 
-layout(binding = BIND_SOURCE) uniform sampler2D u_source;
 layout(binding = BIND_WINNER_TEXTURE) uniform usampler2D u_winner;
 
 layout(location = 0) out vec4 out_color;
@@ -18,5 +18,5 @@ void main() {
     if (id == 0u) {
         discard;
     }
-    out_color = texelFetch(u_source, warp_key_source_pixel(id), 0);
+    out_color = warp_texel(warp_key_source_pixel(id) + u_lattice_offset);
 }

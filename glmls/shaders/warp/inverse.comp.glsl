@@ -12,13 +12,12 @@
 layout(local_size_x = LOCAL_SIZE_2D, local_size_y = LOCAL_SIZE_2D) in;
 
 #include "mls/visit.glsl"
+#include "warp/frame.glsl"
 
 layout(rgba32f, binding = BIND_INVERSE_MAP) uniform image2D u_map;
 
 uniform ivec2 u_target_size;   // W, H of the output
 uniform ivec2 u_source_size;   // W, H of the source
-uniform vec2 u_center;         // scaled -> pixels
-uniform float u_scale;
 uniform float u_tolerance;     // stop below this residual, pixels
 uniform float u_accept;        // a residual above this (pixels) leaves the pixel uncovered
 
@@ -27,7 +26,7 @@ void main() {
     if (p.x >= u_target_size.x || p.y >= u_target_size.y) {
         return;
     }
-    vec2 u = (vec2(p) - u_center) / u_scale;
+    vec2 u = (vec2(p) + u_origin - u_center) / u_scale;   // the deformed point output p shows
 #if WARP_SWAP
     vec2 s = mls_eval(u).f;
     float residual = -1.0;
@@ -60,7 +59,11 @@ void main() {
     bool converged = residual <= u_accept;
 #endif
     vec2 sp = s * u_scale + u_center;
+#if WARP_BORDER == 0
     bool inside = all(greaterThanEqual(sp, vec2(-0.5))) &&
                   all(lessThanEqual(sp, vec2(u_source_size) - 0.5));
+#else
+    bool inside = true;   // sampled by the border rule
+#endif
     imageStore(u_map, p, vec4(sp, residual, (converged && inside) ? 1.0 : 0.0));
 }

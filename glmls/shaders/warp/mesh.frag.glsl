@@ -5,7 +5,6 @@
 
 uniform ivec2 u_mesh_dims;    // vertices per row, rows of this band
 uniform int u_first_row;      // mesh row of the band's first row
-uniform int u_grid;           // mesh step in pixels
 
 in vec2 v_source;
 #if WARP_SPLAT
@@ -16,7 +15,7 @@ layout(location = 0) out vec4 out_color;
 
 void main() {
 #if WARP_OUTPUT_COORDS
-    out_color = vec4(v_source, 1.0, 0.0);
+    out_color = vec4(v_source + vec2(u_lattice_offset), 1.0, 0.0);   // source pixels
 #elif WARP_SPLAT
     out_color = warp_fetch(v_source, v_pixel, v_pixel);
 #else
@@ -24,6 +23,6 @@ void main() {
     int cell = gl_PrimitiveID / 2;
     int cells_x = u_mesh_dims.x - 1;
     ivec2 first = ivec2(cell % cells_x, cell / cells_x + u_first_row) * u_grid;
-    out_color = warp_fetch(v_source, first, min(first + u_grid - 1, u_source_size - 1));
+    out_color = warp_fetch(v_source, first, min(first + u_grid - 1, u_lattice_size - 1));
 #endif
 }

@@ -12,16 +12,14 @@
 // row 0 is at the bottom of the screen, sets u_flip_y.
 
 #include "common/lattice.glsl"
+#include "warp/frame.glsl"
 
 layout(std430, binding = BIND_DEFORMED) readonly buffer WarpMesh {
     vec2 warp_mesh[];   // f at the band's vertices, scaled coordinates
 };
 
-uniform vec2 u_center;        // scaled -> pixels: pixel = scaled * u_scale + u_center
-uniform float u_scale;
-uniform ivec2 u_target_size;  // W, H of the deformed image, in pixels
+uniform ivec2 u_target_size;  // W, H of the output, in pixels
 uniform bool u_flip_y;
-uniform ivec2 u_source_size;  // W, H of the source image
 uniform ivec2 u_mesh_dims;    // vertices per row, rows of this band
 uniform int u_first_row;      // mesh row (splat: pixel row) of the band's first row
 
@@ -37,9 +35,9 @@ void main() {
     v_pixel = ij;
     v_source = vec2(ij);
 #else
-    v_source = lattice_corner(ij, u_source_size);
+    v_source = lattice_corner(ij);
 #endif
-    vec2 pixel = warp_mesh[i] * u_scale + u_center;
+    vec2 pixel = warp_output_point(warp_mesh[i]);
     vec2 ndc = (pixel + 0.5) / vec2(u_target_size) * 2.0 - 1.0;
     gl_Position = vec4(ndc.x, u_flip_y ? -ndc.y : ndc.y, 0.0, 1.0);
 }

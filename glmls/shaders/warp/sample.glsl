@@ -1,16 +1,42 @@
-// Samples the source image at a source point s (pixels, centres at integers).
+// Samples the source image (pixels: centres at integers, (x, y) = (column, row)).
 //
-//   WARP_LINEAR 0: nearest, the texel of the source pixel containing s, clamped to the pixels
-//                  [lo, hi] (the cell being drawn), so the colour is an input colour;
-//               1: bilinear between the four nearest pixel centres, edges clamped.
+//   WARP_LINEAR 0: nearest, the texel of the source pixel containing the point, so the colour
+//                  is an input colour; 1: bilinear between the four nearest pixel centres.
+//   WARP_BORDER    the rule outside the image (common/border.glsl).
 // The texture holds the image's raw values (float32, or 8-bit normalized for uint8 images).
+#include "common/border.glsl"
+#include "common/lattice.glsl"
+
 layout(binding = BIND_SOURCE) uniform sampler2D u_source;
 uniform ivec2 u_source_size;  // W, H of the source image
 
+// Source pixel p's value, by the border rule outside the image.
+vec4 warp_texel(ivec2 p) {
+    return texelFetch(u_source, border_pixel(p, u_source_size), 0);
+}
+
+// The source at point s (source pixels): the backward methods.
+vec4 warp_sample(vec2 s) {
+#if WARP_LINEAR && WARP_BORDER == 0
+    return texture(u_source, (s + 0.5) / vec2(textureSize(u_source, 0)));   // edges clamped
+#elif WARP_LINEAR
+    vec2 corner = floor(s);
+    vec2 t = s - corner;
+    ivec2 p = ivec2(corner);
+    vec4 top = mix(warp_texel(p), warp_texel(p + ivec2(1, 0)), t.x);
+    vec4 bottom = mix(warp_texel(p + ivec2(0, 1)), warp_texel(p + ivec2(1, 1)), t.x);
+    return mix(top, bottom, t.y);
+#else
+    return warp_texel(ivec2(floor(s + 0.5)));
+#endif
+}
+
+// The source at a lattice point s (lattice pixels): nearest takes a pixel of the cell being
+// drawn, lattice pixels [lo, hi], so that each cell shows its own pixels.
 vec4 warp_fetch(vec2 s, ivec2 lo, ivec2 hi) {
 #if WARP_LINEAR
-    return texture(u_source, (s + 0.5) / vec2(textureSize(u_source, 0)));
+    return warp_sample(s + vec2(u_lattice_offset));
 #else
-    return texelFetch(u_source, clamp(ivec2(floor(s + 0.5)), lo, hi), 0);
+    return warp_texel(clamp(ivec2(floor(s + 0.5)), lo, hi) + u_lattice_offset);
 #endif
 }

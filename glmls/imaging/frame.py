@@ -1,0 +1,255 @@
+"""The output canvas and the border modes' reach past the image.
+
+- :class:`Frame`: which part of the deformed plane the output shows: ``shape`` (H, W) output
+  pixels, output pixel (column i, row j) showing the point ``origin`` + (i, j). The default
+  frame is the source image's own (origin (0, 0), the input's shape).
+- :class:`Bounds` (:func:`deformed_bounds`): the bounding box of the deformed image and the
+  frame that shows all of it.
+- :func:`border_margin`: how far past the image the forward methods' mesh must reach, for a
+  border mode other than ``constant``, so that the extended source covers the whole frame.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.handles import COORDINATE_LIMIT
+from ..core.mesh import MAX_MARGIN, MeshLattice, as_shape
+from ..engine.kernel import MLSKernel
+from ..engine.passes import evaluate_points
+from ..errors import BorderWarning
+
+__all__ = ["FIT_SLACK", "Bounds", "Frame", "border_margin", "deformed_bounds", "make_frame"]
+
+#: A box edge this close (pixels) to a pixel's edge does not make :class:`Bounds` take in the
+#: pixel beyond: float32 noise of f, e.g. the identity's -0.5 read back as -0.5000001.
+FIT_SLACK = 1e-3
+#: A frame's pixel centres must stay this far (pixels) inside the deformed border of the
+#: extended mesh (:func:`border_margin`).
+ENCLOSE_PAD = 0.25
+
+
+def _is_integral(value: object) -> bool:
+    if isinstance(value, (bool, np.bool_)):
+        return False
+    if isinstance(value, (int, np.integer)):
+        return True
+    return isinstance(value, (float, np.floating)) and float(value).is_integer()
+
+
+@dataclass(frozen=True)
+class Frame:
+    """The output canvas: ``shape`` (H, W) pixels; output pixel (column i, row j) shows the
+    deformed plane's point ``origin`` + (i, j) (pixels; with the identity map, the source
+    pixel there). Build with :func:`make_frame`, which validates."""
+
+    shape: tuple[int, int]
+    origin: tuple[float, float] = (0.0, 0.0)
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """(W, H)."""
+        return self.shape[1], self.shape[0]
+
+    @property
+    def pixels(self) -> int:
+        return self.shape[0] * self.shape[1]
+
+    def uniforms(self) -> dict[str, object]:
+        """Those of ``glmls/shaders/warp/frame.glsl`` and the target's size."""
+        return {"u_target_size": self.size, "u_origin": self.origin}
+
+    def centre_box(self, pad: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """(low, high) corners of the box of the output pixel centres, in the deformed
+        plane's pixels, widened by ``pad``."""
+        low = np.asarray(self.origin, dtype=np.float64)
+        high = low + np.array([self.shape[1] - 1, self.shape[0] - 1], dtype=np.float64)
+        return low - pad, high + pad
+
+
+def make_frame(
+    output_shape: object, origin: object, image_shape: tuple[int, int], max_size: int
+) -> Frame:
+    """The :class:`Frame` of ``output_shape`` (H, W; None: ``image_shape``) and ``origin``
+    (x0, y0; None: (0, 0)); ``ValueError`` naming a bad value, or a side beyond ``max_size``
+    (the GL limit)."""
+    if output_shape is None:
+        shape = image_shape
+    else:
+        if isinstance(output_shape, (str, bytes)) or not isinstance(
+            output_shape, (Iterable, np.ndarray)
+        ):
+            raise TypeError(f"output_shape must be (H, W) integers, got {output_shape!r}")
+        dims = list(output_shape)  # type: ignore[call-overload]
+        if len(dims) != 2 or not all(_is_integral(n) for n in dims):
+            raise ValueError(f"output_shape must be (H, W) integers, got {output_shape!r}")
+        shape = (int(dims[0]), int(dims[1]))
+        if min(shape) < 1:
+            raise ValueError(f"output_shape must have H, W >= 1, got {output_shape!r}")
+    if max(shape) > max_size:
+        raise ValueError(
+            f"output_shape {shape} exceeds the GL limit of {max_size} pixels per side on "
+            "this device"
+        )
+    if origin is None:
+        return Frame(shape)
+    if isinstance(origin, (str, bytes)) or not isinstance(origin, (Iterable, np.ndarray)):
+        raise TypeError(f"origin must be (x0, y0) real numbers, got {origin!r}")
+    values = list(origin)  # type: ignore[call-overload]
+    if len(values) != 2 or not all(
+        isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+        for v in values
+    ):
+        raise ValueError(f"origin must be (x0, y0) real numbers, got {origin!r}")
+    point = (float(values[0]), float(values[1]))
+    if not all(math.isfinite(v) and abs(v) <= COORDINATE_LIMIT for v in point):
+        raise ValueError(
+            f"origin must be finite and within ±{COORDINATE_LIMIT:.0e} px, got {origin!r}"
+        )
+    return Frame(shape, point)
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """The bounding box of a deformed image: x from ``x0`` to ``x1``, y from ``y0`` to
+    ``y1`` (pixels: the deformed corners of the pixel squares, so the identity gives -0.5 to
+    W - 0.5). :attr:`output_shape` and :attr:`origin` are the canvas of every pixel the box
+    touches: ``m.warp(image, output_shape=b.output_shape, origin=b.origin)`` shows the whole
+    deformed image, nothing cut off, with every method (``splat`` rounds points to the
+    nearest pixel, so a pixel that its centre leaves outside the box can still be hit)."""
+
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+
+    @property
+    def origin(self) -> tuple[float, float]:
+        """(x0, y0) of the first pixel the box touches (whole pixels)."""
+        return (
+            float(math.floor(self.x0 + 0.5 + FIT_SLACK)),
+            float(math.floor(self.y0 + 0.5 + FIT_SLACK)),
+        )
+
+    @property
+    def output_shape(self) -> tuple[int, int]:
+        """(H, W) of the pixels the box touches, at least 1 x 1."""
+        ox, oy = self.origin
+        width = math.ceil(self.x1 - 0.5 - FIT_SLACK) - int(ox) + 1
+        height = math.ceil(self.y1 - 0.5 - FIT_SLACK) - int(oy) + 1
+        return max(1, height), max(1, width)
+
+    @property
+    def frame(self) -> Frame:
+        return Frame(self.output_shape, self.origin)
+
+
+def deformed_bounds(bands: Iterable[np.ndarray], kernel: MLSKernel) -> Bounds:
+    """The :class:`Bounds` of the deformed points in ``bands`` (arrays of (K, 2) float32
+    scaled points, f on a lattice band by band)."""
+    low = np.full(2, np.inf)
+    high = np.full(2, -np.inf)
+    for points in bands:
+        if len(points):
+            low = np.minimum(low, points.min(axis=0))
+            high = np.maximum(high, points.max(axis=0))
+    (x0, y0), (x1, y1) = kernel.scaling.from_gpu(np.stack([low, high]))
+    return Bounds(float(x0), float(y0), float(x1), float(y1))
+
+
+def _segments_meet_box(a: np.ndarray, b: np.ndarray, low: np.ndarray, high: np.ndarray):
+    """Which segments a -> b ((K, 2) each) meet the box [low, high] (Liang-Barsky)."""
+    t0 = np.zeros(len(a))
+    t1 = np.ones(len(a))
+    d = b - a
+    for k in range(2):
+        dk, ak = d[:, k], a[:, k]
+        flat = dk == 0
+        safe = np.where(flat, 1.0, dk)
+        ta = (low[k] - ak) / safe
+        tb = (high[k] - ak) / safe
+        inside = (ak >= low[k]) & (ak <= high[k])
+        enter = np.where(flat, np.where(inside, -np.inf, np.inf), np.minimum(ta, tb))
+        leave = np.where(flat, np.where(inside, np.inf, -np.inf), np.maximum(ta, tb))
+        t0 = np.maximum(t0, enter)
+        t1 = np.minimum(t1, leave)
+    return t0 <= t1
+
+
+def encloses(ring: np.ndarray, low: np.ndarray, high: np.ndarray) -> bool:
+    """Does the closed polygon ``ring`` ((K, 2)) wind around the box [low, high] without
+    touching it? Then every point of the box is covered by the piecewise linear image of
+    the mesh whose border ``ring`` is (its degree there is the winding number, not 0)."""
+    if len(ring) < 3 or not np.all(np.isfinite(ring)):
+        return False
+    following = np.roll(ring, -1, axis=0)
+    if _segments_meet_box(ring, following, low, high).any():
+        return False
+    centre = (low + high) / 2
+    a, b = ring - centre, following - centre
+    angles = np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], np.sum(a * b, axis=1))
+    return abs(angles.sum()) > np.pi
+
+
+#: The most points of the extended mesh (at grid 1; divided by grid^2), unless the image and
+#: the canvas together have more pixels: the margin search stops there.
+MARGIN_POINTS = 1 << 24
+
+
+def border_margin(
+    kernel: MLSKernel, lattice: MeshLattice, frame: Frame, *, warn: bool = True
+) -> int:
+    """The margin (pixels, a multiple of ``lattice.grid``) that the mesh of ``lattice`` needs
+    past the image so that its deformed border encloses every pixel centre of ``frame``:
+    with a border mode the forward methods then leave no pixel of the frame uncovered.
+
+    Derived from the deformation: 0 where the image's own deformed border already encloses
+    the frame; else, starting from the border's largest displacement plus the frame's
+    overhang past the image, doubled until the deformed border encloses the frame (f is
+    evaluated on the border only). The search stops at the overhang plus twice the image's
+    larger side, and where the extended mesh would have more than :data:`MARGIN_POINTS`
+    points (or twice the image's and the canvas's pixels together); if the border then still
+    does not enclose the canvas (a canvas far from the image, or a map that shrinks the plane
+    that much) the rest keeps the background, with a :class:`~glmls.errors.BorderWarning`
+    where ``warn`` (the backward methods, which only start Newton there, do not warn)."""
+    height, width = as_shape(lattice.shape)
+    grid = lattice.grid
+    low, high = frame.centre_box(ENCLOSE_PAD)
+    overhang = max(0.0, -0.5 - low[0], -0.5 - low[1], high[0] - width + 0.5, high[1] - height + 0.5)
+    base = lattice.with_margin(0)
+    ring = base.boundary()
+    deformed, _ = evaluate_points(kernel, ring, with_matrix=False, shape=lattice.shape)
+    if encloses(deformed, low, high):
+        return 0
+    moved = float(np.max(np.abs(deformed - ring))) if np.all(np.isfinite(deformed)) else 0.0
+    points = max(MARGIN_POINTS, 2 * (height * width + frame.pixels)) * grid * grid
+    side = math.isqrt(points)  # of a square lattice of that many points, pixels
+    reach = max(grid, (side - max(height, width)) // 2 // grid * grid)
+    limit = min(MAX_MARGIN, _round_up(overhang + 2 * max(height, width), grid), reach)
+    margin = min(limit, _round_up(moved + overhang + 1, grid))
+    while True:
+        ring = base.with_margin(margin).boundary()
+        deformed, _ = evaluate_points(kernel, ring, with_matrix=False, shape=lattice.shape)
+        if encloses(deformed, low, high):
+            return margin
+        if margin >= limit:
+            if not warn:
+                return margin
+            warnings.warn(
+                f"the mesh reaches {margin} px past the image, the most for this image and "
+                "canvas, and f's image of it does not cover the whole canvas: pixels beyond "
+                "keep the background",
+                BorderWarning,
+                stacklevel=7,  # the caller of MLS.warp
+            )
+            return margin
+        margin = min(limit, 2 * margin)
+
+
+def _round_up(value: float, step: int) -> int:
+    return max(step, step * math.ceil(value / step))
