@@ -37,6 +37,18 @@ def smooth_handles(shape, rng, displacement=None):
     return p, p + rng.uniform(-displacement, displacement, p.shape)
 
 
+def turned_handles(shape, factor, turn=0.0, inset=0.1):
+    """Five handles (four ``inset`` from the corners, one at the centre) and their targets
+    turned by ``turn`` radians and scaled by ``factor`` about the image centre: < 1 pulls
+    the image border in, > 1 pushes the image out on every side."""
+    height, width = shape
+    c = np.array([(width - 1) / 2, (height - 1) / 2])
+    lo, hi = inset, 1.0 - inset
+    p = np.array([[lo, lo], [hi, lo], [hi, hi], [lo, hi], [0.5, 0.5]]) * [width - 1, height - 1]
+    rot = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+    return p, (p - c) @ rot.T * factor + c
+
+
 def reference_mesh(m, shape, grid=1):
     """Float64 f at the mesh of pixel-square corners, (rows, columns, 2)."""
     v = MeshLattice.corners(shape, grid).points()

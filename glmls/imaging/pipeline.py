@@ -177,34 +177,19 @@ class WarpPipeline:
             framebuffer.use()
             splat = how.method == "splat"
             lattice = self._lattice(kernel, shape, 1 if splat else how.grid, how.border, frame)
+            fill = {"linear": how.linear, "coords": False, "flip_y": how.flip_y}
+            fill["border"] = how.border
             if splat:
                 lattice = MeshLattice.centres(shape, margin=lattice.margin)
             elif (
                 self.options.compute_quads
                 and tuple(framebuffer.viewport) == (0, 0, *frame.size)
                 and self.cells.draw(
-                    kernel,
-                    source,
-                    lattice,
-                    frame,
-                    linear=how.linear,
-                    coords=False,
-                    flip_y=how.flip_y,
-                    border=how.border,
-                    target=framebuffer.color_attachments[0],
+                    kernel, source, lattice, frame, **fill, target=framebuffer.color_attachments[0]
                 )
             ):
                 return
-            self.raster.draw(
-                kernel,
-                source,
-                lattice,
-                frame,
-                linear=how.linear,
-                coords=False,
-                flip_y=how.flip_y,
-                border=how.border,
-            )
+            self.raster.draw(kernel, source, lattice, frame, **fill)
             return
         swap = how.method == "backward-swap"
         coords = self._solve(mls, shape, frame, swap=swap, grid=how.grid, border=how.border)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import smooth_handles
+from helpers import smooth_handles, turned_handles
 from scipy import ndimage
 
 import glmls
@@ -47,12 +47,7 @@ def rgba_coordinates(shape):
 
 def pull_in(shape, factor=0.75, turn=0.0):
     """Handles near the corners pulled towards the centre (the image border moves in)."""
-    height, width = shape
-    c = np.array([(width - 1) / 2, (height - 1) / 2])
-    p = np.array([[0.1, 0.1], [0.9, 0.1], [0.9, 0.9], [0.1, 0.9], [0.5, 0.5]])
-    p = p * [width - 1, height - 1]
-    rot = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
-    return p, (p - c) @ rot.T * factor + c
+    return turned_handles(shape, factor, turn)
 
 
 def padded_index(i, n, mode):

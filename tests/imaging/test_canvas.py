@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import SENTINEL, coordinate_image, reference_mesh
+from helpers import SENTINEL, coordinate_image, reference_mesh, turned_handles
 
 import glmls
 from glmls.core.mesh import MeshLattice
@@ -15,12 +15,7 @@ from glmls.imaging.pipeline import WarpPipeline
 
 def push_out(shape, factor=1.3, turn=0.25):
     """Handles pushed away from the centre and turned: the image grows on every side."""
-    height, width = shape
-    c = np.array([(width - 1) / 2, (height - 1) / 2])
-    p = np.array([[0.15, 0.15], [0.85, 0.15], [0.85, 0.85], [0.15, 0.85], [0.5, 0.5]])
-    p = p * [width - 1, height - 1]
-    rot = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
-    return p, (p - c) @ rot.T * factor + c
+    return turned_handles(shape, factor, turn, inset=0.15)
 
 
 def seen(out, shape):
