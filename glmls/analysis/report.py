@@ -13,6 +13,7 @@ import numpy as np
 from PIL import Image
 
 from ..files.atomic import atomic_write
+from ..imaging.frame import Frame
 from ..imaging.source import check_options
 from . import colormaps
 from .canvas import as_rgb8
@@ -129,9 +130,8 @@ def report(
 
     tick = time.perf_counter()
     stage("warp")
-    canvas = m.bounds(shape, grid=warp_grid) if fit else None
-    output_shape = shape if canvas is None else canvas.output_shape
-    origin = (0.0, 0.0) if canvas is None else canvas.origin
+    canvas = m.bounds(shape, grid=warp_grid).frame if fit else Frame(shape)
+    output_shape, origin = canvas.shape, canvas.origin
     deformed = as_rgb8(
         m.warp(
             rgb,

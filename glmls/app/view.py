@@ -113,6 +113,7 @@ class View:
         screen.viewport = (0, 0, *framebuffer)
         screen.clear(*BACKGROUND, 1.0)
         screen.clear(0.0, 0.0, 0.0, 1.0, viewport=layout.viewport)
+        self.geometry.frame = session.canvas  # the overlays' coordinates: the view's canvas
         with self._queries["warp"]:
             if mls is not None:
                 self._draw_image(screen, layout, session, s)
@@ -140,7 +141,6 @@ class View:
                 self.text.draw(text, framebuffer)
 
     def _draw_image(self, screen, layout: Layout, session: Session, s: Settings) -> None:
-        self.geometry.frame = session.canvas
         if s.method == "quads" and s.interpolation == "linear":
             # drawn at the screen's resolution: bilinear detail where the window magnifies.
             # Nearest quads go through the picture: the compute scan conversion writes it

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.handles import COORDINATE_LIMIT
+from ..core.handles import COORDINATE_LIMIT, point_bounds
 from ..core.mesh import MAX_MARGIN, MeshLattice, as_shape
 from ..engine.kernel import MLSKernel
 from ..engine.passes import evaluate_points
@@ -156,8 +156,8 @@ def deformed_bounds(bands: Iterable[np.ndarray], kernel: MLSKernel) -> Bounds:
     high = np.full(2, -np.inf)
     for points in bands:
         if len(points):
-            low = np.minimum(low, points.min(axis=0))
-            high = np.maximum(high, points.max(axis=0))
+            lo, hi = point_bounds(points)
+            low, high = np.minimum(low, lo), np.maximum(high, hi)
     (x0, y0), (x1, y1) = kernel.scaling.from_gpu(np.stack([low, high]))
     return Bounds(float(x0), float(y0), float(x1), float(y1))
 

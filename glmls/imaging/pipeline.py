@@ -114,6 +114,16 @@ class WarpPipeline:
         limits = self._gl.limits
         return min(limits["max_texture_size"], limits["max_viewport"])
 
+    def _within_limit(self, shape: object) -> tuple[int, int]:
+        """``shape`` as (H, W) if the GL limit takes an image of it; ``ValueError`` if not."""
+        height, width = as_shape(shape)
+        if max(height, width) > self.max_image_size:
+            raise ValueError(
+                f"shape {(height, width)} exceeds the GL texture size limit of "
+                f"{self.max_image_size} pixels"
+            )
+        return height, width
+
     @contextlib.contextmanager
     def _keep_framebuffer(self) -> Iterator[None]:
         """Leave the bound framebuffer as found: moderngl re-binds the bound one when it
@@ -254,12 +264,7 @@ class WarpPipeline:
         """The :class:`~glmls.imaging.frame.Bounds` of the deformed image of ``shape``: its
         quads' corners at ``grid`` under f, evaluated band by band on the GPU."""
         self._resources.check_alive()
-        lattice = MeshLattice.corners(shape, grid)  # validates
-        if max(lattice.shape) > self.max_image_size:
-            raise ValueError(
-                f"shape {lattice.shape} exceeds the GL texture size limit of "
-                f"{self.max_image_size} pixels"
-            )
+        lattice = MeshLattice.corners(self._within_limit(shape), grid)
         kernel = mls.kernel
 
         def bands():
@@ -325,11 +330,8 @@ class WarpPipeline:
         if method not in ("backward", "backward-swap"):
             raise ValueError(f"unknown method {method!r}; choose backward or backward-swap")
         check_options(method, "nearest", grid, border)
-        shape = as_shape(shape)
-        limit = self.max_image_size
-        if max(shape) > limit:
-            raise ValueError(f"shape {shape} exceeds the GL texture size limit of {limit} pixels")
-        frame = make_frame(output_shape, origin, shape, limit)
+        shape = self._within_limit(shape)
+        frame = make_frame(output_shape, origin, shape, self.max_image_size)
         texture = self.solve_inverse(
             mls, shape, swap=method == "backward-swap", grid=grid, border=border, frame=frame
         )
