@@ -28,6 +28,8 @@ from .analysis.stats import error_stats
 from .analysis.triangles import TriangleErrors, triangle_errors
 from .core import reference
 from .core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
+from .core.handleset import HANDLE_KINDS, HandleSet
+from .core.segments import polyline_segments
 from .errors import (
     BorderWarning,
     ContextError,
@@ -45,6 +47,7 @@ from .version import __version__
 
 __all__ = [
     "BORDERS",
+    "HANDLE_KINDS",
     "INTERPOLATIONS",
     "METHODS",
     "MLS",
@@ -61,6 +64,7 @@ __all__ = [
     "Foldovers",
     "GLContext",
     "GLUnavailableError",
+    "HandleSet",
     "MLSConfig",
     "ReleasedError",
     "TriangleErrors",
@@ -78,6 +82,7 @@ __all__ = [
     "imread",
     "imwrite",
     "linear_colormap",
+    "polyline_segments",
     "reference",
     "render_field",
     "render_handles",

@@ -11,13 +11,8 @@ import moderngl
 import numpy as np
 
 from .core.config import MLSConfig
-from .core.handles import (
-    Scaling,
-    as_points,
-    check_affine_handles,
-    check_coordinates,
-    validate_handles,
-)
+from .core.handles import Scaling, as_points, check_coordinates
+from .core.handleset import HandleSet
 from .core.mesh import MeshLattice, as_shape
 from .engine.error_field import error_field as evaluate_error_field
 from .engine.kernel import DEFAULT_STORAGE, MLSKernel
@@ -50,6 +45,14 @@ class MLS(DeformedImages):
     [c - 0.5, c + 0.5] x [r - 0.5, r + 0.5]. With row vectors (the paper's eq. 1),
     ``f(v) = v @ M(v) + T(v)``.
 
+    Segment handles (Schaefer et al. 2006, section 4): ``src_segments`` and ``dst_segments``,
+    (S, 2, 2) arrays, segment s running from ``src_segments[s, 0]`` to ``src_segments[s, 1]``
+    and going to ``dst_segments[s, 0]``-``dst_segments[s, 1]`` (:func:`glmls.polyline_segments`
+    turns polylines into segments). Each weighs its points per unit of length, so a segment
+    split in two is the same handle; they mix with point handles (``src``/``dst`` may be
+    empty, shape (0, 2)). With a weight infinite at d = 0, f maps every point of a source
+    segment onto its target segment.
+
     Parameters (keyword-only; :class:`glmls.MLSConfig` has the formulas): ``transform``,
     ``weight`` (:data:`glmls.WEIGHTS`), ``alpha``, ``s`` (idw), ``radius`` (pixels; the image
     diagonal when ``None`` and an image size is known), ``interpolating`` (make any weight
@@ -75,6 +78,8 @@ class MLS(DeformedImages):
         src: object,
         dst: object,
         *,
+        src_segments: object = None,
+        dst_segments: object = None,
         transform: str = "rigid",
         weight: str = "idw",
         alpha: float = 1.0,
@@ -94,7 +99,8 @@ class MLS(DeformedImages):
             radius=radius,
             interpolating=interpolating,
         )
-        self._setup(src, dst, config, shape, ctx, storage, bins)
+        handles = (src, dst, src_segments, dst_segments)
+        self._setup(handles, config, shape, ctx, storage, bins)
 
     @classmethod
     def from_config(
@@ -103,6 +109,8 @@ class MLS(DeformedImages):
         dst: object,
         config: MLSConfig,
         *,
+        src_segments: object = None,
+        dst_segments: object = None,
         shape: Sequence[int] | None = None,
         ctx: moderngl.Context | GLContext | None = None,
         storage: str = DEFAULT_STORAGE,
@@ -112,38 +120,36 @@ class MLS(DeformedImages):
         if not isinstance(config, MLSConfig):
             raise TypeError(f"config must be an MLSConfig, got {type(config).__name__}")
         self = cls.__new__(cls)
-        self._setup(src, dst, config, shape, ctx, storage, bins)
+        self._setup((src, dst, src_segments, dst_segments), config, shape, ctx, storage, bins)
         return self
 
-    def _setup(self, src, dst, config, shape, ctx, storage, bins) -> None:
+    def _setup(self, handles, config, shape, ctx, storage, bins) -> None:
         self.config = config
         self.shape = None if shape is None else as_shape(shape)
         if self.shape is not None:
             config.resolve_radius(self.shape)
-        src, dst = self._validate(src, dst)
+        handles = self._validate(*handles)
         self._gl = get_context(ctx)
         self._options = {"shape": self.shape, "storage": storage, "bins": bins}
         self._kernel = MLSKernel(self._gl, config, **self._options)  # type: ignore[arg-type]
         self._swapped: MLSKernel | None = None
         try:
-            self._store(src, dst)
+            self._store(handles)
         except ValueError:
             self._kernel.release()
             raise
 
-    def _validate(self, src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
-        src, dst = validate_handles(src, dst)
+    def _validate(self, src, dst, src_segments, dst_segments) -> HandleSet:
+        handles = HandleSet.validate(src, dst, src_segments, dst_segments)
         if self.config.transform == "affine":
-            check_affine_handles(src)
-        return src, dst
+            handles.check_affine()
+        return handles
 
-    def _store(self, src: np.ndarray, dst: np.ndarray) -> None:
+    def _store(self, handles: HandleSet) -> None:
         """The one way handles get in: the kernel's upload, then the read-only copies."""
-        scaling = Scaling.fit(src, dst, self.shape)
-        self._kernel.upload(src, dst, scaling)
-        self._src, self._dst = src.copy(), dst.copy()  # never freeze the caller's arrays
-        self._src.flags.writeable = False
-        self._dst.flags.writeable = False
+        scaling = Scaling.fit(handles.source_points(), handles.target_points(), self.shape)
+        self._kernel.upload(handles, scaling)
+        self._handles = handles
         if self._swapped is not None:
             self._swapped.release()
             self._swapped = None
@@ -153,12 +159,27 @@ class MLS(DeformedImages):
     @property
     def src(self) -> np.ndarray:
         """Source handles p, (N, 2) float64, read-only."""
-        return self._src
+        return self._handles.src
 
     @property
     def dst(self) -> np.ndarray:
         """Target handles q, (N, 2) float64, read-only."""
-        return self._dst
+        return self._handles.dst
+
+    @property
+    def src_segments(self) -> np.ndarray:
+        """Source segment handles, (S, 2, 2) float64, read-only."""
+        return self._handles.src_segments
+
+    @property
+    def dst_segments(self) -> np.ndarray:
+        """Target segment handles, (S, 2, 2) float64, read-only."""
+        return self._handles.dst_segments
+
+    @property
+    def handles(self) -> HandleSet:
+        """Every handle, points and segments (read-only arrays)."""
+        return self._handles
 
     @property
     def ctx(self) -> GLContext:
@@ -188,14 +209,17 @@ class MLS(DeformedImages):
         return self._kernel.uniforms(shape)
 
     @on_gpu
-    def set_handles(self, src: object, dst: object) -> None:
-        """Replace the handles (any count), keeping the configuration.
+    def set_handles(
+        self, src: object, dst: object, *, src_segments: object = None, dst_segments: object = None
+    ) -> None:
+        """Replace the handles (any count, points and segments), keeping the configuration.
 
         Validated like the constructor's; on error nothing changes. Cheaper than a new
         :class:`MLS` per frame of a drag: the handles go through the same upload as the
-        constructor's (storage for their count, spatial bins rebuilt), nothing is compiled.
+        constructor's (storage for their count, spatial bins rebuilt), nothing is compiled
+        (unless segments appear or all go: their code is compiled in only where there are).
         """
-        self._store(*self._validate(src, dst))
+        self._store(self._validate(src, dst, src_segments, dst_segments))
 
     def swapped_kernel(self) -> MLSKernel:
         """The kernel of the MLS map with p and q swapped (``backward-swap``), made on first
@@ -203,7 +227,7 @@ class MLS(DeformedImages):
         self._kernel.check_alive()
         if self._swapped is None:
             swapped = MLSKernel(self._gl, self.config, **self._options)  # type: ignore[arg-type]
-            swapped.upload(self._dst, self._src, self.scaling)
+            swapped.upload(self._handles.swapped(), self.scaling)
             self._swapped = swapped
         return self._swapped
 
@@ -271,8 +295,10 @@ class MLS(DeformedImages):
     def __repr__(self) -> str:
         c = self.config
         state = ", released" if self.released else ""
+        segments = f", {self._handles.segments} segments" if self._handles.segments else ""
         return (
-            f"MLS({len(self._src)} handles, transform={c.transform!r}, weight={c.weight!r}, "
+            f"MLS({self._handles.points} handles{segments}, transform={c.transform!r}, "
+            f"weight={c.weight!r}, "
             f"alpha={c.alpha}, s={c.s}, radius={c.radius}, interpolating={c.interpolating}"
             f"{state})"
         )
@@ -298,10 +324,11 @@ def warp(image: object, src: object, dst: object, **options: object) -> np.ndarr
 
     ``options``: those of :meth:`MLS.warp` (``method``, ``interpolation``, ``grid``,
     ``background``, ``border``, ``output_shape``, ``origin``) and of :class:`MLS`
-    (``transform``, ``weight``, ``alpha``, ``s``, ``radius``, ``interpolating``, ``ctx``,
-    ``storage``, ``bins``). The default radius is the image diagonal. The MLS's GPU objects
-    are released before returning (the context's shared pipeline keeps its cached textures
-    for the next call); keep an :class:`MLS` to warp many images with the same handles.
+    (``src_segments``, ``dst_segments``, ``transform``, ``weight``, ``alpha``, ``s``,
+    ``radius``, ``interpolating``, ``ctx``, ``storage``, ``bins``). The default radius is the
+    image diagonal. The MLS's GPU objects are released before returning (the context's shared
+    pipeline keeps its cached textures for the next call); keep an :class:`MLS` to warp many
+    images with the same handles.
     """
     warp_options = {k: options.pop(k) for k in _WARP_OPTIONS if k in options}
     array = np.asarray(image)

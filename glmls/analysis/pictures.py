@@ -12,6 +12,7 @@ import moderngl
 import numpy as np
 
 from ..core.handles import as_points
+from ..core.segments import validate_segments
 from ..gl.context import GLContext
 from .canvas import EDGE_COLOR, HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR, Canvas, as_rgb8
 from .colormaps import NAN_COLOR, apply_colormap
@@ -52,6 +53,8 @@ def render_handles(
     src: object,
     dst: object,
     *,
+    src_segments: object = None,
+    dst_segments: object = None,
     source_color: Sequence[float] = HANDLE_SOURCE_COLOR,
     color: Sequence[float] = HANDLE_TARGET_COLOR,
     radius: float = 4.0,
@@ -59,12 +62,21 @@ def render_handles(
     head: float = 10.0,
     ctx: moderngl.Context | GLContext | None = None,
 ) -> np.ndarray:
-    """The handles over ``image``: a disk at each p_i and an arrow p_i -> q_i (Fig. 6 left)."""
+    """The handles over ``image``: a disk at each p_i and an arrow p_i -> q_i (Fig. 6 left);
+    segments ``src_segments`` -> ``dst_segments`` ((S, 2, 2), as for :class:`glmls.MLS`) as
+    the target segment in ``color``, an arrow from each source end to its target end, and
+    the source segment over them in ``source_color`` with a disk at each end."""
     rgb = as_rgb8(image)
+    a, b = validate_segments(src_segments, dst_segments)
+    ends = a.reshape(-1, 2)
     with Canvas(rgb.shape[:2], ctx=ctx) as canvas:
         canvas.image(rgb)
+        canvas.lines(b[:, 0], b[:, 1], color=color, width=width)
+        canvas.arrows(ends, b.reshape(-1, 2), color=color, width=width, head=head)
         canvas.arrows(src, dst, color=color, width=width, head=head)
-        canvas.disks(src, color=source_color, radius=radius)
+        canvas.lines(a[:, 0], a[:, 1], color=source_color, width=width)
+        disks = np.concatenate([as_points(src, "src"), ends])
+        canvas.disks(disks, color=source_color, radius=radius)
         return canvas.read()
 
 

@@ -91,7 +91,9 @@ def report(
 ) -> AnalysisReport:
     """Analyse the deformation ``m`` of ``image`` (H, W[, C]) as in section 5 of the paper.
 
-    Computes the MLS error field (at every pixel, or on a mesh every ``grid`` pixels) and its
+    The handles are ``m``'s: points ``m.src`` -> ``m.dst`` and segments ``m.src_segments``
+    -> ``m.dst_segments``, drawn in the pictures and listed in the summary. Computes the MLS
+    error field (at every pixel, or on a mesh every ``grid`` pixels) and its
     statistics, the Delaunay triangulation of ``reference_points`` with its distance and
     angular errors and their statistics, the fold-over count of the warp's mesh, and draws:
     ``input_handles`` (Fig. 6 left), ``deformed`` (``m.warp(image, method=, interpolation=,
@@ -153,12 +155,19 @@ def report(
 
     tick = time.perf_counter()
     stage("pictures")
-    images: dict[str, np.ndarray] = {"input_handles": render_handles(rgb, m.src, m.dst)}
+    a, b = m.src_segments, m.dst_segments
+    images: dict[str, np.ndarray] = {
+        "input_handles": render_handles(rgb, m.src, m.dst, src_segments=a, dst_segments=b)
+    }
     images["deformed"] = deformed
     _, mesh = m.mesh(shape, grid=mesh_grid)
     blank = np.full((*output_shape, 3), 255, np.uint8)
     images["deformed_mesh"] = render_handles(
-        render_mesh(blank, mesh, origin=origin), m.src - origin, m.dst - origin
+        render_mesh(blank, mesh, origin=origin),
+        m.src - origin,
+        m.dst - origin,
+        src_segments=a - origin,
+        dst_segments=b - origin,
     )
     lo, hi = colormaps.color_limits(field, percentile=percentile)
     images["error_field"] = render_field(field, cmap=cmap, vmin=lo, vmax=hi)
@@ -193,6 +202,9 @@ def report(
             "handles": len(m.src),
             "src": m.src.tolist(),
             "dst": m.dst.tolist(),
+            "segments": len(a),
+            "src_segments": a.tolist(),
+            "dst_segments": b.tolist(),
         },
         "analysis": {
             "grid": grid,

@@ -11,8 +11,15 @@ the user's handles, measure both error measures of section 5 for each, and rank:
   their units; 1.0 means best in both. The paper recommends the angular error for shape
   (distance errors mostly report scaling), hence angle rather than distance here.
 
-``handle_miss`` (mean |f(p_i) - q_i| in pixels, not ranked) shows how far a configuration
-stays from interpolating the handles: low errors bought by not reaching the targets show there.
+``handle_miss`` (mean |f(p_i) - q_i| in pixels over the point handles and the segments' ends,
+not ranked) shows how far a configuration stays from interpolating the handles: low errors
+bought by not reaching the targets show there.
+
+The random deformations drag the handles' vertices: every point and every segment end whose
+target differs from its source moves by its own seeded Gaussian offset, so the two ends of a
+segment move independently (the segment turns and stretches as well as shifts), while ends
+shared by joined segments (a polyline's vertices), and a point handle at such an end, move
+together and the polyline stays joined. Handles left in place (q = p) stay: they pin the image.
 
 Each statistic is averaged over the trials (``*_mean``) with its spread over the trials
 (``*_spread``, the population standard deviation).
@@ -27,6 +34,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from ..core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig, image_diagonal
+from ..core.handleset import HandleSet
 from ..core.mesh import as_shape
 from ..errors import DegenerateHandlesError
 from ..gl.context import GLContext
@@ -108,15 +116,39 @@ def parse_config(spec: str, shape: Sequence[int]) -> list[MLSConfig]:
     return [MLSConfig(transform=t, weight=w, **options) for t in transforms for w in weights]
 
 
+def random_handle_targets(
+    handles: HandleSet, trials: int, *, seed: int, jitter: float
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``trials`` (dst, dst_segments) target sets: every vertex of the handles (a point or a
+    segment end, with its target) moved by isotropic Gaussian noise of ``jitter`` pixels
+    (standard deviation per axis), seeded. One vertex is one (source, target) pair: the ends
+    that joined segments share, and a point there, move together; vertices the user left in
+    place (q = p) stay there, since they pin the image. For points alone, the same targets
+    as :func:`random_targets`."""
+    p, q = handles.source_points(), handles.target_points()
+    pairs = np.concatenate([p, q], axis=1)
+    _, first, inverse = np.unique(pairs, axis=0, return_index=True, return_inverse=True)
+    rank = np.empty(len(first), dtype=np.intp)
+    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
+    vertex = rank[inverse.ravel()]  # each row's vertex, numbered by first appearance
+    moved = np.any(p != q, axis=1)[:, None]
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(trials):
+        target = q + moved * rng.normal(0.0, jitter, (len(first), 2))[vertex]
+        out.append((target[: handles.points], target[handles.points :].reshape(-1, 2, 2)))
+    return out
+
+
 def random_targets(
     src: np.ndarray, dst: np.ndarray, trials: int, *, seed: int, jitter: float
 ) -> list[np.ndarray]:
-    """``trials`` target sets: the user's targets moved by isotropic Gaussian noise of
-    ``jitter`` pixels (standard deviation per axis), seeded; handles the user left in place
-    (q = p) stay there, since they pin the image."""
-    rng = np.random.default_rng(seed)
-    moved = np.any(src != dst, axis=1)[:, None]
-    return [dst + moved * rng.normal(0.0, jitter, dst.shape) for _ in range(trials)]
+    """``trials`` target sets for point handles: the user's targets moved by isotropic
+    Gaussian noise of ``jitter`` pixels (standard deviation per axis), seeded; handles the
+    user left in place (q = p) stay there, since they pin the image. With segments:
+    :func:`random_handle_targets`."""
+    handles = HandleSet.validate(src, dst)
+    return [t for t, _ in random_handle_targets(handles, trials, seed=seed, jitter=jitter)]
 
 
 def default_jitter(src: np.ndarray, dst: np.ndarray, shape: Sequence[int]) -> float:
@@ -143,6 +175,13 @@ class TuneResult:
         return MLSConfig(**self.rows[0]["config"])
 
 
+def _handle_miss(m: MLS) -> float:
+    """Mean |f(p) - q| over the point handles and the segments' ends."""
+    p = np.concatenate([m.src, m.src_segments.reshape(-1, 2)])
+    q = np.concatenate([m.dst, m.dst_segments.reshape(-1, 2)])
+    return float(np.hypot(*(m(p) - q).T).mean()) if len(p) else 0.0
+
+
 def _measure(m: MLS, shape, reference: np.ndarray, grid: int) -> dict[str, float]:
     field = error_stats(m.error_field(shape, grid=grid))
     tri = triangle_errors(m, reference)
@@ -152,7 +191,7 @@ def _measure(m: MLS, shape, reference: np.ndarray, grid: int) -> dict[str, float
         "distance": float(np.mean(tri.distance)),
         "flipped": float(tri.flipped.sum()),
         # not ranked, but telling: weights finite at d = 0 do not reach their targets
-        "handle_miss": float(np.hypot(*(m(m.src) - m.dst).T).mean()) if len(m.src) else 0.0,
+        "handle_miss": _handle_miss(m),
     }
 
 
@@ -202,6 +241,8 @@ def tune(
     dst: object,
     reference_points: object,
     *,
+    src_segments: object = None,
+    dst_segments: object = None,
     trials: int = 5,
     seed: int = 0,
     configs: Sequence[MLSConfig] | None = None,
@@ -212,7 +253,9 @@ def tune(
     on_step: Callable[[], None] | None = None,
 ) -> TuneResult:
     """Rank configurations for an image of ``shape`` by random deformations around the
-    handles (see the module docstring). ``grid``: the error field's mesh step (pixels)."""
+    handles: points ``src`` -> ``dst`` and segments ``src_segments`` -> ``dst_segments``
+    ((S, 2, 2), as for :class:`~glmls.MLS`; see the module docstring). ``grid``: the error
+    field's mesh step (pixels)."""
     shape = as_shape(shape)
     if rank_by not in MEASURES:
         raise ValueError(f"unknown measure {rank_by!r}; choose one of {', '.join(MEASURES)}")
@@ -221,18 +264,28 @@ def tune(
     configs = list(configs) if configs is not None else search_space(shape)
     if not configs:
         raise ValueError("no configurations to compare")
-    src, dst = np.asarray(src, dtype=float), np.asarray(dst, dtype=float)
+    handles = HandleSet.validate(src, dst, src_segments, dst_segments)
     reference = np.asarray(reference_points, dtype=float)
-    jitter = default_jitter(src, dst, shape) if jitter is None else float(jitter)
+    if jitter is None:
+        jitter = default_jitter(handles.source_points(), handles.target_points(), shape)
+    jitter = float(jitter)
     if not (math.isfinite(jitter) and jitter >= 0):
         raise ValueError(f"jitter must be a finite number >= 0, got {jitter}")
-    targets = random_targets(src, dst, trials, seed=seed, jitter=jitter)
+    targets = random_handle_targets(handles, trials, seed=seed, jitter=jitter)
     rows, skipped = [], []
     for config in configs:
         results = []
-        for target in targets:
+        for target, segment_target in targets:
             try:
-                with MLS.from_config(src, target, config, shape=shape, ctx=ctx) as m:
+                with MLS.from_config(
+                    handles.src,
+                    target,
+                    config,
+                    shape=shape,
+                    ctx=ctx,
+                    src_segments=handles.src_segments,
+                    dst_segments=segment_target,
+                ) as m:
                     results.append(_measure(m, shape, reference, grid))
             except DegenerateHandlesError as error:
                 skipped.append({"config": dataclasses.asdict(config), "reason": str(error)})

@@ -1,14 +1,16 @@
 """The real-time window (the paper's interactive IDS), opened by ``glmls demo``.
 
-:mod:`.controller` holds the interaction logic (no window; :mod:`.events` its events and
-replays), :mod:`.session` what is computed (the MLS and the analysis), :mod:`.view` and
-:mod:`.overlays` what is drawn, :mod:`.hud` the text, :mod:`.glfw_window` the operating-system
-window, and :mod:`.window` the :class:`~glmls.app.window.App` that runs them. Importing this
-package does not import glfw; opening a window does.
+:mod:`.controller` holds the interaction logic (no window; :mod:`.editing` the handle edits,
+:mod:`.zoom` zoom and pan, :mod:`.settings` what is shown, :mod:`.events` the events, replays
+and recordings), :mod:`.session` what is computed (the MLS and the analysis), :mod:`.view` and
+:mod:`.overlays` what is drawn, :mod:`.hud` and :mod:`.helpscreen` the text,
+:mod:`.glfw_window` the operating-system window, :mod:`.commands` the file keys, and
+:mod:`.window` the :class:`~glmls.app.window.App` that runs them. Importing this package does
+not import glfw; opening a window does.
 """
 
 from .controller import BINDINGS, Controller, Settings
-from .events import Key, Move, Press, Release, Wait, read_events
+from .events import Key, Move, Press, Recorder, Release, Scroll, Wait, read_events, write_events
 
 __all__ = [
     "BINDINGS",
@@ -16,8 +18,11 @@ __all__ = [
     "Key",
     "Move",
     "Press",
+    "Recorder",
     "Release",
+    "Scroll",
     "Settings",
     "Wait",
     "read_events",
+    "write_events",
 ]

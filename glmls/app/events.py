@@ -6,12 +6,15 @@ A JSON object ``{"events": [...]}`` (or the bare list). Each entry is one of::
     {"type": "press", "x": 226, "y": 40, "button": "left", "mods": ["shift"]}
     {"type": "move", "x": 250, "y": 52}
     {"type": "release", "x": 250, "y": 52, "button": "left"}
+    {"type": "scroll", "x": 250, "y": 52, "dy": 1}
     {"type": "key", "key": "e"}
     {"type": "wait", "frames": 5}
 
 Positions are image pixels (x, y) = (column, row), so a replay does not depend on the window's
-size or pixel density. ``button`` defaults to left, ``mods`` to none. The window feeds one
-entry per frame; ``wait`` renders that many frames without an event.
+size or pixel density. ``button`` (left, right, middle) defaults to left, ``mods`` to none;
+``dy`` is mouse-wheel notches (> 0 zooms in). The window feeds one entry per frame; ``wait``
+renders that many frames without an event. :class:`Recorder` writes what a live session fed
+(``glmls demo --record``) in the same format.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputFileError
+from ..files.atomic import atomic_write
 
 __all__ = [
     "BUTTONS",
@@ -31,12 +35,16 @@ __all__ = [
     "Key",
     "Move",
     "Press",
+    "Recorder",
     "Release",
+    "Scroll",
     "Wait",
+    "event_entry",
     "read_events",
+    "write_events",
 ]
 
-BUTTONS = ("left", "right")
+BUTTONS = ("left", "right", "middle")
 MODIFIERS = ("shift", "ctrl", "alt")
 
 
@@ -68,13 +76,23 @@ class Release:
 
 
 @dataclass(frozen=True)
+class Scroll:
+    """The mouse wheel turned ``dy`` notches (> 0: away from the user, zoom in) with the
+    cursor at image point (x, y)."""
+
+    x: float
+    y: float
+    dy: float
+
+
+@dataclass(frozen=True)
 class Key:
     """A key: the character typed ("t", "G", "?") or a name ("F1", "Escape", "Ctrl+Z")."""
 
     key: str
 
 
-Event = Press | Move | Release | Key
+Event = Press | Move | Release | Scroll | Key
 
 
 @dataclass(frozen=True)
@@ -88,6 +106,7 @@ _FIELDS = {
     "press": {"type", "x", "y", "button", "mods"},
     "move": {"type", "x", "y"},
     "release": {"type", "x", "y", "button"},
+    "scroll": {"type", "x", "y", "dy"},
     "key": {"type", "key"},
     "wait": {"type", "frames"},
 }
@@ -128,6 +147,8 @@ def _event(path: Path, where: str, entry: object):
     x, y = _number(path, where, entry, "x"), _number(path, where, entry, "y")
     if kind == "move":
         return Move(x, y)
+    if kind == "scroll":
+        return Scroll(x, y, _number(path, where, entry, "dy"))
     button = entry.get("button", "left")
     if button not in BUTTONS:
         raise InputFileError(
@@ -169,3 +190,51 @@ def read_events(path: str | os.PathLike) -> list:
 def replay_frames(events: list) -> int:
     """Frames a replay takes: one per event, ``frames`` per wait."""
     return sum(e.frames if isinstance(e, Wait) else 1 for e in events)
+
+
+def event_entry(event: Event | Wait) -> dict[str, object]:
+    """The JSON entry of one event (what :func:`read_events` reads back as ``event``)."""
+    if isinstance(event, Press):
+        entry: dict[str, object] = {"type": "press", "x": event.x, "y": event.y}
+        if event.button != "left":
+            entry["button"] = event.button
+        if event.mods:
+            entry["mods"] = [m for m in MODIFIERS if m in event.mods]
+        return entry
+    if isinstance(event, Move):
+        return {"type": "move", "x": event.x, "y": event.y}
+    if isinstance(event, Release):
+        entry = {"type": "release", "x": event.x, "y": event.y}
+        if event.button != "left":
+            entry["button"] = event.button
+        return entry
+    if isinstance(event, Scroll):
+        return {"type": "scroll", "x": event.x, "y": event.y, "dy": event.dy}
+    if isinstance(event, Key):
+        return {"type": "key", "key": event.key}
+    if isinstance(event, Wait):
+        return {"type": "wait", "frames": event.frames}
+    raise TypeError(f"unknown event {event!r}")
+
+
+def write_events(path: str | os.PathLike, events: list) -> None:
+    """Write ``events`` as a replay file (``{"events": [...]}``, one entry a line; the whole
+    file or none)."""
+    lines = ",\n".join("  " + json.dumps(event_entry(e)) for e in events)
+    text = '{"events": [\n' + lines + ("\n" if lines else "") + "]}\n"
+    with atomic_write(Path(path)) as tmp:
+        Path(tmp).write_text(text, encoding="utf-8")
+
+
+class Recorder:
+    """The events of a live session, in order, for :func:`write_events` (one event per
+    frame on replay: the session's pace is not kept, its outcome is)."""
+
+    def __init__(self) -> None:
+        self.events: list[Event] = []
+
+    def record(self, event: Event) -> None:
+        self.events.append(event)
+
+    def save(self, path: str | os.PathLike) -> None:
+        write_events(path, self.events)

@@ -7,7 +7,7 @@ from collections.abc import Callable
 
 import moderngl
 
-from .events import Event, Key, Move, Press, Release
+from .events import Event, Key, Move, Press, Release, Scroll
 
 __all__ = ["NO_DISPLAY_HINT", "GlfwWindow", "NoDisplayError"]
 
@@ -98,10 +98,22 @@ class GlfwWindow:
         dragging: Callable[[], bool],
     ) -> None:
         """Send mouse and key events to ``feed``: cursor positions (window units) through
-        ``to_image``; moves only while ``dragging()``."""
+        ``to_image``; moves only while ``dragging()``; the wheel as :class:`Scroll`."""
         glfw = self.glfw
-        buttons = {glfw.MOUSE_BUTTON_LEFT: "left", glfw.MOUSE_BUTTON_RIGHT: "right"}
-        special = {glfw.KEY_F1: "F1", glfw.KEY_ESCAPE: "Escape", glfw.KEY_BACKSPACE: "Backspace"}
+        buttons = {
+            glfw.MOUSE_BUTTON_LEFT: "left",
+            glfw.MOUSE_BUTTON_RIGHT: "right",
+            glfw.MOUSE_BUTTON_MIDDLE: "middle",
+        }
+        special = {
+            glfw.KEY_F1: "F1",
+            glfw.KEY_ESCAPE: "Escape",
+            glfw.KEY_BACKSPACE: "Backspace",
+            glfw.KEY_LEFT: "Left",
+            glfw.KEY_RIGHT: "Right",
+            glfw.KEY_UP: "Up",
+            glfw.KEY_DOWN: "Down",
+        }
         modifiers = ((glfw.MOD_SHIFT, "shift"), (glfw.MOD_CONTROL, "ctrl"), (glfw.MOD_ALT, "alt"))
 
         def cursor(window) -> tuple[float, float]:
@@ -121,6 +133,10 @@ class GlfwWindow:
             if dragging():
                 feed(Move(*cursor(window)))
 
+        def on_scroll(window, _dx, dy) -> None:
+            if dy:
+                feed(Scroll(*cursor(window), float(dy)))
+
         def on_char(window, codepoint) -> None:
             feed(Key(chr(codepoint)))
 
@@ -130,10 +146,12 @@ class GlfwWindow:
             if key in special:
                 feed(Key(special[key]))
             elif mods & glfw.MOD_CONTROL and glfw.KEY_A <= key <= glfw.KEY_Z:
-                feed(Key(f"Ctrl+{chr(key)}"))
+                shift = "Shift+" if mods & glfw.MOD_SHIFT else ""
+                feed(Key(f"Ctrl+{shift}{chr(key)}"))
 
         glfw.set_mouse_button_callback(self.handle, on_button)
         glfw.set_cursor_pos_callback(self.handle, on_move)
+        glfw.set_scroll_callback(self.handle, on_scroll)
         glfw.set_char_callback(self.handle, on_char)
         glfw.set_key_callback(self.handle, on_key)
 

@@ -8,22 +8,27 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .controller import BINDINGS, OVERLAYS, Controller
-from .text import GlyphAtlas
+from .controller import OVERLAYS, Controller
+from .helpscreen import HelpLayout, help_blocks, help_layout
+from .text import GlyphAtlas, glyph_atlas
 
-__all__ = ["HELP_MOUSE", "PANEL_CHARS", "help_lines", "readout", "text_quads", "wrap"]
+__all__ = [
+    "PANEL_CHARS",
+    "TextGroups",
+    "help_lines",
+    "place_help",
+    "readout",
+    "text_quads",
+    "wrap",
+]
 
 #: Panel width in characters.
 PANEL_CHARS = 44
-HELP_MOUSE = (
-    "Mouse",
-    "  click empty space    add a handle (p = q)",
-    "  drag a handle        move its target q",
-    "  shift + drag         move its source p",
-    "  right-click          delete a handle",
-    "  in reference mode (p): click adds, drag moves,",
-    "  right-click deletes reference points",
-)
+#: The help's text may shrink to this share of the readout's (and 8 pixels at least).
+HELP_MIN_SHARE = 0.6
+#: Glyph quads to draw, by text size (pixels): each group with that size's atlas.
+TextGroups = list[tuple[int, list[np.ndarray]]]
+MODE_NAMES = {"points": "points", "segments": "SEGMENTS", "reference": "REFERENCE POINTS"}
 
 
 def wrap(text: str, width: int) -> list[str]:
@@ -73,8 +78,10 @@ def readout(
         f"grid       {s.grid} px   (g/G)",
         f"border     {s.border}   (b)",
         f"view       {'fit: whole deformed image' if s.fit else 'input frame'}   (o)",
-        f"handles    {len(c.src)}   reference {len(c.reference)}",
-        f"mode       {'REFERENCE POINTS' if c.reference_mode else 'handles'}   (p)",
+        f"zoom       {c.zoom.factor:.2f}x   (wheel, [ ], 0)",
+        f"handles    {len(c.src)} points, {len(c.src_segments)} segments",
+        f"reference  {len(c.reference)} points",
+        f"mode       {MODE_NAMES[c.mode]}   (d, p)",
         f"overlays   {' '.join(on) or 'none'}",
         "",
     ]
@@ -90,10 +97,20 @@ def readout(
 
 
 def help_lines() -> list[str]:
-    """The help overlay: the mouse, then every key binding."""
-    column = max(len(", ".join(keys)) for keys, _, _ in BINDINGS)
-    keys = [f"  {', '.join(keys):<{column}} {text}" for keys, _, text in BINDINGS]
-    return [*HELP_MOUSE, "Keys", *keys]
+    """The help screen's lines, in order (blocks separated by a blank line)."""
+    return [line for k, block in enumerate(help_blocks()) for line in ([""] if k else []) + block]
+
+
+def place_help(atlas: GlyphAtlas, readout_width: float, framebuffer: tuple[int, int]) -> HelpLayout:
+    """Where the help goes: beside the readout (right of ``readout_width`` framebuffer
+    pixels) at the readout's text size or smaller, else over the whole window."""
+    fb_w, fb_h = framebuffer
+    margin = atlas.line_height / 2
+    beside = (readout_width + margin, margin, fb_w - readout_width - 2 * margin, fb_h - 2 * margin)
+    whole = (margin, margin, fb_w - 2 * margin, fb_h - 2 * margin)
+    smallest = max(8, round(HELP_MIN_SHARE * atlas.size))
+    sizes = list(range(atlas.size, smallest - 1, -1)) or [atlas.size]
+    return help_layout([beside, whole], sizes, glyph_atlas)
 
 
 def text_quads(
@@ -103,27 +120,24 @@ def text_quads(
     help_visible: bool,
     panel: int,
     framebuffer: tuple[int, int],
-) -> list[np.ndarray]:
-    """Glyph quads of the readout (top left, on a dark panel) and, if shown, the help beside
-    the readout where there is room (else centred over everything)."""
+) -> TextGroups:
+    """Glyph quads of the readout (top left, on a dark panel) and, if shown, the help
+    (:func:`place_help`), grouped by text size."""
     pad = atlas.cell[1] // 2
     width = max(atlas.width(line) for line in lines) + 2 * pad
     height = len(lines) * atlas.line_height + 2 * pad
-    parts = [
+    readout_parts = [
         atlas.rectangle(0, 0, width, height, (0.0, 0.0, 0.0, 0.55)),
         atlas.quads("\n".join(lines), pad, pad, (0.95, 0.95, 0.95, 1.0)),
     ]
-    if not help_visible:
-        return parts
-    text = help_lines()
-    fb_w, fb_h = framebuffer
-    pad = atlas.cell[1]
-    width = max(atlas.width(line) for line in text) + 2 * pad
-    height = len(text) * atlas.line_height + 2 * pad
-    left = panel if panel + width <= fb_w else (fb_w - width) / 2
-    x, y = max(left, 0), max((fb_h - height) / 2, 0)
-    return [
-        *parts,
-        atlas.rectangle(x, y, width, height, (0.05, 0.05, 0.08, 0.88)),
-        atlas.quads("\n".join(text), x + pad, y + pad, (1.0, 0.92, 0.6, 1.0)),
-    ]
+    groups: TextGroups = [(atlas.size, readout_parts)]
+    if help_visible:
+        placed = place_help(atlas, max(width, panel), framebuffer)
+        help_atlas = glyph_atlas(placed.size)
+        x, y, w, h = placed.box
+        parts = [help_atlas.rectangle(x, y, w, h, (0.05, 0.05, 0.08, 0.92))]
+        top = y + help_atlas.line_height / 2
+        for left, column in placed.columns:
+            parts.append(help_atlas.quads("\n".join(column), left, top, (1.0, 0.92, 0.6, 1.0)))
+        groups.append((placed.size, parts))
+    return groups

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..analysis.canvas import HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR
 from ..analysis.colormaps import apply_colormap, color_limits
-from ..analysis.shapes import arrow_triangles, disk_triangles
+from ..analysis.shapes import arrow_triangles, disk_triangles, segment_triangles
 from ..gl import bindings
 from ..gl.context import GLContext
 from ..gl.dispatch import set_uniforms
@@ -28,13 +28,16 @@ __all__ = [
     "handle_geometry",
     "mesh_lines",
     "reference_geometry",
+    "segment_geometry",
     "triangle_geometry",
 ]
 
 FOLD_COLOR = (1.0, 0.1, 0.6, 0.55)
 MESH_COLOR = (0.3, 1.0, 0.4, 0.7)
 REFERENCE_COLOR = (0.0, 1.0, 1.0, 1.0)
-PICKED_COLOR = (1.0, 1.0, 1.0, 1.0)
+#: A segment being drawn (it becomes a handle when the button is released).
+DRAWING_COLOR = (1.0, 1.0, 1.0, 0.9)
+OUTLINE_COLOR = (0.0, 0.0, 0.0, 0.8)
 #: Mesh lines closer than this on screen (framebuffer pixels) are thinned out.
 MESH_MIN_SPACING = 6.0
 
@@ -64,6 +67,42 @@ def handle_geometry(src: np.ndarray, dst: np.ndarray, scale: float) -> np.ndarra
         _colored(disk_triangles(dst, 4.5 * unit), _rgba(HANDLE_TARGET_COLOR)),
     ]
     return np.concatenate(parts)
+
+
+def segment_geometry(
+    src_segments: np.ndarray,
+    dst_segments: np.ndarray,
+    scale: float,
+    drawing: np.ndarray | None = None,
+) -> np.ndarray:
+    """Triangles of the segment handles: each source segment a thin blue line with disks at
+    its ends, thin arrows from its ends to the target's (a -> c, b -> d), the target segment
+    a thick yellow line outlined in black with disks at its ends, the start c larger than the
+    end d; and the segment being drawn (``drawing``, (2, 2)), white. Rows: x, y, r, g, b, a."""
+    unit = 1.0 / scale  # image pixels per framebuffer pixel
+    a, b = src_segments[:, 0], src_segments[:, 1]
+    c, d = dst_segments[:, 0], dst_segments[:, 1]
+    source, target = _rgba(HANDLE_SOURCE_COLOR), _rgba(HANDLE_TARGET_COLOR)
+    starts, ends = np.concatenate([a, b]), np.concatenate([c, d])
+    parts = [
+        _colored(segment_triangles(a, b, 2.0 * unit), source),
+        _colored(disk_triangles(starts, 3.0 * unit), source),
+        _colored(arrow_triangles(starts, ends, 1.2 * unit, 7.0 * unit), _rgba(target, 0.8)),
+        _colored(segment_triangles(c, d, 6.0 * unit), OUTLINE_COLOR),
+        _colored(disk_triangles(c, 6.5 * unit), OUTLINE_COLOR),
+        _colored(disk_triangles(d, 5.0 * unit), OUTLINE_COLOR),
+        _colored(segment_triangles(c, d, 3.5 * unit), target),
+        _colored(disk_triangles(c, 5.0 * unit), target),
+        _colored(disk_triangles(d, 3.5 * unit), target),
+    ]
+    if drawing is not None:
+        start, end = drawing[:1], drawing[1:]
+        parts += [
+            _colored(segment_triangles(start, end, 6.0 * unit), OUTLINE_COLOR),
+            _colored(segment_triangles(start, end, 3.5 * unit), DRAWING_COLOR),
+            _colored(disk_triangles(drawing, 3.5 * unit), DRAWING_COLOR),
+        ]
+    return np.concatenate([np.zeros((0, 6), np.float32), *parts])
 
 
 def reference_geometry(points: np.ndarray, scale: float) -> np.ndarray:

@@ -71,13 +71,16 @@ class Session:
         config = c.settings.config
         start = time.perf_counter()
         try:
+            segments = {"src_segments": c.src_segments, "dst_segments": c.dst_segments}
             if self.mls is None or config != self._config_key:
-                mls = MLS.from_config(c.src, c.dst, config, shape=self.shape, ctx=self.gl)
+                mls = MLS.from_config(
+                    c.src, c.dst, config, **segments, shape=self.shape, ctx=self.gl
+                )
                 if self.mls is not None:
                     self.mls.release()
                 self.mls, self._config_key = mls, config
             else:
-                self.mls.set_handles(c.src, c.dst)
+                self.mls.set_handles(c.src, c.dst, **segments)
             self.error = ""
         except ValueError as error:  # includes DegenerateHandlesError: keep the last valid f
             self.error = str(error)

@@ -7,6 +7,7 @@ frame. Positions are framebuffer pixels from the top left.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable, Sequence
 
@@ -18,7 +19,7 @@ from ..gl import bindings
 from ..gl.context import GLContext
 from .vertices import StreamingVertices
 
-__all__ = ["GlyphAtlas", "TextRenderer"]
+__all__ = ["GlyphAtlas", "TextRenderer", "glyph_atlas"]
 
 FONTS = ("DejaVuSansMono.ttf", "LiberationMono-Regular.ttf", "DejaVuSans.ttf")
 _CHARS = [chr(c) for c in range(32, 127)]
@@ -46,6 +47,7 @@ class GlyphAtlas:
     def __init__(self, size: int = 14) -> None:
         if isinstance(size, bool) or not isinstance(size, int) or size < 4:
             raise ValueError(f"size must be an integer >= 4 (pixels), got {size!r}")
+        self.size = size
         font = load_font(size)
         ascent, descent = font.getmetrics() if hasattr(font, "getmetrics") else (size, size // 4)
         self.line_height = int(ascent + descent) + 2
@@ -101,6 +103,12 @@ class GlyphAtlas:
         uv = np.repeat(centre, 6, axis=0)
         rgba = np.tile(np.asarray(color, np.float32), (6, 1))
         return np.concatenate([corners, uv, rgba], axis=1)
+
+
+@functools.lru_cache(maxsize=16)
+def glyph_atlas(size: int) -> GlyphAtlas:
+    """The :class:`GlyphAtlas` of ``size`` pixels, made once (atlases are not changed)."""
+    return GlyphAtlas(size)
 
 
 def _corners(origins: np.ndarray, size: tuple[float, float]) -> np.ndarray:

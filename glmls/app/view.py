@@ -15,14 +15,22 @@ from ..imaging.pipeline import WarpPipeline
 from ..imaging.source import prepare_image, texture_data, texture_form
 from .controller import Controller, Settings
 from .layout import Layout
-from .overlays import GeometryDrawer, PictureDrawer, handle_geometry, reference_geometry
+from .overlays import (
+    GeometryDrawer,
+    PictureDrawer,
+    handle_geometry,
+    reference_geometry,
+    segment_geometry,
+)
 from .session import Analysis, Session
-from .text import GlyphAtlas, TextRenderer
+from .text import TextRenderer, glyph_atlas
 
 __all__ = ["BACKGROUND", "FIELD_OPACITY", "TEXT_SIZE", "View", "display_image"]
 
 #: Text size (points at a content scale of 1).
 TEXT_SIZE = 13
+#: Text renderers kept (one per size: the readout's, the help's).
+TEXT_SIZES_KEPT = 3
 FIELD_OPACITY = 0.7
 BACKGROUND = (0.13, 0.13, 0.14)
 _STAGES = ("warp", "overlays", "text")
@@ -61,8 +69,7 @@ class View:
         self.geometry = GeometryDrawer(gl, self.shape)
         self.picture = PictureDrawer(gl, self.shape)
         self.field_picture = PictureDrawer(gl, self.shape)
-        self.text: TextRenderer | None = None
-        self._atlas_size = 0
+        self.texts: dict[int, TextRenderer] = {}
         # Two sets of timer queries, used in turn: a frame reads the set of the frame before,
         # whose GPU work is done by then, so reading never stalls the frame being drawn.
         self._query_sets = [{name: gl.mgl.query(time=True) for name in _STAGES} for _ in (0, 1)]
@@ -84,13 +91,13 @@ class View:
         return texture
 
     def text_renderer(self, size: int) -> TextRenderer:
-        """The text renderer with a glyph atlas of ``size`` pixels (made again on change)."""
-        if self.text is None or size != self._atlas_size:
-            if self.text is not None:
-                self.text.release()
-            self.text = TextRenderer(self.gl, GlyphAtlas(size))
-            self._atlas_size = size
-        return self.text
+        """The text renderer with a glyph atlas of ``size`` pixels (the last few sizes are
+        kept, others released)."""
+        if size not in self.texts:
+            while len(self.texts) >= TEXT_SIZES_KEPT:
+                self.texts.pop(next(iter(self.texts))).release()
+            self.texts[size] = TextRenderer(self.gl, glyph_atlas(size))
+        return self.texts[size]
 
     def draw(
         self,
@@ -98,9 +105,9 @@ class View:
         controller: Controller,
         session: Session,
         analysis: Analysis,
-        text: Sequence[np.ndarray],
+        text: Sequence[tuple[int, list[np.ndarray]]],
     ) -> None:
-        """One frame into the window's back buffer."""
+        """One frame into the window's back buffer; ``text``: glyph quads by text size."""
         with self.gl.use():
             self._draw(layout, controller, session, analysis, text)
 
@@ -112,33 +119,46 @@ class View:
         screen.use()
         screen.viewport = (0, 0, *framebuffer)
         screen.clear(*BACKGROUND, 1.0)
-        screen.clear(0.0, 0.0, 0.0, 1.0, viewport=layout.viewport)
-        self.geometry.frame = session.canvas  # the overlays' coordinates: the view's canvas
-        with self._queries["warp"]:
-            if mls is not None:
-                self._draw_image(screen, layout, session, s)
-        with self._queries["overlays"]:
-            screen.viewport = layout.viewport
-            if mls is not None and c.overlays["error"] and analysis.field_colours is not None:
-                if analysis.key != self._field_key:  # upload once per analysis
-                    self._field = self._texture(analysis.field_colours, self._field)
-                    self._field_key = analysis.key
-                # the field is f's on the image only: nothing past its border
-                self._offscreen(self.field_picture, self._field, session, s, "constant")
-                screen.use()
+        screen.clear(0.0, 0.0, 0.0, 1.0, viewport=layout.scissor)
+        frame = layout.frame  # the part of the canvas in view
+        self.geometry.frame = frame  # the overlays' coordinates
+        screen.scissor = layout.scissor  # zoomed in, the viewport reaches past the area
+        try:
+            with self._queries["warp"]:
+                if mls is not None:
+                    self._draw_image(screen, layout, session, s)
+            with self._queries["overlays"]:
                 screen.viewport = layout.viewport
-                self.field_picture.draw(opacity=FIELD_OPACITY, linear=True)
-            for vertices, mode in analysis.geometry:
-                self.geometry.draw(vertices, mode)
-            if c.overlays["handles"] or c.reference_mode:
-                self.geometry.draw(handle_geometry(c.src, c.dst, layout.scale))
-            if (c.reference_mode or c.overlays["angle"]) and len(c.reference):
-                points = session.deformed_reference()
-                self.geometry.draw(reference_geometry(points, layout.scale))
+                self._overlays(screen, layout, c, session, analysis)
+        finally:
+            screen.scissor = None
         with self._queries["text"]:
             screen.viewport = (0, 0, *framebuffer)
-            if self.text is not None:
-                self.text.draw(text, framebuffer)
+            for size, parts in text:
+                self.text_renderer(size).draw(parts, framebuffer)
+
+    def _overlays(self, screen, layout: Layout, c: Controller, session: Session, analysis):
+        s = c.settings
+        if session.mls is not None and c.overlays["error"] and analysis.field_colours is not None:
+            if analysis.key != self._field_key:  # upload once per analysis
+                self._field = self._texture(analysis.field_colours, self._field)
+                self._field_key = analysis.key
+            # the field is f's on the image only: nothing past its border
+            self._offscreen(self.field_picture, self._field, session, layout, s, "constant")
+            screen.use()
+            screen.viewport = layout.viewport
+            self.field_picture.draw(opacity=FIELD_OPACITY, linear=True)
+        for vertices, mode in analysis.geometry:
+            self.geometry.draw(vertices, mode)
+        shown = c.overlays["handles"] or c.reference_mode or c.segment_mode
+        none = np.zeros((0, 2, 2))
+        a, b = (c.src_segments, c.dst_segments) if shown else (none, none)
+        self.geometry.draw(segment_geometry(a, b, layout.scale, c.drawing))  # and the drawing
+        if shown:
+            self.geometry.draw(handle_geometry(c.src, c.dst, layout.scale))
+        if (c.reference_mode or c.overlays["angle"]) and len(c.reference):
+            points = session.deformed_reference()
+            self.geometry.draw(reference_geometry(points, layout.scale))
 
     def _draw_image(self, screen, layout: Layout, session: Session, s: Settings) -> None:
         if s.method == "quads" and s.interpolation == "linear":
@@ -155,16 +175,18 @@ class View:
                 grid=s.grid,
                 flip_y=True,
                 border=s.border,
-                frame=session.canvas,
+                frame=layout.frame,
             )
             return
-        self._offscreen(self.picture, self.source, session, s, s.border)
+        self._offscreen(self.picture, self.source, session, layout, s, s.border)
         screen.use()
         screen.viewport = layout.viewport
         self.picture.draw(opacity=1.0, linear=False)
 
-    def _offscreen(self, picture: PictureDrawer, source, session: Session, s, border) -> None:
-        picture.resize(session.canvas.shape)
+    def _offscreen(
+        self, picture: PictureDrawer, source, session: Session, layout: Layout, s, border
+    ) -> None:
+        picture.resize(layout.shape)
         picture.framebuffer.use()
         picture.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
         self.pipeline.render(
@@ -176,7 +198,7 @@ class View:
             grid=s.grid,
             flip_y=False,
             border=border,
-            frame=session.canvas,
+            frame=layout.frame,
         )
 
     def next_frame(self, frames: int) -> None:
@@ -198,9 +220,9 @@ class View:
     def release(self) -> None:
         if self.gl.usable:
             with self.gl.use():
-                for obj in (self.geometry, self.picture, self.field_picture, self.text):
-                    if obj is not None:
-                        obj.release()
+                for obj in (self.geometry, self.picture, self.field_picture, *self.texts.values()):
+                    obj.release()
+                self.texts.clear()
                 for texture in (self.source, self._field):
                     if texture is not None:
                         texture.release()

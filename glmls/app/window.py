@@ -20,14 +20,15 @@ import numpy as np
 
 from ..files.atomic import atomic_write
 from ..files.images import imwrite
-from ..files.landmarks import read_handles, write_handles
 from ..gl.context import get_context
+from .commands import load_handles, save_handles, save_image
 from .controller import Controller, Settings
-from .events import Event, Wait
+from .events import Event, Recorder, Wait
 from .glfw_window import GlfwWindow, NoDisplayError
 from .hud import PANEL_CHARS, readout, text_quads
 from .layout import Layout, layout
 from .session import Session
+from .text import TextRenderer
 from .view import TEXT_SIZE, View, display_image
 
 __all__ = ["PANEL_CHARS", "TEXT_SIZE", "App", "NoDisplayError", "display_image"]
@@ -41,7 +42,9 @@ class App:
     """The window: one image, its handles and reference points, and a :class:`Controller`.
 
     ``out_dir``: where ``s``/``j``/``S`` save; ``handles_path``: the file ``l`` loads (else
-    the last one saved). Open with :meth:`run`.
+    the last one saved); ``src_segments``/``dst_segments``: segment handles (S, 2, 2);
+    ``record``: write every event fed (mouse, keys, replayed ones) there as a replay file
+    when the window closes. Open with :meth:`run`.
     """
 
     def __init__(
@@ -51,11 +54,14 @@ class App:
         dst: np.ndarray,
         *,
         reference: np.ndarray | None = None,
+        src_segments: np.ndarray | None = None,
+        dst_segments: np.ndarray | None = None,
         settings: Settings | None = None,
         name: str = "image",
         out_dir: str | Path = ".",
         handles_path: str | Path | None = None,
         window_size: tuple[int, int] | None = None,
+        record: str | Path | None = None,
     ) -> None:
         self.image = np.asarray(image)
         self.display = display_image(self.image)
@@ -68,15 +74,20 @@ class App:
             src,
             dst,
             self.shape,
-            reference=np.zeros((0, 2)) if reference is None else reference,
+            reference=reference,
+            src_segments=src_segments,
+            dst_segments=dst_segments,
             settings=settings or Settings(),
         )
+        self.record_path = Path(record) if record is not None else None
+        self.recorder = Recorder() if record is not None else None
         self.frame_times: deque[float] = deque(maxlen=240)
         self.frames = 0
         #: Seconds of the last frame's stages: CPU (handles, analysis) and GPU (warp,
         #: overlays, text); kept after the window closes.
         self.timings: dict[str, float] = {}
         self.layout: Layout = layout((1, 1), self.shape, 0)
+        self._panel = 0
         self._messages: list[tuple[float, str]] = []
         self._last_view: tuple = ()
         self._want_screenshot: Path | None = None
@@ -106,15 +117,24 @@ class App:
     # -- events and commands ----------------------------------------------------------------
 
     def feed(self, event: Event) -> None:
-        """One event through the controller, then the commands it returned."""
+        """One event through the controller, then the commands it returned; the layout
+        follows a change of zoom at once (the next cursor position is read through it)."""
+        if self.recorder is not None:
+            self.recorder.record(event)
+        c = self.controller
         if self.window is not None:
             pixels = PICK_RADIUS * self.window.pixel_ratio
-            self.controller.pick_radius = pixels / self.layout.scale
-        for command in self.controller.feed(event):
+            c.pick_radius = pixels / self.layout.scale
+            if self.layout.limits is not None:
+                c.view_limits = self.layout.limits
+        zoom = c.zoom
+        for command in c.feed(event):
             self._command(command)
-        if self.controller.message:
-            self.say(self.controller.message)
-            self.controller.message = ""
+        if c.zoom != zoom:
+            self._relayout()
+        if c.message:
+            self.say(c.message)
+            c.message = ""
 
     def say(self, text: str) -> None:
         self._messages.append((time.perf_counter(), text))
@@ -130,43 +150,23 @@ class App:
                 self._quit = True
             elif command == "save_image":
                 path = self._path("warped.png")
-                self._save_image(path)
+                mls = self.session.mls if self.window is not None else None
+                canvas = self.session.canvas
+                save_image(path, mls, self.image, self.display, c.settings, canvas)
                 self.say(f"saved {path}")
             elif command == "save_handles":
                 path = self._path("handles.json")
-                write_handles(path, c.src, c.dst)
+                save_handles(path, c)
                 self.handles_path = self.handles_path or path
                 self.say(f"saved {path}")
             elif command == "save_screenshot":
                 self._want_screenshot = self._path("screenshot.png")
             elif command == "load_handles":
                 path = self.handles_path or self._path("handles.json")
-                c.set_handles(*read_handles(path))
-                self.say(f"loaded {len(c.src)} handles from {path}")
+                loaded = load_handles(path, c)
+                self.say(f"loaded {loaded.points} points, {loaded.segments} segments from {path}")
         except (OSError, ValueError) as error:
             self.say(f"{command.replace('_', ' ')} failed: {error}")
-
-    def _save_image(self, path: Path) -> None:
-        """The deformed image at full resolution, in the input's dtype where it can be
-        written (uint8, uint16), else 8-bit."""
-        mls = self.session.mls if self.window is not None else None
-        if mls is None:
-            raise ValueError("no valid deformation to save")
-        s, canvas = self.controller.settings, self.session.canvas
-        image = self.image if self.image.dtype in (np.uint8, np.uint16) else self.display
-        out = mls.warp(
-            image,
-            method=s.method,
-            interpolation=s.interpolation,
-            grid=s.grid,
-            border=s.border,
-            output_shape=canvas.shape,
-            origin=canvas.origin,
-        )
-        if out.dtype not in (np.uint8, np.uint16):
-            out = np.round(np.clip(out, 0, 1) * 255).astype(np.uint8)
-        with atomic_write(path) as tmp:  # creates the folder; whole file or none
-            imwrite(tmp, out)
 
     # -- frames -----------------------------------------------------------------------------
 
@@ -191,7 +191,9 @@ class App:
             c.reference_revision,
             tuple(c.overlays.values()),
             c.help_visible,
-            c.reference_mode,
+            c.mode,
+            c.zoom,
+            None if c.drawing is None else c.drawing.tobytes(),
             self.window.framebuffer_size,  # type: ignore[union-attr]
             len(self._messages),
         )
@@ -201,12 +203,7 @@ class App:
         window = self.window
         assert window is not None, "open the window with run() first"
         framebuffer = window.framebuffer_size
-        size = max(8, round(TEXT_SIZE * window.content_scale * window.pixel_ratio))
-        text = self.view.text_renderer(size)
-        panel = round(PANEL_CHARS * text.atlas.advance["M"]) + 24
-        self.session.sync()
-        canvas = self.session.canvas
-        self.layout = layout(framebuffer, canvas.shape, panel, canvas.origin)
+        text = self._lay_out()
         analysis = self.session.analyse(self.layout.scale)
         quads = text_quads(
             text.atlas,
@@ -216,6 +213,29 @@ class App:
             framebuffer=framebuffer,
         )
         self.view.draw(self.layout, self.controller, self.session, analysis, quads)
+
+    def _lay_out(self) -> TextRenderer:
+        """The text renderer for the window's scale, and the layout with its panel (before
+        the first frame too, so that the first event goes through the right layout)."""
+        window = self.window
+        assert window is not None
+        size = max(8, round(TEXT_SIZE * window.content_scale * window.pixel_ratio))
+        text = self.view.text_renderer(size)
+        self._panel = round(PANEL_CHARS * text.atlas.advance["M"]) + 24
+        self.session.sync()
+        self._relayout()
+        return text
+
+    def _relayout(self) -> None:
+        """The layout for the framebuffer, the session's canvas and the controller's zoom."""
+        if self.window is None:
+            return
+        canvas, c = self.session.canvas, self.controller
+        self.layout = layout(
+            self.window.framebuffer_size, canvas.shape, self._panel, canvas.origin, c.zoom
+        )
+        if self.layout.limits is not None:
+            c.view_limits = self.layout.limits
 
     def run(
         self,
@@ -237,7 +257,7 @@ class App:
         queue = deque(events or ())
         waiting = 0
         try:
-            self.layout = layout(window.framebuffer_size, self.shape, 0)
+            self._lay_out()
             while not window.should_close and not self._quit:
                 busy = scripted or self._view_key() != self._last_view or self._want_screenshot
                 window.poll(wait=None if busy else 0.5)
@@ -263,6 +283,8 @@ class App:
                     break
         finally:
             self.close()
+            if self.recorder is not None and self.record_path is not None:
+                self.recorder.save(self.record_path)
 
     def _frame(self, on_frame: Callable[[App], None] | None) -> None:
         self._last_view = self._view_key()

@@ -9,6 +9,7 @@ from .inputs import (
     add_example_inputs,
     example_or_files,
     make_mls,
+    reference_or_handles,
     reported_warnings,
     say,
     warn_about_handles,
@@ -32,13 +33,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
-    image, src, dst, reference, name = example_or_files(args, need_reference=False)
-    warn_about_handles(args, src, image.shape)
-    if reference is None:
-        say(args, "analyze: no --reference given: the source handles are the reference points")
-        reference = src
+    image, handles, reference, name = example_or_files(args, need_reference=False)
+    warn_about_handles(args, handles, image.shape)
+    reference = reference_or_handles(args, reference, handles)
     ticker = Ticker("analyze", quiet=args.quiet)
-    with make_mls(src, dst, config, image.shape) as m, ticker as tick, reported_warnings("analyze"):
+    with make_mls(handles, config, image.shape) as m, ticker as tick, reported_warnings("analyze"):
         try:
             result = report(
                 image,

@@ -12,8 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.handleset import HandleSet
 from ..errors import GLUnavailableError, InputFileError
-from ..files.landmarks import read_handles, read_points
+from ..files.landmarks import read_handle_set, read_points
 from .inputs import read_image
 from .options import (
     UsageError,
@@ -31,6 +32,7 @@ EXAMPLES = """
 examples:
   glmls demo                                   # the bundled photograph
   glmls demo photo.png --handles h.json
+  glmls demo --record session.json             # save the session's events to replay
   xvfb-run -a glmls demo --replay drag.json --frames 30 --screenshot shot.png
 """
 #: The former --construction's names, still accepted: (method, interpolation).
@@ -67,7 +69,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
         type=Path,
         help="image to deform (default: the bundled photograph with its handles)",
     )
-    parser.add_argument("--handles", type=Path, help="handles file (JSON, CSV or BigWarp)")
+    parser.add_argument(
+        "--handles",
+        type=Path,
+        help="handles file (JSON, CSV or BigWarp): points, segments and polylines",
+    )
     parser.add_argument(
         "--reference", type=Path, help="reference points (JSON or CSV) for the angle errors"
     )
@@ -78,6 +84,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )  # the former name of --method/--interpolation
     parser.add_argument(
         "--replay", type=Path, metavar="EVENTS.json", help="feed recorded events, one per frame"
+    )
+    parser.add_argument(
+        "--record",
+        type=Path,
+        metavar="EVENTS.json",
+        help="save every event of the session (mouse, keys) as a replay file on exit",
     )
     parser.add_argument(
         "--frames",
@@ -108,7 +120,8 @@ def _fail(status: int, message: str) -> int:
 
 
 def _inputs(args: argparse.Namespace):
-    """(image, name, src, dst, reference) from the arguments; raises ValueError/OSError."""
+    """(image, name, handles, reference) from the arguments, ``handles`` a
+    :class:`~glmls.core.handleset.HandleSet`; raises ValueError/OSError."""
     from .. import data
 
     if args.image is None:
@@ -123,11 +136,12 @@ def _inputs(args: argparse.Namespace):
         name = args.image.stem
         src = dst = np.zeros((0, 2))
         reference = np.zeros((0, 2))
+    handles = HandleSet.validate(src, dst)
     if args.handles is not None:
-        src, dst = read_handles(args.handles)
+        handles = read_handle_set(args.handles)
     if args.reference is not None:
         reference = read_points(args.reference)
-    return image, name, src, dst, reference
+    return image, name, handles, reference
 
 
 def run(args: argparse.Namespace) -> int:
@@ -137,7 +151,7 @@ def run(args: argparse.Namespace) -> int:
     from ..app.window import App, NoDisplayError
 
     try:
-        image, name, src, dst, reference = _inputs(args)
+        image, name, handles, reference = _inputs(args)
         events = read_events(args.replay) if args.replay is not None else None
         method, interpolation = (
             _CONSTRUCTIONS[args.construction]
@@ -154,14 +168,17 @@ def run(args: argparse.Namespace) -> int:
         )
         app = App(
             image,
-            src,
-            dst,
+            handles.src,
+            handles.dst,
+            src_segments=handles.src_segments,
+            dst_segments=handles.dst_segments,
             reference=reference,
             settings=settings,
             name=name,
             out_dir=args.out,
             handles_path=args.handles,
             window_size=args.window_size,
+            record=args.record,
         )
     except (ValueError, TypeError) as error:
         return _fail(2, str(error))

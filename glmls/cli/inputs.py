@@ -16,10 +16,11 @@ import numpy as np
 
 from .. import data
 from ..core.config import MLSConfig
+from ..core.handleset import HandleSet
 from ..errors import BorderWarning, ImageWarning
 from ..files.atomic import atomic_write
 from ..files.images import DEFAULT_MAX_PIXELS, imread, imwrite
-from ..files.landmarks import read_handles, read_points
+from ..files.landmarks import read_handle_set, read_points
 from ..mls import MLS
 from .options import UsageError, add_max_pixels, handle_warnings, positive_int
 
@@ -30,6 +31,7 @@ __all__ = [
     "image_inputs",
     "make_mls",
     "read_image",
+    "reference_or_handles",
     "say",
     "warn_about_handles",
     "write_image",
@@ -92,9 +94,18 @@ def write_image(path: Path, image: np.ndarray) -> None:
         imwrite(tmp, image)
 
 
-def make_mls(src, dst, config: MLSConfig, shape) -> MLS:
+def make_mls(handles: HandleSet, config: MLSConfig, shape) -> MLS:
+    """The MLS of ``handles`` (points and segments) with ``config``; :class:`UsageError` if
+    the configuration cannot take them (affine on handles along one line)."""
     try:
-        return MLS.from_config(src, dst, config, shape=shape)
+        return MLS.from_config(
+            handles.src,
+            handles.dst,
+            config,
+            shape=shape,
+            src_segments=handles.src_segments,
+            dst_segments=handles.dst_segments,
+        )
     except (TypeError, ValueError) as error:
         raise UsageError(f"handles: {error}") from None
 
@@ -105,16 +116,34 @@ def say(args: argparse.Namespace, message: str) -> None:
         print(message, file=sys.stderr)
 
 
-def warn_about_handles(args: argparse.Namespace, src: np.ndarray, shape) -> None:
-    """Warnings on stderr (not errors) for handles that look like another convention."""
-    for message in handle_warnings(src, shape[:2]):
+def warn_about_handles(args: argparse.Namespace, handles: HandleSet, shape) -> None:
+    """Warnings on stderr (not errors) for handles (their source points and segment ends)
+    that look like another convention."""
+    points, ends = handles.source_points(), handles.segments > 0
+    for message in handle_warnings(points, shape[:2], segment_ends=ends):
         say(args, f"glmls {args.command}: warning: {message}")
+
+
+def reference_or_handles(args: argparse.Namespace, reference, handles: HandleSet) -> np.ndarray:
+    """``reference``, or where none was given the distinct source points and segment ends
+    (in their order), said on stderr."""
+    if reference is not None:
+        return reference
+    points = handles.source_points()
+    _, first = np.unique(points, axis=0, return_index=True)
+    what = "handles (points and segment ends)" if handles.segments else "handles"
+    say(args, f"{args.command}: no --reference given: the source {what} are the reference points")
+    return points[np.sort(first)]
 
 
 def add_example_inputs(parser: argparse.ArgumentParser, *, reference_required: bool) -> None:
     """IN, --handles, --reference, --example, --out, --analysis-grid and --cmap."""
     parser.add_argument("input", metavar="IN", nargs="?", help="the image")
-    parser.add_argument("--handles", metavar="H", help="handles file (JSON, CSV or BigWarp)")
+    parser.add_argument(
+        "--handles",
+        metavar="H",
+        help="handles file (JSON, CSV or BigWarp): points, segments and polylines",
+    )
     parser.add_argument(
         "--reference",
         metavar="R",
@@ -141,11 +170,12 @@ def add_example_inputs(parser: argparse.ArgumentParser, *, reference_required: b
 
 
 def example_or_files(args: argparse.Namespace, *, need_reference: bool):
-    """(image, src, dst, reference or None, name) from --example or the given files."""
+    """(image, handles, reference or None, name) from --example or the given files;
+    ``handles`` is a :class:`~glmls.core.handleset.HandleSet`."""
     if args.example:
         return (
             data.astronaut(),
-            *data.astronaut_handles(),
+            HandleSet.validate(*data.astronaut_handles()),
             data.astronaut_reference_points(),
             "astronaut (bundled example)",
         )
@@ -155,6 +185,6 @@ def example_or_files(args: argparse.Namespace, *, need_reference: bool):
     if missing:
         raise UsageError(f"missing {', '.join(missing)} (or use --example)")
     image = read_image(Path(args.input), args.max_pixels)
-    src, dst = read_handles(args.handles)
+    handles = read_handle_set(args.handles)
     reference = read_points(args.reference) if args.reference else None
-    return image, src, dst, reference, str(args.input)
+    return image, handles, reference, str(args.input)

@@ -158,17 +158,22 @@ def fit_background(background: float | tuple[float, ...], channels: int):
     return background
 
 
-def handle_warnings(src: np.ndarray, shape: tuple[int, int]) -> list[str]:
+def handle_warnings(
+    src: np.ndarray, shape: tuple[int, int], *, segment_ends: bool = False
+) -> list[str]:
     """Warnings for handles that look like another convention than pixels (x, y) = (column,
     row) on an image of ``shape``: all within [0, 1] x [0, 1] (normalised coordinates), or
-    mostly outside the image (perhaps (row, column))."""
+    mostly outside the image (perhaps (row, column)). ``src``: the source points, with the
+    ends of the source segments where ``segment_ends``."""
     height, width = shape
     if len(src) == 0:
         return []
+    noun = "handle points and segment ends" if segment_ends else "handles"
     x, y = src[:, 0], src[:, 1]
     if max(height, width) > 4 and (src >= 0).all() and (src <= 1).all():
+        every = "every handle point and segment end" if segment_ends else "every handle"
         return [
-            f"every handle lies within [0, 1] x [0, 1] of a {width} x {height} image: "
+            f"{every} lies within [0, 1] x [0, 1] of a {width} x {height} image: "
             "normalised coordinates? glmls takes pixels, (x, y) = (column, row)"
         ]
     inside = (x >= -0.5) & (x <= width - 0.5) & (y >= -0.5) & (y <= height - 0.5)
@@ -179,7 +184,7 @@ def handle_warnings(src: np.ndarray, shape: tuple[int, int]) -> list[str]:
         "; (row, column) order? glmls takes (x, y) = (column, row)" if swapped.mean() > 0.5 else ""
     )
     outside = int((~inside).sum())
-    return [f"{outside} of {len(src)} handles lie outside the {width} x {height} image{hint}"]
+    return [f"{outside} of {len(src)} {noun} lie outside the {width} x {height} image{hint}"]
 
 
 def parse_background(text: str) -> float | tuple[float, ...]:

@@ -86,8 +86,8 @@ def _csv_text(rows: list[dict]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    image, src, dst, reference, name = example_or_files(args, need_reference=True)
-    warn_about_handles(args, src, image.shape)
+    image, handles, reference, name = example_or_files(args, need_reference=True)
+    warn_about_handles(args, handles, image.shape)
     shape = image.shape[:2]
     try:
         configs = (
@@ -103,9 +103,11 @@ def run(args: argparse.Namespace) -> int:
         try:
             result = tune(
                 shape,
-                src,
-                dst,
+                handles.src,
+                handles.dst,
                 reference,
+                src_segments=handles.src_segments,
+                dst_segments=handles.dst_segments,
                 trials=args.trials,
                 seed=args.seed,
                 configs=configs,
@@ -131,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
     print(ranking_table(result.rows))
     for skip in result.skipped:
         say(args, f"tune: skipped {label(MLSConfig(**skip['config']))}: {skip['reason']}")
-    with make_mls(src, dst, result.best, shape) as m:
+    with make_mls(handles, result.best, shape) as m:
         winner = report(image, m, reference, grid=args.analysis_grid, cmap=args.cmap)
     winner.summary["input"] = name
     winner.save(out / "winner")

@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 
 from ..files.images import check_writable
-from ..files.landmarks import read_handles
+from ..files.landmarks import read_handle_set
 from .inputs import (
     image_inputs,
     make_mls,
@@ -35,6 +35,7 @@ examples:
   glmls warp 'frames/*.png' warped/ --handles landmarks.csv --method backward --keep-going
   glmls warp photo.png out.png --handles handles.json --border edge
   glmls warp photo.png whole.png --handles handles.json --fit
+  glmls warp photo.png out.png --handles lines.csv    # points, segments and polylines
 """
 
 
@@ -45,7 +46,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="OUT",
         help="the output image; a folder (made if needed) for many images, or ending in /",
     )
-    parser.add_argument("--handles", metavar="H", required=True, help="handles file")
+    parser.add_argument(
+        "--handles",
+        metavar="H",
+        required=True,
+        help="handles file (JSON, CSV or BigWarp): points, segments and polylines",
+    )
     parser.add_argument(
         "--background",
         type=parse_background,
@@ -81,7 +87,7 @@ def targets(output: str, files: list[Path], many: bool) -> list[Path]:
 
 def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
-    src, dst = read_handles(args.handles)
+    handles = read_handle_set(args.handles)
     files, many = image_inputs(args.input)
     outputs = targets(args.output, files, many)
     failed, warned = [], set()
@@ -95,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
                 except ValueError as error:
                     raise UsageError(str(error)) from None
                 if image.shape[:2] not in warned:
-                    warn_about_handles(args, src, image.shape)
+                    warn_about_handles(args, handles, image.shape)
                     warned.add(image.shape[:2])
                 options = {
                     "method": args.method,
@@ -104,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
                     "background": fit_background(args.background, channels),
                     "border": args.border,
                 }
-                with make_mls(src, dst, config, image.shape) as m:
+                with make_mls(handles, config, image.shape) as m:
                     ticker = Ticker(f"warp {source}", quiet=args.quiet or many)
                     with ticker, reported_warnings(f"glmls warp: {source}"):
                         try:

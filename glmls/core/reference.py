@@ -10,6 +10,11 @@ Degenerate cases follow the same rules as the shader (``glmls/shaders/mls/core.g
 - coincident source handles in reach (spread about p* below 1e-13 of that about v): M = I;
 - rigid with all targets in reach collapsed to one point: M = I;
 - affine with a singular moment matrix: the similarity solution.
+
+Segment handles (:mod:`glmls.core.segments`) add the integrals of the same moments along each
+segment, per unit length, computed by an accurate quadrature (:func:`segment_moments`). A point
+on a segment whose weight is infinite there maps to the segment's target at the same
+parameter, and M is the limit, about that point (the segment adds only its second moment).
 """
 
 from __future__ import annotations
@@ -17,7 +22,9 @@ from __future__ import annotations
 import numpy as np
 
 from .config import MLSConfig
-from .handles import as_points, validate_handles
+from .handles import as_points
+from .handleset import HandleSet
+from .segments import REFERENCE_NODES, REFERENCE_PANELS, segment_config, sinh_nodes
 
 
 def weights(d2: np.ndarray, config: MLSConfig, radius: float | None) -> np.ndarray:
@@ -61,6 +68,83 @@ def _solve(a11, a12, a22, b, transform):
     return np.where(regular[:, None, None], inv @ b, rot)
 
 
+#: A point nearer than this (pixels) to a segment whose weight is infinite there is on it.
+ON_SEGMENT = 1e-9
+
+
+def segment_geometry(handles: HandleSet, v: np.ndarray) -> dict[str, np.ndarray]:
+    """Per point and segment (K, S): the arc coordinates x0, x1 of the segment's ends about
+    the foot of the perpendicular from v, the squared distance h2 to the line, the squared
+    distance to the segment, the foot and its target relative to v (K, S, 2); per segment the
+    unit direction u and the target's change per unit of source length g (S, 2)."""
+    a, b = handles.src_segments[:, 0], handles.src_segments[:, 1]
+    c, d = handles.dst_segments[:, 0], handles.dst_segments[:, 1]
+    length = np.hypot(*(b - a).T)
+    u = (b - a) / length[:, None]
+    g = (d - c) / length[:, None]
+    av = a[None] - v[:, None]  # a - v
+    x0 = (av * u[None]).sum(-1)  # a = foot + x0 u
+    x1 = x0 + length[None]
+    h = av[..., 0] * u[None, :, 1] - av[..., 1] * u[None, :, 0]  # cross product: signed
+    foot = av - x0[..., None] * u[None]
+    target = c[None] - v[:, None] - x0[..., None] * g[None]
+    xc = np.clip(0.0, x0, x1)
+    return {
+        "x0": x0,
+        "x1": x1,
+        "h2": h * h,
+        "dist2": h * h + xc * xc,
+        "foot": foot,
+        "target": target,
+        "u": u,
+        "g": g,
+    }
+
+
+def segment_moments(
+    geometry: dict[str, np.ndarray], config: MLSConfig, radius: float | None, d2_points
+) -> tuple[np.ndarray, np.ndarray]:
+    """(J, w_points): J (K, S, 3) = the integrals of w x^k along each segment (k = 0, 1, 2;
+    x the arc length from the foot), and the point handles' weights (K, N), both with the
+    same common factor per point. Quadrature: :func:`glmls.core.segments.sinh_nodes` over
+    the part of the segment where the weight is not 0."""
+    x0, x1, h2 = geometry["x0"], geometry["x1"], geometry["h2"]
+    width = np.sqrt(h2)  # the weight's peak along the segment is this wide
+    support = config.weight_entry.support
+    if support != "everywhere":
+        with np.errstate(over="ignore"):
+            r2 = np.float64(radius) ** 2
+            if support == "radius":
+                # w = 0 from d = R on: integrate where |x| < sqrt(R^2 - h^2) only
+                reach2 = r2 - h2
+            else:
+                # gaussian: weights below e^-40 of the nearest handle's add nothing
+                nearest = np.minimum(
+                    geometry["dist2"].min(axis=1, initial=np.inf),
+                    d2_points.min(axis=1, initial=np.inf),
+                )
+                reach2 = nearest[:, None] + 40.0 * r2 - h2
+            reach = np.sqrt(np.maximum(reach2, 0.0))
+        x0, x1 = np.clip(x0, -reach, reach), np.clip(x1, -reach, reach)
+        width = np.minimum(width, radius)  # type: ignore[call-overload]
+    scale = np.maximum(np.abs(x0), np.abs(x1))
+    c = np.maximum(width, 1e-12 * np.maximum(scale, 1.0))
+    x, wq = sinh_nodes(x0, x1, c, REFERENCE_PANELS, REFERENCE_NODES)
+    k, s, n = x.shape
+    d2 = (h2[..., None] + x * x).reshape(k, s * n)
+    if segment_config(config) is config:
+        # one call: a weight may divide by a common factor per point (the gaussian)
+        w = weights(np.concatenate([d2_points, d2], axis=1), config, radius)
+        w_points, w_nodes = w[:, : d2_points.shape[1]], w[:, d2_points.shape[1] :]
+    else:  # idw with a negligible s, which segments leave out (no common factor)
+        w_points = weights(d2_points, config, radius)
+        w_nodes = weights(d2, segment_config(config), radius)
+    w_nodes = np.where(np.isinf(w_nodes), 0.0, w_nodes)
+    w_nodes = w_nodes.reshape(k, s, n) * wq
+    moments = np.stack([w_nodes.sum(-1), (w_nodes * x).sum(-1), (w_nodes * x * x).sum(-1)], -1)
+    return moments, w_points
+
+
 def mls(
     src: object,
     dst: object,
@@ -68,54 +152,126 @@ def mls(
     config: MLSConfig | None = None,
     *,
     shape: tuple[int, int] | None = None,
+    src_segments: object = None,
+    dst_segments: object = None,
     **options: object,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """f(points), M and T in float64: ``f = points @ M + T`` row by row.
 
     ``config`` or keyword options as for :class:`glmls.MLS`; ``shape`` gives the default
-    radius (the image diagonal).
+    radius (the image diagonal); ``src_segments``/``dst_segments`` (S, 2, 2) segment handles.
     """
     config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
-    p, q = validate_handles(src, dst)
+    handles = HandleSet.validate(src, dst, src_segments, dst_segments)
     v = as_points(points)
     k = len(v)
     f = v.copy()
     big_m = np.broadcast_to(np.eye(2), (k, 2, 2)).copy()
-    if len(p) == 0 or k == 0:
+    if len(handles) == 0 or k == 0:
         return f, big_m, f - np.einsum("ki,kij->kj", v, big_m)
     radius = config.resolve_radius(shape)
+    rows = np.arange(k)
 
+    p, q = handles.src, handles.dst
     dp = p[None, :, :] - v[:, None, :]  # p_i - v, (K, N, 2)
     dq = q[None, :, :] - v[:, None, :]
     d2 = (dp**2).sum(-1)
-    w = weights(d2, config, radius)
-    hit = np.isinf(w).any(axis=1)
-    hit_index = np.argmax(np.isinf(w), axis=1)
-    w = np.where(np.isinf(w), 0.0, w)  # the hit handle's p^ is 0: it drops out of the moments
+    seg = segment_geometry(handles, v)
+    moments, w = segment_moments(seg, config, radius, d2)
+    j0, j1, j2 = moments[..., 0], moments[..., 1], moments[..., 2]
+    u, g, foot, target = seg["u"][None], seg["g"][None], seg["foot"], seg["target"]
 
-    wsum = w.sum(axis=1)
+    # v on a handle whose weight is infinite there: on a point (w = inf) or a segment
+    on_point = np.isinf(w)
+    on_segment = (seg["dist2"] <= ON_SEGMENT**2) & segment_config(config).infinite_at_zero
+    hit = on_point.any(axis=1) | on_segment.any(axis=1)
+    w = np.where(on_point, 0.0, w)  # the hit handle's p^ is 0: it drops out of the moments
+    # a hit segment adds only its second moment about the foot (J0 and J1 are infinite or
+    # dominated there): p* is the foot
+    j0 = np.where(on_segment, 0.0, j0)
+    j1 = np.where(on_segment, 0.0, j1)
+
+    wsum = w.sum(axis=1) + j0.sum(axis=1)
     reached = hit | (wsum > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        pst = np.where(
-            hit[:, None], dp[np.arange(k), hit_index], (w[..., None] * dp).sum(1) / wsum[:, None]
-        )
-        qst = np.where(
-            hit[:, None], dq[np.arange(k), hit_index], (w[..., None] * dq).sum(1) / wsum[:, None]
-        )
+        pmean = (w[..., None] * dp).sum(1) + (j0[..., None] * foot + j1[..., None] * u).sum(1)
+        qmean = (w[..., None] * dq).sum(1) + (j0[..., None] * target + j1[..., None] * g).sum(1)
+        pst = pmean / wsum[:, None]
+        qst = qmean / wsum[:, None]
+    # snapped: p* and q* are the point hit (or the foot on the segment hit) and its target
+    for mask, where, what in ((on_segment, foot, target), (on_point, dp, dq)):
+        if mask.shape[1]:
+            first = np.argmax(mask, axis=1)
+            snapped = mask.any(axis=1)[:, None]
+            pst = np.where(snapped, where[rows, first], pst)
+            qst = np.where(snapped, what[rows, first], qst)
     pst[~reached] = 0.0
     qst[~reached] = 0.0
+
     ph = dp - pst[:, None, :]
     qh = dq - qst[:, None, :]
-    a11 = (w * ph[..., 0] ** 2).sum(1)
-    a12 = (w * ph[..., 0] * ph[..., 1]).sum(1)
-    a22 = (w * ph[..., 1] ** 2).sum(1)
-    b = np.einsum("kn,kni,knj->kij", w, ph, qh)
+    pf = foot - pst[:, None, :]  # the feet and their targets about p*, q*
+    qf = target - qst[:, None, :]
+    big_a = np.einsum("kn,kni,knj->kij", w, ph, ph) + _segment_products(j0, j1, j2, pf, u, pf, u)
+    b = np.einsum("kn,kni,knj->kij", w, ph, qh) + _segment_products(j0, j1, j2, pf, u, qf, g)
+    a11, a12, a22 = big_a[:, 0, 0], big_a[:, 0, 1], big_a[:, 1, 1]
 
     big_m = _solve(a11, a12, a22, b, config.transform)
     # coincident source handles: their spread about p* is negligible against that about v
-    coincident = ~(a11 + a22 > 1e-13 * (w * d2).sum(1))
+    spread = (w * d2).sum(1) + (seg["h2"] * j0 + j2).sum(1)
+    coincident = ~(a11 + a22 > 1e-13 * spread)
     big_m[coincident | ~reached] = np.eye(2)
     f = v + qst - np.einsum("ki,kij->kj", pst, big_m)
     f[~reached] = v[~reached]
     t = f - np.einsum("ki,kij->kj", v, big_m)
     return f, big_m, t
+
+
+def _segment_products(j0, j1, j2, pf, u, qf, g) -> np.ndarray:
+    """(K, 2, 2): the sum over segments of the integral of w (pf + x u)^T (qf + x g)."""
+    return (
+        np.einsum("ks,ksi,ksj->kij", j0, pf, qf)
+        + np.einsum("ks,ksi,ksj->kij", j1, pf, np.broadcast_to(g, pf.shape))
+        + np.einsum("ks,ksi,ksj->kij", j1, np.broadcast_to(u, pf.shape), qf)
+        + np.einsum(
+            "ks,ksi,ksj->kij", j2, np.broadcast_to(u, pf.shape), np.broadcast_to(g, pf.shape)
+        )
+    )
+
+
+def mls_error(
+    src: object,
+    dst: object,
+    points: object,
+    config: MLSConfig | None = None,
+    *,
+    shape: tuple[int, int] | None = None,
+    src_segments: object = None,
+    dst_segments: object = None,
+    **options: object,
+) -> np.ndarray:
+    """The MLS error E_MLS (eq. 7) at ``points``, (K,) float64 in square pixels:
+    sum_i |l_v(p_i) - q_i|^2 over point handles plus, per segment handle, the integral along
+    it per pixel of source length of |l_v(p(t)) - q(t)|^2, with l_v(x) = x M_v + T_v."""
+    config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
+    handles = HandleSet.validate(src, dst, src_segments, dst_segments)
+    _, big_m, t = mls(
+        handles.src,
+        handles.dst,
+        points,
+        config,
+        shape=shape,
+        src_segments=handles.src_segments,
+        dst_segments=handles.dst_segments,
+    )
+
+    def residual(p, q):  # l_v(p) - q for every point and handle, (K, N, 2)
+        return np.einsum("ni,kij->knj", p, big_m) + t[:, None, :] - q[None]
+
+    error = (residual(handles.src, handles.dst) ** 2).sum(axis=(1, 2))
+    if handles.segments:
+        a, b = handles.src_segments, handles.dst_segments
+        ra, rb = residual(a[:, 0], b[:, 0]), residual(a[:, 1], b[:, 1])
+        length = np.hypot(*(a[:, 1] - a[:, 0]).T)
+        error += ((ra * ra + ra * rb + rb * rb).sum(-1) * length / 3.0).sum(axis=1)
+    return error

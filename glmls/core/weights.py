@@ -50,7 +50,10 @@ class Weight:
       interpolates the handles exactly (f(p_i) = q_i);
     - ``uses_s``: the shaders compute idw's scaled s per point (``MLS_WEIGHT_USES_S``);
     - ``reference``: the float64 formula, w for squared distances ``d2`` (K, N) with +inf
-      where infinite, a common factor per row allowed (MLS ignores it).
+      where infinite, a common factor per row allowed (MLS ignores it);
+    - ``segment_closed_form``: whether, for these parameters, the integrals of the weight
+      along a segment handle have the closed form of ``glmls/shaders/mls/segments.glsl``
+      (w = 1 / (s + d^2)); else the shaders integrate numerically.
 
     The GLSL function is ``mls_weight_<name>`` (:attr:`glsl_function`).
     """
@@ -62,6 +65,7 @@ class Weight:
     infinite_at_zero: Callable[[WeightParameters], bool]
     reference: Callable[[np.ndarray, WeightParameters, float | None], np.ndarray]
     uses_s: bool = False
+    segment_closed_form: Callable[[WeightParameters], bool] = lambda params: False
 
     def __post_init__(self) -> None:
         if self.support not in SUPPORTS:
@@ -144,6 +148,7 @@ REGISTRY: dict[str, Weight] = {
             infinite_at_zero=lambda params: params.s == 0.0,
             reference=_idw,
             uses_s=True,
+            segment_closed_form=lambda params: params.alpha == 1.0,
         ),
         Weight(
             "cressman",

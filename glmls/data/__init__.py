@@ -1,4 +1,5 @@
-"""Bundled example: a public-domain photograph with handles and reference points."""
+"""Bundled examples: public-domain photographs (a portrait with handles and reference points;
+a launch pad's straight towers for segment handles)."""
 
 from __future__ import annotations
 
@@ -16,6 +17,13 @@ def _path(name: str):
 def astronaut() -> np.ndarray:
     """The 512 x 512 RGB uint8 portrait of astronaut Eileen Collins (NASA, public domain)."""
     with _path("astronaut.jpg").open("rb") as handle, Image.open(handle) as image:
+        return np.asarray(image.convert("RGB"))
+
+
+def rocket() -> np.ndarray:
+    """The 640 x 427 RGB uint8 launch photo of DSCOVR on a Falcon 9 (SpaceX, public domain):
+    straight towers and a rocket body, for segment handles. ``shape`` (427, 640, 3)."""
+    with _path("rocket.jpg").open("rb") as handle, Image.open(handle) as image:
         return np.asarray(image.convert("RGB"))
 
 

@@ -19,6 +19,11 @@ the total. The denser the handles, the larger W1 and the nearer the cut (65,536 
 1024^2 lattice, R = 16 px: W1 ~ 25, the cut at ~4.95 R instead of 5.3 R with W1 = 1). Points
 with no handle within R sqrt(ln(N / tau)) look on in squares of twice the side until the
 nearest is certain.
+
+Segment handles go into every bin their reach touches (the bins within ``reach`` of the
+segment, plus a bin's half-diagonal): a point visits the segments listed in its own bin only,
+each once. The grid then covers the segments' reach too, so that a point beyond it is out of
+every segment's reach.
 """
 
 from __future__ import annotations
@@ -47,8 +52,9 @@ AUTO_MAX_REACH = 0.25
 
 @dataclass(frozen=True)
 class HandleBins:
-    """Handles sorted by bin: ``order`` sorts the handles, ``starts[b]`` is where bin b's
-    handles begin in that order (bins row-major, ``starts[-1]`` = N)."""
+    """Handles sorted by bin: ``order`` sorts the point handles, ``starts[b]`` is where bin
+    b's handles begin in that order (bins row-major, ``starts[-1]`` = N); bin b lists the
+    segment handles ``segment_list[segment_starts[b]:segment_starts[b + 1]]``."""
 
     order: np.ndarray
     starts: np.ndarray
@@ -56,13 +62,26 @@ class HandleBins:
     size: float
     dims: tuple[int, int]
     reach: float
+    segment_starts: np.ndarray
+    segment_list: np.ndarray
+    handles: int
 
     @classmethod
-    def build(cls, points: np.ndarray, reach_: float, radius: float) -> HandleBins:
-        """Bins for ``points`` (N, 2) in scaled coordinates, of side BIN_FRACTION x ``radius``
-        (more where the bins would exceed MAX_BINS per side), for points that look as far as
-        ``reach_``."""
-        lo, hi = point_bounds(points) if len(points) else (np.zeros(2), np.zeros(2))
+    def build(
+        cls,
+        points: np.ndarray,
+        reach_: float,
+        radius: float,
+        segments: np.ndarray | None = None,
+    ) -> HandleBins:
+        """Bins for ``points`` (N, 2) and ``segments`` (S, 2, 2) in scaled coordinates, of
+        side BIN_FRACTION x ``radius`` (more where the bins would exceed MAX_BINS per side), for
+        points that look as far as ``reach_``."""
+        segments = np.zeros((0, 2, 2)) if segments is None else segments
+        everything = np.concatenate([points, segments.reshape(-1, 2)])
+        lo, hi = point_bounds(everything) if len(everything) else (np.zeros(2), np.zeros(2))
+        if len(segments):
+            lo, hi = lo - reach_, hi + reach_  # a point beyond is out of every segment's reach
         extent = float(max((hi - lo).max(), 1e-12))
         # at most the extent (a huge radius: one bin, a finite size), at least MAX_BINS per side
         size = max(min(radius * BIN_FRACTION, extent), extent / (MAX_BINS - 1))
@@ -72,6 +91,7 @@ class HandleBins:
         order = np.argsort(key, kind="stable")
         counts = np.bincount(key, minlength=int(dims[0] * dims[1]))
         starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
+        segment_starts, segment_list = _segment_lists(segments, lo, size, dims, reach_)
         return cls(
             order,
             starts,
@@ -79,6 +99,15 @@ class HandleBins:
             float(size),
             (int(dims[0]), int(dims[1])),
             float(reach_),
+            segment_starts,
+            segment_list,
+            len(points) + len(segments),
+        )
+
+    def table(self) -> np.ndarray:
+        """The int32 table on the GPU: point starts, segment starts, segment list."""
+        return np.concatenate([self.starts, self.segment_starts, self.segment_list]).astype(
+            np.int32
         )
 
     def uniforms(self) -> dict[str, object]:
@@ -87,8 +116,40 @@ class HandleBins:
             "u_bin_size": self.size,
             "u_bin_dims": self.dims,
             "u_bin_reach": self.reach,
-            "u_bin_cut": gaussian_cut(len(self.order)),
+            "u_bin_cut": gaussian_cut(self.handles),
+            "u_bin_segment_starts": len(self.starts),
+            "u_bin_segment_list": len(self.starts) + len(self.segment_starts),
         }
+
+
+def _segment_lists(
+    segments: np.ndarray, lo: np.ndarray, size: float, dims: np.ndarray, reach: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """For each bin (row-major) the segments within ``reach`` of some point of it, as CSR
+    (starts, list): each segment's candidate bins are those of its bounding box grown by the
+    reach, kept where the distance from the bin's centre to the segment is at most the reach
+    plus the bin's half-diagonal."""
+    bins, owners = [], []
+    half_diagonal = size * np.sqrt(0.5)
+    for s, (a, b) in enumerate(segments):
+        first = np.clip(np.floor((np.minimum(a, b) - reach - lo) / size).astype(int), 0, dims - 1)
+        last = np.clip(np.floor((np.maximum(a, b) + reach - lo) / size).astype(int), 0, dims - 1)
+        ix, iy = np.meshgrid(np.arange(first[0], last[0] + 1), np.arange(first[1], last[1] + 1))
+        centres = lo + (np.stack([ix.ravel(), iy.ravel()], axis=1) + 0.5) * size
+        ab = b - a
+        t = np.clip(((centres - a) @ ab) / (ab @ ab), 0.0, 1.0)
+        distance = np.hypot(*(centres - a - t[:, None] * ab).T)
+        keep = distance <= reach + half_diagonal
+        bins.append(iy.ravel()[keep] * dims[0] + ix.ravel()[keep])
+        owners.append(np.full(int(keep.sum()), s))
+    count = int(dims[0] * dims[1])
+    if not bins:
+        return np.zeros(count + 1, np.int32), np.zeros(0, np.int32)
+    key = np.concatenate(bins)
+    owner = np.concatenate(owners)
+    order = np.argsort(key, kind="stable")
+    starts = np.concatenate([[0], np.cumsum(np.bincount(key, minlength=count))])
+    return starts.astype(np.int32), owner[order].astype(np.int32)
 
 
 def worth_binning(weight: str, radius: float | None, points: np.ndarray) -> bool:
@@ -110,7 +171,7 @@ class BinBuffer:
     def __init__(self, ctx: moderngl.Context, bins: HandleBins, *, radius: float) -> None:
         self.bins = bins
         self.radius = radius  # the scaled radius the bins were built for
-        self._buffer: moderngl.Buffer | None = ctx.buffer(bins.starts.tobytes())
+        self._buffer: moderngl.Buffer | None = ctx.buffer(bins.table().tobytes())
 
     def bind(self, program: moderngl.ComputeShader | moderngl.Program) -> None:
         if self._buffer is None:

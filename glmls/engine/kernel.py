@@ -19,7 +19,9 @@ import numpy as np
 
 from ..core.config import MLSConfig, image_diagonal, transform_code
 from ..core.handles import Scaling, pack_handles
-from ..core.weights import GAUSSIAN_TOLERANCE, RADIUS_WEIGHTS
+from ..core.handleset import HandleSet
+from ..core.segments import segment_config
+from ..core.weights import GAUSSIAN_TOLERANCE, RADIUS_WEIGHTS, SUPPORTS
 from ..errors import ReleasedError
 from ..gl.context import GLContext
 from ..gl.dispatch import set_uniforms
@@ -74,58 +76,73 @@ class MLSKernel:
         self._storage: HandleStorage | None = None
         self._bins: BinBuffer | None = None
         self._packed = np.zeros((0, 4), np.float32)
+        self._segments = np.zeros((0, 4), np.float32)  # two rows per segment: (a, b), (c, d)
         #: Scratch buffers of the passes (points in, f and M out, error fields).
         self.scratch = Resources(gl, "this MLS")
         self._released = False
 
     # -- the one upload path ------------------------------------------------------------
 
-    def upload(self, src: np.ndarray, dst: np.ndarray, scaling: Scaling) -> None:
-        """Put validated handles p = ``src``, q = ``dst`` ((N, 2) float64) on the GPU in the
-        coordinates of ``scaling``: the storage for N handles (``auto`` chooses again), in
-        bins where they are used. On error (too many handles for the storage) nothing
-        changes."""
+    def upload(self, handles: HandleSet, scaling: Scaling) -> None:
+        """Put validated ``handles`` (points and segments) on the GPU in the coordinates of
+        ``scaling``: the storage for their rows (``auto`` chooses again; a segment takes two
+        rows), in bins where they are used. On error (too many handles for the storage)
+        nothing changes."""
         self.check_alive()
+        segments = np.concatenate(
+            [handles.src_segments.reshape(-1, 4), handles.dst_segments.reshape(-1, 4)], axis=1
+        ).reshape(-1, 2, 2)
         with self.gl.use():
-            self._upload(pack_handles(src, dst, scaling), scaling)
+            self._upload(
+                pack_handles(handles.src, handles.dst, scaling),
+                scaling.to_gpu(segments.reshape(-1, 2)).reshape(-1, 4),
+                scaling,
+            )
 
-    def _upload(self, packed: np.ndarray, scaling: Scaling) -> None:
-        name = resolve_storage(self._storage_request, self.gl.mgl, len(packed))
+    def _upload(self, packed: np.ndarray, segments: np.ndarray, scaling: Scaling) -> None:
+        rows = len(packed) + len(segments)
+        name = resolve_storage(self._storage_request, self.gl.mgl, rows)
         storage = self._storage
         if storage is None or storage.name != name:
             storage = make_storage(name, self.gl.mgl)
-        if len(packed) > storage.capacity:
+        if rows > storage.capacity:
             capacity = storage.capacity
             if storage is not self._storage:
                 storage.release()
+            what = f"{len(packed)} handles" + (
+                f" and {len(segments) // 2} segments (2 rows each)" if len(segments) else ""
+            )
             raise ValueError(
-                f"{len(packed)} handles exceed the {name} handle storage's capacity of "
-                f"{capacity} on this GL driver; use storage='ssbo'"
+                f"{what} exceed the {name} handle storage's capacity of {capacity} rows on "
+                "this GL driver; use storage='ssbo'"
             )
         if storage is not self._storage:
             if self._storage is not None:
                 self._storage.release()
             self._storage = storage
-        self._packed, self.scaling = packed, scaling
+        self._packed, self._segments, self.scaling = packed, segments, scaling
         self._write(self.radius(None), self._bins_request)
 
     def _write(self, radius: float | None, use_bins: bool | None) -> None:
         """Sort the packed handles into bins for ``radius`` (scaled) where ``use_bins`` (None:
         where it pays), then write them to the storage."""
         packed = self._packed
+        sources = self._segments[0::2].astype(float).reshape(-1, 2, 2)
         if radius is None or not self.config.uses_radius:
             use_bins = False
         elif use_bins is None:
-            use_bins = worth_binning(self.config.weight, radius, packed[:, :2].astype(float))
+            everything = np.concatenate([packed[:, :2], sources.reshape(-1, 2)]).astype(float)
+            use_bins = worth_binning(self.config.weight, radius, everything)
         if self._bins is not None:
             self._bins.release()
             self._bins = None
         if use_bins:
-            reach = self.config.weight_entry.reach(radius, len(packed))  # type: ignore[arg-type]
-            bins = HandleBins.build(packed[:, :2].astype(float), reach, radius)  # type: ignore[arg-type]
+            count = len(packed) + len(sources)
+            reach = self.config.weight_entry.reach(radius, count)  # type: ignore[arg-type]
+            bins = HandleBins.build(packed[:, :2].astype(float), reach, radius, sources)  # type: ignore[arg-type]
             packed = packed[bins.order]
             self._bins = BinBuffer(self.gl.mgl, bins, radius=radius)  # type: ignore[arg-type]
-        self._storage.upload(packed)  # type: ignore[union-attr]
+        self._storage.upload(packed, self._segments)  # type: ignore[union-attr]
 
     def radius(self, shape: tuple[int, int] | None) -> float | None:
         """R in scaled units for an image of ``shape`` (the kernel's own when None); None
@@ -145,7 +162,13 @@ class MLSKernel:
 
     @property
     def count(self) -> int:
+        """Point handles."""
         return len(self._packed)
+
+    @property
+    def segments(self) -> int:
+        """Segment handles."""
+        return len(self._segments) // 2
 
     @property
     def storage(self) -> str:
@@ -174,6 +197,9 @@ class MLSKernel:
             "MLS_ALPHA_ONE": config.alpha == 1.0,
             "MLS_UNROLL": unroll_slots(self.count) if unroll else 0,
             "MLS_BINS": binned,
+            "MLS_SEGMENTS": self.segments > 0,
+            "MLS_SEGMENT_CLOSED": entry.segment_closed_form(config) and not config.interpolating,
+            "MLS_SEGMENT_SUPPORT": SUPPORTS.index(entry.support),
         } | dict(storage.defines if storage is not None else {})
 
     def uniforms(self, shape: tuple[int, int] | None = None) -> dict[str, float | bool]:
@@ -193,6 +219,9 @@ class MLSKernel:
             "u_radius": (radius or 1.0) / scale,
             "u_hit2": hit2,
             "u_snap": c.infinite_at_zero or tiny_s,
+            "u_snap_segments": segment_config(c).infinite_at_zero or tiny_s,
+            "u_segment_sigma": 1.0 if segment_config(c) is c else 0.0,
+            "u_length_unit": scale,
         }
 
     def program(self, entry: str, defines: Mapping[str, object] | None = None):

@@ -40,22 +40,39 @@ class HandleStorage(Protocol):
 
     name: str
     count: int
+    segments: int
+    segment_offset: int
     unrolls: bool
 
     @property
     def defines(self) -> Mapping[str, int | bool]: ...
     @property
     def capacity(self) -> int: ...
-    def upload(self, packed: np.ndarray) -> None: ...
+    def upload(self, packed: np.ndarray, segments: np.ndarray | None = None) -> None: ...
     def bind(self, program: moderngl.ComputeShader | moderngl.Program) -> None: ...
     def release(self) -> None: ...
 
 
-def _as_packed(packed: np.ndarray) -> np.ndarray:
+def _as_packed(packed: np.ndarray | None) -> np.ndarray:
+    if packed is None:
+        return np.zeros((0, 4), np.float32)
     packed = np.ascontiguousarray(packed, dtype=np.float32)
     if packed.ndim != 2 or packed.shape[1] != 4:
         raise ValueError(f"packed handles must be (N, 4) float32, got shape {packed.shape}")
     return packed
+
+
+def _rows(packed: np.ndarray, segments: np.ndarray | None, pad: bool) -> tuple[np.ndarray, int]:
+    """The storage's rows: the point handles (followed, where ``pad``, by zero rows up to the
+    unrolled slots: empty slots read zeros), then two rows per segment handle
+    (``glmls/shaders/mls/segments.glsl``); and the index of the first segment row."""
+    points = _as_packed(packed)
+    segment_rows = _as_packed(segments)
+    offset = max(unroll_slots(len(points)), len(points)) if pad else len(points)
+    data = np.zeros((max(offset + len(segment_rows), 1), 4), np.float32)
+    data[: len(points)] = points
+    data[offset : offset + len(segment_rows)] = segment_rows
+    return data, offset
 
 
 def _check_capacity(name: str, count: int, capacity: int) -> None:
@@ -72,14 +89,6 @@ def unroll_slots(count: int) -> int:
     return next((slots for slots in UNROLL_SLOTS if count <= slots), 0)
 
 
-def _padded(packed: np.ndarray) -> bytes:
-    """The handles followed by zero rows up to the unrolled slots (empty slots read zeros)."""
-    slots = max(unroll_slots(len(packed)), len(packed))
-    data = np.zeros((max(slots, 1), 4), np.float32)
-    data[: len(packed)] = packed
-    return data.tobytes()
-
-
 class _BufferStorage:
     """Shared by the buffer-backed storages: one buffer, grown as needed, never shrunk."""
 
@@ -89,6 +98,8 @@ class _BufferStorage:
         self._ctx = ctx
         self._buffer: moderngl.Buffer | None = None
         self.count = 0
+        self.segments = 0
+        self.segment_offset = 0
 
     #: The handles may be read at constant indices (MLS_UNROLL).
     unrolls = True
@@ -105,10 +116,19 @@ class _BufferStorage:
         if data:
             self._buffer.write(data)
 
+    def _fill(self, packed: np.ndarray, segments: np.ndarray | None, reserve: int | None) -> None:
+        rows, offset = _rows(packed, segments, pad=True)
+        _check_capacity(self.name, len(rows), self.capacity)
+        data = rows.tobytes()
+        self._write(data, reserve if reserve is not None else len(data))
+        self.count = len(_as_packed(packed))
+        self.segments = len(_as_packed(segments)) // 2
+        self.segment_offset = offset
+
     def _bind_count(self, program: moderngl.ComputeShader | moderngl.Program) -> None:
         if self._buffer is None:
             raise RuntimeError("handles were not uploaded")
-        set_uniforms(program, {"u_handle_count": self.count})
+        set_uniforms(program, _count_uniforms(self))
 
     def release(self) -> None:
         if self._buffer is not None:
@@ -125,12 +145,8 @@ class SSBOHandleStorage(_BufferStorage):
     def capacity(self) -> int:
         return int(self._ctx.info["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"]) // 16
 
-    def upload(self, packed: np.ndarray) -> None:
-        packed = _as_packed(packed)
-        _check_capacity("ssbo", len(packed), self.capacity)
-        data = _padded(packed)
-        self._write(data, len(data))
-        self.count = len(packed)
+    def upload(self, packed: np.ndarray, segments: np.ndarray | None = None) -> None:
+        self._fill(packed, segments, None)
 
     def bind(self, program: moderngl.ComputeShader | moderngl.Program) -> None:
         self._bind_count(program)
@@ -152,11 +168,8 @@ class UBOHandleStorage(_BufferStorage):
     def defines(self) -> Mapping[str, int | bool]:
         return {"MLS_STORAGE": STORAGES.index(self.name), "MLS_UBO_CAPACITY": self.capacity}
 
-    def upload(self, packed: np.ndarray) -> None:
-        packed = _as_packed(packed)
-        _check_capacity("ubo", len(packed), self.capacity)
-        self._write(_padded(packed), 16 * self.capacity)
-        self.count = len(packed)
+    def upload(self, packed: np.ndarray, segments: np.ndarray | None = None) -> None:
+        self._fill(packed, segments, 16 * self.capacity)
 
     def bind(self, program: moderngl.ComputeShader | moderngl.Program) -> None:
         self._bind_count(program)
@@ -175,6 +188,8 @@ class TextureHandleStorage:
         self._texture: moderngl.Texture | None = None
         self._width = 1
         self.count = 0
+        self.segments = 0
+        self.segment_offset = 0
 
     @property
     def defines(self) -> Mapping[str, int | bool]:
@@ -184,14 +199,14 @@ class TextureHandleStorage:
     def capacity(self) -> int:
         return int(self._ctx.info["GL_MAX_TEXTURE_SIZE"]) ** 2
 
-    def upload(self, packed: np.ndarray) -> None:
-        packed = _as_packed(packed)
-        _check_capacity("texture", len(packed), self.capacity)
+    def upload(self, packed: np.ndarray, segments: np.ndarray | None = None) -> None:
+        handles, offset = _rows(packed, segments, pad=False)
+        _check_capacity("texture", len(handles), self.capacity)
         side = int(self._ctx.info["GL_MAX_TEXTURE_SIZE"])
-        width = max(1, min(len(packed), side))
-        rows = max(1, -(-len(packed) // width))
+        width = max(1, min(len(handles), side))
+        rows = max(1, -(-len(handles) // width))
         data = np.zeros((rows * width, 4), np.float32)
-        data[: len(packed)] = packed
+        data[: len(handles)] = handles
         if self._texture is None or self._texture.size != (width, rows):
             if self._texture is not None:
                 self._texture.release()
@@ -199,18 +214,28 @@ class TextureHandleStorage:
             self._texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._texture.write(data.tobytes())
         self._width = width
-        self.count = len(packed)
+        self.count = len(_as_packed(packed))
+        self.segments = len(_as_packed(segments)) // 2
+        self.segment_offset = offset
 
     def bind(self, program: moderngl.ComputeShader | moderngl.Program) -> None:
         if self._texture is None:
             raise RuntimeError("handles were not uploaded")
         self._texture.use(bindings.HANDLE_TEXTURE.index)
-        set_uniforms(program, {"u_handle_count": self.count, "u_handle_width": self._width})
+        set_uniforms(program, _count_uniforms(self) | {"u_handle_width": self._width})
 
     def release(self) -> None:
         if self._texture is not None:
             self._texture.release()
             self._texture = None
+
+
+def _count_uniforms(storage: HandleStorage) -> dict[str, int]:
+    return {
+        "u_handle_count": storage.count,
+        "u_segment_count": storage.segments,
+        "u_segment_offset": storage.segment_offset,
+    }
 
 
 _CLASSES = {"ssbo": SSBOHandleStorage, "ubo": UBOHandleStorage, "texture": TextureHandleStorage}

@@ -88,7 +88,7 @@ def test_read_events(tmp_path):
         ('[{"type": "jump"}]', r'events\[0\]: "type" must be one of press'),
         ('[{"type": "move", "x": 1}]', r'events\[0\]: missing "y"'),
         ('[{"type": "move", "x": "1", "y": 2}]', '"x" must be a finite number'),
-        ('[{"type": "press", "x": 1, "y": 2, "button": "middle"}]', '"button" must be one of'),
+        ('[{"type": "press", "x": 1, "y": 2, "button": "back"}]', '"button" must be one of'),
         ('[{"type": "press", "x": 1, "y": 2, "mods": ["meta"]}]', '"mods" must be a list'),
         ('[{"type": "key", "key": ""}]', '"key" must be a non-empty string'),
         ('[{"type": "wait", "frames": -1}]', '"frames" must be an integer >= 0'),

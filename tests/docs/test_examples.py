@@ -24,7 +24,14 @@ def examples(path: Path) -> list[str]:
 def test_the_documents_have_examples():
     counts = {path.name: len(examples(path)) for path in DOCUMENTS}
     assert counts["README.md"] >= 2
-    for name in ("analysis.md", "warp.md", "handles.md", "window.md", "architecture.md"):
+    for name in (
+        "analysis.md",
+        "warp.md",
+        "handles.md",
+        "window.md",
+        "architecture.md",
+        "segments.md",
+    ):
         assert counts[name] >= 1, name
 
 

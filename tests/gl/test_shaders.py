@@ -141,8 +141,17 @@ def compile_every_entry(gl):
         "MLS_UNROLL": 0,
         "MLS_BINS": 1,
         "MLS_STORAGE": 0,
+        "MLS_SEGMENTS": 0,
+        "MLS_SEGMENT_CLOSED": 0,
+        "MLS_SEGMENT_SUPPORT": 2,
     }
     gl.compute("mls/points.comp.glsl", mls | {"MLS_LATTICE": 1, "MLS_WRITE_MATRIX": 1})
+    # segment handles (mls/segments.glsl): binned, closed form and each support's quadrature
+    for closed, support in ((1, 0), (0, 0), (0, 1), (0, 2)):
+        segments = {"MLS_SEGMENTS": 1, "MLS_SEGMENT_CLOSED": closed, "MLS_SEGMENT_SUPPORT": support}
+        points = {"MLS_LATTICE": 0, "MLS_WRITE_MATRIX": 1}
+        gl.compute("mls/points.comp.glsl", mls | segments | points)
+    gl.compute("mls/error_field.comp.glsl", mls | {"MLS_SEGMENTS": 1, "MLS_ERROR_INTERPOLATE": 0})
     gl.compute("mls/error_field.comp.glsl", mls | {"MLS_ERROR_INTERPOLATE": 0})
     inverse = {"WARP_SWAP": 0, "WARP_NEWTON_STEPS": 8, "WARP_BORDER": 0}
     gl.compute("warp/inverse.comp.glsl", mls | inverse)

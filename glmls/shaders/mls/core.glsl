@@ -29,6 +29,7 @@ uniform float u_log2_s;     // log2 of the scaled idw s; -1e30 when s == 0
 uniform float u_radius;     // scaled influence radius R
 uniform float u_hit2;       // squared snapping distance (scaled)
 uniform bool u_snap;        // weight is (effectively) infinite at d = 0: f(p_i) = q_i exactly
+uniform bool u_snap_segments;   // the same for segment handles (glmls.core.segments)
 
 struct MLSResult {
     vec2 f;   // f(v), scaled coordinates
@@ -108,6 +109,9 @@ struct MLSNearest {
     float d2min;    // squared distance of the nearest handle
     float d2far;    // ... of the nearest beyond the snapping distance
     vec4 h;         // the nearest handle
+#if MLS_SEGMENTS
+    bool segment;   // it is a point of a segment handle (mls/segments.glsl)
+#endif
 };
 
 MLSNearest mls_nearest_begin() {
@@ -115,6 +119,9 @@ MLSNearest mls_nearest_begin() {
     n.d2min = 3.0e38;
     n.d2far = 3.0e38;
     n.h = vec4(0.0);
+#if MLS_SEGMENTS
+    n.segment = false;
+#endif
     return n;
 }
 
@@ -124,6 +131,9 @@ void mls_nearest_add(inout MLSNearest n, vec4 h, vec2 v, bool use) {
     float d2 = use ? dot(dp, dp) : 3.0e38;
     bool nearer = d2 < n.d2min;
     n.h = nearer ? h : n.h;
+#if MLS_SEGMENTS
+    n.segment = nearer ? false : n.segment;
+#endif
     n.d2min = min(n.d2min, d2);
     n.d2far = min(n.d2far, d2 > u_hit2 ? d2 : 3.0e38);
 }
@@ -146,7 +156,12 @@ struct MLSAccum {
 MLSAccum mls_begin(vec2 v, MLSNearest n) {
     MLSAccum a;
     a.v = v;
-    a.hit = u_snap && n.d2min <= u_hit2;
+#if MLS_SEGMENTS
+    bool snaps = n.segment ? u_snap_segments : u_snap;
+#else
+    bool snaps = u_snap;
+#endif
+    a.hit = snaps && n.d2min <= u_hit2;
     a.o = n.h;
     a.m = a.hit ? n.d2far : max(n.d2min, u_hit2);
     a.inv_m = 1.0 / a.m;

@@ -1,6 +1,9 @@
 // The MLS error field of "Extensions to the MLS method for image deformation", eq. (7):
 //   E_MLS(v) = sum_i |l_v(p_i) - q_i|^2,   l_v(x) = x M_v + T_v,
-// unweighted, so that configurations with different weights compare fairly.
+// unweighted, so that configurations with different weights compare fairly. A segment handle
+// adds the integral along it, per pixel of source length, of |l_v(p(t)) - q(t)|^2: the
+// residual is linear in t, so that is L (|r_a|^2 + r_a . r_b + |r_b|^2) / 3 with r_a, r_b the
+// residuals at its ends.
 //
 // l_v(p_i) - q_i is computed as (p_i - v) M + (f(v) - q_i): every term is a difference of
 // nearby scaled coordinates, which float32 keeps to ~1e-7 of the image size (x M + T with
@@ -74,6 +77,22 @@ void main() {
             e += res2;
         }
     }
+#if MLS_SEGMENTS
+    for (int s = 0; s < u_segment_count; ++s) {
+        vec4 src = mls_handle(u_segment_offset + 2 * s);
+        vec4 dst = mls_handle(u_segment_offset + 2 * s + 1);
+        vec2 da = src.xy - v;
+        vec2 db = src.zw - v;
+        vec2 ra = vec2(da.x * r.M.x + da.y * r.M.z, da.x * r.M.y + da.y * r.M.w) + (r.f - dst.xy);
+        vec2 rb = vec2(db.x * r.M.x + db.y * r.M.z, db.x * r.M.y + db.y * r.M.w) + (r.f - dst.zw);
+        float fa = MLS_ERROR_FLOOR * (1.0 + length(da));
+        float fb = MLS_ERROR_FLOOR * (1.0 + length(db));
+        if (dot(ra, ra) > fa * fa || dot(rb, rb) > fb * fb) {
+            float L = length(src.zw - src.xy) * u_length_unit;
+            e += L * (dot(ra, ra) + dot(ra, rb) + dot(rb, rb)) / 3.0;
+        }
+    }
+#endif
     error_out[ij.y * u_dims.x + ij.x] = e;
 #endif
 }

@@ -8,7 +8,13 @@
 //   MLS_REACH_GAUSSIAN  0 or 1 (with MLS_BINS): the weight never reaches 0 and is cut where
 //                       its tail is negligible (glmls.core.weights, support "gaussian")
 //   MLS_GAUSSIAN_TOLERANCE  that cut's tolerance, glmls.core.weights.GAUSSIAN_TOLERANCE
+//   MLS_SEGMENTS        0 or 1: there are segment handles too (mls/segments.glsl); with
+//                       MLS_BINS a point visits the segments listed in its own bin, which
+//                       lists every segment whose reach touches the bin
 #include "mls/core.glsl"
+#if MLS_SEGMENTS
+#include "mls/segments.glsl"
+#endif
 
 #if MLS_UNROLL
 // MLS_UNROLL (16 or 64) handle slots at constant indices, unrolled by the preprocessor: with a
@@ -103,6 +109,47 @@ ivec2 mls_bin_chord(vec2 v, float r, int y, ivec2 lo, ivec2 hi) {
 }
 #endif
 
+#if MLS_SEGMENTS
+#if MLS_BINS
+uniform int u_bin_segment_starts;   // where the segment runs start in mls_bin_start
+uniform int u_bin_segment_list;     // where the segment indices start in mls_bin_start
+
+// The segments v visits: those listed in its bin (the grid covers every segment's reach).
+ivec2 mls_segment_run(vec2 v) {
+    vec2 cell = clamp(floor((v - u_bin_origin) / u_bin_size), vec2(0.0), vec2(u_bin_dims - 1));
+    int b = int(cell.y) * u_bin_dims.x + int(cell.x);
+    return ivec2(mls_bin_start[u_bin_segment_starts + b],
+                 mls_bin_start[u_bin_segment_starts + b + 1]);
+}
+
+int mls_segment_at(int i) {
+    return mls_bin_start[u_bin_segment_list + i];
+}
+#else
+ivec2 mls_segment_run(vec2 v) {
+    return ivec2(0, u_segment_count);
+}
+
+int mls_segment_at(int i) {
+    return i;
+}
+#endif
+
+void mls_nearest_segments(inout MLSNearest near, vec2 v) {
+    ivec2 run = mls_segment_run(v);
+    for (int i = run.x; i < run.y; ++i) {
+        mls_nearest_add_segment(near, mls_segment(mls_segment_at(i)), v);
+    }
+}
+
+void mls_accumulate_segments(inout MLSAccum a) {
+    ivec2 run = mls_segment_run(a.v);
+    for (int i = run.x; i < run.y; ++i) {
+        mls_accumulate_segment(a, mls_segment(mls_segment_at(i)));
+    }
+}
+#endif
+
 // Both passes over every handle, in storage order (the plain evaluation).
 void mls_nearest_all(inout MLSNearest near, vec2 v) {
     int n = mls_handle_count();
@@ -128,6 +175,9 @@ MLSResult mls_eval(vec2 v) {
     int n = mls_handle_count();
     ivec2 lo, hi;
     MLSNearest near = mls_nearest_begin();
+#if MLS_SEGMENTS
+    mls_nearest_segments(near, v);
+#endif
     mls_bin_range(v, u_bin_size, lo, hi);
     mls_nearest_bins(near, v, lo, hi);
     ivec2 lo1 = lo, hi1 = hi;
@@ -155,6 +205,9 @@ MLSResult mls_eval(vec2 v) {
 #endif
     // Pass 2 over the disc of radius r, row by row (or over every handle, which adds
     // only weights that are zero or within the cut's tolerance).
+#if MLS_SEGMENTS
+    mls_accumulate_segments(a);
+#endif
     mls_bin_range(v, r, lo, hi);
     if (hi.y - lo.y >= n) {
         mls_accumulate_all(a);
@@ -178,6 +231,9 @@ MLSResult mls_eval(vec2 v) {
 #else
     mls_nearest_all(near, v);
 #endif
+#if MLS_SEGMENTS
+    mls_nearest_segments(near, v);
+#endif
     MLSAccum a = mls_begin(v, near);
 #if MLS_UNROLL == 16
     MLS_R16(MLS_ACC, 0)
@@ -185,6 +241,9 @@ MLSResult mls_eval(vec2 v) {
     MLS_R64(MLS_ACC, 0)
 #else
     mls_accumulate_all(a);
+#endif
+#if MLS_SEGMENTS
+    mls_accumulate_segments(a);
 #endif
     return mls_finish(a);
 #endif

@@ -1,0 +1,64 @@
+"""What the window's file keys do (``s``, ``j``, ``l``): the deformed image at full
+resolution, the handles of every kind to a file and back."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..core.handleset import HandleSet
+from ..files.atomic import atomic_write
+from ..files.images import imwrite
+from ..files.landmarks import read_handle_set, write_handles
+from ..imaging.frame import Frame
+from ..mls import MLS
+from .controller import Controller
+from .settings import Settings
+
+__all__ = ["load_handles", "save_handles", "save_image"]
+
+
+def save_image(
+    path: Path,
+    mls: MLS | None,
+    image: np.ndarray,
+    display: np.ndarray,
+    settings: Settings,
+    canvas: Frame,
+) -> None:
+    """The deformed image on ``canvas`` (the input's frame, or with ``fit`` the whole
+    deformed image) at full resolution, in the input's dtype where it can be written (uint8,
+    uint16), else 8-bit; ``ValueError`` without a valid deformation."""
+    if mls is None:
+        raise ValueError("no valid deformation to save")
+    s = settings
+    source = image if image.dtype in (np.uint8, np.uint16) else display
+    out = mls.warp(
+        source,
+        method=s.method,
+        interpolation=s.interpolation,
+        grid=s.grid,
+        border=s.border,
+        output_shape=canvas.shape,
+        origin=canvas.origin,
+    )
+    if out.dtype not in (np.uint8, np.uint16):
+        out = np.round(np.clip(out, 0, 1) * 255).astype(np.uint8)
+    with atomic_write(path) as tmp:  # creates the folder; whole file or none
+        imwrite(tmp, out)
+
+
+def save_handles(path: Path, controller: Controller) -> None:
+    """The controller's points and segments as a handle file (JSON by its suffix, else
+    CSV); ``ValueError`` for handles MLS would refuse."""
+    c = controller
+    write_handles(path, c.src, c.dst, src_segments=c.src_segments, dst_segments=c.dst_segments)
+
+
+def load_handles(path: Path, controller: Controller) -> HandleSet:
+    """Replace the controller's handles (undoably) with those of a handle file, points and
+    segments; returns them."""
+    handles = read_handle_set(path)
+    controller.set_handles(handles.src, handles.dst, handles.src_segments, handles.dst_segments)
+    return handles

@@ -1,0 +1,95 @@
+"""What the window shows, as one value: the MLS configuration, the image construction, the
+border and whether the view fits the whole deformed image; and the steps its keys take."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+from ..core.config import MLSConfig, image_diagonal
+from ..imaging.source import check_options
+
+__all__ = [
+    "ALPHA_RANGE",
+    "ALPHA_STEP",
+    "CONSTRUCTIONS",
+    "GRIDS",
+    "RADIUS_FACTOR",
+    "TRANSFORM_ORDER",
+    "Settings",
+    "cycle",
+]
+
+#: The image constructions the window cycles through: (method, interpolation).
+CONSTRUCTIONS = (
+    ("quads", "nearest"),
+    ("quads", "linear"),
+    ("splat", "nearest"),
+    ("backward", "linear"),
+)
+GRIDS = (1, 2, 4, 8, 16, 32)
+#: The transforms in the order ``t`` cycles them (from the most rigid).
+TRANSFORM_ORDER = ("rigid", "similarity", "affine")
+#: Smallest and largest idw alpha, and the step of + / -.
+ALPHA_RANGE = (0.25, 4.0)
+ALPHA_STEP = 0.25
+#: + / - multiply or divide the radius by this.
+RADIUS_FACTOR = 1.25
+
+
+def cycle(values: Sequence, value: object, step: int = 1):
+    """The value ``step`` places after ``value`` in ``values``, wrapping around."""
+    return values[(list(values).index(value) + step) % len(values)]
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What the window shows: the MLS configuration, the image construction, and whether
+    the view fits the whole deformed image (``fit``) or shows the input's frame."""
+
+    config: MLSConfig = field(default_factory=MLSConfig)
+    method: str = "quads"
+    interpolation: str = "nearest"
+    grid: int = 4
+    border: str = "constant"
+    fit: bool = False
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.config, MLSConfig):
+            raise TypeError(f"config must be an MLSConfig, got {type(self.config).__name__}")
+        check_options(self.method, self.interpolation, self.grid, self.border)
+        if not isinstance(self.fit, bool):
+            raise TypeError(f"fit must be True or False, got {self.fit!r}")
+
+    def parameter(self, shape: tuple[int, int]) -> str:
+        """The weight's parameter as text, e.g. ``alpha 1.25`` or ``R 362 px``."""
+        config = self.config
+        if config.uses_radius:
+            return f"R {config.resolve_radius(shape):.0f} px"
+        return f"alpha {config.alpha:g}"
+
+    def stepped(self, shape: tuple[int, int], up: bool) -> Settings:
+        """The weight's parameter one step up or down: idw alpha by :data:`ALPHA_STEP`
+        within :data:`ALPHA_RANGE`, else the radius times or over :data:`RADIUS_FACTOR`
+        (1 px to 100 image diagonals)."""
+        config = self.config
+        if config.uses_radius:
+            radius = float(config.resolve_radius(shape))  # type: ignore[arg-type]
+            radius = radius * RADIUS_FACTOR if up else radius / RADIUS_FACTOR
+            radius = min(max(radius, 1.0), 100 * image_diagonal(shape))
+            return replace(self, config=replace(config, radius=radius))
+        alpha = config.alpha + (ALPHA_STEP if up else -ALPHA_STEP)
+        alpha = min(max(alpha, ALPHA_RANGE[0]), ALPHA_RANGE[1])
+        return replace(self, config=replace(config, alpha=alpha))
+
+    def next_construction(self) -> Settings:
+        """The next of :data:`CONSTRUCTIONS` (the first if the current one is none of them)."""
+        pair = (self.method, self.interpolation)
+        index = CONSTRUCTIONS.index(pair) if pair in CONSTRUCTIONS else -1
+        method, interpolation = CONSTRUCTIONS[(index + 1) % len(CONSTRUCTIONS)]
+        return replace(self, method=method, interpolation=interpolation)
+
+    def next_grid(self, step: int) -> Settings:
+        """``step`` places along :data:`GRIDS` (finer for negative), stopping at the ends."""
+        index = GRIDS.index(self.grid) if self.grid in GRIDS else 2
+        return replace(self, grid=GRIDS[min(max(index + step, 0), len(GRIDS) - 1)])

@@ -1,0 +1,183 @@
+"""Line-segment handles (Schaefer, McPhail & Warren 2006, section 4): validation, polylines and
+the moments of one segment that MLS needs, in float64.
+
+A segment handle s runs from ``A[s, 0]`` to ``A[s, 1]`` in the source and from ``B[s, 0]`` to
+``B[s, 1]`` in the target: p(t) = (1 - t) a + t b, q(t) = (1 - t) c + t d, t in [0, 1]. Every sum
+of point MLS becomes an integral along the segment per unit length, with the weight
+|b - a| w(|p(t) - v|) at parameter t, so a segment split in two is the same handle as the whole.
+
+With x the arc length from the foot of the perpendicular from v (the closest point of the
+segment's line) and h the distance of v to that line, |p(t) - v|^2 = h^2 + x^2, and a segment's
+share of every moment follows from three integrals over its arc, J_k = integral of w x^k dx
+(k = 0, 1, 2): see :func:`segment_integrals`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from .config import MLSConfig
+from .handles import as_points, check_coordinates
+
+__all__ = [
+    "SEGMENT_S_FLOOR",
+    "as_segments",
+    "polyline_segments",
+    "segment_config",
+    "segment_feet",
+    "validate_segments",
+]
+
+#: idw's adjusting term s below this (pixels^(2 alpha)) is a guard against division by zero
+#: (the default is 1e-8), not a smoothing: segment handles use s = 0 then, so that f maps every
+#: point of a source segment onto its target (with s = 1e-8 the weight of the segment's
+#: neighbourhood, pi / sqrt(s), would not dominate the others: 0.5 px off on a busy image).
+SEGMENT_S_FLOOR = 1e-6
+
+
+def segment_config(config: MLSConfig) -> MLSConfig:
+    """The configuration whose weight segment handles use: ``config``, with idw's s set to 0
+    where it is below :data:`SEGMENT_S_FLOOR`."""
+    if config.weight_entry.uses_s and 0.0 < config.s < SEGMENT_S_FLOOR:
+        return replace(config, s=0.0)
+    return config
+
+
+def as_segments(segments: object, name: str) -> np.ndarray:
+    """``segments`` as a C-contiguous float64 (S, 2, 2) array; ``ValueError``/``TypeError``
+    naming ``name`` if it is not one (wrong shape, not numbers, NaN or inf)."""
+    array = np.asarray(segments)
+    if array.dtype == object or not (
+        np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating)
+    ):
+        raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
+    if array.size == 0 and array.ndim >= 1 and array.shape[0] == 0:
+        return np.zeros((0, 2, 2))
+    if array.ndim != 3 or array.shape[1:] != (2, 2):
+        raise ValueError(
+            f"{name} must have shape (S, 2, 2): S segments of two (x, y) ends, got {array.shape}"
+        )
+    array = np.ascontiguousarray(array, dtype=np.float64)
+    bad = ~np.isfinite(array).reshape(len(array), 4).all(axis=1)
+    if bad.any():
+        row = int(np.argmax(bad))
+        raise ValueError(f"{name} must be finite; segment {row} is {array[row].tolist()}")
+    check_coordinates(array.reshape(-1, 2), name)
+    return array
+
+
+def validate_segments(src_segments: object, dst_segments: object) -> tuple[np.ndarray, np.ndarray]:
+    """Check source segments A and target segments B; return them as float64 (S, 2, 2).
+
+    ``ValueError`` for: only one of the two given, different counts, a source segment of zero
+    length (a point: use a point handle), or one source segment (either direction) given two
+    different targets.
+    """
+    if (src_segments is None) != (dst_segments is None):
+        given, missing = (
+            ("src_segments", "dst_segments")
+            if dst_segments is None
+            else ("dst_segments", "src_segments")
+        )
+        raise ValueError(f"{given} needs {missing}: give both (shape (S, 2, 2)) or neither")
+    if src_segments is None:
+        return np.zeros((0, 2, 2)), np.zeros((0, 2, 2))
+    a = as_segments(src_segments, "src_segments")
+    b = as_segments(dst_segments, "dst_segments")
+    if len(a) != len(b):
+        raise ValueError(
+            f"src_segments and dst_segments must have the same length, got {len(a)} and {len(b)}"
+        )
+    zero = (a[:, 0] == a[:, 1]).all(axis=1)
+    if zero.any():
+        row = int(np.argmax(zero))
+        raise ValueError(
+            f"src_segments[{row}] has zero length (both ends at {a[row, 0].tolist()}): "
+            "that is a point, give it as a point handle (src, dst)"
+        )
+    _check_conflicts(a, b)
+    return a, b
+
+
+def _check_conflicts(a: np.ndarray, b: np.ndarray) -> None:
+    """``ValueError`` if one source segment (taken in either direction) has two different
+    targets: f cannot take two values along it."""
+    if len(a) < 2:
+        return
+    # orient every segment so that its source runs from the lexicographically smaller end
+    flip = (a[:, 0, 0] > a[:, 1, 0]) | ((a[:, 0, 0] == a[:, 1, 0]) & (a[:, 0, 1] > a[:, 1, 1]))
+    a2 = np.where(flip[:, None, None], a[:, ::-1], a).reshape(-1, 4)
+    b2 = np.where(flip[:, None, None], b[:, ::-1], b).reshape(-1, 4)
+    order = np.lexsort(a2.T[::-1])
+    same = (a2[order[1:]] == a2[order[:-1]]).all(axis=1)
+    differ = (b2[order[1:]] != b2[order[:-1]]).any(axis=1)
+    conflict = same & differ
+    if conflict.any():
+        k = int(np.argmax(conflict))
+        i, j = sorted((int(order[k]), int(order[k + 1])))
+        raise ValueError(
+            f"src_segments[{i}] and src_segments[{j}] are the same segment {a[i].tolist()} "
+            f"with different targets {b[i].tolist()} and {b[j].tolist()}"
+        )
+
+
+def polyline_segments(points: object) -> np.ndarray:
+    """The segments of a polyline: (K, 2) vertices -> (K - 1, 2, 2), segment k from vertex k to
+    vertex k + 1. Give a source polyline and its target polyline of the same K to get
+    ``src_segments`` and ``dst_segments``; close a polygon by repeating its first vertex.
+
+    ``ValueError`` for fewer than 2 vertices; repeated consecutive vertices give zero-length
+    segments, which :class:`glmls.MLS` refuses (in the source).
+
+    >>> polyline_segments([[0, 0], [10, 0], [10, 5]]).tolist()
+    [[[0.0, 0.0], [10.0, 0.0]], [[10.0, 0.0], [10.0, 5.0]]]
+    """
+    vertices = as_points(points, "polyline")
+    if len(vertices) < 2:
+        raise ValueError(f"a polyline needs at least 2 vertices, got {len(vertices)}")
+    return np.stack([vertices[:-1], vertices[1:]], axis=1)
+
+
+def segment_feet(
+    segments: np.ndarray, points: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For source segments (S, 2, 2) and points (K, 2): the parameter t0 of the foot of the
+    perpendicular from each point to each segment's line (K, S; may lie outside [0, 1]), the
+    squared distance h^2 to that line (K, S), and the squared distance to the segment itself
+    (K, S)."""
+    a = segments[None, :, 0]
+    d = segments[None, :, 1] - a
+    length2 = (d**2).sum(-1)
+    w = points[:, None, :] - a
+    t0 = (w * d).sum(-1) / length2
+    foot = a + t0[..., None] * d
+    h2 = ((points[:, None, :] - foot) ** 2).sum(-1)
+    tc = np.clip(t0, 0.0, 1.0)
+    closest = a + tc[..., None] * d
+    return t0, h2, ((points[:, None, :] - closest) ** 2).sum(-1)
+
+
+#: Gauss-Legendre panels of the reference quadrature (see :func:`segment_integrals`).
+REFERENCE_PANELS = 24
+REFERENCE_NODES = 12
+
+
+def sinh_nodes(
+    x0: np.ndarray, x1: np.ndarray, c: np.ndarray, panels: int, nodes: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Quadrature nodes x and weights for integrals over [x0, x1] of functions of
+    sqrt(c^2 + x^2), which peak at x = 0 with width c: the sinh substitution x = c sinh(u)
+    (Johnston & Elliott 2005) turns the peak into a smooth bump, integrated by ``panels``
+    Gauss-Legendre panels of ``nodes`` nodes each. Shapes: inputs broadcast to (...), outputs
+    (..., panels * nodes); the weights include the Jacobian c cosh(u)."""
+    gx, gw = np.polynomial.legendre.leggauss(nodes)
+    u0 = np.arcsinh(x0 / c)
+    u1 = np.arcsinh(x1 / c)
+    width = (u1 - u0) / panels
+    # panel k spans [u0 + k width, u0 + (k + 1) width]; node (1 + gx) / 2 of it
+    k = np.arange(panels)[:, None] + (1.0 + gx[None, :]) / 2.0  # (panels, nodes)
+    u = u0[..., None] + width[..., None] * k.reshape(-1)
+    weight = (width / 2.0)[..., None] * np.tile(gw, panels)
+    return c[..., None] * np.sinh(u), weight * c[..., None] * np.cosh(u)

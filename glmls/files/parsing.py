@@ -1,0 +1,122 @@
+"""Reading text input files (handles, points): every fault an
+:class:`~glmls.errors.InputFileError` that names the file, the place in it (a JSON path such as
+``"segments"."src"[3]`` or a CSV line) and the fault."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputFileError
+
+__all__ = [
+    "brief",
+    "csv_rows",
+    "fail",
+    "json_list",
+    "json_pair",
+    "json_points",
+    "load_json",
+    "number",
+    "read_text",
+    "table",
+]
+
+#: (line number, stripped fields) of one non-blank CSV row.
+Row = tuple[int, list[str]]
+
+
+def fail(path: Path, where: str, what: str) -> InputFileError:
+    """The error for ``what`` went wrong at ``where`` in ``path``."""
+    return InputFileError(f"{path}: {where}: {what}")
+
+
+def brief(value: object, limit: int = 60) -> str:
+    """``repr(value)``, cut to about ``limit`` characters (a hostile file may hold megabytes)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def number(path: Path, where: str, text: object) -> float:
+    """A finite float from a JSON number or a CSV field."""
+    if isinstance(text, bool) or not isinstance(text, (int, float, str)):
+        raise fail(path, where, f"expected a number, got {brief(text)}")
+    try:
+        value = float(text)
+    except ValueError:
+        raise fail(path, where, f"expected a number, got {brief(text)}") from None
+    except OverflowError:  # a JSON integer beyond float's range
+        raise fail(path, where, f"expected a finite number, got {brief(text)}") from None
+    if not math.isfinite(value):
+        raise fail(path, where, f"expected a finite number, got {brief(text)}")
+    return value
+
+
+def read_text(path: Path) -> str:
+    try:
+        return path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise InputFileError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputFileError(f"{path}: cannot read: {error}") from None
+
+
+def load_json(path: Path) -> dict:
+    """The top-level JSON object of ``path``."""
+    try:
+        data = json.loads(read_text(path))
+    except json.JSONDecodeError as error:
+        raise fail(path, f"line {error.lineno}", f"invalid JSON: {error.msg}") from None
+    except ValueError as error:  # an integer of more than 4,300 digits
+        raise fail(path, "content", f"invalid JSON: {error}") from None
+    except RecursionError:
+        raise fail(path, "content", "JSON nested too deeply to be handles or points") from None
+    if not isinstance(data, dict):
+        raise fail(path, "top level", f"expected a JSON object, got {type(data).__name__}")
+    return data
+
+
+def json_list(path: Path, where: str, value: object, what: str) -> list:
+    """``value`` if it is a JSON list, else an error saying a list of ``what`` was expected."""
+    if not isinstance(value, list):
+        raise fail(path, where, f"expected a list of {what}, got {type(value).__name__}")
+    return value
+
+
+def json_pair(path: Path, where: str, value: object) -> list[float]:
+    """An ``[x, y]`` pair of finite numbers."""
+    if not isinstance(value, list) or len(value) != 2:
+        raise fail(path, where, f"expected an [x, y] pair, got {brief(value)}")
+    return [number(path, where, v) for v in value]
+
+
+def json_points(path: Path, data: dict, key: str) -> list[list[float]]:
+    """The ``[x, y]`` pairs under the top-level ``key``."""
+    if key not in data:
+        raise fail(path, "top level", f'missing the key "{key}"')
+    rows = json_list(path, f'"{key}"', data[key], "[x, y] pairs")
+    return [json_pair(path, f'"{key}"[{index}]', row) for index, row in enumerate(rows)]
+
+
+def csv_rows(path: Path) -> list[Row]:
+    """(line number, fields) of the non-blank rows."""
+    reader = csv.reader(io.StringIO(read_text(path)))
+    try:
+        return [(reader.line_num, [f.strip() for f in row]) for row in reader if any(row)]
+    except csv.Error as error:  # e.g. a field over csv's limit of 131,072 characters
+        raise fail(path, f"line {reader.line_num}", f"not a CSV table: {error}") from None
+
+
+def table(path: Path, rows: list[Row], columns: int) -> np.ndarray:
+    """The rows as numbers, (len(rows), columns) float64."""
+    values = []
+    for line, row in rows:
+        if len(row) != columns:
+            raise fail(path, f"line {line}", f"expected {columns} columns, got {len(row)}")
+        values.append([number(path, f"line {line}", text) for text in row])
+    return np.array(values, dtype=np.float64).reshape(-1, columns)

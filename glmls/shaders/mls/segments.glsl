@@ -1,0 +1,232 @@
+// Line-segment handles (Schaefer, McPhail & Warren 2006, section 4), added to the point
+// handles' moments of mls/core.glsl. Included by mls/visit.glsl where MLS_SEGMENTS is 1.
+//
+// Segment s is two rows of the handle storage (mls/handles.glsl) from u_segment_offset + 2 s:
+// (a.x, a.y, b.x, b.y), the source from a to b, and (c.x, c.y, d.x, d.y), the target.
+// p(x) = f + x u and q(x) = q_f + x g, x the arc length along the source from the foot f of the
+// perpendicular from v (u = (b - a) / L, g = (d - c) / L, L = |b - a|), so |p(x) - v|^2 =
+// h^2 + x^2. Every sum over point handles becomes an integral over x of the weight times the
+// same terms, and a segment adds to every moment through three integrals:
+//   J_k = u_length_unit * integral over the segment of w(h^2 + x^2) (x - xc)^k dx,  k = 0, 1, 2
+// about xc, the segment's point nearest to v: where the weight is largest, and where o, the
+// point the moments are summed about (mls_accumulate), usually is. About the foot instead, a
+// short arc far from it (the end of a segment at the edge of a compact weight's reach) would
+// lose its spread to cancellation in float32.
+// (u_length_unit: pixels per scaled unit, so that a segment's weight is per pixel of length,
+// as in glmls.core.reference, whatever the scaling).
+//
+// Defines:
+//   MLS_SEGMENT_CLOSED   1: idw, alpha 1, not interpolating: J_k in closed form
+//                        0: Gauss-Legendre after the substitution x = c sinh(t), c ~ h, which
+//                           turns the peak of the weight at the foot into a smooth bump
+//                           (Johnston & Elliott 2005), in panels of width <= MLS_PANEL_WIDTH
+//   MLS_SEGMENT_SUPPORT  0 everywhere, 1 radius (w = 0 from d = R), 2 gaussian (cut where
+//                        w < exp(-MLS_SEGMENT_GAUSSIAN_CUT) of the nearest handle's)
+uniform int u_segment_count;
+uniform int u_segment_offset;
+uniform float u_length_unit;
+uniform float u_segment_sigma;   // 1, or 0 where idw's s is negligible (glmls.core.segments)
+
+const float MLS_PANEL_WIDTH = 1.5;
+const int MLS_MAX_PANELS = 24;
+const float MLS_SEGMENT_GAUSSIAN_CUT = 24.0;
+// 8-point Gauss-Legendre nodes and weights on [-1, 1] (the positive half; symmetric)
+const float MLS_GL_X[4] = float[4](0.1834346424956498, 0.5255324099163290,
+                                   0.7966664774136267, 0.9602898564975363);
+const float MLS_GL_W[4] = float[4](0.3626837833783620, 0.3137066458778873,
+                                   0.2223810344533745, 0.1012285362903763);
+
+struct MLSSegment {
+    vec2 a;     // source start
+    vec2 u;     // source direction, unit
+    float L;    // source length
+    vec2 c;     // target start
+    vec2 g;     // target change per unit of source length: (d - c) / L
+};
+
+MLSSegment mls_segment(int s) {
+    vec4 src = mls_handle(u_segment_offset + 2 * s);
+    vec4 dst = mls_handle(u_segment_offset + 2 * s + 1);
+    MLSSegment seg;
+    vec2 ab = src.zw - src.xy;
+    seg.a = src.xy;
+    seg.L = length(ab);
+    seg.u = ab / seg.L;
+    seg.c = dst.xy;
+    seg.g = (dst.zw - dst.xy) / seg.L;
+    return seg;
+}
+
+// Where v sees a segment: x0 = arc coordinate of a (b is at x0 + L), h2 = squared distance to
+// the segment's line, xc = the closest point's arc coordinate.
+struct MLSSegmentView {
+    float x0;
+    float x1;
+    float h;    // distance to the line
+    float h2;
+    float xc;
+};
+
+MLSSegmentView mls_segment_view(MLSSegment seg, vec2 v) {
+    vec2 av = seg.a - v;
+    MLSSegmentView view;
+    view.x0 = dot(av, seg.u);
+    view.x1 = view.x0 + seg.L;
+    view.h = abs(av.x * seg.u.y - av.y * seg.u.x);   // cross product: precise for small h
+    view.h2 = view.h * view.h;
+    view.xc = clamp(0.0, view.x0, view.x1);
+    return view;
+}
+
+// The nearest point of a segment for pass 1 (mls_nearest_add), as a handle (p, q).
+void mls_nearest_add_segment(inout MLSNearest n, MLSSegment seg, vec2 v) {
+    MLSSegmentView view = mls_segment_view(seg, v);
+    float d2 = view.h2 + view.xc * view.xc;
+    float t = view.xc - view.x0;   // arc length from a
+    vec4 h = vec4(seg.a + t * seg.u, seg.c + t * seg.g);
+    bool nearer = d2 < n.d2min;
+    n.h = nearer ? h : n.h;
+    n.segment = nearer ? true : n.segment;
+    n.d2min = min(n.d2min, d2);
+    n.d2far = min(n.d2far, d2 > u_hit2 ? d2 : 3.0e38);
+}
+
+float mls_log1p(float y) {
+    // log(1 + y) loses the digits of small y in float32
+    return y < 0.0625 ? y * (1.0 - y * (0.5 - y * (1.0 / 3.0 - y * (0.25 - y * 0.2))))
+                      : log(1.0 + y);
+}
+
+// asinh(z) without the cancellation of log(z + sqrt(z^2 + 1)) for z < 0 (the built-in may
+// have it) or the lost digits of log(1 + y) for small z
+float mls_asinh(float z) {
+    float a = abs(z);
+    return sign(z) * mls_log1p(a + a * a / (1.0 + sqrt(1.0 + a * a)));
+}
+
+// z - atan(z) for |z| < 0.25, by its series
+float mls_z_minus_atan(float z) {
+    float z2 = z * z;
+    return z * z2 * (1.0 / 3.0 - z2 * (0.2 - z2 * (1.0 / 7.0 - z2 * (1.0 / 9.0 - z2 / 11.0))));
+}
+
+// atan(y / x) in [0, pi] for y >= 0, to a few float32 ulps: the built-in atan may be
+// thousands of ulps off (GLSL does not bound it; llvmpipe's is ~30), and J0 needs it to a few.
+// Reduced to |z| <= 1, then twice halved (atan z = 2 atan(z / (1 + sqrt(1 + z^2)))) to
+// |z| <= tan(pi / 16), where its series to z^13 is exact to float32.
+float mls_atan_positive(float y, float x) {
+    float ay = abs(y), ax = abs(x);
+    bool swap = ay > ax;
+    float z = swap ? ax / ay : ay / max(ax, 1e-38);
+    z = z / (1.0 + sqrt(1.0 + z * z));
+    z = z / (1.0 + sqrt(1.0 + z * z));
+    float z2 = z * z;
+    float s = z * (1.0 - z2 * (1.0 / 3.0 - z2 * (0.2 - z2 * (1.0 / 7.0 - z2 * (1.0 / 9.0
+              - z2 * (1.0 / 11.0 - z2 / 13.0))))));
+    float r = 4.0 * s;   // atan(min(ay, ax) / max(ay, ax)), in [0, pi / 4]
+    r = swap ? 1.5707963267948966 - r : r;
+    return x < 0.0 ? 3.141592653589793 - r : r;
+}
+
+#if MLS_SEGMENT_CLOSED
+// idw, alpha = 1: w = (sigma + 1) / (sigma + d2 / m) = K / (s' + h^2 + x^2) with K = (sigma
+// + 1) m and s' = sigma m; k2 = s' + h^2:
+//   J0 = K dtheta / k,  J1 = K / 2 ln((k2 + x1^2) / (k2 + x0^2)),  J2 = K (x1 - x0 - k dtheta)
+// with dtheta = atan(x1 / k) - atan(x0 / k) in one atan (no cancellation), and series where
+// the segment is short against k (J1, J2 would cancel).
+vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
+    float sigma = a.sigma * u_segment_sigma;
+    float K = (sigma + 1.0) * a.m;
+    float k2 = sigma * a.m + view.h2;
+    float k = sqrt(k2);
+    float x0 = view.x0, x1 = view.x1;
+    float dtheta = mls_atan_positive(k * (x1 - x0), k2 + x0 * x1);
+    float J0 = k > 0.0 ? dtheta / k : 0.0;   // k = 0 only on a snapped segment (J0 unused)
+    float J1, J2;
+    if (max(x0 * x0, x1 * x1) < 0.0625 * k2) {
+        J1 = 0.5 * (mls_log1p(x1 * x1 / k2) - mls_log1p(x0 * x0 / k2));
+        J2 = k * (mls_z_minus_atan(x1 / k) - mls_z_minus_atan(x0 / k));
+    } else {
+        J1 = 0.5 * (log(k2 + x1 * x1) - log(k2 + x0 * x0));
+        J2 = (x1 - x0) - k * dtheta;
+    }
+    // about xc (0 where the foot is on the segment)
+    float xc = view.xc;
+    J2 = J2 - 2.0 * xc * J1 + xc * xc * J0;
+    J1 = J1 - xc * J0;
+    return K * u_length_unit * vec3(J0, J1, J2);
+}
+#else
+vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
+    float x0 = view.x0, x1 = view.x1;
+#if MLS_SEGMENT_SUPPORT == 1
+    float reach2 = (u_radius - view.h) * (u_radius + view.h);   // no cancellation at h ~ R
+#elif MLS_SEGMENT_SUPPORT == 2
+    float reach2 = a.m + MLS_SEGMENT_GAUSSIAN_CUT * u_radius * u_radius - view.h2;
+#endif
+#if MLS_SEGMENT_SUPPORT != 0
+    if (!(reach2 > 0.0)) {
+        return vec3(0.0);
+    }
+    float reach = sqrt(reach2);
+    x0 = clamp(x0, -reach, reach);
+    x1 = clamp(x1, -reach, reach);
+#endif
+    // the peak's width: h, or R where the weight is narrower than that (a gaussian far away)
+#if MLS_SEGMENT_SUPPORT == 0
+    float c = max(view.h, sqrt(u_hit2));
+#else
+    float c = max(min(view.h, u_radius), sqrt(u_hit2));
+#endif
+    float sigma = a.sigma * u_segment_sigma;
+    float t0 = mls_asinh(x0 / c);
+    float t1 = mls_asinh(x1 / c);
+    int panels = clamp(int(ceil((t1 - t0) / MLS_PANEL_WIDTH)), 1, MLS_MAX_PANELS);
+    float half_width = 0.5 * (t1 - t0) / float(panels);
+    vec3 J = vec3(0.0);
+    for (int k = 0; k < panels; ++k) {
+        float mid = t0 + (2.0 * float(k) + 1.0) * half_width;
+        for (int j = 0; j < 8; ++j) {
+            float node = (j < 4 ? -MLS_GL_X[3 - j] : MLS_GL_X[j - 4]);
+            float gw = (j < 4 ? MLS_GL_W[3 - j] : MLS_GL_W[j - 4]);
+            float e = exp(mid + half_width * node);
+            float x = c * 0.5 * (e - 1.0 / e);   // c sinh(t), and c cosh(t) below
+            float w = mls_weight(view.h2 + x * x, a.m, a.inv_m, sigma) * gw * c * 0.5 * (e + 1.0 / e);
+            float y = x - view.xc;
+            J += w * vec3(1.0, y, y * y);
+        }
+    }
+    return (half_width * u_length_unit) * J;
+}
+#endif
+
+// Add segment seg's moments about the nearest handle a.o (see mls_accumulate). On a snapped
+// segment (v within the snapping distance, weight infinite there) J0 and J1 are infinite or
+// dominated: p* is the foot (a.o), and the segment adds only its second moment about it.
+// J_k are about the segment's nearest point: P and E below are that point's.
+void mls_accumulate_segment(inout MLSAccum a, MLSSegment seg) {
+    MLSSegmentView view = mls_segment_view(seg, a.v);
+    vec3 J = mls_segment_integrals(a, view);
+    float d2 = view.h2 + view.xc * view.xc;
+    bool snapped = u_snap_segments && d2 <= u_hit2;
+    float J0 = snapped ? 0.0 : J.x;
+    float J1 = snapped ? 0.0 : J.y;
+    float J2 = J.z;
+    vec2 u = seg.u;
+    vec2 du = seg.g - seg.u;   // the displacement's change per unit length
+    // the segment's nearest point (at xc) and its displacement, about the nearest handle
+    float xa = view.xc - view.x0;   // its arc length from a
+    vec2 P = (seg.a - a.o.xy) + xa * u;
+    vec2 E = (seg.c - seg.a) + xa * du - (a.o.zw - a.o.xy);
+    a.W += J0;
+    a.P += J0 * P + J1 * u;
+    a.E += J0 * E + J1 * du;
+    a.PP += J0 * vec3(P.x * P.x, P.x * P.y, P.y * P.y)
+          + J1 * vec3(2.0 * P.x * u.x, P.x * u.y + u.x * P.y, 2.0 * P.y * u.y)
+          + J2 * vec3(u.x * u.x, u.x * u.y, u.y * u.y);
+    a.PE += J0 * vec4(P.x * E.x, P.x * E.y, P.y * E.x, P.y * E.y)
+          + J1 * vec4(P.x * du.x + u.x * E.x, P.x * du.y + u.x * E.y,
+                      P.y * du.x + u.y * E.x, P.y * du.y + u.y * E.y)
+          + J2 * vec4(u.x * du.x, u.x * du.y, u.y * du.x, u.y * du.y);
+    a.spread += (view.h2 + view.xc * view.xc) * J0 + 2.0 * view.xc * J1 + J2;
+}

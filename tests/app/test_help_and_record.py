@@ -1,0 +1,131 @@
+"""The help screen fits the window beside the readout (the default 888 x 512 included), and
+recorded events are written in the replay format and read back the same."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import glmls
+from glmls.app.controller import BINDINGS, Controller
+from glmls.app.events import (
+    Key,
+    Move,
+    Press,
+    Recorder,
+    Release,
+    Scroll,
+    Wait,
+    event_entry,
+    read_events,
+    write_events,
+)
+from glmls.app.helpscreen import HELP, help_layout
+from glmls.app.hud import PANEL_CHARS, help_lines, place_help, readout, text_quads
+from glmls.app.text import glyph_atlas
+from glmls.app.view import TEXT_SIZE
+from glmls.core.weights import WEIGHTS
+from glmls.imaging.source import BORDERS
+
+DEFAULT_WINDOW = (8 * PANEL_CHARS + 24 + 512, 512)  # the window's default for a 512² image
+
+
+def test_the_help_covers_every_binding():
+    listed = [action for _, entries in HELP for _, _, actions in entries for action in actions]
+    assert sorted(listed) == sorted(action for _, action, _ in BINDINGS)
+    text = " ".join(" ".join(help_lines()).split())  # wrapped lines joined
+    assert all(name in text for name in (*WEIGHTS, *BORDERS, "rigid", "similarity", "affine"))
+
+
+def readout_lines() -> list[str]:
+    src, dst = glmls.data.astronaut_handles()
+    c = Controller(src, dst, (512, 512), reference=glmls.data.astronaut_reference_points())
+    return readout(
+        name="astronaut", shape=(512, 512), controller=c, frame_times=[0.0, 0.01, 0.02],
+        timings={}, error="", analysis_lines=[], messages=[],
+    )  # fmt: skip
+
+
+def boxes(parts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) corners of what vertex arrays cover."""
+    xy = np.concatenate([p[:, :2] for p in parts])
+    return xy.min(axis=0), xy.max(axis=0)
+
+
+@pytest.mark.parametrize("framebuffer", [DEFAULT_WINDOW, (1200, 700), (1776, 1024)])
+def test_the_help_fits_beside_the_readout(framebuffer):
+    atlas = glyph_atlas(TEXT_SIZE)
+    lines = readout_lines()
+    panel = round(PANEL_CHARS * atlas.advance["M"]) + 24
+    groups = text_quads(atlas, lines, help_visible=True, panel=panel, framebuffer=framebuffer)
+    (readout_size, readout_parts), (help_size, help_parts) = groups
+    assert readout_size == TEXT_SIZE
+    _, high = boxes(readout_parts)
+    assert high[1] <= framebuffer[1]  # the readout itself fits the height
+    help_low, help_high = boxes(help_parts)
+    assert help_low[0] >= high[0]  # right of the readout: nothing of it covered
+    assert (help_low >= 0).all() and (help_high <= framebuffer).all()  # nothing cut off
+    assert help_size >= 10  # still legible
+    glyphs = sum(len(p) for p in help_parts[1:]) // 6
+    assert glyphs == sum(len(line.replace(" ", "")) for line in help_lines())  # every line
+    if framebuffer[0] >= 1200:
+        assert help_size == TEXT_SIZE
+
+
+def test_the_help_takes_the_whole_window_only_where_nothing_else_fits():
+    atlas = glyph_atlas(TEXT_SIZE)
+    placed = place_help(atlas, 367, (600, 400))
+    x, y, width, height = placed.box
+    assert x < 367 and x >= 0 and x + width <= 600 and y + height <= 400
+    assert [line for line in placed.lines if line] == [line for line in help_lines() if line]
+    # one column where it fits, else more, else a smaller size; the last resort is forced
+    tall = help_layout([(0, 0, 2000, 2000)], [13], glyph_atlas)
+    assert len(tall.columns) == 1 and tall.size == 13
+    tiny = help_layout([(0, 0, 50, 50)], [13, 9], glyph_atlas)
+    assert tiny.size == 9 and len(tiny.columns) == 3
+
+
+def test_recorded_events_read_back_the_same(tmp_path):
+    recorder = Recorder()
+    events = [
+        Press(12.5, 40.0),
+        Move(13.0, 41.25),
+        Release(13.0, 41.25),
+        Press(1.0, 2.0, "right"),
+        Press(5.0, 6.0, "middle", frozenset({"shift", "ctrl"})),
+        Release(5.0, 6.0, "middle"),
+        Scroll(100.0, 50.5, -2.0),
+        Key("Ctrl+Shift+Z"),
+        Key("d"),
+    ]
+    for event in events:
+        recorder.record(event)
+    path = tmp_path / "session.json"
+    recorder.save(path)
+    assert read_events(path) == events
+    data = json.loads(path.read_text())
+    assert data["events"][0] == {"type": "press", "x": 12.5, "y": 40.0}  # defaults left out
+    assert data["events"][4]["mods"] == ["shift", "ctrl"]
+    write_events(path, [*events, Wait(3)])
+    assert read_events(path)[-1] == Wait(3)
+    write_events(path, [])
+    assert read_events(path) == []
+    with pytest.raises(TypeError, match="unknown event"):
+        event_entry("t")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("entry", "match"),
+    [
+        ({"type": "scroll", "x": 1, "y": 2}, 'missing "dy"'),
+        ({"type": "scroll", "x": 1, "y": 2, "dy": "up"}, '"dy" must be a finite number'),
+        ({"type": "scroll", "x": 1, "y": 2, "dy": 1, "button": "left"}, "unknown field"),
+    ],
+)
+def test_bad_scroll_entries(tmp_path, entry, match):
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps([entry]))
+    with pytest.raises(glmls.errors.InputFileError, match=match):
+        read_events(path)
