@@ -213,14 +213,15 @@ class MLSKernel:
         hit2 = (SNAP_DISTANCE / scale) ** 2
         # idw with a tiny s is infinite at d = 0 for float32: snap there too.
         tiny_s = c.weight_entry.uses_s and log2_s - alpha * math.log2(hit2) < math.log2(1e-6)
+        segments = segment_config(c)  # the weight of segment handles
         return {
             "u_alpha": alpha,
             "u_log2_s": max(log2_s, -1e30),
             "u_radius": (radius or 1.0) / scale,
             "u_hit2": hit2,
             "u_snap": c.infinite_at_zero or tiny_s,
-            "u_snap_segments": segment_config(c).infinite_at_zero or tiny_s,
-            "u_segment_sigma": 1.0 if segment_config(c) is c else 0.0,
+            "u_snap_segments": segments.infinite_at_zero or tiny_s,
+            "u_segment_sigma": 1.0 if segments is c else 0.0,
             "u_length_unit": scale,
         }
 

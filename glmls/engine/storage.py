@@ -62,17 +62,20 @@ def _as_packed(packed: np.ndarray | None) -> np.ndarray:
     return packed
 
 
-def _rows(packed: np.ndarray, segments: np.ndarray | None, pad: bool) -> tuple[np.ndarray, int]:
+def _rows(
+    packed: np.ndarray, segments: np.ndarray | None, pad: bool
+) -> tuple[np.ndarray, int, int, int]:
     """The storage's rows: the point handles (followed, where ``pad``, by zero rows up to the
     unrolled slots: empty slots read zeros), then two rows per segment handle
-    (``glmls/shaders/mls/segments.glsl``); and the index of the first segment row."""
+    (``glmls/shaders/mls/segments.glsl``); the index of the first segment row, and the counts
+    of point and segment handles."""
     points = _as_packed(packed)
     segment_rows = _as_packed(segments)
     offset = max(unroll_slots(len(points)), len(points)) if pad else len(points)
     data = np.zeros((max(offset + len(segment_rows), 1), 4), np.float32)
     data[: len(points)] = points
     data[offset : offset + len(segment_rows)] = segment_rows
-    return data, offset
+    return data, offset, len(points), len(segment_rows) // 2
 
 
 def _check_capacity(name: str, count: int, capacity: int) -> None:
@@ -117,13 +120,11 @@ class _BufferStorage:
             self._buffer.write(data)
 
     def _fill(self, packed: np.ndarray, segments: np.ndarray | None, reserve: int | None) -> None:
-        rows, offset = _rows(packed, segments, pad=True)
+        rows, offset, count, segment_count = _rows(packed, segments, pad=True)
         _check_capacity(self.name, len(rows), self.capacity)
         data = rows.tobytes()
         self._write(data, reserve if reserve is not None else len(data))
-        self.count = len(_as_packed(packed))
-        self.segments = len(_as_packed(segments)) // 2
-        self.segment_offset = offset
+        self.count, self.segments, self.segment_offset = count, segment_count, offset
 
     def _bind_count(self, program: moderngl.ComputeShader | moderngl.Program) -> None:
         if self._buffer is None:
@@ -200,7 +201,7 @@ class TextureHandleStorage:
         return int(self._ctx.info["GL_MAX_TEXTURE_SIZE"]) ** 2
 
     def upload(self, packed: np.ndarray, segments: np.ndarray | None = None) -> None:
-        handles, offset = _rows(packed, segments, pad=False)
+        handles, offset, count, segment_count = _rows(packed, segments, pad=False)
         _check_capacity("texture", len(handles), self.capacity)
         side = int(self._ctx.info["GL_MAX_TEXTURE_SIZE"])
         width = max(1, min(len(handles), side))
@@ -214,9 +215,7 @@ class TextureHandleStorage:
             self._texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._texture.write(data.tobytes())
         self._width = width
-        self.count = len(_as_packed(packed))
-        self.segments = len(_as_packed(segments)) // 2
-        self.segment_offset = offset
+        self.count, self.segments, self.segment_offset = count, segment_count, offset
 
     def bind(self, program: moderngl.ComputeShader | moderngl.Program) -> None:
         if self._texture is None:
