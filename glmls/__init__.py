@@ -14,9 +14,13 @@ from . import data
 from .analysis import colormaps
 from .analysis.canvas import Canvas
 from .analysis.colormaps import VIRIDIS, apply_colormap, color_limits, colorbar, linear_colormap
+from .analysis.construction import ConstructionErrors, construction_errors
+from .analysis.construction_ranking import rank_constructions
 from .analysis.field import error_field
 from .analysis.foldovers import Foldovers, foldovers
+from .analysis.jobs import run_jobs
 from .analysis.pictures import (
+    render_construction_errors,
     render_field,
     render_handles,
     render_mesh,
@@ -25,7 +29,8 @@ from .analysis.pictures import (
 )
 from .analysis.report import AnalysisReport, report
 from .analysis.stats import error_stats
-from .analysis.triangles import TriangleErrors, triangle_errors
+from .analysis.study import StudyResult, study
+from .analysis.triangles import ANGLE_MEASURES, TriangleErrors, triangle_errors
 from .core import reference
 from .core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
 from .core.handleset import HANDLE_KINDS, HandleSet
@@ -46,6 +51,7 @@ from .mls import MLS, warp
 from .version import __version__
 
 __all__ = [
+    "ANGLE_MEASURES",
     "BORDERS",
     "HANDLE_KINDS",
     "INTERPOLATIONS",
@@ -59,6 +65,7 @@ __all__ = [
     "BorderWarning",
     "Bounds",
     "Canvas",
+    "ConstructionErrors",
     "ContextError",
     "DegenerateHandlesError",
     "Foldovers",
@@ -67,6 +74,7 @@ __all__ = [
     "HandleSet",
     "MLSConfig",
     "ReleasedError",
+    "StudyResult",
     "TriangleErrors",
     "WarpPipeline",
     "__version__",
@@ -74,6 +82,7 @@ __all__ = [
     "color_limits",
     "colorbar",
     "colormaps",
+    "construction_errors",
     "data",
     "error_field",
     "error_stats",
@@ -83,13 +92,17 @@ __all__ = [
     "imwrite",
     "linear_colormap",
     "polyline_segments",
+    "rank_constructions",
     "reference",
+    "render_construction_errors",
     "render_field",
     "render_handles",
     "render_mesh",
     "render_triangle_errors",
     "render_triangulation",
     "report",
+    "run_jobs",
+    "study",
     "triangle_errors",
     "warp",
 ]

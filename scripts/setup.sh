@@ -2,7 +2,8 @@
 # Sets glmls up on a fresh Debian/Ubuntu machine with Python >= 3.11:
 #   - the system OpenGL stack for headless rendering (EGL + Mesa; llvmpipe runs GL 4.5 on
 #     the CPU when there is no GPU) and Xvfb for the real-time window under a virtual screen;
-#   - a virtual environment in .venv with glmls installed (editable) and its test tools.
+#   - a virtual environment in .venv with glmls installed (editable), its test tools and the
+#     `distributed` extra (Dask, for --scheduler).
 # Safe to run again: it installs only what is missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -30,5 +31,6 @@ if [ ! -x .venv/bin/python ]; then
     "$PYTHON" -m venv .venv
 fi
 .venv/bin/python -m pip install -q --disable-pip-version-check --upgrade pip
-.venv/bin/python -m pip install -q --disable-pip-version-check -e ".[test]"
+# the distributed extra too, so that the tests run the Dask paths (--scheduler) as well
+.venv/bin/python -m pip install -q --disable-pip-version-check -e ".[test,distributed]"
 echo "setup: ready (.venv/bin/python, .venv/bin/glmls)" >&2

@@ -1,5 +1,6 @@
-"""Fold-overs: the mesh cells that f turns over (where the deformed image shows the cell drawn
-last). One rule, used by :func:`foldovers` and the window's overlay alike."""
+"""Fold-overs: the mesh cells that f turns over (where deformed cells overlap, the deformed image
+shows the first of them in row-major scan order of the source, as the paper's marked pixels
+keep their colour). One rule, used by :func:`foldovers` and the window's overlay alike."""
 
 from __future__ import annotations
 
@@ -42,8 +43,9 @@ def folded_cells(deformed: np.ndarray) -> np.ndarray:
 
 def foldovers(m: HasMesh, shape: object, grid: int = 1) -> Foldovers:
     """The cells of the mesh of ``shape`` (step ``grid``) that fold over under ``m``'s f
-    (:func:`folded_cells`). Where cells fold, the rasterized image shows the one drawn last
-    (see :meth:`glmls.MLS.warp`)."""
+    (:func:`folded_cells`). Where cells fold, the deformed image shows the first of the
+    overlapping cells in scan order (smaller source row, then column; see
+    :meth:`glmls.MLS.warp`)."""
     lattice = MeshLattice.corners(shape, grid)  # validates shape and grid
     _, deformed = m.mesh(lattice.shape, grid=lattice.grid)
     folded = folded_cells(deformed)

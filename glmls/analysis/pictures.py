@@ -1,7 +1,7 @@
 """The paper's pictures of a deformation and its errors, rendered offscreen (:mod:`.canvas`):
 the error field (Fig. 6 right), handles as p -> q arrows (Fig. 6 left), the triangulation of
 the reference points (Fig. 7 centre) and its triangles filled with the colour of their error
-(Fig. 7 right), and the deformed mesh.
+(Fig. 7 right), the deformed mesh, and the construction error at each reference point.
 """
 
 from __future__ import annotations
@@ -16,9 +16,12 @@ from ..core.segments import validate_segments
 from ..gl.context import GLContext
 from .canvas import EDGE_COLOR, HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR, Canvas, as_rgb8
 from .colormaps import NAN_COLOR, apply_colormap
+from .construction import ConstructionErrors
+from .shapes import disk_triangles
 from .triangles import TriangleErrors
 
 __all__ = [
+    "render_construction_errors",
     "render_field",
     "render_handles",
     "render_mesh",
@@ -186,4 +189,58 @@ def render_mesh(
     with Canvas(rgb.shape[:2], ctx=ctx) as canvas:
         canvas.image(rgb)
         canvas.lines(a, b, color=color, width=width)
+        return canvas.read()
+
+
+#: Sides of the polygons drawn as disks (as :meth:`Canvas.disks` draws them).
+_DISK_SIDES = 16
+
+
+def render_construction_errors(
+    image: object,
+    errors: ConstructionErrors,
+    *,
+    deformed: bool = True,
+    cmap: object = "viridis",
+    vmin: float | None = 0.0,
+    vmax: float | None = None,
+    percentile: float | None = None,
+    nan_color: Sequence[float] = NAN_COLOR,
+    radius: float | None = None,
+    edge_color: Sequence[float] | None = (0, 0, 0),
+    origin: Sequence[float] | None = None,
+    ctx: moderngl.Context | GLContext | None = None,
+) -> np.ndarray:
+    """A disk at each reference point filled with the colour of its construction error
+    (:func:`glmls.analysis.construction.construction_errors`) over ``image``.
+
+    ``deformed``: at f(r) over the deformed image (where the error was measured; default) or
+    at r over the input. ``radius``: of the disks in pixels (default: the window's half-size
+    plus one, at least 4, so a disk covers the window it stands for). ``edge_color``: a ring
+    around each disk, so that it shows on any background (None: none). ``origin``: the point
+    that ``image``'s pixel (0, 0) shows (default: the canvas the errors were measured on
+    when ``deformed``, else (0, 0)). Undefined errors (NaN) are drawn in ``nan_color``.
+    The colour scale starts at ``vmin`` = 0, a perfect construction, by default (None: the
+    smallest error), and ends at ``vmax`` (None: the largest, or the ``percentile``).
+    """
+    if not isinstance(errors, ConstructionErrors):
+        raise TypeError(f"errors must be a ConstructionErrors, got {type(errors).__name__}")
+    size = float(max(4, errors.radius + 1)) if radius is None else float(radius)
+    if not size > 0 or not np.isfinite(size):
+        raise ValueError(f"radius must be a positive number, got {radius!r}")
+    if origin is None:
+        origin = errors.origin if deformed else (0.0, 0.0)
+    colors = apply_colormap(
+        errors.values, cmap=cmap, vmin=vmin, vmax=vmax, percentile=percentile, nan_color=nan_color
+    )
+    rgb = as_rgb8(image)
+    where = errors.deformed_points if deformed else errors.points
+    keep = np.isfinite(where).all(axis=1)  # f may be undefined at a point: nothing to draw
+    centres, colors = where[keep] - _origin(origin), colors[keep]
+    with Canvas(rgb.shape[:2], ctx=ctx) as canvas:
+        canvas.image(rgb)
+        if edge_color is not None:
+            canvas.disks(centres, color=edge_color, radius=size + 1.5)
+        fill = disk_triangles(centres, size, _DISK_SIDES).reshape(-1, 3, 2)
+        canvas.triangles(fill, np.repeat(colors, _DISK_SIDES, axis=0))
         return canvas.read()

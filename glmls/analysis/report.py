@@ -17,8 +17,15 @@ from ..imaging.frame import Frame
 from ..imaging.source import check_options
 from . import colormaps
 from .canvas import as_rgb8
+from .construction import (
+    DEFAULT_RADIUS,
+    ConstructionErrors,
+    check_radius,
+    construction_errors,
+)
 from .foldovers import foldovers
 from .pictures import (
+    render_construction_errors,
     render_field,
     render_handles,
     render_mesh,
@@ -39,13 +46,16 @@ class AnalysisReport:
     - ``summary``: JSON-ready dict (configuration, timings in seconds, statistics);
     - ``images``: name -> (H, W, 3) uint8 picture;
     - ``field``: the MLS error field (H, W) float64; ``triangles``: the
-      :class:`glmls.TriangleErrors`.
+      :class:`glmls.TriangleErrors`; ``construction``: the
+      :class:`~glmls.analysis.construction.ConstructionErrors` of the warp at the reference
+      points (None unless asked for).
     """
 
     summary: dict
     images: dict[str, np.ndarray]
     field: np.ndarray
     triangles: object
+    construction: ConstructionErrors | None = None
 
     def to_json(self, **options: object) -> str:
         return json.dumps(self.summary, **({"indent": 2} | options))  # type: ignore[arg-type]
@@ -75,6 +85,7 @@ def report(
     reference_points: object,
     *,
     grid: int = 1,
+    angle: str = "degrees",
     eps: float = 1e-6,
     cmap: object = "viridis",
     percentile: float | None = None,
@@ -86,6 +97,8 @@ def report(
     warp_grid: int = 1,
     border: str = "constant",
     fit: bool = False,
+    construction: bool = True,
+    construction_radius: int = DEFAULT_RADIUS,
     out_dir: str | Path | None = None,
     on_stage: Callable[[str], None] | None = None,
 ) -> AnalysisReport:
@@ -106,10 +119,20 @@ def report(
     pictures on the canvas that shows the whole deformed image (:meth:`MLS.bounds`) instead
     of the input's frame.
 
+    ``construction``: also measure the construction error of the warp at the reference
+    points (:func:`~glmls.analysis.construction.construction_errors`, windows of
+    2 ``construction_radius`` + 1 output pixels; docs/construction.md): its statistics in
+    ``summary["construction"]``, its settings and colour limits in
+    ``summary["analysis"]["construction"]``, the picture ``construction_errors`` (a disk at
+    each f(r) over the deformed image) and its ``construction_errors_colorbar``.
+
     ``percentile`` / ``triangle_percentile``: robust upper bound of the colour scales (None:
-    the maximum); the angular error of eq. (11) explodes near right angles, hence 95 there.
+    the maximum); 95 for the triangles, where eq. (11) (``angle="paper"``) explodes near
+    right angles. ``angle``: the angular measure of :func:`glmls.triangle_errors`
+    (``"degrees"``, the default, or ``"paper"``).
     ``out_dir``: also write ``report.json`` and the PNGs there. ``on_stage(name)`` is called
-    as each stage begins (error field, triangles, warp, fold-overs, pictures), for progress.
+    as each stage begins (error field, triangles, warp, construction, fold-overs, pictures),
+    for progress.
     """
     stage = on_stage if on_stage is not None else (lambda name: None)
     rgb = as_rgb8(image)
@@ -117,6 +140,8 @@ def report(
     if triangle_error not in ("angle", "distance"):
         raise ValueError(f"triangle_error must be 'angle' or 'distance', got {triangle_error!r}")
     check_options(method, interpolation, warp_grid, border)  # before the long stages
+    if construction:
+        check_radius(construction_radius)
     timings: dict[str, float] = {}
     start = time.perf_counter()
 
@@ -127,7 +152,7 @@ def report(
 
     tick = time.perf_counter()
     stage("triangles")
-    triangles = triangle_errors(m, reference_points, eps=eps)
+    triangles = triangle_errors(m, reference_points, angle=angle, eps=eps)
     timings["triangle_errors"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
@@ -147,6 +172,21 @@ def report(
         "m.warp(image)",
     )
     timings["warp"] = time.perf_counter() - tick
+
+    built = None
+    if construction:
+        tick = time.perf_counter()
+        stage("construction")
+        built = construction_errors(
+            rgb,
+            deformed,
+            m,
+            triangles.points,
+            radius=construction_radius,
+            border=border,
+            origin=origin,
+        )
+        timings["construction_errors"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
     stage("fold-overs")
@@ -190,6 +230,15 @@ def report(
     images[f"triangle_{triangle_error}_colorbar"] = colormaps.colorbar(
         cmap, t_lo, t_hi, length=max(64, shape[0] - 40), label=f"{triangle_error} error"
     )
+    if built is not None:
+        # from 0, a perfect construction: a scale from the best point would flatter them all
+        c_lo, c_hi = colormaps.color_limits(built.values, vmin=0.0)
+        images["construction_errors"] = render_construction_errors(
+            deformed, built, cmap=cmap, vmin=c_lo, vmax=c_hi
+        )
+        images["construction_errors_colorbar"] = colormaps.colorbar(
+            cmap, c_lo, c_hi, length=max(64, shape[0] - 40), label="construction RMS (0-1)"
+        )
     timings["render"] = time.perf_counter() - tick
     timings["total"] = time.perf_counter() - start
 
@@ -208,6 +257,7 @@ def report(
         },
         "analysis": {
             "grid": grid,
+            "angle": angle,
             "eps": eps,
             "reference_points": len(triangles.points),
             "cmap": _cmap_name(cmap),
@@ -221,6 +271,7 @@ def report(
         "error_field": error_stats(field),
         "triangles": triangles.stats(),
         "foldovers": {"grid": warp_grid, "cells": folds},
+        **({} if built is None else {"construction": built.stats()}),
         "warp": {
             "method": method,
             "interpolation": interpolation,
@@ -231,7 +282,9 @@ def report(
         },
         "gl_renderer": m.ctx.mgl.info.get("GL_RENDERER"),
     }
-    result = AnalysisReport(summary, images, field, triangles)
+    if built is not None:
+        summary["analysis"]["construction"] = built.settings() | {"limits": [c_lo, c_hi]}
+    result = AnalysisReport(summary, images, field, triangles, built)
     if out_dir is not None:
         result.save(out_dir)
     return result

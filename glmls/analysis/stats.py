@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["error_stats"]
+__all__ = ["TRIM", "error_stats"]
+
+#: The share of values cut from each end for ``trimmed_mean``.
+TRIM = 0.1
 
 
 def error_stats(values: object) -> dict[str, float | int | list[float] | None]:
@@ -12,10 +15,13 @@ def error_stats(values: object) -> dict[str, float | int | list[float] | None]:
 
     NaN values (where an error is undefined) are left out and counted in ``nan_count``;
     ``count`` is the number of values used. Returns a JSON-ready dict: ``mean`` (eq. 8),
-    ``std`` (eq. 9, the population standard deviation), ``min``, ``max``, ``within`` (the
-    shares of values with |x - mean| <= 1, 2 and 3 std, in that order), ``count``,
-    ``nan_count``. With no values left, the statistics are ``None``. Infinite values raise
-    ``ValueError``.
+    ``std`` (eq. 9, the population standard deviation), ``median``, ``trimmed_mean`` (the
+    mean of the values left after cutting :data:`TRIM` = 10 % from each end, as
+    ``scipy.stats.trim_mean``), ``min``, ``max``, ``within`` (the shares of values with
+    |x - mean| <= 1, 2 and 3 std, in that order), ``count``, ``nan_count``. The median and the
+    trimmed mean are the headline: one huge value (a near-degenerate triangle, a fold) moves
+    the mean and the std without bound but them hardly at all. With no values left, the
+    statistics are ``None``. Infinite values raise ``ValueError``.
     """
     array = np.asarray(values)
     if not (np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)):
@@ -30,7 +36,8 @@ def error_stats(values: object) -> dict[str, float | int | list[float] | None]:
         "nan_count": int(nan.sum()),
     }
     if finite.size == 0:
-        return stats | {"mean": None, "std": None, "min": None, "max": None, "within": None}
+        empty = ("mean", "std", "median", "trimmed_mean", "min", "max", "within")
+        return stats | dict.fromkeys(empty)
     # in units of the largest magnitude: sums of values near the float64 limit do not overflow
     unit = float(np.abs(finite).max()) or 1.0
     scaled = finite / unit
@@ -39,9 +46,14 @@ def error_stats(values: object) -> dict[str, float | int | list[float] | None]:
     std = float(np.sqrt(np.mean(deviation**2)))
     within = [float(np.count_nonzero(deviation <= k * std)) / finite.size for k in (1, 2, 3)]
     mean, std = mean * unit, std * unit
+    ordered = np.sort(finite)
+    cut = int(TRIM * ordered.size)  # scipy.stats.trim_mean's count
+    kept = ordered[cut : ordered.size - cut] / unit
     return stats | {
         "mean": mean,
         "std": std,
+        "median": float(np.median(ordered)),
+        "trimmed_mean": float(kept.mean()) * unit,
         "min": float(finite.min()),
         "max": float(finite.max()),
         "within": within,

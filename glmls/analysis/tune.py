@@ -1,28 +1,28 @@
-"""Choosing the best configuration automatically (the paper's section 6).
+"""Choosing the configuration automatically (the paper's section 6), by what users want.
 
-For every configuration of a search space, apply the same seeded random deformations around
-the user's handles, measure both error measures of section 5 for each, and rank:
+Every configuration of a search space meets the same seeded trials (:mod:`.tune_trials`):
+the user's own edit, user-like edits of it (1 to 3 handles dragged by several magnitudes, the
+others pinned) and known smooth deformations. A configuration must first have the properties
+the paper asks of MLS (section 2); those that do not are **set apart**, with the reason:
 
-- ``mls``: the mean of the MLS error field E_MLS (eq. 7, px²) over the image;
-- ``angle``: the mean angular error (eq. 11) of the reference triangles;
-- ``distance``: the mean distance error (eq. 10) of the reference triangles;
-- ``combined`` (default): 0.5 * mls / best_mls + 0.5 * angle / best_angle, each measure
-  divided by the best configuration's value in this run, so that both count alike whatever
-  their units; 1.0 means best in both. The paper recommends the angular error for shape
-  (distance errors mostly report scaling), hence angle rather than distance here.
+- interpolation: every handle within :data:`MISS_LIMIT` (0.5 px) of its target in every
+  trial;
+- no fold-overs: no reference, mesh or fan triangle turned over in any trial.
 
-``handle_miss`` (mean |f(p_i) - q_i| in pixels over the point handles and the segments' ends,
-not ranked) shows how far a configuration stays from interpolating the handles: low errors
-bought by not reaching the targets show there.
+The rest are ranked by several criteria at once (:data:`CRITERIA`): in each trial every
+criterion ranks the configurations (1 = best, ties share the mean rank), and a configuration's
+``score`` is the weighted mean of its ranks over the criteria and trials. The angular error of
+the reference triangles is the main criterion (weight 0.4), as the paper recommends; the
+smoothness around the handles (a spike cannot hide there), the predictive error on known
+deformations, E_MLS and the distance error share the rest. Ranks, not ratios: no value is
+ever divided by the run's best, so one exact configuration cannot blow the others' scores up.
+``pareto`` marks the configurations that no other beats on every criterion's mean.
 
-The random deformations drag the handles' vertices: every point and every segment end whose
-target differs from its source moves by its own seeded Gaussian offset, so the two ends of a
-segment move independently (the segment turns and stretches as well as shifts), while ends
-shared by joined segments (a polyline's vertices), and a point handle at such an end, move
-together and the polyline stays joined. Handles left in place (q = p) stay: they pin the image.
+Set-apart configurations follow the ranked ones (those that only fold before those that miss
+their targets), ranked the same way among themselves.
 
-Each statistic is averaged over the trials (``*_mean``) with its spread over the trials
-(``*_spread``, the population standard deviation).
+``rank_by`` a single criterion instead of ``"rank"`` orders each group by that criterion's
+mean over the trials.
 """
 
 from __future__ import annotations
@@ -32,17 +32,46 @@ import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
+from scipy.stats import rankdata
 
 from ..core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig, image_diagonal
 from ..core.handleset import HandleSet
 from ..core.mesh import as_shape
 from ..errors import DegenerateHandlesError
 from ..gl.context import GLContext
-from ..mls import MLS
-from .stats import error_stats
-from .triangles import triangle_errors
+from .jobs import run_jobs
+from .triangles import ANGLE_MEASURES, check_reference_points
+from .tune_trials import MAGNITUDES, known_deformations, measure_config, random_edits
 
-MEASURES = ("combined", "angle", "mls", "distance")
+__all__ = [
+    "CRITERIA",
+    "MEASURES",
+    "MISS_LIMIT",
+    "TuneResult",
+    "label",
+    "parse_config",
+    "search_space",
+    "tune",
+]
+
+#: The ranking criteria and their weights in the score (lower is better for each).
+CRITERIA = {"angle": 0.4, "smoothness": 0.2, "predictive": 0.2, "mls": 0.1, "distance": 0.1}
+#: What ``rank_by`` accepts: the weighted rank, or one criterion alone.
+MEASURES = ("rank", *CRITERIA)
+#: Largest distance (px) between f(p_i) and q_i for a configuration that interpolates.
+MISS_LIMIT = 0.5
+#: Every statistic measured in a trial (see :mod:`.tune_trials`).
+STATISTICS = (
+    "angle",
+    "smoothness",
+    "mesh_angle",
+    "predictive",
+    "mls",
+    "distance",
+    "handle_miss",
+    "handle_miss_max",
+    "folds",
+)
 #: The parameters a configuration spec may set (every MLSConfig field but the names), with
 #: their defaults.
 _PARAMETERS = {
@@ -61,16 +90,21 @@ def search_space(
     weights: Sequence[str] = WEIGHTS,
 ) -> list[MLSConfig]:
     """The default configurations: each transform x each weight x a small parameter grid
-    (idw alpha 1 and 2; radius a quarter, half and all of the image diagonal)."""
+    (idw alpha 1 and 2; radius a quarter, half and all of the image diagonal). Weights that
+    are finite at d = 0 (cressman, gaussian, linear) do not reach their targets: they enter
+    through their ``interpolating=True`` variant, which does."""
     diagonal = image_diagonal(as_shape(shape))
     configs = []
     for transform in transforms:
         for weight in weights:
             if weight in RADIUS_WEIGHTS:
-                configs += [
-                    MLSConfig(transform=transform, weight=weight, radius=round(f * diagonal, 1))
-                    for f in RADIUS_FRACTIONS
-                ]
+                for f in RADIUS_FRACTIONS:
+                    config = MLSConfig(
+                        transform=transform, weight=weight, radius=round(f * diagonal, 1)
+                    )
+                    if not config.infinite_at_zero:
+                        config = dataclasses.replace(config, interpolating=True)
+                    configs.append(config)
             else:
                 configs += [
                     MLSConfig(transform=transform, weight=weight, alpha=a) for a in IDW_ALPHAS
@@ -116,54 +150,25 @@ def parse_config(spec: str, shape: Sequence[int]) -> list[MLSConfig]:
     return [MLSConfig(transform=t, weight=w, **options) for t in transforms for w in weights]
 
 
-def random_handle_targets(
-    handles: HandleSet, trials: int, *, seed: int, jitter: float
-) -> list[tuple[np.ndarray, np.ndarray]]:
-    """``trials`` (dst, dst_segments) target sets: every vertex of the handles (a point or a
-    segment end, with its target) moved by isotropic Gaussian noise of ``jitter`` pixels
-    (standard deviation per axis), seeded. One vertex is one (source, target) pair: the ends
-    that joined segments share, and a point there, move together; vertices the user left in
-    place (q = p) stay there, since they pin the image. For points alone, the same targets
-    as :func:`random_targets`."""
-    p, q = handles.source_points(), handles.target_points()
-    pairs = np.concatenate([p, q], axis=1)
-    _, first, inverse = np.unique(pairs, axis=0, return_index=True, return_inverse=True)
-    rank = np.empty(len(first), dtype=np.intp)
-    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
-    vertex = rank[inverse.ravel()]  # each row's vertex, numbered by first appearance
-    moved = np.any(p != q, axis=1)[:, None]
-    rng = np.random.default_rng(seed)
-    out = []
-    for _ in range(trials):
-        target = q + moved * rng.normal(0.0, jitter, (len(first), 2))[vertex]
-        out.append((target[: handles.points], target[handles.points :].reshape(-1, 2, 2)))
-    return out
-
-
-def random_targets(
-    src: np.ndarray, dst: np.ndarray, trials: int, *, seed: int, jitter: float
-) -> list[np.ndarray]:
-    """``trials`` target sets for point handles: the user's targets moved by isotropic
-    Gaussian noise of ``jitter`` pixels (standard deviation per axis), seeded; handles the
-    user left in place (q = p) stay there, since they pin the image. With segments:
-    :func:`random_handle_targets`."""
-    handles = HandleSet.validate(src, dst)
-    return [t for t, _ in random_handle_targets(handles, trials, seed=seed, jitter=jitter)]
-
-
-def default_jitter(src: np.ndarray, dst: np.ndarray, shape: Sequence[int]) -> float:
-    """A quarter of the median displacement of the moved handles, at least 1% of the
-    diagonal."""
-    moves = np.hypot(*(dst - src).T)
-    moves = moves[moves > 0]
-    typical = float(np.median(moves)) if len(moves) else 0.0
-    return max(0.25 * typical, 0.01 * image_diagonal(as_shape(shape)))
+def label(config: MLSConfig) -> str:
+    """A short name such as ``rigid idw a=2`` or ``affine gaussian R=362``."""
+    if config.weight == "idw":
+        parameter = f"a={config.alpha:g}" + (f" s={config.s:g}" if config.s != 1e-8 else "")
+    else:
+        parameter = f"R={config.radius:g}" if config.radius is not None else "R=diag"
+    extra = " interp" if config.interpolating else ""
+    return f"{config.transform} {config.weight} {parameter}{extra}"
 
 
 @dataclasses.dataclass(frozen=True)
 class TuneResult:
-    """``rows``: one dict per configuration, best first (see :data:`MEASURES`); ``skipped``:
-    configurations that cannot be built for these handles, with the reason."""
+    """``rows``: one dict per configuration, best first, with ``config``, ``label``,
+    ``rank``, ``score``, ``admissible``, ``set_apart`` (the reasons, empty when admissible),
+    ``pareto``, each criterion's mean rank ``rank_<criterion>``, and every statistic's mean
+    over the trials ``<statistic>_mean`` and spread ``<statistic>_spread`` (population std;
+    ``handle_miss_max`` is the largest over the trials, ``fold_trials`` counts the trials with
+    folds); ``skipped``: configurations that cannot be built for these handles, with the
+    reason."""
 
     rows: list[dict]
     skipped: list[dict]
@@ -175,64 +180,111 @@ class TuneResult:
         return MLSConfig(**self.rows[0]["config"])
 
 
-def _handle_miss(m: MLS) -> float:
-    """Mean |f(p) - q| over the point handles and the segments' ends."""
-    p = np.concatenate([m.src, m.src_segments.reshape(-1, 2)])
-    q = np.concatenate([m.dst, m.dst_segments.reshape(-1, 2)])
-    return float(np.hypot(*(m(p) - q).T).mean()) if len(p) else 0.0
-
-
-def _measure(m: MLS, shape, reference: np.ndarray, grid: int) -> dict[str, float]:
-    field = error_stats(m.error_field(shape, grid=grid))
-    tri = triangle_errors(m, reference)
-    return {
-        "mls": field["mean"],
-        "angle": float(np.mean(tri.angle)),
-        "distance": float(np.mean(tri.distance)),
-        "flipped": float(tri.flipped.sum()),
-        # not ranked, but telling: weights finite at d = 0 do not reach their targets
-        "handle_miss": _handle_miss(m),
-    }
-
-
 def _summarise(config: MLSConfig, trials: list[dict[str, float]]) -> dict:
     row: dict = {"config": dataclasses.asdict(config), "label": label(config)}
-    for key in trials[0]:
+    for key in STATISTICS:
         values = np.array([t[key] for t in trials])
+        if key == "handle_miss_max":
+            row[f"{key}"] = float(values.max())
+            continue
         row[f"{key}_mean"] = float(values.mean())
-        row[f"{key}_spread"] = float(values.std())
+        row[f"{key}_spread"] = float(values.std()) if np.isfinite(values).all() else math.inf
+    folds = np.array([t["folds"] for t in trials])
+    row["fold_trials"] = int(np.count_nonzero(folds))
+    reasons = []
+    if not row["handle_miss_max"] <= MISS_LIMIT:
+        reasons.append(
+            f"misses its targets by up to {row['handle_miss_max']:.3g} px (> {MISS_LIMIT})"
+        )
+    if row["fold_trials"]:
+        reasons.append(f"folds over in {row['fold_trials']} of {len(trials)} trials")
+    row["set_apart"] = reasons
+    row["admissible"] = not reasons
+    row["_trials"] = trials
     return row
 
 
-def label(config: MLSConfig) -> str:
-    """A short name such as ``rigid idw a=2`` or ``affine gaussian R=362``."""
-    if config.weight == "idw":
-        parameter = f"a={config.alpha:g}" + (f" s={config.s:g}" if config.s != 1e-8 else "")
-    else:
-        parameter = f"R={config.radius:g}" if config.radius is not None else "R=diag"
-    extra = " interp" if config.interpolating else ""
-    return f"{config.transform} {config.weight} {parameter}{extra}"
+def _tier(row: dict) -> int:
+    """0: admissible; 1: only folds; 2: misses its targets."""
+    if row["admissible"]:
+        return 0
+    return 2 if row["handle_miss_max"] > MISS_LIMIT else 1
+
+
+def _score_group(rows: list[dict]) -> None:
+    """Each criterion's ranks per trial among ``rows``, and the weighted mean rank."""
+    if not rows:
+        return
+    trials = len(rows[0]["_trials"])
+    for criterion in CRITERIA:
+        values = np.array([[r["_trials"][t][criterion] for r in rows] for t in range(trials)])
+        values = np.where(np.isnan(values), np.inf, values)  # undefined counts as worst
+        ranks = rankdata(values, axis=1, method="average").mean(axis=0)
+        for row, rank in zip(rows, ranks, strict=True):
+            row[f"rank_{criterion}"] = float(rank)
+    for row in rows:
+        row["score"] = float(sum(w * row[f"rank_{c}"] for c, w in CRITERIA.items()))
+    means = np.array([[r[f"{c}_mean"] for c in CRITERIA] for r in rows])
+    for i, row in enumerate(rows):
+        beaten = np.all(means <= means[i], axis=1) & np.any(means < means[i], axis=1)
+        row["pareto"] = bool(row["admissible"] and not beaten.any())
 
 
 def _rank(rows: list[dict], rank_by: str) -> None:
-    best_mls = min(r["mls_mean"] for r in rows)
-    best_angle = min(r["angle_mean"] for r in rows)
+    groups: dict[int, list[dict]] = {}
     for row in rows:
-        mls = (
-            row["mls_mean"] / best_mls
-            if best_mls > 0
-            else (1.0 if row["mls_mean"] == 0 else math.inf)
-        )
-        angle = (
-            row["angle_mean"] / best_angle
-            if best_angle > 0
-            else (1.0 if row["angle_mean"] == 0 else math.inf)
-        )
-        row["combined"] = 0.5 * mls + 0.5 * angle
-    key = "combined" if rank_by == "combined" else f"{rank_by}_mean"
-    rows.sort(key=lambda r: (r[key], r["label"]))
+        groups.setdefault(_tier(row), []).append(row)
+    for group in groups.values():
+        _score_group(group)
+    key = "score" if rank_by == "rank" else f"{rank_by}_mean"
+    rows.sort(key=lambda r: (_tier(r), r[key], r["score"], r["label"]))
     for rank, row in enumerate(rows, 1):
         row["rank"] = rank
+        del row["_trials"]
+
+
+@dataclasses.dataclass(frozen=True)
+class _Job:
+    """One configuration's trials, as sent to a worker."""
+
+    config: MLSConfig
+    handles: HandleSet
+    shape: tuple[int, int]
+    reference: np.ndarray
+    edits: list
+    known: list
+    grid: int
+    angle: str
+
+
+def _run_job(job: _Job, ctx: GLContext | None = None) -> list[dict] | str:
+    """The trials' measures, or why the configuration cannot be built."""
+    try:
+        return measure_config(
+            job.config,
+            job.handles,
+            job.shape,
+            job.reference,
+            job.edits,
+            job.known,
+            grid=job.grid,
+            angle=job.angle,
+            ctx=ctx,
+        )
+    except DegenerateHandlesError as error:
+        return str(error)
+
+
+def _check_magnitudes(magnitudes: object) -> tuple[float, ...]:
+    try:
+        values = tuple(float(m) for m in magnitudes)  # type: ignore[attr-defined]
+    except (TypeError, ValueError):
+        raise ValueError(f"magnitudes must be numbers, got {magnitudes!r}") from None
+    if not values or not all(math.isfinite(v) and 0 <= v <= 1 for v in values):
+        raise ValueError(
+            f"magnitudes must be fractions of the diagonal in [0, 1], got {magnitudes!r}"
+        )
+    return values
 
 
 def tune(
@@ -243,60 +295,80 @@ def tune(
     *,
     src_segments: object = None,
     dst_segments: object = None,
-    trials: int = 5,
+    trials: int = 6,
     seed: int = 0,
     configs: Sequence[MLSConfig] | None = None,
     grid: int = 4,
-    jitter: float | None = None,
-    rank_by: str = "combined",
+    magnitudes: Sequence[float] = MAGNITUDES,
+    angle: str = "degrees",
+    rank_by: str = "rank",
+    jobs: int = 1,
+    scheduler: str | None = None,
     ctx: GLContext | None = None,
     on_step: Callable[[], None] | None = None,
 ) -> TuneResult:
-    """Rank configurations for an image of ``shape`` by random deformations around the
-    handles: points ``src`` -> ``dst`` and segments ``src_segments`` -> ``dst_segments``
-    ((S, 2, 2), as for :class:`~glmls.MLS`; see the module docstring). ``grid``: the error
-    field's mesh step (pixels)."""
+    """Rank configurations for an image of ``shape`` and the handles: points ``src`` ->
+    ``dst`` and segments ``src_segments`` -> ``dst_segments`` ((S, 2, 2), as for
+    :class:`~glmls.MLS`), over ``trials`` trials (the user's edit and ``trials - 1`` edits of
+    it, see the module docstring), measuring the triangles of ``reference_points``.
+
+    ``grid``: the error field's mesh step (pixels); ``magnitudes``: the drags of the edits
+    as fractions of the diagonal; ``angle``: the angular measure (``triangle_errors``);
+    ``rank_by``: ``"rank"`` or one of :data:`CRITERIA`. ``jobs`` worker processes, or a Dask
+    ``scheduler`` (``"local"`` or an address), share the configurations
+    (:func:`glmls.analysis.jobs.run_jobs`); ``ctx`` serves the work done in this process.
+    ``on_step`` is called once per configuration and trial."""
     shape = as_shape(shape)
     if rank_by not in MEASURES:
         raise ValueError(f"unknown measure {rank_by!r}; choose one of {', '.join(MEASURES)}")
+    if angle not in ANGLE_MEASURES:
+        raise ValueError(f"angle must be one of {', '.join(ANGLE_MEASURES)}, got {angle!r}")
     if isinstance(trials, bool) or not isinstance(trials, int) or trials < 1:
         raise ValueError(f"trials must be an integer >= 1, got {trials!r}")
+    if isinstance(grid, bool) or not isinstance(grid, int) or grid < 1:
+        raise ValueError(f"grid must be an integer >= 1, got {grid!r}")
+    magnitudes = _check_magnitudes(magnitudes)
     configs = list(configs) if configs is not None else search_space(shape)
     if not configs:
         raise ValueError("no configurations to compare")
-    handles = HandleSet.validate(src, dst, src_segments, dst_segments)
-    reference = np.asarray(reference_points, dtype=float)
-    if jitter is None:
-        jitter = default_jitter(handles.source_points(), handles.target_points(), shape)
-    jitter = float(jitter)
-    if not (math.isfinite(jitter) and jitter >= 0):
-        raise ValueError(f"jitter must be a finite number >= 0, got {jitter}")
-    targets = random_handle_targets(handles, trials, seed=seed, jitter=jitter)
-    rows, skipped = [], []
     for config in configs:
+        if not isinstance(config, MLSConfig):
+            raise TypeError(f"configs must be MLSConfig values, got {config!r}")
+    handles = HandleSet.validate(src, dst, src_segments, dst_segments)
+    reference = check_reference_points(reference_points)
+    edits = random_edits(handles, trials, seed=seed, shape=shape, magnitudes=magnitudes)
+    known = known_deformations(handles, trials, seed=seed, shape=shape, magnitudes=magnitudes)
+    work = [_Job(c, handles, shape, reference, edits, known, grid, angle) for c in configs]
+
+    def advance(_index: int, _result: object) -> None:
+        for _ in range(trials):
+            if on_step is not None:
+                on_step()
+
+    if jobs == 1 and scheduler is None:
         results = []
-        for target, segment_target in targets:
-            try:
-                with MLS.from_config(
-                    handles.src,
-                    target,
-                    config,
-                    shape=shape,
-                    ctx=ctx,
-                    src_segments=handles.src_segments,
-                    dst_segments=segment_target,
-                ) as m:
-                    results.append(_measure(m, shape, reference, grid))
-            except DegenerateHandlesError as error:
-                skipped.append({"config": dataclasses.asdict(config), "reason": str(error)})
-                break
-            finally:
-                if on_step is not None:
-                    on_step()
-        if len(results) == trials:
-            rows.append(_summarise(config, results))
+        for job in work:
+            results.append(_run_job(job, ctx))
+            advance(0, None)
+    else:
+        results = run_jobs(_run_job, work, jobs=jobs, scheduler=scheduler, on_result=advance)
+    rows, skipped = [], []
+    for config, result in zip(configs, results, strict=True):
+        if isinstance(result, str):
+            skipped.append({"config": dataclasses.asdict(config), "reason": result})
+        else:
+            rows.append(_summarise(config, result))
     if not rows:
         raise ValueError("no configuration could be evaluated: " + skipped[0]["reason"])
     _rank(rows, rank_by)
-    settings = {"trials": trials, "seed": seed, "grid": grid, "jitter_px": jitter}
+    settings = {
+        "trials": trials,
+        "seed": seed,
+        "grid": grid,
+        "magnitudes": list(magnitudes),
+        "angle": angle,
+        "criteria": dict(CRITERIA),
+        "miss_limit_px": MISS_LIMIT,
+        "diagonal_px": image_diagonal(shape),
+    }
     return TuneResult(rows, skipped, rank_by, settings)

@@ -72,7 +72,7 @@ BINDINGS: tuple[tuple[tuple[str, ...], str, str], ...] = (
     (("h",), "overlay_handles", "overlay: handles (p -> q arrows, segments)"),
     (("m",), "overlay_mesh", "overlay: deformed mesh wireframe"),
     (("e",), "overlay_error", "overlay: MLS error field (eq. 7)"),
-    (("a",), "overlay_angle", "overlay: triangle angular error (eq. 11)"),
+    (("a",), "overlay_angle", "overlay: triangle angular error (degrees)"),
     (("f",), "overlay_folds", "overlay: fold-overs"),
     (("d",), "segment_mode", "segment mode on / off: a drag on empty space draws one"),
     (("p",), "reference_mode", "reference-point mode on / off"),

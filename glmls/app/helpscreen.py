@@ -63,7 +63,7 @@ HELP: tuple[tuple[str, tuple[tuple[str, str, tuple[str, ...]], ...]], ...] = (
         ("h", "handles", ("overlay_handles",)),
         ("m", "deformed mesh", ("overlay_mesh",)),
         ("e", "error field (eq. 7)", ("overlay_error",)),
-        ("a", "angle error (eq. 11)", ("overlay_angle",)),
+        ("a", "angle error (degrees)", ("overlay_angle",)),
         ("f", "fold-overs", ("overlay_folds",)),
     )),
     ("Files", (

@@ -150,7 +150,7 @@ class Session:
         result.geometry += [(fill, moderngl.TRIANGLES), (edges, moderngl.LINES)]
         angle, distance = error_stats(tri.angle), error_stats(tri.distance)
         return [
-            f"angle err (eq.11): mean {number(angle['mean'])} std {number(angle['std'])}",
+            f"angle err (deg): median {number(angle['median'])} mean {number(angle['mean'])}",
             f"  max {number(angle['max'])}  distance mean {number(distance['mean'])}",
             f"  {len(tri.simplices)} triangles, {int(tri.flipped.sum())} flipped",
         ]

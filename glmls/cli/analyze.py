@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ..analysis.report import report
+from ..analysis.triangles import ANGLE_MEASURES
 from .inputs import (
     add_example_inputs,
     example_or_files,
@@ -27,6 +28,12 @@ examples:
 
 def configure(parser: argparse.ArgumentParser) -> None:
     add_example_inputs(parser, reference_required=False)
+    parser.add_argument(
+        "--angle",
+        choices=ANGLE_MEASURES,
+        default="degrees",
+        help="angular error: degrees (mean change of the corner angles) or paper (eq. 11)",
+    )
     add_config_options(parser)
     add_warp_options(parser)
 
@@ -44,6 +51,7 @@ def run(args: argparse.Namespace) -> int:
                 m,
                 reference,
                 grid=args.analysis_grid,
+                angle=args.angle,
                 method=args.method,
                 interpolation=args.interpolation,
                 warp_grid=args.grid,
@@ -58,11 +66,31 @@ def run(args: argparse.Namespace) -> int:
     paths = result.save(args.out)
     for path in paths:
         print(path)
-    field, angle = result.summary["error_field"], result.summary["triangles"]["angle"]
+    summary = result.summary
+    field, angle = summary["error_field"], summary["triangles"]["angle"]
+    unit = " deg" if args.angle == "degrees" else ""
+    # the median and the trimmed mean first: one near-degenerate triangle moves the mean
     say(
         args,
-        f"analyze: E_MLS mean {field['mean']:.4g} px^2 (std {field['std']:.4g}); "
-        f"angular error mean {angle['mean']:.4g}; "
-        f"fold-overs {result.summary['foldovers']['cells']} cells",
+        f"analyze: E_MLS median {_number(field['median'])} px^2, trimmed mean "
+        f"{_number(field['trimmed_mean'])}, mean {_number(field['mean'])} "
+        f"(std {_number(field['std'])})",
     )
+    say(
+        args,
+        f"analyze: angular error ({args.angle}) median {_number(angle['median'])}{unit}, "
+        f"trimmed mean {_number(angle['trimmed_mean'])}, mean {_number(angle['mean'])}; "
+        f"fold-overs {summary['foldovers']['cells']} cells",
+    )
+    if "construction" in summary:
+        built = summary["construction"]
+        say(
+            args,
+            f"analyze: construction error (0-1) median {_number(built['median'])}, "
+            f"trimmed mean {_number(built['trimmed_mean'])}, mean {_number(built['mean'])}",
+        )
     return 0
+
+
+def _number(value: float | None) -> str:
+    return "n/a" if value is None else f"{value:.4g}"

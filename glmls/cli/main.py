@@ -1,5 +1,6 @@
-"""The ``glmls`` command line: ``warp``, ``analyze``, ``tune``, ``demo`` and ``bench``, each a
-module of this package with ``HELP``, ``EXAMPLES``, ``configure(parser)`` and ``run(args)``.
+"""The ``glmls`` command line: ``warp``, ``analyze``, ``tune``, ``study``, ``demo`` and
+``bench``, each a module of this package with ``HELP``, ``EXAMPLES``, ``configure(parser)`` and
+``run(args)``.
 
 Exit status: 0 on success, 2 for usage and input errors (bad options, malformed files), 1 for
 failures while running (no OpenGL, an unreadable image...). Messages and progress go to
@@ -15,14 +16,21 @@ from collections.abc import Sequence
 
 from ..errors import GLUnavailableError, InputFileError
 from ..version import __version__
-from . import analyze, bench, demo, tune, warp
+from . import analyze, bench, demo, study, tune, warp
 from .options import HelpFormatter, UsageError
 
 __all__ = ["EXIT_FAILURE", "EXIT_USAGE", "build_parser", "main"]
 
 EXIT_USAGE = 2
 EXIT_FAILURE = 1
-COMMANDS = {"warp": warp, "analyze": analyze, "tune": tune, "demo": demo, "bench": bench}
+COMMANDS = {
+    "warp": warp,
+    "analyze": analyze,
+    "tune": tune,
+    "study": study,
+    "demo": demo,
+    "bench": bench,
+}
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -18,14 +19,17 @@ __all__ = [
     "HelpFormatter",
     "UsageError",
     "add_config_options",
+    "add_jobs_options",
     "add_max_pixels",
     "add_warp_options",
     "config_from_args",
     "fit_background",
     "handle_warnings",
+    "nonnegative_int",
     "parse_background",
     "positive_float",
     "positive_int",
+    "text_table",
 ]
 
 #: Fields of MLSConfig whose values are names.
@@ -54,13 +58,30 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
 
 def positive_int(text: str) -> int:
     """An integer >= 1."""
+    return _int_at_least(text, 1)
+
+
+def nonnegative_int(text: str) -> int:
+    """An integer >= 0."""
+    return _int_at_least(text, 0)
+
+
+def _int_at_least(text: str, low: int) -> int:
     try:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {value}")
+    if value < low:
+        raise argparse.ArgumentTypeError(f"expected an integer >= {low}, got {value}")
     return value
+
+
+def text_table(heads: Sequence[str], cells: Sequence[Sequence[str]]) -> str:
+    """Columns of text, left-aligned, two spaces apart, without trailing blanks."""
+    widths = [max(len(h), *(len(c[i]) for c in cells)) for i, h in enumerate(heads)]
+    lines = ["  ".join(h.ljust(w) for h, w in zip(heads, widths, strict=True))]
+    lines += ["  ".join(c.ljust(w) for c, w in zip(row, widths, strict=True)) for row in cells]
+    return "\n".join(line.rstrip() for line in lines)
 
 
 def positive_float(text: str) -> float:
@@ -104,8 +125,10 @@ def add_warp_options(parser: argparse.ArgumentParser, *, grid: int = 1) -> None:
         "--method",
         choices=METHODS,
         default="quads",
-        help="quads: forward with polygon interpolation; splat: simple forward; backward: "
-        "f's inverse; backward-swap: the swapped-handles shortcut, for comparison",
+        help="quads: forward with polygon interpolation (the mesh of pixel-square corners); "
+        "splat: simple forward; backward: f's inverse; backward-swap: the swapped-handles "
+        "shortcut, for comparison; paper-quads: the paper's pseudo-code exactly (squares of "
+        "adjacent pixel centres, nearest vertex; --grid 1 only)",
     )
     group.add_argument(
         "--interpolation",
@@ -198,3 +221,23 @@ def parse_background(text: str) -> float | tuple[float, ...]:
     if not 1 <= len(values) <= 4:
         raise argparse.ArgumentTypeError(f"expected 1 to 4 values, got {len(values)}")
     return values[0] if len(values) == 1 else values
+
+
+def add_jobs_options(parser: argparse.ArgumentParser) -> None:
+    """--jobs and --scheduler (:func:`glmls.analysis.jobs.run_jobs`)."""
+    group = parser.add_argument_group("parallel work")
+    group.add_argument(
+        "--jobs",
+        type=positive_int,
+        default=1,
+        metavar="N",
+        help="worker processes, each with its own GL context; with --scheduler local, the "
+        "local Dask cluster's workers",
+    )
+    group.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="a Dask cluster: 'local' (one made on this machine with --jobs workers) or an "
+        "existing scheduler's address (tcp://host:8786); needs pip install "
+        "'glmls[distributed]' (default: no Dask)",
+    )

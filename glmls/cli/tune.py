@@ -8,13 +8,17 @@ import io
 import json
 from pathlib import Path
 
+from ..analysis.jobs import DistributedUnavailableError
 from ..analysis.report import report
+from ..analysis.triangles import ANGLE_MEASURES
 from ..analysis.tune import MEASURES, label, parse_config, search_space, tune
+from ..analysis.tune_trials import MAGNITUDES
 from ..core.config import MLSConfig
 from ..files.atomic import atomic_write
 from .inputs import add_example_inputs, example_or_files, make_mls, say, warn_about_handles
-from .options import UsageError, positive_int
+from .options import UsageError, add_jobs_options, positive_int, text_table
 from .progress import Progress
+from .tune_construction import configure_construction, run_construction
 
 HELP = "choose the best configuration automatically"
 EXAMPLES = """
@@ -22,21 +26,37 @@ examples:
   glmls tune --example --out out/tune --trials 3
   glmls tune photo.png --handles h.json --reference r.json --out tune/ \\
       --configs 'rigid:*' 'similarity:gaussian:radius=300' --rank-by angle
+  glmls tune --example --out out/tune --jobs 2
+  glmls tune --example --out out/tune --configs rigid:idw:alpha=1 --construction
 """
+
+
+def _magnitudes(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not 0 <= value <= 1:
+        raise argparse.ArgumentTypeError(f"a fraction of the diagonal in [0, 1], got {text}")
+    return value
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
     add_example_inputs(parser, reference_required=True)
     parser.add_argument(
-        "--trials", type=positive_int, default=5, help="random deformations per configuration"
+        "--trials",
+        type=positive_int,
+        default=6,
+        help="trials per configuration: the user's edit, then edits of it",
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the random deformations")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the random edits")
     parser.add_argument(
-        "--jitter",
-        type=float,
-        default=None,
-        help="random target displacement (pixels, std per axis); default: a quarter of the "
-        "median handle displacement, at least 1%% of the diagonal",
+        "--magnitudes",
+        type=_magnitudes,
+        nargs="+",
+        default=list(MAGNITUDES),
+        metavar="F",
+        help="drags of the random edits, as fractions of the image diagonal (taken in turn)",
     )
     parser.add_argument(
         "--configs",
@@ -47,41 +67,66 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--rank-by",
         choices=MEASURES,
-        default="combined",
-        help="combined: mls and angle, each relative to the best; or one measure alone",
+        default="rank",
+        help="rank: the weighted rank over the criteria (angle first); or one criterion",
     )
+    parser.add_argument(
+        "--angle",
+        choices=ANGLE_MEASURES,
+        default="degrees",
+        help="angular error: degrees (mean change of the corner angles) or paper (eq. 11)",
+    )
+    parser.add_argument(
+        "--construction",
+        action="store_true",
+        help="also rank the constructions (quads, splat, backward...) of the winner by the "
+        "construction error at the reference points (construction.json/csv)",
+    )
+    configure_construction(parser)
+    add_jobs_options(parser)
 
 
 _TABLE_COLUMNS = (
     ("rank", "rank", "{:d}"),
     ("configuration", "label", "{}"),
-    ("score", "combined", "{:.3f}"),
+    ("score", "score", "{:.2f}"),
+    ("angle", "angle_mean", "{:.3g}"),
+    ("smooth", "smoothness_mean", "{:.3g}"),
+    ("predict px", "predictive_mean", "{:.3g}"),
     ("E_MLS px^2", "mls_mean", "{:.4g}"),
-    ("+-", "mls_spread", "{:.2g}"),
-    ("angle err", "angle_mean", "{:.4g}"),
-    ("+-", "angle_spread", "{:.2g}"),
-    ("dist err", "distance_mean", "{:.4g}"),
-    ("miss px", "handle_miss_mean", "{:.3g}"),
+    ("dist err", "distance_mean", "{:.3g}"),
+    ("miss px", "handle_miss_max", "{:.2g}"),
+    ("pareto", "pareto", "{}"),
+    ("set apart because", "set_apart", "{}"),
 )
 
 
+def _cell(row: dict, key: str, fmt: str) -> str:
+    value = row[key]
+    if key == "set_apart":
+        return "; ".join(value) if value else "-"
+    if key == "pareto":
+        return "*" if value else ""
+    return fmt.format(value)
+
+
 def ranking_table(rows: list[dict]) -> str:
-    cells = [[fmt.format(row[key]) for _, key, fmt in _TABLE_COLUMNS] for row in rows]
-    heads = [head for head, _, _ in _TABLE_COLUMNS]
-    widths = [max(len(h), *(len(c[i]) for c in cells)) for i, h in enumerate(heads)]
-    lines = ["  ".join(h.ljust(w) for h, w in zip(heads, widths, strict=True))]
-    lines += ["  ".join(c.ljust(w) for c, w in zip(row, widths, strict=True)) for row in cells]
-    return "\n".join(lines)
+    """The ranking as text: best first, the criteria's means, and why a configuration was
+    set apart."""
+    cells = [[_cell(row, key, fmt) for _, key, fmt in _TABLE_COLUMNS] for row in rows]
+    return text_table([head for head, _, _ in _TABLE_COLUMNS], cells)
 
 
 def _csv_text(rows: list[dict]) -> str:
-    keys = [k for k in rows[0] if k != "config"]
+    keys = sorted({k for row in rows for k in row} - {"config"}, key=list(rows[0]).index)
     config_keys = list(rows[0]["config"])
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(config_keys + keys)
     for row in rows:
-        writer.writerow([row["config"][k] for k in config_keys] + [row[k] for k in keys])
+        cells = [row[k] for k in keys]
+        cells = ["; ".join(c) if isinstance(c, list) else c for c in cells]
+        writer.writerow([row["config"][k] for k in config_keys] + cells)
     return buffer.getvalue()
 
 
@@ -112,11 +157,14 @@ def run(args: argparse.Namespace) -> int:
                 seed=args.seed,
                 configs=configs,
                 grid=args.analysis_grid,
-                jitter=args.jitter,
+                magnitudes=args.magnitudes,
+                angle=args.angle,
                 rank_by=args.rank_by,
+                jobs=args.jobs,
+                scheduler=args.scheduler,
                 on_step=bar.advance,
             )
-        except ValueError as error:
+        except (ValueError, DistributedUnavailableError) as error:
             raise UsageError(str(error)) from None
     out = Path(args.out)
     document = {
@@ -133,9 +181,15 @@ def run(args: argparse.Namespace) -> int:
     print(ranking_table(result.rows))
     for skip in result.skipped:
         say(args, f"tune: skipped {label(MLSConfig(**skip['config']))}: {skip['reason']}")
+    best = result.rows[0]
+    if not best["admissible"]:
+        say(args, "tune: no configuration meets every property; the best is set apart: "
+            + "; ".join(best["set_apart"]))  # fmt: skip
     with make_mls(handles, result.best, shape) as m:
         winner = report(image, m, reference, grid=args.analysis_grid, cmap=args.cmap)
     winner.summary["input"] = name
     winner.save(out / "winner")
-    say(args, f"tune: best by {result.rank_by}: {result.rows[0]['label']}; wrote {out}")
+    say(args, f"tune: best by {result.rank_by}: {best['label']}; wrote {out}")
+    if args.construction:
+        return run_construction(args, image, handles, reference, name, result.best)
     return 0

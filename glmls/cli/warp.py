@@ -3,9 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import dataclasses
+import io
 import os
+import sys
 from pathlib import Path
 
+from ..analysis.jobs import check_jobs, check_scheduler, run_jobs
+from ..core.config import MLSConfig
+from ..core.handleset import HandleSet
 from ..files.images import check_writable
 from ..files.landmarks import read_handle_set
 from .inputs import (
@@ -20,6 +27,7 @@ from .inputs import (
 from .options import (
     UsageError,
     add_config_options,
+    add_jobs_options,
     add_max_pixels,
     add_warp_options,
     config_from_args,
@@ -36,6 +44,8 @@ examples:
   glmls warp photo.png out.png --handles handles.json --border edge
   glmls warp photo.png whole.png --handles handles.json --fit
   glmls warp photo.png out.png --handles lines.csv    # points, segments and polylines
+  glmls warp frames/ warped/ --handles h.json --jobs 4                # 4 worker processes
+  glmls warp frames/ warped/ --handles h.json --scheduler tcp://head:8786   # a Dask cluster
 """
 
 
@@ -65,6 +75,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="with many images: skip one that fails, say why, and exit 1 at the end",
     )
     add_max_pixels(parser)
+    add_jobs_options(parser)
     add_config_options(parser)
     add_warp_options(parser)
 
@@ -85,54 +96,129 @@ def targets(output: str, files: list[Path], many: bool) -> list[Path]:
     return paths
 
 
+@dataclasses.dataclass(frozen=True)
+class WarpTask:
+    """One image of ``glmls warp``, as sent to a worker process (picklable)."""
+
+    source: Path
+    target: Path
+    handles: HandleSet
+    config: MLSConfig
+    options: dict
+    background: object
+    fit: bool
+    many: bool
+    max_pixels: int
+    quiet: bool
+    capture: bool  # in a worker: give back what it says on stderr, for the caller to print
+
+
+@dataclasses.dataclass(frozen=True)
+class WarpOutcome:
+    """What became of one image: its shape (for the handle warnings), the error that
+    skipped it (``None``: written), lines to say (unless ``--quiet``) and stderr's text."""
+
+    target: Path
+    shape: tuple[int, ...] | None
+    error: str | None
+    notes: tuple[str, ...] = ()
+    stderr: str = ""
+
+
+def warp_file(task: WarpTask) -> WarpOutcome:
+    """Read, warp and write one image (in this process or a worker's); a mistake in the
+    input is an outcome with ``error``, not an exception, so that ``--keep-going`` decides."""
+    if not task.capture:
+        return _warp_file(task)
+    buffer = io.StringIO()
+    with contextlib.redirect_stderr(buffer):
+        outcome = _warp_file(task)
+    return dataclasses.replace(outcome, stderr=buffer.getvalue())
+
+
+def _warp_file(task: WarpTask) -> WarpOutcome:
+    shape, notes = None, []
+    try:
+        image = read_image(task.source, task.max_pixels)
+        shape = image.shape
+        channels = 1 if image.ndim == 2 else image.shape[2]
+        try:
+            check_writable(task.target, image.dtype, channels)
+        except ValueError as error:
+            raise UsageError(str(error)) from None
+        options = {**task.options, "background": fit_background(task.background, channels)}
+        with make_mls(task.handles, task.config, image.shape) as m:
+            ticker = Ticker(f"warp {task.source}", quiet=task.quiet or task.many)
+            with ticker, reported_warnings(f"glmls warp: {task.source}"):
+                try:
+                    if task.fit:
+                        bounds = m.bounds(image.shape, grid=options["grid"])
+                        options["output_shape"] = bounds.output_shape
+                        options["origin"] = bounds.origin
+                    result = m.warp(image, **options)
+                    if task.fit and not task.many:
+                        (h, w), (x0, y0) = bounds.output_shape, bounds.origin
+                        notes.append(f"warp: {w} x {h} pixels from ({x0:g}, {y0:g})")
+                except (TypeError, ValueError) as error:
+                    raise UsageError(f"{task.source}: {error}") from None
+        write_image(task.target, result)
+    except UsageError as error:
+        return WarpOutcome(task.target, shape, str(error), tuple(notes))
+    return WarpOutcome(task.target, shape, None, tuple(notes))
+
+
 def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
+    try:
+        jobs, scheduler = check_jobs(args.jobs), check_scheduler(args.scheduler)
+    except (ImportError, TypeError, ValueError) as error:
+        raise UsageError(str(error)) from None
     handles = read_handle_set(args.handles)
     files, many = image_inputs(args.input)
     outputs = targets(args.output, files, many)
+    options = {
+        "method": args.method,
+        "interpolation": args.interpolation,
+        "grid": args.grid,
+        "border": args.border,
+    }
+    capture = jobs > 1 or scheduler is not None
+    tasks = [
+        WarpTask(
+            source,
+            target,
+            handles,
+            config,
+            options,
+            background=args.background,
+            fit=args.fit,
+            many=many,
+            max_pixels=args.max_pixels,
+            quiet=args.quiet,
+            capture=capture,
+        )
+        for source, target in zip(files, outputs, strict=True)
+    ]
     failed, warned = [], set()
     with Progress(len(files), "warp", quiet=args.quiet or not many) as bar:
-        for source, target in zip(files, outputs, strict=True):
-            try:
-                image = read_image(source, args.max_pixels)
-                channels = 1 if image.ndim == 2 else image.shape[2]
-                try:
-                    check_writable(target, image.dtype, channels)
-                except ValueError as error:
-                    raise UsageError(str(error)) from None
-                if image.shape[:2] not in warned:
-                    warn_about_handles(args, handles, image.shape)
-                    warned.add(image.shape[:2])
-                options = {
-                    "method": args.method,
-                    "interpolation": args.interpolation,
-                    "grid": args.grid,
-                    "background": fit_background(args.background, channels),
-                    "border": args.border,
-                }
-                with make_mls(handles, config, image.shape) as m:
-                    ticker = Ticker(f"warp {source}", quiet=args.quiet or many)
-                    with ticker, reported_warnings(f"glmls warp: {source}"):
-                        try:
-                            if args.fit:
-                                bounds = m.bounds(image.shape, grid=args.grid)
-                                options["output_shape"] = bounds.output_shape
-                                options["origin"] = bounds.origin
-                            result = m.warp(image, **options)
-                            if args.fit and not many:
-                                (h, w), (x0, y0) = bounds.output_shape, bounds.origin
-                                say(args, f"warp: {w} x {h} pixels from ({x0:g}, {y0:g})")
-                        except (TypeError, ValueError) as error:
-                            raise UsageError(f"{source}: {error}") from None
-                write_image(target, result)
-            except UsageError as error:
-                if not args.keep_going:
-                    raise
-                failed.append(source)
-                say(args, f"glmls warp: skipped {error}")
+
+        def finished(index: int, outcome: WarpOutcome) -> None:
+            sys.stderr.write(outcome.stderr)
+            if outcome.shape is not None and outcome.shape[:2] not in warned:
+                warn_about_handles(args, handles, outcome.shape)
+                warned.add(outcome.shape[:2])
+            for note in outcome.notes:
+                say(args, note)
+            if outcome.error is not None:
+                if not args.keep_going:  # stops the batch: the items not started never start
+                    raise UsageError(outcome.error)
+                failed.append(files[index])
+                say(args, f"glmls warp: skipped {outcome.error}")
             else:
-                print(target)
+                print(outcome.target, flush=True)
             bar.advance()
+
+        run_jobs(warp_file, tasks, jobs=jobs, scheduler=scheduler, on_result=finished)
     if failed:
         say(args, f"glmls warp: {len(failed)} of {len(files)} images failed")
         return 1

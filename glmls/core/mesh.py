@@ -195,11 +195,12 @@ class MeshLattice:
             rows = max(2, min(rows, band_bytes // (24 * max(nx - 1, 1)) + 1))
         return rows
 
-    def bands(self, rows_per_band: int) -> Iterator[tuple[int, int]]:
+    def bands(self, rows_per_band: int, *, overlap: int | None = None) -> Iterator[tuple[int, int]]:
         """(first row, rows) of each band of at most ``rows_per_band`` rows, in order; bands
-        of cells overlap by one row (:attr:`band_overlap`)."""
+        of cells overlap by one row (:attr:`band_overlap`), or by ``overlap`` rows where given
+        (the squares of pixel centres of ``paper-quads`` need both their rows too)."""
         ny = self.dims[1]
-        overlap = self.band_overlap
+        overlap = self.band_overlap if overlap is None else overlap
         first = 0
         while True:
             rows = min(rows_per_band, ny - first)

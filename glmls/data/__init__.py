@@ -1,13 +1,29 @@
 """Bundled examples: public-domain photographs (a portrait with handles and reference points;
-a launch pad's straight towers for segment handles)."""
+a launch pad's straight towers for segment handles), and the study set: six photographs (faces,
+objects, text), each with handles for a realistic edit and reference points
+(:func:`study_set`, :func:`study_manifest`; README.md names the sources and licences)."""
 
 from __future__ import annotations
 
 import json
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 from PIL import Image
+
+from .manifest import StudyItem, read_manifest
+
+__all__ = [
+    "StudyItem",
+    "astronaut",
+    "astronaut_handles",
+    "astronaut_reference_points",
+    "read_manifest",
+    "rocket",
+    "study_manifest",
+    "study_set",
+]
 
 
 def _path(name: str):
@@ -37,3 +53,16 @@ def astronaut_reference_points() -> np.ndarray:
     """Reference points for the triangle errors, (K, 2) float64."""
     data = json.loads(_path("astronaut_reference.json").read_text(encoding="utf-8"))
     return np.asarray(data["points"], dtype=float)
+
+
+def study_manifest() -> Path:
+    """The bundled study set's manifest (``study.json``, see :mod:`glmls.data.manifest`)."""
+    return Path(str(_path("study.json")))
+
+
+def study_set() -> list[StudyItem]:
+    """The bundled study set: astronaut (a face), chelsea (a cat's face), coffee (a cup),
+    camera (a tripod), text (handwriting on ruled lines) and rocket (segment handles), each a
+    :class:`StudyItem` with its handles and reference points; ``item.image()`` reads the
+    photograph."""
+    return read_manifest(study_manifest())

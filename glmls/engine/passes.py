@@ -59,11 +59,13 @@ def _evaluate_points(kernel, points, with_matrix, shape, max_groups):
         scratch.buffer("M", count * 16).bind_to_storage_buffer(bindings.MATRICES.index)
     run_1d(program, count, max_groups=max_groups)
     kernel.gl.mgl.memory_barrier()  # the shader's writes before the read
-    f = np.frombuffer(f_out.read(size=count * 8), np.float32).reshape(count, 2)
+    d = np.frombuffer(f_out.read(size=count * 8), np.float32).reshape(count, 2)
+    # f = v + (f - v): v keeps its float64 digits, and f is v itself where d is exactly 0
+    f = points + d.astype(np.float64) * kernel.scaling.scale
     if not with_matrix:
-        return kernel.scaling.from_gpu(f), None
+        return f, None
     m = np.frombuffer(scratch.cached("M").read(size=count * 16), np.float32)
-    return kernel.scaling.from_gpu(f), m.astype(np.float64).reshape(count, 2, 2)
+    return f, m.astype(np.float64).reshape(count, 2, 2)
 
 
 def evaluate_lattice(
@@ -90,14 +92,23 @@ def evaluate_lattice(
 
 
 def lattice_bands(
-    kernel: MLSKernel, lattice: MeshLattice, target: moderngl.Buffer, rows_per_band: int
+    kernel: MLSKernel,
+    lattice: MeshLattice,
+    target: moderngl.Buffer,
+    rows_per_band: int,
+    *,
+    overlap: int | None = None,
+    reverse: bool = False,
 ) -> Iterator[tuple[int, tuple[int, int]]]:
     """Evaluate f on ``lattice`` band by band into ``target`` (large enough for
     ``rows_per_band`` rows); yields (first row, (points per row, rows)) once each band is in
-    the buffer. Bands of cells overlap by a row, computed identically in both."""
+    the buffer. Bands of cells overlap by a row (or ``overlap``, see
+    :meth:`MeshLattice.bands`), computed identically in both; ``reverse``: the last band
+    first."""
     mgl = kernel.gl.mgl
     nx = lattice.dims[0]
-    for first, rows in lattice.bands(rows_per_band):
+    bands = list(lattice.bands(rows_per_band, overlap=overlap))
+    for first, rows in reversed(bands) if reverse else bands:
         # Draws issued before may still read the buffer (llvmpipe shades fragments later, at
         # a flush): order them before it is overwritten.
         mgl.memory_barrier()

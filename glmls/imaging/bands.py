@@ -1,5 +1,5 @@
-"""f on the corner lattice of an image, evaluated band by band into the pipeline's mesh buffer
-(a buffer that stays on the GPU: the image passes read it there)."""
+"""f on the lattice of an image, evaluated band by band into the pipeline's mesh buffer (a
+buffer that stays on the GPU: the image passes read it there)."""
 
 from __future__ import annotations
 
@@ -38,11 +38,20 @@ class MeshBands:
         return self._resources.cached("mesh")
 
     def __call__(
-        self, kernel: MLSKernel, lattice: MeshLattice, *, indexed: bool = False
+        self,
+        kernel: MLSKernel,
+        lattice: MeshLattice,
+        *,
+        indexed: bool = False,
+        reverse: bool = False,
+        squares: bool = False,
     ) -> Iterator[tuple[int, tuple[int, int]]]:
         """Evaluate f on ``lattice`` band by band; yields (first row, (points per row, rows))
-        with each band in :attr:`buffer`."""
+        with each band in :attr:`buffer`. ``reverse``: the last band first (the rasterizer
+        draws the cells in reverse scan order). ``squares``: consecutive bands share a row
+        even for the pixel centres (the squares of ``paper-quads`` need both their rows);
+        cells of the corner lattice always do."""
         rows = self.rows_per_band(lattice, indexed=indexed)
-        nx = lattice.dims[0]
-        buffer = self._resources.buffer("mesh", min(lattice.count, rows * nx) * 8)
-        yield from lattice_bands(kernel, lattice, buffer, rows)
+        buffer = self._resources.buffer("mesh", min(lattice.count, rows * lattice.dims[0]) * 8)
+        overlap = 1 if squares else None
+        yield from lattice_bands(kernel, lattice, buffer, rows, overlap=overlap, reverse=reverse)

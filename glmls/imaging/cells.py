@@ -4,9 +4,10 @@
 grid 1). It needs a viewport of the output canvas's size; other viewports, and keys too long for
 31 bits, take the rasterizer (:mod:`glmls.imaging.raster`).
 
-Fold-overs: each covered pixel keeps the key (cell row, cell column, triangle) of the top
-triangle with atomicMax, so the result does not depend on the order the invocations run in and
-is the one draw call in row-major cell order would give (later triangles on top).
+Fold-overs: each covered pixel keeps, with atomicMax, the key 2^31 - (cell row, cell column,
+triangle) of the FIRST triangle in row-major cell order that covers it, so the result does not
+depend on the order the invocations run in and is the paper's rule (a marked pixel keeps its
+colour), the one the GL rasterizer gets by drawing the cells in reverse order.
 
 Three ways to fill the pixels, fastest first:
 
@@ -47,9 +48,10 @@ def key_layout(lattice: MeshLattice, *, source_pixel: bool) -> tuple[int, int, i
     """Bit layout of ``warp/cells.comp.glsl``'s triangle keys, (sub bits, column shift, row
     shift), or None where a key would not fit in 31 bits (the rasterizer draws those meshes).
 
-    A key is cell row, cell column, triangle and, with ``source_pixel``, the chosen source
-    pixel's column and row inside the cell (``sub bits`` each), most significant first: keys
-    order triangles as one draw call in row-major cell order would (later ones on top).
+    A key is 2^31 minus the bit fields cell row, cell column, triangle and, with
+    ``source_pixel``, the chosen source pixel's column and row inside the cell (``sub bits``
+    each), most significant first: the largest key is the first triangle in row-major cell
+    order, the one shown where cells fold.
     """
     columns, rows = lattice.cells
     sub_bits = (lattice.grid - 1).bit_length() if source_pixel else 0

@@ -74,8 +74,15 @@ class DeformedImages:
         mesh past the image, as far as the canvas needs (derived from f, see
         :func:`glmls.imaging.frame.border_margin`), so no canvas pixel keeps the background.
 
-        Fold-overs: where deformed quads overlap, the cell with the larger source row (then
-        column) is drawn last and shows; ``splat`` and ``backward`` follow the same order.
+        ``"paper-quads"``: the paper's pseudo-code exactly (squares of four adjacent pixel
+        centres, each pixel inside a deformed square coloured by its nearest vertex; ``grid``
+        must be 1; ``"linear"`` blends the square's four vertices bilinearly);
+        see ``docs/warp.md`` for how it differs from ``"quads"``.
+
+        Fold-overs: where deformed quads overlap, the first cell in row-major scan order of
+        the source (smaller row, then column) shows, as the paper's marked pixels keep their
+        colour; ``paper-quads`` (its squares), ``splat`` (its pixels) and ``backward`` (its
+        first guess) follow the same order.
         """
         return self._pipeline().warp(
             self,

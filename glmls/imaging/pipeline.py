@@ -8,13 +8,17 @@ size and reused. Stages never read back in between:
 1. ``mls/points.comp.glsl`` writes f at the mesh vertices into a buffer (:mod:`.bands`);
 2. ``quads``: the compute scan conversion (:mod:`.cells`) where the viewport has the image's
    size, else the GL rasterizer (:mod:`.raster`), which also draws ``splat``;
+   ``paper-quads``: the paper's squares of pixel centres, scanned in a compute shader
+   (:mod:`.paper`);
 3. ``backward``: the quads' source points as a first guess of f's inverse, refined by
    Newton's method (:mod:`.inverse`), then ``warp/backward.frag.glsl`` samples the source.
 
 :meth:`WarpPipeline.render` draws into any framebuffer (a window's, without read-back);
 :meth:`WarpPipeline.warp` and :meth:`WarpPipeline.coordinate_map` are the numpy front ends.
-Fold-overs: where deformed quads overlap, the cell with the larger source row (then column)
-is on top, in every method (see :mod:`.cells`).
+Fold-overs: where deformed quads overlap, the FIRST cell in row-major scan order of the
+source (smaller row, then column) shows, as a pixel the paper marks keeps its colour: in every
+path of ``quads`` (see :mod:`.cells` and :mod:`.raster`), in ``paper-quads`` (its squares),
+``splat`` (its pixels) and ``backward`` (whose first guess is the quads').
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ from .cells import CellScan
 from .frame import Bounds, Frame, border_margin, deformed_bounds, make_frame
 from .inverse import InverseSolver
 from .options import PipelineOptions
+from .paper import PaperQuads
 from .raster import MeshRaster
 from .source import (
     BORDERS,
@@ -93,6 +98,7 @@ class WarpPipeline:
         self._bands = MeshBands(self._resources, self.options)
         self.cells = CellScan(self._gl, self._resources, self.options, self._bands)
         self.raster = MeshRaster(self._gl, self._resources, self._bands)
+        self.paper = PaperQuads(self._gl, self._resources, self._bands)
         self._inverse = InverseSolver(
             self._gl, self._resources, self.options, self.cells, self.raster
         )
@@ -167,8 +173,9 @@ class WarpPipeline:
         The caller clears the framebuffer to the background first. The output is ``frame``
         (default: the source's size and place, see :func:`~glmls.imaging.frame.make_frame`);
         ``quads`` and ``splat`` scale it to any viewport, ``backward`` needs a viewport of
-        its size. ``border``: one of :data:`~glmls.imaging.source.BORDERS`. ``flip_y`` for a
-        window, whose row 0 is at the bottom. The bound framebuffer is left as found.
+        its size, and so does ``paper-quads`` (``ValueError`` otherwise). ``border``: one
+        of :data:`~glmls.imaging.source.BORDERS`. ``flip_y`` for a window, whose row 0 is at
+        the bottom. The bound framebuffer is left as found.
         """
         self._resources.check_alive()
         check_options(method, interpolation, grid, border)
@@ -183,6 +190,19 @@ class WarpPipeline:
         width, height = source.size
         shape = (height, width)
         kernel = mls.kernel
+        if how.method == "paper-quads":
+            if tuple(framebuffer.viewport) != (0, 0, *frame.size):
+                raise ValueError(
+                    f"method 'paper-quads' needs a viewport of the output's size {frame.size}, "
+                    f"got {tuple(framebuffer.viewport)}"
+                )
+            # the centres one pixel past the corners' margin: their deformed border then
+            # encloses what the corners' does (a border mode covers the whole canvas)
+            margin = self._lattice(kernel, shape, 1, how.border, frame).margin
+            lattice = MeshLattice.centres(shape, margin=margin + 1 if how.border else 0)
+            fill = {"linear": how.linear, "flip_y": how.flip_y, "border": how.border}
+            self.paper.draw(kernel, source, lattice, frame, framebuffer, **fill)
+            return
         if how.method in ("quads", "splat"):
             framebuffer.use()
             splat = how.method == "splat"

@@ -3,9 +3,12 @@
 canvas's size (a window scaling the image) and of meshes whose keys are too long for the
 compute scan, and one point per pixel for the simple forward method.
 
-Fold-overs: the cells are drawn in one draw call per band in row-major order of their source
-cells, and OpenGL writes later primitives over earlier ones, so where deformed quads overlap
-the cell with the larger source row (then column) is on top, as with the compute scan.
+Fold-overs: OpenGL writes later primitives over earlier ones, so the cells are drawn in
+reverse row-major order of their source cells (the last band first, one draw call per band,
+each cell's triangle 1 before its triangle 0): where deformed quads overlap, the FIRST cell in
+scan order (smaller source row, then column) is drawn last and shows, as with the compute scan
+and the paper's marking of pixels. The points of ``splat`` likewise: the first source pixel in
+scan order shows. Exact at any size (no depth buffer and its precision).
 """
 
 from __future__ import annotations
@@ -81,26 +84,29 @@ class MeshRaster:
         if splat:
             mgl.point_size = 1.0
         first_band = min(self._bands.rows_per_band(lattice, indexed=True), lattice.dims[1])
-        for first, dims in self._bands(kernel, lattice, indexed=not splat):
+        most = (lattice.dims[0] - 1) * (first_band - 1)  # cells of the largest band
+        for first, dims in self._bands(kernel, lattice, indexed=not splat, reverse=True):
             set_uniforms(program, {"u_mesh_dims": dims, "u_first_row": first})
             self._bands.buffer.bind_to_storage_buffer(bindings.DEFORMED.index)
-            if splat:
+            if splat:  # the vertex shader takes the points in reverse order
                 vao = self._resources.vertex_array(program)
                 vao.render(moderngl.POINTS, vertices=dims[0] * dims[1])
             else:
-                # the first band has the most rows: later ones draw a prefix of its indices
+                # The first band has the most rows: its indices, in reverse, end with those
+                # of any band with fewer rows, which draws that suffix.
                 index = self._index_buffer(dims[0], first_band)
                 cells = (dims[0] - 1) * (dims[1] - 1)
                 vao = self._resources.vertex_array(program, index)
-                vao.render(moderngl.TRIANGLES, vertices=6 * cells)
+                vao.render(moderngl.TRIANGLES, vertices=6 * cells, first=6 * (most - cells))
 
     def _index_buffer(self, nx: int, rows: int) -> moderngl.Buffer:
-        """Triangles (00, 10, 11), (00, 11, 01) of each cell of a band of ``rows`` rows of
-        ``nx`` vertices, row-major."""
+        """Triangles (00, 11, 01), (00, 10, 11) of each cell of a band of ``rows`` rows of
+        ``nx`` vertices, in reverse row-major order (the first cell last: it shows)."""
 
         def indices() -> bytes:
             i = np.arange(nx * rows, dtype=np.uint32).reshape(rows, nx)
             a, b, c, d = i[:-1, :-1], i[:-1, 1:], i[1:, 1:], i[1:, :-1]
-            return np.stack([a, b, c, a, c, d], axis=-1).tobytes()
+            cells = np.stack([a, c, d, a, b, c], axis=-1).reshape(-1, 6)
+            return np.ascontiguousarray(cells[::-1]).tobytes()
 
         return self._resources.keyed_buffer("index", (nx, rows), indices)

@@ -28,7 +28,7 @@ __all__ = [
 ]
 
 #: How the deformed image is built (see :meth:`glmls.MLS.warp`).
-METHODS = ("quads", "splat", "backward", "backward-swap")
+METHODS = ("quads", "splat", "backward", "backward-swap", "paper-quads")
 INTERPOLATIONS = ("nearest", "linear")
 #: What lies beyond the source image, with numpy.pad's (and scikit-image's) meanings:
 #: ``constant`` the background; ``edge`` the edge pixel repeated; ``symmetric`` mirrored with
@@ -142,7 +142,13 @@ def check_options(
     ):
         if not isinstance(value, str) or value not in choices:
             raise ValueError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")
-    check_grid(grid)
+    if check_grid(grid) != 1 and method == "paper-quads":
+        # the paper's squares are of adjacent pixels: a coarser lattice would colour pixels
+        # with a vertex up to grid / 2 pixels away (a mosaic), which the paper never does
+        raise ValueError(
+            f"method 'paper-quads' fills the paper's squares of adjacent pixel centres: "
+            f"grid must be 1, got {grid!r} (method 'quads' takes a coarser mesh)"
+        )
 
 
 def as_rgba8(data: np.ndarray) -> np.ndarray:

@@ -48,7 +48,7 @@ def test_summary_and_pictures(gl, rng, tmp_path):
     shape = (48, 60)
     image = rng.integers(0, 256, (*shape, 3), dtype=np.uint8)
     with glmls.MLS(SRC, DST, transform="similarity", ctx=gl) as m:
-        result = glmls.report(image, m, REFERENCE, grid=1, out_dir=tmp_path)
+        result = glmls.report(image, m, REFERENCE, grid=1, angle="paper", out_dir=tmp_path)
         deformed = m.warp(image)
         folds = glmls.foldovers(m, shape).count
     summary = json.loads((tmp_path / "report.json").read_text())
@@ -93,8 +93,12 @@ def test_summary_and_pictures(gl, rng, tmp_path):
         "triangulation",
         "triangle_angle",
         "triangle_angle_colorbar",
+        "construction_errors",
+        "construction_errors_colorbar",
     }
     assert set(result.images) == expected
+    assert summary["analysis"]["angle"] == "paper"
+    assert summary["construction"]["count"] + summary["construction"]["nan_count"] == len(REFERENCE)
     for name, picture in result.images.items():
         assert picture.dtype == np.uint8 and picture.ndim == 3
         saved = np.asarray(Image.open(tmp_path / f"{name}.png"))

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import glmls
-from glmls.analysis import tune
+from glmls.analysis import tune, tune_trials
 from glmls.core.handleset import HandleSet
 from glmls.core.segments import polyline_segments
 
@@ -67,28 +67,22 @@ def test_report_lists_and_draws_segments(gl, rng, tmp_path):
     assert (drawn != plain).any(axis=-1).sum() > 50  # the segments are in the picture
 
 
-def test_random_deformations_drag_segment_ends():
-    points = HandleSet.validate(SRC, DST)
+def test_random_edits_drag_segment_ends():
     handles = HandleSet.validate(SRC, DST, A, B)
-    trials = tune.random_handle_targets(handles, 3, seed=4, jitter=2.0)
-    again = tune.random_handle_targets(handles, 3, seed=4, jitter=2.0)
+    shape = (48, 60)
+    trials = tune_trials.random_edits(handles, 6, seed=4, shape=shape)
+    again = tune_trials.random_edits(handles, 6, seed=4, shape=shape)
+    # trial 0: the user's own edit
+    np.testing.assert_array_equal(trials[0][0], DST)
+    np.testing.assert_array_equal(trials[0][1], B)
+    moved_ends = 0
     for (dst, segments), (dst2, segments2) in zip(trials, again, strict=True):
         np.testing.assert_array_equal(dst, dst2)
         np.testing.assert_array_equal(segments, segments2)
         assert dst.shape == (2, 2) and segments.shape == (3, 2, 2)
-        np.testing.assert_array_equal(dst[1], DST[1])  # q = p: pinned
-        np.testing.assert_array_equal(segments[0, 0], B[0, 0])  # a pinned segment end
-        np.testing.assert_array_equal(segments[2, 1], B[2, 1])
-        moved = segments[0, 1] - B[0, 1], segments[1, 0] - B[1, 0], segments[1, 1] - B[1, 1]
-        assert all((m != 0).all() for m in moved)
-        assert (moved[1] != moved[2]).all()  # the ends of a segment move independently
         np.testing.assert_array_equal(segments[1, 1], segments[2, 0])  # the polyline stays joined
-    # points alone: the targets of random_targets, as before segments existed
-    alone = tune.random_handle_targets(points, 2, seed=4, jitter=2.0)
-    old = tune.random_targets(SRC, DST, 2, seed=4, jitter=2.0)
-    for (dst, segments), expected in zip(alone, old, strict=True):
-        np.testing.assert_array_equal(dst, expected)
-        assert segments.shape == (0, 2, 2)
+        moved_ends += int((segments != B).any(axis=-1).sum())
+    assert moved_ends > 0  # segment ends are dragged too
 
 
 def test_tune_with_segments_counts_their_ends_in_the_miss(gl):
@@ -103,20 +97,21 @@ def test_tune_with_segments_counts_their_ends_in_the_miss(gl):
         dst_segments=B,
         trials=2,
         seed=3,
-        jitter=1.5,
         configs=configs,
         ctx=gl,
     )
     handles = HandleSet.validate(SRC, DST, A, B)
     misses = []
-    for dst, segments in tune.random_handle_targets(handles, 2, seed=3, jitter=1.5):
+    for dst, segments in tune_trials.random_edits(handles, 2, seed=3, shape=shape):
         with glmls.MLS.from_config(
             SRC, dst, configs[0], shape=shape, src_segments=A, dst_segments=segments, ctx=gl
         ) as m:
             f = m(handles.source_points())
         q = np.concatenate([dst, segments.reshape(-1, 2)])
         misses.append(np.hypot(*(f - q).T).mean())
-    assert result.rows[0]["handle_miss_mean"] == pytest.approx(np.mean(misses), rel=1e-6)
-    assert result.rows[0]["handle_miss_mean"] > 0  # a gaussian does not interpolate
+    row = result.rows[0]
+    assert row["handle_miss_mean"] == pytest.approx(np.mean(misses), rel=1e-6)
+    assert row["handle_miss_mean"] > 0  # a gaussian does not interpolate
+    assert not row["admissible"] and "misses its targets" in row["set_apart"][0]
     with pytest.raises(ValueError, match="src_segments needs dst_segments"):
         tune.tune(shape, SRC, DST, REFERENCE, src_segments=A, configs=configs, ctx=gl)

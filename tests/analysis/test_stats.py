@@ -67,3 +67,16 @@ def test_property_matches_numpy(values):
         assert_allclose(stats["std"], np.std(finite), rtol=1e-9, atol=1e-6)
         assert stats["min"] <= stats["mean"] + 1e-6 and stats["mean"] <= stats["max"] + 1e-6
         assert 0.0 <= stats["within"][0] <= stats["within"][1] <= stats["within"][2] <= 1.0
+
+
+def test_median_and_trimmed_mean_against_scipy(rng):
+    from scipy import stats as scipy_stats
+
+    values = rng.gamma(2.0, 3.0, 97)
+    values[5] = 1e9  # one wild value: the mean follows it, the headline does not
+    result = glmls.error_stats(np.append(values, np.nan))
+    assert result["median"] == np.median(values)
+    assert_allclose(result["trimmed_mean"], scipy_stats.trim_mean(values, 0.1), rtol=1e-12)
+    assert result["trimmed_mean"] < 20 < result["mean"]
+    assert glmls.error_stats([np.nan])["median"] is None
+    assert glmls.error_stats([3.0])["trimmed_mean"] == 3.0

@@ -46,7 +46,8 @@ def test_matches_formulas_with_a_float64_deformation(gl, rng, transform):
     def f(points):
         return reference.mls(p, q, points, config, shape=SHAPE)[0]
 
-    errors = glmls.triangle_errors(f, r, eps=1e-6)
+    errors = glmls.triangle_errors(f, r, eps=1e-6, angle="paper")
+    assert errors.angle_measure == "paper"
     assert_allclose(errors.deformed_points, f(r), rtol=0, atol=0)
     distance, angle = formula_errors(r, f(r), errors.simplices, 1e-6)
     assert_allclose(errors.distance, distance, rtol=1e-12)
@@ -59,7 +60,7 @@ def test_gpu_deformation_matches_float64(gl, rng, transform):
     p, q = random_handles(rng, 10, size=512.0, displacement=40.0)
     r = rng.uniform(0, 512, (40, 2))
     with glmls.MLS(p, q, transform=transform, shape=SHAPE, ctx=gl) as m:
-        errors = glmls.triangle_errors(m, r)
+        errors = glmls.triangle_errors(m, r, angle="paper")
     f_r = reference.mls(p, q, r, m.config, shape=SHAPE)[0]
     assert_allclose(errors.deformed_points, f_r, rtol=0, atol=0.01)
     distance, angle = formula_errors(r, f_r, errors.simplices, 1e-6)
@@ -76,7 +77,10 @@ def test_uniform_scale_has_no_angular_error(gl, rng, transform, factor):
     r = rng.uniform(0, 512, (30, 2))
     eps = 1e-6
     with glmls.MLS(p, factor * p + 3.0, transform=transform, ctx=gl) as m:
-        errors = glmls.triangle_errors(m, r, eps=eps)
+        errors = glmls.triangle_errors(m, r, eps=eps, angle="paper")
+        degrees = glmls.triangle_errors(m, r)
+    assert degrees.angle_measure == "degrees"
+    assert degrees.angle.max() < 1e-3  # float32 noise only
     assert_allclose(errors.distance, abs(factor - 1), rtol=0, atol=1e-5)
     # unchanged cosines leave eps / (|cos a| + eps) per corner, plus float32 noise
     assert errors.angle.max() < 1e-3
@@ -128,3 +132,76 @@ def test_results_are_read_only(rng):
     errors = glmls.triangle_errors(lambda v: 2 * v, rng.uniform(0, 9, (6, 2)))
     with pytest.raises(ValueError, match="read-only"):
         errors.angle[0] = 1.0
+
+
+def corner_degrees(points, tri, k):
+    i, j, h = tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]
+    u, v = points[j] - points[i], points[h] - points[i]
+    return math.degrees(math.acos(float(u @ v) / (math.hypot(*u) * math.hypot(*v))))
+
+
+def test_degrees_measure_against_the_formula(rng):
+    r = rng.uniform(0, 300, (30, 2))
+    p, q = random_handles(rng, 8, size=300.0, displacement=30.0)
+
+    def f(points):
+        return reference.mls(p, q, points, glmls.MLSConfig(transform="affine"))[0]
+
+    errors = glmls.triangle_errors(f, r)
+    fr = f(r)
+    expected = [
+        np.mean([abs(corner_degrees(r, t, k) - corner_degrees(fr, t, k)) for k in range(3)])
+        for t in errors.simplices
+    ]
+    assert_allclose(errors.angle, expected, rtol=1e-9, atol=1e-9)
+    assert errors.angle.max() <= 180.0
+
+
+@pytest.mark.parametrize(
+    "similarity",
+    [
+        lambda v: 0.5 * v,
+        lambda v: v @ np.array([[0.6, 0.8], [-0.8, 0.6]]) * 3.0 + [7.0, -2.0],
+        lambda v: v * [-2.0, 2.0],  # a mirror: angles kept, flipped reported apart
+    ],
+)
+def test_similarities_have_no_angular_error(similarity):
+    # a square grid: right angles everywhere, where eq. (11) as printed scores 1, not 0
+    square = np.stack(np.meshgrid(np.arange(5.0), np.arange(5.0)), -1).reshape(-1, 2) * 20
+    errors = glmls.triangle_errors(similarity, square)
+    assert_allclose(errors.angle, 0.0, atol=1e-9)
+    paper = glmls.triangle_errors(similarity, square, angle="paper")
+    assert paper.angle.max() > 0.3  # the singularity the default avoids
+
+
+def test_degrees_are_comparable_across_angles():
+    # the same 1-degree turn of one edge: eq. (11) differs by orders of magnitude between
+    # a right and a sharp corner, the default does not
+    def turned(corner_angle):
+        a = math.radians(corner_angle)
+        b = math.radians(corner_angle + 1.0)
+        r = np.array([[0.0, 0.0], [100.0, 0.0], [100 * math.cos(a), 100 * math.sin(a)]])
+        out = r.copy()
+        out[2] = [100 * math.cos(b), 100 * math.sin(b)]
+        return r, out
+
+    degrees, paper = [], []
+    for corner in (90.0, 30.0):
+        r, out = turned(corner)
+        mapping = {tuple(a): b for a, b in zip(r, out, strict=True)}
+
+        def f(v, mapping=mapping):
+            return np.array([mapping[tuple(x)] for x in v])
+
+        degrees.append(glmls.triangle_errors(f, r).angle[0])
+        paper.append(glmls.triangle_errors(f, r, angle="paper").angle[0])
+    # corner 0 turns by 1 degree, the other two share -1 degree: mean |change| 2/3 degree
+    assert_allclose(degrees, 2 / 3, rtol=1e-9)
+    assert paper[0] / paper[1] > 100
+
+
+def test_bad_angle_measure():
+    r = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
+    for angle in ("cosine", None, 1):
+        with pytest.raises(ValueError, match="angle must be one of"):
+            glmls.triangle_errors(lambda v: v, r, angle=angle)

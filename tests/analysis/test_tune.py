@@ -1,12 +1,18 @@
-"""The automatic choice of configuration: search space, specs, random deformations, ranking."""
+"""The automatic choice of configuration: search space, specs, user-like edits, the properties
+that set configurations apart, and a ranking that a global fit or a spike cannot win."""
 
 from __future__ import annotations
+
+import json
+import math
 
 import numpy as np
 import pytest
 
-from glmls.analysis import tune
+import glmls
+from glmls.analysis import tune, tune_trials
 from glmls.core.config import MLSConfig
+from glmls.core.handleset import HandleSet
 
 SRC = np.array([[4.0, 4.0], [36.0, 6.0], [20.0, 30.0], [6.0, 26.0]])
 DST = SRC + [[2.0, 1.0], [-2.0, 2.0], [4.0, -2.0], [0.0, 0.0]]
@@ -18,6 +24,10 @@ def test_default_search_space():
     assert len(configs) == 42  # 3 transforms x (idw: 2 alphas + 4 radius weights x 3 radii)
     radii = {c.radius for c in configs if c.radius is not None}
     assert radii == {12.5, 25.0, 50.0}  # the diagonal (50) among them
+    # weights finite at d = 0 enter through their interpolating variant
+    assert all(c.infinite_at_zero or c.weight == "idw" for c in configs)
+    assert {c.interpolating for c in configs if c.weight == "gaussian"} == {True}
+    assert {c.interpolating for c in configs if c.weight in ("idw", "shepard")} == {False}
 
 
 def test_config_specs():
@@ -37,12 +47,49 @@ def test_config_specs():
             tune.parse_config(spec, (30, 40))
 
 
-def test_random_targets_are_seeded_and_keep_pinned_handles():
-    a = tune.random_targets(SRC, DST, 3, seed=5, jitter=2.0)
-    b = tune.random_targets(SRC, DST, 3, seed=5, jitter=2.0)
-    assert all((x == y).all() for x, y in zip(a, b, strict=True))
-    assert all((t[3] == DST[3]).all() for t in a)  # q = p: pinned
-    assert not (a[0][:3] == DST[:3]).any()
+def test_random_edits_are_user_like():
+    handles = HandleSet.validate(SRC, DST)
+    shape = (300, 400)
+    edits = tune_trials.random_edits(handles, 7, seed=5, shape=shape)
+    again = tune_trials.random_edits(handles, 7, seed=5, shape=shape)
+    assert all((a[0] == b[0]).all() for a, b in zip(edits, again, strict=True))
+    np.testing.assert_array_equal(edits[0][0], DST)  # trial 0 is the user's own edit
+    diagonal = math.hypot(*shape)
+    for trial, (dst, _) in enumerate(edits[1:]):
+        drag = np.hypot(*(dst - DST).T)
+        moved = drag > 0
+        assert 1 <= moved.sum() <= 3  # 1 to 3 handles dragged, the others stay
+        expected = tune_trials.MAGNITUDES[trial % len(tune_trials.MAGNITUDES)] * diagonal
+        np.testing.assert_allclose(drag[moved], expected, rtol=1e-12)
+    other = tune_trials.random_edits(handles, 7, seed=6, shape=shape)
+    assert any((a[0] != b[0]).any() for a, b in zip(edits, other, strict=True))
+
+
+def test_known_deformations_are_smooth_and_seeded():
+    handles = HandleSet.validate(SRC, DST)
+    known = tune_trials.known_deformations(handles, 3, seed=2, shape=(30, 40))
+    for dst, segments, params in known:
+        assert segments.shape == (0, 2, 2)
+        np.testing.assert_allclose(dst, tune_trials.apply_known(params, SRC, 50.0))
+        np.testing.assert_allclose(np.hypot(*params[:, :2].T), 1.0)
+
+
+def test_rows_keep_every_statistic_and_a_reason(gl):
+    configs = tune.parse_config("rigid:idw", (32, 40)) + tune.parse_config(
+        "rigid:gaussian:radius=1000", (32, 40)
+    )
+    result = tune.tune((32, 40), SRC, DST, REFERENCE, trials=3, configs=configs, ctx=gl)
+    for row in result.rows:
+        for key in tune.STATISTICS:
+            assert key in row or f"{key}_mean" in row, key
+        assert {"config", "label", "rank", "score", "admissible", "set_apart", "pareto"} <= set(row)
+        assert row["admissible"] == (not row["set_apart"])
+        json.dumps(row)
+    # a gaussian does not reach its targets: set apart, with the reason, after the others
+    assert result.rows[-1]["label"] == "rigid gaussian R=1000"
+    assert "misses its targets" in result.rows[-1]["set_apart"][0]
+    assert [row["rank"] for row in result.rows] == [1, 2, 3]
+    assert result.best == MLSConfig(**result.rows[0]["config"])
 
 
 def test_ranking_by_each_measure(gl):
@@ -50,11 +97,73 @@ def test_ranking_by_each_measure(gl):
     for measure in tune.MEASURES:
         result = tune.tune((32, 40), SRC, DST, REFERENCE, trials=2, configs=configs,
                            rank_by=measure, ctx=gl)  # fmt: skip
-        key = "combined" if measure == "combined" else f"{measure}_mean"
-        values = [row[key] for row in result.rows]
-        assert values == sorted(values)
-        assert result.best == MLSConfig(**result.rows[0]["config"])
-    assert min(row["combined"] for row in result.rows) >= 1.0
+        key = "score" if measure == "rank" else f"{measure}_mean"
+        admissible = [row[key] for row in result.rows if row["admissible"]]
+        assert admissible == sorted(admissible)
+        assert result.rows[: len(admissible)] == [r for r in result.rows if r["admissible"]]
+
+
+def test_scores_are_ranks_not_ratios(gl):
+    """Adding an exact configuration does not blow the other scores up: scores stay mean
+    ranks, between 1 and the number of configurations."""
+    configs = tune.parse_config("*:idw", (32, 40))
+    result = tune.tune((32, 40), SRC, DST, REFERENCE, trials=2, configs=configs, ctx=gl)
+    for row in result.rows:
+        assert 1.0 <= row["score"] <= len(configs)
+        for criterion in tune.CRITERIA:
+            assert 1.0 <= row[f"rank_{criterion}"] <= len(configs)
+
+
+@pytest.fixture(scope="module")
+def example_ranking(gl):
+    image = glmls.data.astronaut()
+    src, dst = glmls.data.astronaut_handles()
+    shape = image.shape[:2]
+    specs = (
+        "similarity:gaussian:radius=100000",  # a global fit: changes no angle, moves no target
+        "rigid:idw:alpha=0.05",  # a spike: targets reached, the image does not follow
+        "rigid:idw:alpha=1",
+        "similarity:idw:alpha=1",
+        "rigid:gaussian:radius=362,interpolating=true",
+    )
+    configs = [c for spec in specs for c in tune.parse_config(spec, shape)]
+    result = tune.tune(
+        shape, src, dst, glmls.data.astronaut_reference_points(), trials=4, configs=configs,
+        ctx=gl,
+    )  # fmt: skip
+    return result, src, dst, shape
+
+
+def test_global_fit_and_spike_cannot_win(example_ranking):
+    result, *_ = example_ranking
+    by_label = {row["label"]: row for row in result.rows}
+    spike = by_label["rigid idw a=0.05"]
+    global_fit = by_label["similarity gaussian R=100000"]
+    assert result.rows[0]["label"] not in (spike["label"], global_fit["label"])
+    # the global fit has the smallest angular error of all, and is set apart for its misses
+    assert global_fit["angle_mean"] == min(row["angle_mean"] for row in result.rows)
+    assert not global_fit["admissible"] and global_fit["handle_miss_max"] > 5
+    # the spike hides between the reference points, not in the fans around the handles
+    assert spike["angle_mean"] < result.rows[0]["angle_mean"]
+    assert spike["smoothness_mean"] > 3 * result.rows[0]["smoothness_mean"]
+    assert not spike["admissible"] or spike["rank"] > 1
+
+
+def test_winner_reaches_the_targets_and_performs_the_edit(gl, example_ranking):
+    result, src, dst, shape = example_ranking
+    best = result.rows[0]
+    assert best["admissible"] and best["handle_miss_max"] <= tune.MISS_LIMIT
+    with glmls.MLS.from_config(src, dst, result.best, shape=shape, ctx=gl) as m:
+        np.testing.assert_allclose(m(src), dst, atol=0.5)
+
+
+def test_jobs_give_the_same_ranking(gl):
+    configs = tune.parse_config("rigid:idw", (32, 40))
+    one = tune.tune((32, 40), SRC, DST, REFERENCE, trials=2, configs=configs, ctx=gl)
+    two = tune.tune((32, 40), SRC, DST, REFERENCE, trials=2, configs=configs, jobs=2)
+    assert [r["label"] for r in one.rows] == [r["label"] for r in two.rows]
+    for a, b in zip(one.rows, two.rows, strict=True):
+        assert a["angle_mean"] == pytest.approx(b["angle_mean"], rel=1e-9)
 
 
 def test_affine_with_collinear_handles_is_skipped(gl):
@@ -70,3 +179,13 @@ def test_bad_arguments():
         tune.tune((30, 40), SRC, DST, REFERENCE, rank_by="speed")
     with pytest.raises(ValueError, match="trials must be"):
         tune.tune((30, 40), SRC, DST, REFERENCE, trials=0)
+    with pytest.raises(ValueError, match="angle must be"):
+        tune.tune((30, 40), SRC, DST, REFERENCE, angle="cosine")
+    with pytest.raises(ValueError, match="magnitudes"):
+        tune.tune((30, 40), SRC, DST, REFERENCE, magnitudes=[2.0])
+    with pytest.raises(ValueError, match="jobs"):
+        tune.tune((30, 40), SRC, DST, REFERENCE, jobs=0, configs=tune.search_space((30, 40))[:1])
+    with pytest.raises(TypeError, match="MLSConfig"):
+        tune.tune((30, 40), SRC, DST, REFERENCE, configs=["rigid:idw"])
+    with pytest.raises(ValueError, match="at least 3"):
+        tune.tune((30, 40), SRC, DST, REFERENCE[:2])

@@ -160,6 +160,10 @@ def compile_every_entry(gl):
         gl.compute("mls/points.comp.glsl", mls | extra | {"MLS_LATTICE": 0, "MLS_WRITE_MATRIX": 0})
     warp = {"WARP_LINEAR": 1, "WARP_OUTPUT_COORDS": 0}
     gl.program("warp/mesh.vert.glsl", "warp/mesh.frag.glsl", warp | {"WARP_SPLAT": 0})
+    gl.program("warp/mesh.vert.glsl", "warp/mesh.frag.glsl", warp | {"WARP_SPLAT": 1})
+    for stage in range(2):  # paper-quads: the marks, the source points (linear)
+        paper = {"WARP_PAPER_STAGE": stage, "PAPER_TOLERANCE": 1.0 / 256}
+        gl.compute("warp/paper_quads.comp.glsl", paper)
     gl.program("common/fullscreen.vert.glsl", "warp/cells.frag.glsl", warp)
     gl.program("common/fullscreen.vert.glsl", "draw/picture.frag.glsl")
     for border in range(5):  # glmls.imaging.source.BORDERS
@@ -167,6 +171,7 @@ def compile_every_entry(gl):
         gl.program("common/fullscreen.vert.glsl", "warp/backward.frag.glsl", linear)
         nearest = {"WARP_LINEAR": 0, "WARP_BORDER": border}
         gl.program("common/fullscreen.vert.glsl", "warp/cells_nearest.frag.glsl", nearest)
+        gl.program("common/fullscreen.vert.glsl", "warp/paper_quads.frag.glsl", nearest)
         cells = {"WARP_CELLS_SOURCE": 1, "WARP_CELLS_FUSED": 1, "WARP_BORDER": border}
         gl.compute("warp/cells.comp.glsl", cells | {"WARP_CELLS_FAST": 1})
         gl.compute("warp/cells_fixup.comp.glsl", {"WARP_FIXUP_ARGS": 0, "WARP_BORDER": border})

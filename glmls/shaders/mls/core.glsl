@@ -33,6 +33,7 @@ uniform bool u_snap_segments;   // the same for segment handles (glmls.core.segm
 
 struct MLSResult {
     vec2 f;   // f(v), scaled coordinates
+    vec2 d;   // f(v) - v, exactly 0 where every handle in reach stays (q = p)
     vec4 M;   // linear part, see above
 };
 
@@ -58,6 +59,7 @@ float mls_weight(float d2, float m, float inv_m, float sigma) {
 MLSResult mls_identity(vec2 v) {
     MLSResult r;
     r.f = v;
+    r.d = vec2(0.0);
     r.M = vec4(1.0, 0.0, 0.0, 1.0);
     return r;
 }
@@ -249,6 +251,9 @@ MLSResult mls_finish(MLSAccum a) {
     vec2 vp = v - pst;
     MLSResult r;
     r.M = N + vec4(1.0, 0.0, 0.0, 1.0);
-    r.f = v + est + vec2(vp.x * N.x + vp.y * N.z, vp.x * N.y + vp.y * N.w);
+    // The displacement on its own: added to v in float64 by the caller, the identity (e = 0,
+    // so est = 0 and N = 0 exactly) returns v itself, not v rounded to float32.
+    r.d = est + vec2(vp.x * N.x + vp.y * N.z, vp.x * N.y + vp.y * N.w);
+    r.f = v + r.d;
     return r;
 }

@@ -1,6 +1,7 @@
 // Evaluates f (and optionally M) at a list of points, or (MLS_LATTICE) at the points of a
 // lattice (mls/lattice.glsl) band by band: the band's first row is lattice row u_first_row,
-// and its points are written from index 0 (u_count of them, whole rows).
+// and its points are written from index 0 (u_count of them, whole rows). For a list of points
+// the output is the displacement f(v) - v (scaled), for a lattice f(v) itself.
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "mls/visit.glsl"
@@ -37,7 +38,11 @@ void main() {
     vec2 v = mls_points[i];
 #endif
     MLSResult r = mls_eval(v);
+#if MLS_LATTICE
     mls_out_f[i] = r.f;
+#else
+    mls_out_f[i] = r.d;   // f(v) - v: the caller adds v in float64
+#endif
 #if MLS_WRITE_MATRIX
     mls_out_m[i] = r.M;
 #endif

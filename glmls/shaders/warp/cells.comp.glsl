@@ -4,14 +4,16 @@
 //
 // One invocation per mesh cell: the cell's two triangles (00, 10, 11) and (00, 11, 01) are
 // tested at every pixel centre of their bounding box, and each covered pixel records the
-// triangle's key with atomicMax. A key is 1 + the bit fields, most significant first,
+// triangle's key with atomicMax. A key is 2^31 - the bit fields, most significant first,
 // cell row | cell column | triangle (0, 1) | [WARP_CELLS_SOURCE: the nearest source pixel's
 // row and column inside the cell, u_sub_bits each], at the shifts glmls.imaging.cells's
-// key_layout chose (31 bits at most). The largest key wins whatever order the
-// invocations run in, and keys are ordered as the triangles of one draw call in row-major
-// cell order, so this is OpenGL's rule (later primitives on top): where cells fold, the cell
-// with the larger source row, then column, shows. (Bit fields, not a row-major index, so
-// that the fills decode them without an integer division per pixel.)
+// key_layout chose (31 bits at most, so a key is never 0, "none"). The largest key, the
+// smallest bit fields, wins whatever order the invocations run in: where cells fold, the
+// FIRST cell in row-major scan order of the source (smaller row, then column; triangle 0
+// before 1) shows, the paper's rule (a pixel once marked keeps its colour), which the GL
+// rasterizer path gets by drawing the cells in reverse order (glmls.imaging.raster). (Bit
+// fields, not a row-major index, so that the fills decode them without an integer division
+// per pixel.)
 //
 // The fills: warp/cells.frag.glsl interpolates the winning triangle (linear, source points);
 // with WARP_CELLS_SOURCE (nearest) the key holds the source pixel and
@@ -44,7 +46,7 @@ layout(std430, binding = BIND_DEFORMED) readonly buffer WarpMesh {
     vec2 warp_mesh[];   // f at the mesh vertices, scaled coordinates
 };
 layout(std430, binding = BIND_WINNER) buffer WarpWinner {
-    uint warp_winner[];  // per target pixel, row-major: the top triangle's key, 0 = none
+    uint warp_winner[];  // per target pixel, row-major: the shown triangle's key, 0 = none
 };
 
 uniform ivec2 u_target_size;  // W, H in pixels
@@ -122,8 +124,9 @@ void main() {
     ivec2 first = max(ivec2(ceil(lo)), ivec2(0));
     ivec2 last = min(ivec2(floor(hi)), u_target_size - 1);
     int row = cy + u_first_row;
-    uint id0 = (uint(row) << u_row_shift | uint(cx) << u_col_shift) + 1u;   // triangle 0's key
-    uint id1 = id0 + (1u << (2 * u_sub_bits));
+    // 2^31 - the fields: the first triangle in scan order has the largest key
+    uint id0 = 0x80000000u - (uint(row) << u_row_shift | uint(cx) << u_col_shift);
+    uint id1 = id0 - (1u << (2 * u_sub_bits));   // triangle 1's key
 #if WARP_CELLS_SOURCE
     // the cell's source pixels and the inverse areas of its triangles (barycentrics)
     ivec2 cell_lo = ivec2(cx, row) * u_grid;
@@ -162,20 +165,20 @@ void main() {
 #if WARP_CELLS_SOURCE
             vec2 t = vec2(0.0);   // where in the cell's source rectangle, 0..1 (barycentric)
 #endif
-            // triangle 0: 00 -> 10 -> 11 -> 00
-            if (s0 != 0.0 && covers(s0 * e_a, s0 * (p10 - p00)) &&
-                covers(s0 * e_b, s0 * (p11 - p10)) && covers(-s0 * e_d, s0 * (p00 - p11))) {
-                id = id0;
-#if WARP_CELLS_SOURCE
-                t = vec2(1.0 - e_b * inv0, e_a * inv0);
-#endif
-            }
-            // triangle 1: 00 -> 11 -> 01 -> 00 (drawn after triangle 0: it wins)
+            // triangle 1: 00 -> 11 -> 01 -> 00 (tested first: triangle 0 comes first, it wins)
             if (s1 != 0.0 && covers(s1 * e_d, s1 * (p11 - p00)) &&
                 covers(-s1 * e_c, s1 * (p01 - p11)) && covers(-s1 * e_e, s1 * (p00 - p01))) {
                 id = id1;
 #if WARP_CELLS_SOURCE
                 t = vec2(-e_e * inv1, 1.0 + e_c * inv1);
+#endif
+            }
+            // triangle 0: 00 -> 10 -> 11 -> 00 (where the cell folds onto itself, it wins)
+            if (s0 != 0.0 && covers(s0 * e_a, s0 * (p10 - p00)) &&
+                covers(s0 * e_b, s0 * (p11 - p10)) && covers(-s0 * e_d, s0 * (p00 - p11))) {
+                id = id0;
+#if WARP_CELLS_SOURCE
+                t = vec2(1.0 - e_b * inv0, e_a * inv0);
 #endif
             }
             // Branch-free from here: llvmpipe runs buffer accesses under a divergent branch
@@ -184,7 +187,7 @@ void main() {
 #if WARP_CELLS_SOURCE
             // nearest: the source pixel containing the point, clamped to the cell
             ivec2 sp = clamp(ivec2(floor(s00 + t * size + 0.5)), cell_lo, cell_hi) - cell_lo;
-            id += id != 0u ? uint(sp.y << u_sub_bits | sp.x) : 0u;
+            id -= id != 0u ? uint(sp.y << u_sub_bits | sp.x) : 0u;
 #endif
             int i = y * u_target_size.x + x;
 #if !WARP_CELLS_FAST

@@ -1,4 +1,5 @@
-// Fills each target pixel from the triangle that warp/cells.comp.glsl found on top there:
+// Fills each target pixel from the triangle that warp/cells.comp.glsl found shown there
+// (the first in scan order):
 // the source point is that triangle's linear interpolation of its vertices' source points at
 // the pixel centre (what the rasterizer interpolates for warp/mesh.frag.glsl), then sampled
 // as there (nearest: clamped to the cell). Drawn as one full-viewport triangle; the viewport
@@ -35,7 +36,7 @@ void main() {
     if (id == 0u) {
         discard;
     }
-    uint key = id - 1u;   // cell row, cell column, triangle
+    uint key = 0x80000000u - id;   // cell row, cell column, triangle
     int triangle = int(key & 1u);
     uint columns = key & ((1u << u_row_shift) - 1u);
     ivec2 c = ivec2(columns >> u_col_shift, int(key >> u_row_shift) - u_first_row);   // in the band

@@ -1,8 +1,8 @@
 // After the fused scan conversion (warp/cells.comp.glsl, WARP_CELLS_FUSED): each pixel that
-// more than one triangle reached gets the colour of the one on top, decoded from its key
-// (cell row, cell column, triangle, source pixel in the cell). If more pixels were listed
-// than the list holds, every covered pixel is redone instead. Dispatched indirectly, with
-// the size WARP_FIXUP_ARGS wrote from the count, so nothing is read back.
+// more than one triangle reached gets the colour of the one shown (the first in scan order),
+// decoded from its key (cell row, cell column, triangle, source pixel in the cell). If more
+// pixels were listed than the list holds, every covered pixel is redone instead. Dispatched
+// indirectly, with the size WARP_FIXUP_ARGS wrote from the count, so nothing is read back.
 //
 layout(local_size_x = LOCAL_SIZE) in;
 
@@ -11,7 +11,7 @@ layout(local_size_x = LOCAL_SIZE) in;
 #include "common/lattice.glsl"
 
 layout(std430, binding = BIND_WINNER) readonly buffer WarpWinner {
-    uint warp_winner[];   // per target pixel, row-major: the top triangle's key, 0 = none
+    uint warp_winner[];   // per target pixel, row-major: the shown triangle's key, 0 = none
 };
 layout(std430, binding = BIND_FIXUP_DISPATCH) buffer WarpFixupDispatch {
     uvec4 warp_fixup_groups;   // x, y, z work groups of the fix-up dispatch

@@ -19,9 +19,10 @@ void main() {
 #elif WARP_SPLAT
     out_color = warp_fetch(v_source, v_pixel, v_pixel);
 #else
-    // The cell being drawn (two triangles each, in order): nearest sampling stays inside it.
-    int cell = gl_PrimitiveID / 2;
+    // The cell being drawn (two triangles each, in reverse order; see warp/mesh.vert.glsl):
+    // nearest sampling stays inside it.
     int cells_x = u_mesh_dims.x - 1;
+    int cell = cells_x * (u_mesh_dims.y - 1) - 1 - gl_PrimitiveID / 2;
     ivec2 first = ivec2(cell % cells_x, cell / cells_x + u_first_row) * u_grid;
     out_color = warp_fetch(v_source, first, min(first + u_grid - 1, u_lattice_size - 1));
 #endif

@@ -1,8 +1,10 @@
 // Draws the deformed mesh (quads) or the deformed pixel centres (splat). There are no vertex
 // attributes: gl_VertexID is the vertex's index in the band (quads: through the cached index
-// buffer, two triangles (00, 10, 11) and (00, 11, 01) per cell, cells in row-major source
-// order), and the deformed positions come from the buffer that mls/points.comp.glsl
-// (MLS_LATTICE) filled, so nothing goes back to the CPU in between.
+// buffer, two triangles (00, 11, 01) and (00, 10, 11) per cell, cells in reverse row-major
+// source order; splat: points in reverse order), and the deformed positions come from the
+// buffer that mls/points.comp.glsl (MLS_LATTICE) filled, so nothing goes back to the CPU in
+// between. Reverse order because later primitives are drawn over earlier ones: where the
+// map folds, the first source cell (pixel) in scan order shows (glmls.imaging.raster).
 //
 //   WARP_SPLAT  0: quads; 1: one point per source pixel (the paper's simple forward).
 //
@@ -29,7 +31,11 @@ flat out ivec2 v_pixel;
 #endif
 
 void main() {
+#if WARP_SPLAT
+    int i = u_mesh_dims.x * u_mesh_dims.y - 1 - gl_VertexID;
+#else
     int i = gl_VertexID;
+#endif
     ivec2 ij = ivec2(i % u_mesh_dims.x, i / u_mesh_dims.x + u_first_row);
 #if WARP_SPLAT
     v_pixel = ij;

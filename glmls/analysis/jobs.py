@@ -1,0 +1,174 @@
+"""Fanning work out over processes: ``run_jobs(function, items, jobs=N, scheduler=...)``.
+
+- ``jobs=1`` and no scheduler: one item after another, in this process.
+- ``jobs=N > 1``: N worker processes on this machine (:class:`ProcessPoolExecutor`), started
+  with ``spawn``: a GL driver does not survive ``fork()`` (see :mod:`glmls.gl.context`), so
+  each worker is a fresh interpreter that makes its own GL context on its first GL call.
+- ``scheduler="local"``: a Dask cluster of ``jobs`` worker processes on this machine, made
+  for the call and closed after it; ``scheduler="tcp://host:8786"``: the workers of an
+  existing Dask cluster (``jobs`` is then ignored: the cluster has its own workers), so that
+  thousands of items spread over many machines. Dask is the optional ``distributed`` extra:
+  ``pip install 'glmls[distributed]'``; its workers too start with ``spawn`` (Dask's
+  default), and they must have glmls installed.
+
+``function`` must be picklable (a module-level function) and so must the items and the
+results. Results come back in the order of ``items``; ``on_result(index, result)`` is called
+in the calling thread as each item finishes (in the order they finish), e.g. for a progress
+bar. An exception raised by ``function`` reaches the caller with the failing item's index in
+its message (``item 3: ...``), of the same type where it can be rebuilt from a message; the
+items not yet started are cancelled and the workers shut down.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import logging
+import multiprocessing
+from collections.abc import Callable, Iterable
+from typing import Any
+
+__all__ = ["DistributedUnavailableError", "check_jobs", "check_scheduler", "run_jobs"]
+
+INSTALL = "pip install 'glmls[distributed]'"
+
+
+class DistributedUnavailableError(ImportError):
+    """A Dask scheduler was asked for, but Dask's ``distributed`` is not installed."""
+
+
+def check_jobs(jobs: object) -> int:
+    """``jobs`` as an int >= 1; ``TypeError``/``ValueError`` naming the value otherwise."""
+    if isinstance(jobs, bool) or not isinstance(jobs, int):
+        raise TypeError(f"jobs must be an integer >= 1, got {jobs!r}")
+    if jobs < 1:
+        raise ValueError(f"jobs must be an integer >= 1, got {jobs!r}")
+    return jobs
+
+
+def check_scheduler(scheduler: object) -> str | None:
+    """``None``, ``"local"`` or a scheduler's address; for the two last, Dask must be
+    installed (:class:`DistributedUnavailableError` saying how otherwise)."""
+    if scheduler is None:
+        return None
+    if not isinstance(scheduler, str) or not scheduler.strip():
+        raise ValueError(
+            f"scheduler must be 'local' or a Dask scheduler's address, got {scheduler!r}"
+        )
+    try:
+        import distributed  # noqa: F401  (only checks that it is there)
+    except ImportError as error:
+        raise DistributedUnavailableError(
+            f"scheduler {scheduler!r} needs Dask's distributed package: {INSTALL}"
+        ) from error
+    return scheduler.strip()
+
+
+def run_jobs(
+    function: Callable[[Any], Any],
+    items: Iterable[Any],
+    *,
+    jobs: int = 1,
+    scheduler: str | None = None,
+    on_result: Callable[[int, Any], None] | None = None,
+) -> list:
+    """``[function(item) for item in items]``, computed in this process, in ``jobs`` worker
+    processes or on a Dask cluster (see the module's description)."""
+    jobs = check_jobs(jobs)
+    scheduler = check_scheduler(scheduler)
+    if not callable(function):
+        raise TypeError(f"function must be callable, got {function!r}")
+    items = list(items)
+    results: list = [None] * len(items)
+
+    def finished(index: int, result: Any) -> None:
+        results[index] = result
+        if on_result is not None:
+            on_result(index, result)
+
+    if not items:
+        return results
+    if scheduler is not None:
+        _run_dask(function, items, jobs, scheduler, finished)
+    elif jobs == 1:
+        for index, item in enumerate(items):
+            try:
+                result = function(item)
+            except Exception as error:
+                raise _indexed(error, index) from error
+            finished(index, result)
+    else:
+        _run_processes(function, items, jobs, finished)
+    return results
+
+
+def _indexed(error: BaseException, index: int) -> BaseException:
+    """``error`` with ``item {index}: `` before its message: a new exception of the same type
+    where the type can be rebuilt from one message, else ``error`` itself with a note (a type
+    whose constructor takes other arguments, e.g. OSError's errno, stays as it was)."""
+    message = f"item {index}: {error}"
+    try:
+        rebuilt = type(error)(message)
+    except Exception:
+        rebuilt = None
+    if rebuilt is not None and str(rebuilt) == message:
+        return rebuilt
+    error.add_note(message)
+    return error
+
+
+def _run_processes(function, items: list, jobs: int, finished) -> None:
+    context = multiprocessing.get_context("spawn")  # fork would inherit a dead GL driver
+    workers = min(jobs, len(items))
+    with concurrent.futures.ProcessPoolExecutor(workers, mp_context=context) as pool:
+        futures = {pool.submit(function, item): index for index, item in enumerate(items)}
+        try:
+            for future in concurrent.futures.as_completed(futures):
+                index = futures[future]
+                error = future.exception()
+                if error is not None:
+                    raise _indexed(error, index) from error
+                finished(index, future.result())
+        except BaseException:
+            # the items not started yet never start; the running ones end, then the
+            # workers exit (leaving the with block waits for them: no process is left)
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
+
+
+def _run_dask(function, items: list, jobs: int, scheduler: str, finished) -> None:
+    from distributed import Client, LocalCluster, as_completed
+
+    cluster = None
+    if scheduler == "local":
+        cluster = LocalCluster(
+            n_workers=jobs,
+            threads_per_worker=1,  # one GL context, one item at a time per worker
+            processes=True,
+            dashboard_address=None,
+            # a failing item is raised here, with its index: the workers' log of it is noise
+            silence_logs=logging.CRITICAL,
+        )
+        client = Client(cluster)
+    else:
+        try:
+            client = Client(scheduler)
+        except OSError as error:
+            raise OSError(f"cannot reach the Dask scheduler at {scheduler}: {error}") from None
+    try:
+        # pure=False: two equal items are two tasks (their functions may write files)
+        futures = [client.submit(function, item, pure=False) for item in items]
+        where = {future.key: index for index, future in enumerate(futures)}
+        try:
+            for future in as_completed(futures):
+                index = where[future.key]
+                if future.status == "error":
+                    error = future.exception()
+                    raise _indexed(error, index) from error
+                finished(index, future.result())
+        except BaseException:
+            client.cancel(futures)
+            raise
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()

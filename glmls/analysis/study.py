@@ -1,0 +1,435 @@
+"""Studies over image sets: does one configuration win everywhere? (the paper's "further
+studies": evaluate the configurations on different image sets and show that none performs
+best on every one).
+
+:func:`study` runs the tune (:func:`glmls.analysis.tune.tune`, the same configurations, trials
+and seed for every image) on each item of a set, one item per job (:func:`run_jobs`: worker
+processes or a Dask cluster), and compares the rankings:
+
+- ``winners``: each image's best configuration, and how many distinct ones win;
+- ``rank_agreement``: Kendall's tau between the rankings of every pair of images (over the
+  configurations ranked on both; 1: the same order, 0: unrelated, -1: reversed), its mean,
+  and Kendall's W over all images (over the configurations ranked on all of them; 1: every
+  image ranks them alike, 0: no agreement);
+- a table (configuration x image: rank and score) and a heat-map of the ranks.
+
+Configurations are matched between images by their place in the list the same specification
+makes for each image: the default search space (or a spec without a radius) sizes the
+radius of the radius weights by each image's diagonal, so the same configuration has
+different radii on images of different sizes; its label then gives the radius as a fraction
+of the diagonal (``R=0.25 diag``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import json
+import math
+import re
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+from scipy.stats import kendalltau
+
+from ..core.config import MLSConfig, image_diagonal
+from ..data.manifest import StudyItem
+from ..files.atomic import atomic_write
+from .colormaps import VIRIDIS
+from .jobs import run_jobs
+from .tune import TuneResult, label, parse_config, search_space, tune
+
+__all__ = ["StudyResult", "StudyTask", "render_heatmap", "study", "tune_item"]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class StudyTask:
+    """One image's tune, as sent to a worker (picklable)."""
+
+    item: StudyItem
+    configs: tuple[MLSConfig, ...]
+    trials: int | None  # None: the tune's default
+    seed: int
+
+
+def tune_item(task: StudyTask) -> tuple[TuneResult, float]:
+    """The tune of one item and the seconds it took (run in a worker)."""
+    start = time.perf_counter()
+    handles = task.item.handles
+    try:
+        result = tune(
+            task.item.shape,
+            handles.src,
+            handles.dst,
+            task.item.reference,
+            src_segments=handles.src_segments,
+            dst_segments=handles.dst_segments,
+            configs=list(task.configs),
+            seed=task.seed,
+            **({} if task.trials is None else {"trials": task.trials}),
+        )
+    except ValueError as error:  # the handles or points of this item: say which item
+        raise ValueError(f"{task.item.name}: {error}") from None
+    return result, time.perf_counter() - start
+
+
+def _configs_for(shape: tuple[int, int], configs: Sequence[MLSConfig | str] | None):
+    """The configurations for an image of ``shape``: the default search space, or each spec
+    parsed for this shape (specs without a radius size it by the diagonal), or the
+    configurations given; repeats dropped (the first kept)."""
+    if configs is None:
+        made = search_space(shape)
+    else:
+        made = []
+        for config in configs:
+            if isinstance(config, str):
+                made += parse_config(config, shape)
+            elif isinstance(config, MLSConfig):
+                made.append(config)
+            else:
+                raise TypeError(f"configs: expected MLSConfig or spec strings, got {config!r}")
+    return tuple(dict.fromkeys(made))
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class StudyResult:
+    """The tunes of a study: ``names`` (the items), ``results`` (each item's
+    :class:`TuneResult`), ``configs`` (each item's configurations, matched by place),
+    ``settings`` and ``timings`` (seconds)."""
+
+    names: list[str]
+    results: list[TuneResult]
+    configs: list[tuple[MLSConfig, ...]]
+    diagonals: list[float]
+    settings: dict
+    timings: dict
+    inputs: list[str] = dataclasses.field(default_factory=list)
+
+    def table(self) -> list[dict]:
+        """One dict per configuration, by mean rank: ``label``, ``mean_rank``, ``wins``,
+        ``ranked_on`` and ``images``: name -> {rank, score, admissible, handle_miss, config}
+        (absent where the configuration could not be built for the image's handles)."""
+        return _table(self)
+
+    def summary(self) -> dict:
+        """The JSON summary: images, winners, distinct_winners, rank_agreement, answer..."""
+        return _summary(self, self.table())
+
+    def heatmap(self) -> np.ndarray:
+        """The ranks as a picture (:func:`render_heatmap`)."""
+        return render_heatmap(self.table(), self.names, title=self.summary()["answer"])
+
+    def save(self, out_dir: str | Path) -> dict:
+        """Write ``summary.json``, ``table.csv``, ``table.json``, ``heatmap.png`` and
+        ``<name>/ranking.json`` (as ``glmls tune --out`` writes it) in ``out_dir``; returns
+        the summary."""
+        out = Path(out_dir)
+        rows = self.table()
+        summary = _summary(self, rows)
+        for name, result, source in zip(self.names, self.results, self.inputs, strict=True):
+            document = {
+                "input": source,
+                "rank_by": result.rank_by,
+                "settings": result.settings,
+                "ranking": result.rows,
+                "skipped": result.skipped,
+            }
+            _write_json(out / name / "ranking.json", document)
+        _write_json(out / "table.json", {"images": self.names, "configurations": rows})
+        with atomic_write(out / "table.csv") as tmp:
+            tmp.write_text(_csv(rows, self.names), encoding="utf-8")
+        picture = render_heatmap(rows, self.names, title=summary["answer"])
+        with atomic_write(out / "heatmap.png") as tmp:
+            Image.fromarray(picture).save(tmp, format="PNG")
+        _write_json(out / "summary.json", summary)
+        return summary
+
+
+def study(
+    items: Sequence[StudyItem],
+    *,
+    configs: Sequence[MLSConfig | str] | None = None,
+    trials: int | None = None,
+    seed: int = 0,
+    jobs: int = 1,
+    scheduler: str | None = None,
+    on_step: Callable[[], None] | None = None,
+) -> StudyResult:
+    """Tune every item (see the module's description): ``configs`` are MLSConfigs, specs
+    (``"rigid:*"``, :func:`~glmls.analysis.tune.parse_config`, parsed for each image's
+    shape) or None for the default search space; ``trials``: the tune's trials per
+    configuration (None: the tune's default); ``on_step()`` after each item."""
+    items = list(items)
+    if not items:
+        raise ValueError("a study needs at least one item")
+    for item in items:
+        if not isinstance(item, StudyItem):
+            raise TypeError(f"items must be StudyItems (glmls.data), got {item!r}")
+    names = [item.name for item in items]
+    if len(set(names)) != len(names):
+        repeated = sorted({n for n in names if names.count(n) > 1})
+        raise ValueError(f"item names must differ; repeated: {', '.join(repeated)}")
+    if trials is not None and (
+        isinstance(trials, bool) or not isinstance(trials, int) or trials < 1
+    ):
+        raise ValueError(f"trials must be an integer >= 1, got {trials!r}")
+    per_item = [_configs_for(item.shape, configs) for item in items]
+    if not per_item[0]:
+        raise ValueError("no configurations to compare")
+    tasks = [
+        StudyTask(item, made, trials, seed) for item, made in zip(items, per_item, strict=True)
+    ]
+    start = time.perf_counter()
+    outputs = run_jobs(
+        tune_item,
+        tasks,
+        jobs=jobs,
+        scheduler=scheduler,
+        on_result=(lambda index, result: on_step()) if on_step is not None else None,
+    )
+    total = time.perf_counter() - start
+    specs = None if configs is None else [c if isinstance(c, str) else label(c) for c in configs]
+    first = outputs[0][0]
+    settings = {
+        "trials": first.settings.get("trials", trials),
+        "seed": seed,
+        "configs": specs,
+        "rank_by": first.rank_by,
+    }
+    timings = {
+        "total_s": round(total, 3),
+        "jobs": jobs,
+        "scheduler": scheduler,
+        "per_image_s": {n: round(s, 3) for n, (_, s) in zip(names, outputs, strict=True)},
+    }
+    return StudyResult(
+        names=names,
+        results=[result for result, _ in outputs],
+        configs=list(per_item),
+        diagonals=[image_diagonal(item.shape) for item in items],
+        settings=settings,
+        timings=timings,
+        inputs=[str(item.image_path) if item.image_path else item.name for item in items],
+    )
+
+
+def _study_label(configs: list[MLSConfig], diagonals: list[float]) -> str:
+    """The label of a configuration matched over images: its own, or with the radius as a
+    fraction of the diagonal where the radius differs from image to image."""
+    first = label(configs[0])
+    if all(c == configs[0] for c in configs) or configs[0].radius is None:
+        return first
+    fractions = {round(c.radius / d, 3) for c, d in zip(configs, diagonals, strict=True)}
+    text = f"R={fractions.pop():g} diag" if len(fractions) == 1 else "R=varies"
+    replaced = re.sub(r"R=[0-9.e+-]+", text, first)
+    return replaced if replaced != first else f"{first} ({text})"
+
+
+def _table(result: StudyResult) -> list[dict]:
+    entries: dict[tuple, dict] = {}
+    for name, tuned, configs in zip(result.names, result.results, result.configs, strict=True):
+        place = {config: k for k, config in enumerate(configs)}
+        for row in tuned.rows:
+            config = MLSConfig(**row["config"])
+            own = label(config)
+            # a tune that ranks more than one row per configuration names them apart
+            suffix = row["label"][len(own) :] if row["label"].startswith(own) else row["label"]
+            key = (place.get(config, len(configs)), suffix)
+            entry = entries.setdefault(key, {"images": {}})
+            entry["images"][name] = {
+                "rank": int(row["rank"]),
+                "score": _number(row.get("score", row.get("combined"))),
+                "admissible": row.get("admissible"),
+                "handle_miss": _number(row.get("handle_miss_mean")),
+                "config": row["config"],
+            }
+    rows = []
+    for (_, suffix), entry in entries.items():
+        owners = [i for i, n in enumerate(result.names) if n in entry["images"]]
+        configs = [MLSConfig(**entry["images"][result.names[i]]["config"]) for i in owners]
+        base = _study_label(configs, [result.diagonals[i] for i in owners])
+        ranks = [cell["rank"] for cell in entry["images"].values()]
+        rows.append(
+            {
+                "label": base + suffix,
+                "mean_rank": float(np.mean(ranks)),
+                "wins": sum(rank == 1 for rank in ranks),
+                "ranked_on": len(ranks),
+                "images": {n: entry["images"][n] for n in result.names if n in entry["images"]},
+            }
+        )
+    rows.sort(key=lambda r: (-r["ranked_on"], r["mean_rank"], r["label"]))
+    return rows
+
+
+def _number(value: object) -> float | None:
+    if value is None:
+        return None
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+def rank_agreement(rows: list[dict], names: list[str]) -> dict:
+    """Kendall's tau between each pair of images (over the configurations ranked on both),
+    their mean, and Kendall's W over all images (over the configurations ranked on all)."""
+    pairs = []
+    matrix = [[1.0 if a == b else None for b in names] for a in names]
+    for (i, a), (j, b) in itertools.combinations(enumerate(names), 2):
+        common = [r for r in rows if a in r["images"] and b in r["images"]]
+        tau = p_value = None
+        if len(common) >= 2:
+            found = kendalltau(
+                [r["images"][a]["rank"] for r in common], [r["images"][b]["rank"] for r in common]
+            )
+            if math.isfinite(found.statistic):
+                tau, p_value = float(found.statistic), float(found.pvalue)
+        pairs.append(
+            {"images": [a, b], "tau": tau, "p_value": p_value, "configurations": len(common)}
+        )
+        matrix[i][j] = matrix[j][i] = tau
+    taus = [p["tau"] for p in pairs if p["tau"] is not None]
+    everywhere = [r for r in rows if len(r["images"]) == len(names)]
+    return {
+        "kendall_tau": pairs,
+        "tau_matrix": matrix,
+        "mean_tau": float(np.mean(taus)) if taus else None,
+        "min_tau": float(min(taus)) if taus else None,
+        "max_tau": float(max(taus)) if taus else None,
+        "kendall_w": _kendall_w(everywhere, names),
+        "kendall_w_configurations": len(everywhere),
+    }
+
+
+def _kendall_w(rows: list[dict], names: list[str]) -> float | None:
+    """Kendall's coefficient of concordance W = 12 S / (m² (n³ - n)) of m images ranking n
+    configurations (ranked again among these n; tune ranks have no ties)."""
+    m, n = len(names), len(rows)
+    if m < 2 or n < 2:
+        return None
+    ranks = np.array([[r["images"][name]["rank"] for r in rows] for name in names], float)
+    ranks = ranks.argsort(axis=1).argsort(axis=1) + 1.0
+    totals = ranks.sum(axis=0)
+    spread = float(((totals - totals.mean()) ** 2).sum())
+    return 12.0 * spread / (m**2 * (n**3 - n))
+
+
+def _summary(result: StudyResult, rows: list[dict]) -> dict:
+    winners = {}
+    for name in result.names:
+        ranked = [r for r in rows if name in r["images"]]
+        best = min(ranked, key=lambda r: r["images"][name]["rank"])
+        cell = best["images"][name]
+        winners[name] = {
+            "label": best["label"],
+            "config": cell["config"],
+            "score": cell["score"],
+            "admissible": cell["admissible"],  # None from a tune that does not say
+        }
+    counts: dict[str, int] = {}
+    for winner in winners.values():
+        counts[winner["label"]] = counts.get(winner["label"], 0) + 1
+    agreement = rank_agreement(rows, result.names)
+    overall = rows[0]
+    distinct = len(counts)
+    everywhere = distinct == 1 and len(result.names) > 1
+    tau, w = agreement["mean_tau"], agreement["kendall_w"]
+    answer = (
+        f"{distinct} distinct winner{'s' * (distinct != 1)} over {len(result.names)} images: "
+        + ("one configuration" if everywhere else "no configuration")
+        + " wins everywhere"
+        + (f"; mean Kendall tau {tau:.2f}" if tau is not None else "")
+        + (f", Kendall W {w:.2f}" if w is not None else "")
+    )
+    return {
+        "images": result.names,
+        "configurations": len(rows),
+        "winners": winners,
+        "distinct_winners": distinct,
+        "winner_counts": dict(sorted(counts.items(), key=lambda kv: (-kv[1], kv[0]))),
+        "one_configuration_wins_everywhere": everywhere,
+        "best_overall": {
+            "label": overall["label"],
+            "mean_rank": overall["mean_rank"],
+            "wins": overall["wins"],
+            "ranks": {n: cell["rank"] for n, cell in overall["images"].items()},
+        },
+        "rank_agreement": agreement,
+        "answer": answer,
+        "skipped": {n: len(r.skipped) for n, r in zip(result.names, result.results, strict=True)},
+        "settings": result.settings,
+        "timings": result.timings,
+    }
+
+
+def _csv(rows: list[dict], names: list[str]) -> str:
+    head = ["configuration", "mean_rank", "wins"]
+    head += [f"{name}_{what}" for name in names for what in ("rank", "score")]
+    lines = [",".join(head)]
+    for row in rows:
+        cells = [json.dumps(row["label"]), f"{row['mean_rank']:.3f}", str(row["wins"])]
+        for name in names:
+            cell = row["images"].get(name)
+            score = None if cell is None else cell["score"]
+            cells.append("" if cell is None else str(cell["rank"]))
+            cells.append("" if score is None else f"{score:.6g}")
+        lines.append(",".join(cells))
+    return "\n".join(lines) + "\n"
+
+
+def _write_json(path: Path, document: dict) -> None:
+    with atomic_write(path) as tmp:
+        tmp.write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+
+
+def render_heatmap(rows: list[dict], names: list[str], *, title: str = "") -> np.ndarray:
+    """Configurations (rows, by mean rank, best on top) x images (columns) and their mean
+    rank, each cell coloured by the configuration's rank on that image (viridis: yellow is
+    rank 1, dark violet the last) and numbered, with ``*`` where the tune set it apart (not
+    admissible); each image's winner boxed in red; grey where the configuration could not be
+    built. An (H, W, 3) uint8 picture."""
+    notes = (
+        "rank on each image (yellow: 1, the best); red box: the image's winner",
+        "*: set apart by the tune (misses its targets or folds); rows by mean rank",
+    )
+    font = ImageFont.load_default(size=12)
+    columns = [*names, "mean"]
+    left = max(int(font.getlength(r["label"])) for r in rows) + 12
+    cell_w = max(44, *(int(font.getlength(c)) + 10 for c in columns))
+    cell_h, top, bottom = 16, 44, 42
+    text_width = max(int(font.getlength(text)) for text in (title, *notes))
+    width = max(left + cell_w * len(columns) + 8, text_width + 16)
+    picture = Image.new("RGB", (width, top + cell_h * len(rows) + bottom), "white")
+    draw = ImageDraw.Draw(picture)
+    draw.text((8, 6), title, fill="black", font=font)
+    worst = max(max(c["rank"] for c in r["images"].values()) for r in rows)
+    for j, column in enumerate(columns):
+        x = left + j * cell_w + cell_w / 2
+        draw.text((x, top - 4), column, fill="black", font=font, anchor="md")
+    for i, row in enumerate(rows):
+        y = top + i * cell_h
+        draw.text((left - 6, y + cell_h / 2), row["label"], fill="black", font=font, anchor="rm")
+        for j, column in enumerate(columns):
+            x = left + j * cell_w
+            box = [x + 1, y + 1, x + cell_w - 2, y + cell_h - 2]
+            if column == "mean":
+                rank, text = row["mean_rank"], f"{row['mean_rank']:.1f}"
+            elif column in row["images"]:
+                rank = row["images"][column]["rank"]
+                set_apart = row["images"][column].get("admissible") is False
+                text = f"{rank}*" if set_apart else str(rank)
+            else:
+                draw.rectangle(box, fill=(170, 170, 170))
+                continue
+            t = 1.0 - (rank - 1) / (worst - 1) if worst > 1 else 1.0
+            colour = tuple(int(v) for v in VIRIDIS[round(t * (len(VIRIDIS) - 1))])
+            draw.rectangle(box, fill=colour)
+            ink = "black" if t > 0.45 else "white"
+            draw.text((x + cell_w / 2, y + cell_h / 2), text, fill=ink, font=font, anchor="mm")
+            if column != "mean" and rank == 1:
+                draw.rectangle([x, y, x + cell_w - 1, y + cell_h - 1], outline=(230, 0, 0), width=2)
+    for k, note in enumerate(notes):
+        draw.text((8, top + cell_h * len(rows) + 8 + 15 * k), note, fill=(60, 60, 60), font=font)
+    return np.asarray(picture)

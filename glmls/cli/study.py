@@ -1,0 +1,93 @@
+"""``glmls study``: the tune over an image set, and whether one configuration wins everywhere
+(the paper's further studies)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from .. import data
+from ..analysis.jobs import check_jobs, check_scheduler
+from ..analysis.study import study
+from ..analysis.tune import parse_config
+from .inputs import say
+from .options import UsageError, add_jobs_options, positive_int
+from .progress import Progress
+
+HELP = "tune every image of a set and compare the winners"
+EXAMPLES = """
+examples:
+  glmls study --out out/study                      # the bundled set of six photographs
+  glmls study set.json --out study/ --jobs 4 --configs 'rigid:*' 'similarity:gaussian'
+  glmls study set.json --out study/ --scheduler tcp://head:8786    # on a Dask cluster
+
+A manifest is {"items": [{"name": ..., "image": ..., "handles": ..., "reference": ...}]},
+paths relative to the manifest (docs/study.md).
+"""
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "manifest",
+        metavar="MANIFEST",
+        nargs="?",
+        help="the image set (JSON; default: the bundled set of six photographs)",
+    )
+    parser.add_argument("--out", metavar="DIR", required=True, help="output folder")
+    parser.add_argument(
+        "--configs",
+        nargs="+",
+        metavar="SPEC",
+        help="transform:weight[:name=value,...], * for all; a radius left out is sized by "
+        "each image's diagonal (default: the tune's search space)",
+    )
+    parser.add_argument(
+        "--trials",
+        type=positive_int,
+        metavar="N",
+        help="trials (deformations) per configuration and image (default: the tune's)",
+    )
+    parser.add_argument("--seed", type=int, default=0, help="seed of the random deformations")
+    add_jobs_options(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        jobs, scheduler = check_jobs(args.jobs), check_scheduler(args.scheduler)
+    except (ImportError, TypeError, ValueError) as error:
+        raise UsageError(str(error)) from None
+    if args.manifest is None:
+        items, source = data.study_set(), "the bundled set"
+    else:
+        items, source = data.read_manifest(Path(args.manifest)), args.manifest
+    configs = args.configs
+    if configs:
+        for spec in configs:  # a bad spec is a usage error before any work
+            try:
+                parse_config(spec, items[0].shape)
+            except (TypeError, ValueError) as error:
+                raise UsageError(str(error)) from None
+    where = f", {jobs} jobs" if jobs > 1 and scheduler is None else ""
+    where += f", Dask scheduler {scheduler}" if scheduler else ""
+    say(args, f"study: {len(items)} images from {source}{where}")
+    with Progress(len(items), "study", quiet=args.quiet) as bar:
+        try:
+            result = study(
+                items,
+                configs=configs,
+                trials=args.trials,
+                seed=args.seed,
+                jobs=jobs,
+                scheduler=scheduler,
+                on_step=bar.advance,
+            )
+        except ValueError as error:
+            raise UsageError(str(error)) from None
+    summary = result.save(Path(args.out))
+    width = max(len(name) for name in summary["images"])
+    for name, winner in summary["winners"].items():
+        print(f"{name.ljust(width)}  {winner['label']}")
+    print(summary["answer"])
+    seconds = summary["timings"]["total_s"]
+    say(args, f"study: {seconds:.1f} s; wrote {args.out}")
+    return 0

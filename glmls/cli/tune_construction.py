@@ -1,0 +1,124 @@
+"""``glmls tune --construction``: rank the ways of building the deformed image (quads nearest and
+linear, splat, backward...) by the construction error at the reference points
+(docs/construction.md), for one MLS configuration."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..analysis.construction import DEFAULT_RADIUS
+from ..analysis.construction_ranking import rank_constructions
+from ..core.config import MLSConfig
+from ..core.handleset import HandleSet
+from ..files.atomic import atomic_write
+from .inputs import make_mls, reference_or_handles, say
+from .options import UsageError, nonnegative_int, text_table
+
+__all__ = ["configure_construction", "construction_table", "run_construction"]
+
+UNITS = "RMS colour difference per reference point, intensity scaled to 0-1"
+
+
+def configure_construction(parser: argparse.ArgumentParser) -> None:
+    """The options of the construction ranking (``--construction-radius``,
+    ``--construction-methods``)."""
+    parser.add_argument(
+        "--construction-radius",
+        type=nonnegative_int,
+        default=DEFAULT_RADIUS,
+        metavar="K",
+        help="construction error window: (2K + 1)² output pixels around each f(r)",
+    )
+    parser.add_argument(
+        "--construction-methods",
+        nargs="+",
+        metavar="METHOD[:INTERP]",
+        help="constructions to rank, e.g. quads:linear splat backward:nearest "
+        "(default: quads and backward nearest and linear, splat, paper-quads where offered)",
+    )
+
+
+_TABLE_COLUMNS = (
+    ("rank", "rank", "{:d}"),
+    ("construction", "label", "{}"),
+    ("mean", "mean", "{:.4g}"),
+    ("median", "median", "{:.4g}"),
+    ("std", "std", "{:.2g}"),
+    ("max", "max", "{:.4g}"),
+    ("points", "count", "{:d}"),
+    ("time s", "time_s", "{:.3g}"),
+)
+
+
+def _cell(row: dict, key: str, fmt: str) -> str:
+    value = row[key] if key in row else row["stats"].get(key)
+    return "-" if value is None else fmt.format(value)
+
+
+def construction_table(rows: list[dict]) -> str:
+    """The ranking as a plain-text table, one line per construction."""
+    cells = [[_cell(row, key, fmt) for _, key, fmt in _TABLE_COLUMNS] for row in rows]
+    return text_table([head for head, _, _ in _TABLE_COLUMNS], cells)
+
+
+_CSV_STATS = ("std", "min", "max", "count", "nan_count")
+
+
+def _csv_text(rows: list[dict]) -> str:
+    keys = ["rank", "method", "interpolation", "label", "mean", "median"]
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow([*keys, *_CSV_STATS, "time_s"])
+    for row in rows:
+        stats = [row["stats"].get(k) for k in _CSV_STATS]
+        writer.writerow([row[k] for k in keys] + stats + [row["time_s"]])
+    return buffer.getvalue()
+
+
+def run_construction(
+    args: argparse.Namespace,
+    image: np.ndarray,
+    handles: HandleSet,
+    reference: np.ndarray | None,
+    name: str,
+    config: MLSConfig,
+) -> int:
+    """Rank the constructions of ``image`` deformed by the MLS of ``handles`` with ``config``
+    at the ``reference`` points (None: the source handles), print the table and write
+    ``construction.json`` (``input``, ``config``, ``settings``, ``ranking``) and
+    ``construction.csv`` into ``args.out``. Reads ``args.out``, ``args.quiet`` and, where
+    :func:`configure_construction` added them, ``args.construction_radius`` and
+    ``args.construction_methods``. Returns the exit status (0)."""
+    shape = image.shape[:2]
+    radius = getattr(args, "construction_radius", DEFAULT_RADIUS)
+    methods = getattr(args, "construction_methods", None)
+    points = reference_or_handles(args, reference, handles)
+    say(args, f"tune --construction: {name}, ranking the constructions at {len(points)} points")
+    with make_mls(handles, config, shape) as m:
+        try:
+            rows = rank_constructions(image, m, points, methods=methods, radius=radius)
+        except ValueError as error:
+            raise UsageError(str(error)) from None
+    out = Path(args.out)
+    document = {
+        "input": name,
+        "config": dataclasses.asdict(config),
+        "settings": {"radius": radius, "window": 2 * radius + 1, "points": len(points)},
+        "units": UNITS,
+        "ranking": rows,
+    }
+    with atomic_write(out / "construction.json") as tmp:
+        tmp.write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+    with atomic_write(out / "construction.csv") as tmp:
+        tmp.write_text(_csv_text(rows), encoding="utf-8")
+    print(construction_table(rows))
+    if rows:
+        say(args, f"tune --construction: best: {rows[0]['label']}; wrote {out}")
+    return 0

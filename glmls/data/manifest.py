@@ -1,0 +1,156 @@
+"""Study manifests: the images, handles and reference points of a study over an image set.
+
+A manifest is a JSON file::
+
+    {"items": [
+        {"name": "cat", "image": "cat.jpg", "handles": "cat_handles.json",
+         "reference": "cat_reference.json"},
+        ...
+    ]}
+
+(a bare list of the items is accepted too). Paths are relative to the manifest's folder (or
+absolute); ``handles`` is any handles file that :func:`glmls.files.landmarks.read_handle_set`
+reads (JSON, CSV or BigWarp: points, segments, polylines) and ``reference`` a reference-points
+file (:func:`~glmls.files.landmarks.read_points`, at least 3 points). ``name`` is optional
+(default: the image's file name without its suffix) and must be unique, since it names the
+item's column in the study's table and its output folder; other keys (``"description"``) are
+ignored. Only the image's header is read (its size): a study needs the image's shape only.
+
+Every fault is an :class:`~glmls.errors.InputFileError` naming the manifest, the item and the
+field: ``set.json: "items"[2] (cat): "handles": cat.json: no such file``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from ..core.handleset import HandleSet
+from ..errors import InputFileError
+from ..files.images import DEFAULT_MAX_PIXELS, imread
+from ..files.landmarks import read_handle_set, read_points
+from ..files.parsing import brief, fail, read_text
+
+__all__ = ["MIN_REFERENCE_POINTS", "StudyItem", "read_manifest"]
+
+#: The reference triangles need at least one triangle.
+MIN_REFERENCE_POINTS = 3
+_FIELDS = ("image", "handles", "reference")
+#: a name must be usable as a folder name and a CSV column
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]{0,63}$")
+
+
+@dataclass(frozen=True, eq=False)
+class StudyItem:
+    """One image of a study: ``name``, the image's ``shape`` (H, W), its ``handles``
+    (:class:`~glmls.HandleSet`), its ``reference`` points (K, 2) and where the image is
+    (``image_path``; :meth:`image` reads it)."""
+
+    name: str
+    shape: tuple[int, int]
+    handles: HandleSet
+    reference: np.ndarray
+    image_path: Path | None = None
+
+    def image(self) -> np.ndarray:
+        """The image's pixels (read now)."""
+        if self.image_path is None:
+            raise ValueError(f"{self.name}: no image file")
+        return imread(self.image_path)
+
+
+def image_shape(path: Path) -> tuple[int, int]:
+    """(H, W) from the image's header (the whole image only where Pillow cannot read it)."""
+    try:
+        with Image.open(path) as image:
+            width, height = image.size
+    except FileNotFoundError:
+        raise
+    except (OSError, ValueError, Image.DecompressionBombError):
+        height, width = imread(path).shape[:2]  # 16-bit colour PNG, float TIFF...
+    if width * height > DEFAULT_MAX_PIXELS:
+        raise ValueError(f"{path}: {width} x {height} pixels, more than {DEFAULT_MAX_PIXELS}")
+    return height, width
+
+
+def read_manifest(path: str | os.PathLike) -> list[StudyItem]:
+    """The items of the manifest at ``path`` (see the module's description), checked."""
+    path = Path(path)
+    text = read_text(path)
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise fail(path, f"line {error.lineno}", f"invalid JSON: {error.msg}") from None
+    except (ValueError, RecursionError) as error:
+        raise fail(path, "content", f"invalid JSON: {error}") from None
+    where = "top level"
+    if isinstance(data, dict):
+        if "items" not in data:
+            raise fail(path, where, 'missing the key "items"')
+        data, where = data["items"], '"items"'
+    if not isinstance(data, list):
+        raise fail(path, where, f"expected a list of items, got {type(data).__name__}")
+    if not data:
+        raise fail(path, where, "no items")
+    items: list[StudyItem] = []
+    seen: dict[str, int] = {}
+    for index, entry in enumerate(data):
+        item = _item(path, f"{where}[{index}]", entry)
+        if item.name in seen:
+            raise fail(
+                path,
+                f"{where}[{index}]",
+                f"the name {item.name!r} is taken by item {seen[item.name]}; names must differ",
+            )
+        seen[item.name] = index
+        items.append(item)
+    return items
+
+
+def _item(manifest: Path, where: str, entry: object) -> StudyItem:
+    if not isinstance(entry, dict):
+        fields = ", ".join(_FIELDS)
+        raise fail(manifest, where, f"expected an object with {fields}, got {brief(entry)}")
+    files: dict[str, Path] = {}
+    for field in _FIELDS:
+        value = entry.get(field)
+        if not isinstance(value, str) or not value:
+            raise fail(manifest, f'{where}."{field}"', f"expected a file name, got {brief(value)}")
+        files[field] = manifest.parent / value
+    name = entry.get("name", files["image"].stem)
+    if not isinstance(name, str) or not _NAME.match(name):
+        rule = "letters, digits and _.+- (up to 64, not starting with a sign)"
+        raise fail(manifest, f'{where}."name"', f"expected {rule}, got {brief(name)}")
+    where = f"{where} ({name})"
+
+    def problem(field: str, error: object) -> InputFileError:
+        return fail(manifest, f'{where}."{field}"', str(error))
+
+    if not files["image"].is_file():
+        raise problem("image", f"{files['image']}: no such file")
+    try:
+        shape = image_shape(files["image"])
+    except (OSError, ValueError) as error:
+        raise problem("image", f"{files['image']}: cannot read the image: {error}") from None
+    try:
+        handles = read_handle_set(files["handles"])
+    except (InputFileError, OSError) as error:
+        raise problem("handles", error) from None
+    try:
+        reference = read_points(files["reference"])
+    except (InputFileError, OSError) as error:
+        raise problem("reference", error) from None
+    if len(reference) < MIN_REFERENCE_POINTS:
+        raise problem(
+            "reference",
+            f"{files['reference']}: {len(reference)} reference points; the triangle errors "
+            f"need at least {MIN_REFERENCE_POINTS}",
+        )
+    reference.flags.writeable = False
+    return StudyItem(name, shape, handles, reference, files["image"])

@@ -1,0 +1,113 @@
+"""Fanning work out: sequential, spawned worker processes (each with its own GL context) and a
+local Dask cluster give the same results, in order; a worker's error reaches the caller."""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+
+import numpy as np
+import pytest
+
+from glmls.analysis.jobs import DistributedUnavailableError, check_scheduler, run_jobs
+
+SRC = np.array([[10.0, 10.0], [90.0, 12.0], [50.0, 80.0], [20.0, 70.0]])
+POINTS = np.array([[50.0, 50.0], [20.0, 30.0], [75.5, 60.25]])
+
+
+def evaluate(shift: float) -> tuple[int, np.ndarray]:
+    """f at POINTS for handles whose first target moved by ``shift``: GL work, so each worker
+    process needs a GL context of its own (one inherited by fork would hang)."""
+    import glmls
+
+    dst = SRC.copy()
+    dst[0] += [shift, -shift / 2]
+    with glmls.MLS(SRC, dst, shape=(100, 100)) as m:
+        return os.getpid(), m(POINTS)
+
+
+def fail_on_two(item: int) -> int:
+    if item == 2:
+        raise ValueError(f"bad item {item}")
+    return item * 10
+
+
+class CodedError(Exception):
+    """An exception that cannot be rebuilt from one message."""
+
+    def __init__(self, code: int, text: str) -> None:
+        super().__init__(code, text)
+
+
+def raise_coded(item: int) -> int:
+    raise CodedError(item, "coded")
+
+
+ITEMS = [0.0, 3.0, 6.0, 9.0]
+
+
+def test_workers_compute_what_this_process_computes():
+    sequential = run_jobs(evaluate, ITEMS)
+    assert {pid for pid, _ in sequential} == {os.getpid()}
+    seen = []
+    parallel = run_jobs(evaluate, ITEMS, jobs=2, on_result=lambda i, r: seen.append(i))
+    assert sorted(seen) == [0, 1, 2, 3]
+    assert os.getpid() not in {pid for pid, _ in parallel}
+    for (_, a), (_, b) in zip(sequential, parallel, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(sequential[0][1], sequential[3][1])  # in input order
+    assert run_jobs(evaluate, [], jobs=2) == []
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_workers_error_names_the_item(jobs):
+    with pytest.raises(ValueError, match=r"^item 2: bad item 2$"):
+        run_jobs(fail_on_two, range(6), jobs=jobs)
+    with pytest.raises(CodedError) as caught:  # kept as it was, with a note
+        run_jobs(raise_coded, [5], jobs=jobs)
+    assert "item 0: (5, 'coded')" in caught.value.__notes__
+
+
+def test_bad_jobs_and_schedulers():
+    for jobs in (0, -2):
+        with pytest.raises(ValueError, match=f"jobs must be an integer >= 1, got {jobs}"):
+            run_jobs(fail_on_two, [1], jobs=jobs)
+    for jobs in (1.5, "2", True, None):
+        with pytest.raises(TypeError, match=f"got {jobs!r}"):
+            run_jobs(fail_on_two, [1], jobs=jobs)
+    with pytest.raises(ValueError, match="scheduler must be 'local' or"):
+        run_jobs(fail_on_two, [1], scheduler=" ")
+    with pytest.raises(TypeError, match="function must be callable"):
+        run_jobs(None, [1])
+
+
+def test_without_dask_the_error_says_what_to_install(monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import fails
+    with pytest.raises(DistributedUnavailableError, match=r"pip install 'glmls\[distributed\]'"):
+        run_jobs(fail_on_two, [1], scheduler="local")
+    assert issubclass(DistributedUnavailableError, ImportError)
+    assert check_scheduler(None) is None
+
+
+def test_from_a_worker_thread():
+    out = {}
+    thread = threading.Thread(target=lambda: out.update(r=run_jobs(fail_on_two, [1, 3], jobs=2)))
+    thread.start()
+    thread.join(timeout=120)
+    assert out["r"] == [10, 30]
+
+
+def test_a_local_dask_cluster_of_two_workers():
+    pytest.importorskip("distributed")  # a guard only: scripts/setup.sh installs the extra
+    sequential = run_jobs(evaluate, ITEMS)
+    seen = []
+    on_dask = run_jobs(
+        evaluate, ITEMS, jobs=2, scheduler="local", on_result=lambda i, r: seen.append(i)
+    )
+    assert sorted(seen) == [0, 1, 2, 3]
+    assert os.getpid() not in {pid for pid, _ in on_dask}
+    for (_, a), (_, b) in zip(sequential, on_dask, strict=True):
+        np.testing.assert_array_equal(a, b)
+    with pytest.raises(ValueError, match=r"^item 2: bad item 2$"):
+        run_jobs(fail_on_two, range(4), jobs=2, scheduler="local")

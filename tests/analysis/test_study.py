@@ -1,0 +1,211 @@
+"""Studies over image sets: manifests, the table, winners, rank agreement and the heat-map."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy.stats import kendalltau
+
+from glmls.analysis import study as studies
+from glmls.analysis.tune import parse_config
+from glmls.core.handleset import HandleSet
+from glmls.data import StudyItem, read_manifest
+from glmls.errors import InputFileError
+
+SRC = np.array([[4.0, 4.0], [36.0, 6.0], [20.0, 30.0], [6.0, 26.0]])
+REFERENCE = np.array([[10, 10], [30, 10], [20, 25], [12, 22], [28, 22.0]])
+
+
+def items() -> list[StudyItem]:
+    """Two small images of different sizes, with different edits."""
+    a = HandleSet.validate(SRC, SRC + [[2.0, 1.0], [-2.0, 2.0], [4.0, -2.0], [0.0, 0.0]])
+    b = HandleSet.validate(SRC * 1.5, SRC * 1.5 + [[0.0, 4.0], [3.0, 0.0], [0.0, 0.0], [-3, 2]])
+    return [
+        StudyItem("small", (32, 40), a, REFERENCE),
+        StudyItem("large", (48, 60), b, REFERENCE * 1.5),
+    ]
+
+
+@pytest.fixture(scope="module")
+def result(gl):
+    return studies.study(items(), configs=["rigid:idw", "similarity:gaussian"], trials=2)
+
+
+def test_configurations_are_matched_between_images_of_different_sizes(result):
+    rows = result.table()
+    assert len(rows) == 5  # 2 idw alphas + 3 radii, on both images
+    labels = {row["label"] for row in rows}
+    assert "rigid idw a=2" in labels
+    for fraction in ("0.25", "0.5", "1"):  # the radii, relative to each image's diagonal
+        assert any(f"similarity gaussian R={fraction} diag" in label for label in labels)
+    for row in rows:
+        assert set(row["images"]) == {"small", "large"}
+        assert row["mean_rank"] == np.mean([c["rank"] for c in row["images"].values()])
+    radii = {c["config"]["radius"] for r in rows for c in r["images"].values()}
+    assert {12.8, 19.2} <= radii  # a quarter of each diagonal (51.2 and 76.8)
+    assert [r["mean_rank"] for r in rows] == sorted(r["mean_rank"] for r in rows)
+
+
+def test_summary_answers_the_papers_question(result):
+    summary = result.summary()
+    assert summary["images"] == ["small", "large"]
+    rows = result.table()
+    for name, winner in summary["winners"].items():
+        best = [r for r in rows if r["images"][name]["rank"] == 1]
+        assert [winner["label"]] == [r["label"] for r in best]
+    assert summary["distinct_winners"] == len({w["label"] for w in summary["winners"].values()})
+    assert summary["one_configuration_wins_everywhere"] == (summary["distinct_winners"] == 1)
+    agreement = summary["rank_agreement"]
+    small = [r["images"]["small"]["rank"] for r in rows]
+    large = [r["images"]["large"]["rank"] for r in rows]
+    assert agreement["mean_tau"] == pytest.approx(kendalltau(small, large).statistic)
+    assert agreement["tau_matrix"][0][1] == agreement["mean_tau"]
+    assert 0.0 <= agreement["kendall_w"] <= 1.0
+    assert "distinct winner" in summary["answer"]
+    assert summary["settings"]["trials"] == 2 and summary["timings"]["jobs"] == 1
+    json.dumps(summary, allow_nan=False)  # plain JSON
+
+
+def test_kendalls_w():
+    def rows(*orders):
+        return [
+            {"images": {f"i{k}": {"rank": order[c]} for k, order in enumerate(orders)}}
+            for c in range(len(orders[0]))
+        ]
+
+    assert studies.rank_agreement(rows([1, 2, 3], [1, 2, 3]), ["i0", "i1"])["kendall_w"] == 1.0
+    reversed_ = studies.rank_agreement(rows([1, 2, 3, 4], [4, 3, 2, 1]), ["i0", "i1"])
+    assert reversed_["kendall_w"] == 0.0 and reversed_["mean_tau"] == -1.0
+
+
+def test_save_writes_the_outputs(result, tmp_path):
+    summary = result.save(tmp_path)
+    assert json.loads((tmp_path / "summary.json").read_text()) == summary
+    table = json.loads((tmp_path / "table.json").read_text())
+    assert table["images"] == ["small", "large"] and len(table["configurations"]) == 5
+    lines = (tmp_path / "table.csv").read_text().splitlines()
+    assert lines[0] == (
+        "configuration,mean_rank,wins,small_rank,small_score,large_rank,large_score"
+    )
+    assert len(lines) == 6
+    ranking = json.loads((tmp_path / "small" / "ranking.json").read_text())
+    assert set(ranking) == {"input", "rank_by", "settings", "ranking", "skipped"}
+    assert ranking["ranking"] == result.results[0].rows
+    from PIL import Image
+
+    with Image.open(tmp_path / "heatmap.png") as picture:
+        assert picture.mode == "RGB" and picture.height > 5 * 16 and picture.width > 200
+
+
+def test_worker_processes_give_the_same_study(result):
+    parallel = studies.study(
+        items(), configs=["rigid:idw", "similarity:gaussian"], trials=2, jobs=2
+    )
+    assert parallel.table() == result.table()
+    assert parallel.summary()["winners"] == result.summary()["winners"]
+
+
+def test_heatmap_marks_winners_and_missing_cells():
+    rows = [
+        {"label": "a", "mean_rank": 1.0, "images": {"x": {"rank": 1}, "y": {"rank": 1}}},
+        {"label": "b", "mean_rank": 2.0, "images": {"x": {"rank": 2}}},
+    ]
+    picture = studies.render_heatmap(rows, ["x", "y"], title="t")
+    assert picture.ndim == 3 and picture.dtype == np.uint8
+    assert ((picture == [230, 0, 0]).all(axis=-1)).sum() > 50  # red boxes
+    assert ((picture == [170, 170, 170]).all(axis=-1)).sum() > 50  # the missing cell
+
+
+def test_bad_arguments(gl):
+    with pytest.raises(ValueError, match="at least one item"):
+        studies.study([])
+    twice = [items()[0], items()[0]]
+    with pytest.raises(ValueError, match="repeated: small"):
+        studies.study(twice, configs=["rigid:idw"], trials=1)
+    with pytest.raises(ValueError, match="trials must be an integer >= 1, got 0"):
+        studies.study(items(), trials=0)
+    with pytest.raises(TypeError, match="expected MLSConfig or spec strings"):
+        studies.study(items(), configs=[3])
+    with pytest.raises(TypeError, match="items must be StudyItems"):
+        studies.study(["x"])
+    flat = StudyItem("flat", (32, 40), items()[0].handles, np.array([[1, 1], [5, 5], [9, 9.0]]))
+    with pytest.raises(ValueError, match=r"^item 1: flat: "):
+        studies.study([items()[1], flat], configs=["rigid:idw:alpha=1"], trials=1)
+    configs = parse_config("rigid:idw:alpha=2", (32, 40))
+    one = studies.study(items(), configs=configs, trials=1)
+    assert [r["label"] for r in one.table()] == ["rigid idw a=2"]
+
+
+def write_manifest(tmp_path, entries, name="set.json"):
+    path = tmp_path / name
+    path.write_text(json.dumps({"items": entries}), encoding="utf-8")
+    return path
+
+
+@pytest.fixture
+def files(tmp_path):
+    from PIL import Image
+
+    Image.new("RGB", (40, 32)).save(tmp_path / "a.png")
+    (tmp_path / "h.json").write_text(json.dumps({"src": SRC.tolist(), "dst": SRC.tolist()}))
+    (tmp_path / "r.json").write_text(json.dumps({"points": REFERENCE.tolist()}))
+    (tmp_path / "two.json").write_text(json.dumps({"points": [[1, 1], [5, 5]]}))
+    return tmp_path
+
+
+def test_a_manifest_reads_its_items(files):
+    sub = files / "sub"
+    sub.mkdir()
+    path = write_manifest(sub, [
+        {"image": "../a.png", "handles": "../h.json", "reference": "../r.json"},
+        {"name": "b", "image": str(files / "a.png"), "handles": "../h.json",
+         "reference": "../r.json", "description": "ignored"},
+    ])  # fmt: skip
+    found = read_manifest(path)
+    assert [item.name for item in found] == ["a", "b"]
+    assert found[0].shape == (32, 40) and found[0].image().shape == (32, 40, 3)
+    np.testing.assert_array_equal(found[1].reference, REFERENCE)
+    bare = files / "bare.json"
+    bare.write_text(json.dumps([{"image": "a.png", "handles": "h.json", "reference": "r.json"}]))
+    assert [item.name for item in read_manifest(bare)] == ["a"]
+
+
+GOOD = {"image": "a.png", "handles": "h.json", "reference": "r.json"}
+
+
+@pytest.mark.parametrize(
+    ("entries", "message"),
+    [
+        ([{**GOOD, "image": "gone.png"}], r'"items"\[0\] \(gone\)\."image": .*gone.png: no such'),
+        (
+            [{**GOOD, "handles": "gone.json"}],
+            r'"items"\[0\] \(a\)\."handles": .*gone.json: no such',
+        ),
+        ([{**GOOD, "reference": "two.json"}], r'"reference": .*2 reference points; .* at least 3'),
+        ([{**GOOD, "handles": "bad.json"}], r'"handles": .*bad.json: line 1: invalid JSON'),
+        ([{"image": "a.png", "handles": "h.json"}], r'"items"\[0\]\."reference": expected a file'),
+        ([GOOD, GOOD], r'"items"\[1\]: the name \'a\' is taken by item 0'),
+        ([{**GOOD, "name": "../x"}], r'"items"\[0\]\."name": expected letters'),
+        (["a.png"], r'"items"\[0\]: expected an object with image, handles, reference'),
+        ([], r'"items": no items'),
+    ],
+)
+def test_bad_manifests_name_the_item_and_field(files, entries, message):
+    (files / "bad.json").write_text("{nope")
+    with pytest.raises(InputFileError, match=message):
+        read_manifest(write_manifest(files, entries))
+
+
+def test_bad_manifest_files(files):
+    for text, message in [
+        ("{", "set.json: line 1: invalid JSON"),
+        ('{"list": []}', 'set.json: top level: missing the key "items"'),
+        ('{"items": 3}', 'set.json: "items": expected a list of items, got int'),
+    ]:
+        (files / "set.json").write_text(text)
+        with pytest.raises(InputFileError, match=message):
+            read_manifest(files / "set.json")
+    with pytest.raises(InputFileError, match="no such file"):
+        read_manifest(files / "missing.json")

@@ -1,0 +1,142 @@
+"""``glmls study`` and the batch ``glmls warp`` over worker processes and a Dask cluster."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import glmls
+from glmls.cli.main import main
+
+SRC = [[4, 4], [36, 6], [20, 30], [6, 26]]
+DST = [[6, 5], [34, 8], [24, 28], [6, 26]]
+REFERENCE = [[10, 10], [30, 10], [20, 25], [12, 22], [28, 22]]
+
+
+def glmls_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "glmls.cli", *args],
+        cwd=cwd,
+        env=dict(os.environ),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+
+
+@pytest.fixture
+def inputs(tmp_path):
+    rng = np.random.default_rng(3)
+    for name, shape in (("a", (32, 40, 3)), ("b", (36, 44, 3)), ("c", (30, 40))):
+        glmls.imwrite(tmp_path / f"{name}.png", rng.integers(0, 256, shape, dtype=np.uint8))
+    (tmp_path / "h.json").write_text(json.dumps({"src": SRC, "dst": DST}))
+    (tmp_path / "r.json").write_text(json.dumps({"points": REFERENCE}))
+    items = [
+        {"name": name, "image": f"{name}.png", "handles": "h.json", "reference": "r.json"}
+        for name in ("a", "b")
+    ]
+    (tmp_path / "set.json").write_text(json.dumps({"items": items}))
+    return tmp_path
+
+
+def test_study_writes_the_summary_table_and_heatmap(inputs):
+    result = glmls_cli(
+        "study", "set.json", "--out", "st", "--configs", "rigid:idw", "affine:idw:alpha=1",
+        "--trials", "1", "--jobs", "2", cwd=inputs,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    out = inputs / "st"
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["images"] == ["a", "b"]
+    assert set(summary["winners"]) == {"a", "b"}
+    assert summary["winners"]["a"]["label"] in {"rigid idw a=1", "rigid idw a=2", "affine idw a=1"}
+    assert summary["rank_agreement"]["kendall_tau"][0]["images"] == ["a", "b"]
+    assert summary["answer"] in result.stdout
+    assert "study [" in result.stderr and "2/2" in result.stderr
+    for name in ("table.csv", "table.json", "heatmap.png", "a/ranking.json", "b/ranking.json"):
+        assert (out / name).is_file(), name
+
+
+def test_study_of_the_bundled_set(tmp_path):
+    code = main(["--quiet", "study", "--out", str(tmp_path), "--configs", "rigid:idw:alpha=1",
+                 "similarity:idw:alpha=1", "--trials", "1"])  # fmt: skip
+    assert code == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["images"] == ["astronaut", "chelsea", "coffee", "camera", "text", "rocket"]
+    assert len(summary["winners"]) == 6 and "rank_agreement" in summary
+
+
+def run_main(*args: str) -> int:
+    """``glmls ARGS`` in this process: its exit status (argparse's errors exit)."""
+    try:
+        return main(list(args))
+    except SystemExit as done:
+        return done.code
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["missing.json"], "missing.json: no such file"),
+        (["bad.json"], '"items"[0] (a)."reference": '),
+        (["set.json", "--configs", "rigid:cubic"], "unknown weight 'cubic'"),
+        (["set.json", "--jobs", "0"], "expected an integer >= 1, got 0"),
+    ],
+)
+def test_study_usage_errors_exit_2(inputs, capsys, monkeypatch, args, message):
+    bad = [{"image": "a.png", "handles": "h.json", "reference": "nothing.json"}]
+    (inputs / "bad.json").write_text(json.dumps({"items": bad}))
+    monkeypatch.chdir(inputs)
+    assert run_main("study", *args, "--out", "x") == 2
+    assert message in capsys.readouterr().err
+    assert not (inputs / "x").exists()
+
+
+def test_scheduler_without_dask_exits_2(inputs, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    monkeypatch.chdir(inputs)
+    assert run_main("study", "set.json", "--out", "x", "--scheduler", "local") == 2
+    assert "pip install 'glmls[distributed]'" in capsys.readouterr().err
+    assert run_main("warp", ".", "w", "--handles", "h.json", "--scheduler", "local") == 2
+
+
+def _outputs(folder: Path) -> dict[str, np.ndarray]:
+    return {p.name: glmls.imread(p) for p in sorted(folder.iterdir())}
+
+
+def test_batch_warp_over_workers_matches_the_sequential_one(inputs):
+    args = ["warp", "*.png", "{}", "--handles", "h.json", "--method", "backward"]
+    one = glmls_cli(*[a.format("one") for a in args], cwd=inputs)
+    assert one.returncode == 0, one.stderr
+    two = glmls_cli(*[a.format("two") for a in args], "--jobs", "2", cwd=inputs)
+    assert two.returncode == 0, two.stderr
+    dask = glmls_cli(*[a.format("dask") for a in args], "--jobs", "2", "--scheduler", "local",
+                     cwd=inputs)  # fmt: skip
+    assert dask.returncode == 0, dask.stderr
+    expected = _outputs(inputs / "one")
+    assert sorted(expected) == ["a.png", "b.png", "c.png"]
+    for folder in ("two", "dask"):
+        found = _outputs(inputs / folder)
+        assert sorted(found) == sorted(expected)
+        assert all((found[n] == expected[n]).all() for n in expected), folder
+    assert sorted(two.stdout.split()) == sorted(f"two/{n}" for n in expected)
+    assert "warp [" in two.stderr and "3/3" in two.stderr
+
+
+def test_batch_warp_keep_going_over_workers(inputs):
+    (inputs / "b.png").write_bytes(b"not an image")
+    kept = glmls_cli("warp", ".", "out", "--handles", "h.json", "--jobs", "2", "--keep-going",
+                     cwd=inputs)  # fmt: skip
+    assert kept.returncode == 1, kept.stderr
+    assert sorted(p.name for p in (inputs / "out").iterdir()) == ["a.png", "c.png"]
+    assert "skipped" in kept.stderr and "b.png" in kept.stderr
+    assert "1 of 3 images failed" in kept.stderr
+    stopped = glmls_cli("warp", ".", "stop", "--handles", "h.json", "--jobs", "2", cwd=inputs)
+    assert stopped.returncode == 2
+    assert "b.png" in stopped.stderr and "Traceback" not in stopped.stderr

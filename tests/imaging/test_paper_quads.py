@@ -1,0 +1,193 @@
+"""method="paper-quads": the paper's pseudo-code (squares of adjacent pixel centres, nearest
+vertex, first square in scan order wins) on the GPU, against its float64 numpy implementation
+(glmls.core.paper_quads); and ``quads`` against it on folded maps."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import SENTINEL, coordinate_image, smooth_handles
+from numpy.testing import assert_array_equal
+
+import glmls
+from glmls.core import reference
+from glmls.core.mesh import MeshLattice
+from glmls.core.paper_quads import EDGE_TOLERANCE, paper_quads
+from glmls.imaging.options import PipelineOptions
+
+
+def folding_handles(shape):
+    """A 3 x 3 lattice of handles with the centre dragged past its right neighbour and the
+    top-left one past the one below it: the map folds in two places."""
+    height, width = shape
+    unit = np.stack(np.meshgrid([0.15, 0.5, 0.85], [0.15, 0.5, 0.85]), -1).reshape(-1, 2)
+    p = unit * [width - 1, height - 1]
+    q = p.copy()
+    q[4] += [0.45 * width, 0.1 * height]
+    q[0] += [0.05 * width, 0.4 * height]
+    return p, q
+
+
+def shown(out):
+    """(H, W, 2) source pixel (x, y) each output pixel of a coordinate image shows, -1 where
+    it kept the background."""
+    xy = out[..., :2].astype(np.int64)
+    return np.where(out[..., :1] == SENTINEL, -1, xy)
+
+
+def reference_pixels(m, shape, output_shape=None, origin=(0.0, 0.0)):
+    """The numpy pseudo-code on f in float64 at the pixel centres: (pixels, counts)."""
+    centres = MeshLattice.centres(shape).points()
+    f, _, _ = reference.mls(m.src, m.dst, centres.reshape(-1, 2), m.config, shape=shape)
+    out_shape = shape if output_shape is None else output_shape
+    return paper_quads(f.reshape(centres.shape), out_shape, origin=origin, counts=True)
+
+
+# -- the numpy pseudo-code -------------------------------------------------------------------
+
+
+def test_pseudo_code_of_the_identity_and_a_whole_pixel_shift():
+    yy, xx = np.mgrid[0:7, 0:9]
+    f = np.stack([xx, yy], -1).astype(float)
+    assert_array_equal(paper_quads(f, (7, 9)), np.stack([xx, yy], -1))
+    # points on the border of the squares are inside: the border rows and columns show
+    moved = paper_quads(f + [2.0, -1.0] + 1e-4, (8, 12))
+    assert_array_equal(moved[:6, 2:11], np.stack([xx, yy], -1)[1:, :])
+    assert (moved[6:] == -1).all() and (moved[:, :2] == -1).all() and (moved[:, 11:] == -1).all()
+    # further from the edge than the tolerance: outside
+    assert (paper_quads(f + 2 * EDGE_TOLERANCE, (7, 9))[0] == -1).all()
+
+
+def test_pseudo_code_marks_with_the_first_square_and_the_nearest_vertex():
+    """Two squares (one row of three centres) whose second quadrilateral is folded back over
+    the first: their common pixels keep the first square, coloured by its nearest vertex."""
+    f = np.array(
+        [
+            [[0.0, 0.0], [4.0, 0.0], [0.2, 0.0]],
+            [[0.0, 4.0], [4.0, 4.0], [0.2, 4.0]],
+        ]
+    )
+    out, counts = paper_quads(f, (5, 5), counts=True)
+    # pixel (1, 1) is in both (strictly); nearest of square 0's vertices: (0, 0)
+    assert counts[1, 1] == 2
+    assert_array_equal(out[1, 1], [0, 0])
+    assert_array_equal(out[3, 3], [1, 1])  # nearest (4, 4): vertex (1, 1)
+    # the second square alone would show its own vertices there: (2, 0) is nearest (0.2, 0)
+    alone = paper_quads(f[:, 1:], (5, 5))
+    assert_array_equal(alone[1, 1], [1, 0])
+    assert (out[:, 4] >= 0).all()  # x = 4: on the edge shared by both, kept by the first
+
+
+def test_pseudo_code_checks_its_input():
+    with pytest.raises(ValueError, match="deformed"):
+        paper_quads(np.zeros((3, 3)), (3, 3))
+    with pytest.raises(ValueError, match="output_shape"):
+        paper_quads(np.zeros((3, 3, 2)), (0, 3))
+
+
+# -- the GPU against it ----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("shape", [(96, 128), (150, 112)])
+def test_paper_quads_on_the_gpu_follow_the_pseudo_code_on_folds(gl, shape):
+    """Same source pixel in >= 99 % of covered pixels and >= 95 % of the folded ones
+    (measured: 100 % of both); ``quads`` within 1 px of it on >= 95 % of the folded pixels
+    (measured 97.8 %; every one within 1 px in each axis)."""
+    p, q = folding_handles(shape)
+    img = coordinate_image(*shape)
+    with glmls.MLS(p, q, shape=shape, ctx=gl) as m:
+        assert glmls.foldovers(m, shape).count > 500
+        paper = shown(m.warp(img, method="paper-quads", background=SENTINEL))
+        quads = shown(m.warp(img, method="quads", background=SENTINEL))
+        expected, counts = reference_pixels(m, shape)
+    covered = (expected[..., 0] >= 0) | (paper[..., 0] >= 0)
+    folded = counts > 1
+    assert covered.sum() > 0.5 * covered.size and folded.sum() > 300
+    same = (paper == expected).all(axis=-1)
+    assert same[covered].mean() >= 0.99
+    assert same[folded].mean() >= 0.95
+    near = np.linalg.norm(quads - expected, axis=-1) <= 1.0
+    assert near[folded].mean() >= 0.95
+    assert (np.abs(quads - expected).max(axis=-1)[folded] <= 1).mean() >= 0.99
+
+
+def test_paper_quads_agree_with_the_pseudo_code_without_folds_and_on_a_canvas(gl, rng):
+    shape = (80, 100)
+    p, q = smooth_handles(shape, rng)
+    img = coordinate_image(*shape)
+    canvas, origin = (100, 130), (-12.0, -7.5)
+    with glmls.MLS(p, q, shape=shape, ctx=gl) as m:
+        assert glmls.foldovers(m, shape).count == 0
+        out = m.warp(img, method="paper-quads", background=SENTINEL)
+        framed = m.warp(
+            img, method="paper-quads", background=SENTINEL, output_shape=canvas, origin=origin
+        )
+        expected, counts = reference_pixels(m, shape)
+        expected_framed, _ = reference_pixels(m, shape, canvas, origin)
+    assert counts.max() == 1
+    assert (shown(out) == expected).all(axis=-1).mean() >= 0.99
+    assert (shown(framed) == expected_framed).all(axis=-1).mean() >= 0.99
+    assert (shown(framed)[..., 0] >= 0).sum() > (shown(out)[..., 0] >= 0).sum()  # nothing cut
+
+
+def test_paper_quads_in_bands_equal_one_band(gl):
+    shape = (64, 72)
+    p, q = folding_handles(shape)
+    img = coordinate_image(*shape)
+    banded = glmls.WarpPipeline(gl, options=PipelineOptions(band_bytes=4096))
+    try:
+        assert MeshLattice.centres(shape).rows_per_band(4096) < 10
+        with glmls.MLS(p, q, shape=shape, ctx=gl) as m:
+            for interpolation in glmls.INTERPOLATIONS:
+                whole = m.warp(img, method="paper-quads", interpolation=interpolation)
+                bands = banded.warp(m, img, method="paper-quads", interpolation=interpolation)
+                assert_array_equal(bands, whole)
+    finally:
+        banded.release()
+
+
+def test_paper_quads_linear_blends_the_square_of_the_pixel(gl, rng):
+    """``linear``: the bilinear blend of the winning square's four vertex colours at the
+    pixel's place in it: a linear ramp comes back as the source point, whose map through
+    f (float64) lands within rounding of the pixel centre."""
+    shape = (60, 80)
+    p, q = smooth_handles(shape, rng)
+    img = coordinate_image(*shape).astype(np.float32)
+    with glmls.MLS(p, q, shape=shape, ctx=gl) as m:
+        out = m.warp(img, method="paper-quads", interpolation="linear", background=-1)
+        nearest = m.warp(img, method="paper-quads", background=-1)
+        f, _, _ = reference.mls(p, q, out[..., :2].reshape(-1, 2), m.config, shape=shape)
+    covered = out[..., 0] >= 0
+    assert_array_equal(covered, nearest[..., 0] >= 0)
+    u = np.stack(np.meshgrid(np.arange(shape[1]), np.arange(shape[0])), -1)
+    d = np.linalg.norm(f.reshape(*shape, 2) - u, axis=-1)[covered]
+    assert np.median(d) < 0.02 and d.max() < 0.2  # f is nearly bilinear over one square
+    assert np.abs(out[covered][:, :2] - nearest[covered][:, :2]).max() <= 1.0
+
+
+def test_paper_quads_options(gl):
+    img = np.zeros((10, 12), np.uint8)
+    with glmls.MLS([[2.0, 2.0]], [[3.0, 2.0]], ctx=gl) as m:
+        with pytest.raises(ValueError, match="grid must be 1"):
+            m.warp(img, method="paper-quads", grid=2)
+        assert m.warp(img, method="paper-quads", grid=1).shape == img.shape
+    with pytest.raises(ValueError, match="grid must be 1"):
+        glmls.warp(img, [[2.0, 2.0]], [[3.0, 2.0]], method="paper-quads", grid=4, ctx=gl)
+
+
+def test_paper_quads_need_a_viewport_of_the_output_size(gl):
+    pipe = glmls.WarpPipeline.of(gl)
+    img = np.zeros((10, 12, 4), np.uint8)
+    with gl, glmls.MLS([[2.0, 2.0]], [[3.0, 2.0]], ctx=gl) as m:
+        source = pipe.upload(glmls.imaging.source.prepare_image(img, 64, normalized=True), "t")
+        target = gl.mgl.texture((24, 20), 4, dtype="f1")
+        bound = gl.mgl.fbo or gl.mgl.detect_framebuffer(0)
+        framebuffer = gl.mgl.framebuffer(color_attachments=[target])
+        try:
+            framebuffer.viewport = (0, 0, 24, 20)
+            with pytest.raises(ValueError, match="viewport"):
+                pipe.render(m, source, framebuffer, method="paper-quads")
+        finally:
+            bound.use()
+            framebuffer.release()
+            target.release()
