@@ -316,6 +316,7 @@ _WARP_OPTIONS = (
     "border",
     "output_shape",
     "origin",
+    "tolerance",
 )
 
 
@@ -323,7 +324,7 @@ def warp(image: object, src: object, dst: object, **options: object) -> np.ndarr
     """Deform ``image`` by the MLS map taking handles ``src`` (p) to ``dst`` (q).
 
     ``options``: those of :meth:`MLS.warp` (``method``, ``interpolation``, ``grid``,
-    ``background``, ``border``, ``output_shape``, ``origin``) and of :class:`MLS`
+    ``tolerance``, ``background``, ``border``, ``output_shape``, ``origin``) and of :class:`MLS`
     (``src_segments``, ``dst_segments``, ``transform``, ``weight``, ``alpha``, ``s``,
     ``radius``, ``interpolating``, ``ctx``, ``storage``, ``bins``). The default radius is the
     image diagonal. The MLS's GPU objects are released before returning (the context's shared

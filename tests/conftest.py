@@ -7,6 +7,7 @@ import pytest
 
 import glmls
 from glmls.gl.context import GLContext
+from glmls.imaging.options import PipelineOptions
 
 
 @pytest.fixture(scope="session")
@@ -32,3 +33,18 @@ def _no_gl_errors(request):
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(12345)
+
+
+@pytest.fixture
+def pipeline(gl):
+    """Make pipelines of their own with the given options (released after the test)."""
+    made = []
+
+    def make(**options):
+        pipe = glmls.WarpPipeline(gl, options=PipelineOptions(**options))
+        made.append(pipe)
+        return pipe
+
+    yield make
+    for pipe in made:
+        pipe.release()

@@ -198,7 +198,7 @@ def measure_trial(
     truth = apply_known(known_params, reference, diagonal)
     return {
         "angle": _mean(tri.angle),
-        "smoothness": float(np.nanmax(np.nanmean(fan_angle, axis=1), initial=0.0)),
+        "smoothness": _worst_fan(fan_angle),
         "mesh_angle": float(np.nanpercentile(mesh_angle, 99)),
         "predictive": float(np.hypot(*(predicted - truth).T).mean()),
         "mls": float(error_stats(m.error_field(shape, grid=grid))["mean"]),
@@ -207,6 +207,18 @@ def measure_trial(
         "handle_miss_max": float(miss.max()),
         "folds": float(tri.flipped.sum() + fan_flipped.sum() + mesh_flipped.sum()),
     }
+
+
+def _worst_fan(fan_angle: np.ndarray) -> float:
+    """The largest mean angle change of a fan; a fan whose every triangle is undefined (f
+    collapsed it, or returned NaN) counts as the worst, infinite."""
+    if fan_angle.size == 0:
+        return 0.0
+    defined = np.isfinite(fan_angle)
+    counts = defined.sum(axis=1)
+    sums = np.where(defined, fan_angle, 0.0).sum(axis=1)
+    means = np.where(counts > 0, sums / np.maximum(counts, 1), math.inf)
+    return float(means.max())
 
 
 def _mean(values: np.ndarray) -> float:

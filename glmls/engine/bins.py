@@ -2,7 +2,7 @@
 
 For the weights with an influence radius R (support ``radius`` in ``glmls.core.weights``:
 w = 0 for d >= R; support ``gaussian``: cut where the weight is negligible), the handles are
-sorted by the bin of a square grid that contains them (on the CPU: an argsort, ~10 ms for
+sorted by the bin of a square grid that contains them (on the CPU: an argsort, ~2 ms for
 65,536 handles) and the shader (``glmls/shaders/mls/visit.glsl`` with ``MLS_BINS``) walks only
 the bins that meet the square of half-side ``reach`` around the point: one contiguous run of
 sorted handles per bin row, from a table of where each bin's handles start (a storage buffer,
@@ -38,10 +38,19 @@ from ..core.weights import REGISTRY, gaussian_cut
 from ..gl import bindings
 from ..gl.dispatch import set_uniforms
 
-#: Bin side as a fraction of the radius R (for gaussian too, whose reach is ~5 R):
-#: smaller bins fit the disc of reach better (fewer handles visited) but cost more rows, and
-#: the nearest handle is first looked for within one bin side (see mls/visit.glsl).
+#: Bin side as a fraction of the radius R (for gaussian too, whose reach is ~5 R), at most:
+#: smaller bins fit the disc of reach better (fewer handles visited) but cost more rows.
 BIN_FRACTION = 0.5
+#: ... and at least (dense handles: many tiny rows cost more than the handles they spare).
+MIN_BIN_FRACTION = 0.1
+#: Between the two, the bin side is this many times the handles' mean spacing (the side of
+#: the square per handle over their bounding box): about one handle per bin, where the
+#: chords of the disc (mls/visit.glsl) fit it best for their cost (65,536 handles on a 1024^2
+#: lattice, R = 24 px: 4 px bins, 2x faster than R / 2).
+BIN_SPACING = 1.0
+#: The nearest handle is first looked for within this many mean spacings (at least a bin
+#: side), then in squares of twice the side (see mls/visit.glsl).
+NEAR_SPACING = 1.0
 #: At most this many bins per side (the start table stays <= 4 MB).
 MAX_BINS = 1024
 #: Automatic binning from this many handles on, and only when the reach is below this
@@ -62,6 +71,7 @@ class HandleBins:
     size: float
     dims: tuple[int, int]
     reach: float
+    near: float
     segment_starts: np.ndarray
     segment_list: np.ndarray
     handles: int
@@ -75,16 +85,21 @@ class HandleBins:
         segments: np.ndarray | None = None,
     ) -> HandleBins:
         """Bins for ``points`` (N, 2) and ``segments`` (S, 2, 2) in scaled coordinates, of
-        side BIN_FRACTION x ``radius`` (more where the bins would exceed MAX_BINS per side), for
-        points that look as far as ``reach_``."""
+        side BIN_SPACING x the points' mean spacing, within MIN_BIN_FRACTION and BIN_FRACTION
+        x ``radius`` (more where the bins would exceed MAX_BINS per side), for points that
+        look as far as ``reach_``; the nearest handle is first looked for within ``near``,
+        NEAR_SPACING x the spacing (at least a bin side, at most the reach)."""
         segments = np.zeros((0, 2, 2)) if segments is None else segments
         everything = np.concatenate([points, segments.reshape(-1, 2)])
         lo, hi = point_bounds(everything) if len(everything) else (np.zeros(2), np.zeros(2))
         if len(segments):
             lo, hi = lo - reach_, hi + reach_  # a point beyond is out of every segment's reach
         extent = float(max((hi - lo).max(), 1e-12))
+        spacing = _mean_spacing(points)
+        size = min(max(BIN_SPACING * spacing, radius * MIN_BIN_FRACTION), radius * BIN_FRACTION)
         # at most the extent (a huge radius: one bin, a finite size), at least MAX_BINS per side
-        size = max(min(radius * BIN_FRACTION, extent), extent / (MAX_BINS - 1))
+        size = max(min(size, extent), extent / (MAX_BINS - 1))
+        near = min(max(NEAR_SPACING * spacing, size), max(reach_, size))
         dims = np.minimum(np.floor((hi - lo) / size).astype(int) + 1, MAX_BINS)
         cell = np.minimum(np.floor((points - lo) / size).astype(int), dims - 1)
         key = cell[:, 1] * dims[0] + cell[:, 0]
@@ -99,6 +114,7 @@ class HandleBins:
             float(size),
             (int(dims[0]), int(dims[1])),
             float(reach_),
+            float(near),
             segment_starts,
             segment_list,
             len(points) + len(segments),
@@ -116,10 +132,22 @@ class HandleBins:
             "u_bin_size": self.size,
             "u_bin_dims": self.dims,
             "u_bin_reach": self.reach,
+            "u_bin_near": self.near,
             "u_bin_cut": gaussian_cut(self.handles),
             "u_bin_segment_starts": len(self.starts),
             "u_bin_segment_list": len(self.starts) + len(self.segment_starts),
         }
+
+
+def _mean_spacing(points: np.ndarray) -> float:
+    """The side of the square per point over the points' bounding box (infinite for < 2
+    points: the bins are then R / 2; points on a line: their extent per point)."""
+    if len(points) < 2:
+        return float("inf")
+    lo, hi = point_bounds(points)
+    width, height = hi - lo
+    area = width * height if min(width, height) > 0 else max(width, height) ** 2
+    return float(np.sqrt(area / len(points)))
 
 
 def _segment_lists(

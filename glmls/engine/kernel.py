@@ -101,7 +101,9 @@ class MLSKernel:
 
     def _upload(self, packed: np.ndarray, segments: np.ndarray, scaling: Scaling) -> None:
         rows = len(packed) + len(segments)
-        name = resolve_storage(self._storage_request, self.gl.mgl, rows)
+        radius = self._radius(None, scaling.scale)
+        binned = self._use_bins(packed, segments, radius, self._bins_request)
+        name = resolve_storage(self._storage_request, self.gl.mgl, rows, binned=binned)
         storage = self._storage
         if storage is None or storage.name != name:
             storage = make_storage(name, self.gl.mgl)
@@ -121,18 +123,27 @@ class MLSKernel:
                 self._storage.release()
             self._storage = storage
         self._packed, self._segments, self.scaling = packed, segments, scaling
-        self._write(self.radius(None), self._bins_request)
+        self._write(radius, binned)
 
-    def _write(self, radius: float | None, use_bins: bool | None) -> None:
-        """Sort the packed handles into bins for ``radius`` (scaled) where ``use_bins`` (None:
-        where it pays), then write them to the storage."""
+    def _use_bins(
+        self, packed: np.ndarray, segments: np.ndarray, radius: float | None, request: bool | None
+    ) -> bool:
+        """Whether handles ``packed`` and ``segments`` go into bins for ``radius`` (scaled):
+        as asked, or (``request`` None) where it pays; never without a radius."""
+        if radius is None or not self.config.uses_radius:
+            return False
+        if request is not None:
+            return request
+        sources = segments[0::2].reshape(-1, 2)
+        everything = np.concatenate([packed[:, :2], sources]).astype(float)
+        return worth_binning(self.config.weight, radius, everything)
+
+    def _write(self, radius: float | None, use_bins: bool) -> None:
+        """Sort the packed handles into bins for ``radius`` (scaled) where ``use_bins``, then
+        write them to the storage."""
         packed = self._packed
         sources = self._segments[0::2].astype(float).reshape(-1, 2, 2)
-        if radius is None or not self.config.uses_radius:
-            use_bins = False
-        elif use_bins is None:
-            everything = np.concatenate([packed[:, :2], sources.reshape(-1, 2)]).astype(float)
-            use_bins = worth_binning(self.config.weight, radius, everything)
+        use_bins = use_bins and radius is not None and self.config.uses_radius
         if self._bins is not None:
             self._bins.release()
             self._bins = None
@@ -147,6 +158,9 @@ class MLSKernel:
     def radius(self, shape: tuple[int, int] | None) -> float | None:
         """R in scaled units for an image of ``shape`` (the kernel's own when None); None
         without a radius (idw, or no size to take the diagonal of)."""
+        return self._radius(shape, self.scaling.scale)
+
+    def _radius(self, shape: tuple[int, int] | None, scale: float) -> float | None:
         config = self.config
         if not config.uses_radius:
             return None
@@ -156,7 +170,7 @@ class MLSKernel:
             if shape is None:
                 return None
             radius = image_diagonal(shape)
-        return radius / self.scaling.scale
+        return radius / scale
 
     # -- what the passes need -----------------------------------------------------------
 

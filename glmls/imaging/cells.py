@@ -14,7 +14,8 @@ Three ways to fill the pixels, fastest first:
 - nearest, into an RGBA8 texture from an RGBA8 source ("fused"): the scan conversion writes
   the colours itself and ``warp/cells_fixup.comp.glsl`` corrects fold-overs; a mesh in one
   band is first drawn without keys or atomics and redrawn with them only where
-  ``warp/cells_check.comp.glsl`` cannot show it is an embedding ("fast");
+  ``warp/cells_check.comp.glsl`` cannot show it is an embedding ("fast"): only the cells
+  that reach a tile near a folded cell, or every cell where the boundary bends too much;
 - nearest otherwise: the scan picks each pixel's source pixel, and a draw
   (``warp/cells_nearest.frag.glsl``) copies it;
 - linear or source points: ``warp/cells.frag.glsl`` interpolates the winning triangle; a mesh
@@ -39,6 +40,10 @@ from .frame import Frame
 from .options import PipelineOptions
 
 __all__ = ["PATHS", "CellScan", "key_layout"]
+
+_BLOCK = 8  # cells on a side of the blocks of warp/cells_hot.glsl
+_MARK_GROUPS = 8  # where warp_check_data holds the marking's work groups (warp/cells_hot.glsl)
+_HOT_HEADER = 12  # uints in warp_check_data before the hot tiles (warp/cells_hot.glsl)
 
 #: The ways :meth:`CellScan.draw` filled the pixels (:attr:`CellScan.last_path`).
 PATHS = ("fused fast", "fused", "nearest", "interpolated")
@@ -75,6 +80,10 @@ def _packable(source: moderngl.Texture | None, target: object) -> bool:
 class CellScan:
     """The compute scan conversion of a pipeline (its GL objects are the pipeline's)."""
 
+    #: The fast scan lists up to max(folded_min, cells / 16) folded cells; with more, its
+    #: keyed pass redraws every cell (tests lower it to take that way).
+    folded_min = 4096
+
     def __init__(
         self, gl: GLContext, resources: Resources, options: PipelineOptions, bands: MeshBands
     ) -> None:
@@ -84,6 +93,8 @@ class CellScan:
         self._bands = bands
         #: How the last :meth:`draw` filled the pixels: one of :data:`PATHS`, or None.
         self.last_path: str | None = None
+        self._fast_dims = (1, 1)  # the mesh of the last fast scan
+        self._fold_capacity = 0  # and the length of its list of folded cells
 
     @current
     def draw(
@@ -133,7 +144,9 @@ class CellScan:
             winner.clear(size=pixels * 4)
         if fused:
             self._prepare_fused(source, target, values["u_fixup_capacity"])  # type: ignore[arg-type]
-        cells = self._program(nearest=nearest, fused=fused, fast=False, border=border)
+        if fast:
+            values.update(self._hot_tiles(lattice, frame))
+        cells = self._program(nearest=nearest, fused=fused, fast=False, border=border, hot=fast)
         set_uniforms(cells, values)
         bands = 0
         for first, dims in self._bands(kernel, lattice):
@@ -166,15 +179,38 @@ class CellScan:
 
     @current
     def embedding_counts(self) -> tuple[int, int]:
-        """(cells not strictly positive, boundary crossings) that the last fast scan counted
-        (``warp/cells_check.comp.glsl``; (0, 1) means an embedding). Reads back: for tests
-        and diagnostics, not frames."""
+        """(cells not strictly positive plus boundary edges not turning, boundary crossings)
+        that the last fast scan counted (``warp/cells_check.comp.glsl``; (0, 1) means an
+        embedding). Reads back: for tests and diagnostics, not frames."""
         self._gl.mgl.memory_barrier()
-        counts = np.frombuffer(self._resources.cached("check").read(size=8), np.uint32)
-        return int(counts[0]), int(counts[1])
+        counts = np.frombuffer(self._resources.cached("check").read(size=12), np.uint32)
+        return int(counts[0] + counts[2]), int(counts[1])
+
+    @current
+    def redrawn_cells(self) -> int:
+        """How many cells the keyed pass of the last fast scan redrew (0 where the mesh was
+        an embedding): those reaching a hot tile, or all where the boundary failed its test
+        or more cells folded than it lists. Reads back: for tests and diagnostics, not
+        frames."""
+        self._gl.mgl.memory_barrier()
+        bad, crossings, folded, redrawn = np.frombuffer(
+            self._resources.cached("check").read(size=16), np.uint32
+        )
+        if bad == 0 and crossings == 1 and folded <= self._fold_capacity:
+            return int(redrawn)
+        nx, ny = self._fast_dims
+        return (nx - 1) * (ny - 1)
+
+    def _hot_tiles(self, lattice: MeshLattice, frame: Frame) -> dict[str, int]:
+        """The uniforms of the hot-tile map of the fast scan (warp/cells_hot.glsl): tiles of
+        2 px at grid 1, 4 px otherwise, each row of tiles in whole uints."""
+        shift = 1 if lattice.grid == 1 else 2
+        width, _ = frame.size
+        words = ((width - 1 >> shift) + 32) // 32
+        return {"u_hot_shift": shift, "u_hot_words": words}
 
     def _program(
-        self, *, nearest: bool, fused: bool, fast: bool, border: int
+        self, *, nearest: bool, fused: bool, fast: bool, border: int, hot: bool = False
     ) -> moderngl.ComputeShader:
         return self._gl.compute(
             "warp/cells.comp.glsl",
@@ -182,6 +218,7 @@ class CellScan:
                 "WARP_CELLS_SOURCE": nearest,
                 "WARP_CELLS_FUSED": fused,
                 "WARP_CELLS_FAST": fast,
+                "WARP_CELLS_HOT": hot,
                 "WARP_BORDER": border if fused else 0,
             },
         )
@@ -189,30 +226,59 @@ class CellScan:
     def _scan_fast(
         self, keyed: moderngl.ComputeShader, values: dict[str, object], border: int
     ) -> None:
-        """The fused scan of a whole mesh (one band): the pass without keys, the embedding
-        test, and the keyed pass ``keyed`` (after a clear of the winner buffer) dispatched
-        with zero work groups where the mesh is an embedding (warp/cells_check.comp.glsl)."""
+        """The fused scan of a whole mesh (one band): the pass without keys, which lists the
+        folded cells; the embedding test, which marks the tiles near them and lists the
+        blocks of cells that reach those (warp/cells_hot.glsl); the clear of the winner
+        buffer and the keyed redraw, dispatched indirectly with sizes the test wrote
+        (warp/cells_check.comp.glsl): nothing where the mesh is an embedding, the cells of
+        the listed blocks that reach a hot tile (``keyed``, ``WARP_CELLS_HOT``) where cells
+        fold inside a simple boundary, every cell (a keyed pass without it) where the
+        boundary fails or more cells fold than the list holds (one in 16)."""
         gl = self._gl
         stages = [
             gl.compute("warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage})
-            for stage in range(3)
+            for stage in range(7)
         ]
         fast = self._program(nearest=True, fused=True, fast=True, border=border)
-        for program in (fast, *stages):
+        every = self._program(nearest=True, fused=True, fast=False, border=border)
+        nx, ny = self._fast_dims = values["u_mesh_dims"]  # type: ignore[misc]
+        cells = (nx - 1) * (ny - 1)
+        blocks = math.ceil((nx - 1) / _BLOCK) * math.ceil((ny - 1) / _BLOCK)
+        _, height = values["u_target_size"]  # type: ignore[misc]
+        shift, words = values["u_hot_shift"], values["u_hot_words"]
+        # warp_check_data: a header, the hot tiles, the folded blocks' bits, the folded cells,
+        # the listed blocks (warp/cells_hot.glsl)
+        folded_blocks = _HOT_HEADER + words * ((height - 1 >> shift) + 1)  # type: ignore[operator]
+        folded_list = folded_blocks + (blocks + 31) // 32
+        capacity = self._fold_capacity = max(self.folded_min, cells // 16)
+        block_list = folded_list + capacity
+        values = values | {
+            "u_folded_blocks": folded_blocks,
+            "u_folded_list": folded_list,
+            "u_folded_capacity": capacity,
+            "u_block_list": block_list,
+        }
+        for program in (fast, every, keyed, *stages):
             set_uniforms(program, values)
-        check = self._resources.buffer("check", 48)
-        check.clear(size=16)
+        check = self._resources.buffer("check", 48 + 4 * (block_list + blocks))
+        check.clear(size=48 + 4 * folded_list)
         check.bind_to_storage_buffer(bindings.CHECK.index)
-        nx, ny = values["u_mesh_dims"]  # type: ignore[misc]
         stages[0].run(group_x=math.ceil((2 * (nx - 1) + 2 * (ny - 1)) / LOCAL_SIZE))
-        run_1d(fast, (nx - 1) * (ny - 1), max_groups=self._max_groups)
+        run_1d(fast, cells, max_groups=self._max_groups)
         gl.mgl.memory_barrier()
         stages[1].run(group_x=1)
+        stages[5].run(group_x=1)
         gl.mgl.memory_barrier()
+        stages[6].run_indirect(check, offset=48 + 4 * _MARK_GROUPS)
+        gl.mgl.memory_barrier()
+        run_1d(stages[3], blocks, max_groups=self._max_groups)
         stages[2].run_indirect(check, offset=16)
         gl.mgl.memory_barrier()
-        keyed["u_offset"].value = 0
-        keyed.run_indirect(check, offset=32)
+        stages[4].run(group_x=1)
+        gl.mgl.memory_barrier()
+        every["u_offset"].value = 0
+        every.run_indirect(check, offset=32)
+        keyed.run_indirect(check, offset=48)
 
     def _prepare_fused(
         self, source: moderngl.Texture, target: moderngl.Texture, capacity: int

@@ -36,6 +36,8 @@ from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import set_uniforms
 from ..gl.resources import Resources
+from .adaptive import ROOT_STEP, check_adaptive
+from .adaptive_scan import AdaptiveScan
 from .bands import MeshBands
 from .cells import CellScan
 from .frame import Bounds, Frame, border_margin, deformed_bounds, make_frame
@@ -64,6 +66,7 @@ class _How(NamedTuple):
     grid: int
     border: int  # the index in BORDERS: WARP_BORDER
     flip_y: bool
+    tolerance: float | None = None  # the adaptive mesh's (quads), None: the regular one
 
 
 class Deformation(Protocol):
@@ -99,6 +102,7 @@ class WarpPipeline:
         self.cells = CellScan(self._gl, self._resources, self.options, self._bands)
         self.raster = MeshRaster(self._gl, self._resources, self._bands)
         self.paper = PaperQuads(self._gl, self._resources, self._bands)
+        self.adaptive = AdaptiveScan(self._gl, self._resources)
         self._inverse = InverseSolver(
             self._gl, self._resources, self.options, self.cells, self.raster
         )
@@ -167,6 +171,7 @@ class WarpPipeline:
         flip_y: bool = False,
         border: str = "constant",
         frame: Frame | None = None,
+        tolerance: float | None = None,
     ) -> None:
         """Draw the deformed ``source`` into ``framebuffer`` (its current viewport), no read-back.
 
@@ -175,14 +180,18 @@ class WarpPipeline:
         ``quads`` and ``splat`` scale it to any viewport, ``backward`` needs a viewport of
         its size, and so does ``paper-quads`` (``ValueError`` otherwise). ``border``: one
         of :data:`~glmls.imaging.source.BORDERS`. ``flip_y`` for a window, whose row 0 is at
-        the bottom. The bound framebuffer is left as found.
+        the bottom. ``tolerance``: the adaptive mesh of ``quads`` (:mod:`.adaptive`; a
+        viewport of the output's size). The bound framebuffer is left as found.
         """
         self._resources.check_alive()
         check_options(method, interpolation, grid, border)
+        tolerance = check_adaptive(method, grid, tolerance)
         width, height = source.size
         if frame is None:
             frame = Frame((height, width))
-        how = _How(method, interpolation == "linear", grid, BORDERS.index(border), flip_y)
+        how = _How(
+            method, interpolation == "linear", grid, BORDERS.index(border), flip_y, tolerance
+        )
         with self._keep_framebuffer():
             self._render(mls, source, framebuffer, how, frame)
 
@@ -190,6 +199,10 @@ class WarpPipeline:
         width, height = source.size
         shape = (height, width)
         kernel = mls.kernel
+        if how.tolerance is not None:
+            lattice = self._lattice(kernel, shape, ROOT_STEP, how.border, frame)
+            self.adaptive.render(kernel, lattice, source, framebuffer, frame, how)
+            return
         if how.method == "paper-quads":
             if tuple(framebuffer.viewport) != (0, 0, *frame.size):
                 raise ValueError(
@@ -309,17 +322,19 @@ class WarpPipeline:
         border: str = "constant",
         output_shape: object = None,
         origin: object = None,
+        tolerance: float | None = None,
     ) -> np.ndarray:
         """The deformed image as a new array of ``image``'s dtype and channels, of
         ``output_shape`` (default: the image's); see :meth:`glmls.MLS.warp`."""
         self._resources.check_alive()
         check_options(method, interpolation, grid, border)
+        tolerance = check_adaptive(method, grid, tolerance)
         source = prepare_image(image, self.max_image_size, normalized=True)
         frame = make_frame(output_shape, origin, source.shape, self.max_image_size)
         clear = background_color(background, source)
         texture = self.upload(source)
         dtype = "f1" if source.normalized else "f4"
-        how = _How(method, interpolation == "linear", grid, BORDERS.index(border), False)
+        how = _How(method, interpolation == "linear", grid, BORDERS.index(border), False, tolerance)
         with self._keep_framebuffer():
             framebuffer = self._resources.framebuffer("target", frame.size, dtype)
             framebuffer.use()

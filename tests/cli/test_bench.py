@@ -8,8 +8,16 @@ import csv
 import numpy as np
 import pytest
 
+import glmls
 from glmls.cli.bench import runner as bench
-from glmls.cli.bench.cases import Case, available, make_inputs, run_case
+from glmls.cli.bench.cases import (
+    Case,
+    available,
+    make_inputs,
+    mismatch_percent,
+    random_inputs,
+    run_case,
+)
 
 
 def parse(*argv: str) -> argparse.Namespace:
@@ -24,12 +32,25 @@ def test_quick_plan_covers_glmls_and_each_peer():
     assert ("glmls", "e2e", 1, "rigid") in tools and ("glmls", "frame", 4, "rigid") in tools
     assert ("molesq", "e2e", 1, "affine") in tools  # molesq has affine only
     assert ("skimage-pwa", "e2e", 0, "-") in tools  # no grid, no transform
-    assert len(cases) == 4 + 2 + 2 + 1
+    assert len(cases) == 2 * (4 + 2 + 2 + 1)  # both workloads
+    assert {c.workload for c in cases} == {"lattice", "random"}
 
 
 def test_full_plan_size():
     cases = bench.plan(bench.FULL, ["glmls"])
-    assert len(cases) == 3 * 3 * 3 * 3 * 2
+    assert len(cases) == 2 * 3 * 3 * 3 * 3 * 2
+
+
+def test_tolerances_add_adaptive_glmls_cases_only():
+    settings = bench.QUICK | {"tolerances": [0.05, 0.25], "workloads": ["random"]}
+    cases = bench.plan(settings, ["glmls", "reference"])
+    adaptive = [c for c in cases if c.tolerance]
+    assert {(c.tool, c.tolerance) for c in adaptive} == {("glmls", 0.05), ("glmls", 0.25)}
+    assert len(adaptive) == 2 * 2  # e2e and frame
+    assert all(c.grid == 0 and c.warp_options() == {"tolerance": c.tolerance} for c in adaptive)
+    assert parse("--tolerances", "0.05,0.25").tolerances == [0.05, 0.25]
+    with pytest.raises(SystemExit):
+        parse("--tolerances", "-1")
 
 
 def rows():
@@ -42,6 +63,9 @@ def rows():
         | dict(median_s=0.5, min_s=0.4, max_s=0.7),
         dict(tool="molesq", mode="e2e", size=64, handles=4, grid=1, transform="affine")
         | dict(status="timeout after 1 s"),
+        case
+        | dict(tool="glmls", mode="e2e", grid=0, tolerance=0.05, workload="random")
+        | dict(median_s=0.002, min_s=0.002, max_s=0.003, error_percent=0.25),
     ]
 
 
@@ -52,11 +76,14 @@ def test_table_csv_and_plot(tmp_path):
     assert table_rows[2]["ratio"] == pytest.approx(50)
     text = bench.format_table(table_rows)
     assert "timeout after 1 s" in text and "50.00" in text
+    assert "t0.05" in text and "0.25" in text  # the adaptive mesh and its error column
+    assert "ratio" not in table_rows[4]  # no glmls grid-1 random row to compare with
     bench.write_csv(table_rows, tmp_path / "b.csv")
     with open(tmp_path / "b.csv") as handle:
         read = list(csv.DictReader(handle))
-    assert [r["tool"] for r in read] == ["glmls", "glmls", "skimage-pwa", "molesq"]
+    assert [r["tool"] for r in read] == ["glmls", "glmls", "skimage-pwa", "molesq", "glmls"]
     assert read[3]["median_s"] == ""
+    assert read[4]["tolerance"] == "0.05" and read[4]["error_percent"] == "0.25"
     bench.plot(table_rows, tmp_path / "b.png")
     assert (tmp_path / "b.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
@@ -89,6 +116,26 @@ def test_runners(gl, tool, mode):
     result = run_case(Case(tool, mode, 48, 5, 4, "similarity"), repeat=2)
     assert len(result["times"]) == 2 and min(result["times"]) > 0
     assert result["peak_mb"] > 10
+    if mode == "frame":
+        assert result["error_percent"] is None  # a frame is not read back
+    else:
+        assert 0 <= result["error_percent"] <= 100
+
+
+def test_random_workload_folds_and_the_error_column(gl):
+    image, src, dst = random_inputs(128, 12)
+    again = random_inputs(128, 12)
+    assert all(np.array_equal(a, b) for a, b in zip((image, src, dst), again, strict=True))
+    assert np.abs(dst - src).max() <= 35 / 1024 * 128
+    assert ((src >= 0.05 * 128) & (src <= 0.95 * 128)).all()
+    with glmls.MLS(src, dst, transform="rigid", shape=image.shape, ctx=gl) as m:
+        exact = m.warp(image, method="backward", grid=1)
+        coarse = m.warp(image, grid=8)
+    assert mismatch_percent(image, src, dst, "rigid", exact) == 0.0
+    assert 0 < mismatch_percent(image, src, dst, "rigid", coarse) < 100
+    assert mismatch_percent(image, src, dst, "rigid", None) is None
+    result = run_case(Case("glmls", "e2e", 64, 8, 1, "rigid", "random"), repeat=1)
+    assert result["error_percent"] < 5  # per-pixel quads: nearly f's exact inverse
 
 
 def test_availability_is_a_reason_or_none():

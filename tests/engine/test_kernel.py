@@ -82,8 +82,8 @@ def test_radius_of_the_image_diagonal_follows_each_image(gl, rng):
 
 
 def test_set_handles_chooses_the_storage_and_bins_again(gl, rng):
-    """'auto' storage is chosen for the new count (uniform block, then storage buffer), and
-    automatic bins switch on where they now pay."""
+    """'auto' storage is chosen for the new count (uniform block, then the texture for binned
+    handles), and automatic bins switch on where they now pay."""
     capacity = UBOHandleStorage(gl.mgl).capacity
     few_p, few_q = handle_set(rng, 100)
     many_p, many_q = handle_set(rng, capacity + 10)
@@ -92,7 +92,7 @@ def test_set_handles_chooses_the_storage_and_bins_again(gl, rng):
     with glmls.MLS(few_p, few_q, **options) as m:
         assert m.storage == "ubo" and m.kernel.bins is None
         m.set_handles(many_p, many_q)
-        assert m.storage == "ssbo" and m.kernel.bins is not None
+        assert m.storage == "texture" and m.kernel.bins is not None
         moved = m(v)
         m.set_handles(few_p, few_q)
         assert m.storage == "ubo" and m.kernel.bins is None

@@ -52,7 +52,9 @@ def test_missing_driver_names_the_packages():
     assert "libegl-mesa0" in out and "libgl1-mesa-dri" in out
 
 
-def test_old_gl_version_is_explained():
+def test_old_gl_version_is_explained(gl):
+    if "llvmpipe" not in gl.mgl.info["GL_RENDERER"] and "Mesa" not in gl.mgl.info["GL_VERSION"]:
+        pytest.skip("MESA_GL_VERSION_OVERRIDE is Mesa's: other drivers ignore it")
     out = _probe(MESA_GL_VERSION_OVERRIDE="3.3")
     assert "GLUnavailableError" in out
     assert "4.3" in out
@@ -85,7 +87,9 @@ def test_ctx_of_the_wrong_type_is_a_type_error():
 
 
 def test_owned_glcontext_release_is_idempotent():
-    ctx = GLContext(moderngl.create_context(standalone=True, backend="egl"), owned=True)
+    # require 4.3: NVIDIA gives exactly the version asked for (Mesa gives its newest)
+    mgl = moderngl.create_context(standalone=True, backend="egl", require=430)
+    ctx = GLContext(mgl, owned=True)
     ctx.release()
     ctx.release()  # twice is harmless
     assert ctx.released

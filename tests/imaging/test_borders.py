@@ -99,7 +99,8 @@ def test_backward_constant_keeps_the_background_outside(gl):
     expected = ndimage.map_coordinates(
         image[..., 0].astype(np.float64), [xy[..., 1], xy[..., 0]], order=1, mode="nearest"
     )
-    np.testing.assert_allclose(out[..., 0][inside], expected[inside], atol=1.0 + 1e-6)
+    # uint8 rounding (0.5) plus the GPU's 8-bit filter weights (up to 255 / 256 on NVIDIA)
+    np.testing.assert_allclose(out[..., 0][inside], expected[inside], atol=1.5)
 
 
 @pytest.mark.parametrize("mode", MODES)

@@ -13,23 +13,7 @@ import glmls
 from glmls.core.mesh import MeshLattice
 from glmls.gl import bindings
 from glmls.imaging.cells import key_layout
-from glmls.imaging.options import PipelineOptions
 from glmls.imaging.source import prepare_image
-
-
-@pytest.fixture
-def pipeline(gl):
-    """A pipeline of its own with the given options (released after the test)."""
-    made = []
-
-    def make(**options):
-        pipe = glmls.WarpPipeline(gl, options=PipelineOptions(**options))
-        made.append(pipe)
-        return pipe
-
-    yield make
-    for pipe in made:
-        pipe.release()
 
 
 def test_meshes_drawn_in_bands_match_one_band(gl, rng, pipeline):

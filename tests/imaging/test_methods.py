@@ -138,7 +138,8 @@ def test_coordinate_map_feeds_remap(gl, rng):
     expected = ndimage.map_coordinates(img, [xy[..., 1], xy[..., 0]], order=1, mode="nearest")
     inside = ~np.isnan(linear)
     assert inside.mean() > 0.8
-    assert_allclose(linear[inside], expected[inside], rtol=0, atol=1e-3)  # 8-bit filter weights
+    # GPUs filter with 8-bit weights (NVIDIA: up to 1/256 of the step; llvmpipe: ~1e-3)
+    assert_allclose(linear[inside], expected[inside], rtol=0, atol=1 / 256)
 
 
 def test_nearest_colours_are_input_colours_and_uncovered_pixels_background(gl, rng):

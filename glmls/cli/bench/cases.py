@@ -1,9 +1,23 @@
 """The timed cases of ``glmls bench``: glmls and the tools a user would pick instead.
 
-Every case warps the same image with the same handles (:func:`make_inputs`) and is run in a
-process of its own (see :mod:`glmls.cli.bench.runner`), so that its peak memory is its own. A
+Every case warps the same image with the same handles (:func:`workload_inputs`) and is run in
+a process of its own (see :mod:`glmls.cli.bench.runner`), so that its peak memory is its own. A
 case runs once untimed (imports, GL context, shader compilation) and then ``repeat`` times,
 timed.
+
+Workloads (:data:`WORKLOADS`):
+
+- ``lattice`` (W1, W3): :func:`make_inputs`, handles on a jittered lattice moved by up to 4 %
+  of the image; the mesh never folds.
+- ``random`` (W2): :func:`random_inputs`, handles anywhere in the middle 90 % moved by up to
+  3.4 % of the image in each axis, on a random RGB image: the mesh folds, as a user's edits
+  often make it.
+
+``error``: after the timed runs, the share of output pixels (in %) whose value differs from
+the image built with f's exact inverse at every pixel (glmls ``backward`` at grid 1,
+Newton's method on f per pixel): what a coarse mesh, an adaptive tolerance or another tool's
+mathematics cost in fidelity to per-pixel MLS. ``tolerance`` (glmls only): the adaptive
+mesh's bound on every pixel's source point instead of a fixed ``grid``.
 
 Tools:
 
@@ -34,6 +48,7 @@ import numpy as np
 
 TOOLS = ("glmls", "reference", "molesq", "skimage-pwa", "skimage-tps", "opencv-tps")
 MODES = ("e2e", "frame")
+WORKLOADS = ("lattice", "random")
 #: Tools that implement MLS (the others ignore ``transform``), and what molesq offers.
 MLS_TOOLS = ("glmls", "reference", "molesq")
 MOLESQ_TRANSFORMS = ("affine",)
@@ -50,9 +65,15 @@ class Case:
     handles: int
     grid: int
     transform: str
+    workload: str = "lattice"
+    tolerance: float | None = None
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+    def warp_options(self) -> dict:
+        """glmls's mesh options: the adaptive tolerance, or the fixed grid."""
+        return {"tolerance": self.tolerance} if self.tolerance else {"grid": self.grid}
 
 
 def make_inputs(size: int, handles: int, *, seed: int = 0) -> tuple[np.ndarray, ...]:
@@ -70,6 +91,24 @@ def make_inputs(size: int, handles: int, *, seed: int = 0) -> tuple[np.ndarray, 
     src = np.clip(src, 0, size - 1)
     dst = src + rng.uniform(-0.04, 0.04, src.shape) * size
     return image, src, dst
+
+
+def random_inputs(size: int, handles: int, *, seed: int = 4) -> tuple[np.ndarray, ...]:
+    """W2: a size x size random RGB uint8 image and ``handles`` random source points in the
+    middle 90 % of the image, each moved by up to 3.4 % of the image per axis (35 px at 1024):
+    the mesh folds. (image, src, dst)."""
+    rng = np.random.default_rng(seed)
+    src = rng.uniform(0.05 * size, 0.95 * size, (handles, 2))
+    dst = src + rng.uniform(-35 / 1024 * size, 35 / 1024 * size, (handles, 2))
+    image = np.random.default_rng(0).integers(0, 256, (size, size, 3), dtype=np.uint8)
+    return image, src, dst
+
+
+def workload_inputs(case: Case) -> tuple[np.ndarray, ...]:
+    """(image, src, dst) of ``case``'s workload."""
+    if case.workload == "random":
+        return random_inputs(case.size, case.handles)
+    return make_inputs(case.size, case.handles)
 
 
 def available(tool: str) -> str | None:
@@ -128,17 +167,20 @@ def _backward_sample(image: np.ndarray, mapper: Callable, grid: int) -> np.ndarr
     )
 
 
-def _glmls_e2e(case: Case, image, src, dst) -> Callable[[int], None]:
+Step = Callable[[int], "np.ndarray | None"]
+
+
+def _glmls_e2e(case: Case, image, src, dst) -> Step:
     from ...mls import MLS
 
-    def step(k: int) -> None:
+    def step(k: int) -> np.ndarray:
         with MLS(src, dst, transform=case.transform, shape=image.shape) as m:
-            m.warp(image, grid=case.grid)
+            return m.warp(image, **case.warp_options())
 
     return step
 
 
-def _glmls_frame(case: Case, image, src, dst) -> Callable[[int], None]:
+def _glmls_frame(case: Case, image, src, dst) -> Step:
     from ...gl.context import get_context
     from ...imaging.pipeline import WarpPipeline
     from ...imaging.source import prepare_image
@@ -157,13 +199,13 @@ def _glmls_frame(case: Case, image, src, dst) -> Callable[[int], None]:
         with MLS(src, dst + moves[k % 64], transform=case.transform, ctx=gl) as m, gl:
             framebuffer.use()
             framebuffer.clear()
-            pipe.render(m, source, framebuffer, grid=case.grid)
+            pipe.render(m, source, framebuffer, **case.warp_options())
             gl.mgl.finish()
 
-    return step
+    return step  # no image: a frame is never read back (no error column)
 
 
-def _reference(case: Case, image, src, dst) -> Callable[[int], None]:
+def _reference(case: Case, image, src, dst) -> Step:
     from ...core import reference
 
     shape = image.shape[:2]
@@ -174,17 +216,18 @@ def _reference(case: Case, image, src, dst) -> Callable[[int], None]:
     return lambda k: _backward_sample(image, mapper, case.grid)
 
 
-def _molesq(case: Case, image, src, dst) -> Callable[[int], None]:
+def _molesq(case: Case, image, src, dst) -> Step:
     import molesq
 
-    def step(k: int) -> None:
+    def step(k: int) -> np.ndarray:
         transformer = molesq.Transformer(src, dst)
-        _backward_sample(image, lambda v: transformer.transform(v, reverse=True), case.grid)
+        mapper = lambda v: transformer.transform(v, reverse=True)  # noqa: E731
+        return _backward_sample(image, mapper, case.grid)
 
     return step
 
 
-def _skimage(case: Case, image, src, dst) -> Callable[[int], None]:
+def _skimage(case: Case, image, src, dst) -> Step:
     from skimage import transform
 
     kind = {
@@ -192,18 +235,18 @@ def _skimage(case: Case, image, src, dst) -> Callable[[int], None]:
         "skimage-tps": "ThinPlateSplineTransform",
     }[case.tool]
 
-    def step(k: int) -> None:
+    def step(k: int) -> np.ndarray:
         tform = getattr(transform, kind)()
         tform.estimate(dst, src)  # warp() wants the backward map: output -> source
-        transform.warp(image, tform, order=0, preserve_range=True).astype(np.uint8)
+        return transform.warp(image, tform, order=0, preserve_range=True).astype(np.uint8)
 
     return step
 
 
-def _opencv(case: Case, image, src, dst) -> Callable[[int], None]:
+def _opencv(case: Case, image, src, dst) -> Step:
     import cv2
 
-    def step(k: int) -> None:
+    def step(k: int) -> np.ndarray:
         tps = cv2.createThinPlateSplineShapeTransformer()
         matches = [cv2.DMatch(i, i, 0) for i in range(len(src))]
         # warpImage maps backward: estimate from the target shape to the source shape
@@ -212,7 +255,7 @@ def _opencv(case: Case, image, src, dst) -> Callable[[int], None]:
             src.reshape(1, -1, 2).astype(np.float32),
             matches,
         )
-        tps.warpImage(image, flags=cv2.INTER_NEAREST)
+        return tps.warpImage(image, flags=cv2.INTER_NEAREST)
 
     return step
 
@@ -242,14 +285,33 @@ def peak_memory_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
+def mismatch_percent(image: np.ndarray, src, dst, transform: str, output) -> float | None:
+    """The share (%) of ``output``'s pixels that differ from the image built with f's exact
+    inverse at every pixel (glmls ``backward``, grid 1, nearest); None without an output."""
+    if output is None:
+        return None
+    from ...mls import MLS
+
+    with MLS(src, dst, transform=transform, shape=image.shape) as m:
+        exact = m.warp(image, method="backward", grid=1)
+    output = np.asarray(output)
+    if output.shape != exact.shape:
+        return 100.0
+    return float(np.any(output != exact, axis=-1).mean() * 100)
+
+
 def run_case(case: Case, repeat: int) -> dict:
-    """Time ``case``: one untimed run, then ``repeat`` timed ones (seconds)."""
-    image, src, dst = make_inputs(case.size, case.handles)
+    """Time ``case``: one untimed run, then ``repeat`` timed ones (seconds); then the error of
+    its output against per-pixel f (:func:`mismatch_percent`), untimed."""
+    image, src, dst = workload_inputs(case)
     step = _RUNNERS[case.tool, case.mode](case, image, src, dst)
-    step(0)
+    output = step(0)
     times = []
     for k in range(1, repeat + 1):
         start = time.perf_counter()
         step(k)
         times.append(time.perf_counter() - start)
-    return {"times": times, "peak_mb": peak_memory_mb()}
+    peak = peak_memory_mb()  # before the reference image adds its own
+    transform = case.transform if case.transform in ("affine", "similarity") else "rigid"
+    error = mismatch_percent(image, src, dst, transform, output)
+    return {"times": times, "peak_mb": peak, "error_percent": error}

@@ -1,15 +1,18 @@
 """``glmls bench``: glmls against the tools a user would pick instead, on the same inputs.
 
-Each case (tool, mode, image size, handle count, grid, transform; see
-:mod:`glmls.cli.bench.cases`) runs in a fresh Python process, so its peak memory is its own
-(VmHWM: the whole process, interpreter and libraries included). The table gives the median of
-the timed runs with their spread (min-max), the peak memory, and each row's time as a ratio to
-glmls end to end on the same image, handles, grid and transform, measured in the same run.
-Results also go to ``bench.csv`` and ``bench.png`` in ``--out``.
+Each case (tool, mode, workload, image size, handle count, grid or adaptive tolerance,
+transform; see :mod:`glmls.cli.bench.cases`) runs in a fresh Python process, so its peak memory
+is its own (VmHWM: the whole process, interpreter and libraries included). The table gives the
+median of the timed runs with their spread (min-max), the peak memory, each row's time as a
+ratio to glmls end to end on the same workload, image, handles, grid (1 for the tools without
+one and for the adaptive mesh) and transform, measured in the same run, and the error: the
+share of output pixels that differ from the image of f's exact per-pixel inverse. Results
+also go to ``bench.csv`` and ``bench.png`` in ``--out``.
 
-``python -m glmls.cli.bench --quick`` is a CI-sized run (1024^2, 64 handles, grid 1 and 4, rigid;
-molesq affine); the full matrix is 512/1024/2048 x 16/64/256 handles x grid 1/4/8 x every
-transform.
+``python -m glmls.cli.bench --quick`` is a CI-sized run (1024^2, 64 handles, both workloads,
+grid 1 and 4, rigid; molesq affine); the full matrix is 512/1024/2048 x 16/64/256 handles x
+grid 1/4/8 x every transform x both workloads. ``--tolerances 0.05,0.25`` adds glmls cases on
+the adaptive mesh (where this glmls has one).
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ from .cases import (
     MLS_TOOLS,
     MOLESQ_TRANSFORMS,
     TOOLS,
+    WORKLOADS,
     Case,
     available,
     run_case,
@@ -46,6 +50,8 @@ QUICK = {
     "handles": [64],
     "grids": [1, 4],
     "transforms": ["rigid"],
+    "workloads": list(WORKLOADS),
+    "tolerances": [],
     "repeat": 3,
 }
 FULL = {
@@ -53,14 +59,18 @@ FULL = {
     "handles": [16, 64, 256],
     "grids": [1, 4, 8],
     "transforms": list(TRANSFORMS),
+    "workloads": list(WORKLOADS),
+    "tolerances": [],
     "repeat": 5,
 }
 COLUMNS = (
     "tool",
     "mode",
+    "workload",
     "size",
     "handles",
     "grid",
+    "tolerance",
     "transform",
     "status",
     "median_s",
@@ -69,6 +79,7 @@ COLUMNS = (
     "runs",
     "peak_mb",
     "ratio",
+    "error_percent",
 )
 
 
@@ -85,6 +96,18 @@ def _int_list(text: str) -> list[int]:
         ) from None
     if not values or min(values) < 1:
         raise argparse.ArgumentTypeError(f"expected positive integers, got {text!r}")
+    return values
+
+
+def _float_list(text: str) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected numbers separated by commas, got {text!r}"
+        ) from None
+    if not values or not all(math.isfinite(v) and v > 0 for v in values):
+        raise argparse.ArgumentTypeError(f"expected positive numbers, got {text!r}")
     return values
 
 
@@ -111,6 +134,16 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--handles", type=_int_list, help="handle counts, e.g. 16,64,256")
     parser.add_argument("--grids", type=_int_list, help="mesh steps in pixels, e.g. 1,4,8")
     parser.add_argument("--transforms", type=_name_list(TRANSFORMS), help="affine,similarity,rigid")
+    parser.add_argument(
+        "--workloads",
+        type=_name_list(WORKLOADS),
+        help="lattice (handles on a lattice, no folds) and/or random (random handles, folds)",
+    )
+    parser.add_argument(
+        "--tolerances",
+        type=_float_list,
+        help="glmls on the adaptive mesh too, at these tolerances (px), e.g. 0.05,0.25",
+    )
     parser.add_argument(
         "--tools",
         type=_name_list(TOOLS),
@@ -144,20 +177,30 @@ def plan(settings: dict, tools: Sequence[str]) -> list[Case]:
     where it applies (molesq: affine only; scikit-image and OpenCV: transform and grid do not
     apply, run once per size and handle count)."""
     cases = []
-    for size in settings["sizes"]:
-        for handles in settings["handles"]:
-            for tool in tools:
-                transforms = settings["transforms"]
-                if tool == "molesq":
-                    transforms = [t for t in transforms if t in MOLESQ_TRANSFORMS] or ["affine"]
-                elif tool not in MLS_TOOLS:
-                    transforms = ["-"]
-                grids = [0] if tool in GRIDLESS_TOOLS else settings["grids"]
-                modes = ("e2e", "frame") if tool == "glmls" else ("e2e",)
-                for transform in transforms:
-                    for grid in grids:
-                        for mode in modes:
-                            cases.append(Case(tool, mode, size, handles, grid, transform))
+    for workload in settings.get("workloads", ["lattice"]):
+        for size in settings["sizes"]:
+            for handles in settings["handles"]:
+                for tool in tools:
+                    cases += _tool_cases(settings, tool, workload, size, handles)
+    return cases
+
+
+def _tool_cases(settings: dict, tool: str, workload: str, size: int, handles: int) -> list:
+    transforms = settings["transforms"]
+    if tool == "molesq":
+        transforms = [t for t in transforms if t in MOLESQ_TRANSFORMS] or ["affine"]
+    elif tool not in MLS_TOOLS:
+        transforms = ["-"]
+    grids = [0] if tool in GRIDLESS_TOOLS else settings["grids"]
+    modes = ("e2e", "frame") if tool == "glmls" else ("e2e",)
+    tolerances = settings.get("tolerances", []) if tool == "glmls" else []
+    cases = []
+    for transform in transforms:
+        for mode in modes:
+            for grid in grids:
+                cases.append(Case(tool, mode, size, handles, grid, transform, workload))
+            for tolerance in tolerances:
+                cases.append(Case(tool, mode, size, handles, 0, transform, workload, tolerance))
     return cases
 
 
@@ -192,31 +235,40 @@ def summarise(case: Case, result: dict) -> dict:
             "runs": len(times),
             "peak_mb": result["peak_mb"],
         }
+        if result.get("error_percent") is not None:
+            row["error_percent"] = result["error_percent"]
     return row
 
 
 def add_ratios(rows: list[dict]) -> None:
-    """ratio = a row's median / glmls end to end's on the same size, handles and transform
-    (grid: the same, or 1 for the tools without one; peers: glmls rigid where they have no
-    transform)."""
+    """ratio = a row's median / glmls end to end's on the same workload, size, handles and
+    transform (grid: the same, or 1 for the tools without one and the adaptive mesh; peers:
+    glmls rigid where they have no transform)."""
     base = {
-        (r["size"], r["handles"], r["grid"], r["transform"]): r["median_s"]
+        (r.get("workload", "lattice"), r["size"], r["handles"], r["grid"], r["transform"]): r[
+            "median_s"
+        ]
         for r in rows
-        if r["tool"] == "glmls" and r["mode"] == "e2e" and "median_s" in r
+        if r["tool"] == "glmls" and r["mode"] == "e2e" and "median_s" in r and r["grid"]
     }
     for row in rows:
         if "median_s" not in row:
             continue
         grid = row["grid"] or 1
         transform = row["transform"] if row["transform"] != "-" else "rigid"
-        ref = base.get((row["size"], row["handles"], grid, transform))
+        same = (row.get("workload", "lattice"), row["size"], row["handles"], grid)
+        ref = base.get((*same, transform))
         if ref is None:  # e.g. molesq (affine) when glmls ran rigid only
-            ref = next(
-                (v for k, v in base.items() if k[:3] == (row["size"], row["handles"], grid)),
-                None,
-            )
+            ref = next((v for k, v in base.items() if k[:4] == same), None)
         if ref:
             row["ratio"] = row["median_s"] / ref
+
+
+def _mesh(row: dict) -> str:
+    """The mesh of a row: its grid, the adaptive tolerance (``t0.05``) or ``-``."""
+    if row.get("tolerance"):
+        return f"t{row['tolerance']:g}"
+    return str(row["grid"]) if row["grid"] else "-"
 
 
 def _ms(seconds: float) -> str:
@@ -224,26 +276,30 @@ def _ms(seconds: float) -> str:
 
 
 def format_table(rows: list[dict]) -> str:
+    """The rows as text; ``error %``: pixels that differ from per-pixel f's image."""
     header = (
-        f"{'tool':<12} {'mode':<5} {'size':>5} {'hdl':>4} {'grid':>4} {'transform':<10} "
-        f"{'median ms':>10} {'(min-max)':>17} {'peak MB':>8} {'x glmls':>8}"
+        f"{'tool':<12} {'mode':<5} {'workload':<8} {'size':>5} {'hdl':>4} {'mesh':>5} "
+        f"{'transform':<10} {'median ms':>10} {'(min-max)':>17} {'peak MB':>8} "
+        f"{'x glmls':>8} {'error %':>8}"
     )
     lines = [header, "-" * len(header)]
     for r in rows:
-        grid = str(r["grid"]) if r["grid"] else "-"
         prefix = (
-            f"{r['tool']:<12} {r['mode']:<5} {r['size']:>5} {r['handles']:>4} {grid:>4} "
-            f"{r['transform']:<10} "
+            f"{r['tool']:<12} {r['mode']:<5} {r.get('workload', 'lattice'):<8} {r['size']:>5} "
+            f"{r['handles']:>4} {_mesh(r):>5} {r['transform']:<10} "
         )
         if "median_s" not in r:
             lines.append(prefix + r["status"])
             continue
         spread = f"({_ms(r['min_s'])}-{_ms(r['max_s'])})"
         ratio = f"{r['ratio']:.2f}" if "ratio" in r else ""
+        error = f"{r['error_percent']:.3g}" if r.get("error_percent") is not None else ""
         lines.append(
-            prefix + f"{_ms(r['median_s']):>10} {spread:>17} {r['peak_mb']:>8.0f} {ratio:>8}"
+            prefix
+            + f"{_ms(r['median_s']):>10} {spread:>17} {r['peak_mb']:>8.0f} {ratio:>8} "
+            + f"{error:>8}"
         )
-    return "\n".join(lines)
+    return "\n".join(line.rstrip() for line in lines)
 
 
 def write_csv(rows: list[dict], path: Path) -> None:
@@ -269,9 +325,14 @@ def plot(rows: list[dict], path: Path) -> None:
         "skimage-tps": (148, 103, 189),
         "opencv-tps": (214, 39, 40),
     }
-    bar, label_w, plot_w, top = 16, 330, 560, 40
-    height = top + bar * len(done) + 50
-    image = Image.new("RGB", (label_w + plot_w + 90, height), "white")
+    font = _font(14)
+    # one line of text per bar, with room between lines (the labels ran together at 16 px)
+    bar = max(24, _text_height(font) + 10)
+    labels = [_label(r) for r in done]
+    label_w = 20 + max(int(font.getlength(text)) for text in labels)
+    plot_w, top = 560, 50
+    height = top + bar * len(done) + 60
+    image = Image.new("RGB", (label_w + plot_w + 100, height), "white")
     draw = ImageDraw.Draw(image)
     lo = math.floor(math.log10(min(r["median_s"] for r in done)))
     hi = math.ceil(math.log10(max(r["median_s"] for r in done)))
@@ -280,24 +341,48 @@ def plot(rows: list[dict], path: Path) -> None:
     def x_of(seconds: float) -> float:
         return label_w + plot_w * (math.log10(seconds) - lo) / (hi - lo)
 
-    draw.text((10, 10), "median time per case (log scale); lines: min-max", fill="black")
+    draw.text((10, 12), "median time per case (log scale); lines: min-max", fill="black", font=font)
     for decade in range(lo, hi + 1):
         x = x_of(10.0**decade)
-        draw.line([(x, top - 5), (x, height - 40)], fill=(220, 220, 220))
-        draw.text((x - 15, height - 35), _ms(10.0**decade) + " ms", fill="black")
-    for i, r in enumerate(done):
+        draw.line([(x, top - 5), (x, height - 45)], fill=(220, 220, 220))
+        draw.text((x - 20, height - 38), _ms(10.0**decade) + " ms", fill="black", font=font)
+    for i, (r, label) in enumerate(zip(done, labels, strict=True)):
         y = top + i * bar
-        grid = f"g{r['grid']}" if r["grid"] else ""
-        label = f"{r['tool']} {r['mode']} {r['size']}^2 {r['handles']}h {grid} {r['transform']}"
-        draw.text((10, y + 2), label.replace(" -", ""), fill="black")
+        if i % 2:
+            draw.rectangle([0, y, image.width, y + bar - 1], fill=(245, 245, 245))
+        draw.text((10, y + (bar - _text_height(font)) // 2), label, fill="black", font=font)
         colour = colours.get(r["tool"], (0, 0, 0))
         if r["tool"] == "glmls" and r["mode"] == "frame":
             colour = (120, 180, 230)
-        draw.rectangle([label_w, y + 3, x_of(r["median_s"]), y + bar - 3], fill=colour)
+        draw.rectangle([label_w, y + 5, x_of(r["median_s"]), y + bar - 5], fill=colour)
         draw.line(
             [(x_of(r["min_s"]), y + bar // 2), (x_of(r["max_s"]), y + bar // 2)], fill="black"
         )
     image.save(path)
+
+
+def _label(row: dict) -> str:
+    mesh = _mesh(row)
+    mesh = "" if mesh == "-" else (mesh if mesh.startswith("t") else f"g{mesh}")
+    transform = "" if row["transform"] == "-" else row["transform"]
+    parts = [row["tool"], row["mode"], row.get("workload", "lattice")]
+    parts += [f"{row['size']}^2", f"{row['handles']}h", mesh, transform]
+    return " ".join(p for p in parts if p)
+
+
+def _font(size: int):
+    """Pillow's scalable default font (Pillow >= 10.1), else its small bitmap font."""
+    from PIL import ImageFont
+
+    try:
+        return ImageFont.load_default(size=size)
+    except TypeError:  # an older Pillow without sizes
+        return ImageFont.load_default()
+
+
+def _text_height(font) -> int:
+    box = font.getbbox("Hg^2")  # (left, top, right, bottom)
+    return int(box[3] - box[1])
 
 
 def run(args: argparse.Namespace) -> int:
@@ -320,9 +405,10 @@ def run(args: argparse.Namespace) -> int:
         args.out.mkdir(parents=True, exist_ok=True)
         rows = []
         for number, case in enumerate(cases, 1):
+            mesh = f"tolerance {case.tolerance:g}" if case.tolerance else f"grid {case.grid or '-'}"
             print(
-                f"[{number}/{len(cases)}] {case.tool} {case.mode} {case.size}^2 "
-                f"{case.handles} handles grid {case.grid or '-'} {case.transform}",
+                f"[{number}/{len(cases)}] {case.tool} {case.mode} {case.workload} {case.size}^2 "
+                f"{case.handles} handles {mesh} {case.transform}",
                 file=sys.stderr,
                 flush=True,
             )

@@ -117,7 +117,9 @@ float mls_z_minus_atan(float z) {
 float mls_atan_positive(float y, float x) {
     float ay = abs(y), ax = abs(x);
     bool swap = ay > ax;
-    float z = swap ? ax / ay : ay / max(ax, 1e-38);
+    // ay <= ax here, so 0 / 0 means 0 (not max(ax, 1e-38): a subnormal, flushed to 0 by
+    // GPUs, gave 0 / 0 = NaN on NVIDIA at a segment's end)
+    float z = swap ? ax / ay : (ax > 0.0 ? ay / ax : 0.0);
     z = z / (1.0 + sqrt(1.0 + z * z));
     z = z / (1.0 + sqrt(1.0 + z * z));
     float z2 = z * z;
@@ -150,10 +152,14 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
         J1 = 0.5 * (log(k2 + x1 * x1) - log(k2 + x0 * x0));
         J2 = (x1 - x0) - k * dtheta;
     }
-    // about xc (0 where the foot is on the segment)
+    // about xc (0 where the foot is on the segment). Skipped at xc = 0, not only to save work:
+    // at a snapped end (k = 0, x0 = 0) J1 is infinite (log 0), and 0 * inf would be NaN
+    // (NVIDIA's log(0) is -inf; llvmpipe forgave it).
     float xc = view.xc;
-    J2 = J2 - 2.0 * xc * J1 + xc * xc * J0;
-    J1 = J1 - xc * J0;
+    if (xc != 0.0) {
+        J2 = J2 - 2.0 * xc * J1 + xc * xc * J0;
+        J1 = J1 - xc * J0;
+    }
     return K * u_length_unit * vec3(J0, J1, J2);
 }
 #else

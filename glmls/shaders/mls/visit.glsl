@@ -37,6 +37,7 @@ uniform vec2 u_bin_origin;   // lower corner of bin (0, 0), scaled
 uniform float u_bin_size;    // bin side, scaled
 uniform ivec2 u_bin_dims;    // bins per row, rows
 uniform float u_bin_reach;   // R (compact weights) or R sqrt(cut) (gaussian), scaled
+uniform float u_bin_near;    // half-side of the first square searched for the nearest, scaled
 uniform float u_bin_cut;     // gaussian: ln(N / tau), see mls_weight_bound
 
 // The bins meeting the square of half-side r around v (clamped to the grid).
@@ -167,9 +168,9 @@ void mls_accumulate_all(inout MLSAccum a) {
 
 MLSResult mls_eval(vec2 v) {
 #if MLS_BINS
-    // Pass 1 finds the nearest handle, first in the bins within one bin side of v, then
-    // within reach: a compact weight is 0 beyond R, so if none is there no handle reaches
-    // v. The gaussian goes on in squares of twice the side until the nearest is certain.
+    // Pass 1 finds the nearest handle, first in the bins within u_bin_near of v (about a
+    // handle spacing, glmls/engine/bins.py), then within reach: a compact weight is 0
+    // beyond R, so if none is there no handle reaches v. The gaussian goes on in squares of twice the side until the nearest is certain.
     // Where a square or the disc spans more bin rows than there are handles (a few handles
     // far apart), walking its rows costs more than visiting every handle: that is done.
     int n = mls_handle_count();
@@ -178,10 +179,10 @@ MLSResult mls_eval(vec2 v) {
 #if MLS_SEGMENTS
     mls_nearest_segments(near, v);
 #endif
-    mls_bin_range(v, u_bin_size, lo, hi);
+    float side = u_bin_near;
+    mls_bin_range(v, side, lo, hi);
     mls_nearest_bins(near, v, lo, hi);
     ivec2 lo1 = lo, hi1 = hi;
-    float side = u_bin_size;
     for (int k = 0; k < 40 && !mls_nearest_certain(near, side, lo, hi); ++k) {
 #if !MLS_REACH_GAUSSIAN
         if (side >= u_bin_reach) {

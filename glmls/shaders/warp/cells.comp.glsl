@@ -23,9 +23,16 @@
 //
 // WARP_CELLS_FAST (with FUSED): the optimistic pass for a mesh that may be an embedding:
 // no keys, no atomics, each covered pixel just gets its colour. A cell that is not strictly
-// positively oriented counts itself in warp_check_bad and draws nothing; together with the
-// boundary test of warp/cells_check.comp.glsl this decides whether the keyed pass above must
-// redo the picture (see there for why no pixel is then covered twice).
+// positively oriented counts and lists itself (warp_check_folded, warp/cells_hot.glsl) and
+// draws nothing; warp/cells_check.comp.glsl then marks the tiles of the target that the
+// listed cells' pixels (and one more on each side, against rounding) reach hot. With the boundary test of warp/cells_check.comp.glsl this decides
+// whether and where the keyed pass must redo the picture: where the boundary is a simple
+// curve, WARP_CELLS_HOT (with FUSED, after the fast pass) redraws with keys only the cells
+// of the listed blocks whose pixels reach a hot tile; otherwise the keyed pass redraws every
+// cell. Why that is exact: a pixel covered twice then lies in a cell not positive (see
+// warp/cells_check.comp.glsl), so every cell covering it reaches a hot tile and is redrawn
+// with its key; a pixel of any other cell is covered once, and the fast pass wrote its
+// colour.
 //
 // The mesh is a glmls.core.mesh.MeshLattice (corners), possibly with a margin past the image
 // (border modes): cells and source pixels are the lattice's own, the source pixel of lattice
@@ -37,6 +44,10 @@
 // the edge's endpoints in mesh-index order, with `precise`, so the two triangles on either
 // side of an edge see exactly opposite values and no pixel is lost or drawn twice on a seam.
 layout(local_size_x = LOCAL_SIZE) in;
+
+#ifndef WARP_CELLS_HOT
+#define WARP_CELLS_HOT 0
+#endif
 
 #include "warp/cells_packed.glsl"
 #include "warp/frame.glsl"
@@ -57,6 +68,8 @@ uniform int u_sub_bits;       // key layout, see above (shifts of the low end of
 uniform int u_col_shift;
 uniform int u_row_shift;
 uniform ivec2 u_source_size;  // W, H of the source image (the fused colours)
+
+#include "warp/cells_hot.glsl"
 
 vec2 vertex_px(int i) {
     return warp_output_point(warp_mesh[i]);
@@ -95,12 +108,29 @@ void span(vec2 a, vec2 b, float s, float y, inout float left, inout float right)
 
 void main() {
     int cells_x = u_mesh_dims.x - 1;
+#if WARP_CELLS_HOT
+    // one work group per listed block (warp/cells_hot.glsl), one invocation per cell of it
+    uint k = dispatch_item() / uint(LOCAL_SIZE);
+    if (k >= warp_check_data[WARP_CHECK_LISTED]) {
+        return;
+    }
+    int block = int(warp_check_data[u_block_list + k]);
+    int blocks_x = (cells_x + BLOCK - 1) / BLOCK;
+    int by = block / blocks_x;
+    int local = int(gl_LocalInvocationID.x);
+    int cx = (block - by * blocks_x) * BLOCK + local % BLOCK;
+    int cy = by * BLOCK + local / BLOCK;
+    if (cx >= cells_x || cy >= u_mesh_dims.y - 1) {
+        return;
+    }
+#else
     int cell = u_offset + int(dispatch_item());   // 2-D when indirect (warp/cells_check)
     if (cell >= cells_x * (u_mesh_dims.y - 1)) {
         return;
     }
     int cy = cell / cells_x;
     int cx = cell - cy * cells_x;
+#endif
     int i00 = cy * u_mesh_dims.x + cx;   // in the band
     vec2 p00 = vertex_px(i00);
     vec2 p10 = vertex_px(i00 + 1);
@@ -112,7 +142,12 @@ void main() {
     float s1 = sign(edge(p00, p11, p01));
 #if WARP_CELLS_FAST
     if (!(s0 > 0.0 && s1 > 0.0)) {
-        atomicAdd(warp_check_bad, 1u);   // folded or degenerate: the keyed pass redoes all
+        // folded or degenerate: listed, the keyed pass redraws the cells near it (the least
+        // code here: this branch slows the scan of meshes that never take it)
+        uint k = atomicAdd(warp_check_folded, 1u);
+        if (k < uint(u_folded_capacity)) {
+            warp_check_data[u_folded_list + int(k)] = uint(cy * cells_x + cx);
+        }
         return;
     }
 #endif
@@ -123,6 +158,12 @@ void main() {
     vec2 hi = max(max(p00, p10), max(p01, p11));
     ivec2 first = max(ivec2(ceil(lo)), ivec2(0));
     ivec2 last = min(ivec2(floor(hi)), u_target_size - 1);
+#if WARP_CELLS_HOT
+    if (any(greaterThan(first, last)) || !warp_reaches_hot(first, last)) {
+        return;   // no pixel, or drawn by the fast pass and covered by no other cell
+    }
+    atomicAdd(warp_check_redrawn, 1u);
+#endif
     int row = cy + u_first_row;
     // 2^31 - the fields: the first triangle in scan order has the largest key
     uint id0 = 0x80000000u - (uint(row) << u_row_shift | uint(cx) << u_col_shift);

@@ -18,11 +18,20 @@ layout(std430, binding = BIND_FIXUPS) buffer WarpFixups {
 };
 uniform int u_fixup_capacity;
 
-// The embedding test of the fast pass (WARP_CELLS_FAST, warp/cells_check.comp.glsl).
+// The embedding test of the fast pass (WARP_CELLS_FAST, warp/cells_check.comp.glsl) and the
+// map of where it found folds (warp/cells_hot.glsl).
 layout(std430, binding = BIND_CHECK) buffer WarpCheck {
-    uint warp_check_bad;         // cells not strictly positive, boundary edges not turning
+    uint warp_check_bad;         // boundary edges not turning counter-clockwise
     uint warp_check_crossings;   // boundary edges crossing the ray from the centre to +x
-    uint warp_check_pad[2];
+    uint warp_check_folded;      // cells not strictly positive
+    uint warp_check_redrawn;     // cells the keyed scan redrew (WARP_CELLS_HOT)
     uvec4 warp_check_clear;      // work groups of the winner clear (indirect dispatch)
     uvec4 warp_check_scan;       // work groups of the keyed scan (indirect dispatch)
+    uint warp_check_data[];      // the hot tiles and the listed blocks (warp/cells_hot.glsl)
 };
+
+// Is the boundary a simple closed curve (one turn about the centre)? Then only pixels near a
+// cell not strictly positive can be covered twice (warp/cells_check.comp.glsl).
+bool warp_check_boundary_simple() {
+    return warp_check_bad == 0u && warp_check_crossings == 1u;
+}

@@ -1,0 +1,212 @@
+"""The error-bounded adaptive mesh (``tolerance=``): every output pixel's source point within
+the tolerance of f's true inverse (against the float64 reference), no cracks between cells of
+different sizes, the nearest image of grid 1 almost everywhere, the fold rule, and the option's
+validation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import folded_case, smooth_handles
+
+import glmls
+from glmls.core import reference
+from glmls.imaging.adaptive import MIN_SIZE, ROOT_STEP, build_adaptive
+from glmls.imaging.frame import Frame
+from glmls.imaging.pipeline import WarpPipeline
+
+SHAPE = (160, 192)
+
+
+def stretched_handles(shape):
+    """Two close handles pulled apart (the map stretches strongly between them) and four
+    that pin the corners."""
+    height, width = shape
+    c = np.array([(width - 1) / 2, (height - 1) / 2])
+    p = np.array([[0.15, 0.15], [0.85, 0.15], [0.85, 0.85], [0.15, 0.85]]) * [width, height]
+    p = np.concatenate([p, [c - [4, 0], c + [4, 0]]])
+    q = p.copy()
+    q[4] -= [14, 0]
+    q[5] += [14, 0]
+    return p, q
+
+
+def random_handles(shape, rng):
+    """W2 in small: random handles moved by up to 3.4 % of the image (the mesh folds)."""
+    height, width = shape
+    p = rng.uniform(0.05, 0.95, (24, 2)) * [width, height]
+    return p, p + rng.uniform(-0.034, 0.034, p.shape) * [width, height]
+
+
+def source_points(m, shape, tolerance):
+    """(the adaptive mesh, (H, W, 2) source points the warp uses, (H, W) covered)."""
+    pipe = WarpPipeline.of(m.ctx)
+    with m.ctx.use():
+        mesh = pipe.adaptive.mesh(m.kernel, shape, tolerance)
+        mgl = m.ctx.mgl
+        bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
+        fb = mgl.simple_framebuffer((shape[1], shape[0]), components=4, dtype="f4")
+        try:
+            fb.use()
+            fb.clear(0, 0, 0, 0)
+            fill = {"linear": False, "coords": True, "flip_y": False, "border": 0}
+            pipe.adaptive.draw(mesh, None, Frame(shape), fb, **fill)
+            raw = fb.read(components=4, dtype="f4")
+        finally:
+            bound.use()  # never leave a released framebuffer bound
+            fb.release()
+    values = np.frombuffer(raw, np.float32).reshape(*shape, 4)
+    return mesh, values[..., :2].astype(np.float64), values[..., 2] > 0.5
+
+
+def inverse_error(m, shape, xy, covered):
+    """|s - f^-1(u)| to first order, J(s)^-1 (f(s) - u) with f in float64, at every covered
+    output pixel u where f is locally invertible (folded pixels have no single inverse)."""
+    yy, xx = np.nonzero(covered)
+    s = xy[yy, xx]
+    u = np.stack([xx, yy], -1).astype(np.float64)
+    h = 1e-3
+    steps = ([0, 0], [h, 0], [-h, 0], [0, h], [0, -h])
+    f, _, _ = reference.mls(m.src, m.dst, np.concatenate([s + d for d in steps]), m.config)
+    f0, fx1, fx0, fy1, fy0 = np.split(f, 5)
+    jac = np.stack([(fx1 - fx0) / (2 * h), (fy1 - fy0) / (2 * h)], axis=-1)
+    regular = np.linalg.det(jac) > 0.05
+    miss = np.linalg.solve(jac[regular], (f0 - u)[regular][..., None])[..., 0]
+    return np.hypot(miss[:, 0], miss[:, 1]), regular.mean()
+
+
+@pytest.mark.parametrize("case", ["smooth", "stretched", "random"])
+@pytest.mark.parametrize("tolerance", [0.05, 0.25])
+def test_every_source_point_is_within_the_tolerance_of_the_inverse(gl, case, tolerance):
+    rng = np.random.default_rng(7)
+    handles = {
+        "smooth": smooth_handles(SHAPE, rng),
+        "stretched": stretched_handles(SHAPE),
+        "random": random_handles(SHAPE, rng),
+    }[case]
+    with glmls.MLS(*handles, shape=SHAPE) as m:
+        mesh, xy, covered = source_points(m, SHAPE, tolerance)
+        error, regular = inverse_error(m, SHAPE, xy, covered)
+    assert covered.mean() > 0.9 and regular > 0.97
+    assert error.max() <= tolerance, (error.max(), np.quantile(error, 0.999))
+    sides = mesh.leaves[:, 2] - mesh.leaves[:, 0]
+    assert sides.max() <= ROOT_STEP and sides.min() >= MIN_SIZE
+    if case == "stretched" and tolerance == 0.05:
+        assert sides.min() < 1  # below a pixel where the map stretches
+
+
+def test_no_cracks_between_cells_of_different_sizes(gl):
+    """With a border mode the forward methods cover the whole canvas: any crack between a
+    coarse cell and its finer neighbours would leave the background showing."""
+    image = np.full((*SHAPE, 3), 200, np.uint8)
+    with glmls.MLS(*stretched_handles(SHAPE), shape=SHAPE) as m:
+        out = m.warp(image, tolerance=0.05, border="edge", background=0)
+        mesh = WarpPipeline.of(m.ctx).adaptive.mesh(m.kernel, SHAPE, 0.05)
+        plain = m.warp(image, tolerance=0.05, background=0)
+        grid1 = m.warp(image, background=0)
+    assert len(np.unique(mesh.leaves[:, 2] - mesh.leaves[:, 0])) >= 4  # many sizes meet
+    assert (out == 200).all()
+    # the constant border: the same pixels as grid 1 (but for pixel centres on the border)
+    assert np.mean((plain == 0).all(-1) != (grid1 == 0).all(-1)) < 1e-3
+
+
+def test_the_nearest_image_matches_grid_1_on_a_smooth_map(gl, rng):
+    image = rng.integers(0, 256, (*SHAPE, 3), dtype=np.uint8)
+    with glmls.MLS(*smooth_handles(SHAPE, rng), shape=SHAPE) as m:
+        grid1 = m.warp(image)
+        adaptive = m.warp(image, tolerance=0.05)
+        linear = m.warp(image, tolerance=0.05, interpolation="linear")
+        linear1 = m.warp(image, interpolation="linear")
+    # the source points differ by up to the tolerance: pixels whose point lies that close to
+    # a pixel's edge may round the other way (measured 99.3 % identical here)
+    assert (adaptive == grid1).all(-1).mean() >= 0.99
+    assert np.abs(linear.astype(int) - linear1).mean() < 1.0
+
+
+def test_the_first_cell_in_scan_order_shows_where_the_map_folds(gl):
+    """Against numpy: each pixel shows the first of the mesh's triangles (scan order)
+    that contains its centre."""
+    shape, p, q = folded_case()
+    with glmls.MLS(p, q, shape=shape) as m:
+        mesh, xy, covered = source_points(m, shape, 0.05)
+    tri = mesh.deformed[mesh.triangles.astype(np.int64)]  # (T, 3, 2)
+    src = mesh.source[mesh.triangles.astype(np.int64)]
+    height, width = shape
+    yy, xx = np.mgrid[0:height, 0:width]
+    u = np.stack([xx.ravel(), yy.ravel()], -1).astype(np.float64)
+    first = np.full(len(u), -1)
+    inside_any = np.zeros(len(u), bool)
+    for t in range(len(tri) - 1, -1, -1):  # the first triangle last: it stays
+        a, b, c = tri[t]
+        area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+        if abs(area) < 1e-9:
+            continue
+        lb = ((u[:, 0] - a[0]) * (c[1] - a[1]) - (u[:, 1] - a[1]) * (c[0] - a[0])) / area
+        lc = ((b[0] - a[0]) * (u[:, 1] - a[1]) - (b[1] - a[1]) * (u[:, 0] - a[0])) / area
+        inside = (lb > 1e-4) & (lc > 1e-4) & (1 - lb - lc > 1e-4)
+        first[inside] = t
+        inside_any |= inside
+    hit = first >= 0
+    t = first[hit]
+    a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
+    area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    v = u[hit]
+    lb = (v[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (v[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    lc = (b[:, 0] - a[:, 0]) * (v[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (v[:, 0] - a[:, 0])
+    lb, lc = lb / area, lc / area
+    expected = (
+        src[t, 0] + (src[t, 1] - src[t, 0]) * lb[:, None] + (src[t, 2] - src[t, 0]) * lc[:, None]
+    )
+    shown = xy.reshape(-1, 2)[hit]
+    assert covered.ravel()[hit].all()
+    assert np.abs(shown - expected).max() < 1e-2
+    assert hit.sum() > 0.8 * covered.sum()
+
+
+def test_the_mesh_builder_on_an_affine_map_keeps_the_roots():
+    """An affine f is interpolated exactly: no cell is split."""
+    from glmls.core.mesh import MeshLattice
+
+    lattice = MeshLattice.corners((64, 80), ROOT_STEP)
+    matrix = np.array([[1.2, 0.3], [-0.1, 0.9]])
+    mesh = build_adaptive(lambda v: v @ matrix + [3.0, -2.0], lattice, 0.01)
+    assert len(mesh.leaves) == 4 * 5 and mesh.levels == 1
+    assert len(mesh.triangles) == 8 * len(mesh.leaves)
+    np.testing.assert_allclose(mesh.deformed, mesh.source @ matrix + [3.0, -2.0])
+
+
+@pytest.mark.parametrize("bad", [0, -0.1, float("nan"), float("inf")])
+def test_bad_tolerances_raise_value_error(gl, bad):
+    image = np.zeros((16, 16), np.uint8)
+    with glmls.MLS([[4.0, 4.0]], [[5.0, 5.0]], shape=image.shape) as m:
+        with pytest.raises(ValueError, match="tolerance"):
+            m.warp(image, tolerance=bad)
+
+
+@pytest.mark.parametrize("bad", ["0.1", True, [0.1]])
+def test_tolerances_that_are_not_numbers_raise_type_error(gl, bad):
+    image = np.zeros((16, 16), np.uint8)
+    with glmls.MLS([[4.0, 4.0]], [[5.0, 5.0]], shape=image.shape) as m:
+        with pytest.raises(TypeError, match="tolerance"):
+            m.warp(image, tolerance=bad)
+
+
+def test_tolerance_is_for_quads_and_excludes_grid(gl):
+    image = np.zeros((16, 16), np.uint8)
+    with glmls.MLS([[4.0, 4.0]], [[5.0, 5.0]], shape=image.shape) as m:
+        with pytest.raises(ValueError, match="method 'backward'"):
+            m.warp(image, method="backward", tolerance=0.1)
+        with pytest.raises(ValueError, match="grid and tolerance"):
+            m.warp(image, grid=4, tolerance=0.1)
+        # the identity-like translation: the adaptive image is grid 1's
+        image = np.arange(256, dtype=np.uint8).reshape(16, 16)
+        assert (m.warp(image, tolerance=0.1) == m.warp(image)).all()
+
+
+def test_glmls_warp_takes_the_tolerance(gl):
+    image = np.random.default_rng(3).integers(0, 256, (48, 64, 3), dtype=np.uint8)
+    src = np.array([[10.0, 10.0], [50.0, 12.0], [30.0, 40.0]])
+    dst = src + [[2.0, 1.0], [-1.0, 2.0], [0.0, -2.0]]
+    with glmls.MLS(src, dst, shape=image.shape, ctx=gl) as m:
+        expected = m.warp(image, tolerance=0.1)
+    np.testing.assert_array_equal(glmls.warp(image, src, dst, tolerance=0.1, ctx=gl), expected)
