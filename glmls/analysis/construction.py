@@ -21,7 +21,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..core.handles import as_points
-from ..imaging.source import BORDERS
+from ..imaging.source import BORDERS, check_image
 from .stats import error_stats
 
 __all__ = [
@@ -59,7 +59,6 @@ _MODES = {
     "reflect": "mirror",
     "wrap": "grid-wrap",
 }
-_DTYPES = (np.uint8, np.uint16, np.float32, np.float64)
 #: Above this condition number, f is taken as singular at r (the window's preimage would be
 #: a needle many pixels long, not a neighbourhood).
 _CONDITION_LIMIT = 1e6
@@ -118,14 +117,7 @@ class ConstructionErrors:
 
 def _image(array: object, name: str) -> np.ndarray:
     """An image as (H, W, C) of its own dtype; ``TypeError``/``ValueError`` naming it."""
-    data = np.asarray(array)
-    if data.dtype not in _DTYPES:
-        names = ", ".join(np.dtype(d).name for d in _DTYPES)
-        raise TypeError(f"{name} dtype must be one of {names}; got {data.dtype}")
-    if data.ndim not in (2, 3) or (data.ndim == 3 and not 1 <= data.shape[2] <= 4):
-        raise ValueError(f"{name} must be H x W or H x W x C with C in 1..4, got {data.shape}")
-    if data.size == 0:
-        raise ValueError(f"{name} is empty: shape {data.shape}")
+    data = check_image(array, name)
     if data.dtype.kind == "f" and not np.isfinite(data).all():
         raise ValueError(f"{name} holds NaN or infinite values")
     return data.reshape(*data.shape[:2], -1)

@@ -32,6 +32,7 @@ ANGLE_MEASURES = ("degrees", "paper")
 __all__ = [
     "ANGLE_MEASURES",
     "TriangleErrors",
+    "check_angle_measure",
     "check_reference_points",
     "delaunay",
     "triangle_errors",
@@ -144,7 +145,8 @@ def _corner_cosines(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.clip(cosine, -1.0, 1.0), lengths
 
 
-def _check_angle_measure(angle: object) -> str:
+def check_angle_measure(angle: object) -> str:
+    """``angle`` if it names one of :data:`ANGLE_MEASURES`, else ``ValueError``."""
     if not isinstance(angle, str) or angle not in ANGLE_MEASURES:
         raise ValueError(
             f"angle must be one of {', '.join(map(repr, ANGLE_MEASURES))}, got {angle!r}"
@@ -162,7 +164,7 @@ def triangle_errors_from_points(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(distance, angle, flipped) per triangle from r, f(r) and the triangles (eqs. 10, 11);
     ``angle``: the measure, see :data:`ANGLE_MEASURES`."""
-    measure = _check_angle_measure(angle)
+    measure = check_angle_measure(angle)
     ref = points[simplices]
     out = deformed[simplices]
     cos_ref, len_ref = _corner_cosines(ref)
@@ -202,7 +204,7 @@ def triangle_errors(
     A uniform scale by s gives distance = |s - 1|, angle 0 (``"degrees"``), and
     eps / (|cos a| + eps) per corner with ``"paper"`` (1 at a right angle).
     """
-    measure = _check_angle_measure(angle)
+    measure = check_angle_measure(angle)
     if isinstance(eps, bool) or not isinstance(eps, (int, float)) or not eps > 0:
         raise ValueError(f"eps must be a positive number, got {eps!r}")
     r, simplices = delaunay(reference_points)

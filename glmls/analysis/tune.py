@@ -40,7 +40,7 @@ from ..core.mesh import as_shape
 from ..errors import DegenerateHandlesError
 from ..gl.context import GLContext
 from .jobs import run_jobs
-from .triangles import ANGLE_MEASURES, check_reference_points
+from .triangles import check_angle_measure, check_reference_points
 from .tune_trials import MAGNITUDES, known_deformations, measure_config, random_edits
 
 __all__ = [
@@ -321,8 +321,7 @@ def tune(
     shape = as_shape(shape)
     if rank_by not in MEASURES:
         raise ValueError(f"unknown measure {rank_by!r}; choose one of {', '.join(MEASURES)}")
-    if angle not in ANGLE_MEASURES:
-        raise ValueError(f"angle must be one of {', '.join(ANGLE_MEASURES)}, got {angle!r}")
+    angle = check_angle_measure(angle)
     if isinstance(trials, bool) or not isinstance(trials, int) or trials < 1:
         raise ValueError(f"trials must be an integer >= 1, got {trials!r}")
     if isinstance(grid, bool) or not isinstance(grid, int) or grid < 1:

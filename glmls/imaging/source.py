@@ -21,6 +21,7 @@ __all__ = [
     "SourceImage",
     "as_rgba8",
     "background_color",
+    "check_image",
     "check_options",
     "prepare_image",
     "texture_data",
@@ -70,17 +71,24 @@ class SourceImage:
         return out[..., 0] if self.squeeze else out
 
 
-def prepare_image(image: object, max_size: int, *, normalized: bool = False) -> SourceImage:
-    """Validate an image (H x W or H x W x C, C in 1..4) and convert it to float32, or with
-    ``normalized`` keep a uint8 image as it is (see :attr:`SourceImage.normalized`)."""
+def check_image(image: object, name: str = "image") -> np.ndarray:
+    """``image`` as an array, H x W or H x W x C with C in 1..4, of a dtype of
+    :data:`DTYPES` and not empty; ``TypeError``/``ValueError`` naming it as ``name``."""
     array = np.asarray(image)
     if array.dtype not in DTYPES:
         names = ", ".join(np.dtype(d).name for d in DTYPES)
-        raise TypeError(f"image dtype must be one of {names}; got {array.dtype}")
+        raise TypeError(f"{name} dtype must be one of {names}; got {array.dtype}")
     if array.ndim not in (2, 3) or (array.ndim == 3 and not 1 <= array.shape[2] <= 4):
-        raise ValueError(f"image must be H x W or H x W x C with C in 1..4, got {array.shape}")
+        raise ValueError(f"{name} must be H x W or H x W x C with C in 1..4, got {array.shape}")
     if array.size == 0:
-        raise ValueError(f"image is empty: shape {array.shape}")
+        raise ValueError(f"{name} is empty: shape {array.shape}")
+    return array
+
+
+def prepare_image(image: object, max_size: int, *, normalized: bool = False) -> SourceImage:
+    """Validate an image (:func:`check_image`) and convert it to float32, or with
+    ``normalized`` keep a uint8 image as it is (see :attr:`SourceImage.normalized`)."""
+    array = check_image(image)
     height, width = array.shape[:2]
     if max(height, width) > max_size:
         raise ValueError(

@@ -31,39 +31,11 @@ uniform ivec2 u_target_size;  // W, H in pixels
 uniform int u_triangles;      // how many
 uniform int u_offset;         // first triangle of this dispatch
 
-// The edge function of edge (a, b) at p.
-float edge(vec2 a, vec2 b, vec2 p) {
-    precise float e = (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);
-    return e;
-}
+#include "warp/coverage.glsl"
 
 // Edge (i, j) at p, its end points taken in index order; d: its direction, i to j.
 float ordered_edge(uint i, uint j, vec2 a, vec2 b, vec2 p) {
     return i < j ? edge(a, b, p) : -edge(b, a, p);
-}
-
-// Is an edge value e (already multiplied by the triangle's orientation) covering? d is the
-// edge's direction along the triangle's counter-clockwise boundary.
-bool covers(float e, vec2 d) {
-    return e > 0.0 || (e == 0.0 && (d.y > 0.0 || (d.y == 0.0 && d.x > 0.0)));
-}
-
-#define SPAN_MARGIN 0.01
-
-// Narrow [left, right] to where the row y is on the inner side of the edge a -> b of a
-// triangle of orientation s (edge(a, b, p) s >= 0 inside).
-void span(vec2 a, vec2 b, float s, float y, inout float left, inout float right) {
-    vec2 d = b - a;
-    if (d.y == 0.0) {
-        right = s * d.x * (y - a.y) >= 0.0 ? right : left - 1.0;
-        return;
-    }
-    float x = a.x + d.x * (y - a.y) / d.y;
-    if (s * d.y > 0.0) {
-        right = min(right, x);
-    } else {
-        left = max(left, x);
-    }
 }
 
 void main() {

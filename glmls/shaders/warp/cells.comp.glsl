@@ -75,36 +75,7 @@ vec2 vertex_px(int i) {
     return warp_output_point(warp_mesh[i]);
 }
 
-// The edge function of edge (a, b), a before b in mesh order, at p.
-float edge(vec2 a, vec2 b, vec2 p) {
-    precise float e = (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);
-    return e;
-}
-
-// Is an edge value e (already multiplied by the triangle's orientation) covering? d is the
-// edge's direction along the triangle's counter-clockwise boundary.
-bool covers(float e, vec2 d) {
-    return e > 0.0 || (e == 0.0 && (d.y > 0.0 || (d.y == 0.0 && d.x > 0.0)));
-}
-
-#define SPAN_MARGIN 0.01
-
-// Narrow [left, right] to where the row y is on the inner side of the edge a -> b of a
-// convex quad of orientation s (edge(a, b, p) s >= 0 inside).
-void span(vec2 a, vec2 b, float s, float y, inout float left, inout float right) {
-    vec2 d = b - a;
-    if (d.y == 0.0) {
-        // parallel to the rows: all of the row is on one side
-        right = s * d.x * (y - a.y) >= 0.0 ? right : left - 1.0;
-        return;
-    }
-    float x = a.x + d.x * (y - a.y) / d.y;   // where the edge crosses the row
-    if (s * d.y > 0.0) {
-        right = min(right, x);
-    } else {
-        left = max(left, x);
-    }
-}
+#include "warp/coverage.glsl"
 
 void main() {
     int cells_x = u_mesh_dims.x - 1;
