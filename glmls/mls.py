@@ -14,10 +14,12 @@ from .core.config import MLSConfig
 from .core.handles import Scaling, as_points, check_coordinates
 from .core.handleset import HandleSet
 from .core.mesh import MeshLattice, as_shape
+from .engine.error_field import error_at
 from .engine.error_field import error_field as evaluate_error_field
 from .engine.kernel import DEFAULT_STORAGE, MLSKernel
 from .engine.passes import evaluate_lattice, evaluate_points
 from .gl.context import GLContext, current, get_context
+from .imaging.adaptive import AdaptiveMesh, check_adaptive, interpolate
 from .imaging.deformed import DeformedImages
 
 __all__ = ["MLS", "warp"]
@@ -245,12 +247,22 @@ class MLS(DeformedImages):
         return m, f - np.einsum("ki,kij->kj", v, m)  # type: ignore[return-value]
 
     @on_gpu
-    def mesh(self, shape: Sequence[int], *, grid: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    def mesh(
+        self, shape: Sequence[int], *, grid: int = 1, tolerance: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray] | AdaptiveMesh:
         """The mesh of pixel-square corners of an image of ``shape`` and its image under f.
 
         Vertices sit at x = -0.5, -0.5 + grid, ..., W - 0.5 (the last step may be shorter),
         likewise in y. Returns (vertices, deformed), each (rows, columns, 2) float64.
+
+        With ``tolerance`` (pixels; ``grid`` must stay 1): the error-bounded adaptive mesh
+        that :meth:`warp` draws with that tolerance, a
+        :class:`~glmls.imaging.adaptive.AdaptiveMesh` (vertices, f at them, triangles,
+        leaves; ``docs/adaptive.md``).
         """
+        if tolerance is not None:
+            value = check_adaptive("quads", grid, tolerance)
+            return self._pipeline().adaptive.mesh(self._kernel, as_shape(shape), value)  # type: ignore[arg-type]
         lattice = MeshLattice.corners(shape, grid)
         vertices = lattice.points()
         buffer = self._kernel.scratch.buffer("mesh", lattice.count * 8)
@@ -260,16 +272,24 @@ class MLS(DeformedImages):
         return vertices, self.scaling.from_gpu(out).reshape(vertices.shape)
 
     @on_gpu
-    def error_field(self, shape: Sequence[int], *, grid: int = 1) -> np.ndarray:
+    def error_field(
+        self, shape: Sequence[int], *, grid: int = 1, tolerance: float | None = None
+    ) -> np.ndarray:
         """The MLS error field E_MLS (paper eq. 7) of an image of ``shape``: (H, W) float64.
 
         E_MLS(v) = sum_i |p_i M_v + T_v - q_i|^2 at every pixel centre, in square pixels,
         unweighted so that configurations with different weights compare fairly. ``grid``
         = 1 evaluates every pixel centre; ``grid`` > 1 the vertices of :meth:`mesh`'s mesh,
-        interpolated bilinearly to the pixel centres (both on the GPU). float32 on the GPU:
-        expect a relative error of ~1e-6 to 1e-5.
+        interpolated bilinearly to the pixel centres (both on the GPU). ``tolerance``
+        (``grid`` 1): the vertices of the adaptive mesh of that tolerance, interpolated on
+        each leaf's quadratic patch (numpy). float32 on the GPU: expect a relative error of
+        ~1e-6 to 1e-5.
         """
         lattice = MeshLattice.corners(shape, grid)  # validates shape and grid
+        if tolerance is not None:
+            mesh = self.mesh(lattice.shape, tolerance=tolerance)
+            values = error_at(self._kernel, mesh.source, lattice.shape)  # type: ignore[union-attr]
+            return interpolate(mesh, values, lattice.shape)  # type: ignore[arg-type]
         return evaluate_error_field(self._kernel, lattice.shape, grid=lattice.grid)
 
     def release(self) -> None:

@@ -13,6 +13,7 @@ import numpy as np
 from PIL import Image
 
 from ..files.atomic import atomic_write
+from ..imaging.adaptive import check_adaptive
 from ..imaging.frame import Frame
 from ..imaging.source import check_options
 from . import colormaps
@@ -95,6 +96,7 @@ def report(
     method: str = "quads",
     interpolation: str = "nearest",
     warp_grid: int = 1,
+    warp_tolerance: float | None = None,
     border: str = "constant",
     fit: bool = False,
     construction: bool = True,
@@ -115,6 +117,8 @@ def report(
     ``triangle_angle`` or ``triangle_distance`` (``triangle_error``, Fig. 7 right: over the
     deformed image at f(r)), and a ``*_colorbar`` for each colour picture.
 
+    ``warp_tolerance``: the warp on the adaptive mesh of that tolerance (:meth:`MLS.warp`'s
+    ``tolerance``; ``warp_grid`` must stay 1).
     ``border``: the warp's border mode (:meth:`MLS.warp`); ``fit``: draw the deformed
     pictures on the canvas that shows the whole deformed image (:meth:`MLS.bounds`) instead
     of the input's frame.
@@ -140,6 +144,7 @@ def report(
     if triangle_error not in ("angle", "distance"):
         raise ValueError(f"triangle_error must be 'angle' or 'distance', got {triangle_error!r}")
     check_options(method, interpolation, warp_grid, border)  # before the long stages
+    check_adaptive(method, warp_grid, warp_tolerance)
     if construction:
         check_radius(construction_radius)
     timings: dict[str, float] = {}
@@ -168,6 +173,7 @@ def report(
             border=border,
             output_shape=output_shape,
             origin=origin,
+            tolerance=warp_tolerance,
         ),
         "m.warp(image)",
     )
@@ -276,6 +282,7 @@ def report(
             "method": method,
             "interpolation": interpolation,
             "grid": warp_grid,
+            "tolerance": warp_tolerance,
             "border": border,
             "output_shape": list(output_shape),
             "origin": list(origin),

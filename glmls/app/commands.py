@@ -38,9 +38,9 @@ def save_image(
         source,
         method=s.method,
         interpolation=s.interpolation,
-        grid=s.grid,
         border=s.border,
         output_shape=canvas.shape,
+        **s.mesh_options,
         origin=canvas.origin,
     )
     if out.dtype not in (np.uint8, np.uint16):

@@ -60,6 +60,7 @@ BINDINGS: tuple[tuple[tuple[str, ...], str, str], ...] = (
     (("c",), "construction", "cycle construction: quads nearest/linear, splat, backward"),
     (("g",), "grid_finer", "finer grid (step / 2)"),
     (("G",), "grid_coarser", "coarser grid (step x 2)"),
+    (("T",), "tolerance", "cycle the adaptive mesh (quads): off, 0.25 px, 0.05 px"),
     (("b",), "border", f"cycle border: {', '.join(BORDERS)}"),
     (("o",), "fit", "fit view: the whole deformed image / the input's frame"),
     (("]",), "zoom_in", "zoom in (about the view's centre)"),
@@ -302,6 +303,9 @@ class Controller:
 
     def _do_grid_coarser(self) -> None:
         self._configure(self.settings.next_grid(+1))
+
+    def _do_tolerance(self) -> None:
+        self._configure(self.settings.next_tolerance())
 
     def _do_border(self) -> None:
         self._configure(replace(self.settings, border=cycle(BORDERS, self.settings.border)))

@@ -57,6 +57,7 @@ HELP: tuple[tuple[str, tuple[tuple[str, str, tuple[str, ...]], ...]], ...] = (
         ("+ -", "weight's alpha or radius", ("raise", "lower")),
         ("c", "construction: quads nearest, quads linear, splat, backward", ("construction",)),
         ("g G", "finer / coarser grid", ("grid_finer", "grid_coarser")),
+        ("T", "adaptive mesh: off, 0.25, 0.05 px", ("tolerance",)),
         ("b", f"border: {', '.join(BORDERS)}", ("border",)),
     )),
     ("Overlays", (

@@ -75,7 +75,9 @@ def readout(
         f"transform  {s.config.transform}   (t)",
         f"weight     {s.config.weight}, {s.parameter(shape)}   (w, +/-)",
         f"construct  {s.method} {s.interpolation}   (c)",
-        f"grid       {s.grid} px   (g/G)",
+        f"grid       {s.grid} px   (g/G)"
+        if s.tolerance is None
+        else f"mesh       adaptive {s.tolerance:g} px{'' if s.adaptive else ' (quads)'}   (T)",
         f"border     {s.border}   (b)",
         f"view       {'fit: whole deformed image' if s.fit else 'input frame'}   (o)",
         f"zoom       {c.zoom.factor:.2f}x   (wheel, [ ], 0)",

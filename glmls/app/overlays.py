@@ -18,12 +18,14 @@ from ..analysis.shapes import arrow_triangles, disk_triangles, segment_triangles
 from ..gl import bindings
 from ..gl.context import GLContext
 from ..gl.dispatch import set_uniforms
+from ..imaging.adaptive import AdaptiveMesh
 from ..imaging.frame import Frame
 from .vertices import StreamingVertices
 
 __all__ = [
     "GeometryDrawer",
     "PictureDrawer",
+    "adaptive_lines",
     "fold_geometry",
     "handle_geometry",
     "mesh_lines",
@@ -130,6 +132,13 @@ def mesh_lines(deformed: np.ndarray, stride: int = 1) -> np.ndarray:
         if len(line) > 1
     ]
     return _colored(np.concatenate([np.zeros((0, 2)), *segments]), MESH_COLOR)
+
+
+def adaptive_lines(mesh: AdaptiveMesh) -> np.ndarray:
+    """Line-segment vertices (pairs) along the deformed outlines of the adaptive mesh's
+    leaves: each fan triangle's edge on its leaf's boundary."""
+    ends = mesh.triangles[:, 1:].astype(np.int64)  # (T, 2): the edge opposite the centre
+    return _colored(mesh.deformed[ends].reshape(-1, 2), MESH_COLOR)
 
 
 def fold_geometry(deformed: np.ndarray, folded: np.ndarray) -> np.ndarray:

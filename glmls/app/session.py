@@ -20,7 +20,7 @@ from ..imaging.frame import Bounds, Frame
 from ..imaging.pipeline import WarpPipeline
 from ..mls import MLS
 from .controller import Controller
-from .overlays import fold_geometry, mesh_lines, triangle_geometry
+from .overlays import adaptive_lines, fold_geometry, mesh_lines, triangle_geometry
 
 __all__ = ["Analysis", "Session", "number"]
 
@@ -107,23 +107,28 @@ class Session:
         per image pixel, which thins the mesh lines)."""
         c, m = self.controller, self.mls
         grid = c.settings.grid
+        tolerance = c.settings.adaptive
         wanted = tuple(name for name in ("mesh", "error", "angle", "folds") if c.overlays[name])
         key = (self.revision, c.reference_revision, wanted, scale)
         if key == self.analysis.key or m is None:
             return self.analysis
         start = time.perf_counter()
         result = Analysis(key=key)
-        if "mesh" in wanted or "folds" in wanted:
+        if "mesh" in wanted and tolerance is not None:  # the adaptive mesh's leaves
+            adaptive = m.mesh(self.shape, tolerance=tolerance)
+            result.geometry.append((adaptive_lines(adaptive), moderngl.LINES))  # type: ignore[arg-type]
+            result.lines.append(f"adaptive mesh: {len(adaptive.leaves)} cells")  # type: ignore[union-attr]
+        if ("mesh" in wanted and tolerance is None) or "folds" in wanted:
             _, deformed = m.mesh(self.shape, grid=grid)
             if "folds" in wanted:
                 folded = folded_cells(deformed)
                 result.geometry.append((fold_geometry(deformed, folded), moderngl.TRIANGLES))
                 result.lines.append(f"fold-overs: {int(folded.sum())} of {folded.size} cells")
-            if "mesh" in wanted:
+            if "mesh" in wanted and tolerance is None:
                 stride = max(1, math.ceil(6.0 / (grid * scale)))
                 result.geometry.append((mesh_lines(deformed, stride), moderngl.LINES))
         if "error" in wanted:
-            values = m.error_field(self.shape, grid=grid)
+            values = m.error_field(self.shape, **c.settings.mesh_options)  # type: ignore[arg-type]
             stats = error_stats(values)
             result.field_colours = apply_colormap(values, cmap="linear", percentile=99.0)
             within = " ".join(f"{100 * w:.0f}%" for w in stats["within"] or [])  # type: ignore[union-attr]

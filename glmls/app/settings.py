@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 from ..core.config import MLSConfig, image_diagonal
+from ..imaging.adaptive import check_tolerance
 from ..imaging.source import check_options
 
 __all__ = [
@@ -15,6 +16,7 @@ __all__ = [
     "CONSTRUCTIONS",
     "GRIDS",
     "RADIUS_FACTOR",
+    "TOLERANCES",
     "TRANSFORM_ORDER",
     "Settings",
     "cycle",
@@ -28,6 +30,8 @@ CONSTRUCTIONS = (
     ("backward", "linear"),
 )
 GRIDS = (1, 2, 4, 8, 16, 32)
+#: The adaptive mesh's tolerances (px) the window cycles through; None: the regular grid.
+TOLERANCES = (None, 0.25, 0.05)
 #: The transforms in the order ``t`` cycles them (from the most rigid).
 TRANSFORM_ORDER = ("rigid", "similarity", "affine")
 #: Smallest and largest idw alpha, and the step of + / -.
@@ -45,7 +49,9 @@ def cycle(values: Sequence, value: object, step: int = 1):
 @dataclass(frozen=True)
 class Settings:
     """What the window shows: the MLS configuration, the image construction, and whether
-    the view fits the whole deformed image (``fit``) or shows the input's frame."""
+    the view fits the whole deformed image (``fit``) or shows the input's frame.
+    ``tolerance`` (px): quads (and the mesh and error overlays) on the adaptive mesh instead
+    of the regular one at ``grid``; the other constructions ignore it."""
 
     config: MLSConfig = field(default_factory=MLSConfig)
     method: str = "quads"
@@ -53,6 +59,7 @@ class Settings:
     grid: int = 4
     border: str = "constant"
     fit: bool = False
+    tolerance: float | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.config, MLSConfig):
@@ -60,6 +67,20 @@ class Settings:
         check_options(self.method, self.interpolation, self.grid, self.border)
         if not isinstance(self.fit, bool):
             raise TypeError(f"fit must be True or False, got {self.fit!r}")
+        if self.tolerance is not None:
+            check_tolerance(self.tolerance)
+
+    @property
+    def adaptive(self) -> float | None:
+        """The tolerance the image is drawn with: ``tolerance`` for quads, else None."""
+        return self.tolerance if self.method == "quads" else None
+
+    @property
+    def mesh_options(self) -> dict[str, object]:
+        """The mesh the construction, the mesh overlay and the error overlay use:
+        ``{"grid": grid}``, or ``{"tolerance": t}`` on the adaptive mesh (quads)."""
+        tolerance = self.adaptive
+        return {"grid": self.grid} if tolerance is None else {"tolerance": tolerance}
 
     def parameter(self, shape: tuple[int, int]) -> str:
         """The weight's parameter as text, e.g. ``alpha 1.25`` or ``R 362 px``."""
@@ -88,6 +109,11 @@ class Settings:
         index = CONSTRUCTIONS.index(pair) if pair in CONSTRUCTIONS else -1
         method, interpolation = CONSTRUCTIONS[(index + 1) % len(CONSTRUCTIONS)]
         return replace(self, method=method, interpolation=interpolation)
+
+    def next_tolerance(self) -> Settings:
+        """The next of :data:`TOLERANCES` (the first if the current one is none of them)."""
+        index = TOLERANCES.index(self.tolerance) if self.tolerance in TOLERANCES else -1
+        return replace(self, tolerance=TOLERANCES[(index + 1) % len(TOLERANCES)])
 
     def next_grid(self, step: int) -> Settings:
         """``step`` places along :data:`GRIDS` (finer for negative), stopping at the ends."""

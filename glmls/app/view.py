@@ -161,7 +161,7 @@ class View:
             self.geometry.draw(reference_geometry(points, layout.scale))
 
     def _draw_image(self, screen, layout: Layout, session: Session, s: Settings) -> None:
-        if s.method == "quads" and s.interpolation == "linear":
+        if s.method == "quads" and s.interpolation == "linear" and s.adaptive is None:
             # drawn at the screen's resolution: bilinear detail where the window magnifies.
             # Nearest quads go through the picture: the compute scan conversion writes it
             # directly (an image-sized RGBA8 target), 2-3x faster than the rasterizer here.
@@ -195,10 +195,10 @@ class View:
             picture.framebuffer,
             method=s.method,
             interpolation=s.interpolation,
-            grid=s.grid,
             flip_y=False,
             border=border,
             frame=layout.frame,
+            **s.mesh_options,
         )
 
     def next_frame(self, frames: int) -> None:

@@ -55,6 +55,7 @@ def run(args: argparse.Namespace) -> int:
                 method=args.method,
                 interpolation=args.interpolation,
                 warp_grid=args.grid,
+                warp_tolerance=args.tolerance,
                 border=args.border,
                 fit=args.fit,
                 cmap=args.cmap,

@@ -165,6 +165,7 @@ def run(args: argparse.Namespace) -> int:
             grid=args.grid,
             border=args.border,
             fit=args.fit,
+            tolerance=args.tolerance,
         )
         app = App(
             image,

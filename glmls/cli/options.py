@@ -119,7 +119,8 @@ def config_from_args(args: argparse.Namespace) -> MLSConfig:
 
 
 def add_warp_options(parser: argparse.ArgumentParser, *, grid: int = 1) -> None:
-    """--method, --interpolation, --grid (default ``grid``), --border and --fit."""
+    """--method, --interpolation, --grid (default ``grid``), --tolerance, --border and
+    --fit."""
     group = parser.add_argument_group("image construction")
     group.add_argument(
         "--method",
@@ -137,6 +138,14 @@ def add_warp_options(parser: argparse.ArgumentParser, *, grid: int = 1) -> None:
         help="nearest: one source pixel's value (no new colours); linear: bilinear",
     )
     group.add_argument("--grid", type=positive_int, default=grid, help="mesh step in pixels")
+    group.add_argument(
+        "--tolerance",
+        type=positive_float,
+        default=None,
+        metavar="PX",
+        help="quads on the error-bounded adaptive mesh instead of the --grid lattice: every "
+        "pixel's source point within PX pixels of f's inverse (e.g. 0.05; docs/adaptive.md)",
+    )
     group.add_argument(
         "--border",
         choices=BORDERS,

@@ -181,6 +181,7 @@ def run(args: argparse.Namespace) -> int:
         "interpolation": args.interpolation,
         "grid": args.grid,
         "border": args.border,
+        "tolerance": args.tolerance,
     }
     capture = jobs > 1 or scheduler is not None
     tasks = [

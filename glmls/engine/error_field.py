@@ -16,7 +16,7 @@ from ..gl import bindings
 from ..gl.dispatch import run_2d, set_uniforms
 from .kernel import MLSKernel
 
-__all__ = ["ERROR_PASS", "error_field"]
+__all__ = ["ERROR_PASS", "error_at", "error_field"]
 
 ERROR_PASS = "mls/error_field.comp.glsl"
 
@@ -31,6 +31,34 @@ def error_field(kernel: MLSKernel, shape: tuple[int, int], *, grid: int = 1) -> 
     lattice = MeshLattice.centres(shape) if grid == 1 else MeshLattice.corners(shape, grid)
     with kernel.gl.use():
         return _error_field(kernel, lattice, grid)
+
+
+def error_at(kernel: MLSKernel, points: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """E_MLS at ``points`` ((K, 2) float64 pixels), (K,) float64 in square pixels; ``shape``:
+    the image whose default radius applies. float32 on the GPU, as :func:`error_field`."""
+    count = len(points)
+    if count == 0:
+        kernel.check_alive()
+        return np.zeros(0)
+    with kernel.gl.use():
+        program = kernel.program(
+            ERROR_PASS, {"MLS_ERROR_INTERPOLATE": False, "MLS_ERROR_POINTS": True}
+        )
+        kernel.bind(program, shape)
+        source = kernel.scratch.buffer("error points", count * 8)
+        source.write(kernel.scaling.to_gpu(points).tobytes())
+        source.bind_to_storage_buffer(bindings.POINTS.index)
+        values = kernel.scratch.buffer("error lattice", count * 4)
+        values.bind_to_storage_buffer(bindings.ERROR_FIELD.index)
+        dims = (min(count, _ROW), -(-count // _ROW))
+        set_uniforms(program, {"u_dims": dims, "u_count": count})
+        run_2d(program, dims, max_groups=kernel.gl.limits["max_work_groups_x"])
+        kernel.gl.mgl.memory_barrier()
+        data = values.read(size=count * 4)
+    return np.frombuffer(data, np.float32).astype(np.float64) * kernel.scaling.scale**2
+
+
+_ROW = 1024  # points per row of the 2-D dispatch of error_at
 
 
 def _error_field(kernel: MLSKernel, lattice: MeshLattice, grid: int) -> np.ndarray:

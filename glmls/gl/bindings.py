@@ -52,6 +52,8 @@ PACKED_TARGET = Binding("PACKED_TARGET", "storage", 9, "the target image, RGBA8 
 FIXUPS = Binding("FIXUPS", "storage", 10, "pixels that more than one triangle reached")
 FIXUP_DISPATCH = Binding("FIXUP_DISPATCH", "storage", 11, "work groups of the fix-up pass")
 CHECK = Binding("CHECK", "storage", 12, "the embedding test's counts and dispatch sizes")
+ADAPTIVE_LEAVES = Binding("ADAPTIVE_LEAVES", "storage", 13, "the adaptive mesh's leaf patches")
+ADAPTIVE_POINTS = Binding("ADAPTIVE_POINTS", "storage", 14, "adaptive: each pixel's source point")
 # -- uniform blocks ----------------------------------------------------------------------------
 HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
 # -- texture units -----------------------------------------------------------------------------
@@ -81,6 +83,8 @@ ALL = (
     FIXUPS,
     FIXUP_DISPATCH,
     CHECK,
+    ADAPTIVE_LEAVES,
+    ADAPTIVE_POINTS,
     HANDLES_BLOCK,
     SOURCE,
     COORDS,

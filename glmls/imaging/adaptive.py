@@ -41,10 +41,12 @@ from ..core.mesh import MeshLattice
 __all__ = [
     "MIN_SIZE",
     "ROOT_STEP",
+    "SAFETY",
     "AdaptiveMesh",
     "build_adaptive",
     "check_adaptive",
     "check_tolerance",
+    "interpolate",
 ]
 
 #: Side of the root cells (pixels): coarse enough that smooth regions stay a few cells, fine
@@ -56,7 +58,32 @@ MIN_SIZE = 0.25
 #: lattices so that a key stays within int64.
 _UNITS = 1024
 
+#: The factor between a patch's largest miss at its quarter-centres and the error bound: the
+#: cubic error peaks 3 % above its quarter-point value; the rest is for higher orders.
+SAFETY = 1.25
+
 Evaluate = Callable[[np.ndarray], np.ndarray]
+
+# positions (row, column) on a cell's 5 x 5 grid, in quarters of its sides
+_NODES = tuple((r, c) for r in (0, 2, 4) for c in (0, 2, 4))  # the patch's 3 x 3, row-major
+_TESTS = tuple((r, c) for r in range(5) for c in range(5) if r % 2 or c % 2)  # the other 16
+#: Lagrange basis of the nodes at 0, 1/2, 1, and its derivative, at 0, 1/4, ..., 1.
+_QUARTERS = np.linspace(0.0, 1.0, 5)
+_AT_QUARTERS = np.stack(
+    [
+        2 * (_QUARTERS - 0.5) * (_QUARTERS - 1),
+        -4 * _QUARTERS * (_QUARTERS - 1),
+        2 * _QUARTERS * (_QUARTERS - 0.5),
+    ],
+    -1,
+)
+_SLOPE_AT_QUARTERS = np.stack([4 * _QUARTERS - 3, 4 - 8 * _QUARTERS, 4 * _QUARTERS - 1], -1)
+_TEST_INDEX = np.array([5 * r + c for r, c in _TESTS])
+# the patch at the test points, and its derivatives (per unit of u and v) on the 5 x 5 grid:
+# rows of (row, column) points, columns of the 3 x 3 nodes row by row
+_PATCH = np.kron(_AT_QUARTERS, _AT_QUARTERS)[_TEST_INDEX]
+_PATCH_DX = np.kron(_AT_QUARTERS, _SLOPE_AT_QUARTERS)
+_PATCH_DY = np.kron(_SLOPE_AT_QUARTERS, _AT_QUARTERS)
 
 
 def check_tolerance(tolerance: object) -> float:
@@ -93,18 +120,23 @@ def check_adaptive(method: object, grid: object, tolerance: object) -> float | N
 
 @dataclass(frozen=True)
 class AdaptiveMesh:
-    """The adaptive mesh of an image: ``source`` (V, 2) float64 vertices (image pixels, x, y),
-    ``deformed`` (V, 2) float64 f at them, ``triangles`` (T, 3) uint32 indices into both in
-    scan order (the leaves' order, each leaf's fan together: where triangles overlap the
-    first shows), ``leaves`` (L, 4) float64 cells
-    (x0, y0, x1, y1) in scan order with ``estimate`` (L,) their estimated error (pixels of
-    the source; of the cell's coarse test, before the fan's finer interpolation), and
-    ``levels``, the number of refinement levels evaluated."""
+    """The adaptive mesh of an image.
+
+    ``source`` (V, 2) float64 vertices (image pixels, x, y) and ``deformed`` (V, 2) float64
+    f at them; ``triangles`` (T, 3) uint32 indices into both in scan order (the leaves'
+    order, each leaf's fan together: where triangles overlap the first shows), of positive
+    area in the source, and ``triangle_leaf`` (T,) uint32 the leaf of each; ``leaves``
+    (L, 4) float64 cells (x0, y0, x1, y1) in scan order, ``nodes`` (L, 9) uint32 the
+    vertices of each leaf's quadratic patch (its corners, edge mid-points and centre, 3 x 3
+    row by row) and ``estimate`` (L,) each leaf's error bound (pixels of the source; inf
+    where it folds); ``levels``, the number of refinement levels evaluated."""
 
     source: np.ndarray
     deformed: np.ndarray
     triangles: np.ndarray
+    triangle_leaf: np.ndarray
     leaves: np.ndarray
+    nodes: np.ndarray
     estimate: np.ndarray
     levels: int
 
@@ -117,8 +149,18 @@ class _Vertices:
         self.origin = np.asarray(origin, dtype=np.float64)
         self.units = units
         self.keys: list[np.ndarray] = []
-        self.f: list[np.ndarray] = []
+        self.f = np.zeros((0, 2))
         self.count = 0
+
+    def add_lattice(self, xs: np.ndarray, ys: np.ndarray, evaluate: Evaluate) -> np.ndarray:
+        """Evaluate f at the lattice of keys ``xs`` x ``ys`` (distinct, increasing); its
+        vertex ids (len(ys), len(xs))."""
+        new = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+        self.keys.append(new)
+        self.f = np.concatenate([self.f, evaluate(self.origin + new / self.units)])
+        ids = self.count + np.arange(len(new)).reshape(len(ys), len(xs))
+        self.count += len(new)
+        return ids
 
     def add(self, keys: np.ndarray, evaluate: Evaluate) -> np.ndarray:
         """Evaluate f at the distinct ``keys`` ((..., 2) int64); their vertex ids."""
@@ -127,78 +169,57 @@ class _Vertices:
         unique, inverse = np.unique(flat[:, 0] * width + flat[:, 1], return_inverse=True)
         new = np.stack([unique // width, unique % width], axis=-1)
         self.keys.append(new)
-        self.f.append(evaluate(self.origin + new / self.units))
+        self.f = np.concatenate([self.f, evaluate(self.origin + new / self.units)])
         ids = self.count + inverse.reshape(keys.shape[:-1])
         self.count += len(new)
         return ids
 
 
-def _singular_values(j: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(smallest, largest) singular values of 2x2 matrices ``j`` (..., 2, 2), closed form."""
-    a, b, c, d = j[..., 0, 0], j[..., 0, 1], j[..., 1, 0], j[..., 1, 1]
-    q = np.hypot((a + d) / 2, (c - b) / 2)
-    r = np.hypot((a - d) / 2, (c + b) / 2)
-    return np.abs(q - r), q + r
+def _grid_keys(box: np.ndarray, where: tuple[tuple[int, int], ...], parts: int) -> np.ndarray:
+    """(K, len(where), 2) int64 keys of the points ``where`` ((row, column) in 1/parts of the
+    sides) of the cells ``box`` (K, 4) (x0, y0, x1, y1, keys)."""
+    x0, y0, x1, y1 = (box[:, k, None] for k in range(4))
+    rows = np.array([r for r, _ in where])
+    cols = np.array([c for _, c in where])
+    return np.stack([x0 + (x1 - x0) * cols // parts, y0 + (y1 - y0) * rows // parts], axis=-1)
 
 
-def _jacobians(f00, f10, f01, f11, w, h) -> np.ndarray:
-    """The bilinear cell's mean Jacobian (..., 2, 2): columns d/dx and d/dy."""
-    dx = (f10 - f00 + f11 - f01) / (2 * w[:, None])
-    dy = (f01 - f00 + f11 - f10) / (2 * h[:, None])
-    return np.stack([dx, dy], axis=-1)
+def _test(f: np.ndarray, nodes: np.ndarray, tests: np.ndarray, w, h):
+    """(error, sigma_max) of each cell: the source-space error of its quadratic patch, and
+    its largest stretch.
 
-
-def _test(f: np.ndarray, corners: np.ndarray, mids: np.ndarray, w, h):
-    """(error, sigma_max) of each cell: a bound on the source-space error of its fan of
-    triangles through its nine points, and its largest stretch.
-
-    f's second derivatives come from second differences of the nine points (the largest of
-    the three rows, the three columns and the five cross differences: the whole cell's and
-    its quarters'). For a quadratic with Hessian H, linear interpolation on a triangle errs by
-    at most max |d' H d| / 6 over its edges d; the fan's longest edges are the half
-    diagonals (w/2, h/2). (The bilinear mid-point miss alone would be blind to f_xy, which
-    bilinear cells reproduce and triangles do not.) That output-space error over sigma_min,
-    the smallest singular value of f's Jacobian on the cell's quarters, bounds the distance
-    from the source point to f's inverse, to first order."""
-    f00, f10, f01, f11 = (f[corners[:, k]] for k in range(4))
-    top, bottom, left, right, centre = (f[mids[:, k]] for k in range(5))
-    hw, hh = (w / 2)[:, None], (h / 2)[:, None]
-    fxx = np.maximum.reduce(
-        [
-            np.abs(a - 2 * b + c)
-            for a, b, c in ((f00, top, f10), (left, centre, right), (f01, bottom, f11))
-        ]
-    )  # times hw^2
-    fyy = np.maximum.reduce(
-        [
-            np.abs(a - 2 * b + c)
-            for a, b, c in ((f00, left, f01), (top, centre, bottom), (f10, right, f11))
-        ]
-    )  # times hh^2
-    fxy = np.maximum.reduce(
-        [
-            np.abs(f11 - f10 - f01 + f00) / 4,
-            np.abs(centre - top - left + f00),
-            np.abs(right - f10 - centre + top),
-            np.abs(bottom - centre - f01 + left),
-            np.abs(f11 - right - bottom + centre),
-        ]
-    )  # times hw hh
-    del hw, hh  # the differences carry the cell's scale already
-    out = np.sqrt(((fxx + 2 * fxy + fyy) ** 2).sum(axis=-1)) / 6
-    quarters = np.stack(
-        [
-            _jacobians(f00, top, left, centre, w / 2, h / 2),
-            _jacobians(top, f10, centre, right, w / 2, h / 2),
-            _jacobians(left, centre, f01, bottom, w / 2, h / 2),
-            _jacobians(centre, right, bottom, f11, w / 2, h / 2),
-        ]
-    )
-    low, high = _singular_values(quarters)
-    low = low.min(axis=0)
+    The patch (Lagrange, through the 3 x 3 ``nodes``) reproduces every x^a y^b with a, b <=
+    2, so it errs by f's third and higher derivatives: for a cubic f the error along each
+    side is a multiple of u (u - 1/2) (u - 1), largest (within 3 %) at u = 1/4 and 3/4. The
+    cell's miss is the largest distance between f and the patch at the other 16 points of
+    its 5 x 5 grid, ``tests``: the quarter-centres, and the quarter points of its edges and
+    mid-lines, where a handle just past the cell bends f most. That output-space miss times
+    :data:`SAFETY`, over the smallest singular value of the patch's Jacobian on that grid,
+    bounds (to first order) the distance from a pixel's source point to f's inverse. A cell
+    where that Jacobian's orientation is not the same throughout (it folds) has an infinite
+    error."""
+    count = len(nodes)
+    n = f[nodes.T].reshape(9, 2 * count)  # one matrix product for every cell's patch
+    # einsum, not @: numpy's BLAS threads spin on after a product, taking the cores from
+    # the GPU driver when it is software (llvmpipe: its next passes ran up to 1.8x slower)
+    miss = np.einsum("ij,jk->ik", _PATCH, n).reshape(16, count, 2) - f[tests.T]
+    miss = np.sqrt(np.einsum("ijk,ijk->ij", miss, miss)).max(axis=0)
+    d_dx = np.einsum("ij,jk->ik", _PATCH_DX, n).reshape(25, count, 2) / w[:, None]
+    d_dy = np.einsum("ij,jk->ik", _PATCH_DY, n).reshape(25, count, 2) / h[:, None]
+    # the singular values of the Jacobian [d_dx d_dy] from its determinant and Frobenius
+    # norm: their product and the sum of their squares
+    det = d_dx[..., 0] * d_dy[..., 1] - d_dy[..., 0] * d_dx[..., 1]
+    frobenius = np.einsum("ijk,ijk->ij", d_dx, d_dx) + np.einsum("ijk,ijk->ij", d_dy, d_dy)
+    spread = np.sqrt(np.maximum(frobenius - 2 * np.abs(det), 0))
+    high = (np.sqrt(frobenius + 2 * np.abs(det)) + spread) / 2
     with np.errstate(divide="ignore", invalid="ignore"):
-        error = np.where(low > 0, out / low, np.inf)
-    error[~np.isfinite(out)] = np.inf
+        low = np.abs(det) / high
+    # one orientation over the cell (a mirror keeps one too): else it folds
+    same = (det > 0).all(axis=0) | (det < 0).all(axis=0)
+    low = np.where(same, low.min(axis=0), 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        error = np.where(low > 0, SAFETY * miss / low, np.inf)
+    error[~np.isfinite(miss)] = np.inf
     return error, high.max(axis=0)
 
 
@@ -223,91 +244,112 @@ def build_adaptive(
     kx = np.rint((xs - x_origin) * units).astype(np.int64)
     ky = np.rint((ys - y_origin) * units).astype(np.int64)
     grid = np.stack(np.meshgrid(kx, ky), axis=-1)
-    ids = vertices.add(grid, evaluate)
-    f = vertices.f[0]
     box = np.stack(
         np.broadcast_arrays(grid[:-1, :-1, 0], grid[:-1, :-1, 1], grid[1:, 1:, 0], grid[1:, 1:, 1]),
         axis=-1,
     ).reshape(-1, 4)
-    corners = np.stack([ids[:-1, :-1], ids[:-1, 1:], ids[1:, :-1], ids[1:, 1:]], -1)
-    corners = corners.reshape(-1, 4)
+    # the roots' 5 x 5 grids make one lattice of quarter steps: evaluated without a search
+    # for shared points
+    fine_x, fine_y = (
+        np.append(k[:-1, None] + (k[1:] - k[:-1])[:, None] * np.arange(4) // 4, k[-1])
+        for k in (kx, ky)
+    )
+    ids = vertices.add_lattice(fine_x, fine_y, evaluate)
+    rows = 4 * np.arange(len(ky) - 1)[:, None, None] + np.array([r for r, _ in _NODES + _TESTS])
+    cols = 4 * np.arange(len(kx) - 1)[None, :, None] + np.array([c for _, c in _NODES + _TESTS])
+    ids = ids[rows, cols].reshape(-1, 25)
+    nodes, tests = ids[:, :9], ids[:, 9:]
     leaves: list[tuple[np.ndarray, ...]] = []
     levels = 0
     smallest = max(1, round(min_size * units))
     while len(box):
         levels += 1
         x0, y0, x1, y1 = box.T
-        xm, ym = (x0 + x1) // 2, (y0 + y1) // 2
-        mids = vertices.add(
-            np.stack(
-                [
-                    np.stack([xm, y0], -1),
-                    np.stack([xm, y1], -1),
-                    np.stack([x0, ym], -1),
-                    np.stack([x1, ym], -1),
-                    np.stack([xm, ym], -1),
-                ],
-                axis=1,
-            ),
-            evaluate,
-        )
-        f = np.concatenate([f, vertices.f[-1]])
         w, h = (x1 - x0) / units, (y1 - y0) / units
-        error, stretch = _test(f, corners, mids, w, h)
+        error, stretch = _test(vertices.f, nodes, tests, w, h)
         side = np.maximum(x1 - x0, y1 - y0)
-        # below 1 px only where a pixel's cell covers more than one output pixel
+        # below 1 px only where a pixel's cell covers more than one output pixel, and not
+        # where the map folds: a folded pixel has no single inverse to come closer to
         limit = np.maximum(smallest, np.minimum(units, units / np.maximum(stretch, 1e-12)))
+        limit[np.isinf(error)] = units
         split = (
             (error > tolerance)
             & (side > limit)
-            & ((x1 - x0) % 2 == 0)
-            & ((y1 - y0) % 2 == 0)
-            & (np.minimum(x1 - x0, y1 - y0) >= 2)
+            & ((x1 - x0) % 8 == 0)  # the children's grids are keys too
+            & ((y1 - y0) % 8 == 0)
         )
         keep = ~split
-        leaves.append((box[keep], corners[keep], mids[keep], error[keep]))
-        c, m, b = corners[split], mids[split], box[split]
-        t_, b_, l_, r_, c_ = (m[:, k] for k in range(5))
-        corners = np.concatenate(
-            [
-                np.stack([c[:, 0], t_, l_, c_], -1),
-                np.stack([t_, c[:, 1], c_, r_], -1),
-                np.stack([l_, c_, c[:, 2], b_], -1),
-                np.stack([c_, r_, b_, c[:, 3]], -1),
-            ]
-        )
-        bx0, by0, bx1, by1 = b.T
-        bxm, bym = (bx0 + bx1) // 2, (by0 + by1) // 2
-        box = np.concatenate(
-            [
-                np.stack([bx0, by0, bxm, bym], -1),
-                np.stack([bxm, by0, bx1, bym], -1),
-                np.stack([bx0, bym, bxm, by1], -1),
-                np.stack([bxm, bym, bx1, by1], -1),
-            ]
-        )
+        leaves.append((box[keep], nodes[keep], error[keep]))
+        box, nodes, tests = _split(box[split], nodes[split], tests[split], vertices, evaluate)
+    return _assemble(vertices, leaves, levels)
+
+
+def _split(box, nodes, tests, vertices: _Vertices, evaluate: Evaluate):
+    """The four children of each cell of ``box`` (their boxes, nodes and test points), f
+    evaluated at the points they add (in one call): the cells' 9 x 9 grids in eighths."""
+    if len(box) == 0:
+        return box, nodes, tests
+    odd = tuple((r, c) for r in range(9) for c in range(9) if r % 2 or c % 2)
+    new = vertices.add(_grid_keys(box, odd, 8), evaluate)
+    grid = np.empty((len(box), 9, 9), np.int64)  # each cell's 9 x 9 vertex ids
+    for k, (r, c) in enumerate(_NODES + _TESTS):
+        grid[:, 2 * r, 2 * c] = (nodes if k < 9 else tests)[:, k if k < 9 else k - 9]
+    for k, (r, c) in enumerate(odd):
+        grid[:, r, c] = new[:, k]
+    x0, y0, x1, y1 = box.T
+    xm, ym = (x0 + x1) // 2, (y0 + y1) // 2
+    node_at = np.array([5 * r + c for r, c in _NODES])
+    children = []
+    for i, (top, bottom) in enumerate(((y0, ym), (ym, y1))):
+        for j, (left, right) in enumerate(((x0, xm), (xm, x1))):
+            own = grid[:, 4 * i : 4 * i + 5, 4 * j : 4 * j + 5].reshape(-1, 25)
+            children.append(
+                (
+                    np.stack([left, top, right, bottom], axis=-1),
+                    own[:, node_at],
+                    own[:, _TEST_INDEX],
+                )
+            )
+    return tuple(np.concatenate(part) for part in zip(*children, strict=True))
+
+
+def _assemble(vertices: _Vertices, leaves, levels: int) -> AdaptiveMesh:
     keys = np.concatenate(vertices.keys)
-    return _assemble(keys, f, vertices, leaves, levels)
-
-
-def _assemble(keys, f, vertices: _Vertices, leaves, levels: int) -> AdaptiveMesh:
     box = np.concatenate([part[0] for part in leaves])
-    corners = np.concatenate([part[1] for part in leaves])
-    mids = np.concatenate([part[2] for part in leaves])
-    error = np.concatenate([part[3] for part in leaves])
+    nodes = np.concatenate([part[1] for part in leaves])
+    error = np.concatenate([part[2] for part in leaves])
     width = int(keys.max()) + 2
     order = np.argsort(box[:, 1] * width + box[:, 0], kind="stable")  # scan order
-    box, corners, mids, error = box[order], corners[order], mids[order], error[order]
-    triangles = _fans(keys, box, corners, mids, width)
-    source = vertices.origin + keys / vertices.units
+    box, nodes, error = box[order], nodes[order], error[order]
+    corners = nodes[:, [0, 2, 6, 8]]
+    mids = nodes[:, [1, 7, 3, 5, 4]]  # top, bottom, left, right, centre
+    triangles, per_leaf = _fans(keys, box, corners, mids, width)
+    triangle_leaf = np.repeat(np.arange(len(box), dtype=np.uint32), per_leaf)
+    # only the vertices of the triangles (the patches' nodes are among them): the test
+    # points were for the build
+    used = np.zeros(len(keys), bool)
+    used[triangles.ravel()] = True
+    used[nodes.ravel()] = True
+    renumber = (np.cumsum(used) - 1).astype(np.uint32)
+    source = vertices.origin + keys[used] / vertices.units
     cells = vertices.origin[[0, 1, 0, 1]] + box / vertices.units
-    return AdaptiveMesh(source, f, triangles, cells, error, levels)
+    return AdaptiveMesh(
+        source,
+        vertices.f[used],
+        renumber[triangles],
+        triangle_leaf,
+        cells,
+        renumber[nodes],
+        error,
+        levels,
+    )
 
 
-def _fans(keys, box, corners, mids, width: int) -> np.ndarray:
+def _fans(keys, box, corners, mids, width: int) -> tuple[np.ndarray, np.ndarray]:
     """The triangles (T, 3) uint32 of every leaf's fan around its centre, through each
     boundary vertex (its own and finer neighbours' corners and mid-points), in the leaves'
-    scan order (that of ``box``), each leaf's triangles together."""
+    scan order (that of ``box``), each leaf's triangles together, all of positive area in
+    the source (x right, y down); and how many each leaf has."""
     boundary = np.unique(np.concatenate([corners.ravel(), mids[:, :4].ravel()]))
     bx, by = keys[boundary, 0], keys[boundary, 1]
     rows = np.argsort(by * width + bx)
@@ -333,13 +375,46 @@ def _fans(keys, box, corners, mids, width: int) -> np.ndarray:
     triangles = np.empty((total, 3), np.uint32)
     centre = mids[:, 4]
     base = start.copy()
-    for (lo, n), (_, sorted_ids, _, _) in zip(spans, edges, strict=True):
+    # the top and right edges run clockwise about the centre on the screen (y down), the
+    # bottom and left ones the other way: swapped, every triangle has a positive area
+    for side, ((lo, n), (_, sorted_ids, _, _)) in enumerate(zip(spans, edges, strict=True)):
         leaf = np.repeat(np.arange(len(n)), n)
         k = np.arange(len(leaf)) - np.repeat(np.cumsum(n) - n, n)
         at = base[leaf] + k
         i = lo[leaf] + k
+        swap = side >= 2
         triangles[at, 0] = centre[leaf]
-        triangles[at, 1] = sorted_ids[i]
-        triangles[at, 2] = sorted_ids[i + 1]
+        triangles[at, 1 + swap] = sorted_ids[i]
+        triangles[at, 2 - swap] = sorted_ids[i + 1]
         base += n
-    return triangles
+    return triangles, per_leaf
+
+
+def interpolate(mesh: AdaptiveMesh, values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """``values`` ((V,) at ``mesh``'s vertices) at the pixel centres of an image of ``shape``
+    (H, W), (H, W) float64: on each leaf, its quadratic patch through the values at its 3 x 3
+    nodes (as the warp interpolates f). A pixel centre on an edge between leaves takes the
+    leaf after it (boxes are half-open); one no leaf covers is NaN."""
+    height, width = shape
+    out = np.full((height, width), np.nan)
+    x0, y0, x1, y1 = mesh.leaves.T
+    first_col = np.clip(np.ceil(x0), 0, width).astype(np.int64)
+    first_row = np.clip(np.ceil(y0), 0, height).astype(np.int64)
+    cols = np.clip(np.ceil(x1), 0, width).astype(np.int64) - first_col
+    rows = np.clip(np.ceil(y1), 0, height).astype(np.int64) - first_row
+    counts = cols * rows  # the pixel centres of each leaf
+    leaf = np.repeat(np.arange(len(counts)), counts)
+    k = np.arange(len(leaf)) - np.repeat(np.cumsum(counts) - counts, counts)
+    col = first_col[leaf] + k % cols[leaf]
+    row = first_row[leaf] + k // cols[leaf]
+    u = (col - x0[leaf]) / (x1 - x0)[leaf]
+    v = (row - y0[leaf]) / (y1 - y0)[leaf]
+    basis_u = (2 * (u - 0.5) * (u - 1), -4 * u * (u - 1), 2 * u * (u - 0.5))
+    basis_v = (2 * (v - 0.5) * (v - 1), -4 * v * (v - 1), 2 * v * (v - 0.5))
+    nodes = mesh.nodes[leaf]
+    total = np.zeros(len(leaf))
+    for a in range(3):
+        for b in range(3):
+            total += basis_v[a] * basis_u[b] * values[nodes[:, 3 * a + b]]
+    out[row, col] = total
+    return out

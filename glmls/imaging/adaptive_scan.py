@@ -1,7 +1,8 @@
 """The adaptive mesh on the GPU: f evaluated level by level (``mls/points.comp.glsl``, one
 batched call per level), the quadtree built on the CPU (:mod:`.adaptive`), its triangles
-scan-converted by ``warp/adaptive.comp.glsl`` (first triangle in scan order wins) and the
-image filled by ``warp/adaptive.frag.glsl``."""
+scan-converted by ``warp/adaptive.comp.glsl`` (first triangle in scan order wins; a second
+pass of it finds each pixel's source point on its leaf's quadratic patch) and the image filled
+by ``warp/adaptive.frag.glsl``."""
 
 from __future__ import annotations
 
@@ -20,7 +21,10 @@ from ..gl.resources import Resources
 from .adaptive import ROOT_STEP, AdaptiveMesh, build_adaptive, check_adaptive
 from .frame import Frame
 
-__all__ = ["AdaptiveScan", "Fill"]
+__all__ = ["NONE", "AdaptiveScan", "Fill", "embedded"]
+
+#: The source point of a pixel no triangle covers (ADAPTIVE_NONE in the shaders).
+NONE = 3.0e38
 
 
 class Fill(Protocol):
@@ -38,6 +42,8 @@ class AdaptiveScan:
     def __init__(self, gl: GLContext, resources: Resources) -> None:
         self._gl = gl
         self._resources = resources
+        #: Scan passes of the last :meth:`draw`: 1 for an embedding, else 2 (keys, points).
+        self.last_passes = 0
 
     def build(self, kernel: MLSKernel, lattice: MeshLattice, tolerance: float) -> AdaptiveMesh:
         """The adaptive mesh over ``lattice``'s cells (the roots), f from ``kernel``."""
@@ -98,22 +104,54 @@ class AdaptiveScan:
         vertices[:, 2:] = mesh.source
         vertex_buffer = self._resources.buffer("adaptive-vertices", vertices.nbytes)
         vertex_buffer.write(vertices.tobytes())
-        index_buffer = self._resources.buffer("adaptive-triangles", mesh.triangles.nbytes)
-        index_buffer.write(mesh.triangles.tobytes())
-        winner = self._resources.buffer("adaptive-winner", frame.pixels * 4)
-        winner.clear(size=frame.pixels * 4)
+        indices = np.empty((count, 4), np.uint32)
+        indices[:, :3] = mesh.triangles
+        indices[:, 3] = mesh.triangle_leaf
+        index_buffer = self._resources.buffer("adaptive-triangles", indices.nbytes)
+        index_buffer.write(indices.tobytes())
+        leaves = _leaf_patches(mesh, frame)
+        leaf_buffer = self._resources.buffer("adaptive-leaves", leaves.nbytes)
+        leaf_buffer.write(leaves.tobytes())
+        resources = self._resources
+        points = resources.buffer("adaptive-points", (frame.pixels + 1) * 8)  # and a spare
+        points.bind_to_storage_buffer(bindings.ADAPTIVE_POINTS.index)
+        clear = gl.compute("warp/adaptive_clear.comp.glsl", {"ADAPTIVE_NONE": NONE})
+        set_uniforms(clear, {"u_count": frame.pixels})
+        run_1d(clear, frame.pixels, max_groups=gl.limits["max_work_groups_x"])
         vertex_buffer.bind_to_storage_buffer(bindings.DEFORMED.index)
         index_buffer.bind_to_storage_buffer(bindings.POINTS.index)
-        winner.bind_to_storage_buffer(bindings.WINNER.index)
+        leaf_buffer.bind_to_storage_buffer(bindings.ADAPTIVE_LEAVES.index)
+        points.bind_to_storage_buffer(bindings.ADAPTIVE_POINTS.index)
         values = {**frame.uniforms(), "u_triangles": count, "u_flip_y": flip_y}
-        scan = gl.compute("warp/adaptive.comp.glsl")
-        set_uniforms(scan, values)
-        run_1d(scan, count, max_groups=gl.limits["max_work_groups_x"])
-        gl.mgl.memory_barrier()
+        if embedded(mesh):
+            passes = [2]  # each pixel covered once: its triangle writes its point
+        else:  # the first triangle in scan order wins: the keys, then the points
+            passes = [0, 1]
+            winner = resources.buffer("adaptive-winner", frame.pixels * 4)
+            winner.clear(size=frame.pixels * 4)
+            winner.bind_to_storage_buffer(bindings.WINNER.index)
+        self.last_passes = len(passes)
+        for fill_pass in passes:
+            scan = gl.compute(
+                "warp/adaptive.comp.glsl", {"ADAPTIVE_FILL": fill_pass, "ADAPTIVE_NONE": NONE}
+            )
+            set_uniforms(scan, values)
+            run_1d(scan, count, max_groups=gl.limits["max_work_groups_x"])
+            gl.mgl.memory_barrier()
+        # a GPU-side copy: texel fetches are what a fragment shader reads fastest
+        width, height = frame.size
+        points_texture = resources.texture("adaptive-points", (width, height), 2, "f4")
+        points_texture.write(points)
+        points_texture.use(bindings.COORDS.index)
         fill = gl.program(
             "common/fullscreen.vert.glsl",
             "warp/adaptive.frag.glsl",
-            {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords, "WARP_BORDER": border},
+            {
+                "WARP_LINEAR": linear,
+                "WARP_OUTPUT_COORDS": coords,
+                "WARP_BORDER": border,
+                "ADAPTIVE_NONE": NONE,
+            },
         )
         height, width = (0, 0) if source is None else (source.size[1], source.size[0])
         set_uniforms(fill, values | {"u_source_size": (width, height)})
@@ -123,4 +161,60 @@ class AdaptiveScan:
             source.use(bindings.SOURCE.index)
         framebuffer.use()
         gl.mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
-        self._resources.vertex_array(fill).render(moderngl.TRIANGLES, vertices=3)
+        resources.vertex_array(fill).render(moderngl.TRIANGLES, vertices=3)
+
+
+def _leaf_patches(mesh: AdaptiveMesh, frame: Frame) -> np.ndarray:
+    """(L, 7, 4) float32: what ``warp/adaptive.frag.glsl`` reads of each leaf (its box, f at
+    its centre node in the output frame and its orientation, the nodes' f minus that)."""
+    leaves = np.zeros((len(mesh.leaves), 7, 4), np.float32)
+    x0, y0, x1, y1 = mesh.leaves.T
+    leaves[:, 0] = np.stack([x0, y0, x1 - x0, y1 - y0], axis=-1)
+    n = mesh.deformed[mesh.nodes.astype(np.int64)]  # (L, 9, 2)
+    centre = n[:, 4]
+    d_dx, d_dy = n[:, 5] - n[:, 3], n[:, 7] - n[:, 1]
+    turn = np.sign(d_dx[:, 0] * d_dy[:, 1] - d_dx[:, 1] * d_dy[:, 0])
+    leaves[:, 1, :2] = centre - np.asarray(frame.origin)
+    leaves[:, 1, 2] = np.where(np.isfinite(mesh.estimate), turn, 0.0)
+    offsets = np.zeros((len(n), 10, 2))
+    offsets[:, :9] = n - centre[:, None]
+    leaves[:, 2:] = offsets.reshape(-1, 5, 4)
+    return leaves
+
+
+def embedded(mesh: AdaptiveMesh) -> bool:
+    """Is the deformed mesh an embedding, each point covered by one triangle at most? Enough
+    for that: every triangle of one orientation (with room for float32's rounding) and a
+    boundary that turns once about its centroid, always the same way (then it is a simple
+    curve, and with the triangles' orientation the map's degree is 1 inside it, 0 outside).
+    False may be an embedding too (a boundary not star-shaped about its centroid): the keyed
+    passes then draw it, exactly as well, slower."""
+    corners = mesh.deformed[mesh.triangles.astype(np.int64)]  # (T, 3, 2)
+    ab, ac = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    area = ab[:, 0] * ac[:, 1] - ab[:, 1] * ac[:, 0]  # all positive in the source
+    scale = np.abs(area).max(initial=0.0)
+    if not ((area > 1e-5 * scale).all() or (area < -1e-5 * scale).all()):
+        return False
+    used = np.zeros(len(mesh.source), bool)
+    used[mesh.triangles.ravel()] = True
+    x, y = mesh.source[:, 0], mesh.source[:, 1]
+    x0, y0 = mesh.leaves[:, 0].min(), mesh.leaves[:, 1].min()
+    x1, y1 = mesh.leaves[:, 2].max(), mesh.leaves[:, 3].max()
+    sides = (  # the source boundary, counter-clockwise on the screen (y down): ids in order
+        (y == y0, x, False),
+        (x == x1, y, False),
+        (y == y1, x, True),
+        (x == x0, y, True),
+    )
+    ring = []
+    for on, along, backwards in sides:
+        ids = np.flatnonzero(on & used)
+        ids = ids[np.argsort(along[ids])]
+        ring.append((ids[::-1] if backwards else ids)[:-1])  # each corner once
+    boundary = mesh.deformed[np.concatenate(ring)]
+    offset = boundary - boundary.mean(axis=0)
+    angle = np.arctan2(offset[:, 1], offset[:, 0])
+    turns = (np.diff(angle, append=angle[:1]) + np.pi) % (2 * np.pi) - np.pi
+    return bool(
+        ((turns > 0).all() or (turns < 0).all()) and abs(abs(turns.sum()) - 2 * np.pi) < 1e-6
+    )

@@ -214,6 +214,26 @@ def test_grid_keys_step_through_powers_of_two():
     assert c.settings.grid == 32
 
 
+def test_the_tolerance_key_cycles_the_adaptive_mesh():
+    c = make(settings=Settings(grid=4))
+    assert c.settings.tolerance is None and c.settings.mesh_options == {"grid": 4}
+    seen = []
+    for _ in range(3):
+        r = c.revision
+        c.feed(Key("T"))
+        assert c.revision > r
+        seen.append(c.settings.tolerance)
+    assert seen == [0.25, 0.05, None]
+    adaptive = Settings(tolerance=0.05)
+    assert adaptive.mesh_options == {"tolerance": 0.05} and adaptive.adaptive == 0.05
+    splat = Settings(method="splat", tolerance=0.05)  # the other constructions ignore it
+    assert splat.adaptive is None and splat.mesh_options == {"grid": 4}
+    with pytest.raises(ValueError, match="tolerance must be finite and > 0"):
+        Settings(tolerance=-1.0)
+    with pytest.raises(TypeError, match="tolerance must be a number"):
+        Settings(tolerance="0.05")  # type: ignore[arg-type]
+
+
 def test_overlay_and_help_toggles():
     c = make()
     assert c.overlays == {

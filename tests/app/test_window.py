@@ -192,3 +192,22 @@ def test_no_display_is_a_one_line_message(tmp_path):
     assert len(lines) == 1, result.stderr
     assert lines[0].startswith("glmls demo: error: no display")
     assert "headless" in lines[0]
+
+
+@needs_xvfb
+def test_the_adaptive_mesh_key_draws_and_saves_on_it(tmp_path, square):
+    """T twice (0.05 px), m (the leaves' outlines): the view and the saved image are the
+    adaptive mesh's warp, and the panel says so."""
+    shot, keys = tmp_path / "adaptive.png", ["T", "T", "s"]
+    result = demo(
+        str(square), "--replay", str(events(tmp_path / "t.json", *keys)), "--screenshot",
+        str(shot), "--window-size", f"{WINDOW[0]}x{WINDOW[1]}", "--frames", "8",
+        "--out", str(tmp_path / "saved"),
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    image = glmls.imread(square)
+    with glmls.MLS([[40.0, 40.0]], [[60.0, 55.0]], shape=SHAPE) as m:
+        expected = m.warp(image, tolerance=0.05)
+    assert (glmls.imread(tmp_path / "saved" / "square-warped.png") == expected).all()
+    view = glmls.imread(shot)
+    assert (at(view, 65, 60) > 240).all()  # the moved square, drawn on the adaptive mesh

@@ -194,3 +194,28 @@ def test_demo_without_a_display_points_to_the_headless_commands(inputs, monkeypa
     assert "no display" in result.stderr and "xvfb-run" in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
     _no_traceback(result)
+
+
+def test_warp_and_analyze_take_the_adaptive_tolerance(inputs, gl):
+    result = glmls_cli(
+        "warp", "a.png", "t.png", "--handles", "h.json", "--tolerance", "0.05", cwd=inputs
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    image = glmls.imread(inputs / "a.png")
+    expected = glmls.warp(image, SRC, DST, ctx=gl, tolerance=0.05)
+    assert (glmls.imread(inputs / "t.png") == expected).all()
+    report = glmls_cli(
+        "analyze", "a.png", "--handles", "h.json", "--out", "rep", "--tolerance", "0.25",
+        cwd=inputs,
+    )  # fmt: skip
+    assert report.returncode == 0, report.stderr
+    assert json.loads((inputs / "rep" / "report.json").read_text())["warp"]["tolerance"] == 0.25
+    for args, message in (
+        (("--tolerance", "0.05", "--grid", "4"), "grid and tolerance exclude each other"),
+        (("--tolerance", "0.05", "--method", "splat"), "method 'quads'"),
+        (("--tolerance", "0"), "expected a finite number > 0"),
+        (("--tolerance", "nan"), "expected a finite number > 0"),
+    ):
+        bad = glmls_cli("warp", "a.png", "x.png", "--handles", "h.json", *args, cwd=inputs)
+        assert bad.returncode == 2 and message in bad.stderr, (args, bad.stderr)
+        _no_traceback(bad)

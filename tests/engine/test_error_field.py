@@ -136,3 +136,25 @@ def test_bad_arguments(gl):
             m.error_field(5)
     with pytest.raises(glmls.ReleasedError):
         m.error_field((4, 4))
+
+
+def test_error_at_points_matches_the_reference(gl, rng):
+    """E_MLS at any points (the adaptive field's vertices), points and segments, against
+    the float64 reference."""
+    from glmls.core import reference
+    from glmls.engine.error_field import error_at
+
+    shape = (90, 120)
+    p = rng.uniform(5, 85, (9, 2))
+    q = p + rng.normal(0, 4, p.shape)
+    segments = np.array([[[10.0, 70], [60, 80]]])
+    moved = segments + [3.0, -2.0]
+    points = rng.uniform(-3, 120, (2500, 2))
+    with glmls.MLS(p, q, shape=shape, src_segments=segments, dst_segments=moved) as m:
+        values = error_at(m.kernel, points, shape)
+        assert error_at(m.kernel, np.zeros((0, 2)), shape).shape == (0,)
+        config = m.config
+    expected = reference.mls_error(
+        p, q, points, config, shape=shape, src_segments=segments, dst_segments=moved
+    )
+    np.testing.assert_allclose(values, expected, rtol=1e-4, atol=1e-6 * expected.max())

@@ -11,7 +11,8 @@ from helpers import folded_case, smooth_handles
 
 import glmls
 from glmls.core import reference
-from glmls.imaging.adaptive import MIN_SIZE, ROOT_STEP, build_adaptive
+from glmls.imaging import adaptive_scan
+from glmls.imaging.adaptive import MIN_SIZE, ROOT_STEP, build_adaptive, interpolate
 from glmls.imaging.frame import Frame
 from glmls.imaging.pipeline import WarpPipeline
 
@@ -91,8 +92,8 @@ def test_every_source_point_is_within_the_tolerance_of_the_inverse(gl, case, tol
     assert error.max() <= tolerance, (error.max(), np.quantile(error, 0.999))
     sides = mesh.leaves[:, 2] - mesh.leaves[:, 0]
     assert sides.max() <= ROOT_STEP and sides.min() >= MIN_SIZE
-    if case == "stretched" and tolerance == 0.05:
-        assert sides.min() < 1  # below a pixel where the map stretches
+    if case == "stretched":
+        assert sides.min() < ROOT_STEP / 2  # refined where the map stretches
 
 
 def test_no_cracks_between_cells_of_different_sizes(gl):
@@ -159,7 +160,12 @@ def test_the_first_cell_in_scan_order_shows_where_the_map_folds(gl):
     )
     shown = xy.reshape(-1, 2)[hit]
     assert covered.ravel()[hit].all()
-    assert np.abs(shown - expected).max() < 1e-2
+    # the winner's leaf shows: Newton's method on its patch moves the triangle's linear
+    # point by at most the fan's interpolation error, and keeps it on the leaf
+    box = mesh.leaves[mesh.triangle_leaf[t]]
+    past = np.maximum(box[:, :2] - shown, 0) + np.maximum(shown - box[:, 2:], 0)
+    assert np.abs(shown - expected).max() < 0.25  # measured 0.13
+    assert past.max() < 0.05
     assert hit.sum() > 0.8 * covered.sum()
 
 
@@ -210,3 +216,82 @@ def test_glmls_warp_takes_the_tolerance(gl):
     with glmls.MLS(src, dst, shape=image.shape, ctx=gl) as m:
         expected = m.warp(image, tolerance=0.1)
     np.testing.assert_array_equal(glmls.warp(image, src, dst, tolerance=0.1, ctx=gl), expected)
+
+
+def test_one_pass_draws_an_embedding_and_two_a_fold(gl, rng, monkeypatch):
+    """An embedding (every triangle one way round, a boundary that turns once) is drawn in
+    one scan pass without keys, and it draws exactly what the keyed passes draw."""
+    image = rng.integers(0, 256, (*SHAPE, 3), dtype=np.uint8)
+    with glmls.MLS(*smooth_handles(SHAPE, rng), shape=SHAPE) as m:
+        pipe = WarpPipeline.of(m.ctx)
+        one = m.warp(image, tolerance=0.05, interpolation="linear")
+        assert pipe.adaptive.last_passes == 1
+        monkeypatch.setattr(adaptive_scan, "embedded", lambda mesh: False)
+        keyed = m.warp(image, tolerance=0.05, interpolation="linear")
+        assert pipe.adaptive.last_passes == 2
+    np.testing.assert_array_equal(one, keyed)
+    monkeypatch.undo()
+    shape, p, q = folded_case()
+    with glmls.MLS(p, q, shape=shape) as m:
+        assert not adaptive_scan.embedded(m.mesh(shape, tolerance=0.05))
+        m.warp(np.zeros((*shape, 3), np.uint8), tolerance=0.05)
+        assert WarpPipeline.of(m.ctx).adaptive.last_passes == 2
+
+
+def test_a_mirror_is_interpolated_exactly(gl):
+    """An affine map that mirrors the image: one orientation throughout (no fold), the
+    patches exact, every source point on f's inverse; drawn in one pass."""
+    width = SHAPE[1]
+    p = np.array([[20.0, 20], [170, 30], [40, 140], [150, 150]])
+    q = np.stack([width - 1 - p[:, 0], p[:, 1]], -1)  # x -> W - 1 - x
+    with glmls.MLS(p, q, shape=SHAPE, transform="affine") as m:
+        mesh, xy, covered = source_points(m, SHAPE, 0.05)
+        assert adaptive_scan.embedded(mesh) and len(mesh.leaves) == 10 * 12
+        yy, xx = np.nonzero(covered)
+        np.testing.assert_allclose(xy[yy, xx, 0], width - 1 - xx, atol=2e-3)
+        np.testing.assert_allclose(xy[yy, xx, 1], yy, atol=2e-3)
+    assert covered.mean() > 0.99
+
+
+def test_interpolate_reproduces_quadratics():
+    """The leaves' quadratic patches reproduce x^a y^b (a, b <= 2) at every pixel centre."""
+    from glmls.core.mesh import MeshLattice
+
+    shape = (45, 70)
+    mesh = build_adaptive(
+        lambda v: v + 0.02 * v**2 * [1, -1], MeshLattice.corners(shape, ROOT_STEP), 1e-3
+    )
+    assert len(np.unique(mesh.leaves[:, 2] - mesh.leaves[:, 0])) > 1
+    x, y = mesh.source.T
+    values = 3 + x - 2 * y + 0.1 * x * y + 0.01 * x**2 * y - 0.02 * x**2 * y**2 / 100
+    out = interpolate(mesh, values, shape)
+    yy, xx = np.mgrid[0 : shape[0], 0 : shape[1]]
+    expected = 3 + xx - 2 * yy + 0.1 * xx * yy + 0.01 * xx**2 * yy - 0.02 * xx**2 * yy**2 / 100
+    np.testing.assert_allclose(out, expected, rtol=1e-9, atol=1e-9)
+
+
+def test_the_mesh_and_error_field_take_the_tolerance(gl, rng):
+    """m.mesh(shape, tolerance=) is the mesh the warp draws; m.error_field(shape,
+    tolerance=) is E_MLS at its vertices, interpolated on its leaves: against the float64
+    reference within 1 % of the field's range (measured 0.4-0.7 %, as grid 2; grid 4's
+    bilinear field is 1.8-2.5 % off)."""
+    handles = smooth_handles(SHAPE, rng)
+    with glmls.MLS(*handles, shape=SHAPE) as m:
+        mesh = m.mesh(SHAPE, tolerance=0.05)
+        with m.ctx.use():
+            same = WarpPipeline.of(m.ctx).adaptive.mesh(m.kernel, SHAPE, 0.05)
+        field = m.error_field(SHAPE, tolerance=0.05)
+        coarse = m.error_field(SHAPE, grid=4)
+        with pytest.raises(ValueError, match="grid and tolerance exclude each other"):
+            m.mesh(SHAPE, grid=4, tolerance=0.05)
+        with pytest.raises(ValueError, match="tolerance must be finite"):
+            m.error_field(SHAPE, tolerance=0.0)
+        config = m.config
+    np.testing.assert_array_equal(mesh.triangles, same.triangles)
+    np.testing.assert_allclose(mesh.deformed, same.deformed)
+    yy, xx = np.mgrid[0 : SHAPE[0], 0 : SHAPE[1]]
+    pixels = np.stack([xx.ravel(), yy.ravel()], -1).astype(np.float64)
+    exact = reference.mls_error(*handles, pixels, config, shape=SHAPE).reshape(SHAPE)
+    assert np.isfinite(field).all()
+    assert np.abs(field - exact).max() <= 0.01 * np.ptp(exact)
+    assert np.abs(field - exact).max() < 0.5 * np.abs(coarse - exact).max()

@@ -11,10 +11,16 @@
 //
 // MLS_ERROR_INTERPOLATE 0: evaluate MLS on a lattice (mls/lattice.glsl: the pixel centres,
 //                          or the corners of a coarse mesh) -> error_out[row * dims.x + col];
+//                          with MLS_ERROR_POINTS, at the u_count points of a list instead
+//                          (laid out u_dims.x per row) -> error_out[k];
 //                       1: no MLS: bilinear interpolation of the values at the corners of a
 //                          mesh every u_grid pixels (common/lattice.glsl) to the pixel
 //                          centres of a W x H image.
 layout(local_size_x = LOCAL_SIZE_2D, local_size_y = LOCAL_SIZE_2D) in;
+
+#ifndef MLS_ERROR_POINTS
+#define MLS_ERROR_POINTS 0
+#endif
 
 uniform ivec2 u_dims;   // output columns, rows
 
@@ -42,7 +48,14 @@ void mls_error_cell(int c, int n, int vertices, out int k, out float t) {
 }
 #else
 #include "mls/visit.glsl"
+#if MLS_ERROR_POINTS
+layout(std430, binding = BIND_POINTS) readonly buffer MLSErrorPoints {
+    vec2 mls_error_points[];   // scaled coordinates
+};
+uniform int u_count;
+#else
 #include "mls/lattice.glsl"
+#endif
 #endif
 
 void main() {
@@ -61,7 +74,15 @@ void main() {
     float bottom = mix(error_vertex[i10], error_vertex[i10 + 1], tx);
     error_out[ij.y * u_dims.x + ij.x] = mix(top, bottom, ty);
 #else
+#if MLS_ERROR_POINTS
+    int k = ij.y * u_dims.x + ij.x;
+    if (k >= u_count) {
+        return;
+    }
+    vec2 v = mls_error_points[k];
+#else
     vec2 v = mls_lattice_point(ij);
+#endif
     MLSResult r = mls_eval(v);
     float e = 0.0;
     int n = mls_handle_count();

@@ -8,6 +8,14 @@
 // FIRST triangle in scan order shows wherever triangles overlap (fold-overs), whatever order
 // the invocations run in. 0 is "none".
 //
+// ADAPTIVE_FILL 1: the second pass, the same scan: each pixel whose winner is this triangle
+// gets its source point, the triangle's linear interpolation refined on its leaf's quadratic
+// patch (warp/adaptive_patch.glsl), loaded once per triangle; warp/adaptive.frag.glsl then
+// samples the source there. ADAPTIVE_FILL 2: the one pass of a mesh that is an embedding
+// (glmls.imaging.adaptive_scan checks it: every triangle of one orientation and a boundary
+// that turns once): each pixel is covered by exactly one triangle, which writes its source
+// point, no keys. Pixels no triangle writes keep the buffer's "none" value.
+//
 // Coverage is OpenGL's: pixel centres strictly inside, and on an edge for one of the two
 // triangles sharing it (a top-left style tie rule). Each edge function is computed from the
 // edge's end points in vertex-index order, with `precise`, so the two triangles on either
@@ -15,17 +23,27 @@
 // vertices) see exactly opposite values: no pixel of a seam is lost.
 layout(local_size_x = LOCAL_SIZE) in;
 
+#ifndef ADAPTIVE_FILL
+#define ADAPTIVE_FILL 0
+#endif
+
 #include "common/groups.glsl"
 
 layout(std430, binding = BIND_DEFORMED) readonly buffer AdaptiveVertices {
     vec4 adaptive_vertex[];   // (output x, y, source x, y), pixels
 };
 layout(std430, binding = BIND_POINTS) readonly buffer AdaptiveTriangles {
-    uint adaptive_index[];    // three vertex indices per triangle, in scan order
+    uint adaptive_index[];    // per triangle in scan order: three vertex indices, its leaf
 };
 layout(std430, binding = BIND_WINNER) buffer AdaptiveWinner {
     uint adaptive_winner[];   // per target pixel, row-major: u_triangles - t, 0 = none
 };
+#if ADAPTIVE_FILL
+#include "warp/adaptive_patch.glsl"
+layout(std430, binding = BIND_ADAPTIVE_POINTS) writeonly buffer AdaptivePoints {
+    vec2 adaptive_point[];    // per target pixel, row-major: its source point
+};
+#endif
 
 uniform ivec2 u_target_size;  // W, H in pixels
 uniform int u_triangles;      // how many
@@ -43,12 +61,15 @@ void main() {
     if (t >= u_triangles) {
         return;
     }
-    uint ia = adaptive_index[3 * t];
-    uint ib = adaptive_index[3 * t + 1];
-    uint ic = adaptive_index[3 * t + 2];
-    vec2 a = adaptive_vertex[ia].xy;
-    vec2 b = adaptive_vertex[ib].xy;
-    vec2 c = adaptive_vertex[ic].xy;
+    uint ia = adaptive_index[4 * t];
+    uint ib = adaptive_index[4 * t + 1];
+    uint ic = adaptive_index[4 * t + 2];
+    vec4 va = adaptive_vertex[ia];
+    vec4 vb = adaptive_vertex[ib];
+    vec4 vc = adaptive_vertex[ic];
+    vec2 a = va.xy;
+    vec2 b = vb.xy;
+    vec2 c = vc.xy;
     float s = sign(edge(a, b, c));
     if (s == 0.0) {
         return;   // degenerate: covers nothing, as in OpenGL
@@ -56,6 +77,10 @@ void main() {
     ivec2 first = max(ivec2(ceil(min(min(a, b), c))), ivec2(0));
     ivec2 last = min(ivec2(floor(max(max(a, b), c))), u_target_size - 1);
     uint key = uint(u_triangles - t);
+#if ADAPTIVE_FILL
+    LeafPatch leaf = load_patch(int(adaptive_index[4 * t + 3]));
+    float inv_area = 1.0 / edge(a, b, c);
+#endif
     // the edges' directions along the triangle's counter-clockwise boundary
     vec2 dab = s * (b - a);
     vec2 dbc = s * (c - b);
@@ -68,12 +93,30 @@ void main() {
         span(c, a, s, float(y), left, right);
         int x_end = min(last.x, int(floor(right + SPAN_MARGIN)));
         for (int x = max(first.x, int(ceil(left - SPAN_MARGIN))); x <= x_end; ++x) {
+            // Branch-free: llvmpipe runs buffer accesses under a divergent branch lane by
+            // lane with mask tests, about twice the cost.
             vec2 p = vec2(x, y);
-            if (covers(s * ordered_edge(ia, ib, a, b, p), dab) &&
-                covers(s * ordered_edge(ib, ic, b, c, p), dbc) &&
-                covers(s * ordered_edge(ic, ia, c, a, p), dca)) {
-                atomicMax(adaptive_winner[y * u_target_size.x + x], key);
-            }
+            int i = y * u_target_size.x + x;
+#if ADAPTIVE_FILL
+            float lb = edge(c, a, p) * inv_area;
+            float lc = edge(a, b, p) * inv_area;
+            vec2 s0 = va.zw + (vb.zw - va.zw) * lb + (vc.zw - va.zw) * lc;
+            int spare = u_target_size.x * u_target_size.y;
+#endif
+#if ADAPTIVE_FILL == 1
+            // the winner key names one triangle: no coverage test; a pixel of the span
+            // another triangle shows writes into the spare element past the last pixel
+            adaptive_point[adaptive_winner[i] == key ? i : spare] = patch_inverse(leaf, p, s0);
+#else
+            bool inside = covers(s * ordered_edge(ia, ib, a, b, p), dab) &&
+                          covers(s * ordered_edge(ib, ic, b, c, p), dbc) &&
+                          covers(s * ordered_edge(ic, ia, c, a, p), dca);
+#endif
+#if ADAPTIVE_FILL == 2
+            adaptive_point[inside ? i : spare] = patch_inverse(leaf, p, s0);
+#elif ADAPTIVE_FILL == 0
+            atomicMax(adaptive_winner[i], inside ? key : 0u);
+#endif
         }
     }
 }
