@@ -68,6 +68,7 @@ COLOR_TABLE = Binding("COLOR_TABLE", "texture", 7, "a colour map, n x 1 RGBA8")
 GLYPHS = Binding("GLYPHS", "texture", 8, "the glyph atlas of on-screen text")
 # -- image units -------------------------------------------------------------------------------
 INVERSE_MAP = Binding("INVERSE_MAP", "image", 0, "backward: guess in, source points out")
+ADAPTIVE_TARGET = Binding("ADAPTIVE_TARGET", "image", 1, "adaptive: the RGBA8 target it colours")
 
 ALL = (
     HANDLES,
@@ -96,6 +97,7 @@ ALL = (
     COLOR_TABLE,
     GLYPHS,
     INVERSE_MAP,
+    ADAPTIVE_TARGET,
 )
 
 

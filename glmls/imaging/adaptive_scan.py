@@ -99,49 +99,43 @@ class AdaptiveScan:
         count = len(mesh.triangles)
         if count == 0:
             return
-        vertices = np.empty((len(mesh.source), 4), np.float32)
-        vertices[:, :2] = mesh.deformed - np.asarray(frame.origin)
-        vertices[:, 2:] = mesh.source
-        vertex_buffer = self._resources.buffer("adaptive-vertices", vertices.nbytes)
-        vertex_buffer.write(vertices.tobytes())
-        indices = np.empty((count, 4), np.uint32)
-        indices[:, :3] = mesh.triangles
-        indices[:, 3] = mesh.triangle_leaf
-        index_buffer = self._resources.buffer("adaptive-triangles", indices.nbytes)
-        index_buffer.write(indices.tobytes())
-        leaves = _leaf_patches(mesh, frame)
-        leaf_buffer = self._resources.buffer("adaptive-leaves", leaves.nbytes)
-        leaf_buffer.write(leaves.tobytes())
-        resources = self._resources
-        points = resources.buffer("adaptive-points", (frame.pixels + 1) * 8)  # and a spare
-        points.bind_to_storage_buffer(bindings.ADAPTIVE_POINTS.index)
-        clear = gl.compute("warp/adaptive_clear.comp.glsl", {"ADAPTIVE_NONE": NONE})
-        set_uniforms(clear, {"u_count": frame.pixels})
-        run_1d(clear, frame.pixels, max_groups=gl.limits["max_work_groups_x"])
-        vertex_buffer.bind_to_storage_buffer(bindings.DEFORMED.index)
-        index_buffer.bind_to_storage_buffer(bindings.POINTS.index)
-        leaf_buffer.bind_to_storage_buffer(bindings.ADAPTIVE_LEAVES.index)
-        points.bind_to_storage_buffer(bindings.ADAPTIVE_POINTS.index)
-        values = {**frame.uniforms(), "u_triangles": count, "u_flip_y": flip_y}
-        if embedded(mesh):
-            passes = [2]  # each pixel covered once: its triangle writes its point
-        else:  # the first triangle in scan order wins: the keys, then the points
-            passes = [0, 1]
-            winner = resources.buffer("adaptive-winner", frame.pixels * 4)
-            winner.clear(size=frame.pixels * 4)
-            winner.bind_to_storage_buffer(bindings.WINNER.index)
-        self.last_passes = len(passes)
-        for fill_pass in passes:
-            scan = gl.compute(
-                "warp/adaptive.comp.glsl", {"ADAPTIVE_FILL": fill_pass, "ADAPTIVE_NONE": NONE}
-            )
-            set_uniforms(scan, values)
-            run_1d(scan, count, max_groups=gl.limits["max_work_groups_x"])
-            gl.mgl.memory_barrier()
+        self._upload(mesh, frame)
+        target = framebuffer.color_attachments[0] if framebuffer.color_attachments else None
+        # straight into an RGBA8 texture: the pass samples and stores the colours itself
+        colour = (
+            source is not None
+            and not coords
+            and not flip_y
+            and isinstance(target, moderngl.Texture)
+            and (target.components, target.dtype) == (4, "f1")
+        )
+        values = {
+            **frame.uniforms(),
+            "u_triangles": count,
+            "u_flip_y": flip_y,
+            "u_source_size": (0, 0) if source is None else tuple(source.size),
+        }
+        if source is not None and not coords:
+            mode = moderngl.LINEAR if linear else moderngl.NEAREST
+            source.filter = (mode, mode)
+            source.use(bindings.SOURCE.index)
+        if colour:
+            target.bind_to_image(bindings.ADAPTIVE_TARGET.index, read=False, write=True)  # type: ignore[union-attr]
+        else:
+            self._clear_points(frame)
+        self._scan(
+            mesh,
+            frame,
+            values,
+            {"ADAPTIVE_COLOUR": colour, "WARP_LINEAR": linear, "WARP_BORDER": border},
+        )
+        if colour:
+            gl.mgl.memory_barrier()  # the image stores before the caller reads the texture
+            return
         # a GPU-side copy: texel fetches are what a fragment shader reads fastest
         width, height = frame.size
-        points_texture = resources.texture("adaptive-points", (width, height), 2, "f4")
-        points_texture.write(points)
+        points_texture = self._resources.texture("adaptive-points", (width, height), 2, "f4")
+        points_texture.write(self._resources.cached("adaptive-points"))
         points_texture.use(bindings.COORDS.index)
         fill = gl.program(
             "common/fullscreen.vert.glsl",
@@ -153,15 +147,59 @@ class AdaptiveScan:
                 "ADAPTIVE_NONE": NONE,
             },
         )
-        height, width = (0, 0) if source is None else (source.size[1], source.size[0])
-        set_uniforms(fill, values | {"u_source_size": (width, height)})
-        if source is not None and not coords:
-            mode = moderngl.LINEAR if linear else moderngl.NEAREST
-            source.filter = (mode, mode)
-            source.use(bindings.SOURCE.index)
+        set_uniforms(fill, values)
         framebuffer.use()
         gl.mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
-        resources.vertex_array(fill).render(moderngl.TRIANGLES, vertices=3)
+        self._resources.vertex_array(fill).render(moderngl.TRIANGLES, vertices=3)
+
+    def _upload(self, mesh: AdaptiveMesh, frame: Frame) -> None:
+        """The mesh's vertices (in the output frame), triangles and leaf patches, bound."""
+        resources = self._resources
+        vertices = np.empty((len(mesh.source), 4), np.float32)
+        vertices[:, :2] = mesh.deformed - np.asarray(frame.origin)
+        vertices[:, 2:] = mesh.source
+        indices = np.empty((len(mesh.triangles), 4), np.uint32)
+        indices[:, :3] = mesh.triangles
+        indices[:, 3] = mesh.triangle_leaf
+        leaves = _leaf_patches(mesh, frame)
+        for role, data, binding in (
+            ("adaptive-vertices", vertices, bindings.DEFORMED),
+            ("adaptive-triangles", indices, bindings.POINTS),
+            ("adaptive-leaves", leaves, bindings.ADAPTIVE_LEAVES),
+        ):
+            buffer = resources.buffer(role, data.nbytes)
+            buffer.write(data.tobytes())
+            buffer.bind_to_storage_buffer(binding.index)
+
+    def _clear_points(self, frame: Frame) -> None:
+        """The per-pixel source points, all :data:`NONE` (and a spare element), bound."""
+        gl = self._gl
+        points = self._resources.buffer("adaptive-points", (frame.pixels + 1) * 8)
+        points.bind_to_storage_buffer(bindings.ADAPTIVE_POINTS.index)
+        clear = gl.compute("warp/adaptive_clear.comp.glsl", {"ADAPTIVE_NONE": NONE})
+        set_uniforms(clear, {"u_count": frame.pixels})
+        run_1d(clear, frame.pixels, max_groups=gl.limits["max_work_groups_x"])
+
+    def _scan(self, mesh: AdaptiveMesh, frame: Frame, values: dict, defines: dict) -> None:
+        """The scan passes: one for an embedding (each pixel covered once, no keys), else
+        the first triangle in scan order per pixel (keys), then the winners' points."""
+        gl = self._gl
+        if embedded(mesh):
+            passes = [2]
+        else:
+            passes = [0, 1]
+            winner = self._resources.buffer("adaptive-winner", frame.pixels * 4)
+            winner.clear(size=frame.pixels * 4)
+            winner.bind_to_storage_buffer(bindings.WINNER.index)
+        self.last_passes = len(passes)
+        for fill_pass in passes:
+            scan = gl.compute(
+                "warp/adaptive.comp.glsl",
+                {**defines, "ADAPTIVE_FILL": fill_pass, "ADAPTIVE_NONE": NONE},
+            )
+            set_uniforms(scan, values)
+            run_1d(scan, len(mesh.triangles), max_groups=gl.limits["max_work_groups_x"])
+            gl.mgl.memory_barrier()
 
 
 def _leaf_patches(mesh: AdaptiveMesh, frame: Frame) -> np.ndarray:

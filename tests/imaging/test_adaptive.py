@@ -295,3 +295,19 @@ def test_the_mesh_and_error_field_take_the_tolerance(gl, rng):
     assert np.isfinite(field).all()
     assert np.abs(field - exact).max() <= 0.01 * np.ptp(exact)
     assert np.abs(field - exact).max() < 0.5 * np.abs(coarse - exact).max()
+
+
+@pytest.mark.parametrize("border", ["constant", "wrap"])
+def test_the_colour_pass_matches_the_point_pass(gl, rng, border):
+    """uint8 images are coloured by the scan pass itself (an RGBA8 target image); other
+    dtypes write the points and sample them in a fragment pass: the same pixels (linear:
+    within 2/255, a texture filter's 8-bit weights on the RGBA8 source)."""
+    image = rng.integers(0, 256, (*SHAPE, 3), dtype=np.uint8)
+    handles = random_handles(SHAPE, rng)  # folds: the keyed passes
+    with glmls.MLS(*handles, shape=SHAPE) as m:
+        for interpolation in ("nearest", "linear"):
+            options = {"tolerance": 0.05, "border": border, "interpolation": interpolation}
+            coloured = m.warp(image, **options)
+            sampled = m.warp(image.astype(np.float32) / 255, **options)
+            difference = np.abs(coloured.astype(float) - np.round(sampled * 255))
+            assert difference.max() <= (0 if interpolation == "nearest" else 2), interpolation

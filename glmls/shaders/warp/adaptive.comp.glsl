@@ -16,6 +16,10 @@
 // that turns once): each pixel is covered by exactly one triangle, which writes its source
 // point, no keys. Pixels no triangle writes keep the buffer's "none" value.
 //
+// ADAPTIVE_COLOUR 1 (with ADAPTIVE_FILL 1 or 2): the pass samples the source at each point
+// itself (warp/sample.glsl) and stores the colour in the RGBA8 target image, instead of
+// writing the point for warp/adaptive.frag.glsl.
+//
 // Coverage is OpenGL's: pixel centres strictly inside, and on an edge for one of the two
 // triangles sharing it (a top-left style tie rule). Each edge function is computed from the
 // edge's end points in vertex-index order, with `precise`, so the two triangles on either
@@ -25,6 +29,9 @@ layout(local_size_x = LOCAL_SIZE) in;
 
 #ifndef ADAPTIVE_FILL
 #define ADAPTIVE_FILL 0
+#endif
+#ifndef ADAPTIVE_COLOUR
+#define ADAPTIVE_COLOUR 0
 #endif
 
 #include "common/groups.glsl"
@@ -38,16 +45,32 @@ layout(std430, binding = BIND_POINTS) readonly buffer AdaptiveTriangles {
 layout(std430, binding = BIND_WINNER) buffer AdaptiveWinner {
     uint adaptive_winner[];   // per target pixel, row-major: u_triangles - t, 0 = none
 };
+
+uniform ivec2 u_target_size;  // W, H in pixels
+uniform int u_triangles;      // how many
+uniform int u_offset;         // first triangle of this dispatch
+
 #if ADAPTIVE_FILL
 #include "warp/adaptive_patch.glsl"
+#if ADAPTIVE_COLOUR
+#include "warp/sample.glsl"
+layout(rgba8, binding = BIND_ADAPTIVE_TARGET) writeonly uniform image2D adaptive_target;
+#else
 layout(std430, binding = BIND_ADAPTIVE_POINTS) writeonly buffer AdaptivePoints {
     vec2 adaptive_point[];    // per target pixel, row-major: its source point
 };
 #endif
 
-uniform ivec2 u_target_size;  // W, H in pixels
-uniform int u_triangles;      // how many
-uniform int u_offset;         // first triangle of this dispatch
+// Pixel i = (x, y) of the target gets source point s, or (shown false) nothing: the spare
+// element past the last pixel, or a store outside the image, which has no effect.
+void adaptive_write(int i, ivec2 pixel, vec2 s, bool shown) {
+#if ADAPTIVE_COLOUR
+    imageStore(adaptive_target, shown ? pixel : ivec2(-1), warp_sample(s));
+#else
+    adaptive_point[shown ? i : u_target_size.x * u_target_size.y] = s;
+#endif
+}
+#endif
 
 #include "warp/coverage.glsl"
 
@@ -101,19 +124,19 @@ void main() {
             float lb = edge(c, a, p) * inv_area;
             float lc = edge(a, b, p) * inv_area;
             vec2 s0 = va.zw + (vb.zw - va.zw) * lb + (vc.zw - va.zw) * lc;
-            int spare = u_target_size.x * u_target_size.y;
 #endif
 #if ADAPTIVE_FILL == 1
-            // the winner key names one triangle: no coverage test; a pixel of the span
-            // another triangle shows writes into the spare element past the last pixel
-            adaptive_point[adaptive_winner[i] == key ? i : spare] = patch_inverse(leaf, p, s0);
+            // the winner key names one triangle: no coverage test
+            bool shown = adaptive_winner[i] == key;
 #else
             bool inside = covers(s * ordered_edge(ia, ib, a, b, p), dab) &&
                           covers(s * ordered_edge(ib, ic, b, c, p), dbc) &&
                           covers(s * ordered_edge(ic, ia, c, a, p), dca);
 #endif
-#if ADAPTIVE_FILL == 2
-            adaptive_point[inside ? i : spare] = patch_inverse(leaf, p, s0);
+#if ADAPTIVE_FILL == 1
+            adaptive_write(i, ivec2(x, y), patch_inverse(leaf, p, s0), shown);
+#elif ADAPTIVE_FILL == 2
+            adaptive_write(i, ivec2(x, y), patch_inverse(leaf, p, s0), inside);
 #elif ADAPTIVE_FILL == 0
             atomicMax(adaptive_winner[i], inside ? key : 0u);
 #endif
