@@ -54,6 +54,7 @@ FIXUP_DISPATCH = Binding("FIXUP_DISPATCH", "storage", 11, "work groups of the fi
 CHECK = Binding("CHECK", "storage", 12, "the embedding test's counts and dispatch sizes")
 ADAPTIVE_LEAVES = Binding("ADAPTIVE_LEAVES", "storage", 13, "the adaptive mesh's leaf patches")
 ADAPTIVE_POINTS = Binding("ADAPTIVE_POINTS", "storage", 14, "adaptive: each pixel's source point")
+ADAPTIVE_HOT = Binding("ADAPTIVE_HOT", "storage", 15, "adaptive: the tiles near folds, triangles")
 # -- uniform blocks ----------------------------------------------------------------------------
 HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
 # -- texture units -----------------------------------------------------------------------------
@@ -86,6 +87,7 @@ ALL = (
     CHECK,
     ADAPTIVE_LEAVES,
     ADAPTIVE_POINTS,
+    ADAPTIVE_HOT,
     HANDLES_BLOCK,
     SOURCE,
     COORDS,

@@ -79,6 +79,11 @@ _AT_QUARTERS = np.stack(
 )
 _SLOPE_AT_QUARTERS = np.stack([4 * _QUARTERS - 3, 4 - 8 * _QUARTERS, 4 * _QUARTERS - 1], -1)
 _TEST_INDEX = np.array([5 * r + c for r, c in _TESTS])
+# the points that split children add, on their parent's 9 x 9 grid (eighths): on its edges
+# (shared with a neighbour that splits too) and inside it
+_EIGHTHS = tuple((r, c) for r in range(9) for c in range(9) if r % 2 or c % 2)
+_EIGHTHS_EDGE = tuple((r, c) for r, c in _EIGHTHS if r in (0, 8) or c in (0, 8))
+_EIGHTHS_INSIDE = tuple((r, c) for r, c in _EIGHTHS if r not in (0, 8) and c not in (0, 8))
 # the patch at the test points, and its derivatives (per unit of u and v) on the 5 x 5 grid:
 # rows of (row, column) points, columns of the 3 x 3 nodes row by row
 _PATCH = np.kron(_AT_QUARTERS, _AT_QUARTERS)[_TEST_INDEX]
@@ -150,27 +155,40 @@ class _Vertices:
         self.units = units
         self.keys: list[np.ndarray] = []
         self.f = np.zeros((0, 2))
+        self.fx = self.fy = np.zeros(0)  # f's coordinates apart: numpy gathers 1-D fastest
         self.count = 0
+
+    def _append(self, f: np.ndarray) -> None:
+        self.f = np.concatenate([self.f, f])
+        self.fx = np.concatenate([self.fx, f[:, 0]])
+        self.fy = np.concatenate([self.fy, f[:, 1]])
 
     def add_lattice(self, xs: np.ndarray, ys: np.ndarray, evaluate: Evaluate) -> np.ndarray:
         """Evaluate f at the lattice of keys ``xs`` x ``ys`` (distinct, increasing); its
         vertex ids (len(ys), len(xs))."""
         new = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
         self.keys.append(new)
-        self.f = np.concatenate([self.f, evaluate(self.origin + new / self.units)])
+        self._append(evaluate(self.origin + new / self.units))
         ids = self.count + np.arange(len(new)).reshape(len(ys), len(xs))
         self.count += len(new)
         return ids
 
-    def add(self, keys: np.ndarray, evaluate: Evaluate) -> np.ndarray:
-        """Evaluate f at the distinct ``keys`` ((..., 2) int64); their vertex ids."""
+    def add(self, keys: np.ndarray, evaluate: Evaluate, distinct: np.ndarray | None = None):
+        """Evaluate f (in one call) at the distinct ``keys`` ((K, n, 2) int64) and at
+        ``distinct`` ((K, m, 2), none of them repeated or among ``keys``); the vertex ids
+        (K, n + m)."""
         flat = keys.reshape(-1, 2)
         width = int(flat[:, 1].max()) + 1
         unique, inverse = np.unique(flat[:, 0] * width + flat[:, 1], return_inverse=True)
         new = np.stack([unique // width, unique % width], axis=-1)
-        self.keys.append(new)
-        self.f = np.concatenate([self.f, evaluate(self.origin + new / self.units)])
         ids = self.count + inverse.reshape(keys.shape[:-1])
+        if distinct is not None:
+            extra = distinct.reshape(-1, 2)
+            own = self.count + len(new) + np.arange(len(extra)).reshape(distinct.shape[:-1])
+            new = np.concatenate([new, extra])
+            ids = np.concatenate([ids, own], axis=1)
+        self.keys.append(new)
+        self._append(evaluate(self.origin + new / self.units))
         self.count += len(new)
         return ids
 
@@ -184,7 +202,7 @@ def _grid_keys(box: np.ndarray, where: tuple[tuple[int, int], ...], parts: int) 
     return np.stack([x0 + (x1 - x0) * cols // parts, y0 + (y1 - y0) * rows // parts], axis=-1)
 
 
-def _test(f: np.ndarray, nodes: np.ndarray, tests: np.ndarray, w, h):
+def _test(fx: np.ndarray, fy: np.ndarray, nodes: np.ndarray, tests: np.ndarray, w, h):
     """(error, sigma_max) of each cell: the source-space error of its quadratic patch, and
     its largest stretch.
 
@@ -198,18 +216,22 @@ def _test(f: np.ndarray, nodes: np.ndarray, tests: np.ndarray, w, h):
     bounds (to first order) the distance from a pixel's source point to f's inverse. A cell
     where that Jacobian's orientation is not the same throughout (it folds) has an infinite
     error."""
-    count = len(nodes)
-    n = f[nodes.T].reshape(9, 2 * count)  # one matrix product for every cell's patch
+    nodes_t, tests_t = nodes.T.copy(), tests.T.copy()  # (9, K), (16, K)
+    nx, ny = fx[nodes_t], fy[nodes_t]
     # einsum, not @: numpy's BLAS threads spin on after a product, taking the cores from
     # the GPU driver when it is software (llvmpipe: its next passes ran up to 1.8x slower)
-    miss = np.einsum("ij,jk->ik", _PATCH, n).reshape(16, count, 2) - f[tests.T]
-    miss = np.sqrt(np.einsum("ijk,ijk->ij", miss, miss)).max(axis=0)
-    d_dx = np.einsum("ij,jk->ik", _PATCH_DX, n).reshape(25, count, 2) / w[:, None]
-    d_dy = np.einsum("ij,jk->ik", _PATCH_DY, n).reshape(25, count, 2) / h[:, None]
-    # the singular values of the Jacobian [d_dx d_dy] from its determinant and Frobenius
-    # norm: their product and the sum of their squares
-    det = d_dx[..., 0] * d_dy[..., 1] - d_dy[..., 0] * d_dx[..., 1]
-    frobenius = np.einsum("ijk,ijk->ij", d_dx, d_dx) + np.einsum("ijk,ijk->ij", d_dy, d_dy)
+    miss_x = np.einsum("ij,jk->ik", _PATCH, nx) - fx[tests_t]
+    miss_y = np.einsum("ij,jk->ik", _PATCH, ny) - fy[tests_t]
+    miss = np.sqrt(miss_x * miss_x + miss_y * miss_y).max(axis=0)
+    # the Jacobian [[a, b], [c, d]] on the 25 points: columns d/dx, d/dy
+    a = np.einsum("ij,jk->ik", _PATCH_DX, nx) / w
+    c = np.einsum("ij,jk->ik", _PATCH_DX, ny) / w
+    b = np.einsum("ij,jk->ik", _PATCH_DY, nx) / h
+    d = np.einsum("ij,jk->ik", _PATCH_DY, ny) / h
+    # its singular values from its determinant and Frobenius norm: their product and the
+    # sum of their squares
+    det = a * d - b * c
+    frobenius = a * a + b * b + c * c + d * d
     spread = np.sqrt(np.maximum(frobenius - 2 * np.abs(det), 0))
     high = (np.sqrt(frobenius + 2 * np.abs(det)) + spread) / 2
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -266,7 +288,7 @@ def build_adaptive(
         levels += 1
         x0, y0, x1, y1 = box.T
         w, h = (x1 - x0) / units, (y1 - y0) / units
-        error, stretch = _test(vertices.f, nodes, tests, w, h)
+        error, stretch = _test(vertices.fx, vertices.fy, nodes, tests, w, h)
         side = np.maximum(x1 - x0, y1 - y0)
         # below 1 px only where a pixel's cell covers more than one output pixel, and not
         # where the map folds: a folded pixel has no single inverse to come closer to
@@ -289,12 +311,15 @@ def _split(box, nodes, tests, vertices: _Vertices, evaluate: Evaluate):
     evaluated at the points they add (in one call): the cells' 9 x 9 grids in eighths."""
     if len(box) == 0:
         return box, nodes, tests
-    odd = tuple((r, c) for r in range(9) for c in range(9) if r % 2 or c % 2)
-    new = vertices.add(_grid_keys(box, odd, 8), evaluate)
+    # a neighbour that splits too shares the new points on the edges; those inside are
+    # the cell's own (no search for them)
+    new = vertices.add(
+        _grid_keys(box, _EIGHTHS_EDGE, 8), evaluate, _grid_keys(box, _EIGHTHS_INSIDE, 8)
+    )
     grid = np.empty((len(box), 9, 9), np.int64)  # each cell's 9 x 9 vertex ids
     for k, (r, c) in enumerate(_NODES + _TESTS):
         grid[:, 2 * r, 2 * c] = (nodes if k < 9 else tests)[:, k if k < 9 else k - 9]
-    for k, (r, c) in enumerate(odd):
+    for k, (r, c) in enumerate(_EIGHTHS_EDGE + _EIGHTHS_INSIDE):
         grid[:, r, c] = new[:, k]
     x0, y0, x1, y1 = box.T
     xm, ym = (x0 + x1) // 2, (y0 + y1) // 2
@@ -350,13 +375,20 @@ def _fans(keys, box, corners, mids, width: int) -> tuple[np.ndarray, np.ndarray]
     boundary vertex (its own and finer neighbours' corners and mid-points), in the leaves'
     scan order (that of ``box``), each leaf's triangles together, all of positive area in
     the source (x right, y down); and how many each leaf has."""
-    boundary = np.unique(np.concatenate([corners.ravel(), mids[:, :4].ravel()]))
-    bx, by = keys[boundary, 0], keys[boundary, 1]
-    rows = np.argsort(by * width + bx)
-    row_keys, row_ids = (by * width + bx)[rows], boundary[rows]
-    cols = np.argsort(bx * width + by)
-    col_keys, col_ids = (bx * width + by)[cols], boundary[cols]
-    x0, y0, x1, y1 = box.T
+    on_edges = np.zeros(len(keys), bool)  # a mask, not np.unique: no sort
+    on_edges[corners.ravel()] = True
+    on_edges[mids[:, :4].ravel()] = True
+    boundary = np.flatnonzero(on_edges)
+    # 1-D arrays throughout: numpy gathers and computes on contiguous ones fastest
+    bx = np.ascontiguousarray(keys[:, 0])[boundary]
+    by = np.ascontiguousarray(keys[:, 1])[boundary]
+    row_keys = by * width + bx
+    rows = np.argsort(row_keys)
+    row_keys, row_ids = row_keys[rows], boundary[rows]
+    col_keys = bx * width + by
+    cols = np.argsort(col_keys)
+    col_keys, col_ids = col_keys[cols], boundary[cols]
+    x0, y0, x1, y1 = (np.ascontiguousarray(box[:, k]) for k in range(4))
     edges = (  # sorted keys and ids, (first, last) key of each leaf's edge
         (row_keys, row_ids, y0 * width + x0, y0 * width + x1),
         (col_keys, col_ids, x1 * width + y0, x1 * width + y1),
@@ -372,8 +404,8 @@ def _fans(keys, box, corners, mids, width: int) -> tuple[np.ndarray, np.ndarray]
     per_leaf = counts.sum(axis=1)
     start = np.cumsum(per_leaf) - per_leaf
     total = int(per_leaf.sum())
-    triangles = np.empty((total, 3), np.uint32)
-    centre = mids[:, 4]
+    columns = [np.empty(total, np.uint32) for _ in range(3)]
+    centre = np.ascontiguousarray(mids[:, 4])
     base = start.copy()
     # the top and right edges run clockwise about the centre on the screen (y down), the
     # bottom and left ones the other way: swapped, every triangle has a positive area
@@ -383,11 +415,11 @@ def _fans(keys, box, corners, mids, width: int) -> tuple[np.ndarray, np.ndarray]
         at = base[leaf] + k
         i = lo[leaf] + k
         swap = side >= 2
-        triangles[at, 0] = centre[leaf]
-        triangles[at, 1 + swap] = sorted_ids[i]
-        triangles[at, 2 - swap] = sorted_ids[i + 1]
+        columns[0][at] = centre[leaf]
+        columns[1 + swap][at] = sorted_ids[i]
+        columns[2 - swap][at] = sorted_ids[i + 1]
         base += n
-    return triangles, per_leaf
+    return np.stack(columns, axis=-1), per_leaf
 
 
 def interpolate(mesh: AdaptiveMesh, values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

@@ -6,6 +6,7 @@ by ``warp/adaptive.frag.glsl``."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Protocol
 
 import moderngl
@@ -21,7 +22,7 @@ from ..gl.resources import Resources
 from .adaptive import ROOT_STEP, AdaptiveMesh, build_adaptive, check_adaptive
 from .frame import Frame
 
-__all__ = ["NONE", "AdaptiveScan", "Fill", "embedded"]
+__all__ = ["NONE", "AdaptiveScan", "Fill", "FoldCheck", "check_folds", "embedded", "hot_tiles"]
 
 #: The source point of a pixel no triangle covers (ADAPTIVE_NONE in the shaders).
 NONE = 3.0e38
@@ -42,8 +43,9 @@ class AdaptiveScan:
     def __init__(self, gl: GLContext, resources: Resources) -> None:
         self._gl = gl
         self._resources = resources
-        #: Scan passes of the last :meth:`draw`: 1 for an embedding, else 2 (keys, points).
-        self.last_passes = 0
+        #: Triangles the last :meth:`draw` drew with keys: 0 for an embedding, those near
+        #: reversed triangles where the boundary is simple, else all.
+        self.last_keyed = 0
 
     def build(self, kernel: MLSKernel, lattice: MeshLattice, tolerance: float) -> AdaptiveMesh:
         """The adaptive mesh over ``lattice``'s cells (the roots), f from ``kernel``."""
@@ -181,25 +183,43 @@ class AdaptiveScan:
         run_1d(clear, frame.pixels, max_groups=gl.limits["max_work_groups_x"])
 
     def _scan(self, mesh: AdaptiveMesh, frame: Frame, values: dict, defines: dict) -> None:
-        """The scan passes: one for an embedding (each pixel covered once, no keys), else
-        the first triangle in scan order per pixel (keys), then the winners' points."""
+        """The scan passes. An embedding: one pass, no keys. A simple boundary with reversed
+        triangles: one pass for the triangles away from them, which lists the others, then
+        keys and points for the listed ones. Otherwise keys, then points, for all."""
+        count = len(mesh.triangles)
+        folds = check_folds(mesh)
+        self.last_keyed = 0
+        if folds.embedded:
+            self._run(count, values, defines | {"ADAPTIVE_FILL": 2})
+            return
+        winner = self._resources.buffer("adaptive-winner", frame.pixels * 4)
+        winner.clear(size=frame.pixels * 4)
+        winner.bind_to_storage_buffer(bindings.WINNER.index)
+        if not folds.simple:
+            self.last_keyed = count
+            for fill_pass in (0, 1):
+                self._run(count, values, defines | {"ADAPTIVE_FILL": fill_pass})
+            return
+        bits = hot_tiles(mesh, folds.reversed, frame)
+        hot = self._resources.buffer("adaptive-hot", 16 + 4 * count + bits.nbytes)
+        hot.write(np.zeros(4, np.uint32).tobytes())
+        hot.write(bits.tobytes(), offset=16 + 4 * count)
+        hot.bind_to_storage_buffer(bindings.ADAPTIVE_HOT.index)
+        layout = {"u_hot_bits": count, "u_hot_words": bits.shape[1]}
+        self._run(count, values | layout, defines | {"ADAPTIVE_FILL": 2, "ADAPTIVE_HOT": True})
+        listed = int(np.frombuffer(hot.read(size=4), np.uint32)[0])
+        self.last_keyed = listed
+        for fill_pass in (0, 1):
+            keyed = defines | {"ADAPTIVE_FILL": fill_pass, "ADAPTIVE_LIST": True}
+            self._run(listed, values | layout, keyed)
+
+    def _run(self, count: int, values: dict, defines: dict) -> None:
+        """One scan pass over ``count`` triangles (or listed ones)."""
         gl = self._gl
-        if embedded(mesh):
-            passes = [2]
-        else:
-            passes = [0, 1]
-            winner = self._resources.buffer("adaptive-winner", frame.pixels * 4)
-            winner.clear(size=frame.pixels * 4)
-            winner.bind_to_storage_buffer(bindings.WINNER.index)
-        self.last_passes = len(passes)
-        for fill_pass in passes:
-            scan = gl.compute(
-                "warp/adaptive.comp.glsl",
-                {**defines, "ADAPTIVE_FILL": fill_pass, "ADAPTIVE_NONE": NONE},
-            )
-            set_uniforms(scan, values)
-            run_1d(scan, len(mesh.triangles), max_groups=gl.limits["max_work_groups_x"])
-            gl.mgl.memory_barrier()
+        scan = gl.compute("warp/adaptive.comp.glsl", {**defines, "ADAPTIVE_NONE": NONE})
+        set_uniforms(scan, values)
+        run_1d(scan, count, max_groups=gl.limits["max_work_groups_x"])
+        gl.mgl.memory_barrier()
 
 
 def _leaf_patches(mesh: AdaptiveMesh, frame: Frame) -> np.ndarray:
@@ -220,39 +240,110 @@ def _leaf_patches(mesh: AdaptiveMesh, frame: Frame) -> np.ndarray:
     return leaves
 
 
-def embedded(mesh: AdaptiveMesh) -> bool:
-    """Is the deformed mesh an embedding, each point covered by one triangle at most? Enough
-    for that: every triangle of one orientation (with room for float32's rounding) and a
-    boundary that turns once about its centroid, always the same way (then it is a simple
-    curve, and with the triangles' orientation the map's degree is 1 inside it, 0 outside).
-    False may be an embedding too (a boundary not star-shaped about its centroid): the keyed
-    passes then draw it, exactly as well, slower."""
-    corners = mesh.deformed[mesh.triangles.astype(np.int64)]  # (T, 3, 2)
-    ab, ac = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-    area = ab[:, 0] * ac[:, 1] - ab[:, 1] * ac[:, 0]  # all positive in the source
-    scale = np.abs(area).max(initial=0.0)
-    if not ((area > 1e-5 * scale).all() or (area < -1e-5 * scale).all()):
-        return False
-    used = np.zeros(len(mesh.source), bool)
-    used[mesh.triangles.ravel()] = True
-    x, y = mesh.source[:, 0], mesh.source[:, 1]
+@dataclass(frozen=True)
+class FoldCheck:
+    """How the deformed mesh covers the plane: ``simple``, its boundary turns once about its
+    centroid, always the same way (a simple curve); ``reversed``, the ids of the triangles
+    not of the mesh's orientation (or nearly degenerate, with room for float32's rounding).
+    Where the boundary is simple, the map's degree is 1 inside it and 0 outside, so a point
+    covered twice is covered by a reversed triangle."""
+
+    simple: bool
+    reversed: np.ndarray
+
+    @property
+    def embedded(self) -> bool:
+        """Each point covered once at most (False may be one too: a boundary that is not
+        star-shaped about its centroid; the keyed passes then draw it as exactly)."""
+        return self.simple and len(self.reversed) == 0
+
+
+def check_folds(mesh: AdaptiveMesh) -> FoldCheck:
+    """The :class:`FoldCheck` of ``mesh``."""
     x0, y0 = mesh.leaves[:, 0].min(), mesh.leaves[:, 1].min()
     x1, y1 = mesh.leaves[:, 2].max(), mesh.leaves[:, 3].max()
-    sides = (  # the source boundary, counter-clockwise on the screen (y down): ids in order
+    x, y = mesh.source[:, 0], mesh.source[:, 1]  # every vertex is a triangle's
+    on = np.flatnonzero((x == x0) | (x == x1) | (y == y0) | (y == y1))
+    x, y = x[on], y[on]
+    sides = (  # the source boundary, clockwise about its centre on the screen (y down)
         (y == y0, x, False),
         (x == x1, y, False),
         (y == y1, x, True),
         (x == x0, y, True),
     )
     ring = []
-    for on, along, backwards in sides:
-        ids = np.flatnonzero(on & used)
+    for side, along, backwards in sides:
+        ids = np.flatnonzero(side)
         ids = ids[np.argsort(along[ids])]
-        ring.append((ids[::-1] if backwards else ids)[:-1])  # each corner once
+        ring.append(on[(ids[::-1] if backwards else ids)[:-1]])  # each corner once
     boundary = mesh.deformed[np.concatenate(ring)]
     offset = boundary - boundary.mean(axis=0)
     angle = np.arctan2(offset[:, 1], offset[:, 0])
     turns = (np.diff(angle, append=angle[:1]) + np.pi) % (2 * np.pi) - np.pi
-    return bool(
+    simple = bool(
         ((turns > 0).all() or (turns < 0).all()) and abs(abs(turns.sum()) - 2 * np.pi) < 1e-6
     )
+    # one coordinate of one corner at a time: numpy gathers and reduces 1-D arrays fastest
+    (ax, bx, cx), (ay, by, cy) = _corners(mesh, mesh.triangles)
+    area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)  # all positive in the source
+    # the identity turns its boundary by +2 pi: f keeps the orientation where they agree
+    area *= 1.0 if turns.sum() >= 0 else -1.0
+    scale = np.abs(area).max(initial=0.0)
+    return FoldCheck(simple, np.flatnonzero(area <= 1e-5 * scale))
+
+
+def _corners(mesh: AdaptiveMesh, triangles: np.ndarray):
+    """((xa, xb, xc), (ya, yb, yc)): the deformed corners of ``triangles`` (T, 3)."""
+    x = np.ascontiguousarray(mesh.deformed[:, 0])
+    y = np.ascontiguousarray(mesh.deformed[:, 1])
+    ids = [np.ascontiguousarray(triangles[:, k]) for k in range(3)]
+    return tuple(x[i] for i in ids), tuple(y[i] for i in ids)
+
+
+def embedded(mesh: AdaptiveMesh) -> bool:
+    """Is ``mesh`` (deformed) an embedding, by :func:`check_folds`?"""
+    return check_folds(mesh).embedded
+
+
+def hot_tiles(mesh: AdaptiveMesh, triangles: np.ndarray, frame: Frame) -> np.ndarray:
+    """(rows, words) uint32 bits of the 8 x 8 px tiles of ``frame`` that the pixel boxes
+    of ``triangles`` (ids), one pixel wider against rounding, reach (bit x & 31 of word
+    x >> 5: tile column x)."""
+    width, height = frame.size
+    columns, rows = (width + 7) // 8, (height + 7) // 8
+    xs, ys = _corners(mesh, mesh.triangles[triangles])
+    origin_x, origin_y = frame.origin
+    first = np.stack(
+        [
+            np.minimum(np.minimum(*xs[:2]), xs[2]) - origin_x,
+            np.minimum(np.minimum(*ys[:2]), ys[2]) - origin_y,
+        ],
+        axis=-1,
+    )
+    last = np.stack(
+        [
+            np.maximum(np.maximum(*xs[:2]), xs[2]) - origin_x,
+            np.maximum(np.maximum(*ys[:2]), ys[2]) - origin_y,
+        ],
+        axis=-1,
+    )
+    first, last = np.floor(first) - 1, np.ceil(last) + 1
+    inside = (last[:, 0] >= 0) & (last[:, 1] >= 0) & (first[:, 0] < width) & (first[:, 1] < height)
+    first = (np.clip(first[inside], 0, [width - 1, height - 1]) // 8).astype(np.int64)
+    last = (np.clip(last[inside], 0, [width - 1, height - 1]) // 8).astype(np.int64)
+    # +1 / -1 at the boxes' corners, summed along both axes: the boxes' cover counts
+    size = (rows + 1) * (columns + 1)
+    marks = sum(
+        sign * np.bincount(r * (columns + 1) + c, minlength=size)
+        for sign, r, c in (
+            (1, first[:, 1], first[:, 0]),
+            (-1, first[:, 1], last[:, 0] + 1),
+            (-1, last[:, 1] + 1, first[:, 0]),
+            (1, last[:, 1] + 1, last[:, 0] + 1),
+        )
+    ).reshape(rows + 1, columns + 1)
+    hot = marks.cumsum(axis=0).cumsum(axis=1)[:rows, :columns] > 0
+    words = (columns + 31) // 32
+    bits = np.zeros((rows, words * 32), bool)
+    bits[:, :columns] = hot
+    return np.packbits(bits, axis=1, bitorder="little").view("<u4")

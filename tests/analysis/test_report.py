@@ -78,6 +78,7 @@ def test_summary_and_pictures(gl, rng, tmp_path):
         "method": "quads",
         "interpolation": "nearest",
         "grid": 1,
+        "tolerance": None,
         "border": "constant",
         "output_shape": [48, 60],
         "origin": [0.0, 0.0],

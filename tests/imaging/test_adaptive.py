@@ -218,24 +218,40 @@ def test_glmls_warp_takes_the_tolerance(gl):
     np.testing.assert_array_equal(glmls.warp(image, src, dst, tolerance=0.1, ctx=gl), expected)
 
 
-def test_one_pass_draws_an_embedding_and_two_a_fold(gl, rng, monkeypatch):
+def test_one_pass_draws_an_embedding_and_keys_only_near_folds(gl, rng, monkeypatch):
     """An embedding (every triangle one way round, a boundary that turns once) is drawn in
-    one scan pass without keys, and it draws exactly what the keyed passes draw."""
+    one scan pass without keys; a folded mesh with a simple boundary gets keys only for the
+    triangles that reach the tiles of reversed ones. Both draw exactly what the keyed passes
+    over every triangle draw (folds: 12 random cases)."""
+    everywhere = adaptive_scan.FoldCheck(False, np.zeros(0, np.int64))
+
+    def both(m, image, **options):
+        pipe = WarpPipeline.of(m.ctx)
+        fast = m.warp(image, **options)
+        keyed = pipe.adaptive.last_keyed
+        with monkeypatch.context() as patch:
+            patch.setattr(adaptive_scan, "check_folds", lambda mesh: everywhere)
+            slow = m.warp(image, **options)
+            assert pipe.adaptive.last_keyed == len(m.mesh(SHAPE, tolerance=0.05).triangles)
+        return fast, slow, keyed
+
     image = rng.integers(0, 256, (*SHAPE, 3), dtype=np.uint8)
     with glmls.MLS(*smooth_handles(SHAPE, rng), shape=SHAPE) as m:
-        pipe = WarpPipeline.of(m.ctx)
-        one = m.warp(image, tolerance=0.05, interpolation="linear")
-        assert pipe.adaptive.last_passes == 1
-        monkeypatch.setattr(adaptive_scan, "embedded", lambda mesh: False)
-        keyed = m.warp(image, tolerance=0.05, interpolation="linear")
-        assert pipe.adaptive.last_passes == 2
-    np.testing.assert_array_equal(one, keyed)
-    monkeypatch.undo()
-    shape, p, q = folded_case()
-    with glmls.MLS(p, q, shape=shape) as m:
-        assert not adaptive_scan.embedded(m.mesh(shape, tolerance=0.05))
-        m.warp(np.zeros((*shape, 3), np.uint8), tolerance=0.05)
-        assert WarpPipeline.of(m.ctx).adaptive.last_passes == 2
+        fast, slow, keyed = both(m, image, tolerance=0.05, interpolation="linear")
+    assert keyed == 0
+    np.testing.assert_array_equal(fast, slow)
+    partly = 0
+    for seed in range(12):
+        handles = random_handles(SHAPE, np.random.default_rng(seed))
+        with glmls.MLS(*handles, shape=SHAPE) as m:
+            mesh = m.mesh(SHAPE, tolerance=0.05)
+            folds = adaptive_scan.check_folds(mesh)
+            fast, slow, keyed = both(m, image, tolerance=0.05)
+        np.testing.assert_array_equal(fast, slow, err_msg=f"seed {seed}")
+        if folds.simple and len(folds.reversed):
+            assert 0 < keyed < len(mesh.triangles)
+            partly += 1
+    assert partly >= 6  # most of these fold inside a simple boundary
 
 
 def test_a_mirror_is_interpolated_exactly(gl):

@@ -16,6 +16,13 @@
 // that turns once): each pixel is covered by exactly one triangle, which writes its source
 // point, no keys. Pixels no triangle writes keep the buffer's "none" value.
 //
+// ADAPTIVE_HOT 1 (with ADAPTIVE_FILL 2): the one pass of a mesh whose boundary turns once
+// but some of whose triangles are reversed (it folds): a pixel covered twice is then covered
+// by a reversed triangle, so only pixels in the tiles those reach ("hot", 8 x 8 px, from
+// glmls.imaging.adaptive_scan) may need keys. A triangle that reaches a hot tile draws
+// nothing and lists itself; ADAPTIVE_LIST 1 then runs the keyed passes (ADAPTIVE_FILL 0, 1)
+// over the listed triangles only, their keys still their places in scan order.
+//
 // ADAPTIVE_COLOUR 1 (with ADAPTIVE_FILL 1 or 2): the pass samples the source at each point
 // itself (warp/sample.glsl) and stores the colour in the RGBA8 target image, instead of
 // writing the point for warp/adaptive.frag.glsl.
@@ -33,6 +40,13 @@ layout(local_size_x = LOCAL_SIZE) in;
 #ifndef ADAPTIVE_COLOUR
 #define ADAPTIVE_COLOUR 0
 #endif
+#ifndef ADAPTIVE_HOT
+#define ADAPTIVE_HOT 0
+#endif
+#ifndef ADAPTIVE_LIST
+#define ADAPTIVE_LIST 0
+#endif
+#define HOT_SHIFT 3   // tiles of 8 x 8 pixels
 
 #include "common/groups.glsl"
 
@@ -49,6 +63,30 @@ layout(std430, binding = BIND_WINNER) buffer AdaptiveWinner {
 uniform ivec2 u_target_size;  // W, H in pixels
 uniform int u_triangles;      // how many
 uniform int u_offset;         // first triangle of this dispatch
+
+#if ADAPTIVE_HOT || ADAPTIVE_LIST
+layout(std430, binding = BIND_ADAPTIVE_HOT) buffer AdaptiveHot {
+    uint adaptive_hot_count;   // triangles listed
+    uint adaptive_hot_pad[3];
+    uint adaptive_hot[];       // the listed triangles (u_hot_bits of room), then the tiles' bits
+};
+uniform int u_count;          // ADAPTIVE_LIST: how many triangles are listed
+uniform int u_hot_bits;       // where the tiles' bits start in adaptive_hot
+uniform int u_hot_words;      // uints per row of tiles
+
+// Does the pixel box [first, last] reach a hot tile?
+bool reaches_hot(ivec2 first, ivec2 last) {
+    for (int ty = first.y >> HOT_SHIFT; ty <= last.y >> HOT_SHIFT; ++ty) {
+        for (int tx = first.x >> HOT_SHIFT; tx <= last.x >> HOT_SHIFT; ++tx) {
+            uint word = adaptive_hot[u_hot_bits + ty * u_hot_words + (tx >> 5)];
+            if ((word & (1u << (tx & 31))) != 0u) {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+#endif
 
 #if ADAPTIVE_FILL
 #include "warp/adaptive_patch.glsl"
@@ -80,10 +118,18 @@ float ordered_edge(uint i, uint j, vec2 a, vec2 b, vec2 p) {
 }
 
 void main() {
+#if ADAPTIVE_LIST
+    int item = u_offset + int(dispatch_item());
+    if (item >= u_count) {
+        return;
+    }
+    int t = int(adaptive_hot[item]);
+#else
     int t = u_offset + int(dispatch_item());
     if (t >= u_triangles) {
         return;
     }
+#endif
     uint ia = adaptive_index[4 * t];
     uint ib = adaptive_index[4 * t + 1];
     uint ic = adaptive_index[4 * t + 2];
@@ -100,6 +146,12 @@ void main() {
     ivec2 first = max(ivec2(ceil(min(min(a, b), c))), ivec2(0));
     ivec2 last = min(ivec2(floor(max(max(a, b), c))), u_target_size - 1);
     uint key = uint(u_triangles - t);
+#if ADAPTIVE_HOT
+    if (first.x <= last.x && first.y <= last.y && reaches_hot(first, last)) {
+        adaptive_hot[atomicAdd(adaptive_hot_count, 1u)] = uint(t);   // for the keyed passes
+        return;
+    }
+#endif
 #if ADAPTIVE_FILL
     LeafPatch leaf = load_patch(int(adaptive_index[4 * t + 3]));
     float inv_area = 1.0 / edge(a, b, c);
