@@ -216,7 +216,7 @@ class AdaptiveScan:
     def _run(self, count: int, values: dict, defines: dict) -> None:
         """One scan pass over ``count`` triangles (or listed ones)."""
         gl = self._gl
-        scan = gl.compute("warp/adaptive.comp.glsl", {**defines, "ADAPTIVE_NONE": NONE})
+        scan = gl.compute("warp/adaptive.comp.glsl", defines)
         set_uniforms(scan, values)
         run_1d(scan, count, max_groups=gl.limits["max_work_groups_x"])
         gl.mgl.memory_barrier()

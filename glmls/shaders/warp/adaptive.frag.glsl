@@ -6,6 +6,9 @@
 // Pixels no triangle covers are discarded (the background stays).
 //
 //   WARP_OUTPUT_COORDS 1: write (s.x, s.y, 1, 0) instead of the colour.
+#ifndef ADAPTIVE_NONE
+#define ADAPTIVE_NONE 3.0e38   // glmls.imaging.adaptive_scan.NONE: no source point
+#endif
 #include "warp/target.glsl"
 #include "warp/sample.glsl"
 

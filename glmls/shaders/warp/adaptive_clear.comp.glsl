@@ -2,6 +2,9 @@
 // ADAPTIVE_NONE, "no triangle covers it" (a pattern clear of the buffer costs ~18 ms at
 // 1024^2 through moderngl; this pass well under one).
 layout(local_size_x = LOCAL_SIZE) in;
+#ifndef ADAPTIVE_NONE
+#define ADAPTIVE_NONE 3.0e38   // glmls.imaging.adaptive_scan.NONE: no source point
+#endif
 
 #include "common/groups.glsl"
 
