@@ -1,12 +1,14 @@
 """The adaptive mesh on the GPU: f evaluated level by level (``mls/points.comp.glsl``, one
 batched call per level), the quadtree built on the CPU (:mod:`.adaptive`), its triangles
-scan-converted by ``warp/adaptive.comp.glsl`` (first triangle in scan order wins; a second
-pass of it finds each pixel's source point on its leaf's quadratic patch) and the image filled
-by ``warp/adaptive.frag.glsl``."""
+scan-converted by ``warp/adaptive.comp.glsl``: each covered pixel's source point is the
+triangle's linear guess refined by a Newton step on its leaf's quadratic patch
+(``warp/adaptive_patch.glsl``). One pass where the mesh is an embedding; keys (the first
+triangle in scan order wins) only near reversed triangles where its boundary is simple
+(:mod:`.adaptive_folds`), else everywhere. The pass colours RGBA8 targets itself; other
+targets get the points, which ``warp/adaptive.frag.glsl`` samples."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Protocol
 
 import moderngl
@@ -20,9 +22,10 @@ from ..gl.context import GLContext
 from ..gl.dispatch import run_1d, set_uniforms
 from ..gl.resources import Resources
 from .adaptive import ROOT_STEP, AdaptiveMesh, build_adaptive, check_adaptive
+from .adaptive_folds import check_folds, hot_tiles
 from .frame import Frame
 
-__all__ = ["NONE", "AdaptiveScan", "Fill", "FoldCheck", "check_folds", "embedded", "hot_tiles"]
+__all__ = ["NONE", "AdaptiveScan", "Fill"]
 
 #: The source point of a pixel no triangle covers (ADAPTIVE_NONE in the shaders).
 NONE = 3.0e38
@@ -238,112 +241,3 @@ def _leaf_patches(mesh: AdaptiveMesh, frame: Frame) -> np.ndarray:
     offsets[:, :9] = n - centre[:, None]
     leaves[:, 2:] = offsets.reshape(-1, 5, 4)
     return leaves
-
-
-@dataclass(frozen=True)
-class FoldCheck:
-    """How the deformed mesh covers the plane: ``simple``, its boundary turns once about its
-    centroid, always the same way (a simple curve); ``reversed``, the ids of the triangles
-    not of the mesh's orientation (or nearly degenerate, with room for float32's rounding).
-    Where the boundary is simple, the map's degree is 1 inside it and 0 outside, so a point
-    covered twice is covered by a reversed triangle."""
-
-    simple: bool
-    reversed: np.ndarray
-
-    @property
-    def embedded(self) -> bool:
-        """Each point covered once at most (False may be one too: a boundary that is not
-        star-shaped about its centroid; the keyed passes then draw it as exactly)."""
-        return self.simple and len(self.reversed) == 0
-
-
-def check_folds(mesh: AdaptiveMesh) -> FoldCheck:
-    """The :class:`FoldCheck` of ``mesh``."""
-    x0, y0 = mesh.leaves[:, 0].min(), mesh.leaves[:, 1].min()
-    x1, y1 = mesh.leaves[:, 2].max(), mesh.leaves[:, 3].max()
-    x, y = mesh.source[:, 0], mesh.source[:, 1]  # every vertex is a triangle's
-    on = np.flatnonzero((x == x0) | (x == x1) | (y == y0) | (y == y1))
-    x, y = x[on], y[on]
-    sides = (  # the source boundary, clockwise about its centre on the screen (y down)
-        (y == y0, x, False),
-        (x == x1, y, False),
-        (y == y1, x, True),
-        (x == x0, y, True),
-    )
-    ring = []
-    for side, along, backwards in sides:
-        ids = np.flatnonzero(side)
-        ids = ids[np.argsort(along[ids])]
-        ring.append(on[(ids[::-1] if backwards else ids)[:-1]])  # each corner once
-    boundary = mesh.deformed[np.concatenate(ring)]
-    offset = boundary - boundary.mean(axis=0)
-    angle = np.arctan2(offset[:, 1], offset[:, 0])
-    turns = (np.diff(angle, append=angle[:1]) + np.pi) % (2 * np.pi) - np.pi
-    simple = bool(
-        ((turns > 0).all() or (turns < 0).all()) and abs(abs(turns.sum()) - 2 * np.pi) < 1e-6
-    )
-    # one coordinate of one corner at a time: numpy gathers and reduces 1-D arrays fastest
-    (ax, bx, cx), (ay, by, cy) = _corners(mesh, mesh.triangles)
-    area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)  # all positive in the source
-    # the identity turns its boundary by +2 pi: f keeps the orientation where they agree
-    area *= 1.0 if turns.sum() >= 0 else -1.0
-    scale = np.abs(area).max(initial=0.0)
-    return FoldCheck(simple, np.flatnonzero(area <= 1e-5 * scale))
-
-
-def _corners(mesh: AdaptiveMesh, triangles: np.ndarray):
-    """((xa, xb, xc), (ya, yb, yc)): the deformed corners of ``triangles`` (T, 3)."""
-    x = np.ascontiguousarray(mesh.deformed[:, 0])
-    y = np.ascontiguousarray(mesh.deformed[:, 1])
-    ids = [np.ascontiguousarray(triangles[:, k]) for k in range(3)]
-    return tuple(x[i] for i in ids), tuple(y[i] for i in ids)
-
-
-def embedded(mesh: AdaptiveMesh) -> bool:
-    """Is ``mesh`` (deformed) an embedding, by :func:`check_folds`?"""
-    return check_folds(mesh).embedded
-
-
-def hot_tiles(mesh: AdaptiveMesh, triangles: np.ndarray, frame: Frame) -> np.ndarray:
-    """(rows, words) uint32 bits of the 8 x 8 px tiles of ``frame`` that the pixel boxes
-    of ``triangles`` (ids), one pixel wider against rounding, reach (bit x & 31 of word
-    x >> 5: tile column x)."""
-    width, height = frame.size
-    columns, rows = (width + 7) // 8, (height + 7) // 8
-    xs, ys = _corners(mesh, mesh.triangles[triangles])
-    origin_x, origin_y = frame.origin
-    first = np.stack(
-        [
-            np.minimum(np.minimum(*xs[:2]), xs[2]) - origin_x,
-            np.minimum(np.minimum(*ys[:2]), ys[2]) - origin_y,
-        ],
-        axis=-1,
-    )
-    last = np.stack(
-        [
-            np.maximum(np.maximum(*xs[:2]), xs[2]) - origin_x,
-            np.maximum(np.maximum(*ys[:2]), ys[2]) - origin_y,
-        ],
-        axis=-1,
-    )
-    first, last = np.floor(first) - 1, np.ceil(last) + 1
-    inside = (last[:, 0] >= 0) & (last[:, 1] >= 0) & (first[:, 0] < width) & (first[:, 1] < height)
-    first = (np.clip(first[inside], 0, [width - 1, height - 1]) // 8).astype(np.int64)
-    last = (np.clip(last[inside], 0, [width - 1, height - 1]) // 8).astype(np.int64)
-    # +1 / -1 at the boxes' corners, summed along both axes: the boxes' cover counts
-    size = (rows + 1) * (columns + 1)
-    marks = sum(
-        sign * np.bincount(r * (columns + 1) + c, minlength=size)
-        for sign, r, c in (
-            (1, first[:, 1], first[:, 0]),
-            (-1, first[:, 1], last[:, 0] + 1),
-            (-1, last[:, 1] + 1, first[:, 0]),
-            (1, last[:, 1] + 1, last[:, 0] + 1),
-        )
-    ).reshape(rows + 1, columns + 1)
-    hot = marks.cumsum(axis=0).cumsum(axis=1)[:rows, :columns] > 0
-    words = (columns + 31) // 32
-    bits = np.zeros((rows, words * 32), bool)
-    bits[:, :columns] = hot
-    return np.packbits(bits, axis=1, bitorder="little").view("<u4")

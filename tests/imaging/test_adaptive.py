@@ -11,7 +11,7 @@ from helpers import folded_case, smooth_handles
 
 import glmls
 from glmls.core import reference
-from glmls.imaging import adaptive_scan
+from glmls.imaging import adaptive_folds, adaptive_scan
 from glmls.imaging.adaptive import MIN_SIZE, ROOT_STEP, build_adaptive, interpolate
 from glmls.imaging.frame import Frame
 from glmls.imaging.pipeline import WarpPipeline
@@ -223,7 +223,7 @@ def test_one_pass_draws_an_embedding_and_keys_only_near_folds(gl, rng, monkeypat
     one scan pass without keys; a folded mesh with a simple boundary gets keys only for the
     triangles that reach the tiles of reversed ones. Both draw exactly what the keyed passes
     over every triangle draw (folds: 12 random cases)."""
-    everywhere = adaptive_scan.FoldCheck(False, np.zeros(0, np.int64))
+    everywhere = adaptive_folds.FoldCheck(False, np.zeros(0, np.int64))
 
     def both(m, image, **options):
         pipe = WarpPipeline.of(m.ctx)
@@ -245,7 +245,7 @@ def test_one_pass_draws_an_embedding_and_keys_only_near_folds(gl, rng, monkeypat
         handles = random_handles(SHAPE, np.random.default_rng(seed))
         with glmls.MLS(*handles, shape=SHAPE) as m:
             mesh = m.mesh(SHAPE, tolerance=0.05)
-            folds = adaptive_scan.check_folds(mesh)
+            folds = adaptive_folds.check_folds(mesh)
             fast, slow, keyed = both(m, image, tolerance=0.05)
         np.testing.assert_array_equal(fast, slow, err_msg=f"seed {seed}")
         if folds.simple and len(folds.reversed):
@@ -262,7 +262,7 @@ def test_a_mirror_is_interpolated_exactly(gl):
     q = np.stack([width - 1 - p[:, 0], p[:, 1]], -1)  # x -> W - 1 - x
     with glmls.MLS(p, q, shape=SHAPE, transform="affine") as m:
         mesh, xy, covered = source_points(m, SHAPE, 0.05)
-        assert adaptive_scan.embedded(mesh) and len(mesh.leaves) == 10 * 12
+        assert adaptive_folds.embedded(mesh) and len(mesh.leaves) == 10 * 12
         yy, xx = np.nonzero(covered)
         np.testing.assert_allclose(xy[yy, xx, 0], width - 1 - xx, atol=2e-3)
         np.testing.assert_allclose(xy[yy, xx, 1], yy, atol=2e-3)
