@@ -44,6 +44,7 @@ from .errors import (
 )
 from .files.images import imread, imwrite
 from .gl.context import GLContext, get_context
+from .imaging.adaptive import AdaptiveMesh
 from .imaging.frame import Bounds
 from .imaging.pipeline import WarpPipeline
 from .imaging.source import BORDERS, INTERPOLATIONS, METHODS
@@ -61,6 +62,7 @@ __all__ = [
     "TRANSFORMS",
     "VIRIDIS",
     "WEIGHTS",
+    "AdaptiveMesh",
     "AnalysisReport",
     "BorderWarning",
     "Bounds",

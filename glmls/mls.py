@@ -256,9 +256,8 @@ class MLS(DeformedImages):
         likewise in y. Returns (vertices, deformed), each (rows, columns, 2) float64.
 
         With ``tolerance`` (pixels; ``grid`` must stay 1): the error-bounded adaptive mesh
-        that :meth:`warp` draws with that tolerance, a
-        :class:`~glmls.imaging.adaptive.AdaptiveMesh` (vertices, f at them, triangles,
-        leaves; ``docs/adaptive.md``).
+        that :meth:`warp` draws with that tolerance, a :class:`~glmls.AdaptiveMesh`
+        (vertices, f at them, triangles, leaves; ``docs/adaptive.md``).
         """
         if tolerance is not None:
             value = check_adaptive("quads", grid, tolerance)

@@ -297,12 +297,14 @@ def test_the_mesh_and_error_field_take_the_tolerance(gl, rng):
         with m.ctx.use():
             same = WarpPipeline.of(m.ctx).adaptive.mesh(m.kernel, SHAPE, 0.05)
         field = m.error_field(SHAPE, tolerance=0.05)
+        np.testing.assert_array_equal(glmls.error_field(m, SHAPE, tolerance=0.05), field)
         coarse = m.error_field(SHAPE, grid=4)
         with pytest.raises(ValueError, match="grid and tolerance exclude each other"):
             m.mesh(SHAPE, grid=4, tolerance=0.05)
         with pytest.raises(ValueError, match="tolerance must be finite"):
             m.error_field(SHAPE, tolerance=0.0)
         config = m.config
+    assert isinstance(mesh, glmls.AdaptiveMesh)
     np.testing.assert_array_equal(mesh.triangles, same.triangles)
     np.testing.assert_allclose(mesh.deformed, same.deformed)
     yy, xx = np.mgrid[0 : SHAPE[0], 0 : SHAPE[1]]
