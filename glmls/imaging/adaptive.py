@@ -39,7 +39,9 @@ import numpy as np
 from ..core.mesh import MeshLattice
 
 __all__ = [
+    "MAX_POINTS_PER_PIXEL",
     "MIN_SIZE",
+    "MIN_TOLERANCE",
     "ROOT_STEP",
     "SAFETY",
     "AdaptiveMesh",
@@ -54,6 +56,13 @@ __all__ = [
 ROOT_STEP = 16
 #: The smallest cell side (pixels), where the map stretches by 4 or more.
 MIN_SIZE = 0.25
+#: The smallest tolerance (pixels): f's float32 rounding on the GPU is ~1e-4 px at 1024 px,
+#: and a test that measures rounding would split cells without end.
+MIN_TOLERANCE = 1e-3
+#: At most this many evaluations of f per pixel of the lattice (and 65,536 more): past it
+#: the build stops with ``ValueError`` instead of filling the memory (a map stretched so far
+#: that every cell goes to 1/4 px).
+MAX_POINTS_PER_PIXEL = 4
 #: Integer units per pixel of the vertices' exact keys (dyadic coordinates), fewer for huge
 #: lattices so that a key stays within int64.
 _UNITS = 1024
@@ -93,7 +102,7 @@ _PATCH_DY = np.kron(_SLOPE_AT_QUARTERS, _AT_QUARTERS)
 
 def check_tolerance(tolerance: object) -> float:
     """``tolerance`` (pixels) as a float: ``TypeError`` if it is not a real number,
-    ``ValueError`` unless it is finite and > 0."""
+    ``ValueError`` unless it is finite and at least :data:`MIN_TOLERANCE`."""
     if isinstance(tolerance, (bool, np.bool_)) or not isinstance(
         tolerance, (int, float, np.integer, np.floating)
     ):
@@ -101,6 +110,11 @@ def check_tolerance(tolerance: object) -> float:
     value = float(tolerance)
     if not math.isfinite(value) or value <= 0.0:
         raise ValueError(f"tolerance must be finite and > 0 (pixels), got {tolerance!r}")
+    if value < MIN_TOLERANCE:
+        raise ValueError(
+            f"tolerance must be at least {MIN_TOLERANCE} px (f is float32 on the GPU: finer "
+            f"than that its rounding, not f, decides the cells), got {tolerance!r}"
+        )
     return value
 
 
@@ -284,7 +298,15 @@ def build_adaptive(
     leaves: list[tuple[np.ndarray, ...]] = []
     levels = 0
     smallest = max(1, round(min_size * units))
+    height, width = lattice.padded_shape
+    budget = MAX_POINTS_PER_PIXEL * height * width + 65536
     while len(box):
+        if vertices.count > budget:
+            raise ValueError(
+                f"tolerance {tolerance:g} px needs more than {budget:,} evaluations of f on a "
+                f"{width} x {height} lattice (f stretches too far for it): use a larger "
+                "tolerance, or the regular mesh (tolerance=None)"
+            )
         levels += 1
         x0, y0, x1, y1 = box.T
         w, h = (x1 - x0) / units, (y1 - y0) / units

@@ -215,6 +215,7 @@ def test_warp_and_analyze_take_the_adaptive_tolerance(inputs, gl):
         (("--tolerance", "0.05", "--method", "splat"), "method 'quads'"),
         (("--tolerance", "0"), "expected a finite number > 0"),
         (("--tolerance", "nan"), "expected a finite number > 0"),
+        (("--tolerance", "0.0001"), "tolerance must be at least 0.001 px"),
     ):
         bad = glmls_cli("warp", "a.png", "x.png", "--handles", "h.json", *args, cwd=inputs)
         assert bad.returncode == 2 and message in bad.stderr, (args, bad.stderr)

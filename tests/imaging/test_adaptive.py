@@ -181,12 +181,30 @@ def test_the_mesh_builder_on_an_affine_map_keeps_the_roots():
     np.testing.assert_allclose(mesh.deformed, mesh.source @ matrix + [3.0, -2.0])
 
 
-@pytest.mark.parametrize("bad", [0, -0.1, float("nan"), float("inf")])
+@pytest.mark.parametrize("bad", [0, -0.1, float("nan"), float("inf"), 1e-4])
 def test_bad_tolerances_raise_value_error(gl, bad):
     image = np.zeros((16, 16), np.uint8)
     with glmls.MLS([[4.0, 4.0]], [[5.0, 5.0]], shape=image.shape) as m:
         with pytest.raises(ValueError, match="tolerance"):
             m.warp(image, tolerance=bad)
+
+
+def test_the_build_stops_before_it_fills_the_memory():
+    """A map that bends at every scale (f's rounding at a tolerance near float32's would do
+    the same) ends with ValueError once it needs MAX_POINTS_PER_PIXEL evaluations per pixel,
+    instead of splitting every cell down to 1/4 px."""
+    from glmls.core.mesh import MeshLattice
+    from glmls.imaging.adaptive import MAX_POINTS_PER_PIXEL, MIN_TOLERANCE
+
+    evaluated = []
+
+    def rough(v):
+        evaluated.append(len(v))
+        return v + 3 * np.sin(v * 7.1) * [1, -1]
+
+    with pytest.raises(ValueError, match=r"tolerance 0.001 px needs more than .* evaluations"):
+        build_adaptive(rough, MeshLattice.corners((96, 128), ROOT_STEP), MIN_TOLERANCE)
+    assert sum(evaluated[:-1]) <= MAX_POINTS_PER_PIXEL * 96 * 128 + 65536
 
 
 @pytest.mark.parametrize("bad", ["0.1", True, [0.1]])
