@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import moderngl
 import numpy as np
@@ -21,6 +21,7 @@ from ..imaging.pipeline import WarpPipeline
 from ..mls import MLS
 from .controller import Controller
 from .overlays import adaptive_lines, fold_geometry, mesh_lines, triangle_geometry
+from .settings import Settings
 
 __all__ = ["Analysis", "Session", "number"]
 
@@ -60,6 +61,24 @@ class Session:
         #: What the view shows: the input's frame, or with ``fit`` the deformed image's
         #: bounds joined with the input's frame (so that the handles stay in view).
         self.canvas = Frame(shape)
+        # (revision, tolerance) where the adaptive mesh gave up (its build's budget)
+        self._adaptive_failed: tuple[int, float | None] | None = None
+
+    def construction(self, settings: Settings) -> Settings:
+        """``settings``, or on the regular grid where the adaptive mesh of its tolerance
+        failed for the current handles (:meth:`adaptive_failed`)."""
+        if settings.adaptive is not None and self._adaptive_failed == (
+            self.revision,
+            settings.tolerance,
+        ):
+            return replace(settings, tolerance=None)
+        return settings
+
+    def adaptive_failed(self, settings: Settings, error: ValueError) -> str:
+        """Remember that the adaptive mesh of ``settings`` failed for these handles (until
+        they or the tolerance change, :meth:`construction` gives the grid); the message."""
+        self._adaptive_failed = (self.revision, settings.tolerance)
+        return f"adaptive mesh: {error}; drawn on the grid"
 
     def sync(self) -> None:
         """Bring the MLS up to the controller's revision: a new MLS when the configuration
@@ -106,8 +125,9 @@ class Session:
         """The analysis overlays that are on, for the view's ``scale`` (framebuffer pixels
         per image pixel, which thins the mesh lines)."""
         c, m = self.controller, self.mls
-        grid = c.settings.grid
-        tolerance = c.settings.adaptive
+        settings = self.construction(c.settings)
+        grid = settings.grid
+        tolerance = settings.adaptive
         wanted = tuple(name for name in ("mesh", "error", "angle", "folds") if c.overlays[name])
         key = (self.revision, c.reference_revision, wanted, scale)
         if key == self.analysis.key or m is None:
@@ -115,9 +135,15 @@ class Session:
         start = time.perf_counter()
         result = Analysis(key=key)
         if "mesh" in wanted and tolerance is not None:  # the adaptive mesh's leaves
-            adaptive = m.mesh(self.shape, tolerance=tolerance)
-            result.geometry.append((adaptive_lines(adaptive), moderngl.LINES))  # type: ignore[arg-type]
-            result.lines.append(f"adaptive mesh: {len(adaptive.leaves)} cells")  # type: ignore[union-attr]
+            try:
+                adaptive = m.mesh(self.shape, tolerance=tolerance)
+            except ValueError as error:  # its build's budget: the grid's mesh below
+                c.message = self.adaptive_failed(settings, error)
+                settings = self.construction(settings)
+                tolerance = None
+            else:
+                result.geometry.append((adaptive_lines(adaptive), moderngl.LINES))  # type: ignore[arg-type]
+                result.lines.append(f"adaptive mesh: {len(adaptive.leaves)} cells")  # type: ignore[union-attr]
         if ("mesh" in wanted and tolerance is None) or "folds" in wanted:
             _, deformed = m.mesh(self.shape, grid=grid)
             if "folds" in wanted:
@@ -128,7 +154,11 @@ class Session:
                 stride = max(1, math.ceil(6.0 / (grid * scale)))
                 result.geometry.append((mesh_lines(deformed, stride), moderngl.LINES))
         if "error" in wanted:
-            values = m.error_field(self.shape, **c.settings.mesh_options)  # type: ignore[arg-type]
+            try:
+                values = m.error_field(self.shape, **settings.mesh_options)  # type: ignore[arg-type]
+            except ValueError as error:  # the adaptive mesh's budget
+                c.message = self.adaptive_failed(settings, error)
+                values = m.error_field(self.shape, grid=grid)
             stats = error_stats(values)
             result.field_colours = apply_colormap(values, cmap="linear", percentile=99.0)
             within = " ".join(f"{100 * w:.0f}%" for w in stats["within"] or [])  # type: ignore[union-attr]

@@ -123,13 +123,21 @@ class View:
         frame = layout.frame  # the part of the canvas in view
         self.geometry.frame = frame  # the overlays' coordinates
         screen.scissor = layout.scissor  # zoomed in, the viewport reaches past the area
+        s = session.construction(s)
         try:
             with self._queries["warp"]:
                 if mls is not None:
-                    self._draw_image(screen, layout, session, s)
+                    try:
+                        self._draw_image(screen, layout, session, s)
+                    except ValueError as error:  # the adaptive mesh's budget: the grid
+                        if s.adaptive is None:
+                            raise
+                        c.message = session.adaptive_failed(s, error)
+                        s = session.construction(s)
+                        self._draw_image(screen, layout, session, s)
             with self._queries["overlays"]:
                 screen.viewport = layout.viewport
-                self._overlays(screen, layout, c, session, analysis)
+                self._overlays(screen, layout, c, s, session, analysis)
         finally:
             screen.scissor = None
         with self._queries["text"]:
@@ -137,8 +145,7 @@ class View:
             for size, parts in text:
                 self.text_renderer(size).draw(parts, framebuffer)
 
-    def _overlays(self, screen, layout: Layout, c: Controller, session: Session, analysis):
-        s = c.settings
+    def _overlays(self, screen, layout: Layout, c: Controller, s, session: Session, analysis):
         if session.mls is not None and c.overlays["error"] and analysis.field_colours is not None:
             if analysis.key != self._field_key:  # upload once per analysis
                 self._field = self._texture(analysis.field_colours, self._field)

@@ -312,3 +312,31 @@ def test_bad_events_and_inputs():
         Controller(SRC, SRC[:2], (10, 10))
     with pytest.raises(ValueError, match="src must be finite"):
         Controller([[np.nan, 0]], [[0, 0]], (10, 10))
+
+
+def test_the_window_falls_back_to_the_grid_where_the_adaptive_mesh_gives_up(gl):
+    """Handles pulled so far apart that the adaptive mesh's build exceeds its budget: the
+    analysis draws the grid's mesh and error field and says why, and the construction the
+    view draws is the grid's until the handles or the tolerance change."""
+    from glmls.app.session import Session
+
+    n = 96
+    src = np.array([[45.0, 48], [51, 48], [5, 5], [90, 5], [5, 90], [90, 90]])
+    dst = src.copy()
+    dst[0], dst[1] = [-30.0 * n, 48], [31.0 * n, 48]
+    c = Controller(src, dst, (n, n), settings=Settings(tolerance=0.001))
+    for name in ("mesh", "error"):
+        c.overlays[name] = True
+    session = Session(gl, c, (n, n))
+    try:
+        session.sync()
+        analysis = session.analyse(1.0)
+        assert "adaptive mesh: tolerance 0.001 px needs more than" in c.message
+        assert analysis.field_colours is not None and analysis.geometry
+        assert session.construction(c.settings).tolerance is None
+        c.feed(Key("T"))  # another tolerance: the adaptive mesh again
+        session.sync()
+        assert session.construction(c.settings).tolerance == c.settings.tolerance
+    finally:
+        if session.mls is not None:
+            session.mls.release()

@@ -211,3 +211,20 @@ def test_the_adaptive_mesh_key_draws_and_saves_on_it(tmp_path, square):
     assert (glmls.imread(tmp_path / "saved" / "square-warped.png") == expected).all()
     view = glmls.imread(shot)
     assert (at(view, 65, 60) > 240).all()  # the moved square, drawn on the adaptive mesh
+
+
+@needs_xvfb
+def test_the_window_draws_on_the_grid_where_the_adaptive_mesh_gives_up(tmp_path, square):
+    """Handles pulled so far apart that the adaptive build exceeds its budget: the window
+    keeps running and draws the image on the regular grid."""
+    src = [[47.0, 50.0], [53.0, 50.0], [5.0, 5.0], [94.0, 5.0], [5.0, 94.0], [94.0, 94.0]]
+    dst = [[-3000.0, 50.0], [3100.0, 50.0], *src[2:]]
+    handles = tmp_path / "far.json"
+    handles.write_text(json.dumps({"src": src, "dst": dst}))
+    shot = tmp_path / "far.png"
+    result = demo(
+        str(square), "--handles", str(handles), "--tolerance", "0.001", "--frames", "3",
+        "--screenshot", str(shot), "--window-size", f"{WINDOW[0]}x{WINDOW[1]}",
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert image_area(glmls.imread(shot)).any()
