@@ -43,3 +43,26 @@ def test_fixed_cost_many_handles_case():
     )
     assert run.returncode == 0, run.stderr
     assert "1024 handles" in run.stdout
+
+
+def test_ab_trees_alternates_trees_and_reports_each_case():
+    """benchmarks/ab_trees.py on this tree twice: a row per case, a cell per tree, and "-"
+    where a tree lacks the option (here none does)."""
+    import json
+
+    script = SCRIPT.parent / "ab_trees.py"
+    root = str(SCRIPT.parents[1])
+    run = subprocess.run(
+        [sys.executable, str(script), "--trees", f"a={root},b={root}"]
+        + ["--cases", "W3:grid=8,W3:tolerance=0.25", "--rounds", "1", "--repeat", "1"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert run.returncode == 0, run.stderr
+    lines = run.stdout.splitlines()
+    assert lines[0] == "case | a | b"
+    assert lines[1].startswith("W3:grid=8 | ") and lines[2].startswith("W3:tolerance=0.25 | ")
+    assert "-" not in lines[1].split(" | ")[1:]
+    times = json.loads(lines[-1])
+    assert set(times) == {f"W3:{o}|{t}" for o in ("grid=8", "tolerance=0.25") for t in "ab"}

@@ -1,0 +1,140 @@
+"""A/B in one sitting: the same end-to-end cases timed on several glmls trees, alternated.
+
+``python benchmarks/ab_trees.py --trees old=/tmp/bb0b9ce,new=. --cases W1:grid=1,W1:tolerance=0.05``
+``[--rounds 3] [--repeat 5]``
+
+Each tree is a glmls source checkout (``git worktree add /tmp/bb0b9ce bb0b9ce`` makes one).
+Every round runs every case on every tree in turn, each in a fresh process (``--case``: one
+timing process), so that slow and fast spells of a shared machine fall on all trees alike;
+the table gives each tree's median [min-max] over all rounds, in ms, and the JSON of every
+time follows it.
+
+A case is ``WORKLOAD:OPTION=VALUE``: ``MLS(p, q, shape=...)`` then ``m.warp(image, OPTION=VALUE)``,
+end to end, with
+
+- ``W1``: ``make_inputs(1024, 64)`` (handles on a jittered lattice, no folds);
+- ``W2``: 64 random handles moved by +-35 px on a random 1024² RGB image (folds);
+- ``W3``: ``make_inputs(512, 16)``;
+
+rigid idw. Options other than ``grid`` or ``tolerance`` are skipped for a tree that lacks them
+(a tree before the adaptive mesh reports ``-`` for ``tolerance``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+
+def make_inputs(size: int, handles: int, seed: int = 0):
+    """``glmls.cli.bench.cases.make_inputs`` written out: older trees lack the module."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:size, 0:size].astype(np.float32) / size
+    checker = ((xx * 16).astype(int) + (yy * 16).astype(int)) % 2
+    image = np.dstack([xx * 200 + checker * 55, yy * 200 + checker * 55, (1 - xx) * 255])
+    side = int(np.ceil(np.sqrt(handles)))
+    lattice = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2) + 0.5
+    src = lattice[:handles] / side * size + rng.uniform(-0.2, 0.2, (handles, 2)) * size / side
+    src = np.clip(src, 0, size - 1)
+    dst = src + rng.uniform(-0.04, 0.04, src.shape) * size
+    return image.astype(np.uint8), src, dst
+
+
+def random_inputs(size: int):
+    rng = np.random.default_rng(4)
+    p = rng.uniform(0.05 * size, 0.95 * size, (64, 2))
+    q = p + rng.uniform(-35, 35, (64, 2))
+    image = np.random.default_rng(0).integers(0, 256, (size, size, 3), dtype=np.uint8)
+    return image, p, q
+
+
+WORKLOADS = {
+    "W1": lambda: make_inputs(1024, 64),
+    "W2": lambda: random_inputs(1024),
+    "W3": lambda: make_inputs(512, 16),
+}
+
+
+def time_case(tree: str, case: str, repeat: int) -> list[float]:
+    """In this process: ``case`` on the glmls of ``tree``, ``repeat`` times after two
+    untimed runs; milliseconds."""
+    sys.path.insert(0, tree)
+    import glmls
+
+    workload, _, option = case.partition(":")
+    key, value = option.split("=")
+    image, p, q = WORKLOADS[workload]()
+    options = {key: float(value) if key == "tolerance" else int(value)}
+
+    def step() -> None:
+        with glmls.MLS(p, q, shape=image.shape, transform="rigid") as m:
+            m.warp(image, **options)
+
+    step()
+    step()
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        step()
+        times.append((time.perf_counter() - start) * 1000)
+    return times
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--trees", help="NAME=PATH,... glmls source checkouts, in turn")
+    parser.add_argument("--cases", help="WORKLOAD:OPTION=VALUE,...")
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--case", nargs=2, metavar=("TREE", "CASE"), help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.case is not None:  # one timing process
+        tree, case = args.case
+        try:
+            print(json.dumps(time_case(tree, case, args.repeat)))
+        except TypeError:  # an option this tree does not have
+            print(json.dumps(None))
+        return
+    if not args.trees or not args.cases:
+        parser.error("--trees and --cases are required")
+    trees = dict(item.split("=", 1) for item in args.trees.split(","))
+    cases = args.cases.split(",")
+    times: dict[tuple[str, str], list[float]] = {}
+    for _ in range(args.rounds):
+        for case in cases:
+            for name, path in trees.items():
+                out = subprocess.run(
+                    [sys.executable, __file__, "--case", os.path.abspath(path), case]
+                    + ["--repeat", str(args.repeat)],
+                    capture_output=True,
+                    text=True,
+                    timeout=900,
+                    check=False,
+                )
+                lines = [line for line in out.stdout.splitlines() if line.startswith(("[", "n"))]
+                result = json.loads(lines[-1]) if lines else None
+                if result is None and out.returncode != 0:
+                    print(f"failed: {name} {case}: {out.stderr[-300:]}", file=sys.stderr)
+                if result:
+                    times.setdefault((case, name), []).extend(result)
+
+    def cell(values: list[float] | None) -> str:
+        if not values:
+            return "-"
+        return f"{statistics.median(values):.1f} [{min(values):.0f}-{max(values):.0f}]"
+
+    print("case | " + " | ".join(trees))
+    for case in cases:
+        print(f"{case} | " + " | ".join(cell(times.get((case, name))) for name in trees))
+    print(json.dumps({f"{case}|{name}": v for (case, name), v in times.items()}))
+
+
+if __name__ == "__main__":
+    main()
