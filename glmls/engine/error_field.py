@@ -19,6 +19,7 @@ from .kernel import MLSKernel
 __all__ = ["ERROR_PASS", "error_at", "error_field"]
 
 ERROR_PASS = "mls/error_field.comp.glsl"
+_ROW = 1024  # points per row of the 2-D dispatch of error_at
 
 
 def error_field(kernel: MLSKernel, shape: tuple[int, int], *, grid: int = 1) -> np.ndarray:
@@ -56,9 +57,6 @@ def error_at(kernel: MLSKernel, points: np.ndarray, shape: tuple[int, int]) -> n
         kernel.gl.mgl.memory_barrier()
         data = values.read(size=count * 4)
     return np.frombuffer(data, np.float32).astype(np.float64) * kernel.scaling.scale**2
-
-
-_ROW = 1024  # points per row of the 2-D dispatch of error_at
 
 
 def _error_field(kernel: MLSKernel, lattice: MeshLattice, grid: int) -> np.ndarray:

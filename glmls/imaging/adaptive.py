@@ -76,17 +76,22 @@ Evaluate = Callable[[np.ndarray], np.ndarray]
 # positions (row, column) on a cell's 5 x 5 grid, in quarters of its sides
 _NODES = tuple((r, c) for r in (0, 2, 4) for c in (0, 2, 4))  # the patch's 3 x 3, row-major
 _TESTS = tuple((r, c) for r in range(5) for c in range(5) if r % 2 or c % 2)  # the other 16
-#: Lagrange basis of the nodes at 0, 1/2, 1, and its derivative, at 0, 1/4, ..., 1.
+
+
+def _lagrange(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The quadratic Lagrange basis of the nodes at 0, 1/2 and 1, at ``t``."""
+    return 2 * (t - 0.5) * (t - 1), -4 * t * (t - 1), 2 * t * (t - 0.5)
+
+
+def _lagrange_slope(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Its derivative."""
+    return 4 * t - 3, 4 - 8 * t, 4 * t - 1
+
+
+#: The basis and its derivative at 0, 1/4, ..., 1 (rows).
 _QUARTERS = np.linspace(0.0, 1.0, 5)
-_AT_QUARTERS = np.stack(
-    [
-        2 * (_QUARTERS - 0.5) * (_QUARTERS - 1),
-        -4 * _QUARTERS * (_QUARTERS - 1),
-        2 * _QUARTERS * (_QUARTERS - 0.5),
-    ],
-    -1,
-)
-_SLOPE_AT_QUARTERS = np.stack([4 * _QUARTERS - 3, 4 - 8 * _QUARTERS, 4 * _QUARTERS - 1], -1)
+_AT_QUARTERS = np.stack(_lagrange(_QUARTERS), -1)
+_SLOPE_AT_QUARTERS = np.stack(_lagrange_slope(_QUARTERS), -1)
 _TEST_INDEX = np.array([5 * r + c for r, c in _TESTS])
 # the points that split children add, on their parent's 9 x 9 grid (eighths): on its edges
 # (shared with a neighbour that splits too) and inside it
@@ -168,12 +173,10 @@ class _Vertices:
         self.origin = np.asarray(origin, dtype=np.float64)
         self.units = units
         self.keys: list[np.ndarray] = []
-        self.f = np.zeros((0, 2))
         self.fx = self.fy = np.zeros(0)  # f's coordinates apart: numpy gathers 1-D fastest
         self.count = 0
 
     def _append(self, f: np.ndarray) -> None:
-        self.f = np.concatenate([self.f, f])
         self.fx = np.concatenate([self.fx, f[:, 0]])
         self.fy = np.concatenate([self.fy, f[:, 1]])
 
@@ -382,7 +385,7 @@ def _assemble(vertices: _Vertices, leaves, levels: int) -> AdaptiveMesh:
     cells = vertices.origin[[0, 1, 0, 1]] + box / vertices.units
     return AdaptiveMesh(
         source,
-        vertices.f[used],
+        np.stack([vertices.fx[used], vertices.fy[used]], axis=-1),
         renumber[triangles],
         triangle_leaf,
         cells,
@@ -463,8 +466,7 @@ def interpolate(mesh: AdaptiveMesh, values: np.ndarray, shape: tuple[int, int]) 
     row = first_row[leaf] + k // cols[leaf]
     u = (col - x0[leaf]) / (x1 - x0)[leaf]
     v = (row - y0[leaf]) / (y1 - y0)[leaf]
-    basis_u = (2 * (u - 0.5) * (u - 1), -4 * u * (u - 1), 2 * u * (u - 0.5))
-    basis_v = (2 * (v - 0.5) * (v - 1), -4 * v * (v - 1), 2 * v * (v - 0.5))
+    basis_u, basis_v = _lagrange(u), _lagrange(v)
     nodes = mesh.nodes[leaf]
     total = np.zeros(len(leaf))
     for a in range(3):

@@ -86,21 +86,9 @@ def hot_tiles(mesh: AdaptiveMesh, triangles: np.ndarray, frame: Frame) -> np.nda
     width, height = frame.size
     columns, rows = (width + 7) // 8, (height + 7) // 8
     xs, ys = _corners(mesh, mesh.triangles[triangles])
-    origin_x, origin_y = frame.origin
-    first = np.stack(
-        [
-            np.minimum(np.minimum(*xs[:2]), xs[2]) - origin_x,
-            np.minimum(np.minimum(*ys[:2]), ys[2]) - origin_y,
-        ],
-        axis=-1,
-    )
-    last = np.stack(
-        [
-            np.maximum(np.maximum(*xs[:2]), xs[2]) - origin_x,
-            np.maximum(np.maximum(*ys[:2]), ys[2]) - origin_y,
-        ],
-        axis=-1,
-    )
+    origin = np.asarray(frame.origin)
+    first = np.stack([np.minimum.reduce(xs), np.minimum.reduce(ys)], axis=-1) - origin
+    last = np.stack([np.maximum.reduce(xs), np.maximum.reduce(ys)], axis=-1) - origin
     first, last = np.floor(first) - 1, np.ceil(last) + 1
     inside = (last[:, 0] >= 0) & (last[:, 1] >= 0) & (first[:, 0] < width) & (first[:, 1] < height)
     first = (np.clip(first[inside], 0, [width - 1, height - 1]) // 8).astype(np.int64)
