@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import gc
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import moderngl
 import numpy as np
@@ -12,6 +16,32 @@ from glmls.core.mesh import MeshLattice
 
 #: Background of the coordinate images: no pixel holds it.
 SENTINEL = 65535
+#: The checkout the tests run from (put on PYTHONPATH for the command-line runs).
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def run_glmls(
+    *args: str, cwd: Path, module: str = "glmls", umask: int | None = None
+) -> subprocess.CompletedProcess:
+    """``python -m <module> *args`` in ``cwd`` from this checkout, output captured (and the
+    process's file-creation mask ``umask``)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    command = [sys.executable, "-m", module, *args]
+    if umask is not None:
+        command = ["sh", "-c", f'umask {umask:03o} && exec "$@"', "sh", *command]
+    return subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
+
+
+def folding_handles(shape):
+    """A 3 x 3 lattice of handles with the centre dragged past its right neighbour and the
+    top-left one past the one below it: the map folds in two places."""
+    height, width = shape
+    unit = np.stack(np.meshgrid([0.15, 0.5, 0.85], [0.15, 0.5, 0.85]), -1).reshape(-1, 2)
+    p = unit * [width - 1, height - 1]
+    q = p.copy()
+    q[4] += [0.45 * width, 0.1 * height]
+    q[0] += [0.05 * width, 0.4 * height]
+    return p, q
 
 
 def random_handles(rng, n, size=1024.0, displacement=60.0):

@@ -3,32 +3,22 @@
 from __future__ import annotations
 
 import json
-import os
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import run_glmls
 
 import glmls
 
-ROOT = Path(__file__).resolve().parent.parent
 SRC = [[4, 4], [36, 6], [20, 30], [6, 26]]
 DST = [[6, 5], [34, 8], [24, 28], [6, 26]]
 REFERENCE = [[10, 10], [30, 10], [20, 25], [12, 22], [28, 22]]
 
 
 def glmls_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    return subprocess.run(
-        [sys.executable, "-m", "glmls.cli", *args],
-        cwd=cwd,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    return run_glmls(*args, cwd=cwd, module="glmls.cli")
 
 
 @pytest.fixture

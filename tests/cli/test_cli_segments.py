@@ -5,13 +5,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import run_glmls as cli
 
 import glmls
 from glmls.cli.inputs import example_or_files
@@ -19,7 +16,6 @@ from glmls.cli.options import handle_warnings
 from glmls.core.handleset import HandleSet
 from glmls.core.segments import polyline_segments
 
-ROOT = Path(__file__).resolve().parent.parent.parent
 SRC = [[4.0, 4.0], [36.0, 6.0]]
 DST = [[6.0, 5.0], [34.0, 8.0]]
 SEGMENT = ([[[6.0, 26.0], [20.0, 28.0]]], [[[6.0, 26.0], [21.0, 24.0]]])
@@ -36,12 +32,6 @@ CSV = "kind,id,src_x,src_y,dst_x,dst_y\n" + "\n".join(
     )
     for p, q in zip(sources, targets, strict=True)
 )
-
-
-def cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    command = [sys.executable, "-m", "glmls", *args]
-    return subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
 
 
 def one_line_error(result, *parts: str) -> None:

@@ -5,23 +5,20 @@ from __future__ import annotations
 
 import io
 import json
-import os
 import struct
-import subprocess
-import sys
 import time
 import zlib
 from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import run_glmls as cli
 
 import glmls
 from glmls.cli.options import fit_background, handle_warnings
 from glmls.cli.progress import Ticker
 from glmls.files.atomic import atomic_write
 
-ROOT = Path(__file__).resolve().parent.parent.parent
 SRC = [[4, 4], [36, 6], [20, 30], [6, 26]]
 DST = [[6, 5], [34, 8], [24, 28], [6, 26]]
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -29,14 +26,6 @@ PNG = b"\x89PNG\r\n\x1a\n"
 
 def chunk(kind: bytes, data: bytes) -> bytes:
     return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
-
-
-def cli(*args: str, cwd: Path, umask: int | None = None) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    command = [sys.executable, "-m", "glmls", *args]
-    if umask is not None:
-        command = ["sh", "-c", f'umask {umask:03o} && exec "$@"', "sh", *command]
-    return subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
 
 
 def one_line_error(result, status: int, *parts: str) -> None:

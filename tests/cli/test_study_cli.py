@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import importlib.util
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import run_glmls
 
 import glmls
 from glmls.cli.main import main
@@ -21,14 +21,7 @@ REFERENCE = [[10, 10], [30, 10], [20, 25], [12, 22], [28, 22]]
 
 
 def glmls_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "glmls.cli", *args],
-        cwd=cwd,
-        env=dict(os.environ),
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    return run_glmls(*args, cwd=cwd, module="glmls.cli")
 
 
 @pytest.fixture

@@ -8,7 +8,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import SENTINEL, coordinate_image, cross, folded_case, reference_mesh, smooth_handles
+from helpers import (
+    SENTINEL,
+    coordinate_image,
+    cross,
+    folded_case,
+    folding_handles,
+    reference_mesh,
+    smooth_handles,
+)
 
 import glmls
 from glmls.core import reference
@@ -83,17 +91,6 @@ def check_first_rule(cells, f, shape):
     assert (strict & (last > first)).sum() > 100
 
 
-def folding(shape):
-    """Handles of a map that folds in two places on an image of ``shape``."""
-    height, width = shape
-    unit = np.stack(np.meshgrid([0.15, 0.5, 0.85], [0.15, 0.5, 0.85]), -1).reshape(-1, 2)
-    p = unit * [width - 1, height - 1]
-    q = p.copy()
-    q[4] += [0.45 * width, 0.1 * height]
-    q[0] += [0.05 * width, 0.4 * height]
-    return p, q
-
-
 PATHS = [
     ("fused fast", {}, np.uint8, "nearest"),
     ("fused", {"fast_embedded": False}, np.uint8, "nearest"),
@@ -111,7 +108,7 @@ def test_quads_show_the_first_cell_where_the_map_folds(
     gl, pipeline, grid, path, options, dtype, interpolation
 ):
     shape = (90, 120)
-    p, q = folding(shape)
+    p, q = folding_handles(shape)
     img = coordinate_image(*shape).astype(dtype)  # x, y < 256: uint8 holds them
     linear = interpolation == "linear"
     pipe = pipeline(**options)
@@ -159,7 +156,7 @@ def test_the_first_rule_changes_nothing_where_the_map_does_not_fold(gl, rng, pip
 
 def test_splat_shows_the_first_source_pixel_landing_on_a_pixel(gl):
     shape = (90, 120)
-    p, q = folding(shape)
+    p, q = folding_handles(shape)
     img = coordinate_image(*shape)
     with glmls.MLS(p, q, shape=shape, ctx=gl) as m:
         out = m.warp(img, method="splat", background=SENTINEL)

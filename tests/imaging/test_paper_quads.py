@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import SENTINEL, coordinate_image, smooth_handles
+from helpers import SENTINEL, coordinate_image, folding_handles, smooth_handles
 from numpy.testing import assert_array_equal
 
 import glmls
@@ -14,18 +14,6 @@ from glmls.core import reference
 from glmls.core.mesh import MeshLattice
 from glmls.core.paper_quads import EDGE_TOLERANCE, paper_quads
 from glmls.imaging.options import PipelineOptions
-
-
-def folding_handles(shape):
-    """A 3 x 3 lattice of handles with the centre dragged past its right neighbour and the
-    top-left one past the one below it: the map folds in two places."""
-    height, width = shape
-    unit = np.stack(np.meshgrid([0.15, 0.5, 0.85], [0.15, 0.5, 0.85]), -1).reshape(-1, 2)
-    p = unit * [width - 1, height - 1]
-    q = p.copy()
-    q[4] += [0.45 * width, 0.1 * height]
-    q[0] += [0.05 * width, 0.4 * height]
-    return p, q
 
 
 def shown(out):
