@@ -62,6 +62,15 @@ def main() -> None:
             gl, options=PipelineOptions(compute_quads=False)
         ),
     }
+    with gl:
+        run(args, m, gl, image, shape, paths)
+    for name, pipe in paths.items():
+        if not name.startswith("frame, compute"):
+            pipe.release()
+    m.release()
+
+
+def run(args, m, gl, image, shape, paths) -> None:
     limit = paths["frame, compute scan conversion"].max_image_size
     prepared = prepare_image(image, limit, normalized=True)
     target = gl.mgl.texture((args.size, args.size), 4, dtype="f1")
@@ -91,10 +100,6 @@ def main() -> None:
         )
     for obj in (mesh, framebuffer, target):
         obj.release()
-    for name, pipe in paths.items():
-        if not name.startswith("frame, compute"):
-            pipe.release()
-    m.release()
 
 
 if __name__ == "__main__":
