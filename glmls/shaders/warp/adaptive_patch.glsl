@@ -2,20 +2,24 @@
 // each leaf's 3 x 3 nodes (corners, edge mid-points, centre), the interpolant its error test
 // bounds, and Newton's method for the source point where a patch reaches a target pixel.
 
-// Per leaf, ADAPTIVE_LEAF vec4s: its box (x0, y0, width, height) in source pixels; f at its
-// centre node (output pixels) and its orientation (+1, -1; 0: it folds); the nine nodes' f
-// minus the centre's, row by row, two per vec4.
+// Per leaf, ADAPTIVE_LEAF vec4s: its box as centre (x, y) and size (width, height) in source
+// pixels; f at its centre node (output pixels) and its orientation (+1, -1; 0: it folds); the
+// patch in powers of w = (s - centre) / size, w in [-1/2, 1/2]^2 over the leaf: f minus f at
+// the centre is sum a_ij wx^i wy^j over i, j <= 2, a_00 = 0, the other eight a_ij two per
+// vec4 in the order a_01 a_02 a_10 a_11 a_12 a_20 a_21 a_22 (glmls.imaging.adaptive_scan
+// turns the nine nodes into them). Horner's rule then evaluates the patch and its slopes in
+// about a third of the operations of the Lagrange form: this runs at every pixel.
 layout(std430, binding = BIND_ADAPTIVE_LEAVES) readonly buffer AdaptiveLeaves {
     vec4 adaptive_leaf[];
 };
-#define ADAPTIVE_LEAF 7
+#define ADAPTIVE_LEAF 6
 #define NEWTON_STEPS 1
 
 struct LeafPatch {
     vec4 box;
     vec2 centre;
     float orientation;
-    vec2 n[10];   // the nodes' f minus the centre's (the tenth unused)
+    vec4 a01_02, a10_11, a12_20, a21_22;   // the coefficients a_ij of wx^i wy^j, in pairs
 };
 
 LeafPatch load_patch(int index) {
@@ -25,55 +29,43 @@ LeafPatch load_patch(int index) {
     vec4 centre = adaptive_leaf[at + 1];
     leaf.centre = centre.xy;
     leaf.orientation = centre.z;
-    for (int k = 0; k < 5; ++k) {
-        vec4 pair = adaptive_leaf[at + 2 + k];
-        leaf.n[2 * k] = pair.xy;
-        leaf.n[2 * k + 1] = pair.zw;
-    }
+    leaf.a01_02 = adaptive_leaf[at + 2];
+    leaf.a10_11 = adaptive_leaf[at + 3];
+    leaf.a12_20 = adaptive_leaf[at + 4];
+    leaf.a21_22 = adaptive_leaf[at + 5];
     return leaf;
-}
-
-// The Lagrange basis of the nodes at 0, 1/2 and 1, at t; and its derivative.
-vec3 patch_basis(float t) {
-    return vec3(2.0 * (t - 0.5) * (t - 1.0), -4.0 * t * (t - 1.0), 2.0 * t * (t - 0.5));
-}
-vec3 patch_slope(float t) {
-    return vec3(4.0 * t - 3.0, 4.0 - 8.0 * t, 4.0 * t - 1.0);
 }
 
 // Where the patch maps to x (output pixels, the frame's), from the guess s0 (source pixels):
 // Newton's method, on the guess's side of a fold. A step where the patch turns over and a
-// point that runs off the patch keep the guess.
+// point that runs off the patch keep the guess. Branch-free: this runs at every pixel, and
+// llvmpipe runs both sides of a branch its lanes disagree on anyway.
 vec2 patch_inverse(LeafPatch leaf, vec2 x, vec2 s0) {
     float orientation = leaf.orientation;
     vec2 target = x - leaf.centre;
-    vec2 uv = (s0 - leaf.box.xy) / leaf.box.zw;
+    vec2 w = (s0 - leaf.box.xy) / leaf.box.zw;
+    bool ok = true;
     for (int i = 0; i < NEWTON_STEPS; ++i) {
-        vec3 bu = patch_basis(uv.x);
-        vec3 du = patch_slope(uv.x);
-        vec3 bv = patch_basis(uv.y);
-        vec3 dv = patch_slope(uv.y);
-        vec2 value = vec2(0.0);
-        vec2 d_du = vec2(0.0);
-        vec2 d_dv = vec2(0.0);
-        for (int r = 0; r < 3; ++r) {
-            vec2 row = bu.x * leaf.n[3 * r] + bu.y * leaf.n[3 * r + 1] + bu.z * leaf.n[3 * r + 2];
-            vec2 row_slope =
-                du.x * leaf.n[3 * r] + du.y * leaf.n[3 * r + 1] + du.z * leaf.n[3 * r + 2];
-            value += bv[r] * row;
-            d_du += bv[r] * row_slope;
-            d_dv += dv[r] * row;
-        }
+        // r_i(wy) = sum_j a_ij wy^j and its slope q_i, then the sums over wx^i
+        float v = w.y;
+        float v2 = 2.0 * v;
+        vec2 r0 = v * (leaf.a01_02.xy + v * leaf.a01_02.zw);
+        vec2 r1 = leaf.a10_11.xy + v * (leaf.a10_11.zw + v * leaf.a12_20.xy);
+        vec2 r2 = leaf.a12_20.zw + v * (leaf.a21_22.xy + v * leaf.a21_22.zw);
+        vec2 q0 = leaf.a01_02.xy + v2 * leaf.a01_02.zw;
+        vec2 q1 = leaf.a10_11.zw + v2 * leaf.a12_20.xy;
+        vec2 q2 = leaf.a21_22.xy + v2 * leaf.a21_22.zw;
+        float u = w.x;
+        vec2 value = r0 + u * (r1 + u * r2);
+        vec2 d_du = r1 + (2.0 * u) * r2;
+        vec2 d_dv = q0 + u * (q1 + u * q2);
         float det = d_du.x * d_dv.y - d_dv.x * d_du.y;
         orientation = orientation == 0.0 ? sign(det) : orientation;
-        if (!(det * orientation > 0.0)) {
-            return s0;
-        }
+        ok = ok && det * orientation > 0.0;
         vec2 miss = value - target;
-        uv -= vec2(d_dv.y * miss.x - d_dv.x * miss.y, d_du.x * miss.y - d_du.y * miss.x) / det;
+        vec2 step = vec2(d_dv.y * miss.x - d_dv.x * miss.y, d_du.x * miss.y - d_du.y * miss.x);
+        w = ok ? w - step / det : w;
     }
-    if (any(greaterThan(abs(uv - 0.5), vec2(1.0)))) {
-        return s0;
-    }
-    return leaf.box.xy + uv * leaf.box.zw;
+    ok = ok && all(lessThanEqual(abs(w), vec2(1.0)));
+    return ok ? leaf.box.xy + w * leaf.box.zw : s0;
 }
