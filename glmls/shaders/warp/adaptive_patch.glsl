@@ -63,8 +63,8 @@ vec2 patch_inverse(LeafPatch leaf, vec2 x, vec2 s0) {
         orientation = orientation == 0.0 ? sign(det) : orientation;
         ok = ok && det * orientation > 0.0;
         vec2 miss = value - target;
-        vec2 step = vec2(d_dv.y * miss.x - d_dv.x * miss.y, d_du.x * miss.y - d_du.y * miss.x);
-        w = ok ? w - step / det : w;
+        vec2 delta = vec2(d_dv.y * miss.x - d_dv.x * miss.y, d_du.x * miss.y - d_du.y * miss.x);
+        w = ok ? w - delta / det : w;
     }
     ok = ok && all(lessThanEqual(abs(w), vec2(1.0)));
     return ok ? leaf.box.xy + w * leaf.box.zw : s0;
