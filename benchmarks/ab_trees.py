@@ -16,7 +16,10 @@ end to end, with
 - ``W2``: 64 random handles moved by +-35 px on a random 1024² RGB image (folds);
 - ``W3``: ``make_inputs(512, 16)``;
 
-rigid idw. Options other than ``grid`` or ``tolerance`` are skipped for a tree that lacks them
+rigid idw; or ``WORKLOAD:frame=GRID``, one interactive frame as ``glmls bench --mode frame``
+times it (new handles, a new ``MLS``, the image drawn into a kept 8-bit framebuffer, no
+read-back), with the tree's own bench code. Options other than ``grid``, ``tolerance`` or
+``frame`` are skipped for a tree that lacks them
 (a tree before the adaptive mesh reports ``-`` for ``tolerance``).
 """
 
@@ -71,20 +74,33 @@ def time_case(tree: str, case: str, repeat: int) -> list[float]:
     workload, _, option = case.partition(":")
     key, value = option.split("=")
     image, p, q = WORKLOADS[workload]()
-    options = {key: float(value) if key == "tolerance" else int(value)}
+    if key == "frame":
+        step = _frame(image, p, q, int(value))
+    else:
+        options = {key: float(value) if key == "tolerance" else int(value)}
 
-    def step() -> None:
-        with glmls.MLS(p, q, shape=image.shape, transform="rigid") as m:
-            m.warp(image, **options)
+        def step(k: int) -> None:
+            with glmls.MLS(p, q, shape=image.shape, transform="rigid") as m:
+                m.warp(image, **options)
 
-    step()
-    step()
+    step(0)
+    step(1)
     times = []
-    for _ in range(repeat):
+    for k in range(repeat):
         start = time.perf_counter()
-        step()
+        step(k)
         times.append((time.perf_counter() - start) * 1000)
     return times
+
+
+def _frame(image, p, q, grid: int):
+    """The tree's own ``glmls bench --mode frame`` step at ``grid`` (its module moved)."""
+    try:
+        from glmls.cli.bench.cases import Case, _glmls_frame
+    except ImportError:  # bb0b9ce and older
+        from glmls.bench_cases import Case, _glmls_frame
+    size, handles = image.shape[0], len(p)
+    return _glmls_frame(Case("glmls", "frame", size, handles, grid, "rigid"), image, p, q)
 
 
 def main() -> None:
