@@ -23,15 +23,8 @@
 #define MLS_R4(F, i) F(i) F(i + 1) F(i + 2) F(i + 3)
 #define MLS_R16(F, i) MLS_R4(F, i) MLS_R4(F, i + 4) MLS_R4(F, i + 8) MLS_R4(F, i + 12)
 #define MLS_R64(F, i) MLS_R16(F, i) MLS_R16(F, i + 16) MLS_R16(F, i + 32) MLS_R16(F, i + 48)
-// The nearest pass tracks only the nearest's distance and index (the handle is read once
-// after it), and the nearest beyond the snapping distance only where v snaps (MLS_FAR, a
-// second pass that every vertex of a work group away from the handles skips).
-#define MLS_NEAR(i) { vec2 dp_ = mls_handle(i).xy - v; \
-    float d2_ = (i) < n ? dot(dp_, dp_) : 3.0e38; \
-    nearest = d2_ < near.d2min ? (i) : nearest; near.d2min = min(near.d2min, d2_); }
-#define MLS_FAR(i) { vec2 dp_ = mls_handle(i).xy - v; \
-    float d2_ = (i) < n ? dot(dp_, dp_) : 3.0e38; \
-    near.d2far = min(near.d2far, d2_ > u_hit2 ? d2_ : 3.0e38); }
+#define MLS_NEAR(i) mls_nearest_index(near.d2min, nearest, v, i, (i) < n);
+#define MLS_FAR(i) mls_nearest_far(near.d2far, v, i, (i) < n);
 #define MLS_ACC(i) mls_accumulate(a, mls_handle(i), (i) < n);
 #endif
 
@@ -159,7 +152,24 @@ void mls_accumulate_segments(inout MLSAccum a) {
 }
 #endif
 
-// Both passes over every handle, in storage order (the plain evaluation).
+// The plain evaluation's nearest pass (every handle, in storage order) tracks only the
+// nearest's distance and index, and the handle is read once after it; the nearest beyond the
+// snapping distance is looked for in a second pass only where v snaps, which a work group
+// away from the handles skips. ``use``: false for an empty slot (MLS_UNROLL).
+void mls_nearest_index(inout float d2min, inout int nearest, vec2 v, int i, bool use) {
+    vec2 dp = mls_handle(i).xy - v;
+    float d2 = use ? dot(dp, dp) : 3.0e38;
+    nearest = d2 < d2min ? i : nearest;
+    d2min = min(d2min, d2);
+}
+
+void mls_nearest_far(inout float d2far, vec2 v, int i, bool use) {
+    vec2 dp = mls_handle(i).xy - v;
+    float d2 = use ? dot(dp, dp) : 3.0e38;
+    d2far = min(d2far, d2 > u_hit2 ? d2 : 3.0e38);
+}
+
+// Both passes over every handle, in storage order (where the bins give up).
 void mls_nearest_all(inout MLSNearest near, vec2 v) {
     int n = mls_handle_count();
     for (int i = 0; i < n; ++i) {
@@ -233,29 +243,31 @@ MLSResult mls_eval(vec2 v) {
 #else
     int n = mls_handle_count();
     MLSNearest near = mls_nearest_begin();
-#if MLS_UNROLL
     int nearest = 0;
 #if MLS_UNROLL == 16
     MLS_R16(MLS_NEAR, 0)
-#else
+#elif MLS_UNROLL == 64
     MLS_R64(MLS_NEAR, 0)
+#else
+    for (int i = 0; i < n; ++i) {
+        mls_nearest_index(near.d2min, nearest, v, i, true);
+    }
 #endif
     near.h = n > 0 ? mls_handle(nearest) : vec4(0.0);
-#else
-    mls_nearest_all(near, v);
-#endif
 #if MLS_SEGMENTS
     mls_nearest_segments(near, v);
 #endif
-#if MLS_UNROLL
     if (near.d2min <= u_hit2) {
 #if MLS_UNROLL == 16
         MLS_R16(MLS_FAR, 0)
-#else
+#elif MLS_UNROLL == 64
         MLS_R64(MLS_FAR, 0)
+#else
+        for (int i = 0; i < n; ++i) {
+            mls_nearest_far(near.d2far, v, i, true);
+        }
 #endif
     }
-#endif
     MLSAccum a = mls_begin(v, near);
 #if MLS_UNROLL == 16
     MLS_R16(MLS_ACC, 0)
