@@ -241,23 +241,18 @@ def _leaf_patches(mesh: AdaptiveMesh, frame: Frame) -> np.ndarray:
     leaves[:, 0] = np.stack([(x0 + x1) / 2, (y0 + y1) / 2, x1 - x0, y1 - y0], axis=-1)
     # per coordinate and node, 1-D: numpy gathers (L, 9, 2) from (V, 2) ten times slower
     nodes = mesh.nodes.T.astype(np.intp)
-    coefficients = []
-    for axis in range(2):
-        f = np.ascontiguousarray(mesh.deformed[:, axis])
-        n = [f[nodes[k]] for k in range(9)]  # row by row (y), each row along x
-        leaves[:, 1, axis] = n[4] - frame.origin[axis]
+    # f's coordinates at the nodes, row by row (y), each row along x
+    nx, ny = ([f[k] for k in nodes] for f in np.ascontiguousarray(mesh.deformed.T))
+    leaves[:, 1, 0] = nx[4] - frame.origin[0]
+    leaves[:, 1, 1] = ny[4] - frame.origin[1]
+    turn = np.sign((nx[5] - nx[3]) * (ny[7] - ny[1]) - (nx[7] - nx[1]) * (ny[5] - ny[3]))
+    leaves[:, 1, 2] = np.where(np.isfinite(mesh.estimate), turn, 0.0)
+    flat = leaves[:, 2:].reshape(-1, 16)  # a_01 a_02 a_10 ... a_22, (x, y) each
+    for axis, n in enumerate((nx, ny)):
         offsets = [node - n[4] for node in n]
         # the powers along x of each row (the rows' coefficients of wx^i), then along y
         along_x = [_powers(*offsets[3 * r : 3 * r + 3]) for r in range(3)]
         powers = [_powers(*(along_x[r][i] for r in range(3))) for i in range(3)]
-        coefficients.append([powers[i][j] for i in range(3) for j in range(3)][1:])  # a_00 = 0
-        if axis == 0:
-            dx_dx, dx_dy = n[5] - n[3], n[7] - n[1]
-        else:
-            turn = np.sign(dx_dx * (n[7] - n[1]) - dx_dy * (n[5] - n[3]))
-    leaves[:, 1, 2] = np.where(np.isfinite(mesh.estimate), turn, 0.0)
-    flat = leaves[:, 2:].reshape(-1, 16)  # a_01 a_02 a_10 ... a_22, (x, y) each
-    for k in range(8):
-        flat[:, 2 * k] = coefficients[0][k]
-        flat[:, 2 * k + 1] = coefficients[1][k]
+        for k, (i, j) in enumerate(divmod(m, 3) for m in range(1, 9)):  # a_00 = 0 left out
+            flat[:, 2 * k + axis] = powers[i][j]
     return leaves
