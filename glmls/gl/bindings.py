@@ -12,7 +12,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["ALL", "KINDS", "Binding", "defines", "needed"]
+import moderngl
+
+__all__ = ["ALL", "KINDS", "Binding", "bind_texels", "defines", "holds_texels", "needed"]
 
 #: Binding namespaces, with the GL limit that bounds each one's indices.
 KINDS = {
@@ -47,8 +49,6 @@ BIN_STARTS = Binding("BIN_STARTS", "storage", 4, "where each spatial bin's handl
 ERROR_VERTICES = Binding("ERROR_VERTICES", "storage", 5, "the error field at mesh vertices")
 ERROR_FIELD = Binding("ERROR_FIELD", "storage", 6, "the error field written by a pass")
 WINNER = Binding("WINNER", "storage", 7, "per target pixel, the key of the top triangle")
-PACKED_SOURCE = Binding("PACKED_SOURCE", "storage", 8, "the source image, RGBA8 texels")
-PACKED_TARGET = Binding("PACKED_TARGET", "storage", 9, "the target image, RGBA8 texels")
 FIXUPS = Binding("FIXUPS", "storage", 10, "pixels that more than one triangle reached")
 FIXUP_DISPATCH = Binding("FIXUP_DISPATCH", "storage", 11, "work groups of the fix-up pass")
 CHECK = Binding("CHECK", "storage", 12, "the embedding test's counts and dispatch sizes")
@@ -70,6 +70,8 @@ GLYPHS = Binding("GLYPHS", "texture", 8, "the glyph atlas of on-screen text")
 # -- image units -------------------------------------------------------------------------------
 INVERSE_MAP = Binding("INVERSE_MAP", "image", 0, "backward: guess in, source points out")
 ADAPTIVE_TARGET = Binding("ADAPTIVE_TARGET", "image", 1, "adaptive: the RGBA8 target it colours")
+PACKED_SOURCE = Binding("PACKED_SOURCE", "image", 2, "fused quads: the RGBA8 source as r32ui")
+PACKED_TARGET = Binding("PACKED_TARGET", "image", 3, "fused quads: the RGBA8 target as r32ui")
 
 ALL = (
     HANDLES,
@@ -80,8 +82,6 @@ ALL = (
     ERROR_VERTICES,
     ERROR_FIELD,
     WINNER,
-    PACKED_SOURCE,
-    PACKED_TARGET,
     FIXUPS,
     FIXUP_DISPATCH,
     CHECK,
@@ -100,6 +100,8 @@ ALL = (
     GLYPHS,
     INVERSE_MAP,
     ADAPTIVE_TARGET,
+    PACKED_SOURCE,
+    PACKED_TARGET,
 )
 
 
@@ -115,3 +117,25 @@ def needed() -> dict[str, int]:
         limit = KINDS[binding.kind]
         out[limit] = max(out.get(limit, 0), binding.index + 1)
     return out
+
+
+#: GL_R32UI, the image format of :func:`bind_texels`.
+_R32UI = 0x8236
+
+
+def holds_texels(texture: object) -> bool:
+    """Is ``texture`` a single-sample RGBA8 texture, whose texels :func:`bind_texels` can
+    bind as one uint32 each."""
+    return isinstance(texture, moderngl.Texture) and (
+        texture.components,
+        texture.dtype,
+        texture.samples,
+    ) == (4, "f1", 0)
+
+
+def bind_texels(texture: moderngl.Texture, binding: Binding, *, write: bool) -> None:
+    """Bind an RGBA8 ``texture`` (:func:`holds_texels`) to image unit ``binding`` as r32ui:
+    GLSL's ``layout(r32ui) uimage2D`` then moves each texel whole, with no conversion of each
+    channel (GL allows it: both formats are 32 bits a texel). Read-only unless ``write``,
+    then write-only."""
+    texture.bind_to_image(binding.index, read=not write, write=write, format=_R32UI)

@@ -68,13 +68,9 @@ def key_layout(lattice: MeshLattice, *, source_pixel: bool) -> tuple[int, int, i
 
 
 def _packable(source: moderngl.Texture | None, target: object) -> bool:
-    """Can the fused nearest path write ``target`` from ``source``: RGBA8 textures."""
-    return (
-        isinstance(source, moderngl.Texture)
-        and isinstance(target, moderngl.Texture)
-        and (source.components, source.dtype) == (4, "f1")
-        and (target.components, target.dtype) == (4, "f1")
-    )
+    """Can the fused nearest path write ``target`` from ``source``: single-sample RGBA8
+    textures (bound as r32ui images, warp/cells_packed.glsl)."""
+    return bindings.holds_texels(source) and bindings.holds_texels(target)
 
 
 class CellScan:
@@ -143,7 +139,7 @@ class CellScan:
         if not fast:  # the fast path clears it on the GPU if and when it needs it
             winner.clear(size=pixels * 4)
         if fused:
-            self._prepare_fused(source, target, values["u_fixup_capacity"])  # type: ignore[arg-type]
+            self._prepare_fused(values["u_fixup_capacity"])  # type: ignore[arg-type]
         if fast:
             values.update(self._hot_tiles(lattice, frame))
         cells = self._program(nearest=nearest, fused=fused, fast=False, border=border, hot=fast)
@@ -154,7 +150,7 @@ class CellScan:
             self._bands.buffer.bind_to_storage_buffer(bindings.DEFORMED.index)
             winner.bind_to_storage_buffer(bindings.WINNER.index)
             if fused:
-                self._bind_fused()
+                self._bind_fused(source, target)  # type: ignore[arg-type]
             if fast:
                 band = values | {"u_mesh_dims": dims, "u_first_row": first}
                 self._scan_fast(cells, band, border)
@@ -163,7 +159,7 @@ class CellScan:
             bands += 1
         self._gl.mgl.memory_barrier()
         if fused:
-            self._fix_up(values, target, border)  # type: ignore[arg-type]
+            self._fix_up(values, source, target, border)  # type: ignore[arg-type]
             self.last_path = "fused fast" if fast else "fused"
         else:
             whole_mesh = dims if bands == 1 else None
@@ -280,34 +276,30 @@ class CellScan:
         every.run_indirect(check, offset=32)
         keyed.run_indirect(check, offset=48)
 
-    def _prepare_fused(
-        self, source: moderngl.Texture, target: moderngl.Texture, capacity: int
+    def _prepare_fused(self, capacity: int) -> None:
+        """An empty fix-up list (the textures need no preparing: warp/cells_packed.glsl reads
+        and writes them as r32ui images, with no copies)."""
+        self._resources.buffer("fixups", 16 + 4 * capacity).clear(size=16)
+
+    def _bind_fused(self, source: moderngl.Texture, target: moderngl.Texture) -> None:
+        bindings.bind_texels(source, bindings.PACKED_SOURCE, write=False)
+        bindings.bind_texels(target, bindings.PACKED_TARGET, write=True)
+        self._resources.cached("fixups").bind_to_storage_buffer(bindings.FIXUPS.index)
+
+    def _fix_up(
+        self,
+        values: dict[str, object],
+        source: moderngl.Texture,
+        target: moderngl.Texture,
+        border: int,
     ) -> None:
-        """The packed buffers of warp/cells_packed.glsl: copies of the source and of the
-        target (its background), and an empty fix-up list."""
-        width, height = source.size
-        resources = self._resources
-        source.read_into(resources.buffer("packed source", width * height * 4))
-        # one spare texel at the end: uncovered lanes of the scan write there
-        target_width, target_height = target.size
-        spare = (target_width * target_height + 1) * 4
-        target.read_into(resources.buffer("packed target", spare))
-        resources.buffer("fixups", 16 + 4 * capacity).clear(size=16)
-
-    def _bind_fused(self) -> None:
-        cached = self._resources.cached
-        cached("packed source").bind_to_storage_buffer(bindings.PACKED_SOURCE.index)
-        cached("packed target").bind_to_storage_buffer(bindings.PACKED_TARGET.index)
-        cached("fixups").bind_to_storage_buffer(bindings.FIXUPS.index)
-
-    def _fix_up(self, values: dict[str, object], target: moderngl.Texture, border: int) -> None:
         """warp/cells_fixup.comp.glsl over the listed pixels (an indirect dispatch sized on
-        the GPU: no read-back), then the packed target back into the texture."""
+        the GPU: no read-back)."""
         entry = "warp/cells_fixup.comp.glsl"
         args = self._gl.compute(entry, {"WARP_FIXUP_ARGS": True})
         fixup = self._gl.compute(entry, {"WARP_FIXUP_ARGS": False, "WARP_BORDER": border})
         dispatch = self._resources.buffer("fixup dispatch", 16)
-        self._bind_fused()
+        self._bind_fused(source, target)
         self._resources.cached("winner").bind_to_storage_buffer(bindings.WINNER.index)
         dispatch.bind_to_storage_buffer(bindings.FIXUP_DISPATCH.index)
         for program in (args, fixup):
@@ -315,8 +307,7 @@ class CellScan:
         args.run(group_x=1)
         self._gl.mgl.memory_barrier()
         fixup.run_indirect(dispatch)
-        self._gl.mgl.memory_barrier()
-        target.write(self._resources.cached("packed target"))
+        self._gl.mgl.memory_barrier()  # the image stores before the target is read or drawn
 
     def _resolve(self, kernel, source, lattice, values, how, whole_mesh):
         """Fill the bound framebuffer from the winner buffer with full-viewport draws;

@@ -7,6 +7,9 @@ import re
 from importlib import resources
 from pathlib import Path
 
+import numpy as np
+from numpy.testing import assert_array_equal
+
 from glmls.gl import bindings
 from glmls.gl.shaders import library
 
@@ -55,3 +58,37 @@ def test_the_driver_offers_enough_binding_points(gl):
     for limit, needed in bindings.needed().items():
         offered = gl.mgl.info.get(limit)
         assert offered is None or int(offered) >= needed, limit
+
+
+def test_rgba8_texels_move_whole_through_r32ui_images(gl, rng):
+    """bind_texels: an RGBA8 texture read and written as r32ui images keeps every byte (the
+    fused quads and the adaptive colour pass copy texels this way)."""
+    texels = rng.integers(0, 256, (5, 7, 4), dtype=np.uint8)
+    source_image, target_image = bindings.PACKED_SOURCE, bindings.PACKED_TARGET
+    code = f"""#version 430
+    layout(local_size_x = 1) in;
+    layout(r32ui, binding = {source_image.index}) readonly uniform uimage2D source;
+    layout(r32ui, binding = {target_image.index}) writeonly uniform uimage2D target;
+    void main() {{
+        ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+        imageStore(target, p, imageLoad(source, p));
+    }}
+    """
+    with gl:
+        mgl = gl.mgl
+        source = mgl.texture((7, 5), 4, texels.tobytes(), dtype="f1")
+        target = mgl.texture((7, 5), 4, dtype="f1")
+        program = mgl.compute_shader(code)
+        others = [mgl.texture((7, 5), 4, dtype="f4"), mgl.texture((7, 5), 3, dtype="f1")]
+        try:
+            assert bindings.holds_texels(source) and bindings.holds_texels(target)
+            assert not any(bindings.holds_texels(t) for t in [*others, None, "texture"])
+            bindings.bind_texels(source, source_image, write=False)
+            bindings.bind_texels(target, target_image, write=True)
+            program.run(7, 5)
+            mgl.memory_barrier()
+            copied = np.frombuffer(target.read(), np.uint8).reshape(5, 7, 4)
+        finally:
+            for obj in (source, target, program, *others):
+                obj.release()
+    assert_array_equal(copied, texels)

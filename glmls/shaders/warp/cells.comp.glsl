@@ -195,7 +195,7 @@ void main() {
             }
             // Branch-free from here: llvmpipe runs buffer accesses under a divergent branch
             // lane by lane with mask tests, about twice the cost. An uncovered pixel (id 0)
-            // changes nothing: atomicMax with 0, its colour into a spare texel.
+            // changes nothing: atomicMax with 0, its colour stored out of range.
 #if WARP_CELLS_SOURCE
             // nearest: the source pixel containing the point, clamped to the cell
             ivec2 sp = clamp(ivec2(floor(s00 + t * size + 0.5)), cell_lo, cell_hi) - cell_lo;
@@ -209,8 +209,7 @@ void main() {
             // Every triangle writes its colour, in any order; with keys, one that finds the
             // pixel taken lists it for warp/cells_fixup.comp.glsl, which writes the winner's.
             ivec2 s = lattice_source_pixel(cell_lo + sp, u_source_size);
-            int spare = u_target_size.x * u_target_size.y;
-            warp_target[id != 0u ? i : spare] = warp_source[s.y * u_source_size.x + s.x];
+            warp_store(id != 0u ? ivec2(x, y) : ivec2(-1), warp_source_texel(s));
 #endif
 #if WARP_CELLS_FUSED && !WARP_CELLS_FAST
             if (before != 0u && id != 0u) {

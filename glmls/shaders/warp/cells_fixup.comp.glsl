@@ -41,6 +41,7 @@ void main() {
         return;   // uncovered (all pixels redone): the background stays
     }
     ivec2 s = lattice_source_pixel(warp_key_source_pixel(id), u_source_size);
-    warp_target[i] = warp_source[s.y * u_source_size.x + s.x];
+    int width = u_target_size.x;
+    warp_store(ivec2(int(i) % width, int(i) / width), warp_source_texel(s));
 #endif
 }

@@ -1,16 +1,23 @@
-// The buffers of the fused nearest path of the quads (WARP_CELLS_FUSED): warp/cells.comp.glsl
-// writes each covered pixel's colour as it scan-converts, and warp/cells_fixup.comp.glsl then
-// corrects the pixels where triangles overlap (fold-overs). Texels are packed RGBA8, one
-// uint32 each: storage buffer accesses go lane by lane on llvmpipe, and texel fetches or
-// fragment outputs convert each channel besides (about twice the cost there).
+// The images and buffers of the fused nearest path of the quads (WARP_CELLS_FUSED):
+// warp/cells.comp.glsl writes each covered pixel's colour as it scan-converts, and
+// warp/cells_fixup.comp.glsl then corrects the pixels where triangles overlap (fold-overs).
+// The RGBA8 source and target textures are bound as r32ui images (the same 32-bit texels,
+// reinterpreted): a texel moves whole, with no conversion of each channel (texel fetches and
+// fragment outputs convert, about twice the cost on llvmpipe), and neither texture is copied
+// to or from a buffer. Out of range, imageStore does nothing: uncovered lanes store at (-1, -1).
 #include "common/groups.glsl"
 
-layout(std430, binding = BIND_PACKED_SOURCE) readonly buffer WarpSource {
-    uint warp_source[];   // the source image, row-major
-};
-layout(std430, binding = BIND_PACKED_TARGET) buffer WarpTarget {
-    uint warp_target[];   // the target texture's texels (its background on entry), row-major
-};
+layout(r32ui, binding = BIND_PACKED_SOURCE) readonly uniform uimage2D warp_source_image;
+layout(r32ui, binding = BIND_PACKED_TARGET) writeonly uniform uimage2D warp_target_image;
+
+uint warp_source_texel(ivec2 s) {
+    return imageLoad(warp_source_image, s).x;
+}
+
+void warp_store(ivec2 pixel, uint texel) {
+    imageStore(warp_target_image, pixel, uvec4(texel));
+}
+
 layout(std430, binding = BIND_FIXUPS) buffer WarpFixups {
     uint warp_fixup_count;   // pixels a second triangle reached (may exceed the capacity)
     uint warp_fixup_pad[3];
