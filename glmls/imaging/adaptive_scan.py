@@ -124,7 +124,17 @@ class AdaptiveScan:
             mode = moderngl.LINEAR if linear else moderngl.NEAREST
             source.filter = (mode, mode)
             source.use(bindings.SOURCE.index)
-        if colour:
+        # nearest from RGBA8 to RGBA8: texels copied whole through r32ui images
+        texels = (
+            colour
+            and not linear
+            and bindings.holds_texels(source)
+            and bindings.holds_texels(target)
+        )
+        if texels:
+            bindings.bind_texels(source, bindings.PACKED_SOURCE, write=False)  # type: ignore[arg-type]
+            bindings.bind_texels(target, bindings.ADAPTIVE_TARGET, write=True)  # type: ignore[arg-type]
+        elif colour:
             target.bind_to_image(bindings.ADAPTIVE_TARGET.index, read=False, write=True)  # type: ignore[union-attr]
         else:
             self._clear_points(frame)
@@ -132,7 +142,12 @@ class AdaptiveScan:
             mesh,
             frame,
             values,
-            {"ADAPTIVE_COLOUR": colour, "WARP_LINEAR": linear, "WARP_BORDER": border},
+            {
+                "ADAPTIVE_COLOUR": colour,
+                "ADAPTIVE_TEXELS": texels,
+                "WARP_LINEAR": linear,
+                "WARP_BORDER": border,
+            },
         )
         if colour:
             gl.mgl.memory_barrier()  # the image stores before the caller reads the texture

@@ -335,9 +335,10 @@ def test_the_mesh_and_error_field_take_the_tolerance(gl, rng):
 
 @pytest.mark.parametrize("border", ["constant", "wrap"])
 def test_the_colour_pass_matches_the_point_pass(gl, rng, border):
-    """uint8 images are coloured by the scan pass itself (an RGBA8 target image); other
-    dtypes write the points and sample them in a fragment pass: the same pixels (linear:
-    within 2/255, a texture filter's 8-bit weights on the RGBA8 source)."""
+    """uint8 images are coloured by the scan pass itself (an RGBA8 target image; nearest
+    copies whole texels through r32ui images); other dtypes write the points and sample them
+    in a fragment pass: the same pixels (linear: within 2/255, a texture filter's 8-bit
+    weights on the RGBA8 source)."""
     image = rng.integers(0, 256, (*SHAPE, 3), dtype=np.uint8)
     handles = random_handles(SHAPE, rng)  # folds: the keyed passes
     with glmls.MLS(*handles, shape=SHAPE) as m:
