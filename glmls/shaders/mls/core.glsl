@@ -150,8 +150,9 @@ struct MLSAccum {
     float W;        // sum w
     vec2 P;         // sum w P, with P = p - p_o
     vec2 E;         // sum w E, with E = e - e_o, e = q - p
-    vec3 PP;        // sum w P P^T as (xx, xy, yy)
-    vec4 PE;        // sum w P_i E_j as (11, 12, 21, 22)
+    vec3 PP;        // sum w P P^T as (xx, xy, yy); similarity, rigid: (its trace, 0, 0)
+    vec4 PE;        // sum w P_i E_j as (11, 12, 21, 22); similarity, rigid: (11 + 22,
+                    // 12 - 21, 0, 0) (mls_add_moments)
     float spread;   // sum w |p - v|^2, the yardstick for "coincident"
 };
 
@@ -187,6 +188,20 @@ float mls_handle_weight(MLSAccum a, float d2) {
     return (u_snap && d2 <= u_hit2) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
 }
 
+// Add second moments (sum w P P^T as (xx, xy, yy), sum w P_i E_j as (11, 12, 21, 22)) to the
+// sums. Similarity and rigid MLS use only their rotation-invariant parts, the trace of the
+// first and D11 + D22, D12 - D21 of the second (mls_rotation_scale): those are kept in
+// PP.x, PE.x and PE.y instead, 3 sums per handle instead of 7.
+void mls_add_moments(inout MLSAccum a, vec3 PP, vec4 PE) {
+#if MLS_TRANSFORM == 0
+    a.PP += PP;
+    a.PE += PE;
+#else
+    a.PP.x += PP.x + PP.z;
+    a.PE.xy += vec2(PE.x + PE.w, PE.y - PE.z);
+#endif
+}
+
 void mls_accumulate(inout MLSAccum a, vec4 h, bool use) {
     vec2 dp = h.xy - a.v;
     float d2 = dot(dp, dp);
@@ -201,8 +216,14 @@ void mls_accumulate(inout MLSAccum a, vec4 h, bool use) {
     a.W += w;
     a.P += wP;
     a.E += w * E;
+#if MLS_TRANSFORM == 0
     a.PP += vec3(wP.x * P.x, wP.x * P.y, wP.y * P.y);
     a.PE += vec4(wP.x * E.x, wP.x * E.y, wP.y * E.x, wP.y * E.y);
+#else
+    // the same sums as mls_add_moments keeps, formed per handle
+    a.PP.x += dot(wP, P);
+    a.PE.xy += vec2(dot(wP, E), wP.x * E.y - wP.y * E.x);
+#endif
     a.spread += w * d2;
 }
 
@@ -222,16 +243,17 @@ MLSResult mls_finish(MLSAccum a) {
         vec2 de = a.E / a.W;
         pst += dp;
         est += de;
-        A -= vec3(a.P.x * dp.x, a.P.x * dp.y, a.P.y * dp.y);
-        D -= vec4(a.P.x * de.x, a.P.x * de.y, a.P.y * de.x, a.P.y * de.y);
+        mls_add_moments(a, -vec3(a.P.x * dp.x, a.P.x * dp.y, a.P.y * dp.y),
+                        -vec4(a.P.x * de.x, a.P.x * de.y, a.P.y * de.x, a.P.y * de.y));
+        A = a.PP;
+        D = a.PE;
     }
     // Snapped: p* = p_o and q* = q_o exactly, and the moments about them are the sums.
-    float a11 = A.x, a12 = A.y, a22 = A.z;
     float spread = a.spread;
-
-    float mu = a11 + a22;
     vec4 N;   // M - I
 #if MLS_TRANSFORM == 0
+    float a11 = A.x, a12 = A.y, a22 = A.z;
+    float mu = a11 + a22;
     float det = a11 * a22 - a12 * a12;
     if (mu > 1e-13 * spread && det > 1e-5 * mu * mu) {
         // M = A^-1 (A + D) = I + A^-1 D, with A = [[a11, a12], [a12, a22]]
@@ -244,7 +266,8 @@ MLSResult mls_finish(MLSAccum a) {
         N = mls_rotation_scale(mu, D, spread);
     }
 #else
-    N = mls_rotation_scale(mu, D, spread);
+    // the trace of A, and D11 + D22, D12 - D21 as (D.x + D.w, D.y - D.z) (mls_add_moments)
+    N = mls_rotation_scale(A.x, vec4(D.xy, 0.0, 0.0), spread);
 #endif
 
     // f(v) = q* + (v - p*) M = v + e* + (v - p*) N

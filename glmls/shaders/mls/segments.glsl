@@ -227,12 +227,13 @@ void mls_accumulate_segment(inout MLSAccum a, MLSSegment seg) {
     a.W += J0;
     a.P += J0 * P + J1 * u;
     a.E += J0 * E + J1 * du;
-    a.PP += J0 * vec3(P.x * P.x, P.x * P.y, P.y * P.y)
-          + J1 * vec3(2.0 * P.x * u.x, P.x * u.y + u.x * P.y, 2.0 * P.y * u.y)
-          + J2 * vec3(u.x * u.x, u.x * u.y, u.y * u.y);
-    a.PE += J0 * vec4(P.x * E.x, P.x * E.y, P.y * E.x, P.y * E.y)
-          + J1 * vec4(P.x * du.x + u.x * E.x, P.x * du.y + u.x * E.y,
-                      P.y * du.x + u.y * E.x, P.y * du.y + u.y * E.y)
-          + J2 * vec4(u.x * du.x, u.x * du.y, u.y * du.x, u.y * du.y);
+    mls_add_moments(a,
+        J0 * vec3(P.x * P.x, P.x * P.y, P.y * P.y)
+            + J1 * vec3(2.0 * P.x * u.x, P.x * u.y + u.x * P.y, 2.0 * P.y * u.y)
+            + J2 * vec3(u.x * u.x, u.x * u.y, u.y * u.y),
+        J0 * vec4(P.x * E.x, P.x * E.y, P.y * E.x, P.y * E.y)
+            + J1 * vec4(P.x * du.x + u.x * E.x, P.x * du.y + u.x * E.y,
+                        P.y * du.x + u.y * E.x, P.y * du.y + u.y * E.y)
+            + J2 * vec4(u.x * du.x, u.x * du.y, u.y * du.x, u.y * du.y));
     a.spread += (view.h2 + view.xc * view.xc) * J0 + 2.0 * view.xc * J1 + J2;
 }
