@@ -1,7 +1,7 @@
 """A/B in one sitting: the same end-to-end cases timed on several glmls trees, alternated.
 
 ``python benchmarks/ab_trees.py --trees old=/tmp/bb0b9ce,new=. --cases W1:grid=1,W1:tolerance=0.05``
-``[--rounds 3] [--repeat 5]``
+``[--rounds 3] [--repeat 5] [--warmup 0.5]``
 
 Each tree is a glmls source checkout (``git worktree add /tmp/bb0b9ce bb0b9ce`` makes one).
 Every round runs every case on every tree in turn, each in a fresh process (``--case``: one
@@ -65,9 +65,10 @@ WORKLOADS = {
 }
 
 
-def time_case(tree: str, case: str, repeat: int) -> list[float]:
-    """In this process: ``case`` on the glmls of ``tree``, ``repeat`` times after two
-    untimed runs; milliseconds."""
+def time_case(tree: str, case: str, repeat: int, warmup: float = 0.5) -> list[float]:
+    """In this process: ``case`` on the glmls of ``tree``, ``repeat`` times after untimed
+    runs for ``warmup`` seconds (two at least: the first compiles, and small cases stay slow
+    for several more on llvmpipe, up to ~40 ms in all for W3); milliseconds."""
     sys.path.insert(0, tree)
     import glmls
 
@@ -83,8 +84,10 @@ def time_case(tree: str, case: str, repeat: int) -> list[float]:
             with glmls.MLS(p, q, shape=image.shape, transform="rigid") as m:
                 m.warp(image, **options)
 
-    step(0)
-    step(1)
+    warm, untimed = time.perf_counter() + warmup, 0
+    while untimed < 2 or time.perf_counter() < warm:
+        step(untimed)
+        untimed += 1
     times = []
     for k in range(repeat):
         start = time.perf_counter()
@@ -109,12 +112,15 @@ def main() -> None:
     parser.add_argument("--cases", help="WORKLOAD:OPTION=VALUE,...")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument(
+        "--warmup", type=float, default=0.5, help="untimed runs for this long first (s)"
+    )
     parser.add_argument("--case", nargs=2, metavar=("TREE", "CASE"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.case is not None:  # one timing process
         tree, case = args.case
         try:
-            print(json.dumps(time_case(tree, case, args.repeat)))
+            print(json.dumps(time_case(tree, case, args.repeat, args.warmup)))
         except TypeError:  # an option this tree does not have
             print(json.dumps(None))
         return
@@ -128,7 +134,7 @@ def main() -> None:
             for name, path in trees.items():
                 out = subprocess.run(
                     [sys.executable, __file__, "--case", os.path.abspath(path), case]
-                    + ["--repeat", str(args.repeat)],
+                    + ["--repeat", str(args.repeat), "--warmup", str(args.warmup)],
                     capture_output=True,
                     text=True,
                     timeout=900,

@@ -157,3 +157,28 @@ def test_the_layers_are_real():
         if module.startswith("glmls.core"):
             text = path.read_text()
             assert "moderngl" not in text and "glcontext" not in text, module
+
+
+def test_uniforms_are_written_in_one_place():
+    """Every uniform write goes through glmls.gl.dispatch.set_uniforms, which remembers what
+    it wrote to skip repeats: a write around it would make that memory wrong."""
+    found = []
+    for module, path in MODULES.items():
+        if module == "glmls.gl.dispatch":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            targets = node.targets if isinstance(node, ast.Assign) else []
+            targets += [node.target] if isinstance(node, (ast.AugAssign, ast.AnnAssign)) else []
+            for target in targets:
+                if isinstance(target, ast.Attribute) and target.attr == "value":
+                    found.append(f"{module}:{node.lineno}")
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute):
+                if node.func.attr in ("_write_uniform", "write") and _subscript_of_program(node):
+                    found.append(f"{module}:{node.lineno}")
+    assert not found, "uniforms written outside set_uniforms:\n" + "\n".join(found)
+
+
+def _subscript_of_program(call: ast.Call) -> bool:
+    """``program["u_..."].write(...)``: a uniform member written raw."""
+    owner = call.func.value  # type: ignore[attr-defined]
+    return isinstance(owner, ast.Subscript) and isinstance(owner.slice, ast.Constant)

@@ -179,10 +179,13 @@ class Canvas:
             for binding, tex in ((bindings.VALUES, texture), (bindings.COLOR_TABLE, lut_texture)):
                 tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
                 tex.use(binding.index)
-            program["u_table_size"].value = len(table)
-            program["u_limits"].value = (lo, hi)
-            program["u_nan_color"].value = _rgba(nan_color, 1.0, "nan_color")
-            program["u_opacity"].value = float(opacity)
+            uniforms = {
+                "u_table_size": len(table),
+                "u_limits": (lo, hi),
+                "u_nan_color": _rgba(nan_color, 1.0, "nan_color"),
+                "u_opacity": float(opacity),
+            }
+            set_uniforms(program, uniforms)
             self._fullscreen(program)
         finally:
             texture.release()
@@ -264,8 +267,8 @@ class Canvas:
         mgl = self._begin()
         program = self._gl.program("draw/geometry.vert.glsl", "draw/color.frag.glsl")
         # the program is shared (a window's overlays set another origin): set every uniform
-        set_uniforms(program, {"u_size": (self.shape[1], self.shape[0]), "u_origin": (0.0, 0.0)})
-        program["u_flip_y"].value = False
+        uniforms = {"u_size": (self.shape[1], self.shape[0]), "u_origin": (0.0, 0.0)}
+        set_uniforms(program, uniforms | {"u_flip_y": False})
         buffer = mgl.buffer(data.tobytes())
         vao = mgl.vertex_array(program, [(buffer, "2f 4f", "in_position", "in_color")])
         try:

@@ -177,9 +177,9 @@ class GeometryDrawer:
         self.frame = Frame(shape)
 
     def draw(self, vertices: np.ndarray, mode: int = moderngl.TRIANGLES) -> None:
-        self._program["u_size"].value = self.frame.size
-        set_uniforms(self._program, {"u_origin": self.frame.origin})
-        self._program["u_flip_y"].value = True  # image row 0 at the top of the window
+        # image row 0 at the top of the window
+        uniforms = {"u_size": self.frame.size, "u_origin": self.frame.origin, "u_flip_y": True}
+        set_uniforms(self._program, uniforms)
         self._vertices.draw(vertices, mode)
 
     def release(self) -> None:
@@ -214,7 +214,7 @@ class PictureDrawer:
         mode = moderngl.LINEAR if linear else moderngl.NEAREST
         self.texture.filter = (mode, mode)
         self.texture.use(bindings.PICTURE.index)
-        self._program["u_opacity"].value = float(opacity)
+        set_uniforms(self._program, {"u_opacity": float(opacity)})
         mgl.enable(moderngl.BLEND)
         mgl.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
         self._vao.render(moderngl.TRIANGLES, vertices=3)

@@ -17,6 +17,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 from ..gl import bindings
 from ..gl.context import GLContext
+from ..gl.dispatch import set_uniforms
 from .vertices import StreamingVertices
 
 __all__ = ["GlyphAtlas", "TextRenderer", "glyph_atlas"]
@@ -143,7 +144,7 @@ class TextRenderer:
         """Draw the vertex arrays ``parts`` (from :meth:`GlyphAtlas.quads` / ``rectangle``)
         in order; ``screen`` is the framebuffer's (width, height)."""
         data = np.concatenate([np.zeros((0, 8), np.float32), *parts]).astype(np.float32)
-        self._program["u_screen"].value = screen
+        set_uniforms(self._program, {"u_screen": screen})
         self._texture.use(bindings.GLYPHS.index)
         self._vertices.draw(data)
 

@@ -272,7 +272,7 @@ class CellScan:
         gl.mgl.memory_barrier()
         stages[4].run(group_x=1)
         gl.mgl.memory_barrier()
-        every["u_offset"].value = 0
+        set_uniforms(every, {"u_offset": 0})
         every.run_indirect(check, offset=32)
         keyed.run_indirect(check, offset=48)
 
