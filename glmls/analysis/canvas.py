@@ -267,8 +267,12 @@ class Canvas:
         mgl = self._begin()
         program = self._gl.program("draw/geometry.vert.glsl", "draw/color.frag.glsl")
         # the program is shared (a window's overlays set another origin): set every uniform
-        uniforms = {"u_size": (self.shape[1], self.shape[0]), "u_origin": (0.0, 0.0)}
-        set_uniforms(program, uniforms | {"u_flip_y": False})
+        uniforms = {
+            "u_size": (self.shape[1], self.shape[0]),
+            "u_origin": (0.0, 0.0),
+            "u_flip_y": False,
+        }
+        set_uniforms(program, uniforms)
         buffer = mgl.buffer(data.tobytes())
         vao = mgl.vertex_array(program, [(buffer, "2f 4f", "in_position", "in_color")])
         try:

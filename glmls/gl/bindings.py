@@ -70,8 +70,8 @@ GLYPHS = Binding("GLYPHS", "texture", 8, "the glyph atlas of on-screen text")
 # -- image units -------------------------------------------------------------------------------
 INVERSE_MAP = Binding("INVERSE_MAP", "image", 0, "backward: guess in, source points out")
 ADAPTIVE_TARGET = Binding("ADAPTIVE_TARGET", "image", 1, "adaptive: the RGBA8 target it colours")
-PACKED_SOURCE = Binding("PACKED_SOURCE", "image", 2, "fused quads: the RGBA8 source as r32ui")
-PACKED_TARGET = Binding("PACKED_TARGET", "image", 3, "fused quads: the RGBA8 target as r32ui")
+TEXEL_SOURCE = Binding("TEXEL_SOURCE", "image", 2, "the RGBA8 source as r32ui (bind_texels)")
+TEXEL_TARGET = Binding("TEXEL_TARGET", "image", 3, "the RGBA8 target as r32ui (bind_texels)")
 
 ALL = (
     HANDLES,
@@ -100,8 +100,8 @@ ALL = (
     GLYPHS,
     INVERSE_MAP,
     ADAPTIVE_TARGET,
-    PACKED_SOURCE,
-    PACKED_TARGET,
+    TEXEL_SOURCE,
+    TEXEL_TARGET,
 )
 
 

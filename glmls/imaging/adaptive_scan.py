@@ -107,13 +107,7 @@ class AdaptiveScan:
         self._upload(mesh, frame)
         target = framebuffer.color_attachments[0] if framebuffer.color_attachments else None
         # straight into an RGBA8 texture: the pass samples and stores the colours itself
-        colour = (
-            source is not None
-            and not coords
-            and not flip_y
-            and isinstance(target, moderngl.Texture)
-            and (target.components, target.dtype) == (4, "f1")
-        )
+        colour = source is not None and not coords and not flip_y and bindings.holds_texels(target)
         values = {
             **frame.uniforms(),
             "u_triangles": count,
@@ -125,15 +119,10 @@ class AdaptiveScan:
             source.filter = (mode, mode)
             source.use(bindings.SOURCE.index)
         # nearest from RGBA8 to RGBA8: texels copied whole through r32ui images
-        texels = (
-            colour
-            and not linear
-            and bindings.holds_texels(source)
-            and bindings.holds_texels(target)
-        )
+        texels = colour and not linear and bindings.holds_texels(source)
         if texels:
-            bindings.bind_texels(source, bindings.PACKED_SOURCE, write=False)  # type: ignore[arg-type]
-            bindings.bind_texels(target, bindings.ADAPTIVE_TARGET, write=True)  # type: ignore[arg-type]
+            bindings.bind_texels(source, bindings.TEXEL_SOURCE, write=False)  # type: ignore[arg-type]
+            bindings.bind_texels(target, bindings.TEXEL_TARGET, write=True)  # type: ignore[arg-type]
         elif colour:
             target.bind_to_image(bindings.ADAPTIVE_TARGET.index, read=False, write=True)  # type: ignore[union-attr]
         else:

@@ -69,7 +69,7 @@ def key_layout(lattice: MeshLattice, *, source_pixel: bool) -> tuple[int, int, i
 
 def _packable(source: moderngl.Texture | None, target: object) -> bool:
     """Can the fused nearest path write ``target`` from ``source``: single-sample RGBA8
-    textures (bound as r32ui images, warp/cells_packed.glsl)."""
+    textures (bound as r32ui images, warp/texels.glsl)."""
     return bindings.holds_texels(source) and bindings.holds_texels(target)
 
 
@@ -277,13 +277,13 @@ class CellScan:
         keyed.run_indirect(check, offset=48)
 
     def _prepare_fused(self, capacity: int) -> None:
-        """An empty fix-up list (the textures need no preparing: warp/cells_packed.glsl reads
-        and writes them as r32ui images, with no copies)."""
+        """An empty fix-up list (the textures need no preparing: warp/texels.glsl reads and
+        writes them as r32ui images, with no copies)."""
         self._resources.buffer("fixups", 16 + 4 * capacity).clear(size=16)
 
     def _bind_fused(self, source: moderngl.Texture, target: moderngl.Texture) -> None:
-        bindings.bind_texels(source, bindings.PACKED_SOURCE, write=False)
-        bindings.bind_texels(target, bindings.PACKED_TARGET, write=True)
+        bindings.bind_texels(source, bindings.TEXEL_SOURCE, write=False)
+        bindings.bind_texels(target, bindings.TEXEL_TARGET, write=True)
         self._resources.cached("fixups").bind_to_storage_buffer(bindings.FIXUPS.index)
 
     def _fix_up(

@@ -64,7 +64,7 @@ def test_rgba8_texels_move_whole_through_r32ui_images(gl, rng):
     """bind_texels: an RGBA8 texture read and written as r32ui images keeps every byte (the
     fused quads and the adaptive colour pass copy texels this way)."""
     texels = rng.integers(0, 256, (5, 7, 4), dtype=np.uint8)
-    source_image, target_image = bindings.PACKED_SOURCE, bindings.PACKED_TARGET
+    source_image, target_image = bindings.TEXEL_SOURCE, bindings.TEXEL_TARGET
     code = f"""#version 430
     layout(local_size_x = 1) in;
     layout(r32ui, binding = {source_image.index}) readonly uniform uimage2D source;

@@ -235,8 +235,6 @@ MLSResult mls_finish(MLSAccum a) {
     }
     vec2 pst = a.o.xy;
     vec2 est = a.o.zw - a.o.xy;
-    vec3 A = a.PP;
-    vec4 D = a.PE;
     if (!hit) {
         // p* = p_o + sum w P / W, e* likewise, and the moments about them
         vec2 dp = a.P / a.W;
@@ -245,10 +243,10 @@ MLSResult mls_finish(MLSAccum a) {
         est += de;
         mls_add_moments(a, -vec3(a.P.x * dp.x, a.P.x * dp.y, a.P.y * dp.y),
                         -vec4(a.P.x * de.x, a.P.x * de.y, a.P.y * de.x, a.P.y * de.y));
-        A = a.PP;
-        D = a.PE;
     }
     // Snapped: p* = p_o and q* = q_o exactly, and the moments about them are the sums.
+    vec3 A = a.PP;
+    vec4 D = a.PE;
     float spread = a.spread;
     vec4 N;   // M - I
 #if MLS_TRANSFORM == 0

@@ -26,7 +26,8 @@
 // ADAPTIVE_COLOUR 1 (with ADAPTIVE_FILL 1 or 2): the pass samples the source at each point
 // itself (warp/sample.glsl) and stores the colour in the RGBA8 target image, instead of
 // writing the point for warp/adaptive.frag.glsl. ADAPTIVE_TEXELS 1 as well (nearest, an RGBA8
-// source): source and target are bound as r32ui images and each texel is copied whole.
+// source): source and target are bound as r32ui images and each texel is copied whole
+// (warp/texels.glsl).
 //
 // Coverage is OpenGL's: pixel centres strictly inside, and on an edge for one of the two
 // triangles sharing it (a top-left style tie rule). Each edge function is computed from the
@@ -96,10 +97,8 @@ bool reaches_hot(ivec2 first, ivec2 last) {
 #include "warp/adaptive_patch.glsl"
 #include "common/border.glsl"   // outside the #if: the loader includes each file once
 #if ADAPTIVE_COLOUR && ADAPTIVE_TEXELS
-// nearest from an RGBA8 source into the RGBA8 target: both as r32ui images, each texel moved
-// whole (no conversion of each channel to float and back, about twice the cost on llvmpipe)
-layout(r32ui, binding = BIND_PACKED_SOURCE) readonly uniform uimage2D adaptive_source;
-layout(r32ui, binding = BIND_ADAPTIVE_TARGET) writeonly uniform uimage2D adaptive_target;
+// nearest from an RGBA8 source into the RGBA8 target: texels copied whole
+#include "warp/texels.glsl"
 uniform ivec2 u_source_size;  // W, H of the source image
 #elif ADAPTIVE_COLOUR
 #include "warp/sample.glsl"
@@ -116,7 +115,7 @@ void adaptive_write(int i, ivec2 pixel, vec2 s, bool shown) {
 #if ADAPTIVE_COLOUR && ADAPTIVE_TEXELS
     // the source pixel containing s (warp/sample.glsl's nearest), by the border rule
     ivec2 p = border_pixel(ivec2(floor(s + 0.5)), u_source_size);
-    imageStore(adaptive_target, shown ? pixel : ivec2(-1), imageLoad(adaptive_source, p));
+    warp_store(shown ? pixel : ivec2(-1), warp_source_texel(p));
 #elif ADAPTIVE_COLOUR
     imageStore(adaptive_target, shown ? pixel : ivec2(-1), warp_sample(s));
 #else

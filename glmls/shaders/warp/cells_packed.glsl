@@ -1,22 +1,9 @@
 // The images and buffers of the fused nearest path of the quads (WARP_CELLS_FUSED):
 // warp/cells.comp.glsl writes each covered pixel's colour as it scan-converts, and
 // warp/cells_fixup.comp.glsl then corrects the pixels where triangles overlap (fold-overs).
-// The RGBA8 source and target textures are bound as r32ui images (the same 32-bit texels,
-// reinterpreted): a texel moves whole, with no conversion of each channel (texel fetches and
-// fragment outputs convert, about twice the cost on llvmpipe), and neither texture is copied
-// to or from a buffer. Out of range, imageStore does nothing: uncovered lanes store at (-1, -1).
+// The source and target are the RGBA8 textures themselves, as r32ui images (warp/texels.glsl).
 #include "common/groups.glsl"
-
-layout(r32ui, binding = BIND_PACKED_SOURCE) readonly uniform uimage2D warp_source_image;
-layout(r32ui, binding = BIND_PACKED_TARGET) writeonly uniform uimage2D warp_target_image;
-
-uint warp_source_texel(ivec2 s) {
-    return imageLoad(warp_source_image, s).x;
-}
-
-void warp_store(ivec2 pixel, uint texel) {
-    imageStore(warp_target_image, pixel, uvec4(texel));
-}
+#include "warp/texels.glsl"
 
 layout(std430, binding = BIND_FIXUPS) buffer WarpFixups {
     uint warp_fixup_count;   // pixels a second triangle reached (may exceed the capacity)
