@@ -229,3 +229,23 @@ def test_shortcut_matches_the_object(gl, rng):
         img, p, q, weight="gaussian", method="backward", interpolation="linear", ctx=gl
     )
     assert_array_equal(out, expected)
+
+
+@pytest.mark.parametrize("shift", [(0.5, 0.5), (0.5, 0.0), (0.0, 0.5), (0.25, 0.5)])
+@pytest.mark.parametrize("options", [{}, {"grid": 4}, {"tolerance": 0.05}])
+def test_quads_cover_pixel_centres_on_edges_exactly_once(gl, shift, options):
+    """A translation by half pixels puts the mesh's edges (rows and columns) through pixel
+    centres: each is covered (by one cell, OpenGL's tie rule), none is lost between the
+    rows of a cell's or a triangle's scan. Every pixel then shows the source pixel its
+    point rounds to, or one next to it (a point half-way between two)."""
+    shape = (37, 45)
+    p = np.array([[5.0, 5], [40, 6], [22, 30], [6, 33]])
+    q = p + shift
+    img = coordinate_image(*shape)
+    with glmls.MLS(p, q, ctx=gl) as m:
+        out = m.warp(img, border="edge", background=SENTINEL, **options)
+    assert gl.mgl.error == "GL_NO_ERROR"
+    assert (out[..., 0] != SENTINEL).all()  # with a border mode, every pixel is covered
+    u = np.stack(np.meshgrid(np.arange(shape[1]), np.arange(shape[0])), -1).astype(float)
+    source = np.clip(u - shift, 0, [shape[1] - 1, shape[0] - 1])
+    assert np.abs(out[..., :2] - source).max() <= 0.5 + 1e-6

@@ -126,9 +126,21 @@ void adaptive_write(int i, ivec2 pixel, vec2 s, bool shown) {
 
 #include "warp/coverage.glsl"
 
-// Edge (i, j) at p, its end points taken in index order; d: its direction, i to j.
-float ordered_edge(uint i, uint j, vec2 a, vec2 b, vec2 p) {
-    return i < j ? edge(a, b, p) : -edge(b, a, p);
+// An edge's end points in vertex-index order (from, to) and the sign that turns the edge
+// function from one to the other into that of a to b: chosen once per triangle, so that a
+// pixel evaluates each edge once.
+struct OrderedEdge {
+    vec2 from;
+    vec2 to;
+    float sign;
+};
+
+OrderedEdge ordered_edge(uint i, uint j, vec2 a, vec2 b) {
+    OrderedEdge e;
+    e.from = i < j ? a : b;
+    e.to = i < j ? b : a;
+    e.sign = i < j ? 1.0 : -1.0;
+    return e;
 }
 
 void main() {
@@ -154,8 +166,12 @@ void main() {
     vec2 b = vb.xy;
     vec2 c = vc.xy;
     float s = sign(edge(a, b, c));
-    if (s == 0.0) {
-        return;   // degenerate: covers nothing, as in OpenGL
+    // degenerate: covers nothing, as in OpenGL; so does a vertex far past any image (or not
+    // a number), which the conversions to pixels below could not represent
+    bool finite = all(lessThan(abs(vec4(a, b)), vec4(1.0e9))) &&
+                  all(lessThan(abs(c), vec2(1.0e9)));   // false for NaN too
+    if (s == 0.0 || !finite) {
+        return;
     }
     ivec2 first = max(ivec2(ceil(min(min(a, b), c))), ivec2(0));
     ivec2 last = min(ivec2(floor(max(max(a, b), c))), u_target_size - 1);
@@ -168,44 +184,71 @@ void main() {
 #endif
 #if ADAPTIVE_FILL
     LeafPatch leaf = load_patch(int(adaptive_index[4 * t + 3]));
-    float inv_area = 1.0 / edge(a, b, c);
+    // the linear guess in the leaf's centred coordinates (adaptive_patch.glsl), an affine
+    // function of the pixel: w = w_a + guess (p - a), the barycentrics folded in
+    float inv_det = 1.0 / ((b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y));
+    mat2 to_barycentric = inv_det * mat2(c.y - a.y, a.y - b.y, a.x - c.x, b.x - a.x);
+    mat2 guess = mat2(vb.zw - va.zw, vc.zw - va.zw) * to_barycentric;
+    guess[0] /= leaf.box.zw;
+    guess[1] /= leaf.box.zw;
+    vec2 w_a = (va.zw - leaf.box.xy) / leaf.box.zw;
 #endif
     // the edges' directions along the triangle's counter-clockwise boundary
     vec2 dab = s * (b - a);
     vec2 dbc = s * (c - b);
     vec2 dca = s * (a - c);
-    for (int y = first.y; y <= last.y; ++y) {
-        float left = float(first.x);
-        float right = float(last.x);
-        span(a, b, s, float(y), left, right);
-        span(b, c, s, float(y), left, right);
-        span(c, a, s, float(y), left, right);
-        int x_end = min(last.x, int(floor(right + SPAN_MARGIN)));
-        for (int x = max(first.x, int(ceil(left - SPAN_MARGIN))); x <= x_end; ++x) {
+#if ADAPTIVE_FILL != 1
+    OrderedEdge eab = ordered_edge(ia, ib, a, b);
+    OrderedEdge ebc = ordered_edge(ib, ic, b, c);
+    OrderedEdge eca = ordered_edge(ic, ia, c, a);
+#endif
+    // One pixel per iteration, the rows one after another. The lanes of a SIMD group run
+    // a leaf's fan: triangles of one size but of every shape, whose rows' widths rise where
+    // their neighbours' fall. A loop over the rows with one over each row iterates as often
+    // as the widest row at every row (W1 at 0.05 px: half the iterations draw a pixel);
+    // this loop as often as the triangle with the most pixels (0.8 of them draw one).
+    RowBounds bounds = row_bounds(a, b, c, c, s, true);
+    int y = first.y;
+    ivec2 row = row_span(bounds, y, first.x, last.x);
+    int x = row.x;
+    for (;;) {
+        if (x > row.y) {
+            // the next row (an empty one costs an iteration: rarer than a nested loop's cost)
+            ++y;
+            row = row_span(bounds, y, first.x, last.x);
+            x = row.x;
+        }
+        if (y > last.y) {
+            break;
+        }
+        {
             // Branch-free: llvmpipe runs buffer accesses under a divergent branch lane by
             // lane with mask tests, about twice the cost.
-            vec2 p = vec2(x, y);
-            int i = y * u_target_size.x + x;
+            // past the row's span (an empty row): a pixel of the box, drawing nothing
+            bool in_row = x <= row.y;
+            int column = min(x, last.x);
+            vec2 p = vec2(column, y);
+            int i = y * u_target_size.x + column;
 #if ADAPTIVE_FILL
-            float lb = edge(c, a, p) * inv_area;
-            float lc = edge(a, b, p) * inv_area;
-            vec2 s0 = va.zw + (vb.zw - va.zw) * lb + (vc.zw - va.zw) * lc;
+            vec2 w = w_a + guess * (p - a);
 #endif
 #if ADAPTIVE_FILL == 1
-            // the winner key names one triangle: no coverage test
-            bool shown = adaptive_winner[i] == key;
+            // the winner key names one triangle: no coverage test (in_row: this row's)
+            bool shown = in_row && adaptive_winner[i] == key;
 #else
-            bool inside = covers(s * ordered_edge(ia, ib, a, b, p), dab) &&
-                          covers(s * ordered_edge(ib, ic, b, c, p), dbc) &&
-                          covers(s * ordered_edge(ic, ia, c, a, p), dca);
+            bool inside = in_row &&
+                          covers(s * eab.sign * edge(eab.from, eab.to, p), dab) &&
+                          covers(s * ebc.sign * edge(ebc.from, ebc.to, p), dbc) &&
+                          covers(s * eca.sign * edge(eca.from, eca.to, p), dca);
 #endif
 #if ADAPTIVE_FILL == 1
-            adaptive_write(i, ivec2(x, y), patch_inverse(leaf, p, s0), shown);
+            adaptive_write(i, ivec2(column, y), patch_inverse(leaf, p, w), shown);
 #elif ADAPTIVE_FILL == 2
-            adaptive_write(i, ivec2(x, y), patch_inverse(leaf, p, s0), inside);
+            adaptive_write(i, ivec2(column, y), patch_inverse(leaf, p, w), inside);
 #elif ADAPTIVE_FILL == 0
             atomicMax(adaptive_winner[i], inside ? key : 0u);
 #endif
         }
+        ++x;
     }
 }

@@ -36,14 +36,15 @@ LeafPatch load_patch(int index) {
     return leaf;
 }
 
-// Where the patch maps to x (output pixels, the frame's), from the guess s0 (source pixels):
-// Newton's method, on the guess's side of a fold. A step where the patch turns over and a
-// point that runs off the patch keep the guess. Branch-free: this runs at every pixel, and
+// Where the patch maps to x (output pixels, the frame's), from the guess w0 (the leaf's
+// centred coordinates, see above), in source pixels: Newton's method, on the guess's side of
+// a fold. A step where the patch turns over and a point that runs off the patch keep the
+// guess. Branch-free: this runs at every pixel, and
 // llvmpipe runs both sides of a branch its lanes disagree on anyway.
-vec2 patch_inverse(LeafPatch leaf, vec2 x, vec2 s0) {
+vec2 patch_inverse(LeafPatch leaf, vec2 x, vec2 w0) {
     float orientation = leaf.orientation;
     vec2 target = x - leaf.centre;
-    vec2 w = (s0 - leaf.box.xy) / leaf.box.zw;
+    vec2 w = w0;
     bool ok = true;
     for (int i = 0; i < NEWTON_STEPS; ++i) {
         // r_i(wy) = sum_j a_ij wy^j and its slope q_i, then the sums over wx^i
@@ -67,5 +68,5 @@ vec2 patch_inverse(LeafPatch leaf, vec2 x, vec2 s0) {
         w = ok ? w - delta / det : w;
     }
     ok = ok && all(lessThanEqual(abs(w), vec2(1.0)));
-    return ok ? leaf.box.xy + w * leaf.box.zw : s0;
+    return leaf.box.xy + (ok ? w : w0) * leaf.box.zw;
 }

@@ -122,7 +122,11 @@ void main() {
         return;
     }
 #endif
-    if (s0 == 0.0 && s1 == 0.0) {
+    // a vertex far past any image (or not a number) covers nothing: the conversions to
+    // pixels below could not represent it
+    bool finite = all(lessThan(abs(vec4(p00, p10)), vec4(1.0e9))) &&
+                  all(lessThan(abs(vec4(p01, p11)), vec4(1.0e9)));   // false for NaN too
+    if ((s0 == 0.0 && s1 == 0.0) || !finite) {
         return;
     }
     vec2 lo = min(min(p00, p10), min(p01, p11));
@@ -155,18 +159,25 @@ void main() {
     float s2 = sign(edge(p10, p11, p01));
     float s3 = sign(edge(p10, p01, p00));
     bool convex = s0 != 0.0 && s0 == s1 && s0 == s2 && s0 == s3;
-    for (int y = first.y; y <= last.y; ++y) {
-        float left = float(first.x);
-        float right = float(last.x);
-        if (convex) {
-            span(p00, p10, s0, float(y), left, right);
-            span(p10, p11, s0, float(y), left, right);
-            span(p11, p01, s0, float(y), left, right);
-            span(p01, p00, s0, float(y), left, right);
+    // One pixel per iteration, the rows one after another (as warp/adaptive.comp.glsl):
+    // lanes then wait for the cell with the most pixels, not for the widest row at each row.
+    int y = first.y;
+    RowBounds bounds = row_bounds(p00, p10, p11, p01, s0, convex);
+    ivec2 span_x = row_span(bounds, y, first.x, last.x);
+    int x = span_x.x;
+    for (;;) {
+        if (x > span_x.y) {
+            ++y;
+            span_x = row_span(bounds, y, first.x, last.x);
+            x = span_x.x;
         }
-        int x_end = min(last.x, int(floor(right + SPAN_MARGIN)));
-        for (int x = max(first.x, int(ceil(left - SPAN_MARGIN))); x <= x_end; ++x) {
-            vec2 p = vec2(x, y);
+        if (y > last.y) {
+            break;
+        }
+        {
+            bool in_row = x <= span_x.y;
+            int column = min(x, last.x);
+            vec2 p = vec2(column, y);
             // the five edges, in mesh-index order (00 < 10 < 01 < 11)
             float e_a = edge(p00, p10, p);   // 00 -> 10
             float e_b = edge(p10, p11, p);   // 10 -> 11
@@ -193,6 +204,7 @@ void main() {
                 t = vec2(1.0 - e_b * inv0, e_a * inv0);
 #endif
             }
+            id = in_row ? id : 0u;
             // Branch-free from here: llvmpipe runs buffer accesses under a divergent branch
             // lane by lane with mask tests, about twice the cost. An uncovered pixel (id 0)
             // changes nothing: atomicMax with 0, its colour stored out of range.
@@ -201,7 +213,7 @@ void main() {
             ivec2 sp = clamp(ivec2(floor(s00 + t * size + 0.5)), cell_lo, cell_hi) - cell_lo;
             id -= id != 0u ? uint(sp.y << u_sub_bits | sp.x) : 0u;
 #endif
-            int i = y * u_target_size.x + x;
+            int i = y * u_target_size.x + column;
 #if !WARP_CELLS_FAST
             uint before = atomicMax(warp_winner[i], id);
 #endif
@@ -209,7 +221,7 @@ void main() {
             // Every triangle writes its colour, in any order; with keys, one that finds the
             // pixel taken lists it for warp/cells_fixup.comp.glsl, which writes the winner's.
             ivec2 s = lattice_source_pixel(cell_lo + sp, u_source_size);
-            warp_store(id != 0u ? ivec2(x, y) : ivec2(-1), warp_source_texel(s));
+            warp_store(id != 0u ? ivec2(column, y) : ivec2(-1), warp_source_texel(s));
 #endif
 #if WARP_CELLS_FUSED && !WARP_CELLS_FAST
             if (before != 0u && id != 0u) {
@@ -220,5 +232,6 @@ void main() {
             }
 #endif
         }
+        ++x;
     }
 }

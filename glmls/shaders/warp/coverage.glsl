@@ -19,19 +19,53 @@ bool covers(float e, vec2 d) {
 // How far the row spans are widened against rounding before the exact edge tests.
 #define SPAN_MARGIN 0.01
 
-// Narrow [left, right] to where the row y is on the inner side of the edge a -> b of a
-// convex primitive of orientation s (edge(a, b, p) s >= 0 inside).
-void span(vec2 a, vec2 b, float s, float y, inout float left, inout float right) {
+// The rows of a convex polygon of orientation s (edge(a, b, p) s >= 0 inside) as bounds of
+// each row's span: per edge, a point, its change in x per row, and whether it bounds the
+// spans on the right (1) or the left (-1); an edge parallel to the rows (0) keeps the rows
+// on its inner side whole and empties the others (its step then s d.x, the inner side's
+// sign). The divisions are done once per polygon, not once per row.
+struct RowBounds {
+    vec4 x;       // the edges' start points
+    vec4 y;
+    vec4 step;
+    vec4 side;
+};
+
+void row_edge(vec2 a, vec2 b, float s, out float x, out float y, out float step,
+              out float side) {
     vec2 d = b - a;
-    if (d.y == 0.0) {
-        // parallel to the rows: all of the row is on one side
-        right = s * d.x * (y - a.y) >= 0.0 ? right : left - 1.0;
-        return;
-    }
-    float x = a.x + d.x * (y - a.y) / d.y;   // where the edge crosses the row
-    if (s * d.y > 0.0) {
-        right = min(right, x);
-    } else {
-        left = max(left, x);
-    }
+    bool parallel = d.y == 0.0;
+    x = a.x;
+    y = a.y;
+    step = parallel ? s * d.x : d.x / d.y;
+    side = parallel ? 0.0 : (s * d.y > 0.0 ? 1.0 : -1.0);
+}
+
+// The bounds of the quad (a, b, c, d), its edges ab, bc, cd, da; a triangle is (a, b, c, c).
+// Not convex: no bounds, every row whole.
+RowBounds row_bounds(vec2 a, vec2 b, vec2 c, vec2 d, float s, bool convex) {
+    RowBounds r;
+    row_edge(a, b, s, r.x.x, r.y.x, r.step.x, r.side.x);
+    row_edge(b, c, s, r.x.y, r.y.y, r.step.y, r.side.y);
+    row_edge(c, d, s, r.x.z, r.y.z, r.step.z, r.side.z);
+    row_edge(d, a, s, r.x.w, r.y.w, r.step.w, r.side.w);
+    r.step = convex ? r.step : vec4(0.0);
+    r.side = convex ? r.side : vec4(0.0);
+    return r;
+}
+
+// The pixels of row y that the polygon may cover, within the columns first to last:
+// (first, last) of its span, widened by SPAN_MARGIN against rounding (empty: x > y).
+ivec2 row_span(RowBounds r, int y, int first, int last) {
+    vec4 dy = vec4(float(y)) - r.y;
+    vec4 x = r.x + r.step * dy;   // where the edges cross the row
+    vec4 right = mix(vec4(3.0e38), x, greaterThan(r.side, vec4(0.0)));
+    vec4 left = mix(vec4(-3.0e38), x, lessThan(r.side, vec4(0.0)));
+    float hi = min(float(last), min(min(right.x, right.y), min(right.z, right.w)));
+    float lo = max(float(first), max(max(left.x, left.y), max(left.z, left.w)));
+    bool outside = any(lessThan(mix(vec4(0.0), r.step * dy, equal(r.side, vec4(0.0))),
+                                vec4(0.0)));
+    ivec2 span = ivec2(max(first, int(ceil(lo - SPAN_MARGIN))),
+                       min(last, int(floor(hi + SPAN_MARGIN))));
+    return outside ? ivec2(first + 1, first) : span;
 }
