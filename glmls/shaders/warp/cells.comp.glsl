@@ -121,6 +121,9 @@ void main() {
         }
         return;
     }
+    // both 1 from here: constants, the compiler drops the orientation's products per pixel
+    s0 = 1.0;
+    s1 = 1.0;
 #endif
     // a vertex far past any image (or not a number) covers nothing: the conversions to
     // pixels below could not represent it
