@@ -202,53 +202,35 @@ void main() {
     OrderedEdge ebc = ordered_edge(ib, ic, b, c);
     OrderedEdge eca = ordered_edge(ic, ia, c, a);
 #endif
-    // One pixel per iteration, the rows one after another. The lanes of a SIMD group run
-    // a leaf's fan: triangles of one size but of every shape, whose rows' widths rise where
-    // their neighbours' fall. A loop over the rows with one over each row iterates as often
-    // as the widest row at every row (W1 at 0.05 px: half the iterations draw a pixel);
-    // this loop as often as the triangle with the most pixels (0.8 of them draw one).
+    // one pixel per step (warp/coverage.glsl's RowWalk)
     RowBounds bounds = row_bounds(a, b, c, c, s, true);
-    int y = first.y;
-    ivec2 row = row_span(bounds, y, first.x, last.x);
-    int x = row.x;
-    for (;;) {
-        if (x > row.y) {
-            // the next row (an empty one costs an iteration: rarer than a nested loop's cost)
-            ++y;
-            row = row_span(bounds, y, first.x, last.x);
-            x = row.x;
-        }
-        if (y > last.y) {
-            break;
-        }
-        {
-            // Branch-free: llvmpipe runs buffer accesses under a divergent branch lane by
-            // lane with mask tests, about twice the cost.
-            // past the row's span (an empty row): a pixel of the box, drawing nothing
-            bool in_row = x <= row.y;
-            int column = min(x, last.x);
-            vec2 p = vec2(column, y);
-            int i = y * u_target_size.x + column;
+    RowWalk walk = row_walk(bounds, first, last);
+    while (row_walk_next(walk, bounds, first, last)) {
+        // Branch-free: llvmpipe runs buffer accesses under a divergent branch lane by
+        // lane with mask tests, about twice the cost.
+        bool in_row = walk.in_row;
+        int column = walk.x;
+        int y = walk.y;
+        vec2 p = vec2(column, y);
+        int i = y * u_target_size.x + column;
 #if ADAPTIVE_FILL
-            vec2 w = w_a + guess * (p - a);
+        vec2 w = w_a + guess * (p - a);
 #endif
 #if ADAPTIVE_FILL == 1
-            // the winner key names one triangle: no coverage test (in_row: this row's)
-            bool shown = in_row && adaptive_winner[i] == key;
+        // the winner key names one triangle: no coverage test (in_row: this row's)
+        bool shown = in_row && adaptive_winner[i] == key;
 #else
-            bool inside = in_row &&
-                          covers(s * eab.sign * edge(eab.from, eab.to, p), dab) &&
-                          covers(s * ebc.sign * edge(ebc.from, ebc.to, p), dbc) &&
-                          covers(s * eca.sign * edge(eca.from, eca.to, p), dca);
+        bool inside = in_row &&
+                      covers(s * eab.sign * edge(eab.from, eab.to, p), dab) &&
+                      covers(s * ebc.sign * edge(ebc.from, ebc.to, p), dbc) &&
+                      covers(s * eca.sign * edge(eca.from, eca.to, p), dca);
 #endif
 #if ADAPTIVE_FILL == 1
-            adaptive_write(i, ivec2(column, y), patch_inverse(leaf, p, w), shown);
+        adaptive_write(i, ivec2(column, y), patch_inverse(leaf, p, w), shown);
 #elif ADAPTIVE_FILL == 2
-            adaptive_write(i, ivec2(column, y), patch_inverse(leaf, p, w), inside);
+        adaptive_write(i, ivec2(column, y), patch_inverse(leaf, p, w), inside);
 #elif ADAPTIVE_FILL == 0
-            atomicMax(adaptive_winner[i], inside ? key : 0u);
+        atomicMax(adaptive_winner[i], inside ? key : 0u);
 #endif
-        }
-        ++x;
     }
 }

@@ -162,79 +162,66 @@ void main() {
     float s2 = sign(edge(p10, p11, p01));
     float s3 = sign(edge(p10, p01, p00));
     bool convex = s0 != 0.0 && s0 == s1 && s0 == s2 && s0 == s3;
-    // One pixel per iteration, the rows one after another (as warp/adaptive.comp.glsl):
-    // lanes then wait for the cell with the most pixels, not for the widest row at each row.
-    int y = first.y;
+    // one pixel per step (warp/coverage.glsl's RowWalk)
     RowBounds bounds = row_bounds(p00, p10, p11, p01, s0, convex);
-    ivec2 span_x = row_span(bounds, y, first.x, last.x);
-    int x = span_x.x;
-    for (;;) {
-        if (x > span_x.y) {
-            ++y;
-            span_x = row_span(bounds, y, first.x, last.x);
-            x = span_x.x;
+    RowWalk walk = row_walk(bounds, first, last);
+    while (row_walk_next(walk, bounds, first, last)) {
+        bool in_row = walk.in_row;
+        int column = walk.x;
+        int y = walk.y;
+        vec2 p = vec2(column, y);
+        // the five edges, in mesh-index order (00 < 10 < 01 < 11)
+        float e_a = edge(p00, p10, p);   // 00 -> 10
+        float e_b = edge(p10, p11, p);   // 10 -> 11
+        float e_d = edge(p00, p11, p);   // the diagonal 00 -> 11
+        float e_c = edge(p01, p11, p);   // 01 -> 11
+        float e_e = edge(p00, p01, p);   // 00 -> 01
+        uint id = 0u;
+#if WARP_CELLS_SOURCE
+        vec2 t = vec2(0.0);   // where in the cell's source rectangle, 0..1 (barycentric)
+#endif
+        // triangle 1: 00 -> 11 -> 01 -> 00 (tested first: triangle 0 comes first, it wins)
+        if (s1 != 0.0 && covers(s1 * e_d, s1 * (p11 - p00)) &&
+            covers(-s1 * e_c, s1 * (p01 - p11)) && covers(-s1 * e_e, s1 * (p00 - p01))) {
+            id = id1;
+#if WARP_CELLS_SOURCE
+            t = vec2(-e_e * inv1, 1.0 + e_c * inv1);
+#endif
         }
-        if (y > last.y) {
-            break;
+        // triangle 0: 00 -> 10 -> 11 -> 00 (where the cell folds onto itself, it wins)
+        if (s0 != 0.0 && covers(s0 * e_a, s0 * (p10 - p00)) &&
+            covers(s0 * e_b, s0 * (p11 - p10)) && covers(-s0 * e_d, s0 * (p00 - p11))) {
+            id = id0;
+#if WARP_CELLS_SOURCE
+            t = vec2(1.0 - e_b * inv0, e_a * inv0);
+#endif
         }
-        {
-            bool in_row = x <= span_x.y;
-            int column = min(x, last.x);
-            vec2 p = vec2(column, y);
-            // the five edges, in mesh-index order (00 < 10 < 01 < 11)
-            float e_a = edge(p00, p10, p);   // 00 -> 10
-            float e_b = edge(p10, p11, p);   // 10 -> 11
-            float e_d = edge(p00, p11, p);   // the diagonal 00 -> 11
-            float e_c = edge(p01, p11, p);   // 01 -> 11
-            float e_e = edge(p00, p01, p);   // 00 -> 01
-            uint id = 0u;
+        id = in_row ? id : 0u;
+        // Branch-free from here: llvmpipe runs buffer accesses under a divergent branch
+        // lane by lane with mask tests, about twice the cost. An uncovered pixel (id 0)
+        // changes nothing: atomicMax with 0, its colour stored out of range.
 #if WARP_CELLS_SOURCE
-            vec2 t = vec2(0.0);   // where in the cell's source rectangle, 0..1 (barycentric)
+        // nearest: the source pixel containing the point, clamped to the cell
+        ivec2 sp = clamp(ivec2(floor(s00 + t * size + 0.5)), cell_lo, cell_hi) - cell_lo;
+        id -= id != 0u ? uint(sp.y << u_sub_bits | sp.x) : 0u;
 #endif
-            // triangle 1: 00 -> 11 -> 01 -> 00 (tested first: triangle 0 comes first, it wins)
-            if (s1 != 0.0 && covers(s1 * e_d, s1 * (p11 - p00)) &&
-                covers(-s1 * e_c, s1 * (p01 - p11)) && covers(-s1 * e_e, s1 * (p00 - p01))) {
-                id = id1;
-#if WARP_CELLS_SOURCE
-                t = vec2(-e_e * inv1, 1.0 + e_c * inv1);
-#endif
-            }
-            // triangle 0: 00 -> 10 -> 11 -> 00 (where the cell folds onto itself, it wins)
-            if (s0 != 0.0 && covers(s0 * e_a, s0 * (p10 - p00)) &&
-                covers(s0 * e_b, s0 * (p11 - p10)) && covers(-s0 * e_d, s0 * (p00 - p11))) {
-                id = id0;
-#if WARP_CELLS_SOURCE
-                t = vec2(1.0 - e_b * inv0, e_a * inv0);
-#endif
-            }
-            id = in_row ? id : 0u;
-            // Branch-free from here: llvmpipe runs buffer accesses under a divergent branch
-            // lane by lane with mask tests, about twice the cost. An uncovered pixel (id 0)
-            // changes nothing: atomicMax with 0, its colour stored out of range.
-#if WARP_CELLS_SOURCE
-            // nearest: the source pixel containing the point, clamped to the cell
-            ivec2 sp = clamp(ivec2(floor(s00 + t * size + 0.5)), cell_lo, cell_hi) - cell_lo;
-            id -= id != 0u ? uint(sp.y << u_sub_bits | sp.x) : 0u;
-#endif
-            int i = y * u_target_size.x + column;
+        int i = y * u_target_size.x + column;
 #if !WARP_CELLS_FAST
-            uint before = atomicMax(warp_winner[i], id);
+        uint before = atomicMax(warp_winner[i], id);
 #endif
 #if WARP_CELLS_FUSED
-            // Every triangle writes its colour, in any order; with keys, one that finds the
-            // pixel taken lists it for warp/cells_fixup.comp.glsl, which writes the winner's.
-            ivec2 s = lattice_source_pixel(cell_lo + sp, u_source_size);
-            warp_store(id != 0u ? ivec2(column, y) : ivec2(-1), warp_source_texel(s));
+        // Every triangle writes its colour, in any order; with keys, one that finds the
+        // pixel taken lists it for warp/cells_fixup.comp.glsl, which writes the winner's.
+        ivec2 s = lattice_source_pixel(cell_lo + sp, u_source_size);
+        warp_store(id != 0u ? ivec2(column, y) : ivec2(-1), warp_source_texel(s));
 #endif
 #if WARP_CELLS_FUSED && !WARP_CELLS_FAST
-            if (before != 0u && id != 0u) {
-                uint k = atomicAdd(warp_fixup_count, 1u);
-                if (k < uint(u_fixup_capacity)) {
-                    warp_fixups[k] = uint(i);
-                }
+        if (before != 0u && id != 0u) {
+            uint k = atomicAdd(warp_fixup_count, 1u);
+            if (k < uint(u_fixup_capacity)) {
+                warp_fixups[k] = uint(i);
             }
-#endif
         }
-        ++x;
+#endif
     }
 }
