@@ -165,7 +165,8 @@ void main() {
     vec2 a = va.xy;
     vec2 b = vb.xy;
     vec2 c = vc.xy;
-    float s = sign(edge(a, b, c));
+    float area = edge(a, b, c);   // twice the signed area
+    float s = sign(area);
     // degenerate: covers nothing, as in OpenGL; so does a vertex far past any image (or not
     // a number), which the conversions to pixels below could not represent
     bool finite = all(lessThan(abs(vec4(a, b)), vec4(1.0e9))) &&
@@ -186,18 +187,17 @@ void main() {
     LeafPatch leaf = load_patch(int(adaptive_index[4 * t + 3]));
     // the linear guess in the leaf's centred coordinates (adaptive_patch.glsl), an affine
     // function of the pixel: w = w_a + guess (p - a), the barycentrics folded in
-    float inv_det = 1.0 / ((b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y));
-    mat2 to_barycentric = inv_det * mat2(c.y - a.y, a.y - b.y, a.x - c.x, b.x - a.x);
+    mat2 to_barycentric = (1.0 / area) * mat2(c.y - a.y, a.y - b.y, a.x - c.x, b.x - a.x);
     mat2 guess = mat2(vb.zw - va.zw, vc.zw - va.zw) * to_barycentric;
     guess[0] /= leaf.box.zw;
     guess[1] /= leaf.box.zw;
     vec2 w_a = (va.zw - leaf.box.xy) / leaf.box.zw;
 #endif
-    // the edges' directions along the triangle's counter-clockwise boundary
+#if ADAPTIVE_FILL != 1
+    // the edges' directions along the triangle's counter-clockwise boundary (the tie rule)
     vec2 dab = s * (b - a);
     vec2 dbc = s * (c - b);
     vec2 dca = s * (a - c);
-#if ADAPTIVE_FILL != 1
     OrderedEdge eab = ordered_edge(ia, ib, a, b);
     OrderedEdge ebc = ordered_edge(ib, ic, b, c);
     OrderedEdge eca = ordered_edge(ic, ia, c, a);

@@ -39,8 +39,8 @@ LeafPatch load_patch(int index) {
 // Where the patch maps to x (output pixels, the frame's), from the guess w0 (the leaf's
 // centred coordinates, see above), in source pixels: Newton's method, on the guess's side of
 // a fold. A step where the patch turns over and a point that runs off the patch keep the
-// guess. Branch-free: this runs at every pixel, and
-// llvmpipe runs both sides of a branch its lanes disagree on anyway.
+// guess. Branch-free: this runs at every pixel, and llvmpipe runs both sides of a branch its
+// lanes disagree on anyway.
 vec2 patch_inverse(LeafPatch leaf, vec2 x, vec2 w0) {
     float orientation = leaf.orientation;
     vec2 target = x - leaf.centre;
