@@ -31,21 +31,23 @@ def evaluate_points(
     with_matrix: bool,
     shape: tuple[int, int] | None = None,
     max_groups: int | None = None,
+    keep: tuple[moderngl.Buffer, int] | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """f at ``points`` ((K, 2) float64 pixels) as (K, 2) float64, and M as (K, 2, 2) float64
     where ``with_matrix`` (else None). ``shape``: the image whose default radius applies
     (None: the kernel's own). ``max_groups``: work groups per dispatch (the GL limit by
-    default)."""
+    default). ``keep`` (buffer, byte offset): the displacements f - v as the GPU computed
+    them (K x 2 float32, scaled coordinates) are also copied there, for later passes."""
     count = len(points)
     if count == 0:
         kernel.check_alive()
         return np.zeros((0, 2)), (np.zeros((0, 2, 2)) if with_matrix else None)
     with kernel.gl.use():
         groups = _max_groups(kernel, max_groups)
-        return _evaluate_points(kernel, points, with_matrix, shape, groups)
+        return _evaluate_points(kernel, points, with_matrix, shape, groups, keep)
 
 
-def _evaluate_points(kernel, points, with_matrix, shape, max_groups):
+def _evaluate_points(kernel, points, with_matrix, shape, max_groups, keep):
     count = len(points)
     program = kernel.program(POINTS_PASS, {"MLS_LATTICE": False, "MLS_WRITE_MATRIX": with_matrix})
     scratch = kernel.scratch
@@ -58,7 +60,9 @@ def _evaluate_points(kernel, points, with_matrix, shape, max_groups):
     if with_matrix:
         scratch.buffer("M", count * 16).bind_to_storage_buffer(bindings.MATRICES.index)
     run_1d(program, count, max_groups=max_groups)
-    kernel.gl.mgl.memory_barrier()  # the shader's writes before the read
+    kernel.gl.mgl.memory_barrier()  # the shader's writes before the read (and the copy)
+    if keep is not None:
+        kernel.gl.mgl.copy_buffer(keep[0], f_out, size=count * 8, write_offset=keep[1])
     d = np.frombuffer(f_out.read(size=count * 8), np.float32).reshape(count, 2)
     # f = v + (f - v): v keeps its float64 digits, and f is v itself where d is exactly 0
     f = points + d.astype(np.float64) * kernel.scaling.scale

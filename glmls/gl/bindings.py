@@ -55,6 +55,9 @@ CHECK = Binding("CHECK", "storage", 12, "the embedding test's counts and dispatc
 ADAPTIVE_LEAVES = Binding("ADAPTIVE_LEAVES", "storage", 13, "the adaptive mesh's leaf patches")
 ADAPTIVE_POINTS = Binding("ADAPTIVE_POINTS", "storage", 14, "adaptive: each pixel's source point")
 ADAPTIVE_HOT = Binding("ADAPTIVE_HOT", "storage", 15, "adaptive: the tiles near folds, triangles")
+ADAPTIVE_F = Binding("ADAPTIVE_F", "storage", 16, "adaptive build: f - v at each vertex (scaled)")
+ADAPTIVE_CELLS = Binding("ADAPTIVE_CELLS", "storage", 17, "adaptive build: the cells to test")
+ADAPTIVE_TESTS = Binding("ADAPTIVE_TESTS", "storage", 18, "adaptive build: each cell's test")
 # -- uniform blocks ----------------------------------------------------------------------------
 HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
 # -- texture units -----------------------------------------------------------------------------
@@ -88,6 +91,9 @@ ALL = (
     ADAPTIVE_LEAVES,
     ADAPTIVE_POINTS,
     ADAPTIVE_HOT,
+    ADAPTIVE_F,
+    ADAPTIVE_CELLS,
+    ADAPTIVE_TESTS,
     HANDLES_BLOCK,
     SOURCE,
     COORDS,

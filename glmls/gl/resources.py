@@ -43,6 +43,21 @@ class Resources:
             name, None, lambda: self._gl.mgl.buffer(reserve=max(nbytes, 16))
         )
 
+    def grown(self, name: str, nbytes: int, *, keep: int) -> moderngl.Buffer:
+        """The buffer ``name`` with room for at least ``nbytes``, its first ``keep`` bytes
+        kept: where it must grow, the new one (twice the old size at least, so that a buffer
+        filled in many steps is copied a few times only) gets them by a GPU-side copy."""
+        cached = self._buffers.get(name)
+        if cached is not None and cached[1].size >= nbytes:
+            return cached[1]
+        old = None if cached is None else cached[1]
+        size = max(nbytes, 16, 0 if old is None else 2 * old.size)
+        self.check_alive()
+        new = self._gl.mgl.buffer(reserve=size)
+        if old is not None and keep > 0:
+            self._gl.mgl.copy_buffer(new, old, size=min(keep, old.size))
+        return self._replace_buffer(name, None, lambda: new)
+
     def cached(self, name: str) -> moderngl.Buffer:
         """The buffer last made under ``name`` (``KeyError`` if none)."""
         return self._buffers[name][1]

@@ -2,25 +2,26 @@
 where the piecewise linear mesh would miss f's inverse by more than a tolerance.
 
 How it is built (:func:`build_adaptive`), level by level, numpy bookkeeping and one batched
-evaluation of f per level (``evaluate``, on the GPU in the pipeline):
+evaluation of f per level (``evaluate``, on the GPU in the pipeline) and one batched test of
+the level's cells (``test``: :func:`.adaptive_patch.estimate_cells` in float64, or on the GPU
+where f stays, :mod:`.adaptive_cells`, in the pipeline):
 
 1. the roots are the cells of the corner lattice at :data:`ROOT_STEP` pixels (with the
    margin of a border mode), f evaluated at their corners;
-2. for every cell of the level, f at its four edge mid-points and its centre; the cell's
-   *miss* is the largest distance between f there and the bilinear prediction from the
-   corners, an estimate (for smooth f) of the interpolation error of the cell. A miss in the
-   output is a source-space error of at most miss / sigma_min, sigma_min the smallest
-   singular value of f's Jacobian (estimated on the cell's four quarters);
-3. cells whose error exceeds the tolerance are split into four (their corners, mid-points and
-   centre are evaluated already), down to 1 px cells, and below (to :data:`MIN_SIZE`) where
-   the map stretches (largest singular value > 1: a 1 px cell there covers more than one
-   output pixel);
+2. for every cell of the level, f on its 5 x 5 grid (quarters of its sides): the quadratic
+   patch through the 3 x 3 nodes (corners, edge mid-points, centre), its *miss* the
+   largest distance from f at the 16 other points; that miss times :data:`SAFETY` over the
+   smallest singular value of the patch's Jacobian on the grid bounds the source-space
+   error of the cell (:mod:`.adaptive_patch`);
+3. cells whose error exceeds the tolerance are split into four (their grid's points are the
+   children's nodes; f is evaluated at the children's test points), down to 1 px cells, and
+   below (to :data:`MIN_SIZE`) where the map stretches (largest singular value > 1: a 1 px
+   cell there covers more than one output pixel);
 4. each leaf is drawn as a fan of triangles around its centre through every vertex on its
    boundary: its corners and mid-points and those of finer neighbours on its edges (hanging
    vertices). Two leaves sharing an edge then share exactly the same f-evaluated vertices on
-   it: no cracks. The fan through the leaf's nine points interpolates f about four times
-   better than the bilinear prediction the test measured (the error of linear interpolation
-   falls with the square of the size), which is the guarantee's margin.
+   it: no cracks. The scan refines each pixel's point on the fan by a Newton step on the
+   leaf's patch (``warp/adaptive.comp.glsl``), so the patch's error bound is the pixel's.
 
 Fold-overs: the triangles come in scan order, the leaves in row-major order of their top-left
 corners (row, then column), each leaf's fan together; where deformed cells overlap the first
@@ -37,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.mesh import MeshLattice
+from .adaptive_patch import NODES, SAFETY, TEST_INDEX, TESTS, estimate_cells, lagrange
 
 __all__ = [
     "MAX_POINTS_PER_PIXEL",
@@ -45,6 +47,7 @@ __all__ = [
     "ROOT_STEP",
     "SAFETY",
     "AdaptiveMesh",
+    "CellTest",
     "build_adaptive",
     "check_adaptive",
     "check_tolerance",
@@ -67,43 +70,17 @@ MAX_POINTS_PER_PIXEL = 4
 #: lattices so that a key stays within int64.
 _UNITS = 1024
 
-#: The factor between a patch's largest miss at its quarter-centres and the error bound: the
-#: cubic error peaks 3 % above its quarter-point value; the rest is for higher orders.
-SAFETY = 1.25
-
 Evaluate = Callable[[np.ndarray], np.ndarray]
+#: (nodes, tests, width, height) -> (error, stretch), as :func:`.adaptive_patch.estimate_cells`
+#: (whose ``fx`` and ``fy`` are then the tester's own: every point ``evaluate`` was given, in
+#: order).
+CellTest = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
-# positions (row, column) on a cell's 5 x 5 grid, in quarters of its sides
-_NODES = tuple((r, c) for r in (0, 2, 4) for c in (0, 2, 4))  # the patch's 3 x 3, row-major
-_TESTS = tuple((r, c) for r in range(5) for c in range(5) if r % 2 or c % 2)  # the other 16
-
-
-def _lagrange(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The quadratic Lagrange basis of the nodes at 0, 1/2 and 1, at ``t``."""
-    return 2 * (t - 0.5) * (t - 1), -4 * t * (t - 1), 2 * t * (t - 0.5)
-
-
-def _lagrange_slope(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Its derivative."""
-    return 4 * t - 3, 4 - 8 * t, 4 * t - 1
-
-
-#: The basis and its derivative at 0, 1/4, ..., 1 (rows).
-_QUARTERS = np.linspace(0.0, 1.0, 5)
-_AT_QUARTERS = np.stack(_lagrange(_QUARTERS), -1)
-_SLOPE_AT_QUARTERS = np.stack(_lagrange_slope(_QUARTERS), -1)
-_TEST_INDEX = np.array([5 * r + c for r, c in _TESTS])
 # the points that split children add, on their parent's 9 x 9 grid (eighths): on its edges
 # (shared with a neighbour that splits too) and inside it
 _EIGHTHS = tuple((r, c) for r in range(9) for c in range(9) if r % 2 or c % 2)
 _EIGHTHS_EDGE = tuple((r, c) for r, c in _EIGHTHS if r in (0, 8) or c in (0, 8))
 _EIGHTHS_INSIDE = tuple((r, c) for r, c in _EIGHTHS if r not in (0, 8) and c not in (0, 8))
-# the patch at the test points, and its derivatives (per unit of u and v) on the 5 x 5 grid:
-# rows of (row, column) points, columns of the 3 x 3 nodes row by row
-_PATCH = np.kron(_AT_QUARTERS, _AT_QUARTERS)[_TEST_INDEX]
-_JACOBIAN = np.concatenate(  # d/du, then d/dv: one product each for x and y
-    [np.kron(_AT_QUARTERS, _SLOPE_AT_QUARTERS), np.kron(_SLOPE_AT_QUARTERS, _AT_QUARTERS)]
-)
 
 
 def check_tolerance(tolerance: object) -> float:
@@ -220,80 +197,20 @@ def _grid_keys(box: np.ndarray, where: tuple[tuple[int, int], ...], parts: int) 
     return np.stack([x0 + (x1 - x0) * cols // parts, y0 + (y1 - y0) * rows // parts], axis=-1)
 
 
-def _test(fx: np.ndarray, fy: np.ndarray, nodes: np.ndarray, tests: np.ndarray, w, h):
-    """(error, sigma_max) of each cell: the source-space error of its quadratic patch, and
-    its largest stretch.
-
-    The patch (Lagrange, through the 3 x 3 ``nodes``) reproduces every x^a y^b with a, b <=
-    2, so it errs by f's third and higher derivatives: for a cubic f the error along each
-    side is a multiple of u (u - 1/2) (u - 1), largest (within 3 %) at u = 1/4 and 3/4. The
-    cell's miss is the largest distance between f and the patch at the other 16 points of
-    its 5 x 5 grid, ``tests``: the quarter-centres, and the quarter points of its edges and
-    mid-lines, where a handle just past the cell bends f most. That output-space miss times
-    :data:`SAFETY`, over the smallest singular value of the patch's Jacobian on that grid,
-    bounds (to first order) the distance from a pixel's source point to f's inverse. A cell
-    where that Jacobian's orientation is not the same throughout (it folds) has an infinite
-    error."""
-    nodes_t, tests_t = nodes.T.copy(), tests.T.copy()  # (9, K), (16, K)
-    nx, ny = fx[nodes_t], fy[nodes_t]
-    # einsum, not @: numpy's BLAS threads spin on after a product, taking the cores from
-    # the GPU driver when it is software (llvmpipe: its next passes ran up to 1.8x slower).
-    # In place where it can be: these are (25, K) arrays, and fewer of them is faster.
-    miss_x = np.einsum("ij,jk->ik", _PATCH, nx)
-    miss_x -= fx[tests_t]
-    miss_y = np.einsum("ij,jk->ik", _PATCH, ny)
-    miss_y -= fy[tests_t]
-    miss_x *= miss_x
-    miss_y *= miss_y
-    miss_x += miss_y
-    miss = np.sqrt(miss_x.max(axis=0))
-    # the Jacobian [[a, b], [c, d]] on the 25 points: columns d/dx, d/dy
-    jx = np.einsum("ij,jk->ik", _JACOBIAN, nx)
-    jy = np.einsum("ij,jk->ik", _JACOBIAN, ny)
-    a, b, c, d = jx[:25], jx[25:], jy[:25], jy[25:]
-    inv_w, inv_h = 1.0 / w, 1.0 / h
-    a *= inv_w
-    c *= inv_w
-    b *= inv_h
-    d *= inv_h
-    det = a * d
-    det -= b * c
-    # its singular values: the sum of their squares is the Frobenius norm's square, their
-    # product |det|; s_max^2 from the quadratic's larger root, s_min^2 = det^2 / s_max^2
-    # (no cancellation where they are far apart)
-    high = a * a
-    high += b * b
-    high += c * c
-    high += d * d
-    root = high * high
-    low = det * det
-    root -= 4 * low
-    np.maximum(root, 0, out=root)
-    np.sqrt(root, out=root)
-    high += root
-    high *= 0.5
-    with np.errstate(divide="ignore", invalid="ignore"):
-        low /= high
-    # one orientation over the cell (a mirror keeps one too): else it folds
-    same = (det > 0).all(axis=0) | (det < 0).all(axis=0)
-    smallest = np.where(same, np.sqrt(low.min(axis=0)), 0.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        error = np.where(smallest > 0, SAFETY * miss / smallest, np.inf)
-    error[~np.isfinite(miss)] = np.inf
-    return error, np.sqrt(high.max(axis=0))
-
-
 def build_adaptive(
     evaluate: Evaluate,
     lattice: MeshLattice,
     tolerance: float,
     *,
     min_size: float = MIN_SIZE,
+    test: CellTest | None = None,
 ) -> AdaptiveMesh:
     """The adaptive mesh over the cells of ``lattice`` (a corner lattice: its step is the
     roots' side), refined until each leaf's estimated source-space error is within
     ``tolerance`` pixels or its side reaches 1 px (``min_size`` where the map stretches).
-    ``evaluate`` maps (K, 2) float64 points to f at them, (K, 2) float64."""
+    ``evaluate`` maps (K, 2) float64 points to f at them, (K, 2) float64. ``test``: the
+    cells' test (see :data:`CellTest`; vertex ids count the points given to ``evaluate``,
+    from 0, in order); None: :func:`.adaptive_patch.estimate_cells` on the evaluated f."""
     xs, ys = lattice.axes
     x_origin, y_origin = lattice.origin
     span = max(xs[-1] - x_origin, ys[-1] - y_origin) + 1.0
@@ -315,8 +232,8 @@ def build_adaptive(
         for k in (kx, ky)
     )
     ids = vertices.add_lattice(fine_x, fine_y, evaluate)
-    rows = 4 * np.arange(len(ky) - 1)[:, None, None] + np.array([r for r, _ in _NODES + _TESTS])
-    cols = 4 * np.arange(len(kx) - 1)[None, :, None] + np.array([c for _, c in _NODES + _TESTS])
+    rows = 4 * np.arange(len(ky) - 1)[:, None, None] + np.array([r for r, _ in NODES + TESTS])
+    cols = 4 * np.arange(len(kx) - 1)[None, :, None] + np.array([c for _, c in NODES + TESTS])
     ids = ids[rows, cols].reshape(-1, 25)
     nodes, tests = ids[:, :9], ids[:, 9:]
     leaves: list[tuple[np.ndarray, ...]] = []
@@ -334,7 +251,10 @@ def build_adaptive(
         levels += 1
         x0, y0, x1, y1 = box.T
         w, h = (x1 - x0) / units, (y1 - y0) / units
-        error, stretch = _test(vertices.fx, vertices.fy, nodes, tests, w, h)
+        if test is None:
+            error, stretch = estimate_cells(vertices.fx, vertices.fy, nodes, tests, w, h)
+        else:
+            error, stretch = test(nodes, tests, w, h)
         side = np.maximum(x1 - x0, y1 - y0)
         # below 1 px only where a pixel's cell covers more than one output pixel, and not
         # where the map folds: a folded pixel has no single inverse to come closer to
@@ -363,13 +283,13 @@ def _split(box, nodes, tests, vertices: _Vertices, evaluate: Evaluate):
         _grid_keys(box, _EIGHTHS_EDGE, 8), evaluate, _grid_keys(box, _EIGHTHS_INSIDE, 8)
     )
     grid = np.empty((len(box), 9, 9), np.int64)  # each cell's 9 x 9 vertex ids
-    for k, (r, c) in enumerate(_NODES + _TESTS):
+    for k, (r, c) in enumerate(NODES + TESTS):
         grid[:, 2 * r, 2 * c] = (nodes if k < 9 else tests)[:, k if k < 9 else k - 9]
     for k, (r, c) in enumerate(_EIGHTHS_EDGE + _EIGHTHS_INSIDE):
         grid[:, r, c] = new[:, k]
     x0, y0, x1, y1 = box.T
     xm, ym = (x0 + x1) // 2, (y0 + y1) // 2
-    node_at = np.array([5 * r + c for r, c in _NODES])
+    node_at = np.array([5 * r + c for r, c in NODES])
     children = []
     for i, (top, bottom) in enumerate(((y0, ym), (ym, y1))):
         for j, (left, right) in enumerate(((x0, xm), (xm, x1))):
@@ -378,7 +298,7 @@ def _split(box, nodes, tests, vertices: _Vertices, evaluate: Evaluate):
                 (
                     np.stack([left, top, right, bottom], axis=-1),
                     own[:, node_at],
-                    own[:, _TEST_INDEX],
+                    own[:, TEST_INDEX],
                 )
             )
     return tuple(np.concatenate(part) for part in zip(*children, strict=True))
@@ -487,7 +407,7 @@ def interpolate(mesh: AdaptiveMesh, values: np.ndarray, shape: tuple[int, int]) 
     row = first_row[leaf] + k // cols[leaf]
     u = (col - x0[leaf]) / (x1 - x0)[leaf]
     v = (row - y0[leaf]) / (y1 - y0)[leaf]
-    basis_u, basis_v = _lagrange(u), _lagrange(v)
+    basis_u, basis_v = lagrange(u), lagrange(v)
     nodes = mesh.nodes[leaf]
     total = np.zeros(len(leaf))
     for a in range(3):

@@ -16,12 +16,12 @@ import numpy as np
 
 from ..core.mesh import MeshLattice
 from ..engine.kernel import MLSKernel
-from ..engine.passes import evaluate_points
 from ..gl import bindings
 from ..gl.context import GLContext
 from ..gl.dispatch import run_1d, set_uniforms
 from ..gl.resources import Resources
 from .adaptive import ROOT_STEP, AdaptiveMesh, build_adaptive, check_adaptive
+from .adaptive_cells import GPUCells
 from .adaptive_folds import check_folds, hot_tiles
 from .frame import Frame
 
@@ -51,13 +51,10 @@ class AdaptiveScan:
         self.last_keyed = 0
 
     def build(self, kernel: MLSKernel, lattice: MeshLattice, tolerance: float) -> AdaptiveMesh:
-        """The adaptive mesh over ``lattice``'s cells (the roots), f from ``kernel``."""
-
-        def evaluate(points: np.ndarray) -> np.ndarray:
-            f, _ = evaluate_points(kernel, points, with_matrix=False, shape=lattice.shape)
-            return f
-
-        return build_adaptive(evaluate, lattice, tolerance)
+        """The adaptive mesh over ``lattice``'s cells (the roots), f from ``kernel``, the
+        cells tested on the GPU (:mod:`.adaptive_cells`)."""
+        cells = GPUCells(self._gl, self._resources, kernel, lattice.shape)
+        return build_adaptive(cells.evaluate, lattice, tolerance, test=cells.test)
 
     def mesh(self, kernel: MLSKernel, shape: tuple[int, int], tolerance: float) -> AdaptiveMesh:
         """The adaptive mesh that ``quads`` with ``tolerance`` draws for an image of ``shape``

@@ -1,0 +1,137 @@
+"""The quadratic patch of an adaptive mesh's cell (:mod:`.adaptive`) and the cell's error
+test: the Lagrange basis through the 3 x 3 nodes (corners, edge mid-points, centre) of the
+cell's 5 x 5 grid in quarters of its sides, the 16 other points of that grid where the test
+compares the patch with f, and the test itself in float64 (:func:`estimate_cells`, the
+reference of the GPU's ``warp/adaptive_test.comp.glsl``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "NODES",
+    "PATCH_AT_TESTS",
+    "PATCH_SLOPES",
+    "SAFETY",
+    "TESTS",
+    "TEST_INDEX",
+    "error_bound",
+    "estimate_cells",
+    "lagrange",
+    "lagrange_slope",
+]
+
+#: The factor between a patch's largest miss at its quarter-centres and the error bound: the
+#: cubic error peaks 3 % above its quarter-point value; the rest is for higher orders.
+SAFETY = 1.25
+
+#: Positions (row, column) on a cell's 5 x 5 grid, in quarters of its sides: the patch's
+#: 3 x 3 nodes, row by row, and the 16 test points, row by row.
+NODES = tuple((r, c) for r in (0, 2, 4) for c in (0, 2, 4))
+TESTS = tuple((r, c) for r in range(5) for c in range(5) if r % 2 or c % 2)
+#: The test points' places in the 5 x 5 grid, row-major.
+TEST_INDEX = np.array([5 * r + c for r, c in TESTS])
+
+
+def lagrange(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The quadratic Lagrange basis of the nodes at 0, 1/2 and 1, at ``t``."""
+    return 2 * (t - 0.5) * (t - 1), -4 * t * (t - 1), 2 * t * (t - 0.5)
+
+
+def lagrange_slope(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Its derivative."""
+    return 4 * t - 3, 4 - 8 * t, 4 * t - 1
+
+
+# the basis and its derivative at 0, 1/4, ..., 1 (rows)
+_QUARTERS = np.linspace(0.0, 1.0, 5)
+_AT_QUARTERS = np.stack(lagrange(_QUARTERS), -1)
+_SLOPE_AT_QUARTERS = np.stack(lagrange_slope(_QUARTERS), -1)
+#: The patch at the test points (16, 9), and its derivatives per unit of u, then of v, on
+#: the 5 x 5 grid (50, 9): rows of points, columns of the nodes.
+PATCH_AT_TESTS = np.kron(_AT_QUARTERS, _AT_QUARTERS)[TEST_INDEX]
+PATCH_SLOPES = np.concatenate(
+    [np.kron(_AT_QUARTERS, _SLOPE_AT_QUARTERS), np.kron(_SLOPE_AT_QUARTERS, _AT_QUARTERS)]
+)
+
+
+def estimate_cells(
+    fx: np.ndarray,
+    fy: np.ndarray,
+    nodes: np.ndarray,
+    tests: np.ndarray,
+    width: np.ndarray,
+    height: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(error, stretch) of each cell, (K,) float64: the source-space error of its quadratic
+    patch, and its largest stretch. ``fx``, ``fy``: f at every vertex (V,); ``nodes`` (K, 9)
+    and ``tests`` (K, 16) the vertex ids of each cell's 3 x 3 patch nodes and 16 test points
+    (rows of its 5 x 5 grid, in quarters of its sides, row by row); ``width`` and ``height``
+    (K,) its sides in pixels. The float64 reference of the GPU's test
+    (``warp/adaptive_test.comp.glsl``, through :mod:`.adaptive_cells`).
+
+    The patch (Lagrange, through the 3 x 3 ``nodes``) reproduces every x^a y^b with a, b <=
+    2, so it errs by f's third and higher derivatives: for a cubic f the error along each
+    side is a multiple of u (u - 1/2) (u - 1), largest (within 3 %) at u = 1/4 and 3/4. The
+    cell's miss is the largest distance between f and the patch at the other 16 points of
+    its 5 x 5 grid, ``tests``: the quarter-centres, and the quarter points of its edges and
+    mid-lines, where a handle just past the cell bends f most. That output-space miss times
+    :data:`SAFETY`, over the smallest singular value of the patch's Jacobian on that grid,
+    bounds (to first order) the distance from a pixel's source point to f's inverse
+    (:func:`error_bound`)."""
+    nodes_t, tests_t = nodes.T.copy(), tests.T.copy()  # (9, K), (16, K)
+    nx, ny = fx[nodes_t], fy[nodes_t]
+    # einsum, not @: numpy's BLAS threads spin on after a product, taking the cores from
+    # the GPU driver when it is software (llvmpipe: its next passes ran up to 1.8x slower).
+    # In place where it can be: these are (25, K) arrays, and fewer of them is faster.
+    miss_x = np.einsum("ij,jk->ik", PATCH_AT_TESTS, nx)
+    miss_x -= fx[tests_t]
+    miss_y = np.einsum("ij,jk->ik", PATCH_AT_TESTS, ny)
+    miss_y -= fy[tests_t]
+    miss_x *= miss_x
+    miss_y *= miss_y
+    miss_x += miss_y
+    miss = np.sqrt(miss_x.max(axis=0))
+    # the Jacobian [[a, b], [c, d]] on the 25 points: columns d/dx, d/dy
+    jx = np.einsum("ij,jk->ik", PATCH_SLOPES, nx)
+    jy = np.einsum("ij,jk->ik", PATCH_SLOPES, ny)
+    a, b, c, d = jx[:25], jx[25:], jy[:25], jy[25:]
+    inv_w, inv_h = 1.0 / width, 1.0 / height
+    a *= inv_w
+    c *= inv_w
+    b *= inv_h
+    d *= inv_h
+    det = a * d
+    det -= b * c
+    # its singular values: the sum of their squares is the Frobenius norm's square, their
+    # product |det|; s_max^2 from the quadratic's larger root, s_min^2 = det^2 / s_max^2
+    # (no cancellation where they are far apart)
+    high = a * a
+    high += b * b
+    high += c * c
+    high += d * d
+    root = high * high
+    low = det * det
+    root -= 4 * low
+    np.maximum(root, 0, out=root)
+    np.sqrt(root, out=root)
+    high += root
+    high *= 0.5
+    with np.errstate(divide="ignore", invalid="ignore"):
+        low /= high
+    # one orientation over the cell (a mirror keeps one too): else it folds
+    same = (det > 0).all(axis=0) | (det < 0).all(axis=0)
+    smallest = np.where(same, np.sqrt(low.min(axis=0)), 0.0)
+    return error_bound(miss, smallest), np.sqrt(high.max(axis=0))
+
+
+def error_bound(miss: np.ndarray, smallest: np.ndarray) -> np.ndarray:
+    """A cell's source-space error bound from its patch's ``miss`` (output pixels) and the
+    smallest singular value of its Jacobian: :data:`SAFETY` x miss / smallest; infinite where
+    the cell folds (``smallest`` 0: the Jacobian's orientation is not the same throughout)
+    or the miss is not finite."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        error = np.where(smallest > 0, SAFETY * miss / smallest, np.inf)
+    error[~np.isfinite(miss)] = np.inf
+    return error
