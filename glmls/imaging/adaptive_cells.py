@@ -49,9 +49,8 @@ class GPUCells:
             f, _ = evaluate_points(
                 self._kernel, points, with_matrix=False, shape=self._shape, keep=(store, at)
             )
-        bad = ~np.isfinite(f).all(axis=1)
-        if bad.any():
-            self._bad.append(self.count + np.flatnonzero(bad))
+        if not np.isfinite(f).all():  # one flat pass; rows (axis=1) cost ~10x as much
+            self._bad.append(self.count + np.flatnonzero(~np.isfinite(f).all(axis=1)))
         self.count += n
         return f
 

@@ -8,6 +8,7 @@ from helpers import smooth_handles
 from numpy.testing import assert_array_equal
 
 import glmls
+from glmls.imaging.source import as_rgba8
 
 DTYPES = [np.uint8, np.uint16, np.float32, np.float64]
 SHAPES = [(5, 7), (5, 7, 1), (5, 7, 2), (5, 7, 3), (5, 7, 4), (1, 1), (1, 9), (9, 1, 3)]
@@ -103,3 +104,21 @@ def test_background_per_channel_and_alpha(gl):
         assert_array_equal(m.warp(img, background=(1, 2, 3))[0, 0], [1, 2, 3, 0])
         assert_array_equal(m.warp(img, background=(1, 2, 3, 4))[0, 0], [1, 2, 3, 4])
         assert_array_equal(m.warp(img[..., :3], background=(1, 2, 3))[0, 0], [1, 2, 3])
+
+
+@pytest.mark.parametrize("shape", [(1, 1, 3), (1, 2, 3), (2, 1, 3), (7, 5, 3), (64, 33, 3)])
+@pytest.mark.parametrize("layout", ["contiguous", "strided", "read-only"])
+def test_rgb_is_padded_to_rgba_with_opaque_alpha(rng, shape, layout):
+    """The upload's RGB -> RGBA (words read across pixel boundaries, the last pixel apart)
+    against the per-channel definition, on every layout an image may come in."""
+    img = rng.integers(0, 256, shape, dtype=np.uint8)
+    if layout == "strided":
+        wide = rng.integers(0, 256, (shape[0], 2 * shape[1], 4), dtype=np.uint8)
+        wide[:, ::2, :3] = img
+        img = wide[:, ::2, :3]
+    elif layout == "read-only":
+        img = np.frombuffer(img.tobytes(), np.uint8).reshape(shape)
+    want = np.concatenate([img, np.full((*shape[:2], 1), 255, np.uint8)], axis=2)
+    got = as_rgba8(img)
+    assert got.shape == (*shape[:2], 4) and got.dtype == np.uint8
+    assert_array_equal(got, want)
