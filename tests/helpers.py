@@ -86,6 +86,26 @@ def reference_mesh(m, shape, grid=1):
     return f.reshape(v.shape)
 
 
+def stretched_handles(shape):
+    """Two close handles pulled apart (the map stretches strongly between them) and four
+    that pin the corners."""
+    height, width = shape
+    c = np.array([(width - 1) / 2, (height - 1) / 2])
+    p = np.array([[0.15, 0.15], [0.85, 0.15], [0.85, 0.85], [0.15, 0.85]]) * [width, height]
+    p = np.concatenate([p, [c - [4, 0], c + [4, 0]]])
+    q = p.copy()
+    q[4] -= [14, 0]
+    q[5] += [14, 0]
+    return p, q
+
+
+def jittered_moves(shape, rng):
+    """W2 in small: random handles moved by up to 3.4 % of the image (the mesh folds)."""
+    height, width = shape
+    p = rng.uniform(0.05, 0.95, (24, 2)) * [width, height]
+    return p, p + rng.uniform(-0.034, 0.034, p.shape) * [width, height]
+
+
 def folded_case():
     """A small image whose mesh folds (the centre handle dragged past its neighbours)."""
     shape = (40, 48)

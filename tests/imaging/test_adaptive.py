@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import folded_case, smooth_handles
+from helpers import folded_case, jittered_moves, smooth_handles, stretched_handles
 
 import glmls
 from glmls.core import reference
@@ -17,26 +17,6 @@ from glmls.imaging.frame import Frame
 from glmls.imaging.pipeline import WarpPipeline
 
 SHAPE = (160, 192)
-
-
-def stretched_handles(shape):
-    """Two close handles pulled apart (the map stretches strongly between them) and four
-    that pin the corners."""
-    height, width = shape
-    c = np.array([(width - 1) / 2, (height - 1) / 2])
-    p = np.array([[0.15, 0.15], [0.85, 0.15], [0.85, 0.85], [0.15, 0.85]]) * [width, height]
-    p = np.concatenate([p, [c - [4, 0], c + [4, 0]]])
-    q = p.copy()
-    q[4] -= [14, 0]
-    q[5] += [14, 0]
-    return p, q
-
-
-def random_handles(shape, rng):
-    """W2 in small: random handles moved by up to 3.4 % of the image (the mesh folds)."""
-    height, width = shape
-    p = rng.uniform(0.05, 0.95, (24, 2)) * [width, height]
-    return p, p + rng.uniform(-0.034, 0.034, p.shape) * [width, height]
 
 
 def source_points(m, shape, tolerance):
@@ -83,7 +63,7 @@ def test_every_source_point_is_within_the_tolerance_of_the_inverse(gl, case, tol
     handles = {
         "smooth": smooth_handles(SHAPE, rng),
         "stretched": stretched_handles(SHAPE),
-        "random": random_handles(SHAPE, rng),
+        "random": jittered_moves(SHAPE, rng),
     }[case]
     with glmls.MLS(*handles, shape=SHAPE) as m:
         mesh, xy, covered = source_points(m, SHAPE, tolerance)
@@ -260,7 +240,7 @@ def test_one_pass_draws_an_embedding_and_keys_only_near_folds(gl, rng, monkeypat
     np.testing.assert_array_equal(fast, slow)
     partly = 0
     for seed in range(12):
-        handles = random_handles(SHAPE, np.random.default_rng(seed))
+        handles = jittered_moves(SHAPE, np.random.default_rng(seed))
         with glmls.MLS(*handles, shape=SHAPE) as m:
             mesh = m.mesh(SHAPE, tolerance=0.05)
             folds = adaptive_folds.check_folds(mesh)
@@ -340,7 +320,7 @@ def test_the_colour_pass_matches_the_point_pass(gl, rng, border):
     in a fragment pass: the same pixels (linear: within 2/255, a texture filter's 8-bit
     weights on the RGBA8 source)."""
     image = rng.integers(0, 256, (*SHAPE, 3), dtype=np.uint8)
-    handles = random_handles(SHAPE, rng)  # folds: the keyed passes
+    handles = jittered_moves(SHAPE, rng)  # folds: the keyed passes
     with glmls.MLS(*handles, shape=SHAPE) as m:
         for interpolation in ("nearest", "linear"):
             options = {"tolerance": 0.05, "border": border, "interpolation": interpolation}

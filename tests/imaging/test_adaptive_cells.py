@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import folded_case
+from helpers import folded_case, jittered_moves, stretched_handles
 
 import glmls
 from glmls.core.mesh import MeshLattice
@@ -25,24 +25,6 @@ SHAPE = (160, 192)
 # (measured up to 0.2 % on W2's nearly folded 1/4 px cells) plus 1e-5 px, the stretches
 # within 1e-4 (measured 1e-5).
 RTOL_ERROR, ATOL_ERROR, RTOL_STRETCH = 5e-3, 1e-5, 1e-4
-
-
-def stretched(shape):
-    """Two close handles pulled apart (cells down to 1/4 px) and four pinning the corners."""
-    height, width = shape
-    c = np.array([(width - 1) / 2, (height - 1) / 2])
-    p = np.array([[0.15, 0.15], [0.85, 0.15], [0.85, 0.85], [0.15, 0.85]]) * [width, height]
-    p = np.concatenate([p, [c - [4, 0], c + [4, 0]]])
-    q = p.copy()
-    q[4] -= [14, 0]
-    q[5] += [14, 0]
-    return p, q
-
-
-def random_moves(shape, rng):
-    height, width = shape
-    p = rng.uniform(0.05, 0.95, (24, 2)) * [width, height]
-    return p, p + rng.uniform(-0.034, 0.034, p.shape) * [width, height]
 
 
 def compare_levels(gl, m, shape, tolerance):
@@ -87,9 +69,9 @@ def compare_levels(gl, m, shape, tolerance):
 def test_the_gpu_cell_test_matches_the_float64_reference(gl, rng, case):
     shape = SHAPE
     if case == "stretched":
-        p, q = stretched(shape)
+        p, q = stretched_handles(shape)
     elif case == "random":
-        p, q = random_moves(shape, rng)
+        p, q = jittered_moves(shape, rng)
     else:
         shape, p, q = folded_case()
     with glmls.MLS(p, q, shape=shape, ctx=gl) as m:
@@ -103,7 +85,7 @@ def test_the_gpu_cell_test_matches_the_float64_reference(gl, rng, case):
 def test_the_warp_builds_the_mesh_the_reference_test_builds(gl, rng):
     """The pipeline (the GPU's test) and the float64 test split the same cells here: no
     cell's error is within the GPU's rounding of the tolerance."""
-    p, q = random_moves(SHAPE, rng)
+    p, q = jittered_moves(SHAPE, rng)
     with glmls.MLS(p, q, shape=SHAPE, ctx=gl) as m:
         _, want = compare_levels(gl, m, SHAPE, 0.05)
         got = m.mesh(SHAPE, tolerance=0.05)
@@ -125,7 +107,7 @@ def test_cells_with_a_vertex_where_f_is_not_finite_have_an_infinite_error(gl, rn
         return f, m
 
     monkeypatch.setattr(adaptive_cells, "evaluate_points", broken)
-    p, q = random_moves(SHAPE, rng)
+    p, q = jittered_moves(SHAPE, rng)
     resources = Resources(gl)
     try:
         with glmls.MLS(p, q, shape=SHAPE, ctx=gl) as m:
@@ -147,7 +129,7 @@ def test_cells_with_a_vertex_where_f_is_not_finite_have_an_infinite_error(gl, rn
 
 
 def test_evaluate_points_keeps_the_displacements_on_the_gpu(gl, rng):
-    p, q = random_moves(SHAPE, rng)
+    p, q = jittered_moves(SHAPE, rng)
     points = rng.uniform(0, 150, (100, 2))
     resources = Resources(gl)
     try:
