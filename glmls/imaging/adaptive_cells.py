@@ -20,7 +20,8 @@ from .adaptive_patch import error_bound
 
 __all__ = ["GPUCells"]
 
-#: uint32 words per cell in the test's input: 9 node ids, 16 test ids, width, height, 0.
+#: uint32 words per cell in the test's input: 9 node ids, 16 test ids, width, height, 0
+#: (the shader's CELL_WORDS, defined from here).
 _CELL_WORDS = 28
 
 
@@ -75,7 +76,7 @@ class GPUCells:
             resources.cached("adaptive-f").bind_to_storage_buffer(bindings.ADAPTIVE_F.index)
             out = resources.buffer("adaptive-tests", count * 16)
             out.bind_to_storage_buffer(bindings.ADAPTIVE_TESTS.index)
-            program = gl.compute("warp/adaptive_test.comp.glsl")
+            program = gl.compute("warp/adaptive_test.comp.glsl", {"CELL_WORDS": _CELL_WORDS})
             set_uniforms(program, {"u_scale": float(self._kernel.scaling.scale)})
             run_1d(program, count, max_groups=gl.limits["max_work_groups_x"])
             gl.mgl.memory_barrier()

@@ -26,7 +26,9 @@ layout(std430, binding = BIND_ADAPTIVE_TESTS) writeonly buffer AdaptiveTests {
     vec4 adaptive_test[];
 };
 
-#define CELL_WORDS 28
+#ifndef CELL_WORDS
+#error "CELL_WORDS: the host's layout (glmls.imaging.adaptive_cells) defines it"
+#endif
 
 uniform int u_count;      // cells
 uniform int u_offset;     // first cell of this dispatch
