@@ -20,12 +20,19 @@ SENTINEL = 65535
 ROOT = Path(__file__).resolve().parent.parent
 
 
+def child_env(**extra: str) -> dict[str, str]:
+    """The environment for a child Python: this checkout first on PYTHONPATH, the caller's
+    PYTHONPATH kept after it (where dependencies may be installed, e.g. ``pip --target``)."""
+    paths = [str(ROOT), *filter(None, os.environ.get("PYTHONPATH", "").split(os.pathsep))]
+    return {**os.environ, "PYTHONPATH": os.pathsep.join(paths), **extra}
+
+
 def run_glmls(
     *args: str, cwd: Path, module: str = "glmls", umask: int | None = None
 ) -> subprocess.CompletedProcess:
     """``python -m <module> *args`` in ``cwd`` from this checkout, output captured (and the
     process's file-creation mask ``umask``)."""
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env = child_env()
     command = [sys.executable, "-m", module, *args]
     if umask is not None:
         command = ["sh", "-c", f'umask {umask:03o} && exec "$@"', "sh", *command]

@@ -5,7 +5,6 @@ window size; a live session recorded with ``--record`` replays to the same pictu
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import subprocess
 import sys
@@ -13,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import child_env
 
 import glmls
 from glmls.app.layout import layout
@@ -21,7 +21,6 @@ from glmls.app.window import PANEL_CHARS, TEXT_SIZE
 from glmls.app.zoom import Zoom, zoom_at
 from glmls.files.landmarks import read_handle_set
 
-ROOT = str(Path(glmls.__file__).resolve().parent.parent)
 XVFB = shutil.which("xvfb-run")
 pytestmark = pytest.mark.skipif(
     XVFB is None, reason="xvfb-run is not installed (scripts/setup.sh installs xvfb xauth)"
@@ -31,7 +30,7 @@ SIZE = f"{WINDOW[0]}x{WINDOW[1]}"
 SHAPE = (100, 100)
 BLUE = (0, 0, 160)
 PANEL = round(PANEL_CHARS * GlyphAtlas(TEXT_SIZE).advance["M"]) + 24
-ENV = dict(os.environ, PYTHONPATH=ROOT)
+ENV = child_env()
 
 
 def demo(*args: str) -> subprocess.CompletedProcess:

@@ -4,7 +4,6 @@ screenshots; and the message when there is no display."""
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import subprocess
 import sys
@@ -12,13 +11,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import child_env
 
 import glmls
 from glmls.app.layout import layout
 from glmls.app.text import GlyphAtlas
 from glmls.app.window import PANEL_CHARS, TEXT_SIZE
 
-ROOT = str(Path(glmls.__file__).resolve().parent.parent)
 XVFB = shutil.which("xvfb-run")
 needs_xvfb = pytest.mark.skipif(
     XVFB is None, reason="xvfb-run is not installed (scripts/setup.sh installs xvfb xauth)"
@@ -29,7 +28,7 @@ BLUE = (0, 0, 160)
 
 
 def _env(**changes: str | None) -> dict[str, str]:
-    env = dict(os.environ, PYTHONPATH=ROOT)
+    env = child_env()
     for key, value in changes.items():
         if value is None:
             env.pop(key, None)

@@ -3,7 +3,6 @@ order, in a fresh process (a window's under Xvfb), in an empty folder."""
 
 from __future__ import annotations
 
-import os
 import re
 import shutil
 import subprocess
@@ -11,6 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from helpers import child_env
 
 ROOT = Path(__file__).resolve().parent.parent.parent
 DOCUMENTS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
@@ -46,10 +46,7 @@ def test_examples_run_as_written(path, tmp_path):
         if xvfb is None:
             pytest.skip("xvfb-run is not installed (scripts/setup.sh installs it)")
         command = [xvfb, "-a", *command]
-    env = {
-        **os.environ,
-        "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
-    }
+    env = child_env()
     done = subprocess.run(
         command, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600
     )

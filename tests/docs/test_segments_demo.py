@@ -4,12 +4,12 @@ point handles at the same ends bend them; and the bundled photograph it uses."""
 from __future__ import annotations
 
 import importlib.util
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
+from helpers import child_env
 
 import glmls
 from glmls import data
@@ -54,7 +54,7 @@ def test_the_segments_demo_runs(tmp_path):
     done = subprocess.run(
         [sys.executable, "demos/segments.py", "--out", str(out), "--scale", "0.25"],
         cwd=ROOT, capture_output=True, text=True, timeout=300,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        env=child_env(),
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert "| handle: rocket axis |" in done.stdout

@@ -4,14 +4,13 @@ needs)."""
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import smooth_handles, turned_handles
+from helpers import child_env, smooth_handles, turned_handles
 from scipy import ndimage
 
 import glmls
@@ -259,7 +258,7 @@ def test_the_borders_demo_runs(tmp_path):
     done = subprocess.run(
         [sys.executable, "demos/borders.py", "--out", str(out), "--scale", "0.2"],
         cwd=ROOT, capture_output=True, text=True, timeout=300,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        env=child_env(),
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert "border edge: 0 pixels left" in done.stdout
