@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.mesh import MeshLattice
-from .adaptive_patch import NODES, SAFETY, TEST_INDEX, TESTS, estimate_cells, lagrange
+from .adaptive_patch import NODES, SAFETY, TESTS, estimate_cells, lagrange
 
 __all__ = [
     "MAX_POINTS_PER_PIXEL",
@@ -76,11 +76,25 @@ Evaluate = Callable[[np.ndarray], np.ndarray]
 #: order).
 CellTest = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
-# the points that split children add, on their parent's 9 x 9 grid (eighths): on its edges
-# (shared with a neighbour that splits too) and inside it
-_EIGHTHS = tuple((r, c) for r in range(9) for c in range(9) if r % 2 or c % 2)
-_EIGHTHS_EDGE = tuple((r, c) for r, c in _EIGHTHS if r in (0, 8) or c in (0, 8))
-_EIGHTHS_INSIDE = tuple((r, c) for r, c in _EIGHTHS if r not in (0, 8) and c not in (0, 8))
+# A split cell's 9 x 9 grid (eighths of its sides), as flat places 9 * row + column: the
+# 5 x 5 grid it had (its nodes, then its test points), and the points it adds, on its
+# right, bottom, left and top edges (shared with a neighbour that splits too) and inside
+_OLD = np.array([18 * r + 2 * c for r, c in NODES + TESTS])
+_RIGHT_FLAT = np.array([9 * r + 8 for r in range(1, 9, 2)])
+_BOTTOM_FLAT = np.array([72 + c for c in range(1, 9, 2)])
+_LEFT_FLAT = np.array([9 * r for r in range(1, 9, 2)])
+_TOP_FLAT = np.array(list(range(1, 9, 2)))
+_INSIDE_FLAT = np.array([9 * r + c for r in range(1, 8) for c in range(1, 8) if r % 2 or c % 2])
+_NEW_FLAT = np.concatenate([_RIGHT_FLAT, _BOTTOM_FLAT, _LEFT_FLAT, _TOP_FLAT, _INSIDE_FLAT])
+_NEW = tuple((int(k) // 9, int(k) % 9) for k in _NEW_FLAT)
+# each child's (row, column) of the four, and its nodes and test points on the 9 x 9 grid
+_CHILDREN = {
+    (i, j): tuple(
+        np.array([9 * (4 * i + r) + 4 * j + c for r, c in where]) for where in (NODES, TESTS)
+    )
+    for i in (0, 1)
+    for j in (0, 1)
+}
 
 
 def check_tolerance(tolerance: object) -> float:
@@ -151,12 +165,27 @@ class _Vertices:
         self.origin = np.asarray(origin, dtype=np.float64)
         self.units = units
         self.keys: list[np.ndarray] = []
-        self.fx = self.fy = np.zeros(0)  # f's coordinates apart: numpy gathers 1-D fastest
+        self._f: list[np.ndarray] = []  # per level, joined when read: no copy per level
+        self._joined = 0  # how many of them the last join covered
+        self._xy = (np.zeros(0), np.zeros(0))
         self.count = 0
 
     def _append(self, f: np.ndarray) -> None:
-        self.fx = np.concatenate([self.fx, f[:, 0]])
-        self.fy = np.concatenate([self.fy, f[:, 1]])
+        self._f.append(f)
+
+    def f(self) -> np.ndarray:
+        """f at every vertex, (count, 2) float64."""
+        if len(self._f) > 1:
+            self._f = [np.concatenate(self._f)]
+        return self._f[0] if self._f else np.zeros((0, 2))
+
+    def f_apart(self) -> tuple[np.ndarray, np.ndarray]:
+        """f's x and y at every vertex, (count,) float64 each (numpy gathers 1-D fastest)."""
+        if self._joined != self.count:
+            f = self.f()
+            self._xy = (np.ascontiguousarray(f[:, 0]), np.ascontiguousarray(f[:, 1]))
+            self._joined = self.count
+        return self._xy
 
     def add_lattice(self, xs: np.ndarray, ys: np.ndarray, evaluate: Evaluate) -> np.ndarray:
         """Evaluate f at the lattice of keys ``xs`` x ``ys`` (distinct, increasing); its
@@ -168,23 +197,13 @@ class _Vertices:
         self.count += len(new)
         return ids
 
-    def add(self, keys: np.ndarray, evaluate: Evaluate, distinct: np.ndarray | None = None):
-        """Evaluate f (in one call) at the distinct ``keys`` ((K, n, 2) int64) and at
-        ``distinct`` ((K, m, 2), none of them repeated or among ``keys``); the vertex ids
-        (K, n + m)."""
-        flat = keys.reshape(-1, 2)
-        width = int(flat[:, 1].max()) + 1
-        unique, inverse = np.unique(flat[:, 0] * width + flat[:, 1], return_inverse=True)
-        new = np.stack([unique // width, unique % width], axis=-1)
-        ids = self.count + inverse.reshape(keys.shape[:-1])
-        if distinct is not None:
-            extra = distinct.reshape(-1, 2)
-            own = self.count + len(new) + np.arange(len(extra)).reshape(distinct.shape[:-1])
-            new = np.concatenate([new, extra])
-            ids = np.concatenate([ids, own], axis=1)
-        self.keys.append(new)
-        self._append(evaluate(self.origin + new / self.units))
-        self.count += len(new)
+    def add(self, keys: np.ndarray, evaluate: Evaluate) -> np.ndarray:
+        """Evaluate f (in one call) at ``keys`` ((n, 2) int64, none of them evaluated
+        before, none repeated); their vertex ids (n,)."""
+        self.keys.append(keys)
+        self._append(evaluate(self.origin + keys / self.units))
+        ids = self.count + np.arange(len(keys))
+        self.count += len(keys)
         return ids
 
 
@@ -252,7 +271,7 @@ def build_adaptive(
         x0, y0, x1, y1 = box.T
         w, h = (x1 - x0) / units, (y1 - y0) / units
         if test is None:
-            error, stretch = estimate_cells(vertices.fx, vertices.fy, nodes, tests, w, h)
+            error, stretch = estimate_cells(*vertices.f_apart(), nodes, tests, w, h)
         else:
             error, stretch = test(nodes, tests, w, h)
         side = np.maximum(x1 - x0, y1 - y0)
@@ -275,33 +294,62 @@ def build_adaptive(
 def _split(box, nodes, tests, vertices: _Vertices, evaluate: Evaluate):
     """The four children of each cell of ``box`` (their boxes, nodes and test points), f
     evaluated at the points they add (in one call): the cells' 9 x 9 grids in eighths."""
-    if len(box) == 0:
+    count = len(box)
+    if count == 0:
         return box, nodes, tests
-    # a neighbour that splits too shares the new points on the edges; those inside are
-    # the cell's own (no search for them)
-    new = vertices.add(
-        _grid_keys(box, _EIGHTHS_EDGE, 8), evaluate, _grid_keys(box, _EIGHTHS_INSIDE, 8)
+    grid = np.empty((count, 81), np.int64)  # each cell's 9 x 9 vertex ids, row by row
+    grid[:, _OLD] = np.concatenate([nodes, tests], axis=1)
+    # A neighbour across an edge that splits too (at this level: the same depth, so the
+    # same edge) shares the new points on it; found by the corner both have (vertex ids
+    # are unique), no search of keys. Every cell makes the points of its right and bottom
+    # edges, and of its left and top ones where no splitting neighbour has made them.
+    left = _owner(grid[:, 8], grid[:, 0])  # whose top-right corner is my top-left one
+    top = _owner(grid[:, 72], grid[:, 0])  # whose bottom-left corner is my top-left one
+    alone_left, alone_top = np.flatnonzero(left < 0), np.flatnonzero(top < 0)
+    new = _grid_keys(box, _NEW, 8)  # (K, 56, 2): right, bottom, left, top edges, inside
+    made = (  # what each cell makes, in the order the points are evaluated
+        (slice(None), slice(0, 8)),
+        (alone_left, slice(8, 12)),
+        (alone_top, slice(12, 16)),
+        (slice(None), slice(16, None)),
     )
-    grid = np.empty((len(box), 9, 9), np.int64)  # each cell's 9 x 9 vertex ids
-    for k, (r, c) in enumerate(NODES + TESTS):
-        grid[:, 2 * r, 2 * c] = (nodes if k < 9 else tests)[:, k if k < 9 else k - 9]
-    for k, (r, c) in enumerate(_EIGHTHS_EDGE + _EIGHTHS_INSIDE):
-        grid[:, r, c] = new[:, k]
+    parts = [new[cells, places].reshape(-1, 2) for cells, places in made]
+    ids = vertices.add(np.concatenate(parts), evaluate)
+    at = 0
+    for (cells, places), part in zip(made, parts, strict=True):
+        flat = _NEW_FLAT[places]
+        rows = slice(None) if isinstance(cells, slice) else cells[:, None]
+        grid[rows, flat] = ids[at : at + len(part)].reshape(-1, len(flat))
+        at += len(part)
+    for neighbour, mine, theirs in (
+        (left, _LEFT_FLAT, _RIGHT_FLAT),
+        (top, _TOP_FLAT, _BOTTOM_FLAT),
+    ):
+        cells = np.flatnonzero(neighbour >= 0)
+        grid[cells[:, None], mine] = grid[neighbour[cells][:, None], theirs]
     x0, y0, x1, y1 = box.T
     xm, ym = (x0 + x1) // 2, (y0 + y1) // 2
-    node_at = np.array([5 * r + c for r, c in NODES])
     children = []
-    for i, (top, bottom) in enumerate(((y0, ym), (ym, y1))):
-        for j, (left, right) in enumerate(((x0, xm), (xm, x1))):
-            own = grid[:, 4 * i : 4 * i + 5, 4 * j : 4 * j + 5].reshape(-1, 25)
-            children.append(
-                (
-                    np.stack([left, top, right, bottom], axis=-1),
-                    own[:, node_at],
-                    own[:, TEST_INDEX],
-                )
+    for (i, j), (child_nodes, child_tests) in _CHILDREN.items():
+        left_, right = (x0, xm) if j == 0 else (xm, x1)
+        top_, bottom = (y0, ym) if i == 0 else (ym, y1)
+        children.append(
+            (
+                np.stack([left_, top_, right, bottom], axis=-1),
+                grid[:, child_nodes],
+                grid[:, child_tests],
             )
+        )
     return tuple(np.concatenate(part) for part in zip(*children, strict=True))
+
+
+def _owner(corners: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+    """For each of ``wanted`` (vertex ids), the index of the cell whose corner (``corners``,
+    one per cell, distinct) it is, or -1."""
+    order = np.argsort(corners)
+    ordered = corners[order]
+    at = np.minimum(np.searchsorted(ordered, wanted), len(ordered) - 1)
+    return np.where(ordered[at] == wanted, order[at], -1)
 
 
 def _assemble(vertices: _Vertices, leaves, levels: int) -> AdaptiveMesh:
@@ -309,24 +357,23 @@ def _assemble(vertices: _Vertices, leaves, levels: int) -> AdaptiveMesh:
     box = np.concatenate([part[0] for part in leaves])
     nodes = np.concatenate([part[1] for part in leaves])
     error = np.concatenate([part[2] for part in leaves])
-    width = int(keys.max()) + 2
+    width = int(box.max()) + 2  # every vertex lies in a leaf
     order = np.argsort(box[:, 1] * width + box[:, 0], kind="stable")  # scan order
     box, nodes, error = box[order], nodes[order], error[order]
-    corners = nodes[:, [0, 2, 6, 8]]
-    mids = nodes[:, [1, 7, 3, 5, 4]]  # top, bottom, left, right, centre
-    triangles, per_leaf = _fans(keys, box, corners, mids, width)
-    triangle_leaf = np.repeat(np.arange(len(box), dtype=np.uint32), per_leaf)
-    # only the vertices of the triangles (the patches' nodes are among them): the test
-    # points were for the build
-    used = np.zeros(len(keys), bool)
-    used[triangles.ravel()] = True
+    # only the patches' nodes: the triangles' vertices are among them (each leaf's centre,
+    # and its and finer neighbours' corners and mid-points), the test points were for the
+    # build
+    used = np.zeros(len(keys), bool)  # a mask, not np.unique: no sort
     used[nodes.ravel()] = True
+    on_edges = used.copy()
+    on_edges[nodes[:, 4]] = False  # a centre is inside its leaf, no other leaf's vertex
+    triangles, triangle_leaf = _fans(keys, nodes, on_edges)
     renumber = (np.cumsum(used) - 1).astype(np.uint32)
     source = vertices.origin + keys[used] / vertices.units
     cells = vertices.origin[[0, 1, 0, 1]] + box / vertices.units
     return AdaptiveMesh(
         source,
-        np.stack([vertices.fx[used], vertices.fy[used]], axis=-1),
+        vertices.f()[used],
         renumber[triangles],
         triangle_leaf,
         cells,
@@ -336,56 +383,63 @@ def _assemble(vertices: _Vertices, leaves, levels: int) -> AdaptiveMesh:
     )
 
 
-def _fans(keys, box, corners, mids, width: int) -> tuple[np.ndarray, np.ndarray]:
+def _fans(keys, nodes, on_edges) -> tuple[np.ndarray, np.ndarray]:
     """The triangles (T, 3) uint32 of every leaf's fan around its centre, through each
-    boundary vertex (its own and finer neighbours' corners and mid-points), in the leaves'
-    scan order (that of ``box``), each leaf's triangles together, all of positive area in
-    the source (x right, y down); and how many each leaf has."""
-    on_edges = np.zeros(len(keys), bool)  # a mask, not np.unique: no sort
-    on_edges[corners.ravel()] = True
-    on_edges[mids[:, :4].ravel()] = True
+    boundary vertex (``on_edges``: every leaf's corners and mid-points, its own and finer
+    neighbours' on its edges), in the leaves' scan order (that of ``nodes``),
+    each leaf's triangles together (its top, right, bottom and left edges in turn), all of
+    positive area in the source (x right, y down); and the leaf of each, (T,) uint32."""
     boundary = np.flatnonzero(on_edges)
+    count = len(boundary)
     # 1-D arrays throughout: numpy gathers and computes on contiguous ones fastest
     bx = np.ascontiguousarray(keys[:, 0])[boundary]
     by = np.ascontiguousarray(keys[:, 1])[boundary]
-    row_keys = by * width + bx
-    rows = np.argsort(row_keys)
-    row_keys, row_ids = row_keys[rows], boundary[rows]
-    col_keys = bx * width + by
-    cols = np.argsort(col_keys)
-    col_keys, col_ids = col_keys[cols], boundary[cols]
-    x0, y0, x1, y1 = (np.ascontiguousarray(box[:, k]) for k in range(4))
-    edges = (  # sorted keys and ids, (first, last) key of each leaf's edge
-        (row_keys, row_ids, y0 * width + x0, y0 * width + x1),
-        (col_keys, col_ids, x1 * width + y0, x1 * width + y1),
-        (row_keys, row_ids, y1 * width + x0, y1 * width + x1),
-        (col_keys, col_ids, x0 * width + y0, x0 * width + y1),
+    width = int(max(bx.max(), by.max())) + 1
+    # the boundary vertices along rows, then along columns; a stable sort, because the
+    # vertices come level by level in long sorted runs, which it merges instead of sorting
+    rows = np.argsort(by * width + bx, kind="stable")
+    cols = np.argsort(bx * width + by, kind="stable")
+    ordered = np.concatenate([boundary[rows], boundary[cols]]).astype(np.uint32)
+    # each vertex's place in both orders: an edge's vertices run from one of its corners'
+    # places to the other's (keys are distinct), no search needed
+    place = np.empty((2, len(keys)), np.int64)
+    place[0, boundary[rows]] = np.arange(count)
+    place[1, boundary[cols]] = np.arange(count, 2 * count)
+    top_left, top_right, bottom_left, bottom_right = (
+        np.ascontiguousarray(nodes[:, k]) for k in (0, 2, 6, 8)
     )
-    spans = []
-    for sorted_keys, _, first, last in edges:
-        lo = np.searchsorted(sorted_keys, first, side="left")
-        hi = np.searchsorted(sorted_keys, last, side="right")
-        spans.append((lo, hi - lo - 1))  # segments on the edge
-    counts = np.stack([n for _, n in spans], axis=-1)  # (L, 4)
-    per_leaf = counts.sum(axis=1)
-    start = np.cumsum(per_leaf) - per_leaf
-    total = int(per_leaf.sum())
-    columns = [np.empty(total, np.uint32) for _ in range(3)]
-    centre = np.ascontiguousarray(mids[:, 4])
-    base = start.copy()
+    along_rows, along_cols = place
+    first = np.stack(  # top, right, bottom, left
+        [
+            along_rows[top_left],
+            along_cols[top_right],
+            along_rows[bottom_left],
+            along_cols[top_left],
+        ],
+        axis=-1,
+    )
+    last = np.stack(
+        [
+            along_rows[top_right],
+            along_cols[bottom_right],
+            along_rows[bottom_right],
+            along_cols[bottom_left],
+        ],
+        axis=-1,
+    )
+    segments = (last - first).ravel()  # per leaf and edge, leaf by leaf
+    edge = np.repeat(np.arange(len(segments)), segments)  # 4 * leaf + side, per triangle
+    at = np.arange(len(edge)) - (np.cumsum(segments) - segments)[edge] + first.ravel()[edge]
+    a, b = ordered[at], ordered[at + 1]
     # the top and right edges run clockwise about the centre on the screen (y down), the
     # bottom and left ones the other way: swapped, every triangle has a positive area
-    for side, ((lo, n), (_, sorted_ids, _, _)) in enumerate(zip(spans, edges, strict=True)):
-        leaf = np.repeat(np.arange(len(n)), n)
-        k = np.arange(len(leaf)) - np.repeat(np.cumsum(n) - n, n)
-        at = base[leaf] + k
-        i = lo[leaf] + k
-        swap = side >= 2
-        columns[0][at] = centre[leaf]
-        columns[1 + swap][at] = sorted_ids[i]
-        columns[2 - swap][at] = sorted_ids[i + 1]
-        base += n
-    return np.stack(columns, axis=-1), per_leaf
+    swap = (edge & 3) >= 2
+    triangles = np.empty((len(edge), 3), np.uint32)
+    leaf = (edge >> 2).astype(np.uint32)
+    triangles[:, 0] = np.ascontiguousarray(nodes[:, 4])[leaf]
+    triangles[:, 1] = np.where(swap, b, a)
+    triangles[:, 2] = np.where(swap, a, b)
+    return triangles, leaf
 
 
 def interpolate(mesh: AdaptiveMesh, values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

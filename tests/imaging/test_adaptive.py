@@ -161,6 +161,45 @@ def test_the_mesh_builder_on_an_affine_map_keeps_the_roots():
     np.testing.assert_allclose(mesh.deformed, mesh.source @ matrix + [3.0, -2.0])
 
 
+@pytest.mark.parametrize("shape", [(96, 128), (77, 101)])  # the second: narrower last roots
+def test_the_leaves_fans_make_one_conforming_triangulation(shape):
+    """Where cells of many depths meet, neighbours that split together share the points
+    on their edge (each evaluated once), and the fans are conforming: every inner edge is
+    two triangles' (one each way), the lattice's border one triangle's, and each leaf's
+    fan covers exactly its cell."""
+    from glmls.core.mesh import MeshLattice
+
+    lattice = MeshLattice.corners(shape, ROOT_STEP)
+    centre = np.array([shape[1] * 0.4, shape[0] * 0.55])
+
+    def evaluate(v):  # a sharp swirl: its cells split from the roots down to 1 px
+        d = v - centre
+        turn = 3.0 * np.exp(-(d**2).sum(axis=1) / 15.0**2)
+        c, s = np.cos(turn), np.sin(turn)
+        return centre + np.stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]], -1)
+
+    mesh = build_adaptive(evaluate, lattice, 0.01)
+    sides = mesh.leaves[:, 2] - mesh.leaves[:, 0]
+    assert {1, 2, 4, 8, 16} <= set(sides.tolist()) and mesh.levels == 5
+    assert len(np.unique(mesh.source, axis=0)) == len(mesh.source)
+    corners = mesh.source[mesh.triangles]
+    a, b = (corners[:, k] - corners[:, 0] for k in (1, 2))
+    area = (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]) / 2  # y down: clockwise on the screen
+    assert area.min() > 0
+    cells = (mesh.leaves[:, 2] - mesh.leaves[:, 0]) * (mesh.leaves[:, 3] - mesh.leaves[:, 1])
+    np.testing.assert_allclose(np.bincount(mesh.triangle_leaf, area), cells, rtol=1e-12)
+    edges = np.concatenate([mesh.triangles[:, [i, (i + 1) % 3]] for i in range(3)])
+    forward = {tuple(e) for e in edges.tolist()}
+    assert len(forward) == len(edges)  # no edge twice the same way
+    inner = sum((b, a) in forward for a, b in forward)
+    x0, y0 = lattice.origin
+    x1, y1 = lattice.axes[0][-1], lattice.axes[1][-1]
+    ex, ey = mesh.source[edges, 0], mesh.source[edges, 1]  # (E, 2) each
+    vertical = (ex[:, 0] == ex[:, 1]) & np.isin(ex[:, 0], [x0, x1])
+    horizontal = (ey[:, 0] == ey[:, 1]) & np.isin(ey[:, 0], [y0, y1])
+    assert inner + np.sum(vertical | horizontal) == len(edges)
+
+
 @pytest.mark.parametrize("bad", [0, -0.1, float("nan"), float("inf"), 1e-4])
 def test_bad_tolerances_raise_value_error(gl, bad):
     image = np.zeros((16, 16), np.uint8)
