@@ -397,14 +397,14 @@ def _fans(keys, nodes, on_edges) -> tuple[np.ndarray, np.ndarray]:
     width = int(max(bx.max(), by.max())) + 1
     # the boundary vertices along rows, then along columns; a stable sort, because the
     # vertices come level by level in long sorted runs, which it merges instead of sorting
-    rows = np.argsort(by * width + bx, kind="stable")
-    cols = np.argsort(bx * width + by, kind="stable")
-    ordered = np.concatenate([boundary[rows], boundary[cols]]).astype(np.uint32)
+    by_row = boundary[np.argsort(by * width + bx, kind="stable")]
+    by_column = boundary[np.argsort(bx * width + by, kind="stable")]
+    ordered = np.concatenate([by_row, by_column]).astype(np.uint32)
     # each vertex's place in both orders: an edge's vertices run from one of its corners'
     # places to the other's (keys are distinct), no search needed
     place = np.empty((2, len(keys)), np.int64)
-    place[0, boundary[rows]] = np.arange(count)
-    place[1, boundary[cols]] = np.arange(count, 2 * count)
+    place[0, by_row] = np.arange(count)
+    place[1, by_column] = np.arange(count, 2 * count)
     top_left, top_right, bottom_left, bottom_right = (
         np.ascontiguousarray(nodes[:, k]) for k in (0, 2, 6, 8)
     )
