@@ -122,6 +122,57 @@ def folded_case():
     return shape, p, q
 
 
+class ReferenceCells:
+    """The adaptive build's ``evaluate``, ``test`` and ``predict`` in float64 for a numpy map
+    ``f``: f at the points it is given, in order (their vertex ids), the cells' test and the
+    prediction of split cells' children from it (:func:`glmls.imaging.adaptive_patch.
+    predict_cells`, trusted everywhere: ``f`` is taken to be smooth); the test and the
+    prediction check that each cell's grid is made of points evaluated, at their places."""
+
+    def __init__(self, f):
+        self.f = f
+        self.points: list[np.ndarray] = []
+        self.values: list[np.ndarray] = []
+        self.predicted = 0  # children predicted
+
+    def evaluate(self, points):
+        value = self.f(points)
+        self.points.append(points)
+        self.values.append(value)
+        return value
+
+    def check_grids(self, nodes, tests):
+        """Every id of the cells' grids is a point evaluated, at its place: the quarters of
+        the cell between its first and last node (its corners)."""
+        from glmls.imaging.adaptive_patch import NODES, TESTS
+
+        ids = np.concatenate([nodes, tests], axis=1)
+        assert (ids >= 0).all() and (ids < self.count).all()
+        points = np.concatenate(self.points)[ids]  # (K, 25, 2)
+        first, last = points[:, :1], points[:, 8:9]
+        quarters = np.array([[c, r] for r, c in NODES + TESTS]) / 4.0
+        np.testing.assert_allclose(points, first + (last - first) * quarters, atol=1e-9)
+
+    def test(self, nodes, tests, width, height):
+        from glmls.imaging.adaptive_patch import estimate_cells
+
+        self.check_grids(nodes, tests)
+        f = np.concatenate(self.values)
+        return estimate_cells(f[:, 0], f[:, 1], nodes, tests, width, height)
+
+    @property
+    def count(self) -> int:
+        return sum(len(v) for v in self.values)
+
+    def predict(self, nodes, tests, width, height, centres):
+        from glmls.imaging.adaptive_patch import predict_cells
+
+        self.check_grids(nodes, tests)
+        f = np.concatenate(self.values)
+        self.predicted += 4 * len(nodes)
+        return predict_cells(f[:, 0], f[:, 1], nodes, tests, width, height)
+
+
 def cross(a, b):
     """z of the cross product of 2-vectors (last axis)."""
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]

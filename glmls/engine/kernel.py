@@ -180,6 +180,12 @@ class MLSKernel:
         return len(self._packed)
 
     @property
+    def sources(self) -> np.ndarray:
+        """(N, 2) float64: the point handles' source positions, pixels (as the GPU has them,
+        rounded to float32 in scaled coordinates)."""
+        return self.scaling.from_gpu(self._packed[:, :2])
+
+    @property
     def segments(self) -> int:
         """Segment handles."""
         return len(self._segments) // 2

@@ -2,7 +2,9 @@
 test: the Lagrange basis through the 3 x 3 nodes (corners, edge mid-points, centre) of the
 cell's 5 x 5 grid in quarters of its sides, the 16 other points of that grid where the test
 compares the patch with f, and the test itself in float64 (:func:`estimate_cells`, the
-reference of the GPU's ``warp/adaptive_test.comp.glsl``).
+reference of the GPU's ``warp/adaptive_test.comp.glsl``); and the prediction of a split
+cell's four children from its grid (:func:`predict_cells`, the reference of
+``warp/adaptive_predict.comp.glsl``).
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ __all__ = [
     "NODES",
     "PATCH_AT_TESTS",
     "PATCH_SLOPES",
+    "QUARTIC_AT_EIGHTHS",
     "SAFETY",
     "TESTS",
     "TEST_INDEX",
@@ -20,6 +23,7 @@ __all__ = [
     "estimate_cells",
     "lagrange",
     "lagrange_slope",
+    "predict_cells",
 ]
 
 #: The factor between a patch's largest miss at its quarter-centres and the error bound: the
@@ -124,6 +128,63 @@ def estimate_cells(
     same = (det > 0).all(axis=0) | (det < 0).all(axis=0)
     smallest = np.where(same, np.sqrt(low.min(axis=0)), 0.0)
     return error_bound(miss, smallest), np.sqrt(high.max(axis=0))
+
+
+def _quartic_at_eighths() -> np.ndarray:
+    nodes = np.arange(5.0)
+    t = np.arange(9) / 2.0
+    basis = np.ones((9, 5))
+    for k in range(5):
+        for j in range(5):
+            if j != k:
+                basis[:, k] *= (t - nodes[j]) / (nodes[k] - nodes[j])
+    return basis
+
+
+#: The quartic Lagrange basis through a cell's quarters (nodes 0 .. 4) at its eighths (rows
+#: e / 2, e = 0 .. 8), (9, 5): 0 and 1 at the quarters themselves, dyadic elsewhere.
+QUARTIC_AT_EIGHTHS = _quartic_at_eighths()
+# the places of a cell's nodes, then its tests, on its 5 x 5 grid, row by row
+_GRID_PLACE = np.array([5 * r + c for r, c in NODES + TESTS])
+
+
+def predict_cells(
+    fx: np.ndarray,
+    fy: np.ndarray,
+    nodes: np.ndarray,
+    tests: np.ndarray,
+    width: np.ndarray,
+    height: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(error, stretch) of the four children of each cell, (K, 4) float64 each (children
+    (0, 0), (0, 1), (1, 0), (1, 1): row, then column), as :func:`estimate_cells` would find
+    them from f at their 5 x 5 grids, but with f there predicted: the quartic through the
+    cell's own 5 x 5 grid (arguments as :func:`estimate_cells`'s). The children's nodes are
+    the cell's grid points, so their Jacobians (and stretches, and whether they fold) are
+    exactly their patches'; only the miss is predicted. Where f is smooth over the cell the
+    quartic errs by f's fifth derivatives, the children's patches by their third: the
+    prediction is close. The float64 reference of ``warp/adaptive_predict.comp.glsl``."""
+    count = len(nodes)
+    ids = np.concatenate([nodes, tests], axis=1)
+    grids = []
+    for f in (fx, fy):
+        grid = np.empty((count, 5, 5))
+        grid.reshape(count, 25)[:, _GRID_PLACE] = f[ids]
+        # (9 x 9) eighths = Q grid Q^T, per cell
+        grids.append(np.einsum("ea,kab,fb->kef", QUARTIC_AT_EIGHTHS, grid, QUARTIC_AT_EIGHTHS))
+    errors, stretches = [], []
+    place_nodes, place_tests = _GRID_PLACE[:9], _GRID_PLACE[9:]
+    base = 25 * np.arange(count)[:, None]
+    for i in (0, 1):
+        for j in (0, 1):
+            rows, cols = slice(4 * i, 4 * i + 5), slice(4 * j, 4 * j + 5)
+            values = [np.ascontiguousarray(g[:, rows, cols]).reshape(-1) for g in grids]
+            error, stretch = estimate_cells(
+                *values, base + place_nodes, base + place_tests, width / 2, height / 2
+            )
+            errors.append(error)
+            stretches.append(stretch)
+    return np.stack(errors, axis=1), np.stack(stretches, axis=1)
 
 
 def error_bound(miss: np.ndarray, smallest: np.ndarray) -> np.ndarray:

@@ -7,12 +7,18 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import folded_case, jittered_moves, smooth_handles, stretched_handles
+from helpers import (
+    ReferenceCells,
+    folded_case,
+    jittered_moves,
+    smooth_handles,
+    stretched_handles,
+)
 
 import glmls
 from glmls.core import reference
 from glmls.imaging import adaptive_folds, adaptive_scan
-from glmls.imaging.adaptive import MIN_SIZE, ROOT_STEP, build_adaptive, interpolate
+from glmls.imaging.adaptive import MAX_LEAF, MIN_SIZE, ROOT_STEP, build_adaptive, interpolate
 from glmls.imaging.frame import Frame
 from glmls.imaging.pipeline import WarpPipeline
 
@@ -71,9 +77,9 @@ def test_every_source_point_is_within_the_tolerance_of_the_inverse(gl, case, tol
     assert covered.mean() > 0.9 and regular > 0.97
     assert error.max() <= tolerance, (error.max(), np.quantile(error, 0.999))
     sides = mesh.leaves[:, 2] - mesh.leaves[:, 0]
-    assert sides.max() <= ROOT_STEP and sides.min() >= MIN_SIZE
+    assert sides.max() <= MAX_LEAF and sides.min() >= MIN_SIZE
     if case == "stretched":
-        assert sides.min() < ROOT_STEP / 2  # refined where the map stretches
+        assert sides.min() < MAX_LEAF / 2  # refined where the map stretches
 
 
 def test_no_cracks_between_cells_of_different_sizes(gl):
@@ -149,24 +155,31 @@ def test_the_first_cell_in_scan_order_shows_where_the_map_folds(gl):
     assert hit.sum() > 0.8 * covered.sum()
 
 
-def test_the_mesh_builder_on_an_affine_map_keeps_the_roots():
-    """An affine f is interpolated exactly: no cell is split."""
+def test_the_mesh_builder_on_an_affine_map_keeps_the_largest_leaves():
+    """An affine f is interpolated exactly: no cell is split but the roots larger than
+    MAX_LEAF (64 x 80: roots 32 x 32, and 16 x 32 in the last column, split in four)."""
     from glmls.core.mesh import MeshLattice
 
     lattice = MeshLattice.corners((64, 80), ROOT_STEP)
     matrix = np.array([[1.2, 0.3], [-0.1, 0.9]])
     mesh = build_adaptive(lambda v: v @ matrix + [3.0, -2.0], lattice, 0.01)
-    assert len(mesh.leaves) == 4 * 5 and mesh.levels == 1
+    sides = mesh.leaves[:, 2:] - mesh.leaves[:, :2]
+    assert len(mesh.leaves) == 4 * 6 and mesh.levels == 2
+    assert (sides == [16, 16]).sum(axis=1).tolist().count(2) == 4 * 4
+    assert (sides == [8, 16]).all(axis=1).sum() == 2 * 4
     assert len(mesh.triangles) == 8 * len(mesh.leaves)
     np.testing.assert_allclose(mesh.deformed, mesh.source @ matrix + [3.0, -2.0])
 
 
+@pytest.mark.parametrize("predicted", [False, True])
 @pytest.mark.parametrize("shape", [(96, 128), (77, 101)])  # the second: narrower last roots
-def test_the_leaves_fans_make_one_conforming_triangulation(shape):
+def test_the_leaves_fans_make_one_conforming_triangulation(shape, predicted):
     """Where cells of many depths meet, neighbours that split together share the points
     on their edge (each evaluated once), and the fans are conforming: every inner edge is
     two triangles' (one each way), the lattice's border one triangle's, and each leaf's
-    fan covers exactly its cell."""
+    fan covers exactly its cell. Also where children predicted within the tolerance are
+    leaves whose test points are never evaluated (a split cell's new points are then those
+    of its tested children, and of its neighbours' on a shared edge)."""
     from glmls.core.mesh import MeshLattice
 
     lattice = MeshLattice.corners(shape, ROOT_STEP)
@@ -178,10 +191,23 @@ def test_the_leaves_fans_make_one_conforming_triangulation(shape):
         c, s = np.cos(turn), np.sin(turn)
         return centre + np.stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]], -1)
 
-    mesh = build_adaptive(evaluate, lattice, 0.01)
+    cells = ReferenceCells(evaluate)
+    mesh = build_adaptive(
+        cells.evaluate,
+        lattice,
+        0.01,
+        test=cells.test,
+        predict=cells.predict if predicted else None,
+    )
     sides = mesh.leaves[:, 2] - mesh.leaves[:, 0]
-    assert {1, 2, 4, 8, 16} <= set(sides.tolist()) and mesh.levels == 5
+    assert {1, 2, 4, 8, 16} <= set(sides.tolist()) and mesh.levels >= 5
     assert len(np.unique(mesh.source, axis=0)) == len(mesh.source)
+    evaluated = np.concatenate(cells.points)
+    assert len(np.unique(evaluated, axis=0)) == len(evaluated)  # each point once
+    if predicted:  # both kinds of children, side by side
+        full = ReferenceCells(evaluate)
+        build_adaptive(full.evaluate, lattice, 0.01)
+        assert cells.predicted > 0 and cells.count < 0.8 * full.count
     corners = mesh.source[mesh.triangles]
     a, b = (corners[:, k] - corners[:, 0] for k in (1, 2))
     area = (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]) / 2  # y down: clockwise on the screen

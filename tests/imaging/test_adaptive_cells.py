@@ -1,8 +1,9 @@
-"""The adaptive build's cell test on the GPU (``warp/adaptive_test.comp.glsl`` through
-:class:`glmls.imaging.adaptive_cells.GPUCells`) against its float64 reference
-:func:`glmls.imaging.adaptive_patch.estimate_cells`, cell by cell, on every level of real
-builds; and the pieces it rests on: f's displacements kept on the GPU, buffers grown with
-their contents."""
+"""The adaptive build's cell test and children's prediction on the GPU
+(``warp/adaptive_test.comp.glsl`` and ``warp/adaptive_predict.comp.glsl`` through
+:class:`glmls.imaging.adaptive_cells.GPUCells`) against their float64 references
+:func:`glmls.imaging.adaptive_patch.estimate_cells` and ``predict_cells``, cell by cell, on
+every level of real builds; and the pieces they rest on: f's displacements kept on the GPU,
+buffers grown with their contents."""
 
 from __future__ import annotations
 
@@ -16,8 +17,8 @@ from glmls.engine import passes
 from glmls.gl.resources import Resources
 from glmls.imaging import adaptive_cells
 from glmls.imaging.adaptive import ROOT_STEP, build_adaptive
-from glmls.imaging.adaptive_cells import GPUCells
-from glmls.imaging.adaptive_patch import estimate_cells
+from glmls.imaging.adaptive_cells import SMOOTH_REACH, GPUCells
+from glmls.imaging.adaptive_patch import estimate_cells, predict_cells
 
 SHAPE = (160, 192)
 
@@ -28,8 +29,9 @@ RTOL_ERROR, ATOL_ERROR, RTOL_STRETCH = 5e-3, 1e-5, 1e-4
 
 
 def compare_levels(gl, m, shape, tolerance):
-    """Build the mesh with the GPU's test, checking every level's cells against the float64
-    reference on the same f; the levels compared, and the mesh."""
+    """Build the mesh with the GPU's test and prediction, checking every level's cells
+    against the float64 references on the same f (and the prediction's screening against
+    the handles' distances); the levels compared, and the mesh."""
     resources = Resources(gl)
     try:
         cells = GPUCells(gl, resources, m.kernel, shape)
@@ -57,8 +59,30 @@ def compare_levels(gl, m, shape, tolerance):
             levels.append(len(nodes))
             return want_error, want_stretch
 
+        def predict(nodes, tests, width, height, centres):
+            error, stretch = cells.predict(nodes, tests, width, height, centres)
+            want_error, want_stretch = predict_cells(
+                np.concatenate(fx), np.concatenate(fy), nodes, tests, width, height
+            )
+            # predicted where no handle is within SMOOTH_REACH children's sides of a child
+            handles = m.kernel.sources
+            near = np.hypot(*(centres[:, None] - handles[None]).transpose(2, 0, 1)).min(1)
+            far = near >= (SMOOTH_REACH + np.sqrt(0.5)) * np.maximum(width, height) / 2
+            assert np.isinf(error[~far]).all()
+            want_error[~far] = np.inf
+            finite = np.isfinite(want_error)
+            np.testing.assert_array_equal(np.isfinite(error), finite)
+            np.testing.assert_allclose(
+                error[finite], want_error[finite], rtol=RTOL_ERROR, atol=ATOL_ERROR
+            )
+            np.testing.assert_allclose(stretch[far], want_stretch[far], rtol=RTOL_STRETCH)
+            predicted.append(int(far.sum()))
+            return want_error, want_stretch
+
+        predicted: list[int] = []
         lattice = MeshLattice.corners(shape, ROOT_STEP)
-        mesh = build_adaptive(evaluate, lattice, tolerance, test=test)
+        mesh = build_adaptive(evaluate, lattice, tolerance, test=test, predict=predict)
+        assert sum(predicted) > 0  # some cells far enough from the handles
         assert cells.count == sum(len(f) for f in fx)
         return levels, mesh
     finally:

@@ -1,0 +1,75 @@
+"""The adaptive mesh's triangles (:mod:`.adaptive`): each leaf a fan around its centre
+through every vertex on its boundary, its own corners and mid-points and those of finer
+neighbours (hanging vertices), so that neighbours share exactly the vertices of their common
+edge: no cracks. An edge's vertices are the run between its two corners in the boundary
+vertices sorted along rows (or columns): no search.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["fans"]
+
+
+def fans(
+    keys: np.ndarray, nodes: np.ndarray, on_edges: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles (T, 3) uint32 of every leaf's fan around its centre, through each
+    boundary vertex (``on_edges``, (V,) bool: every leaf's corners and mid-points, its own
+    and finer neighbours' on its edges; ``keys`` (V, 2) int64 the vertices' exact
+    coordinates; ``nodes`` (L, 9) each leaf's 3 x 3 patch vertices), in the leaves' scan
+    order (that of ``nodes``),
+    each leaf's triangles together (its top, right, bottom and left edges in turn), all of
+    positive area in the source (x right, y down); and the leaf of each, (T,) uint32."""
+    boundary = np.flatnonzero(on_edges)
+    count = len(boundary)
+    # 1-D arrays throughout: numpy gathers and computes on contiguous ones fastest
+    bx = np.ascontiguousarray(keys[:, 0])[boundary]
+    by = np.ascontiguousarray(keys[:, 1])[boundary]
+    width = int(max(bx.max(), by.max())) + 1
+    # the boundary vertices along rows, then along columns; a stable sort, because the
+    # vertices come level by level in long sorted runs, which it merges instead of sorting
+    by_row = boundary[np.argsort(by * width + bx, kind="stable")]
+    by_column = boundary[np.argsort(bx * width + by, kind="stable")]
+    ordered = np.concatenate([by_row, by_column]).astype(np.uint32)
+    # each vertex's place in both orders: an edge's vertices run from one of its corners'
+    # places to the other's (keys are distinct), no search needed
+    place = np.empty((2, len(keys)), np.int64)
+    place[0, by_row] = np.arange(count)
+    place[1, by_column] = np.arange(count, 2 * count)
+    top_left, top_right, bottom_left, bottom_right = (
+        np.ascontiguousarray(nodes[:, k]) for k in (0, 2, 6, 8)
+    )
+    along_rows, along_cols = place
+    first = np.stack(  # top, right, bottom, left
+        [
+            along_rows[top_left],
+            along_cols[top_right],
+            along_rows[bottom_left],
+            along_cols[top_left],
+        ],
+        axis=-1,
+    )
+    last = np.stack(
+        [
+            along_rows[top_right],
+            along_cols[bottom_right],
+            along_rows[bottom_right],
+            along_cols[bottom_left],
+        ],
+        axis=-1,
+    )
+    segments = (last - first).ravel()  # per leaf and edge, leaf by leaf
+    edge = np.repeat(np.arange(len(segments)), segments)  # 4 * leaf + side, per triangle
+    at = np.arange(len(edge)) - (np.cumsum(segments) - segments)[edge] + first.ravel()[edge]
+    a, b = ordered[at], ordered[at + 1]
+    # the top and right edges run clockwise about the centre on the screen (y down), the
+    # bottom and left ones the other way: swapped, every triangle has a positive area
+    swap = (edge & 3) >= 2
+    triangles = np.empty((len(edge), 3), np.uint32)
+    leaf = (edge >> 2).astype(np.uint32)
+    triangles[:, 0] = np.ascontiguousarray(nodes[:, 4])[leaf]
+    triangles[:, 1] = np.where(swap, b, a)
+    triangles[:, 2] = np.where(swap, a, b)
+    return triangles, leaf

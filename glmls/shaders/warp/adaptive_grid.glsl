@@ -1,0 +1,97 @@
+// The adaptive build's test of one cell from its 5 x 5 grid (quarters of its sides), shared by
+// the cells' test (warp/adaptive_test.comp.glsl: f at the grid) and the children's prediction
+// (warp/adaptive_predict.comp.glsl: the parent's quartic at the children's grids).
+// glmls.imaging.adaptive_patch.estimate_cells is the float64 reference.
+//
+// The grid holds the quadratic patch's 3 x 3 nodes (even row and column) and 16 test points.
+// The patch (Lagrange, through the nodes) is evaluated at every grid point, with its slopes:
+// its miss is the largest distance between it and the grid's values at the test points, and
+// its Jacobian's singular values on the 25 points give the smallest and the largest stretch.
+// The values are f - v (scaled) less the centre node's: the patch reproduces v and constants,
+// so its miss is the same, and the sums round on the variation over the cell, not on f - v.
+
+uniform float u_scale;    // pixels per scaled unit
+
+// The quadratic Lagrange basis of the nodes at 0, 1/2, 1 at t = 0, 1/4, 1/2, 3/4, 1, and its
+// slopes (per unit of t).
+const vec3 BASIS[5] = vec3[5](vec3(1.0, 0.0, 0.0), vec3(0.375, 0.75, -0.125),
+                              vec3(0.0, 1.0, 0.0), vec3(-0.125, 0.75, 0.375),
+                              vec3(0.0, 0.0, 1.0));
+const vec3 SLOPE[5] = vec3[5](vec3(-3.0, 4.0, -1.0), vec3(-2.0, 2.0, 0.0), vec3(-1.0, 0.0, 1.0),
+                              vec3(0.0, -2.0, 2.0), vec3(1.0, -4.0, 3.0));
+
+vec2 combine(vec3 weights, vec2 a, vec2 b, vec2 c) {
+    return weights.x * a + weights.y * b + weights.z * c;
+}
+
+// ``grid``: the 25 values row by row (grid[12], the centre, is 0); ``sides``: the cell's width
+// and height in pixels. Out: the miss (output pixels), the smallest singular value (0 where
+// the Jacobian's orientation changes over the grid: the cell folds), the largest, 0.
+vec4 adaptive_grid_test(vec2 grid[25], vec2 sides) {
+    vec2 scale = u_scale / sides;
+    float miss2 = 0.0;
+    float low = 3.0e38;    // the smallest singular value's square
+    float high = 0.0;      // the largest's
+    bool positive = true;
+    bool negative = true;
+    for (int r = 0; r < 5; ++r) {
+        // down to row r, for each column of nodes: the patch's column and its slope
+        vec3 basis = BASIS[r];
+        vec3 slope = SLOPE[r];
+        vec2 col0 = combine(basis, grid[0], grid[10], grid[20]);
+        vec2 col1 = combine(basis, grid[2], grid[12], grid[22]);
+        vec2 col2 = combine(basis, grid[4], grid[14], grid[24]);
+        vec2 col0_slope = combine(slope, grid[0], grid[10], grid[20]);
+        vec2 col1_slope = combine(slope, grid[2], grid[12], grid[22]);
+        vec2 col2_slope = combine(slope, grid[4], grid[14], grid[24]);
+        for (int c = 0; c < 5; ++c) {
+            vec2 value = combine(BASIS[c], col0, col1, col2);
+            vec2 du = combine(SLOPE[c], col0, col1, col2);
+            vec2 dv = combine(BASIS[c], col0_slope, col1_slope, col2_slope);
+            // at the nodes the patch is the value itself: a miss of 0
+            vec2 miss = value - grid[5 * r + c];
+            miss2 = max(miss2, dot(miss, miss));
+            // f's Jacobian per pixel, f = v + scale (f - v)
+            float ja = 1.0 + scale.x * du.x;
+            float jb = scale.y * dv.x;
+            float jc = scale.x * du.y;
+            float jd = 1.0 + scale.y * dv.y;
+            float det = ja * jd - jb * jc;
+            float frob = ja * ja + jb * jb + jc * jc + jd * jd;
+            // s_max^2 from the larger root; s_min^2 = det^2 / s_max^2 (no cancellation)
+            float top = 0.5 * (frob + sqrt(max(frob * frob - 4.0 * det * det, 0.0)));
+            high = max(high, top);
+            low = min(low, top > 0.0 ? det * det / top : 0.0);
+            positive = positive && det > 0.0;
+            negative = negative && det < 0.0;
+        }
+    }
+    float smallest = (positive || negative) ? sqrt(low) : 0.0;
+    return vec4(u_scale * sqrt(miss2), smallest, sqrt(high), 0.0);
+}
+
+layout(std430, binding = BIND_ADAPTIVE_F) readonly buffer AdaptiveF {
+    vec2 adaptive_f[];       // f - v at every vertex evaluated so far, scaled, by vertex id
+};
+layout(std430, binding = BIND_ADAPTIVE_CELLS) readonly buffer AdaptiveCells {
+    uint adaptive_cell[];    // per cell, CELL_WORDS: 9 node ids (row by row), the 16 test
+                             // points' ids (row by row), width and height (float bits)
+};
+
+#ifndef CELL_WORDS
+#error "CELL_WORDS: the host's layout (glmls.imaging.adaptive_cells) defines it"
+#endif
+
+// The grid place (row by row) of each id of a cell's record: the nodes, then the tests.
+const int GRID_PLACE[25] = int[25](0, 2, 4, 10, 12, 14, 20, 22, 24,
+                                   1, 3, 5, 6, 7, 8, 9, 11, 13, 15, 16, 17, 18, 19, 21, 23);
+
+// Cell ``cell``'s 25 values less its centre node's, and its sides (pixels).
+void adaptive_load_grid(int cell, out vec2 grid[25], out vec2 sides) {
+    int at = cell * CELL_WORDS;
+    vec2 centre = adaptive_f[adaptive_cell[at + 4]];
+    for (int k = 0; k < 25; ++k) {
+        grid[GRID_PLACE[k]] = adaptive_f[adaptive_cell[at + k]] - centre;
+    }
+    sides = vec2(uintBitsToFloat(adaptive_cell[at + 25]), uintBitsToFloat(adaptive_cell[at + 26]));
+}
