@@ -7,16 +7,20 @@ the level's cells (``test``: :func:`.adaptive_patch.estimate_cells` in float64, 
 where f stays, :mod:`.adaptive_cells`, in the pipeline):
 
 1. the roots are the cells of the corner lattice at :data:`ROOT_STEP` pixels (with the
-   margin of a border mode), f evaluated at their corners;
+   margin of a border mode), f evaluated at their 5 x 5 grids; cells larger than
+   :data:`MAX_LEAF` (the roots) split untested;
 2. for every cell of the level, f on its 5 x 5 grid (quarters of its sides): the quadratic
    patch through the 3 x 3 nodes (corners, edge mid-points, centre), its *miss* the
    largest distance from f at the 16 other points; that miss times :data:`SAFETY` over the
    smallest singular value of the patch's Jacobian on the grid bounds the source-space
    error of the cell (:mod:`.adaptive_patch`);
 3. cells whose error exceeds the tolerance are split into four (their grid's points are the
-   children's nodes; f is evaluated at the children's test points), down to 1 px cells, and
-   below (to :data:`MIN_SIZE`) where the map stretches (largest singular value > 1: a 1 px
-   cell there covers more than one output pixel);
+   children's nodes), down to 1 px cells, and below (to :data:`MIN_SIZE`) where the map
+   stretches (largest singular value > 1: a 1 px cell there covers more than one output
+   pixel). Each child is first predicted (``predict``: the quartic through the parent's
+   grid, :func:`.adaptive_patch.predict_cells`, where f is smooth): one predicted within
+   the tolerance over :data:`PREDICTION_MARGIN` is a leaf; f is evaluated at the others'
+   test points, and they are tested at the next level;
 4. each leaf is drawn as a fan of triangles around its centre through every vertex on its
    boundary: its corners and mid-points and those of finer neighbours on its edges (hanging
    vertices). Two leaves sharing an edge then share exactly the same f-evaluated vertices on
@@ -178,7 +182,8 @@ class AdaptiveMesh:
     (L, 4) float64 cells (x0, y0, x1, y1) in scan order, ``nodes`` (L, 9) uint32 the
     vertices of each leaf's quadratic patch (its corners, edge mid-points and centre, 3 x 3
     row by row) and ``estimate`` (L,) each leaf's error bound (pixels of the source; inf
-    where it folds); ``levels``, the number of refinement levels evaluated."""
+    where it folds; predicted where the leaf was accepted on its prediction); ``levels``,
+    the number of refinement levels evaluated."""
 
     source: np.ndarray
     deformed: np.ndarray
