@@ -317,17 +317,14 @@ def build_adaptive(
         w, h = (x1 - x0) / units, (y1 - y0) / units
         side = np.maximum(x1 - x0, y1 - y0)
         error, stretch = np.full(len(box), np.inf), np.zeros(len(box))
-        tested = np.flatnonzero(side <= largest)  # larger cells split untested
-        if len(tested) == len(box):
-            tested = slice(None)
-        if test is None:
-            error[tested], stretch[tested] = estimate_cells(
-                *vertices.f_apart(), nodes[tested], tests[tested], w[tested], h[tested]
-            )
-        elif len(box[tested]):
-            error[tested], stretch[tested] = test(
-                nodes[tested], tests[tested], w[tested], h[tested]
-            )
+        small = side <= largest  # larger cells split untested
+        tested = slice(None) if small.all() else np.flatnonzero(small)
+        if small.any():
+            cells = (nodes[tested], tests[tested], w[tested], h[tested])
+            if test is None:
+                error[tested], stretch[tested] = estimate_cells(*vertices.f_apart(), *cells)
+            else:
+                error[tested], stretch[tested] = test(*cells)
         # below 1 px only where a pixel's cell covers more than one output pixel, and not
         # where the map folds: a folded pixel has no single inverse to come closer to
         limit = np.maximum(smallest, np.minimum(units, units / np.maximum(stretch, 1e-12)))
@@ -347,7 +344,8 @@ def build_adaptive(
             guess, _ = predict(nodes, tests, (x1 - x0) / units, (y1 - y0) / units, centres)
             accepted = guess * PREDICTION_MARGIN <= tolerance  # (K, 4)
         else:
-            guess = accepted = np.zeros((len(box), 4), bool)
+            guess = np.full((len(box), 4), np.inf)
+            accepted = np.zeros((len(box), 4), bool)
         box, nodes, tests = _split(box, nodes, tests, ~accepted, vertices, evaluate)
         if accepted.any():
             done = accepted.T.ravel()  # _split's children come child by child
@@ -375,7 +373,8 @@ def _split(box, nodes, tests, tested, vertices: _Vertices, evaluate: Evaluate):
     left = _owner(grid[:, 8], grid[:, 0])  # whose top-right corner is my top-left one
     top = _owner(grid[:, 72], grid[:, 0])  # whose bottom-left corner is my top-left one
     with_left, with_top = np.flatnonzero(left >= 0), np.flatnonzero(top >= 0)
-    need = _NEEDS[tested.astype(np.int64) @ np.array([1, 2, 4, 8])]  # (K, 56)
+    bits = tested[:, 0] + 2 * tested[:, 1] + 4 * tested[:, 2] + 8 * tested[:, 3]
+    need = _NEEDS[bits]  # (K, 56)
     need[left[with_left], _RIGHT] |= need[with_left, _LEFT]
     need[top[with_top], _BOTTOM] |= need[with_top, _TOP]
     need[with_left, _LEFT] = False

@@ -185,3 +185,39 @@ def test_a_grown_buffer_keeps_what_it_held(gl):
             assert big.read(size=48) == bytes(range(48))
     finally:
         resources.release()
+
+
+@pytest.mark.parametrize(
+    ("options", "smooth"),
+    [
+        ({}, True),
+        ({"alpha": 0.6, "interpolating": True}, True),
+        ({"weight": "gaussian", "radius": 30.0, "bins": False}, True),
+        ({"weight": "gaussian", "radius": 30.0, "bins": True}, False),  # cut: f jumps
+        ({"weight": "cressman", "radius": 40.0}, False),  # f bends where a reach ends
+        ({"weight": "shepard", "radius": 40.0}, False),
+        ({"weight": "linear", "radius": 40.0}, False),
+        ({"segments": True}, False),
+    ],
+)
+def test_children_are_predicted_only_where_f_is_smooth(gl, rng, options, smooth):
+    """The prediction is trusted for idw and the uncut gaussian without segment handles;
+    elsewhere every child of a split cell is tested (its predicted error is infinite)."""
+    p, q = jittered_moves(SHAPE, rng)
+    options = dict(options)
+    if options.pop("segments", False):
+        segment = np.array([[[40.0, 80.0], [150.0, 90.0]]])
+        options.update(src_segments=segment, dst_segments=segment + [[[0.0, 6.0], [4.0, -3.0]]])
+    resources = Resources(gl)
+    try:
+        with glmls.MLS(p, q, shape=SHAPE, ctx=gl, **options) as m:
+            cells = GPUCells(gl, resources, m.kernel, SHAPE)
+            assert adaptive_cells.smooth_weight(m.kernel) is smooth
+            assert cells.predicts is smooth
+            nodes, tests = np.zeros((3, 9), np.int64), np.zeros((3, 16), np.int64)
+            size, centres = np.full(3, 8.0), np.zeros((3, 2))
+            if not smooth:  # nothing predicted: every child tested
+                error, _ = cells.predict(nodes, tests, size, size, centres)
+                assert np.isinf(error).all()
+    finally:
+        resources.release()
