@@ -78,6 +78,13 @@ layout(std430, binding = BIND_ADAPTIVE_CELLS) readonly buffer AdaptiveCells {
                              // points' ids (row by row), width and height (float bits)
 };
 
+layout(std430, binding = BIND_ADAPTIVE_TESTS) writeonly buffer AdaptiveTests {
+    vec4 adaptive_test[];    // per cell, what the pass writes (one or four vec4)
+};
+
+uniform int u_count;      // cells
+uniform int u_offset;     // first cell of this dispatch
+
 #ifndef CELL_WORDS
 #error "CELL_WORDS: the host's layout (glmls.imaging.adaptive_cells) defines it"
 #endif

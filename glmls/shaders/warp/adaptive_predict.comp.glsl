@@ -15,13 +15,6 @@ layout(local_size_x = LOCAL_SIZE) in;
 
 #include "warp/adaptive_grid.glsl"
 
-layout(std430, binding = BIND_ADAPTIVE_TESTS) writeonly buffer AdaptiveTests {
-    vec4 adaptive_test[];
-};
-
-uniform int u_count;      // cells
-uniform int u_offset;     // first cell of this dispatch
-
 // The quartic Lagrange basis of the nodes at 0, 1, 2, 3, 4 (quarters) at the eighths
 // e / 2, e = 0 .. 8: row e, 5 weights (dyadic: exact in float32).
 const float QUARTIC[45] = float[45](

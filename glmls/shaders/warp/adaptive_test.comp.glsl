@@ -10,13 +10,6 @@ layout(local_size_x = LOCAL_SIZE) in;
 
 #include "warp/adaptive_grid.glsl"
 
-layout(std430, binding = BIND_ADAPTIVE_TESTS) writeonly buffer AdaptiveTests {
-    vec4 adaptive_test[];
-};
-
-uniform int u_count;      // cells
-uniform int u_offset;     // first cell of this dispatch
-
 void main() {
     int cell = u_offset + int(gl_GlobalInvocationID.x);
     if (cell >= u_count) {
