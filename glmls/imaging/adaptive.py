@@ -208,9 +208,6 @@ class _Vertices:
         self._xy = (np.zeros(0), np.zeros(0))
         self.count = 0
 
-    def _append(self, f: np.ndarray) -> None:
-        self._f.append(f)
-
     def f(self) -> np.ndarray:
         """f at every vertex, (count, 2) float64."""
         if len(self._f) > 1:
@@ -229,17 +226,13 @@ class _Vertices:
         """Evaluate f at the lattice of keys ``xs`` x ``ys`` (distinct, increasing); its
         vertex ids (len(ys), len(xs))."""
         new = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
-        self.keys.append(new)
-        self._append(evaluate(self.origin + new / self.units))
-        ids = self.count + np.arange(len(new)).reshape(len(ys), len(xs))
-        self.count += len(new)
-        return ids
+        return self.add(new, evaluate).reshape(len(ys), len(xs))
 
     def add(self, keys: np.ndarray, evaluate: Evaluate) -> np.ndarray:
         """Evaluate f (in one call) at ``keys`` ((n, 2) int64, none of them evaluated
         before, none repeated); their vertex ids (n,)."""
         self.keys.append(keys)
-        self._append(evaluate(self.origin + keys / self.units))
+        self._f.append(evaluate(self.origin + keys / self.units))
         ids = self.count + np.arange(len(keys))
         self.count += len(keys)
         return ids
@@ -380,10 +373,7 @@ def _split(box, nodes, tests, tested, vertices: _Vertices, evaluate: Evaluate):
     need[with_left, _LEFT] = False
     need[with_top, _TOP] = False
     new = np.full((count, len(_NEW_FLAT)), -1, np.int64)
-    if need.all():
-        new[:] = vertices.add(_grid_keys(box, _NEW, 8).reshape(-1, 2), evaluate).reshape(count, -1)
-    else:
-        new[need] = vertices.add(_grid_keys(box, _NEW, 8)[need], evaluate)
+    new[need] = vertices.add(_grid_keys(box, _NEW, 8)[need], evaluate)
     new[with_left, _LEFT] = new[left[with_left], _RIGHT]
     new[with_top, _TOP] = new[top[with_top], _BOTTOM]
     grid[:, _NEW_FLAT] = new

@@ -32,7 +32,7 @@ _CELL_WORDS = 28
 #: A split cell's children are predicted only where no point handle is within this many
 #: children's sides of a child's centre: f is not smooth at a handle (idw's weight is
 #: infinite there, and f there has a cusp for alpha < 1), and the quartic through the cell's
-#: grid cannot see that. (At 1 side, alpha 0.6 maps were predicted 2.6x below their miss.)
+#: grid cannot see that. (At 1 side, an alpha 0.6 map's errors reached 1.9x the tolerance.)
 SMOOTH_REACH = 2.0
 
 
@@ -47,9 +47,10 @@ def smooth_weight(kernel: MLSKernel) -> bool:
 
 
 class GPUCells:
-    """:func:`glmls.imaging.adaptive.build_adaptive`'s ``evaluate`` and ``test`` for one
-    build, with ``kernel``'s f for an image of ``shape``, the GPU objects ``resources``'s
-    (the roles ``adaptive-f``, ``adaptive-cells`` and ``adaptive-tests``)."""
+    """:func:`glmls.imaging.adaptive.build_adaptive`'s ``evaluate``, ``test`` and
+    ``predict`` for one build, with ``kernel``'s f for an image of ``shape``, the GPU
+    objects ``resources``'s (the roles ``adaptive-f``, ``adaptive-cells`` and
+    ``adaptive-tests``)."""
 
     def __init__(
         self, gl: GLContext, resources: Resources, kernel: MLSKernel, shape: tuple[int, int]

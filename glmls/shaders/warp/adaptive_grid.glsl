@@ -93,12 +93,18 @@ uniform int u_offset;     // first cell of this dispatch
 const int GRID_PLACE[25] = int[25](0, 2, 4, 10, 12, 14, 20, 22, 24,
                                    1, 3, 5, 6, 7, 8, 9, 11, 13, 15, 16, 17, 18, 19, 21, 23);
 
-// Cell ``cell``'s 25 values less its centre node's, and its sides (pixels).
-void adaptive_load_grid(int cell, out vec2 grid[25], out vec2 sides) {
+// This invocation's cell (false past the last: nothing to do), its 25 values less its centre
+// node's, and its sides (pixels).
+bool adaptive_load_grid(out int cell, out vec2 grid[25], out vec2 sides) {
+    cell = u_offset + int(gl_GlobalInvocationID.x);
+    if (cell >= u_count) {
+        return false;
+    }
     int at = cell * CELL_WORDS;
     vec2 centre = adaptive_f[adaptive_cell[at + 4]];
     for (int k = 0; k < 25; ++k) {
         grid[GRID_PLACE[k]] = adaptive_f[adaptive_cell[at + k]] - centre;
     }
     sides = vec2(uintBitsToFloat(adaptive_cell[at + 25]), uintBitsToFloat(adaptive_cell[at + 26]));
+    return true;
 }

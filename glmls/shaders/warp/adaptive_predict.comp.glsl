@@ -29,13 +29,12 @@ const float QUARTIC[45] = float[45](
     0.0, 0.0, 0.0, 0.0, 1.0);
 
 void main() {
-    int cell = u_offset + int(gl_GlobalInvocationID.x);
-    if (cell >= u_count) {
-        return;
-    }
+    int cell;
     vec2 grid[25];
     vec2 sides;
-    adaptive_load_grid(cell, grid, sides);
+    if (!adaptive_load_grid(cell, grid, sides)) {
+        return;
+    }
     for (int i = 0; i < 2; ++i) {
         for (int j = 0; j < 2; ++j) {
             // along the rows first: the cell's 5 rows at the child's 5 columns

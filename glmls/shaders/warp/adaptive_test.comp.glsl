@@ -11,12 +11,11 @@ layout(local_size_x = LOCAL_SIZE) in;
 #include "warp/adaptive_grid.glsl"
 
 void main() {
-    int cell = u_offset + int(gl_GlobalInvocationID.x);
-    if (cell >= u_count) {
-        return;
-    }
+    int cell;
     vec2 grid[25];
     vec2 sides;
-    adaptive_load_grid(cell, grid, sides);
+    if (!adaptive_load_grid(cell, grid, sides)) {
+        return;
+    }
     adaptive_test[cell] = adaptive_grid_test(grid, sides);
 }
