@@ -123,14 +123,15 @@ def folded_case():
 
 
 class ReferenceCells:
-    """The adaptive build's ``evaluate``, ``test`` and ``predict`` in float64 for a numpy map
-    ``f``: f at the points it is given, in order (their vertex ids), the cells' test and the
-    prediction of split cells' children from it (:func:`glmls.imaging.adaptive_patch.
-    predict_cells`, trusted everywhere: ``f`` is taken to be smooth); the test and the
-    prediction check that each cell's grid is made of points evaluated, at their places."""
+    """The adaptive build's ``evaluate`` and ``test`` in float64 for a numpy map ``f``: f at
+    the points it is given, in order (their vertex ids), the cells' test and, with
+    ``predict``, the prediction of every cell's children from it (:func:`glmls.imaging.
+    adaptive_patch.predict_cells`, trusted everywhere: ``f`` is taken to be smooth); the
+    test checks that each cell's grid is made of points evaluated, at their places."""
 
-    def __init__(self, f):
+    def __init__(self, f, *, predict: bool = False):
         self.f = f
+        self.predicts = predict
         self.points: list[np.ndarray] = []
         self.values: list[np.ndarray] = []
         self.predicted = 0  # children predicted
@@ -153,24 +154,23 @@ class ReferenceCells:
         quarters = np.array([[c, r] for r, c in NODES + TESTS]) / 4.0
         np.testing.assert_allclose(points, first + (last - first) * quarters, atol=1e-9)
 
-    def test(self, nodes, tests, width, height):
-        from glmls.imaging.adaptive_patch import estimate_cells
+    def test(self, nodes, tests, width, height, centres, whole):
+        from glmls.imaging.adaptive_patch import estimate_cells, predict_cells
 
         self.check_grids(nodes, tests)
+        np.testing.assert_allclose(
+            centres, np.concatenate(self.points)[nodes[:, 4]], rtol=0, atol=1e-9
+        )
         f = np.concatenate(self.values)
-        return estimate_cells(f[:, 0], f[:, 1], nodes, tests, width, height)
+        error, stretch = estimate_cells(f[:, 0], f[:, 1], nodes, tests, width, height)
+        if not self.predicts:
+            return error, stretch, np.full((len(nodes), 4), np.inf), np.zeros((len(nodes), 4))
+        self.predicted += 4 * len(nodes)
+        return error, stretch, *predict_cells(f[:, 0], f[:, 1], nodes, tests, width, height)
 
     @property
     def count(self) -> int:
         return sum(len(v) for v in self.values)
-
-    def predict(self, nodes, tests, width, height, centres):
-        from glmls.imaging.adaptive_patch import predict_cells
-
-        self.check_grids(nodes, tests)
-        f = np.concatenate(self.values)
-        self.predicted += 4 * len(nodes)
-        return predict_cells(f[:, 0], f[:, 1], nodes, tests, width, height)
 
 
 def cross(a, b):

@@ -58,6 +58,8 @@ ADAPTIVE_HOT = Binding("ADAPTIVE_HOT", "storage", 15, "adaptive: the tiles near 
 ADAPTIVE_F = Binding("ADAPTIVE_F", "storage", 16, "adaptive build: f - v at each vertex (scaled)")
 ADAPTIVE_CELLS = Binding("ADAPTIVE_CELLS", "storage", 17, "adaptive build: the cells to test")
 ADAPTIVE_TESTS = Binding("ADAPTIVE_TESTS", "storage", 18, "adaptive build: each cell's test")
+ADAPTIVE_HANDLES = Binding("ADAPTIVE_HANDLES", "storage", 8, "adaptive build: the point handles")
+ADAPTIVE_SPLIT = Binding("ADAPTIVE_SPLIT", "storage", 9, "adaptive build: the cells that split")
 # -- uniform blocks ----------------------------------------------------------------------------
 HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
 # -- texture units -----------------------------------------------------------------------------
@@ -94,6 +96,8 @@ ALL = (
     ADAPTIVE_F,
     ADAPTIVE_CELLS,
     ADAPTIVE_TESTS,
+    ADAPTIVE_HANDLES,
+    ADAPTIVE_SPLIT,
     HANDLES_BLOCK,
     SOURCE,
     COORDS,

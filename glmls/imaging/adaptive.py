@@ -4,7 +4,8 @@ where the piecewise linear mesh would miss f's inverse by more than a tolerance.
 How it is built (:func:`build_adaptive`), level by level, numpy bookkeeping and one batched
 evaluation of f per level (``evaluate``, on the GPU in the pipeline) and one batched test of
 the level's cells (``test``: :func:`.adaptive_patch.estimate_cells` in float64, or on the GPU
-where f stays, :mod:`.adaptive_cells`, in the pipeline):
+where f stays, with the prediction of step 3 in the same pass, :mod:`.adaptive_cells`, in
+the pipeline):
 
 1. the roots are the cells of the corner lattice at :data:`ROOT_STEP` pixels (with the
    margin of a border mode), f evaluated at their 5 x 5 grids; cells larger than
@@ -17,10 +18,10 @@ where f stays, :mod:`.adaptive_cells`, in the pipeline):
 3. cells whose error exceeds the tolerance are split into four (their grid's points are the
    children's nodes), down to 1 px cells, and below (to :data:`MIN_SIZE`) where the map
    stretches (largest singular value > 1: a 1 px cell there covers more than one output
-   pixel). Each child is first predicted (``predict``: the quartic through the parent's
-   grid, :func:`.adaptive_patch.predict_cells`, where f is smooth): one predicted within
-   the tolerance over :data:`PREDICTION_MARGIN` is a leaf; f is evaluated at the others'
-   test points, and they are tested at the next level;
+   pixel). Each child is first predicted (by ``test``, with its parent's test: the quartic
+   through the parent's grid, :func:`.adaptive_patch.predict_cells`, where f is smooth): one
+   predicted within the tolerance over :data:`PREDICTION_MARGIN` is a leaf; f is evaluated
+   at the others' test points, and they are tested at the next level;
 4. each leaf is drawn as a fan of triangles around its centre through every vertex on its
    boundary: its corners and mid-points and those of finer neighbours on its edges (hanging
    vertices). Two leaves sharing an edge then share exactly the same f-evaluated vertices on
@@ -54,7 +55,6 @@ __all__ = [
     "ROOT_STEP",
     "SAFETY",
     "AdaptiveMesh",
-    "CellPredict",
     "CellTest",
     "build_adaptive",
     "check_adaptive",
@@ -91,15 +91,16 @@ MAX_POINTS_PER_PIXEL = 4
 _UNITS = 1024
 
 Evaluate = Callable[[np.ndarray], np.ndarray]
-#: (nodes, tests, width, height) -> (error, stretch), as :func:`.adaptive_patch.estimate_cells`
-#: (whose ``fx`` and ``fy`` are then the tester's own: every point ``evaluate`` was given, in
-#: order).
-CellTest = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
-#: (nodes, tests, width, height, centres) of split cells -> (error, stretch) of their four
-#: children, (K, 4) each, as :func:`.adaptive_patch.predict_cells` (``centres`` (K, 2), the
-#: cells' centres in pixels); an infinite error where the prediction is not to be trusted.
-CellPredict = Callable[
-    [np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]
+#: (nodes, tests, width, height, centres, whole) of a level's cells -> (error, stretch) of
+#: each, (K,), as :func:`.adaptive_patch.estimate_cells` (whose ``fx`` and ``fy`` are then the
+#: tester's own: every point ``evaluate`` was given, in order), and (error, stretch) of its
+#: four children, (K, 4), as :func:`.adaptive_patch.predict_cells` (an infinite error where
+#: they are not predicted: f not smooth there, or the cell does not split). ``centres``
+#: (K, 2): the cells' centres in pixels; ``whole`` (K,) bool: the cells that split untested
+#: (their own error is not used).
+CellTest = Callable[
+    [np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
 ]
 
 # A split cell's 9 x 9 grid (eighths of its sides), as flat places 9 * row + column: the
@@ -254,19 +255,17 @@ def build_adaptive(
     *,
     min_size: float = MIN_SIZE,
     test: CellTest | None = None,
-    predict: CellPredict | None = None,
     max_leaf: float = MAX_LEAF,
 ) -> AdaptiveMesh:
     """The adaptive mesh over the cells of ``lattice`` (a corner lattice: its step is the
     roots' side), refined until each leaf's estimated source-space error is within
     ``tolerance`` pixels or its side reaches 1 px (``min_size`` where the map stretches);
     cells wider or taller than ``max_leaf`` pixels are always split. ``evaluate`` maps (K, 2)
-    float64 points to f at them, (K, 2) float64. ``test``: the cells' test (see
-    :data:`CellTest`; vertex ids count the points given to ``evaluate``, from 0, in order);
-    None: :func:`.adaptive_patch.estimate_cells` on the evaluated f. ``predict``: the
-    prediction of split cells' children (see :data:`CellPredict`); a child predicted within
-    ``tolerance / PREDICTION_MARGIN`` is a leaf, and f is not evaluated at its test points;
-    None: every child is tested."""
+    float64 points to f at them, (K, 2) float64. ``test``: the cells' test and their
+    children's prediction (see :data:`CellTest`; vertex ids count the points given to
+    ``evaluate``, from 0, in order): a child predicted within ``tolerance /
+    PREDICTION_MARGIN`` is a leaf, and f is not evaluated at its test points; None:
+    :func:`.adaptive_patch.estimate_cells` on the evaluated f, every child tested."""
     xs, ys = lattice.axes
     x_origin, y_origin = lattice.origin
     span = max(xs[-1] - x_origin, ys[-1] - y_origin) + 1.0
@@ -309,15 +308,18 @@ def build_adaptive(
         x0, y0, x1, y1 = box.T
         w, h = (x1 - x0) / units, (y1 - y0) / units
         side = np.maximum(x1 - x0, y1 - y0)
-        error, stretch = np.full(len(box), np.inf), np.zeros(len(box))
-        small = side <= largest  # larger cells split untested
-        tested = slice(None) if small.all() else np.flatnonzero(small)
-        if small.any():
+        whole = side > largest  # larger cells split untested
+        if test is None:
+            error, stretch = np.full(len(box), np.inf), np.zeros(len(box))
+            tested = np.flatnonzero(~whole)
             cells = (nodes[tested], tests[tested], w[tested], h[tested])
-            if test is None:
-                error[tested], stretch[tested] = estimate_cells(*vertices.f_apart(), *cells)
-            else:
-                error[tested], stretch[tested] = test(*cells)
+            error[tested], stretch[tested] = estimate_cells(*vertices.f_apart(), *cells)
+            guess = np.full((len(box), 4), np.inf)
+        else:
+            centres = vertices.origin + (box[:, :2] + box[:, 2:]) / (2 * units)
+            error, stretch, guess, _ = test(nodes, tests, w, h, centres, whole)
+            error = np.where(whole, np.inf, error)
+            stretch = np.where(whole, 0.0, stretch)
         # below 1 px only where a pixel's cell covers more than one output pixel, and not
         # where the map folds: a folded pixel has no single inverse to come closer to
         limit = np.maximum(smallest, np.minimum(units, units / np.maximum(stretch, 1e-12)))
@@ -330,15 +332,8 @@ def build_adaptive(
         )
         keep = ~split
         leaves.append((box[keep], nodes[keep], error[keep]))
-        box, nodes, tests = box[split], nodes[split], tests[split]
-        if predict is not None and len(box):
-            centres = vertices.origin + (box[:, :2] + box[:, 2:]) / (2 * units)
-            x0, y0, x1, y1 = box.T
-            guess, _ = predict(nodes, tests, (x1 - x0) / units, (y1 - y0) / units, centres)
-            accepted = guess * PREDICTION_MARGIN <= tolerance  # (K, 4)
-        else:
-            guess = np.full((len(box), 4), np.inf)
-            accepted = np.zeros((len(box), 4), bool)
+        box, nodes, tests, guess = box[split], nodes[split], tests[split], guess[split]
+        accepted = guess * PREDICTION_MARGIN <= tolerance  # (K, 4)
         box, nodes, tests = _split(box, nodes, tests, ~accepted, vertices, evaluate)
         if accepted.any():
             done = accepted.T.ravel()  # _split's children come child by child

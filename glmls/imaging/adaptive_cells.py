@@ -1,11 +1,11 @@
 """The adaptive build's evaluations and cell tests on the GPU: f at each level's new points
 (``mls/points.comp.glsl``), kept on the GPU as well, in the order the build numbers its
 vertices, so that the cells' test (``warp/adaptive_test.comp.glsl``) reads f where it is,
-one invocation per cell, instead of numpy gathering and combining 25 values per cell. The
-host gets back four floats a cell; :func:`glmls.imaging.adaptive_patch.estimate_cells` is the
-float64 reference. Likewise the prediction of split cells' children
-(``warp/adaptive_predict.comp.glsl``, reference
-:func:`glmls.imaging.adaptive_patch.predict_cells`), where f is smooth.
+one invocation per cell, instead of numpy gathering and combining 25 values per cell. In the
+same invocation, where f is smooth, the children of a cell that splits are predicted from
+its grid (``warp/adaptive_quartic.glsl``): one round trip per level. The host gets back four
+floats per cell and child; :func:`glmls.imaging.adaptive_patch.estimate_cells` and
+:func:`~glmls.imaging.adaptive_patch.predict_cells` are the float64 references.
 """
 
 from __future__ import annotations
@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..engine.kernel import MLSKernel
 from ..engine.passes import evaluate_points
@@ -21,51 +20,74 @@ from ..gl import bindings
 from ..gl.context import GLContext
 from ..gl.dispatch import run_1d, set_uniforms
 from ..gl.resources import Resources
-from .adaptive_patch import error_bound
+from .adaptive_patch import SAFETY, error_bound
 
-__all__ = ["SMOOTH_REACH", "GPUCells", "smooth_weight"]
+__all__ = ["MAX_SMOOTH_ALPHA", "SMOOTH_REACH", "GPUCells", "smooth_weight"]
 
-#: uint32 words per cell in the test's input: 9 node ids, 16 test ids, width, height, 0
-#: (the shader's CELL_WORDS, defined from here).
-_CELL_WORDS = 28
+#: uint32 words per cell in the test's input: 9 node ids, 16 test ids, width, height, flags
+#: (bit 0: the cell splits untested), the centre's x and y (scaled) (the shader's CELL_WORDS,
+#: defined from here).
+_CELL_WORDS = 30
 
 #: A split cell's children are predicted only where no point handle is within this many
-#: children's sides of a child's centre: f is not smooth at a handle (idw's weight is
-#: infinite there, and f there has a cusp for alpha < 1), and the quartic through the cell's
-#: grid cannot see that. (At 1 side, an alpha 0.6 map's errors reached 1.9x the tolerance.)
+#: children's sides of a child's centre: f is not smooth at a handle (its Jacobian there
+#: depends on the direction it is approached from, and f has a cusp for alpha < 1), and the
+#: quartic through the cell's grid cannot see that. (At 1 side, an alpha 0.6 map's errors
+#: reached 1.9x the tolerance.)
 SMOOTH_REACH = 2.0
+#: ... nor where idw's power (or the interpolating factor's) is above this: f then turns
+#: sharply between the handles' regions, away from them too (at alpha 3 a leaf accepted on
+#: its prediction 36 px from the nearest handle missed by 1.27x the tolerance; alpha 2
+#: kept every map's errors within the full test's).
+MAX_SMOOTH_ALPHA = 2.0
 
 
 def smooth_weight(kernel: MLSKernel) -> bool:
     """Whether ``kernel``'s f is smooth away from its point handles: idw, or the gaussian
-    where no cut makes its weight 0 (no bins); not the weights with a radius (f bends
+    where no cut makes its weight 0 (no bins), with a power (idw's, or the interpolating
+    factor's) of at most :data:`MAX_SMOOTH_ALPHA`; not the weights with a radius (f bends
     sharply where a handle's reach ends) nor with segment handles."""
-    support = kernel.config.weight_entry.support
+    config = kernel.config
+    support = config.weight_entry.support
     if kernel.segments or support == "radius":
+        return False
+    if (config.weight == "idw" or config.interpolating) and config.alpha > MAX_SMOOTH_ALPHA:
         return False
     return support == "everywhere" or kernel.bins is None
 
 
 class GPUCells:
-    """:func:`glmls.imaging.adaptive.build_adaptive`'s ``evaluate``, ``test`` and
-    ``predict`` for one build, with ``kernel``'s f for an image of ``shape``, the GPU
-    objects ``resources``'s (the roles ``adaptive-f``, ``adaptive-cells`` and
-    ``adaptive-tests``)."""
+    """:func:`glmls.imaging.adaptive.build_adaptive`'s ``evaluate`` and ``test`` for one
+    build to ``tolerance`` pixels, with ``kernel``'s f for an image of ``shape``, the GPU
+    objects ``resources``'s (the roles ``adaptive-f``, ``adaptive-cells``,
+    ``adaptive-tests`` and ``adaptive-handles``)."""
 
     def __init__(
-        self, gl: GLContext, resources: Resources, kernel: MLSKernel, shape: tuple[int, int]
+        self,
+        gl: GLContext,
+        resources: Resources,
+        kernel: MLSKernel,
+        shape: tuple[int, int],
+        tolerance: float,
     ) -> None:
         self._gl = gl
         self._resources = resources
         self._kernel = kernel
         self._shape = shape
+        self._tolerance = tolerance
         #: vertices evaluated so far: the next one's id
         self.count = 0
         self._bad: list[np.ndarray] = []  # ids of vertices where f is not finite
-        #: Whether :meth:`predict` predicts (f is smooth away from the handles).
+        #: Whether :meth:`test` predicts split cells' children (f is smooth away from the
+        #: handles).
         self.predicts = smooth_weight(kernel)
-        sources = kernel.sources if self.predicts else np.zeros((0, 2))
-        self._handles = cKDTree(sources) if len(sources) else None
+        self._handles = 0
+        if self.predicts:
+            sources = kernel.scaling.to_gpu(np.asarray(kernel.sources, np.float64))
+            self._handles = len(sources)
+            with gl.use():
+                buffer = resources.buffer("adaptive-handles", max(sources.nbytes, 8))
+                buffer.write(sources.tobytes())
 
     def evaluate(self, points: np.ndarray) -> np.ndarray:
         """f at ``points`` ((K, 2) float64), (K, 2) float64; they get the next K ids."""
@@ -82,69 +104,54 @@ class GPUCells:
         return f
 
     def test(
-        self, nodes: np.ndarray, tests: np.ndarray, width: np.ndarray, height: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """(error, stretch) of each cell, as :func:`~glmls.imaging.adaptive_patch.estimate_cells`
-        (ids among those :meth:`evaluate` gave)."""
-        if len(nodes) == 0:
-            return np.zeros(0), np.zeros(0)
-        result = self._run("warp/adaptive_test.comp.glsl", nodes, tests, width, height, 1)
-        error = error_bound(result[:, 0], result[:, 1])
-        error[self._touch_bad(nodes, tests)] = np.inf
-        return error, result[:, 2]
-
-    def predict(
         self,
         nodes: np.ndarray,
         tests: np.ndarray,
         width: np.ndarray,
         height: np.ndarray,
         centres: np.ndarray,
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """(error, stretch) of the four children of each cell, (K, 4), as
-        :func:`~glmls.imaging.adaptive_patch.predict_cells` (``centres`` (K, 2): the
-        cells' centres, pixels); the error is infinite where a handle is within
-        :data:`SMOOTH_REACH` children's sides of a child's centre, and everywhere unless
-        :attr:`predicts`."""
+        whole: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(error, stretch) of each cell, (K,), as
+        :func:`~glmls.imaging.adaptive_patch.estimate_cells` (ids among those
+        :meth:`evaluate` gave), and of its four children, (K, 4), as
+        :func:`~glmls.imaging.adaptive_patch.predict_cells` where the cell splits (its
+        error is above the tolerance, or ``whole``: (K,) bool, it splits untested) and
+        :attr:`predicts`, and no point handle is within :data:`SMOOTH_REACH` children's
+        sides of a child's centre (``centres`` (K, 2): the cells' centres, pixels); an
+        infinite error elsewhere. One dispatch."""
         count = len(nodes)
-        error = np.full((count, 4), np.inf)
-        stretch = np.zeros((count, 4))
-        if not self.predicts or count == 0:
-            return error, stretch
-        side = np.maximum(width, height) / 2
-        # a child's centre is side / sqrt(2) from the cell's
-        reach = (SMOOTH_REACH + math.sqrt(0.5)) * side
-        far = np.ones(count, bool)
-        if self._handles is not None:
-            distance, _ = self._handles.query(centres, distance_upper_bound=float(reach.max()))
-            far = distance >= reach
-        far &= ~self._touch_bad(nodes, tests)
-        chosen = np.flatnonzero(far)
-        if len(chosen) == 0:
-            return error, stretch
-        result = self._run(
-            "warp/adaptive_predict.comp.glsl",
-            nodes[chosen],
-            tests[chosen],
-            width[chosen],
-            height[chosen],
-            4,
-        ).reshape(len(chosen), 4, 4)
-        error[chosen] = error_bound(result[..., 0].ravel(), result[..., 1].ravel()).reshape(-1, 4)
-        stretch[chosen] = result[..., 2]
-        return error, stretch
+        children = np.full((count, 4), np.inf), np.zeros((count, 4))
+        if count == 0:
+            return np.zeros(0), np.zeros(0), *children
+        result = self._run(nodes, tests, width, height, centres, whole)
+        bad = self._touch_bad(nodes, tests)
+        error = error_bound(result[:, 0, 0], result[:, 0, 1])
+        error[bad] = np.inf
+        if self.predicts:
+            child = result[:, 1:]
+            predicted = (child[..., 3] > 0.5) & ~bad[:, None]
+            bound = error_bound(child[..., 0].ravel(), child[..., 1].ravel()).reshape(-1, 4)
+            children = np.where(predicted, bound, np.inf), np.where(predicted, child[..., 2], 0.0)
+        return error, result[:, 0, 2], *children
 
-    def _run(self, shader, nodes, tests, width, height, per_cell: int) -> np.ndarray:
-        """``shader`` over the cells, (K * per_cell, 4) float64: what it wrote, ``per_cell``
-        vec4 each."""
+    def _run(self, nodes, tests, width, height, centres, whole) -> np.ndarray:
+        """The test (and prediction) over the cells, (K, 1 or 5, 4) float64: what it wrote."""
         count = len(nodes)
-        cells = np.zeros((count, _CELL_WORDS), np.uint32)
+        cells = np.empty((count, _CELL_WORDS), np.uint32)
         cells[:, :9] = nodes
         cells[:, 9:25] = tests
         cells[:, 25] = np.asarray(width, np.float32).view(np.uint32)
         cells[:, 26] = np.asarray(height, np.float32).view(np.uint32)
+        cells[:, 27] = whole
+        cells[:, 28:] = self._kernel.scaling.to_gpu(centres).view(np.uint32)
+        per_cell = 5 if self.predicts else 1
         gl, resources = self._gl, self._resources
         size = count * per_cell * 16
+        shader = "warp/adaptive_test.comp.glsl"
+        defines = {"CELL_WORDS": _CELL_WORDS, "ADAPTIVE_SAFETY": SAFETY}
+        scale = {"u_scale": float(self._kernel.scaling.scale)}
+        max_groups = gl.limits["max_work_groups_x"]
         with gl.use():
             source = resources.buffer("adaptive-cells", cells.nbytes)
             source.write(cells.tobytes())
@@ -152,12 +159,32 @@ class GPUCells:
             resources.cached("adaptive-f").bind_to_storage_buffer(bindings.ADAPTIVE_F.index)
             out = resources.buffer("adaptive-tests", size)
             out.bind_to_storage_buffer(bindings.ADAPTIVE_TESTS.index)
-            program = gl.compute(shader, {"CELL_WORDS": _CELL_WORDS})
-            set_uniforms(program, {"u_scale": float(self._kernel.scaling.scale)})
-            run_1d(program, count, max_groups=gl.limits["max_work_groups_x"])
+            if not self.predicts:
+                program = gl.compute(shader, defines | {"ADAPTIVE_PREDICT": 0})
+                set_uniforms(program, scale)
+                run_1d(program, count, max_groups=max_groups)
+            else:
+                listed = resources.buffer("adaptive-split", 4 * (count + 1))
+                listed.write(np.zeros(1, np.uint32).tobytes())
+                listed.bind_to_storage_buffer(bindings.ADAPTIVE_SPLIT.index)
+                handles = resources.cached("adaptive-handles")
+                handles.bind_to_storage_buffer(bindings.ADAPTIVE_HANDLES.index)
+                program = gl.compute(shader, defines | {"ADAPTIVE_PREDICT": 1})
+                values = {
+                    "u_tolerance": self._tolerance,
+                    # the reach is from a child's centre, side / sqrt(2) from the cell's
+                    "u_reach": SMOOTH_REACH + math.sqrt(0.5),
+                    "u_handles": self._handles,
+                }
+                set_uniforms(program, scale | values)
+                run_1d(program, count, max_groups=max_groups)
+                gl.mgl.memory_barrier()  # the list and the tests' zeros before the prediction
+                program = gl.compute(shader, defines | {"ADAPTIVE_PREDICT": 2})
+                set_uniforms(program, scale)
+                run_1d(program, count, max_groups=max_groups)  # past the list: nothing
             gl.mgl.memory_barrier()
             result = np.frombuffer(out.read(size=size), np.float32)
-        return result.reshape(-1, 4).astype(np.float64)
+        return result.reshape(count, per_cell, 4).astype(np.float64)
 
     def _touch_bad(self, nodes: np.ndarray, tests: np.ndarray) -> np.ndarray:
         """Which cells have a vertex where f is not finite, (K,) bool."""

@@ -4,7 +4,7 @@ cell's 5 x 5 grid in quarters of its sides, the 16 other points of that grid whe
 compares the patch with f, and the test itself in float64 (:func:`estimate_cells`, the
 reference of the GPU's ``warp/adaptive_test.comp.glsl``); and the prediction of a split
 cell's four children from its grid (:func:`predict_cells`, the reference of
-``warp/adaptive_predict.comp.glsl``).
+``warp/adaptive_quartic.glsl``, through ``warp/adaptive_test.comp.glsl``).
 """
 
 from __future__ import annotations
@@ -163,7 +163,7 @@ def predict_cells(
     the cell's grid points, so their Jacobians (and stretches, and whether they fold) are
     exactly their patches'; only the miss is predicted. Where f is smooth over the cell the
     quartic errs by f's fifth derivatives, the children's patches by their third: the
-    prediction is close. The float64 reference of ``warp/adaptive_predict.comp.glsl``."""
+    prediction is close. The float64 reference of ``warp/adaptive_quartic.glsl``."""
     count = len(nodes)
     ids = np.concatenate([nodes, tests], axis=1)
     grids = []

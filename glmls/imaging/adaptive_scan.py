@@ -52,10 +52,10 @@ class AdaptiveScan:
 
     def build(self, kernel: MLSKernel, lattice: MeshLattice, tolerance: float) -> AdaptiveMesh:
         """The adaptive mesh over ``lattice``'s cells (the roots), f from ``kernel``, the
-        cells tested and their children predicted on the GPU (:mod:`.adaptive_cells`)."""
-        cells = GPUCells(self._gl, self._resources, kernel, lattice.shape)
-        predict = cells.predict if cells.predicts else None
-        return build_adaptive(cells.evaluate, lattice, tolerance, test=cells.test, predict=predict)
+        cells tested and their children predicted on the GPU, in one pass per level
+        (:mod:`.adaptive_cells`)."""
+        cells = GPUCells(self._gl, self._resources, kernel, lattice.shape, tolerance)
+        return build_adaptive(cells.evaluate, lattice, tolerance, test=cells.test)
 
     def mesh(self, kernel: MLSKernel, shape: tuple[int, int], tolerance: float) -> AdaptiveMesh:
         """The adaptive mesh that ``quads`` with ``tolerance`` draws for an image of ``shape``

@@ -191,14 +191,8 @@ def test_the_leaves_fans_make_one_conforming_triangulation(shape, predicted):
         c, s = np.cos(turn), np.sin(turn)
         return centre + np.stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]], -1)
 
-    cells = ReferenceCells(evaluate)
-    mesh = build_adaptive(
-        cells.evaluate,
-        lattice,
-        0.01,
-        test=cells.test,
-        predict=cells.predict if predicted else None,
-    )
+    cells = ReferenceCells(evaluate, predict=predicted)
+    mesh = build_adaptive(cells.evaluate, lattice, 0.01, test=cells.test)
     sides = mesh.leaves[:, 2] - mesh.leaves[:, 0]
     assert {1, 2, 4, 8, 16} <= set(sides.tolist()) and mesh.levels >= 5
     assert len(np.unique(mesh.source, axis=0)) == len(mesh.source)

@@ -1,5 +1,5 @@
 """The adaptive build's cell test and children's prediction on the GPU
-(``warp/adaptive_test.comp.glsl`` and ``warp/adaptive_predict.comp.glsl`` through
+(``warp/adaptive_test.comp.glsl`` with ``warp/adaptive_quartic.glsl``, through
 :class:`glmls.imaging.adaptive_cells.GPUCells`) against their float64 references
 :func:`glmls.imaging.adaptive_patch.estimate_cells` and ``predict_cells``, cell by cell, on
 every level of real builds; and the pieces they rest on: f's displacements kept on the GPU,
@@ -18,7 +18,7 @@ from glmls.gl.resources import Resources
 from glmls.imaging import adaptive_cells
 from glmls.imaging.adaptive import ROOT_STEP, build_adaptive
 from glmls.imaging.adaptive_cells import SMOOTH_REACH, GPUCells
-from glmls.imaging.adaptive_patch import estimate_cells, predict_cells
+from glmls.imaging.adaptive_patch import NODES, TESTS, estimate_cells, predict_cells
 
 SHAPE = (160, 192)
 
@@ -30,14 +30,16 @@ RTOL_ERROR, ATOL_ERROR, RTOL_STRETCH = 5e-3, 1e-5, 1e-4
 
 def compare_levels(gl, m, shape, tolerance):
     """Build the mesh with the GPU's test and prediction, checking every level's cells
-    against the float64 references on the same f (and the prediction's screening against
-    the handles' distances); the levels compared, and the mesh."""
+    against the float64 references on the same f (and the prediction's choice of cells:
+    those that split, with no handle near, against the handles' distances); the levels
+    compared, and the mesh."""
     resources = Resources(gl)
     try:
-        cells = GPUCells(gl, resources, m.kernel, shape)
+        cells = GPUCells(gl, resources, m.kernel, shape, tolerance)
         fx: list[np.ndarray] = []
         fy: list[np.ndarray] = []
         levels = []
+        predicted: list[int] = []
 
         def evaluate(points):
             f = cells.evaluate(points)
@@ -45,43 +47,42 @@ def compare_levels(gl, m, shape, tolerance):
             fy.append(f[:, 1])
             return f
 
-        def test(nodes, tests, width, height):
-            error, stretch = cells.test(nodes, tests, width, height)
-            want_error, want_stretch = estimate_cells(
-                np.concatenate(fx), np.concatenate(fy), nodes, tests, width, height
-            )
-            finite = np.isfinite(want_error)
-            np.testing.assert_array_equal(np.isfinite(error), finite)
+        def check(got, want, where):
+            finite = np.isfinite(want[where])
+            np.testing.assert_array_equal(np.isfinite(got[where]), finite)
             np.testing.assert_allclose(
-                error[finite], want_error[finite], rtol=RTOL_ERROR, atol=ATOL_ERROR
+                got[where][finite], want[where][finite], rtol=RTOL_ERROR, atol=ATOL_ERROR
             )
-            np.testing.assert_allclose(stretch, want_stretch, rtol=RTOL_STRETCH)
-            levels.append(len(nodes))
-            return want_error, want_stretch
 
-        def predict(nodes, tests, width, height, centres):
-            error, stretch = cells.predict(nodes, tests, width, height, centres)
-            want_error, want_stretch = predict_cells(
-                np.concatenate(fx), np.concatenate(fy), nodes, tests, width, height
+        def test(nodes, tests, width, height, centres, whole):
+            error, stretch, child_error, child_stretch = cells.test(
+                nodes, tests, width, height, centres, whole
             )
-            # predicted where no handle is within SMOOTH_REACH children's sides of a child
+            f = np.concatenate(fx), np.concatenate(fy)
+            want_error, want_stretch = estimate_cells(*f, nodes, tests, width, height)
+            check(error, want_error, slice(None))
+            np.testing.assert_allclose(stretch, want_stretch, rtol=RTOL_STRETCH)
+            want_child, want_child_stretch = predict_cells(*f, nodes, tests, width, height)
+            # predicted where the cell splits and no handle is within SMOOTH_REACH
+            # children's sides of a child's centre (clear of float32's rounding at both)
             handles = m.kernel.sources
             near = np.hypot(*(centres[:, None] - handles[None]).transpose(2, 0, 1)).min(1)
-            far = near >= (SMOOTH_REACH + np.sqrt(0.5)) * np.maximum(width, height) / 2
-            assert np.isinf(error[~far]).all()
-            want_error[~far] = np.inf
-            finite = np.isfinite(want_error)
-            np.testing.assert_array_equal(np.isfinite(error), finite)
+            reach = (SMOOTH_REACH + np.sqrt(0.5)) * np.maximum(width, height) / 2
+            splits = whole | (want_error > tolerance * (1 + 1e-3))
+            stays = ~whole & (want_error < tolerance * (1 - 1e-3))
+            far = splits & (near > reach * (1 + 1e-4))
+            assert np.isinf(child_error[stays | (near < reach * (1 - 1e-4))]).all()
+            check(child_error, want_child, far)
             np.testing.assert_allclose(
-                error[finite], want_error[finite], rtol=RTOL_ERROR, atol=ATOL_ERROR
+                child_stretch[far], want_child_stretch[far], rtol=RTOL_STRETCH
             )
-            np.testing.assert_allclose(stretch[far], want_stretch[far], rtol=RTOL_STRETCH)
+            levels.append(len(nodes))
             predicted.append(int(far.sum()))
-            return want_error, want_stretch
+            want_child[~far] = np.inf  # the build goes on as the GPU's would
+            return want_error, want_stretch, want_child, want_child_stretch
 
-        predicted: list[int] = []
         lattice = MeshLattice.corners(shape, ROOT_STEP)
-        mesh = build_adaptive(evaluate, lattice, tolerance, test=test, predict=predict)
+        mesh = build_adaptive(evaluate, lattice, tolerance, test=test)
         assert sum(predicted) > 0  # some cells far enough from the handles
         assert cells.count == sum(len(f) for f in fx)
         return levels, mesh
@@ -135,19 +136,30 @@ def test_cells_with_a_vertex_where_f_is_not_finite_have_an_infinite_error(gl, rn
     resources = Resources(gl)
     try:
         with glmls.MLS(p, q, shape=SHAPE, ctx=gl) as m:
-            cells = GPUCells(gl, resources, m.kernel, SHAPE)
-            points = rng.uniform(0, 150, (40, 2))
-            f = cells.evaluate(points)
-            nodes = rng.integers(0, 40, (30, 9))
-            tests = rng.integers(0, 40, (30, 16))
-            size = np.full(30, 8.0)
-            error, _ = cells.test(nodes, tests, size, size)
+            cells = GPUCells(gl, resources, m.kernel, SHAPE, 0.05)
+            # a 7 x 7 lattice of points far from the handles (point 5 broken), and the nine
+            # cells whose 5 x 5 grids it holds: their children predicted, but for those
+            # that touch point 5
+            lattice = np.stack(np.meshgrid(np.arange(7.0), np.arange(7.0)), -1).reshape(-1, 2)
+            f = cells.evaluate(1000 + 2 * lattice)
+            rows, cols = np.divmod(np.arange(9), 3)
+            ids = np.array(
+                [
+                    [7 * (a + r) + b + c for r, c in NODES + TESTS]
+                    for a, b in zip(rows, cols, strict=True)
+                ]
+            )
+            nodes, tests = ids[:, :9], ids[:, 9:]
+            size = np.full(9, 8.0)
+            centres = 1000 + 2 * np.stack([cols + 2, rows + 2], -1).astype(float)
+            error, _, child_error, _ = cells.test(nodes, tests, size, size, centres, size > 0)
     finally:
         resources.release()
     assert np.isnan(f[5]).all()
     touched = (nodes == 5).any(axis=1) | (tests == 5).any(axis=1)
     assert touched.any() and not touched.all()
     assert np.isinf(error[touched]).all()
+    assert np.isinf(child_error[touched]).all() and np.isfinite(child_error[~touched]).all()
     want, _ = estimate_cells(f[:, 0], f[:, 1], nodes, tests, size, size)
     assert np.isinf(want[touched]).all()
 
@@ -192,6 +204,10 @@ def test_a_grown_buffer_keeps_what_it_held(gl):
     [
         ({}, True),
         ({"alpha": 0.6, "interpolating": True}, True),
+        ({"alpha": 2.0}, True),
+        ({"alpha": 2.5}, False),  # f turns sharply between the handles' regions
+        ({"weight": "gaussian", "radius": 30.0, "bins": False, "interpolating": True}, True),
+        ({"weight": "gaussian", "bins": False, "interpolating": True, "alpha": 3.0}, False),
         ({"weight": "gaussian", "radius": 30.0, "bins": False}, True),
         ({"weight": "gaussian", "radius": 30.0, "bins": True}, False),  # cut: f jumps
         ({"weight": "cressman", "radius": 40.0}, False),  # f bends where a reach ends
@@ -201,8 +217,9 @@ def test_a_grown_buffer_keeps_what_it_held(gl):
     ],
 )
 def test_children_are_predicted_only_where_f_is_smooth(gl, rng, options, smooth):
-    """The prediction is trusted for idw and the uncut gaussian without segment handles;
-    elsewhere every child of a split cell is tested (its predicted error is infinite)."""
+    """The prediction is trusted for idw and the uncut gaussian without segment handles,
+    with a power of at most MAX_SMOOTH_ALPHA; elsewhere every child of a split cell is
+    tested (its predicted error is infinite)."""
     p, q = jittered_moves(SHAPE, rng)
     options = dict(options)
     if options.pop("segments", False):
@@ -211,13 +228,16 @@ def test_children_are_predicted_only_where_f_is_smooth(gl, rng, options, smooth)
     resources = Resources(gl)
     try:
         with glmls.MLS(p, q, shape=SHAPE, ctx=gl, **options) as m:
-            cells = GPUCells(gl, resources, m.kernel, SHAPE)
+            cells = GPUCells(gl, resources, m.kernel, SHAPE, 0.05)
             assert adaptive_cells.smooth_weight(m.kernel) is smooth
             assert cells.predicts is smooth
-            nodes, tests = np.zeros((3, 9), np.int64), np.zeros((3, 16), np.int64)
-            size, centres = np.full(3, 8.0), np.zeros((3, 2))
-            if not smooth:  # nothing predicted: every child tested
-                error, _ = cells.predict(nodes, tests, size, size, centres)
-                assert np.isinf(error).all()
+            # a cell far from every handle, on an affine f: its children exact
+            lattice = np.stack(np.meshgrid(np.arange(5.0), np.arange(5.0)), -1).reshape(25, 2)
+            cells.evaluate(1000 + 2 * lattice)
+            place = np.array([5 * r + c for r, c in NODES + TESTS])
+            nodes, tests = place[None, :9], place[None, 9:]
+            size, centres = np.full(1, 8.0), np.full((1, 2), 1004.0)
+            _, _, error, _ = cells.test(nodes, tests, size, size, centres, np.ones(1, bool))
+            assert bool(np.isfinite(error).all()) is smooth  # else every child tested
     finally:
         resources.release()

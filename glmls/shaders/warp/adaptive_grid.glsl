@@ -1,6 +1,6 @@
 // The adaptive build's test of one cell from its 5 x 5 grid (quarters of its sides), shared by
 // the cells' test (warp/adaptive_test.comp.glsl: f at the grid) and the children's prediction
-// (warp/adaptive_predict.comp.glsl: the parent's quartic at the children's grids).
+// (warp/adaptive_quartic.glsl: the parent's quartic at the children's grids).
 // glmls.imaging.adaptive_patch.estimate_cells is the float64 reference.
 //
 // The grid holds the quadratic patch's 3 x 3 nodes (even row and column) and 16 test points.
@@ -75,11 +75,13 @@ layout(std430, binding = BIND_ADAPTIVE_F) readonly buffer AdaptiveF {
 };
 layout(std430, binding = BIND_ADAPTIVE_CELLS) readonly buffer AdaptiveCells {
     uint adaptive_cell[];    // per cell, CELL_WORDS: 9 node ids (row by row), the 16 test
-                             // points' ids (row by row), width and height (float bits)
+                             // points' ids (row by row), width and height (float bits),
+                             // flags (bit 0: it splits untested), its centre (scaled, float
+                             // bits)
 };
 
 layout(std430, binding = BIND_ADAPTIVE_TESTS) writeonly buffer AdaptiveTests {
-    vec4 adaptive_test[];    // per cell, what the pass writes (one or four vec4)
+    vec4 adaptive_test[];    // per cell, what the pass writes (one or five vec4)
 };
 
 uniform int u_count;      // cells
@@ -93,18 +95,22 @@ uniform int u_offset;     // first cell of this dispatch
 const int GRID_PLACE[25] = int[25](0, 2, 4, 10, 12, 14, 20, 22, 24,
                                    1, 3, 5, 6, 7, 8, 9, 11, 13, 15, 16, 17, 18, 19, 21, 23);
 
-// This invocation's cell (false past the last: nothing to do), its 25 values less its centre
-// node's, and its sides (pixels).
-bool adaptive_load_grid(out int cell, out vec2 grid[25], out vec2 sides) {
-    cell = u_offset + int(gl_GlobalInvocationID.x);
-    if (cell >= u_count) {
-        return false;
-    }
+// Cell ``cell``'s 25 values less its centre node's, and its sides (pixels).
+void adaptive_load_cell(int cell, out vec2 grid[25], out vec2 sides) {
     int at = cell * CELL_WORDS;
     vec2 centre = adaptive_f[adaptive_cell[at + 4]];
     for (int k = 0; k < 25; ++k) {
         grid[GRID_PLACE[k]] = adaptive_f[adaptive_cell[at + k]] - centre;
     }
     sides = vec2(uintBitsToFloat(adaptive_cell[at + 25]), uintBitsToFloat(adaptive_cell[at + 26]));
+}
+
+// This invocation's cell (false past the last: nothing to do), as adaptive_load_cell.
+bool adaptive_load_grid(out int cell, out vec2 grid[25], out vec2 sides) {
+    cell = u_offset + int(gl_GlobalInvocationID.x);
+    if (cell >= u_count) {
+        return false;
+    }
+    adaptive_load_cell(cell, grid, sides);
     return true;
 }

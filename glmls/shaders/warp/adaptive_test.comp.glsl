@@ -1,15 +1,93 @@
 // The adaptive build's cell test (glmls.imaging.adaptive_patch.estimate_cells, whose float64
 // numpy version is the reference): one invocation per cell of a level, on f at the cell's
-// 5 x 5 grid (warp/adaptive_grid.glsl).
+// 5 x 5 grid (warp/adaptive_grid.glsl). Where f is smooth (ADAPTIVE_PREDICT), the
+// prediction of the children of the cells that split follows on the GPU, with no round trip
+// to the host (glmls.imaging.adaptive_patch.predict_cells, warp/adaptive_quartic.glsl), in
+// two passes: ADAPTIVE_PREDICT 1, the test, which lists the cells that fail it (or split
+// regardless: flag bit 0 of their record) and have no point handle near (f is not smooth
+// there); ADAPTIVE_PREDICT 2, one invocation per listed cell (dispatched for all, past the
+// list's end nothing to do). Not in one pass: lanes run together, and a pass that predicted
+// where its cell splits cost the prediction of every cell beside one that does (3x the two
+// passes' time on llvmpipe).
 //
-// Per cell out, vec4: the miss (output pixels), the smallest singular value (0 where the
-// Jacobian's orientation changes over the grid: the cell folds), the largest, 0. The host
-// turns them into the error bound; it also marks cells with a vertex where f is not finite
-// (no comparison here is trusted with NaN: drivers may assume there is none).
+// Per cell out: its test, vec4 (the miss in output pixels, the smallest singular value, 0
+// where the Jacobian's orientation changes over the grid: the cell folds, the largest, 0);
+// with ADAPTIVE_PREDICT then its four children's (0, 0), (0, 1), (1, 0), (1, 1) (row, then
+// column), the same with w = 1 where predicted, all 0 where not (no split, or a point
+// handle within the reach: f is not smooth there). The host turns them into error bounds;
+// it also marks cells with a vertex where f is not finite (no comparison here is trusted
+// with NaN: drivers may assume there is none).
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "warp/adaptive_grid.glsl"
 
+#if ADAPTIVE_PREDICT
+layout(std430, binding = BIND_ADAPTIVE_SPLIT) coherent buffer AdaptiveSplit {
+    uint adaptive_split_count;  // 0 before the test pass
+    uint adaptive_split[];      // the cells that split, in no particular order
+};
+#endif
+
+#if ADAPTIVE_PREDICT == 1
+uniform float u_tolerance;      // pixels: a cell whose bound is within it does not split
+uniform float u_reach;          // children's sides from the cell's centre: no handle nearer
+uniform int u_handles;          // point handles
+
+layout(std430, binding = BIND_ADAPTIVE_HANDLES) readonly buffer AdaptiveHandles {
+    vec2 adaptive_handle[];     // the point handles' sources, scaled
+};
+
+// Whether no point handle is within ``reach`` (scaled) of ``centre``: one pass over them,
+// for the cells that split only (a small part of the evaluations of f they may save).
+bool adaptive_far(vec2 centre, float reach) {
+    float nearest = 3.0e38;
+    for (int k = 0; k < u_handles; ++k) {
+        vec2 d = adaptive_handle[k] - centre;
+        nearest = min(nearest, dot(d, d));
+    }
+    return nearest >= reach * reach;
+}
+
+void main() {
+    int cell;
+    vec2 grid[25];
+    vec2 sides;
+    if (!adaptive_load_grid(cell, grid, sides)) {
+        return;
+    }
+    vec4 test = adaptive_grid_test(grid, sides);
+    adaptive_test[5 * cell] = test;
+    for (int k = 1; k <= 4; ++k) {
+        adaptive_test[5 * cell + k] = vec4(0.0);
+    }
+    // the host's bound, SAFETY x miss / smallest (infinite where it folds); in float32, so
+    // a cell at the tolerance may go unpredicted: its children are then tested, as safe
+    int at = cell * CELL_WORDS;
+    bool whole = (adaptive_cell[at + 27] & 1u) != 0u;
+    if (!whole && ADAPTIVE_SAFETY * test.x <= u_tolerance * test.y) {
+        return;
+    }
+    // listed only where no handle is near: the prediction pass's lanes all predict
+    vec2 centre = vec2(uintBitsToFloat(adaptive_cell[at + 28]), uintBitsToFloat(adaptive_cell[at + 29]));
+    if (adaptive_far(centre, u_reach * 0.5 * max(sides.x, sides.y) / u_scale)) {
+        adaptive_split[atomicAdd(adaptive_split_count, 1u)] = uint(cell);
+    }
+}
+#elif ADAPTIVE_PREDICT == 2
+#include "warp/adaptive_quartic.glsl"
+
+void main() {
+    int listed = u_offset + int(gl_GlobalInvocationID.x);
+    if (listed >= int(adaptive_split_count)) {
+        return;
+    }
+    int cell = int(adaptive_split[listed]);
+    vec2 grid[25];
+    vec2 sides;
+    adaptive_load_cell(cell, grid, sides);
+    adaptive_predict_children(grid, sides, 5 * cell + 1);
+}
+#else
 void main() {
     int cell;
     vec2 grid[25];
@@ -19,3 +97,4 @@ void main() {
     }
     adaptive_test[cell] = adaptive_grid_test(grid, sides);
 }
+#endif

@@ -1,19 +1,12 @@
-// The adaptive build's prediction of a split cell's four children
-// (glmls.imaging.adaptive_patch.predict_cells, whose float64 numpy version is the reference):
-// one invocation per split cell. The quartic (tensor-product Lagrange) through the cell's
-// 5 x 5 grid of f gives f's values at the children's 5 x 5 grids (the cell's 9 x 9 grid in
-// eighths of its sides); each child is then tested on them as on f (warp/adaptive_grid.glsl).
-// Where f is smooth over the cell, the quartic errs by f's fifth derivatives, two orders
-// below the children's quadratic patches: the prediction of their miss is close, and the
-// host accepts a child on it only with a margin (glmls.imaging.adaptive), never next to a
-// handle, where f is not smooth.
-//
-// Per cell out, 4 vec4 (children (0, 0), (0, 1), (1, 0), (1, 1): row, then column), each as
-// warp/adaptive_test.comp.glsl's. A child's nodes are the cell's grid points themselves (the
-// quartic's weights at even eighths are 0 and 1).
-layout(local_size_x = LOCAL_SIZE) in;
-
-#include "warp/adaptive_grid.glsl"
+// The prediction of a split cell's four children (glmls.imaging.adaptive_patch.predict_cells,
+// whose float64 numpy version is the reference). The quartic (tensor-product Lagrange)
+// through the cell's 5 x 5 grid of f gives f's values at the children's 5 x 5 grids (the
+// cell's 9 x 9 grid in eighths of its sides); each child is then tested on them as on f
+// (warp/adaptive_grid.glsl). Where f is smooth over the cell, the quartic errs by f's fifth
+// derivatives, two orders below the children's quadratic patches: the prediction of their
+// miss is close, and the host accepts a child on it only with a margin
+// (glmls.imaging.adaptive), never next to a handle, where f is not smooth. A child's nodes
+// are the cell's grid points themselves (the quartic's weights at even eighths are 0 and 1).
 
 // The quartic Lagrange basis of the nodes at 0, 1, 2, 3, 4 (quarters) at the eighths
 // e / 2, e = 0 .. 8: row e, 5 weights (dyadic: exact in float32).
@@ -28,13 +21,9 @@ const float QUARTIC[45] = float[45](
     -5.0 / 128.0, 7.0 / 32.0, -35.0 / 64.0, 35.0 / 32.0, 35.0 / 128.0,
     0.0, 0.0, 0.0, 0.0, 1.0);
 
-void main() {
-    int cell;
-    vec2 grid[25];
-    vec2 sides;
-    if (!adaptive_load_grid(cell, grid, sides)) {
-        return;
-    }
+// The children's tests, as adaptive_grid_test's with w = 1, to adaptive_test[first ..
+// first + 3] (children (0, 0), (0, 1), (1, 0), (1, 1)).
+void adaptive_predict_children(vec2 grid[25], vec2 sides, int first) {
     for (int i = 0; i < 2; ++i) {
         for (int j = 0; j < 2; ++j) {
             // along the rows first: the cell's 5 rows at the child's 5 columns
@@ -61,7 +50,8 @@ void main() {
             for (int k = 0; k < 25; ++k) {
                 child[k] -= centre;
             }
-            adaptive_test[4 * cell + 2 * i + j] = adaptive_grid_test(child, 0.5 * sides);
+            vec4 test = adaptive_grid_test(child, 0.5 * sides);
+            adaptive_test[first + 2 * i + j] = vec4(test.xyz, 1.0);
         }
     }
 }
