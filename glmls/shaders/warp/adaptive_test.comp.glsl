@@ -47,33 +47,9 @@ bool adaptive_far(vec2 centre, float reach) {
     }
     return nearest >= reach * reach;
 }
+#endif
 
-void main() {
-    int cell;
-    vec2 grid[25];
-    vec2 sides;
-    if (!adaptive_load_grid(cell, grid, sides)) {
-        return;
-    }
-    vec4 test = adaptive_grid_test(grid, sides);
-    adaptive_test[5 * cell] = test;
-    for (int k = 1; k <= 4; ++k) {
-        adaptive_test[5 * cell + k] = vec4(0.0);
-    }
-    // the host's bound, SAFETY x miss / smallest (infinite where it folds); in float32, so
-    // a cell at the tolerance may go unpredicted: its children are then tested, as safe
-    int at = cell * CELL_WORDS;
-    bool whole = (adaptive_cell[at + 27] & 1u) != 0u;
-    if (!whole && ADAPTIVE_SAFETY * test.x <= u_tolerance * test.y) {
-        return;
-    }
-    // listed only where no handle is near: the prediction pass's lanes all predict
-    vec2 centre = vec2(uintBitsToFloat(adaptive_cell[at + 28]), uintBitsToFloat(adaptive_cell[at + 29]));
-    if (adaptive_far(centre, u_reach * 0.5 * max(sides.x, sides.y) / u_scale)) {
-        adaptive_split[atomicAdd(adaptive_split_count, 1u)] = uint(cell);
-    }
-}
-#elif ADAPTIVE_PREDICT == 2
+#if ADAPTIVE_PREDICT == 2
 #include "warp/adaptive_quartic.glsl"
 
 void main() {
@@ -95,6 +71,26 @@ void main() {
     if (!adaptive_load_grid(cell, grid, sides)) {
         return;
     }
-    adaptive_test[cell] = adaptive_grid_test(grid, sides);
+    vec4 test = adaptive_grid_test(grid, sides);
+#if ADAPTIVE_PREDICT == 1
+    adaptive_test[5 * cell] = test;
+    for (int k = 1; k <= 4; ++k) {
+        adaptive_test[5 * cell + k] = vec4(0.0);
+    }
+    // the host's bound, SAFETY x miss / smallest (infinite where it folds); in float32, so
+    // a cell at the tolerance may go unpredicted: its children are then tested, as safe
+    int at = cell * CELL_WORDS;
+    bool whole = (adaptive_cell[at + 27] & 1u) != 0u;
+    if (!whole && ADAPTIVE_SAFETY * test.x <= u_tolerance * test.y) {
+        return;
+    }
+    // listed only where no handle is near: the prediction pass's lanes all predict
+    vec2 centre = vec2(uintBitsToFloat(adaptive_cell[at + 28]), uintBitsToFloat(adaptive_cell[at + 29]));
+    if (adaptive_far(centre, u_reach * 0.5 * max(sides.x, sides.y) / u_scale)) {
+        adaptive_split[atomicAdd(adaptive_split_count, 1u)] = uint(cell);
+    }
+#else
+    adaptive_test[cell] = test;
+#endif
 }
 #endif
