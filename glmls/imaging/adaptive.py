@@ -4,8 +4,8 @@ where the piecewise linear mesh would miss f's inverse by more than a tolerance.
 How it is built (:func:`build_adaptive`), level by level, numpy bookkeeping and one batched
 evaluation of f per level (``evaluate``, on the GPU in the pipeline) and one batched test of
 the level's cells (``test``: :func:`.adaptive_patch.estimate_cells` in float64, or on the GPU
-where f stays, with the prediction of step 3 in the same pass, :mod:`.adaptive_cells`, in
-the pipeline):
+where f stays, with the prediction of step 3 in the same round trip, :mod:`.adaptive_cells`,
+in the pipeline):
 
 1. the roots are the cells of the corner lattice at :data:`ROOT_STEP` pixels (with the
    margin of a border mode), f evaluated at their 5 x 5 grids; cells larger than

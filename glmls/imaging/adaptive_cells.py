@@ -1,10 +1,11 @@
 """The adaptive build's evaluations and cell tests on the GPU: f at each level's new points
 (``mls/points.comp.glsl``), kept on the GPU as well, in the order the build numbers its
 vertices, so that the cells' test (``warp/adaptive_test.comp.glsl``) reads f where it is,
-one invocation per cell, instead of numpy gathering and combining 25 values per cell. In the
-same invocation, where f is smooth, the children of a cell that splits are predicted from
-its grid (``warp/adaptive_quartic.glsl``): one round trip per level. The host gets back four
-floats per cell and child; :func:`glmls.imaging.adaptive_patch.estimate_cells` and
+one invocation per cell, instead of numpy gathering and combining 25 values per cell. Where f
+is smooth, that pass also lists the cells that split, and a second pass predicts their
+children from their grids (``warp/adaptive_quartic.glsl``): one round trip per level. The
+host gets back four floats per cell and child;
+:func:`glmls.imaging.adaptive_patch.estimate_cells` and
 :func:`~glmls.imaging.adaptive_patch.predict_cells` are the float64 references.
 """
 
@@ -119,7 +120,8 @@ class GPUCells:
         error is above the tolerance, or ``whole``: (K,) bool, it splits untested) and
         :attr:`predicts`, and no point handle is within :data:`SMOOTH_REACH` children's
         sides of a child's centre (``centres`` (K, 2): the cells' centres, pixels); an
-        infinite error elsewhere. One dispatch."""
+        infinite error elsewhere. One round trip: the test (and the prediction's pass), then
+        one read."""
         count = len(nodes)
         children = np.full((count, 4), np.inf), np.zeros((count, 4))
         if count == 0:
