@@ -113,23 +113,16 @@ _LEFT_FLAT = np.array([9 * r for r in range(1, 9, 2)])
 _TOP_FLAT = np.array(list(range(1, 9, 2)))
 _INSIDE_FLAT = np.array([9 * r + c for r in range(1, 8) for c in range(1, 8) if r % 2 or c % 2])
 _NEW_FLAT = np.concatenate([_RIGHT_FLAT, _BOTTOM_FLAT, _LEFT_FLAT, _TOP_FLAT, _INSIDE_FLAT])
-_NEW = tuple((int(k) // 9, int(k) % 9) for k in _NEW_FLAT)
-# each child's (row, column) of the four, and its nodes and test points on the 9 x 9 grid
-_CHILDREN = {
-    (i, j): tuple(
-        np.array([9 * (4 * i + r) + 4 * j + c for r, c in where]) for where in (NODES, TESTS)
-    )
-    for i in (0, 1)
-    for j in (0, 1)
-}
-# which of a split cell's new points (_NEW_FLAT's order) its children need, for each set of
-# children tested (bit 2 i + j: child (i, j)): the test points of those children
-_CHILD_TESTS = [tests for _, tests in _CHILDREN.values()]
+# the new points' rows and columns on the 9 x 9 grid (eighths of the cell's sides)
+_NEW_ROW, _NEW_COL = np.divmod(_NEW_FLAT, 9)
+# each child's nodes and test points on the 9 x 9 grid, (4, 9) and (4, 16): children
+# (0, 0), (0, 1), (1, 0), (1, 1) (row, then column)
+_CHILD_NODES, _CHILD_TESTS = (
+    np.array([[9 * (4 * i + r) + 4 * j + c for r, c in where] for i in (0, 1) for j in (0, 1)])
+    for where in (NODES, TESTS)
+)
 _NEEDS = np.array(
-    [
-        np.isin(_NEW_FLAT, [k for c in range(4) if bits >> c & 1 for k in _CHILD_TESTS[c]])
-        for bits in range(16)
-    ]
+    [np.isin(_NEW_FLAT, _CHILD_TESTS[[c for c in range(4) if bits >> c & 1]]) for bits in range(16)]
 )
 # the new points' slots on the right, bottom, left and top edges (shared with neighbours)
 _RIGHT, _BOTTOM, _LEFT, _TOP = (slice(4 * k, 4 * k + 4) for k in range(4))
@@ -239,15 +232,6 @@ class _Vertices:
         return ids
 
 
-def _grid_keys(box: np.ndarray, where: tuple[tuple[int, int], ...], parts: int) -> np.ndarray:
-    """(K, len(where), 2) int64 keys of the points ``where`` ((row, column) in 1/parts of the
-    sides) of the cells ``box`` (K, 4) (x0, y0, x1, y1, keys)."""
-    x0, y0, x1, y1 = (box[:, k, None] for k in range(4))
-    rows = np.array([r for r, _ in where])
-    cols = np.array([c for _, c in where])
-    return np.stack([x0 + (x1 - x0) * cols // parts, y0 + (y1 - y0) * rows // parts], axis=-1)
-
-
 def build_adaptive(
     evaluate: Evaluate,
     lattice: MeshLattice,
@@ -352,7 +336,8 @@ def _split(box, nodes, tests, tested, vertices: _Vertices, evaluate: Evaluate):
     if count == 0:
         return box, nodes, tests
     grid = np.empty((count, 81), np.int64)  # each cell's 9 x 9 vertex ids, row by row
-    grid[:, _OLD] = np.concatenate([nodes, tests], axis=1)
+    grid[:, _OLD[:9]] = nodes
+    grid[:, _OLD[9:]] = tests
     # A neighbour across an edge that splits too (at this level: the same depth, so the
     # same edge) shares the new points on it; found by the corner both have (vertex ids
     # are unique), no search of keys. Every cell makes the points of its right and bottom
@@ -368,24 +353,28 @@ def _split(box, nodes, tests, tested, vertices: _Vertices, evaluate: Evaluate):
     need[with_left, _LEFT] = False
     need[with_top, _TOP] = False
     new = np.full((count, len(_NEW_FLAT)), -1, np.int64)
-    new[need] = vertices.add(_grid_keys(box, _NEW, 8)[need], evaluate)
+    # the needed points' keys from 1-D gathers (numpy's fastest), the cells' sides in eighths
+    # exact (a cell splits only if they are multiples of 8)
+    cell, slot = np.nonzero(need)
+    x0, y0, x1, y1 = (np.ascontiguousarray(box[:, k]) for k in range(4))
+    keys = np.empty((len(cell), 2), np.int64)
+    keys[:, 0] = x0[cell] + ((x1 - x0) >> 3)[cell] * _NEW_COL[slot]
+    keys[:, 1] = y0[cell] + ((y1 - y0) >> 3)[cell] * _NEW_ROW[slot]
+    new[cell, slot] = vertices.add(keys, evaluate)
     new[with_left, _LEFT] = new[left[with_left], _RIGHT]
     new[with_top, _TOP] = new[top[with_top], _BOTTOM]
     grid[:, _NEW_FLAT] = new
-    x0, y0, x1, y1 = box.T
-    xm, ym = (x0 + x1) // 2, (y0 + y1) // 2
-    children = []
-    for (i, j), (child_nodes, child_tests) in _CHILDREN.items():
-        left_, right = (x0, xm) if j == 0 else (xm, x1)
-        top_, bottom = (y0, ym) if i == 0 else (ym, y1)
-        children.append(
-            (
-                np.stack([left_, top_, right, bottom], axis=-1),
-                grid[:, child_nodes],
-                grid[:, child_tests],
-            )
-        )
-    return tuple(np.concatenate(part) for part in zip(*children, strict=True))
+    xm, ym = (x0 + x1) >> 1, (y0 + y1) >> 1
+    children = np.empty((4, count, 4), np.int64)  # child by child, as their nodes
+    for k, (left_, top_, right, bottom) in enumerate(
+        ((x0, y0, xm, ym), (xm, y0, x1, ym), (x0, ym, xm, y1), (xm, ym, x1, y1))
+    ):
+        children[k] = np.stack([left_, top_, right, bottom], axis=-1)
+    return (
+        children.reshape(-1, 4),
+        grid[:, _CHILD_NODES].transpose(1, 0, 2).reshape(-1, 9),
+        grid[:, _CHILD_TESTS].transpose(1, 0, 2).reshape(-1, 16),
+    )
 
 
 def _owner(corners: np.ndarray, wanted: np.ndarray) -> np.ndarray:
@@ -414,11 +403,12 @@ def _assemble(vertices: _Vertices, leaves, levels: int) -> AdaptiveMesh:
     on_edges[nodes[:, 4]] = False  # a centre is inside its leaf, no other leaf's vertex
     triangles, triangle_leaf = fans(keys, nodes, on_edges)
     renumber = (np.cumsum(used) - 1).astype(np.uint32)
-    source = vertices.origin + keys[used] / vertices.units
+    kept = np.flatnonzero(used)  # rows gathered by index: ~2x a 2-D boolean mask's speed
+    source = keys[kept] * (1.0 / vertices.units) + vertices.origin  # units: a power of 2
     cells = vertices.origin[[0, 1, 0, 1]] + box / vertices.units
     return AdaptiveMesh(
         source,
-        vertices.f()[used],
+        vertices.f()[kept],
         renumber[triangles],
         triangle_leaf,
         cells,

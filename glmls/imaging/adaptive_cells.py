@@ -23,7 +23,14 @@ from ..gl.dispatch import run_1d, set_uniforms
 from ..gl.resources import Resources
 from .adaptive_patch import SAFETY, error_bound
 
-__all__ = ["MAX_SMOOTH_ALPHA", "SMOOTH_REACH", "GPUCells", "smooth_weight"]
+__all__ = [
+    "CUSP_REACH",
+    "MAX_SMOOTH_ALPHA",
+    "SMOOTH_REACH",
+    "GPUCells",
+    "smooth_reach",
+    "smooth_weight",
+]
 
 #: uint32 words per cell in the test's input: 9 node ids, 16 test ids, width, height, flags
 #: (bit 0: the cell splits untested), the centre's x and y (scaled) (the shader's CELL_WORDS,
@@ -32,10 +39,16 @@ _CELL_WORDS = 30
 
 #: A split cell's children are predicted only where no point handle is within this many
 #: children's sides of a child's centre: f is not smooth at a handle (its Jacobian there
-#: depends on the direction it is approached from, and f has a cusp for alpha < 1), and the
-#: quartic through the cell's grid cannot see that. (At 1 side, an alpha 0.6 map's errors
-#: reached 1.9x the tolerance.)
-SMOOTH_REACH = 2.0
+#: depends on the direction it is approached from), and the quartic through the cell's grid
+#: cannot see that. (Measured over five maps at 0.02, 0.05 and 0.25 px, idw alpha 1, 1.5
+#: and 2, similarity, affine and the gaussian: 1 side gave the same leaves and errors as 2
+#: sides, within 0.96x the tolerance, and a fifth as many evaluations of f near W1's
+#: handles; 1/2 side let errors up to 1.28x the tolerance through.)
+SMOOTH_REACH = 1.0
+#: ... and this many where the power (idw's, or the interpolating factor's) is below 1: f
+#: has a cusp at the handles there (at 1 side, an alpha 0.6 map's errors reached 1.9x the
+#: tolerance).
+CUSP_REACH = 2.0
 #: ... nor where idw's power (or the interpolating factor's) is above this: f then turns
 #: sharply between the handles' regions, away from them too (at alpha 3 a leaf accepted on
 #: its prediction 36 px from the nearest handle missed by 1.27x the tolerance; alpha 2
@@ -55,6 +68,16 @@ def smooth_weight(kernel: MLSKernel) -> bool:
     if (config.weight == "idw" or config.interpolating) and config.alpha > MAX_SMOOTH_ALPHA:
         return False
     return support == "everywhere" or kernel.bins is None
+
+
+def smooth_reach(kernel: MLSKernel) -> float:
+    """How far from a point handle (children's sides from a child's centre) the children
+    of ``kernel``'s cells are predicted: :data:`CUSP_REACH` where f has a cusp at the
+    handles (a power, idw's or the interpolating factor's, below 1), else
+    :data:`SMOOTH_REACH`."""
+    config = kernel.config
+    cusp = (config.weight == "idw" or config.interpolating) and config.alpha < 1.0
+    return CUSP_REACH if cusp else SMOOTH_REACH
 
 
 class GPUCells:
@@ -115,10 +138,11 @@ class GPUCells:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(error, stretch) of each cell, (K,), as
         :func:`~glmls.imaging.adaptive_patch.estimate_cells` (ids among those
-        :meth:`evaluate` gave), and of its four children, (K, 4), as
+        :meth:`evaluate` gave; inf and 0 for a cell that splits untested: ``whole``, (K,)
+        bool, not tested), and of its four children, (K, 4), as
         :func:`~glmls.imaging.adaptive_patch.predict_cells` where the cell splits (its
-        error is above the tolerance, or ``whole``: (K,) bool, it splits untested) and
-        :attr:`predicts`, and no point handle is within :data:`SMOOTH_REACH` children's
+        error is above the tolerance, or it is ``whole``) and
+        :attr:`predicts`, and no point handle is within :func:`smooth_reach` children's
         sides of a child's centre (``centres`` (K, 2): the cells' centres, pixels); an
         infinite error elsewhere. One round trip: the test (and the prediction's pass), then
         one read."""
@@ -175,7 +199,7 @@ class GPUCells:
                 values = {
                     "u_tolerance": self._tolerance,
                     # the reach is from a child's centre, side / sqrt(2) from the cell's
-                    "u_reach": SMOOTH_REACH + math.sqrt(0.5),
+                    "u_reach": smooth_reach(self._kernel) + math.sqrt(0.5),
                     "u_handles": self._handles,
                 }
                 set_uniforms(program, scale | values)

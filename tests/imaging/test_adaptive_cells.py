@@ -17,7 +17,7 @@ from glmls.engine import passes
 from glmls.gl.resources import Resources
 from glmls.imaging import adaptive_cells
 from glmls.imaging.adaptive import ROOT_STEP, build_adaptive
-from glmls.imaging.adaptive_cells import SMOOTH_REACH, GPUCells
+from glmls.imaging.adaptive_cells import GPUCells, smooth_reach
 from glmls.imaging.adaptive_patch import NODES, TESTS, estimate_cells, predict_cells
 
 SHAPE = (160, 192)
@@ -60,14 +60,16 @@ def compare_levels(gl, m, shape, tolerance):
             )
             f = np.concatenate(fx), np.concatenate(fy)
             want_error, want_stretch = estimate_cells(*f, nodes, tests, width, height)
-            check(error, want_error, slice(None))
-            np.testing.assert_allclose(stretch, want_stretch, rtol=RTOL_STRETCH)
+            # a cell that splits untested is not tested: inf, and a stretch of 0
+            assert np.isinf(error[whole]).all() and (stretch[whole] == 0).all()
+            check(error, want_error, ~whole)
+            np.testing.assert_allclose(stretch[~whole], want_stretch[~whole], rtol=RTOL_STRETCH)
             want_child, want_child_stretch = predict_cells(*f, nodes, tests, width, height)
-            # predicted where the cell splits and no handle is within SMOOTH_REACH
+            # predicted where the cell splits and no handle is within smooth_reach
             # children's sides of a child's centre (clear of float32's rounding at both)
             handles = m.kernel.sources
             near = np.hypot(*(centres[:, None] - handles[None]).transpose(2, 0, 1)).min(1)
-            reach = (SMOOTH_REACH + np.sqrt(0.5)) * np.maximum(width, height) / 2
+            reach = (smooth_reach(m.kernel) + np.sqrt(0.5)) * np.maximum(width, height) / 2
             splits = whole | (want_error > tolerance * (1 + 1e-3))
             stays = ~whole & (want_error < tolerance * (1 - 1e-3))
             far = splits & (near > reach * (1 + 1e-4))
@@ -90,16 +92,18 @@ def compare_levels(gl, m, shape, tolerance):
         resources.release()
 
 
-@pytest.mark.parametrize("case", ["stretched", "random", "folded"])
+@pytest.mark.parametrize("case", ["stretched", "random", "folded", "cusp"])
 def test_the_gpu_cell_test_matches_the_float64_reference(gl, rng, case):
-    shape = SHAPE
+    shape, options = SHAPE, {}
     if case == "stretched":
         p, q = stretched_handles(shape)
-    elif case == "random":
+    elif case in ("random", "cusp"):
         p, q = jittered_moves(shape, rng)
+        if case == "cusp":  # idw alpha < 1: the prediction keeps CUSP_REACH from handles
+            options = {"alpha": 0.6}
     else:
         shape, p, q = folded_case()
-    with glmls.MLS(p, q, shape=shape, ctx=gl) as m:
+    with glmls.MLS(p, q, shape=shape, ctx=gl, **options) as m:
         levels, mesh = compare_levels(gl, m, shape, 0.05)
     # the cases reach small cells (several levels), and "folded" has folding leaves
     assert len(levels) >= 3
@@ -152,13 +156,15 @@ def test_cells_with_a_vertex_where_f_is_not_finite_have_an_infinite_error(gl, rn
             nodes, tests = ids[:, :9], ids[:, 9:]
             size = np.full(9, 8.0)
             centres = 1000 + 2 * np.stack([cols + 2, rows + 2], -1).astype(float)
-            error, _, child_error, _ = cells.test(nodes, tests, size, size, centres, size > 0)
+            # tested (their own error), then split untested (their children predicted)
+            error, *_ = cells.test(nodes, tests, size, size, centres, np.zeros(9, bool))
+            *_, child_error, _ = cells.test(nodes, tests, size, size, centres, size > 0)
     finally:
         resources.release()
     assert np.isnan(f[5]).all()
     touched = (nodes == 5).any(axis=1) | (tests == 5).any(axis=1)
     assert touched.any() and not touched.all()
-    assert np.isinf(error[touched]).all()
+    assert np.isinf(error[touched]).all() and np.isfinite(error[~touched]).all()
     assert np.isinf(child_error[touched]).all() and np.isfinite(child_error[~touched]).all()
     want, _ = estimate_cells(f[:, 0], f[:, 1], nodes, tests, size, size)
     assert np.isinf(want[touched]).all()
@@ -241,3 +247,20 @@ def test_children_are_predicted_only_where_f_is_smooth(gl, rng, options, smooth)
             assert bool(np.isfinite(error).all()) is smooth  # else every child tested
     finally:
         resources.release()
+
+
+@pytest.mark.parametrize(
+    ("options", "reach"),
+    [
+        ({}, adaptive_cells.SMOOTH_REACH),
+        ({"alpha": 1.5}, adaptive_cells.SMOOTH_REACH),
+        ({"alpha": 0.6}, adaptive_cells.CUSP_REACH),  # a cusp at each handle
+        ({"alpha": 0.6, "weight": "gaussian", "radius": 30.0, "bins": False}, 1.0),
+        ({"alpha": 0.6, "weight": "gaussian", "radius": 30.0, "interpolating": True}, 2.0),
+    ],
+)
+def test_the_prediction_keeps_further_from_the_handles_where_f_has_a_cusp(rng, options, reach):
+    p, q = jittered_moves(SHAPE, rng)
+    with glmls.MLS(p, q, shape=SHAPE, **options) as m:
+        assert adaptive_cells.smooth_reach(m.kernel) == reach
+    assert adaptive_cells.SMOOTH_REACH < adaptive_cells.CUSP_REACH

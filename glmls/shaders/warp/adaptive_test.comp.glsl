@@ -11,7 +11,8 @@
 // passes' time on llvmpipe).
 //
 // Per cell out: its test, vec4 (the miss in output pixels, the smallest singular value, 0
-// where the Jacobian's orientation changes over the grid: the cell folds, the largest, 0);
+// where the Jacobian's orientation changes over the grid: the cell folds, the largest, 0;
+// all 0 for a cell that splits untested);
 // with ADAPTIVE_PREDICT then its four children's (0, 0), (0, 1), (1, 0), (1, 1) (row, then
 // column), the same with w = 1 where predicted, all 0 where not (no split, or a point
 // handle within the reach: f is not smooth there). The host turns them into error bounds;
@@ -71,7 +72,11 @@ void main() {
     if (!adaptive_load_grid(cell, grid, sides)) {
         return;
     }
-    vec4 test = adaptive_grid_test(grid, sides);
+    // a cell that splits untested (flag bit 0) gets no test: all 0. A level's cells are
+    // all of one kind (the roots, or none), so lanes do not diverge here.
+    int at = cell * CELL_WORDS;
+    bool whole = (adaptive_cell[at + 27] & 1u) != 0u;
+    vec4 test = whole ? vec4(0.0) : adaptive_grid_test(grid, sides);
 #if ADAPTIVE_PREDICT == 1
     adaptive_test[5 * cell] = test;
     for (int k = 1; k <= 4; ++k) {
@@ -79,8 +84,6 @@ void main() {
     }
     // the host's bound, SAFETY x miss / smallest (infinite where it folds); in float32, so
     // a cell at the tolerance may go unpredicted: its children are then tested, as safe
-    int at = cell * CELL_WORDS;
-    bool whole = (adaptive_cell[at + 27] & 1u) != 0u;
     if (!whole && ADAPTIVE_SAFETY * test.x <= u_tolerance * test.y) {
         return;
     }
