@@ -1,6 +1,8 @@
 """Where the deformed adaptive mesh may cover a pixel more than once (numpy): the check that
 lets :mod:`.adaptive_scan` draw an embedding in one pass without keys, and keys only near
-reversed triangles where the boundary is a simple curve."""
+reversed triangles where the boundary is a simple curve. The scan checks the boundary here
+(:func:`boundary_turns`) and the triangles on the GPU (``warp/adaptive_folds.comp.glsl``),
+for which :func:`check_folds` and :func:`hot_tiles` are the float64 references."""
 
 from __future__ import annotations
 
@@ -11,7 +13,7 @@ import numpy as np
 from .adaptive import AdaptiveMesh
 from .frame import Frame
 
-__all__ = ["FoldCheck", "check_folds", "embedded", "hot_tiles"]
+__all__ = ["FoldCheck", "boundary_turns", "check_folds", "embedded", "hot_tiles"]
 
 
 @dataclass(frozen=True)
@@ -20,7 +22,9 @@ class FoldCheck:
     centroid, always the same way (a simple curve); ``reversed``, the ids of the triangles
     not of the mesh's orientation (or nearly degenerate, with room for float32's rounding).
     Where the boundary is simple, the map's degree is 1 inside it and 0 outside, so a point
-    covered twice is covered by a reversed triangle."""
+    covered twice is covered by a reversed triangle. Nearly degenerate: twice the area within
+    1e-5 of the longest side squared (a shape's measure, which float32's rounding of the
+    vertices cannot turn over)."""
 
     simple: bool
     reversed: np.ndarray
@@ -33,7 +37,26 @@ class FoldCheck:
 
 
 def check_folds(mesh: AdaptiveMesh) -> FoldCheck:
-    """The :class:`FoldCheck` of ``mesh``."""
+    """The :class:`FoldCheck` of ``mesh`` (``warp/adaptive_folds.comp.glsl`` finds the same
+    reversed triangles on the GPU, for the warp)."""
+    simple, orientation = boundary_turns(mesh)
+    # one coordinate of one corner at a time: numpy gathers and reduces 1-D arrays fastest
+    (ax, bx, cx), (ay, by, cy) = _corners(mesh, mesh.triangles)
+    area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)  # all positive in the source
+    longest = np.maximum.reduce(
+        [
+            (bx - ax) ** 2 + (by - ay) ** 2,
+            (cx - bx) ** 2 + (cy - by) ** 2,
+            (ax - cx) ** 2 + (ay - cy) ** 2,
+        ]
+    )
+    return FoldCheck(simple, np.flatnonzero(orientation * area <= 1e-5 * longest))
+
+
+def boundary_turns(mesh: AdaptiveMesh) -> tuple[bool, float]:
+    """Whether ``mesh``'s deformed boundary is simple (turns once about its centroid, always
+    the same way), and the orientation under f of a triangle that keeps the mesh's: +1
+    where the boundary turns as the identity's does (by +2 pi), else -1 (a mirror)."""
     x0, y0 = mesh.leaves[:, 0].min(), mesh.leaves[:, 1].min()
     x1, y1 = mesh.leaves[:, 2].max(), mesh.leaves[:, 3].max()
     x, y = mesh.source[:, 0], mesh.source[:, 1]  # every vertex is a triangle's
@@ -57,13 +80,7 @@ def check_folds(mesh: AdaptiveMesh) -> FoldCheck:
     simple = bool(
         ((turns > 0).all() or (turns < 0).all()) and abs(abs(turns.sum()) - 2 * np.pi) < 1e-6
     )
-    # one coordinate of one corner at a time: numpy gathers and reduces 1-D arrays fastest
-    (ax, bx, cx), (ay, by, cy) = _corners(mesh, mesh.triangles)
-    area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)  # all positive in the source
-    # the identity turns its boundary by +2 pi: f keeps the orientation where they agree
-    area *= 1.0 if turns.sum() >= 0 else -1.0
-    scale = np.abs(area).max(initial=0.0)
-    return FoldCheck(simple, np.flatnonzero(area <= 1e-5 * scale))
+    return simple, 1.0 if turns.sum() >= 0 else -1.0
 
 
 def _corners(mesh: AdaptiveMesh, triangles: np.ndarray):

@@ -22,7 +22,7 @@ from ..gl.dispatch import run_1d, set_uniforms
 from ..gl.resources import Resources
 from .adaptive import ROOT_STEP, AdaptiveMesh, build_adaptive, check_adaptive
 from .adaptive_cells import GPUCells
-from .adaptive_folds import check_folds, hot_tiles
+from .adaptive_folds import boundary_turns
 from .frame import Frame
 
 __all__ = ["NONE", "AdaptiveScan", "Fill"]
@@ -190,33 +190,73 @@ class AdaptiveScan:
     def _scan(self, mesh: AdaptiveMesh, frame: Frame, values: dict, defines: dict) -> None:
         """The scan passes. An embedding: one pass, no keys. A simple boundary with reversed
         triangles: one pass for the triangles away from them, which lists the others, then
-        keys and points for the listed ones. Otherwise keys, then points, for all."""
+        keys and points for the listed ones. Otherwise keys, then points, for all. The
+        boundary is checked here, the triangles on the GPU (:meth:`_reversed`)."""
         count = len(mesh.triangles)
-        folds = check_folds(mesh)
+        simple, orientation = boundary_turns(mesh)
         self.last_keyed = 0
-        if folds.embedded:
-            self._run(count, values, defines | {"ADAPTIVE_FILL": 2})
-            return
+        hot = None
+        if simple:
+            hot, layout, reversed_ = self._reversed(count, frame, orientation)
+            if reversed_ == 0:
+                self._run(count, values, defines | {"ADAPTIVE_FILL": 2})
+                return
         winner = self._resources.buffer("adaptive-winner", frame.pixels * 4)
         winner.clear(size=frame.pixels * 4)
         winner.bind_to_storage_buffer(bindings.WINNER.index)
-        if not folds.simple:
+        if hot is None:
             self.last_keyed = count
             for fill_pass in (0, 1):
                 self._run(count, values, defines | {"ADAPTIVE_FILL": fill_pass})
             return
-        bits = hot_tiles(mesh, folds.reversed, frame)
-        hot = self._resources.buffer("adaptive-hot", 16 + 4 * count + bits.nbytes)
-        hot.write(np.zeros(4, np.uint32).tobytes())
-        hot.write(bits.tobytes(), offset=16 + 4 * count)
-        hot.bind_to_storage_buffer(bindings.ADAPTIVE_HOT.index)
-        layout = {"u_hot_bits": count, "u_hot_words": bits.shape[1]}
         self._run(count, values | layout, defines | {"ADAPTIVE_FILL": 2, "ADAPTIVE_HOT": True})
         listed = int(np.frombuffer(hot.read(size=4), np.uint32)[0])
         self.last_keyed = listed
         for fill_pass in (0, 1):
             keyed = defines | {"ADAPTIVE_FILL": fill_pass, "ADAPTIVE_LIST": True}
             self._run(listed, values | layout, keyed)
+
+    def folds(self, mesh: AdaptiveMesh, frame: Frame) -> tuple[bool, int, np.ndarray]:
+        """What the scan finds of ``mesh``'s folds, drawn into ``frame``: whether its
+        boundary is simple, and where it is, how many triangles are reversed (or nearly
+        degenerate) and the 8 x 8 px tiles they reach, (rows, words) uint32 bits as
+        :func:`.adaptive_folds.hot_tiles` (else 0 and no bits). It uploads the mesh."""
+        simple, orientation = boundary_turns(mesh)
+        if not simple:
+            return False, 0, np.zeros((0, 0), np.uint32)
+        count = len(mesh.triangles)
+        rows = (frame.size[1] + 7) // 8
+        with self._gl.use():
+            self._upload(mesh, frame)
+            hot, layout, reversed_ = self._reversed(count, frame, orientation)
+            words = layout["u_hot_words"]
+            data = hot.read(size=4 * rows * words, offset=16 + 4 * count)
+        return True, reversed_, np.frombuffer(data, np.uint32).reshape(rows, words)
+
+    def _reversed(self, count: int, frame: Frame, orientation: float):
+        """The triangles not of the mesh's ``orientation`` (or nearly degenerate), found on
+        the GPU (``warp/adaptive_folds.comp.glsl``; float64 reference
+        :func:`.adaptive_folds.check_folds`) with the 8 x 8 px tiles they reach
+        (:func:`.adaptive_folds.hot_tiles`): the buffer (bound) that holds the tiles' bits
+        and the scan's list, the uniforms of its layout, and how many triangles."""
+        gl = self._gl
+        width, height = frame.size
+        words = ((width + 7) // 8 + 31) // 32
+        bits = 16 + 4 * count
+        size = bits + 4 * words * ((height + 7) // 8)
+        hot = self._resources.buffer("adaptive-hot", size)
+        hot.clear(size=16)
+        hot.clear(size=size - bits, offset=bits)
+        hot.bind_to_storage_buffer(bindings.ADAPTIVE_HOT.index)
+        layout = {"u_hot_bits": count, "u_hot_words": words}
+        check = gl.compute("warp/adaptive_folds.comp.glsl")
+        set_uniforms(
+            check,
+            layout | {"u_target_size": (width, height), "u_orientation": orientation},
+        )
+        run_1d(check, count, max_groups=gl.limits["max_work_groups_x"])
+        gl.mgl.memory_barrier()
+        return hot, layout, int(np.frombuffer(hot.read(size=4, offset=4), np.uint32)[0])
 
     def _run(self, count: int, values: dict, defines: dict) -> None:
         """One scan pass over ``count`` triangles (or listed ones)."""

@@ -5,6 +5,8 @@ validation."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from helpers import (
@@ -280,14 +282,13 @@ def test_one_pass_draws_an_embedding_and_keys_only_near_folds(gl, rng, monkeypat
     one scan pass without keys; a folded mesh with a simple boundary gets keys only for the
     triangles that reach the tiles of reversed ones. Both draw exactly what the keyed passes
     over every triangle draw (folds: 12 random cases)."""
-    everywhere = adaptive_folds.FoldCheck(False, np.zeros(0, np.int64))
 
     def both(m, image, **options):
         pipe = WarpPipeline.of(m.ctx)
         fast = m.warp(image, **options)
         keyed = pipe.adaptive.last_keyed
         with monkeypatch.context() as patch:
-            patch.setattr(adaptive_scan, "check_folds", lambda mesh: everywhere)
+            patch.setattr(adaptive_scan, "boundary_turns", lambda mesh: (False, 1.0))
             slow = m.warp(image, **options)
             assert pipe.adaptive.last_keyed == len(m.mesh(SHAPE, tolerance=0.05).triangles)
         return fast, slow, keyed
@@ -309,6 +310,37 @@ def test_one_pass_draws_an_embedding_and_keys_only_near_folds(gl, rng, monkeypat
             assert 0 < keyed < len(mesh.triangles)
             partly += 1
     assert partly >= 6  # most of these fold inside a simple boundary
+
+
+@pytest.mark.parametrize("seed", [0, 2, 5, "mirror", "shifted"])
+def test_the_gpu_finds_the_reversed_triangles_and_their_tiles(gl, seed):
+    """warp/adaptive_folds.comp.glsl against check_folds and hot_tiles in float64, on the
+    float32 vertices the scan reads (the same triangles, the same tiles); a mirror keeps
+    its (reversed) orientation: nothing reversed; a canvas away from the image: only the
+    tiles inside it."""
+    frame = Frame(SHAPE, (-40.0, 25.0) if seed == "shifted" else (0.0, 0.0))
+    if seed == "mirror":
+        p = np.array([[20.0, 20], [170, 30], [40, 140], [150, 150]])
+        handles = p, np.stack([SHAPE[1] - 1 - p[:, 0], p[:, 1]], -1)
+        options = {"transform": "affine"}
+    else:
+        handles = jittered_moves(SHAPE, np.random.default_rng(0 if seed == "shifted" else seed))
+        options = {}
+    with glmls.MLS(*handles, shape=SHAPE, **options) as m:
+        mesh = m.mesh(SHAPE, tolerance=0.05)
+        simple, count, bits = WarpPipeline.of(m.ctx).adaptive.folds(mesh, frame)
+        assert m.ctx.mgl.error == "GL_NO_ERROR"
+    origin = np.asarray(frame.origin)
+    rounded = (mesh.deformed - origin).astype(np.float32).astype(np.float64) + origin
+    mesh = dataclasses.replace(mesh, deformed=rounded)
+    want = adaptive_folds.check_folds(mesh)
+    assert simple == want.simple
+    assert count == len(want.reversed)
+    np.testing.assert_array_equal(bits, adaptive_folds.hot_tiles(mesh, want.reversed, frame))
+    if seed == "mirror":
+        assert simple and count == 0
+    elif seed != "shifted":
+        assert count > 0 and bits.any()  # these fold
 
 
 def test_a_mirror_is_interpolated_exactly(gl):

@@ -1,0 +1,71 @@
+// Where the deformed adaptive mesh may cover a pixel twice, on the GPU, from the vertices the
+// scan reads (glmls.imaging.adaptive_folds.check_folds and hot_tiles are the float64 numpy
+// references): one invocation per triangle. A triangle not of the mesh's orientation
+// (u_orientation: +1 where f keeps it, -1 for a mirror), or nearly degenerate (twice its
+// area within 1e-5 of its longest side squared: room for float32's rounding, which the
+// scan's own area then cannot turn over), is counted, and the 8 x 8 px tiles its pixel box
+// (one pixel wider against rounding) reaches are marked hot, for warp/adaptive.comp.glsl's
+// ADAPTIVE_HOT pass. A triangle with a vertex that is not finite or past 1e9 px draws
+// nothing in the scan: it is not counted.
+layout(local_size_x = LOCAL_SIZE) in;
+
+#define HOT_SHIFT 3   // tiles of 8 x 8 pixels, as warp/adaptive.comp.glsl's
+
+#include "warp/coverage.glsl"
+
+layout(std430, binding = BIND_DEFORMED) readonly buffer AdaptiveVertices {
+    vec4 adaptive_vertex[];   // (output x, y, source x, y), pixels
+};
+layout(std430, binding = BIND_POINTS) readonly buffer AdaptiveTriangles {
+    uint adaptive_index[];    // per triangle in scan order: three vertex indices, its leaf
+};
+layout(std430, binding = BIND_ADAPTIVE_HOT) buffer AdaptiveHot {
+    uint adaptive_hot_count;   // the scan's list (untouched here)
+    uint adaptive_reversed;    // triangles counted here: 0 before the pass
+    uint adaptive_hot_pad[2];
+    uint adaptive_hot[];       // the scan's list (u_hot_bits of room), then the tiles' bits, 0
+                               // before the pass
+};
+
+uniform ivec2 u_target_size;  // W, H in pixels
+uniform int u_count;          // triangles
+uniform int u_offset;         // first triangle of this dispatch
+uniform float u_orientation;  // +1 or -1: the sign of a triangle that keeps the mesh's
+uniform int u_hot_bits;       // where the tiles' bits start in adaptive_hot
+uniform int u_hot_words;      // uints per row of tiles
+
+void main() {
+    int t = u_offset + int(gl_GlobalInvocationID.x);
+    if (t >= u_count) {
+        return;
+    }
+    vec2 a = adaptive_vertex[adaptive_index[4 * t]].xy;
+    vec2 b = adaptive_vertex[adaptive_index[4 * t + 1]].xy;
+    vec2 c = adaptive_vertex[adaptive_index[4 * t + 2]].xy;
+    bool finite = all(lessThan(abs(vec4(a, b)), vec4(1.0e9))) &&
+                  all(lessThan(abs(c), vec2(1.0e9)));   // false for NaN too
+    if (!finite) {
+        return;
+    }
+    float area = u_orientation * edge(a, b, c);   // twice the signed area
+    vec2 ab = b - a;
+    vec2 bc = c - b;
+    vec2 ca = a - c;
+    float longest = max(max(dot(ab, ab), dot(bc, bc)), dot(ca, ca));
+    if (area > 1.0e-5 * longest) {
+        return;
+    }
+    atomicAdd(adaptive_reversed, 1u);
+    ivec2 first = ivec2(floor(min(min(a, b), c))) - 1;
+    ivec2 last = ivec2(ceil(max(max(a, b), c))) + 1;
+    if (any(lessThan(last, ivec2(0))) || any(greaterThanEqual(first, u_target_size))) {
+        return;
+    }
+    first = clamp(first, ivec2(0), u_target_size - 1) >> HOT_SHIFT;
+    last = clamp(last, ivec2(0), u_target_size - 1) >> HOT_SHIFT;
+    for (int ty = first.y; ty <= last.y; ++ty) {
+        for (int tx = first.x; tx <= last.x; ++tx) {
+            atomicOr(adaptive_hot[u_hot_bits + ty * u_hot_words + (tx >> 5)], 1u << (tx & 31));
+        }
+    }
+}
