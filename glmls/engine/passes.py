@@ -52,7 +52,7 @@ def _evaluate_points(kernel, points, with_matrix, shape, max_groups, keep):
     program = kernel.program(POINTS_PASS, {"MLS_LATTICE": False, "MLS_WRITE_MATRIX": with_matrix})
     scratch = kernel.scratch
     source = scratch.buffer("points", count * 8)
-    source.write(kernel.scaling.to_gpu(points).tobytes())
+    source.write(np.ascontiguousarray(kernel.scaling.to_gpu(points)))  # no copy into bytes
     source.bind_to_storage_buffer(bindings.POINTS.index)
     kernel.bind(program, shape)
     f_out = scratch.buffer("f", count * 8)

@@ -180,7 +180,7 @@ class GPUCells:
         max_groups = gl.limits["max_work_groups_x"]
         with gl.use():
             source = resources.buffer("adaptive-cells", cells.nbytes)
-            source.write(cells.tobytes())
+            source.write(cells)
             source.bind_to_storage_buffer(bindings.ADAPTIVE_CELLS.index)
             resources.cached("adaptive-f").bind_to_storage_buffer(bindings.ADAPTIVE_F.index)
             out = resources.buffer("adaptive-tests", size)

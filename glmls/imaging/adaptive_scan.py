@@ -175,7 +175,7 @@ class AdaptiveScan:
             ("adaptive-leaves", leaves, bindings.ADAPTIVE_LEAVES),
         ):
             buffer = resources.buffer(role, data.nbytes)
-            buffer.write(data.tobytes())
+            buffer.write(data)  # the array itself: no copy into bytes
             buffer.bind_to_storage_buffer(binding.index)
 
     def _clear_points(self, frame: Frame) -> None:
