@@ -97,13 +97,21 @@ def time_case(tree: str, case: str, repeat: int, warmup: float = 0.5) -> list[fl
 
 
 def _frame(image, p, q, grid: int):
-    """The tree's own ``glmls bench --mode frame`` step at ``grid`` (its module moved)."""
-    try:
-        from glmls.cli.bench.cases import Case, _glmls_frame
-    except ImportError:  # bb0b9ce and older
-        from glmls.bench_cases import Case, _glmls_frame
+    """The tree's own ``glmls bench --mode frame`` step at ``grid``: ``case_step`` where the
+    tree has it; older trees (bb0b9ce among them) only had their private runner, which is
+    what their own bench ran."""
     size, handles = image.shape[0], len(p)
-    return _glmls_frame(Case("glmls", "frame", size, handles, grid, "rigid"), image, p, q)
+    try:
+        from glmls.cli.bench.cases import Case, case_step
+    except ImportError:
+        try:
+            from glmls.cli.bench.cases import Case
+            from glmls.cli.bench.cases import _glmls_frame as case_step_of
+        except ImportError:  # bb0b9ce and older: the module had another place
+            from glmls.bench_cases import Case
+            from glmls.bench_cases import _glmls_frame as case_step_of
+        return case_step_of(Case("glmls", "frame", size, handles, grid, "rigid"), image, p, q)
+    return case_step(Case("glmls", "frame", size, handles, grid, "rigid"), image, p, q)
 
 
 def main() -> None:

@@ -300,11 +300,18 @@ def mismatch_percent(image: np.ndarray, src, dst, transform: str, output) -> flo
     return float(np.any(output != exact, axis=-1).mean() * 100)
 
 
+def case_step(case: Case, image: np.ndarray, src: np.ndarray, dst: np.ndarray):
+    """``case``'s timed step for ``image`` and handles ``src`` -> ``dst``: a function of the
+    run's number (0: the untimed first run) that warps once and returns the output image
+    (None for the ``frame`` mode, which reads nothing back)."""
+    return _RUNNERS[case.tool, case.mode](case, image, src, dst)
+
+
 def run_case(case: Case, repeat: int) -> dict:
     """Time ``case``: one untimed run, then ``repeat`` timed ones (seconds); then the error of
     its output against per-pixel f (:func:`mismatch_percent`), untimed."""
     image, src, dst = workload_inputs(case)
-    step = _RUNNERS[case.tool, case.mode](case, image, src, dst)
+    step = case_step(case, image, src, dst)
     output = step(0)
     times = []
     for k in range(1, repeat + 1):
