@@ -221,6 +221,8 @@ class AdaptiveScan:
         boundary is simple, and where it is, how many triangles are reversed (or nearly
         degenerate) and the 8 x 8 px tiles they reach, (rows, words) uint32 bits as
         :func:`.adaptive_folds.hot_tiles` (else 0 and no bits). It uploads the mesh."""
+        if len(mesh.triangles) == 0:
+            raise ValueError("the mesh has no triangles: nothing to check")
         simple, orientation = boundary_turns(mesh)
         if not simple:
             return False, 0, np.zeros((0, 0), np.uint32)

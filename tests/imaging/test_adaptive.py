@@ -343,6 +343,16 @@ def test_the_gpu_finds_the_reversed_triangles_and_their_tiles(gl, seed):
         assert count > 0 and bits.any()  # these fold
 
 
+def test_the_fold_check_of_a_mesh_without_triangles_says_so(gl, rng):
+    with glmls.MLS(*jittered_moves(SHAPE, rng), shape=SHAPE) as m:
+        mesh = m.mesh(SHAPE, tolerance=0.25)
+        empty = dataclasses.replace(
+            mesh, triangles=np.zeros((0, 3), np.uint32), triangle_leaf=np.zeros(0, np.uint32)
+        )
+        with pytest.raises(ValueError, match="no triangles"):
+            WarpPipeline.of(m.ctx).adaptive.folds(empty, Frame(SHAPE))
+
+
 def test_a_mirror_is_interpolated_exactly(gl):
     """An affine map that mirrors the image: one orientation throughout (no fold), the
     patches exact, every source point on f's inverse; drawn in one pass."""
