@@ -1,7 +1,14 @@
 """A/B in one sitting: the same end-to-end cases timed on several glmls trees, alternated.
 
 ``python benchmarks/ab_trees.py --trees old=/tmp/bb0b9ce,new=. --cases W1:grid=1,W1:tolerance=0.05``
-``[--rounds 3] [--repeat 5] [--warmup 0.5]``
+``[--rounds 3] [--repeat 5] [--warmup 0.5] [--paired [--ratios CASE|TREE/CASE|TREE,...]]``
+
+``--paired``: every case on every tree set up once per round in a worker process of its own,
+all alive at once, and then one call of each in turn, ``--repeat`` times (the order rotated
+each time). Calls with the same index then ran within a fraction of a second of each other,
+so their ratio (``--ratios``: the median and quartiles of the paired calls' ratios, e.g.
+``W1:grid=1|old/W1:tolerance=0.05|new``) is what a shared machine's slow and fast spells,
+which last longer than one process's timed calls, change least.
 
 Each tree is a glmls source checkout (``git worktree add /tmp/bb0b9ce bb0b9ce`` makes one).
 Every round runs every case on every tree in turn, each in a fresh process (``--case``: one
@@ -65,10 +72,11 @@ WORKLOADS = {
 }
 
 
-def time_case(tree: str, case: str, repeat: int, warmup: float = 0.5) -> list[float]:
-    """In this process: ``case`` on the glmls of ``tree``, ``repeat`` times after untimed
-    runs for ``warmup`` seconds (two at least: the first compiles, and small cases stay slow
-    for several more on llvmpipe, up to ~40 ms in all for W3); milliseconds."""
+def make_step(tree: str, case: str, warmup: float = 0.5):
+    """In this process: ``case``'s step (one call: one warp, or one frame) on the glmls of
+    ``tree``, after untimed runs for ``warmup`` seconds (two at least: the first compiles,
+    and small cases stay slow for several more on llvmpipe, up to ~40 ms in all for W3).
+    ``TypeError`` where the tree lacks the case's option."""
     sys.path.insert(0, tree)
     import glmls
 
@@ -88,12 +96,103 @@ def time_case(tree: str, case: str, repeat: int, warmup: float = 0.5) -> list[fl
     while untimed < 2 or time.perf_counter() < warm:
         step(untimed)
         untimed += 1
+    return step
+
+
+def time_case(tree: str, case: str, repeat: int, warmup: float = 0.5) -> list[float]:
+    """In this process: ``case`` on the glmls of ``tree``, ``repeat`` times after the warm-up
+    of :func:`make_step`; milliseconds."""
+    step = make_step(tree, case, warmup)
     times = []
     for k in range(repeat):
         start = time.perf_counter()
         step(k)
         times.append((time.perf_counter() - start) * 1000)
     return times
+
+
+def serve(tree: str, case: str, warmup: float) -> None:
+    """A paired run's worker: ``case`` on ``tree`` set up and warmed up ("ready", or "null"
+    where the tree lacks the option), then one timed call (ms, a line) per "run" line read."""
+    try:
+        step = make_step(tree, case, warmup)
+    except TypeError:
+        print("null", flush=True)
+        return
+    print("ready", flush=True)
+    for k, line in enumerate(sys.stdin):
+        if line.strip() != "run":
+            break
+        start = time.perf_counter()
+        step(k)
+        print(f"{(time.perf_counter() - start) * 1000:.6f}", flush=True)
+
+
+def paired(trees: dict[str, str], cases: list[str], rounds: int, repeat: int, warmup: float):
+    """Every (case, tree) in a worker process of its own, all alive at once, and one call of
+    each in turn, ``repeat`` times per round (the order rotated every time): calls with the
+    same index ran within a fraction of a second of each other, so their ratio is what a
+    shared machine's slow and fast spells change least. Times (ms) per (case, tree), in
+    call order, None where a tree lacks the case's option."""
+    times: dict[tuple[str, str], list[float] | None] = {}
+    for _ in range(rounds):
+        workers = {}
+        for case in cases:
+            for name, path in trees.items():
+                workers[case, name] = subprocess.Popen(
+                    [sys.executable, __file__, "--serve", os.path.abspath(path), case]
+                    + ["--warmup", str(warmup)],
+                    stdin=subprocess.PIPE,
+                    stdout=subprocess.PIPE,
+                    text=True,
+                )
+        live = []
+        for key, worker in workers.items():
+            line = _reply(worker, ("ready", "null"))
+            if line == "ready":
+                live.append(key)
+                times.setdefault(key, [])
+            else:
+                if line != "null":
+                    print(f"failed: {key[1]} {key[0]}", file=sys.stderr)
+                times.setdefault(key, None)
+        for k in range(repeat):
+            for key in live[k % len(live) :] + live[: k % len(live)]:
+                worker = workers[key]
+                worker.stdin.write("run\n")  # type: ignore[union-attr]
+                worker.stdin.flush()  # type: ignore[union-attr]
+                times[key].append(float(_reply(worker, None)))
+        for worker in workers.values():
+            worker.stdin.close()  # type: ignore[union-attr]
+            worker.wait(timeout=120)
+    return times
+
+
+def _reply(worker: subprocess.Popen, words: tuple[str, ...] | None) -> str:
+    """The worker's next protocol line: one of ``words``, or (None) a number; other lines
+    (a library's output) skipped; "" at its end."""
+    for line in worker.stdout:  # type: ignore[union-attr]
+        line = line.strip()
+        if words is not None and line in words:
+            return line
+        if words is None:
+            try:
+                float(line)
+            except ValueError:
+                continue
+            return line
+    return ""
+
+
+def ratio(times: dict, spec: str) -> str:
+    """``CASE|TREE/CASE|TREE``: the median [quartiles] of the paired calls' ratios."""
+    top, bottom = (tuple(part.split("|")) for part in spec.split("/"))
+    a, b = times.get(top), times.get(bottom)
+    if not a or not b or len(a) != len(b):
+        return f"{spec}: -"
+    r = sorted(x / y for x, y in zip(a, b, strict=True))
+    quartiles = statistics.quantiles(r, n=4) if len(r) > 1 else [r[0], r[0], r[0]]
+    return f"{spec}: {statistics.median(r):.2f}x [{quartiles[0]:.2f}-{quartiles[2]:.2f}]"
 
 
 def _frame(image, p, q, grid: int):
@@ -123,7 +222,16 @@ def main() -> None:
     parser.add_argument(
         "--warmup", type=float, default=0.5, help="untimed runs for this long first (s)"
     )
+    parser.add_argument(
+        "--paired",
+        action="store_true",
+        help="every case on every tree in a process of its own, one call of each in turn",
+    )
+    parser.add_argument(
+        "--ratios", help="with --paired: CASE|TREE/CASE|TREE,... the paired calls' ratios"
+    )
     parser.add_argument("--case", nargs=2, metavar=("TREE", "CASE"), help=argparse.SUPPRESS)
+    parser.add_argument("--serve", nargs=2, metavar=("TREE", "CASE"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.case is not None:  # one timing process
         tree, case = args.case
@@ -132,10 +240,36 @@ def main() -> None:
         except TypeError:  # an option this tree does not have
             print(json.dumps(None))
         return
+    if args.serve is not None:  # one worker of a paired run
+        serve(*args.serve, args.warmup)
+        return
     if not args.trees or not args.cases:
         parser.error("--trees and --cases are required")
     trees = dict(item.split("=", 1) for item in args.trees.split(","))
     cases = args.cases.split(",")
+    if args.ratios and not args.paired:
+        parser.error("--ratios pairs calls: it needs --paired")
+    if args.paired:
+        times = paired(trees, cases, args.rounds, args.repeat, args.warmup)
+    else:
+        times = alternated(trees, cases, args)
+
+    def cell(values: list[float] | None) -> str:
+        if not values:
+            return "-"
+        return f"{statistics.median(values):.1f} [{min(values):.0f}-{max(values):.0f}]"
+
+    print("case | " + " | ".join(trees))
+    for case in cases:
+        print(f"{case} | " + " | ".join(cell(times.get((case, name))) for name in trees))
+    for spec in args.ratios.split(",") if args.ratios else []:
+        print(ratio(times, spec))
+    print(json.dumps({f"{case}|{name}": v for (case, name), v in times.items() if v}))
+
+
+def alternated(trees: dict[str, str], cases: list[str], args) -> dict:
+    """Every round: every case on every tree in turn, each in a fresh process timing
+    ``args.repeat`` calls; times (ms) per (case, tree)."""
     times: dict[tuple[str, str], list[float]] = {}
     for _ in range(args.rounds):
         for case in cases:
@@ -154,16 +288,7 @@ def main() -> None:
                     print(f"failed: {name} {case}: {out.stderr[-300:]}", file=sys.stderr)
                 if result:
                     times.setdefault((case, name), []).extend(result)
-
-    def cell(values: list[float] | None) -> str:
-        if not values:
-            return "-"
-        return f"{statistics.median(values):.1f} [{min(values):.0f}-{max(values):.0f}]"
-
-    print("case | " + " | ".join(trees))
-    for case in cases:
-        print(f"{case} | " + " | ".join(cell(times.get((case, name))) for name in trees))
-    print(json.dumps({f"{case}|{name}": v for (case, name), v in times.items()}))
+    return times
 
 
 if __name__ == "__main__":

@@ -66,3 +66,34 @@ def test_ab_trees_alternates_trees_and_reports_each_case():
     assert "-" not in lines[1].split(" | ")[1:]
     times = json.loads(lines[-1])
     assert set(times) == {f"W3:{o}|{t}" for o in ("grid=8", "tolerance=0.25") for t in "ab"}
+
+
+def test_ab_trees_pairs_calls_across_trees_and_cases():
+    """--paired: one worker per case and tree, one call of each in turn; --ratios reports the
+    paired calls' ratio (this tree against itself: about 1, its quartiles around it), and a
+    case a tree lacks is "-"."""
+    import json
+
+    script = SCRIPT.parent / "ab_trees.py"
+    root = str(SCRIPT.parents[1])
+    spec = "W3:grid=8|a/W3:grid=8|b"
+    run = subprocess.run(
+        [sys.executable, str(script), "--trees", f"a={root},b={root}"]
+        + ["--cases", "W3:grid=8,W3:nothing=1", "--rounds", "1", "--repeat", "3"]
+        + ["--paired", "--ratios", f"{spec},W3:nothing=1|a/W3:grid=8|b"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert run.returncode == 0, run.stderr
+    lines = run.stdout.splitlines()
+    assert lines[0] == "case | a | b"
+    assert lines[1].startswith("W3:grid=8 | ") and "-" not in lines[1].split(" | ")[1:]
+    assert lines[2] == "W3:nothing=1 | - | -"
+    assert lines[3].startswith(f"{spec}: ") and lines[3].endswith("]")
+    low, high = (float(v) for v in lines[3].split("[")[1].rstrip("]").split("-"))
+    assert 0 < low <= float(lines[3].split(": ")[1].split("x")[0]) <= high
+    assert lines[4] == "W3:nothing=1|a/W3:grid=8|b: -"
+    times = json.loads(lines[-1])
+    assert set(times) == {"W3:grid=8|a", "W3:grid=8|b"}
+    assert all(len(v) == 3 for v in times.values())
