@@ -97,3 +97,23 @@ def test_ab_trees_pairs_calls_across_trees_and_cases():
     times = json.loads(lines[-1])
     assert set(times) == {"W3:grid=8|a", "W3:grid=8|b"}
     assert all(len(v) == 3 for v in times.values())
+
+
+def test_adaptive_stages_splits_a_warp_into_its_stages():
+    """benchmarks/adaptive_stages.py: the build (f, tests, bookkeeping), the draw and the
+    rest, which add up to the call, and the mesh's counts."""
+    script = SCRIPT.parent / "adaptive_stages.py"
+    run = subprocess.run(
+        [sys.executable, str(script), "--workload", "W3", "--tolerance", "0.25", "--repeat", "2"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert run.returncode == 0, run.stderr
+    lines = run.stdout.splitlines()
+    values = {line.split()[0]: float(line.split()[1]) for line in lines[1:8]}
+    assert set(values) == {"total", "build", "f", "test", "bookkeeping", "draw", "rest"}
+    assert all(value > 0 for value in values.values())
+    assert abs(values["f"] + values["test"] + values["bookkeeping"] - values["build"]) < 0.05
+    assert abs(values["build"] + values["draw"] + values["rest"] - values["total"]) < 0.05
+    assert lines[8].strip().startswith("evaluations ") and "triangles" in lines[8]
