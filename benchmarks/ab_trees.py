@@ -149,21 +149,32 @@ def paired(trees: dict[str, str], cases: list[str], rounds: int, repeat: int, wa
         live = []
         for key, worker in workers.items():
             line = _reply(worker, ("ready", "null"))
-            if line == "ready":
+            if line == "ready" and times.setdefault(key, []) is not None:  # None: died before
                 live.append(key)
-                times.setdefault(key, [])
             else:
                 if line != "null":
                     print(f"failed: {key[1]} {key[0]}", file=sys.stderr)
                 times.setdefault(key, None)
         for k in range(repeat):
-            for key in live[k % len(live) :] + live[: k % len(live)]:
+            for key in live[k % len(live) :] + live[: k % len(live)] if live else []:
                 worker = workers[key]
-                worker.stdin.write("run\n")  # type: ignore[union-attr]
-                worker.stdin.flush()  # type: ignore[union-attr]
-                times[key].append(float(_reply(worker, None)))
+                try:
+                    worker.stdin.write("run\n")  # type: ignore[union-attr]
+                    worker.stdin.flush()  # type: ignore[union-attr]
+                    reply = _reply(worker, None)
+                except BrokenPipeError:
+                    reply = ""
+                if not reply:  # the worker died: its calls no longer pair with the others'
+                    print(f"failed: {key[1]} {key[0]} (call {k})", file=sys.stderr)
+                    live.remove(key)
+                    times[key] = None
+                    continue
+                times[key].append(float(reply))  # type: ignore[union-attr]
         for worker in workers.values():
-            worker.stdin.close()  # type: ignore[union-attr]
+            try:
+                worker.stdin.close()  # type: ignore[union-attr]
+            except BrokenPipeError:
+                pass
             worker.wait(timeout=120)
     return times
 

@@ -117,3 +117,38 @@ def test_adaptive_stages_splits_a_warp_into_its_stages():
     assert abs(values["f"] + values["test"] + values["bookkeeping"] - values["build"]) < 0.05
     assert abs(values["build"] + values["draw"] + values["rest"] - values["total"]) < 0.05
     assert lines[8].strip().startswith("evaluations ") and "triangles" in lines[8]
+
+
+def test_ab_trees_paired_survives_a_worker_that_dies(tmp_path):
+    """A worker whose tree crashes mid-run is reported and left out (its calls no longer
+    pair); the other trees' calls go on."""
+    fake = tmp_path / "crashing" / "glmls"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text(
+        "import os\n"
+        "calls = 0\n"
+        "class MLS:\n"
+        "    def __init__(self, *args, **kwargs): pass\n"
+        "    def __enter__(self): return self\n"
+        "    def __exit__(self, *exc): return False\n"
+        "    def warp(self, image, **options):\n"
+        "        global calls\n"
+        "        calls += 1\n"
+        "        if calls == 5:\n"
+        "            os._exit(3)\n"
+    )
+    script = SCRIPT.parent / "ab_trees.py"
+    root = str(SCRIPT.parents[1])
+    run = subprocess.run(
+        [sys.executable, str(script), "--trees", f"good={root},bad={fake.parent}"]
+        + ["--cases", "W3:grid=8", "--rounds", "1", "--repeat", "4", "--warmup", "0"]
+        + ["--paired", "--ratios", "W3:grid=8|bad/W3:grid=8|good"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert run.returncode == 0, run.stderr
+    assert "failed: bad W3:grid=8" in run.stderr
+    lines = run.stdout.splitlines()
+    assert lines[1].startswith("W3:grid=8 | ") and lines[1].endswith(" | -")
+    assert lines[2] == "W3:grid=8|bad/W3:grid=8|good: -"
