@@ -3,6 +3,7 @@ is the benchmarks' business)."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -45,21 +46,28 @@ def test_fixed_cost_many_handles_case():
     assert "1024 handles" in run.stdout
 
 
+def run_script(name: str, *arguments: str, timeout: int = 300) -> subprocess.CompletedProcess:
+    """benchmarks/``name`` with ``arguments``; it must succeed."""
+    run = subprocess.run(
+        [sys.executable, str(SCRIPT.parent / name), *arguments],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+    assert run.returncode == 0, run.stderr
+    return run
+
+
+def ab_trees(trees: str, cases: str, *options: str) -> subprocess.CompletedProcess:
+    """benchmarks/ab_trees.py with ``trees`` and ``cases``, one round, and ``options``."""
+    return run_script("ab_trees.py", "--trees", trees, "--cases", cases, "--rounds", "1", *options)
+
+
 def test_ab_trees_alternates_trees_and_reports_each_case():
     """benchmarks/ab_trees.py on this tree twice: a row per case, a cell per tree, and "-"
     where a tree lacks the option (here none does)."""
-    import json
-
-    script = SCRIPT.parent / "ab_trees.py"
     root = str(SCRIPT.parents[1])
-    run = subprocess.run(
-        [sys.executable, str(script), "--trees", f"a={root},b={root}"]
-        + ["--cases", "W3:grid=8,W3:tolerance=0.25", "--rounds", "1", "--repeat", "1"],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert run.returncode == 0, run.stderr
+    run = ab_trees(f"a={root},b={root}", "W3:grid=8,W3:tolerance=0.25", "--repeat", "1")
     lines = run.stdout.splitlines()
     assert lines[0] == "case | a | b"
     assert lines[1].startswith("W3:grid=8 | ") and lines[2].startswith("W3:tolerance=0.25 | ")
@@ -72,20 +80,18 @@ def test_ab_trees_pairs_calls_across_trees_and_cases():
     """--paired: one worker per case and tree, one call of each in turn; --ratios reports the
     paired calls' ratio (this tree against itself: about 1, its quartiles around it), and a
     case a tree lacks is "-"."""
-    import json
-
-    script = SCRIPT.parent / "ab_trees.py"
     root = str(SCRIPT.parents[1])
     spec = "W3:grid=8|a/W3:grid=8|b"
-    run = subprocess.run(
-        [sys.executable, str(script), "--trees", f"a={root},b={root}"]
-        + ["--cases", "W3:grid=8,W3:nothing=1", "--rounds", "1", "--repeat", "3"]
-        + ["--paired", "--ratios", f"{spec},W3:nothing=1|a/W3:grid=8|b"],
-        capture_output=True,
-        text=True,
-        timeout=300,
+    ratios = f"{spec},W3:nothing=1|a/W3:grid=8|b"
+    run = ab_trees(
+        f"a={root},b={root}",
+        "W3:grid=8,W3:nothing=1",
+        "--repeat",
+        "3",
+        "--paired",
+        "--ratios",
+        ratios,
     )
-    assert run.returncode == 0, run.stderr
     lines = run.stdout.splitlines()
     assert lines[0] == "case | a | b"
     assert lines[1].startswith("W3:grid=8 | ") and "-" not in lines[1].split(" | ")[1:]
@@ -102,14 +108,9 @@ def test_ab_trees_pairs_calls_across_trees_and_cases():
 def test_adaptive_stages_splits_a_warp_into_its_stages():
     """benchmarks/adaptive_stages.py: the build (f, tests, bookkeeping), the draw and the
     rest, which add up to the call, and the mesh's counts."""
-    script = SCRIPT.parent / "adaptive_stages.py"
-    run = subprocess.run(
-        [sys.executable, str(script), "--workload", "W3", "--tolerance", "0.25", "--repeat", "2"],
-        capture_output=True,
-        text=True,
-        timeout=300,
+    run = run_script(
+        "adaptive_stages.py", "--workload", "W3", "--tolerance", "0.25", "--repeat", "2"
     )
-    assert run.returncode == 0, run.stderr
     lines = run.stdout.splitlines()
     values = {line.split()[0]: float(line.split()[1]) for line in lines[1:8]}
     assert set(values) == {"total", "build", "f", "test", "bookkeeping", "draw", "rest"}
@@ -137,17 +138,13 @@ def test_ab_trees_paired_survives_a_worker_that_dies(tmp_path):
         "        if calls == 5:\n"
         "            os._exit(3)\n"
     )
-    script = SCRIPT.parent / "ab_trees.py"
     root = str(SCRIPT.parents[1])
-    run = subprocess.run(
-        [sys.executable, str(script), "--trees", f"good={root},bad={fake.parent}"]
-        + ["--cases", "W3:grid=8", "--rounds", "1", "--repeat", "4", "--warmup", "0"]
-        + ["--paired", "--ratios", "W3:grid=8|bad/W3:grid=8|good"],
-        capture_output=True,
-        text=True,
-        timeout=300,
+    run = ab_trees(
+        f"good={root},bad={fake.parent}",
+        "W3:grid=8",
+        *("--repeat", "4", "--warmup", "0", "--paired"),
+        *("--ratios", "W3:grid=8|bad/W3:grid=8|good"),
     )
-    assert run.returncode == 0, run.stderr
     assert "failed: bad W3:grid=8" in run.stderr
     lines = run.stdout.splitlines()
     assert lines[1].startswith("W3:grid=8 | ") and lines[1].endswith(" | -")
