@@ -65,7 +65,8 @@ def smooth_weight(kernel: MLSKernel) -> bool:
     support = config.weight_entry.support
     if kernel.segments or support == "radius":
         return False
-    if (config.weight == "idw" or config.interpolating) and config.alpha > MAX_SMOOTH_ALPHA:
+    power = _power(kernel)
+    if power is not None and power > MAX_SMOOTH_ALPHA:
         return False
     return support == "everywhere" or kernel.bins is None
 
@@ -75,9 +76,15 @@ def smooth_reach(kernel: MLSKernel) -> float:
     of ``kernel``'s cells are predicted: :data:`CUSP_REACH` where f has a cusp at the
     handles (a power, idw's or the interpolating factor's, below 1), else
     :data:`SMOOTH_REACH`."""
+    power = _power(kernel)
+    return CUSP_REACH if power is not None and power < 1.0 else SMOOTH_REACH
+
+
+def _power(kernel: MLSKernel) -> float | None:
+    """The power of the distance in ``kernel``'s weight, alpha, where it has one (idw's, or
+    the interpolating factor's 1 / d^(2 alpha)); None otherwise."""
     config = kernel.config
-    cusp = (config.weight == "idw" or config.interpolating) and config.alpha < 1.0
-    return CUSP_REACH if cusp else SMOOTH_REACH
+    return config.alpha if config.weight == "idw" or config.interpolating else None
 
 
 class GPUCells:
@@ -111,7 +118,7 @@ class GPUCells:
             self._handles = len(sources)
             with gl.use():
                 buffer = resources.buffer("adaptive-handles", max(sources.nbytes, 8))
-                buffer.write(sources.tobytes())
+                buffer.write(sources)
 
     def evaluate(self, points: np.ndarray) -> np.ndarray:
         """f at ``points`` ((K, 2) float64), (K, 2) float64; they get the next K ids."""

@@ -227,11 +227,10 @@ class AdaptiveScan:
         if not simple:
             return False, 0, np.zeros((0, 0), np.uint32)
         count = len(mesh.triangles)
-        rows = (frame.size[1] + 7) // 8
+        rows, words = _tiles(frame)
         with self._gl.use():
             self._upload(mesh, frame)
-            hot, layout, reversed_ = self._reversed(count, frame, orientation)
-            words = layout["u_hot_words"]
+            hot, _, reversed_ = self._reversed(count, frame, orientation)
             data = hot.read(size=4 * rows * words, offset=16 + 4 * count)
         return True, reversed_, np.frombuffer(data, np.uint32).reshape(rows, words)
 
@@ -242,20 +241,16 @@ class AdaptiveScan:
         (:func:`.adaptive_folds.hot_tiles`): the buffer (bound) that holds the tiles' bits
         and the scan's list, the uniforms of its layout, and how many triangles."""
         gl = self._gl
-        width, height = frame.size
-        words = ((width + 7) // 8 + 31) // 32
+        rows, words = _tiles(frame)
         bits = 16 + 4 * count
-        size = bits + 4 * words * ((height + 7) // 8)
+        size = bits + 4 * words * rows
         hot = self._resources.buffer("adaptive-hot", size)
         hot.clear(size=16)
         hot.clear(size=size - bits, offset=bits)
         hot.bind_to_storage_buffer(bindings.ADAPTIVE_HOT.index)
         layout = {"u_hot_bits": count, "u_hot_words": words}
         check = gl.compute("warp/adaptive_folds.comp.glsl")
-        set_uniforms(
-            check,
-            layout | {"u_target_size": (width, height), "u_orientation": orientation},
-        )
+        set_uniforms(check, layout | {"u_target_size": frame.size, "u_orientation": orientation})
         run_1d(check, count, max_groups=gl.limits["max_work_groups_x"])
         gl.mgl.memory_barrier()
         return hot, layout, int(np.frombuffer(hot.read(size=4, offset=4), np.uint32)[0])
@@ -267,6 +262,13 @@ class AdaptiveScan:
         set_uniforms(scan, values)
         run_1d(scan, count, max_groups=gl.limits["max_work_groups_x"])
         gl.mgl.memory_barrier()
+
+
+def _tiles(frame: Frame) -> tuple[int, int]:
+    """The 8 x 8 px tiles of ``frame`` as the fold check marks them: rows, and uint32 words
+    of bits per row (as :func:`.adaptive_folds.hot_tiles`)."""
+    width, height = frame.size
+    return (height + 7) // 8, ((width + 7) // 8 + 31) // 32
 
 
 def _powers(y0: np.ndarray, y1: np.ndarray, y2: np.ndarray) -> tuple[np.ndarray, ...]:

@@ -51,33 +51,18 @@ layout(local_size_x = LOCAL_SIZE) in;
 #ifndef ADAPTIVE_LIST
 #define ADAPTIVE_LIST 0
 #endif
-#define HOT_SHIFT 3   // tiles of 8 x 8 pixels
-
 #include "common/groups.glsl"
+#include "warp/adaptive_mesh.glsl"
 
-layout(std430, binding = BIND_DEFORMED) readonly buffer AdaptiveVertices {
-    vec4 adaptive_vertex[];   // (output x, y, source x, y), pixels
-};
-layout(std430, binding = BIND_POINTS) readonly buffer AdaptiveTriangles {
-    uint adaptive_index[];    // per triangle in scan order: three vertex indices, its leaf
-};
 layout(std430, binding = BIND_WINNER) buffer AdaptiveWinner {
     uint adaptive_winner[];   // per target pixel, row-major: u_triangles - t, 0 = none
 };
 
-uniform ivec2 u_target_size;  // W, H in pixels
 uniform int u_triangles;      // how many
 uniform int u_offset;         // first triangle of this dispatch
 
 #if ADAPTIVE_HOT || ADAPTIVE_LIST
-layout(std430, binding = BIND_ADAPTIVE_HOT) buffer AdaptiveHot {
-    uint adaptive_hot_count;   // triangles listed
-    uint adaptive_hot_pad[3];
-    uint adaptive_hot[];       // the listed triangles (u_hot_bits of room), then the tiles' bits
-};
 uniform int u_count;          // ADAPTIVE_LIST: how many triangles are listed
-uniform int u_hot_bits;       // where the tiles' bits start in adaptive_hot
-uniform int u_hot_words;      // uints per row of tiles
 
 // Does the pixel box [first, last] reach a hot tile?
 bool reaches_hot(ivec2 first, ivec2 last) {
@@ -169,9 +154,7 @@ void main() {
     float s = sign(area);
     // degenerate: covers nothing, as in OpenGL; so does a vertex far past any image (or not
     // a number), which the conversions to pixels below could not represent
-    bool finite = all(lessThan(abs(vec4(a, b)), vec4(1.0e9))) &&
-                  all(lessThan(abs(c), vec2(1.0e9)));   // false for NaN too
-    if (s == 0.0 || !finite) {
+    if (s == 0.0 || !within_pixels(vec4(a, b), vec4(c, c))) {
         return;
     }
     ivec2 first = max(ivec2(ceil(min(min(a, b), c))), ivec2(0));

@@ -9,30 +9,12 @@
 // nothing in the scan: it is not counted.
 layout(local_size_x = LOCAL_SIZE) in;
 
-#define HOT_SHIFT 3   // tiles of 8 x 8 pixels, as warp/adaptive.comp.glsl's
-
 #include "warp/coverage.glsl"
+#include "warp/adaptive_mesh.glsl"
 
-layout(std430, binding = BIND_DEFORMED) readonly buffer AdaptiveVertices {
-    vec4 adaptive_vertex[];   // (output x, y, source x, y), pixels
-};
-layout(std430, binding = BIND_POINTS) readonly buffer AdaptiveTriangles {
-    uint adaptive_index[];    // per triangle in scan order: three vertex indices, its leaf
-};
-layout(std430, binding = BIND_ADAPTIVE_HOT) buffer AdaptiveHot {
-    uint adaptive_hot_count;   // the scan's list (untouched here)
-    uint adaptive_reversed;    // triangles counted here: 0 before the pass
-    uint adaptive_hot_pad[2];
-    uint adaptive_hot[];       // the scan's list (u_hot_bits of room), then the tiles' bits, 0
-                               // before the pass
-};
-
-uniform ivec2 u_target_size;  // W, H in pixels
 uniform int u_count;          // triangles
 uniform int u_offset;         // first triangle of this dispatch
 uniform float u_orientation;  // +1 or -1: the sign of a triangle that keeps the mesh's
-uniform int u_hot_bits;       // where the tiles' bits start in adaptive_hot
-uniform int u_hot_words;      // uints per row of tiles
 
 void main() {
     int t = u_offset + int(gl_GlobalInvocationID.x);
@@ -42,9 +24,7 @@ void main() {
     vec2 a = adaptive_vertex[adaptive_index[4 * t]].xy;
     vec2 b = adaptive_vertex[adaptive_index[4 * t + 1]].xy;
     vec2 c = adaptive_vertex[adaptive_index[4 * t + 2]].xy;
-    bool finite = all(lessThan(abs(vec4(a, b)), vec4(1.0e9))) &&
-                  all(lessThan(abs(c), vec2(1.0e9)));   // false for NaN too
-    if (!finite) {
+    if (!within_pixels(vec4(a, b), vec4(c, c))) {
         return;
     }
     float area = u_orientation * edge(a, b, c);   // twice the signed area

@@ -125,11 +125,7 @@ void main() {
     s0 = 1.0;
     s1 = 1.0;
 #endif
-    // a vertex far past any image (or not a number) covers nothing: the conversions to
-    // pixels below could not represent it
-    bool finite = all(lessThan(abs(vec4(p00, p10)), vec4(1.0e9))) &&
-                  all(lessThan(abs(vec4(p01, p11)), vec4(1.0e9)));   // false for NaN too
-    if ((s0 == 0.0 && s1 == 0.0) || !finite) {
+    if ((s0 == 0.0 && s1 == 0.0) || !within_pixels(vec4(p00, p10), vec4(p01, p11))) {
         return;
     }
     vec2 lo = min(min(p00, p10), min(p01, p11));

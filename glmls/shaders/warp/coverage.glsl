@@ -10,6 +10,13 @@ float edge(vec2 a, vec2 b, vec2 p) {
     return e;
 }
 
+// Whether the corners ab = (a, b) and cd = (c, d) of a primitive (a triangle repeats a
+// corner) are finite and within 1e9 px: one that is not covers nothing, as the conversions
+// to pixel indices could not represent it (false for NaN too).
+bool within_pixels(vec4 ab, vec4 cd) {
+    return all(lessThan(abs(ab), vec4(1.0e9))) && all(lessThan(abs(cd), vec4(1.0e9)));
+}
+
 // Is an edge value e (already multiplied by the primitive's orientation) covering? d is the
 // edge's direction along the primitive's counter-clockwise boundary.
 bool covers(float e, vec2 d) {
