@@ -20,7 +20,9 @@ in the pipeline):
    stretches (largest singular value > 1: a 1 px cell there covers more than one output
    pixel). Each child is first predicted (by ``test``, with its parent's test: the quartic
    through the parent's grid, :func:`.adaptive_patch.predict_cells`, where f is smooth): one
-   predicted within the tolerance over :data:`PREDICTION_MARGIN` is a leaf; f is evaluated
+   predicted within the tolerance over :data:`PREDICTION_MARGIN` is a leaf, and so is a
+   child of 1 px whose patch folds (:func:`.adaptive_patch.patches_fold`: its nodes are its
+   parent's grid points, and a folded cell splits no further than 1 px); f is evaluated
    at the others' test points, and they are tested at the next level;
 4. each leaf is drawn as a fan of triangles around its centre through every vertex on its
    boundary: its corners and mid-points and those of finer neighbours on its edges (hanging
@@ -44,7 +46,7 @@ import numpy as np
 
 from ..core.mesh import MeshLattice
 from .adaptive_fans import fans
-from .adaptive_patch import NODES, SAFETY, TESTS, estimate_cells, lagrange
+from .adaptive_patch import NODES, SAFETY, TESTS, estimate_cells, lagrange, patches_fold
 
 __all__ = [
     "MAX_LEAF",
@@ -123,6 +125,10 @@ _CHILD_NODES, _CHILD_TESTS = (
 )
 _NEEDS = np.array(
     [np.isin(_NEW_FLAT, _CHILD_TESTS[[c for c in range(4) if bits >> c & 1]]) for bits in range(16)]
+)
+_GRID_PLACE = np.array([5 * r + c for r, c in NODES + TESTS])
+_CHILD_NODES_5 = np.array(
+    [[5 * (2 * i + r // 2) + 2 * j + c // 2 for r, c in NODES] for i in (0, 1) for j in (0, 1)]
 )
 # the new points' slots on the right, bottom, left and top edges (shared with neighbours)
 _RIGHT, _BOTTOM, _LEFT, _TOP = (slice(4 * k, 4 * k + 4) for k in range(4))
@@ -249,7 +255,9 @@ def build_adaptive(
     children's prediction (see :data:`CellTest`; vertex ids count the points given to
     ``evaluate``, from 0, in order): a child predicted within ``tolerance /
     PREDICTION_MARGIN`` is a leaf, and f is not evaluated at its test points; None:
-    :func:`.adaptive_patch.estimate_cells` on the evaluated f, every child tested."""
+    :func:`.adaptive_patch.estimate_cells` on the evaluated f, every child tested. With
+    either, a child of 1 px whose patch folds is a leaf untested (its bound is infinite
+    whatever f is at its test points)."""
     xs, ys = lattice.axes
     x_origin, y_origin = lattice.origin
     span = max(xs[-1] - x_origin, ys[-1] - y_origin) + 1.0
@@ -318,6 +326,19 @@ def build_adaptive(
         leaves.append((box[keep], nodes[keep], error[keep]))
         box, nodes, tests, guess = box[split], nodes[split], tests[split], guess[split]
         accepted = guess * PREDICTION_MARGIN <= tolerance  # (K, 4)
+        # A child of 1 px (or less) whose patch folds is a leaf whatever f is at its test
+        # points (its bound is infinite, and a folded cell splits to 1 px, no further): f
+        # is never evaluated there. Its patch is known: its nodes are the cell's grid.
+        final = np.flatnonzero(
+            np.maximum(box[:, 2] - box[:, 0], box[:, 3] - box[:, 1]) <= 2 * units
+        )
+        if len(final):
+            grid = np.empty((len(final), 25), np.int64)
+            grid[:, _GRID_PLACE] = np.concatenate([nodes[final], tests[final]], axis=1)
+            child_nodes = grid[:, _CHILD_NODES_5].reshape(-1, 9)
+            folds = patches_fold(*vertices.f_apart(), child_nodes).reshape(-1, 4)
+            accepted[final] |= folds
+            guess[final] = np.where(folds, np.inf, guess[final])
         box, nodes, tests = _split(box, nodes, tests, ~accepted, vertices, evaluate)
         if accepted.any():
             done = accepted.T.ravel()  # _split's children come child by child

@@ -23,6 +23,7 @@ __all__ = [
     "estimate_cells",
     "lagrange",
     "lagrange_slope",
+    "patches_fold",
     "predict_cells",
 ]
 
@@ -128,6 +129,20 @@ def estimate_cells(
     same = (det > 0).all(axis=0) | (det < 0).all(axis=0)
     smallest = np.where(same, np.sqrt(low.min(axis=0)), 0.0)
     return error_bound(miss, smallest), np.sqrt(high.max(axis=0))
+
+
+def patches_fold(fx: np.ndarray, fy: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """Whether each cell's quadratic patch turns over, (K,) bool: its Jacobian's determinant
+    is not of one sign (or is 0, or not a number) on the cell's 5 x 5 grid, exactly the cells
+    :func:`estimate_cells` bounds by infinity whatever f is at their test points. ``fx``,
+    ``fy``: f at every vertex; ``nodes`` (K, 9) each cell's patch nodes."""
+    nodes_t = nodes.T.copy()
+    nx, ny = fx[nodes_t], fy[nodes_t]
+    jx = np.einsum("ij,jk->ik", PATCH_SLOPES, nx)
+    jy = np.einsum("ij,jk->ik", PATCH_SLOPES, ny)
+    det = jx[:25] * jy[25:]
+    det -= jx[25:] * jy[:25]
+    return ~((det > 0).all(axis=0) | (det < 0).all(axis=0))
 
 
 def _quartic_at_eighths() -> np.ndarray:

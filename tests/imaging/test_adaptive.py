@@ -21,6 +21,7 @@ import glmls
 from glmls.core import reference
 from glmls.imaging import adaptive_folds, adaptive_scan
 from glmls.imaging.adaptive import MAX_LEAF, MIN_SIZE, ROOT_STEP, build_adaptive, interpolate
+from glmls.imaging.adaptive_patch import NODES, TESTS
 from glmls.imaging.frame import Frame
 from glmls.imaging.pipeline import WarpPipeline
 
@@ -222,6 +223,53 @@ def test_the_leaves_fans_make_one_conforming_triangulation(shape, predicted):
     assert inner + np.sum(vertical | horizontal) == len(edges)
 
 
+def _fold(v):
+    """A map that folds: a bump pushed right further than its width."""
+    d = v - [50.0, 40.0]
+    push = 25.0 * np.exp(-(d**2).sum(axis=1) / 10.0**2)
+    return v + np.stack([push, 0.2 * push], -1)
+
+
+def test_patches_fold_is_where_the_cell_test_is_infinite_whatever_the_test_points(rng):
+    """The fold of a cell's patch depends on its 9 nodes alone: it is exactly where
+    estimate_cells is infinite, for any f at the 16 test points."""
+    from glmls.imaging.adaptive_patch import estimate_cells, patches_fold
+
+    count = 400
+    corner = rng.uniform(20, 70, (count, 2))
+    side = rng.choice([1.0, 2.0, 4.0], count)
+    quarters = np.array([[c, r] for r, c in NODES + TESTS]) / 4.0
+    points = corner[:, None] + side[:, None, None] * quarters  # (K, 25, 2)
+    f = _fold(points.reshape(-1, 2))
+    f[np.arange(len(f)) % 25 >= 9] += rng.normal(0, 3, (count * 16, 2))  # any test points
+    ids = np.arange(count * 25).reshape(count, 25)
+    error, _ = estimate_cells(f[:, 0], f[:, 1], ids[:, :9], ids[:, 9:], side, side)
+    folds = patches_fold(f[:, 0], f[:, 1], ids[:, :9])
+    assert 0 < folds.sum() < count  # both kinds
+    np.testing.assert_array_equal(folds, np.isinf(error))
+
+
+def test_folded_children_of_1_px_are_leaves_without_their_test_points(monkeypatch):
+    """A child of 1 px whose patch folds can split no further and its bound is infinite
+    whatever f is at its test points: it is a leaf, and they are never evaluated. The mesh
+    is the one the build makes when it tests every such child."""
+    from glmls.core.mesh import MeshLattice
+    from glmls.imaging import adaptive
+
+    lattice = MeshLattice.corners((80, 112), ROOT_STEP)
+    cells = ReferenceCells(_fold)
+    mesh = build_adaptive(cells.evaluate, lattice, 0.05, test=cells.test)
+    with monkeypatch.context() as patch:
+        patch.setattr(adaptive, "patches_fold", lambda fx, fy, nodes: np.zeros(len(nodes), bool))
+        every = ReferenceCells(_fold)
+        want = build_adaptive(every.evaluate, lattice, 0.05, test=every.test)
+    for name in ("leaves", "triangles", "nodes", "estimate", "source", "deformed"):
+        np.testing.assert_array_equal(getattr(mesh, name), getattr(want, name), err_msg=name)
+    folded = np.isinf(mesh.estimate) & (mesh.leaves[:, 2] - mesh.leaves[:, 0] == 1)
+    assert folded.sum() > 20
+    assert cells.count < every.count - 8 * folded.sum()  # measured ~10 points each
+
+
 @pytest.mark.parametrize("bad", [0, -0.1, float("nan"), float("inf"), 1e-4])
 def test_bad_tolerances_raise_value_error(gl, bad):
     image = np.zeros((16, 16), np.uint8)
@@ -233,7 +281,8 @@ def test_bad_tolerances_raise_value_error(gl, bad):
 def test_the_build_stops_before_it_fills_the_memory():
     """A map that bends at every scale (f's rounding at a tolerance near float32's would do
     the same) ends with ValueError once it needs MAX_POINTS_PER_PIXEL evaluations per pixel,
-    instead of splitting every cell down to 1/4 px."""
+    instead of splitting every cell down to 1/2 px (it stretches up to 1.9x and never
+    folds: folded cells of 1 px are leaves untested)."""
     from glmls.core.mesh import MeshLattice
     from glmls.imaging.adaptive import MAX_POINTS_PER_PIXEL, MIN_TOLERANCE
 
@@ -241,7 +290,7 @@ def test_the_build_stops_before_it_fills_the_memory():
 
     def rough(v):
         evaluated.append(len(v))
-        return v + 3 * np.sin(v * 7.1) * [1, -1]
+        return v + 0.13 * np.sin(v * 7.1) * [1, -1]
 
     with pytest.raises(ValueError, match=r"tolerance 0.001 px needs more than .* evaluations"):
         build_adaptive(rough, MeshLattice.corners((96, 128), ROOT_STEP), MIN_TOLERANCE)
