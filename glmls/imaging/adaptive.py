@@ -46,7 +46,15 @@ import numpy as np
 
 from ..core.mesh import MeshLattice
 from .adaptive_fans import fans
-from .adaptive_patch import NODES, SAFETY, TESTS, estimate_cells, lagrange, patches_fold
+from .adaptive_patch import (
+    GRID_PLACE,
+    NODES,
+    SAFETY,
+    TESTS,
+    estimate_cells,
+    lagrange,
+    patches_fold,
+)
 
 __all__ = [
     "MAX_LEAF",
@@ -126,10 +134,10 @@ _CHILD_NODES, _CHILD_TESTS = (
 _NEEDS = np.array(
     [np.isin(_NEW_FLAT, _CHILD_TESTS[[c for c in range(4) if bits >> c & 1]]) for bits in range(16)]
 )
-_GRID_PLACE = np.array([5 * r + c for r, c in NODES + TESTS])
-_CHILD_NODES_5 = np.array(
+# each child's nodes among its cell's nodes and test points (their columns side by side), (4, 9)
+_CHILD_NODES_OF_CELL = np.argsort(GRID_PLACE)[
     [[5 * (2 * i + r // 2) + 2 * j + c // 2 for r, c in NODES] for i in (0, 1) for j in (0, 1)]
-)
+]
 # the new points' slots on the right, bottom, left and top edges (shared with neighbours)
 _RIGHT, _BOTTOM, _LEFT, _TOP = (slice(4 * k, 4 * k + 4) for k in range(4))
 
@@ -329,13 +337,10 @@ def build_adaptive(
         # A child of 1 px (or less) whose patch folds is a leaf whatever f is at its test
         # points (its bound is infinite, and a folded cell splits to 1 px, no further): f
         # is never evaluated there. Its patch is known: its nodes are the cell's grid.
-        final = np.flatnonzero(
-            np.maximum(box[:, 2] - box[:, 0], box[:, 3] - box[:, 1]) <= 2 * units
-        )
+        final = np.flatnonzero(side[split] <= 2 * units)
         if len(final):
-            grid = np.empty((len(final), 25), np.int64)
-            grid[:, _GRID_PLACE] = np.concatenate([nodes[final], tests[final]], axis=1)
-            child_nodes = grid[:, _CHILD_NODES_5].reshape(-1, 9)
+            grid = np.concatenate([nodes[final], tests[final]], axis=1)
+            child_nodes = grid[:, _CHILD_NODES_OF_CELL].reshape(-1, 9)
             folds = patches_fold(*vertices.f_apart(), child_nodes).reshape(-1, 4)
             accepted[final] |= folds
             guess[final] = np.where(folds, np.inf, guess[final])

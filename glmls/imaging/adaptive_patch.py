@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
+    "GRID_PLACE",
     "NODES",
     "PATCH_AT_TESTS",
     "PATCH_SLOPES",
@@ -98,10 +99,7 @@ def estimate_cells(
     miss_y *= miss_y
     miss_x += miss_y
     miss = np.sqrt(miss_x.max(axis=0))
-    # the Jacobian [[a, b], [c, d]] on the 25 points: columns d/dx, d/dy
-    jx = np.einsum("ij,jk->ik", PATCH_SLOPES, nx)
-    jy = np.einsum("ij,jk->ik", PATCH_SLOPES, ny)
-    a, b, c, d = jx[:25], jx[25:], jy[:25], jy[25:]
+    a, b, c, d = _patch_jacobian(nx, ny)
     inv_w, inv_h = 1.0 / width, 1.0 / height
     a *= inv_w
     c *= inv_w
@@ -125,10 +123,22 @@ def estimate_cells(
     high *= 0.5
     with np.errstate(divide="ignore", invalid="ignore"):
         low /= high
-    # one orientation over the cell (a mirror keeps one too): else it folds
-    same = (det > 0).all(axis=0) | (det < 0).all(axis=0)
-    smallest = np.where(same, np.sqrt(low.min(axis=0)), 0.0)
+    smallest = np.where(_turns_over(det), 0.0, np.sqrt(low.min(axis=0)))
     return error_bound(miss, smallest), np.sqrt(high.max(axis=0))
+
+
+def _patch_jacobian(nx: np.ndarray, ny: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The Jacobian [[a, b], [c, d]] of the patches through nodes ``nx``, ``ny`` (9, K) on
+    their 5 x 5 grids, per unit of u and v (columns d/du, d/dv): four (25, K) arrays."""
+    jx = np.einsum("ij,jk->ik", PATCH_SLOPES, nx)
+    jy = np.einsum("ij,jk->ik", PATCH_SLOPES, ny)
+    return jx[:25], jx[25:], jy[:25], jy[25:]
+
+
+def _turns_over(det: np.ndarray) -> np.ndarray:
+    """(K,) bool: the determinants ``det`` (25, K) are not of one orientation over the
+    cell (a mirror keeps one too), or are 0 or not a number somewhere: the patch folds."""
+    return ~((det > 0).all(axis=0) | (det < 0).all(axis=0))
 
 
 def patches_fold(fx: np.ndarray, fy: np.ndarray, nodes: np.ndarray) -> np.ndarray:
@@ -137,12 +147,10 @@ def patches_fold(fx: np.ndarray, fy: np.ndarray, nodes: np.ndarray) -> np.ndarra
     :func:`estimate_cells` bounds by infinity whatever f is at their test points. ``fx``,
     ``fy``: f at every vertex; ``nodes`` (K, 9) each cell's patch nodes."""
     nodes_t = nodes.T.copy()
-    nx, ny = fx[nodes_t], fy[nodes_t]
-    jx = np.einsum("ij,jk->ik", PATCH_SLOPES, nx)
-    jy = np.einsum("ij,jk->ik", PATCH_SLOPES, ny)
-    det = jx[:25] * jy[25:]
-    det -= jx[25:] * jy[:25]
-    return ~((det > 0).all(axis=0) | (det < 0).all(axis=0))
+    a, b, c, d = _patch_jacobian(fx[nodes_t], fy[nodes_t])
+    det = a * d
+    det -= b * c
+    return _turns_over(det)
 
 
 def _quartic_at_eighths() -> np.ndarray:
@@ -159,8 +167,8 @@ def _quartic_at_eighths() -> np.ndarray:
 #: The quartic Lagrange basis through a cell's quarters (nodes 0 .. 4) at its eighths (rows
 #: e / 2, e = 0 .. 8), (9, 5): 0 and 1 at the quarters themselves, dyadic elsewhere.
 QUARTIC_AT_EIGHTHS = _quartic_at_eighths()
-# the places of a cell's nodes, then its tests, on its 5 x 5 grid, row by row
-_GRID_PLACE = np.array([5 * r + c for r, c in NODES + TESTS])
+#: The places of a cell's nodes, then its tests, on its 5 x 5 grid, row by row.
+GRID_PLACE = np.array([5 * r + c for r, c in NODES + TESTS])
 
 
 def predict_cells(
@@ -184,11 +192,11 @@ def predict_cells(
     grids = []
     for f in (fx, fy):
         grid = np.empty((count, 5, 5))
-        grid.reshape(count, 25)[:, _GRID_PLACE] = f[ids]
+        grid.reshape(count, 25)[:, GRID_PLACE] = f[ids]
         # (9 x 9) eighths = Q grid Q^T, per cell
         grids.append(np.einsum("ea,kab,fb->kef", QUARTIC_AT_EIGHTHS, grid, QUARTIC_AT_EIGHTHS))
     errors, stretches = [], []
-    place_nodes, place_tests = _GRID_PLACE[:9], _GRID_PLACE[9:]
+    place_nodes, place_tests = GRID_PLACE[:9], GRID_PLACE[9:]
     base = 25 * np.arange(count)[:, None]
     for i in (0, 1):
         for j in (0, 1):
