@@ -162,11 +162,14 @@ class AdaptiveScan:
     def _upload(self, mesh: AdaptiveMesh, frame: Frame) -> None:
         """The mesh's vertices (in the output frame), triangles and leaf patches, bound."""
         resources = self._resources
+        # column by column: numpy copies (N, 2) into strided (N, 4) columns ~5x slower
         vertices = np.empty((len(mesh.source), 4), np.float32)
-        vertices[:, :2] = mesh.deformed - np.asarray(frame.origin)
-        vertices[:, 2:] = mesh.source
+        for axis in (0, 1):
+            vertices[:, axis] = mesh.deformed[:, axis] - frame.origin[axis]
+            vertices[:, 2 + axis] = mesh.source[:, axis]
         indices = np.empty((len(mesh.triangles), 4), np.uint32)
-        indices[:, :3] = mesh.triangles
+        for corner in (0, 1, 2):
+            indices[:, corner] = mesh.triangles[:, corner]
         indices[:, 3] = mesh.triangle_leaf
         leaves = _leaf_patches(mesh, frame)
         for role, data, binding in (
