@@ -194,10 +194,15 @@ class AdaptiveScan:
         """The scan passes. An embedding: one pass, no keys. A simple boundary with reversed
         triangles: one pass for the triangles away from them, which lists the others, then
         keys and points for the listed ones. Otherwise keys, then points, for all. The
-        boundary is checked here, the triangles on the GPU (:meth:`_reversed`)."""
+        boundary is checked here, the triangles on the GPU (:meth:`_reversed`), after the
+        one pass where no leaf folds (:meth:`_one_pass_found_none`)."""
         count = len(mesh.triangles)
         simple, orientation = boundary_turns(mesh)
+        values = values | {"u_orientation": orientation}
         self.last_keyed = 0
+        if simple and self._likely_embedded(mesh):
+            if self._one_pass_found_none(count, values, defines):
+                return
         hot = None
         if simple:
             hot, layout, reversed_ = self._reversed(count, frame, orientation)
@@ -218,6 +223,24 @@ class AdaptiveScan:
         for fill_pass in (0, 1):
             keyed = defines | {"ADAPTIVE_FILL": fill_pass, "ADAPTIVE_LIST": True}
             self._run(listed, values | layout, keyed)
+
+    @staticmethod
+    def _likely_embedded(mesh: AdaptiveMesh) -> bool:
+        """No leaf of ``mesh`` folds (every estimate finite): its triangles most likely all
+        keep their orientation."""
+        return bool(np.isfinite(mesh.estimate).all())
+
+    def _one_pass_found_none(self, count: int, values: dict, defines: dict) -> bool:
+        """Draw the mesh in the one pass of an embedding before any check (no leaf folds, so
+        it most likely is one), counting the triangles the fold check would find; whether
+        it found none. Where it found some, the checked passes draw the mesh again, and
+        they write every pixel this pass wrote (a pixel it wrote is covered, and they write
+        every covered pixel): the image is theirs. W1 saves the check (~1.2 ms)."""
+        found = self._resources.buffer("adaptive-hot", 16)
+        found.clear(size=16)
+        found.bind_to_storage_buffer(bindings.ADAPTIVE_HOT.index)
+        self._run(count, values, defines | {"ADAPTIVE_FILL": 2})
+        return int(np.frombuffer(found.read(size=4, offset=4), np.uint32)[0]) == 0
 
     def folds(self, mesh: AdaptiveMesh, frame: Frame) -> tuple[bool, int, np.ndarray]:
         """What the scan finds of ``mesh``'s folds, drawn into ``frame``: whether its

@@ -361,6 +361,44 @@ def test_one_pass_draws_an_embedding_and_keys_only_near_folds(gl, rng, monkeypat
     assert partly >= 6  # most of these fold inside a simple boundary
 
 
+def test_the_one_pass_before_the_fold_check_draws_what_the_checked_passes_draw(
+    gl, rng, monkeypatch
+):
+    """Where no leaf folds, the scan draws the one pass of an embedding before any check,
+    counting the triangles the check would find: on a smooth map none, and the check never
+    runs; on folding maps made to try it first, it finds some, and the checked passes draw
+    again: exactly their image (colours and the points of a float image)."""
+    image = rng.integers(0, 256, (*SHAPE, 3), dtype=np.uint8)
+    checks = []
+    with glmls.MLS(*smooth_handles(SHAPE, rng), shape=SHAPE) as m:
+        scan = WarpPipeline.of(m.ctx).adaptive
+        reversed_ = scan._reversed
+        monkeypatch.setattr(scan, "_reversed", lambda *a: checks.append(1) or reversed_(*a))
+        first = m.warp(image, tolerance=0.05)
+        assert checks == [] and scan.last_keyed == 0
+        monkeypatch.setattr(scan, "_likely_embedded", lambda mesh: False)
+        np.testing.assert_array_equal(first, m.warp(image, tolerance=0.05))
+        assert checks == [1]
+    found = 0
+    for seed in range(4):
+        with glmls.MLS(*jittered_moves(SHAPE, np.random.default_rng(seed)), shape=SHAPE) as m:
+            scan = WarpPipeline.of(m.ctx).adaptive
+            for source, options in (
+                (image, {}),
+                (image.astype(np.float32), {"interpolation": "linear"}),
+            ):
+                monkeypatch.setattr(scan, "_likely_embedded", lambda mesh: False)
+                checked = m.warp(source, tolerance=0.05, **options)
+                keyed = scan.last_keyed
+                monkeypatch.setattr(scan, "_likely_embedded", lambda mesh: True)
+                first = m.warp(source, tolerance=0.05, **options)
+                assert scan.last_keyed == keyed
+                np.testing.assert_array_equal(first, checked, err_msg=f"seed {seed}")
+            found += keyed > 0
+            assert m.ctx.mgl.error == "GL_NO_ERROR"
+    assert found >= 2  # these fold: the one pass found reversed triangles, drawn again
+
+
 @pytest.mark.parametrize("seed", [0, 2, 5, "mirror", "shifted"])
 def test_the_gpu_finds_the_reversed_triangles_and_their_tiles(gl, seed):
     """warp/adaptive_folds.comp.glsl against check_folds and hot_tiles in float64, on the

@@ -14,7 +14,10 @@
 // samples the source there. ADAPTIVE_FILL 2: the one pass of a mesh that is an embedding
 // (glmls.imaging.adaptive_scan checks it: every triangle of one orientation and a boundary
 // that turns once): each pixel is covered by exactly one triangle, which writes its source
-// point, no keys. Pixels no triangle writes keep the buffer's "none" value.
+// point, no keys. Pixels no triangle writes keep the buffer's "none" value. The pass counts
+// the reversed (or nearly degenerate) triangles in adaptive_reversed, as the fold check
+// does: where no leaf folds, the scan runs it before any check, and only if it finds one
+// draws the mesh again by the checked passes (which write every pixel it wrote).
 //
 // ADAPTIVE_HOT 1 (with ADAPTIVE_FILL 2): the one pass of a mesh whose boundary turns once
 // but some of whose triangles are reversed (it folds): a pixel covered twice is then covered
@@ -152,9 +155,17 @@ void main() {
     vec2 c = vc.xy;
     float area = edge(a, b, c);   // twice the signed area
     float s = sign(area);
+    bool representable = within_pixels(vec4(a, b), vec4(c, c));
+#if ADAPTIVE_FILL == 2 && !ADAPTIVE_HOT
+    // the one pass counts the triangles the fold check would (warp/adaptive_folds.comp.glsl):
+    // run without it, where the mesh is most likely an embedding, none must be found
+    if (representable && adaptive_turned(a, b, c, area)) {
+        atomicAdd(adaptive_reversed, 1u);
+    }
+#endif
     // degenerate: covers nothing, as in OpenGL; so does a vertex far past any image (or not
     // a number), which the conversions to pixels below could not represent
-    if (s == 0.0 || !within_pixels(vec4(a, b), vec4(c, c))) {
+    if (s == 0.0 || !representable) {
         return;
     }
     ivec2 first = max(ivec2(ceil(min(min(a, b), c))), ivec2(0));

@@ -3,7 +3,7 @@
 // references): one invocation per triangle. A triangle not of the mesh's orientation
 // (u_orientation: +1 where f keeps it, -1 for a mirror), or nearly degenerate (twice its
 // area within 1e-5 of its longest side squared: room for float32's rounding, which the
-// scan's own area then cannot turn over), is counted, and the 8 x 8 px tiles its pixel box
+// scan's own area then cannot turn over; warp/adaptive_mesh.glsl's adaptive_turned), is counted, and the 8 x 8 px tiles its pixel box
 // (one pixel wider against rounding) reaches are marked hot, for warp/adaptive.comp.glsl's
 // ADAPTIVE_HOT pass. A triangle with a vertex that is not finite or past 1e9 px draws
 // nothing in the scan: it is not counted.
@@ -14,7 +14,6 @@ layout(local_size_x = LOCAL_SIZE) in;
 
 uniform int u_count;          // triangles
 uniform int u_offset;         // first triangle of this dispatch
-uniform float u_orientation;  // +1 or -1: the sign of a triangle that keeps the mesh's
 
 void main() {
     int t = u_offset + int(gl_GlobalInvocationID.x);
@@ -27,12 +26,7 @@ void main() {
     if (!within_pixels(vec4(a, b), vec4(c, c))) {
         return;
     }
-    float area = u_orientation * edge(a, b, c);   // twice the signed area
-    vec2 ab = b - a;
-    vec2 bc = c - b;
-    vec2 ca = a - c;
-    float longest = max(max(dot(ab, ab), dot(bc, bc)), dot(ca, ca));
-    if (area > 1.0e-5 * longest) {
+    if (!adaptive_turned(a, b, c, edge(a, b, c))) {
         return;
     }
     atomicAdd(adaptive_reversed, 1u);

@@ -20,3 +20,18 @@ layout(std430, binding = BIND_ADAPTIVE_HOT) buffer AdaptiveHot {
 uniform ivec2 u_target_size;  // W, H in pixels
 uniform int u_hot_bits;       // where the tiles' bits start in adaptive_hot
 uniform int u_hot_words;      // uints per row of tiles
+
+uniform float u_orientation;  // +1 or -1: the sign of a triangle that keeps the mesh's
+
+// Is the triangle (a, b, c), twice its signed area ``area`` (edge(a, b, c)), not of the mesh's
+// orientation (u_orientation: +1 where f keeps it, -1 for a mirror), or nearly degenerate:
+// twice its area within 1e-5 of its longest side squared (room for float32's rounding, which
+// the scan's own area then cannot turn over)? glmls.imaging.adaptive_folds.check_folds is the
+// float64 reference.
+bool adaptive_turned(vec2 a, vec2 b, vec2 c, float area) {
+    vec2 ab = b - a;
+    vec2 bc = c - b;
+    vec2 ca = a - c;
+    float longest = max(max(dot(ab, ab), dot(bc, bc)), dot(ca, ca));
+    return u_orientation * area <= 1.0e-5 * longest;
+}
