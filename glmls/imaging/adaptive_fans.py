@@ -24,14 +24,14 @@ def fans(
     positive area in the source (x right, y down); and the leaf of each, (T,) uint32."""
     boundary = np.flatnonzero(on_edges)
     count = len(boundary)
-    # 1-D arrays throughout: numpy gathers and computes on contiguous ones fastest
-    bx = np.ascontiguousarray(keys[:, 0])[boundary]
-    by = np.ascontiguousarray(keys[:, 1])[boundary]
+    # 1-D arrays throughout: numpy gathers (np.take) and computes on contiguous ones fastest
+    bx = np.take(np.ascontiguousarray(keys[:, 0]), boundary)
+    by = np.take(np.ascontiguousarray(keys[:, 1]), boundary)
     width = int(max(bx.max(), by.max())) + 1
     # the boundary vertices along rows, then along columns; a stable sort, because the
     # vertices come level by level in long sorted runs, which it merges instead of sorting
-    by_row = boundary[np.argsort(by * width + bx, kind="stable")]
-    by_column = boundary[np.argsort(bx * width + by, kind="stable")]
+    by_row = np.take(boundary, np.argsort(by * width + bx, kind="stable"))
+    by_column = np.take(boundary, np.argsort(bx * width + by, kind="stable"))
     ordered = np.concatenate([by_row, by_column]).astype(np.uint32)
     # each vertex's place in both orders: an edge's vertices run from one of its corners'
     # places to the other's (keys are distinct), no search needed
@@ -42,34 +42,30 @@ def fans(
         np.ascontiguousarray(nodes[:, k]) for k in (0, 2, 6, 8)
     )
     along_rows, along_cols = place
-    first = np.stack(  # top, right, bottom, left
-        [
-            along_rows[top_left],
-            along_cols[top_right],
-            along_rows[bottom_left],
-            along_cols[top_left],
-        ],
-        axis=-1,
-    )
-    last = np.stack(
-        [
-            along_rows[top_right],
-            along_cols[bottom_right],
-            along_rows[bottom_right],
-            along_cols[bottom_left],
-        ],
-        axis=-1,
-    )
+    leaves = len(nodes)
+    first = np.empty((leaves, 4), np.int64)  # top, right, bottom, left
+    last = np.empty((leaves, 4), np.int64)
+    for side, (start, end, along) in enumerate(
+        (
+            (top_left, top_right, along_rows),
+            (top_right, bottom_right, along_cols),
+            (bottom_left, bottom_right, along_rows),
+            (top_left, bottom_left, along_cols),
+        )
+    ):
+        first[:, side] = np.take(along, start)
+        last[:, side] = np.take(along, end)
     segments = (last - first).ravel()  # per leaf and edge, leaf by leaf
-    edge = np.repeat(np.arange(len(segments)), segments)  # 4 * leaf + side, per triangle
-    at = np.arange(len(edge)) - (np.cumsum(segments) - segments)[edge] + first.ravel()[edge]
-    a, b = ordered[at], ordered[at + 1]
+    total = int(segments.sum())
+    # per triangle, repeats of per-edge and per-leaf values, not gathers through an index
+    at = np.arange(total) + np.repeat(first.ravel() - (np.cumsum(segments) - segments), segments)
+    a, b = np.take(ordered, at), np.take(ordered, at + 1)
     # the top and right edges run clockwise about the centre on the screen (y down), the
     # bottom and left ones the other way: swapped, every triangle has a positive area
-    swap = (edge & 3) >= 2
-    triangles = np.empty((len(edge), 3), np.uint32)
-    leaf = (edge >> 2).astype(np.uint32)
-    triangles[:, 0] = np.ascontiguousarray(nodes[:, 4])[leaf]
+    swap = np.repeat(np.tile(np.array([False, False, True, True]), leaves), segments)
+    per_leaf = segments.reshape(-1, 4).sum(axis=1)
+    triangles = np.empty((total, 3), np.uint32)
+    triangles[:, 0] = np.repeat(np.ascontiguousarray(nodes[:, 4]), per_leaf)
     triangles[:, 1] = np.where(swap, b, a)
     triangles[:, 2] = np.where(swap, a, b)
-    return triangles, leaf
+    return triangles, np.repeat(np.arange(leaves, dtype=np.uint32), per_leaf)
