@@ -309,12 +309,17 @@ def _leaf_patches(mesh: AdaptiveMesh, frame: Frame) -> np.ndarray:
     (through the 3 x 3 nodes) in powers of the centred coordinates, the sums worked out
     here in float64."""
     leaves = np.zeros((len(mesh.leaves), 6, 4), np.float32)
-    x0, y0, x1, y1 = mesh.leaves.T
-    leaves[:, 0] = np.stack([(x0 + x1) / 2, (y0 + y1) / 2, x1 - x0, y1 - y0], axis=-1)
-    # per coordinate and node, 1-D: numpy gathers (L, 9, 2) from (V, 2) ten times slower
-    nodes = mesh.nodes.T.astype(np.intp)
+    # column by column, 1-D: numpy gathers (L, 9, 2) from (V, 2) ten times slower, and
+    # copies a transposed or stacked array of short rows several times slower
+    x0, y0, x1, y1 = (np.ascontiguousarray(mesh.leaves[:, k]) for k in range(4))
+    for k, value in enumerate(((x0 + x1) / 2, (y0 + y1) / 2, x1 - x0, y1 - y0)):
+        leaves[:, 0, k] = value
+    nodes = [np.ascontiguousarray(mesh.nodes[:, k]) for k in range(9)]
     # f's coordinates at the nodes, row by row (y), each row along x
-    nx, ny = ([f[k] for k in nodes] for f in np.ascontiguousarray(mesh.deformed.T))
+    nx, ny = (
+        [np.take(f, k) for k in nodes]
+        for f in (np.ascontiguousarray(mesh.deformed[:, axis]) for axis in (0, 1))
+    )
     leaves[:, 1, 0] = nx[4] - frame.origin[0]
     leaves[:, 1, 1] = ny[4] - frame.origin[1]
     turn = np.sign((nx[5] - nx[3]) * (ny[7] - ny[1]) - (nx[7] - nx[1]) * (ny[5] - ny[3]))
