@@ -1,7 +1,8 @@
 """A/B in one sitting: the same end-to-end cases timed on several glmls trees, alternated.
 
 ``python benchmarks/ab_trees.py --trees old=/tmp/bb0b9ce,new=. --cases W1:grid=1,W1:tolerance=0.05``
-``[--rounds 3] [--repeat 5] [--warmup 0.5] [--paired [--ratios CASE|TREE/CASE|TREE,...]]``
+``[--rounds 3] [--repeat 5] [--warmup 0.5] [--paired | --together]``
+``[--ratios CASE|TREE/CASE|TREE,...]``
 
 ``--paired``: every case on every tree set up once per round in a worker process of its own,
 all alive at once, and then one call of each in turn, ``--repeat`` times (the order rotated
@@ -9,6 +10,14 @@ each time). Calls with the same index then ran within a fraction of a second of 
 so their ratio (``--ratios``: the median and quartiles of the paired calls' ratios, e.g.
 ``W1:grid=1|old/W1:tolerance=0.05|new``) is what a shared machine's slow and fast spells,
 which last longer than one process's timed calls, change least.
+
+``--together``: every tree imported into this one process (as ``glmls_<NAME>``, its shaders
+and data read from its own checkout) and every case on every tree called in turn, one call
+each, ``--rounds`` x ``--repeat`` times (the order reversed every other time): both sides of
+a ratio then share the process, its caches and the machine's spell of the moment, which on a
+noisy shared host resolves a few per cent where separate processes do not. A tree whose
+code imports ``glmls`` by its absolute name would mix with the other trees': glmls's own
+modules import each other relatively.
 
 Each tree is a glmls source checkout (``git worktree add /tmp/bb0b9ce bb0b9ce`` makes one).
 Every round runs every case on every tree in turn, each in a fresh process (``--case``: one
@@ -33,12 +42,17 @@ read-back), with the tree's own bench code. Options other than ``grid``, ``toler
 from __future__ import annotations
 
 import argparse
+import importlib
+import importlib.resources
+import importlib.util
 import json
 import os
+import pathlib
 import statistics
 import subprocess
 import sys
 import time
+import types
 
 import numpy as np
 
@@ -72,19 +86,22 @@ WORKLOADS = {
 }
 
 
-def make_step(tree: str, case: str, warmup: float = 0.5):
+def make_step(tree: str, case: str, warmup: float = 0.5, package: types.ModuleType | None = None):
     """In this process: ``case``'s step (one call: one warp, or one frame) on the glmls of
-    ``tree``, after untimed runs for ``warmup`` seconds (two at least: the first compiles,
-    and small cases stay slow for several more on llvmpipe, up to ~40 ms in all for W3).
-    ``TypeError`` where the tree lacks the case's option."""
-    sys.path.insert(0, tree)
-    import glmls
+    ``tree`` (``package``: that tree already imported, see :func:`load_tree`), after untimed
+    runs for ``warmup`` seconds (two at least: the first compiles, and small cases stay slow
+    for several more on llvmpipe, up to ~40 ms in all for W3). ``TypeError`` where the tree
+    lacks the case's option."""
+    if package is None:
+        sys.path.insert(0, tree)
+        import glmls as package
+    glmls = package
 
     workload, _, option = case.partition(":")
     key, value = option.split("=")
     image, p, q = WORKLOADS[workload]()
     if key == "frame":
-        step = _frame(image, p, q, int(value))
+        step = _frame(image, p, q, int(value), glmls.__name__)
     else:
         options = {key: float(value) if key == "tolerance" else int(value)}
 
@@ -206,22 +223,87 @@ def ratio(times: dict, spec: str) -> str:
     return f"{spec}: {statistics.median(r):.2f}x [{quartiles[0]:.2f}-{quartiles[2]:.2f}]"
 
 
-def _frame(image, p, q, grid: int):
-    """The tree's own ``glmls bench --mode frame`` step at ``grid``: ``case_step`` where the
-    tree has it; older trees (bb0b9ce among them) only had their private runner, which is
-    what their own bench ran."""
+def _frame(image, p, q, grid: int, package: str = "glmls"):
+    """The tree's own ``glmls bench --mode frame`` step at ``grid`` (the tree imported as
+    ``package``): ``case_step`` where the tree has it; older trees (bb0b9ce among them) only
+    had their private runner, which is what their own bench ran."""
     size, handles = image.shape[0], len(p)
     try:
-        from glmls.cli.bench.cases import Case, case_step
-    except ImportError:
-        try:
-            from glmls.cli.bench.cases import Case
-            from glmls.cli.bench.cases import _glmls_frame as case_step_of
-        except ImportError:  # bb0b9ce and older: the module had another place
-            from glmls.bench_cases import Case
-            from glmls.bench_cases import _glmls_frame as case_step_of
-        return case_step_of(Case("glmls", "frame", size, handles, grid, "rigid"), image, p, q)
-    return case_step(Case("glmls", "frame", size, handles, grid, "rigid"), image, p, q)
+        cases = importlib.import_module(f"{package}.cli.bench.cases")
+    except ImportError:  # bb0b9ce and older: the module had another place
+        cases = importlib.import_module(f"{package}.bench_cases")
+    case = cases.Case("glmls", "frame", size, handles, grid, "rigid")
+    if hasattr(cases, "case_step"):
+        return cases.case_step(case, image, p, q)
+    return cases._glmls_frame(case, image, p, q)
+
+
+def load_tree(name: str, path: str) -> types.ModuleType:
+    """The glmls of the checkout ``path`` imported as ``glmls_<name>``, beside any other: its
+    modules import each other relatively, its lookups of its shaders and data (by the package
+    name "glmls" or its own) read its own checkout, and :func:`activate` makes it the
+    ``glmls`` of absolute imports (older trees' bench code has some)."""
+    package = f"glmls_{name}"
+    root = pathlib.Path(path).resolve() / "glmls"
+    spec = importlib.util.spec_from_file_location(
+        package, root / "__init__.py", submodule_search_locations=[str(root)]
+    )
+    if spec is None or spec.loader is None:
+        raise ValueError(f"no glmls package in {path}")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[package] = module
+    spec.loader.exec_module(module)
+
+    def files(anchor):
+        name_ = anchor if isinstance(anchor, str) else anchor.__name__
+        if name_ == "glmls" or name_.startswith(package):
+            parts = name_.split(".")[1:] if name_ != "glmls" else []
+            return root.joinpath(*parts)
+        return importlib.resources.files(anchor)
+
+    redirected = types.SimpleNamespace(files=files)
+    for module_name, loaded in list(sys.modules.items()):
+        if module_name.startswith(package) and getattr(loaded, "resources", None) is (
+            importlib.resources
+        ):
+            loaded.resources = redirected
+    return module
+
+
+def activate(package: types.ModuleType) -> None:
+    """Make ``package`` (:func:`load_tree`) and its modules those that ``import glmls...``
+    finds, instead of another tree's."""
+    for name in [n for n in sys.modules if n == "glmls" or n.startswith("glmls.")]:
+        del sys.modules[name]
+    prefix = package.__name__
+    for name, module in list(sys.modules.items()):
+        if name == prefix or name.startswith(prefix + "."):
+            sys.modules["glmls" + name[len(prefix) :]] = module
+
+
+def together(trees: dict[str, str], cases: list[str], rounds: int, repeat: int, warmup: float):
+    """Every tree imported into this process (:func:`load_tree`) and one call of every
+    (case, tree) in turn, ``rounds`` x ``repeat`` times, the order reversed every other
+    time; times (ms) per (case, tree), None where a tree lacks the case's option."""
+    packages = {name: load_tree(name, path) for name, path in trees.items()}
+    steps: dict[tuple[str, str], object] = {}
+    times: dict[tuple[str, str], list[float] | None] = {}
+    for case in cases:
+        for name, path in trees.items():
+            activate(packages[name])
+            try:
+                steps[case, name] = make_step(path, case, warmup, packages[name])
+                times[case, name] = []
+            except TypeError:
+                times[case, name] = None
+    order = list(steps)
+    for k in range(rounds * repeat):
+        for key in order if k % 2 == 0 else order[::-1]:
+            activate(packages[key[1]])
+            start = time.perf_counter()
+            steps[key](k)  # type: ignore[operator]
+            times[key].append((time.perf_counter() - start) * 1000)  # type: ignore[union-attr]
+    return times
 
 
 def main() -> None:
@@ -239,7 +321,13 @@ def main() -> None:
         help="every case on every tree in a process of its own, one call of each in turn",
     )
     parser.add_argument(
-        "--ratios", help="with --paired: CASE|TREE/CASE|TREE,... the paired calls' ratios"
+        "--together",
+        action="store_true",
+        help="every tree imported into this process, one call of each case and tree in turn",
+    )
+    parser.add_argument(
+        "--ratios",
+        help="with --paired or --together: CASE|TREE/CASE|TREE,... the paired calls' ratios",
     )
     parser.add_argument("--case", nargs=2, metavar=("TREE", "CASE"), help=argparse.SUPPRESS)
     parser.add_argument("--serve", nargs=2, metavar=("TREE", "CASE"), help=argparse.SUPPRESS)
@@ -258,9 +346,13 @@ def main() -> None:
         parser.error("--trees and --cases are required")
     trees = dict(item.split("=", 1) for item in args.trees.split(","))
     cases = args.cases.split(",")
-    if args.ratios and not args.paired:
-        parser.error("--ratios pairs calls: it needs --paired")
-    if args.paired:
+    if args.ratios and not (args.paired or args.together):
+        parser.error("--ratios pairs calls: it needs --paired or --together")
+    if args.paired and args.together:
+        parser.error("--paired and --together are two ways of pairing calls: choose one")
+    if args.together:
+        times = together(trees, cases, args.rounds, args.repeat, args.warmup)
+    elif args.paired:
         times = paired(trees, cases, args.rounds, args.repeat, args.warmup)
     else:
         times = alternated(trees, cases, args)

@@ -105,6 +105,43 @@ def test_ab_trees_pairs_calls_across_trees_and_cases():
     assert all(len(v) == 3 for v in times.values())
 
 
+def test_ab_trees_together_calls_every_tree_in_one_process():
+    """--together: the trees imported side by side in one process (this tree twice, under two
+    names), one call of each case and tree in turn; the ratios of the calls, "-" for a case
+    a tree lacks, and the frame case (the tree's own bench code)."""
+    root = str(SCRIPT.parents[1])
+    spec = "W3:tolerance=0.25|a/W3:tolerance=0.25|b"
+    run = ab_trees(
+        f"a={root},b={root}",
+        "W3:tolerance=0.25,W3:nothing=1,W3:frame=8",
+        "--repeat",
+        "2",
+        "--together",
+        "--ratios",
+        spec,
+    )
+    lines = run.stdout.splitlines()
+    assert lines[0] == "case | a | b"
+    assert lines[1].startswith("W3:tolerance=0.25 | ") and "-" not in lines[1].split(" | ")[1:]
+    assert lines[2] == "W3:nothing=1 | - | -"
+    assert lines[3].startswith("W3:frame=8 | ") and "-" not in lines[3].split(" | ")[1:]
+    assert lines[4].startswith(f"{spec}: ") and lines[4].endswith("]")
+    times = json.loads(lines[-1])
+    assert set(times) == {f"W3:{c}|{t}" for c in ("tolerance=0.25", "frame=8") for t in "ab"}
+    assert all(len(v) == 2 for v in times.values())
+
+
+def test_ab_trees_pairs_calls_one_way_only():
+    run = subprocess.run(
+        [sys.executable, str(SCRIPT.parent / "ab_trees.py"), "--trees", "a=.", "--cases"]
+        + ["W3:grid=8", "--paired", "--together"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 2 and "choose one" in run.stderr
+
+
 def test_adaptive_stages_splits_a_warp_into_its_stages():
     """benchmarks/adaptive_stages.py: the build (f, tests, bookkeeping), the draw and the
     rest, which add up to the call, and the mesh's counts."""
