@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "fixed_cost.py"
 
 
@@ -63,6 +65,13 @@ def ab_trees(trees: str, cases: str, *options: str) -> subprocess.CompletedProce
     return run_script("ab_trees.py", "--trees", trees, "--cases", cases, "--rounds", "1", *options)
 
 
+def assert_ratio_line(line: str, spec: str) -> None:
+    """``line`` reports ``spec``'s ratio: its median within its quartiles, all positive."""
+    assert line.startswith(f"{spec}: ") and line.endswith("]")
+    low, high = (float(v) for v in line.split("[")[1].rstrip("]").split("-"))
+    assert 0 < low <= float(line.split(": ")[1].split("x")[0]) <= high
+
+
 def test_ab_trees_alternates_trees_and_reports_each_case():
     """benchmarks/ab_trees.py on this tree twice: a row per case, a cell per tree, and "-"
     where a tree lacks the option (here none does)."""
@@ -76,59 +85,28 @@ def test_ab_trees_alternates_trees_and_reports_each_case():
     assert set(times) == {f"W3:{o}|{t}" for o in ("grid=8", "tolerance=0.25") for t in "ab"}
 
 
-def test_ab_trees_pairs_calls_across_trees_and_cases():
-    """--paired: one worker per case and tree, one call of each in turn; --ratios reports the
-    paired calls' ratio (this tree against itself: about 1, its quartiles around it), and a
-    case a tree lacks is "-"."""
+@pytest.mark.parametrize("mode", ["--paired", "--together"])
+def test_ab_trees_pairs_calls_across_trees_and_cases(mode):
+    """--paired: a worker process per case and tree; --together: the trees imported side by
+    side into one process (this tree twice, under two names). Either way one call of each
+    case and tree in turn; --ratios reports the ratio of the calls made in turn (this tree
+    against itself: about 1, its quartiles around it), a case a tree lacks is "-", and the
+    frame case runs the tree's own bench code."""
     root = str(SCRIPT.parents[1])
     spec = "W3:grid=8|a/W3:grid=8|b"
     ratios = f"{spec},W3:nothing=1|a/W3:grid=8|b"
-    run = ab_trees(
-        f"a={root},b={root}",
-        "W3:grid=8,W3:nothing=1",
-        "--repeat",
-        "3",
-        "--paired",
-        "--ratios",
-        ratios,
-    )
+    cases = "W3:grid=8,W3:nothing=1,W3:frame=8"
+    run = ab_trees(f"a={root},b={root}", cases, "--repeat", "3", mode, "--ratios", ratios)
     lines = run.stdout.splitlines()
     assert lines[0] == "case | a | b"
     assert lines[1].startswith("W3:grid=8 | ") and "-" not in lines[1].split(" | ")[1:]
     assert lines[2] == "W3:nothing=1 | - | -"
-    assert lines[3].startswith(f"{spec}: ") and lines[3].endswith("]")
-    low, high = (float(v) for v in lines[3].split("[")[1].rstrip("]").split("-"))
-    assert 0 < low <= float(lines[3].split(": ")[1].split("x")[0]) <= high
-    assert lines[4] == "W3:nothing=1|a/W3:grid=8|b: -"
-    times = json.loads(lines[-1])
-    assert set(times) == {"W3:grid=8|a", "W3:grid=8|b"}
-    assert all(len(v) == 3 for v in times.values())
-
-
-def test_ab_trees_together_calls_every_tree_in_one_process():
-    """--together: the trees imported side by side in one process (this tree twice, under two
-    names), one call of each case and tree in turn; the ratios of the calls, "-" for a case
-    a tree lacks, and the frame case (the tree's own bench code)."""
-    root = str(SCRIPT.parents[1])
-    spec = "W3:tolerance=0.25|a/W3:tolerance=0.25|b"
-    run = ab_trees(
-        f"a={root},b={root}",
-        "W3:tolerance=0.25,W3:nothing=1,W3:frame=8",
-        "--repeat",
-        "2",
-        "--together",
-        "--ratios",
-        spec,
-    )
-    lines = run.stdout.splitlines()
-    assert lines[0] == "case | a | b"
-    assert lines[1].startswith("W3:tolerance=0.25 | ") and "-" not in lines[1].split(" | ")[1:]
-    assert lines[2] == "W3:nothing=1 | - | -"
     assert lines[3].startswith("W3:frame=8 | ") and "-" not in lines[3].split(" | ")[1:]
-    assert lines[4].startswith(f"{spec}: ") and lines[4].endswith("]")
+    assert_ratio_line(lines[4], spec)
+    assert lines[5] == "W3:nothing=1|a/W3:grid=8|b: -"
     times = json.loads(lines[-1])
-    assert set(times) == {f"W3:{c}|{t}" for c in ("tolerance=0.25", "frame=8") for t in "ab"}
-    assert all(len(v) == 2 for v in times.values())
+    assert set(times) == {f"W3:{c}|{t}" for c in ("grid=8", "frame=8") for t in "ab"}
+    assert all(len(v) == 3 for v in times.values())
 
 
 def test_ab_trees_pairs_calls_one_way_only():
