@@ -36,8 +36,9 @@ def evaluate_points(
     """f at ``points`` ((K, 2) float64 pixels) as (K, 2) float64, and M as (K, 2, 2) float64
     where ``with_matrix`` (else None). ``shape``: the image whose default radius applies
     (None: the kernel's own). ``max_groups``: work groups per dispatch (the GL limit by
-    default). ``keep`` (buffer, byte offset): the displacements f - v as the GPU computed
-    them (K x 2 float32, scaled coordinates) are also copied there, for later passes."""
+    default). ``keep`` (buffer, byte offset, a multiple of 8): the displacements f - v as
+    the GPU computed them (K x 2 float32, scaled coordinates) are written there, for later
+    passes (and read back from there: no copy)."""
     count = len(points)
     if count == 0:
         kernel.check_alive()
@@ -55,15 +56,16 @@ def _evaluate_points(kernel, points, with_matrix, shape, max_groups, keep):
     source.write(np.ascontiguousarray(kernel.scaling.to_gpu(points)))  # no copy into bytes
     source.bind_to_storage_buffer(bindings.POINTS.index)
     kernel.bind(program, shape)
-    f_out = scratch.buffer("f", count * 8)
+    f_out, at = (scratch.buffer("f", count * 8), 0) if keep is None else keep
+    if at % 8 or f_out.size < at + count * 8:
+        raise ValueError(f"keep: {count} points do not fit at byte {at} of {f_out.size}")
     f_out.bind_to_storage_buffer(bindings.DEFORMED.index)
+    set_uniforms(program, {"u_out_first": at // 8})
     if with_matrix:
         scratch.buffer("M", count * 16).bind_to_storage_buffer(bindings.MATRICES.index)
     run_1d(program, count, max_groups=max_groups)
-    kernel.gl.mgl.memory_barrier()  # the shader's writes before the read (and the copy)
-    if keep is not None:
-        kernel.gl.mgl.copy_buffer(keep[0], f_out, size=count * 8, write_offset=keep[1])
-    d = np.frombuffer(f_out.read(size=count * 8), np.float32).reshape(count, 2)
+    kernel.gl.mgl.memory_barrier()  # the shader's writes before the read
+    d = np.frombuffer(f_out.read(size=count * 8, offset=at), np.float32).reshape(count, 2)
     # f = v + (f - v): v keeps its float64 digits, and f is v itself where d is exactly 0
     f = points + d.astype(np.float64) * kernel.scaling.scale
     if not with_matrix:

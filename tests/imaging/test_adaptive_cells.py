@@ -182,6 +182,10 @@ def test_evaluate_points_keeps_the_displacements_on_the_gpu(gl, rng):
             kept = np.frombuffer(store.read(size=100 * 8, offset=1024), np.float32)
             before = store.read(size=1024)
             scale = m.kernel.scaling.scale
+            for wrong in (1028, 1032):  # not at a point's place; past the buffer's end
+                with pytest.raises(ValueError, match="do not fit"):
+                    passes.evaluate_points(m.kernel, points, with_matrix=False, keep=(store, wrong))
+            assert gl.mgl.error == "GL_NO_ERROR"
     finally:
         resources.release()
     assert before == b"\x07" * 1024  # nothing before the offset is touched

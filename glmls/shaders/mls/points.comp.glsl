@@ -16,6 +16,7 @@ layout(std430, binding = BIND_POINTS) readonly buffer MLSPoints {
 #endif
 uniform int u_count;     // points (or lattice points of the band) in all
 uniform int u_offset;    // first index of this dispatch (dispatches are capped in size)
+uniform int u_out_first; // a list's f: where point 0's goes in the output (a kept store's end)
 
 layout(std430, binding = BIND_DEFORMED) writeonly buffer MLSOutF {
     vec2 mls_out_f[];
@@ -41,7 +42,7 @@ void main() {
 #if MLS_LATTICE
     mls_out_f[i] = r.f;
 #else
-    mls_out_f[i] = r.d;   // f(v) - v: the caller adds v in float64
+    mls_out_f[u_out_first + i] = r.d;   // f(v) - v: the caller adds v in float64
 #endif
 #if MLS_WRITE_MATRIX
     mls_out_m[i] = r.M;
