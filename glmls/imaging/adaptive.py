@@ -236,17 +236,21 @@ class _Vertices:
         new = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
         return self.add(new, evaluate).reshape(len(ys), len(xs))
 
-    def add(self, keys: np.ndarray, evaluate: Evaluate) -> np.ndarray:
-        """Evaluate f (in one call) at ``keys`` ((n, 2) int64, none of them evaluated
-        before, none repeated); their vertex ids (n,)."""
-        self.keys.append(keys)
-        # column by column: numpy broadcasts (n, 2) against (2,) an order of magnitude
-        # slower; units is a power of 2, so the product is the quotient, exactly
+    def points(self, keys: np.ndarray) -> np.ndarray:
+        """The source points (pixels) of ``keys`` ((n, 2) int64), (n, 2) float64, exact
+        (units is a power of 2: the product is the quotient). Column by column: numpy
+        broadcasts (n, 2) against (2,) an order of magnitude slower."""
         points = np.empty(keys.shape)
         for axis in (0, 1):
             np.multiply(keys[:, axis], 1.0 / self.units, out=points[:, axis])
             points[:, axis] += self.origin[axis]
-        self._f.append(evaluate(points))
+        return points
+
+    def add(self, keys: np.ndarray, evaluate: Evaluate) -> np.ndarray:
+        """Evaluate f (in one call) at ``keys`` ((n, 2) int64, none of them evaluated
+        before, none repeated); their vertex ids (n,)."""
+        self.keys.append(keys)
+        self._f.append(evaluate(self.points(keys)))
         ids = self.count + np.arange(len(keys))
         self.count += len(keys)
         return ids
@@ -451,10 +455,7 @@ def _assemble(vertices: _Vertices, leaves, levels: int) -> AdaptiveMesh:
     triangles, triangle_leaf = fans(keys, nodes, on_edges)
     renumber = (np.cumsum(used) - 1).astype(np.uint32)
     kept = np.flatnonzero(used)  # rows gathered by index: ~2x a 2-D boolean mask's speed
-    source = np.empty((len(kept), 2))
-    for axis in (0, 1):  # units: a power of 2, so source is exact
-        column = np.take(np.ascontiguousarray(keys[:, axis]), kept)
-        source[:, axis] = column * (1.0 / vertices.units) + vertices.origin[axis]
+    source = vertices.points(np.take(keys, kept, axis=0))
     cells = vertices.origin[[0, 1, 0, 1]] + box / vertices.units
     return AdaptiveMesh(
         source,
