@@ -236,11 +236,9 @@ class AdaptiveScan:
         it found none. Where it found some, the checked passes draw the mesh again, and
         they write every pixel this pass wrote (a pixel it wrote is covered, and they write
         every covered pixel): the image is theirs. W1 saves the check (~1.2 ms)."""
-        found = self._resources.buffer("adaptive-hot", 16)
-        found.clear(size=16)
-        found.bind_to_storage_buffer(bindings.ADAPTIVE_HOT.index)
+        found = self._hot_buffer(16)
         self._run(count, values, defines | {"ADAPTIVE_FILL": 2})
-        return int(np.frombuffer(found.read(size=4, offset=4), np.uint32)[0]) == 0
+        return _reversed_count(found) == 0
 
     def folds(self, mesh: AdaptiveMesh, frame: Frame) -> tuple[bool, int, np.ndarray]:
         """What the scan finds of ``mesh``'s folds, drawn into ``frame``: whether its
@@ -270,16 +268,22 @@ class AdaptiveScan:
         rows, words = _tiles(frame)
         bits = 16 + 4 * count
         size = bits + 4 * words * rows
-        hot = self._resources.buffer("adaptive-hot", size)
-        hot.clear(size=16)
+        hot = self._hot_buffer(size)
         hot.clear(size=size - bits, offset=bits)
-        hot.bind_to_storage_buffer(bindings.ADAPTIVE_HOT.index)
         layout = {"u_hot_bits": count, "u_hot_words": words}
         check = gl.compute("warp/adaptive_folds.comp.glsl")
         set_uniforms(check, layout | {"u_target_size": frame.size, "u_orientation": orientation})
         run_1d(check, count, max_groups=gl.limits["max_work_groups_x"])
         gl.mgl.memory_barrier()
-        return hot, layout, int(np.frombuffer(hot.read(size=4, offset=4), np.uint32)[0])
+        return hot, layout, _reversed_count(hot)
+
+    def _hot_buffer(self, size: int) -> moderngl.Buffer:
+        """The buffer of warp/adaptive_mesh.glsl's AdaptiveHot block (``size`` bytes at
+        least), its counters (the listed and the reversed triangles) zero, bound."""
+        hot = self._resources.buffer("adaptive-hot", size)
+        hot.clear(size=16)
+        hot.bind_to_storage_buffer(bindings.ADAPTIVE_HOT.index)
+        return hot
 
     def _run(self, count: int, values: dict, defines: dict) -> None:
         """One scan pass over ``count`` triangles (or listed ones)."""
@@ -288,6 +292,12 @@ class AdaptiveScan:
         set_uniforms(scan, values)
         run_1d(scan, count, max_groups=gl.limits["max_work_groups_x"])
         gl.mgl.memory_barrier()
+
+
+def _reversed_count(hot: moderngl.Buffer) -> int:
+    """The reversed (or nearly degenerate) triangles that a fold check or the one pass
+    counted in ``hot`` (:meth:`AdaptiveScan._hot_buffer`)."""
+    return int(np.frombuffer(hot.read(size=4, offset=4), np.uint32)[0])
 
 
 def _tiles(frame: Frame) -> tuple[int, int]:
