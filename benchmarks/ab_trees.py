@@ -256,16 +256,15 @@ def load_tree(name: str, path: str) -> types.ModuleType:
 
     def files(anchor):
         name_ = anchor if isinstance(anchor, str) else anchor.__name__
-        if name_ == "glmls" or name_.startswith(package):
+        if name_ in ("glmls", package) or name_.startswith(package + "."):
             parts = name_.split(".")[1:] if name_ != "glmls" else []
             return root.joinpath(*parts)
         return importlib.resources.files(anchor)
 
     redirected = types.SimpleNamespace(files=files)
     for module_name, loaded in list(sys.modules.items()):
-        if module_name.startswith(package) and getattr(loaded, "resources", None) is (
-            importlib.resources
-        ):
+        ours = module_name == package or module_name.startswith(package + ".")
+        if ours and getattr(loaded, "resources", None) is (importlib.resources):
             loaded.resources = redirected
     return module
 
