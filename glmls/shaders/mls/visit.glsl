@@ -24,7 +24,6 @@
 #define MLS_R16(F, i) MLS_R4(F, i) MLS_R4(F, i + 4) MLS_R4(F, i + 8) MLS_R4(F, i + 12)
 #define MLS_R64(F, i) MLS_R16(F, i) MLS_R16(F, i + 16) MLS_R16(F, i + 32) MLS_R16(F, i + 48)
 #define MLS_NEAR(i) mls_nearest_index(near.d2min, nearest, v, i, (i) < n);
-#define MLS_FAR(i) mls_nearest_far(near.d2far, v, i, (i) < n);
 #define MLS_ACC(i) mls_accumulate(a, mls_handle(i), (i) < n);
 #endif
 
@@ -258,15 +257,13 @@ MLSResult mls_eval(vec2 v) {
     mls_nearest_segments(near, v);
 #endif
     if (near.d2min <= u_hit2) {
-#if MLS_UNROLL == 16
-        MLS_R16(MLS_FAR, 0)
-#elif MLS_UNROLL == 64
-        MLS_R64(MLS_FAR, 0)
-#else
+        // A loop even where the other passes are unrolled: llvmpipe runs a branch's body
+        // under a mask whether or not a lane takes it, but leaves a loop as soon as no
+        // lane is in it, and lanes rarely snap (64 unrolled slots here cost ~5 % of the
+        // whole pass at 64 handles; the loop's per-lane reads only where one snaps).
         for (int i = 0; i < n; ++i) {
             mls_nearest_far(near.d2far, v, i, true);
         }
-#endif
     }
     MLSAccum a = mls_begin(v, near);
 #if MLS_UNROLL == 16
