@@ -36,6 +36,9 @@ __all__ = [
 #: (bit 0: the cell splits untested), the centre's x and y (scaled) (the shader's CELL_WORDS,
 #: defined from here).
 _CELL_WORDS = 30
+#: The prediction's indirect dispatch before the test lists any cell: (x, y, z) work groups
+#: (0, 0, 1), then the list's length, 0.
+_NO_GROUPS = np.array([0, 0, 1, 0], np.uint32).tobytes()
 
 #: A split cell's children are predicted only where no point handle is within this many
 #: children's sides of a child's centre: f is not smooth at a handle (its Jacobian there
@@ -197,8 +200,9 @@ class GPUCells:
                 set_uniforms(program, scale)
                 run_1d(program, count, max_groups=max_groups)
             else:
-                listed = resources.buffer("adaptive-split", 4 * (count + 1))
-                listed.write(np.zeros(1, np.uint32).tobytes())
+                # the prediction's work groups (x, y, z), the list's length, the list
+                listed = resources.buffer("adaptive-split", 4 * (count + 4))
+                listed.write(_NO_GROUPS)
                 listed.bind_to_storage_buffer(bindings.ADAPTIVE_SPLIT.index)
                 handles = resources.cached("adaptive-handles")
                 handles.bind_to_storage_buffer(bindings.ADAPTIVE_HANDLES.index)
@@ -211,10 +215,10 @@ class GPUCells:
                 }
                 set_uniforms(program, scale | values)
                 run_1d(program, count, max_groups=max_groups)
-                gl.mgl.memory_barrier()  # the list and the tests' zeros before the prediction
+                gl.mgl.memory_barrier()  # the list, its size and the tests' zeros first
                 program = gl.compute(shader, defines | {"ADAPTIVE_PREDICT": 2})
                 set_uniforms(program, scale)
-                run_1d(program, count, max_groups=max_groups)  # past the list: nothing
+                program.run_indirect(listed)  # one invocation per listed cell
             gl.mgl.memory_barrier()
             result = np.frombuffer(out.read(size=size), np.float32)
         return result.reshape(count, per_cell, 4).astype(np.float64)

@@ -5,10 +5,12 @@
 // to the host (glmls.imaging.adaptive_patch.predict_cells, warp/adaptive_quartic.glsl), in
 // two passes: ADAPTIVE_PREDICT 1, the test, which lists the cells that fail it (or split
 // regardless: flag bit 0 of their record) and have no point handle near (f is not smooth
-// there); ADAPTIVE_PREDICT 2, one invocation per listed cell (dispatched for all, past the
-// list's end nothing to do). Not in one pass: lanes run together, and a pass that predicted
-// where its cell splits cost the prediction of every cell beside one that does (3x the two
-// passes' time on llvmpipe).
+// there), and sizes the next pass; ADAPTIVE_PREDICT 2, one invocation per listed cell (an
+// indirect dispatch of the list's length, not one of all the cells whose listed ones come
+// first: llvmpipe gives each of its threads a contiguous share of a dispatch's work groups,
+// and the list in the first half left one thread all the work). Not in one pass: lanes run
+// together, and a pass that predicted where its cell splits cost the prediction of every
+// cell beside one that does (3x the two passes' time on llvmpipe).
 //
 // Per cell out: its test, vec4 (the miss in output pixels, the smallest singular value, 0
 // where the Jacobian's orientation changes over the grid: the cell folds, the largest, 0;
@@ -23,7 +25,14 @@ layout(local_size_x = LOCAL_SIZE) in;
 #include "warp/adaptive_grid.glsl"
 
 #if ADAPTIVE_PREDICT
+#include "common/groups.glsl"
+
 layout(std430, binding = BIND_ADAPTIVE_SPLIT) coherent buffer AdaptiveSplit {
+    // the prediction pass's work groups, an indirect dispatch's (x, y, z): (0, 0, 1) before
+    // the test pass, which raises them as it lists cells (common/groups.glsl's layout)
+    uint adaptive_split_groups_x;
+    uint adaptive_split_groups_y;
+    uint adaptive_split_groups_z;
     uint adaptive_split_count;  // 0 before the test pass
     uint adaptive_split[];      // the cells that split, in no particular order
 };
@@ -54,7 +63,7 @@ bool adaptive_far(vec2 centre, float reach) {
 #include "warp/adaptive_quartic.glsl"
 
 void main() {
-    int listed = u_offset + int(gl_GlobalInvocationID.x);
+    int listed = int(dispatch_item());
     if (listed >= int(adaptive_split_count)) {
         return;
     }
@@ -90,7 +99,12 @@ void main() {
     // listed only where no handle is near: the prediction pass's lanes all predict
     vec2 centre = vec2(uintBitsToFloat(adaptive_cell[at + 28]), uintBitsToFloat(adaptive_cell[at + 29]));
     if (adaptive_far(centre, u_reach * 0.5 * max(sides.x, sides.y) / u_scale)) {
-        adaptive_split[atomicAdd(adaptive_split_count, 1u)] = uint(cell);
+        uint k = atomicAdd(adaptive_split_count, 1u);
+        adaptive_split[k] = uint(cell);
+        // enough groups for the k + 1 listed so far: the largest k sizes the dispatch
+        uvec4 groups = dispatch_groups(k + 1u);
+        atomicMax(adaptive_split_groups_x, groups.x);
+        atomicMax(adaptive_split_groups_y, groups.y);
     }
 #else
     adaptive_test[cell] = test;
