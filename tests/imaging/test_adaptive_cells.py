@@ -14,6 +14,7 @@ from helpers import folded_case, jittered_moves, stretched_handles
 import glmls
 from glmls.core.mesh import MeshLattice
 from glmls.engine import passes
+from glmls.gl.dispatch import LOCAL_SIZE
 from glmls.gl.resources import Resources
 from glmls.imaging import adaptive_cells
 from glmls.imaging.adaptive import ROOT_STEP, build_adaptive
@@ -32,7 +33,7 @@ def compare_levels(gl, m, shape, tolerance):
     """Build the mesh with the GPU's test and prediction, checking every level's cells
     against the float64 references on the same f (and the prediction's choice of cells:
     those that split, with no handle near, against the handles' distances); the levels
-    compared, and the mesh."""
+    compared (their cells), the mesh, and the cells each level predicted."""
     resources = Resources(gl)
     try:
         cells = GPUCells(gl, resources, m.kernel, shape, tolerance)
@@ -87,7 +88,7 @@ def compare_levels(gl, m, shape, tolerance):
         mesh = build_adaptive(evaluate, lattice, tolerance, test=test)
         assert sum(predicted) > 0  # some cells far enough from the handles
         assert cells.count == sum(len(f) for f in fx)
-        return levels, mesh
+        return levels, mesh, predicted
     finally:
         resources.release()
 
@@ -104,11 +105,22 @@ def test_the_gpu_cell_test_matches_the_float64_reference(gl, rng, case):
     else:
         shape, p, q = folded_case()
     with glmls.MLS(p, q, shape=shape, ctx=gl, **options) as m:
-        levels, mesh = compare_levels(gl, m, shape, 0.05)
+        levels, mesh, _ = compare_levels(gl, m, shape, 0.05)
     # the cases reach small cells (several levels), and "folded" has folding leaves
     assert len(levels) >= 3
     if case == "folded":
         assert np.isinf(mesh.estimate).any()
+
+
+def test_the_prediction_covers_a_list_of_several_work_groups(gl, rng):
+    """The prediction pass runs one invocation per listed cell, in as many work groups as the
+    test pass found it needs (an indirect dispatch): a level listing many groups' worth of
+    cells has each predicted as the float64 reference predicts it."""
+    shape = (448, 512)
+    p, q = jittered_moves(shape, rng)
+    with glmls.MLS(p, q, shape=shape, ctx=gl) as m:
+        _, _, predicted = compare_levels(gl, m, shape, 0.05)
+    assert max(predicted) > 2 * LOCAL_SIZE
 
 
 def test_the_warp_builds_the_mesh_the_reference_test_builds(gl, rng):
@@ -116,7 +128,7 @@ def test_the_warp_builds_the_mesh_the_reference_test_builds(gl, rng):
     cell's error is within the GPU's rounding of the tolerance."""
     p, q = jittered_moves(SHAPE, rng)
     with glmls.MLS(p, q, shape=SHAPE, ctx=gl) as m:
-        _, want = compare_levels(gl, m, SHAPE, 0.05)
+        _, want, _ = compare_levels(gl, m, SHAPE, 0.05)
         got = m.mesh(SHAPE, tolerance=0.05)
     np.testing.assert_array_equal(got.leaves, want.leaves)
     np.testing.assert_array_equal(got.triangles, want.triangles)
