@@ -50,7 +50,6 @@ ERROR_VERTICES = Binding("ERROR_VERTICES", "storage", 5, "the error field at mes
 ERROR_FIELD = Binding("ERROR_FIELD", "storage", 6, "the error field written by a pass")
 WINNER = Binding("WINNER", "storage", 7, "per target pixel, the key of the top triangle")
 FIXUPS = Binding("FIXUPS", "storage", 10, "pixels that more than one triangle reached")
-FIXUP_DISPATCH = Binding("FIXUP_DISPATCH", "storage", 11, "work groups of the fix-up pass")
 CHECK = Binding("CHECK", "storage", 12, "the embedding test's counts and dispatch sizes")
 ADAPTIVE_LEAVES = Binding("ADAPTIVE_LEAVES", "storage", 13, "the adaptive mesh's leaf patches")
 ADAPTIVE_POINTS = Binding("ADAPTIVE_POINTS", "storage", 14, "adaptive: each pixel's source point")
@@ -88,7 +87,6 @@ ALL = (
     ERROR_FIELD,
     WINNER,
     FIXUPS,
-    FIXUP_DISPATCH,
     CHECK,
     ADAPTIVE_LEAVES,
     ADAPTIVE_POINTS,

@@ -43,7 +43,11 @@ __all__ = ["PATHS", "CellScan", "key_layout"]
 
 _BLOCK = 8  # cells on a side of the blocks of warp/cells_hot.glsl
 _MARK_GROUPS = 8  # where warp_check_data holds the marking's work groups (warp/cells_hot.glsl)
+_BLOCK_GROUPS = 5  # ... the listing of the blocks' (stage 3's)
 _HOT_HEADER = 12  # uints in warp_check_data before the hot tiles (warp/cells_hot.glsl)
+#: The fix-up list's header before a scan (warp/cells_packed.glsl): no pixel listed, and its
+#: indirect dispatch (x, y, z) of no work groups.
+_NO_FIXUPS = np.array([0, 0, 0, 1], np.uint32).tobytes()
 
 #: The ways :meth:`CellScan.draw` filled the pixels (:attr:`CellScan.last_path`).
 PATHS = ("fused fast", "fused", "nearest", "interpolated")
@@ -231,10 +235,10 @@ class CellScan:
         fold inside a simple boundary, every cell (a keyed pass without it) where the
         boundary fails or more cells fold than the list holds (one in 16)."""
         gl = self._gl
-        stages = [
-            gl.compute("warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage})
-            for stage in range(7)
-        ]
+        stages = {
+            stage: gl.compute("warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage})
+            for stage in (0, 1, 2, 3, 6)
+        }
         fast = self._program(nearest=True, fused=True, fast=True, border=border)
         every = self._program(nearest=True, fused=True, fast=False, border=border)
         nx, ny = self._fast_dims = values["u_mesh_dims"]  # type: ignore[misc]
@@ -254,7 +258,7 @@ class CellScan:
             "u_folded_capacity": capacity,
             "u_block_list": block_list,
         }
-        for program in (fast, every, keyed, *stages):
+        for program in (fast, every, keyed, *stages.values()):
             set_uniforms(program, values)
         check = self._resources.buffer("check", 48 + 4 * (block_list + blocks))
         check.clear(size=48 + 4 * folded_list)
@@ -263,23 +267,22 @@ class CellScan:
         run_1d(fast, cells, max_groups=self._max_groups)
         gl.mgl.memory_barrier()
         stages[1].run(group_x=1)
-        stages[5].run(group_x=1)
         gl.mgl.memory_barrier()
+        # indirect from here, sized by stage 1 (and the keyed scan of the blocks by stage 3):
+        # an embedding runs none of them
         stages[6].run_indirect(check, offset=48 + 4 * _MARK_GROUPS)
         gl.mgl.memory_barrier()
-        run_1d(stages[3], blocks, max_groups=self._max_groups)
+        stages[3].run_indirect(check, offset=48 + 4 * _BLOCK_GROUPS)
         stages[2].run_indirect(check, offset=16)
-        gl.mgl.memory_barrier()
-        stages[4].run(group_x=1)
         gl.mgl.memory_barrier()
         set_uniforms(every, {"u_offset": 0})
         every.run_indirect(check, offset=32)
         keyed.run_indirect(check, offset=48)
 
     def _prepare_fused(self, capacity: int) -> None:
-        """An empty fix-up list (the textures need no preparing: warp/texels.glsl reads and
-        writes them as r32ui images, with no copies)."""
-        self._resources.buffer("fixups", 16 + 4 * capacity).clear(size=16)
+        """An empty fix-up list, its dispatch of no work groups (the textures need no
+        preparing: warp/texels.glsl reads and writes them as r32ui images, with no copies)."""
+        self._resources.buffer("fixups", 16 + 4 * capacity).write(_NO_FIXUPS)
 
     def _bind_fused(self, source: moderngl.Texture, target: moderngl.Texture) -> None:
         bindings.bind_texels(source, bindings.TEXEL_SOURCE, write=False)
@@ -293,20 +296,13 @@ class CellScan:
         target: moderngl.Texture,
         border: int,
     ) -> None:
-        """warp/cells_fixup.comp.glsl over the listed pixels (an indirect dispatch sized on
-        the GPU: no read-back)."""
-        entry = "warp/cells_fixup.comp.glsl"
-        args = self._gl.compute(entry, {"WARP_FIXUP_ARGS": True})
-        fixup = self._gl.compute(entry, {"WARP_FIXUP_ARGS": False, "WARP_BORDER": border})
-        dispatch = self._resources.buffer("fixup dispatch", 16)
+        """warp/cells_fixup.comp.glsl over the listed pixels: an indirect dispatch whose
+        size the scan set as it listed them (no read-back; no work where none was listed)."""
+        fixup = self._gl.compute("warp/cells_fixup.comp.glsl", {"WARP_BORDER": border})
         self._bind_fused(source, target)
         self._resources.cached("winner").bind_to_storage_buffer(bindings.WINNER.index)
-        dispatch.bind_to_storage_buffer(bindings.FIXUP_DISPATCH.index)
-        for program in (args, fixup):
-            set_uniforms(program, values)
-        args.run(group_x=1)
-        self._gl.mgl.memory_barrier()
-        fixup.run_indirect(dispatch)
+        set_uniforms(fixup, values)
+        fixup.run_indirect(self._resources.cached("fixups"), offset=4)
         self._gl.mgl.memory_barrier()  # the image stores before the target is read or drawn
 
     def _resolve(self, kernel, source, lattice, values, how, whole_mesh):

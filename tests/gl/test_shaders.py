@@ -176,7 +176,7 @@ def compile_every_entry(gl):
         gl.program("common/fullscreen.vert.glsl", "warp/paper_quads.frag.glsl", nearest)
         cells = {"WARP_CELLS_SOURCE": 1, "WARP_CELLS_FUSED": 1, "WARP_BORDER": border}
         gl.compute("warp/cells.comp.glsl", cells | {"WARP_CELLS_FAST": 1})
-        gl.compute("warp/cells_fixup.comp.glsl", {"WARP_FIXUP_ARGS": 0, "WARP_BORDER": border})
+        gl.compute("warp/cells_fixup.comp.glsl", {"WARP_BORDER": border})
     for stage in range(3):
         gl.compute("warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage})
     gl.compute("warp/adaptive.comp.glsl")  # the adaptive mesh (tolerance=)

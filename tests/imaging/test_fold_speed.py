@@ -207,7 +207,7 @@ def test_the_keyed_redraw_compiles_for_every_border(gl):
         for border in range(5):  # glmls.imaging.source.BORDERS
             cells = {"WARP_CELLS_SOURCE": 1, "WARP_CELLS_FUSED": 1, "WARP_BORDER": border}
             gl.compute("warp/cells.comp.glsl", cells | {"WARP_CELLS_FAST": 0, "WARP_CELLS_HOT": 1})
-        for stage in range(7):
+        for stage in (0, 1, 2, 3, 6):
             gl.compute("warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage})
 
 

@@ -217,6 +217,7 @@ void main() {
             if (k < uint(u_fixup_capacity)) {
                 warp_fixups[k] = uint(i);
             }
+            warp_fixup_listed(k, uint(u_target_size.x * u_target_size.y));
         }
 #endif
     }

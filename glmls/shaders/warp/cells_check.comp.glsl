@@ -16,15 +16,16 @@
 // to +x). Strong deformations of the border fail it and the keyed scan redraws every cell.
 //
 //   WARP_CHECK_STAGE 0: one invocation per boundary edge;
-//                    1: one invocation, the dispatch sizes;
+//                    1: one invocation, the dispatch sizes of stages 2, 3 and 6 and the
+//                       keyed scan's;
 //                    2: the winner clear (dispatched with the sizes of stage 1);
-//                    3: one invocation per block of cells: where the boundary is simple and
-//                       cells fold, list the blocks whose pixels reach a hot tile
-//                       (warp/cells_hot.glsl);
-//                    4: one invocation, the dispatch size of the keyed scan of those blocks;
-//                    5: one invocation, the dispatch size of stage 6;
+//                    3: one invocation per block of cells where the boundary is simple and
+//                       cells fold (none otherwise): list the blocks whose pixels reach a hot
+//                       tile (warp/cells_hot.glsl), raising the keyed scan's work groups;
 //                    6: one invocation per listed cell not strictly positive (WARP_CELLS_FAST):
 //                       mark its tiles hot and its block (stage 3 reads all its vertices).
+// Every stage after 1 is an indirect dispatch: a mesh that is an embedding runs none of them
+// (on llvmpipe each dispatch that runs costs ~55 us, whatever its size).
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "warp/cells_packed.glsl"
@@ -89,13 +90,25 @@ void main() {
     uint pixels = uint(u_target_size.x * u_target_size.y);
     uint cells = uint((u_mesh_dims.x - 1) * (u_mesh_dims.y - 1));
     warp_check_clear = embedded ? none : dispatch_groups((pixels + 3u) / 4u);
-    // every cell where the boundary fails; else, if cells fold, stages 3 and 4 choose
-    warp_check_scan = warp_check_local() ? none : dispatch_groups(cells);
+    // every cell where the boundary fails; else, if cells fold, stage 3 chooses
+    bool local = warp_check_local();
+    warp_check_scan = local ? none : dispatch_groups(cells);
+    // stage 6 marks the listed cells' tiles, then stage 3 lists the blocks near them (where
+    // cells fold inside a simple boundary), raising the keyed scan's groups from none
+    int blocks_x = (u_mesh_dims.x - 1 + BLOCK - 1) / BLOCK;
+    uint blocks = uint(blocks_x * ((u_mesh_dims.y - 1 + BLOCK - 1) / BLOCK));
+    uvec4 marks = dispatch_groups(local ? warp_check_folded : 0u);
+    uvec4 listing = dispatch_groups(local && warp_check_folded > 0u ? blocks : 0u);
+    for (int k = 0; k < 3; ++k) {
+        warp_check_data[WARP_CHECK_MARK_GROUPS + k] = marks[k];
+        warp_check_data[WARP_CHECK_BLOCK_GROUPS + k] = listing[k];
+        warp_check_data[WARP_CHECK_LIST_GROUPS + k] = none[k];
+    }
 #elif WARP_CHECK_STAGE == 3
     int blocks_x = (u_mesh_dims.x - 1 + BLOCK - 1) / BLOCK;
     int blocks = blocks_x * ((u_mesh_dims.y - 1 + BLOCK - 1) / BLOCK);
-    int block = u_offset + int(gl_GlobalInvocationID.x);
-    if (block >= blocks || !warp_check_local() || warp_check_folded == 0u) {
+    int block = int(dispatch_item());
+    if (block >= blocks) {
         return;
     }
     ivec2 b0 = ivec2(block % blocks_x, block / blocks_x) * BLOCK;   // its first vertex
@@ -121,18 +134,11 @@ void main() {
     if (all(lessThanEqual(first, last)) && warp_reaches_hot(first, last)) {
         uint k = atomicAdd(warp_check_data[WARP_CHECK_LISTED], 1u);
         warp_check_data[u_block_list + int(k)] = uint(block);
+        // the keyed scan: a work group per listed block, enough for the k + 1 so far
+        uvec4 groups = dispatch_groups((k + 1u) * uint(LOCAL_SIZE));
+        atomicMax(warp_check_data[WARP_CHECK_LIST_GROUPS], groups.x);
+        atomicMax(warp_check_data[WARP_CHECK_LIST_GROUPS + 1], groups.y);
     }
-#elif WARP_CHECK_STAGE == 4
-    uvec4 groups = dispatch_groups(warp_check_data[WARP_CHECK_LISTED] * uint(LOCAL_SIZE));
-    warp_check_data[WARP_CHECK_LIST_GROUPS] = groups.x;
-    warp_check_data[WARP_CHECK_LIST_GROUPS + 1] = groups.y;
-    warp_check_data[WARP_CHECK_LIST_GROUPS + 2] = groups.z;
-#elif WARP_CHECK_STAGE == 5
-    bool local = warp_check_local();
-    uvec4 groups = dispatch_groups(local ? warp_check_folded : 0u);
-    warp_check_data[WARP_CHECK_MARK_GROUPS] = groups.x;
-    warp_check_data[WARP_CHECK_MARK_GROUPS + 1] = groups.y;
-    warp_check_data[WARP_CHECK_MARK_GROUPS + 2] = groups.z;
 #elif WARP_CHECK_STAGE == 6
     uint k = dispatch_item();
     if (k >= warp_check_folded) {

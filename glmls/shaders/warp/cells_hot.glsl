@@ -10,6 +10,7 @@
 #define BLOCK 8                    // cells on a side of a block (BLOCK^2 == LOCAL_SIZE)
 #define WARP_CHECK_LIST_GROUPS 0   // x, y, z work groups of the keyed scan of the blocks
 #define WARP_CHECK_LISTED 4        // how many blocks are listed
+#define WARP_CHECK_BLOCK_GROUPS 5  // x, y, z work groups of the listing of the blocks
 #define WARP_CHECK_MARK_GROUPS 8   // x, y, z work groups of the marking of the listed cells
 #define WARP_CHECK_HOT 12          // the bits: u_hot_words per row of tiles, rows top down
 

@@ -7,10 +7,27 @@
 
 layout(std430, binding = BIND_FIXUPS) buffer WarpFixups {
     uint warp_fixup_count;   // pixels a second triangle reached (may exceed the capacity)
-    uint warp_fixup_pad[3];
+    // the fix-up's work groups, an indirect dispatch's (x, y, z): (0, 0, 1) before the scan,
+    // raised by it as it lists pixels (warp_fixup_listed)
+    uint warp_fixup_groups_x;
+    uint warp_fixup_groups_y;
+    uint warp_fixup_groups_z;
     uint warp_fixups[];      // their indices, the first u_fixup_capacity of them
 };
 uniform int u_fixup_capacity;
+
+// The fix-up dispatch after pixel k of the list (k from atomicAdd on warp_fixup_count) of a
+// target of ``pixels``: enough groups for the k + 1 listed, or for every pixel once the list
+// overflows (warp/cells_fixup.comp.glsl then redoes them all). The groups change only at
+// multiples of LOCAL_SIZE and at the overflow, so only those listings raise them.
+void warp_fixup_listed(uint k, uint pixels) {
+    uint capacity = uint(u_fixup_capacity);
+    if (k % uint(LOCAL_SIZE) == 0u || k == capacity) {
+        uvec4 groups = dispatch_groups(k < capacity ? k + 1u : pixels);
+        atomicMax(warp_fixup_groups_x, groups.x);
+        atomicMax(warp_fixup_groups_y, groups.y);
+    }
+}
 
 // The embedding test of the fast pass (WARP_CELLS_FAST, warp/cells_check.comp.glsl) and the
 // map of where it found folds (warp/cells_hot.glsl).
