@@ -3,9 +3,9 @@
 // references): one invocation per triangle. A triangle not of the mesh's orientation
 // (u_orientation: +1 where f keeps it, -1 for a mirror), or nearly degenerate (twice its
 // area within 1e-5 of its longest side squared: room for float32's rounding, which the
-// scan's own area then cannot turn over; warp/adaptive_mesh.glsl's adaptive_turned), is counted, and the 8 x 8 px tiles its pixel box
-// (one pixel wider against rounding) reaches are marked hot, for warp/adaptive.comp.glsl's
-// ADAPTIVE_HOT pass. A triangle with a vertex that is not finite or past 1e9 px draws
+// scan's own area then cannot turn over; warp/adaptive_mesh.glsl's adaptive_turned), is
+// counted, and the 8 x 8 px tiles its pixel box (one pixel wider against rounding) reaches
+// are marked hot, for warp/adaptive.comp.glsl's ADAPTIVE_HOT pass. A triangle with a vertex that is not finite or past 1e9 px draws
 // nothing in the scan: it is not counted.
 layout(local_size_x = LOCAL_SIZE) in;
 

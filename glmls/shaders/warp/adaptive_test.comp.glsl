@@ -102,9 +102,7 @@ void main() {
         uint k = atomicAdd(adaptive_split_count, 1u);
         adaptive_split[k] = uint(cell);
         // enough groups for the k + 1 listed so far: the largest k sizes the dispatch
-        uvec4 groups = dispatch_groups(k + 1u);
-        atomicMax(adaptive_split_groups_x, groups.x);
-        atomicMax(adaptive_split_groups_y, groups.y);
+        DISPATCH_RAISE(adaptive_split_groups_x, adaptive_split_groups_y, k + 1u)
     }
 #else
     adaptive_test[cell] = test;

@@ -135,9 +135,8 @@ void main() {
         uint k = atomicAdd(warp_check_data[WARP_CHECK_LISTED], 1u);
         warp_check_data[u_block_list + int(k)] = uint(block);
         // the keyed scan: a work group per listed block, enough for the k + 1 so far
-        uvec4 groups = dispatch_groups((k + 1u) * uint(LOCAL_SIZE));
-        atomicMax(warp_check_data[WARP_CHECK_LIST_GROUPS], groups.x);
-        atomicMax(warp_check_data[WARP_CHECK_LIST_GROUPS + 1], groups.y);
+        DISPATCH_RAISE(warp_check_data[WARP_CHECK_LIST_GROUPS],
+                       warp_check_data[WARP_CHECK_LIST_GROUPS + 1], (k + 1u) * uint(LOCAL_SIZE))
     }
 #elif WARP_CHECK_STAGE == 6
     uint k = dispatch_item();

@@ -23,9 +23,7 @@ uniform int u_fixup_capacity;
 void warp_fixup_listed(uint k, uint pixels) {
     uint capacity = uint(u_fixup_capacity);
     if (k % uint(LOCAL_SIZE) == 0u || k == capacity) {
-        uvec4 groups = dispatch_groups(k < capacity ? k + 1u : pixels);
-        atomicMax(warp_fixup_groups_x, groups.x);
-        atomicMax(warp_fixup_groups_y, groups.y);
+        DISPATCH_RAISE(warp_fixup_groups_x, warp_fixup_groups_y, k < capacity ? k + 1u : pixels)
     }
 }
 
