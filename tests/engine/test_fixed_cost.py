@@ -14,13 +14,8 @@ SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "fixed_cost.py"
 
 
 def test_fixed_cost_names_every_stage():
-    run = subprocess.run(
-        [sys.executable, str(SCRIPT), "--size", "64", "--handles", "9", "--repeat", "2"],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert run.returncode == 0, run.stderr
+    arguments = ("--size", "64", "--handles", "9", "--repeat", "2")
+    run = run_script("fixed_cost.py", *arguments, timeout=120)
     for stage in (
         "validation",
         "upload (storage, bins)",
@@ -37,26 +32,22 @@ def test_fixed_cost_names_every_stage():
 
 
 def test_fixed_cost_many_handles_case():
-    run = subprocess.run(
-        [sys.executable, str(SCRIPT), "--size", "128", "--lattice", "32", "--weight", "linear"]
-        + ["--radius", "12", "--repeat", "2"],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert run.returncode == 0, run.stderr
+    arguments = ("--size", "128", "--lattice", "32", "--weight", "linear", "--radius", "12")
+    run = run_script("fixed_cost.py", *arguments, "--repeat", "2", timeout=120)
     assert "1024 handles" in run.stdout
 
 
-def run_script(name: str, *arguments: str, timeout: int = 300) -> subprocess.CompletedProcess:
-    """benchmarks/``name`` with ``arguments``; it must succeed."""
+def run_script(
+    name: str, *arguments: str, timeout: int = 300, returncode: int = 0
+) -> subprocess.CompletedProcess:
+    """benchmarks/``name`` with ``arguments``; it must exit with ``returncode``."""
     run = subprocess.run(
         [sys.executable, str(SCRIPT.parent / name), *arguments],
         capture_output=True,
         text=True,
         timeout=timeout,
     )
-    assert run.returncode == 0, run.stderr
+    assert run.returncode == returncode, run.stderr
     return run
 
 
@@ -110,14 +101,19 @@ def test_ab_trees_pairs_calls_across_trees_and_cases(mode):
 
 
 def test_ab_trees_pairs_calls_one_way_only():
-    run = subprocess.run(
-        [sys.executable, str(SCRIPT.parent / "ab_trees.py"), "--trees", "a=.", "--cases"]
-        + ["W3:grid=8", "--paired", "--together"],
-        capture_output=True,
-        text=True,
+    """--paired and --together exclude each other: a usage error (exit 2) naming it."""
+    run = run_script(
+        "ab_trees.py",
+        "--trees",
+        "a=.",
+        "--cases",
+        "W3:grid=8",
+        "--paired",
+        "--together",
         timeout=60,
+        returncode=2,
     )
-    assert run.returncode == 2 and "choose one" in run.stderr
+    assert "choose one" in run.stderr
 
 
 def test_adaptive_stages_splits_a_warp_into_its_stages():
