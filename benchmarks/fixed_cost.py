@@ -44,7 +44,7 @@ from glmls.core.handles import Scaling
 from glmls.core.handleset import HandleSet
 from glmls.core.mesh import MeshLattice
 from glmls.engine.kernel import MLSKernel
-from glmls.engine.passes import POINTS_PASS, evaluate_lattice
+from glmls.engine.passes import evaluate_lattice, points_program
 from glmls.gl.context import get_context
 from glmls.gl.resources import Resources
 from glmls.imaging.pipeline import WarpPipeline
@@ -129,7 +129,7 @@ def main() -> None:
     def program() -> None:
         k = state["kernel"]
         with gl:
-            p = k.program(POINTS_PASS, {"MLS_LATTICE": True, "MLS_WRITE_MATRIX": False})  # type: ignore[attr-defined]
+            p = points_program(k, lattice=True, with_matrix=False)  # type: ignore[arg-type]
             k.bind(p, shape)  # type: ignore[attr-defined]
 
     def image_check() -> None:

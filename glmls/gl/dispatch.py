@@ -60,14 +60,18 @@ def _plain(value: object) -> object:
     return None
 
 
-def run_1d(program: moderngl.ComputeShader, count: int, *, max_groups: int) -> None:
-    """Run ``program`` on items 0 .. ``count`` - 1 in groups of :data:`LOCAL_SIZE`, at most
-    ``max_groups`` groups per dispatch. The shader reads ``u_offset`` (the first item of the
-    dispatch) and ``u_count`` when it declares them."""
+def run_1d(
+    program: moderngl.ComputeShader, count: int, *, max_groups: int, per_invocation: int = 1
+) -> None:
+    """Run ``program`` on items 0 .. ``count`` - 1, ``per_invocation`` consecutive items per
+    invocation, in groups of :data:`LOCAL_SIZE` invocations, at most ``max_groups`` groups per
+    dispatch. The shader reads ``u_offset`` (the first item of the dispatch) and ``u_count``
+    when it declares them."""
     set_uniforms(program, {"u_count": count})
-    groups = math.ceil(count / LOCAL_SIZE)
+    items = LOCAL_SIZE * per_invocation
+    groups = math.ceil(count / items)
     for first in range(0, groups, max_groups):
-        set_uniforms(program, {"u_offset": first * LOCAL_SIZE})
+        set_uniforms(program, {"u_offset": first * items})
         program.run(group_x=min(max_groups, groups - first))
 
 

@@ -60,10 +60,10 @@ uniform int u_count;
 
 void main() {
     ivec2 ij = ivec2(gl_GlobalInvocationID.xy);
+#if MLS_ERROR_INTERPOLATE
     if (ij.x >= u_dims.x || ij.y >= u_dims.y) {
         return;
     }
-#if MLS_ERROR_INTERPOLATE
     int kx, ky;
     float tx, ty;
     mls_error_cell(ij.x, u_dims.x, u_vertex_dims.x, kx, tx);
@@ -74,14 +74,16 @@ void main() {
     float bottom = mix(error_vertex[i10], error_vertex[i10 + 1], tx);
     error_out[ij.y * u_dims.x + ij.x] = mix(top, bottom, ty);
 #else
+    // No early return past the end: those invocations evaluate the last point and store
+    // nothing (as mls/points.comp.glsl: behind a return llvmpipe reads every handle lane by
+    // lane).
 #if MLS_ERROR_POINTS
     int k = ij.y * u_dims.x + ij.x;
-    if (k >= u_count) {
-        return;
-    }
-    vec2 v = mls_error_points[k];
+    bool store = k < u_count;
+    vec2 v = mls_error_points[clamp(k, 0, max(u_count - 1, 0))];
 #else
-    vec2 v = mls_lattice_point(ij);
+    bool store = all(lessThan(ij, u_dims));
+    vec2 v = mls_lattice_point(min(ij, u_dims - 1));
 #endif
     MLSResult r = mls_eval(v);
     float e = 0.0;
@@ -94,9 +96,7 @@ void main() {
         // A residual below float32's resolution of its terms is rounding noise: count it as
         // 0, so that a deformation that fits every handle exactly (identity) gives E = 0.
         float floor = MLS_ERROR_FLOOR * (1.0 + length(dp));
-        if (res2 > floor * floor) {
-            e += res2;
-        }
+        e += res2 > floor * floor ? res2 : 0.0;
     }
 #if MLS_SEGMENTS
     for (int s = 0; s < u_segment_count; ++s) {
@@ -114,6 +114,8 @@ void main() {
         }
     }
 #endif
-    error_out[ij.y * u_dims.x + ij.x] = e;
+    if (store) {
+        error_out[ij.y * u_dims.x + ij.x] = e;
+    }
 #endif
 }

@@ -23,8 +23,10 @@
 #define MLS_R4(F, i) F(i) F(i + 1) F(i + 2) F(i + 3)
 #define MLS_R16(F, i) MLS_R4(F, i) MLS_R4(F, i + 4) MLS_R4(F, i + 8) MLS_R4(F, i + 12)
 #define MLS_R64(F, i) MLS_R16(F, i) MLS_R16(F, i + 16) MLS_R16(F, i + 32) MLS_R16(F, i + 48)
-#define MLS_NEAR(i) mls_nearest_index(near.d2min, nearest, v, i, (i) < n);
+#define MLS_NEAR(i) mls_nearest_index(d2min, nearest, v, mls_handle(i).xy, i, (i) < n);
 #define MLS_ACC(i) mls_accumulate(a, mls_handle(i), (i) < n);
+#define MLS_NEAR_PAIR(i) mls_nearest_pair(d2min, nearest, v0, v1, i, (i) < n);
+#define MLS_ACC_PAIR(i) mls_accumulate_pair(a0, a1, i, (i) < n);
 #endif
 
 #if MLS_BINS
@@ -155,8 +157,8 @@ void mls_accumulate_segments(inout MLSAccum a) {
 // nearest's distance and index, and the handle is read once after it; the nearest beyond the
 // snapping distance is looked for in a second pass only where v snaps, which a work group
 // away from the handles skips. ``use``: false for an empty slot (MLS_UNROLL).
-void mls_nearest_index(inout float d2min, inout int nearest, vec2 v, int i, bool use) {
-    vec2 dp = mls_handle(i).xy - v;
+void mls_nearest_index(inout float d2min, inout int nearest, vec2 v, vec2 p, int i, bool use) {
+    vec2 dp = p - v;
     float d2 = use ? dot(dp, dp) : 3.0e38;
     nearest = d2 < d2min ? i : nearest;
     d2min = min(d2min, d2);
@@ -166,6 +168,19 @@ void mls_nearest_far(inout float d2far, vec2 v, int i, bool use) {
     vec2 dp = mls_handle(i).xy - v;
     float d2 = use ? dot(dp, dp) : 3.0e38;
     d2far = min(d2far, d2 > u_hit2 ? d2 : 3.0e38);
+}
+
+// Two points' steps with the handle read once (mls_eval_pair).
+void mls_nearest_pair(inout vec2 d2min, inout ivec2 nearest, vec2 v0, vec2 v1, int i, bool use) {
+    vec2 p = mls_handle(i).xy;
+    mls_nearest_index(d2min.x, nearest.x, v0, p, i, use);
+    mls_nearest_index(d2min.y, nearest.y, v1, p, i, use);
+}
+
+void mls_accumulate_pair(inout MLSAccum a0, inout MLSAccum a1, int i, bool use) {
+    vec4 h = mls_handle(i);
+    mls_accumulate(a0, h, use);
+    mls_accumulate(a1, h, use);
 }
 
 // Both passes over every handle, in storage order (where the bins give up).
@@ -182,6 +197,36 @@ void mls_accumulate_all(inout MLSAccum a) {
         mls_accumulate(a, mls_handle(i), true);
     }
 }
+
+#if !MLS_BINS
+// The plain path's record of the nearest handle once its index is known, with the nearest
+// beyond the snapping distance where v snaps.
+MLSNearest mls_nearest_found(float d2min, int nearest, vec2 v, int n) {
+    MLSNearest near = mls_nearest_begin();
+    near.d2min = d2min;
+    near.h = n > 0 ? mls_handle(nearest) : vec4(0.0);
+#if MLS_SEGMENTS
+    mls_nearest_segments(near, v);
+#endif
+    if (near.d2min <= u_hit2) {
+        // A loop even where the other passes are unrolled: llvmpipe runs a branch's body
+        // under a mask whether or not a lane takes it, but leaves a loop as soon as no
+        // lane is in it, and lanes rarely snap (64 unrolled slots here cost ~5 % of the
+        // whole pass at 64 handles; the loop's per-lane reads only where one snaps).
+        for (int i = 0; i < n; ++i) {
+            mls_nearest_far(near.d2far, v, i, true);
+        }
+    }
+    return near;
+}
+
+MLSResult mls_end(MLSAccum a) {
+#if MLS_SEGMENTS
+    mls_accumulate_segments(a);
+#endif
+    return mls_finish(a);
+}
+#endif
 
 MLSResult mls_eval(vec2 v) {
 #if MLS_BINS
@@ -241,7 +286,7 @@ MLSResult mls_eval(vec2 v) {
     return mls_finish(a);
 #else
     int n = mls_handle_count();
-    MLSNearest near = mls_nearest_begin();
+    float d2min = 3.0e38;
     int nearest = 0;
 #if MLS_UNROLL == 16
     MLS_R16(MLS_NEAR, 0)
@@ -249,23 +294,10 @@ MLSResult mls_eval(vec2 v) {
     MLS_R64(MLS_NEAR, 0)
 #else
     for (int i = 0; i < n; ++i) {
-        mls_nearest_index(near.d2min, nearest, v, i, true);
+        mls_nearest_index(d2min, nearest, v, mls_handle(i).xy, i, true);
     }
 #endif
-    near.h = n > 0 ? mls_handle(nearest) : vec4(0.0);
-#if MLS_SEGMENTS
-    mls_nearest_segments(near, v);
-#endif
-    if (near.d2min <= u_hit2) {
-        // A loop even where the other passes are unrolled: llvmpipe runs a branch's body
-        // under a mask whether or not a lane takes it, but leaves a loop as soon as no
-        // lane is in it, and lanes rarely snap (64 unrolled slots here cost ~5 % of the
-        // whole pass at 64 handles; the loop's per-lane reads only where one snaps).
-        for (int i = 0; i < n; ++i) {
-            mls_nearest_far(near.d2far, v, i, true);
-        }
-    }
-    MLSAccum a = mls_begin(v, near);
+    MLSAccum a = mls_begin(v, mls_nearest_found(d2min, nearest, v, n));
 #if MLS_UNROLL == 16
     MLS_R16(MLS_ACC, 0)
 #elif MLS_UNROLL == 64
@@ -273,9 +305,43 @@ MLSResult mls_eval(vec2 v) {
 #else
     mls_accumulate_all(a);
 #endif
-#if MLS_SEGMENTS
-    mls_accumulate_segments(a);
+    return mls_end(a);
 #endif
-    return mls_finish(a);
+}
+
+// f at two points, as two calls of mls_eval would give it, bit for bit. The plain path reads
+// each handle once for both: on llvmpipe a handle read at a constant index is a load and a
+// broadcast to the lanes, ~a third of the pass at one point per invocation (MLS_UNROLL), and
+// in a loop a load per lane.
+void mls_eval_pair(vec2 v0, vec2 v1, out MLSResult r0, out MLSResult r1) {
+#if MLS_BINS
+    r0 = mls_eval(v0);
+    r1 = mls_eval(v1);
+#else
+    int n = mls_handle_count();
+    vec2 d2min = vec2(3.0e38);
+    ivec2 nearest = ivec2(0);
+#if MLS_UNROLL == 16
+    MLS_R16(MLS_NEAR_PAIR, 0)
+#elif MLS_UNROLL == 64
+    MLS_R64(MLS_NEAR_PAIR, 0)
+#else
+    for (int i = 0; i < n; ++i) {
+        mls_nearest_pair(d2min, nearest, v0, v1, i, true);
+    }
+#endif
+    MLSAccum a0 = mls_begin(v0, mls_nearest_found(d2min.x, nearest.x, v0, n));
+    MLSAccum a1 = mls_begin(v1, mls_nearest_found(d2min.y, nearest.y, v1, n));
+#if MLS_UNROLL == 16
+    MLS_R16(MLS_ACC_PAIR, 0)
+#elif MLS_UNROLL == 64
+    MLS_R64(MLS_ACC_PAIR, 0)
+#else
+    for (int i = 0; i < n; ++i) {
+        mls_accumulate_pair(a0, a1, i, true);
+    }
+#endif
+    r0 = mls_end(a0);
+    r1 = mls_end(a1);
 #endif
 }

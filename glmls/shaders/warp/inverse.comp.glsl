@@ -22,10 +22,11 @@ uniform float u_tolerance;     // stop below this residual, pixels
 uniform float u_accept;        // a residual above this (pixels) leaves the pixel uncovered
 
 void main() {
-    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    if (p.x >= u_target_size.x || p.y >= u_target_size.y) {
-        return;
-    }
+    // No early return past the edge (as mls/points.comp.glsl: behind a return llvmpipe
+    // reads every handle lane by lane): those invocations redo the last pixel, unstored.
+    ivec2 gid = ivec2(gl_GlobalInvocationID.xy);
+    bool store = all(lessThan(gid, u_target_size));
+    ivec2 p = min(gid, u_target_size - 1);
     vec2 u = (vec2(p) + u_origin - u_center) / u_scale;   // the deformed point output p shows
 #if WARP_SWAP
     vec2 s = mls_eval(u).f;
@@ -65,5 +66,7 @@ void main() {
 #else
     bool inside = true;   // sampled by the border rule
 #endif
-    imageStore(u_map, p, vec4(sp, residual, (converged && inside) ? 1.0 : 0.0));
+    if (store) {
+        imageStore(u_map, p, vec4(sp, residual, (converged && inside) ? 1.0 : 0.0));
+    }
 }
