@@ -311,8 +311,8 @@ MLSResult mls_eval(vec2 v) {
 
 // f at two points, as two calls of mls_eval would give it, bit for bit. The plain path reads
 // each handle once for both: on llvmpipe a handle read at a constant index is a load and a
-// broadcast to the lanes, ~a third of the pass at one point per invocation (MLS_UNROLL), and
-// in a loop a load per lane.
+// broadcast to the lanes (MLS_UNROLL), in a loop a load per lane; the pass measured ~1.1x
+// faster at 16-64 handles, 1.3x at 256.
 void mls_eval_pair(vec2 v0, vec2 v1, out MLSResult r0, out MLSResult r1) {
 #if MLS_BINS
     r0 = mls_eval(v0);
