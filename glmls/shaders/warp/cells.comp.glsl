@@ -161,11 +161,37 @@ void main() {
     // one pixel per step (warp/coverage.glsl's RowWalk)
     RowBounds bounds = row_bounds(p00, p10, p11, p01, s0, convex);
     RowWalk walk = row_walk(bounds, first, last);
+#if WARP_CELLS_FAST
+    // each edge's tie rule along its triangle's boundary (warp/coverage.glsl's covers)
+    bool tie_a = covers(0.0, p10 - p00);
+    bool tie_b = covers(0.0, p11 - p10);
+    bool tie_c = covers(0.0, p01 - p11);
+    bool tie_e = covers(0.0, p00 - p01);
+    bool tie_d = covers(0.0, p11 - p00);
+#endif
     while (row_walk_next(walk, bounds, first, last)) {
         bool in_row = walk.in_row;
         int column = walk.x;
         int y = walk.y;
         vec2 p = vec2(column, y);
+#if WARP_CELLS_FAST
+        // Both triangles positive (s0 = s1 = 1): the diagonal tells which one may cover p,
+        // then that one's two other edges, each from its end points in mesh-index order as
+        // below (the same values): two edge functions fewer than testing both triangles.
+        float e_d = edge(p00, p11, p);   // the diagonal 00 -> 11
+        bool upper = covers_by(e_d, tie_d);   // triangle 1's side
+        // triangle 1: 01 -> 11 (e_c) and 00 -> 01 (e_e), both run backwards along its
+        // boundary; triangle 0: 00 -> 10 (e_a) and 10 -> 11 (e_b)
+        float e_1 = edge(upper ? p01 : p00, upper ? p11 : p10, p);   // e_c or e_a
+        float e_2 = edge(upper ? p00 : p10, upper ? p01 : p11, p);   // e_e or e_b
+        float flip = upper ? -1.0 : 1.0;
+        bool inside = covers_by(flip * e_1, upper ? tie_c : tie_a) &&
+                      covers_by(flip * e_2, upper ? tie_e : tie_b);
+        uint id = inside ? (upper ? id1 : id0) : 0u;
+#if WARP_CELLS_SOURCE
+        vec2 t = upper ? vec2(-e_2 * inv1, 1.0 + e_1 * inv1) : vec2(1.0 - e_2 * inv0, e_1 * inv0);
+#endif
+#else
         // the five edges, in mesh-index order (00 < 10 < 01 < 11)
         float e_a = edge(p00, p10, p);   // 00 -> 10
         float e_b = edge(p10, p11, p);   // 10 -> 11
@@ -192,6 +218,7 @@ void main() {
             t = vec2(1.0 - e_b * inv0, e_a * inv0);
 #endif
         }
+#endif
         id = in_row ? id : 0u;
         // Branch-free from here: llvmpipe runs buffer accesses under a divergent branch
         // lane by lane with mask tests, about twice the cost. An uncovered pixel (id 0)
@@ -199,7 +226,9 @@ void main() {
 #if WARP_CELLS_SOURCE
         // nearest: the source pixel containing the point, clamped to the cell
         ivec2 sp = clamp(ivec2(floor(s00 + t * size + 0.5)), cell_lo, cell_hi) - cell_lo;
-        id -= id != 0u ? uint(sp.y << u_sub_bits | sp.x) : 0u;
+#if !WARP_CELLS_FAST
+        id -= id != 0u ? uint(sp.y << u_sub_bits | sp.x) : 0u;   // the fast pass has no keys
+#endif
 #endif
         int i = y * u_target_size.x + column;
 #if !WARP_CELLS_FAST

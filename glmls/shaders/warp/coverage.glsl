@@ -23,14 +23,21 @@ bool covers(float e, vec2 d) {
     return e > 0.0 || (e == 0.0 && (d.y > 0.0 || (d.y == 0.0 && d.x > 0.0)));
 }
 
+// covers(e, d), with d's part (whether a pixel on the edge is covered) worked out once per
+// primitive: tie = covers(0.0, d).
+bool covers_by(float e, bool tie) {
+    return e > 0.0 || (e == 0.0 && tie);
+}
+
 // How far the row spans are widened against rounding before the exact edge tests.
 #define SPAN_MARGIN 0.01
 
 // The rows of a convex polygon of orientation s (edge(a, b, p) s >= 0 inside) as bounds of
 // each row's span: per edge, a point, its change in x per row, and whether it bounds the
-// spans on the right (1) or the left (-1); an edge parallel to the rows (0) keeps the rows
-// on its inner side whole and empties the others (its step then s d.x, the inner side's
-// sign). The divisions are done once per polygon, not once per row.
+// spans on the right (1) or the left (-1); an edge parallel to the rows (0) bounds neither:
+// a convex polygon's horizontal edge is its top or bottom, and the walk's rows stop there
+// (the box's, and the edge tests decide each pixel). The divisions are done once per
+// polygon, not once per row.
 struct RowBounds {
     vec4 x;       // the edges' start points
     vec4 y;
@@ -44,7 +51,7 @@ void row_edge(vec2 a, vec2 b, float s, out float x, out float y, out float step,
     bool parallel = d.y == 0.0;
     x = a.x;
     y = a.y;
-    step = parallel ? s * d.x : d.x / d.y;
+    step = parallel ? 0.0 : d.x / d.y;
     side = parallel ? 0.0 : (s * d.y > 0.0 ? 1.0 : -1.0);
 }
 
@@ -62,7 +69,8 @@ RowBounds row_bounds(vec2 a, vec2 b, vec2 c, vec2 d, float s, bool convex) {
 }
 
 // The pixels of row y that the polygon may cover, within the columns first to last:
-// (first, last) of its span, widened by SPAN_MARGIN against rounding (empty: x > y).
+// (first, last) of its span, widened by SPAN_MARGIN against rounding (empty: x > y). The
+// scans test each pixel's edges: the span only saves the steps outside it.
 ivec2 row_span(RowBounds r, int y, int first, int last) {
     vec4 dy = vec4(float(y)) - r.y;
     vec4 x = r.x + r.step * dy;   // where the edges cross the row
@@ -70,11 +78,7 @@ ivec2 row_span(RowBounds r, int y, int first, int last) {
     vec4 left = mix(vec4(-3.0e38), x, lessThan(r.side, vec4(0.0)));
     float hi = min(float(last), min(min(right.x, right.y), min(right.z, right.w)));
     float lo = max(float(first), max(max(left.x, left.y), max(left.z, left.w)));
-    bool outside = any(lessThan(mix(vec4(0.0), r.step * dy, equal(r.side, vec4(0.0))),
-                                vec4(0.0)));
-    ivec2 span = ivec2(max(first, int(ceil(lo - SPAN_MARGIN))),
-                       min(last, int(floor(hi + SPAN_MARGIN))));
-    return outside ? ivec2(first + 1, first) : span;
+    return ivec2(max(first, int(ceil(lo - SPAN_MARGIN))), min(last, int(floor(hi + SPAN_MARGIN))));
 }
 
 // A walk over a primitive's pixels, one per step, row after row, within the box first..last:
