@@ -342,9 +342,12 @@ class WarpPipeline:
             framebuffer.clear(*clear)
             self._render(mls, texture, framebuffer, how, frame)
         components = source.channels if source.normalized else 4
-        raw = framebuffer.read(viewport=(0, 0, *frame.size), components=components, dtype=dtype)
-        values = np.frombuffer(raw, dtype=np.uint8 if source.normalized else np.float32)
-        values = values.reshape(*frame.shape, components)
+        # read into an array of its own: writable, as every result is (bytes from read() made
+        # the 8-bit results read-only), and no copy
+        values = np.empty((*frame.shape, components), np.uint8 if source.normalized else np.float32)
+        framebuffer.read_into(
+            values, viewport=(0, 0, *frame.size), components=components, dtype=dtype
+        )
         return source.restore(values[..., : source.channels])
 
     @current

@@ -45,6 +45,11 @@ def test_every_dtype_and_channel_count_round_trips(gl, rng, dtype):
                 for interpolation in glmls.INTERPOLATIONS:
                     out = m.warp(img, method=method, interpolation=interpolation)
                     assert out.dtype == img.dtype and out.shape == img.shape
+                    # a result of its own, like any numpy function's: writable, contiguous
+                    assert out.flags.writeable and out.flags.c_contiguous
+                    assert out.flags.owndata or out.base.flags.writeable
+            out = m.warp(img, tolerance=0.05)
+            assert out.flags.writeable and out.flags.c_contiguous
 
 
 def test_strided_and_reversed_arrays(gl, rng):
