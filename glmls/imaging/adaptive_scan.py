@@ -313,33 +313,47 @@ def _powers(y0: np.ndarray, y1: np.ndarray, y2: np.ndarray) -> tuple[np.ndarray,
     return y1, y2 - y0, 2 * (y0 + y2) - 4 * y1
 
 
+def _patch_powers() -> np.ndarray:
+    """(9, 8): the coefficients a_01 .. a_22 of a patch's powers wx^i wy^j (see
+    :func:`_leaf_patches`; a_00 = 0) from its values at the 3 x 3 nodes (row by row) less
+    the centre's: small integers, :func:`_powers` along x and then along y."""
+    out = np.zeros((9, 8))
+    for node in range(9):
+        unit = [np.zeros(1) for _ in range(9)]
+        unit[node] = np.ones(1)
+        along_x = [_powers(*unit[3 * r : 3 * r + 3]) for r in range(3)]
+        powers = [_powers(*(along_x[r][i] for r in range(3))) for i in range(3)]
+        for k, (i, j) in enumerate(divmod(m, 3) for m in range(1, 9)):
+            out[node, k] = powers[i][j][0]
+    return out
+
+
+#: See :func:`_patch_powers`.
+_PATCH_POWERS = _patch_powers()
+
+
 def _leaf_patches(mesh: AdaptiveMesh, frame: Frame) -> np.ndarray:
     """(L, 6, 4) float32: what ``warp/adaptive_patch.glsl`` reads of each leaf: its centre
     and size, f at its centre node in the output frame and its orientation, and its patch
-    (through the 3 x 3 nodes) in powers of the centred coordinates, the sums worked out
-    here in float64."""
+    (through the 3 x 3 nodes) in powers of the centred coordinates, worked out here in
+    float64 (one product with :data:`_PATCH_POWERS` per axis)."""
     leaves = np.zeros((len(mesh.leaves), 6, 4), np.float32)
-    # column by column, 1-D: numpy gathers (L, 9, 2) from (V, 2) ten times slower, and
-    # copies a transposed or stacked array of short rows several times slower
+    # column by column, 1-D: numpy copies a transposed or stacked array of short rows
+    # several times slower
     x0, y0, x1, y1 = (np.ascontiguousarray(mesh.leaves[:, k]) for k in range(4))
     for k, value in enumerate(((x0 + x1) / 2, (y0 + y1) / 2, x1 - x0, y1 - y0)):
         leaves[:, 0, k] = value
-    nodes = [np.ascontiguousarray(mesh.nodes[:, k]) for k in range(9)]
-    # f's coordinates at the nodes, row by row (y), each row along x
-    nx, ny = (
-        [np.take(f, k) for k in nodes]
-        for f in (np.ascontiguousarray(mesh.deformed[:, axis]) for axis in (0, 1))
+    coefficients = leaves[:, 2:].reshape(-1, 16)  # a_01 a_02 a_10 ... a_22, (x, y) each
+    at_nodes = []
+    for axis in (0, 1):
+        f = np.take(np.ascontiguousarray(mesh.deformed[:, axis]), mesh.nodes)  # (L, 9)
+        at_nodes.append(f)
+        leaves[:, 1, axis] = f[:, 4] - frame.origin[axis]
+        coefficients[:, axis::2] = (f - f[:, 4:5]) @ _PATCH_POWERS
+    nx, ny = at_nodes
+    turn = np.sign(
+        (nx[:, 5] - nx[:, 3]) * (ny[:, 7] - ny[:, 1])
+        - (nx[:, 7] - nx[:, 1]) * (ny[:, 5] - ny[:, 3])
     )
-    leaves[:, 1, 0] = nx[4] - frame.origin[0]
-    leaves[:, 1, 1] = ny[4] - frame.origin[1]
-    turn = np.sign((nx[5] - nx[3]) * (ny[7] - ny[1]) - (nx[7] - nx[1]) * (ny[5] - ny[3]))
     leaves[:, 1, 2] = np.where(np.isfinite(mesh.estimate), turn, 0.0)
-    flat = leaves[:, 2:].reshape(-1, 16)  # a_01 a_02 a_10 ... a_22, (x, y) each
-    for axis, n in enumerate((nx, ny)):
-        offsets = [node - n[4] for node in n]
-        # the powers along x of each row (the rows' coefficients of wx^i), then along y
-        along_x = [_powers(*offsets[3 * r : 3 * r + 3]) for r in range(3)]
-        powers = [_powers(*(along_x[r][i] for r in range(3))) for i in range(3)]
-        for k, (i, j) in enumerate(divmod(m, 3) for m in range(1, 9)):  # a_00 = 0 left out
-            flat[:, 2 * k + axis] = powers[i][j]
     return leaves
