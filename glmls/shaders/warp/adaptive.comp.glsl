@@ -112,6 +112,7 @@ void adaptive_write(int i, ivec2 pixel, vec2 s, bool shown) {
 }
 #endif
 
+#define ROW_EDGES 3   // triangles: three edges bound the row spans
 #include "warp/coverage.glsl"
 
 // An edge's end points in vertex-index order (from, to) and the sign that turns the edge
@@ -197,7 +198,7 @@ void main() {
     OrderedEdge eca = ordered_edge(ic, ia, c, a);
 #endif
     // one pixel per step (warp/coverage.glsl's RowWalk)
-    RowBounds bounds = row_bounds(a, b, c, c, s, true);
+    RowBounds bounds = row_bounds(a, b, c, c, s, true);   // (d unused)
     RowWalk walk = row_walk(bounds, first, last);
     while (row_walk_next(walk, bounds, first, last)) {
         // Branch-free: llvmpipe runs buffer accesses under a divergent branch lane by

@@ -38,11 +38,19 @@ bool covers_by(float e, bool tie) {
 // a convex polygon's horizontal edge is its top or bottom, and the walk's rows stop there
 // (the box's, and the edge tests decide each pixel). The divisions are done once per
 // polygon, not once per row.
+#ifndef ROW_EDGES
+#define ROW_EDGES 4   // quads; 3: triangles (the shader defines it before including this)
+#endif
+#if ROW_EDGES == 3
+#define RowVec vec3
+#else
+#define RowVec vec4
+#endif
 struct RowBounds {
-    vec4 x;       // the edges' start points
-    vec4 y;
-    vec4 step;
-    vec4 side;
+    RowVec x;       // the edges' start points
+    RowVec y;
+    RowVec step;
+    RowVec side;
 };
 
 void row_edge(vec2 a, vec2 b, float s, out float x, out float y, out float step,
@@ -55,16 +63,20 @@ void row_edge(vec2 a, vec2 b, float s, out float x, out float y, out float step,
     side = parallel ? 0.0 : (s * d.y > 0.0 ? 1.0 : -1.0);
 }
 
-// The bounds of the quad (a, b, c, d), its edges ab, bc, cd, da; a triangle is (a, b, c, c).
-// Not convex: no bounds, every row whole.
+// The bounds of the polygon (a, b, c, d), its edges ab, bc, cd, da; with ROW_EDGES 3 the
+// triangle (a, b, c), its edges ab, bc, ca (d unused). Not convex: no bounds, every row whole.
 RowBounds row_bounds(vec2 a, vec2 b, vec2 c, vec2 d, float s, bool convex) {
     RowBounds r;
     row_edge(a, b, s, r.x.x, r.y.x, r.step.x, r.side.x);
     row_edge(b, c, s, r.x.y, r.y.y, r.step.y, r.side.y);
+#if ROW_EDGES == 3
+    row_edge(c, a, s, r.x.z, r.y.z, r.step.z, r.side.z);
+#else
     row_edge(c, d, s, r.x.z, r.y.z, r.step.z, r.side.z);
     row_edge(d, a, s, r.x.w, r.y.w, r.step.w, r.side.w);
-    r.step = convex ? r.step : vec4(0.0);
-    r.side = convex ? r.side : vec4(0.0);
+#endif
+    r.step = convex ? r.step : RowVec(0.0);
+    r.side = convex ? r.side : RowVec(0.0);
     return r;
 }
 
@@ -72,12 +84,17 @@ RowBounds row_bounds(vec2 a, vec2 b, vec2 c, vec2 d, float s, bool convex) {
 // (first, last) of its span, widened by SPAN_MARGIN against rounding (empty: x > y). The
 // scans test each pixel's edges: the span only saves the steps outside it.
 ivec2 row_span(RowBounds r, int y, int first, int last) {
-    vec4 dy = vec4(float(y)) - r.y;
-    vec4 x = r.x + r.step * dy;   // where the edges cross the row
-    vec4 right = mix(vec4(3.0e38), x, greaterThan(r.side, vec4(0.0)));
-    vec4 left = mix(vec4(-3.0e38), x, lessThan(r.side, vec4(0.0)));
+    RowVec dy = RowVec(float(y)) - r.y;
+    RowVec x = r.x + r.step * dy;   // where the edges cross the row
+    RowVec right = mix(RowVec(3.0e38), x, greaterThan(r.side, RowVec(0.0)));
+    RowVec left = mix(RowVec(-3.0e38), x, lessThan(r.side, RowVec(0.0)));
+#if ROW_EDGES == 3
+    float hi = min(float(last), min(min(right.x, right.y), right.z));
+    float lo = max(float(first), max(max(left.x, left.y), left.z));
+#else
     float hi = min(float(last), min(min(right.x, right.y), min(right.z, right.w)));
     float lo = max(float(first), max(max(left.x, left.y), max(left.z, left.w)));
+#endif
     return ivec2(max(first, int(ceil(lo - SPAN_MARGIN))), min(last, int(floor(hi + SPAN_MARGIN))));
 }
 
