@@ -16,6 +16,7 @@ __all__ = [
     "NODES",
     "PATCH_AT_TESTS",
     "PATCH_SLOPES",
+    "PRODUCT_BLOCK",
     "QUARTIC_AT_EIGHTHS",
     "SAFETY",
     "TESTS",
@@ -24,6 +25,7 @@ __all__ = [
     "estimate_cells",
     "lagrange",
     "lagrange_slope",
+    "matmul_in_blocks",
     "patches_fold",
     "predict_cells",
 ]
@@ -62,6 +64,32 @@ PATCH_SLOPES = np.concatenate(
 )
 
 
+#: The most multiply-adds (m n k) one matrix product of :func:`matmul_in_blocks` is given:
+#: OpenBLAS computes a product of up to 2^18 on the calling thread; a larger one wakes its
+#: threads, which spin on after it and take the cores from a software GPU driver (llvmpipe's
+#: next pass ran 4 % slower after one (8,167 x 9) x (9 x 8) product).
+PRODUCT_BLOCK = 1 << 17
+
+
+def matmul_in_blocks(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a @ b`` (2-D) as products of at most :data:`PRODUCT_BLOCK` multiply-adds each, along
+    the longer of ``a``'s rows and ``b``'s columns: BLAS's speed on the small matrices of the
+    adaptive mesh (einsum's loops are 4-15x slower) without waking its threads."""
+    (m, k), n = a.shape, b.shape[1]
+    if m * n * k <= PRODUCT_BLOCK:
+        return a @ b
+    out = np.empty((m, n), np.result_type(a, b))
+    if m >= n:
+        rows = max(1, PRODUCT_BLOCK // (n * k))
+        for first in range(0, m, rows):
+            np.matmul(a[first : first + rows], b, out=out[first : first + rows])
+    else:
+        columns = max(1, PRODUCT_BLOCK // (m * k))
+        for first in range(0, n, columns):
+            out[:, first : first + columns] = a @ b[:, first : first + columns]
+    return out
+
+
 def estimate_cells(
     fx: np.ndarray,
     fy: np.ndarray,
@@ -88,12 +116,12 @@ def estimate_cells(
     (:func:`error_bound`)."""
     nodes_t, tests_t = nodes.T.copy(), tests.T.copy()  # (9, K), (16, K)
     nx, ny = fx[nodes_t], fy[nodes_t]
-    # einsum, not @: numpy's BLAS threads spin on after a product, taking the cores from
+    # in blocks: numpy's BLAS threads spin on after a large product, taking the cores from
     # the GPU driver when it is software (llvmpipe: its next passes ran up to 1.8x slower).
     # In place where it can be: these are (25, K) arrays, and fewer of them is faster.
-    miss_x = np.einsum("ij,jk->ik", PATCH_AT_TESTS, nx)
+    miss_x = matmul_in_blocks(PATCH_AT_TESTS, nx)
     miss_x -= fx[tests_t]
-    miss_y = np.einsum("ij,jk->ik", PATCH_AT_TESTS, ny)
+    miss_y = matmul_in_blocks(PATCH_AT_TESTS, ny)
     miss_y -= fy[tests_t]
     miss_x *= miss_x
     miss_y *= miss_y
@@ -130,8 +158,8 @@ def estimate_cells(
 def _patch_jacobian(nx: np.ndarray, ny: np.ndarray) -> tuple[np.ndarray, ...]:
     """The Jacobian [[a, b], [c, d]] of the patches through nodes ``nx``, ``ny`` (9, K) on
     their 5 x 5 grids, per unit of u and v (columns d/du, d/dv): four (25, K) arrays."""
-    jx = np.einsum("ij,jk->ik", PATCH_SLOPES, nx)
-    jy = np.einsum("ij,jk->ik", PATCH_SLOPES, ny)
+    jx = matmul_in_blocks(PATCH_SLOPES, nx)
+    jy = matmul_in_blocks(PATCH_SLOPES, ny)
     return jx[:25], jx[25:], jy[:25], jy[25:]
 
 

@@ -23,6 +23,7 @@ from ..gl.resources import Resources
 from .adaptive import ROOT_STEP, AdaptiveMesh, build_adaptive, check_adaptive
 from .adaptive_cells import GPUCells
 from .adaptive_folds import boundary_turns
+from .adaptive_patch import matmul_in_blocks
 from .frame import Frame
 
 __all__ = ["NONE", "AdaptiveScan", "Fill"]
@@ -349,7 +350,7 @@ def _leaf_patches(mesh: AdaptiveMesh, frame: Frame) -> np.ndarray:
         f = np.take(np.ascontiguousarray(mesh.deformed[:, axis]), mesh.nodes)  # (L, 9)
         at_nodes.append(f)
         leaves[:, 1, axis] = f[:, 4] - frame.origin[axis]
-        coefficients[:, axis::2] = (f - f[:, 4:5]) @ _PATCH_POWERS
+        coefficients[:, axis::2] = matmul_in_blocks(f - f[:, 4:5], _PATCH_POWERS)
     nx, ny = at_nodes
     turn = np.sign(
         (nx[:, 5] - nx[:, 3]) * (ny[:, 7] - ny[:, 1])

@@ -21,7 +21,7 @@ import glmls
 from glmls.core import reference
 from glmls.imaging import adaptive_folds, adaptive_scan
 from glmls.imaging.adaptive import MAX_LEAF, MIN_SIZE, ROOT_STEP, build_adaptive, interpolate
-from glmls.imaging.adaptive_patch import NODES, TESTS
+from glmls.imaging.adaptive_patch import NODES, PRODUCT_BLOCK, TESTS, matmul_in_blocks
 from glmls.imaging.frame import Frame
 from glmls.imaging.pipeline import WarpPipeline
 
@@ -516,3 +516,14 @@ def test_the_colour_pass_matches_the_point_pass(gl, rng, border):
             sampled = m.warp(image.astype(np.float32) / 255, **options)
             difference = np.abs(coloured.astype(float) - np.round(sampled * 255))
             assert difference.max() <= (0 if interpolation == "nearest" else 2), interpolation
+
+
+@pytest.mark.parametrize("shape", [(3, 5, 2), (9, 4, 200), (50, 9, 7000), (7000, 9, 8)])
+def test_matmul_in_blocks_is_the_product(rng, shape):
+    # every block size, both ways of splitting, and a product small enough for one call
+    m, k, n = shape
+    a, b = rng.normal(size=(m, k)), rng.normal(size=(k, n))
+    assert (m * n * k <= PRODUCT_BLOCK) == (shape[0] < 50)
+    out = matmul_in_blocks(a, b)
+    assert out.shape == (m, n)
+    np.testing.assert_allclose(out, a @ b, rtol=1e-13, atol=1e-13)
