@@ -16,18 +16,27 @@
 #include "mls/segments.glsl"
 #endif
 
-#if MLS_UNROLL
-// MLS_UNROLL (16 or 64) handle slots at constant indices, unrolled by the preprocessor: with a
-// constant index llvmpipe loads a handle once for all lanes instead of gathering it per lane
-// (1.5x faster). Slots from mls_handle_count() on are zero and given no weight.
-#define MLS_R4(F, i) F(i) F(i + 1) F(i + 2) F(i + 3)
+// MLS_EACH(F): F(i, use) for every handle i of the plain path (n = mls_handle_count()). Where
+// MLS_UNROLL (16 or 64) slots are unrolled by the preprocessor, i is a constant: llvmpipe then
+// loads a handle once for all lanes instead of gathering it per lane (1.5x faster), and slots
+// from n on are zero and given no weight (use: i < n). Past 64 handles, a loop (use: true).
+#define MLS_SLOT(F, i) F(i, (i) < n)
+#define MLS_R4(F, i) MLS_SLOT(F, i) MLS_SLOT(F, i + 1) MLS_SLOT(F, i + 2) MLS_SLOT(F, i + 3)
 #define MLS_R16(F, i) MLS_R4(F, i) MLS_R4(F, i + 4) MLS_R4(F, i + 8) MLS_R4(F, i + 12)
 #define MLS_R64(F, i) MLS_R16(F, i) MLS_R16(F, i + 16) MLS_R16(F, i + 32) MLS_R16(F, i + 48)
-#define MLS_NEAR(i) mls_nearest_index(d2min, nearest, v, mls_handle(i).xy, i, (i) < n);
-#define MLS_ACC(i) mls_accumulate(a, mls_handle(i), (i) < n);
-#define MLS_NEAR_PAIR(i) mls_nearest_pair(d2min, nearest, v0, v1, i, (i) < n);
-#define MLS_ACC_PAIR(i) mls_accumulate_pair(a0, a1, i, (i) < n);
+#if MLS_UNROLL == 16
+#define MLS_EACH(F) MLS_R16(F, 0)
+#elif MLS_UNROLL == 64
+#define MLS_EACH(F) MLS_R64(F, 0)
+#elif MLS_UNROLL
+#error "MLS_UNROLL: 0, 16 or 64"
+#else
+#define MLS_EACH(F) for (int i = 0; i < n; ++i) { F(i, true) }
 #endif
+#define MLS_NEAR(i, use) mls_nearest_index(d2min, nearest, v, mls_handle(i).xy, i, use);
+#define MLS_ACC(i, use) mls_accumulate(a, mls_handle(i), use);
+#define MLS_NEAR_PAIR(i, use) mls_nearest_pair(d2min, nearest, v0, v1, i, use);
+#define MLS_ACC_PAIR(i, use) mls_accumulate_pair(a0, a1, i, use);
 
 #if MLS_BINS
 // Handles sorted by the bins of a square grid (glmls/engine/bins.py): bin b's handles are
@@ -288,23 +297,9 @@ MLSResult mls_eval(vec2 v) {
     int n = mls_handle_count();
     float d2min = 3.0e38;
     int nearest = 0;
-#if MLS_UNROLL == 16
-    MLS_R16(MLS_NEAR, 0)
-#elif MLS_UNROLL == 64
-    MLS_R64(MLS_NEAR, 0)
-#else
-    for (int i = 0; i < n; ++i) {
-        mls_nearest_index(d2min, nearest, v, mls_handle(i).xy, i, true);
-    }
-#endif
+    MLS_EACH(MLS_NEAR)
     MLSAccum a = mls_begin(v, mls_nearest_found(d2min, nearest, v, n));
-#if MLS_UNROLL == 16
-    MLS_R16(MLS_ACC, 0)
-#elif MLS_UNROLL == 64
-    MLS_R64(MLS_ACC, 0)
-#else
-    mls_accumulate_all(a);
-#endif
+    MLS_EACH(MLS_ACC)
     return mls_end(a);
 #endif
 }
@@ -321,26 +316,10 @@ void mls_eval_pair(vec2 v0, vec2 v1, out MLSResult r0, out MLSResult r1) {
     int n = mls_handle_count();
     vec2 d2min = vec2(3.0e38);
     ivec2 nearest = ivec2(0);
-#if MLS_UNROLL == 16
-    MLS_R16(MLS_NEAR_PAIR, 0)
-#elif MLS_UNROLL == 64
-    MLS_R64(MLS_NEAR_PAIR, 0)
-#else
-    for (int i = 0; i < n; ++i) {
-        mls_nearest_pair(d2min, nearest, v0, v1, i, true);
-    }
-#endif
+    MLS_EACH(MLS_NEAR_PAIR)
     MLSAccum a0 = mls_begin(v0, mls_nearest_found(d2min.x, nearest.x, v0, n));
     MLSAccum a1 = mls_begin(v1, mls_nearest_found(d2min.y, nearest.y, v1, n));
-#if MLS_UNROLL == 16
-    MLS_R16(MLS_ACC_PAIR, 0)
-#elif MLS_UNROLL == 64
-    MLS_R64(MLS_ACC_PAIR, 0)
-#else
-    for (int i = 0; i < n; ++i) {
-        mls_accumulate_pair(a0, a1, i, true);
-    }
-#endif
+    MLS_EACH(MLS_ACC_PAIR)
     r0 = mls_end(a0);
     r1 = mls_end(a1);
 #endif
