@@ -342,12 +342,9 @@ class WarpPipeline:
             framebuffer.clear(*clear)
             self._render(mls, texture, framebuffer, how, frame)
         components = source.channels if source.normalized else 4
-        # read into an array of its own: writable, as every result is (bytes from read() made
-        # the 8-bit results read-only), and no copy
         values = np.empty((*frame.shape, components), np.uint8 if source.normalized else np.float32)
-        framebuffer.read_into(
-            values, viewport=(0, 0, *frame.size), components=components, dtype=dtype
-        )
+        # into an array of its own, writable (read()'s bytes made 8-bit results read-only)
+        framebuffer.read_into(values, (0, 0, *frame.size), components, dtype=dtype)
         return source.restore(values[..., : source.channels])
 
     @current
