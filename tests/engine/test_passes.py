@@ -29,9 +29,8 @@ def test_dispatches_are_split_at_the_work_group_limit(gl, rng):
     p, q = random_handles(rng, 5, size=100, displacement=10)
     v = rng.uniform(0, 100, (1000, 2))
     with glmls.MLS(p, q, ctx=gl) as m:
-        f, _ = evaluate_points(
-            m.kernel, v, with_matrix=False, max_groups=3
-        )  # 192 invocations per dispatch
+        # 192 invocations per dispatch
+        f, _ = evaluate_points(m.kernel, v, with_matrix=False, max_groups=3)
         lattice = MeshLattice.corners((40, 50), 2)
         with gl:  # raw moderngl calls: the context current for the block
             buffer = gl.mgl.buffer(reserve=lattice.count * 8)

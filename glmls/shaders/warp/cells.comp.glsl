@@ -162,12 +162,12 @@ void main() {
     RowBounds bounds = row_bounds(p00, p10, p11, p01, s0, convex);
     RowWalk walk = row_walk(bounds, first, last);
 #if WARP_CELLS_FAST
-    // each edge's tie rule along its triangle's boundary (warp/coverage.glsl's covers)
-    bool tie_a = covers(0.0, p10 - p00);
-    bool tie_b = covers(0.0, p11 - p10);
-    bool tie_c = covers(0.0, p01 - p11);
-    bool tie_e = covers(0.0, p00 - p01);
-    bool tie_d = covers(0.0, p11 - p00);
+    // each edge's tie rule along its triangle's boundary (warp/coverage.glsl)
+    bool tie_a = edge_tie(p10 - p00);
+    bool tie_b = edge_tie(p11 - p10);
+    bool tie_c = edge_tie(p01 - p11);
+    bool tie_e = edge_tie(p00 - p01);
+    bool tie_d = edge_tie(p11 - p00);
 #endif
     while (row_walk_next(walk, bounds, first, last)) {
         bool in_row = walk.in_row;

@@ -17,16 +17,21 @@ bool within_pixels(vec4 ab, vec4 cd) {
     return all(lessThan(abs(ab), vec4(1.0e9))) && all(lessThan(abs(cd), vec4(1.0e9)));
 }
 
-// Is an edge value e (already multiplied by the primitive's orientation) covering? d is the
-// edge's direction along the primitive's counter-clockwise boundary.
-bool covers(float e, vec2 d) {
-    return e > 0.0 || (e == 0.0 && (d.y > 0.0 || (d.y == 0.0 && d.x > 0.0)));
+// The tie rule: is a pixel centre exactly on an edge covered by the primitive whose
+// counter-clockwise boundary runs along the edge in direction d?
+bool edge_tie(vec2 d) {
+    return d.y > 0.0 || (d.y == 0.0 && d.x > 0.0);
 }
 
-// covers(e, d), with d's part (whether a pixel on the edge is covered) worked out once per
-// primitive: tie = covers(0.0, d).
+// Is an edge value e (already multiplied by the primitive's orientation) covering, the tie
+// rule (edge_tie) worked out beforehand where it is the same for many pixels?
 bool covers_by(float e, bool tie) {
     return e > 0.0 || (e == 0.0 && tie);
+}
+
+// The same, d the edge's direction along the primitive's counter-clockwise boundary.
+bool covers(float e, vec2 d) {
+    return covers_by(e, edge_tie(d));
 }
 
 // How far the row spans are widened against rounding before the exact edge tests.
