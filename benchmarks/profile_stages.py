@@ -90,7 +90,7 @@ def run(args, m, gl, image, shape, paths) -> None:
             def frame(pipe=pipe, source=source, grid=grid) -> None:
                 framebuffer.use()
                 framebuffer.viewport = (0, 0, args.size, args.size)
-                framebuffer.clear()
+                pipe.clear(framebuffer)
                 pipe.render(m, source, framebuffer, grid=grid)
 
             print(f"  {name}", timed(gl.mgl, frame, args.repeat))

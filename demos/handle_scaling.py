@@ -63,7 +63,7 @@ def frame_time(series: dict, n: int, args, gl, pipe, source, framebuffer) -> flo
         with glmls.MLS(p, q + 0.01 * k, shape=(args.size, args.size), ctx=gl, **series) as m:
             gl.make_current()
             framebuffer.use()
-            framebuffer.clear()
+            pipe.clear(framebuffer)
             pipe.render(m, source, framebuffer, grid=args.grid)
             gl.mgl.finish()
         if k:

@@ -195,7 +195,7 @@ class View:
     ) -> None:
         picture.resize(layout.shape)
         picture.framebuffer.use()
-        picture.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
+        self.pipeline.clear(picture.framebuffer)
         self.pipeline.render(
             session.mls,  # type: ignore[arg-type]
             source,

@@ -10,11 +10,15 @@ from __future__ import annotations
 from collections.abc import Callable, Hashable
 
 import moderngl
+import numpy as np
 
 from ..errors import ReleasedError
 from .context import GLContext
 
-__all__ = ["Resources"]
+__all__ = ["FILL_BYTES", "Resources", "can_fill"]
+
+#: The most bytes of the buffer :meth:`Resources.fill` copies from (whole rows: one at least).
+FILL_BYTES = 1 << 20
 
 
 class Resources:
@@ -104,6 +108,35 @@ class Resources:
             framebuffer[1].release()
         texture.release()
 
+    def fill(self, texture: moderngl.Texture, colour: tuple[float, float, float, float]) -> None:
+        """Set every texel of the RGBA ``texture`` (RGBA8 or RGBA32F) to ``colour``, as a
+        framebuffer clear would (RGBA8: each channel clamped to 0..1 and rounded to the
+        nearest of 0..255), by copies from a buffer of that colour (made once per colour
+        and width, :data:`FILL_BYTES` at most): on llvmpipe a clear goes through the
+        rasterizer's tiles, 0.13 ms at 512 x 512 RGBA8 (1.0 ms RGBA32F) against 0.03 ms
+        (0.11 ms) for the copies."""
+        if not can_fill(texture):
+            raise ValueError(
+                f"fill needs a single-sample RGBA8 or RGBA32F texture, got {texture!r}"
+                + (
+                    f": {texture.components} components of {texture.dtype!r}, "
+                    f"{texture.samples} samples"
+                    if isinstance(texture, moderngl.Texture)
+                    else ""
+                )
+            )
+        values = np.asarray(colour, np.float64)
+        if texture.dtype == "f1":
+            texel = np.rint(np.clip(values, 0.0, 1.0) * 255.0).astype(np.uint8).tobytes()
+        else:
+            texel = values.astype(np.float32).tobytes()
+        width, height = texture.size
+        rows = max(1, min(height, FILL_BYTES // (len(texel) * width)))
+        count = rows * width
+        source = self.keyed_buffer("fill", (texel, count), lambda: texel * count)
+        for top in range(0, height, rows):
+            texture.write(source, viewport=(0, top, width, min(rows, height - top)))
+
     def framebuffer(self, role: str, size: tuple[int, int], dtype: str = "f4"):
         """A framebuffer around the RGBA texture ``role`` of ``size`` (RGBA32F, or RGBA8 for
         ``dtype="f1"``)."""
@@ -151,3 +184,14 @@ class Resources:
         self._vaos.clear()
         self._buffers.clear()
         self._released = True
+
+
+def can_fill(texture: object) -> bool:
+    """Whether :meth:`Resources.fill` takes ``texture``: a single-sample RGBA8 or RGBA32F
+    :class:`moderngl.Texture`."""
+    return (
+        isinstance(texture, moderngl.Texture)
+        and texture.components == 4
+        and texture.dtype in ("f1", "f4")
+        and texture.samples == 0
+    )

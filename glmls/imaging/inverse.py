@@ -71,7 +71,7 @@ class InverseSolver:
         if not swap:
             framebuffer.use()
             framebuffer.viewport = (0, 0, *frame.size)
-            framebuffer.clear(0.0, 0.0, 0.0, 0.0)
+            self._resources.fill(texture, (0.0, 0.0, 0.0, 0.0))
             drawn = self._options.compute_quads and self._cells.draw(
                 kernel, None, lattice, frame, linear=False, coords=True, flip_y=False
             )

@@ -88,8 +88,8 @@ class PaperQuads:
             map_framebuffer = self._resources.framebuffer("coords", frame.size)
             map_framebuffer.use()
             map_framebuffer.viewport = (0, 0, *frame.size)
-            map_framebuffer.clear(0.0, 0.0, 0.0, 0.0)  # covered = 0
             coords = self._resources.texture("coords", frame.size, 4, "f4")
+            self._resources.fill(coords, (0.0, 0.0, 0.0, 0.0))  # covered = 0
             coords.bind_to_image(bindings.INVERSE_MAP.index, read=False, write=True)
             self._scan(kernel, lattice, values, stage=1, whole_mesh=one_band)
             mgl.memory_barrier()

@@ -35,7 +35,7 @@ from ..engine.kernel import MLSKernel
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import set_uniforms
-from ..gl.resources import Resources
+from ..gl.resources import Resources, can_fill
 from .adaptive import ROOT_STEP, check_adaptive
 from .adaptive_scan import AdaptiveScan
 from .bands import MeshBands
@@ -45,6 +45,7 @@ from .inverse import InverseSolver
 from .options import PipelineOptions
 from .paper import PaperQuads
 from .raster import MeshRaster
+from .readback import read_rgba8
 from .source import (
     BORDERS,
     SourceImage,
@@ -124,29 +125,6 @@ class WarpPipeline:
         limits = self._gl.limits
         return min(limits["max_texture_size"], limits["max_viewport"])
 
-    def _within_limit(self, shape: object) -> tuple[int, int]:
-        """``shape`` as (H, W) if the GL limit takes an image of it; ``ValueError`` if not."""
-        height, width = as_shape(shape)
-        if max(height, width) > self.max_image_size:
-            raise ValueError(
-                f"shape {(height, width)} exceeds the GL texture size limit of "
-                f"{self.max_image_size} pixels"
-            )
-        return height, width
-
-    @contextlib.contextmanager
-    def _keep_framebuffer(self) -> Iterator[None]:
-        """Leave the bound framebuffer as found: moderngl re-binds the bound one when it
-        creates another, and binding one of ours after we released it is a GL error."""
-        mgl = self._gl.mgl
-        bound = mgl.fbo
-        if bound is None:  # a standalone context starts with none: framebuffer 0
-            bound = mgl.detect_framebuffer(0)
-        try:
-            yield
-        finally:
-            bound.use()
-
     @current
     def upload(self, image: SourceImage, role: str = "source") -> moderngl.Texture:
         """The pipeline's texture of ``role`` holding ``image`` (see
@@ -157,6 +135,23 @@ class WarpPipeline:
         return texture
 
     # -- drawing -------------------------------------------------------------------------
+
+    @current
+    def clear(
+        self,
+        framebuffer: moderngl.Framebuffer,
+        color: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
+    ) -> None:
+        """Set ``framebuffer``'s colour to ``color`` (RGBA, 0..1 for 8 bits), as before
+        :meth:`render`: an RGBA8 or RGBA32F texture's texels copied from a buffer of the
+        colour (:meth:`~glmls.gl.resources.Resources.fill`, several times a GL clear's speed
+        on llvmpipe), any other attachment by GL's clear."""
+        target = framebuffer.color_attachments[0] if framebuffer.color_attachments else None
+        if can_fill(target):
+            self._resources.fill(target, color)  # type: ignore[arg-type]
+        else:
+            with _keep_framebuffer(self._gl.mgl):
+                framebuffer.clear(*color)
 
     @current
     def render(
@@ -175,8 +170,9 @@ class WarpPipeline:
     ) -> None:
         """Draw the deformed ``source`` into ``framebuffer`` (its current viewport), no read-back.
 
-        The caller clears the framebuffer to the background first. The output is ``frame``
-        (default: the source's size and place, see :func:`~glmls.imaging.frame.make_frame`);
+        The caller clears the framebuffer to the background first (:meth:`clear`). The output
+        is ``frame`` (default: the source's size and place, see
+        :func:`~glmls.imaging.frame.make_frame`);
         ``quads`` and ``splat`` scale it to any viewport, ``backward`` needs a viewport of
         its size, and so does ``paper-quads`` (``ValueError`` otherwise). ``border``: one
         of :data:`~glmls.imaging.source.BORDERS`. ``flip_y`` for a window, whose row 0 is at
@@ -192,7 +188,7 @@ class WarpPipeline:
         how = _How(
             method, interpolation == "linear", grid, BORDERS.index(border), flip_y, tolerance
         )
-        with self._keep_framebuffer():
+        with _keep_framebuffer(self._gl.mgl):
             self._render(mls, source, framebuffer, how, frame)
 
     def _render(self, mls, source, framebuffer, how: _How, frame: Frame) -> None:
@@ -287,7 +283,7 @@ class WarpPipeline:
         check_options("backward", "nearest", grid, border)
         shape = as_shape(shape)
         frame = Frame(shape) if frame is None else frame
-        with self._keep_framebuffer():
+        with _keep_framebuffer(self._gl.mgl):
             return self._solve(
                 mls, shape, frame, swap=swap, grid=grid, border=BORDERS.index(border)
             )
@@ -297,7 +293,7 @@ class WarpPipeline:
         """The :class:`~glmls.imaging.frame.Bounds` of the deformed image of ``shape``: its
         quads' corners at ``grid`` under f, evaluated band by band on the GPU."""
         self._resources.check_alive()
-        lattice = MeshLattice.corners(self._within_limit(shape), grid)
+        lattice = MeshLattice.corners(_within_limit(shape, self.max_image_size), grid)
         kernel = mls.kernel
 
         def bands():
@@ -335,16 +331,17 @@ class WarpPipeline:
         texture = self.upload(source)
         dtype = "f1" if source.normalized else "f4"
         how = _How(method, interpolation == "linear", grid, BORDERS.index(border), False, tolerance)
-        with self._keep_framebuffer():
+        with _keep_framebuffer(self._gl.mgl):
             framebuffer = self._resources.framebuffer("target", frame.size, dtype)
             framebuffer.use()
             framebuffer.viewport = (0, 0, *frame.size)
-            framebuffer.clear(*clear)
+            self.clear(framebuffer, clear)
             self._render(mls, texture, framebuffer, how, frame)
-        components = source.channels if source.normalized else 4
-        values = np.empty((*frame.shape, components), np.uint8 if source.normalized else np.float32)
-        # into an array of its own, writable (read()'s bytes made 8-bit results read-only)
-        framebuffer.read_into(values, (0, 0, *frame.size), components, dtype=dtype)
+        if source.normalized:
+            return source.restore(read_rgba8(framebuffer, frame.size, source.channels))
+        values = np.empty((*frame.shape, 4), np.float32)
+        # into an array of its own, writable (read()'s bytes are read-only)
+        framebuffer.read_into(values, (0, 0, *frame.size), 4, dtype=dtype)
         return source.restore(values[..., : source.channels])
 
     @current
@@ -365,7 +362,7 @@ class WarpPipeline:
         if method not in ("backward", "backward-swap"):
             raise ValueError(f"unknown method {method!r}; choose backward or backward-swap")
         check_options(method, "nearest", grid, border)
-        shape = self._within_limit(shape)
+        shape = _within_limit(shape, self.max_image_size)
         frame = make_frame(output_shape, origin, shape, self.max_image_size)
         texture = self.solve_inverse(
             mls, shape, swap=method == "backward-swap", grid=grid, border=border, frame=frame
@@ -379,3 +376,27 @@ class WarpPipeline:
     def release(self) -> None:
         """Free every cached texture, framebuffer, buffer and vertex array. Idempotent."""
         self._resources.release()
+
+
+@contextlib.contextmanager
+def _keep_framebuffer(mgl: moderngl.Context) -> Iterator[None]:
+    """Leave the bound framebuffer as found: moderngl re-binds the bound one when it creates
+    another, and binding one of ours after we released it is a GL error."""
+    bound = mgl.fbo
+    if bound is None:  # a standalone context starts with none: framebuffer 0
+        bound = mgl.detect_framebuffer(0)
+    try:
+        yield
+    finally:
+        bound.use()
+
+
+def _within_limit(shape: object, limit: int) -> tuple[int, int]:
+    """``shape`` as (H, W) if the GL limit (``limit`` pixels a side) takes an image of it;
+    ``ValueError`` if not."""
+    height, width = as_shape(shape)
+    if max(height, width) > limit:
+        raise ValueError(
+            f"shape {(height, width)} exceeds the GL texture size limit of {limit} pixels"
+        )
+    return height, width

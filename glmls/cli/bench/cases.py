@@ -198,7 +198,7 @@ def _glmls_frame(case: Case, image, src, dst) -> Step:
     def step(k: int) -> None:
         with MLS(src, dst + moves[k % 64], transform=case.transform, ctx=gl) as m, gl:
             framebuffer.use()
-            framebuffer.clear()
+            pipe.clear(framebuffer)  # as the window clears its picture
             pipe.render(m, source, framebuffer, **case.warp_options())
             gl.mgl.finish()
 

@@ -1,0 +1,92 @@
+"""Resources.fill: every texel of a texture set to a colour, as a framebuffer clear."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_array_equal
+
+from glmls.gl import resources as resources_module
+from glmls.gl.resources import Resources
+
+SIZES = [(1, 1), (7, 5), (64, 33), (300, 41)]
+
+
+@pytest.fixture
+def resources(gl):
+    owned = Resources(gl, "the test's objects")
+    with gl.use():
+        bound = gl.mgl.fbo or gl.mgl.detect_framebuffer(0)  # bound again after the test
+        yield owned
+        bound.use()
+        owned.release()
+
+
+def _read(texture, dtype):
+    return np.frombuffer(texture.read(alignment=1), dtype).reshape(*texture.size[::-1], 4)
+
+
+@pytest.mark.parametrize("size", SIZES)
+@pytest.mark.parametrize("fill_bytes", [1, 100, resources_module.FILL_BYTES])
+def test_fill_sets_every_texel(gl, resources, monkeypatch, size, fill_bytes):
+    # fill_bytes 1: a row per copy; 100: a few rows, the last copy shorter
+    monkeypatch.setattr(resources_module, "FILL_BYTES", fill_bytes)
+    colour = (0.25, -3.5, 1e30, 7.0)
+    wide = resources.texture("wide", size, 4, "f4")
+    resources.fill(wide, colour)
+    expected = np.broadcast_to(np.float32(colour), (*size[::-1], 4))
+    assert_array_equal(_read(wide, np.float32), expected)
+    narrow = resources.texture("narrow", size, 4, "f1")
+    resources.fill(narrow, (10 / 255, 1.0, 0.0, 128 / 255))
+    assert_array_equal(
+        _read(narrow, np.uint8), np.broadcast_to([10, 255, 0, 128], (*size[::-1], 4))
+    )
+    resources.fill(narrow, (-1.0, 2.0, 0.3, 0.7))  # clamped, then rounded to 0..255
+    assert_array_equal(
+        _read(narrow, np.uint8), np.broadcast_to([0, 255, 76, 178], (*size[::-1], 4))
+    )
+
+
+def test_fill_matches_a_framebuffer_clear(gl, resources, rng):
+    texture = resources.texture("target", (9, 4), 4, "f1")
+    framebuffer = resources.framebuffer("target", (9, 4), "f1")
+    for _ in range(20):
+        colour = tuple(rng.integers(0, 256, 4) / 255.0)
+        framebuffer.use()
+        framebuffer.clear(*colour)
+        cleared = _read(texture, np.uint8)
+        resources.fill(texture, (0.0, 0.0, 0.0, 0.0))
+        resources.fill(texture, colour)
+        assert_array_equal(_read(texture, np.uint8), cleared)
+
+
+def test_fill_names_what_it_cannot_fill(gl, resources):
+    for components, dtype in ((3, "f1"), (4, "f2"), (1, "f4")):
+        texture = resources.texture("other", (3, 3), components, dtype)
+        with pytest.raises(ValueError, match="RGBA8 or RGBA32F"):
+            resources.fill(texture, (0.0, 0.0, 0.0, 0.0))
+
+
+def test_pipeline_clear_fills_a_texture_and_clears_anything_else(gl):
+    from glmls.imaging.pipeline import WarpPipeline
+
+    pipe = WarpPipeline.of(gl)
+    with gl.use():
+        bound = gl.mgl.fbo or gl.mgl.detect_framebuffer(0)
+        bound.use()
+        texture = gl.mgl.texture((5, 3), 4, dtype="f4")
+        renderbuffer = gl.mgl.renderbuffer((5, 3), 4)
+        on_texture = gl.mgl.framebuffer([texture])
+        on_renderbuffer = gl.mgl.framebuffer([renderbuffer])
+        try:
+            pipe.clear(on_texture, (0.5, -1.0, 2.0, 1.0))
+            assert_array_equal(
+                _read(texture, np.float32), np.broadcast_to([0.5, -1, 2, 1], (3, 5, 4))
+            )
+            pipe.clear(on_renderbuffer, (0.0, 1.0, 0.0, 1.0))
+            data = np.frombuffer(on_renderbuffer.read(components=4), np.uint8).reshape(3, 5, 4)
+            assert_array_equal(data, np.broadcast_to([0, 255, 0, 255], (3, 5, 4)))
+            assert gl.mgl.fbo is bound  # the bound framebuffer left as found
+        finally:
+            for thing in (on_texture, on_renderbuffer, texture, renderbuffer):
+                thing.release()
