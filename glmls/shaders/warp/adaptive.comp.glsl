@@ -172,8 +172,13 @@ void main() {
     ivec2 first = max(ivec2(ceil(min(min(a, b), c))), ivec2(0));
     ivec2 last = min(ivec2(floor(max(max(a, b), c))), u_target_size - 1);
     uint key = uint(u_triangles - t);
+    // no pixel centre in its box (a quarter of W2's triangles, in its finest leaves): done
+    // before the leaf's patch is read, six loads per triangle (W2's passes 0.95x)
+    if (first.x > last.x || first.y > last.y) {
+        return;
+    }
 #if ADAPTIVE_HOT
-    if (first.x <= last.x && first.y <= last.y && reaches_hot(first, last)) {
+    if (reaches_hot(first, last)) {
         adaptive_hot[atomicAdd(adaptive_hot_count, 1u)] = uint(t);   // for the keyed passes
         return;
     }
