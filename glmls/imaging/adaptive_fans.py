@@ -57,15 +57,17 @@ def fans(
         last[:, side] = np.take(along, end)
     segments = (last - first).ravel()  # per leaf and edge, leaf by leaf
     total = int(segments.sum())
-    # per triangle, repeats of per-edge and per-leaf values, not gathers through an index
-    at = np.arange(total) + np.repeat(first.ravel() - (np.cumsum(segments) - segments), segments)
-    a, b = np.take(ordered, at), np.take(ordered, at + 1)
-    # the top and right edges run clockwise about the centre on the screen (y down), the
-    # bottom and left ones the other way: swapped, every triangle has a positive area
-    swap = np.repeat(np.tile(np.array([False, False, True, True]), leaves), segments)
+    # per triangle, repeats of per-edge and per-leaf values, not gathers through an index:
+    # a triangle's two boundary vertices are neighbours in ``ordered``, k and k + 1. The top
+    # and right edges run clockwise about the centre on the screen (y down), the bottom and
+    # left ones the other way: there the two are taken k + 1, k, so that every triangle has
+    # a positive area (offsets per edge: cheaper than choosing per triangle)
+    start = first.ravel() - (np.cumsum(segments) - segments)
+    turned = np.tile(np.array([0, 0, 1, 1]), leaves)
+    step = np.arange(total)
     per_leaf = segments.reshape(-1, 4).sum(axis=1)
     triangles = np.empty((total, 3), np.uint32)
     triangles[:, 0] = np.repeat(np.ascontiguousarray(nodes[:, 4]), per_leaf)
-    triangles[:, 1] = np.where(swap, b, a)
-    triangles[:, 2] = np.where(swap, a, b)
+    triangles[:, 1] = np.take(ordered, step + np.repeat(start + turned, segments))
+    triangles[:, 2] = np.take(ordered, step + np.repeat(start + 1 - turned, segments))
     return triangles, np.repeat(np.arange(leaves, dtype=np.uint32), per_leaf)
