@@ -33,7 +33,7 @@ from ..core.mesh import MeshLattice
 from ..engine.kernel import MLSKernel
 from ..gl import bindings
 from ..gl.context import GLContext, current
-from ..gl.dispatch import LOCAL_SIZE, run_1d, set_uniforms
+from ..gl.dispatch import run_1d, set_uniforms
 from ..gl.resources import Resources
 from .bands import MeshBands
 from .frame import Frame
@@ -237,7 +237,7 @@ class CellScan:
         gl = self._gl
         stages = {
             stage: gl.compute("warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage})
-            for stage in (0, 1, 2, 3, 6)
+            for stage in (1, 2, 3, 6)
         }
         fast = self._program(nearest=True, fused=True, fast=True, border=border)
         every = self._program(nearest=True, fused=True, fast=False, border=border)
@@ -263,10 +263,9 @@ class CellScan:
         check = self._resources.buffer("check", 48 + 4 * (block_list + blocks))
         check.clear(size=48 + 4 * folded_list)
         check.bind_to_storage_buffer(bindings.CHECK.index)
-        stages[0].run(group_x=math.ceil((2 * (nx - 1) + 2 * (ny - 1)) / LOCAL_SIZE))
         run_1d(fast, cells, max_groups=self._max_groups)
         gl.mgl.memory_barrier()
-        stages[1].run(group_x=1)
+        stages[1].run(group_x=1)  # the boundary's test, then the sizes of what follows
         gl.mgl.memory_barrier()
         # indirect from here, sized by stage 1 (and the keyed scan of the blocks by stage 3):
         # an embedding runs none of them

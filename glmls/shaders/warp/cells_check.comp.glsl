@@ -15,9 +15,9 @@
 // triangles' sense) and the whole going around exactly once (one crossing of the ray from c
 // to +x). Strong deformations of the border fail it and the keyed scan redraws every cell.
 //
-//   WARP_CHECK_STAGE 0: one invocation per boundary edge;
-//                    1: one invocation, the dispatch sizes of stages 2, 3 and 6 and the
-//                       keyed scan's;
+//   WARP_CHECK_STAGE 1: one work group, after the fast pass: the boundary's edges, a share
+//                       for each invocation, then (one invocation) the dispatch sizes of
+//                       stages 2, 3 and 6 and the keyed scan's;
 //                    2: the winner clear (dispatched with the sizes of stage 1);
 //                    3: one invocation per block of cells where the boundary is simple and
 //                       cells fold (none otherwise): list the blocks whose pixels reach a hot
@@ -25,7 +25,8 @@
 //                    6: one invocation per listed cell not strictly positive (WARP_CELLS_FAST):
 //                       mark its tiles hot and its block (stage 3 reads all its vertices).
 // Every stage after 1 is an indirect dispatch: a mesh that is an embedding runs none of them
-// (on llvmpipe each dispatch that runs costs ~55 us, whatever its size).
+// (on llvmpipe each dispatch that runs costs ~35-55 us, whatever its size: the boundary's
+// test is stage 1's own for that reason, not a dispatch of its own).
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "warp/cells_packed.glsl"
@@ -66,25 +67,43 @@ ivec2 boundary_vertex(int t) {
     return ivec2(0, n.y - (t - n.x));
 }
 
+#if WARP_CHECK_STAGE == 1
+shared uint check_bad;         // the work group's counts of the boundary's edges
+shared uint check_crossings;
+#endif
+
 void main() {
-#if WARP_CHECK_STAGE == 0
+#if WARP_CHECK_STAGE == 1
+    uint lane = gl_LocalInvocationID.x;
+    if (lane == 0u) {
+        check_bad = 0u;
+        check_crossings = 0u;
+    }
+    barrier();
     int edges = 2 * (u_mesh_dims.x - 1) + 2 * (u_mesh_dims.y - 1);
-    int t = int(gl_GlobalInvocationID.x);
-    if (t >= edges) {
+    vec2 c = vertex_px(u_mesh_dims / 2);
+    uint bad = 0u;
+    uint crossings = 0u;
+    for (int t = int(lane); t < edges; t += LOCAL_SIZE) {
+        vec2 a = vertex_px(boundary_vertex(t)) - c;
+        vec2 b = vertex_px(boundary_vertex((t + 1) % edges)) - c;
+        // strictly counter-clockwise about c, with a margin against rounding (NaN: not)
+        if (!(a.x * b.y - a.y * b.x > 1e-6 * length(a) * length(b))) {
+            ++bad;
+        }
+        // crossings of the ray y = 0, x > 0 (half-open in y, so a vertex on it counts once)
+        if ((a.y > 0.0) != (b.y > 0.0) && a.x + (b.x - a.x) * (-a.y / (b.y - a.y)) > 0.0) {
+            ++crossings;
+        }
+    }
+    atomicAdd(check_bad, bad);
+    atomicAdd(check_crossings, crossings);
+    barrier();
+    if (lane != 0u) {
         return;
     }
-    vec2 c = vertex_px(u_mesh_dims / 2);
-    vec2 a = vertex_px(boundary_vertex(t)) - c;
-    vec2 b = vertex_px(boundary_vertex((t + 1) % edges)) - c;
-    // strictly counter-clockwise about c, with a margin against rounding
-    if (!(a.x * b.y - a.y * b.x > 1e-6 * length(a) * length(b))) {
-        atomicAdd(warp_check_bad, 1u);
-    }
-    // crossings of the ray y = 0, x > 0 (half-open in y, so a vertex on it counts once)
-    if ((a.y > 0.0) != (b.y > 0.0) && a.x + (b.x - a.x) * (-a.y / (b.y - a.y)) > 0.0) {
-        atomicAdd(warp_check_crossings, 1u);
-    }
-#elif WARP_CHECK_STAGE == 1
+    warp_check_bad = check_bad;
+    warp_check_crossings = check_crossings;
     bool embedded = warp_check_boundary_simple() && warp_check_folded == 0u;
     uvec4 none = uvec4(0u, 1u, 1u, 0u);
     uint pixels = uint(u_target_size.x * u_target_size.y);
