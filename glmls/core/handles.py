@@ -21,9 +21,7 @@ COORDINATE_LIMIT = 1e6
 def as_points(points: object, name: str = "points") -> np.ndarray:
     """``points`` as a C-contiguous float64 (N, 2) array; ``ValueError``/``TypeError`` if not."""
     array = np.asarray(points)
-    if array.dtype == object or not (
-        np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating)
-    ):
+    if array.dtype.kind not in "iuf":  # integers and reals (np.issubdtype: ~4x the time)
         raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
     if array.ndim != 2 or array.shape[1] != 2:
         if array.size == 0 and array.ndim >= 1:
@@ -39,10 +37,10 @@ def as_points(points: object, name: str = "points") -> np.ndarray:
 def check_coordinates(points: np.ndarray, name: str = "points") -> np.ndarray:
     """``points`` ((N, 2) float64) if every coordinate lies within :data:`COORDINATE_LIMIT`;
     ``ValueError`` naming the range and the first row beyond it otherwise."""
+    # over the whole array (not per column: the limit is the same for x and y)
+    if len(points) and max(-points.min(), points.max()) <= COORDINATE_LIMIT:
+        return points
     if len(points):
-        lo, hi = point_bounds(points)  # column by column: 30x faster than a max over axis 1
-        if max(-lo.min(), hi.max()) <= COORDINATE_LIMIT:
-            return points
         beyond = np.abs(points).max(axis=1) > COORDINATE_LIMIT
         if beyond.any():
             row = int(np.argmax(beyond))
