@@ -17,7 +17,7 @@ import numpy as np
 __all__ = ["STRIP_BYTES", "drop_channels", "read_rgba8"]
 
 #: The most bytes of RGBA8 read at once (rows of the framebuffer; at least one row).
-STRIP_BYTES = 1 << 22
+STRIP_BYTES = 1 << 20
 
 
 def read_rgba8(
