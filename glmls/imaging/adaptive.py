@@ -25,10 +25,11 @@ in the pipeline):
    parent's grid points, and a folded cell splits no further than 1 px); f is evaluated
    at the others' test points, and they are tested at the next level;
 4. each leaf is drawn as a fan of triangles around its centre through every vertex on its
-   boundary: its corners and mid-points and those of finer neighbours on its edges (hanging
-   vertices). Two leaves sharing an edge then share exactly the same f-evaluated vertices on
-   it: no cracks. The scan refines each pixel's point on the fan by a Newton step on the
-   leaf's patch (``warp/adaptive.comp.glsl``), so the patch's error bound is the pixel's.
+   boundary: its corners and those of finer neighbours on its edges (hanging vertices), and
+   its edges' mid-points where its patch bends too far from the fan
+   (:func:`.adaptive_fans.fan_vertices`). Leaves sharing an edge share exactly its vertices:
+   no cracks. The scan refines each pixel's point on the fan by a Newton step on the leaf's
+   patch (``warp/adaptive.comp.glsl``), so the patch's error bound is the pixel's.
 
 Fold-overs: the triangles come in scan order, the leaves in row-major order of their top-left
 corners (row, then column), each leaf's fan together; where deformed cells overlap the first
@@ -45,7 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.mesh import MeshLattice
-from .adaptive_fans import fans
+from .adaptive_fans import fan_vertices, fans
 from .adaptive_patch import (
     GRID_PLACE,
     NODES,
@@ -445,9 +446,8 @@ def _assemble(vertices: _Vertices, leaves, levels: int) -> AdaptiveMesh:
     # rows gathered by np.take and columns one at a time: numpy's fancy indexing of
     # rows of a few columns, and its strided copies, are ~5x slower
     box, nodes, error = (np.take(part, order, axis=0) for part in (box, nodes, error))
-    # only the patches' nodes: the triangles' vertices are among them (each leaf's centre,
-    # and its and finer neighbours' corners and mid-points), the test points were for the
-    # build
+    # only the patches' nodes (the triangles' vertices are among them): the test points
+    # were for the build
     used = np.zeros(len(keys), bool)  # a mask, not np.unique: no sort
     used[nodes.ravel()] = True
     renumber = (np.cumsum(used) - 1).astype(np.uint32)
@@ -455,13 +455,13 @@ def _assemble(vertices: _Vertices, leaves, levels: int) -> AdaptiveMesh:
     keys = np.take(keys, kept, axis=0)
     # the fans among the kept vertices, in their numbering (no gather per triangle after)
     nodes = np.take(renumber, nodes)
-    on_edges = np.ones(len(kept), bool)
-    on_edges[nodes[:, 4]] = False  # a centre is inside its leaf, no other leaf's vertex
-    triangles, triangle_leaf = fans(keys, nodes, on_edges)
+    deformed = np.take(vertices.f(), kept, axis=0)
     cells = vertices.origin[[0, 1, 0, 1]] + box / vertices.units
+    on_edges = fan_vertices(nodes, deformed, cells, ~np.isfinite(error))
+    triangles, triangle_leaf = fans(keys, nodes, on_edges)
     return AdaptiveMesh(
         vertices.points(keys),
-        np.take(vertices.f(), kept, axis=0),
+        deformed,
         triangles,
         triangle_leaf,
         cells,

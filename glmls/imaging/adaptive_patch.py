@@ -14,6 +14,7 @@ import numpy as np
 __all__ = [
     "GRID_PLACE",
     "NODES",
+    "PATCH_AT_GRID",
     "PATCH_AT_TESTS",
     "PATCH_SLOPES",
     "PRODUCT_BLOCK",
@@ -56,9 +57,10 @@ def lagrange_slope(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 _QUARTERS = np.linspace(0.0, 1.0, 5)
 _AT_QUARTERS = np.stack(lagrange(_QUARTERS), -1)
 _SLOPE_AT_QUARTERS = np.stack(lagrange_slope(_QUARTERS), -1)
-#: The patch at the test points (16, 9), and its derivatives per unit of u, then of v, on
-#: the 5 x 5 grid (50, 9): rows of points, columns of the nodes.
-PATCH_AT_TESTS = np.kron(_AT_QUARTERS, _AT_QUARTERS)[TEST_INDEX]
+#: The patch on the 5 x 5 grid (25, 9), at the test points (16, 9), and its derivatives per
+#: unit of u, then of v, on the grid (50, 9): rows of points, columns of the nodes.
+PATCH_AT_GRID = np.kron(_AT_QUARTERS, _AT_QUARTERS)
+PATCH_AT_TESTS = PATCH_AT_GRID[TEST_INDEX]
 PATCH_SLOPES = np.concatenate(
     [np.kron(_AT_QUARTERS, _SLOPE_AT_QUARTERS), np.kron(_SLOPE_AT_QUARTERS, _AT_QUARTERS)]
 )
