@@ -38,17 +38,16 @@ def check_coordinates(points: np.ndarray, name: str = "points") -> np.ndarray:
     """``points`` ((N, 2) float64) if every coordinate lies within :data:`COORDINATE_LIMIT`;
     ``ValueError`` naming the range and the first row beyond it otherwise."""
     # over the whole array (not per column: the limit is the same for x and y)
-    if len(points) and max(-points.min(), points.max()) <= COORDINATE_LIMIT:
+    if not len(points) or max(-points.min(), points.max()) <= COORDINATE_LIMIT:
         return points
-    if len(points):
-        beyond = np.abs(points).max(axis=1) > COORDINATE_LIMIT
-        if beyond.any():
-            row = int(np.argmax(beyond))
-            raise ValueError(
-                f"{name} must lie within ±{COORDINATE_LIMIT:.0e} px of the origin in x and y "
-                f"(float32 on the GPU keeps ~1e-7 of the coordinates' extent); row {row} is "
-                f"{points[row].tolist()}"
-            )
+    beyond = np.abs(points).max(axis=1) > COORDINATE_LIMIT
+    if beyond.any():
+        row = int(np.argmax(beyond))
+        raise ValueError(
+            f"{name} must lie within ±{COORDINATE_LIMIT:.0e} px of the origin in x and y "
+            f"(float32 on the GPU keeps ~1e-7 of the coordinates' extent); row {row} is "
+            f"{points[row].tolist()}"
+        )
     return points
 
 
