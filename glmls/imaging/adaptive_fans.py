@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .adaptive_patch import PATCH_AT_GRID, matmul_in_blocks
+from .adaptive_patch import PATCH_AT_GRID, matmul_in_blocks, singular_squares
 
 __all__ = ["GUESS_LIMIT", "fan_vertices", "fans"]
 
@@ -65,13 +65,12 @@ def fan_vertices(
         slopes.append(((f[:, 5] - f[:, 3]), (f[:, 7] - f[:, 1])))
     width, height = leaves[:, 2] - leaves[:, 0], leaves[:, 3] - leaves[:, 1]
     (a, b), (c, d) = ((x / width, y / height) for x, y in slopes)  # the Jacobian at the centre
-    squares, det = a * a + b * b + c * c + d * d, np.abs(a * d - b * c)
-    largest = 0.5 * (np.sqrt(squares + 2 * det) + np.sqrt(np.maximum(squares - 2 * det, 0.0)))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        limit = GUESS_LIMIT * det / largest  # in output pixels: times the smallest stretch
-        # NaN where f is not finite; numpy reduces the rows of the transpose ~5x faster
-        far = np.ascontiguousarray(far.T).max(axis=0)
-        bent = ~(far <= limit * limit) | folded
+    _, smallest = singular_squares(a, b, c, d, a * d - b * c)
+    # NaN where f is not finite; numpy reduces the rows of the transpose ~5x faster
+    far = np.ascontiguousarray(far.T).max(axis=0)
+    with np.errstate(invalid="ignore"):
+        # the limit in output pixels: times the smallest stretch (squared, as ``far``)
+        bent = ~(far <= GUESS_LIMIT**2 * smallest) | folded
     on_edges[np.compress(bent, nodes, axis=0)[:, _MIDS]] = True
     outline = (
         leaves[:, 1] == leaves[:, 1].min(),

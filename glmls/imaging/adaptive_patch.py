@@ -29,6 +29,7 @@ __all__ = [
     "matmul_in_blocks",
     "patches_fold",
     "predict_cells",
+    "singular_squares",
 ]
 
 #: The factor between a patch's largest miss at its quarter-centres and the error bound: the
@@ -137,9 +138,18 @@ def estimate_cells(
     d *= inv_h
     det = a * d
     det -= b * c
-    # its singular values: the sum of their squares is the Frobenius norm's square, their
-    # product |det|; s_max^2 from the quadratic's larger root, s_min^2 = det^2 / s_max^2
-    # (no cancellation where they are far apart)
+    high, low = singular_squares(a, b, c, d, det)
+    smallest = np.where(_turns_over(det), 0.0, np.sqrt(low.min(axis=0)))
+    return error_bound(miss, smallest), np.sqrt(high.max(axis=0))
+
+
+def singular_squares(
+    a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, det: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The squares of the largest and smallest singular values of the 2 x 2 matrices [[a,
+    b], [c, d]] (elementwise), ``det`` = a d - b c: the sum of the squares is the Frobenius
+    norm's square, their product det^2; s_max^2 from the quadratic's larger root, s_min^2 =
+    det^2 / s_max^2 (no cancellation where they are far apart; NaN where both are 0)."""
     high = a * a
     high += b * b
     high += c * c
@@ -153,8 +163,7 @@ def estimate_cells(
     high *= 0.5
     with np.errstate(divide="ignore", invalid="ignore"):
         low /= high
-    smallest = np.where(_turns_over(det), 0.0, np.sqrt(low.min(axis=0)))
-    return error_bound(miss, smallest), np.sqrt(high.max(axis=0))
+    return high, low
 
 
 def _patch_jacobian(nx: np.ndarray, ny: np.ndarray) -> tuple[np.ndarray, ...]:
