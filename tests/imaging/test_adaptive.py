@@ -217,15 +217,11 @@ def test_fans_keep_the_mid_points_where_a_leaf_folds_or_f_is_not_finite():
     inner = nodes[4, [1, 3, 5, 7]]
     folded = np.zeros(9, bool)
     folded[4] = True
-    assert on_all(fan_vertices(nodes, source, leaves, folded), inner)
+    assert fan_vertices(nodes, source, leaves, folded)[inner].all()
     broken = source.copy()
     broken[nodes[4, 4]] = np.nan
-    assert on_all(fan_vertices(nodes, broken, leaves, np.zeros(9, bool)), inner)
+    assert fan_vertices(nodes, broken, leaves, np.zeros(9, bool))[inner].all()
     assert not fan_vertices(nodes, source, leaves, np.zeros(9, bool))[inner].any()
-
-
-def on_all(on, ids):
-    return bool(on[ids].all())
 
 
 @pytest.mark.parametrize("predicted", [False, True])
