@@ -24,18 +24,19 @@ const float QUARTIC[45] = float[45](
 // The children's tests, as adaptive_grid_test's with w = 1, to adaptive_test[first ..
 // first + 3] (children (0, 0), (0, 1), (1, 0), (1, 1)).
 void adaptive_predict_children(vec2 grid[25], vec2 sides, int first) {
-    for (int i = 0; i < 2; ++i) {
-        for (int j = 0; j < 2; ++j) {
-            // along the rows first: the cell's 5 rows at the child's 5 columns
-            vec2 across[25];
-            for (int r = 0; r < 5; ++r) {
-                for (int c = 0; c < 5; ++c) {
-                    int w = 5 * (4 * j + c);
-                    across[5 * r + c] = QUARTIC[w] * grid[5 * r] + QUARTIC[w + 1] * grid[5 * r + 1]
-                        + QUARTIC[w + 2] * grid[5 * r + 2] + QUARTIC[w + 3] * grid[5 * r + 3]
-                        + QUARTIC[w + 4] * grid[5 * r + 4];
-                }
+    for (int j = 0; j < 2; ++j) {
+        // along the rows first: the cell's 5 rows at the 5 columns of children (., j), the
+        // same for both rows of children
+        vec2 across[25];
+        for (int r = 0; r < 5; ++r) {
+            for (int c = 0; c < 5; ++c) {
+                int w = 5 * (4 * j + c);
+                across[5 * r + c] = QUARTIC[w] * grid[5 * r] + QUARTIC[w + 1] * grid[5 * r + 1]
+                    + QUARTIC[w + 2] * grid[5 * r + 2] + QUARTIC[w + 3] * grid[5 * r + 3]
+                    + QUARTIC[w + 4] * grid[5 * r + 4];
             }
+        }
+        for (int i = 0; i < 2; ++i) {
             // then down the columns, to the child's 5 rows
             vec2 child[25];
             for (int r = 0; r < 5; ++r) {
