@@ -39,6 +39,7 @@ everywhere in glmls.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -54,6 +55,7 @@ from .adaptive_patch import (
     TESTS,
     estimate_cells,
     lagrange,
+    leaf_powers,
     patches_fold,
 )
 
@@ -203,6 +205,12 @@ class AdaptiveMesh:
     estimate: np.ndarray
     levels: int
 
+    @functools.cached_property
+    def powers(self) -> np.ndarray:
+        """Each leaf's patch in powers, (2, L, 8), as :func:`.adaptive_patch.leaf_powers`
+        (derived, not a field: a mesh from dataclasses.replace works its own out)."""
+        return leaf_powers(self.nodes, self.deformed)
+
 
 class _Vertices:
     """Every evaluated vertex: integer keys (x, y in 1/units px from the lattice's origin),
@@ -335,12 +343,8 @@ def build_adaptive(
         # where the map folds: a folded pixel has no single inverse to come closer to
         limit = np.maximum(smallest, np.minimum(units, units / np.maximum(stretch, 1e-12)))
         limit[np.isinf(error)] = units
-        split = (
-            (error > tolerance)
-            & (side > limit)
-            & ((x1 - x0) % 8 == 0)  # the children's grids are keys too
-            & ((y1 - y0) % 8 == 0)
-        )
+        # sides of multiples of 8 units: the children's grids are keys too
+        split = (error > tolerance) & (side > limit) & ((x1 - x0) % 8 == 0) & ((y1 - y0) % 8 == 0)
         leaves.append(_rows(~split, box, nodes, error))
         box, nodes, tests, guess = _rows(split, box, nodes, tests, guess)
         accepted = guess * PREDICTION_MARGIN <= tolerance  # (K, 4)
@@ -446,8 +450,7 @@ def _assemble(vertices: _Vertices, leaves, levels: int) -> AdaptiveMesh:
     # rows gathered by np.take and columns one at a time: numpy's fancy indexing of
     # rows of a few columns, and its strided copies, are ~5x slower
     box, nodes, error = (np.take(part, order, axis=0) for part in (box, nodes, error))
-    # only the patches' nodes (the triangles' vertices are among them): the test points
-    # were for the build
+    # only the patches' nodes (the triangles' among them): the test points were the build's
     used = np.zeros(len(keys), bool)  # a mask, not np.unique: no sort
     used[nodes.ravel()] = True
     renumber = (np.cumsum(used) - 1).astype(np.uint32)
@@ -457,18 +460,13 @@ def _assemble(vertices: _Vertices, leaves, levels: int) -> AdaptiveMesh:
     nodes = np.take(renumber, nodes)
     deformed = np.take(vertices.f(), kept, axis=0)
     cells = vertices.origin[[0, 1, 0, 1]] + box / vertices.units
-    on_edges = fan_vertices(nodes, deformed, cells, ~np.isfinite(error))
+    powers = leaf_powers(nodes, deformed)
+    on_edges = fan_vertices(nodes, deformed, cells, ~np.isfinite(error), powers=powers)
     triangles, triangle_leaf = fans(keys, nodes, on_edges)
-    return AdaptiveMesh(
-        vertices.points(keys),
-        deformed,
-        triangles,
-        triangle_leaf,
-        cells,
-        nodes,
-        error,
-        levels,
-    )
+    source = vertices.points(keys)
+    mesh = AdaptiveMesh(source, deformed, triangles, triangle_leaf, cells, nodes, error, levels)
+    mesh.__dict__["powers"] = powers  # the cached property's value, worked out already
+    return mesh
 
 
 def interpolate(mesh: AdaptiveMesh, values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

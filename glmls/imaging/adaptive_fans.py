@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .adaptive_patch import PATCH_AT_GRID, matmul_in_blocks, singular_squares
+from .adaptive_patch import POWERS, leaf_powers, matmul_in_blocks, monomials, singular_squares
 
 __all__ = ["GUESS_LIMIT", "fan_vertices", "fans"]
 
@@ -28,24 +28,33 @@ _MIDS = (1, 3, 5, 7)  # top, left, right, bottom
 
 
 def _fan_misses() -> np.ndarray:
-    """(9, 8): from a leaf's values at its 3 x 3 nodes, how far its patch is from the corner
-    fan's linear interpolation where that is farthest for a quadratic: at the edges'
-    mid-points (top, left, right, bottom) and half-way from the centre to each corner."""
-    out = np.zeros((9, 8))
-    for k, (mid, a, b) in enumerate(((1, 0, 2), (3, 0, 6), (5, 2, 8), (7, 6, 8))):
-        out[mid, k] = 1.0
-        out[[a, b], k] -= 0.5
-    for k, (corner, place) in enumerate(zip(_CORNERS, (6, 8, 16, 18), strict=True)):
-        out[:, 4 + k] = PATCH_AT_GRID[place]  # the 5 x 5 grid's (1, 1), (1, 3), (3, 1), (3, 3)
-        out[[4, corner], 4 + k] -= 0.5
-    return out
+    """(8, 8): from a leaf's patch in powers (:func:`.adaptive_patch.leaf_powers`), how far
+    it is from the corner fan's linear interpolation where that is farthest for a quadratic:
+    at the edges' mid-points (top, left, right, bottom) and half-way from the centre to
+    each corner (the patch is 0 at the centre: its powers leave f there out)."""
+    half = 0.5
+    corners = [(-half, -half), (half, -half), (-half, half), (half, half)]  # nodes 0, 2, 6, 8
+    mids = [((0.0, -half), 0, 1), ((-half, 0.0), 0, 2), ((half, 0.0), 1, 3), ((0.0, half), 2, 3)]
+    columns = [
+        monomials(*mid) - (monomials(*corners[a]) + monomials(*corners[b])) / 2
+        for mid, a, b in mids
+    ]
+    columns += [monomials(x / 2, y / 2) - monomials(x, y) / 2 for x, y in corners]
+    return np.stack(columns, axis=1)
 
 
 _FAN_MISSES = _fan_misses()
+# a_10 and a_01 among the powers: the patch's slopes at the centre, per unit of wx and wy
+_SLOPE_X, _SLOPE_Y = POWERS.index((1, 0)), POWERS.index((0, 1))
 
 
 def fan_vertices(
-    nodes: np.ndarray, deformed: np.ndarray, leaves: np.ndarray, folded: np.ndarray
+    nodes: np.ndarray,
+    deformed: np.ndarray,
+    leaves: np.ndarray,
+    folded: np.ndarray,
+    *,
+    powers: np.ndarray | None = None,
 ) -> np.ndarray:
     """Which vertices the fans run through, (V,) bool: every leaf's corners; the mid-points of
     a leaf's edges where its patch is more than :data:`GUESS_LIMIT` source pixels from its
@@ -53,18 +62,23 @@ def fan_vertices(
     centre), where it folds (``folded``, (L,) bool), where f is not finite, and on the mesh's
     outer edges (so that the image's outline is f's at them). ``nodes`` (L, 9) each leaf's 3
     x 3 patch vertices, ``deformed`` (V, 2) f at the vertices, ``leaves`` (L, 4) the cells
-    (x0, y0, x1, y1)."""
-    nodes = nodes.astype(np.intp)  # once: numpy converts other indices at every gather
+    (x0, y0, x1, y1); ``powers``: the patches as :func:`.adaptive_patch.leaf_powers` gives
+    them (worked out here where None)."""
+    nodes = nodes.astype(np.intp, copy=False)  # once: numpy converts other indices per gather
+    if powers is None:
+        powers = leaf_powers(nodes, deformed)
+    count = len(nodes)
     on_edges = np.zeros(len(deformed), bool)
     on_edges[nodes[:, _CORNERS]] = True
-    far, slopes = 0.0, []
-    for axis in (0, 1):
-        f = np.take(np.ascontiguousarray(deformed[:, axis]), nodes)  # (L, 9)
-        miss = matmul_in_blocks(f, _FAN_MISSES)
-        far = far + miss * miss  # squares, not np.hypot: libm's is ~10x slower
-        slopes.append(((f[:, 5] - f[:, 3]), (f[:, 7] - f[:, 1])))
+    miss = matmul_in_blocks(powers.reshape(2 * count, 8), _FAN_MISSES).reshape(2, count, 8)
+    miss *= miss  # squares, not np.hypot: libm's is ~10x slower
+    far = miss[0]
+    far += miss[1]
     width, height = leaves[:, 2] - leaves[:, 0], leaves[:, 3] - leaves[:, 1]
-    (a, b), (c, d) = ((x / width, y / height) for x, y in slopes)  # the Jacobian at the centre
+    (a, c), (b, d) = (
+        (powers[0][:, k] / size, powers[1][:, k] / size)
+        for k, size in ((_SLOPE_X, width), (_SLOPE_Y, height))
+    )  # the Jacobian [[a, b], [c, d]] at the centre
     _, smallest = singular_squares(a, b, c, d, a * d - b * c)
     # NaN where f is not finite; numpy reduces the rows of the transpose ~5x faster
     far = np.ascontiguousarray(far.T).max(axis=0)

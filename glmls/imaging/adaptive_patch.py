@@ -16,7 +16,9 @@ __all__ = [
     "NODES",
     "PATCH_AT_GRID",
     "PATCH_AT_TESTS",
+    "PATCH_POWERS",
     "PATCH_SLOPES",
+    "POWERS",
     "PRODUCT_BLOCK",
     "QUARTIC_AT_EIGHTHS",
     "SAFETY",
@@ -26,7 +28,9 @@ __all__ = [
     "estimate_cells",
     "lagrange",
     "lagrange_slope",
+    "leaf_powers",
     "matmul_in_blocks",
+    "monomials",
     "patches_fold",
     "predict_cells",
     "singular_squares",
@@ -65,6 +69,49 @@ PATCH_AT_TESTS = PATCH_AT_GRID[TEST_INDEX]
 PATCH_SLOPES = np.concatenate(
     [np.kron(_AT_QUARTERS, _SLOPE_AT_QUARTERS), np.kron(_SLOPE_AT_QUARTERS, _AT_QUARTERS)]
 )
+
+#: The exponents (i, j) of a patch's powers wx^i wy^j in the order of :func:`leaf_powers`
+#: (a_00, f's value at the centre node, left out).
+POWERS = tuple(divmod(m, 3) for m in range(1, 9))
+
+
+def monomials(wx: float, wy: float) -> np.ndarray:
+    """(8,): wx^i wy^j for the exponents :data:`POWERS`: a patch's value (less the centre's)
+    at (wx, wy) is its powers (:func:`leaf_powers`) times these."""
+    return np.array([wx**i * wy**j for i, j in POWERS])
+
+
+def _patch_powers() -> np.ndarray:
+    """(9, 8): the powers of a patch (:func:`leaf_powers`) from its values at the 3 x 3
+    nodes (row by row) less the centre's: the monomials at the nodes, w = (-1/2, 0, 1/2)
+    along each axis, inverted (small integers, exact in float64)."""
+    # NODES in quarters of the sides: w = (place - 2) / 4
+    outer = [k for k in range(9) if k != 4]
+    at_nodes = np.array([monomials((c - 2) / 4, (r - 2) / 4) for r, c in np.take(NODES, outer, 0)])
+    out = np.zeros((9, 8))
+    out[outer] = np.rint(np.linalg.inv(at_nodes).T)
+    return out
+
+
+#: See :func:`_patch_powers`.
+PATCH_POWERS = _patch_powers()
+
+
+def leaf_powers(nodes: np.ndarray, deformed: np.ndarray) -> np.ndarray:
+    """(2, L, 8) float64: each patch (``nodes`` (L, 9), the vertex ids of its 3 x 3 nodes row
+    by row; ``deformed`` (V, 2), f at the vertices) less f at its centre node, in powers of
+    its centred coordinates w = (s - centre) / size, in [-1/2, 1/2]^2: the coefficients
+    a_ij of wx^i wy^j in the order of :data:`POWERS` (a_01 a_02 a_10 a_11 a_12 a_20 a_21
+    a_22), of f's x, then of its y. Horner's rule evaluates a patch and its slopes from them
+    in about a third of the operations of the Lagrange form (``warp/adaptive_patch.glsl``
+    does, at every pixel)."""
+    nodes = nodes.astype(np.intp, copy=False)  # once: numpy converts other indices per gather
+    out = np.empty((2, len(nodes), 8))
+    for axis in (0, 1):
+        f = np.take(np.ascontiguousarray(deformed[:, axis]), nodes)  # (L, 9)
+        f -= f[:, 4:5]
+        out[axis] = matmul_in_blocks(f, PATCH_POWERS)
+    return out
 
 
 #: The most multiply-adds (m n k) one matrix product of :func:`matmul_in_blocks` is given:

@@ -23,13 +23,15 @@ from ..gl.resources import Resources
 from .adaptive import ROOT_STEP, AdaptiveMesh, build_adaptive, check_adaptive
 from .adaptive_cells import GPUCells
 from .adaptive_folds import boundary_turns
-from .adaptive_patch import matmul_in_blocks
+from .adaptive_patch import POWERS
 from .frame import Frame
 
 __all__ = ["NONE", "AdaptiveScan", "Fill"]
 
 #: The source point of a pixel no triangle covers (ADAPTIVE_NONE in the shaders).
 NONE = 3.0e38
+# a_10 and a_01 among a patch's powers: its slopes at the centre, per unit of wx and wy
+_SLOPE_X, _SLOPE_Y = POWERS.index((1, 0)), POWERS.index((0, 1))
 
 
 class Fill(Protocol):
@@ -308,53 +310,27 @@ def _tiles(frame: Frame) -> tuple[int, int]:
     return (height + 7) // 8, ((width + 7) // 8 + 31) // 32
 
 
-def _powers(y0: np.ndarray, y1: np.ndarray, y2: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The quadratic through values y0, y1, y2 at w = -1/2, 0, 1/2, as the coefficients of
-    1, w and w^2."""
-    return y1, y2 - y0, 2 * (y0 + y2) - 4 * y1
-
-
-def _patch_powers() -> np.ndarray:
-    """(9, 8): the coefficients a_01 .. a_22 of a patch's powers wx^i wy^j (see
-    :func:`_leaf_patches`; a_00 = 0) from its values at the 3 x 3 nodes (row by row) less
-    the centre's: small integers, :func:`_powers` along x and then along y."""
-    out = np.zeros((9, 8))
-    for node in range(9):
-        unit = [np.zeros(1) for _ in range(9)]
-        unit[node] = np.ones(1)
-        along_x = [_powers(*unit[3 * r : 3 * r + 3]) for r in range(3)]
-        powers = [_powers(*(along_x[r][i] for r in range(3))) for i in range(3)]
-        for k, (i, j) in enumerate(divmod(m, 3) for m in range(1, 9)):
-            out[node, k] = powers[i][j][0]
-    return out
-
-
-#: See :func:`_patch_powers`.
-_PATCH_POWERS = _patch_powers()
-
-
 def _leaf_patches(mesh: AdaptiveMesh, frame: Frame) -> np.ndarray:
     """(L, 6, 4) float32: what ``warp/adaptive_patch.glsl`` reads of each leaf: its centre
-    and size, f at its centre node in the output frame and its orientation, and its patch
-    (through the 3 x 3 nodes) in powers of the centred coordinates, worked out here in
-    float64 (one product with :data:`_PATCH_POWERS` per axis)."""
-    leaves = np.zeros((len(mesh.leaves), 6, 4), np.float32)
+    and size, f at its centre node in the output frame and its orientation, and its patch in
+    powers (:attr:`~.adaptive.AdaptiveMesh.powers`, worked out in float64), the x's four
+    and four, then the y's."""
+    count = len(mesh.leaves)
+    leaves = np.empty((count, 6, 4), np.float32)
     # column by column, 1-D: numpy copies a transposed or stacked array of short rows
     # several times slower
     x0, y0, x1, y1 = (np.ascontiguousarray(mesh.leaves[:, k]) for k in range(4))
     for k, value in enumerate(((x0 + x1) / 2, (y0 + y1) / 2, x1 - x0, y1 - y0)):
         leaves[:, 0, k] = value
-    coefficients = leaves[:, 2:].reshape(-1, 16)  # a_01 a_02 a_10 ... a_22, (x, y) each
-    at_nodes = []
+    centres = np.ascontiguousarray(mesh.nodes[:, 4])
     for axis in (0, 1):
-        f = np.take(np.ascontiguousarray(mesh.deformed[:, axis]), mesh.nodes)  # (L, 9)
-        at_nodes.append(f)
-        leaves[:, 1, axis] = f[:, 4] - frame.origin[axis]
-        coefficients[:, axis::2] = matmul_in_blocks(f - f[:, 4:5], _PATCH_POWERS)
-    nx, ny = at_nodes
-    turn = np.sign(
-        (nx[:, 5] - nx[:, 3]) * (ny[:, 7] - ny[:, 1])
-        - (nx[:, 7] - nx[:, 1]) * (ny[:, 5] - ny[:, 3])
-    )
+        leaves[:, 1, axis] = np.take(mesh.deformed[:, axis], centres) - frame.origin[axis]
+    powers = mesh.powers
+    leaves[:, 2:4] = powers[0].reshape(count, 2, 4)
+    leaves[:, 4:6] = powers[1].reshape(count, 2, 4)
+    # the Jacobian's orientation at the centre, from the slopes there (a_10 and a_01)
+    (ax, ay), (bx, by) = ((powers[0][:, k], powers[1][:, k]) for k in (_SLOPE_X, _SLOPE_Y))
+    turn = np.sign(ax * by - bx * ay)
     leaves[:, 1, 2] = np.where(np.isfinite(mesh.estimate), turn, 0.0)
+    leaves[:, 1, 3] = 0.0
     return leaves

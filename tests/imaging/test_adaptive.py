@@ -22,7 +22,15 @@ from glmls.core import reference
 from glmls.imaging import adaptive_folds, adaptive_scan
 from glmls.imaging.adaptive import MAX_LEAF, MIN_SIZE, ROOT_STEP, build_adaptive, interpolate
 from glmls.imaging.adaptive_fans import GUESS_LIMIT, fan_vertices
-from glmls.imaging.adaptive_patch import NODES, PRODUCT_BLOCK, TESTS, matmul_in_blocks
+from glmls.imaging.adaptive_patch import (
+    NODES,
+    PRODUCT_BLOCK,
+    TESTS,
+    lagrange,
+    leaf_powers,
+    matmul_in_blocks,
+    monomials,
+)
 from glmls.imaging.frame import Frame
 from glmls.imaging.pipeline import WarpPipeline
 
@@ -222,6 +230,41 @@ def test_fans_keep_the_mid_points_where_a_leaf_folds_or_f_is_not_finite():
     broken[nodes[4, 4]] = np.nan
     assert fan_vertices(nodes, broken, leaves, np.zeros(9, bool))[inner].all()
     assert not fan_vertices(nodes, source, leaves, np.zeros(9, bool))[inner].any()
+
+
+def test_leaf_powers_are_the_lagrange_patch(rng):
+    """The powers (a_ij of wx^i wy^j, w centred in [-1/2, 1/2]^2) plus f at the centre node
+    are the Lagrange patch through the 3 x 3 nodes, anywhere on the leaf (float64, to
+    rounding)."""
+    nodes = np.arange(45).reshape(5, 9)
+    deformed = rng.normal(size=(45, 2)) * 50
+    powers = leaf_powers(nodes, deformed)
+    assert powers.shape == (2, 5, 8)
+    for u, v in rng.uniform(0, 1, (20, 2)):
+        basis = np.outer(lagrange(np.array(v)), lagrange(np.array(u))).ravel()  # rows: v
+        patch = basis @ deformed[nodes]  # (5, 2)
+        centre = deformed[nodes[:, 4]]
+        from_powers = np.stack([powers[axis] @ monomials(u - 0.5, v - 0.5) for axis in (0, 1)], -1)
+        np.testing.assert_allclose(from_powers + centre, patch, rtol=0, atol=1e-10)
+
+
+def test_the_mesh_powers_follow_its_vertices(rng):
+    """The powers the build worked out are the mesh's (the fans and the scan share them); a
+    mesh with other f (dataclasses.replace) works out its own."""
+    from glmls.core.mesh import MeshLattice
+
+    shape = (40, 60)
+    mesh = build_adaptive(
+        lambda v: v + 0.01 * v**2 * [1, -1], MeshLattice.corners(shape, ROOT_STEP), 0.05
+    )
+    np.testing.assert_array_equal(mesh.powers, leaf_powers(mesh.nodes, mesh.deformed))
+    moved = dataclasses.replace(mesh, deformed=mesh.deformed * 2)
+    np.testing.assert_allclose(moved.powers, 2 * mesh.powers, rtol=1e-12, atol=1e-12)
+    folded = ~np.isfinite(mesh.estimate)
+    given = fan_vertices(mesh.nodes, mesh.deformed, mesh.leaves, folded, powers=mesh.powers)
+    np.testing.assert_array_equal(
+        given, fan_vertices(mesh.nodes, mesh.deformed, mesh.leaves, folded)
+    )
 
 
 @pytest.mark.parametrize("predicted", [False, True])

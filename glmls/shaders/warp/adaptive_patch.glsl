@@ -5,10 +5,10 @@
 // Per leaf, ADAPTIVE_LEAF vec4s: its box as centre (x, y) and size (width, height) in source
 // pixels; f at its centre node (output pixels) and its orientation (+1, -1; 0: it folds); the
 // patch in powers of w = (s - centre) / size, w in [-1/2, 1/2]^2 over the leaf: f minus f at
-// the centre is sum a_ij wx^i wy^j over i, j <= 2, a_00 = 0, the other eight a_ij two per
-// vec4 in the order a_01 a_02 a_10 a_11 a_12 a_20 a_21 a_22 (glmls.imaging.adaptive_scan
-// turns the nine nodes into them). Horner's rule then evaluates the patch and its slopes in
-// about a third of the operations of the Lagrange form: this runs at every pixel.
+// the centre is sum a_ij wx^i wy^j over i, j <= 2, a_00 = 0, the other eight a_ij in the order
+// a_01 a_02 a_10 a_11 a_12 a_20 a_21 a_22, those of f's x in two vec4s, then those of its y
+// (glmls.imaging.adaptive_patch.leaf_powers). Horner's rule then evaluates the patch and its
+// slopes in about a third of the operations of the Lagrange form: this runs at every pixel.
 layout(std430, binding = BIND_ADAPTIVE_LEAVES) readonly buffer AdaptiveLeaves {
     vec4 adaptive_leaf[];
 };
@@ -19,7 +19,7 @@ struct LeafPatch {
     vec4 box;
     vec2 centre;
     float orientation;
-    vec4 a01_02, a10_11, a12_20, a21_22;   // the coefficients a_ij of wx^i wy^j, in pairs
+    vec2 a01, a02, a10, a11, a12, a20, a21, a22;   // the coefficients a_ij of wx^i wy^j (x, y)
 };
 
 LeafPatch load_patch(int index) {
@@ -29,10 +29,18 @@ LeafPatch load_patch(int index) {
     vec4 centre = adaptive_leaf[at + 1];
     leaf.centre = centre.xy;
     leaf.orientation = centre.z;
-    leaf.a01_02 = adaptive_leaf[at + 2];
-    leaf.a10_11 = adaptive_leaf[at + 3];
-    leaf.a12_20 = adaptive_leaf[at + 4];
-    leaf.a21_22 = adaptive_leaf[at + 5];
+    vec4 x0 = adaptive_leaf[at + 2];
+    vec4 x1 = adaptive_leaf[at + 3];
+    vec4 y0 = adaptive_leaf[at + 4];
+    vec4 y1 = adaptive_leaf[at + 5];
+    leaf.a01 = vec2(x0.x, y0.x);
+    leaf.a02 = vec2(x0.y, y0.y);
+    leaf.a10 = vec2(x0.z, y0.z);
+    leaf.a11 = vec2(x0.w, y0.w);
+    leaf.a12 = vec2(x1.x, y1.x);
+    leaf.a20 = vec2(x1.y, y1.y);
+    leaf.a21 = vec2(x1.z, y1.z);
+    leaf.a22 = vec2(x1.w, y1.w);
     return leaf;
 }
 
@@ -50,12 +58,12 @@ vec2 patch_inverse(LeafPatch leaf, vec2 x, vec2 w0) {
         // r_i(wy) = sum_j a_ij wy^j and its slope q_i, then the sums over wx^i
         float v = w.y;
         float v2 = 2.0 * v;
-        vec2 r0 = v * (leaf.a01_02.xy + v * leaf.a01_02.zw);
-        vec2 r1 = leaf.a10_11.xy + v * (leaf.a10_11.zw + v * leaf.a12_20.xy);
-        vec2 r2 = leaf.a12_20.zw + v * (leaf.a21_22.xy + v * leaf.a21_22.zw);
-        vec2 q0 = leaf.a01_02.xy + v2 * leaf.a01_02.zw;
-        vec2 q1 = leaf.a10_11.zw + v2 * leaf.a12_20.xy;
-        vec2 q2 = leaf.a21_22.xy + v2 * leaf.a21_22.zw;
+        vec2 r0 = v * (leaf.a01 + v * leaf.a02);
+        vec2 r1 = leaf.a10 + v * (leaf.a11 + v * leaf.a12);
+        vec2 r2 = leaf.a20 + v * (leaf.a21 + v * leaf.a22);
+        vec2 q0 = leaf.a01 + v2 * leaf.a02;
+        vec2 q1 = leaf.a11 + v2 * leaf.a12;
+        vec2 q2 = leaf.a21 + v2 * leaf.a22;
         float u = w.x;
         vec2 value = r0 + u * (r1 + u * r2);
         vec2 d_du = r1 + (2.0 * u) * r2;
