@@ -29,14 +29,32 @@ def set_uniforms(
     uniforms, most of them the same every call, and each write is a GL call (~0.6 us on
     llvmpipe, ~2 us through NVIDIA's driver, besides Python's packing). So that what is
     remembered is what the program holds, every uniform write of glmls goes through here
-    (``tests/test_architecture.py`` checks it)."""
-    written: dict[str, object] = program.__dict__.setdefault(_WRITTEN, {})
+    (``tests/test_architecture.py`` checks it). The names the program does not use are
+    remembered too: a call whose values are all as last set does no lookup of members."""
+    state = program.__dict__.get(_WRITTEN)
+    if state is None:
+        state = program.__dict__[_WRITTEN] = ({}, set())
+    written, unused = state
     for name, value in values.items():
+        # plain Python scalars and pairs of them first (most values: a warp sets ~60 pairs):
+        # type tests are cheaper than _plain's isinstance
+        kind = type(value)
+        if kind in _EXACT or (
+            kind is tuple
+            and len(value) == 2  # type: ignore[arg-type]
+            and type(value[0]) in _EXACT  # type: ignore[index]
+            and type(value[1]) in _EXACT  # type: ignore[index]
+        ):
+            key = value
+        else:
+            key = _plain(value)
+        if key is not None and written.get(name, _NOTHING) == key:
+            continue
+        if name in unused:
+            continue
         member = program.get(name, None)  # `name in program` would walk every member
         if member is None:
-            continue
-        key = _plain(value)
-        if key is not None and written.get(name) == key:
+            unused.add(name)
             continue
         member.value = value
         if key is None:
@@ -45,9 +63,12 @@ def set_uniforms(
             written[name] = key
 
 
-#: The attribute of a program that holds the values :func:`set_uniforms` last wrote.
+#: The attribute of a program that holds the values :func:`set_uniforms` last wrote, and
+#: the names it does not use.
 _WRITTEN = "glmls_uniforms"
 _SCALARS = (bool, int, float)
+_EXACT = frozenset(_SCALARS)
+_NOTHING = object()
 
 
 def _plain(value: object) -> object:

@@ -47,6 +47,7 @@ def test_set_uniforms_writes_what_changed(gl, monkeypatch):
             )
             assert result({"u_a": 3, "u_b": [1.5, 2.0]}) == ([3.0, 1.5, 2.0], [])  # repeats
             assert result({"u_a": 4, "u_b": (1.5, 2.0)}) == ([4.0, 1.5, 2.0], [("u_a", 4)])
+            assert result({"u_unused": 10, "u_a": 4})[1] == []  # still unused, still the same
             vector = np.array([0.5, 0.25], np.float32)  # not compared: written each time
             for _ in range(2):
                 values, written = result({"u_b": vector})
