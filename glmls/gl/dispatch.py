@@ -36,18 +36,7 @@ def set_uniforms(
         state = program.__dict__[_WRITTEN] = ({}, set())
     written, unused = state
     for name, value in values.items():
-        # plain Python scalars and pairs of them first (most values: a warp sets ~60 pairs):
-        # type tests are cheaper than _plain's isinstance
-        kind = type(value)
-        if kind in _EXACT or (
-            kind is tuple
-            and len(value) == 2  # type: ignore[arg-type]
-            and type(value[0]) in _EXACT  # type: ignore[index]
-            and type(value[1]) in _EXACT  # type: ignore[index]
-        ):
-            key = value
-        else:
-            key = _plain(value)
+        key = _plain(value)
         if key is not None and written.get(name, _NOTHING) == key:
             continue
         if name in unused:
@@ -74,6 +63,16 @@ _NOTHING = object()
 def _plain(value: object) -> object:
     """``value`` as a comparable Python scalar or tuple of scalars; None for anything else
     (written every time)."""
+    # exact Python scalars and pairs of them first (most values: a warp sets ~60 pairs):
+    # type tests are cheaper than isinstance
+    kind = type(value)
+    if kind in _EXACT or (
+        kind is tuple
+        and len(value) == 2  # type: ignore[arg-type]
+        and type(value[0]) in _EXACT  # type: ignore[index]
+        and type(value[1]) in _EXACT  # type: ignore[index]
+    ):
+        return value
     if isinstance(value, _SCALARS):
         return value
     if isinstance(value, (tuple, list)) and all(isinstance(v, _SCALARS) for v in value):

@@ -10,7 +10,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .adaptive_patch import POWERS, leaf_powers, matmul_in_blocks, monomials, singular_squares
+from .adaptive_patch import (
+    SLOPE_X,
+    SLOPE_Y,
+    leaf_powers,
+    matmul_in_blocks,
+    monomials,
+    singular_squares,
+)
 
 __all__ = ["GUESS_LIMIT", "fan_vertices", "fans"]
 
@@ -44,8 +51,6 @@ def _fan_misses() -> np.ndarray:
 
 
 _FAN_MISSES = _fan_misses()
-# a_10 and a_01 among the powers: the patch's slopes at the centre, per unit of wx and wy
-_SLOPE_X, _SLOPE_Y = POWERS.index((1, 0)), POWERS.index((0, 1))
 
 
 def fan_vertices(
@@ -77,7 +82,7 @@ def fan_vertices(
     width, height = leaves[:, 2] - leaves[:, 0], leaves[:, 3] - leaves[:, 1]
     (a, c), (b, d) = (
         (powers[0][:, k] / size, powers[1][:, k] / size)
-        for k, size in ((_SLOPE_X, width), (_SLOPE_Y, height))
+        for k, size in ((SLOPE_X, width), (SLOPE_Y, height))
     )  # the Jacobian [[a, b], [c, d]] at the centre
     _, smallest = singular_squares(a, b, c, d, a * d - b * c)
     # NaN where f is not finite; numpy reduces the rows of the transpose ~5x faster

@@ -22,6 +22,8 @@ __all__ = [
     "PRODUCT_BLOCK",
     "QUARTIC_AT_EIGHTHS",
     "SAFETY",
+    "SLOPE_X",
+    "SLOPE_Y",
     "TESTS",
     "TEST_INDEX",
     "error_bound",
@@ -73,6 +75,9 @@ PATCH_SLOPES = np.concatenate(
 #: The exponents (i, j) of a patch's powers wx^i wy^j in the order of :func:`leaf_powers`
 #: (a_00, f's value at the centre node, left out).
 POWERS = tuple(divmod(m, 3) for m in range(1, 9))
+#: Where a_10 and a_01 are among the powers: the patch's slopes at the centre, per unit of wx
+#: and of wy.
+SLOPE_X, SLOPE_Y = POWERS.index((1, 0)), POWERS.index((0, 1))
 
 
 def monomials(wx: float, wy: float) -> np.ndarray:

@@ -23,15 +23,13 @@ from ..gl.resources import Resources
 from .adaptive import ROOT_STEP, AdaptiveMesh, build_adaptive, check_adaptive
 from .adaptive_cells import GPUCells
 from .adaptive_folds import boundary_turns
-from .adaptive_patch import POWERS
+from .adaptive_patch import SLOPE_X, SLOPE_Y
 from .frame import Frame
 
 __all__ = ["NONE", "AdaptiveScan", "Fill"]
 
 #: The source point of a pixel no triangle covers (ADAPTIVE_NONE in the shaders).
 NONE = 3.0e38
-# a_10 and a_01 among a patch's powers: its slopes at the centre, per unit of wx and wy
-_SLOPE_X, _SLOPE_Y = POWERS.index((1, 0)), POWERS.index((0, 1))
 
 
 class Fill(Protocol):
@@ -329,7 +327,7 @@ def _leaf_patches(mesh: AdaptiveMesh, frame: Frame) -> np.ndarray:
     leaves[:, 2:4] = powers[0].reshape(count, 2, 4)
     leaves[:, 4:6] = powers[1].reshape(count, 2, 4)
     # the Jacobian's orientation at the centre, from the slopes there (a_10 and a_01)
-    (ax, ay), (bx, by) = ((powers[0][:, k], powers[1][:, k]) for k in (_SLOPE_X, _SLOPE_Y))
+    (ax, ay), (bx, by) = ((powers[0][:, k], powers[1][:, k]) for k in (SLOPE_X, SLOPE_Y))
     turn = np.sign(ax * by - bx * ay)
     leaves[:, 1, 2] = np.where(np.isfinite(mesh.estimate), turn, 0.0)
     leaves[:, 1, 3] = 0.0
