@@ -186,6 +186,11 @@ class MLSKernel:
         return self.scaling.from_gpu(self._packed[:, :2])
 
     @property
+    def targets(self) -> np.ndarray:
+        """(N, 2) float64: the point handles' targets, pixels (as the GPU has them)."""
+        return self.scaling.from_gpu(self._packed[:, 2:])
+
+    @property
     def segments(self) -> int:
         """Segment handles."""
         return len(self._segments) // 2

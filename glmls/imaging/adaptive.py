@@ -14,7 +14,8 @@ in the pipeline):
    patch through the 3 x 3 nodes (corners, edge mid-points, centre), its *miss* the
    largest distance from f at the 16 other points; that miss times :data:`SAFETY` over the
    smallest singular value of the patch's Jacobian on the grid bounds the source-space
-   error of the cell (:mod:`.adaptive_patch`);
+   error of the cell (:mod:`.adaptive_patch`); where f has cusps at the point handles
+   (``known``), the patch is also measured at those in or next to the cell;
 3. cells whose error exceeds the tolerance are split into four (their grid's points are the
    children's nodes), down to 1 px cells, and below (to :data:`MIN_SIZE`) where the map
    stretches (largest singular value > 1: a 1 px cell there covers more than one output
@@ -54,7 +55,8 @@ from .adaptive_patch import (
     SAFETY,
     TESTS,
     estimate_cells,
-    lagrange,
+    interpolate,
+    known_errors,
     leaf_powers,
     patches_fold,
 )
@@ -273,6 +275,7 @@ def build_adaptive(
     min_size: float = MIN_SIZE,
     test: CellTest | None = None,
     max_leaf: float = MAX_LEAF,
+    known: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> AdaptiveMesh:
     """The adaptive mesh over the cells of ``lattice`` (a corner lattice: its step is the
     roots' side), refined until each leaf's estimated source-space error is within
@@ -284,7 +287,10 @@ def build_adaptive(
     PREDICTION_MARGIN`` is a leaf, and f is not evaluated at its test points; None:
     :func:`.adaptive_patch.estimate_cells` on the evaluated f, every child tested. With
     either, a child of 1 px whose patch folds is a leaf untested (its bound is infinite
-    whatever f is at its test points)."""
+    whatever f is at its test points). ``known``: (points (N, 2), f at them (N, 2)), pixels,
+    where f may bend more sharply than a cell's test points show (its cusps at the point
+    handles, :func:`.adaptive_cells.known_points`): a cell that passes its test is also
+    measured at those in reach of it (:func:`.adaptive_patch.known_errors`)."""
     xs, ys = lattice.axes
     x_origin, y_origin = lattice.origin
     span = max(xs[-1] - x_origin, ys[-1] - y_origin) + 1.0
@@ -306,6 +312,10 @@ def build_adaptive(
         for k in (kx, ky)
     )
     ids = vertices.add_lattice(fine_x, fine_y, evaluate)
+    if known is not None:  # in the cells' units, sorted by x
+        keys = (np.asarray(known[0], np.float64) - vertices.origin) * units
+        order = np.argsort(keys[:, 0], kind="stable")
+        known = (keys[order], np.asarray(known[1], np.float64)[order])
     rows = 4 * np.arange(len(ky) - 1)[:, None, None] + np.array([r for r, _ in NODES + TESTS])
     cols = 4 * np.arange(len(kx) - 1)[None, :, None] + np.array([c for _, c in NODES + TESTS])
     ids = ids[rows, cols].reshape(-1, 25)
@@ -339,6 +349,10 @@ def build_adaptive(
             error, stretch, guess, _ = test(nodes, tests, w, h, centres, whole)
             error = np.where(whole, np.inf, error)
             stretch = np.where(whole, 0.0, stretch)
+        if known is not None:  # only where the test passes: the others split anyway
+            passed = np.flatnonzero(error <= tolerance)
+            at = known_errors(*vertices.f_apart(), nodes[passed], box[passed], *known)
+            error[passed] = np.maximum(error[passed], at)
         # below 1 px only where a pixel's cell covers more than one output pixel, and not
         # where the map folds: a folded pixel has no single inverse to come closer to
         limit = np.maximum(smallest, np.minimum(units, units / np.maximum(stretch, 1e-12)))
@@ -467,32 +481,3 @@ def _assemble(vertices: _Vertices, leaves, levels: int) -> AdaptiveMesh:
     mesh = AdaptiveMesh(source, deformed, triangles, triangle_leaf, cells, nodes, error, levels)
     mesh.__dict__["powers"] = powers  # the cached property's value, worked out already
     return mesh
-
-
-def interpolate(mesh: AdaptiveMesh, values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """``values`` ((V,) at ``mesh``'s vertices) at the pixel centres of an image of ``shape``
-    (H, W), (H, W) float64: on each leaf, its quadratic patch through the values at its 3 x 3
-    nodes (as the warp interpolates f). A pixel centre on an edge between leaves takes the
-    leaf after it (boxes are half-open); one no leaf covers is NaN."""
-    height, width = shape
-    out = np.full((height, width), np.nan)
-    x0, y0, x1, y1 = mesh.leaves.T
-    first_col = np.clip(np.ceil(x0), 0, width).astype(np.int64)
-    first_row = np.clip(np.ceil(y0), 0, height).astype(np.int64)
-    cols = np.clip(np.ceil(x1), 0, width).astype(np.int64) - first_col
-    rows = np.clip(np.ceil(y1), 0, height).astype(np.int64) - first_row
-    counts = cols * rows  # the pixel centres of each leaf
-    leaf = np.repeat(np.arange(len(counts)), counts)
-    k = np.arange(len(leaf)) - np.repeat(np.cumsum(counts) - counts, counts)
-    col = first_col[leaf] + k % cols[leaf]
-    row = first_row[leaf] + k // cols[leaf]
-    u = (col - x0[leaf]) / (x1 - x0)[leaf]
-    v = (row - y0[leaf]) / (y1 - y0)[leaf]
-    basis_u, basis_v = lagrange(u), lagrange(v)
-    nodes = mesh.nodes[leaf]
-    total = np.zeros(len(leaf))
-    for a in range(3):
-        for b in range(3):
-            total += basis_v[a] * basis_u[b] * values[nodes[:, 3 * a + b]]
-    out[row, col] = total
-    return out

@@ -28,6 +28,7 @@ __all__ = [
     "MAX_SMOOTH_ALPHA",
     "SMOOTH_REACH",
     "GPUCells",
+    "known_points",
     "smooth_reach",
     "smooth_weight",
 ]
@@ -81,6 +82,21 @@ def smooth_reach(kernel: MLSKernel) -> float:
     :data:`SMOOTH_REACH`."""
     power = _power(kernel)
     return CUSP_REACH if power is not None and power < 1.0 else SMOOTH_REACH
+
+
+def known_points(kernel: MLSKernel, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray] | None:
+    """Where the build's test also measures each cell's patch
+    (:func:`glmls.imaging.adaptive.build_adaptive`'s ``known``): where f has a cusp at the
+    point handles (a power, idw's or the interpolating factor's, below 1), their sources
+    and f there (evaluated once, as the GPU has it), for an image of ``shape``: a cell's 16
+    test points can miss a cusp between them (an idw alpha 0.6 map's pixels erred by 1.5x
+    the tolerance in 16 px leaves holding a handle). None elsewhere."""
+    power = _power(kernel)
+    if power is None or power >= 1.0 or kernel.count == 0:
+        return None
+    sources = kernel.sources
+    values, _ = evaluate_points(kernel, sources, with_matrix=False, shape=shape)
+    return sources, values
 
 
 def _power(kernel: MLSKernel) -> float | None:

@@ -21,7 +21,7 @@ from ..gl.context import GLContext
 from ..gl.dispatch import run_1d, set_uniforms
 from ..gl.resources import Resources
 from .adaptive import ROOT_STEP, AdaptiveMesh, build_adaptive, check_adaptive
-from .adaptive_cells import GPUCells
+from .adaptive_cells import GPUCells, known_points
 from .adaptive_folds import boundary_turns
 from .adaptive_patch import SLOPE_X, SLOPE_Y
 from .frame import Frame
@@ -56,7 +56,13 @@ class AdaptiveScan:
         cells tested and their children predicted on the GPU, in one pass per level
         (:mod:`.adaptive_cells`)."""
         cells = GPUCells(self._gl, self._resources, kernel, lattice.shape, tolerance)
-        return build_adaptive(cells.evaluate, lattice, tolerance, test=cells.test)
+        return build_adaptive(
+            cells.evaluate,
+            lattice,
+            tolerance,
+            test=cells.test,
+            known=known_points(kernel, lattice.shape),
+        )
 
     def mesh(self, kernel: MLSKernel, shape: tuple[int, int], tolerance: float) -> AdaptiveMesh:
         """The adaptive mesh that ``quads`` with ``tolerance`` draws for an image of ``shape``

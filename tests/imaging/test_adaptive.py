@@ -19,13 +19,17 @@ from helpers import (
 
 import glmls
 from glmls.core import reference
+from glmls.core.mesh import MeshLattice
 from glmls.imaging import adaptive_folds, adaptive_scan
 from glmls.imaging.adaptive import MAX_LEAF, MIN_SIZE, ROOT_STEP, build_adaptive, interpolate
 from glmls.imaging.adaptive_fans import GUESS_LIMIT, fan_vertices
 from glmls.imaging.adaptive_patch import (
+    KNOWN_REACH,
     NODES,
     PRODUCT_BLOCK,
+    SAFETY,
     TESTS,
+    known_errors,
     lagrange,
     leaf_powers,
     matmul_in_blocks,
@@ -60,7 +64,8 @@ def source_points(m, shape, tolerance):
 
 def inverse_error(m, shape, xy, covered):
     """|s - f^-1(u)| to first order, J(s)^-1 (f(s) - u) with f in float64, at every covered
-    output pixel u where f is locally invertible (folded pixels have no single inverse)."""
+    output pixel u where f is locally invertible (folded pixels have no single inverse):
+    (H, W), NaN elsewhere; and the share of the covered pixels that are."""
     yy, xx = np.nonzero(covered)
     s = xy[yy, xx]
     u = np.stack([xx, yy], -1).astype(np.float64)
@@ -71,27 +76,92 @@ def inverse_error(m, shape, xy, covered):
     jac = np.stack([(fx1 - fx0) / (2 * h), (fy1 - fy0) / (2 * h)], axis=-1)
     regular = np.linalg.det(jac) > 0.05
     miss = np.linalg.solve(jac[regular], (f0 - u)[regular][..., None])[..., 0]
-    return np.hypot(miss[:, 0], miss[:, 1]), regular.mean()
+    error = np.full(shape, np.nan)
+    error[yy[regular], xx[regular]] = np.hypot(miss[:, 0], miss[:, 1])
+    return error, regular.mean()
+
+
+def first_triangles(mesh, shape, margin=1e-4):
+    """Each pixel centre's first triangle of ``mesh`` in scan order, as the scan draws it:
+    (H, W) indices, -1 where none covers it, and where one within ``margin`` (barycentric)
+    of its edges decides (rounding may go either way there)."""
+    tri = mesh.deformed[mesh.triangles.astype(np.int64)]  # (T, 3, 2)
+    height, width = shape
+    strict = np.full(shape, -1)
+    loose = np.full(shape, -1)
+    for t in range(len(tri) - 1, -1, -1):  # the first triangle last: it stays
+        a, b, c = tri[t]
+        area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+        lo = np.maximum(np.floor(tri[t].min(0)), 0).astype(int)
+        hi = np.minimum(np.ceil(tri[t].max(0)), [width - 1, height - 1]).astype(int)
+        if abs(area) < 1e-9 or (lo > hi).any():
+            continue
+        yy, xx = np.mgrid[lo[1] : hi[1] + 1, lo[0] : hi[0] + 1]
+        lb = ((xx - a[0]) * (c[1] - a[1]) - (yy - a[1]) * (c[0] - a[0])) / area
+        lc = ((b[0] - a[0]) * (yy - a[1]) - (b[1] - a[1]) * (xx - a[0])) / area
+        least = np.minimum(np.minimum(lb, lc), 1 - lb - lc)
+        strict[yy[least > margin], xx[least > margin]] = t
+        loose[yy[least > -margin], xx[least > -margin]] = t
+    return np.where(strict == loose, strict, -1)
+
+
+def guarantee_handles(case):
+    """The handles of the guarantee's maps (``docs/adaptive.md``): smooth, two close handles
+    pulled apart, random ones that fold, and 60 handles moved by up to 3 px."""
+    rng = np.random.default_rng(7)
+    if case == "dense":
+        p = rng.uniform(0.05, 0.95, (60, 2)) * [SHAPE[1], SHAPE[0]]
+        return p, p + rng.uniform(-3, 3, p.shape)
+    return {  # each drawn after the others before it
+        "smooth": smooth_handles(SHAPE, rng),
+        "stretched": stretched_handles(SHAPE),
+        "random": jittered_moves(SHAPE, rng),
+    }[case]
 
 
 @pytest.mark.parametrize("case", ["smooth", "stretched", "random"])
 @pytest.mark.parametrize("tolerance", [0.05, 0.25])
 def test_every_source_point_is_within_the_tolerance_of_the_inverse(gl, case, tolerance):
-    rng = np.random.default_rng(7)
-    handles = {
-        "smooth": smooth_handles(SHAPE, rng),
-        "stretched": stretched_handles(SHAPE),
-        "random": jittered_moves(SHAPE, rng),
-    }[case]
-    with glmls.MLS(*handles, shape=SHAPE) as m:
+    with glmls.MLS(*guarantee_handles(case), shape=SHAPE) as m:
         mesh, xy, covered = source_points(m, SHAPE, tolerance)
         error, regular = inverse_error(m, SHAPE, xy, covered)
     assert covered.mean() > 0.9 and regular > 0.97
+    error = error[np.isfinite(error)]
     assert error.max() <= tolerance, (error.max(), np.quantile(error, 0.999))
     sides = mesh.leaves[:, 2] - mesh.leaves[:, 0]
     assert sides.max() <= MAX_LEAF and sides.min() >= MIN_SIZE
     if case == "stretched":
         assert sides.min() < MAX_LEAF / 2  # refined where the map stretches
+
+
+@pytest.mark.parametrize(
+    ("config", "case", "tolerance"),
+    [
+        # it folds: its largest errors (12x the tolerance) are drawn by folded leaves
+        ({"alpha": 2.0}, "random", 0.05),
+        # a 1/4 px leaf's Newton step lands 0.7 of its side past its edge (it kept the
+        # fan's point, 4.4x the tolerance away, when steps past half a side were refused)
+        ({"alpha": 3.0}, "random", 0.05),
+        # cusps at the handles, between a leaf's test points (1.5x the tolerance when the
+        # test did not also measure the patch at the handles)
+        ({"alpha": 0.6}, "dense", 0.25),
+    ],
+)
+def test_every_pixel_a_leaf_vouches_for_is_within_the_tolerance(gl, config, case, tolerance):
+    """Other weights, maps that fold: every pixel drawn by a leaf whose bound
+    (``AdaptiveMesh.estimate``) is within the tolerance is within it of f's inverse; the
+    rest lie in leaves that say they are not (folded, or the smallest)."""
+    with glmls.MLS(*guarantee_handles(case), shape=SHAPE, **config) as m:
+        mesh, xy, covered = source_points(m, SHAPE, tolerance)
+        error, _ = inverse_error(m, SHAPE, xy, covered)
+    first = first_triangles(mesh, SHAPE)
+    drawn = first >= 0
+    leaf = mesh.triangle_leaf[first[drawn]]
+    vouched = np.zeros(SHAPE, bool)
+    vouched[drawn] = mesh.estimate[leaf] <= tolerance
+    checked = vouched & np.isfinite(error)
+    assert checked.sum() > 0.95 * covered.sum()
+    assert error[checked].max() <= tolerance, (error[checked].max(), checked.sum())
 
 
 def test_no_cracks_between_cells_of_different_sizes(gl):
@@ -133,18 +203,7 @@ def test_the_first_cell_in_scan_order_shows_where_the_map_folds(gl):
     height, width = shape
     yy, xx = np.mgrid[0:height, 0:width]
     u = np.stack([xx.ravel(), yy.ravel()], -1).astype(np.float64)
-    first = np.full(len(u), -1)
-    inside_any = np.zeros(len(u), bool)
-    for t in range(len(tri) - 1, -1, -1):  # the first triangle last: it stays
-        a, b, c = tri[t]
-        area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-        if abs(area) < 1e-9:
-            continue
-        lb = ((u[:, 0] - a[0]) * (c[1] - a[1]) - (u[:, 1] - a[1]) * (c[0] - a[0])) / area
-        lc = ((b[0] - a[0]) * (u[:, 1] - a[1]) - (b[1] - a[1]) * (u[:, 0] - a[0])) / area
-        inside = (lb > 1e-4) & (lc > 1e-4) & (1 - lb - lc > 1e-4)
-        first[inside] = t
-        inside_any |= inside
+    first = first_triangles(mesh, shape).ravel()
     hit = first >= 0
     t = first[hit]
     a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
@@ -173,8 +232,6 @@ def test_the_mesh_builder_on_an_affine_map_keeps_the_largest_leaves():
     """An affine f is interpolated exactly: no cell is split but the roots larger than
     MAX_LEAF (64 x 80: roots 32 x 32, and 16 x 32 in the last column, split in four), and
     the fans need no mid-points but on the mesh's outline."""
-    from glmls.core.mesh import MeshLattice
-
     lattice = MeshLattice.corners((64, 80), ROOT_STEP)
     matrix = np.array([[1.2, 0.3], [-0.1, 0.9]])
     mesh = build_adaptive(lambda v: v @ matrix + [3.0, -2.0], lattice, 0.01)
@@ -251,8 +308,6 @@ def test_leaf_powers_are_the_lagrange_patch(rng):
 def test_the_mesh_powers_follow_its_vertices(rng):
     """The powers the build worked out are the mesh's (the fans and the scan share them); a
     mesh with other f (dataclasses.replace) works out its own."""
-    from glmls.core.mesh import MeshLattice
-
     shape = (40, 60)
     mesh = build_adaptive(
         lambda v: v + 0.01 * v**2 * [1, -1], MeshLattice.corners(shape, ROOT_STEP), 0.05
@@ -276,8 +331,6 @@ def test_the_leaves_fans_make_one_conforming_triangulation(shape, predicted):
     fan covers exactly its cell. Also where children predicted within the tolerance are
     leaves whose test points are never evaluated (a split cell's new points are then those
     of its tested children, and of its neighbours' on a shared edge)."""
-    from glmls.core.mesh import MeshLattice
-
     lattice = MeshLattice.corners(shape, ROOT_STEP)
     centre = np.array([shape[1] * 0.4, shape[0] * 0.55])
 
@@ -346,7 +399,6 @@ def test_folded_children_of_1_px_are_leaves_without_their_test_points(monkeypatc
     """A child of 1 px whose patch folds can split no further and its bound is infinite
     whatever f is at its test points: it is a leaf, and they are never evaluated. The mesh
     is the one the build makes when it tests every such child."""
-    from glmls.core.mesh import MeshLattice
     from glmls.imaging import adaptive
 
     lattice = MeshLattice.corners((80, 112), ROOT_STEP)
@@ -376,7 +428,6 @@ def test_the_build_stops_before_it_fills_the_memory():
     the same) ends with ValueError once it needs MAX_POINTS_PER_PIXEL evaluations per pixel,
     instead of splitting every cell down to 1/2 px (it stretches up to 1.9x and never
     folds: folded cells of 1 px are leaves untested)."""
-    from glmls.core.mesh import MeshLattice
     from glmls.imaging.adaptive import MAX_POINTS_PER_PIXEL, MIN_TOLERANCE
 
     evaluated = []
@@ -550,8 +601,6 @@ def test_a_mirror_is_interpolated_exactly(gl):
 
 def test_interpolate_reproduces_quadratics():
     """The leaves' quadratic patches reproduce x^a y^b (a, b <= 2) at every pixel centre."""
-    from glmls.core.mesh import MeshLattice
-
     shape = (45, 70)
     mesh = build_adaptive(
         lambda v: v + 0.02 * v**2 * [1, -1], MeshLattice.corners(shape, ROOT_STEP), 1e-3
@@ -620,3 +669,64 @@ def test_matmul_in_blocks_is_the_product(rng, shape):
     out = matmul_in_blocks(a, b)
     assert out.shape == (m, n)
     np.testing.assert_allclose(out, a @ b, rtol=1e-13, atol=1e-13)
+
+
+def test_known_errors_measure_the_patch_at_the_points_in_reach():
+    """Against float64: SAFETY x the patch's miss at a known point over the smallest
+    singular value of its Jacobian there, the largest over the cell's points (inside it, or
+    within KNOWN_REACH of its sides past it), 0 where it has none, infinite where the patch
+    turns over there."""
+    x0, y0, x1, y1 = 10.0, 20.0, 14.0, 26.0
+    cubic = lambda x, y: np.stack([x + 1e-3 * x**3, y + 0.02 * x * y + 5e-4 * y**3], -1)  # noqa: E731
+    gx, gy = np.meshgrid(np.linspace(x0, x1, 3), np.linspace(y0, y1, 3))
+    f = cubic(gx.ravel(), gy.ravel())
+    nodes = np.arange(9)[None]
+    box = np.array([[x0, y0, x1, y1]])
+
+    def patch(x, y):
+        u, v = (x - x0) / (x1 - x0), (y - y0) / (y1 - y0)
+        return np.outer(lagrange(np.array(v)), lagrange(np.array(u))).ravel() @ f
+
+    def bound(x, y, h=1e-6):
+        jac = np.stack([patch(x + h, y) - patch(x - h, y), patch(x, y + h) - patch(x, y - h)], -1)
+        smallest = np.linalg.svd(jac / (2 * h), compute_uv=False).min()
+        return SAFETY * np.hypot(*(patch(x, y) - cubic(x, y))) / smallest
+
+    inside = np.array([[11.0, 21.5], [13.2, 25.0]])
+    past = np.array([[x1 + 0.9 * KNOWN_REACH * (x1 - x0), 23.0]])
+    beyond = np.array([[x0 - 1.1 * KNOWN_REACH * (x1 - x0), 23.0], [12.0, 40.0]])
+    for points, want in (
+        (inside, max(bound(*p) for p in inside)),
+        (past, bound(*past[0])),
+        (beyond, 0.0),
+    ):
+        order = np.argsort(points[:, 0])
+        points = points[order]
+        got = known_errors(f[:, 0], f[:, 1], nodes, box, points, cubic(*points.T))
+        np.testing.assert_allclose(got, [want], rtol=1e-6)
+    assert bound(*inside[0]) > 1e-3  # a cubic: the patch misses
+    # a patch that turns over between its centre and the point
+    folded = f.copy()
+    folded[2] = [x0 - 3.0, y0]  # the top-right corner pulled past the top-left one
+    point = np.array([[13.8, 20.2]])
+    assert np.isinf(known_errors(folded[:, 0], folded[:, 1], nodes, box, point, point))
+
+
+def test_the_build_measures_each_cell_at_the_known_points():
+    """f with a cusp at p, between a 16 px cell's test points: the 16 px leaf that holds p
+    misses f there by 2.3x the tolerance (its bound 0.92x) unless the build also measures
+    the patches at p (``known``), which splits them until they meet f within it."""
+    shape = (64, 64)
+    cusp = np.array([37.0, 21.0])  # a pixel centre, off every 16 px cell's 5 x 5 grid
+
+    def f(v):
+        r = np.hypot(*(v - cusp).T)
+        return v + 0.05 * r[:, None] ** 0.6 * [1.0, 0.5]
+
+    lattice = MeshLattice.corners(shape, ROOT_STEP)
+    misses = []
+    for known in (None, (cusp[None], f(cusp[None]))):
+        mesh = build_adaptive(f, lattice, 0.05, known=known)
+        at_cusp = [interpolate(mesh, mesh.deformed[:, k], shape)[21, 37] for k in (0, 1)]
+        misses.append(np.hypot(*(np.array(at_cusp) - f(cusp[None])[0])))
+    assert misses[0] > 2 * 0.05 and misses[1] <= 0.05, misses

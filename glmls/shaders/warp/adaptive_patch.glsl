@@ -46,9 +46,12 @@ LeafPatch load_patch(int index) {
 
 // Where the patch maps to x (output pixels, the frame's), from the guess w0 (the leaf's
 // centred coordinates, see above), in source pixels: Newton's method, on the guess's side of
-// a fold. A step where the patch turns over and a point that runs off the patch keep the
-// guess. Branch-free: this runs at every pixel, and llvmpipe runs both sides of a branch its
-// lanes disagree on anyway.
+// a fold. A step where the patch turns over, and a point that runs off the patch, keep the
+// guess: off is more than 1.5 sides past the leaf's edges, half a side where the leaf folds.
+// (A pixel near a leaf's edge may lie on its fan but past its patch's curved edge: the
+// patch's own inverse there is in the neighbour, and on a 1/4 px leaf 0.7 of a side away,
+// where the fan's guess erred by 4.4x the tolerance.) Branch-free: this runs at every pixel,
+// and llvmpipe runs both sides of a branch its lanes disagree on anyway.
 vec2 patch_inverse(LeafPatch leaf, vec2 x, vec2 w0) {
     float orientation = leaf.orientation;
     vec2 target = x - leaf.centre;
@@ -75,6 +78,6 @@ vec2 patch_inverse(LeafPatch leaf, vec2 x, vec2 w0) {
         vec2 delta = vec2(d_dv.y * miss.x - d_dv.x * miss.y, d_du.x * miss.y - d_du.y * miss.x);
         w = ok ? w - delta / det : w;
     }
-    ok = ok && all(lessThanEqual(abs(w), vec2(1.0)));
+    ok = ok && all(lessThanEqual(abs(w), vec2(leaf.orientation == 0.0 ? 1.0 : 2.0)));
     return leaf.box.xy + (ok ? w : w0) * leaf.box.zw;
 }
