@@ -14,8 +14,8 @@ in the pipeline):
    patch through the 3 x 3 nodes (corners, edge mid-points, centre), its *miss* the
    largest distance from f at the 16 other points; that miss times :data:`SAFETY` over the
    smallest singular value of the patch's Jacobian on the grid bounds the source-space
-   error of the cell (:mod:`.adaptive_patch`); where f has cusps at the point handles
-   (``known``), the patch is also measured at those in or next to the cell;
+   error of the cell (:mod:`.adaptive_patch`); where f bends sharply at or between the
+   point handles (``known``), the patch is also measured there, in or next to the cell;
 3. cells whose error exceeds the tolerance are split into four (their grid's points are the
    children's nodes), down to 1 px cells, and below (to :data:`MIN_SIZE`) where the map
    stretches (largest singular value > 1: a 1 px cell there covers more than one output
@@ -289,8 +289,9 @@ def build_adaptive(
     either, a child of 1 px whose patch folds is a leaf untested (its bound is infinite
     whatever f is at its test points). ``known``: (points (N, 2), f at them (N, 2)), pixels,
     where f may bend more sharply than a cell's test points show (its cusps at the point
-    handles, :func:`.adaptive_cells.known_points`): a cell that passes its test is also
-    measured at those in reach of it (:func:`.adaptive_patch.known_errors`)."""
+    handles, its turns between close ones: :func:`.adaptive_cells.known_points`): a cell
+    that passes its test is also measured at those in reach of it
+    (:func:`.adaptive_patch.known_errors`)."""
     xs, ys = lattice.axes
     x_origin, y_origin = lattice.origin
     span = max(xs[-1] - x_origin, ys[-1] - y_origin) + 1.0

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from ..engine.kernel import MLSKernel
 from ..engine.passes import evaluate_points
@@ -26,6 +27,7 @@ from .adaptive_patch import SAFETY, error_bound
 __all__ = [
     "CUSP_REACH",
     "MAX_SMOOTH_ALPHA",
+    "PAIR_REACH",
     "SMOOTH_REACH",
     "GPUCells",
     "known_points",
@@ -58,6 +60,11 @@ CUSP_REACH = 2.0
 #: its prediction 36 px from the nearest handle missed by 1.27x the tolerance; alpha 2
 #: kept every map's errors within the full test's).
 MAX_SMOOTH_ALPHA = 2.0
+#: Pixels: above :data:`MAX_SMOOTH_ALPHA`, the test also measures the patches along the
+#: segments between point handles closer than this (:func:`known_points`), the largest
+#: leaf's side (8 px mended the one pixel found as well; at alpha 2.5 and 3 the guarantee's
+#: maps got 3-19 % more leaves).
+PAIR_REACH = 16.0
 
 
 def smooth_weight(kernel: MLSKernel) -> bool:
@@ -85,16 +92,26 @@ def smooth_reach(kernel: MLSKernel) -> float:
 
 
 def known_points(kernel: MLSKernel, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray] | None:
-    """Where the build's test also measures each cell's patch
-    (:func:`glmls.imaging.adaptive.build_adaptive`'s ``known``): where f has a cusp at the
-    point handles (a power, idw's or the interpolating factor's, below 1), their sources
-    and f there (evaluated once, as the GPU has it), for an image of ``shape``: a cell's 16
-    test points can miss a cusp between them (an idw alpha 0.6 map's pixels erred by 1.5x
-    the tolerance in 16 px leaves holding a handle). None elsewhere."""
+    """Where the build's test also measures each cell's patch, f there (evaluated once, as
+    the GPU has it, for an image of ``shape``): the points that
+    :func:`glmls.imaging.adaptive.build_adaptive`'s ``known`` takes, where f bends more
+    sharply than a cell's 16 test points may show. Where the power (idw's, or the
+    interpolating factor's) is below 1, the point handles: f has a cusp at each (an idw
+    alpha 0.6 map erred by 1.53x the tolerance in 16 px leaves holding one). Above
+    :data:`MAX_SMOOTH_ALPHA`, the quarter points of the segments between point handles
+    closer than :data:`PAIR_REACH`: f turns from one's transformation to the other's
+    within a pixel or two there (alpha 3: 1.38x, a 2 px leaf between two handles 3.5 px
+    apart). None elsewhere."""
     power = _power(kernel)
-    if power is None or power >= 1.0 or kernel.count == 0:
+    if power is None or 1.0 <= power <= MAX_SMOOTH_ALPHA or kernel.count == 0:
         return None
     sources = kernel.sources
+    if power > MAX_SMOOTH_ALPHA:
+        pairs = cKDTree(sources).query_pairs(PAIR_REACH, output_type="ndarray")
+        if len(pairs) == 0:
+            return None
+        a, b = sources[pairs[:, 0]], sources[pairs[:, 1]]
+        sources = np.concatenate([a + t * (b - a) for t in (0.25, 0.5, 0.75)])
     values, _ = evaluate_points(kernel, sources, with_matrix=False, shape=shape)
     return sources, values
 

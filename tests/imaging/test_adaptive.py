@@ -22,6 +22,7 @@ from glmls.core import reference
 from glmls.core.mesh import MeshLattice
 from glmls.imaging import adaptive_folds, adaptive_scan
 from glmls.imaging.adaptive import MAX_LEAF, MIN_SIZE, ROOT_STEP, build_adaptive, interpolate
+from glmls.imaging.adaptive_cells import known_points
 from glmls.imaging.adaptive_fans import GUESS_LIMIT, fan_vertices
 from glmls.imaging.adaptive_patch import (
     KNOWN_REACH,
@@ -142,6 +143,9 @@ def test_every_source_point_is_within_the_tolerance_of_the_inverse(gl, case, tol
         # a 1/4 px leaf's Newton step lands 0.7 of its side past its edge (it kept the
         # fan's point, 4.4x the tolerance away, when steps past half a side were refused)
         ({"alpha": 3.0}, "random", 0.05),
+        # f turns between two handles 3.5 px apart inside a 2 px leaf (1.38x when the test
+        # did not also measure the patches on the segment between them)
+        ({"alpha": 3.0}, "random", 0.25),
         # cusps at the handles, between a leaf's test points (1.5x the tolerance when the
         # test did not also measure the patch at the handles)
         ({"alpha": 0.6}, "dense", 0.25),
@@ -730,3 +734,30 @@ def test_the_build_measures_each_cell_at_the_known_points():
         at_cusp = [interpolate(mesh, mesh.deformed[:, k], shape)[21, 37] for k in (0, 1)]
         misses.append(np.hypot(*(np.array(at_cusp) - f(cusp[None])[0])))
     assert misses[0] > 2 * 0.05 and misses[1] <= 0.05, misses
+
+
+def test_known_points_where_f_bends_sharply(gl):
+    """The handles where idw's power is below 1 (f has cusps there), the quarter points of
+    the segments between handles closer than PAIR_REACH where it is above 2 (f turns
+    between them), f there as the GPU evaluates it; nothing for the smooth weights."""
+    p = np.array([[20.0, 30.0], [30.0, 30.0], [100.0, 80.0]])  # one close pair
+    q = p + [[2.0, -1.0], [-1.0, 2.0], [0.5, 0.5]]
+    for config, want in (
+        ({}, None),
+        ({"alpha": 2.0}, None),
+        ({"weight": "gaussian", "radius": 30}, None),
+        ({"alpha": 0.6}, p),
+        ({"alpha": 3.0}, [[22.5, 30.0], [25.0, 30.0], [27.5, 30.0]]),
+        ({"weight": "gaussian", "radius": 30, "interpolating": True, "alpha": 0.6}, p),
+    ):
+        with glmls.MLS(p, q, shape=SHAPE, **config) as m:
+            known = known_points(m.kernel, SHAPE)
+            if want is None:
+                assert known is None, config
+                continue
+            points, values = known
+            np.testing.assert_allclose(points, want, atol=1e-4)
+            f, _, _ = reference.mls(m.src, m.dst, points, m.config)
+            np.testing.assert_allclose(values, f, atol=2e-3)  # f in float32 on the GPU
+    with glmls.MLS(p[1:], q[1:], shape=SHAPE, alpha=3.0) as m:
+        assert known_points(m.kernel, SHAPE) is None  # no pair close enough
