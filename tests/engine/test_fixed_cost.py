@@ -160,3 +160,14 @@ def test_ab_trees_paired_survives_a_worker_that_dies(tmp_path):
     lines = run.stdout.splitlines()
     assert lines[1].startswith("W3:grid=8 | ") and lines[1].endswith(" | -")
     assert lines[2] == "W3:grid=8|bad/W3:grid=8|good: -"
+
+
+def test_guarantee_reports_each_case_and_the_worst_per_weight():
+    """benchmarks/guarantee.py on one weight, map and tolerance: a line for the case and the
+    summary, the default weight's errors within the tolerance where its leaves vouch."""
+    run = run_script(
+        "guarantee.py", "--weights", "[{}]", "--maps", "smooth", "--tolerances", "0.25"
+    )
+    case, summary = (line for line in run.stdout.splitlines() if line.startswith(("{", "  {")))
+    assert case.startswith("{}") and "smooth" in case and "0 over" in case
+    assert 0 < float(summary.split()[-1]) <= 1.0

@@ -108,7 +108,9 @@ def first_triangles(mesh, shape, margin=1e-4):
 
 def guarantee_handles(case):
     """The handles of the guarantee's maps (``docs/adaptive.md``): smooth, two close handles
-    pulled apart, random ones that fold, and 60 handles moved by up to 3 px."""
+    pulled apart, two draws of random ones that fold, and 60 handles moved by up to 3 px."""
+    if case == "random2":
+        return jittered_moves(SHAPE, np.random.default_rng(11))
     rng = np.random.default_rng(7)
     if case == "dense":
         p = rng.uniform(0.05, 0.95, (60, 2)) * [SHAPE[1], SHAPE[0]]

@@ -1,0 +1,105 @@
+"""The adaptive mesh's guarantee, measured: the table of ``docs/adaptive.md``.
+
+``python benchmarks/guarantee.py [--weights '[{}, {"alpha": 3.0}]'] [--maps smooth,dense]
+[--tolerances 0.02,0.05,0.25]``
+
+For each weight (``MLS`` keywords), map and tolerance, on a 160 x 192 image: every covered
+output pixel's source point as the warp computes it, its distance from f's true inverse to
+first order (|J(s)^-1 (f(s) - u)|, f in float64 from ``glmls.reference``, where f is
+locally invertible), and the bound of the leaf whose triangle drew the pixel (the first in
+scan order, emulated in numpy). Printed per case: the largest error over the tolerance of
+all pixels, and of those whose leaf vouches for them (its ``AdaptiveMesh.estimate`` within
+the tolerance), the share of the latter, how many of them err past the tolerance, and the
+leaves; then the worst per weight. The helpers are the test suite's
+(``tests/imaging/test_adaptive.py``), so the table and the tests measure the same way.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "imaging"))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import numpy as np
+from test_adaptive import (
+    SHAPE,
+    first_triangles,
+    guarantee_handles,
+    inverse_error,
+    source_points,
+)
+
+import glmls
+
+#: The weights of the table in docs/adaptive.md.
+WEIGHTS = [
+    {},
+    {"transform": "similarity"},
+    {"transform": "affine"},
+    {"alpha": 0.3},
+    {"alpha": 0.6},
+    {"alpha": 0.8},
+    {"alpha": 1.5},
+    {"alpha": 2.0},
+    {"alpha": 2.5},
+    {"alpha": 3.0},
+    {"weight": "gaussian", "radius": 30},
+    {"weight": "gaussian", "radius": 60},
+    {"weight": "gaussian", "radius": 30, "interpolating": True, "alpha": 0.6},
+]
+MAPS = ("smooth", "stretched", "random", "random2", "dense")
+
+
+def measure(config: dict, case: str, tolerance: float) -> dict:
+    """One case: the errors over the tolerance, all pixels and those vouched for."""
+    with glmls.MLS(*guarantee_handles(case), shape=SHAPE, **config) as m:
+        mesh, xy, covered = source_points(m, SHAPE, tolerance)
+        error, _ = inverse_error(m, SHAPE, xy, covered)
+    first = first_triangles(mesh, SHAPE)
+    drawn = first >= 0
+    vouched = np.zeros(SHAPE, bool)
+    vouched[drawn] = mesh.estimate[mesh.triangle_leaf[first[drawn]]] <= tolerance
+    finite = np.isfinite(error)
+    checked = vouched & finite
+    return {
+        "all": float(error[finite].max()) / tolerance,
+        "vouched": float(error[checked].max()) / tolerance if checked.any() else 0.0,
+        "share": float(checked.sum() / max(finite.sum(), 1)),
+        "over": int((error[checked] > tolerance).sum()),
+        "leaves": len(mesh.leaves),
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--weights", type=json.loads, default=WEIGHTS, help="a JSON list")
+    parser.add_argument("--maps", default=",".join(MAPS), help=", ".join(MAPS))
+    parser.add_argument("--tolerances", default="0.02,0.05,0.25")
+    args = parser.parse_args(argv)
+    tolerances = [float(t) for t in args.tolerances.split(",")]
+    worst = {}
+    for config in args.weights:
+        name = json.dumps(config)
+        for case in args.maps.split(","):
+            for tolerance in tolerances:
+                r = measure(config, case, tolerance)
+                print(
+                    f"{name:70s} {case:9s} {tolerance:5.2f}: all {r['all']:9.3f}  vouched "
+                    f"{r['vouched']:.3f} ({r['share']:.4f}, {r['over']} over)  "
+                    f"{r['leaves']} leaves",
+                    flush=True,
+                )
+                worst[name] = max(worst.get(name, 0.0), r["vouched"])
+    print("\nthe largest error over the tolerance where a leaf vouches, per weight:")
+    for name, value in worst.items():
+        print(f"  {name:70s} {value:.3f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
