@@ -52,12 +52,12 @@ WEIGHTS = [
     {"weight": "gaussian", "radius": 60},
     {"weight": "gaussian", "radius": 30, "interpolating": True, "alpha": 0.6},
 ]
-MAPS = ("smooth", "stretched", "random", "random2", "dense")
+MAPS = ("smooth", "stretched", "random", "random2", "dense", "segments")
 
 
 def measure(config: dict, case: str, tolerance: float) -> dict:
     """One case: the errors over the tolerance, all pixels and those vouched for."""
-    with glmls.MLS(*guarantee_handles(case), shape=SHAPE, **config) as m:
+    with glmls.MLS(**guarantee_handles(case), shape=SHAPE, **config) as m:
         mesh, xy, covered = source_points(m, SHAPE, tolerance)
         error, _ = inverse_error(m, SHAPE, xy, covered)
     first = first_triangles(mesh, SHAPE)

@@ -191,6 +191,13 @@ class MLSKernel:
         return self.scaling.from_gpu(self._packed[:, 2:])
 
     @property
+    def segment_sources(self) -> np.ndarray:
+        """(S, 2, 2) float64: the segment handles' source end points, pixels (as the GPU has
+        them)."""
+        rows = self._segments[0::2].astype(np.float64).reshape(-1, 2)
+        return self.scaling.from_gpu(rows).reshape(-1, 2, 2)
+
+    @property
     def segments(self) -> int:
         """Segment handles."""
         return len(self._segments) // 2

@@ -28,6 +28,7 @@ __all__ = [
     "CUSP_REACH",
     "MAX_SMOOTH_ALPHA",
     "PAIR_REACH",
+    "SEGMENT_STEP",
     "SMOOTH_REACH",
     "GPUCells",
     "known_points",
@@ -60,6 +61,9 @@ CUSP_REACH = 2.0
 #: its prediction 36 px from the nearest handle missed by 1.27x the tolerance; alpha 2
 #: kept every map's errors within the full test's).
 MAX_SMOOTH_ALPHA = 2.0
+#: Pixels: the test also measures the patches along the segment handles at points at most
+#: this far apart (:func:`known_points`): f has a crease all along each.
+SEGMENT_STEP = 1.0
 #: Pixels: above :data:`MAX_SMOOTH_ALPHA`, the test also measures the patches along the
 #: segments between point handles closer than this (:func:`known_points`), the largest
 #: leaf's side (8 px mended the one pixel found as well; at alpha 2.5 and 3 the guarantee's
@@ -95,25 +99,38 @@ def known_points(kernel: MLSKernel, shape: tuple[int, int]) -> tuple[np.ndarray,
     """Where the build's test also measures each cell's patch, f there (evaluated once, as
     the GPU has it, for an image of ``shape``): the points that
     :func:`glmls.imaging.adaptive.build_adaptive`'s ``known`` takes, where f bends more
-    sharply than a cell's 16 test points may show. Where the power (idw's, or the
-    interpolating factor's) is below 1, the point handles: f has a cusp at each (an idw
-    alpha 0.6 map erred by 1.53x the tolerance in 16 px leaves holding one). Above
-    :data:`MAX_SMOOTH_ALPHA`, the quarter points of the segments between point handles
-    closer than :data:`PAIR_REACH`: f turns from one's transformation to the other's
-    within a pixel or two there (alpha 3: 1.38x, a 2 px leaf between two handles 3.5 px
-    apart). None elsewhere."""
+    sharply than a cell's 16 test points may show. Along the segment handles
+    (:data:`SEGMENT_STEP` apart), whatever the weight: f has a crease along each (a segment's
+    weight grows as 1 / d at idw alpha 1, where a point's grows as 1 / d^2; the guarantee's
+    segment map erred by up to 1.85x the tolerance, at alpha 0.6, 1 and 2). Where the power
+    (idw's, or the interpolating factor's) is below 1, the point handles: f has a cusp at
+    each (alpha 0.6: 1.53x in 16 px leaves holding one). Above :data:`MAX_SMOOTH_ALPHA`, the
+    quarter points of the segments between point handles closer than :data:`PAIR_REACH`: f
+    turns from one's transformation to the other's within a pixel or two there (alpha 3:
+    1.38x, a 2 px leaf between two handles 3.5 px apart). None where there is none."""
     power = _power(kernel)
-    if power is None or 1.0 <= power <= MAX_SMOOTH_ALPHA or kernel.count == 0:
-        return None
     sources = kernel.sources
-    if power > MAX_SMOOTH_ALPHA:
+    parts = [sources] if power is not None and power < 1.0 else []
+    parts += _along(kernel.segment_sources, SEGMENT_STEP)
+    if power is not None and power > MAX_SMOOTH_ALPHA and len(sources) > 1:
         pairs = cKDTree(sources).query_pairs(PAIR_REACH, output_type="ndarray")
-        if len(pairs) == 0:
-            return None
         a, b = sources[pairs[:, 0]], sources[pairs[:, 1]]
-        sources = np.concatenate([a + t * (b - a) for t in (0.25, 0.5, 0.75)])
-    values, _ = evaluate_points(kernel, sources, with_matrix=False, shape=shape)
-    return sources, values
+        parts += [a + t * (b - a) for t in (0.25, 0.5, 0.75)]
+    points = np.concatenate(parts) if parts else np.zeros((0, 2))
+    if len(points) == 0:
+        return None
+    values, _ = evaluate_points(kernel, points, with_matrix=False, shape=shape)
+    return points, values
+
+
+def _along(segments: np.ndarray, step: float) -> list[np.ndarray]:
+    """Points along each of ``segments`` ((S, 2, 2) end points), both ends and at most
+    ``step`` apart."""
+    points = []
+    for a, b in segments:
+        count = max(1, math.ceil(np.hypot(*(b - a)) / step))
+        points.append(a + np.linspace(0.0, 1.0, count + 1)[:, None] * (b - a))
+    return points
 
 
 def _power(kernel: MLSKernel) -> float | None:

@@ -72,7 +72,9 @@ def inverse_error(m, shape, xy, covered):
     u = np.stack([xx, yy], -1).astype(np.float64)
     h = 1e-3
     steps = ([0, 0], [h, 0], [-h, 0], [0, h], [0, -h])
-    f, _, _ = reference.mls(m.src, m.dst, np.concatenate([s + d for d in steps]), m.config)
+    points = np.concatenate([s + d for d in steps])
+    segments = {"src_segments": m.src_segments, "dst_segments": m.dst_segments}
+    f, _, _ = reference.mls(m.src, m.dst, points, m.config, shape=shape, **segments)
     f0, fx1, fx0, fy1, fy0 = np.split(f, 5)
     jac = np.stack([(fx1 - fx0) / (2 * h), (fy1 - fy0) / (2 * h)], axis=-1)
     regular = np.linalg.det(jac) > 0.05
@@ -107,25 +109,37 @@ def first_triangles(mesh, shape, margin=1e-4):
 
 
 def guarantee_handles(case):
-    """The handles of the guarantee's maps (``docs/adaptive.md``): smooth, two close handles
-    pulled apart, two draws of random ones that fold, and 60 handles moved by up to 3 px."""
+    """The handles of the guarantee's maps (``docs/adaptive.md``), as ``MLS`` keywords:
+    smooth, two close handles pulled apart, two draws of random ones that fold, 60 handles
+    moved by up to 3 px, and 8 point handles with 4 segments."""
     if case == "random2":
-        return jittered_moves(SHAPE, np.random.default_rng(11))
+        p, q = jittered_moves(SHAPE, np.random.default_rng(11))
+        return {"src": p, "dst": q}
     rng = np.random.default_rng(7)
     if case == "dense":
         p = rng.uniform(0.05, 0.95, (60, 2)) * [SHAPE[1], SHAPE[0]]
-        return p, p + rng.uniform(-3, 3, p.shape)
-    return {  # each drawn after the others before it
+        return {"src": p, "dst": p + rng.uniform(-3, 3, p.shape)}
+    if case == "segments":
+        rng = np.random.default_rng(3)
+        size = [SHAPE[1], SHAPE[0]]
+        p = rng.uniform(0.1, 0.9, (8, 2)) * size
+        q = p + rng.uniform(-5, 5, p.shape)
+        a = rng.uniform(0.15, 0.85, (4, 2)) * size
+        src = np.stack([a, a + rng.uniform(-30, 30, a.shape)], 1)
+        dst = src + rng.uniform(-4, 4, (4, 1, 2))
+        return {"src": p, "dst": q, "src_segments": src, "dst_segments": dst}
+    p, q = {  # each drawn after the others before it
         "smooth": smooth_handles(SHAPE, rng),
         "stretched": stretched_handles(SHAPE),
         "random": jittered_moves(SHAPE, rng),
     }[case]
+    return {"src": p, "dst": q}
 
 
 @pytest.mark.parametrize("case", ["smooth", "stretched", "random"])
 @pytest.mark.parametrize("tolerance", [0.05, 0.25])
 def test_every_source_point_is_within_the_tolerance_of_the_inverse(gl, case, tolerance):
-    with glmls.MLS(*guarantee_handles(case), shape=SHAPE) as m:
+    with glmls.MLS(**guarantee_handles(case), shape=SHAPE) as m:
         mesh, xy, covered = source_points(m, SHAPE, tolerance)
         error, regular = inverse_error(m, SHAPE, xy, covered)
     assert covered.mean() > 0.9 and regular > 0.97
@@ -151,13 +165,17 @@ def test_every_source_point_is_within_the_tolerance_of_the_inverse(gl, case, tol
         # cusps at the handles, between a leaf's test points (1.5x the tolerance when the
         # test did not also measure the patch at the handles)
         ({"alpha": 0.6}, "dense", 0.25),
+        # and all along the segment handles (1.8x, then), where f has a crease at alpha 1
+        # too (affine: 1.85x when only the point handles' cusps were measured)
+        ({"alpha": 0.6}, "segments", 0.25),
+        ({"transform": "affine"}, "segments", 0.05),
     ],
 )
 def test_every_pixel_a_leaf_vouches_for_is_within_the_tolerance(gl, config, case, tolerance):
     """Other weights, maps that fold: every pixel drawn by a leaf whose bound
     (``AdaptiveMesh.estimate``) is within the tolerance is within it of f's inverse; the
     rest lie in leaves that say they are not (folded, or the smallest)."""
-    with glmls.MLS(*guarantee_handles(case), shape=SHAPE, **config) as m:
+    with glmls.MLS(**guarantee_handles(case), shape=SHAPE, **config) as m:
         mesh, xy, covered = source_points(m, SHAPE, tolerance)
         error, _ = inverse_error(m, SHAPE, xy, covered)
     first = first_triangles(mesh, SHAPE)
@@ -739,9 +757,10 @@ def test_the_build_measures_each_cell_at_the_known_points():
 
 
 def test_known_points_where_f_bends_sharply(gl):
-    """The handles where idw's power is below 1 (f has cusps there), the quarter points of
-    the segments between handles closer than PAIR_REACH where it is above 2 (f turns
-    between them), f there as the GPU evaluates it; nothing for the smooth weights."""
+    """The handles where idw's power is below 1 (f has cusps there) and points along the
+    segment handles, the quarter points of the segments between handles closer than
+    PAIR_REACH where it is above 2 (f turns between them), f there as the GPU evaluates
+    it; nothing for the smooth weights."""
     p = np.array([[20.0, 30.0], [30.0, 30.0], [100.0, 80.0]])  # one close pair
     q = p + [[2.0, -1.0], [-1.0, 2.0], [0.5, 0.5]]
     for config, want in (
@@ -763,3 +782,9 @@ def test_known_points_where_f_bends_sharply(gl):
             np.testing.assert_allclose(values, f, atol=2e-3)  # f in float32 on the GPU
     with glmls.MLS(p[1:], q[1:], shape=SHAPE, alpha=3.0) as m:
         assert known_points(m.kernel, SHAPE) is None  # no pair close enough
+    # segment handles where the power is below 1: f has a cusp all along each
+    segment = np.array([[[40.0, 100.0], [43.0, 104.0]]])  # 5 px long
+    with glmls.MLS(p, q, src_segments=segment, dst_segments=segment + 1, alpha=0.6) as m:
+        points, _ = known_points(m.kernel, SHAPE)
+    along = np.linspace(0, 1, 6)[:, None] * [3.0, 4.0] + [40.0, 100.0]  # 1 px apart
+    np.testing.assert_allclose(points, np.concatenate([p, along]), atol=1e-4)
