@@ -186,11 +186,6 @@ class MLSKernel:
         return self.scaling.from_gpu(self._packed[:, :2])
 
     @property
-    def targets(self) -> np.ndarray:
-        """(N, 2) float64: the point handles' targets, pixels (as the GPU has them)."""
-        return self.scaling.from_gpu(self._packed[:, 2:])
-
-    @property
     def segment_sources(self) -> np.ndarray:
         """(S, 2, 2) float64: the segment handles' source end points, pixels (as the GPU has
         them)."""

@@ -313,10 +313,11 @@ def build_adaptive(
         for k in (kx, ky)
     )
     ids = vertices.add_lattice(fine_x, fine_y, evaluate)
-    if known is not None:  # in the cells' units, sorted by x
+    known_keys = None  # the known points in the cells' units, sorted by x, and f there
+    if known is not None:
         keys = (np.asarray(known[0], np.float64) - vertices.origin) * units
         order = np.argsort(keys[:, 0], kind="stable")
-        known = (keys[order], np.asarray(known[1], np.float64)[order])
+        known_keys = (keys[order], np.asarray(known[1], np.float64)[order])
     rows = 4 * np.arange(len(ky) - 1)[:, None, None] + np.array([r for r, _ in NODES + TESTS])
     cols = 4 * np.arange(len(kx) - 1)[None, :, None] + np.array([c for _, c in NODES + TESTS])
     ids = ids[rows, cols].reshape(-1, 25)
@@ -350,9 +351,9 @@ def build_adaptive(
             error, stretch, guess, _ = test(nodes, tests, w, h, centres, whole)
             error = np.where(whole, np.inf, error)
             stretch = np.where(whole, 0.0, stretch)
-        if known is not None:  # only where the test passes: the others split anyway
+        if known_keys is not None:  # only where the test passes: the others split anyway
             passed = np.flatnonzero(error <= tolerance)
-            at = known_errors(*vertices.f_apart(), nodes[passed], box[passed], *known)
+            at = known_errors(*vertices.f_apart(), nodes[passed], box[passed], *known_keys)
             error[passed] = np.maximum(error[passed], at)
         # below 1 px only where a pixel's cell covers more than one output pixel, and not
         # where the map folds: a folded pixel has no single inverse to come closer to

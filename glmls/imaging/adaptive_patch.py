@@ -216,14 +216,14 @@ def known_errors(
     values: np.ndarray,
 ) -> np.ndarray:
     """Each cell's error bound at the points where f is known (``values``) and may bend more
-    sharply than :func:`estimate_cells`' 16 samples show (its cusps at the point handles
-    where idw's power is below 1), inside the cell or within :data:`KNOWN_REACH` of its
-    sides past it; (K,) float64, 0 where it has none. :data:`SAFETY` x the patch's miss
-    there over the smallest singular value of its Jacobian there; infinite where that
-    Jacobian's orientation is not the one at the cell's centre (or f is not finite). ``fx``,
-    ``fy``: f at every vertex; ``nodes`` (K, 9) each cell's patch nodes; ``box`` (K, 4) its
-    x0, y0, x1, y1; ``points`` (N, 2), sorted by x, and ``values`` (N, 2), f at them, in
-    the coordinates of ``box`` and of f."""
+    sharply than :func:`estimate_cells`' 16 samples show (along the segment handles, at the
+    point handles or between close ones: :func:`.adaptive_cells.known_points`), inside the
+    cell or within :data:`KNOWN_REACH` of its sides past it; (K,) float64, 0 where it has
+    none. :data:`SAFETY` x the patch's miss there over the smallest singular value of its
+    Jacobian there; infinite where that Jacobian's orientation is not the one at the cell's
+    centre (or f is not finite). ``fx``, ``fy``: f at every vertex; ``nodes`` (K, 9) each
+    cell's patch nodes; ``box`` (K, 4) its x0, y0, x1, y1; ``points`` (N, 2), sorted by x,
+    and ``values`` (N, 2), f at them, in the coordinates of ``box`` and of f."""
     out = np.zeros(len(box))
     if len(box) == 0 or len(points) == 0:
         return out
