@@ -16,6 +16,8 @@ import numpy as np
 __all__ = [
     "GRID_PLACE",
     "KNOWN_REACH",
+    "MEASURED",
+    "MISS_MEASURED",
     "NODES",
     "PATCH_AT_GRID",
     "PATCH_AT_TESTS",
@@ -44,8 +46,14 @@ __all__ = [
     "singular_squares",
 ]
 
-#: The factor between a patch's largest miss at its quarter-centres and the error bound: the
-#: cubic error peaks 3 % above its quarter-point value; the rest is for higher orders.
+#: The factor between a cell's miss (:func:`estimate_cells`, taken where the patch's error
+#: peaks: its sampling misses the peak by at most ~3 %) and its error bound, for what the
+#: first-order bound leaves out (the Jacobian between the 25 points where its smallest
+#: singular value is taken, f's orders above the quartic, the scan's one Newton step). Over
+#: 5 weights x 5 maps x 2 tolerances, every leaf erring by more than 0.3 of the tolerance
+#: erred by at most 1.10 x its miss over that singular value (by up to 1.57 x with the miss
+#: taken at the 16 test points alone, past this factor: a quartic error peaks 4/3 above its
+#: values there).
 SAFETY = 1.25
 
 #: Positions (row, column) on a cell's 5 x 5 grid, in quarters of its sides: the patch's
@@ -77,6 +85,31 @@ PATCH_AT_TESTS = PATCH_AT_GRID[TEST_INDEX]
 PATCH_SLOPES = np.concatenate(
     [np.kron(_AT_QUARTERS, _SLOPE_AT_QUARTERS), np.kron(_SLOPE_AT_QUARTERS, _AT_QUARTERS)]
 )
+
+
+def _quartic_at(t: np.ndarray) -> np.ndarray:
+    """The quartic Lagrange basis through nodes 0 .. 4 (a cell's quarters) at ``t`` (in
+    quarters), (len(t), 5)."""
+    nodes = np.arange(5.0)
+    basis = np.ones((len(t), 5))
+    for k in range(5):
+        for j in range(5):
+            if j != k:
+                basis[:, k] *= (t - nodes[j]) / (nodes[k] - nodes[j])
+    return basis
+
+
+#: The quartic Lagrange basis through a cell's quarters (nodes 0 .. 4) at its eighths (rows
+#: e / 2, e = 0 .. 8), (9, 5): 0 and 1 at the quarters themselves, dyadic elsewhere.
+QUARTIC_AT_EIGHTHS = _quartic_at(np.arange(9) / 2.0)
+#: Where across a cell (a fraction of its side) its miss is measured: its quarters (its 5 x
+#: 5 grid) and the lines 0.15 of a side in from its edges. Along a line, the patch's error
+#: of f's third and fourth orders, u (u - 1/2) (u - 1) (a + b u), peaks 0.15 to 0.21 of the
+#: way in from either end, up to 4/3 above its values at the quarters; these positions find
+#: at least 95 % of its peak along a line, and 90 % over the cell for any mix of f's third
+#: and fourth orders (the quarters alone: 3/4 and 70 %; measured on 3,000 random mixes).
+MEASURED = np.array([0.0, 0.15, 0.25, 0.5, 0.75, 0.85, 1.0])
+MISS_MEASURED = np.kron(_quartic_at(4 * MEASURED), _quartic_at(4 * MEASURED))[:, TEST_INDEX]
 
 #: The exponents (i, j) of a patch's powers wx^i wy^j in the order of :func:`leaf_powers`
 #: (a_00, f's value at the centre node, left out).
@@ -158,6 +191,8 @@ def estimate_cells(
     tests: np.ndarray,
     width: np.ndarray,
     height: np.ndarray,
+    *,
+    inset: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(error, stretch) of each cell, (K,) float64: the source-space error of its quadratic
     patch, and its largest stretch. ``fx``, ``fy``: f at every vertex (V,); ``nodes`` (K, 9)
@@ -167,14 +202,19 @@ def estimate_cells(
     (``warp/adaptive_test.comp.glsl``, through :mod:`.adaptive_cells`).
 
     The patch (Lagrange, through the 3 x 3 ``nodes``) reproduces every x^a y^b with a, b <=
-    2, so it errs by f's third and higher derivatives: for a cubic f the error along each
-    side is a multiple of u (u - 1/2) (u - 1), largest (within 3 %) at u = 1/4 and 3/4. The
-    cell's miss is the largest distance between f and the patch at the other 16 points of
-    its 5 x 5 grid, ``tests``: the quarter-centres, and the quarter points of its edges and
-    mid-lines, where a handle just past the cell bends f most. That output-space miss times
-    :data:`SAFETY`, over the smallest singular value of the patch's Jacobian on that grid,
-    bounds (to first order) the distance from a pixel's source point to f's inverse
-    (:func:`error_bound`)."""
+    2, so it errs by f's third and higher derivatives: along a line of the cell, by f's
+    third and fourth orders, u (u - 1/2) (u - 1) (a + b u), which peaks 0.15 to 0.21 of the
+    way in from either end: within 3 % of its values at u = 1/4 and 3/4 where the third
+    order rules (b = 0), up to 4/3 above them where the fourth does. The patch's misses at
+    the other 16 points of the 5 x 5 grid, ``tests`` (the quarter-centres, and the quarter
+    points of its edges and mid-lines, where a handle just past the cell bends f most), and
+    0 at the nodes, make the quartic through the grid; the cell's miss is its largest
+    distance from 0 there and on the lines 0.15 of a side in from the cell's edges
+    (:data:`MEASURED`, :data:`MISS_MEASURED`: at least 90 % of its peak; ``inset`` False: at
+    the 16 points alone, as the children's prediction takes them, :func:`predict_cells`). That
+    output-space miss times :data:`SAFETY`, over the smallest singular value of the patch's
+    Jacobian on the 5 x 5 grid, bounds (to first order) the distance from a pixel's source
+    point to f's inverse (:func:`error_bound`)."""
     nodes_t, tests_t = nodes.T.copy(), tests.T.copy()  # (9, K), (16, K)
     nx, ny = fx[nodes_t], fy[nodes_t]
     # in blocks: numpy's BLAS threads spin on after a large product, taking the cores from
@@ -184,6 +224,9 @@ def estimate_cells(
     miss_x -= fx[tests_t]
     miss_y = matmul_in_blocks(PATCH_AT_TESTS, ny)
     miss_y -= fy[tests_t]
+    if inset:
+        miss_x = matmul_in_blocks(MISS_MEASURED, miss_x)
+        miss_y = matmul_in_blocks(MISS_MEASURED, miss_y)
     miss_x *= miss_x
     miss_y *= miss_y
     miss_x += miss_y
@@ -313,20 +356,6 @@ def patches_fold(fx: np.ndarray, fy: np.ndarray, nodes: np.ndarray) -> np.ndarra
     return _turns_over(det)
 
 
-def _quartic_at_eighths() -> np.ndarray:
-    nodes = np.arange(5.0)
-    t = np.arange(9) / 2.0
-    basis = np.ones((9, 5))
-    for k in range(5):
-        for j in range(5):
-            if j != k:
-                basis[:, k] *= (t - nodes[j]) / (nodes[k] - nodes[j])
-    return basis
-
-
-#: The quartic Lagrange basis through a cell's quarters (nodes 0 .. 4) at its eighths (rows
-#: e / 2, e = 0 .. 8), (9, 5): 0 and 1 at the quarters themselves, dyadic elsewhere.
-QUARTIC_AT_EIGHTHS = _quartic_at_eighths()
 #: The places of a cell's nodes, then its tests, on its 5 x 5 grid, row by row.
 GRID_PLACE = np.array([5 * r + c for r, c in NODES + TESTS])
 
@@ -363,7 +392,12 @@ def predict_cells(
             rows, cols = slice(4 * i, 4 * i + 5), slice(4 * j, 4 * j + 5)
             values = [np.ascontiguousarray(g[:, rows, cols]).reshape(-1) for g in grids]
             error, stretch = estimate_cells(
-                *values, base + place_nodes, base + place_tests, width / 2, height / 2
+                *values,
+                base + place_nodes,
+                base + place_tests,
+                width / 2,
+                height / 2,
+                inset=False,
             )
             errors.append(error)
             stretches.append(stretch)

@@ -169,6 +169,9 @@ def test_every_source_point_is_within_the_tolerance_of_the_inverse(gl, case, tol
         # too (affine: 1.85x when only the point handles' cusps were measured)
         ({"alpha": 0.6}, "segments", 0.25),
         ({"transform": "affine"}, "segments", 0.05),
+        # a 16 px leaf whose error peaks between its test points, by a fourth order (1.23x
+        # when the miss was measured at the 16 points alone)
+        ({"alpha": 2.0}, "segments", 0.02),
     ],
 )
 def test_every_pixel_a_leaf_vouches_for_is_within_the_tolerance(gl, config, case, tolerance):
@@ -417,6 +420,59 @@ def test_patches_fold_is_where_the_cell_test_is_infinite_whatever_the_test_point
     folds = patches_fold(f[:, 0], f[:, 1], ids[:, :9])
     assert 0 < folds.sum() < count  # both kinds
     np.testing.assert_array_equal(folds, np.isinf(error))
+
+
+@pytest.mark.parametrize("shape", ["line", "quartic", "plane"])
+def test_a_cells_miss_finds_where_its_patch_errs_most(rng, shape):
+    """A cell's miss (estimate_cells, through its bound SAFETY x miss / smallest singular
+    value) against the largest distance between f and its quadratic patch over the cell,
+    measured on a fine grid in float64, where f bends by its third and fourth orders: at
+    least 95 % of it where the error varies along one direction ("line": cubic and quartic
+    in x; "quartic": x^4 alone), 90 % for any mix ("plane"), and never more. At the 16 test
+    points alone (as the children's prediction takes it), a quartic error shows 3/4."""
+    from glmls.imaging.adaptive_patch import SAFETY, estimate_cells, lagrange
+
+    count, side = 60, 8.0
+    corner = rng.uniform(0, 100, (count, 2))
+    # f = identity + a small polynomial about the cell's centre, t in [0, 1]^2: its
+    # Jacobian stays within 1e-3 of the identity (smallest singular value ~1)
+    powers = {
+        "line": [(3, 0), (4, 0)],
+        "quartic": [(4, 0)],
+        "plane": [(i, j) for i in range(5) for j in range(5) if 3 <= i + j <= 4],
+    }[shape]
+    coefficients = rng.normal(0, 1, (count, len(powers), 2))
+    coefficients *= 2e-4 * (0.05 + rng.uniform(0, 1, (count, len(powers), 1)) ** 3)
+
+    def f(t):  # t (K, n, 2) in [0, 1] -> (K, n, 2) pixels
+        bend = sum(
+            coefficients[:, k, None] * ((t[..., :1] - 0.5) ** i * (t[..., 1:] - 0.5) ** j)
+            for k, (i, j) in enumerate(powers)
+        )
+        return corner[:, None] + side * t + bend
+
+    quarters = np.array([[c, r] for r, c in NODES + TESTS]) / 4.0
+    values = f(np.broadcast_to(quarters, (count, 25, 2))).reshape(-1, 2)
+    ids = np.arange(count * 25).reshape(count, 25)
+    sides = np.full(count, side)
+    misses = {}
+    for inset in (True, False):
+        error, _ = estimate_cells(
+            values[:, 0], values[:, 1], ids[:, :9], ids[:, 9:], sides, sides, inset=inset
+        )
+        misses[inset] = error / SAFETY  # over a singular value within 1e-3 of 1
+    fine = np.linspace(0, 1, 161)
+    u, v = (a.ravel() for a in np.meshgrid(fine, fine))
+    basis = np.stack(lagrange(v), -1)[:, :, None] * np.stack(lagrange(u), -1)[:, None]
+    nodes = values.reshape(count, 25, 2)[:, :9]  # NODES row by row: the basis's order
+    patch = np.einsum("pn,knd->kpd", basis.reshape(-1, 9), nodes)
+    exact = f(np.broadcast_to(np.stack([u, v], -1), (count, len(u), 2)))
+    worst = np.hypot(*(patch - exact).transpose(2, 0, 1)).max(axis=1)
+    ratio = misses[True] / worst
+    assert ratio.min() > (0.90 if shape == "plane" else 0.95) * (1 - 2e-3)
+    assert ratio.max() < 1 + 2e-3
+    if shape == "quartic":
+        np.testing.assert_allclose(misses[False] / worst, 0.75, rtol=5e-3)
 
 
 def test_folded_children_of_1_px_are_leaves_without_their_test_points(monkeypatch):

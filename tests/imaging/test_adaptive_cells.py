@@ -73,7 +73,11 @@ def compare_levels(gl, m, shape, tolerance):
             reach = (smooth_reach(m.kernel) + np.sqrt(0.5)) * np.maximum(width, height) / 2
             splits = whole | (want_error > tolerance * (1 + 1e-3))
             stays = ~whole & (want_error < tolerance * (1 - 1e-3))
-            far = splits & (near > reach * (1 + 1e-4))
+            clear = near > reach * (1 + 1e-4)
+            # a cell within float32's rounding of the tolerance splits where the GPU's test
+            # says it does: its children are then predicted as on the host
+            borderline = ~whole & ~splits & ~stays & clear & np.isfinite(child_error).any(1)
+            far = (splits & clear) | borderline
             assert np.isinf(child_error[stays | (near < reach * (1 - 1e-4))]).all()
             check(child_error, want_child, far)
             np.testing.assert_allclose(
@@ -82,6 +86,8 @@ def compare_levels(gl, m, shape, tolerance):
             levels.append(len(nodes))
             predicted.append(int(far.sum()))
             want_child[~far] = np.inf  # the build goes on as the GPU's would
+            near_tolerance = ~whole & ~splits & ~stays
+            want_error[near_tolerance] = error[near_tolerance]
             return want_error, want_stretch, want_child, want_child_stretch
 
         lattice = MeshLattice.corners(shape, ROOT_STEP)
@@ -125,7 +131,8 @@ def test_the_prediction_covers_a_list_of_several_work_groups(gl, rng):
 
 def test_the_warp_builds_the_mesh_the_reference_test_builds(gl, rng):
     """The pipeline (the GPU's test) and the float64 test split the same cells here: no
-    cell's error is within the GPU's rounding of the tolerance."""
+    cell's error is within the GPU's rounding of the tolerance but one, which the reference
+    build splits as the GPU does (:func:`compare_levels`)."""
     p, q = jittered_moves(SHAPE, rng)
     with glmls.MLS(p, q, shape=SHAPE, ctx=gl) as m:
         _, want, _ = compare_levels(gl, m, SHAPE, 0.05)

@@ -51,7 +51,7 @@ void adaptive_predict_children(vec2 grid[25], vec2 sides, int first) {
             for (int k = 0; k < 25; ++k) {
                 child[k] -= centre;
             }
-            vec4 test = adaptive_grid_test(child, 0.5 * sides);
+            vec4 test = adaptive_grid_test(child, 0.5 * sides, false);
             adaptive_test[first + 2 * i + j] = vec4(test.xyz, 1.0);
         }
     }

@@ -85,7 +85,7 @@ void main() {
     // all of one kind (the roots, or none), so lanes do not diverge here.
     int at = cell * CELL_WORDS;
     bool whole = (adaptive_cell[at + 27] & 1u) != 0u;
-    vec4 test = whole ? vec4(0.0) : adaptive_grid_test(grid, sides);
+    vec4 test = whole ? vec4(0.0) : adaptive_grid_test(grid, sides, true);
 #if ADAPTIVE_PREDICT == 1
     adaptive_test[5 * cell] = test;
     for (int k = 1; k <= 4; ++k) {
