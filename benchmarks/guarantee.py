@@ -4,9 +4,9 @@
 [--tolerances 0.02,0.05,0.25]``
 
 For each weight (``MLS`` keywords), map and tolerance, on a 160 x 192 image: every covered
-output pixel's source point as the warp computes it, its distance from f's true inverse to
-first order (|J(s)^-1 (f(s) - u)|, f in float64 from ``glmls.reference``, where f is
-locally invertible), and the bound of the leaf whose triangle drew the pixel (the first in
+output pixel's source point as the warp computes it, its distance from f's true inverse
+(Newton's method from it in float64, f from ``glmls.reference``, where f is locally
+invertible), and the bound of the leaf whose triangle drew the pixel (the first in
 scan order, emulated in numpy). Printed per case: the largest error over the tolerance of
 all pixels, and of those whose leaf vouches for them (its ``AdaptiveMesh.estimate`` within
 the tolerance), the share of the latter, how many of them err past the tolerance, and the

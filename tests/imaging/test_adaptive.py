@@ -63,24 +63,54 @@ def source_points(m, shape, tolerance):
     return mesh, values[..., :2].astype(np.float64), values[..., 2] > 0.5
 
 
-def inverse_error(m, shape, xy, covered):
-    """|s - f^-1(u)| to first order, J(s)^-1 (f(s) - u) with f in float64, at every covered
-    output pixel u where f is locally invertible (folded pixels have no single inverse):
-    (H, W), NaN elsewhere; and the share of the covered pixels that are."""
+def inverse_error(m, shape, xy, covered, steps=8):
+    """|s - f^-1(u)| at every covered output pixel u where f is locally invertible (folded
+    pixels have no single inverse), f in float64: (H, W), NaN elsewhere; and the share of
+    the covered pixels that are. To first order, J(s)^-1 (f(s) - u) (J by central
+    differences), then Newton's steps (up to ``steps``) where that is over 0.01 px: the
+    first order errs by f's curvature times the distance squared (idw alpha 2 at 1 px: 1.085
+    px by first order, 0.79 exact). A pixel whose steps do not settle, or reach a point
+    where f is not locally invertible, keeps the first order."""
     yy, xx = np.nonzero(covered)
     s = xy[yy, xx]
     u = np.stack([xx, yy], -1).astype(np.float64)
-    h = 1e-3
-    steps = ([0, 0], [h, 0], [-h, 0], [0, h], [0, -h])
-    points = np.concatenate([s + d for d in steps])
     segments = {"src_segments": m.src_segments, "dst_segments": m.dst_segments}
-    f, _, _ = reference.mls(m.src, m.dst, points, m.config, shape=shape, **segments)
-    f0, fx1, fx0, fy1, fy0 = np.split(f, 5)
-    jac = np.stack([(fx1 - fx0) / (2 * h), (fy1 - fy0) / (2 * h)], axis=-1)
+
+    def newton(points):  # (f - u, J) at points (n, 2)
+        h = 1e-3
+        around = ([0, 0], [h, 0], [-h, 0], [0, h], [0, -h])
+        f, _, _ = reference.mls(
+            m.src,
+            m.dst,
+            np.concatenate([points + d for d in around]),
+            m.config,
+            shape=shape,
+            **segments,
+        )
+        f0, fx1, fx0, fy1, fy0 = np.split(f, 5)
+        return f0, np.stack([(fx1 - fx0) / (2 * h), (fy1 - fy0) / (2 * h)], axis=-1)
+
+    f0, jac = newton(s)
     regular = np.linalg.det(jac) > 0.05
-    miss = np.linalg.solve(jac[regular], (f0 - u)[regular][..., None])[..., 0]
+    s, u = s[regular], u[regular]
+    first = s - np.linalg.solve(jac[regular], (f0[regular] - u)[..., None])[..., 0]
+    inverse = first.copy()
+    active = np.flatnonzero(np.hypot(*(inverse - s).T) > 0.01)
+    t = inverse[active]
+    for _ in range(steps):
+        if len(active) == 0:
+            break
+        f_t, jac_t = newton(t)
+        ok = np.linalg.det(jac_t) > 0.05
+        inverse[active[~ok]] = first[active[~ok]]  # off the sheet: the first order
+        t, active, f_t, jac_t = t[ok], active[ok], f_t[ok], jac_t[ok]
+        t -= np.linalg.solve(jac_t, (f_t - u[active])[..., None])[..., 0]
+        settled = np.hypot(*(t - inverse[active]).T) < 1e-7
+        inverse[active] = t
+        t, active = t[~settled], active[~settled]
+    inverse[active] = first[active]  # not settled: the first order
     error = np.full(shape, np.nan)
-    error[yy[regular], xx[regular]] = np.hypot(miss[:, 0], miss[:, 1])
+    error[yy[regular], xx[regular]] = np.hypot(*(s - inverse).T)
     return error, regular.mean()
 
 

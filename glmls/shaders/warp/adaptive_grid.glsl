@@ -30,9 +30,9 @@ vec2 combine(vec3 weights, vec2 a, vec2 b, vec2 c) {
 const float INSET[5] = float[5](119.0 / 625.0, 714.0 / 625.0, -306.0 / 625.0, 119.0 / 625.0,
                                 -21.0 / 625.0);
 
-// That quartic at 0.15 (``far`` false) or 0.85 (true).
-vec2 quartic_at_inset(bool far, vec2 v0, vec2 v1, vec2 v2, vec2 v3, vec2 v4) {
-    return far ? INSET[4] * v0 + INSET[3] * v1 + INSET[2] * v2 + INSET[1] * v3 + INSET[0] * v4
+// That quartic at 0.15 (``mirrored`` false) or 0.85 (true).
+vec2 quartic_at_inset(bool mirrored, vec2 v0, vec2 v1, vec2 v2, vec2 v3, vec2 v4) {
+    return mirrored ? INSET[4] * v0 + INSET[3] * v1 + INSET[2] * v2 + INSET[1] * v3 + INSET[0] * v4
                : INSET[0] * v0 + INSET[1] * v1 + INSET[2] * v2 + INSET[3] * v3 + INSET[4] * v4;
 }
 
@@ -47,14 +47,14 @@ float adaptive_inset_miss2(vec2 m[25]) {
     float most = 0.0;
     for (int k = 0; k < 2; ++k) {
         // column 0.15 or 0.85: on the 5 rows of the grid, then on rows 0.15 and 0.85
-        bool far = k == 1;
+        bool mirrored = k == 1;
         vec2 col[5];
         for (int r = 0; r < 5; r += 2) {
-            col[r] = quartic_at_inset(far, vec2(0.0), m[5 * r + 1], vec2(0.0), m[5 * r + 3],
+            col[r] = quartic_at_inset(mirrored, vec2(0.0), m[5 * r + 1], vec2(0.0), m[5 * r + 3],
                                       vec2(0.0));
         }
         for (int r = 1; r < 5; r += 2) {
-            col[r] = quartic_at_inset(far, m[5 * r], m[5 * r + 1], m[5 * r + 2], m[5 * r + 3],
+            col[r] = quartic_at_inset(mirrored, m[5 * r], m[5 * r + 1], m[5 * r + 2], m[5 * r + 3],
                                       m[5 * r + 4]);
         }
         for (int r = 0; r < 5; ++r) {
