@@ -164,10 +164,21 @@ def test_ab_trees_paired_survives_a_worker_that_dies(tmp_path):
 
 def test_guarantee_reports_each_case_and_the_worst_per_weight():
     """benchmarks/guarantee.py on one weight, map and tolerance: a line for the case and the
-    summary, the default weight's errors within the tolerance where its leaves vouch."""
+    summary, the default weight's errors within the tolerance where its leaves vouch; with
+    --margins, its leaves' errors over their misses, within SAFETY (the test's miss) and no
+    smaller than with the miss at the 16 test points alone."""
     run = run_script(
-        "guarantee.py", "--weights", "[{}]", "--maps", "smooth", "--tolerances", "0.25"
+        "guarantee.py",
+        "--weights",
+        "[{}]",
+        "--maps",
+        "smooth",
+        "--tolerances",
+        "0.25",
+        "--margins",
     )
     case, summary = (line for line in run.stdout.splitlines() if line.startswith(("{", "  {")))
     assert case.startswith("{}") and "smooth" in case and "0 over" in case
     assert 0 < float(summary.split()[-1]) <= 1.0
+    inset, at_tests = (float(case.split()[k].strip(",")) for k in (-6, -1))
+    assert 0.5 < inset <= at_tests and inset < 1.25
