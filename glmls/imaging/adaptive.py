@@ -11,10 +11,11 @@ in the pipeline):
    margin of a border mode), f evaluated at their 5 x 5 grids; cells larger than
    :data:`MAX_LEAF` (the roots) split untested;
 2. for every cell of the level, f on its 5 x 5 grid (quarters of its sides): the quadratic
-   patch through the 3 x 3 nodes (corners, edge mid-points, centre), its *miss* the
-   largest distance from f at the 16 other points; that miss times :data:`SAFETY` over the
-   smallest singular value of the patch's Jacobian on the grid bounds the source-space
-   error of the cell (:mod:`.adaptive_patch`); where f bends sharply at or between the
+   patch through the 3 x 3 nodes (corners, edge mid-points, centre); its *miss*, its
+   largest distance from f, taken from its misses at the 16 other points (there, and where
+   the quartic through them peaks: :func:`.adaptive_patch.estimate_cells`), times
+   :data:`SAFETY` over the smallest singular value of the patch's Jacobian on the grid
+   bounds the source-space error of the cell; where f bends sharply at or between the
    point handles (``known``), the patch is also measured there, in or next to the cell;
 3. cells whose error exceeds the tolerance are split into four (their grid's points are the
    children's nodes), down to 1 px cells, and below (to :data:`MIN_SIZE`) where the map

@@ -300,9 +300,8 @@ def known_errors(
     # the orientation at the centre (grid point 12), from the slopes per unit of u and v
     centre_u, centre_v = PATCH_SLOPES[12], PATCH_SLOPES[37]
     turn = (nx @ centre_u) * (ny @ centre_v) - (nx @ centre_v) * (ny @ centre_u)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        bound = SAFETY * miss / np.sqrt(low)
-    bound[~((det * turn > 0) & np.isfinite(bound))] = np.inf
+    bound = error_bound(miss, np.sqrt(low))
+    bound[~(det * turn > 0)] = np.inf
     np.maximum.at(out, cell, bound)
     return out
 

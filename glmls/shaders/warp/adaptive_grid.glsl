@@ -6,8 +6,8 @@
 // The grid holds the quadratic patch's 3 x 3 nodes (even row and column) and 16 test points.
 // The patch (Lagrange, through the nodes) is evaluated at every grid point, with its slopes:
 // its miss is the largest distance between it and the grid's values at the test points (and,
-// in the cells' test, the quartic through those misses on lines near the cell's edges), and its Jacobian's singular values on the 25 points give the
-// smallest and the largest stretch.
+// in the cells' test, the quartic through those misses on lines near the cell's edges), and
+// its Jacobian's singular values on the 25 points give the smallest and the largest stretch.
 // The values are f - v (scaled) less the centre node's: the patch reproduces v and constants,
 // so its miss is the same, and the sums round on the variation over the cell, not on f - v.
 
@@ -32,8 +32,9 @@ const float INSET[5] = float[5](119.0 / 625.0, 714.0 / 625.0, -306.0 / 625.0, 11
 
 // That quartic at 0.15 (``mirrored`` false) or 0.85 (true).
 vec2 quartic_at_inset(bool mirrored, vec2 v0, vec2 v1, vec2 v2, vec2 v3, vec2 v4) {
-    return mirrored ? INSET[4] * v0 + INSET[3] * v1 + INSET[2] * v2 + INSET[1] * v3 + INSET[0] * v4
-               : INSET[0] * v0 + INSET[1] * v1 + INSET[2] * v2 + INSET[3] * v3 + INSET[4] * v4;
+    return mirrored
+        ? INSET[4] * v0 + INSET[3] * v1 + INSET[2] * v2 + INSET[1] * v3 + INSET[0] * v4
+        : INSET[0] * v0 + INSET[1] * v1 + INSET[2] * v2 + INSET[3] * v3 + INSET[4] * v4;
 }
 
 // The largest square of the quartic through the 5 x 5 misses ``m`` (0 at the nodes) on the
@@ -50,12 +51,12 @@ float adaptive_inset_miss2(vec2 m[25]) {
         bool mirrored = k == 1;
         vec2 col[5];
         for (int r = 0; r < 5; r += 2) {
-            col[r] = quartic_at_inset(mirrored, vec2(0.0), m[5 * r + 1], vec2(0.0), m[5 * r + 3],
-                                      vec2(0.0));
+            col[r] = quartic_at_inset(mirrored, vec2(0.0), m[5 * r + 1], vec2(0.0),
+                                      m[5 * r + 3], vec2(0.0));
         }
         for (int r = 1; r < 5; r += 2) {
-            col[r] = quartic_at_inset(mirrored, m[5 * r], m[5 * r + 1], m[5 * r + 2], m[5 * r + 3],
-                                      m[5 * r + 4]);
+            col[r] = quartic_at_inset(mirrored, m[5 * r], m[5 * r + 1], m[5 * r + 2],
+                                      m[5 * r + 3], m[5 * r + 4]);
         }
         for (int r = 0; r < 5; ++r) {
             most = max(most, dot(col[r], col[r]));
