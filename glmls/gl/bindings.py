@@ -51,11 +51,8 @@ ERROR_FIELD = Binding("ERROR_FIELD", "storage", 6, "the error field written by a
 WINNER = Binding("WINNER", "storage", 7, "per target pixel, the key of the top triangle")
 FIXUPS = Binding("FIXUPS", "storage", 10, "pixels that more than one triangle reached")
 CHECK = Binding("CHECK", "storage", 12, "the embedding test's counts and dispatch sizes")
-ADAPTIVE_LEAVES = Binding("ADAPTIVE_LEAVES", "storage", 13, "the adaptive mesh's leaf patches")
 ADAPTIVE_POINTS = Binding("ADAPTIVE_POINTS", "storage", 14, "adaptive: each pixel's source point")
 ADAPTIVE_HOT = Binding("ADAPTIVE_HOT", "storage", 15, "adaptive: the tiles near folds, triangles")
-ADAPTIVE_F = Binding("ADAPTIVE_F", "storage", 16, "adaptive build: f - v at each vertex (scaled)")
-ADAPTIVE_CELLS = Binding("ADAPTIVE_CELLS", "storage", 17, "adaptive build: the cells to test")
 ADAPTIVE_TESTS = Binding("ADAPTIVE_TESTS", "storage", 18, "adaptive build: each cell's test")
 ADAPTIVE_HANDLES = Binding("ADAPTIVE_HANDLES", "storage", 8, "adaptive build: the point handles")
 ADAPTIVE_SPLIT = Binding("ADAPTIVE_SPLIT", "storage", 9, "adaptive build: the cells that split")
@@ -71,6 +68,12 @@ PICTURE = Binding("PICTURE", "texture", 5, "an image or picture drawn onto a vie
 VALUES = Binding("VALUES", "texture", 6, "a scalar field to colour (value, defined)")
 COLOR_TABLE = Binding("COLOR_TABLE", "texture", 7, "a colour map, n x 1 RGBA8")
 GLYPHS = Binding("GLYPHS", "texture", 8, "the glyph atlas of on-screen text")
+# the adaptive mesh's tables (glmls.gl.tables): read item by item, fetched as texels
+ADAPTIVE_VERTICES = Binding("ADAPTIVE_VERTICES", "texture", 9, "adaptive: (output, source) points")
+ADAPTIVE_TRIANGLES = Binding("ADAPTIVE_TRIANGLES", "texture", 10, "adaptive: vertex ids, leaf")
+ADAPTIVE_LEAVES = Binding("ADAPTIVE_LEAVES", "texture", 11, "adaptive: the leaves' patches")
+ADAPTIVE_F = Binding("ADAPTIVE_F", "texture", 12, "adaptive build: f - v at each vertex (scaled)")
+ADAPTIVE_CELLS = Binding("ADAPTIVE_CELLS", "texture", 13, "adaptive build: the cells to test")
 # -- image units -------------------------------------------------------------------------------
 INVERSE_MAP = Binding("INVERSE_MAP", "image", 0, "backward: guess in, source points out")
 ADAPTIVE_TARGET = Binding("ADAPTIVE_TARGET", "image", 1, "adaptive: the RGBA8 target it colours")
@@ -88,11 +91,8 @@ ALL = (
     WINNER,
     FIXUPS,
     CHECK,
-    ADAPTIVE_LEAVES,
     ADAPTIVE_POINTS,
     ADAPTIVE_HOT,
-    ADAPTIVE_F,
-    ADAPTIVE_CELLS,
     ADAPTIVE_TESTS,
     ADAPTIVE_HANDLES,
     ADAPTIVE_SPLIT,
@@ -106,6 +106,11 @@ ALL = (
     VALUES,
     COLOR_TABLE,
     GLYPHS,
+    ADAPTIVE_VERTICES,
+    ADAPTIVE_TRIANGLES,
+    ADAPTIVE_LEAVES,
+    ADAPTIVE_F,
+    ADAPTIVE_CELLS,
     INVERSE_MAP,
     ADAPTIVE_TARGET,
     TEXEL_SOURCE,

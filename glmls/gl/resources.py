@@ -1,5 +1,6 @@
 """Cached GL objects of one owner: buffers that only grow, one texture (and framebuffer) per
-role replaced when its size changes, attribute-less vertex arrays per program.
+role replaced when its size changes, attribute-less vertex arrays per program, and the
+read-only tables of compute shaders (:mod:`.tables`).
 
 Owners (an MLS kernel's scratch buffers, a warp pipeline) keep a :class:`Resources` and call
 :meth:`Resources.release` when they go; nothing else frees these objects.
@@ -14,6 +15,7 @@ import numpy as np
 
 from ..errors import ReleasedError
 from .context import GLContext
+from .tables import Tables
 
 __all__ = ["FILL_BYTES", "Resources", "can_fill"]
 
@@ -33,6 +35,8 @@ class Resources:
         self._framebuffers: dict[str, tuple[int, moderngl.Framebuffer]] = {}
         self._vaos: dict[tuple, moderngl.VertexArray] = {}
         self._released = False
+        #: The owner's read-only arrays for compute shaders (:mod:`.tables`).
+        self.tables = Tables(gl)
 
     def check_alive(self) -> None:
         if self._released:
@@ -179,6 +183,7 @@ class Resources:
                     vao.release()
                 for _, buffer in self._buffers.values():
                     buffer.release()
+                self.tables.release()
         self._textures.clear()
         self._framebuffers.clear()
         self._vaos.clear()

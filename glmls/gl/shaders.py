@@ -25,6 +25,7 @@ from importlib.resources.abc import Traversable
 
 from . import bindings
 from .dispatch import LOCAL_SIZE, LOCAL_SIZE_2D
+from .tables import TABLE_SHIFT
 
 __all__ = [
     "GLSL_VERSION",
@@ -104,9 +105,14 @@ class ComposedSource:
 
 
 def common_defines() -> dict[str, object]:
-    """What every glmls program is compiled with: the binding points (``BIND_*``) and the
-    work-group sizes the dispatches assume (``LOCAL_SIZE``, ``LOCAL_SIZE_2D``)."""
-    return bindings.defines() | {"LOCAL_SIZE": LOCAL_SIZE, "LOCAL_SIZE_2D": LOCAL_SIZE_2D}
+    """What every glmls program is compiled with: the binding points (``BIND_*``), the
+    work-group sizes the dispatches assume (``LOCAL_SIZE``, ``LOCAL_SIZE_2D``) and the
+    tables' layout (``TABLE_SHIFT``, :mod:`.tables`)."""
+    return bindings.defines() | {
+        "LOCAL_SIZE": LOCAL_SIZE,
+        "LOCAL_SIZE_2D": LOCAL_SIZE_2D,
+        "TABLE_SHIFT": TABLE_SHIFT,
+    }
 
 
 class ShaderLibrary:

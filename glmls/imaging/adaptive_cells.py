@@ -22,6 +22,7 @@ from ..gl import bindings
 from ..gl.context import GLContext
 from ..gl.dispatch import run_1d, set_uniforms
 from ..gl.resources import Resources
+from ..gl.tables import TABLE_WIDTH, table_rows
 from .adaptive_patch import SAFETY, error_bound
 
 __all__ = [
@@ -36,10 +37,10 @@ __all__ = [
     "smooth_weight",
 ]
 
-#: uint32 words per cell in the test's input: 9 node ids, 16 test ids, width, height, flags
-#: (bit 0: the cell splits untested), the centre's x and y (scaled) (the shader's CELL_WORDS,
-#: defined from here).
-_CELL_WORDS = 30
+#: uint32 words per cell in the test's input table: 9 node ids, 16 test ids, width, height,
+#: flags (bit 0: the cell splits untested), the centre's x and y (scaled), 2 unused: whole
+#: texels of 4 (the shader's CELL_WORDS, defined from here).
+_CELL_WORDS = 32
 #: The prediction's indirect dispatch before the test lists any cell: (x, y, z) work groups
 #: (0, 0, 1), then the list's length, 0.
 _NO_GROUPS = np.array([0, 0, 1, 0], np.uint32).tobytes()
@@ -143,8 +144,9 @@ def _power(kernel: MLSKernel) -> float | None:
 class GPUCells:
     """:func:`glmls.imaging.adaptive.build_adaptive`'s ``evaluate`` and ``test`` for one
     build to ``tolerance`` pixels, with ``kernel``'s f for an image of ``shape``, the GPU
-    objects ``resources``'s (the roles ``adaptive-f``, ``adaptive-cells``,
-    ``adaptive-tests`` and ``adaptive-handles``)."""
+    objects ``resources``'s (the buffers ``adaptive-f``, ``adaptive-tests``,
+    ``adaptive-split`` and ``adaptive-handles``, the tables ``adaptive-f`` and
+    ``adaptive-cells``)."""
 
     def __init__(
         self,
@@ -161,6 +163,7 @@ class GPUCells:
         self._tolerance = tolerance
         #: vertices evaluated so far: the next one's id
         self.count = 0
+        self._tabled = 0  # of them, those in the table the test reads
         self._bad: list[np.ndarray] = []  # ids of vertices where f is not finite
         #: Whether :meth:`test` predicts split cells' children (f is smooth away from the
         #: handles).
@@ -177,8 +180,10 @@ class GPUCells:
         """f at ``points`` ((K, 2) float64), (K, 2) float64; they get the next K ids."""
         n = len(points)
         at = self.count * 8
+        # whole rows of the table that the test copies f into (gl.tables.Tables.copy)
+        rows = table_rows(self.count + n) * TABLE_WIDTH * 8
         with self._gl.use():
-            store = self._resources.grown("adaptive-f", at + n * 8, keep=at)
+            store = self._resources.grown("adaptive-f", rows, keep=at)
             f, _ = evaluate_points(
                 self._kernel, points, with_matrix=False, shape=self._shape, keep=(store, at)
             )
@@ -230,7 +235,8 @@ class GPUCells:
         cells[:, 25] = np.asarray(width, np.float32).view(np.uint32)
         cells[:, 26] = np.asarray(height, np.float32).view(np.uint32)
         cells[:, 27] = whole
-        cells[:, 28:] = self._kernel.scaling.to_gpu(centres).view(np.uint32)
+        cells[:, 28:30] = self._kernel.scaling.to_gpu(centres).view(np.uint32)
+        cells[:, 30:] = 0
         per_cell = 5 if self.predicts else 1
         gl, resources = self._gl, self._resources
         size = count * per_cell * 16
@@ -239,10 +245,12 @@ class GPUCells:
         scale = {"u_scale": float(self._kernel.scaling.scale)}
         max_groups = gl.limits["max_work_groups_x"]
         with gl.use():
-            source = resources.buffer("adaptive-cells", cells.nbytes)
-            source.write(cells)
-            source.bind_to_storage_buffer(bindings.ADAPTIVE_CELLS.index)
-            resources.cached("adaptive-f").bind_to_storage_buffer(bindings.ADAPTIVE_F.index)
+            tables = resources.tables
+            tables.write("adaptive-cells", cells.reshape(-1, 4), bindings.ADAPTIVE_CELLS.index)
+            # f at the points evaluated since the last test, into the table
+            f = resources.cached("adaptive-f")
+            tables.copy("adaptive-f", f, (self._tabled, self.count), 2, bindings.ADAPTIVE_F.index)
+            self._tabled = self.count
             out = resources.buffer("adaptive-tests", size)
             out.bind_to_storage_buffer(bindings.ADAPTIVE_TESTS.index)
             if not self.predicts:

@@ -167,8 +167,9 @@ class AdaptiveScan:
         self._resources.vertex_array(fill).render(moderngl.TRIANGLES, vertices=3)
 
     def _upload(self, mesh: AdaptiveMesh, frame: Frame) -> None:
-        """The mesh's vertices (in the output frame), triangles and leaf patches, bound."""
-        resources = self._resources
+        """The mesh's vertices (in the output frame), triangles and leaf patches, in their
+        tables (:mod:`glmls.gl.tables`: the scan reads them triangle by triangle), bound."""
+        tables = self._resources.tables
         # column by column: numpy copies (N, 2) into strided (N, 4) columns ~5x slower
         vertices = np.empty((len(mesh.source), 4), np.float32)
         for axis in (0, 1):
@@ -178,15 +179,10 @@ class AdaptiveScan:
         for corner in (0, 1, 2):
             indices[:, corner] = mesh.triangles[:, corner]
         indices[:, 3] = mesh.triangle_leaf
-        leaves = _leaf_patches(mesh, frame)
-        for role, data, binding in (
-            ("adaptive-vertices", vertices, bindings.DEFORMED),
-            ("adaptive-triangles", indices, bindings.POINTS),
-            ("adaptive-leaves", leaves, bindings.ADAPTIVE_LEAVES),
-        ):
-            buffer = resources.buffer(role, data.nbytes)
-            buffer.write(data)  # the array itself: no copy into bytes
-            buffer.bind_to_storage_buffer(binding.index)
+        leaves = _leaf_patches(mesh, frame).reshape(-1, 4)
+        tables.write("adaptive-vertices", vertices, bindings.ADAPTIVE_VERTICES.index)
+        tables.write("adaptive-triangles", indices, bindings.ADAPTIVE_TRIANGLES.index)
+        tables.write("adaptive-leaves", leaves, bindings.ADAPTIVE_LEAVES.index)
 
     def _clear_points(self, frame: Frame) -> None:
         """The per-pixel source points, all :data:`NONE` (and a spare element), bound."""

@@ -145,12 +145,13 @@ void main() {
         return;
     }
 #endif
-    uint ia = adaptive_index[4 * t];
-    uint ib = adaptive_index[4 * t + 1];
-    uint ic = adaptive_index[4 * t + 2];
-    vec4 va = adaptive_vertex[ia];
-    vec4 vb = adaptive_vertex[ib];
-    vec4 vc = adaptive_vertex[ic];
+    uvec4 ids = adaptive_triangle(t);   // its vertices, then its leaf
+    uint ia = ids.x;
+    uint ib = ids.y;
+    uint ic = ids.z;
+    vec4 va = adaptive_vertex(ia);
+    vec4 vb = adaptive_vertex(ib);
+    vec4 vc = adaptive_vertex(ic);
     vec2 a = va.xy;
     vec2 b = vb.xy;
     vec2 c = vc.xy;
@@ -184,7 +185,7 @@ void main() {
     }
 #endif
 #if ADAPTIVE_FILL
-    LeafPatch leaf = load_patch(int(adaptive_index[4 * t + 3]));
+    LeafPatch leaf = load_patch(int(ids.w));
     // the linear guess in the leaf's centred coordinates (adaptive_patch.glsl), an affine
     // function of the pixel: w = w_a + guess (p - a), the barycentrics folded in
     mat2 to_barycentric = (1.0 / area) * mat2(c.y - a.y, a.y - b.y, a.x - c.x, b.x - a.x);

@@ -20,9 +20,10 @@ void main() {
     if (t >= u_count) {
         return;
     }
-    vec2 a = adaptive_vertex[adaptive_index[4 * t]].xy;
-    vec2 b = adaptive_vertex[adaptive_index[4 * t + 1]].xy;
-    vec2 c = adaptive_vertex[adaptive_index[4 * t + 2]].xy;
+    uvec4 ids = adaptive_triangle(t);
+    vec2 a = adaptive_vertex(ids.x).xy;
+    vec2 b = adaptive_vertex(ids.y).xy;
+    vec2 c = adaptive_vertex(ids.z).xy;
     if (!within_pixels(vec4(a, b), vec4(c, c))) {
         return;
     }

@@ -134,15 +134,16 @@ vec4 adaptive_grid_test(vec2 grid[25], vec2 sides, bool inset) {
     return vec4(u_scale * sqrt(miss2), smallest, sqrt(high), 0.0);
 }
 
-layout(std430, binding = BIND_ADAPTIVE_F) readonly buffer AdaptiveF {
-    vec2 adaptive_f[];       // f - v at every vertex evaluated so far, scaled, by vertex id
-};
-layout(std430, binding = BIND_ADAPTIVE_CELLS) readonly buffer AdaptiveCells {
-    uint adaptive_cell[];    // per cell, CELL_WORDS: 9 node ids (row by row), the 16 test
-                             // points' ids (row by row), width and height (float bits),
-                             // flags (bit 0: it splits untested), its centre (scaled, float
-                             // bits)
-};
+#include "common/table.glsl"
+
+// tables (common/table.glsl)
+layout(binding = BIND_ADAPTIVE_F) uniform sampler2D adaptive_f;
+                             // per vertex evaluated so far, by id: f - v, scaled (RG)
+layout(binding = BIND_ADAPTIVE_CELLS) uniform usampler2D adaptive_cells;
+                             // per cell, CELL_WORDS / 4 texels: 9 node ids (row by row), the
+                             // 16 test points' ids (row by row), width and height (float
+                             // bits), flags (bit 0: it splits untested), its centre (scaled,
+                             // float bits)
 
 layout(std430, binding = BIND_ADAPTIVE_TESTS) writeonly buffer AdaptiveTests {
     vec4 adaptive_test[];    // per cell, what the pass writes (one or five vec4)
@@ -159,14 +160,22 @@ uniform int u_offset;     // first cell of this dispatch
 const int GRID_PLACE[25] = int[25](0, 2, 4, 10, 12, 14, 20, 22, 24,
                                    1, 3, 5, 6, 7, 8, 9, 11, 13, 15, 16, 17, 18, 19, 21, 23);
 
+// Texel k (words 4 k .. 4 k + 3) of cell ``cell``'s record.
+uvec4 adaptive_cell(int cell, int k) {
+    return TABLE_FETCH(adaptive_cells, (CELL_WORDS / 4) * cell + k);
+}
+
 // Cell ``cell``'s 25 values less its centre node's, and its sides (pixels).
 void adaptive_load_cell(int cell, out vec2 grid[25], out vec2 sides) {
-    int at = cell * CELL_WORDS;
-    vec2 centre = adaptive_f[adaptive_cell[at + 4]];
-    for (int k = 0; k < 25; ++k) {
-        grid[GRID_PLACE[k]] = adaptive_f[adaptive_cell[at + k]] - centre;
+    uvec4 record[7];   // words 0 .. 27
+    for (int k = 0; k < 7; ++k) {
+        record[k] = adaptive_cell(cell, k);
     }
-    sides = vec2(uintBitsToFloat(adaptive_cell[at + 25]), uintBitsToFloat(adaptive_cell[at + 26]));
+    vec2 centre = TABLE_FETCH(adaptive_f, record[1].x).xy;   // word 4
+    for (int k = 0; k < 25; ++k) {
+        grid[GRID_PLACE[k]] = TABLE_FETCH(adaptive_f, record[k >> 2][k & 3]).xy - centre;
+    }
+    sides = uintBitsToFloat(record[6].yz);   // words 25, 26
 }
 
 // This invocation's cell (false past the last: nothing to do), as adaptive_load_cell.

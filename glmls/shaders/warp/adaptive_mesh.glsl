@@ -2,14 +2,23 @@
 // (warp/adaptive_folds.comp.glsl) read it (glmls.imaging.adaptive_scan uploads it), and the
 // buffer of the tiles near folds they share.
 
+#include "common/table.glsl"
+
 #define HOT_SHIFT 3   // tiles of 8 x 8 pixels
 
-layout(std430, binding = BIND_DEFORMED) readonly buffer AdaptiveVertices {
-    vec4 adaptive_vertex[];   // (output x, y, source x, y), pixels
-};
-layout(std430, binding = BIND_POINTS) readonly buffer AdaptiveTriangles {
-    uint adaptive_index[];    // per triangle in scan order: three vertex indices, its leaf
-};
+// tables (common/table.glsl), read with adaptive_vertex and adaptive_triangle
+layout(binding = BIND_ADAPTIVE_VERTICES) uniform sampler2D adaptive_vertices;
+                              // per vertex: (output x, y, source x, y), pixels
+layout(binding = BIND_ADAPTIVE_TRIANGLES) uniform usampler2D adaptive_triangles;
+                              // per triangle in scan order: three vertex ids, its leaf
+
+vec4 adaptive_vertex(uint id) {
+    return TABLE_FETCH(adaptive_vertices, id);
+}
+
+uvec4 adaptive_triangle(int t) {
+    return TABLE_FETCH(adaptive_triangles, t);
+}
 layout(std430, binding = BIND_ADAPTIVE_HOT) buffer AdaptiveHot {
     uint adaptive_hot_count;   // the scan's listed triangles
     uint adaptive_reversed;    // the fold check's reversed triangles (0 before it)

@@ -7,11 +7,12 @@
 // patch in powers of w = (s - centre) / size, w in [-1/2, 1/2]^2 over the leaf: f minus f at
 // the centre is sum a_ij wx^i wy^j over i, j <= 2, a_00 = 0, the other eight a_ij in the order
 // a_01 a_02 a_10 a_11 a_12 a_20 a_21 a_22, those of f's x in two vec4s, then those of its y
-// (glmls.imaging.adaptive_patch.leaf_powers). Horner's rule then evaluates the patch and its
-// slopes in about a third of the operations of the Lagrange form: this runs at every pixel.
-layout(std430, binding = BIND_ADAPTIVE_LEAVES) readonly buffer AdaptiveLeaves {
-    vec4 adaptive_leaf[];
-};
+// (glmls.imaging.adaptive_patch.leaf_powers), a table (common/table.glsl). Horner's rule
+// then evaluates the patch and its slopes in about a third of the operations of the Lagrange
+// form: this runs at every pixel.
+#include "common/table.glsl"
+
+layout(binding = BIND_ADAPTIVE_LEAVES) uniform sampler2D adaptive_leaves;
 #define ADAPTIVE_LEAF 6
 #define NEWTON_STEPS 1
 
@@ -25,14 +26,14 @@ struct LeafPatch {
 LeafPatch load_patch(int index) {
     int at = ADAPTIVE_LEAF * index;
     LeafPatch leaf;
-    leaf.box = adaptive_leaf[at];
-    vec4 centre = adaptive_leaf[at + 1];
+    leaf.box = TABLE_FETCH(adaptive_leaves, at);
+    vec4 centre = TABLE_FETCH(adaptive_leaves, at + 1);
     leaf.centre = centre.xy;
     leaf.orientation = centre.z;
-    vec4 x0 = adaptive_leaf[at + 2];
-    vec4 x1 = adaptive_leaf[at + 3];
-    vec4 y0 = adaptive_leaf[at + 4];
-    vec4 y1 = adaptive_leaf[at + 5];
+    vec4 x0 = TABLE_FETCH(adaptive_leaves, at + 2);
+    vec4 x1 = TABLE_FETCH(adaptive_leaves, at + 3);
+    vec4 y0 = TABLE_FETCH(adaptive_leaves, at + 4);
+    vec4 y1 = TABLE_FETCH(adaptive_leaves, at + 5);
     leaf.a01 = vec2(x0.x, y0.x);
     leaf.a02 = vec2(x0.y, y0.y);
     leaf.a10 = vec2(x0.z, y0.z);

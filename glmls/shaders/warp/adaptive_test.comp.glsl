@@ -83,8 +83,7 @@ void main() {
     }
     // a cell that splits untested (flag bit 0) gets no test: all 0. A level's cells are
     // all of one kind (the roots, or none), so lanes do not diverge here.
-    int at = cell * CELL_WORDS;
-    bool whole = (adaptive_cell[at + 27] & 1u) != 0u;
+    bool whole = (adaptive_cell(cell, 6).w & 1u) != 0u;   // word 27
     vec4 test = whole ? vec4(0.0) : adaptive_grid_test(grid, sides, true);
 #if ADAPTIVE_PREDICT == 1
     adaptive_test[5 * cell] = test;
@@ -97,7 +96,7 @@ void main() {
         return;
     }
     // listed only where no handle is near: the prediction pass's lanes all predict
-    vec2 centre = vec2(uintBitsToFloat(adaptive_cell[at + 28]), uintBitsToFloat(adaptive_cell[at + 29]));
+    vec2 centre = uintBitsToFloat(adaptive_cell(cell, 7).xy);   // words 28, 29
     if (adaptive_far(centre, u_reach * 0.5 * max(sides.x, sides.y) / u_scale)) {
         uint k = atomicAdd(adaptive_split_count, 1u);
         adaptive_split[k] = uint(cell);
