@@ -151,7 +151,7 @@ class CellScan:
         bands = 0
         for first, dims in self._bands(kernel, lattice):
             set_uniforms(cells, {"u_mesh_dims": dims, "u_first_row": first})
-            self._bands.buffer.bind_to_storage_buffer(bindings.DEFORMED.index)
+            self._bands.texture(dims)
             winner.bind_to_storage_buffer(bindings.WINNER.index)
             if fused:
                 self._bind_fused(source, target)  # type: ignore[arg-type]
@@ -344,7 +344,5 @@ class CellScan:
             bands = self._bands(kernel, lattice)
         for first, dims in bands:
             set_uniforms(program, {"u_mesh_dims": dims, "u_first_row": first})
-            mesh_texture = self._resources.texture("mesh", dims, 2, "f4")
-            mesh_texture.write(self._bands.buffer)
-            mesh_texture.use(bindings.MESH.index)
+            self._bands.texture(dims)
             vao.render(moderngl.TRIANGLES, vertices=3)

@@ -176,11 +176,11 @@ def _boundary_check(gl, mesh):
     rows, cols = mesh.shape[:2]
     entry = "warp/cells_check.comp.glsl"
     stages = [gl.compute(entry, {"WARP_CHECK_STAGE": s}) for s in (0, 1)]
-    vertices = gl.mgl.buffer(np.ascontiguousarray(mesh, np.float32).tobytes())
+    vertices = gl.mgl.texture((cols, rows), 2, np.ascontiguousarray(mesh, np.float32), dtype="f4")
     check = gl.mgl.buffer(reserve=48)
     try:
         check.clear()
-        vertices.bind_to_storage_buffer(bindings.DEFORMED.index)
+        vertices.use(bindings.MESH.index)
         check.bind_to_storage_buffer(bindings.CHECK.index)
         for program in stages:
             for name, value in (

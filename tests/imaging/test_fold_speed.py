@@ -229,10 +229,12 @@ def list_blocks(gl, mesh, hot_tiles, folded_blocks, target=(64, 64), shift=2):
     head = np.array([0, 1, len(folded_blocks) or 1, 0] + [0] * 8, np.uint32)  # a simple boundary
     with gl:
         program = gl.compute("warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": 3})
-        vertices = gl.mgl.buffer(np.ascontiguousarray(mesh, np.float32).tobytes())
+        vertices = gl.mgl.texture(
+            (cols, rows), 2, np.ascontiguousarray(mesh, np.float32), dtype="f4"
+        )
         check = gl.mgl.buffer(np.concatenate([head, data]).tobytes())
         try:
-            vertices.bind_to_storage_buffer(bindings.DEFORMED.index)
+            vertices.use(bindings.MESH.index)
             check.bind_to_storage_buffer(bindings.CHECK.index)
             uniforms = {
                 "u_center": (0.0, 0.0),

@@ -53,9 +53,8 @@ layout(local_size_x = LOCAL_SIZE) in;
 #include "warp/frame.glsl"
 #include "common/lattice.glsl"
 
-layout(std430, binding = BIND_DEFORMED) readonly buffer WarpMesh {
-    vec2 warp_mesh[];   // f at the mesh vertices, scaled coordinates
-};
+layout(binding = BIND_MESH) uniform sampler2D warp_mesh;   // f at the band's vertices
+                                                          // (scaled), fetched as texels
 layout(std430, binding = BIND_WINNER) buffer WarpWinner {
     uint warp_winner[];  // per target pixel, row-major: the shown triangle's key, 0 = none
 };
@@ -71,8 +70,8 @@ uniform ivec2 u_source_size;  // W, H of the source image (the fused colours)
 
 #include "warp/cells_hot.glsl"
 
-vec2 vertex_px(int i) {
-    return warp_output_point(warp_mesh[i]);
+vec2 vertex_px(ivec2 ij) {
+    return warp_output_point(texelFetch(warp_mesh, ij, 0).xy);
 }
 
 #include "warp/coverage.glsl"
@@ -102,11 +101,11 @@ void main() {
     int cy = cell / cells_x;
     int cx = cell - cy * cells_x;
 #endif
-    int i00 = cy * u_mesh_dims.x + cx;   // in the band
-    vec2 p00 = vertex_px(i00);
-    vec2 p10 = vertex_px(i00 + 1);
-    vec2 p01 = vertex_px(i00 + u_mesh_dims.x);
-    vec2 p11 = vertex_px(i00 + u_mesh_dims.x + 1);
+    ivec2 c00 = ivec2(cx, cy);   // in the band
+    vec2 p00 = vertex_px(c00);
+    vec2 p10 = vertex_px(c00 + ivec2(1, 0));
+    vec2 p01 = vertex_px(c00 + ivec2(0, 1));
+    vec2 p11 = vertex_px(c00 + 1);
 
     // Orientation of each triangle; degenerate ones cover nothing (as in OpenGL).
     float s0 = sign(edge(p00, p10, p11));
