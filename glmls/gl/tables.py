@@ -118,20 +118,21 @@ class Tables:
         if texture is not grown:
             first = 0  # a new texture: everything
         row_bytes = TABLE_WIDTH * components * 4
-        top = first // TABLE_WIDTH
-        size = (rows - top) * row_bytes
         if source.size < rows * row_bytes:
             raise ValueError(f"{role}: the buffer holds fewer than {rows} rows")
-        # a pixel unpack from a buffer reads from its start: the rows go through a staging
-        # buffer unless they start there
-        if top:
-            if self._staging is None or self._staging.size < size:
-                if self._staging is not None:
-                    self._staging.release()
-                self._staging = self._gl.mgl.buffer(reserve=max(size, 2 * row_bytes))
-            self._gl.mgl.copy_buffer(self._staging, source, size=size, read_offset=top * row_bytes)
-            source = self._staging
-        if end > first:
+        if end > first:  # nothing new: no copies
+            top = first // TABLE_WIDTH
+            # a pixel unpack from a buffer reads from its start: the rows go through a
+            # staging buffer unless they start there
+            if top:
+                size = (rows - top) * row_bytes
+                if self._staging is None or self._staging.size < size:
+                    if self._staging is not None:
+                        self._staging.release()
+                    self._staging = self._gl.mgl.buffer(reserve=max(size, 2 * row_bytes))
+                mgl = self._gl.mgl
+                mgl.copy_buffer(self._staging, source, size=size, read_offset=top * row_bytes)
+                source = self._staging
             texture.write(source, viewport=(0, top, TABLE_WIDTH, rows - top))
         texture.use(unit)
 

@@ -181,9 +181,9 @@ class GPUCells:
         n = len(points)
         at = self.count * 8
         # whole rows of the table that the test copies f into (gl.tables.Tables.copy)
-        rows = table_rows(self.count + n) * TABLE_WIDTH * 8
+        room = table_rows(self.count + n) * TABLE_WIDTH * 8
         with self._gl.use():
-            store = self._resources.grown("adaptive-f", rows, keep=at)
+            store = self._resources.grown("adaptive-f", room, keep=at)
             f, _ = evaluate_points(
                 self._kernel, points, with_matrix=False, shape=self._shape, keep=(store, at)
             )
