@@ -89,7 +89,7 @@ def leaf_margins(m, mesh, worst: np.ndarray, floor: float) -> tuple[float, float
     its 5 x 5 grid (``estimate_cells``' bound over ``SAFETY``): the largest, with the miss
     taken where the patch's error peaks (the test's), and at the 16 test points alone. Above
     ``SAFETY``, a leaf at the tolerance would err past it."""
-    from glmls.core import reference
+    from glmls import reference
     from glmls.imaging.adaptive_patch import NODES, SAFETY, TESTS, estimate_cells
 
     sure = np.flatnonzero(worst > floor)

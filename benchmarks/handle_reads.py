@@ -94,7 +94,7 @@ def main() -> None:
     n = args.handles
     if n % 64 or not 64 <= n <= 1024:
         parser.error("--handles must be a multiple of 64 from 64 to 1024")
-    ctx = glmls.get_context().mgl
+    ctx = glmls.gl.get_context().mgl
     handles = np.random.default_rng(0).random((n, 4), dtype=np.float32)
     groups = (args.points + 63) // 64
     buffers = [ctx.buffer(handles.tobytes()), ctx.buffer(reserve=groups * 64 * 8)]

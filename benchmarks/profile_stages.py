@@ -54,11 +54,11 @@ def main() -> None:
     m = glmls.MLS(src, dst, shape=shape, storage=args.storage)
     gl = m.ctx
     paths = {
-        "frame, compute scan conversion": glmls.WarpPipeline.of(gl),
-        "frame, keyed scan only        ": glmls.WarpPipeline(
+        "frame, compute scan conversion": glmls.gl.WarpPipeline.of(gl),
+        "frame, keyed scan only        ": glmls.gl.WarpPipeline(
             gl, options=PipelineOptions(fast_embedded=False)
         ),
-        "frame, GL rasterizer          ": glmls.WarpPipeline(
+        "frame, GL rasterizer          ": glmls.gl.WarpPipeline(
             gl, options=PipelineOptions(compute_quads=False)
         ),
     }

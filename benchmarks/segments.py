@@ -54,7 +54,7 @@ def main() -> None:
     rng = np.random.default_rng(0)
     image = rng.integers(0, 256, (SIZE, SIZE, 3), np.uint8)
     models = cases(rng)
-    ctx = glmls.get_context()
+    ctx = glmls.gl.get_context()
 
     def frame(m):
         m.mesh((SIZE, SIZE), grid=4)

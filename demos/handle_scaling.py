@@ -165,8 +165,8 @@ def main() -> None:
     counts = [int(n) for n in args.counts.split(",")] if args.counts else COUNTS
     args.out.mkdir(parents=True, exist_ok=True)
 
-    gl = glmls.get_context()
-    pipe = glmls.WarpPipeline.of(gl)
+    gl = glmls.gl.get_context()
+    pipe = glmls.gl.WarpPipeline.of(gl)
     image = np.random.default_rng(1).integers(0, 255, (args.size, args.size, 3), np.uint8)
     source = pipe.upload(prepare_image(image, pipe.max_image_size, normalized=True), "demo")
     gl.make_current()

@@ -21,7 +21,7 @@ import numpy as np
 from PIL import Image
 
 import glmls
-from glmls.analysis.report import compose
+from glmls.analysis.reporting import compose
 
 # Four dragged handles (hair up, mouth corners out and up, chin down) ...
 DRAGGED_SRC = [[228, 20], [203, 142], [243, 142], [223, 175]]
@@ -58,7 +58,7 @@ def main() -> None:
     dst = np.array(DRAGGED_DST + FIXED, float)
 
     with glmls.MLS(src, dst, transform="similarity", weight="idw", shape=image.shape) as m:
-        result = glmls.report(
+        result = glmls.analysis.report(
             image,
             m,
             REFERENCE,

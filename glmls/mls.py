@@ -72,7 +72,7 @@ class MLS(DeformedImages):
     point, that point uses the similarity solution. A point that no handle reaches stays put.
 
     GPU objects are released by :meth:`release` (or a ``with`` block); the images it builds
-    come from its context's shared :class:`~glmls.WarpPipeline`.
+    come from its context's shared :class:`~glmls.gl.WarpPipeline`.
     """
 
     def __init__(
@@ -256,7 +256,7 @@ class MLS(DeformedImages):
         likewise in y. Returns (vertices, deformed), each (rows, columns, 2) float64.
 
         With ``tolerance`` (pixels; ``grid`` must stay 1): the error-bounded adaptive mesh
-        that :meth:`warp` draws with that tolerance, a :class:`~glmls.AdaptiveMesh`
+        that :meth:`warp` draws with that tolerance, a :class:`~glmls.imaging.adaptive.AdaptiveMesh`
         (vertices, f at them, triangles, leaves; ``docs/adaptive.md``).
         """
         if tolerance is not None:

@@ -13,7 +13,7 @@ from glmls.imaging.options import PipelineOptions
 @pytest.fixture(scope="session")
 def gl() -> GLContext:
     """The shared headless context (created once, released at exit)."""
-    return glmls.get_context()
+    return glmls.gl.get_context()
 
 
 @pytest.fixture(autouse=True)
@@ -41,7 +41,7 @@ def pipeline(gl):
     made = []
 
     def make(**options):
-        pipe = glmls.WarpPipeline(gl, options=PipelineOptions(**options))
+        pipe = glmls.gl.WarpPipeline(gl, options=PipelineOptions(**options))
         made.append(pipe)
         return pipe
 

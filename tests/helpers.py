@@ -11,7 +11,7 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
-from glmls.core import reference
+from glmls import reference
 from glmls.core.mesh import MeshLattice
 
 #: Background of the coordinate images: no pixel holds it.

@@ -13,7 +13,7 @@ PACKAGE = Path(__file__).resolve().parent.parent / "glmls"
 #: Each layer may import itself and the layers before it, nothing after it.
 LAYERS = (
     ("glmls.errors", "glmls.version"),
-    ("glmls.core", "glmls.files", "glmls.data"),
+    ("glmls.core", "glmls.reference", "glmls.files", "glmls.data"),
     ("glmls.gl",),
     ("glmls.engine",),
     ("glmls.imaging",),
@@ -46,12 +46,29 @@ def layer(module: str) -> int:
     return best[0]
 
 
+def lazy_reexports(tree: ast.Module) -> set[ast.AST]:
+    """The nodes of a module-level ``__getattr__`` (PEP 562): a public namespace such as
+    ``glmls.gl`` re-exports a class of a higher layer on first use, which neither makes the
+    lower layer depend on the higher one at import time nor creates a cycle."""
+    return {
+        inner
+        for node in tree.body
+        if isinstance(node, ast.FunctionDef) and node.name == "__getattr__"
+        for inner in ast.walk(node)
+    }
+
+
 def imports(module: str) -> set[str]:
-    """The glmls modules ``module`` imports (anywhere in it, type-checking imports too)."""
+    """The glmls modules ``module`` imports (anywhere in it, type-checking imports too, but
+    not a package's lazy re-exports)."""
     path = MODULES[module]
     package = module if path.name == "__init__.py" else module.rpartition(".")[0]
     found = set()
-    for node in ast.walk(ast.parse(path.read_text())):
+    tree = ast.parse(path.read_text())
+    lazy = lazy_reexports(tree) if path.name == "__init__.py" else set()
+    for node in ast.walk(tree):
+        if node in lazy:
+            continue
         if isinstance(node, ast.Import):
             found |= {a.name for a in node.names if a.name.split(".")[0] == "glmls"}
         elif isinstance(node, ast.ImportFrom):

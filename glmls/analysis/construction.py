@@ -98,7 +98,7 @@ class ConstructionErrors:
         return f"RMS colour difference, intensity / {self.scale:g} (0-1)"
 
     def stats(self) -> dict[str, object]:
-        """JSON-ready statistics of ``values`` (:func:`glmls.error_stats`: eqs. 8, 9, the
+        """JSON-ready statistics of ``values`` (:func:`glmls.analysis.error_stats`: eqs. 8, 9, the
         undefined points counted in ``nan_count``)."""
         return error_stats(self.values)
 

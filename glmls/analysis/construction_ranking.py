@@ -91,7 +91,7 @@ def rank_constructions(
 
     Returns one JSON-ready dict per construction: ``rank`` (1 = best), ``method``,
     ``interpolation``, ``label``, ``mean`` and ``median`` of the per-point errors (0-1
-    intensity units; None where no point is defined), ``stats`` (:func:`glmls.error_stats`
+    intensity units; None where no point is defined), ``stats`` (:func:`glmls.analysis.error_stats`
     of them) and ``time_s``, the fastest of ``repeat`` timed warps after one untimed warm-up
     (shaders compile on first use; the first method would otherwise pay for them).
     Undefined points (NaN) depend on f and the window only, so every construction leaves out

@@ -13,7 +13,8 @@ __all__ = ["NO_DISPLAY_HINT", "GlfwWindow", "NoDisplayError"]
 
 NO_DISPLAY_HINT = (
     "no display for the window ({why}); run it under a display or `xvfb-run -a glmls demo`, "
-    "or use the headless commands instead (`glmls --help`; in Python glmls.warp, glmls.report)"
+    "or use the headless commands instead (`glmls --help`; in Python glmls.warp, "
+    "glmls.analysis.report)"
 )
 
 

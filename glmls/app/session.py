@@ -12,7 +12,7 @@ import moderngl
 import numpy as np
 
 from ..analysis.colormaps import apply_colormap, format_number
-from ..analysis.foldovers import folded_cells
+from ..analysis.folding import folded_cells
 from ..analysis.stats import error_stats
 from ..analysis.triangles import triangle_errors
 from ..gl.context import GLContext

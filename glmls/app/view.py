@@ -1,5 +1,5 @@
 """What the window draws each frame: the deformed image straight into the window's framebuffer
-with the context's shared :class:`~glmls.WarpPipeline`, the overlays and the text. The view
+with the context's shared :class:`~glmls.gl.WarpPipeline`, the overlays and the text. The view
 owns its textures (the displayed image, the error field's colours) and drawers."""
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..analysis.report import report
+from ..analysis.reporting import report
 from ..analysis.triangles import ANGLE_MEASURES
 from .inputs import (
     add_example_inputs,

@@ -8,8 +8,8 @@ from pathlib import Path
 
 from .. import data
 from ..analysis.jobs import check_jobs, check_scheduler
-from ..analysis.study import study
-from ..analysis.tune import parse_config
+from ..analysis.studies import study
+from ..analysis.tuning import parse_config
 from .inputs import say
 from .options import UsageError, add_jobs_options, positive_int
 from .progress import Progress

@@ -9,10 +9,10 @@ import json
 from pathlib import Path
 
 from ..analysis.jobs import DistributedUnavailableError
-from ..analysis.report import report
+from ..analysis.reporting import report
 from ..analysis.triangles import ANGLE_MEASURES
-from ..analysis.tune import MEASURES, label, parse_config, search_space, tune
-from ..analysis.tune_trials import MAGNITUDES
+from ..analysis.tuning import MEASURES, label, parse_config, search_space, tune
+from ..analysis.tuning_trials import MAGNITUDES
 from ..core.config import MLSConfig
 from ..files.atomic import atomic_write
 from .inputs import add_example_inputs, example_or_files, make_mls, say, warn_about_handles

@@ -1,3 +1,32 @@
-"""OpenGL plumbing that knows nothing of MLS: contexts (:mod:`.context`), shader loading
-(:mod:`.shaders`), the binding points (:mod:`.bindings`), cached GL objects
-(:mod:`.resources`) and compute dispatches (:mod:`.dispatch`)."""
+"""The OpenGL plumbing: contexts (:class:`GLContext`, :func:`get_context`) and the warp
+pipeline that builds deformed images on one context (:class:`WarpPipeline`, configured by
+:class:`PipelineOptions`).
+
+Most users never touch this package: :class:`glmls.MLS` and :func:`glmls.warp` use the shared
+headless context of the calling thread. It is for rendering into a context of your own (a
+window's), for threads and processes, and for choosing between the pipeline's internal paths.
+
+The modules below know nothing of MLS: shader loading (:mod:`.shaders`), the binding points
+(:mod:`.bindings`), cached GL objects (:mod:`.resources`) and compute dispatches
+(:mod:`.dispatch`). :class:`WarpPipeline` lives in the imaging layer above and is re-exported
+here lazily, so that importing this package never imports the layers built on it.
+"""
+
+from __future__ import annotations
+
+from .context import GLContext, get_context
+
+__all__ = ["GLContext", "PipelineOptions", "WarpPipeline", "get_context"]
+
+
+def __getattr__(name: str) -> object:
+    # PEP 562: the pipeline is built on this package, so it is imported on first use only.
+    if name == "WarpPipeline":
+        from ..imaging.pipeline import WarpPipeline
+
+        return WarpPipeline
+    if name == "PipelineOptions":
+        from ..imaging.options import PipelineOptions
+
+        return PipelineOptions
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,7 +1,7 @@
 """The images of a deformation: :meth:`~DeformedImages.warp`,
 :meth:`~DeformedImages.coordinate_map` and :meth:`~DeformedImages.bounds`, as methods of
 :class:`glmls.MLS` (a base class of it), each a call of its context's shared
-:class:`~glmls.WarpPipeline`."""
+:class:`~glmls.gl.WarpPipeline`."""
 
 from __future__ import annotations
 

@@ -87,7 +87,7 @@ class WarpPipeline:
 
     Textures and framebuffers are kept for the last size of each role and replaced when the
     size changes; buffers only grow (up to ``options.band_bytes``). Compiled programs belong
-    to the :class:`~glmls.GLContext` and are shared.
+    to the :class:`~glmls.gl.GLContext` and are shared.
     """
 
     def __init__(

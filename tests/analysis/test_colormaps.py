@@ -10,7 +10,7 @@ from glmls.analysis import colormaps
 
 
 def test_viridis_table():
-    table = glmls.VIRIDIS
+    table = glmls.analysis.VIRIDIS
     assert table.shape == (256, 3) and table.dtype == np.uint8
     # matplotlib's #440154, #21918c (entry 128) and #fde725
     assert table[0].tolist() == [0x44, 0x01, 0x54]
@@ -24,61 +24,61 @@ def test_viridis_table():
 
 
 def test_linear_map_goes_from_low_to_high():
-    table = glmls.linear_colormap((0, 0, 255), (255, 0, 0), n=5)
+    table = glmls.analysis.linear_colormap((0, 0, 255), (255, 0, 0), n=5)
     assert table.tolist() == [[0, 0, 255], [64, 0, 191], [128, 0, 128], [191, 0, 64], [255, 0, 0]]
     assert colormaps.colormap([(0, 0, 0), (255, 255, 255)]).shape == (256, 3)
     assert colormaps.colormap("linear")[0].tolist() == list(colormaps.LOW_COLOR)
     with pytest.raises(ValueError, match="unknown colour map"):
         colormaps.colormap("jet")
     with pytest.raises(ValueError, match="0-255"):
-        glmls.linear_colormap((0, 0, 300))
+        glmls.analysis.linear_colormap((0, 0, 300))
     with pytest.raises(ValueError, match="n must"):
-        glmls.linear_colormap(n=1)
+        glmls.analysis.linear_colormap(n=1)
 
 
 def test_limits_and_percentile(rng):
     values = rng.exponential(1.0, 1000)
     values[:3] = [np.nan, 1e6, 2e6]
-    lo, hi = glmls.color_limits(values)
+    lo, hi = glmls.analysis.color_limits(values)
     assert (lo, hi) == (np.nanmin(values), 2e6)
-    _, robust = glmls.color_limits(values, percentile=95)
+    _, robust = glmls.analysis.color_limits(values, percentile=95)
     assert robust == np.percentile(values[~np.isnan(values)], 95)
-    assert glmls.color_limits(values, vmin=0, vmax=3) == (0.0, 3.0)
-    assert glmls.color_limits([np.nan]) == (0.0, 1.0)
+    assert glmls.analysis.color_limits(values, vmin=0, vmax=3) == (0.0, 3.0)
+    assert glmls.analysis.color_limits([np.nan]) == (0.0, 1.0)
     for bad in (0, 101, True):
         with pytest.raises(ValueError, match="percentile"):
-            glmls.color_limits(values, percentile=bad)
+            glmls.analysis.color_limits(values, percentile=bad)
     with pytest.raises(ValueError, match="vmin <= vmax"):
-        glmls.color_limits(values, vmin=5, vmax=1)
+        glmls.analysis.color_limits(values, vmin=5, vmax=1)
 
 
 def test_apply_colormap_rule_and_nan():
     values = np.array([[0.0, 0.5, 1.0], [2.0, -1.0, np.nan]])
-    table = glmls.linear_colormap((0, 0, 0), (255, 255, 255), n=3)
-    out = glmls.apply_colormap(values, cmap=table, vmin=0, vmax=1, nan_color=(1, 2, 3))
+    table = glmls.analysis.linear_colormap((0, 0, 0), (255, 255, 255), n=3)
+    out = glmls.analysis.apply_colormap(values, cmap=table, vmin=0, vmax=1, nan_color=(1, 2, 3))
     assert out[0, :, 0].tolist() == [0, 128, 255]
     assert out[1, 0].tolist() == [255, 255, 255]  # clipped above
     assert out[1, 1].tolist() == [0, 0, 0]  # clipped below
     assert out[1, 2].tolist() == [1, 2, 3]
     # constant values: all at the minimum colour
-    assert (glmls.apply_colormap(np.ones(4)) == glmls.VIRIDIS[0]).all()
+    assert (glmls.analysis.apply_colormap(np.ones(4)) == glmls.analysis.VIRIDIS[0]).all()
 
 
 def test_colorbar_has_the_colours_and_numbers():
-    bar = glmls.colorbar("viridis", 0.0, 2.0, length=200, thickness=16, ticks=3, label="E")
+    bar = glmls.analysis.colorbar("viridis", 0.0, 2.0, length=200, thickness=16, ticks=3, label="E")
     assert bar.dtype == np.uint8 and bar.ndim == 3 and bar.shape[0] > 200
     column = bar[:, 8]
-    assert (column == glmls.VIRIDIS[-1]).all(axis=1).any()  # top: the maximum
-    assert (column == glmls.VIRIDIS[0]).all(axis=1).any()
-    top = np.argmax((column == glmls.VIRIDIS[-1]).all(axis=1))
-    bottom = np.argmax((column == glmls.VIRIDIS[0]).all(axis=1))
+    assert (column == glmls.analysis.VIRIDIS[-1]).all(axis=1).any()  # top: the maximum
+    assert (column == glmls.analysis.VIRIDIS[0]).all(axis=1).any()
+    top = np.argmax((column == glmls.analysis.VIRIDIS[-1]).all(axis=1))
+    bottom = np.argmax((column == glmls.analysis.VIRIDIS[0]).all(axis=1))
     assert top < bottom
     labels = bar[:, 24:]
     assert (labels < 128).any()  # dark digits were drawn right of the bar
     with pytest.raises(ValueError, match="ticks"):
-        glmls.colorbar("viridis", 0, 1, ticks=1)
+        glmls.analysis.colorbar("viridis", 0, 1, ticks=1)
     with pytest.raises(ValueError, match="limits"):
-        glmls.colorbar("viridis", 1, 0)
+        glmls.analysis.colorbar("viridis", 1, 0)
 
 
 @pytest.mark.parametrize(

@@ -12,10 +12,10 @@ from helpers import smooth_handles
 from numpy.testing import assert_allclose
 
 import glmls
+from glmls import reference
 from glmls.analysis.colormaps import NAN_COLOR, apply_colormap
 from glmls.analysis.construction import ConstructionErrors, construction_errors
 from glmls.analysis.pictures import render_construction_errors
-from glmls.core import reference
 
 SHAPE = (96, 128)
 
@@ -339,13 +339,17 @@ def test_report_adds_the_construction_metric(gl, rng, tmp_path):
     src, dst = smooth_handles((64, 80), rng)
     reference_points = interior_points(rng, 12, (64, 80), 10)
     with glmls.MLS(src, dst, shape=(64, 80), ctx=gl) as m:
-        plain = glmls.report(image, m, reference_points, construction=False)
-        result = glmls.report(image, m, reference_points, method="backward", out_dir=tmp_path)
+        plain = glmls.analysis.report(image, m, reference_points, construction=False)
+        result = glmls.analysis.report(
+            image, m, reference_points, method="backward", out_dir=tmp_path
+        )
         expected = construction_errors(
             image, m.warp(image, method="backward"), m, result.triangles.points
         )
         with pytest.raises(ValueError, match="radius"):
-            glmls.report(image, m, reference_points, construction=True, construction_radius=-2)
+            glmls.analysis.report(
+                image, m, reference_points, construction=True, construction_radius=-2
+            )
     assert "construction" not in plain.summary and plain.construction is None
     assert "construction_errors" not in plain.images  # on by default, off when asked
     assert result.summary["construction"] == expected.stats()

@@ -7,7 +7,7 @@ from helpers import cross, reference_mesh
 from numpy.testing import assert_array_equal
 
 import glmls
-from glmls.analysis.foldovers import folded_cells
+from glmls.analysis.folding import folded_cells
 
 
 def test_foldovers_match_the_reference_mesh(gl):
@@ -17,7 +17,7 @@ def test_foldovers_match_the_reference_mesh(gl):
     q[2] = [30, 16]
     with glmls.MLS(p, q, ctx=gl) as m:
         for grid in (1, 3):
-            folds = glmls.foldovers(m, shape, grid)
+            folds = glmls.analysis.foldovers(m, shape, grid)
             f = reference_mesh(m, shape, grid)
             a, b, c, d = f[:-1, :-1], f[:-1, 1:], f[1:, 1:], f[1:, :-1]
             ref = (cross(b - a, c - a) < 0) | (cross(c - a, d - a) < 0)
@@ -29,7 +29,7 @@ def test_foldovers_match_the_reference_mesh(gl):
                 expected[r * grid : (r + 1) * grid, c_ * grid : (c_ + 1) * grid] = True
             assert_array_equal(folds.mask, expected)
     with glmls.MLS(p, p, ctx=gl) as identity:
-        assert glmls.foldovers(identity, shape).count == 0
+        assert glmls.analysis.foldovers(identity, shape).count == 0
 
 
 def test_folded_cells_of_a_turned_quad():

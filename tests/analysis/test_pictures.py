@@ -15,15 +15,15 @@ def test_field_matches_cpu_colouring_and_is_top_down(gl, rng):
     values[0, :] = 0.0  # top row: the minimum colour
     values[5, 7] = np.nan
     for options in ({}, {"percentile": 90.0}, {"cmap": ((0, 0, 255), (255, 0, 0))}):
-        gpu = glmls.render_field(values, nan_color=(255, 0, 255), ctx=gl, **options)
-        cpu = glmls.apply_colormap(values, nan_color=(255, 0, 255), **options)
+        gpu = glmls.analysis.render_field(values, nan_color=(255, 0, 255), ctx=gl, **options)
+        cpu = glmls.analysis.apply_colormap(values, nan_color=(255, 0, 255), **options)
         assert gpu.shape == (37, 53, 3) and gpu.dtype == np.uint8
         # float32 on the GPU may round a value at an entry boundary to the neighbour entry
         differ = (gpu != cpu).any(axis=2)
         assert differ.mean() < 0.01
         assert np.abs(gpu.astype(int) - cpu).max() <= 3
         assert gpu[5, 7].tolist() == [255, 0, 255]
-    assert (glmls.render_field(values, ctx=gl)[0] == glmls.VIRIDIS[0]).all()
+    assert (glmls.analysis.render_field(values, ctx=gl)[0] == glmls.analysis.VIRIDIS[0]).all()
 
 
 def test_image_round_trip_is_exact(gl, rng):
@@ -52,7 +52,7 @@ def test_geometry_lands_on_its_pixels(gl):
 
 def test_handles_point_from_p_to_q(gl):
     image = np.zeros((50, 80, 3), np.uint8)
-    picture = glmls.render_handles(
+    picture = glmls.analysis.render_handles(
         image, [[10, 25]], [[70, 25]], source_color=(0, 0, 255), color=(255, 0, 0), ctx=gl
     )
     assert picture[25, 10].tolist() == [0, 0, 255]  # the disk at p
@@ -64,17 +64,17 @@ def test_handles_point_from_p_to_q(gl):
 
 def test_triangle_errors_fill_with_their_colour(gl, rng):
     r = np.array([[5.0, 5.0], [90.0, 5.0], [5.0, 60.0], [90.0, 60.0]])
-    errors = glmls.triangle_errors(lambda v: v + 0.1 * v[:, ::-1], r)
+    errors = glmls.analysis.triangle_errors(lambda v: v + 0.1 * v[:, ::-1], r)
     background = np.full((70, 100, 3), 255, np.uint8)
-    picture = glmls.render_triangle_errors(
+    picture = glmls.analysis.render_triangle_errors(
         background, errors, which="distance", opacity=1.0, edge_color=None, ctx=gl
     )
-    colours = glmls.apply_colormap(errors.distance)
+    colours = glmls.analysis.apply_colormap(errors.distance)
     for tri, colour in zip(errors.simplices, colours, strict=True):
         cx, cy = errors.deformed_points[tri].mean(axis=0)
         assert picture[round(cy), round(cx)].tolist() == colour.tolist()
     assert picture[1, 1].tolist() == [255, 255, 255]  # outside: the background
-    outline = glmls.render_triangulation(background, r, errors.simplices, ctx=gl)
+    outline = glmls.analysis.render_triangulation(background, r, errors.simplices, ctx=gl)
     assert outline[5, 50].tolist() != [255, 255, 255]  # on the top edge
 
 
@@ -84,7 +84,7 @@ def test_mesh_picture_draws_the_deformed_lines(gl):
     with glmls.MLS([[20.0, 20.0]], [[25.0, 22.0]], ctx=gl) as m:
         _, mesh = m.mesh((40, 40), grid=10)
     white = np.full((40, 40, 3), 255, np.uint8)
-    picture = glmls.render_mesh(white, mesh, color=(0, 0, 0), width=2.0, ctx=gl)
+    picture = glmls.analysis.render_mesh(white, mesh, color=(0, 0, 0), width=2.0, ctx=gl)
     grey = picture.mean(axis=2)
     for x in (4, 5, 14, 15, 24, 25):  # the pixels either side of a vertical line
         assert grey[7, x] < 160, x
@@ -100,7 +100,7 @@ def test_bad_input(gl):
     with pytest.raises(TypeError, match="dtype"):
         as_rgb8(np.zeros((4, 4), np.int32))
     with pytest.raises(ValueError, match="values must be"):
-        glmls.render_field(np.zeros(5), ctx=gl)
+        glmls.analysis.render_field(np.zeros(5), ctx=gl)
     with Canvas((4, 4), ctx=gl) as canvas:
         with pytest.raises(ValueError, match="canvas"):
             canvas.image(np.zeros((5, 4, 3), np.uint8))
@@ -110,6 +110,6 @@ def test_bad_input(gl):
             canvas.field(np.full((4, 4), np.inf))
     with pytest.raises(glmls.ReleasedError):
         canvas.read()
-    errors = glmls.triangle_errors(lambda v: v, [[0, 0], [3, 0], [0, 3]])
+    errors = glmls.analysis.triangle_errors(lambda v: v, [[0, 0], [3, 0], [0, 3]])
     with pytest.raises(ValueError, match="which"):
-        glmls.render_triangle_errors(np.zeros((4, 4)), errors, which="area", ctx=gl)
+        glmls.analysis.render_triangle_errors(np.zeros((4, 4)), errors, which="area", ctx=gl)

@@ -12,7 +12,7 @@ from PIL import Image
 from scipy.spatial import Delaunay
 
 import glmls
-from glmls.core import reference
+from glmls import reference
 
 SRC = [[10.0, 10.0], [50.0, 12.0], [30.0, 40.0], [12.0, 44.0]]
 DST = [[14.0, 8.0], [50.0, 12.0], [33.0, 36.0], [12.0, 44.0]]
@@ -48,9 +48,9 @@ def test_summary_and_pictures(gl, rng, tmp_path):
     shape = (48, 60)
     image = rng.integers(0, 256, (*shape, 3), dtype=np.uint8)
     with glmls.MLS(SRC, DST, transform="similarity", ctx=gl) as m:
-        result = glmls.report(image, m, REFERENCE, grid=1, angle="paper", out_dir=tmp_path)
+        result = glmls.analysis.report(image, m, REFERENCE, grid=1, angle="paper", out_dir=tmp_path)
         deformed = m.warp(image)
-        folds = glmls.foldovers(m, shape).count
+        folds = glmls.analysis.foldovers(m, shape).count
     summary = json.loads((tmp_path / "report.json").read_text())
     assert summary == json.loads(result.to_json())
     assert summary["configuration"]["transform"] == "similarity"
@@ -111,7 +111,7 @@ def test_summary_and_pictures(gl, rng, tmp_path):
 def test_distance_errors_and_warp_options(gl, rng):
     image = rng.integers(0, 256, (40, 56, 3), dtype=np.uint8)
     with glmls.MLS(SRC, DST, ctx=gl) as m:
-        result = glmls.report(
+        result = glmls.analysis.report(
             image, m, REFERENCE, triangle_error="distance", method="backward", warp_grid=2
         )
         deformed = m.warp(image, method="backward", grid=2)
@@ -124,9 +124,9 @@ def test_distance_errors_and_warp_options(gl, rng):
 def test_bad_arguments(gl):
     with glmls.MLS(SRC, DST, ctx=gl) as m:
         with pytest.raises(ValueError, match="triangle_error"):
-            glmls.report(np.zeros((8, 8)), m, REFERENCE, triangle_error="area")
+            glmls.analysis.report(np.zeros((8, 8)), m, REFERENCE, triangle_error="area")
         with pytest.raises(ValueError, match="at least 3"):
-            glmls.report(np.zeros((8, 8)), m, REFERENCE[:2])
+            glmls.analysis.report(np.zeros((8, 8)), m, REFERENCE[:2])
 
 
 def test_demo_writes_the_figures(gl, tmp_path, monkeypatch):
@@ -142,7 +142,7 @@ def test_fit_and_border_draw_on_the_whole_deformed_image(gl, rng):
     image = rng.integers(0, 256, (*shape, 3), dtype=np.uint8)
     dst = np.array(DST) + [[-9.0, -6.0], [9.0, -6.0], [9.0, 8.0], [-9.0, 8.0]]  # pushed out
     with glmls.MLS(SRC, dst, transform="similarity", ctx=gl) as m:
-        result = glmls.report(image, m, REFERENCE, border="edge", fit=True)
+        result = glmls.analysis.report(image, m, REFERENCE, border="edge", fit=True)
         b = m.bounds(shape)
         whole = m.warp(image, border="edge", output_shape=b.output_shape, origin=b.origin)
         moved = m(np.array(REFERENCE))
@@ -161,13 +161,13 @@ def test_fit_and_border_draw_on_the_whole_deformed_image(gl, rng):
 def test_pictures_take_the_canvas_origin(gl):
     mesh = np.stack(np.meshgrid(np.linspace(3, 40, 6), np.linspace(5, 30, 5)), -1)
     blank = np.full((40, 50, 3), 255, np.uint8)
-    shifted = glmls.render_mesh(blank, mesh, origin=(-4.0, 2.5))
-    np.testing.assert_array_equal(shifted, glmls.render_mesh(blank, mesh - [-4.0, 2.5]))
+    shifted = glmls.analysis.render_mesh(blank, mesh, origin=(-4.0, 2.5))
+    np.testing.assert_array_equal(shifted, glmls.analysis.render_mesh(blank, mesh - [-4.0, 2.5]))
     with pytest.raises(ValueError, match="origin"):
-        glmls.render_mesh(blank, mesh, origin=(0.0, np.inf))
+        glmls.analysis.render_mesh(blank, mesh, origin=(0.0, np.inf))
 
 
 def test_report_refuses_a_bad_border_before_any_work(gl):
     with glmls.MLS(SRC, DST, ctx=gl) as m:
         with pytest.raises(ValueError, match="unknown border 'clamp'; choose one of constant"):
-            glmls.report(np.zeros((20, 20), np.uint8), m, REFERENCE, border="clamp")
+            glmls.analysis.report(np.zeros((20, 20), np.uint8), m, REFERENCE, border="clamp")

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import glmls
-from glmls.analysis import tune, tune_trials
+from glmls.analysis import tuning, tuning_trials
 from glmls.core.handleset import HandleSet
 from glmls.core.segments import polyline_segments
 
@@ -27,7 +27,7 @@ def test_handles_picture_draws_segments(gl):
     image = np.zeros((40, 80, 3), np.uint8)
     a = [[[10.0, 10.0], [70.0, 10.0]]]
     b = [[[10.0, 30.0], [70.0, 30.0]]]
-    picture = glmls.render_handles(
+    picture = glmls.analysis.render_handles(
         image,
         np.zeros((0, 2)),
         np.zeros((0, 2)),
@@ -42,21 +42,21 @@ def test_handles_picture_draws_segments(gl):
     assert picture[10, 10].tolist() == list(SOURCE)  # a disk at each source end
     assert picture[20, 70].tolist() == list(TARGET)  # the arrow from end to end
     assert picture[20, 40].tolist() == [0, 0, 0]  # nothing between the segments
-    plain = glmls.render_handles(image, SRC, DST, ctx=gl)
-    both = glmls.render_handles(
+    plain = glmls.analysis.render_handles(image, SRC, DST, ctx=gl)
+    both = glmls.analysis.render_handles(
         image, SRC, DST, src_segments=np.zeros((0, 2, 2)), dst_segments=np.zeros((0, 2, 2)), ctx=gl
     )
     np.testing.assert_array_equal(plain, both)
     with pytest.raises(ValueError, match="src_segments needs dst_segments"):
-        glmls.render_handles(image, SRC, DST, src_segments=a, ctx=gl)
+        glmls.analysis.render_handles(image, SRC, DST, src_segments=a, ctx=gl)
 
 
 def test_report_lists_and_draws_segments(gl, rng, tmp_path):
     shape = (48, 60)
     image = rng.integers(0, 256, (*shape, 3), dtype=np.uint8)
     with glmls.MLS(SRC, DST, src_segments=A, dst_segments=B, transform="similarity", ctx=gl) as m:
-        result = glmls.report(image, m, REFERENCE, out_dir=tmp_path)
-        plain = glmls.render_handles(image, SRC, DST, ctx=gl)
+        result = glmls.analysis.report(image, m, REFERENCE, out_dir=tmp_path)
+        plain = glmls.analysis.render_handles(image, SRC, DST, ctx=gl)
     summary = json.loads((tmp_path / "report.json").read_text())
     config = summary["configuration"]
     assert (config["handles"], config["segments"]) == (2, 3)
@@ -70,8 +70,8 @@ def test_report_lists_and_draws_segments(gl, rng, tmp_path):
 def test_random_edits_drag_segment_ends():
     handles = HandleSet.validate(SRC, DST, A, B)
     shape = (48, 60)
-    trials = tune_trials.random_edits(handles, 6, seed=4, shape=shape)
-    again = tune_trials.random_edits(handles, 6, seed=4, shape=shape)
+    trials = tuning_trials.random_edits(handles, 6, seed=4, shape=shape)
+    again = tuning_trials.random_edits(handles, 6, seed=4, shape=shape)
     # trial 0: the user's own edit
     np.testing.assert_array_equal(trials[0][0], DST)
     np.testing.assert_array_equal(trials[0][1], B)
@@ -87,8 +87,8 @@ def test_random_edits_drag_segment_ends():
 
 def test_tune_with_segments_counts_their_ends_in_the_miss(gl):
     shape = (48, 60)
-    configs = tune.parse_config("similarity:gaussian:radius=20", shape)
-    result = tune.tune(
+    configs = tuning.parse_config("similarity:gaussian:radius=20", shape)
+    result = tuning.tune(
         shape,
         SRC,
         DST,
@@ -102,7 +102,7 @@ def test_tune_with_segments_counts_their_ends_in_the_miss(gl):
     )
     handles = HandleSet.validate(SRC, DST, A, B)
     misses = []
-    for dst, segments in tune_trials.random_edits(handles, 2, seed=3, shape=shape):
+    for dst, segments in tuning_trials.random_edits(handles, 2, seed=3, shape=shape):
         with glmls.MLS.from_config(
             SRC, dst, configs[0], shape=shape, src_segments=A, dst_segments=segments, ctx=gl
         ) as m:
@@ -114,4 +114,4 @@ def test_tune_with_segments_counts_their_ends_in_the_miss(gl):
     assert row["handle_miss_mean"] > 0  # a gaussian does not interpolate
     assert not row["admissible"] and "misses its targets" in row["set_apart"][0]
     with pytest.raises(ValueError, match="src_segments needs dst_segments"):
-        tune.tune(shape, SRC, DST, REFERENCE, src_segments=A, configs=configs, ctx=gl)
+        tuning.tune(shape, SRC, DST, REFERENCE, src_segments=A, configs=configs, ctx=gl)

@@ -17,7 +17,7 @@ import glmls
 def test_against_numpy_with_nan(rng):
     values = rng.gamma(2.0, 3.0, (40, 50))
     values[rng.random(values.shape) < 0.1] = np.nan
-    stats = glmls.error_stats(values)
+    stats = glmls.analysis.error_stats(values)
     finite = values[~np.isnan(values)]
     assert stats["count"] == finite.size
     assert stats["nan_count"] == values.size - finite.size
@@ -35,31 +35,31 @@ def test_within_shares_on_a_known_set():
     # mean 0, std 1: |x| <= 1 for 4 of 6 values, all within 2
     values = np.array([-1.0, -1.0, 1.0, 1.0, -np.sqrt(2), np.sqrt(2)])
     values = values / np.std(values)
-    stats = glmls.error_stats(values)
+    stats = glmls.analysis.error_stats(values)
     assert stats["mean"] == pytest.approx(0.0, abs=1e-15)
     assert stats["std"] == pytest.approx(1.0)
     assert stats["within"][1:] == [1.0, 1.0]
 
 
 def test_constant_all_nan_empty_and_integers():
-    assert glmls.error_stats([2.0, 2.0, np.nan])["within"] == [1.0, 1.0, 1.0]
-    assert glmls.error_stats([2.0, 2.0, np.nan])["std"] == 0.0
-    empty = glmls.error_stats([np.nan, np.nan])
+    assert glmls.analysis.error_stats([2.0, 2.0, np.nan])["within"] == [1.0, 1.0, 1.0]
+    assert glmls.analysis.error_stats([2.0, 2.0, np.nan])["std"] == 0.0
+    empty = glmls.analysis.error_stats([np.nan, np.nan])
     assert empty["count"] == 0 and empty["nan_count"] == 2 and empty["mean"] is None
-    assert glmls.error_stats([])["count"] == 0
-    assert glmls.error_stats(np.arange(5))["mean"] == 2.0
+    assert glmls.analysis.error_stats([])["count"] == 0
+    assert glmls.analysis.error_stats(np.arange(5))["mean"] == 2.0
 
 
 def test_rejects_infinity_and_non_numbers():
     with pytest.raises(ValueError, match="infinite"):
-        glmls.error_stats([1.0, np.inf])
+        glmls.analysis.error_stats([1.0, np.inf])
     with pytest.raises(TypeError, match="real numbers"):
-        glmls.error_stats(["a", "b"])
+        glmls.analysis.error_stats(["a", "b"])
 
 
 @given(arrays(np.float64, st.integers(1, 60), elements=st.floats(-1e6, 1e6) | st.just(np.nan)))
 def test_property_matches_numpy(values):
-    stats = glmls.error_stats(values)
+    stats = glmls.analysis.error_stats(values)
     finite = values[~np.isnan(values)]
     assert stats["count"] + stats["nan_count"] == values.size
     if finite.size:
@@ -74,9 +74,9 @@ def test_median_and_trimmed_mean_against_scipy(rng):
 
     values = rng.gamma(2.0, 3.0, 97)
     values[5] = 1e9  # one wild value: the mean follows it, the headline does not
-    result = glmls.error_stats(np.append(values, np.nan))
+    result = glmls.analysis.error_stats(np.append(values, np.nan))
     assert result["median"] == np.median(values)
     assert_allclose(result["trimmed_mean"], scipy_stats.trim_mean(values, 0.1), rtol=1e-12)
     assert result["trimmed_mean"] < 20 < result["mean"]
-    assert glmls.error_stats([np.nan])["median"] is None
-    assert glmls.error_stats([3.0])["trimmed_mean"] == 3.0
+    assert glmls.analysis.error_stats([np.nan])["median"] is None
+    assert glmls.analysis.error_stats([3.0])["trimmed_mean"] == 3.0

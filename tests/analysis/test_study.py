@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from scipy.stats import kendalltau
 
-from glmls.analysis import study as studies
-from glmls.analysis.tune import parse_config
+from glmls.analysis import studies
+from glmls.analysis.tuning import parse_config
 from glmls.core.handleset import HandleSet
 from glmls.data import StudyItem, read_manifest
 from glmls.errors import InputFileError

@@ -46,7 +46,7 @@ def test_matches_formulas_with_a_float64_deformation(gl, rng, transform):
     def f(points):
         return reference.mls(p, q, points, config, shape=SHAPE)[0]
 
-    errors = glmls.triangle_errors(f, r, eps=1e-6, angle="paper")
+    errors = glmls.analysis.triangle_errors(f, r, eps=1e-6, angle="paper")
     assert errors.angle_measure == "paper"
     assert_allclose(errors.deformed_points, f(r), rtol=0, atol=0)
     distance, angle = formula_errors(r, f(r), errors.simplices, 1e-6)
@@ -60,7 +60,7 @@ def test_gpu_deformation_matches_float64(gl, rng, transform):
     p, q = random_handles(rng, 10, size=512.0, displacement=40.0)
     r = rng.uniform(0, 512, (40, 2))
     with glmls.MLS(p, q, transform=transform, shape=SHAPE, ctx=gl) as m:
-        errors = glmls.triangle_errors(m, r, angle="paper")
+        errors = glmls.analysis.triangle_errors(m, r, angle="paper")
     f_r = reference.mls(p, q, r, m.config, shape=SHAPE)[0]
     assert_allclose(errors.deformed_points, f_r, rtol=0, atol=0.01)
     distance, angle = formula_errors(r, f_r, errors.simplices, 1e-6)
@@ -77,8 +77,8 @@ def test_uniform_scale_has_no_angular_error(gl, rng, transform, factor):
     r = rng.uniform(0, 512, (30, 2))
     eps = 1e-6
     with glmls.MLS(p, factor * p + 3.0, transform=transform, ctx=gl) as m:
-        errors = glmls.triangle_errors(m, r, eps=eps, angle="paper")
-        degrees = glmls.triangle_errors(m, r)
+        errors = glmls.analysis.triangle_errors(m, r, eps=eps, angle="paper")
+        degrees = glmls.analysis.triangle_errors(m, r)
     assert degrees.angle_measure == "degrees"
     assert degrees.angle.max() < 1e-3  # float32 noise only
     assert_allclose(errors.distance, abs(factor - 1), rtol=0, atol=1e-5)
@@ -90,7 +90,7 @@ def test_uniform_scale_has_no_angular_error(gl, rng, transform, factor):
 
 def test_mirror_flips_every_triangle(rng):
     r = rng.uniform(0, 100, (12, 2))
-    errors = glmls.triangle_errors(lambda v: v * [-1.0, 1.0], r)
+    errors = glmls.analysis.triangle_errors(lambda v: v * [-1.0, 1.0], r)
     assert errors.flipped.all()
     assert_allclose(errors.distance, 0.0, atol=1e-15)
     assert errors.stats()["flipped"] == len(errors.simplices)
@@ -98,7 +98,7 @@ def test_mirror_flips_every_triangle(rng):
 
 def test_collapsed_edge_gives_nan_angle(rng):
     r = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]])
-    errors = glmls.triangle_errors(lambda v: np.where(v[:, :1] > 5, 0.0, v), r)
+    errors = glmls.analysis.triangle_errors(lambda v: np.where(v[:, :1] > 5, 0.0, v), r)
     assert np.isnan(errors.angle).all()
     assert errors.stats()["angle"]["nan_count"] == 1
 
@@ -116,20 +116,20 @@ def test_collapsed_edge_gives_nan_angle(rng):
 )
 def test_degenerate_points_raise(points, match):
     with pytest.raises(ValueError, match=match):
-        glmls.triangle_errors(lambda v: v, points)
+        glmls.analysis.triangle_errors(lambda v: v, points)
 
 
 def test_bad_eps_and_bad_mapping():
     r = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
     for eps in (0.0, -1.0, True, "1"):
         with pytest.raises(ValueError, match="eps"):
-            glmls.triangle_errors(lambda v: v, r, eps=eps)
+            glmls.analysis.triangle_errors(lambda v: v, r, eps=eps)
     with pytest.raises(ValueError, match="returned shape"):
-        glmls.triangle_errors(lambda v: v[:2], r)
+        glmls.analysis.triangle_errors(lambda v: v[:2], r)
 
 
 def test_results_are_read_only(rng):
-    errors = glmls.triangle_errors(lambda v: 2 * v, rng.uniform(0, 9, (6, 2)))
+    errors = glmls.analysis.triangle_errors(lambda v: 2 * v, rng.uniform(0, 9, (6, 2)))
     with pytest.raises(ValueError, match="read-only"):
         errors.angle[0] = 1.0
 
@@ -147,7 +147,7 @@ def test_degrees_measure_against_the_formula(rng):
     def f(points):
         return reference.mls(p, q, points, glmls.MLSConfig(transform="affine"))[0]
 
-    errors = glmls.triangle_errors(f, r)
+    errors = glmls.analysis.triangle_errors(f, r)
     fr = f(r)
     expected = [
         np.mean([abs(corner_degrees(r, t, k) - corner_degrees(fr, t, k)) for k in range(3)])
@@ -168,9 +168,9 @@ def test_degrees_measure_against_the_formula(rng):
 def test_similarities_have_no_angular_error(similarity):
     # a square grid: right angles everywhere, where eq. (11) as printed scores 1, not 0
     square = np.stack(np.meshgrid(np.arange(5.0), np.arange(5.0)), -1).reshape(-1, 2) * 20
-    errors = glmls.triangle_errors(similarity, square)
+    errors = glmls.analysis.triangle_errors(similarity, square)
     assert_allclose(errors.angle, 0.0, atol=1e-9)
-    paper = glmls.triangle_errors(similarity, square, angle="paper")
+    paper = glmls.analysis.triangle_errors(similarity, square, angle="paper")
     assert paper.angle.max() > 0.3  # the singularity the default avoids
 
 
@@ -193,8 +193,8 @@ def test_degrees_are_comparable_across_angles():
         def f(v, mapping=mapping):
             return np.array([mapping[tuple(x)] for x in v])
 
-        degrees.append(glmls.triangle_errors(f, r).angle[0])
-        paper.append(glmls.triangle_errors(f, r, angle="paper").angle[0])
+        degrees.append(glmls.analysis.triangle_errors(f, r).angle[0])
+        paper.append(glmls.analysis.triangle_errors(f, r, angle="paper").angle[0])
     # corner 0 turns by 1 degree, the other two share -1 degree: mean |change| 2/3 degree
     assert_allclose(degrees, 2 / 3, rtol=1e-9)
     assert paper[0] / paper[1] > 100
@@ -204,4 +204,4 @@ def test_bad_angle_measure():
     r = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
     for angle in ("cosine", None, 1):
         with pytest.raises(ValueError, match="angle must be one of"):
-            glmls.triangle_errors(lambda v: v, r, angle=angle)
+            glmls.analysis.triangle_errors(lambda v: v, r, angle=angle)

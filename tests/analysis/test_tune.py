@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import glmls
-from glmls.analysis import tune, tune_trials
+from glmls.analysis import tuning, tuning_trials
 from glmls.core.config import MLSConfig
 from glmls.core.handleset import HandleSet
 
@@ -20,7 +20,7 @@ REFERENCE = np.array([[10, 10], [30, 10], [20, 25], [12, 22], [28, 22.0]])
 
 
 def test_default_search_space():
-    configs = tune.search_space((30, 40))
+    configs = tuning.search_space((30, 40))
     assert len(configs) == 42  # 3 transforms x (idw: 2 alphas + 4 radius weights x 3 radii)
     radii = {c.radius for c in configs if c.radius is not None}
     assert radii == {12.5, 25.0, 50.0}  # the diagonal (50) among them
@@ -31,11 +31,11 @@ def test_default_search_space():
 
 
 def test_config_specs():
-    assert tune.parse_config("rigid:idw:alpha=2", (30, 40)) == [
+    assert tuning.parse_config("rigid:idw:alpha=2", (30, 40)) == [
         MLSConfig(transform="rigid", weight="idw", alpha=2.0)
     ]
-    assert len(tune.parse_config("*:gaussian:radius=9", (30, 40))) == 3
-    assert len(tune.parse_config("affine:*", (30, 40))) == 14
+    assert len(tuning.parse_config("*:gaussian:radius=9", (30, 40))) == 3
+    assert len(tuning.parse_config("affine:*", (30, 40))) == 14
     for spec, message in [
         ("rigid", "expected transform:weight"),
         ("rigid:cubic", "unknown weight 'cubic'"),
@@ -44,14 +44,14 @@ def test_config_specs():
         ("rigid:idw:alpha=-1", "alpha must be > 0"),
     ]:
         with pytest.raises(ValueError, match=message):
-            tune.parse_config(spec, (30, 40))
+            tuning.parse_config(spec, (30, 40))
 
 
 def test_random_edits_are_user_like():
     handles = HandleSet.validate(SRC, DST)
     shape = (300, 400)
-    edits = tune_trials.random_edits(handles, 7, seed=5, shape=shape)
-    again = tune_trials.random_edits(handles, 7, seed=5, shape=shape)
+    edits = tuning_trials.random_edits(handles, 7, seed=5, shape=shape)
+    again = tuning_trials.random_edits(handles, 7, seed=5, shape=shape)
     assert all((a[0] == b[0]).all() for a, b in zip(edits, again, strict=True))
     np.testing.assert_array_equal(edits[0][0], DST)  # trial 0 is the user's own edit
     diagonal = math.hypot(*shape)
@@ -59,28 +59,28 @@ def test_random_edits_are_user_like():
         drag = np.hypot(*(dst - DST).T)
         moved = drag > 0
         assert 1 <= moved.sum() <= 3  # 1 to 3 handles dragged, the others stay
-        expected = tune_trials.MAGNITUDES[trial % len(tune_trials.MAGNITUDES)] * diagonal
+        expected = tuning_trials.MAGNITUDES[trial % len(tuning_trials.MAGNITUDES)] * diagonal
         np.testing.assert_allclose(drag[moved], expected, rtol=1e-12)
-    other = tune_trials.random_edits(handles, 7, seed=6, shape=shape)
+    other = tuning_trials.random_edits(handles, 7, seed=6, shape=shape)
     assert any((a[0] != b[0]).any() for a, b in zip(edits, other, strict=True))
 
 
 def test_known_deformations_are_smooth_and_seeded():
     handles = HandleSet.validate(SRC, DST)
-    known = tune_trials.known_deformations(handles, 3, seed=2, shape=(30, 40))
+    known = tuning_trials.known_deformations(handles, 3, seed=2, shape=(30, 40))
     for dst, segments, params in known:
         assert segments.shape == (0, 2, 2)
-        np.testing.assert_allclose(dst, tune_trials.apply_known(params, SRC, 50.0))
+        np.testing.assert_allclose(dst, tuning_trials.apply_known(params, SRC, 50.0))
         np.testing.assert_allclose(np.hypot(*params[:, :2].T), 1.0)
 
 
 def test_rows_keep_every_statistic_and_a_reason(gl):
-    configs = tune.parse_config("rigid:idw", (32, 40)) + tune.parse_config(
+    configs = tuning.parse_config("rigid:idw", (32, 40)) + tuning.parse_config(
         "rigid:gaussian:radius=1000", (32, 40)
     )
-    result = tune.tune((32, 40), SRC, DST, REFERENCE, trials=3, configs=configs, ctx=gl)
+    result = tuning.tune((32, 40), SRC, DST, REFERENCE, trials=3, configs=configs, ctx=gl)
     for row in result.rows:
-        for key in tune.STATISTICS:
+        for key in tuning.STATISTICS:
             assert key in row or f"{key}_mean" in row, key
         assert {"config", "label", "rank", "score", "admissible", "set_apart", "pareto"} <= set(row)
         assert row["admissible"] == (not row["set_apart"])
@@ -93,9 +93,9 @@ def test_rows_keep_every_statistic_and_a_reason(gl):
 
 
 def test_ranking_by_each_measure(gl):
-    configs = tune.parse_config("*:idw", (32, 40))
-    for measure in tune.MEASURES:
-        result = tune.tune((32, 40), SRC, DST, REFERENCE, trials=2, configs=configs,
+    configs = tuning.parse_config("*:idw", (32, 40))
+    for measure in tuning.MEASURES:
+        result = tuning.tune((32, 40), SRC, DST, REFERENCE, trials=2, configs=configs,
                            rank_by=measure, ctx=gl)  # fmt: skip
         key = "score" if measure == "rank" else f"{measure}_mean"
         admissible = [row[key] for row in result.rows if row["admissible"]]
@@ -106,11 +106,11 @@ def test_ranking_by_each_measure(gl):
 def test_scores_are_ranks_not_ratios(gl):
     """Adding an exact configuration does not blow the other scores up: scores stay mean
     ranks, between 1 and the number of configurations."""
-    configs = tune.parse_config("*:idw", (32, 40))
-    result = tune.tune((32, 40), SRC, DST, REFERENCE, trials=2, configs=configs, ctx=gl)
+    configs = tuning.parse_config("*:idw", (32, 40))
+    result = tuning.tune((32, 40), SRC, DST, REFERENCE, trials=2, configs=configs, ctx=gl)
     for row in result.rows:
         assert 1.0 <= row["score"] <= len(configs)
-        for criterion in tune.CRITERIA:
+        for criterion in tuning.CRITERIA:
             assert 1.0 <= row[f"rank_{criterion}"] <= len(configs)
 
 
@@ -126,8 +126,8 @@ def example_ranking(gl):
         "similarity:idw:alpha=1",
         "rigid:gaussian:radius=362,interpolating=true",
     )
-    configs = [c for spec in specs for c in tune.parse_config(spec, shape)]
-    result = tune.tune(
+    configs = [c for spec in specs for c in tuning.parse_config(spec, shape)]
+    result = tuning.tune(
         shape, src, dst, glmls.data.astronaut_reference_points(), trials=4, configs=configs,
         ctx=gl,
     )  # fmt: skip
@@ -152,15 +152,15 @@ def test_global_fit_and_spike_cannot_win(example_ranking):
 def test_winner_reaches_the_targets_and_performs_the_edit(gl, example_ranking):
     result, src, dst, shape = example_ranking
     best = result.rows[0]
-    assert best["admissible"] and best["handle_miss_max"] <= tune.MISS_LIMIT
+    assert best["admissible"] and best["handle_miss_max"] <= tuning.MISS_LIMIT
     with glmls.MLS.from_config(src, dst, result.best, shape=shape, ctx=gl) as m:
         np.testing.assert_allclose(m(src), dst, atol=0.5)
 
 
 def test_jobs_give_the_same_ranking(gl):
-    configs = tune.parse_config("rigid:idw", (32, 40))
-    one = tune.tune((32, 40), SRC, DST, REFERENCE, trials=2, configs=configs, ctx=gl)
-    two = tune.tune((32, 40), SRC, DST, REFERENCE, trials=2, configs=configs, jobs=2)
+    configs = tuning.parse_config("rigid:idw", (32, 40))
+    one = tuning.tune((32, 40), SRC, DST, REFERENCE, trials=2, configs=configs, ctx=gl)
+    two = tuning.tune((32, 40), SRC, DST, REFERENCE, trials=2, configs=configs, jobs=2)
     assert [r["label"] for r in one.rows] == [r["label"] for r in two.rows]
     for a, b in zip(one.rows, two.rows, strict=True):
         assert a["angle_mean"] == pytest.approx(b["angle_mean"], rel=1e-9)
@@ -168,24 +168,28 @@ def test_jobs_give_the_same_ranking(gl):
 
 def test_affine_with_collinear_handles_is_skipped(gl):
     src = np.array([[0.0, 0.0], [10.0, 10.0], [20.0, 20.0]])
-    configs = tune.parse_config("affine:idw", (30, 30)) + tune.parse_config("rigid:idw", (30, 30))
-    result = tune.tune((30, 30), src, src + 1, REFERENCE, trials=1, configs=configs, ctx=gl)
+    configs = tuning.parse_config("affine:idw", (30, 30)) + tuning.parse_config(
+        "rigid:idw", (30, 30)
+    )
+    result = tuning.tune((30, 30), src, src + 1, REFERENCE, trials=1, configs=configs, ctx=gl)
     assert len(result.rows) == 2 and len(result.skipped) == 2
     assert "not on one line" in result.skipped[0]["reason"]
 
 
 def test_bad_arguments():
     with pytest.raises(ValueError, match="unknown measure"):
-        tune.tune((30, 40), SRC, DST, REFERENCE, rank_by="speed")
+        tuning.tune((30, 40), SRC, DST, REFERENCE, rank_by="speed")
     with pytest.raises(ValueError, match="trials must be"):
-        tune.tune((30, 40), SRC, DST, REFERENCE, trials=0)
+        tuning.tune((30, 40), SRC, DST, REFERENCE, trials=0)
     with pytest.raises(ValueError, match="angle must be"):
-        tune.tune((30, 40), SRC, DST, REFERENCE, angle="cosine")
+        tuning.tune((30, 40), SRC, DST, REFERENCE, angle="cosine")
     with pytest.raises(ValueError, match="magnitudes"):
-        tune.tune((30, 40), SRC, DST, REFERENCE, magnitudes=[2.0])
+        tuning.tune((30, 40), SRC, DST, REFERENCE, magnitudes=[2.0])
     with pytest.raises(ValueError, match="jobs"):
-        tune.tune((30, 40), SRC, DST, REFERENCE, jobs=0, configs=tune.search_space((30, 40))[:1])
+        tuning.tune(
+            (30, 40), SRC, DST, REFERENCE, jobs=0, configs=tuning.search_space((30, 40))[:1]
+        )
     with pytest.raises(TypeError, match="MLSConfig"):
-        tune.tune((30, 40), SRC, DST, REFERENCE, configs=["rigid:idw"])
+        tuning.tune((30, 40), SRC, DST, REFERENCE, configs=["rigid:idw"])
     with pytest.raises(ValueError, match="at least 3"):
-        tune.tune((30, 40), SRC, DST, REFERENCE[:2])
+        tuning.tune((30, 40), SRC, DST, REFERENCE[:2])

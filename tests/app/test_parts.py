@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from glmls.analysis.foldovers import folded_cells
+from glmls.analysis.folding import folded_cells
 from glmls.app.events import Key, Move, Press, Release, Wait, read_events, replay_frames
 from glmls.app.layout import layout
 from glmls.app.overlays import mesh_lines

@@ -14,9 +14,9 @@ import pytest
 from numpy.testing import assert_allclose
 
 import glmls
+from glmls import reference
 from glmls.app.controller import BINDINGS
 from glmls.cli.main import build_parser
-from glmls.core import reference
 from glmls.core.config import MLSConfig
 from glmls.core.weights import RADIUS_WEIGHTS, REGISTRY, WEIGHTS, Weight, weight
 from glmls.gl.context import create_headless

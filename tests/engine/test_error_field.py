@@ -108,7 +108,7 @@ def test_tiny_images_match_the_formula(gl, rng):
     p, q = random_handles(rng, 5, size=10.0, displacement=3.0)
     with glmls.MLS(p, q, ctx=gl) as m:
         for shape, grid in (((1, 1), 1), ((3, 4), 1), ((1, 7), 3), ((5, 5), 2)):
-            field = glmls.error_field(m, shape, grid=grid)
+            field = glmls.analysis.error_field(m, shape, grid=grid)
             assert field.shape == shape
             xs, ys = MeshLattice.corners(shape, grid).axes
             if grid == 1:
@@ -141,7 +141,7 @@ def test_bad_arguments(gl):
 def test_error_at_points_matches_the_reference(gl, rng):
     """E_MLS at any points (the adaptive field's vertices), points and segments, against
     the float64 reference."""
-    from glmls.core import reference
+    from glmls import reference
     from glmls.engine.error_field import error_at
 
     shape = (90, 120)

@@ -9,7 +9,7 @@ from helpers import random_handles
 from numpy.testing import assert_allclose
 
 import glmls
-from glmls.core import reference
+from glmls import reference
 from glmls.core.mesh import MeshLattice
 from glmls.engine.passes import evaluate_lattice, evaluate_points
 

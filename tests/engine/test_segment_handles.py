@@ -12,8 +12,8 @@ import glmls
 from glmls import reference
 from glmls.core.config import MLSConfig
 from glmls.core.handleset import HandleSet
-from glmls.core.reference import segment_moments
 from glmls.core.segments import polyline_segments, segment_config, segment_feet
+from glmls.reference import segment_moments
 
 SIZE = 1024
 SHAPE = (SIZE, SIZE)

@@ -129,7 +129,7 @@ def test_releasing_the_default_context_leaves_clear_errors(tmp_path):
         """
         m = glmls.MLS(SRC, DST)
         expected = m(SRC)
-        glmls.get_context().release()
+        glmls.gl.get_context().release()
         for call in (lambda: m(SRC), lambda: m.warp(image(0)), lambda: m.error_field((8, 8))):
             try:
                 call()

@@ -18,7 +18,7 @@ from helpers import (
 )
 
 import glmls
-from glmls.core import reference
+from glmls import reference
 from glmls.core.mesh import MeshLattice
 from glmls.imaging import adaptive_folds, adaptive_scan
 from glmls.imaging.adaptive import MAX_LEAF, MIN_SIZE, ROOT_STEP, build_adaptive, interpolate
@@ -735,14 +735,14 @@ def test_the_mesh_and_error_field_take_the_tolerance(gl, rng):
         with m.ctx.use():
             same = WarpPipeline.of(m.ctx).adaptive.mesh(m.kernel, SHAPE, 0.05)
         field = m.error_field(SHAPE, tolerance=0.05)
-        np.testing.assert_array_equal(glmls.error_field(m, SHAPE, tolerance=0.05), field)
+        np.testing.assert_array_equal(glmls.analysis.error_field(m, SHAPE, tolerance=0.05), field)
         coarse = m.error_field(SHAPE, grid=4)
         with pytest.raises(ValueError, match="grid and tolerance exclude each other"):
             m.mesh(SHAPE, grid=4, tolerance=0.05)
         with pytest.raises(ValueError, match="tolerance must be finite"):
             m.error_field(SHAPE, tolerance=0.0)
         config = m.config
-    assert isinstance(mesh, glmls.AdaptiveMesh)
+    assert isinstance(mesh, glmls.imaging.adaptive.AdaptiveMesh)
     np.testing.assert_array_equal(mesh.triangles, same.triangles)
     np.testing.assert_allclose(mesh.deformed, same.deformed)
     yy, xx = np.mgrid[0 : SHAPE[0], 0 : SHAPE[1]]

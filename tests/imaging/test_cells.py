@@ -38,9 +38,9 @@ def test_fused_quads_match_the_resolve_draw_on_folds(gl, grid):
     shape, p, q = folded_case()
     coords16 = coordinate_image(*shape)
     coords8 = coords16.astype(np.uint8)  # x, y < 256
-    pipe = glmls.WarpPipeline.of(gl)
+    pipe = glmls.gl.WarpPipeline.of(gl)
     with glmls.MLS(p, q, ctx=gl) as m:
-        assert glmls.foldovers(m, shape, grid).count > 0
+        assert glmls.analysis.foldovers(m, shape, grid).count > 0
         fused = m.warp(coords8, grid=grid, background=255)
         assert pipe.cells.last_path in ("fused", "fused fast")
         drawn = m.warp(coords16, grid=grid, background=SENTINEL)
@@ -89,7 +89,7 @@ def test_fused_quads_keep_the_callers_background(gl, rng):
     """render() fills only covered pixels of an RGBA8 target: what was there stays."""
     shape, p, q = folded_case()
     img = rng.integers(0, 255, (*shape, 4), dtype=np.uint8)
-    pipe = glmls.WarpPipeline.of(gl)
+    pipe = glmls.gl.WarpPipeline.of(gl)
     with glmls.MLS(p, q, ctx=gl) as m:
         expected = m.warp(img, background=(1, 2, 3, 4))
         out = render_into_texture(gl, pipe, m, img, clear=(1 / 255, 2 / 255, 3 / 255, 4 / 255))
@@ -149,7 +149,7 @@ def test_fast_quads_equal_the_keyed_pass_where_the_mesh_embeds(gl, rng, pipeline
     for transform in ("affine", "similarity", "rigid"):
         p, q = smooth_handles(shape, rng)
         with glmls.MLS(p, q, transform=transform, ctx=gl) as m:
-            assert glmls.foldovers(m, shape, grid).count == 0
+            assert glmls.analysis.foldovers(m, shape, grid).count == 0
             fast, keyed, counts = warp_both_ways(gl, pipeline, m, img, grid=grid, background=255)
         assert counts == (0, 1), "the mesh was not recognised as an embedding"
         assert_array_equal(fast, keyed)
@@ -238,7 +238,7 @@ def test_render_flip_y_draws_rows_bottom_up(gl, rng, method, interpolation):
     shape = (40, 56)
     p, q = smooth_handles(shape, rng)
     img = rng.integers(0, 255, (*shape, 4), dtype=np.uint8)
-    pipe = glmls.WarpPipeline.of(gl)
+    pipe = glmls.gl.WarpPipeline.of(gl)
     with glmls.MLS(p, q, ctx=gl) as m:
         pictures = [
             render_into_texture(

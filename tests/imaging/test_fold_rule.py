@@ -19,7 +19,7 @@ from helpers import (
 )
 
 import glmls
-from glmls.core import reference
+from glmls import reference
 from glmls.core.mesh import MeshLattice
 
 TOL = 0.01  # px: pixel centres closer to an edge may go either way in float32
@@ -113,7 +113,7 @@ def test_quads_show_the_first_cell_where_the_map_folds(
     linear = interpolation == "linear"
     pipe = pipeline(**options)
     with glmls.MLS(p, q, shape=shape, ctx=gl) as m:
-        assert glmls.foldovers(m, shape, grid).count > 0
+        assert glmls.analysis.foldovers(m, shape, grid).count > 0
         background = -1 if linear else (255 if dtype == np.uint8 else SENTINEL)
         out = pipe.warp(m, img, grid=grid, interpolation=interpolation, background=background)
         f = reference_mesh(m, shape, grid)
@@ -143,7 +143,7 @@ def test_the_first_rule_changes_nothing_where_the_map_does_not_fold(gl, rng, pip
     p, q = smooth_handles(shape, rng)
     img = coordinate_image(*shape)
     with glmls.MLS(p, q, shape=shape, ctx=gl) as m:
-        assert glmls.foldovers(m, shape).count == 0
+        assert glmls.analysis.foldovers(m, shape).count == 0
         f = reference_mesh(m, shape)
         first, last = containing_cells(f, shape)
         assert (first == last).all()

@@ -1,4 +1,4 @@
-"""Deformed images on the GPU against float64 references (glmls.core.reference) and exact
+"""Deformed images on the GPU against float64 references (glmls.reference) and exact
 cases: every method and interpolation."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from scipy import ndimage
 
 import glmls
-from glmls.core import reference
+from glmls import reference
 
 
 def cells_containing(f, shape, tol):
@@ -69,7 +69,7 @@ def test_quads_show_the_cell_covering_each_pixel_and_the_first_on_folds(gl, rng)
     with glmls.MLS(p, q, ctx=gl) as m:
         out = m.warp(img, background=SENTINEL)
         assert_array_equal(m.warp(img, background=SENTINEL), out)  # deterministic
-        folds = glmls.foldovers(m, shape)
+        folds = glmls.analysis.foldovers(m, shape)
         f = reference_mesh(m, shape)
     assert folds.count > 0
     strict, loose = cells_containing(f, shape, tol=0.01)
@@ -164,7 +164,7 @@ def test_forward_and_backward_agree_where_there_is_no_fold(gl, rng):
     q = p + rng.uniform(-6, 6, p.shape)
     img = rng.integers(0, 255, (*shape, 3), dtype=np.uint8)
     with glmls.MLS(p, q, shape=shape, ctx=gl) as m:
-        assert glmls.foldovers(m, shape).count == 0
+        assert glmls.analysis.foldovers(m, shape).count == 0
         quads = m.warp(img, background=(0, 0, 1))
         back = m.warp(img, method="backward", background=(0, 0, 1))
     # nearest picks differ only where a pixel centre is within float32 noise of a cell edge

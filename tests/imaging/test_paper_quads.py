@@ -10,7 +10,7 @@ from helpers import SENTINEL, coordinate_image, folding_handles, smooth_handles
 from numpy.testing import assert_array_equal
 
 import glmls
-from glmls.core import reference
+from glmls import reference
 from glmls.core.mesh import MeshLattice
 from glmls.core.paper_quads import EDGE_TOLERANCE, paper_quads
 from glmls.imaging.options import PipelineOptions
@@ -84,7 +84,7 @@ def test_paper_quads_on_the_gpu_follow_the_pseudo_code_on_folds(gl, shape):
     p, q = folding_handles(shape)
     img = coordinate_image(*shape)
     with glmls.MLS(p, q, shape=shape, ctx=gl) as m:
-        assert glmls.foldovers(m, shape).count > 500
+        assert glmls.analysis.foldovers(m, shape).count > 500
         paper = shown(m.warp(img, method="paper-quads", background=SENTINEL))
         quads = shown(m.warp(img, method="quads", background=SENTINEL))
         expected, counts = reference_pixels(m, shape)
@@ -105,7 +105,7 @@ def test_paper_quads_agree_with_the_pseudo_code_without_folds_and_on_a_canvas(gl
     img = coordinate_image(*shape)
     canvas, origin = (100, 130), (-12.0, -7.5)
     with glmls.MLS(p, q, shape=shape, ctx=gl) as m:
-        assert glmls.foldovers(m, shape).count == 0
+        assert glmls.analysis.foldovers(m, shape).count == 0
         out = m.warp(img, method="paper-quads", background=SENTINEL)
         framed = m.warp(
             img, method="paper-quads", background=SENTINEL, output_shape=canvas, origin=origin
@@ -122,7 +122,7 @@ def test_paper_quads_in_bands_equal_one_band(gl):
     shape = (64, 72)
     p, q = folding_handles(shape)
     img = coordinate_image(*shape)
-    banded = glmls.WarpPipeline(gl, options=PipelineOptions(band_bytes=4096))
+    banded = glmls.gl.WarpPipeline(gl, options=PipelineOptions(band_bytes=4096))
     try:
         assert MeshLattice.centres(shape).rows_per_band(4096) < 10
         with glmls.MLS(p, q, shape=shape, ctx=gl) as m:
@@ -164,7 +164,7 @@ def test_paper_quads_options(gl):
 
 
 def test_paper_quads_need_a_viewport_of_the_output_size(gl):
-    pipe = glmls.WarpPipeline.of(gl)
+    pipe = glmls.gl.WarpPipeline.of(gl)
     img = np.zeros((10, 12, 4), np.uint8)
     with gl, glmls.MLS([[2.0, 2.0]], [[3.0, 2.0]], ctx=gl) as m:
         source = pipe.upload(glmls.imaging.source.prepare_image(img, 64, normalized=True), "t")

@@ -58,15 +58,15 @@ def test_release_frees_the_mls_objects_and_later_use_raises(gl):
     with pytest.raises(glmls.ReleasedError):
         m.coordinate_map((6, 7))
     with pytest.raises(glmls.ReleasedError):
-        glmls.foldovers(m, (6, 7))
+        glmls.analysis.foldovers(m, (6, 7))
 
 
 def test_one_pipeline_per_context_shared_by_every_mls(gl):
     """Every MLS on a context warps through its one pipeline, whose cached objects the
     context releases (release_shared) and makes again when next needed."""
     image = np.zeros((6, 7), np.uint8)
-    pipe = glmls.WarpPipeline.of(gl)
-    assert glmls.WarpPipeline.of(gl.mgl) is pipe  # the adopted moderngl context too
+    pipe = glmls.gl.WarpPipeline.of(gl)
+    assert glmls.gl.WarpPipeline.of(gl.mgl) is pipe  # the adopted moderngl context too
     with glmls.MLS([[0, 0]], [[1, 0]], ctx=gl) as a, glmls.MLS([[0, 0]], [[0, 1]], ctx=gl) as b:
         a.warp(image)
         objects = live_gl_objects()
@@ -76,6 +76,6 @@ def test_one_pipeline_per_context_shared_by_every_mls(gl):
         assert live_gl_objects() < objects
         with pytest.raises(glmls.ReleasedError, match="warp pipeline"):
             pipe.warp(a, image)
-        fresh = glmls.WarpPipeline.of(gl)
+        fresh = glmls.gl.WarpPipeline.of(gl)
         assert fresh is not pipe
         np.testing.assert_array_equal(a.warp(image), b.warp(image))

@@ -25,8 +25,8 @@ Tools:
   (quads, nearest).
 - ``glmls`` (mode ``frame``): one interactive frame: new handles, a new ``MLS``, the deformed
   image drawn into an 8-bit framebuffer of the image's size with the context's
-  :class:`~glmls.WarpPipeline` and a kept source texture, ``ctx.finish()``; no read-back.
-- ``reference``: glmls's float64 numpy MLS (:func:`glmls.core.reference.mls`), and ``molesq``
+  :class:`~glmls.gl.WarpPipeline` and a kept source texture, ``ctx.finish()``; no read-back.
+- ``reference``: glmls's float64 numpy MLS (:func:`glmls.reference.mls`), and ``molesq``
   (affine MLS, numpy): both map points, so they warp backward the way numpy MLS tools do, with
   the handles swapped (output pixel -> source point), evaluated on every ``grid``-th pixel and
   interpolated in between, then sampled with ``scipy.ndimage.map_coordinates`` (nearest).
@@ -206,7 +206,7 @@ def _glmls_frame(case: Case, image, src, dst) -> Step:
 
 
 def _reference(case: Case, image, src, dst) -> Step:
-    from ...core import reference
+    from ... import reference
 
     shape = image.shape[:2]
 

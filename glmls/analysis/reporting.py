@@ -24,7 +24,7 @@ from .construction import (
     check_radius,
     construction_errors,
 )
-from .foldovers import foldovers
+from .folding import foldovers
 from .pictures import (
     render_construction_errors,
     render_field,
@@ -47,7 +47,7 @@ class AnalysisReport:
     - ``summary``: JSON-ready dict (configuration, timings in seconds, statistics);
     - ``images``: name -> (H, W, 3) uint8 picture;
     - ``field``: the MLS error field (H, W) float64; ``triangles``: the
-      :class:`glmls.TriangleErrors`; ``construction``: the
+      :class:`glmls.analysis.TriangleErrors`; ``construction``: the
       :class:`~glmls.analysis.construction.ConstructionErrors` of the warp at the reference
       points (None unless asked for).
     """
@@ -132,7 +132,7 @@ def report(
 
     ``percentile`` / ``triangle_percentile``: robust upper bound of the colour scales (None:
     the maximum); 95 for the triangles, where eq. (11) (``angle="paper"``) explodes near
-    right angles. ``angle``: the angular measure of :func:`glmls.triangle_errors`
+    right angles. ``angle``: the angular measure of :func:`glmls.analysis.triangle_errors`
     (``"degrees"``, the default, or ``"paper"``).
     ``out_dir``: also write ``report.json`` and the PNGs there. ``on_stage(name)`` is called
     as each stage begins (error field, triangles, warp, construction, fold-overs, pictures),

@@ -1,4 +1,4 @@
-"""The trials of the automatic choice (:mod:`glmls.analysis.tune`): user-like edits around the
+"""The trials of the automatic choice (:mod:`glmls.analysis.tuning`): user-like edits around the
 user's handles, known smooth deformations for the predictive measure, and what each trial
 measures of one configuration.
 

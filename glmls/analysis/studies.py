@@ -2,7 +2,7 @@
 studies": evaluate the configurations on different image sets and show that none performs
 best on every one).
 
-:func:`study` runs the tune (:func:`glmls.analysis.tune.tune`, the same configurations, trials
+:func:`study` runs the tune (:func:`glmls.analysis.tuning.tune`, the same configurations, trials
 and seed for every image) on each item of a set, one item per job (:func:`run_jobs`: worker
 processes or a Dask cluster), and compares the rankings:
 
@@ -40,7 +40,7 @@ from ..data.manifest import StudyItem
 from ..files.atomic import atomic_write
 from .colormaps import VIRIDIS
 from .jobs import run_jobs
-from .tune import TuneResult, label, parse_config, search_space, tune
+from .tuning import TuneResult, label, parse_config, search_space, tune
 
 __all__ = ["StudyResult", "StudyTask", "render_heatmap", "study", "tune_item"]
 
@@ -159,7 +159,7 @@ def study(
     on_step: Callable[[], None] | None = None,
 ) -> StudyResult:
     """Tune every item (see the module's description): ``configs`` are MLSConfigs, specs
-    (``"rigid:*"``, :func:`~glmls.analysis.tune.parse_config`, parsed for each image's
+    (``"rigid:*"``, :func:`~glmls.analysis.tuning.parse_config`, parsed for each image's
     shape) or None for the default search space; ``trials``: the tune's trials per
     configuration (None: the tune's default); ``on_step()`` after each item."""
     items = list(items)

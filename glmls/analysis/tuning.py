@@ -41,7 +41,7 @@ from ..errors import DegenerateHandlesError
 from ..gl.context import GLContext
 from .jobs import run_jobs
 from .triangles import check_angle_measure, check_reference_points
-from .tune_trials import MAGNITUDES, known_deformations, measure_config, random_edits
+from .tuning_trials import MAGNITUDES, known_deformations, measure_config, random_edits
 
 __all__ = [
     "CRITERIA",

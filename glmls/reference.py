@@ -21,10 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .config import MLSConfig
-from .handles import as_points
-from .handleset import HandleSet
-from .segments import REFERENCE_NODES, REFERENCE_PANELS, segment_config, sinh_nodes
+from .core.config import MLSConfig
+from .core.handles import as_points
+from .core.handleset import HandleSet
+from .core.segments import REFERENCE_NODES, REFERENCE_PANELS, segment_config, sinh_nodes
 
 
 def weights(d2: np.ndarray, config: MLSConfig, radius: float | None) -> np.ndarray:
