@@ -35,8 +35,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ab_trees import WORKLOADS
 
 import glmls
-from glmls.imaging.adaptive_cells import GPUCells
-from glmls.imaging.adaptive_scan import AdaptiveScan
+from glmls.imaging.adaptive.cells import GPUCells
+from glmls.imaging.adaptive.scan import AdaptiveScan
 
 
 def stages(workload: str, tolerance: float, repeat: int) -> tuple[dict, dict]:

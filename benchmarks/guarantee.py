@@ -90,7 +90,7 @@ def leaf_margins(m, mesh, worst: np.ndarray, floor: float) -> tuple[float, float
     taken where the patch's error peaks (the test's), and at the 16 test points alone. Above
     ``SAFETY``, a leaf at the tolerance would err past it."""
     from glmls import reference
-    from glmls.imaging.adaptive_patch import NODES, SAFETY, TESTS, estimate_cells
+    from glmls.imaging.adaptive.patch import NODES, SAFETY, TESTS, estimate_cells
 
     sure = np.flatnonzero(worst > floor)
     if len(sure) == 0:

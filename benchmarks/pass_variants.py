@@ -1,7 +1,7 @@
 """A shader change's A/B in one process: the GPU passes of a warp, timed pass by pass, with
 two variants of one shader alternated call by call.
 
-``python benchmarks/pass_variants.py warp/adaptive.comp.glsl [--workload W1,W2]
+``python benchmarks/pass_variants.py adaptive/scan.comp.glsl [--workload W1,W2]
 [--tolerance 0.05 | --grid 4] [--rounds 20]``
 
 The variant under test sits in the shader behind ``#if defined(XV) && XV == 1`` (the old

@@ -20,7 +20,8 @@ from glmls.gl.shaders import library
 
 root = pathlib.Path(str(library().root))
 assert "site-packages" in str(root), f"shaders not from the installed wheel: {root}"
-for name in ("mls/core.glsl", "mls/visit.glsl", "warp/cells.comp.glsl", "draw/text.frag.glsl"):
+names = ("mls/core.glsl", "mls/visit.glsl", "warp/cells.comp.glsl", "adaptive/scan.comp.glsl")
+for name in (*names, "draw/text.frag.glsl"):
     assert (root / name).is_file(), name
 assert data.rocket().shape == (427, 640, 3)  # the bundled photographs are package data
 image = data.astronaut()

@@ -126,7 +126,7 @@ class ReferenceCells:
     """The adaptive build's ``evaluate`` and ``test`` in float64 for a numpy map ``f``: f at
     the points it is given, in order (their vertex ids), the cells' test and, with
     ``predict``, the prediction of every cell's children from it (:func:`glmls.imaging.
-    adaptive_patch.predict_cells`, trusted everywhere: ``f`` is taken to be smooth); the
+    adaptive.patch.predict_cells`, trusted everywhere: ``f`` is taken to be smooth); the
     test checks that each cell's grid is made of points evaluated, at their places."""
 
     def __init__(self, f, *, predict: bool = False):
@@ -145,7 +145,7 @@ class ReferenceCells:
     def check_grids(self, nodes, tests):
         """Every id of the cells' grids is a point evaluated, at its place: the quarters of
         the cell between its first and last node (its corners)."""
-        from glmls.imaging.adaptive_patch import NODES, TESTS
+        from glmls.imaging.adaptive.patch import NODES, TESTS
 
         ids = np.concatenate([nodes, tests], axis=1)
         assert (ids >= 0).all() and (ids < self.count).all()
@@ -155,7 +155,7 @@ class ReferenceCells:
         np.testing.assert_allclose(points, first + (last - first) * quarters, atol=1e-9)
 
     def test(self, nodes, tests, width, height, centres, whole):
-        from glmls.imaging.adaptive_patch import estimate_cells, predict_cells
+        from glmls.imaging.adaptive.patch import estimate_cells, predict_cells
 
         self.check_grids(nodes, tests)
         np.testing.assert_allclose(

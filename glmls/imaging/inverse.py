@@ -17,9 +17,9 @@ from ..gl import bindings
 from ..gl.context import GLContext, current
 from ..gl.dispatch import run_2d, set_uniforms
 from ..gl.resources import Resources
-from .cells import CellScan
 from .frame import Frame
 from .options import PipelineOptions
+from .quads import CellScan
 from .raster import MeshRaster
 
 __all__ = ["NEWTON_ACCEPT", "NEWTON_STEPS", "NEWTON_TOLERANCE", "InverseSolver"]

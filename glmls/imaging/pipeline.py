@@ -6,7 +6,7 @@ kernel) are the only thing that changes between frames, every other GL object is
 size and reused. Stages never read back in between:
 
 1. ``mls/points.comp.glsl`` writes f at the mesh vertices into a buffer (:mod:`.bands`);
-2. ``quads``: the compute scan conversion (:mod:`.cells`) where the viewport has the image's
+2. ``quads``: the compute scan conversion (:mod:`.quads`) where the viewport has the image's
    size, else the GL rasterizer (:mod:`.raster`), which also draws ``splat``;
    ``paper-quads``: the paper's squares of pixel centres, scanned in a compute shader
    (:mod:`.paper`);
@@ -17,7 +17,7 @@ size and reused. Stages never read back in between:
 :meth:`WarpPipeline.warp` and :meth:`WarpPipeline.coordinate_map` are the numpy front ends.
 Fold-overs: where deformed quads overlap, the FIRST cell in row-major scan order of the
 source (smaller row, then column) shows, as a pixel the paper marks keeps its colour: in every
-path of ``quads`` (see :mod:`.cells` and :mod:`.raster`), in ``paper-quads`` (its squares),
+path of ``quads`` (see :mod:`.quads` and :mod:`.raster`), in ``paper-quads`` (its squares),
 ``splat`` (its pixels) and ``backward`` (whose first guess is the quads').
 """
 
@@ -36,14 +36,13 @@ from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import set_uniforms
 from ..gl.resources import Resources, can_fill
-from .adaptive import ROOT_STEP, check_adaptive
-from .adaptive_scan import AdaptiveScan
+from .adaptive import ROOT_STEP, AdaptiveScan, check_adaptive
 from .bands import MeshBands
-from .cells import CellScan
 from .frame import Bounds, Frame, border_margin, deformed_bounds, make_frame
 from .inverse import InverseSolver
 from .options import PipelineOptions
 from .paper import PaperQuads
+from .quads import CellScan
 from .raster import MeshRaster
 from .readback import read_rgba8
 from .source import (

@@ -179,11 +179,11 @@ def compile_every_entry(gl):
         gl.compute("warp/cells_fixup.comp.glsl", {"WARP_BORDER": border})
     for stage in range(3):
         gl.compute("warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage})
-    gl.compute("warp/adaptive.comp.glsl")  # the adaptive mesh (tolerance=)
+    gl.compute("adaptive/scan.comp.glsl")  # the adaptive mesh (tolerance=)
     for border in range(5):
         for linear, coords in ((0, 0), (1, 0), (0, 1)):
             fill = {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords, "WARP_BORDER": border}
-            gl.program("common/fullscreen.vert.glsl", "warp/adaptive.frag.glsl", fill)
+            gl.program("common/fullscreen.vert.glsl", "adaptive/fill.frag.glsl", fill)
 
 
 def test_an_undefined_macro_in_a_condition_names_its_line(tmp_path):

@@ -20,11 +20,12 @@ from helpers import (
 import glmls
 from glmls import reference
 from glmls.core.mesh import MeshLattice
-from glmls.imaging import adaptive_folds, adaptive_scan
-from glmls.imaging.adaptive import MAX_LEAF, MIN_SIZE, ROOT_STEP, build_adaptive, interpolate
-from glmls.imaging.adaptive_cells import known_points
-from glmls.imaging.adaptive_fans import GUESS_LIMIT, fan_vertices
-from glmls.imaging.adaptive_patch import (
+from glmls.imaging.adaptive import folds as adaptive_folds
+from glmls.imaging.adaptive import scan as adaptive_scan
+from glmls.imaging.adaptive.cells import known_points
+from glmls.imaging.adaptive.fans import GUESS_LIMIT, fan_vertices
+from glmls.imaging.adaptive.mesh import MAX_LEAF, MIN_SIZE, ROOT_STEP, build_adaptive, interpolate
+from glmls.imaging.adaptive.patch import (
     KNOWN_REACH,
     NODES,
     PRODUCT_BLOCK,
@@ -436,7 +437,7 @@ def _fold(v):
 def test_patches_fold_is_where_the_cell_test_is_infinite_whatever_the_test_points(rng):
     """The fold of a cell's patch depends on its 9 nodes alone: it is exactly where
     estimate_cells is infinite, for any f at the 16 test points."""
-    from glmls.imaging.adaptive_patch import estimate_cells, patches_fold
+    from glmls.imaging.adaptive.patch import estimate_cells, patches_fold
 
     count = 400
     corner = rng.uniform(20, 70, (count, 2))
@@ -460,7 +461,7 @@ def test_a_cells_miss_finds_where_its_patch_errs_most(rng, shape):
     least 95 % of it where the error varies along one direction ("line": cubic and quartic
     in x; "quartic": x^4 alone), 90 % for any mix ("plane"), and never more. At the 16 test
     points alone (as the children's prediction takes it), a quartic error shows 3/4."""
-    from glmls.imaging.adaptive_patch import SAFETY, estimate_cells, lagrange
+    from glmls.imaging.adaptive.patch import SAFETY, estimate_cells, lagrange
 
     count, side = 60, 8.0
     corner = rng.uniform(0, 100, (count, 2))
@@ -509,7 +510,7 @@ def test_folded_children_of_1_px_are_leaves_without_their_test_points(monkeypatc
     """A child of 1 px whose patch folds can split no further and its bound is infinite
     whatever f is at its test points: it is a leaf, and they are never evaluated. The mesh
     is the one the build makes when it tests every such child."""
-    from glmls.imaging import adaptive
+    from glmls.imaging.adaptive import mesh as adaptive
 
     lattice = MeshLattice.corners((80, 112), ROOT_STEP)
     cells = ReferenceCells(_fold)
@@ -538,7 +539,7 @@ def test_the_build_stops_before_it_fills_the_memory():
     the same) ends with ValueError once it needs MAX_POINTS_PER_PIXEL evaluations per pixel,
     instead of splitting every cell down to 1/2 px (it stretches up to 1.9x and never
     folds: folded cells of 1 px are leaves untested)."""
-    from glmls.imaging.adaptive import MAX_POINTS_PER_PIXEL, MIN_TOLERANCE
+    from glmls.imaging.adaptive.mesh import MAX_POINTS_PER_PIXEL, MIN_TOLERANCE
 
     evaluated = []
 
@@ -655,7 +656,7 @@ def test_the_one_pass_before_the_fold_check_draws_what_the_checked_passes_draw(
 
 @pytest.mark.parametrize("seed", [0, 2, 5, "mirror", "shifted"])
 def test_the_gpu_finds_the_reversed_triangles_and_their_tiles(gl, seed):
-    """warp/adaptive_folds.comp.glsl against check_folds and hot_tiles in float64, on the
+    """adaptive/folds.comp.glsl against check_folds and hot_tiles in float64, on the
     float32 vertices the scan reads (the same triangles, the same tiles); a mirror keeps
     its (reversed) orientation: nothing reversed; a canvas away from the image: only the
     tiles inside it."""

@@ -1,7 +1,7 @@
 """The adaptive build's cell test and children's prediction on the GPU
-(``warp/adaptive_test.comp.glsl`` with ``warp/adaptive_quartic.glsl``, through
-:class:`glmls.imaging.adaptive_cells.GPUCells`) against their float64 references
-:func:`glmls.imaging.adaptive_patch.estimate_cells` and ``predict_cells``, cell by cell, on
+(``adaptive/test.comp.glsl`` with ``adaptive/quartic.glsl``, through
+:class:`glmls.imaging.adaptive.cells.GPUCells`) against their float64 references
+:func:`glmls.imaging.adaptive.patch.estimate_cells` and ``predict_cells``, cell by cell, on
 every level of real builds; and the pieces they rest on: f's displacements kept on the GPU,
 buffers grown with their contents."""
 
@@ -16,10 +16,10 @@ from glmls.core.mesh import MeshLattice
 from glmls.engine import passes
 from glmls.gl.dispatch import LOCAL_SIZE
 from glmls.gl.resources import Resources
-from glmls.imaging import adaptive_cells
-from glmls.imaging.adaptive import ROOT_STEP, build_adaptive
-from glmls.imaging.adaptive_cells import GPUCells, smooth_reach
-from glmls.imaging.adaptive_patch import NODES, TESTS, estimate_cells, predict_cells
+from glmls.imaging.adaptive import cells as adaptive_cells
+from glmls.imaging.adaptive.cells import GPUCells, smooth_reach
+from glmls.imaging.adaptive.mesh import ROOT_STEP, build_adaptive
+from glmls.imaging.adaptive.patch import NODES, TESTS, estimate_cells, predict_cells
 
 SHAPE = (160, 192)
 

@@ -6,7 +6,7 @@
 // tested at every pixel centre of their bounding box, and each covered pixel records the
 // triangle's key with atomicMax. A key is 2^31 - the bit fields, most significant first,
 // cell row | cell column | triangle (0, 1) | [WARP_CELLS_SOURCE: the nearest source pixel's
-// row and column inside the cell, u_sub_bits each], at the shifts glmls.imaging.cells's
+// row and column inside the cell, u_sub_bits each], at the shifts glmls.imaging.quads's
 // key_layout chose (31 bits at most, so a key is never 0, "none"). The largest key, the
 // smallest bit fields, wins whatever order the invocations run in: where cells fold, the
 // FIRST cell in row-major scan order of the source (smaller row, then column; triangle 0

@@ -1,5 +1,5 @@
 // OpenGL's coverage rule for the compute scan conversions (warp/cells.comp.glsl for the
-// regular mesh, warp/adaptive.comp.glsl for the adaptive one): pixel centres strictly inside,
+// regular mesh, adaptive/scan.comp.glsl for the adaptive one): pixel centres strictly inside,
 // and on an edge for one of the two primitives sharing it (a top-left style tie rule).
 
 // The edge function of edge (a, b) at p. `precise`: the two primitives on either side of an

@@ -10,9 +10,9 @@
 //
 // ADAPTIVE_FILL 1: the second pass, the same scan: each pixel whose winner is this triangle
 // gets its source point, the triangle's linear interpolation refined on its leaf's quadratic
-// patch (warp/adaptive_patch.glsl), loaded once per triangle; warp/adaptive.frag.glsl then
+// patch (adaptive/patch.glsl), loaded once per triangle; adaptive/fill.frag.glsl then
 // samples the source there. ADAPTIVE_FILL 2: the one pass of a mesh that is an embedding
-// (glmls.imaging.adaptive_scan checks it: every triangle of one orientation and a boundary
+// (glmls.imaging.adaptive.scan checks it: every triangle of one orientation and a boundary
 // that turns once): each pixel is covered by exactly one triangle, which writes its source
 // point, no keys. Pixels no triangle writes keep the buffer's "none" value. The pass counts
 // the reversed (or nearly degenerate) triangles in adaptive_reversed, as the fold check
@@ -22,13 +22,13 @@
 // ADAPTIVE_HOT 1 (with ADAPTIVE_FILL 2): the one pass of a mesh whose boundary turns once
 // but some of whose triangles are reversed (it folds): a pixel covered twice is then covered
 // by a reversed triangle, so only pixels in the tiles those reach ("hot", 8 x 8 px, from
-// glmls.imaging.adaptive_scan) may need keys. A triangle that reaches a hot tile draws
+// glmls.imaging.adaptive.scan) may need keys. A triangle that reaches a hot tile draws
 // nothing and lists itself; ADAPTIVE_LIST 1 then runs the keyed passes (ADAPTIVE_FILL 0, 1)
 // over the listed triangles only, their keys still their places in scan order.
 //
 // ADAPTIVE_COLOUR 1 (with ADAPTIVE_FILL 1 or 2): the pass samples the source at each point
 // itself (warp/sample.glsl) and stores the colour in the RGBA8 target image, instead of
-// writing the point for warp/adaptive.frag.glsl. ADAPTIVE_TEXELS 1 as well (nearest, an RGBA8
+// writing the point for adaptive/fill.frag.glsl. ADAPTIVE_TEXELS 1 as well (nearest, an RGBA8
 // source): source and target are bound as r32ui images and each texel is copied whole
 // (warp/texels.glsl).
 //
@@ -55,7 +55,7 @@ layout(local_size_x = LOCAL_SIZE) in;
 #define ADAPTIVE_LIST 0
 #endif
 #include "common/groups.glsl"
-#include "warp/adaptive_mesh.glsl"
+#include "adaptive/mesh.glsl"
 
 layout(std430, binding = BIND_WINNER) buffer AdaptiveWinner {
     uint adaptive_winner[];   // per target pixel, row-major: u_triangles - t, 0 = none
@@ -82,7 +82,7 @@ bool reaches_hot(ivec2 first, ivec2 last) {
 #endif
 
 #if ADAPTIVE_FILL
-#include "warp/adaptive_patch.glsl"
+#include "adaptive/patch.glsl"
 #include "common/border.glsl"   // outside the #if: the loader includes each file once
 #if ADAPTIVE_COLOUR && ADAPTIVE_TEXELS
 // nearest from an RGBA8 source into the RGBA8 target: texels copied whole
@@ -159,7 +159,7 @@ void main() {
     float s = sign(area);
     bool representable = within_pixels(vec4(a, b), vec4(c, c));
 #if ADAPTIVE_FILL == 2 && !ADAPTIVE_HOT
-    // the one pass counts the triangles the fold check would (warp/adaptive_folds.comp.glsl):
+    // the one pass counts the triangles the fold check would (adaptive/folds.comp.glsl):
     // run without it, where the mesh is most likely an embedding, none must be found
     if (representable && adaptive_turned(a, b, c, area)) {
         atomicAdd(adaptive_reversed, 1u);
@@ -186,7 +186,7 @@ void main() {
 #endif
 #if ADAPTIVE_FILL
     LeafPatch leaf = load_patch(int(ids.w));
-    // the linear guess in the leaf's centred coordinates (adaptive_patch.glsl), an affine
+    // the linear guess in the leaf's centred coordinates (adaptive/patch.glsl), an affine
     // function of the pixel: w = w_a + guess (p - a), the barycentrics folded in
     mat2 to_barycentric = (1.0 / area) * mat2(c.y - a.y, a.y - b.y, a.x - c.x, b.x - a.x);
     mat2 guess = mat2(vb.zw - va.zw, vc.zw - va.zw) * to_barycentric;

@@ -1,10 +1,10 @@
-"""The quadratic patch of an adaptive mesh's cell (:mod:`.adaptive`) and the cell's error
+"""The quadratic patch of an adaptive mesh's cell (:mod:`.mesh`) and the cell's error
 test: the Lagrange basis through the 3 x 3 nodes (corners, edge mid-points, centre) of the
 cell's 5 x 5 grid in quarters of its sides, the 16 other points of that grid where the test
 compares the patch with f, and the test itself in float64 (:func:`estimate_cells`, the
-reference of the GPU's ``warp/adaptive_test.comp.glsl``); and the prediction of a split
+reference of the GPU's ``adaptive/test.comp.glsl``); and the prediction of a split
 cell's four children from its grid (:func:`predict_cells`, the reference of
-``warp/adaptive_quartic.glsl``, through ``warp/adaptive_test.comp.glsl``).
+``adaptive/quartic.glsl``, through ``adaptive/test.comp.glsl``).
 """
 
 from __future__ import annotations
@@ -147,7 +147,7 @@ def leaf_powers(nodes: np.ndarray, deformed: np.ndarray) -> np.ndarray:
     its centred coordinates w = (s - centre) / size, in [-1/2, 1/2]^2: the coefficients
     a_ij of wx^i wy^j in the order of :data:`POWERS` (a_01 a_02 a_10 a_11 a_12 a_20 a_21
     a_22), of f's x, then of its y. Horner's rule evaluates a patch and its slopes from them
-    in about a third of the operations of the Lagrange form (``warp/adaptive_patch.glsl``
+    in about a third of the operations of the Lagrange form (``adaptive/patch.glsl``
     does, at every pixel)."""
     nodes = nodes.astype(np.intp, copy=False)  # once: numpy converts other indices per gather
     out = np.empty((2, len(nodes), 8))
@@ -199,7 +199,7 @@ def estimate_cells(
     and ``tests`` (K, 16) the vertex ids of each cell's 3 x 3 patch nodes and 16 test points
     (rows of its 5 x 5 grid, in quarters of its sides, row by row); ``width`` and ``height``
     (K,) its sides in pixels. The float64 reference of the GPU's test
-    (``warp/adaptive_test.comp.glsl``, through :mod:`.adaptive_cells`).
+    (``adaptive/test.comp.glsl``, through :mod:`.cells`).
 
     The patch (Lagrange, through the 3 x 3 ``nodes``) reproduces every x^a y^b with a, b <=
     2, so it errs by f's third and higher derivatives: along a line of the cell, by f's
@@ -260,7 +260,7 @@ def known_errors(
 ) -> np.ndarray:
     """Each cell's error bound at the points where f is known (``values``) and may bend more
     sharply than :func:`estimate_cells`' 16 samples show (along the segment handles, at the
-    point handles or between close ones: :func:`.adaptive_cells.known_points`), inside the
+    point handles or between close ones: :func:`.cells.known_points`), inside the
     cell or within :data:`KNOWN_REACH` of its sides past it; (K,) float64, 0 where it has
     none. :data:`SAFETY` x the patch's miss there over the smallest singular value of its
     Jacobian there; infinite where that Jacobian's orientation is not the one at the cell's
@@ -374,7 +374,7 @@ def predict_cells(
     the cell's grid points, so their Jacobians (and stretches, and whether they fold) are
     exactly their patches'; only the miss is predicted. Where f is smooth over the cell the
     quartic errs by f's fifth derivatives, the children's patches by their third: the
-    prediction is close. The float64 reference of ``warp/adaptive_quartic.glsl``."""
+    prediction is close. The float64 reference of ``adaptive/quartic.glsl``."""
     count = len(nodes)
     ids = np.concatenate([nodes, tests], axis=1)
     grids = []

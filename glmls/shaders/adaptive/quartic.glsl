@@ -1,8 +1,8 @@
-// The prediction of a split cell's four children (glmls.imaging.adaptive_patch.predict_cells,
+// The prediction of a split cell's four children (glmls.imaging.adaptive.patch.predict_cells,
 // whose float64 numpy version is the reference). The quartic (tensor-product Lagrange)
 // through the cell's 5 x 5 grid of f gives f's values at the children's 5 x 5 grids (the
 // cell's 9 x 9 grid in eighths of its sides); each child is then tested on them as on f
-// (warp/adaptive_grid.glsl). Where f is smooth over the cell, the quartic errs by f's fifth
+// (adaptive/grid.glsl). Where f is smooth over the cell, the quartic errs by f's fifth
 // derivatives, two orders below the children's quadratic patches: the prediction of their
 // miss is close, and the host accepts a child on it only with a margin
 // (glmls.imaging.adaptive), never next to a handle, where f is not smooth. A child's nodes

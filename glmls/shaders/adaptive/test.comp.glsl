@@ -1,8 +1,8 @@
-// The adaptive build's cell test (glmls.imaging.adaptive_patch.estimate_cells, whose float64
+// The adaptive build's cell test (glmls.imaging.adaptive.patch.estimate_cells, whose float64
 // numpy version is the reference): one invocation per cell of a level, on f at the cell's
-// 5 x 5 grid (warp/adaptive_grid.glsl). Where f is smooth (ADAPTIVE_PREDICT), the
+// 5 x 5 grid (adaptive/grid.glsl). Where f is smooth (ADAPTIVE_PREDICT), the
 // prediction of the children of the cells that split follows on the GPU, with no round trip
-// to the host (glmls.imaging.adaptive_patch.predict_cells, warp/adaptive_quartic.glsl), in
+// to the host (glmls.imaging.adaptive.patch.predict_cells, adaptive/quartic.glsl), in
 // two passes: ADAPTIVE_PREDICT 1, the test, which lists the cells that fail it (or split
 // regardless: flag bit 0 of their record) and have no point handle near (f is not smooth
 // there), and sizes the next pass; ADAPTIVE_PREDICT 2, one invocation per listed cell (an
@@ -22,7 +22,7 @@
 // with NaN: drivers may assume there is none).
 layout(local_size_x = LOCAL_SIZE) in;
 
-#include "warp/adaptive_grid.glsl"
+#include "adaptive/grid.glsl"
 
 #if ADAPTIVE_PREDICT
 #include "common/groups.glsl"
@@ -60,7 +60,7 @@ bool adaptive_far(vec2 centre, float reach) {
 #endif
 
 #if ADAPTIVE_PREDICT == 2
-#include "warp/adaptive_quartic.glsl"
+#include "adaptive/quartic.glsl"
 
 void main() {
     int listed = int(dispatch_item());

@@ -1,12 +1,12 @@
 """The adaptive build's evaluations and cell tests on the GPU: f at each level's new points
 (``mls/points.comp.glsl``), kept on the GPU as well, in the order the build numbers its
-vertices, so that the cells' test (``warp/adaptive_test.comp.glsl``) reads f where it is,
+vertices, so that the cells' test (``adaptive/test.comp.glsl``) reads f where it is,
 one invocation per cell, instead of numpy gathering and combining 25 values per cell. Where f
 is smooth, that pass also lists the cells that split, and a second pass predicts their
-children from their grids (``warp/adaptive_quartic.glsl``): one round trip per level. The
+children from their grids (``adaptive/quartic.glsl``): one round trip per level. The
 host gets back four floats per cell and child;
-:func:`glmls.imaging.adaptive_patch.estimate_cells` and
-:func:`~glmls.imaging.adaptive_patch.predict_cells` are the float64 references.
+:func:`glmls.imaging.adaptive.patch.estimate_cells` and
+:func:`~glmls.imaging.adaptive.patch.predict_cells` are the float64 references.
 """
 
 from __future__ import annotations
@@ -16,14 +16,14 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..engine.kernel import MLSKernel
-from ..engine.passes import evaluate_points
-from ..gl import bindings
-from ..gl.context import GLContext
-from ..gl.dispatch import run_1d, set_uniforms
-from ..gl.resources import Resources
-from ..gl.tables import TABLE_WIDTH, table_rows
-from .adaptive_patch import SAFETY, error_bound
+from ...engine.kernel import MLSKernel
+from ...engine.passes import evaluate_points
+from ...gl import bindings
+from ...gl.context import GLContext
+from ...gl.dispatch import run_1d, set_uniforms
+from ...gl.resources import Resources
+from ...gl.tables import TABLE_WIDTH, table_rows
+from .patch import SAFETY, error_bound
 
 __all__ = [
     "CUSP_REACH",
@@ -99,7 +99,7 @@ def smooth_reach(kernel: MLSKernel) -> float:
 def known_points(kernel: MLSKernel, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray] | None:
     """Where the build's test also measures each cell's patch, f there (evaluated once, as
     the GPU has it, for an image of ``shape``): the points that
-    :func:`glmls.imaging.adaptive.build_adaptive`'s ``known`` takes, where f bends more
+    :func:`glmls.imaging.adaptive.mesh.build_adaptive`'s ``known`` takes, where f bends more
     sharply than a cell's 16 test points may show. Along the segment handles
     (:data:`SEGMENT_STEP` apart), whatever the weight: f has a crease along each (a segment's
     weight grows as 1 / d at idw alpha 1, where a point's grows as 1 / d^2; the guarantee's
@@ -142,7 +142,7 @@ def _power(kernel: MLSKernel) -> float | None:
 
 
 class GPUCells:
-    """:func:`glmls.imaging.adaptive.build_adaptive`'s ``evaluate`` and ``test`` for one
+    """:func:`glmls.imaging.adaptive.mesh.build_adaptive`'s ``evaluate`` and ``test`` for one
     build to ``tolerance`` pixels, with ``kernel``'s f for an image of ``shape``, the GPU
     objects ``resources``'s (the buffers ``adaptive-f``, ``adaptive-tests``,
     ``adaptive-split`` and ``adaptive-handles``, the tables ``adaptive-f`` and
@@ -202,10 +202,10 @@ class GPUCells:
         whole: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(error, stretch) of each cell, (K,), as
-        :func:`~glmls.imaging.adaptive_patch.estimate_cells` (ids among those
+        :func:`~glmls.imaging.adaptive.patch.estimate_cells` (ids among those
         :meth:`evaluate` gave; inf and 0 for a cell that splits untested: ``whole``, (K,)
         bool, not tested), and of its four children, (K, 4), as
-        :func:`~glmls.imaging.adaptive_patch.predict_cells` where the cell splits (its
+        :func:`~glmls.imaging.adaptive.patch.predict_cells` where the cell splits (its
         error is above the tolerance, or it is ``whole``) and
         :attr:`predicts`, and no point handle is within :func:`smooth_reach` children's
         sides of a child's centre (``centres`` (K, 2): the cells' centres, pixels); an
@@ -240,7 +240,7 @@ class GPUCells:
         per_cell = 5 if self.predicts else 1
         gl, resources = self._gl, self._resources
         size = count * per_cell * 16
-        shader = "warp/adaptive_test.comp.glsl"
+        shader = "adaptive/test.comp.glsl"
         defines = {"CELL_WORDS": _CELL_WORDS, "ADAPTIVE_SAFETY": SAFETY}
         scale = {"u_scale": float(self._kernel.scaling.scale)}
         max_groups = gl.limits["max_work_groups_x"]

@@ -12,7 +12,7 @@ from numpy.testing import assert_array_equal
 import glmls
 from glmls.core.mesh import MeshLattice
 from glmls.gl import bindings
-from glmls.imaging.cells import key_layout
+from glmls.imaging.quads import key_layout
 from glmls.imaging.source import prepare_image
 
 

@@ -1,5 +1,5 @@
-// The adaptive mesh as its scan (warp/adaptive.comp.glsl) and its fold check
-// (warp/adaptive_folds.comp.glsl) read it (glmls.imaging.adaptive_scan uploads it), and the
+// The adaptive mesh as its scan (adaptive/scan.comp.glsl) and its fold check
+// (adaptive/folds.comp.glsl) read it (glmls.imaging.adaptive.scan uploads it), and the
 // buffer of the tiles near folds they share.
 
 #include "common/table.glsl"
@@ -35,7 +35,7 @@ uniform float u_orientation;  // +1 or -1: the sign of a triangle that keeps the
 // Is the triangle (a, b, c), twice its signed area ``area`` (edge(a, b, c)), not of the mesh's
 // orientation (u_orientation: +1 where f keeps it, -1 for a mirror), or nearly degenerate:
 // twice its area within 1e-5 of its longest side squared (room for float32's rounding, which
-// the scan's own area then cannot turn over)? glmls.imaging.adaptive_folds.check_folds is the
+// the scan's own area then cannot turn over)? glmls.imaging.adaptive.folds.check_folds is the
 // float64 reference.
 bool adaptive_turned(vec2 a, vec2 b, vec2 c, float area) {
     vec2 ab = b - a;

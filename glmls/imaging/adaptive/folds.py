@@ -1,7 +1,7 @@
 """Where the deformed adaptive mesh may cover a pixel more than once (numpy): the check that
-lets :mod:`.adaptive_scan` draw an embedding in one pass without keys, and keys only near
+lets :mod:`.scan` draw an embedding in one pass without keys, and keys only near
 reversed triangles where the boundary is a simple curve. The scan checks the boundary here
-(:func:`boundary_turns`) and the triangles on the GPU (``warp/adaptive_folds.comp.glsl``),
+(:func:`boundary_turns`) and the triangles on the GPU (``adaptive/folds.comp.glsl``),
 for which :func:`check_folds` and :func:`hot_tiles` are the float64 references."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .adaptive import AdaptiveMesh
-from .frame import Frame
+from ..frame import Frame
+from .mesh import AdaptiveMesh
 
 __all__ = ["FoldCheck", "boundary_turns", "check_folds", "embedded", "hot_tiles"]
 
@@ -37,7 +37,7 @@ class FoldCheck:
 
 
 def check_folds(mesh: AdaptiveMesh) -> FoldCheck:
-    """The :class:`FoldCheck` of ``mesh`` (``warp/adaptive_folds.comp.glsl`` finds the same
+    """The :class:`FoldCheck` of ``mesh`` (``adaptive/folds.comp.glsl`` finds the same
     reversed triangles on the GPU, for the warp)."""
     simple, orientation = boundary_turns(mesh)
     # one coordinate of one corner at a time: numpy gathers and reduces 1-D arrays fastest

@@ -3,8 +3,8 @@ where the piecewise linear mesh would miss f's inverse by more than a tolerance.
 
 How it is built (:func:`build_adaptive`), level by level, numpy bookkeeping and one batched
 evaluation of f per level (``evaluate``, on the GPU in the pipeline) and one batched test of
-the level's cells (``test``: :func:`.adaptive_patch.estimate_cells` in float64, or on the GPU
-where f stays, with the prediction of step 3 in the same round trip, :mod:`.adaptive_cells`,
+the level's cells (``test``: :func:`.patch.estimate_cells` in float64, or on the GPU
+where f stays, with the prediction of step 3 in the same round trip, :mod:`.cells`,
 in the pipeline):
 
 1. the roots are the cells of the corner lattice at :data:`ROOT_STEP` pixels (with the
@@ -13,7 +13,7 @@ in the pipeline):
 2. for every cell of the level, f on its 5 x 5 grid (quarters of its sides): the quadratic
    patch through the 3 x 3 nodes (corners, edge mid-points, centre); its *miss*, its
    largest distance from f, taken from its misses at the 16 other points (there, and where
-   the quartic through them peaks: :func:`.adaptive_patch.estimate_cells`), times
+   the quartic through them peaks: :func:`.patch.estimate_cells`), times
    :data:`SAFETY` over the smallest singular value of the patch's Jacobian on the grid
    bounds the source-space error of the cell; where f bends sharply at or between the
    point handles (``known``), the patch is also measured there, in or next to the cell;
@@ -21,21 +21,21 @@ in the pipeline):
    children's nodes), down to 1 px cells, and below (to :data:`MIN_SIZE`) where the map
    stretches (largest singular value > 1: a 1 px cell there covers more than one output
    pixel). Each child is first predicted (by ``test``, with its parent's test: the quartic
-   through the parent's grid, :func:`.adaptive_patch.predict_cells`, where f is smooth): one
+   through the parent's grid, :func:`.patch.predict_cells`, where f is smooth): one
    predicted within the tolerance over :data:`PREDICTION_MARGIN` is a leaf, and so is a
-   child of 1 px whose patch folds (:func:`.adaptive_patch.patches_fold`: its nodes are its
+   child of 1 px whose patch folds (:func:`.patch.patches_fold`: its nodes are its
    parent's grid points, and a folded cell splits no further than 1 px); f is evaluated
    at the others' test points, and they are tested at the next level;
 4. each leaf is drawn as a fan of triangles around its centre through every vertex on its
    boundary: its corners and those of finer neighbours on its edges (hanging vertices), and
    its edges' mid-points where its patch bends too far from the fan
-   (:func:`.adaptive_fans.fan_vertices`). Leaves sharing an edge share exactly its vertices:
+   (:func:`.fans.fan_vertices`). Leaves sharing an edge share exactly its vertices:
    no cracks. The scan refines each pixel's point on the fan by a Newton step on the leaf's
-   patch (``warp/adaptive.comp.glsl``), so the patch's error bound is the pixel's.
+   patch (``adaptive/scan.comp.glsl``), so the patch's error bound is the pixel's.
 
 Fold-overs: the triangles come in scan order, the leaves in row-major order of their top-left
 corners (row, then column), each leaf's fan together; where deformed cells overlap the first
-cell in scan order shows (``warp/adaptive.comp.glsl`` keeps the first triangle per pixel), as
+cell in scan order shows (``adaptive/scan.comp.glsl`` keeps the first triangle per pixel), as
 everywhere in glmls.
 """
 
@@ -48,9 +48,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.mesh import MeshLattice
-from .adaptive_fans import fan_vertices, fans
-from .adaptive_patch import (
+from ...core.mesh import MeshLattice
+from .fans import fan_vertices, fans
+from .patch import (
     GRID_PLACE,
     NODES,
     SAFETY,
@@ -88,7 +88,7 @@ MAX_LEAF = 16
 #: their children, most of which need no evaluation of their own (:data:`PREDICTION_MARGIN`).
 ROOT_STEP = 2 * MAX_LEAF
 #: A split cell's child is a leaf without evaluating f at its test points where its error
-#: predicted from the parent's grid (:func:`.adaptive_patch.predict_cells`, where f is smooth)
+#: predicted from the parent's grid (:func:`.patch.predict_cells`, where f is smooth)
 #: is within the tolerance over this margin. (At 1, the quartic's prediction let errors up to
 #: 1.45x the tolerance through on idw alpha 2; at 2, every tested map kept the errors of
 #: the full test.)
@@ -108,9 +108,9 @@ _UNITS = 1024
 
 Evaluate = Callable[[np.ndarray], np.ndarray]
 #: (nodes, tests, width, height, centres, whole) of a level's cells -> (error, stretch) of
-#: each, (K,), as :func:`.adaptive_patch.estimate_cells` (whose ``fx`` and ``fy`` are then the
+#: each, (K,), as :func:`.patch.estimate_cells` (whose ``fx`` and ``fy`` are then the
 #: tester's own: every point ``evaluate`` was given, in order), and (error, stretch) of its
-#: four children, (K, 4), as :func:`.adaptive_patch.predict_cells` (an infinite error where
+#: four children, (K, 4), as :func:`.patch.predict_cells` (an infinite error where
 #: they are not predicted: f not smooth there, or the cell does not split). ``centres``
 #: (K, 2): the cells' centres in pixels; ``whole`` (K,) bool: the cells that split untested
 #: (their own error is not used).
@@ -210,7 +210,7 @@ class AdaptiveMesh:
 
     @functools.cached_property
     def powers(self) -> np.ndarray:
-        """Each leaf's patch in powers, (2, L, 8), as :func:`.adaptive_patch.leaf_powers`
+        """Each leaf's patch in powers, (2, L, 8), as :func:`.patch.leaf_powers`
         (derived, not a field: a mesh from dataclasses.replace works its own out)."""
         return leaf_powers(self.nodes, self.deformed)
 
@@ -286,13 +286,13 @@ def build_adaptive(
     children's prediction (see :data:`CellTest`; vertex ids count the points given to
     ``evaluate``, from 0, in order): a child predicted within ``tolerance /
     PREDICTION_MARGIN`` is a leaf, and f is not evaluated at its test points; None:
-    :func:`.adaptive_patch.estimate_cells` on the evaluated f, every child tested. With
+    :func:`.patch.estimate_cells` on the evaluated f, every child tested. With
     either, a child of 1 px whose patch folds is a leaf untested (its bound is infinite
     whatever f is at its test points). ``known``: (points (N, 2), f at them (N, 2)), pixels,
     where f may bend more sharply than a cell's test points show (its cusps at the point
-    handles, its turns between close ones: :func:`.adaptive_cells.known_points`): a cell
+    handles, its turns between close ones: :func:`.cells.known_points`): a cell
     that passes its test is also measured at those in reach of it
-    (:func:`.adaptive_patch.known_errors`)."""
+    (:func:`.patch.known_errors`)."""
     xs, ys = lattice.axes
     x_origin, y_origin = lattice.origin
     span = max(xs[-1] - x_origin, ys[-1] - y_origin) + 1.0

@@ -1,9 +1,9 @@
-// Sets every pixel's source point of the adaptive fill (warp/adaptive.comp.glsl) to
+// Sets every pixel's source point of the adaptive fill (adaptive/scan.comp.glsl) to
 // ADAPTIVE_NONE, "no triangle covers it" (a pattern clear of the buffer costs ~18 ms at
 // 1024^2 through moderngl; this pass well under one).
 layout(local_size_x = LOCAL_SIZE) in;
 #ifndef ADAPTIVE_NONE
-#define ADAPTIVE_NONE 3.0e38   // glmls.imaging.adaptive_scan.NONE: no source point
+#define ADAPTIVE_NONE 3.0e38   // glmls.imaging.adaptive.scan.NONE: no source point
 #endif
 
 #include "common/groups.glsl"

@@ -1,5 +1,5 @@
 // Fills each target pixel that the adaptive mesh covers from its source point, which
-// warp/adaptive.comp.glsl (ADAPTIVE_FILL) wrote (ADAPTIVE_NONE where none did): the source
+// adaptive/scan.comp.glsl (ADAPTIVE_FILL) wrote (ADAPTIVE_NONE where none did): the source
 // sampled by warp/sample.glsl
 // (nearest: the source pixel containing the point; linear: bilinear; past the image by the
 // border rule). Drawn as one full-viewport triangle; the viewport has the target's size.
@@ -7,7 +7,7 @@
 //
 //   WARP_OUTPUT_COORDS 1: write (s.x, s.y, 1, 0) instead of the colour.
 #ifndef ADAPTIVE_NONE
-#define ADAPTIVE_NONE 3.0e38   // glmls.imaging.adaptive_scan.NONE: no source point
+#define ADAPTIVE_NONE 3.0e38   // glmls.imaging.adaptive.scan.NONE: no source point
 #endif
 #include "warp/target.glsl"
 #include "warp/sample.glsl"

@@ -1,11 +1,11 @@
 """The adaptive mesh on the GPU: f evaluated level by level (``mls/points.comp.glsl``, one
-batched call per level), the quadtree built on the CPU (:mod:`.adaptive`), its triangles
-scan-converted by ``warp/adaptive.comp.glsl``: each covered pixel's source point is the
+batched call per level), the quadtree built on the CPU (:mod:`.mesh`), its triangles
+scan-converted by ``adaptive/scan.comp.glsl``: each covered pixel's source point is the
 triangle's linear guess refined by a Newton step on its leaf's quadratic patch
-(``warp/adaptive_patch.glsl``). One pass where the mesh is an embedding; keys (the first
+(``adaptive/patch.glsl``). One pass where the mesh is an embedding; keys (the first
 triangle in scan order wins) only near reversed triangles where its boundary is simple
-(:mod:`.adaptive_folds`), else everywhere. The pass colours RGBA8 targets itself; other
-targets get the points, which ``warp/adaptive.frag.glsl`` samples."""
+(:mod:`.folds`), else everywhere. The pass colours RGBA8 targets itself; other
+targets get the points, which ``adaptive/fill.frag.glsl`` samples."""
 
 from __future__ import annotations
 
@@ -14,17 +14,17 @@ from typing import Protocol
 import moderngl
 import numpy as np
 
-from ..core.mesh import MeshLattice
-from ..engine.kernel import MLSKernel
-from ..gl import bindings
-from ..gl.context import GLContext
-from ..gl.dispatch import run_1d, set_uniforms
-from ..gl.resources import Resources
-from .adaptive import ROOT_STEP, AdaptiveMesh, build_adaptive, check_adaptive
-from .adaptive_cells import GPUCells, known_points
-from .adaptive_folds import boundary_turns
-from .adaptive_patch import SLOPE_X, SLOPE_Y
-from .frame import Frame
+from ...core.mesh import MeshLattice
+from ...engine.kernel import MLSKernel
+from ...gl import bindings
+from ...gl.context import GLContext
+from ...gl.dispatch import run_1d, set_uniforms
+from ...gl.resources import Resources
+from ..frame import Frame
+from .cells import GPUCells, known_points
+from .folds import boundary_turns
+from .mesh import ROOT_STEP, AdaptiveMesh, build_adaptive, check_adaptive
+from .patch import SLOPE_X, SLOPE_Y
 
 __all__ = ["NONE", "AdaptiveScan", "Fill"]
 
@@ -54,7 +54,7 @@ class AdaptiveScan:
     def build(self, kernel: MLSKernel, lattice: MeshLattice, tolerance: float) -> AdaptiveMesh:
         """The adaptive mesh over ``lattice``'s cells (the roots), f from ``kernel``, the
         cells tested and their children predicted on the GPU, in one pass per level
-        (:mod:`.adaptive_cells`)."""
+        (:mod:`.cells`)."""
         cells = GPUCells(self._gl, self._resources, kernel, lattice.shape, tolerance)
         return build_adaptive(
             cells.evaluate,
@@ -153,7 +153,7 @@ class AdaptiveScan:
         points_texture.use(bindings.COORDS.index)
         fill = gl.program(
             "common/fullscreen.vert.glsl",
-            "warp/adaptive.frag.glsl",
+            "adaptive/fill.frag.glsl",
             {
                 "WARP_LINEAR": linear,
                 "WARP_OUTPUT_COORDS": coords,
@@ -189,7 +189,7 @@ class AdaptiveScan:
         gl = self._gl
         points = self._resources.buffer("adaptive-points", (frame.pixels + 1) * 8)
         points.bind_to_storage_buffer(bindings.ADAPTIVE_POINTS.index)
-        clear = gl.compute("warp/adaptive_clear.comp.glsl", {"ADAPTIVE_NONE": NONE})
+        clear = gl.compute("adaptive/clear.comp.glsl", {"ADAPTIVE_NONE": NONE})
         set_uniforms(clear, {"u_count": frame.pixels})
         run_1d(clear, frame.pixels, max_groups=gl.limits["max_work_groups_x"])
 
@@ -247,7 +247,7 @@ class AdaptiveScan:
         """What the scan finds of ``mesh``'s folds, drawn into ``frame``: whether its
         boundary is simple, and where it is, how many triangles are reversed (or nearly
         degenerate) and the 8 x 8 px tiles they reach, (rows, words) uint32 bits as
-        :func:`.adaptive_folds.hot_tiles` (else 0 and no bits). It uploads the mesh."""
+        :func:`.folds.hot_tiles` (else 0 and no bits). It uploads the mesh."""
         if len(mesh.triangles) == 0:
             raise ValueError("the mesh has no triangles: nothing to check")
         simple, orientation = boundary_turns(mesh)
@@ -263,9 +263,9 @@ class AdaptiveScan:
 
     def _reversed(self, count: int, frame: Frame, orientation: float):
         """The triangles not of the mesh's ``orientation`` (or nearly degenerate), found on
-        the GPU (``warp/adaptive_folds.comp.glsl``; float64 reference
-        :func:`.adaptive_folds.check_folds`) with the 8 x 8 px tiles they reach
-        (:func:`.adaptive_folds.hot_tiles`): the buffer (bound) that holds the tiles' bits
+        the GPU (``adaptive/folds.comp.glsl``; float64 reference
+        :func:`.folds.check_folds`) with the 8 x 8 px tiles they reach
+        (:func:`.folds.hot_tiles`): the buffer (bound) that holds the tiles' bits
         and the scan's list, the uniforms of its layout, and how many triangles."""
         gl = self._gl
         rows, words = _tiles(frame)
@@ -274,14 +274,14 @@ class AdaptiveScan:
         hot = self._hot_buffer(size)
         hot.clear(size=size - bits, offset=bits)
         layout = {"u_hot_bits": count, "u_hot_words": words}
-        check = gl.compute("warp/adaptive_folds.comp.glsl")
+        check = gl.compute("adaptive/folds.comp.glsl")
         set_uniforms(check, layout | {"u_target_size": frame.size, "u_orientation": orientation})
         run_1d(check, count, max_groups=gl.limits["max_work_groups_x"])
         gl.mgl.memory_barrier()
         return hot, layout, _reversed_count(hot)
 
     def _hot_buffer(self, size: int) -> moderngl.Buffer:
-        """The buffer of warp/adaptive_mesh.glsl's AdaptiveHot block (``size`` bytes at
+        """The buffer of adaptive/mesh.glsl's AdaptiveHot block (``size`` bytes at
         least), its counters (the listed and the reversed triangles) zero, bound."""
         hot = self._resources.buffer("adaptive-hot", size)
         hot.clear(size=16)
@@ -291,7 +291,7 @@ class AdaptiveScan:
     def _run(self, count: int, values: dict, defines: dict) -> None:
         """One scan pass over ``count`` triangles (or listed ones)."""
         gl = self._gl
-        scan = gl.compute("warp/adaptive.comp.glsl", defines)
+        scan = gl.compute("adaptive/scan.comp.glsl", defines)
         set_uniforms(scan, values)
         run_1d(scan, count, max_groups=gl.limits["max_work_groups_x"])
         gl.mgl.memory_barrier()
@@ -305,15 +305,15 @@ def _reversed_count(hot: moderngl.Buffer) -> int:
 
 def _tiles(frame: Frame) -> tuple[int, int]:
     """The 8 x 8 px tiles of ``frame`` as the fold check marks them: rows, and uint32 words
-    of bits per row (as :func:`.adaptive_folds.hot_tiles`)."""
+    of bits per row (as :func:`.folds.hot_tiles`)."""
     width, height = frame.size
     return (height + 7) // 8, ((width + 7) // 8 + 31) // 32
 
 
 def _leaf_patches(mesh: AdaptiveMesh, frame: Frame) -> np.ndarray:
-    """(L, 6, 4) float32: what ``warp/adaptive_patch.glsl`` reads of each leaf: its centre
+    """(L, 6, 4) float32: what ``adaptive/patch.glsl`` reads of each leaf: its centre
     and size, f at its centre node in the output frame and its orientation, and its patch in
-    powers (:attr:`~.adaptive.AdaptiveMesh.powers`, worked out in float64), the x's four
+    powers (:attr:`~.mesh.AdaptiveMesh.powers`, worked out in float64), the x's four
     and four, then the y's."""
     count = len(mesh.leaves)
     leaves = np.empty((count, 6, 4), np.float32)

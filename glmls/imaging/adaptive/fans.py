@@ -1,4 +1,4 @@
-"""The adaptive mesh's triangles (:mod:`.adaptive`): each leaf a fan around its centre
+"""The adaptive mesh's triangles (:mod:`.mesh`): each leaf a fan around its centre
 through every vertex on its boundary (:func:`fan_vertices`: its own corners and those of
 finer neighbours, hanging vertices, and mid-points where the fan would bend too far from the
 patch), so that neighbours share exactly the vertices of their common edge: no cracks. An
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .adaptive_patch import (
+from .patch import (
     SLOPE_X,
     SLOPE_Y,
     leaf_powers,
@@ -35,7 +35,7 @@ _MIDS = (1, 3, 5, 7)  # top, left, right, bottom
 
 
 def _fan_misses() -> np.ndarray:
-    """(8, 8): from a leaf's patch in powers (:func:`.adaptive_patch.leaf_powers`), how far
+    """(8, 8): from a leaf's patch in powers (:func:`.patch.leaf_powers`), how far
     it is from the corner fan's linear interpolation where that is farthest for a quadratic:
     at the edges' mid-points (top, left, right, bottom) and half-way from the centre to
     each corner (the patch is 0 at the centre: its powers leave f there out)."""
@@ -67,7 +67,7 @@ def fan_vertices(
     centre), where it folds (``folded``, (L,) bool), where f is not finite, and on the mesh's
     outer edges (so that the image's outline is f's at them). ``nodes`` (L, 9) each leaf's 3
     x 3 patch vertices, ``deformed`` (V, 2) f at the vertices, ``leaves`` (L, 4) the cells
-    (x0, y0, x1, y1); ``powers``: the patches as :func:`.adaptive_patch.leaf_powers` gives
+    (x0, y0, x1, y1); ``powers``: the patches as :func:`.patch.leaf_powers` gives
     them (worked out here where None)."""
     nodes = nodes.astype(np.intp, copy=False)  # once: numpy converts other indices per gather
     if powers is None:

@@ -7,7 +7,7 @@
 // patch in powers of w = (s - centre) / size, w in [-1/2, 1/2]^2 over the leaf: f minus f at
 // the centre is sum a_ij wx^i wy^j over i, j <= 2, a_00 = 0, the other eight a_ij in the order
 // a_01 a_02 a_10 a_11 a_12 a_20 a_21 a_22, those of f's x in two vec4s, then those of its y
-// (glmls.imaging.adaptive_patch.leaf_powers), a table (common/table.glsl). Horner's rule
+// (glmls.imaging.adaptive.patch.leaf_powers), a table (common/table.glsl). Horner's rule
 // then evaluates the patch and its slopes in about a third of the operations of the Lagrange
 // form: this runs at every pixel.
 #include "common/table.glsl"

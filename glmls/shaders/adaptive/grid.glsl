@@ -1,7 +1,7 @@
 // The adaptive build's test of one cell from its 5 x 5 grid (quarters of its sides), shared by
-// the cells' test (warp/adaptive_test.comp.glsl: f at the grid) and the children's prediction
-// (warp/adaptive_quartic.glsl: the parent's quartic at the children's grids).
-// glmls.imaging.adaptive_patch.estimate_cells is the float64 reference.
+// the cells' test (adaptive/test.comp.glsl: f at the grid) and the children's prediction
+// (adaptive/quartic.glsl: the parent's quartic at the children's grids).
+// glmls.imaging.adaptive.patch.estimate_cells is the float64 reference.
 //
 // The grid holds the quadratic patch's 3 x 3 nodes (even row and column) and 16 test points.
 // The patch (Lagrange, through the nodes) is evaluated at every grid point, with its slopes:
@@ -39,7 +39,7 @@ vec2 quartic_at_inset(bool mirrored, vec2 v0, vec2 v1, vec2 v2, vec2 v3, vec2 v4
 
 // The largest square of the quartic through the 5 x 5 misses ``m`` (0 at the nodes) on the
 // lines 0.15 of a side in from the cell's edges (the 24 points of them off the 5 x 5 grid;
-// glmls.imaging.adaptive_patch.MEASURED): a quadratic patch's error of f's third and fourth
+// glmls.imaging.adaptive.patch.MEASURED): a quadratic patch's error of f's third and fourth
 // orders peaks between the quarters and the edges, up to 4/3 above its values at the
 // quarters along a line, and this finds at least 95 % of its peak along a line, 90 % over
 // the cell (the quarters alone: 3/4 and 70 %). Only the nonzero terms: a node column's
@@ -153,7 +153,7 @@ uniform int u_count;      // cells
 uniform int u_offset;     // first cell of this dispatch
 
 #ifndef CELL_WORDS
-#error "CELL_WORDS: the host's layout (glmls.imaging.adaptive_cells) defines it"
+#error "CELL_WORDS: the host's layout (glmls.imaging.adaptive.cells) defines it"
 #endif
 
 // The grid place (row by row) of each id of a cell's record: the nodes, then the tests.

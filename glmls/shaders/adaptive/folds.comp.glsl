@@ -1,16 +1,16 @@
 // Where the deformed adaptive mesh may cover a pixel twice, on the GPU, from the vertices the
-// scan reads (glmls.imaging.adaptive_folds.check_folds and hot_tiles are the float64 numpy
+// scan reads (glmls.imaging.adaptive.folds.check_folds and hot_tiles are the float64 numpy
 // references): one invocation per triangle. A triangle not of the mesh's orientation
 // (u_orientation: +1 where f keeps it, -1 for a mirror), or nearly degenerate (twice its
 // area within 1e-5 of its longest side squared: room for float32's rounding, which the
-// scan's own area then cannot turn over; warp/adaptive_mesh.glsl's adaptive_turned), is
+// scan's own area then cannot turn over; adaptive/mesh.glsl's adaptive_turned), is
 // counted, and the 8 x 8 px tiles its pixel box (one pixel wider against rounding) reaches
-// are marked hot, for warp/adaptive.comp.glsl's ADAPTIVE_HOT pass. A triangle with a vertex that is not finite or past 1e9 px draws
+// are marked hot, for adaptive/scan.comp.glsl's ADAPTIVE_HOT pass. A triangle with a vertex that is not finite or past 1e9 px draws
 // nothing in the scan: it is not counted.
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "warp/coverage.glsl"
-#include "warp/adaptive_mesh.glsl"
+#include "adaptive/mesh.glsl"
 
 uniform int u_count;          // triangles
 uniform int u_offset;         // first triangle of this dispatch
