@@ -17,7 +17,7 @@ returns when its work is done):
   handles, the framebuffer).
 
 Then the counts: levels, evaluations of f, leaves, triangles. Medians of ``--repeat`` calls
-after three untimed ones, ms. The A/B of whole calls is ``ab_trees.py``'s job; this says
+after three untimed ones, ms. The A/B of whole calls is ``tools/ab_trees.py``'s job; this says
 what a change should aim at.
 """
 
@@ -32,7 +32,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from ab_trees import WORKLOADS
+from workloads import WORKLOADS
 
 import glmls
 from glmls.imaging.adaptive.cells import GPUCells

@@ -2,8 +2,8 @@
 limits (with a robust percentile upper bound), NaN colouring and a colour bar with numbers.
 
 A colour map is an (n, 3) uint8 table; a value x maps to entry round(t (n - 1)) with
-t = clip((x - lo) / (hi - lo), 0, 1). The GPU renderer (:mod:`glmls.render`) uses the same
-tables and rule; :func:`apply_colormap` is its CPU counterpart.
+t = clip((x - lo) / (hi - lo), 0, 1). The GPU renderer (:mod:`glmls.analysis.canvas`) uses
+the same tables and rule; :func:`apply_colormap` is its CPU counterpart.
 """
 
 from __future__ import annotations

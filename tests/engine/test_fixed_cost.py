@@ -1,14 +1,12 @@
-"""benchmarks/fixed_cost.py runs and names every stage (no timings are checked: performance
-is the benchmarks' business)."""
+"""The benchmarks run: benchmarks/fixed_cost.py names every stage, adaptive_stages.py splits a
+warp into its stages, guarantee.py reports its table (no timings are checked: performance is
+the benchmarks' business)."""
 
 from __future__ import annotations
 
-import json
 import subprocess
 import sys
 from pathlib import Path
-
-import pytest
 
 SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "fixed_cost.py"
 
@@ -51,71 +49,6 @@ def run_script(
     return run
 
 
-def ab_trees(trees: str, cases: str, *options: str) -> subprocess.CompletedProcess:
-    """benchmarks/ab_trees.py with ``trees`` and ``cases``, one round, and ``options``."""
-    return run_script("ab_trees.py", "--trees", trees, "--cases", cases, "--rounds", "1", *options)
-
-
-def assert_ratio_line(line: str, spec: str) -> None:
-    """``line`` reports ``spec``'s ratio: its median within its quartiles, all positive."""
-    assert line.startswith(f"{spec}: ") and line.endswith("]")
-    low, high = (float(v) for v in line.split("[")[1].rstrip("]").split("-"))
-    assert 0 < low <= float(line.split(": ")[1].split("x")[0]) <= high
-
-
-def test_ab_trees_alternates_trees_and_reports_each_case():
-    """benchmarks/ab_trees.py on this tree twice: a row per case, a cell per tree, and "-"
-    where a tree lacks the option (here none does)."""
-    root = str(SCRIPT.parents[1])
-    run = ab_trees(f"a={root},b={root}", "W3:grid=8,W3:tolerance=0.25", "--repeat", "1")
-    lines = run.stdout.splitlines()
-    assert lines[0] == "case | a | b"
-    assert lines[1].startswith("W3:grid=8 | ") and lines[2].startswith("W3:tolerance=0.25 | ")
-    assert "-" not in lines[1].split(" | ")[1:]
-    times = json.loads(lines[-1])
-    assert set(times) == {f"W3:{o}|{t}" for o in ("grid=8", "tolerance=0.25") for t in "ab"}
-
-
-@pytest.mark.parametrize("mode", ["--paired", "--together"])
-def test_ab_trees_pairs_calls_across_trees_and_cases(mode):
-    """--paired: a worker process per case and tree; --together: the trees imported side by
-    side into one process (this tree twice, under two names). Either way one call of each
-    case and tree in turn; --ratios reports the ratio of the calls made in turn (this tree
-    against itself: about 1, its quartiles around it), a case a tree lacks is "-", and the
-    frame case runs the tree's own bench code."""
-    root = str(SCRIPT.parents[1])
-    spec = "W3:grid=8|a/W3:grid=8|b"
-    ratios = f"{spec},W3:nothing=1|a/W3:grid=8|b"
-    cases = "W3:grid=8,W3:nothing=1,W3:frame=8"
-    run = ab_trees(f"a={root},b={root}", cases, "--repeat", "3", mode, "--ratios", ratios)
-    lines = run.stdout.splitlines()
-    assert lines[0] == "case | a | b"
-    assert lines[1].startswith("W3:grid=8 | ") and "-" not in lines[1].split(" | ")[1:]
-    assert lines[2] == "W3:nothing=1 | - | -"
-    assert lines[3].startswith("W3:frame=8 | ") and "-" not in lines[3].split(" | ")[1:]
-    assert_ratio_line(lines[4], spec)
-    assert lines[5] == "W3:nothing=1|a/W3:grid=8|b: -"
-    times = json.loads(lines[-1])
-    assert set(times) == {f"W3:{c}|{t}" for c in ("grid=8", "frame=8") for t in "ab"}
-    assert all(len(v) == 3 for v in times.values())
-
-
-def test_ab_trees_pairs_calls_one_way_only():
-    """--paired and --together exclude each other: a usage error (exit 2) naming it."""
-    run = run_script(
-        "ab_trees.py",
-        "--trees",
-        "a=.",
-        "--cases",
-        "W3:grid=8",
-        "--paired",
-        "--together",
-        timeout=60,
-        returncode=2,
-    )
-    assert "choose one" in run.stderr
-
-
 def test_adaptive_stages_splits_a_warp_into_its_stages():
     """benchmarks/adaptive_stages.py: the build (f, tests, bookkeeping), the draw and the
     rest, which add up to the call, and the mesh's counts."""
@@ -129,37 +62,6 @@ def test_adaptive_stages_splits_a_warp_into_its_stages():
     assert abs(values["f"] + values["test"] + values["bookkeeping"] - values["build"]) < 0.05
     assert abs(values["build"] + values["draw"] + values["rest"] - values["total"]) < 0.05
     assert lines[8].strip().startswith("evaluations ") and "triangles" in lines[8]
-
-
-def test_ab_trees_paired_survives_a_worker_that_dies(tmp_path):
-    """A worker whose tree crashes mid-run is reported and left out (its calls no longer
-    pair); the other trees' calls go on."""
-    fake = tmp_path / "crashing" / "glmls"
-    fake.mkdir(parents=True)
-    (fake / "__init__.py").write_text(
-        "import os\n"
-        "calls = 0\n"
-        "class MLS:\n"
-        "    def __init__(self, *args, **kwargs): pass\n"
-        "    def __enter__(self): return self\n"
-        "    def __exit__(self, *exc): return False\n"
-        "    def warp(self, image, **options):\n"
-        "        global calls\n"
-        "        calls += 1\n"
-        "        if calls == 5:\n"
-        "            os._exit(3)\n"
-    )
-    root = str(SCRIPT.parents[1])
-    run = ab_trees(
-        f"good={root},bad={fake.parent}",
-        "W3:grid=8",
-        *("--repeat", "4", "--warmup", "0", "--paired"),
-        *("--ratios", "W3:grid=8|bad/W3:grid=8|good"),
-    )
-    assert "failed: bad W3:grid=8" in run.stderr
-    lines = run.stdout.splitlines()
-    assert lines[1].startswith("W3:grid=8 | ") and lines[1].endswith(" | -")
-    assert lines[2] == "W3:grid=8|bad/W3:grid=8|good: -"
 
 
 def test_guarantee_reports_each_case_and_the_worst_per_weight():

@@ -13,7 +13,7 @@
 // short arc far from it (the end of a segment at the edge of a compact weight's reach) would
 // lose its spread to cancellation in float32.
 // (u_length_unit: pixels per scaled unit, so that a segment's weight is per pixel of length,
-// as in glmls.core.reference, whatever the scaling).
+// as in glmls.reference, whatever the scaling).
 //
 // Defines:
 //   MLS_SEGMENT_CLOSED   1: idw, alpha 1, not interpolating: J_k in closed form

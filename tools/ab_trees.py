@@ -1,8 +1,14 @@
-"""A/B in one sitting: the same end-to-end cases timed on several glmls trees, alternated.
+"""A/B of glmls checkouts: the same end-to-end cases timed on several source trees, alternated.
 
-``python benchmarks/ab_trees.py --trees old=/tmp/bb0b9ce,new=. --cases W1:grid=1,W1:tolerance=0.05``
+``python tools/ab_trees.py --trees old=/tmp/glmls-old,new=. --cases W1:grid=1,W1:tolerance=0.05``
 ``[--rounds 3] [--repeat 5] [--warmup 0.5] [--paired | --together]``
 ``[--ratios CASE|TREE/CASE|TREE,...]``
+
+Each tree is a glmls source checkout (``git worktree add /tmp/glmls-old REV`` makes one from
+any revision). By default every round runs every case on every tree in turn, each in a fresh
+process (``--case``: one timing process), so that slow and fast spells of a shared machine
+fall on all trees alike; the table gives each tree's median [min-max] over all rounds, in ms,
+and the JSON of every time follows it.
 
 ``--paired``: every case on every tree set up once per round in a worker process of its own,
 all alive at once, and then one call of each in turn, ``--repeat`` times (the order rotated
@@ -19,12 +25,6 @@ noisy shared host resolves a few per cent where separate processes do not. A tre
 code imports ``glmls`` by its absolute name would mix with the other trees': glmls's own
 modules import each other relatively.
 
-Each tree is a glmls source checkout (``git worktree add /tmp/bb0b9ce bb0b9ce`` makes one).
-Every round runs every case on every tree in turn, each in a fresh process (``--case``: one
-timing process), so that slow and fast spells of a shared machine fall on all trees alike;
-the table gives each tree's median [min-max] over all rounds, in ms, and the JSON of every
-time follows it.
-
 A case is ``WORKLOAD:OPTION=VALUE``: ``MLS(p, q, shape=...)`` then ``m.warp(image, OPTION=VALUE)``,
 end to end, with
 
@@ -32,11 +32,11 @@ end to end, with
 - ``W2``: 64 random handles moved by +-35 px on a random 1024² RGB image (folds);
 - ``W3``: ``make_inputs(512, 16)``;
 
-rigid idw; or ``WORKLOAD:frame=GRID``, one interactive frame as ``glmls bench --mode frame``
-times it (new handles, a new ``MLS``, the image drawn into a kept 8-bit framebuffer, no
-read-back), with the tree's own bench code. Options other than ``grid``, ``tolerance`` or
-``frame`` are skipped for a tree that lacks them
-(a tree before the adaptive mesh reports ``-`` for ``tolerance``).
+rigid idw (the workloads of ``benchmarks/workloads.py``, built here without importing glmls);
+or ``WORKLOAD:frame=GRID``, one interactive frame as ``glmls bench --mode frame`` times it
+(new handles, a new ``MLS``, the image drawn into a kept 8-bit framebuffer, no read-back),
+with the tree's own bench code. A tree that lacks a case's option (``tolerance`` where it has
+no adaptive mesh) reports ``-`` for it.
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ import numpy as np
 
 
 def make_inputs(size: int, handles: int, seed: int = 0):
-    """``glmls.cli.bench.cases.make_inputs`` written out: older trees lack the module."""
+    """``glmls.cli.bench.cases.make_inputs`` written out: a tree may lack the module."""
     rng = np.random.default_rng(seed)
     yy, xx = np.mgrid[0:size, 0:size].astype(np.float32) / size
     checker = ((xx * 16).astype(int) + (yy * 16).astype(int)) % 2
@@ -225,12 +225,12 @@ def ratio(times: dict, spec: str) -> str:
 
 def _frame(image, p, q, grid: int, package: str = "glmls"):
     """The tree's own ``glmls bench --mode frame`` step at ``grid`` (the tree imported as
-    ``package``): ``case_step`` where the tree has it; older trees (bb0b9ce among them) only
-    had their private runner, which is what their own bench ran."""
+    ``package``): ``case_step`` where the tree has it, else the private runner that the
+    tree's own bench ran."""
     size, handles = image.shape[0], len(p)
     try:
         cases = importlib.import_module(f"{package}.cli.bench.cases")
-    except ImportError:  # bb0b9ce and older: the module had another place
+    except ImportError:  # a tree whose bench code is glmls/bench_cases.py
         cases = importlib.import_module(f"{package}.bench_cases")
     case = cases.Case("glmls", "frame", size, handles, grid, "rigid")
     if hasattr(cases, "case_step"):
@@ -242,7 +242,7 @@ def load_tree(name: str, path: str) -> types.ModuleType:
     """The glmls of the checkout ``path`` imported as ``glmls_<name>``, beside any other: its
     modules import each other relatively, its lookups of its shaders and data (by the package
     name "glmls" or its own) read its own checkout, and :func:`activate` makes it the
-    ``glmls`` of absolute imports (older trees' bench code has some)."""
+    ``glmls`` of absolute imports (some trees' bench code has them)."""
     package = f"glmls_{name}"
     root = pathlib.Path(path).resolve() / "glmls"
     spec = importlib.util.spec_from_file_location(
@@ -335,7 +335,7 @@ def main() -> None:
         tree, case = args.case
         try:
             print(json.dumps(time_case(tree, case, args.repeat, args.warmup)))
-        except TypeError:  # an option this tree does not have
+        except TypeError:  # the tree lacks the option
             print(json.dumps(None))
         return
     if args.serve is not None:  # one worker of a paired run

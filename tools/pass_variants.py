@@ -1,7 +1,7 @@
 """A shader change's A/B in one process: the GPU passes of a warp, timed pass by pass, with
 two variants of one shader alternated call by call.
 
-``python benchmarks/pass_variants.py adaptive/scan.comp.glsl [--workload W1,W2]
+``python tools/pass_variants.py adaptive/scan.comp.glsl [--workload W1,W2]
 [--tolerance 0.05 | --grid 4] [--rounds 20]``
 
 The variant under test sits in the shader behind ``#if defined(XV) && XV == 1`` (the old
@@ -12,8 +12,8 @@ dispatch is its work), and summed per pass (entry and defines) and call; printed
 medians over ``--rounds`` calls of each variant, ms, and whether the two variants' images
 differ (pixels). The passes the variant does not touch are the control: their ratios show
 the run's noise (20 rounds: a few per cent on a quiet host, 10-20 % on a noisy one). On a
-shared host this resolves a change of one pass where whole calls (``ab_trees.py``) cannot
-(the twenty-second session in ``docs/performance.md``).
+shared host this resolves a change of one pass where whole calls (``ab_trees.py``) cannot.
+The shaders are read from the checkout the script runs in: write both variants there.
 """
 
 from __future__ import annotations
