@@ -63,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
             for k, v in sorted(defines.items())
             if k != "XV" and (not k.startswith("MLS_") or k == "MLS_LATTICE")
         )
-        names[id(program)] = f"{entry.split('/')[-1]}({shown})" if shown else entry
+        names[id(program)] = f"{entry}({shown})" if shown else entry
         return program
 
     times: dict[str, float] = defaultdict(float)
