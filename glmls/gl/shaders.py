@@ -1,5 +1,5 @@
 """Loading and composing the GLSL files in ``glmls/shaders`` (``common/``, ``mls/``, ``warp/``,
-``draw/``).
+``adaptive/``, ``draw/``).
 
 A program's stage is one entry file; its ``#include "folder/file.glsl"`` lines (paths from the
 shader root) are resolved here, each file at most once per program, an include cycle being an
