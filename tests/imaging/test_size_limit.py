@@ -259,3 +259,13 @@ def test_border_margin_of_a_long_thin_image(gl, limit):
         lattice = MeshLattice.corners(shape)
         margin = border_margin(m.kernel, lattice, Frame((3, 40), (limit - 20.0, 0.0)))
     assert 20 <= margin <= 64
+
+
+def test_an_analysis_canvas_at_the_limit(gl, limit):
+    """The pictures' canvas (renderbuffers drawn through a viewport) at the limit; one
+    pixel more refused naming it."""
+    image = np.dstack([ramp((3, limit))] * 3)
+    with glmls.analysis.Canvas((3, limit), samples=0, ctx=gl) as canvas:
+        assert_array_equal(canvas.image(image).read(), image)
+    with pytest.raises(ValueError, match=rf"\(3, {limit + 1}\).*{limit}"):
+        glmls.analysis.Canvas((3, limit + 1), ctx=gl)
