@@ -85,9 +85,13 @@ class Canvas:
     def _setup(self, background: Sequence[float], samples: int) -> None:
         mgl = self._gl.mgl
         height, width = self.shape
-        limit = self._gl.limits["max_texture_size"]
+        # its layers: textures of its size, drawn into renderbuffers through a viewport
+        limits = self._gl.limits
+        limit = min(
+            limits["max_texture_size"], limits["max_renderbuffer_size"], limits["max_viewport"]
+        )
         if max(height, width) > limit:
-            raise ValueError(f"shape {self.shape} exceeds the GL texture size limit {limit}")
+            raise ValueError(f"shape {self.shape} exceeds the GL size limit {limit}")
         self._samples = min(int(samples), mgl.max_samples) if samples > 1 else 0
         self._objects: list = []
         # Bound again on release: moderngl rebinds "the current framebuffer" after creating

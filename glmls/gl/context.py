@@ -193,6 +193,7 @@ class GLContext:
             "max_ubo_size": int(info["GL_MAX_UNIFORM_BLOCK_SIZE"]),
             "max_work_groups_x": int(info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0]),
             "max_viewport": min(int(v) for v in info["GL_MAX_VIEWPORT_DIMS"]),
+            "max_renderbuffer_size": int(info["GL_MAX_RENDERBUFFER_SIZE"]),
         }
 
     # -- being current ----------------------------------------------------------------------

@@ -38,6 +38,11 @@ class Resources:
         #: The owner's read-only arrays for compute shaders (:mod:`.tables`).
         self.tables = Tables(gl)
 
+    @property
+    def limits(self) -> dict[str, int]:
+        """The GL limits of the owner's context (:attr:`GLContext.limits`)."""
+        return self._gl.limits
+
     def check_alive(self) -> None:
         if self._released:
             raise ReleasedError(f"{self._owner} has been released")

@@ -1,7 +1,15 @@
 """f on the lattice of an image, evaluated band by band into the pipeline's mesh buffer (a
 buffer that stays on the GPU), which the image passes read copied into the mesh texture (a
 cell's corners fetched as texels: on llvmpipe ~3x faster than a storage buffer's loads of a
-different vertex in each lane)."""
+different vertex in each lane).
+
+The mesh of pixel corners has one vertex more per side than the image has pixels: at the GL
+texture limit (an image exactly ``GL_MAX_TEXTURE_SIZE`` pixels wide or high, or less with a
+border mode's margin) it no longer fits one texture's row or column. A band never has more
+rows than a texture holds (:meth:`MeshBands.rows_per_band`); a mesh wider than a texture
+(:meth:`MeshBands.fits_texture`) is drawn by the passes that read the mesh buffer itself
+(the GL rasterizer's, :mod:`.raster`).
+"""
 
 from __future__ import annotations
 
@@ -27,10 +35,21 @@ class MeshBands:
         self._options = options
         self._texture_size = (1, 1)  # of the mesh texture: the largest band of the lattice
 
+    @property
+    def max_texture_size(self) -> int:
+        """The GL limit on a side of the mesh texture (``GL_MAX_TEXTURE_SIZE``)."""
+        return self._resources.limits["max_texture_size"]
+
     def rows_per_band(self, lattice: MeshLattice, *, indexed: bool = False) -> int:
         """Rows of a band: the mesh buffer within ``band_bytes`` and, where ``indexed`` (the
-        GL rasterizer's quads), the index buffer too."""
-        return lattice.rows_per_band(self._options.band_bytes, indexed=indexed)
+        GL rasterizer's quads), the index buffer too; no more than the mesh texture holds."""
+        rows = lattice.rows_per_band(self._options.band_bytes, indexed=indexed)
+        return min(rows, self.max_texture_size)
+
+    def fits_texture(self, lattice: MeshLattice) -> bool:
+        """Does a row of ``lattice`` fit a row of the mesh texture (:meth:`texture`)? The
+        corners of an image as wide as the GL limit do not: one vertex more than pixels."""
+        return lattice.dims[0] <= self.max_texture_size
 
     def one_band(self, lattice: MeshLattice) -> bool:
         """Is ``lattice`` evaluated in a single band (not indexed)?"""
@@ -44,7 +63,13 @@ class MeshBands:
     def texture(self, dims: tuple[int, int]) -> moderngl.Texture:
         """The band just evaluated (``dims``: points per row, rows, as yielded) copied on the
         GPU into the mesh texture (RG32F, scaled: vertex (i, j) of the band is texel (i, j);
-        one texture for all the lattice's bands), bound to ``MESH``."""
+        one texture for all the lattice's bands), bound to ``MESH``. ``ValueError`` where the
+        band is wider than a texture (callers check :meth:`fits_texture` first)."""
+        if dims[0] > self.max_texture_size:
+            raise ValueError(
+                f"a mesh band of {dims[0]} vertices per row does not fit a GL texture "
+                f"({self.max_texture_size} texels per row)"
+            )
         texture = self._resources.texture("mesh", self._texture_size, 2, "f4")
         texture.write(self.buffer, viewport=(0, 0, *dims))
         texture.use(bindings.MESH.index)

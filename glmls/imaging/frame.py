@@ -228,8 +228,7 @@ def border_margin(
         return 0
     moved = float(np.max(np.abs(deformed - ring))) if np.all(np.isfinite(deformed)) else 0.0
     points = max(MARGIN_POINTS, 2 * (height * width + frame.pixels)) * grid * grid
-    side = math.isqrt(points)  # of a square lattice of that many points, pixels
-    reach = max(grid, (side - max(height, width)) // 2 // grid * grid)
+    reach = max(grid, _margin_within(height, width, points) // grid * grid)
     limit = min(MAX_MARGIN, _round_up(overhang + 2 * max(height, width), grid), reach)
     margin = min(limit, _round_up(moved + overhang + 1, grid))
     while True:
@@ -249,6 +248,19 @@ def border_margin(
             )
             return margin
         margin = min(limit, 2 * margin)
+
+
+def _margin_within(height: int, width: int, pixels: int) -> int:
+    """The largest margin m with (height + 2m) x (width + 2m) <= ``pixels`` (0 if none): the
+    root of 4m^2 + 2(h + w)m + hw - pixels, for long thin images as for square ones."""
+    if height * width >= pixels:
+        return 0
+    m = (math.isqrt((height - width) ** 2 + 4 * pixels) - height - width) // 4
+    while (height + 2 * (m + 1)) * (width + 2 * (m + 1)) <= pixels:
+        m += 1
+    while m > 0 and (height + 2 * m) * (width + 2 * m) > pixels:
+        m -= 1
+    return m
 
 
 def _round_up(value: float, step: int) -> int:

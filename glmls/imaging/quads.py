@@ -2,7 +2,9 @@
 (``glmls/shaders/warp/cells.comp.glsl``): the GL rasterizer's job without its per-triangle setup
 (~0.25 us per triangle on llvmpipe: 0.5 s for the 2 million triangles of a 1024^2 image at
 grid 1). It needs a viewport of the output canvas's size; other viewports, and keys too long for
-31 bits, take the rasterizer (:mod:`glmls.imaging.raster`).
+31 bits or meshes wider than a GL texture (the corners of an image as wide as the GL limit,
+:meth:`~glmls.imaging.bands.MeshBands.fits_texture`), take the rasterizer
+(:mod:`glmls.imaging.raster`).
 
 Fold-overs: each covered pixel keeps, with atomicMax, the key 2^31 - (cell row, cell column,
 triangle) of the FIRST triangle in row-major cell order that covers it, so the result does not
@@ -113,13 +115,14 @@ class CellScan:
         """The quads of ``lattice`` (corners of the source image, possibly with a margin)
         into the bound framebuffer, whose viewport has the size of ``frame`` (the output
         canvas); ``target`` is its colour texture. False (nothing drawn) where the triangle
-        keys do not fit in 31 bits. ``coords``: write the source points instead of colours
-        (the backward method's first guess; ``source`` unused). ``border``: the code of the
-        rule for source pixels past the image (``WARP_BORDER``)."""
+        keys do not fit in 31 bits or a row of the mesh does not fit the mesh texture.
+        ``coords``: write the source points instead of colours (the backward method's first
+        guess; ``source`` unused). ``border``: the code of the rule for source pixels past
+        the image (``WARP_BORDER``)."""
         height, width = lattice.shape
         nearest = not linear and not coords
         layout = key_layout(lattice, source_pixel=nearest)
-        if layout is None:
+        if layout is None or not self._bands.fits_texture(lattice):
             return False
         sub_bits, col_shift, row_shift = layout
         fused = nearest and not flip_y and _packable(source, target)

@@ -141,6 +141,19 @@ def test_a_table_past_the_textures_limit_is_refused():
         tables.write("items", np.zeros((2 * TABLE_WIDTH + 1, 4), np.float32), 0)
 
 
+def test_a_table_exactly_at_the_textures_limit_holds_every_item(reader, rng):
+    """As many rows as GL_MAX_TEXTURE_SIZE (a stand-in limit of 2 here): every item kept."""
+    capped = SimpleNamespace(limits={"max_texture_size": 2}, mgl=reader.mgl)
+    tables = Tables(capped)  # type: ignore[arg-type]
+    data = rng.uniform(-1, 1, (2 * TABLE_WIDTH, 4)).astype(np.float32)
+    try:
+        with reader:
+            tables.write("items", data, 0)
+            assert_array_equal(read_table(reader, len(data), False), data)
+    finally:
+        tables.release()
+
+
 def test_rows():
     assert table_rows(0) == 1 and table_rows(1) == 1
     assert table_rows(TABLE_WIDTH) == 1 and table_rows(TABLE_WIDTH + 1) == 2
