@@ -83,6 +83,11 @@ def _signature_parameters(obj) -> list[str]:
     ]
 
 
+def _names(section) -> set[str]:
+    """The names of a numpydoc Parameters or Attributes section (``src, dst`` are two)."""
+    return {part.strip().lstrip("*") for item in section for part in item.name.split(",")}
+
+
 def _returns_none(func) -> bool:
     annotation = inspect.signature(func).return_annotation
     return annotation in (None, "None")
@@ -135,17 +140,13 @@ def test_docstring_is_numpydoc(obj):
         if not parsed["Summary"]:
             problems.append("no summary")
         if not _is_exception(obj):
-            documented = {p.name for p in parsed["Parameters"]}
-            documented |= {a.name for a in parsed["Attributes"]}
+            parameters = _names(parsed["Parameters"])
+            documented = parameters | _names(parsed["Attributes"])
             if not documented:
                 problems.append("no Parameters or Attributes section")
-            for name in _signature_parameters(obj):
-                if name not in documented:
-                    problems.append(f"parameter {name!r} is not documented")
-            for name in {p.name for p in parsed["Parameters"]}:
-                for part in name.split(","):
-                    if part.strip() not in _signature_parameters(obj):
-                        problems.append(f"documented parameter {part.strip()!r} is not taken")
+            takes = _signature_parameters(obj)
+            problems += [f"parameter {n!r} is not documented" for n in takes if n not in documented]
+            problems += [f"documented {n!r} is not a parameter" for n in parameters - set(takes)]
     else:
         parsed = FunctionDoc(obj, doc=doc)
         result = validate(f"{obj.__module__}.{obj.__qualname__}")
