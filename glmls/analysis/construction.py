@@ -292,7 +292,8 @@ def construction_errors(
     """The construction error of ``output`` (a deformed ``image``) at each reference point.
 
     It judges the last step of a deformation, building the deformed image from f, the metric
-    that section 6 of the paper asks for. For each r, with l_r(v) = f(r) + (v - r) J the local linear map of f at r:
+    that section 6 of the paper asks for. For each r, with l_r(v) = f(r) + (v - r) J the
+    local linear map of f at r:
 
     - c = the output pixel containing f(r); the window is the (2 ``radius`` + 1)² output
       pixels u = c + o, o in {-radius..radius}², at their centres;
