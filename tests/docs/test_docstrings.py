@@ -23,11 +23,14 @@ import glmls
 MODULES = [glmls, glmls.analysis, glmls.gl, glmls.reference, glmls.data]
 
 #: The numpydoc.validate checks every public function passes: a docstring (GL08) with a
-#: summary (SS01) that ends with a period (SS03); every signature parameter documented (PR01),
-#: no documented parameter missing from the signature (PR02), each with a description (PR07);
-#: a Returns section when the function returns a value (RT01), Yields for generators (YD01);
-#: an Examples section (EX01).
-CHECKS = {"GL08", "SS01", "SS03", "PR01", "PR02", "PR07", "RT01", "YD01", "EX01"}
+#: summary (SS01) on one line (SS06) that ends with a period (SS03); every signature parameter
+#: documented (PR01), no documented parameter missing from the signature (PR02), each with a
+#: description (PR07); a Returns section when the function returns a value (RT01), Yields
+#: for generators (YD01); an Examples section (EX01).
+CHECKS = {"GL08", "SS01", "SS03", "SS06", "PR01", "PR02", "PR07", "RT01", "YD01", "EX01"}
+#: Those that every public class passes (its parameters are checked against Parameters and
+#: Attributes together below: a dataclass documents its fields as either).
+CLASS_CHECKS = {"GL08", "SS01", "SS03", "SS06", "EX01"}
 
 #: Names whose docstrings are written in other files (glmls/mls.py, glmls/imaging/options.py,
 #: frame.py, pipeline.py): expected to fail until those docstrings are merged.
@@ -132,13 +135,14 @@ def test_the_public_names_are_found():
 
 @pytest.mark.parametrize("obj", _params(PUBLIC))
 def test_docstring_is_numpydoc(obj):
+    assert obj.__doc__, "no docstring"  # its own: getdoc would fall back on a base class's
     doc = inspect.getdoc(obj)
-    assert doc, "no docstring"
     problems: list[str] = []
+    result = validate(f"{obj.__module__}.{obj.__qualname__}")
+    checks = CLASS_CHECKS if inspect.isclass(obj) else CHECKS
+    problems += [f"{code}: {message}" for code, message in result["errors"] if code in checks]
     if inspect.isclass(obj):
         parsed = ClassDoc(obj, doc=doc)
-        if not parsed["Summary"]:
-            problems.append("no summary")
         if not _is_exception(obj):
             parameters = _names(parsed["Parameters"])
             documented = parameters | _names(parsed["Attributes"])
@@ -149,8 +153,6 @@ def test_docstring_is_numpydoc(obj):
             problems += [f"documented {n!r} is not a parameter" for n in parameters - set(takes)]
     else:
         parsed = FunctionDoc(obj, doc=doc)
-        result = validate(f"{obj.__module__}.{obj.__qualname__}")
-        problems += [f"{code}: {message}" for code, message in result["errors"] if code in CHECKS]
         takes = _signature_parameters(obj)
         if takes and not parsed["Parameters"]:
             problems.append("no Parameters section")
@@ -172,10 +174,10 @@ def test_public_members_are_documented(cls):
     problems = []
     for name, raw in _public_members(cls):
         target = raw.fget if isinstance(raw, property) else raw
-        doc = inspect.getdoc(target)
-        if not doc:
+        if not target.__doc__:
             problems.append(f"{name}: no docstring")
             continue
+        doc = inspect.getdoc(target)
         if isinstance(raw, property):
             continue
         if _signature_parameters(target) and not FunctionDoc(target, doc=doc)["Parameters"]:
