@@ -45,9 +45,10 @@ def error_field(
     Raises
     ------
     ValueError
-        For a shape that is not (H, W) with H, W >= 1, or a grid or tolerance out of range.
+        For a shape that is not (H, W) with H, W >= 1, a grid that is not an integer from 1
+        on, or a tolerance that is not finite and > 0.
     TypeError
-        For a grid or tolerance of the wrong type.
+        For a shape that is not integers, or a tolerance that is not a number.
 
     See Also
     --------

@@ -79,7 +79,10 @@ def foldovers(m: HasMesh, shape: object, grid: int = 1) -> Foldovers:
     Raises
     ------
     ValueError
-        For a shape that is not (H, W) with H, W >= 1, or a grid out of range.
+        For a shape that is not (H, W) with H, W >= 1, or a grid that is not an integer from
+        1 on.
+    TypeError
+        For a shape that is not integers.
 
     Examples
     --------
