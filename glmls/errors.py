@@ -6,33 +6,120 @@ from __future__ import annotations
 class GLUnavailableError(RuntimeError):
     """No usable OpenGL 4.3 context: EGL, a driver or the GL version is missing.
 
-    The message says what was missing and which packages provide it.
+    The message says what was missing and which packages provide it. It is also raised in a
+    forked child process by a context its parent created.
+
+    See Also
+    --------
+    glmls.gl.get_context : the shared headless context, which raises it.
+
+    Examples
+    --------
+    >>> issubclass(glmls.GLUnavailableError, RuntimeError)
+    True
+    >>> try:
+    ...     context = glmls.gl.get_context()
+    ... except glmls.GLUnavailableError as error:
+    ...     print("no GPU:", error)  # doctest: +SKIP
     """
 
 
 class DegenerateHandlesError(ValueError):
-    """The handles cannot define the requested transform (e.g. affine on collinear points)."""
+    """The handles cannot define the requested transform (e.g. affine on collinear points).
+
+    Examples
+    --------
+    >>> on_a_line = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]
+    >>> try:
+    ...     glmls.MLS(on_a_line, on_a_line, transform="affine")
+    ... except glmls.DegenerateHandlesError as error:
+    ...     print(isinstance(error, ValueError), str(error)[:42])
+    True affine MLS needs at least 3 source handles
+    """
 
 
 class ReleasedError(RuntimeError):
-    """A GPU object was used after :meth:`release`, or after its GL context was released."""
+    """A GPU object was used after :meth:`release`, or after its GL context was released.
+
+    Examples
+    --------
+    >>> m = glmls.MLS([[0.0, 0.0]], [[1.0, 1.0]])
+    >>> m.release()
+    >>> try:
+    ...     m.warp(np.zeros((8, 8), np.uint8))
+    ... except glmls.ReleasedError as error:
+    ...     print(error)
+    this MLS has been released; create a new one
+    """
 
 
 class ContextError(RuntimeError):
-    """A GL context was used from a thread where it cannot be current: one that another thread
-    keeps current (a window's, or bound with ``make_current()``). The message says the rule."""
+    """A GL context was used from a thread where it cannot be current.
+
+    That is a thread other than the one that keeps it current (a window's, or one bound with
+    ``make_current()``). The message says the rule.
+
+    See Also
+    --------
+    glmls.gl.GLContext.make_current : binds a context to the calling thread.
+
+    Examples
+    --------
+    >>> issubclass(glmls.ContextError, RuntimeError)
+    True
+    """
 
 
 class InputFileError(ValueError):
-    """A malformed input file; the message names the file, the line or entry, and the fault."""
+    """A malformed input file; the message names the file, the line or entry, and the fault.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "study.json"
+    >>> _ = path.write_text('{"items": []}')
+    >>> try:
+    ...     glmls.data.read_manifest(path)
+    ... except glmls.InputFileError as error:
+    ...     print(isinstance(error, ValueError), str(error).endswith('"items": no items'))
+    True True
+    """
 
 
 class BorderWarning(UserWarning):
-    """A border mode could not fill the whole output canvas: the canvas lies farther past
-    the image than the forward methods' mesh may reach (or f shrinks the plane that much);
-    the pixels beyond keep the background."""
+    """A border mode could not fill the whole output canvas.
+
+    The canvas lies farther past the image than the forward methods' mesh may reach (or f
+    shrinks the plane that much); the pixels beyond keep the background.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> image = np.full((16, 16), 7, np.uint8)
+    >>> with glmls.MLS(np.zeros((0, 2)), np.zeros((0, 2))) as m:
+    ...     with warnings.catch_warnings(record=True) as caught:
+    ...         warnings.simplefilter("always")
+    ...         out = m.warp(image, border="edge", output_shape=(4, 4), origin=(-1e6, 0.0))
+    >>> caught[0].category.__name__, out.max().item()
+    ('BorderWarning', 0)
+    """
 
 
 class ImageWarning(UserWarning):
-    """An image was read, but not all of it (the first frame of an animation or of a
-    multi-page TIFF)."""
+    """An image was read, but not all of it.
+
+    Only the first frame of an animation or of a multi-page TIFF is read.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, warnings
+    >>> from PIL import Image
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "two.gif"
+    >>> frames = [Image.new("L", (4, 3), value) for value in (0, 255)]
+    >>> frames[0].save(path, save_all=True, append_images=frames[1:])
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     image = glmls.imread(path)
+    >>> image.shape, caught[0].category.__name__
+    ((3, 4, 3), 'ImageWarning')
+    """

@@ -26,13 +26,48 @@ from .core.handles import as_points
 from .core.handleset import HandleSet
 from .core.segments import REFERENCE_NODES, REFERENCE_PANELS, segment_config, sinh_nodes
 
+__all__ = ["ON_SEGMENT", "mls", "mls_error", "segment_geometry", "segment_moments", "weights"]
+
 
 def weights(d2: np.ndarray, config: MLSConfig, radius: float | None) -> np.ndarray:
-    """Table 1 weights for squared distances ``d2`` (K, N); +inf where infinite at d = 0.
+    """Table 1 weights for squared distances; +inf where a weight is infinite at d = 0.
 
     Each weight's formula is its registry entry's (``glmls.core.weights``); a common factor
     per point is allowed (the Gaussian is divided by its value at the nearest handle, so that
     it does not underflow far from every handle).
+
+    Parameters
+    ----------
+    d2 : numpy.ndarray
+        Squared distances (K, N) from K evaluated points to N handles, in square pixels.
+    config : MLSConfig
+        The weight, its parameters, and whether it is made interpolating.
+    radius : float or None
+        The influence radius R in pixels (``config.resolve_radius(shape)``); None for the
+        weights that need none.
+
+    Returns
+    -------
+    numpy.ndarray
+        The weights w_i(v), (K, N) float64.
+
+    Raises
+    ------
+    TypeError
+        When ``radius`` is None for a weight that needs one (the formula meets None).
+
+    See Also
+    --------
+    glmls.MLSConfig : the weights' names and parameters.
+
+    Examples
+    --------
+    >>> d2 = np.array([[0.0, 1.0, 4.0]])
+    >>> glmls.reference.weights(d2, glmls.MLSConfig(), None).tolist()  # 1 / (s + d^2)
+    [[100000000.0, 0.9999999900000002, 0.249999999375]]
+    >>> config = glmls.MLSConfig(weight="gaussian", radius=2.0)
+    >>> glmls.reference.weights(d2, config, 2.0).round(3).tolist()  # exp(-d^2 / R^2)
+    [[1.0, 0.779, 0.368]]
     """
     with np.errstate(divide="ignore", invalid="ignore"):
         w = config.weight_entry.reference(d2, config, radius)
@@ -73,10 +108,40 @@ ON_SEGMENT = 1e-9
 
 
 def segment_geometry(handles: HandleSet, v: np.ndarray) -> dict[str, np.ndarray]:
-    """Per point and segment (K, S): the arc coordinates x0, x1 of the segment's ends about
-    the foot of the perpendicular from v, the squared distance h2 to the line, the squared
-    distance to the segment, the foot and its target relative to v (K, S, 2); per segment the
-    unit direction u and the target's change per unit of source length g (S, 2)."""
+    """The geometry of every evaluated point against every segment handle.
+
+    Parameters
+    ----------
+    handles : HandleSet
+        The handles; only the segments are used.
+    v : numpy.ndarray
+        The evaluated points, (K, 2) float64 (x, y) rows.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Per point and segment (K, S): ``x0``, ``x1``, the arc coordinates of the segment's
+        ends about the foot of the perpendicular from v; ``h2``, the squared distance to the
+        segment's line; ``dist2``, the squared distance to the segment. Per point and segment
+        (K, S, 2): ``foot`` and its image ``target``, relative to v. Per segment (S, 2):
+        ``u``, the unit direction, and ``g``, the target's change per unit of source length.
+
+    Raises
+    ------
+    ValueError
+        When ``v`` is not (K, 2) (numpy's broadcasting error).
+
+    Examples
+    --------
+    >>> handles = glmls.HandleSet.validate(
+    ...     np.zeros((0, 2)), np.zeros((0, 2)), [[[0, 0], [10, 0]]], [[[0, 1], [10, 1]]]
+    ... )
+    >>> g = glmls.reference.segment_geometry(handles, np.array([[5.0, 3.0]]))
+    >>> g["x0"].tolist(), g["x1"].tolist(), g["h2"].tolist()
+    ([[-5.0]], [[5.0]], [[9.0]])
+    >>> g["foot"].tolist(), g["target"].tolist(), g["u"].tolist(), g["g"].tolist()
+    ([[[0.0, -3.0]]], [[[0.0, -2.0]]], [[1.0, 0.0]], [[1.0, 0.0]])
+    """
     a, b = handles.src_segments[:, 0], handles.src_segments[:, 1]
     c, d = handles.dst_segments[:, 0], handles.dst_segments[:, 1]
     length = np.hypot(*(b - a).T)
@@ -104,10 +169,47 @@ def segment_geometry(handles: HandleSet, v: np.ndarray) -> dict[str, np.ndarray]
 def segment_moments(
     geometry: dict[str, np.ndarray], config: MLSConfig, radius: float | None, d2_points
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(J, w_points): J (K, S, 3) = the integrals of w x^k along each segment (k = 0, 1, 2;
-    x the arc length from the foot), and the point handles' weights (K, N), both with the
-    same common factor per point. Quadrature: :func:`glmls.core.segments.sinh_nodes` over
-    the part of the segment where the weight is not 0."""
+    """The weight's moments along each segment handle, and the point handles' weights.
+
+    Quadrature: :func:`glmls.core.segments.sinh_nodes` over the part of the segment where the
+    weight is not 0.
+
+    Parameters
+    ----------
+    geometry : dict of str to numpy.ndarray
+        :func:`segment_geometry` of the handles and the evaluated points.
+    config : MLSConfig
+        The weight and its parameters.
+    radius : float or None
+        The influence radius R in pixels; None for the weights that need none.
+    d2_points : numpy.ndarray
+        Squared distances (K, N) from the points to the point handles.
+
+    Returns
+    -------
+    moments : numpy.ndarray
+        J (K, S, 3): the integrals of w x^k along each segment, k = 0, 1, 2, with x the arc
+        length from the foot of the perpendicular.
+    w_points : numpy.ndarray
+        The point handles' weights (K, N), with the same common factor per point as J.
+
+    Raises
+    ------
+    KeyError
+        When ``geometry`` lacks an entry of :func:`segment_geometry`.
+
+    Examples
+    --------
+    >>> handles = glmls.HandleSet.validate(
+    ...     np.zeros((0, 2)), np.zeros((0, 2)), [[[0, 0], [10, 0]]], [[[0, 1], [10, 1]]]
+    ... )
+    >>> geometry = glmls.reference.segment_geometry(handles, np.array([[5.0, 3.0]]))
+    >>> moments, w = glmls.reference.segment_moments(
+    ...     geometry, glmls.MLSConfig(), None, np.zeros((1, 0))
+    ... )
+    >>> moments.round(4).tolist(), w.shape  # J1 = 0: the foot is the segment's middle
+    ([[[0.6869, 0.0, 3.8177]]], (1, 0))
+    """
     x0, x1, h2 = geometry["x0"], geometry["x1"], geometry["h2"]
     width = np.sqrt(h2)  # the weight's peak along the segment is this wide
     support = config.weight_entry.support
@@ -156,10 +258,58 @@ def mls(
     dst_segments: object = None,
     **options: object,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """f(points), M and T in float64: ``f = points @ M + T`` row by row.
+    """The MLS deformation f(v) = v M_v + T_v at ``points``, in float64.
 
-    ``config`` or keyword options as for :class:`glmls.MLS`; ``shape`` gives the default
-    radius (the image diagonal); ``src_segments``/``dst_segments`` (S, 2, 2) segment handles.
+    Straight from the paper's closed forms: the weighted centroids p*, q* (eq. 4) and the
+    affine (eq. 5), similarity (eq. 6) or rigid solution for M, with segment handles adding
+    their integrals along each segment.
+
+    Parameters
+    ----------
+    src, dst : array_like
+        Point handles p_i -> q_i, (N, 2) (x, y) rows; N may be 0 with segments.
+    points : array_like
+        The evaluated points v, (K, 2).
+    config : MLSConfig, optional
+        The transform and weight; built from ``options`` when None.
+    shape : tuple of int, optional
+        (H, W) of the image, whose diagonal is the default radius of the radius weights.
+    src_segments, dst_segments : array_like, optional
+        Segment handles a-b -> c-d, (S, 2, 2).
+    **options
+        :class:`glmls.MLSConfig`'s fields, when ``config`` is None.
+
+    Returns
+    -------
+    f : numpy.ndarray
+        f(points), (K, 2).
+    M : numpy.ndarray
+        The linear part M_v per point, (K, 2, 2), so that ``f = points @ M + T`` row by row.
+    T : numpy.ndarray
+        The translation T_v per point, (K, 2).
+
+    Raises
+    ------
+    ValueError
+        When the handles or points are malformed, an option is invalid, or a radius weight has
+        neither ``radius`` nor ``shape``.
+    TypeError
+        When an option has the wrong type.
+
+    See Also
+    --------
+    glmls.MLS : the same map on the GPU.
+    mls_error : E_MLS (eq. 7) of the same fit.
+
+    Examples
+    --------
+    >>> src = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]])
+    >>> f, M, T = glmls.reference.mls(src, src + [2.0, 1.0], [[5.0, 5.0]])
+    >>> f.tolist(), T.tolist()  # a translation is reproduced exactly
+    ([[7.0, 6.0]], [[2.0, 1.0]])
+    >>> dst = np.array([[0.0, 0.0], [12.0, 0.0], [0.0, 10.0]])
+    >>> glmls.reference.mls(src, dst, [[5.0, 5.0]], transform="affine")[0].round(3).tolist()
+    [[6.0, 5.0]]
     """
     config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
     handles = HandleSet.validate(src, dst, src_segments, dst_segments)
@@ -250,9 +400,53 @@ def mls_error(
     dst_segments: object = None,
     **options: object,
 ) -> np.ndarray:
-    """The MLS error E_MLS (eq. 7) at ``points``, (K,) float64 in square pixels:
-    sum_i |l_v(p_i) - q_i|^2 over point handles plus, per segment handle, the integral along
-    it per pixel of source length of |l_v(p(t)) - q(t)|^2, with l_v(x) = x M_v + T_v."""
+    """The MLS error E_MLS (eq. 7) at ``points``, in square pixels.
+
+    E_MLS(v) = sum_i |l_v(p_i) - q_i|^2 over point handles plus, per segment handle, the
+    integral along it per pixel of source length of |l_v(p(t)) - q(t)|^2, with
+    l_v(x) = x M_v + T_v the fit at v (unweighted: the residual of the fit, not its
+    objective).
+
+    Parameters
+    ----------
+    src, dst : array_like
+        Point handles p_i -> q_i, (N, 2) (x, y) rows.
+    points : array_like
+        The evaluated points v, (K, 2).
+    config : MLSConfig, optional
+        The transform and weight; built from ``options`` when None.
+    shape : tuple of int, optional
+        (H, W) of the image, whose diagonal is the default radius of the radius weights.
+    src_segments, dst_segments : array_like, optional
+        Segment handles a-b -> c-d, (S, 2, 2).
+    **options
+        :class:`glmls.MLSConfig`'s fields, when ``config`` is None.
+
+    Returns
+    -------
+    numpy.ndarray
+        E_MLS per point, (K,) float64.
+
+    Raises
+    ------
+    ValueError
+        As :func:`mls`.
+    TypeError
+        As :func:`mls`.
+
+    See Also
+    --------
+    glmls.analysis.error_field : the same error over a whole image, on the GPU.
+
+    Examples
+    --------
+    >>> src = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]])
+    >>> glmls.reference.mls_error(src, src + 1.0, [[5.0, 5.0]]).tolist()  # a rigid motion
+    [0.0]
+    >>> dst = np.array([[0.0, 0.0], [12.0, 0.0], [0.0, 10.0]])
+    >>> glmls.reference.mls_error(src, dst, [[5.0, 5.0]]).round(3).tolist()
+    [2.364]
+    """
     config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
     handles = HandleSet.validate(src, dst, src_segments, dst_segments)
     _, big_m, t = mls(

@@ -63,10 +63,51 @@ def _positive(name: str, value: float) -> float:
 
 
 class Canvas:
-    """An offscreen picture of ``shape`` (H, W), drawn in layers, read back top-down.
+    """An offscreen picture of an image's size, drawn in layers by OpenGL, read back top-down.
 
-    ``samples``: multisampling (antialiased edges) when the driver offers it; 0 for none.
-    Release with :meth:`release` or a ``with`` block.
+    An RGBA8 framebuffer; layers (an image, a colour-mapped field, filled triangles, lines,
+    disks, arrows) are drawn in order, each over the ones before. Geometry is given in image
+    pixel coordinates, (x, y) = (column, row), pixel centres at integers. The drawing methods
+    return the canvas, so that calls chain. Release with :meth:`release` or a ``with`` block.
+
+    Parameters
+    ----------
+    shape : sequence of int
+        (H, W) of the picture.
+    background : sequence of float, optional
+        The (r, g, b) colour, 0-255, it starts with.
+    samples : int, optional
+        Multisampling (antialiased edges) when the driver offers it; 0 for none.
+    ctx : moderngl.Context or GLContext, optional
+        The context to draw with (default: glmls's shared headless one).
+
+    Attributes
+    ----------
+    shape : tuple of int
+        (H, W).
+
+    Raises
+    ------
+    ValueError
+        For a shape that is not (H, W) with H, W >= 1, or larger than the GL texture limit.
+
+    See Also
+    --------
+    render_field, render_handles : pictures made with a canvas.
+
+    Examples
+    --------
+    >>> with glmls.analysis.Canvas((16, 24), background=(255, 255, 255)) as canvas:
+    ...     limits = canvas.field(np.tile(np.arange(24.0), (16, 1)))  # viridis, 0 to 23
+    ...     picture = (
+    ...         canvas.disks([[12, 8]], color=(255, 0, 0), radius=3)
+    ...         .lines([[0, 0]], [[23, 0]], color=(0, 0, 255), width=2)
+    ...         .read()
+    ...     )
+    >>> limits, picture.shape, picture.dtype.name
+    ((0.0, 23.0), (16, 24, 3), 'uint8')
+    >>> picture[8, 12].tolist(), picture[0, 10].tolist(), picture[8, 0].tolist()
+    ([255, 0, 0], [0, 0, 255], [68, 1, 84])
     """
 
     def __init__(
@@ -137,7 +178,18 @@ class Canvas:
 
     @current
     def image(self, image: object) -> Canvas:
-        """Draw an (H, W[, 3 | 4]) image of this canvas's shape over everything (opaque)."""
+        """Draw an image of this canvas's shape over everything (opaque).
+
+        Parameters
+        ----------
+        image : array_like
+            (H, W), (H, W, 3) or (H, W, 4) (alpha dropped): uint8, or floats in [0, 1].
+
+        Returns
+        -------
+        Canvas
+            This canvas.
+        """
         rgb = as_rgb8(image)
         if rgb.shape[:2] != self.shape:
             raise ValueError(f"image is {rgb.shape[:2]}, the canvas {self.shape}")
@@ -164,7 +216,26 @@ class Canvas:
         nan_color: Sequence[float] = NAN_COLOR,
         opacity: float = 1.0,
     ) -> tuple[float, float]:
-        """Draw an (H, W) scalar field through a colour map; returns its limits (lo, hi)."""
+        """Draw an (H, W) scalar field through a colour map.
+
+        Parameters
+        ----------
+        values : array_like
+            (H, W), finite or NaN.
+        cmap : str or array_like, optional
+            A colour map, as :func:`glmls.analysis.apply_colormap` takes it.
+        vmin, vmax, percentile : float, optional
+            The colour limits, as :func:`glmls.analysis.color_limits` takes them.
+        nan_color : sequence of float, optional
+            The (r, g, b) colour of NaN values.
+        opacity : float, optional
+            In [0, 1].
+
+        Returns
+        -------
+        lo, hi : float
+            The colour limits used.
+        """
         array = np.asarray(values, dtype=np.float64)
         if array.shape != self.shape:
             raise ValueError(f"values must have the canvas shape {self.shape}, got {array.shape}")
@@ -197,7 +268,22 @@ class Canvas:
         return lo, hi
 
     def triangles(self, vertices: object, colors: object, *, opacity: float = 1.0) -> Canvas:
-        """Fill triangles (T, 3, 2) with one colour each: (T, 3) 0-255 or a single (r, g, b)."""
+        """Fill triangles with one colour each.
+
+        Parameters
+        ----------
+        vertices : array_like
+            (T, 3, 2) corners.
+        colors : array_like
+            (T, 3) colours, 0-255, or a single (r, g, b) for all.
+        opacity : float, optional
+            In [0, 1].
+
+        Returns
+        -------
+        Canvas
+            This canvas.
+        """
         tris = np.asarray(vertices, dtype=np.float64)
         if tris.ndim != 3 or tris.shape[1:] != (3, 2):
             raise ValueError(f"vertices must have shape (T, 3, 2), got {tris.shape}")
@@ -223,7 +309,24 @@ class Canvas:
         width: float = 1.5,
         opacity: float = 1.0,
     ) -> Canvas:
-        """Segments a[k] -> b[k] ((K, 2) each), ``width`` pixels wide."""
+        """Draw segments a[k] -> b[k].
+
+        Parameters
+        ----------
+        a, b : array_like
+            The ends, (K, 2) each.
+        color : sequence of float, optional
+            (r, g, b), 0-255.
+        width : float, optional
+            In pixels.
+        opacity : float, optional
+            In [0, 1].
+
+        Returns
+        -------
+        Canvas
+            This canvas.
+        """
         a, b = as_points(a, "a"), as_points(b, "b")
         if a.shape != b.shape:
             raise ValueError(f"a and b must have the same shape, got {a.shape} and {b.shape}")
@@ -238,7 +341,24 @@ class Canvas:
         radius: float = 3.0,
         opacity: float = 1.0,
     ) -> Canvas:
-        """Filled disks of ``radius`` pixels around (K, 2) centres."""
+        """Draw filled disks.
+
+        Parameters
+        ----------
+        centres : array_like
+            (K, 2).
+        color : sequence of float, optional
+            (r, g, b), 0-255.
+        radius : float, optional
+            In pixels.
+        opacity : float, optional
+            In [0, 1].
+
+        Returns
+        -------
+        Canvas
+            This canvas.
+        """
         centres = as_points(centres, "centres")
         triangles = disk_triangles(centres, _positive("radius", radius))
         self._solid(triangles, color, opacity, "color")
@@ -254,7 +374,26 @@ class Canvas:
         head: float = 10.0,
         opacity: float = 1.0,
     ) -> Canvas:
-        """Arrows src[k] -> dst[k] with a head ``head`` pixels long."""
+        """Draw arrows src[k] -> dst[k].
+
+        Parameters
+        ----------
+        src, dst : array_like
+            Tails and tips, (K, 2) each.
+        color : sequence of float, optional
+            (r, g, b), 0-255.
+        width : float, optional
+            The shaft's width in pixels.
+        head : float, optional
+            The head's length in pixels.
+        opacity : float, optional
+            In [0, 1].
+
+        Returns
+        -------
+        Canvas
+            This canvas.
+        """
         src, dst = as_points(src, "src"), as_points(dst, "dst")
         if src.shape != dst.shape:
             raise ValueError(f"src and dst must have the same shape, got {src.shape}, {dst.shape}")
@@ -289,7 +428,18 @@ class Canvas:
 
     @current
     def read(self) -> np.ndarray:
-        """The picture as (H, W, 3) uint8, row 0 at the top."""
+        """The picture so far.
+
+        Returns
+        -------
+        numpy.ndarray
+            (H, W, 3) uint8, row 0 at the top.
+
+        Raises
+        ------
+        ReleasedError
+            Once the canvas is released.
+        """
         if self._released:
             raise ReleasedError("this Canvas has been released")
         if self._fbo is not self._resolved:

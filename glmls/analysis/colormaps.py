@@ -78,7 +78,40 @@ def as_color(color: object, name: str = "color") -> tuple[int, int, int]:
 def linear_colormap(
     low: Sequence[float] = LOW_COLOR, high: Sequence[float] = HIGH_COLOR, *, n: int = 256
 ) -> np.ndarray:
-    """The paper's map: n colours linearly interpolated from ``low`` (minimum) to ``high``."""
+    """The paper's colour map: n colours linearly interpolated from ``low`` to ``high``.
+
+    Its default runs from white (the minimum) to red (the maximum), as the paper's Fig. 6.
+
+    Parameters
+    ----------
+    low, high : sequence of float, optional
+        The (r, g, b) colours, 0-255, of the minimum and the maximum.
+    n : int, optional
+        The number of colours (>= 2).
+
+    Returns
+    -------
+    numpy.ndarray
+        The table, (n, 3) uint8.
+
+    Raises
+    ------
+    ValueError
+        For a colour out of 0-255 or not of 3 values, or n < 2.
+    TypeError
+        For a colour that is not a sequence.
+
+    See Also
+    --------
+    apply_colormap : colours values with a table.
+
+    Examples
+    --------
+    >>> glmls.analysis.linear_colormap(n=3).tolist()
+    [[255, 255, 255], [238, 128, 128], [220, 0, 0]]
+    >>> glmls.analysis.linear_colormap((0, 0, 0), (255, 255, 255), n=2).tolist()
+    [[0, 0, 0], [255, 255, 255]]
+    """
     lo, hi = np.array(as_color(low, "low"), float), np.array(as_color(high, "high"), float)
     if isinstance(n, bool) or not isinstance(n, int) or n < 2:
         raise ValueError(f"n must be an integer >= 2, got {n!r}")
@@ -114,9 +147,37 @@ def color_limits(
     vmax: float | None = None,
     percentile: float | None = None,
 ) -> tuple[float, float]:
-    """(lo, hi) of the colour scale: ``vmin``/``vmax`` if given, else the minimum and the
-    maximum of the non-NaN values, or, with ``percentile`` (0-100], that percentile as a
-    robust upper bound (a few huge values, e.g. near a handle, then do not wash out the rest).
+    """The limits (lo, hi) of a colour scale for ``values``.
+
+    Parameters
+    ----------
+    values : array_like
+        The values; NaN and infinite ones are left out.
+    vmin, vmax : float, optional
+        The limits where given; else the minimum and the maximum of the values.
+    percentile : float, optional
+        In (0, 100]: that percentile of the values as a robust upper bound (a few huge
+        values, e.g. near a handle, then do not wash out the rest).
+
+    Returns
+    -------
+    lo, hi : float
+        The limits (0 and 1 for no finite values).
+
+    Raises
+    ------
+    ValueError
+        For a percentile out of (0, 100], or limits that are not finite or with vmin > vmax.
+
+    Examples
+    --------
+    >>> values = [0.0, 1.0, 2.0, np.nan, 100.0]
+    >>> glmls.analysis.color_limits(values)
+    (0.0, 100.0)
+    >>> glmls.analysis.color_limits(values, percentile=50)  # NaN left out
+    (0.0, 1.5)
+    >>> glmls.analysis.color_limits(values, vmin=1.0, vmax=2.0)
+    (1.0, 2.0)
     """
     array = np.asarray(values, dtype=np.float64)
     finite = array[np.isfinite(array)]
@@ -156,7 +217,46 @@ def apply_colormap(
     percentile: float | None = None,
     nan_color: Sequence[float] = NAN_COLOR,
 ) -> np.ndarray:
-    """Colour an array of values on the CPU: (..., 3) uint8 (the GPU renderer's reference)."""
+    """Colour an array of values on the CPU (the GPU renderer's reference).
+
+    A value x maps to entry round(t (n - 1)) of an n-colour table, with
+    t = clip((x - lo) / (hi - lo), 0, 1) and (lo, hi) from :func:`color_limits`.
+
+    Parameters
+    ----------
+    values : array_like
+        The values, of any shape.
+    cmap : str or array_like, optional
+        ``"viridis"``, ``"linear"`` (the paper's white to red), a pair of colours
+        ``(low, high)`` for a linear map, or an (n, 3) table of 0-255 values.
+    vmin, vmax, percentile : float, optional
+        The colour limits, as :func:`color_limits` takes them.
+    nan_color : sequence of float, optional
+        The (r, g, b) colour of NaN values (mid grey by default).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``values.shape + (3,)`` uint8.
+
+    Raises
+    ------
+    ValueError
+        For an unknown colour map, a bad table or colour, or bad limits.
+    TypeError
+        For a ``nan_color`` that is not a sequence.
+
+    See Also
+    --------
+    colorbar : the scale's picture.
+
+    Examples
+    --------
+    >>> glmls.analysis.apply_colormap([0.0, 0.5, 1.0, np.nan], cmap="linear").tolist()
+    [[255, 255, 255], [237, 127, 127], [220, 0, 0], [128, 128, 128]]
+    >>> glmls.analysis.apply_colormap(np.array([[0.0, 1.0]])).tolist()  # viridis
+    [[[68, 1, 84], [253, 231, 37]]]
+    """
     table = colormap(cmap)
     lo, hi = color_limits(values, vmin=vmin, vmax=vmax, percentile=percentile)
     index = color_indices(values, lo, hi, len(table))
@@ -188,9 +288,49 @@ def colorbar(
     text_color: Sequence[float] = (0, 0, 0),
     font_size: int = 12,
 ) -> np.ndarray:
-    """A vertical colour bar (maximum at the top) with ``ticks`` numbered ticks from ``lo`` to
-    ``hi`` and an optional ``label`` above: an (H, W, 3) uint8 image, H = ``length`` plus
-    margins. Digits are drawn with Pillow's default font."""
+    """A vertical colour bar (maximum at the top) with numbered ticks, as an image.
+
+    Digits are drawn with Pillow's default font.
+
+    Parameters
+    ----------
+    cmap : str or array_like
+        A colour map, as :func:`apply_colormap` takes it.
+    lo, hi : float
+        The values at the bottom and the top.
+    length : int, optional
+        The bar's height in pixels (>= 16).
+    thickness : int, optional
+        The bar's width in pixels (>= 2).
+    ticks : int, optional
+        Numbered ticks from ``lo`` to ``hi`` (>= 2).
+    label : str, optional
+        A title above the bar.
+    background, text_color : sequence of float, optional
+        (r, g, b) colours, 0-255.
+    font_size : int, optional
+        The digits' size in pixels.
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W, 3) uint8; H is ``length`` plus margins of ``font_size`` above and below (and
+        the label's line).
+
+    Raises
+    ------
+    ValueError
+        For limits that are not finite or with lo > hi, too few ticks, too small a bar, or a
+        bad colour map or colour.
+
+    Examples
+    --------
+    >>> bar = glmls.analysis.colorbar("viridis", 0.0, 2.0, length=64)
+    >>> bar.shape[0], bar.shape[2], bar.dtype.name  # 12 pixels above and below the bar
+    (88, 3, 'uint8')
+    >>> bar[12, 0].tolist(), bar[12 + 63, 0].tolist()  # the top is the maximum's colour
+    ([253, 231, 37], [68, 1, 84])
+    """
     table = colormap(cmap)
     if not (np.isfinite(lo) and np.isfinite(hi)) or hi < lo:
         raise ValueError(f"colour bar limits must be finite with lo <= hi, got ({lo}, {hi})")

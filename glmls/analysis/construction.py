@@ -66,20 +66,50 @@ _CONDITION_LIMIT = 1e6
 
 @dataclass(frozen=True, eq=False)
 class ConstructionErrors:
-    """The construction error at each reference point (see :func:`construction_errors`).
+    """The construction error at each reference point, as :func:`construction_errors` finds it.
 
-    - ``values`` (N,) float64: the RMS colour difference over the window and the channels,
-      in intensity units scaled to 0-1 (uint8 / 255, uint16 / 65535, floats as they are);
-      NaN where undefined (the window leaves the output canvas, or its preimage leaves the
-      source with ``border="constant"``, or f is singular at r), in the order of ``points``.
-    - ``points`` (N, 2): the reference points r; ``deformed_points`` (N, 2): f(r).
-    - ``matrices`` (N, 2, 2): the linear part of the local map used to align each window
-      (Df(r) for ``alignment="jacobian"``, the MLS's M(r) for ``"matrix"``; row vectors,
-      ``l_r(v) = f(r) + (v - r) @ matrices[k]``).
-    - ``centres`` (N, 2) int: the output pixel (column, row) at the centre of each window
-      (the pixel containing f(r), in the output array's indices).
-    - ``radius``, ``alignment``, ``border``, ``origin`` (x0, y0) of the output canvas,
-      ``scale`` (the intensity that counts as 1: 255, 65535 or 1.0).
+    The arrays are read-only.
+
+    Attributes
+    ----------
+    values : numpy.ndarray
+        (N,) float64: the RMS colour difference over the window and the channels, in
+        intensity units scaled to 0-1 (uint8 / 255, uint16 / 65535, floats as they are); NaN
+        where undefined (the window leaves the output canvas, or its preimage leaves the
+        source with ``border="constant"``, or f is singular at r), in the order of ``points``.
+    points : numpy.ndarray
+        The reference points r, (N, 2).
+    deformed_points : numpy.ndarray
+        f(r), (N, 2).
+    matrices : numpy.ndarray
+        (N, 2, 2): the linear part of the local map used to align each window (Df(r) for
+        ``alignment="jacobian"``, the MLS's M(r) for ``"matrix"``; row vectors,
+        ``l_r(v) = f(r) + (v - r) @ matrices[k]``).
+    centres : numpy.ndarray
+        (N, 2) int: the output pixel (column, row) at the centre of each window (the pixel
+        containing f(r), in the output array's indices).
+    radius : int
+        The window's half-size: (2 radius + 1)² output pixels.
+    alignment : str
+        ``"jacobian"`` or ``"matrix"``.
+    border : str
+        The warp's border mode.
+    origin : tuple of float
+        (x0, y0) of the output canvas.
+    scale : float
+        The intensity that counts as 1: 255, 65535 or 1.0.
+
+    Examples
+    --------
+    >>> image = np.arange(256, dtype=np.uint8).reshape(16, 16)
+    >>> with glmls.MLS([[2, 2], [13, 2], [2, 13]], [[3, 2], [14, 2], [3, 13]]) as m:
+    ...     errors = glmls.analysis.construction_errors(image, m.warp(image), m, [[8, 8]])
+    >>> errors.values.tolist(), errors.centres.tolist()  # a shift by a whole pixel: exact
+    ([0.0], [[9, 8]])
+    >>> errors.units
+    'RMS colour difference, intensity / 255 (0-1)'
+    >>> errors.settings()["window"], errors.stats()["count"]
+    (5, 1)
     """
 
     values: np.ndarray
@@ -95,15 +125,29 @@ class ConstructionErrors:
 
     @property
     def units(self) -> str:
+        """What ``values`` measure, in words."""
         return f"RMS colour difference, intensity / {self.scale:g} (0-1)"
 
     def stats(self) -> dict[str, object]:
-        """JSON-ready statistics of ``values`` (:func:`glmls.analysis.error_stats`: eqs. 8, 9, the
-        undefined points counted in ``nan_count``)."""
+        """JSON-ready statistics of ``values``.
+
+        Returns
+        -------
+        dict
+            :func:`glmls.analysis.error_stats` of ``values`` (eqs. 8, 9), the undefined
+            points counted in ``nan_count``.
+        """
         return error_stats(self.values)
 
     def settings(self) -> dict[str, object]:
-        """JSON-ready description of how the values were measured."""
+        """JSON-ready description of how the values were measured.
+
+        Returns
+        -------
+        dict
+            ``points``, ``radius``, ``window`` (2 radius + 1), ``alignment``, ``border``,
+            ``origin`` and ``units``.
+        """
         return {
             "points": len(self.values),
             "radius": self.radius,
@@ -247,13 +291,9 @@ def construction_errors(
 ) -> ConstructionErrors:
     """The construction error of ``output`` (a deformed ``image``) at each reference point.
 
-    ``image`` and ``output``: (H, W[, C]) arrays of one dtype (uint8, uint16, float32 or
-    float64; floats may differ in width), ``output`` as ``m.warp(image, ...)`` returns it.
-    ``m``: the deformation f, a :class:`glmls.MLS` or any function from (K, 2) points to
-    (K, 2) points. ``points``: the reference points r (N, 2), (x, y) = (column, row), pixel
-    centres at integers.
-
-    For each r, with l_r(v) = f(r) + (v - r) J the local linear map of f at r:
+    It judges the last step of a deformation, building the deformed image from f, the metric
+    that section 6 of the paper asks for. For each r, with l_r(v) = f(r) + (v - r) J the
+    local linear map of f at r:
 
     - c = the output pixel containing f(r); the window is the (2 ``radius`` + 1)² output
       pixels u = c + o, o in {-radius..radius}², at their centres;
@@ -269,26 +309,78 @@ def construction_errors(
     pixels left to the background (they count as errors) score more. The output's pixels are
     read as they are, not resampled, so that nothing the construction did is smoothed away.
 
-    ``alignment``: ``"jacobian"`` (default) J = Df(r), by central differences of ``m``
-    (:data:`STEP`); ``"matrix"`` J = the MLS's own M(r) (``m.matrices``), the paper's l_r.
-    M(r) is not the derivative of f: on an ordinary edit they differ by 0.05-0.35, which
-    misaligns the window's corners by up to a pixel and counts the deformation as a
-    construction error (docs/construction.md has the numbers), hence the Jacobian.
-
     The identity (and any integer translation) built by a construction that copies pixels
-    gives exactly 0: every s is then a pixel centre.
+    gives exactly 0: every s is then a pixel centre. NaN: a window that leaves the output, a
+    window whose preimage leaves the image with ``border="constant"``, and a point where f is
+    singular or not finite.
 
-    ``border``: the warp's border mode (:data:`glmls.BORDERS`). With ``constant`` (the
-    default) a point whose window's preimage leaves the image (beyond its pixels' edges) is
-    undefined (NaN); with the others the input beyond its border follows the rule, as in the
-    warp. ``origin``: the canvas of a warp with ``output_shape``/``origin`` (output pixel
-    (i, j) shows the point origin + (i, j)); None: the input's frame, and then ``output``
-    must have the input's shape. Also NaN: a window that leaves the output, and a point where
-    f is singular or not finite.
+    Parameters
+    ----------
+    image : array_like
+        The input, (H, W) or (H, W, C): uint8, uint16, float32 or float64.
+    output : array_like
+        The deformed image as ``m.warp(image, ...)`` returns it: the image's dtype (floats
+        may differ in width) and channels.
+    m : callable
+        The deformation f, a :class:`glmls.MLS` or any function from (K, 2) points to (K, 2)
+        points.
+    points : array_like
+        The reference points r, (N, 2) (x, y) = (column, row), pixel centres at integers.
+    radius : int, optional
+        The window's half-size in output pixels (>= 0).
+    alignment : {"jacobian", "matrix"}, optional
+        ``"jacobian"`` J = Df(r), by central differences of ``m`` (:data:`STEP`);
+        ``"matrix"`` J = the MLS's own M(r) (``m.matrices``), the paper's l_r. M(r) is not
+        the derivative of f: on an ordinary edit they differ by 0.05-0.35, which misaligns
+        the window's corners by up to a pixel and counts the deformation as a construction
+        error (docs/construction.md has the numbers), hence the Jacobian by default.
+    border : str, optional
+        The warp's border mode (:data:`glmls.BORDERS`). With ``constant`` a point whose
+        window's preimage leaves the image (beyond its pixels' edges) is undefined (NaN);
+        with the others the input beyond its border follows the rule, as in the warp.
+    origin : sequence of float, optional
+        (x0, y0) of the canvas of a warp with ``output_shape``/``origin`` (output pixel
+        (i, j) shows the point origin + (i, j)); None: the input's frame, and then ``output``
+        must have the input's shape.
+    snap : float, optional
+        A preimage this close (pixels, per axis, in [0, 0.5)) to a pixel centre is taken as
+        that centre (:data:`SNAP`).
 
-    Raises ``TypeError`` for unsupported dtypes or mismatched ones, or an ``m`` that is not
-    callable; ``ValueError`` for bad shapes, channel counts, NaN or infinite points or
-    pixels, and bad options, naming the value.
+    Returns
+    -------
+    ConstructionErrors
+        The errors per point, and how they were measured.
+
+    Raises
+    ------
+    TypeError
+        For unsupported or mismatched dtypes, or an ``m`` that is not callable.
+    ValueError
+        For bad shapes, channel counts, NaN or infinite points or pixels, and bad options,
+        naming the value.
+
+    See Also
+    --------
+    rank_constructions : the constructions ranked by this error.
+
+    Examples
+    --------
+    >>> y, x = np.mgrid[0:32, 0:32]
+    >>> image = (127 + 60 * np.sin(x / 3.0) + 60 * np.cos(y / 4.0)).astype(np.uint8)
+    >>> src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+    >>> turn = np.radians(10.0)
+    >>> rotation = np.array([[np.cos(turn), np.sin(turn)], [-np.sin(turn), np.cos(turn)]])
+    >>> dst = (src - 15.5) @ rotation + 15.5  # turned by 10 degrees about the centre
+    >>> points = [[10, 10], [20, 12], [16, 20]]
+    >>> with glmls.MLS(src, dst) as m:
+    ...     nearest = m.warp(image, interpolation="nearest")
+    ...     linear = m.warp(image, interpolation="linear")
+    ...     worse = glmls.analysis.construction_errors(image, nearest, m, points)
+    ...     better = glmls.analysis.construction_errors(image, linear, m, points)
+    >>> worse.values.shape, bool((better.values < worse.values).all())
+    ((3,), True)
+    >>> round(worse.stats()["mean"], 2), round(better.stats()["mean"], 3)
+    (0.02, 0.001)
     """
     source, result = _image(image, "image"), _image(output, "output")
     _check_pair(source, result, np.shape(image), np.shape(output))

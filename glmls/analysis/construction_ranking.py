@@ -79,23 +79,72 @@ def rank_constructions(
     background: object = 0,
     repeat: int = 1,
 ) -> list[dict]:
-    """Build ``image`` deformed by ``m`` (a :class:`glmls.MLS`) with each construction and
-    rank them by the mean construction error at ``reference_points`` (then the median),
-    best first.
+    """Rank the ways of building the deformed image by their construction error.
 
-    ``methods``: specs for :func:`parse_construction` (default
-    :func:`default_constructions`; a ``paper-quads`` default that this build's ``m.warp``
-    refuses is left out, anything else refused raises). ``radius``, ``border``: those of
-    :func:`~glmls.analysis.construction.construction_errors`; ``grid``, ``background``,
-    ``border``: those of :meth:`glmls.MLS.warp`, the same for every construction.
+    ``image`` is deformed by ``m`` with each construction (method and interpolation), and the
+    constructions are ranked by the mean construction error at ``reference_points`` (then
+    the median), best first. Undefined points (NaN) depend on f and the window only, so every
+    construction leaves out the same ones. Ties keep the order of ``methods``.
 
-    Returns one JSON-ready dict per construction: ``rank`` (1 = best), ``method``,
-    ``interpolation``, ``label``, ``mean`` and ``median`` of the per-point errors (0-1
-    intensity units; None where no point is defined), ``stats`` (:func:`glmls.analysis.error_stats`
-    of them) and ``time_s``, the fastest of ``repeat`` timed warps after one untimed warm-up
-    (shaders compile on first use; the first method would otherwise pay for them).
-    Undefined points (NaN) depend on f and the window only, so every construction leaves out
-    the same ones. Ties keep the order of ``methods``.
+    Parameters
+    ----------
+    image : array_like
+        The input image, as :meth:`glmls.MLS.warp` takes it.
+    m : MLS
+        The deformation.
+    reference_points : array_like
+        The points r, (N, 2).
+    methods : sequence, optional
+        Constructions as :func:`parse_construction` reads them (``"method"``,
+        ``"method:interpolation"`` or a pair); default :func:`default_constructions` (a
+        ``paper-quads`` default that ``m.warp`` refuses is left out; anything else refused
+        raises).
+    radius : int, optional
+        The window's half-size of :func:`construction_errors`.
+    grid : int, optional
+        The warp's mesh step, the same for every construction.
+    border : str, optional
+        The warp's border mode, also used by :func:`construction_errors`.
+    background : optional
+        The warp's background colour.
+    repeat : int, optional
+        Timed warps per construction (>= 1), after one untimed warm-up (shaders compile on
+        first use; the first method would otherwise pay for them).
+
+    Returns
+    -------
+    list of dict
+        One JSON-ready dict per construction, best first: ``rank`` (1 = best), ``method``,
+        ``interpolation``, ``label``, ``mean`` and ``median`` of the per-point errors (0-1
+        intensity units; None where no point is defined), ``stats``
+        (:func:`glmls.analysis.error_stats` of them) and ``time_s``, the fastest of
+        ``repeat`` timed warps.
+
+    Raises
+    ------
+    ValueError
+        For bad points, radius, repeat, an empty ``methods``, an unknown construction or
+        option, or one that ``m.warp`` refuses.
+
+    See Also
+    --------
+    construction_errors : the error ranked.
+
+    Examples
+    --------
+    >>> y, x = np.mgrid[0:32, 0:32]
+    >>> image = (127 + 60 * np.sin(x / 3.0) + 60 * np.cos(y / 4.0)).astype(np.uint8)
+    >>> src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+    >>> turn = np.radians(10.0)
+    >>> rotation = np.array([[np.cos(turn), np.sin(turn)], [-np.sin(turn), np.cos(turn)]])
+    >>> dst = (src - 15.5) @ rotation + 15.5  # turned by 10 degrees about the centre
+    >>> points = [[10, 10], [20, 12], [16, 20]]
+    >>> with glmls.MLS(src, dst) as m:
+    ...     rows = glmls.analysis.rank_constructions(
+    ...         image, m, points, methods=["quads:nearest", "backward:linear", "splat"]
+    ...     )
+    >>> [(row["rank"], row["label"]) for row in rows]
+    [(1, 'backward linear'), (2, 'quads nearest'), (3, 'splat')]
     """
     points = as_points(reference_points, "reference_points")
     check_radius(radius)

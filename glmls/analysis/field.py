@@ -19,8 +19,53 @@ class HasErrorField(Protocol):
 def error_field(
     m: HasErrorField, shape: Sequence[int], *, grid: int = 1, tolerance: float | None = None
 ) -> np.ndarray:
-    """E_MLS(v) = sum_i |p_i M_v + T_v - q_i|^2 at every pixel of an image of ``shape``:
-    :meth:`glmls.MLS.error_field` as a function ((H, W) float64, square pixels, unweighted;
-    ``grid`` > 1 evaluates the mesh every ``grid`` pixels and interpolates; ``tolerance``,
-    the vertices of the adaptive mesh of that tolerance, interpolated on its leaves)."""
+    """The MLS error E_MLS (eq. 7) at every pixel of an image, on the GPU.
+
+    E_MLS(v) = sum_i |p_i M_v + T_v - q_i|^2, unweighted: how far the affine fit at v misses
+    the handles (segment handles add their integral per pixel of length). This is
+    :meth:`glmls.MLS.error_field` as a function.
+
+    Parameters
+    ----------
+    m : MLS
+        The deformation (anything with an ``error_field`` method of this signature).
+    shape : sequence of int
+        (H, W), or (H, W, C) of which (H, W) is used.
+    grid : int, optional
+        Evaluate the mesh every ``grid`` pixels and interpolate bilinearly (1: every pixel).
+    tolerance : float, optional
+        Evaluate at the vertices of the adaptive mesh of that tolerance (pixels) and
+        interpolate on its leaves, instead of a regular grid.
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W) float64, in square pixels.
+
+    Raises
+    ------
+    ValueError
+        For a shape that is not (H, W) with H, W >= 1, a grid that is not an integer from 1
+        on, or a tolerance that is not finite and > 0.
+    TypeError
+        For a shape that is not integers, or a tolerance that is not a number.
+
+    See Also
+    --------
+    glmls.reference.mls_error : the same error in float64 at given points.
+    error_stats : its statistics (eqs. 8, 9).
+
+    Examples
+    --------
+    >>> src = np.array([[2.0, 2.0], [13.0, 2.0], [2.0, 13.0], [13.0, 13.0]])
+    >>> dst = src.copy()
+    >>> dst[3] = [10.0, 10.0]  # one corner pulled in: no rigid map fits every handle
+    >>> with glmls.MLS(src, dst) as m:
+    ...     field = glmls.analysis.error_field(m, (16, 16))
+    ...     coarse = glmls.analysis.error_field(m, (16, 16), grid=4)
+    >>> field.shape, field.dtype.name, round(float(field.max()), 1)
+    ((16, 16), 'float64', 54.0)
+    >>> coarse.shape
+    (16, 16)
+    """
     return m.error_field(shape, grid=grid, tolerance=tolerance)

@@ -19,8 +19,21 @@ class HasMesh(Protocol):
 
 
 class Foldovers(NamedTuple):
-    """Mesh cells that f turns over: ``count`` cells; ``mask`` (H, W) bool marks the source
-    pixels of those cells."""
+    """Mesh cells that f turns over, as :func:`foldovers` finds them (a named tuple).
+
+    Attributes
+    ----------
+    count : int
+        The number of folded cells.
+    mask : numpy.ndarray
+        (H, W) bool: the source pixels of those cells.
+
+    Examples
+    --------
+    >>> folds = glmls.analysis.Foldovers(0, np.zeros((4, 4), bool))
+    >>> folds.count, folds.mask.any().item()
+    (0, False)
+    """
 
     count: int
     mask: np.ndarray
@@ -42,10 +55,47 @@ def folded_cells(deformed: np.ndarray) -> np.ndarray:
 
 
 def foldovers(m: HasMesh, shape: object, grid: int = 1) -> Foldovers:
-    """The cells of the mesh of ``shape`` (step ``grid``) that fold over under ``m``'s f
-    (:func:`folded_cells`). Where cells fold, the deformed image shows the first of the
-    overlapping cells in scan order (smaller source row, then column; see
-    :meth:`glmls.MLS.warp`)."""
+    """The cells of an image's mesh that fold over under ``m``'s f.
+
+    A cell folds where either of its two drawn triangles has negative signed area after
+    deformation (:func:`folded_cells`). Where cells fold, the deformed image shows the first
+    of the overlapping cells in scan order (smaller source row, then column; see
+    :meth:`glmls.MLS.warp`).
+
+    Parameters
+    ----------
+    m : MLS
+        The deformation (anything with a ``mesh(shape, grid=)`` method).
+    shape : tuple of int
+        (H, W) of the image.
+    grid : int, optional
+        The mesh's step in pixels.
+
+    Returns
+    -------
+    Foldovers
+        The number of folded cells and the mask of their source pixels.
+
+    Raises
+    ------
+    ValueError
+        For a shape that is not (H, W) with H, W >= 1, or a grid that is not an integer from
+        1 on.
+    TypeError
+        For a shape that is not integers.
+
+    Examples
+    --------
+    >>> src = np.array([[2.0, 2.0], [13.0, 2.0], [2.0, 13.0]])
+    >>> mirrored = np.array([[13.0, 2.0], [2.0, 2.0], [13.0, 13.0]])
+    >>> with glmls.MLS(src, mirrored, transform="affine") as m:  # a reflection: all fold
+    ...     folds = glmls.analysis.foldovers(m, (16, 16), grid=4)
+    >>> folds.count, folds.mask.shape, folds.mask.all().item()
+    (16, (16, 16), True)
+    >>> with glmls.MLS(src, src + 1.0) as m:
+    ...     glmls.analysis.foldovers(m, (16, 16)).count
+    0
+    """
     lattice = MeshLattice.corners(shape, grid)  # validates shape and grid
     _, deformed = m.mesh(lattice.shape, grid=lattice.grid)
     folded = folded_cells(deformed)

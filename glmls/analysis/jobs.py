@@ -71,8 +71,66 @@ def run_jobs(
     scheduler: str | None = None,
     on_result: Callable[[int, Any], None] | None = None,
 ) -> list:
-    """``[function(item) for item in items]``, computed in this process, in ``jobs`` worker
-    processes or on a Dask cluster (see the module's description)."""
+    """``[function(item) for item in items]``, in this process, worker processes or on Dask.
+
+    ``jobs=1`` and no scheduler: one item after another, in this process; ``jobs`` > 1:
+    worker processes started with ``spawn`` (a GL driver does not survive ``fork()``), each
+    making its own GL context; a ``scheduler``: a Dask cluster (the optional ``distributed``
+    extra). ``function``, the items and the results must be picklable (a module-level
+    function) outside this process. See :mod:`glmls.analysis.jobs`.
+
+    Parameters
+    ----------
+    function : callable
+        Called with each item.
+    items : iterable
+        The items.
+    jobs : int, optional
+        Worker processes (>= 1); with ``scheduler="local"``, the local cluster's workers.
+    scheduler : str, optional
+        ``"local"`` for a Dask cluster on this machine made for the call, or an existing
+        cluster's address (``"tcp://host:8786"``; ``jobs`` is then ignored).
+    on_result : callable, optional
+        ``on_result(index, result)``, called in the calling thread as each item finishes (in
+        the order they finish), e.g. for a progress bar.
+
+    Returns
+    -------
+    list
+        The results, in the order of ``items``.
+
+    Raises
+    ------
+    TypeError
+        For ``jobs`` that is not an integer, or a ``function`` that is not callable.
+    ValueError
+        For ``jobs`` < 1 or a blank scheduler.
+    DistributedUnavailableError
+        An ``ImportError``: a scheduler was asked for without Dask's ``distributed``.
+    Exception
+        What ``function`` raised, with the failing item's index in its message
+        (``item 3: ...``), of the same type where it can be rebuilt from a message; the
+        items not yet started are cancelled.
+
+    Examples
+    --------
+    >>> glmls.analysis.run_jobs(abs, [-1, 2, -3])
+    [1, 2, 3]
+    >>> finished = []
+    >>> _ = glmls.analysis.run_jobs(abs, [-1, -2], on_result=lambda i, r: finished.append(i))
+    >>> finished
+    [0, 1]
+    >>> import math
+    >>> glmls.analysis.run_jobs(math.sqrt, [4.0, -1.0])
+    Traceback (most recent call last):
+        ...
+    ValueError: item 1: math domain error
+
+    In four worker processes (each starts a fresh interpreter, which takes seconds):
+
+    >>> glmls.analysis.run_jobs(abs, range(-100, 0), jobs=4)[:3]  # doctest: +SKIP
+    [100, 99, 98]
+    """
     jobs = check_jobs(jobs)
     scheduler = check_scheduler(scheduler)
     if not callable(function):

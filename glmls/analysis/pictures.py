@@ -40,7 +40,39 @@ def render_field(
     nan_color: Sequence[float] = NAN_COLOR,
     ctx: moderngl.Context | GLContext | None = None,
 ) -> np.ndarray:
-    """An (H, W) field, e.g. :meth:`MLS.error_field`, as a colour picture (Fig. 6 right)."""
+    """A field, e.g. :meth:`glmls.MLS.error_field`, as a colour picture (Fig. 6 right).
+
+    Parameters
+    ----------
+    values : array_like
+        (H, W), finite or NaN.
+    cmap : str or array_like, optional
+        A colour map, as :func:`apply_colormap` takes it (default viridis).
+    vmin, vmax, percentile : float, optional
+        The colour limits, as :func:`color_limits` takes them.
+    nan_color : sequence of float, optional
+        The (r, g, b) colour of undefined (NaN) values.
+    ctx : moderngl.Context or GLContext, optional
+        The context to draw with (default: glmls's shared headless one).
+
+    Returns
+    -------
+    numpy.ndarray
+        The picture, (H, W, 3) uint8.
+
+    Raises
+    ------
+    ValueError
+        For values that are not (H, W) or hold infinities, or a bad colour map or limits.
+
+    Examples
+    --------
+    >>> field = np.zeros((8, 8))
+    >>> field[7, 7], field[0, 0] = 1.0, np.nan
+    >>> picture = glmls.analysis.render_field(field)
+    >>> picture.shape, picture[0, 0].tolist(), picture[1, 1].tolist(), picture[7, 7].tolist()
+    ((8, 8, 3), [128, 128, 128], [68, 1, 84], [253, 231, 37])
+    """
     array = np.asarray(values, dtype=np.float64)
     if array.ndim != 2:
         raise ValueError(f"values must be an (H, W) array, got shape {array.shape}")
@@ -65,10 +97,51 @@ def render_handles(
     head: float = 10.0,
     ctx: moderngl.Context | GLContext | None = None,
 ) -> np.ndarray:
-    """The handles over ``image``: a disk at each p_i and an arrow p_i -> q_i (Fig. 6 left);
-    segments ``src_segments`` -> ``dst_segments`` ((S, 2, 2), as for :class:`glmls.MLS`) as
-    the target segment in ``color``, an arrow from each source end to its target end, and
-    the source segment over them in ``source_color`` with a disk at each end."""
+    """The handles drawn over an image (Fig. 6 left).
+
+    A disk at each p_i and an arrow p_i -> q_i; a segment handle as the target segment in
+    ``color``, an arrow from each source end to its target end, and the source segment over
+    them in ``source_color`` with a disk at each end.
+
+    Parameters
+    ----------
+    image : array_like
+        The picture's background: (H, W), (H, W, 3) or (H, W, 4), uint8 or floats in
+        [0, 1]; its size is the picture's.
+    src, dst : array_like
+        Point handles, (N, 2) each.
+    src_segments, dst_segments : array_like, optional
+        Segment handles, (S, 2, 2) each, as for :class:`glmls.MLS`.
+    source_color, color : sequence of float, optional
+        (r, g, b) colours, 0-255, of the sources and of the targets and arrows.
+    radius : float, optional
+        The source disks' radius in pixels.
+    width : float, optional
+        The lines' width in pixels.
+    head : float, optional
+        The arrow heads' length in pixels.
+    ctx : moderngl.Context or GLContext, optional
+        The context to draw with (default: glmls's shared headless one).
+
+    Returns
+    -------
+    numpy.ndarray
+        The picture, (H, W, 3) uint8.
+
+    Raises
+    ------
+    ValueError
+        For a bad image, handles, colour or size.
+    TypeError
+        For an image of an unsupported dtype.
+
+    Examples
+    --------
+    >>> image = np.zeros((32, 32), np.uint8)
+    >>> picture = glmls.analysis.render_handles(image, [[8, 8]], [[20, 16]])
+    >>> picture.shape, picture[8, 8].tolist()  # the source disk
+    ((32, 32, 3), [30, 144, 255])
+    """
     rgb = as_rgb8(image)
     a, b = validate_segments(src_segments, dst_segments)
     ends = a.reshape(-1, 2)
@@ -93,8 +166,47 @@ def render_triangulation(
     radius: float = 3.0,
     ctx: moderngl.Context | GLContext | None = None,
 ) -> np.ndarray:
-    """The triangles (T, 3) over points (N, 2), edges and vertices drawn over ``image``
-    (Fig. 7 centre)."""
+    """A triangulation's edges and vertices drawn over an image (Fig. 7 centre).
+
+    Parameters
+    ----------
+    image : array_like
+        The picture's background: (H, W), (H, W, 3) or (H, W, 4), uint8 or floats in
+        [0, 1]; its size is the picture's.
+    points : array_like
+        The vertices, (N, 2).
+    simplices : array_like
+        (T, 3) integer indices into ``points``.
+    color : sequence of float, optional
+        (r, g, b), 0-255.
+    width : float, optional
+        The edges' width in pixels.
+    radius : float, optional
+        The vertices' disks' radius in pixels.
+    ctx : moderngl.Context or GLContext, optional
+        The context to draw with (default: glmls's shared headless one).
+
+    Returns
+    -------
+    numpy.ndarray
+        The picture, (H, W, 3) uint8.
+
+    Raises
+    ------
+    ValueError
+        For bad points, simplices that are not (T, 3) integers or refer to missing points,
+        or a bad image, colour or size.
+
+    Examples
+    --------
+    >>> square = [[4, 4], [28, 4], [4, 28], [28, 28]]
+    >>> errors = glmls.analysis.triangle_errors(lambda r: r, square)
+    >>> picture = glmls.analysis.render_triangulation(
+    ...     np.zeros((32, 32), np.uint8), errors.points, errors.simplices
+    ... )
+    >>> picture.shape, picture[4, 4].tolist()  # a vertex, in yellow
+    ((32, 32, 3), [255, 255, 0])
+    """
     rgb = as_rgb8(image)
     pts = as_points(points, "points")
     a, b = _edges(pts, simplices)
@@ -141,12 +253,60 @@ def render_triangle_errors(
     origin: Sequence[float] = (0.0, 0.0),
     ctx: moderngl.Context | GLContext | None = None,
 ) -> np.ndarray:
-    """Triangles filled with the colour of their ``which`` error (``"angle"``, eq. 11, or
-    ``"distance"``, eq. 10) over ``image`` (Fig. 7 right).
+    """The reference triangles filled with the colour of their error (Fig. 7 right).
 
-    ``deformed``: draw the triangles at f(r) (over the deformed image, as in the paper) or at
-    r (over the input image). ``edge_color`` None leaves the edges out. ``origin``: the
-    point that ``image``'s pixel (0, 0) shows (that of a warp's output canvas).
+    Parameters
+    ----------
+    image : array_like
+        The picture's background: (H, W), (H, W, 3) or (H, W, 4), uint8 or floats in
+        [0, 1]; its size is the picture's.
+    errors : TriangleErrors
+        As :func:`triangle_errors` returns them.
+    which : {"angle", "distance"}, optional
+        The error shown: the angular one (eq. 11) or the distance one (eq. 10).
+    deformed : bool, optional
+        Draw the triangles at f(r) (over the deformed image, as in the paper) or at r (over
+        the input image).
+    cmap : str or array_like, optional
+        A colour map, as :func:`apply_colormap` takes it (default viridis).
+    vmin, vmax, percentile : float, optional
+        The colour limits, as :func:`color_limits` takes them.
+    nan_color : sequence of float, optional
+        The (r, g, b) colour of undefined (NaN) values.
+    opacity : float, optional
+        The fill's opacity, in [0, 1].
+    edge_color : sequence of float or None, optional
+        The edges' (r, g, b) colour; None leaves the edges out.
+    width : float, optional
+        The edges' width in pixels.
+    origin : sequence of float, optional
+        The point that ``image``'s pixel (0, 0) shows (that of a warp's output canvas).
+    ctx : moderngl.Context or GLContext, optional
+        The context to draw with (default: glmls's shared headless one).
+
+    Returns
+    -------
+    numpy.ndarray
+        The picture, (H, W, 3) uint8.
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``which``, a bad origin, image, colour map or limits.
+    TypeError
+        For ``errors`` that are not a :class:`TriangleErrors`.
+
+    Examples
+    --------
+    >>> square = [[4, 4], [28, 4], [4, 28], [28, 28]]
+    >>> errors = glmls.analysis.triangle_errors(lambda r: r * [1.0, 0.9] + 1.0, square)
+    >>> errors.angle.round(2).tolist()
+    [2.01, 2.01]
+    >>> picture = glmls.analysis.render_triangle_errors(
+    ...     np.zeros((32, 32), np.uint8), errors, opacity=1.0, edge_color=None
+    ... )
+    >>> picture[20, 8].tolist()  # equal errors: the colour map's first colour
+    [68, 1, 84]
     """
     if which not in ("angle", "distance"):
         raise ValueError(f"which must be 'angle' or 'distance', got {which!r}")
@@ -176,9 +336,47 @@ def render_mesh(
     origin: Sequence[float] = (0.0, 0.0),
     ctx: moderngl.Context | GLContext | None = None,
 ) -> np.ndarray:
-    """The lines of a deformed mesh (rows, columns, 2), e.g. ``MLS.mesh(...)[1]``, over
-    ``image``: a picture of f where no warped image is at hand. ``origin``: the point that
-    ``image``'s pixel (0, 0) shows."""
+    """The lines of a deformed mesh over an image: a picture of f where no warped image is at hand.
+
+    Parameters
+    ----------
+    image : array_like
+        The picture's background: (H, W), (H, W, 3) or (H, W, 4), uint8 or floats in
+        [0, 1]; its size is the picture's.
+    deformed : array_like
+        The deformed mesh's vertices, (rows, columns, 2), e.g. ``MLS.mesh(...)[1]``.
+    color : sequence of float, optional
+        (r, g, b), 0-255.
+    width : float, optional
+        The lines' width in pixels.
+    origin : sequence of float, optional
+        The point that ``image``'s pixel (0, 0) shows.
+    ctx : moderngl.Context or GLContext, optional
+        The context to draw with (default: glmls's shared headless one).
+
+    Returns
+    -------
+    numpy.ndarray
+        The picture, (H, W, 3) uint8.
+
+    Raises
+    ------
+    ValueError
+        For a mesh that is not (rows, columns, 2) with at least 2 of each, a bad origin,
+        image or colour.
+
+    Examples
+    --------
+    >>> with glmls.MLS([[4, 4], [28, 4], [4, 28]], [[5, 4], [29, 4], [5, 28]]) as m:
+    ...     source, deformed = m.mesh((32, 32), grid=8)  # cell corners, shifted by 1
+    >>> deformed.shape
+    (5, 5, 2)
+    >>> picture = glmls.analysis.render_mesh(
+    ...     np.zeros((32, 32), np.uint8), deformed, color=(255, 255, 255), width=3
+    ... )
+    >>> picture[4, 9].tolist(), picture[4, 12].tolist()  # on the line x = 8.5, and off it
+    ([255, 255, 255], [0, 0, 0])
+    """
     rgb = as_rgb8(image)
     grid = np.asarray(deformed, dtype=np.float64)
     if grid.ndim != 3 or grid.shape[2] != 2 or min(grid.shape[:2]) < 2:
@@ -211,17 +409,57 @@ def render_construction_errors(
     origin: Sequence[float] | None = None,
     ctx: moderngl.Context | GLContext | None = None,
 ) -> np.ndarray:
-    """A disk at each reference point filled with the colour of its construction error
-    (:func:`glmls.analysis.construction.construction_errors`) over ``image``.
+    """The construction error at each reference point, as coloured disks over an image.
 
-    ``deformed``: at f(r) over the deformed image (where the error was measured; default) or
-    at r over the input. ``radius``: of the disks in pixels (default: the window's half-size
-    plus one, at least 4, so a disk covers the window it stands for). ``edge_color``: a ring
-    around each disk, so that it shows on any background (None: none). ``origin``: the point
-    that ``image``'s pixel (0, 0) shows (default: the canvas the errors were measured on
-    when ``deformed``, else (0, 0)). Undefined errors (NaN) are drawn in ``nan_color``.
-    The colour scale starts at ``vmin`` = 0, a perfect construction, by default (None: the
-    smallest error), and ends at ``vmax`` (None: the largest, or the ``percentile``).
+    Parameters
+    ----------
+    image : array_like
+        The picture's background: (H, W), (H, W, 3) or (H, W, 4), uint8 or floats in
+        [0, 1]; its size is the picture's.
+    errors : ConstructionErrors
+        As :func:`construction_errors` returns them.
+    deformed : bool, optional
+        At f(r) over the deformed image (where the error was measured) or at r over the
+        input.
+    cmap : str or array_like, optional
+        A colour map, as :func:`apply_colormap` takes it (default viridis).
+    vmin, vmax, percentile : float, optional
+        The colour limits. The scale starts at ``vmin`` = 0, a perfect construction, by
+        default (None: the smallest error), and ends at ``vmax`` (None: the largest, or the
+        ``percentile``).
+    nan_color : sequence of float, optional
+        The (r, g, b) colour of undefined (NaN) errors.
+    radius : float, optional
+        The disks' radius in pixels (default: the window's half-size plus one, at least 4,
+        so that a disk covers the window it stands for).
+    edge_color : sequence of float or None, optional
+        A ring around each disk, so that it shows on any background (None: none).
+    origin : sequence of float, optional
+        The point that ``image``'s pixel (0, 0) shows (default: the canvas the errors were
+        measured on when ``deformed``, else (0, 0)).
+    ctx : moderngl.Context or GLContext, optional
+        The context to draw with (default: glmls's shared headless one).
+
+    Returns
+    -------
+    numpy.ndarray
+        The picture, (H, W, 3) uint8.
+
+    Raises
+    ------
+    TypeError
+        For ``errors`` that are not a :class:`ConstructionErrors`.
+    ValueError
+        For a radius that is not positive, a bad origin, image, colour map or limits.
+
+    Examples
+    --------
+    >>> image = np.zeros((32, 32), np.uint8)
+    >>> with glmls.MLS([[4, 4], [28, 4], [4, 28]], [[5, 4], [29, 4], [5, 28]]) as m:
+    ...     errors = glmls.analysis.construction_errors(image, m.warp(image), m, [[16, 16]])
+    >>> picture = glmls.analysis.render_construction_errors(image, errors)
+    >>> errors.values.tolist(), picture[16, 17].tolist()  # at f(r): an error of 0
+    ([0.0], [68, 1, 84])
     """
     if not isinstance(errors, ConstructionErrors):
         raise TypeError(f"errors must be a ConstructionErrors, got {type(errors).__name__}")

@@ -42,14 +42,39 @@ if TYPE_CHECKING:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class AnalysisReport:
-    """What :func:`report` found.
+    """What :func:`report` found: statistics, timings and pictures of one deformation.
 
-    - ``summary``: JSON-ready dict (configuration, timings in seconds, statistics);
-    - ``images``: name -> (H, W, 3) uint8 picture;
-    - ``field``: the MLS error field (H, W) float64; ``triangles``: the
-      :class:`glmls.analysis.TriangleErrors`; ``construction``: the
-      :class:`~glmls.analysis.construction.ConstructionErrors` of the warp at the reference
-      points (None unless asked for).
+    Attributes
+    ----------
+    summary : dict
+        JSON-ready: the image's size, the configuration and handles, the analysis settings,
+        timings in seconds, the statistics of the error field, the triangles and the
+        construction error, the fold-over count, the warp's settings, the GL renderer.
+    images : dict of str to numpy.ndarray
+        Picture name -> (H, W, 3) uint8 picture.
+    field : numpy.ndarray
+        The MLS error field (eq. 7), (H, W) float64.
+    triangles : TriangleErrors
+        The reference triangles' errors (eqs. 10, 11).
+    construction : ConstructionErrors or None
+        The construction error of the warp at the reference points (None unless asked for).
+
+    Examples
+    --------
+    >>> y, x = np.mgrid[0:32, 0:32]
+    >>> image = (127 + 60 * np.sin(x / 3.0) + 60 * np.cos(y / 4.0)).astype(np.uint8)
+    >>> src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+    >>> dst = src.copy()
+    >>> dst[3] = [24.0, 24.0]
+    >>> points = [[8, 8], [24, 8], [8, 24], [24, 24], [16, 16]]
+    >>> with glmls.MLS(src, dst) as m:
+    ...     found = glmls.analysis.report(image, m, points, mesh_grid=8)
+    >>> found.summary["image"], found.summary["triangles"]["triangles"]
+    ({'height': 32, 'width': 32}, 4)
+    >>> found.field.shape, found.images["deformed"].shape, found.construction.values.shape
+    ((32, 32), (32, 32, 3), (5,))
+    >>> found.to_json().splitlines()[:2]
+    ['{', '  "image": {']
     """
 
     summary: dict
@@ -59,11 +84,35 @@ class AnalysisReport:
     construction: ConstructionErrors | None = None
 
     def to_json(self, **options: object) -> str:
+        """The summary as JSON text.
+
+        Parameters
+        ----------
+        **options
+            :func:`json.dumps`'s keywords (default ``indent=2``).
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
         return json.dumps(self.summary, **({"indent": 2} | options))  # type: ignore[arg-type]
 
     def save(self, folder: str | Path) -> list[Path]:
-        """Write ``report.json`` and one PNG per picture into ``folder`` (created if needed);
-        returns the paths written."""
+        """Write ``report.json`` and one PNG per picture into a folder.
+
+        Each file is written whole or not at all.
+
+        Parameters
+        ----------
+        folder : str or pathlib.Path
+            The folder, created if needed.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The paths written, ``report.json`` first.
+        """
         out = Path(folder)
         paths = [out / "report.json"]
         with atomic_write(paths[0]) as tmp:  # each file whole or not at all
@@ -104,39 +153,95 @@ def report(
     out_dir: str | Path | None = None,
     on_stage: Callable[[str], None] | None = None,
 ) -> AnalysisReport:
-    """Analyse the deformation ``m`` of ``image`` (H, W[, C]) as in section 5 of the paper.
+    """Analyse the deformation ``m`` of ``image`` as in section 5 of the paper.
 
     The handles are ``m``'s: points ``m.src`` -> ``m.dst`` and segments ``m.src_segments``
     -> ``m.dst_segments``, drawn in the pictures and listed in the summary. Computes the MLS
-    error field (at every pixel, or on a mesh every ``grid`` pixels) and its
-    statistics, the Delaunay triangulation of ``reference_points`` with its distance and
-    angular errors and their statistics, the fold-over count of the warp's mesh, and draws:
-    ``input_handles`` (Fig. 6 left), ``deformed`` (``m.warp(image, method=, interpolation=,
-    grid=warp_grid)``, Fig. 6 centre), ``deformed_mesh`` (the mesh every ``mesh_grid``
-    pixels), ``error_field`` (Fig. 6 right), ``triangulation`` (Fig. 7 centre),
-    ``triangle_angle`` or ``triangle_distance`` (``triangle_error``, Fig. 7 right: over the
-    deformed image at f(r)), and a ``*_colorbar`` for each colour picture.
+    error field (eq. 7) and its statistics (eqs. 8, 9), the Delaunay triangulation of
+    ``reference_points`` with its distance and angular errors (eqs. 10, 11) and their
+    statistics, the fold-over count of the warp's mesh, optionally the construction error,
+    and draws: ``input_handles`` (Fig. 6 left), ``deformed`` (the warp, Fig. 6 centre),
+    ``deformed_mesh`` (the mesh every ``mesh_grid`` pixels), ``error_field`` (Fig. 6 right),
+    ``triangulation`` (Fig. 7 centre), ``triangle_angle`` or ``triangle_distance`` (Fig. 7
+    right: over the deformed image at f(r)), ``construction_errors`` (a disk at each f(r)
+    over the deformed image), and a ``*_colorbar`` for each colour picture.
 
-    ``warp_tolerance``: the warp on the adaptive mesh of that tolerance (:meth:`MLS.warp`'s
-    ``tolerance``; ``warp_grid`` must stay 1).
-    ``border``: the warp's border mode (:meth:`MLS.warp`); ``fit``: draw the deformed
-    pictures on the canvas that shows the whole deformed image (:meth:`MLS.bounds`) instead
-    of the input's frame.
+    Parameters
+    ----------
+    image : array_like
+        (H, W), (H, W, 3) or (H, W, 4): uint8, or floats in [0, 1].
+    m : MLS
+        The deformation.
+    reference_points : array_like
+        The points r of the triangles, (N, 2) with N >= 3.
+    grid : int, optional
+        The error field at every pixel (1), or on a mesh every ``grid`` pixels.
+    angle : {"degrees", "paper"}, optional
+        The angular measure of :func:`triangle_errors`.
+    eps : float, optional
+        Eq. (11)'s epsilon.
+    cmap : str or array_like, optional
+        The colour map of the pictures (:func:`apply_colormap`).
+    percentile : float, optional
+        Robust upper bound of the error field's colour scale (None: the maximum).
+    triangle_error : {"angle", "distance"}, optional
+        The error the triangle picture shows.
+    triangle_percentile : float, optional
+        Robust upper bound of the triangles' colour scale; 95 by default, since eq. (11)
+        (``angle="paper"``) explodes near right angles.
+    mesh_grid : int, optional
+        The step of the ``deformed_mesh`` picture's mesh, in pixels.
+    method, interpolation : str, optional
+        The warp's construction (:meth:`glmls.MLS.warp`).
+    warp_grid : int, optional
+        The warp's mesh step, also that of the fold-over count.
+    warp_tolerance : float, optional
+        The warp on the adaptive mesh of that tolerance (``warp_grid`` must stay 1).
+    border : str, optional
+        The warp's border mode.
+    fit : bool, optional
+        Draw the deformed pictures on the canvas that shows the whole deformed image
+        (:meth:`glmls.MLS.bounds`) instead of the input's frame.
+    construction : bool, optional
+        Also measure the construction error of the warp at the reference points
+        (:func:`construction_errors`; docs/construction.md): its statistics in
+        ``summary["construction"]``, its settings and colour limits in
+        ``summary["analysis"]["construction"]``.
+    construction_radius : int, optional
+        Its windows' half-size: 2 ``construction_radius`` + 1 output pixels.
+    out_dir : str or pathlib.Path, optional
+        Also write ``report.json`` and the PNGs there (:meth:`AnalysisReport.save`).
+    on_stage : callable, optional
+        Called with each stage's name as it begins (error field, triangles, warp,
+        construction, fold-overs, pictures), for progress.
 
-    ``construction``: also measure the construction error of the warp at the reference
-    points (:func:`~glmls.analysis.construction.construction_errors`, windows of
-    2 ``construction_radius`` + 1 output pixels; docs/construction.md): its statistics in
-    ``summary["construction"]``, its settings and colour limits in
-    ``summary["analysis"]["construction"]``, the picture ``construction_errors`` (a disk at
-    each f(r) over the deformed image) and its ``construction_errors_colorbar``.
+    Returns
+    -------
+    AnalysisReport
+        The summary, the pictures, the error field and the errors.
 
-    ``percentile`` / ``triangle_percentile``: robust upper bound of the colour scales (None:
-    the maximum); 95 for the triangles, where eq. (11) (``angle="paper"``) explodes near
-    right angles. ``angle``: the angular measure of :func:`glmls.analysis.triangle_errors`
-    (``"degrees"``, the default, or ``"paper"``).
-    ``out_dir``: also write ``report.json`` and the PNGs there. ``on_stage(name)`` is called
-    as each stage begins (error field, triangles, warp, construction, fold-overs, pictures),
-    for progress.
+    Raises
+    ------
+    ValueError
+        For an unknown ``triangle_error``, warp option or angle measure, bad reference
+        points, radius or image; checked before the long stages where possible.
+    TypeError
+        For an image of an unsupported dtype.
+
+    Examples
+    --------
+    >>> y, x = np.mgrid[0:32, 0:32]
+    >>> image = (127 + 60 * np.sin(x / 3.0) + 60 * np.cos(y / 4.0)).astype(np.uint8)
+    >>> src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+    >>> dst = src.copy()
+    >>> dst[3] = [24.0, 24.0]
+    >>> points = [[8, 8], [24, 8], [8, 24], [24, 24], [16, 16]]
+    >>> with glmls.MLS(src, dst) as m:
+    ...     found = glmls.analysis.report(image, m, points, mesh_grid=8)
+    >>> sorted(found.images)[:4]
+    ['construction_errors', 'construction_errors_colorbar', 'deformed', 'deformed_mesh']
+    >>> found.summary["foldovers"], found.summary["triangles"]["flipped"]
+    ({'grid': 1, 'cells': 0}, 0)
     """
     stage = on_stage if on_stage is not None else (lambda name: None)
     rgb = as_rgb8(image)

@@ -13,15 +13,41 @@ TRIM = 0.1
 def error_stats(values: object) -> dict[str, float | int | list[float] | None]:
     """Image-level statistics of an error field or per-triangle errors (paper eqs. 8, 9).
 
-    NaN values (where an error is undefined) are left out and counted in ``nan_count``;
-    ``count`` is the number of values used. Returns a JSON-ready dict: ``mean`` (eq. 8),
-    ``std`` (eq. 9, the population standard deviation), ``median``, ``trimmed_mean`` (the
-    mean of the values left after cutting :data:`TRIM` = 10 % from each end, as
-    ``scipy.stats.trim_mean``), ``min``, ``max``, ``within`` (the shares of values with
-    |x - mean| <= 1, 2 and 3 std, in that order), ``count``, ``nan_count``. The median and the
-    trimmed mean are the headline: one huge value (a near-degenerate triangle, a fold) moves
-    the mean and the std without bound but them hardly at all. With no values left, the
-    statistics are ``None``. Infinite values raise ``ValueError``.
+    NaN values (where an error is undefined) are left out and counted in ``nan_count``. The
+    median and the trimmed mean are the headline: one huge value (a near-degenerate triangle,
+    a fold) moves the mean and the std without bound but them hardly at all.
+
+    Parameters
+    ----------
+    values : array_like
+        Real numbers of any shape (flattened), finite or NaN.
+
+    Returns
+    -------
+    dict
+        JSON-ready: ``count`` (the values used), ``nan_count``, ``mean`` (eq. 8), ``std``
+        (eq. 9, the population standard deviation), ``median``, ``trimmed_mean`` (the mean of
+        the values left after cutting :data:`TRIM` = 10 % from each end, as
+        ``scipy.stats.trim_mean``), ``min``, ``max``, ``within`` (the shares of values with
+        |x - mean| <= 1, 2 and 3 std, in that order). With no values left, the statistics
+        are None.
+
+    Raises
+    ------
+    ValueError
+        For infinite values.
+    TypeError
+        For values that are not real numbers.
+
+    Examples
+    --------
+    >>> stats = glmls.analysis.error_stats([1.0, 2.0, 3.0, np.nan, 10.0])
+    >>> stats["count"], stats["nan_count"], stats["mean"], stats["median"], stats["max"]
+    (4, 1, 4.0, 2.5, 10.0)
+    >>> round(stats["std"], 3), stats["within"]
+    (3.536, [0.75, 1.0, 1.0])
+    >>> glmls.analysis.error_stats([np.nan])["mean"] is None
+    True
     """
     array = np.asarray(values)
     if not (np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)):

@@ -96,9 +96,43 @@ def _configs_for(shape: tuple[int, int], configs: Sequence[MLSConfig | str] | No
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class StudyResult:
-    """The tunes of a study: ``names`` (the items), ``results`` (each item's
-    :class:`TuneResult`), ``configs`` (each item's configurations, matched by place),
-    ``settings`` and ``timings`` (seconds)."""
+    """The tunes of a study over an image set, as :func:`study` returns them.
+
+    Attributes
+    ----------
+    names : list of str
+        The items' names.
+    results : list of TuneResult
+        Each item's tune.
+    configs : list of tuple of MLSConfig
+        Each item's configurations, matched between items by place.
+    diagonals : list of float
+        Each item's image diagonal in pixels.
+    settings : dict
+        JSON-ready: trials, seed, the configuration specs, ``rank_by``.
+    timings : dict
+        JSON-ready: seconds in all and per image, jobs, scheduler.
+    inputs : list of str
+        Each item's image file (or its name where it has none).
+
+    Examples
+    --------
+    >>> src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+    >>> pulled, pushed = src.copy(), src.copy()
+    >>> pulled[3], pushed[0] = [24.0, 24.0], [8.0, 6.0]
+    >>> points = np.array([[8.0, 8.0], [24.0, 8.0], [8.0, 24.0], [24.0, 24.0], [16.0, 16.0]])
+    >>> items = [
+    ...     glmls.data.StudyItem("pulled", (32, 32), glmls.HandleSet.validate(src, pulled), points),
+    ...     glmls.data.StudyItem("pushed", (32, 40), glmls.HandleSet.validate(src, pushed), points),
+    ... ]
+    >>> result = glmls.analysis.study(items, configs=["rigid:idw", "affine:idw:alpha=1"], trials=1)
+    >>> [(row["label"], row["mean_rank"], row["wins"]) for row in result.table()]
+    [('affine idw a=1', 1.0, 2), ('rigid idw a=1', 2.0, 0), ('rigid idw a=2', 3.0, 0)]
+    >>> result.summary()["answer"]
+    '1 distinct winner over 2 images: one configuration wins everywhere; ...'
+    >>> result.heatmap().dtype.name
+    'uint8'
+    """
 
     names: list[str]
     results: list[TuneResult]
@@ -109,23 +143,56 @@ class StudyResult:
     inputs: list[str] = dataclasses.field(default_factory=list)
 
     def table(self) -> list[dict]:
-        """One dict per configuration, by mean rank: ``label``, ``mean_rank``, ``wins``,
-        ``ranked_on`` and ``images``: name -> {rank, score, admissible, handle_miss, config}
-        (absent where the configuration could not be built for the image's handles)."""
+        """The configurations over the images, one dict per configuration, by mean rank.
+
+        Returns
+        -------
+        list of dict
+            ``label``, ``mean_rank``, ``wins``, ``ranked_on`` and ``images``: name ->
+            {rank, score, admissible, handle_miss, config} (absent where the configuration
+            could not be built for the image's handles).
+        """
         return _table(self)
 
     def summary(self) -> dict:
-        """The JSON summary: images, winners, distinct_winners, rank_agreement, answer..."""
+        """The JSON-ready summary of the study.
+
+        Returns
+        -------
+        dict
+            ``images``, ``configurations``, ``winners`` (each image's best),
+            ``distinct_winners``, ``winner_counts``, ``one_configuration_wins_everywhere``,
+            ``best_overall``, ``rank_agreement`` (Kendall's tau per pair of images, and
+            Kendall's W), ``answer`` (in words), ``skipped``, ``settings``, ``timings``.
+        """
         return _summary(self, self.table())
 
     def heatmap(self) -> np.ndarray:
-        """The ranks as a picture (:func:`render_heatmap`)."""
+        """The ranks as a picture: configurations x images, coloured by rank.
+
+        Returns
+        -------
+        numpy.ndarray
+            (H, W, 3) uint8 (:func:`render_heatmap`).
+        """
         return render_heatmap(self.table(), self.names, title=self.summary()["answer"])
 
     def save(self, out_dir: str | Path) -> dict:
-        """Write ``summary.json``, ``table.csv``, ``table.json``, ``heatmap.png`` and
-        ``<name>/ranking.json`` (as ``glmls tune --out`` writes it) in ``out_dir``; returns
-        the summary."""
+        """Write the study's files into a folder.
+
+        ``summary.json``, ``table.csv``, ``table.json``, ``heatmap.png`` and
+        ``<name>/ranking.json`` per image (as ``glmls tune --out`` writes it).
+
+        Parameters
+        ----------
+        out_dir : str or pathlib.Path
+            The folder, created if needed.
+
+        Returns
+        -------
+        dict
+            The summary (:meth:`summary`).
+        """
         out = Path(out_dir)
         rows = self.table()
         summary = _summary(self, rows)
@@ -158,10 +225,69 @@ def study(
     scheduler: str | None = None,
     on_step: Callable[[], None] | None = None,
 ) -> StudyResult:
-    """Tune every item (see the module's description): ``configs`` are MLSConfigs, specs
-    (``"rigid:*"``, :func:`~glmls.analysis.tuning.parse_config`, parsed for each image's
-    shape) or None for the default search space; ``trials``: the tune's trials per
-    configuration (None: the tune's default); ``on_step()`` after each item."""
+    """Tune every image of a set and compare the rankings.
+
+    Does one configuration win everywhere? The paper's "further studies": :func:`tune`,
+    with the same configurations, trials and seed, runs on each item, one item per job
+    (:func:`run_jobs`); the result compares each image's winner and the agreement of the
+    rankings (Kendall's tau and W; see :mod:`glmls.analysis.studies`).
+
+    Parameters
+    ----------
+    items : sequence of StudyItem
+        The images, with distinct names (e.g. :func:`glmls.data.study_set`).
+    configs : sequence of MLSConfig or str, optional
+        Configurations, or specs such as ``"rigid:*"``
+        (:func:`~glmls.analysis.tuning.parse_config`, parsed for each image's shape: a spec
+        without a radius sizes it by the image diagonal); None for the default search space.
+    trials : int, optional
+        The tune's trials per configuration (None: the tune's default).
+    seed : int, optional
+        The seed of the tune's edits.
+    jobs : int, optional
+        Worker processes.
+    scheduler : str, optional
+        A Dask scheduler (``"local"`` or an address) instead of ``jobs``.
+    on_step : callable, optional
+        Called after each item, for progress.
+
+    Returns
+    -------
+    StudyResult
+        The tunes and their comparison.
+
+    Raises
+    ------
+    ValueError
+        For no items, repeated names, bad trials, no configurations, or an item whose
+        handles or points cannot be tuned (naming the item).
+    TypeError
+        For items that are not :class:`~glmls.data.StudyItem` values, or configurations
+        that are neither :class:`~glmls.MLSConfig` values nor specs.
+
+    Examples
+    --------
+    A full study of the bundled set takes minutes:
+
+    >>> result = glmls.analysis.study(glmls.data.study_set())  # doctest: +SKIP
+
+    Two small images, three configurations (``rigid:idw`` is idw's alpha 1 and 2), one
+    trial each:
+
+    >>> src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+    >>> pulled, pushed = src.copy(), src.copy()
+    >>> pulled[3], pushed[0] = [24.0, 24.0], [8.0, 6.0]
+    >>> points = np.array([[8.0, 8.0], [24.0, 8.0], [8.0, 24.0], [24.0, 24.0], [16.0, 16.0]])
+    >>> items = [
+    ...     glmls.data.StudyItem("pulled", (32, 32), glmls.HandleSet.validate(src, pulled), points),
+    ...     glmls.data.StudyItem("pushed", (32, 40), glmls.HandleSet.validate(src, pushed), points),
+    ... ]
+    >>> result = glmls.analysis.study(items, configs=["rigid:idw", "affine:idw:alpha=1"], trials=1)
+    >>> result.names, [tuned.rows[0]["label"] for tuned in result.results]
+    (['pulled', 'pushed'], ['affine idw a=1', 'affine idw a=1'])
+    >>> result.summary()["distinct_winners"]
+    1
+    """
     items = list(items)
     if not items:
         raise ValueError("a study needs at least one item")

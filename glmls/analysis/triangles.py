@@ -44,17 +44,40 @@ __all__ = [
 class TriangleErrors:
     """Per-triangle errors of a deformation over the Delaunay triangulation of reference points.
 
-    - ``points`` (N, 2): the reference points r; ``deformed_points`` (N, 2): f(r).
-    - ``simplices`` (T, 3): vertex indices of each triangle (scipy's order, counter-clockwise
-      in (x, y)).
-    - ``distance`` (T,): eq. (10), the mean relative change of the three edge lengths.
-    - ``angle`` (T,): with ``angle_measure`` ``"degrees"``, the mean over the three corners of
-      |a - a'| in degrees (a the corner's angle before f, a' after); with ``"paper"``, eq.
-      (11): the mean of (|cos a - cos a'| + eps) / (|cos a| + eps). NaN where f collapses an
-      edge to a point.
-    - ``flipped`` (T,): whether f reverses the triangle's orientation (a fold-over; the
-      corner angles of a mirrored triangle are the same, so ``angle`` does not show it).
-    - ``eps``: the epsilon of eq. (11); ``angle_measure``: which measure ``angle`` holds.
+    Made by :func:`triangle_errors`; the arrays are read-only.
+
+    Attributes
+    ----------
+    points : numpy.ndarray
+        The reference points r, (N, 2).
+    deformed_points : numpy.ndarray
+        f(r), (N, 2).
+    simplices : numpy.ndarray
+        (T, 3) vertex indices of each triangle (scipy's order, counter-clockwise in (x, y)).
+    distance : numpy.ndarray
+        (T,): eq. (10), the mean relative change of the three edge lengths.
+    angle : numpy.ndarray
+        (T,): with ``angle_measure`` ``"degrees"``, the mean over the three corners of
+        |a - a'| in degrees (a the corner's angle before f, a' after); with ``"paper"``, eq.
+        (11): the mean of (|cos a - cos a'| + eps) / (|cos a| + eps). NaN where f collapses
+        an edge to a point.
+    flipped : numpy.ndarray
+        (T,) bool: whether f reverses the triangle's orientation (a fold-over; the corner
+        angles of a mirrored triangle are the same, so ``angle`` does not show it).
+    eps : float
+        The epsilon of eq. (11).
+    angle_measure : str
+        Which measure ``angle`` holds, one of :data:`ANGLE_MEASURES`.
+
+    Examples
+    --------
+    >>> square = [[0, 0], [10, 0], [0, 10], [10, 10]]
+    >>> errors = glmls.analysis.triangle_errors(lambda r: r * [-1.0, 1.0], square)
+    >>> errors.simplices.shape, errors.flipped.tolist()  # a mirror flips every triangle
+    ((2, 3), [True, True])
+    >>> stats = errors.stats()
+    >>> stats["triangles"], stats["flipped"], stats["angle"]["max"]
+    (2, 2, 0.0)
     """
 
     points: np.ndarray
@@ -67,7 +90,14 @@ class TriangleErrors:
     angle_measure: str = "degrees"
 
     def stats(self) -> dict[str, object]:
-        """JSON-ready statistics: triangle count, flipped count, distance and angle stats."""
+        """JSON-ready statistics of the errors.
+
+        Returns
+        -------
+        dict
+            ``triangles`` (T), ``angle_measure``, ``flipped`` (how many), and the
+            :func:`error_stats` of ``distance`` and of ``angle``.
+        """
         return {
             "triangles": len(self.simplices),
             "angle_measure": self.angle_measure,
@@ -192,17 +222,54 @@ def triangle_errors(
     angle: str = "degrees",
     eps: float = 1e-6,
 ) -> TriangleErrors:
-    """Distance (eq. 10) and angular errors of every triangle of the Delaunay triangulation of
-    ``reference_points`` (user points, distinct from the handles).
+    """The distance (eq. 10) and angular (eq. 11) errors of the reference triangles.
 
-    ``angle="degrees"`` (default): the mean absolute change of the corner angles in degrees,
-    0 for any similarity; ``angle="paper"``: eq. (11) as printed, whose denominator |cos a|
-    + eps makes right angles blow up (see the module docstring). ``eps``: eq. (11)'s epsilon.
+    The triangles are the Delaunay triangulation of ``reference_points`` (user points,
+    distinct from the handles). A uniform scale by s gives distance = |s - 1|, angle 0
+    (``"degrees"``), and eps / (|cos a| + eps) per corner with ``"paper"`` (1 at a right
+    angle).
 
-    ``m`` is a :class:`glmls.MLS` or any function mapping (K, 2) points to (K, 2) points. Raises
-    ``ValueError`` for fewer than 3 points, NaN, duplicates or points all on one line.
-    A uniform scale by s gives distance = |s - 1|, angle 0 (``"degrees"``), and
-    eps / (|cos a| + eps) per corner with ``"paper"`` (1 at a right angle).
+    Parameters
+    ----------
+    m : callable
+        A :class:`glmls.MLS`, or any function mapping (K, 2) points to (K, 2) points.
+    reference_points : array_like
+        The points r, (N, 2) with N >= 3, distinct and not all on one line.
+    angle : {"degrees", "paper"}, optional
+        ``"degrees"``: the mean absolute change of the corner angles in degrees, 0 for any
+        similarity; ``"paper"``: eq. (11) as printed, whose denominator |cos a| + eps makes
+        right angles blow up (see :mod:`glmls.analysis.triangles`).
+    eps : float, optional
+        Eq. (11)'s epsilon (> 0).
+
+    Returns
+    -------
+    TriangleErrors
+        The triangles, r and f(r), and the errors per triangle.
+
+    Raises
+    ------
+    ValueError
+        For fewer than 3 points, NaN, duplicates or points all on one line; an unknown
+        ``angle``; ``eps`` <= 0; ``m`` returning the wrong shape or points that are not
+        finite.
+
+    See Also
+    --------
+    error_stats : the statistics of the errors (``TriangleErrors.stats``).
+
+    Examples
+    --------
+    >>> square = [[0, 0], [10, 0], [0, 10], [10, 10]]
+    >>> twice = glmls.analysis.triangle_errors(lambda r: 2.0 * r, square)
+    >>> twice.distance.tolist(), twice.angle.tolist()  # a uniform scale by 2
+    ([1.0, 1.0], [0.0, 0.0])
+    >>> stretched = glmls.analysis.triangle_errors(lambda r: r * [1.0, 1.5], square)
+    >>> stretched.distance.round(3).tolist(), stretched.angle.round(2).tolist()
+    ([0.258, 0.258], [7.54, 7.54])
+    >>> with glmls.MLS([[0, 0], [10, 0], [0, 10]], [[1, 1], [11, 1], [1, 11]]) as m:
+    ...     glmls.analysis.triangle_errors(m, square).distance.round(6).tolist()
+    [0.0, 0.0]
     """
     measure = check_angle_measure(angle)
     if isinstance(eps, bool) or not isinstance(eps, (int, float)) or not eps > 0:

@@ -162,13 +162,39 @@ def label(config: MLSConfig) -> str:
 
 @dataclasses.dataclass(frozen=True)
 class TuneResult:
-    """``rows``: one dict per configuration, best first, with ``config``, ``label``,
-    ``rank``, ``score``, ``admissible``, ``set_apart`` (the reasons, empty when admissible),
-    ``pareto``, each criterion's mean rank ``rank_<criterion>``, and every statistic's mean
-    over the trials ``<statistic>_mean`` and spread ``<statistic>_spread`` (population std;
-    ``handle_miss_max`` is the largest over the trials, ``fold_trials`` counts the trials with
-    folds); ``skipped``: configurations that cannot be built for these handles, with the
-    reason."""
+    """What :func:`tune` found: the configurations ranked, best first.
+
+    Attributes
+    ----------
+    rows : list of dict
+        One dict per configuration, best first, with ``config`` (the
+        :class:`~glmls.MLSConfig`'s fields), ``label``, ``rank``, ``score``, ``admissible``,
+        ``set_apart`` (the reasons, empty when admissible), ``pareto``, each criterion's mean
+        rank ``rank_<criterion>``, and every statistic's mean over the trials
+        ``<statistic>_mean`` and spread ``<statistic>_spread`` (population std;
+        ``handle_miss_max`` is the largest over the trials, ``fold_trials`` counts the
+        trials with folds).
+    skipped : list of dict
+        Configurations that cannot be built for these handles: ``config`` and ``reason``.
+    rank_by : str
+        ``"rank"`` or the criterion the rows are ordered by.
+    settings : dict
+        JSON-ready: trials, seed, grid, magnitudes, angle, criteria and their weights, the
+        miss limit and the image diagonal.
+
+    Examples
+    --------
+    >>> src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+    >>> dst = src.copy()
+    >>> dst[3] = [24.0, 24.0]
+    >>> points = [[8, 8], [24, 8], [8, 24], [24, 24], [16, 16]]
+    >>> configs = [glmls.MLSConfig(transform="rigid"), glmls.MLSConfig(transform="affine")]
+    >>> result = glmls.analysis.tune((32, 32), src, dst, points, trials=1, configs=configs)
+    >>> [(row["rank"], row["label"], row["admissible"]) for row in result.rows]
+    [(1, 'affine idw a=1', True), (2, 'rigid idw a=1', True)]
+    >>> result.best.transform, result.skipped, result.settings["trials"]
+    ('affine', [], 1)
+    """
 
     rows: list[dict]
     skipped: list[dict]
@@ -177,6 +203,7 @@ class TuneResult:
 
     @property
     def best(self) -> MLSConfig:
+        """The first row's configuration."""
         return MLSConfig(**self.rows[0]["config"])
 
 
@@ -307,17 +334,77 @@ def tune(
     ctx: GLContext | None = None,
     on_step: Callable[[], None] | None = None,
 ) -> TuneResult:
-    """Rank configurations for an image of ``shape`` and the handles: points ``src`` ->
-    ``dst`` and segments ``src_segments`` -> ``dst_segments`` ((S, 2, 2), as for
-    :class:`~glmls.MLS`), over ``trials`` trials (the user's edit and ``trials - 1`` edits of
-    it, see the module docstring), measuring the triangles of ``reference_points``.
+    """Choose the configuration automatically (the paper's section 6): rank configurations.
 
-    ``grid``: the error field's mesh step (pixels); ``magnitudes``: the drags of the edits
-    as fractions of the diagonal; ``angle``: the angular measure (``triangle_errors``);
-    ``rank_by``: ``"rank"`` or one of :data:`CRITERIA`. ``jobs`` worker processes, or a Dask
-    ``scheduler`` (``"local"`` or an address), share the configurations
-    (:func:`glmls.analysis.jobs.run_jobs`); ``ctx`` serves the work done in this process.
-    ``on_step`` is called once per configuration and trial."""
+    Every configuration meets the same seeded trials: the user's edit, user-like edits of
+    it and known smooth deformations (:mod:`glmls.analysis.tuning`). Those that miss their
+    targets (by more than :data:`MISS_LIMIT`) or fold over are set apart; the rest are
+    ranked by the weighted mean of their ranks over the criteria (:data:`CRITERIA`: the
+    angular error of the reference triangles, eq. 11, first) and the trials.
+
+    Parameters
+    ----------
+    shape : sequence of int
+        (H, W) of the image.
+    src, dst : array_like
+        Point handles, (N, 2) each.
+    reference_points : array_like
+        The points of the reference triangles, (K, 2) with K >= 3.
+    src_segments, dst_segments : array_like, optional
+        Segment handles, (S, 2, 2) each, as for :class:`~glmls.MLS`.
+    trials : int, optional
+        The user's edit and ``trials - 1`` edits of it.
+    seed : int, optional
+        The seed of the edits.
+    configs : sequence of MLSConfig, optional
+        The configurations compared (default :func:`search_space`).
+    grid : int, optional
+        The error field's mesh step in pixels.
+    magnitudes : sequence of float, optional
+        The drags of the edits, as fractions of the image diagonal in [0, 1].
+    angle : {"degrees", "paper"}, optional
+        The angular measure of :func:`triangle_errors`.
+    rank_by : str, optional
+        ``"rank"`` (the weighted rank) or one of :data:`CRITERIA` alone.
+    jobs : int, optional
+        Worker processes sharing the configurations (:func:`run_jobs`).
+    scheduler : str, optional
+        A Dask scheduler (``"local"`` or an address) instead of ``jobs``.
+    ctx : GLContext, optional
+        The context for the work done in this process.
+    on_step : callable, optional
+        Called once per configuration and trial, for progress.
+
+    Returns
+    -------
+    TuneResult
+        The configurations ranked, best first, and those that could not be built.
+
+    Raises
+    ------
+    ValueError
+        For a bad shape, handles, reference points, trials, grid, magnitudes, angle or
+        ``rank_by``, no configurations, or none that can be built for these handles.
+    TypeError
+        For configurations that are not :class:`~glmls.MLSConfig` values.
+
+    See Also
+    --------
+    study : the same tune over a set of images.
+
+    Examples
+    --------
+    >>> src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+    >>> dst = src.copy()
+    >>> dst[3] = [24.0, 24.0]
+    >>> points = [[8, 8], [24, 8], [8, 24], [24, 24], [16, 16]]
+    >>> configs = [glmls.MLSConfig(transform="rigid"), glmls.MLSConfig(transform="affine")]
+    >>> result = glmls.analysis.tune((32, 32), src, dst, points, trials=1, configs=configs)
+    >>> [row["label"] for row in result.rows]
+    ['affine idw a=1', 'rigid idw a=1']
+    >>> round(result.rows[0]["score"], 2), result.rows[0]["set_apart"]
+    (1.4, [])
+    """
     shape = as_shape(shape)
     if rank_by not in MEASURES:
         raise ValueError(f"unknown measure {rank_by!r}; choose one of {', '.join(MEASURES)}")

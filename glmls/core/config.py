@@ -46,22 +46,57 @@ def _real(name: str, value: object) -> float:
 
 @dataclass(frozen=True)
 class MLSConfig:
-    """How f is built from the handles.
+    """How f is built from the handles: the transform and the distance weight (Table 1).
 
-    - ``transform``: ``affine``, ``similarity`` or ``rigid`` (Schaefer et al. 2006).
-    - ``weight``: a name of :data:`glmls.core.weights.REGISTRY` (d = distance from the
-      evaluated point to a source handle, R = ``radius``): ``idw`` 1 / (s + d^(2 alpha));
-      ``cressman`` max(0, (R² - d²) / (R² + d²)); ``shepard`` max(0, (R - d) / (R d));
-      ``gaussian`` exp(-d² / R²); ``linear`` max(0, R - d).
-    - ``alpha`` (> 0): idw power, also used by ``interpolating``.
-    - ``s`` (>= 0): idw's adjusting term, in pixel units (squared when alpha = 1).
-    - ``radius`` (> 0): R in pixels; ``None`` means the image diagonal where an image size is
-      known (the paper's best choice); the radius weights need one or the other.
-    - ``interpolating``: multiply the weight by 1 / d^(2 alpha), so that f(p_i) = q_i for
-      every weight. Cressman, Gaussian and linear weights are finite at d = 0, so without this
-      f(p_i) can miss q_i (by tens of pixels when R is wide).
+    A frozen dataclass; each field's ``metadata["help"]`` is its one-line description (the
+    command line's help). d below is the distance from the evaluated point to a source
+    handle, R the ``radius``.
 
-    Each field's ``metadata["help"]`` is its one-line description (the command line's help).
+    Parameters
+    ----------
+    transform : {"rigid", "similarity", "affine"}
+        The MLS transform of Schaefer et al. (2006): affine (eq. 5), similarity (eq. 6) or
+        rigid (the similarity's rotation, normalised).
+    weight : {"idw", "cressman", "shepard", "gaussian", "linear"}
+        A name of :data:`glmls.core.weights.REGISTRY`: ``idw`` 1 / (s + d^(2 alpha));
+        ``cressman`` max(0, (R² - d²) / (R² + d²)); ``shepard`` max(0, (R - d) / (R d));
+        ``gaussian`` exp(-d² / R²); ``linear`` max(0, R - d).
+    alpha : float
+        The idw power (> 0), also used by ``interpolating``.
+    s : float
+        idw's adjusting term (>= 0), in pixel units (squared when alpha = 1).
+    radius : float or None
+        R in pixels (> 0); None means the image diagonal where an image size is known (the
+        paper's best choice); the radius weights need one or the other.
+    interpolating : bool
+        Multiply the weight by 1 / d^(2 alpha), so that f(p_i) = q_i for every weight.
+        Cressman, Gaussian and linear weights are finite at d = 0, so without this f(p_i) can
+        miss q_i (by tens of pixels when R is wide).
+
+    Raises
+    ------
+    ValueError
+        For an unknown transform or weight, alpha <= 0, s < 0, radius <= 0, or a value that
+        is not finite.
+    TypeError
+        For a value of the wrong type (a transform that is not a string, a number that is not
+        real, ``interpolating`` that is not a bool).
+
+    See Also
+    --------
+    glmls.MLS : takes these fields as keywords, or a ``config=``.
+
+    Examples
+    --------
+    >>> config = glmls.MLSConfig(transform="similarity", weight="gaussian", radius=50)
+    >>> config.radius, config.uses_radius
+    (50.0, True)
+    >>> glmls.MLSConfig(weight="cressman").resolve_radius((3, 4))  # the image diagonal
+    5.0
+    >>> glmls.MLSConfig(transform="projective")
+    Traceback (most recent call last):
+        ...
+    ValueError: unknown transform 'projective'; choose one of affine, similarity, rigid
     """
 
     transform: str = field(default="rigid", metadata={"help": "MLS transform"})
@@ -101,6 +136,7 @@ class MLSConfig:
 
     @property
     def uses_radius(self) -> bool:
+        """Whether the weight needs an influence radius (all but ``idw``)."""
         return self.weight_entry.needs_radius
 
     @property
@@ -109,9 +145,22 @@ class MLSConfig:
         return self.interpolating or self.weight_entry.infinite_at_zero(self)
 
     def resolve_radius(self, shape: tuple[int, int] | None) -> float | None:
-        """R in pixels: the given radius, else the diagonal of an image of ``shape`` (H, W).
+        """R in pixels: the given radius, else the diagonal of an image of ``shape``.
 
-        Raises ``ValueError`` when a radius weight has neither.
+        Parameters
+        ----------
+        shape : tuple of int or None
+            (H, W) of the image, if known.
+
+        Returns
+        -------
+        float or None
+            The radius; None for a weight that needs none and was given none.
+
+        Raises
+        ------
+        ValueError
+            When a radius weight has neither a radius nor a shape.
         """
         if not self.uses_radius:
             return self.radius

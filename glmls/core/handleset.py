@@ -29,9 +29,35 @@ def _frozen(array: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class HandleSet:
-    """Validated handles, read-only float64: ``src``/``dst`` (N, 2) points and
-    ``src_segments``/``dst_segments`` (S, 2, 2) segments (segment s runs from
-    ``src_segments[s, 0]`` to ``src_segments[s, 1]``). Build with :meth:`validate`."""
+    """Validated handles of every kind, read-only float64 copies.
+
+    Build with :meth:`validate`, which checks the arrays; the constructor takes them as they
+    are. ``len()`` counts the handles of every kind.
+
+    Parameters
+    ----------
+    src, dst : numpy.ndarray
+        Point handles p_i -> q_i, (N, 2) (x, y) rows.
+    src_segments, dst_segments : numpy.ndarray
+        Segment handles, (S, 2, 2): segment s runs from ``src_segments[s, 0]`` to
+        ``src_segments[s, 1]`` and maps onto ``dst_segments[s]``.
+
+    See Also
+    --------
+    polyline_segments : segments from a polyline's vertices.
+
+    Examples
+    --------
+    >>> handles = glmls.HandleSet.validate(
+    ...     [[0, 0], [10, 0]], [[1, 1], [11, 2]], [[[0, 5], [10, 5]]], [[[0, 6], [10, 7]]]
+    ... )
+    >>> len(handles), handles.points, handles.segments
+    (3, 2, 1)
+    >>> handles.src.dtype.name, handles.src.flags.writeable, handles.source_points().shape
+    ('float64', False, (4, 2))
+    >>> handles.swapped().src.tolist()
+    [[1.0, 1.0], [11.0, 2.0]]
+    """
 
     src: np.ndarray
     dst: np.ndarray
@@ -46,18 +72,40 @@ class HandleSet:
         src_segments: object = None,
         dst_segments: object = None,
     ) -> HandleSet:
-        """Check every kind (``ValueError``/``TypeError`` naming the bad value) and freeze
-        copies."""
+        """Check the handles of every kind and freeze copies.
+
+        Parameters
+        ----------
+        src, dst : array_like
+            Point handles, (N, 2) each; N may be 0.
+        src_segments, dst_segments : array_like, optional
+            Segment handles, (S, 2, 2) each; none when omitted.
+
+        Returns
+        -------
+        HandleSet
+            The validated handles.
+
+        Raises
+        ------
+        ValueError
+            Naming the bad value: a wrong shape, different lengths, a value that is not
+            finite, a zero-length source segment.
+        TypeError
+            For arrays that are not numeric.
+        """
         p, q = validate_handles(src, dst)
         a, b = validate_segments(src_segments, dst_segments)
         return cls(_frozen(p), _frozen(q), _frozen(a), _frozen(b))
 
     @property
     def points(self) -> int:
+        """The number of point handles, N."""
         return len(self.src)
 
     @property
     def segments(self) -> int:
+        """The number of segment handles, S."""
         return len(self.src_segments)
 
     def __len__(self) -> int:
@@ -77,9 +125,16 @@ class HandleSet:
         return HandleSet(self.dst, self.src, self.dst_segments, self.src_segments)
 
     def check_affine(self) -> None:
-        """Affine MLS needs its source handles to span the plane: 3 points not on one line,
-        or a segment and a point off its line, or two segments not on one line.
-        :class:`glmls.DegenerateHandlesError` otherwise (0 or 1 point alone is fine)."""
+        """Check that the source handles span the plane, as affine MLS needs.
+
+        That is 3 points not on one line, or a segment and a point off its line, or two
+        segments not on one line (0 or 1 point alone is fine).
+
+        Raises
+        ------
+        DegenerateHandlesError
+            When every source handle lies on one line.
+        """
         if self.segments == 0:
             check_affine_handles(self.src)
             return

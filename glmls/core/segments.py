@@ -124,14 +124,32 @@ def _check_conflicts(a: np.ndarray, b: np.ndarray) -> None:
 
 
 def polyline_segments(points: object) -> np.ndarray:
-    """The segments of a polyline: (K, 2) vertices -> (K - 1, 2, 2), segment k from vertex k to
-    vertex k + 1. Give a source polyline and its target polyline of the same K to get
-    ``src_segments`` and ``dst_segments``; close a polygon by repeating its first vertex.
+    """The segments of a polyline, segment k from vertex k to vertex k + 1.
 
-    ``ValueError`` for fewer than 2 vertices; repeated consecutive vertices give zero-length
-    segments, which :class:`glmls.MLS` refuses (in the source).
+    Give a source polyline and its target polyline of the same K to get ``src_segments`` and
+    ``dst_segments``; close a polygon by repeating its first vertex. Repeated consecutive
+    vertices give zero-length segments, which :class:`glmls.MLS` refuses (in the source).
 
-    >>> polyline_segments([[0, 0], [10, 0], [10, 5]]).tolist()
+    Parameters
+    ----------
+    points : array_like
+        The vertices, (K, 2) (x, y) rows.
+
+    Returns
+    -------
+    numpy.ndarray
+        The segments, (K - 1, 2, 2) float64.
+
+    Raises
+    ------
+    ValueError
+        For fewer than 2 vertices, a wrong shape or a value that is not finite.
+    TypeError
+        For vertices that are not numeric.
+
+    Examples
+    --------
+    >>> glmls.polyline_segments([[0, 0], [10, 0], [10, 5]]).tolist()
     [[[0.0, 0.0], [10.0, 0.0]], [[10.0, 0.0], [10.0, 5.0]]]
     """
     vertices = as_points(points, "polyline")

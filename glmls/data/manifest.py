@@ -48,9 +48,33 @@ _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]{0,63}$")
 
 @dataclass(frozen=True, eq=False)
 class StudyItem:
-    """One image of a study: ``name``, the image's ``shape`` (H, W), its ``handles``
-    (:class:`~glmls.HandleSet`), its ``reference`` points (K, 2) and where the image is
-    (``image_path``; :meth:`image` reads it)."""
+    """One image of a study: its name, size, handles and reference points.
+
+    Parameters
+    ----------
+    name : str
+        The item's name (its column in the study's table, its output folder).
+    shape : tuple of int
+        The image's (H, W).
+    handles : HandleSet
+        The handles of the item's edit.
+    reference : numpy.ndarray
+        Reference points for the triangle errors, (K, 2) with K >= 3.
+    image_path : pathlib.Path or None
+        Where the image is (:meth:`image` reads it); None for an item without a file.
+
+    See Also
+    --------
+    read_manifest : the items of a manifest.
+
+    Examples
+    --------
+    >>> item = glmls.data.study_set()[0]
+    >>> item.name, item.shape, len(item.handles), item.reference.shape
+    ('astronaut', (512, 512), 10, (13, 2))
+    >>> item.image().shape
+    (512, 512, 3)
+    """
 
     name: str
     shape: tuple[int, int]
@@ -59,7 +83,18 @@ class StudyItem:
     image_path: Path | None = None
 
     def image(self) -> np.ndarray:
-        """The image's pixels (read now)."""
+        """The image's pixels, read now.
+
+        Returns
+        -------
+        numpy.ndarray
+            As :func:`glmls.imread` reads it.
+
+        Raises
+        ------
+        ValueError
+            When the item has no image file.
+        """
         if self.image_path is None:
             raise ValueError(f"{self.name}: no image file")
         return imread(self.image_path)
@@ -80,7 +115,34 @@ def image_shape(path: Path) -> tuple[int, int]:
 
 
 def read_manifest(path: str | os.PathLike) -> list[StudyItem]:
-    """The items of the manifest at ``path`` (see the module's description), checked."""
+    """The items of a study manifest, checked.
+
+    A manifest is a JSON file ``{"items": [{"name": ..., "image": ..., "handles": ...,
+    "reference": ...}, ...]}`` (see :mod:`glmls.data.manifest`); paths are relative to its
+    folder. Only each image's header is read.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The manifest.
+
+    Returns
+    -------
+    list of StudyItem
+        The items, in the file's order.
+
+    Raises
+    ------
+    InputFileError
+        A ``ValueError`` naming the manifest, the item and the field: invalid JSON, no items,
+        a missing or unreadable file, fewer than 3 reference points, a name taken twice.
+
+    Examples
+    --------
+    >>> items = glmls.data.read_manifest(glmls.data.study_manifest())
+    >>> len(items), items[1].name, items[1].shape
+    (6, 'chelsea', (300, 451))
+    """
     path = Path(path)
     text = read_text(path)
     try:

@@ -71,11 +71,49 @@ def _too_large(path: Path, width: int, height: int, max_pixels: int) -> None:
 
 
 def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> np.ndarray:
-    """An image file as an array: H x W (grey) or H x W x C; uint8, uint16 (16-bit PNG and
-    TIFF), float32 or float64 (TIFF). Palette and other modes become RGB or RGBA.
+    """Read an image file into an array, without loss of depth.
 
-    ``FileNotFoundError``/``PermissionError`` for a missing or unreadable file, ``ValueError``
-    naming the file for a corrupt or unsupported one, or one of more than ``max_pixels``.
+    PNG (16-bit too), TIFF (16-bit, float32, float64 as they are), and everything else Pillow
+    reads (JPEG, BMP, WebP, GIF, ...) with the EXIF orientation applied. Palette and other
+    modes become RGB or RGBA.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    max_pixels : int, optional
+        The largest image read (W x H); larger ones are refused before they are decoded.
+
+    Returns
+    -------
+    numpy.ndarray
+        H x W (grey) or H x W x C; uint8, uint16 (16-bit PNG and TIFF), float32 or float64
+        (TIFF).
+
+    Raises
+    ------
+    FileNotFoundError, PermissionError
+        For a missing or unreadable file.
+    ValueError
+        Naming the file, for a corrupt or unsupported one, or one of more than ``max_pixels``.
+
+    Warns
+    -----
+    ImageWarning
+        For an animation or a multi-page TIFF, of which the first frame is read.
+
+    See Also
+    --------
+    imwrite : the other way.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "ramp.png"
+    >>> glmls.imwrite(path, np.arange(12, dtype=np.uint16).reshape(3, 4) * 5000)
+    >>> image = glmls.imread(path)
+    >>> image.shape, image.dtype.name, image[2].tolist()
+    ((3, 4), 'uint16', [40000, 45000, 50000, 55000])
     """
     path = Path(path)
     with open(path, "rb") as file:
@@ -213,9 +251,40 @@ def check_writable(path: str | os.PathLike, dtype: object = None, channels: int 
 
 
 def imwrite(path: str | os.PathLike, image: object) -> None:
-    """Write an H x W or H x W x C image (C in 1..4): uint8 to any format of
-    :data:`WRITABLE`, uint16 to PNG or TIFF, float32 and float64 to TIFF. The format follows
-    the suffix; ``ValueError`` before writing anything where it cannot hold the image."""
+    """Write an image to a file whose suffix names its format.
+
+    uint8 to any format of :data:`WRITABLE`, uint16 to PNG or TIFF, float32 and float64 to
+    TIFF; 2 or 4 channels (with alpha) to PNG, TIFF or WebP.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its suffix (``.png``, ``.jpg``, ``.tif``, ...) chooses the format.
+    image : array_like
+        H x W or H x W x C with C in 1..4.
+
+    Raises
+    ------
+    ValueError
+        Before writing anything, for an unknown suffix, a format that cannot hold the image's
+        dtype or alpha, an empty image or a wrong shape.
+
+    See Also
+    --------
+    imread : the other way.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> glmls.imwrite(folder / "depth.tif", np.full((2, 3), 0.25, np.float32))
+    >>> glmls.imread(folder / "depth.tif").dtype.name
+    'float32'
+    >>> glmls.imwrite(folder / "depth.jpg", np.zeros((2, 3), np.float32))
+    Traceback (most recent call last):
+        ...
+    ValueError: ...depth.jpg: .jpg cannot hold float32 images; write it as .tif or .tiff
+    """
     array = np.asarray(image)
     if array.ndim == 3 and array.shape[2] == 1:
         array = array[..., 0]

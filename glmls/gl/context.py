@@ -138,14 +138,62 @@ def _alive(ident: int) -> bool:
 
 
 class GLContext:
-    """A moderngl context plus the glmls programs compiled for it and the objects shared by
-    everything that renders with it.
+    """A moderngl context plus the glmls programs compiled for it and its shared objects.
 
-    ``owned`` contexts (made by :func:`create_headless`) are released with :meth:`release`;
-    borrowed ones (a window's, adopted in the thread where it is current) are left to their
-    owner, only glmls's objects are released. ``shaders``: where programs come from (the
-    package's shaders by default); ``max_programs``: compute programs kept compiled (least
-    recently used released first).
+    The shared objects are those used by everything that renders with the context (one warp
+    pipeline per context, :meth:`shared`). Make one with :func:`get_context` (the shared
+    headless context, or a wrapper of a window's) or :func:`create_headless` (a context of
+    one's own); constructing it directly wraps a moderngl context.
+
+    Parameters
+    ----------
+    mgl : moderngl.Context
+        An OpenGL 4.3+ core context.
+    owned : bool
+        Whether glmls made the context: :meth:`release` releases an owned one; a borrowed
+        one (a window's, adopted in the thread where it is current, which keeps it current
+        there) is left to its owner, and only glmls's objects on it are released.
+    shaders : ShaderLibrary, optional
+        Where programs come from (the package's shaders by default).
+    max_programs : int, optional
+        Compute programs kept compiled (least recently used released first), at least 16.
+
+    Attributes
+    ----------
+    mgl : moderngl.Context
+        The wrapped context.
+    owned : bool
+        Whether glmls made it.
+    released : bool
+        Whether :meth:`release` was called.
+
+    Raises
+    ------
+    GLUnavailableError
+        When the context is older than OpenGL 4.3 or lacks binding points glmls needs.
+    TypeError
+        When ``max_programs`` is not an integer.
+    ValueError
+        When ``max_programs`` is below 16.
+
+    See Also
+    --------
+    get_context : the context glmls uses by default.
+
+    Examples
+    --------
+    >>> from glmls.gl.context import create_headless
+    >>> context = create_headless()  # a headless context of one's own
+    >>> context.owned, context.alive, context.compiled
+    (True, True, 0)
+    >>> context.limits["max_texture_size"] >= 4096
+    True
+    >>> with context:  # current in this thread for the block
+    ...     print(context.mgl.version_code >= 430)
+    True
+    >>> context.release()
+    >>> context.released
+    True
     """
 
     def __init__(
@@ -204,7 +252,15 @@ class GLContext:
         return type(self.mgl.mglo).__name__ != "InvalidObject"
 
     def check_usable(self) -> None:
-        """``ReleasedError`` once released, ``GLUnavailableError`` in a forked child."""
+        """Raise if the context cannot be used in this process.
+
+        Raises
+        ------
+        ReleasedError
+            Once released (or its owner released the moderngl context).
+        GLUnavailableError
+            In a process forked from the one that made it.
+        """
         if self.pid != os.getpid():
             raise GLUnavailableError(_FORK.format(pid=self.pid))
         if self.released or not self.alive:
@@ -280,9 +336,23 @@ class GLContext:
     # -- programs and shared objects --------------------------------------------------------
 
     def compute(self, entry: str, defines: Mapping[str, object] | None = None):
-        """The compute program whose entry file is ``entry`` (e.g. ``"mls/points.comp.glsl"``)
-        with ``defines``: compiled once, kept while among the ``max_programs`` most recently
-        used. Call it within :meth:`use` (glmls's calls are)."""
+        """The compute program of an entry file and defines, compiled once.
+
+        It is kept while among the ``max_programs`` most recently used. Call it within
+        :meth:`use` (glmls's calls are).
+
+        Parameters
+        ----------
+        entry : str
+            The program's entry file under the shaders, e.g. ``"mls/points.comp.glsl"``.
+        defines : mapping, optional
+            Preprocessor definitions, name to value.
+
+        Returns
+        -------
+        moderngl.ComputeShader
+            The compiled program.
+        """
         key = (entry, _frozen(defines))
         program = self._programs.get(key)
         if program is None:
@@ -299,8 +369,22 @@ class GLContext:
     def program(
         self, vertex: str, fragment: str, defines: Mapping[str, object] | None = None
     ) -> moderngl.Program:
-        """The vertex/fragment program of these entry files and defines (compiled once; the
-        drawing programs are a small fixed set, kept for the context's life)."""
+        """The vertex/fragment program of these entry files and defines, compiled once.
+
+        The drawing programs are a small fixed set, kept for the context's life.
+
+        Parameters
+        ----------
+        vertex, fragment : str
+            The stages' entry files under the shaders.
+        defines : mapping, optional
+            Preprocessor definitions, name to value.
+
+        Returns
+        -------
+        moderngl.Program
+            The compiled program.
+        """
         key = (vertex, fragment, _frozen(defines))
         program = self._render_programs.get(key)
         if program is None:
@@ -327,8 +411,22 @@ class GLContext:
             raise ShaderCompileError(self.shaders.explain(str(error), stages)) from None
 
     def shared(self, key: Hashable, factory: Callable[[], _T]) -> _T:
-        """The object stored under ``key`` for this context, made by ``factory()`` on first
-        use: one per context, released with it (or by :meth:`release_shared`)."""
+        """The object stored under ``key`` for this context, made on first use.
+
+        One per context, released with it (or by :meth:`release_shared`).
+
+        Parameters
+        ----------
+        key : hashable
+            The object's name.
+        factory : callable
+            Makes the object (with a ``release()`` method) when there is none yet.
+
+        Returns
+        -------
+        object
+            The stored object.
+        """
         with self._lock:
             obj = self._shared.get(key)
             if obj is None:
@@ -440,11 +538,37 @@ def create_headless(
 
 
 def get_context(ctx: moderngl.Context | GLContext | None = None) -> GLContext:
-    """The :class:`GLContext` to use: the process's shared headless one, or a wrapper of
-    ``ctx``.
+    """The :class:`GLContext` to use: the process's shared headless one, or a wrapper of ``ctx``.
 
     Passing a window's moderngl context (current in the calling thread) makes glmls render
-    into it with the same pipeline.
+    into it with the same pipeline. The shared headless context is made on first use (EGL, no
+    display needed) and released at exit; any thread may use it, one call at a time.
+
+    Parameters
+    ----------
+    ctx : moderngl.Context or GLContext, optional
+        None for the shared headless context; a moderngl context to adopt (one wrapper per
+        moderngl context); a :class:`GLContext` is returned as it is.
+
+    Returns
+    -------
+    GLContext
+        The context.
+
+    Raises
+    ------
+    TypeError
+        When ``ctx`` is neither None, a moderngl context nor a :class:`GLContext`.
+    GLUnavailableError
+        When no OpenGL 4.3 context can be made, or in a process forked after glmls used GL.
+
+    Examples
+    --------
+    >>> context = glmls.gl.get_context()
+    >>> context is glmls.gl.get_context(), context.owned
+    (True, True)
+    >>> glmls.gl.get_context(context) is context
+    True
     """
     global _default
     if isinstance(ctx, GLContext):
