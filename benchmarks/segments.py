@@ -1,4 +1,4 @@
-"""What segment handles cost against point handles (issue 16): 16 of each on a 1024^2 image.
+"""What segment handles cost against point handles: 16 of each on a 1024^2 image.
 
 Cases, each timed in turns (A B C ... A B C ...) so that a noisy machine slows them alike;
 medians and spreads of ``--rounds`` rounds:
