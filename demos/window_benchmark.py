@@ -1,4 +1,4 @@
-"""Frames per second of the real-time window while a handle is dragged (issue 5's figure).
+"""Frames per second of the real-time window while a handle is dragged.
 
 Opens the real window (run it under a display or ``xvfb-run -a``) on the bundled 512 x 512
 photograph with 16 handles at grid 4, feeds a scripted drag of one handle (one cursor move

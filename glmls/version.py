@@ -1,3 +1,3 @@
 """glmls's version (one place: the package, the command line and the wheel's metadata read it)."""
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"

@@ -1,4 +1,4 @@
-"""The package's shape (README "Architecture", ../shared/design.md): layers that import one way,
+"""The package's shape (docs/architecture.md): layers that import one way,
 no import cycle, no module reaching into another's private names, small modules and classes."""
 
 from __future__ import annotations

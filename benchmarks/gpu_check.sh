@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+set -uo pipefail
+cd "$(dirname "$0")/.."
+
+out=${OUT:-bench-out}
+mkdir -p "$out"
+if [ -z "${PYTHON:-}" ]; then
+    if [ -x .venv/bin/python ]; then PYTHON=.venv/bin/python; else PYTHON=python3; fi
+fi
+export PYTHONPATH="$PWD${PYTHONPATH:+:$PYTHONPATH}"
+failed=()
+
+step() {
+    local name=$1 limit=$2
+    shift 2
+    echo "== $name (at most ${limit} s)" >&2
+    local start=$SECONDS
+    if timeout "$limit" "$@" >"$out/$name.txt" 2>&1; then
+        echo "   ok in $((SECONDS - start)) s" >&2
+    else
+        echo "   FAILED (status $?) in $((SECONDS - start)) s; see $out/$name.txt" >&2
+        tail -n 20 "$out/$name.txt" >&2
+        failed+=("$name")
+    fi
+}
+
+{
+    date -u +%FT%TZ
+    uname -a
+    nproc
+    nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv 2>/dev/null || true
+} >"$out/machine.txt" 2>&1
+step gl-info 60 "$PYTHON" -c 'import glmls, glmls.gl as g; c = g.get_context(); i = c.mgl.info; print(glmls.__version__, i["GL_RENDERER"], i["GL_VERSION"], sep="\n")'
+step tests 270 "$PYTHON" -m pytest -x -q -p no:cacheprovider tests/gl tests/engine tests/imaging
+step bench 120 "$PYTHON" benchmarks/run_bench.py --quick --tools glmls --tolerances 0.05 --out "$out/bench"
+step profile-stages 45 "$PYTHON" benchmarks/profile_stages.py --size 1024 --handles 64
+step adaptive-stages-W1 30 "$PYTHON" benchmarks/adaptive_stages.py --workload W1 --tolerance 0.05
+step adaptive-stages-W2 30 "$PYTHON" benchmarks/adaptive_stages.py --workload W2 --tolerance 0.05
+
+if ((${#failed[@]})); then
+    echo "gpu_check: failed: ${failed[*]} (results in $out/)" >&2
+    exit 1
+fi
+echo "gpu_check: all steps passed (results in $out/)" >&2
