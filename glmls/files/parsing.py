@@ -68,8 +68,9 @@ def read_text(path: Path) -> str:
 
 def load_json(path: Path) -> dict:
     """The top-level JSON object of ``path``."""
+    text = read_text(path)  # its own InputFileError (missing, unreadable) passes through as is
     try:
-        data = json.loads(read_text(path))
+        data = json.loads(text)
     except json.JSONDecodeError as error:
         raise fail(path, f"line {error.lineno}", f"invalid JSON: {error.msg}") from None
     except ValueError as error:  # an integer of more than 4,300 digits

@@ -77,8 +77,11 @@ def test_malformed_handle_files(tmp_path, name, text, message):
 
 
 def test_missing_file(tmp_path):
-    with pytest.raises(InputFileError, match="no such file"):
-        read_handles(tmp_path / "nope.json")
+    path = tmp_path / "nope.json"
+    with pytest.raises(InputFileError) as info:
+        read_handles(path)
+    # said once, plainly: not wrapped as an "invalid JSON" fault of the content
+    assert str(info.value) == f"{path}: no such file"
 
 
 @pytest.mark.parametrize(
