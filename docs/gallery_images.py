@@ -9,6 +9,7 @@ every picture written or rewritten since, one under the other, in the order they
 
 from __future__ import annotations
 
+import ast
 import shutil
 from pathlib import Path
 
@@ -52,11 +53,14 @@ def _snapshot(src_file: Path) -> dict[Path, int]:
 def demo_arguments(gallery_conf, script_vars) -> list[str]:
     """sphinx-gallery's ``reset_argv``: the demo's arguments, and the state before it runs.
 
-    The demos find their output folder from ``__file__``, which sphinx-gallery leaves unset;
-    it is set here to the demo's path, as ``python demos/NAME.py`` sets it.
+    The demos find their output folder from ``__file__`` and their ``--help`` text in
+    ``__doc__``; sphinx-gallery leaves the first unset and the second empty, so both are set
+    here as ``python demos/NAME.py`` sets them.
     """
     src_file = Path(script_vars["src_file"]).resolve()
-    script_vars["example_globals"]["__file__"] = str(src_file)
+    names = script_vars["example_globals"]
+    names["__file__"] = str(src_file)
+    names["__doc__"] = ast.get_docstring(ast.parse(src_file.read_text(encoding="utf-8")))
     _before.clear()
     _before.update(_snapshot(src_file))
     _shown.clear()
