@@ -1,7 +1,13 @@
-"""Border modes and the output canvas, before and after: what a deformation that pulls the
-image border in leaves with the constant border (black slivers) and with ``edge`` and
-``symmetric``; and a deformation that pushes the image out, cut off on the input's frame and
-whole on the canvas of ``MLS.bounds`` (``glmls warp --fit``).
+"""
+Border modes and the output canvas
+==================================
+
+A deformation that pulls the image border in leaves black slivers with the constant border
+and fills them with ``border="edge"`` or ``"symmetric"``; a deformation that pushes the
+image out is cut off on the input's frame and kept whole on the canvas of ``MLS.bounds``
+(``glmls warp --fit`` on the command line).
+
+From the command line::
 
     python demos/borders.py [--out demos/out/borders.png] [--scale 0.5]
 
@@ -54,7 +60,9 @@ def compose(panels: list[tuple[Image.Image, str]]) -> Image.Image:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     default = Path(__file__).parent / "out" / "borders.png"
     parser.add_argument("--out", type=Path, default=default)
     parser.add_argument("--scale", type=float, default=0.5, help="size of the panels")

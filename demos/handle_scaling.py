@@ -1,9 +1,17 @@
-"""Time per frame against the number of handles, per handle storage and per weight.
+"""
+Time per frame against the number of handles
+============================================
+
+One interactive frame is a new ``MLS`` (handles uploaded, and sorted into spatial bins where
+used), the deformed image drawn by ``WarpPipeline.render`` into an 8-bit framebuffer, and
+``finish()``. The curves show how the time grows with the number of handles for each handle
+storage and weight; docs/handles.md explains them. The gallery runs it on a 256 x 256 image
+up to 16,384 handles; the defaults below measure a 1024 x 1024 image up to 65,536.
+
+From the command line::
 
     python demos/handle_scaling.py [--size 1024] [--grid 4] [--out demos/out]
 
-One interactive frame = new handles (a new ``MLS``: upload, and sorting into bins where used),
-the deformed image drawn by ``WarpPipeline.render`` into an 8-bit framebuffer, ``finish()``.
 Handles sit on a jittered lattice over the image, targets moved by up to a quarter of the
 lattice step. Curves:
 
@@ -11,13 +19,13 @@ lattice step. Curves:
   ``texture``);
 - the weights with a radius (``cressman``, ``shepard``, ``linear``, ``gaussian``) at
   R = ``--radius`` px with spatial bins (``bins=True``), and ``cressman`` without them;
-- the gaussian with the compact weights' reach: cut (``glmls/bins.py``) at most ``--radius``
-  px beyond the nearest handle, R = radius / sqrt(ln(N / 2^-24)) (3.0 px for 65,536 handles
-  and a radius of 16 px), where the R = 16 px gaussian looks ~5 R = 80 px far.
+- the gaussian with the compact weights' reach: cut at most ``--radius`` px beyond the nearest
+  handle, R = radius / sqrt(ln(N / 2^-24)) (3.0 px for 65,536 handles and a radius of 16 px),
+  where the R = 16 px gaussian looks about 5 R = 80 px far.
 
 A curve stops once a frame takes longer than ``--max-seconds``. Also measured: the most
 handles each storage takes here and what the GL limits guarantee. Writes
-``handle_scaling.png`` and ``handle_scaling.csv``; ``docs/handles.md`` explains them.
+``handle_scaling.png`` and ``handle_scaling.csv``.
 """
 
 from __future__ import annotations
@@ -148,7 +156,9 @@ def plot(results: dict[str, list[tuple[int, float]]], path: Path, title: str) ->
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--size", type=int, default=1024)
     parser.add_argument("--grid", type=int, default=4)
     parser.add_argument("--radius", type=float, default=16.0, help="R of the radius weights, px")

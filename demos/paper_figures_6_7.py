@@ -1,14 +1,19 @@
-"""Figures 6 and 7 of "Extensions to the MLS method for image deformation", on the bundled
-photograph (glmls/data/astronaut.jpg, NASA, public domain).
+"""
+The paper's Figs. 6 and 7: the MLS error field and the angular error
+====================================================================
 
-Fig. 6: input with handles | deformed image (similarity transform, IDW) | MLS error field.
-Fig. 7: input with handles | Delaunay triangulation of the reference points | angular error.
+Four handles are dragged on the astronaut's face (hair up, mouth corners out and up, chin
+down) while the eyes, the head's outline and the frame hold still. Fig. 6: the input with its
+handles, the deformed image (similarity transform, inverse-distance weights) and the MLS error
+field. Fig. 7: the input with its handles, the Delaunay triangulation of reference points on
+the face and each triangle's angular error. ``glmls.analysis.report`` computes all of it.
 
-The deformed image comes from ``MLS.warp`` where that exists; otherwise the deformed mesh
-stands in for it, and the angular errors are drawn over the input image.
+From the command line::
 
     python demos/paper_figures_6_7.py [--out out/paper_figures_6_7] [--grid 1]
                                       [--cmap paper|viridis] [--percentile 99]
+
+The photograph is glmls/data/astronaut.jpg (NASA, public domain).
 """
 
 from __future__ import annotations
@@ -40,7 +45,9 @@ REFERENCE = [
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--out", type=Path, default=Path("out/paper_figures_6_7"))
     parser.add_argument("--grid", type=int, default=1, help="error field mesh step (pixels)")
     parser.add_argument(

@@ -1,11 +1,16 @@
-"""Segment handles keep straight edges straight: on the launch photo, the rocket is tilted
-about its base while the lightning masts, the big towers and the pad hold still. The same edit
-is made twice, with line-segment handles and with point handles at the segments' ends (src = the
-ends, dst = their targets), and the straightness of the result is measured.
+"""
+Segment handles keep straight edges straight
+============================================
+
+On the launch photo the rocket is tilted about its base while the lightning masts, the big
+towers and the pad hold still. The same edit is made twice, with line-segment handles and with
+point handles at the segments' ends, and the table measures how straight each edge stays:
+the points bend the rocket's axis, the segments keep it straight.
+
+From the command line::
 
     python demos/segments.py [--out demos/out/segments.jpg] [--tilt 9] [--scale 1]
         [--transform rigid] [--weight idw] [--alpha 1]
-    python demos/segments.py --out docs/images/segments.jpg     # docs/segments.md's picture
 
 Straightness of a straight edge: points sampled along it in the source are mapped by f
 (``m(points)``) and the largest distance of a mapped point from the straight line through the
@@ -173,7 +178,9 @@ def table(results: dict[str, Version]) -> list[str]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     default = Path(__file__).parent / "out" / "segments.jpg"
     parser.add_argument("--out", type=Path, default=default)
     parser.add_argument("--tilt", type=float, default=9.0, help="degrees, clockwise")

@@ -4,6 +4,7 @@ Used by the tests to check the GPU; it is not a fallback path (it is slow: O(K N
 Conventions as in :class:`glmls.MLS`: points are (x, y) rows, f(v) = v M + T with row vectors.
 
 Degenerate cases follow the same rules as the shader (``glmls/shaders/mls/core.glsl``):
+
 - a point exactly on a handle whose weight is infinite there: f = q_i, and M is the limit,
   the solution over the other handles about p_i;
 - no handle in reach (compact-support weights): identity;

@@ -1,5 +1,6 @@
-"""Every Python example in the README and docs/ runs as written: the blocks of each file, in
-order, in a fresh process (a window's under Xvfb), in an empty folder."""
+"""Every Python example in the README and docs/ (the documentation site's pages and guides)
+runs as written: the blocks of each file, in order, in a fresh process (a window's under
+Xvfb), in an empty folder."""
 
 from __future__ import annotations
 
@@ -25,12 +26,17 @@ def test_the_documents_have_examples():
     counts = {path.name: len(examples(path)) for path in DOCUMENTS}
     assert counts["README.md"] >= 2
     for name in (
-        "analysis.md",
+        "index.md",
+        "getting-started.md",
         "warp.md",
         "handles.md",
-        "window.md",
-        "architecture.md",
         "segments.md",
+        "analysis.md",
+        "construction.md",
+        "study.md",
+        "window.md",
+        "adaptive.md",
+        "architecture.md",
     ):
         assert counts[name] >= 1, name
 

@@ -1,0 +1,112 @@
+"""Sphinx configuration of glmls's documentation site.
+
+Build it with ``bash scripts/docs.sh`` (or ``sphinx-build -W --keep-going -b html docs
+build/docs``). The guides are Markdown (MyST), the API reference comes from the numpydoc
+docstrings through autosummary, and the gallery is made by sphinx-gallery running the scripts
+in ``demos/`` (their pictures are picked up by ``gallery_images.py``). Everything builds
+offline: no intersphinx, no remote fonts, images or analytics.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+
+DOCS = Path(__file__).resolve().parent
+ROOT = DOCS.parent
+sys.path.insert(0, str(DOCS))  # gallery_images
+sys.path.insert(0, str(ROOT))  # glmls from the source tree when it is not installed
+
+import glmls  # noqa: E402
+
+project = "glmls"
+author = "the glmls authors"
+copyright = "the glmls authors"
+version = release = glmls.__version__
+
+extensions = [
+    "myst_parser",
+    "numpydoc",
+    "sphinx.ext.autodoc",
+    "sphinx.ext.autosummary",
+    "sphinx.ext.mathjax",
+    "sphinx_copybutton",
+    "sphinx_design",
+    "sphinx_gallery.gen_gallery",
+]
+
+source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
+root_doc = "index"
+exclude_patterns = ["_build", "images/*.md", "**/README.md"]
+templates_path = ["_templates"]
+
+# --- Markdown guides -----------------------------------------------------------------------
+myst_enable_extensions = ["dollarmath", "deflist", "colon_fence"]
+myst_heading_anchors = 3  # `[text](#a-heading)` links inside and between guides
+
+# --- API reference -------------------------------------------------------------------------
+autosummary_generate = True
+autosummary_imported_members = True
+autodoc_default_options = {"members": True, "inherited-members": False}
+autodoc_typehints = "none"  # numpydoc's Parameters sections carry the types
+numpydoc_show_class_members = False  # the class template lists the members itself
+numpydoc_class_members_toctree = False
+numpydoc_xref_param_type = False
+
+_LITERAL = re.compile(r"(``.*?``|:\w+:`[^`]*`|`[^`]*`_?)")
+
+
+def _escape_bars(app, what, name, obj, options, lines) -> None:
+    """Docstrings write absolute values and norms as plain text, ``|x - mean|``; reST reads a
+    ``|word|`` as a substitution. Bars outside literals, roles and tables are escaped."""
+    for i, line in enumerate(lines):
+        if "|" not in line or line.lstrip().startswith(("| ", "+-", "+=")):
+            continue
+        parts = _LITERAL.split(line)
+        parts[::2] = [part.replace("|", "\\|") for part in parts[::2]]
+        lines[i] = "".join(parts)
+
+
+def setup(app) -> None:
+    app.connect("autodoc-process-docstring", _escape_bars, priority=400)
+
+
+# --- Gallery -------------------------------------------------------------------------------
+sphinx_gallery_conf = {
+    "examples_dirs": str(ROOT / "demos"),
+    "gallery_dirs": "gallery",
+    "filename_pattern": r".*\.py$",  # run every demo ...
+    "ignore_pattern": r"window_benchmark\.py$",  # ... but the one that needs a window
+    "image_scrapers": ("gallery_images",),
+    "reset_argv": "gallery_images.demo_arguments",
+    "reset_modules": (),
+    "download_all_examples": False,
+    "remove_config_comments": True,
+    "within_subsection_order": "FileNameSortKey",
+    "show_memory": False,
+    "plot_gallery": "True",
+    "abort_on_example_error": False,
+}
+
+# --- HTML ----------------------------------------------------------------------------------
+html_theme = "pydata_sphinx_theme"
+html_title = f"glmls {release}"
+html_static_path = ["_static"]
+html_css_files = ["glmls.css"]
+html_logo = None
+html_theme_options = {
+    "navigation_with_keys": False,
+    "show_toc_level": 2,
+    "navbar_align": "left",
+    "header_links_before_dropdown": 6,
+    "secondary_sidebar_items": ["page-toc"],
+    "footer_start": ["copyright"],
+    "footer_end": ["sphinx-version"],
+    "icon_links": [],
+}
+html_sidebars = {"index": [], "getting-started": []}
+html_show_sourcelink = False
+html_copy_source = False
+copybutton_prompt_text = r">>> |\.\.\. |\$ "
+copybutton_prompt_is_regexp = True
