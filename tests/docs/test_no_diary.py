@@ -70,11 +70,9 @@ DOCUMENTS = sorted(
 
 # Guides still being rewritten: expected to fail until they are clean (strict: once one
 # passes, the test fails until it leaves this set).
-PENDING_DOCUMENTS = {"docs/adaptive.md", "docs/handles.md", "docs/warp.md", "docs/window.md"}
 
-# The folders whose Python comments and docstrings are held to the strict patterns; tests/,
-# benchmarks/ and tools/ join them once clean.
-CODE_FOLDERS = ["glmls", "demos"]
+# The folders whose Python comments and docstrings are held to the strict patterns.
+CODE_FOLDERS = ["glmls", "demos", "tests", "benchmarks", "tools", "scripts"]
 
 
 def hits(text: str, patterns: dict[str, re.Pattern[str]]) -> list[str]:
@@ -121,15 +119,7 @@ def code_files(folders: list[str]) -> list[Path]:
     return sorted(path for folder in folders for path in (ROOT / folder).rglob("*.py"))
 
 
-def _document(path: Path):
-    name = path.relative_to(ROOT).as_posix()
-    if name in PENDING_DOCUMENTS:
-        reason = f"{name} is being rewritten; remove it from PENDING_DOCUMENTS once clean"
-        return pytest.param(path, id=name, marks=pytest.mark.xfail(strict=True, reason=reason))
-    return pytest.param(path, id=name)
-
-
-@pytest.mark.parametrize("path", [_document(path) for path in DOCUMENTS])
+@pytest.mark.parametrize("path", DOCUMENTS, ids=lambda p: p.relative_to(ROOT).as_posix())
 def test_documents_speak_of_the_product(path):
     found = hits(document_text(path), _DOCUMENT)
     assert not found, f"{path.relative_to(ROOT)}: development diary wording:\n" + "\n".join(found)
