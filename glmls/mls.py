@@ -881,11 +881,21 @@ class InverseMLS:
     Which points have a preimage: u has one where Newton ends with |f(s) - u| <= 0.05 px,
     for s anywhere in the plane (not only inside the image: ``skimage.transform.warp`` then
     samples outside the image by its ``mode``, as glmls's ``border`` does). Elsewhere the
-    row is NaN: where f leaves u uncovered (e.g. the gap that a compact-support weight
-    leaves around a shrunken region, or a map that collapses the plane), and where u lies
-    beyond the reach of the first guess's mesh and Newton from u itself does not get there.
-    Where f folds, u has several preimages; the one of the first mesh cell in the source's
-    scan order is found (as :meth:`MLS.warp` shows it).
+    row is NaN: where f leaves u uncovered (e.g. where a compact-support weight's reach
+    ends, f jumps from the handles' transform to the identity and may skip a region; or a
+    map that collapses the plane), and where Newton does not get there (u beyond the
+    reach of the first guess's mesh, where Newton starts from u itself, unbounded). Where f
+    folds, u has several preimages; the one of the first mesh cell in the source's scan
+    order is found (as :meth:`MLS.warp` shows it), at the first guess's resolution (which
+    depends on how far the points spread). Far from the image the accuracy follows
+    float32: ~1e-7 of the coordinates.
+
+    ``skimage.transform.warp(image, m.inverse)`` resamples an image by f: what
+    ``m.warp(image, method="backward", interpolation="linear")`` draws, with skimage's
+    ``mode`` in the place of ``border`` (``"edge"`` is the same rule; skimage's
+    ``"constant"`` blends towards ``cval`` in the half pixel at the image's edge). Its pixels
+    whose point has no preimage are NaN, where glmls's hold ``background``:
+    ``np.nan_to_num(out, nan=cval)``.
 
     Parameters
     ----------
@@ -909,12 +919,20 @@ class InverseMLS:
     >>> src = [[10, 10], [50, 10], [10, 40], [50, 40]]
     >>> dst = [[12, 8], [47, 14], [9, 42], [55, 38]]
     >>> with glmls.MLS(src, dst, shape=(50, 60)) as m:
-    ...     s, valid = m.inverse([[12, 8], [30, 25], [1e4, 1e4]], return_valid=True)
-    ...     back = m(s[valid])
-    >>> np.round(s[0], 3).tolist(), valid.tolist()
-    ([10.0, 10.0], [True, True, False])
-    >>> bool(np.abs(back - [[12, 8], [30, 25]]).max() < 1e-3)
+    ...     s = m.inverse([[12, 8], [30, 25], [-100, 300]])
+    ...     back = m(s)
+    >>> np.round(s[0], 3).tolist()
+    [10.0, 10.0]
+    >>> bool(np.abs(back - [[12, 8], [30, 25], [-100, 300]]).max() < 1e-3)
     True
+
+    Within its reach (20 px of (40, 30)) a compact-support weight moves the plane 10 px to
+    the left; past it f is the identity: (55, 30) has no preimage.
+
+    >>> with glmls.MLS([[40, 30]], [[30, 30]], weight="cressman", radius=20) as m:
+    ...     s, valid = m.inverse([[20, 30], [55, 30], [70, 30]], return_valid=True)
+    >>> np.round(s, 3).tolist(), valid.tolist()
+    ([[30.0, 30.0], [nan, nan], [70.0, 30.0]], [True, False, True])
     """
 
     def __init__(self, forward: MLS, *, grid: int = 1) -> None:

@@ -30,8 +30,10 @@ from .raster import MeshRaster
 __all__ = [
     "GUESS_TEXELS",
     "NEWTON_ACCEPT",
+    "NEWTON_MAX_STEP",
     "NEWTON_STEPS",
     "NEWTON_TOLERANCE",
+    "POINTS_NEWTON_STEPS",
     "POINTS_TOLERANCE",
     "InverseSolver",
     "guess_size",
@@ -47,6 +49,11 @@ NEWTON_ACCEPT = 0.05
 #: short next to an image's pixels, and its points are read back as numbers. Where float32
 #: noise in f keeps Newton above it, the last iterate (within NEWTON_ACCEPT) is kept.
 POINTS_TOLERANCE = 1e-4
+#: ... in at most this many steps (a list's points are few: more steps cost little) ...
+POINTS_NEWTON_STEPS = 16
+#: ... each step at most this long (scaled units, a tenth of the image: far from the
+#: solution, Newton's step may overshoot), or 4 texels of the first guess where longer.
+NEWTON_MAX_STEP = 0.2
 #: The first guess at a list of points is drawn over a canvas that holds them all, with at most
 #: this many texels or 4 per point (whichever is more): coarser than a pixel where the points
 #: spread far; Newton refines the guess read at the texel under each point.
@@ -167,10 +174,11 @@ class InverseSolver:
         if not drawn:
             self._raster.draw(kernel, None, lattice, frame, **fill)  # type: ignore[arg-type]
         program = kernel.program(
-            "warp/inverse_points.comp.glsl", {"WARP_NEWTON_STEPS": NEWTON_STEPS}
+            "warp/inverse_points.comp.glsl", {"WARP_NEWTON_STEPS": POINTS_NEWTON_STEPS}
         )
         kernel.bind(program, shape)
         sc = kernel.scaling
+        texel = max(frame.size[0] / size[0], frame.size[1] / size[1])  # pixels
         set_uniforms(
             program,
             {
@@ -179,6 +187,7 @@ class InverseSolver:
                 "u_center": sc.center,
                 "u_scale": sc.scale,
                 "u_tolerance": POINTS_TOLERANCE,
+                "u_max_step": max(NEWTON_MAX_STEP, 4 * texel / sc.scale),
             },
         )
         count = len(points)

@@ -37,7 +37,7 @@ void main() {
     vec4 guess = imageLoad(u_map, p);
     vec2 s = guess.z > 0.5 ? (guess.xy - u_center) / u_scale : u;
     float residual;
-    s = warp_newton(s, u, u_tolerance / u_scale, residual);
+    s = warp_newton(s, u, u_tolerance / u_scale, 0.2, residual);   // a tenth of the image
     residual *= u_scale;
     bool converged = residual <= u_accept;
 #endif

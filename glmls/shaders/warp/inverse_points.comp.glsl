@@ -3,7 +3,8 @@
 // piecewise linear inverse of the mesh over a canvas that holds every point (u_target_size
 // pixels from u_origin, drawn into u_guess_size texels: one texel may span several pixels).
 // The guess is the texel under u, else the covered texel of its 3 x 3 neighbourhood nearest
-// to it, else u itself.
+// to it, else u itself. Newton's steps may be as long as a few texels (u_max_step), so that
+// the first step goes from a texel's centre to u.
 //
 // Out, per point: (s.x, s.y) scaled, |f(s) - u| in pixels, and whether a texel gave the
 // guess.
@@ -26,6 +27,7 @@ uniform ivec2 u_guess_size;    // W, H of u_guess, texels
 uniform int u_count;
 uniform int u_offset;
 uniform float u_tolerance;     // stop below this residual, pixels
+uniform float u_max_step;      // the longest Newton step, scaled: longer with coarse texels
 
 void main() {
     // No early return past the end (as mls/points.comp.glsl): those invocations redo the
@@ -55,7 +57,10 @@ void main() {
     bool guessed = guess.z > 0.5;
     vec2 s = guessed ? (guess.xy - u_center) / u_scale : u;
     float residual;
-    s = warp_newton(s, u, u_tolerance / u_scale, residual);
+    // Without a guess (u beyond the mesh's reach: where f is close to its far-field affine
+    // map) Newton's steps are not bounded: any point it ends at within the tolerance is a
+    // preimage.
+    s = warp_newton(s, u, u_tolerance / u_scale, guessed ? u_max_step : 1e30, residual);
     if (i < u_count) {
         inverse_out[i] = vec4(s, residual * u_scale, guessed ? 1.0 : 0.0);
     }

@@ -5,8 +5,9 @@
 
 // The last iterate from ``s``: stops once |f(s) - u| <= tolerance (scaled), after
 // WARP_NEWTON_STEPS steps, or where f is singular (a fold's edge); ``residual`` is its
-// |f(s) - u|, scaled.
-vec2 warp_newton(vec2 s, vec2 u, float tolerance, out float residual) {
+// |f(s) - u|, scaled. A step goes at most ``max_step`` (scaled): far from the solution,
+// Newton's step may overshoot.
+vec2 warp_newton(vec2 s, vec2 u, float tolerance, float max_step, out float residual) {
     float h = 0.25 / u_scale;   // a quarter pixel: float32 noise in f is ~1e-4 of it
     residual = 0.0;
     for (int k = 0; ; ++k) {
@@ -23,9 +24,8 @@ vec2 warp_newton(vec2 s, vec2 u, float tolerance, out float residual) {
             break;   // f is singular here (a fold's edge): keep the best point so far
         }
         vec2 step = vec2(jy.y * r.x - jy.x * r.y, jx.x * r.y - jx.y * r.x) / det;
-        // Far from the solution, go at most a tenth of the image per step.
         float len = length(step);
-        s -= len > 0.2 ? step * (0.2 / len) : step;
+        s -= len > max_step ? step * (max_step / len) : step;
     }
     return s;
 }
