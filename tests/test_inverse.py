@@ -161,7 +161,7 @@ def test_without_shape_and_with_a_coarser_guess(gl, rng):
 
 
 def test_inverse_mls_checks_its_arguments(gl):
-    with pytest.raises(TypeError, match="forward must be a glmls.MLS"):
+    with pytest.raises(TypeError, match=r"forward must be a glmls\.MLS"):
         glmls.InverseMLS(object())  # type: ignore[arg-type]
     with glmls.MLS(SRC, DST, ctx=gl) as m:
         with pytest.raises(ValueError, match="grid"):

@@ -148,12 +148,32 @@ def covering_frame(points: np.ndarray) -> Frame:
 
 @dataclass(frozen=True)
 class Bounds:
-    """The bounding box of a deformed image: x from ``x0`` to ``x1``, y from ``y0`` to
-    ``y1`` (pixels: the deformed corners of the pixel squares, so the identity gives -0.5 to
-    W - 0.5). :attr:`output_shape` and :attr:`origin` are the canvas of every pixel the box
-    touches: ``m.warp(image, output_shape=b.output_shape, origin=b.origin)`` shows the whole
-    deformed image, nothing cut off, with every method (``splat`` rounds points to the
-    nearest pixel, so a pixel that its centre leaves outside the box can still be hit)."""
+    """The bounding box of a deformed image, and the canvas that shows all of it.
+
+    x from ``x0`` to ``x1``, y from ``y0`` to ``y1``, in pixels: the deformed corners of the
+    pixel squares, so the identity gives -0.5 to W - 0.5. :attr:`output_shape` and
+    :attr:`origin` are the canvas of every pixel the box touches:
+    ``m.warp(image, output_shape=b.output_shape, origin=b.origin)`` shows the whole deformed
+    image, nothing cut off, with every method (``splat`` rounds points to the nearest pixel,
+    so a pixel that its centre leaves outside the box can still be hit). Made by
+    :meth:`glmls.MLS.bounds`.
+
+    Parameters
+    ----------
+    x0, y0 : float
+        The box's smallest x and y, pixels.
+    x1, y1 : float
+        Its largest x and y, pixels.
+
+    Examples
+    --------
+    >>> import glmls
+    >>> b = glmls.Bounds(-3.2, 0.5, 40.5, 20.9)
+    >>> b.origin, b.output_shape
+    ((-3.0, 1.0), (21, 44))
+    >>> glmls.Bounds(-0.5, -0.5, 5.5, 3.5).output_shape  # the identity on a 4 x 6 image
+    (4, 6)
+    """
 
     x0: float
     y0: float
@@ -178,6 +198,7 @@ class Bounds:
 
     @property
     def frame(self) -> Frame:
+        """The canvas of :attr:`output_shape` and :attr:`origin` as a :class:`Frame`."""
         return Frame(self.output_shape, self.origin)
 
 
