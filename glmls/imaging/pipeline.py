@@ -41,7 +41,6 @@ from .adaptive_scan import AdaptiveScan
 from .bands import MeshBands
 from .cells import CellScan
 from .frame import (
-    MARGIN_POINTS,
     Bounds,
     Frame,
     border_margin,
@@ -65,6 +64,13 @@ from .source import (
 )
 
 __all__ = ["Deformation", "FillChoices", "WarpPipeline"]
+
+
+#: f's inverse at points: the first guess's mesh, extended past the image, has at most this
+#: many points (at grid 1) or 4 per pixel of the image and per point, whichever is more.
+#: Points beyond its reach start Newton from themselves, where f is close to its far-field
+#: affine map.
+GUESS_MESH_POINTS = 1 << 20
 
 
 class FillChoices(NamedTuple):
@@ -407,8 +413,8 @@ class WarpPipeline:
 
         The first guess is the rasterized inverse of the mesh of an image of ``shape`` (step
         ``grid``), extended past the image until its deformed border encloses the points
-        (:func:`~glmls.imaging.frame.border_margin`, with a budget of mesh points in
-        proportion to the image and the points), drawn over a canvas that holds the points
+        (:func:`~glmls.imaging.frame.border_margin`, within :data:`GUESS_MESH_POINTS`),
+        drawn over a canvas that holds the points
         (:func:`~glmls.imaging.inverse.guess_size` texels). f is the deformation's own, as
         its ``__call__`` evaluates it.
 
@@ -440,7 +446,7 @@ class WarpPipeline:
             return np.zeros((0, 2)), np.zeros(0)
         frame = covering_frame(points)
         lattice = MeshLattice.corners(shape, grid)
-        budget = max(MARGIN_POINTS, 2 * (shape[0] * shape[1] + count))
+        budget = max(GUESS_MESH_POINTS, 4 * (shape[0] * shape[1] + count))
         margin = border_margin(kernel, lattice, frame, warn=False, max_points=budget)
         with _keep_framebuffer(self._gl.mgl):
             out = self._inverse.solve_points(
