@@ -873,10 +873,12 @@ class InverseMLS:
     Usually reached as :attr:`MLS.inverse`. Solved on the GPU as the ``backward`` method
     solves each output pixel: a first guess from the rasterized inverse of the deformed mesh
     of the MLS's image (its ``shape``; without one, the smallest image from pixel (0, 0)
-    that holds the source handles), extended past the image until its deformed
-    border encloses the points (as far as :func:`glmls.imaging.frame.border_margin` goes),
-    then Newton's method on f, stopping below 1e-4 px. f is the MLS's own, as ``m(points)``
-    evaluates it, so ``m(inv(u))`` is u within about 1e-3 px (float32 on the GPU).
+    that holds the source handles), extended past the image until its deformed border
+    encloses the points (:func:`glmls.imaging.frame.border_margin`, within
+    :data:`glmls.imaging.pipeline.GUESS_MESH_POINTS` mesh points) and drawn over a canvas
+    that holds them, then Newton's method on f, stopping below 1e-4 px. f is the MLS's
+    own, as ``m(points)`` evaluates it, so ``m(inv(u))`` is u within about 1e-3 px (float32
+    on the GPU).
 
     Which points have a preimage: u has one where Newton ends with |f(s) - u| <= 0.05 px,
     for s anywhere in the plane (not only inside the image: ``skimage.transform.warp`` then
@@ -893,7 +895,8 @@ class InverseMLS:
     ``skimage.transform.warp(image, m.inverse)`` resamples an image by f: what
     ``m.warp(image, method="backward", interpolation="linear")`` draws, with skimage's
     ``mode`` in the place of ``border`` (``"edge"`` is the same rule; skimage's
-    ``"constant"`` blends towards ``cval`` in the half pixel at the image's edge). Its pixels
+    ``"constant"`` blends towards ``cval`` past the edge pixels' centres, where glmls reads
+    the edge pixels up to the image's border). Its pixels
     whose point has no preimage are NaN, where glmls's hold ``background``:
     ``np.nan_to_num(out, nan=cval)``.
 

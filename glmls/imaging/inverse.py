@@ -28,6 +28,7 @@ from .options import PipelineOptions
 from .raster import MeshRaster
 
 __all__ = [
+    "GUESS_MAX_TEXELS",
     "GUESS_TEXELS",
     "NEWTON_ACCEPT",
     "NEWTON_MAX_STEP",
@@ -52,20 +53,24 @@ POINTS_TOLERANCE = 1e-4
 #: ... in at most this many steps (a list's points are few: more steps cost little) ...
 POINTS_NEWTON_STEPS = 16
 #: ... each step at most this long (scaled units, a tenth of the image: far from the
-#: solution, Newton's step may overshoot), or 4 texels of the first guess where longer.
+#: solution, Newton's step may overshoot), or 4 texels of the first guess where longer;
+#: unbounded where no texel gave a guess (Newton from u itself).
 NEWTON_MAX_STEP = 0.2
 #: The first guess at a list of points is drawn over a canvas that holds them all, with at most
-#: this many texels or 4 per point (whichever is more): coarser than a pixel where the points
-#: spread far; Newton refines the guess read at the texel under each point.
+#: this many texels or 4 per point (whichever is more, up to GUESS_MAX_TEXELS, 256 MiB of
+#: RGBA32F): coarser than a pixel where the points spread far; Newton refines the guess read
+#: at the texel under each point.
 GUESS_TEXELS = 1 << 18
+GUESS_MAX_TEXELS = 1 << 24
 
 
 def guess_size(frame: Frame, points: int, limit: int) -> tuple[int, int]:
     """(W, H) texels of the first guess over ``frame`` for ``points`` points: the frame's
     pixels, or fewer, each texel the same fraction of the frame, to stay within
-    max(:data:`GUESS_TEXELS`, 4 ``points``) texels and ``limit`` texels a side."""
+    max(:data:`GUESS_TEXELS`, 4 ``points``) texels (at most :data:`GUESS_MAX_TEXELS`) and
+    ``limit`` texels a side."""
     width, height = frame.size
-    budget = max(GUESS_TEXELS, 4 * points)
+    budget = min(max(GUESS_TEXELS, 4 * points), GUESS_MAX_TEXELS)
     step = max(1.0, math.sqrt(width * height / budget), width / limit, height / limit)
     if step == 1.0:
         return width, height

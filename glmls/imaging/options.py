@@ -16,7 +16,7 @@ from .adaptive import check_adaptive
 from .frame import check_origin, check_output_shape
 from .source import check_background, check_options
 
-__all__ = ["Default", "PipelineOptions", "WarpOptions", "default"]
+__all__ = ["FIELDS", "Default", "PipelineOptions", "WarpOptions", "default"]
 
 _T = TypeVar("_T")
 
