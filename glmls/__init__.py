@@ -3,8 +3,9 @@
 Conventions: points are ``(x, y)`` = (column, row) float arrays of shape (N, 2); pixel centres
 sit at integer coordinates; f(v) = v M + T with row vectors.
 
-The top level holds what a user calls: :class:`MLS` and :func:`warp`, their configuration,
-the handle types, image files, the bundled data, the exceptions and the names of the choices.
+The top level holds what a user calls: :class:`MLS` (and its :class:`InverseMLS`) and
+:func:`warp`, their configuration and :class:`WarpOptions`, the handle types, image files,
+the bundled data, the exceptions and the names of the choices.
 The numerical analysis lives in :mod:`glmls.analysis`, the OpenGL plumbing (contexts, the
 warp pipeline) in :mod:`glmls.gl`, the float64 reference of the mathematics in
 :mod:`glmls.reference`.
@@ -25,8 +26,9 @@ from .errors import (
 )
 from .files.images import imread, imwrite
 from .imaging.frame import Bounds
+from .imaging.options import WarpOptions
 from .imaging.source import BORDERS, INTERPOLATIONS, METHODS
-from .mls import MLS, warp
+from .mls import MLS, InverseMLS, warp
 from .version import __version__
 
 __all__ = [
@@ -46,8 +48,10 @@ __all__ = [
     "HandleSet",
     "ImageWarning",
     "InputFileError",
+    "InverseMLS",
     "MLSConfig",
     "ReleasedError",
+    "WarpOptions",
     "__version__",
     "analysis",
     "data",

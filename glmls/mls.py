@@ -1,9 +1,17 @@
-"""The public :class:`MLS` deformation and the one-call :func:`warp`: the facade over the
-engine (:mod:`glmls.engine`, f on the GPU) and the image construction (:mod:`glmls.imaging`)."""
+"""The public :class:`MLS` deformation, its inverse :class:`InverseMLS` and the one-call
+:func:`warp`: the facade over the engine (:mod:`glmls.engine`, f on the GPU) and the image
+construction (:mod:`glmls.imaging`).
+
+An :class:`MLS` follows scikit-image's transform protocol: ``m(points)`` is f,
+``m.inverse(points)`` is f's inverse and ``m.residuals(src, dst)`` the distances
+|f(src) - dst|, so ``skimage.transform.warp(image, m.inverse)`` resamples an image by it.
+"""
 
 from __future__ import annotations
 
 import functools
+import inspect
+import math
 from collections.abc import Callable, Sequence
 from typing import TypeVar
 
@@ -13,16 +21,19 @@ import numpy as np
 from .core.config import MLSConfig
 from .core.handles import Scaling, as_points, check_coordinates
 from .core.handleset import HandleSet
-from .core.mesh import MeshLattice, as_shape
+from .core.mesh import MeshLattice, as_shape, check_grid
 from .engine.error_field import error_at
 from .engine.error_field import error_field as evaluate_error_field
 from .engine.kernel import DEFAULT_STORAGE, MLSKernel
 from .engine.passes import evaluate_lattice, evaluate_points
 from .gl.context import GLContext, current, get_context
 from .imaging.adaptive import AdaptiveMesh, check_adaptive, interpolate
-from .imaging.deformed import DeformedImages
+from .imaging.frame import Bounds
+from .imaging.inverse import NEWTON_ACCEPT
+from .imaging.options import FIELDS, WarpOptions, default
+from .imaging.pipeline import WarpPipeline
 
-__all__ = ["MLS", "warp"]
+__all__ = ["MLS", "InverseMLS", "warp"]
 
 _R = TypeVar("_R")
 
@@ -39,40 +50,80 @@ def on_gpu(method: Callable[..., _R]) -> Callable[..., _R]:
     return wrapper
 
 
-class MLS(DeformedImages):
-    """A Moving Least Squares deformation from source handles ``src`` (p) to ``dst`` (q).
+class MLS:
+    """A Moving Least Squares deformation f from source handles ``src`` (p) to ``dst`` (q).
 
     Points are ``(x, y)`` = (column, row) rows of (N, 2) float arrays; pixel centres sit at
     integer coordinates, so pixel (row r, column c) is the point (c, r) and covers
     [c - 0.5, c + 0.5] x [r - 0.5, r + 0.5]. With row vectors (the paper's eq. 1),
-    ``f(v) = v @ M(v) + T(v)``.
-
-    Segment handles (Schaefer et al. 2006, section 4): ``src_segments`` and ``dst_segments``,
-    (S, 2, 2) arrays, segment s running from ``src_segments[s, 0]`` to ``src_segments[s, 1]``
-    and going to ``dst_segments[s, 0]``-``dst_segments[s, 1]`` (:func:`glmls.polyline_segments`
-    turns polylines into segments). Each weighs its points per unit of length, so a segment
-    split in two is the same handle; they mix with point handles (``src``/``dst`` may be
-    empty, shape (0, 2)). With a weight infinite at d = 0, f maps every point of a source
-    segment onto its target segment.
-
-    Parameters (keyword-only; :class:`glmls.MLSConfig` has the formulas): ``transform``,
-    ``weight`` (:data:`glmls.WEIGHTS`), ``alpha``, ``s`` (idw), ``radius`` (pixels; the image
-    diagonal when ``None`` and an image size is known), ``interpolating`` (make any weight
-    interpolate the handles); ``shape`` (H, W) of the image, for the default radius; ``ctx``
-    a moderngl context to render with (default: glmls's shared headless EGL one);
-    ``storage`` where the handles live on the GPU: ``auto`` (default: ``ubo`` where they
-    fit, else ``ssbo``), ``ssbo``, ``ubo`` or ``texture`` (:mod:`glmls.engine.storage`);
-    ``bins``: sort the handles into a spatial grid so that each point visits only those in
-    reach (radius weights, :mod:`glmls.engine.bins`): ``None`` (default) where it pays,
-    ``True`` always, ``False`` never.
+    ``f(v) = v @ M(v) + T(v)``. Like scikit-image's transforms, ``m(points)`` is f,
+    :attr:`inverse` is f's inverse (an :class:`InverseMLS`) and :meth:`residuals` measures
+    how far f takes points from targets; :meth:`warp` deforms images on the GPU.
 
     Special cases: no handles is the identity and one handle a translation by q - p, for every
-    transform. Affine needs 3 source handles not on one line (else
-    :class:`glmls.DegenerateHandlesError`); where a compact-support weight reaches fewer at a
-    point, that point uses the similarity solution. A point that no handle reaches stays put.
+    transform. Where a compact-support weight reaches fewer than the transform needs at a
+    point, that point uses the similarity solution; a point that no handle reaches stays put.
+    GPU objects are released by :meth:`release` (or a ``with`` block); the images come from
+    its context's shared :class:`~glmls.gl.WarpPipeline`.
 
-    GPU objects are released by :meth:`release` (or a ``with`` block); the images it builds
-    come from its context's shared :class:`~glmls.gl.WarpPipeline`.
+    Parameters
+    ----------
+    src, dst : array_like
+        (N, 2) source and target handle points (N may be 0).
+    src_segments, dst_segments : array_like or None
+        (S, 2, 2) segment handles (Schaefer et al. 2006, section 4): segment s runs from
+        ``src_segments[s, 0]`` to ``src_segments[s, 1]`` and goes to ``dst_segments[s, 0]``-
+        ``dst_segments[s, 1]`` (:func:`glmls.polyline_segments` turns polylines into
+        segments). Each weighs its points per unit of length, so a segment split in two is
+        the same handle; with a weight infinite at d = 0, f maps every point of a source
+        segment onto its target segment.
+    transform : {"rigid", "similarity", "affine"}, default "rigid"
+        The transform fitted at each point (:data:`glmls.TRANSFORMS`).
+    weight : str, default "idw"
+        The weight (:data:`glmls.WEIGHTS`; :class:`glmls.MLSConfig` has the formulas).
+    alpha : float, default 1.0
+        The weight's exponent (idw).
+    s : float, default 1e-8
+        idw's regularisation.
+    radius : float or None, default None
+        Influence radius in pixels (radius weights); None: the image diagonal of ``shape``.
+    interpolating : bool, default False
+        Make any weight interpolate the handles.
+    shape : (int, int) or None, default None
+        (H, W) of the image, for the default radius (and :attr:`inverse`'s first guess).
+    ctx : moderngl.Context or GLContext or None
+        The context to render with (default: glmls's shared headless EGL one).
+    storage : {"auto", "ssbo", "ubo", "texture"}, default "auto"
+        Where the handles live on the GPU: ``auto`` takes ``ubo`` where they fit, else
+        ``ssbo`` (:mod:`glmls.engine.storage`).
+    bins : bool or None, default None
+        Sort the handles into a spatial grid so that each point visits only those in reach
+        (radius weights, :mod:`glmls.engine.bins`): None where it pays, True always, False
+        never.
+
+    Raises
+    ------
+    ValueError
+        For handles of the wrong shape, non-finite or beyond ±1e6 px, ``src`` and ``dst`` of
+        different lengths, or a bad configuration (named).
+    TypeError
+        For handles that are not real numbers, or a ``ctx`` of another type.
+    glmls.DegenerateHandlesError
+        For an affine MLS whose source handles do not span the plane (3 points on a line).
+    glmls.GLUnavailableError
+        Where no OpenGL 4.3 context can be made.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import glmls
+    >>> src = [[0, 0], [5, 0], [0, 3], [5, 3]]
+    >>> dst = [[1, 0], [6, 0], [1, 3], [6, 3]]  # one pixel to the right
+    >>> with glmls.MLS(src, dst, shape=(4, 6)) as m:
+    ...     print(np.round(m([[2, 1]]), 3).tolist())
+    ...     print(m.warp(np.arange(24, dtype=np.uint8).reshape(4, 6))[0].tolist())
+    [[3.0, 1.0]]
+    [0, 0, 1, 2, 3, 4]
     """
 
     def __init__(
@@ -118,7 +169,34 @@ class MLS(DeformedImages):
         storage: str = DEFAULT_STORAGE,
         bins: bool | None = None,
     ) -> MLS:
-        """An MLS with the settings of an :class:`MLSConfig`."""
+        """An MLS with the settings of an :class:`MLSConfig`.
+
+        Parameters
+        ----------
+        src, dst : array_like
+            (N, 2) handle points.
+        config : MLSConfig
+            transform, weight, alpha, s, radius, interpolating.
+        src_segments, dst_segments, shape, ctx, storage, bins
+            As :class:`MLS`'s.
+
+        Returns
+        -------
+        MLS
+
+        Raises
+        ------
+        TypeError
+            If ``config`` is not an :class:`MLSConfig`; else as :class:`MLS`.
+
+        Examples
+        --------
+        >>> import glmls
+        >>> config = glmls.MLSConfig(transform="similarity")
+        >>> with glmls.MLS.from_config([[0, 0]], [[2, 1]], config) as m:
+        ...     print(m([[5, 5]]).tolist())
+        [[7.0, 6.0]]
+        """
         if not isinstance(config, MLSConfig):
             raise TypeError(f"config must be an MLSConfig, got {type(config).__name__}")
         self = cls.__new__(cls)
@@ -156,7 +234,11 @@ class MLS(DeformedImages):
             self._swapped.release()
             self._swapped = None
 
-    # -- public API ---------------------------------------------------------------------
+    def _pipeline(self) -> WarpPipeline:
+        self._kernel.check_alive()
+        return WarpPipeline.of(self._gl)
+
+    # -- the handles and the GPU state ------------------------------------------------------
 
     @property
     def src(self) -> np.ndarray:
@@ -185,6 +267,7 @@ class MLS(DeformedImages):
 
     @property
     def ctx(self) -> GLContext:
+        """The :class:`~glmls.gl.GLContext` this MLS renders with."""
         return self._gl
 
     @property
@@ -203,11 +286,28 @@ class MLS(DeformedImages):
         return self._kernel.storage
 
     def defines(self) -> dict[str, object]:
-        """The ``#define`` values of the MLS shaders for this configuration (the kernel's)."""
+        """The ``#define`` values of the MLS shaders for this configuration (the kernel's).
+
+        Returns
+        -------
+        dict
+            Name -> value, as the shaders are compiled with.
+        """
         return self._kernel.defines()
 
     def uniforms(self, shape: tuple[int, int] | None = None) -> dict[str, float | bool]:
-        """The MLS uniforms for an image of ``shape``, in scaled units (the kernel's)."""
+        """The MLS uniforms for an image of ``shape``, in scaled units (the kernel's).
+
+        Parameters
+        ----------
+        shape : (int, int) or None
+            (H, W) whose diagonal is the default radius (None: the MLS's own ``shape``).
+
+        Returns
+        -------
+        dict
+            Uniform name -> value.
+        """
         return self._kernel.uniforms(shape)
 
     @on_gpu
@@ -216,16 +316,49 @@ class MLS(DeformedImages):
     ) -> None:
         """Replace the handles (any count, points and segments), keeping the configuration.
 
-        Validated like the constructor's; on error nothing changes. Cheaper than a new
-        :class:`MLS` per frame of a drag: the handles go through the same upload as the
-        constructor's (storage for their count, spatial bins rebuilt), nothing is compiled
-        (unless segments appear or all go: their code is compiled in only where there are).
+        Cheaper than a new :class:`MLS` per frame of a drag: the handles go through the same
+        upload as the constructor's (storage for their count, spatial bins rebuilt), nothing
+        is compiled (unless segments appear or all go: their code is compiled in only where
+        there are).
+
+        Parameters
+        ----------
+        src, dst : array_like
+            (N, 2) handle points.
+        src_segments, dst_segments : array_like or None
+            (S, 2, 2) segment handles.
+
+        Raises
+        ------
+        ValueError, TypeError, glmls.DegenerateHandlesError
+            As the constructor's; on error nothing changes.
+        glmls.ReleasedError
+            After :meth:`release`.
+
+        Examples
+        --------
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0]], [[1, 0]]) as m:
+        ...     m.set_handles([[0, 0]], [[0, 2]])
+        ...     print(m([[3, 3]]).tolist())
+        [[3.0, 5.0]]
         """
         self._store(self._validate(src, dst, src_segments, dst_segments))
 
     def swapped_kernel(self) -> MLSKernel:
-        """The kernel of the MLS map with p and q swapped (``backward-swap``), made on first
-        use with this configuration and scaling."""
+        """The kernel of the MLS map with p and q swapped (``backward-swap``).
+
+        Returns
+        -------
+        MLSKernel
+            Made on first use with this configuration and scaling, kept until the handles
+            change.
+
+        Raises
+        ------
+        glmls.ReleasedError
+            After :meth:`release`.
+        """
         self._kernel.check_alive()
         if self._swapped is None:
             swapped = MLSKernel(self._gl, self.config, **self._options)  # type: ignore[arg-type]
@@ -233,18 +366,131 @@ class MLS(DeformedImages):
             self._swapped = swapped
         return self._swapped
 
+    # -- f at points: scikit-image's transform protocol ------------------------------------
+
     @on_gpu
     def __call__(self, points: object) -> np.ndarray:
-        """f(points): (K, 2) float64, evaluated on the GPU."""
+        """f at ``points``, evaluated on the GPU.
+
+        Parameters
+        ----------
+        points : array_like
+            (K, 2) points (x, y), finite, within ±1e6 px; (0, 2) gives (0, 2).
+
+        Returns
+        -------
+        numpy.ndarray
+            (K, 2) float64 f(points) (float32 on the GPU: ~1e-7 of the coordinates' extent).
+
+        Raises
+        ------
+        ValueError
+            For points of another shape, non-finite or beyond ±1e6 px.
+        TypeError
+            For points that are not real numbers.
+        glmls.ReleasedError
+            After :meth:`release`.
+        """
         f, _ = evaluate_points(self._kernel, _points(points), with_matrix=False)
         return f
 
+    @property
+    def inverse(self) -> InverseMLS:
+        """f's inverse as a transform: ``m.inverse(points)`` solves f(s) = u on the GPU.
+
+        A new :class:`InverseMLS` of this MLS (it follows :meth:`set_handles`; nothing is
+        cached); ``m.inverse.inverse`` is ``m``.
+
+        Raises
+        ------
+        glmls.ReleasedError
+            After :meth:`release`.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0], [9, 0], [0, 9]], [[1, 1], [10, 1], [1, 10]]) as m:
+        ...     print(np.round(m.inverse([[5, 5]]), 3).tolist())
+        [[4.0, 4.0]]
+        """
+        self._kernel.check_alive()
+        return InverseMLS(self)
+
+    def residuals(self, src: object, dst: object) -> np.ndarray:
+        """The distance between f at ``src`` and ``dst``, per point (scikit-image's
+        ``residuals``).
+
+        Parameters
+        ----------
+        src, dst : array_like
+            (K, 2) points each.
+
+        Returns
+        -------
+        numpy.ndarray
+            (K,) float64 |f(src) - dst|, pixels.
+
+        Raises
+        ------
+        ValueError
+            For points of another shape, non-finite, or ``src`` and ``dst`` of different
+            lengths.
+        TypeError
+            For points that are not real numbers.
+        glmls.ReleasedError
+            After :meth:`release`.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0]], [[3, 4]]) as m:
+        ...     print(np.round(m.residuals([[1, 1], [2, 2]], [[4, 5], [2, 2]]), 3).tolist())
+        [0.0, 5.0]
+        """
+        source, target = _points(src, "src"), _points(dst, "dst")
+        if len(source) != len(target):
+            raise ValueError(
+                f"src and dst must have the same length, got {len(source)} and {len(target)}"
+            )
+        return np.hypot(*(self(source) - target).T)
+
     @on_gpu
     def matrices(self, points: object) -> tuple[np.ndarray, np.ndarray]:
-        """(M, T): (K, 2, 2) and (K, 2) float64 with ``f(v) = v @ M + T`` for each point."""
+        """The affine map of the MLS at each point: ``f(v) = v @ M + T``.
+
+        Parameters
+        ----------
+        points : array_like
+            (K, 2) points.
+
+        Returns
+        -------
+        M : numpy.ndarray
+            (K, 2, 2) float64.
+        T : numpy.ndarray
+            (K, 2) float64.
+
+        Raises
+        ------
+        ValueError, TypeError, glmls.ReleasedError
+            As :meth:`__call__`.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0]], [[2, 0]]) as m:
+        ...     M, T = m.matrices([[1, 1]])
+        >>> np.round(M, 3).tolist(), np.round(T, 3).tolist()
+        ([[[1.0, 0.0], [0.0, 1.0]]], [[2.0, 0.0]])
+        """
         v = _points(points)
         f, m = evaluate_points(self._kernel, v, with_matrix=True)
         return m, f - np.einsum("ki,kij->kj", v, m)  # type: ignore[return-value]
+
+    # -- meshes and images -----------------------------------------------------------------
 
     @on_gpu
     def mesh(
@@ -253,11 +499,39 @@ class MLS(DeformedImages):
         """The mesh of pixel-square corners of an image of ``shape`` and its image under f.
 
         Vertices sit at x = -0.5, -0.5 + grid, ..., W - 0.5 (the last step may be shorter),
-        likewise in y. Returns (vertices, deformed), each (rows, columns, 2) float64.
+        likewise in y.
 
-        With ``tolerance`` (pixels; ``grid`` must stay 1): the error-bounded adaptive mesh
-        that :meth:`warp` draws with that tolerance, a :class:`~glmls.imaging.adaptive.AdaptiveMesh`
-        (vertices, f at them, triangles, leaves; ``docs/adaptive.md``).
+        Parameters
+        ----------
+        shape : (int, int)
+            (H, W) of the image.
+        grid : int, default 1
+            The mesh step, pixels.
+        tolerance : float or None, default None
+            Pixels (``grid`` must stay 1): the error-bounded adaptive mesh that :meth:`warp`
+            draws with that tolerance (``docs/adaptive.md``).
+
+        Returns
+        -------
+        (vertices, deformed) or AdaptiveMesh
+            Each (rows, columns, 2) float64; with ``tolerance`` an
+            :class:`~glmls.imaging.adaptive.AdaptiveMesh` (vertices, f at them, triangles,
+            leaves).
+
+        Raises
+        ------
+        ValueError
+            For a bad ``shape``, ``grid`` or ``tolerance`` (named).
+        glmls.ReleasedError
+            After :meth:`release`.
+
+        Examples
+        --------
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0]], [[1, 0]]) as m:
+        ...     vertices, deformed = m.mesh((4, 6), grid=2)
+        >>> vertices.shape, deformed[0, 0].tolist()
+        ((3, 4, 2), [0.5, -0.5])
         """
         if tolerance is not None:
             value = check_adaptive("quads", grid, tolerance)
@@ -274,15 +548,42 @@ class MLS(DeformedImages):
     def error_field(
         self, shape: Sequence[int], *, grid: int = 1, tolerance: float | None = None
     ) -> np.ndarray:
-        """The MLS error field E_MLS (paper eq. 7) of an image of ``shape``: (H, W) float64.
+        """The MLS error field E_MLS (paper eq. 7) of an image of ``shape``.
 
         E_MLS(v) = sum_i |p_i M_v + T_v - q_i|^2 at every pixel centre, in square pixels,
-        unweighted so that configurations with different weights compare fairly. ``grid``
-        = 1 evaluates every pixel centre; ``grid`` > 1 the vertices of :meth:`mesh`'s mesh,
-        interpolated bilinearly to the pixel centres (both on the GPU). ``tolerance``
-        (``grid`` 1): the vertices of the adaptive mesh of that tolerance, interpolated on
-        each leaf's quadratic patch (numpy). float32 on the GPU: expect a relative error of
-        ~1e-6 to 1e-5.
+        unweighted so that configurations with different weights compare fairly. float32 on
+        the GPU: expect a relative error of ~1e-6 to 1e-5.
+
+        Parameters
+        ----------
+        shape : (int, int)
+            (H, W) of the image.
+        grid : int, default 1
+            1 evaluates every pixel centre; > 1 the vertices of :meth:`mesh`'s mesh,
+            interpolated bilinearly to the pixel centres (both on the GPU).
+        tolerance : float or None, default None
+            (``grid`` 1) the vertices of the adaptive mesh of that tolerance, interpolated on
+            each leaf's quadratic patch (numpy).
+
+        Returns
+        -------
+        numpy.ndarray
+            (H, W) float64.
+
+        Raises
+        ------
+        ValueError
+            For a bad ``shape``, ``grid`` or ``tolerance`` (named).
+        glmls.ReleasedError
+            After :meth:`release`.
+
+        Examples
+        --------
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0], [5, 0]], [[0, 0], [5, 0]]) as m:
+        ...     field = m.error_field((4, 6))
+        >>> field.shape, float(field.max()) < 1e-6
+        ((4, 6), True)
         """
         lattice = MeshLattice.corners(shape, grid)  # validates shape and grid
         if tolerance is not None:
@@ -291,9 +592,238 @@ class MLS(DeformedImages):
             return interpolate(mesh, values, lattice.shape)  # type: ignore[arg-type]
         return evaluate_error_field(self._kernel, lattice.shape, grid=lattice.grid)
 
+    def warp(
+        self,
+        image: object,
+        *,
+        method: str = default("quads"),
+        interpolation: str = default("nearest"),
+        grid: int = default(1),
+        background: object = default(0),
+        border: str = default("constant"),
+        output_shape: Sequence[int] | None = default(None),
+        origin: Sequence[float] | None = default(None),
+        tolerance: float | None = default(None),
+        options: WarpOptions | None = None,
+    ) -> np.ndarray:
+        """The image deformed by f, built on the GPU.
+
+        Fold-overs: where deformed quads overlap, the first cell in row-major scan order of
+        the source (smaller row, then column) shows, as the paper's marked pixels keep their
+        colour; ``paper-quads`` (its squares), ``splat`` (its pixels) and ``backward`` (its
+        first guess) follow the same order.
+
+        Parameters
+        ----------
+        image : array_like
+            H x W or H x W x C (C in 1..4), uint8, uint16, float32 or float64 (computed as
+            float32).
+        method : str, default "quads"
+            ``"quads"``: forward with polygon interpolation (the mesh of pixel-square
+            corners, step ``grid`` pixels, is deformed and each deformed quad filled);
+            ``"splat"``: simple forward (each source pixel v written at round(f(v)), gaps
+            and all); ``"backward"``: each output pixel u samples the source at s with
+            f(s) = u (Newton's method from the rasterized inverse of the mesh, ``grid`` that
+            guess's mesh); ``"backward-swap"``: s = the MLS map with p and q swapped, the
+            shortcut of other MLS tools (only for comparison: it is not f's inverse);
+            ``"paper-quads"``: the paper's pseudo-code exactly (squares of four adjacent
+            pixel centres, each pixel inside a deformed square coloured by its nearest
+            vertex; ``grid`` must be 1; ``"linear"`` blends the square's four vertices;
+            ``docs/warp.md`` says how it differs from ``"quads"``).
+        interpolation : {"nearest", "linear"}, default "nearest"
+            ``"nearest"`` takes one source pixel's value (no new colours); ``"linear"``
+            interpolates bilinearly (``splat`` ignores it).
+        grid : int, default 1
+            The mesh step in pixels.
+        background : float or sequence of float, default 0
+            What uncovered pixels hold: a scalar, or one value per channel; images with
+            alpha (C = 2 or 4) get alpha 0 there unless ``background`` gives it.
+        border : {"constant", "edge", "symmetric", "reflect", "wrap"}, default "constant"
+            What lies beyond the source image, with numpy.pad's meanings: ``"constant"``
+            nothing (the background shows), ``"edge"`` the edge pixels repeated,
+            ``"symmetric"`` mirrored with the edge pixel (``a b c | c b a``), ``"reflect"``
+            mirrored about it (``a b c | b a``), ``"wrap"`` the image repeated. The backward
+            methods sample by that rule; the forward methods extend the mesh past the image
+            as far as the canvas needs (derived from f, see
+            :func:`glmls.imaging.frame.border_margin`), so no canvas pixel keeps the
+            background.
+        output_shape : (int, int) or None, default None
+            (H, W) of the output canvas (None: the input's). What f moves off the canvas is
+            cut off; :meth:`bounds` gives the canvas that shows the whole deformed image.
+        origin : (float, float) or None, default None
+            Output pixel (column i, row j) shows the deformed plane's point ``origin`` +
+            (i, j) (None: (0, 0)).
+        tolerance : float or None, default None
+            Pixels (``quads`` only; ``grid`` must stay 1): the error-bounded adaptive mesh
+            instead of the regular one (``docs/adaptive.md``): cells refined until the
+            estimated distance between each output pixel's source point and f's inverse is
+            within ``tolerance``, down to 1 px cells, and 1/2 or 1/4 px where f stretches.
+            None: the regular mesh at ``grid``.
+        options : WarpOptions or None, default None
+            All of the above as one value; the keywords given explicitly here replace its
+            fields (``m.warp(image, options=o, grid=4)`` is ``o`` with ``grid`` 4).
+
+        Returns
+        -------
+        numpy.ndarray
+            A new array of ``image``'s dtype and channels, of ``output_shape``.
+
+        Raises
+        ------
+        ValueError
+            For a bad image (empty, more than 4 channels, beyond the GL size limit) or a bad
+            option (named; see :class:`glmls.WarpOptions`).
+        TypeError
+            For an image of another dtype, an option of the wrong type, or ``options`` that
+            is not a :class:`glmls.WarpOptions`.
+        glmls.ReleasedError
+            After :meth:`release`.
+
+        Warns
+        -----
+        glmls.BorderWarning
+            Where a forward method's mesh, extended as far as it may go, still leaves canvas
+            pixels uncovered with a border mode.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> image = np.arange(24, dtype=np.uint8).reshape(4, 6)
+        >>> with glmls.MLS([[0, 0], [5, 3]], [[1, 0], [6, 3]]) as m:
+        ...     print(m.warp(image, border="edge")[0].tolist())
+        ...     options = glmls.WarpOptions(method="backward", interpolation="linear")
+        ...     print(m.warp(image, options=options, background=255)[0].tolist())
+        [0, 0, 1, 2, 3, 4]
+        [255, 0, 1, 2, 3, 4]
+        """
+        chosen = WarpOptions.of(
+            options,
+            method=method,
+            interpolation=interpolation,
+            grid=grid,
+            background=background,
+            border=border,
+            output_shape=output_shape,
+            origin=origin,
+            tolerance=tolerance,
+        )
+        return self._pipeline().warp(self, image, chosen)
+
+    def bounds(self, shape: Sequence[int], *, grid: int = 1) -> Bounds:
+        """The bounding box of the deformed image of an image of ``shape``.
+
+        The box of f at the corners of the pixel squares, every ``grid`` pixels (the mesh
+        the ``quads`` are drawn with; 1 is closest to f), evaluated on the GPU. Its
+        ``output_shape`` and ``origin`` give :meth:`warp` the canvas that shows all of it.
+
+        Parameters
+        ----------
+        shape : (int, int)
+            (H, W) of the image.
+        grid : int, default 1
+            The mesh step, pixels.
+
+        Returns
+        -------
+        Bounds
+            ``x0, y0, x1, y1`` in pixels.
+
+        Raises
+        ------
+        ValueError
+            For a bad ``shape`` or ``grid``, or a shape beyond the GL limit.
+        glmls.ReleasedError
+            After :meth:`release`.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> image = np.ones((4, 6), np.uint8)
+        >>> with glmls.MLS([[0, 0]], [[2.5, -1]]) as m:
+        ...     b = m.bounds(image.shape)
+        ...     whole = m.warp(image, output_shape=b.output_shape, origin=b.origin)
+        >>> b.origin, b.output_shape, whole.shape
+        ((2.0, -1.0), (4, 7), (4, 7))
+        """
+        return self._pipeline().bounds(self, shape, grid=grid)
+
+    def coordinate_map(
+        self,
+        shape: Sequence[int],
+        *,
+        method: str = "backward",
+        grid: int = 1,
+        residual: bool = False,
+        border: str = "constant",
+        output_shape: Sequence[int] | None = None,
+        origin: Sequence[float] | None = None,
+    ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """The map from output pixels to source points (x, y): f's inverse on a canvas.
+
+        For each output pixel u = (column, row), the source point s with f(s) = u, solved
+        on the GPU. Points outside the source image are kept (a remapper fills them by its
+        border rule): ``cv2.remap(image, xy[..., 0], xy[..., 1], cv2.INTER_LINEAR)``, or per
+        channel ``skimage.transform.warp(channel, np.stack([xy[..., 1], xy[..., 0]]))``, or
+        ``scipy.ndimage.map_coordinates(channel, [xy[..., 1], xy[..., 0]], mode=...)``.
+        Newton stops below 1e-3 px; pixels where it ends above 0.05 px (no inverse found)
+        hold its last iterate. :attr:`inverse` solves at any points instead of a canvas.
+
+        Parameters
+        ----------
+        shape : (int, int)
+            (H, W) of the source image.
+        method : {"backward", "backward-swap"}, default "backward"
+            f's inverse, or the swapped-handles shortcut.
+        grid : int, default 1
+            The first guess's mesh step, pixels.
+        residual : bool, default False
+            Also return |f(s) - u| per pixel.
+        border : str, default "constant"
+            The rule the remapper will use; any mode but ``"constant"`` makes Newton start
+            from the mesh extended past the image (as :meth:`warp` does), so that points far
+            outside the image are found too.
+        output_shape, origin
+            The output canvas, as in :meth:`warp` (default: the image of ``shape``).
+
+        Returns
+        -------
+        numpy.ndarray or (numpy.ndarray, numpy.ndarray)
+            (H, W, 2) float32 source points; with ``residual`` also (H, W) float32 pixels
+            (NaN for ``backward-swap``).
+
+        Raises
+        ------
+        ValueError
+            For another method or a bad option (named).
+        glmls.ReleasedError
+            After :meth:`release`.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0]], [[1, 0]]) as m:
+        ...     xy = m.coordinate_map((4, 6))
+        >>> xy.shape, np.round(xy[0, 3], 3).tolist()
+        ((4, 6, 2), [2.0, 0.0])
+        """
+        if method not in ("backward", "backward-swap"):
+            raise ValueError(f"unknown method {method!r}; choose backward or backward-swap")
+        options = WarpOptions(
+            method=method, grid=grid, border=border, output_shape=output_shape, origin=origin
+        )
+        xy, res, _ = self._pipeline().coordinate_map(self, shape, options)
+        return (xy, res) if residual else xy
+
+    # -- lifetime --------------------------------------------------------------------------
+
     def release(self) -> None:
-        """Free this object's GPU buffers. Safe to call twice; later use raises
-        :class:`glmls.ReleasedError`."""
+        """Free this object's GPU buffers.
+
+        Safe to call twice; later use raises :class:`glmls.ReleasedError`.
+        """
         if self._kernel.released:
             return
         if self._swapped is not None:
@@ -303,6 +833,7 @@ class MLS(DeformedImages):
 
     @property
     def released(self) -> bool:
+        """Whether :meth:`release` has freed the GPU buffers."""
         return self._kernel.released
 
     def __enter__(self) -> MLS:
@@ -322,36 +853,260 @@ class MLS(DeformedImages):
             f"{state})"
         )
 
+    def _guess_shape(self) -> tuple[int, int]:
+        """(H, W) of the image whose mesh gives :attr:`inverse` its first guess: the MLS's
+        ``shape``; without one, the smallest image (pixel (0, 0) at the origin) that holds
+        the source handles, at least 1 x 1."""
+        if self.shape is not None:
+            return self.shape
+        points = self._handles.source_points()
+        if not len(points):
+            return 1, 1
+        x, y = (max(1, math.ceil(points[:, k].max() + 0.5)) for k in (0, 1))
+        return y, x
 
-def _points(points: object) -> np.ndarray:
-    return check_coordinates(as_points(points), "points")
+
+class InverseMLS:
+    """The inverse of an MLS map f as a transform, after scikit-image's protocol.
+
+    ``inv(points)`` is, for each point u, the source point s with f(s) = u; ``inv.inverse``
+    is f (the :class:`MLS`).
+
+    Usually reached as :attr:`MLS.inverse`. Solved on the GPU as the ``backward`` method
+    solves each output pixel: a first guess from the rasterized inverse of the deformed mesh
+    of the MLS's image (its ``shape``; without one, the smallest image from pixel (0, 0)
+    that holds the source handles), extended past the image until its deformed border
+    encloses the points (:func:`glmls.imaging.frame.border_margin`, within
+    :data:`glmls.imaging.pipeline.GUESS_MESH_POINTS` mesh points) and drawn over a canvas
+    that holds them, then Newton's method on f, stopping below 1e-4 px. f is the MLS's
+    own, as ``m(points)`` evaluates it, so ``m(inv(u))`` is u within about 1e-3 px (float32
+    on the GPU).
+
+    Which points have a preimage: u has one where Newton ends with |f(s) - u| <= 0.05 px,
+    for s anywhere in the plane (not only inside the image: ``skimage.transform.warp`` then
+    samples outside the image by its ``mode``, as glmls's ``border`` does). Elsewhere the
+    row is NaN: where f leaves u uncovered (e.g. where a compact-support weight's reach
+    ends, f jumps from the handles' transform to the identity and may skip a region; or a
+    map that collapses the plane), and where Newton does not get there (u beyond the
+    reach of the first guess's mesh, where Newton starts from u itself, unbounded). Where f
+    folds, u has several preimages; the one of the first mesh cell in the source's scan
+    order is found (as :meth:`MLS.warp` shows it), at the first guess's resolution (which
+    depends on how far the points spread). Far from the image the accuracy follows
+    float32: ~1e-7 of the coordinates.
+
+    ``skimage.transform.warp(image, m.inverse)`` resamples an image by f: what
+    ``m.warp(image, method="backward", interpolation="linear")`` draws, with skimage's
+    ``mode`` in the place of ``border`` (``"edge"`` is the same rule; skimage's
+    ``"constant"`` blends towards ``cval`` past the edge pixels' centres, where glmls reads
+    the edge pixels up to the image's border). Its pixels
+    whose point has no preimage are NaN, where glmls's hold ``background``:
+    ``np.nan_to_num(out, nan=cval)``.
+
+    Parameters
+    ----------
+    forward : MLS
+        The deformation f.
+    grid : int, default 1
+        The first guess's mesh step, pixels (coarser is faster for large images and few
+        points, and may find another preimage where f folds).
+
+    Raises
+    ------
+    TypeError
+        If ``forward`` is not an :class:`MLS`.
+    ValueError
+        For a bad ``grid``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import glmls
+    >>> src = [[10, 10], [50, 10], [10, 40], [50, 40]]
+    >>> dst = [[12, 8], [47, 14], [9, 42], [55, 38]]
+    >>> with glmls.MLS(src, dst, shape=(50, 60)) as m:
+    ...     s = m.inverse([[12, 8], [30, 25], [-100, 300]])
+    ...     back = m(s)
+    >>> np.round(s[0], 3).tolist()
+    [10.0, 10.0]
+    >>> bool(np.abs(back - [[12, 8], [30, 25], [-100, 300]]).max() < 1e-3)
+    True
+
+    Within its reach (20 px of (40, 30)) a compact-support weight moves the plane 10 px to
+    the left; past it f is the identity: (55, 30) has no preimage.
+
+    >>> with glmls.MLS([[40, 30]], [[30, 30]], weight="cressman", radius=20) as m:
+    ...     s, valid = m.inverse([[20, 30], [55, 30], [70, 30]], return_valid=True)
+    >>> np.round(s, 3).tolist(), valid.tolist()
+    ([[30.0, 30.0], [nan, nan], [70.0, 30.0]], [True, False, True])
+    """
+
+    def __init__(self, forward: MLS, *, grid: int = 1) -> None:
+        if not isinstance(forward, MLS):
+            raise TypeError(f"forward must be a glmls.MLS, got {type(forward).__name__}")
+        self._forward = forward
+        self.grid = check_grid(grid)
+
+    @property
+    def inverse(self) -> MLS:
+        """The forward map f: the :class:`MLS` this is the inverse of."""
+        return self._forward
+
+    def __call__(
+        self, points: object, *, return_valid: bool = False
+    ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """f's inverse at ``points``, solved on the GPU.
+
+        Parameters
+        ----------
+        points : array_like
+            (K, 2) points u (x, y), finite, within ±1e6 px; (0, 2) gives (0, 2).
+        return_valid : bool, default False
+            Also return which rows have a preimage.
+
+        Returns
+        -------
+        numpy.ndarray or (numpy.ndarray, numpy.ndarray)
+            (K, 2) float64 source points s, NaN rows where u has no preimage (see
+            :class:`InverseMLS`); with ``return_valid`` also the (K,) bool mask of the rows
+            that have one.
+
+        Raises
+        ------
+        ValueError
+            For points of another shape, non-finite or beyond ±1e6 px, or a radius weight
+            without radius or shape (as ``m(points)``).
+        TypeError
+            For points that are not real numbers.
+        glmls.ReleasedError
+            After the MLS's :meth:`~MLS.release`.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0]], [[2, 0]]) as m:
+        ...     print(m.inverse(np.zeros((0, 2))).shape, m.inverse([[5, 1]]).tolist())
+        (0, 2) [[3.0, 1.0]]
+        """
+        s, valid = self._solve(_points(points))
+        return (s, valid) if return_valid else s
+
+    def _solve(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        m = self._forward
+        pipeline = m._pipeline()  # checks that the MLS is alive
+        m.config.resolve_radius(m.shape)  # f needs a radius, as m(points) does
+        s, residual = pipeline.inverse_points(m, points, m._guess_shape(), grid=self.grid)
+        valid = residual <= NEWTON_ACCEPT  # False where NaN
+        s[~valid] = np.nan
+        return s, valid
+
+    def residuals(self, src: object, dst: object) -> np.ndarray:
+        """The distance between f's inverse at ``src`` and ``dst``, per point.
+
+        Parameters
+        ----------
+        src, dst : array_like
+            (K, 2) points each.
+
+        Returns
+        -------
+        numpy.ndarray
+            (K,) float64 |f^-1(src) - dst|, pixels; NaN where ``src`` has no preimage.
+
+        Raises
+        ------
+        ValueError, TypeError, glmls.ReleasedError
+            As :meth:`__call__`; ValueError also for lengths that differ.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0]], [[0, 2]]) as m:
+        ...     print(np.round(m.inverse.residuals([[4, 4]], [[4, 1]]), 3).tolist())
+        [1.0]
+        """
+        source, target = _points(src, "src"), _points(dst, "dst")
+        if len(source) != len(target):
+            raise ValueError(
+                f"src and dst must have the same length, got {len(source)} and {len(target)}"
+            )
+        return np.hypot(*(self(source) - target).T)  # type: ignore[operator]
+
+    def __repr__(self) -> str:
+        grid = f", grid={self.grid}" if self.grid != 1 else ""
+        return f"InverseMLS({self._forward!r}{grid})"
 
 
-_WARP_OPTIONS = (
-    "method",
-    "interpolation",
-    "grid",
-    "background",
-    "border",
-    "output_shape",
-    "origin",
-    "tolerance",
+def _points(points: object, name: str = "points") -> np.ndarray:
+    return check_coordinates(as_points(points, name), name)
+
+
+#: The keywords of :class:`MLS` that :func:`warp` passes on (``shape`` is the image's).
+MLS_KEYWORDS = frozenset(
+    name
+    for name, parameter in inspect.signature(MLS.__init__).parameters.items()
+    if parameter.kind is parameter.KEYWORD_ONLY and name != "shape"
 )
 
 
 def warp(image: object, src: object, dst: object, **options: object) -> np.ndarray:
     """Deform ``image`` by the MLS map taking handles ``src`` (p) to ``dst`` (q).
 
-    ``options``: those of :meth:`MLS.warp` (``method``, ``interpolation``, ``grid``,
-    ``tolerance``, ``background``, ``border``, ``output_shape``, ``origin``) and of :class:`MLS`
-    (``src_segments``, ``dst_segments``, ``transform``, ``weight``, ``alpha``, ``s``,
-    ``radius``, ``interpolating``, ``ctx``, ``storage``, ``bins``). The default radius is the
-    image diagonal. The MLS's GPU objects are released before returning (the context's shared
-    pipeline keeps its cached textures for the next call); keep an :class:`MLS` to warp many
-    images with the same handles.
+    The MLS's GPU objects are released before returning (the context's shared pipeline
+    keeps its cached textures for the next call); keep an :class:`MLS` to warp many images
+    with the same handles. The default radius is the image diagonal.
+
+    Parameters
+    ----------
+    image : array_like
+        H x W or H x W x C (C in 1..4), uint8, uint16, float32 or float64.
+    src, dst : array_like
+        (N, 2) handle points.
+    **options
+        Those of :meth:`MLS.warp` (the fields of :class:`WarpOptions`: ``method``,
+        ``interpolation``, ``grid``, ``tolerance``, ``border``, ``background``,
+        ``output_shape``, ``origin``; and ``options``, a :class:`WarpOptions` that those
+        given replace fields of) and of :class:`MLS` (``src_segments``, ``dst_segments``,
+        ``transform``, ``weight``, ``alpha``, ``s``, ``radius``, ``interpolating``,
+        ``ctx``, ``storage``, ``bins``).
+
+    Returns
+    -------
+    numpy.ndarray
+        The deformed image, of ``image``'s dtype and channels.
+
+    Raises
+    ------
+    TypeError
+        For a keyword that is neither (all such named), or as :class:`MLS` and
+        :meth:`MLS.warp`.
+    ValueError
+        As :class:`MLS` and :meth:`MLS.warp`; the warp options are checked before any GPU
+        work.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import glmls
+    >>> image = np.arange(24, dtype=np.uint8).reshape(4, 6)
+    >>> out = glmls.warp(image, [[0, 0], [5, 3]], [[1, 0], [6, 3]], transform="similarity")
+    >>> out[0].tolist()
+    [0, 0, 1, 2, 3, 4]
+    >>> glmls.warp(image, [[0, 0]], [[1, 0]], methd="splat")
+    Traceback (most recent call last):
+    ...
+    TypeError: warp() got an unknown keyword methd
     """
-    warp_options = {k: options.pop(k) for k in _WARP_OPTIONS if k in options}
+    warp_options = {k: options.pop(k) for k in sorted(FIELDS | {"options"}) if k in options}
+    unknown = sorted(set(options) - MLS_KEYWORDS)
+    if unknown:
+        raise TypeError(
+            f"warp() got {'unknown keywords' if len(unknown) > 1 else 'an unknown keyword'} "
+            f"{', '.join(unknown)}"
+        )
+    chosen = WarpOptions.of(warp_options.pop("options", None), **warp_options)  # type: ignore[arg-type]
     array = np.asarray(image)
     shape = array.shape[:2] if array.ndim in (2, 3) and array.size else None
     with MLS(src, dst, shape=shape, **options) as m:  # type: ignore[arg-type]
-        return m.warp(array, **warp_options)  # type: ignore[arg-type]
+        return m.warp(array, options=chosen)

@@ -13,9 +13,8 @@ import numpy as np
 from PIL import Image
 
 from ..files.atomic import atomic_write
-from ..imaging.adaptive import check_adaptive
 from ..imaging.frame import Frame
-from ..imaging.source import check_options
+from ..imaging.options import WarpOptions, default
 from . import colormaps
 from .canvas import as_rgb8
 from .construction import (
@@ -142,12 +141,13 @@ def report(
     triangle_error: str = "angle",
     triangle_percentile: float | None = 95.0,
     mesh_grid: int = 32,
-    method: str = "quads",
-    interpolation: str = "nearest",
-    warp_grid: int = 1,
-    warp_tolerance: float | None = None,
-    border: str = "constant",
+    method: str = default("quads"),
+    interpolation: str = default("nearest"),
+    warp_grid: int = default(1),
+    warp_tolerance: float | None = default(None),
+    border: str = default("constant"),
     fit: bool = False,
+    warp_options: WarpOptions | None = None,
     construction: bool = True,
     construction_radius: int = DEFAULT_RADIUS,
     out_dir: str | Path | None = None,
@@ -202,6 +202,11 @@ def report(
     fit : bool, optional
         Draw the deformed pictures on the canvas that shows the whole deformed image
         (:meth:`glmls.MLS.bounds`) instead of the input's frame.
+    warp_options : glmls.WarpOptions, optional
+        The warp's options as one value; ``method``, ``interpolation``, ``warp_grid``,
+        ``warp_tolerance`` and ``border`` given as keywords override its fields. Its canvas
+        (``output_shape``, ``origin``; default the input's frame) is the pictures' canvas,
+        unless ``fit`` asks for the whole deformed image.
     construction : bool, optional
         Also measure the construction error of the warp at the reference points
         (:func:`construction_errors`; docs/construction.md): its statistics in
@@ -248,8 +253,14 @@ def report(
     shape = rgb.shape[:2]
     if triangle_error not in ("angle", "distance"):
         raise ValueError(f"triangle_error must be 'angle' or 'distance', got {triangle_error!r}")
-    check_options(method, interpolation, warp_grid, border)  # before the long stages
-    check_adaptive(method, warp_grid, warp_tolerance)
+    options = WarpOptions.of(  # checked before the long stages
+        warp_options,
+        method=method,
+        interpolation=interpolation,
+        grid=warp_grid,
+        tolerance=warp_tolerance,
+        border=border,
+    )
     if construction:
         check_radius(construction_radius)
     timings: dict[str, float] = {}
@@ -267,21 +278,13 @@ def report(
 
     tick = time.perf_counter()
     stage("warp")
-    canvas = m.bounds(shape, grid=warp_grid).frame if fit else Frame(shape)
+    if fit:
+        canvas = m.bounds(shape, grid=options.grid).frame
+    else:
+        canvas = Frame(options.output_shape or shape, options.origin or (0.0, 0.0))
     output_shape, origin = canvas.shape, canvas.origin
-    deformed = as_rgb8(
-        m.warp(
-            rgb,
-            method=method,
-            interpolation=interpolation,
-            grid=warp_grid,
-            border=border,
-            output_shape=output_shape,
-            origin=origin,
-            tolerance=warp_tolerance,
-        ),
-        "m.warp(image)",
-    )
+    options = dataclasses.replace(options, output_shape=output_shape, origin=origin)
+    deformed = as_rgb8(m.warp(rgb, options=options), "m.warp(image)")
     timings["warp"] = time.perf_counter() - tick
 
     built = None
@@ -294,14 +297,14 @@ def report(
             m,
             triangles.points,
             radius=construction_radius,
-            border=border,
+            border=options.border,
             origin=origin,
         )
         timings["construction_errors"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
     stage("fold-overs")
-    folds = foldovers(m, shape, grid=warp_grid).count
+    folds = foldovers(m, shape, grid=options.grid).count
     timings["foldovers"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
@@ -381,14 +384,14 @@ def report(
         "timings_s": timings,
         "error_field": error_stats(field),
         "triangles": triangles.stats(),
-        "foldovers": {"grid": warp_grid, "cells": folds},
+        "foldovers": {"grid": options.grid, "cells": folds},
         **({} if built is None else {"construction": built.stats()}),
         "warp": {
-            "method": method,
-            "interpolation": interpolation,
-            "grid": warp_grid,
-            "tolerance": warp_tolerance,
-            "border": border,
+            "method": options.method,
+            "interpolation": options.interpolation,
+            "grid": options.grid,
+            "tolerance": options.tolerance,
+            "border": options.border,
             "output_shape": list(output_shape),
             "origin": list(origin),
         },

@@ -34,15 +34,7 @@ def save_image(
         raise ValueError("no valid deformation to save")
     s = settings
     source = image if image.dtype in (np.uint8, np.uint16) else display
-    out = mls.warp(
-        source,
-        method=s.method,
-        interpolation=s.interpolation,
-        border=s.border,
-        output_shape=canvas.shape,
-        **s.mesh_options,
-        origin=canvas.origin,
-    )
+    out = mls.warp(source, options=s.warp_options(output_shape=canvas.shape, origin=canvas.origin))
     if out.dtype not in (np.uint8, np.uint16):
         out = np.round(np.clip(out, 0, 1) * 255).astype(np.uint8)
     with atomic_write(path) as tmp:  # creates the folder; whole file or none

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field, replace
 
 from ..core.config import MLSConfig, image_diagonal
 from ..imaging.adaptive import check_tolerance
+from ..imaging.options import WarpOptions
 from ..imaging.source import check_options
 
 __all__ = [
@@ -81,6 +82,14 @@ class Settings:
         ``{"grid": grid}``, or ``{"tolerance": t}`` on the adaptive mesh (quads)."""
         tolerance = self.adaptive
         return {"grid": self.grid} if tolerance is None else {"tolerance": tolerance}
+
+    def warp_options(self, **changes: object) -> WarpOptions:
+        """The image construction as the pipeline takes it: method, interpolation, border and
+        :attr:`mesh_options`, with ``changes`` (other fields of
+        :class:`~glmls.WarpOptions`, e.g. the canvas) on top."""
+        values = {"method": self.method, "interpolation": self.interpolation}
+        values |= {"border": self.border, **self.mesh_options, **changes}
+        return WarpOptions(**values)  # type: ignore[arg-type]
 
     def parameter(self, shape: tuple[int, int]) -> str:
         """The weight's parameter as text, e.g. ``alpha 1.25`` or ``R 362 px``."""

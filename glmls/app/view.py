@@ -177,11 +177,8 @@ class View:
                 session.mls,  # type: ignore[arg-type]
                 self.source,
                 screen,
-                method="quads",
-                interpolation=s.interpolation,
-                grid=s.grid,
+                s.warp_options(),
                 flip_y=True,
-                border=s.border,
                 frame=layout.frame,
             )
             return
@@ -200,12 +197,9 @@ class View:
             session.mls,  # type: ignore[arg-type]
             source,
             picture.framebuffer,
-            method=s.method,
-            interpolation=s.interpolation,
+            s.warp_options(border=border),
             flip_y=False,
-            border=border,
             frame=layout.frame,
-            **s.mesh_options,
         )
 
     def next_frame(self, frames: int) -> None:

@@ -15,7 +15,13 @@ from .inputs import (
     say,
     warn_about_handles,
 )
-from .options import UsageError, add_config_options, add_warp_options, config_from_args
+from .options import (
+    UsageError,
+    add_config_options,
+    add_warp_options,
+    config_from_args,
+    warp_options_from_args,
+)
 from .progress import Ticker
 
 HELP = "error analysis of one deformation"
@@ -40,6 +46,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
+    warp_options = warp_options_from_args(args)
     image, handles, reference, name = example_or_files(args, need_reference=False)
     warn_about_handles(args, handles, image.shape)
     reference = reference_or_handles(args, reference, handles)
@@ -52,11 +59,7 @@ def run(args: argparse.Namespace) -> int:
                 reference,
                 grid=args.analysis_grid,
                 angle=args.angle,
-                method=args.method,
-                interpolation=args.interpolation,
-                warp_grid=args.grid,
-                warp_tolerance=args.tolerance,
-                border=args.border,
+                warp_options=warp_options,
                 fit=args.fit,
                 cmap=args.cmap,
                 on_stage=tick.stage,

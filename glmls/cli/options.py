@@ -13,6 +13,7 @@ import numpy as np
 
 from ..core.config import TRANSFORMS, WEIGHTS, MLSConfig
 from ..files.images import DEFAULT_MAX_PIXELS
+from ..imaging.options import WarpOptions
 from ..imaging.source import BORDERS, INTERPOLATIONS, METHODS
 
 __all__ = [
@@ -30,6 +31,7 @@ __all__ = [
     "positive_float",
     "positive_int",
     "text_table",
+    "warp_options_from_args",
 ]
 
 #: Fields of MLSConfig whose values are names.
@@ -160,6 +162,23 @@ def add_warp_options(parser: argparse.ArgumentParser, *, grid: int = 1) -> None:
         help="show the whole deformed image: the output canvas grows to its bounds, so "
         "nothing is cut off (default: the input's size and place)",
     )
+
+
+def warp_options_from_args(args: argparse.Namespace) -> WarpOptions:
+    """The :class:`~glmls.WarpOptions` of the options :func:`add_warp_options` added (and
+    ``--background`` where the command has it); :class:`UsageError` if they do not go
+    together (e.g. ``--tolerance`` with ``--grid 4``)."""
+    values = {name: getattr(args, name) for name in WARP_ARGUMENTS}
+    if getattr(args, "background", None) is not None:
+        values["background"] = args.background
+    try:
+        return WarpOptions(**values)
+    except (TypeError, ValueError) as error:
+        raise UsageError(str(error)) from None
+
+
+#: The fields of :class:`~glmls.WarpOptions` that :func:`add_warp_options` gives options of.
+WARP_ARGUMENTS = ("method", "interpolation", "grid", "tolerance", "border")
 
 
 def add_max_pixels(parser: argparse.ArgumentParser) -> None:

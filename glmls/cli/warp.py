@@ -15,6 +15,7 @@ from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
 from ..files.images import check_writable
 from ..files.landmarks import read_handle_set
+from ..imaging.options import WarpOptions
 from .inputs import (
     image_inputs,
     make_mls,
@@ -33,6 +34,7 @@ from .options import (
     config_from_args,
     fit_background,
     parse_background,
+    warp_options_from_args,
 )
 from .progress import Progress, Ticker
 
@@ -104,8 +106,7 @@ class WarpTask:
     target: Path
     handles: HandleSet
     config: MLSConfig
-    options: dict
-    background: object
+    options: WarpOptions  # the background: the batch's, fitted to each image's channels
     fit: bool
     many: bool
     max_pixels: int
@@ -146,16 +147,19 @@ def _warp_file(task: WarpTask) -> WarpOutcome:
             check_writable(task.target, image.dtype, channels)
         except ValueError as error:
             raise UsageError(str(error)) from None
-        options = {**task.options, "background": fit_background(task.background, channels)}
+        options = task.options
         with make_mls(task.handles, task.config, image.shape) as m:
             ticker = Ticker(f"warp {task.source}", quiet=task.quiet or task.many)
             with ticker, reported_warnings(f"glmls warp: {task.source}"):
                 try:
+                    background = fit_background(options.background, channels)
+                    options = dataclasses.replace(options, background=background)
                     if task.fit:
-                        bounds = m.bounds(image.shape, grid=options["grid"])
-                        options["output_shape"] = bounds.output_shape
-                        options["origin"] = bounds.origin
-                    result = m.warp(image, **options)
+                        bounds = m.bounds(image.shape, grid=options.grid)
+                        options = dataclasses.replace(
+                            options, output_shape=bounds.output_shape, origin=bounds.origin
+                        )
+                    result = m.warp(image, options=options)
                     if task.fit and not task.many:
                         (h, w), (x0, y0) = bounds.output_shape, bounds.origin
                         notes.append(f"warp: {w} x {h} pixels from ({x0:g}, {y0:g})")
@@ -176,13 +180,7 @@ def run(args: argparse.Namespace) -> int:
     handles = read_handle_set(args.handles)
     files, many = image_inputs(args.input)
     outputs = targets(args.output, files, many)
-    options = {
-        "method": args.method,
-        "interpolation": args.interpolation,
-        "grid": args.grid,
-        "border": args.border,
-        "tolerance": args.tolerance,
-    }
+    options = warp_options_from_args(args)
     capture = jobs > 1 or scheduler is not None
     tasks = [
         WarpTask(
@@ -191,7 +189,6 @@ def run(args: argparse.Namespace) -> int:
             handles,
             config,
             options,
-            background=args.background,
             fit=args.fit,
             many=many,
             max_pixels=args.max_pixels,

@@ -24,7 +24,17 @@ from ..engine.kernel import MLSKernel
 from ..engine.passes import evaluate_points
 from ..errors import BorderWarning
 
-__all__ = ["FIT_SLACK", "Bounds", "Frame", "border_margin", "deformed_bounds", "make_frame"]
+__all__ = [
+    "FIT_SLACK",
+    "Bounds",
+    "Frame",
+    "border_margin",
+    "check_origin",
+    "check_output_shape",
+    "covering_frame",
+    "deformed_bounds",
+    "make_frame",
+]
 
 #: A box edge this close (pixels) to a pixel's edge does not make :class:`Bounds` take in the
 #: pixel beyond: float32 noise of f, e.g. the identity's -0.5 read back as -0.5000001.
@@ -72,32 +82,29 @@ class Frame:
         return low - pad, high + pad
 
 
-def make_frame(
-    output_shape: object, origin: object, image_shape: tuple[int, int], max_size: int
-) -> Frame:
-    """The :class:`Frame` of ``output_shape`` (H, W; None: ``image_shape``) and ``origin``
-    (x0, y0; None: (0, 0)); ``ValueError`` naming a bad value, or a side beyond ``max_size``
-    (the GL limit)."""
+def check_output_shape(output_shape: object) -> tuple[int, int] | None:
+    """``output_shape`` as (H, W) ints >= 1 (None stays None: the input's shape);
+    ``TypeError``/``ValueError`` naming a bad value."""
     if output_shape is None:
-        shape = image_shape
-    else:
-        if isinstance(output_shape, (str, bytes)) or not isinstance(
-            output_shape, (Iterable, np.ndarray)
-        ):
-            raise TypeError(f"output_shape must be (H, W) integers, got {output_shape!r}")
-        dims = list(output_shape)  # type: ignore[call-overload]
-        if len(dims) != 2 or not all(_is_integral(n) for n in dims):
-            raise ValueError(f"output_shape must be (H, W) integers, got {output_shape!r}")
-        shape = (int(dims[0]), int(dims[1]))
-        if min(shape) < 1:
-            raise ValueError(f"output_shape must have H, W >= 1, got {output_shape!r}")
-    if max(shape) > max_size:
-        raise ValueError(
-            f"output_shape {shape} exceeds the GL limit of {max_size} pixels per side on "
-            "this device"
-        )
+        return None
+    if isinstance(output_shape, (str, bytes)) or not isinstance(
+        output_shape, (Iterable, np.ndarray)
+    ):
+        raise TypeError(f"output_shape must be (H, W) integers, got {output_shape!r}")
+    dims = list(output_shape)  # type: ignore[call-overload]
+    if len(dims) != 2 or not all(_is_integral(n) for n in dims):
+        raise ValueError(f"output_shape must be (H, W) integers, got {output_shape!r}")
+    shape = (int(dims[0]), int(dims[1]))
+    if min(shape) < 1:
+        raise ValueError(f"output_shape must have H, W >= 1, got {output_shape!r}")
+    return shape
+
+
+def check_origin(origin: object) -> tuple[float, float] | None:
+    """``origin`` as (x0, y0) finite floats within the coordinate limit (None stays None:
+    (0, 0)); ``TypeError``/``ValueError`` naming a bad value."""
     if origin is None:
-        return Frame(shape)
+        return None
     if isinstance(origin, (str, bytes)) or not isinstance(origin, (Iterable, np.ndarray)):
         raise TypeError(f"origin must be (x0, y0) real numbers, got {origin!r}")
     values = list(origin)  # type: ignore[call-overload]
@@ -111,17 +118,62 @@ def make_frame(
         raise ValueError(
             f"origin must be finite and within ±{COORDINATE_LIMIT:.0e} px, got {origin!r}"
         )
-    return Frame(shape, point)
+    return point
+
+
+def make_frame(
+    output_shape: object, origin: object, image_shape: tuple[int, int], max_size: int
+) -> Frame:
+    """The :class:`Frame` of ``output_shape`` (H, W; None: ``image_shape``) and ``origin``
+    (x0, y0; None: (0, 0)); ``ValueError`` naming a bad value (:func:`check_output_shape`,
+    :func:`check_origin`), or a side beyond ``max_size`` (the GL limit)."""
+    shape = check_output_shape(output_shape) or image_shape
+    if max(shape) > max_size:
+        raise ValueError(
+            f"output_shape {shape} exceeds the GL limit of {max_size} pixels per side on "
+            "this device"
+        )
+    point = check_origin(origin)
+    return Frame(shape) if point is None else Frame(shape, point)
+
+
+def covering_frame(points: np.ndarray) -> Frame:
+    """The :class:`Frame` of whole pixels whose pixel centres' box holds ``points``
+    (non-empty (K, 2) float64 pixels): origin the box's floor, one pixel past its ceiling."""
+    low, high = point_bounds(points)
+    origin = np.floor(low)
+    width, height = (np.ceil(high) - origin).astype(np.int64) + 1
+    return Frame((int(height), int(width)), (float(origin[0]), float(origin[1])))
 
 
 @dataclass(frozen=True)
 class Bounds:
-    """The bounding box of a deformed image: x from ``x0`` to ``x1``, y from ``y0`` to
-    ``y1`` (pixels: the deformed corners of the pixel squares, so the identity gives -0.5 to
-    W - 0.5). :attr:`output_shape` and :attr:`origin` are the canvas of every pixel the box
-    touches: ``m.warp(image, output_shape=b.output_shape, origin=b.origin)`` shows the whole
-    deformed image, nothing cut off, with every method (``splat`` rounds points to the
-    nearest pixel, so a pixel that its centre leaves outside the box can still be hit)."""
+    """The bounding box of a deformed image, and the canvas that shows all of it.
+
+    x from ``x0`` to ``x1``, y from ``y0`` to ``y1``, in pixels: the deformed corners of the
+    pixel squares, so the identity gives -0.5 to W - 0.5. :attr:`output_shape` and
+    :attr:`origin` are the canvas of every pixel the box touches:
+    ``m.warp(image, output_shape=b.output_shape, origin=b.origin)`` shows the whole deformed
+    image, nothing cut off, with every method (``splat`` rounds points to the nearest pixel,
+    so a pixel that its centre leaves outside the box can still be hit). Made by
+    :meth:`glmls.MLS.bounds`.
+
+    Parameters
+    ----------
+    x0, y0 : float
+        The box's smallest x and y, pixels.
+    x1, y1 : float
+        Its largest x and y, pixels.
+
+    Examples
+    --------
+    >>> import glmls
+    >>> b = glmls.Bounds(-3.2, 0.5, 40.5, 20.9)
+    >>> b.origin, b.output_shape
+    ((-3.0, 1.0), (21, 44))
+    >>> glmls.Bounds(-0.5, -0.5, 5.5, 3.5).output_shape  # the identity on a 4 x 6 image
+    (4, 6)
+    """
 
     x0: float
     y0: float
@@ -146,6 +198,7 @@ class Bounds:
 
     @property
     def frame(self) -> Frame:
+        """The canvas of :attr:`output_shape` and :attr:`origin` as a :class:`Frame`."""
         return Frame(self.output_shape, self.origin)
 
 
@@ -202,7 +255,12 @@ MARGIN_POINTS = 1 << 24
 
 
 def border_margin(
-    kernel: MLSKernel, lattice: MeshLattice, frame: Frame, *, warn: bool = True
+    kernel: MLSKernel,
+    lattice: MeshLattice,
+    frame: Frame,
+    *,
+    warn: bool = True,
+    max_points: int | None = None,
 ) -> int:
     """The margin (pixels, a multiple of ``lattice.grid``) that the mesh of ``lattice`` needs
     past the image so that its deformed border encloses every pixel centre of ``frame``:
@@ -216,7 +274,9 @@ def border_margin(
     points (or twice the image's and the canvas's pixels together); if the border then still
     does not enclose the canvas (a canvas far from the image, or a map that shrinks the plane
     that much) the rest keeps the background, with a :class:`~glmls.errors.BorderWarning`
-    where ``warn`` (the backward methods, which only start Newton there, do not warn)."""
+    where ``warn`` (the backward methods, which only start Newton there, do not warn).
+    ``max_points``: that budget of mesh points instead (at grid 1), for a frame that is not
+    drawn pixel by pixel (the first guess of f's inverse at scattered points)."""
     height, width = as_shape(lattice.shape)
     grid = lattice.grid
     low, high = frame.centre_box(ENCLOSE_PAD)
@@ -227,7 +287,8 @@ def border_margin(
     if encloses(deformed, low, high):
         return 0
     moved = float(np.max(np.abs(deformed - ring))) if np.all(np.isfinite(deformed)) else 0.0
-    points = max(MARGIN_POINTS, 2 * (height * width + frame.pixels)) * grid * grid
+    budget = max(MARGIN_POINTS, 2 * (height * width + frame.pixels))
+    points = (budget if max_points is None else max_points) * grid * grid
     reach = max(grid, _margin_within(height, width, points) // grid * grid)
     limit = min(MAX_MARGIN, _round_up(overhang + 2 * max(height, width), grid), reach)
     margin = min(limit, _round_up(moved + overhang + 1, grid))

@@ -1,28 +1,44 @@
 """The backward construction: for each output pixel u the source point s with f(s) = u
-(``glmls/shaders/warp/inverse.comp.glsl``).
+(``glmls/shaders/warp/inverse.comp.glsl``), and f's inverse at a list of points
+(``warp/inverse_points.comp.glsl``).
 
 The first guess is the rasterized piecewise linear inverse of the deformed mesh (the quads,
-drawn with their source points instead of colours), then Newton's method on f refines it.
-``backward-swap`` instead evaluates the MLS map with p and q swapped, the shortcut of other
-MLS tools: the caller passes that map's kernel.
+drawn with their source points instead of colours), then Newton's method on f refines it
+(``warp/newton.glsl``, shared by both passes). ``backward-swap`` instead evaluates the MLS
+map with p and q swapped, the shortcut of other MLS tools: the caller passes that map's
+kernel.
 """
 
 from __future__ import annotations
 
+import math
+
 import moderngl
+import numpy as np
 
 from ..core.mesh import MeshLattice
 from ..engine.kernel import MLSKernel
 from ..gl import bindings
 from ..gl.context import GLContext, current
-from ..gl.dispatch import run_2d, set_uniforms
+from ..gl.dispatch import run_1d, run_2d, set_uniforms
 from ..gl.resources import Resources
 from .frame import Frame
 from .options import PipelineOptions
 from .quads import CellScan
 from .raster import MeshRaster
 
-__all__ = ["NEWTON_ACCEPT", "NEWTON_STEPS", "NEWTON_TOLERANCE", "InverseSolver"]
+__all__ = [
+    "GUESS_MAX_TEXELS",
+    "GUESS_TEXELS",
+    "NEWTON_ACCEPT",
+    "NEWTON_MAX_STEP",
+    "NEWTON_STEPS",
+    "NEWTON_TOLERANCE",
+    "POINTS_NEWTON_STEPS",
+    "POINTS_TOLERANCE",
+    "InverseSolver",
+    "guess_size",
+]
 
 #: Newton on f stops below this residual |f(s) - u| (pixels) ...
 NEWTON_TOLERANCE = 1e-3
@@ -30,6 +46,35 @@ NEWTON_TOLERANCE = 1e-3
 #: left uncovered (no source point found).
 NEWTON_STEPS = 8
 NEWTON_ACCEPT = 0.05
+#: f's inverse at a list of points stops below this residual instead (pixels): a list is
+#: short next to an image's pixels, and its points are read back as numbers. Where float32
+#: noise in f keeps Newton above it, the last iterate (within NEWTON_ACCEPT) is kept.
+POINTS_TOLERANCE = 1e-4
+#: ... in at most this many steps (a list's points are few: more steps cost little) ...
+POINTS_NEWTON_STEPS = 16
+#: ... each step at most this long (scaled units, a tenth of the image: far from the
+#: solution, Newton's step may overshoot), or 4 texels of the first guess where longer;
+#: unbounded where no texel gave a guess (Newton from u itself).
+NEWTON_MAX_STEP = 0.2
+#: The first guess at a list of points is drawn over a canvas that holds them all, with at most
+#: this many texels or 4 per point (whichever is more, up to GUESS_MAX_TEXELS, 256 MiB of
+#: RGBA32F): coarser than a pixel where the points spread far; Newton refines the guess read
+#: at the texel under each point.
+GUESS_TEXELS = 1 << 18
+GUESS_MAX_TEXELS = 1 << 24
+
+
+def guess_size(frame: Frame, points: int, limit: int) -> tuple[int, int]:
+    """(W, H) texels of the first guess over ``frame`` for ``points`` points: the frame's
+    pixels, or fewer, each texel the same fraction of the frame, to stay within
+    max(:data:`GUESS_TEXELS`, 4 ``points``) texels (at most :data:`GUESS_MAX_TEXELS`) and
+    ``limit`` texels a side."""
+    width, height = frame.size
+    budget = min(max(GUESS_TEXELS, 4 * points), GUESS_MAX_TEXELS)
+    step = max(1.0, math.sqrt(width * height / budget), width / limit, height / limit)
+    if step == 1.0:
+        return width, height
+    return max(1, min(limit, math.ceil(width / step))), max(1, min(limit, math.ceil(height / step)))
 
 
 class InverseSolver:
@@ -101,3 +146,63 @@ class InverseSolver:
         run_2d(program, frame.size, max_groups=self._gl.limits["max_work_groups_x"])
         self._gl.mgl.memory_barrier()
         return texture
+
+    @current
+    def solve_points(
+        self,
+        kernel: MLSKernel,
+        lattice: MeshLattice,
+        frame: Frame,
+        points: np.ndarray,
+        *,
+        shape: tuple[int, int] | None,
+        limit: int,
+    ) -> np.ndarray:
+        """(K, 4) float32 for ``points`` ((K, 2) float64 pixels, K >= 1, inside ``frame``):
+        (s.x, s.y) scaled, the residual |f(s) - u| in pixels, and 1 where the mesh of
+        ``lattice`` gave the first guess (0: Newton started at u). The guess is drawn over
+        ``frame`` in :func:`guess_size` texels (``limit``: the GL limit of a side); f is that
+        of an image of ``shape`` (None: the kernel's own), as :meth:`glmls.MLS.__call__`'s.
+        Leaves the guess's framebuffer bound."""
+        size = guess_size(frame, len(points), limit)
+        framebuffer = self._resources.framebuffer("guess", size)
+        texture = self._resources.texture("guess", size, 4, "f4")
+        framebuffer.use()
+        framebuffer.viewport = (0, 0, *size)
+        self._resources.fill(texture, (0.0, 0.0, 0.0, 0.0))
+        fill = {"linear": False, "coords": True, "flip_y": False}
+        drawn = (
+            size == frame.size
+            and self._options.compute_quads
+            and self._cells.draw(kernel, None, lattice, frame, **fill)  # type: ignore[arg-type]
+        )
+        if not drawn:
+            self._raster.draw(kernel, None, lattice, frame, **fill)  # type: ignore[arg-type]
+        program = kernel.program(
+            "warp/inverse_points.comp.glsl", {"WARP_NEWTON_STEPS": POINTS_NEWTON_STEPS}
+        )
+        kernel.bind(program, shape)
+        sc = kernel.scaling
+        texel = max(frame.size[0] / size[0], frame.size[1] / size[1])  # pixels
+        set_uniforms(
+            program,
+            {
+                **frame.uniforms(),
+                "u_guess_size": size,
+                "u_center": sc.center,
+                "u_scale": sc.scale,
+                "u_tolerance": POINTS_TOLERANCE,
+                "u_max_step": max(NEWTON_MAX_STEP, 4 * texel / sc.scale),
+            },
+        )
+        count = len(points)
+        source = self._resources.buffer("inverse_points", count * 8)
+        source.write(np.ascontiguousarray(sc.to_gpu(points), dtype=np.float32))
+        out = self._resources.buffer("inverse_out", count * 16)
+        self._gl.mgl.memory_barrier()
+        source.bind_to_storage_buffer(bindings.POINTS.index)
+        out.bind_to_storage_buffer(bindings.DEFORMED.index)
+        texture.use(bindings.COORDS.index)
+        run_1d(program, count, max_groups=self._gl.limits["max_work_groups_x"])
+        self._gl.mgl.memory_barrier()
+        return np.frombuffer(out.read(size=count * 16), np.float32).reshape(count, 4)

@@ -60,6 +60,13 @@ class PaperQuads:
         if lattice.kind != "centres":
             raise ValueError(f"paper-quads draws squares of pixel centres, got {lattice.kind}")
         columns, rows = lattice.dims
+        if columns < 2 or rows < 2:
+            # no square of four pixel centres: every pixel would keep the background
+            raise ValueError(
+                f"method 'paper-quads' fills squares of four adjacent pixel centres, and an "
+                f"image of {lattice.shape[0]} x {lattice.shape[1]} pixels has none; use "
+                f"method 'quads', or a border mode other than 'constant'"
+            )
         if (columns - 1) * (rows - 1) > MAX_SQUARES:
             raise ValueError(
                 f"paper-quads handles at most {MAX_SQUARES} squares of pixel centres; the "

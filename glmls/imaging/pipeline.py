@@ -36,11 +36,18 @@ from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import set_uniforms
 from ..gl.resources import Resources, can_fill
-from .adaptive import ROOT_STEP, AdaptiveScan, check_adaptive
+from .adaptive import ROOT_STEP, AdaptiveScan
 from .bands import MeshBands
-from .frame import Bounds, Frame, border_margin, deformed_bounds, make_frame
+from .frame import (
+    Bounds,
+    Frame,
+    border_margin,
+    covering_frame,
+    deformed_bounds,
+    make_frame,
+)
 from .inverse import InverseSolver
-from .options import PipelineOptions
+from .options import PipelineOptions, WarpOptions
 from .paper import PaperQuads
 from .quads import CellScan
 from .raster import MeshRaster
@@ -55,18 +62,29 @@ from .source import (
     texture_form,
 )
 
-__all__ = ["Deformation", "WarpPipeline"]
+__all__ = ["Deformation", "FillChoices", "WarpPipeline"]
 
 
-class _How(NamedTuple):
-    """One construction's choices, as the passes take them."""
+#: f's inverse at points: the first guess's mesh, extended past the image, has at most this
+#: many points (at grid 1) or 4 per pixel of the image and per point, whichever is more.
+#: Points beyond its reach start Newton from themselves, where f is close to its far-field
+#: affine map.
+GUESS_MESH_POINTS = 1 << 20
 
-    method: str
+
+class FillChoices(NamedTuple):
+    """What the fill passes take of a :class:`~glmls.imaging.options.WarpOptions` (and of
+    the target): the interpolation as a flag, the border as its ``WARP_BORDER`` code."""
+
     linear: bool
-    grid: int
-    border: int  # the index in BORDERS: WARP_BORDER
     flip_y: bool
-    tolerance: float | None = None  # the adaptive mesh's (quads), None: the regular one
+    border: int  # the index in BORDERS: WARP_BORDER
+    tolerance: float | None  # the adaptive mesh's (quads), None: the regular one
+
+    @classmethod
+    def of(cls, options: WarpOptions, flip_y: bool) -> FillChoices:
+        linear = options.interpolation == "linear"
+        return cls(linear, flip_y, BORDERS.index(options.border), options.tolerance)
 
 
 class Deformation(Protocol):
@@ -80,13 +98,39 @@ class Deformation(Protocol):
 
 
 class WarpPipeline:
-    """Cached GL objects and the passes that turn a deformation and a source texture into an
-    image. Use the context's shared one, :meth:`of`; a pipeline of one's own (other
-    ``options``, e.g. in tests) is released with :meth:`release`.
+    """The GPU passes that turn a deformation and a source image into the deformed image.
 
-    Textures and framebuffers are kept for the last size of each role and replaced when the
-    size changes; buffers only grow (up to ``options.band_bytes``). Compiled programs belong
-    to the :class:`~glmls.gl.GLContext` and are shared.
+    Their GL objects are cached for the next call.
+
+    One per GL context serves every :class:`~glmls.MLS` on it, the command line and a window
+    alike: use the context's shared one, :meth:`of`. A pipeline of one's own (other
+    ``options``, e.g. in tests) is released with :meth:`release`. Textures and framebuffers
+    are kept for the last size of each role and replaced when the size changes; buffers only
+    grow (up to ``options.band_bytes``). Compiled programs belong to the
+    :class:`~glmls.gl.GLContext` and are shared.
+
+    Parameters
+    ----------
+    ctx : moderngl.Context or GLContext or None
+        The context to render with (default: glmls's shared headless one).
+    options : PipelineOptions or None
+        Which of the equivalent internal paths to take (default: the fastest).
+
+    Raises
+    ------
+    glmls.GLUnavailableError
+        Where no OpenGL 4.3 context can be made.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import glmls
+    >>> pipe = glmls.gl.WarpPipeline.of()
+    >>> image = np.arange(24, dtype=np.uint8).reshape(4, 6)
+    >>> with glmls.MLS([[0, 0], [5, 3]], [[1, 0], [6, 3]]) as m:
+    ...     out = pipe.warp(m, image, glmls.WarpOptions(method="backward"))
+    >>> out.tolist()[0]
+    [0, 0, 1, 2, 3, 4]
     """
 
     def __init__(
@@ -109,13 +153,24 @@ class WarpPipeline:
 
     @classmethod
     def of(cls, ctx: moderngl.Context | GLContext | None = None) -> WarpPipeline:
-        """The pipeline shared by everything that renders with ``ctx`` (default: glmls's
-        headless context), made on first use and released with the context."""
+        """The pipeline shared by everything that renders with ``ctx``.
+
+        Parameters
+        ----------
+        ctx : moderngl.Context or GLContext or None
+            The context (default: glmls's headless one).
+
+        Returns
+        -------
+        WarpPipeline
+            Made on first use, released with the context.
+        """
         gl = get_context(ctx)
         return gl.shared(WarpPipeline, lambda: cls(gl))
 
     @property
     def ctx(self) -> GLContext:
+        """The :class:`~glmls.gl.GLContext` this pipeline renders with."""
         return self._gl
 
     @property
@@ -126,9 +181,21 @@ class WarpPipeline:
 
     @current
     def upload(self, image: SourceImage, role: str = "source") -> moderngl.Texture:
-        """The pipeline's texture of ``role`` holding ``image`` (see
-        :func:`~glmls.imaging.source.texture_form`); it stays the pipeline's, replaced by the
-        next upload of that role."""
+        """The pipeline's texture of ``role`` holding ``image``.
+
+        Parameters
+        ----------
+        image : SourceImage
+            An image prepared by :func:`~glmls.imaging.source.prepare_image` (the form of
+            its texture: :func:`~glmls.imaging.source.texture_form`).
+        role : str
+            The texture's name; the next upload of that role replaces it.
+
+        Returns
+        -------
+        moderngl.Texture
+            The pipeline's texture (do not release it).
+        """
         texture = self._resources.texture(role, *texture_form(image))
         texture.write(texture_data(image))
         return texture
@@ -141,10 +208,19 @@ class WarpPipeline:
         framebuffer: moderngl.Framebuffer,
         color: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
     ) -> None:
-        """Set ``framebuffer``'s colour to ``color`` (RGBA, 0..1 for 8 bits), as before
-        :meth:`render`: an RGBA8 or RGBA32F texture's texels copied from a buffer of the
-        colour (:meth:`~glmls.gl.resources.Resources.fill`, several times a GL clear's speed
-        on llvmpipe), any other attachment by GL's clear."""
+        """Set ``framebuffer``'s colour to ``color``, as before :meth:`render`.
+
+        An RGBA8 or RGBA32F texture's texels are copied from a buffer of the colour
+        (:meth:`~glmls.gl.resources.Resources.fill`, several times a GL clear's speed on
+        llvmpipe), any other attachment is cleared by GL.
+
+        Parameters
+        ----------
+        framebuffer : moderngl.Framebuffer
+            The target.
+        color : tuple of 4 float
+            RGBA (0..1 for 8 bits).
+        """
         target = framebuffer.color_attachments[0] if framebuffer.color_attachments else None
         if can_fill(target):
             self._resources.fill(target, color)  # type: ignore[arg-type]
@@ -158,47 +234,69 @@ class WarpPipeline:
         mls: Deformation,
         source: moderngl.Texture,
         framebuffer: moderngl.Framebuffer,
+        options: WarpOptions | None = None,
         *,
-        method: str = "quads",
-        interpolation: str = "nearest",
-        grid: int = 1,
         flip_y: bool = False,
-        border: str = "constant",
         frame: Frame | None = None,
-        tolerance: float | None = None,
+        **keywords: object,
     ) -> None:
-        """Draw the deformed ``source`` into ``framebuffer`` (its current viewport), no read-back.
+        """Draw the deformed ``source`` into ``framebuffer`` (its current viewport), no
+        read-back.
 
-        The caller clears the framebuffer to the background first (:meth:`clear`). The output
-        is ``frame`` (default: the source's size and place, see
-        :func:`~glmls.imaging.frame.make_frame`);
-        ``quads`` and ``splat`` scale it to any viewport, ``backward`` needs a viewport of
-        its size, and so does ``paper-quads`` (``ValueError`` otherwise). ``border``: one
-        of :data:`~glmls.imaging.source.BORDERS`. ``flip_y`` for a window, whose row 0 is at
-        the bottom. ``tolerance``: the adaptive mesh of ``quads`` (:mod:`.adaptive`; a
-        viewport of the output's size). The bound framebuffer is left as found.
+        The caller clears the framebuffer to the background first (:meth:`clear`; the
+        options' ``background`` is not drawn). ``quads`` and ``splat`` scale the output
+        canvas to any viewport; ``backward``, ``paper-quads`` and a ``tolerance`` need a
+        viewport of its size. The bound framebuffer is left as found.
+
+        Parameters
+        ----------
+        mls : Deformation
+            What deforms: an :class:`~glmls.MLS`.
+        source : moderngl.Texture
+            The source image (e.g. from :meth:`upload`).
+        framebuffer : moderngl.Framebuffer
+            The target.
+        options : WarpOptions or None
+            The construction (default: ``WarpOptions()``); its ``output_shape`` and
+            ``origin`` give the canvas unless ``frame`` does.
+        flip_y : bool
+            Row 0 at the bottom, as a window's.
+        frame : Frame or None
+            The output canvas (default: from ``options``, else the source's size and place,
+            see :func:`~glmls.imaging.frame.make_frame`).
+        **keywords
+            Fields of :class:`~glmls.WarpOptions` replacing those of ``options``.
+
+        Raises
+        ------
+        ValueError
+            For bad options, or a viewport that the construction cannot fill.
+        TypeError
+            For a keyword that is no field of :class:`~glmls.WarpOptions`.
         """
         self._resources.check_alive()
-        check_options(method, interpolation, grid, border)
-        tolerance = check_adaptive(method, grid, tolerance)
+        options = WarpOptions.of(options, **keywords)
         width, height = source.size
         if frame is None:
-            frame = Frame((height, width))
-        how = _How(
-            method, interpolation == "linear", grid, BORDERS.index(border), flip_y, tolerance
-        )
+            frame = make_frame(
+                options.output_shape, options.origin, (height, width), self.max_image_size
+            )
         with _keep_framebuffer(self._gl.mgl):
-            self._render(mls, source, framebuffer, how, frame)
+            self._render(mls, source, framebuffer, options, frame, flip_y=flip_y)
 
-    def _render(self, mls, source, framebuffer, how: _How, frame: Frame) -> None:
+    def _render(
+        self, mls, source, framebuffer, options: WarpOptions, frame: Frame, *, flip_y: bool
+    ) -> None:
         width, height = source.size
         shape = (height, width)
         kernel = mls.kernel
-        if how.tolerance is not None:
-            lattice = self._lattice(kernel, shape, ROOT_STEP, how.border, frame)
-            self.adaptive.render(kernel, lattice, source, framebuffer, frame, how)
+        fill = FillChoices.of(options, flip_y)
+        method, border = options.method, fill.border
+        if fill.tolerance is not None:
+            lattice = self._lattice(kernel, shape, ROOT_STEP, border, frame)
+            self.adaptive.render(kernel, lattice, source, framebuffer, frame, fill)
             return
-        if how.method == "paper-quads":
+        if method == "paper-quads":
             if tuple(framebuffer.viewport) != (0, 0, *frame.size):
                 raise ValueError(
                     f"method 'paper-quads' needs a viewport of the output's size {frame.size}, "
@@ -206,41 +304,40 @@ class WarpPipeline:
                 )
             # the centres one pixel past the corners' margin: their deformed border then
             # encloses what the corners' does (a border mode covers the whole canvas)
-            margin = self._lattice(kernel, shape, 1, how.border, frame).margin
-            lattice = MeshLattice.centres(shape, margin=margin + 1 if how.border else 0)
-            fill = {"linear": how.linear, "flip_y": how.flip_y, "border": how.border}
-            self.paper.draw(kernel, source, lattice, frame, framebuffer, **fill)
+            margin = self._lattice(kernel, shape, 1, border, frame).margin
+            lattice = MeshLattice.centres(shape, margin=margin + 1 if border else 0)
+            paper = {"linear": fill.linear, "flip_y": flip_y, "border": border}
+            self.paper.draw(kernel, source, lattice, frame, framebuffer, **paper)
             return
-        if how.method in ("quads", "splat"):
+        if method in ("quads", "splat"):
             framebuffer.use()
-            splat = how.method == "splat"
-            lattice = self._lattice(kernel, shape, 1 if splat else how.grid, how.border, frame)
-            fill = {"linear": how.linear, "coords": False, "flip_y": how.flip_y}
-            fill["border"] = how.border
+            splat = method == "splat"
+            lattice = self._lattice(kernel, shape, 1 if splat else options.grid, border, frame)
+            quads = {"linear": fill.linear, "coords": False, "flip_y": flip_y, "border": border}
             if splat:
                 lattice = MeshLattice.centres(shape, margin=lattice.margin)
             elif (
                 self.options.compute_quads
                 and tuple(framebuffer.viewport) == (0, 0, *frame.size)
                 and self.cells.draw(
-                    kernel, source, lattice, frame, **fill, target=framebuffer.color_attachments[0]
+                    kernel, source, lattice, frame, **quads, target=framebuffer.color_attachments[0]
                 )
             ):
                 return
-            self.raster.draw(kernel, source, lattice, frame, **fill)
+            self.raster.draw(kernel, source, lattice, frame, **quads)
             return
-        swap = how.method == "backward-swap"
-        coords = self._solve(mls, shape, frame, swap=swap, grid=how.grid, border=how.border)
+        swap = method == "backward-swap"
+        coords = self._solve(mls, shape, frame, swap=swap, grid=options.grid, border=border)
         program = self._gl.program(
             "common/fullscreen.vert.glsl",
             "warp/backward.frag.glsl",
-            {"WARP_LINEAR": how.linear, "WARP_BORDER": how.border},
+            {"WARP_LINEAR": fill.linear, "WARP_BORDER": border},
         )
         set_uniforms(
             program,
-            {"u_target_size": frame.size, "u_flip_y": how.flip_y, "u_source_size": (width, height)},
+            {"u_target_size": frame.size, "u_flip_y": flip_y, "u_source_size": (width, height)},
         )
-        mode = moderngl.LINEAR if how.linear else moderngl.NEAREST
+        mode = moderngl.LINEAR if fill.linear else moderngl.NEAREST
         source.filter = (mode, mode)
         source.use(bindings.SOURCE.index)
         coords.use(bindings.COORDS.index)
@@ -275,9 +372,29 @@ class WarpPipeline:
         border: str = "constant",
         frame: Frame | None = None,
     ) -> moderngl.Texture:
-        """The RGBA32F texture (s.x, s.y, residual, covered) of the backward map of an image
-        of ``shape``, output pixels of ``frame`` (default: the image's). ``border``
-        ``constant``: pixels whose source point is outside the image are not covered."""
+        """The backward map of an image of ``shape`` as a texture, left on the GPU.
+
+        Parameters
+        ----------
+        mls : Deformation
+            What deforms.
+        shape : (int, int)
+            (H, W) of the source image.
+        swap : bool
+            The swapped-handles map (``backward-swap``) instead of f's inverse.
+        grid : int
+            The first guess's mesh step, pixels.
+        border : str
+            ``"constant"``: pixels whose source point is outside the image are not covered;
+            the other :data:`~glmls.BORDERS` keep them.
+        frame : Frame or None
+            The output pixels (default: the image's).
+
+        Returns
+        -------
+        moderngl.Texture
+            The pipeline's RGBA32F texture (s.x, s.y, residual, covered) per output pixel.
+        """
         self._resources.check_alive()
         check_options("backward", "nearest", grid, border)
         shape = as_shape(shape)
@@ -288,9 +405,83 @@ class WarpPipeline:
             )
 
     @current
+    def inverse_points(
+        self, mls: Deformation, points: np.ndarray, shape: tuple[int, int], *, grid: int = 1
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """f's inverse at ``points``: for each point u the source point s with f(s) = u,
+        found anywhere in the plane by Newton's method on f (as the ``backward`` method's).
+
+        The first guess is the rasterized inverse of the mesh of an image of ``shape`` (step
+        ``grid``), extended past the image until its deformed border encloses the points
+        (:func:`~glmls.imaging.frame.border_margin`, within :data:`GUESS_MESH_POINTS`),
+        drawn over a canvas that holds the points
+        (:func:`~glmls.imaging.inverse.guess_size` texels). f is the deformation's own, as
+        its ``__call__`` evaluates it.
+
+        Parameters
+        ----------
+        mls : Deformation
+            What deforms.
+        points : numpy.ndarray
+            (K, 2) float64 pixels, finite.
+        shape : (int, int)
+            (H, W) of the image whose mesh gives the first guess.
+        grid : int
+            That mesh's step, pixels.
+
+        Returns
+        -------
+        s : numpy.ndarray
+            (K, 2) float64, Newton's last iterate (whether or not it converged).
+        residual : numpy.ndarray
+            (K,) float64 |f(s) - u| in pixels, as the GPU computed it: s is f's inverse at u
+            where it is at most :data:`~glmls.imaging.inverse.NEWTON_ACCEPT`.
+        """
+        self._resources.check_alive()
+        kernel = mls.kernel
+        kernel.check_alive()
+        shape = as_shape(shape)
+        count = len(points)
+        if count == 0:
+            return np.zeros((0, 2)), np.zeros(0)
+        frame = covering_frame(points)
+        lattice = MeshLattice.corners(shape, grid)
+        budget = max(GUESS_MESH_POINTS, 4 * (shape[0] * shape[1] + count))
+        margin = border_margin(kernel, lattice, frame, warn=False, max_points=budget)
+        with _keep_framebuffer(self._gl.mgl):
+            out = self._inverse.solve_points(
+                kernel,
+                lattice.with_margin(margin),
+                frame,
+                points,
+                shape=kernel.shape,
+                limit=self.max_image_size,
+            )
+        return kernel.scaling.from_gpu(out[:, :2]), out[:, 2].astype(np.float64)
+
+    @current
     def bounds(self, mls: Deformation, shape: object, *, grid: int = 1) -> Bounds:
-        """The :class:`~glmls.imaging.frame.Bounds` of the deformed image of ``shape``: its
-        quads' corners at ``grid`` under f, evaluated band by band on the GPU."""
+        """The bounding box of the deformed image of an image of ``shape``.
+
+        Parameters
+        ----------
+        mls : Deformation
+            What deforms.
+        shape : (int, int)
+            (H, W) of the image.
+        grid : int
+            The step of the mesh whose corners are deformed, pixels.
+
+        Returns
+        -------
+        Bounds
+            The box of f at the mesh's corners, evaluated band by band on the GPU.
+
+        Raises
+        ------
+        ValueError
+            For a bad ``shape`` or ``grid``, or a shape beyond the GL limit.
+        """
         self._resources.check_alive()
         lattice = MeshLattice.corners(_within_limit(shape, self.max_image_size), grid)
         kernel = mls.kernel
@@ -309,33 +500,46 @@ class WarpPipeline:
         self,
         mls: Deformation,
         image: object,
-        *,
-        method: str = "quads",
-        interpolation: str = "nearest",
-        grid: int = 1,
-        background: object = 0,
-        border: str = "constant",
-        output_shape: object = None,
-        origin: object = None,
-        tolerance: float | None = None,
+        options: WarpOptions | None = None,
+        **keywords: object,
     ) -> np.ndarray:
-        """The deformed image as a new array of ``image``'s dtype and channels, of
-        ``output_shape`` (default: the image's); see :meth:`glmls.MLS.warp`."""
+        """The deformed image, read back (see :meth:`glmls.MLS.warp`).
+
+        Parameters
+        ----------
+        mls : Deformation
+            What deforms.
+        image : array_like
+            H x W or H x W x C (C in 1..4), uint8, uint16, float32 or float64.
+        options : WarpOptions or None
+            The construction and the canvas (default: ``WarpOptions()``).
+        **keywords
+            Fields of :class:`~glmls.WarpOptions` replacing those of ``options``.
+
+        Returns
+        -------
+        numpy.ndarray
+            A new array of ``image``'s dtype and channels, of ``options.output_shape``
+            (default: the image's).
+
+        Raises
+        ------
+        ValueError, TypeError
+            For a bad image or options (named).
+        """
         self._resources.check_alive()
-        check_options(method, interpolation, grid, border)
-        tolerance = check_adaptive(method, grid, tolerance)
+        options = WarpOptions.of(options, **keywords)
         source = prepare_image(image, self.max_image_size, normalized=True)
-        frame = make_frame(output_shape, origin, source.shape, self.max_image_size)
-        clear = background_color(background, source)
+        frame = make_frame(options.output_shape, options.origin, source.shape, self.max_image_size)
+        clear = background_color(options.background, source)
         texture = self.upload(source)
         dtype = "f1" if source.normalized else "f4"
-        how = _How(method, interpolation == "linear", grid, BORDERS.index(border), False, tolerance)
         with _keep_framebuffer(self._gl.mgl):
             framebuffer = self._resources.framebuffer("target", frame.size, dtype)
             framebuffer.use()
             framebuffer.viewport = (0, 0, *frame.size)
             self.clear(framebuffer, clear)
-            self._render(mls, texture, framebuffer, how, frame)
+            self._render(mls, texture, framebuffer, options, frame, flip_y=False)
         if source.normalized:
             return source.restore(read_rgba8(framebuffer, frame.size, source.channels))
         values = np.empty((*frame.shape, 4), np.float32)
@@ -348,23 +552,52 @@ class WarpPipeline:
         self,
         mls: Deformation,
         shape: object,
-        *,
-        method: str = "backward",
-        grid: int = 1,
-        border: str = "constant",
-        output_shape: object = None,
-        origin: object = None,
+        options: WarpOptions | None = None,
+        **keywords: object,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(map (H, W, 2) float32, residual (H, W) float32, covered (H, W) bool) over the
-        output canvas (``output_shape``, ``origin``; default: the image's)."""
+        """The backward map over the output canvas, read back (see
+        :meth:`glmls.MLS.coordinate_map`).
+
+        Parameters
+        ----------
+        mls : Deformation
+            What deforms.
+        shape : (int, int)
+            (H, W) of the source image.
+        options : WarpOptions or None
+            Its ``method`` (``"backward"``, the default here, or ``"backward-swap"``),
+            ``grid``, ``border``, ``output_shape`` and ``origin`` (the others do not apply).
+        **keywords
+            Fields of :class:`~glmls.WarpOptions` replacing those of ``options``.
+
+        Returns
+        -------
+        map : numpy.ndarray
+            (H, W, 2) float32 source points (x, y).
+        residual : numpy.ndarray
+            (H, W) float32 |f(s) - u|, pixels (NaN for ``backward-swap``).
+        covered : numpy.ndarray
+            (H, W) bool: a source point was found (inside the image, for ``constant``).
+
+        Raises
+        ------
+        ValueError
+            For another method, or bad options.
+        """
         self._resources.check_alive()
+        options = WarpOptions.of(options or WarpOptions(method="backward"), **keywords)
+        method = options.method
         if method not in ("backward", "backward-swap"):
             raise ValueError(f"unknown method {method!r}; choose backward or backward-swap")
-        check_options(method, "nearest", grid, border)
         shape = _within_limit(shape, self.max_image_size)
-        frame = make_frame(output_shape, origin, shape, self.max_image_size)
+        frame = make_frame(options.output_shape, options.origin, shape, self.max_image_size)
         texture = self.solve_inverse(
-            mls, shape, swap=method == "backward-swap", grid=grid, border=border, frame=frame
+            mls,
+            shape,
+            swap=method == "backward-swap",
+            grid=options.grid,
+            border=options.border,
+            frame=frame,
         )
         values = np.frombuffer(texture.read(), dtype=np.float32).reshape(*frame.shape, 4)
         residual = values[..., 2].copy()

@@ -22,6 +22,7 @@ __all__ = [
     "SourceImage",
     "as_rgba8",
     "background_color",
+    "check_background",
     "check_image",
     "check_options",
     "prepare_image",
@@ -105,6 +106,30 @@ def prepare_image(image: object, max_size: int, *, normalized: bool = False) -> 
     return SourceImage(data, array.dtype, squeeze)
 
 
+def _is_real(value: object) -> bool:
+    return not isinstance(value, (bool, np.bool_)) and isinstance(
+        value, (int, float, np.integer, np.floating)
+    )
+
+
+def check_background(background: object) -> float | tuple[float, ...]:
+    """``background`` as a float, or a tuple of 1 to 4 floats (one per channel):
+    ``TypeError`` unless its values are real numbers, ``ValueError`` for another count (the
+    image's channels decide which counts fit: :func:`background_color`)."""
+    values = np.asarray(background, dtype=object)
+    if values.ndim == 0:
+        if not _is_real(background):
+            raise TypeError(f"background values must be real numbers, got {background!r}")
+        return float(background)  # type: ignore[arg-type]
+    if values.ndim != 1 or not 1 <= len(values) <= 4:
+        raise ValueError(
+            f"background must be a scalar or 1 to 4 values (one per channel), got {background!r}"
+        )
+    if not all(_is_real(value) for value in values):
+        raise TypeError(f"background values must be real numbers, got {background!r}")
+    return tuple(float(value) for value in values)
+
+
 def background_color(background: object, image: SourceImage) -> tuple[float, float, float, float]:
     """The clear colour: ``background`` per channel, and alpha 0 for images with alpha.
 
@@ -124,9 +149,7 @@ def background_color(background: object, image: SourceImage) -> tuple[float, flo
         )
     out = []
     for value in values:
-        if isinstance(value, (bool, np.bool_)) or not isinstance(
-            value, (int, float, np.integer, np.floating)
-        ):
+        if not _is_real(value):
             raise TypeError(f"background values must be real numbers, got {background!r}")
         out.append(float(value))
     if np.issubdtype(image.dtype, np.integer):

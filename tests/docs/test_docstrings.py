@@ -32,18 +32,6 @@ CHECKS = {"GL08", "SS01", "SS03", "SS06", "PR01", "PR02", "PR07", "RT01", "YD01"
 #: Attributes together below: a dataclass documents its fields as either).
 CLASS_CHECKS = {"GL08", "SS01", "SS03", "SS06", "EX01"}
 
-#: Names whose docstrings are written in other files (glmls/mls.py, glmls/imaging/options.py,
-#: frame.py, pipeline.py): expected to fail until those docstrings are merged.
-OWNED_ELSEWHERE = {
-    "glmls.MLS",
-    "glmls.warp",
-    "glmls.WarpOptions",
-    "glmls.InverseMLS",
-    "glmls.Bounds",
-    "glmls.gl.WarpPipeline",
-    "glmls.gl.PipelineOptions",
-}
-
 _FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 
 
@@ -62,11 +50,7 @@ PUBLIC = public_names()
 
 
 def _params(names: list[tuple[str, object]]):
-    marks = pytest.mark.xfail(strict=False, reason="docstring written on another branch")
-    return [
-        pytest.param(obj, id=name, marks=marks if name in OWNED_ELSEWHERE else ())
-        for name, obj in names
-    ]
+    return [pytest.param(obj, id=name) for name, obj in names]
 
 
 def _is_exception(obj: object) -> bool:

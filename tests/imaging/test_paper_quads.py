@@ -179,3 +179,16 @@ def test_paper_quads_need_a_viewport_of_the_output_size(gl):
             bound.use()
             framebuffer.release()
             target.release()
+
+
+@pytest.mark.parametrize("shape", [(1, 9), (9, 1), (1, 1)])
+def test_an_image_without_squares_is_refused(gl, shape):
+    """One row or column holds no square of four pixel centres: with the constant border
+    every pixel would keep the background, so it is refused; a border mode's margin adds the
+    squares past the image, and the identity comes back."""
+    image = np.arange(shape[0] * shape[1], dtype=np.uint8).reshape(shape) + 1
+    none = np.zeros((0, 2))
+    with pytest.raises(ValueError, match=r"1 x 9|9 x 1|1 x 1"):
+        glmls.warp(image, none, none, method="paper-quads", ctx=gl)
+    out = glmls.warp(image, none, none, method="paper-quads", border="edge", ctx=gl)
+    np.testing.assert_array_equal(out, image)

@@ -1,8 +1,8 @@
 // The backward map: for each output pixel u, the source point s with f(s) = u.
 //
-//   WARP_SWAP 0: Newton's method on f, from the guess in u_map (the rasterized piecewise
-//                linear inverse of the mesh, where it covers u) or from u itself. The Jacobian
-//                is taken by forward differences: the MLS Jacobian is not M (M varies with v).
+//   WARP_SWAP 0: Newton's method on f (warp/newton.glsl), from the guess in u_map (the
+//                rasterized piecewise linear inverse of the mesh, where it covers u) or from
+//                u itself.
 //             1: s = the MLS map built with the handles swapped (q -> p), the shortcut other
 //                MLS tools take: the program evaluates that map's kernel. Residual unknown (-1).
 //   WARP_NEWTON_STEPS  the most Newton steps.
@@ -13,6 +13,7 @@ layout(local_size_x = LOCAL_SIZE_2D, local_size_y = LOCAL_SIZE_2D) in;
 
 #include "mls/visit.glsl"
 #include "warp/frame.glsl"
+#include "warp/newton.glsl"
 
 layout(rgba32f, binding = BIND_INVERSE_MAP) uniform image2D u_map;
 
@@ -35,27 +36,8 @@ void main() {
 #else
     vec4 guess = imageLoad(u_map, p);
     vec2 s = guess.z > 0.5 ? (guess.xy - u_center) / u_scale : u;
-    float tolerance = u_tolerance / u_scale;
-    float h = 0.25 / u_scale;   // a quarter pixel: float32 noise in f is ~1e-4 of it
-    float residual = 0.0;
-    for (int k = 0; ; ++k) {
-        vec2 r = mls_eval(s).f - u;
-        residual = length(r);
-        if (residual <= tolerance || k == WARP_NEWTON_STEPS) {
-            break;
-        }
-        vec2 fs = r + u;
-        vec2 jx = (mls_eval(s + vec2(h, 0.0)).f - fs) / h;   // df/dx
-        vec2 jy = (mls_eval(s + vec2(0.0, h)).f - fs) / h;   // df/dy
-        float det = jx.x * jy.y - jy.x * jx.y;
-        if (!(abs(det) > 1e-12)) {
-            break;   // f is singular here (a fold's edge): keep the best point so far
-        }
-        vec2 step = vec2(jy.y * r.x - jy.x * r.y, jx.x * r.y - jx.y * r.x) / det;
-        // Far from the solution, go at most a tenth of the image per step.
-        float len = length(step);
-        s -= len > 0.2 ? step * (0.2 / len) : step;
-    }
+    float residual;
+    s = warp_newton(s, u, u_tolerance / u_scale, 0.2, residual);   // a tenth of the image
     residual *= u_scale;
     bool converged = residual <= u_accept;
 #endif

@@ -1,0 +1,67 @@
+// f's inverse at a list of points: for each point u the source point s with f(s) = u, by
+// Newton's method on f (warp/newton.glsl) from the first guess in u_guess, the rasterized
+// piecewise linear inverse of the mesh over a canvas that holds every point (u_target_size
+// pixels from u_origin, drawn into u_guess_size texels: one texel may span several pixels).
+// The guess is the texel under u, else the covered texel of its 3 x 3 neighbourhood nearest
+// to it, else u itself. Newton's steps may be as long as a few texels (u_max_step), so that
+// the first step goes from a texel's centre to u.
+//
+// Out, per point: (s.x, s.y) scaled, |f(s) - u| in pixels, and whether a texel gave the
+// guess.
+layout(local_size_x = LOCAL_SIZE) in;
+
+#include "mls/visit.glsl"
+#include "warp/frame.glsl"
+#include "warp/newton.glsl"
+
+layout(std430, binding = BIND_POINTS) readonly buffer InversePoints {
+    vec2 inverse_points[];   // u, scaled
+};
+layout(std430, binding = BIND_DEFORMED) writeonly buffer InverseOut {
+    vec4 inverse_out[];
+};
+layout(binding = BIND_COORDS) uniform sampler2D u_guess;   // (s.x, s.y pixels, covered, 0)
+
+uniform ivec2 u_target_size;   // W, H of the canvas, pixels
+uniform ivec2 u_guess_size;    // W, H of u_guess, texels
+uniform int u_count;
+uniform int u_offset;
+uniform float u_tolerance;     // stop below this residual, pixels
+uniform float u_max_step;      // the longest Newton step, scaled: longer with coarse texels
+
+void main() {
+    // No early return past the end (as mls/points.comp.glsl): those invocations redo the
+    // last point, unstored.
+    int i = u_offset + int(gl_GlobalInvocationID.x);
+    vec2 u = inverse_points[min(i, max(u_count - 1, 0))];
+    vec2 at = (warp_output_point(u) + 0.5) * vec2(u_guess_size) / vec2(u_target_size);
+    ivec2 texel = clamp(ivec2(floor(at)), ivec2(0), u_guess_size - 1);
+    vec4 guess = texelFetch(u_guess, texel, 0);
+    if (guess.z < 0.5) {
+        float nearest = 1e30;
+        for (int dy = -1; dy <= 1; ++dy) {
+            for (int dx = -1; dx <= 1; ++dx) {
+                ivec2 t = texel + ivec2(dx, dy);
+                if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, u_guess_size))) {
+                    continue;
+                }
+                vec4 g = texelFetch(u_guess, t, 0);
+                vec2 d = vec2(t) + 0.5 - at;
+                if (g.z > 0.5 && dot(d, d) < nearest) {
+                    nearest = dot(d, d);
+                    guess = g;
+                }
+            }
+        }
+    }
+    bool guessed = guess.z > 0.5;
+    vec2 s = guessed ? (guess.xy - u_center) / u_scale : u;
+    float residual;
+    // Without a guess (u beyond the mesh's reach: where f is close to its far-field affine
+    // map) Newton's steps are not bounded: any point it ends at within the tolerance is a
+    // preimage.
+    s = warp_newton(s, u, u_tolerance / u_scale, guessed ? u_max_step : 1e30, residual);
+    if (i < u_count) {
+        inverse_out[i] = vec4(s, residual * u_scale, guessed ? 1.0 : 0.0);
+    }
+}

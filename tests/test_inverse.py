@@ -1,0 +1,215 @@
+"""f's inverse at points (``MLS.inverse``, :class:`glmls.InverseMLS`) and ``MLS.residuals``:
+solved on the GPU, checked against the float64 reference (glmls.reference)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+import glmls
+from glmls import reference
+from glmls.imaging.inverse import NEWTON_ACCEPT
+
+#: |f(inverse(u)) - u| with f in float64 (glmls.reference), pixels: Newton stops below
+#: 1e-4 px on the GPU's float32 f, whose own error here is ~1e-5 px.
+EXACT = 1e-3
+SHAPE = (60, 80)
+SRC = np.array([[10, 10], [70, 12], [12, 50], [68, 48], [40, 30]], float)
+DST = SRC + [[3, -2], [-4, 3], [2, 4], [5, -3], [-2, -2]]
+
+
+def back_error(m: glmls.MLS, s: np.ndarray, u: np.ndarray) -> np.ndarray:
+    f, _, _ = reference.mls(
+        m.src, m.dst, s, m.config, shape=m.shape, src_segments=m.src_segments,
+        dst_segments=m.dst_segments,
+    )  # fmt: skip
+    return np.hypot(*(f - u).T)
+
+
+@pytest.mark.parametrize("transform", ["rigid", "similarity", "affine"])
+def test_f_of_the_inverse_is_the_point(gl, transform, rng):
+    inside = rng.uniform([-0.5, -0.5], [79.5, 59.5], (400, 2))
+    outside = rng.uniform([-80, -60], [160, 120], (100, 2))  # the plane past the image too
+    u = np.concatenate([inside, outside, DST])
+    with glmls.MLS(SRC, DST, transform=transform, shape=SHAPE, ctx=gl) as m:
+        s, valid = m.inverse(u, return_valid=True)
+        assert s.shape == (len(u), 2) and s.dtype == np.float64
+        assert valid.all()
+        assert back_error(m, s, u).max() < EXACT
+        assert_allclose(s[-len(DST) :], SRC, atol=EXACT)  # the handles interpolate
+        # and the other way: where f is one-to-one, inverse(f(v)) is v
+        v = rng.uniform([0, 0], [79, 59], (200, 2))
+        assert_allclose(m.inverse(m(v)), v, atol=5 * EXACT)
+
+
+def test_segments_and_radius_weights(gl, rng):
+    segments_src = np.array([[[20, 40], [60, 40]]], float)
+    segments_dst = np.array([[[22, 44], [58, 38]]], float)
+    u = rng.uniform([0, 0], [79, 59], (300, 2))
+    with glmls.MLS(
+        SRC, DST, src_segments=segments_src, dst_segments=segments_dst, weight="gaussian",
+        shape=SHAPE, ctx=gl,
+    ) as m:  # fmt: skip
+        s, valid = m.inverse(u, return_valid=True)
+        assert valid.all()
+        assert back_error(m, s, u).max() < EXACT
+
+
+def test_points_spread_far_apart_use_a_coarser_guess(gl, rng):
+    """Points over 10^4 px: the first guess's canvas is coarser than a pixel and its mesh
+    does not reach the farthest (Newton starts from u there, where f is close to its
+    far-field affine map); all land, within float32's ~1e-7 of the coordinates."""
+    u = np.concatenate([rng.uniform(-4000, 6000, (200, 2)), rng.uniform(0, 60, (50, 2))])
+    with glmls.MLS(SRC, DST, transform="similarity", shape=SHAPE, ctx=gl) as m:
+        s, valid = m.inverse(u, return_valid=True)
+        assert valid.all()
+        tolerance = np.maximum(EXACT, 2e-7 * np.abs(u).max(axis=1))
+        assert (back_error(m, s, u) < tolerance).all()
+
+
+def test_no_preimage_gives_nan():
+    """One handle moved 10 px left with a compact-support weight: inside its reach f is that
+    translation, outside it the identity. A point within the reach of p but farther than R
+    from p + d has no preimage (s = u + 10 would lie outside the reach, s = u inside it)."""
+    p, d, radius = np.array([40.0, 30.0]), np.array([-10.0, 0.0]), 20.0
+    crescent = np.array([[55, 30], [52, 36], [58, 26], [45, 45]], float)
+    assert (np.hypot(*(crescent - p).T) < radius).all()
+    assert (np.hypot(*(crescent - p - d).T) > radius).all()
+    covered = np.array([[30, 30], [25, 35], [70, 30], [5, 5], [40, 55]], float)
+    with glmls.MLS([p], [p + d], weight="cressman", radius=radius, shape=SHAPE) as m:
+        s, valid = m.inverse(np.concatenate([crescent, covered]), return_valid=True)
+        assert_array_equal(valid, [False] * 4 + [True] * 5)
+        assert np.isnan(s[:4]).all() and np.isfinite(s[4:]).all()
+        assert back_error(m, s[4:], covered).max() < EXACT
+        assert np.isnan(m.inverse(crescent)).all()  # without the mask: NaN rows
+
+
+def test_a_map_that_collapses_the_plane():
+    """Every target one point: a similarity map with scale 0, f = q everywhere."""
+    with glmls.MLS([[0, 0], [10, 0], [0, 10]], [[5, 5]] * 3, transform="similarity") as m:
+        s, valid = m.inverse([[5, 5], [7, 7], [500, -50]], return_valid=True)
+        assert valid.tolist() == [True, False, False]
+        assert_allclose(m(s[:1]), [[5, 5]], atol=EXACT)
+
+
+def test_hostile_points(gl):
+    with glmls.MLS(SRC, DST, shape=SHAPE, ctx=gl) as m:
+        inverse = m.inverse
+        for empty in (np.zeros((0, 2)), [], np.zeros((0, 2), np.float32)):
+            out = inverse(empty)
+            assert out.shape == (0, 2) and out.dtype == np.float64
+        out, valid = inverse(np.zeros((0, 2)), return_valid=True)
+        assert valid.shape == (0,) and valid.dtype == bool
+        with pytest.raises(ValueError, match="finite; row 1"):
+            inverse([[1, 2], [np.nan, 3]])
+        with pytest.raises(ValueError, match="finite"):
+            inverse([[np.inf, 3]])
+        with pytest.raises(ValueError, match=r"shape \(N, 2\)"):
+            inverse([[1, 2, 3]])
+        with pytest.raises(ValueError, match=r"shape \(N, 2\)"):
+            inverse(np.zeros((2, 2, 2)))
+        with pytest.raises(TypeError, match="real numbers"):
+            inverse([["a", "b"]])
+        with pytest.raises(ValueError, match="1e\\+06"):
+            inverse([[2e6, 0]])
+        # 5 images away, and beyond the first guess's reach (Newton from u itself, where f
+        # is close to its far-field affine map; float32 keeps ~1e-7 of the coordinates)
+        for far in ([[400.0, -300.0]], [[1e5, -1e5]], [[400.0, -300.0], [1e5, -1e5]]):
+            s, valid = inverse(far, return_valid=True)
+            assert valid.all()
+            far = np.array(far)
+            tolerance = np.maximum(EXACT, 1e-7 * np.abs(far).max(axis=1))
+            assert (back_error(m, s, far) < tolerance).all()
+        assert_allclose(inverse(np.array([[30, 20]], np.int64)), inverse([[30.0, 20.0]]))
+
+
+def test_the_inverse_follows_set_handles_and_release(gl):
+    m = glmls.MLS([[10, 10]], [[12, 10]], shape=SHAPE, ctx=gl)
+    inverse = m.inverse
+    assert inverse.inverse is m and m.inverse.inverse is m
+    assert_allclose(inverse([[20, 20]]), [[18, 20]], atol=EXACT)
+    m.set_handles([[10, 10]], [[10, 15]])
+    assert_allclose(inverse([[20, 20]]), [[20, 15]], atol=EXACT)  # no stale first guess
+    assert_allclose(m.inverse([[20, 20]]), [[20, 15]], atol=EXACT)
+    m.set_handles(SRC, DST)
+    u = np.array([[30.0, 30.0], [50, 10]])
+    assert back_error(m, inverse(u), u).max() < EXACT
+    m.release()
+    with pytest.raises(glmls.ReleasedError):
+        m.inverse  # noqa: B018
+    with pytest.raises(glmls.ReleasedError):
+        inverse([[1, 2]])
+    with pytest.raises(glmls.ReleasedError):
+        m.residuals([[1, 2]], [[1, 2]])
+
+
+def test_without_shape_and_with_a_coarser_guess(gl, rng):
+    u = rng.uniform(0, 70, (100, 2))
+    with glmls.MLS(SRC, DST, ctx=gl) as m:  # the first guess's image: the handles' box
+        s = m.inverse(u)
+        assert back_error(m, s, u).max() < EXACT
+        coarse = glmls.InverseMLS(m, grid=4)
+        assert_allclose(coarse(u), s, atol=EXACT)
+        assert repr(coarse).startswith("InverseMLS(MLS(5 handles") and "grid=4" in repr(coarse)
+    with glmls.MLS([], [], ctx=gl) as m:  # the identity, no handles
+        assert_allclose(m.inverse([[3, 4], [-50, 700]]), [[3, 4], [-50, 700]])
+    with glmls.MLS(SRC, DST, weight="gaussian", ctx=gl) as m:
+        with pytest.raises(ValueError, match="needs an influence radius"):
+            m([[1, 2]])
+        with pytest.raises(ValueError, match="needs an influence radius"):
+            m.inverse([[1, 2]])
+
+
+def test_inverse_mls_checks_its_arguments(gl):
+    with pytest.raises(TypeError, match=r"forward must be a glmls\.MLS"):
+        glmls.InverseMLS(object())  # type: ignore[arg-type]
+    with glmls.MLS(SRC, DST, ctx=gl) as m:
+        with pytest.raises(ValueError, match="grid"):
+            glmls.InverseMLS(m, grid=0)
+        with pytest.raises(TypeError):
+            m.inverse([[1, 2]], True)  # type: ignore[misc]
+
+
+def test_the_mask_is_the_residual_threshold(gl):
+    """The rows the mask keeps are those Newton solved within NEWTON_ACCEPT."""
+    with glmls.MLS([[40, 30]], [[30, 30]], weight="cressman", radius=20, ctx=gl) as m:
+        u = np.array([[30.0, 30.0], [55, 30]])  # the second in the crescent: no preimage
+        s, valid = m.inverse(u, return_valid=True)
+        assert valid.tolist() == [True, False]
+        assert m.residuals(s[:1], u[:1])[0] <= NEWTON_ACCEPT
+
+
+def test_residuals(gl, rng):
+    src = rng.uniform(0, 60, (30, 2))
+    dst = src + rng.normal(0, 2, src.shape)
+    with glmls.MLS(SRC, DST, shape=SHAPE, ctx=gl) as m:
+        r = m.residuals(src, dst)
+        assert r.shape == (30,) and r.dtype == np.float64
+        f, _, _ = reference.mls(SRC, DST, src, m.config, shape=SHAPE)
+        assert_allclose(r, np.hypot(*(f - dst).T), atol=1e-3)
+        assert_allclose(m.residuals(SRC, DST), 0, atol=1e-3)  # the handles interpolate
+        assert m.residuals(np.zeros((0, 2)), []).shape == (0,)
+        with pytest.raises(ValueError, match="same length, got 30 and 29"):
+            m.residuals(src, dst[:-1])
+        with pytest.raises(ValueError, match="dst must have shape"):
+            m.residuals(src, dst[:, :1])
+        with pytest.raises(ValueError, match="src must be finite"):
+            m.residuals([[np.nan, 0]], [[0, 0]])
+        inverse = m.inverse.residuals(DST, SRC)
+        assert inverse.shape == (5,) and inverse.max() < EXACT
+
+
+@pytest.mark.parametrize("dst", [DST, SRC[[0, 1, 3, 2, 4]]], ids=["smooth", "folding"])
+def test_at_pixel_centres_it_is_the_coordinate_map(gl, dst):
+    """Over an image's pixel centres the first guess is drawn pixel for pixel, as the
+    ``backward`` method's: the same preimage, where f folds too (the first cell in scan
+    order), up to Newton's tolerance. With twice the steps, a few more pixels are solved."""
+    rows, cols = np.mgrid[0 : SHAPE[0], 0 : SHAPE[1]]
+    pixels = np.stack([cols.ravel(), rows.ravel()], -1).astype(float)
+    with glmls.MLS(SRC, dst, shape=SHAPE, ctx=gl) as m:
+        xy, residual = m.coordinate_map(SHAPE, residual=True, border="edge")
+        s, valid = m.inverse(pixels, return_valid=True)
+    solved = (residual <= NEWTON_ACCEPT).ravel()
+    assert valid[solved].all() and (valid & ~solved).sum() < 0.001 * len(pixels)
+    assert_allclose(s[solved], xy.reshape(-1, 2)[solved], atol=0.01)
