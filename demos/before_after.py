@@ -10,7 +10,7 @@ input with each source handle p (a disk) and an arrow to its target q; right, th
 deformation (idw, alpha 1) built by the default forward method with bilinear colours, with
 the targets q marked: every handle lands on its target.
 
-    python demos/before_after.py [--out demos/out/before_after.png] [--scale 0.6]
+    python demos/before_after.py [--out demos/out/before_after.png] [--scale 0.9]
 """
 
 from __future__ import annotations
@@ -71,7 +71,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description="Before and after: a deformation by MLS.")
     default = Path(__file__).parent / "out" / "before_after.png"
     parser.add_argument("--out", type=Path, default=default, help="PNG or JPEG to write")
-    parser.add_argument("--scale", type=float, default=0.6, help="size of the panels")
+    parser.add_argument("--scale", type=float, default=0.9, help="size of the panels")
     parser.add_argument("--strength", type=float, default=1.5, help="the edit's scale")
     args = parser.parse_args()
 
