@@ -20,6 +20,8 @@ parameter, and M is the limit, about that point (the segment adds only its secon
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .core.config import MLSConfig
@@ -313,6 +315,8 @@ def mls(
     [[6.0, 5.0]]
     """
     config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
+    if _dimension(src, dst, points) == 3:
+        return _mls3_checked(src, dst, points, config, shape, src_segments, dst_segments)
     handles = HandleSet.validate(src, dst, src_segments, dst_segments)
     v = as_points(points)
     k = len(v)
@@ -449,6 +453,11 @@ def mls_error(
     [2.364]
     """
     config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
+    if _dimension(src, dst, points) == 3:
+        _, big_m, t = _mls3_checked(src, dst, points, config, shape, src_segments, dst_segments)
+        p, q = np.asarray(src, dtype=np.float64), np.asarray(dst, dtype=np.float64)
+        residual3 = np.einsum("ni,kij->knj", p, big_m) + t[:, None, :] - q[None]
+        return (residual3**2).sum(axis=(1, 2))
     handles = HandleSet.validate(src, dst, src_segments, dst_segments)
     _, big_m, t = mls(
         handles.src,
@@ -470,3 +479,173 @@ def mls_error(
         length = np.hypot(*(a[:, 1] - a[:, 0]).T)
         error += ((ra * ra + ra * rb + rb * rb).sum(-1) * length / 3.0).sum(axis=1)
     return error
+
+
+# ---------------------------------------------------------------------------------------------
+# Three dimensions: point handles only, the same weights (they depend on d^2 alone).
+
+#: Below this share of trace(A) an eigenvalue of the moment matrix A is near-degenerate, and
+#: the 3D solutions add a ridge in its direction (see the module docstring).
+DEGENERATE_SHARE = 1e-3
+
+
+def _points3(array: object, name: str) -> np.ndarray:
+    """``array`` as (N, 3) finite float64; ValueError/TypeError naming ``name`` if not."""
+    a = np.asarray(array)
+    if a.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must be real numbers, got dtype {a.dtype}")
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(
+            f"{name} must have shape (N, 3) as (x, y, z) rows like the 3D handles, got {a.shape}"
+        )
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    if not np.isfinite(a).all():
+        row = int(np.argmax(~np.isfinite(a).all(axis=1)))
+        raise ValueError(f"{name} must be finite; row {row} is {a[row]}")
+    return a
+
+
+def _dimension(src: object, dst: object, points: object) -> int:
+    """3 when src, dst and points all have 3 columns, 2 when none has (the 2D validation then
+    applies); ValueError naming the shapes when they are mixed."""
+    shapes = {name: np.shape(a) for name, a in (("src", src), ("dst", dst), ("points", points))}
+    three = [len(s) == 2 and s[1] == 3 for s in shapes.values()]
+    if not any(three):
+        return 2
+    if not all(three):
+        got = ", ".join(f"{name} {shape}" for name, shape in shapes.items())
+        raise ValueError(
+            "src, dst and points must all be (N, 2) (x, y) rows or all (N, 3) (x, y, z) "
+            f"rows; got {got}"
+        )
+    return 3
+
+
+def _mls3_checked(src, dst, points, config, shape, src_segments, dst_segments):
+    """Validate 3D inputs, then :func:`_mls3`."""
+    if src_segments is not None or dst_segments is not None:
+        raise ValueError(
+            "segment handles are 2D only: src_segments and dst_segments must be None with "
+            "(N, 3) handles"
+        )
+    p, q, v = _points3(src, "src"), _points3(dst, "dst"), _points3(points, "points")
+    if len(p) != len(q):
+        raise ValueError(f"src and dst must have the same length, got {len(p)} and {len(q)}")
+    if config.uses_radius and config.radius is None and shape is not None and len(shape) == 3:
+        radius: float | None = math.sqrt(sum(float(n) ** 2 for n in shape))
+    else:
+        radius = config.resolve_radius(shape)
+    return _mls3(p, q, v, config, radius)
+
+
+def _ridge(big_a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per point: the ridge matrix g(A) (K, 3, 3), a spectral function of A that is 0 unless an
+    eigenvalue e of A is below DEGENERATE_SHARE of trace(A), where it grows smoothly to
+    DEGENERATE_SHARE trace(A) at e = 0; and the unit principal eigenvector of A (K, 3)."""
+    e, vectors = np.linalg.eigh(big_a)
+    trace = np.maximum(e.sum(-1), 0.0)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = np.where(trace > 0, np.maximum(e, 0.0) / trace, 1.0)
+    g = DEGENERATE_SHARE * trace * np.maximum(0.0, 1.0 - x / DEGENERATE_SHARE) ** 2
+    return np.einsum("kin,kn,kjn->kij", vectors, g, vectors), vectors[:, :, 2]
+
+
+def _least_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(K, 3, 3): the rotation of least angle with a R parallel to b (row vectors), for unit
+    ``a`` and any ``b``; I where b is 0. Antiparallel a and b: a half turn about an axis
+    perpendicular to a (any such axis is as good: the one choice that cannot be continuous)."""
+    norm = np.linalg.norm(b, axis=-1, keepdims=True)
+    bh = np.where(norm > 0, b / np.where(norm > 0, norm, 1.0), a)
+    n = np.cross(a, bh)  # sin(angle) times the unit axis
+    c = (a * bh).sum(-1)
+    anti = c < -1.0 + 1e-12
+    cross = np.zeros(a.shape + (3,))  # [n]x, so that [n]x u = n x u (column vectors)
+    cross[:, 0, 1], cross[:, 0, 2], cross[:, 1, 2] = -n[:, 2], n[:, 1], -n[:, 0]
+    cross[:, 1, 0], cross[:, 2, 0], cross[:, 2, 1] = n[:, 2], -n[:, 1], n[:, 0]
+    factor = 1.0 / np.where(anti, 1.0, 1.0 + c)
+    # Rodrigues for column vectors, R_c a = b^; row vectors take its transpose
+    rc = np.eye(3) + cross + (cross @ cross) * factor[:, None, None]
+    helper = np.eye(3)[np.argmin(np.abs(a), axis=-1)]
+    perp = np.cross(a, helper)
+    perp /= np.linalg.norm(perp, axis=-1, keepdims=True)
+    half = 2.0 * np.einsum("ki,kj->kij", perp, perp) - np.eye(3)  # a half turn about perp
+    return np.where(anti[:, None, None], half, np.swapaxes(rc, -1, -2))
+
+
+def _rotation3(big_a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The proper rotation R maximising trace(R^T B') (Kabsch with row vectors,
+    sum w |p^ R - q^|^2 least), B' = B + g(A) R0 with R0 the least rotation taking A's
+    principal axis to its image under B: the data decide where A is not degenerate, R0 the
+    rotation about a free axis otherwise."""
+    ridge, axis = _ridge(big_a)
+    r0 = _least_rotation(axis, np.einsum("ki,kij->kj", axis, b))
+    scale = np.linalg.norm(b, axis=(-2, -1)) / np.maximum(
+        np.trace(big_a, axis1=-2, axis2=-1), 1e-300
+    )
+    shifted = b + np.einsum("kij,kjl->kil", ridge * scale[:, None, None], r0)
+    u, _, vt = np.linalg.svd(shifted)
+    d = np.sign(np.linalg.det(u @ vt))
+    d = np.where(d == 0, 1.0, d)
+    u[:, :, 2] *= d[:, None]
+    return u @ vt
+
+
+def _solve3(big_a: np.ndarray, b: np.ndarray, transform: str) -> np.ndarray:
+    """M (K, 3, 3) from A = sum w p^T p^ and B = sum w p^T q^ (p^, q^ row vectors)."""
+    rot = _rotation3(big_a, b)
+    mu = np.trace(big_a, axis1=-2, axis2=-1)
+    along = np.einsum("kij,kij->k", rot, b)  # trace(R^T B): the fit's sum w p^ R q^T
+    if transform == "rigid":
+        collapsed = ~(along > 1e-6 * mu)  # as 2D: all targets in reach at one point
+        rot[collapsed] = np.eye(3)
+        return rot
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sim = rot * np.where(mu > 0, along / mu, 0.0)[:, None, None]  # Umeyama's scale
+    if transform == "similarity":
+        return sim
+    # affine: (A + g(A))^-1 (B + g(A) M_sim), the ridge g(A) toward the similarity solution
+    ridge, _ = _ridge(big_a)
+    lhs = big_a + ridge
+    ok = np.linalg.det(lhs) > 0
+    lhs[~ok] = np.eye(3)
+    m = np.linalg.solve(lhs, b + ridge @ sim)
+    return np.where(ok[:, None, None], m, sim)
+
+
+def _mls3(p, q, v, config: MLSConfig, radius: float | None):
+    """:func:`mls` for (N, 3) point handles and (K, 3) points."""
+    k = len(v)
+    f = v.copy()
+    big_m = np.broadcast_to(np.eye(3), (k, 3, 3)).copy()
+    if len(p) == 0 or k == 0:
+        return f, big_m, f - np.einsum("ki,kij->kj", v, big_m)
+    rows = np.arange(k)
+    dp = p[None] - v[:, None]
+    dq = q[None] - v[:, None]
+    d2 = (dp**2).sum(-1)
+    w = weights(d2, config, radius)
+    on_point = np.isinf(w)
+    hit = on_point.any(axis=1)
+    w = np.where(on_point, 0.0, w)
+    wsum = w.sum(axis=1)
+    reached = hit | (wsum > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pst = (w[..., None] * dp).sum(1) / wsum[:, None]
+        qst = (w[..., None] * dq).sum(1) / wsum[:, None]
+    first = np.argmax(on_point, axis=1)
+    pst = np.where(hit[:, None], dp[rows, first], pst)
+    qst = np.where(hit[:, None], dq[rows, first], qst)
+    pst[~reached] = 0.0
+    qst[~reached] = 0.0
+    ph = dp - pst[:, None]
+    qh = dq - qst[:, None]
+    big_a = np.einsum("kn,kni,knj->kij", w, ph, ph)
+    b = np.einsum("kn,kni,knj->kij", w, ph, qh)
+    spread = (w * d2).sum(1)
+    coincident = ~(np.trace(big_a, axis1=-2, axis2=-1) > 1e-13 * spread)
+    live = reached & ~coincident
+    if live.any():
+        big_m[live] = _solve3(big_a[live], b[live], config.transform)
+    f = v + qst - np.einsum("ki,kij->kj", pst, big_m)
+    f[~reached] = v[~reached]
+    return f, big_m, f - np.einsum("ki,kij->kj", v, big_m)
