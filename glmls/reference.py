@@ -16,6 +16,38 @@ Segment handles (:mod:`glmls.core.segments`) add the integrals of the same momen
 segment, per unit length, computed by an accurate quadrature (:func:`segment_moments`). A point
 on a segment whose weight is infinite there maps to the segment's target at the same
 parameter, and M is the limit, about that point (the segment adds only its second moment).
+
+In three dimensions (:func:`mls` with (N, 3) handles and (K, 3) points, (x, y, z) = (column,
+row, slice); point handles only) the moments are A = sum w p^T p^ and B = sum w p^T q^ (3 x 3,
+row vectors about p* and q*), and
+
+- rigid: R = U diag(1, 1, d) V^T from the SVD B = U S V^T, d = sign det(U V^T) (Kabsch with
+  the reflection fix: det R = +1), minimising sum w |p^ R - q^|^2 over rotations; with
+  coplanar sources (A of rank 2) the fix acts on the null direction and R is still unique;
+- similarity: mu R, with Umeyama's scale mu = trace(R^T B) / trace(A);
+- affine: A^-1 B.
+
+Degenerate sets, each continuous in v and exact for the identity (q = p); g(A) below is the
+ridge, the spectral function of A that is 0 unless an eigenvalue e of A is below
+``DEGENERATE_SHARE`` (1e-3) of trace(A), where it grows as 1e-3 trace(A) (1 - e / (1e-3
+trace(A)))^2, so well-spread sources get the exact closed forms:
+
+- one handle in reach, or coincident sources (spread about p* below 1e-13 of that about v):
+  M = I, a translation;
+- collinear sources (two handles, or more on a line): the rotation about the line is free; R
+  is the SVD solution of B + |B| / trace(A) g(A) R0, with R0 the least rotation taking A's
+  principal axis a to the direction of a B (Rodrigues about a x aB): exactly R0 on a line,
+  the data's own rotation where the sources spread, and a smooth blend between (an
+  antiparallel a B, a half turn, has no continuous choice: any perpendicular axis);
+- coplanar sources (affine): (A + g(A))^-1 (B + g(A) M_sim), a ridge toward the similarity
+  solution M_sim in the directions where A is (nearly) singular; exact for a global
+  similarity, and on a plane the in-plane part is the 2D affine solution;
+- rigid with all targets in reach collapsed (trace(R^T B) <= 1e-6 trace(A), as 2D): M = I;
+- a point on a handle whose weight is infinite there: f = q_i, M the limit, as 2D.
+
+With every handle and point at z = 0, the 3D results equal the 2D ones in x, y (the rigid and
+similarity ones while the 2D fit is closer to a rotation than to a mirror: in 3D a mirror of
+the plane is a half turn).
 """
 
 from __future__ import annotations
@@ -29,7 +61,15 @@ from .core.handles import as_points
 from .core.handleset import HandleSet
 from .core.segments import REFERENCE_NODES, REFERENCE_PANELS, segment_config, sinh_nodes
 
-__all__ = ["ON_SEGMENT", "mls", "mls_error", "segment_geometry", "segment_moments", "weights"]
+__all__ = [
+    "DEGENERATE_SHARE",
+    "ON_SEGMENT",
+    "mls",
+    "mls_error",
+    "segment_geometry",
+    "segment_moments",
+    "weights",
+]
 
 
 def weights(d2: np.ndarray, config: MLSConfig, radius: float | None) -> np.ndarray:
@@ -270,32 +310,36 @@ def mls(
     Parameters
     ----------
     src, dst : array_like
-        Point handles p_i -> q_i, (N, 2) (x, y) rows; N may be 0 with segments.
+        Point handles p_i -> q_i, (N, 2) (x, y) rows, or (N, 3) (x, y, z) rows in 3D; N may be
+        0 with segments.
     points : array_like
-        The evaluated points v, (K, 2).
+        The evaluated points v, (K, 2), or (K, 3) with 3D handles.
     config : MLSConfig, optional
         The transform and weight; built from ``options`` when None.
     shape : tuple of int, optional
-        (H, W) of the image, whose diagonal is the default radius of the radius weights.
+        (H, W) of the image, or (D, H, W) of a volume, whose diagonal is the default radius
+        of the radius weights.
     src_segments, dst_segments : array_like, optional
-        Segment handles a-b -> c-d, (S, 2, 2).
+        Segment handles a-b -> c-d, (S, 2, 2); 2D only.
     **options
         :class:`glmls.MLSConfig`'s fields, when ``config`` is None.
 
     Returns
     -------
     f : numpy.ndarray
-        f(points), (K, 2).
+        f(points), (K, 2), or (K, 3) in 3D.
     M : numpy.ndarray
-        The linear part M_v per point, (K, 2, 2), so that ``f = points @ M + T`` row by row.
+        The linear part M_v per point, (K, 2, 2) or (K, 3, 3), so that ``f = points @ M + T``
+        row by row.
     T : numpy.ndarray
-        The translation T_v per point, (K, 2).
+        The translation T_v per point, (K, 2) or (K, 3).
 
     Raises
     ------
     ValueError
-        When the handles or points are malformed, an option is invalid, or a radius weight has
-        neither ``radius`` nor ``shape``.
+        When the handles or points are malformed (also: some with 2 columns and some with 3,
+        or segments with 3D handles), an option is invalid, or a radius weight has neither
+        ``radius`` nor ``shape``.
     TypeError
         When an option has the wrong type.
 
@@ -313,6 +357,14 @@ def mls(
     >>> dst = np.array([[0.0, 0.0], [12.0, 0.0], [0.0, 10.0]])
     >>> glmls.reference.mls(src, dst, [[5.0, 5.0]], transform="affine")[0].round(3).tolist()
     [[6.0, 5.0]]
+
+    In 3D, a quarter turn about z of four handles is reproduced by the rigid transform:
+
+    >>> src3 = np.array([[0.0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]])
+    >>> quarter = np.array([[0.0, 1, 0], [-1, 0, 0], [0, 0, 1]])  # x -> y, y -> -x
+    >>> f, M, T = glmls.reference.mls(src3, src3 @ quarter, [[5.0, 0.0, 2.0]])
+    >>> f.round(6).tolist(), M.shape
+    ([[0.0, 5.0, 2.0]], (1, 3, 3))
     """
     config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
     if _dimension(src, dst, points) == 3:
@@ -415,15 +467,16 @@ def mls_error(
     Parameters
     ----------
     src, dst : array_like
-        Point handles p_i -> q_i, (N, 2) (x, y) rows.
+        Point handles p_i -> q_i, (N, 2) (x, y) rows, or (N, 3) (x, y, z) rows in 3D.
     points : array_like
-        The evaluated points v, (K, 2).
+        The evaluated points v, (K, 2), or (K, 3) with 3D handles.
     config : MLSConfig, optional
         The transform and weight; built from ``options`` when None.
     shape : tuple of int, optional
-        (H, W) of the image, whose diagonal is the default radius of the radius weights.
+        (H, W) of the image, or (D, H, W) of a volume, whose diagonal is the default radius
+        of the radius weights.
     src_segments, dst_segments : array_like, optional
-        Segment handles a-b -> c-d, (S, 2, 2).
+        Segment handles a-b -> c-d, (S, 2, 2); 2D only.
     **options
         :class:`glmls.MLSConfig`'s fields, when ``config`` is None.
 
