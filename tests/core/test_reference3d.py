@@ -213,3 +213,41 @@ def test_nan_and_segments_are_refused_in_3d():
         reference.mls(p, p, p, src_segments=segments, dst_segments=segments)
     with pytest.raises(TypeError, match="src must be real numbers"):
         reference.mls(p.astype(str), p, p)
+
+
+def _scipy_fit(ph, qh, w, transform, rng):
+    """Minimise sum w |p^ M - q^|^2 over rotations (and a log scale) with scipy's BFGS."""
+    from scipy.optimize import minimize
+    from scipy.spatial.transform import Rotation
+
+    def matrix(x):
+        scale = np.exp(x[3]) if transform == "similarity" else 1.0
+        return scale * Rotation.from_rotvec(x[:3]).as_matrix().T
+
+    def cost(x):
+        return (w * ((ph @ matrix(x) - qh) ** 2).sum(1)).sum()
+
+    starts = [np.r_[rng.normal(0, 1.5, 3), 0.0] for _ in range(6)]
+    best = min((minimize(cost, x0, method="BFGS") for x0 in starts), key=lambda r: r.fun)
+    return matrix(best.x)
+
+
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_the_fit_minimises_the_weighted_least_squares(rng, transform):
+    """Against scipy's minimiser over rotation vectors (and a log scale), and numpy's weighted
+    lstsq for affine (eq. 2 about the weighted centroids)."""
+    p = _handle_sets(rng)["general"]
+    q = p @ _rotation(rng) + rng.normal(0, 10, p.shape)
+    config = MLSConfig(transform=transform, weight="idw")
+    v = rng.uniform(0, 100, (4, 3))
+    _, big_m, _ = reference.mls(p, q, v, config)
+    for k in range(len(v)):
+        w = reference.weights(((p - v[k]) ** 2).sum(1)[None], config, None)[0]
+        w = w / w.sum()
+        ph, qh = p - w @ p, q - w @ q
+        if transform == "affine":
+            root = np.sqrt(w)[:, None]
+            expected = np.linalg.lstsq(ph * root, qh * root, rcond=None)[0]
+            assert_allclose(big_m[k], expected, atol=1e-9)
+        else:
+            assert_allclose(big_m[k], _scipy_fit(ph, qh, w, transform, rng), atol=1e-4)
