@@ -34,14 +34,18 @@ trace(A)))^2, so well-spread sources get the exact closed forms:
 
 - one handle in reach, or coincident sources (spread about p* below 1e-13 of that about v):
   M = I, a translation;
-- collinear sources (two handles, or more on a line): the rotation about the line is free; R
-  is the SVD solution of B + |B| / trace(A) g(A) R0, with R0 the least rotation taking A's
-  principal axis a to the direction of a B (Rodrigues about a x aB): exactly R0 on a line,
+- collinear sources (two handles, or more on a line): the rotation about the line is free;
+  R is the SVD solution of B + c |B| R0, with c = 1e-3 (1 - e2 / (1e-3 trace(A)))^2 for
+  A's middle eigenvalue e2 (0 unless e2 < 1e-3 trace(A): the sources near one line) and R0
+  the least rotation taking A's principal axis a to the direction of a B (Rodrigues about
+  a x aB): exactly R0 on a line,
   the data's own rotation where the sources spread, and a smooth blend between (an
-  antiparallel a B, a half turn, has no continuous choice: any perpendicular axis);
+  antiparallel a B, a half turn, has no continuous choice: any perpendicular axis); three
+  or more coplanar sources need nothing: the reflection fix acts on B's null direction;
 - coplanar sources (affine): (A + g(A))^-1 (B + g(A) M_sim), a ridge toward the similarity
   solution M_sim in the directions where A is (nearly) singular; exact for a global
-  similarity, and on a plane the in-plane part is the 2D affine solution;
+  similarity, and on a plane the in-plane part is the 2D affine solution (a global affine
+  motion is reproduced where every eigenvalue of A is above 1e-3 trace(A));
 - rigid with all targets in reach collapsed (trace(R^T B) <= 1e-6 trace(A), as 2D): M = I;
 - a point on a handle whose weight is infinite there: f = q_i, M the limit, as 2D.
 
@@ -591,16 +595,21 @@ def _mls3_checked(src, dst, points, config, shape, src_segments, dst_segments):
     return _mls3(p, q, v, config, radius)
 
 
-def _ridge(big_a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per point: the ridge matrix g(A) (K, 3, 3), a spectral function of A that is 0 unless an
-    eigenvalue e of A is below DEGENERATE_SHARE of trace(A), where it grows smoothly to
-    DEGENERATE_SHARE trace(A) at e = 0; and the unit principal eigenvector of A (K, 3)."""
+def _ridge(big_a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The near-degenerate directions of A (K, 3, 3), per point.
+
+    Returns g(A) (K, 3, 3), the spectral function of A that is 0 unless an eigenvalue e of A
+    is below DEGENERATE_SHARE of trace(A), where it grows smoothly to DEGENERATE_SHARE
+    trace(A) at e = 0; the same function's share for A's middle eigenvalue, (K,), which is
+    above 0 only where the sources are near one line; and A's unit principal axis (K, 3).
+    """
     e, vectors = np.linalg.eigh(big_a)
     trace = np.maximum(e.sum(-1), 0.0)[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         x = np.where(trace > 0, np.maximum(e, 0.0) / trace, 1.0)
-    g = DEGENERATE_SHARE * trace * np.maximum(0.0, 1.0 - x / DEGENERATE_SHARE) ** 2
-    return np.einsum("kin,kn,kjn->kij", vectors, g, vectors), vectors[:, :, 2]
+    share = DEGENERATE_SHARE * np.maximum(0.0, 1.0 - x / DEGENERATE_SHARE) ** 2
+    ridge = np.einsum("kin,kn,kjn->kij", vectors, share * trace, vectors)
+    return ridge, share[:, 1], vectors[:, :, 2]
 
 
 def _least_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -627,15 +636,13 @@ def _least_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _rotation3(big_a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The proper rotation R maximising trace(R^T B') (Kabsch with row vectors,
-    sum w |p^ R - q^|^2 least), B' = B + g(A) R0 with R0 the least rotation taking A's
-    principal axis to its image under B: the data decide where A is not degenerate, R0 the
-    rotation about a free axis otherwise."""
-    ridge, axis = _ridge(big_a)
+    sum w |p^ R - q^|^2 least), B' = B + c |B| R0 with R0 the least rotation taking A's
+    principal axis to its image under B, and c the ridge's share for A's middle eigenvalue:
+    0 unless the sources are near one line (where the rotation about it is free)."""
+    _, share, axis = _ridge(big_a)
     r0 = _least_rotation(axis, np.einsum("ki,kij->kj", axis, b))
-    scale = np.linalg.norm(b, axis=(-2, -1)) / np.maximum(
-        np.trace(big_a, axis1=-2, axis2=-1), 1e-300
-    )
-    shifted = b + np.einsum("kij,kjl->kil", ridge * scale[:, None, None], r0)
+    gamma = share * np.linalg.norm(b, axis=(-2, -1))
+    shifted = b + gamma[:, None, None] * r0
     u, _, vt = np.linalg.svd(shifted)
     d = np.sign(np.linalg.det(u @ vt))
     d = np.where(d == 0, 1.0, d)
@@ -657,7 +664,7 @@ def _solve3(big_a: np.ndarray, b: np.ndarray, transform: str) -> np.ndarray:
     if transform == "similarity":
         return sim
     # affine: (A + g(A))^-1 (B + g(A) M_sim), the ridge g(A) toward the similarity solution
-    ridge, _ = _ridge(big_a)
+    ridge, _, _ = _ridge(big_a)
     lhs = big_a + ridge
     ok = np.linalg.det(lhs) > 0
     lhs[~ok] = np.eye(3)

@@ -251,3 +251,26 @@ def test_the_fit_minimises_the_weighted_least_squares(rng, transform):
             assert_allclose(big_m[k], expected, atol=1e-9)
         else:
             assert_allclose(big_m[k], _scipy_fit(ph, qh, w, transform, rng), atol=1e-4)
+
+
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_degenerate_sets_reproduce_what_they_determine(rng, transform):
+    """Three or coplanar handles determine a rotation (and scale): every transform
+    reproduces a global similarity of them; handles on a line determine the line's image,
+    which a global rigid motion keeps exact on the line."""
+    sets = _handle_sets(rng)
+    rot = _rotation(rng)
+    motion = rot * (1.0 if transform == "rigid" else 1.3)
+    config = MLSConfig(transform=transform)
+    for name in ("three", "coplanar"):
+        p = sets[name]
+        v = _points(rng, p)
+        f, big_m, _ = reference.mls(p, p @ motion + 4.0, v, config)
+        assert_allclose(f, v @ motion + 4.0, atol=1e-9, err_msg=name)
+        assert_allclose(big_m, np.broadcast_to(motion, big_m.shape), atol=1e-12, err_msg=name)
+    for name in ("two", "collinear"):
+        p = sets[name]
+        on_line = p[0] + np.linspace(-1.0, 2.0, 7)[:, None] * (p[1] - p[0])
+        f, big_m, _ = reference.mls(p, p @ rot + 4.0, on_line, config)
+        assert_allclose(f, on_line @ rot + 4.0, atol=1e-9, err_msg=name)
+        assert_allclose(np.linalg.det(big_m), 1.0, atol=1e-12)  # rotation (affine: similarity)
