@@ -123,13 +123,14 @@ def _max_step(p, q, config, start, end, count):
 
 @pytest.mark.parametrize("transform", glmls.TRANSFORMS)
 @pytest.mark.parametrize(
-    "case", ["two", "three", "collinear", "coplanar", "near-collinear", "entering"]
+    "case",
+    ["two", "three", "collinear", "coplanar", "near-collinear", "entering", "entering-plane"],
 )
 def test_no_jumps_near_degenerate_sets(rng, transform, case):
     """A jump keeps its size when the step shrinks tenfold; a continuous f's steps shrink."""
     config = MLSConfig(transform=transform)
     sets = _handle_sets(rng)
-    if case in ("near-collinear", "entering"):
+    if case in ("near-collinear", "entering", "entering-plane"):
         p = np.vstack([sets["collinear"][[0, 4]], sets["collinear"][2] + [0.0, 0.0, 1e-3]])
     else:
         p = sets[case]
@@ -143,6 +144,12 @@ def test_no_jumps_near_degenerate_sets(rng, transform, case):
         start, end = np.array([40.0, 40.0, 45.0]), np.array([40.0, 40.0, 55.0])
         # around the crossing, where the third handle's weight is 0 to 1e-2 of the others
         start, end = start + (end - start) * 0.48, start + (end - start) * 0.52
+    if case == "entering-plane":
+        # cressman: a fourth handle out of the plane of three enters the reach at z = 56
+        config = MLSConfig(transform=transform, weight="cressman", radius=30.0)
+        p = np.array([[35.0, 38, 50], [46, 37, 50], [41, 45, 50], [40, 40, 86]])
+        q = p + rng.normal(0, 6, p.shape)
+        start, end = np.array([40.0, 40.0, 55.8]), np.array([40.0, 40.0, 56.2])
     coarse = _max_step(p, q, config, start, end, 2001)
     fine = _max_step(p, q, config, start, end, 20001)
     assert fine < 0.3 * coarse or coarse < 1e-9
