@@ -281,3 +281,15 @@ def test_degenerate_sets_reproduce_what_they_determine(rng, transform):
         f, big_m, _ = reference.mls(p, p @ rot + 4.0, on_line, config)
         assert_allclose(f, on_line @ rot + 4.0, atol=1e-9, err_msg=name)
         assert_allclose(np.linalg.det(big_m), 1.0, atol=1e-12)  # rotation (affine: similarity)
+
+
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_on_a_handle_m_is_the_limit(rng, transform):
+    """A point on a handle with an infinite weight: f = q_i, and M the limit of M nearby."""
+    p = _handle_sets(rng)["general"]
+    q = p + rng.normal(0, 6, p.shape)
+    config = MLSConfig(transform=transform, weight="idw", interpolating=True)
+    near = p[:3] + 1e-7 * rng.normal(size=(3, 3))
+    f, big_m, _ = reference.mls(p, q, np.vstack([p[:3], near]), config)
+    assert_allclose(f[:3], q[:3], rtol=0, atol=1e-12)
+    assert_allclose(big_m[:3], big_m[3:], atol=1e-5)
