@@ -16,9 +16,47 @@ Segment handles (:mod:`glmls.core.segments`) add the integrals of the same momen
 segment, per unit length, computed by an accurate quadrature (:func:`segment_moments`). A point
 on a segment whose weight is infinite there maps to the segment's target at the same
 parameter, and M is the limit, about that point (the segment adds only its second moment).
+
+In three dimensions (:func:`mls` with (N, 3) handles and (K, 3) points, (x, y, z) = (column,
+row, slice); point handles only) the moments are A = sum w p^T p^ and B = sum w p^T q^ (3 x 3,
+row vectors about p* and q*), and
+
+- rigid: R = U diag(1, 1, d) V^T from the SVD B = U S V^T, d = sign det(U V^T) (Kabsch with
+  the reflection fix: det R = +1), minimising sum w |p^ R - q^|^2 over rotations; with
+  coplanar sources (A of rank 2) the fix acts on the null direction and R is still unique;
+- similarity: mu R, with Umeyama's scale mu = trace(R^T B) / trace(A);
+- affine: A^-1 B.
+
+Degenerate sets, each continuous in v and exact for the identity (q = p); g(A) below is the
+ridge, the spectral function of A that is 0 unless an eigenvalue e of A is below
+``DEGENERATE_SHARE`` (1e-3) of trace(A), where it grows as 1e-3 trace(A) (1 - e / (1e-3
+trace(A)))^2, so well-spread sources get the exact closed forms:
+
+- one handle in reach, or coincident sources (spread about p* below 1e-13 of that about v):
+  M = I, a translation;
+- collinear sources (two handles, or more on a line): the rotation about the line is free;
+  R is the SVD solution of B + c |B| R0, with c = 1e-3 (1 - e2 / (1e-3 trace(A)))^2 for
+  A's middle eigenvalue e2 (0 unless e2 < 1e-3 trace(A): the sources near one line) and R0
+  the least rotation taking A's principal axis a to the direction of a B (Rodrigues about
+  a x aB): exactly R0 on a line,
+  the data's own rotation where the sources spread, and a smooth blend between (an
+  antiparallel a B, a half turn, has no continuous choice: any perpendicular axis); three
+  or more coplanar sources need nothing: the reflection fix acts on B's null direction;
+- coplanar sources (affine): (A + g(A))^-1 (B + g(A) M_sim), a ridge toward the similarity
+  solution M_sim in the directions where A is (nearly) singular; exact for a global
+  similarity, and on a plane the in-plane part is the 2D affine solution (a global affine
+  motion is reproduced where every eigenvalue of A is above 1e-3 trace(A));
+- rigid with all targets in reach collapsed (trace(R^T B) <= 1e-6 trace(A), as 2D): M = I;
+- a point on a handle whose weight is infinite there: f = q_i, M the limit, as 2D.
+
+With every handle and point at z = 0, the 3D results equal the 2D ones in x, y (the rigid and
+similarity ones while the 2D fit is closer to a rotation than to a mirror: in 3D a mirror of
+the plane is a half turn).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -27,7 +65,15 @@ from .core.handles import as_points
 from .core.handleset import HandleSet
 from .core.segments import REFERENCE_NODES, REFERENCE_PANELS, segment_config, sinh_nodes
 
-__all__ = ["ON_SEGMENT", "mls", "mls_error", "segment_geometry", "segment_moments", "weights"]
+__all__ = [
+    "DEGENERATE_SHARE",
+    "ON_SEGMENT",
+    "mls",
+    "mls_error",
+    "segment_geometry",
+    "segment_moments",
+    "weights",
+]
 
 
 def weights(d2: np.ndarray, config: MLSConfig, radius: float | None) -> np.ndarray:
@@ -268,32 +314,36 @@ def mls(
     Parameters
     ----------
     src, dst : array_like
-        Point handles p_i -> q_i, (N, 2) (x, y) rows; N may be 0 with segments.
+        Point handles p_i -> q_i, (N, 2) (x, y) rows, or (N, 3) (x, y, z) rows in 3D; N may be
+        0 with segments.
     points : array_like
-        The evaluated points v, (K, 2).
+        The evaluated points v, (K, 2), or (K, 3) with 3D handles.
     config : MLSConfig, optional
         The transform and weight; built from ``options`` when None.
     shape : tuple of int, optional
-        (H, W) of the image, whose diagonal is the default radius of the radius weights.
+        (H, W) of the image, or (D, H, W) of a volume, whose diagonal is the default radius
+        of the radius weights.
     src_segments, dst_segments : array_like, optional
-        Segment handles a-b -> c-d, (S, 2, 2).
+        Segment handles a-b -> c-d, (S, 2, 2); 2D only.
     **options
         :class:`glmls.MLSConfig`'s fields, when ``config`` is None.
 
     Returns
     -------
     f : numpy.ndarray
-        f(points), (K, 2).
+        f(points), (K, 2), or (K, 3) in 3D.
     M : numpy.ndarray
-        The linear part M_v per point, (K, 2, 2), so that ``f = points @ M + T`` row by row.
+        The linear part M_v per point, (K, 2, 2) or (K, 3, 3), so that ``f = points @ M + T``
+        row by row.
     T : numpy.ndarray
-        The translation T_v per point, (K, 2).
+        The translation T_v per point, (K, 2) or (K, 3).
 
     Raises
     ------
     ValueError
-        When the handles or points are malformed, an option is invalid, or a radius weight has
-        neither ``radius`` nor ``shape``.
+        When the handles or points are malformed (also: some with 2 columns and some with 3,
+        or segments with 3D handles), an option is invalid, or a radius weight has neither
+        ``radius`` nor ``shape``.
     TypeError
         When an option has the wrong type.
 
@@ -311,8 +361,18 @@ def mls(
     >>> dst = np.array([[0.0, 0.0], [12.0, 0.0], [0.0, 10.0]])
     >>> glmls.reference.mls(src, dst, [[5.0, 5.0]], transform="affine")[0].round(3).tolist()
     [[6.0, 5.0]]
+
+    In 3D, a quarter turn about z of four handles is reproduced by the rigid transform:
+
+    >>> src3 = np.array([[0.0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]])
+    >>> quarter = np.array([[0.0, 1, 0], [-1, 0, 0], [0, 0, 1]])  # x -> y, y -> -x
+    >>> f, M, T = glmls.reference.mls(src3, src3 @ quarter, [[5.0, 0.0, 2.0]])
+    >>> f.round(6).tolist(), M.shape
+    ([[0.0, 5.0, 2.0]], (1, 3, 3))
     """
     config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
+    if _dimension(src, dst, points) == 3:
+        return _mls3_checked(src, dst, points, config, shape, src_segments, dst_segments)
     handles = HandleSet.validate(src, dst, src_segments, dst_segments)
     v = as_points(points)
     k = len(v)
@@ -411,15 +471,16 @@ def mls_error(
     Parameters
     ----------
     src, dst : array_like
-        Point handles p_i -> q_i, (N, 2) (x, y) rows.
+        Point handles p_i -> q_i, (N, 2) (x, y) rows, or (N, 3) (x, y, z) rows in 3D.
     points : array_like
-        The evaluated points v, (K, 2).
+        The evaluated points v, (K, 2), or (K, 3) with 3D handles.
     config : MLSConfig, optional
         The transform and weight; built from ``options`` when None.
     shape : tuple of int, optional
-        (H, W) of the image, whose diagonal is the default radius of the radius weights.
+        (H, W) of the image, or (D, H, W) of a volume, whose diagonal is the default radius
+        of the radius weights.
     src_segments, dst_segments : array_like, optional
-        Segment handles a-b -> c-d, (S, 2, 2).
+        Segment handles a-b -> c-d, (S, 2, 2); 2D only.
     **options
         :class:`glmls.MLSConfig`'s fields, when ``config`` is None.
 
@@ -449,6 +510,11 @@ def mls_error(
     [2.364]
     """
     config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
+    if _dimension(src, dst, points) == 3:
+        _, big_m, t = _mls3_checked(src, dst, points, config, shape, src_segments, dst_segments)
+        p, q = np.asarray(src, dtype=np.float64), np.asarray(dst, dtype=np.float64)
+        residual3 = np.einsum("ni,kij->knj", p, big_m) + t[:, None, :] - q[None]
+        return (residual3**2).sum(axis=(1, 2))
     handles = HandleSet.validate(src, dst, src_segments, dst_segments)
     _, big_m, t = mls(
         handles.src,
@@ -470,3 +536,176 @@ def mls_error(
         length = np.hypot(*(a[:, 1] - a[:, 0]).T)
         error += ((ra * ra + ra * rb + rb * rb).sum(-1) * length / 3.0).sum(axis=1)
     return error
+
+
+# ---------------------------------------------------------------------------------------------
+# Three dimensions: point handles only, the same weights (they depend on d^2 alone).
+
+#: Below this share of trace(A) an eigenvalue of the moment matrix A is near-degenerate, and
+#: the 3D solutions add a ridge in its direction (see the module docstring).
+DEGENERATE_SHARE = 1e-3
+
+
+def _points3(array: object, name: str) -> np.ndarray:
+    """``array`` as (N, 3) finite float64; ValueError/TypeError naming ``name`` if not."""
+    a = np.asarray(array)
+    if a.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must be real numbers, got dtype {a.dtype}")
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(
+            f"{name} must have shape (N, 3) as (x, y, z) rows like the 3D handles, got {a.shape}"
+        )
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    if not np.isfinite(a).all():
+        row = int(np.argmax(~np.isfinite(a).all(axis=1)))
+        raise ValueError(f"{name} must be finite; row {row} is {a[row]}")
+    return a
+
+
+def _dimension(src: object, dst: object, points: object) -> int:
+    """3 when src, dst and points all have 3 columns, 2 when none has (the 2D validation then
+    applies); ValueError naming the shapes when they are mixed."""
+    shapes = {name: np.shape(a) for name, a in (("src", src), ("dst", dst), ("points", points))}
+    three = [len(s) == 2 and s[1] == 3 for s in shapes.values()]
+    if not any(three):
+        return 2
+    if not all(three):
+        got = ", ".join(f"{name} {shape}" for name, shape in shapes.items())
+        raise ValueError(
+            "src, dst and points must all be (N, 2) (x, y) rows or all (N, 3) (x, y, z) "
+            f"rows; got {got}"
+        )
+    return 3
+
+
+def _mls3_checked(src, dst, points, config, shape, src_segments, dst_segments):
+    """Validate 3D inputs, then :func:`_mls3`."""
+    if src_segments is not None or dst_segments is not None:
+        raise ValueError(
+            "segment handles are 2D only: src_segments and dst_segments must be None with "
+            "(N, 3) handles"
+        )
+    p, q, v = _points3(src, "src"), _points3(dst, "dst"), _points3(points, "points")
+    if len(p) != len(q):
+        raise ValueError(f"src and dst must have the same length, got {len(p)} and {len(q)}")
+    if config.uses_radius and config.radius is None and shape is not None and len(shape) == 3:
+        radius: float | None = math.sqrt(sum(float(n) ** 2 for n in shape))
+    else:
+        radius = config.resolve_radius(shape)
+    return _mls3(p, q, v, config, radius)
+
+
+def _ridge(big_a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The near-degenerate directions of A (K, 3, 3), per point.
+
+    Returns g(A) (K, 3, 3), the spectral function of A that is 0 unless an eigenvalue e of A
+    is below DEGENERATE_SHARE of trace(A), where it grows smoothly to DEGENERATE_SHARE
+    trace(A) at e = 0; the same function's share for A's middle eigenvalue, (K,), which is
+    above 0 only where the sources are near one line; and A's unit principal axis (K, 3).
+    """
+    e, vectors = np.linalg.eigh(big_a)
+    trace = np.maximum(e.sum(-1), 0.0)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = np.where(trace > 0, np.maximum(e, 0.0) / trace, 1.0)
+    share = DEGENERATE_SHARE * np.maximum(0.0, 1.0 - x / DEGENERATE_SHARE) ** 2
+    ridge = np.einsum("kin,kn,kjn->kij", vectors, share * trace, vectors)
+    return ridge, share[:, 1], vectors[:, :, 2]
+
+
+def _least_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(K, 3, 3): the rotation of least angle with a R parallel to b (row vectors), for unit
+    ``a`` and any ``b``; I where b is 0. Antiparallel a and b: a half turn about an axis
+    perpendicular to a (any such axis is as good: the one choice that cannot be continuous)."""
+    norm = np.linalg.norm(b, axis=-1, keepdims=True)
+    bh = np.where(norm > 0, b / np.where(norm > 0, norm, 1.0), a)
+    n = np.cross(a, bh)  # sin(angle) times the unit axis
+    c = (a * bh).sum(-1)
+    anti = c < -1.0 + 1e-12
+    cross = np.zeros(a.shape + (3,))  # [n]x, so that [n]x u = n x u (column vectors)
+    cross[:, 0, 1], cross[:, 0, 2], cross[:, 1, 2] = -n[:, 2], n[:, 1], -n[:, 0]
+    cross[:, 1, 0], cross[:, 2, 0], cross[:, 2, 1] = n[:, 2], -n[:, 1], n[:, 0]
+    factor = 1.0 / np.where(anti, 1.0, 1.0 + c)
+    # Rodrigues for column vectors, R_c a = b^; row vectors take its transpose
+    rc = np.eye(3) + cross + (cross @ cross) * factor[:, None, None]
+    helper = np.eye(3)[np.argmin(np.abs(a), axis=-1)]
+    perp = np.cross(a, helper)
+    perp /= np.linalg.norm(perp, axis=-1, keepdims=True)
+    half = 2.0 * np.einsum("ki,kj->kij", perp, perp) - np.eye(3)  # a half turn about perp
+    return np.where(anti[:, None, None], half, np.swapaxes(rc, -1, -2))
+
+
+def _rotation3(big_a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The proper rotation R maximising trace(R^T B') (Kabsch with row vectors,
+    sum w |p^ R - q^|^2 least), B' = B + c |B| R0 with R0 the least rotation taking A's
+    principal axis to its image under B, and c the ridge's share for A's middle eigenvalue:
+    0 unless the sources are near one line (where the rotation about it is free)."""
+    _, share, axis = _ridge(big_a)
+    r0 = _least_rotation(axis, np.einsum("ki,kij->kj", axis, b))
+    gamma = share * np.linalg.norm(b, axis=(-2, -1))
+    shifted = b + gamma[:, None, None] * r0
+    u, _, vt = np.linalg.svd(shifted)
+    d = np.sign(np.linalg.det(u @ vt))
+    d = np.where(d == 0, 1.0, d)
+    u[:, :, 2] *= d[:, None]
+    return u @ vt
+
+
+def _solve3(big_a: np.ndarray, b: np.ndarray, transform: str) -> np.ndarray:
+    """M (K, 3, 3) from A = sum w p^T p^ and B = sum w p^T q^ (p^, q^ row vectors)."""
+    rot = _rotation3(big_a, b)
+    mu = np.trace(big_a, axis1=-2, axis2=-1)
+    along = np.einsum("kij,kij->k", rot, b)  # trace(R^T B): the fit's sum w p^ R q^T
+    if transform == "rigid":
+        collapsed = ~(along > 1e-6 * mu)  # as 2D: all targets in reach at one point
+        rot[collapsed] = np.eye(3)
+        return rot
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sim = rot * np.where(mu > 0, along / mu, 0.0)[:, None, None]  # Umeyama's scale
+    if transform == "similarity":
+        return sim
+    # affine: (A + g(A))^-1 (B + g(A) M_sim), the ridge g(A) toward the similarity solution
+    ridge, _, _ = _ridge(big_a)
+    lhs = big_a + ridge
+    ok = np.linalg.det(lhs) > 0
+    lhs[~ok] = np.eye(3)
+    m = np.linalg.solve(lhs, b + ridge @ sim)
+    return np.where(ok[:, None, None], m, sim)
+
+
+def _mls3(p, q, v, config: MLSConfig, radius: float | None):
+    """:func:`mls` for (N, 3) point handles and (K, 3) points."""
+    k = len(v)
+    f = v.copy()
+    big_m = np.broadcast_to(np.eye(3), (k, 3, 3)).copy()
+    if len(p) == 0 or k == 0:
+        return f, big_m, f - np.einsum("ki,kij->kj", v, big_m)
+    rows = np.arange(k)
+    dp = p[None] - v[:, None]
+    dq = q[None] - v[:, None]
+    d2 = (dp**2).sum(-1)
+    w = weights(d2, config, radius)
+    on_point = np.isinf(w)
+    hit = on_point.any(axis=1)
+    w = np.where(on_point, 0.0, w)
+    wsum = w.sum(axis=1)
+    reached = hit | (wsum > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pst = (w[..., None] * dp).sum(1) / wsum[:, None]
+        qst = (w[..., None] * dq).sum(1) / wsum[:, None]
+    first = np.argmax(on_point, axis=1)
+    pst = np.where(hit[:, None], dp[rows, first], pst)
+    qst = np.where(hit[:, None], dq[rows, first], qst)
+    pst[~reached] = 0.0
+    qst[~reached] = 0.0
+    ph = dp - pst[:, None]
+    qh = dq - qst[:, None]
+    big_a = np.einsum("kn,kni,knj->kij", w, ph, ph)
+    b = np.einsum("kn,kni,knj->kij", w, ph, qh)
+    spread = (w * d2).sum(1)
+    coincident = ~(np.trace(big_a, axis1=-2, axis2=-1) > 1e-13 * spread)
+    live = reached & ~coincident
+    if live.any():
+        big_m[live] = _solve3(big_a[live], b[live], config.transform)
+    f = v + qst - np.einsum("ki,kij->kj", pst, big_m)
+    f[~reached] = v[~reached]
+    return f, big_m, f - np.einsum("ki,kij->kj", v, big_m)
