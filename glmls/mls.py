@@ -1056,7 +1056,9 @@ def warp(image: object, src: object, dst: object, **options: object) -> np.ndarr
 
     The MLS's GPU objects are released before returning (the context's shared pipeline
     keeps its cached textures for the next call); keep an :class:`MLS` to warp many images
-    with the same handles. The default radius is the image diagonal.
+    with the same handles. The default radius is the image diagonal. In a process forked from
+    one in which glmls used GL (a data loader's worker), it runs in a helper process started
+    fresh, with the same result (see :mod:`glmls.gl.context`).
 
     Parameters
     ----------
