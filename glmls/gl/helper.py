@@ -107,10 +107,10 @@ def serve() -> None:
             request = pickle.load(requests)
         except (EOFError, KeyboardInterrupt):  # the caller ended (or Ctrl-C reached us too)
             return
-        module, name, args, kwargs = pickle.loads(request)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
+                module, name, args, kwargs = pickle.loads(request)
                 ok, value = True, getattr(importlib.import_module(module), name)(*args, **kwargs)
             except Exception as error:  # raised again in the caller
                 ok, value = False, error
