@@ -22,6 +22,8 @@ import warnings
 from pathlib import Path
 from typing import Any
 
+from ..errors import GLUnavailableError
+
 _ROOT = str(Path(__file__).resolve().parents[2])  # the folder holding the glmls package
 _lock = threading.Lock()
 _helper: subprocess.Popen | None = None
@@ -46,15 +48,13 @@ def call(module: str, name: str, args: tuple = (), kwargs: dict | None = None) -
     Raises what the function raised; a :class:`~glmls.GLUnavailableError` when the helper
     cannot be started or dies.
     """
-    from ..errors import GLUnavailableError
-
     global _helper, _pid
     request = pickle.dumps((module, name, args, kwargs or {}), pickle.HIGHEST_PROTOCOL)
     with _lock:
-        if _helper is None or _pid != os.getpid() or _helper.poll() is not None:
-            _helper, _pid = _start(), os.getpid()
-        helper = _helper
         try:
+            if _helper is None or _pid != os.getpid() or _helper.poll() is not None:
+                _helper, _pid = _start(), os.getpid()
+            helper = _helper
             pickle.dump(request, helper.stdin)
             helper.stdin.flush()
             ok, value, caught = pickle.load(helper.stdout)
