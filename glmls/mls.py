@@ -26,7 +26,8 @@ from .engine.error_field import error_at
 from .engine.error_field import error_field as evaluate_error_field
 from .engine.kernel import DEFAULT_STORAGE, MLSKernel
 from .engine.passes import evaluate_lattice, evaluate_points
-from .gl.context import GLContext, current, get_context
+from .gl import helper
+from .gl.context import GLContext, current, forked_from_gl, get_context
 from .imaging.adaptive import AdaptiveMesh, check_adaptive, interpolate
 from .imaging.frame import Bounds
 from .imaging.inverse import NEWTON_ACCEPT
@@ -1055,7 +1056,9 @@ def warp(image: object, src: object, dst: object, **options: object) -> np.ndarr
 
     The MLS's GPU objects are released before returning (the context's shared pipeline
     keeps its cached textures for the next call); keep an :class:`MLS` to warp many images
-    with the same handles. The default radius is the image diagonal.
+    with the same handles. The default radius is the image diagonal. In a process forked from
+    one in which glmls used GL (a data loader's worker), it runs in a helper process started
+    fresh, with the same result (see :mod:`glmls.gl.context`).
 
     Parameters
     ----------
@@ -1098,6 +1101,8 @@ def warp(image: object, src: object, dst: object, **options: object) -> np.ndarr
     ...
     TypeError: warp() got an unknown keyword methd
     """
+    if options.get("ctx") is None and forked_from_gl():  # GL would hang here: a clean helper
+        return helper.call(__name__, "warp", (image, src, dst), options)
     warp_options = {k: options.pop(k) for k in sorted(FIELDS | {"options"}) if k in options}
     unknown = sorted(set(options) - MLS_KEYWORDS)
     if unknown:

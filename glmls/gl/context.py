@@ -14,10 +14,14 @@ threads calling at once wait for each other. A context that is kept current in o
 window's, adopted in its thread; or one bound with :meth:`GLContext.make_current`) can only be
 used from that thread: another raises :class:`~glmls.ContextError`.
 
-Processes: GL drivers do not survive ``fork()`` (Mesa's worker threads are gone, so any GL
-call in the child would hang). A process forked from one in which glmls made a GL context
-raises :class:`~glmls.GLUnavailableError` at once, saying to use the ``spawn`` start method; a
-process forked before glmls touched GL makes its own context on first use.
+Processes: GL drivers do not survive ``fork()``: on Mesa's llvmpipe even a new context made in
+the child hangs in its first compute dispatch (the driver's worker threads are gone), and
+NVIDIA's driver does not support use after fork either. So in a process forked from one in
+which glmls made a GL context, :func:`glmls.warp` runs in a helper process started fresh
+(:mod:`glmls.gl.helper`; one per forked process, started on first use and kept), with the same
+result bit for bit; making a context there (an :class:`~glmls.MLS`, :func:`get_context`) raises
+:class:`~glmls.GLUnavailableError` at once, saying to use the ``spawn`` start method. A process
+forked before glmls touched GL makes its own context on first use.
 """
 
 from __future__ import annotations
@@ -44,10 +48,11 @@ MAX_PROGRAMS = 128
 _MIN_PROGRAMS = 16  # one image pass uses up to ~8: never evict one while it runs
 _FORK = (
     "OpenGL unavailable: glmls made a GL context in process {pid}, and this process was "
-    "forked from it; GL drivers do not survive fork (any GL call here would hang). Use the "
-    "'spawn' start method (multiprocessing.get_context('spawn'); PyTorch: "
-    "DataLoader(..., multiprocessing_context='spawn')), or make the first glmls GL call in "
-    "the worker processes only."
+    "forked from it; GL drivers do not survive fork (GL here would hang), so only "
+    "glmls.warp() works here (it runs in a helper process). Use the 'spawn' start method "
+    "(multiprocessing.get_context('spawn'); PyTorch: DataLoader(..., "
+    "multiprocessing_context='spawn')), or make the first glmls GL call in the worker "
+    "processes only."
 )
 
 _PACKAGES_EGL = "libegl1"
@@ -502,6 +507,12 @@ _registry_lock = threading.RLock()
 _default: GLContext | None = None
 #: Every live wrapper by id() of its moderngl context: one GLContext per moderngl context.
 _wrappers: dict[int, GLContext] = {}
+
+
+def forked_from_gl() -> bool:
+    """Whether this process was forked from one in which glmls made or adopted a GL context
+    (where GL cannot be used; :func:`glmls.gl.helper.call` does GL work in a clean helper)."""
+    return bool(_gl_pids - {os.getpid()})
 
 
 def _check_process() -> None:

@@ -1,7 +1,6 @@
 """glmls from threads and processes: any thread may use glmls's contexts (one call at a time),
-a forked child of a GL process raises at once instead of hanging, a child forked before any GL
-works, spawn pools work, released contexts raise ReleasedError. Process cases run in a fresh
-interpreter with a timeout, so that a hang fails the test."""
+released contexts raise ReleasedError (forked and spawned processes: test_fork.py). Process
+cases run in a fresh interpreter with a timeout, so that a hang fails the test."""
 
 from __future__ import annotations
 
@@ -52,76 +51,6 @@ def image(seed):
 
 
 # -- processes ---------------------------------------------------------------------------------
-
-
-def test_a_fork_of_a_gl_process_raises_at_once_instead_of_hanging(tmp_path):
-    out = run_script(
-        """
-        warp(0)  # the parent uses GL
-        read, write = os.pipe()
-        pid = os.fork()
-        if pid == 0:
-            try:
-                warp(1)
-                message = "no error"
-            except glmls.GLUnavailableError as error:
-                message = "GLUnavailableError: " + str(error)
-            os.write(write, message.encode())
-            os._exit(0)
-        os.close(write)
-        os.waitpid(pid, 0)
-        print(os.read(read, 4096).decode())
-        warp(2)  # the parent still works
-        """,
-        tmp_path,
-    ).stdout
-    assert "GLUnavailableError" in out and "'spawn' start method" in out
-    assert "forked" in out
-
-
-def test_a_fork_pool_after_the_parent_warped_fails_fast_with_the_advice(tmp_path):
-    out = run_script(
-        """
-        warp(0)
-        with multiprocessing.get_context("fork").Pool(2) as pool:
-            try:
-                pool.map(warp, range(4))
-                print("no error")
-            except glmls.GLUnavailableError as error:
-                print("GLUnavailableError:", error)
-        """,
-        tmp_path,
-        timeout=60,
-    ).stdout
-    assert out.startswith("GLUnavailableError:") and "spawn" in out
-
-
-def test_a_fork_pool_made_before_any_gl_works(tmp_path):
-    """Workers forked before the parent touched GL make their own contexts (a DataLoader
-    whose workers warp, the main process not)."""
-    run_script(
-        """
-        with multiprocessing.get_context("fork").Pool(2) as pool:
-            results = pool.map(warp, range(4))
-        for seed, result in enumerate(results):  # now the parent uses GL too
-            assert np.array_equal(result, warp(seed)), seed
-        """,
-        tmp_path,
-    )
-
-
-def test_a_spawn_pool_works_after_the_parent_warped(tmp_path):
-    run_script(
-        """
-        if __name__ == "__main__":
-            expected = [warp(seed) for seed in range(4)]
-            with multiprocessing.get_context("spawn").Pool(2) as pool:
-                results = pool.map(warp, range(4))
-            for a, b in zip(results, expected):
-                assert np.array_equal(a, b)
-        """,
-        tmp_path,
-    )
 
 
 def test_releasing_the_default_context_leaves_clear_errors(tmp_path):
