@@ -31,7 +31,14 @@ step() {
     nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv 2>/dev/null || true
 } >"$out/machine.txt" 2>&1
 step gl-info 60 "$PYTHON" -c 'import glmls, glmls.gl as g; c = g.get_context(); i = c.mgl.info; print(glmls.__version__, i["GL_RENDERER"], i["GL_VERSION"], sep="\n")'
-step tests 270 "$PYTHON" -m pytest -x -q -p no:cacheprovider tests/gl tests/engine tests/imaging
+if [[ " ${failed[*]-} " == *" gl-info "* ]]; then
+    echo "gpu_check: no GL context; nothing else can run (see $out/gl-info.txt)" >&2
+    exit 1
+fi
+# pytest-xdist, where installed, runs the GL tests in parallel processes (one context each)
+parallel=()
+if "$PYTHON" -c 'import xdist' 2>/dev/null; then parallel=(-n 8); fi
+step tests 270 "$PYTHON" -m pytest --maxfail=20 -q -p no:cacheprovider "${parallel[@]}" tests/gl tests/engine tests/imaging tests/test_inverse.py
 step bench 120 "$PYTHON" benchmarks/run_bench.py --quick --tools glmls --tolerances 0.05 --out "$out/bench"
 step profile-stages 45 "$PYTHON" benchmarks/profile_stages.py --size 1024 --handles 64
 step adaptive-stages-W1 30 "$PYTHON" benchmarks/adaptive_stages.py --workload W1 --tolerance 0.05
