@@ -35,10 +35,13 @@ if [[ " ${failed[*]-} " == *" gl-info "* ]]; then
     echo "gpu_check: no GL context; nothing else can run (see $out/gl-info.txt)" >&2
     exit 1
 fi
-# pytest-xdist, where installed, runs the GL tests in parallel processes (one context each)
+# pytest-xdist, where installed, runs the GL tests in parallel processes (one context each);
+# -v names each failure as it happens, and SIGINT at the limit still prints the summary
 parallel=()
-if "$PYTHON" -c 'import xdist' 2>/dev/null; then parallel=(-n 8); fi
-step tests 270 "$PYTHON" -m pytest --maxfail=20 -q -p no:cacheprovider "${parallel[@]}" tests/gl tests/engine tests/imaging tests/test_inverse.py
+if "$PYTHON" -c 'import xdist' 2>/dev/null; then parallel=(-n 12); fi
+step tests 240 timeout -s INT 230 "$PYTHON" -m pytest -v -rfE --durations=20 --maxfail=30 \
+    -p no:cacheprovider -p no:benchmark "${parallel[@]}" \
+    tests/gl tests/engine tests/imaging tests/test_inverse.py
 step bench 120 "$PYTHON" benchmarks/run_bench.py --quick --tools glmls --tolerances 0.05 --out "$out/bench"
 step profile-stages 45 "$PYTHON" benchmarks/profile_stages.py --size 1024 --handles 64
 step adaptive-stages-W1 30 "$PYTHON" benchmarks/adaptive_stages.py --workload W1 --tolerance 0.05
