@@ -240,7 +240,9 @@ def _read_nifti(path: Path) -> Volume:
 
 def _read_tiff(path: Path) -> Volume:
     with tifffile.TiffFile(path) as tiff:
-        if len(tiff.pages) < 2:
+        if len(tiff.pages) == 0:
+            raise InputFileError(f"{path}: not a readable {path.suffix.lower()} volume: no pages")
+        if len(tiff.pages) == 1:
             raise InputFileError(
                 f"{path}: a TIFF of one page is an image (glmls.imread), not a volume"
             )
