@@ -237,7 +237,7 @@ def sphere() -> Mesh:
     >>> mesh = glmls.data.sphere()
     >>> mesh.vertices.shape, mesh.faces.shape
     ((162, 3), (320, 3))
-    >>> np.linalg.norm(mesh.vertices - 32, axis=1).round(6).max()
+    >>> float(np.linalg.norm(mesh.vertices - 32, axis=1).round(6).max())
     20.0
     """
     vertices, faces = icosphere(2)

@@ -104,6 +104,7 @@ __all__ = [
     "HANDLE_HEADER_3D",
     "KIND_HEADER",
     "POINT_HEADER",
+    "handle_dimension",
     "read_handle_set",
     "read_handles",
     "read_points",
@@ -185,12 +186,19 @@ def _expect(path: Path, found: int, ndim: int | None, advice: str = "") -> None:
         )
 
 
-def read_handle_set(path: str | os.PathLike) -> HandleSet:
+def handle_dimension(path: str | os.PathLike, *, dst: str | os.PathLike | None = None) -> int:
+    """The dimension of the handles in a file (or an elastix pair, ``dst`` the targets'),
+    2 or 3; ``InputFileError`` for a file that cannot be read as far as that."""
+    return _handle_rows(Path(path), dst)[0]
+
+
+def read_handle_set(path: str | os.PathLike, *, dst: str | os.PathLike | None = None) -> HandleSet:
     """The 2D handles of every kind in a JSON, CSV or BigWarp landmark file (see the module's
-    description of the formats), checked; ``InputFileError`` naming the place of a fault,
-    and for a file of 3D handles (:func:`read_handles` reads those)."""
+    description of the formats), or of an elastix pair (``path`` the sources', ``dst`` the
+    targets'), checked; ``InputFileError`` naming the place of a fault, and for a file of
+    3D handles (:func:`read_handles` reads those)."""
     path = Path(path)
-    ndim, rows = _handle_rows(path, None)
+    ndim, rows = _handle_rows(path, dst)
     _expect(path, ndim, 2, ": read_handles reads 3D point handles")
     return handle_set(path, rows)
 

@@ -50,7 +50,7 @@ __all__ = [
 #: one page (:func:`is_volume_file`).
 VOLUME_SUFFIXES = (".nii", ".nii.gz", ".tif", ".tiff", ".npy")
 #: The dtypes an ImageJ TIFF holds (it keeps the spacing); others are written as plain TIFF.
-_IMAGEJ_DTYPES = ("uint8", "uint16", "float32")
+_IMAGEJ_DTYPES = ("uint8", "uint16", "int16", "float32")
 _CORRUPT = (OSError, EOFError, ValueError, KeyError, IndexError, struct.error, zlib.error)
 
 
@@ -301,7 +301,8 @@ def write_volume(
     spacing : sequence of float, optional
         The voxel size (dz, dy, dx); default the volume's. NIfTI: used where no affine is
         given; TIFF: written as an ImageJ stack's spacing and X/Y resolutions (uint8,
-        uint16 and float32 data; other dtypes are written as a plain TIFF, without it).
+        uint16, int16 and float32 data of one channel; others are written as a plain TIFF,
+        without it).
         ``.npy`` holds none.
 
     Raises

@@ -86,7 +86,7 @@ def test_nifti_gz_is_gzip(tmp_path):
     assert gzip.decompress(path.read_bytes())[344:348] == b"n+1\x00"
 
 
-@pytest.mark.parametrize("dtype", ["uint8", "uint16", "float32"])
+@pytest.mark.parametrize("dtype", ["uint8", "uint16", "int16", "float32"])
 def test_tiff_stack_keeps_the_spacing(tmp_path, dtype):
     path = tmp_path / "stack.tif"
     write_volume(path, np.ones((3, 4, 5), dtype), spacing=(2.0, 0.25, 0.5))
