@@ -180,7 +180,7 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
         with ticker, reported_warnings(f"glmls warp: {args.input}"):
             try:
                 result = np.asarray(m.warp(data, **options))
-            except (TypeError, ValueError) as error:
+            except (TypeError, ValueError, NotImplementedError) as error:
                 raise UsageError(f"{args.input}: {error}") from None
     result = _in_dtype(result, dtype)
     depth, height, width = result.shape[:3]
