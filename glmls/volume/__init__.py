@@ -1,0 +1,19 @@
+"""Volumes deformed by a 3D MLS on the GPU: the cells method (tetrahedra) and the backward
+method, slab by slab of output slices."""
+
+from .construction import VolumeWarper
+from .fields import Field, ReferenceField
+from .frame import CornerLattice, VolumeBounds, VolumeFrame
+from .options import VOLUME_METHODS, SlabOptions, VolumeOptions
+
+__all__ = [
+    "VOLUME_METHODS",
+    "CornerLattice",
+    "Field",
+    "ReferenceField",
+    "SlabOptions",
+    "VolumeBounds",
+    "VolumeFrame",
+    "VolumeOptions",
+    "VolumeWarper",
+]
