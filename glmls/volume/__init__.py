@@ -3,6 +3,7 @@ method, slab by slab of output slices."""
 
 from .construction import VolumeWarper
 from .fields import Field, ReferenceField
+from .kernel_field import KernelField
 from .frame import CornerLattice, VolumeBounds, VolumeFrame
 from .options import VOLUME_METHODS, SlabOptions, VolumeOptions
 
@@ -10,6 +11,7 @@ __all__ = [
     "VOLUME_METHODS",
     "CornerLattice",
     "Field",
+    "KernelField",
     "ReferenceField",
     "SlabOptions",
     "VolumeBounds",
