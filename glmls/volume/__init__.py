@@ -1,6 +1,7 @@
 """Volumes deformed by a 3D MLS on the GPU: the cells method (tetrahedra) and the backward
 method, slab by slab of output slices."""
 
+from .api import volume_bounds, volume_coordinate_map, warp_volume
 from .construction import VolumeWarper
 from .fields import Field, ReferenceField
 from .kernel_field import KernelField
@@ -18,4 +19,7 @@ __all__ = [
     "VolumeFrame",
     "VolumeOptions",
     "VolumeWarper",
+    "volume_bounds",
+    "volume_coordinate_map",
+    "warp_volume",
 ]

@@ -119,9 +119,18 @@ class LatticeBands:
         self.loaded: tuple[int, int] | None = None
         low = np.full(nz, np.inf)
         high = np.full(nz, -np.inf)
+        #: the box of every deformed point (x, y, z low, then high), source voxels
+        self.box = np.array([np.inf] * 3 + [-np.inf] * 3)
         for first in range(0, cells, self.cell_layers):
             layers = min(self.cell_layers, cells - first)
-            z = self._load(first, layers)[:, 2].reshape(layers + 1, -1)
+            points = self._load(first, layers)
+            with np.errstate(all="ignore"):
+                good = points[np.all(np.isfinite(points), axis=1)]
+                if len(good):
+                    self.box = np.concatenate(
+                        [np.minimum(self.box[:3], good.min(0)), np.maximum(self.box[3:], good.max(0))]
+                    )
+            z = points[:, 2].reshape(layers + 1, -1)
             finite = np.where(np.isfinite(z), z, np.nan)
             with np.errstate(all="ignore"):
                 low[first : first + layers + 1] = np.fmin(
@@ -331,6 +340,17 @@ class VolumeWarper:
         return points[..., :3] * frame.scale.astype(np.float32), residual, covered
 
     # -- passes ---------------------------------------------------------------------------
+
+    @current
+    def bounds(
+        self, field: Field, shape: tuple[int, int, int], grid: int, slabs: SlabOptions | None = None
+    ) -> np.ndarray:
+        """(low x, y, z, high x, y, z) of f at the corners of ``grid``'s lattice of a volume of
+        ``shape``, source voxels."""
+        self._resources.check_alive()
+        slabs = slabs if slabs is not None else SlabOptions()
+        options = VolumeOptions(grid=grid)
+        return self._bands(field, shape, make_volume_frame(options, shape), options, slabs).box
 
     @property
     def _max_groups(self) -> int:
