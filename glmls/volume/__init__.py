@@ -4,8 +4,8 @@ method, slab by slab of output slices."""
 from .api import volume_bounds, volume_coordinate_map, warp_volume
 from .construction import VolumeWarper
 from .fields import Field, ReferenceField
-from .kernel_field import KernelField
 from .frame import CornerLattice, VolumeBounds, VolumeFrame
+from .kernel_field import KernelField
 from .options import VOLUME_METHODS, SlabOptions, VolumeOptions
 
 __all__ = [

@@ -127,9 +127,8 @@ class LatticeBands:
             with np.errstate(all="ignore"):
                 good = points[np.all(np.isfinite(points), axis=1)]
                 if len(good):
-                    self.box = np.concatenate(
-                        [np.minimum(self.box[:3], good.min(0)), np.maximum(self.box[3:], good.max(0))]
-                    )
+                    low_box = np.minimum(self.box[:3], good.min(0))
+                    self.box = np.concatenate([low_box, np.maximum(self.box[3:], good.max(0))])
             z = points[:, 2].reshape(layers + 1, -1)
             finite = np.where(np.isfinite(z), z, np.nan)
             with np.errstate(all="ignore"):
@@ -150,9 +149,7 @@ class LatticeBands:
         count = (layers + 1) * nx * ny
         self.field.fill(self.lattice, first, layers + 1, self.buffer)
         self.loaded = (first, layers)
-        return np.frombuffer(self.buffer.read(size=count * POINT_BYTES), np.float32).reshape(
-            -1, 3
-        )
+        return np.frombuffer(self.buffer.read(size=count * POINT_BYTES), np.float32).reshape(-1, 3)
 
     def load(self, first: int, layers: int) -> None:
         """Make the buffer hold cell layers ``first`` .. ``first + layers - 1``."""
@@ -160,7 +157,6 @@ class LatticeBands:
             held_first, held_layers = self.loaded
             if held_first <= first and first + layers <= held_first + held_layers:
                 return
-        nx, ny, _ = self.lattice.dims
         self.field.fill(self.lattice, first, layers + 1, self.buffer)
         self.loaded = (first, layers)
 

@@ -155,7 +155,7 @@ class CornerLattice:
         """x, y and z of the points along each axis, voxels."""
         return tuple(  # type: ignore[return-value]
             np.minimum(self.first + self.grid * np.arange(n), last)
-            for n, last in zip(self.dims, self.last)
+            for n, last in zip(self.dims, self.last, strict=True)
         )
 
     def layer_points(self, first: int, layers: int) -> np.ndarray:

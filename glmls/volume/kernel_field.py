@@ -60,9 +60,7 @@ class KernelField:
         program = kernel.program("volume/lattice.comp.glsl")
         with kernel.gl.use():
             kernel.bind(program, self.shape)
-            set_uniforms(
-                program, lattice.uniforms() | self._uniforms() | {"u_first_layer": first}
-            )
+            set_uniforms(program, lattice.uniforms() | self._uniforms() | {"u_first_layer": first})
             target.bind_to_storage_buffer(bindings.VOLUME_LATTICE.index)
             run_1d(program, count, max_groups=kernel.gl.limits["max_work_groups_x"])
             kernel.gl.mgl.memory_barrier()
@@ -99,5 +97,6 @@ class KernelField:
             )
             coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
             kernel.gl.mgl.memory_barrier()
-            run_1d(program, width * height * depth, max_groups=kernel.gl.limits["max_work_groups_x"])
+            groups = kernel.gl.limits["max_work_groups_x"]
+            run_1d(program, width * height * depth, max_groups=groups)
             kernel.gl.mgl.memory_barrier()

@@ -59,7 +59,9 @@ def check_volume_origin(origin: object) -> tuple[float, float, float] | None:
         raise ValueError(f"origin must be (x0, y0, z0) real numbers, got {origin!r}")
     point = (float(values[0]), float(values[1]), float(values[2]))
     if not all(math.isfinite(v) and abs(v) <= COORDINATE_LIMIT for v in point):
-        raise ValueError(f"origin must be finite and within ±{COORDINATE_LIMIT:.0e}, got {origin!r}")
+        raise ValueError(
+            f"origin must be finite and within ±{COORDINATE_LIMIT:.0e}, got {origin!r}"
+        )
     return point
 
 

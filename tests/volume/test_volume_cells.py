@@ -130,7 +130,8 @@ def test_spacing_puts_voxels_at_physical_positions(kernel3, rng, volume):
     config = {"transform": "rigid", "weight": "idw"}
     m = kernel3(src * scale, dst * scale, SHAPE, **config)
     out = warp_volume(m, volume, spacing=spacing)
-    field = ReferenceField(src * scale, dst * scale, MLSConfig(**config), spacing=spacing,
-                           shape=SHAPE)
+    field = ReferenceField(
+        src * scale, dst * scale, MLSConfig(**config), spacing=spacing, shape=SHAPE
+    )
     reference = warp_cells(field, volume[..., None])[..., 0]
     assert np.mean(out != reference) < 0.01

@@ -110,8 +110,18 @@ def cells(field, shape, grid, out_shape, origin=(0.0, 0.0, 0.0), margin=0):
     return key, source, nearest_lo, nearest_hi
 
 
-def warp_cells(field, volume, *, grid=1, linear=False, border="constant", background=0.0,
-               out_shape=None, origin=(0.0, 0.0, 0.0), margin=0):
+def warp_cells(
+    field,
+    volume,
+    *,
+    grid=1,
+    linear=False,
+    border="constant",
+    background=0.0,
+    out_shape=None,
+    origin=(0.0, 0.0, 0.0),
+    margin=0,
+):
     """The cells method's volume (D, H, W, C) float64 (not rounded)."""
     out_shape = tuple(out_shape or volume.shape[:3])
     key, source, lo, hi = cells(field, volume.shape[:3], grid, out_shape, origin, margin)
