@@ -1,24 +1,20 @@
-"""Volumes deformed by a 3D MLS on the GPU: the cells method (tetrahedra) and the backward
-method, slab by slab of output slices."""
+"""Volumes deformed by a 3D MLS on the GPU: the cells method (the deformed lattice's cells
+split into tetrahedra) and the backward method (Newton's method on f), slab by slab of output
+slices (see ``docs/volumes.md``).
+
+The construction itself lives in :mod:`glmls.volume.construction` (``VolumeWarper``, one per
+GL context), what it deforms by in :mod:`glmls.volume.fields` and
+:mod:`glmls.volume.kernel_field`."""
 
 from .api import volume_bounds, volume_coordinate_map, warp_volume
-from .construction import VolumeWarper
-from .fields import Field, ReferenceField
-from .frame import CornerLattice, VolumeBounds, VolumeFrame
-from .kernel_field import KernelField
+from .frame import VolumeBounds
 from .options import VOLUME_METHODS, SlabOptions, VolumeOptions
 
 __all__ = [
     "VOLUME_METHODS",
-    "CornerLattice",
-    "Field",
-    "KernelField",
-    "ReferenceField",
     "SlabOptions",
     "VolumeBounds",
-    "VolumeFrame",
     "VolumeOptions",
-    "VolumeWarper",
     "volume_bounds",
     "volume_coordinate_map",
     "warp_volume",

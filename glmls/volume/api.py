@@ -121,6 +121,13 @@ def volume_coordinate_map(
     covered : numpy.ndarray
         (D, H, W) bool: a source point was found (inside the volume, for ``constant``).
 
+    Raises
+    ------
+    ValueError
+        For a 2D MLS, a bad ``shape`` or option.
+    TypeError
+        For a keyword that is no option.
+
     Examples
     --------
     >>> import numpy as np
@@ -167,6 +174,11 @@ def volume_bounds(
     -------
     VolumeBounds
         Whose ``output_shape`` and ``origin`` give the canvas that shows all of it.
+
+    Raises
+    ------
+    ValueError
+        For a 2D MLS, a bad ``shape``, ``grid`` or ``spacing``.
 
     Examples
     --------

@@ -197,9 +197,11 @@ class VolumeOptions:
 
 @dataclass(frozen=True)
 class SlabOptions:
-    """How the volume construction cuts its work: the most bytes of one output slab's
-    buffers (keys or coordinates, and the slab texture) and of one band of the deformed
-    lattice. Smaller values give more slabs and bands, the same result.
+    """How the volume construction cuts its work into slabs and bands.
+
+    The most bytes of one output slab's buffers (keys or coordinates, and the slab texture)
+    and of one band of the deformed lattice. Smaller values give more slabs and bands, the
+    same result.
 
     Parameters
     ----------

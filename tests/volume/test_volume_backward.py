@@ -9,14 +9,9 @@ from volume_reference import inverse, sample
 
 from glmls import BORDERS
 from glmls.core.config import MLSConfig
-from glmls.volume import (
-    ReferenceField,
-    VolumeOptions,
-    VolumeWarper,
-    volume_bounds,
-    volume_coordinate_map,
-    warp_volume,
-)
+from glmls.volume import VolumeOptions, volume_bounds, volume_coordinate_map, warp_volume
+from glmls.volume.construction import VolumeWarper
+from glmls.volume.fields import ReferenceField
 
 SHAPE = (9, 10, 12)
 

@@ -8,14 +8,10 @@ from conftest import box_handles
 from volume_reference import warp_cells
 
 from glmls.core.config import MLSConfig
-from glmls.volume import (
-    KernelField,
-    ReferenceField,
-    SlabOptions,
-    VolumeOptions,
-    VolumeWarper,
-    warp_volume,
-)
+from glmls.volume import SlabOptions, VolumeOptions, warp_volume
+from glmls.volume.construction import VolumeWarper
+from glmls.volume.fields import ReferenceField
+from glmls.volume.kernel_field import KernelField
 
 SHAPE = (10, 12, 14)
 
