@@ -164,3 +164,13 @@ def test_volume_is_public_and_checked():
         Volume(np.zeros((2, 2, 2)), affine=np.eye(3))
     volume = Volume(np.zeros((2, 2, 2)), affine=np.eye(4))
     assert not volume.affine.flags.writeable
+
+
+def test_nifti_rgb_records_become_channels(tmp_path):
+    rgb = np.zeros((3, 4, 2), dtype=[("R", "u1"), ("G", "u1"), ("B", "u1")])  # (x, y, z)
+    rgb["G"][2, 1, 0] = 9
+    path = tmp_path / "rgb.nii"
+    nib.save(nib.Nifti1Image(rgb, np.eye(4)), path)
+    volume = read_volume(path)
+    assert volume.shape == (2, 4, 3, 3) and volume.data.dtype == np.uint8
+    assert volume.data[0, 1, 2].tolist() == [0, 9, 0]
