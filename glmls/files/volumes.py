@@ -51,6 +51,8 @@ __all__ = [
 VOLUME_SUFFIXES = (".nii", ".nii.gz", ".tif", ".tiff", ".npy")
 #: The dtypes an ImageJ TIFF holds (it keeps the spacing); others are written as plain TIFF.
 _IMAGEJ_DTYPES = ("uint8", "uint16", "int16", "float32")
+#: dtypes NIfTI lacks, written as the nearest it has: masks as uint8, half floats as float32.
+_NIFTI_AS = {"bool": np.uint8, "float16": np.float32}
 _CORRUPT = (OSError, EOFError, ValueError, KeyError, IndexError, struct.error, zlib.error)
 
 
@@ -302,7 +304,7 @@ def write_volume(
         The voxel size (dz, dy, dx); default the volume's. NIfTI: used where no affine is
         given; TIFF: written as an ImageJ stack's spacing and X/Y resolutions (uint8,
         uint16, int16 and float32 data of one channel; others are written as a plain TIFF,
-        without it).
+        without it). NIfTI lacks bool and float16: they are written as uint8 and float32.
         ``.npy`` holds none.
 
     Raises
@@ -377,9 +379,10 @@ def _write_nifti(path: Path, volume: Volume, *, compress: bool) -> None:
         dz, dy, dx = volume.spacing or (1.0, 1.0, 1.0)
         affine = np.diag([dx, dy, dz, 1.0])
     data = np.ascontiguousarray(np.swapaxes(volume.data, 0, 2))  # (z, y, x) -> (x, y, z)
+    data = data.astype(_NIFTI_AS.get(data.dtype.name, data.dtype), copy=False)
     try:
-        image = nib.Nifti1Image(data, np.asarray(affine))
-    except nib.spatialimages.HeaderDataError as error:
+        image = nib.Nifti1Image(data, np.asarray(affine), dtype=data.dtype)
+    except (nib.spatialimages.HeaderDataError, ValueError) as error:
         raise ValueError(f"{path}: NIfTI cannot hold this volume: {error}") from None
     image.set_qform(np.asarray(affine), code=1)
     image.set_sform(np.asarray(affine), code=1)

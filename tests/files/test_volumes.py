@@ -174,3 +174,13 @@ def test_nifti_rgb_records_become_channels(tmp_path):
     volume = read_volume(path)
     assert volume.shape == (2, 4, 3, 3) and volume.data.dtype == np.uint8
     assert volume.data[0, 1, 2].tolist() == [0, 9, 0]
+
+
+def test_nifti_takes_int64_and_the_nearest_dtype_for_bool_and_float16(tmp_path):
+    path = tmp_path / "v.nii"
+    write_volume(path, np.full((2, 3, 4), 2**40, np.int64))
+    assert read_volume(path).data.dtype == np.int64 and read_volume(path).data.max() == 2**40
+    write_volume(path, np.ones((2, 3, 4), bool))
+    assert read_volume(path).data.dtype == np.uint8
+    write_volume(path, np.full((2, 3, 4), 0.5, np.float16))
+    assert read_volume(path).data.dtype == np.float32
