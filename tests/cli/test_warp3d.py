@@ -224,3 +224,12 @@ def test_bundled_mesh_end_to_end(tmp_path):
     written = glmls.read_mesh(tmp_path / "out.obj")
     assert_allclose(written.vertices, expected.vertices, rtol=0, atol=1e-9)
     assert_array_equal(written.faces, glmls.data.sphere().faces)
+
+
+def test_elastix_pair_of_2d_points_warps_an_image(files, capsys):
+    (files / "moving.pts").write_text("index\n2\n1 1\n8 6\n")
+    (files / "fixed.pts").write_text("index\n2\n2 1\n9 6\n")
+    argv = ["warp", "a.png", "o.png", "--handles", "moving.pts", "--targets", "fixed.pts"]
+    assert main(argv) == 0
+    assert capsys.readouterr().out.strip() == "o.png"
+    assert glmls.imread(files / "o.png").shape == (8, 10)
