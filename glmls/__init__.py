@@ -4,8 +4,8 @@ Conventions: points are ``(x, y)`` = (column, row) float arrays of shape (N, 2);
 sit at integer coordinates; f(v) = v M + T with row vectors.
 
 The top level holds what a user calls: :class:`MLS` (and its :class:`InverseMLS`) and
-:func:`warp`, their configuration and :class:`WarpOptions`, the handle types, image files,
-the bundled data, the exceptions and the names of the choices.
+:func:`warp`, their configuration and :class:`WarpOptions`, the handle types, image, volume
+and mesh files, the bundled data, the exceptions and the names of the choices.
 The numerical analysis lives in :mod:`glmls.analysis`, the OpenGL plumbing (contexts, the
 warp pipeline) in :mod:`glmls.gl`, the float64 reference of the mathematics in
 :mod:`glmls.reference`.
@@ -14,6 +14,7 @@ warp pipeline) in :mod:`glmls.gl`, the float64 reference of the mathematics in
 from . import analysis, data, gl, reference
 from .core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
 from .core.handleset import HANDLE_KINDS, HandleSet
+from .core.mesh3 import DeformedMesh
 from .core.segments import polyline_segments
 from .errors import (
     BorderWarning,
@@ -25,10 +26,13 @@ from .errors import (
     ReleasedError,
 )
 from .files.images import imread, imwrite
+from .files.meshes import Mesh, read_mesh, write_mesh
+from .files.volumes import Volume, read_volume, write_volume
 from .imaging.frame import Bounds
 from .imaging.options import WarpOptions
 from .imaging.source import BORDERS, INTERPOLATIONS, METHODS
 from .mls import MLS, InverseMLS, warp
+from .mls3 import MLS3, InverseMLS3  # registers the MLS of 3D handles
 from .version import __version__
 
 __all__ = [
@@ -37,20 +41,25 @@ __all__ = [
     "INTERPOLATIONS",
     "METHODS",
     "MLS",
+    "MLS3",
     "RADIUS_WEIGHTS",
     "TRANSFORMS",
     "WEIGHTS",
     "BorderWarning",
     "Bounds",
     "ContextError",
+    "DeformedMesh",
     "DegenerateHandlesError",
     "GLUnavailableError",
     "HandleSet",
     "ImageWarning",
     "InputFileError",
     "InverseMLS",
+    "InverseMLS3",
     "MLSConfig",
+    "Mesh",
     "ReleasedError",
+    "Volume",
     "WarpOptions",
     "__version__",
     "analysis",
@@ -59,6 +68,10 @@ __all__ = [
     "imread",
     "imwrite",
     "polyline_segments",
+    "read_mesh",
+    "read_volume",
     "reference",
     "warp",
+    "write_mesh",
+    "write_volume",
 ]

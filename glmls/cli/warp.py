@@ -1,4 +1,5 @@
-"""``glmls warp``: deform one image, or many (a folder or a glob), by MLS."""
+"""``glmls warp``: deform one image, or many (a folder or a glob), by MLS; or one volume or
+mesh (:mod:`.warp3d`)."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from ..analysis.jobs import check_jobs, check_scheduler, run_jobs
 from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
 from ..files.images import check_writable
-from ..files.landmarks import read_handle_set
+from ..files.landmarks import handle_dimension, read_handle_set
 from ..imaging.options import WarpOptions
 from .inputs import (
     image_inputs,
@@ -37,8 +38,9 @@ from .options import (
     warp_options_from_args,
 )
 from .progress import Progress, Ticker
+from .warp3d import add_3d_options, input_kind, run_3d
 
-HELP = "deform images by MLS"
+HELP = "deform images, volumes and meshes by MLS"
 EXAMPLES = """
 examples:
   glmls warp photo.png out.png --handles handles.json --transform similarity
@@ -48,21 +50,32 @@ examples:
   glmls warp photo.png out.png --handles lines.csv    # points, segments and polylines
   glmls warp frames/ warped/ --handles h.json --jobs 4                # 4 worker processes
   glmls warp frames/ warped/ --handles h.json --scheduler tcp://head:8786   # a Dask cluster
+  glmls warp brain.nii.gz warped.nii.gz --handles landmarks3d.csv   # a volume, 3D handles
+  glmls warp stack.tif out.tif --handles bigwarp.csv --spacing 2,0.5,0.5 --interpolation linear
+  glmls warp scan.nii out.nii --handles moving.pts --targets fixed.pts   # elastix points
+  glmls warp bunny.ply out.ply --handles h3d.json   # a mesh; stderr says the folds
 """
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("input", metavar="IN", help="an image, a folder or a glob")
+    parser.add_argument(
+        "input",
+        metavar="IN",
+        help="an image, a folder or a glob of images; or a volume (.nii, .nii.gz, a TIFF of "
+        "several pages, .npy) or a mesh (.ply, .obj, .stl)",
+    )
     parser.add_argument(
         "output",
         metavar="OUT",
-        help="the output image; a folder (made if needed) for many images, or ending in /",
+        help="the output image, volume or mesh, its format by its suffix; a folder (made if "
+        "needed) for many images, or ending in /",
     )
     parser.add_argument(
         "--handles",
         metavar="H",
         required=True,
-        help="handles file (JSON, CSV or BigWarp): points, segments and polylines",
+        help="handles file (JSON, CSV, BigWarp's CSV or JSON, elastix's .pts with --targets): "
+        "2D points, segments and polylines for images, 3D points for volumes and meshes",
     )
     parser.add_argument(
         "--background",
@@ -80,6 +93,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_jobs_options(parser)
     add_config_options(parser)
     add_warp_options(parser)
+    add_3d_options(parser)
 
 
 def targets(output: str, files: list[Path], many: bool) -> list[Path]:
@@ -172,12 +186,22 @@ def _warp_file(task: WarpTask) -> WarpOutcome:
 
 
 def run(args: argparse.Namespace) -> int:
+    kind = input_kind(args.input)
+    if kind != "image":
+        return run_3d(args, kind)
+    if args.spacing is not None:
+        raise UsageError(f"--spacing: for volumes, not for images ({args.input})")
     config = config_from_args(args)
     try:
         jobs, scheduler = check_jobs(args.jobs), check_scheduler(args.scheduler)
     except (ImportError, TypeError, ValueError) as error:
         raise UsageError(str(error)) from None
-    handles = read_handle_set(args.handles)
+    if handle_dimension(args.handles, dst=args.targets) != 2:
+        raise UsageError(
+            f"{args.handles}: 3D handles (x, y, z), but {args.input} names images: they take "
+            "2D handles (x, y)"
+        )
+    handles = read_handle_set(args.handles, dst=args.targets)
     files, many = image_inputs(args.input)
     outputs = targets(args.output, files, many)
     options = warp_options_from_args(args)

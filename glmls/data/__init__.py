@@ -1,7 +1,9 @@
 """Bundled examples: public-domain photographs (a portrait with handles and reference points;
 a launch pad's straight towers for segment handles), and the study set: six photographs (faces,
 objects, text), each with handles for a realistic edit and reference points
-(:func:`study_set`, :func:`study_manifest`; README.md names the sources and licences)."""
+(:func:`study_set`, :func:`study_manifest`; README.md names the sources and licences); and in
+3D, made by code: a 64^3 phantom volume (:func:`phantom`) and a sphere mesh (:func:`sphere`)
+in the same frame, each with 3D handles."""
 
 from __future__ import annotations
 
@@ -12,15 +14,21 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from ..files.meshes import Mesh
 from .manifest import StudyItem, read_manifest
+from .synthetic import icosphere, phantom_volume
 
 __all__ = [
     "StudyItem",
     "astronaut",
     "astronaut_handles",
     "astronaut_reference_points",
+    "phantom",
+    "phantom_handles",
     "read_manifest",
     "rocket",
+    "sphere",
+    "sphere_handles",
     "study_manifest",
     "study_set",
 ]
@@ -156,3 +164,100 @@ def study_set() -> list[StudyItem]:
     ((427, 640), 1, 5)
     """
     return read_manifest(study_manifest())
+
+
+def _handles_3d(name: str) -> tuple[np.ndarray, np.ndarray]:
+    data = json.loads(_path(name).read_text(encoding="utf-8"))
+    return np.asarray(data["src"], dtype=float), np.asarray(data["dst"], dtype=float)
+
+
+def phantom() -> np.ndarray:
+    """A 64^3 phantom volume, made by code (the same every time).
+
+    An ellipsoid body (value 110) holding a flat ellipsoid (160), a large sphere (200,
+    radius 7 about (x, y, z) = (24, 28, 32)) and a small one (255, radius 4.5 about
+    (42, 30, 30)), and grid lines along x, y and z every 8 voxels (40) through all but the
+    spheres, on a background of 0.
+
+    Returns
+    -------
+    numpy.ndarray
+        (D, H, W) = (64, 64, 64) uint8, indexed ``[z, y, x]``.
+
+    See Also
+    --------
+    phantom_handles : 3D handles for an edit of it.
+    sphere : a mesh in the same frame.
+
+    Examples
+    --------
+    >>> volume = glmls.data.phantom()
+    >>> volume.shape, volume.dtype.name, int(volume[32, 28, 24])  # the large sphere's centre
+    ((64, 64, 64), 'uint8', 200)
+    """
+    return phantom_volume()
+
+
+def phantom_handles() -> tuple[np.ndarray, np.ndarray]:
+    """3D point handles for an edit of :func:`phantom`.
+
+    The large sphere moved 4 voxels along x and 2 along -y, the small one 2 along -z; the
+    eight corners of the body's box held.
+
+    Returns
+    -------
+    src, dst : numpy.ndarray
+        The handles p_i -> q_i, each (10, 3) float64 (x, y, z) rows.
+
+    Examples
+    --------
+    >>> src, dst = glmls.data.phantom_handles()
+    >>> src.shape, (dst - src)[0].tolist()
+    ((10, 3), [4.0, -2.0, 0.0])
+    """
+    return _handles_3d("phantom_handles.json")
+
+
+def sphere() -> Mesh:
+    """A sphere mesh, made by code: an icosphere of radius 20 about (32, 32, 32).
+
+    It lies inside :func:`phantom`'s frame; its triangles are wound outwards.
+
+    Returns
+    -------
+    Mesh
+        162 vertices (x, y, z) and 320 triangles.
+
+    See Also
+    --------
+    sphere_handles : 3D handles for an edit of it.
+
+    Examples
+    --------
+    >>> mesh = glmls.data.sphere()
+    >>> mesh.vertices.shape, mesh.faces.shape
+    ((162, 3), (320, 3))
+    >>> float(np.linalg.norm(mesh.vertices - 32, axis=1).round(6).max())
+    20.0
+    """
+    vertices, faces = icosphere(2)
+    return Mesh(vertices * 20.0 + 32.0, faces)
+
+
+def sphere_handles() -> tuple[np.ndarray, np.ndarray]:
+    """3D point handles for an edit of :func:`sphere`.
+
+    The +x pole pulled out 6 and the +z pole 3; the other poles and the centre held.
+
+    Returns
+    -------
+    src, dst : numpy.ndarray
+        The handles p_i -> q_i, each (7, 3) float64 (x, y, z) rows.
+
+    Examples
+    --------
+    >>> src, dst = glmls.data.sphere_handles()
+    >>> src.shape, (dst - src)[0].tolist()
+    ((7, 3), [6.0, 0.0, 0.0])
+    """
+    return _handles_3d("sphere_handles.json")

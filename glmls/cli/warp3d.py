@@ -1,0 +1,231 @@
+"""``glmls warp`` on a volume or a mesh: 3D point handles, one input file, the output in the
+format of its suffix.
+
+- A volume (NIfTI, a TIFF of more than one page, ``.npy``) is warped by
+  :meth:`glmls.MLS.warp` with the voxel spacing of ``--spacing``, else of the file (a NIfTI's
+  affine, an ImageJ stack's spacing); the output keeps the input's dtype (integers rounded
+  and clipped) and, written as NIfTI, the input's affine.
+- A mesh (PLY, OBJ, STL) is deformed by :meth:`glmls.MLS.deform`; the output has the
+  deformed vertices and the input's triangles, and stderr says how many vertices and faces
+  fold over.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..core.config import MLSConfig
+from ..files.landmarks import handle_dimension, read_handles
+from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
+from ..files.volumes import (
+    VOLUME_SUFFIXES,
+    Volume,
+    is_volume_file,
+    read_volume,
+    volume_suffix,
+    write_volume,
+)
+from ..mls import MLS
+from .inputs import reported_warnings, say
+from .options import UsageError, config_from_args
+from .progress import Ticker
+
+__all__ = ["add_3d_options", "input_kind", "parse_spacing", "run_3d"]
+
+#: The dtypes a volume is warped in as it is; others are warped as float32 and written back
+#: in their own dtype.
+_WARPED_AS_IS = ("uint8", "uint16", "float32")
+
+
+def parse_spacing(text: str) -> tuple[float, float, float]:
+    """``DZ,DY,DX`` (three finite numbers > 0), or one number for all three."""
+    try:
+        values = tuple(float(part) for part in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected DZ,DY,DX numbers, got {text!r}") from None
+    if len(values) == 1:
+        values = values * 3
+    if len(values) != 3 or not all(np.isfinite(v) and v > 0 for v in values):
+        raise argparse.ArgumentTypeError(
+            f"expected three finite numbers > 0 (DZ,DY,DX) or one, got {text!r}"
+        )
+    return values  # type: ignore[return-value]
+
+
+def add_3d_options(parser: argparse.ArgumentParser) -> None:
+    """``--targets`` (an elastix pair) and ``--spacing`` (volumes)."""
+    group = parser.add_argument_group("volumes and meshes")
+    group.add_argument(
+        "--targets",
+        metavar="DST",
+        help="the targets' elastix point file (.pts; elastix's fixed points), where --handles "
+        "names the sources' (the moving points)",
+    )
+    group.add_argument(
+        "--spacing",
+        type=parse_spacing,
+        metavar="DZ,DY,DX",
+        help="a volume's voxel size along z, y and x, or one number for all three (default: "
+        "the file's: a NIfTI's affine, an ImageJ TIFF stack's spacing; else 1)",
+    )
+
+
+def input_kind(pattern: str) -> str:
+    """``"volume"``, ``"mesh"`` or ``"image"`` (images, folders and globs) for ``IN``."""
+    suffix = volume_suffix(pattern)
+    if suffix in MESH_SUFFIXES:
+        return "mesh"
+    if suffix in (".nii", ".nii.gz", ".npy"):
+        return "volume"
+    if suffix in (".tif", ".tiff") and Path(pattern).is_file():
+        return "volume" if is_volume_file(pattern) else "image"
+    return "image"
+
+
+def _target(args: argparse.Namespace, kind: str) -> Path:
+    """OUT, or OUT/IN's name where OUT is a folder; its suffix checked before any work."""
+    source, out = Path(args.input), Path(args.output)
+    if out.is_dir() or args.output.endswith(("/", os.sep)):
+        out = out / source.name
+    suffixes = VOLUME_SUFFIXES if kind == "volume" else MESH_SUFFIXES
+    if volume_suffix(out) not in suffixes:
+        suffix = volume_suffix(out) or "(no suffix)"
+        raise UsageError(f"{out}: a {kind} is written as {', '.join(suffixes)}, not {suffix}")
+    return out
+
+
+def _handles(args: argparse.Namespace, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    ndim = handle_dimension(args.handles, dst=args.targets)
+    if ndim != 3:
+        raise UsageError(
+            f"{args.handles}: 2D handles (x, y), but {args.input} is a {kind}: it takes 3D "
+            "handles (x, y, z)"
+        )
+    return read_handles(args.handles, dst=args.targets, ndim=3)
+
+
+def _mls(src: np.ndarray, dst: np.ndarray, config: MLSConfig) -> MLS:
+    settings = {f.name: getattr(config, f.name) for f in dataclasses.fields(MLSConfig)}
+    try:
+        return MLS(src, dst, **settings)
+    except (TypeError, ValueError) as error:
+        raise UsageError(f"handles: {error}") from None
+
+
+def _refuse_image_options(args: argparse.Namespace, kind: str) -> None:
+    given = [
+        option
+        for option, value in (
+            ("--fit", args.fit),
+            ("--tolerance", args.tolerance is not None),
+            ("--keep-going", args.keep_going),
+        )
+        if value
+    ]
+    if kind == "mesh":
+        given += [
+            option
+            for option, value in (
+                ("--spacing", args.spacing is not None),
+                ("--background", args.background != 0.0),
+            )
+            if value
+        ]
+    if given:
+        raise UsageError(f"{', '.join(given)}: for images, not for a {kind} ({args.input})")
+
+
+def run_3d(args: argparse.Namespace, kind: str) -> int:
+    """``glmls warp`` on one volume or mesh."""
+    _refuse_image_options(args, kind)
+    config = config_from_args(args)
+    target = _target(args, kind)
+    src, dst = _handles(args, kind)
+    if kind == "volume":
+        _warp_volume(args, config, src, dst, target)
+    else:
+        _deform_mesh(args, config, src, dst, target)
+    print(target, flush=True)
+    return 0
+
+
+def _volume_options(args: argparse.Namespace, spacing) -> dict:
+    options: dict = {
+        "method": args.method,
+        "interpolation": args.interpolation,
+        "border": args.border,
+        "grid": args.grid,
+        "background": args.background,
+    }
+    if spacing is not None:
+        options["spacing"] = spacing
+    return options
+
+
+def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
+    volume = read_volume(args.input)
+    spacing = args.spacing or volume.spacing
+    data = volume.data
+    dtype = data.dtype
+    if dtype.name not in _WARPED_AS_IS:
+        data = data.astype(np.float32)
+    options = _volume_options(args, spacing)
+    with _mls(src, dst, config) as m:
+        ticker = Ticker(f"warp {args.input}", quiet=args.quiet)
+        with ticker, reported_warnings(f"glmls warp: {args.input}"):
+            try:
+                result = np.asarray(m.warp(data, **options))
+            except (TypeError, ValueError, NotImplementedError) as error:
+                raise UsageError(f"{args.input}: {error}") from None
+    result = _in_dtype(result, dtype)
+    depth, height, width = result.shape[:3]
+    where = "" if spacing is None else f", spacing (dz, dy, dx) = {tuple(spacing)}"
+    say(args, f"warp: volume {width} x {height} x {depth} voxels (x, y, z){where}")
+    affine = volume.affine if volume_suffix(target) in (".nii", ".nii.gz") else None
+    write_volume(target, Volume(result, spacing=spacing, affine=affine))
+
+
+def _in_dtype(result: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """The warped volume in the input's dtype: integers rounded and clipped to its range."""
+    if result.dtype == dtype:
+        return result
+    if np.issubdtype(dtype, np.integer):
+        info = np.iinfo(dtype)
+        return np.clip(np.rint(result), info.min, info.max).astype(dtype)
+    return result.astype(dtype)
+
+
+def _count(folds: object) -> int:
+    """A fold count from a count, a mask or a list of indices."""
+    array = np.asarray(folds)
+    if array.ndim == 0:
+        return int(array)
+    return int(array.sum()) if array.dtype == np.bool_ else len(array)
+
+
+def _deform_mesh(args, config: MLSConfig, src, dst, target: Path) -> None:
+    mesh = read_mesh(args.input)
+    with _mls(src, dst, config) as m:
+        with reported_warnings(f"glmls warp: {args.input}"):
+            try:
+                deformed = m.deform(mesh)
+            except (TypeError, ValueError) as error:
+                raise UsageError(f"{args.input}: {error}") from None
+    vertices, faces = _count(deformed.vertex_folds), _count(deformed.face_folds)
+    say(
+        args,
+        f"warp: mesh of {len(mesh.vertices)} vertices and {len(mesh.faces)} faces; folded: "
+        f"{vertices} vertices, {faces} faces",
+    )
+    if faces:
+        say(
+            args,
+            f"glmls warp: warning: {args.input}: {faces} of {len(mesh.faces)} faces fold over "
+            "(turned inside out): the deformation is not one-to-one there",
+        )
+    write_mesh(target, np.asarray(deformed.vertices), faces=mesh.faces)

@@ -1,0 +1,210 @@
+"""Reading and writing triangle meshes: PLY, OBJ and STL, through trimesh.
+
+A :class:`Mesh` is its vertices (V, 3) float64, (x, y, z) in the coordinates of the handles
+that deform it, and its triangles (F, 3) of vertex indices. Reading keeps the file's
+vertices in their order (none merged, none dropped), except STL's: an STL file stores each
+triangle's three corners, so the corners at the same place are merged into one vertex.
+Faces of more than three vertices are split into triangles.
+
+Written, by the suffix: PLY (binary) and STL (binary) hold float32 coordinates, as those
+formats usually do; OBJ (text) holds them to 17 significant digits, exactly. Every fault of
+a file is an :class:`~glmls.errors.InputFileError` naming it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputFileError
+from .atomic import atomic_write
+
+__all__ = ["MESH_SUFFIXES", "Mesh", "read_mesh", "write_mesh"]
+
+#: The suffixes of the mesh formats.
+MESH_SUFFIXES = (".ply", ".obj", ".stl")
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Mesh:
+    """A triangle mesh: vertices and faces, read-only copies.
+
+    Parameters
+    ----------
+    vertices : array_like
+        (V, 3) (x, y, z) rows, finite; kept as float64.
+    faces : array_like
+        (F, 3) vertex indices of the triangles, each in [0, V); kept as int64.
+
+    See Also
+    --------
+    read_mesh, write_mesh : the files.
+
+    Examples
+    --------
+    >>> mesh = glmls.Mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    >>> mesh.vertices.shape, mesh.faces.tolist()
+    ((3, 3), [[0, 1, 2]])
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+
+    def __post_init__(self) -> None:
+        vertices = np.array(self.vertices, dtype=np.float64)
+        faces = np.asarray(self.faces)
+        if vertices.ndim != 2 or vertices.shape[1] != 3 or not len(vertices):
+            raise ValueError(f"vertices must be (V, 3) with V >= 1, got shape {vertices.shape}")
+        if not np.isfinite(vertices).all():
+            raise ValueError("vertices must be finite")
+        if faces.size == 0:
+            faces = faces.reshape(0, 3)
+        if not np.issubdtype(faces.dtype, np.integer) and not (
+            np.issubdtype(faces.dtype, np.floating) and (faces == np.round(faces)).all()
+        ):
+            raise TypeError(f"faces must be integer vertex indices, got dtype {faces.dtype}")
+        faces = np.array(faces, dtype=np.int64)
+        if faces.ndim != 2 or faces.shape[1] != 3:
+            raise ValueError(f"faces must be (F, 3) triangles, got shape {faces.shape}")
+        if len(faces) and (faces.min() < 0 or faces.max() >= len(vertices)):
+            raise ValueError(
+                f"faces index vertices 0..{len(vertices) - 1}, got {faces.min()}..{faces.max()}"
+            )
+        vertices.flags.writeable = False
+        faces.flags.writeable = False
+        object.__setattr__(self, "vertices", vertices)
+        object.__setattr__(self, "faces", faces)
+
+
+def _trimesh():
+    import trimesh  # a dependency; imported where used: it is slow to import
+
+    return trimesh
+
+
+def _suffix(path: Path) -> str:
+    suffix = path.suffix.lower()
+    if suffix not in MESH_SUFFIXES:
+        raise ValueError(
+            f"{path}: unknown mesh format {suffix or '(no suffix)'}; use {', '.join(MESH_SUFFIXES)}"
+        )
+    return suffix
+
+
+def read_mesh(path: str | os.PathLike) -> Mesh:
+    """Read a triangle mesh from a PLY, OBJ or STL file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its suffix (``.ply``, ``.obj``, ``.stl``) chooses the format.
+
+    Returns
+    -------
+    Mesh
+        The vertices in the file's order (STL's shared corners merged) and the triangles.
+
+    Raises
+    ------
+    InputFileError
+        Naming the file: missing, unreadable, an unknown suffix, not a mesh of that format,
+        no vertices, or coordinates that are not finite.
+
+    See Also
+    --------
+    write_mesh : the other way.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "sphere.obj"
+    >>> glmls.write_mesh(path, glmls.data.sphere())
+    >>> mesh = glmls.read_mesh(path)
+    >>> mesh.vertices.shape, mesh.faces.shape
+    ((162, 3), (320, 3))
+    """
+    path = Path(path)
+    try:
+        suffix = _suffix(path)
+    except ValueError as error:
+        raise InputFileError(str(error)) from None
+    if not path.is_file():
+        raise InputFileError(f"{path}: no such file")
+    try:
+        content = path.read_bytes()
+    except OSError as error:
+        raise InputFileError(f"{path}: cannot read: {error.strerror or error}") from None
+    trimesh = _trimesh()
+    try:
+        loaded = trimesh.load(
+            io.BytesIO(content),
+            file_type=suffix[1:],
+            force="mesh",
+            process=False,
+            maintain_order=True,
+        )
+    except Exception as error:  # trimesh's parsers raise many kinds on a malformed file
+        raise InputFileError(f"{path}: not a readable {suffix} mesh: {error}") from None
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.vertices) == 0:
+        raise InputFileError(f"{path}: no mesh vertices in it")
+    if suffix == ".stl":
+        loaded.merge_vertices(merge_tex=True, merge_norm=True)
+    try:
+        return Mesh(np.asarray(loaded.vertices), np.asarray(loaded.faces).reshape(-1, 3))
+    except (TypeError, ValueError) as error:
+        raise InputFileError(f"{path}: {error}") from None
+
+
+def write_mesh(path: str | os.PathLike, mesh: object, *, faces: object = None) -> None:
+    """Write a triangle mesh to a PLY, OBJ or STL file, whole or not at all.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its suffix (``.ply``, ``.obj``, ``.stl``) chooses the format.
+    mesh : Mesh or object or array_like
+        A :class:`Mesh`, any object with ``vertices`` (and ``faces``, unless ``faces`` is
+        given), such as the deformed mesh of :meth:`glmls.MLS.deform`, or the vertices
+        (V, 3) themselves.
+    faces : array_like, optional
+        The triangles (F, 3); default ``mesh.faces``.
+
+    Raises
+    ------
+    ValueError
+        Before writing anything, for an unknown suffix or a bad mesh (no faces where
+        neither ``mesh`` nor ``faces`` gives them).
+    OSError
+        Naming ``path``, for a file that cannot be written.
+
+    See Also
+    --------
+    read_mesh : the other way.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "triangle.ply"
+    >>> glmls.write_mesh(path, [[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces=[[0, 1, 2]])
+    >>> glmls.read_mesh(path).faces.tolist()
+    [[0, 1, 2]]
+    """
+    path = Path(path)
+    suffix = _suffix(path)
+    vertices = getattr(mesh, "vertices", mesh)
+    if faces is None:
+        faces = getattr(mesh, "faces", None)
+        if faces is None:
+            raise ValueError(f"{path}: no faces: give faces= (F, 3) with vertices")
+    checked = Mesh(vertices, faces)
+    trimesh = _trimesh()
+    shape = trimesh.Trimesh(checked.vertices, checked.faces, process=False)
+    options = {"digits": 17} if suffix == ".obj" else {}
+    content = shape.export(file_type=suffix[1:], **options)
+    data = content.encode("utf-8") if isinstance(content, str) else content
+    with atomic_write(path) as tmp:
+        tmp.write_bytes(data)

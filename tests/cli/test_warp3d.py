@@ -1,0 +1,235 @@
+"""``glmls warp`` on volumes and meshes: the files, the spacing and affine, the dtype, the fold
+summary (with a stand-in MLS, in this process), the mistakes (one line, exit status 2), and
+end to end on the bundled phantom and sphere with the GPU's 3D MLS."""
+
+from __future__ import annotations
+
+import json
+import types
+from typing import ClassVar
+
+import numpy as np
+import pytest
+from helpers import run_glmls
+from numpy.testing import assert_allclose, assert_array_equal
+
+import glmls
+from glmls.cli import warp3d
+from glmls.cli.main import main
+
+AFFINE = np.array(
+    [[-2.0, 0.0, 0.0, 30.0], [0.0, 1.0, 0.0, -4.0], [0.0, 0.0, 3.0, 5.0], [0, 0, 0, 1]]
+)
+
+
+class StandIn:
+    """An MLS of 3D handles that moves everything by the mean displacement: what the command
+    does with the files, without the GPU's 3D MLS."""
+
+    calls: ClassVar[list] = []
+
+    def __init__(self, src, dst, **settings):
+        self.shift = (np.asarray(dst) - np.asarray(src)).mean(axis=0)
+        StandIn.calls.append(("MLS", np.asarray(src).shape, settings))
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def warp(self, volume, **options):
+        StandIn.calls.append(("warp", volume.dtype.name, options))
+        return np.asarray(volume, dtype=np.float32) + 0.6
+
+    def deform(self, mesh):
+        count = len(mesh.faces)
+        return types.SimpleNamespace(
+            vertices=mesh.vertices + self.shift,
+            vertex_folds=np.zeros(len(mesh.vertices), bool),
+            face_folds=np.arange(count) < 2,
+        )
+
+
+@pytest.fixture
+def stand_in(monkeypatch):
+    StandIn.calls = []
+    monkeypatch.setattr(warp3d, "MLS", StandIn)
+    return StandIn
+
+
+@pytest.fixture
+def files(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    src, dst = glmls.data.phantom_handles()
+    (tmp_path / "h3.json").write_text(json.dumps({"src": src.tolist(), "dst": dst.tolist()}))
+    (tmp_path / "h2.json").write_text(json.dumps({"src": [[1, 2]], "dst": [[2, 3]]}))
+    glmls.write_volume(tmp_path / "v.nii.gz", glmls.data.phantom()[:8, :9, :10], affine=AFFINE)
+    glmls.write_mesh(tmp_path / "sphere.ply", glmls.data.sphere())
+    glmls.imwrite(tmp_path / "a.png", np.zeros((8, 10), np.uint8))
+    return tmp_path
+
+
+def _last(calls, kind):
+    return [c for c in calls if c[0] == kind][-1]
+
+
+def test_volume_keeps_the_affine_and_passes_its_spacing(files, stand_in, capsys):
+    assert main(["warp", "v.nii.gz", "out.nii.gz", "--handles", "h3.json", "--alpha", "2"]) == 0
+    out, err = capsys.readouterr()
+    assert out.strip() == "out.nii.gz"
+    assert "warp: volume 10 x 9 x 8 voxels (x, y, z), spacing (dz, dy, dx) = (3.0, 1.0, 2.0)" in err
+    _, shape, settings = _last(stand_in.calls, "MLS")
+    assert shape == (10, 3) and settings["alpha"] == 2.0
+    _, dtype, options = _last(stand_in.calls, "warp")
+    assert dtype == "uint8" and options["spacing"] == (3.0, 1.0, 2.0)
+    assert options["method"] == "quads" and options["interpolation"] == "nearest"
+    written = glmls.read_volume(files / "out.nii.gz")
+    assert_allclose(written.affine, AFFINE)
+    assert written.data.dtype == np.uint8
+    assert_array_equal(written.data, glmls.read_volume(files / "v.nii.gz").data + 1)
+
+
+def test_spacing_option_wins_and_other_formats(files, stand_in, capsys):
+    volume = np.arange(4 * 5 * 6, dtype=np.int16).reshape(4, 5, 6) - 50
+    np.save(files / "v.npy", volume)
+    assert main(["warp", "v.npy", "out/", "--handles", "h3.json", "--spacing", "2,1,0.5"]) == 0
+    assert _last(stand_in.calls, "warp")[1] == "float32"  # int16 is warped as float32
+    assert _last(stand_in.calls, "warp")[2]["spacing"] == (2.0, 1.0, 0.5)
+    written = np.load(files / "out" / "v.npy")
+    assert written.dtype == np.int16  # and written back as int16, rounded
+    assert_array_equal(written, volume + 1)
+    assert main(["warp", "v.npy", "stack.tif", "--handles", "h3.json", "--spacing", "2"]) == 0
+    assert glmls.read_volume(files / "stack.tif").spacing == (2.0, 2.0, 2.0)
+    assert main(["warp", "stack.tif", "plain.npy", "--handles", "h3.json"]) == 0
+    assert _last(stand_in.calls, "warp")[2]["spacing"] == (2.0, 2.0, 2.0)  # the stack's
+    capsys.readouterr()
+
+
+def test_mesh_is_written_with_its_faces_and_the_folds_said(files, stand_in, capsys):
+    assert main(["warp", "sphere.ply", "out.obj", "--handles", "h3.json"]) == 0
+    out, err = capsys.readouterr()
+    assert out.strip() == "out.obj"
+    assert "warp: mesh of 162 vertices and 320 faces; folded: 0 vertices, 2 faces" in err
+    assert "warning: sphere.ply: 2 of 320 faces fold over" in err
+    written, source = glmls.read_mesh(files / "out.obj"), glmls.data.sphere()
+    assert_array_equal(written.faces, source.faces)
+    shift = np.mean(np.subtract(*reversed(glmls.data.phantom_handles())), axis=0)
+    assert_allclose(written.vertices, source.vertices + shift, atol=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (
+            ["warp", "v.nii.gz", "o.nii", "--handles", "h2.json"],
+            "h2.json: 2D handles (x, y), but v.nii.gz is a volume: it takes 3D handles (x, y, z)",
+        ),
+        (
+            ["warp", "sphere.ply", "o.ply", "--handles", "h2.json"],
+            "but sphere.ply is a mesh: it takes 3D handles",
+        ),
+        (
+            ["warp", "a.png", "o.png", "--handles", "h3.json"],
+            "h3.json: 3D handles (x, y, z), but a.png names images: they take 2D handles (x, y)",
+        ),
+        (["warp", "v.nii.gz", "o.png", "--handles", "h3.json"], "o.png: a volume is written as"),
+        (["warp", "sphere.ply", "o.nii", "--handles", "h3.json"], "o.nii: a mesh is written as"),
+        (["warp", "a.png", "o.png", "--handles", "h2.json", "--spacing", "2"], "--spacing: for"),
+        (["warp", "v.nii.gz", "o.nii", "--handles", "h3.json", "--fit"], "--fit: for images"),
+        (["warp", "sphere.ply", "o.ply", "--handles", "h3.json", "--spacing", "1"], "--spacing"),
+        (["warp", "v.nii.gz", "o.nii", "--handles", "m.pts", "--targets", "f.pts"], "m.pts: no "),
+        (["warp", "missing.nii", "o.nii", "--handles", "h3.json"], "missing.nii: no such file"),
+        (["warp", "bad.nii", "o.nii", "--handles", "h3.json"], "bad.nii: not a"),
+        (["warp", "bad.ply", "o.ply", "--handles", "h3.json"], "bad.ply: not a readable .ply"),
+    ],
+)
+def test_mistakes_are_one_line_and_status_2(files, stand_in, capsys, argv, message):
+    (files / "bad.nii").write_bytes(b"garbage")
+    (files / "bad.ply").write_bytes(b"ply\nformat nonsense\n")
+    assert main(argv) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and err.startswith("glmls warp: ")
+    assert message in err
+
+
+def test_elastix_pair_needs_its_targets(files, stand_in, capsys):
+    src, dst = glmls.data.phantom_handles()
+    for name, points in (("moving.pts", src), ("fixed.pts", dst)):
+        rows = "".join(" ".join(f"{v:g}" for v in p) + "\n" for p in points)
+        (files / name).write_text(f"index\n{len(points)}\n{rows}")
+    assert main(["warp", "v.nii.gz", "o.nii", "--handles", "moving.pts"]) == 2
+    assert "give the targets' file too" in capsys.readouterr().err
+    argv = ["warp", "v.nii.gz", "o.nii", "--handles", "moving.pts", "--targets", "fixed.pts"]
+    assert main(argv) == 0
+    assert _last(stand_in.calls, "MLS")[1] == (10, 3)
+    capsys.readouterr()
+
+
+def test_parse_spacing():
+    assert warp3d.parse_spacing("1,2,3") == (1.0, 2.0, 3.0)
+    assert warp3d.parse_spacing("0.5") == (0.5, 0.5, 0.5)
+    for bad in ("1,2", "0,1,1", "a", "1,inf,1"):
+        with pytest.raises(Exception, match="expected"):
+            warp3d.parse_spacing(bad)
+
+
+# -- end to end, on the GPU's 3D MLS --------------------------------------------------------
+
+
+def _mls3d():
+    """The 3D MLS (glmls.MLS of (N, 3) handles), or a skip where it is not there."""
+    try:
+        m = glmls.MLS(np.zeros((1, 3)), np.ones((1, 3)))
+    except (TypeError, ValueError) as error:
+        pytest.skip(f"glmls.MLS takes no 3D handles here: {error}")
+    return m
+
+
+def test_bundled_volume_end_to_end(tmp_path):
+    src, dst = glmls.data.phantom_handles()
+    with _mls3d() as m:
+        try:
+            expected = m.warp(glmls.data.phantom())
+        except (TypeError, ValueError, NotImplementedError) as error:
+            pytest.skip(f"MLS.warp takes no volumes here: {error}")
+    glmls.write_volume(tmp_path / "phantom.nii.gz", glmls.data.phantom())
+    (tmp_path / "h.json").write_text(json.dumps({"src": src.tolist(), "dst": dst.tolist()}))
+    result = run_glmls(
+        "warp", "phantom.nii.gz", "out.nii.gz", "--handles", "h.json", cwd=tmp_path,
+        module="glmls.cli",
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    written = glmls.read_volume(tmp_path / "out.nii.gz")
+    assert_allclose(written.affine, np.eye(4))
+    with glmls.MLS(src, dst) as m:
+        expected = m.warp(glmls.data.phantom(), spacing=(1.0, 1.0, 1.0))
+    assert_array_equal(written.data, expected)
+
+
+def test_bundled_mesh_end_to_end(tmp_path):
+    src, dst = glmls.data.sphere_handles()
+    with _mls3d() as m:
+        if not hasattr(m, "deform"):
+            pytest.skip("MLS.deform is not there")
+    glmls.write_mesh(tmp_path / "sphere.obj", glmls.data.sphere())
+    (tmp_path / "h.json").write_text(json.dumps({"src": src.tolist(), "dst": dst.tolist()}))
+    result = run_glmls(
+        "warp", "sphere.obj", "out.obj", "--handles", "h.json", cwd=tmp_path, module="glmls.cli"
+    )
+    assert result.returncode == 0, result.stderr
+    assert "folded: 0 vertices, 0 faces" in result.stderr
+    with glmls.MLS(src, dst) as m:
+        expected = m.deform(glmls.data.sphere())
+    written = glmls.read_mesh(tmp_path / "out.obj")
+    assert_allclose(written.vertices, expected.vertices, rtol=0, atol=1e-9)
+    assert_array_equal(written.faces, glmls.data.sphere().faces)
+
+
+def test_elastix_pair_of_2d_points_warps_an_image(files, capsys):
+    (files / "moving.pts").write_text("index\n2\n1 1\n8 6\n")
+    (files / "fixed.pts").write_text("index\n2\n2 1\n9 6\n")
+    argv = ["warp", "a.png", "o.png", "--handles", "moving.pts", "--targets", "fixed.pts"]
+    assert main(argv) == 0
+    assert capsys.readouterr().out.strip() == "o.png"
+    assert glmls.imread(files / "o.png").shape == (8, 10)

@@ -1,0 +1,94 @@
+"""Mesh files: PLY, OBJ and STL round trips, the vertex order kept, bad files named."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+import glmls
+from glmls.errors import InputFileError
+from glmls.files.meshes import Mesh, read_mesh, write_mesh
+
+
+def _triangles(mesh: Mesh) -> np.ndarray:
+    """The triangles' corners, each triangle's rotated to start at its smallest, sorted:
+    the same for meshes that differ only in the order of their vertices."""
+    corners = mesh.vertices[mesh.faces].round(4)
+    keyed = []
+    for triangle in corners:
+        start = min(range(3), key=lambda k: tuple(triangle[k]))
+        keyed.append(np.roll(triangle, -start, axis=0).ravel())
+    return np.array(sorted(map(tuple, keyed)))
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".obj"])
+def test_ply_and_obj_keep_the_vertex_order(tmp_path, suffix):
+    mesh = glmls.data.sphere()
+    write_mesh(tmp_path / f"m{suffix}", mesh)
+    back = read_mesh(tmp_path / f"m{suffix}")
+    assert_array_equal(back.faces, mesh.faces)
+    assert back.vertices.dtype == np.float64
+    exact = suffix == ".obj"  # PLY holds float32
+    assert_allclose(back.vertices, mesh.vertices, rtol=0, atol=0 if exact else 1e-5)
+
+
+def test_stl_merges_the_corners(tmp_path):
+    mesh = glmls.data.sphere()
+    write_mesh(tmp_path / "m.stl", mesh)
+    back = read_mesh(tmp_path / "m.stl")
+    assert back.vertices.shape == mesh.vertices.shape and back.faces.shape == mesh.faces.shape
+    assert_allclose(_triangles(back), _triangles(mesh), atol=1e-4)
+
+
+def test_write_takes_vertices_and_faces_or_any_object_with_them(tmp_path):
+    class Deformed:  # like MLS.deform's result: vertices and more, no faces
+        vertices = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+
+    faces = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
+    write_mesh(tmp_path / "t.obj", Deformed(), faces=faces)
+    assert read_mesh(tmp_path / "t.obj").faces.tolist() == faces
+    with pytest.raises(ValueError, match="no faces"):
+        write_mesh(tmp_path / "u.obj", Deformed())
+    with pytest.raises(ValueError, match=r"unknown mesh format \.vtk"):
+        write_mesh(tmp_path / "t.vtk", glmls.data.sphere())
+
+
+def test_quads_are_split_into_triangles(tmp_path):
+    path = tmp_path / "quad.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n")
+    mesh = read_mesh(path)
+    assert mesh.vertices.shape == (4, 3) and mesh.faces.shape == (2, 3)
+
+
+def test_mesh_is_checked():
+    with pytest.raises(ValueError, match=r"vertices must be \(V, 3\)"):
+        Mesh(np.zeros((3, 2)), [[0, 1, 2]])
+    with pytest.raises(ValueError, match=r"faces index vertices 0\.\.2"):
+        Mesh(np.zeros((3, 3)), [[0, 1, 3]])
+    with pytest.raises(TypeError, match="integer vertex indices"):
+        Mesh(np.zeros((3, 3)), [[0, 1, 1.5]])
+    mesh = Mesh(np.zeros((3, 3)), [[0, 1, 2]])
+    assert not mesh.vertices.flags.writeable and mesh.faces.dtype == np.int64
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "message"),
+    [
+        ("m.ply", b"ply\nformat nonsense\n", "m.ply: not a readable .ply mesh"),
+        ("m.obj", b"# nothing here\n", "m.obj: no mesh vertices"),
+        ("m.stl", b"\x00" * 10, "m.stl: "),
+        ("m.off", b"OFF\n", "m.off: unknown mesh format .off"),
+    ],
+)
+def test_bad_files_are_named(tmp_path, name, content, message):
+    path = tmp_path / name
+    path.write_bytes(content)
+    with pytest.raises(InputFileError) as info:
+        read_mesh(path)
+    assert str(info.value).startswith(str(path)) and message in str(info.value)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(InputFileError, match=r"nope\.ply: no such file"):
+        read_mesh(tmp_path / "nope.ply")

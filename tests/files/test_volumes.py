@@ -1,0 +1,186 @@
+"""Volume files: NIfTI (the axis order and the affine), TIFF stacks (the spacing), .npy; round
+trips of every dtype, and bad files named."""
+
+from __future__ import annotations
+
+import gzip
+
+import nibabel as nib
+import numpy as np
+import pytest
+import tifffile
+from numpy.testing import assert_allclose, assert_array_equal
+
+import glmls
+from glmls.errors import InputFileError
+from glmls.files.volumes import Volume, is_volume_file, read_volume, volume_suffix, write_volume
+
+SUFFIXES = (".nii", ".nii.gz", ".tif", ".npy")
+#: an affine with the axes permuted and scaled, and a translation
+AFFINE = np.array(
+    [[0.0, 0.5, 0.0, 10.0], [2.0, 0.0, 0.0, -3.0], [0.0, 0.0, 1.5, 7.0], [0, 0, 0, 1]]
+)
+
+
+@pytest.mark.parametrize("suffix", SUFFIXES)
+@pytest.mark.parametrize("dtype", ["uint8", "uint16", "float32", "int16", "float64"])
+@pytest.mark.parametrize("channels", [None, 3])
+def test_round_trip_keeps_data_and_dtype(tmp_path, suffix, dtype, channels):
+    shape = (4, 5, 6) if channels is None else (4, 5, 6, channels)
+    data = (np.random.default_rng(1).random(shape) * 200).astype(dtype)
+    path = tmp_path / f"v{suffix}"
+    write_volume(path, data)
+    volume = read_volume(path)
+    assert volume.data.dtype == data.dtype
+    assert_array_equal(volume.data, data)
+
+
+@pytest.mark.parametrize("suffix", [".nii", ".nii.gz"])
+def test_nifti_keeps_the_affine_and_gives_the_spacing(tmp_path, suffix):
+    path = tmp_path / f"v{suffix}"
+    write_volume(path, np.zeros((4, 5, 6), np.float32), affine=AFFINE)
+    volume = read_volume(path)
+    assert_allclose(volume.affine, AFFINE)
+    # the columns i, j, k have lengths 2, 0.5, 1.5: (dz, dy, dx) = (1.5, 0.5, 2)
+    assert volume.spacing == (1.5, 0.5, 2.0)
+    again = tmp_path / f"again{suffix}"
+    write_volume(again, volume)  # a Volume brings its affine
+    assert_allclose(read_volume(again).affine, AFFINE)
+
+
+def test_nifti_axis_order_is_transposed_explicitly(tmp_path):
+    """NIfTI's voxel (i, j, k) = (x, y, z) is glmls's data[k, j, i], read and written."""
+    nifti = np.zeros((6, 5, 4), np.uint8)  # (x, y, z)
+    nifti[5, 1, 2] = 7
+    path = tmp_path / "made_by_nibabel.nii"
+    nib.save(nib.Nifti1Image(nifti, np.eye(4)), path)
+    volume = read_volume(path)
+    assert volume.shape == (4, 5, 6)
+    assert volume.data[2, 1, 5] == 7 and volume.data.sum() == 7
+    written = tmp_path / "written.nii"
+    write_volume(written, volume)
+    back = np.asanyarray(nib.load(written).dataobj)
+    assert back.shape == (6, 5, 4) and back[5, 1, 2] == 7
+
+
+def test_nifti_affine_maps_glmls_points_to_the_world(tmp_path):
+    path = tmp_path / "v.nii.gz"
+    write_volume(path, np.zeros((4, 5, 6), np.uint8), affine=AFFINE)
+    volume = read_volume(path)
+    x, y, z = 5.0, 1.0, 2.0  # the voxel data[2, 1, 5]
+    world = nib.load(path).affine @ [x, y, z, 1.0]
+    assert_allclose(volume.affine @ [x, y, z, 1.0], world)
+
+
+def test_nifti_spacing_without_affine(tmp_path):
+    path = tmp_path / "v.nii"
+    write_volume(path, np.zeros((2, 3, 4), np.uint8), spacing=(3.0, 2.0, 0.5))
+    volume = read_volume(path)
+    assert volume.spacing == (3.0, 2.0, 0.5)
+    assert_allclose(np.diag(volume.affine), [0.5, 2.0, 3.0, 1.0])
+
+
+def test_nifti_gz_is_gzip(tmp_path):
+    path = tmp_path / "v.nii.gz"
+    write_volume(path, np.ones((2, 2, 2), np.uint8))
+    assert gzip.decompress(path.read_bytes())[344:348] == b"n+1\x00"
+
+
+@pytest.mark.parametrize("dtype", ["uint8", "uint16", "int16", "float32"])
+def test_tiff_stack_keeps_the_spacing(tmp_path, dtype):
+    path = tmp_path / "stack.tif"
+    write_volume(path, np.ones((3, 4, 5), dtype), spacing=(2.0, 0.25, 0.5))
+    volume = read_volume(path)
+    assert volume.spacing == (2.0, 0.25, 0.5) and volume.affine is None
+    assert is_volume_file(path)
+
+
+def test_tiff_of_one_page_is_an_image_not_a_volume(tmp_path):
+    path = tmp_path / "page.tif"
+    tifffile.imwrite(path, np.zeros((4, 5), np.uint8))
+    assert not is_volume_file(path)
+    with pytest.raises(InputFileError, match=r"page\.tif: a TIFF of one page is an image"):
+        read_volume(path)
+
+
+def test_plain_tiff_stack_has_no_spacing(tmp_path):
+    path = tmp_path / "plain.tiff"
+    tifffile.imwrite(path, np.zeros((3, 4, 5), np.uint16), photometric="minisblack")
+    volume = read_volume(path)
+    assert volume.shape == (3, 4, 5) and volume.spacing is None
+
+
+def test_volume_files_are_told_by_suffix():
+    assert volume_suffix("a/b.NII.GZ") == ".nii.gz" and volume_suffix("b.nii") == ".nii"
+    assert is_volume_file("x.nii.gz") and is_volume_file("x.npy")
+    assert not is_volume_file("missing.tif") and not is_volume_file("x.png")
+
+
+def test_writing_refuses_before_writing(tmp_path):
+    with pytest.raises(ValueError, match=r"unknown volume format \.png"):
+        write_volume(tmp_path / "v.png", np.zeros((2, 2, 2)))
+    with pytest.raises(ValueError, match="only NIfTI files hold an affine"):
+        write_volume(tmp_path / "v.tif", np.zeros((2, 2, 2)), affine=np.eye(4))
+    with pytest.raises(ValueError, match=r"\(D, H, W\) or \(D, H, W, C\)"):
+        write_volume(tmp_path / "v.npy", np.zeros((2, 2)))
+    with pytest.raises(ValueError, match="spacing must be three finite numbers > 0"):
+        write_volume(tmp_path / "v.nii", np.zeros((2, 2, 2)), spacing=(1, 0, 1))
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "message"),
+    [
+        ("v.nii", b"not a nifti file at all", "v.nii: not a"),
+        ("v.nii.gz", b"\x1f\x8b\x08broken", "v.nii.gz: not a"),
+        ("v.npy", b"\x93NUMPY garbage", "v.npy: not a readable .npy volume"),
+        ("v.tif", b"II*\x00garbage", "v.tif: not a readable .tif volume"),
+        ("v.vtk", b"", "v.vtk: unknown volume format .vtk"),
+    ],
+)
+def test_bad_files_are_named(tmp_path, name, content, message):
+    path = tmp_path / name
+    path.write_bytes(content)
+    with pytest.raises(InputFileError) as info:
+        read_volume(path)
+    assert str(info.value).startswith(str(path)) and message in str(info.value)
+
+
+def test_a_2d_array_is_not_a_volume(tmp_path):
+    path = tmp_path / "flat.npy"
+    np.save(path, np.zeros((4, 5)))
+    with pytest.raises(InputFileError, match=r"flat.npy: a volume is \(D, H, W\)"):
+        read_volume(path)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(InputFileError, match=r"nope\.nii\.gz: no such file"):
+        read_volume(tmp_path / "nope.nii.gz")
+
+
+def test_volume_is_public_and_checked():
+    assert glmls.Volume is Volume and glmls.read_volume is read_volume
+    with pytest.raises(ValueError, match="affine must be a finite 4 x 4"):
+        Volume(np.zeros((2, 2, 2)), affine=np.eye(3))
+    volume = Volume(np.zeros((2, 2, 2)), affine=np.eye(4))
+    assert not volume.affine.flags.writeable
+
+
+def test_nifti_rgb_records_become_channels(tmp_path):
+    rgb = np.zeros((3, 4, 2), dtype=[("R", "u1"), ("G", "u1"), ("B", "u1")])  # (x, y, z)
+    rgb["G"][2, 1, 0] = 9
+    path = tmp_path / "rgb.nii"
+    nib.save(nib.Nifti1Image(rgb, np.eye(4)), path)
+    volume = read_volume(path)
+    assert volume.shape == (2, 4, 3, 3) and volume.data.dtype == np.uint8
+    assert volume.data[0, 1, 2].tolist() == [0, 9, 0]
+
+
+def test_nifti_takes_int64_and_the_nearest_dtype_for_bool_and_float16(tmp_path):
+    path = tmp_path / "v.nii"
+    write_volume(path, np.full((2, 3, 4), 2**40, np.int64))
+    assert read_volume(path).data.dtype == np.int64 and read_volume(path).data.max() == 2**40
+    write_volume(path, np.ones((2, 3, 4), bool))
+    assert read_volume(path).data.dtype == np.uint8
+    write_volume(path, np.full((2, 3, 4), 0.5, np.float16))
+    assert read_volume(path).data.dtype == np.float32
