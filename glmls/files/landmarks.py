@@ -17,7 +17,7 @@ has K >= 2 vertices in the source and the same K in the target. ``"segments"`` a
 (``"description"``) are ignored. The segments are read in order: ``"segments"``, then each
 polyline's.
 
-**CSV** (any other suffix), one of three tables:
+**CSV** (any other suffix but ``.pts``), one of these tables:
 
 - the header ``src_x,src_y,dst_x,dst_y``: a point a row;
 - the header ``kind,id,src_x,src_y,dst_x,dst_y``: each row a point (``kind`` ``point``, its
@@ -33,25 +33,47 @@ polyline's.
       polyline,brow,230,140,230,134
       polyline,brow,270,150,270,146
 
-- BigWarp's landmark CSV (no header; name, active, moving x, moving y, fixed x, fixed y):
-  the moving points are the sources, the fixed points the targets; inactive rows are skipped.
+- BigWarp's landmark CSV (no header): name, active, moving x, moving y, fixed x, fixed y;
+  with an id column after ``active`` (7 columns), as BigWarp reads them too; 3D: moving
+  x y z, fixed x y z (8 columns, 9 with the id).
+
+**BigWarp's landmark JSON** (``.json``): ``{"type": "BigWarpLandmarks", "numDimensions":
+3, "movingPoints": [[x, y, z], ...], "fixedPoints": [...], "active": [true, ...],
+"names": [...]}``, as BigWarp exports it, or the same object under ``"landmarks"`` (BigWarp's
+settings file). Of both BigWarp formats, the moving points are the sources and the fixed
+points the targets: glmls moves the moving image's landmarks onto the fixed ones, as
+BigWarp's warped moving image does. Inactive landmarks (``false``, BigWarp's unpaired ones
+among them) are skipped.
+
+**3D point handles** (x, y, z) = (column, row, slice) of a volume (D, H, W), or a mesh's
+coordinates: JSON ``{"src": [[x, y, z], ...], "dst": [[x, y, z], ...]}``, CSV with the
+header ``src_x,src_y,src_z,dst_x,dst_y,dst_z``, BigWarp's 3D landmarks, or a pair of
+**elastix point files** (``.pts``): ``index`` (voxel indices) or ``point`` (physical
+coordinates, taken as they are) on the first line, the number of points on the second, then
+one point a line, its 2 or 3 coordinates separated by blanks. One file holds one side:
+:func:`read_handles` takes the sources' file (elastix's moving points) and ``dst=`` the
+targets' (the fixed points), the command line ``--handles`` and ``--targets``. Segments and
+polylines are 2D only.
 
 A file must hold at least one handle. A fault is an :class:`~glmls.errors.InputFileError`
 naming the file and the place: ``h.json: "segments"."src"[3]: expected two [x, y] ends``,
 ``h.csv: line 7: expected a finite number``, also for a source segment of zero length, counts
-that differ, coordinates beyond ±1e6 px and one source point or segment given two targets.
+that differ, coordinates beyond ±1e6 px and one source point or segment given two targets,
+and handles of another dimension than the one expected (``ndim=`` of :func:`read_handles`).
 
 Reference points: JSON ``{"points": [[x, y], ...]}`` or CSV with the header ``x,y``.
 """
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
 import numpy as np
 
 from ..core.handleset import HandleSet
+from ..errors import InputFileError
 from .atomic import atomic_write
 from .handle_formats import (
     KIND_HEADER,
@@ -62,10 +84,24 @@ from .handle_formats import (
     kind_csv_text,
     kind_table,
 )
-from .parsing import Row, csv_rows, fail, json_points, load_json, number, table
+from .parsing import Row, csv_rows, fail, json_points, load_json, table
+from .point_formats import (
+    HANDLE_HEADER_3D,
+    axes,
+    bigwarp_csv,
+    bigwarp_json,
+    elastix_pair,
+    is_bigwarp_csv,
+    is_bigwarp_json,
+    json_dimension,
+    json_points_3d,
+    points_3d,
+    table_3d,
+)
 
 __all__ = [
     "HANDLE_HEADER",
+    "HANDLE_HEADER_3D",
     "KIND_HEADER",
     "POINT_HEADER",
     "read_handle_set",
@@ -79,29 +115,6 @@ HANDLE_HEADER = ["src_x", "src_y", "dst_x", "dst_y"]
 POINT_HEADER = ["x", "y"]
 
 
-def _is_bigwarp(rows: list[Row]) -> bool:
-    first = rows[0][1]
-    return len(first) >= 2 and first[1].lower() in ("true", "false")
-
-
-def _bigwarp(path: Path, rows: list[Row]) -> HandleRows:
-    handles = HandleRows()
-    for line, row in rows:
-        if len(row) == 8:
-            raise fail(path, f"line {line}", "3D BigWarp landmarks are not supported")
-        if len(row) != 6:
-            raise fail(path, f"line {line}", f"expected 6 BigWarp columns, got {len(row)}")
-        active = row[1].lower()
-        if active not in ("true", "false"):
-            raise fail(path, f"line {line}", f"expected true/false, got {row[1]!r}")
-        numbers = [number(path, f"line {line}", text) for text in row[2:]]
-        if active == "true":
-            handles.add_point(numbers[:2], numbers[2:], f"line {line}")
-    if not handles.src:
-        raise fail(path, "content", "no active BigWarp landmarks")
-    return handles
-
-
 def _point_table(path: Path, rows: list[Row]) -> HandleRows:
     handles = HandleRows()
     for (line, _), values in zip(rows, table(path, rows, 4), strict=True):
@@ -109,43 +122,101 @@ def _point_table(path: Path, rows: list[Row]) -> HandleRows:
     return handles
 
 
-def _csv_handles(path: Path) -> HandleRows:
+def _csv_handles(path: Path) -> tuple[int, HandleRows]:
     rows = csv_rows(path)
     if not rows:
         raise fail(path, "content", "no handles")
-    if _is_bigwarp(rows):
-        return _bigwarp(path, rows)
+    if is_bigwarp_csv(rows):
+        return bigwarp_csv(path, rows)
     line, header = rows[0]
     names = [h.lower() for h in header]
     if names == HANDLE_HEADER:
-        return _point_table(path, rows[1:])
+        return 2, _point_table(path, rows[1:])
+    if names == HANDLE_HEADER_3D:
+        return 3, table_3d(path, rows[1:])
     if names == KIND_HEADER:
-        return kind_table(path, rows[1:])
+        return 2, kind_table(path, rows[1:])
     raise fail(
         path,
         f"line {line}",
-        f"expected the header {','.join(HANDLE_HEADER)} or {','.join(KIND_HEADER)} (or a "
-        f"BigWarp landmark file), got {','.join(header)}",
+        f"expected the header {','.join(HANDLE_HEADER)}, {','.join(HANDLE_HEADER_3D)} or "
+        f"{','.join(KIND_HEADER)} (or a BigWarp landmark file), got {','.join(header)}",
     )
 
 
+def _json_handles(path: Path) -> tuple[int, HandleRows]:
+    data = load_json(path)
+    if is_bigwarp_json(data):
+        return bigwarp_json(path, data)
+    if json_dimension(data) == 3:
+        return 3, json_points_3d(path, data)
+    return 2, json_handles(path, data)
+
+
+def _handle_rows(path: Path, dst: str | os.PathLike | None) -> tuple[int, HandleRows]:
+    """The dimension and the handles of a file (or of an elastix pair)."""
+    suffix = path.suffix.lower()
+    if suffix == ".pts":
+        if dst is None:
+            raise fail(
+                path,
+                "content",
+                "an elastix point file holds the sources only: give the targets' file too "
+                "(dst=, or --targets on the command line)",
+            )
+        return elastix_pair(path, Path(dst))
+    if dst is not None:
+        raise InputFileError(
+            f"{Path(dst)}: a file of targets goes with an elastix point file (.pts) of "
+            f"sources, not with {path}"
+        )
+    if suffix == ".json":
+        return _json_handles(path)
+    return _csv_handles(path)
+
+
+def _expect(path: Path, found: int, ndim: int | None, advice: str = "") -> None:
+    if ndim is not None and found != ndim:
+        raise fail(
+            path,
+            "content",
+            f"{found}D handles {axes(found)}, where {ndim}D handles {axes(ndim)} are "
+            f"expected{advice}",
+        )
+
+
 def read_handle_set(path: str | os.PathLike) -> HandleSet:
-    """The handles of every kind in a JSON, CSV or BigWarp landmark file (see the module's
-    description of the formats), checked; ``InputFileError`` naming the place of a fault."""
+    """The 2D handles of every kind in a JSON, CSV or BigWarp landmark file (see the module's
+    description of the formats), checked; ``InputFileError`` naming the place of a fault,
+    and for a file of 3D handles (:func:`read_handles` reads those)."""
     path = Path(path)
-    if path.suffix.lower() == ".json":
-        return handle_set(path, json_handles(path, load_json(path)))
-    return handle_set(path, _csv_handles(path))
+    ndim, rows = _handle_rows(path, None)
+    _expect(path, ndim, 2, ": read_handles reads 3D point handles")
+    return handle_set(path, rows)
 
 
-def read_handles(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
-    """(src, dst) point handles, each (N, 2) float64, from a file of points only;
-    ``InputFileError`` if malformed, or if it holds segments or polylines, which only
-    :func:`read_handle_set` returns."""
-    handles = read_handle_set(path)
+def read_handles(
+    path: str | os.PathLike,
+    *,
+    dst: str | os.PathLike | None = None,
+    ndim: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(src, dst) point handles, each (N, 2) or (N, 3) float64 as the file holds them.
+
+    ``path`` is a file of the module's formats, or an elastix point file (``.pts``) of the
+    sources with ``dst`` the elastix point file of the targets. ``ndim`` (2 or 3): the
+    dimension expected. ``InputFileError`` if malformed, of another dimension than
+    ``ndim``, or if it holds segments or polylines, which only :func:`read_handle_set`
+    returns."""
+    path = Path(path)
+    found, rows = _handle_rows(path, dst)
+    _expect(path, found, ndim)
+    if found == 3:
+        return points_3d(path, rows)
+    handles = handle_set(path, rows)
     if handles.segments:
         raise fail(
-            Path(path),
+            path,
             "content",
             f"{handles.segments} segment handles (from segments or polylines) besides "
             f"{handles.points} points: read it with read_handle_set",
@@ -202,7 +273,46 @@ def write_handles(
     src_segments: object = None,
     dst_segments: object = None,
 ) -> None:
-    """Point handles (and segments (S, 2, 2), if given) to ``path``: see
-    :func:`write_handle_set`. ``ValueError``/``TypeError`` for handles that
+    """Point handles, 2D (N, 2) or 3D (N, 3), and 2D segments (S, 2, 2), if given, to
+    ``path`` (``.json``, else CSV), written atomically in a form that :func:`read_handles`
+    (:func:`read_handle_set` for 2D ones) reads back to the same handles: see
+    :func:`write_handle_set` for 2D. ``ValueError``/``TypeError`` for handles that
     :class:`glmls.MLS` would refuse."""
+    if np.ndim(src) == 2 and np.shape(src)[1] == 3:
+        if src_segments is not None or dst_segments is not None:
+            raise ValueError("segment handles are 2D; 3D handles are points only")
+        _write_3d(Path(path), *_check_3d(src, dst))
+        return
     write_handle_set(path, HandleSet.validate(src, dst, src_segments, dst_segments))
+
+
+def _check_3d(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
+    sides = []
+    for name, value in (("src", src), ("dst", dst)):
+        array = np.asarray(value)
+        if not np.issubdtype(array.dtype, np.number) or array.dtype == np.bool_:
+            raise TypeError(f"{name} must be numbers, got dtype {array.dtype}")
+        array = array.astype(np.float64)
+        if array.ndim != 2 or array.shape[1] != 3 or not len(array):
+            raise ValueError(f"{name} must be (N, 3) with N >= 1, got shape {array.shape}")
+        if not np.isfinite(array).all():
+            raise ValueError(f"{name} must be finite")
+        sides.append(array)
+    if len(sides[0]) != len(sides[1]):
+        raise ValueError(
+            f"src and dst must have the same length, got {len(sides[0])} and {len(sides[1])}"
+        )
+    return sides[0], sides[1]
+
+
+def _write_3d(path: Path, src: np.ndarray, dst: np.ndarray) -> None:
+    if path.suffix.lower() == ".json":
+        text = (
+            f'{{\n  "src": {json.dumps(src.tolist())},\n  "dst": {json.dumps(dst.tolist())}\n}}\n'
+        )
+    else:
+        lines = [",".join(HANDLE_HEADER_3D)]
+        lines += [",".join(repr(float(x)) for x in (*p, *q)) for p, q in zip(src, dst, strict=True)]
+        text = "\n".join(lines) + "\n"
+    with atomic_write(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")

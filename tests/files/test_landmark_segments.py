@@ -221,7 +221,8 @@ MALFORMED = [
      "line 2 and line 3 are the same point [1.0, 1.0] with different targets"),
     ("h.csv", "kind,id,src_x,src_y,dst_x,dst_y\n", "content: no handles"),
     ("h.csv", "kind,src_x,src_y,dst_x,dst_y\n",
-     "line 1: expected the header src_x,src_y,dst_x,dst_y or kind,id,src_x,src_y,dst_x,dst_y"),
+     "line 1: expected the header src_x,src_y,dst_x,dst_y, src_x,src_y,src_z,dst_x,dst_y,dst_z "
+     "or kind,id,src_x,src_y,dst_x,dst_y"),
     # points: new checks on the old forms
     ("h.csv", "src_x,src_y,dst_x,dst_y\n1,2,3,4\n1,-3e6,3,4\n", "line 3: [1.0, -3000000.0] lies"),
     ("h.json", '{"src": [[1' + "0" * 400 + ", 0]], \"dst\": [[0, 0]]}",

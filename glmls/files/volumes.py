@@ -1,0 +1,387 @@
+"""Reading and writing volumes: NIfTI (``.nii``, ``.nii.gz``, through nibabel), TIFF stacks
+(``.tif``, ``.tiff``, through tifffile) and NumPy arrays (``.npy``).
+
+glmls volumes are (D, H, W) = (z, y, x) arrays, or (D, H, W, C) with C channels, and their
+points are (x, y, z) = (column, row, slice) with voxel centres at integer coordinates, as
+images are (H, W) arrays with points (x, y). A NIfTI data array is indexed (i, j, k) =
+(x, y, z), so reading transposes it to (z, y, x) and writing back again: the voxel at NIfTI
+index (i, j, k) is ``volume.data[k, j, i]``, glmls's point (i, j, k). The NIfTI affine maps
+voxel indices (i, j, k, 1) to world coordinates, so it maps glmls's points (x, y, z, 1) to
+the world as they are: it is kept as read, unchanged.
+
+:class:`Volume` holds the data, the voxel spacing (dz, dy, dx) (in the order of the array's
+axes, as :meth:`glmls.MLS.warp` takes it) and the affine, where the file says them:
+
+- NIfTI: the affine; the spacing is the length of its columns (k, j, i);
+- TIFF: the spacing of an ImageJ stack (its ``spacing`` and X/Y resolutions, which
+  :func:`write_volume` writes), else none; no affine;
+- ``.npy``: the array only.
+
+A TIFF is a volume when it holds more than one page (a stack); one page is an image
+(:func:`glmls.imread`). Every fault of a file is an :class:`~glmls.errors.InputFileError`
+naming it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import gzip
+import os
+import struct
+import zlib
+from pathlib import Path
+
+import numpy as np
+import tifffile
+
+from ..errors import InputFileError
+from .atomic import atomic_write
+
+__all__ = [
+    "VOLUME_SUFFIXES",
+    "Volume",
+    "is_volume_file",
+    "read_volume",
+    "volume_suffix",
+    "write_volume",
+]
+
+#: The suffixes of the volume formats; a ``.tif``/``.tiff`` is a volume when it has more than
+#: one page (:func:`is_volume_file`).
+VOLUME_SUFFIXES = (".nii", ".nii.gz", ".tif", ".tiff", ".npy")
+#: The dtypes an ImageJ TIFF holds (it keeps the spacing); others are written as plain TIFF.
+_IMAGEJ_DTYPES = ("uint8", "uint16", "float32")
+_CORRUPT = (OSError, EOFError, ValueError, KeyError, IndexError, struct.error, zlib.error)
+
+
+def volume_suffix(path: str | os.PathLike) -> str:
+    """The format suffix of ``path``, lower case: ``.nii.gz`` for gzipped NIfTI, else its last
+    suffix (``.nii``, ``.tif``, ``.npy``, ...)."""
+    name = Path(path).name.lower()
+    return ".nii.gz" if name.endswith(".nii.gz") else Path(name).suffix
+
+
+def is_volume_file(path: str | os.PathLike) -> bool:
+    """Whether ``path`` names a volume: a NIfTI or ``.npy`` file by its suffix, or a TIFF of
+    more than one page (an existing file is opened to count its pages; a TIFF that does
+    not exist yet is not a volume)."""
+    suffix = volume_suffix(path)
+    if suffix in (".nii", ".nii.gz", ".npy"):
+        return True
+    if suffix not in (".tif", ".tiff") or not Path(path).is_file():
+        return False
+    try:
+        with tifffile.TiffFile(path) as tiff:
+            return len(tiff.pages) > 1
+    except (tifffile.TiffFileError, *_CORRUPT):
+        return False
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Volume:
+    """A volume and the geometry its file gives.
+
+    Parameters
+    ----------
+    data : numpy.ndarray
+        (D, H, W) or (D, H, W, C), in the dtype of the file.
+    spacing : tuple of float or None
+        The voxel size (dz, dy, dx), in the order of ``data``'s axes; None where the file
+        does not say it.
+    affine : numpy.ndarray or None
+        The NIfTI affine, (4, 4) float64: it maps the points (x, y, z, 1) of the volume to
+        world coordinates; None for the other formats.
+
+    See Also
+    --------
+    read_volume, write_volume : the files.
+
+    Examples
+    --------
+    >>> volume = glmls.Volume(np.zeros((4, 5, 6), np.uint8), spacing=(2.0, 1.0, 1.0))
+    >>> volume.shape, volume.spacing, volume.affine
+    ((4, 5, 6), (2.0, 1.0, 1.0), None)
+    """
+
+    data: np.ndarray
+    spacing: tuple[float, float, float] | None = None
+    affine: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        data = np.asarray(self.data)
+        if data.ndim not in (3, 4) or data.size == 0:
+            raise ValueError(
+                f"a volume is (D, H, W) or (D, H, W, C) and not empty, got shape {data.shape}"
+            )
+        object.__setattr__(self, "data", data)
+        if self.spacing is not None:
+            object.__setattr__(self, "spacing", check_spacing(self.spacing))
+        if self.affine is not None:
+            affine = np.array(self.affine, dtype=np.float64)
+            if affine.shape != (4, 4) or not np.isfinite(affine).all():
+                raise ValueError(f"affine must be a finite 4 x 4 matrix, got {affine.shape}")
+            affine.flags.writeable = False
+            object.__setattr__(self, "affine", affine)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """The data's shape, (D, H, W) or (D, H, W, C)."""
+        return self.data.shape
+
+
+def check_spacing(spacing: object) -> tuple[float, float, float]:
+    """``spacing`` as three finite floats > 0, (dz, dy, dx); ``ValueError`` otherwise."""
+    try:
+        values = tuple(float(v) for v in spacing)  # type: ignore[union-attr]
+    except (TypeError, ValueError):
+        raise ValueError(f"spacing must be three numbers (dz, dy, dx), got {spacing!r}") from None
+    if len(values) != 3 or not all(np.isfinite(v) and v > 0 for v in values):
+        raise ValueError(f"spacing must be three finite numbers > 0 (dz, dy, dx), got {values}")
+    return values  # type: ignore[return-value]
+
+
+def _affine_spacing(affine: np.ndarray) -> tuple[float, float, float]:
+    """(dz, dy, dx): the lengths of the affine's columns k, j, i."""
+    lengths = np.linalg.norm(affine[:3, :3], axis=0)
+    return (float(lengths[2]), float(lengths[1]), float(lengths[0]))
+
+
+def read_volume(path: str | os.PathLike) -> Volume:
+    """Read a volume: NIfTI (``.nii``, ``.nii.gz``), a TIFF stack or a ``.npy`` array.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its suffix chooses the format.
+
+    Returns
+    -------
+    Volume
+        ``data`` (D, H, W) or (D, H, W, C) in the file's dtype (a NIfTI with a scale factor
+        gives floats), with the spacing and affine the file gives (see :mod:`the module
+        <glmls.files.volumes>`).
+
+    Raises
+    ------
+    InputFileError
+        Naming the file: missing, unreadable, corrupt, an unknown suffix, or not a volume
+        (a 2D array, a TIFF of one page).
+
+    See Also
+    --------
+    write_volume : the other way.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "ramp.nii.gz"
+    >>> data = np.arange(24, dtype=np.uint16).reshape(2, 3, 4)  # (z, y, x)
+    >>> glmls.write_volume(path, data, spacing=(3.0, 1.0, 0.5))
+    >>> volume = glmls.read_volume(path)
+    >>> volume.shape, volume.data.dtype.name, volume.spacing
+    ((2, 3, 4), 'uint16', (3.0, 1.0, 0.5))
+    >>> volume.affine.diagonal().tolist()  # (dx, dy, dz, 1): x first, as NIfTI has it
+    [0.5, 1.0, 3.0, 1.0]
+    """
+    path = Path(path)
+    suffix = volume_suffix(path)
+    if suffix not in VOLUME_SUFFIXES:
+        raise InputFileError(
+            f"{path}: unknown volume format {suffix or '(no suffix)'}; use "
+            f"{', '.join(VOLUME_SUFFIXES)}"
+        )
+    if not path.is_file():
+        raise InputFileError(f"{path}: no such file")
+    try:
+        if suffix == ".npy":
+            volume = Volume(np.load(path, allow_pickle=False))
+        elif suffix in (".tif", ".tiff"):
+            volume = _read_tiff(path)
+        else:
+            volume = _read_nifti(path)
+    except InputFileError:
+        raise
+    except (tifffile.TiffFileError, ImportError, *_CORRUPT) as error:
+        if isinstance(error, ValueError) and str(error).startswith("a volume is"):
+            raise InputFileError(f"{path}: {error}") from None
+        raise InputFileError(f"{path}: not a readable {suffix} volume: {error}") from None
+    return volume
+
+
+def _nibabel():
+    import nibabel  # a dependency; imported where used: it is slow to import
+
+    return nibabel
+
+
+def _read_nifti(path: Path) -> Volume:
+    nib = _nibabel()
+    try:
+        image = nib.load(path)
+    except nib.filebasedimages.ImageFileError as error:
+        raise InputFileError(f"{path}: not a NIfTI file: {error}") from None
+    if not isinstance(image, nib.Nifti1Image | nib.Nifti2Image):
+        raise InputFileError(f"{path}: not a NIfTI image ({type(image).__name__})")
+    data = np.asanyarray(image.dataobj)
+    if data.dtype.names:  # RGB24/RGBA32: a record per voxel
+        data = np.stack([data[name] for name in data.dtype.names], axis=-1)
+        data = data.reshape(*data.shape[:3], -1)
+    elif data.ndim == 5 and data.shape[3] == 1:  # (x, y, z, 1, C): the vector convention
+        data = data[:, :, :, 0]
+    if data.ndim not in (3, 4):
+        raise InputFileError(
+            f"{path}: a {data.ndim}D NIfTI image {data.shape}; a volume is (x, y, z) or "
+            "(x, y, z, C)"
+        )
+    volume = np.ascontiguousarray(np.swapaxes(data, 0, 2))  # (x, y, z[, C]) -> (z, y, x[, C])
+    affine = np.asarray(image.affine, dtype=np.float64)
+    return Volume(volume, spacing=_affine_spacing(affine), affine=affine)
+
+
+def _read_tiff(path: Path) -> Volume:
+    with tifffile.TiffFile(path) as tiff:
+        if len(tiff.pages) < 2:
+            raise InputFileError(
+                f"{path}: a TIFF of one page is an image (glmls.imread), not a volume"
+            )
+        series = tiff.series[0]
+        data, axes = series.asarray(), series.axes
+        spacing = _tiff_spacing(tiff)
+    if data.ndim == 4 and axes[1] == "C":  # an ImageJ hyperstack: (Z, C, Y, X)
+        data = np.moveaxis(data, 1, -1)
+    elif data.ndim == 4 and axes[-1] not in "SC":
+        raise InputFileError(f"{path}: a TIFF of axes {axes} {data.shape}: expected a stack")
+    if data.ndim not in (3, 4):
+        raise InputFileError(
+            f"{path}: a TIFF of axes {axes} {data.shape}: expected a stack of pages of one size"
+        )
+    return Volume(np.ascontiguousarray(data), spacing=spacing)
+
+
+def _tiff_spacing(tiff: tifffile.TiffFile) -> tuple[float, float, float] | None:
+    """(dz, dy, dx) of an ImageJ stack: its ``spacing`` and the pages' resolutions."""
+    metadata = tiff.imagej_metadata or {}
+    page = tiff.pages[0]
+    try:
+        dz = float(metadata["spacing"])
+        dx = _resolution(page.tags["XResolution"].value)
+        dy = _resolution(page.tags["YResolution"].value)
+        return check_spacing((dz, dy, dx))
+    except (KeyError, TypeError, ValueError, ZeroDivisionError):
+        return None
+
+
+def _resolution(value: tuple[int, int]) -> float:
+    """The pixel size of a TIFF resolution (pixels per unit, a fraction)."""
+    numerator, denominator = value
+    return denominator / numerator
+
+
+def write_volume(
+    path: str | os.PathLike,
+    volume: object,
+    *,
+    affine: object = None,
+    spacing: object = None,
+) -> None:
+    """Write a volume to a file whose suffix names its format, whole or not at all.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        ``.nii``, ``.nii.gz``, ``.tif``/``.tiff`` (a stack of D pages) or ``.npy``.
+    volume : Volume or array_like
+        (D, H, W) or (D, H, W, C); a :class:`Volume` brings its spacing and affine.
+    affine : array_like, optional
+        NIfTI: the 4 x 4 affine of the points (x, y, z, 1); default the volume's, else a
+        diagonal one of the spacing, else the identity. Given with another format: refused
+        (a :class:`Volume`'s own affine is left out of other formats).
+    spacing : sequence of float, optional
+        The voxel size (dz, dy, dx); default the volume's. NIfTI: used where no affine is
+        given; TIFF: written as an ImageJ stack's spacing and X/Y resolutions (uint8,
+        uint16 and float32 data; other dtypes are written as a plain TIFF, without it).
+        ``.npy`` holds none.
+
+    Raises
+    ------
+    ValueError
+        Before writing anything: an unknown suffix, a wrong shape, an affine with another
+        format than NIfTI, a bad spacing or affine.
+    OSError
+        Naming ``path``, for a file that cannot be written.
+
+    See Also
+    --------
+    read_volume : the other way.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "stack.tif"
+    >>> glmls.write_volume(path, np.ones((3, 4, 5), np.float32), spacing=(2.0, 0.5, 0.5))
+    >>> volume = glmls.read_volume(path)
+    >>> volume.shape, volume.data.dtype.name, volume.spacing
+    ((3, 4, 5), 'float32', (2.0, 0.5, 0.5))
+    """
+    path = Path(path)
+    suffix = volume_suffix(path)
+    if suffix not in VOLUME_SUFFIXES:
+        raise ValueError(
+            f"{path}: unknown volume format {suffix or '(no suffix)'}; use "
+            f"{', '.join(VOLUME_SUFFIXES)}"
+        )
+    nifti = suffix in (".nii", ".nii.gz")
+    if affine is not None and not nifti:
+        raise ValueError(f"{path}: only NIfTI files hold an affine; {suffix} does not")
+    if isinstance(volume, Volume):
+        spacing = volume.spacing if spacing is None else spacing
+        affine = (volume.affine if nifti else None) if affine is None else affine
+        volume = volume.data
+    checked = Volume(np.asarray(volume), spacing=spacing, affine=affine)
+    if suffix == ".npy":
+        with atomic_write(path) as tmp, open(tmp, "wb") as file:
+            np.save(file, np.ascontiguousarray(checked.data), allow_pickle=False)
+    elif suffix in (".tif", ".tiff"):
+        _write_tiff(path, checked)
+    else:
+        _write_nifti(path, checked, compress=suffix == ".nii.gz")
+
+
+def _write_tiff(path: Path, volume: Volume) -> None:
+    data = np.ascontiguousarray(volume.data)
+    channels = 1 if data.ndim == 3 else data.shape[3]
+    options: dict = {}
+    if channels > 1:
+        options["photometric"] = "rgb" if channels in (3, 4) else "minisblack"
+        options["planarconfig"] = "contig"
+        if channels in (2, 4):
+            options["extrasamples"] = ["unassalpha"]
+    else:
+        options["photometric"] = "minisblack"
+    imagej = volume.spacing is not None and data.dtype.name in _IMAGEJ_DTYPES and channels == 1
+    if imagej:
+        dz, dy, dx = volume.spacing  # type: ignore[misc]
+        options.update(imagej=True, resolution=(1 / dx, 1 / dy), metadata={"spacing": dz})
+        options["metadata"]["axes"] = "ZYX"
+    with atomic_write(path) as tmp:
+        tifffile.imwrite(tmp, data, **options)
+
+
+def _write_nifti(path: Path, volume: Volume, *, compress: bool) -> None:
+    nib = _nibabel()
+    affine = volume.affine
+    if affine is None:
+        dz, dy, dx = volume.spacing or (1.0, 1.0, 1.0)
+        affine = np.diag([dx, dy, dz, 1.0])
+    data = np.ascontiguousarray(np.swapaxes(volume.data, 0, 2))  # (z, y, x) -> (x, y, z)
+    try:
+        image = nib.Nifti1Image(data, np.asarray(affine))
+    except nib.spatialimages.HeaderDataError as error:
+        raise ValueError(f"{path}: NIfTI cannot hold this volume: {error}") from None
+    image.set_qform(np.asarray(affine), code=1)
+    image.set_sform(np.asarray(affine), code=1)
+    content = image.to_bytes()
+    if compress:
+        content = gzip.compress(content, compresslevel=6, mtime=0)
+    with atomic_write(path) as tmp:
+        tmp.write_bytes(content)
