@@ -149,6 +149,7 @@ def volume_report(
     slices: object = None,
     near: float | None = None,
     deformed: object = None,
+    warp: bool = True,
     out_dir: str | Path | None = None,
     on_stage: Callable[[str], None] | None = None,
 ) -> VolumeReport:
@@ -195,7 +196,9 @@ def volume_report(
         How far from a slice, in voxels, a handle is drawn on it.
     deformed : array_like, optional
         The deformed volume, when made elsewhere; else ``m.warp(volume)`` where ``m`` has a
-        ``warp`` method, else none.
+        ``warp`` method (and ``warp`` is true), else none.
+    warp : bool, optional
+        Whether to warp the volume with ``m.warp`` when no ``deformed`` is given.
     out_dir : str or pathlib.Path, optional
         Also write ``report.json`` and the PNGs there (:meth:`VolumeReport.save`).
     on_stage : callable, optional
@@ -270,7 +273,7 @@ def volume_report(
     warped = None
     if deformed is not None:
         warped = _check_volume(deformed, "deformed")
-    elif callable(getattr(m, "warp", None)):
+    elif warp and callable(getattr(m, "warp", None)):
         tick = time.perf_counter()
         stage("warp")
         warped = _check_volume(m.warp(array), "m.warp(volume)")  # type: ignore[attr-defined]
