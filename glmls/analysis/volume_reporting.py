@@ -127,6 +127,12 @@ def _shown(array: np.ndarray) -> np.ndarray:
     return array.mean(axis=3) if array.shape[3] > 1 else array[..., 0]
 
 
+def _distinct(points: np.ndarray) -> np.ndarray:
+    """The distinct rows of ``points``, in their order."""
+    _, first = np.unique(points, axis=0, return_index=True)
+    return points[np.sort(first)]
+
+
 def _grey_limits(array: np.ndarray) -> tuple[float | None, float | None]:
     if array.ndim == 4 or array.dtype == np.uint8:
         return None, None
@@ -172,8 +178,8 @@ def volume_report(
     m : glmls.MLS or ReferenceDeformation
         The deformation, of (N, 3) handles ``m.src`` -> ``m.dst``.
     reference_points : array_like, optional
-        The points r of the tetrahedra, (N, 3); by default the source handles (the
-        tetrahedra are then left out where they form none).
+        The points r of the tetrahedra, (N, 3); by default the distinct source handles
+        (the tetrahedra are then left out where they form none).
     grid : int, optional
         The error field at every voxel (1), or every ``grid`` voxels, interpolated.
     jacobian_grid : int, optional
@@ -253,7 +259,7 @@ def volume_report(
     try:
         found = tetrahedron_errors(
             m,
-            src if reference_points is None else reference_points,
+            _distinct(src) if reference_points is None else reference_points,
             tetrahedra=tetrahedra,
             min_quality=min_quality,
             angle=angle,
