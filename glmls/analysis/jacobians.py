@@ -77,10 +77,10 @@ class CellJacobians:
     >>> src = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]]
     >>> m = glmls.analysis.ReferenceDeformation(src, np.multiply(src, 2.0), transform="affine")
     >>> cells = glmls.analysis.cell_jacobians(m, (8, 8, 8), grid=4)
-    >>> cells.det.shape, float(cells.det.min()), float(cells.ratio.max()), cells.count
-    ((2, 2, 2), 8.0, 1.0, 0)
+    >>> cells.det.shape, cells.det.round(9).min().item(), cells.ratio.round(9).max().item()
+    ((2, 2, 2), 8.0, 1.0)
     >>> stats = cells.stats()
-    >>> stats["cells"], stats["folds"], stats["det"]["median"]
+    >>> stats["cells"], stats["folds"], round(stats["det"]["median"], 9)
     (8, 0, 8.0)
     """
 

@@ -86,10 +86,10 @@ class TetrahedronErrors:
     >>> corners = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10], [10, 10, 10]]
     >>> errors = glmls.analysis.tetrahedron_errors(lambda r: r * [-1.0, 1, 1], corners)
     >>> errors.simplices.shape, errors.inverted.all().item()  # a mirror turns all over
-    ((2, 4), True)
+    ((3, 4), True)
     >>> stats = errors.stats()
     >>> stats["tetrahedra"], stats["slivers"], stats["inverted"], stats["angle"]["max"]
-    (2, 0, 2, 0.0)
+    (3, 0, 3, 0.0)
     """
 
     points: np.ndarray

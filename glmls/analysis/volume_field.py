@@ -56,11 +56,10 @@ class ReferenceDeformation:
     src, dst : array_like
         The handles p_i -> q_i, (N, 3) (x, y, z) rows each.
     config : glmls.MLSConfig, optional
-        The transform and weight; built from ``options`` when None.
+        The transform and weight; when None, built from the other keyword arguments
+        (:class:`glmls.MLSConfig`'s fields: ``transform="affine"``, ...).
     shape : tuple of int, optional
         (D, H, W) of the volume: its diagonal is the default radius of the radius weights.
-    **options
-        :class:`glmls.MLSConfig`'s fields, when ``config`` is None.
 
     Attributes
     ----------
@@ -82,7 +81,7 @@ class ReferenceDeformation:
     --------
     >>> src = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]]
     >>> m = glmls.analysis.ReferenceDeformation(src, np.add(src, 2.0), transform="affine")
-    >>> m([[5.0, 5.0, 5.0]]).tolist()
+    >>> m([[5.0, 5.0, 5.0]]).round(9).tolist()
     [[7.0, 7.0, 7.0]]
     >>> M, T = m.matrices([[5.0, 5.0, 5.0]])
     >>> M.shape, T.round(6).tolist()
