@@ -29,7 +29,7 @@ from ..gl.resources import Resources
 from .bins import BinBuffer, HandleBins, worth_binning
 from .storage import HandleStorage, check_storage, make_storage, resolve_storage, unroll_slots
 
-__all__ = ["DEFAULT_STORAGE", "SNAP_DISTANCE", "MLSKernel"]
+__all__ = ["DEFAULT_STORAGE", "SNAP_DISTANCE", "MLSKernel", "weight_uniforms"]
 
 #: Points closer than this (pixels) to a handle whose weight is infinite there map to q_i.
 SNAP_DISTANCE = 1e-3
@@ -37,6 +37,28 @@ SNAP_DISTANCE = 1e-3
 #: storage buffer (docs/handles.md: the uniform block is the fastest on llvmpipe wherever it
 #: fits; only the storage buffer and the texture take tens of thousands).
 DEFAULT_STORAGE = "auto"
+
+
+def weight_uniforms(
+    config: MLSConfig, scale: float, radius: float | None
+) -> dict[str, float | bool]:
+    """The uniforms of ``glmls/shaders/mls/weighting.glsl`` (the weights, in any dimension) for
+    ``config`` in coordinates scaled by ``scale``, with influence radius ``radius`` (pixels or
+    voxels; None without one). ``u_tiny_s`` (no uniform): idw's s is so small that float32
+    makes its weight infinite at d = 0, so points on a handle snap."""
+    alpha = config.alpha
+    log2_s = math.log2(config.s) - 2 * alpha * math.log2(scale) if config.s > 0 else -1e30
+    hit2 = (SNAP_DISTANCE / scale) ** 2
+    # idw with a tiny s is infinite at d = 0 for float32: snap there too.
+    tiny_s = config.weight_entry.uses_s and log2_s - alpha * math.log2(hit2) < math.log2(1e-6)
+    return {
+        "u_alpha": alpha,
+        "u_log2_s": max(log2_s, -1e30),
+        "u_radius": (radius or 1.0) / scale,
+        "u_hit2": hit2,
+        "u_snap": config.infinite_at_zero or tiny_s,
+        "u_tiny_s": tiny_s,
+    }
 
 
 class MLSKernel:
@@ -235,19 +257,10 @@ class MLSKernel:
         c = self.config
         scale = self.scaling.scale
         radius = c.resolve_radius(shape if shape is not None else self.shape)
-        alpha = c.alpha
-        log2_s = math.log2(c.s) - 2 * alpha * math.log2(scale) if c.s > 0 else -1e30
-        hit2 = (SNAP_DISTANCE / scale) ** 2
-        # idw with a tiny s is infinite at d = 0 for float32: snap there too.
-        tiny_s = c.weight_entry.uses_s and log2_s - alpha * math.log2(hit2) < math.log2(1e-6)
+        weighting = weight_uniforms(c, scale, radius)
         segments = segment_config(c)  # the weight of segment handles
-        return {
-            "u_alpha": alpha,
-            "u_log2_s": max(log2_s, -1e30),
-            "u_radius": (radius or 1.0) / scale,
-            "u_hit2": hit2,
-            "u_snap": c.infinite_at_zero or tiny_s,
-            "u_snap_segments": segments.infinite_at_zero or tiny_s,
+        return weighting | {
+            "u_snap_segments": segments.infinite_at_zero or weighting["u_tiny_s"],
             "u_segment_sigma": 1.0 if segments is c else 0.0,
             "u_length_unit": scale,
         }

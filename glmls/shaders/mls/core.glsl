@@ -24,37 +24,14 @@
 
 #include "mls/handles.glsl"
 
-uniform float u_alpha;      // idw / interpolating power
-uniform float u_log2_s;     // log2 of the scaled idw s; -1e30 when s == 0
-uniform float u_radius;     // scaled influence radius R
-uniform float u_hit2;       // squared snapping distance (scaled)
-uniform bool u_snap;        // weight is (effectively) infinite at d = 0: f(p_i) = q_i exactly
-uniform bool u_snap_segments;   // the same for segment handles (glmls.core.segments)
+#include "mls/weighting.glsl"
+uniform bool u_snap_segments;   // the same as u_snap for segment handles (glmls.core.segments)
 
 struct MLSResult {
     vec2 f;   // f(v), scaled coordinates
     vec2 d;   // f(v) - v, exactly 0 where every handle in reach stays (q = p)
     vec4 M;   // linear part, see above
 };
-
-float mls_pow(float r) {
-#if MLS_ALPHA_ONE
-    return r;
-#else
-    return r > 0.0 ? exp2(u_alpha * log2(r)) : 0.0;
-#endif
-}
-
-#include "mls/weights.glsl"
-
-// Weight of a handle at squared distance d2 (see mls/weights.glsl for m, inv_m and sigma).
-float mls_weight(float d2, float m, float inv_m, float sigma) {
-    float w = MLS_WEIGHT_FUNCTION(d2, m, inv_m, sigma);
-#if MLS_INTERPOLATING
-    w = w > 0.0 ? w / mls_pow(d2 * inv_m) : 0.0;   // 0, not 0/0, out of reach
-#endif
-    return w;
-}
 
 MLSResult mls_identity(vec2 v) {
     MLSResult r;

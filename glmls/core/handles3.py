@@ -1,0 +1,114 @@
+"""Three-dimensional handles and points: validation, the volume diagonal and the scaling the
+GPU works in.
+
+Points are ``(x, y, z)`` = (column, row, slice) float arrays of shape (N, 3); voxel centres sit
+at integer coordinates. A volume's shape is ``(D, H, W)`` (slices, rows, columns).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from .handles import COORDINATE_LIMIT, Scaling
+
+__all__ = [
+    "as_points3",
+    "as_volume_shape",
+    "dimension_of",
+    "fit_scaling3",
+    "validate_handles3",
+    "volume_diagonal",
+]
+
+
+def dimension_of(src: object) -> int:
+    """3 where ``src`` has shape (N, 3), else 2 (the 2D validation then speaks)."""
+    shape = np.shape(src)
+    return 3 if len(shape) == 2 and shape[1] == 3 else 2
+
+
+def as_points3(points: object, name: str = "points") -> np.ndarray:
+    """``points`` as a C-contiguous float64 (N, 3) array of finite coordinates within
+    ±:data:`~glmls.core.handles.COORDINATE_LIMIT`; ``ValueError``/``TypeError`` if not."""
+    array = np.asarray(points)
+    if array.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
+    if array.ndim != 2 or array.shape[1] != 3:
+        if array.size == 0 and array.ndim >= 1:
+            return np.zeros((0, 3))
+        raise ValueError(f"{name} must have shape (N, 3) as (x, y, z) rows, got {array.shape}")
+    array = np.ascontiguousarray(array, dtype=np.float64)
+    finite = np.isfinite(array).all(axis=1)
+    if not finite.all():
+        row = int(np.argmin(finite))
+        raise ValueError(f"{name} must be finite; row {row} is {array[row]}")
+    if len(array) and np.abs(array).max() > COORDINATE_LIMIT:
+        row = int(np.argmax(np.abs(array).max(axis=1) > COORDINATE_LIMIT))
+        raise ValueError(
+            f"{name} must lie within ±{COORDINATE_LIMIT:.0e} voxels of the origin (float32 on "
+            f"the GPU keeps ~1e-7 of the coordinates' extent); row {row} is "
+            f"{array[row].tolist()}"
+        )
+    return array
+
+
+def validate_handles3(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
+    """Check 3D source points p and target points q; return them as float64 (N, 3) arrays.
+    Exact duplicate pairs are accepted; one source point with two targets is a
+    ``ValueError``."""
+    p, q = as_points3(src, "src"), as_points3(dst, "dst")
+    if len(p) != len(q):
+        raise ValueError(f"src and dst must have the same length, got {len(p)} and {len(q)}")
+    if len(p) > 1:
+        order = np.lexsort((p[:, 2], p[:, 1], p[:, 0]))
+        ps, qs = p[order], q[order]
+        same = (ps[1:] == ps[:-1]).all(axis=1) & (qs[1:] != qs[:-1]).any(axis=1)
+        if same.any():
+            k = int(np.argmax(same))
+            i, j = sorted((int(order[k]), int(order[k + 1])))
+            raise ValueError(
+                f"src[{i}] and src[{j}] are the same point {p[i].tolist()} with different "
+                f"targets {q[i].tolist()} and {q[j].tolist()}"
+            )
+    return p, q
+
+
+def as_volume_shape(shape: Sequence[int]) -> tuple[int, int, int]:
+    """``shape`` as a (D, H, W) tuple of positive ints; ``ValueError``/``TypeError`` if not."""
+    try:
+        values = tuple(shape)
+    except TypeError:
+        raise TypeError(f"shape must be (D, H, W), got {shape!r}") from None
+    if len(values) != 3 or not all(
+        isinstance(n, (int, np.integer)) and not isinstance(n, bool) for n in values
+    ):
+        raise ValueError(f"shape must be (D, H, W) integers for 3D handles, got {shape!r}")
+    if min(values) < 1:
+        raise ValueError(f"shape must be positive, got {values}")
+    return int(values[0]), int(values[1]), int(values[2])
+
+
+def volume_diagonal(shape: tuple[int, int, int]) -> float:
+    """Length of the diagonal of a D x H x W volume, in voxels."""
+    return math.sqrt(sum(float(n) ** 2 for n in shape))
+
+
+def fit_scaling3(
+    src: np.ndarray, dst: np.ndarray, shape: tuple[int, int, int] | None = None
+) -> Scaling:
+    """The scaling ``(v - center) / scale`` for the box around the handles and, if given, the
+    volume (x, y, z = column, row, slice)."""
+    boxes = [src, dst]
+    if shape is not None:
+        depth, height, width = shape
+        boxes.append(np.array([[-0.5, -0.5, -0.5], [width - 0.5, height - 0.5, depth - 0.5]]))
+    pts = np.concatenate(boxes)
+    if len(pts) == 0:
+        return Scaling((0.0, 0.0, 0.0), 1.0)  # type: ignore[arg-type]
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    center = (lo + hi) / 2
+    scale = max(float((hi - lo).max()) / 2, 1.0)
+    return Scaling(tuple(float(c) for c in center), scale)  # type: ignore[arg-type]

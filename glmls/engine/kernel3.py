@@ -1,0 +1,200 @@
+"""The GPU MLS in three dimensions: the handles of one configuration on the GPU, and what
+every pass over the 3D f needs to compile and bind.
+
+A pass is a compute shader that does ``#include "mls3/core.glsl"`` and calls ``mls3_eval``,
+``mls3_f``, ``mls3`` or ``mls3_f_voxels`` (``glmls/shaders/mls3/core.glsl`` documents them);
+:meth:`MLSKernel3.program` compiles it with the kernel's defines and :meth:`MLSKernel3.bind`
+sets its uniforms and binds the handles. The handles share the 2D kernel's storages
+(:mod:`glmls.engine.storage`: two rows per handle, ``(p, 0)`` and ``(q - p, 0)``, scaled), its
+weights (``mls/weighting.glsl``) and its uniforms (:func:`~glmls.engine.kernel.weight_uniforms`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import moderngl
+import numpy as np
+
+from ..core.config import MLSConfig, transform_code
+from ..core.handles import Scaling
+from ..core.handles3 import volume_diagonal
+from ..core.weights import GAUSSIAN_TOLERANCE
+from ..errors import ReleasedError
+from ..gl.context import GLContext
+from ..gl.dispatch import set_uniforms
+from ..gl.resources import Resources
+from .kernel import DEFAULT_STORAGE, weight_uniforms
+from .storage import HandleStorage, check_storage, make_storage, resolve_storage
+
+__all__ = ["UNROLL_SLOTS3", "MLSKernel3", "unroll_slots3"]
+
+#: Handle counts up to which the 3D passes read the handles at constant indices
+#: (``MLS3_UNROLL``); more go through a loop.
+UNROLL_SLOTS3 = (16, 64)
+
+
+def unroll_slots3(count: int) -> int:
+    """The ``MLS3_UNROLL`` slots for ``count`` handles: the smallest of
+    :data:`UNROLL_SLOTS3` that holds them, or 0 (a loop)."""
+    return next((slots for slots in UNROLL_SLOTS3 if count <= slots), 0)
+
+
+class MLSKernel3:
+    """The (N, 3) handles of one 3D MLS on the GPU, for ``config`` on context ``gl``.
+
+    ``shape``: the volume (D, H, W) whose diagonal is the radius where ``config.radius`` is
+    None; ``storage``: ``auto`` or one of :data:`glmls.engine.storage.STORAGES`. Empty until
+    :meth:`upload`.
+    """
+
+    def __init__(
+        self,
+        gl: GLContext,
+        config: MLSConfig,
+        *,
+        shape: tuple[int, int, int] | None = None,
+        storage: str = DEFAULT_STORAGE,
+    ) -> None:
+        check_storage(storage)
+        self.gl = gl
+        self.config = config
+        self.shape = shape
+        self.scaling = Scaling((0.0, 0.0, 0.0), 1.0)  # type: ignore[arg-type]
+        self._storage_request = storage
+        self._storage: HandleStorage | None = None
+        self._rows = np.zeros((0, 4), np.float32)
+        self._count = 0
+        #: Scratch buffers of the passes (points in, f, M or J out).
+        self.scratch = Resources(gl, "this MLS")
+        self._released = False
+
+    def upload(self, src: np.ndarray, dst: np.ndarray, scaling: Scaling) -> None:
+        """Put validated (N, 3) handles ``src`` -> ``dst`` on the GPU in the coordinates of
+        ``scaling``. On error (too many handles for the storage) nothing changes."""
+        self.check_alive()
+        count = len(src)
+        slots = unroll_slots3(count)
+        rows = np.zeros((2 * max(count, slots, 1), 4), np.float32)
+        rows[0 : 2 * count : 2, :3] = scaling.to_gpu(src)
+        rows[1 : 2 * count : 2, :3] = (dst - src) / scaling.scale  # e = q - p, 0 if q = p
+        with self.gl.use():
+            name = resolve_storage(self._storage_request, self.gl.mgl, len(rows))
+            storage = self._storage
+            if storage is None or storage.name != name:
+                storage = make_storage(name, self.gl.mgl)
+            if len(rows) > storage.capacity:
+                capacity = storage.capacity
+                if storage is not self._storage:
+                    storage.release()
+                raise ValueError(
+                    f"{count} 3D handles (2 rows each) exceed the {name} handle storage's "
+                    f"capacity of {capacity} rows on this GL driver; use storage='ssbo'"
+                )
+            if storage is not self._storage:
+                if self._storage is not None:
+                    self._storage.release()
+                self._storage = storage
+            storage.upload(rows)
+        self._rows, self._count, self.scaling = rows, count, scaling
+
+    # -- what the passes need -----------------------------------------------------------
+
+    @property
+    def count(self) -> int:
+        """Handles."""
+        return self._count
+
+    @property
+    def storage(self) -> str:
+        """The handle storage in use (``auto`` resolved for the handle count)."""
+        return self._storage.name if self._storage is not None else self._storage_request
+
+    def radius(self, shape: tuple[int, int, int] | None = None) -> float | None:
+        """R in voxels: the configured radius, else the diagonal of ``shape`` (the kernel's
+        own when None); None for a weight without a radius. ``ValueError`` for a radius
+        weight with neither."""
+        config = self.config
+        if not config.uses_radius or config.radius is not None:
+            return config.radius
+        shape = shape if shape is not None else self.shape
+        if shape is None:
+            raise ValueError(
+                f"weight {config.weight!r} needs an influence radius: pass radius=R (voxels), "
+                "or shape=(D, H, W) to use the volume diagonal"
+            )
+        return volume_diagonal(shape)
+
+    def defines(self) -> dict[str, object]:
+        """The ``#define`` values of ``glmls/shaders/mls3/`` for this configuration."""
+        config = self.config
+        entry = config.weight_entry
+        storage = self._storage
+        unroll = storage is not None and storage.unrolls
+        return {
+            "MLS_WEIGHT_FUNCTION": entry.glsl_function,
+            "MLS_WEIGHT_USES_S": entry.uses_s,
+            "MLS_GAUSSIAN_TOLERANCE": GAUSSIAN_TOLERANCE,
+            "MLS_TRANSFORM": transform_code(config.transform),
+            "MLS_INTERPOLATING": config.interpolating,
+            "MLS_ALPHA_ONE": config.alpha == 1.0,
+            "MLS3_UNROLL": unroll_slots3(self._count) if unroll else 0,
+        } | dict(storage.defines if storage is not None else {})
+
+    def uniforms(self, shape: tuple[int, int, int] | None = None) -> dict[str, object]:
+        """The uniforms of ``glmls/shaders/mls3/core.glsl`` for a volume of ``shape`` (the
+        kernel's own when None), in scaled units."""
+        scaling = self.scaling
+        weighting = weight_uniforms(self.config, scaling.scale, self.radius(shape))
+        weighting.pop("u_tiny_s")
+        return weighting | {
+            "u_mls3_count": self._count,
+            "u_mls3_center": tuple(float(c) for c in scaling.center),
+            "u_mls3_scale": float(scaling.scale),
+        }
+
+    def program(
+        self, entry: str, defines: Mapping[str, object] | None = None
+    ) -> moderngl.ComputeShader:
+        """The compute program of ``entry`` (a pass including ``mls3/core.glsl``) with this
+        kernel's defines and ``defines``."""
+        self.check_alive()
+        with self.gl.use():
+            return self.gl.compute(entry, self.defines() | dict(defines or {}))
+
+    def bind(
+        self,
+        program: moderngl.ComputeShader | moderngl.Program,
+        shape: tuple[int, int, int] | None = None,
+    ) -> None:
+        """Make ``program`` (any program including ``mls3/core.glsl``, compiled with
+        :meth:`defines`) evaluate this kernel's f, with the radius of a volume of ``shape``:
+        its uniforms, and the handles bound."""
+        self.check_alive()
+        with self.gl.use():
+            uniforms = self.uniforms(shape)
+            self._storage.bind(program)  # type: ignore[union-attr]
+            set_uniforms(program, uniforms)
+
+    # -- life -----------------------------------------------------------------------------
+
+    def check_alive(self) -> None:
+        """``ReleasedError`` once released (or its context), ``GLUnavailableError`` in a
+        process forked from the one that made it."""
+        if self._released:
+            raise ReleasedError("this MLS has been released; create a new one")
+        self.gl.check_usable()
+
+    @property
+    def released(self) -> bool:
+        return self._released
+
+    def release(self) -> None:
+        """Free the handle storage and the scratch buffers. Idempotent."""
+        if self._released:
+            return
+        if self.gl.usable and self._storage is not None:
+            with self.gl.use():
+                self._storage.release()
+        self.scratch.release()
+        self._released = True

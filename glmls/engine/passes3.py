@@ -1,0 +1,134 @@
+"""The passes that evaluate the 3D f on the GPU (``glmls/shaders/mls3/points.comp.glsl``): at
+a list of points, read back in one piece (f, and M or the Jacobian J = df/dv where asked);
+or on a regular lattice, written into a GL buffer that stays on the GPU.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import moderngl
+import numpy as np
+
+from ..gl import bindings
+from ..gl.dispatch import run_1d, set_uniforms
+from .kernel3 import MLSKernel3
+
+__all__ = [
+    "JACOBIAN_STEP",
+    "POINTS3_PASS",
+    "evaluate_lattice3",
+    "evaluate_points3",
+    "points3_program",
+]
+
+POINTS3_PASS = "mls3/points.comp.glsl"
+#: The central differences' step for J (voxels): small against the handles' spacing (the
+#: error is second order in it), large against float32's spacing of the coordinates
+#: (~1e-7 of the volume's extent; the steps are the ones float32 really took).
+JACOBIAN_STEP = 0.05
+#: What a points pass writes besides f.
+OUTPUTS = ("f", "matrix", "jacobian")
+
+
+def points3_program(
+    kernel: MLSKernel3, *, lattice: bool, output: str = "f"
+) -> moderngl.ComputeShader:
+    """The compiled 3D points pass: on a lattice (``lattice``) or a list; ``output`` one of
+    ``"f"``, ``"matrix"`` (f and M), ``"jacobian"`` (f and J)."""
+    if output not in OUTPUTS:
+        raise ValueError(f"unknown output {output!r}; choose one of {', '.join(OUTPUTS)}")
+    defines = {
+        "MLS3_LATTICE": lattice,
+        "MLS3_WRITE_MATRIX": output == "matrix",
+        "MLS3_WRITE_JACOBIAN": output == "jacobian",
+    }
+    return kernel.program(POINTS3_PASS, defines)
+
+
+def evaluate_points3(
+    kernel: MLSKernel3,
+    points: np.ndarray,
+    *,
+    output: str = "f",
+    shape: tuple[int, int, int] | None = None,
+    max_groups: int | None = None,
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """f at ``points`` ((K, 3) float64 voxels) as (K, 3) float64, with M (``output=
+    "matrix"``) or the Jacobian J = df/dv (``"jacobian"``, central differences of
+    :data:`JACOBIAN_STEP` voxels, J[r, c] = d f_c / d v_r) as (K, 3, 3) float64, else None.
+    ``shape``: the volume whose diagonal is the default radius (None: the kernel's own).
+    One dispatch per ``max_groups`` work groups (the GL limit by default), one read-back."""
+    count = len(points)
+    if count == 0:
+        kernel.check_alive()
+        return np.zeros((0, 3)), (None if output == "f" else np.zeros((0, 3, 3)))
+    with kernel.gl.use():
+        program = points3_program(kernel, lattice=False, output=output)
+        scratch = kernel.scratch
+        source = scratch.buffer("points3", count * 12)
+        source.write(np.ascontiguousarray(kernel.scaling.to_gpu(points)))
+        source.bind_to_storage_buffer(bindings.POINTS.index)
+        kernel.bind(program, shape)
+        f_out = scratch.buffer("f3", count * 12)
+        f_out.bind_to_storage_buffer(bindings.DEFORMED.index)
+        if output != "f":
+            scratch.buffer("M3", count * 36).bind_to_storage_buffer(bindings.MATRICES.index)
+        set_uniforms(program, {"u_jacobian_step": JACOBIAN_STEP / kernel.scaling.scale})
+        groups = max_groups if max_groups is not None else kernel.gl.limits["max_work_groups_x"]
+        run_1d(program, count, max_groups=groups)
+        kernel.gl.mgl.memory_barrier()
+        d = np.frombuffer(f_out.read(size=count * 12), np.float32).reshape(count, 3)
+        # f = v + (f - v): v keeps its float64 digits, and f is v itself where d is 0
+        f = points + d.astype(np.float64) * kernel.scaling.scale
+        if output == "f":
+            return f, None
+        m = np.frombuffer(scratch.cached("M3").read(size=count * 36), np.float32)
+        return f, m.astype(np.float64).reshape(count, 3, 3)
+
+
+def evaluate_lattice3(
+    kernel: MLSKernel3,
+    target: moderngl.Buffer,
+    *,
+    origin: Sequence[float],
+    step: Sequence[float],
+    size: Sequence[int],
+    first: int = 0,
+    count: int | None = None,
+    shape: tuple[int, int, int] | None = None,
+    max_groups: int | None = None,
+) -> int:
+    """f (in voxels, float32 x, y, z per point) at the points of the lattice ``origin + (i,
+    j, k) * step`` (voxels; ``size`` = (nx, ny, nz) points, i fastest) into ``target`` from
+    its start, without read-back: ``count`` points (all by default) from lattice index
+    ``first`` (i + nx (j + ny k)). ``shape``: the volume whose diagonal is the default radius
+    (None: the kernel's own). Returns the number of points written."""
+    nx, ny, nz = (int(n) for n in size)
+    total = nx * ny * nz
+    count = total - first if count is None else count
+    if first < 0 or count < 0 or first + count > total:
+        raise ValueError(f"points {first}..{first + count} are not in a lattice of {total}")
+    if target.size < count * 12:
+        raise ValueError(f"{count} points (12 bytes each) do not fit in {target.size} bytes")
+    if count == 0:
+        return 0
+    scaling = kernel.scaling
+    with kernel.gl.use():
+        program = points3_program(kernel, lattice=True)
+        kernel.bind(program, shape)
+        o = scaling.to_gpu(np.asarray([origin], np.float64))[0]
+        s = np.asarray(step, np.float64) / scaling.scale
+        set_uniforms(
+            program,
+            {
+                "u_lattice3_origin": tuple(float(c) for c in o),
+                "u_lattice3_step": tuple(float(c) for c in s),
+                "u_lattice3_dims": (nx, ny, nz),
+                "u_first": first,
+            },
+        )
+        target.bind_to_storage_buffer(bindings.DEFORMED.index)
+        groups = max_groups if max_groups is not None else kernel.gl.limits["max_work_groups_x"]
+        run_1d(program, count, max_groups=groups)
+    return count

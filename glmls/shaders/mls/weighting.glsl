@@ -1,0 +1,30 @@
+// The weight of a handle at a squared distance, whatever the dimension: the uniforms of the
+// weights (glmls.engine.kernel.weight_uniforms), the weights of mls/weights.glsl and
+// ``interpolating``. Included by mls/core.glsl (2D) and mls3/core.glsl (3D).
+//
+// Defines: MLS_WEIGHT_FUNCTION, MLS_INTERPOLATING, MLS_ALPHA_ONE (see mls/core.glsl).
+
+uniform float u_alpha;      // idw / interpolating power
+uniform float u_log2_s;     // log2 of the scaled idw s; -1e30 when s == 0
+uniform float u_radius;     // scaled influence radius R
+uniform float u_hit2;       // squared snapping distance (scaled)
+uniform bool u_snap;        // weight is (effectively) infinite at d = 0: f(p_i) = q_i exactly
+
+float mls_pow(float r) {
+#if MLS_ALPHA_ONE
+    return r;
+#else
+    return r > 0.0 ? exp2(u_alpha * log2(r)) : 0.0;
+#endif
+}
+
+#include "mls/weights.glsl"
+
+// Weight of a handle at squared distance d2 (see mls/weights.glsl for m, inv_m and sigma).
+float mls_weight(float d2, float m, float inv_m, float sigma) {
+    float w = MLS_WEIGHT_FUNCTION(d2, m, inv_m, sigma);
+#if MLS_INTERPOLATING
+    w = w > 0.0 ? w / mls_pow(d2 * inv_m) : 0.0;   // 0, not 0/0, out of reach
+#endif
+    return w;
+}

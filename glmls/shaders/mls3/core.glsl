@@ -1,0 +1,205 @@
+// Moving Least Squares in three dimensions: f(v) = v M + T at a point v = (x, y, z) =
+// (column, row, slice), with the weights of mls/weights.glsl and the transforms of
+// mls3/solve.glsl. The one include of every pass over a 3D f (glmls.engine.kernel3):
+//
+//   MLS3Result mls3_eval(vec3 v)            f, f - v and M at v (scaled coordinates)
+//   vec3 mls3_f(vec3 v)                     f(v), scaled coordinates
+//   void mls3(vec3 v, out mat3 M, out vec3 T)   f(v) = v * M + T, scaled coordinates
+//   vec3 mls3_to_scaled(vec3 voxel), vec3 mls3_to_voxels(vec3 scaled)
+//   vec3 mls3_f_voxels(vec3 voxel)          f in voxel coordinates
+//
+// Scaled coordinates: (voxel - u_mls3_center) / u_mls3_scale (MLSKernel3.scaling), so that
+// float32 keeps ~1e-7 of the volume's extent. M is a GLSL mat3 used as ``v * M`` (row
+// vectors, the paper's convention): the mathematical M[i][j] is the GLSL M[j][i].
+//
+// Handles: two rows of the handle storage (mls/handles.glsl) each, (p, 0) then (e, 0) with
+// e = q - p, scaled; u_mls3_count of them. Defines (MLSKernel3.defines): those of
+// mls/weighting.glsl, MLS_TRANSFORM, MLS_STORAGE (and its own), MLS3_UNROLL (0, 16 or 64:
+// at most that many handles, read at constant indices, the slots past u_mls3_count zeros).
+
+#include "mls/handles.glsl"
+#include "mls/weighting.glsl"
+#include "mls3/solve.glsl"
+
+uniform int u_mls3_count;        // handles
+uniform vec3 u_mls3_center;      // scaled = (voxel - center) / scale
+uniform float u_mls3_scale;
+
+struct MLS3Result {
+    vec3 f;   // f(v), scaled
+    vec3 d;   // f(v) - v, exactly 0 where every handle in reach stays (q = p)
+    mat3 M;   // the linear part, v * M
+};
+
+vec3 mls3_p(int i) {
+    return mls_handle(2 * i).xyz;
+}
+
+vec3 mls3_e(int i) {
+    return mls_handle(2 * i + 1).xyz;
+}
+
+vec3 mls3_to_scaled(vec3 voxel) {
+    return (voxel - u_mls3_center) / u_mls3_scale;
+}
+
+vec3 mls3_to_voxels(vec3 scaled) {
+    return scaled * u_mls3_scale + u_mls3_center;
+}
+
+// One evaluation: the nearest handle (for snapping, the weights' normalisation and the
+// moments' origin), then one pass accumulating every weighted moment about the nearest
+// handle o (P = p - p_o, E = e - e_o; see mls/core.glsl for why about o), then the solve.
+struct MLS3Accum {
+    vec3 v;
+    bool hit;       // v snaps to handle o: f(v) = its q
+    vec3 op;        // the nearest handle's p and e
+    vec3 oe;
+    float m;        // normalisation distance (mls/weights.glsl)
+    float inv_m;
+    float sigma;
+    float W;        // sum w
+    vec3 P;         // sum w P
+    vec3 E;         // sum w E
+    vec3 Ad;        // sum w P P^T: diagonal
+    vec3 Ao;        // ... and (01, 02, 12)
+    mat3 D;         // sum w P^T E
+    float spread;   // sum w |p - v|^2
+};
+
+void mls3_nearest(inout float d2min, inout int nearest, vec3 v, int i, bool use) {
+    vec3 dp = mls3_p(i) - v;
+    float d2 = use ? dot(dp, dp) : 3.0e38;
+    nearest = d2 < d2min ? i : nearest;
+    d2min = min(d2min, d2);
+}
+
+MLS3Accum mls3_begin(vec3 v, float d2min, int nearest, int n) {
+    MLS3Accum a;
+    a.v = v;
+    a.hit = u_snap && d2min <= u_hit2;
+    a.op = n > 0 ? mls3_p(nearest) : vec3(0.0);
+    a.oe = n > 0 ? mls3_e(nearest) : vec3(0.0);
+    float d2far = 3.0e38;
+    if (a.hit) {
+        // the normalisation distance of a snapped point: the nearest beyond the snapping
+        // distance (a loop: lanes rarely take it)
+        for (int i = 0; i < n; ++i) {
+            vec3 dp = mls3_p(i) - v;
+            float d2 = dot(dp, dp);
+            d2far = min(d2far, d2 > u_hit2 ? d2 : 3.0e38);
+        }
+    }
+    a.m = a.hit ? d2far : max(d2min, u_hit2);
+    a.inv_m = 1.0 / a.m;
+#if MLS_WEIGHT_USES_S
+    a.sigma = min(exp2(u_log2_s - u_alpha * log2(a.m)), 1e30);
+#else
+    a.sigma = 0.0;
+#endif
+    a.W = 0.0;
+    a.P = vec3(0.0);
+    a.E = vec3(0.0);
+    a.Ad = vec3(0.0);
+    a.Ao = vec3(0.0);
+    a.D = mat3(0.0);
+    a.spread = 0.0;
+    return a;
+}
+
+void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
+    vec3 p = mls3_p(i);
+    vec3 dp = p - a.v;
+    float d2 = dot(dp, dp);
+    // an empty slot, and the snapped handle (and duplicates of it: their weight is
+    // infinite and their p^ zero), get no weight
+    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
+    vec3 P = p - a.op;
+    vec3 E = mls3_e(i) - a.oe;
+    vec3 wP = w * P;
+    a.W += w;
+    a.P += wP;
+    a.E += w * E;
+    a.Ad += wP * P;
+    a.Ao += wP.xxy * P.yzz;
+    a.D += outerProduct(wP, E);
+    a.spread += w * d2;
+}
+
+MLS3Result mls3_identity(vec3 v) {
+    MLS3Result r;
+    r.f = v;
+    r.d = vec3(0.0);
+    r.M = mat3(1.0);
+    return r;
+}
+
+MLS3Result mls3_finish(MLS3Accum a) {
+    if (!a.hit && !(a.W > 0.0)) {
+        return mls3_identity(a.v);   // no handle reaches v (or there are none)
+    }
+    vec3 pst = a.op;
+    vec3 est = a.oe;
+    if (!a.hit) {
+        // p* = p_o + sum w P / W, e* likewise, and the moments about them
+        vec3 dp = a.P / a.W;
+        vec3 de = a.E / a.W;
+        pst += dp;
+        est += de;
+        a.Ad -= a.P * dp;
+        a.Ao -= a.P.xxy * dp.yzz;
+        a.D -= outerProduct(a.P, de);
+    }
+    // snapped: p* = p_o and q* = q_o exactly, and the moments about them are the sums
+    mat3 N = mls3_solve(a.Ad, a.Ao, a.D, a.spread);
+    MLS3Result r;
+    // f(v) = q* + (v - p*) M = v + e* + (v - p*) N
+    r.d = est + (a.v - pst) * N;
+    r.f = a.v + r.d;
+    r.M = N + mat3(1.0);
+    return r;
+}
+
+// MLS3_EACH(F): F(i, use) for every handle i (n = u_mls3_count), unrolled at constant
+// indices where MLS3_UNROLL is 16 or 64 (llvmpipe then loads a handle once for all lanes),
+// else a loop.
+#define MLS3_SLOT(F, i) F(i, (i) < n)
+#define MLS3_R4(F, i) MLS3_SLOT(F, i) MLS3_SLOT(F, i + 1) MLS3_SLOT(F, i + 2) MLS3_SLOT(F, i + 3)
+#define MLS3_R16(F, i) MLS3_R4(F, i) MLS3_R4(F, i + 4) MLS3_R4(F, i + 8) MLS3_R4(F, i + 12)
+#define MLS3_R64(F, i) MLS3_R16(F, i) MLS3_R16(F, i + 16) MLS3_R16(F, i + 32) MLS3_R16(F, i + 48)
+#if MLS3_UNROLL == 16
+#define MLS3_EACH(F) MLS3_R16(F, 0)
+#elif MLS3_UNROLL == 64
+#define MLS3_EACH(F) MLS3_R64(F, 0)
+#elif MLS3_UNROLL
+#error "MLS3_UNROLL: 0, 16 or 64"
+#else
+#define MLS3_EACH(F) for (int i = 0; i < n; ++i) { F(i, true) }
+#endif
+#define MLS3_NEAR(i, use) mls3_nearest(d2min, nearest, v, i, use);
+#define MLS3_ACC(i, use) mls3_accumulate(a, i, use);
+
+MLS3Result mls3_eval(vec3 v) {
+    int n = u_mls3_count;
+    float d2min = 3.0e38;
+    int nearest = 0;
+    MLS3_EACH(MLS3_NEAR)
+    MLS3Accum a = mls3_begin(v, d2min, nearest, n);
+    MLS3_EACH(MLS3_ACC)
+    return mls3_finish(a);
+}
+
+vec3 mls3_f(vec3 v) {
+    return mls3_eval(v).f;
+}
+
+void mls3(vec3 v, out mat3 M, out vec3 T) {
+    MLS3Result r = mls3_eval(v);
+    M = r.M;
+    T = r.f - v * r.M;
+}
+
+// f in voxels: v + (f - v), so that the identity returns v itself
+vec3 mls3_f_voxels(vec3 voxel) {
+    return voxel + mls3_eval(mls3_to_scaled(voxel)).d * u_mls3_scale;
+}

@@ -1,0 +1,94 @@
+// Evaluates the 3D f at a list of points, or (MLS3_LATTICE) at the points of a regular
+// lattice: point (i, j, k) is u_lattice3_origin + (i, j, k) * u_lattice3_step (scaled), item
+// index i + nx (j + ny k), and this run writes items u_first .. u_first + u_count - 1 from
+// output index 0. Outputs, tightly packed float32 (std430 float arrays):
+//   a list: f(v) - v (scaled; the caller adds v in float64), 3 floats per point;
+//   a lattice: f(v) in voxels, 3 floats per point;
+//   MLS3_WRITE_MATRIX: M row by row (the mathematical M[i][j] at 9 i + 3 r + c), 9 floats;
+//   MLS3_WRITE_JACOBIAN: J = df/dv by central differences of step u_jacobian_step (scaled),
+//     J[r][c] = d f_c / d v_r (row vectors: df = dv J), 9 floats.
+layout(local_size_x = LOCAL_SIZE) in;
+
+#include "mls3/core.glsl"
+
+#if MLS3_LATTICE
+uniform vec3 u_lattice3_origin;
+uniform vec3 u_lattice3_step;
+uniform ivec3 u_lattice3_dims;
+uniform int u_first;
+#else
+layout(std430, binding = BIND_POINTS) readonly buffer MLS3Points {
+    float mls3_points[];
+};
+#endif
+uniform int u_count;     // items of this run
+uniform int u_offset;    // first index of this dispatch (dispatches are capped in size)
+uniform float u_jacobian_step;
+
+layout(std430, binding = BIND_DEFORMED) writeonly buffer MLS3OutF {
+    float mls3_out_f[];
+};
+#if MLS3_WRITE_MATRIX || MLS3_WRITE_JACOBIAN
+layout(std430, binding = BIND_MATRICES) writeonly buffer MLS3OutM {
+    float mls3_out_m[];
+};
+#endif
+
+vec3 mls3_item_point(int i) {
+#if MLS3_LATTICE
+    int index = u_first + i;
+    int nx = u_lattice3_dims.x, ny = u_lattice3_dims.y;
+    ivec3 ijk = ivec3(index % nx, (index / nx) % ny, index / (nx * ny));
+    return u_lattice3_origin + vec3(ijk) * u_lattice3_step;
+#else
+    return vec3(mls3_points[3 * i], mls3_points[3 * i + 1], mls3_points[3 * i + 2]);
+#endif
+}
+
+void mls3_store_matrix(int i, mat3 M) {
+#if MLS3_WRITE_MATRIX || MLS3_WRITE_JACOBIAN
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) {
+            mls3_out_m[9 * i + 3 * r + c] = M[c][r];
+        }
+    }
+#endif
+}
+
+#if MLS3_WRITE_JACOBIAN
+// Row r of J: e_r + (d(v + h e_r) - d(v - h e_r)) / (the steps float32 really took).
+vec3 mls3_jacobian_row(vec3 v, vec3 axis) {
+    vec3 up = v + u_jacobian_step * axis;
+    vec3 down = v - u_jacobian_step * axis;
+    float step = dot(up - v, axis) + dot(v - down, axis);
+    return axis + (mls3_eval(up).d - mls3_eval(down).d) / step;
+}
+#endif
+
+void main() {
+    // No early return for the items past the end: they evaluate the last point and store
+    // nothing (see mls/points.comp.glsl: uniform handle loads need every lane active).
+    int i = u_offset + int(gl_GlobalInvocationID.x);
+    vec3 v = mls3_item_point(min(i, max(u_count - 1, 0)));
+    MLS3Result r = mls3_eval(v);
+#if MLS3_WRITE_JACOBIAN
+    mat3 J = transpose(mat3(mls3_jacobian_row(v, vec3(1.0, 0.0, 0.0)),
+                            mls3_jacobian_row(v, vec3(0.0, 1.0, 0.0)),
+                            mls3_jacobian_row(v, vec3(0.0, 0.0, 1.0))));
+#endif
+    if (i < u_count) {
+#if MLS3_LATTICE
+        vec3 f = v * u_mls3_scale + u_mls3_center + r.d * u_mls3_scale;
+#else
+        vec3 f = r.d;
+#endif
+        mls3_out_f[3 * i] = f.x;
+        mls3_out_f[3 * i + 1] = f.y;
+        mls3_out_f[3 * i + 2] = f.z;
+#if MLS3_WRITE_JACOBIAN
+        mls3_store_matrix(i, J);
+#elif MLS3_WRITE_MATRIX
+        mls3_store_matrix(i, r.M);
+#endif
+    }
+}
