@@ -9,9 +9,10 @@ The layout (one cell per view, ``scale`` picture pixels per voxel)::
     | y slice  (z, x) | projection (y, x)|
     +-----------------+-----------------+
 
-The z slice and the x slice share their rows (y), the z slice and the y slice their columns
-(x); the projection is the maximum of the volume along z, or its minimum (for a mask: any voxel
-along z).
+Each view is labelled in its bottom-left corner (``z = 12``: the slice at z = 12), where it is
+big enough. The z slice and the x slice share their rows (y), the z slice and the y slice
+their columns (x); the projection is the maximum of the volume along z, or its minimum (for
+a mask: any voxel along z).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from collections.abc import Sequence
 
 import moderngl
 import numpy as np
+from PIL import Image, ImageDraw, ImageFont
 
 from ..gl.context import GLContext
 from .colormaps import apply_colormap, color_limits
@@ -35,6 +37,8 @@ MASK_OPACITY = 0.65
 MIN_VIEW = 192
 #: Grey between the views.
 GAP = 6
+#: The labels' font size; views less than 4 labels high go without one.
+LABEL_SIZE = 12
 
 
 def check_slices(shape: Sequence[int], slices: object) -> tuple[int, int, int]:
@@ -199,15 +203,33 @@ def render_volume_slices(
                 a = (_view_points(p[keep], view) + 0.5) * scale - 0.5
                 b = (_view_points(q[keep], view) + 0.5) * scale - 0.5
                 pictures[view] = render_handles(pictures[view], a, b, ctx=ctx)
-    return _montage(pictures, dims, scale)
+    names = [f"z = {at[0]}", f"x = {at[2]}", f"y = {at[1]}", f"{projection} along z"]
+    return _montage(pictures, dims, scale, names)
 
 
-def _montage(pictures: list[np.ndarray], dims: tuple[int, ...], scale: int) -> np.ndarray:
+def _label(picture: np.ndarray, text: str) -> np.ndarray:
+    """``text`` in white on a dark box in the bottom-left corner of a view."""
+    if picture.shape[0] < 4 * LABEL_SIZE or picture.shape[1] < 8 * LABEL_SIZE:
+        return picture
+    image = Image.fromarray(picture)
+    draw = ImageDraw.Draw(image)
+    font = ImageFont.load_default(size=LABEL_SIZE)
+    width = int(font.getlength(text))
+    top = picture.shape[0] - LABEL_SIZE - 6
+    draw.rectangle((0, top, width + 6, picture.shape[0]), fill=(0, 0, 0))
+    draw.text((3, top + 2), text, fill=(255, 255, 255), font=font)
+    return np.asarray(image)
+
+
+def _montage(
+    pictures: list[np.ndarray], dims: tuple[int, ...], scale: int, names: list[str]
+) -> np.ndarray:
     depth, height, width = (n * scale for n in dims)
     rows = (height, max(depth, height))
     columns = (width, max(depth, width))
     out = np.full((rows[0] + GAP + rows[1], columns[0] + GAP + columns[1], 3), 128, np.uint8)
     for k, picture in enumerate(pictures):
+        picture = _label(picture, names[k])
         top = 0 if k in (0, 1) else rows[0] + GAP
         left = 0 if k in (0, 2) else columns[0] + GAP
         out[top : top + picture.shape[0], left : left + picture.shape[1]] = picture
