@@ -79,3 +79,23 @@ def test_bad_volume_inputs_exit_2_with_one_line(inputs, args, message):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and message in lines[0], result.stderr
     assert not (inputs / "rep" / "report.json").exists()
+
+
+@pytest.mark.parametrize("suffix", [".tif", ".nii.gz"])
+def test_a_tiff_stack_or_nifti_volume_gives_the_npy_report(inputs, suffix):
+    if suffix == ".nii.gz":
+        pytest.importorskip("nibabel")
+    from glmls.files.volumes import write_volume
+
+    write_volume(inputs / f"v{suffix}", np.load(inputs / "v.npy"))
+    reports = {}
+    for name in ("v.npy", f"v{suffix}"):
+        result = analyze(
+            name, "--handles", "h3.json", "--analysis-grid", "3", "--out", name + ".out", cwd=inputs
+        )
+        assert result.returncode == 0, result.stderr
+        summary = json.loads((inputs / (name + ".out") / "report.json").read_text())
+        for key in ("timings_s", "input"):
+            summary.pop(key)
+        reports[name] = summary
+    assert reports["v.npy"] == reports[f"v{suffix}"]
