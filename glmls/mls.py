@@ -13,13 +13,14 @@ import functools
 import inspect
 import math
 from collections.abc import Callable, Sequence
-from typing import TypeVar
+from typing import ClassVar, TypeVar
 
 import moderngl
 import numpy as np
 
 from .core.config import MLSConfig
 from .core.handles import Scaling, as_points, check_coordinates
+from .core.handles3 import dimension_of
 from .core.handleset import HandleSet
 from .core.mesh import MeshLattice, as_shape, check_grid
 from .engine.error_field import error_at
@@ -127,6 +128,15 @@ class MLS:
     [0, 0, 1, 2, 3, 4]
     """
 
+    #: The dimension of the handles; :data:`kinds` maps each other dimension to the subclass
+    #: that ``MLS(...)`` makes for its handles (``glmls.mls3`` registers 3).
+    dimension = 2
+    kinds: ClassVar[dict[int, type[MLS]]] = {}
+
+    def __new__(cls, src: object = None, *args: object, **kwargs: object) -> MLS:
+        kind = MLS.kinds.get(dimension_of(src)) if cls is MLS else None
+        return object.__new__(kind if kind is not None else cls)
+
     def __init__(
         self,
         src: object,
@@ -200,7 +210,7 @@ class MLS:
         """
         if not isinstance(config, MLSConfig):
             raise TypeError(f"config must be an MLSConfig, got {type(config).__name__}")
-        self = cls.__new__(cls)
+        self = cls.__new__(cls, src)
         self._setup((src, dst, src_segments, dst_segments), config, shape, ctx, storage, bins)
         return self
 
