@@ -282,7 +282,10 @@ def volume_report(
     elif warp and callable(getattr(m, "warp", None)):
         tick = time.perf_counter()
         stage("warp")
-        warped = _check_volume(m.warp(array), "m.warp(volume)")  # type: ignore[attr-defined]
+        try:
+            warped = _check_volume(m.warp(array), "m.warp(volume)")  # type: ignore[attr-defined]
+        except NotImplementedError:  # a deformation that cannot warp volumes
+            warped = None
         timings["warp"] = time.perf_counter() - tick
 
     tick = time.perf_counter()

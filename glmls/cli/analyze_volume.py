@@ -1,5 +1,6 @@
 """``glmls analyze`` on a volume (a ``.npy``, NIfTI or TIFF-stack input) with 3D handles: the
-3D analysis of :func:`glmls.analysis.volume_report`, written as ``report.json`` and PNGs."""
+3D analysis of :func:`glmls.analysis.volume_report` on the GPU (:class:`glmls.MLS` of (N, 3)
+handles), written as ``report.json`` and PNGs."""
 
 from __future__ import annotations
 
@@ -8,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.volume_field import ReferenceDeformation
 from ..analysis.volume_reporting import volume_report
 from ..core.config import MLSConfig
 from ..files.landmarks import read_handles
@@ -56,15 +56,10 @@ def read_points_3d(path: str | Path) -> np.ndarray:
     return points
 
 
-def _deformation(src: np.ndarray, dst: np.ndarray, config: MLSConfig, shape, args):
-    """glmls.MLS of the 3D handles on the GPU, or the float64 reference where glmls.MLS does
-    not take (N, 3) handles."""
+def _deformation(src: np.ndarray, dst: np.ndarray, config: MLSConfig, shape) -> MLS:
+    """glmls.MLS of the 3D handles (on the GPU); :class:`UsageError` if it cannot take them."""
     try:
         return MLS.from_config(src, dst, config, shape=shape)
-    except (TypeError, ValueError):
-        say(args, "analyze: f of 3D handles by the float64 reference on the CPU")
-    try:
-        return ReferenceDeformation(src, dst, config, shape=shape)
     except (TypeError, ValueError) as error:
         raise UsageError(f"handles: {error}") from None
 
@@ -76,7 +71,7 @@ def _warped(m: object, volume: np.ndarray, args: argparse.Namespace) -> np.ndarr
         return None
     try:
         return np.asarray(warp(volume))
-    except (TypeError, ValueError) as error:
+    except (TypeError, ValueError, NotImplementedError) as error:
         say(args, f"analyze: no deformed volume: {error}")
         return None
 
@@ -92,7 +87,7 @@ def run_volume(args: argparse.Namespace) -> int:
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")
     ticker = Ticker("analyze", quiet=args.quiet)
-    m = _deformation(src, dst, config, volume.shape[:3], args)
+    m = _deformation(src, dst, config, volume.shape[:3])
     with m, ticker as tick, reported_warnings("analyze"):
         try:
             tick.stage("warp")
