@@ -43,6 +43,7 @@ step bench 120 "$PYTHON" benchmarks/run_bench.py --quick --tools glmls --toleran
 step profile-stages 45 "$PYTHON" benchmarks/profile_stages.py --size 1024 --handles 64
 step adaptive-stages-W1 30 "$PYTHON" benchmarks/adaptive_stages.py --workload W1 --tolerance 0.05
 step adaptive-stages-W2 30 "$PYTHON" benchmarks/adaptive_stages.py --workload W2 --tolerance 0.05
+step volume-bench 90 "$PYTHON" benchmarks/volume_bench.py --size 256 --repeat 3 --memory 512 --skip-peers
 
 if ((${#failed[@]})); then
     echo "gpu_check: failed: ${failed[*]} (results in $out/)" >&2

@@ -16,7 +16,7 @@ LAYERS = (
     ("glmls.core", "glmls.reference", "glmls.files", "glmls.data"),
     ("glmls.gl",),
     ("glmls.engine",),
-    ("glmls.imaging",),
+    ("glmls.imaging", "glmls.volume"),
     ("glmls.mls", "glmls.mls3"),
     ("glmls.analysis",),
     ("glmls.app",),

@@ -56,6 +56,9 @@ ADAPTIVE_HOT = Binding("ADAPTIVE_HOT", "storage", 15, "adaptive: the tiles near 
 ADAPTIVE_TESTS = Binding("ADAPTIVE_TESTS", "storage", 18, "adaptive build: each cell's test")
 ADAPTIVE_HANDLES = Binding("ADAPTIVE_HANDLES", "storage", 8, "adaptive build: the point handles")
 ADAPTIVE_SPLIT = Binding("ADAPTIVE_SPLIT", "storage", 9, "adaptive build: the cells that split")
+VOLUME_LATTICE = Binding("VOLUME_LATTICE", "storage", 11, "volumes: f at a band of the lattice")
+VOLUME_KEYS = Binding("VOLUME_KEYS", "storage", 13, "volumes: each output voxel's first cell")
+VOLUME_COORDS = Binding("VOLUME_COORDS", "storage", 16, "volumes: each voxel's source point")
 # -- uniform blocks ----------------------------------------------------------------------------
 HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
 # -- texture units -----------------------------------------------------------------------------
@@ -68,6 +71,7 @@ PICTURE = Binding("PICTURE", "texture", 5, "an image or picture drawn onto a vie
 VALUES = Binding("VALUES", "texture", 6, "a scalar field to colour (value, defined)")
 COLOR_TABLE = Binding("COLOR_TABLE", "texture", 7, "a colour map, n x 1 RGBA8")
 GLYPHS = Binding("GLYPHS", "texture", 8, "the glyph atlas of on-screen text")
+VOLUME_SOURCE = Binding("VOLUME_SOURCE", "texture", 14, "the source volume being warped")
 # the adaptive mesh's tables (glmls.gl.tables): read item by item, fetched as texels
 ADAPTIVE_VERTICES = Binding("ADAPTIVE_VERTICES", "texture", 9, "adaptive: (output, source) points")
 ADAPTIVE_TRIANGLES = Binding("ADAPTIVE_TRIANGLES", "texture", 10, "adaptive: vertex ids, leaf")
@@ -79,6 +83,7 @@ INVERSE_MAP = Binding("INVERSE_MAP", "image", 0, "backward: guess in, source poi
 ADAPTIVE_TARGET = Binding("ADAPTIVE_TARGET", "image", 1, "adaptive: the RGBA8 target it colours")
 TEXEL_SOURCE = Binding("TEXEL_SOURCE", "image", 2, "the RGBA8 source as r32ui (bind_texels)")
 TEXEL_TARGET = Binding("TEXEL_TARGET", "image", 3, "the RGBA8 target as r32ui (bind_texels)")
+VOLUME_TARGET = Binding("VOLUME_TARGET", "image", 4, "volumes: the output slab")
 
 ALL = (
     HANDLES,
@@ -96,6 +101,9 @@ ALL = (
     ADAPTIVE_TESTS,
     ADAPTIVE_HANDLES,
     ADAPTIVE_SPLIT,
+    VOLUME_LATTICE,
+    VOLUME_KEYS,
+    VOLUME_COORDS,
     HANDLES_BLOCK,
     SOURCE,
     COORDS,
@@ -106,6 +114,7 @@ ALL = (
     VALUES,
     COLOR_TABLE,
     GLYPHS,
+    VOLUME_SOURCE,
     ADAPTIVE_VERTICES,
     ADAPTIVE_TRIANGLES,
     ADAPTIVE_LEAVES,
@@ -115,6 +124,7 @@ ALL = (
     ADAPTIVE_TARGET,
     TEXEL_SOURCE,
     TEXEL_TARGET,
+    VOLUME_TARGET,
 )
 
 

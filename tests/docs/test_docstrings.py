@@ -19,8 +19,9 @@ from numpydoc.docscrape import ClassDoc, FunctionDoc
 from numpydoc.validate import validate
 
 import glmls
+import glmls.volume
 
-MODULES = [glmls, glmls.analysis, glmls.gl, glmls.reference, glmls.data]
+MODULES = [glmls, glmls.analysis, glmls.gl, glmls.reference, glmls.data, glmls.volume]
 
 #: The numpydoc.validate checks every public function passes: a docstring (GL08) with a
 #: summary (SS01) on one line (SS06) that ends with a period (SS03); every signature parameter

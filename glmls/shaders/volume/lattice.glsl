@@ -1,0 +1,54 @@
+// The lattice of voxel corners (glmls.volume.frame.CornerLattice), in source voxels, and f at
+// its points as the construction holds them: a band of z layers of points, 3 floats a point
+// (f in source voxels), layer-major, then rows, then points of a row.
+#ifndef VOLUME_LATTICE_WRITE
+#define VOLUME_LATTICE_WRITE 0
+#endif
+
+uniform ivec3 u_lattice_dims;   // points along x, y, z
+uniform float u_lattice_first;  // the first point's coordinate on every axis
+uniform vec3 u_lattice_last;    // the last point's (x, y, z): coordinates are clamped to it
+uniform int u_lattice_grid;
+uniform int u_lattice_margin;
+uniform int u_band_first;       // the first z layer of points held in the buffer
+
+#if VOLUME_LATTICE_WRITE
+layout(std430, binding = BIND_VOLUME_LATTICE) writeonly buffer VolumeLattice {
+    float volume_lattice_f[];
+};
+#else
+layout(std430, binding = BIND_VOLUME_LATTICE) readonly buffer VolumeLattice {
+    float volume_lattice_f[];
+};
+#endif
+
+// Lattice point a (x, y, z indices), source voxels.
+vec3 volume_lattice_point(ivec3 a) {
+    return min(vec3(u_lattice_first) + float(u_lattice_grid) * vec3(a), u_lattice_last);
+}
+
+#if !VOLUME_LATTICE_WRITE
+// f at lattice point a, source voxels (its layer must be in the band).
+vec3 volume_deformed(ivec3 a) {
+    int i = 3 * (((a.z - u_band_first) * u_lattice_dims.y + a.y) * u_lattice_dims.x + a.x);
+    return vec3(volume_lattice_f[i], volume_lattice_f[i + 1], volume_lattice_f[i + 2]);
+}
+#endif
+
+// Cells in scan order of the source: key = (z ny + y) nx + x over the cells.
+ivec3 volume_cell_of(uint key) {
+    uint nx = uint(u_lattice_dims.x - 1);
+    uint ny = uint(u_lattice_dims.y - 1);
+    return ivec3(int(key % nx), int((key / nx) % ny), int(key / (nx * ny)));
+}
+
+uint volume_key_of(ivec3 cell) {
+    uint nx = uint(u_lattice_dims.x - 1);
+    uint ny = uint(u_lattice_dims.y - 1);
+    return (uint(cell.z) * ny + uint(cell.y)) * nx + uint(cell.x);
+}
+
+// Corner c (bits: 1 x, 2 y, 4 z) of a cell.
+ivec3 volume_corner(ivec3 cell, int c) {
+    return cell + ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+}

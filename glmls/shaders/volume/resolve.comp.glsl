@@ -1,0 +1,98 @@
+// The cells method, second pass: every output voxel of the slab (one invocation each) whose
+// first cell (the raster pass's key) is in the band finds the tetrahedron of that cell that
+// contains it (the first; where rounding leaves none, the one it is deepest in), and the
+// source point there, interpolated linearly from the tetrahedron's source corners; then
+//   VOLUME_COORDS 0: samples the source there (volume/sample.glsl; nearest keeps to the
+//                    cell's own voxels) into the slab image (volume/target.glsl);
+//                 1: writes the point (x, y, z, 0) into the coordinates buffer, the first
+//                    guess of the backward method ((0, 0, 0, -1): no cell).
+// Voxels no cell covers get the background (-1 in the coordinates), in the pass told to.
+layout(local_size_x = LOCAL_SIZE) in;
+
+#include "volume/lattice.glsl"
+#include "volume/tetra.glsl"
+
+#if VOLUME_COORDS
+layout(std430, binding = BIND_VOLUME_COORDS) writeonly buffer VolumeCoords {
+    vec4 volume_coords[];
+};
+#else
+#include "volume/sample.glsl"
+#include "volume/target.glsl"
+uniform vec4 u_background;
+#endif
+
+layout(std430, binding = BIND_VOLUME_KEYS) readonly buffer VolumeKeys {
+    uint volume_keys[];
+};
+
+uniform int u_offset;        // first item of this dispatch
+uniform int u_count;         // voxels of the slab
+uniform ivec3 u_slab_size;   // W, H and slices of the output slab
+uniform vec3 u_slab_origin;  // source voxels that the slab's voxel (0, 0, 0) shows
+uniform uint u_key_first;    // the band's cells: keys u_key_first .. u_key_end - 1
+uniform uint u_key_end;
+uniform bool u_write_uncovered;
+uniform ivec3 u_volume_size; // W, H, D of the source volume
+
+void volume_write(int i, ivec3 p, vec3 s, bool covered, ivec3 lo, ivec3 hi) {
+#if VOLUME_COORDS
+    volume_coords[i] = covered ? vec4(s, 0.0) : vec4(0.0, 0.0, 0.0, -1.0);
+#elif WARP_LINEAR
+    volume_store(p, covered ? volume_sample(s) : u_background);
+#else
+    volume_store(p, covered ? volume_texel(clamp(ivec3(floor(s + 0.5)), lo, hi)) : u_background);
+#endif
+}
+
+void main() {
+    int i = u_offset + int(gl_GlobalInvocationID.x);
+    if (i >= u_count) {
+        return;
+    }
+    ivec3 p = ivec3(i % u_slab_size.x, (i / u_slab_size.x) % u_slab_size.y,
+                    i / (u_slab_size.x * u_slab_size.y));
+    uint key = volume_keys[i];
+    if (key == 0xFFFFFFFFu) {
+        if (u_write_uncovered) {
+            volume_write(i, p, vec3(0.0), false, ivec3(0), ivec3(0));
+        }
+        return;
+    }
+    if (key < u_key_first || key >= u_key_end) {
+        return;
+    }
+    ivec3 cell = volume_cell_of(key);
+    vec3 q[8];
+    for (int c = 0; c < 8; ++c) {
+        q[c] = volume_deformed(volume_corner(cell, c)) - u_slab_origin;
+    }
+    vec3 point = vec3(p);
+    int best = 0;
+    float depth = -1e30;
+    vec3 coords = vec3(0.0);
+    for (int t = 0; t < 6; ++t) {
+        vec3 l;
+        if (volume_barycentric(q[0], q[VOLUME_TETRA[2 * t]], q[VOLUME_TETRA[2 * t + 1]], q[7],
+                               point, l)) {
+            float inside = volume_depth(l);
+            if (inside > depth) {
+                best = t;
+                depth = inside;
+                coords = l;
+            }
+            if (inside >= -VOLUME_INSIDE_EPS) {
+                break;   // the first that contains the voxel
+            }
+        }
+    }
+    vec3 s0 = volume_lattice_point(cell);
+    vec3 s = s0 +
+             coords.x * (volume_lattice_point(volume_corner(cell, VOLUME_TETRA[2 * best])) - s0) +
+             coords.y * (volume_lattice_point(volume_corner(cell, VOLUME_TETRA[2 * best + 1])) - s0) +
+             coords.z * (volume_lattice_point(cell + ivec3(1)) - s0);
+    // nearest keeps to the cell's own voxels (its voxel centres, margin included)
+    ivec3 lo = cell * u_lattice_grid - u_lattice_margin;
+    ivec3 hi = min(lo + u_lattice_grid - 1, u_volume_size + u_lattice_margin - 1);
+    volume_write(i, p, s, true, lo, hi);
+}

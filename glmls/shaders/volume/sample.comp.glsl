@@ -1,0 +1,26 @@
+// The backward method's last pass: every output voxel of the slab samples the source at the
+// point in the coordinates buffer ((x, y, z, w): w >= 0 covered), or gets the background.
+layout(local_size_x = LOCAL_SIZE) in;
+
+#include "volume/sample.glsl"
+#include "volume/target.glsl"
+
+layout(std430, binding = BIND_VOLUME_COORDS) readonly buffer VolumeCoords {
+    vec4 volume_coords[];
+};
+
+uniform int u_offset;        // first item of this dispatch
+uniform int u_count;         // voxels of the slab
+uniform ivec3 u_slab_size;   // W, H and slices of the output slab
+uniform vec4 u_background;
+
+void main() {
+    int i = u_offset + int(gl_GlobalInvocationID.x);
+    if (i >= u_count) {
+        return;
+    }
+    ivec3 p = ivec3(i % u_slab_size.x, (i / u_slab_size.x) % u_slab_size.y,
+                    i / (u_slab_size.x * u_slab_size.y));
+    vec4 c = volume_coords[i];
+    volume_store(p, c.w >= 0.0 ? volume_sample(c.xyz) : u_background);
+}

@@ -1,0 +1,35 @@
+// Samples the source volume (source voxels: centres at integers, (x, y, z) = (column, row,
+// slice)) by texel fetches, so that uint8 and uint16 values stay exact:
+//   WARP_LINEAR 0: the voxel containing the point; 1: trilinear between the 8 nearest voxel
+//                  centres, in float32.
+//   WARP_BORDER    the rule outside the volume (common/border.glsl; constant clamps).
+//   VOLUME_INTEGER the source is an integer texture (uint8, uint16).
+#include "common/border.glsl"
+
+#if VOLUME_INTEGER
+layout(binding = BIND_VOLUME_SOURCE) uniform usampler3D u_volume;
+#else
+layout(binding = BIND_VOLUME_SOURCE) uniform sampler3D u_volume;
+#endif
+uniform ivec3 u_source_size;   // W, H, D of the source
+
+vec4 volume_texel(ivec3 p) {
+    ivec3 q = ivec3(border_index(p.x, u_source_size.x), border_index(p.y, u_source_size.y),
+                    border_index(p.z, u_source_size.z));
+    return vec4(texelFetch(u_volume, q, 0));
+}
+
+vec4 volume_sample(vec3 s) {
+#if WARP_LINEAR
+    vec3 corner = floor(s);
+    vec3 t = s - corner;
+    ivec3 p = ivec3(corner);
+    vec4 c00 = mix(volume_texel(p), volume_texel(p + ivec3(1, 0, 0)), t.x);
+    vec4 c10 = mix(volume_texel(p + ivec3(0, 1, 0)), volume_texel(p + ivec3(1, 1, 0)), t.x);
+    vec4 c01 = mix(volume_texel(p + ivec3(0, 0, 1)), volume_texel(p + ivec3(1, 0, 1)), t.x);
+    vec4 c11 = mix(volume_texel(p + ivec3(0, 1, 1)), volume_texel(p + ivec3(1, 1, 1)), t.x);
+    return mix(mix(c00, c10, t.y), mix(c01, c11, t.y), t.z);
+#else
+    return volume_texel(ivec3(floor(s + 0.5)));
+#endif
+}

@@ -1,0 +1,205 @@
+"""The public entry points of volume warping: :func:`warp_volume`, :func:`volume_bounds`,
+:func:`volume_coordinate_map`."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..engine.kernel3 import MLSKernel3
+from .construction import VolumeWarper
+from .frame import VolumeBounds
+from .kernel_field import KernelField
+from .options import SlabOptions, VolumeOptions, check_spacing, check_volume_shape
+from .source import check_volume
+
+__all__ = ["volume_bounds", "volume_coordinate_map", "warp_volume"]
+
+
+def _kernel(mls: object) -> MLSKernel3:
+    kernel = mls if isinstance(mls, MLSKernel3) else getattr(mls, "kernel", None)
+    if not isinstance(kernel, MLSKernel3):
+        raise ValueError(
+            "volumes are warped by a 3D MLS ((N, 3) handles); this one has 2D handles, "
+            "which warp images H x W or H x W x C"
+        )
+    kernel.check_alive()
+    return kernel
+
+
+def warp_volume(
+    mls: object,
+    volume: object,
+    options: VolumeOptions | None = None,
+    *,
+    slabs: SlabOptions | None = None,
+    **keywords: object,
+) -> np.ndarray:
+    """The volume deformed by a 3D MLS, built on the GPU slab by slab.
+
+    Parameters
+    ----------
+    mls : glmls.MLS or MLSKernel3
+        A 3D MLS ((N, 3) handles, (x, y, z) = (column, row, slice) in the units of
+        ``spacing``), or its GPU kernel.
+    volume : array_like
+        D x H x W or D x H x W x C (C in 1..4), uint8, uint16, float32 or float64
+        (computed as float32).
+    options : VolumeOptions or None
+        The construction (default: ``VolumeOptions()``), whose fields ``keywords`` replace.
+    slabs : SlabOptions or None
+        How large each output slab and lattice band may be (default: ``SlabOptions()``);
+        any choice gives the same volume.
+    **keywords
+        Fields of :class:`VolumeOptions`: ``method`` (``"quads"``, the cells method, or
+        ``"backward"``), ``interpolation``, ``grid``, ``border``, ``background``,
+        ``output_shape`` (D, H, W), ``origin`` (x, y, z), ``spacing`` (dz, dy, dx).
+
+    Returns
+    -------
+    numpy.ndarray
+        A new array of ``volume``'s dtype and channels, of ``output_shape`` (default: the
+        volume's).
+
+    Raises
+    ------
+    ValueError
+        For a 2D image or a 2D MLS, a bad option, or a volume beyond the GL 3D texture
+        limit (2048 voxels a side at least).
+    TypeError
+        For a bad dtype, or a keyword that is no option.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import glmls
+    >>> from glmls.engine.kernel3 import MLSKernel3
+    >>> from glmls.core.handles3 import fit_scaling3
+    >>> from glmls.volume import warp_volume
+    >>> volume = np.arange(4 * 5 * 6, dtype=np.uint8).reshape(4, 5, 6)
+    >>> src = np.array([[0.0, 0, 0], [5, 0, 0], [0, 4, 0], [0, 0, 3]])
+    >>> kernel = MLSKernel3(glmls.gl.get_context(), glmls.MLSConfig(), shape=(4, 5, 6))
+    >>> kernel.upload(src, src + [1, 0, 0], fit_scaling3(src, src + [1, 0, 0], (4, 5, 6)))
+    >>> out = warp_volume(kernel, volume)  # every voxel one column to the right
+    >>> out[0, 0].tolist()
+    [0, 0, 1, 2, 3, 4]
+    >>> warp_volume(kernel, volume, method="backward")[0, 0].tolist()
+    [0, 0, 1, 2, 3, 4]
+    >>> kernel.release()
+    """
+    kernel = _kernel(mls)
+    options = VolumeOptions.of(options, **keywords)
+    array = check_volume(volume)
+    field = KernelField(kernel, options.spacing, array.shape[:3])
+    return VolumeWarper.of(kernel.gl).warp(field, array, options, slabs)
+
+
+def volume_coordinate_map(
+    mls: object,
+    shape: object,
+    options: VolumeOptions | None = None,
+    **keywords: object,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The backward method's map: for each output voxel u its source point s with f(s) = u.
+
+    Parameters
+    ----------
+    mls : glmls.MLS or MLSKernel3
+        A 3D MLS, or its GPU kernel.
+    shape : (int, int, int)
+        (D, H, W) of the source volume.
+    options : VolumeOptions or None
+        Its ``grid``, ``border``, ``output_shape``, ``origin`` and ``spacing`` apply.
+    **keywords
+        Fields of :class:`VolumeOptions` replacing those of ``options``.
+
+    Returns
+    -------
+    map : numpy.ndarray
+        (D, H, W, 3) float32 source points (x, y, z), handle units.
+    residual : numpy.ndarray
+        (D, H, W) float32 |f(s) - u|, voxels.
+    covered : numpy.ndarray
+        (D, H, W) bool: a source point was found (inside the volume, for ``constant``).
+
+    Raises
+    ------
+    ValueError
+        For a 2D MLS, a bad ``shape`` or option.
+    TypeError
+        For a keyword that is no option.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import glmls
+    >>> from glmls.engine.kernel3 import MLSKernel3
+    >>> from glmls.core.handles3 import fit_scaling3
+    >>> from glmls.volume import volume_coordinate_map
+    >>> src = np.array([[0.0, 0, 0], [5, 0, 0], [0, 4, 0], [0, 0, 3]])
+    >>> kernel = MLSKernel3(glmls.gl.get_context(), glmls.MLSConfig(), shape=(4, 5, 6))
+    >>> kernel.upload(src, src + [1, 0, 0], fit_scaling3(src, src + [1, 0, 0], (4, 5, 6)))
+    >>> points, residual, covered = volume_coordinate_map(kernel, (4, 5, 6))
+    >>> points[0, 0, 3].tolist(), bool(covered[0, 0, 0])
+    ([2.0, 0.0, 0.0], False)
+    >>> kernel.release()
+    """
+    kernel = _kernel(mls)
+    options = VolumeOptions.of(options, **keywords)
+    size = check_volume_shape(shape, "shape")
+    field = KernelField(kernel, options.spacing, size)
+    return VolumeWarper.of(kernel.gl).coordinate_map(field, size, options)  # type: ignore[arg-type]
+
+
+def volume_bounds(
+    mls: object,
+    shape: object,
+    *,
+    grid: int = 1,
+    spacing: object = (1.0, 1.0, 1.0),
+) -> VolumeBounds:
+    """The bounding box of the deformed volume: f at the corners of the voxel cubes.
+
+    Parameters
+    ----------
+    mls : glmls.MLS or MLSKernel3
+        A 3D MLS, or its GPU kernel.
+    shape : (int, int, int)
+        (D, H, W) of the volume.
+    grid : int, default 1
+        The step of the lattice of corners, voxels.
+    spacing : (float, float, float), default (1, 1, 1)
+        (dz, dy, dx) of the voxels, handle units.
+
+    Returns
+    -------
+    VolumeBounds
+        Whose ``output_shape`` and ``origin`` give the canvas that shows all of it.
+
+    Raises
+    ------
+    ValueError
+        For a 2D MLS, a bad ``shape``, ``grid`` or ``spacing``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import glmls
+    >>> from glmls.engine.kernel3 import MLSKernel3
+    >>> from glmls.core.handles3 import fit_scaling3
+    >>> from glmls.volume import volume_bounds
+    >>> src = np.array([[0.0, 0, 0], [5, 0, 0], [0, 4, 0], [0, 0, 3]])
+    >>> kernel = MLSKernel3(glmls.gl.get_context(), glmls.MLSConfig(), shape=(4, 5, 6))
+    >>> kernel.upload(src, src + [1, 0, 0], fit_scaling3(src, src + [1, 0, 0], (4, 5, 6)))
+    >>> b = volume_bounds(kernel, (4, 5, 6))
+    >>> b.output_shape, b.origin
+    ((4, 5, 6), (1.0, 0.0, 0.0))
+    >>> kernel.release()
+    """
+    kernel = _kernel(mls)
+    size = check_volume_shape(shape, "shape")
+    steps = check_spacing(spacing)
+    field = KernelField(kernel, steps, size)
+    box = VolumeWarper.of(kernel.gl).bounds(field, size, grid)  # type: ignore[arg-type]
+    scale = field.scale
+    low, high = box[:3] * scale, box[3:] * scale
+    return VolumeBounds(*(float(v) for v in (*low, *high)), spacing=steps)

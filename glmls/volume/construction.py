@@ -1,0 +1,459 @@
+"""The GPU passes that build a deformed volume, slab by slab of output slices.
+
+One :class:`VolumeWarper` per GL context (:meth:`VolumeWarper.of`). For each slab of output
+slices (:meth:`VolumeWarper.slabs`: its buffers within :class:`~.options.SlabOptions`), the
+deformed lattice is held band by band of z layers (:class:`LatticeBands`); then
+
+- ``quads`` (the cells method): ``volume/raster.comp.glsl`` keeps, per output voxel, the
+  first cell in scan order of the source whose deformed tetrahedra contain it (atomicMin of
+  the cell's key), then ``volume/resolve.comp.glsl`` samples the source at the point
+  interpolated in that cell's tetrahedron into the slab texture, read back into the output;
+- ``backward``: the same two passes write source points instead (the first guess), Newton's
+  method on f refines them (the field's :meth:`refine`), and ``volume/sample.comp.glsl``
+  samples the source there.
+
+Every pass computes each voxel from the same inputs whatever the slab and band it falls in
+(keys are global cell numbers): the slabbed result equals the one-piece result exactly.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from ..gl import bindings
+from ..gl.context import GLContext, current, get_context
+from ..gl.dispatch import run_1d, set_uniforms
+from ..gl.resources import Resources
+from ..imaging.source import BORDERS
+from .fields import Field
+from .frame import CornerLattice, VolumeFrame
+from .options import SlabOptions, VolumeOptions
+from .source import SourceVolume, prepare_volume, volume_background
+
+__all__ = ["LatticeBands", "Slab", "VolumeWarper", "border_margin3"]
+
+#: Bytes of one lattice point in the band buffer (3 float32).
+POINT_BYTES = 12
+#: Bytes of one voxel's key (cells method) and source point (backward).
+KEY_BYTES = 4
+COORD_BYTES = 16
+_NO_KEY = b"\xff\xff\xff\xff"
+
+
+@dataclass(frozen=True)
+class Slab:
+    """Output slices ``first`` .. ``first + depth - 1`` of a frame of (W, H) voxels a slice."""
+
+    first: int
+    depth: int
+    width: int
+    height: int
+
+    @property
+    def voxels(self) -> int:
+        return self.depth * self.width * self.height
+
+    @property
+    def size(self) -> tuple[int, int, int]:
+        return self.width, self.height, self.depth
+
+
+def border_margin3(field: Field, lattice: CornerLattice, frame: VolumeFrame) -> int:
+    """The margin (voxels, a multiple of the grid) that ``lattice`` needs past the volume so
+    that its deformed image reaches past every voxel of ``frame``: the largest displacement
+    on the lattice's faces (sampled, at most 33 x 33 points a face) plus the frame's
+    overhang past the volume plus one voxel, at most that overhang plus twice the volume's
+    largest side."""
+    grid = lattice.grid
+    d, h, w = lattice.shape
+    low = np.array(frame.origin_voxels)
+    high = low + np.array(frame.shape[::-1]) - 1
+    size = np.array([w, h, d], dtype=float)
+    overhang = float(max(0.0, np.max(-0.5 - low), np.max(high - size + 0.5)))
+    faces = []
+    axes = [np.linspace(-0.5, n - 0.5, min(33, n + 1)) for n in (w, h, d)]
+    for axis in range(3):
+        others = [a for a in range(3) if a != axis]
+        grid_a, grid_b = np.meshgrid(axes[others[0]], axes[others[1]], indexing="ij")
+        for end in (-0.5, size[axis] - 0.5):
+            face = np.empty((grid_a.size, 3))
+            face[:, axis] = end
+            face[:, others[0]] = grid_a.ravel()
+            face[:, others[1]] = grid_b.ravel()
+            faces.append(face)
+    points = np.concatenate(faces)
+    moved = field.evaluate(points) - points
+    reach = float(np.max(np.abs(moved))) if np.all(np.isfinite(moved)) else 0.0
+    limit = overhang + 2 * max(w, h, d)
+    margin = min(reach + overhang + 1, limit)
+    return int(grid * max(1, math.ceil(margin / grid)))
+
+
+class LatticeBands:
+    """f on a lattice, held band by band of z layers in one buffer of at most ``band_bytes``.
+
+    Made once per warp: it evaluates every band once to learn the z range (source voxels)
+    that each layer of cells reaches, so that each slab evaluates only the bands that reach
+    it; where the whole lattice fits in one band it is evaluated once and kept."""
+
+    def __init__(
+        self, field: Field, lattice: CornerLattice, buffer: moderngl.Buffer, band_bytes: int
+    ) -> None:
+        nx, ny, nz = lattice.dims
+        self.field = field
+        self.lattice = lattice
+        self.buffer = buffer
+        layer_bytes = nx * ny * POINT_BYTES
+        self.cell_layers = max(1, band_bytes // layer_bytes - 1)  # cell layers a band holds
+        if band_bytes // layer_bytes < 2:
+            raise ValueError(
+                f"a layer of {nx} x {ny} lattice points does not fit twice in the lattice "
+                f"buffer of {band_bytes} bytes; use a coarser grid"
+            )
+        cells = nz - 1
+        self.loaded: tuple[int, int] | None = None
+        low = np.full(nz, np.inf)
+        high = np.full(nz, -np.inf)
+        #: the box of every deformed point (x, y, z low, then high), source voxels
+        self.box = np.array([np.inf] * 3 + [-np.inf] * 3)
+        for first in range(0, cells, self.cell_layers):
+            layers = min(self.cell_layers, cells - first)
+            points = self._load(first, layers)
+            with np.errstate(all="ignore"):
+                good = points[np.all(np.isfinite(points), axis=1)]
+                if len(good):
+                    low_box = np.minimum(self.box[:3], good.min(0))
+                    self.box = np.concatenate([low_box, np.maximum(self.box[3:], good.max(0))])
+            z = points[:, 2].reshape(layers + 1, -1)
+            finite = np.where(np.isfinite(z), z, np.nan)
+            with np.errstate(all="ignore"):
+                low[first : first + layers + 1] = np.fmin(
+                    low[first : first + layers + 1], np.nanmin(finite, axis=1)
+                )
+                high[first : first + layers + 1] = np.fmax(
+                    high[first : first + layers + 1], np.nanmax(finite, axis=1)
+                )
+        #: per cell layer, the z range its deformed cells reach
+        self.low = np.fmin(low[:-1], low[1:])
+        self.high = np.fmax(high[:-1], high[1:])
+
+    def _load(self, first: int, layers: int) -> np.ndarray:
+        """Cell layers ``first`` .. ``first + layers - 1`` (their points) into the buffer;
+        returns them (K, 3) float32."""
+        nx, ny, _ = self.lattice.dims
+        count = (layers + 1) * nx * ny
+        self.field.fill(self.lattice, first, layers + 1, self.buffer)
+        self.loaded = (first, layers)
+        return np.frombuffer(self.buffer.read(size=count * POINT_BYTES), np.float32).reshape(-1, 3)
+
+    def load(self, first: int, layers: int) -> None:
+        """Make the buffer hold cell layers ``first`` .. ``first + layers - 1``."""
+        if self.loaded is not None:
+            held_first, held_layers = self.loaded
+            if held_first <= first and first + layers <= held_first + held_layers:
+                return
+        self.field.fill(self.lattice, first, layers + 1, self.buffer)
+        self.loaded = (first, layers)
+
+    @property
+    def band_first(self) -> int:
+        return self.loaded[0] if self.loaded is not None else 0
+
+    def bands_for(self, z_low: float, z_high: float) -> list[tuple[int, int]]:
+        """The bands (first cell layer, layers) of the cell layers that reach z from
+        ``z_low`` to ``z_high`` (source voxels): runs of such layers, cut to the buffer."""
+        with np.errstate(invalid="ignore"):
+            hit = (self.high >= z_low) & (self.low <= z_high)
+        layers = np.flatnonzero(hit)
+        if len(layers) == 0:
+            return []
+        if self.loaded is not None and self.loaded[1] >= len(self.low):
+            return [self.loaded]  # the whole lattice is held
+        out = []
+        start = prev = int(layers[0])
+        for layer in (*layers[1:].tolist(), None):
+            if layer is not None and layer == prev + 1 and layer - start < self.cell_layers:
+                prev = layer
+                continue
+            out.append((start, prev - start + 1))
+            if layer is not None:
+                start = prev = layer
+        return out
+
+
+class VolumeWarper:
+    """The GPU passes that turn a :class:`~.fields.Field` and a source volume into the
+    deformed volume, slab by slab (see the module docstring). One per context
+    (:meth:`of`); its GL objects are cached for the next call."""
+
+    def __init__(self, ctx: moderngl.Context | GLContext | None = None) -> None:
+        self._gl = get_context(ctx)
+        self._resources = Resources(self._gl, "this volume warper")
+
+    @classmethod
+    def of(cls, ctx: moderngl.Context | GLContext | None = None) -> VolumeWarper:
+        """The warper shared by everything that renders volumes with ``ctx``."""
+        gl = get_context(ctx)
+        return gl.shared(VolumeWarper, lambda: cls(gl))
+
+    @property
+    def ctx(self) -> GLContext:
+        return self._gl
+
+    def release(self) -> None:
+        """Free the cached GL objects. Idempotent."""
+        cached = getattr(self, "_target_texture", None)
+        if cached is not None and self._gl.usable:
+            with self._gl.use():
+                cached[1].release()
+        self._target_texture = None
+        self._resources.release()
+
+    # -- planning -------------------------------------------------------------------------
+
+    def slabs(self, frame: VolumeFrame, voxel_bytes: int, slab_bytes: int) -> Iterator[Slab]:
+        """The slabs of ``frame``: as many slices as keep ``voxel_bytes`` a voxel within
+        ``slab_bytes`` and the GL limits (storage buffer, 3D texture side)."""
+        depth_all, height, width = frame.shape
+        limits = self._gl.mgl.info
+        side = int(limits["GL_MAX_3D_TEXTURE_SIZE"])
+        if max(width, height) > side:
+            raise ValueError(
+                f"output slices of {height} x {width} voxels exceed the GL 3D texture size "
+                f"limit of {side} voxels per side on this device"
+            )
+        budget = min(slab_bytes, self._gl.limits["max_ssbo_size"])
+        per_slice = width * height * voxel_bytes
+        if per_slice > self._gl.limits["max_ssbo_size"]:
+            raise ValueError(
+                f"one output slice of {height} x {width} voxels needs {per_slice} bytes, more "
+                "than a GL storage buffer holds on this device"
+            )
+        depth = max(1, min(depth_all, side, budget // per_slice))
+        for first in range(0, depth_all, depth):
+            yield Slab(first, min(depth, depth_all - first), width, height)
+
+    # -- the source -----------------------------------------------------------------------
+
+    def upload(self, source: SourceVolume) -> moderngl.Texture3D:
+        """The source volume as a 3D texture (integer for uint8 and uint16)."""
+        d, h, w = source.shape
+        side = int(self._gl.mgl.info["GL_MAX_3D_TEXTURE_SIZE"])
+        if max(d, h, w) > side:
+            raise ValueError(
+                f"volume of {d} x {h} x {w} voxels exceeds the GL 3D texture size limit of "
+                f"{side} voxels per side on this device"
+            )
+        texture = self._gl.mgl.texture3d(
+            (w, h, d), source.channels, source.data, dtype=source.texture_dtype
+        )
+        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return texture
+
+    # -- the construction -----------------------------------------------------------------
+
+    @current
+    def warp(
+        self,
+        field: Field,
+        volume: object,
+        options: VolumeOptions,
+        slabs: SlabOptions | None = None,
+    ) -> np.ndarray:
+        """The deformed volume, read back (see :func:`glmls.volume.warp_volume`)."""
+        self._resources.check_alive()
+        slabs = slabs if slabs is not None else SlabOptions()
+        source = prepare_volume(volume)
+        frame = make_volume_frame(options, source.shape)
+        background = volume_background(options.background, source)
+        out = source.empty_output(frame.shape)
+        texture = self.upload(source)
+        try:
+            backward = options.method == "backward"
+            bands = self._bands(field, source.shape, frame, options, slabs)
+            per_voxel = COORD_BYTES if backward else KEY_BYTES
+            for slab in self.slabs(frame, max(per_voxel, source.voxel_bytes), slabs.slab_bytes):
+                target = self._target(slab, source)
+                defines = {
+                    "WARP_LINEAR": options.interpolation == "linear",
+                    "WARP_BORDER": BORDERS.index(options.border),
+                    "VOLUME_INTEGER": source.integer,
+                    "VOLUME_IMAGE_FORMAT": source.image_format,
+                }
+                uniforms = {
+                    "u_source_size": source.shape[::-1],
+                    "u_volume_size": source.shape[::-1],
+                    "u_background": background,
+                    "u_value_max": _value_max(source),
+                }
+                texture.use(bindings.VOLUME_SOURCE.index)
+                target.bind_to_image(bindings.VOLUME_TARGET.index, read=False, write=True)
+                if backward:
+                    coords = self._solve(field, bands, frame, slab, options, source.shape)
+                    program = self._gl.compute("volume/sample.comp.glsl", defines)
+                    coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
+                    set_uniforms(program, uniforms | {"u_slab_size": slab.size})
+                    self._gl.mgl.memory_barrier()
+                    run_1d(program, slab.voxels, max_groups=self._max_groups)
+                else:
+                    self._cells(bands, frame, slab, defines, uniforms, coords=False)
+                self._gl.mgl.memory_barrier()
+                self._read(target, slab, source, out)
+        finally:
+            texture.release()
+        return source.view(out)
+
+    @current
+    def coordinate_map(
+        self,
+        field: Field,
+        shape: tuple[int, int, int],
+        options: VolumeOptions,
+        slabs: SlabOptions | None = None,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The backward method's source point of every output voxel: (D, H, W, 3) float32
+        (x, y, z) in handle units, the residual |f(s) - u| in voxels (D, H, W), and whether
+        each was found (D, H, W) bool (inside the volume, for ``constant``)."""
+        self._resources.check_alive()
+        slabs = slabs if slabs is not None else SlabOptions()
+        frame = make_volume_frame(options, shape)
+        bands = self._bands(field, shape, frame, options, slabs)
+        points = np.empty((*frame.shape, 4), np.float32)
+        for slab in self.slabs(frame, COORD_BYTES, slabs.slab_bytes):
+            coords = self._solve(field, bands, frame, slab, options, shape)
+            raw = coords.read(size=slab.voxels * COORD_BYTES)
+            points[slab.first : slab.first + slab.depth] = np.frombuffer(raw, np.float32).reshape(
+                slab.depth, slab.height, slab.width, 4
+            )
+        w = points[..., 3]
+        covered = w >= 0
+        residual = np.where(covered, w, -1.0 - w).astype(np.float32)
+        return points[..., :3] * frame.scale.astype(np.float32), residual, covered
+
+    # -- passes ---------------------------------------------------------------------------
+
+    @current
+    def bounds(
+        self, field: Field, shape: tuple[int, int, int], grid: int, slabs: SlabOptions | None = None
+    ) -> np.ndarray:
+        """(low x, y, z, high x, y, z) of f at the corners of ``grid``'s lattice of a volume of
+        ``shape``, source voxels."""
+        self._resources.check_alive()
+        slabs = slabs if slabs is not None else SlabOptions()
+        options = VolumeOptions(grid=grid)
+        return self._bands(field, shape, make_volume_frame(options, shape), options, slabs).box
+
+    @property
+    def _max_groups(self) -> int:
+        return self._gl.limits["max_work_groups_x"]
+
+    def _bands(self, field, shape, frame, options, slabs) -> LatticeBands:
+        lattice = CornerLattice(shape, options.grid)
+        if options.border != "constant":
+            lattice = CornerLattice(shape, options.grid, border_margin3(field, lattice, frame))
+        nx, ny, nz = lattice.dims
+        band_bytes = min(slabs.band_bytes, self._gl.limits["max_ssbo_size"])
+        size = min(band_bytes, nx * ny * nz * POINT_BYTES)
+        buffer = self._resources.buffer("volume_lattice", size)
+        return LatticeBands(field, lattice, buffer, band_bytes)
+
+    def _cells(self, bands: LatticeBands, frame, slab: Slab, defines, uniforms, *, coords: bool):
+        """The cells method's two passes over ``slab``: keys, then the resolve pass (into the
+        slab texture, or with ``coords`` the coordinates buffer)."""
+        lattice = bands.lattice
+        ox, oy, oz = frame.origin_voxels
+        origin = (ox, oy, oz + slab.first)
+        keys = self._resources.buffer("volume_keys", slab.voxels * KEY_BYTES)
+        keys.clear(size=slab.voxels * KEY_BYTES, chunk=_NO_KEY)
+        keys.bind_to_storage_buffer(bindings.VOLUME_KEYS.index)
+        ncx, ncy, _ = lattice.cells
+        common = lattice.uniforms() | {"u_slab_size": slab.size, "u_slab_origin": origin}
+        raster = self._gl.compute("volume/raster.comp.glsl")
+        wanted = bands.bands_for(origin[2] - 1.0, origin[2] + slab.depth)
+        for first, layers in wanted:
+            bands.load(first, layers)
+            bands.buffer.bind_to_storage_buffer(bindings.VOLUME_LATTICE.index)
+            set_uniforms(
+                raster,
+                common | {"u_band_first": bands.band_first, "u_cell_first": first},
+            )
+            self._gl.mgl.memory_barrier()
+            run_1d(raster, layers * ncx * ncy, max_groups=self._max_groups)
+        program = self._gl.compute("volume/resolve.comp.glsl", defines | {"VOLUME_COORDS": coords})
+        set_uniforms(program, common | uniforms)
+        for index, (first, layers) in enumerate(wanted or [(0, 0)]):
+            if layers:
+                bands.load(first, layers)
+            bands.buffer.bind_to_storage_buffer(bindings.VOLUME_LATTICE.index)
+            keys.bind_to_storage_buffer(bindings.VOLUME_KEYS.index)
+            set_uniforms(
+                program,
+                {
+                    "u_band_first": bands.band_first,
+                    "u_key_first": first * ncx * ncy,
+                    "u_key_end": (first + layers) * ncx * ncy,
+                    "u_write_uncovered": index == 0,
+                },
+            )
+            self._gl.mgl.memory_barrier()
+            run_1d(program, slab.voxels, max_groups=self._max_groups)
+
+    def _solve(self, field, bands, frame, slab: Slab, options: VolumeOptions, shape):
+        """Backward: the source point of every voxel of ``slab`` in the coordinates buffer
+        (x, y, z, w) in source voxels, w >= 0 the residual where found, else -1 - residual:
+        the cells' first guess, refined by the field's Newton's method."""
+        coords = self._resources.buffer("volume_coords", slab.voxels * COORD_BYTES)
+        coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
+        defines = {"WARP_BORDER": BORDERS.index(options.border)}
+        uniforms = {"u_volume_size": shape[::-1]}
+        self._cells(bands, frame, slab, defines, uniforms, coords=True)
+        self._gl.mgl.memory_barrier()
+        ox, oy, oz = frame.origin_voxels
+        refine = getattr(field, "refine", None)
+        if refine is None:
+            raise TypeError(f"{type(field).__name__} cannot solve f's inverse")
+        refine(
+            coords,
+            slab.size,
+            (ox, oy, oz + slab.first),
+            shape,
+            constant=options.border == "constant",
+        )
+        self._gl.mgl.memory_barrier()
+        return coords
+
+    def _target(self, slab: Slab, source: SourceVolume) -> moderngl.Texture3D:
+        key = (slab.size, source.target_components, source.texture_dtype)
+        cached = getattr(self, "_target_texture", None)
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        if cached is not None:
+            cached[1].release()
+        texture = self._gl.mgl.texture3d(slab.size, key[1], dtype=key[2])
+        self._target_texture = (key, texture)
+        return texture
+
+    def _read(self, target, slab: Slab, source: SourceVolume, out: np.ndarray) -> None:
+        raw = np.frombuffer(target.read(), dtype=source.data.dtype)
+        values = raw.reshape(slab.depth, slab.height, slab.width, source.target_components)
+        out[slab.first : slab.first + slab.depth] = values[..., : source.channels]
+
+
+def _value_max(source: SourceVolume) -> float:
+    if source.integer:
+        return float(np.iinfo(source.data.dtype).max)
+    return 0.0
+
+
+def make_volume_frame(options: VolumeOptions, shape: tuple[int, int, int]) -> VolumeFrame:
+    """The :class:`VolumeFrame` of ``options`` for a source volume of ``shape``."""
+    return VolumeFrame(
+        options.output_shape or tuple(shape),  # type: ignore[arg-type]
+        options.origin or (0.0, 0.0, 0.0),
+        options.spacing,
+    )

@@ -1,0 +1,157 @@
+"""What the volume construction deforms by: f at the points of a lattice band, written into a
+GL buffer, and f at a list of points, in source voxels.
+
+A :class:`Field` is the construction's view of a 3D MLS for one ``spacing``: positions in
+source voxels ((x, y, z) = (i, j, k) for voxel (k, j, i)) are ``v * (dx, dy, dz)`` in the
+handles' units. :class:`ReferenceField` evaluates the float64 reference
+(:func:`glmls.reference.mls`) on the CPU: the tests' independent f.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import moderngl
+import numpy as np
+
+from .. import reference
+from ..core.config import MLSConfig
+from .frame import CornerLattice
+
+__all__ = ["NEWTON_ACCEPT", "Field", "ReferenceField", "newton_inverse"]
+
+#: A voxel whose Newton residual |f(s) - u| stays above this (voxels) is left uncovered.
+NEWTON_ACCEPT = 0.05
+
+
+class Field(Protocol):
+    """f for the volume construction, in source voxels."""
+
+    #: (dx, dy, dz): handle units per source voxel.
+    scale: np.ndarray
+
+    def evaluate(self, points: np.ndarray) -> np.ndarray:
+        """f at ``points`` ((K, 3) float64 source voxels), (K, 3) float64 source voxels."""
+        ...
+
+    def fill(
+        self, lattice: CornerLattice, first: int, layers: int, target: moderngl.Buffer
+    ) -> None:
+        """f at z layers ``first`` .. ``first + layers - 1`` of ``lattice``'s points into
+        ``target`` from its start: 3 float32 a point, source voxels, layer, row, point
+        order."""
+        ...
+
+
+class ReferenceField:
+    """f of the float64 reference (:func:`glmls.reference.mls`) with (N, 3) handles
+    ``src`` -> ``dst`` (handle units) for voxels of ``spacing`` (dz, dy, dx); ``shape``
+    (D, H, W) gives the default radius (its diagonal), as :func:`glmls.reference.mls`'s."""
+
+    def __init__(
+        self,
+        src: object,
+        dst: object,
+        config: MLSConfig | None = None,
+        *,
+        spacing: tuple[float, float, float] = (1.0, 1.0, 1.0),
+        shape: tuple[int, int, int] | None = None,
+    ) -> None:
+        self.src = np.asarray(src, dtype=np.float64)
+        self.dst = np.asarray(dst, dtype=np.float64)
+        self.config = config if config is not None else MLSConfig()
+        dz, dy, dx = spacing
+        self.scale = np.array([dx, dy, dz], dtype=np.float64)
+        self.shape = shape
+
+    def evaluate(self, points: np.ndarray) -> np.ndarray:
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        if len(points) == 0:
+            return np.zeros((0, 3))
+        f, _, _ = reference.mls(
+            self.src, self.dst, points * self.scale, self.config, shape=self.shape
+        )
+        return f / self.scale
+
+    def fill(
+        self, lattice: CornerLattice, first: int, layers: int, target: moderngl.Buffer
+    ) -> None:
+        points = lattice.layer_points(first, layers).reshape(-1, 3)
+        values = np.empty_like(points)
+        for start in range(0, len(points), 1 << 16):  # bounded memory for the reference
+            values[start : start + (1 << 16)] = self.evaluate(points[start : start + (1 << 16)])
+        target.write(np.ascontiguousarray(values, dtype=np.float32))
+
+    def refine(
+        self,
+        coords: moderngl.Buffer,
+        size: tuple[int, int, int],
+        origin: tuple[float, float, float],
+        shape: tuple[int, int, int],
+        *,
+        constant: bool,
+    ) -> None:
+        """Newton's method in float64 (:func:`newton_inverse`) from the first guesses in
+        ``coords`` ((x, y, z, w) per voxel of a slab of ``size`` (W, H, slices) whose voxel
+        (0, 0, 0) shows ``origin``, source voxels; w < 0: no guess, start at the voxel),
+        written back as the construction's backward pass does."""
+        width, height, depth = size
+        count = width * height * depth
+        raw = np.frombuffer(coords.read(size=count * 16), np.float32).reshape(count, 4)
+        k, j, i = np.meshgrid(np.arange(depth), np.arange(height), np.arange(width), indexing="ij")
+        u = np.stack([i, j, k], axis=-1).reshape(-1, 3) + np.asarray(origin)
+        guess = np.where(raw[:, 3:4] >= 0, raw[:, :3].astype(np.float64), u)
+        s, residual = newton_inverse(self, u, guess)
+        found = residual <= NEWTON_ACCEPT
+        if constant:
+            top = np.array(shape[::-1], dtype=np.float64) - 0.5
+            found &= np.all((s >= -0.5) & (s <= top), axis=1)
+        w = np.where(found, residual, -1.0 - np.minimum(residual, 1e30))
+        out = np.concatenate([s, w[:, None]], axis=1).astype(np.float32)
+        coords.write(np.ascontiguousarray(out))
+
+
+def newton_inverse(
+    field: Field,
+    targets: np.ndarray,
+    guess: np.ndarray,
+    *,
+    tolerance: float = 1e-9,
+    steps: int = 50,
+    max_step: float = 4.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """f's inverse at ``targets`` ((K, 3) source voxels) by Newton's method in float64 from
+    ``guess`` ((K, 3)), the Jacobian by central differences (a thousandth of a voxel), each
+    step at most ``max_step`` voxels long. Returns the last iterates and their residuals
+    |f(s) - u| (voxels)."""
+    s = np.array(guess, dtype=np.float64, copy=True)
+    u = np.asarray(targets, dtype=np.float64)
+    h = 1e-3
+    residual = np.full(len(u), np.inf)
+    active = np.ones(len(u), bool)
+    for _ in range(steps + 1):
+        if not active.any():
+            break
+        idx = np.flatnonzero(active)
+        r = field.evaluate(s[idx]) - u[idx]
+        residual[idx] = np.linalg.norm(r, axis=1)
+        done = residual[idx] <= tolerance
+        active[idx[done]] = False
+        idx, r = idx[~done], r[~done]
+        if len(idx) == 0:
+            break
+        jac = np.empty((len(idx), 3, 3))
+        for axis in range(3):
+            step = np.zeros(3)
+            step[axis] = h
+            jac[:, :, axis] = (field.evaluate(s[idx] + step) - field.evaluate(s[idx] - step)) / (
+                2 * h
+            )
+        ok = np.abs(np.linalg.det(jac)) > 1e-12
+        delta = np.zeros((len(idx), 3))
+        delta[ok] = np.linalg.solve(jac[ok], r[ok][:, :, None])[:, :, 0]
+        length = np.linalg.norm(delta, axis=1)
+        factor = np.where(length > max_step, max_step / np.maximum(length, 1e-300), 1.0)
+        s[idx] -= delta * factor[:, None]
+        active[idx[~ok]] = False
+    return s, residual

@@ -1,0 +1,176 @@
+"""The output canvas of a volume warp and the lattice of voxel corners.
+
+- :class:`VolumeFrame`: ``shape`` (D, H, W) output voxels; output voxel (k, j, i) shows the
+  deformed space's point ``origin + (i dx, j dy, k dz)`` (handle units, ``spacing`` =
+  (dz, dy, dx)). Inside the construction every position is in source voxels: point
+  (x, y, z) in handle units is (x / dx, y / dy, z / dz) there.
+- :class:`VolumeBounds`: the bounding box of a deformed volume and the canvas showing it.
+- :class:`CornerLattice`: the voxel-corner lattice, step ``grid`` voxels, ``margin`` voxels
+  past every side, and its cells in scan order.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..imaging.frame import FIT_SLACK
+
+__all__ = ["CornerLattice", "VolumeBounds", "VolumeFrame"]
+
+
+@dataclass(frozen=True)
+class VolumeFrame:
+    """The output canvas: ``shape`` (D, H, W), ``origin`` (x0, y0, z0) in handle units,
+    ``spacing`` (dz, dy, dx)."""
+
+    shape: tuple[int, int, int]
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    spacing: tuple[float, float, float] = (1.0, 1.0, 1.0)
+
+    @property
+    def scale(self) -> np.ndarray:
+        """(dx, dy, dz): handle units per source voxel along x, y, z."""
+        dz, dy, dx = self.spacing
+        return np.array([dx, dy, dz])
+
+    @property
+    def origin_voxels(self) -> tuple[float, float, float]:
+        """The origin in source voxels (x, y, z)."""
+        x, y, z = np.asarray(self.origin) / self.scale
+        return float(x), float(y), float(z)
+
+    @property
+    def voxels(self) -> int:
+        d, h, w = self.shape
+        return d * h * w
+
+
+@dataclass(frozen=True)
+class VolumeBounds:
+    """The bounding box of a deformed volume, and the canvas that shows all of it.
+
+    In handle units: the deformed corners of the voxel cubes, so the identity on a volume of
+    shape (D, H, W) and spacing (dz, dy, dx) gives x from -dx/2 to (W - 1/2) dx. Made by
+    :func:`glmls.volume.volume_bounds`.
+
+    Parameters
+    ----------
+    x0, y0, z0 : float
+        The box's smallest x, y, z.
+    x1, y1, z1 : float
+        Its largest.
+    spacing : (float, float, float)
+        (dz, dy, dx), the voxel size of the canvas.
+
+    Examples
+    --------
+    >>> from glmls.volume import VolumeBounds
+    >>> b = VolumeBounds(-0.5, -0.5, -0.5, 5.5, 3.5, 1.5)
+    >>> b.output_shape, b.origin
+    ((2, 4, 6), (0.0, 0.0, 0.0))
+    >>> VolumeBounds(-3.2, 0.5, 0.0, 40.5, 20.9, 2.0).output_shape
+    (3, 21, 44)
+    """
+
+    x0: float
+    y0: float
+    z0: float
+    x1: float
+    y1: float
+    z1: float
+    spacing: tuple[float, float, float] = (1.0, 1.0, 1.0)
+
+    def _axes(self):
+        dz, dy, dx = self.spacing
+        return ((self.x0, self.x1, dx), (self.y0, self.y1, dy), (self.z0, self.z1, dz))
+
+    @property
+    def origin(self) -> tuple[float, float, float]:
+        """(x0, y0, z0) of the first voxel the box touches (whole voxels)."""
+        x, y, z = (float(math.floor(lo / d + 0.5 + FIT_SLACK)) * d for lo, _, d in self._axes())
+        return x, y, z
+
+    @property
+    def output_shape(self) -> tuple[int, int, int]:
+        """(D, H, W) of the voxels the box touches, at least 1 each."""
+        sizes = []
+        for lo, hi, d in self._axes():
+            first = math.floor(lo / d + 0.5 + FIT_SLACK)
+            sizes.append(max(1, math.ceil(hi / d - 0.5 - FIT_SLACK) - first + 1))
+        w, h, depth = sizes
+        return depth, h, w
+
+
+@dataclass(frozen=True)
+class CornerLattice:
+    """The corners of the voxel cubes of a volume of ``shape`` (D, H, W), every ``grid``
+    voxels, ``margin`` voxels (a multiple of ``grid``) past every side: point (a, b, c) is
+    at (x, y, z) = (-margin - 1/2 + grid (a, b, c)), each clamped to the last corner
+    ``size + margin - 1/2``. Cells are numbered in scan order of the source,
+    ((z cell) ny + y cell) nx + x cell."""
+
+    shape: tuple[int, int, int]
+    grid: int = 1
+    margin: int = 0
+
+    @property
+    def sizes(self) -> tuple[int, int, int]:
+        """(W, H, D) with the margin."""
+        d, h, w = self.shape
+        m = 2 * self.margin
+        return w + m, h + m, d + m
+
+    @property
+    def dims(self) -> tuple[int, int, int]:
+        """Points along x, y, z."""
+        x, y, z = (math.ceil(n / self.grid) + 1 for n in self.sizes)
+        return x, y, z
+
+    @property
+    def cells(self) -> tuple[int, int, int]:
+        """Cells along x, y, z."""
+        x, y, z = self.dims
+        return x - 1, y - 1, z - 1
+
+    @property
+    def cell_count(self) -> int:
+        x, y, z = self.cells
+        return x * y * z
+
+    @property
+    def first(self) -> float:
+        """The first point's coordinate on every axis, voxels."""
+        return -self.margin - 0.5
+
+    @property
+    def last(self) -> tuple[float, float, float]:
+        """The last point's (x, y, z), voxels: every coordinate is clamped to it."""
+        d, h, w = self.shape
+        return w + self.margin - 0.5, h + self.margin - 0.5, d + self.margin - 0.5
+
+    def axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """x, y and z of the points along each axis, voxels."""
+        return tuple(  # type: ignore[return-value]
+            np.minimum(self.first + self.grid * np.arange(n), last)
+            for n, last in zip(self.dims, self.last, strict=True)
+        )
+
+    def layer_points(self, first: int, layers: int) -> np.ndarray:
+        """The points of z layers ``first`` .. ``first + layers - 1``, (layers, ny, nx, 3)
+        float64 (x, y, z), voxels."""
+        xs, ys, zs = self.axes()
+        z, y, x = np.meshgrid(zs[first : first + layers], ys, xs, indexing="ij")
+        return np.stack([x, y, z], axis=-1)
+
+    def uniforms(self) -> dict[str, object]:
+        """Those of ``glmls/shaders/volume/lattice.glsl``."""
+        return {
+            "u_lattice_dims": self.dims,
+            "u_lattice_first": self.first,
+            "u_lattice_last": self.last,
+            "u_lattice_grid": self.grid,
+            "u_lattice_margin": self.margin,
+        }

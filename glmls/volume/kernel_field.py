@@ -1,0 +1,102 @@
+"""f of a 3D MLS on the GPU for the volume construction: the lattice band pass
+(``volume/lattice.comp.glsl``) and Newton's method for the backward method
+(``volume/newton.comp.glsl``), both evaluating the kernel's f (``mls3/core.glsl``) through
+``volume/field.glsl``, in source voxels of the volume's spacing."""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from ..engine.kernel3 import MLSKernel3
+from ..engine.passes3 import evaluate_points3
+from ..gl import bindings
+from ..gl.dispatch import run_1d, set_uniforms
+from .fields import NEWTON_ACCEPT
+from .frame import CornerLattice
+
+__all__ = ["NEWTON_STEPS", "NEWTON_TOLERANCE", "KernelField"]
+
+#: Newton on f stops below this residual |f(s) - u| (voxels) ...
+NEWTON_TOLERANCE = 1e-3
+#: ... or after this many steps; a voxel whose residual stays above
+#: :data:`~glmls.volume.fields.NEWTON_ACCEPT` is left uncovered.
+NEWTON_STEPS = 8
+#: Each step goes at most this share of the volume's largest side (far from the solution
+#: Newton's step may overshoot).
+NEWTON_MAX_STEP = 0.1
+
+
+class KernelField:
+    """The :class:`~glmls.volume.fields.Field` of an :class:`~glmls.engine.kernel3.MLSKernel3`
+    for voxels of ``spacing`` (dz, dy, dx); ``shape`` (D, H, W), the volume whose diagonal is
+    the default radius (None: the kernel's own)."""
+
+    def __init__(
+        self,
+        kernel: MLSKernel3,
+        spacing: tuple[float, float, float] = (1.0, 1.0, 1.0),
+        shape: tuple[int, int, int] | None = None,
+    ) -> None:
+        self.kernel = kernel
+        dz, dy, dx = spacing
+        self.scale = np.array([dx, dy, dz], dtype=np.float64)
+        self.shape = shape
+
+    def _uniforms(self) -> dict[str, object]:
+        return {"u_volume_scale": tuple(float(c) for c in self.scale)}
+
+    def evaluate(self, points: np.ndarray) -> np.ndarray:
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        f, _ = evaluate_points3(self.kernel, points * self.scale, output="f", shape=self.shape)
+        return f / self.scale
+
+    def fill(
+        self, lattice: CornerLattice, first: int, layers: int, target: moderngl.Buffer
+    ) -> None:
+        nx, ny, _ = lattice.dims
+        count = nx * ny * layers
+        kernel = self.kernel
+        program = kernel.program("volume/lattice.comp.glsl")
+        with kernel.gl.use():
+            kernel.bind(program, self.shape)
+            set_uniforms(program, lattice.uniforms() | self._uniforms() | {"u_first_layer": first})
+            target.bind_to_storage_buffer(bindings.VOLUME_LATTICE.index)
+            run_1d(program, count, max_groups=kernel.gl.limits["max_work_groups_x"])
+            kernel.gl.mgl.memory_barrier()
+
+    def refine(
+        self,
+        coords: moderngl.Buffer,
+        size: tuple[int, int, int],
+        origin: tuple[float, float, float],
+        shape: tuple[int, int, int],
+        *,
+        constant: bool,
+    ) -> None:
+        """Newton's method on the GPU from the first guesses in ``coords`` (see
+        ``volume/newton.comp.glsl``) for a slab of ``size`` (W, H, slices) whose voxel
+        (0, 0, 0) shows ``origin`` (source voxels), of a volume of ``shape``."""
+        kernel = self.kernel
+        defines = {"WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": 0 if constant else 1}
+        program = kernel.program("volume/newton.comp.glsl", defines)
+        width, height, depth = size
+        with kernel.gl.use():
+            kernel.bind(program, self.shape)
+            set_uniforms(
+                program,
+                self._uniforms()
+                | {
+                    "u_slab_size": size,
+                    "u_slab_origin": origin,
+                    "u_volume_size": shape[::-1],
+                    "u_tolerance": NEWTON_TOLERANCE,
+                    "u_accept": NEWTON_ACCEPT,
+                    "u_max_step": NEWTON_MAX_STEP * max(shape),
+                },
+            )
+            coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
+            kernel.gl.mgl.memory_barrier()
+            groups = kernel.gl.limits["max_work_groups_x"]
+            run_1d(program, width * height * depth, max_groups=groups)
+            kernel.gl.mgl.memory_barrier()

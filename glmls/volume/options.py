@@ -1,0 +1,229 @@
+"""The options of a volume warp as one value (:class:`VolumeOptions`), and how the
+construction cuts a volume into slabs (:class:`SlabOptions`)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.handles import COORDINATE_LIMIT
+from ..core.mesh import check_grid
+from ..imaging.source import BORDERS, INTERPOLATIONS, check_background
+
+__all__ = ["VOLUME_METHODS", "SlabOptions", "VolumeOptions"]
+
+#: How a deformed volume is built: ``quads`` (the default, named as the 2D default): the cells
+#: method, the deformed cells of the voxel-corner lattice, each split into 6 tetrahedra,
+#: filled; ``backward``: each output voxel samples the source at its preimage under f.
+VOLUME_METHODS = ("quads", "backward")
+
+
+def _triple(value: object, name: str, what: str) -> tuple:
+    if isinstance(value, (str, bytes)) or not isinstance(value, (Iterable, np.ndarray)):
+        raise TypeError(f"{name} must be {what}, got {value!r}")
+    items = list(value)  # type: ignore[call-overload]
+    if len(items) != 3:
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+    return tuple(items)
+
+
+def _real(value: object) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, (bool, np.bool_)
+    )
+
+
+def check_volume_shape(shape: object, name: str = "output_shape") -> tuple[int, int, int] | None:
+    """``shape`` as (D, H, W) ints >= 1 (None stays None); ``TypeError``/``ValueError``."""
+    if shape is None:
+        return None
+    dims = _triple(shape, name, "(D, H, W) integers")
+    if not all(_real(n) and float(n).is_integer() for n in dims):
+        raise ValueError(f"{name} must be (D, H, W) integers, got {shape!r}")
+    out = (int(dims[0]), int(dims[1]), int(dims[2]))
+    if min(out) < 1:
+        raise ValueError(f"{name} must have D, H, W >= 1, got {shape!r}")
+    return out
+
+
+def check_volume_origin(origin: object) -> tuple[float, float, float] | None:
+    """``origin`` as (x0, y0, z0) finite floats (None stays None)."""
+    if origin is None:
+        return None
+    values = _triple(origin, "origin", "(x0, y0, z0) real numbers")
+    if not all(_real(v) for v in values):
+        raise ValueError(f"origin must be (x0, y0, z0) real numbers, got {origin!r}")
+    point = (float(values[0]), float(values[1]), float(values[2]))
+    if not all(math.isfinite(v) and abs(v) <= COORDINATE_LIMIT for v in point):
+        raise ValueError(
+            f"origin must be finite and within ±{COORDINATE_LIMIT:.0e}, got {origin!r}"
+        )
+    return point
+
+
+def check_spacing(spacing: object) -> tuple[float, float, float]:
+    """``spacing`` as (dz, dy, dx) finite floats > 0."""
+    values = _triple(spacing, "spacing", "(dz, dy, dx) positive numbers")
+    if not all(_real(v) and math.isfinite(float(v)) and float(v) > 0 for v in values):
+        raise ValueError(f"spacing must be (dz, dy, dx) positive numbers, got {spacing!r}")
+    return (float(values[0]), float(values[1]), float(values[2]))
+
+
+@dataclass(frozen=True, kw_only=True)
+class VolumeOptions:
+    """What volume a 3D warp builds: the keywords of :func:`glmls.volume.warp_volume`.
+
+    Validated when made; frozen, so one value can be changed with
+    :func:`dataclasses.replace`.
+
+    Parameters
+    ----------
+    method : {"quads", "backward"}, default "quads"
+        ``"quads"``, the cells method: the lattice of voxel corners (step ``grid``) is
+        deformed by f, each deformed cell split into 6 tetrahedra and filled (the paper's
+        construction in 3D; where cells fold, the first cell in scan order of the source,
+        smallest (z, y, x), shows). ``"backward"``: each output voxel samples the source at
+        its preimage under f, found by Newton's method from the cells' piecewise linear
+        inverse (``grid`` is that first guess's lattice step).
+    interpolation : {"nearest", "linear"}, default "nearest"
+        One source voxel's value, or trilinear interpolation (float32).
+    grid : int, default 1
+        The lattice step in voxels.
+    border : {"constant", "edge", "symmetric", "reflect", "wrap"}, default "constant"
+        What lies beyond the source volume (:data:`glmls.BORDERS`, numpy.pad's meanings).
+    background : float or tuple of float, default 0.0
+        What uncovered voxels hold: a scalar, or one value per channel.
+    output_shape : (int, int, int) or None, default None
+        (D, H, W) of the output; None: the input's.
+    origin : (float, float, float) or None, default None
+        (x0, y0, z0): output voxel (k, j, i) shows the deformed space's point
+        ``origin + (i dx, j dy, k dz)`` (handle units); None: (0, 0, 0).
+    spacing : (float, float, float), default (1.0, 1.0, 1.0)
+        (dz, dy, dx): voxel (k, j, i) of the source sits at (i dx, j dy, k dz) in the
+        handles' units, and so does output voxel (k, j, i), shifted by ``origin``.
+
+    Raises
+    ------
+    ValueError, TypeError
+        For a bad value, named.
+
+    Examples
+    --------
+    >>> from glmls.volume import VolumeOptions
+    >>> VolumeOptions(method="backward", output_shape=[4, 5, 6]).output_shape
+    (4, 5, 6)
+    >>> VolumeOptions(method="splat")
+    Traceback (most recent call last):
+    ...
+    ValueError: unknown method 'splat' for a volume; choose one of quads, backward
+    """
+
+    method: str = "quads"
+    interpolation: str = "nearest"
+    grid: int = 1
+    border: str = "constant"
+    background: float | tuple[float, ...] = 0.0
+    output_shape: tuple[int, int, int] | None = None
+    origin: tuple[float, float, float] | None = None
+    spacing: tuple[float, float, float] = (1.0, 1.0, 1.0)
+
+    def __post_init__(self) -> None:
+        for name, value, choices in (
+            ("method", self.method, VOLUME_METHODS),
+            ("interpolation", self.interpolation, INTERPOLATIONS),
+            ("border", self.border, BORDERS),
+        ):
+            if not isinstance(value, str) or value not in choices:
+                extra = " for a volume" if name == "method" else ""
+                raise ValueError(
+                    f"unknown {name} {value!r}{extra}; choose one of {', '.join(choices)}"
+                )
+        checked = {
+            "grid": check_grid(self.grid),
+            "background": check_background(self.background),
+            "output_shape": check_volume_shape(self.output_shape),
+            "origin": check_volume_origin(self.origin),
+            "spacing": check_spacing(self.spacing),
+        }
+        for name, value in checked.items():
+            object.__setattr__(self, name, value)
+
+    @classmethod
+    def of(cls, options: VolumeOptions | None = None, **keywords: object) -> VolumeOptions:
+        """``options`` (None: the defaults) with ``keywords`` replacing its fields.
+
+        Parameters
+        ----------
+        options : VolumeOptions or None
+            The starting value.
+        **keywords
+            Fields of :class:`VolumeOptions`.
+
+        Returns
+        -------
+        VolumeOptions
+            A validated value.
+
+        Raises
+        ------
+        TypeError
+            For a keyword that is no field (named), or ``options`` of another type.
+
+        Examples
+        --------
+        >>> from glmls.volume import VolumeOptions
+        >>> VolumeOptions.of(VolumeOptions(grid=2), method="backward").grid
+        2
+        """
+        if options is not None and not isinstance(options, VolumeOptions):
+            raise TypeError(f"options must be a VolumeOptions, got {type(options).__name__}")
+        fields = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(keywords) - fields)
+        if unknown:
+            raise TypeError(
+                f"unknown volume warp option{'s' if len(unknown) > 1 else ''} "
+                f"{', '.join(unknown)}; the options are {', '.join(sorted(fields))}"
+            )
+        given = {k: v for k, v in keywords.items() if type(v).__name__ != "Default"}
+        given = {k: getattr(v, "wrapped", v) for k, v in given.items()}
+        if options is None:
+            return cls(**given)  # type: ignore[arg-type]
+        return dataclasses.replace(options, **given) if given else options  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class SlabOptions:
+    """How the volume construction cuts its work into slabs and bands.
+
+    The most bytes of one output slab's buffers (keys or coordinates, and the slab texture)
+    and of one band of the deformed lattice. Smaller values give more slabs and bands, the
+    same result.
+
+    Parameters
+    ----------
+    slab_bytes : int, default 2**26
+        The output slab's largest buffer (4 bytes a voxel for the keys, 16 for backward's
+        source points).
+    band_bytes : int, default 2**27
+        The deformed lattice's buffer (12 bytes a lattice point); the GL limit of a storage
+        buffer caps it.
+
+    Examples
+    --------
+    >>> from glmls.volume import SlabOptions
+    >>> SlabOptions(slab_bytes=4096).slab_bytes
+    4096
+    """
+
+    slab_bytes: int = 1 << 26
+    band_bytes: int = 1 << 27
+
+    def __post_init__(self) -> None:
+        for name in ("slab_bytes", "band_bytes"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 64:
+                raise ValueError(f"{name} must be an integer >= 64, got {value!r}")

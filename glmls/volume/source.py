@@ -1,0 +1,141 @@
+"""Volumes on their way to the GPU: validation, the 3D texture they are uploaded as, the image
+format of the output slabs, the background, and the conversion back to the caller's form.
+
+Every dtype keeps its values exactly: uint8 and uint16 volumes are integer textures (R8UI,
+R16UI, ...), read with ``texelFetch`` (no normalisation, no hardware filtering: trilinear
+interpolation is done in float32 in the shader), float32 volumes are R32F textures; float64
+volumes are computed as float32 and returned as float64.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "VOLUME_DTYPES",
+    "SourceVolume",
+    "check_volume",
+    "prepare_volume",
+    "volume_background",
+]
+
+#: The dtypes :func:`glmls.volume.warp_volume` takes (float64 is computed as float32).
+VOLUME_DTYPES = (np.uint8, np.uint16, np.float32, np.float64)
+
+#: dtype -> (moderngl texture dtype, GLSL image format stem, integer texture?)
+_FORMATS = {
+    np.dtype(np.uint8): ("u1", "8ui", True),
+    np.dtype(np.uint16): ("u2", "16ui", True),
+    np.dtype(np.float32): ("f4", "32f", False),
+    np.dtype(np.float64): ("f4", "32f", False),
+}
+_STEMS = {1: "r", 2: "rg", 3: "rgba", 4: "rgba"}  # image load/store has no 3-channel format
+
+
+def check_volume(volume: object, name: str = "volume") -> np.ndarray:
+    """``volume`` as an array, D x H x W or D x H x W x C (C in 1..4), of a dtype of
+    :data:`VOLUME_DTYPES`, not empty; ``TypeError``/``ValueError`` naming it as ``name``."""
+    array = np.asarray(volume)
+    if array.dtype not in VOLUME_DTYPES:
+        names = ", ".join(np.dtype(d).name for d in VOLUME_DTYPES)
+        raise TypeError(f"{name} dtype must be one of {names}; got {array.dtype}")
+    if array.ndim == 2:
+        raise ValueError(
+            f"{name} of shape {array.shape} is a 2D image; a 3D MLS ((N, 3) handles) "
+            "warps volumes D x H x W or D x H x W x C: give (N, 2) handles for images"
+        )
+    if array.ndim not in (3, 4) or (array.ndim == 4 and not 1 <= array.shape[3] <= 4):
+        raise ValueError(
+            f"{name} must be D x H x W or D x H x W x C with C in 1..4, got {array.shape}"
+        )
+    if array.size == 0:
+        raise ValueError(f"{name} is empty: shape {array.shape}")
+    return array
+
+
+@dataclass(frozen=True)
+class SourceVolume:
+    """A volume prepared for the GPU: (D, H, W, C) data of a texture dtype, and what to
+    restore."""
+
+    data: np.ndarray
+    dtype: np.dtype
+    squeeze: bool  # the input was (D, H, W)
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """(D, H, W)."""
+        d, h, w = self.data.shape[:3]
+        return int(d), int(h), int(w)
+
+    @property
+    def channels(self) -> int:
+        return int(self.data.shape[3])
+
+    @property
+    def integer(self) -> bool:
+        """Held in an integer texture (uint8, uint16)."""
+        return _FORMATS[self.dtype][2]
+
+    @property
+    def texture_dtype(self) -> str:
+        """moderngl's dtype of the source texture and of the output slabs."""
+        return _FORMATS[self.dtype][0]
+
+    @property
+    def target_components(self) -> int:
+        """Components of the output slab texture (3 channels are stored as 4)."""
+        return 4 if self.channels == 3 else self.channels
+
+    @property
+    def image_format(self) -> str:
+        """The GLSL image format of the output slab texture, e.g. ``r16ui``."""
+        return _STEMS[self.channels] + _FORMATS[self.dtype][1]
+
+    @property
+    def voxel_bytes(self) -> int:
+        """Bytes of one voxel of the output slab texture."""
+        return self.target_components * np.dtype(self.data.dtype).itemsize
+
+    def empty_output(self, shape: tuple[int, int, int]) -> np.ndarray:
+        """The output array of ``shape`` (D, H, W) in the caller's dtype and channels."""
+        full = (*shape, self.channels)
+        return np.empty(full, self.dtype)
+
+    def view(self, out: np.ndarray) -> np.ndarray:
+        """``out`` (D, H, W, C) as the caller's form."""
+        return out[..., 0] if self.squeeze else out
+
+
+def prepare_volume(volume: object) -> SourceVolume:
+    """Validate a volume (:func:`check_volume`) as (D, H, W, C), contiguous, in the dtype of
+    its texture (float64 as float32; the others not copied where already contiguous)."""
+    array = check_volume(volume)
+    squeeze = array.ndim == 3
+    data = array[..., None] if squeeze else array
+    dtype = array.dtype
+    target = np.float32 if dtype == np.float64 else dtype
+    return SourceVolume(np.ascontiguousarray(data, dtype=target), np.dtype(dtype), squeeze)
+
+
+def volume_background(background: object, volume: SourceVolume) -> tuple[float, ...]:
+    """The value of uncovered voxels as 4 floats: ``background`` is a scalar (every channel)
+    or one value per channel; ``ValueError`` for another count, or a value outside an integer
+    dtype's range."""
+    channels = volume.channels
+    values = np.asarray(background, dtype=np.float64)
+    if values.ndim == 0:
+        values = np.full(channels, float(values))
+    if values.ndim != 1 or len(values) != channels:
+        raise ValueError(
+            f"background must be a scalar or {channels} values (one per channel), "
+            f"got {background!r}"
+        )
+    if np.issubdtype(volume.dtype, np.integer):
+        top = np.iinfo(volume.dtype).max
+        if not np.all((values >= 0) & (values <= top)):
+            raise ValueError(f"background {background!r} is outside 0..{top} of {volume.dtype}")
+    out = [float(v) for v in values]
+    return (*out, *[0.0] * (4 - len(out)))

@@ -1,0 +1,133 @@
+"""The cells method (``quads``) on volumes, against the float64 reference of its definition."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import box_handles
+from volume_reference import warp_cells
+
+from glmls.core.config import MLSConfig
+from glmls.volume import SlabOptions, VolumeOptions, warp_volume
+from glmls.volume.construction import VolumeWarper
+from glmls.volume.fields import ReferenceField
+from glmls.volume.kernel_field import KernelField
+
+SHAPE = (10, 12, 14)
+
+
+@pytest.fixture
+def volume(rng):
+    return rng.integers(0, 256, SHAPE, dtype=np.uint8)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32, np.float64])
+@pytest.mark.parametrize("channels", [None, 1, 2, 3, 4])
+def test_identity_reproduces_the_volume(kernel3, rng, dtype, channels):
+    shape = (6, 7, 9) if channels is None else (6, 7, 9, channels)
+    volume = (rng.random(shape) * 1000).astype(dtype)
+    src, _ = box_handles(shape[:3], rng)
+    m = kernel3(src, src, shape[:3])
+    for method in ("quads", "backward"):
+        out = warp_volume(m, volume, method=method)
+        assert out.dtype == volume.dtype and out.shape == volume.shape
+        # float64 is computed as float32
+        np.testing.assert_array_equal(out, volume.astype(np.float32).astype(dtype))
+
+
+@pytest.mark.parametrize("method", ["quads", "backward"])
+@pytest.mark.parametrize("interpolation", ["nearest", "linear"])
+def test_integer_translation_shifts_exactly(kernel3, rng, volume, method, interpolation):
+    src, _ = box_handles(SHAPE, rng)
+    shift = np.array([3, -2, 1])  # x, y, z
+    m = kernel3(src, src + shift, SHAPE, transform="rigid")
+    out = warp_volume(m, volume, method=method, interpolation=interpolation, background=7)
+    expected = np.full(SHAPE, 7, np.uint8)
+    expected[1:, :-2, 3:] = volume[:-1, 2:, :-3]
+    np.testing.assert_array_equal(out, expected)
+
+
+@pytest.mark.parametrize("interpolation", ["nearest", "linear"])
+@pytest.mark.parametrize("grid", [1, 3])
+def test_cells_match_the_reference(kernel3, rng, volume, interpolation, grid):
+    """Voxels whose centre lies within float32 noise of a tetrahedron's face may go to the
+    other side: at most 1% differ, each at most one value of 255 (linear) off beyond."""
+    src, dst = box_handles(SHAPE, rng, count=12, spread=2.5)
+    config = {"transform": "similarity", "weight": "idw", "alpha": 1.0}
+    m = kernel3(src, dst, SHAPE, **config)
+    out = warp_volume(m, volume, grid=grid, interpolation=interpolation, background=3)
+    field = ReferenceField(src, dst, MLSConfig(**config), shape=SHAPE)
+    expected = warp_cells(
+        field, volume[..., None], grid=grid, linear=interpolation == "linear", background=3
+    )[..., 0]
+    expected = np.clip(np.rint(expected), 0, 255)
+    off = np.abs(out.astype(float) - expected)
+    assert np.mean(off > 1) < 0.01
+    assert np.mean(off > 0) < (0.02 if interpolation == "linear" else 0.01)
+
+
+def test_folds_show_the_first_cell_in_scan_order(gl, rng):
+    """A map that folds the volume over itself: the reference keeps the first cell in scan
+    order, and so does the GPU (the float64 reference field on both sides, so that only the
+    construction is compared)."""
+    shape = (8, 9, 10)
+    volume = rng.integers(0, 256, shape, dtype=np.uint8)
+    src = np.array([[0, 0, 0], [9, 0, 0], [0, 8, 0], [0, 0, 7], [9, 8, 7], [4.5, 4, 3.5]])
+    dst = src.copy()
+    dst[5] = [8.0, 6.0, 6.0]  # the middle pulled far past the far corner: a fold
+    field = ReferenceField(src, dst, MLSConfig(transform="affine"), shape=shape)
+    out = VolumeWarper.of(gl).warp(field, volume, VolumeOptions())
+    expected = warp_cells(field, volume[..., None])[..., 0]
+    assert np.mean(out != expected) < 0.01
+
+
+def test_slabs_are_invisible(kernel3, rng, volume):
+    src, dst = box_handles(SHAPE, rng, count=14, spread=3.0)
+    m = kernel3(src, dst, SHAPE, transform="affine")
+    # slabs of 3 slices, bands of 2 to 5 layers of cells (the margin of wrap widens them)
+    small = SlabOptions(slab_bytes=14 * 12 * 16 * 3, band_bytes=30 * 30 * 12 * 3)
+    for method in ("quads", "backward"):
+        for border in ("constant", "wrap"):
+            options = VolumeOptions(method=method, border=border, interpolation="linear")
+            whole = warp_volume(m, volume, options)
+            sliced = warp_volume(m, volume, options, slabs=small)
+            np.testing.assert_array_equal(whole, sliced)
+
+
+def test_kernel_field_fills_the_lattice_as_the_reference(kernel3, gl, rng, volume):
+    src, dst = box_handles(SHAPE, rng, count=10, spread=2.0)
+    m = kernel3(src, dst, SHAPE, transform="rigid")
+    field = ReferenceField(src, dst, MLSConfig(transform="rigid"), shape=SHAPE)
+    gpu = VolumeWarper.of(gl).warp(KernelField(m, shape=SHAPE), volume, VolumeOptions())
+    cpu = VolumeWarper.of(gl).warp(field, volume, VolumeOptions())
+    assert np.mean(gpu != cpu) < 0.01
+
+
+def test_output_canvas_and_origin(kernel3, rng, volume):
+    src, _ = box_handles(SHAPE, rng)
+    m = kernel3(src, src, SHAPE)
+    out = warp_volume(m, volume, output_shape=(4, 5, 6), origin=(2, 3, 1))
+    np.testing.assert_array_equal(out, volume[1:5, 3:8, 2:8])
+
+
+def test_spacing_puts_voxels_at_physical_positions(kernel3, rng, volume):
+    """Voxel (k, j, i) sits at (i dx, j dy, k dz): a translation by whole voxels in physical
+    units shifts by whole voxels, and an anisotropic map matches the reference construction
+    evaluated in physical units."""
+    spacing = (2.5, 1.0, 0.5)
+    scale = np.array([spacing[2], spacing[1], spacing[0]])
+    src, dst = box_handles(SHAPE, rng, count=10, spread=2.0)
+    shifted = kernel3(src * scale, (src + [3, -2, 1]) * scale, SHAPE, transform="rigid")
+    expected = np.zeros(SHAPE, np.uint8)
+    expected[1:, :-2, 3:] = volume[:-1, 2:, :-3]
+    for method in ("quads", "backward"):
+        out = warp_volume(shifted, volume, method=method, spacing=spacing)
+        np.testing.assert_array_equal(out, expected)
+    config = {"transform": "rigid", "weight": "idw"}
+    m = kernel3(src * scale, dst * scale, SHAPE, **config)
+    out = warp_volume(m, volume, spacing=spacing)
+    field = ReferenceField(
+        src * scale, dst * scale, MLSConfig(**config), spacing=spacing, shape=SHAPE
+    )
+    reference = warp_cells(field, volume[..., None])[..., 0]
+    assert np.mean(out != reference) < 0.01
