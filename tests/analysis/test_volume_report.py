@@ -160,3 +160,23 @@ def test_bad_pictures_raise():
 def test_glmls_analysis_exports_the_3d_names():
     for name in ("volume_report", "VolumeReport", "cell_jacobians", "tetrahedron_errors"):
         assert name in glmls.analysis.__all__
+
+
+def test_on_the_gpu_the_report_matches_the_reference_and_warps_the_volume(gl):
+    pytest.importorskip("glmls.volume")
+    dst = SRC.copy()
+    dst[5], dst[6] = SRC[6], SRC[5]
+    with glmls.MLS(SRC, dst, transform="affine", shape=SHAPE, ctx=gl) as m:
+        found = volume_report(volume(), m, grid=2)
+        warped = m.warp(volume())
+    assert_array_equal(found.deformed, warped)
+    assert found.summary["deformed"] is True and "deformed" in found.images
+    exact = volume_report(volume(), crossing(), grid=2)
+    for key in ("mean", "median", "max"):
+        assert found.summary["error_field"][key] == pytest.approx(
+            exact.summary["error_field"][key], rel=1e-4
+        )
+    # float32 on the GPU: a cell whose det J is within rounding of 0 may go either way
+    assert abs(found.jacobians.count - exact.jacobians.count) <= 2
+    assert found.jacobians.count > 0
+    assert_array_equal(found.tetrahedra.inverted, exact.tetrahedra.inverted)

@@ -58,6 +58,8 @@ def test_analyze_a_volume_writes_the_report_and_pictures(inputs):
     assert summary["analysis"]["reference_points"] == "given"
     for name in ("input_handles", "error_field", "jacobian_det", "folds"):
         assert (inputs / "rep" / f"{name}.png").stat().st_size > 0, name
+    # the deformed volume where the deformation warps volumes (glmls.volume)
+    assert (inputs / "rep" / "deformed.png").exists() == summary["deformed"]
     assert (
         str(inputs / "rep" / "report.json") in result.stdout or "rep/report.json" in result.stdout
     )
