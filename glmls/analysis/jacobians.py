@@ -39,6 +39,9 @@ from .volume_lattice import (
 
 __all__ = ["CellJacobians", "cell_jacobians"]
 
+#: Corner points per slab of cells (f, J and the SVD of a slab stay within ~1 GB).
+SLAB_POINTS = 1 << 21
+
 #: (permutation of the axes (x, y, z) = (0, 1, 2), its sign) for the six Kuhn tetrahedra.
 KUHN = tuple(
     (order, 1 if sum(a > b for a, b in itertools.combinations(order, 2)) % 2 == 0 else -1)
@@ -204,8 +207,18 @@ def cell_jacobians(m: Deformation3D, shape: Sequence[int], *, grid: int = 1) -> 
     dims = as_volume_shape(shape)
     step = check_grid3(grid)
     z, y, x = (axis_corners(n, step) for n in dims)
-    values = evaluate(m, lattice_points(z, y, x), 3).reshape(len(z), len(y), len(x), 3)
-    det, ratio, min_det = cell_quantities(values, (np.diff(x), np.diff(y), np.diff(z)))
+    cells = (len(z) - 1, len(y) - 1, len(x) - 1)
+    det, ratio, min_det = np.empty(cells), np.empty(cells), np.empty(cells)
+    # slabs of cells along z, each with its two planes of corners: bounded memory
+    slab = max(1, SLAB_POINTS // (len(y) * len(x)))
+    for start in range(0, cells[0], slab):
+        planes = z[start : start + slab + 1]
+        values = evaluate(m, lattice_points(planes, y, x), 3)
+        values = values.reshape(len(planes), len(y), len(x), 3)
+        part = slice(start, start + len(planes) - 1)
+        det[part], ratio[part], min_det[part] = cell_quantities(
+            values, (np.diff(x), np.diff(y), np.diff(planes))
+        )
     folded = (det <= 0) | (min_det <= 0)
     index = [np.arange(n) // step for n in dims]
     mask = folded[np.ix_(*index)]

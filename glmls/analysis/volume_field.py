@@ -225,15 +225,15 @@ def volume_error_field(m: Deformation3D, shape: Sequence[int], *, grid: int = 1)
     step = check_grid3(grid)
     src, dst = as_points3(m.src, "m.src"), as_points3(m.dst, "m.dst")
     z, y, x = (axis_centres(n, step) for n in (depth, height, width))
-    points = lattice_points(z, y, x)
-    values = np.empty(len(points))
-    for start in range(0, len(points), CHUNK):
-        block = points[start : start + CHUNK]
+    field = np.empty((len(z), len(y), len(x)))
+    planes = max(1, CHUNK // (len(y) * len(x)))  # whole planes of points per call of m
+    for start in range(0, len(z), planes):
+        block = lattice_points(z[start : start + planes], y, x)
         matrix, translation = m.matrices(block)
         matrix = np.asarray(matrix, dtype=np.float64).reshape(len(block), 3, 3)
         translation = np.asarray(translation, dtype=np.float64).reshape(len(block), 3)
-        values[start : start + len(block)] = fit_residuals(src, dst, matrix, translation)
-    field = values.reshape(len(z), len(y), len(x))
+        residuals = fit_residuals(src, dst, matrix, translation)
+        field[start : start + planes] = residuals.reshape(-1, len(y), len(x))
     field = interpolate_axis(field, x, width, 2)
     field = interpolate_axis(field, y, height, 1)
     return np.ascontiguousarray(interpolate_axis(field, z, depth, 0))

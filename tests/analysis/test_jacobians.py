@@ -134,3 +134,18 @@ def test_bad_arguments_raise():
         cell_jacobians(lambda v: v[:, :2], (2, 2, 2))
     with pytest.raises(ValueError, match="NaN"):
         cell_jacobians(lambda v: v * np.nan, (2, 2, 2))
+
+
+def test_slabs_of_cells_give_the_same_cells(monkeypatch):
+    m = ReferenceDeformation(
+        [[1.0, 1, 1], [8, 1, 1], [1, 8, 1], [1, 1, 6], [5, 4, 3]],
+        [[1.0, 1, 1], [8, 1, 1], [1, 8, 1], [1, 1, 6], [7, 5, 3]],
+        transform="affine",
+    )
+    whole = cell_jacobians(m, (7, 9, 10), grid=2)
+    from glmls.analysis import jacobians
+
+    monkeypatch.setattr(jacobians, "SLAB_POINTS", 1)  # one plane of cells at a time
+    sliced = cell_jacobians(m, (7, 9, 10), grid=2)
+    for name in ("det", "ratio", "min_det", "folded", "mask"):
+        assert_array_equal(getattr(sliced, name), getattr(whole, name), err_msg=name)

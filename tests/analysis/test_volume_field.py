@@ -126,3 +126,12 @@ def test_the_gpu_deformation_matches_the_reference(gl):
     expected = volume_error_field(ReferenceDeformation(SRC, DST, shape=shape), shape, grid=2)
     # float32 on the GPU: relative to the largest error
     assert np.abs(field - expected).max() <= 1e-3 * expected.max()
+
+
+def test_blocks_of_planes_give_the_same_field(monkeypatch):
+    m = ReferenceDeformation(SRC, DST)
+    whole = volume_error_field(m, (7, 9, 10), grid=2)
+    from glmls.analysis import volume_field
+
+    monkeypatch.setattr(volume_field, "CHUNK", 1)  # one plane of points per call of m
+    assert_allclose(volume_error_field(m, (7, 9, 10), grid=2), whole, rtol=1e-12)
