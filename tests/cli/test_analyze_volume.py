@@ -101,3 +101,13 @@ def test_a_tiff_stack_or_nifti_volume_gives_the_npy_report(inputs, suffix):
             summary.pop(key)
         reports[name] = summary
     assert reports["v.npy"] == reports[f"v{suffix}"]
+
+
+def test_3d_handles_on_an_image_exit_2_with_one_line(inputs):
+    import glmls
+
+    glmls.imwrite(inputs / "a.png", np.zeros((20, 20), np.uint8))
+    result = analyze("a.png", "--handles", "h3.json", "--out", "rep", cwd=inputs)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "3D handles (x, y, z), where 2D handles" in lines[0], result.stderr
