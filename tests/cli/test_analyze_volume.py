@@ -9,7 +9,9 @@ import pytest
 from helpers import run_glmls
 from numpy.testing import assert_allclose
 
+import glmls
 from glmls.analysis import ReferenceDeformation, cell_jacobians, error_stats, volume_error_field
+from glmls.files.volumes import write_volume
 
 SHAPE = (10, 12, 14)
 SRC = [[2, 2, 2], [11, 2, 2], [2, 9, 2], [2, 2, 7], [11, 9, 7], [4, 6, 4], [9, 6, 4]]
@@ -87,8 +89,6 @@ def test_bad_volume_inputs_exit_2_with_one_line(inputs, args, message):
 def test_a_tiff_stack_or_nifti_volume_gives_the_npy_report(inputs, suffix):
     if suffix == ".nii.gz":
         pytest.importorskip("nibabel")
-    from glmls.files.volumes import write_volume
-
     write_volume(inputs / f"v{suffix}", np.load(inputs / "v.npy"))
     reports = {}
     for name in ("v.npy", f"v{suffix}"):
@@ -104,8 +104,6 @@ def test_a_tiff_stack_or_nifti_volume_gives_the_npy_report(inputs, suffix):
 
 
 def test_3d_handles_on_an_image_exit_2_with_one_line(inputs):
-    import glmls
-
     glmls.imwrite(inputs / "a.png", np.zeros((20, 20), np.uint8))
     result = analyze("a.png", "--handles", "h3.json", "--out", "rep", cwd=inputs)
     assert result.returncode == 2
