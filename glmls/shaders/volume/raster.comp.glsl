@@ -1,9 +1,10 @@
 // The cells method, first pass: every cell of a band of the lattice (one invocation each)
 // finds the output voxel centres inside each of its 6 deformed tetrahedra, within the output
 // slab (along each row of the tetrahedron's bounding box, the interval where its 4
-// barycentric coordinates, affine in x, are all >= -VOLUME_INSIDE_EPS), and keeps its key (its index in scan order of the source) in each
-// voxel it contains by atomicMin: once every band has run, a voxel holds the FIRST cell
-// (smallest (z, y, x)) that covers it, whatever the order the cells ran in.
+// barycentric coordinates, affine in x, are all >= -VOLUME_INSIDE_EPS), and keeps its key (6 times its index in scan order of the source, plus
+// the tetrahedron's) in each voxel it contains by atomicMin: once every band has run, a voxel
+// holds the FIRST cell (smallest (z, y, x)) that covers it, and its first tetrahedron that
+// does, whatever the order the cells ran in.
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "volume/lattice.glsl"
@@ -42,8 +43,9 @@ void main() {
     if (any(greaterThan(low, vec3(last) + 0.5)) || any(lessThan(high, vec3(-0.5)))) {
         return;
     }
-    uint key = volume_key_of(cell);
+    uint first_key = 6u * volume_key_of(cell);
     for (int t = 0; t < 6; ++t) {
+        uint key = first_key + uint(t);
         vec3 a = q[0];
         vec3 e1 = q[VOLUME_TETRA[2 * t]] - a;
         vec3 e2 = q[VOLUME_TETRA[2 * t + 1]] - a;
