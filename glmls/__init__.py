@@ -14,6 +14,7 @@ warp pipeline) in :mod:`glmls.gl`, the float64 reference of the mathematics in
 from . import analysis, data, gl, reference
 from .core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
 from .core.handleset import HANDLE_KINDS, HandleSet
+from .core.mesh3 import DeformedMesh
 from .core.segments import polyline_segments
 from .errors import (
     BorderWarning,
@@ -29,6 +30,7 @@ from .imaging.frame import Bounds
 from .imaging.options import WarpOptions
 from .imaging.source import BORDERS, INTERPOLATIONS, METHODS
 from .mls import MLS, InverseMLS, warp
+from .mls3 import MLS3, InverseMLS3  # registers the MLS of 3D handles
 from .version import __version__
 
 __all__ = [
@@ -37,18 +39,21 @@ __all__ = [
     "INTERPOLATIONS",
     "METHODS",
     "MLS",
+    "MLS3",
     "RADIUS_WEIGHTS",
     "TRANSFORMS",
     "WEIGHTS",
     "BorderWarning",
     "Bounds",
     "ContextError",
+    "DeformedMesh",
     "DegenerateHandlesError",
     "GLUnavailableError",
     "HandleSet",
     "ImageWarning",
     "InputFileError",
     "InverseMLS",
+    "InverseMLS3",
     "MLSConfig",
     "ReleasedError",
     "WarpOptions",

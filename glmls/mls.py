@@ -13,15 +13,17 @@ import functools
 import inspect
 import math
 from collections.abc import Callable, Sequence
-from typing import TypeVar
+from typing import ClassVar, TypeVar
 
 import moderngl
 import numpy as np
 
 from .core.config import MLSConfig
 from .core.handles import Scaling, as_points, check_coordinates
+from .core.handles3 import dimension_of
 from .core.handleset import HandleSet
 from .core.mesh import MeshLattice, as_shape, check_grid
+from .core.mesh3 import DeformedMesh
 from .engine.error_field import error_at
 from .engine.error_field import error_field as evaluate_error_field
 from .engine.kernel import DEFAULT_STORAGE, MLSKernel
@@ -127,6 +129,15 @@ class MLS:
     [0, 0, 1, 2, 3, 4]
     """
 
+    #: The dimension of the handles; :data:`kinds` maps each other dimension to the subclass
+    #: that ``MLS(...)`` makes for its handles (``glmls.mls3`` registers 3).
+    dimension = 2
+    kinds: ClassVar[dict[int, type[MLS]]] = {}
+
+    def __new__(cls, src: object = None, *args: object, **kwargs: object) -> MLS:
+        kind = MLS.kinds.get(dimension_of(src)) if cls is MLS else None
+        return object.__new__(kind if kind is not None else cls)
+
     def __init__(
         self,
         src: object,
@@ -200,7 +211,7 @@ class MLS:
         """
         if not isinstance(config, MLSConfig):
             raise TypeError(f"config must be an MLSConfig, got {type(config).__name__}")
-        self = cls.__new__(cls)
+        self = cls.__new__(cls, src)
         self._setup((src, dst, src_segments, dst_segments), config, shape, ctx, storage, bins)
         return self
 
@@ -490,6 +501,45 @@ class MLS:
         v = _points(points)
         f, m = evaluate_points(self._kernel, v, with_matrix=True)
         return m, f - np.einsum("ki,kij->kj", v, m)  # type: ignore[return-value]
+
+    def deform(self, mesh: object) -> DeformedMesh:
+        """A triangle mesh or point cloud deformed by a 3D MLS (one made of (N, 3) handles).
+
+        f at the vertices, the vertex normals carried by the inverse transpose of the
+        Jacobian J = df/dv, det J and the folds, from one pass on the GPU
+        (:class:`~glmls.DeformedMesh`; docs/three_d.md).
+
+        Parameters
+        ----------
+        mesh : object
+            An object with ``.vertices`` (V, 3) and ``.faces`` (F, 3) integer indices (a
+            ``trimesh.Trimesh``; its ``vertex_normals`` are used), a ``(vertices, faces)``
+            tuple, or a (V, 3) array of points (a point cloud: no faces, zero normals).
+
+        Returns
+        -------
+        DeformedMesh
+            The deformed vertices, normals, Jacobians, det J and folds.
+
+        Raises
+        ------
+        ValueError
+            On an MLS of 2D handles, or for a malformed mesh (named).
+        TypeError
+            For vertices that are not real numbers.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> vertices = np.array([[0, 0, 0], [4, 0, 0], [0, 4, 0], [0, 0, 4]], float)
+        >>> faces = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+        >>> with glmls.MLS([[0, 0, 0]], [[1, 1, 1]]) as m:  # a translation
+        ...     out = m.deform((vertices, faces))
+        >>> out.vertices[1].tolist(), out.det_j.round(3).tolist(), out.folded
+        ([5.0, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0], False)
+        """
+        raise ValueError("deform needs a 3D MLS: (N, 3) handles; this MLS has (N, 2) handles")
 
     # -- meshes and images -----------------------------------------------------------------
 

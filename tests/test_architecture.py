@@ -17,7 +17,7 @@ LAYERS = (
     ("glmls.gl",),
     ("glmls.engine",),
     ("glmls.imaging", "glmls.volume"),
-    ("glmls.mls",),
+    ("glmls.mls", "glmls.mls3"),
     ("glmls.analysis",),
     ("glmls.app",),
     ("glmls.cli",),

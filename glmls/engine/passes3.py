@@ -15,10 +15,12 @@ from ..gl.dispatch import run_1d, set_uniforms
 from .kernel3 import MLSKernel3
 
 __all__ = [
+    "INVERSE3_PASS",
     "JACOBIAN_STEP",
     "POINTS3_PASS",
     "evaluate_lattice3",
     "evaluate_points3",
+    "invert_points3",
     "points3_program",
 ]
 
@@ -132,3 +134,55 @@ def evaluate_lattice3(
         groups = max_groups if max_groups is not None else kernel.gl.limits["max_work_groups_x"]
         run_1d(program, count, max_groups=groups)
     return count
+
+
+INVERSE3_PASS = "mls3/inverse.comp.glsl"
+#: Newton's steps on f(s) = u at most, from each of the two starts.
+NEWTON_STEPS3 = 24
+#: Newton stops below this residual |f(s) - u| (voxels).
+NEWTON_TOLERANCE3 = 1e-4
+#: A step moves s by at most this share of the scaled extent (the handles' and volume's box).
+NEWTON_MAX_STEP3 = 0.25
+
+
+def invert_points3(
+    kernel: MLSKernel3,
+    points: np.ndarray,
+    guess: np.ndarray,
+    *,
+    shape: tuple[int, int, int] | None = None,
+    max_groups: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """f's inverse at ``points`` u ((K, 3) float64 voxels) by Newton's method on the GPU from
+    ``guess`` (K, 3), then from u where that does not converge: the source points s (K, 3)
+    and the residuals |f(s) - u| (K,), voxels. ``shape`` as :func:`evaluate_points3`."""
+    count = len(points)
+    if count == 0:
+        kernel.check_alive()
+        return np.zeros((0, 3)), np.zeros(0)
+    scaling = kernel.scaling
+    with kernel.gl.use():
+        program = kernel.program(INVERSE3_PASS)
+        scratch = kernel.scratch
+        data = np.concatenate([scaling.to_gpu(points), scaling.to_gpu(guess)], axis=1)
+        source = scratch.buffer("inverse3", count * 24)
+        source.write(np.ascontiguousarray(data, dtype=np.float32))
+        source.bind_to_storage_buffer(bindings.POINTS.index)
+        out = scratch.buffer("inverse3_out", count * 16)
+        out.bind_to_storage_buffer(bindings.DEFORMED.index)
+        kernel.bind(program, shape)
+        set_uniforms(
+            program,
+            {
+                "u_jacobian_step": JACOBIAN_STEP / scaling.scale,
+                "u_tolerance": NEWTON_TOLERANCE3 / scaling.scale,
+                "u_max_step": NEWTON_MAX_STEP3,
+                "u_steps": NEWTON_STEPS3,
+            },
+        )
+        groups = max_groups if max_groups is not None else kernel.gl.limits["max_work_groups_x"]
+        run_1d(program, count, max_groups=groups)
+        kernel.gl.mgl.memory_barrier()
+        result = np.frombuffer(out.read(size=count * 16), np.float32).reshape(count, 4)
+    s = scaling.from_gpu(result[:, :3])
+    return s, result[:, 3].astype(np.float64) * scaling.scale

@@ -88,14 +88,20 @@ void mls3_jacobi4_pq(inout float app, inout float aqq, inout float apq, inout fl
 // The unit quaternion (w, x, y, z) of the rotation Rc (column vectors) maximising
 // sum w q^ . (Rc p^) for S = sum w p^T q^ (Horn 1987), i.e. R = Rc^T maximising
 // trace(R^T S): the eigenvector of the largest eigenvalue of Horn's symmetric 4 x 4 matrix.
-vec4 mls3_horn(mat3 S) {
-    // S[i][j] in GLSL is the mathematical S_ji (see above)
-    float sxx = S[0][0], syy = S[1][1], szz = S[2][2];
-    float sxy = S[1][0], syx = S[0][1], sxz = S[2][0], szx = S[0][2], syz = S[2][1], szy = S[1][2];
-    float a00 = sxx + syy + szz, a11 = sxx - syy - szz, a22 = syy - sxx - szz;
-    float a33 = szz - sxx - syy;
+// S = A + S2 with A symmetric (diagonal a, off-diagonal o = (01, 02, 12)): the antisymmetric
+// parts come from S2 alone, without the rounding of A + S2.
+vec4 mls3_horn(vec3 a, vec3 o, mat3 S2) {
+    // S2[i][j] in GLSL is the mathematical S2_ji (see above)
+    float sxx = S2[0][0], syy = S2[1][1], szz = S2[2][2];
+    float sxy = S2[1][0], syx = S2[0][1], sxz = S2[2][0], szx = S2[0][2];
+    float syz = S2[2][1], szy = S2[1][2];
+    float a00 = (a.x + a.y + a.z) + (sxx + syy + szz);
+    float a11 = (a.x - a.y - a.z) + (sxx - syy - szz);
+    float a22 = (a.y - a.x - a.z) + (syy - sxx - szz);
+    float a33 = (a.z - a.x - a.y) + (szz - sxx - syy);
     float a01 = syz - szy, a02 = szx - sxz, a03 = sxy - syx;
-    float a12 = sxy + syx, a13 = szx + sxz, a23 = syz + szy;
+    float a12 = 2.0 * o.x + (sxy + syx), a13 = 2.0 * o.y + (szx + sxz);
+    float a23 = 2.0 * o.z + (syz + szy);
     vec4 v0 = vec4(1.0, 0.0, 0.0, 0.0);
     vec4 v1 = vec4(0.0, 1.0, 0.0, 0.0);
     vec4 v2 = vec4(0.0, 0.0, 1.0, 0.0);
@@ -191,8 +197,7 @@ mat3 mls3_solve(vec3 a, vec3 o, mat3 D, float spread) {
     // rigid: Horn's rotation of B' = B + c |B| R0 (c = 0 unless the sources are near a line)
     mat3 R0 = mls3_least_rotation(axis, axis * B);
     float normB = sqrt(dot(B[0], B[0]) + dot(B[1], B[1]) + dot(B[2], B[2]));
-    mat3 shifted = B + (share_mid * normB) * R0;
-    mat3 NR = mls3_quaternion_minus_identity(mls3_horn(shifted));
+    mat3 NR = mls3_quaternion_minus_identity(mls3_horn(a, o, D + (share_mid * normB) * R0));
     // trace(R^T B) - trace(A) = trace(D) + <R - I, B>, without cancellation
     float gain = D[0][0] + D[1][1] + D[2][2]
                + dot(NR[0], B[0]) + dot(NR[1], B[1]) + dot(NR[2], B[2]);
@@ -213,13 +218,16 @@ mat3 mls3_solve(vec3 a, vec3 o, mat3 D, float spread) {
     vec3 weight = share * trace;
     mat3 G = weight.x * outerProduct(v0, v0) + weight.y * outerProduct(v1, v1)
            + weight.z * outerProduct(v2, v2);
-    mat3 L = A + G;
-    float det = determinant(L);
-    if (!(det > 0.0)) {
+    // A + g has A's eigenvectors: its inverse is V diag(1 / (e + g)) V^T, without the
+    // cancellations of an inverse through the determinant (A + g's condition is up to 1e3)
+    vec3 lambda = e + weight;
+    if (!(min(lambda.x, min(lambda.y, lambda.z)) > 0.0)) {
         return Nsim;
     }
-    // A and G are symmetric: the GLSL and mathematical matrices agree, and so do inverses
-    return inverse(L) * (D + G * Nsim);
+    mat3 V = mat3(v0, v1, v2);
+    vec3 il = 1.0 / lambda;
+    mat3 scaled = mat3(il.x * v0, il.y * v1, il.z * v2);   // V diag(1 / lambda)
+    return scaled * (transpose(V) * (D + G * Nsim));
 #endif
 #endif
 }

@@ -1,0 +1,138 @@
+"""Triangle meshes and point clouds deformed by a 3D MLS: the input forms
+(:func:`as_mesh`), the vertex normals, the folds, and the result (:class:`DeformedMesh`).
+
+A map folds a vertex where its Jacobian J = df/dv has det J <= 0 (f turns the volume inside
+out there, or flattens it). A face is folded when one of its vertices is, or when its
+orientation flips: its deformed normal points against its original normal carried by f
+(n cof(J) at the face's centroid, J there the mean of its vertices' Jacobians; for a map
+that does not fold, the two agree for every face small against the deformation's scale).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .handles3 import as_points3
+
+__all__ = ["DeformedMesh", "as_mesh", "face_folds", "face_normals", "vertex_normals"]
+
+
+@dataclass(frozen=True)
+class DeformedMesh:
+    """A mesh (or point cloud) deformed by a 3D :class:`~glmls.MLS` (:meth:`glmls.MLS.deform`).
+
+    Attributes
+    ----------
+    vertices : numpy.ndarray
+        (V, 3) float64 f(vertices).
+    faces : numpy.ndarray
+        (F, 3) int64 vertex indices, as given ((0, 3) for a point cloud).
+    normals : numpy.ndarray
+        (V, 3) float64 unit vertex normals: the original ones (area-weighted face normals, or
+        the mesh's own ``vertex_normals``) carried by the inverse transpose of J, n J^-T;
+        zeros where a vertex has none (a point cloud, an unused vertex) or J is singular.
+    jacobian : numpy.ndarray
+        (V, 3, 3) float64 J = df/dv at each vertex, row vectors: J[k, r, c] = d f_c / d v_r.
+    det_j : numpy.ndarray
+        (V,) float64 det J: the local change of volume.
+    vertex_folds : numpy.ndarray
+        (V,) bool: det J <= 0.
+    face_folds : numpy.ndarray
+        (F,) bool: a vertex of the face folds, or the face's orientation flips (see
+        :mod:`glmls.core.mesh3`).
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    normals: np.ndarray
+    jacobian: np.ndarray
+    det_j: np.ndarray
+    vertex_folds: np.ndarray
+    face_folds: np.ndarray
+
+    @property
+    def folded(self) -> bool:
+        """Whether any vertex or face folds."""
+        return bool(self.vertex_folds.any() or self.face_folds.any())
+
+
+def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """(vertices (V, 3) float64, faces (F, 3) int64, the mesh's own vertex normals or None)
+    of ``mesh``: an object with ``.vertices`` and ``.faces`` (a ``trimesh.Trimesh``), a
+    ``(vertices, faces)`` tuple, or a (V, 3) array of points (no faces).
+    ``ValueError``/``TypeError`` for anything else, or faces naming missing vertices."""
+    normals = None
+    if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
+        vertices, faces = mesh.vertices, mesh.faces  # type: ignore[attr-defined]
+        own = getattr(mesh, "vertex_normals", None)
+        normals = None if own is None else np.asarray(own, dtype=np.float64)
+    elif isinstance(mesh, tuple) and len(mesh) == 2:
+        vertices, faces = mesh
+    else:
+        vertices, faces = mesh, np.zeros((0, 3), np.int64)
+    v = as_points3(vertices, "mesh vertices")
+    f = np.asarray(faces)
+    if f.size == 0:
+        f = np.zeros((0, 3), np.int64)
+    if f.dtype.kind not in "iu" or f.ndim != 2 or f.shape[1] != 3:
+        raise ValueError(f"mesh faces must be (F, 3) integer vertex indices, got {f.shape}")
+    if len(f) and (f.min() < 0 or f.max() >= len(v)):
+        raise ValueError(f"mesh faces name vertices outside 0..{len(v) - 1}")
+    if normals is not None and normals.shape != v.shape:
+        normals = None
+    return v, f.astype(np.int64), normals
+
+
+def face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(F, 3) (b - a) x (c - a) per face: twice its area times its unit normal (right-hand
+    rule over the vertex order)."""
+    a, b, c = (vertices[faces[:, k]] for k in range(3))
+    return np.cross(b - a, c - a)
+
+
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(V, 3) unit area-weighted vertex normals; zeros for vertices in no face."""
+    normals = np.zeros_like(vertices)
+    weighted = face_normals(vertices, faces)
+    for k in range(3):
+        np.add.at(normals, faces[:, k], weighted)
+    return _unit(normals)
+
+
+def _unit(vectors: np.ndarray) -> np.ndarray:
+    norm = np.linalg.norm(vectors, axis=-1, keepdims=True)
+    return np.divide(vectors, norm, out=np.zeros_like(vectors), where=norm > 0)
+
+
+def cofactor(j: np.ndarray) -> np.ndarray:
+    """(K, 3, 3) det(J) J^-T, defined (and continuous) for singular J too."""
+    c0, c1, c2 = j[:, 0], j[:, 1], j[:, 2]
+    return np.stack([np.cross(c1, c2), np.cross(c2, c0), np.cross(c0, c1)], axis=1)
+
+
+def face_folds(
+    vertices: np.ndarray,
+    deformed: np.ndarray,
+    faces: np.ndarray,
+    jacobian: np.ndarray,
+    vertex_folds: np.ndarray,
+) -> np.ndarray:
+    """(F,) bool: a vertex folds, or the deformed face's normal points against the original
+    one carried by the cofactor of the mean Jacobian of its vertices."""
+    if not len(faces):
+        return np.zeros(0, bool)
+    carried = np.einsum(
+        "fi,fij->fj", face_normals(vertices, faces), cofactor(jacobian[faces].mean(axis=1))
+    )
+    flips = (face_normals(deformed, faces) * carried).sum(axis=1) <= 0
+    return vertex_folds[faces].any(axis=1) | flips
+
+
+def deformed_normals(normals: np.ndarray, jacobian: np.ndarray) -> np.ndarray:
+    """(V, 3) unit n J^-T (as n cof(J), with the sign of det J), zeros where J is singular
+    or n is 0."""
+    det = np.linalg.det(jacobian)
+    carried = np.einsum("vi,vij->vj", normals, cofactor(jacobian)) * np.sign(det)[:, None]
+    return _unit(carried)

@@ -1,0 +1,353 @@
+"""The MLS of (N, 3) handles: what :class:`glmls.MLS` becomes when its handles are 3D.
+
+``glmls.MLS(src, dst)`` with (N, 3) handles returns an :class:`MLS3` (a subclass of
+:class:`~glmls.MLS`, so one class for both to its users): f of points and point clouds,
+its linear parts, its inverse, and meshes deformed with their normals and folds, all on the
+GPU through :class:`~glmls.engine.kernel3.MLSKernel3`. Points are (x, y, z) = (column, row,
+slice), voxel centres at integer coordinates; f(v) = v M + T with row vectors.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Sequence
+
+import numpy as np
+
+from .core.handles import Scaling
+from .core.handles3 import as_points3, as_volume_shape, fit_scaling3, validate_handles3
+from .core.mesh3 import DeformedMesh, as_mesh, deformed_normals, face_folds, vertex_normals
+from .engine.kernel3 import MLSKernel3
+from .engine.passes3 import evaluate_points3, invert_points3
+from .gl.context import get_context
+from .imaging.inverse import NEWTON_ACCEPT
+from .mls import MLS, InverseMLS, on_gpu
+
+__all__ = ["MLS3", "InverseMLS3"]
+
+
+def _two_d_only(what: str) -> ValueError:
+    return ValueError(f"{what} is 2D only: this MLS has (N, 3) handles")
+
+
+class MLS3(MLS):
+    """A Moving Least Squares deformation of 3D space, from (N, 3) handles.
+
+    Made by :class:`glmls.MLS` from (N, 3) ``src`` and ``dst`` (its parameters are the
+    same; ``shape`` is a volume's (D, H, W), whose diagonal is the default radius);
+    ``segments`` and ``bins`` are 2D only. The closed forms and their degenerate cases
+    are those of :func:`glmls.reference.mls` in three dimensions (docs/mathematics.md).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import glmls
+    >>> src = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]]
+    >>> dst = [[1, 0, 0], [11, 0, 0], [1, 10, 0], [1, 0, 10]]  # one voxel along x
+    >>> with glmls.MLS(src, dst, transform="affine") as m:
+    ...     print(type(m).__name__, np.round(m([[5, 5, 5]]), 3).tolist())
+    MLS3 [[6.0, 5.0, 5.0]]
+    """
+
+    dimension = 3
+
+    def _setup(self, handles, config, shape, ctx, storage, bins) -> None:
+        src, dst, src_segments, dst_segments = handles
+        if src_segments is not None or dst_segments is not None:
+            raise ValueError(
+                "segment handles are 2D only: src_segments and dst_segments must be None "
+                "with (N, 3) handles"
+            )
+        if bins:
+            raise ValueError("bins are 2D only: bins must be None or False with (N, 3) handles")
+        self.config = config
+        self.shape = None if shape is None else as_volume_shape(shape)  # type: ignore[assignment]
+        p, q = validate_handles3(src, dst)
+        self._gl = get_context(ctx)
+        self._storage_name = storage
+        self._kernel = MLSKernel3(self._gl, config, shape=self.shape, storage=storage)  # type: ignore[assignment]
+        self._kernel.radius()  # type: ignore[call-arg]  # a radius weight needs one
+        self._swapped = None
+        try:
+            self._store3(p, q)
+        except ValueError:
+            self._kernel.release()
+            raise
+
+    def _store3(self, p: np.ndarray, q: np.ndarray) -> None:
+        self._kernel.upload(p, q, fit_scaling3(p, q, self.shape))  # type: ignore[call-arg, arg-type]
+        p.setflags(write=False)
+        q.setflags(write=False)
+        self._p, self._q = p, q
+        if self._swapped is not None:
+            self._swapped.release()
+            self._swapped = None
+
+    # -- the handles and the GPU state ------------------------------------------------------
+
+    @property
+    def src(self) -> np.ndarray:
+        """Source handles p, (N, 3) float64, read-only."""
+        return self._p
+
+    @property
+    def dst(self) -> np.ndarray:
+        """Target handles q, (N, 3) float64, read-only."""
+        return self._q
+
+    @property
+    def src_segments(self) -> np.ndarray:
+        """No segments in 3D: (0, 2, 3)."""
+        return np.zeros((0, 2, 3))
+
+    @property
+    def dst_segments(self) -> np.ndarray:
+        """No segments in 3D: (0, 2, 3)."""
+        return np.zeros((0, 2, 3))
+
+    @property
+    def handles(self):
+        """2D only (a :class:`~glmls.HandleSet` holds 2D handles): ValueError."""
+        raise _two_d_only("MLS.handles")
+
+    @property
+    def kernel(self) -> MLSKernel3:  # type: ignore[override]
+        """The handles on the GPU and the defines and uniforms of the passes over f
+        (``#include "mls3/core.glsl"``: :meth:`MLSKernel3.program`, :meth:`MLSKernel3.bind`)."""
+        return self._kernel  # type: ignore[return-value]
+
+    @property
+    def scaling(self) -> Scaling:
+        """The GPU's coordinates: (voxel - center) / scale."""
+        return self._kernel.scaling
+
+    def uniforms(self, shape: Sequence[int] | None = None) -> dict[str, object]:  # type: ignore[override]
+        """The uniforms of ``mls3/core.glsl`` for a volume of ``shape`` (D, H, W) (None: the
+        MLS's own), scaled units."""
+        return self._kernel.uniforms(None if shape is None else as_volume_shape(shape))  # type: ignore[arg-type]
+
+    @on_gpu
+    def set_handles(
+        self, src: object, dst: object, *, src_segments: object = None, dst_segments: object = None
+    ) -> None:
+        """Replace the (N, 3) handles, keeping the configuration; as :meth:`MLS.set_handles`."""
+        if src_segments is not None or dst_segments is not None:
+            raise ValueError("segment handles are 2D only")
+        self._store3(*validate_handles3(src, dst))
+
+    def swapped_kernel(self) -> MLSKernel3:  # type: ignore[override]
+        """The kernel of the MLS with p and q swapped: an approximate inverse of f."""
+        self._kernel.check_alive()
+        if self._swapped is None:
+            swapped = MLSKernel3(
+                self._gl,
+                self.config,
+                shape=self.shape,  # type: ignore[arg-type]
+                storage=self._storage_name,
+            )
+            swapped.upload(self._q, self._p, self.scaling)
+            self._swapped = swapped  # type: ignore[assignment]
+        return self._swapped  # type: ignore[return-value]
+
+    # -- f at points -------------------------------------------------------------------------
+
+    @on_gpu
+    def __call__(self, points: object) -> np.ndarray:
+        """f at (K, 3) ``points`` (x, y, z), evaluated on the GPU: (K, 3) float64.
+
+        Examples
+        --------
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0, 0]], [[1, 2, 3]]) as m:  # one handle: a translation
+        ...     print(m([[5, 5, 5]]).tolist())
+        [[6.0, 7.0, 8.0]]
+        """
+        f, _ = evaluate_points3(self._kernel, as_points3(points))  # type: ignore[arg-type]
+        return f
+
+    @property
+    def inverse(self) -> InverseMLS3:
+        """f's inverse as a transform (an :class:`InverseMLS3`), solved on the GPU."""
+        self._kernel.check_alive()
+        return InverseMLS3(self)
+
+    def residuals(self, src: object, dst: object) -> np.ndarray:
+        """|f(src) - dst| per (K, 3) point, voxels.
+
+        Examples
+        --------
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0, 0]], [[0, 0, 2]]) as m:
+        ...     print(m.residuals([[1, 1, 1]], [[1, 1, 1]]).tolist())
+        [2.0]
+        """
+        source, target = as_points3(src, "src"), as_points3(dst, "dst")
+        if len(source) != len(target):
+            raise ValueError(
+                f"src and dst must have the same length, got {len(source)} and {len(target)}"
+            )
+        return np.linalg.norm(self(source) - target, axis=1)
+
+    @on_gpu
+    def matrices(self, points: object) -> tuple[np.ndarray, np.ndarray]:
+        """The affine map of the MLS at each (K, 3) point, ``f(v) = v @ M + T``: M (K, 3, 3)
+        and T (K, 3), float64.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0, 0]], [[2, 0, 0]]) as m:
+        ...     M, T = m.matrices([[1, 1, 1]])
+        >>> M[0].tolist(), T.tolist()
+        ([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [[2.0, 0.0, 0.0]])
+        """
+        v = as_points3(points)
+        f, m = evaluate_points3(self._kernel, v, output="matrix")  # type: ignore[arg-type]
+        return m, f - np.einsum("ki,kij->kj", v, m)  # type: ignore[return-value]
+
+    @on_gpu
+    def jacobian(self, points: object) -> tuple[np.ndarray, np.ndarray]:
+        """f and its Jacobian J = df/dv at (K, 3) ``points``, on the GPU by central
+        differences: f (K, 3) and J (K, 3, 3), row vectors (df = dv J, J[k, r, c] =
+        d f_c / d v_r).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> src = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]]
+        >>> with glmls.MLS(src, np.multiply(src, 2.0), transform="affine") as m:
+        ...     f, J = m.jacobian([[3, 3, 3]])
+        >>> np.round(J[0], 3).tolist()
+        [[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0]]
+        """
+        v = as_points3(points)
+        return evaluate_points3(self._kernel, v, output="jacobian")  # type: ignore[arg-type, return-value]
+
+    def deform(self, mesh: object) -> DeformedMesh:
+        """A triangle mesh or point cloud deformed by f, in one GPU pass: see
+        :meth:`glmls.MLS.deform`.
+
+        Parameters
+        ----------
+        mesh : object
+            ``.vertices`` and ``.faces``, a ``(vertices, faces)`` tuple or (V, 3) points.
+
+        Returns
+        -------
+        DeformedMesh
+            The deformed vertices, normals, Jacobians, det J and folds.
+
+        Examples
+        --------
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0, 0]], [[1, 1, 1]]) as m:  # a point cloud
+        ...     print(m.deform([[1.0, 2.0, 3.0]]).vertices.tolist())
+        [[2.0, 3.0, 4.0]]
+        """
+        vertices, faces, normals = as_mesh(mesh)
+        deformed, jacobian = self.jacobian(vertices)
+        if normals is None:
+            normals = vertex_normals(vertices, faces) if len(faces) else np.zeros_like(vertices)
+        det = np.linalg.det(jacobian) if len(jacobian) else np.zeros(0)
+        folds = det <= 0
+        return DeformedMesh(
+            vertices=deformed,
+            faces=faces,
+            normals=deformed_normals(normals, jacobian),
+            jacobian=jacobian,
+            det_j=det,
+            vertex_folds=folds,
+            face_folds=face_folds(vertices, deformed, faces, jacobian, folds),
+        )
+
+    # -- volumes and what is 2D only --------------------------------------------------------
+
+    def warp(self, volume: object, **options: object) -> np.ndarray:  # type: ignore[override]
+        """The volume deformed by f: delegated to :mod:`glmls.volume` (``warp_volume``).
+
+        Raises
+        ------
+        NotImplementedError
+            Where :mod:`glmls.volume` is not available.
+        """
+        try:
+            module = importlib.import_module("glmls.volume")
+        except ImportError:
+            raise NotImplementedError(
+                "warping a volume (3D MLS) needs glmls.volume, which is not available"
+            ) from None
+        return module.warp_volume(self, volume, **options)
+
+    def mesh(self, shape, *, grid=1, tolerance=None):  # type: ignore[override]
+        """2D only: ValueError (see :meth:`deform` for 3D meshes)."""
+        raise _two_d_only("MLS.mesh (an image's mesh)")
+
+    def error_field(self, shape, *, grid=1, tolerance=None):  # type: ignore[override]
+        """2D only: ValueError."""
+        raise _two_d_only("MLS.error_field")
+
+    def bounds(self, shape, *, grid=1):  # type: ignore[override]
+        """2D only: ValueError."""
+        raise _two_d_only("MLS.bounds")
+
+    def coordinate_map(self, *args: object, **kwargs: object):  # type: ignore[override]
+        """2D only: ValueError."""
+        raise _two_d_only("MLS.coordinate_map")
+
+    def __repr__(self) -> str:
+        c = self.config
+        state = ", released" if self.released else ""
+        return (
+            f"MLS({len(self._p)} 3D handles, transform={c.transform!r}, weight={c.weight!r}, "
+            f"alpha={c.alpha}, s={c.s}, radius={c.radius}, interpolating={c.interpolating}"
+            f"{state})"
+        )
+
+
+class InverseMLS3(InverseMLS):
+    """The inverse of a 3D MLS map f: ``inv(points)`` solves f(s) = u at (K, 3) points on the
+    GPU by Newton's method (J by central differences), from the MLS with p and q swapped at
+    u, then from u itself. A row is NaN where Newton does not end within 0.05 voxel of u
+    (no preimage, or none found); ``return_valid=True`` also returns the mask of the rows
+    that have one.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import glmls
+    >>> src = [[0, 0, 0], [9, 0, 0], [0, 9, 0], [0, 0, 9]]
+    >>> with glmls.MLS(src, np.add(src, 1.0)) as m:
+    ...     print(np.round(m.inverse([[5, 5, 5]]), 3).tolist())
+    [[4.0, 4.0, 4.0]]
+    """
+
+    def __call__(
+        self, points: object, *, return_valid: bool = False
+    ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """f's inverse at (K, 3) ``points``: (K, 3) float64, NaN rows where there is no
+        preimage; with ``return_valid`` also the (K,) bool mask of rows that have one."""
+        s, valid = self._solve(as_points3(points))
+        return (s, valid) if return_valid else s
+
+    def _solve(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        m = self._forward
+        m.kernel.check_alive()
+        guess, _ = evaluate_points3(m.swapped_kernel(), points)  # type: ignore[arg-type]
+        s, residual = invert_points3(m.kernel, points, guess)  # type: ignore[arg-type]
+        valid = residual <= NEWTON_ACCEPT
+        s[~valid] = np.nan
+        return s, valid
+
+    def residuals(self, src: object, dst: object) -> np.ndarray:
+        """|f^-1(src) - dst| per (K, 3) point, voxels; NaN where ``src`` has no preimage."""
+        source, target = as_points3(src, "src"), as_points3(dst, "dst")
+        if len(source) != len(target):
+            raise ValueError(
+                f"src and dst must have the same length, got {len(source)} and {len(target)}"
+            )
+        return np.linalg.norm(self(source) - target, axis=1)  # type: ignore[operator]
+
+
+MLS.kinds[3] = MLS3

@@ -1,0 +1,66 @@
+// f's inverse at a list of points u (scaled): Newton's method on f(s) = u from a first guess
+// s0 (the caller's: the MLS with p and q swapped, at u), then, where that does not converge,
+// from u itself. Each step s -= (f(s) - u) J^-1, J = df/dv by central differences (row
+// vectors), its length capped at u_max_step; it stops below u_tolerance. Writes s (scaled)
+// and |f(s) - u| (scaled), 4 floats per point.
+layout(local_size_x = LOCAL_SIZE) in;
+
+#include "mls3/core.glsl"
+
+layout(std430, binding = BIND_POINTS) readonly buffer MLS3Targets {
+    float mls3_targets[];   // u, then s0, 6 floats per point
+};
+layout(std430, binding = BIND_DEFORMED) writeonly buffer MLS3Sources {
+    vec4 mls3_sources[];    // s, |f(s) - u|
+};
+uniform int u_count;
+uniform int u_offset;
+uniform float u_jacobian_step;
+uniform float u_tolerance;
+uniform float u_max_step;
+uniform int u_steps;
+
+vec3 mls3_residual(vec3 s, vec3 u) {
+    return (s - u) + mls3_eval(s).d;
+}
+
+vec3 mls3_difference(vec3 s, vec3 axis) {
+    vec3 up = s + u_jacobian_step * axis;
+    vec3 down = s - u_jacobian_step * axis;
+    float step = dot(up - s, axis) + dot(s - down, axis);
+    return axis + (mls3_eval(up).d - mls3_eval(down).d) / step;
+}
+
+// Newton from s; returns the last |f(s) - u| and leaves s there.
+float mls3_newton(inout vec3 s, vec3 u) {
+    vec3 r = mls3_residual(s, u);
+    for (int k = 0; k < u_steps && length(r) > u_tolerance; ++k) {
+        mat3 J = transpose(mat3(mls3_difference(s, vec3(1.0, 0.0, 0.0)),
+                                mls3_difference(s, vec3(0.0, 1.0, 0.0)),
+                                mls3_difference(s, vec3(0.0, 0.0, 1.0))));
+        float det = determinant(J);
+        vec3 step = abs(det) > 1e-12 ? r * inverse(J) : r;
+        float len = length(step);
+        step *= len > u_max_step ? u_max_step / len : 1.0;
+        s -= step;
+        r = mls3_residual(s, u);
+    }
+    return length(r);
+}
+
+void main() {
+    int i = u_offset + int(gl_GlobalInvocationID.x);
+    int j = min(i, max(u_count - 1, 0));
+    vec3 u = vec3(mls3_targets[6 * j], mls3_targets[6 * j + 1], mls3_targets[6 * j + 2]);
+    vec3 s = vec3(mls3_targets[6 * j + 3], mls3_targets[6 * j + 4], mls3_targets[6 * j + 5]);
+    float residual = mls3_newton(s, u);
+    if (residual > u_tolerance) {
+        vec3 t = u;
+        float again = mls3_newton(t, u);
+        s = again < residual ? t : s;
+        residual = min(again, residual);
+    }
+    if (i < u_count) {
+        mls3_sources[i] = vec4(s, residual);
+    }
+}
