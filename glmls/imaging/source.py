@@ -81,7 +81,11 @@ def check_image(image: object, name: str = "image") -> np.ndarray:
         names = ", ".join(np.dtype(d).name for d in DTYPES)
         raise TypeError(f"{name} dtype must be one of {names}; got {array.dtype}")
     if array.ndim not in (2, 3) or (array.ndim == 3 and not 1 <= array.shape[2] <= 4):
-        raise ValueError(f"{name} must be H x W or H x W x C with C in 1..4, got {array.shape}")
+        hint = "; volumes (D x H x W) are warped by a 3D MLS, (N, 3) handles"
+        raise ValueError(
+            f"{name} must be H x W or H x W x C with C in 1..4, got {array.shape}"
+            + (hint if array.ndim in (3, 4) else "")
+        )
     if array.size == 0:
         raise ValueError(f"{name} is empty: shape {array.shape}")
     return array

@@ -72,19 +72,16 @@ def warp_volume(
     --------
     >>> import numpy as np
     >>> import glmls
-    >>> from glmls.engine.kernel3 import MLSKernel3
-    >>> from glmls.core.handles3 import fit_scaling3
     >>> from glmls.volume import warp_volume
     >>> volume = np.arange(4 * 5 * 6, dtype=np.uint8).reshape(4, 5, 6)
     >>> src = np.array([[0.0, 0, 0], [5, 0, 0], [0, 4, 0], [0, 0, 3]])
-    >>> kernel = MLSKernel3(glmls.gl.get_context(), glmls.MLSConfig(), shape=(4, 5, 6))
-    >>> kernel.upload(src, src + [1, 0, 0], fit_scaling3(src, src + [1, 0, 0], (4, 5, 6)))
-    >>> out = warp_volume(kernel, volume)  # every voxel one column to the right
+    >>> m = glmls.MLS(src, src + [1, 0, 0])
+    >>> out = warp_volume(m, volume)  # every voxel one column to the right
     >>> out[0, 0].tolist()
     [0, 0, 1, 2, 3, 4]
-    >>> warp_volume(kernel, volume, method="backward")[0, 0].tolist()
+    >>> m.warp(volume, method="backward")[0, 0].tolist()  # the same function
     [0, 0, 1, 2, 3, 4]
-    >>> kernel.release()
+    >>> m.release()
     """
     kernel = _kernel(mls)
     options = VolumeOptions.of(options, **keywords)
@@ -132,16 +129,13 @@ def volume_coordinate_map(
     --------
     >>> import numpy as np
     >>> import glmls
-    >>> from glmls.engine.kernel3 import MLSKernel3
-    >>> from glmls.core.handles3 import fit_scaling3
     >>> from glmls.volume import volume_coordinate_map
     >>> src = np.array([[0.0, 0, 0], [5, 0, 0], [0, 4, 0], [0, 0, 3]])
-    >>> kernel = MLSKernel3(glmls.gl.get_context(), glmls.MLSConfig(), shape=(4, 5, 6))
-    >>> kernel.upload(src, src + [1, 0, 0], fit_scaling3(src, src + [1, 0, 0], (4, 5, 6)))
-    >>> points, residual, covered = volume_coordinate_map(kernel, (4, 5, 6))
+    >>> m = glmls.MLS(src, src + [1, 0, 0])
+    >>> points, residual, covered = volume_coordinate_map(m, (4, 5, 6))
     >>> points[0, 0, 3].tolist(), bool(covered[0, 0, 0])
     ([2.0, 0.0, 0.0], False)
-    >>> kernel.release()
+    >>> m.release()
     """
     kernel = _kernel(mls)
     options = VolumeOptions.of(options, **keywords)
@@ -184,16 +178,13 @@ def volume_bounds(
     --------
     >>> import numpy as np
     >>> import glmls
-    >>> from glmls.engine.kernel3 import MLSKernel3
-    >>> from glmls.core.handles3 import fit_scaling3
     >>> from glmls.volume import volume_bounds
     >>> src = np.array([[0.0, 0, 0], [5, 0, 0], [0, 4, 0], [0, 0, 3]])
-    >>> kernel = MLSKernel3(glmls.gl.get_context(), glmls.MLSConfig(), shape=(4, 5, 6))
-    >>> kernel.upload(src, src + [1, 0, 0], fit_scaling3(src, src + [1, 0, 0], (4, 5, 6)))
-    >>> b = volume_bounds(kernel, (4, 5, 6))
+    >>> m = glmls.MLS(src, src + [1, 0, 0])
+    >>> b = volume_bounds(m, (4, 5, 6))
     >>> b.output_shape, b.origin
     ((4, 5, 6), (1.0, 0.0, 0.0))
-    >>> kernel.release()
+    >>> m.release()
     """
     kernel = _kernel(mls)
     size = check_volume_shape(shape, "shape")

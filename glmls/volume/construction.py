@@ -115,6 +115,11 @@ class LatticeBands:
                 f"a layer of {nx} x {ny} lattice points does not fit twice in the lattice "
                 f"buffer of {band_bytes} bytes; use a coarser grid"
             )
+        if 6 * lattice.cell_count >= 0xFFFFFFFF:  # keys: 6 per cell, in 32 bits
+            raise ValueError(
+                f"a lattice of {lattice.cell_count} cells is more than the construction "
+                f"numbers (715,827,882); use a coarser grid"
+            )
         cells = nz - 1
         self.loaded: tuple[int, int] | None = None
         low = np.full(nz, np.inf)

@@ -127,3 +127,19 @@ def test_bad_inputs_are_named(kernel3, gl, rng, volume):
         warp_volume(m, volume, tolerance=0.1)
     with pytest.raises(ValueError, match="background"):
         warp_volume(m, volume, background=300)
+
+
+def test_the_facade_warps_volumes(gl, rng, volume):
+    """glmls.MLS of (N, 3) handles warps volumes through warp_volume; a 2D MLS says that a
+    volume needs a 3D one."""
+    import glmls
+
+    src, _ = box_handles(SHAPE, rng)
+    with glmls.MLS(src, src + [2, 0, 0], transform="rigid", ctx=gl) as m:
+        out = m.warp(volume, method="backward", spacing=(1, 1, 1), background=5)
+        np.testing.assert_array_equal(out[:, :, 2:], volume[:, :, :-2])
+        assert (out[:, :, :2] == 5).all()
+        np.testing.assert_array_equal(warp_volume(m, volume), m.warp(volume))
+    with glmls.MLS([[0, 0], [5, 3]], [[1, 0], [6, 3]], ctx=gl) as m2:
+        with pytest.raises(ValueError, match="3D MLS"):
+            m2.warp(volume)

@@ -1,8 +1,10 @@
 // The cells method, first pass: every cell of a band of the lattice (one invocation each)
-// tests the output voxel centres in the bounding box of each of its 6 deformed tetrahedra,
-// within the output slab, and keeps its key (its index in scan order of the source) in each
-// voxel it contains by atomicMin: once every band has run, a voxel holds the FIRST cell
-// (smallest (z, y, x)) that covers it, whatever the order the cells ran in.
+// finds the output voxel centres inside each of its 6 deformed tetrahedra, within the output
+// slab (along each row of the tetrahedron's bounding box, the interval where its 4
+// barycentric coordinates, affine in x, are all >= -VOLUME_INSIDE_EPS), and keeps its key (6 times its index in scan order of the source, plus
+// the tetrahedron's) in each voxel it contains by atomicMin: once every band has run, a voxel
+// holds the FIRST cell (smallest (z, y, x)) that covers it, and its first tetrahedron that
+// does, whatever the order the cells ran in.
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "volume/lattice.glsl"
@@ -41,21 +43,51 @@ void main() {
     if (any(greaterThan(low, vec3(last) + 0.5)) || any(lessThan(high, vec3(-0.5)))) {
         return;
     }
-    uint key = volume_key_of(cell);
+    uint first_key = 6u * volume_key_of(cell);
     for (int t = 0; t < 6; ++t) {
+        uint key = first_key + uint(t);
         vec3 a = q[0];
-        vec3 b = q[VOLUME_TETRA[2 * t]];
-        vec3 c = q[VOLUME_TETRA[2 * t + 1]];
-        vec3 d = q[7];
-        ivec3 lo = max(ivec3(ceil(min(min(a, b), min(c, d)) - VOLUME_INSIDE_EPS)), ivec3(0));
-        ivec3 hi = min(ivec3(floor(max(max(a, b), max(c, d)) + VOLUME_INSIDE_EPS)), last);
+        vec3 e1 = q[VOLUME_TETRA[2 * t]] - a;
+        vec3 e2 = q[VOLUME_TETRA[2 * t + 1]] - a;
+        vec3 e3 = q[7] - a;
+        // the barycentric coordinates are affine in p: l_i = dot(p - a, g_i), l_0 = 1 - sum
+        vec3 n1 = cross(e2, e3);
+        float det = dot(e1, n1);
+        if (!(abs(det) > 1e-7 * length(e1) * length(e2) * length(e3))) {
+            continue;   // flat
+        }
+        vec3 g1 = n1 / det;
+        vec3 g2 = cross(e3, e1) / det;
+        vec3 g3 = cross(e1, e2) / det;
+        vec3 gx = vec3(g1.x, g2.x, g3.x);   // d l / dx
+        float g0x = -(gx.x + gx.y + gx.z);
+        vec3 tlo = min(min(a, a + e1), min(a + e2, a + e3));
+        vec3 thi = max(max(a, a + e1), max(a + e2, a + e3));
+        ivec3 lo = max(ivec3(ceil(tlo - VOLUME_INSIDE_EPS)), ivec3(0));
+        ivec3 hi = min(ivec3(floor(thi + VOLUME_INSIDE_EPS)), last);
         for (int z = lo.z; z <= hi.z; ++z) {
             for (int y = lo.y; y <= hi.y; ++y) {
-                for (int x = lo.x; x <= hi.x; ++x) {
-                    vec3 l;
-                    if (volume_barycentric(a, b, c, d, vec3(x, y, z), l) && volume_inside(l)) {
-                        atomicMin(volume_keys[(z * u_slab_size.y + y) * u_slab_size.x + x], key);
+                // along the row: l_i(x) = c_i + gx_i (x - lo.x), all >= -eps on an interval
+                vec3 r = vec3(float(lo.x), float(y), float(z)) - a;
+                vec3 c = vec3(dot(r, g1), dot(r, g2), dot(r, g3));
+                float c0 = 1.0 - c.x - c.y - c.z;
+                float from = 0.0;
+                float to = float(hi.x - lo.x);
+                for (int i = 0; i < 4; ++i) {
+                    float ci = i == 3 ? c0 : c[i];
+                    float gi = i == 3 ? g0x : gx[i];
+                    float bound = (-VOLUME_INSIDE_EPS - ci) / gi;
+                    if (gi > 0.0) {
+                        from = max(from, bound);
+                    } else if (gi < 0.0) {
+                        to = min(to, bound);
+                    } else if (ci < -VOLUME_INSIDE_EPS) {
+                        to = -1.0;
                     }
+                }
+                int row = (z * u_slab_size.y + y) * u_slab_size.x;
+                for (int x = lo.x + int(ceil(from)); x <= lo.x + int(floor(to)); ++x) {
+                    atomicMin(volume_keys[row + x], key);
                 }
             }
         }

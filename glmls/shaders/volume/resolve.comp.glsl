@@ -1,7 +1,6 @@
 // The cells method, second pass: every output voxel of the slab (one invocation each) whose
-// first cell (the raster pass's key) is in the band finds the tetrahedron of that cell that
-// contains it (the first; where rounding leaves none, the one it is deepest in), and the
-// source point there, interpolated linearly from the tetrahedron's source corners; then
+// first cell (the raster pass's key: 6 cell + tetrahedron) is in the band takes the source
+// point at its place in that tetrahedron, interpolated linearly from its source corners; then
 //   VOLUME_COORDS 0: samples the source there (volume/sample.glsl; nearest keeps to the
 //                    cell's own voxels) into the slab image (volume/target.glsl);
 //                 1: writes the point (x, y, z, 0) into the coordinates buffer, the first
@@ -59,37 +58,22 @@ void main() {
         }
         return;
     }
-    if (key < u_key_first || key >= u_key_end) {
+    uint cell_key = key / 6u;
+    if (cell_key < u_key_first || cell_key >= u_key_end) {
         return;
     }
-    ivec3 cell = volume_cell_of(key);
-    vec3 q[8];
-    for (int c = 0; c < 8; ++c) {
-        q[c] = volume_deformed(volume_corner(cell, c)) - u_slab_origin;
-    }
-    vec3 point = vec3(p);
-    int best = 0;
-    float depth = -1e30;
-    vec3 coords = vec3(0.0);
-    for (int t = 0; t < 6; ++t) {
-        vec3 l;
-        if (volume_barycentric(q[0], q[VOLUME_TETRA[2 * t]], q[VOLUME_TETRA[2 * t + 1]], q[7],
-                               point, l)) {
-            float inside = volume_depth(l);
-            if (inside > depth) {
-                best = t;
-                depth = inside;
-                coords = l;
-            }
-            if (inside >= -VOLUME_INSIDE_EPS) {
-                break;   // the first that contains the voxel
-            }
-        }
-    }
+    ivec3 cell = volume_cell_of(cell_key);
+    int best = int(key % 6u);
+    ivec3 b = volume_corner(cell, VOLUME_TETRA[2 * best]);
+    ivec3 c = volume_corner(cell, VOLUME_TETRA[2 * best + 1]);
+    vec3 coords;
+    // as the raster pass: corners relative to the slab's origin
+    volume_barycentric(volume_deformed(cell) - u_slab_origin, volume_deformed(b) - u_slab_origin,
+                       volume_deformed(c) - u_slab_origin,
+                       volume_deformed(cell + ivec3(1)) - u_slab_origin, vec3(p), coords);
     vec3 s0 = volume_lattice_point(cell);
-    vec3 s = s0 +
-             coords.x * (volume_lattice_point(volume_corner(cell, VOLUME_TETRA[2 * best])) - s0) +
-             coords.y * (volume_lattice_point(volume_corner(cell, VOLUME_TETRA[2 * best + 1])) - s0) +
+    vec3 s = s0 + coords.x * (volume_lattice_point(b) - s0) +
+             coords.y * (volume_lattice_point(c) - s0) +
              coords.z * (volume_lattice_point(cell + ivec3(1)) - s0);
     // nearest keeps to the cell's own voxels (its voxel centres, margin included)
     ivec3 lo = cell * u_lattice_grid - u_lattice_margin;

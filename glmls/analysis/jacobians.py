@@ -1,0 +1,227 @@
+"""The Jacobian of a 3D deformation per cell of a lattice, and its folds.
+
+The lattice is that of the 2D fold-overs (:mod:`.folding`) in 3D: cell corners every
+``grid`` voxels from -0.5 to n - 0.5 along each axis (the last step may be shorter), f
+evaluated at the corners. Per cell:
+
+- J = df/dv at the cell's centre, by finite differences: column a of J is the mean of the
+  cell's four edges along axis a (x, y, z), each f(end) - f(start), over the cell's side.
+  That is the Jacobian of the trilinear interpolation of f at the cell's centre, and exactly
+  M^T for an affine f(v) = v M + T (J is the column-vector Jacobian; det J = det M).
+- ``det``: det J, 1 for the identity (a volume ratio); ``ratio``: the ratio of J's largest
+  to its smallest singular value, 1 for any similarity (how anisotropic the cell's
+  stretch is).
+- ``min_det``: the smallest det J of the six tetrahedra of the cell's Kuhn decomposition
+  (each a path 000 -> 100 -> 110 -> 111 through the cube's corners, one per order of the
+  axes, all sharing the diagonal 000-111), where the piecewise linear interpolation of f at
+  the corners has an exact Jacobian: as the 2D code's two triangles per cell.
+- a fold: ``det`` <= 0 or ``min_det`` <= 0 (f turns the cell, or part of it, inside out, or
+  flattens it).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .stats import error_stats
+from .volume_field import Deformation3D
+from .volume_lattice import (
+    as_volume_shape,
+    axis_corners,
+    check_grid3,
+    evaluate,
+    lattice_points,
+)
+
+__all__ = ["CellJacobians", "cell_jacobians"]
+
+#: Corner points per slab of cells (f, J and the SVD of a slab stay within ~1 GB).
+SLAB_POINTS = 1 << 21
+
+#: (permutation of the axes (x, y, z) = (0, 1, 2), its sign) for the six Kuhn tetrahedra.
+KUHN = tuple(
+    (order, 1 if sum(a > b for a, b in itertools.combinations(order, 2)) % 2 == 0 else -1)
+    for order in itertools.permutations(range(3))
+)
+
+
+@dataclass(frozen=True, eq=False)
+class CellJacobians:
+    """The Jacobian of a deformation per cell of a volume's lattice, and its folds.
+
+    Made by :func:`cell_jacobians` (see :mod:`glmls.analysis.jacobians` for the
+    definitions); the arrays are read-only, the per-cell ones (cz, cy, cx) in the order
+    (z, y, x) of the cells.
+
+    Attributes
+    ----------
+    shape : tuple of int
+        The volume's (D, H, W).
+    grid : int
+        The lattice's step in voxels.
+    det : numpy.ndarray
+        (cz, cy, cx): det J at each cell's centre.
+    ratio : numpy.ndarray
+        (cz, cy, cx): J's largest singular value over its smallest, >= 1; NaN where J is
+        singular.
+    min_det : numpy.ndarray
+        (cz, cy, cx): the smallest det J of the cell's six Kuhn tetrahedra.
+    folded : numpy.ndarray
+        (cz, cy, cx) bool: ``det`` <= 0 or ``min_det`` <= 0.
+    mask : numpy.ndarray
+        (D, H, W) bool: the voxels of the folded cells.
+
+    Examples
+    --------
+    >>> src = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]]
+    >>> m = glmls.analysis.ReferenceDeformation(src, np.multiply(src, 2.0), transform="affine")
+    >>> cells = glmls.analysis.cell_jacobians(m, (8, 8, 8), grid=4)
+    >>> cells.det.shape, cells.det.round(9).min().item(), cells.ratio.round(9).max().item()
+    ((2, 2, 2), 8.0, 1.0)
+    >>> stats = cells.stats()
+    >>> stats["cells"], stats["folds"], round(stats["det"]["median"], 9)
+    (8, 0, 8.0)
+    """
+
+    shape: tuple[int, int, int]
+    grid: int
+    det: np.ndarray
+    ratio: np.ndarray
+    min_det: np.ndarray
+    folded: np.ndarray
+    mask: np.ndarray
+
+    @property
+    def count(self) -> int:
+        """The number of folded cells."""
+        return int(self.folded.sum())
+
+    def stats(self) -> dict[str, object]:
+        """JSON-ready statistics of the cells.
+
+        Returns
+        -------
+        dict
+            ``grid``, ``cells``, ``folds`` (folded cells), ``folded_voxels``, and the
+            :func:`error_stats` of ``det``, ``ratio`` and ``min_det``.
+        """
+        return {
+            "grid": self.grid,
+            "cells": int(self.det.size),
+            "folds": self.count,
+            "folded_voxels": int(self.mask.sum()),
+            "det": error_stats(self.det),
+            "ratio": error_stats(self.ratio),
+            "min_det": error_stats(self.min_det),
+        }
+
+
+def _triple(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """a . (b x c) over the last axis."""
+    return (a * np.cross(b, c)).sum(-1)
+
+
+def cell_quantities(
+    corners: np.ndarray, steps: Sequence[np.ndarray]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(det, ratio, min_det) per cell from f at the corners (cz + 1, cy + 1, cx + 1, 3) and
+    the cells' sides along (x, y, z)."""
+    hx, hy, hz = (s.astype(np.float64) for s in steps)
+    f = corners
+    hx3, hy3, hz3 = hx[None, None, :, None], hy[None, :, None, None], hz[:, None, None, None]
+    # edges along x of every cell (4 per cell), likewise y and z
+    ex = f[:, :, 1:] - f[:, :, :-1]  # (cz+1, cy+1, cx, 3)
+    ey = f[:, 1:] - f[:, :-1]  # (cz+1, cy, cx+1, 3)
+    ez = f[1:] - f[:-1]  # (cz, cy+1, cx+1, 3)
+    jx = (ex[:-1, :-1] + ex[1:, :-1] + ex[:-1, 1:] + ex[1:, 1:]) / (4 * hx3)
+    jy = (ey[:-1, :, :-1] + ey[1:, :, :-1] + ey[:-1, :, 1:] + ey[1:, :, 1:]) / (4 * hy3)
+    jz = (ez[:, :-1, :-1] + ez[:, 1:, :-1] + ez[:, :-1, 1:] + ez[:, 1:, 1:]) / (4 * hz3)
+    jacobian = np.stack([jx, jy, jz], axis=-1)  # column a: df/dv_a
+    det = np.linalg.det(jacobian)
+    singular = np.linalg.svd(jacobian, compute_uv=False)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(singular[..., 2] > 0, singular[..., 0] / singular[..., 2], np.nan)
+    volume = hx3[..., 0] * hy3[..., 0] * hz3[..., 0]
+    cz, cy, cx = det.shape
+    min_det = np.full(det.shape, np.inf)
+    for order, sign in KUHN:
+        at = np.zeros(3, int)  # the path's corner offset along (x, y, z)
+        edges = []
+        for axis in order:
+            start = f[at[2] : at[2] + cz, at[1] : at[1] + cy, at[0] : at[0] + cx]
+            at[axis] += 1
+            end = f[at[2] : at[2] + cz, at[1] : at[1] + cy, at[0] : at[0] + cx]
+            edges.append(end - start)
+        np.minimum(min_det, sign * _triple(*edges) / volume, out=min_det)
+    return det, ratio, min_det
+
+
+def cell_jacobians(m: Deformation3D, shape: Sequence[int], *, grid: int = 1) -> CellJacobians:
+    """det J, the singular value ratio of J and the folds of ``m`` per cell of a volume.
+
+    f is evaluated at the cell corners every ``grid`` voxels (``m(points)``, in blocks) and
+    differentiated per cell (:mod:`glmls.analysis.jacobians`). A cell folds where det J <= 0
+    at its centre or on any of its six Kuhn tetrahedra, as the 2D fold-overs test both
+    triangles of a cell.
+
+    Parameters
+    ----------
+    m : glmls.MLS or ReferenceDeformation
+        A deformation of (N, 3) handles (anything mapping (K, 3) points to (K, 3)).
+    shape : sequence of int
+        (D, H, W), or (D, H, W, C), of the volume.
+    grid : int, optional
+        The lattice's step in voxels (1: a cell per voxel; (D + 1)(H + 1)(W + 1) points).
+
+    Returns
+    -------
+    CellJacobians
+        det J, the singular value ratio, the Kuhn tetrahedra's smallest det J, the folds and
+        their voxels.
+
+    Raises
+    ------
+    ValueError
+        For a shape that is not (D, H, W) with D, H, W >= 1, a grid that is not an integer
+        from 1 on, or ``m`` returning the wrong shape or values that are not finite.
+    TypeError
+        For a shape that is not integers.
+
+    See Also
+    --------
+    foldovers : the same test in 2D.
+
+    Examples
+    --------
+    >>> mirror = np.diag([-1.0, 1.0, 1.0])
+    >>> cells = glmls.analysis.cell_jacobians(lambda v: v @ mirror, (4, 4, 4), grid=2)
+    >>> cells.count, cells.det.ravel().tolist()[:2], cells.mask.all().item()
+    (8, [-1.0, -1.0], True)
+    >>> glmls.analysis.cell_jacobians(lambda v: v + 1.0, (4, 4, 4)).count
+    0
+    """
+    dims = as_volume_shape(shape)
+    step = check_grid3(grid)
+    z, y, x = (axis_corners(n, step) for n in dims)
+    cells = (len(z) - 1, len(y) - 1, len(x) - 1)
+    det, ratio, min_det = np.empty(cells), np.empty(cells), np.empty(cells)
+    # slabs of cells along z, each with its two planes of corners: bounded memory
+    slab = max(1, SLAB_POINTS // (len(y) * len(x)))
+    for start in range(0, cells[0], slab):
+        planes = z[start : start + slab + 1]
+        values = evaluate(m, lattice_points(planes, y, x), 3)
+        values = values.reshape(len(planes), len(y), len(x), 3)
+        part = slice(start, start + len(planes) - 1)
+        det[part], ratio[part], min_det[part] = cell_quantities(
+            values, (np.diff(x), np.diff(y), np.diff(planes))
+        )
+    folded = (det <= 0) | (min_det <= 0)
+    index = [np.arange(n) // step for n in dims]
+    mask = folded[np.ix_(*index)]
+    for array in (det, ratio, min_det, folded, mask):
+        array.flags.writeable = False
+    return CellJacobians(dims, step, det, ratio, min_det, folded, mask)

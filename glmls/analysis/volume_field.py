@@ -1,0 +1,239 @@
+"""The MLS error field (paper eq. 7) over a volume, and the float64 deformation it and the
+other 3D analyses can run on without a GPU.
+
+Every 3D analysis takes ``m``: a :class:`glmls.MLS` of (N, 3) handles, or a
+:class:`ReferenceDeformation` (the float64 numpy reference on the CPU), or anything with the
+same members: ``m(points)`` (K, 3) -> (K, 3), ``m.matrices(points)`` -> M (K, 3, 3), T (K, 3),
+and the handles ``m.src``, ``m.dst`` (N, 3).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Protocol
+
+import numpy as np
+
+from .. import reference
+from ..core.config import MLSConfig
+from .volume_lattice import (
+    CHUNK,
+    as_points3,
+    as_volume_shape,
+    axis_centres,
+    check_grid3,
+    interpolate_axis,
+    lattice_points,
+)
+
+__all__ = ["Deformation3D", "ReferenceDeformation", "volume_error_field"]
+
+
+class Deformation3D(Protocol):
+    """What the 3D analyses need of a deformation."""
+
+    @property
+    def src(self) -> np.ndarray: ...
+
+    @property
+    def dst(self) -> np.ndarray: ...
+
+    def __call__(self, points: object) -> np.ndarray: ...
+
+    def matrices(self, points: object) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+class ReferenceDeformation:
+    """An MLS deformation of (N, 3) handles computed by :mod:`glmls.reference` (float64, CPU).
+
+    The same members as :class:`glmls.MLS` that the 3D analyses use: ``m(points)``,
+    ``m.matrices(points)``, ``src``, ``dst``, ``config``, ``shape``, and ``with`` blocks. Slow
+    (the reference is O(K N) in memory and time, evaluated in blocks of points); it is the
+    oracle the GPU is tested against, and runs where there is no GPU.
+
+    Parameters
+    ----------
+    src, dst : array_like
+        The handles p_i -> q_i, (N, 3) (x, y, z) rows each.
+    config : glmls.MLSConfig, optional
+        The transform and weight; when None, built from the other keyword arguments
+        (:class:`glmls.MLSConfig`'s fields: ``transform="affine"``, ...).
+    shape : tuple of int, optional
+        (D, H, W) of the volume: its diagonal is the default radius of the radius weights.
+
+    Attributes
+    ----------
+    src, dst : numpy.ndarray
+        The handles, (N, 3) float64, read-only.
+    config : glmls.MLSConfig
+        The configuration.
+    shape : tuple of int or None
+        The volume's (D, H, W).
+
+    Raises
+    ------
+    ValueError
+        For handles that are not (N, 3) finite rows of the same count, or bad options.
+    TypeError
+        For handles that are not real numbers.
+
+    Examples
+    --------
+    >>> src = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]]
+    >>> m = glmls.analysis.ReferenceDeformation(src, np.add(src, 2.0), transform="affine")
+    >>> m([[5.0, 5.0, 5.0]]).round(9).tolist()
+    [[7.0, 7.0, 7.0]]
+    >>> M, T = m.matrices([[5.0, 5.0, 5.0]])
+    >>> M.shape, T.round(6).tolist()
+    ((1, 3, 3), [[2.0, 2.0, 2.0]])
+    """
+
+    def __init__(
+        self,
+        src: object,
+        dst: object,
+        config: MLSConfig | None = None,
+        *,
+        shape: Sequence[int] | None = None,
+        **options: object,
+    ) -> None:
+        p, q = as_points3(src, "src"), as_points3(dst, "dst")
+        if p.shape != q.shape or len(p) == 0:
+            raise ValueError(
+                f"src and dst must be (N, 3) with N >= 1 alike, got {p.shape} and {q.shape}"
+            )
+        self.config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
+        self.shape = None if shape is None else as_volume_shape(shape)
+        p.flags.writeable = q.flags.writeable = False
+        self.src, self.dst = p, q
+
+    def _blocks(self, points: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        v = as_points3(points)
+        f, m, t = np.empty((len(v), 3)), np.empty((len(v), 3, 3)), np.empty((len(v), 3))
+        step = max(1, CHUNK // (8 * len(self.src)))
+        for start in range(0, len(v), step):
+            end = start + step
+            f[start:end], m[start:end], t[start:end] = reference.mls(
+                self.src, self.dst, v[start:end], self.config, shape=self.shape
+            )
+        return f, m, t
+
+    def __call__(self, points: object) -> np.ndarray:
+        """f at ``points``.
+
+        Parameters
+        ----------
+        points : array_like
+            (K, 3) points.
+
+        Returns
+        -------
+        numpy.ndarray
+            f(points), (K, 3) float64.
+        """
+        return self._blocks(points)[0]
+
+    def matrices(self, points: object) -> tuple[np.ndarray, np.ndarray]:
+        """The affine map at each point: ``f(v) = v @ M + T``.
+
+        Parameters
+        ----------
+        points : array_like
+            (K, 3) points.
+
+        Returns
+        -------
+        M : numpy.ndarray
+            (K, 3, 3) float64.
+        T : numpy.ndarray
+            (K, 3) float64.
+        """
+        _, m, t = self._blocks(points)
+        return m, t
+
+    def release(self) -> None:
+        """Nothing to free (for symmetry with :meth:`glmls.MLS.release`)."""
+
+    def __enter__(self) -> ReferenceDeformation:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
+
+
+def fit_residuals(src: np.ndarray, dst: np.ndarray, m: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """E_MLS = sum_i |p_i M + T - q_i|^2 for each (M, T) of (K, 3, 3), (K, 3): (K,)."""
+    out = np.empty(len(m))
+    step = max(1, CHUNK // (4 * len(src)))
+    for start in range(0, len(m), step):
+        end = start + step
+        fitted = np.einsum("nd,kde->kne", src, m[start:end]) + t[start:end, None, :]
+        out[start:end] = ((fitted - dst) ** 2).sum(axis=(1, 2))
+    return out
+
+
+def volume_error_field(m: Deformation3D, shape: Sequence[int], *, grid: int = 1) -> np.ndarray:
+    """The MLS error E_MLS (eq. 7) at every voxel of a volume.
+
+    E_MLS(v) = sum_i |p_i M_v + T_v - q_i|^2, unweighted: how far the affine fit at v misses
+    the handles. With ``grid`` = 1 it is evaluated at every voxel centre; with ``grid`` = g
+    at the voxel centres 0, g, 2 g, ... along each axis (and the last voxel) and
+    interpolated trilinearly between them: g^3 times fewer fits, for big volumes (a 256^3
+    volume at g = 4 fits 65^3 points).
+
+    Parameters
+    ----------
+    m : glmls.MLS or ReferenceDeformation
+        A deformation of (N, 3) handles (``m.matrices``, ``m.src``, ``m.dst``).
+    shape : sequence of int
+        (D, H, W), or (D, H, W, C) of which (D, H, W) is used.
+    grid : int, optional
+        The step of the evaluated voxels (1: every voxel).
+
+    Returns
+    -------
+    numpy.ndarray
+        (D, H, W) float64, in square voxels.
+
+    Raises
+    ------
+    ValueError
+        For a shape that is not (D, H, W) with D, H, W >= 1, a grid that is not an integer
+        from 1 on, or handles that are not (N, 3).
+    TypeError
+        For a shape that is not integers.
+
+    See Also
+    --------
+    glmls.reference.mls_error : the same error in float64 at given points.
+    error_stats : its statistics (eqs. 8, 9).
+
+    Examples
+    --------
+    >>> src = np.array([[2.0, 2, 2], [13, 2, 2], [2, 13, 2], [2, 2, 13], [13, 13, 13]])
+    >>> dst = src.copy()
+    >>> dst[4] = [10.0, 10, 10]  # one corner pulled in: no rigid map fits every handle
+    >>> m = glmls.analysis.ReferenceDeformation(src, dst)
+    >>> field = glmls.analysis.volume_error_field(m, (16, 16, 16), grid=4)
+    >>> field.shape, field.dtype.name, bool(field.min() > 0)
+    ((16, 16, 16), 'float64', True)
+    >>> exact = glmls.reference.mls_error(src, dst, [[8.0, 4.0, 12.0]])  # a lattice voxel
+    >>> bool(np.isclose(field[12, 4, 8], exact[0]))
+    True
+    """
+    depth, height, width = as_volume_shape(shape)
+    step = check_grid3(grid)
+    src, dst = as_points3(m.src, "m.src"), as_points3(m.dst, "m.dst")
+    z, y, x = (axis_centres(n, step) for n in (depth, height, width))
+    field = np.empty((len(z), len(y), len(x)))
+    planes = max(1, CHUNK // (len(y) * len(x)))  # whole planes of points per call of m
+    for start in range(0, len(z), planes):
+        block = lattice_points(z[start : start + planes], y, x)
+        matrix, translation = m.matrices(block)
+        matrix = np.asarray(matrix, dtype=np.float64).reshape(len(block), 3, 3)
+        translation = np.asarray(translation, dtype=np.float64).reshape(len(block), 3)
+        residuals = fit_residuals(src, dst, matrix, translation)
+        field[start : start + planes] = residuals.reshape(-1, len(y), len(x))
+    field = interpolate_axis(field, x, width, 2)
+    field = interpolate_axis(field, y, height, 1)
+    return np.ascontiguousarray(interpolate_axis(field, z, depth, 0))

@@ -1,0 +1,119 @@
+"""The lattices of a volume (D, H, W) on which the 3D analysis evaluates f, and the checks of
+its arguments. Points are (x, y, z) = (column, row, slice), voxel centres at integers.
+
+- voxel centres every ``grid`` voxels: 0, grid, 2 grid, ... along each axis, and the last
+  voxel n - 1 always (the error field; between the points it is interpolated trilinearly);
+- cell corners every ``grid`` voxels: -0.5, -0.5 + grid, ..., and n - 0.5 always (the last
+  step may be shorter), as the 2D mesh: a cell covers the voxels whose centres it holds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ..core.mesh import MAX_GRID
+
+__all__ = [
+    "as_points3",
+    "as_volume_shape",
+    "axis_centres",
+    "axis_corners",
+    "check_grid3",
+    "evaluate",
+    "interpolate_axis",
+    "lattice_points",
+]
+
+#: Points per call of ``m`` (and per block of the numpy sums over them).
+CHUNK = 1 << 18
+
+
+def as_volume_shape(shape: object) -> tuple[int, int, int]:
+    """(D, H, W) from a volume's shape (D, H, W) or (D, H, W, C); ``ValueError`` /
+    ``TypeError`` otherwise."""
+    try:
+        dims = tuple(int(n) for n in shape)  # type: ignore[union-attr]
+    except (TypeError, ValueError):
+        raise TypeError(f"shape must be (D, H, W) integers, got {shape!r}") from None
+    if len(dims) not in (3, 4) or min(dims[:3]) < 1:
+        raise ValueError(f"shape must be (D, H, W) with D, H, W >= 1, got {shape!r}")
+    return dims[0], dims[1], dims[2]
+
+
+def check_grid3(grid: object, name: str = "grid") -> int:
+    """``grid`` as an int from 1 to MAX_GRID (a lattice step in voxels)."""
+    if (
+        isinstance(grid, bool)
+        or not isinstance(grid, (int, np.integer))
+        or not 1 <= grid <= MAX_GRID
+    ):
+        raise ValueError(f"{name} must be an integer from 1 to {MAX_GRID} (voxels), got {grid!r}")
+    return int(grid)
+
+
+def as_points3(points: object, name: str = "points") -> np.ndarray:
+    """``points`` as a C-contiguous float64 (N, 3) array of finite (x, y, z) rows."""
+    array = np.asarray(points)
+    if array.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
+    if array.ndim != 2 or array.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (N, 3) as (x, y, z) rows, got {array.shape}")
+    array = np.ascontiguousarray(array, dtype=np.float64)
+    if not np.isfinite(array).all():
+        row = int(np.argmax(~np.isfinite(array).all(axis=1)))
+        raise ValueError(f"{name} must be finite; row {row} is {array[row].tolist()}")
+    return array
+
+
+def axis_centres(n: int, grid: int) -> np.ndarray:
+    """Voxel centres 0, grid, ... along an axis of n voxels, and n - 1 always."""
+    coords = np.arange(0, n, grid, dtype=np.float64)
+    return coords if coords[-1] == n - 1 else np.append(coords, n - 1.0)
+
+
+def axis_corners(n: int, grid: int) -> np.ndarray:
+    """Cell corners -0.5, -0.5 + grid, ... along an axis of n voxels, and n - 0.5 always."""
+    coords = np.arange(0, n, grid, dtype=np.float64) - 0.5
+    return np.append(coords, n - 0.5)
+
+
+def lattice_points(z: np.ndarray, y: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The (x, y, z) points of the lattice z x y x x in C order of (z, y, x): (K, 3)."""
+    zz, yy, xx = np.meshgrid(z, y, x, indexing="ij")
+    return np.stack([xx.ravel(), yy.ravel(), zz.ravel()], axis=1)
+
+
+def evaluate(
+    function: Callable[[np.ndarray], np.ndarray], points: np.ndarray, width: int
+) -> np.ndarray:
+    """``function`` over (K, 3) points in blocks of :data:`CHUNK`, as (K, width) float64;
+    ``ValueError`` if it returns the wrong shape or values that are not finite."""
+    out = np.empty((len(points), width))
+    for start in range(0, len(points), CHUNK):
+        block = points[start : start + CHUNK]
+        values = np.asarray(function(block), dtype=np.float64).reshape(len(block), -1)
+        if values.shape[1] != width:
+            raise ValueError(f"m returned {values.shape[1]} values per point, expected {width}")
+        out[start : start + len(block)] = values
+    if not np.isfinite(out).all():
+        raise ValueError("m returned NaN or infinite values")
+    return out
+
+
+def interpolate_axis(values: np.ndarray, coords: np.ndarray, n: int, axis: int) -> np.ndarray:
+    """``values`` sampled at ``coords`` (increasing, from 0 to n - 1) along ``axis``,
+    interpolated linearly to 0 .. n - 1."""
+    if len(coords) == n:
+        return values
+    target = np.arange(n, dtype=np.float64)
+    right = np.clip(np.searchsorted(coords, target, side="right"), 1, len(coords) - 1)
+    left = right - 1
+    t = (target - coords[left]) / (coords[right] - coords[left])
+    shape = [1] * values.ndim
+    shape[axis] = n
+    t = t.reshape(shape)
+    a = np.take(values, left, axis=axis)
+    b = np.take(values, right, axis=axis)
+    return a + t * (b - a)

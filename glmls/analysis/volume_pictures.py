@@ -1,0 +1,236 @@
+"""Pictures of a volume: three orthogonal slices and a maximum-intensity projection in one
+picture, with the handles near each slice drawn as p -> q arrows (:func:`render_handles`).
+
+The layout (one cell per view, ``scale`` picture pixels per voxel)::
+
+    +-----------------+-----------------+
+    | z slice  (y, x) | x slice  (y, z) |
+    +-----------------+-----------------+
+    | y slice  (z, x) | projection (y, x)|
+    +-----------------+-----------------+
+
+Each view is labelled in its bottom-left corner (``z = 12``: the slice at z = 12), where it is
+big enough. The z slice and the x slice share their rows (y), the z slice and the y slice
+their columns (x); the projection is the maximum of the volume along z, or its minimum (for
+a mask: any voxel along z).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import moderngl
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+
+from ..gl.context import GLContext
+from .colormaps import apply_colormap, color_limits
+from .pictures import render_handles
+from .volume_lattice import as_points3, as_volume_shape
+
+__all__ = ["check_slices", "render_volume_slices"]
+
+#: The tint of masked voxels (RGB 0-255) and its opacity.
+MASK_COLOR = (230, 30, 30)
+MASK_OPACITY = 0.65
+#: The picture's smallest side per view, in pixels, when ``scale`` is None.
+MIN_VIEW = 192
+#: Grey between the views.
+GAP = 6
+#: The labels' font size; views less than 4 labels high go without one.
+LABEL_SIZE = 12
+
+
+def check_slices(shape: Sequence[int], slices: object) -> tuple[int, int, int]:
+    """(z, y, x) voxel indices of the three slices; the centre of the volume when None."""
+    dims = as_volume_shape(shape)
+    if slices is None:
+        return dims[0] // 2, dims[1] // 2, dims[2] // 2
+    try:
+        index = tuple(slices)  # type: ignore[arg-type]
+    except TypeError:
+        raise ValueError(f"slices must be (z, y, x) voxel indices, got {slices!r}") from None
+    if len(index) != 3 or not all(
+        isinstance(i, (int, np.integer)) and not isinstance(i, bool) and 0 <= i < n
+        for i, n in zip(index, dims, strict=True)
+    ):
+        raise ValueError(f"slices must be (z, y, x) voxel indices within {dims}, got {slices!r}")
+    return int(index[0]), int(index[1]), int(index[2])
+
+
+def _grey(values: np.ndarray, vmin: float | None, vmax: float | None) -> np.ndarray:
+    if values.dtype == np.uint8 and vmin is None and vmax is None:
+        return values
+    lo, hi = color_limits(values, vmin=vmin, vmax=vmax)
+    span = hi - lo if hi > lo else 1.0
+    return np.round(np.clip((values - lo) / span, 0, 1) * 255).astype(np.uint8)
+
+
+def _views(array: np.ndarray, at: tuple[int, int, int], project) -> list[np.ndarray]:
+    """z slice (H, W), x slice (H, D), y slice (D, W), projection along z (H, W)."""
+    z, y, x = at
+    return [array[z], np.swapaxes(array[:, :, x], 0, 1), array[:, y], project(array)]
+
+
+def _view_points(points: np.ndarray, view: int) -> np.ndarray:
+    """(x, y, z) points as the (column, row) of a view."""
+    return points[:, [(0, 1), (2, 1), (0, 2), (0, 1)][view]]
+
+
+def render_volume_slices(
+    volume: object,
+    *,
+    src: object = None,
+    dst: object = None,
+    slices: object = None,
+    near: float | None = None,
+    mask: object = None,
+    cmap: object = None,
+    vmin: float | None = None,
+    vmax: float | None = None,
+    percentile: float | None = None,
+    scale: int | None = None,
+    projection: str = "max",
+    ctx: moderngl.Context | GLContext | None = None,
+) -> np.ndarray:
+    """Three orthogonal slices and the maximum-intensity projection of a volume, in one picture.
+
+    Layout in :mod:`glmls.analysis.volume_pictures`. A grey volume is drawn from ``vmin``
+    (black) to ``vmax`` (white), an RGB volume as it is, and with ``cmap`` a field (an error)
+    through that colour map, its limits from the whole volume.
+
+    Parameters
+    ----------
+    volume : array_like
+        (D, H, W) values, or (D, H, W, 3) uint8 colours.
+    src, dst : array_like, optional
+        Handles (N, 3) (x, y, z), drawn as arrows on each slice within ``near`` voxels of
+        them (their source or target), and on the projection all.
+    slices : tuple of int, optional
+        (z, y, x) voxel indices of the slices; the volume's centre by default.
+    near : float, optional
+        How far from a slice a handle is drawn on it, in voxels; by default a tenth of the
+        volume's largest side (at least 1).
+    mask : array_like, optional
+        (D, H, W) bool: voxels tinted red (on the projection: any along z).
+    cmap : str or array_like, optional
+        A colour map (:func:`apply_colormap`) for a field; None: grey or RGB.
+    vmin, vmax, percentile : float, optional
+        The limits of the grey scale or colour map (:func:`color_limits`); for a grey
+        uint8 volume 0 and 255 by default.
+    scale : int, optional
+        Picture pixels per voxel (nearest neighbour); by default the smallest that makes
+        each view's smaller side at least 192 pixels.
+    projection : {"max", "min"}, optional
+        The fourth view: the maximum of the volume along z, or the minimum (for a field
+        whose low values matter, as det J).
+    ctx : moderngl.Context or GLContext, optional
+        The context to draw the handles with (default: glmls's shared headless one).
+
+    Returns
+    -------
+    numpy.ndarray
+        The picture, (h, w, 3) uint8.
+
+    Raises
+    ------
+    ValueError
+        For a volume that is not (D, H, W) or (D, H, W, 3), or bad handles, slices, mask,
+        limits, scale or projection.
+
+    Examples
+    --------
+    >>> z, y, x = np.mgrid[0:8, 0:12, 0:16]
+    >>> volume = (x * 16).astype(np.uint8)
+    >>> picture = glmls.analysis.render_volume_slices(volume, scale=2)
+    >>> picture.shape  # (2 * (12 + 12) + 6, 2 * (16 + 16) + 6)
+    (54, 70, 3)
+    >>> picture[0, 0].tolist(), picture[0, 31].tolist()  # the z slice: x = 0 and x = 15
+    ([0, 0, 0], [240, 240, 240])
+    """
+    array = np.asarray(volume)
+    rgb_volume = array.ndim == 4
+    if array.ndim not in (3, 4) or (rgb_volume and array.shape[3] != 3) or 0 in array.shape:
+        raise ValueError(f"volume must be (D, H, W) or (D, H, W, 3), got shape {array.shape}")
+    if array.dtype.kind not in "iuf" or (rgb_volume and array.dtype != np.uint8):
+        raise ValueError(f"volume must be real numbers (RGB: uint8), got dtype {array.dtype}")
+    dims = array.shape[:3]
+    at = check_slices(dims, slices)
+    if projection not in ("max", "min"):
+        raise ValueError(f"projection must be 'max' or 'min', got {projection!r}")
+    views = _views(array, at, lambda a: getattr(a, projection)(axis=0))
+    if rgb_volume:
+        pictures = [np.ascontiguousarray(v) for v in views]
+    else:
+        values = array.astype(np.float64) if array.dtype != np.uint8 else array
+        if cmap is not None:
+            lo, hi = color_limits(values, vmin=vmin, vmax=vmax, percentile=percentile)
+            pictures = [apply_colormap(v, cmap=cmap, vmin=lo, vmax=hi) for v in views]
+        else:
+            lo, hi = (
+                (vmin, vmax)
+                if values.dtype == np.uint8
+                else color_limits(values, vmin=vmin, vmax=vmax, percentile=percentile)
+            )
+            pictures = [np.repeat(_grey(v, lo, hi)[..., None], 3, axis=2) for v in views]
+    if mask is not None:
+        folds = np.asarray(mask, dtype=bool)
+        if folds.shape != dims:
+            raise ValueError(f"mask must be {dims} like the volume, got shape {folds.shape}")
+        tint = np.array(MASK_COLOR, np.float64)
+        for picture, hit in zip(pictures, _views(folds, at, lambda a: a.any(axis=0)), strict=True):
+            picture[hit] = np.round((1 - MASK_OPACITY) * picture[hit] + MASK_OPACITY * tint).astype(
+                np.uint8
+            )
+    if scale is None:
+        scale = max(1, -(-MIN_VIEW // min(dims)))
+    elif isinstance(scale, bool) or not isinstance(scale, (int, np.integer)) or scale < 1:
+        raise ValueError(f"scale must be an integer from 1, got {scale!r}")
+    pictures = [p.repeat(scale, axis=0).repeat(scale, axis=1) for p in pictures]
+    if src is not None or dst is not None:
+        p, q = as_points3(src, "src"), as_points3(dst, "dst")
+        if p.shape != q.shape:
+            raise ValueError(f"src and dst must have the same shape, got {p.shape} and {q.shape}")
+        reach = max(1.0, max(dims) / 10) if near is None else float(near)
+        position = (at[0], at[2], at[1], None)  # the slice each view cuts, along z, x, y
+        axis = (2, 0, 1, None)
+        for view in range(4):
+            keep = np.ones(len(p), bool)
+            if axis[view] is not None:
+                c, s = axis[view], position[view]
+                keep = (np.abs(p[:, c] - s) <= reach) | (np.abs(q[:, c] - s) <= reach)
+            if keep.any():
+                a = (_view_points(p[keep], view) + 0.5) * scale - 0.5
+                b = (_view_points(q[keep], view) + 0.5) * scale - 0.5
+                pictures[view] = render_handles(pictures[view], a, b, ctx=ctx)
+    names = [f"z = {at[0]}", f"x = {at[2]}", f"y = {at[1]}", f"{projection} along z"]
+    return _montage(pictures, dims, scale, names)
+
+
+def _label(picture: np.ndarray, text: str) -> np.ndarray:
+    """``text`` in white on a dark box in the bottom-left corner of a view."""
+    if picture.shape[0] < 4 * LABEL_SIZE or picture.shape[1] < 8 * LABEL_SIZE:
+        return picture
+    image = Image.fromarray(picture)
+    draw = ImageDraw.Draw(image)
+    font = ImageFont.load_default(size=LABEL_SIZE)
+    width = int(font.getlength(text))
+    top = picture.shape[0] - LABEL_SIZE - 6
+    draw.rectangle((0, top, width + 6, picture.shape[0]), fill=(0, 0, 0))
+    draw.text((3, top + 2), text, fill=(255, 255, 255), font=font)
+    return np.asarray(image)
+
+
+def _montage(
+    pictures: list[np.ndarray], dims: tuple[int, ...], scale: int, names: list[str]
+) -> np.ndarray:
+    depth, height, width = (n * scale for n in dims)
+    rows = (height, max(depth, height))
+    columns = (width, max(depth, width))
+    out = np.full((rows[0] + GAP + rows[1], columns[0] + GAP + columns[1], 3), 128, np.uint8)
+    for k, picture in enumerate(pictures):
+        picture = _label(picture, names[k])
+        top = 0 if k in (0, 1) else rows[0] + GAP
+        left = 0 if k in (0, 2) else columns[0] + GAP
+        out[top : top + picture.shape[0], left : left + picture.shape[1]] = picture
+    return out

@@ -1,0 +1,358 @@
+"""One call that analyses a deformation of one volume: statistics, timings and pictures."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from ..files.atomic import atomic_write
+from . import colormaps
+from .jacobians import CellJacobians, cell_jacobians
+from .stats import error_stats
+from .tetrahedra import SLIVER_QUALITY, TetrahedronErrors, tetrahedron_errors
+from .triangles import check_angle_measure
+from .volume_field import Deformation3D, volume_error_field
+from .volume_lattice import as_points3, check_grid3
+from .volume_pictures import check_slices, render_volume_slices
+
+__all__ = ["VolumeReport", "volume_report"]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class VolumeReport:
+    """What :func:`volume_report` found: statistics, timings and pictures of a 3D deformation.
+
+    Attributes
+    ----------
+    summary : dict
+        JSON-ready: the volume's size, the configuration and handles, the analysis
+        settings, timings in seconds, the statistics of the error field, the tetrahedra and
+        the cells' Jacobians (with the fold count).
+    images : dict of str to numpy.ndarray
+        Picture name -> (h, w, 3) uint8 picture (:func:`render_volume_slices`).
+    field : numpy.ndarray
+        The MLS error field (eq. 7), (D, H, W) float64.
+    tetrahedra : TetrahedronErrors or None
+        The reference tetrahedra's errors; None where the handles, taken as the reference
+        points, form no tetrahedron.
+    jacobians : CellJacobians
+        det J, the singular value ratio and the folds per cell.
+    deformed : numpy.ndarray or None
+        The deformed volume (given, or ``m.warp(volume)``), None without either.
+
+    Examples
+    --------
+    >>> z, y, x = np.mgrid[0:12, 0:12, 0:12]
+    >>> volume = (100 + 80 * np.sin(x / 2.0) * np.cos(y / 3.0)).astype(np.uint8)
+    >>> src = np.array([[2.0, 2, 2], [9, 2, 2], [2, 9, 2], [2, 2, 9], [9, 9, 9]])
+    >>> dst = src + [1.0, 0, 0]
+    >>> m = glmls.analysis.ReferenceDeformation(src, dst)
+    >>> found = glmls.analysis.volume_report(volume, m, grid=3)
+    >>> found.summary["volume"], found.summary["jacobians"]["folds"]
+    ({'depth': 12, 'height': 12, 'width': 12, 'channels': 1}, 0)
+    >>> found.to_json().splitlines()[:2]
+    ['{', '  "volume": {']
+    """
+
+    summary: dict
+    images: dict[str, np.ndarray]
+    field: np.ndarray
+    tetrahedra: TetrahedronErrors | None
+    jacobians: CellJacobians
+    deformed: np.ndarray | None = None
+
+    def to_json(self, **options: object) -> str:
+        """The summary as JSON text.
+
+        Parameters
+        ----------
+        **options
+            :func:`json.dumps`'s keywords (default ``indent=2``).
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
+        return json.dumps(self.summary, **({"indent": 2} | options))  # type: ignore[arg-type]
+
+    def save(self, folder: str | Path) -> list[Path]:
+        """Write ``report.json`` and one PNG per picture into a folder, each whole or not at all.
+
+        Parameters
+        ----------
+        folder : str or pathlib.Path
+            The folder, created if needed.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The paths written, ``report.json`` first.
+        """
+        out = Path(folder)
+        paths = [out / "report.json"]
+        with atomic_write(paths[0]) as tmp:
+            tmp.write_text(self.to_json() + "\n", encoding="utf-8")
+        for name, picture in self.images.items():
+            path = out / f"{name}.png"
+            with atomic_write(path) as tmp:
+                Image.fromarray(picture).save(tmp, format="PNG")
+            paths.append(path)
+        return paths
+
+
+def _check_volume(volume: object, name: str) -> np.ndarray:
+    array = np.asarray(volume)
+    if array.ndim not in (3, 4) or 0 in array.shape or (array.ndim == 4 and array.shape[3] > 4):
+        raise ValueError(f"{name} must be (D, H, W) or (D, H, W, C), got shape {array.shape}")
+    if array.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
+    if array.dtype.kind == "f" and not np.isfinite(array).all():
+        raise ValueError(f"{name} holds NaN or infinite values")
+    return array
+
+
+def _shown(array: np.ndarray) -> np.ndarray:
+    """A volume as the pictures draw it: grey (D, H, W), or uint8 RGB (D, H, W, 3)."""
+    if array.ndim == 3:
+        return array
+    if array.shape[3] in (3, 4) and array.dtype == np.uint8:
+        return array[..., :3]
+    return array.mean(axis=3) if array.shape[3] > 1 else array[..., 0]
+
+
+def _distinct(points: np.ndarray) -> np.ndarray:
+    """The distinct rows of ``points``, in their order."""
+    _, first = np.unique(points, axis=0, return_index=True)
+    return points[np.sort(first)]
+
+
+def _grey_limits(array: np.ndarray) -> tuple[float | None, float | None]:
+    if array.ndim == 4 or array.dtype == np.uint8:
+        return None, None
+    return float(array.min()), float(array.max())
+
+
+def volume_report(
+    volume: object,
+    m: Deformation3D,
+    reference_points: object = None,
+    *,
+    grid: int = 1,
+    jacobian_grid: int | None = None,
+    tetrahedra: object = None,
+    min_quality: float = SLIVER_QUALITY,
+    angle: str = "degrees",
+    eps: float = 1e-6,
+    cmap: object = "viridis",
+    percentile: float | None = None,
+    slices: object = None,
+    near: float | None = None,
+    deformed: object = None,
+    warp: bool = True,
+    out_dir: str | Path | None = None,
+    on_stage: Callable[[str], None] | None = None,
+) -> VolumeReport:
+    """Analyse the deformation ``m`` of a volume as section 5 of the paper does an image's.
+
+    Computes the MLS error field (eq. 7) over the volume and its statistics (eqs. 8, 9),
+    the reference tetrahedra's distance and angular errors (:func:`tetrahedron_errors`),
+    det J, the singular value ratio and the folds per cell (:func:`cell_jacobians`), and
+    draws, each as three orthogonal slices and a projection
+    (:func:`render_volume_slices`): ``input_handles`` (the volume, with the handles),
+    ``deformed`` (the deformed volume, with the handles, where there is one),
+    ``error_field``, ``jacobian_det`` (det J per cell, its projection the minimum) and
+    ``folds`` (the folded cells in red over the volume), with a ``*_colorbar`` for each
+    colour picture.
+
+    Parameters
+    ----------
+    volume : array_like
+        (D, H, W) or (D, H, W, C) real values.
+    m : glmls.MLS or ReferenceDeformation
+        The deformation, of (N, 3) handles ``m.src`` -> ``m.dst``.
+    reference_points : array_like, optional
+        The points r of the tetrahedra, (N, 3); by default the distinct source handles
+        (the tetrahedra are then left out where they form none).
+    grid : int, optional
+        The error field at every voxel (1), or every ``grid`` voxels, interpolated.
+    jacobian_grid : int, optional
+        The step of the cells of det J and of the folds (default: ``grid``).
+    tetrahedra : array_like, optional
+        (T, 4) indices into the reference points: the user's tetrahedra instead of Delaunay's.
+    min_quality : float, optional
+        The radius ratio below which a tetrahedron is a sliver (:func:`tetrahedron_errors`).
+    angle : {"degrees", "paper"}, optional
+        The tetrahedra's angular measure.
+    eps : float, optional
+        Eq. (11)'s epsilon.
+    cmap : str or array_like, optional
+        The colour map of the error and det J pictures.
+    percentile : float, optional
+        Robust upper bound of the error field's colour scale (None: the maximum).
+    slices : tuple of int, optional
+        (z, y, x) voxel indices of the pictures' slices (default: the centre).
+    near : float, optional
+        How far from a slice, in voxels, a handle is drawn on it.
+    deformed : array_like, optional
+        The deformed volume, when made elsewhere; else ``m.warp(volume)`` where ``m`` has a
+        ``warp`` method (and ``warp`` is true), else none.
+    warp : bool, optional
+        Whether to warp the volume with ``m.warp`` when no ``deformed`` is given.
+    out_dir : str or pathlib.Path, optional
+        Also write ``report.json`` and the PNGs there (:meth:`VolumeReport.save`).
+    on_stage : callable, optional
+        Called with each stage's name as it begins, for progress.
+
+    Returns
+    -------
+    VolumeReport
+        The summary, the pictures, the error field and the errors.
+
+    Raises
+    ------
+    ValueError
+        For a bad volume, grid, slices, angle measure, reference points or tetrahedra.
+    TypeError
+        For a volume that is not real numbers.
+
+    Examples
+    --------
+    >>> z, y, x = np.mgrid[0:12, 0:12, 0:12]
+    >>> volume = (100 + 80 * np.sin(x / 2.0) * np.cos(y / 3.0)).astype(np.uint8)
+    >>> src = np.array([[2.0, 2, 2], [9, 2, 2], [2, 9, 2], [2, 2, 9], [9, 9, 9]])
+    >>> dst = src.copy()
+    >>> dst[4] = [7.0, 7, 7]
+    >>> m = glmls.analysis.ReferenceDeformation(src, dst)
+    >>> found = glmls.analysis.volume_report(volume, m, grid=3)
+    >>> sorted(found.images)[:3]
+    ['error_field', 'error_field_colorbar', 'folds']
+    >>> found.field.shape, found.summary["tetrahedra"]["tetrahedra"] > 0
+    ((12, 12, 12), True)
+    """
+    stage = on_stage if on_stage is not None else (lambda name: None)
+    array = _check_volume(volume, "volume")
+    dims = array.shape[:3]
+    step = check_grid3(grid)
+    cell_step = step if jacobian_grid is None else check_grid3(jacobian_grid, "jacobian_grid")
+    check_angle_measure(angle)
+    at = check_slices(dims, slices)
+    src, dst = as_points3(m.src, "m.src"), as_points3(m.dst, "m.dst")
+    timings: dict[str, float] = {}
+    start = time.perf_counter()
+
+    tick = time.perf_counter()
+    stage("error field")
+    field = volume_error_field(m, dims, grid=step)
+    timings["error_field"] = time.perf_counter() - tick
+
+    tick = time.perf_counter()
+    stage("tetrahedra")
+    found: TetrahedronErrors | None = None
+    skipped = None
+    try:
+        found = tetrahedron_errors(
+            m,
+            _distinct(src) if reference_points is None else reference_points,
+            tetrahedra=tetrahedra,
+            min_quality=min_quality,
+            angle=angle,
+            eps=eps,
+        )
+    except ValueError as error:
+        if reference_points is not None:
+            raise
+        skipped = f"the source handles as reference points: {error}"
+    timings["tetrahedron_errors"] = time.perf_counter() - tick
+
+    tick = time.perf_counter()
+    stage("jacobians")
+    cells = cell_jacobians(m, dims, grid=cell_step)
+    timings["jacobians"] = time.perf_counter() - tick
+
+    warped = None
+    if deformed is not None:
+        warped = _check_volume(deformed, "deformed")
+    elif warp and callable(getattr(m, "warp", None)):
+        tick = time.perf_counter()
+        stage("warp")
+        try:
+            warped = _check_volume(m.warp(array), "m.warp(volume)")  # type: ignore[attr-defined]
+        except NotImplementedError:  # a deformation that cannot warp volumes
+            warped = None
+        timings["warp"] = time.perf_counter() - tick
+
+    tick = time.perf_counter()
+    stage("pictures")
+    shown = _shown(array)
+    lo, hi = _grey_limits(shown)
+    view = {"slices": at, "near": near}
+    images = {
+        "input_handles": render_volume_slices(shown, src=src, dst=dst, vmin=lo, vmax=hi, **view)
+    }
+    if warped is not None:
+        images["deformed"] = render_volume_slices(
+            _shown(warped), src=src, dst=dst, vmin=lo, vmax=hi, **view
+        )
+    f_lo, f_hi = colormaps.color_limits(field, percentile=percentile)
+    images["error_field"] = render_volume_slices(
+        field, src=src, dst=dst, cmap=cmap, vmin=f_lo, vmax=f_hi, **view
+    )
+    images["error_field_colorbar"] = colormaps.colorbar(
+        cmap, f_lo, f_hi, length=256, label="E_MLS (voxel^2)"
+    )
+    index = np.ix_(*(np.arange(n) // cell_step for n in dims))
+    det = cells.det[index]
+    d_lo, d_hi = colormaps.color_limits(det)
+    images["jacobian_det"] = render_volume_slices(
+        det, cmap=cmap, vmin=d_lo, vmax=d_hi, projection="min", **view
+    )
+    images["jacobian_det_colorbar"] = colormaps.colorbar(
+        cmap, d_lo, d_hi, length=256, label="det J"
+    )
+    images["folds"] = render_volume_slices(shown, mask=cells.mask, vmin=lo, vmax=hi, **view)
+    timings["render"] = time.perf_counter() - tick
+    timings["total"] = time.perf_counter() - start
+
+    config = getattr(m, "config", None)
+    summary: dict[str, object] = {
+        "volume": {
+            "depth": dims[0],
+            "height": dims[1],
+            "width": dims[2],
+            "channels": 1 if array.ndim == 3 else array.shape[3],
+        },
+        "configuration": (dataclasses.asdict(config) if dataclasses.is_dataclass(config) else {})
+        | {"handles": len(src), "src": src.tolist(), "dst": dst.tolist()},
+        "analysis": {
+            "grid": step,
+            "jacobian_grid": cell_step,
+            "angle": angle,
+            "eps": eps,
+            "min_quality": min_quality,
+            "reference_points": "handles" if reference_points is None else "given",
+            "cmap": cmap if isinstance(cmap, str) else np.asarray(cmap).tolist(),
+            "percentile": percentile,
+            "slices": {"z": at[0], "y": at[1], "x": at[2]},
+            "error_field_limits": [f_lo, f_hi],
+            "det_limits": [d_lo, d_hi],
+        },
+        "timings_s": timings,
+        "error_field": error_stats(field),
+        "tetrahedra": found.stats() if found is not None else {"skipped": skipped},
+        "jacobians": cells.stats(),
+        "deformed": warped is not None,
+    }
+    ctx = getattr(m, "ctx", None)
+    if ctx is not None:
+        summary["gl_renderer"] = ctx.mgl.info.get("GL_RENDERER")
+    result = VolumeReport(summary, images, field, found, cells, warped)
+    if out_dir is not None:
+        result.save(out_dir)
+    return result

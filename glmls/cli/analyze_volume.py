@@ -1,0 +1,139 @@
+"""``glmls analyze`` on a volume (a ``.npy``, NIfTI or TIFF-stack input) with 3D handles: the
+3D analysis of :func:`glmls.analysis.volume_report` on the GPU (:class:`glmls.MLS` of (N, 3)
+handles), written as ``report.json`` and PNGs."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from ..analysis.volume_reporting import volume_report
+from ..core.config import MLSConfig
+from ..files.landmarks import read_handles
+from ..files.parsing import csv_rows, fail, json_list, load_json, number, table
+from ..files.volumes import is_volume_file, read_volume
+from ..mls import MLS
+from .inputs import reported_warnings, say
+from .options import UsageError, config_from_args
+from .progress import Ticker
+
+__all__ = ["is_volume_input", "read_points_3d", "run_volume"]
+
+
+def is_volume_input(args: argparse.Namespace) -> bool:
+    """Whether ``analyze``'s input is a volume (by its suffix; a TIFF by its pages)."""
+    return not args.example and args.input is not None and is_volume_file(args.input)
+
+
+def read_points_3d(path: str | Path) -> np.ndarray:
+    """Reference points (K, 3) from JSON ``{"points": [[x, y, z], ...]}`` or a CSV with the
+    header ``x,y,z``; ``InputFileError`` naming the place of a fault."""
+    path = Path(path)
+    if path.suffix.lower() == ".json":
+        data = load_json(path)
+        if "points" not in data:
+            raise fail(path, "top level", 'missing the key "points"')
+        rows = json_list(path, '"points"', data["points"], "[x, y, z] points")
+        values = []
+        for index, row in enumerate(rows):
+            where = f'"points"[{index}]'
+            if not isinstance(row, list) or len(row) != 3:
+                raise fail(path, where, "expected an [x, y, z] point")
+            values.append([number(path, where, v) for v in row])
+        points = np.array(values, dtype=np.float64).reshape(-1, 3)
+    else:
+        rows = csv_rows(path)
+        if not rows:
+            raise fail(path, "content", "no points")
+        line, header = rows[0]
+        if [h.lower() for h in header] != ["x", "y", "z"]:
+            raise fail(path, f"line {line}", f"expected the header x,y,z, got {','.join(header)}")
+        points = table(path, rows[1:], 3)
+    if len(points) == 0:
+        raise fail(path, "content", "no points")
+    return points
+
+
+def _deformation(src: np.ndarray, dst: np.ndarray, config: MLSConfig, shape) -> MLS:
+    """glmls.MLS of the 3D handles (on the GPU); :class:`UsageError` if it cannot take them."""
+    try:
+        return MLS.from_config(src, dst, config, shape=shape)
+    except (TypeError, ValueError) as error:
+        raise UsageError(f"handles: {error}") from None
+
+
+def _warped(m: object, volume: np.ndarray, args: argparse.Namespace) -> np.ndarray | None:
+    warp = getattr(m, "warp", None)
+    if not callable(warp):
+        say(args, "analyze: no deformed volume: this deformation cannot warp volumes")
+        return None
+    try:
+        return np.asarray(warp(volume))
+    except (TypeError, ValueError, NotImplementedError) as error:
+        say(args, f"analyze: no deformed volume: {error}")
+        return None
+
+
+def run_volume(args: argparse.Namespace) -> int:
+    """``glmls analyze VOLUME --handles H3 --out DIR``."""
+    if args.handles is None:
+        raise UsageError("missing --handles (a file of 3D handles for a volume)")
+    config = config_from_args(args)
+    volume = read_volume(args.input).data
+    src, dst = read_handles(args.handles, ndim=3)
+    reference = read_points_3d(args.reference) if args.reference else None
+    if reference is None:
+        say(args, "analyze: no --reference given: the source handles are the reference points")
+    ticker = Ticker("analyze", quiet=args.quiet)
+    m = _deformation(src, dst, config, volume.shape[:3])
+    with m, ticker as tick, reported_warnings("analyze"):
+        try:
+            tick.stage("warp")
+            deformed = _warped(m, volume, args)
+            result = volume_report(
+                volume,
+                m,
+                reference,
+                grid=args.analysis_grid,
+                angle=args.angle,
+                cmap=args.cmap,
+                deformed=deformed,
+                warp=False,
+                on_stage=tick.stage,
+            )
+        except ValueError as error:
+            raise UsageError(str(error)) from None
+    result.summary["input"] = str(args.input)
+    for path in result.save(args.out):
+        print(path)
+    summary = result.summary
+    field, cells, tetrahedra = summary["error_field"], summary["jacobians"], summary["tetrahedra"]
+    say(
+        args,
+        f"analyze: E_MLS median {_number(field['median'])} voxel^2, trimmed mean "
+        f"{_number(field['trimmed_mean'])}, mean {_number(field['mean'])} "
+        f"(std {_number(field['std'])})",
+    )
+    if "angle" in tetrahedra:
+        angle = tetrahedra["angle"]
+        say(
+            args,
+            f"analyze: {tetrahedra['tetrahedra']} tetrahedra ({tetrahedra['slivers']} slivers "
+            f"left out), angular error ({args.angle}) median {_number(angle['median'])}, "
+            f"mean {_number(angle['mean'])}; {tetrahedra['inverted']} inverted",
+        )
+    else:
+        say(args, f"analyze: no tetrahedra: {tetrahedra['skipped']}")
+    say(
+        args,
+        f"analyze: det J median {_number(cells['det']['median'])}, min "
+        f"{_number(cells['det']['min'])}; folds {cells['folds']} of {cells['cells']} cells "
+        f"(grid {cells['grid']})",
+    )
+    return 0
+
+
+def _number(value: float | None) -> str:
+    return "n/a" if value is None else f"{value:.4g}"

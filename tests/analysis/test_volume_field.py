@@ -1,0 +1,137 @@
+"""The MLS error field over a volume (eq. 7) and its statistics (eqs. 8, 9), against the
+float64 reference."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from scipy import stats as scipy_stats
+
+import glmls
+from glmls import reference
+from glmls.analysis import ReferenceDeformation, error_stats, volume_error_field
+
+SRC = np.array([[2.0, 2, 1], [12, 3, 2], [3, 10, 1], [2, 2, 8], [11, 10, 7], [7, 6, 4]])
+DST = SRC + np.array([[0.0, 0, 0], [1, 0, 0], [0, -1, 0], [0, 0, 1], [-1, 1, 0], [2, 1, -1]])
+
+
+def voxel_centres(shape):
+    z, y, x = np.mgrid[0 : shape[0], 0 : shape[1], 0 : shape[2]]
+    return np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1).astype(np.float64)
+
+
+@pytest.mark.parametrize("transform", ["rigid", "similarity", "affine"])
+def test_the_field_is_the_reference_error_at_every_voxel(transform):
+    shape = (9, 12, 14)
+    m = ReferenceDeformation(SRC, DST, transform=transform, shape=shape)
+    field = volume_error_field(m, shape)
+    expected = reference.mls_error(SRC, DST, voxel_centres(shape), transform=transform, shape=shape)
+    assert field.shape == shape and field.dtype == np.float64
+    assert_allclose(field.ravel(), expected, rtol=1e-12, atol=1e-9)
+    assert field.max() > 1.0  # the handles do not fit one rigid/similar/affine map
+
+
+def test_a_grid_evaluates_every_grid_voxels_and_interpolates_trilinearly():
+    shape = (9, 12, 14)
+    m = ReferenceDeformation(SRC, DST, shape=shape)
+    exact = volume_error_field(m, shape)
+    field = volume_error_field(m, shape, grid=4)
+    # on the lattice (0, 4, 8 and the last voxel along each axis) it is exact
+    for z in (0, 4, 8):
+        for y in (0, 4, 8, 11):
+            for x in (0, 4, 8, 12, 13):
+                assert field[z, y, x] == pytest.approx(exact[z, y, x], rel=1e-12)
+    # between: linear along each axis, e.g. half-way in x and a quarter in z
+    corner = lambda z, x: exact[z, 4, x]  # noqa: E731
+    expected = 0.75 * (corner(4, 4) + corner(4, 8)) / 2 + 0.25 * (corner(8, 4) + corner(8, 8)) / 2
+    assert field[5, 4, 6] == pytest.approx(expected, rel=1e-12)
+    # the last, shorter step: x = 12 -> 13 holds no voxel between, y = 8 -> 11 does
+    t = 1 / 3
+    assert field[0, 9, 0] == pytest.approx((1 - t) * exact[0, 8, 0] + t * exact[0, 11, 0])
+
+
+def test_the_identity_and_a_global_similarity_have_no_error():
+    shape = (6, 7, 8)
+    assert volume_error_field(ReferenceDeformation(SRC, SRC), shape).max() < 1e-20
+    turn = np.array([[0.0, 1, 0], [-1, 0, 0], [0, 0, 1]])
+    moved = ReferenceDeformation(SRC, 1.5 * SRC @ turn + 3.0, transform="similarity")
+    assert volume_error_field(moved, shape, grid=2).max() < 1e-9
+
+
+def test_the_statistics_are_eqs_8_and_9_with_the_median_and_trimmed_mean():
+    shape = (8, 9, 10)
+    field = volume_error_field(ReferenceDeformation(SRC, DST), shape)
+    found = error_stats(field)
+    values = field.ravel()
+    assert found["count"] == values.size and found["nan_count"] == 0
+    assert found["mean"] == pytest.approx(values.sum() / values.size, rel=1e-12)  # eq. 8
+    assert found["std"] == pytest.approx(
+        np.sqrt(((values - values.mean()) ** 2).sum() / values.size), rel=1e-10
+    )  # eq. 9
+    assert found["median"] == pytest.approx(np.median(values))
+    assert found["trimmed_mean"] == pytest.approx(scipy_stats.trim_mean(values, 0.1), rel=1e-12)
+    assert found["min"] == values.min() and found["max"] == values.max()
+    within = np.abs(values - values.mean()) <= found["std"]
+    assert found["within"][0] == pytest.approx(within.mean())
+
+
+def test_the_reference_deformation_is_the_reference():
+    points = np.random.default_rng(5).uniform(0, 12, (50, 3))
+    m = ReferenceDeformation(SRC, DST, transform="affine", shape=(9, 12, 14))
+    f, matrix, translation = reference.mls(SRC, DST, points, transform="affine", shape=(9, 12, 14))
+    assert_allclose(m(points), f, rtol=0, atol=0)
+    found = m.matrices(points)
+    assert_allclose(found[0], matrix, rtol=0, atol=0)
+    assert_allclose(found[1], translation, rtol=0, atol=0)
+    assert m.config.transform == "affine" and m.shape == (9, 12, 14)
+    assert not m.src.flags.writeable
+    with m as same:
+        assert same is m
+
+
+@pytest.mark.parametrize(
+    ("src", "dst", "message"),
+    [
+        ([[0, 0], [1, 1]], [[0, 0], [1, 1]], r"\(N, 3\)"),
+        ([[0, 0, 0]], [[0, 0, 0], [1, 1, 1]], "alike"),
+        ([[0, 0, np.nan]], [[0, 0, 0]], "finite"),
+    ],
+)
+def test_the_reference_deformation_checks_its_handles(src, dst, message):
+    with pytest.raises(ValueError, match=message):
+        ReferenceDeformation(src, dst)
+
+
+def test_the_field_checks_its_arguments():
+    m = ReferenceDeformation(SRC, DST)
+    with pytest.raises(ValueError, match="D, H, W"):
+        volume_error_field(m, (4, 4))
+    with pytest.raises(ValueError, match="grid"):
+        volume_error_field(m, (4, 4, 4), grid=0)
+    with pytest.raises(TypeError, match="integers"):
+        volume_error_field(m, "abc")
+    # (D, H, W, C): the channels are left out
+    assert volume_error_field(m, (3, 4, 5, 2)).shape == (3, 4, 5)
+
+
+def test_the_gpu_deformation_matches_the_reference(gl):
+    shape = (9, 12, 14)
+    try:
+        m = glmls.MLS(SRC, DST, shape=shape, ctx=gl)
+    except (TypeError, ValueError) as error:
+        pytest.skip(f"glmls.MLS takes no (N, 3) handles here: {error}")
+    with m:
+        field = volume_error_field(m, shape, grid=2)
+    expected = volume_error_field(ReferenceDeformation(SRC, DST, shape=shape), shape, grid=2)
+    # float32 on the GPU: relative to the largest error
+    assert np.abs(field - expected).max() <= 1e-3 * expected.max()
+
+
+def test_blocks_of_planes_give_the_same_field(monkeypatch):
+    m = ReferenceDeformation(SRC, DST)
+    whole = volume_error_field(m, (7, 9, 10), grid=2)
+    from glmls.analysis import volume_field
+
+    monkeypatch.setattr(volume_field, "CHUNK", 1)  # one plane of points per call of m
+    assert_allclose(volume_error_field(m, (7, 9, 10), grid=2), whole, rtol=1e-12)

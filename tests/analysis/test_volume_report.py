@@ -1,0 +1,182 @@
+"""volume_report and the slice pictures of a volume."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from numpy.testing import assert_array_equal
+from PIL import Image
+
+import glmls
+from glmls.analysis import (
+    ReferenceDeformation,
+    cell_jacobians,
+    error_stats,
+    render_volume_slices,
+    tetrahedron_errors,
+    volume_error_field,
+    volume_report,
+)
+from glmls.analysis.canvas import HANDLE_SOURCE_COLOR
+
+SHAPE = (10, 12, 14)
+SRC = np.array([[2.0, 2, 2], [11, 2, 2], [2, 9, 2], [2, 2, 7], [11, 9, 7], [4, 6, 4], [9, 6, 4]])
+
+
+def volume():
+    z, y, x = np.mgrid[0 : SHAPE[0], 0 : SHAPE[1], 0 : SHAPE[2]]
+    return (100 + 80 * np.sin(x / 2.0) * np.cos(y / 3.0) * np.cos(z / 4.0)).astype(np.uint8)
+
+
+def crossing():
+    dst = SRC.copy()
+    dst[5], dst[6] = SRC[6], SRC[5]  # two handles swap places: folds between them
+    return ReferenceDeformation(SRC, dst, transform="affine", shape=SHAPE)
+
+
+def test_the_report_holds_the_analyses_and_their_statistics(gl, tmp_path):
+    m = crossing()
+    found = volume_report(volume(), m, grid=2, jacobian_grid=1, out_dir=tmp_path / "out")
+    field = volume_error_field(m, SHAPE, grid=2)
+    assert_array_equal(found.field, field)
+    summary = found.summary
+    assert summary["error_field"] == error_stats(field)
+    cells = cell_jacobians(m, SHAPE, grid=1)
+    assert summary["jacobians"] == cells.stats() and summary["jacobians"]["folds"] > 0
+    assert_array_equal(found.jacobians.mask, cells.mask)
+    tetrahedra = tetrahedron_errors(m, SRC)  # the handles as reference points
+    assert summary["tetrahedra"] == tetrahedra.stats()
+    assert summary["volume"] == {"depth": 10, "height": 12, "width": 14, "channels": 1}
+    assert summary["analysis"]["grid"] == 2 and summary["analysis"]["jacobian_grid"] == 1
+    assert summary["analysis"]["slices"] == {"z": 5, "y": 6, "x": 7}
+    assert summary["configuration"]["transform"] == "affine"
+    assert summary["configuration"]["src"] == SRC.tolist()
+    assert summary["deformed"] is False and found.deformed is None  # no m.warp
+    names = {"input_handles", "error_field", "error_field_colorbar", "jacobian_det"}
+    assert names | {"jacobian_det_colorbar", "folds"} == set(found.images)
+    written = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert written["jacobians"]["folds"] == summary["jacobians"]["folds"]
+    for name, picture in found.images.items():
+        assert_array_equal(np.asarray(Image.open(tmp_path / "out" / f"{name}.png")), picture)
+
+
+def test_a_given_deformed_volume_is_drawn_and_reference_points_used(gl):
+    m = ReferenceDeformation(SRC, SRC + [1.0, 0, 0], shape=SHAPE)
+    points = SRC[:5] + 0.5
+    found = volume_report(volume(), m, points, grid=3, deformed=volume()[:, :, ::-1])
+    assert found.summary["deformed"] is True and "deformed" in found.images
+    assert found.images["deformed"].shape == found.images["input_handles"].shape
+    assert found.summary["analysis"]["reference_points"] == "given"
+    assert found.tetrahedra is not None and len(found.tetrahedra.points) == 5
+    assert found.summary["jacobians"]["folds"] == 0
+
+
+def test_coplanar_handles_leave_the_tetrahedra_out_but_given_points_must_form_them(gl):
+    flat = SRC.copy()
+    flat[:, 2] = 3.0
+    m = ReferenceDeformation(flat, flat + [0.0, 1, 0], shape=SHAPE)
+    found = volume_report(volume(), m, grid=4)
+    assert found.tetrahedra is None and "one plane" in found.summary["tetrahedra"]["skipped"]
+    with pytest.raises(ValueError, match="one plane"):
+        volume_report(volume(), m, np.unique(flat, axis=0), grid=4)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "message"),
+    [
+        ({"volume": np.zeros((4, 4))}, ValueError, "D, H, W"),
+        ({"volume": np.zeros((4, 4, 4), bool)}, TypeError, "real numbers"),
+        ({"volume": np.full((4, 4, 4), np.nan)}, ValueError, "NaN"),
+        ({"grid": 0}, ValueError, "grid"),
+        ({"jacobian_grid": -1}, ValueError, "jacobian_grid"),
+        ({"angle": "radians"}, ValueError, "angle"),
+        ({"slices": (1, 2)}, ValueError, "slices"),
+        ({"slices": (10, 0, 0)}, ValueError, "slices"),
+    ],
+)
+def test_bad_arguments_raise_before_the_work(kwargs, error, message):
+    arguments = {"volume": volume()} | kwargs
+    with pytest.raises(error, match=message):
+        volume_report(arguments.pop("volume"), crossing(), **arguments)
+
+
+def test_the_slice_layout():
+    z, y, x = np.mgrid[0:4, 0:5, 0:6]
+    values = (10 * x + 50 * y + 100 * z).astype(np.uint8)  # every voxel its own grey
+    picture = render_volume_slices(values, slices=(1, 2, 3), scale=1)
+    # views: z slice (5, 6) | x slice (5, 4) / y slice (4, 6) | projection along z (5, 6)
+    gap = 6
+    assert picture.shape == (5 + gap + 5, 6 + gap + 6, 3)
+    assert_array_equal(picture[:5, :6, 0], values[1])
+    assert_array_equal(picture[:5, 6 + gap : 6 + gap + 4, 0], values[:, :, 3].T)
+    assert_array_equal(picture[5 + gap : 5 + gap + 4, :6, 0], values[:, 2])
+    assert_array_equal(picture[5 + gap :, 6 + gap :, 0], values.max(axis=0))
+    low = render_volume_slices(values, slices=(1, 2, 3), scale=1, projection="min")
+    assert_array_equal(low[5 + gap :, 6 + gap :, 0], values.min(axis=0))
+    scaled = render_volume_slices(values, slices=(1, 2, 3), scale=3)
+    assert scaled.shape == (3 * 10 + gap, 3 * 12 + gap, 3)
+    assert_array_equal(scaled[: 3 * 5 : 3, : 3 * 6 : 3, 0], values[1])
+
+
+def test_a_field_is_coloured_and_a_mask_tinted():
+    field = np.zeros((4, 5, 6))
+    field[2, 1, 1] = 1.0
+    picture = render_volume_slices(field, cmap="linear", slices=(2, 0, 0), scale=1)
+    assert picture[1, 1].tolist() == [220, 0, 0] and picture[0, 0].tolist() == [255, 255, 255]
+    mask = np.zeros((4, 5, 6), bool)
+    mask[2, 3, 4] = True
+    tinted = render_volume_slices(np.zeros((4, 5, 6)), mask=mask, slices=(2, 0, 0), scale=1)
+    assert tinted[3, 4, 0] > 100 and tinted[3, 4, 1] < 50 and tinted[0, 0].tolist() == [0] * 3
+
+
+def test_handles_are_drawn_on_the_slices_near_them(gl):
+    values = np.zeros((20, 20, 20), np.uint8)
+    src = np.array([[5.0, 5, 10], [15, 15, 2]])
+    picture = render_volume_slices(
+        values, src=src, dst=src + [2.0, 0, 0], slices=(10, 10, 10), near=2, scale=4
+    )
+    at = lambda point: picture[int(point[1] * 4 + 1.5), int(point[0] * 4 + 1.5)]  # noqa: E731
+    assert at(src[0]).tolist() == list(HANDLE_SOURCE_COLOR)  # within 2 of z = 10
+    assert at(src[1]).tolist() == [0, 0, 0]  # z = 2: not on the z slice
+    projection = picture[80 + 6 :, 80 + 6 :]  # every handle on the projection
+    assert projection[15 * 4 + 1, 15 * 4 + 1].tolist() == list(HANDLE_SOURCE_COLOR)
+
+
+def test_bad_pictures_raise():
+    with pytest.raises(ValueError, match="volume must be"):
+        render_volume_slices(np.zeros((4, 4)))
+    with pytest.raises(ValueError, match="mask"):
+        render_volume_slices(np.zeros((4, 4, 4)), mask=np.zeros((4, 4), bool))
+    with pytest.raises(ValueError, match="scale"):
+        render_volume_slices(np.zeros((4, 4, 4)), scale=0)
+    with pytest.raises(ValueError, match="projection"):
+        render_volume_slices(np.zeros((4, 4, 4)), projection="mean")
+    with pytest.raises(ValueError, match=r"\(N, 3\)"):
+        render_volume_slices(np.zeros((4, 4, 4)), src=[[1, 1]], dst=[[1, 1]])
+
+
+def test_glmls_analysis_exports_the_3d_names():
+    for name in ("volume_report", "VolumeReport", "cell_jacobians", "tetrahedron_errors"):
+        assert name in glmls.analysis.__all__
+
+
+def test_on_the_gpu_the_report_matches_the_reference_and_warps_the_volume(gl):
+    pytest.importorskip("glmls.volume")
+    dst = SRC.copy()
+    dst[5], dst[6] = SRC[6], SRC[5]
+    with glmls.MLS(SRC, dst, transform="affine", shape=SHAPE, ctx=gl) as m:
+        found = volume_report(volume(), m, grid=2)
+        warped = m.warp(volume())
+    assert_array_equal(found.deformed, warped)
+    assert found.summary["deformed"] is True and "deformed" in found.images
+    exact = volume_report(volume(), crossing(), grid=2)
+    for key in ("mean", "median", "max"):
+        assert found.summary["error_field"][key] == pytest.approx(
+            exact.summary["error_field"][key], rel=1e-4
+        )
+    # float32 on the GPU: a cell whose det J is within rounding of 0 may go either way
+    assert abs(found.jacobians.count - exact.jacobians.count) <= 2
+    assert found.jacobians.count > 0
+    assert_array_equal(found.tetrahedra.inverted, exact.tetrahedra.inverted)

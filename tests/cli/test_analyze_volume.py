@@ -1,0 +1,111 @@
+"""``glmls analyze`` on a volume with 3D handles, end to end."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from helpers import run_glmls
+from numpy.testing import assert_allclose
+
+import glmls
+from glmls.analysis import ReferenceDeformation, cell_jacobians, error_stats, volume_error_field
+from glmls.files.volumes import write_volume
+
+SHAPE = (10, 12, 14)
+SRC = [[2, 2, 2], [11, 2, 2], [2, 9, 2], [2, 2, 7], [11, 9, 7], [4, 6, 4], [9, 6, 4]]
+DST = [*SRC[:5], [9, 6, 4], [4, 6, 4]]  # the last two swap places: the map folds
+REFERENCE = [[3, 3, 3], [10, 3, 3], [3, 8, 3], [3, 3, 6], [10, 8, 6], [6, 6, 5]]
+
+
+@pytest.fixture
+def inputs(tmp_path):
+    _, y, x = np.mgrid[0 : SHAPE[0], 0 : SHAPE[1], 0 : SHAPE[2]]
+    volume = (100 + 80 * np.sin(x / 2.0) * np.cos(y / 3.0)).astype(np.uint8)
+    np.save(tmp_path / "v.npy", volume)
+    (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": DST}))
+    (tmp_path / "h2.json").write_text(
+        json.dumps({"src": [[1, 2], [3, 4]], "dst": [[1, 2], [3, 5]]})
+    )
+    (tmp_path / "r3.json").write_text(json.dumps({"points": REFERENCE}))
+    return tmp_path
+
+
+def analyze(*args, cwd):
+    return run_glmls("analyze", *args, cwd=cwd, module="glmls.cli")
+
+
+def test_analyze_a_volume_writes_the_report_and_pictures(inputs):
+    result = analyze(
+        "v.npy", "--handles", "h3.json", "--reference", "r3.json", "--transform", "affine",
+        "--analysis-grid", "2", "--out", "rep", cwd=inputs,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert "Traceback" not in result.stderr
+    summary = json.loads((inputs / "rep" / "report.json").read_text())
+    assert summary["input"] == "v.npy"
+    assert summary["volume"] == {"depth": 10, "height": 12, "width": 14, "channels": 1}
+    assert summary["configuration"]["src"] == np.array(SRC, float).tolist()
+    m = ReferenceDeformation(SRC, DST, transform="affine", shape=SHAPE)
+    field = volume_error_field(m, SHAPE, grid=2)
+    # the GPU (float32) where glmls.MLS takes 3D handles, else the reference itself
+    found = summary["error_field"]
+    expected = error_stats(field)
+    assert_allclose(found["mean"], expected["mean"], rtol=1e-3)
+    assert_allclose(found["max"], expected["max"], rtol=1e-3)
+    cells = cell_jacobians(m, SHAPE, grid=2)
+    assert summary["jacobians"]["folds"] == cells.count > 0
+    assert summary["tetrahedra"]["tetrahedra"] + summary["tetrahedra"]["slivers"] > 0
+    assert summary["analysis"]["reference_points"] == "given"
+    for name in ("input_handles", "error_field", "jacobian_det", "folds"):
+        assert (inputs / "rep" / f"{name}.png").stat().st_size > 0, name
+    # the deformed volume where the deformation warps volumes (glmls.volume)
+    assert (inputs / "rep" / "deformed.png").exists() == summary["deformed"]
+    assert (
+        str(inputs / "rep" / "report.json") in result.stdout or "rep/report.json" in result.stdout
+    )
+    assert "folds" in result.stderr and "E_MLS median" in result.stderr
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["v.npy", "--handles", "h2.json"], "2D handles (x, y), where 3D handles (x, y, z)"),
+        (["v.npy"], "missing --handles"),
+        (["v.npy", "--handles", "h3.json", "--reference", "h2.json"], 'missing the key "points"'),
+        (["missing.npy", "--handles", "h3.json"], "no such file"),
+    ],
+)
+def test_bad_volume_inputs_exit_2_with_one_line(inputs, args, message):
+    result = analyze(*args, "--out", "rep", cwd=inputs)
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], result.stderr
+    assert not (inputs / "rep" / "report.json").exists()
+
+
+@pytest.mark.parametrize("suffix", [".tif", ".nii.gz"])
+def test_a_tiff_stack_or_nifti_volume_gives_the_npy_report(inputs, suffix):
+    if suffix == ".nii.gz":
+        pytest.importorskip("nibabel")
+    write_volume(inputs / f"v{suffix}", np.load(inputs / "v.npy"))
+    reports = {}
+    for name in ("v.npy", f"v{suffix}"):
+        result = analyze(
+            name, "--handles", "h3.json", "--analysis-grid", "3", "--out", name + ".out", cwd=inputs
+        )
+        assert result.returncode == 0, result.stderr
+        summary = json.loads((inputs / (name + ".out") / "report.json").read_text())
+        for key in ("timings_s", "input"):
+            summary.pop(key)
+        reports[name] = summary
+    assert reports["v.npy"] == reports[f"v{suffix}"]
+
+
+def test_3d_handles_on_an_image_exit_2_with_one_line(inputs):
+    glmls.imwrite(inputs / "a.png", np.zeros((20, 20), np.uint8))
+    result = analyze("a.png", "--handles", "h3.json", "--out", "rep", cwd=inputs)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "3D handles (x, y, z), where 2D handles" in lines[0], result.stderr
