@@ -12,6 +12,7 @@ warp pipeline) in :mod:`glmls.gl`, the float64 reference of the mathematics in
 """
 
 from . import analysis, data, gl, reference
+from .batch import BatchResult, warp_batch
 from .core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
 from .core.handleset import HANDLE_KINDS, HandleSet
 from .core.segments import polyline_segments
@@ -40,6 +41,7 @@ __all__ = [
     "RADIUS_WEIGHTS",
     "TRANSFORMS",
     "WEIGHTS",
+    "BatchResult",
     "BorderWarning",
     "Bounds",
     "ContextError",
@@ -61,4 +63,5 @@ __all__ = [
     "polyline_segments",
     "reference",
     "warp",
+    "warp_batch",
 ]
