@@ -89,3 +89,71 @@ def visible(
     near = np.linalg.norm(shown - expected, axis=1) <= SLACK + 0.5 * reach
     ok[idx] = covered[row, col] & near
     return ok
+
+
+def mesh_keypoints(
+    lattice: MeshLattice, vertices: np.ndarray, points: np.ndarray, moved: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Keypoints through the deformed mesh of ``lattice`` (``vertices``: f at its points,
+    (rows, columns, 2)): (P, 2) output points (the mesh's own map, or ``moved`` where given,
+    f's values for the backward methods) and (P,) bool, inside the lattice's domain and not
+    covered by a triangle earlier in the fill's scan order (cell row, column, then triangle
+    (00, 10, 11) before (00, 11, 01)) than the keypoint's own: where cells fold, the first
+    shows (``warp/cells.comp.glsl``)."""
+    count = len(points)
+    if count == 0:
+        return np.zeros((0, 2)), np.zeros(0, bool)
+    corners, inside = mesh_corners(lattice, points)
+    columns, _ = lattice.cells
+    origin = np.asarray(lattice.origin, np.float64)
+    index = np.rint((corners[:, 0] - origin) / lattice.grid).astype(np.int64)  # (col, row)
+    col, row = index[:, 0], index[:, 1]
+    deformed = np.stack(
+        [
+            vertices[row, col],
+            vertices[row, col + 1],
+            vertices[row + 1, col],
+            vertices[row + 1, col + 1],
+        ],
+        axis=1,
+    )
+    out, _ = mesh_map(corners, deformed, points)
+    if moved is not None:
+        out = moved
+    low, high = corners[:, 0], corners[:, 3]
+    u, v = ((points - low) / np.maximum(high - low, 1e-12)).T
+    own = (row * columns + col) * 2 + (u < v)
+    return out, inside & ~_covered_earlier(vertices, out, own)
+
+
+def _covered_earlier(vertices: np.ndarray, points: np.ndarray, own: np.ndarray) -> np.ndarray:
+    """(P,) bool: a triangle of the deformed mesh before key ``own`` holds the point strictly
+    inside (either orientation: folded triangles are drawn too)."""
+    a = vertices[:-1, :-1].reshape(-1, 2)
+    b = vertices[:-1, 1:].reshape(-1, 2)
+    c = vertices[1:, 1:].reshape(-1, 2)
+    d = vertices[1:, :-1].reshape(-1, 2)
+    low = np.minimum(np.minimum(a, b), np.minimum(c, d))
+    high = np.maximum(np.maximum(a, b), np.maximum(c, d))
+    hidden = np.zeros(len(points), bool)
+    for start in range(0, len(points), 64):  # (64, cells) candidates at a time
+        chunk = points[start : start + 64]
+        near = np.all((low <= chunk[:, None]) & (chunk[:, None] <= high), axis=-1)
+        which, cell = np.nonzero(near)
+        q = chunk[which]
+        for triangle, (p0, p1, p2) in enumerate(((a, b, c), (a, c, d))):
+            earlier = cell * 2 + triangle < own[start + which]
+            x0, x1, x2 = p0[cell], p1[cell], p2[cell]
+            area = _cross(x1 - x0, x2 - x0)
+            sign = np.sign(area)
+            edges = np.stack(
+                [_cross(x1 - x0, q - x0), _cross(x2 - x1, q - x1), _cross(x0 - x2, q - x2)]
+            )
+            tiny = 1e-9 * np.abs(area)
+            strictly = np.all(edges * sign > tiny, axis=0) & (sign != 0)
+            hidden[start + which[earlier & strictly]] = True
+    return hidden
+
+
+def _cross(e: np.ndarray, f: np.ndarray) -> np.ndarray:
+    return e[..., 0] * f[..., 1] - e[..., 1] * f[..., 0]

@@ -16,7 +16,7 @@ from ..imaging.frame import Frame, border_margin, make_frame
 from ..imaging.options import WarpOptions
 from ..imaging.pipeline import WarpPipeline
 from ..mls import MLS
-from .labels import mesh_corners, mesh_map, visible
+from .labels import mesh_corners, mesh_keypoints, mesh_map, visible
 
 __all__ = ["ImageLabels", "SingleWarper", "mask_form", "restore_mask"]
 
@@ -50,6 +50,25 @@ def restore_mask(values: np.ndarray, dtype: np.dtype) -> np.ndarray:
 def mask_options(options: WarpOptions) -> WarpOptions:
     """The options of a label image: nearest sampling, label 0 where nothing shows."""
     return dataclasses.replace(options, interpolation="nearest", background=0.0)
+
+
+def by_mesh(options: WarpOptions) -> bool:
+    """Are keypoints tested for folds on the regular mesh (``quads``, whose fill it is, and
+    ``backward``, whose first guess it is)?"""
+    return options.tolerance is None and options.method in ("quads", "backward")
+
+
+def _packable(image: np.ndarray, mask: np.ndarray | None, options: WarpOptions) -> bool:
+    """Can ``mask`` ride as one more channel of ``image``'s warp: 8 bits, nearest, an image
+    of 1 or 3 channels (whose background then leaves the new channel at 0)."""
+    if mask is None or options.interpolation != "nearest" or image.dtype != np.uint8:
+        return False
+    if image.ndim == 3 and image.shape[2] not in (1, 3):
+        return False
+    if mask.dtype != np.uint8:
+        return False
+    background = np.asarray(options.background)
+    return background.ndim == 0 or len(background) == (image.shape[2] if image.ndim == 3 else 1)
 
 
 def uses_mesh(options: WarpOptions) -> bool:
@@ -88,12 +107,17 @@ class SingleWarper:
     ) -> ImageLabels:
         """Image ``index`` of a batch warped by ``mls`` (released here) with its labels."""
         with mls:
+            packed = _packable(image, mask, options)
             try:
-                out = mls.warp(image, options=options)
+                out = mls.warp(np.dstack([image, mask]) if packed else image, options=options)
             except (ValueError, TypeError) as error:
                 raise type(error)(f"images[{index}]: {error}") from error
             warped_mask = None
-            if mask is not None:
+            if packed:  # the label rode along as one more channel of the same warp
+                channels = image.shape[2] if image.ndim == 3 else 0
+                out, warped_mask = (out[..., :channels] if channels else out[..., 0]), out[..., -1]
+                warped_mask = restore_mask(warped_mask, mask.dtype)  # type: ignore[union-attr]
+            elif mask is not None:
                 warped = mls.warp(mask_form(mask), options=mask_options(options))
                 warped_mask = restore_mask(warped, mask.dtype)
             if points is None and not maps:
@@ -101,15 +125,35 @@ class SingleWarper:
             shape = image.shape[:2]
             limit = self.pipeline.max_image_size
             frame = make_frame(options.output_shape, options.origin, shape, limit)
-            coords, covered = self.source_points(mls, shape, options, frame)
-            moved = valid = None
+            coords = covered = moved = valid = None
+            if maps or (points is not None and not by_mesh(options)):
+                coords, covered = self.source_points(mls, shape, options, frame)
             if points is not None:
-                moved, jacobian, inside = self.move(mls, shape, options, frame, points)
-                moved = moved - np.asarray(frame.origin)
-                valid = visible(points, moved, jacobian, coords, covered, inside)
-            if not maps:
-                coords = covered = None
+                moved, valid = self.keypoints(mls, shape, options, frame, points, coords, covered)
             return ImageLabels(out, warped_mask, moved, valid, coords, covered)
+
+    def keypoints(self, mls, shape, options, frame, points, coords, covered):
+        """(P, 2) keypoints on the canvas and (P,) bool valid."""
+        if by_mesh(options):
+            lattice = self.lattice(mls, shape, options, frame)
+            grid = lattice.points()
+            rows, columns = grid.shape[:2]
+            backward = options.method == "backward"
+            values = mls(
+                np.concatenate([grid.reshape(-1, 2), points] if backward else [grid.reshape(-1, 2)])
+            )
+            vertices = values[: rows * columns].reshape(rows, columns, 2)
+            moved, valid = mesh_keypoints(
+                lattice, vertices, points, values[rows * columns :] if backward else None
+            )
+        else:
+            moved, jacobian, inside = self.move(mls, shape, options, frame, points)
+            moved = moved - np.asarray(frame.origin)
+            return moved, visible(points, moved, jacobian, coords, covered, inside)
+        moved = moved - np.asarray(frame.origin)
+        height, width = frame.shape
+        on = np.all((moved > -0.5) & (moved < (width - 0.5, height - 0.5)), axis=1)
+        return moved, valid & on
 
     def lattice(self, mls: MLS, shape: tuple[int, int], options: WarpOptions, frame: Frame):
         """The quads' mesh, as the pipeline builds it: extended past the image as far as the
