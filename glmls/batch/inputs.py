@@ -115,6 +115,7 @@ def check_batch(
         if len(points) != count:
             raise ValueError(f"keypoints holds {len(points)} point sets for {count} images")
         points = [_points(a, f"keypoints[{i}]", empty=True) for i, a in enumerate(points)]
+        stacked_points = stacked_points or len({len(a) for a in points}) == 1
     mask_list = None
     if masks is not None:
         mask_list, _ = _items(masks, "masks", (2,))
