@@ -33,7 +33,7 @@ from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import run_1d, set_uniforms
 from ..gl.resources import Resources
 from ..imaging.frame import Frame
-from ..imaging.options import WarpOptions
+from ..imaging.options import PipelineOptions, WarpOptions
 from ..imaging.quads import key_layout
 from ..imaging.readback import read_rgba8
 from ..imaging.source import SourceImage, texture_data, texture_form
@@ -43,6 +43,8 @@ __all__ = ["CHUNK_BYTES", "BatchQuads", "batchable", "chunk_size"]
 #: The most GPU memory one chunk of a batch takes (sources, atlas, keys, meshes), bytes: a
 #: batch of 10,000 images runs chunk by chunk, never all on the GPU at once.
 CHUNK_BYTES = 256 << 20
+#: The fix-up list's header before a scan: no pixel listed, an indirect dispatch of none.
+_NO_FIXUPS = np.array([0, 0, 0, 1], np.uint32).tobytes()
 #: Bytes between two images' meshes in the mesh buffer are a multiple of this (at least the
 #: GL storage buffer offset alignment of any driver).
 MESH_ALIGN = 256
@@ -68,7 +70,7 @@ def chunk_size(
     texel = components * (1 if dtype == "f1" else 4)
     target = 4 if source.normalized else 16
     per_image = width * height * texel + frame.pixels * (target + 8) + _mesh_stride(lattice)
-    atlas = gl.limits["max_texture_size"] // frame.shape[0]
+    atlas = gl.limits["max_texture_size"] // max(frame.shape[0], height)
     layers = int(gl.mgl.info.get("GL_MAX_ARRAY_TEXTURE_LAYERS", 256))
     return max(1, min(atlas, layers, max_bytes // per_image))
 
@@ -76,6 +78,10 @@ def chunk_size(
 class BatchQuads:
     """The batched quads of a context (see the module docstring); one per context,
     :meth:`of`."""
+
+    #: Nearest RGBA8 chunks write the colours in the scan (fix-ups where triangles overlap)
+    #: instead of a fill draw from the keys; tests take both ways.
+    fused: bool = True
 
     def __init__(self, gl: GLContext) -> None:
         self._gl = gl
@@ -99,6 +105,29 @@ class BatchQuads:
             self._array[1].release()
             self._array = None
         self._resources.release()
+
+    def _resolve(self, values, atlas, framebuffer, sources, winner, linear) -> None:
+        """The atlas filled from the keys by one draw (batch/resolve.frag.glsl)."""
+        gl, mgl = self._gl, self._gl.mgl
+        keys = self._resources.texture("winner", atlas, 1, "u4")
+        keys.write(winner)
+        bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
+        try:
+            framebuffer.use()
+            framebuffer.viewport = (0, 0, *atlas)
+            program = gl.program(
+                "common/fullscreen.vert.glsl", "batch/resolve.frag.glsl", {"WARP_LINEAR": linear}
+            )
+            set_uniforms(program, values)
+            array = self._sources(sources)
+            mode = moderngl.LINEAR if linear else moderngl.NEAREST
+            array.filter = (mode, mode)
+            array.use(bindings.SOURCE.index)
+            keys.use(bindings.WINNER_TEXTURE.index)
+            mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+            self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
+        finally:
+            bound.use()
 
     def _sources(self, sources: list[SourceImage]) -> moderngl.TextureArray:
         (width, height), components, dtype = texture_form(sources[0])
@@ -173,35 +202,43 @@ class BatchQuads:
             "u_row_shift": row_shift,
         }
         mgl.memory_barrier()
-        scan = gl.compute("batch/cells.comp.glsl", {"WARP_CELLS_SOURCE": not linear})
-        set_uniforms(scan, values)
-        mesh.bind_to_storage_buffer(bindings.DEFORMED.index)
-        scales.bind_to_storage_buffer(bindings.POINTS.index)
-        winner.bind_to_storage_buffer(bindings.WINNER.index)
+        source = sources[0]
+        fused = self.fused and not linear and texture_form(source)[1:] == (4, "f1")
+        dtype = "f1" if source.normalized else "f4"
+        framebuffer = self._resources.framebuffer("atlas", atlas, dtype)
+        target = framebuffer.color_attachments[0]
+        self._resources.fill(target, background)
         cells = (lattice.dims[0] - 1) * (lattice.dims[1] - 1)
+        scan = gl.compute(
+            "batch/cells.comp.glsl",
+            {"WARP_CELLS_SOURCE": not linear, "WARP_CELLS_FUSED": fused},
+        )
+        buffers = {bindings.DEFORMED: mesh, bindings.POINTS: scales, bindings.WINNER: winner}
+        if fused:
+            values["u_fixup_capacity"] = PipelineOptions().fixup_capacity(out_w * out_h * count)
+            fixups = self._resources.buffer("fixups", 16 + 4 * values["u_fixup_capacity"])
+            fixups.write(_NO_FIXUPS)
+            buffers[bindings.FIXUPS] = fixups
+            texels = self._resources.texture("sources", (width, height * count), 4, "f1")
+            texels.write(np.ascontiguousarray(np.stack([texture_data(s) for s in sources])))
+        set_uniforms(scan, values)
+        for binding, buffer in buffers.items():
+            buffer.bind_to_storage_buffer(binding.index)
+        if fused:
+            bindings.bind_texels(texels, bindings.TEXEL_SOURCE, write=False)
+            bindings.bind_texels(target, bindings.TEXEL_TARGET, write=True)
         run_1d(scan, cells * count, max_groups=gl.limits["max_work_groups_x"])  # 2.
         mgl.memory_barrier()
-        keys = self._resources.texture("winner", atlas, 1, "u4")
-        keys.write(winner)
-        dtype = "f1" if sources[0].normalized else "f4"
-        framebuffer = self._resources.framebuffer("atlas", atlas, dtype)
+        if fused:  # the pixels that more than one triangle reached: the winner's texel
+            fixup = gl.compute("batch/fixup.comp.glsl")
+            set_uniforms(fixup, values)
+            fixup.run_indirect(fixups, offset=4)
+            mgl.memory_barrier()
+        else:
+            self._resolve(values, atlas, framebuffer, sources, winner, linear)  # 3.
         bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
         try:
             framebuffer.use()
-            framebuffer.viewport = (0, 0, *atlas)
-            self._resources.fill(framebuffer.color_attachments[0], background)
-            program = gl.program(
-                "common/fullscreen.vert.glsl", "batch/resolve.frag.glsl", {"WARP_LINEAR": linear}
-            )
-            set_uniforms(program, values)
-            array = self._sources(sources)
-            mode = moderngl.LINEAR if linear else moderngl.NEAREST
-            array.filter = (mode, mode)
-            array.use(bindings.SOURCE.index)
-            keys.use(bindings.WINNER_TEXTURE.index)
-            mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
-            self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)  # 3.
-            source = sources[0]
             if source.normalized:  # 4.
                 values_out = read_rgba8(framebuffer, atlas, source.channels)
             else:
