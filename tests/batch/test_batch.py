@@ -291,3 +291,22 @@ def test_chunk_size_follows_the_limits(gl):
     assert chunk_size(gl, source, frame, lattice, 1 << 40) == min(atlas, 2048)
     assert chunk_size(gl, source, frame, lattice, 10 * 224 * 224 * 16) < 10
     assert chunk_size(gl, source, frame, lattice, 1) == 1
+
+
+@pytest.mark.parametrize("fold", [False, True])
+def test_the_fill_draw_equals_the_fused_scan(gl, rng, monkeypatch, fold):
+    """Nearest 8-bit chunks: colours written in the scan (with fix-ups where triangles
+    overlap) or drawn from the keys give the single warp's pixels."""
+    from glmls.batch.gpu import BatchQuads
+
+    shape = (28, 36)
+    batch = images(rng, 4, shape)
+    if fold:
+        p, q = folding_handles(shape)
+        src, dst = np.repeat(p[None], 4, 0), np.repeat(q[None], 4, 0)
+    else:
+        src, dst = handles(rng, 4, 6, shape, spread=4.0)
+    want = singles(batch, src, dst, grid=1)
+    for fused in (True, False):
+        monkeypatch.setattr(BatchQuads, "fused", fused)
+        np.testing.assert_array_equal(glmls.warp_batch(batch, src, dst, grid=1), want)
