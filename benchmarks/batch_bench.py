@@ -15,7 +15,9 @@ where importable, the peers with keypoints and a mask per image (albumentations 
 ``GridDistortion``, ``ElasticTransform``, ``ThinPlateSpline``, ``PiecewiseAffine``, each
 ``Compose``d with ``KeypointParams``), kornia's ``RandomThinPlateSpline`` on CPU tensors and
 torchvision's v2 ``ElasticTransform`` on CPU (the peers, which work image by image, on
-``--peer-images`` images of each workload). The median of ``--repeat`` runs after one warm-up.
+``--peer-images`` images of each workload). Each case: the median wall time of ``--repeat``
+runs after one warm-up, as images per second, and the least CPU time of the process per
+image (all its threads; steadier than wall time where other jobs share the machine).
 Peak memory: ``warp_batch`` of the largest batch at 224 x 224 with labels, measured alone in a
 fresh process (``resource.getrusage`` maxrss, the process's whole footprint: Python, numpy,
 the GL driver and the batch). The threads: the CPU count, OpenCV's and torch's thread counts
@@ -131,13 +133,13 @@ def torch_cases(data: dict[str, np.ndarray]) -> dict[str, Callable[[], object]]:
     return cases
 
 
-def torch_rates(name: str, count: int, repeat: int) -> list[tuple[str, float]]:
+def torch_rates(name: str, count: int, repeat: int) -> list[tuple[str, float, float]]:
     """The torch peers' rates, measured in a fresh process: importing kornia or torchvision in
     a process that holds an llvmpipe GL context crashes it (their LLVM and Mesa's)."""
     code = (
         "import json, sys; sys.path.insert(0, sys.argv[1]); import batch_bench as b; "
         "d = b.workload(sys.argv[2], int(sys.argv[3])); "
-        "print(json.dumps([(k, b.rate(r, int(sys.argv[3]), int(sys.argv[4]))) "
+        "print(json.dumps([(k, *b.measure(r, int(sys.argv[3]), int(sys.argv[4]))) "
         "for k, r in b.torch_cases(d).items()]))"
     )
     here = os.path.dirname(os.path.abspath(__file__))
@@ -154,13 +156,26 @@ def torch_rates(name: str, count: int, repeat: int) -> list[tuple[str, float]]:
 
 def rate(run: Callable[[], object], count: int, repeat: int) -> float:
     """Images per second: the median of ``repeat`` timed runs after one warm-up."""
+    return measure(run, count, repeat)[0]
+
+
+def measure(run: Callable[[], object], count: int, repeat: int) -> tuple[float, float]:
+    """(images per second, CPU milliseconds per image) of ``repeat`` runs after one warm-up:
+    the median wall time, and the least CPU time of this process (every thread: llvmpipe's
+    and OpenCV's too), which other jobs on a shared machine disturb far less."""
     run()
-    times = []
+    times, cpu = [], []
     for _ in range(repeat):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         run()
         times.append(time.perf_counter() - start)
-    return count / statistics.median(times)
+        cpu.append(time.process_time() - start_cpu)
+    return count / statistics.median(times), 1e3 * min(cpu) / count
+
+
+def show(name: str, count: int, label: str, value: float, cpu: float) -> None:
+    print(f"{name:>5} {count:>4}  {label:<40} {value:8.0f} images/s {cpu:7.2f} cpu ms/image")
+    sys.stdout.flush()
 
 
 def threads() -> dict[str, object]:
@@ -212,9 +227,17 @@ def main(argv: list[str] | None = None) -> int:
         for count in batches:
             data = workload(name, count)
             for label, run in glmls_cases(data).items():
-                value = rate(run, count, repeat)
-                rows.append({"workload": name, "batch": count, "tool": label, "images/s": value})
-                print(f"{name:>5} {count:>4}  {label:<40} {value:9.0f} images/s", flush=True)
+                value, cpu = measure(run, count, repeat)
+                rows.append(
+                    {
+                        "workload": name,
+                        "batch": count,
+                        "tool": label,
+                        "images/s": value,
+                        "cpu ms": cpu,
+                    }
+                )
+                show(name, count, label, value, cpu)
         if args.quick:
             continue
         # the peers work image by image: their rate does not depend on the batch

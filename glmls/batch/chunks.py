@@ -83,7 +83,11 @@ def _chunk(quads, warper, batch, chunk, mlss, options, frame, lattice, maps):
     masks = None if batch.masks is None else [batch.masks[i] for i in chunk]
     packed = masks is not None and packable(images[0], masks[0], options)
     if packed:  # each label rides as one more channel of its image
-        images = [np.dstack([image, mask]) for image, mask in zip(images, masks, strict=True)]
+        channels = images[0].shape[2] if images[0].ndim == 3 else 1
+        both = np.empty((len(images), *images[0].shape[:2], channels + 1), np.uint8)
+        both[..., :channels] = np.reshape(images, both.shape[:3] + (channels,))
+        both[..., channels] = masks
+        images = list(both)
     sources = [prepare_image(image, limit, normalized=True) for image in images]
     background = background_color(options.background, sources[0])
     out = quads.warp(kernels, sources, options, frame, background)
@@ -102,18 +106,29 @@ def _chunk(quads, warper, batch, chunk, mlss, options, frame, lattice, maps):
         zero = background_color(0.0, label_sources[0])
         warped = quads.warp(kernels, label_sources, label_options, frame, zero)
         warped_masks = [restore_mask(w, masks[0].dtype) for w in warped]  # type: ignore[union-attr]
+    moved_all = valid_all = None
+    if keypoints is not None:  # every keypoint of the chunk at once
+        points = [keypoints[i] for i in chunk]
+        sizes = [len(p) for p in points]
+        which = np.repeat(np.arange(len(chunk)), sizes)
+        moved_all, valid_all = mesh_keypoints(
+            lattice,
+            vertices,
+            np.concatenate(points),
+            None,
+            which,  # type: ignore[arg-type]
+        )
+        moved_all = moved_all - np.asarray(frame.origin)
+        height, width = frame.shape
+        valid_all &= np.all((moved_all > -0.5) & (moved_all < (width - 0.5, height - 0.5)), axis=1)
+        ends = np.cumsum(sizes)[:-1]
+        moved_all, valid_all = np.split(moved_all, ends), np.split(valid_all, ends)
     results = []
-    origin = np.asarray(frame.origin)
-    height, width = frame.shape
-    for k, i in enumerate(chunk):
-        moved = valid = coords = covered = None
-        if keypoints is not None:
-            moved, valid = mesh_keypoints(lattice, vertices[k], keypoints[i], None)  # type: ignore[index]
-            moved = moved - origin
-            valid &= np.all((moved > -0.5) & (moved < (width - 0.5, height - 0.5)), axis=1)
+    for k, _ in enumerate(chunk):
+        coords = covered = None
         if maps:
-            coords, covered = warper.source_points(
-                mlss[k], frame.shape and lattice.shape, options, frame
-            )
+            coords, covered = warper.source_points(mlss[k], lattice.shape, options, frame)
+        moved = None if moved_all is None else moved_all[k]
+        valid = None if valid_all is None else valid_all[k]
         results.append(ImageLabels(out[k], warped_masks[k], moved, valid, coords, covered))
     return results

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..core.mesh import MeshLattice
 
-__all__ = ["SLACK", "mesh_corners", "mesh_map", "visible"]
+__all__ = ["SLACK", "embedded", "mesh_corners", "mesh_keypoints", "mesh_map", "visible"]
 
 
 def mesh_corners(lattice: MeshLattice, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -92,43 +92,77 @@ def visible(
 
 
 def mesh_keypoints(
-    lattice: MeshLattice, vertices: np.ndarray, points: np.ndarray, moved: np.ndarray | None
+    lattice: MeshLattice,
+    vertices: np.ndarray,
+    points: np.ndarray,
+    moved: np.ndarray | None,
+    images: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Keypoints through the deformed mesh of ``lattice`` (``vertices``: f at its points,
-    (rows, columns, 2)): (P, 2) output points (the mesh's own map, or ``moved`` where given,
-    f's values for the backward methods) and (P,) bool, inside the lattice's domain and not
-    covered by a triangle earlier in the fill's scan order (cell row, column, then triangle
-    (00, 10, 11) before (00, 11, 01)) than the keypoint's own: where cells fold, the first
-    shows (``warp/cells.comp.glsl``)."""
+    """Keypoints through the deformed meshes of ``lattice`` (``vertices``: f at its points,
+    (N, rows, columns, 2), or (rows, columns, 2) for one image): (P, 2) output points (the
+    mesh's own map, or ``moved`` where given, f's values for the backward methods) and (P,)
+    bool, inside the lattice's domain and not covered by a triangle earlier in the fill's
+    scan order (cell row, column, then triangle (00, 10, 11) before (00, 11, 01)) than the
+    keypoint's own: where cells fold, the first shows (``warp/cells.comp.glsl``). ``images``:
+    (P,) the image of each point (default: all of image 0)."""
     count = len(points)
     if count == 0:
         return np.zeros((0, 2)), np.zeros(0, bool)
+    if vertices.ndim == 3:
+        vertices = vertices[None]
+    image = np.zeros(count, np.int64) if images is None else images
     corners, inside = mesh_corners(lattice, points)
     columns, _ = lattice.cells
     origin = np.asarray(lattice.origin, np.float64)
     index = np.rint((corners[:, 0] - origin) / lattice.grid).astype(np.int64)  # (col, row)
     col, row = index[:, 0], index[:, 1]
-    deformed = np.stack(
-        [
-            vertices[row, col],
-            vertices[row, col + 1],
-            vertices[row + 1, col],
-            vertices[row + 1, col + 1],
-        ],
-        axis=1,
-    )
+    deformed = np.empty((count, 4, 2))
+    for k, (dr, dc) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
+        deformed[:, k] = vertices[image, row + dr, col + dc]
     out, _ = mesh_map(corners, deformed, points)
     if moved is not None:
         out = moved
     low, high = corners[:, 0], corners[:, 3]
     u, v = ((points - low) / np.maximum(high - low, 1e-12)).T
     own = (row * columns + col) * 2 + (u < v)
-    return out, inside & ~_covered_earlier(vertices, out, own)
+    hidden = np.zeros(count, bool)
+    folded = ~embedded(vertices)
+    for k in np.flatnonzero(folded):  # an embedding hides no point: only the others are tested
+        mine = np.flatnonzero(image == k)
+        if len(mine):
+            hidden[mine] = _covered_earlier(vertices[k], out[mine], own[mine])
+    return out, inside & ~hidden
+
+
+def embedded(vertices: np.ndarray) -> np.ndarray:
+    """(N,) bool: the deformed meshes (N, rows, columns, 2) that are embeddings, shown by
+    every triangle strictly positive and the boundary turning strictly around the centre
+    vertex, once (a star-shaped simple curve): no point is then covered twice."""
+    a, b = vertices[:, :-1, :-1], vertices[:, :-1, 1:]
+    c, d = vertices[:, 1:, 1:], vertices[:, 1:, :-1]
+    positive = (_cross(b - a, c - a) > 0) & (_cross(c - a, d - a) > 0)
+    ok = positive.reshape(len(vertices), -1).all(axis=1)
+    ring = np.concatenate(
+        [
+            vertices[:, 0, :-1],
+            vertices[:, :-1, -1],
+            vertices[:, -1, :0:-1],
+            vertices[:, :0:-1, 0],
+        ],
+        axis=1,
+    )
+    rows, columns = vertices.shape[1:3]
+    centre = vertices[:, rows // 2, columns // 2][:, None]
+    rel = ring - centre
+    nxt = np.roll(rel, -1, axis=1)
+    turn = _cross(rel, nxt)
+    angle = np.arctan2(turn, np.einsum("nmi,nmi->nm", rel, nxt)).sum(axis=1)
+    return ok & (turn > 0).all(axis=1) & (angle < 3 * np.pi)
 
 
 def _covered_earlier(vertices: np.ndarray, points: np.ndarray, own: np.ndarray) -> np.ndarray:
-    """(P,) bool: a triangle of the deformed mesh before key ``own`` holds the point strictly
-    inside (either orientation: folded triangles are drawn too)."""
+    """(P,) bool: a triangle of the deformed mesh (rows, columns, 2) before key ``own`` holds
+    the point strictly inside (either orientation: folded triangles are drawn too)."""
     a = vertices[:-1, :-1].reshape(-1, 2)
     b = vertices[:-1, 1:].reshape(-1, 2)
     c = vertices[1:, 1:].reshape(-1, 2)

@@ -310,3 +310,21 @@ def test_the_fill_draw_equals_the_fused_scan(gl, rng, monkeypatch, fold):
     for fused in (True, False):
         monkeypatch.setattr(BatchQuads, "fused", fused)
         np.testing.assert_array_equal(glmls.warp_batch(batch, src, dst, grid=1), want)
+
+
+def test_embedded_meshes_skip_the_fold_test_exactly(gl):
+    from glmls.batch.labels import embedded, mesh_keypoints
+    from glmls.core.mesh import MeshLattice
+
+    shape = (28, 36)
+    lattice = MeshLattice.corners(shape, 2)
+    identity = lattice.points()
+    p, q = folding_handles(shape)
+    with glmls.MLS(p, q, shape=shape) as m:
+        folded = m(identity.reshape(-1, 2)).reshape(identity.shape)
+    assert embedded(np.stack([identity, folded])).tolist() == [True, False]
+    grid = np.stack(np.meshgrid(np.arange(36.0), np.arange(28.0)), -1).reshape(-1, 2)
+    _, valid = mesh_keypoints(lattice, folded, grid, None)
+    assert 0 < (~valid).sum() < len(grid) // 2  # the points that the fold hides
+    _, valid = mesh_keypoints(lattice, identity, grid, None)
+    assert valid.all()
