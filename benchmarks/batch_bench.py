@@ -19,8 +19,8 @@ torchvision's v2 ``ElasticTransform`` on CPU (the peers, which work image by ima
 runs after one warm-up, as images per second, and the least CPU time of the process per
 image (all its threads; steadier than wall time where other jobs share the machine).
 Peak memory: ``warp_batch`` of the largest batch at 224 x 224 with labels, measured alone in a
-fresh process (``resource.getrusage`` maxrss, the process's whole footprint: Python, numpy,
-the GL driver and the batch). The threads: the CPU count, OpenCV's and torch's thread counts
+fresh process (its ``VmHWM``, the whole footprint: Python, numpy, the GL driver, the batch's
+input and output arrays). The threads: the CPU count, OpenCV's and torch's thread counts
 and llvmpipe's ``LP_NUM_THREADS`` when set. ``--quick`` runs glmls alone at one batch of 64,
 once (``benchmarks/gpu_check.sh``).
 """
@@ -195,19 +195,20 @@ def threads() -> dict[str, object]:
 
 
 def peak_memory(count: int) -> float:
-    """MiB: maxrss of a fresh process that runs one labelled ``warp_batch`` of ``count``."""
+    """MiB: the peak resident memory (``VmHWM``) of a fresh process that runs one labelled
+    ``warp_batch`` of ``count`` (``ru_maxrss`` would count the parent's memory at the fork)."""
     code = (
-        "import resource, sys; sys.path.insert(0, sys.argv[1]); import batch_bench as b; "
+        "import sys; sys.path.insert(0, sys.argv[1]); import batch_bench as b; "
         "import glmls; d = b.workload('224', int(sys.argv[2])); "
         "glmls.warp_batch(d['images'], d['src'], d['dst'], keypoints=d['keypoints'], "
         "masks=d['masks'], grid=4); "
-        "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)"
+        "print([l for l in open('/proc/self/status') if l.startswith('VmHWM')][0].split()[1])"
     )
     here = os.path.dirname(os.path.abspath(__file__))
     done = subprocess.run(
         [sys.executable, "-c", code, here, str(count)], capture_output=True, text=True, check=True
     )
-    return int(done.stdout.split()[-1]) / 1024  # Linux: KiB
+    return int(done.stdout.split()[-1]) / 1024  # KiB
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -244,12 +245,14 @@ def main(argv: list[str] | None = None) -> int:
         count = args.peer_images
         data = workload(name, count)
         peers = [
-            (label, rate(run, count, repeat)) for label, run in albumentations_cases(data).items()
+            (label, *measure(run, count, repeat))
+            for label, run in albumentations_cases(data).items()
         ]
         peers += torch_rates(name, count, repeat)
-        for label, value in peers:
-            rows.append({"workload": name, "batch": count, "tool": label, "images/s": value})
-            print(f"{name:>5} {count:>4}  {label:<40} {value:9.0f} images/s", flush=True)
+        for label, value, cpu in peers:
+            row = {"workload": name, "batch": count, "tool": label}
+            rows.append(row | {"images/s": value, "cpu ms": cpu})
+            show(name, count, label, value, cpu)
     report = {
         "machine": platform.platform(),
         "renderer": glmls.gl.get_context().mgl.info["GL_RENDERER"],
