@@ -99,7 +99,11 @@ def _chunk(quads, warper, batch, chunk, mlss, options, frame, lattice, maps):
         warped_masks = [restore_mask(o[..., -1], masks[0].dtype) for o in out]  # type: ignore[index]
         out = out[..., :channels] if channels else out[..., 0]
     keypoints = batch.keypoints
-    vertices = quads.vertices(kernels, lattice) if keypoints is not None else None
+    vertices = None
+    if keypoints is not None:  # the meshes, read back once
+        vertices = quads.last_vertices
+        if vertices is None:
+            vertices = quads.vertices(kernels, lattice)
     if masks is not None and not packed:
         label_sources = [prepare_image(mask_form(m), limit, normalized=True) for m in masks]
         label_options = mask_options(options)

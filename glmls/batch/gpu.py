@@ -37,6 +37,7 @@ from ..imaging.options import PipelineOptions, WarpOptions
 from ..imaging.quads import key_layout
 from ..imaging.readback import read_rgba8
 from ..imaging.source import SourceImage, texture_data, texture_form
+from .labels import embedded
 
 __all__ = ["CHUNK_BYTES", "BatchQuads", "batchable", "chunk_size"]
 
@@ -87,6 +88,8 @@ class BatchQuads:
         self._gl = gl
         self._resources = Resources(gl, "the batch quads")
         self._array: tuple[tuple, moderngl.TextureArray] | None = None
+        #: The last :meth:`warp`'s mesh vertices where it read them (:meth:`vertices`).
+        self.last_vertices: np.ndarray | None = None
 
     @classmethod
     def of(cls, ctx: moderngl.Context | GLContext | None = None) -> BatchQuads:
@@ -149,6 +152,7 @@ class BatchQuads:
         """(N, rows, columns, 2) float64: the last :meth:`warp`'s mesh vertices in pixels
         (f at the lattice of each of ``kernels``, its chunk's), read back."""
         stride = _mesh_stride(lattice)
+        self._gl.mgl.memory_barrier()  # the lattice passes' stores before the read
         raw = self._resources.cached("mesh").read(size=len(kernels) * stride)
         columns, rows = lattice.dims
         scaled = np.frombuffer(raw, np.float32).reshape(len(kernels), stride // 4)
@@ -183,6 +187,12 @@ class BatchQuads:
             evaluate_lattice(kernel, lattice, mesh, offset=k * stride)
             scaling[k, :2] = kernel.scaling.center
             scaling[k, 2] = kernel.scaling.scale
+        source = sources[0]
+        fused = self.fused and not linear and texture_form(source)[1:] == (4, "f1")
+        self.last_vertices = None
+        if fused:  # meshes shown to be embeddings are drawn without keys
+            self.last_vertices = self.vertices(kernels, lattice)
+            scaling[:, 3] = ~embedded(self.last_vertices)
         scales = self._resources.buffer("scaling", scaling.nbytes)
         scales.write(scaling)
         out_w, out_h = frame.size
@@ -202,8 +212,6 @@ class BatchQuads:
             "u_row_shift": row_shift,
         }
         mgl.memory_barrier()
-        source = sources[0]
-        fused = self.fused and not linear and texture_form(source)[1:] == (4, "f1")
         dtype = "f1" if source.normalized else "f4"
         framebuffer = self._resources.framebuffer("atlas", atlas, dtype)
         target = framebuffer.color_attachments[0]

@@ -11,7 +11,15 @@ import numpy as np
 
 from ..core.mesh import MeshLattice
 
-__all__ = ["SLACK", "embedded", "mesh_corners", "mesh_keypoints", "mesh_map", "visible"]
+__all__ = [
+    "EMBED_MARGIN",
+    "SLACK",
+    "embedded",
+    "mesh_corners",
+    "mesh_keypoints",
+    "mesh_map",
+    "visible",
+]
 
 
 def mesh_corners(lattice: MeshLattice, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -134,13 +142,20 @@ def mesh_keypoints(
     return out, inside & ~hidden
 
 
+#: Least area (px^2) of a triangle, and turn of a boundary edge about the centre, that
+#: :func:`embedded` counts as positive: far above float32 rounding of the GPU's own values.
+EMBED_MARGIN = 1e-3
+
+
 def embedded(vertices: np.ndarray) -> np.ndarray:
     """(N,) bool: the deformed meshes (N, rows, columns, 2) that are embeddings, shown by
-    every triangle strictly positive and the boundary turning strictly around the centre
-    vertex, once (a star-shaped simple curve): no point is then covered twice."""
+    every triangle positive and the boundary turning around the centre vertex, once (a
+    star-shaped simple curve), by :data:`EMBED_MARGIN` at least: no point is then covered
+    twice."""
     a, b = vertices[:, :-1, :-1], vertices[:, :-1, 1:]
     c, d = vertices[:, 1:, 1:], vertices[:, 1:, :-1]
-    positive = (_cross(b - a, c - a) > 0) & (_cross(c - a, d - a) > 0)
+    margin = EMBED_MARGIN
+    positive = (_cross(b - a, c - a) > margin) & (_cross(c - a, d - a) > margin)
     ok = positive.reshape(len(vertices), -1).all(axis=1)
     ring = np.concatenate(
         [
@@ -157,7 +172,7 @@ def embedded(vertices: np.ndarray) -> np.ndarray:
     nxt = np.roll(rel, -1, axis=1)
     turn = _cross(rel, nxt)
     angle = np.arctan2(turn, np.einsum("nmi,nmi->nm", rel, nxt)).sum(axis=1)
-    return ok & (turn > 0).all(axis=1) & (angle < 3 * np.pi)
+    return ok & (turn > margin).all(axis=1) & (angle < 3 * np.pi)
 
 
 def _covered_earlier(vertices: np.ndarray, points: np.ndarray, own: np.ndarray) -> np.ndarray:

@@ -293,10 +293,11 @@ def test_chunk_size_follows_the_limits(gl):
     assert chunk_size(gl, source, frame, lattice, 1) == 1
 
 
-@pytest.mark.parametrize("fold", [False, True])
+@pytest.mark.parametrize("fold", [False, True, "mixed"])
 def test_the_fill_draw_equals_the_fused_scan(gl, rng, monkeypatch, fold):
-    """Nearest 8-bit chunks: colours written in the scan (with fix-ups where triangles
-    overlap) or drawn from the keys give the single warp's pixels."""
+    """Nearest 8-bit chunks: colours written in the scan (without keys for meshes shown to
+    be embeddings, with keys and fix-ups for the others) or drawn from the keys give the
+    single warp's pixels, in chunks of folded and unfolded meshes alike."""
     from glmls.batch.gpu import BatchQuads
 
     shape = (28, 36)
@@ -306,6 +307,10 @@ def test_the_fill_draw_equals_the_fused_scan(gl, rng, monkeypatch, fold):
         src, dst = np.repeat(p[None], 4, 0), np.repeat(q[None], 4, 0)
     else:
         src, dst = handles(rng, 4, 6, shape, spread=4.0)
+    if fold == "mixed":
+        p, q = folding_handles(shape)
+        src, dst = list(src), list(dst)
+        src[1], dst[1], src[2], dst[2] = p, q, p, q[::-1] * 0.5 + p * 0.5
     want = singles(batch, src, dst, grid=1)
     for fused in (True, False):
         monkeypatch.setattr(BatchQuads, "fused", fused)

@@ -11,7 +11,9 @@
 // WARP_CELLS_FUSED (nearest, RGBA8 sources and atlas, with WARP_CELLS_SOURCE): as the single
 // warp's fused scan, every triangle also writes its source texel into the atlas (the sources
 // are an atlas too, image k's rows k * source H ...), and one that finds its pixel taken
-// lists it for batch/fixup.comp.glsl, which writes the winner's texel there.
+// lists it for batch/fixup.comp.glsl, which writes the winner's texel there. Images whose
+// meshes are embeddings (glmls.batch.labels.embedded) skip the keys: no pixel of theirs is
+// covered twice.
 layout(local_size_x = LOCAL_SIZE) in;
 
 #ifndef WARP_CELLS_FUSED
@@ -81,6 +83,11 @@ void main() {
     RowBounds bounds = row_bounds(p00, p10, p11, p01, s0, convex);
     RowWalk walk = row_walk(bounds, first, last);
     int base = k * u_target_size.x * u_target_size.y;
+#if WARP_CELLS_FUSED
+    // an image whose mesh the caller showed to be an embedding (batch_scaling[k].w 0) covers
+    // each pixel once: its colours need no keys (the single warp's fast pass)
+    bool keyed = batch_scaling[k].w != 0.0;
+#endif
     bool positive = s0 > 0.0 && s1 > 0.0;
     bool tie_a = edge_tie(p10 - p00);
     bool tie_b = edge_tie(p11 - p10);
@@ -139,7 +146,10 @@ void main() {
 #endif
         int i = base + y * u_target_size.x + column;
 #if WARP_CELLS_FUSED
-        uint before = atomicMax(warp_winner[i], id);
+        uint before = 0u;
+        if (keyed) {
+            before = atomicMax(warp_winner[i], id);
+        }
         ivec2 source = cell_lo + sp + ivec2(0, k * u_source_size.y);
         ivec2 target = ivec2(column, k * u_target_size.y + y);
         warp_store(id != 0u ? target : ivec2(-1), warp_source_texel(source));
