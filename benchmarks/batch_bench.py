@@ -214,6 +214,7 @@ def peak_memory(count: int) -> float:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="glmls alone, a batch of 64, once")
+    parser.add_argument("--no-peers", action="store_true", help="glmls alone (and its memory)")
     parser.add_argument("--batches", type=int, nargs="+", default=[64, 256])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--workloads", nargs="+", default=["224", "text"], choices=["224", "text"])
@@ -239,7 +240,7 @@ def main(argv: list[str] | None = None) -> int:
                     }
                 )
                 show(name, count, label, value, cpu)
-        if args.quick:
+        if args.quick or args.no_peers:
             continue
         # the peers work image by image: their rate does not depend on the batch
         count = args.peer_images

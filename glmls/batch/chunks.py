@@ -12,6 +12,7 @@ import numpy as np
 from ..core.mesh import MeshLattice
 from ..imaging.frame import make_frame
 from ..imaging.options import WarpOptions
+from ..imaging.readback import drop_channels
 from ..imaging.source import background_color, prepare_image
 from ..mls import MLS
 from .gpu import CHUNK_BYTES, BatchQuads, chunk_size
@@ -76,6 +77,18 @@ def warp_chunks(
     return results
 
 
+def _drop_last(rgba: np.ndarray, squeeze: bool) -> np.ndarray:
+    """The warped images without the mask that rode as their last channel."""
+    if squeeze:
+        return rgba[..., 0].copy()
+    if rgba.shape[3] != 4:
+        return rgba[..., :-1].copy()
+    out = np.empty((*rgba.shape[:3], 3), np.uint8)
+    width = rgba.shape[2]
+    drop_channels(np.ascontiguousarray(rgba).reshape(-1, width, 4), out.reshape(-1, width, 3))
+    return out
+
+
 def _chunk(quads, warper, batch, chunk, mlss, options, frame, lattice, maps):
     limit = warper.pipeline.max_image_size
     kernels = [m.kernel for m in mlss]
@@ -85,19 +98,19 @@ def _chunk(quads, warper, batch, chunk, mlss, options, frame, lattice, maps):
     if packed:  # each label rides as one more channel of its image
         channels = images[0].shape[2] if images[0].ndim == 3 else 1
         both = np.empty((len(images), *images[0].shape[:2], channels + 1), np.uint8)
-        both[..., :channels] = np.reshape(images, both.shape[:3] + (channels,))
-        both[..., channels] = masks
+        for k, (image, mask) in enumerate(zip(images, masks, strict=True)):
+            both[k, ..., :channels] = image.reshape(both.shape[1:3] + (channels,))
+            both[k, ..., channels] = mask
         images = list(both)
     sources = [prepare_image(image, limit, normalized=True) for image in images]
     background = background_color(options.background, sources[0])
-    out = quads.warp(kernels, sources, options, frame, background)
+    out = quads.warp(kernels, sources, options, frame, background, both if packed else None)
     if out is None:
         return None
     warped_masks: list = [None] * len(chunk)
     if packed:
-        channels = batch.images[chunk[0]].ndim == 3 and batch.images[chunk[0]].shape[2]
-        warped_masks = [restore_mask(o[..., -1], masks[0].dtype) for o in out]  # type: ignore[index]
-        out = out[..., :channels] if channels else out[..., 0]
+        warped_masks = list(restore_mask(out[..., -1], masks[0].dtype))  # type: ignore[index]
+        out = _drop_last(out, batch.images[chunk[0]].ndim == 2)
     keypoints = batch.keypoints
     vertices = None
     if keypoints is not None:  # the meshes, read back once

@@ -76,6 +76,20 @@ def chunk_size(
     return max(1, min(atlas, layers, max_bytes // per_image))
 
 
+def _texture_stack(sources: list[SourceImage]) -> np.ndarray:
+    """The sources' texture data (:func:`texture_data`) one after the other, converted as
+    one image (an RGB chunk to RGBA in one pass)."""
+    data = np.stack([s.data for s in sources])
+    return np.ascontiguousarray(texture_data(_stacked(sources[0], data)))
+
+
+def _stacked(first: SourceImage, data: np.ndarray) -> SourceImage:
+    """The chunk's data (N, H, W, C) as one tall image of ``first``'s form."""
+    count, height, width, channels = data.shape
+    tall = data.reshape(count * height, width, channels)
+    return SourceImage(tall, first.dtype, first.squeeze, first.normalized)
+
+
 class BatchQuads:
     """The batched quads of a context (see the module docstring); one per context,
     :meth:`of`."""
@@ -144,7 +158,7 @@ class BatchQuads:
             array.repeat_x = array.repeat_y = False
             self._array = (key, array)
         array = self._array[1]
-        array.write(np.ascontiguousarray(np.stack([texture_data(s) for s in sources])))
+        array.write(_texture_stack(sources))
         return array
 
     @current
@@ -157,7 +171,9 @@ class BatchQuads:
         columns, rows = lattice.dims
         scaled = np.frombuffer(raw, np.float32).reshape(len(kernels), stride // 4)
         scaled = scaled[:, : rows * columns * 2].reshape(len(kernels), rows, columns, 2)
-        return np.stack([k.scaling.from_gpu(v) for k, v in zip(kernels, scaled, strict=True)])
+        scale = np.array([k.scaling.scale for k in kernels], np.float64)[:, None, None, None]
+        centre = np.array([k.scaling.center for k in kernels], np.float64)[:, None, None, :]
+        return scaled.astype(np.float64) * scale + centre  # Scaling.from_gpu, all at once
 
     @current
     def warp(
@@ -167,10 +183,12 @@ class BatchQuads:
         options: WarpOptions,
         frame: Frame,
         background: tuple[float, float, float, float],
+        stacked: np.ndarray | None = None,
     ) -> np.ndarray | None:
         """The chunk's images warped: (N, H, W, C) restored to the sources' dtype (each
         :meth:`SourceImage.restore`), or None where the keys of this mesh do not fit in 31
-        bits (the single path's rasterizer then draws it)."""
+        bits (the single path's rasterizer then draws it). ``stacked``: the sources' data as
+        one (N, H, W, 4) uint8 array where the caller has it (not copied again)."""
         height, width = sources[0].shape
         lattice = MeshLattice.corners((height, width), options.grid)
         linear = options.interpolation == "linear"
@@ -228,7 +246,7 @@ class BatchQuads:
             fixups.write(_NO_FIXUPS)
             buffers[bindings.FIXUPS] = fixups
             texels = self._resources.texture("sources", (width, height * count), 4, "f1")
-            texels.write(np.ascontiguousarray(np.stack([texture_data(s) for s in sources])))
+            texels.write(stacked if stacked is not None else _texture_stack(sources))
         set_uniforms(scan, values)
         for binding, buffer in buffers.items():
             buffer.bind_to_storage_buffer(binding.index)
