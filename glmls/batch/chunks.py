@@ -140,11 +140,13 @@ def _chunk(quads, warper, batch, chunk, mlss, options, frame, lattice, maps):
         valid_all &= np.all((moved_all > -0.5) & (moved_all < (width - 0.5, height - 0.5)), axis=1)
         ends = np.cumsum(sizes)[:-1]
         moved_all, valid_all = np.split(moved_all, ends), np.split(valid_all, ends)
+    coords_all = covered_all = None
+    if maps:  # the quads' source points, from the chunk's meshes still on the GPU
+        coords_all, covered_all = quads.coords(len(chunk), lattice, frame)
     results = []
     for k, _ in enumerate(chunk):
-        coords = covered = None
-        if maps:
-            coords, covered = warper.source_points(mlss[k], lattice.shape, options, frame)
+        coords = None if coords_all is None else coords_all[k]
+        covered = None if covered_all is None else covered_all[k]
         moved = None if moved_all is None else moved_all[k]
         valid = None if valid_all is None else valid_all[k]
         results.append(ImageLabels(out[k], warped_masks[k], moved, valid, coords, covered))

@@ -123,8 +123,59 @@ class BatchQuads:
             self._array = None
         self._resources.release()
 
-    def _resolve(self, values, atlas, framebuffer, sources, winner, linear) -> None:
-        """The atlas filled from the keys by one draw (batch/resolve.frag.glsl)."""
+    @current
+    def coords(
+        self, count: int, lattice: MeshLattice, frame: Frame
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The map of the last :meth:`warp`'s chunk (``count`` images, its ``lattice`` and
+        ``frame``, its meshes still in the mesh buffer): (N, H, W, 2) float32 source point of
+        each output pixel, the quads' interpolated one as the single warp's coordinate fill
+        gives it, and (N, H, W) bool covered."""
+        sub_bits, col_shift, row_shift = key_layout(lattice, source_pixel=False)  # type: ignore[misc]
+        gl, mgl = self._gl, self._gl.mgl
+        out_w, out_h = frame.size
+        atlas = (out_w, out_h * count)
+        winner = self._resources.buffer("winner", out_w * out_h * count * 4)
+        winner.clear(size=out_w * out_h * count * 4)
+        values = {
+            **lattice.pixel_uniforms(),
+            "u_target_size": frame.size,
+            "u_origin": frame.origin,
+            "u_source_size": lattice.shape[::-1],
+            "u_mesh_dims": lattice.dims,
+            "u_mesh_stride": _mesh_stride(lattice) // 8,
+            "u_images": count,
+            "u_sub_bits": sub_bits,
+            "u_col_shift": col_shift,
+            "u_row_shift": row_shift,
+        }
+        scan = gl.compute("batch/cells.comp.glsl", {"WARP_CELLS_SOURCE": False})
+        set_uniforms(scan, values)
+        self._resources.cached("mesh").bind_to_storage_buffer(bindings.DEFORMED.index)
+        self._resources.cached("scaling").bind_to_storage_buffer(bindings.POINTS.index)
+        winner.bind_to_storage_buffer(bindings.WINNER.index)
+        cells = (lattice.dims[0] - 1) * (lattice.dims[1] - 1)
+        mgl.memory_barrier()
+        run_1d(scan, cells * count, max_groups=gl.limits["max_work_groups_x"])
+        mgl.memory_barrier()
+        framebuffer = self._resources.framebuffer("coords", atlas, "f4")
+        self._resources.fill(framebuffer.color_attachments[0], (0.0, 0.0, 0.0, 0.0))
+        self._resolve(values, atlas, framebuffer, None, winner, True, coords=True)
+        values_out = np.empty((atlas[1], atlas[0], 4), np.float32)
+        bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
+        try:
+            framebuffer.use()
+            framebuffer.read_into(values_out, (0, 0, *atlas), 4, dtype="f4")
+        finally:
+            bound.use()
+        values_out = values_out.reshape(count, out_h, out_w, 4)
+        return values_out[..., :2].copy(), values_out[..., 2] > 0.5
+
+    def _resolve(
+        self, values, atlas, framebuffer, sources, winner, linear, *, coords: bool = False
+    ) -> None:
+        """The atlas filled from the keys by one draw (batch/resolve.frag.glsl); ``coords``:
+        the source points instead of colours (``sources`` unused)."""
         gl, mgl = self._gl, self._gl.mgl
         keys = self._resources.texture("winner", atlas, 1, "u4")
         keys.write(winner)
@@ -133,13 +184,16 @@ class BatchQuads:
             framebuffer.use()
             framebuffer.viewport = (0, 0, *atlas)
             program = gl.program(
-                "common/fullscreen.vert.glsl", "batch/resolve.frag.glsl", {"WARP_LINEAR": linear}
+                "common/fullscreen.vert.glsl",
+                "batch/resolve.frag.glsl",
+                {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords},
             )
             set_uniforms(program, values)
-            array = self._sources(sources)
-            mode = moderngl.LINEAR if linear else moderngl.NEAREST
-            array.filter = (mode, mode)
-            array.use(bindings.SOURCE.index)
+            if not coords:
+                array = self._sources(sources)
+                mode = moderngl.LINEAR if linear else moderngl.NEAREST
+                array.filter = (mode, mode)
+                array.use(bindings.SOURCE.index)
             keys.use(bindings.WINNER_TEXTURE.index)
             mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
             self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)

@@ -333,3 +333,26 @@ def test_embedded_meshes_skip_the_fold_test_exactly(gl):
     assert 0 < (~valid).sum() < len(grid) // 2  # the points that the fold hides
     _, valid = mesh_keypoints(lattice, identity, grid, None)
     assert valid.all()
+
+
+def test_quads_maps_of_a_chunk_equal_the_single_fill(gl, rng):
+    """The batched path's maps are the quads' own source points, as the single pipeline's
+    coordinate fill gives them, bit for bit (folds included)."""
+    from glmls.batch.single import SingleWarper
+    from glmls.imaging.frame import make_frame
+
+    shape = (28, 36)
+    batch = images(rng, 3, shape)
+    src, dst = handles(rng, 3, 6, shape, spread=3.0)
+    p, q = folding_handles(shape)
+    src, dst = [src[0], p, src[2]], [dst[0], q, dst[2]]
+    options = {"grid": 2, "output_shape": (30, 40), "origin": (-1.0, 0.5)}
+    result = glmls.warp_batch(batch, src, dst, return_maps=True, **options)
+    warper = SingleWarper.of()
+    chosen = glmls.WarpOptions(**options)
+    frame = make_frame(chosen.output_shape, chosen.origin, shape, 4096)
+    for i in range(3):
+        with glmls.MLS(src[i], dst[i], shape=shape) as m:
+            coords, covered = warper.source_points(m, shape, chosen, frame)
+        np.testing.assert_array_equal(result.maps[i], coords)
+        np.testing.assert_array_equal(result.valid[i], covered)

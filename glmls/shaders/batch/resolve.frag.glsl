@@ -3,8 +3,14 @@
 // key's source pixel) and warp/cells.frag.glsl (linear: the winning triangle interpolated at
 // the pixel centre, then sampled bilinearly) fill a single image's canvas; the sources are
 // the layers of one texture array. WARP_BORDER 0 only (constant: the mesh has no margin).
+// WARP_OUTPUT_COORDS (with WARP_LINEAR): the interpolated source point instead of a colour,
+// (s.x, s.y, 1, 0), as warp/cells.frag.glsl writes it.
 #include "common/lattice.glsl"
 #include "batch/mesh.glsl"
+
+#ifndef WARP_OUTPUT_COORDS
+#define WARP_OUTPUT_COORDS 0
+#endif
 
 layout(binding = BIND_SOURCE) uniform sampler2DArray u_sources;
 layout(binding = BIND_WINNER_TEXTURE) uniform usampler2D u_winner;   // the atlas's keys
@@ -42,8 +48,12 @@ void main() {
     vec2 s = lattice_corner(g) * (1.0 - lb - ld) + lattice_corner(g + kb) * lb +
              lattice_corner(g + kc) * ld;
     s += vec2(u_lattice_offset);
+#if WARP_OUTPUT_COORDS
+    out_color = vec4(s, 1.0, 0.0);   // the source point itself (the map of the output pixels)
+#else
     vec2 size = vec2(textureSize(u_sources, 0).xy);
     out_color = texture(u_sources, vec3((s + 0.5) / size, float(k)));
+#endif
 #else
     uint sub_mask = (1u << u_sub_bits) - 1u;
     ivec2 sub = ivec2(key & sub_mask, (key >> u_sub_bits) & sub_mask);
