@@ -129,7 +129,7 @@ def warp_batch(
         )
         for i, image in enumerate(batch.images)
     ]
-    return _assemble(batch, results, chosen, images, return_maps)
+    return _assemble(batch, results, chosen, images, return_maps, (keypoints, masks))
 
 
 def _split_options(options: dict) -> tuple[WarpOptions, dict, dict]:
@@ -161,34 +161,43 @@ def _check_segments(segments: dict, count: int) -> list[dict]:
 
 
 def _assemble(
-    batch: BatchInput, results: list[ImageLabels], options: WarpOptions, images, maps: bool
+    batch: BatchInput,
+    results: list[ImageLabels],
+    options: WarpOptions,
+    images: object,
+    maps: bool,
+    inputs: tuple[object, object],
 ):
+    """The output of :func:`warp_batch`: stacked where the inputs were, the empty batch's
+    arrays of the right shapes (``inputs``: the keypoints and masks as given)."""
+    keypoints, masks = inputs
     empty = None
     if isinstance(images, np.ndarray) and len(batch) == 0:
-        shape = options.output_shape or images.shape[1:3]
+        shape = tuple(options.output_shape or images.shape[1:3])
         empty = np.empty((0, *shape, *images.shape[3:]), images.dtype)
     out = stack_or_list([r.image for r in results], batch.stacked, empty)
     if batch.keypoints is None and batch.masks is None and not maps:
         return out
 
-    def field(name: str, stacked: bool, tail: tuple = (), dtype: object = None):
+    def field(name: str, stacked: bool, empty_shape: tuple, dtype: object):
         values = [getattr(r, name) for r in results]
-        if not values or values[0] is None:
-            if empty is None:
-                return [] if values else None
-            return np.empty((0, *empty.shape[1:3], *tail), dtype)
-        return stack_or_list(values, stacked)
+        if values:
+            return stack_or_list(values, stacked)
+        return [] if empty is None else np.empty((0, *empty_shape), dtype)
 
-    stacked_points = batch.stacked_points
+    canvas = () if empty is None else empty.shape[1:3]
+    points = np.shape(keypoints)[1:2] if isinstance(keypoints, np.ndarray) else (0,)
+    mask_dtype = masks.dtype if isinstance(masks, np.ndarray) else np.uint8
+    given = batch.keypoints is not None
     return BatchResult(
         images=out,
-        keypoints=field("keypoints", stacked_points, (2,), np.float64)
-        if batch.keypoints is not None
+        keypoints=field("keypoints", batch.stacked_points, (*points, 2), np.float64)
+        if given
         else None,
-        keypoints_valid=field("keypoints_valid", stacked_points, (), bool)
-        if batch.keypoints is not None
+        keypoints_valid=field("keypoints_valid", batch.stacked_points, points, bool)
+        if given
         else None,
-        masks=field("mask", batch.stacked, (), np.uint8) if batch.masks is not None else None,
-        maps=field("map", batch.stacked, (2,), np.float32) if maps else None,
-        valid=field("valid", batch.stacked, (), bool) if maps else None,
+        masks=field("mask", batch.stacked, canvas, mask_dtype) if batch.masks is not None else None,
+        maps=field("map", batch.stacked, (*canvas, 2), np.float32) if maps else None,
+        valid=field("valid", batch.stacked, canvas, bool) if maps else None,
     )

@@ -109,6 +109,21 @@ def test_empty_batch(gl):
     )
     assert out.shape == (0, 5, 6, 3) and out.dtype == np.uint8
     assert glmls.warp_batch([], [], []) == []
+    none = np.zeros((0, 3, 2))
+    result = glmls.warp_batch(
+        np.zeros((0, 5, 6), np.uint16),
+        none,
+        none,
+        keypoints=np.zeros((0, 4, 2)),
+        masks=np.zeros((0, 5, 6), np.int32),
+        return_maps=True,
+        output_shape=(7, 8),
+    )
+    assert result.images.shape == (0, 7, 8) and result.images.dtype == np.uint16
+    assert result.keypoints.shape == (0, 4, 2) and result.keypoints_valid.shape == (0, 4)
+    assert result.masks.shape == (0, 7, 8) and result.masks.dtype == np.int32
+    assert result.maps.shape == (0, 7, 8, 2) and result.valid.shape == (0, 7, 8)
+    assert glmls.warp_batch([], [], [], keypoints=[]).keypoints == []
 
 
 def test_masks_keep_their_labels(gl, rng):
