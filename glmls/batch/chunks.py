@@ -69,7 +69,8 @@ def warp_chunks(
                     )
                     for i in chunk
                 ]
-                done = _chunk(quads, warper, batch, chunk, mlss, options, frame, lattice, maps)
+                with quads.ctx.use():  # the chunk's passes, its meshes kept, in one hold
+                    done = _chunk(quads, warper, batch, chunk, mlss, options, frame, lattice, maps)
             if done is None:
                 continue
             for i, labels in zip(chunk, done, strict=True):
@@ -122,6 +123,8 @@ def _chunk(quads, warper, batch, chunk, mlss, options, frame, lattice, maps):
         label_options = mask_options(options)
         zero = background_color(0.0, label_sources[0])
         warped = quads.warp(kernels, label_sources, label_options, frame, zero)
+        if warped is None:  # the labels' keys are longer: the single path takes the chunk
+            return None
         warped_masks = [restore_mask(w, masks[0].dtype) for w in warped]  # type: ignore[union-attr]
     moved_all = valid_all = None
     if keypoints is not None:  # every keypoint of the chunk at once
