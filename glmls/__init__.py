@@ -12,6 +12,7 @@ warp pipeline) in :mod:`glmls.gl`, the float64 reference of the mathematics in
 """
 
 from . import analysis, data, gl, reference
+from .batch import BatchResult, warp_batch
 from .core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
 from .core.handleset import HANDLE_KINDS, HandleSet
 from .core.mesh3 import DeformedMesh
@@ -45,6 +46,7 @@ __all__ = [
     "RADIUS_WEIGHTS",
     "TRANSFORMS",
     "WEIGHTS",
+    "BatchResult",
     "BorderWarning",
     "Bounds",
     "ContextError",
@@ -72,6 +74,7 @@ __all__ = [
     "read_volume",
     "reference",
     "warp",
+    "warp_batch",
     "write_mesh",
     "write_volume",
 ]

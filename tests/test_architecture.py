@@ -18,6 +18,7 @@ LAYERS = (
     ("glmls.engine",),
     ("glmls.imaging", "glmls.volume"),
     ("glmls.mls", "glmls.mls3"),
+    ("glmls.batch",),
     ("glmls.analysis",),
     ("glmls.app",),
     ("glmls.cli",),

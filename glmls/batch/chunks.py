@@ -1,0 +1,156 @@
+"""A batch cut into chunks for the GPU path (:mod:`glmls.batch.gpu`): images of one shape
+and dtype, as many per chunk as the GL limits and :data:`~glmls.batch.gpu.CHUNK_BYTES` allow,
+each chunk's images, masks and keypoints in one submission and one read-back."""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from contextlib import ExitStack
+
+import numpy as np
+
+from ..core.mesh import MeshLattice
+from ..imaging.frame import make_frame
+from ..imaging.options import WarpOptions
+from ..imaging.readback import drop_channels
+from ..imaging.source import background_color, prepare_image
+from ..mls import MLS
+from .gpu import CHUNK_BYTES, BatchQuads, chunk_size
+from .inputs import BatchInput
+from .labels import mesh_keypoints
+from .single import ImageLabels, SingleWarper, mask_form, mask_options, packable, restore_mask
+
+__all__ = ["warp_chunks"]
+
+
+def _groups(batch: BatchInput) -> dict[tuple, list[int]]:
+    """Image indices by what a chunk shares: shape, dtype, and how its mask travels."""
+    groups: dict[tuple, list[int]] = defaultdict(list)
+    for i, image in enumerate(batch.images):
+        mask = None if batch.masks is None else batch.masks[i]
+        key = (image.shape, image.dtype.str, None if mask is None else mask.dtype.str)
+        groups[key].append(i)
+    return groups
+
+
+def warp_chunks(
+    batch: BatchInput,
+    options: WarpOptions,
+    mls_options: dict,
+    segments: list[dict],
+    *,
+    maps: bool,
+    max_bytes: int | None,
+) -> list[ImageLabels | None]:
+    """Each image's :class:`ImageLabels` from the batched GPU path (None for an image it
+    left to the single path: keys too long for its mesh)."""
+    results: list[ImageLabels | None] = [None] * len(batch)
+    quads = BatchQuads.of(mls_options.get("ctx"))
+    warper = SingleWarper.of(mls_options.get("ctx"))
+    limit = warper.pipeline.max_image_size
+    for indices in _groups(batch).values():
+        first = batch.images[indices[0]]
+        source = prepare_image(first, limit, normalized=True)
+        frame = make_frame(options.output_shape, options.origin, source.shape, limit)
+        lattice = MeshLattice.corners(source.shape, options.grid)
+        size = chunk_size(quads.ctx, source, frame, lattice, max_bytes or CHUNK_BYTES)
+        for start in range(0, len(indices), size):
+            chunk = indices[start : start + size]
+            with ExitStack() as stack:
+                mlss = [
+                    stack.enter_context(
+                        MLS(
+                            batch.src[i],
+                            batch.dst[i],
+                            shape=source.shape,
+                            **segments[i],
+                            **mls_options,
+                        )
+                    )
+                    for i in chunk
+                ]
+                with quads.ctx.use():  # the chunk's passes, its meshes kept, in one hold
+                    done = _chunk(quads, warper, batch, chunk, mlss, options, frame, lattice, maps)
+            if done is None:
+                continue
+            for i, labels in zip(chunk, done, strict=True):
+                results[i] = labels
+    return results
+
+
+def _drop_last(rgba: np.ndarray, squeeze: bool) -> np.ndarray:
+    """The warped images without the mask that rode as their last channel."""
+    if squeeze:
+        return rgba[..., 0].copy()
+    if rgba.shape[3] != 4:
+        return rgba[..., :-1].copy()
+    out = np.empty((*rgba.shape[:3], 3), np.uint8)
+    width = rgba.shape[2]
+    drop_channels(np.ascontiguousarray(rgba).reshape(-1, width, 4), out.reshape(-1, width, 3))
+    return out
+
+
+def _chunk(quads, warper, batch, chunk, mlss, options, frame, lattice, maps):
+    limit = warper.pipeline.max_image_size
+    kernels = [m.kernel for m in mlss]
+    images = [batch.images[i] for i in chunk]
+    masks = None if batch.masks is None else [batch.masks[i] for i in chunk]
+    packed = masks is not None and packable(images[0], masks[0], options)
+    if packed:  # each label rides as one more channel of its image
+        channels = images[0].shape[2] if images[0].ndim == 3 else 1
+        both = np.empty((len(images), *images[0].shape[:2], channels + 1), np.uint8)
+        for k, (image, mask) in enumerate(zip(images, masks, strict=True)):
+            both[k, ..., :channels] = image.reshape(both.shape[1:3] + (channels,))
+            both[k, ..., channels] = mask
+        images = list(both)
+    sources = [prepare_image(image, limit, normalized=True) for image in images]
+    background = background_color(options.background, sources[0])
+    out = quads.warp(kernels, sources, options, frame, background, both if packed else None)
+    if out is None:
+        return None
+    warped_masks: list = [None] * len(chunk)
+    if packed:
+        warped_masks = list(restore_mask(out[..., -1], masks[0].dtype))  # type: ignore[index]
+        out = _drop_last(out, batch.images[chunk[0]].ndim == 2)
+    keypoints = batch.keypoints
+    vertices = None
+    if keypoints is not None:  # the meshes, read back once
+        vertices = quads.last_vertices
+        if vertices is None:
+            vertices = quads.vertices(kernels, lattice)
+    if masks is not None and not packed:
+        label_sources = [prepare_image(mask_form(m), limit, normalized=True) for m in masks]
+        label_options = mask_options(options)
+        zero = background_color(0.0, label_sources[0])
+        warped = quads.warp(kernels, label_sources, label_options, frame, zero)
+        if warped is None:  # the labels' keys are longer: the single path takes the chunk
+            return None
+        warped_masks = [restore_mask(w, masks[0].dtype) for w in warped]  # type: ignore[union-attr]
+    moved_all = valid_all = None
+    if keypoints is not None:  # every keypoint of the chunk at once
+        points = [keypoints[i] for i in chunk]
+        sizes = [len(p) for p in points]
+        which = np.repeat(np.arange(len(chunk)), sizes)
+        moved_all, valid_all = mesh_keypoints(
+            lattice,
+            vertices,
+            np.concatenate(points),
+            None,
+            which,  # type: ignore[arg-type]
+        )
+        moved_all = moved_all - np.asarray(frame.origin)
+        height, width = frame.shape
+        valid_all &= np.all((moved_all > -0.5) & (moved_all < (width - 0.5, height - 0.5)), axis=1)
+        ends = np.cumsum(sizes)[:-1]
+        moved_all, valid_all = np.split(moved_all, ends), np.split(valid_all, ends)
+    coords_all = covered_all = None
+    if maps:  # the quads' source points, from the chunk's meshes still on the GPU
+        coords_all, covered_all = quads.coords(len(chunk), lattice, frame)
+    results = []
+    for k, _ in enumerate(chunk):
+        coords = None if coords_all is None else coords_all[k]
+        covered = None if covered_all is None else covered_all[k]
+        moved = None if moved_all is None else moved_all[k]
+        valid = None if valid_all is None else valid_all[k]
+        results.append(ImageLabels(out[k], warped_masks[k], moved, valid, coords, covered))
+    return results
