@@ -18,7 +18,7 @@ LAYERS = (
     ("glmls.engine",),
     ("glmls.imaging",),
     ("glmls.mls",),
-    ("glmls.analysis",),
+    ("glmls.analysis", "glmls.augment"),
     ("glmls.app",),
     ("glmls.cli",),
     ("glmls", "glmls.__main__"),  # the package root re-exports the public API
