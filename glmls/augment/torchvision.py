@@ -2,6 +2,10 @@
 ``pip install 'glmls[torch]'`` (torchvision 0.23 and newer, for ``tv_tensors.KeyPoints``).
 
 This module imports torch and torchvision; :mod:`glmls.augment` does not import this module.
+Import it (or torchvision) before glmls makes its first OpenGL context where that context is
+Mesa's llvmpipe (a machine without a GPU driver): torchvision loads triton, whose LLVM
+crashes a process that already holds Mesa's; this module raises ``ImportError`` saying so
+rather than let the process crash (:func:`check_import_order`).
 
 ``MLSTransform`` follows torchvision's contract: ``make_params`` draws once per call from
 torch's random numbers (``torch.manual_seed`` makes it repeat), and ``transform`` deforms each
@@ -21,19 +25,57 @@ the last call are in ``last_params`` (JSON-able dicts, see
 
 from __future__ import annotations
 
+import importlib.util
+import sys
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
-import numpy as np
-import PIL.Image
-import torch
-from torchvision import tv_tensors
-from torchvision.transforms import v2
-from torchvision.transforms.v2 import functional as F
 
-from .core import Augment
+def check_import_order() -> None:
+    """``ImportError`` where importing torchvision now would crash the process.
 
-__all__ = ["MLSTransform"]
+    torchvision imports triton (through ``torch._dynamo``), which carries an LLVM of its own;
+    loaded into a process where Mesa's LLVM is already loaded (the llvmpipe OpenGL driver,
+    after glmls made its first GL context on a machine without a GPU driver), its start-up
+    ends in a segmentation fault. Loaded first, both work.
+
+    Raises
+    ------
+    ImportError
+        Where triton is installed but not imported and an LLVM library is loaded.
+
+    Examples
+    --------
+    >>> from glmls.augment.torchvision import check_import_order
+    >>> check_import_order()  # triton is loaded by now, or no LLVM is
+    """
+    if "triton" in sys.modules or importlib.util.find_spec("triton") is None:
+        return
+    try:
+        maps = Path("/proc/self/maps").read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return
+    if "libLLVM" in maps:
+        raise ImportError(
+            "torchvision loads triton, whose LLVM crashes a process in which Mesa's LLVM "
+            "(the llvmpipe OpenGL driver glmls is using) is already loaded: import torchvision "
+            "(or glmls.augment.torchvision) before glmls makes its first OpenGL context"
+        )
+
+
+check_import_order()
+
+import numpy as np  # noqa: E402
+import PIL.Image  # noqa: E402
+import torch  # noqa: E402
+from torchvision import tv_tensors  # noqa: E402
+from torchvision.transforms import v2  # noqa: E402
+from torchvision.transforms.v2 import functional as F  # noqa: E402
+
+from .core import Augment  # noqa: E402
+
+__all__ = ["MLSTransform", "check_import_order"]
 
 _LABELS = (tv_tensors.Mask, tv_tensors.KeyPoints, tv_tensors.BoundingBoxes)
 

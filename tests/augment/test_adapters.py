@@ -154,3 +154,32 @@ def test_augment_takes_and_gives_torch_tensors(gl, rng):
     np.testing.assert_array_equal(np.moveaxis(out.images.numpy(), 1, -1), plain.images)
     again = aug.replay(images, out.params)
     assert torch.equal(again.images, out.images)
+
+
+def test_importing_torchvision_after_mesas_llvm_is_an_import_error(tmp_path):
+    """Where the GL context is llvmpipe and triton is installed, importing the adapter after
+    glmls's first context raises instead of letting triton crash the process."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, numpy as np, glmls\n"
+        "glmls.warp(np.zeros((8, 8), np.uint8), [[1, 1]], [[2, 2]])\n"
+        "maps = open('/proc/self/maps').read()\n"
+        "if 'libLLVM' not in maps or 'triton' in sys.modules:\n"
+        "    print('no clash here'); sys.exit(0)\n"
+        "try:\n"
+        "    import glmls.augment.torchvision\n"
+        "except ImportError as error:\n"
+        "    print(error); sys.exit(0)\n"
+        "sys.exit(3)\n"
+    )
+    import importlib.util
+
+    if importlib.util.find_spec("triton") is None:
+        pytest.skip("triton is not installed: nothing clashes")
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=tmp_path
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "no clash here" in done.stdout or "before glmls makes its first" in done.stdout
