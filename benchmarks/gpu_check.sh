@@ -40,6 +40,7 @@ parallel=()
 if "$PYTHON" -c 'import xdist' 2>/dev/null; then parallel=(-n 8); fi
 step tests 270 "$PYTHON" -m pytest --maxfail=20 -q -p no:cacheprovider "${parallel[@]}" tests/gl tests/engine tests/imaging tests/test_inverse.py
 step bench 120 "$PYTHON" benchmarks/run_bench.py --quick --tools glmls --tolerances 0.05 --out "$out/bench"
+step batch-bench 60 "$PYTHON" benchmarks/batch_bench.py --quick
 step profile-stages 45 "$PYTHON" benchmarks/profile_stages.py --size 1024 --handles 64
 step adaptive-stages-W1 30 "$PYTHON" benchmarks/adaptive_stages.py --workload W1 --tolerance 0.05
 step adaptive-stages-W2 30 "$PYTHON" benchmarks/adaptive_stages.py --workload W2 --tolerance 0.05

@@ -13,6 +13,7 @@ warp pipeline) in :mod:`glmls.gl`, the float64 reference of the mathematics in
 """
 
 from . import analysis, augment, data, gl, reference
+from .batch import BatchResult, warp_batch
 from .core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
 from .core.handleset import HANDLE_KINDS, HandleSet
 from .core.segments import polyline_segments
@@ -41,6 +42,7 @@ __all__ = [
     "RADIUS_WEIGHTS",
     "TRANSFORMS",
     "WEIGHTS",
+    "BatchResult",
     "BorderWarning",
     "Bounds",
     "ContextError",
@@ -63,4 +65,5 @@ __all__ = [
     "polyline_segments",
     "reference",
     "warp",
+    "warp_batch",
 ]

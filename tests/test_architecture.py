@@ -18,6 +18,7 @@ LAYERS = (
     ("glmls.engine",),
     ("glmls.imaging",),
     ("glmls.mls",),
+    ("glmls.batch",),
     ("glmls.analysis", "glmls.augment"),
     ("glmls.app",),
     ("glmls.cli",),

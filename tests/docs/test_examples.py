@@ -29,6 +29,7 @@ def test_the_documents_have_examples():
         "index.md",
         "getting-started.md",
         "warp.md",
+        "batch.md",
         "handles.md",
         "segments.md",
         "analysis.md",

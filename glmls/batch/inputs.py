@@ -1,0 +1,138 @@
+"""The inputs of :func:`glmls.warp_batch` checked and split into per-image items: images,
+handles, keypoints and masks, each error naming the item's index (``src[3]``)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..imaging.source import DTYPES
+
+__all__ = ["BatchInput", "check_batch", "stack_or_list"]
+
+
+@dataclass(frozen=True)
+class BatchInput:
+    """A checked batch: per image, its array and handles (and labels, None where not given).
+
+    ``stacked``: the images came as one array or as a sequence of one shape and dtype (the
+    outputs are then stacked too); ``stacked_points``: the keypoints came as one array."""
+
+    images: list[np.ndarray]
+    src: list[np.ndarray]
+    dst: list[np.ndarray]
+    keypoints: list[np.ndarray] | None
+    masks: list[np.ndarray] | None
+    stacked: bool
+    stacked_points: bool
+
+    def __len__(self) -> int:
+        return len(self.images)
+
+
+def _items(value: object, name: str, item_ndims: tuple[int, ...]) -> tuple[list, bool]:
+    """``value`` as a list of per-image arrays: an array whose first axis is the batch, or a
+    sequence; the flag says it was one array."""
+    if isinstance(value, np.ndarray):
+        if value.ndim - 1 not in item_ndims:
+            wanted = " or ".join(f"{d + 1}" for d in item_ndims)
+            raise ValueError(
+                f"{name} must be an array of {wanted} dimensions (the batch first) or a "
+                f"sequence of arrays, got shape {value.shape}"
+            )
+        return list(value), True
+    if isinstance(value, (str, bytes)) or not isinstance(value, Sequence):
+        raise TypeError(
+            f"{name} must be an array or a sequence of arrays, got {type(value).__name__}"
+        )
+    return [np.asarray(item) for item in value], False
+
+
+def _image(array: np.ndarray, name: str) -> np.ndarray:
+    if array.dtype not in DTYPES:
+        names = ", ".join(np.dtype(d).name for d in DTYPES)
+        raise TypeError(f"{name} has dtype {array.dtype}; expected one of {names}")
+    if array.ndim not in (2, 3) or (array.ndim == 3 and not 1 <= array.shape[2] <= 4):
+        raise ValueError(f"{name} has shape {array.shape}; expected (H, W) or (H, W, C), C 1..4")
+    if array.size == 0:
+        raise ValueError(f"{name} is empty: shape {array.shape}")
+    return array
+
+
+def _points(array: np.ndarray, name: str, *, empty: bool) -> np.ndarray:
+    if array.dtype == object or not (
+        np.issubdtype(array.dtype, np.number) and not np.issubdtype(array.dtype, np.complexfloating)
+    ):
+        raise TypeError(f"{name} has dtype {array.dtype}; expected real numbers")
+    if array.ndim != 2 or array.shape[1] != 2 or (not empty and len(array) == 0):
+        expected = "(P, 2)" if empty else "(K, 2) with K >= 1"
+        raise ValueError(f"{name} has shape {array.shape}; expected {expected}")
+    points = np.asarray(array, dtype=np.float64)
+    if not np.isfinite(points).all():
+        raise ValueError(f"{name} holds values that are not finite (NaN or inf)")
+    return points
+
+
+def _mask(array: np.ndarray, name: str, shape: tuple[int, int]) -> np.ndarray:
+    if array.dtype == bool or not np.issubdtype(array.dtype, np.integer):
+        raise TypeError(f"{name} has dtype {array.dtype}; expected an integer dtype")
+    if array.shape != shape:
+        raise ValueError(f"{name} has shape {array.shape}; expected its image's {shape}")
+    if array.dtype not in (np.uint8, np.uint16) and array.size:
+        low, high = int(array.min()), int(array.max())
+        if low < -(1 << 24) or high > 1 << 24:
+            raise ValueError(
+                f"{name} holds labels from {low} to {high}; labels beyond +-2**24 are not "
+                "supported (use uint8, uint16 or smaller labels)"
+            )
+    return array
+
+
+def check_batch(
+    images: object, src: object, dst: object, keypoints: object, masks: object
+) -> BatchInput:
+    """The checked :class:`BatchInput`; ``ValueError``/``TypeError`` naming the bad item."""
+    image_list, stacked = _items(images, "images", (2, 3))
+    count = len(image_list)
+    image_list = [_image(a, f"images[{i}]") for i, a in enumerate(image_list)]
+    if not stacked and image_list:
+        first = image_list[0]
+        stacked = all(a.shape == first.shape and a.dtype == first.dtype for a in image_list)
+    handles = []
+    for name, value in (("src", src), ("dst", dst)):
+        items, _ = _items(value, name, (2,))
+        if len(items) != count:
+            raise ValueError(f"{name} holds {len(items)} handle sets for {count} images")
+        handles.append([_points(a, f"{name}[{i}]", empty=False) for i, a in enumerate(items)])
+    for i, (p, q) in enumerate(zip(*handles, strict=True)):
+        if len(p) != len(q):
+            raise ValueError(f"src[{i}] and dst[{i}] hold {len(p)} and {len(q)} points")
+    points, stacked_points = None, False
+    if keypoints is not None:
+        points, stacked_points = _items(keypoints, "keypoints", (2,))
+        if len(points) != count:
+            raise ValueError(f"keypoints holds {len(points)} point sets for {count} images")
+        points = [_points(a, f"keypoints[{i}]", empty=True) for i, a in enumerate(points)]
+        stacked_points = stacked_points or len({len(a) for a in points}) == 1
+    mask_list = None
+    if masks is not None:
+        mask_list, _ = _items(masks, "masks", (2,))
+        if len(mask_list) != count:
+            raise ValueError(f"masks holds {len(mask_list)} masks for {count} images")
+        mask_list = [
+            _mask(m, f"masks[{i}]", image_list[i].shape[:2]) for i, m in enumerate(mask_list)
+        ]
+    return BatchInput(image_list, *handles, points, mask_list, stacked, stacked_points)
+
+
+def stack_or_list(arrays: list[np.ndarray], stacked: bool, empty: np.ndarray | None = None):
+    """``arrays`` stacked along a new first axis where ``stacked`` and they share one shape
+    and dtype, else the list; ``empty`` is what an empty batch gives."""
+    if not arrays:
+        return empty if empty is not None else []
+    first = arrays[0]
+    if stacked and all(a.shape == first.shape and a.dtype == first.dtype for a in arrays):
+        return np.stack(arrays)
+    return arrays

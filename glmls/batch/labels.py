@@ -1,0 +1,159 @@
+"""Keypoints moved by the object that placed the pixels: for ``quads`` on a regular mesh, the
+mesh's own piecewise linear map (each cell's two triangles (00, 10, 11) and (00, 11, 01),
+as ``warp/cells.comp.glsl`` and ``warp/mesh.vert.glsl`` fill them); for the other methods f
+itself. A keypoint is valid where it lands on the canvas and the output pixel nearest it
+shows the keypoint's own neighbourhood (in a fold another part of the image wins that pixel).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.mesh import MeshLattice
+
+__all__ = ["SLACK", "mesh_corners", "mesh_map", "visible"]
+
+
+def mesh_corners(lattice: MeshLattice, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For (P, 2) source ``points``: the (P, 4, 2) corners 00, 10, 01, 11 of the lattice cell
+    holding each (the last cell of a row or column where past it) and a (P,) bool, inside the
+    lattice's domain."""
+    origin = np.asarray(lattice.origin, np.float64)
+    last = np.asarray(lattice.last, np.float64)
+    cells = np.asarray(lattice.cells, np.int64)  # (columns, rows)
+    grid = lattice.grid
+    index = np.clip(np.floor((points - origin) / grid).astype(np.int64), 0, cells - 1)
+    low = np.minimum(origin + index * grid, last)
+    high = np.minimum(origin + (index + 1) * grid, last)
+    corners = np.stack(
+        [low, np.c_[high[:, 0], low[:, 1]], np.c_[low[:, 0], high[:, 1]], high], axis=1
+    )
+    inside = np.all((points >= origin) & (points <= last), axis=1)
+    return corners, inside
+
+
+def mesh_map(
+    corners: np.ndarray, deformed: np.ndarray, points: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh's map at ``points``: (P, 2) output points and the (P, 2, 2) Jacobians (rows:
+    d/dx, d/dy) of the triangle each lies in. ``corners``: (P, 4, 2) source corners 00, 10, 01,
+    11 (:func:`mesh_corners`), ``deformed``: their images under f."""
+    low, high = corners[:, 0], corners[:, 3]
+    size = np.maximum(high - low, 1e-12)
+    u, v = ((points - low) / size).T
+    d00, d10, d01, d11 = (deformed[:, k] for k in range(4))
+    lower = u >= v  # triangle 0 (00, 10, 11): below the diagonal in (u, v); else 1 (00, 11, 01)
+    ex = np.where(lower[:, None], d10 - d00, d11 - d01)  # per unit u
+    ey = np.where(lower[:, None], d11 - d10, d01 - d00)  # per unit v
+    out = d00 + u[:, None] * ex + v[:, None] * ey
+    jacobian = np.stack([ex / size[:, :1], ey / size[:, 1:]], axis=1)
+    return out, jacobian
+
+
+#: A keypoint shows where the source point of the output pixel nearest it is within this
+#: distance (source pixels), plus half the local map's change over that step, of where the
+#: keypoint's own map puts that pixel's source point.
+SLACK = 0.5
+
+
+def visible(
+    points: np.ndarray,
+    out: np.ndarray,
+    jacobian: np.ndarray,
+    coords: np.ndarray,
+    covered: np.ndarray,
+    inside: np.ndarray,
+) -> np.ndarray:
+    """(P,) bool: keypoints ``points`` (source, (P, 2)) landing at ``out`` with local
+    ``jacobian`` (P, 2, 2) that show: on the canvas of ``coords`` ((H, W, 2) source point per
+    output pixel, the frame's pixel (0, 0) at out (0, 0)), ``covered`` there, ``inside`` the
+    source domain, and the source point shown at the nearest output pixel within
+    :data:`SLACK` plus the local map's change of the source point that pixel's
+    centre should show (else another part of the image folds over it)."""
+    height, width = covered.shape
+    pixel = np.rint(out)
+    on = inside & (out[:, 0] > -0.5) & (out[:, 1] > -0.5)
+    on &= (out[:, 0] < width - 0.5) & (out[:, 1] < height - 0.5)
+    ok = np.zeros(len(points), bool)
+    if not on.any():
+        return ok
+    idx = np.flatnonzero(on)
+    col = pixel[idx, 0].astype(np.int64).clip(0, width - 1)
+    row = pixel[idx, 1].astype(np.int64).clip(0, height - 1)
+    shown = coords[row, col].astype(np.float64)
+    step = pixel[idx] - out[idx]
+    with np.errstate(all="ignore"):
+        inverse = np.linalg.pinv(jacobian[idx])  # (k, 2, 2): rows d/du
+    expected = points[idx] + np.einsum("ki,kij->kj", step, inverse)
+    reach = np.linalg.norm(step, axis=1) * np.linalg.norm(inverse, ord=2, axis=(1, 2))
+    near = np.linalg.norm(shown - expected, axis=1) <= SLACK + 0.5 * reach
+    ok[idx] = covered[row, col] & near
+    return ok
+
+
+def mesh_keypoints(
+    lattice: MeshLattice, vertices: np.ndarray, points: np.ndarray, moved: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Keypoints through the deformed mesh of ``lattice`` (``vertices``: f at its points,
+    (rows, columns, 2)): (P, 2) output points (the mesh's own map, or ``moved`` where given,
+    f's values for the backward methods) and (P,) bool, inside the lattice's domain and not
+    covered by a triangle earlier in the fill's scan order (cell row, column, then triangle
+    (00, 10, 11) before (00, 11, 01)) than the keypoint's own: where cells fold, the first
+    shows (``warp/cells.comp.glsl``)."""
+    count = len(points)
+    if count == 0:
+        return np.zeros((0, 2)), np.zeros(0, bool)
+    corners, inside = mesh_corners(lattice, points)
+    columns, _ = lattice.cells
+    origin = np.asarray(lattice.origin, np.float64)
+    index = np.rint((corners[:, 0] - origin) / lattice.grid).astype(np.int64)  # (col, row)
+    col, row = index[:, 0], index[:, 1]
+    deformed = np.stack(
+        [
+            vertices[row, col],
+            vertices[row, col + 1],
+            vertices[row + 1, col],
+            vertices[row + 1, col + 1],
+        ],
+        axis=1,
+    )
+    out, _ = mesh_map(corners, deformed, points)
+    if moved is not None:
+        out = moved
+    low, high = corners[:, 0], corners[:, 3]
+    u, v = ((points - low) / np.maximum(high - low, 1e-12)).T
+    own = (row * columns + col) * 2 + (u < v)
+    return out, inside & ~_covered_earlier(vertices, out, own)
+
+
+def _covered_earlier(vertices: np.ndarray, points: np.ndarray, own: np.ndarray) -> np.ndarray:
+    """(P,) bool: a triangle of the deformed mesh before key ``own`` holds the point strictly
+    inside (either orientation: folded triangles are drawn too)."""
+    a = vertices[:-1, :-1].reshape(-1, 2)
+    b = vertices[:-1, 1:].reshape(-1, 2)
+    c = vertices[1:, 1:].reshape(-1, 2)
+    d = vertices[1:, :-1].reshape(-1, 2)
+    low = np.minimum(np.minimum(a, b), np.minimum(c, d))
+    high = np.maximum(np.maximum(a, b), np.maximum(c, d))
+    hidden = np.zeros(len(points), bool)
+    for start in range(0, len(points), 64):  # (64, cells) candidates at a time
+        chunk = points[start : start + 64]
+        near = np.all((low <= chunk[:, None]) & (chunk[:, None] <= high), axis=-1)
+        which, cell = np.nonzero(near)
+        q = chunk[which]
+        for triangle, (p0, p1, p2) in enumerate(((a, b, c), (a, c, d))):
+            earlier = cell * 2 + triangle < own[start + which]
+            x0, x1, x2 = p0[cell], p1[cell], p2[cell]
+            area = _cross(x1 - x0, x2 - x0)
+            sign = np.sign(area)
+            edges = np.stack(
+                [_cross(x1 - x0, q - x0), _cross(x2 - x1, q - x1), _cross(x0 - x2, q - x2)]
+            )
+            tiny = 1e-9 * np.abs(area)
+            strictly = np.all(edges * sign > tiny, axis=0) & (sign != 0)
+            hidden[start + which[earlier & strictly]] = True
+    return hidden
+
+
+def _cross(e: np.ndarray, f: np.ndarray) -> np.ndarray:
+    return e[..., 0] * f[..., 1] - e[..., 1] * f[..., 0]

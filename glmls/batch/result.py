@@ -1,0 +1,65 @@
+"""What :func:`glmls.warp_batch` returns when labels or maps are asked for."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["BatchResult"]
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    """The warped images of a batch with their labels and maps.
+
+    Each field is an array with the batch's leading dimension N where every image of the
+    batch has one shape (and, for ``images``, one dtype and channel count), else a list of N
+    arrays in the order of the input; None where it was not asked for.
+
+    Parameters
+    ----------
+    images : numpy.ndarray or list of numpy.ndarray
+        The warped images, (N, H, W) or (N, H, W, C), each of its input's dtype and channels.
+    keypoints : numpy.ndarray or list of numpy.ndarray or None
+        (N, P, 2) float64 output points (x, y) of the ``keypoints`` asked for: where each
+        source point lands on the output canvas.
+    keypoints_valid : numpy.ndarray or list of numpy.ndarray or None
+        (N, P) bool: the point lands on the canvas, inside the warped image, and shows there
+        (no other part of the image folds over it).
+    masks : numpy.ndarray or list of numpy.ndarray or None
+        (N, H, W) label images warped with nearest sampling, of the input masks' dtype (0
+        where nothing is shown).
+    maps : numpy.ndarray or list of numpy.ndarray or None
+        (N, H, W, 2) float32: for each output pixel the source point (x, y) it shows (the
+        convention of :meth:`glmls.MLS.coordinate_map`).
+    valid : numpy.ndarray or list of numpy.ndarray or None
+        (N, H, W) bool: the output pixels that some source pixel covers (with ``maps``).
+    params : object or None
+        Per-sample parameters that a caller attaches (e.g. the random draws of an
+        augmentation); :func:`glmls.warp_batch` leaves it None.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import glmls
+    >>> images = np.zeros((2, 8, 8), np.uint8)
+    >>> src = np.array([[[1.0, 1.0], [6.0, 6.0]]] * 2)
+    >>> out = glmls.warp_batch(images, src, src + 1, keypoints=[[[2.0, 3.0]]] * 2)
+    >>> out.images.shape, out.keypoints.shape, out.masks is None
+    ((2, 8, 8), (2, 1, 2), True)
+    >>> len(out)
+    2
+    """
+
+    images: np.ndarray | list[np.ndarray]
+    keypoints: np.ndarray | list[np.ndarray] | None = None
+    keypoints_valid: np.ndarray | list[np.ndarray] | None = None
+    masks: np.ndarray | list[np.ndarray] | None = None
+    maps: np.ndarray | list[np.ndarray] | None = None
+    valid: np.ndarray | list[np.ndarray] | None = None
+    params: object = None
+
+    def __len__(self) -> int:
+        """The number of images N."""
+        return len(self.images)

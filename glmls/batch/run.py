@@ -1,0 +1,176 @@
+"""The one-call batch front end :func:`warp_batch`."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..gl import helper
+from ..gl.context import forked_from_gl
+from ..imaging.options import FIELDS, WarpOptions
+from ..mls import MLS, MLS_KEYWORDS
+from .inputs import BatchInput, check_batch, stack_or_list
+from .result import BatchResult
+from .single import ImageLabels, SingleWarper
+
+__all__ = ["warp_batch"]
+
+_PER_IMAGE = ("src_segments", "dst_segments")
+
+
+def warp_batch(
+    images: object,
+    src: object,
+    dst: object,
+    *,
+    keypoints: object = None,
+    masks: object = None,
+    return_maps: bool = False,
+    **options: object,
+) -> np.ndarray | list[np.ndarray] | BatchResult:
+    """Deform a batch of images, each by the MLS map of its own handles, with its labels.
+
+    Equal to one :func:`glmls.warp` per image, with the GPU work of many images submitted
+    together. In a process forked from one in which glmls used GL (a data loader's worker),
+    it runs in a helper process started fresh, with the same result (see
+    :mod:`glmls.gl.context`).
+
+    Parameters
+    ----------
+    images : array_like or sequence of array_like
+        An (N, H, W) or (N, H, W, C) array (C in 1..4; uint8, uint16, float32 or float64), or
+        a sequence of N such images of any shapes.
+    src, dst : array_like or sequence of array_like
+        Per image, its handles p and q: (N, K, 2) arrays, or sequences of N arrays of shape
+        (K_i, 2) (a different number of handles per image).
+    keypoints : array_like or sequence of array_like or None, default None
+        Per image, source points (x, y) to move along: an (N, P, 2) array or a sequence of
+        (P_i, 2) arrays. ``quads`` on a regular mesh moves them by the mesh's piecewise
+        linear map that placed the pixels, the other methods by f.
+    masks : array_like or sequence of array_like or None, default None
+        Per image, an (H, W) label image of an integer dtype (labels within +-2**24 unless
+        uint8 or uint16): warped like its image with nearest sampling (never a mixed label),
+        0 where nothing is shown.
+    return_maps : bool, default False
+        Also return each image's map from output pixels to the source points they show and
+        its valid mask.
+    **options
+        Those of :func:`glmls.warp`, for every image: the fields of
+        :class:`glmls.WarpOptions` (``method``, ``interpolation``, ``grid``, ``tolerance``,
+        ``border``, ``background``, ``output_shape``, ``origin``; or ``options``) and of
+        :class:`glmls.MLS` (``transform``, ``weight``, ``alpha``, ``s``, ``radius``,
+        ``interpolating``, ``ctx``, ``storage``, ``bins``); ``src_segments`` and
+        ``dst_segments`` as sequences of N per-image values (None for an image without).
+
+    Returns
+    -------
+    numpy.ndarray or list of numpy.ndarray or BatchResult
+        Without labels or maps, the warped images: an array (N, H, W[, C]) of the input's
+        dtype and channels where all images share one shape and dtype, else a list in input
+        order. With ``keypoints``, ``masks`` or ``return_maps``, a :class:`glmls.BatchResult`
+        of the images and what was asked for (keypoints in output pixel coordinates). An
+        empty (0, H, W[, C]) array gives an empty array of the output shape, an empty
+        sequence an empty list.
+
+    Raises
+    ------
+    ValueError, TypeError
+        For an item of a bad shape, dtype or count, or not finite, naming it (``src[3] has
+        shape (5, 3); expected (K, 2) with K >= 1``), and as :func:`glmls.warp`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import glmls
+    >>> images = np.arange(48, dtype=np.uint8).reshape(2, 4, 6)
+    >>> src = [[[0, 0], [5, 3]], [[0, 0], [5, 3]]]
+    >>> dst = [[[1, 0], [6, 3]], [[0, 0], [5, 3]]]
+    >>> out = glmls.warp_batch(images, src, dst, transform="similarity")
+    >>> out.shape, out[0, 0].tolist(), bool((out[1] == images[1]).all())
+    ((2, 4, 6), [0, 0, 1, 2, 3, 4], True)
+    >>> glmls.warp_batch(images, src, [[[1, 0], [6, 3]], [[0, 0, 1]]])
+    Traceback (most recent call last):
+    ...
+    ValueError: dst[1] has shape (1, 3); expected (K, 2) with K >= 1
+    """
+    if options.get("ctx") is None and forked_from_gl():  # GL would hang here: a clean helper
+        keywords = {"keypoints": keypoints, "masks": masks, "return_maps": return_maps}
+        return helper.call(__name__, "warp_batch", (images, src, dst), keywords | options)
+    chosen, mls_options, segments = _split_options(options)
+    batch = check_batch(images, src, dst, keypoints, masks)
+    segments = _check_segments(segments, len(batch))
+    warper = SingleWarper.of(mls_options.get("ctx"))
+    results = [
+        warper.warp_one(
+            MLS(batch.src[i], batch.dst[i], shape=image.shape[:2], **segments[i], **mls_options),
+            image,
+            chosen,
+            mask=None if batch.masks is None else batch.masks[i],
+            points=None if batch.keypoints is None else batch.keypoints[i],
+            maps=return_maps,
+            index=i,
+        )
+        for i, image in enumerate(batch.images)
+    ]
+    return _assemble(batch, results, chosen, images, return_maps)
+
+
+def _split_options(options: dict) -> tuple[WarpOptions, dict, dict]:
+    warp_options = {k: options.pop(k) for k in sorted(FIELDS | {"options"}) if k in options}
+    segments = {k: options.pop(k) for k in _PER_IMAGE if k in options}
+    unknown = sorted(set(options) - MLS_KEYWORDS)
+    if unknown:
+        raise TypeError(
+            f"warp_batch() got {'unknown keywords' if len(unknown) > 1 else 'an unknown keyword'}"
+            f" {', '.join(unknown)}"
+        )
+    chosen = WarpOptions.of(warp_options.pop("options", None), **warp_options)
+    return chosen, options, segments
+
+
+def _check_segments(segments: dict, count: int) -> list[dict]:
+    per_image: list[dict] = [{} for _ in range(count)]
+    for name, value in segments.items():
+        if value is None:
+            continue
+        if isinstance(value, np.ndarray) and value.ndim == 4:
+            value = list(value)
+        if not isinstance(value, (list, tuple)) or len(value) != count:
+            raise ValueError(f"{name} must be a sequence of one value per image ({count})")
+        for i, item in enumerate(value):
+            if item is not None:
+                per_image[i][name] = item
+    return per_image
+
+
+def _assemble(
+    batch: BatchInput, results: list[ImageLabels], options: WarpOptions, images, maps: bool
+):
+    empty = None
+    if isinstance(images, np.ndarray) and len(batch) == 0:
+        shape = options.output_shape or images.shape[1:3]
+        empty = np.empty((0, *shape, *images.shape[3:]), images.dtype)
+    out = stack_or_list([r.image for r in results], batch.stacked, empty)
+    if batch.keypoints is None and batch.masks is None and not maps:
+        return out
+
+    def field(name: str, stacked: bool, tail: tuple = (), dtype: object = None):
+        values = [getattr(r, name) for r in results]
+        if not values or values[0] is None:
+            if empty is None:
+                return [] if values else None
+            return np.empty((0, *empty.shape[1:3], *tail), dtype)
+        return stack_or_list(values, stacked)
+
+    stacked_points = batch.stacked_points
+    return BatchResult(
+        images=out,
+        keypoints=field("keypoints", stacked_points, (2,), np.float64)
+        if batch.keypoints is not None
+        else None,
+        keypoints_valid=field("keypoints_valid", stacked_points, (), bool)
+        if batch.keypoints is not None
+        else None,
+        masks=field("mask", batch.stacked, (), np.uint8) if batch.masks is not None else None,
+        maps=field("map", batch.stacked, (2,), np.float32) if maps else None,
+        valid=field("valid", batch.stacked, (), bool) if maps else None,
+    )

@@ -1,0 +1,234 @@
+"""One image of a batch on the shared pipeline: the image, its mask, the map of the output
+pixels to the source points they show, and its keypoints."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import NamedTuple
+
+import moderngl
+import numpy as np
+
+from ..core.mesh import MeshLattice
+from ..gl.context import GLContext, current, get_context
+from ..gl.resources import Resources
+from ..imaging.frame import Frame, border_margin, make_frame
+from ..imaging.options import WarpOptions
+from ..imaging.pipeline import WarpPipeline
+from ..mls import MLS
+from .labels import mesh_corners, mesh_keypoints, mesh_map, visible
+
+__all__ = ["ImageLabels", "SingleWarper", "mask_form", "restore_mask"]
+
+
+class ImageLabels(NamedTuple):
+    """What one image of a batch gave (None: not asked for)."""
+
+    image: np.ndarray
+    mask: np.ndarray | None = None
+    keypoints: np.ndarray | None = None
+    keypoints_valid: np.ndarray | None = None
+    map: np.ndarray | None = None
+    valid: np.ndarray | None = None
+
+
+def mask_form(mask: np.ndarray) -> np.ndarray:
+    """A label image as an image the pipeline warps exactly: uint8 and uint16 as they are,
+    other integers as float32 (exact within +-2**24)."""
+    if mask.dtype in (np.uint8, np.uint16):
+        return mask
+    return mask.astype(np.float32)
+
+
+def restore_mask(values: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """The warped :func:`mask_form` back to the mask's dtype."""
+    if values.dtype == dtype:
+        return values
+    return np.rint(values).astype(dtype)
+
+
+def mask_options(options: WarpOptions) -> WarpOptions:
+    """The options of a label image: nearest sampling, label 0 where nothing shows."""
+    return dataclasses.replace(options, interpolation="nearest", background=0.0)
+
+
+def by_mesh(options: WarpOptions) -> bool:
+    """Are keypoints tested for folds on the regular mesh (``quads``, whose fill it is, and
+    ``backward``, whose first guess it is)?"""
+    return options.tolerance is None and options.method in ("quads", "backward")
+
+
+def _packable(image: np.ndarray, mask: np.ndarray | None, options: WarpOptions) -> bool:
+    """Can ``mask`` ride as one more channel of ``image``'s warp: 8 bits, nearest, an image
+    of 1 or 3 channels (whose background then leaves the new channel at 0)."""
+    if mask is None or options.interpolation != "nearest" or image.dtype != np.uint8:
+        return False
+    if image.ndim == 3 and image.shape[2] not in (1, 3):
+        return False
+    if mask.dtype != np.uint8:
+        return False
+    background = np.asarray(options.background)
+    return background.ndim == 0 or len(background) == (image.shape[2] if image.ndim == 3 else 1)
+
+
+def uses_mesh(options: WarpOptions) -> bool:
+    """Does the method place the pixels by the regular mesh's piecewise linear map?"""
+    return options.method == "quads" and options.tolerance is None
+
+
+class SingleWarper:
+    """Per-image work of a batch on a context's shared :class:`~glmls.gl.WarpPipeline`."""
+
+    def __init__(self, gl: GLContext) -> None:
+        self._gl = gl
+        self.pipeline = WarpPipeline.of(gl)
+        self._resources = Resources(gl, "the batch warper")
+
+    @classmethod
+    def of(cls, ctx: moderngl.Context | GLContext | None = None) -> SingleWarper:
+        """The warper shared by everything that renders with ``ctx``."""
+        gl = get_context(ctx)
+        return gl.shared(SingleWarper, lambda: cls(gl))
+
+    def release(self) -> None:
+        """Free the cached GL objects."""
+        self._resources.release()
+
+    def warp_one(
+        self,
+        mls: MLS,
+        image: np.ndarray,
+        options: WarpOptions,
+        *,
+        mask: np.ndarray | None,
+        points: np.ndarray | None,
+        maps: bool,
+        index: int,
+    ) -> ImageLabels:
+        """Image ``index`` of a batch warped by ``mls`` (released here) with its labels."""
+        with mls:
+            packed = _packable(image, mask, options)
+            try:
+                out = mls.warp(np.dstack([image, mask]) if packed else image, options=options)
+            except (ValueError, TypeError) as error:
+                raise type(error)(f"images[{index}]: {error}") from error
+            warped_mask = None
+            if packed:  # the label rode along as one more channel of the same warp
+                channels = image.shape[2] if image.ndim == 3 else 0
+                out, warped_mask = (out[..., :channels] if channels else out[..., 0]), out[..., -1]
+                warped_mask = restore_mask(warped_mask, mask.dtype)  # type: ignore[union-attr]
+            elif mask is not None:
+                warped = mls.warp(mask_form(mask), options=mask_options(options))
+                warped_mask = restore_mask(warped, mask.dtype)
+            if points is None and not maps:
+                return ImageLabels(out, warped_mask)
+            shape = image.shape[:2]
+            limit = self.pipeline.max_image_size
+            frame = make_frame(options.output_shape, options.origin, shape, limit)
+            coords = covered = moved = valid = None
+            if maps or (points is not None and not by_mesh(options)):
+                coords, covered = self.source_points(mls, shape, options, frame)
+            if points is not None:
+                moved, valid = self.keypoints(mls, shape, options, frame, points, coords, covered)
+            return ImageLabels(out, warped_mask, moved, valid, coords, covered)
+
+    def keypoints(self, mls, shape, options, frame, points, coords, covered):
+        """(P, 2) keypoints on the canvas and (P,) bool valid."""
+        if by_mesh(options):
+            lattice = self.lattice(mls, shape, options, frame)
+            grid = lattice.points()
+            rows, columns = grid.shape[:2]
+            backward = options.method == "backward"
+            values = mls(
+                np.concatenate([grid.reshape(-1, 2), points] if backward else [grid.reshape(-1, 2)])
+            )
+            vertices = values[: rows * columns].reshape(rows, columns, 2)
+            moved, valid = mesh_keypoints(
+                lattice, vertices, points, values[rows * columns :] if backward else None
+            )
+        else:
+            moved, jacobian, inside = self.move(mls, shape, options, frame, points)
+            moved = moved - np.asarray(frame.origin)
+            return moved, visible(points, moved, jacobian, coords, covered, inside)
+        moved = moved - np.asarray(frame.origin)
+        height, width = frame.shape
+        on = np.all((moved > -0.5) & (moved < (width - 0.5, height - 0.5)), axis=1)
+        return moved, valid & on
+
+    def lattice(self, mls: MLS, shape: tuple[int, int], options: WarpOptions, frame: Frame):
+        """The quads' mesh, as the pipeline builds it: extended past the image as far as the
+        canvas needs with a border mode."""
+        lattice = MeshLattice.corners(shape, options.grid)
+        if options.border == "constant":
+            return lattice
+        return lattice.with_margin(border_margin(mls.kernel, lattice, frame, warn=False))
+
+    def move(
+        self,
+        mls: MLS,
+        shape: tuple[int, int],
+        options: WarpOptions,
+        frame: Frame,
+        points: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Where ``points`` land (the deformed plane), the local Jacobians (P, 2, 2) and
+        whether each lies in the source domain that the method draws."""
+        count = len(points)
+        if count == 0:
+            return np.zeros((0, 2)), np.zeros((0, 2, 2)), np.zeros(0, bool)
+        if uses_mesh(options):
+            corners, inside = mesh_corners(self.lattice(mls, shape, options, frame), points)
+            deformed = mls(corners.reshape(-1, 2)).reshape(count, 4, 2)
+            out, jacobian = mesh_map(corners, deformed, points)
+            return out, jacobian, inside
+        step = 0.5
+        probes = np.concatenate([points, points + (step, 0.0), points + (0.0, step)])
+        values = mls(probes).reshape(3, count, 2)
+        jacobian = np.stack([values[1] - values[0], values[2] - values[0]], axis=1) / step
+        inside = np.ones(count, bool)
+        if options.border == "constant":
+            height, width = shape
+            inside = np.all((points >= -0.5) & (points <= (width - 0.5, height - 0.5)), axis=1)
+        return values[0], jacobian, inside
+
+    @current
+    def source_points(
+        self, mls: MLS, shape: tuple[int, int], options: WarpOptions, frame: Frame
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(H, W, 2) float32 source point shown per output pixel and (H, W) bool covered:
+        the quads' own interpolated source points for ``quads`` on a regular mesh, the
+        backward map (f's inverse, or the swapped map for ``backward-swap``) otherwise."""
+        if uses_mesh(options):
+            return self._quads_points(mls, self.lattice(mls, shape, options, frame), frame)
+        texture = self.pipeline.solve_inverse(
+            mls,
+            shape,
+            swap=options.method == "backward-swap",
+            grid=options.grid,
+            border=options.border,
+            frame=frame,
+        )
+        values = np.frombuffer(texture.read(), np.float32).reshape(*frame.shape, 4)
+        return values[..., :2].copy(), values[..., 3] > 0.5
+
+    def _quads_points(self, mls: MLS, lattice: MeshLattice, frame: Frame):
+        mgl = self._gl.mgl
+        bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
+        framebuffer = self._resources.framebuffer("coords", frame.size)
+        texture = self._resources.texture("coords", frame.size, 4, "f4")
+        try:
+            framebuffer.use()
+            framebuffer.viewport = (0, 0, *frame.size)
+            self._resources.fill(texture, (0.0, 0.0, 0.0, 0.0))
+            pipe = self.pipeline
+            fill = {"linear": True, "coords": True, "flip_y": False}
+            drawn = pipe.options.compute_quads and pipe.cells.draw(
+                mls.kernel, None, lattice, frame, **fill
+            )
+            if not drawn:
+                pipe.raster.draw(mls.kernel, None, lattice, frame, **fill)
+            mgl.memory_barrier()
+            values = np.frombuffer(texture.read(), np.float32).reshape(*frame.shape, 4)
+        finally:
+            bound.use()
+        return values[..., :2].copy(), values[..., 2] > 0.5

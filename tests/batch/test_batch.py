@@ -1,0 +1,244 @@
+"""glmls.warp_batch: equal to one glmls.warp per image for every method, interpolation, dtype
+and border; ragged handles, different shapes, chunks; keypoints land on the pixels the warp
+placed them at (also where the map folds); masks keep their labels; maps agree with
+MLS.coordinate_map; bad input is named."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import glmls
+
+N = 3
+SHAPE = (24, 32)
+
+
+def handles(rng, count=N, k=6, shape=SHAPE, spread=3.0):
+    height, width = shape
+    src = rng.uniform((2, 2), (width - 3, height - 3), (count, k, 2))
+    return src, src + rng.normal(0, spread, src.shape)
+
+
+def images(rng, count=N, shape=SHAPE, channels=3, dtype=np.uint8):
+    size = (count, *shape) + ((channels,) if channels else ())
+    if np.issubdtype(dtype, np.integer):
+        return rng.integers(0, np.iinfo(dtype).max, size, dtype=dtype, endpoint=True)
+    return rng.uniform(0, 1, size).astype(dtype)
+
+
+def singles(batch, src, dst, **options):
+    return [glmls.warp(image, p, q, **options) for image, p, q in zip(batch, src, dst, strict=True)]
+
+
+@pytest.mark.parametrize("method", glmls.METHODS)
+@pytest.mark.parametrize("interpolation", glmls.INTERPOLATIONS)
+def test_equals_single_warps(gl, rng, method, interpolation):
+    batch = images(rng)
+    src, dst = handles(rng)
+    out = glmls.warp_batch(batch, src, dst, method=method, interpolation=interpolation)
+    assert isinstance(out, np.ndarray) and out.shape == batch.shape and out.dtype == np.uint8
+    np.testing.assert_array_equal(
+        out, singles(batch, src, dst, method=method, interpolation=interpolation)
+    )
+
+
+@pytest.mark.parametrize(
+    ("dtype", "channels"),
+    [(np.uint8, 0), (np.uint8, 4), (np.uint16, 3), (np.float32, 1), (np.float32, 4)],
+)
+@pytest.mark.parametrize("method", ["quads", "backward"])
+def test_dtypes_and_channels(gl, rng, dtype, channels, method):
+    batch = images(rng, channels=channels, dtype=dtype)
+    src, dst = handles(rng)
+    options = {"method": method, "interpolation": "linear", "grid": 2}
+    out = glmls.warp_batch(batch, src, dst, **options)
+    assert out.dtype == dtype and out.shape == batch.shape
+    np.testing.assert_array_equal(out, singles(batch, src, dst, **options))
+
+
+@pytest.mark.parametrize("border", glmls.BORDERS)
+@pytest.mark.parametrize("method", ["quads", "backward"])
+def test_borders_and_canvas(gl, rng, border, method):
+    batch = images(rng)
+    src, dst = handles(rng, spread=5.0)
+    options = {
+        "method": method,
+        "border": border,
+        "output_shape": (20, 36),
+        "origin": (-2.0, 1.0),
+        "background": (9, 8, 7),
+    }
+    out = glmls.warp_batch(batch, src, dst, **options)
+    assert out.shape == (N, 20, 36, 3)
+    np.testing.assert_array_equal(out, singles(batch, src, dst, **options))
+
+
+def test_ragged_handles_and_shapes(gl, rng):
+    shapes = [(20, 30), (24, 32), (20, 30)]
+    batch = [images(rng, 1, shape)[0] for shape in shapes]
+    src = [handles(rng, 1, k, shape)[0][0] for k, shape in zip((3, 7, 5), shapes, strict=True)]
+    dst = [p + rng.normal(0, 2, p.shape) for p in src]
+    out = glmls.warp_batch(batch, src, dst, grid=2)
+    assert isinstance(out, list) and [o.shape[:2] for o in out] == shapes
+    for got, want in zip(out, singles(batch, src, dst, grid=2), strict=True):
+        np.testing.assert_array_equal(got, want)
+    same = glmls.warp_batch([batch[0], batch[2]], [src[0], src[2]], [dst[0], dst[2]], grid=2)
+    assert isinstance(same, np.ndarray) and same.shape == (2, 20, 30, 3)
+
+
+def test_mls_options_and_segments(gl, rng):
+    batch = images(rng)
+    src, dst = handles(rng)
+    segments = [None, np.array([[[2.0, 2.0], [20.0, 3.0]]]), None]
+    moved = [None, segments[1] + 1.0, None]
+    options = {"transform": "similarity", "weight": "gaussian", "radius": 20.0}
+    out = glmls.warp_batch(batch, src, dst, src_segments=segments, dst_segments=moved, **options)
+    for i in range(N):
+        extra = (
+            {} if segments[i] is None else {"src_segments": segments[i], "dst_segments": moved[i]}
+        )
+        np.testing.assert_array_equal(
+            out[i], glmls.warp(batch[i], src[i], dst[i], **extra, **options)
+        )
+
+
+def test_empty_batch(gl):
+    out = glmls.warp_batch(
+        np.zeros((0, 5, 6, 3), np.uint8), np.zeros((0, 3, 2)), np.zeros((0, 3, 2))
+    )
+    assert out.shape == (0, 5, 6, 3) and out.dtype == np.uint8
+    assert glmls.warp_batch([], [], []) == []
+
+
+def test_masks_keep_their_labels(gl, rng):
+    batch = images(rng)
+    src, dst = handles(rng, spread=4.0)
+    labels = rng.choice(np.array([0, 3, 70000, -5], np.int32), (N, *SHAPE))
+    result = glmls.warp_batch(batch, src, dst, masks=labels, interpolation="linear")
+    assert isinstance(result, glmls.BatchResult)
+    assert result.masks.dtype == np.int32 and result.masks.shape == labels.shape
+    assert set(np.unique(result.masks)) <= {0, 3, 70000, -5}
+    np.testing.assert_array_equal(result.images, singles(batch, src, dst, interpolation="linear"))
+    small = labels.astype(np.uint8) % 7
+    ones = glmls.warp_batch(batch, src, dst, masks=small, method="backward")
+    for i in range(N):
+        want = glmls.warp(small[i], src[i], dst[i], method="backward")
+        np.testing.assert_array_equal(ones.masks[i], want)
+
+
+@pytest.mark.parametrize("method", ["backward", "backward-swap"])
+def test_maps_agree_with_coordinate_map(gl, rng, method):
+    batch = images(rng)
+    src, dst = handles(rng)
+    result = glmls.warp_batch(batch, src, dst, return_maps=True, method=method, grid=2)
+    assert result.maps.shape == (N, *SHAPE, 2) and result.valid.dtype == bool
+    for i in range(N):
+        with glmls.MLS(src[i], dst[i], shape=SHAPE) as m:
+            want = m.coordinate_map(SHAPE, method=method, grid=2)
+        np.testing.assert_array_equal(result.maps[i], want)
+
+
+def test_quads_maps_are_close_to_f_inverse(gl, rng):
+    batch = images(rng)
+    src, dst = handles(rng, spread=2.0)
+    result = glmls.warp_batch(batch, src, dst, return_maps=True, grid=1)
+    for i in range(N):
+        with glmls.MLS(src[i], dst[i], shape=SHAPE) as m:
+            want = m.coordinate_map(SHAPE)
+        inside = result.valid[i]
+        assert inside.mean() > 0.8
+        error = np.abs(result.maps[i][inside] - want[inside]).max(axis=1)
+        assert np.median(error) < 0.02 and np.percentile(error, 95) < 0.25
+
+
+def folding_handles(shape):
+    height, width = shape
+    src = np.array([[4.0, 4.0], [width - 5, 4], [4, height - 5], [width - 5, height - 5]])
+    src = np.r_[src, [[width / 2 - 4, height / 2]], [[width / 2 + 4, height / 2]]]
+    dst = src.copy()
+    dst[4, 0], dst[5, 0] = width / 2 + 6, width / 2 - 6  # two handles pass each other: a fold
+    return src, dst
+
+
+@pytest.mark.parametrize("method", ["quads", "backward"])
+@pytest.mark.parametrize("grid", [1, 4])
+@pytest.mark.parametrize("fold", [False, True])
+def test_keypoints_land_on_their_pixels(gl, rng, method, grid, fold):
+    shape = (28, 36)
+    height, width = shape
+    count = 40
+    hot = np.c_[rng.integers(2, width - 2, count), rng.integers(2, height - 2, count)]
+    batch = np.zeros((count, *shape), np.uint8)
+    batch[np.arange(count), hot[:, 1], hot[:, 0]] = 255
+    if fold:
+        p, q = folding_handles(shape)
+        src, dst = np.repeat(p[None], count, 0), np.repeat(q[None], count, 0)
+    else:
+        src, dst = handles(rng, count, 6, shape, spread=1.5)
+    options = {"method": method, "grid": grid, "weight": "idw", "alpha": 2.0}
+    result = glmls.warp_batch(batch, src, dst, keypoints=hot[:, None, :].astype(float), **options)
+    errors = []
+    for i in range(count):
+        rows, cols = np.nonzero(result.images[i] == 255)
+        if not result.keypoints_valid[i, 0]:
+            continue
+        if not len(rows):  # squeezed between output pixel centres: shown by none
+            continue
+        # the distance to the nearest output pixel centre showing the hot pixel
+        centres = np.c_[cols, rows]
+        errors.append(np.abs(result.keypoints[i, 0] - centres).max(axis=1).min())
+    assert len(errors) >= count // 2
+    # a pixel turned by the map reaches up to half its diagonal from its centre on an axis
+    assert np.percentile(errors, 90) <= 0.5 + 1e-6, np.sort(errors)[-5:]
+    assert max(errors) <= 0.5 * np.sqrt(2) + 0.15, np.sort(errors)[-5:]
+
+
+def test_keypoints_outside_and_ragged(gl, rng):
+    batch = images(rng)
+    src, dst = handles(rng)
+    points = [np.array([[5.0, 5.0], [-30.0, 4.0]]), np.zeros((0, 2)), np.array([[3.0, 9.0]])]
+    result = glmls.warp_batch(batch, src, dst, keypoints=points)
+    assert isinstance(result.keypoints, list)
+    assert [len(k) for k in result.keypoints] == [2, 0, 1]
+    assert not result.keypoints_valid[0][1]
+    assert result.masks is None and result.maps is None and result.params is None
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "message"),
+    [
+        ({"src": np.zeros((2, 4, 2))}, ValueError, "src holds 2 handle sets for 3 images"),
+        (
+            {"dst": [np.zeros((4, 2))] * 2 + [np.zeros((5, 3))]},
+            ValueError,
+            r"dst\[2\] has shape \(5, 3\)",
+        ),
+        (
+            {"dst": [np.zeros((4, 2))] * 2 + [np.zeros((5, 2))]},
+            ValueError,
+            r"src\[2\] and dst\[2\]",
+        ),
+        (
+            {"src": np.full((3, 4, 2), np.nan)},
+            ValueError,
+            r"src\[0\] holds values that are not finite",
+        ),
+        ({"images": [np.zeros((4, 4), np.int8)] * 3}, TypeError, r"images\[0\] has dtype int8"),
+        ({"images": np.zeros((3, 4, 4, 5), np.uint8)}, ValueError, r"images\[0\] has shape"),
+        ({"keypoints": np.zeros((3, 2, 3))}, ValueError, r"keypoints\[0\] has shape \(2, 3\)"),
+        ({"keypoints": [np.zeros((1, 2))] * 2}, ValueError, "keypoints holds 2 point sets"),
+        ({"masks": np.zeros((3, 4, 5), np.uint8)}, ValueError, r"masks\[0\] has shape \(4, 5\)"),
+        ({"masks": np.zeros((3, 4, 4), np.float32)}, TypeError, r"masks\[0\] has dtype float32"),
+        ({"methd": "quads"}, TypeError, "unknown keyword methd"),
+        ({"method": "swirl"}, ValueError, "unknown method 'swirl'"),
+    ],
+)
+def test_bad_input_is_named(gl, kwargs, error, message):
+    arguments = {
+        "images": np.zeros((3, 4, 4), np.uint8),
+        "src": np.tile([[0.0, 0.0], [3.0, 0.0], [0.0, 3.0], [3.0, 3.0]], (3, 1, 1)),
+        "dst": np.tile([[0.0, 0.0], [3.0, 0.0], [0.0, 3.0], [3.0, 3.0]], (3, 1, 1)),
+    } | kwargs
+    with pytest.raises(error, match=message):
+        glmls.warp_batch(**arguments)
