@@ -26,8 +26,10 @@ DEFAULT_WARP_OPTIONS = {"transform": "similarity", "interpolation": "linear", "b
 
 @dataclass(frozen=True)
 class AugmentResult(BatchResult):
-    """What :class:`Augment` returns: a :class:`glmls.BatchResult` with the boxes and
-    polygons moved too, and ``params``, each sample's draw (a list of JSON-able dicts).
+    """What :class:`Augment` returns: a batch result with boxes, polygons and the draws.
+
+    A :class:`glmls.BatchResult` with the boxes and polygons moved too, and ``params``, each
+    sample's draw (a list of JSON-able dicts).
 
     Parameters
     ----------
@@ -155,6 +157,9 @@ class Augment:
         it (a straight edge may bend); None: move the vertices only.
     clip_polygons : bool, default True
         Clip the moved polygons to the canvas.
+
+    Other Parameters
+    ----------------
     **preset_options
         The preset's options (:class:`GridPreset`'s ``rows``, ``cols``, ``displacement``,
         ``units``; the text presets' ``segments`` and ``radius``; :class:`LandmarksPreset`'s).

@@ -147,6 +147,12 @@ def check_polygons(polygons: object, count: int) -> list[list[np.ndarray]]:
     return checked
 
 
+def _check_step(step: object) -> None:
+    ok = isinstance(step, (int, float, np.integer, np.floating)) and not isinstance(step, bool)
+    if not ok or not (math.isfinite(float(step)) and float(step) > 0):  # type: ignore[arg-type]
+        raise ValueError(f"step must be a finite number > 0, got {step!r}")
+
+
 def _samples(length: float, step: float) -> int:
     return max(1, math.ceil(length / step))
 
@@ -166,6 +172,11 @@ def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray
     (numpy.ndarray, numpy.ndarray)
         (P, 2) points, the boxes' one after another, and (B,) counts per box.
 
+    Raises
+    ------
+    ValueError
+        For a ``step`` that is not a finite number > 0.
+
     Examples
     --------
     >>> import numpy as np
@@ -174,6 +185,7 @@ def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray
     >>> counts.tolist(), points[:3].tolist()
     ([6], [[0.0, 0.0], [2.0, 0.0], [4.0, 0.0]])
     """
+    _check_step(step)
     outlines = []
     for x0, y0, x1, y1 in boxes:
         corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1], [x0, y0]])
@@ -194,8 +206,9 @@ def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray
 def boxes_from_outlines(
     moved: np.ndarray, counts: np.ndarray, shape: tuple[int, int]
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The boxes around moved outlines, clipped to an output canvas of ``shape``, and their
-    validity (a positive width and height left on the canvas).
+    """The boxes around moved outlines, clipped to the canvas, and their validity.
+
+    A box is valid where a positive width and height are left on the canvas of ``shape``.
 
     Parameters
     ----------
@@ -211,6 +224,11 @@ def boxes_from_outlines(
     (numpy.ndarray, numpy.ndarray)
         (B, 4) float64 boxes and (B,) bool.
 
+    Raises
+    ------
+    ValueError
+        Where the counts do not add up to the points.
+
     Examples
     --------
     >>> import numpy as np
@@ -220,6 +238,8 @@ def boxes_from_outlines(
     >>> boxes.tolist(), valid.tolist()
     ([[-0.5, 1.0, 2.0, 3.0], [7.5, 7.5, 7.5, 7.5]], [True, False])
     """
+    if int(np.sum(counts)) != len(moved):
+        raise ValueError(f"the counts add up to {int(np.sum(counts))} points, not {len(moved)}")
     height, width = shape
     boxes = np.zeros((len(counts), 4))
     starts = (np.cumsum(counts) - counts).astype(np.int64)
@@ -248,6 +268,11 @@ def densify_polygon(polygon: np.ndarray, step: float | None) -> np.ndarray:
     numpy.ndarray
         (V', 2) vertices: the given ones, in order, with the added ones between them.
 
+    Raises
+    ------
+    ValueError
+        For a ``step`` that is not None or a finite number > 0.
+
     Examples
     --------
     >>> import numpy as np
@@ -255,7 +280,10 @@ def densify_polygon(polygon: np.ndarray, step: float | None) -> np.ndarray:
     >>> densify_polygon(np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 2.0]]), 2.0).shape
     (6, 2)
     """
-    if step is None or len(polygon) < 2:
+    if step is None:
+        return polygon
+    _check_step(step)
+    if len(polygon) < 2:
         return polygon
     nxt = np.roll(polygon, -1, axis=0)
     pieces = []
@@ -266,8 +294,10 @@ def densify_polygon(polygon: np.ndarray, step: float | None) -> np.ndarray:
 
 
 def clip_polygon(polygon: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """A polygon clipped to the canvas [-0.5, W - 0.5] x [-0.5, H - 0.5] (Sutherland and
-    Hodgman); (0, 2) where nothing of it is on the canvas.
+    """A polygon clipped to the canvas (Sutherland and Hodgman's algorithm).
+
+    The canvas of ``shape`` spans [-0.5, W - 0.5] x [-0.5, H - 0.5]; the result is (0, 2)
+    where nothing of the polygon is on it.
 
     Parameters
     ----------
@@ -281,6 +311,11 @@ def clip_polygon(polygon: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     numpy.ndarray
         The clipped polygon's vertices.
 
+    Raises
+    ------
+    ValueError
+        For a polygon that is not (V, 2).
+
     Examples
     --------
     >>> import numpy as np
@@ -288,6 +323,9 @@ def clip_polygon(polygon: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     >>> clip_polygon(np.array([[-4.0, 0.0], [4.0, 0.0], [4.0, 2.0]]), (8, 8)).tolist()
     [[-0.5, 0.875], [-0.5, 0.0], [4.0, 0.0], [4.0, 2.0]]
     """
+    polygon = np.asarray(polygon, np.float64)
+    if polygon.ndim != 2 or polygon.shape[1] != 2:
+        raise ValueError(f"polygon has shape {polygon.shape}; expected (V, 2)")
     height, width = shape
     planes = ((0, -0.5, 1.0), (1, -0.5, 1.0), (0, width - 0.5, -1.0), (1, height - 0.5, -1.0))
     points = [tuple(p) for p in np.asarray(polygon, np.float64)]

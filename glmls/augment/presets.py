@@ -70,8 +70,10 @@ def _pairs(xs_top, ys_top, xs_bottom, ys_bottom) -> np.ndarray:
 
 @dataclass(frozen=True, kw_only=True)
 class GridPreset:
-    """A jittered control grid: ``rows`` x ``cols`` handles spread evenly over the image,
-    its edges included, each moved by a random offset within +-``displacement`` per axis.
+    """A jittered control grid of ``rows`` x ``cols`` handles over the image.
+
+    The handles are spread evenly over the image, its edges included, each moved by a random
+    offset within +-``displacement`` per axis.
 
     Parameters
     ----------
@@ -146,9 +148,10 @@ class GridPreset:
 
 @dataclass(frozen=True, kw_only=True)
 class TextDistortPreset:
-    """Luo et al.'s distortion of a text line: every fiducial point moves at random within
-    the radius: a corner by up to ``radius`` inwards along each axis, any other point by up
-    to ``radius / 2`` either way along each axis.
+    """Luo et al.'s distortion of a text line: fiducial points moved within a radius.
+
+    Every fiducial point moves at random: a corner by up to ``radius`` inwards along each
+    axis, any other point by up to ``radius / 2`` either way along each axis.
 
     Parameters
     ----------
@@ -218,9 +221,10 @@ class TextDistortPreset:
 
 @dataclass(frozen=True, kw_only=True)
 class TextStretchPreset:
-    """Luo et al.'s stretching of a text line: the inner fiducial points move horizontally
-    by up to ``radius / 2`` either way, each top point with the bottom point below it (the
-    pair stays aligned); the corners stay.
+    """Luo et al.'s stretching of a text line: fiducial pairs moved horizontally.
+
+    The inner fiducial points move horizontally by up to ``radius / 2`` either way, each top
+    point with the bottom point below it (the pair stays aligned); the corners stay.
 
     Parameters
     ----------
@@ -288,9 +292,11 @@ class TextStretchPreset:
 
 @dataclass(frozen=True, kw_only=True)
 class TextPerspectivePreset:
-    """Luo et al.'s perspective change of a text line: the top and bottom edges move
-    vertically and independently, each corner by up to ``radius`` inwards; the fiducial
-    points between stay on the straight edge between their corners.
+    """Luo et al.'s perspective change of a text line: its edges moved vertically.
+
+    The top and bottom edges move vertically and independently, each corner by up to
+    ``radius`` inwards; the fiducial points between stay on the straight edge between their
+    corners.
 
     Parameters
     ----------
@@ -359,9 +365,11 @@ class TextPerspectivePreset:
 
 @dataclass(frozen=True, kw_only=True)
 class LandmarksPreset:
-    """Each image's own landmarks (the ``keypoints`` given with it) moved at random, each by
-    up to +-``displacement`` per axis; with ``pin_corners`` the image's four corners are
-    handles that stay, so that the frame holds.
+    """Each image's own landmarks moved at random, the image's corners pinned.
+
+    The landmarks are the ``keypoints`` given with the image, each moved by up to
+    +-``displacement`` per axis; with ``pin_corners`` the image's four corners are handles
+    that stay, so that the frame holds.
 
     Parameters
     ----------

@@ -7,7 +7,10 @@ from __future__ import annotations
 
 import doctest
 import importlib
+import importlib.util
 import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -159,9 +162,6 @@ def test_augment_takes_and_gives_torch_tensors(gl, rng):
 def test_importing_torchvision_after_mesas_llvm_is_an_import_error(tmp_path):
     """Where the GL context is llvmpipe and triton is installed, importing the adapter after
     glmls's first context raises instead of letting triton crash the process."""
-    import subprocess
-    import sys
-
     code = (
         "import sys, numpy as np, glmls\n"
         "glmls.warp(np.zeros((8, 8), np.uint8), [[1, 1]], [[2, 2]])\n"
@@ -174,8 +174,6 @@ def test_importing_torchvision_after_mesas_llvm_is_an_import_error(tmp_path):
         "    print(error); sys.exit(0)\n"
         "sys.exit(3)\n"
     )
-    import importlib.util
-
     if importlib.util.find_spec("triton") is None:
         pytest.skip("triton is not installed: nothing clashes")
     done = subprocess.run(

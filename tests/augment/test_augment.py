@@ -9,6 +9,7 @@ import json
 import numpy as np
 import pytest
 
+import glmls
 from glmls.augment import (
     PRESETS,
     Augment,
@@ -19,7 +20,6 @@ from glmls.augment import (
     TextPerspectivePreset,
     TextStretchPreset,
 )
-from glmls.batch import BatchResult, warp_batch
 
 
 @pytest.fixture
@@ -32,7 +32,7 @@ def test_any_part_of_a_batch_equals_the_whole(gl, images, name):
     aug = Augment(name, seed=11)
     whole = aug(images)
     part = aug(images[[3, 1]], indices=[3, 1])
-    assert isinstance(whole, BatchResult) and isinstance(whole, AugmentResult)
+    assert isinstance(whole, glmls.BatchResult) and isinstance(whole, AugmentResult)
     np.testing.assert_array_equal(part.images[0], whole.images[3])
     np.testing.assert_array_equal(part.images[1], whole.images[1])
     assert part.params[0] == whole.params[3]
@@ -59,7 +59,7 @@ def test_params_are_json_and_replay_exactly(gl, images, rng):
     src = [p["src"] for p in params]
     dst = [p["dst"] for p in params]
     np.testing.assert_array_equal(
-        warp_batch(images, src, dst, **params[0]["options"]), first.images
+        glmls.warp_batch(images, src, dst, **params[0]["options"]), first.images
     )
     assert params[0]["options"]["interpolation"] == "nearest"
     assert params[0]["config"] == {"segments": 4, "radius": None}

@@ -113,3 +113,10 @@ def test_a_failure_midway_leaves_no_half_written_output(inputs):
     result = glmls_cli("augment", "in", "out", "--n", "2", cwd=inputs)
     assert result.returncode == 2 and "c.png" in result.stderr, result.stderr
     assert not any((inputs / "out").iterdir())
+
+
+def test_augment_help_lists_the_presets(inputs):
+    result = glmls_cli("augment", "--help", cwd=inputs)
+    assert result.returncode == 0 and "examples:" in result.stdout
+    for name in ("grid", "text-distort", "text-stretch", "text-perspective", "landmarks"):
+        assert name in result.stdout
