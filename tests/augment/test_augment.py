@@ -5,6 +5,8 @@ input named by its index."""
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -192,3 +194,13 @@ def test_bad_input_names_the_item(gl, images):
         aug.replay(images[:1], aug.draw([(8, 8)]))
     with pytest.raises(ValueError, match=r"polygons\[0\]\[0\] has shape"):
         aug(images[:1], polygons=[[np.ones((3, 3))]])
+
+
+def test_importing_glmls_imports_no_adapter_library():
+    code = (
+        "import sys, glmls, glmls.augment\n"
+        "print(sorted(m for m in ('torch', 'torchvision', 'albumentations') if m in sys.modules))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"
