@@ -131,6 +131,27 @@ def torch_cases(data: dict[str, np.ndarray]) -> dict[str, Callable[[], object]]:
     return cases
 
 
+def torch_rates(name: str, count: int, repeat: int) -> list[tuple[str, float]]:
+    """The torch peers' rates, measured in a fresh process: importing kornia or torchvision in
+    a process that holds an llvmpipe GL context crashes it (their LLVM and Mesa's)."""
+    code = (
+        "import json, sys; sys.path.insert(0, sys.argv[1]); import batch_bench as b; "
+        "d = b.workload(sys.argv[2], int(sys.argv[3])); "
+        "print(json.dumps([(k, b.rate(r, int(sys.argv[3]), int(sys.argv[4]))) "
+        "for k, r in b.torch_cases(d).items()]))"
+    )
+    here = os.path.dirname(os.path.abspath(__file__))
+    done = subprocess.run(
+        [sys.executable, "-c", code, here, name, str(count), str(repeat)],
+        capture_output=True,
+        text=True,
+    )
+    if done.returncode != 0:
+        print(f"torch peers failed: {done.stderr[-500:]}", file=sys.stderr)
+        return []
+    return [tuple(row) for row in json.loads(done.stdout.splitlines()[-1])]
+
+
 def rate(run: Callable[[], object], count: int, repeat: int) -> float:
     """Images per second: the median of ``repeat`` timed runs after one warm-up."""
     run()
@@ -199,8 +220,11 @@ def main(argv: list[str] | None = None) -> int:
         # the peers work image by image: their rate does not depend on the batch
         count = args.peer_images
         data = workload(name, count)
-        for label, run in (albumentations_cases(data) | torch_cases(data)).items():
-            value = rate(run, count, repeat)
+        peers = [
+            (label, rate(run, count, repeat)) for label, run in albumentations_cases(data).items()
+        ]
+        peers += torch_rates(name, count, repeat)
+        for label, value in peers:
             rows.append({"workload": name, "batch": count, "tool": label, "images/s": value})
             print(f"{name:>5} {count:>4}  {label:<40} {value:9.0f} images/s", flush=True)
     report = {
