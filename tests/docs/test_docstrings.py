@@ -2,9 +2,9 @@
 
 The public names are the functions and classes (exceptions and warnings included) in the
 ``__all__`` of :mod:`glmls`, :mod:`glmls.analysis`, :mod:`glmls.augment`, :mod:`glmls.gl`,
-:mod:`glmls.reference` and :mod:`glmls.data`. Each docstring parses as numpydoc and passes :data:`CHECKS` of
-``numpydoc.validate``; its Examples (and those of the class's methods) run as doctests with
-``np`` and ``glmls`` imported, on glmls's shared headless context.
+:mod:`glmls.reference` and :mod:`glmls.data`. Each docstring parses as numpydoc and passes
+:data:`CHECKS` of ``numpydoc.validate``; its Examples (and those of the class's methods) run
+as doctests with ``np`` and ``glmls`` imported, on glmls's shared headless context.
 """
 
 from __future__ import annotations
