@@ -260,10 +260,11 @@ def run(args: argparse.Namespace) -> int:
         written.extend(outcome.written)
         if outcome.error is not None:
             raise UsageError(outcome.error)
-        entries.update(outcome.labels)
 
     try:
-        run_jobs(augment_file, tasks, jobs=jobs, scheduler=scheduler, on_result=finished)
+        outcomes = run_jobs(augment_file, tasks, jobs=jobs, scheduler=scheduler, on_result=finished)
+        for outcome in outcomes:  # in the order of the inputs, however the work was shared
+            entries.update(outcome.labels)
         fd, name = tempfile.mkstemp(prefix=f".{LABELS_NAME}.", suffix=".json", dir=folder)
         with os.fdopen(fd, "w", encoding="utf-8") as stream:
             json.dump(entries, stream, indent=1)
@@ -275,8 +276,9 @@ def run(args: argparse.Namespace) -> int:
     for temporary, final in written:
         os.chmod(temporary, 0o666 & ~umask())
         os.replace(temporary, final)
-    for _, final in written[:-1]:
-        print(final, flush=True)
+    for outcome in outcomes:  # the images, in the order of the inputs
+        for _, final in outcome.written:
+            print(final, flush=True)
     say(args, f"glmls augment: {len(written) - 1} images and {folder / LABELS_NAME}")
     sys.stdout.flush()
     return 0
