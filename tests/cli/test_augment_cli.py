@@ -73,6 +73,7 @@ def test_augment_with_jobs_gives_the_same(inputs):
     one = glmls_cli("augment", "in", "one", "--n", "2", "--seed", "1", cwd=inputs)
     two = glmls_cli("augment", "in", "two", "--n", "2", "--seed", "1", "--jobs", "2", cwd=inputs)
     assert one.returncode == 0 and two.returncode == 0, one.stderr + two.stderr
+    assert one.stdout.replace("one", "two") == two.stdout  # the same files, in input order
     for name in ("a_000.png", "a_001.png", "b_000.png", "b_001.png"):
         first = glmls.imread(inputs / "one" / name)
         np.testing.assert_array_equal(first, glmls.imread(inputs / "two" / name))
