@@ -136,22 +136,25 @@ def _covered_earlier(vertices: np.ndarray, points: np.ndarray, own: np.ndarray) 
     low = np.minimum(np.minimum(a, b), np.minimum(c, d))
     high = np.maximum(np.maximum(a, b), np.maximum(c, d))
     hidden = np.zeros(len(points), bool)
+    lx, ly, hx, hy = low[:, 0], low[:, 1], high[:, 0], high[:, 1]
     for start in range(0, len(points), 64):  # (64, cells) candidates at a time
         chunk = points[start : start + 64]
-        near = np.all((low <= chunk[:, None]) & (chunk[:, None] <= high), axis=-1)
+        qx, qy = chunk[:, :1], chunk[:, 1:]
+        near = (lx <= qx) & (qx <= hx) & (ly <= qy) & (qy <= hy)
         which, cell = np.nonzero(near)
+        if not len(which):
+            continue
         q = chunk[which]
         for triangle, (p0, p1, p2) in enumerate(((a, b, c), (a, c, d))):
             earlier = cell * 2 + triangle < own[start + which]
             x0, x1, x2 = p0[cell], p1[cell], p2[cell]
             area = _cross(x1 - x0, x2 - x0)
             sign = np.sign(area)
-            edges = np.stack(
-                [_cross(x1 - x0, q - x0), _cross(x2 - x1, q - x1), _cross(x0 - x2, q - x2)]
-            )
             tiny = 1e-9 * np.abs(area)
-            strictly = np.all(edges * sign > tiny, axis=0) & (sign != 0)
-            hidden[start + which[earlier & strictly]] = True
+            strictly = (sign != 0) & earlier
+            for u, v in ((x0, x1), (x1, x2), (x2, x0)):
+                strictly &= _cross(v - u, q - u) * sign > tiny
+            hidden[start + which[strictly]] = True
     return hidden
 
 

@@ -8,6 +8,8 @@ from ..gl import helper
 from ..gl.context import forked_from_gl
 from ..imaging.options import FIELDS, WarpOptions
 from ..mls import MLS, MLS_KEYWORDS
+from .chunks import warp_chunks
+from .gpu import batchable
 from .inputs import BatchInput, check_batch, stack_or_list
 from .result import BatchResult
 from .single import ImageLabels, SingleWarper
@@ -25,6 +27,7 @@ def warp_batch(
     keypoints: object = None,
     masks: object = None,
     return_maps: bool = False,
+    max_batch_bytes: int | None = None,
     **options: object,
 ) -> np.ndarray | list[np.ndarray] | BatchResult:
     """Deform a batch of images, each by the MLS map of its own handles, with its labels.
@@ -53,6 +56,10 @@ def warp_batch(
     return_maps : bool, default False
         Also return each image's map from output pixels to the source points they show and
         its valid mask.
+    max_batch_bytes : int or None, default None
+        The most GPU memory one chunk of the batch takes (None: 256 MiB): the batched path
+        runs the batch chunk by chunk, each chunk as large as this and the GL limits (the
+        atlas of its output canvases within the texture size) allow.
     **options
         Those of :func:`glmls.warp`, for every image: the fields of
         :class:`glmls.WarpOptions` (``method``, ``interpolation``, ``grid``, ``tolerance``,
@@ -94,13 +101,21 @@ def warp_batch(
     """
     if options.get("ctx") is None and forked_from_gl():  # GL would hang here: a clean helper
         keywords = {"keypoints": keypoints, "masks": masks, "return_maps": return_maps}
+        keywords["max_batch_bytes"] = max_batch_bytes
         return helper.call(__name__, "warp_batch", (images, src, dst), keywords | options)
     chosen, mls_options, segments = _split_options(options)
     batch = check_batch(images, src, dst, keypoints, masks)
     segments = _check_segments(segments, len(batch))
     warper = SingleWarper.of(mls_options.get("ctx"))
+    done: list = [None] * len(batch)
+    if batchable(chosen) and len(batch):
+        done = warp_chunks(
+            batch, chosen, mls_options, segments, maps=return_maps, max_bytes=max_batch_bytes
+        )
     results = [
-        warper.warp_one(
+        done[i]
+        if done[i] is not None
+        else warper.warp_one(
             MLS(batch.src[i], batch.dst[i], shape=image.shape[:2], **segments[i], **mls_options),
             image,
             chosen,

@@ -58,7 +58,7 @@ def by_mesh(options: WarpOptions) -> bool:
     return options.tolerance is None and options.method in ("quads", "backward")
 
 
-def _packable(image: np.ndarray, mask: np.ndarray | None, options: WarpOptions) -> bool:
+def packable(image: np.ndarray, mask: np.ndarray | None, options: WarpOptions) -> bool:
     """Can ``mask`` ride as one more channel of ``image``'s warp: 8 bits, nearest, an image
     of 1 or 3 channels (whose background then leaves the new channel at 0)."""
     if mask is None or options.interpolation != "nearest" or image.dtype != np.uint8:
@@ -107,7 +107,7 @@ class SingleWarper:
     ) -> ImageLabels:
         """Image ``index`` of a batch warped by ``mls`` (released here) with its labels."""
         with mls:
-            packed = _packable(image, mask, options)
+            packed = packable(image, mask, options)
             try:
                 out = mls.warp(np.dstack([image, mask]) if packed else image, options=options)
             except (ValueError, TypeError) as error:

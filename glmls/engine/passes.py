@@ -105,17 +105,18 @@ def evaluate_lattice(
     first_row: int = 0,
     rows: int | None = None,
     max_groups: int | None = None,
+    offset: int = 0,
 ) -> int:
     """f (scaled) at ``rows`` rows of ``lattice`` from ``first_row`` (all by default) into
-    ``target`` from its start; returns the number of points written. The radius is the one
-    of the lattice's image."""
+    ``target`` from byte ``offset`` (a multiple of the GL storage buffer offset alignment);
+    returns the number of points written. The radius is the one of the lattice's image."""
     nx, ny = lattice.dims
     rows = ny - first_row if rows is None else rows
     with kernel.gl.use():
         program = points_program(kernel, lattice=True, with_matrix=False)
         kernel.bind(program, lattice.shape)
         set_uniforms(program, lattice.uniforms(kernel.scaling) | {"u_first_row": first_row})
-        target.bind_to_storage_buffer(bindings.DEFORMED.index)
+        target.bind_to_storage_buffer(bindings.DEFORMED.index, offset=offset)
         run_1d(
             program,
             nx * rows,

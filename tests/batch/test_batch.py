@@ -242,3 +242,52 @@ def test_bad_input_is_named(gl, kwargs, error, message):
     } | kwargs
     with pytest.raises(error, match=message):
         glmls.warp_batch(**arguments)
+
+
+def test_quads_run_in_chunks_on_the_gpu_path(gl, rng, monkeypatch):
+    """quads with the constant border take the batched path, one submission per chunk; small
+    chunks give what one chunk gives."""
+    from glmls.batch.gpu import BatchQuads
+
+    calls = []
+    warp = BatchQuads.warp
+
+    def counted(self, kernels, *args, **kwargs):
+        calls.append(len(kernels))
+        return warp(self, kernels, *args, **kwargs)
+
+    monkeypatch.setattr(BatchQuads, "warp", counted)
+    batch = images(rng, 7)
+    src, dst = handles(rng, 7)
+    masks = rng.integers(0, 9, (7, *SHAPE)).astype(np.uint16)
+    points = rng.uniform(0, 20, (7, 4, 2))
+    whole = glmls.warp_batch(batch, src, dst, grid=2, masks=masks, keypoints=points)
+    assert calls == [7, 7]  # the images, then the masks (uint16: not packed)
+    calls.clear()
+    for budget, sizes in ((1, [1] * 14), (40_000, [2, 2, 2, 2, 2, 2, 1, 1])):
+        calls.clear()
+        chunked = glmls.warp_batch(
+            batch, src, dst, grid=2, masks=masks, keypoints=points, max_batch_bytes=budget
+        )
+        assert calls == sizes
+        for name in ("images", "masks", "keypoints", "keypoints_valid"):
+            np.testing.assert_array_equal(getattr(chunked, name), getattr(whole, name))
+    np.testing.assert_array_equal(whole.images, singles(batch, src, dst, grid=2))
+    calls.clear()
+    glmls.warp_batch(batch, src, dst, method="backward")
+    glmls.warp_batch(batch, src, dst, border="edge")
+    assert calls == []  # the single pipeline, image by image
+
+
+def test_chunk_size_follows_the_limits(gl):
+    from glmls.batch.gpu import chunk_size
+    from glmls.core.mesh import MeshLattice
+    from glmls.imaging.frame import Frame
+    from glmls.imaging.source import prepare_image
+
+    source = prepare_image(np.zeros((224, 224, 3), np.uint8), 4096, normalized=True)
+    frame, lattice = Frame((224, 224)), MeshLattice.corners((224, 224), 4)
+    atlas = gl.limits["max_texture_size"] // 224
+    assert chunk_size(gl, source, frame, lattice, 1 << 40) == min(atlas, 2048)
+    assert chunk_size(gl, source, frame, lattice, 10 * 224 * 224 * 16) < 10
+    assert chunk_size(gl, source, frame, lattice, 1) == 1

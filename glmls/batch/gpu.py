@@ -1,0 +1,250 @@
+"""The GPU path of a batch: the ``quads`` of many images of one shape in one submission.
+
+Per chunk of images (:func:`chunk_size`):
+
+1. f at every image's mesh vertices, each image's lattice evaluated by its own kernel
+   (``mls/points.comp.glsl``, as a single warp does) into its slice of one mesh buffer, with
+   no read-back or barrier in between;
+2. ``batch/cells.comp.glsl``: ONE dispatch scan-converts every cell of every image, keeping
+   per output pixel the key of the first triangle in scan order (the single warp's keys and
+   fold rule), in a winner buffer laid out as an atlas of the output canvases stacked top to
+   bottom;
+3. ``batch/resolve.frag.glsl``: ONE draw fills the atlas from the keys, sampling the sources
+   as layers of one texture array (nearest: the key's source pixel; linear: the winning
+   triangle interpolated, then sampled bilinearly);
+4. ONE read-back of the atlas.
+
+The arithmetic is the single warp's (the same edge functions, keys, barycentrics and
+sampling), so each image equals its :func:`glmls.warp`, bit for bit. This path takes
+``quads`` on the regular mesh with the ``constant`` border (the mesh then needs no margin,
+whose size f decides per image); the other methods and borders take the single pipeline per
+image (:mod:`glmls.batch.single`).
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from ..core.mesh import MeshLattice
+from ..engine.passes import evaluate_lattice
+from ..gl import bindings
+from ..gl.context import GLContext, current, get_context
+from ..gl.dispatch import run_1d, set_uniforms
+from ..gl.resources import Resources
+from ..imaging.frame import Frame
+from ..imaging.options import PipelineOptions, WarpOptions
+from ..imaging.quads import key_layout
+from ..imaging.readback import read_rgba8
+from ..imaging.source import SourceImage, texture_data, texture_form
+
+__all__ = ["CHUNK_BYTES", "BatchQuads", "batchable", "chunk_size"]
+
+#: The most GPU memory one chunk of a batch takes (sources, atlas, keys, meshes), bytes: a
+#: batch of 10,000 images runs chunk by chunk, never all on the GPU at once.
+CHUNK_BYTES = 256 << 20
+#: The fix-up list's header before a scan: no pixel listed, an indirect dispatch of none.
+_NO_FIXUPS = np.array([0, 0, 0, 1], np.uint32).tobytes()
+#: Bytes between two images' meshes in the mesh buffer are a multiple of this (at least the
+#: GL storage buffer offset alignment of any driver).
+MESH_ALIGN = 256
+
+
+def batchable(options: WarpOptions) -> bool:
+    """Does a batch of these options take the batched GPU path (``quads``, regular mesh,
+    ``constant`` border)?"""
+    return options.method == "quads" and options.tolerance is None and options.border == "constant"
+
+
+def _mesh_stride(lattice: MeshLattice) -> int:
+    """Bytes from one image's mesh to the next."""
+    return -(-lattice.count * 8 // MESH_ALIGN) * MESH_ALIGN
+
+
+def chunk_size(
+    gl: GLContext, source: SourceImage, frame: Frame, lattice: MeshLattice, max_bytes: int
+) -> int:
+    """Images per chunk: the atlas within the GL texture size, the sources within the array
+    layers, and the chunk's GPU memory within ``max_bytes``."""
+    (width, height), components, dtype = texture_form(source)
+    texel = components * (1 if dtype == "f1" else 4)
+    target = 4 if source.normalized else 16
+    per_image = width * height * texel + frame.pixels * (target + 8) + _mesh_stride(lattice)
+    atlas = gl.limits["max_texture_size"] // max(frame.shape[0], height)
+    layers = int(gl.mgl.info.get("GL_MAX_ARRAY_TEXTURE_LAYERS", 256))
+    return max(1, min(atlas, layers, max_bytes // per_image))
+
+
+class BatchQuads:
+    """The batched quads of a context (see the module docstring); one per context,
+    :meth:`of`."""
+
+    #: Nearest RGBA8 chunks write the colours in the scan (fix-ups where triangles overlap)
+    #: instead of a fill draw from the keys; tests take both ways.
+    fused: bool = True
+
+    def __init__(self, gl: GLContext) -> None:
+        self._gl = gl
+        self._resources = Resources(gl, "the batch quads")
+        self._array: tuple[tuple, moderngl.TextureArray] | None = None
+
+    @classmethod
+    def of(cls, ctx: moderngl.Context | GLContext | None = None) -> BatchQuads:
+        """The one of ``ctx`` (default: glmls's headless context), made on first use."""
+        gl = get_context(ctx)
+        return gl.shared(BatchQuads, lambda: cls(gl))
+
+    @property
+    def ctx(self) -> GLContext:
+        """The context it renders with."""
+        return self._gl
+
+    def release(self) -> None:
+        """Free the GL objects."""
+        if self._array is not None:
+            self._array[1].release()
+            self._array = None
+        self._resources.release()
+
+    def _resolve(self, values, atlas, framebuffer, sources, winner, linear) -> None:
+        """The atlas filled from the keys by one draw (batch/resolve.frag.glsl)."""
+        gl, mgl = self._gl, self._gl.mgl
+        keys = self._resources.texture("winner", atlas, 1, "u4")
+        keys.write(winner)
+        bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
+        try:
+            framebuffer.use()
+            framebuffer.viewport = (0, 0, *atlas)
+            program = gl.program(
+                "common/fullscreen.vert.glsl", "batch/resolve.frag.glsl", {"WARP_LINEAR": linear}
+            )
+            set_uniforms(program, values)
+            array = self._sources(sources)
+            mode = moderngl.LINEAR if linear else moderngl.NEAREST
+            array.filter = (mode, mode)
+            array.use(bindings.SOURCE.index)
+            keys.use(bindings.WINNER_TEXTURE.index)
+            mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+            self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
+        finally:
+            bound.use()
+
+    def _sources(self, sources: list[SourceImage]) -> moderngl.TextureArray:
+        (width, height), components, dtype = texture_form(sources[0])
+        key = (width, height, len(sources), components, dtype)
+        if self._array is None or self._array[0] != key:
+            if self._array is not None:
+                self._array[1].release()
+            array = self._gl.mgl.texture_array(
+                (width, height, len(sources)), components, dtype=dtype
+            )
+            array.repeat_x = array.repeat_y = False
+            self._array = (key, array)
+        array = self._array[1]
+        array.write(np.ascontiguousarray(np.stack([texture_data(s) for s in sources])))
+        return array
+
+    @current
+    def vertices(self, kernels: list, lattice: MeshLattice) -> np.ndarray:
+        """(N, rows, columns, 2) float64: the last :meth:`warp`'s mesh vertices in pixels
+        (f at the lattice of each of ``kernels``, its chunk's), read back."""
+        stride = _mesh_stride(lattice)
+        raw = self._resources.cached("mesh").read(size=len(kernels) * stride)
+        columns, rows = lattice.dims
+        scaled = np.frombuffer(raw, np.float32).reshape(len(kernels), stride // 4)
+        scaled = scaled[:, : rows * columns * 2].reshape(len(kernels), rows, columns, 2)
+        return np.stack([k.scaling.from_gpu(v) for k, v in zip(kernels, scaled, strict=True)])
+
+    @current
+    def warp(
+        self,
+        kernels: list,
+        sources: list[SourceImage],
+        options: WarpOptions,
+        frame: Frame,
+        background: tuple[float, float, float, float],
+    ) -> np.ndarray | None:
+        """The chunk's images warped: (N, H, W, C) restored to the sources' dtype (each
+        :meth:`SourceImage.restore`), or None where the keys of this mesh do not fit in 31
+        bits (the single path's rasterizer then draws it)."""
+        height, width = sources[0].shape
+        lattice = MeshLattice.corners((height, width), options.grid)
+        linear = options.interpolation == "linear"
+        layout = key_layout(lattice, source_pixel=not linear)
+        if layout is None:
+            return None
+        sub_bits, col_shift, row_shift = layout
+        count = len(sources)
+        gl, mgl = self._gl, self._gl.mgl
+        stride = _mesh_stride(lattice)
+        mesh = self._resources.buffer("mesh", count * stride)
+        scaling = np.zeros((count, 4), np.float32)
+        for k, kernel in enumerate(kernels):  # 1. each image's f on its lattice
+            evaluate_lattice(kernel, lattice, mesh, offset=k * stride)
+            scaling[k, :2] = kernel.scaling.center
+            scaling[k, 2] = kernel.scaling.scale
+        scales = self._resources.buffer("scaling", scaling.nbytes)
+        scales.write(scaling)
+        out_w, out_h = frame.size
+        atlas = (out_w, out_h * count)
+        winner = self._resources.buffer("winner", out_w * out_h * count * 4)
+        winner.clear(size=out_w * out_h * count * 4)
+        values = {
+            **lattice.pixel_uniforms(),
+            "u_target_size": frame.size,
+            "u_origin": frame.origin,
+            "u_source_size": (width, height),
+            "u_mesh_dims": lattice.dims,
+            "u_mesh_stride": stride // 8,
+            "u_images": count,
+            "u_sub_bits": sub_bits,
+            "u_col_shift": col_shift,
+            "u_row_shift": row_shift,
+        }
+        mgl.memory_barrier()
+        source = sources[0]
+        fused = self.fused and not linear and texture_form(source)[1:] == (4, "f1")
+        dtype = "f1" if source.normalized else "f4"
+        framebuffer = self._resources.framebuffer("atlas", atlas, dtype)
+        target = framebuffer.color_attachments[0]
+        self._resources.fill(target, background)
+        cells = (lattice.dims[0] - 1) * (lattice.dims[1] - 1)
+        scan = gl.compute(
+            "batch/cells.comp.glsl",
+            {"WARP_CELLS_SOURCE": not linear, "WARP_CELLS_FUSED": fused},
+        )
+        buffers = {bindings.DEFORMED: mesh, bindings.POINTS: scales, bindings.WINNER: winner}
+        if fused:
+            values["u_fixup_capacity"] = PipelineOptions().fixup_capacity(out_w * out_h * count)
+            fixups = self._resources.buffer("fixups", 16 + 4 * values["u_fixup_capacity"])
+            fixups.write(_NO_FIXUPS)
+            buffers[bindings.FIXUPS] = fixups
+            texels = self._resources.texture("sources", (width, height * count), 4, "f1")
+            texels.write(np.ascontiguousarray(np.stack([texture_data(s) for s in sources])))
+        set_uniforms(scan, values)
+        for binding, buffer in buffers.items():
+            buffer.bind_to_storage_buffer(binding.index)
+        if fused:
+            bindings.bind_texels(texels, bindings.TEXEL_SOURCE, write=False)
+            bindings.bind_texels(target, bindings.TEXEL_TARGET, write=True)
+        run_1d(scan, cells * count, max_groups=gl.limits["max_work_groups_x"])  # 2.
+        mgl.memory_barrier()
+        if fused:  # the pixels that more than one triangle reached: the winner's texel
+            fixup = gl.compute("batch/fixup.comp.glsl")
+            set_uniforms(fixup, values)
+            fixup.run_indirect(fixups, offset=4)
+            mgl.memory_barrier()
+        else:
+            self._resolve(values, atlas, framebuffer, sources, winner, linear)  # 3.
+        bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
+        try:
+            framebuffer.use()
+            if source.normalized:  # 4.
+                values_out = read_rgba8(framebuffer, atlas, source.channels)
+            else:
+                values_out = np.empty((atlas[1], atlas[0], 4), np.float32)
+                framebuffer.read_into(values_out, (0, 0, *atlas), 4, dtype="f4")
+                values_out = values_out[..., : source.channels]
+        finally:
+            bound.use()
+        return source.restore(values_out.reshape(count, out_h, out_w, -1))

@@ -1,0 +1,54 @@
+// Fills the atlas of a batch's output canvases (image k's rows k * H .. k * H + H - 1) from
+// the winner keys of batch/cells.comp.glsl, as warp/cells_nearest.frag.glsl (nearest: the
+// key's source pixel) and warp/cells.frag.glsl (linear: the winning triangle interpolated at
+// the pixel centre, then sampled bilinearly) fill a single image's canvas; the sources are
+// the layers of one texture array. WARP_BORDER 0 only (constant: the mesh has no margin).
+#include "common/lattice.glsl"
+#include "batch/mesh.glsl"
+
+layout(binding = BIND_SOURCE) uniform sampler2DArray u_sources;
+layout(binding = BIND_WINNER_TEXTURE) uniform usampler2D u_winner;   // the atlas's keys
+
+uniform ivec2 u_target_size;  // W, H of one image's output canvas
+uniform ivec2 u_source_size;  // W, H of the source images
+uniform int u_sub_bits;       // key layout, see warp/cells.comp.glsl
+uniform int u_col_shift;
+uniform int u_row_shift;
+
+layout(location = 0) out vec4 out_color;
+
+void main() {
+    ivec2 atlas = ivec2(gl_FragCoord.xy);
+    uint id = texelFetch(u_winner, atlas, 0).r;
+    if (id == 0u) {
+        discard;
+    }
+    int k = atlas.y / u_target_size.y;
+    ivec2 p = ivec2(atlas.x, atlas.y - k * u_target_size.y);
+    uint key = 0x80000000u - id;
+#if WARP_LINEAR
+    int triangle = int(key & 1u);
+    uint columns = key & ((1u << u_row_shift) - 1u);
+    ivec2 g = ivec2(columns >> u_col_shift, int(key >> u_row_shift));
+    ivec2 kb = triangle == 0 ? ivec2(1, 0) : ivec2(1, 1);
+    ivec2 kc = triangle == 0 ? ivec2(1, 1) : ivec2(0, 1);
+    vec2 a = batch_vertex_px(k, g);
+    vec2 b = batch_vertex_px(k, g + kb);
+    vec2 d = batch_vertex_px(k, g + kc);
+    vec2 x = vec2(p);
+    float area = (b.x - a.x) * (d.y - a.y) - (b.y - a.y) * (d.x - a.x);
+    float lb = ((x.x - a.x) * (d.y - a.y) - (x.y - a.y) * (d.x - a.x)) / area;
+    float ld = ((b.x - a.x) * (x.y - a.y) - (b.y - a.y) * (x.x - a.x)) / area;
+    vec2 s = lattice_corner(g) * (1.0 - lb - ld) + lattice_corner(g + kb) * lb +
+             lattice_corner(g + kc) * ld;
+    s += vec2(u_lattice_offset);
+    vec2 size = vec2(textureSize(u_sources, 0).xy);
+    out_color = texture(u_sources, vec3((s + 0.5) / size, float(k)));
+#else
+    uint sub_mask = (1u << u_sub_bits) - 1u;
+    ivec2 sub = ivec2(key & sub_mask, (key >> u_sub_bits) & sub_mask);
+    uint columns = key & ((1u << u_row_shift) - 1u);
+    ivec2 s = ivec2(columns >> u_col_shift, key >> u_row_shift) * u_grid + sub;
+    out_color = texelFetch(u_sources, ivec3(border_pixel(s + u_lattice_offset, u_source_size), k), 0);
+#endif
+}
