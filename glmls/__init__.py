@@ -4,14 +4,15 @@ Conventions: points are ``(x, y)`` = (column, row) float arrays of shape (N, 2);
 sit at integer coordinates; f(v) = v M + T with row vectors.
 
 The top level holds what a user calls: :class:`MLS` (and its :class:`InverseMLS`) and
-:func:`warp`, their configuration and :class:`WarpOptions`, the handle types, image, volume
-and mesh files, the bundled data, the exceptions and the names of the choices.
-The numerical analysis lives in :mod:`glmls.analysis`, the OpenGL plumbing (contexts, the
+:func:`warp` (and :func:`warp_batch`), their configuration and :class:`WarpOptions`, the
+handle types, image, volume and mesh files, the bundled data, the exceptions and the names of
+the choices. The numerical analysis lives in :mod:`glmls.analysis`, random deformations for
+data augmentation in :mod:`glmls.augment`, the OpenGL plumbing (contexts, the
 warp pipeline) in :mod:`glmls.gl`, the float64 reference of the mathematics in
 :mod:`glmls.reference`.
 """
 
-from . import analysis, data, gl, reference
+from . import analysis, augment, data, gl, reference
 from .batch import BatchResult, warp_batch
 from .core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
 from .core.handleset import HANDLE_KINDS, HandleSet
@@ -65,6 +66,7 @@ __all__ = [
     "WarpOptions",
     "__version__",
     "analysis",
+    "augment",
     "data",
     "gl",
     "imread",

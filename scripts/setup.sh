@@ -2,8 +2,9 @@
 # Sets glmls up on a fresh Debian/Ubuntu machine with Python >= 3.11:
 #   - the system OpenGL stack for headless rendering (EGL + Mesa; llvmpipe runs GL 4.5 on
 #     the CPU when there is no GPU) and Xvfb for the real-time window under a virtual screen;
-#   - a virtual environment in .venv with glmls installed (editable), its test tools and the
-#     `distributed` extra (Dask, for --scheduler).
+#   - a virtual environment in .venv with glmls installed (editable), its test tools, the
+#     `distributed` extra (Dask, for --scheduler) and the extras of glmls.augment's adapters
+#     (`albumentations`; `torch`: torch and torchvision, whose tests run on the CPU).
 # Safe to run again: it installs only what is missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -31,6 +32,8 @@ if [ ! -x .venv/bin/python ]; then
     "$PYTHON" -m venv .venv
 fi
 .venv/bin/python -m pip install -q --disable-pip-version-check --upgrade pip
-# the distributed extra too, so that the tests run the Dask paths (--scheduler) as well
-.venv/bin/python -m pip install -q --disable-pip-version-check -e ".[test,distributed]"
+# the distributed extra too, so that the tests run the Dask paths (--scheduler) as well, and
+# the adapters' libraries, so that their tests run
+.venv/bin/python -m pip install -q --disable-pip-version-check \
+    -e ".[test,distributed,albumentations,torch]"
 echo "setup: ready (.venv/bin/python, .venv/bin/glmls)" >&2

@@ -19,7 +19,7 @@ LAYERS = (
     ("glmls.imaging", "glmls.volume"),
     ("glmls.mls", "glmls.mls3"),
     ("glmls.batch",),
-    ("glmls.analysis",),
+    ("glmls.analysis", "glmls.augment"),
     ("glmls.app",),
     ("glmls.cli",),
     ("glmls", "glmls.__main__"),  # the package root re-exports the public API

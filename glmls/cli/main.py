@@ -1,5 +1,5 @@
-"""The ``glmls`` command line: ``warp``, ``analyze``, ``tune``, ``study``, ``demo`` and
-``bench``, each a module of this package with ``HELP``, ``EXAMPLES``, ``configure(parser)`` and
+"""The ``glmls`` command line: ``warp``, ``augment``, ``analyze``, ``tune``, ``study``, ``demo``
+and ``bench``, each a module of this package with ``HELP``, ``EXAMPLES``, ``configure(parser)`` and
 ``run(args)``.
 
 Exit status: 0 on success, 2 for usage and input errors (bad options, malformed files), 1 for
@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 from ..errors import GLUnavailableError, InputFileError
 from ..version import __version__
-from . import analyze, bench, demo, study, tune, warp
+from . import analyze, augment, bench, demo, study, tune, warp
 from .options import HelpFormatter, UsageError
 
 __all__ = ["EXIT_FAILURE", "EXIT_USAGE", "build_parser", "main"]
@@ -25,6 +25,7 @@ EXIT_USAGE = 2
 EXIT_FAILURE = 1
 COMMANDS = {
     "warp": warp,
+    "augment": augment,
     "analyze": analyze,
     "tune": tune,
     "study": study,

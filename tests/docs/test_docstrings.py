@@ -1,10 +1,10 @@
 """Every public function and class of glmls has a numpydoc docstring, and its Examples run.
 
 The public names are the functions and classes (exceptions and warnings included) in the
-``__all__`` of :mod:`glmls`, :mod:`glmls.analysis`, :mod:`glmls.gl`, :mod:`glmls.reference`
-and :mod:`glmls.data`. Each docstring parses as numpydoc and passes :data:`CHECKS` of
-``numpydoc.validate``; its Examples (and those of the class's methods) run as doctests with
-``np`` and ``glmls`` imported, on glmls's shared headless context.
+``__all__`` of :mod:`glmls`, :mod:`glmls.analysis`, :mod:`glmls.augment`, :mod:`glmls.gl`,
+:mod:`glmls.reference` and :mod:`glmls.data`. Each docstring parses as numpydoc and passes
+:data:`CHECKS` of ``numpydoc.validate``; its Examples (and those of the class's methods) run
+as doctests with ``np`` and ``glmls`` imported, on glmls's shared headless context.
 """
 
 from __future__ import annotations
@@ -21,7 +21,15 @@ from numpydoc.validate import validate
 import glmls
 import glmls.volume
 
-MODULES = [glmls, glmls.analysis, glmls.gl, glmls.reference, glmls.data, glmls.volume]
+MODULES = [
+    glmls,
+    glmls.analysis,
+    glmls.augment,
+    glmls.gl,
+    glmls.reference,
+    glmls.data,
+    glmls.volume,
+]
 
 #: The numpydoc.validate checks every public function passes: a docstring (GL08) with a
 #: summary (SS01) on one line (SS06) that ends with a period (SS03); every signature parameter

@@ -1,0 +1,274 @@
+"""An albumentations ``DualTransform`` of :class:`glmls.augment.Augment`:
+``pip install 'glmls[albumentations]'`` (albumentations 2.0 and newer).
+
+This module imports albumentations; :mod:`glmls.augment` does not import this module.
+
+``MLSDeform`` follows albumentations' contract: its random draw comes from the transform's
+``random_generator`` (seeded by ``A.Compose(..., seed=...)``), the draw is in the params
+(``get_applied_params()``, a JSON-able dict under ``"mls"``), and every target of one call
+goes through the same map: the image (and ``images``), masks (nearest, never a mixed label),
+keypoints (x, y moved; angle and scale kept) and bounding boxes (the box around the densely
+sampled, moved outline, clipped to the image).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import albumentations as A
+import numpy as np
+
+from .core import Augment
+
+__all__ = ["MLSDeform"]
+
+
+class MLSDeform(A.DualTransform):
+    """A random MLS deformation as an albumentations transform.
+
+    Parameters
+    ----------
+    preset : str, default "grid"
+        A preset of :data:`glmls.augment.PRESETS`.
+    preset_options : mapping or None, default None
+        The preset's options (``{"rows": 5, "displacement": 0.05}``).
+    warp_options : mapping or None, default None
+        Keywords of :func:`glmls.warp_batch` over :data:`glmls.augment.DEFAULT_WARP_OPTIONS`.
+    box_step : float, default 2.0
+        Pixels between two points of a box's outline as it is moved.
+    p : float, default 1.0
+        The probability of applying the transform.
+
+    Raises
+    ------
+    ValueError, TypeError
+        As :class:`glmls.augment.Augment`.
+
+    Examples
+    --------
+    >>> import albumentations as A
+    >>> import numpy as np
+    >>> from glmls.augment.albumentations import MLSDeform
+    >>> compose = A.Compose(
+    ...     [MLSDeform("text-distort")],
+    ...     keypoint_params=A.KeypointParams(format="xy"),
+    ...     seed=0,
+    ... )
+    >>> image = np.zeros((32, 96, 3), np.uint8)
+    >>> out = compose(image=image, keypoints=[(48.0, 16.0)])
+    >>> out["image"].shape, len(out["keypoints"])
+    ((32, 96, 3), 1)
+    """
+
+    def __init__(
+        self,
+        preset: str = "grid",
+        preset_options: Mapping[str, Any] | None = None,
+        warp_options: Mapping[str, Any] | None = None,
+        box_step: float = 2.0,
+        p: float = 1.0,
+    ) -> None:
+        super().__init__(p=p)
+        self.preset = preset
+        self.preset_options = dict(preset_options or {})
+        self.warp_options = None if warp_options is None else dict(warp_options)
+        self.box_step = box_step
+        self.augment = Augment(
+            preset, warp_options=warp_options, box_step=box_step, **self.preset_options
+        )
+
+    def get_transform_init_args_names(self) -> tuple[str, ...]:
+        """The arguments that rebuild the transform (albumentations' serialisation).
+
+        Returns
+        -------
+        tuple of str
+            ``("preset", "preset_options", "warp_options", "box_step")``.
+
+        Examples
+        --------
+        >>> from glmls.augment.albumentations import MLSDeform
+        >>> MLSDeform().get_transform_init_args_names()
+        ('preset', 'preset_options', 'warp_options', 'box_step')
+        """
+        return ("preset", "preset_options", "warp_options", "box_step")
+
+    def get_params_dependent_on_data(
+        self, params: dict[str, Any], data: dict[str, Any]
+    ) -> dict[str, Any]:
+        """Draw the handles for this call's image.
+
+        Parameters
+        ----------
+        params : dict
+            albumentations' params (``shape`` among them).
+        data : dict
+            The call's targets (``keypoints``: the ``landmarks`` preset's handles).
+
+        Returns
+        -------
+        dict
+            ``{"mls": draw}``, the draw a JSON-able dict (see
+            :class:`glmls.augment.AugmentResult`).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from glmls.augment.albumentations import MLSDeform
+        >>> t = MLSDeform(preset_options={"rows": 2, "cols": 2})
+        >>> t.set_random_seed(0)
+        >>> draw = t.get_params_dependent_on_data({"shape": (8, 8, 3)}, {})["mls"]
+        >>> draw["preset"], len(draw["src"])
+        ('grid', 4)
+        """
+        shape = tuple(params["shape"][:2])
+        index = int(self.random_generator.integers(0, 2**63 - 1))
+        landmarks = None
+        if self.augment.preset.name == "landmarks":
+            points = np.asarray(data.get("keypoints", np.zeros((0, 2))), np.float64)
+            landmarks = [points.reshape(-1, points.shape[-1] if points.size else 2)[:, :2]]
+        return {"mls": self.augment.draw([shape], indices=[index], landmarks=landmarks)[0]}
+
+    def apply(self, img: np.ndarray, mls: dict, **params: Any) -> np.ndarray:
+        """The image deformed.
+
+        Parameters
+        ----------
+        img : numpy.ndarray
+            (H, W) or (H, W, C), C in 1..4.
+        mls : dict
+            The draw.
+        **params
+            albumentations' other params (not used).
+
+        Returns
+        -------
+        numpy.ndarray
+            The deformed image.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from glmls.augment.albumentations import MLSDeform
+        >>> t = MLSDeform()
+        >>> t.set_random_seed(0)
+        >>> image = np.zeros((16, 16), np.uint8)
+        >>> draw = t.get_params_dependent_on_data({"shape": image.shape}, {})
+        >>> t.apply(image, **draw).shape
+        (16, 16)
+        """
+        return np.asarray(self.augment.replay([img], [mls]).images[0])
+
+    def apply_to_mask(self, mask: np.ndarray, mls: dict, **params: Any) -> np.ndarray:
+        """A mask deformed with nearest sampling (0 where nothing is shown).
+
+        Parameters
+        ----------
+        mask : numpy.ndarray
+            (H, W) or (H, W, C) labels (integers or bool).
+        mls : dict
+            The draw.
+        **params
+            albumentations' other params (not used).
+
+        Returns
+        -------
+        numpy.ndarray
+            The deformed mask, of its dtype.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from glmls.augment.albumentations import MLSDeform
+        >>> t = MLSDeform()
+        >>> t.set_random_seed(0)
+        >>> mask = np.full((16, 16), 3, np.uint8)
+        >>> draw = t.get_params_dependent_on_data({"shape": mask.shape}, {})
+        >>> sorted(np.unique(t.apply_to_mask(mask, **draw)).tolist())
+        [3]
+        """
+        layers = mask[..., None] if mask.ndim == 2 else mask
+        labels = layers.astype(np.uint8) if layers.dtype == bool else layers
+        shape = labels.shape[:2]
+        canvas = np.zeros((labels.shape[2], *shape), np.uint8)
+        out = self.augment.replay(
+            canvas, [mls] * labels.shape[2], masks=np.moveaxis(labels, 2, 0)
+        ).masks
+        out = np.moveaxis(np.asarray(out), 0, 2).astype(mask.dtype)
+        return out[..., 0] if mask.ndim == 2 else out
+
+    def _moved(self, points: np.ndarray, mls: dict) -> np.ndarray:
+        canvas = np.zeros((1, *mls["shape"]), np.uint8)
+        return np.asarray(self.augment.replay(canvas, [mls], keypoints=[points]).keypoints[0])
+
+    def apply_to_keypoints(self, keypoints: np.ndarray, mls: dict, **params: Any) -> np.ndarray:
+        """Keypoints moved (x, y; the other columns kept).
+
+        Parameters
+        ----------
+        keypoints : numpy.ndarray
+            (K, 2+) keypoints, x and y first.
+        mls : dict
+            The draw.
+        **params
+            albumentations' other params (not used).
+
+        Returns
+        -------
+        numpy.ndarray
+            The moved keypoints.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from glmls.augment.albumentations import MLSDeform
+        >>> t = MLSDeform(preset_options={"displacement": 0})
+        >>> t.set_random_seed(0)
+        >>> draw = t.get_params_dependent_on_data({"shape": (16, 16)}, {})
+        >>> t.apply_to_keypoints(np.array([[4.0, 5.0, 0.0, 1.0]]), **draw).round(3).tolist()
+        [[4.0, 5.0, 0.0, 1.0]]
+        """
+        if len(keypoints) == 0:
+            return keypoints
+        out = np.array(keypoints, copy=True)
+        out[:, :2] = self._moved(np.asarray(keypoints[:, :2], np.float64), mls)
+        return out
+
+    def apply_to_bboxes(self, bboxes: np.ndarray, mls: dict, **params: Any) -> np.ndarray:
+        """Boxes around their moved outlines, clipped to the image.
+
+        Parameters
+        ----------
+        bboxes : numpy.ndarray
+            (B, 4+) boxes in albumentations' normalised ``(x_min, y_min, x_max, y_max)``.
+        mls : dict
+            The draw.
+        **params
+            albumentations' other params (not used).
+
+        Returns
+        -------
+        numpy.ndarray
+            The moved boxes, normalised, the other columns kept.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from glmls.augment.albumentations import MLSDeform
+        >>> t = MLSDeform(preset_options={"displacement": 0})
+        >>> t.set_random_seed(0)
+        >>> draw = t.get_params_dependent_on_data({"shape": (10, 10)}, {})
+        >>> t.apply_to_bboxes(np.array([[0.1, 0.2, 0.5, 0.6]]), **draw).round(3).tolist()
+        [[0.1, 0.2, 0.5, 0.6]]
+        """
+        if len(bboxes) == 0:
+            return bboxes
+        height, width = mls["shape"]
+        scale = np.array([width, height, width, height], np.float64)
+        boxes = np.asarray(bboxes[:, :4], np.float64) * scale - 0.5  # pixel centres at integers
+        canvas = np.zeros((1, height, width), np.uint8)
+        moved = self.augment.replay(canvas, [mls], boxes=[boxes]).boxes[0]
+        out = np.array(bboxes, np.float64, copy=True)
+        out[:, :4] = (np.asarray(moved) + 0.5) / scale
+        return out.astype(bboxes.dtype)

@@ -1,0 +1,491 @@
+"""Random MLS deformations of a batch: :class:`Augment` draws each sample's handles from
+its preset with the sample's own random numbers, numbered by ``(seed, index)``, deforms the
+batch with :func:`glmls.warp_batch` and moves its labels along."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..batch import BatchResult, warp_batch
+from . import labels as lab
+from . import tensors
+from .presets import preset_from
+
+__all__ = ["DEFAULT_WARP_OPTIONS", "Augment", "AugmentResult"]
+
+#: The warp keywords an :class:`Augment` uses unless told otherwise: the similarity MLS (as
+#: Luo et al.), bilinear sampling and the image's edge beyond its border (no black slivers
+#: where the frame is pulled in).
+DEFAULT_WARP_OPTIONS = {"transform": "similarity", "interpolation": "linear", "border": "edge"}
+
+
+@dataclass(frozen=True)
+class AugmentResult(BatchResult):
+    """What :class:`Augment` returns: a batch result with boxes, polygons and the draws.
+
+    A :class:`glmls.BatchResult` with the boxes and polygons moved too, and ``params``, each
+    sample's draw (a list of JSON-able dicts).
+
+    Parameters
+    ----------
+    images, keypoints, keypoints_valid, masks, maps, valid, params : object
+        As :class:`glmls.BatchResult`; ``params`` holds one dict per sample: ``preset``,
+        ``config`` (the preset's options), ``seed``, ``index``, ``shape`` (H, W), ``src`` and
+        ``dst`` (the handles, lists of [x, y]) and ``options`` (the warp keywords).
+    boxes : numpy.ndarray or list of numpy.ndarray or None
+        (N, B, 4) or per image (B_i, 4) boxes ``(x_min, y_min, x_max, y_max)`` around the
+        moved outlines, clipped to the canvas.
+    boxes_valid : numpy.ndarray or list of numpy.ndarray or None
+        (N, B) or per image (B_i,) bool: a positive width and height left on the canvas.
+    polygons : list of list of numpy.ndarray or None
+        Per image, its polygons' moved vertices (densified and clipped as asked).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.augment import Augment
+    >>> result = Augment("grid", seed=1)(np.zeros((2, 16, 16), np.uint8))
+    >>> type(result).__name__, result.images.shape, result.params[1]["index"]
+    ('AugmentResult', (2, 16, 16), 1)
+    """
+
+    boxes: np.ndarray | list[np.ndarray] | None = None
+    boxes_valid: np.ndarray | list[np.ndarray] | None = None
+    polygons: list[list[np.ndarray]] | None = None
+
+
+def _index_list(indices: object, count: int) -> list[int]:
+    if indices is None:
+        return list(range(count))
+    values = list(np.asarray(indices).reshape(-1)) if not isinstance(indices, list) else indices
+    if len(values) != count:
+        raise ValueError(f"indices holds {len(values)} values for {count} images")
+    checked = []
+    for i, value in enumerate(values):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+            raise ValueError(f"indices[{i}] must be an integer >= 0, got {value!r}")
+        if value < 0:
+            raise ValueError(f"indices[{i}] must be an integer >= 0, got {value!r}")
+        checked.append(int(value))
+    return checked
+
+
+def _images(images: object) -> list[np.ndarray]:
+    if isinstance(images, np.ndarray):
+        if images.ndim not in (3, 4):
+            raise ValueError(
+                f"images must be an (N, H, W) or (N, H, W, C) array or a sequence of images, "
+                f"got shape {images.shape}"
+            )
+        items = list(images)
+    elif isinstance(images, (list, tuple)):
+        items = [np.asarray(image) for image in images]
+    else:
+        raise TypeError(f"images must be an array or a sequence, got {type(images).__name__}")
+    if not items:
+        raise ValueError("images is an empty batch: nothing to augment")
+    for i, image in enumerate(items):
+        if image.ndim not in (2, 3) or image.size == 0:
+            raise ValueError(f"images[{i}] has shape {image.shape}; expected (H, W) or (H, W, C)")
+        if image.dtype.kind == "f" and not np.isfinite(image).all():
+            raise ValueError(f"images[{i}] holds values that are not finite (NaN or inf)")
+    return items
+
+
+def _keypoint_list(keypoints: object, count: int) -> tuple[list[np.ndarray] | None, bool]:
+    if keypoints is None:
+        return None, False
+    if isinstance(keypoints, np.ndarray) and keypoints.dtype != object:
+        if keypoints.ndim != 3:
+            raise ValueError(
+                f"keypoints must be an (N, P, 2) array or a sequence of (P, 2) arrays, got "
+                f"shape {keypoints.shape}"
+            )
+        items, stacked = list(keypoints), True
+    elif isinstance(keypoints, (list, tuple)):
+        items, stacked = [np.asarray(k) for k in keypoints], False
+    else:
+        raise TypeError(f"keypoints must be an array or a sequence, got {type(keypoints)}")
+    if len(items) != count:
+        raise ValueError(f"keypoints holds {len(items)} point sets for {count} images")
+    checked = []
+    for i, item in enumerate(items):
+        array = item.reshape(0, 2) if item.size == 0 else item
+        if array.ndim != 2 or array.shape[1] != 2:
+            raise ValueError(f"keypoints[{i}] has shape {item.shape}; expected (P, 2)")
+        array = np.asarray(array, np.float64)
+        if not np.isfinite(array).all():
+            raise ValueError(f"keypoints[{i}] holds values that are not finite (NaN or inf)")
+        checked.append(array)
+    return checked, stacked
+
+
+def _stack(items: list[np.ndarray], stacked: bool):
+    if stacked and items and all(a.shape == items[0].shape for a in items):
+        return np.stack(items)
+    return items
+
+
+class Augment:
+    """A random MLS deformation of a batch, reproducible sample by sample.
+
+    Sample i draws its handles from the preset with ``numpy.random.default_rng((seed,
+    indices[i]))``: ``aug(images[2:4], indices=[2, 3])`` equals ``aug(images)`` at 2 and 3
+    whatever the batch size, order or number of workers. Each sample's draw is kept in the
+    result's ``params`` (JSON-able dicts) and :meth:`replay` makes it again.
+
+    Parameters
+    ----------
+    preset : str or preset object
+        ``"grid"``, ``"text-distort"``, ``"text-stretch"``, ``"text-perspective"`` or
+        ``"landmarks"`` (:data:`glmls.augment.PRESETS`), or a preset object
+        (:class:`GridPreset` ...).
+    seed : int, default 0
+        The seed (>= 0) that, with each sample's index, numbers its random draw.
+    warp_options : mapping or None, default None
+        Keywords of :func:`glmls.warp_batch` (``transform``, ``interpolation``, ``border``,
+        ``method``, ``grid``...), over :data:`DEFAULT_WARP_OPTIONS`.
+    box_step : float, default 2.0
+        Pixels between two points of a box's outline as it is moved.
+    densify : float or None, default None
+        Pixels: add points along each polygon's edges so that none is longer, before moving
+        it (a straight edge may bend); None: move the vertices only.
+    clip_polygons : bool, default True
+        Clip the moved polygons to the canvas.
+
+    Other Parameters
+    ----------------
+    **preset_options
+        The preset's options (:class:`GridPreset`'s ``rows``, ``cols``, ``displacement``,
+        ``units``; the text presets' ``segments`` and ``radius``; :class:`LandmarksPreset`'s).
+
+    Raises
+    ------
+    ValueError
+        For an unknown preset (the valid ones listed) or a value out of range, naming it.
+    TypeError
+        For an unknown option.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.augment import Augment
+    >>> images = np.random.default_rng(0).integers(0, 255, (4, 24, 48), dtype=np.uint8)
+    >>> aug = Augment("text-distort", seed=7)
+    >>> whole = aug(images, keypoints=np.full((4, 1, 2), 20.0))
+    >>> part = aug(images[2:4], indices=[2, 3], keypoints=np.full((2, 1, 2), 20.0))
+    >>> bool((part.images == whole.images[2:4]).all())
+    True
+    >>> sorted(whole.params[0])
+    ['config', 'dst', 'index', 'options', 'preset', 'seed', 'shape', 'src']
+    >>> Augment("wave")
+    Traceback (most recent call last):
+    ...
+    ValueError: unknown preset 'wave'; expected one of grid, text-distort, text-stretch, ...
+    """
+
+    def __init__(
+        self,
+        preset: object,
+        *,
+        seed: int = 0,
+        warp_options: Mapping[str, object] | None = None,
+        box_step: float = 2.0,
+        densify: float | None = None,
+        clip_polygons: bool = True,
+        **preset_options: object,
+    ) -> None:
+        if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+            raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+        if seed < 0:
+            raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+        for name, value in (("box_step", box_step), ("densify", densify)):
+            if value is None and name == "densify":
+                continue
+            if not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        if warp_options is not None and not isinstance(warp_options, Mapping):
+            raise TypeError(f"warp_options must be a mapping, got {type(warp_options)}")
+        self.preset = preset_from(preset, preset_options)
+        self.seed = int(seed)
+        self.warp_options = {**DEFAULT_WARP_OPTIONS, **dict(warp_options or {})}
+        self.box_step = float(box_step)
+        self.densify = None if densify is None else float(densify)
+        self.clip_polygons = bool(clip_polygons)
+
+    def __repr__(self) -> str:
+        return f"Augment({self.preset!r}, seed={self.seed})"
+
+    def draw(
+        self,
+        shapes: Sequence[tuple[int, int]],
+        *,
+        indices: Sequence[int] | None = None,
+        landmarks: Sequence[np.ndarray] | None = None,
+    ) -> list[dict]:
+        """Each sample's random draw, without deforming anything.
+
+        Parameters
+        ----------
+        shapes : sequence of (int, int)
+            Each image's (H, W).
+        indices : sequence of int or None, default None
+            Each sample's index (>= 0); None: 0 .. N - 1.
+        landmarks : sequence of array_like or None, default None
+            Each image's (P, 2) landmarks (the ``landmarks`` preset's handles).
+
+        Returns
+        -------
+        list of dict
+            The params (see :class:`AugmentResult`).
+
+        Raises
+        ------
+        ValueError
+            For indices of the wrong count or value, or missing landmarks.
+
+        Examples
+        --------
+        >>> from glmls.augment import Augment
+        >>> aug = Augment("grid", rows=2, cols=2)
+        >>> first = aug.draw([(8, 8), (8, 8)])
+        >>> again = aug.draw([(8, 8)], indices=[1])
+        >>> first[1] == again[0], len(first[0]["src"])
+        (True, 4)
+        """
+        index_list = _index_list(indices, len(shapes))
+        params = []
+        for i, (shape, index) in enumerate(zip(shapes, index_list, strict=True)):
+            rng = np.random.default_rng((self.seed, index))
+            marks = None if landmarks is None else landmarks[i]
+            try:
+                src, dst = self.preset.draw(rng, tuple(shape), marks)
+            except ValueError as error:
+                raise ValueError(f"images[{i}]: {error}") from None
+            params.append(
+                {
+                    "preset": self.preset.name,
+                    "config": dataclasses.asdict(self.preset),
+                    "seed": self.seed,
+                    "index": index,
+                    "shape": [int(shape[0]), int(shape[1])],
+                    "src": np.asarray(src, np.float64).tolist(),
+                    "dst": np.asarray(dst, np.float64).tolist(),
+                    "options": dict(self.warp_options),
+                }
+            )
+        return params
+
+    def __call__(
+        self,
+        images: object,
+        *,
+        keypoints: object = None,
+        masks: object = None,
+        boxes: object = None,
+        polygons: object = None,
+        indices: object = None,
+    ) -> AugmentResult:
+        """Deform a batch at random, with its labels.
+
+        Parameters
+        ----------
+        images : array_like or sequence of array_like or torch.Tensor
+            (N, H, W[, C]) or N images (H, W[, C]) (the dtypes of :func:`glmls.warp`); a torch
+            tensor (N, C, H, W) or (N, H, W) comes back as one, of its dtype and device (a
+            CUDA tensor through the host's memory).
+        keypoints : array_like or sequence of array_like, optional
+            (N, P, 2) or per image (P_i, 2) points (x, y); the ``landmarks`` preset's
+            handles.
+        masks : array_like or sequence of array_like, optional
+            Per image, an (H, W) integer label image, warped with nearest sampling.
+        boxes : array_like or sequence of array_like, optional
+            (N, B, 4) or per image (B_i, 4) boxes ``(x_min, y_min, x_max, y_max)``.
+        polygons : sequence, optional
+            Per image, a sequence of (V, 2) polygons.
+        indices : sequence of int, optional
+            Each sample's index (>= 0); None: 0 .. N - 1.
+
+        Returns
+        -------
+        AugmentResult
+            The images, the labels given, and ``params``.
+
+        Raises
+        ------
+        ValueError
+            For an empty batch, a wrong shape or a value that is not finite, naming the
+            item's index (``images[3]``, ``boxes[1]``).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from glmls.augment import Augment
+        >>> images = np.zeros((2, 20, 20), np.uint8)
+        >>> out = Augment("grid", seed=3)(images, boxes=[[[4, 4, 12, 12]], []])
+        >>> out.boxes[0].shape, out.boxes[1].shape, out.boxes_valid[0].tolist()
+        ((1, 4), (0, 4), [True])
+        """
+        if tensors.is_tensor(images):
+            return tensors.call_on_tensors(self, images, keypoints, masks, boxes, polygons, indices)
+        items = _images(images)
+        marks, _ = _keypoint_list(keypoints, len(items))
+        if self.preset.name == "landmarks" and marks is None:
+            raise ValueError("the landmarks preset needs each image's landmarks (keypoints)")
+        shapes = [image.shape[:2] for image in items]
+        params = self.draw(shapes, indices=indices, landmarks=marks)
+        return self.replay(
+            images, params, keypoints=keypoints, masks=masks, boxes=boxes, polygons=polygons
+        )
+
+    def replay(
+        self,
+        images: object,
+        params: Sequence[Mapping],
+        *,
+        keypoints: object = None,
+        masks: object = None,
+        boxes: object = None,
+        polygons: object = None,
+    ) -> AugmentResult:
+        """Make recorded draws again: each image deformed by its params' handles and options.
+
+        Parameters
+        ----------
+        images : array_like or sequence of array_like
+            As for :meth:`__call__`, one per params.
+        params : sequence of mapping
+            The ``params`` of an earlier result (as they are, or through JSON).
+        keypoints, masks, boxes, polygons : optional
+            As for :meth:`__call__`.
+
+        Returns
+        -------
+        AugmentResult
+            Equal to the result that recorded the params (for the same inputs).
+
+        Raises
+        ------
+        ValueError
+            For params of another count, or of an image of another shape, naming the index.
+
+        Examples
+        --------
+        >>> import json
+        >>> import numpy as np
+        >>> from glmls.augment import Augment
+        >>> aug = Augment("text-stretch", seed=2)
+        >>> images = np.random.default_rng(0).integers(0, 255, (2, 16, 40), dtype=np.uint8)
+        >>> first = aug(images)
+        >>> params = json.loads(json.dumps(first.params))
+        >>> bool((aug.replay(images, params).images == first.images).all())
+        True
+        """
+        if tensors.is_tensor(images):
+            return tensors.replay_on_tensors(
+                self, images, params, keypoints, masks, boxes, polygons
+            )
+        items = _images(images)
+        count = len(items)
+        params = list(params)
+        if len(params) != count:
+            raise ValueError(f"params holds {len(params)} draws for {count} images")
+        for i, (image, p) in enumerate(zip(items, params, strict=True)):
+            if tuple(p["shape"]) != image.shape[:2]:
+                raise ValueError(
+                    f"params[{i}] was drawn for shape {tuple(p['shape'])}, images[{i}] has "
+                    f"{image.shape[:2]}"
+                )
+        marks, stacked_marks = _keypoint_list(keypoints, count)
+        box_list, stacked_boxes = (None, False)
+        if boxes is not None:
+            box_list, stacked_boxes = lab.check_boxes(boxes, count)
+        polygon_list = None if polygons is None else lab.check_polygons(polygons, count)
+        points, parts = self._points(count, marks, box_list, polygon_list)
+        options = dict(params[0]["options"])
+        if any(dict(p["options"]) != options for p in params):
+            raise ValueError("params with different warp options cannot be replayed together")
+        src = [np.asarray(p["src"], np.float64) for p in params]
+        dst = [np.asarray(p["dst"], np.float64) for p in params]
+        result = warp_batch(images, src, dst, keypoints=points, masks=masks, **options)
+        if not isinstance(result, BatchResult):
+            result = BatchResult(images=result)
+        return self._assemble(result, params, parts, stacked_marks, stacked_boxes)
+
+    def _points(self, count, marks, box_list, polygon_list):
+        """Every image's points to move: its keypoints, box outlines and polygons, one after
+        another; ``parts`` records where each kind lies."""
+        if marks is None and box_list is None and polygon_list is None:
+            return None, None
+        points, parts = [], []
+        for i in range(count):
+            pieces, part = [], {}
+            if marks is not None:
+                pieces.append(marks[i])
+                part["keypoints"] = len(marks[i])
+            if box_list is not None:
+                outline, counts = lab.box_outlines(box_list[i], self.box_step)
+                pieces.append(outline)
+                part["boxes"] = counts
+            if polygon_list is not None:
+                dense = [lab.densify_polygon(poly, self.densify) for poly in polygon_list[i]]
+                pieces += dense
+                part["polygons"] = [len(poly) for poly in dense]
+            points.append(np.concatenate(pieces) if pieces else np.zeros((0, 2)))
+            parts.append(part)
+        return points, parts
+
+    def _assemble(self, result, params, parts, stacked_marks, stacked_boxes):
+        fields = {}
+        if parts is not None:
+            moved_all = result.keypoints
+            valid_all = result.keypoints_valid
+            out_shapes = [np.asarray(image).shape[:2] for image in result.images]
+            kps, kvs, bxs, bvs, pls = [], [], [], [], []
+            for i, part in enumerate(parts):
+                moved, valid, start = np.asarray(moved_all[i]), np.asarray(valid_all[i]), 0
+                if "keypoints" in part:
+                    n = part["keypoints"]
+                    kps.append(moved[:n])
+                    kvs.append(valid[:n])
+                    start = n
+                if "boxes" in part:
+                    n = int(part["boxes"].sum())
+                    box, ok = lab.boxes_from_outlines(
+                        moved[start : start + n], part["boxes"], out_shapes[i]
+                    )
+                    bxs.append(box)
+                    bvs.append(ok)
+                    start += n
+                if "polygons" in part:
+                    one = []
+                    for n in part["polygons"]:
+                        poly = moved[start : start + n]
+                        one.append(
+                            lab.clip_polygon(poly, out_shapes[i]) if self.clip_polygons else poly
+                        )
+                        start += n
+                    pls.append(one)
+            if kps:
+                fields.update(
+                    keypoints=_stack(kps, stacked_marks), keypoints_valid=_stack(kvs, stacked_marks)
+                )
+            if bxs:
+                fields.update(
+                    boxes=_stack(bxs, stacked_boxes), boxes_valid=_stack(bvs, stacked_boxes)
+                )
+            if pls:
+                fields["polygons"] = pls
+        return AugmentResult(
+            images=result.images,
+            masks=result.masks,
+            maps=result.maps,
+            valid=result.valid,
+            params=[dict(p) for p in params],
+            **fields,
+        )

@@ -1,0 +1,346 @@
+"""Labels that ride along a deformation: bounding boxes and polygons become points, move
+through the same map that placed the pixels (:func:`glmls.warp_batch`'s keypoints), and
+become boxes and polygons again.
+
+A box is ``(x_min, y_min, x_max, y_max)`` in the pixel coordinates of the points (pixel
+centres at integers, so an H x W image spans [-0.5, W - 0.5] x [-0.5, H - 0.5]). Its outline
+is sampled densely (a point every ``step`` pixels along each side, not only the corners: a
+deformation bends the sides), the moved outline's bounding box is clipped to the output
+canvas, and a box is valid where what is left has a positive width and height.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+
+__all__ = [
+    "box_outlines",
+    "boxes_from_outlines",
+    "check_boxes",
+    "check_polygons",
+    "clip_polygon",
+    "densify_polygon",
+]
+
+
+def _finite(array: np.ndarray, name: str, columns: int) -> np.ndarray:
+    if array.dtype == object or not np.issubdtype(array.dtype, np.number):
+        raise TypeError(f"{name} has dtype {array.dtype}; expected real numbers")
+    if array.ndim != 2 or array.shape[1] != columns:
+        raise ValueError(f"{name} has shape {array.shape}; expected (B, {columns})")
+    array = np.asarray(array, np.float64)
+    if not np.isfinite(array).all():
+        raise ValueError(f"{name} holds values that are not finite (NaN or inf)")
+    return array
+
+
+def _per_image(value: object, name: str, count: int) -> tuple[list, bool]:
+    if isinstance(value, np.ndarray) and value.dtype != object:
+        if value.ndim != 3:
+            raise ValueError(
+                f"{name} must be an (N, B, ...) array or a sequence of N arrays, got shape "
+                f"{value.shape}"
+            )
+        items, stacked = list(value), True
+    elif isinstance(value, (list, tuple)):
+        items, stacked = list(value), False
+    else:
+        raise TypeError(f"{name} must be an array or a sequence, got {type(value).__name__}")
+    if len(items) != count:
+        raise ValueError(f"{name} holds {len(items)} items for {count} images")
+    return items, stacked
+
+
+def check_boxes(boxes: object, count: int) -> tuple[list[np.ndarray], bool]:
+    """Per image, its (B_i, 4) float64 boxes, and whether they came as one (N, B, 4) array.
+
+    Parameters
+    ----------
+    boxes : array_like or sequence of array_like
+        An (N, B, 4) array or N arrays (B_i, 4) of ``(x_min, y_min, x_max, y_max)``.
+    count : int
+        N, the number of images.
+
+    Returns
+    -------
+    (list of numpy.ndarray, bool)
+        The boxes per image and the stacked flag.
+
+    Raises
+    ------
+    ValueError
+        For a wrong count or shape, a value that is not finite or a box whose maximum lies
+        below its minimum, naming the item (``boxes[2]``).
+
+    Examples
+    --------
+    >>> from glmls.augment.labels import check_boxes
+    >>> check_boxes([[[0, 0, 4, 4]]], 1)[0][0].tolist()
+    [[0.0, 0.0, 4.0, 4.0]]
+    >>> check_boxes([[[4, 0, 0, 4]]], 1)
+    Traceback (most recent call last):
+    ...
+    ValueError: boxes[0][0] has x_max < x_min or y_max < y_min: [4.0, 0.0, 0.0, 4.0]
+    """
+    items, stacked = _per_image(boxes, "boxes", count)
+    checked = []
+    for i, item in enumerate(items):
+        array = np.asarray(item)
+        if array.size == 0:
+            array = array.reshape(0, 4)
+        array = _finite(array, f"boxes[{i}]", 4)
+        wrong = np.flatnonzero((array[:, 2] < array[:, 0]) | (array[:, 3] < array[:, 1]))
+        if len(wrong):
+            j = int(wrong[0])
+            raise ValueError(
+                f"boxes[{i}][{j}] has x_max < x_min or y_max < y_min: {array[j].tolist()}"
+            )
+        checked.append(array)
+    return checked, stacked
+
+
+def check_polygons(polygons: object, count: int) -> list[list[np.ndarray]]:
+    """Per image, its list of (V, 2) float64 polygons (V >= 1).
+
+    Parameters
+    ----------
+    polygons : sequence
+        N sequences (one per image) of (V, 2) vertex arrays.
+    count : int
+        N, the number of images.
+
+    Returns
+    -------
+    list of list of numpy.ndarray
+        The polygons per image.
+
+    Raises
+    ------
+    ValueError
+        For a wrong count or shape or a value that is not finite, naming the item
+        (``polygons[1][0]``).
+
+    Examples
+    --------
+    >>> from glmls.augment.labels import check_polygons
+    >>> len(check_polygons([[[[0, 0], [4, 0], [4, 4]]]], 1)[0])
+    1
+    """
+    if not isinstance(polygons, (list, tuple)):
+        raise TypeError(f"polygons must be a sequence, got {type(polygons).__name__}")
+    if len(polygons) != count:
+        raise ValueError(f"polygons holds {len(polygons)} items for {count} images")
+    checked = []
+    for i, shapes in enumerate(polygons):
+        if not isinstance(shapes, (list, tuple)):
+            raise TypeError(f"polygons[{i}] must be a sequence of (V, 2) arrays")
+        one = []
+        for j, polygon in enumerate(shapes):
+            array = _finite(np.asarray(polygon), f"polygons[{i}][{j}]", 2)
+            if len(array) == 0:
+                raise ValueError(f"polygons[{i}][{j}] has no vertices")
+            one.append(array)
+        checked.append(one)
+    return checked
+
+
+def _check_step(step: object) -> None:
+    ok = isinstance(step, (int, float, np.integer, np.floating)) and not isinstance(step, bool)
+    if not ok or not (math.isfinite(float(step)) and float(step) > 0):  # type: ignore[arg-type]
+        raise ValueError(f"step must be a finite number > 0, got {step!r}")
+
+
+def _samples(length: float, step: float) -> int:
+    return max(1, math.ceil(length / step))
+
+
+def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points along each box's outline, a point at most ``step`` pixels from the next.
+
+    Parameters
+    ----------
+    boxes : numpy.ndarray
+        (B, 4) boxes ``(x_min, y_min, x_max, y_max)``.
+    step : float
+        The largest distance between two outline points, in pixels (> 0).
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        (P, 2) points, the boxes' one after another, and (B,) counts per box.
+
+    Raises
+    ------
+    ValueError
+        For a ``step`` that is not a finite number > 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.augment.labels import box_outlines
+    >>> points, counts = box_outlines(np.array([[0.0, 0.0, 4.0, 2.0]]), 2.0)
+    >>> counts.tolist(), points[:3].tolist()
+    ([6], [[0.0, 0.0], [2.0, 0.0], [4.0, 0.0]])
+    """
+    _check_step(step)
+    outlines = []
+    for x0, y0, x1, y1 in boxes:
+        corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1], [x0, y0]])
+        sides = []
+        for a, b in itertools.pairwise(corners):
+            n = _samples(float(np.abs(b - a).max()), step)
+            t = np.arange(n)[:, None] / n
+            sides.append(a + t * (b - a))
+        outline = np.concatenate(sides)
+        if x1 == x0 or y1 == y0:  # a line or a point: its samples once each
+            outline = np.unique(outline, axis=0)
+        outlines.append(outline)
+    counts = np.array([len(o) for o in outlines], np.int64)
+    points = np.concatenate(outlines) if outlines else np.zeros((0, 2))
+    return points, counts
+
+
+def boxes_from_outlines(
+    moved: np.ndarray, counts: np.ndarray, shape: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The boxes around moved outlines, clipped to the canvas, and their validity.
+
+    A box is valid where a positive width and height are left on the canvas of ``shape``.
+
+    Parameters
+    ----------
+    moved : numpy.ndarray
+        (P, 2) moved outline points (:func:`box_outlines`'s, moved).
+    counts : numpy.ndarray
+        (B,) points per box.
+    shape : (int, int)
+        The output canvas (H, W).
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        (B, 4) float64 boxes and (B,) bool.
+
+    Raises
+    ------
+    ValueError
+        Where the counts do not add up to the points.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.augment.labels import boxes_from_outlines
+    >>> moved = np.array([[-3.0, 1.0], [2.0, 1.0], [2.0, 3.0], [30.0, 30.0], [40.0, 31.0]])
+    >>> boxes, valid = boxes_from_outlines(moved, np.array([3, 2]), (8, 8))
+    >>> boxes.tolist(), valid.tolist()
+    ([[-0.5, 1.0, 2.0, 3.0], [7.5, 7.5, 7.5, 7.5]], [True, False])
+    """
+    if int(np.sum(counts)) != len(moved):
+        raise ValueError(f"the counts add up to {int(np.sum(counts))} points, not {len(moved)}")
+    height, width = shape
+    boxes = np.zeros((len(counts), 4))
+    starts = (np.cumsum(counts) - counts).astype(np.int64)
+    for k, (start, n) in enumerate(zip(starts, counts, strict=True)):
+        points = moved[start : start + n]
+        boxes[k] = [*points.min(axis=0), *points.max(axis=0)]
+    low = np.array([-0.5, -0.5, -0.5, -0.5])
+    high = np.array([width, height, width, height], np.float64) - 0.5
+    boxes = np.clip(boxes, low, high)
+    valid = (boxes[:, 2] > boxes[:, 0]) & (boxes[:, 3] > boxes[:, 1])
+    return boxes, valid
+
+
+def densify_polygon(polygon: np.ndarray, step: float | None) -> np.ndarray:
+    """A closed polygon with points added along its edges, at most ``step`` pixels apart.
+
+    Parameters
+    ----------
+    polygon : numpy.ndarray
+        (V, 2) vertices.
+    step : float or None
+        The largest edge length after densifying (> 0); None: the polygon as it is.
+
+    Returns
+    -------
+    numpy.ndarray
+        (V', 2) vertices: the given ones, in order, with the added ones between them.
+
+    Raises
+    ------
+    ValueError
+        For a ``step`` that is not None or a finite number > 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.augment.labels import densify_polygon
+    >>> densify_polygon(np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 2.0]]), 2.0).shape
+    (6, 2)
+    """
+    if step is None:
+        return polygon
+    _check_step(step)
+    if len(polygon) < 2:
+        return polygon
+    nxt = np.roll(polygon, -1, axis=0)
+    pieces = []
+    for a, b in zip(polygon, nxt, strict=True):
+        n = _samples(float(np.hypot(*(b - a))), step)
+        pieces.append(a + (np.arange(n)[:, None] / n) * (b - a))
+    return np.concatenate(pieces)
+
+
+def clip_polygon(polygon: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """A polygon clipped to the canvas (Sutherland and Hodgman's algorithm).
+
+    The canvas of ``shape`` spans [-0.5, W - 0.5] x [-0.5, H - 0.5]; the result is (0, 2)
+    where nothing of the polygon is on it.
+
+    Parameters
+    ----------
+    polygon : numpy.ndarray
+        (V, 2) vertices.
+    shape : (int, int)
+        The canvas (H, W).
+
+    Returns
+    -------
+    numpy.ndarray
+        The clipped polygon's vertices.
+
+    Raises
+    ------
+    ValueError
+        For a polygon that is not (V, 2).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.augment.labels import clip_polygon
+    >>> clip_polygon(np.array([[-4.0, 0.0], [4.0, 0.0], [4.0, 2.0]]), (8, 8)).tolist()
+    [[-0.5, 0.875], [-0.5, 0.0], [4.0, 0.0], [4.0, 2.0]]
+    """
+    polygon = np.asarray(polygon, np.float64)
+    if polygon.ndim != 2 or polygon.shape[1] != 2:
+        raise ValueError(f"polygon has shape {polygon.shape}; expected (V, 2)")
+    height, width = shape
+    planes = ((0, -0.5, 1.0), (1, -0.5, 1.0), (0, width - 0.5, -1.0), (1, height - 0.5, -1.0))
+    points = [tuple(p) for p in np.asarray(polygon, np.float64)]
+    for axis, edge, sign in planes:
+        if not points:
+            break
+        kept = []
+        for k, current in enumerate(points):
+            previous = points[k - 1]
+            inside_now = sign * (current[axis] - edge) >= 0
+            inside_before = sign * (previous[axis] - edge) >= 0
+            if inside_now != inside_before:
+                t = (edge - previous[axis]) / (current[axis] - previous[axis])
+                kept.append(tuple(p + t * (c - p) for p, c in zip(previous, current, strict=True)))
+            if inside_now:
+                kept.append(current)
+        points = kept
+    return np.array(points, np.float64).reshape(-1, 2)

@@ -1,0 +1,484 @@
+"""The random deformations of :class:`glmls.augment.Augment`: each preset is a frozen
+dataclass of its options with a ``draw(rng, shape, landmarks)`` method that returns one
+sample's handles p (``src``) and q (``dst``), (K, 2) float arrays in pixels (x, y).
+
+The text-line presets follow Luo et al., "Learn to Augment: Joint Data Augmentation and
+Network Optimization for Text Recognition" (CVPR 2020): the image is cut into ``segments``
+patches along its width, with 2 (segments + 1) fiducial points on its top and bottom edges,
+and the fiducial points are moved at random within a radius R. The defaults of R are those of
+the authors' toolkit: W / segments / 3 for distortion, 4/5 W / segments for stretching, H / 2
+for perspective.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "PRESETS",
+    "GridPreset",
+    "LandmarksPreset",
+    "TextDistortPreset",
+    "TextPerspectivePreset",
+    "TextStretchPreset",
+    "preset_from",
+]
+
+UNITS = ("fraction", "pixels")
+
+
+def _check_count(name: str, value: object, low: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+
+
+def _check_length(name: str, value: object, *, optional: bool = False) -> None:
+    if optional and value is None:
+        return
+    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+    if not ok or not math.isfinite(float(value)) or float(value) < 0:  # type: ignore[arg-type]
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+
+
+def _check_units(units: object) -> None:
+    if units not in UNITS:
+        raise ValueError(f"units must be one of {', '.join(UNITS)}, got {units!r}")
+
+
+def _edges(shape: tuple[int, int]) -> tuple[float, float, float, float]:
+    """The image's outer edges (left, top, right, bottom): pixel centres sit at integers."""
+    height, width = shape
+    return -0.5, -0.5, width - 0.5, height - 0.5
+
+
+def _fiducials(shape: tuple[int, int], segments: int) -> tuple[np.ndarray, np.ndarray]:
+    """The x of the segments + 1 fiducial columns and the (top, bottom) edges' y."""
+    left, top, right, bottom = _edges(shape)
+    return np.linspace(left, right, segments + 1), np.array([top, bottom])
+
+
+def _pairs(xs_top, ys_top, xs_bottom, ys_bottom) -> np.ndarray:
+    """(2 (S + 1), 2) points: the top edge's, then the bottom edge's, left to right."""
+    top = np.stack([xs_top, ys_top], axis=1)
+    bottom = np.stack([xs_bottom, ys_bottom], axis=1)
+    return np.concatenate([top, bottom]).astype(np.float64)
+
+
+@dataclass(frozen=True, kw_only=True)
+class GridPreset:
+    """A jittered control grid of ``rows`` x ``cols`` handles over the image.
+
+    The handles are spread evenly over the image, its edges included, each moved by a random
+    offset within +-``displacement`` per axis.
+
+    Parameters
+    ----------
+    rows, cols : int, default 4
+        The grid's size (>= 2 each).
+    displacement : float, default 0.03
+        The largest offset per axis: a fraction of the image's width (x) and height (y)
+        with ``units="fraction"``, pixels with ``units="pixels"``.
+    units : {"fraction", "pixels"}, default "fraction"
+        The unit of ``displacement``.
+
+    Raises
+    ------
+    ValueError
+        For a value out of range, naming it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.augment import GridPreset
+    >>> src, dst = GridPreset(rows=3, cols=3).draw(np.random.default_rng(0), (20, 30))
+    >>> src.shape, bool(np.abs(dst - src).max() <= 0.03 * 30)
+    ((9, 2), True)
+    """
+
+    name = "grid"
+    rows: int = 4
+    cols: int = 4
+    displacement: float = 0.03
+    units: str = "fraction"
+
+    def __post_init__(self) -> None:
+        _check_count("rows", self.rows, 2)
+        _check_count("cols", self.cols, 2)
+        _check_length("displacement", self.displacement)
+        _check_units(self.units)
+
+    def draw(self, rng: np.random.Generator, shape: tuple[int, int], landmarks=None):
+        """One sample's handles.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The sample's random numbers.
+        shape : (int, int)
+            The image's (H, W).
+        landmarks : None
+            Not used.
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray)
+            src and dst, (rows * cols, 2).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from glmls.augment import GridPreset
+        >>> src, dst = GridPreset(displacement=0).draw(np.random.default_rng(1), (8, 8))
+        >>> bool((src == dst).all()), src[0].tolist(), src[-1].tolist()
+        (True, [-0.5, -0.5], [7.5, 7.5])
+        """
+        left, top, right, bottom = _edges(shape)
+        xs, ys = np.meshgrid(
+            np.linspace(left, right, self.cols), np.linspace(top, bottom, self.rows)
+        )
+        src = np.stack([xs.ravel(), ys.ravel()], axis=1)
+        scale = np.array([shape[1], shape[0]], np.float64) if self.units == "fraction" else 1.0
+        offset = rng.uniform(-1.0, 1.0, size=src.shape) * self.displacement * scale
+        return src, src + offset
+
+
+@dataclass(frozen=True, kw_only=True)
+class TextDistortPreset:
+    """Luo et al.'s distortion of a text line: fiducial points moved within a radius.
+
+    Every fiducial point moves at random: a corner by up to ``radius`` inwards along each
+    axis, any other point by up to ``radius / 2`` either way along each axis.
+
+    Parameters
+    ----------
+    segments : int, default 4
+        The patches along the width (2 (segments + 1) fiducial points).
+    radius : float or None, default None
+        R in pixels; None: W / segments / 3.
+
+    Raises
+    ------
+    ValueError
+        For a value out of range, naming it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.augment import TextDistortPreset
+    >>> src, dst = TextDistortPreset().draw(np.random.default_rng(0), (32, 120))
+    >>> src.shape, bool(np.abs(dst - src).max() <= 10)
+    ((10, 2), True)
+    """
+
+    name = "text-distort"
+    segments: int = 4
+    radius: float | None = None
+
+    def __post_init__(self) -> None:
+        _check_count("segments", self.segments, 1)
+        _check_length("radius", self.radius, optional=True)
+
+    def draw(self, rng: np.random.Generator, shape: tuple[int, int], landmarks=None):
+        """One sample's handles.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The sample's random numbers.
+        shape : (int, int)
+            The image's (H, W).
+        landmarks : None
+            Not used.
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray)
+            src and dst, (2 (segments + 1), 2): the top edge's points, then the bottom's.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from glmls.augment import TextDistortPreset
+        >>> src, _ = TextDistortPreset(segments=2).draw(np.random.default_rng(0), (4, 10))
+        >>> src.tolist()
+        [[-0.5, -0.5], [4.5, -0.5], [9.5, -0.5], [-0.5, 3.5], [4.5, 3.5], [9.5, 3.5]]
+        """
+        xs, (top, bottom) = _fiducials(shape, self.segments)
+        radius = shape[1] / self.segments / 3 if self.radius is None else float(self.radius)
+        count = len(xs)
+        src = _pairs(xs, np.full(count, top), xs, np.full(count, bottom))
+        offset = rng.uniform(-0.5, 0.5, size=src.shape) * radius
+        inwards = rng.uniform(0.0, 1.0, size=(4, 2)) * radius
+        corners = [0, count - 1, count, 2 * count - 1]  # top left, top right, bottom left, right
+        signs = np.array([[1, 1], [-1, 1], [1, -1], [-1, -1]], np.float64)
+        offset[corners] = inwards * signs
+        return src, src + offset
+
+
+@dataclass(frozen=True, kw_only=True)
+class TextStretchPreset:
+    """Luo et al.'s stretching of a text line: fiducial pairs moved horizontally.
+
+    The inner fiducial points move horizontally by up to ``radius / 2`` either way, each top
+    point with the bottom point below it (the pair stays aligned); the corners stay.
+
+    Parameters
+    ----------
+    segments : int, default 4
+        The patches along the width (2 (segments + 1) fiducial points).
+    radius : float or None, default None
+        R in pixels; None: 4/5 W / segments.
+
+    Raises
+    ------
+    ValueError
+        For a value out of range, naming it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.augment import TextStretchPreset
+    >>> src, dst = TextStretchPreset().draw(np.random.default_rng(0), (32, 120))
+    >>> bool((dst[:, 1] == src[:, 1]).all()), bool((dst[:5, 0] == dst[5:, 0]).all())
+    (True, True)
+    """
+
+    name = "text-stretch"
+    segments: int = 4
+    radius: float | None = None
+
+    def __post_init__(self) -> None:
+        _check_count("segments", self.segments, 1)
+        _check_length("radius", self.radius, optional=True)
+
+    def draw(self, rng: np.random.Generator, shape: tuple[int, int], landmarks=None):
+        """One sample's handles.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The sample's random numbers.
+        shape : (int, int)
+            The image's (H, W).
+        landmarks : None
+            Not used.
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray)
+            src and dst, (2 (segments + 1), 2): the top edge's points, then the bottom's.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from glmls.augment import TextStretchPreset
+        >>> src, dst = TextStretchPreset(segments=1).draw(np.random.default_rng(0), (4, 10))
+        >>> bool((src == dst).all())
+        True
+        """
+        xs, (top, bottom) = _fiducials(shape, self.segments)
+        radius = shape[1] * 4 / 5 / self.segments if self.radius is None else float(self.radius)
+        count = len(xs)
+        move = rng.uniform(-0.5, 0.5, size=count) * radius
+        move[[0, -1]] = 0.0
+        src = _pairs(xs, np.full(count, top), xs, np.full(count, bottom))
+        dst = _pairs(xs + move, np.full(count, top), xs + move, np.full(count, bottom))
+        return src, dst
+
+
+@dataclass(frozen=True, kw_only=True)
+class TextPerspectivePreset:
+    """Luo et al.'s perspective change of a text line: its edges moved vertically.
+
+    The top and bottom edges move vertically and independently, each corner by up to
+    ``radius`` inwards; the fiducial points between stay on the straight edge between their
+    corners.
+
+    Parameters
+    ----------
+    segments : int, default 4
+        The patches along the width (2 (segments + 1) fiducial points).
+    radius : float or None, default None
+        R in pixels; None: H / 2.
+
+    Raises
+    ------
+    ValueError
+        For a value out of range, naming it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.augment import TextPerspectivePreset
+    >>> src, dst = TextPerspectivePreset().draw(np.random.default_rng(0), (32, 120))
+    >>> bool((dst[:, 0] == src[:, 0]).all()), bool(np.abs(dst - src).max() <= 16)
+    (True, True)
+    """
+
+    name = "text-perspective"
+    segments: int = 4
+    radius: float | None = None
+
+    def __post_init__(self) -> None:
+        _check_count("segments", self.segments, 1)
+        _check_length("radius", self.radius, optional=True)
+
+    def draw(self, rng: np.random.Generator, shape: tuple[int, int], landmarks=None):
+        """One sample's handles.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The sample's random numbers.
+        shape : (int, int)
+            The image's (H, W).
+        landmarks : None
+            Not used.
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray)
+            src and dst, (2 (segments + 1), 2): the top edge's points, then the bottom's.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from glmls.augment import TextPerspectivePreset
+        >>> _, dst = TextPerspectivePreset(radius=0).draw(np.random.default_rng(0), (4, 10))
+        >>> dst[:, 1].tolist()
+        [-0.5, -0.5, -0.5, -0.5, -0.5, 3.5, 3.5, 3.5, 3.5, 3.5]
+        """
+        xs, (top, bottom) = _fiducials(shape, self.segments)
+        radius = shape[0] / 2 if self.radius is None else float(self.radius)
+        inwards = rng.uniform(0.0, 1.0, size=4) * radius  # top left, top right, bottom l, r
+        t = (xs - xs[0]) / (xs[-1] - xs[0])
+        ys_top = top + inwards[0] + t * (inwards[1] - inwards[0])
+        ys_bottom = bottom - inwards[2] - t * (inwards[3] - inwards[2])
+        count = len(xs)
+        src = _pairs(xs, np.full(count, top), xs, np.full(count, bottom))
+        return src, _pairs(xs, ys_top, xs, ys_bottom)
+
+
+@dataclass(frozen=True, kw_only=True)
+class LandmarksPreset:
+    """Each image's own landmarks moved at random, the image's corners pinned.
+
+    The landmarks are the ``keypoints`` given with the image, each moved by up to
+    +-``displacement`` per axis; with ``pin_corners`` the image's four corners are handles
+    that stay, so that the frame holds.
+
+    Parameters
+    ----------
+    displacement : float, default 0.03
+        The largest offset per axis: a fraction of the image's width (x) and height (y)
+        with ``units="fraction"``, pixels with ``units="pixels"``.
+    units : {"fraction", "pixels"}, default "fraction"
+        The unit of ``displacement``.
+    pin_corners : bool, default True
+        Add the four corners as fixed handles.
+
+    Raises
+    ------
+    ValueError
+        For a value out of range, naming it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.augment import LandmarksPreset
+    >>> landmarks = np.array([[10.0, 12.0], [20.0, 8.0]])
+    >>> src, dst = LandmarksPreset().draw(np.random.default_rng(0), (32, 32), landmarks)
+    >>> src.shape, bool((src[:2] == landmarks).all()), bool((src[2:] == dst[2:]).all())
+    ((6, 2), True, True)
+    """
+
+    name = "landmarks"
+    displacement: float = 0.03
+    units: str = "fraction"
+    pin_corners: bool = True
+
+    def __post_init__(self) -> None:
+        _check_length("displacement", self.displacement)
+        _check_units(self.units)
+        if not isinstance(self.pin_corners, (bool, np.bool_)):
+            raise ValueError(f"pin_corners must be True or False, got {self.pin_corners!r}")
+
+    def draw(self, rng: np.random.Generator, shape: tuple[int, int], landmarks=None):
+        """One sample's handles.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The sample's random numbers.
+        shape : (int, int)
+            The image's (H, W).
+        landmarks : array_like
+            The image's (P, 2) landmarks (P >= 1, or P >= 0 with ``pin_corners``).
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray)
+            src and dst: the landmarks, then the four corners where pinned.
+
+        Raises
+        ------
+        ValueError
+            Without landmarks.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from glmls.augment import LandmarksPreset
+        >>> preset = LandmarksPreset(displacement=2, units="pixels", pin_corners=False)
+        >>> src, dst = preset.draw(np.random.default_rng(0), (9, 9), [[4.0, 4.0]])
+        >>> src.tolist(), bool(np.abs(dst - src).max() <= 2)
+        ([[4.0, 4.0]], True)
+        """
+        points = np.zeros((0, 2)) if landmarks is None else np.asarray(landmarks, np.float64)
+        if landmarks is None or (len(points) == 0 and not self.pin_corners):
+            raise ValueError("the landmarks preset needs each image's landmarks (keypoints)")
+        scale = np.array([shape[1], shape[0]], np.float64) if self.units == "fraction" else 1.0
+        offset = rng.uniform(-1.0, 1.0, size=points.shape) * self.displacement * scale
+        src, dst = points, points + offset
+        if self.pin_corners:
+            left, top, right, bottom = _edges(shape)
+            corners = np.array([[left, top], [right, top], [left, bottom], [right, bottom]])
+            src, dst = np.concatenate([src, corners]), np.concatenate([dst, corners])
+        return src, dst
+
+
+#: The presets by name.
+PRESETS = {
+    cls.name: cls
+    for cls in (
+        GridPreset,
+        TextDistortPreset,
+        TextStretchPreset,
+        TextPerspectivePreset,
+        LandmarksPreset,
+    )
+}
+
+
+def preset_from(preset: object, options: dict) -> object:
+    """A preset object from a name and its options, or a preset object as it is (no options
+    then); ``ValueError`` listing the valid names, ``TypeError`` for an unknown option."""
+    if dataclasses.is_dataclass(preset) and type(preset) in PRESETS.values():
+        if options:
+            raise TypeError(f"options {sorted(options)} given with a preset object")
+        return preset
+    if preset not in PRESETS:
+        raise ValueError(f"unknown preset {preset!r}; expected one of {', '.join(PRESETS)}")
+    cls = PRESETS[preset]  # type: ignore[index]
+    known = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(options) - known)
+    if unknown:
+        raise TypeError(
+            f"preset {preset!r} has no option {', '.join(unknown)}; its options: "
+            f"{', '.join(sorted(known))}"
+        )
+    return cls(**options)

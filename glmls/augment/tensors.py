@@ -1,0 +1,150 @@
+"""torch tensors in and out of :class:`glmls.augment.Augment`, without importing torch: a
+tensor is recognised only where torch is already imported (``sys.modules``).
+
+Images are taken in torch's layout, (N, C, H, W) or (N, H, W), and come back in it, of
+their dtype and on their device. The deformation itself runs on glmls's OpenGL context, so
+a CUDA tensor goes through the host's memory (``.cpu()``, then ``.to(device)``): one copy
+each way per batch.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+
+import numpy as np
+
+__all__ = ["from_numpy", "is_tensor", "to_numpy"]
+
+
+def is_tensor(value: object) -> bool:
+    """Whether ``value`` is a torch tensor (False where torch is not imported).
+
+    Parameters
+    ----------
+    value : object
+        Anything.
+
+    Returns
+    -------
+    bool
+        True for a ``torch.Tensor``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.augment.tensors import is_tensor
+    >>> is_tensor(np.zeros(3))
+    False
+    """
+    torch = sys.modules.get("torch")
+    return torch is not None and isinstance(value, torch.Tensor)
+
+
+def to_numpy(value: object) -> object:
+    """A tensor as a numpy array (through the host for a CUDA tensor), a list of them as a
+    list of arrays, anything else as it is.
+
+    Parameters
+    ----------
+    value : object
+        A tensor, a list or tuple of tensors, or anything.
+
+    Returns
+    -------
+    object
+        The numpy counterpart.
+
+    Examples
+    --------
+    >>> from glmls.augment.tensors import to_numpy
+    >>> to_numpy([1, 2])
+    [1, 2]
+    """
+    if is_tensor(value):
+        return value.detach().cpu().numpy()  # type: ignore[attr-defined]
+    if isinstance(value, (list, tuple)) and any(is_tensor(v) for v in value):
+        return [to_numpy(v) for v in value]
+    return value
+
+
+def from_numpy(array: object, like: object) -> object:
+    """``array`` as a tensor of ``like``'s dtype and device (lists item by item).
+
+    Parameters
+    ----------
+    array : numpy.ndarray or list or None
+        The values.
+    like : torch.Tensor
+        The tensor whose dtype and device to take.
+
+    Returns
+    -------
+    object
+        A tensor, a list of tensors, or None.
+
+    Examples
+    --------
+    >>> from glmls.augment.tensors import from_numpy
+    >>> from_numpy(None, None) is None
+    True
+    """
+    if array is None:
+        return None
+    if isinstance(array, list):
+        return [from_numpy(a, like) for a in array]
+    torch = sys.modules["torch"]
+    tensor = torch.from_numpy(np.ascontiguousarray(array))
+    return tensor.to(device=like.device, dtype=like.dtype)  # type: ignore[attr-defined]
+
+
+def _channels_last(images) -> tuple[np.ndarray, bool]:
+    array = to_numpy(images)
+    if array.ndim == 4:  # (N, C, H, W)
+        return np.ascontiguousarray(np.moveaxis(array, 1, -1)), True
+    return array, False
+
+
+def _back(result, images, keypoints, masks, boxes, moved_channels: bool):
+    out = np.asarray(result.images)
+    if moved_channels:
+        out = np.moveaxis(out, -1, 1)
+    torch = sys.modules["torch"]
+    changes = {"images": from_numpy(out, images)}
+    if is_tensor(keypoints) and result.keypoints is not None:
+        changes["keypoints"] = from_numpy(result.keypoints, keypoints)
+        changes["keypoints_valid"] = torch.as_tensor(np.asarray(result.keypoints_valid))
+    if is_tensor(masks) and result.masks is not None:
+        changes["masks"] = from_numpy(result.masks, masks)
+    if is_tensor(boxes) and result.boxes is not None:
+        changes["boxes"] = from_numpy(result.boxes, boxes)
+        changes["boxes_valid"] = torch.as_tensor(np.asarray(result.boxes_valid))
+    return dataclasses.replace(result, **changes)
+
+
+def call_on_tensors(aug, images, keypoints, masks, boxes, polygons, indices):
+    """``aug(images, ...)`` for torch tensors: the numpy call, its results as tensors."""
+    array, moved = _channels_last(images)
+    result = aug(
+        array,
+        keypoints=to_numpy(keypoints),
+        masks=to_numpy(masks),
+        boxes=to_numpy(boxes),
+        polygons=polygons,
+        indices=to_numpy(indices),
+    )
+    return _back(result, images, keypoints, masks, boxes, moved)
+
+
+def replay_on_tensors(aug, images, params, keypoints, masks, boxes, polygons):
+    """``aug.replay(images, params, ...)`` for torch tensors."""
+    array, moved = _channels_last(images)
+    result = aug.replay(
+        array,
+        params,
+        keypoints=to_numpy(keypoints),
+        masks=to_numpy(masks),
+        boxes=to_numpy(boxes),
+        polygons=polygons,
+    )
+    return _back(result, images, keypoints, masks, boxes, moved)

@@ -1,0 +1,312 @@
+"""A torchvision v2 ``Transform`` of :class:`glmls.augment.Augment`:
+``pip install 'glmls[torch]'`` (torchvision 0.23 and newer, for ``tv_tensors.KeyPoints``).
+
+This module imports torch and torchvision; :mod:`glmls.augment` does not import this module.
+Import it (or torchvision) before glmls makes its first OpenGL context where that context is
+Mesa's llvmpipe (a machine without a GPU driver): torchvision loads triton, whose LLVM
+crashes a process that already holds Mesa's; this module raises ``ImportError`` saying so
+rather than let the process crash (:func:`check_import_order`).
+
+``MLSTransform`` follows torchvision's contract: ``make_params`` draws once per call from
+torch's random numbers (``torch.manual_seed`` makes it repeat), and ``transform`` deforms each
+input by type: ``tv_tensors.Image`` (and a plain tensor taken as the image), ``Mask``
+(nearest, never a mixed label), ``KeyPoints`` and ``BoundingBoxes`` (the box around the
+densely sampled, moved outline, clipped to the canvas). Tensors stay of their dtype and on
+their device; the deformation runs on glmls's OpenGL context, so a CUDA tensor goes through
+the host's memory.
+
+A batch is an image tensor with a leading dimension, (N, C, H, W): each sample draws its own
+deformation. Its masks are (N, H, W) or (N, K, H, W) and its keypoints (N, P, 2) (the first
+dimension the batch), or one ``Mask``/``KeyPoints``/``BoundingBoxes`` per sample in order
+(bounding boxes are two-dimensional in torchvision: one instance per sample). The draws of
+the last call are in ``last_params`` (JSON-able dicts, see
+:class:`glmls.augment.AugmentResult`).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+
+def check_import_order() -> None:
+    """``ImportError`` where importing torchvision now would crash the process.
+
+    torchvision imports triton (through ``torch._dynamo``), which carries an LLVM of its own;
+    loaded into a process where Mesa's LLVM is already loaded (the llvmpipe OpenGL driver,
+    after glmls made its first GL context on a machine without a GPU driver), its start-up
+    ends in a segmentation fault. Loaded first, both work.
+
+    Raises
+    ------
+    ImportError
+        Where triton is installed but not imported and an LLVM library is loaded.
+
+    Examples
+    --------
+    >>> from glmls.augment.torchvision import check_import_order
+    >>> check_import_order()  # triton is loaded by now, or no LLVM is
+    """
+    if "triton" in sys.modules or importlib.util.find_spec("triton") is None:
+        return
+    try:
+        maps = Path("/proc/self/maps").read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return
+    if "libLLVM" in maps:
+        raise ImportError(
+            "torchvision loads triton, whose LLVM crashes a process in which Mesa's LLVM "
+            "(the llvmpipe OpenGL driver glmls is using) is already loaded: import torchvision "
+            "(or glmls.augment.torchvision) before glmls makes its first OpenGL context"
+        )
+
+
+check_import_order()
+
+import numpy as np  # noqa: E402
+import PIL.Image  # noqa: E402
+import torch  # noqa: E402
+from torchvision import tv_tensors  # noqa: E402
+from torchvision.transforms import v2  # noqa: E402
+from torchvision.transforms.v2 import functional as F  # noqa: E402
+
+from .core import Augment  # noqa: E402
+
+__all__ = ["MLSTransform", "check_import_order"]
+
+_LABELS = (tv_tensors.Mask, tv_tensors.KeyPoints, tv_tensors.BoundingBoxes)
+
+
+def _is_image(value: object) -> bool:
+    return isinstance(value, PIL.Image.Image) or (
+        isinstance(value, torch.Tensor) and not isinstance(value, _LABELS)
+    )
+
+
+def _size(value: object) -> tuple[int, int, int | None]:
+    """(H, W, N): N the batch size of a 4-D image tensor, None for one image."""
+    if isinstance(value, PIL.Image.Image):
+        return value.height, value.width, None
+    tensor = value  # type: ignore[assignment]
+    if tensor.ndim == 4:  # type: ignore[attr-defined]
+        return tensor.shape[-2], tensor.shape[-1], tensor.shape[0]  # type: ignore[attr-defined]
+    if tensor.ndim in (2, 3):  # type: ignore[attr-defined]
+        return tensor.shape[-2], tensor.shape[-1], None  # type: ignore[attr-defined]
+    raise ValueError(f"expected an image (C, H, W) or a batch (N, C, H, W), got {tensor.shape}")  # type: ignore[attr-defined]
+
+
+class MLSTransform(v2.Transform):
+    """A random MLS deformation as a torchvision v2 transform.
+
+    Parameters
+    ----------
+    preset : str, default "grid"
+        A preset of :data:`glmls.augment.PRESETS`.
+    warp_options : mapping or None, default None
+        Keywords of :func:`glmls.warp_batch` over :data:`glmls.augment.DEFAULT_WARP_OPTIONS`.
+    box_step : float, default 2.0
+        Pixels between two points of a box's outline as it is moved.
+    **preset_options
+        The preset's options.
+
+    Raises
+    ------
+    ValueError, TypeError
+        As :class:`glmls.augment.Augment`.
+
+    Examples
+    --------
+    >>> import torch
+    >>> from torchvision import tv_tensors
+    >>> from glmls.augment.torchvision import MLSTransform
+    >>> _ = torch.manual_seed(0)
+    >>> images = tv_tensors.Image(torch.zeros(4, 3, 24, 48, dtype=torch.uint8))
+    >>> points = tv_tensors.KeyPoints(torch.full((4, 2, 2), 10.0), canvas_size=(24, 48))
+    >>> out_images, out_points = MLSTransform("text-stretch")(images, points)
+    >>> tuple(out_images.shape), type(out_points).__name__, tuple(out_points.shape)
+    ((4, 3, 24, 48), 'KeyPoints', (4, 2, 2))
+    """
+
+    def __init__(
+        self,
+        preset: str = "grid",
+        *,
+        warp_options: Mapping[str, Any] | None = None,
+        box_step: float = 2.0,
+        **preset_options: Any,
+    ) -> None:
+        super().__init__()
+        self.augment = Augment(
+            preset, warp_options=warp_options, box_step=box_step, **preset_options
+        )
+        self.preset = preset
+        self.last_params: list[dict] = []
+
+    def make_params(self, flat_inputs: list[Any]) -> dict[str, Any]:
+        """Draw each sample's handles from torch's random numbers.
+
+        Parameters
+        ----------
+        flat_inputs : list
+            The inputs to transform, as torchvision flattened them.
+
+        Returns
+        -------
+        dict
+            ``samples`` (the draws) and ``owners`` (which sample each input belongs to).
+
+        Raises
+        ------
+        ValueError
+            Without an image, or for labels that match neither one image nor the batch.
+
+        Examples
+        --------
+        >>> import torch
+        >>> from glmls.augment.torchvision import MLSTransform
+        >>> params = MLSTransform().make_params([torch.zeros(2, 3, 8, 8)])
+        >>> len(params["samples"]), params["samples"][0]["shape"]
+        (2, [8, 8])
+        """
+        images = [x for x in flat_inputs if _is_image(x)]
+        if not images:
+            raise ValueError("MLSTransform needs an image (tv_tensors.Image or a tensor)")
+        sizes = [_size(x) for x in images]
+        batched = len(images) == 1 and sizes[0][2] is not None
+        count = sizes[0][2] if batched else len(images)
+        shapes = [sizes[0][:2]] * count if batched else [s[:2] for s in sizes]
+        owners: dict[int, Any] = {}
+        if batched:
+            owners[id(images[0])] = "batch"
+        else:
+            owners.update({id(x): k for k, x in enumerate(images)})
+        for kind in _LABELS:
+            labels = [x for x in flat_inputs if isinstance(x, kind)]
+            if len(labels) == 1 and batched and kind is not tv_tensors.BoundingBoxes:
+                owners[id(labels[0])] = "batch"
+            elif len(labels) == count:
+                owners.update({id(x): k for k, x in enumerate(labels)})
+            elif labels:
+                raise ValueError(
+                    f"{len(labels)} {kind.__name__} for {count} samples: give one per sample, "
+                    "or one with the batch as its first dimension"
+                )
+        landmarks = None
+        if self.augment.preset.name == "landmarks":
+            landmarks = self._landmarks(flat_inputs, owners, count)
+        indices = torch.randint(0, 2**62, (count,)).tolist()
+        samples = self.augment.draw(shapes, indices=indices, landmarks=landmarks)
+        self.last_params = samples
+        return {"samples": samples, "owners": owners}
+
+    @staticmethod
+    def _landmarks(flat_inputs, owners, count) -> list[np.ndarray]:
+        marks: list[np.ndarray | None] = [None] * count
+        for x in flat_inputs:
+            if isinstance(x, tv_tensors.KeyPoints):
+                points = x.detach().cpu().numpy().astype(np.float64)
+                owner = owners[id(x)]
+                if owner == "batch":
+                    marks = [p.reshape(-1, 2) for p in points]
+                else:
+                    marks[owner] = points.reshape(-1, 2)
+        if any(m is None for m in marks):
+            raise ValueError("the landmarks preset needs KeyPoints for every sample")
+        return marks  # type: ignore[return-value]
+
+    def _samples(self, inpt: Any, params: dict[str, Any]) -> list[dict]:
+        owner = params["owners"][id(inpt)]
+        samples = params["samples"]
+        return samples if owner == "batch" else [samples[owner]]
+
+    def transform(self, inpt: Any, params: dict[str, Any]) -> Any:
+        """Deform one input with the draw of the sample it belongs to.
+
+        Parameters
+        ----------
+        inpt : object
+            An image, mask, keypoints or bounding boxes.
+        params : dict
+            What :meth:`make_params` returned.
+
+        Returns
+        -------
+        object
+            The input deformed, of its type, dtype and device.
+
+        Examples
+        --------
+        >>> import torch
+        >>> from torchvision import tv_tensors
+        >>> from glmls.augment.torchvision import MLSTransform
+        >>> t = MLSTransform(displacement=0)
+        >>> mask = tv_tensors.Mask(torch.ones(8, 8, dtype=torch.uint8))
+        >>> params = t.make_params([torch.zeros(3, 8, 8), mask])
+        >>> int(t.transform(mask, params).sum())
+        64
+        """
+        samples = self._samples(inpt, params)
+        if isinstance(inpt, tv_tensors.Mask):
+            return tv_tensors.wrap(self._masks(inpt, samples), like=inpt)
+        if isinstance(inpt, tv_tensors.KeyPoints):
+            return tv_tensors.wrap(self._keypoints(inpt, samples), like=inpt)
+        if isinstance(inpt, tv_tensors.BoundingBoxes):
+            return tv_tensors.wrap(self._boxes(inpt, samples[0]), like=inpt)
+        if isinstance(inpt, PIL.Image.Image):
+            array = self.augment.replay([np.asarray(inpt)], samples).images[0]
+            return PIL.Image.fromarray(np.asarray(array))
+        return self._images(inpt, samples)
+
+    def _images(self, images: torch.Tensor, samples: list[dict]) -> torch.Tensor:
+        batch = images if images.ndim == 4 else images.reshape(1, -1, *images.shape[-2:])
+        array = np.moveaxis(batch.detach().cpu().numpy(), 1, -1)
+        out = np.asarray(self.augment.replay(np.ascontiguousarray(array), samples).images)
+        tensor = torch.from_numpy(np.ascontiguousarray(np.moveaxis(out, -1, 1)))
+        tensor = tensor.reshape(images.shape).to(device=images.device, dtype=images.dtype)
+        return (
+            tv_tensors.wrap(tensor, like=images)
+            if isinstance(images, tv_tensors.TVTensor)
+            else tensor
+        )
+
+    def _masks(self, masks: torch.Tensor, samples: list[dict]) -> torch.Tensor:
+        count = len(samples)
+        height, width = masks.shape[-2:]
+        array = masks.detach().cpu().numpy().reshape(count, -1, height, width)
+        layers = array.shape[1]
+        labels = array.astype(np.uint8) if array.dtype == bool else array
+        flat = labels.reshape(count * layers, height, width)
+        draws = [s for s in samples for _ in range(layers)]
+        canvas = np.zeros((len(flat), height, width), np.uint8)
+        out = np.asarray(self.augment.replay(canvas, draws, masks=flat).masks)
+        tensor = torch.from_numpy(out.astype(array.dtype).reshape(masks.shape))
+        return tensor.to(masks.device)
+
+    def _keypoints(self, points: torch.Tensor, samples: list[dict]) -> torch.Tensor:
+        count = len(samples)
+        array = points.detach().cpu().numpy().astype(np.float64).reshape(count, -1, 2)
+        height, width = samples[0]["shape"]
+        canvas = np.zeros((count, height, width), np.uint8)
+        moved = np.asarray(self.augment.replay(canvas, samples, keypoints=array).keypoints)
+        tensor = torch.from_numpy(moved.reshape(points.shape))
+        return tensor.to(device=points.device, dtype=points.dtype)
+
+    def _boxes(self, boxes: tv_tensors.BoundingBoxes, sample: dict) -> torch.Tensor:
+        if tv_tensors.is_rotated_bounding_format(boxes.format):
+            raise ValueError(f"rotated bounding boxes ({boxes.format}) are not supported")
+        xyxy = F.convert_bounding_box_format(
+            boxes.as_subclass(torch.Tensor),
+            old_format=boxes.format,
+            new_format=tv_tensors.BoundingBoxFormat.XYXY,
+        )
+        array = xyxy.detach().cpu().numpy().astype(np.float64) - 0.5  # pixel centres at integers
+        height, width = sample["shape"]
+        canvas = np.zeros((1, height, width), np.uint8)
+        moved = np.asarray(self.augment.replay(canvas, [sample], boxes=[array]).boxes[0]) + 0.5
+        out = torch.from_numpy(moved).to(device=boxes.device, dtype=boxes.dtype)
+        return F.convert_bounding_box_format(
+            out, old_format=tv_tensors.BoundingBoxFormat.XYXY, new_format=boxes.format
+        )

@@ -1,0 +1,284 @@
+"""``glmls augment``: random MLS deformations of images (:class:`glmls.augment.Augment`),
+N per input, with their labels (keypoints, boxes) moved along.
+
+Output: for input ``NAME.EXT`` and k = 0 .. N - 1, ``OUT/NAME_k.EXT`` (k zero-padded), drawn
+with sample index ``i * N + k`` for the i-th input (sorted by name), so that the same command
+gives the same images whatever ``--jobs``; and ``OUT/labels.json``: per output image its moved
+keypoints and boxes (where labels were given) with their validity, and its draw (``params``:
+the handles and options that :meth:`glmls.augment.Augment.replay` takes). Everything is
+written under temporary names and renamed at the end: a failed run leaves no output.
+
+The labels file (``--labels``) is a JSON object keyed by input file name:
+``{"photo.png": {"keypoints": [[x, y], ...], "boxes": [[x_min, y_min, x_max, y_max], ...]}}``
+in pixels (x, y) = (column, row), pixel centres at integers; either key may be left out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..analysis.jobs import check_jobs, check_scheduler, run_jobs
+from ..augment import PRESETS, Augment
+from ..files.atomic import umask
+from ..files.images import check_writable, imwrite
+from ..imaging.source import BORDERS, INTERPOLATIONS
+from .inputs import image_inputs, read_image, say
+from .options import UsageError, add_jobs_options, add_max_pixels, positive_float, positive_int
+
+HELP = "random MLS deformations of images, with their labels (data augmentation)"
+EXAMPLES = """
+examples:
+  glmls augment photo.png out/ --n 10 --preset grid --seed 0
+  glmls augment lines/ out/ --n 4 --preset text-distort --segments 6
+  glmls augment faces/ out/ --n 5 --preset landmarks --labels landmarks.json --jobs 4
+  glmls augment photo.png out/ --n 8 --preset grid --displacement 6 --units pixels
+"""
+
+#: The preset options with a command-line flag, and their types.
+PRESET_FLAGS = {
+    "rows": positive_int,
+    "cols": positive_int,
+    "displacement": float,
+    "units": str,
+    "segments": positive_int,
+    "radius": float,
+}
+LABELS_NAME = "labels.json"
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("input", metavar="IN", help="an image, a folder or a glob")
+    parser.add_argument("output", metavar="OUT", help="the output folder (made if needed)")
+    parser.add_argument("--n", type=positive_int, default=10, help="deformed images per input")
+    parser.add_argument("--preset", choices=tuple(PRESETS), default="grid", help="the deformation")
+    parser.add_argument("--seed", type=int, default=0, help="the random seed (>= 0)")
+    parser.add_argument(
+        "--labels", metavar="JSON", help="keypoints and boxes per input file name (see above)"
+    )
+    group = parser.add_argument_group("preset options (those of the chosen preset)")
+    group.add_argument("--rows", type=positive_int, help="grid: rows of handles")
+    group.add_argument("--cols", type=positive_int, help="grid: columns of handles")
+    group.add_argument(
+        "--displacement", type=float, help="grid, landmarks: the largest offset per axis"
+    )
+    group.add_argument("--units", choices=("fraction", "pixels"), help="of --displacement")
+    group.add_argument("--segments", type=positive_int, help="text-*: patches along the width")
+    group.add_argument("--radius", type=float, help="text-*: the radius R in pixels")
+    warp = parser.add_argument_group("warp")
+    warp.add_argument(
+        "--transform", choices=("affine", "similarity", "rigid"), default="similarity"
+    )
+    warp.add_argument("--interpolation", choices=INTERPOLATIONS, default="linear")
+    warp.add_argument("--border", choices=BORDERS, default="edge")
+    parser.add_argument(
+        "--box-step",
+        type=positive_float,
+        default=2.0,
+        help="pixels between points of a box's outline",
+    )
+    add_max_pixels(parser)
+    add_jobs_options(parser)
+
+
+@dataclasses.dataclass(frozen=True)
+class AugmentTask:
+    """One input image of ``glmls augment``, as sent to a worker process (picklable)."""
+
+    source: Path
+    folder: Path
+    first_index: int
+    count: int
+    preset: str
+    preset_options: dict
+    seed: int
+    warp_options: dict
+    box_step: float
+    labels: dict | None
+    max_pixels: int
+
+
+@dataclasses.dataclass(frozen=True)
+class AugmentOutcome:
+    """The temporary files written (temporary, final) and the labels entries, or an error."""
+
+    written: tuple[tuple[str, str], ...] = ()
+    labels: dict = dataclasses.field(default_factory=dict)
+    error: str | None = None
+
+
+def _names(task: AugmentTask) -> list[Path]:
+    width = max(3, len(str(task.count - 1)))
+    stem, suffix = task.source.stem, task.source.suffix
+    return [task.folder / f"{stem}_{k:0{width}d}{suffix}" for k in range(task.count)]
+
+
+def augment_file(task: AugmentTask) -> AugmentOutcome:
+    """Read one image, deform it ``count`` times, write the results under temporary names
+    beside their final ones; a mistake in the input is an outcome with ``error``."""
+    written: list[tuple[str, str]] = []
+    try:
+        image = read_image(task.source, task.max_pixels)
+        targets = _names(task)
+        channels = 1 if image.ndim == 2 else image.shape[2]
+        try:
+            for target in targets:
+                check_writable(target, image.dtype, channels)
+            aug = Augment(
+                task.preset,
+                seed=task.seed,
+                warp_options=task.warp_options,
+                box_step=task.box_step,
+                **task.preset_options,
+            )
+            labels = task.labels or {}
+            keypoints = labels.get("keypoints")
+            boxes = labels.get("boxes")
+            result = aug(
+                np.stack([image] * task.count),
+                keypoints=None if keypoints is None else [keypoints] * task.count,
+                boxes=None if boxes is None else [boxes] * task.count,
+                indices=range(task.first_index, task.first_index + task.count),
+            )
+        except (TypeError, ValueError) as error:
+            raise UsageError(f"{task.source}: {error}") from None
+        entries = {}
+        for k, target in enumerate(targets):
+            fd, name = tempfile.mkstemp(
+                prefix=f".{target.name}.", suffix=target.suffix, dir=task.folder
+            )
+            os.close(fd)
+            written.append((name, str(target)))
+            imwrite(name, result.images[k])
+            entry: dict = {"source": task.source.name, "params": result.params[k]}
+            if keypoints is not None:
+                entry["keypoints"] = np.asarray(result.keypoints[k]).tolist()
+                entry["keypoints_valid"] = np.asarray(result.keypoints_valid[k]).tolist()
+            if boxes is not None:
+                entry["boxes"] = np.asarray(result.boxes[k]).tolist()
+                entry["boxes_valid"] = np.asarray(result.boxes_valid[k]).tolist()
+            entries[target.name] = entry
+    except (UsageError, OSError) as error:
+        for name, _ in written:
+            Path(name).unlink(missing_ok=True)
+        return AugmentOutcome(error=str(error))
+    return AugmentOutcome(tuple(written), entries)
+
+
+def read_labels(path: str, files: list[Path]) -> dict[str, dict]:
+    """The labels file: per input file name, its ``keypoints`` and ``boxes`` as lists;
+    :class:`UsageError` naming what is wrong."""
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise UsageError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise UsageError(f"{path}: not a JSON labels file: {error}") from None
+    if not isinstance(data, dict):
+        raise UsageError(f"{path}: expected an object keyed by image file name")
+    known = {f.name for f in files}
+    for name, entry in data.items():
+        if name not in known:
+            raise UsageError(f"{path}: {name!r} names no input image")
+        if not isinstance(entry, dict) or set(entry) - {"keypoints", "boxes"}:
+            raise UsageError(f"{path}: {name!r} must hold 'keypoints' and/or 'boxes' only")
+        for key, columns in (("keypoints", 2), ("boxes", 4)):
+            if key not in entry:
+                continue
+            try:
+                array = np.asarray(entry[key], dtype=np.float64).reshape(-1, columns)
+            except (TypeError, ValueError):
+                raise UsageError(
+                    f"{path}: {name!r} {key} must be a list of [{columns} numbers]"
+                ) from None
+            if not np.isfinite(array).all():
+                raise UsageError(f"{path}: {name!r} {key} holds values that are not finite")
+            entry[key] = array.tolist()
+    return data
+
+
+def _preset_options(args: argparse.Namespace) -> dict:
+    return {name: getattr(args, name) for name in PRESET_FLAGS if getattr(args, name) is not None}
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        jobs, scheduler = check_jobs(args.jobs), check_scheduler(args.scheduler)
+    except (ImportError, TypeError, ValueError) as error:
+        raise UsageError(str(error)) from None
+    warp_options = {
+        "transform": args.transform,
+        "interpolation": args.interpolation,
+        "border": args.border,
+    }
+    try:  # the configuration, checked before any work
+        Augment(
+            args.preset,
+            seed=args.seed,
+            warp_options=warp_options,
+            box_step=args.box_step,
+            **_preset_options(args),
+        )
+    except (TypeError, ValueError) as error:
+        raise UsageError(str(error)) from None
+    files, _ = image_inputs(args.input)
+    labels = read_labels(args.labels, files) if args.labels else {}
+    folder = Path(args.output)
+    if folder.exists() and not folder.is_dir():
+        raise UsageError(f"{folder}: must be a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise OSError(f"{folder}: cannot make the folder: {error.strerror or error}") from None
+    tasks = [
+        AugmentTask(
+            source,
+            folder,
+            i * args.n,
+            args.n,
+            args.preset,
+            _preset_options(args),
+            args.seed,
+            warp_options,
+            args.box_step,
+            labels.get(source.name),
+            args.max_pixels,
+        )
+        for i, source in enumerate(files)
+    ]
+    written: list[tuple[str, str]] = []
+    entries: dict = {}
+
+    def finished(index: int, outcome: AugmentOutcome) -> None:
+        written.extend(outcome.written)
+        if outcome.error is not None:
+            raise UsageError(outcome.error)
+
+    try:
+        outcomes = run_jobs(augment_file, tasks, jobs=jobs, scheduler=scheduler, on_result=finished)
+        for outcome in outcomes:  # in the order of the inputs, however the work was shared
+            entries.update(outcome.labels)
+        fd, name = tempfile.mkstemp(prefix=f".{LABELS_NAME}.", suffix=".json", dir=folder)
+        with os.fdopen(fd, "w", encoding="utf-8") as stream:
+            json.dump(entries, stream, indent=1)
+        written.append((name, str(folder / LABELS_NAME)))
+    except BaseException:
+        for temporary, _ in written:
+            Path(temporary).unlink(missing_ok=True)
+        raise
+    for temporary, final in written:
+        os.chmod(temporary, 0o666 & ~umask())
+        os.replace(temporary, final)
+    for outcome in outcomes:  # the images, in the order of the inputs
+        for _, final in outcome.written:
+            print(final, flush=True)
+    say(args, f"glmls augment: {len(written) - 1} images and {folder / LABELS_NAME}")
+    sys.stdout.flush()
+    return 0

@@ -1,0 +1,183 @@
+"""The adapters of glmls.augment: an albumentations DualTransform, a torchvision v2 Transform
+and torch tensors in and out of Augment. Each follows its library's contract, draws from that
+library's random numbers, and deforms every target through the same map as
+Augment.replay with the draw it reports."""
+
+from __future__ import annotations
+
+import doctest
+import importlib
+import importlib.util
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from glmls.augment import Augment
+
+os.environ.setdefault("NO_ALBUMENTATIONS_UPDATE", "1")  # no version check over the network
+
+A = pytest.importorskip("albumentations", reason="albumentations not installed (the extra)")
+torch = pytest.importorskip("torch", reason="torch not installed (the torch extra)")
+tv_tensors = pytest.importorskip("torchvision.tv_tensors", reason="torchvision not installed")
+
+from glmls.augment.albumentations import MLSDeform  # noqa: E402
+from glmls.augment.torchvision import MLSTransform  # noqa: E402
+
+
+@pytest.mark.parametrize("module", ["glmls.augment.albumentations", "glmls.augment.torchvision"])
+def test_the_examples_run(gl, module):
+    flags = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
+    result = doctest.testmod(importlib.import_module(module), optionflags=flags)
+    assert result.failed == 0 and result.attempted > 5
+
+
+@pytest.fixture
+def sample(rng):
+    image = rng.integers(0, 255, (40, 64, 3), dtype=np.uint8)
+    mask = np.zeros((40, 64), np.uint8)
+    mask[10:30, 20:50] = 5
+    return image, mask
+
+
+def test_albumentations_compose_moves_every_target_through_one_map(gl, sample):
+    image, mask = sample
+    transform = MLSDeform("grid", preset_options={"displacement": 0.05})
+    compose = A.Compose(
+        [transform],
+        keypoint_params=A.KeypointParams(format="xy", remove_invisible=False),
+        bbox_params=A.BboxParams(format="pascal_voc", label_fields=["labels"]),
+        seed=3,
+    )
+    points = [(30.0, 20.0), (10.0, 5.0)]
+    out = compose(image=image, mask=mask, keypoints=points, bboxes=[(20, 10, 50, 30)], labels=[1])
+    draw = transform.get_applied_params()["mls"]
+    aug = transform.augment
+    expected = aug.replay(
+        [image],
+        [draw],
+        keypoints=[np.array(points)],
+        masks=[mask],
+        boxes=[[[19.5, 9.5, 49.5, 29.5]]],
+    )
+    np.testing.assert_array_equal(out["image"], expected.images[0])
+    np.testing.assert_array_equal(out["mask"], expected.masks[0])
+    np.testing.assert_allclose(out["keypoints"], expected.keypoints[0], atol=1e-4)
+    np.testing.assert_allclose(out["bboxes"][0], expected.boxes[0][0] + 0.5, atol=1e-3)
+    assert set(np.unique(out["mask"])) <= {0, 5}
+    # the same seed, the same draw; another seed, another
+    again = A.Compose([MLSDeform("grid", preset_options={"displacement": 0.05})], seed=3)
+    np.testing.assert_array_equal(again(image=image)["image"], out["image"])
+    other = A.Compose([MLSDeform("grid", preset_options={"displacement": 0.05})], seed=4)
+    assert not np.array_equal(other(image=image)["image"], out["image"])
+
+
+def test_albumentations_landmarks_and_text_presets(gl, sample):
+    image, _ = sample
+    compose = A.Compose(
+        [MLSDeform("landmarks", preset_options={"displacement": 3, "units": "pixels"})],
+        keypoint_params=A.KeypointParams(format="xy", remove_invisible=False),
+        seed=0,
+    )
+    out = compose(image=image, keypoints=[(30.0, 20.0)])
+    assert out["image"].shape == image.shape and len(out["keypoints"]) == 1
+    for name in ("text-distort", "text-stretch", "text-perspective"):
+        assert A.Compose([MLSDeform(name)], seed=0)(image=image)["image"].shape == image.shape
+
+
+def test_torchvision_batch_draws_per_sample(gl, rng):
+    images = torch.from_numpy(rng.integers(0, 255, (3, 3, 24, 40), dtype=np.uint8))
+    masks = torch.zeros(3, 24, 40, dtype=torch.int64)
+    masks[:, 5:15, 10:30] = 9
+    points = torch.tensor([[[12.0, 10.0], [30.0, 14.0]]] * 3)
+    inputs = (
+        tv_tensors.Image(images),
+        tv_tensors.Mask(masks),
+        tv_tensors.KeyPoints(points, canvas_size=(24, 40)),
+    )
+    transform = MLSTransform("grid", displacement=0.06)
+    torch.manual_seed(0)
+    out_images, out_masks, out_points = transform(*inputs)
+    params = transform.last_params
+    assert len({str(p["dst"]) for p in params}) == 3  # a draw per sample
+    assert isinstance(out_images, tv_tensors.Image) and out_images.dtype == torch.uint8
+    assert isinstance(out_masks, tv_tensors.Mask) and out_masks.dtype == torch.int64
+    assert isinstance(out_points, tv_tensors.KeyPoints) and out_points.canvas_size == (24, 40)
+    expected = transform.augment.replay(
+        np.moveaxis(images.numpy(), 1, -1),
+        params,
+        keypoints=points.numpy(),
+        masks=masks.numpy(),
+    )
+    np.testing.assert_array_equal(np.moveaxis(out_images.numpy(), 1, -1), expected.images)
+    np.testing.assert_array_equal(out_masks.numpy(), expected.masks)
+    np.testing.assert_allclose(out_points.numpy(), expected.keypoints, atol=1e-5)
+    torch.manual_seed(0)
+    np.testing.assert_array_equal(transform(inputs[0]).numpy(), out_images.numpy())
+
+
+def test_torchvision_boxes_per_sample_in_any_format(gl, rng):
+    image = tv_tensors.Image(torch.from_numpy(rng.random((3, 32, 32), dtype=np.float32)))
+    boxes = tv_tensors.BoundingBoxes(
+        torch.tensor([[4.0, 6.0, 10.0, 8.0]]), format="XYWH", canvas_size=(32, 32)
+    )
+    transform = MLSTransform("grid", displacement=0.0)
+    out_image, out_boxes = transform(image, boxes)
+    assert out_boxes.format == tv_tensors.BoundingBoxFormat.XYWH
+    np.testing.assert_allclose(out_boxes.numpy(), boxes.numpy(), atol=1e-4)
+    assert out_image.dtype == torch.float32
+    moved = MLSTransform("grid", displacement=0.1)
+    torch.manual_seed(1)
+    _, shifted = moved(image, boxes)
+    assert not torch.allclose(shifted, boxes)
+    with pytest.raises(ValueError, match="2 BoundingBoxes for 3 samples"):
+        moved(tv_tensors.Image(torch.zeros(3, 1, 8, 8)), boxes, boxes)
+
+
+def test_torchvision_landmarks_and_a_single_image(gl):
+    image = tv_tensors.Image(torch.zeros(1, 16, 16, dtype=torch.uint8))
+    marks = tv_tensors.KeyPoints(torch.tensor([[8.0, 8.0]]), canvas_size=(16, 16))
+    transform = MLSTransform("landmarks", displacement=2.0, units="pixels")
+    _, moved = transform(image, marks)
+    dst = np.asarray(transform.last_params[0]["dst"][0])
+    np.testing.assert_allclose(moved.numpy()[0], dst, atol=0.05)
+
+
+def test_augment_takes_and_gives_torch_tensors(gl, rng):
+    images = torch.from_numpy(rng.integers(0, 255, (2, 3, 16, 24), dtype=np.uint8))
+    points = torch.tensor([[[4.0, 4.0]], [[10.0, 8.0]]], dtype=torch.float32)
+    aug = Augment("grid", seed=1)
+    out = aug(images, keypoints=points, boxes=torch.tensor([[[2.0, 2.0, 9.0, 9.0]]] * 2))
+    assert isinstance(out.images, torch.Tensor) and out.images.shape == images.shape
+    assert out.images.dtype == torch.uint8 and out.keypoints.dtype == torch.float32
+    assert isinstance(out.boxes, torch.Tensor) and out.boxes_valid.dtype == torch.bool
+    plain = aug(np.moveaxis(images.numpy(), 1, -1), keypoints=points.numpy())
+    np.testing.assert_array_equal(np.moveaxis(out.images.numpy(), 1, -1), plain.images)
+    again = aug.replay(images, out.params)
+    assert torch.equal(again.images, out.images)
+
+
+def test_importing_torchvision_after_mesas_llvm_is_an_import_error(tmp_path):
+    """Where the GL context is llvmpipe and triton is installed, importing the adapter after
+    glmls's first context raises instead of letting triton crash the process."""
+    code = (
+        "import sys, numpy as np, glmls\n"
+        "glmls.warp(np.zeros((8, 8), np.uint8), [[1, 1]], [[2, 2]])\n"
+        "maps = open('/proc/self/maps').read()\n"
+        "if 'libLLVM' not in maps or 'triton' in sys.modules:\n"
+        "    print('no clash here'); sys.exit(0)\n"
+        "try:\n"
+        "    import glmls.augment.torchvision\n"
+        "except ImportError as error:\n"
+        "    print(error); sys.exit(0)\n"
+        "sys.exit(3)\n"
+    )
+    if importlib.util.find_spec("triton") is None:
+        pytest.skip("triton is not installed: nothing clashes")
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=tmp_path
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "no clash here" in done.stdout or "before glmls makes its first" in done.stdout

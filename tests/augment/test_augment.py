@@ -1,0 +1,206 @@
+"""glmls.augment.Augment: presets, reproducibility by (seed, index), replay through JSON,
+labels (keypoints, masks, boxes, polygons) through the map that placed the pixels, and bad
+input named by its index."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import glmls
+from glmls.augment import (
+    PRESETS,
+    Augment,
+    AugmentResult,
+    GridPreset,
+    LandmarksPreset,
+    TextDistortPreset,
+    TextPerspectivePreset,
+    TextStretchPreset,
+)
+
+
+@pytest.fixture
+def images(rng):
+    return rng.integers(0, 255, (5, 24, 40, 3), dtype=np.uint8)
+
+
+@pytest.mark.parametrize("name", ["grid", "text-distort", "text-stretch", "text-perspective"])
+def test_any_part_of_a_batch_equals_the_whole(gl, images, name):
+    aug = Augment(name, seed=11)
+    whole = aug(images)
+    part = aug(images[[3, 1]], indices=[3, 1])
+    assert isinstance(whole, glmls.BatchResult) and isinstance(whole, AugmentResult)
+    np.testing.assert_array_equal(part.images[0], whole.images[3])
+    np.testing.assert_array_equal(part.images[1], whole.images[1])
+    assert part.params[0] == whole.params[3]
+    assert not np.array_equal(whole.images[0], images[0])  # it did deform
+
+
+def test_another_seed_draws_otherwise(gl, images):
+    first = Augment("grid", seed=0).draw([(24, 40)])[0]
+    second = Augment("grid", seed=1).draw([(24, 40)])[0]
+    assert first["src"] == second["src"] and first["dst"] != second["dst"]
+
+
+def test_params_are_json_and_replay_exactly(gl, images, rng):
+    aug = Augment("text-distort", seed=4, warp_options={"interpolation": "nearest"})
+    keypoints = rng.uniform(2, 20, (5, 3, 2))
+    masks = rng.integers(0, 4, (5, 24, 40), dtype=np.uint8)
+    first = aug(images, keypoints=keypoints, masks=masks)
+    params = json.loads(json.dumps(first.params))
+    again = aug.replay(images, params, keypoints=keypoints, masks=masks)
+    np.testing.assert_array_equal(again.images, first.images)
+    np.testing.assert_array_equal(again.keypoints, first.keypoints)
+    np.testing.assert_array_equal(again.masks, first.masks)
+    # the params alone make the same deformation with warp_batch
+    src = [p["src"] for p in params]
+    dst = [p["dst"] for p in params]
+    np.testing.assert_array_equal(
+        glmls.warp_batch(images, src, dst, **params[0]["options"]), first.images
+    )
+    assert params[0]["options"]["interpolation"] == "nearest"
+    assert params[0]["config"] == {"segments": 4, "radius": None}
+
+
+def test_masks_keep_their_labels(gl, images, rng):
+    masks = np.zeros((5, 24, 40), np.uint8)
+    masks[:, 6:18, 10:30] = 7
+    masks[:, 8:12, 12:16] = 3
+    out = Augment("grid", seed=2, displacement=0.1)(images, masks=masks)
+    assert set(np.unique(out.masks)) <= {0, 3, 7}
+
+
+def test_keypoints_and_boxes_follow_the_pixels(gl):
+    """A bright square: the moved keypoint sits on it and the moved box holds it."""
+    image = np.zeros((48, 64), np.float32)
+    image[18:26, 28:36] = 1.0
+    images = np.stack([image] * 3)
+    box = [27.5, 17.5, 35.5, 25.5]
+    out = Augment("grid", seed=5, displacement=0.06, warp_options={"interpolation": "nearest"})(
+        images, keypoints=np.full((3, 1, 2), [31.5, 21.5]), boxes=np.array([[box]] * 3)
+    )
+    assert out.boxes.shape == (3, 1, 4) and out.boxes_valid.all()
+    for i in range(3):
+        rows, cols = np.nonzero(out.images[i] > 0.5)
+        x, y = out.keypoints[i, 0]
+        assert out.images[i][round(y), round(x)] == 1.0
+        x0, y0, x1, y1 = out.boxes[i, 0]
+        assert x0 <= cols.min() and cols.max() <= x1 and y0 <= rows.min() and rows.max() <= y1
+        assert x1 - x0 < (cols.max() - cols.min()) + 3 and y1 - y0 < (rows.max() - rows.min()) + 3
+
+
+def test_boxes_leaving_the_canvas_are_clipped_and_flagged(gl):
+    images = np.zeros((2, 20, 20), np.uint8)
+    boxes = [np.array([[2.0, 2.0, 8.0, 8.0], [-30.0, -30.0, -20.0, -20.0]]), np.zeros((0, 4))]
+    out = Augment("grid", seed=0, displacement=0.0)(images, boxes=boxes)
+    assert isinstance(out.boxes, list) and out.boxes[1].shape == (0, 4)
+    assert out.boxes_valid[0].tolist() == [True, False]
+    np.testing.assert_allclose(out.boxes[0][0], [2, 2, 8, 8], atol=1e-6)
+    assert (out.boxes[0][1] == [-0.5, -0.5, -0.5, -0.5]).all()
+
+
+def test_polygons_move_densified_and_clipped(gl):
+    images = np.zeros((1, 30, 30), np.uint8)
+    square = np.array([[5.0, 5.0], [25.0, 5.0], [25.0, 25.0], [5.0, 25.0]])
+    plain = Augment("grid", seed=1, displacement=0.0)(images, polygons=[[square]])
+    np.testing.assert_allclose(plain.polygons[0][0], square, atol=1e-6)
+    dense = Augment("grid", seed=1, displacement=0.0, densify=5.0)(images, polygons=[[square]])
+    assert len(dense.polygons[0][0]) == 16
+    outside = square + [-20.0, 0.0]
+    clipped = Augment("grid", seed=1, displacement=0.0)(images, polygons=[[outside]])
+    assert clipped.polygons[0][0][:, 0].min() == -0.5
+
+
+def test_landmarks_preset_moves_the_given_landmarks(gl, rng):
+    images = rng.integers(0, 255, (2, 32, 32), dtype=np.uint8)
+    marks = np.array([[[10.0, 10.0], [20.0, 22.0]]] * 2)
+    out = Augment("landmarks", seed=3, displacement=2, units="pixels")(images, keypoints=marks)
+    for i in range(2):
+        dst = np.asarray(out.params[i]["dst"])[:2]
+        np.testing.assert_allclose(out.keypoints[i], dst, atol=0.05)
+    with pytest.raises(ValueError, match="landmarks"):
+        Augment("landmarks")(images)
+
+
+def test_ragged_batches_give_lists(gl, rng):
+    images = [rng.integers(0, 255, (20, 30), dtype=np.uint8), np.zeros((16, 16), np.uint8)]
+    out = Augment("grid")(images, keypoints=[np.array([[3.0, 4.0]]), np.zeros((0, 2))])
+    assert isinstance(out.images, list) and out.images[1].shape == (16, 16)
+    assert out.keypoints[1].shape == (0, 2)
+
+
+def test_preset_objects_and_their_options():
+    aug = Augment(TextStretchPreset(segments=6), seed=1)
+    assert aug.preset.segments == 6
+    assert Augment("text-perspective", radius=3.0).preset == TextPerspectivePreset(radius=3.0)
+    assert set(PRESETS) == {"grid", "text-distort", "text-stretch", "text-perspective", "landmarks"}
+    with pytest.raises(TypeError, match="rows"):
+        Augment("text-distort", rows=3)
+    with pytest.raises(TypeError, match="preset object"):
+        Augment(GridPreset(), rows=3)
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda: Augment("wave"), "unknown preset 'wave'; expected one of grid, text-distort"),
+        (lambda: GridPreset(rows=1), "rows must be an integer >= 2, got 1"),
+        (lambda: GridPreset(displacement=float("nan")), "displacement must be a finite"),
+        (lambda: GridPreset(units="cm"), "units must be one of fraction, pixels, got 'cm'"),
+        (lambda: TextDistortPreset(segments=0), "segments must be an integer >= 1, got 0"),
+        (lambda: TextDistortPreset(radius=-1), "radius must be a finite number >= 0, got -1"),
+        (lambda: LandmarksPreset(pin_corners="yes"), "pin_corners must be True or False"),
+        (lambda: Augment("grid", seed=-1), "seed must be an integer >= 0, got -1"),
+        (lambda: Augment("grid", box_step=0), "box_step must be a finite number > 0, got 0"),
+    ],
+)
+def test_bad_configuration_names_the_value(make, message):
+    with pytest.raises(ValueError, match=message.replace("(", r"\(")):
+        make()
+
+
+def test_bad_input_names_the_item(gl, images):
+    aug = Augment("grid")
+    with pytest.raises(ValueError, match="empty batch"):
+        aug(images[:0])
+    with pytest.raises(ValueError, match="empty batch"):
+        aug([])
+    floats = images.astype(np.float32)
+    floats[2, 3, 4, 0] = np.nan
+    with pytest.raises(ValueError, match=r"images\[2\] holds values that are not finite"):
+        aug(floats)
+    with pytest.raises(ValueError, match=r"images\[1\] has shape \(0, 5\)"):
+        aug([images[0], np.zeros((0, 5), np.uint8)])
+    points = np.ones((5, 2, 2))
+    points[3, 1, 0] = np.nan
+    with pytest.raises(ValueError, match=r"keypoints\[3\] holds values that are not finite"):
+        aug(images, keypoints=points)
+    with pytest.raises(ValueError, match=r"keypoints\[0\] has shape \(3,\)"):
+        aug(images[:1], keypoints=[np.ones(3)])
+    with pytest.raises(ValueError, match=r"boxes\[1\] has shape \(1, 3\)"):
+        aug(images[:2], boxes=[np.ones((1, 4)), np.ones((1, 3))])
+    with pytest.raises(ValueError, match=r"boxes\[0\] holds values that are not finite"):
+        aug(images[:1], boxes=[[[0, 0, np.inf, 1]]])
+    with pytest.raises(ValueError, match=r"indices\[1\] must be an integer >= 0, got -2"):
+        aug(images[:2], indices=[0, -2])
+    with pytest.raises(ValueError, match="indices holds 1 values for 2 images"):
+        aug(images[:2], indices=[0])
+    with pytest.raises(ValueError, match=r"params\[0\] was drawn for shape \(8, 8\)"):
+        aug.replay(images[:1], aug.draw([(8, 8)]))
+    with pytest.raises(ValueError, match=r"polygons\[0\]\[0\] has shape"):
+        aug(images[:1], polygons=[[np.ones((3, 3))]])
+
+
+def test_importing_glmls_imports_no_adapter_library():
+    code = (
+        "import sys, glmls, glmls.augment\n"
+        "print(sorted(m for m in ('torch', 'torchvision', 'albumentations') if m in sys.modules))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"

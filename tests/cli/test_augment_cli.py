@@ -1,0 +1,123 @@
+"""``glmls augment``, end to end in subprocesses: the images and labels it writes equal the
+API's for the same indices, whatever --jobs; bad input is one line and exit status 2, and a
+failed run leaves no output behind."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import run_glmls
+
+import glmls
+from glmls.augment import Augment
+
+
+def glmls_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return run_glmls(*args, cwd=cwd, module="glmls.cli")
+
+
+@pytest.fixture
+def inputs(tmp_path):
+    rng = np.random.default_rng(8)
+    folder = tmp_path / "in"
+    folder.mkdir()
+    glmls.imwrite(folder / "a.png", rng.integers(0, 256, (24, 40, 3), dtype=np.uint8))
+    glmls.imwrite(folder / "b.png", rng.integers(0, 256, (20, 32), dtype=np.uint8))
+    labels = {
+        "a.png": {"keypoints": [[10, 12], [30, 5]], "boxes": [[4, 4, 20, 16]]},
+        "b.png": {"keypoints": [[8, 8]]},
+    }
+    (tmp_path / "labels.json").write_text(json.dumps(labels))
+    return tmp_path
+
+
+def test_augment_writes_what_the_api_gives(inputs, gl):
+    result = glmls_cli(
+        "augment", "in", "out", "--n", "3", "--preset", "text-distort", "--seed", "5",
+        "--labels", "labels.json", cwd=inputs,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    names = sorted(p.name for p in (inputs / "out").iterdir())
+    expected_names = [f"{s}_{k:03d}.png" for s in "ab" for k in range(3)]
+    assert names == sorted([*expected_names, "labels.json"])
+    assert result.stdout.split() == [str(Path("out") / n) for n in expected_names]
+    labels = json.loads((inputs / "out" / "labels.json").read_text())
+    aug = Augment("text-distort", seed=5)
+    image = glmls.imread(inputs / "in" / "a.png")
+    api = aug(
+        np.stack([image] * 3),
+        keypoints=[[[10, 12], [30, 5]]] * 3,
+        boxes=[[[4, 4, 20, 16]]] * 3,
+        indices=[0, 1, 2],
+    )
+    for k in range(3):
+        name = f"a_{k:03d}.png"
+        np.testing.assert_array_equal(glmls.imread(inputs / "out" / name), api.images[k])
+        np.testing.assert_allclose(labels[name]["keypoints"], api.keypoints[k])
+        np.testing.assert_allclose(labels[name]["boxes"], api.boxes[k])
+        assert labels[name]["params"] == api.params[k]
+    grey = glmls.imread(inputs / "in" / "b.png")
+    b = aug(grey[None], keypoints=[[[8, 8]]], indices=[4])  # second input: indices 3, 4, 5
+    np.testing.assert_array_equal(glmls.imread(inputs / "out" / "b_001.png"), b.images[0])
+    assert "boxes" not in labels["b_001.png"]
+    # the params replay the image exactly
+    replayed = aug.replay([image], [labels["a_002.png"]["params"]])
+    np.testing.assert_array_equal(replayed.images[0], api.images[2])
+
+
+def test_augment_with_jobs_gives_the_same(inputs):
+    one = glmls_cli("augment", "in", "one", "--n", "2", "--seed", "1", cwd=inputs)
+    two = glmls_cli("augment", "in", "two", "--n", "2", "--seed", "1", "--jobs", "2", cwd=inputs)
+    assert one.returncode == 0 and two.returncode == 0, one.stderr + two.stderr
+    assert one.stdout.replace("one", "two") == two.stdout  # the same files, in input order
+    for name in ("a_000.png", "a_001.png", "b_000.png", "b_001.png"):
+        first = glmls.imread(inputs / "one" / name)
+        np.testing.assert_array_equal(first, glmls.imread(inputs / "two" / name))
+    assert (inputs / "one" / "labels.json").read_text() == (
+        inputs / "two" / "labels.json"
+    ).read_text()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--preset", "wave"], "invalid choice: 'wave'"),
+        (["--seed", "-1"], "seed must be an integer >= 0, got -1"),
+        (["--preset", "text-stretch", "--rows", "3"], "preset 'text-stretch' has no option rows"),
+        (["--displacement", "nan"], "displacement must be a finite number >= 0"),
+        (["--labels", "missing.json"], "missing.json: no such file"),
+        (["--labels", "bad.json"], "bad.json: not a JSON labels file"),
+        (["--labels", "other.json"], "'c.png' names no input image"),
+        (["--labels", "nan.json"], "keypoints holds values that are not finite"),
+        (["--preset", "landmarks"], "landmarks preset needs each image's landmarks"),
+    ],
+)
+def test_bad_input_is_one_line_and_status_2_and_leaves_nothing(inputs, args, message):
+    (inputs / "bad.json").write_text("{not json")
+    (inputs / "other.json").write_text(json.dumps({"c.png": {"keypoints": [[1, 1]]}}))
+    (inputs / "nan.json").write_text('{"a.png": {"keypoints": [[1, NaN]]}}')
+    result = glmls_cli("augment", "in", "out", "--n", "2", *args, cwd=inputs)
+    assert result.returncode == 2, result.stderr
+    assert message in result.stderr and "Traceback" not in result.stderr
+    if "invalid choice" not in message:
+        assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+    out = inputs / "out"
+    assert not out.exists() or not any(out.iterdir()), sorted(out.iterdir())
+
+
+def test_a_failure_midway_leaves_no_half_written_output(inputs):
+    (inputs / "in" / "c.png").write_bytes(b"not a png")  # read after a.png and b.png
+    result = glmls_cli("augment", "in", "out", "--n", "2", cwd=inputs)
+    assert result.returncode == 2 and "c.png" in result.stderr, result.stderr
+    assert not any((inputs / "out").iterdir())
+
+
+def test_augment_help_lists_the_presets(inputs):
+    result = glmls_cli("augment", "--help", cwd=inputs)
+    assert result.returncode == 0 and "examples:" in result.stdout
+    for name in ("grid", "text-distort", "text-stretch", "text-perspective", "landmarks"):
+        assert name in result.stdout
