@@ -42,6 +42,8 @@ POINT_BYTES = 12
 #: Bytes of one voxel's key (cells method) and source point (backward).
 KEY_BYTES = 4
 COORD_BYTES = 16
+#: Bytes of one voxel's slope (the guess's tetrahedron's inverse Jacobian, 3 vec4).
+SLOPE_BYTES = 48
 _NO_KEY = b"\xff\xff\xff\xff"
 
 
@@ -281,7 +283,7 @@ class VolumeWarper:
         try:
             backward = options.method == "backward"
             bands = self._bands(field, source.shape, frame, options, slabs)
-            per_voxel = COORD_BYTES if backward else KEY_BYTES
+            per_voxel = COORD_BYTES + SLOPE_BYTES if backward else KEY_BYTES
             for slab in self.slabs(frame, max(per_voxel, source.voxel_bytes), slabs.slab_bytes):
                 target = self._target(slab, source)
                 defines = {
@@ -329,7 +331,7 @@ class VolumeWarper:
         frame = make_volume_frame(options, shape)
         bands = self._bands(field, shape, frame, options, slabs)
         points = np.empty((*frame.shape, 4), np.float32)
-        for slab in self.slabs(frame, COORD_BYTES, slabs.slab_bytes):
+        for slab in self.slabs(frame, COORD_BYTES + SLOPE_BYTES, slabs.slab_bytes):
             coords = self._solve(field, bands, frame, slab, options, shape)
             raw = coords.read(size=slab.voxels * COORD_BYTES)
             points[slab.first : slab.first + slab.depth] = np.frombuffer(raw, np.float32).reshape(
@@ -414,6 +416,8 @@ class VolumeWarper:
         the cells' first guess, refined by the field's Newton's method."""
         coords = self._resources.buffer("volume_coords", slab.voxels * COORD_BYTES)
         coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
+        slopes = self._resources.buffer("volume_slopes", slab.voxels * SLOPE_BYTES)
+        slopes.bind_to_storage_buffer(bindings.VOLUME_SLOPES.index)
         defines = {"WARP_BORDER": BORDERS.index(options.border)}
         uniforms = {"u_volume_size": shape[::-1]}
         self._cells(bands, frame, slab, defines, uniforms, coords=True)
