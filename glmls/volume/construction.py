@@ -18,9 +18,7 @@ Every pass computes each voxel from the same inputs whatever the slab and band i
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterator
-from dataclasses import dataclass
 
 import moderngl
 import numpy as np
@@ -30,167 +28,19 @@ from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import run_1d, set_uniforms
 from ..gl.resources import Resources
 from ..imaging.source import BORDERS
+from .bands import KEY_BYTES, POINT_BYTES, LatticeBands, Slab, border_margin3
 from .fields import Field
 from .frame import CornerLattice, VolumeFrame
 from .options import SlabOptions, VolumeOptions
 from .source import SourceVolume, prepare_volume, volume_background
 
-__all__ = ["LatticeBands", "Slab", "VolumeWarper", "border_margin3"]
+__all__ = ["VolumeWarper", "make_volume_frame"]
 
-#: Bytes of one lattice point in the band buffer (3 float32).
-POINT_BYTES = 12
-#: Bytes of one voxel's key (cells method) and source point (backward).
-KEY_BYTES = 4
+#: Bytes of one voxel's source point (backward).
 COORD_BYTES = 16
 #: Bytes of one voxel's slope (the guess's tetrahedron's inverse Jacobian, 3 vec4).
 SLOPE_BYTES = 48
 _NO_KEY = b"\xff\xff\xff\xff"
-
-
-@dataclass(frozen=True)
-class Slab:
-    """Output slices ``first`` .. ``first + depth - 1`` of a frame of (W, H) voxels a slice."""
-
-    first: int
-    depth: int
-    width: int
-    height: int
-
-    @property
-    def voxels(self) -> int:
-        return self.depth * self.width * self.height
-
-    @property
-    def size(self) -> tuple[int, int, int]:
-        return self.width, self.height, self.depth
-
-
-def border_margin3(field: Field, lattice: CornerLattice, frame: VolumeFrame) -> int:
-    """The margin (voxels, a multiple of the grid) that ``lattice`` needs past the volume so
-    that its deformed image reaches past every voxel of ``frame``: the largest displacement
-    on the lattice's faces (sampled, at most 33 x 33 points a face) plus the frame's
-    overhang past the volume plus one voxel, at most that overhang plus twice the volume's
-    largest side."""
-    grid = lattice.grid
-    d, h, w = lattice.shape
-    low = np.array(frame.origin_voxels)
-    high = low + np.array(frame.shape[::-1]) - 1
-    size = np.array([w, h, d], dtype=float)
-    overhang = float(max(0.0, np.max(-0.5 - low), np.max(high - size + 0.5)))
-    faces = []
-    axes = [np.linspace(-0.5, n - 0.5, min(33, n + 1)) for n in (w, h, d)]
-    for axis in range(3):
-        others = [a for a in range(3) if a != axis]
-        grid_a, grid_b = np.meshgrid(axes[others[0]], axes[others[1]], indexing="ij")
-        for end in (-0.5, size[axis] - 0.5):
-            face = np.empty((grid_a.size, 3))
-            face[:, axis] = end
-            face[:, others[0]] = grid_a.ravel()
-            face[:, others[1]] = grid_b.ravel()
-            faces.append(face)
-    points = np.concatenate(faces)
-    moved = field.evaluate(points) - points
-    reach = float(np.max(np.abs(moved))) if np.all(np.isfinite(moved)) else 0.0
-    limit = overhang + 2 * max(w, h, d)
-    margin = min(reach + overhang + 1, limit)
-    return int(grid * max(1, math.ceil(margin / grid)))
-
-
-class LatticeBands:
-    """f on a lattice, held band by band of z layers in one buffer of at most ``band_bytes``.
-
-    Made once per warp: it evaluates every band once to learn the z range (source voxels)
-    that each layer of cells reaches, so that each slab evaluates only the bands that reach
-    it; where the whole lattice fits in one band it is evaluated once and kept."""
-
-    def __init__(
-        self, field: Field, lattice: CornerLattice, buffer: moderngl.Buffer, band_bytes: int
-    ) -> None:
-        nx, ny, nz = lattice.dims
-        self.field = field
-        self.lattice = lattice
-        self.buffer = buffer
-        layer_bytes = nx * ny * POINT_BYTES
-        self.cell_layers = max(1, band_bytes // layer_bytes - 1)  # cell layers a band holds
-        if band_bytes // layer_bytes < 2:
-            raise ValueError(
-                f"a layer of {nx} x {ny} lattice points does not fit twice in the lattice "
-                f"buffer of {band_bytes} bytes; use a coarser grid"
-            )
-        if 6 * lattice.cell_count >= 0xFFFFFFFF:  # keys: 6 per cell, in 32 bits
-            raise ValueError(
-                f"a lattice of {lattice.cell_count} cells is more than the construction "
-                f"numbers (715,827,882); use a coarser grid"
-            )
-        cells = nz - 1
-        self.loaded: tuple[int, int] | None = None
-        low = np.full(nz, np.inf)
-        high = np.full(nz, -np.inf)
-        #: the box of every deformed point (x, y, z low, then high), source voxels
-        self.box = np.array([np.inf] * 3 + [-np.inf] * 3)
-        for first in range(0, cells, self.cell_layers):
-            layers = min(self.cell_layers, cells - first)
-            points = self._load(first, layers)
-            with np.errstate(all="ignore"):
-                good = points[np.all(np.isfinite(points), axis=1)]
-                if len(good):
-                    low_box = np.minimum(self.box[:3], good.min(0))
-                    self.box = np.concatenate([low_box, np.maximum(self.box[3:], good.max(0))])
-            z = points[:, 2].reshape(layers + 1, -1)
-            finite = np.where(np.isfinite(z), z, np.nan)
-            with np.errstate(all="ignore"):
-                low[first : first + layers + 1] = np.fmin(
-                    low[first : first + layers + 1], np.nanmin(finite, axis=1)
-                )
-                high[first : first + layers + 1] = np.fmax(
-                    high[first : first + layers + 1], np.nanmax(finite, axis=1)
-                )
-        #: per cell layer, the z range its deformed cells reach
-        self.low = np.fmin(low[:-1], low[1:])
-        self.high = np.fmax(high[:-1], high[1:])
-
-    def _load(self, first: int, layers: int) -> np.ndarray:
-        """Cell layers ``first`` .. ``first + layers - 1`` (their points) into the buffer;
-        returns them (K, 3) float32."""
-        nx, ny, _ = self.lattice.dims
-        count = (layers + 1) * nx * ny
-        self.field.fill(self.lattice, first, layers + 1, self.buffer)
-        self.loaded = (first, layers)
-        return np.frombuffer(self.buffer.read(size=count * POINT_BYTES), np.float32).reshape(-1, 3)
-
-    def load(self, first: int, layers: int) -> None:
-        """Make the buffer hold cell layers ``first`` .. ``first + layers - 1``."""
-        if self.loaded is not None:
-            held_first, held_layers = self.loaded
-            if held_first <= first and first + layers <= held_first + held_layers:
-                return
-        self.field.fill(self.lattice, first, layers + 1, self.buffer)
-        self.loaded = (first, layers)
-
-    @property
-    def band_first(self) -> int:
-        return self.loaded[0] if self.loaded is not None else 0
-
-    def bands_for(self, z_low: float, z_high: float) -> list[tuple[int, int]]:
-        """The bands (first cell layer, layers) of the cell layers that reach z from
-        ``z_low`` to ``z_high`` (source voxels): runs of such layers, cut to the buffer."""
-        with np.errstate(invalid="ignore"):
-            hit = (self.high >= z_low) & (self.low <= z_high)
-        layers = np.flatnonzero(hit)
-        if len(layers) == 0:
-            return []
-        if self.loaded is not None and self.loaded[1] >= len(self.low):
-            return [self.loaded]  # the whole lattice is held
-        out = []
-        start = prev = int(layers[0])
-        for layer in (*layers[1:].tolist(), None):
-            if layer is not None and layer == prev + 1 and layer - start < self.cell_layers:
-                prev = layer
-                continue
-            out.append((start, prev - start + 1))
-            if layer is not None:
-                start = prev = layer
-        return out
 
 
 class VolumeWarper:
@@ -282,9 +132,11 @@ class VolumeWarper:
         texture = self.upload(source)
         try:
             backward = options.method == "backward"
-            bands = self._bands(field, source.shape, frame, options, slabs)
             per_voxel = COORD_BYTES + SLOPE_BYTES if backward else KEY_BYTES
-            for slab in self.slabs(frame, max(per_voxel, source.voxel_bytes), slabs.slab_bytes):
+            planned = list(self.slabs(frame, max(per_voxel, source.voxel_bytes), slabs.slab_bytes))
+            survey = len(planned) > 1
+            bands = self._bands(field, source.shape, frame, options, slabs, survey=survey)
+            for slab in planned:
                 target = self._target(slab, source)
                 defines = {
                     "WARP_LINEAR": options.interpolation == "linear",
@@ -329,9 +181,10 @@ class VolumeWarper:
         self._resources.check_alive()
         slabs = slabs if slabs is not None else SlabOptions()
         frame = make_volume_frame(options, shape)
-        bands = self._bands(field, shape, frame, options, slabs)
         points = np.empty((*frame.shape, 4), np.float32)
-        for slab in self.slabs(frame, COORD_BYTES + SLOPE_BYTES, slabs.slab_bytes):
+        planned = list(self.slabs(frame, COORD_BYTES + SLOPE_BYTES, slabs.slab_bytes))
+        bands = self._bands(field, shape, frame, options, slabs, survey=len(planned) > 1)
+        for slab in planned:
             coords = self._solve(field, bands, frame, slab, options, shape)
             raw = coords.read(size=slab.voxels * COORD_BYTES)
             points[slab.first : slab.first + slab.depth] = np.frombuffer(raw, np.float32).reshape(
@@ -359,7 +212,7 @@ class VolumeWarper:
     def _max_groups(self) -> int:
         return self._gl.limits["max_work_groups_x"]
 
-    def _bands(self, field, shape, frame, options, slabs) -> LatticeBands:
+    def _bands(self, field, shape, frame, options, slabs, *, survey=True) -> LatticeBands:
         lattice = CornerLattice(shape, options.grid)
         if options.border != "constant":
             lattice = CornerLattice(shape, options.grid, border_margin3(field, lattice, frame))
@@ -367,7 +220,7 @@ class VolumeWarper:
         band_bytes = min(slabs.band_bytes, self._gl.limits["max_ssbo_size"])
         size = min(band_bytes, nx * ny * nz * POINT_BYTES)
         buffer = self._resources.buffer("volume_lattice", size)
-        return LatticeBands(field, lattice, buffer, band_bytes)
+        return LatticeBands(field, lattice, buffer, band_bytes, survey=survey)
 
     def _cells(self, bands: LatticeBands, frame, slab: Slab, defines, uniforms, *, coords: bool):
         """The cells method's two passes over ``slab``: keys, then the resolve pass (into the
@@ -393,7 +246,8 @@ class VolumeWarper:
             run_1d(raster, layers * ncx * ncy, max_groups=self._max_groups)
         program = self._gl.compute("volume/resolve.comp.glsl", defines | {"VOLUME_COORDS": coords})
         set_uniforms(program, common | uniforms)
-        for index, (first, layers) in enumerate(wanted or [(0, 0)]):
+        # the last band rastered is still held: resolved first
+        for index, (first, layers) in enumerate(wanted[::-1] or [(0, 0)]):
             if layers:
                 bands.load(first, layers)
             bands.buffer.bind_to_storage_buffer(bindings.VOLUME_LATTICE.index)

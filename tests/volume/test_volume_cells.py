@@ -92,6 +92,8 @@ def test_slabs_are_invisible(kernel3, rng, volume):
             whole = warp_volume(m, volume, options)
             sliced = warp_volume(m, volume, options, slabs=small)
             np.testing.assert_array_equal(whole, sliced)
+            banded = warp_volume(m, volume, options, slabs=SlabOptions(band_bytes=small.band_bytes))
+            np.testing.assert_array_equal(whole, banded)  # one slab, every band
 
 
 def test_kernel_field_fills_the_lattice_as_the_reference(kernel3, gl, rng, volume):
