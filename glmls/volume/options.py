@@ -12,6 +12,7 @@ import numpy as np
 
 from ..core.handles import COORDINATE_LIMIT
 from ..core.mesh import check_grid
+from ..imaging.options import Default
 from ..imaging.source import BORDERS, INTERPOLATIONS, check_background
 
 __all__ = ["VOLUME_METHODS", "SlabOptions", "VolumeOptions"]
@@ -188,8 +189,7 @@ class VolumeOptions:
                 f"unknown volume warp option{'s' if len(unknown) > 1 else ''} "
                 f"{', '.join(unknown)}; the options are {', '.join(sorted(fields))}"
             )
-        given = {k: v for k, v in keywords.items() if type(v).__name__ != "Default"}
-        given = {k: getattr(v, "wrapped", v) for k, v in given.items()}
+        given = {k: v for k, v in keywords.items() if not isinstance(v, Default)}
         if options is None:
             return cls(**given)  # type: ignore[arg-type]
         return dataclasses.replace(options, **given) if given else options  # type: ignore[arg-type]
