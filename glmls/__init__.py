@@ -11,7 +11,13 @@ warp pipeline) in :mod:`glmls.gl`, the float64 reference of the mathematics in
 :mod:`glmls.reference`.
 """
 
-from . import analysis, data, gl, reference
+from . import (
+    analysis,
+    data,
+    gl,
+    mls3,  # noqa: F401  (registers the MLS of (N, 3) handles)
+    reference,
+)
 from .core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
 from .core.handleset import HANDLE_KINDS, HandleSet
 from .core.mesh3 import DeformedMesh
@@ -30,7 +36,6 @@ from .imaging.frame import Bounds
 from .imaging.options import WarpOptions
 from .imaging.source import BORDERS, INTERPOLATIONS, METHODS
 from .mls import MLS, InverseMLS, warp
-from .mls3 import MLS3, InverseMLS3  # registers the MLS of 3D handles
 from .version import __version__
 
 __all__ = [
@@ -39,7 +44,6 @@ __all__ = [
     "INTERPOLATIONS",
     "METHODS",
     "MLS",
-    "MLS3",
     "RADIUS_WEIGHTS",
     "TRANSFORMS",
     "WEIGHTS",
@@ -53,7 +57,6 @@ __all__ = [
     "ImageWarning",
     "InputFileError",
     "InverseMLS",
-    "InverseMLS3",
     "MLSConfig",
     "ReleasedError",
     "WarpOptions",

@@ -1089,6 +1089,15 @@ class InverseMLS:
         return f"InverseMLS({self._forward!r}{grid})"
 
 
+# ``MLS.__new__`` picks the class of the handles' dimension; the signature is ``__init__``'s.
+MLS.__signature__ = inspect.signature(
+    MLS.__init__
+).replace(  # type: ignore[attr-defined]
+    parameters=list(inspect.signature(MLS.__init__).parameters.values())[1:],
+    return_annotation=inspect.Signature.empty,
+)
+
+
 def _points(points: object, name: str = "points") -> np.ndarray:
     return check_coordinates(as_points(points, name), name)
 

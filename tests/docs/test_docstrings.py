@@ -21,7 +21,15 @@ from numpydoc.validate import validate
 import glmls
 import glmls.volume
 
-MODULES = [glmls, glmls.analysis, glmls.gl, glmls.reference, glmls.data, glmls.volume]
+MODULES = [
+    glmls,
+    glmls.analysis,
+    glmls.gl,
+    glmls.reference,
+    glmls.data,
+    glmls.mls3,
+    glmls.volume,
+]
 
 #: The numpydoc.validate checks every public function passes: a docstring (GL08) with a
 #: summary (SS01) on one line (SS06) that ends with a period (SS03); every signature parameter
