@@ -18,6 +18,8 @@ __all__ = ["KEY_BYTES", "POINT_BYTES", "LatticeBands", "Slab", "border_margin3"]
 POINT_BYTES = 12
 #: Bytes of one voxel's key (6 cell + tetrahedron).
 KEY_BYTES = 4
+#: The survey of the lattice's bands reads them back this many bytes at a time.
+SURVEY_BYTES = 1 << 24
 
 
 @dataclass(frozen=True)
@@ -124,18 +126,25 @@ class LatticeBands:
         nz = self.cells + 1
         low = np.full(nz, np.inf)
         high = np.full(nz, -np.inf)
+        nx, ny, _ = self.lattice.dims
+        layer_bytes = nx * ny * POINT_BYTES
+        chunk = max(1, SURVEY_BYTES // layer_bytes)  # point layers read back at a time
         for first, layers in self.all_bands():
-            points = self._load(first, layers)
-            with np.errstate(all="ignore"):
-                good = points[np.all(np.isfinite(points), axis=1)]
-                if len(good):
-                    low_box = np.minimum(self.box[:3], good.min(0))
-                    self.box = np.concatenate([low_box, np.maximum(self.box[3:], good.max(0))])
-                z = points[:, 2].reshape(layers + 1, -1)
-                finite = np.where(np.isfinite(z), z, np.nan)
-                span = slice(first, first + layers + 1)
-                low[span] = np.fmin(low[span], np.nanmin(finite, axis=1))
-                high[span] = np.fmax(high[span], np.nanmax(finite, axis=1))
+            self.load(first, layers)
+            for start in range(0, layers + 1, chunk):
+                count = min(chunk, layers + 1 - start)
+                raw = self.buffer.read(size=count * layer_bytes, offset=start * layer_bytes)
+                points = np.frombuffer(raw, np.float32).reshape(count, -1, 3)
+                with np.errstate(all="ignore"):
+                    # NaN (a degenerate f) is left out: fmin and fmax skip it
+                    low_box = np.fmin.reduce(points, axis=(0, 1))
+                    high_box = np.fmax.reduce(points, axis=(0, 1))
+                    self.box = np.concatenate(
+                        [np.fmin(self.box[:3], low_box), np.fmax(self.box[3:], high_box)]
+                    )
+                    span = slice(first + start, first + start + count)
+                    low[span] = np.fmin(low[span], np.fmin.reduce(points[..., 2], axis=1))
+                    high[span] = np.fmax(high[span], np.fmax.reduce(points[..., 2], axis=1))
         self.low = np.fmin(low[:-1], low[1:])
         self.high = np.fmax(high[:-1], high[1:])
 
@@ -143,15 +152,6 @@ class LatticeBands:
         """Every band (first cell layer, layers)."""
         step = self.cell_layers
         return [(f, min(step, self.cells - f)) for f in range(0, self.cells, step)]
-
-    def _load(self, first: int, layers: int) -> np.ndarray:
-        """Cell layers ``first`` .. ``first + layers - 1`` (their points) into the buffer;
-        returns them (K, 3) float32."""
-        nx, ny, _ = self.lattice.dims
-        count = (layers + 1) * nx * ny
-        self.field.fill(self.lattice, first, layers + 1, self.buffer)
-        self.loaded = (first, layers)
-        return np.frombuffer(self.buffer.read(size=count * POINT_BYTES), np.float32).reshape(-1, 3)
 
     def load(self, first: int, layers: int) -> None:
         """Make the buffer hold cell layers ``first`` .. ``first + layers - 1``."""
