@@ -33,6 +33,7 @@ from .fields import Field
 from .frame import CornerLattice, VolumeFrame
 from .options import SlabOptions, VolumeOptions
 from .source import SourceVolume, prepare_volume, volume_background
+from .texture import SourceTexture, border_slices
 
 __all__ = ["VolumeWarper", "make_volume_frame"]
 
@@ -95,23 +96,6 @@ class VolumeWarper:
         for first in range(0, depth_all, depth):
             yield Slab(first, min(depth, depth_all - first), width, height)
 
-    # -- the source -----------------------------------------------------------------------
-
-    def upload(self, source: SourceVolume) -> moderngl.Texture3D:
-        """The source volume as a 3D texture (integer for uint8 and uint16)."""
-        d, h, w = source.shape
-        side = int(self._gl.mgl.info["GL_MAX_3D_TEXTURE_SIZE"])
-        if max(d, h, w) > side:
-            raise ValueError(
-                f"volume of {d} x {h} x {w} voxels exceeds the GL 3D texture size limit of "
-                f"{side} voxels per side on this device"
-            )
-        texture = self._gl.mgl.texture3d(
-            (w, h, d), source.channels, source.data, dtype=source.texture_dtype
-        )
-        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        return texture
-
     # -- the construction -----------------------------------------------------------------
 
     @current
@@ -129,7 +113,7 @@ class VolumeWarper:
         frame = make_volume_frame(options, source.shape)
         background = volume_background(options.background, source)
         out = source.empty_output(frame.shape)
-        texture = self.upload(source)
+        texture = SourceTexture(self._gl, source, slabs.texture_bytes)
         try:
             backward = options.method == "backward"
             per_voxel = COORD_BYTES + SLOPE_BYTES if backward else KEY_BYTES
@@ -150,17 +134,18 @@ class VolumeWarper:
                     "u_background": background,
                     "u_value_max": _value_max(source),
                 }
-                texture.use(bindings.VOLUME_SOURCE.index)
                 target.bind_to_image(bindings.VOLUME_TARGET.index, read=False, write=True)
                 if backward:
                     coords = self._solve(field, bands, frame, slab, options, source.shape)
+                    first = _hold_sampled(texture, coords, slab, options.border)
                     program = self._gl.compute("volume/sample.comp.glsl", defines)
                     coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
-                    set_uniforms(program, uniforms | {"u_slab_size": slab.size})
+                    held = {"u_slab_size": slab.size, "u_source_first": first}
+                    set_uniforms(program, uniforms | held)
                     self._gl.mgl.memory_barrier()
                     run_1d(program, slab.voxels, max_groups=self._max_groups)
                 else:
-                    self._cells(bands, frame, slab, defines, uniforms, coords=False)
+                    self._cells(bands, frame, slab, defines, uniforms, source=texture)
                 self._gl.mgl.memory_barrier()
                 self._read(target, slab, source, out)
         finally:
@@ -222,9 +207,19 @@ class VolumeWarper:
         buffer = self._resources.buffer("volume_lattice", size)
         return LatticeBands(field, lattice, buffer, band_bytes, survey=survey)
 
-    def _cells(self, bands: LatticeBands, frame, slab: Slab, defines, uniforms, *, coords: bool):
+    def _cells(
+        self,
+        bands: LatticeBands,
+        frame,
+        slab: Slab,
+        defines,
+        uniforms,
+        *,
+        source: SourceTexture | None = None,
+    ):
         """The cells method's two passes over ``slab``: keys, then the resolve pass (into the
-        slab texture, or with ``coords`` the coordinates buffer)."""
+        slab texture, sampling ``source``, or without it the coordinates buffer)."""
+        coords = source is None
         lattice = bands.lattice
         ox, oy, oz = frame.origin_voxels
         origin = (ox, oy, oz + slab.first)
@@ -250,6 +245,9 @@ class VolumeWarper:
         for index, (first, layers) in enumerate(wanted[::-1] or [(0, 0)]):
             if layers:
                 bands.load(first, layers)
+            if source is not None:
+                held = _hold_band(source, lattice, first, layers, defines["WARP_BORDER"])
+                set_uniforms(program, {"u_source_first": held})
             bands.buffer.bind_to_storage_buffer(bindings.VOLUME_LATTICE.index)
             keys.bind_to_storage_buffer(bindings.VOLUME_KEYS.index)
             set_uniforms(
@@ -274,7 +272,7 @@ class VolumeWarper:
         slopes.bind_to_storage_buffer(bindings.VOLUME_SLOPES.index)
         defines = {"WARP_BORDER": BORDERS.index(options.border)}
         uniforms = {"u_volume_size": shape[::-1]}
-        self._cells(bands, frame, slab, defines, uniforms, coords=True)
+        self._cells(bands, frame, slab, defines, uniforms)
         self._gl.mgl.memory_barrier()
         ox, oy, oz = frame.origin_voxels
         refine = getattr(field, "refine", None)
@@ -305,6 +303,31 @@ class VolumeWarper:
         raw = np.frombuffer(target.read(), dtype=source.data.dtype)
         values = raw.reshape(slab.depth, slab.height, slab.width, source.target_components)
         out[slab.first : slab.first + slab.depth] = values[..., : source.channels]
+
+
+def _hold_band(source: SourceTexture, lattice, first: int, layers: int, border: int) -> int:
+    """Hold the source slices that cell layers ``first`` .. ``first + layers - 1`` sample
+    (their voxels, one more each side for trilinear, by the border rule)."""
+    depth = source.source.shape[0]
+    if source.whole or layers == 0:
+        return source.hold(0, depth - 1 if source.whole else 0)
+    low = first * lattice.grid - lattice.margin - 1
+    high = (first + layers) * lattice.grid - lattice.margin
+    return source.hold(*border_slices(low, high, depth, BORDERS[border]))
+
+
+def _hold_sampled(source: SourceTexture, coords, slab: Slab, border: str) -> int:
+    """Hold the source slices that the points in ``coords`` (a slab's, read back) sample."""
+    depth = source.source.shape[0]
+    if source.whole:
+        return source.hold(0, depth - 1)
+    raw = np.frombuffer(coords.read(size=slab.voxels * COORD_BYTES), np.float32)
+    points = raw.reshape(-1, 4)
+    z = points[points[:, 3] >= 0, 2]
+    if len(z) == 0:
+        return source.hold(0, 0)
+    low, high = int(np.floor(z.min())), int(np.floor(z.max())) + 1
+    return source.hold(*border_slices(low, high, depth, border))
 
 
 def _value_max(source: SourceVolume) -> float:
