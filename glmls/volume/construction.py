@@ -12,8 +12,10 @@ deformed lattice is held band by band of z layers (:class:`LatticeBands`); then
   method on f refines them (the field's :meth:`refine`), and ``volume/sample.comp.glsl``
   samples the source there.
 
-Every pass computes each voxel from the same inputs whatever the slab and band it falls in
-(keys are global cell numbers): the slabbed result equals the one-piece result exactly.
+The source volume is one texture where it fits, else the range of slices each band or slab
+samples (:mod:`.texture`). Every pass computes each voxel from the same inputs whatever the
+slab, band and range of slices it falls in (keys are global cell numbers): the slabbed result
+equals the one-piece result exactly.
 """
 
 from __future__ import annotations
@@ -275,10 +277,7 @@ class VolumeWarper:
         self._cells(bands, frame, slab, defines, uniforms)
         self._gl.mgl.memory_barrier()
         ox, oy, oz = frame.origin_voxels
-        refine = getattr(field, "refine", None)
-        if refine is None:
-            raise TypeError(f"{type(field).__name__} cannot solve f's inverse")
-        refine(
+        field.refine(
             coords,
             slab.size,
             (ox, oy, oz + slab.first),
