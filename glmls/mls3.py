@@ -16,15 +16,7 @@ import numpy as np
 
 from .core.handles import Scaling
 from .core.handles3 import as_points3, as_volume_shape, fit_scaling3, validate_handles3
-from .core.mesh3 import (
-    DeformedMesh,
-    as_mesh,
-    cofactor,
-    deformed_normals,
-    determinant,
-    face_folds,
-    vertex_normals,
-)
+from .core.mesh3 import DeformedMesh, as_mesh, deform_mesh
 from .engine.kernel3 import MLSKernel3
 from .engine.passes3 import evaluate_points3, invert_points3
 from .gl.context import get_context
@@ -346,20 +338,7 @@ class MLS3(MLS):
         """
         vertices, faces, normals = as_mesh(mesh)
         deformed, jacobian = self.jacobian(vertices)
-        if normals is None:
-            normals = vertex_normals(vertices, faces) if len(faces) else np.zeros_like(vertices)
-        cof = cofactor(jacobian)
-        det = determinant(jacobian, cof)
-        folds = det <= 0
-        return DeformedMesh(
-            vertices=deformed,
-            faces=faces,
-            normals=deformed_normals(normals, jacobian, cof, det),
-            jacobian=jacobian,
-            det_j=det,
-            vertex_folds=folds,
-            face_folds=face_folds(vertices, deformed, faces, jacobian, folds),
-        )
+        return deform_mesh(vertices, faces, normals, deformed, jacobian)
 
     # -- volumes and what is 2D only --------------------------------------------------------
 

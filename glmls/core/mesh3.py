@@ -4,8 +4,9 @@
 A map folds a vertex where its Jacobian J = df/dv has det J <= 0 (f turns the volume inside
 out there, or flattens it). A face is folded when one of its vertices is, or when its
 orientation flips: its deformed normal points against its original normal carried by f
-(n cof(J) at the face's centroid, J there the mean of its vertices' Jacobians; for a map
-that does not fold, the two agree for every face small against the deformation's scale).
+(n C, C the mean of its vertices' cofactor matrices cof(J) = det(J) J^-T: a face's normal
+goes to n cof(J) under a linear map J; for a map that does not fold, the two agree for every
+face small against the deformation's scale).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ __all__ = [
     "DeformedMesh",
     "as_mesh",
     "cofactor",
+    "deform_mesh",
     "deformed_normals",
     "determinant",
     "face_folds",
@@ -111,9 +113,12 @@ def face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return _cross(vertices[faces[:, 1]] - a, vertices[faces[:, 2]] - a)
 
 
-def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(V, 3) unit area-weighted vertex normals; zeros for vertices in no face."""
-    weighted = face_normals(vertices, faces)
+def vertex_normals(
+    vertices: np.ndarray, faces: np.ndarray, weighted: np.ndarray | None = None
+) -> np.ndarray:
+    """(V, 3) unit area-weighted vertex normals; zeros for vertices in no face. ``weighted``:
+    the :func:`face_normals`, where already known."""
+    weighted = face_normals(vertices, faces) if weighted is None else weighted
     count = len(vertices)
     corners = faces.T.ravel()  # every face's vertex 0s, then 1s, then 2s
     normals = np.stack(
@@ -162,21 +167,23 @@ def _carry(normals: np.ndarray, matrices: np.ndarray) -> np.ndarray:
 
 
 def face_folds(
-    vertices: np.ndarray,
+    face_normals_before: np.ndarray,
     deformed: np.ndarray,
     faces: np.ndarray,
-    jacobian: np.ndarray,
+    cofactors: np.ndarray,
     vertex_folds: np.ndarray,
 ) -> np.ndarray:
-    """(F,) bool: a vertex folds, or the deformed face's normal points against the original
-    one carried by the cofactor of the mean Jacobian of its vertices."""
+    """(F,) bool: a vertex of the face folds, or its deformed normal points against its
+    original one (``face_normals_before``, (F, 3)) carried by the mean of its vertices'
+    :func:`cofactor` matrices (V, 3, 3). A sign test: float32 halves the gathers' memory."""
     if not len(faces):
         return np.zeros(0, bool)
-    j = jacobian.astype(np.float32)  # a sign test: float32 halves the gathers' memory
-    mean = j[faces[:, 0]] + j[faces[:, 1]] + j[faces[:, 2]]
-    carried = _carry(face_normals(vertices, faces).astype(np.float32), cofactor(mean))
-    flips = (face_normals(deformed, faces) * carried).sum(axis=1) <= 0
-    return vertex_folds[faces[:, 0]] | vertex_folds[faces[:, 1]] | vertex_folds[faces[:, 2]] | flips
+    c = cofactors.astype(np.float32)
+    a, b, d = faces[:, 0], faces[:, 1], faces[:, 2]
+    carried = _carry(face_normals_before.astype(np.float32), c[a] + c[b] + c[d])
+    after = face_normals(deformed.astype(np.float32), faces)
+    flips = (after * carried).sum(axis=1) <= 0
+    return vertex_folds[a] | vertex_folds[b] | vertex_folds[d] | flips
 
 
 def deformed_normals(
@@ -185,3 +192,30 @@ def deformed_normals(
     """(V, 3) unit n J^-T (as n cof(J), with the sign of det J) for J's :func:`cofactor` and
     determinant; zeros where J is singular or n is 0."""
     return _unit(_carry(normals, cof) * np.sign(det)[:, None])
+
+
+def deform_mesh(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    normals: np.ndarray | None,
+    deformed: np.ndarray,
+    jacobian: np.ndarray,
+) -> DeformedMesh:
+    """The :class:`DeformedMesh` of a mesh (:func:`as_mesh`'s ``vertices``, ``faces`` and
+    ``normals``, None to take them from the faces) from f at its vertices (``deformed``) and
+    the Jacobians there."""
+    before = face_normals(vertices, faces)
+    if normals is None:
+        normals = vertex_normals(vertices, faces, before) if len(faces) else vertices * 0.0
+    cof = cofactor(jacobian)
+    det = determinant(jacobian, cof)
+    folds = det <= 0
+    return DeformedMesh(
+        vertices=deformed,
+        faces=faces,
+        normals=deformed_normals(normals, jacobian, cof, det),
+        jacobian=jacobian,
+        det_j=det,
+        vertex_folds=folds,
+        face_folds=face_folds(before, deformed, faces, cof, folds),
+    )

@@ -69,13 +69,14 @@ def test_trimesh_and_point_clouds(gl):
 def test_face_flip_without_vertex_folds():
     """A face whose deformed normal opposes its carried one folds even where no vertex does
     (a map that turns the face over between its vertices)."""
-    from glmls.core.mesh3 import face_folds
+    from glmls.core.mesh3 import face_folds, face_normals
 
     vertices = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
     faces = np.array([[0, 1, 2]])
     deformed = vertices[[0, 2, 1]]  # the face's orientation flips
-    jacobian = np.repeat(np.eye(3)[None], 3, axis=0)
-    folds = face_folds(vertices, deformed, faces, jacobian, np.zeros(3, bool))
+    cofactors = np.repeat(np.eye(3)[None], 3, axis=0)
+    before = face_normals(vertices, faces)
+    folds = face_folds(before, deformed, faces, cofactors, np.zeros(3, bool))
     assert folds.tolist() == [True]
 
 
