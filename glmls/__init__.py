@@ -12,7 +12,14 @@ warp pipeline) in :mod:`glmls.gl`, the float64 reference of the mathematics in
 :mod:`glmls.reference`.
 """
 
-from . import analysis, augment, data, gl, reference
+from . import (
+    analysis,
+    augment,
+    data,
+    gl,
+    mls3,  # noqa: F401  (registers the MLS of (N, 3) handles)
+    reference,
+)
 from .batch import BatchResult, warp_batch
 from .core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
 from .core.handleset import HANDLE_KINDS, HandleSet
@@ -34,7 +41,6 @@ from .imaging.frame import Bounds
 from .imaging.options import WarpOptions
 from .imaging.source import BORDERS, INTERPOLATIONS, METHODS
 from .mls import MLS, InverseMLS, warp
-from .mls3 import MLS3, InverseMLS3  # registers the MLS of 3D handles
 from .version import __version__
 
 __all__ = [
@@ -43,7 +49,6 @@ __all__ = [
     "INTERPOLATIONS",
     "METHODS",
     "MLS",
-    "MLS3",
     "RADIUS_WEIGHTS",
     "TRANSFORMS",
     "WEIGHTS",
@@ -58,7 +63,6 @@ __all__ = [
     "ImageWarning",
     "InputFileError",
     "InverseMLS",
-    "InverseMLS3",
     "MLSConfig",
     "Mesh",
     "ReleasedError",

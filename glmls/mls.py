@@ -63,6 +63,12 @@ class MLS:
     :attr:`inverse` is f's inverse (an :class:`InverseMLS`) and :meth:`residuals` measures
     how far f takes points from targets; :meth:`warp` deforms images on the GPU.
 
+    With (N, 3) handles it is the MLS of 3D space (points (x, y, z) = (column, row, slice),
+    voxel centres at integer coordinates; ``shape`` a volume's (D, H, W)): f, :meth:`matrices`,
+    :attr:`inverse` and :meth:`residuals` at (K, 3) points, :meth:`deform` for meshes and
+    point clouds, :meth:`warp` for volumes; segment handles, bins and the image passes are
+    2D only (docs/three_d.md).
+
     Special cases: no handles is the identity and one handle a translation by q - p, for every
     transform. Where a compact-support weight reaches fewer than the transform needs at a
     point, that point uses the similarity solution; a point that no handle reaches stays put.
@@ -72,7 +78,7 @@ class MLS:
     Parameters
     ----------
     src, dst : array_like
-        (N, 2) source and target handle points (N may be 0).
+        (N, 2) source and target handle points (N may be 0), or (N, 3) in 3D.
     src_segments, dst_segments : array_like or None
         (S, 2, 2) segment handles (Schaefer et al. 2006, section 4): segment s runs from
         ``src_segments[s, 0]`` to ``src_segments[s, 1]`` and goes to ``dst_segments[s, 0]``-
@@ -93,7 +99,8 @@ class MLS:
     interpolating : bool, default False
         Make any weight interpolate the handles.
     shape : (int, int) or None, default None
-        (H, W) of the image, for the default radius (and :attr:`inverse`'s first guess).
+        (H, W) of the image, for the default radius (and :attr:`inverse`'s first guess); in
+        3D (D, H, W) of a volume.
     ctx : moderngl.Context or GLContext or None
         The context to render with (default: glmls's shared headless EGL one).
     storage : {"auto", "ssbo", "ubo", "texture"}, default "auto"
@@ -1087,6 +1094,15 @@ class InverseMLS:
     def __repr__(self) -> str:
         grid = f", grid={self.grid}" if self.grid != 1 else ""
         return f"InverseMLS({self._forward!r}{grid})"
+
+
+# ``MLS.__new__`` picks the class of the handles' dimension; the signature is ``__init__``'s.
+MLS.__signature__ = inspect.signature(
+    MLS.__init__
+).replace(  # type: ignore[attr-defined]
+    parameters=list(inspect.signature(MLS.__init__).parameters.values())[1:],
+    return_annotation=inspect.Signature.empty,
+)
 
 
 def _points(points: object, name: str = "points") -> np.ndarray:

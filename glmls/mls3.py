@@ -16,7 +16,7 @@ import numpy as np
 
 from .core.handles import Scaling
 from .core.handles3 import as_points3, as_volume_shape, fit_scaling3, validate_handles3
-from .core.mesh3 import DeformedMesh, as_mesh, deformed_normals, face_folds, vertex_normals
+from .core.mesh3 import DeformedMesh, as_mesh, deform_mesh
 from .engine.kernel3 import MLSKernel3
 from .engine.passes3 import evaluate_points3, invert_points3
 from .gl.context import get_context
@@ -33,10 +33,33 @@ def _two_d_only(what: str) -> ValueError:
 class MLS3(MLS):
     """A Moving Least Squares deformation of 3D space, from (N, 3) handles.
 
-    Made by :class:`glmls.MLS` from (N, 3) ``src`` and ``dst`` (its parameters are the
-    same; ``shape`` is a volume's (D, H, W), whose diagonal is the default radius);
-    ``segments`` and ``bins`` are 2D only. The closed forms and their degenerate cases
-    are those of :func:`glmls.reference.mls` in three dimensions (docs/mathematics.md).
+    Made by :class:`glmls.MLS` from (N, 3) ``src`` and ``dst``, with the same parameters;
+    the closed forms and their degenerate cases are those of :func:`glmls.reference.mls` in
+    three dimensions (docs/mathematics.md), evaluated in float32 on the GPU. Points are
+    (x, y, z) = (column, row, slice), voxel centres at integer coordinates.
+
+    Parameters
+    ----------
+    src, dst : array_like
+        (N, 3) source and target handle points (N may be 0).
+    src_segments, dst_segments : None
+        Segment handles are 2D only: ValueError unless None.
+    transform, weight, alpha, s, radius, interpolating
+        As :class:`glmls.MLS`'s (``radius`` in voxels).
+    shape : (int, int, int) or None, default None
+        (D, H, W) of a volume, whose diagonal is the radius weights' default radius.
+    ctx : moderngl.Context or GLContext or None
+        The context to compute with (default: glmls's shared one).
+    storage : {"auto", "ssbo", "ubo", "texture"}, default "auto"
+        Where the handles live on the GPU (two rows each).
+    bins : None or False
+        Spatial bins are 2D only: ValueError if True.
+
+    Raises
+    ------
+    ValueError
+        For malformed handles, segments, ``bins=True``, a bad ``shape``, or a radius weight
+        with neither ``radius`` nor ``shape``.
 
     Examples
     --------
@@ -122,15 +145,41 @@ class MLS3(MLS):
         return self._kernel.scaling
 
     def uniforms(self, shape: Sequence[int] | None = None) -> dict[str, object]:  # type: ignore[override]
-        """The uniforms of ``mls3/core.glsl`` for a volume of ``shape`` (D, H, W) (None: the
-        MLS's own), scaled units."""
+        """The uniforms of ``mls3/core.glsl`` for a volume of ``shape``, scaled units.
+
+        Parameters
+        ----------
+        shape : (int, int, int) or None
+            (D, H, W) whose diagonal is the default radius (None: the MLS's own).
+
+        Returns
+        -------
+        dict
+            Uniform name -> value.
+        """
         return self._kernel.uniforms(None if shape is None else as_volume_shape(shape))  # type: ignore[arg-type]
 
     @on_gpu
     def set_handles(
         self, src: object, dst: object, *, src_segments: object = None, dst_segments: object = None
     ) -> None:
-        """Replace the (N, 3) handles, keeping the configuration; as :meth:`MLS.set_handles`."""
+        """Replace the (N, 3) handles, keeping the configuration (as :meth:`MLS.set_handles`).
+
+        Parameters
+        ----------
+        src, dst : array_like
+            (N, 3) handle points.
+        src_segments, dst_segments : None
+            2D only.
+
+        Examples
+        --------
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0, 0]], [[1, 0, 0]]) as m:
+        ...     m.set_handles([[0, 0, 0]], [[0, 0, 2]])
+        ...     print(m([[3, 3, 3]]).tolist())
+        [[3.0, 3.0, 5.0]]
+        """
         if src_segments is not None or dst_segments is not None:
             raise ValueError("segment handles are 2D only")
         self._store3(*validate_handles3(src, dst))
@@ -153,7 +202,17 @@ class MLS3(MLS):
 
     @on_gpu
     def __call__(self, points: object) -> np.ndarray:
-        """f at (K, 3) ``points`` (x, y, z), evaluated on the GPU: (K, 3) float64.
+        """f at ``points``, evaluated on the GPU.
+
+        Parameters
+        ----------
+        points : array_like
+            (K, 3) points (x, y, z).
+
+        Returns
+        -------
+        numpy.ndarray
+            (K, 3) float64 f(points).
 
         Examples
         --------
@@ -172,7 +231,17 @@ class MLS3(MLS):
         return InverseMLS3(self)
 
     def residuals(self, src: object, dst: object) -> np.ndarray:
-        """|f(src) - dst| per (K, 3) point, voxels.
+        """|f(src) - dst| per point, voxels.
+
+        Parameters
+        ----------
+        src, dst : array_like
+            (K, 3) points each.
+
+        Returns
+        -------
+        numpy.ndarray
+            (K,) float64 distances.
 
         Examples
         --------
@@ -190,8 +259,19 @@ class MLS3(MLS):
 
     @on_gpu
     def matrices(self, points: object) -> tuple[np.ndarray, np.ndarray]:
-        """The affine map of the MLS at each (K, 3) point, ``f(v) = v @ M + T``: M (K, 3, 3)
-        and T (K, 3), float64.
+        """The affine map of the MLS at each point: ``f(v) = v @ M + T``.
+
+        Parameters
+        ----------
+        points : array_like
+            (K, 3) points.
+
+        Returns
+        -------
+        M : numpy.ndarray
+            (K, 3, 3) float64.
+        T : numpy.ndarray
+            (K, 3) float64.
 
         Examples
         --------
@@ -208,9 +288,19 @@ class MLS3(MLS):
 
     @on_gpu
     def jacobian(self, points: object) -> tuple[np.ndarray, np.ndarray]:
-        """f and its Jacobian J = df/dv at (K, 3) ``points``, on the GPU by central
-        differences: f (K, 3) and J (K, 3, 3), row vectors (df = dv J, J[k, r, c] =
-        d f_c / d v_r).
+        """f and its Jacobian J = df/dv, on the GPU by central differences.
+
+        Parameters
+        ----------
+        points : array_like
+            (K, 3) points.
+
+        Returns
+        -------
+        f : numpy.ndarray
+            (K, 3) float64 f(points).
+        J : numpy.ndarray
+            (K, 3, 3) float64, row vectors: df = dv J, J[k, r, c] = d f_c / d v_r.
 
         Examples
         --------
@@ -219,7 +309,7 @@ class MLS3(MLS):
         >>> src = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]]
         >>> with glmls.MLS(src, np.multiply(src, 2.0), transform="affine") as m:
         ...     f, J = m.jacobian([[3, 3, 3]])
-        >>> np.round(J[0], 3).tolist()
+        >>> (np.round(J[0], 3) + 0.0).tolist()
         [[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0]]
         """
         v = as_points3(points)
@@ -248,24 +338,24 @@ class MLS3(MLS):
         """
         vertices, faces, normals = as_mesh(mesh)
         deformed, jacobian = self.jacobian(vertices)
-        if normals is None:
-            normals = vertex_normals(vertices, faces) if len(faces) else np.zeros_like(vertices)
-        det = np.linalg.det(jacobian) if len(jacobian) else np.zeros(0)
-        folds = det <= 0
-        return DeformedMesh(
-            vertices=deformed,
-            faces=faces,
-            normals=deformed_normals(normals, jacobian),
-            jacobian=jacobian,
-            det_j=det,
-            vertex_folds=folds,
-            face_folds=face_folds(vertices, deformed, faces, jacobian, folds),
-        )
+        return deform_mesh(vertices, faces, normals, deformed, jacobian)
 
     # -- volumes and what is 2D only --------------------------------------------------------
 
     def warp(self, volume: object, **options: object) -> np.ndarray:  # type: ignore[override]
-        """The volume deformed by f: delegated to :mod:`glmls.volume` (``warp_volume``).
+        """The volume deformed by f: delegated to ``glmls.volume`` (``warp_volume``).
+
+        Parameters
+        ----------
+        volume : array_like
+            A (D, H, W) or (D, H, W, C) volume.
+        **options
+            ``glmls.volume``'s options.
+
+        Returns
+        -------
+        numpy.ndarray
+            The deformed volume.
 
         Raises
         ------
@@ -281,15 +371,33 @@ class MLS3(MLS):
         return module.warp_volume(self, volume, **options)
 
     def mesh(self, shape, *, grid=1, tolerance=None):  # type: ignore[override]
-        """2D only: ValueError (see :meth:`deform` for 3D meshes)."""
+        """2D only: ValueError (see :meth:`deform` for 3D meshes).
+
+        Parameters
+        ----------
+        shape, grid, tolerance
+            As :meth:`MLS.mesh`'s.
+        """
         raise _two_d_only("MLS.mesh (an image's mesh)")
 
     def error_field(self, shape, *, grid=1, tolerance=None):  # type: ignore[override]
-        """2D only: ValueError."""
+        """2D only: ValueError.
+
+        Parameters
+        ----------
+        shape, grid, tolerance
+            As :meth:`MLS.error_field`'s.
+        """
         raise _two_d_only("MLS.error_field")
 
     def bounds(self, shape, *, grid=1):  # type: ignore[override]
-        """2D only: ValueError."""
+        """2D only: ValueError.
+
+        Parameters
+        ----------
+        shape, grid
+            As :meth:`MLS.bounds`'s.
+        """
         raise _two_d_only("MLS.bounds")
 
     def coordinate_map(self, *args: object, **kwargs: object):  # type: ignore[override]
@@ -307,11 +415,20 @@ class MLS3(MLS):
 
 
 class InverseMLS3(InverseMLS):
-    """The inverse of a 3D MLS map f: ``inv(points)`` solves f(s) = u at (K, 3) points on the
-    GPU by Newton's method (J by central differences), from the MLS with p and q swapped at
-    u, then from u itself. A row is NaN where Newton does not end within 0.05 voxel of u
-    (no preimage, or none found); ``return_valid=True`` also returns the mask of the rows
-    that have one.
+    """The inverse of a 3D MLS map f, as :attr:`MLS.inverse` returns it.
+
+    ``inv(points)`` solves f(s) = u at (K, 3) points on the GPU by Newton's method (J by
+    central differences, stopping below 1e-4 voxel), from the MLS with p and q swapped at u,
+    then from u itself. A row is NaN where Newton does not end within 0.05 voxel of u (no
+    preimage, or none found); ``return_valid=True`` also returns the mask of the rows that
+    have one. Where f folds, u has several preimages and one of them is found.
+
+    Parameters
+    ----------
+    forward : MLS
+        The deformation f (of (N, 3) handles).
+    grid : int, default 1
+        Unused in 3D (the first guess needs no mesh).
 
     Examples
     --------
@@ -326,8 +443,28 @@ class InverseMLS3(InverseMLS):
     def __call__(
         self, points: object, *, return_valid: bool = False
     ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
-        """f's inverse at (K, 3) ``points``: (K, 3) float64, NaN rows where there is no
-        preimage; with ``return_valid`` also the (K,) bool mask of rows that have one."""
+        """f's inverse at ``points``, solved on the GPU.
+
+        Parameters
+        ----------
+        points : array_like
+            (K, 3) points u.
+        return_valid : bool, default False
+            Also return which rows have a preimage.
+
+        Returns
+        -------
+        numpy.ndarray or (numpy.ndarray, numpy.ndarray)
+            (K, 3) float64 source points s, NaN rows where u has none; with
+            ``return_valid`` also the (K,) bool mask of the rows that have one.
+
+        Examples
+        --------
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0, 0]], [[2, 0, 0]]) as m:
+        ...     print(m.inverse([[5, 1, 1]]).round(3).tolist())
+        [[3.0, 1.0, 1.0]]
+        """
         s, valid = self._solve(as_points3(points))
         return (s, valid) if return_valid else s
 
@@ -341,7 +478,18 @@ class InverseMLS3(InverseMLS):
         return s, valid
 
     def residuals(self, src: object, dst: object) -> np.ndarray:
-        """|f^-1(src) - dst| per (K, 3) point, voxels; NaN where ``src`` has no preimage."""
+        """|f^-1(src) - dst| per point, voxels.
+
+        Parameters
+        ----------
+        src, dst : array_like
+            (K, 3) points each.
+
+        Returns
+        -------
+        numpy.ndarray
+            (K,) float64; NaN where ``src`` has no preimage.
+        """
         source, target = as_points3(src, "src"), as_points3(dst, "dst")
         if len(source) != len(target):
             raise ValueError(

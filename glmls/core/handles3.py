@@ -100,7 +100,7 @@ def fit_scaling3(
     src: np.ndarray, dst: np.ndarray, shape: tuple[int, int, int] | None = None
 ) -> Scaling:
     """The scaling ``(v - center) / scale`` for the box around the handles and, if given, the
-    volume (x, y, z = column, row, slice)."""
+    volume (x, y, z = column, row, slice); ``scale`` is a power of 2 (at least 1)."""
     boxes = [src, dst]
     if shape is not None:
         depth, height, width = shape
@@ -110,5 +110,6 @@ def fit_scaling3(
         return Scaling((0.0, 0.0, 0.0), 1.0)  # type: ignore[arg-type]
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     center = (lo + hi) / 2
-    scale = max(float((hi - lo).max()) / 2, 1.0)
+    # a power of 2: displacements q - p of a few voxels scale exactly (translations stay exact)
+    scale = 2.0 ** math.ceil(math.log2(max(float((hi - lo).max()) / 2, 1.0)))
     return Scaling(tuple(float(c) for c in center), scale)  # type: ignore[arg-type]

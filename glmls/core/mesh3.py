@@ -4,8 +4,9 @@
 A map folds a vertex where its Jacobian J = df/dv has det J <= 0 (f turns the volume inside
 out there, or flattens it). A face is folded when one of its vertices is, or when its
 orientation flips: its deformed normal points against its original normal carried by f
-(n cof(J) at the face's centroid, J there the mean of its vertices' Jacobians; for a map
-that does not fold, the two agree for every face small against the deformation's scale).
+(n C, C the mean of its vertices' cofactor matrices cof(J) = det(J) J^-T: a face's normal
+goes to n cof(J) under a linear map J; for a map that does not fold, the two agree for every
+face small against the deformation's scale).
 """
 
 from __future__ import annotations
@@ -16,7 +17,17 @@ import numpy as np
 
 from .handles3 import as_points3
 
-__all__ = ["DeformedMesh", "as_mesh", "face_folds", "face_normals", "vertex_normals"]
+__all__ = [
+    "DeformedMesh",
+    "as_mesh",
+    "cofactor",
+    "deform_mesh",
+    "deformed_normals",
+    "determinant",
+    "face_folds",
+    "face_normals",
+    "vertex_normals",
+]
 
 
 @dataclass(frozen=True)
@@ -42,6 +53,16 @@ class DeformedMesh:
     face_folds : numpy.ndarray
         (F,) bool: a vertex of the face folds, or the face's orientation flips (see
         :mod:`glmls.core.mesh3`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import glmls
+    >>> vertices = np.array([[0, 0, 0], [4, 0, 0], [0, 4, 0]], float)
+    >>> with glmls.MLS([[0, 0, 0]], [[0, 0, 1]]) as m:  # a translation along z
+    ...     out = m.deform((vertices, np.array([[0, 1, 2]])))
+    >>> out.vertices[:, 2].tolist(), out.normals[0].tolist(), out.face_folds.tolist()
+    ([1.0, 1.0, 1.0], [0.0, 0.0, 1.0], [False])
     """
 
     vertices: np.ndarray
@@ -88,51 +109,113 @@ def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """(F, 3) (b - a) x (c - a) per face: twice its area times its unit normal (right-hand
     rule over the vertex order)."""
-    a, b, c = (vertices[faces[:, k]] for k in range(3))
-    return np.cross(b - a, c - a)
+    a = vertices[faces[:, 0]]
+    return _cross(vertices[faces[:, 1]] - a, vertices[faces[:, 2]] - a)
 
 
-def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(V, 3) unit area-weighted vertex normals; zeros for vertices in no face."""
-    normals = np.zeros_like(vertices)
-    weighted = face_normals(vertices, faces)
-    for k in range(3):
-        np.add.at(normals, faces[:, k], weighted)
+def vertex_normals(
+    vertices: np.ndarray, faces: np.ndarray, weighted: np.ndarray | None = None
+) -> np.ndarray:
+    """(V, 3) unit area-weighted vertex normals; zeros for vertices in no face. ``weighted``:
+    the :func:`face_normals`, where already known."""
+    weighted = face_normals(vertices, faces) if weighted is None else weighted
+    count = len(vertices)
+    corners = faces.T.ravel()  # every face's vertex 0s, then 1s, then 2s
+    normals = np.stack(
+        [np.bincount(corners, np.tile(weighted[:, c], 3), minlength=count) for c in range(3)],
+        axis=1,
+    )
     return _unit(normals)
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise a x b of (K, 3) arrays (np.cross is ~3x slower on long arrays)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape), np.result_type(a, b))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
 def _unit(vectors: np.ndarray) -> np.ndarray:
-    norm = np.linalg.norm(vectors, axis=-1, keepdims=True)
+    norm = np.sqrt((vectors * vectors).sum(axis=-1, keepdims=True))
     return np.divide(vectors, norm, out=np.zeros_like(vectors), where=norm > 0)
 
 
 def cofactor(j: np.ndarray) -> np.ndarray:
-    """(K, 3, 3) det(J) J^-T, defined (and continuous) for singular J too."""
-    c0, c1, c2 = j[:, 0], j[:, 1], j[:, 2]
-    return np.stack([np.cross(c1, c2), np.cross(c2, c0), np.cross(c0, c1)], axis=1)
+    """(K, 3, 3) det(J) J^-T of (K, 3, 3) ``j``, defined (and continuous) for singular J too:
+    its rows are the cross products of J's rows."""
+    c = np.empty_like(j)
+    c[:, 0] = _cross(j[:, 1], j[:, 2])
+    c[:, 1] = _cross(j[:, 2], j[:, 0])
+    c[:, 2] = _cross(j[:, 0], j[:, 1])
+    return c
+
+
+def determinant(j: np.ndarray, cof: np.ndarray) -> np.ndarray:
+    """(K,) det J from J and its :func:`cofactor`."""
+    return (j[:, 0] * cof[:, 0]).sum(axis=1)
+
+
+def _carry(normals: np.ndarray, matrices: np.ndarray) -> np.ndarray:
+    """Row-wise n @ C for (K, 3) n and (K, 3, 3) C."""
+    return (
+        normals[:, 0:1] * matrices[:, 0]
+        + normals[:, 1:2] * matrices[:, 1]
+        + normals[:, 2:3] * matrices[:, 2]
+    )
 
 
 def face_folds(
-    vertices: np.ndarray,
+    face_normals_before: np.ndarray,
     deformed: np.ndarray,
     faces: np.ndarray,
-    jacobian: np.ndarray,
+    cofactors: np.ndarray,
     vertex_folds: np.ndarray,
 ) -> np.ndarray:
-    """(F,) bool: a vertex folds, or the deformed face's normal points against the original
-    one carried by the cofactor of the mean Jacobian of its vertices."""
+    """(F,) bool: a vertex of the face folds, or its deformed normal points against its
+    original one (``face_normals_before``, (F, 3)) carried by the mean of its vertices'
+    :func:`cofactor` matrices (V, 3, 3). A sign test: float32 halves the gathers' memory."""
     if not len(faces):
         return np.zeros(0, bool)
-    carried = np.einsum(
-        "fi,fij->fj", face_normals(vertices, faces), cofactor(jacobian[faces].mean(axis=1))
+    c = cofactors.astype(np.float32)
+    a, b, d = faces[:, 0], faces[:, 1], faces[:, 2]
+    carried = _carry(face_normals_before.astype(np.float32), c[a] + c[b] + c[d])
+    after = face_normals(deformed.astype(np.float32), faces)
+    flips = (after * carried).sum(axis=1) <= 0
+    return vertex_folds[a] | vertex_folds[b] | vertex_folds[d] | flips
+
+
+def deformed_normals(
+    normals: np.ndarray, jacobian: np.ndarray, cof: np.ndarray, det: np.ndarray
+) -> np.ndarray:
+    """(V, 3) unit n J^-T (as n cof(J), with the sign of det J) for J's :func:`cofactor` and
+    determinant; zeros where J is singular or n is 0."""
+    return _unit(_carry(normals, cof) * np.sign(det)[:, None])
+
+
+def deform_mesh(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    normals: np.ndarray | None,
+    deformed: np.ndarray,
+    jacobian: np.ndarray,
+) -> DeformedMesh:
+    """The :class:`DeformedMesh` of a mesh (:func:`as_mesh`'s ``vertices``, ``faces`` and
+    ``normals``, None to take them from the faces) from f at its vertices (``deformed``) and
+    the Jacobians there."""
+    before = face_normals(vertices, faces)
+    if normals is None:
+        normals = vertex_normals(vertices, faces, before) if len(faces) else vertices * 0.0
+    cof = cofactor(jacobian)
+    det = determinant(jacobian, cof)
+    folds = det <= 0
+    return DeformedMesh(
+        vertices=deformed,
+        faces=faces,
+        normals=deformed_normals(normals, jacobian, cof, det),
+        jacobian=jacobian,
+        det_j=det,
+        vertex_folds=folds,
+        face_folds=face_folds(before, deformed, faces, cof, folds),
     )
-    flips = (face_normals(deformed, faces) * carried).sum(axis=1) <= 0
-    return vertex_folds[faces].any(axis=1) | flips
-
-
-def deformed_normals(normals: np.ndarray, jacobian: np.ndarray) -> np.ndarray:
-    """(V, 3) unit n J^-T (as n cof(J), with the sign of det J), zeros where J is singular
-    or n is 0."""
-    det = np.linalg.det(jacobian)
-    carried = np.einsum("vi,vij->vj", normals, cofactor(jacobian)) * np.sign(det)[:, None]
-    return _unit(carried)

@@ -59,6 +59,7 @@ ADAPTIVE_SPLIT = Binding("ADAPTIVE_SPLIT", "storage", 9, "adaptive build: the ce
 VOLUME_LATTICE = Binding("VOLUME_LATTICE", "storage", 11, "volumes: f at a band of the lattice")
 VOLUME_KEYS = Binding("VOLUME_KEYS", "storage", 13, "volumes: each output voxel's first cell")
 VOLUME_COORDS = Binding("VOLUME_COORDS", "storage", 16, "volumes: each voxel's source point")
+VOLUME_SLOPES = Binding("VOLUME_SLOPES", "storage", 17, "volumes: d source / d output per voxel")
 # -- uniform blocks ----------------------------------------------------------------------------
 HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
 # -- texture units -----------------------------------------------------------------------------
@@ -104,6 +105,7 @@ ALL = (
     VOLUME_LATTICE,
     VOLUME_KEYS,
     VOLUME_COORDS,
+    VOLUME_SLOPES,
     HANDLES_BLOCK,
     SOURCE,
     COORDS,

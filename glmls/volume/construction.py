@@ -12,15 +12,15 @@ deformed lattice is held band by band of z layers (:class:`LatticeBands`); then
   method on f refines them (the field's :meth:`refine`), and ``volume/sample.comp.glsl``
   samples the source there.
 
-Every pass computes each voxel from the same inputs whatever the slab and band it falls in
-(keys are global cell numbers): the slabbed result equals the one-piece result exactly.
+The source volume is one texture where it fits, else the range of slices each band or slab
+samples (:mod:`.texture`). Every pass computes each voxel from the same inputs whatever the
+slab, band and range of slices it falls in (keys are global cell numbers): the slabbed result
+equals the one-piece result exactly.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterator
-from dataclasses import dataclass
 
 import moderngl
 import numpy as np
@@ -30,165 +30,20 @@ from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import run_1d, set_uniforms
 from ..gl.resources import Resources
 from ..imaging.source import BORDERS
+from .bands import KEY_BYTES, POINT_BYTES, LatticeBands, Slab, border_margin3
 from .fields import Field
 from .frame import CornerLattice, VolumeFrame
 from .options import SlabOptions, VolumeOptions
 from .source import SourceVolume, prepare_volume, volume_background
+from .texture import SourceTexture, border_slices
 
-__all__ = ["LatticeBands", "Slab", "VolumeWarper", "border_margin3"]
+__all__ = ["VolumeWarper", "make_volume_frame"]
 
-#: Bytes of one lattice point in the band buffer (3 float32).
-POINT_BYTES = 12
-#: Bytes of one voxel's key (cells method) and source point (backward).
-KEY_BYTES = 4
+#: Bytes of one voxel's source point (backward).
 COORD_BYTES = 16
+#: Bytes of one voxel's slope (the guess's tetrahedron's inverse Jacobian, 3 vec4).
+SLOPE_BYTES = 48
 _NO_KEY = b"\xff\xff\xff\xff"
-
-
-@dataclass(frozen=True)
-class Slab:
-    """Output slices ``first`` .. ``first + depth - 1`` of a frame of (W, H) voxels a slice."""
-
-    first: int
-    depth: int
-    width: int
-    height: int
-
-    @property
-    def voxels(self) -> int:
-        return self.depth * self.width * self.height
-
-    @property
-    def size(self) -> tuple[int, int, int]:
-        return self.width, self.height, self.depth
-
-
-def border_margin3(field: Field, lattice: CornerLattice, frame: VolumeFrame) -> int:
-    """The margin (voxels, a multiple of the grid) that ``lattice`` needs past the volume so
-    that its deformed image reaches past every voxel of ``frame``: the largest displacement
-    on the lattice's faces (sampled, at most 33 x 33 points a face) plus the frame's
-    overhang past the volume plus one voxel, at most that overhang plus twice the volume's
-    largest side."""
-    grid = lattice.grid
-    d, h, w = lattice.shape
-    low = np.array(frame.origin_voxels)
-    high = low + np.array(frame.shape[::-1]) - 1
-    size = np.array([w, h, d], dtype=float)
-    overhang = float(max(0.0, np.max(-0.5 - low), np.max(high - size + 0.5)))
-    faces = []
-    axes = [np.linspace(-0.5, n - 0.5, min(33, n + 1)) for n in (w, h, d)]
-    for axis in range(3):
-        others = [a for a in range(3) if a != axis]
-        grid_a, grid_b = np.meshgrid(axes[others[0]], axes[others[1]], indexing="ij")
-        for end in (-0.5, size[axis] - 0.5):
-            face = np.empty((grid_a.size, 3))
-            face[:, axis] = end
-            face[:, others[0]] = grid_a.ravel()
-            face[:, others[1]] = grid_b.ravel()
-            faces.append(face)
-    points = np.concatenate(faces)
-    moved = field.evaluate(points) - points
-    reach = float(np.max(np.abs(moved))) if np.all(np.isfinite(moved)) else 0.0
-    limit = overhang + 2 * max(w, h, d)
-    margin = min(reach + overhang + 1, limit)
-    return int(grid * max(1, math.ceil(margin / grid)))
-
-
-class LatticeBands:
-    """f on a lattice, held band by band of z layers in one buffer of at most ``band_bytes``.
-
-    Made once per warp: it evaluates every band once to learn the z range (source voxels)
-    that each layer of cells reaches, so that each slab evaluates only the bands that reach
-    it; where the whole lattice fits in one band it is evaluated once and kept."""
-
-    def __init__(
-        self, field: Field, lattice: CornerLattice, buffer: moderngl.Buffer, band_bytes: int
-    ) -> None:
-        nx, ny, nz = lattice.dims
-        self.field = field
-        self.lattice = lattice
-        self.buffer = buffer
-        layer_bytes = nx * ny * POINT_BYTES
-        self.cell_layers = max(1, band_bytes // layer_bytes - 1)  # cell layers a band holds
-        if band_bytes // layer_bytes < 2:
-            raise ValueError(
-                f"a layer of {nx} x {ny} lattice points does not fit twice in the lattice "
-                f"buffer of {band_bytes} bytes; use a coarser grid"
-            )
-        if 6 * lattice.cell_count >= 0xFFFFFFFF:  # keys: 6 per cell, in 32 bits
-            raise ValueError(
-                f"a lattice of {lattice.cell_count} cells is more than the construction "
-                f"numbers (715,827,882); use a coarser grid"
-            )
-        cells = nz - 1
-        self.loaded: tuple[int, int] | None = None
-        low = np.full(nz, np.inf)
-        high = np.full(nz, -np.inf)
-        #: the box of every deformed point (x, y, z low, then high), source voxels
-        self.box = np.array([np.inf] * 3 + [-np.inf] * 3)
-        for first in range(0, cells, self.cell_layers):
-            layers = min(self.cell_layers, cells - first)
-            points = self._load(first, layers)
-            with np.errstate(all="ignore"):
-                good = points[np.all(np.isfinite(points), axis=1)]
-                if len(good):
-                    low_box = np.minimum(self.box[:3], good.min(0))
-                    self.box = np.concatenate([low_box, np.maximum(self.box[3:], good.max(0))])
-            z = points[:, 2].reshape(layers + 1, -1)
-            finite = np.where(np.isfinite(z), z, np.nan)
-            with np.errstate(all="ignore"):
-                low[first : first + layers + 1] = np.fmin(
-                    low[first : first + layers + 1], np.nanmin(finite, axis=1)
-                )
-                high[first : first + layers + 1] = np.fmax(
-                    high[first : first + layers + 1], np.nanmax(finite, axis=1)
-                )
-        #: per cell layer, the z range its deformed cells reach
-        self.low = np.fmin(low[:-1], low[1:])
-        self.high = np.fmax(high[:-1], high[1:])
-
-    def _load(self, first: int, layers: int) -> np.ndarray:
-        """Cell layers ``first`` .. ``first + layers - 1`` (their points) into the buffer;
-        returns them (K, 3) float32."""
-        nx, ny, _ = self.lattice.dims
-        count = (layers + 1) * nx * ny
-        self.field.fill(self.lattice, first, layers + 1, self.buffer)
-        self.loaded = (first, layers)
-        return np.frombuffer(self.buffer.read(size=count * POINT_BYTES), np.float32).reshape(-1, 3)
-
-    def load(self, first: int, layers: int) -> None:
-        """Make the buffer hold cell layers ``first`` .. ``first + layers - 1``."""
-        if self.loaded is not None:
-            held_first, held_layers = self.loaded
-            if held_first <= first and first + layers <= held_first + held_layers:
-                return
-        self.field.fill(self.lattice, first, layers + 1, self.buffer)
-        self.loaded = (first, layers)
-
-    @property
-    def band_first(self) -> int:
-        return self.loaded[0] if self.loaded is not None else 0
-
-    def bands_for(self, z_low: float, z_high: float) -> list[tuple[int, int]]:
-        """The bands (first cell layer, layers) of the cell layers that reach z from
-        ``z_low`` to ``z_high`` (source voxels): runs of such layers, cut to the buffer."""
-        with np.errstate(invalid="ignore"):
-            hit = (self.high >= z_low) & (self.low <= z_high)
-        layers = np.flatnonzero(hit)
-        if len(layers) == 0:
-            return []
-        if self.loaded is not None and self.loaded[1] >= len(self.low):
-            return [self.loaded]  # the whole lattice is held
-        out = []
-        start = prev = int(layers[0])
-        for layer in (*layers[1:].tolist(), None):
-            if layer is not None and layer == prev + 1 and layer - start < self.cell_layers:
-                prev = layer
-                continue
-            out.append((start, prev - start + 1))
-            if layer is not None:
-                start = prev = layer
-        return out
 
 
 class VolumeWarper:
@@ -243,23 +98,6 @@ class VolumeWarper:
         for first in range(0, depth_all, depth):
             yield Slab(first, min(depth, depth_all - first), width, height)
 
-    # -- the source -----------------------------------------------------------------------
-
-    def upload(self, source: SourceVolume) -> moderngl.Texture3D:
-        """The source volume as a 3D texture (integer for uint8 and uint16)."""
-        d, h, w = source.shape
-        side = int(self._gl.mgl.info["GL_MAX_3D_TEXTURE_SIZE"])
-        if max(d, h, w) > side:
-            raise ValueError(
-                f"volume of {d} x {h} x {w} voxels exceeds the GL 3D texture size limit of "
-                f"{side} voxels per side on this device"
-            )
-        texture = self._gl.mgl.texture3d(
-            (w, h, d), source.channels, source.data, dtype=source.texture_dtype
-        )
-        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        return texture
-
     # -- the construction -----------------------------------------------------------------
 
     @current
@@ -277,12 +115,14 @@ class VolumeWarper:
         frame = make_volume_frame(options, source.shape)
         background = volume_background(options.background, source)
         out = source.empty_output(frame.shape)
-        texture = self.upload(source)
+        texture = SourceTexture(self._gl, source, slabs.texture_bytes)
         try:
             backward = options.method == "backward"
-            bands = self._bands(field, source.shape, frame, options, slabs)
-            per_voxel = COORD_BYTES if backward else KEY_BYTES
-            for slab in self.slabs(frame, max(per_voxel, source.voxel_bytes), slabs.slab_bytes):
+            per_voxel = COORD_BYTES + SLOPE_BYTES if backward else KEY_BYTES
+            planned = list(self.slabs(frame, max(per_voxel, source.voxel_bytes), slabs.slab_bytes))
+            survey = len(planned) > 1
+            bands = self._bands(field, source.shape, frame, options, slabs, survey=survey)
+            for slab in planned:
                 target = self._target(slab, source)
                 defines = {
                     "WARP_LINEAR": options.interpolation == "linear",
@@ -296,17 +136,18 @@ class VolumeWarper:
                     "u_background": background,
                     "u_value_max": _value_max(source),
                 }
-                texture.use(bindings.VOLUME_SOURCE.index)
                 target.bind_to_image(bindings.VOLUME_TARGET.index, read=False, write=True)
                 if backward:
                     coords = self._solve(field, bands, frame, slab, options, source.shape)
+                    first = _hold_sampled(texture, coords, slab, options.border)
                     program = self._gl.compute("volume/sample.comp.glsl", defines)
                     coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
-                    set_uniforms(program, uniforms | {"u_slab_size": slab.size})
+                    held = {"u_slab_size": slab.size, "u_source_first": first}
+                    set_uniforms(program, uniforms | held)
                     self._gl.mgl.memory_barrier()
                     run_1d(program, slab.voxels, max_groups=self._max_groups)
                 else:
-                    self._cells(bands, frame, slab, defines, uniforms, coords=False)
+                    self._cells(bands, frame, slab, defines, uniforms, source=texture)
                 self._gl.mgl.memory_barrier()
                 self._read(target, slab, source, out)
         finally:
@@ -327,9 +168,10 @@ class VolumeWarper:
         self._resources.check_alive()
         slabs = slabs if slabs is not None else SlabOptions()
         frame = make_volume_frame(options, shape)
-        bands = self._bands(field, shape, frame, options, slabs)
         points = np.empty((*frame.shape, 4), np.float32)
-        for slab in self.slabs(frame, COORD_BYTES, slabs.slab_bytes):
+        planned = list(self.slabs(frame, COORD_BYTES + SLOPE_BYTES, slabs.slab_bytes))
+        bands = self._bands(field, shape, frame, options, slabs, survey=len(planned) > 1)
+        for slab in planned:
             coords = self._solve(field, bands, frame, slab, options, shape)
             raw = coords.read(size=slab.voxels * COORD_BYTES)
             points[slab.first : slab.first + slab.depth] = np.frombuffer(raw, np.float32).reshape(
@@ -357,7 +199,7 @@ class VolumeWarper:
     def _max_groups(self) -> int:
         return self._gl.limits["max_work_groups_x"]
 
-    def _bands(self, field, shape, frame, options, slabs) -> LatticeBands:
+    def _bands(self, field, shape, frame, options, slabs, *, survey=True) -> LatticeBands:
         lattice = CornerLattice(shape, options.grid)
         if options.border != "constant":
             lattice = CornerLattice(shape, options.grid, border_margin3(field, lattice, frame))
@@ -365,11 +207,21 @@ class VolumeWarper:
         band_bytes = min(slabs.band_bytes, self._gl.limits["max_ssbo_size"])
         size = min(band_bytes, nx * ny * nz * POINT_BYTES)
         buffer = self._resources.buffer("volume_lattice", size)
-        return LatticeBands(field, lattice, buffer, band_bytes)
+        return LatticeBands(field, lattice, buffer, band_bytes, survey=survey)
 
-    def _cells(self, bands: LatticeBands, frame, slab: Slab, defines, uniforms, *, coords: bool):
+    def _cells(
+        self,
+        bands: LatticeBands,
+        frame,
+        slab: Slab,
+        defines,
+        uniforms,
+        *,
+        source: SourceTexture | None = None,
+    ):
         """The cells method's two passes over ``slab``: keys, then the resolve pass (into the
-        slab texture, or with ``coords`` the coordinates buffer)."""
+        slab texture, sampling ``source``, or without it the coordinates buffer)."""
+        coords = source is None
         lattice = bands.lattice
         ox, oy, oz = frame.origin_voxels
         origin = (ox, oy, oz + slab.first)
@@ -391,9 +243,13 @@ class VolumeWarper:
             run_1d(raster, layers * ncx * ncy, max_groups=self._max_groups)
         program = self._gl.compute("volume/resolve.comp.glsl", defines | {"VOLUME_COORDS": coords})
         set_uniforms(program, common | uniforms)
-        for index, (first, layers) in enumerate(wanted or [(0, 0)]):
+        # the last band rastered is still held: resolved first
+        for index, (first, layers) in enumerate(wanted[::-1] or [(0, 0)]):
             if layers:
                 bands.load(first, layers)
+            if source is not None:
+                held = _hold_band(source, lattice, first, layers, defines["WARP_BORDER"])
+                set_uniforms(program, {"u_source_first": held})
             bands.buffer.bind_to_storage_buffer(bindings.VOLUME_LATTICE.index)
             keys.bind_to_storage_buffer(bindings.VOLUME_KEYS.index)
             set_uniforms(
@@ -414,15 +270,14 @@ class VolumeWarper:
         the cells' first guess, refined by the field's Newton's method."""
         coords = self._resources.buffer("volume_coords", slab.voxels * COORD_BYTES)
         coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
+        slopes = self._resources.buffer("volume_slopes", slab.voxels * SLOPE_BYTES)
+        slopes.bind_to_storage_buffer(bindings.VOLUME_SLOPES.index)
         defines = {"WARP_BORDER": BORDERS.index(options.border)}
         uniforms = {"u_volume_size": shape[::-1]}
-        self._cells(bands, frame, slab, defines, uniforms, coords=True)
+        self._cells(bands, frame, slab, defines, uniforms)
         self._gl.mgl.memory_barrier()
         ox, oy, oz = frame.origin_voxels
-        refine = getattr(field, "refine", None)
-        if refine is None:
-            raise TypeError(f"{type(field).__name__} cannot solve f's inverse")
-        refine(
+        field.refine(
             coords,
             slab.size,
             (ox, oy, oz + slab.first),
@@ -447,6 +302,31 @@ class VolumeWarper:
         raw = np.frombuffer(target.read(), dtype=source.data.dtype)
         values = raw.reshape(slab.depth, slab.height, slab.width, source.target_components)
         out[slab.first : slab.first + slab.depth] = values[..., : source.channels]
+
+
+def _hold_band(source: SourceTexture, lattice, first: int, layers: int, border: int) -> int:
+    """Hold the source slices that cell layers ``first`` .. ``first + layers - 1`` sample
+    (their voxels, one more each side for trilinear, by the border rule)."""
+    depth = source.source.shape[0]
+    if source.whole or layers == 0:
+        return source.hold(0, depth - 1 if source.whole else 0)
+    low = first * lattice.grid - lattice.margin - 1
+    high = (first + layers) * lattice.grid - lattice.margin
+    return source.hold(*border_slices(low, high, depth, BORDERS[border]))
+
+
+def _hold_sampled(source: SourceTexture, coords, slab: Slab, border: str) -> int:
+    """Hold the source slices that the points in ``coords`` (a slab's, read back) sample."""
+    depth = source.source.shape[0]
+    if source.whole:
+        return source.hold(0, depth - 1)
+    raw = np.frombuffer(coords.read(size=slab.voxels * COORD_BYTES), np.float32)
+    points = raw.reshape(-1, 4)
+    z = points[points[:, 3] >= 0, 2]
+    if len(z) == 0:
+        return source.hold(0, 0)
+    low, high = int(np.floor(z.min())), int(np.floor(z.max())) + 1
+    return source.hold(*border_slices(low, high, depth, border))
 
 
 def _value_max(source: SourceVolume) -> float:

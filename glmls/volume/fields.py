@@ -42,6 +42,21 @@ class Field(Protocol):
         order."""
         ...
 
+    def refine(
+        self,
+        coords: moderngl.Buffer,
+        size: tuple[int, int, int],
+        origin: tuple[float, float, float],
+        shape: tuple[int, int, int],
+        *,
+        constant: bool,
+    ) -> None:
+        """Newton's method from the first guesses in ``coords`` (x, y, z, w per voxel of a
+        slab of ``size`` (W, H, slices) whose voxel (0, 0, 0) shows ``origin``, source voxels;
+        w < 0: no guess), written back as (s, w): w the residual |f(s) - u| (voxels) where
+        found (inside a volume of ``shape`` with ``constant``), else -1 - residual."""
+        ...
+
 
 class ReferenceField:
     """f of the float64 reference (:func:`glmls.reference.mls`) with (N, 3) handles

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..core.handles import COORDINATE_LIMIT
 from ..core.mesh import check_grid
+from ..imaging.options import Default
 from ..imaging.source import BORDERS, INTERPOLATIONS, check_background
 
 __all__ = ["VOLUME_METHODS", "SlabOptions", "VolumeOptions"]
@@ -188,8 +189,7 @@ class VolumeOptions:
                 f"unknown volume warp option{'s' if len(unknown) > 1 else ''} "
                 f"{', '.join(unknown)}; the options are {', '.join(sorted(fields))}"
             )
-        given = {k: v for k, v in keywords.items() if type(v).__name__ != "Default"}
-        given = {k: getattr(v, "wrapped", v) for k, v in given.items()}
+        given = {k: v for k, v in keywords.items() if not isinstance(v, Default)}
         if options is None:
             return cls(**given)  # type: ignore[arg-type]
         return dataclasses.replace(options, **given) if given else options  # type: ignore[arg-type]
@@ -211,6 +211,9 @@ class SlabOptions:
     band_bytes : int, default 2**27
         The deformed lattice's buffer (12 bytes a lattice point); the GL limit of a storage
         buffer caps it.
+    texture_bytes : int, default 2**30
+        The source volume's texture: a larger volume is held a range of slices at a time,
+        those each slab (and each band of the lattice) samples.
 
     Examples
     --------
@@ -221,9 +224,10 @@ class SlabOptions:
 
     slab_bytes: int = 1 << 26
     band_bytes: int = 1 << 27
+    texture_bytes: int = 1 << 30
 
     def __post_init__(self) -> None:
-        for name in ("slab_bytes", "band_bytes"):
+        for name in ("slab_bytes", "band_bytes", "texture_bytes"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 64:
                 raise ValueError(f"{name} must be an integer >= 64, got {value!r}")

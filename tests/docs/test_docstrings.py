@@ -28,6 +28,7 @@ MODULES = [
     glmls.gl,
     glmls.reference,
     glmls.data,
+    glmls.mls3,
     glmls.volume,
 ]
 

@@ -17,9 +17,9 @@ from glmls.engine.passes3 import evaluate_lattice3, evaluate_points3
 SHAPE = (256, 256, 256)
 #: Where fewer than 4 handles in general position are in reach (two, three, collinear), a
 #: ridge of 1e-3 of the moments fixes what they leave free, and float32's rounding of the
-#: moments moves the result by up to ~1e-4 of the distance to p* (docs/mathematics.md, "The
+#: moments moves the result by up to ~3e-4 of the distance to p* (docs/mathematics.md, "The
 #: 3D solve on the GPU").
-RIDGE_TOLERANCE = 0.05
+RIDGE_TOLERANCE = 0.1
 
 
 def _rotation(rng) -> np.ndarray:
@@ -118,7 +118,7 @@ def test_identity_is_exact(gl, handles, transform):
         assert (m(points) == points).all()
         assert (big_m == np.eye(3)).all() and (t == 0).all()
     with glmls.MLS(src[:2], src[:2] + [1.0, 2.0, 3.0], transform=transform) as m:
-        assert np.abs(m(points[:10]) - points[:10] - [1.0, 2.0, 3.0]).max() < 1e-5
+        assert (m(points[:10]) - points[:10] == [1.0, 2.0, 3.0]).all()  # a translation
 
 
 @pytest.mark.parametrize("transform", glmls.TRANSFORMS)
@@ -189,7 +189,7 @@ def test_lattice_pass_matches_points(gl):
 
 def test_jacobian_against_the_reference(gl, handles):
     src, dst, points = handles
-    points = points[:200]
+    points = points[:60]
     for transform in glmls.TRANSFORMS:
         with glmls.MLS(src, dst, transform=transform) as m:
             _, jacobian = m.jacobian(points)
@@ -224,7 +224,7 @@ def test_inverse(gl, handles):
 
 
 def test_residuals_and_shapes(gl, handles):
-    src, dst, points = handles
+    src, dst, _ = handles
     with glmls.MLS(src, dst, s=0.0) as m:
         assert m.residuals(src, dst).max() < 1e-3
         assert m(np.zeros((0, 3))).shape == (0, 3)

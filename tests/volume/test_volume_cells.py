@@ -92,6 +92,8 @@ def test_slabs_are_invisible(kernel3, rng, volume):
             whole = warp_volume(m, volume, options)
             sliced = warp_volume(m, volume, options, slabs=small)
             np.testing.assert_array_equal(whole, sliced)
+            banded = warp_volume(m, volume, options, slabs=SlabOptions(band_bytes=small.band_bytes))
+            np.testing.assert_array_equal(whole, banded)  # one slab, every band
 
 
 def test_kernel_field_fills_the_lattice_as_the_reference(kernel3, gl, rng, volume):
@@ -131,3 +133,24 @@ def test_spacing_puts_voxels_at_physical_positions(kernel3, rng, volume):
     )
     reference = warp_cells(field, volume[..., None])[..., 0]
     assert np.mean(out != reference) < 0.01
+
+
+def test_volumes_larger_than_a_texture_are_held_by_slices(kernel3, rng, volume):
+    """A volume over ``texture_bytes`` is held a range of slices at a time: the same
+    volume as from one texture."""
+    src, dst = box_handles(SHAPE, rng, count=12, spread=1.5)
+    m = kernel3(src, dst, SHAPE, transform="rigid")
+    _, h, w = SHAPE
+    slices = SlabOptions(
+        slab_bytes=h * w * 64,  # one output slice a slab (backward: 64 bytes a voxel)
+        band_bytes=(w + 13) * (h + 13) * 12 * 2,  # a layer or a few of cells a band
+        texture_bytes=h * w * 8,  # 8 source slices a texture
+    )
+    for method in ("quads", "backward"):
+        for border in ("constant", "reflect"):
+            for interpolation in ("nearest", "linear"):
+                options = VolumeOptions(method=method, border=border, interpolation=interpolation)
+                whole = warp_volume(m, volume, options)
+                np.testing.assert_array_equal(warp_volume(m, volume, options, slabs=slices), whole)
+    with pytest.raises(ValueError, match="more than one texture holds"):
+        warp_volume(m, volume, slabs=SlabOptions(texture_bytes=h * w * 2))

@@ -23,7 +23,7 @@ const float MLS3_DEGENERATE_SHARE = 1e-3;
 // zeroes every off-diagonal element once; convergence is quadratic, and these many leave
 // off-diagonal elements below float32's rounding of the diagonal.
 const int MLS3_SWEEPS3 = 4;
-const int MLS3_SWEEPS4 = 5;
+const int MLS3_SWEEPS4 = 4;
 
 // One Jacobi rotation zeroing apq in a symmetric matrix: app, aqq, apq the (p, q) block, and
 // for each other index r the pair (arp, arq); vp, vq the eigenvector columns p and q.
@@ -168,8 +168,25 @@ vec3 mls3_share(vec3 e, float trace) {
     return MLS3_DEGENERATE_SHARE * r * r;
 }
 
+// A^-1 d for the symmetric positive definite A = L L^T (Cholesky factor columns l0, l1, l2,
+// lower triangular: l0 = (L00, L10, L20), l1 = (0, L11, L21), l2 = (0, 0, L22)).
+vec3 mls3_cholesky_apply(vec3 l0, vec3 l1, vec3 l2, vec3 d) {
+    float y0 = d.x / l0.x;
+    float y1 = (d.y - l0.y * y0) / l1.y;
+    float y2 = (d.z - l0.z * y0 - l1.z * y1) / l2.z;
+    float x2 = y2 / l2.z;
+    float x1 = (y1 - l1.z * x2) / l1.y;
+    float x0 = (y0 - l0.y * x1 - l0.z * x2) / l0.x;
+    return vec3(x0, x1, x2);
+}
+
 // N = M - I from the symmetric A (diagonal a, off-diagonal o = (01, 02, 12)) and D, about
 // p* and q*; spread = sum w |p - v|^2, the yardstick for coincident sources.
+//
+// Where A's eigenvalues provably keep every ridge at 0 (its invariants bound them: with
+// trace 1, det A / c2 <= e_min and c2 < 2 e_mid for e_mid < 1e-3, c2 the sum of A's
+// principal 2 x 2 minors), the exact closed forms need neither A's eigenvectors nor (affine)
+// the similarity solution: A^-1 D by Cholesky, Horn's rotation of B itself.
 mat3 mls3_solve(vec3 a, vec3 o, mat3 D, float spread) {
     float mu = a.x + a.y + a.z;
     // Coincident sources in reach (or one handle): a translation. All displacements equal
@@ -183,25 +200,54 @@ mat3 mls3_solve(vec3 a, vec3 o, mat3 D, float spread) {
     a *= inv;
     o *= inv;
     D *= inv;
+    float tr = a.x + a.y + a.z;   // trace(A) in its own units: 1 but for rounding
+    float c2 = a.x * a.y + a.x * a.z + a.y * a.z - dot(o, o);
+    float det = a.x * (a.y * a.z - o.z * o.z) - o.x * (o.x * a.z - o.z * o.y)
+              + o.y * (o.x * o.z - a.y * o.y);
+#if MLS_TRANSFORM == 0
+    // (c2 bounds e_mid away from 0 first, so that rounding cannot pass det / c2 off as e_min)
+    if (c2 > 2.0 * MLS3_DEGENERATE_SHARE * tr * tr && det > MLS3_DEGENERATE_SHARE * c2 * tr) {
+        // every eigenvalue above 1e-3 trace(A): no ridge, N = A^-1 D
+        vec3 l0 = vec3(sqrt(a.x), o.x, o.y);
+        l0.yz /= l0.x;
+        float l11 = sqrt(a.y - l0.y * l0.y);
+        vec3 l1 = vec3(0.0, l11, (o.z - l0.z * l0.y) / l11);
+        vec3 l2 = vec3(0.0, 0.0, sqrt(a.z - l0.z * l0.z - l1.z * l1.z));
+        if (l2.z > 0.0 && l11 > 0.0) {
+            return mat3(mls3_cholesky_apply(l0, l1, l2, D[0]),
+                        mls3_cholesky_apply(l0, l1, l2, D[1]),
+                        mls3_cholesky_apply(l0, l1, l2, D[2]));
+        }
+    }
+    bool ridge = true;
+#else
+    // the middle eigenvalue above 1e-3 trace(A): no ridge on the rotation
+    bool ridge = !(c2 > 2.0 * MLS3_DEGENERATE_SHARE * tr * tr);
+#endif
     mat3 A = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z));
     mat3 B = A + D;
-    vec3 e, v0, v1, v2;
-    mls3_eigen3(a, o, e, v0, v1, v2);
-    float trace = max(e.x + e.y + e.z, 0.0);
-    vec3 share = mls3_share(e, trace);
-    // the largest eigenvalue's vector (A's principal axis), the middle one's share
-    float emax = max(e.x, max(e.y, e.z));
-    float emid = e.x + e.y + e.z - emax - min(e.x, min(e.y, e.z));
-    vec3 axis = e.x == emax ? v0 : (e.y == emax ? v1 : v2);
-    float share_mid = mls3_share(vec3(emid), trace).x;
-    // rigid: Horn's rotation of B' = B + c |B| R0 (c = 0 unless the sources are near a line)
-    mat3 R0 = mls3_least_rotation(axis, axis * B);
-    float normB = sqrt(dot(B[0], B[0]) + dot(B[1], B[1]) + dot(B[2], B[2]));
-    mat3 NR = mls3_quaternion_minus_identity(mls3_horn(a, o, D + (share_mid * normB) * R0));
+    vec3 e = vec3(0.0), v0 = vec3(1.0, 0.0, 0.0), v1 = vec3(0.0, 1.0, 0.0);
+    vec3 v2 = vec3(0.0, 0.0, 1.0), share = vec3(0.0);
+    float trace = tr;
+    mat3 S2 = D;   // B' - A, for Horn's matrix
+    if (ridge) {
+        mls3_eigen3(a, o, e, v0, v1, v2);
+        trace = max(e.x + e.y + e.z, 0.0);
+        share = mls3_share(e, trace);
+        // the largest eigenvalue's vector (A's principal axis), the middle one's share
+        float emax = max(e.x, max(e.y, e.z));
+        float emid = e.x + e.y + e.z - emax - min(e.x, min(e.y, e.z));
+        vec3 axis = e.x == emax ? v0 : (e.y == emax ? v1 : v2);
+        float share_mid = mls3_share(vec3(emid), trace).x;
+        // rigid: Horn's rotation of B' = B + c |B| R0 (c = 0 unless the sources are near a
+        // line)
+        float normB = sqrt(dot(B[0], B[0]) + dot(B[1], B[1]) + dot(B[2], B[2]));
+        S2 += (share_mid * normB) * mls3_least_rotation(axis, axis * B);
+    }
+    mat3 NR = mls3_quaternion_minus_identity(mls3_horn(a, o, S2));
     // trace(R^T B) - trace(A) = trace(D) + <R - I, B>, without cancellation
     float gain = D[0][0] + D[1][1] + D[2][2]
                + dot(NR[0], B[0]) + dot(NR[1], B[1]) + dot(NR[2], B[2]);
-    float tr = a.x + a.y + a.z;   // trace(A) in its own units: 1 but for rounding
     float along = tr + gain;      // trace(R^T B)
 #if MLS_TRANSFORM == 2
     // all targets in reach collapsed to one point: no rotation is defined, M = I

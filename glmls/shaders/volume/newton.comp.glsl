@@ -1,7 +1,10 @@
 // The backward method: for each output voxel u of the slab, the source point s with
 // f(s) = u by Newton's method on f (source voxels), from the first guess in the coordinates
 // buffer ((x, y, z, w), w >= 0: the cells' piecewise linear inverse covers u) or from u
-// itself. The Jacobian by forward differences (a quarter voxel: the MLS Jacobian is not M);
+// itself. Each step takes one evaluation of f and a slope, the inverse Jacobian: from a guess
+// first its tetrahedron's (the slopes buffer: the piecewise linear inverse's), else, and
+// wherever the residual falls by less than half in a step, f's own by forward differences
+// (a quarter voxel: the MLS Jacobian is not M), kept while it converges fast;
 // at most WARP_NEWTON_STEPS steps, each at most u_max_step voxels; stops below u_tolerance
 // or where the Jacobian is singular (a fold's edge). Out: (s, w), w = the residual
 // |f(s) - u| (voxels) where it is at most u_accept and (constant border) s is inside the
@@ -13,6 +16,9 @@ layout(local_size_x = LOCAL_SIZE) in;
 layout(std430, binding = BIND_VOLUME_COORDS) buffer VolumeCoords {
     vec4 volume_coords[];
 };
+layout(std430, binding = BIND_VOLUME_SLOPES) readonly buffer VolumeSlopes {
+    vec4 volume_slopes[];
+};
 
 uniform int u_offset;        // first item of this dispatch
 uniform int u_count;         // voxels of the slab
@@ -23,6 +29,22 @@ uniform float u_tolerance;
 uniform float u_accept;
 uniform float u_max_step;
 
+// f's inverse Jacobian at s (f(s) = fs) by forward differences of a quarter voxel (the MLS
+// Jacobian is not M); false where it is singular (a fold's edge).
+bool volume_inverse_jacobian(vec3 s, vec3 fs, out mat3 inverse_jacobian) {
+    const float h = 0.25;
+    mat3 jacobian = mat3((volume_f(s + vec3(h, 0.0, 0.0)) - fs) / h,
+                         (volume_f(s + vec3(0.0, h, 0.0)) - fs) / h,
+                         (volume_f(s + vec3(0.0, 0.0, h)) - fs) / h);
+    float det = determinant(jacobian);
+    inverse_jacobian = mat3(0.0);
+    if (!(abs(det) > 1e-9)) {
+        return false;
+    }
+    inverse_jacobian = inverse(jacobian);
+    return true;
+}
+
 void main() {
     int item = u_offset + int(gl_GlobalInvocationID.x);
     bool store = item < u_count;
@@ -31,9 +53,13 @@ void main() {
                     i / (u_slab_size.x * u_slab_size.y));
     vec3 u = u_slab_origin + vec3(p);
     vec4 guess = volume_coords[i];
-    vec3 s = guess.w >= 0.0 ? guess.xyz : u;
-    const float h = 0.25;
+    bool guided = guess.w >= 0.0;
+    vec3 s = guided ? guess.xyz : u;
+    mat3 slope = mat3(volume_slopes[3 * i].xyz, volume_slopes[3 * i + 1].xyz,
+                      volume_slopes[3 * i + 2].xyz);
     float residual = 0.0;
+    float last = 1e30;
+    bool fresh = false;   // slope is f's inverse Jacobian at an iterate
     for (int k = 0; ; ++k) {
         vec3 fs = volume_f(s);
         vec3 r = fs - u;
@@ -41,15 +67,18 @@ void main() {
         if (residual <= u_tolerance || k == WARP_NEWTON_STEPS) {
             break;
         }
-        vec3 jx = (volume_f(s + vec3(h, 0.0, 0.0)) - fs) / h;
-        vec3 jy = (volume_f(s + vec3(0.0, h, 0.0)) - fs) / h;
-        vec3 jz = (volume_f(s + vec3(0.0, 0.0, h)) - fs) / h;
-        vec3 n = cross(jy, jz);
-        float det = dot(jx, n);
-        if (!(abs(det) > 1e-9)) {
-            break;   // singular: keep the best point so far
+        if (!guided || (residual > 0.5 * last && !fresh)) {
+            // no guess, or the slope converges slowly: f's Jacobian here instead
+            if (!volume_inverse_jacobian(s, fs, slope)) {
+                break;   // singular: keep the best point so far
+            }
+            guided = true;
+            fresh = true;
+        } else {
+            fresh = false;
         }
-        vec3 step = vec3(dot(r, n), dot(jx, cross(r, jz)), dot(jx, cross(jy, r))) / det;
+        last = residual;
+        vec3 step = slope * r;
         float len = length(step);
         s -= len > u_max_step ? step * (u_max_step / len) : step;
     }

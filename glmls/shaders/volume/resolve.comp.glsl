@@ -4,7 +4,8 @@
 //   VOLUME_COORDS 0: samples the source there (volume/sample.glsl; nearest keeps to the
 //                    cell's own voxels) into the slab image (volume/target.glsl);
 //                 1: writes the point (x, y, z, 0) into the coordinates buffer, the first
-//                    guess of the backward method ((0, 0, 0, -1): no cell).
+//                    guess of the backward method ((0, 0, 0, -1): no cell), and the
+//                    tetrahedron's linear map from output to source into the slopes.
 // Voxels no cell covers get the background (-1 in the coordinates), in the pass told to.
 layout(local_size_x = LOCAL_SIZE) in;
 
@@ -14,6 +15,11 @@ layout(local_size_x = LOCAL_SIZE) in;
 #if VOLUME_COORDS
 layout(std430, binding = BIND_VOLUME_COORDS) writeonly buffer VolumeCoords {
     vec4 volume_coords[];
+};
+// the tetrahedron's linear map from output to source offsets (3 columns a voxel): the
+// Jacobian of the piecewise linear inverse, which Newton's method starts with
+layout(std430, binding = BIND_VOLUME_SLOPES) writeonly buffer VolumeSlopes {
+    vec4 volume_slopes[];
 };
 #else
 #include "volume/sample.glsl"
@@ -78,5 +84,17 @@ void main() {
     // nearest keeps to the cell's own voxels (its voxel centres, margin included)
     ivec3 lo = cell * u_lattice_grid - u_lattice_margin;
     ivec3 hi = min(lo + u_lattice_grid - 1, u_volume_size + u_lattice_margin - 1);
+#if VOLUME_COORDS
+    // d s / d p = S E^-1: source edges over deformed edges
+    vec3 q0 = volume_deformed(cell);
+    mat3 deformed = mat3(volume_deformed(b) - q0, volume_deformed(c) - q0,
+                         volume_deformed(cell + ivec3(1)) - q0);
+    mat3 source = mat3(volume_lattice_point(b) - s0, volume_lattice_point(c) - s0,
+                       volume_lattice_point(cell + ivec3(1)) - s0);
+    mat3 slope = abs(determinant(deformed)) > 0.0 ? source * inverse(deformed) : mat3(0.0);
+    volume_slopes[3 * i] = vec4(slope[0], 0.0);
+    volume_slopes[3 * i + 1] = vec4(slope[1], 0.0);
+    volume_slopes[3 * i + 2] = vec4(slope[2], 0.0);
+#endif
     volume_write(i, p, s, true, lo, hi);
 }

@@ -12,10 +12,11 @@ layout(binding = BIND_VOLUME_SOURCE) uniform usampler3D u_volume;
 layout(binding = BIND_VOLUME_SOURCE) uniform sampler3D u_volume;
 #endif
 uniform ivec3 u_source_size;   // W, H, D of the source
+uniform int u_source_first;    // the source slice at the texture's layer 0
 
 vec4 volume_texel(ivec3 p) {
     ivec3 q = ivec3(border_index(p.x, u_source_size.x), border_index(p.y, u_source_size.y),
-                    border_index(p.z, u_source_size.z));
+                    border_index(p.z, u_source_size.z) - u_source_first);
     return vec4(texelFetch(u_volume, q, 0));
 }
 

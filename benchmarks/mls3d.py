@@ -1,0 +1,80 @@
+"""The 3D MLS on the GPU: the points pass (f, and f with the Jacobian) and ``m.deform`` of a
+mesh, with N random handles in a 256^3 volume.
+
+``python benchmarks/mls3d.py [--handles 64] [--points 1000000] [--transform rigid] [--repeat 3]``
+
+Prints the best of ``--repeat`` calls after an untimed one: seconds and millions of points per
+second for ``m(points)`` (one dispatch, one read-back), ``m.jacobian(points)`` (f and J by
+central differences: 7 evaluations of f per point) and ``m.deform`` of a mesh with that many
+vertices (the Jacobian pass plus the normals and folds on the host), split into the GPU pass
+and the host's part.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+import glmls
+from glmls.core.mesh3 import deform_mesh
+
+
+def best(call, repeat: int) -> float:
+    call()
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        call()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def grid_mesh(count: int) -> tuple[np.ndarray, np.ndarray]:
+    """A wavy sheet of about ``count`` vertices across the volume, two triangles per cell."""
+    side = int(np.sqrt(count))
+    y, x = np.mgrid[0:side, 0:side] * (250.0 / side) + 3.0
+    z = 128.0 + 40.0 * np.sin(x / 30.0) * np.cos(y / 40.0)
+    vertices = np.stack([x, y, z], -1).reshape(-1, 3)
+    index = np.arange(side * side).reshape(side, side)
+    a, b, c, d = index[:-1, :-1], index[:-1, 1:], index[1:, :-1], index[1:, 1:]
+    faces = np.concatenate([np.stack([a, b, d], -1), np.stack([a, d, c], -1)]).reshape(-1, 3)
+    return vertices, faces
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--handles", type=int, default=64)
+    parser.add_argument("--points", type=int, default=1_000_000)
+    parser.add_argument("--transform", default="rigid", choices=glmls.TRANSFORMS)
+    parser.add_argument("--repeat", type=int, default=3)
+    args = parser.parse_args()
+    rng = np.random.default_rng(0)
+    src = rng.uniform(0, 256, (args.handles, 3))
+    dst = src + rng.normal(0, 8, src.shape)
+    points = rng.uniform(0, 256, (args.points, 3))
+    vertices, faces = grid_mesh(args.points)
+    with glmls.MLS(src, dst, transform=args.transform, shape=(256, 256, 256)) as m:
+        rows = {
+            "f": best(lambda: m(points), args.repeat),
+            "f and J": best(lambda: m.jacobian(points), args.repeat),
+            "deform": best(lambda: m.deform((vertices, faces)), args.repeat),
+        }
+        _, jacobian = m.jacobian(vertices)
+    deformed = vertices.copy()
+
+    def host() -> None:
+        deform_mesh(vertices, faces, None, deformed, jacobian)
+
+    rows["deform: host part"] = best(host, args.repeat)
+    print(
+        f"{args.handles} handles, {args.transform}, {len(points):,} points, mesh of "
+        f"{len(vertices):,} vertices and {len(faces):,} faces"
+    )
+    for name, seconds in rows.items():
+        print(f"  {name:18s} {seconds:7.3f} s  {len(points) / seconds / 1e6:6.2f} M points/s")
+
+
+if __name__ == "__main__":
+    main()

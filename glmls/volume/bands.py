@@ -1,0 +1,191 @@
+"""How the volume construction holds its work: output slabs, and f on the lattice band by band
+of z layers (:class:`LatticeBands`); and the lattice's margin for the border modes."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from .fields import Field
+from .frame import CornerLattice, VolumeFrame
+
+__all__ = ["KEY_BYTES", "POINT_BYTES", "LatticeBands", "Slab", "border_margin3"]
+
+#: Bytes of one lattice point in the band buffer (3 float32).
+POINT_BYTES = 12
+#: Bytes of one voxel's key (6 cell + tetrahedron).
+KEY_BYTES = 4
+#: The survey of the lattice's bands reads them back this many bytes at a time.
+SURVEY_BYTES = 1 << 24
+
+
+@dataclass(frozen=True)
+class Slab:
+    """Output slices ``first`` .. ``first + depth - 1`` of a frame of (W, H) voxels a slice."""
+
+    first: int
+    depth: int
+    width: int
+    height: int
+
+    @property
+    def voxels(self) -> int:
+        return self.depth * self.width * self.height
+
+    @property
+    def size(self) -> tuple[int, int, int]:
+        return self.width, self.height, self.depth
+
+
+def border_margin3(field: Field, lattice: CornerLattice, frame: VolumeFrame) -> int:
+    """The margin (voxels, a multiple of the grid) that ``lattice`` needs past the volume so
+    that its deformed image reaches past every voxel of ``frame``: the largest displacement
+    on the lattice's faces (sampled, at most 33 x 33 points a face) plus the frame's
+    overhang past the volume plus one voxel, at most that overhang plus twice the volume's
+    largest side."""
+    grid = lattice.grid
+    d, h, w = lattice.shape
+    low = np.array(frame.origin_voxels)
+    high = low + np.array(frame.shape[::-1]) - 1
+    size = np.array([w, h, d], dtype=float)
+    overhang = float(max(0.0, np.max(-0.5 - low), np.max(high - size + 0.5)))
+    faces = []
+    axes = [np.linspace(-0.5, n - 0.5, min(33, n + 1)) for n in (w, h, d)]
+    for axis in range(3):
+        others = [a for a in range(3) if a != axis]
+        grid_a, grid_b = np.meshgrid(axes[others[0]], axes[others[1]], indexing="ij")
+        for end in (-0.5, size[axis] - 0.5):
+            face = np.empty((grid_a.size, 3))
+            face[:, axis] = end
+            face[:, others[0]] = grid_a.ravel()
+            face[:, others[1]] = grid_b.ravel()
+            faces.append(face)
+    points = np.concatenate(faces)
+    moved = field.evaluate(points) - points
+    reach = float(np.max(np.abs(moved))) if np.all(np.isfinite(moved)) else 0.0
+    limit = overhang + 2 * max(w, h, d)
+    margin = min(reach + overhang + 1, limit)
+    return int(grid * max(1, math.ceil(margin / grid)))
+
+
+class LatticeBands:
+    """f on a lattice, held band by band of z layers in one buffer of at most ``band_bytes``.
+
+    Where the whole lattice fits in one band it is evaluated once and kept. Else, with
+    ``survey``, every band is evaluated once first to learn the z range (source voxels) that
+    each layer of cells reaches, so that each slab evaluates only the bands that reach it
+    (without, every slab takes every band). :attr:`box` (the box of every deformed point)
+    is known after a survey."""
+
+    def __init__(
+        self,
+        field: Field,
+        lattice: CornerLattice,
+        buffer: moderngl.Buffer,
+        band_bytes: int,
+        *,
+        survey: bool = True,
+    ) -> None:
+        nx, ny, nz = lattice.dims
+        self.field = field
+        self.lattice = lattice
+        self.buffer = buffer
+        layer_bytes = nx * ny * POINT_BYTES
+        self.cell_layers = max(1, band_bytes // layer_bytes - 1)  # cell layers a band holds
+        if band_bytes // layer_bytes < 2:
+            raise ValueError(
+                f"a layer of {nx} x {ny} lattice points does not fit twice in the lattice "
+                f"buffer of {band_bytes} bytes; use a coarser grid"
+            )
+        if 6 * lattice.cell_count >= 0xFFFFFFFF:  # keys: 6 per cell, in 32 bits
+            raise ValueError(
+                f"a lattice of {lattice.cell_count} cells is more than the construction "
+                f"numbers (715,827,882); use a coarser grid"
+            )
+        self.cells = nz - 1
+        self.loaded: tuple[int, int] | None = None
+        #: per cell layer, the z range its deformed cells reach (None: not surveyed)
+        self.low: np.ndarray | None = None
+        self.high: np.ndarray | None = None
+        #: the box of every deformed point (x, y, z low, then high), source voxels
+        self.box = np.array([np.inf] * 3 + [-np.inf] * 3)
+        if survey:
+            self._survey()
+        elif self.whole:
+            self.load(0, self.cells)
+
+    @property
+    def whole(self) -> bool:
+        """The whole lattice fits in one band."""
+        return self.cell_layers >= self.cells
+
+    def _survey(self) -> None:
+        nz = self.cells + 1
+        low = np.full(nz, np.inf)
+        high = np.full(nz, -np.inf)
+        nx, ny, _ = self.lattice.dims
+        layer_bytes = nx * ny * POINT_BYTES
+        chunk = max(1, SURVEY_BYTES // layer_bytes)  # point layers read back at a time
+        for first, layers in self.all_bands():
+            self.load(first, layers)
+            for start in range(0, layers + 1, chunk):
+                count = min(chunk, layers + 1 - start)
+                raw = self.buffer.read(size=count * layer_bytes, offset=start * layer_bytes)
+                points = np.frombuffer(raw, np.float32).reshape(count, -1, 3)
+                with np.errstate(all="ignore"):
+                    # NaN (a degenerate f) is left out: fmin and fmax skip it
+                    low_box = np.fmin.reduce(points, axis=(0, 1))
+                    high_box = np.fmax.reduce(points, axis=(0, 1))
+                    self.box = np.concatenate(
+                        [np.fmin(self.box[:3], low_box), np.fmax(self.box[3:], high_box)]
+                    )
+                    span = slice(first + start, first + start + count)
+                    low[span] = np.fmin(low[span], np.fmin.reduce(points[..., 2], axis=1))
+                    high[span] = np.fmax(high[span], np.fmax.reduce(points[..., 2], axis=1))
+        self.low = np.fmin(low[:-1], low[1:])
+        self.high = np.fmax(high[:-1], high[1:])
+
+    def all_bands(self) -> list[tuple[int, int]]:
+        """Every band (first cell layer, layers)."""
+        step = self.cell_layers
+        return [(f, min(step, self.cells - f)) for f in range(0, self.cells, step)]
+
+    def load(self, first: int, layers: int) -> None:
+        """Make the buffer hold cell layers ``first`` .. ``first + layers - 1``."""
+        if self.loaded is not None:
+            held_first, held_layers = self.loaded
+            if held_first <= first and first + layers <= held_first + held_layers:
+                return
+        self.field.fill(self.lattice, first, layers + 1, self.buffer)
+        self.loaded = (first, layers)
+
+    @property
+    def band_first(self) -> int:
+        return self.loaded[0] if self.loaded is not None else 0
+
+    def bands_for(self, z_low: float, z_high: float) -> list[tuple[int, int]]:
+        """The bands (first cell layer, layers) of the cell layers that reach z from
+        ``z_low`` to ``z_high`` (source voxels): runs of such layers, cut to the buffer
+        (every band where not surveyed; the whole lattice where it is held)."""
+        if self.whole:
+            return [(0, self.cells)]
+        if self.low is None or self.high is None:
+            return self.all_bands()
+        with np.errstate(invalid="ignore"):
+            hit = (self.high >= z_low) & (self.low <= z_high)
+        layers = np.flatnonzero(hit)
+        if len(layers) == 0:
+            return []
+        out = []
+        start = prev = int(layers[0])
+        for layer in (*layers[1:].tolist(), None):
+            if layer is not None and layer == prev + 1 and layer - start < self.cell_layers:
+                prev = layer
+                continue
+            out.append((start, prev - start + 1))
+            if layer is not None:
+                start = prev = layer
+        return out
