@@ -7,6 +7,7 @@
 //   void mls3(vec3 v, out mat3 M, out vec3 T)   f(v) = v * M + T, scaled coordinates
 //   vec3 mls3_to_scaled(vec3 voxel), vec3 mls3_to_voxels(vec3 scaled)
 //   vec3 mls3_f_voxels(vec3 voxel)          f in voxel coordinates
+//   mat3 mls3_jacobian(vec3 v, float h)     df/dv by central differences of step h (scaled)
 //
 // Scaled coordinates: (voxel - u_mls3_center) / u_mls3_scale (MLSKernel3.scaling), so that
 // float32 keeps ~1e-7 of the volume's extent. M is a GLSL mat3 used as ``v * M`` (row
@@ -187,6 +188,22 @@ MLS3Result mls3_eval(vec3 v) {
     MLS3Accum a = mls3_begin(v, d2min, nearest, n);
     MLS3_EACH(MLS3_ACC)
     return mls3_finish(a);
+}
+
+// Row r of J = df/dv at v: e_r + (d(v + h e_r) - d(v - h e_r)) / (the steps float32 took).
+vec3 mls3_difference(vec3 v, vec3 axis, float h) {
+    vec3 up = v + h * axis;
+    vec3 down = v - h * axis;
+    float taken = dot(up - v, axis) + dot(v - down, axis);
+    return axis + (mls3_eval(up).d - mls3_eval(down).d) / taken;
+}
+
+// J = df/dv at v by central differences of step h (scaled; 6 evaluations of f), for row
+// vectors: df = dv * J, the mathematical J[r][c] = d f_c / d v_r (the GLSL J[c][r]).
+mat3 mls3_jacobian(vec3 v, float h) {
+    return transpose(mat3(mls3_difference(v, vec3(1.0, 0.0, 0.0), h),
+                          mls3_difference(v, vec3(0.0, 1.0, 0.0), h),
+                          mls3_difference(v, vec3(0.0, 0.0, 1.0), h)));
 }
 
 vec3 mls3_f(vec3 v) {

@@ -24,25 +24,16 @@ vec3 mls3_residual(vec3 s, vec3 u) {
     return (s - u) + mls3_eval(s).d;
 }
 
-vec3 mls3_difference(vec3 s, vec3 axis) {
-    vec3 up = s + u_jacobian_step * axis;
-    vec3 down = s - u_jacobian_step * axis;
-    float step = dot(up - s, axis) + dot(s - down, axis);
-    return axis + (mls3_eval(up).d - mls3_eval(down).d) / step;
-}
-
 // Newton from s; returns the last |f(s) - u| and leaves s there.
 float mls3_newton(inout vec3 s, vec3 u) {
     vec3 r = mls3_residual(s, u);
     for (int k = 0; k < u_steps && length(r) > u_tolerance; ++k) {
-        mat3 J = transpose(mat3(mls3_difference(s, vec3(1.0, 0.0, 0.0)),
-                                mls3_difference(s, vec3(0.0, 1.0, 0.0)),
-                                mls3_difference(s, vec3(0.0, 0.0, 1.0))));
+        mat3 J = mls3_jacobian(s, u_jacobian_step);
         float det = determinant(J);
-        vec3 step = abs(det) > 1e-12 ? r * inverse(J) : r;
-        float len = length(step);
-        step *= len > u_max_step ? u_max_step / len : 1.0;
-        s -= step;
+        vec3 move = abs(det) > 1e-12 ? r * inverse(J) : r;
+        float len = length(move);
+        move *= len > u_max_step ? u_max_step / len : 1.0;
+        s -= move;
         r = mls3_residual(s, u);
     }
     return length(r);

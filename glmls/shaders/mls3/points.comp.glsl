@@ -55,16 +55,6 @@ void mls3_store_matrix(int i, mat3 M) {
 #endif
 }
 
-#if MLS3_WRITE_JACOBIAN
-// Row r of J: e_r + (d(v + h e_r) - d(v - h e_r)) / (the steps float32 really took).
-vec3 mls3_jacobian_row(vec3 v, vec3 axis) {
-    vec3 up = v + u_jacobian_step * axis;
-    vec3 down = v - u_jacobian_step * axis;
-    float step = dot(up - v, axis) + dot(v - down, axis);
-    return axis + (mls3_eval(up).d - mls3_eval(down).d) / step;
-}
-#endif
-
 void main() {
     // No early return for the items past the end: they evaluate the last point and store
     // nothing (see mls/points.comp.glsl: uniform handle loads need every lane active).
@@ -72,9 +62,7 @@ void main() {
     vec3 v = mls3_item_point(min(i, max(u_count - 1, 0)));
     MLS3Result r = mls3_eval(v);
 #if MLS3_WRITE_JACOBIAN
-    mat3 J = transpose(mat3(mls3_jacobian_row(v, vec3(1.0, 0.0, 0.0)),
-                            mls3_jacobian_row(v, vec3(0.0, 1.0, 0.0)),
-                            mls3_jacobian_row(v, vec3(0.0, 0.0, 1.0))));
+    mat3 J = mls3_jacobian(v, u_jacobian_step);
 #endif
     if (i < u_count) {
 #if MLS3_LATTICE

@@ -135,6 +135,31 @@ mat3 mls3_quaternion_minus_identity(vec4 q) {
                 vec3(2.0 * (x * z - w * y), 2.0 * (y * z + w * x), -2.0 * (x * x + y * y)));
 }
 
+// Newton's iteration for the orthogonal polar factor of B (det B > 0): X <- (g X + X^-T / g)
+// / 2 with Higham's scaling g = (|X^-1| / |X|)^(1/2) (Frobenius norms), quadratic from the
+// start; stops once a step changes X by less than float32 resolves.
+const float MLS3_POLAR_DET = 0.01;   // det B / |B|^3 above which Newton takes <= 8 steps
+const int MLS3_POLAR_STEPS = 10;
+
+mat3 mls3_polar(mat3 B) {
+    mat3 X = B;
+    for (int k = 0; k < MLS3_POLAR_STEPS; ++k) {
+        mat3 Y = transpose(inverse(X));
+        float nx = dot(X[0], X[0]) + dot(X[1], X[1]) + dot(X[2], X[2]);
+        float ny = dot(Y[0], Y[0]) + dot(Y[1], Y[1]) + dot(Y[2], Y[2]);
+        float g = sqrt(sqrt(ny / nx));
+        mat3 next = 0.5 * (g * X + Y / g);
+        mat3 change = next - X;
+        X = next;
+        float c = dot(change[0], change[0]) + dot(change[1], change[1])
+                + dot(change[2], change[2]);
+        if (c < 1e-13) {
+            break;
+        }
+    }
+    return X;
+}
+
 // The mathematical [n]x, with [n]x u = n x u for a column vector u: rows (0, -nz, ny),
 // (nz, 0, -nx), (-ny, nx, 0), built from its columns as every GLSL matrix.
 mat3 mls3_cross_matrix(vec3 n) {
@@ -244,7 +269,15 @@ mat3 mls3_solve(vec3 a, vec3 o, mat3 D, float spread) {
         float normB = sqrt(dot(B[0], B[0]) + dot(B[1], B[1]) + dot(B[2], B[2]));
         S2 += (share_mid * normB) * mls3_least_rotation(axis, axis * B);
     }
-    mat3 NR = mls3_quaternion_minus_identity(mls3_horn(a, o, S2));
+    mat3 NR;
+    // A proper rotation is B's orthogonal polar factor where det B > 0 (no reflection to
+    // fix): by Newton's iteration where B is comfortably nonsingular, else Horn's quaternion.
+    float nb2 = dot(B[0], B[0]) + dot(B[1], B[1]) + dot(B[2], B[2]);
+    if (!ridge && determinant(B) > MLS3_POLAR_DET * nb2 * sqrt(nb2)) {
+        NR = mls3_polar(B) - mat3(1.0);
+    } else {
+        NR = mls3_quaternion_minus_identity(mls3_horn(a, o, S2));
+    }
     // trace(R^T B) - trace(A) = trace(D) + <R - I, B>, without cancellation
     float gain = D[0][0] + D[1][1] + D[2][2]
                + dot(NR[0], B[0]) + dot(NR[1], B[1]) + dot(NR[2], B[2]);
