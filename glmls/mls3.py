@@ -9,7 +9,6 @@ slice), voxel centres at integer coordinates; f(v) = v M + T with row vectors.
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Sequence
 
 import numpy as np
@@ -22,6 +21,7 @@ from .engine.passes3 import evaluate_points3, invert_points3
 from .gl.context import get_context
 from .imaging.inverse import NEWTON_ACCEPT
 from .mls import MLS, InverseMLS, on_gpu
+from .volume import volume_bounds, volume_coordinate_map, warp_volume
 
 __all__ = ["MLS3", "InverseMLS3"]
 
@@ -343,32 +343,101 @@ class MLS3(MLS):
     # -- volumes and what is 2D only --------------------------------------------------------
 
     def warp(self, volume: object, **options: object) -> np.ndarray:  # type: ignore[override]
-        """The volume deformed by f: delegated to ``glmls.volume`` (``warp_volume``).
+        """The volume deformed by f on the GPU (:func:`glmls.volume.warp_volume`).
 
         Parameters
         ----------
         volume : array_like
-            A (D, H, W) or (D, H, W, C) volume.
+            A (D, H, W) or (D, H, W, C) volume of uint8, uint16 or float32.
         **options
-            ``glmls.volume``'s options.
+            :class:`glmls.volume.VolumeOptions`' fields: ``method`` (``"quads"``, the
+            tetrahedra of the deformed lattice, or ``"backward"``), ``interpolation``,
+            ``grid``, ``border``, ``background``, ``output_shape``, ``origin``, ``spacing``.
 
         Returns
         -------
         numpy.ndarray
-            The deformed volume.
+            The deformed volume, with the input's dtype and channels.
 
         Raises
         ------
-        NotImplementedError
-            Where :mod:`glmls.volume` is not available.
+        ValueError
+            For a volume or an option that is not valid (named).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> volume = np.zeros((4, 5, 6), np.uint8)
+        >>> volume[1, 2, 3] = 200
+        >>> src = np.array([[0.0, 0, 0], [5, 0, 0], [0, 4, 0], [0, 0, 3]])
+        >>> with glmls.MLS(src, src + [1, 0, 0]) as m:  # one voxel along x
+        ...     out = m.warp(volume)
+        >>> [int(i) for i in np.argwhere(out == 200)[0]]
+        [1, 2, 4]
         """
-        try:
-            module = importlib.import_module("glmls.volume")
-        except ImportError:
-            raise NotImplementedError(
-                "warping a volume (3D MLS) needs glmls.volume, which is not available"
-            ) from None
-        return module.warp_volume(self, volume, **options)
+        return warp_volume(self, volume, **options)
+
+    def bounds(self, shape, *, grid=1, spacing=(1.0, 1.0, 1.0)):  # type: ignore[override]
+        """The bounding box of the deformed volume (:func:`glmls.volume.volume_bounds`).
+
+        Parameters
+        ----------
+        shape : (int, int, int)
+            (D, H, W) of the volume.
+        grid : int, default 1
+            The step of the lattice of voxel-cube corners where f is evaluated.
+        spacing : (float, float, float), default (1, 1, 1)
+            (dz, dy, dx) of the voxels, in the handles' units.
+
+        Returns
+        -------
+        glmls.volume.VolumeBounds
+            Whose ``output_shape`` and ``origin`` give the canvas that shows all of it.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> src = np.array([[0.0, 0, 0], [5, 0, 0], [0, 4, 0], [0, 0, 3]])
+        >>> with glmls.MLS(src, src + [0, 0, 2]) as m:
+        ...     b = m.bounds((4, 5, 6))
+        >>> b.output_shape, b.origin
+        ((4, 5, 6), (0.0, 0.0, 2.0))
+        """
+        return volume_bounds(self, shape, grid=grid, spacing=spacing)
+
+    def coordinate_map(self, shape, **options):  # type: ignore[override]
+        """The backward map of a volume (:func:`glmls.volume.volume_coordinate_map`).
+
+        Parameters
+        ----------
+        shape : (int, int, int)
+            (D, H, W) of the source volume.
+        **options
+            :class:`glmls.volume.VolumeOptions`' ``grid``, ``border``, ``output_shape``,
+            ``origin`` and ``spacing``.
+
+        Returns
+        -------
+        map : numpy.ndarray
+            (D, H, W, 3) float32 source points (x, y, z) of the output voxels.
+        residual : numpy.ndarray
+            (D, H, W) float32 |f(s) - u|, voxels.
+        covered : numpy.ndarray
+            (D, H, W) bool: a source point was found.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> src = np.array([[0.0, 0, 0], [5, 0, 0], [0, 4, 0], [0, 0, 3]])
+        >>> with glmls.MLS(src, src + [1, 0, 0]) as m:
+        ...     points, residual, covered = m.coordinate_map((4, 5, 6))
+        >>> points[0, 0, 3].tolist()
+        [2.0, 0.0, 0.0]
+        """
+        return volume_coordinate_map(self, shape, **options)
 
     def mesh(self, shape, *, grid=1, tolerance=None):  # type: ignore[override]
         """2D only: ValueError (see :meth:`deform` for 3D meshes).
@@ -389,20 +458,6 @@ class MLS3(MLS):
             As :meth:`MLS.error_field`'s.
         """
         raise _two_d_only("MLS.error_field")
-
-    def bounds(self, shape, *, grid=1):  # type: ignore[override]
-        """2D only: ValueError.
-
-        Parameters
-        ----------
-        shape, grid
-            As :meth:`MLS.bounds`'s.
-        """
-        raise _two_d_only("MLS.bounds")
-
-    def coordinate_map(self, *args: object, **kwargs: object):  # type: ignore[override]
-        """2D only: ValueError."""
-        raise _two_d_only("MLS.coordinate_map")
 
     def __repr__(self) -> str:
         c = self.config
