@@ -6,6 +6,7 @@ import gc
 import os
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import moderngl
@@ -193,10 +194,14 @@ def live_gl_objects(*types: type) -> int:
     """moderngl objects (of ``types``, default all) not yet released (a released one's mglo
     is an InvalidObject)."""
     gc.collect()
-    return sum(
-        1
-        for obj in gc.get_objects()
-        if isinstance(obj, types or _GL_TYPES)
-        and obj.glo not in (0, None)
-        and type(obj.mglo).__name__ != "InvalidObject"
-    )
+    # isinstance reads each object's __class__, which some libraries' deprecated aliases
+    # (torch.distributed.reduce_op) answer with a warning: none of them is a GL object
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return sum(
+            1
+            for obj in gc.get_objects()
+            if isinstance(obj, types or _GL_TYPES)
+            and obj.glo not in (0, None)
+            and type(obj.mglo).__name__ != "InvalidObject"
+        )
