@@ -9,18 +9,25 @@ from contextlib import ExitStack
 
 import numpy as np
 
+from ..core.config import MLSConfig
 from ..core.mesh import MeshLattice
+from ..engine.batched import BatchLattices
+from ..engine.kernel import DEFAULT_STORAGE
+from ..engine.storage import check_storage
 from ..imaging.frame import make_frame
 from ..imaging.options import WarpOptions
 from ..imaging.readback import drop_channels
 from ..imaging.source import background_color, prepare_image
 from ..mls import MLS
-from .gpu import CHUNK_BYTES, BatchQuads, chunk_size
+from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size
 from .inputs import BatchInput
 from .labels import mesh_keypoints
 from .single import ImageLabels, SingleWarper, mask_form, mask_options, packable, restore_mask
 
 __all__ = ["warp_chunks"]
+
+#: The keywords of :func:`glmls.warp_batch` that make its :class:`~glmls.MLSConfig`.
+_CONFIG_KEYS = ("transform", "weight", "alpha", "s", "radius", "interpolating")
 
 
 def _groups(batch: BatchInput) -> dict[tuple, list[int]]:
@@ -48,6 +55,7 @@ def warp_chunks(
     quads = BatchQuads.of(mls_options.get("ctx"))
     warper = SingleWarper.of(mls_options.get("ctx"))
     limit = warper.pipeline.max_image_size
+    config = _batch_config(batch, mls_options)
     for indices in _groups(batch).values():
         first = batch.images[indices[0]]
         source = prepare_image(first, limit, normalized=True)
@@ -57,25 +65,46 @@ def warp_chunks(
         for start in range(0, len(indices), size):
             chunk = indices[start : start + size]
             with ExitStack() as stack:
-                mlss = [
-                    stack.enter_context(
-                        MLS(
-                            batch.src[i],
-                            batch.dst[i],
-                            shape=source.shape,
-                            **segments[i],
-                            **mls_options,
+                if config is not None and not any(segments[i] for i in chunk):
+                    src, dst = [batch.src[i] for i in chunk], [batch.dst[i] for i in chunk]
+                    lattices = BatchLattices(config, src, dst, source.shape)
+                else:  # each image's own MLS
+                    mlss = [
+                        stack.enter_context(
+                            MLS(
+                                batch.src[i],
+                                batch.dst[i],
+                                shape=source.shape,
+                                **segments[i],
+                                **mls_options,
+                            )
                         )
-                    )
-                    for i in chunk
-                ]
+                        for i in chunk
+                    ]
+                    lattices = KernelLattices([m.kernel for m in mlss])
                 with quads.ctx.use():  # the chunk's passes, its meshes kept, in one hold
-                    done = _chunk(quads, warper, batch, chunk, mlss, options, frame, lattice, maps)
+                    done = _chunk(
+                        quads, warper, batch, chunk, lattices, options, frame, lattice, maps
+                    )
             if done is None:
                 continue
             for i, labels in zip(chunk, done, strict=True):
                 results[i] = labels
     return results
+
+
+def _batch_config(batch: BatchInput, mls_options: dict) -> MLSConfig | None:
+    """The configuration of every image where one :class:`BatchLattices` evaluation takes
+    the batch's handles (no spatial bins), else None (each image's own MLS)."""
+    keys = {k: v for k, v in mls_options.items() if k in _CONFIG_KEYS}
+    config = MLSConfig(**keys)
+    counts = [len(p) for p in batch.src]
+    storage = mls_options.get("storage", DEFAULT_STORAGE)
+    check_storage(storage)
+    bins = mls_options.get("bins")
+    if not BatchLattices.takes(config, counts, storage, bins):
+        return None
+    return config
 
 
 def _drop_last(rgba: np.ndarray, squeeze: bool) -> np.ndarray:
@@ -90,9 +119,8 @@ def _drop_last(rgba: np.ndarray, squeeze: bool) -> np.ndarray:
     return out
 
 
-def _chunk(quads, warper, batch, chunk, mlss, options, frame, lattice, maps):
+def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps):
     limit = warper.pipeline.max_image_size
-    kernels = [m.kernel for m in mlss]
     images = [batch.images[i] for i in chunk]
     masks = None if batch.masks is None else [batch.masks[i] for i in chunk]
     packed = masks is not None and packable(images[0], masks[0], options)
@@ -105,7 +133,7 @@ def _chunk(quads, warper, batch, chunk, mlss, options, frame, lattice, maps):
         images = list(both)
     sources = [prepare_image(image, limit, normalized=True) for image in images]
     background = background_color(options.background, sources[0])
-    out = quads.warp(kernels, sources, options, frame, background, both if packed else None)
+    out = quads.warp(lattices, sources, options, frame, background, both if packed else None)
     if out is None:
         return None
     warped_masks: list = [None] * len(chunk)
@@ -117,12 +145,12 @@ def _chunk(quads, warper, batch, chunk, mlss, options, frame, lattice, maps):
     if keypoints is not None:  # the meshes, read back once
         vertices = quads.last_vertices
         if vertices is None:
-            vertices = quads.vertices(kernels, lattice)
+            vertices = quads.vertices(lattices, lattice)
     if masks is not None and not packed:
         label_sources = [prepare_image(mask_form(m), limit, normalized=True) for m in masks]
         label_options = mask_options(options)
         zero = background_color(0.0, label_sources[0])
-        warped = quads.warp(kernels, label_sources, label_options, frame, zero)
+        warped = quads.warp(lattices, label_sources, label_options, frame, zero)
         if warped is None:  # the labels' keys are longer: the single path takes the chunk
             return None
         warped_masks = [restore_mask(w, masks[0].dtype) for w in warped]  # type: ignore[union-attr]

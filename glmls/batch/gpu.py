@@ -39,7 +39,7 @@ from ..imaging.readback import read_rgba8
 from ..imaging.source import SourceImage, texture_data, texture_form
 from .labels import embedded
 
-__all__ = ["CHUNK_BYTES", "BatchQuads", "batchable", "chunk_size"]
+__all__ = ["CHUNK_BYTES", "BatchQuads", "KernelLattices", "batchable", "chunk_size"]
 
 #: The most GPU memory one chunk of a batch takes (sources, atlas, keys, meshes), bytes: a
 #: batch of 10,000 images runs chunk by chunk, never all on the GPU at once.
@@ -88,6 +88,26 @@ def _stacked(first: SourceImage, data: np.ndarray) -> SourceImage:
     count, height, width, channels = data.shape
     tall = data.reshape(count * height, width, channels)
     return SourceImage(tall, first.dtype, first.squeeze, first.normalized)
+
+
+class KernelLattices:
+    """Images' own kernels (:class:`~glmls.engine.kernel.MLSKernel`) in the form of a
+    :class:`~glmls.engine.batched.BatchLattices`: a lattice pass per image, for what the
+    batched evaluation does not take (segments, spatial bins)."""
+
+    def __init__(self, kernels: list) -> None:
+        self.kernels = kernels
+        self.centers = np.array([k.scaling.center for k in kernels], np.float64)
+        self.scales = np.array([k.scaling.scale for k in kernels], np.float64)
+
+    def __len__(self) -> int:
+        return len(self.kernels)
+
+    def evaluate(self, gl, resources, lattice: MeshLattice, target, stride: int) -> None:
+        """f of image k on ``lattice`` into ``target`` from byte ``k * stride``."""
+        del gl, resources
+        for k, kernel in enumerate(self.kernels):
+            evaluate_lattice(kernel, lattice, target, offset=k * stride)
 
 
 class BatchQuads:
@@ -216,30 +236,32 @@ class BatchQuads:
         return array
 
     @current
-    def vertices(self, kernels: list, lattice: MeshLattice) -> np.ndarray:
+    def vertices(self, lattices, lattice: MeshLattice) -> np.ndarray:
         """(N, rows, columns, 2) float64: the last :meth:`warp`'s mesh vertices in pixels
-        (f at the lattice of each of ``kernels``, its chunk's), read back."""
+        (f at the lattice of each image of ``lattices``, its chunk's), read back."""
         stride = _mesh_stride(lattice)
+        count = len(lattices)
         self._gl.mgl.memory_barrier()  # the lattice passes' stores before the read
-        raw = self._resources.cached("mesh").read(size=len(kernels) * stride)
+        raw = self._resources.cached("mesh").read(size=count * stride)
         columns, rows = lattice.dims
-        scaled = np.frombuffer(raw, np.float32).reshape(len(kernels), stride // 4)
-        scaled = scaled[:, : rows * columns * 2].reshape(len(kernels), rows, columns, 2)
-        scale = np.array([k.scaling.scale for k in kernels], np.float64)[:, None, None, None]
-        centre = np.array([k.scaling.center for k in kernels], np.float64)[:, None, None, :]
+        scaled = np.frombuffer(raw, np.float32).reshape(count, stride // 4)
+        scaled = scaled[:, : rows * columns * 2].reshape(count, rows, columns, 2)
+        scale = lattices.scales[:, None, None, None]
+        centre = lattices.centers[:, None, None, :]
         return scaled.astype(np.float64) * scale + centre  # Scaling.from_gpu, all at once
 
     @current
     def warp(
         self,
-        kernels: list,
+        lattices,
         sources: list[SourceImage],
         options: WarpOptions,
         frame: Frame,
         background: tuple[float, float, float, float],
         stacked: np.ndarray | None = None,
     ) -> np.ndarray | None:
-        """The chunk's images warped: (N, H, W, C) restored to the sources' dtype (each
+        """The chunk's images warped (``lattices``: their handles, a
+        :class:`~glmls.engine.batched.BatchLattices` or :class:`KernelLattices`): (N, H, W, C) restored to the sources' dtype (each
         :meth:`SourceImage.restore`), or None where the keys of this mesh do not fit in 31
         bits (the single path's rasterizer then draws it). ``stacked``: the sources' data as
         one (N, H, W, 4) uint8 array where the caller has it (not copied again)."""
@@ -254,16 +276,15 @@ class BatchQuads:
         gl, mgl = self._gl, self._gl.mgl
         stride = _mesh_stride(lattice)
         mesh = self._resources.buffer("mesh", count * stride)
+        lattices.evaluate(gl, self._resources, lattice, mesh, stride)  # 1. every image's f
         scaling = np.zeros((count, 4), np.float32)
-        for k, kernel in enumerate(kernels):  # 1. each image's f on its lattice
-            evaluate_lattice(kernel, lattice, mesh, offset=k * stride)
-            scaling[k, :2] = kernel.scaling.center
-            scaling[k, 2] = kernel.scaling.scale
+        scaling[:, :2] = lattices.centers
+        scaling[:, 2] = lattices.scales
         source = sources[0]
         fused = self.fused and not linear and texture_form(source)[1:] == (4, "f1")
         self.last_vertices = None
         if fused:  # meshes shown to be embeddings are drawn without keys
-            self.last_vertices = self.vertices(kernels, lattice)
+            self.last_vertices = self.vertices(lattices, lattice)
             scaling[:, 3] = ~embedded(self.last_vertices)
         scales = self._resources.buffer("scaling", scaling.nbytes)
         scales.write(scaling)
