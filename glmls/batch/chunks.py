@@ -16,7 +16,7 @@ from ..engine.kernel import DEFAULT_STORAGE
 from ..engine.storage import check_storage
 from ..imaging.frame import make_frame
 from ..imaging.options import WarpOptions
-from ..imaging.readback import drop_channels
+from ..imaging.readback import add_channel, drop_channels
 from ..imaging.source import background_color, prepare_image
 from ..mls import MLS
 from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size
@@ -127,9 +127,7 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
     if packed:  # each label rides as one more channel of its image
         channels = images[0].shape[2] if images[0].ndim == 3 else 1
         both = np.empty((len(images), *images[0].shape[:2], channels + 1), np.uint8)
-        for k, (image, mask) in enumerate(zip(images, masks, strict=True)):
-            both[k, ..., :channels] = image.reshape(both.shape[1:3] + (channels,))
-            both[k, ..., channels] = mask
+        add_channel(np.stack(images), np.stack(masks), both)
         images = list(both)
     sources = [prepare_image(image, limit, normalized=True) for image in images]
     background = background_color(options.background, sources[0])
@@ -141,9 +139,9 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
         warped_masks = list(restore_mask(out[..., -1], masks[0].dtype))  # type: ignore[index]
         out = _drop_last(out, batch.images[chunk[0]].ndim == 2)
     keypoints = batch.keypoints
-    vertices = None
+    vertices = folded = None
     if keypoints is not None:  # the meshes, read back once
-        vertices = quads.last_vertices
+        vertices, folded = quads.last_vertices, quads.last_folded
         if vertices is None:
             vertices = quads.vertices(lattices, lattice)
     if masks is not None and not packed:
@@ -165,6 +163,7 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
             np.concatenate(points),
             None,
             which,  # type: ignore[arg-type]
+            folded,
         )
         moved_all = moved_all - np.asarray(frame.origin)
         height, width = frame.shape

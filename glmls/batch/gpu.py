@@ -124,6 +124,8 @@ class BatchQuads:
         self._array: tuple[tuple, moderngl.TextureArray] | None = None
         #: The last :meth:`warp`'s mesh vertices where it read them (:meth:`vertices`).
         self.last_vertices: np.ndarray | None = None
+        #: ... and which of them are not shown to be embeddings, where it tested them.
+        self.last_folded: np.ndarray | None = None
 
     @classmethod
     def of(cls, ctx: moderngl.Context | GLContext | None = None) -> BatchQuads:
@@ -261,9 +263,10 @@ class BatchQuads:
         stacked: np.ndarray | None = None,
     ) -> np.ndarray | None:
         """The chunk's images warped (``lattices``: their handles, a
-        :class:`~glmls.engine.batched.BatchLattices` or :class:`KernelLattices`): (N, H, W, C) restored to the sources' dtype (each
-        :meth:`SourceImage.restore`), or None where the keys of this mesh do not fit in 31
-        bits (the single path's rasterizer then draws it). ``stacked``: the sources' data as
+        :class:`~glmls.engine.batched.BatchLattices` or :class:`KernelLattices`): (N, H, W,
+        C) restored to the sources' dtype (each :meth:`SourceImage.restore`), or None where
+        the keys of this mesh do not fit in 31 bits (the single path's rasterizer then draws
+        it). ``stacked``: the sources' data as
         one (N, H, W, 4) uint8 array where the caller has it (not copied again)."""
         height, width = sources[0].shape
         lattice = MeshLattice.corners((height, width), options.grid)
@@ -282,10 +285,11 @@ class BatchQuads:
         scaling[:, 2] = lattices.scales
         source = sources[0]
         fused = self.fused and not linear and texture_form(source)[1:] == (4, "f1")
-        self.last_vertices = None
+        self.last_vertices = self.last_folded = None
         if fused:  # meshes shown to be embeddings are drawn without keys
             self.last_vertices = self.vertices(lattices, lattice)
-            scaling[:, 3] = ~embedded(self.last_vertices)
+            self.last_folded = ~embedded(self.last_vertices)
+            scaling[:, 3] = self.last_folded
         scales = self._resources.buffer("scaling", scaling.nbytes)
         scales.write(scaling)
         out_w, out_h = frame.size
