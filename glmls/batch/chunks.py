@@ -56,14 +56,21 @@ def warp_chunks(
     warper = SingleWarper.of(mls_options.get("ctx"))
     limit = warper.pipeline.max_image_size
     config = _batch_config(batch, mls_options)
+    backward = options.method == "backward"
+    if backward and (config is None or batch.keypoints is not None):
+        return results  # f at the keypoints, bins, segments: each image's own MLS
     for indices in _groups(batch).values():
         first = batch.images[indices[0]]
         source = prepare_image(first, limit, normalized=True)
         frame = make_frame(options.output_shape, options.origin, source.shape, limit)
         lattice = MeshLattice.corners(source.shape, options.grid)
-        size = chunk_size(quads.ctx, source, frame, lattice, max_bytes or CHUNK_BYTES)
+        size = chunk_size(
+            quads.ctx, source, frame, lattice, max_bytes or CHUNK_BYTES, backward=backward
+        )
         for start in range(0, len(indices), size):
             chunk = indices[start : start + size]
+            if backward and any(segments[i] for i in chunk):
+                continue
             with ExitStack() as stack:
                 if config is not None and not any(segments[i] for i in chunk):
                     src, dst = [batch.src[i] for i in chunk], [batch.dst[i] for i in chunk]
@@ -131,7 +138,11 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
         images = list(both)
     sources = [prepare_image(image, limit, normalized=True) for image in images]
     background = background_color(options.background, sources[0])
-    out = quads.warp(lattices, sources, options, frame, background, both if packed else None)
+    backward = options.method == "backward"
+    if backward:
+        out = quads.backward(lattices, sources, options, frame, background)
+    else:
+        out = quads.warp(lattices, sources, options, frame, background, both if packed else None)
     if out is None:
         return None
     warped_masks: list = [None] * len(chunk)
@@ -148,7 +159,8 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
         label_sources = [prepare_image(mask_form(m), limit, normalized=True) for m in masks]
         label_options = mask_options(options)
         zero = background_color(0.0, label_sources[0])
-        warped = quads.warp(lattices, label_sources, label_options, frame, zero)
+        warp = quads.backward if backward else quads.warp
+        warped = warp(lattices, label_sources, label_options, frame, zero)
         if warped is None:  # the labels' keys are longer: the single path takes the chunk
             return None
         warped_masks = [restore_mask(w, masks[0].dtype) for w in warped]  # type: ignore[union-attr]
@@ -172,7 +184,10 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
         moved_all, valid_all = np.split(moved_all, ends), np.split(valid_all, ends)
     coords_all = covered_all = None
     if maps:  # the quads' source points, from the chunk's meshes still on the GPU
-        coords_all, covered_all = quads.coords(len(chunk), lattice, frame)
+        if backward:
+            coords_all, covered_all = quads.backward_coords(len(chunk), frame)
+        else:
+            coords_all, covered_all = quads.coords(len(chunk), lattice, frame)
     results = []
     for k, _ in enumerate(chunk):
         coords = None if coords_all is None else coords_all[k]

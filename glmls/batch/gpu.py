@@ -30,9 +30,10 @@ from ..core.mesh import MeshLattice
 from ..engine.passes import evaluate_lattice
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
-from ..gl.dispatch import run_1d, set_uniforms
+from ..gl.dispatch import LOCAL_SIZE_2D, run_1d, set_uniforms
 from ..gl.resources import Resources
 from ..imaging.frame import Frame
+from ..imaging.inverse import NEWTON_ACCEPT, NEWTON_STEPS, NEWTON_TOLERANCE
 from ..imaging.options import PipelineOptions, WarpOptions
 from ..imaging.quads import key_layout
 from ..imaging.readback import read_rgba8
@@ -52,9 +53,13 @@ MESH_ALIGN = 256
 
 
 def batchable(options: WarpOptions) -> bool:
-    """Does a batch of these options take the batched GPU path (``quads``, regular mesh,
-    ``constant`` border)?"""
-    return options.method == "quads" and options.tolerance is None and options.border == "constant"
+    """Does a batch of these options take the batched GPU path (``quads`` or ``backward``,
+    regular mesh, ``constant`` border)?"""
+    return (
+        options.method in ("quads", "backward")
+        and options.tolerance is None
+        and options.border == "constant"
+    )
 
 
 def _mesh_stride(lattice: MeshLattice) -> int:
@@ -63,14 +68,22 @@ def _mesh_stride(lattice: MeshLattice) -> int:
 
 
 def chunk_size(
-    gl: GLContext, source: SourceImage, frame: Frame, lattice: MeshLattice, max_bytes: int
+    gl: GLContext,
+    source: SourceImage,
+    frame: Frame,
+    lattice: MeshLattice,
+    max_bytes: int,
+    *,
+    backward: bool = False,
 ) -> int:
     """Images per chunk: the atlas within the GL texture size, the sources within the array
-    layers, and the chunk's GPU memory within ``max_bytes``."""
+    layers, and the chunk's GPU memory within ``max_bytes`` (``backward``: with the atlas of
+    backward maps, RGBA32F)."""
     (width, height), components, dtype = texture_form(source)
     texel = components * (1 if dtype == "f1" else 4)
     target = 4 if source.normalized else 16
     per_image = width * height * texel + frame.pixels * (target + 8) + _mesh_stride(lattice)
+    per_image += frame.pixels * 16 if backward else 0
     atlas = gl.limits["max_texture_size"] // max(frame.shape[0], height)
     layers = int(gl.mgl.info.get("GL_MAX_ARRAY_TEXTURE_LAYERS", 256))
     return max(1, min(atlas, layers, max_bytes // per_image))
@@ -122,6 +135,7 @@ class BatchQuads:
         self._gl = gl
         self._resources = Resources(gl, "the batch quads")
         self._array: tuple[tuple, moderngl.TextureArray] | None = None
+        self._backward = False  # the coords atlas holds backward maps (covered in .w)
         #: The last :meth:`warp`'s mesh vertices where it read them (:meth:`vertices`).
         self.last_vertices: np.ndarray | None = None
         #: ... and which of them are not shown to be embeddings, where it tested them.
@@ -153,6 +167,28 @@ class BatchQuads:
         ``frame``, its meshes still in the mesh buffer): (N, H, W, 2) float32 source point of
         each output pixel, the quads' interpolated one as the single warp's coordinate fill
         gives it, and (N, H, W) bool covered."""
+        framebuffer, atlas = self._fill_coords(count, lattice, frame)
+        return self._read_coords(framebuffer, atlas, count, frame)
+
+    def _read_coords(self, framebuffer, atlas, count: int, frame: Frame):
+        out_w, out_h = frame.size
+        mgl = self._gl.mgl
+        values_out = np.empty((atlas[1], atlas[0], 4), np.float32)
+        bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
+        try:
+            framebuffer.use()
+            framebuffer.read_into(values_out, (0, 0, *atlas), 4, dtype="f4")
+        finally:
+            bound.use()
+        values_out = values_out.reshape(count, out_h, out_w, 4)
+        channel = 3 if self._backward else 2
+        return values_out[..., :2].copy(), values_out[..., channel] > 0.5
+
+    def _fill_coords(self, count: int, lattice: MeshLattice, frame: Frame):
+        """The quads' source points of the chunk's meshes (in the mesh buffer) drawn into
+        the RGBA32F atlas ``coords`` (s.x, s.y, 1, 0 where covered; 0 elsewhere), as the
+        single warp's coordinate fill: (framebuffer, atlas size)."""
+        self._backward = False
         sub_bits, col_shift, row_shift = key_layout(lattice, source_pixel=False)  # type: ignore[misc]
         gl, mgl = self._gl, self._gl.mgl
         out_w, out_h = frame.size
@@ -183,15 +219,90 @@ class BatchQuads:
         framebuffer = self._resources.framebuffer("coords", atlas, "f4")
         self._resources.fill(framebuffer.color_attachments[0], (0.0, 0.0, 0.0, 0.0))
         self._resolve(values, atlas, framebuffer, None, winner, True, coords=True)
-        values_out = np.empty((atlas[1], atlas[0], 4), np.float32)
+        return framebuffer, atlas
+
+    @current
+    def backward(
+        self,
+        lattices,
+        sources: list[SourceImage],
+        options: WarpOptions,
+        frame: Frame,
+        background: tuple[float, float, float, float],
+    ) -> np.ndarray | None:
+        """The chunk's images warped by ``backward`` (constant border): the quads' source
+        points as the first guess (:meth:`coords`' fill), Newton on each image's f for every
+        output pixel of every image in one dispatch (``warp/inverse.comp.glsl`` with
+        ``MLS_BATCH``), one draw sampling the sources (``batch/backward.frag.glsl``), one
+        read-back; as :meth:`warp` returns. The backward maps stay in the ``coords`` atlas
+        (:meth:`backward_coords`)."""
+        height, width = sources[0].shape
+        lattice = MeshLattice.corners((height, width), options.grid)
+        if key_layout(lattice, source_pixel=False) is None:
+            return None
+        count = len(sources)
+        gl, mgl = self._gl, self._gl.mgl
+        stride = _mesh_stride(lattice)
+        mesh = self._resources.buffer("mesh", count * stride)
+        lattices.evaluate(gl, self._resources, lattice, mesh, stride)
+        scaling = np.zeros((count, 4), np.float32)
+        scaling[:, :2] = lattices.centers
+        scaling[:, 2] = lattices.scales
+        self._resources.buffer("scaling", scaling.nbytes).write(scaling)
+        self.last_vertices = self.last_folded = None
+        framebuffer, atlas = self._fill_coords(count, lattice, frame)
+        self._backward = True
+        coords = framebuffer.color_attachments[0]
+        defines = {"WARP_SWAP": False, "WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": 0}
+        groups = [-(-n // LOCAL_SIZE_2D) for n in frame.size]
+        uniforms = {
+            **frame.uniforms(),
+            "u_source_size": (width, height),
+            "u_tolerance": NEWTON_TOLERANCE,
+            "u_accept": NEWTON_ACCEPT,
+        }
+        for program, rows in lattices.dispatches(
+            gl, self._resources, lattice, "warp/inverse.comp.glsl", defines
+        ):
+            set_uniforms(program, uniforms)
+            mgl.memory_barrier()
+            coords.bind_to_image(bindings.INVERSE_MAP.index, read=True, write=True)
+            program.run(group_x=groups[0], group_y=groups[1], group_z=rows)
+        mgl.memory_barrier()
+        source = sources[0]
+        dtype = "f1" if source.normalized else "f4"
+        target = self._resources.framebuffer("atlas", atlas, dtype)
+        self._resources.fill(target.color_attachments[0], background)
+        linear = options.interpolation == "linear"
+        program = gl.program(
+            "common/fullscreen.vert.glsl",
+            "batch/backward.frag.glsl",
+            {"WARP_LINEAR": linear, "WARP_BORDER": 0},
+        )
+        set_uniforms(program, {"u_target_size": frame.size, "u_source_size": (width, height)})
         bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
         try:
-            framebuffer.use()
-            framebuffer.read_into(values_out, (0, 0, *atlas), 4, dtype="f4")
+            target.use()
+            target.viewport = (0, 0, *atlas)
+            array = self._sources(sources)
+            mode = moderngl.LINEAR if linear else moderngl.NEAREST
+            array.filter = (mode, mode)
+            array.use(bindings.SOURCE.index)
+            coords.use(bindings.COORDS.index)
+            mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+            self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
         finally:
             bound.use()
-        values_out = values_out.reshape(count, out_h, out_w, 4)
-        return values_out[..., :2].copy(), values_out[..., 2] > 0.5
+        return self._read_atlas(target, atlas, source, count, frame)
+
+    def backward_coords(self, count: int, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+        """The last :meth:`backward`'s maps: (N, H, W, 2) float32 source points and (N, H,
+        W) bool covered, as the single warp's backward map."""
+        out_w, out_h = frame.size
+        atlas = (out_w, out_h * count)
+        return self._read_coords(
+            self._resources.framebuffer("coords", atlas, "f4"), atlas, count, frame
+        )
 
     def _resolve(
         self, values, atlas, framebuffer, sources, winner, linear, *, coords: bool = False
@@ -341,10 +452,16 @@ class BatchQuads:
             mgl.memory_barrier()
         else:
             self._resolve(values, atlas, framebuffer, sources, winner, linear)  # 3.
+        return self._read_atlas(framebuffer, atlas, source, count, frame)  # 4.
+
+    def _read_atlas(self, framebuffer, atlas, source: SourceImage, count: int, frame: Frame):
+        """The atlas read back as (N, H, W, C) in the sources' dtype."""
+        mgl = self._gl.mgl
+        out_w, out_h = frame.size
         bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
         try:
             framebuffer.use()
-            if source.normalized:  # 4.
+            if source.normalized:
                 values_out = read_rgba8(framebuffer, atlas, source.channels)
             else:
                 values_out = np.empty((atlas[1], atlas[0], 4), np.float32)

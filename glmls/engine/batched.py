@@ -12,6 +12,9 @@ pass's code: each image's f is what :func:`glmls.engine.passes.evaluate_lattice`
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
+import moderngl
 import numpy as np
 
 from ..core.config import MLSConfig
@@ -94,17 +97,12 @@ class BatchLattices:
     def __len__(self) -> int:
         return len(self.scales)
 
-    def evaluate(
-        self, gl: GLContext, resources: Resources, lattice: MeshLattice, target, stride: int
-    ) -> None:
-        """f (scaled) at every point of ``lattice`` for every image, image k's from byte
-        ``k * stride`` of ``target`` (a multiple of 8): one dispatch per unrolling of the
-        handle loop that the images' single passes use (one for handle counts alike)."""
+    def table(self, lattice: MeshLattice) -> np.ndarray:
+        """(N, 16) float32: each image's row of the image table of ``mls/batch.glsl`` (its
+        last four values int32) for passes over ``lattice``'s image."""
         count = len(self)
-        nx, ny = lattice.dims
-        first = np.concatenate([[0], np.cumsum(self.counts)[:-1]])
-        table = np.zeros((count, 12), np.float32)
-        ints = table[:, 8:].view(np.int32)
+        table = np.zeros((count, 16), np.float32)
+        ints = table[:, 12:].view(np.int32)
         columns = (
             (lattice.origin[0], lattice.origin[1], lattice.last[0], lattice.last[1]),
             (0, 1, 0, 1),
@@ -118,38 +116,55 @@ class BatchLattices:
             weights = weight_uniforms(self.config, scale, radius)
             table[k, 5:8] = weights["u_log2_s"], weights["u_radius"], weights["u_hit2"]
             snap[k] = weights["u_snap"]
-        ints[:, 0], ints[:, 1], ints[:, 2] = first, self.counts, snap
-        ints[:, 3] = np.arange(count) * (stride // 8)
+        table[:, 8:10] = self.centers
+        table[:, 10] = self.scales
+        ints[:, 0] = np.concatenate([[0], np.cumsum(self.counts)[:-1]])
+        ints[:, 1], ints[:, 2], ints[:, 3] = self.counts, snap, np.arange(count)
+        return table
+
+    def dispatches(
+        self, gl: GLContext, resources: Resources, lattice: MeshLattice, entry: str, defines
+    ) -> Iterator[tuple[moderngl.ComputeShader, int]]:
+        """For each unrolling of the handle loop that the images' single passes use (one for
+        handle counts alike), the program of ``entry`` with ``defines``, bound to the
+        handles and to the table of those images (the work groups' rows), and their
+        number; the caller sets its own uniforms and runs it."""
         handles = resources.buffer("batch handles", self.packed.nbytes)
         handles.write(self.packed)
+        table = self.table(lattice)
         unrolls = np.array([unroll_slots(int(c)) for c in self.counts])
+        for unroll in sorted(set(unrolls.tolist())):
+            rows = np.ascontiguousarray(table[unrolls == unroll])
+            images = resources.buffer(f"batch images {unroll}", rows.nbytes)
+            images.write(rows)
+            program = gl.compute(
+                entry,
+                config_defines(self.config, unroll=unroll, binned=False, segments=False)
+                | {"MLS_STORAGE": 0, "MLS_BATCH": True}
+                | dict(defines),
+            )
+            set_uniforms(program, {"u_alpha": self.config.alpha})
+            handles.bind_to_storage_buffer(bindings.HANDLES.index)
+            images.bind_to_storage_buffer(bindings.POINTS.index)
+            yield program, len(rows)
+
+    def evaluate(
+        self, gl: GLContext, resources: Resources, lattice: MeshLattice, target, stride: int
+    ) -> None:
+        """f (scaled) at every point of ``lattice`` for every image, image k's from byte
+        ``k * stride`` of ``target`` (a multiple of 8)."""
+        nx, ny = lattice.dims
         groups = -(-nx * ny // (LOCAL_SIZE * POINTS_PER_INVOCATION))
         if groups > gl.limits["max_work_groups_x"]:
             raise ValueError(f"a lattice of {nx} x {ny} points is too large for one dispatch")
-        for unroll in sorted(set(unrolls.tolist())):
-            rows = table[unrolls == unroll]
-            images = resources.buffer(f"batch images {unroll}", rows.nbytes)
-            images.write(np.ascontiguousarray(rows))
-            defines = config_defines(self.config, unroll=unroll, binned=False, segments=False)
-            defines |= {
-                "MLS_STORAGE": 0,
-                "MLS_BATCH": True,
-                "MLS_LATTICE": True,
-                "MLS_WRITE_MATRIX": False,
-                "MLS_POINTS_PER_INVOCATION": POINTS_PER_INVOCATION,
-            }
-            program = gl.compute(POINTS_PASS, defines)
-            set_uniforms(
-                program,
-                {
-                    "u_alpha": self.config.alpha,
-                    "u_lattice_dims": lattice.dims,
-                    "u_first_row": 0,
-                    "u_count": nx * ny,
-                    "u_offset": 0,
-                },
-            )
-            handles.bind_to_storage_buffer(bindings.HANDLES.index)
-            images.bind_to_storage_buffer(bindings.POINTS.index)
+        defines = {
+            "MLS_LATTICE": True,
+            "MLS_WRITE_MATRIX": False,
+            "MLS_POINTS_PER_INVOCATION": POINTS_PER_INVOCATION,
+        }
+        for program, rows in self.dispatches(gl, resources, lattice, POINTS_PASS, defines):
+            uniforms = {"u_lattice_dims": lattice.dims, "u_first_row": 0, "u_count": nx * ny}
+            uniforms |= {"u_offset": 0, "u_batch_stride": stride // 8}
+            set_uniforms(program, uniforms)
             target.bind_to_storage_buffer(bindings.DEFORMED.index)
-            program.run(group_x=groups, group_y=len(rows))
+            program.run(group_x=groups, group_y=rows)

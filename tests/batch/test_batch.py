@@ -337,9 +337,44 @@ def test_quads_run_in_chunks_on_the_gpu_path(gl, rng, monkeypatch):
             np.testing.assert_array_equal(getattr(chunked, name), getattr(whole, name))
     np.testing.assert_array_equal(whole.images, singles(batch, src, dst, grid=2))
     calls.clear()
-    glmls.warp_batch(batch, src, dst, method="backward")
     glmls.warp_batch(batch, src, dst, border="edge")
+    glmls.warp_batch(batch, src, dst, method="backward", keypoints=points)
     assert calls == []  # the single pipeline, image by image
+
+
+def test_backward_runs_batched_on_the_gpu_path(gl, rng, monkeypatch):
+    """backward with the constant border and without keypoints takes the batched path: one
+    Newton dispatch over every image's pixels per chunk; images, masks and maps equal to
+    single warps, chunked or not."""
+    from glmls.batch.gpu import BatchQuads
+
+    calls = []
+    backward = BatchQuads.backward
+
+    def counted(self, lattices, *args, **kwargs):
+        calls.append(len(lattices))
+        return backward(self, lattices, *args, **kwargs)
+
+    monkeypatch.setattr(BatchQuads, "backward", counted)
+    batch = images(rng, 7)
+    src, dst = handles(rng, 7, spread=4.0)
+    masks = rng.integers(0, 9, (7, *SHAPE)).astype(np.uint16)
+    for interpolation in ("nearest", "linear"):
+        options = {"method": "backward", "grid": 2, "interpolation": interpolation}
+        calls.clear()
+        whole = glmls.warp_batch(batch, src, dst, masks=masks, return_maps=True, **options)
+        assert calls == [7, 7]  # the images, then the masks
+        np.testing.assert_array_equal(whole.images, singles(batch, src, dst, **options))
+        for i in range(7):
+            with glmls.MLS(src[i], dst[i], shape=SHAPE) as m:
+                want = m.coordinate_map(SHAPE, method="backward", grid=2)
+            np.testing.assert_array_equal(whole.maps[i], want)
+            mask = glmls.warp(masks[i], src[i], dst[i], method="backward", grid=2)
+            np.testing.assert_array_equal(whole.masks[i], mask)
+        calls.clear()
+        small = glmls.warp_batch(batch, src, dst, max_batch_bytes=40_000, **options)
+        assert len(calls) > 1
+        np.testing.assert_array_equal(small, whole.images)
 
 
 def test_chunk_size_follows_the_limits(gl):

@@ -2,9 +2,9 @@
 // (its index in STORAGES). Each defines
 //   int mls_handle_count()   and   vec4 mls_handle(int i),
 // the handle as (p.x, p.y, q.x, q.y) in scaled coordinates. A batch's lattice pass
-// (MLS_BATCH, mls/points.comp.glsl) defines them itself.
+// (MLS_BATCH) defines them in mls/batch.glsl.
 #ifndef MLS_BATCH
-#define MLS_BATCH 0   // 1: a batch's lattice pass (mls/points.comp.glsl)
+#define MLS_BATCH 0   // 1: a batch's passes (mls/batch.glsl)
 #endif
 #if MLS_BATCH
 #elif MLS_STORAGE == 0

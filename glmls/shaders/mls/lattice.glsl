@@ -2,9 +2,9 @@
 // min(origin + (i, j) step, last), so that the last row and column land exactly on the image
 // border and a point shared by two bands of rows is computed from the same integers.
 #ifndef MLS_BATCH
-#define MLS_BATCH 0   // 1: a batch's lattice pass (mls/points.comp.glsl)
+#define MLS_BATCH 0   // 1: a batch's passes (mls/batch.glsl)
 #endif
-#if !MLS_BATCH  // a batch's lattice pass sets these per image
+#if !MLS_BATCH  // a batch's passes set these per image (mls/batch.glsl)
 uniform vec2 u_lattice_origin;
 uniform vec2 u_lattice_step;
 uniform vec2 u_lattice_last;

@@ -8,64 +8,11 @@ layout(local_size_x = LOCAL_SIZE) in;
 #define MLS_POINTS_PER_INVOCATION 1
 #endif
 
-#ifndef MLS_BATCH
-#define MLS_BATCH 0   // 1: a batch's lattice pass (mls/points.comp.glsl)
-#endif
+#include "mls/batch.glsl"
 #if MLS_BATCH
-// A batch's lattices in one dispatch (glmls.engine.batched, with MLS_LATTICE): work group
-// row gl_WorkGroupID.y evaluates image b's lattice, whose f goes to the output from its
-// table row's vec2 index. Image b's handles are rows first .. first + count - 1 of one handle
-// buffer, and the values that a single image's pass takes from uniforms (mls/weighting.glsl,
-// mls/lattice.glsl) are its row of the image table, read once for the work group: the same
-// arithmetic as a pass per image.
-struct MLSBatchImage {
-    vec4 lattice;    // u_lattice_origin, u_lattice_last
-    vec4 weights;    // u_lattice_step (both axes), u_log2_s, u_radius, u_hit2
-    ivec4 handles;   // first, count, u_snap, the output's first vec2
-};
-layout(std430, binding = BIND_POINTS) readonly buffer MLSBatchImages {
-    MLSBatchImage mls_batch_image[];
-};
-layout(std430, binding = BIND_HANDLES) readonly buffer MLSHandles {
-    vec4 mls_handles[];
-};
-float u_log2_s;
-float u_radius;
-float u_hit2;
-bool u_snap;
-vec2 u_lattice_origin;
-vec2 u_lattice_step;
-vec2 u_lattice_last;
-int mls_batch_first;
-int mls_batch_count;
-int mls_batch_out;
-
-int mls_handle_count() {
-    return mls_batch_count;
-}
-
-vec4 mls_handle(int i) {
-    return mls_handles[mls_batch_first + i];
-}
-
-void mls_batch_begin() {
-    MLSBatchImage image = mls_batch_image[gl_WorkGroupID.y];
-    u_lattice_origin = image.lattice.xy;
-    u_lattice_last = image.lattice.zw;
-    u_lattice_step = image.weights.xx;
-    u_log2_s = image.weights.y;
-    u_radius = image.weights.z;
-    u_hit2 = image.weights.w;
-    mls_batch_first = image.handles.x;
-    mls_batch_count = image.handles.y;
-    u_snap = image.handles.z != 0;
-    mls_batch_out = image.handles.w;
-}
+int mls_batch_out;   // where the work group's image's lattice goes in the output
 #else
 const int mls_batch_out = 0;
-
-void mls_batch_begin() {
-}
 #endif
 
 #include "mls/visit.glsl"
@@ -119,7 +66,10 @@ void main() {
     // nothing. llvmpipe loads a value at a uniform index once for all lanes only where no
     // lane can be inactive (outside any branch, and after no return); behind a return every
     // handle read is a load per lane (W1's grid-4 pass took 1.4x as long).
-    mls_batch_begin();
+#if MLS_BATCH
+    mls_batch_begin(int(gl_WorkGroupID.y));
+    mls_batch_out = mls_batch_image_index * u_batch_stride;
+#endif
     int first = u_offset + MLS_POINTS_PER_INVOCATION * int(gl_GlobalInvocationID.x);
     int last = max(u_count - 1, 0);
 #if MLS_POINTS_PER_INVOCATION == 2

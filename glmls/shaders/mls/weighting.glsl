@@ -6,9 +6,9 @@
 
 uniform float u_alpha;      // idw / interpolating power
 #ifndef MLS_BATCH
-#define MLS_BATCH 0   // 1: a batch's lattice pass (mls/points.comp.glsl)
+#define MLS_BATCH 0   // 1: a batch's passes (mls/batch.glsl)
 #endif
-#if !MLS_BATCH  // a batch's lattice pass sets these per image
+#if !MLS_BATCH  // a batch's passes set these per image (mls/batch.glsl)
 uniform float u_log2_s;     // log2 of the scaled idw s; -1e30 when s == 0
 uniform float u_radius;     // scaled influence radius R
 uniform float u_hit2;       // squared snapping distance (scaled)
