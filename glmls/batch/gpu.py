@@ -1,24 +1,29 @@
-"""The GPU path of a batch: the ``quads`` of many images of one shape in one submission.
+"""The GPU path of a batch: the ``quads`` or ``backward`` of many images of one shape in one
+submission.
 
 Per chunk of images (:func:`chunk_size`):
 
-1. f at every image's mesh vertices, each image's lattice evaluated by its own kernel
-   (``mls/points.comp.glsl``, as a single warp does) into its slice of one mesh buffer, with
-   no read-back or barrier in between;
+1. f at every image's mesh vertices in one dispatch
+   (:class:`~glmls.engine.batched.BatchLattices`, ``mls/points.comp.glsl`` with
+   ``MLS_BATCH``; :class:`KernelLattices`, a pass per image's own kernel, for segments and
+   bins) into one mesh buffer;
 2. ``batch/cells.comp.glsl``: ONE dispatch scan-converts every cell of every image, keeping
    per output pixel the key of the first triangle in scan order (the single warp's keys and
    fold rule), in a winner buffer laid out as an atlas of the output canvases stacked top to
    bottom;
 3. ``batch/resolve.frag.glsl``: ONE draw fills the atlas from the keys, sampling the sources
    as layers of one texture array (nearest: the key's source pixel; linear: the winning
-   triangle interpolated, then sampled bilinearly);
+   triangle interpolated, then sampled bilinearly); for ``backward`` (:meth:`BatchQuads.backward`)
+   the draw writes the source points, ONE dispatch of ``warp/inverse.comp.glsl`` refines
+   them by Newton's method on each image's f, and ONE draw of ``batch/backward.frag.glsl``
+   samples the sources there;
 4. ONE read-back of the atlas.
 
-The arithmetic is the single warp's (the same edge functions, keys, barycentrics and
-sampling), so each image equals its :func:`glmls.warp`, bit for bit. This path takes
-``quads`` on the regular mesh with the ``constant`` border (the mesh then needs no margin,
-whose size f decides per image); the other methods and borders take the single pipeline per
-image (:mod:`glmls.batch.single`).
+The arithmetic is the single warp's (the same edge functions, keys, barycentrics, Newton
+steps and sampling), so each image equals its :func:`glmls.warp`, bit for bit. This path
+takes the regular mesh with the ``constant`` border (the mesh then needs no margin, whose
+size f decides per image); the other methods and borders take the single pipeline per image
+(:mod:`glmls.batch.single`).
 """
 
 from __future__ import annotations
@@ -103,6 +108,38 @@ def _stacked(first: SourceImage, data: np.ndarray) -> SourceImage:
     return SourceImage(tall, first.dtype, first.squeeze, first.normalized)
 
 
+def _read_coords(mgl, framebuffer, atlas, count: int, frame: Frame, covered: int):
+    """An RGBA32F atlas of maps read back: (N, H, W, 2) source points and (N, H, W) bool
+    covered (its channel ``covered``)."""
+    out_w, out_h = frame.size
+    values_out = np.empty((atlas[1], atlas[0], 4), np.float32)
+    bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
+    try:
+        framebuffer.use()
+        framebuffer.read_into(values_out, (0, 0, *atlas), 4, dtype="f4")
+    finally:
+        bound.use()
+    values_out = values_out.reshape(count, out_h, out_w, 4)
+    return values_out[..., :2].copy(), values_out[..., covered] > 0.5
+
+
+def _read_atlas(mgl, framebuffer, atlas, source: SourceImage, count: int, frame: Frame):
+    """The atlas read back as (N, H, W, C) in the sources' dtype."""
+    out_w, out_h = frame.size
+    bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
+    try:
+        framebuffer.use()
+        if source.normalized:
+            values_out = read_rgba8(framebuffer, atlas, source.channels)
+        else:
+            values_out = np.empty((atlas[1], atlas[0], 4), np.float32)
+            framebuffer.read_into(values_out, (0, 0, *atlas), 4, dtype="f4")
+            values_out = values_out[..., : source.channels]
+    finally:
+        bound.use()
+    return source.restore(values_out.reshape(count, out_h, out_w, -1))
+
+
 class KernelLattices:
     """Images' own kernels (:class:`~glmls.engine.kernel.MLSKernel`) in the form of a
     :class:`~glmls.engine.batched.BatchLattices`: a lattice pass per image, for what the
@@ -135,7 +172,6 @@ class BatchQuads:
         self._gl = gl
         self._resources = Resources(gl, "the batch quads")
         self._array: tuple[tuple, moderngl.TextureArray] | None = None
-        self._backward = False  # the coords atlas holds backward maps (covered in .w)
         #: The last :meth:`warp`'s mesh vertices where it read them (:meth:`vertices`).
         self.last_vertices: np.ndarray | None = None
         #: ... and which of them are not shown to be embeddings, where it tested them.
@@ -168,27 +204,12 @@ class BatchQuads:
         each output pixel, the quads' interpolated one as the single warp's coordinate fill
         gives it, and (N, H, W) bool covered."""
         framebuffer, atlas = self._fill_coords(count, lattice, frame)
-        return self._read_coords(framebuffer, atlas, count, frame)
-
-    def _read_coords(self, framebuffer, atlas, count: int, frame: Frame):
-        out_w, out_h = frame.size
-        mgl = self._gl.mgl
-        values_out = np.empty((atlas[1], atlas[0], 4), np.float32)
-        bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
-        try:
-            framebuffer.use()
-            framebuffer.read_into(values_out, (0, 0, *atlas), 4, dtype="f4")
-        finally:
-            bound.use()
-        values_out = values_out.reshape(count, out_h, out_w, 4)
-        channel = 3 if self._backward else 2
-        return values_out[..., :2].copy(), values_out[..., channel] > 0.5
+        return _read_coords(self._gl.mgl, framebuffer, atlas, count, frame, 2)
 
     def _fill_coords(self, count: int, lattice: MeshLattice, frame: Frame):
         """The quads' source points of the chunk's meshes (in the mesh buffer) drawn into
         the RGBA32F atlas ``coords`` (s.x, s.y, 1, 0 where covered; 0 elsewhere), as the
         single warp's coordinate fill: (framebuffer, atlas size)."""
-        self._backward = False
         sub_bits, col_shift, row_shift = key_layout(lattice, source_pixel=False)  # type: ignore[misc]
         gl, mgl = self._gl, self._gl.mgl
         out_w, out_h = frame.size
@@ -251,7 +272,6 @@ class BatchQuads:
         self._resources.buffer("scaling", scaling.nbytes).write(scaling)
         self.last_vertices = self.last_folded = None
         framebuffer, atlas = self._fill_coords(count, lattice, frame)
-        self._backward = True
         coords = framebuffer.color_attachments[0]
         defines = {"WARP_SWAP": False, "WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": 0}
         groups = [-(-n // LOCAL_SIZE_2D) for n in frame.size]
@@ -293,16 +313,15 @@ class BatchQuads:
             self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
         finally:
             bound.use()
-        return self._read_atlas(target, atlas, source, count, frame)
+        return _read_atlas(self._gl.mgl, target, atlas, source, count, frame)
 
     def backward_coords(self, count: int, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
         """The last :meth:`backward`'s maps: (N, H, W, 2) float32 source points and (N, H,
         W) bool covered, as the single warp's backward map."""
         out_w, out_h = frame.size
         atlas = (out_w, out_h * count)
-        return self._read_coords(
-            self._resources.framebuffer("coords", atlas, "f4"), atlas, count, frame
-        )
+        framebuffer = self._resources.framebuffer("coords", atlas, "f4")
+        return _read_coords(self._gl.mgl, framebuffer, atlas, count, frame, 3)
 
     def _resolve(
         self, values, atlas, framebuffer, sources, winner, linear, *, coords: bool = False
@@ -452,21 +471,4 @@ class BatchQuads:
             mgl.memory_barrier()
         else:
             self._resolve(values, atlas, framebuffer, sources, winner, linear)  # 3.
-        return self._read_atlas(framebuffer, atlas, source, count, frame)  # 4.
-
-    def _read_atlas(self, framebuffer, atlas, source: SourceImage, count: int, frame: Frame):
-        """The atlas read back as (N, H, W, C) in the sources' dtype."""
-        mgl = self._gl.mgl
-        out_w, out_h = frame.size
-        bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
-        try:
-            framebuffer.use()
-            if source.normalized:
-                values_out = read_rgba8(framebuffer, atlas, source.channels)
-            else:
-                values_out = np.empty((atlas[1], atlas[0], 4), np.float32)
-                framebuffer.read_into(values_out, (0, 0, *atlas), 4, dtype="f4")
-                values_out = values_out[..., : source.channels]
-        finally:
-            bound.use()
-        return source.restore(values_out.reshape(count, out_h, out_w, -1))
+        return _read_atlas(self._gl.mgl, framebuffer, atlas, source, count, frame)  # 4.
