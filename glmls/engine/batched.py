@@ -125,28 +125,51 @@ class BatchLattices:
     def dispatches(
         self, gl: GLContext, resources: Resources, lattice: MeshLattice, entry: str, defines
     ) -> Iterator[tuple[moderngl.ComputeShader, int]]:
-        """For each unrolling of the handle loop that the images' single passes use (one for
-        handle counts alike), the program of ``entry`` with ``defines``, bound to the
-        handles and to the table of those images (the work groups' rows), and their
-        number; the caller sets its own uniforms and runs it."""
-        handles = resources.buffer("batch handles", self.packed.nbytes)
-        handles.write(self.packed)
+        """The program of ``entry`` with ``defines`` and its number of work group rows (the
+        images it evaluates), bound to their handles and rows of the image table: one per
+        unrolling of the handle loop that the images' single passes use (one for handle
+        counts alike) and part of the images whose handles fit in a uniform block (llvmpipe
+        reads those faster than a storage buffer; one part for 256 images of 16 handles);
+        the caller sets its own uniforms and runs each."""
         table = self.table(lattice)
+        ends = np.cumsum(self.counts)
+        capacity = int(gl.mgl.info["GL_MAX_UNIFORM_BLOCK_SIZE"]) // 16
         unrolls = np.array([unroll_slots(int(c)) for c in self.counts])
         for unroll in sorted(set(unrolls.tolist())):
-            rows = np.ascontiguousarray(table[unrolls == unroll])
-            images = resources.buffer(f"batch images {unroll}", rows.nbytes)
-            images.write(rows)
+            chosen = np.flatnonzero(unrolls == unroll)
+            block = int(self.counts[chosen].max()) <= capacity
+            parts, start, rows = [], 0, 0
+            for k, image in enumerate(chosen.tolist()):
+                count = int(self.counts[image])
+                if block and rows + count > capacity:
+                    parts.append(chosen[start:k])
+                    start, rows = k, 0
+                rows += count
+            parts.append(chosen[start:])
             program = gl.compute(
                 entry,
                 config_defines(self.config, unroll=unroll, binned=False, segments=False)
-                | {"MLS_STORAGE": 0, "MLS_BATCH": True}
+                | {"MLS_STORAGE": 0, "MLS_BATCH": True, "MLS_UBO_CAPACITY": capacity * block}
                 | dict(defines),
             )
             set_uniforms(program, {"u_alpha": self.config.alpha})
-            handles.bind_to_storage_buffer(bindings.HANDLES.index)
-            images.bind_to_storage_buffer(bindings.POINTS.index)
-            yield program, len(rows)
+            for j, part in enumerate(parts):
+                packed = np.concatenate(
+                    [self.packed[ends[i] - self.counts[i] : ends[i]] for i in part.tolist()]
+                )
+                rows = table[part]
+                rows[:, 12:].view(np.int32)[:, 0] = np.cumsum(self.counts[part]) - self.counts[part]
+                size = 16 * capacity if block else packed.nbytes
+                handles = resources.buffer(f"batch handles {unroll} {j}", size)
+                handles.write(packed)
+                images = resources.buffer(f"batch images {unroll} {j}", rows.nbytes)
+                images.write(np.ascontiguousarray(rows))
+                if block:
+                    handles.bind_to_uniform_block(bindings.HANDLES_BLOCK.index)
+                else:
+                    handles.bind_to_storage_buffer(bindings.HANDLES.index)
+                images.bind_to_storage_buffer(bindings.POINTS.index)
+                yield program, len(rows)
 
     def evaluate(
         self, gl: GLContext, resources: Resources, lattice: MeshLattice, target, stride: int

@@ -454,3 +454,18 @@ def test_quads_maps_of_a_chunk_equal_the_single_fill(gl, rng):
             coords, covered = warper.source_points(m, shape, chosen, frame)
         np.testing.assert_array_equal(result.maps[i], coords)
         np.testing.assert_array_equal(result.valid[i], covered)
+
+
+def test_one_mls_pass_for_many_handle_counts(gl, rng):
+    """The chunk's f in one pass per handle-loop unrolling and per part whose handles fit in
+    a uniform block (more handles: a storage buffer): each image's pixels are still its
+    single warp's."""
+    counts = [3, 16, 40, 2000, 2500, 5000]
+    batch = images(rng, len(counts))
+    src = [rng.uniform(0, 20, (k, 2)) for k in counts]
+    dst = [p + rng.normal(0, 1.0, p.shape) for p in src]
+    for method in ("quads", "backward"):
+        out = glmls.warp_batch(batch, src, dst, method=method, grid=2)
+        for i in range(len(counts)):
+            want = glmls.warp(batch[i], src[i], dst[i], method=method, grid=2)
+            np.testing.assert_array_equal(out[i], want)

@@ -8,6 +8,9 @@
 #define MLS_BATCH 0
 #endif
 #if MLS_BATCH
+#ifndef MLS_UBO_CAPACITY
+#define MLS_UBO_CAPACITY 0   // handle rows of the uniform block; 0: a storage buffer
+#endif
 struct MLSBatchImage {
     vec4 lattice;    // u_lattice_origin, u_lattice_last
     vec4 weights;    // u_lattice_step (both axes), u_log2_s, u_radius, u_hit2
@@ -17,9 +20,17 @@ struct MLSBatchImage {
 layout(std430, binding = BIND_POINTS) readonly buffer MLSBatchImages {
     MLSBatchImage mls_batch_image[];
 };
+#if MLS_UBO_CAPACITY
+// the handles of every image of the dispatch in one uniform block (llvmpipe reads a uniform
+// block at an index alike in every lane faster than a storage buffer)
+layout(std140, binding = BIND_HANDLES_BLOCK) uniform MLSHandles {
+    vec4 mls_handles[MLS_UBO_CAPACITY];
+};
+#else
 layout(std430, binding = BIND_HANDLES) readonly buffer MLSHandles {
     vec4 mls_handles[];
 };
+#endif
 uniform int u_batch_stride;   // the lattice pass: vec2 outputs from one image to the next
 float u_log2_s;
 float u_radius;
