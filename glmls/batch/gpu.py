@@ -1,24 +1,29 @@
-"""The GPU path of a batch: the ``quads`` of many images of one shape in one submission.
+"""The GPU path of a batch: the ``quads`` or ``backward`` of many images of one shape in one
+submission.
 
 Per chunk of images (:func:`chunk_size`):
 
-1. f at every image's mesh vertices, each image's lattice evaluated by its own kernel
-   (``mls/points.comp.glsl``, as a single warp does) into its slice of one mesh buffer, with
-   no read-back or barrier in between;
+1. f at every image's mesh vertices in one dispatch
+   (:class:`~glmls.engine.batched.BatchLattices`, ``mls/points.comp.glsl`` with
+   ``MLS_BATCH``; :class:`KernelLattices`, a pass per image's own kernel, for segments and
+   bins) into one mesh buffer;
 2. ``batch/cells.comp.glsl``: ONE dispatch scan-converts every cell of every image, keeping
    per output pixel the key of the first triangle in scan order (the single warp's keys and
    fold rule), in a winner buffer laid out as an atlas of the output canvases stacked top to
    bottom;
 3. ``batch/resolve.frag.glsl``: ONE draw fills the atlas from the keys, sampling the sources
    as layers of one texture array (nearest: the key's source pixel; linear: the winning
-   triangle interpolated, then sampled bilinearly);
+   triangle interpolated, then sampled bilinearly); for ``backward`` (:meth:`BatchQuads.backward`)
+   the draw writes the source points, ONE dispatch of ``warp/inverse.comp.glsl`` refines
+   them by Newton's method on each image's f, and ONE draw of ``batch/backward.frag.glsl``
+   samples the sources there;
 4. ONE read-back of the atlas.
 
-The arithmetic is the single warp's (the same edge functions, keys, barycentrics and
-sampling), so each image equals its :func:`glmls.warp`, bit for bit. This path takes
-``quads`` on the regular mesh with the ``constant`` border (the mesh then needs no margin,
-whose size f decides per image); the other methods and borders take the single pipeline per
-image (:mod:`glmls.batch.single`).
+The arithmetic is the single warp's (the same edge functions, keys, barycentrics, Newton
+steps and sampling), so each image equals its :func:`glmls.warp`, bit for bit. This path
+takes the regular mesh with the ``constant`` border (the mesh then needs no margin, whose
+size f decides per image); the other methods and borders take the single pipeline per image
+(:mod:`glmls.batch.single`).
 """
 
 from __future__ import annotations
@@ -30,16 +35,17 @@ from ..core.mesh import MeshLattice
 from ..engine.passes import evaluate_lattice
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
-from ..gl.dispatch import run_1d, set_uniforms
+from ..gl.dispatch import LOCAL_SIZE_2D, run_1d, set_uniforms
 from ..gl.resources import Resources
 from ..imaging.frame import Frame
+from ..imaging.inverse import NEWTON_ACCEPT, NEWTON_STEPS, NEWTON_TOLERANCE
 from ..imaging.options import PipelineOptions, WarpOptions
 from ..imaging.quads import key_layout
 from ..imaging.readback import read_rgba8
 from ..imaging.source import SourceImage, texture_data, texture_form
 from .labels import embedded
 
-__all__ = ["CHUNK_BYTES", "BatchQuads", "batchable", "chunk_size"]
+__all__ = ["CHUNK_BYTES", "BatchQuads", "KernelLattices", "batchable", "chunk_size"]
 
 #: The most GPU memory one chunk of a batch takes (sources, atlas, keys, meshes), bytes: a
 #: batch of 10,000 images runs chunk by chunk, never all on the GPU at once.
@@ -52,9 +58,13 @@ MESH_ALIGN = 256
 
 
 def batchable(options: WarpOptions) -> bool:
-    """Does a batch of these options take the batched GPU path (``quads``, regular mesh,
-    ``constant`` border)?"""
-    return options.method == "quads" and options.tolerance is None and options.border == "constant"
+    """Does a batch of these options take the batched GPU path (``quads`` or ``backward``,
+    regular mesh, ``constant`` border)?"""
+    return (
+        options.method in ("quads", "backward")
+        and options.tolerance is None
+        and options.border == "constant"
+    )
 
 
 def _mesh_stride(lattice: MeshLattice) -> int:
@@ -63,14 +73,22 @@ def _mesh_stride(lattice: MeshLattice) -> int:
 
 
 def chunk_size(
-    gl: GLContext, source: SourceImage, frame: Frame, lattice: MeshLattice, max_bytes: int
+    gl: GLContext,
+    source: SourceImage,
+    frame: Frame,
+    lattice: MeshLattice,
+    max_bytes: int,
+    *,
+    backward: bool = False,
 ) -> int:
     """Images per chunk: the atlas within the GL texture size, the sources within the array
-    layers, and the chunk's GPU memory within ``max_bytes``."""
+    layers, and the chunk's GPU memory within ``max_bytes`` (``backward``: with the atlas of
+    backward maps, RGBA32F)."""
     (width, height), components, dtype = texture_form(source)
     texel = components * (1 if dtype == "f1" else 4)
     target = 4 if source.normalized else 16
     per_image = width * height * texel + frame.pixels * (target + 8) + _mesh_stride(lattice)
+    per_image += frame.pixels * 16 if backward else 0
     atlas = gl.limits["max_texture_size"] // max(frame.shape[0], height)
     layers = int(gl.mgl.info.get("GL_MAX_ARRAY_TEXTURE_LAYERS", 256))
     return max(1, min(atlas, layers, max_bytes // per_image))
@@ -90,6 +108,58 @@ def _stacked(first: SourceImage, data: np.ndarray) -> SourceImage:
     return SourceImage(tall, first.dtype, first.squeeze, first.normalized)
 
 
+def _read_coords(mgl, framebuffer, atlas, count: int, frame: Frame, covered: int):
+    """An RGBA32F atlas of maps read back: (N, H, W, 2) source points and (N, H, W) bool
+    covered (its channel ``covered``)."""
+    out_w, out_h = frame.size
+    values_out = np.empty((atlas[1], atlas[0], 4), np.float32)
+    bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
+    try:
+        framebuffer.use()
+        framebuffer.read_into(values_out, (0, 0, *atlas), 4, dtype="f4")
+    finally:
+        bound.use()
+    values_out = values_out.reshape(count, out_h, out_w, 4)
+    return values_out[..., :2].copy(), values_out[..., covered] > 0.5
+
+
+def _read_atlas(mgl, framebuffer, atlas, source: SourceImage, count: int, frame: Frame):
+    """The atlas read back as (N, H, W, C) in the sources' dtype."""
+    out_w, out_h = frame.size
+    bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
+    try:
+        framebuffer.use()
+        if source.normalized:
+            values_out = read_rgba8(framebuffer, atlas, source.channels)
+        else:
+            values_out = np.empty((atlas[1], atlas[0], 4), np.float32)
+            framebuffer.read_into(values_out, (0, 0, *atlas), 4, dtype="f4")
+            values_out = values_out[..., : source.channels]
+    finally:
+        bound.use()
+    return source.restore(values_out.reshape(count, out_h, out_w, -1))
+
+
+class KernelLattices:
+    """Images' own kernels (:class:`~glmls.engine.kernel.MLSKernel`) in the form of a
+    :class:`~glmls.engine.batched.BatchLattices`: a lattice pass per image, for what the
+    batched evaluation does not take (segments, spatial bins)."""
+
+    def __init__(self, kernels: list) -> None:
+        self.kernels = kernels
+        self.centers = np.array([k.scaling.center for k in kernels], np.float64)
+        self.scales = np.array([k.scaling.scale for k in kernels], np.float64)
+
+    def __len__(self) -> int:
+        return len(self.kernels)
+
+    def evaluate(self, gl, resources, lattice: MeshLattice, target, stride: int) -> None:
+        """f of image k on ``lattice`` into ``target`` from byte ``k * stride``."""
+        del gl, resources
+        for k, kernel in enumerate(self.kernels):
+            evaluate_lattice(kernel, lattice, target, offset=k * stride)
+
+
 class BatchQuads:
     """The batched quads of a context (see the module docstring); one per context,
     :meth:`of`."""
@@ -104,6 +174,8 @@ class BatchQuads:
         self._array: tuple[tuple, moderngl.TextureArray] | None = None
         #: The last :meth:`warp`'s mesh vertices where it read them (:meth:`vertices`).
         self.last_vertices: np.ndarray | None = None
+        #: ... and which of them are not shown to be embeddings, where it tested them.
+        self.last_folded: np.ndarray | None = None
 
     @classmethod
     def of(cls, ctx: moderngl.Context | GLContext | None = None) -> BatchQuads:
@@ -131,6 +203,13 @@ class BatchQuads:
         ``frame``, its meshes still in the mesh buffer): (N, H, W, 2) float32 source point of
         each output pixel, the quads' interpolated one as the single warp's coordinate fill
         gives it, and (N, H, W) bool covered."""
+        framebuffer, atlas = self._fill_coords(count, lattice, frame)
+        return _read_coords(self._gl.mgl, framebuffer, atlas, count, frame, 2)
+
+    def _fill_coords(self, count: int, lattice: MeshLattice, frame: Frame):
+        """The quads' source points of the chunk's meshes (in the mesh buffer) drawn into
+        the RGBA32F atlas ``coords`` (s.x, s.y, 1, 0 where covered; 0 elsewhere), as the
+        single warp's coordinate fill: (framebuffer, atlas size)."""
         sub_bits, col_shift, row_shift = key_layout(lattice, source_pixel=False)  # type: ignore[misc]
         gl, mgl = self._gl, self._gl.mgl
         out_w, out_h = frame.size
@@ -161,15 +240,88 @@ class BatchQuads:
         framebuffer = self._resources.framebuffer("coords", atlas, "f4")
         self._resources.fill(framebuffer.color_attachments[0], (0.0, 0.0, 0.0, 0.0))
         self._resolve(values, atlas, framebuffer, None, winner, True, coords=True)
-        values_out = np.empty((atlas[1], atlas[0], 4), np.float32)
+        return framebuffer, atlas
+
+    @current
+    def backward(
+        self,
+        lattices,
+        sources: list[SourceImage],
+        options: WarpOptions,
+        frame: Frame,
+        background: tuple[float, float, float, float],
+    ) -> np.ndarray | None:
+        """The chunk's images warped by ``backward`` (constant border): the quads' source
+        points as the first guess (:meth:`coords`' fill), Newton on each image's f for every
+        output pixel of every image in one dispatch (``warp/inverse.comp.glsl`` with
+        ``MLS_BATCH``), one draw sampling the sources (``batch/backward.frag.glsl``), one
+        read-back; as :meth:`warp` returns. The backward maps stay in the ``coords`` atlas
+        (:meth:`backward_coords`)."""
+        height, width = sources[0].shape
+        lattice = MeshLattice.corners((height, width), options.grid)
+        if key_layout(lattice, source_pixel=False) is None:
+            return None
+        count = len(sources)
+        gl, mgl = self._gl, self._gl.mgl
+        stride = _mesh_stride(lattice)
+        mesh = self._resources.buffer("mesh", count * stride)
+        lattices.evaluate(gl, self._resources, lattice, mesh, stride)
+        scaling = np.zeros((count, 4), np.float32)
+        scaling[:, :2] = lattices.centers
+        scaling[:, 2] = lattices.scales
+        self._resources.buffer("scaling", scaling.nbytes).write(scaling)
+        self.last_vertices = self.last_folded = None
+        framebuffer, atlas = self._fill_coords(count, lattice, frame)
+        coords = framebuffer.color_attachments[0]
+        defines = {"WARP_SWAP": False, "WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": 0}
+        groups = [-(-n // LOCAL_SIZE_2D) for n in frame.size]
+        uniforms = {
+            **frame.uniforms(),
+            "u_source_size": (width, height),
+            "u_tolerance": NEWTON_TOLERANCE,
+            "u_accept": NEWTON_ACCEPT,
+        }
+        for program, rows in lattices.dispatches(
+            gl, self._resources, lattice, "warp/inverse.comp.glsl", defines
+        ):
+            set_uniforms(program, uniforms)
+            mgl.memory_barrier()
+            coords.bind_to_image(bindings.INVERSE_MAP.index, read=True, write=True)
+            program.run(group_x=groups[0], group_y=groups[1], group_z=rows)
+        mgl.memory_barrier()
+        source = sources[0]
+        dtype = "f1" if source.normalized else "f4"
+        target = self._resources.framebuffer("atlas", atlas, dtype)
+        self._resources.fill(target.color_attachments[0], background)
+        linear = options.interpolation == "linear"
+        program = gl.program(
+            "common/fullscreen.vert.glsl",
+            "batch/backward.frag.glsl",
+            {"WARP_LINEAR": linear, "WARP_BORDER": 0},
+        )
+        set_uniforms(program, {"u_target_size": frame.size, "u_source_size": (width, height)})
         bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
         try:
-            framebuffer.use()
-            framebuffer.read_into(values_out, (0, 0, *atlas), 4, dtype="f4")
+            target.use()
+            target.viewport = (0, 0, *atlas)
+            array = self._sources(sources)
+            mode = moderngl.LINEAR if linear else moderngl.NEAREST
+            array.filter = (mode, mode)
+            array.use(bindings.SOURCE.index)
+            coords.use(bindings.COORDS.index)
+            mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+            self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
         finally:
             bound.use()
-        values_out = values_out.reshape(count, out_h, out_w, 4)
-        return values_out[..., :2].copy(), values_out[..., 2] > 0.5
+        return _read_atlas(self._gl.mgl, target, atlas, source, count, frame)
+
+    def backward_coords(self, count: int, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+        """The last :meth:`backward`'s maps: (N, H, W, 2) float32 source points and (N, H,
+        W) bool covered, as the single warp's backward map."""
+        out_w, out_h = frame.size
+        atlas = (out_w, out_h * count)
+        framebuffer = self._resources.framebuffer("coords", atlas, "f4")
+        return _read_coords(self._gl.mgl, framebuffer, atlas, count, frame, 3)
 
     def _resolve(
         self, values, atlas, framebuffer, sources, winner, linear, *, coords: bool = False
@@ -216,32 +368,35 @@ class BatchQuads:
         return array
 
     @current
-    def vertices(self, kernels: list, lattice: MeshLattice) -> np.ndarray:
+    def vertices(self, lattices, lattice: MeshLattice) -> np.ndarray:
         """(N, rows, columns, 2) float64: the last :meth:`warp`'s mesh vertices in pixels
-        (f at the lattice of each of ``kernels``, its chunk's), read back."""
+        (f at the lattice of each image of ``lattices``, its chunk's), read back."""
         stride = _mesh_stride(lattice)
+        count = len(lattices)
         self._gl.mgl.memory_barrier()  # the lattice passes' stores before the read
-        raw = self._resources.cached("mesh").read(size=len(kernels) * stride)
+        raw = self._resources.cached("mesh").read(size=count * stride)
         columns, rows = lattice.dims
-        scaled = np.frombuffer(raw, np.float32).reshape(len(kernels), stride // 4)
-        scaled = scaled[:, : rows * columns * 2].reshape(len(kernels), rows, columns, 2)
-        scale = np.array([k.scaling.scale for k in kernels], np.float64)[:, None, None, None]
-        centre = np.array([k.scaling.center for k in kernels], np.float64)[:, None, None, :]
+        scaled = np.frombuffer(raw, np.float32).reshape(count, stride // 4)
+        scaled = scaled[:, : rows * columns * 2].reshape(count, rows, columns, 2)
+        scale = lattices.scales[:, None, None, None]
+        centre = lattices.centers[:, None, None, :]
         return scaled.astype(np.float64) * scale + centre  # Scaling.from_gpu, all at once
 
     @current
     def warp(
         self,
-        kernels: list,
+        lattices,
         sources: list[SourceImage],
         options: WarpOptions,
         frame: Frame,
         background: tuple[float, float, float, float],
         stacked: np.ndarray | None = None,
     ) -> np.ndarray | None:
-        """The chunk's images warped: (N, H, W, C) restored to the sources' dtype (each
-        :meth:`SourceImage.restore`), or None where the keys of this mesh do not fit in 31
-        bits (the single path's rasterizer then draws it). ``stacked``: the sources' data as
+        """The chunk's images warped (``lattices``: their handles, a
+        :class:`~glmls.engine.batched.BatchLattices` or :class:`KernelLattices`): (N, H, W,
+        C) restored to the sources' dtype (each :meth:`SourceImage.restore`), or None where
+        the keys of this mesh do not fit in 31 bits (the single path's rasterizer then draws
+        it). ``stacked``: the sources' data as
         one (N, H, W, 4) uint8 array where the caller has it (not copied again)."""
         height, width = sources[0].shape
         lattice = MeshLattice.corners((height, width), options.grid)
@@ -254,17 +409,17 @@ class BatchQuads:
         gl, mgl = self._gl, self._gl.mgl
         stride = _mesh_stride(lattice)
         mesh = self._resources.buffer("mesh", count * stride)
+        lattices.evaluate(gl, self._resources, lattice, mesh, stride)  # 1. every image's f
         scaling = np.zeros((count, 4), np.float32)
-        for k, kernel in enumerate(kernels):  # 1. each image's f on its lattice
-            evaluate_lattice(kernel, lattice, mesh, offset=k * stride)
-            scaling[k, :2] = kernel.scaling.center
-            scaling[k, 2] = kernel.scaling.scale
+        scaling[:, :2] = lattices.centers
+        scaling[:, 2] = lattices.scales
         source = sources[0]
         fused = self.fused and not linear and texture_form(source)[1:] == (4, "f1")
-        self.last_vertices = None
+        self.last_vertices = self.last_folded = None
         if fused:  # meshes shown to be embeddings are drawn without keys
-            self.last_vertices = self.vertices(kernels, lattice)
-            scaling[:, 3] = ~embedded(self.last_vertices)
+            self.last_vertices = self.vertices(lattices, lattice)
+            self.last_folded = ~embedded(self.last_vertices)
+            scaling[:, 3] = self.last_folded
         scales = self._resources.buffer("scaling", scaling.nbytes)
         scales.write(scaling)
         out_w, out_h = frame.size
@@ -316,15 +471,4 @@ class BatchQuads:
             mgl.memory_barrier()
         else:
             self._resolve(values, atlas, framebuffer, sources, winner, linear)  # 3.
-        bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
-        try:
-            framebuffer.use()
-            if source.normalized:  # 4.
-                values_out = read_rgba8(framebuffer, atlas, source.channels)
-            else:
-                values_out = np.empty((atlas[1], atlas[0], 4), np.float32)
-                framebuffer.read_into(values_out, (0, 0, *atlas), 4, dtype="f4")
-                values_out = values_out[..., : source.channels]
-        finally:
-            bound.use()
-        return source.restore(values_out.reshape(count, out_h, out_w, -1))
+        return _read_atlas(self._gl.mgl, framebuffer, atlas, source, count, frame)  # 4.

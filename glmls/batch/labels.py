@@ -105,6 +105,7 @@ def mesh_keypoints(
     points: np.ndarray,
     moved: np.ndarray | None,
     images: np.ndarray | None = None,
+    folded: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Keypoints through the deformed meshes of ``lattice`` (``vertices``: f at its points,
     (N, rows, columns, 2), or (rows, columns, 2) for one image): (P, 2) output points (the
@@ -112,7 +113,8 @@ def mesh_keypoints(
     bool, inside the lattice's domain and not covered by a triangle earlier in the fill's
     scan order (cell row, column, then triangle (00, 10, 11) before (00, 11, 01)) than the
     keypoint's own: where cells fold, the first shows (``warp/cells.comp.glsl``). ``images``:
-    (P,) the image of each point (default: all of image 0)."""
+    (P,) the image of each point (default: all of image 0). ``folded``: (N,) bool, the
+    meshes not shown to be embeddings (``~embedded(vertices)``) where the caller has it."""
     count = len(points)
     if count == 0:
         return np.zeros((0, 2)), np.zeros(0, bool)
@@ -134,7 +136,7 @@ def mesh_keypoints(
     u, v = ((points - low) / np.maximum(high - low, 1e-12)).T
     own = (row * columns + col) * 2 + (u < v)
     hidden = np.zeros(count, bool)
-    folded = ~embedded(vertices)
+    folded = ~embedded(vertices) if folded is None else folded
     for k in np.flatnonzero(folded):  # an embedding hides no point: only the others are tested
         mine = np.flatnonzero(image == k)
         if len(mine):

@@ -126,7 +126,8 @@ class SingleWarper:
             limit = self.pipeline.max_image_size
             frame = make_frame(options.output_shape, options.origin, shape, limit)
             coords = covered = moved = valid = None
-            if maps or (points is not None and not by_mesh(options)):
+            backward = options.method == "backward"
+            if maps or (points is not None and (backward or not by_mesh(options))):
                 coords, covered = self.source_points(mls, shape, options, frame)
             if points is not None:
                 moved, valid = self.keypoints(mls, shape, options, frame, points, coords, covered)
@@ -146,6 +147,10 @@ class SingleWarper:
             moved, valid = mesh_keypoints(
                 lattice, vertices, points, values[rows * columns :] if backward else None
             )
+            if backward:  # and shown by the backward map, which picks its own fold layer
+                _, jacobian, inside = self.move(mls, shape, options, frame, points)
+                on_canvas = moved - np.asarray(frame.origin)
+                valid &= visible(points, on_canvas, jacobian, coords, covered, inside)
         else:
             moved, jacobian, inside = self.move(mls, shape, options, frame, points)
             moved = moved - np.asarray(frame.origin)

@@ -29,7 +29,7 @@ from ..gl.resources import Resources
 from .bins import BinBuffer, HandleBins, worth_binning
 from .storage import HandleStorage, check_storage, make_storage, resolve_storage, unroll_slots
 
-__all__ = ["DEFAULT_STORAGE", "SNAP_DISTANCE", "MLSKernel", "weight_uniforms"]
+__all__ = ["DEFAULT_STORAGE", "SNAP_DISTANCE", "MLSKernel", "config_defines", "weight_uniforms"]
 
 #: Points closer than this (pixels) to a handle whose weight is infinite there map to q_i.
 SNAP_DISTANCE = 1e-3
@@ -58,6 +58,28 @@ def weight_uniforms(
         "u_hit2": hit2,
         "u_snap": config.infinite_at_zero or tiny_s,
         "u_tiny_s": tiny_s,
+    }
+
+
+def config_defines(
+    config: MLSConfig, *, unroll: int, binned: bool, segments: bool
+) -> dict[str, object]:
+    """The ``#define`` values of ``glmls/shaders/mls/`` for ``config`` but the storage's:
+    ``unroll`` slots (``MLS_UNROLL``), handles in bins, segment handles present."""
+    entry = config.weight_entry
+    return {
+        "MLS_WEIGHT_FUNCTION": entry.glsl_function,
+        "MLS_WEIGHT_USES_S": entry.uses_s,
+        "MLS_REACH_GAUSSIAN": entry.support == "gaussian",
+        "MLS_GAUSSIAN_TOLERANCE": GAUSSIAN_TOLERANCE,
+        "MLS_TRANSFORM": transform_code(config.transform),
+        "MLS_INTERPOLATING": config.interpolating,
+        "MLS_ALPHA_ONE": config.alpha == 1.0,
+        "MLS_UNROLL": unroll,
+        "MLS_BINS": binned,
+        "MLS_SEGMENTS": segments,
+        "MLS_SEGMENT_CLOSED": entry.segment_closed_form(config) and not config.interpolating,
+        "MLS_SEGMENT_SUPPORT": SUPPORTS.index(entry.support),
     }
 
 
@@ -231,25 +253,15 @@ class MLSKernel:
 
     def defines(self) -> dict[str, object]:
         """The ``#define`` values of ``glmls/shaders/mls/`` for this configuration."""
-        config = self.config
-        entry = config.weight_entry
         binned = self._bins is not None
         storage = self._storage
         unroll = storage is not None and storage.unrolls and not binned
-        return {
-            "MLS_WEIGHT_FUNCTION": entry.glsl_function,
-            "MLS_WEIGHT_USES_S": entry.uses_s,
-            "MLS_REACH_GAUSSIAN": entry.support == "gaussian",
-            "MLS_GAUSSIAN_TOLERANCE": GAUSSIAN_TOLERANCE,
-            "MLS_TRANSFORM": transform_code(config.transform),
-            "MLS_INTERPOLATING": config.interpolating,
-            "MLS_ALPHA_ONE": config.alpha == 1.0,
-            "MLS_UNROLL": unroll_slots(self.count) if unroll else 0,
-            "MLS_BINS": binned,
-            "MLS_SEGMENTS": self.segments > 0,
-            "MLS_SEGMENT_CLOSED": entry.segment_closed_form(config) and not config.interpolating,
-            "MLS_SEGMENT_SUPPORT": SUPPORTS.index(entry.support),
-        } | dict(storage.defines if storage is not None else {})
+        return config_defines(
+            self.config,
+            unroll=unroll_slots(self.count) if unroll else 0,
+            binned=binned,
+            segments=self.segments > 0,
+        ) | dict(storage.defines if storage is not None else {})
 
     def uniforms(self, shape: tuple[int, int] | None = None) -> dict[str, float | bool]:
         """The uniforms of ``glmls/shaders/mls/core.glsl`` for an image of ``shape`` (scaled

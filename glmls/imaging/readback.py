@@ -14,7 +14,7 @@ import sys
 import moderngl
 import numpy as np
 
-__all__ = ["STRIP_BYTES", "drop_channels", "read_rgba8"]
+__all__ = ["STRIP_BYTES", "add_channel", "drop_channels", "read_rgba8"]
 
 #: The most bytes of RGBA8 read at once (rows of the framebuffer; at least one row).
 STRIP_BYTES = 1 << 20
@@ -62,3 +62,23 @@ def drop_channels(rgba: np.ndarray, out: np.ndarray) -> None:
         np.copyto(out.view(np.uint16)[..., 0], rgba.view(np.uint16)[..., 0])
     else:
         np.copyto(out, rgba[..., :channels])
+
+
+def add_channel(image: np.ndarray, channel: np.ndarray, out: np.ndarray) -> None:
+    """Copy ``image`` (..., C) uint8, C in 1..3, and ``channel`` (...) uint8 into ``out``
+    (..., C + 1) uint8, C-contiguous: the channel as the last one (:func:`drop_channels`
+    undone)."""
+    channels = out.shape[-1] - 1
+    count = channel.size
+    flat = np.ascontiguousarray(image).reshape(-1)
+    if channels == 3 and sys.byteorder == "little" and count > 1:
+        # Pixel i's RGB read as the 4-byte word at byte 3 i (its fourth byte, the next
+        # pixel's R, is overwritten by the channel below); the last pixel's word would run
+        # past the end: its three bytes are set apart. A word a pixel, not a byte.
+        words = np.ndarray((count - 1,), np.uint32, buffer=flat, strides=(3,))
+        packed = out.reshape(-1)
+        np.copyto(packed.view(np.uint32)[:-1], words)
+        packed[-4:-1] = flat[-3:]
+    else:
+        np.copyto(out[..., :channels], flat.reshape(*out.shape[:-1], channels))
+    out[..., channels] = channel

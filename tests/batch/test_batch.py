@@ -209,6 +209,54 @@ def test_keypoints_land_on_their_pixels(gl, rng, method, grid, fold):
     assert max(errors) <= 0.5 * np.sqrt(2) + 0.15, np.sort(errors)[-5:]
 
 
+@pytest.mark.parametrize("method", ["quads", "backward"])
+@pytest.mark.parametrize("grid", [1, 4])
+@pytest.mark.parametrize("fold", [False, True])
+def test_keypoints_on_the_warped_hot_pixel_centre(gl, rng, method, grid, fold):
+    """One image per keypoint with a single hot pixel, warped with linear sampling: the
+    keypoint lies on the centre of the warped pixel, the intensity-weighted centroid of what
+    shows it, within 0.5 px at the 99th percentile, where the map folds too. The centroid
+    stands for the centre where the pixel's footprint (its bilinear tent, source points
+    within 1 px) is seen whole and sampled: none of it hidden by a fold (the keypoints at its
+    corners and edge midpoints are all valid) and none of it squeezed (they land at 0.9 times
+    their source distance from the centre's keypoint or farther). A map that squeezes the
+    footprint between output pixel centres shows it by a pixel or two, or by none, whose
+    centroid is the pixels' own (docs/batch.md)."""
+    shape = (28, 36)
+    height, width = shape
+    count = 300
+    hot = np.c_[rng.integers(3, width - 3, count), rng.integers(3, height - 3, count)]
+    batch = np.zeros((count, *shape), np.float32)
+    batch[np.arange(count), hot[:, 1], hot[:, 0]] = 1.0
+    if fold:
+        p, q = folding_handles(shape)
+        src, dst = np.repeat(p[None], count, 0), np.repeat(q[None], count, 0)
+    else:
+        src, dst = handles(rng, count, 6, shape, spread=1.5)
+    options = {"method": method, "grid": grid, "weight": "idw", "alpha": 2.0}
+    ring = np.array([[x, y] for y in (0.0, -0.99, 0.99) for x in (0.0, -0.99, 0.99)])
+    points = hot[:, None, :] + ring  # the centre first, then the footprint's edge
+    result = glmls.warp_batch(batch, src, dst, keypoints=points, interpolation="linear", **options)
+    rows, cols = np.mgrid[:height, :width]
+    errors = []
+    for i in range(count):
+        if not result.keypoints_valid[i].all():
+            continue
+        point = result.keypoints[i, 0]
+        near = (np.abs(cols - point[0]) <= 2) & (np.abs(rows - point[1]) <= 2)
+        weight = np.where(near, result.images[i], 0.0)
+        spread = np.hypot(*(result.keypoints[i, 1:] - point).T) / np.hypot(*ring[1:].T)
+        if spread.min() < 0.9:  # the map squeezes the footprint
+            continue
+        if not weight.any():  # not shown
+            errors.append(np.inf)
+            continue
+        centroid = np.array([(weight * cols).sum(), (weight * rows).sum()]) / weight.sum()
+        errors.append(np.hypot(*(centroid - point)))
+    assert len(errors) >= count // 8
+    assert np.percentile(errors, 99) <= 0.5, np.sort(errors)[-5:]
+
+
 def test_keypoints_outside_and_ragged(gl, rng):
     batch = images(rng)
     src, dst = handles(rng)
@@ -289,9 +337,44 @@ def test_quads_run_in_chunks_on_the_gpu_path(gl, rng, monkeypatch):
             np.testing.assert_array_equal(getattr(chunked, name), getattr(whole, name))
     np.testing.assert_array_equal(whole.images, singles(batch, src, dst, grid=2))
     calls.clear()
-    glmls.warp_batch(batch, src, dst, method="backward")
     glmls.warp_batch(batch, src, dst, border="edge")
+    glmls.warp_batch(batch, src, dst, method="backward", keypoints=points)
     assert calls == []  # the single pipeline, image by image
+
+
+def test_backward_runs_batched_on_the_gpu_path(gl, rng, monkeypatch):
+    """backward with the constant border and without keypoints takes the batched path: one
+    Newton dispatch over every image's pixels per chunk; images, masks and maps equal to
+    single warps, chunked or not."""
+    from glmls.batch.gpu import BatchQuads
+
+    calls = []
+    backward = BatchQuads.backward
+
+    def counted(self, lattices, *args, **kwargs):
+        calls.append(len(lattices))
+        return backward(self, lattices, *args, **kwargs)
+
+    monkeypatch.setattr(BatchQuads, "backward", counted)
+    batch = images(rng, 7)
+    src, dst = handles(rng, 7, spread=4.0)
+    masks = rng.integers(0, 9, (7, *SHAPE)).astype(np.uint16)
+    for interpolation in ("nearest", "linear"):
+        options = {"method": "backward", "grid": 2, "interpolation": interpolation}
+        calls.clear()
+        whole = glmls.warp_batch(batch, src, dst, masks=masks, return_maps=True, **options)
+        assert calls == [7, 7]  # the images, then the masks
+        np.testing.assert_array_equal(whole.images, singles(batch, src, dst, **options))
+        for i in range(7):
+            with glmls.MLS(src[i], dst[i], shape=SHAPE) as m:
+                want = m.coordinate_map(SHAPE, method="backward", grid=2)
+            np.testing.assert_array_equal(whole.maps[i], want)
+            mask = glmls.warp(masks[i], src[i], dst[i], method="backward", grid=2)
+            np.testing.assert_array_equal(whole.masks[i], mask)
+        calls.clear()
+        small = glmls.warp_batch(batch, src, dst, max_batch_bytes=40_000, **options)
+        assert len(calls) > 1
+        np.testing.assert_array_equal(small, whole.images)
 
 
 def test_chunk_size_follows_the_limits(gl):
@@ -371,3 +454,18 @@ def test_quads_maps_of_a_chunk_equal_the_single_fill(gl, rng):
             coords, covered = warper.source_points(m, shape, chosen, frame)
         np.testing.assert_array_equal(result.maps[i], coords)
         np.testing.assert_array_equal(result.valid[i], covered)
+
+
+def test_one_mls_pass_for_many_handle_counts(gl, rng):
+    """The chunk's f in one pass per handle-loop unrolling and per part whose handles fit in
+    a uniform block (more handles: a storage buffer): each image's pixels are still its
+    single warp's."""
+    counts = [3, 16, 40, 2000, 2500, 5000]
+    batch = images(rng, len(counts))
+    src = [rng.uniform(0, 20, (k, 2)) for k in counts]
+    dst = [p + rng.normal(0, 1.0, p.shape) for p in src]
+    for method in ("quads", "backward"):
+        out = glmls.warp_batch(batch, src, dst, method=method, grid=2)
+        for i in range(len(counts)):
+            want = glmls.warp(batch[i], src[i], dst[i], method=method, grid=2)
+            np.testing.assert_array_equal(out[i], want)

@@ -8,6 +8,13 @@ layout(local_size_x = LOCAL_SIZE) in;
 #define MLS_POINTS_PER_INVOCATION 1
 #endif
 
+#include "mls/batch.glsl"
+#if MLS_BATCH
+int mls_batch_out;   // where the work group's image's lattice goes in the output
+#else
+const int mls_batch_out = 0;
+#endif
+
 #include "mls/visit.glsl"
 
 #if MLS_LATTICE
@@ -35,7 +42,7 @@ layout(std430, binding = BIND_MATRICES) writeonly buffer MLSOutM {
 // a lattice's f(v) itself.
 void mls_store(int i, MLSResult r) {
 #if MLS_LATTICE
-    mls_out_f[i] = r.f;
+    mls_out_f[mls_batch_out + i] = r.f;
 #else
     mls_out_f[u_out_first + i] = r.d;
 #endif
@@ -59,6 +66,10 @@ void main() {
     // nothing. llvmpipe loads a value at a uniform index once for all lanes only where no
     // lane can be inactive (outside any branch, and after no return); behind a return every
     // handle read is a load per lane (W1's grid-4 pass took 1.4x as long).
+#if MLS_BATCH
+    mls_batch_begin(int(gl_WorkGroupID.y));
+    mls_batch_out = mls_batch_image_index * u_batch_stride;
+#endif
     int first = u_offset + MLS_POINTS_PER_INVOCATION * int(gl_GlobalInvocationID.x);
     int last = max(u_count - 1, 0);
 #if MLS_POINTS_PER_INVOCATION == 2

@@ -5,10 +5,15 @@
 // Defines: MLS_WEIGHT_FUNCTION, MLS_INTERPOLATING, MLS_ALPHA_ONE (see mls/core.glsl).
 
 uniform float u_alpha;      // idw / interpolating power
+#ifndef MLS_BATCH
+#define MLS_BATCH 0   // 1: a batch's passes (mls/batch.glsl)
+#endif
+#if !MLS_BATCH  // a batch's passes set these per image (mls/batch.glsl)
 uniform float u_log2_s;     // log2 of the scaled idw s; -1e30 when s == 0
 uniform float u_radius;     // scaled influence radius R
 uniform float u_hit2;       // squared snapping distance (scaled)
 uniform bool u_snap;        // weight is (effectively) infinite at d = 0: f(p_i) = q_i exactly
+#endif
 
 float mls_pow(float r) {
 #if MLS_ALPHA_ONE

@@ -11,6 +11,7 @@
 // |f(s) - u| in pixels, covered), covered = converged and s inside the source image.
 layout(local_size_x = LOCAL_SIZE_2D, local_size_y = LOCAL_SIZE_2D) in;
 
+#include "mls/batch.glsl"   // MLS_BATCH: work group layer z is an image, u_map an atlas
 #include "mls/visit.glsl"
 #include "warp/frame.glsl"
 #include "warp/newton.glsl"
@@ -28,13 +29,19 @@ void main() {
     ivec2 gid = ivec2(gl_GlobalInvocationID.xy);
     bool store = all(lessThan(gid, u_target_size));
     ivec2 p = min(gid, u_target_size - 1);
+#if MLS_BATCH
+    mls_batch_begin(int(gl_WorkGroupID.z));
+    ivec2 at = p + ivec2(0, mls_batch_image_index * u_target_size.y);   // its rows of the atlas
+#else
+    ivec2 at = p;
+#endif
     vec2 u = (vec2(p) + u_origin - u_center) / u_scale;   // the deformed point output p shows
 #if WARP_SWAP
     vec2 s = mls_eval(u).f;
     float residual = -1.0;
     bool converged = true;
 #else
-    vec4 guess = imageLoad(u_map, p);
+    vec4 guess = imageLoad(u_map, at);
     vec2 s = guess.z > 0.5 ? (guess.xy - u_center) / u_scale : u;
     float residual;
     s = warp_newton(s, u, u_tolerance / u_scale, 0.2, residual);   // a tenth of the image
@@ -49,6 +56,6 @@ void main() {
     bool inside = true;   // sampled by the border rule
 #endif
     if (store) {
-        imageStore(u_map, p, vec4(sp, residual, (converged && inside) ? 1.0 : 0.0));
+        imageStore(u_map, at, vec4(sp, residual, (converged && inside) ? 1.0 : 0.0));
     }
 }

@@ -1,0 +1,193 @@
+"""f on one lattice for many images at once: every image's point handles in one buffer, one
+dispatch of ``mls/points.comp.glsl`` (``MLS_BATCH``) for all of them.
+
+Each image keeps its own scaling (:meth:`glmls.core.handles.Scaling.fit` of its handles and
+the image), computed for the whole batch in numpy with the same float64 operations, and its
+own values of the uniforms a single image's lattice pass sets (the lattice's origin, step and
+last point, the weights' ``u_log2_s``, ``u_radius``, ``u_hit2``, ``u_snap``), one row of an
+image table per image. The shader reads them once per work group and then runs the single
+pass's code: each image's f is what :func:`glmls.engine.passes.evaluate_lattice` of its own
+:class:`~glmls.engine.kernel.MLSKernel` gives, bit for bit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import moderngl
+import numpy as np
+
+from ..core.config import MLSConfig
+from ..core.handles import check_affine_handles
+from ..core.mesh import MeshLattice
+from ..gl import bindings
+from ..gl.context import GLContext
+from ..gl.dispatch import LOCAL_SIZE, set_uniforms
+from ..gl.resources import Resources
+from .bins import AUTO_MIN_HANDLES
+from .kernel import config_defines, weight_uniforms
+from .passes import POINTS_PASS, POINTS_PER_INVOCATION
+from .storage import unroll_slots
+
+__all__ = ["BatchLattices"]
+
+
+def _bounds(points: list[np.ndarray], shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 2) lows and highs of each image's points and the image's pixel box."""
+    height, width = shape
+    if len({len(p) for p in points}) == 1:
+        stacked = np.stack(points)  # (N, 2K, 2)
+        lo, hi = stacked.min(axis=1), stacked.max(axis=1)
+    else:
+        lo = np.array([p.min(axis=0) for p in points])
+        hi = np.array([p.max(axis=0) for p in points])
+    lo = np.minimum(lo, (-0.5, -0.5))
+    hi = np.maximum(hi, (width - 0.5, height - 0.5))
+    return lo, hi
+
+
+class BatchLattices:
+    """The point handles of N images, scaled each as its own :class:`~glmls.MLS` scales them
+    (:attr:`centers`, :attr:`scales`), ready to evaluate f on one lattice for all
+    (:meth:`evaluate`).
+
+    Parameters
+    ----------
+    config : MLSConfig
+        The configuration of every image.
+    src, dst : list of numpy.ndarray
+        Per image, its (K_i, 2) float64 handles p and q, checked (finite, K_i >= 1).
+    shape : tuple of int
+        (H, W) of every image.
+    """
+
+    def __init__(
+        self, config: MLSConfig, src: list[np.ndarray], dst: list[np.ndarray], shape
+    ) -> None:
+        if config.transform == "affine":
+            for p in src:
+                check_affine_handles(p)
+        self.config = config
+        self.shape = tuple(shape)
+        points = [np.concatenate([p, q]) for p, q in zip(src, dst, strict=True)]
+        lo, hi = _bounds(points, self.shape)
+        #: (N, 2) float64: each image's scaling centre (Scaling.center).
+        self.centers = (lo + hi) / 2
+        #: (N,) float64: each image's scale (Scaling.scale).
+        self.scales = np.maximum((hi - lo).max(axis=1) / 2, 1.0)
+        self.counts = np.array([len(p) for p in src])
+        rows = np.repeat(np.arange(len(src)), self.counts)
+        center, scale = self.centers[rows], self.scales[rows]
+        both = np.concatenate(src), np.concatenate(dst)
+        packed = np.empty((len(rows), 4), np.float32)
+        for k, column in enumerate((both[0][:, 0], both[0][:, 1], both[1][:, 0], both[1][:, 1])):
+            packed[:, k] = (column - center[:, k % 2]) / scale  # Scaling.to_gpu, column by column
+        self.packed = packed
+
+    @staticmethod
+    def takes(config: MLSConfig, counts: list[int], storage: str, bins: bool | None) -> bool:
+        """Whether :meth:`evaluate` gives these images what their own kernels give: point
+        handles only (checked by the caller) and no spatial bins (never asked for, never
+        chosen for these counts)."""
+        del storage  # every storage reads the same values in the same order
+        if bins:
+            return False
+        return not config.uses_radius or bins is False or max(counts) < AUTO_MIN_HANDLES
+
+    def __len__(self) -> int:
+        return len(self.scales)
+
+    def table(self, lattice: MeshLattice) -> np.ndarray:
+        """(N, 16) float32: each image's row of the image table of ``mls/batch.glsl`` (its
+        last four values int32) for passes over ``lattice``'s image."""
+        count = len(self)
+        table = np.zeros((count, 16), np.float32)
+        ints = table[:, 12:].view(np.int32)
+        columns = (
+            (lattice.origin[0], lattice.origin[1], lattice.last[0], lattice.last[1]),
+            (0, 1, 0, 1),
+        )
+        for k, (value, axis) in enumerate(zip(*columns, strict=True)):
+            table[:, k] = (value - self.centers[:, axis]) / self.scales  # lattice.uniforms
+        table[:, 4] = lattice.grid / self.scales
+        radius = self.config.resolve_radius(self.shape)
+        snap = np.empty(count, bool)
+        for k, scale in enumerate(self.scales.tolist()):
+            weights = weight_uniforms(self.config, scale, radius)
+            table[k, 5:8] = weights["u_log2_s"], weights["u_radius"], weights["u_hit2"]
+            snap[k] = weights["u_snap"]
+        table[:, 8:10] = self.centers
+        table[:, 10] = self.scales
+        ints[:, 0] = np.concatenate([[0], np.cumsum(self.counts)[:-1]])
+        ints[:, 1], ints[:, 2], ints[:, 3] = self.counts, snap, np.arange(count)
+        return table
+
+    def dispatches(
+        self, gl: GLContext, resources: Resources, lattice: MeshLattice, entry: str, defines
+    ) -> Iterator[tuple[moderngl.ComputeShader, int]]:
+        """The program of ``entry`` with ``defines`` and its number of work group rows (the
+        images it evaluates), bound to their handles and rows of the image table: one per
+        unrolling of the handle loop that the images' single passes use (one for handle
+        counts alike) and part of the images whose handles fit in a uniform block (llvmpipe
+        reads those faster than a storage buffer; one part for 256 images of 16 handles);
+        the caller sets its own uniforms and runs each."""
+        table = self.table(lattice)
+        ends = np.cumsum(self.counts)
+        capacity = int(gl.mgl.info["GL_MAX_UNIFORM_BLOCK_SIZE"]) // 16
+        unrolls = np.array([unroll_slots(int(c)) for c in self.counts])
+        for unroll in sorted(set(unrolls.tolist())):
+            chosen = np.flatnonzero(unrolls == unroll)
+            block = int(self.counts[chosen].max()) <= capacity
+            parts, start, rows = [], 0, 0
+            for k, image in enumerate(chosen.tolist()):
+                count = int(self.counts[image])
+                if block and rows + count > capacity:
+                    parts.append(chosen[start:k])
+                    start, rows = k, 0
+                rows += count
+            parts.append(chosen[start:])
+            program = gl.compute(
+                entry,
+                config_defines(self.config, unroll=unroll, binned=False, segments=False)
+                | {"MLS_STORAGE": 0, "MLS_BATCH": True, "MLS_UBO_CAPACITY": capacity * block}
+                | dict(defines),
+            )
+            set_uniforms(program, {"u_alpha": self.config.alpha})
+            for j, part in enumerate(parts):
+                packed = np.concatenate(
+                    [self.packed[ends[i] - self.counts[i] : ends[i]] for i in part.tolist()]
+                )
+                rows = table[part]
+                rows[:, 12:].view(np.int32)[:, 0] = np.cumsum(self.counts[part]) - self.counts[part]
+                size = 16 * capacity if block else packed.nbytes
+                handles = resources.buffer(f"batch handles {unroll} {j}", size)
+                handles.write(packed)
+                images = resources.buffer(f"batch images {unroll} {j}", rows.nbytes)
+                images.write(np.ascontiguousarray(rows))
+                if block:
+                    handles.bind_to_uniform_block(bindings.HANDLES_BLOCK.index)
+                else:
+                    handles.bind_to_storage_buffer(bindings.HANDLES.index)
+                images.bind_to_storage_buffer(bindings.POINTS.index)
+                yield program, len(rows)
+
+    def evaluate(
+        self, gl: GLContext, resources: Resources, lattice: MeshLattice, target, stride: int
+    ) -> None:
+        """f (scaled) at every point of ``lattice`` for every image, image k's from byte
+        ``k * stride`` of ``target`` (a multiple of 8)."""
+        nx, ny = lattice.dims
+        groups = -(-nx * ny // (LOCAL_SIZE * POINTS_PER_INVOCATION))
+        if groups > gl.limits["max_work_groups_x"]:
+            raise ValueError(f"a lattice of {nx} x {ny} points is too large for one dispatch")
+        defines = {
+            "MLS_LATTICE": True,
+            "MLS_WRITE_MATRIX": False,
+            "MLS_POINTS_PER_INVOCATION": POINTS_PER_INVOCATION,
+        }
+        for program, rows in self.dispatches(gl, resources, lattice, POINTS_PASS, defines):
+            uniforms = {"u_lattice_dims": lattice.dims, "u_first_row": 0, "u_count": nx * ny}
+            uniforms |= {"u_offset": 0, "u_batch_stride": stride // 8}
+            set_uniforms(program, uniforms)
+            target.bind_to_storage_buffer(bindings.DEFORMED.index)
+            program.run(group_x=groups, group_y=rows)
