@@ -9,6 +9,7 @@ demo --handles H3D`` with a file of 3D handles and no image (the phantom, those 
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -61,6 +62,11 @@ def volume_inputs(
     return volume, name, src, dst
 
 
+def _fail(status: int, message: str) -> int:
+    print(f"glmls demo: error: {message}", file=sys.stderr)
+    return status
+
+
 def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
     """Run the volume window for parsed arguments and :func:`volume_inputs`; the exit status."""
     from ..app.events import read_events, replay_frames
@@ -68,7 +74,6 @@ def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
     from ..app.volume_controller import VOLUME_METHODS, VolumeSettings
     from ..app.volume_window import VolumeApp
     from ..errors import GLUnavailableError
-    from .demo import _fail
     from .options import config_from_args
 
     volume, name, src, dst = inputs
