@@ -55,7 +55,7 @@ def display_volume(volume: np.ndarray) -> np.ndarray:
     --------
     >>> import numpy as np
     >>> display_volume(np.linspace(0, 1, 8).reshape(2, 2, 2)).ravel().tolist()
-    [0, 36, 73, 109, 146, 182, 219, 255]
+    [0, 36, 72, 109, 146, 183, 219, 255]
     """
     array = np.asarray(volume)
     if array.ndim == 4 and 1 <= array.shape[3] <= 4:
