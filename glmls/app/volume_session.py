@@ -106,7 +106,7 @@ class VolumeSession:
         #: The readout's lines of the overlay shown.
         self.lines: list[str] = []
         self._config: object = None
-        self._slices: tuple[tuple, list[np.ndarray]] = ((), [])
+        self._slices: list[tuple[tuple, np.ndarray]] = [((), np.zeros((0, 0), np.uint8))] * 3
         self._overlays: tuple[tuple, list[np.ndarray] | None] = ((), None)
 
     def sync(self) -> None:
@@ -135,35 +135,38 @@ class VolumeSession:
 
     def slices(self) -> list[np.ndarray]:
         """The three deformed slices (axial, coronal, sagittal), each (rows, columns) uint8,
-        through the controller's slice point; the undeformed ones without a valid MLS."""
+        through the controller's slice point; the undeformed ones without a valid MLS. A
+        slice is made again only when f or its own plane changed: moving the slice point
+        along one axis costs one slice."""
         c = self.controller
-        key = (self.revision, c.point, self.mls is None)
-        if key == self._slices[0]:
-            return self._slices[1]
         start = time.perf_counter()
-        s = c.settings
-        pictures = []
         for view in range(3):
-            if self.mls is None:
-                index = [slice(None)] * 3
-                normal = AXES[view][2]
-                index[2 - normal] = slice(c.point[normal], c.point[normal] + 1)
-                block = self.volume[tuple(index)]
-            else:
-                size, origin = _plane(view, self.shape, c.point)
-                block = self.mls.warp(
-                    self.volume,
-                    method=s.method,
-                    interpolation="linear",
-                    grid=s.grid,
-                    border="edge",
-                    output_shape=size,
-                    origin=origin,
-                )
-            pictures.append(np.ascontiguousarray(_as_view(block, view)))
-        self._slices = (key, pictures)
+            normal = AXES[view][2]
+            key = (self.revision, c.point[normal], self.mls is None)
+            if self._slices[view][0] != key:
+                self._slices[view] = (key, self._slice(view))
         self.timings["slices"] = time.perf_counter() - start
-        return pictures
+        return [picture for _, picture in self._slices]
+
+    def _slice(self, view: int) -> np.ndarray:
+        c, s = self.controller, self.controller.settings
+        if self.mls is None:
+            index = [slice(None)] * 3
+            normal = AXES[view][2]
+            index[2 - normal] = slice(c.point[normal], c.point[normal] + 1)
+            block = self.volume[tuple(index)]
+        else:
+            size, origin = _plane(view, self.shape, c.point)
+            block = self.mls.warp(
+                self.volume,
+                method=s.method,
+                interpolation="linear",
+                grid=s.grid,
+                border="edge",
+                output_shape=size,
+                origin=origin,
+            )
+        return np.ascontiguousarray(_as_view(block, view))
 
     def overlays(self) -> list[np.ndarray] | None:
         """The overlay shown, per view an RGBA (rows, columns, 4) uint8 picture, or None."""
