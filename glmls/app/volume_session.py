@@ -26,8 +26,9 @@ from .volume_controller import AXES, VolumeController
 
 __all__ = ["ERROR_ALPHA", "FOLD_RGBA", "VolumeSession", "display_volume"]
 
-#: The error field's opacity and the folds' colour (RGBA, 0-255) over the slices.
-ERROR_ALPHA = 150
+#: The error field's opacity (0-255) from its lowest to its highest colour, and the folds'
+#: colour (RGBA, 0-255), over the slices.
+ERROR_ALPHA = (40, 200)
 FOLD_RGBA = (255, 26, 153, 170)
 
 
@@ -182,7 +183,12 @@ class VolumeSession:
         for view in range(3):
             size, origin = _plane(view, self.shape, c.point)
             points, _, found = volume_coordinate_map(
-                self.mls, self.shape, grid=c.settings.grid, output_shape=size, origin=origin
+                self.mls,
+                self.shape,
+                grid=c.settings.grid,
+                border="edge",  # as the slices: voxels that f moves the border past count
+                output_shape=size,
+                origin=origin,
             )
             sources.append(_as_view(points, view))
             covered.append(_as_view(found, view))
@@ -215,7 +221,9 @@ class VolumeSession:
         low, high = color_limits(shown, percentile=99.0)
         rgba = np.zeros((len(values), 4), np.uint8)
         rgba[:, :3] = apply_colormap(values, cmap="linear", vmin=low, vmax=high)
-        rgba[inside, 3] = ERROR_ALPHA
+        share = np.clip((values - low) / (high - low if high > low else 1.0), 0.0, 1.0)
+        alpha = ERROR_ALPHA[0] + (ERROR_ALPHA[1] - ERROR_ALPHA[0]) * share
+        rgba[inside, 3] = np.round(alpha[inside]).astype(np.uint8)
         stats = error_stats(shown)
         self.lines = [
             "E_MLS on the planes (voxels^2):",

@@ -89,9 +89,11 @@ def scene_geometry(c: VolumeController, scale: float) -> tuple[np.ndarray, np.nd
 
 def help_text() -> list[str]:
     """The help screen's lines: the mouse, then every key binding."""
-    lines = ["Mouse"] + [f"  {a:<14}{b}" for a, b in MOUSE_HELP] + ["", "Keys"]
-    for keys, _, what in VOLUME_BINDINGS:
-        lines.append(f"  {' '.join(keys):<14}{what}")
+    keys = [" ".join(k) for k, _, _ in VOLUME_BINDINGS]
+    width = max(len(label) for label in [*keys, *(a for a, _ in MOUSE_HELP)]) + 2
+    lines = ["Mouse"] + [f"  {a:<{width}}{b}" for a, b in MOUSE_HELP] + ["", "Keys"]
+    for label, (_, _, what) in zip(keys, VOLUME_BINDINGS, strict=True):
+        lines.append(f"  {label:<{width}}{what}")
     return lines
 
 

@@ -225,6 +225,7 @@ class VolumeApp:
             help_visible=c.help_visible,
             framebuffer=window.framebuffer_size,
         )
+        groups[0][1].extend(self._labels(text))
         self.view.draw(
             self.layout,
             c,
@@ -233,6 +234,21 @@ class VolumeApp:
             groups,
         )
         session.timings["draw"] = time.perf_counter() - start
+
+    def _labels(self, atlas) -> list[np.ndarray]:
+        """Each view's name and plane at its top left corner."""
+        c, parts = self.controller, []
+        for view in range(3):
+            normal = AXES[view][2]
+            ox, oy = c.grid.offset(view)
+            x, y = self.layout.to_framebuffer(ox - 0.5, oy - 0.5)
+            label = f"{VIEWS[view]} {'xyz'[normal]} = {c.point[normal]}"
+            colour = (1.0, 0.85, 0.2, 1.0) if view == c.active else (0.9, 0.9, 0.9, 1.0)
+            parts.append(
+                atlas.rectangle(x, y, atlas.width(label) + 6, atlas.line_height, (0, 0, 0, 0.6))
+            )
+            parts.append(atlas.quads(label, x + 3, y, colour))
+        return parts
 
     def _lay_out(self):
         window = self.window
