@@ -4,10 +4,10 @@ and settings, the three deformed slices through the slice point, and the overlay
 
 A frame costs three slices, not a volume: each slice is a warp whose output canvas is one
 voxel thick (``output_shape`` with a depth, height or width of 1 and the ``origin`` on the
-plane). The overlays take, for each output voxel of the three planes, its source point
-under f (:func:`glmls.volume.volume_coordinate_map`, the backward method's map) and
-evaluate there the affine fit's error (eq. 7) or det J, so that they are drawn where f
-takes each voxel, as in the 2D window.
+plane). An overlay is a field over the whole volume, evaluated on a lattice once per
+handle change (the error field E_MLS of eq. 7, or the voxels of the cells where det J <= 0)
+and deformed with the slices, as a second channel of the same warps: it is drawn where f
+takes each voxel, as in the 2D window, for no more warps than the slices alone.
 """
 
 from __future__ import annotations
@@ -17,19 +17,21 @@ import time
 import numpy as np
 
 from ..analysis.colormaps import apply_colormap, color_limits, format_number
+from ..analysis.jacobians import cell_jacobians
 from ..analysis.stats import error_stats
-from ..analysis.volume_field import fit_residuals
+from ..analysis.volume_field import volume_error_field
 from ..gl.context import GLContext
 from ..mls import MLS
-from ..volume import volume_coordinate_map
 from .volume_controller import AXES, VolumeController
 
-__all__ = ["ERROR_ALPHA", "FOLD_RGBA", "VolumeSession", "display_volume"]
+__all__ = ["ERROR_ALPHA", "FIELD_GRID", "FOLD_RGBA", "VolumeSession", "display_volume"]
 
 #: The error field's opacity (0-255) from its lowest to its highest colour, and the folds'
 #: colour (RGBA, 0-255), over the slices.
 ERROR_ALPHA = (40, 200)
 FOLD_RGBA = (255, 26, 153, 170)
+#: The overlays' fields are evaluated on a lattice of this step at least (voxels).
+FIELD_GRID = 4
 
 
 def display_volume(volume: np.ndarray) -> np.ndarray:
@@ -107,8 +109,9 @@ class VolumeSession:
         #: The readout's lines of the overlay shown.
         self.lines: list[str] = []
         self._config: object = None
-        self._slices: list[tuple[tuple, np.ndarray]] = [((), np.zeros((0, 0), np.uint8))] * 3
+        self._slices: list[tuple[tuple, np.ndarray]] = [((), np.zeros((0, 0, 1), np.uint8))] * 3
         self._overlays: tuple[tuple, list[np.ndarray] | None] = ((), None)
+        self._field: tuple[tuple, np.ndarray | None] = ((), None)
 
     def sync(self) -> None:
         """Bring the MLS up to the controller's revision (a new MLS when the configuration
@@ -134,32 +137,70 @@ class VolumeSession:
         self.revision = c.revision
         self.timings["handles"] = time.perf_counter() - start
 
+    def field(self) -> np.ndarray | None:
+        """The overlay's field over the whole volume, (D, H, W) uint8, or None without one:
+        the error field E_MLS (:func:`~glmls.analysis.volume_error_field`, 0 to 255 from
+        its minimum to its 99th percentile) or the voxels of the folded cells
+        (:func:`~glmls.analysis.cell_jacobians`, 255), on the lattice of the slices' grid
+        (every :data:`FIELD_GRID` voxels at least) for the current handles."""
+        c = self.controller
+        if c.overlay == "none" or self.mls is None:
+            self.lines = []
+            return None
+        grid = max(c.settings.grid, FIELD_GRID)
+        key = (self.revision, c.overlay, grid)
+        if key == self._field[0]:
+            return self._field[1]
+        start = time.perf_counter()
+        if c.overlay == "error":
+            values = volume_error_field(self.mls, self.shape, grid=grid)
+            low, high = color_limits(values, percentile=99.0)
+            span = high - low if high > low else 1.0
+            field = np.round(np.clip((values - low) / span, 0.0, 1.0) * 255).astype(np.uint8)
+            stats = error_stats(values)
+            self.lines = [
+                f"E_MLS over the volume (voxels^2, grid {grid}):",
+                f"  mean {_number(stats['mean'])} std {_number(stats['std'])}",
+                f"  min {_number(stats['min'])} max {_number(stats['max'])}",
+            ]
+        else:
+            cells = cell_jacobians(self.mls, self.shape, grid=grid)
+            field = np.where(cells.mask, np.uint8(255), np.uint8(0))
+            self.lines = [f"folds (det J <= 0): {cells.count} of {cells.det.size} cells"]
+        self._field = (key, field)
+        self.timings["analysis"] = time.perf_counter() - start
+        return field
+
     def slices(self) -> list[np.ndarray]:
         """The three deformed slices (axial, coronal, sagittal), each (rows, columns) uint8,
         through the controller's slice point; the undeformed ones without a valid MLS. A
-        slice is made again only when f or its own plane changed: moving the slice point
-        along one axis costs one slice."""
+        slice is made again only when f, the overlay or its own plane changed: moving the
+        slice point along one axis costs one slice. With an overlay, its :meth:`field`
+        rides along as a second channel of the same warp."""
         c = self.controller
+        field = self.field()
         start = time.perf_counter()
         for view in range(3):
             normal = AXES[view][2]
-            key = (self.revision, c.point[normal], self.mls is None)
+            key = (self.revision, c.point[normal], self.mls is None, self._field[0], field is None)
             if self._slices[view][0] != key:
-                self._slices[view] = (key, self._slice(view))
+                self._slices[view] = (key, self._slice(view, field))
         self.timings["slices"] = time.perf_counter() - start
-        return [picture for _, picture in self._slices]
+        return [picture[..., 0] for _, picture in self._slices]
 
-    def _slice(self, view: int) -> np.ndarray:
+    def _slice(self, view: int, field: np.ndarray | None) -> np.ndarray:
+        """(rows, columns, channels): the picture, then the field if given."""
         c, s = self.controller, self.controller.settings
+        volume = self.volume if field is None else np.stack([self.volume, field], axis=3)
         if self.mls is None:
             index = [slice(None)] * 3
             normal = AXES[view][2]
             index[2 - normal] = slice(c.point[normal], c.point[normal] + 1)
-            block = self.volume[tuple(index)]
+            block = volume[tuple(index)]
         else:
             size, origin = _plane(view, self.shape, c.point)
             block = self.mls.warp(
-                self.volume,
+                volume,
                 method=s.method,
                 interpolation="linear",
                 grid=s.grid,
@@ -167,70 +208,34 @@ class VolumeSession:
                 output_shape=size,
                 origin=origin,
             )
-        return np.ascontiguousarray(_as_view(block, view))
+        picture = _as_view(block, view)
+        return np.ascontiguousarray(picture if picture.ndim == 3 else picture[..., None])
 
     def overlays(self) -> list[np.ndarray] | None:
-        """The overlay shown, per view an RGBA (rows, columns, 4) uint8 picture, or None."""
+        """The overlay shown, per view an RGBA (rows, columns, 4) uint8 picture, or None:
+        the deformed slices of :meth:`field` in colour."""
         c = self.controller
+        self.slices()
         if c.overlay == "none" or self.mls is None:
-            self.lines = []
             return None
-        key = (self.revision, c.point, c.overlay)
+        key = tuple(k for k, _ in self._slices)
         if key == self._overlays[0]:
             return self._overlays[1]
-        start = time.perf_counter()
-        sources, covered = [], []
-        for view in range(3):
-            size, origin = _plane(view, self.shape, c.point)
-            points, _, found = volume_coordinate_map(
-                self.mls,
-                self.shape,
-                grid=c.settings.grid,
-                border="edge",  # as the slices: voxels that f moves the border past count
-                output_shape=size,
-                origin=origin,
-            )
-            sources.append(_as_view(points, view))
-            covered.append(_as_view(found, view))
-        flat = np.concatenate([s.reshape(-1, 3) for s in sources]).astype(np.float64)
-        inside = np.concatenate([k.ravel() for k in covered])
-        if c.overlay == "error":
-            matrices, shifts = self.mls.matrices(flat)
-            values = fit_residuals(self.mls.src, self.mls.dst, matrices, shifts)
-            rgba = self._error_pictures(values, inside)
-        else:
-            _, jacobian = self.mls.jacobian(flat)  # type: ignore[attr-defined]
-            folded = (np.linalg.det(jacobian) <= 0) & inside
-            rgba = np.zeros((len(flat), 4), np.uint8)
-            rgba[folded] = FOLD_RGBA
-            self.lines = [f"folds (det J <= 0): {int(folded.sum())} of {int(inside.sum())} voxels"]
-        pictures, at = [], 0
-        for s in sources:
-            rows, columns = s.shape[:2]
-            pictures.append(rgba[at : at + rows * columns].reshape(rows, columns, 4))
-            at += rows * columns
+        pictures = []
+        for _, picture in self._slices:
+            if picture.shape[2] < 2:
+                return None
+            values = picture[..., 1]
+            rgba = np.zeros((*values.shape, 4), np.uint8)
+            if c.overlay == "error":
+                share = values.astype(np.float32) / 255.0
+                rgba[..., :3] = apply_colormap(share, cmap="linear", vmin=0.0, vmax=1.0)
+                rgba[..., 3] = np.round(ERROR_ALPHA[0] + (ERROR_ALPHA[1] - ERROR_ALPHA[0]) * share)
+            else:
+                rgba[values >= 128] = FOLD_RGBA
+            pictures.append(rgba)
         self._overlays = (key, pictures)
-        self.timings["analysis"] = time.perf_counter() - start
         return pictures
-
-    def _error_pictures(self, values: np.ndarray, inside: np.ndarray) -> np.ndarray:
-        shown = values[inside]
-        if shown.size == 0:
-            self.lines = ["E_MLS: no voxel of the planes is covered"]
-            return np.zeros((len(values), 4), np.uint8)
-        low, high = color_limits(shown, percentile=99.0)
-        rgba = np.zeros((len(values), 4), np.uint8)
-        rgba[:, :3] = apply_colormap(values, cmap="linear", vmin=low, vmax=high)
-        share = np.clip((values - low) / (high - low if high > low else 1.0), 0.0, 1.0)
-        alpha = ERROR_ALPHA[0] + (ERROR_ALPHA[1] - ERROR_ALPHA[0]) * share
-        rgba[inside, 3] = np.round(alpha[inside]).astype(np.uint8)
-        stats = error_stats(shown)
-        self.lines = [
-            "E_MLS on the planes (voxels^2):",
-            f"  mean {_number(stats['mean'])} std {_number(stats['std'])}",
-            f"  min {_number(stats['min'])} max {_number(stats['max'])}",
-        ]
-        return rgba
 
     def release(self) -> None:
         """Release the MLS."""

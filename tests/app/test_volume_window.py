@@ -192,6 +192,13 @@ def test_the_session_overlays_error_and_folds(session):
     c.feed(Key("f"))
     folds = s.overlays()
     assert folds[0][..., 3].max() == 0 and s.lines[0].startswith("folds")  # no fold here
+    mirrored = c.src * [-1.0, 1.0, 1.0] + [63.0, 0.0, 0.0]  # x -> 63 - x
+    c.set_handles(c.src, mirrored)
+    c.feed(Key("t"))
+    c.feed(Key("t"))  # affine: f is the mirror, folded everywhere
+    s.sync()
+    folds = s.overlays()
+    assert all((p[..., 3] > 0).mean() > 0.9 for p in folds), s.lines
     c.set_handles(c.src[:1], c.src[:1])  # one handle: f is a translation
     s.sync()
     c.feed(Key("e"))
