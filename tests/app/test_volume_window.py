@@ -247,3 +247,29 @@ def test_the_real_window_replays_a_drag_and_saves(tmp_path):
     np.testing.assert_array_equal(moved[0], [34, 24, src[0, 2]])
     np.testing.assert_array_equal(saved, src)
     assert AXES[0][2] == 2
+
+
+def _demo(*args: str, xvfb: bool = False):
+    command = [sys.executable, "-m", "glmls", "demo", *args]
+    if xvfb:
+        command = [XVFB, "-a", *command]
+    return subprocess.run(command, capture_output=True, text=True, env=child_env(), timeout=120)
+
+
+def test_the_command_refuses_2d_handles_for_a_volume(tmp_path):
+    handles = tmp_path / "h2.json"
+    glmls.files.write_handles(handles, [[1.0, 2.0]], [[1.0, 3.0]])
+    done = _demo("--volume", "--handles", str(handles))
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "h2.json" in done.stderr
+
+
+@pytest.mark.skipif(XVFB is None, reason="xvfb-run is not installed")
+def test_3d_handles_without_an_image_open_the_phantom(tmp_path):
+    handles = tmp_path / "h3.json"
+    src, dst = glmls.data.phantom_handles()
+    glmls.files.write_handles(handles, src, dst)
+    shot = tmp_path / "shot.png"
+    done = _demo("--handles", str(handles), "--screenshot", str(shot), xvfb=True)
+    assert done.returncode == 0, done.stderr
+    assert glmls.imread(shot).std() > 10
