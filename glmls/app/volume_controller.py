@@ -16,9 +16,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..core.config import MLSConfig
+from ..core.handles3 import volume_diagonal
 from ..core.weights import WEIGHTS
 from .events import BUTTONS, Event, Key, Move, Press, Release, Scroll
-from .settings import TRANSFORM_ORDER, cycle
+from .settings import ALPHA_RANGE, ALPHA_STEP, RADIUS_FACTOR, TRANSFORM_ORDER, cycle
 
 __all__ = [
     "VIEWS",
@@ -50,6 +51,8 @@ VOLUME_BINDINGS: tuple[tuple[tuple[str, ...], str, str], ...] = (
     (("F1", "?"), "help", "show / hide this help"),
     (("t",), "transform", "cycle transform: rigid, similarity, affine"),
     (("w",), "weight", f"cycle weight: {', '.join(WEIGHTS)}"),
+    (("+", "="), "raise", "raise the weight's parameter (idw alpha, else radius)"),
+    (("-",), "lower", "lower the weight's parameter"),
     (("c",), "method", "cycle construction: quads (cells), backward"),
     (("g",), "grid_finer", "finer grid (step / 2)"),
     (("G",), "grid_coarser", "coarser grid (step x 2)"),
@@ -398,6 +401,34 @@ class VolumeController:
         config = self.settings.config
         weight = cycle(WEIGHTS, config.weight)
         self._configure(replace(self.settings, config=replace(config, weight=weight)))
+
+    @property
+    def radius(self) -> float:
+        """The weight's radius R in voxels: the configured one, else the volume's diagonal."""
+        radius = self.settings.config.radius
+        return float(radius) if radius is not None else volume_diagonal(self.grid.shape)
+
+    def parameter(self) -> str:
+        """The weight's parameter as text, e.g. ``alpha 1.25`` or ``R 111 vox``."""
+        config = self.settings.config
+        return f"R {self.radius:.0f} vox" if config.uses_radius else f"alpha {config.alpha:g}"
+
+    def _step(self, up: bool) -> None:
+        config = self.settings.config
+        if config.uses_radius:
+            radius = self.radius * RADIUS_FACTOR if up else self.radius / RADIUS_FACTOR
+            radius = min(max(radius, 1.0), 100 * volume_diagonal(self.grid.shape))
+            config = replace(config, radius=radius)
+        else:
+            alpha = config.alpha + (ALPHA_STEP if up else -ALPHA_STEP)
+            config = replace(config, alpha=min(max(alpha, ALPHA_RANGE[0]), ALPHA_RANGE[1]))
+        self._configure(replace(self.settings, config=config))
+
+    def _do_raise(self) -> None:
+        self._step(True)
+
+    def _do_lower(self) -> None:
+        self._step(False)
 
     def _do_method(self) -> None:
         self._configure(replace(self.settings, method=cycle(VOLUME_METHODS, self.settings.method)))

@@ -177,7 +177,7 @@ class VolumeApp:
             f"    analysis {ms.get('analysis', 0):.1f}  draw {ms.get('draw', 0):.1f}",
             "",
             f"transform  {s.config.transform}   (t)",
-            f"weight     {s.config.weight}   (w)",
+            f"weight     {s.config.weight}, {c.parameter()}   (w, +/-)",
             f"construct  {s.method} linear   (c)",
             f"grid       {s.grid} voxels   (g/G)",
             f"point      x {x}  y {y}  z {z}   (click)",

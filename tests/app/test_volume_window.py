@@ -106,6 +106,13 @@ def test_overlays_toggle_and_keys_change_the_settings():
     assert c.settings == VolumeSettings(
         config=glmls.MLSConfig(transform="similarity"), method="backward", grid=4
     )
+    assert c.parameter() == "alpha 1"
+    c.feed(Key("+"))
+    assert c.parameter() == "alpha 1.25"
+    c.feed(Key("w"))  # cressman: a radius, the volume's diagonal at first
+    assert c.parameter() == f"R {np.linalg.norm(SHAPE):.0f} vox"
+    c.feed(Key("-"))
+    assert c.settings.config.radius == pytest.approx(np.linalg.norm(SHAPE) / 1.25)
     assert c.feed(Key("j")) == ["save_handles"] and c.feed(Key("q")) == ["quit"]
     assert len({key for keys, _, _ in VOLUME_BINDINGS for key in keys}) == sum(
         len(keys) for keys, _, _ in VOLUME_BINDINGS
