@@ -180,12 +180,15 @@ class VolumeSession:
         c = self.controller
         field = self.field()
         start = time.perf_counter()
+        made = False
         for view in range(3):
             normal = AXES[view][2]
             key = (self.revision, c.point[normal], self.mls is None, self._field[0], field is None)
             if self._slices[view][0] != key:
                 self._slices[view] = (key, self._slice(view, field))
-        self.timings["slices"] = time.perf_counter() - start
+                made = True
+        if made:  # the readout keeps the last slices' time
+            self.timings["slices"] = time.perf_counter() - start
         return [picture[..., 0] for _, picture in self._slices]
 
     def _slice(self, view: int, field: np.ndarray | None) -> np.ndarray:

@@ -234,6 +234,7 @@ def test_the_real_window_replays_a_drag_and_saves(tmp_path):
             {"type": "release", "x": 34.0, "y": 24.0},
             {"type": "key", "key": "e"},
             {"type": "key", "key": "j"},
+            {"type": "key", "key": "s"},
         ]
     }
     replay = tmp_path / "drag.json"
@@ -253,6 +254,9 @@ def test_the_real_window_replays_a_drag_and_saves(tmp_path):
     saved, moved = glmls.files.read_handles(tmp_path / "scan-handles.json", ndim=3)
     np.testing.assert_array_equal(moved[0], [34, 24, src[0, 2]])
     np.testing.assert_array_equal(saved, src)
+    warped = np.load(tmp_path / "scan-warped.npy")
+    assert warped.shape == (64, 64, 64) and warped.dtype == np.uint8
+    assert not np.array_equal(warped, glmls.data.phantom())
     assert AXES[0][2] == 2
 
 
