@@ -18,6 +18,7 @@ import numpy as np
 from ..core.config import MLSConfig
 from ..core.handles3 import volume_diagonal
 from ..core.weights import WEIGHTS
+from ..imaging.source import BORDERS
 from .events import BUTTONS, Event, Key, Move, Press, Release, Scroll
 from .settings import ALPHA_RANGE, ALPHA_STEP, RADIUS_FACTOR, TRANSFORM_ORDER, cycle
 
@@ -56,6 +57,7 @@ VOLUME_BINDINGS: tuple[tuple[tuple[str, ...], str, str], ...] = (
     (("c",), "method", "cycle construction: quads (cells), backward"),
     (("g",), "grid_finer", "finer grid (step / 2)"),
     (("G",), "grid_coarser", "coarser grid (step x 2)"),
+    (("b",), "border", f"cycle border: {', '.join(BORDERS)}"),
     (("e",), "overlay_error", "overlay: MLS error field E_MLS on / off"),
     (("f",), "overlay_folds", "overlay: folds (det J <= 0) on / off"),
     (("h",), "handles", "overlay: handles near the slices on / off"),
@@ -85,17 +87,21 @@ _ACTIONS = {key: action for keys, action, _ in VOLUME_BINDINGS for key in keys}
 class VolumeSettings:
     """What the volume window computes: the MLS configuration, the construction of the
     deformed slices (``method`` of :data:`glmls.volume.VOLUME_METHODS`, trilinear
-    interpolation) and its ``grid`` (voxels)."""
+    interpolation), its ``grid`` (voxels) and ``border`` (what lies beyond the volume: the
+    default ``edge`` leaves no empty margin where f moves the volume's faces)."""
 
     config: MLSConfig = field(default_factory=lambda: MLSConfig(transform="rigid"))
     method: str = "quads"
     grid: int = 4
+    border: str = "edge"
 
     def __post_init__(self) -> None:
         if self.method not in VOLUME_METHODS:
             raise ValueError(f"method must be one of {VOLUME_METHODS}, got {self.method!r}")
         if self.grid not in VOLUME_GRIDS:
             raise ValueError(f"grid must be one of {VOLUME_GRIDS}, got {self.grid!r}")
+        if self.border not in BORDERS:
+            raise ValueError(f"border must be one of {BORDERS}, got {self.border!r}")
 
 
 @dataclass(frozen=True)
@@ -432,6 +438,9 @@ class VolumeController:
 
     def _do_method(self) -> None:
         self._configure(replace(self.settings, method=cycle(VOLUME_METHODS, self.settings.method)))
+
+    def _do_border(self) -> None:
+        self._configure(replace(self.settings, border=cycle(BORDERS, self.settings.border)))
 
     def _grid(self, step: int) -> None:
         k = VOLUME_GRIDS.index(self.settings.grid) + step

@@ -207,7 +207,7 @@ class VolumeSession:
                 method=s.method,
                 interpolation="linear",
                 grid=s.grid,
-                border="edge",
+                border=s.border,
                 output_shape=size,
                 origin=origin,
             )

@@ -180,6 +180,7 @@ class VolumeApp:
             f"weight     {s.config.weight}, {c.parameter()}   (w, +/-)",
             f"construct  {s.method} linear   (c)",
             f"grid       {s.grid} voxels   (g/G)",
+            f"border     {s.border}   (b)",
             f"point      x {x}  y {y}  z {z}   (click)",
             f"active     {VIEWS[c.active]}: {normal} +/- (Up/Down)",
             f"handles    {len(c.src)} (shown within {c.near:g} voxels)",

@@ -80,7 +80,10 @@ def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
     try:
         events = read_events(args.replay) if args.replay is not None else None
         method = args.method if args.method in VOLUME_METHODS else "quads"
-        settings = VolumeSettings(config=config_from_args(args), method=method, grid=args.grid)
+        border = args.border if args.border != "constant" else "edge"  # the 2D default
+        settings = VolumeSettings(
+            config=config_from_args(args), method=method, grid=args.grid, border=border
+        )
         app = VolumeApp(
             volume,
             src,

@@ -106,6 +106,8 @@ def test_overlays_toggle_and_keys_change_the_settings():
     assert c.settings == VolumeSettings(
         config=glmls.MLSConfig(transform="similarity"), method="backward", grid=4
     )
+    c.feed(Key("b"))
+    assert c.settings.border == "symmetric" and c.revision == revision + 5
     assert c.parameter() == "alpha 1"
     c.feed(Key("+"))
     assert c.parameter() == "alpha 1.25"
