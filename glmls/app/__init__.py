@@ -5,8 +5,11 @@
 and recordings), :mod:`.session` what is computed (the MLS and the analysis), :mod:`.view` and
 :mod:`.overlays` what is drawn, :mod:`.hud` and :mod:`.helpscreen` the text,
 :mod:`.glfw_window` the operating-system window, :mod:`.commands` the file keys, and
-:mod:`.window` the :class:`~glmls.app.window.App` that runs them. Importing this package does
-not import glfw; opening a window does.
+:mod:`.window` the :class:`~glmls.app.window.App` that runs them. The volume window (three
+orthogonal slices of a volume, 3D handles) has its own :mod:`.volume_controller`,
+:mod:`.volume_session`, :mod:`.volume_view` and :mod:`.volume_window` (the
+:class:`~glmls.app.volume_window.VolumeApp`), with the same events, operating-system window,
+layout and text. Importing this package does not import glfw; opening a window does.
 """
 
 from .controller import BINDINGS, Controller, Settings

@@ -114,6 +114,9 @@ class GlfwWindow:
             glfw.KEY_RIGHT: "Right",
             glfw.KEY_UP: "Up",
             glfw.KEY_DOWN: "Down",
+            glfw.KEY_PAGE_UP: "PageUp",
+            glfw.KEY_PAGE_DOWN: "PageDown",
+            glfw.KEY_TAB: "Tab",
         }
         modifiers = ((glfw.MOD_SHIFT, "shift"), (glfw.MOD_CONTROL, "ctrl"), (glfw.MOD_ALT, "alt"))
 

@@ -32,6 +32,8 @@ EXAMPLES = """
 examples:
   glmls demo                                   # the bundled photograph
   glmls demo photo.png --handles h.json
+  glmls demo --volume                          # the bundled 64^3 phantom, 3D handles
+  glmls demo scan.nii.gz --handles h3d.json    # a volume: three orthogonal slices
   glmls demo --record session.json             # save the session's events to replay
   xvfb-run -a glmls demo --replay drag.json --frames 30 --screenshot shot.png
 """
@@ -67,7 +69,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="IMAGE",
         nargs="?",
         type=Path,
-        help="image to deform (default: the bundled photograph with its handles)",
+        help="image to deform (default: the bundled photograph with its handles), or a "
+        "volume (.nii, .nii.gz, TIFF stack, .npy of D x H x W): the volume window",
+    )
+    parser.add_argument(
+        "--volume",
+        action="store_true",
+        help="the volume window (three orthogonal slices, 3D handles); without IMAGE the "
+        "bundled phantom and its handles",
     )
     parser.add_argument(
         "--handles",
@@ -149,7 +158,14 @@ def run(args: argparse.Namespace) -> int:
     from ..app.controller import Settings
     from ..app.events import read_events, replay_frames
     from ..app.window import App, NoDisplayError
+    from .demo_volume import run_volume, volume_inputs
 
+    try:
+        volume = volume_inputs(args)
+    except (ValueError, TypeError) as error:
+        return _fail(2, str(error))
+    if volume is not None:
+        return run_volume(args, volume)
     try:
         image, name, handles, reference = _inputs(args)
         events = read_events(args.replay) if args.replay is not None else None

@@ -1,0 +1,483 @@
+"""The volume window's interaction logic, free of any window: events in, state and commands out.
+
+The window shows three orthogonal slices through the *slice point* of a D x H x W volume,
+laid out on one canvas, the *montage* (:class:`SliceGrid`): the axial slice (constant z; x
+to the right, y down) at the top left, the sagittal slice (constant x; z to the right, y
+down) at its right, the coronal slice (constant y; x to the right, z down) under it. Events
+carry montage pixels, as the 2D window's carry image pixels, so that the window's layout,
+replays and recordings work unchanged; :meth:`SliceGrid.locate` says which view a montage
+point falls in and where.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..core.config import MLSConfig
+from ..core.handles3 import volume_diagonal
+from ..core.weights import WEIGHTS
+from ..imaging.source import BORDERS
+from .events import BUTTONS, Event, Key, Move, Press, Release, Scroll
+from .settings import ALPHA_RANGE, ALPHA_STEP, RADIUS_FACTOR, TRANSFORM_ORDER, cycle
+
+__all__ = [
+    "VIEWS",
+    "VOLUME_BINDINGS",
+    "VOLUME_COMMANDS",
+    "VOLUME_GRIDS",
+    "VOLUME_METHODS",
+    "VOLUME_OVERLAYS",
+    "SliceGrid",
+    "VolumeController",
+    "VolumeSettings",
+]
+
+#: The three views, in the order of :attr:`SliceGrid.axes`.
+VIEWS = ("axial", "coronal", "sagittal")
+#: Per view: (the axis to the right, the axis down, the normal), 0 = x, 1 = y, 2 = z.
+AXES = ((0, 1, 2), (0, 2, 1), (2, 1, 0))
+#: What is drawn over the deformed slices: nothing, the error field E_MLS, or folds (det J <= 0).
+VOLUME_OVERLAYS = ("none", "error", "folds")
+VOLUME_METHODS = ("quads", "backward")
+VOLUME_GRIDS = (1, 2, 4, 8, 16)
+VOLUME_COMMANDS = ("save_volume", "save_handles", "save_screenshot", "load_handles", "quit")
+#: Montage pixels between the views.
+GAP = 4
+UNDO_DEPTH = 100
+
+#: (keys, action, what it does): the volume window's key bindings (named as the 2D window's).
+VOLUME_BINDINGS: tuple[tuple[tuple[str, ...], str, str], ...] = (
+    (("F1", "?"), "help", "show / hide this help"),
+    (("t",), "transform", "cycle transform: rigid, similarity, affine"),
+    (("w",), "weight", f"cycle weight: {', '.join(WEIGHTS)}"),
+    (("+", "="), "raise", "raise the weight's parameter (idw alpha, else radius)"),
+    (("-",), "lower", "lower the weight's parameter"),
+    (("c",), "method", "cycle construction: quads (cells), backward"),
+    (("g",), "grid_finer", "finer grid (step / 2)"),
+    (("G",), "grid_coarser", "coarser grid (step x 2)"),
+    (("b",), "border", f"cycle border: {', '.join(BORDERS)}"),
+    (("e",), "overlay_error", "overlay: MLS error field E_MLS on / off"),
+    (("f",), "overlay_folds", "overlay: folds (det J <= 0) on / off"),
+    (("h",), "handles", "overlay: handles near the slices on / off"),
+    (("1",), "view_axial", "active view: axial (z)"),
+    (("2",), "view_coronal", "active view: coronal (y)"),
+    (("3",), "view_sagittal", "active view: sagittal (x)"),
+    (("Tab",), "view_next", "active view: the next one"),
+    (("Up", "PageUp"), "slice_up", "slice point +1 voxel along the active view's normal"),
+    (("Down", "PageDown"), "slice_down", "slice point -1 voxel along the active normal"),
+    (("Right",), "slice_up8", "slice point +8 voxels along the active normal"),
+    (("Left",), "slice_down8", "slice point -8 voxels along the active normal"),
+    (("0",), "centre", "slice point back to the volume's centre"),
+    (("r",), "reset", "reset: every target back to its source"),
+    (("R",), "restore", "restore the handles as loaded"),
+    (("u", "Ctrl+Z", "Backspace"), "undo", "undo the last handle edit"),
+    (("U", "Ctrl+Y", "Ctrl+Shift+Z"), "redo", "redo the last undone edit"),
+    (("s",), "save_volume", "save the deformed volume (.npy)"),
+    (("j",), "save_handles", "save the handles as 3D JSON"),
+    (("S",), "save_screenshot", "save a screenshot of the window"),
+    (("l",), "load_handles", "load the handles file"),
+    (("q", "Escape"), "quit", "quit"),
+)
+_ACTIONS = {key: action for keys, action, _ in VOLUME_BINDINGS for key in keys}
+
+
+@dataclass(frozen=True)
+class VolumeSettings:
+    """What the volume window computes: the MLS configuration, the construction of the
+    deformed slices (``method`` of :data:`glmls.volume.VOLUME_METHODS`, trilinear
+    interpolation), its ``grid`` (voxels) and ``border`` (what lies beyond the volume: the
+    default ``edge`` leaves no empty margin where f moves the volume's faces)."""
+
+    config: MLSConfig = field(default_factory=lambda: MLSConfig(transform="rigid"))
+    method: str = "quads"
+    grid: int = 4
+    border: str = "edge"
+
+    def __post_init__(self) -> None:
+        if self.method not in VOLUME_METHODS:
+            raise ValueError(f"method must be one of {VOLUME_METHODS}, got {self.method!r}")
+        if self.grid not in VOLUME_GRIDS:
+            raise ValueError(f"grid must be one of {VOLUME_GRIDS}, got {self.grid!r}")
+        if self.border not in BORDERS:
+            raise ValueError(f"border must be one of {BORDERS}, got {self.border!r}")
+
+
+@dataclass(frozen=True)
+class SliceGrid:
+    """Where the three views of a volume of ``shape`` (D, H, W) lie on the montage.
+
+    Examples
+    --------
+    >>> grid = SliceGrid((10, 20, 30))
+    >>> grid.montage_shape, grid.offset(2), grid.size(2)
+    ((34, 44), (34, 0), (10, 20))
+    >>> grid.locate(36.0, 5.0)  # in the sagittal view: z = 2, y = 5
+    (2, 2.0, 5.0)
+    """
+
+    shape: tuple[int, int, int]
+
+    @property
+    def montage_shape(self) -> tuple[int, int]:
+        """(rows, columns) of the montage."""
+        depth, height, width = self.shape
+        return height + GAP + depth, width + GAP + depth
+
+    def extent(self, axis: int) -> int:
+        """Voxels along ``axis`` (0 = x, 1 = y, 2 = z)."""
+        return self.shape[2 - axis]
+
+    def size(self, view: int) -> tuple[int, int]:
+        """(columns, rows) of ``view``."""
+        right, down, _ = AXES[view]
+        return self.extent(right), self.extent(down)
+
+    def offset(self, view: int) -> tuple[int, int]:
+        """The montage pixel of ``view``'s pixel (0, 0)."""
+        _, height, width = self.shape
+        return ((0, 0), (0, height + GAP), (width + GAP, 0))[view]
+
+    def locate(self, x: float, y: float) -> tuple[int, float, float] | None:
+        """(view, column, row) of montage point (x, y), or None between the views."""
+        for view in range(3):
+            ox, oy = self.offset(view)
+            columns, rows = self.size(view)
+            u, v = x - ox, y - oy
+            if -0.5 <= u < columns - 0.5 and -0.5 <= v < rows - 0.5:
+                return view, u, v
+        return None
+
+    def to_view(self, view: int, x: float, y: float) -> tuple[float, float]:
+        """Montage point (x, y) in ``view``'s pixels, cut to its extent."""
+        ox, oy = self.offset(view)
+        columns, rows = self.size(view)
+        return min(max(x - ox, 0.0), columns - 1.0), min(max(y - oy, 0.0), rows - 1.0)
+
+    def to_montage(self, view: int, points: np.ndarray) -> np.ndarray:
+        """(K, 3) points (x, y, z) as montage points (K, 2) of ``view`` (its normal dropped)."""
+        right, down, _ = AXES[view]
+        return np.asarray(points, np.float64)[:, [right, down]] + self.offset(view)
+
+
+class VolumeController:
+    """3D point handles, the slice point, the active view, the overlay and the settings of
+    the volume window, changed by :meth:`feed`.
+
+    ``revision`` grows whenever the handles or the settings change, ``point_revision`` when
+    the slice point moves. A left press on a handle's target (within ``pick_radius`` montage
+    pixels, among those within ``near`` voxels of the view's plane) drags it within the
+    plane; elsewhere in a view it makes that view active and moves the slice point there
+    (the other two planes pass through it); shift + press adds a handle (p = q) there; a
+    right press deletes the handle under the cursor; the wheel moves the slice point along
+    the normal of the view under the cursor.
+
+    Parameters
+    ----------
+    src, dst : array_like
+        The handles (N, 3) (x, y, z).
+    shape : tuple of int
+        (D, H, W) of the volume.
+    settings : VolumeSettings, optional
+        The MLS configuration and the construction.
+    near : float, default 3
+        Handles are shown and picked in a view within this many voxels of its plane.
+    pick_radius : float, default 3
+        Montage pixels (the window sets it from 10 screen pixels).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> src = np.array([[2.0, 2, 5], [8, 8, 5]])
+    >>> c = VolumeController(src, src, (10, 12, 12))
+    >>> for event in (Press(2, 2), Move(4, 3), Release(4, 3)):  # drag q_0 in the axial view
+    ...     _ = c.feed(event)
+    >>> c.dst[0].tolist(), c.point
+    ([4.0, 3.0, 5.0], (6, 6, 5))
+    >>> c.feed(Key("Up")), c.point  # the slice point one voxel along z
+    ([], (6, 6, 6))
+    """
+
+    def __init__(
+        self,
+        src: object,
+        dst: object,
+        shape: tuple[int, int, int],
+        *,
+        settings: VolumeSettings | None = None,
+        near: float = 3.0,
+        pick_radius: float = 3.0,
+    ) -> None:
+        p = np.array(src, np.float64).reshape(-1, 3)
+        q = np.array(dst, np.float64).reshape(-1, 3)
+        if p.shape != q.shape:
+            raise ValueError(f"src and dst must be (N, 3) alike, got {p.shape} and {q.shape}")
+        self.grid = SliceGrid(tuple(int(n) for n in shape))  # type: ignore[arg-type]
+        self.settings = settings or VolumeSettings()
+        self.near = float(near)
+        self.pick_radius = float(pick_radius)
+        self.src, self.dst = p, q
+        self.loaded = (p.copy(), q.copy())
+        self.point = self.centre
+        self.active = 0
+        self.overlay = "none"
+        self.show_handles = True
+        self.help_visible = False
+        #: A line for the readout (set by actions, cleared by the window).
+        self.message = ""
+        self.revision = 0
+        self.point_revision = 0
+        self._undo: list[tuple[np.ndarray, np.ndarray]] = []
+        self._redo: list[tuple[np.ndarray, np.ndarray]] = []
+        self._drag: tuple[int, int, tuple[np.ndarray, np.ndarray]] | None = None
+
+    # -- state --------------------------------------------------------------------------------
+
+    @property
+    def centre(self) -> tuple[int, int, int]:
+        """The volume's central voxel (x, y, z)."""
+        return tuple(self.grid.extent(axis) // 2 for axis in range(3))  # type: ignore[return-value]
+
+    @property
+    def dragging(self) -> bool:
+        """Whether a handle's target is being dragged."""
+        return self._drag is not None
+
+    @property
+    def undo_depth(self) -> int:
+        return len(self._undo)
+
+    def near_plane(self, view: int) -> np.ndarray:
+        """Indices of the handles whose source or target lies within :attr:`near` voxels of
+        ``view``'s plane."""
+        normal = AXES[view][2]
+        at = self.point[normal]
+        close = (np.abs(self.src[:, normal] - at) <= self.near) | (
+            np.abs(self.dst[:, normal] - at) <= self.near
+        )
+        return np.nonzero(close)[0]
+
+    def set_handles(self, src: object, dst: object) -> None:
+        """Replace every handle (undoable), e.g. loaded from a file."""
+        p = np.array(src, np.float64).reshape(-1, 3)
+        q = np.array(dst, np.float64).reshape(-1, 3)
+        if p.shape != q.shape:
+            raise ValueError(f"src and dst must be (N, 3) alike, got {p.shape} and {q.shape}")
+        self._remember()
+        self.src, self.dst = p, q
+        self.revision += 1
+
+    def _remember(self) -> None:
+        self._undo.append((self.src.copy(), self.dst.copy()))
+        del self._undo[:-UNDO_DEPTH]
+        self._redo.clear()
+
+    def _move_point(self, axis: int, value: float) -> None:
+        point = list(self.point)
+        point[axis] = int(min(max(round(value), 0), self.grid.extent(axis) - 1))
+        if tuple(point) != self.point:
+            self.point = tuple(point)  # type: ignore[assignment]
+            self.point_revision += 1
+
+    # -- events -------------------------------------------------------------------------------
+
+    def feed(self, event: Event) -> list[str]:
+        """Apply one event; returns the commands for the window (in :data:`VOLUME_COMMANDS`)."""
+        if isinstance(event, Press):
+            self._press(event)
+        elif isinstance(event, Move):
+            self._move(event.x, event.y)
+        elif isinstance(event, Release):
+            self._release()
+        elif isinstance(event, Scroll):
+            found = self.grid.locate(event.x, event.y)
+            if found is not None:
+                normal = AXES[found[0]][2]
+                self._move_point(normal, self.point[normal] + round(event.dy))
+        elif isinstance(event, Key):
+            return self._key(event.key)
+        else:
+            raise TypeError(f"unknown event {event!r}")
+        return []
+
+    def _pick(self, view: int, u: float, v: float) -> int | None:
+        candidates = self.near_plane(view)
+        if not len(candidates):
+            return None
+        right, down, _ = AXES[view]
+        targets = self.dst[candidates][:, [right, down]]
+        distance = np.hypot(targets[:, 0] - u, targets[:, 1] - v)
+        best = int(np.argmin(distance[::-1]))  # a tie goes to the later (drawn on top)
+        best = len(distance) - 1 - best
+        return int(candidates[best]) if distance[best] <= self.pick_radius else None
+
+    def _press(self, event: Press) -> None:
+        if event.button not in BUTTONS:
+            raise ValueError(f"unknown mouse button {event.button!r}; use one of {BUTTONS}")
+        self._release()
+        found = self.grid.locate(event.x, event.y)
+        if found is None:
+            return
+        view, u, v = found
+        self.active = view
+        index = self._pick(view, u, v)
+        right, down, _ = AXES[view]
+        if event.button == "right":
+            if index is not None:
+                self._remember()
+                self.src = np.delete(self.src, index, axis=0)
+                self.dst = np.delete(self.dst, index, axis=0)
+                self.revision += 1
+        elif event.button != "left":
+            return
+        elif "shift" in event.mods:
+            point = np.array(self.point, np.float64)
+            point[right], point[down] = round(u, 2), round(v, 2)
+            before = (self.src.copy(), self.dst.copy())
+            self.src = np.vstack([self.src, point])
+            self.dst = np.vstack([self.dst, point])
+            self.revision += 1
+            self._drag = (len(self.dst) - 1, view, before)
+        elif index is not None:
+            self._drag = (index, view, (self.src.copy(), self.dst.copy()))
+        else:
+            self._move_point(right, u)
+            self._move_point(down, v)
+
+    def _move(self, x: float, y: float) -> None:
+        if self._drag is None:
+            return
+        index, view, _ = self._drag
+        u, v = self.grid.to_view(view, x, y)
+        right, down, _ = AXES[view]
+        if (self.dst[index, right], self.dst[index, down]) != (u, v):
+            self.dst = self.dst.copy()
+            self.dst[index, right], self.dst[index, down] = u, v
+            self.revision += 1
+
+    def _release(self) -> None:
+        if self._drag is None:
+            return
+        _, _, (src, dst) = self._drag
+        self._drag = None
+        if not (np.array_equal(src, self.src) and np.array_equal(dst, self.dst)):
+            self._undo.append((src, dst))
+            del self._undo[:-UNDO_DEPTH]
+            self._redo.clear()
+
+    def _key(self, key: str) -> list[str]:
+        action = _ACTIONS.get(key)
+        if action is None:
+            return []
+        if action in VOLUME_COMMANDS:
+            return [action]
+        if action.startswith("overlay_"):
+            name = action.removeprefix("overlay_")
+            self.overlay = "none" if self.overlay == name else name
+        elif action.startswith("view_"):
+            name = action.removeprefix("view_")
+            self.active = (self.active + 1) % 3 if name == "next" else VIEWS.index(name)
+        elif action.startswith("slice_"):
+            step = {"up": 1, "down": -1, "up8": 8, "down8": -8}[action.removeprefix("slice_")]
+            normal = AXES[self.active][2]
+            self._move_point(normal, self.point[normal] + step)
+        else:
+            getattr(self, f"_do_{action}")()
+        return []
+
+    # -- key actions --------------------------------------------------------------------------
+
+    def _configure(self, settings: VolumeSettings) -> None:
+        self.settings = settings
+        self.revision += 1
+
+    def _do_help(self) -> None:
+        self.help_visible = not self.help_visible
+
+    def _do_handles(self) -> None:
+        self.show_handles = not self.show_handles
+
+    def _do_transform(self) -> None:
+        config = self.settings.config
+        transform = cycle(TRANSFORM_ORDER, config.transform)
+        self._configure(replace(self.settings, config=replace(config, transform=transform)))
+
+    def _do_weight(self) -> None:
+        config = self.settings.config
+        weight = cycle(WEIGHTS, config.weight)
+        self._configure(replace(self.settings, config=replace(config, weight=weight)))
+
+    @property
+    def radius(self) -> float:
+        """The weight's radius R in voxels: the configured one, else the volume's diagonal."""
+        radius = self.settings.config.radius
+        return float(radius) if radius is not None else volume_diagonal(self.grid.shape)
+
+    def parameter(self) -> str:
+        """The weight's parameter as text, e.g. ``alpha 1.25`` or ``R 111 vox``."""
+        config = self.settings.config
+        return f"R {self.radius:.0f} vox" if config.uses_radius else f"alpha {config.alpha:g}"
+
+    def _step(self, up: bool) -> None:
+        config = self.settings.config
+        if config.uses_radius:
+            radius = self.radius * RADIUS_FACTOR if up else self.radius / RADIUS_FACTOR
+            radius = min(max(radius, 1.0), 100 * volume_diagonal(self.grid.shape))
+            config = replace(config, radius=radius)
+        else:
+            alpha = config.alpha + (ALPHA_STEP if up else -ALPHA_STEP)
+            config = replace(config, alpha=min(max(alpha, ALPHA_RANGE[0]), ALPHA_RANGE[1]))
+        self._configure(replace(self.settings, config=config))
+
+    def _do_raise(self) -> None:
+        self._step(True)
+
+    def _do_lower(self) -> None:
+        self._step(False)
+
+    def _do_method(self) -> None:
+        self._configure(replace(self.settings, method=cycle(VOLUME_METHODS, self.settings.method)))
+
+    def _do_border(self) -> None:
+        self._configure(replace(self.settings, border=cycle(BORDERS, self.settings.border)))
+
+    def _grid(self, step: int) -> None:
+        k = VOLUME_GRIDS.index(self.settings.grid) + step
+        if 0 <= k < len(VOLUME_GRIDS):
+            self._configure(replace(self.settings, grid=VOLUME_GRIDS[k]))
+
+    def _do_grid_finer(self) -> None:
+        self._grid(-1)
+
+    def _do_grid_coarser(self) -> None:
+        self._grid(+1)
+
+    def _do_centre(self) -> None:
+        for axis, value in enumerate(self.centre):
+            self._move_point(axis, value)
+
+    def _do_reset(self) -> None:
+        if not np.array_equal(self.src, self.dst):
+            self.set_handles(self.src, self.src)
+
+    def _do_restore(self) -> None:
+        self.set_handles(*self.loaded)
+
+    def _do_undo(self) -> None:
+        self._drag = None
+        if not self._undo:
+            self.message = "nothing to undo"
+            return
+        self._redo.append((self.src, self.dst))
+        self.src, self.dst = self._undo.pop()
+        self.revision += 1
+
+    def _do_redo(self) -> None:
+        self._drag = None
+        if not self._redo:
+            self.message = "nothing to redo"
+            return
+        self._undo.append((self.src, self.dst))
+        self.src, self.dst = self._redo.pop()
+        self.revision += 1

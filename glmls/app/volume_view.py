@@ -1,0 +1,214 @@
+"""What the volume window draws each frame: the three deformed slices on the montage (each a
+picture scaled onto its part of the viewport), the overlay pictures over them, the slice
+point's crosshairs, the active view's frame, the handles near each plane, and the text."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import moderngl
+import numpy as np
+
+from ..analysis.canvas import HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR
+from ..analysis.shapes import arrow_triangles, disk_triangles
+from ..gl.context import GLContext
+from .layout import Layout
+from .overlays import GeometryDrawer, PictureDrawer
+from .text import GlyphAtlas, TextRenderer, glyph_atlas
+from .volume_controller import AXES, VOLUME_BINDINGS, VolumeController
+
+__all__ = ["VolumeView", "help_text", "scene_geometry", "text_groups", "view_viewport"]
+
+BACKGROUND = (0.13, 0.13, 0.14)
+CROSSHAIR_RGBA = (0.2, 0.9, 1.0, 0.5)
+ACTIVE_RGBA = (1.0, 0.85, 0.2, 1.0)
+FRAME_RGBA = (0.5, 0.5, 0.55, 1.0)
+#: The mouse's part of the help (the keys come from :data:`VOLUME_BINDINGS`).
+MOUSE_HELP = (
+    ("click", "active view; slice point there"),
+    ("drag a target", "move it within the plane"),
+    ("shift+click", "add a handle (p = q) there"),
+    ("right-click", "delete the handle there"),
+    ("wheel", "slice point along the normal"),
+)
+
+
+def view_viewport(layout: Layout, grid, view: int) -> tuple[int, int, int, int]:
+    """The framebuffer rectangle (GL's origin, bottom left) of ``view`` on the montage."""
+    (ox, oy), (columns, rows) = grid.offset(view), grid.size(view)
+    left, top = layout.to_framebuffer(ox - 0.5, oy - 0.5)
+    right, bottom = layout.to_framebuffer(ox + columns - 0.5, oy + rows - 0.5)
+    x0, x1 = round(left), round(right)
+    y0 = layout.framebuffer[1] - round(bottom)
+    return x0, y0, max(x1 - x0, 1), max(round(bottom) - round(top), 1)
+
+
+def _rgba(colour, alpha: float = 1.0) -> np.ndarray:
+    rgb = np.asarray(colour, np.float32)[:3]
+    return np.array([*(rgb / 255.0 if rgb.max() > 1 else rgb), alpha], np.float32)
+
+
+def _coloured(positions: np.ndarray, rgba) -> np.ndarray:
+    colours = np.tile(np.asarray(rgba, np.float32), (len(positions), 1))
+    return np.concatenate([positions.astype(np.float32), colours], axis=1)
+
+
+def _box(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
+    corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+    return np.stack([corners, np.roll(corners, -1, axis=0)], axis=1).reshape(-1, 2)
+
+
+def scene_geometry(c: VolumeController, scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """(triangles, lines): vertex rows x, y, r, g, b, a in montage pixels. Lines: each
+    view's frame (the active one highlighted) and the crosshairs of the other two planes;
+    triangles: the handles within :attr:`~VolumeController.near` voxels of each plane, an
+    arrow from p to q, a disk at each (drawn by their in-plane coordinates)."""
+    grid, unit = c.grid, 1.0 / scale
+    lines, triangles = [], [np.zeros((0, 6), np.float32)]
+    for view in range(3):
+        (ox, oy), (columns, rows) = grid.offset(view), grid.size(view)
+        right, down, _ = AXES[view]
+        box = _box(ox - 0.5, oy - 0.5, ox + columns - 0.5, oy + rows - 0.5)
+        lines.append(_coloured(box, ACTIVE_RGBA if view == c.active else FRAME_RGBA))
+        u, v = ox + c.point[right], oy + c.point[down]
+        bottom, end = oy + rows - 0.5, ox + columns - 0.5
+        cross = np.array([[u, oy - 0.5], [u, bottom], [ox - 0.5, v], [end, v]])
+        lines.append(_coloured(cross, CROSSHAIR_RGBA))
+        shown = c.near_plane(view) if c.show_handles else np.zeros(0, int)
+        if len(shown):
+            p, q = grid.to_montage(view, c.src[shown]), grid.to_montage(view, c.dst[shown])
+            target = _rgba(HANDLE_TARGET_COLOR)
+            triangles += [
+                _coloured(arrow_triangles(p, q, 1.5 * unit, 7.0 * unit), target),
+                _coloured(disk_triangles(p, 3.0 * unit), _rgba(HANDLE_SOURCE_COLOR)),
+                _coloured(disk_triangles(q, 5.0 * unit), (0.0, 0.0, 0.0, 0.8)),
+                _coloured(disk_triangles(q, 3.8 * unit), target),
+            ]
+    return np.concatenate(triangles), np.concatenate(lines)
+
+
+def help_text() -> list[str]:
+    """The help screen's lines: the mouse, then every key binding."""
+    keys = [" ".join(k) for k, _, _ in VOLUME_BINDINGS]
+    width = max(len(label) for label in [*keys, *(a for a, _ in MOUSE_HELP)]) + 2
+    lines = ["Mouse"] + [f"  {a:<{width}}{b}" for a, b in MOUSE_HELP] + ["", "Keys"]
+    for label, (_, _, what) in zip(keys, VOLUME_BINDINGS, strict=True):
+        lines.append(f"  {label:<{width}}{what}")
+    return lines
+
+
+class VolumeView:
+    """The volume window's GL objects on context ``gl`` for a controller's montage."""
+
+    def __init__(self, gl: GLContext, c: VolumeController) -> None:
+        self.gl = gl
+        self.grid = c.grid
+        self.slices = [PictureDrawer(gl, self._shape(view)) for view in range(3)]
+        self.overlays = [PictureDrawer(gl, self._shape(view)) for view in range(3)]
+        self.geometry = GeometryDrawer(gl, c.grid.montage_shape)
+        self.texts: dict[int, TextRenderer] = {}
+        self._keys: list[tuple] = [(), ()]
+
+    def _shape(self, view: int) -> tuple[int, int]:
+        columns, rows = self.grid.size(view)
+        return rows, columns
+
+    def text_renderer(self, size: int) -> TextRenderer:
+        """The text renderer of ``size`` pixels (made once)."""
+        if size not in self.texts:
+            self.texts[size] = TextRenderer(self.gl, glyph_atlas(size))
+        return self.texts[size]
+
+    @staticmethod
+    def _upload(drawers: list[PictureDrawer], pictures: Sequence[np.ndarray]) -> None:
+        for drawer, picture in zip(drawers, pictures, strict=True):
+            if picture.ndim == 2:
+                grey = picture[:, :, None]
+                picture = np.concatenate([grey, grey, grey, np.full_like(grey, 255)], axis=2)
+            drawer.texture.write(np.ascontiguousarray(picture, np.uint8).tobytes())
+
+    def draw(
+        self,
+        layout: Layout,
+        c: VolumeController,
+        slices: tuple[tuple, Sequence[np.ndarray]],
+        overlays: tuple[tuple, Sequence[np.ndarray] | None],
+        text: Sequence[tuple[int, list[np.ndarray]]],
+    ) -> None:
+        """One frame into the window's back buffer. ``slices`` and ``overlays``: (a key that
+        changes with them, the pictures), uploaded only when their key changed."""
+        with self.gl.use():
+            mgl = self.gl.mgl
+            screen = mgl.screen
+            screen.use()
+            width, height = layout.framebuffer
+            screen.viewport = (0, 0, width, height)
+            screen.clear(*BACKGROUND, 1.0)
+            if slices[0] != self._keys[0]:
+                self._upload(self.slices, slices[1])
+                self._keys[0] = slices[0]
+            shown = overlays[1] is not None
+            if shown and overlays[0] != self._keys[1]:
+                self._upload(self.overlays, overlays[1])  # type: ignore[arg-type]
+                self._keys[1] = overlays[0]
+            for view in range(3):
+                screen.viewport = view_viewport(layout, self.grid, view)
+                self.slices[view].draw(opacity=1.0, linear=False)
+                if shown:
+                    self.overlays[view].draw(opacity=1.0, linear=False)
+            screen.viewport = layout.viewport
+            triangles, lines = scene_geometry(c, layout.scale)
+            self.geometry.draw(lines, moderngl.LINES)
+            self.geometry.draw(triangles)
+            screen.viewport = (0, 0, width, height)
+            for size, parts in text:
+                self.text_renderer(size).draw(parts, (width, height))
+
+    def screenshot(self, framebuffer: tuple[int, int]) -> np.ndarray:
+        """The back buffer just drawn, (H, W, 3) uint8, top row first."""
+        width, height = framebuffer
+        with self.gl.use():
+            data = self.gl.mgl.screen.read(viewport=(0, 0, width, height), components=3)
+        return np.frombuffer(data, np.uint8).reshape(height, width, 3)[::-1].copy()
+
+    def release(self) -> None:
+        """Release the view's GL objects."""
+        if self.gl.usable:
+            with self.gl.use():
+                for obj in (*self.slices, *self.overlays, self.geometry, *self.texts.values()):
+                    obj.release()
+        self.texts.clear()
+
+
+def text_groups(
+    atlas: GlyphAtlas, lines: Sequence[str], *, help_visible: bool, framebuffer: tuple[int, int]
+) -> list[tuple[int, list[np.ndarray]]]:
+    """Glyph quads of the readout (top left, on a dark panel) and, if shown, the help beside
+    it (at a smaller size where it would not fit, down to 8 pixels), by text size."""
+    pad = atlas.cell[1] // 2
+    width = max(atlas.width(line) for line in lines) + 2 * pad
+    height = len(lines) * atlas.line_height + 2 * pad
+    groups = [
+        (
+            atlas.size,
+            [
+                atlas.rectangle(0, 0, width, height, (0.0, 0.0, 0.0, 0.55)),
+                atlas.quads("\n".join(lines), pad, pad, (0.95, 0.95, 0.95, 1.0)),
+            ],
+        )
+    ]
+    if help_visible:
+        text = help_text()
+        size = atlas.size
+        while size > 8 and len(text) * glyph_atlas(size).line_height > framebuffer[1] - 2 * pad:
+            size -= 1
+        small = glyph_atlas(size)
+        box_w = max(small.width(line) for line in text) + 2 * pad
+        box_h = len(text) * small.line_height + 2 * pad
+        x = min(width + pad, max(framebuffer[0] - box_w, 0))
+        parts = [
+            small.rectangle(x, 0, box_w, box_h, (0.05, 0.05, 0.08, 0.92)),
+            small.quads("\n".join(text), x + pad, pad, (1.0, 0.92, 0.6, 1.0)),
+        ]
+        groups.append((size, parts))
+    return groups

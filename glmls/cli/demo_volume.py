@@ -1,0 +1,113 @@
+"""``glmls demo`` on a volume: the volume window (three orthogonal slices, 3D handles).
+
+The volume window opens for ``glmls demo VOLUME`` (NIfTI ``.nii``/``.nii.gz``, a TIFF stack,
+or a ``.npy`` array of 4 dimensions or of 3 whose last is over 4), for ``glmls demo
+--volume [VOLUME]`` (without a file: the bundled phantom and its handles), and for ``glmls
+demo --handles H3D`` with a file of 3D handles and no image (the phantom, those handles).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputFileError
+from ..files.landmarks import read_handles
+from ..files.volumes import is_volume_file, read_volume, volume_suffix
+
+__all__ = ["run_volume", "volume_inputs"]
+
+
+def _is_volume(path: Path) -> bool:
+    if volume_suffix(path) != ".npy":
+        return is_volume_file(path)
+    try:
+        array = np.load(path, mmap_mode="r", allow_pickle=False)
+    except (OSError, ValueError):
+        return False  # the image reader says what is wrong with it
+    return array.ndim == 4 or (array.ndim == 3 and array.shape[2] > 4)
+
+
+def _three_d_handles(path: Path | None) -> bool:
+    if path is None:
+        return False
+    try:
+        src, _ = read_handles(path)
+    except (InputFileError, OSError):
+        return False  # the 2D reader says what is wrong with it
+    return src.shape[1] == 3
+
+
+def volume_inputs(
+    args: argparse.Namespace,
+) -> tuple[np.ndarray, str, np.ndarray, np.ndarray] | None:
+    """(volume, name, src, dst) when the arguments ask for the volume window, else None;
+    ``InputFileError`` (a ``ValueError``) for a bad volume or handles file."""
+    from .. import data
+
+    wanted = args.volume or (args.image is not None and _is_volume(args.image))
+    if not wanted and not (args.image is None and _three_d_handles(args.handles)):
+        return None
+    if args.image is None:
+        volume, name = data.phantom(), "phantom"
+        src, dst = data.phantom_handles()
+    else:
+        volume, name = read_volume(args.image).data, args.image.name.split(".")[0]
+        src = dst = np.zeros((0, 3))
+    if args.handles is not None:
+        src, dst = read_handles(args.handles, ndim=3)
+    return volume, name, src, dst
+
+
+def _fail(status: int, message: str) -> int:
+    print(f"glmls demo: error: {message}", file=sys.stderr)
+    return status
+
+
+def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
+    """Run the volume window for parsed arguments and :func:`volume_inputs`; the exit status."""
+    from ..app.events import read_events, replay_frames
+    from ..app.glfw_window import NoDisplayError
+    from ..app.volume_controller import VOLUME_METHODS, VolumeSettings
+    from ..app.volume_window import VolumeApp
+    from ..errors import GLUnavailableError
+    from .options import config_from_args
+
+    volume, name, src, dst = inputs
+    try:
+        events = read_events(args.replay) if args.replay is not None else None
+        method = args.method if args.method in VOLUME_METHODS else "quads"
+        border = args.border if args.border != "constant" else "edge"  # the 2D default
+        settings = VolumeSettings(
+            config=config_from_args(args), method=method, grid=args.grid, border=border
+        )
+        app = VolumeApp(
+            volume,
+            src,
+            dst,
+            settings=settings,
+            name=name,
+            out_dir=args.out,
+            handles_path=args.handles,
+            window_size=args.window_size,
+            record=args.record,
+        )
+    except (ValueError, TypeError) as error:
+        return _fail(2, str(error))
+    frames = args.frames
+    if frames is None and (events is not None or args.screenshot is not None):
+        frames = replay_frames(events or []) + 1
+    try:
+        app.run(events=events, frames=frames, screenshot=args.screenshot)
+    except (NoDisplayError, GLUnavailableError) as error:
+        return _fail(1, str(error))
+    except (ValueError, TypeError) as error:
+        return _fail(2, str(error))
+    except OSError as error:
+        return _fail(1, str(error))
+    except KeyboardInterrupt:
+        return 130
+    return 0

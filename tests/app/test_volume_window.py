@@ -1,0 +1,288 @@
+"""The volume window: its controller and session headless, the real window under Xvfb."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from helpers import child_env
+
+import glmls
+from glmls.app.events import Key, Move, Press, Release, Scroll
+from glmls.app.volume_controller import (
+    AXES,
+    VOLUME_BINDINGS,
+    SliceGrid,
+    VolumeController,
+    VolumeSettings,
+)
+from glmls.app.volume_session import VolumeSession, display_volume
+from glmls.app.volume_view import help_text, scene_geometry
+
+SHAPE = (16, 20, 24)  # D, H, W
+SRC = np.array([[4.0, 4, 8], [18, 15, 8], [12, 10, 3], [12, 10, 13], [6, 16, 12]])
+
+
+def make() -> VolumeController:
+    return VolumeController(SRC, SRC, SHAPE, pick_radius=2.0)
+
+
+def drag(c, a, b) -> None:
+    c.feed(Press(*a))
+    c.feed(Move(*b))
+    c.feed(Release(*b))
+
+
+def test_the_montage_places_three_views_and_locates_points():
+    grid = SliceGrid(SHAPE)
+    assert grid.montage_shape == (20 + 4 + 16, 24 + 4 + 16)
+    for view in range(3):
+        ox, oy = grid.offset(view)
+        columns, rows = grid.size(view)
+        assert grid.locate(ox + columns - 1, oy + rows - 1) == (view, columns - 1, rows - 1)
+    assert grid.locate(30.0, 30.0) is None  # the empty corner
+    np.testing.assert_array_equal(grid.to_montage(2, [[1.0, 2.0, 3.0]]), [[28 + 3, 2]])
+
+
+def test_dragging_a_target_moves_it_within_the_plane():
+    c = make()
+    drag(c, (4, 4), (7, 2))  # axial view, z = 8: handle 0
+    np.testing.assert_array_equal(c.dst[0], [7, 2, 8])
+    np.testing.assert_array_equal(c.src, SRC)
+    oy = c.grid.offset(1)[1]  # coronal, y = 10: handle 2 at (x, z) = (12, 3)
+    drag(c, (12, oy + 3), (14, oy + 5))
+    np.testing.assert_array_equal(c.dst[2], [14, 10, 5])
+    assert c.active == 1 and c.undo_depth == 2
+    c.feed(Key("u"))
+    np.testing.assert_array_equal(c.dst[2], SRC[2])
+    c.feed(Key("U"))
+    np.testing.assert_array_equal(c.dst[2], [14, 10, 5])
+
+
+def test_only_handles_near_the_plane_are_picked():
+    c = make()
+    c.feed(Key("Up"))  # z = 9: handle 4 (z = 12) is 3 away, handle 0 (z = 8) 1
+    assert set(c.near_plane(0)) == {0, 1, 4}
+    for _ in range(3):
+        c.feed(Key("PageUp"))  # z = 12: handle 0 is out of reach
+    revision = c.revision
+    drag(c, (4, 4), (6, 6))
+    assert c.revision == revision and c.point[:2] == (4, 4)  # the slice point moved instead
+
+
+def test_the_slice_point_moves_along_the_active_normal_and_stays_inside():
+    c = make()
+    assert c.point == (12, 10, 8)
+    c.feed(Key("3"))  # sagittal: x
+    c.feed(Key("Down"))
+    c.feed(Key("Left"))
+    assert c.point == (3, 10, 8)
+    for _ in range(5):
+        c.feed(Key("Left"))
+    assert c.point == (0, 10, 8)
+    c.feed(Key("Tab"))  # axial
+    c.feed(Scroll(5, 5, 100))  # the wheel over the axial view: z, up to the last slice
+    assert c.point == (0, 10, 15) and c.point_revision == 4
+    c.feed(Key("0"))
+    assert c.point == (12, 10, 8)
+
+
+def test_overlays_toggle_and_keys_change_the_settings():
+    c = make()
+    c.feed(Key("e"))
+    assert c.overlay == "error"
+    c.feed(Key("f"))
+    assert c.overlay == "folds"
+    c.feed(Key("f"))
+    assert c.overlay == "none"
+    revision = c.revision
+    for key in "tcgG":
+        c.feed(Key(key))
+    assert c.revision == revision + 4
+    assert c.settings == VolumeSettings(
+        config=glmls.MLSConfig(transform="similarity"), method="backward", grid=4
+    )
+    c.feed(Key("b"))
+    assert c.settings.border == "symmetric" and c.revision == revision + 5
+    assert c.parameter() == "alpha 1"
+    c.feed(Key("+"))
+    assert c.parameter() == "alpha 1.25"
+    c.feed(Key("w"))  # cressman: a radius, the volume's diagonal at first
+    assert c.parameter() == f"R {np.linalg.norm(SHAPE):.0f} vox"
+    c.feed(Key("-"))
+    assert c.settings.config.radius == pytest.approx(np.linalg.norm(SHAPE) / 1.25)
+    assert c.feed(Key("j")) == ["save_handles"] and c.feed(Key("q")) == ["quit"]
+    assert len({key for keys, _, _ in VOLUME_BINDINGS for key in keys}) == sum(
+        len(keys) for keys, _, _ in VOLUME_BINDINGS
+    )  # no key bound twice
+    assert any("folds" in line for line in help_text())
+
+
+def test_shift_click_adds_and_right_click_deletes_reset_restores():
+    c = make()
+    c.feed(Press(20, 3, mods=frozenset({"shift"})))
+    c.feed(Release(20, 3))
+    np.testing.assert_array_equal(c.src[-1], [20, 3, 8])
+    assert len(c.src) == 6
+    c.feed(Press(20, 3, "right"))
+    assert len(c.src) == 5
+    drag(c, (4, 4), (5, 5))
+    c.feed(Key("r"))
+    np.testing.assert_array_equal(c.dst, c.src)
+    c.feed(Key("R"))
+    np.testing.assert_array_equal(c.dst, SRC)
+
+
+def test_scene_geometry_draws_frames_crosshairs_and_nearby_handles():
+    c = make()
+    triangles, lines = scene_geometry(c, 4.0)
+    assert lines.shape == (3 * (8 + 4), 6) and triangles.shape[1] == 6 and len(triangles)
+    c.feed(Key("h"))
+    triangles, _ = scene_geometry(c, 4.0)
+    assert len(triangles) == 0
+
+
+def test_display_volume_is_grey_uint8():
+    rgb = np.zeros((2, 3, 4, 3), np.float32)
+    rgb[1] = 1.0
+    grey = display_volume(rgb)
+    assert grey.shape == (2, 3, 4) and grey.dtype == np.uint8
+    assert grey[0].max() == 0 and grey[1].min() == 255
+    with pytest.raises(ValueError, match="D x H x W"):
+        display_volume(np.zeros((3, 4)))
+
+
+@pytest.fixture
+def session(gl):
+    volume = glmls.data.phantom()
+    src, dst = glmls.data.phantom_handles()
+    c = VolumeController(src, src, volume.shape, pick_radius=2.0)
+    s = VolumeSession(gl, c, display_volume(volume))
+    yield c, s, volume, dst
+    s.release()
+
+
+def test_the_session_warps_three_slices_and_follows_a_drag(session):
+    c, s, volume, dst = session
+    s.sync()
+    before = s.slices()
+    assert [p.shape for p in before] == [(64, 64), (64, 64), (64, 64)]
+    # identity handles: the deformed slices are the volume's own
+    x, y, z = c.point
+    np.testing.assert_array_equal(before[0], volume[z])
+    np.testing.assert_array_equal(before[1], volume[:, y])
+    np.testing.assert_array_equal(before[2], volume[:, :, x].T)
+    drag(c, tuple(c.src[0, :2]), tuple(dst[0, :2]))  # the large sphere's target
+    s.sync()
+    after = s.slices()
+    assert s.error == "" and not np.array_equal(after[0], before[0])
+    m = glmls.MLS(c.src, c.dst, shape=volume.shape, ctx=s.gl)
+    whole = m.warp(display_volume(volume), interpolation="linear", grid=4, border="edge")
+    m.release()
+    np.testing.assert_array_equal(after[0], whole[z])  # one slice of the whole warp
+    np.testing.assert_array_equal(after[2], whole[:, :, x].T)
+    c.feed(Key("Up"))
+    np.testing.assert_array_equal(s.slices()[0], whole[z + 1])
+
+
+def test_the_session_overlays_error_and_folds(session):
+    c, s, _, dst = session
+    c.set_handles(c.src, dst)
+    s.sync()
+    assert s.overlays() is None
+    c.feed(Key("e"))
+    error = s.overlays()
+    assert [p.shape for p in error] == [(64, 64, 4)] * 3
+    assert error[0][..., 3].max() > 0 and s.lines[0].startswith("E_MLS")
+    c.feed(Key("f"))
+    folds = s.overlays()
+    assert folds[0][..., 3].max() == 0 and s.lines[0].startswith("folds")  # no fold here
+    mirrored = c.src * [-1.0, 1.0, 1.0] + [63.0, 0.0, 0.0]  # x -> 63 - x
+    c.set_handles(c.src, mirrored)
+    c.feed(Key("t"))
+    c.feed(Key("t"))  # affine: f is the mirror, folded everywhere
+    s.sync()
+    folds = s.overlays()
+    assert all((p[..., 3] > 0).mean() > 0.9 for p in folds), s.lines
+    c.set_handles(c.src[:1], c.src[:1])  # one handle: f is a translation
+    s.sync()
+    c.feed(Key("e"))
+    assert s.overlays()[0][..., 3].max() > 0
+
+
+def test_invalid_handles_keep_the_last_valid_deformation(session):
+    c, s, _, _ = session
+    s.sync()
+    mls = s.mls
+    c.set_handles(np.zeros((0, 3)), np.zeros((0, 3)))
+    s.sync()
+    assert s.mls is mls and "no handles" in s.error
+
+
+XVFB = shutil.which("xvfb-run")
+
+
+@pytest.mark.skipif(XVFB is None, reason="xvfb-run is not installed")
+def test_the_real_window_replays_a_drag_and_saves(tmp_path):
+    src, _ = glmls.data.phantom_handles()
+    events = {
+        "events": [
+            {"type": "press", "x": float(src[0, 0]), "y": float(src[0, 1])},
+            {"type": "move", "x": 34.0, "y": 24.0},
+            {"type": "release", "x": 34.0, "y": 24.0},
+            {"type": "key", "key": "e"},
+            {"type": "key", "key": "j"},
+            {"type": "key", "key": "s"},
+        ]
+    }
+    replay = tmp_path / "drag.json"
+    replay.write_text(json.dumps(events))
+    volume = tmp_path / "scan.npy"
+    np.save(volume, glmls.data.phantom())
+    handles = tmp_path / "h.json"
+    glmls.files.write_handles(handles, src, src)
+    shot = tmp_path / "shot.png"
+    command = [XVFB, "-a", sys.executable, "-m", "glmls", "demo", str(volume)]
+    command += ["--handles", str(handles), "--replay", str(replay), "--screenshot", str(shot)]
+    command += ["--out", str(tmp_path), "--window-size", "700x400"]
+    done = subprocess.run(command, capture_output=True, text=True, env=child_env(), timeout=120)
+    assert done.returncode == 0, done.stderr
+    picture = glmls.imread(shot)
+    assert picture.shape == (400, 700, 3) and picture.std() > 10
+    saved, moved = glmls.files.read_handles(tmp_path / "scan-handles.json", ndim=3)
+    np.testing.assert_array_equal(moved[0], [34, 24, src[0, 2]])
+    np.testing.assert_array_equal(saved, src)
+    warped = np.load(tmp_path / "scan-warped.npy")
+    assert warped.shape == (64, 64, 64) and warped.dtype == np.uint8
+    assert not np.array_equal(warped, glmls.data.phantom())
+    assert AXES[0][2] == 2
+
+
+def _demo(*args: str, xvfb: bool = False):
+    command = [sys.executable, "-m", "glmls", "demo", *args]
+    if xvfb:
+        command = [XVFB, "-a", *command]
+    return subprocess.run(command, capture_output=True, text=True, env=child_env(), timeout=120)
+
+
+def test_the_command_refuses_2d_handles_for_a_volume(tmp_path):
+    handles = tmp_path / "h2.json"
+    glmls.files.write_handles(handles, [[1.0, 2.0]], [[1.0, 3.0]])
+    done = _demo("--volume", "--handles", str(handles))
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "h2.json" in done.stderr
+
+
+@pytest.mark.skipif(XVFB is None, reason="xvfb-run is not installed")
+def test_3d_handles_without_an_image_open_the_phantom(tmp_path):
+    handles = tmp_path / "h3.json"
+    src, dst = glmls.data.phantom_handles()
+    glmls.files.write_handles(handles, src, dst)
+    shot = tmp_path / "shot.png"
+    done = _demo("--handles", str(handles), "--screenshot", str(shot), xvfb=True)
+    assert done.returncode == 0, done.stderr
+    assert glmls.imread(shot).std() > 10
