@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.handles import COORDINATE_LIMIT
 from ..imaging.source import DTYPES
 
 __all__ = ["BatchInput", "check_batch", "stack_or_list"]
@@ -72,6 +73,12 @@ def _points(array: np.ndarray, name: str, *, empty: bool) -> np.ndarray:
     points = np.asarray(array, dtype=np.float64)
     if not np.isfinite(points).all():
         raise ValueError(f"{name} holds values that are not finite (NaN or inf)")
+    if not empty and np.abs(points).max() > COORDINATE_LIMIT:
+        # as for one warp: float32 on the GPU keeps ~1e-7 of the coordinates' extent
+        raise ValueError(
+            f"{name} must lie within ±{COORDINATE_LIMIT:g} px of the origin in x and y; "
+            f"it reaches {np.abs(points).max():g}"
+        )
     return points
 
 

@@ -287,6 +287,11 @@ def test_keypoints_outside_and_ragged(gl, rng):
             ValueError,
             r"src\[0\] holds values that are not finite",
         ),
+        (
+            {"dst": [np.zeros((4, 2))] * 2 + [np.full((4, 2), 2e9)]},
+            ValueError,
+            r"dst\[2\] must lie within ±1e\+06 px",
+        ),
         ({"images": [np.zeros((4, 4), np.int8)] * 3}, TypeError, r"images\[0\] has dtype int8"),
         ({"images": np.zeros((3, 4, 4, 5), np.uint8)}, ValueError, r"images\[0\] has shape"),
         ({"keypoints": np.zeros((3, 2, 3))}, ValueError, r"keypoints\[0\] has shape \(2, 3\)"),
