@@ -12,17 +12,15 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
-from ..files.atomic import atomic_write
-from ..files.images import imwrite
 from ..files.landmarks import read_handles, write_handles
 from ..files.volumes import write_volume
 from ..gl.context import get_context
-from .events import Event, Recorder, Wait
+from .events import Event, Recorder
 from .glfw_window import GlfwWindow, NoDisplayError
 from .hud import PANEL_CHARS, wrap
 from .layout import Layout, layout
@@ -30,6 +28,7 @@ from .view import TEXT_SIZE
 from .volume_controller import AXES, VIEWS, VolumeController, VolumeSettings
 from .volume_session import VolumeSession, display_volume
 from .volume_view import VolumeView, text_groups
+from .window_loop import WindowLoop
 
 __all__ = ["NoDisplayError", "VolumeApp"]
 
@@ -37,7 +36,7 @@ PICK_RADIUS = 10.0
 MESSAGE_SECONDS = 5.0
 
 
-class VolumeApp:
+class VolumeApp(WindowLoop):
     """The volume window: a volume, its 3D handles and a :class:`VolumeController`.
 
     Parameters
@@ -263,76 +262,14 @@ class VolumeApp:
         )
         return text
 
-    def run(
-        self,
-        *,
-        events: Sequence | None = None,
-        frames: int | None = None,
-        screenshot: str | Path | None = None,
-        on_frame: Callable[[VolumeApp], None] | None = None,
-    ) -> None:
-        """Open the window and run until closed, or for ``frames`` frames when given.
-
-        ``events`` (replay) are fed one per frame before it is drawn (``Wait(n)`` skips n
-        frames); ``screenshot`` saves the last frame drawn. Raises :class:`NoDisplayError`.
-        """
-        scripted = frames is not None
-        self._open(vsync=not scripted)
-        window = self.window
-        assert window is not None
-        queue = deque(events or ())
-        waiting = 0
-        try:
-            self._lay_out()
-            while not window.should_close and not self._quit:
-                busy = scripted or self._view_key() != self._last_view or self._want_screenshot
-                window.poll(wait=None if busy else 0.5)
-                if waiting:
-                    waiting -= 1
-                elif queue:
-                    event = queue.popleft()
-                    if isinstance(event, Wait):
-                        waiting = max(event.frames - 1, 0)
-                    else:
-                        self.feed(event)
-                idle = self._view_key() == self._last_view and self._want_screenshot is None
-                if not scripted and idle:
-                    continue
-                self._last_view = self._view_key()
-                self.render()
-                self.frames += 1
-                self.frame_times.append(time.perf_counter())
-                self.timings = dict(self.session.timings)
-                if on_frame is not None:
-                    on_frame(self)
-                last = scripted and self.frames >= frames  # type: ignore[operator]
-                if last and screenshot is not None:
-                    self._want_screenshot = Path(screenshot)
-                if self._want_screenshot is not None:
-                    self._save_screenshot(self._want_screenshot, quiet=last)
-                window.swap()
-                if last:
-                    break
-        finally:
-            self.close()
-            if self.recorder is not None and self.record_path is not None:
-                self.recorder.save(self.record_path)
-
-    def screenshot(self) -> np.ndarray:
-        """What the window shows (the back buffer just drawn), (H, W, 3) uint8, top row first."""
-        return self.view.screenshot(self.window.framebuffer_size)  # type: ignore[union-attr]
-
-    def _save_screenshot(self, path: Path, *, quiet: bool) -> None:
-        self._want_screenshot = None
-        try:
-            with atomic_write(path) as tmp:
-                imwrite(tmp, self.screenshot())
-            if not quiet:
-                self.say(f"saved {path}")
-        except (OSError, ValueError) as error:
-            if quiet:
-                raise
-            self.say(f"screenshot failed: {error}")
+    def _frame(self, on_frame: Callable[[VolumeApp], None] | None) -> None:
+        self._last_view = self._view_key()
+        self.render()
+        self.frames += 1
+        self.frame_times.append(time.perf_counter())
+        self.timings = dict(self.session.timings)
+        if on_frame is not None:
+            on_frame(self)
 
     def close(self) -> None:
         """Release every GL object, glmls's programs for this context, and the window."""

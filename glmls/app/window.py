@@ -13,23 +13,22 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
-from ..files.atomic import atomic_write
-from ..files.images import imwrite
 from ..gl.context import get_context
 from .commands import load_handles, save_handles, save_image
 from .controller import Controller, Settings
-from .events import Event, Recorder, Wait
+from .events import Event, Recorder
 from .glfw_window import GlfwWindow, NoDisplayError
 from .hud import PANEL_CHARS, readout, text_quads
 from .layout import Layout, layout
 from .session import Session
 from .text import TextRenderer
 from .view import TEXT_SIZE, View, display_image
+from .window_loop import WindowLoop
 
 __all__ = ["PANEL_CHARS", "TEXT_SIZE", "App", "NoDisplayError", "display_image"]
 
@@ -38,7 +37,7 @@ PICK_RADIUS = 10.0
 MESSAGE_SECONDS = 5.0
 
 
-class App:
+class App(WindowLoop):
     """The window: one image, its handles and reference points, and a :class:`Controller`.
 
     ``out_dir``: where ``s``/``j``/``S`` save; ``handles_path``: the file ``l`` loads (else
@@ -237,55 +236,6 @@ class App:
         if self.layout.limits is not None:
             c.view_limits = self.layout.limits
 
-    def run(
-        self,
-        *,
-        events: Sequence | None = None,
-        frames: int | None = None,
-        screenshot: str | Path | None = None,
-        on_frame: Callable[[App], None] | None = None,
-    ) -> None:
-        """Open the window and run until closed, or for ``frames`` frames when given.
-
-        ``events`` (replay) are fed one per frame before it is drawn (``Wait(n)`` skips n
-        frames); ``screenshot`` saves the last frame drawn. Raises :class:`NoDisplayError`.
-        """
-        scripted = frames is not None
-        self._open(vsync=not scripted)
-        window = self.window
-        assert window is not None
-        queue = deque(events or ())
-        waiting = 0
-        try:
-            self._lay_out()
-            while not window.should_close and not self._quit:
-                busy = scripted or self._view_key() != self._last_view or self._want_screenshot
-                window.poll(wait=None if busy else 0.5)
-                if waiting:
-                    waiting -= 1
-                elif queue:
-                    event = queue.popleft()
-                    if isinstance(event, Wait):
-                        waiting = max(event.frames - 1, 0)
-                    else:
-                        self.feed(event)
-                idle = self._view_key() == self._last_view and self._want_screenshot is None
-                if not scripted and idle:
-                    continue
-                self._frame(on_frame)
-                last = scripted and self.frames >= frames  # type: ignore[operator]
-                if last and screenshot is not None:
-                    self._want_screenshot = Path(screenshot)
-                if self._want_screenshot is not None:
-                    self._save_screenshot(self._want_screenshot, quiet=last)
-                window.swap()
-                if last:
-                    break
-        finally:
-            self.close()
-            if self.recorder is not None and self.record_path is not None:
-                self.recorder.save(self.record_path)
-
     def _frame(self, on_frame: Callable[[App], None] | None) -> None:
         self._last_view = self._view_key()
         self.render()
@@ -295,22 +245,6 @@ class App:
         self.timings = self.session.timings | self.view.timings
         if on_frame is not None:
             on_frame(self)
-
-    def screenshot(self) -> np.ndarray:
-        """What the window shows (the back buffer just drawn), (H, W, 3) uint8, top row first."""
-        return self.view.screenshot(self.window.framebuffer_size)  # type: ignore[union-attr]
-
-    def _save_screenshot(self, path: Path, *, quiet: bool) -> None:
-        self._want_screenshot = None
-        try:
-            with atomic_write(path) as tmp:
-                imwrite(tmp, self.screenshot())
-            if not quiet:
-                self.say(f"saved {path}")
-        except (OSError, ValueError) as error:
-            if quiet:
-                raise
-            self.say(f"screenshot failed: {error}")
 
     def close(self) -> None:
         """Release every GL object, glmls's programs for this context, and the window."""
