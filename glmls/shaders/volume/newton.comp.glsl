@@ -29,22 +29,6 @@ uniform float u_tolerance;
 uniform float u_accept;
 uniform float u_max_step;
 
-// f's inverse Jacobian at s (f(s) = fs) by forward differences of a quarter voxel (the MLS
-// Jacobian is not M); false where it is singular (a fold's edge).
-bool volume_inverse_jacobian(vec3 s, vec3 fs, out mat3 inverse_jacobian) {
-    const float h = 0.25;
-    mat3 jacobian = mat3((volume_f(s + vec3(h, 0.0, 0.0)) - fs) / h,
-                         (volume_f(s + vec3(0.0, h, 0.0)) - fs) / h,
-                         (volume_f(s + vec3(0.0, 0.0, h)) - fs) / h);
-    float det = determinant(jacobian);
-    inverse_jacobian = mat3(0.0);
-    if (!(abs(det) > 1e-9)) {
-        return false;
-    }
-    inverse_jacobian = inverse(jacobian);
-    return true;
-}
-
 void main() {
     int item = u_offset + int(gl_GlobalInvocationID.x);
     bool store = item < u_count;
@@ -57,30 +41,53 @@ void main() {
     vec3 s = guided ? guess.xyz : u;
     mat3 slope = mat3(volume_slopes[3 * i].xyz, volume_slopes[3 * i + 1].xyz,
                       volume_slopes[3 * i + 2].xyz);
+    // f's Jacobian by forward differences of a quarter voxel (the MLS Jacobian is not M)
+    const float h = 0.25;
+    mat3 jacobian = mat3(0.0);
+    vec3 fs = vec3(0.0);
+    vec3 r = vec3(0.0);
     float residual = 0.0;
     float last = 1e30;
     bool fresh = false;   // slope is f's inverse Jacobian at an iterate
-    for (int k = 0; ; ++k) {
-        vec3 fs = volume_f(s);
-        vec3 r = fs - u;
-        residual = length(r);
-        if (residual <= u_tolerance || k == WARP_NEWTON_STEPS) {
-            break;
-        }
-        if (!guided || (residual > 0.5 * last && !fresh)) {
-            // no guess, or the slope converges slowly: f's Jacobian here instead
-            if (!volume_inverse_jacobian(s, fs, slope)) {
-                break;   // singular: keep the best point so far
+    int steps = 0;
+    int probe = 0;        // 0: f at the iterate s; 1, 2, 3: at s + h along x, y, z
+    // One place evaluates f, the iterate's or a probe's: f is most of the shader's code, and
+    // one copy of it (not four) keeps the program small enough for a GPU's registers.
+    for (int n = 0; n < 4 * WARP_NEWTON_STEPS + 1; ++n) {
+        vec3 axis = vec3(equal(ivec3(probe - 1), ivec3(0, 1, 2)));
+        vec3 fx = volume_f(s + h * axis);
+        if (probe == 0) {
+            fs = fx;
+            r = fs - u;
+            residual = length(r);
+            if (residual <= u_tolerance || steps == WARP_NEWTON_STEPS) {
+                break;
             }
+            if (!guided || (residual > 0.5 * last && !fresh)) {
+                // no guess, or the slope converges slowly: f's Jacobian here instead
+                probe = 1;
+                continue;
+            }
+            fresh = false;
+        } else {
+            jacobian[probe - 1] = (fx - fs) / h;
+            if (probe < 3) {
+                ++probe;
+                continue;
+            }
+            probe = 0;
+            if (!(abs(determinant(jacobian)) > 1e-9)) {
+                break;   // singular (a fold's edge): keep the best point so far
+            }
+            slope = inverse(jacobian);
             guided = true;
             fresh = true;
-        } else {
-            fresh = false;
         }
         last = residual;
         vec3 step = slope * r;
         float len = length(step);
         s -= len > u_max_step ? step * (u_max_step / len) : step;
+        ++steps;
     }
     bool found = residual <= u_accept;
 #if WARP_BORDER == 0

@@ -1,0 +1,162 @@
+"""Where the time of a volume warp, a batch or a mesh deformation goes: GPU time per shader,
+transfers, and the host's own time.
+
+``python benchmarks/gl_stages.py volume [--size 256] [--method quads|backward] [--grid 1]``
+``python benchmarks/gl_stages.py batch [--n 256] [--size 224] [--keypoints]``
+``python benchmarks/gl_stages.py mesh [--vertices 1000000]``
+
+Each compute dispatch is followed by ``ctx.finish()`` and timed, and so is each buffer and
+texture read and write, so the GPU stages do not overlap as they do in a normal run: the sum
+is at least the normal run's time (also printed, measured first without the finishes). The
+rest is the host's (Python, numpy, driver calls): the top host functions by own time follow
+(cProfile). Workloads: 64 handles (16 for a batch), rigid idw (seed 0); the volume as in
+``volume_bench.py``, the batch as in ``batch_bench.py`` (224 x 224 RGB, grid 4), the mesh
+points uniform in a 256^3 box.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import cProfile
+import io
+import pstats
+import sys
+import time
+from pathlib import Path
+
+import moderngl
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import glmls
+from glmls.gl.context import GLContext
+
+_names: dict[int, str] = {}
+_totals: collections.Counter = collections.Counter()
+_counts: collections.Counter = collections.Counter()
+
+
+def _instrument() -> None:
+    compute = GLContext.compute
+
+    def tagged(self, entry, defines=None):
+        program = compute(self, entry, defines)
+        _names[id(program)] = entry
+        return program
+
+    GLContext.compute = tagged
+
+    def timing(label, method):
+        def run(self, *args, **kwargs):
+            ctx = self.ctx
+            ctx.finish()
+            start = time.perf_counter()
+            result = method(self, *args, **kwargs)
+            ctx.finish()
+            name = label(self)
+            _totals[name] += time.perf_counter() - start
+            _counts[name] += 1
+            return result
+
+        return run
+
+    moderngl.ComputeShader.run = timing(
+        lambda p: "gpu " + _names.get(id(p), "?"), moderngl.ComputeShader.run
+    )
+    for cls in (moderngl.Buffer, moderngl.Texture, moderngl.Texture3D, moderngl.TextureArray):
+        for method in ("read", "write", "read_into"):
+            if hasattr(cls, method):
+                setattr(
+                    cls,
+                    method,
+                    timing(lambda _, c=cls, m=method: f"{m} {c.__name__}", getattr(cls, method)),
+                )
+    fbo_read = moderngl.Framebuffer.read
+    moderngl.Framebuffer.read = timing(lambda _: "read Framebuffer", fbo_read)
+
+
+def volume_workload(args):
+    rng = np.random.default_rng(0)
+    size = args.size
+    volume = rng.integers(0, 255, (size,) * 3, dtype=np.uint8)
+    src = rng.uniform(0, size - 1, (64, 3))
+    dst = src + rng.normal(0, size / 40, src.shape)
+    m = glmls.MLS(src, dst, transform="rigid", weight="idw")
+    interpolation = "linear" if args.method == "backward" else "nearest"
+    options = {"method": args.method, "grid": args.grid, "interpolation": interpolation}
+    m.warp(volume[:16, :16, :16], **options)
+    return lambda: m.warp(volume, **options)
+
+
+def batch_workload(args):
+    rng = np.random.default_rng(0)
+    n, size = args.n, args.size
+    images = rng.integers(0, 255, (n, size, size, 3), dtype=np.uint8)
+    src = rng.uniform(0, size - 1, (n, 16, 2))
+    dst = src + rng.normal(0, size / 40, src.shape)
+    labels = {}
+    if args.keypoints:
+        labels["keypoints"] = rng.uniform(0, size - 1, (n, 3, 2))
+        labels["masks"] = rng.integers(0, 4, (n, size, size), dtype=np.uint8)
+    glmls.warp_batch(
+        images[:2], src[:2], dst[:2], grid=4, **labels and {k: v[:2] for k, v in labels.items()}
+    )
+    return lambda: glmls.warp_batch(images, src, dst, grid=4, **labels)
+
+
+def mesh_workload(args):
+    rng = np.random.default_rng(0)
+    vertices = rng.uniform(0, 255, (args.vertices, 3))
+    faces = rng.integers(0, args.vertices, (2 * args.vertices, 3))
+    src = rng.uniform(0, 255, (64, 3))
+    dst = src + rng.normal(0, 6, src.shape)
+    m = glmls.MLS(src, dst, transform="rigid", weight="idw")
+    m.deform(glmls.Mesh(vertices[:100], faces[:100] % 100))
+    mesh = glmls.Mesh(vertices, faces)
+    return lambda: m.deform(mesh)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("workload", choices=("volume", "batch", "mesh"))
+    parser.add_argument("--size", type=int, default=None)
+    parser.add_argument("--method", default="quads", choices=("quads", "backward"))
+    parser.add_argument("--grid", type=int, default=1)
+    parser.add_argument("--n", type=int, default=256)
+    parser.add_argument("--keypoints", action="store_true")
+    parser.add_argument("--vertices", type=int, default=1_000_000)
+    parser.add_argument("--top", type=int, default=12)
+    args = parser.parse_args()
+    if args.size is None:
+        args.size = 224 if args.workload == "batch" else 256
+    step = {"volume": volume_workload, "batch": batch_workload, "mesh": mesh_workload}[
+        args.workload
+    ](args)
+    step()
+    start = time.perf_counter()
+    step()
+    normal = time.perf_counter() - start
+    _instrument()
+    step()  # compiles nothing new; warms the wrappers
+    _totals.clear()
+    _counts.clear()
+    profile = cProfile.Profile()
+    start = time.perf_counter()
+    profile.enable()
+    step()
+    profile.disable()
+    staged = time.perf_counter() - start
+    print(f"{args.workload}: {vars(args)}")
+    print(f"normal run {normal * 1e3:9.1f} ms; a finish after each stage {staged * 1e3:9.1f} ms")
+    for name, total in _totals.most_common():
+        print(f"  {total * 1e3:9.1f} ms  {_counts[name]:5d}x  {name}")
+    print(f"  {(staged - sum(_totals.values())) * 1e3:9.1f} ms         host (the rest)")
+    text = io.StringIO()
+    pstats.Stats(profile, stream=text).sort_stats("tottime").print_stats(args.top)
+    print("\n".join(line for line in text.getvalue().splitlines() if line.strip())[-4000:])
+
+
+if __name__ == "__main__":
+    main()
