@@ -35,7 +35,7 @@ from ..core.mesh import MeshLattice
 from ..engine.passes import evaluate_lattice
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
-from ..gl.dispatch import LOCAL_SIZE_2D, run_1d, set_uniforms
+from ..gl.dispatch import LOCAL_SIZE_2D, fill_buffer, run_1d, set_uniforms
 from ..gl.resources import Resources
 from ..imaging.frame import Frame
 from ..imaging.inverse import NEWTON_ACCEPT, NEWTON_STEPS, NEWTON_TOLERANCE
@@ -215,7 +215,7 @@ class BatchQuads:
         out_w, out_h = frame.size
         atlas = (out_w, out_h * count)
         winner = self._resources.buffer("winner", out_w * out_h * count * 4)
-        winner.clear(size=out_w * out_h * count * 4)
+        fill_buffer(self._gl, winner, out_w * out_h * count * 4)
         values = {
             **lattice.pixel_uniforms(),
             "u_target_size": frame.size,
@@ -425,7 +425,7 @@ class BatchQuads:
         out_w, out_h = frame.size
         atlas = (out_w, out_h * count)
         winner = self._resources.buffer("winner", out_w * out_h * count * 4)
-        winner.clear(size=out_w * out_h * count * 4)
+        fill_buffer(self._gl, winner, out_w * out_h * count * 4)
         values = {
             **lattice.pixel_uniforms(),
             "u_target_size": frame.size,

@@ -60,6 +60,7 @@ VOLUME_LATTICE = Binding("VOLUME_LATTICE", "storage", 11, "volumes: f at a band 
 VOLUME_KEYS = Binding("VOLUME_KEYS", "storage", 13, "volumes: each output voxel's first cell")
 VOLUME_COORDS = Binding("VOLUME_COORDS", "storage", 16, "volumes: each voxel's source point")
 VOLUME_SLOPES = Binding("VOLUME_SLOPES", "storage", 17, "volumes: d source / d output per voxel")
+FILL = Binding("FILL", "storage", 19, "a buffer being filled with one word (fill_buffer)")
 # -- uniform blocks ----------------------------------------------------------------------------
 HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
 # -- texture units -----------------------------------------------------------------------------
@@ -106,6 +107,7 @@ ALL = (
     VOLUME_KEYS,
     VOLUME_COORDS,
     VOLUME_SLOPES,
+    FILL,
     HANDLES_BLOCK,
     SOURCE,
     COORDS,

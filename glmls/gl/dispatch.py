@@ -12,7 +12,9 @@ from collections.abc import Mapping
 
 import moderngl
 
-__all__ = ["LOCAL_SIZE", "LOCAL_SIZE_2D", "run_1d", "run_2d", "set_uniforms"]
+from . import bindings
+
+__all__ = ["LOCAL_SIZE", "LOCAL_SIZE_2D", "fill_buffer", "run_1d", "run_2d", "set_uniforms"]
 
 #: local_size_x of the one-dimensional compute shaders.
 LOCAL_SIZE = 64
@@ -93,6 +95,28 @@ def run_1d(
     for first in range(0, groups, max_groups):
         set_uniforms(program, {"u_offset": first * items})
         program.run(group_x=min(max_groups, groups - first))
+
+
+def fill_buffer(
+    gl, buffer: moderngl.Buffer, nbytes: int, *, word: int = 0, offset: int = 0
+) -> None:
+    """Set ``nbytes`` bytes of ``buffer`` from byte ``offset`` (both multiples of 4) to the
+    32-bit ``word``, on the GPU (``common/fill.comp.glsl`` through ``gl``, a
+    :class:`~glmls.gl.context.GLContext`). moderngl's ``Buffer.clear`` maps the buffer and
+    fills it on the host: through a discrete GPU's bus, and after the buffer's last use (a
+    64 MiB clear took 0.24 s on an H200 machine). The buffer is left unbound."""
+    if nbytes % 4 or offset % 4:
+        raise ValueError(f"fill_buffer fills whole words: got {nbytes} bytes at offset {offset}")
+    if nbytes <= 0:
+        return
+    vec4 = nbytes % 16 == 0 and offset % 16 == 0
+    unit = 16 if vec4 else 4
+    program = gl.compute("common/fill.comp.glsl", {"FILL_VEC4": vec4})
+    buffer.bind_to_storage_buffer(bindings.FILL.index)
+    set_uniforms(program, {"u_first": offset // unit, "u_word": word})
+    gl.mgl.memory_barrier()
+    run_1d(program, nbytes // unit, max_groups=gl.limits["max_work_groups_x"], per_invocation=4)
+    gl.mgl.memory_barrier()
 
 
 def run_2d(program: moderngl.ComputeShader, dims: tuple[int, int], *, max_groups: int) -> None:

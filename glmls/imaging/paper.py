@@ -22,7 +22,7 @@ from ..core.paper_quads import EDGE_TOLERANCE
 from ..engine.kernel import MLSKernel
 from ..gl import bindings
 from ..gl.context import GLContext, current
-from ..gl.dispatch import run_1d, set_uniforms
+from ..gl.dispatch import fill_buffer, run_1d, set_uniforms
 from ..gl.resources import Resources
 from .bands import MeshBands
 from .frame import Frame
@@ -85,7 +85,7 @@ class PaperQuads:
         }
         pixels = frame.pixels
         winner = self._resources.buffer("winner", (pixels + 3) // 4 * 16)
-        winner.clear(size=pixels * 4)
+        fill_buffer(self._gl, winner, pixels * 4)
         one_band = self._scan(kernel, lattice, values, stage=0, whole_mesh=None)
         self._gl.mgl.memory_barrier()
         mgl = self._gl.mgl

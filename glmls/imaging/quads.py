@@ -35,7 +35,7 @@ from ..core.mesh import MeshLattice
 from ..engine.kernel import MLSKernel
 from ..gl import bindings
 from ..gl.context import GLContext, current
-from ..gl.dispatch import run_1d, set_uniforms
+from ..gl.dispatch import fill_buffer, run_1d, set_uniforms
 from ..gl.resources import Resources
 from .bands import MeshBands
 from .frame import Frame
@@ -144,7 +144,7 @@ class CellScan:
         winner = self._resources.buffer("winner", (pixels + 3) // 4 * 16)
         fast = fused and self._options.fast_embedded and self._bands.one_band(lattice)
         if not fast:  # the fast path clears it on the GPU if and when it needs it
-            winner.clear(size=pixels * 4)
+            fill_buffer(self._gl, winner, pixels * 4)
         if fused:
             self._prepare_fused(values["u_fixup_capacity"])  # type: ignore[arg-type]
         if fast:

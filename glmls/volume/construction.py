@@ -27,7 +27,7 @@ import numpy as np
 
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
-from ..gl.dispatch import run_1d, set_uniforms
+from ..gl.dispatch import fill_buffer, run_1d, set_uniforms
 from ..gl.resources import Resources
 from ..imaging.source import BORDERS
 from .bands import KEY_BYTES, POINT_BYTES, LatticeBands, Slab, border_margin3
@@ -43,7 +43,7 @@ __all__ = ["VolumeWarper", "make_volume_frame"]
 COORD_BYTES = 16
 #: Bytes of one voxel's slope (the guess's tetrahedron's inverse Jacobian, 3 vec4).
 SLOPE_BYTES = 48
-_NO_KEY = b"\xff\xff\xff\xff"
+_NO_KEY = 0xFFFFFFFF
 
 
 class VolumeWarper:
@@ -226,7 +226,7 @@ class VolumeWarper:
         ox, oy, oz = frame.origin_voxels
         origin = (ox, oy, oz + slab.first)
         keys = self._resources.buffer("volume_keys", slab.voxels * KEY_BYTES)
-        keys.clear(size=slab.voxels * KEY_BYTES, chunk=_NO_KEY)
+        fill_buffer(self._gl, keys, slab.voxels * KEY_BYTES, word=_NO_KEY)
         keys.bind_to_storage_buffer(bindings.VOLUME_KEYS.index)
         ncx, ncy, _ = lattice.cells
         common = lattice.uniforms() | {"u_slab_size": slab.size, "u_slab_origin": origin}

@@ -18,7 +18,7 @@ from ...core.mesh import MeshLattice
 from ...engine.kernel import MLSKernel
 from ...gl import bindings
 from ...gl.context import GLContext
-from ...gl.dispatch import run_1d, set_uniforms
+from ...gl.dispatch import fill_buffer, run_1d, set_uniforms
 from ...gl.resources import Resources
 from ..frame import Frame
 from .cells import GPUCells, known_points
@@ -213,7 +213,7 @@ class AdaptiveScan:
                 self._run(count, values, defines | {"ADAPTIVE_FILL": 2})
                 return
         winner = self._resources.buffer("adaptive-winner", frame.pixels * 4)
-        winner.clear(size=frame.pixels * 4)
+        fill_buffer(self._gl, winner, frame.pixels * 4)
         winner.bind_to_storage_buffer(bindings.WINNER.index)
         if hot is None:
             self.last_keyed = count
