@@ -61,6 +61,7 @@ VOLUME_KEYS = Binding("VOLUME_KEYS", "storage", 13, "volumes: each output voxel'
 VOLUME_COORDS = Binding("VOLUME_COORDS", "storage", 16, "volumes: each voxel's source point")
 VOLUME_SLOPES = Binding("VOLUME_SLOPES", "storage", 17, "volumes: d source / d output per voxel")
 FILL = Binding("FILL", "storage", 19, "a buffer being filled with one word (fill_buffer)")
+VOLUME_SURVEY = Binding("VOLUME_SURVEY", "storage", 20, "volumes: the box of f over each z layer")
 # -- uniform blocks ----------------------------------------------------------------------------
 HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
 # -- texture units -----------------------------------------------------------------------------
@@ -108,6 +109,7 @@ ALL = (
     VOLUME_COORDS,
     VOLUME_SLOPES,
     FILL,
+    VOLUME_SURVEY,
     HANDLES_BLOCK,
     SOURCE,
     COORDS,

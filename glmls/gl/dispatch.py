@@ -14,7 +14,15 @@ import moderngl
 
 from . import bindings
 
-__all__ = ["LOCAL_SIZE", "LOCAL_SIZE_2D", "fill_buffer", "run_1d", "run_2d", "set_uniforms"]
+__all__ = [
+    "LOCAL_SIZE",
+    "LOCAL_SIZE_2D",
+    "fill_buffer",
+    "run_1d",
+    "run_2d",
+    "run_groups",
+    "set_uniforms",
+]
 
 #: local_size_x of the one-dimensional compute shaders.
 LOCAL_SIZE = 64
@@ -95,6 +103,16 @@ def run_1d(
     for first in range(0, groups, max_groups):
         set_uniforms(program, {"u_offset": first * items})
         program.run(group_x=min(max_groups, groups - first))
+
+
+def run_groups(program: moderngl.ComputeShader, count: int, *, max_groups: int) -> None:
+    """Run ``program`` with one work group per item 0 .. ``count`` - 1 (the shader's item is
+    ``u_offset`` + its group's number; ``u_count`` tells it the items), at most
+    ``max_groups`` groups per dispatch."""
+    set_uniforms(program, {"u_count": count})
+    for first in range(0, count, max_groups):
+        set_uniforms(program, {"u_offset": first})
+        program.run(group_x=min(max_groups, count - first))
 
 
 def fill_buffer(

@@ -9,6 +9,9 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
+from ..gl import bindings
+from ..gl.context import GLContext
+from ..gl.dispatch import run_groups, set_uniforms
 from .fields import Field
 from .frame import CornerLattice, VolumeFrame
 
@@ -18,8 +21,6 @@ __all__ = ["KEY_BYTES", "POINT_BYTES", "LatticeBands", "Slab", "border_margin3"]
 POINT_BYTES = 12
 #: Bytes of one voxel's key (6 cell + tetrahedron).
 KEY_BYTES = 4
-#: The survey of the lattice's bands reads them back this many bytes at a time.
-SURVEY_BYTES = 1 << 24
 
 
 @dataclass(frozen=True)
@@ -74,9 +75,10 @@ def border_margin3(field: Field, lattice: CornerLattice, frame: VolumeFrame) -> 
 class LatticeBands:
     """f on a lattice, held band by band of z layers in one buffer of at most ``band_bytes``.
 
-    Where the whole lattice fits in one band it is evaluated once and kept. Else, with
-    ``survey``, every band is evaluated once first to learn the z range (source voxels) that
-    each layer of cells reaches, so that each slab evaluates only the bands that reach it
+    Where the whole lattice fits in one band it is evaluated once and kept. With
+    ``survey_out`` (a buffer for six floats a z layer of points), every band is evaluated
+    once first and reduced on the GPU to the z range (source voxels) that each layer of
+    cells reaches, so that each slab evaluates and scans only the layers that reach it
     (without, every slab takes every band). :attr:`box` (the box of every deformed point)
     is known after a survey."""
 
@@ -87,10 +89,13 @@ class LatticeBands:
         buffer: moderngl.Buffer,
         band_bytes: int,
         *,
-        survey: bool = True,
+        gl: GLContext,
+        survey_out: moderngl.Buffer | None = None,
     ) -> None:
         nx, ny, nz = lattice.dims
         self.field = field
+        self.gl = gl
+        self.survey_out = survey_out
         self.lattice = lattice
         self.buffer = buffer
         layer_bytes = nx * ny * POINT_BYTES
@@ -112,7 +117,7 @@ class LatticeBands:
         self.high: np.ndarray | None = None
         #: the box of every deformed point (x, y, z low, then high), source voxels
         self.box = np.array([np.inf] * 3 + [-np.inf] * 3)
-        if survey:
+        if survey_out is not None:
             self._survey()
         elif self.whole:
             self.load(0, self.cells)
@@ -123,28 +128,29 @@ class LatticeBands:
         return self.cell_layers >= self.cells
 
     def _survey(self) -> None:
+        """Each band evaluated once, its layers' boxes reduced on the GPU
+        (``volume/survey.comp.glsl``): six floats a layer come back, not the lattice."""
         nz = self.cells + 1
-        low = np.full(nz, np.inf)
-        high = np.full(nz, -np.inf)
-        nx, ny, _ = self.lattice.dims
-        layer_bytes = nx * ny * POINT_BYTES
-        chunk = max(1, SURVEY_BYTES // layer_bytes)  # point layers read back at a time
+        boxes = np.empty((nz, 6), np.float32)
+        gl = self.gl
+        survey = gl.compute("volume/survey.comp.glsl")
+        out = self.survey_out
         for first, layers in self.all_bands():
             self.load(first, layers)
-            for start in range(0, layers + 1, chunk):
-                count = min(chunk, layers + 1 - start)
-                raw = self.buffer.read(size=count * layer_bytes, offset=start * layer_bytes)
-                points = np.frombuffer(raw, np.float32).reshape(count, -1, 3)
-                with np.errstate(all="ignore"):
-                    # NaN (a degenerate f) is left out: fmin and fmax skip it
-                    low_box = np.fmin.reduce(points, axis=(0, 1))
-                    high_box = np.fmax.reduce(points, axis=(0, 1))
-                    self.box = np.concatenate(
-                        [np.fmin(self.box[:3], low_box), np.fmax(self.box[3:], high_box)]
-                    )
-                    span = slice(first + start, first + start + count)
-                    low[span] = np.fmin(low[span], np.fmin.reduce(points[..., 2], axis=1))
-                    high[span] = np.fmax(high[span], np.fmax.reduce(points[..., 2], axis=1))
+            self.buffer.bind_to_storage_buffer(bindings.VOLUME_LATTICE.index)
+            out.bind_to_storage_buffer(bindings.VOLUME_SURVEY.index)
+            set_uniforms(survey, self.lattice.uniforms())
+            gl.mgl.memory_barrier()
+            run_groups(survey, layers + 1, max_groups=gl.limits["max_work_groups_x"])
+            gl.mgl.memory_barrier()
+            raw = out.read(size=(layers + 1) * 6 * 4)
+            boxes[first : first + layers + 1] = np.frombuffer(raw, np.float32).reshape(-1, 6)
+        with np.errstate(all="ignore"):
+            # a layer of NaN only (a degenerate f) reads +inf, -inf: left out by fmin, fmax
+            self.box = np.concatenate(
+                [np.fmin.reduce(boxes[:, :3], axis=0), np.fmax.reduce(boxes[:, 3:], axis=0)]
+            ).astype(np.float64)
+        low, high = boxes[:, 2].astype(np.float64), boxes[:, 5].astype(np.float64)
         self.low = np.fmin(low[:-1], low[1:])
         self.high = np.fmax(high[:-1], high[1:])
 
@@ -169,9 +175,8 @@ class LatticeBands:
     def bands_for(self, z_low: float, z_high: float) -> list[tuple[int, int]]:
         """The bands (first cell layer, layers) of the cell layers that reach z from
         ``z_low`` to ``z_high`` (source voxels): runs of such layers, cut to the buffer
-        (every band where not surveyed; the whole lattice where it is held)."""
-        if self.whole:
-            return [(0, self.cells)]
+        (every band where not surveyed). Where the whole lattice is held, the runs need no
+        new evaluation; they spare the passes the cells that reach no voxel of the slab."""
         if self.low is None or self.high is None:
             return self.all_bands()
         with np.errstate(invalid="ignore"):

@@ -207,7 +207,11 @@ class VolumeWarper:
         band_bytes = min(slabs.band_bytes, self._gl.limits["max_ssbo_size"])
         size = min(band_bytes, nx * ny * nz * POINT_BYTES)
         buffer = self._resources.buffer("volume_lattice", size)
-        return LatticeBands(field, lattice, buffer, band_bytes, survey=survey)
+        out = None
+        if survey:  # per z layer of points, its box (6 floats), a band at a time
+            layers = min(nz, max(1, band_bytes // (nx * ny * POINT_BYTES)))
+            out = self._resources.buffer("volume_survey", layers * 6 * 4)
+        return LatticeBands(field, lattice, buffer, band_bytes, gl=self._gl, survey_out=out)
 
     def _cells(
         self,

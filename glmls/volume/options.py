@@ -208,9 +208,10 @@ class SlabOptions:
     slab_bytes : int, default 2**26
         The output slab's largest buffer (4 bytes a voxel for the keys, 16 for backward's
         source points).
-    band_bytes : int, default 2**27
+    band_bytes : int, default 2**28
         The deformed lattice's buffer (12 bytes a lattice point); the GL limit of a storage
-        buffer caps it.
+        buffer caps it (128 MiB on llvmpipe). The default holds the whole lattice of a 256^3
+        volume at grid 1 (204 MB), evaluated once.
     texture_bytes : int, default 2**30
         The source volume's texture: a larger volume is held a range of slices at a time,
         those each slab (and each band of the lattice) samples.
@@ -223,7 +224,7 @@ class SlabOptions:
     """
 
     slab_bytes: int = 1 << 26
-    band_bytes: int = 1 << 27
+    band_bytes: int = 1 << 28
     texture_bytes: int = 1 << 30
 
     def __post_init__(self) -> None:

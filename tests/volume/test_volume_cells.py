@@ -11,6 +11,7 @@ from glmls.core.config import MLSConfig
 from glmls.volume import SlabOptions, VolumeOptions, warp_volume
 from glmls.volume.construction import VolumeWarper
 from glmls.volume.fields import ReferenceField
+from glmls.volume.frame import CornerLattice
 from glmls.volume.kernel_field import KernelField
 
 SHAPE = (10, 12, 14)
@@ -154,3 +155,20 @@ def test_volumes_larger_than_a_texture_are_held_by_slices(kernel3, rng, volume):
                 np.testing.assert_array_equal(warp_volume(m, volume, options, slabs=slices), whole)
     with pytest.raises(ValueError, match="more than one texture holds"):
         warp_volume(m, volume, slabs=SlabOptions(texture_bytes=h * w * 2))
+
+
+@pytest.mark.parametrize("band_layers", [2, 3, 100])
+def test_survey_box_is_f_over_the_lattice(kernel3, rng, band_layers):
+    """The bounds' box, reduced on the GPU band by band, is the box of f at every lattice
+    point (f evaluated on the host side through the field), NaN-free, whatever the bands."""
+    src, dst = box_handles(SHAPE, rng)
+    m = kernel3(src, dst + rng.normal(0, 1.5, dst.shape), SHAPE)
+    field = KernelField(m, (1.0, 1.0, 1.0), SHAPE)
+    lattice = CornerLattice(SHAPE, 2)
+    nx, ny, _ = lattice.dims
+    slabs = SlabOptions(band_bytes=nx * ny * 12 * band_layers)  # band_layers - 1 cell layers
+    box = VolumeWarper.of(m.gl).bounds(field, SHAPE, 2, slabs)
+    points = lattice.layer_points(0, lattice.dims[2]).reshape(-1, 3)
+    f = field.evaluate(points)
+    np.testing.assert_allclose(box[:3], f.min(axis=0), atol=1e-4)
+    np.testing.assert_allclose(box[3:], f.max(axis=0), atol=1e-4)
