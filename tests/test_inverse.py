@@ -204,12 +204,21 @@ def test_residuals(gl, rng):
 def test_at_pixel_centres_it_is_the_coordinate_map(gl, dst):
     """Over an image's pixel centres the first guess is drawn pixel for pixel, as the
     ``backward`` method's: the same preimage, where f folds too (the first cell in scan
-    order), up to Newton's tolerance. With twice the steps, a few more pixels are solved."""
+    order), up to Newton's tolerance. With twice the steps, a few more pixels are solved.
+
+    A pixel centre on the very edge of the fold's first cell may be given to either layer:
+    the rasterizer's tie rule for points on an edge is the driver's, the compute scan's its
+    own. Such points must be rare and still take a true preimage (f(s) = u)."""
     rows, cols = np.mgrid[0 : SHAPE[0], 0 : SHAPE[1]]
     pixels = np.stack([cols.ravel(), rows.ravel()], -1).astype(float)
     with glmls.MLS(SRC, dst, shape=SHAPE, ctx=gl) as m:
         xy, residual = m.coordinate_map(SHAPE, residual=True, border="edge")
         s, valid = m.inverse(pixels, return_valid=True)
-    solved = (residual <= NEWTON_ACCEPT).ravel()
-    assert valid[solved].all() and (valid & ~solved).sum() < 0.001 * len(pixels)
-    assert_allclose(s[solved], xy.reshape(-1, 2)[solved], atol=0.01)
+        solved = (residual <= NEWTON_ACCEPT).ravel()
+        assert valid[solved].all() and (valid & ~solved).sum() < 0.001 * len(pixels)
+        same = np.all(np.abs(s - xy.reshape(-1, 2)) <= 0.01, axis=1)
+        other = solved & ~same
+        assert other.sum() <= 0.001 * len(pixels)
+        assert_allclose(m(s[other]), pixels[other], atol=0.01)
+    if np.array_equal(dst, DST):  # f is one to one: one preimage only
+        assert not other.any()
