@@ -38,16 +38,28 @@ fi
 # pytest-xdist, where installed, runs the GL tests in parallel processes (one context each);
 # -v names each failure as it happens, and SIGINT at the limit still prints the summary
 parallel=()
-if "$PYTHON" -c 'import xdist' 2>/dev/null; then parallel=(-n 12); fi
+if "$PYTHON" -c 'import xdist' 2>/dev/null; then parallel=(-n 14); fi
 step tests 240 timeout -s INT 230 "$PYTHON" -m pytest -v -rfE --durations=20 --maxfail=30 \
     -p no:cacheprovider -p no:benchmark "${parallel[@]}" \
-    tests/gl tests/engine tests/imaging tests/test_inverse.py
-step bench 120 "$PYTHON" benchmarks/run_bench.py --quick --tools glmls --tolerances 0.05 --out "$out/bench"
-step batch-bench 60 "$PYTHON" benchmarks/batch_bench.py --quick
-step profile-stages 45 "$PYTHON" benchmarks/profile_stages.py --size 1024 --handles 64
-step adaptive-stages-W1 30 "$PYTHON" benchmarks/adaptive_stages.py --workload W1 --tolerance 0.05
-step adaptive-stages-W2 30 "$PYTHON" benchmarks/adaptive_stages.py --workload W2 --tolerance 0.05
-step volume-bench 90 "$PYTHON" benchmarks/volume_bench.py --size 256 --repeat 3 --memory 512 --skip-peers
+    tests/gl tests/engine tests/imaging tests/volume tests/batch tests/test_inverse.py
+step bench 75 "$PYTHON" benchmarks/run_bench.py --quick --tools glmls --tolerances 0.05 --out "$out/bench"
+step batch-bench 45 "$PYTHON" benchmarks/batch_bench.py --quick
+step profile-stages 30 "$PYTHON" benchmarks/profile_stages.py --size 1024 --handles 64
+step adaptive-stages-W1 20 "$PYTHON" benchmarks/adaptive_stages.py --workload W1 --tolerance 0.05
+step adaptive-stages-W2 20 "$PYTHON" benchmarks/adaptive_stages.py --workload W2 --tolerance 0.05
+step volume-bench 60 "$PYTHON" benchmarks/volume_bench.py --size 256 --repeat 3 --memory 512 --skip-peers
+# where the time of a volume warp, a batch and a mesh deformation goes (GPU per shader, host)
+stages() {
+    for workload in "volume --method quads" "volume --method backward" "batch --n 1024" \
+        "batch --n 256 --keypoints" "mesh"; do
+        echo "== gl_stages.py $workload"
+        # shellcheck disable=SC2086
+        "$PYTHON" benchmarks/gl_stages.py $workload --top 12 || return 1
+    done
+}
+export -f stages
+export PYTHON
+step gl-stages 60 bash -c stages
 
 if ((${#failed[@]})); then
     echo "gpu_check: failed: ${failed[*]} (results in $out/)" >&2
