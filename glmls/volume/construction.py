@@ -303,9 +303,19 @@ class VolumeWarper:
         return texture
 
     def _read(self, target, slab: Slab, source: SourceVolume, out: np.ndarray) -> None:
-        raw = np.frombuffer(target.read(), dtype=source.data.dtype)
+        """The slab into ``out`` through a pixel-pack buffer: the GPU copies the texture into
+        it, the host reads it once, straight into ``out`` where the layouts agree (a plain
+        texture read went through the driver's staging at ~1.3 GB/s on an H200 machine)."""
+        nbytes = slab.voxels * source.voxel_bytes
+        pack = self._resources.buffer("volume_readback", nbytes)
+        target.read_into(pack, alignment=1)
+        region = out[slab.first : slab.first + slab.depth]
+        if source.target_components == source.channels and out.dtype == source.data.dtype:
+            pack.read_into(region, size=nbytes)
+            return
+        raw = np.frombuffer(pack.read(size=nbytes), dtype=source.data.dtype)
         values = raw.reshape(slab.depth, slab.height, slab.width, source.target_components)
-        out[slab.first : slab.first + slab.depth] = values[..., : source.channels]
+        region[...] = values[..., : source.channels]
 
 
 def _hold_band(source: SourceTexture, lattice, first: int, layers: int, border: int) -> int:
