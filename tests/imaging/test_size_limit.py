@@ -84,6 +84,33 @@ def test_identity_linear_and_adaptive(gl, limit, spec, options):
     assert_array_equal(out, image)
 
 
+@pytest.mark.parametrize("spec", [(3, None), (None, 3)], ids=str)
+@pytest.mark.parametrize("grid", [3, 4])
+@pytest.mark.parametrize("path", ["compute scan", "rasterizer", "batch"])
+def test_linear_identity_of_a_float_image_at_the_limit(gl, limit, pipeline, spec, grid, path):
+    """Linear quads of a float32 image, which the GL filters in float: a source point off
+    by a rounding at the limit's magnitude (0.001 px at 16384, 0.002 px at 32768) shows
+    where the ramp jumps from 250 to 0, as a quarter of a level here (and as one level of
+    an 8-bit image on a GPU whose filter rounds its weights to 1/256). The fills take the
+    offset in the cell, a few pixels, and add the cell's exact corner."""
+    shape = sized(spec, limit)
+    image = ramp(shape).astype(np.float32)
+    options = {"grid": grid, "interpolation": "linear"}
+    if path == "batch":
+        images = np.stack([image, image[::-1]])  # the GPU's batched fill
+        # one handle that stays, at the centre of the scaled coordinates: f is the identity
+        centre = np.array([[[(shape[1] - 1) / 2, (shape[0] - 1) / 2]]] * 2)
+        out = glmls.warp_batch(images, centre, centre, **options)
+        assert_allclose(out, images, rtol=0, atol=1e-3)
+        return
+    pipe = pipeline(compute_quads=path == "compute scan")
+    with glmls.MLS(NO_HANDLES, NO_HANDLES, shape=shape, ctx=gl) as m:
+        out = pipe.warp(m, image, **options)
+    assert pipe.cells.last_path == ("interpolated" if path == "compute scan" else None)
+    # a bilinear weight below 1e-6 (float32 noise of an offset of a few pixels) is no error
+    assert_allclose(out, image, rtol=0, atol=1e-3)
+
+
 def _padded(image, origin, shape, mode):
     """numpy.pad's extension of ``image`` seen through the canvas ``shape`` at ``origin``."""
     reach = 16

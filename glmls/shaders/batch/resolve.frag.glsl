@@ -43,10 +43,13 @@ void main() {
     vec2 d = batch_vertex_px(k, g + kc);
     vec2 x = vec2(p);
     float area = (b.x - a.x) * (d.y - a.y) - (b.y - a.y) * (d.x - a.x);
-    float lb = ((x.x - a.x) * (d.y - a.y) - (x.y - a.y) * (d.x - a.x)) / area;
-    float ld = ((b.x - a.x) * (x.y - a.y) - (b.y - a.y) * (x.x - a.x)) / area;
-    vec2 s = lattice_corner(g) * (1.0 - lb - ld) + lattice_corner(g + kb) * lb +
-             lattice_corner(g + kc) * ld;
+    float nb = (x.x - a.x) * (d.y - a.y) - (x.y - a.y) * (d.x - a.x);   // lb * area
+    float nd = (b.x - a.x) * (x.y - a.y) - (b.y - a.y) * (x.x - a.x);   // ld * area
+    // the corner 00 plus the offset in the cell, as warp/cells.frag.glsl computes it
+    vec2 s00 = lattice_corner(g);
+    vec2 sb = lattice_corner(g + kb) - s00;
+    vec2 sd = lattice_corner(g + kc) - s00;
+    vec2 s = s00 + (sb * nb + sd * nd) / area;
     s += vec2(u_lattice_offset);
 #if WARP_OUTPUT_COORDS
     out_color = vec4(s, 1.0, 0.0);   // the source point itself (the map of the output pixels)

@@ -53,10 +53,17 @@ void main() {
     // barycentric coordinates of the pixel centre
     vec2 x = vec2(p);
     float area = (b.x - a.x) * (d.y - a.y) - (b.y - a.y) * (d.x - a.x);
-    float lb = ((x.x - a.x) * (d.y - a.y) - (x.y - a.y) * (d.x - a.x)) / area;
-    float ld = ((b.x - a.x) * (x.y - a.y) - (b.y - a.y) * (x.x - a.x)) / area;
-    vec2 s = source_point(g) * (1.0 - lb - ld) + source_point(g + kb) * lb +
-             source_point(g + kc) * ld;
+    float nb = (x.x - a.x) * (d.y - a.y) - (x.y - a.y) * (d.x - a.x);   // lb * area
+    float nd = (b.x - a.x) * (x.y - a.y) - (b.y - a.y) * (x.x - a.x);   // ld * area
+    // The source point: the corner 00 (exact) plus the offset in the cell, whose size is a
+    // few pixels, so that its rounding is too (~1e-7 px). Weighting the corners' absolute
+    // positions by the barycentrics instead rounds at their magnitude (0.001 px at 16384
+    // px), enough to leave a bilinear weight on the neighbouring texel where the identity
+    // should give the input exactly. One division, last: exact where the map is.
+    vec2 s00 = source_point(g);
+    vec2 sb = source_point(g + kb) - s00;
+    vec2 sd = source_point(g + kc) - s00;
+    vec2 s = s00 + (sb * nb + sd * nd) / area;
 #if WARP_OUTPUT_COORDS
     out_color = vec4(s + vec2(u_lattice_offset), 1.0, 0.0);   // source pixels
 #else

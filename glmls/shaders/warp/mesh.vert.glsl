@@ -25,9 +25,24 @@ uniform bool u_flip_y;
 uniform ivec2 u_mesh_dims;    // vertices per row, rows of this band
 uniform int u_first_row;      // mesh row (splat: pixel row) of the band's first row
 
-out vec2 v_source;            // undeformed source point, pixels
 #if WARP_SPLAT
-flat out ivec2 v_pixel;
+flat out ivec2 v_pixel;       // the source pixel
+#else
+// The source point, as warp/mesh.frag.glsl puts it together: its cell's corner 00 (known
+// from gl_PrimitiveID, exact) plus the offset in the cell, interpolated from these values of
+// at most u_grid pixels. Interpolating the vertices' absolute source positions instead rounds
+// at their magnitude (an ulp is 0.002 px at 16384 px), which leaves a bilinear weight on the
+// neighbouring texel where the identity should give the input exactly. A vertex's value is a
+// function of the vertex alone, shared by the cells around it: along each axis its distance
+// from the previous vertex where its index is odd and 0 where even (x, y: the offset in cells
+// of even index), and the other way round (z, w: in cells of odd index).
+noperspective out vec4 v_offsets;
+
+// Vertex k's values along an axis of n pixels: (for the even cells, for the odd cells).
+vec2 offsets(int k, int n) {
+    float d = k > 0 ? lattice_corner(k, n) - lattice_corner(k - 1, n) : 0.0;
+    return (k & 1) == 1 ? vec2(d, 0.0) : vec2(0.0, d);
+}
 #endif
 
 void main() {
@@ -39,9 +54,10 @@ void main() {
     ivec2 ij = ivec2(i % u_mesh_dims.x, i / u_mesh_dims.x + u_first_row);
 #if WARP_SPLAT
     v_pixel = ij;
-    v_source = vec2(ij);
 #else
-    v_source = lattice_corner(ij);
+    vec2 x = offsets(ij.x, u_lattice_size.x);
+    vec2 y = offsets(ij.y, u_lattice_size.y);
+    v_offsets = vec4(x.x, y.x, x.y, y.y);
 #endif
     vec2 pixel = warp_output_point(warp_mesh[i]);
     vec2 ndc = (pixel + 0.5) / vec2(u_target_size) * 2.0 - 1.0;
