@@ -26,9 +26,9 @@ import glmls
 from glmls import reference
 from glmls.analysis.guarantee import (
     SHAPE,
-    first_triangles,
     guarantee_handles,
     inverse_error,
+    pixel_leaves,
     source_points,
 )
 from glmls.imaging.adaptive.patch import NODES, SAFETY, TESTS, estimate_cells
@@ -58,12 +58,7 @@ def measure(config: dict, case: str, tolerance: float, margins: bool = False) ->
     with glmls.MLS(**guarantee_handles(case), shape=SHAPE, **config) as m:
         mesh, xy, covered = source_points(m, SHAPE, tolerance)
         error, _ = inverse_error(m, SHAPE, xy, covered)
-        first = first_triangles(mesh, SHAPE)
-        drawn = first >= 0
-        leaf = np.full(SHAPE, -1)
-        leaf[drawn] = mesh.triangle_leaf[first[drawn]]
-        vouched = np.zeros(SHAPE, bool)
-        vouched[drawn] = mesh.estimate[leaf[drawn]] <= tolerance
+        leaf, vouched = pixel_leaves(mesh, SHAPE, tolerance)
         finite = np.isfinite(error)
         checked = vouched & finite
         out = {

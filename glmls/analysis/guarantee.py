@@ -21,6 +21,7 @@ __all__ = [
     "guarantee_handles",
     "inverse_error",
     "jittered_moves",
+    "pixel_leaves",
     "smooth_handles",
     "source_points",
     "stretched_handles",
@@ -182,3 +183,16 @@ def first_triangles(mesh, shape, margin=1e-4):
         strict[yy[least > margin], xx[least > margin]] = t
         loose[yy[least > -margin], xx[least > -margin]] = t
     return np.where(strict == loose, strict, -1)
+
+
+def pixel_leaves(mesh, shape, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """The leaf of ``mesh`` whose triangle draws each pixel (:func:`first_triangles`),
+    (H, W), -1 where none or where rounding decides; and (H, W) bool, where that leaf
+    vouches for the pixel (its ``AdaptiveMesh.estimate`` within ``tolerance``)."""
+    first = first_triangles(mesh, shape)
+    drawn = first >= 0
+    leaf = np.full(shape, -1)
+    leaf[drawn] = mesh.triangle_leaf[first[drawn]]
+    vouched = np.zeros(shape, bool)
+    vouched[drawn] = mesh.estimate[leaf[drawn]] <= tolerance
+    return leaf, vouched

@@ -19,6 +19,7 @@ from glmls.analysis.guarantee import (
     guarantee_handles,
     inverse_error,
     jittered_moves,
+    pixel_leaves,
     smooth_handles,
     source_points,
     stretched_handles,
@@ -90,11 +91,7 @@ def test_every_pixel_a_leaf_vouches_for_is_within_the_tolerance(gl, config, case
     with glmls.MLS(**guarantee_handles(case), shape=SHAPE, **config) as m:
         mesh, xy, covered = source_points(m, SHAPE, tolerance)
         error, _ = inverse_error(m, SHAPE, xy, covered)
-    first = first_triangles(mesh, SHAPE)
-    drawn = first >= 0
-    leaf = mesh.triangle_leaf[first[drawn]]
-    vouched = np.zeros(SHAPE, bool)
-    vouched[drawn] = mesh.estimate[leaf] <= tolerance
+    _, vouched = pixel_leaves(mesh, SHAPE, tolerance)
     checked = vouched & np.isfinite(error)
     assert checked.sum() > 0.95 * covered.sum()
     assert error[checked].max() <= tolerance, (error[checked].max(), checked.sum())
