@@ -18,16 +18,16 @@ From the command line::
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import time
 
 import numpy as np
+from window_benchmark import report, run_scripted  # demos/ is the script's folder
 
 from glmls.app.events import Key, Move, Press, Release
 from glmls.app.volume_controller import VolumeSettings
-from glmls.app.volume_window import NoDisplayError, VolumeApp
+from glmls.app.volume_window import VolumeApp
 from glmls.data import phantom, phantom_handles
 
 
@@ -56,14 +56,11 @@ def main(argv: list[str] | None = None) -> int:
         events.append(Move(x + 3 * math.sin(angle), y - 3 * math.cos(angle)))
     events += [Release(x, y)] + [Key("Up")] * args.steps
     stamps: list[float] = []
-    try:
-        app.run(
-            events=events,
-            frames=len(events) + 1,
-            on_frame=lambda a: stamps.append(time.perf_counter()),
-        )
-    except NoDisplayError as error:
-        print(f"volume_window_benchmark: {error}", file=sys.stderr)
+
+    def on_frame(a: VolumeApp) -> None:
+        stamps.append(time.perf_counter())
+
+    if not run_scripted(app, events, on_frame, "volume_window_benchmark"):
         return 1
     gaps = np.diff(stamps) * 1000  # gaps[i]: frame i + 1, which fed events[i + 1]
     first = len(args.overlay) + 1 + args.warmup
@@ -80,10 +77,7 @@ def main(argv: list[str] | None = None) -> int:
         "window": args.window_size,
         "stage_ms": {k: round(1000 * v, 2) for k, v in app.timings.items()},
     }
-    print(json.dumps(result))
-    if args.json:
-        with open(args.json, "w", encoding="utf-8") as out:
-            json.dump(result, out, indent=2)
+    report(result, args.json)
     return 0
 
 

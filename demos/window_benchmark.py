@@ -45,6 +45,25 @@ def drag_events(centre: np.ndarray, frames: int, radius: float = 40.0) -> list:
     return events
 
 
+def run_scripted(app, events: list, on_frame, name: str) -> bool:
+    """Run the window for ``events``, one per frame, and one frame more, ``on_frame`` after
+    each; False, said on standard error, where there is no display."""
+    try:
+        app.run(events=events, frames=len(events) + 1, on_frame=on_frame)
+    except NoDisplayError as error:
+        print(f"{name}: {error}", file=sys.stderr)
+        return False
+    return True
+
+
+def report(result: dict, path: str | None) -> None:
+    """Print ``result`` as one line of JSON; also write it to ``path`` where given."""
+    print(json.dumps(result))
+    if path:
+        with open(path, "w", encoding="utf-8") as out:
+            json.dump(result, out, indent=2)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -76,10 +95,7 @@ def main(argv: list[str] | None = None) -> int:
         stamps.append(time.perf_counter())
         drawn.append(a.controller.revision)
 
-    try:
-        app.run(events=events, frames=len(events) + 1, on_frame=on_frame)
-    except NoDisplayError as error:
-        print(f"window_benchmark: {error}", file=sys.stderr)
+    if not run_scripted(app, events, on_frame, "window_benchmark"):
         return 1
     first = len(args.overlay) + 1 + args.warmup  # frames before the measured drag
     measured = stamps[first : first + args.frames + 1]
@@ -98,10 +114,7 @@ def main(argv: list[str] | None = None) -> int:
         "stage_ms": {k: round(1000 * v, 2) for k, v in app.timings.items()},
         "distinct_handle_states": len(set(drawn[first : first + args.frames + 1])),
     }
-    print(json.dumps(result))
-    if args.json:
-        with open(args.json, "w", encoding="utf-8") as out:
-            json.dump(result, out, indent=2)
+    report(result, args.json)
     return 0
 
 

@@ -450,6 +450,11 @@ def _segment_products(j0, j1, j2, pf, u, qf, g) -> np.ndarray:
     )
 
 
+def _residual(p: np.ndarray, q: np.ndarray, big_m: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """l_v(p) - q for every point v and handle p -> q, (K, N, d): l_v(x) = x M_v + T_v."""
+    return np.einsum("ni,kij->knj", p, big_m) + t[:, None, :] - q[None]
+
+
 def mls_error(
     src: object,
     dst: object,
@@ -513,8 +518,7 @@ def mls_error(
     if _dimension(src, dst, points) == 3:
         _, big_m, t = _mls3_checked(src, dst, points, config, shape, src_segments, dst_segments)
         p, q = np.asarray(src, dtype=np.float64), np.asarray(dst, dtype=np.float64)
-        residual3 = np.einsum("ni,kij->knj", p, big_m) + t[:, None, :] - q[None]
-        return (residual3**2).sum(axis=(1, 2))
+        return (_residual(p, q, big_m, t) ** 2).sum(axis=(1, 2))
     handles = HandleSet.validate(src, dst, src_segments, dst_segments)
     _, big_m, t = mls(
         handles.src,
@@ -525,14 +529,10 @@ def mls_error(
         src_segments=handles.src_segments,
         dst_segments=handles.dst_segments,
     )
-
-    def residual(p, q):  # l_v(p) - q for every point and handle, (K, N, 2)
-        return np.einsum("ni,kij->knj", p, big_m) + t[:, None, :] - q[None]
-
-    error = (residual(handles.src, handles.dst) ** 2).sum(axis=(1, 2))
+    error = (_residual(handles.src, handles.dst, big_m, t) ** 2).sum(axis=(1, 2))
     if handles.segments:
         a, b = handles.src_segments, handles.dst_segments
-        ra, rb = residual(a[:, 0], b[:, 0]), residual(a[:, 1], b[:, 1])
+        ra, rb = _residual(a[:, 0], b[:, 0], big_m, t), _residual(a[:, 1], b[:, 1], big_m, t)
         length = np.hypot(*(a[:, 1] - a[:, 0]).T)
         error += ((ra * ra + ra * rb + rb * rb).sum(-1) * length / 3.0).sum(axis=1)
     return error

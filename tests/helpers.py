@@ -1,8 +1,10 @@
-"""Helpers shared by the tests (``pythonpath = ["tests"]`` in pyproject.toml)."""
+"""Helpers shared by the tests (``pythonpath = ["tests"]`` in pyproject.toml); the handles of
+the adaptive mesh's guarantee come from :mod:`glmls.analysis.guarantee`."""
 
 from __future__ import annotations
 
 import gc
+import json
 import os
 import subprocess
 import sys
@@ -11,9 +13,15 @@ from pathlib import Path
 
 import moderngl
 import numpy as np
+import pytest
 
 from glmls import reference
+from glmls.analysis.guarantee import jittered_moves as jittered_moves  # the tests' handles
+from glmls.analysis.guarantee import smooth_handles as smooth_handles
+from glmls.analysis.guarantee import stretched_handles as stretched_handles
 from glmls.core.mesh import MeshLattice
+from glmls.errors import InputFileError
+from glmls.files import read_handles
 
 #: Background of the coordinate images: no pixel holds it.
 SENTINEL = 65535
@@ -38,6 +46,48 @@ def run_glmls(
     if umask is not None:
         command = ["sh", "-c", f'umask {umask:03o} && exec "$@"', "sh", *command]
     return subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
+
+
+def run_demo(name: str, *args: str) -> subprocess.CompletedProcess:
+    """``python demos/<name>.py *args`` from the checkout, output captured."""
+    command = [sys.executable, f"demos/{name}.py", *args]
+    return subprocess.run(
+        command, cwd=ROOT, capture_output=True, text=True, timeout=300, env=child_env()
+    )
+
+
+def glmls_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    """``python -m glmls.cli *args`` in ``cwd`` (:func:`run_glmls`)."""
+    return run_glmls(*args, cwd=cwd, module="glmls.cli")
+
+
+#: The command-line tests' point handles and reference points, for images of about 32 x 40.
+CLI_SRC = [[4, 4], [36, 6], [20, 30], [6, 26]]
+CLI_DST = [[6, 5], [34, 8], [24, 28], [6, 26]]
+CLI_REFERENCE = [[10, 10], [30, 10], [20, 25], [12, 22], [28, 22]]
+
+
+def write_cli_handles(folder: Path) -> None:
+    """``h.json`` (:data:`CLI_SRC` -> :data:`CLI_DST`) and ``r.json`` (:data:`CLI_REFERENCE`)
+    in ``folder``."""
+    (folder / "h.json").write_text(json.dumps({"src": CLI_SRC, "dst": CLI_DST}))
+    (folder / "r.json").write_text(json.dumps({"points": CLI_REFERENCE}))
+
+
+def write_text(folder: Path, name: str, text: str) -> Path:
+    """``text`` written to ``folder / name`` in UTF-8; the path."""
+    path = folder / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def assert_bad_handle_file(path: Path, message: str) -> None:
+    """``read_handles(path)`` raises :class:`InputFileError` naming the file and saying
+    ``message``."""
+    with pytest.raises(InputFileError) as info:
+        read_handles(path)
+    assert str(info.value).startswith(str(path))
+    assert message in str(info.value)
 
 
 def folding_handles(shape):
@@ -65,16 +115,6 @@ def coordinate_image(height, width):
     return np.dstack([xx, yy, np.zeros_like(xx)]).astype(np.uint16)
 
 
-def smooth_handles(shape, rng, displacement=None):
-    """A jittered 3 x 3 lattice of handles over the image, targets moved by up to
-    ``displacement`` (8 % of the image by default): a typical, fold-free deformation."""
-    height, width = shape
-    displacement = displacement or 0.08 * min(shape)
-    lattice = np.stack(np.meshgrid([0.15, 0.5, 0.85], [0.15, 0.5, 0.85]), -1).reshape(-1, 2)
-    p = lattice * [width - 1, height - 1] + rng.uniform(-0.05, 0.05, (9, 2)) * [width, height]
-    return p, p + rng.uniform(-displacement, displacement, p.shape)
-
-
 def turned_handles(shape, factor, turn=0.0, inset=0.1):
     """Five handles (four ``inset`` from the corners, one at the centre) and their targets
     turned by ``turn`` radians and scaled by ``factor`` about the image centre: < 1 pulls
@@ -92,26 +132,6 @@ def reference_mesh(m, shape, grid=1):
     v = MeshLattice.corners(shape, grid).points()
     f, _, _ = reference.mls(m.src, m.dst, v.reshape(-1, 2), m.config, shape=shape)
     return f.reshape(v.shape)
-
-
-def stretched_handles(shape):
-    """Two close handles pulled apart (the map stretches strongly between them) and four
-    that pin the corners."""
-    height, width = shape
-    c = np.array([(width - 1) / 2, (height - 1) / 2])
-    p = np.array([[0.15, 0.15], [0.85, 0.15], [0.85, 0.85], [0.15, 0.85]]) * [width, height]
-    p = np.concatenate([p, [c - [4, 0], c + [4, 0]]])
-    q = p.copy()
-    q[4] -= [14, 0]
-    q[5] += [14, 0]
-    return p, q
-
-
-def jittered_moves(shape, rng):
-    """W2 in small: random handles moved by up to 3.4 % of the image (the mesh folds)."""
-    height, width = shape
-    p = rng.uniform(0.05, 0.95, (24, 2)) * [width, height]
-    return p, p + rng.uniform(-0.034, 0.034, p.shape) * [width, height]
 
 
 def folded_case():

@@ -62,6 +62,16 @@ def _positive(name: str, value: float) -> float:
     return float(value)
 
 
+def _ends(a: object, b: object, names: tuple[str, str]) -> tuple[np.ndarray, np.ndarray]:
+    """Two (K, 2) point arrays of one shape: the ends of segments or arrows."""
+    a, b = as_points(a, names[0]), as_points(b, names[1])
+    if a.shape != b.shape:
+        raise ValueError(
+            f"{' and '.join(names)} must have the same shape, got {a.shape} and {b.shape}"
+        )
+    return a, b
+
+
 class Canvas:
     """An offscreen picture of an image's size, drawn in layers by OpenGL, read back top-down.
 
@@ -327,9 +337,7 @@ class Canvas:
         Canvas
             This canvas.
         """
-        a, b = as_points(a, "a"), as_points(b, "b")
-        if a.shape != b.shape:
-            raise ValueError(f"a and b must have the same shape, got {a.shape} and {b.shape}")
+        a, b = _ends(a, b, ("a", "b"))
         self._solid(segment_triangles(a, b, _positive("width", width)), color, opacity, "color")
         return self
 
@@ -394,9 +402,7 @@ class Canvas:
         Canvas
             This canvas.
         """
-        src, dst = as_points(src, "src"), as_points(dst, "dst")
-        if src.shape != dst.shape:
-            raise ValueError(f"src and dst must have the same shape, got {src.shape}, {dst.shape}")
+        src, dst = _ends(src, dst, ("src", "dst"))
         triangles = arrow_triangles(src, dst, _positive("width", width), _positive("head", head))
         self._solid(triangles, color, opacity, "color")
         return self

@@ -39,8 +39,84 @@ if TYPE_CHECKING:
     from ..mls import MLS
 
 
+class StageClock:
+    """The seconds of a report's stages, each told to ``on_stage`` (its name) as it begins:
+    :meth:`begin` a stage, :meth:`end` it under a key of :attr:`timings`, :meth:`finish` all
+    (``timings["total"]``)."""
+
+    def __init__(self, on_stage: Callable[[str], None] | None = None) -> None:
+        self.timings: dict[str, float] = {}
+        self._on_stage = on_stage
+        self._start = self._tick = time.perf_counter()
+
+    def begin(self, name: str) -> None:
+        self._tick = time.perf_counter()
+        if self._on_stage is not None:
+            self._on_stage(name)
+
+    def end(self, key: str) -> None:
+        self.timings[key] = time.perf_counter() - self._tick
+
+    def finish(self) -> None:
+        self.timings["total"] = time.perf_counter() - self._start
+
+
+class SavedReport:
+    """``to_json`` and ``save`` of a report of a ``summary`` (JSON-ready) and ``images``
+    (picture name -> (H, W, 3) uint8); each report lists them as its own methods."""
+
+    summary: dict
+    images: dict[str, np.ndarray]
+
+    def to_json(self, **options: object) -> str:
+        """The summary as JSON text.
+
+        Parameters
+        ----------
+        **options
+            :func:`json.dumps`'s keywords (default ``indent=2``).
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
+        return json.dumps(self.summary, **({"indent": 2} | options))  # type: ignore[arg-type]
+
+    def save(self, folder: str | Path) -> list[Path]:
+        """Write ``report.json`` and one PNG per picture into a folder.
+
+        Each file is written whole or not at all.
+
+        Parameters
+        ----------
+        folder : str or pathlib.Path
+            The folder, created if needed.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The paths written, ``report.json`` first.
+        """
+        out = Path(folder)
+        paths = [out / "report.json"]
+        with atomic_write(paths[0]) as tmp:  # each file whole or not at all
+            tmp.write_text(self.to_json() + "\n", encoding="utf-8")
+        for name, picture in self.images.items():
+            path = out / f"{name}.png"
+            with atomic_write(path) as tmp:
+                Image.fromarray(picture).save(tmp, format="PNG")
+            paths.append(path)
+        return paths
+
+
+def cmap_name(cmap: object) -> object:
+    """A colour map as the summaries record it: its name, or its colours as lists."""
+    return cmap if isinstance(cmap, str) else np.asarray(cmap).tolist()
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
-class AnalysisReport:
+class AnalysisReport(SavedReport):
     """What :func:`report` found: statistics, timings and pictures of one deformation.
 
     Attributes
@@ -82,50 +158,8 @@ class AnalysisReport:
     triangles: object
     construction: ConstructionErrors | None = None
 
-    def to_json(self, **options: object) -> str:
-        """The summary as JSON text.
-
-        Parameters
-        ----------
-        **options
-            :func:`json.dumps`'s keywords (default ``indent=2``).
-
-        Returns
-        -------
-        str
-            The JSON text.
-        """
-        return json.dumps(self.summary, **({"indent": 2} | options))  # type: ignore[arg-type]
-
-    def save(self, folder: str | Path) -> list[Path]:
-        """Write ``report.json`` and one PNG per picture into a folder.
-
-        Each file is written whole or not at all.
-
-        Parameters
-        ----------
-        folder : str or pathlib.Path
-            The folder, created if needed.
-
-        Returns
-        -------
-        list of pathlib.Path
-            The paths written, ``report.json`` first.
-        """
-        out = Path(folder)
-        paths = [out / "report.json"]
-        with atomic_write(paths[0]) as tmp:  # each file whole or not at all
-            tmp.write_text(self.to_json() + "\n", encoding="utf-8")
-        for name, picture in self.images.items():
-            path = out / f"{name}.png"
-            with atomic_write(path) as tmp:
-                Image.fromarray(picture).save(tmp)
-            paths.append(path)
-        return paths
-
-
-def _cmap_name(cmap: object) -> object:
-    return cmap if isinstance(cmap, str) else np.asarray(cmap).tolist()
+    to_json = SavedReport.to_json  # listed among this class's methods
+    save = SavedReport.save
 
 
 def report(
@@ -248,7 +282,6 @@ def report(
     >>> found.summary["foldovers"], found.summary["triangles"]["flipped"]
     ({'grid': 1, 'cells': 0}, 0)
     """
-    stage = on_stage if on_stage is not None else (lambda name: None)
     rgb = as_rgb8(image)
     shape = rgb.shape[:2]
     if triangle_error not in ("angle", "distance"):
@@ -263,21 +296,17 @@ def report(
     )
     if construction:
         check_radius(construction_radius)
-    timings: dict[str, float] = {}
-    start = time.perf_counter()
+    clock = StageClock(on_stage)
 
-    tick = time.perf_counter()
-    stage("error field")
+    clock.begin("error field")
     field = m.error_field(shape, grid=grid)
-    timings["error_field"] = time.perf_counter() - tick
+    clock.end("error_field")
 
-    tick = time.perf_counter()
-    stage("triangles")
+    clock.begin("triangles")
     triangles = triangle_errors(m, reference_points, angle=angle, eps=eps)
-    timings["triangle_errors"] = time.perf_counter() - tick
+    clock.end("triangle_errors")
 
-    tick = time.perf_counter()
-    stage("warp")
+    clock.begin("warp")
     if fit:
         canvas = m.bounds(shape, grid=options.grid).frame
     else:
@@ -285,12 +314,11 @@ def report(
     output_shape, origin = canvas.shape, canvas.origin
     options = dataclasses.replace(options, output_shape=output_shape, origin=origin)
     deformed = as_rgb8(m.warp(rgb, options=options), "m.warp(image)")
-    timings["warp"] = time.perf_counter() - tick
+    clock.end("warp")
 
     built = None
     if construction:
-        tick = time.perf_counter()
-        stage("construction")
+        clock.begin("construction")
         built = construction_errors(
             rgb,
             deformed,
@@ -300,15 +328,13 @@ def report(
             border=options.border,
             origin=origin,
         )
-        timings["construction_errors"] = time.perf_counter() - tick
+        clock.end("construction_errors")
 
-    tick = time.perf_counter()
-    stage("fold-overs")
+    clock.begin("fold-overs")
     folds = foldovers(m, shape, grid=options.grid).count
-    timings["foldovers"] = time.perf_counter() - tick
+    clock.end("foldovers")
 
-    tick = time.perf_counter()
-    stage("pictures")
+    clock.begin("pictures")
     a, b = m.src_segments, m.dst_segments
     images: dict[str, np.ndarray] = {
         "input_handles": render_handles(rgb, m.src, m.dst, src_segments=a, dst_segments=b)
@@ -353,8 +379,8 @@ def report(
         images["construction_errors_colorbar"] = colormaps.colorbar(
             cmap, c_lo, c_hi, length=max(64, shape[0] - 40), label="construction RMS (0-1)"
         )
-    timings["render"] = time.perf_counter() - tick
-    timings["total"] = time.perf_counter() - start
+    clock.end("render")
+    clock.finish()
 
     config = dataclasses.asdict(m.config)
     summary = {
@@ -374,14 +400,14 @@ def report(
             "angle": angle,
             "eps": eps,
             "reference_points": len(triangles.points),
-            "cmap": _cmap_name(cmap),
+            "cmap": cmap_name(cmap),
             "percentile": percentile,
             "triangle_error": triangle_error,
             "triangle_percentile": triangle_percentile,
             "error_field_limits": [lo, hi],
             "triangle_limits": [t_lo, t_hi],
         },
-        "timings_s": timings,
+        "timings_s": clock.timings,
         "error_field": error_stats(field),
         "triangles": triangles.stats(),
         "foldovers": {"grid": options.grid, "cells": folds},

@@ -26,10 +26,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import Delaunay, QhullError
 
 from .stats import error_stats
-from .triangles import check_angle_measure
+from .triangles import check_angle_measure, check_eps, deformed_points, qhull_simplices
 from .volume_lattice import as_points3
 
 __all__ = [
@@ -215,17 +214,7 @@ def delaunay3(points: object) -> tuple[np.ndarray, np.ndarray]:
     singular = np.linalg.svd(r - r.mean(axis=0), compute_uv=False)
     if singular[2] <= 1e-10 * singular[0]:
         raise ValueError("reference_points all lie on one plane: no tetrahedron can be formed")
-    try:
-        tri = Delaunay(r)
-    except QhullError as error:
-        raise ValueError(f"reference_points cannot be triangulated: {error}") from None
-    if len(tri.coplanar):
-        left = sorted(int(i) for i in tri.coplanar[:, 0])
-        raise ValueError(
-            f"reference_points {left} coincide (within Qhull's precision) with other points "
-            "and were left out of the tetrahedra; remove or move them"
-        )
-    return r, np.ascontiguousarray(tri.simplices, dtype=np.int64)
+    return r, qhull_simplices(r, "tetrahedra")
 
 
 def _face_angles(corners: np.ndarray) -> np.ndarray:
@@ -344,8 +333,7 @@ def tetrahedron_errors(
     (True, 0)
     """
     measure = check_angle_measure(angle)
-    if isinstance(eps, bool) or not isinstance(eps, (int, float)) or not eps > 0:
-        raise ValueError(f"eps must be a positive number, got {eps!r}")
+    check_eps(eps)
     if isinstance(min_quality, bool) or not isinstance(min_quality, (int, float)):
         raise ValueError(f"min_quality must be a number in [0, 1), got {min_quality!r}")
     if not 0 <= min_quality < 1:
@@ -362,11 +350,7 @@ def tetrahedron_errors(
             f"every one of the {len(simplices)} tetrahedra is a sliver (radius ratio below "
             f"{min_quality}): spread the reference points, or lower min_quality"
         )
-    deformed = np.array(m(r), dtype=np.float64)  # a copy: we freeze it
-    if deformed.shape != r.shape:
-        raise ValueError(f"m(points) returned shape {deformed.shape}, expected {r.shape}")
-    if not np.isfinite(deformed).all():
-        raise ValueError("m(points) returned NaN or infinite points")
+    deformed = deformed_points(m, r)
     kept = simplices[~sliver]
     distance, errors, inverted = tetrahedron_errors_from_points(
         r, deformed, kept, angle=measure, eps=eps

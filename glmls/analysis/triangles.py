@@ -33,8 +33,11 @@ __all__ = [
     "ANGLE_MEASURES",
     "TriangleErrors",
     "check_angle_measure",
+    "check_eps",
     "check_reference_points",
+    "deformed_points",
     "delaunay",
+    "qhull_simplices",
     "triangle_errors",
     "triangle_errors_from_points",
 ]
@@ -135,6 +138,12 @@ def delaunay(points: object) -> tuple[np.ndarray, np.ndarray]:
     (near-duplicates, in ``coplanar``) raise ``ValueError``.
     """
     r = check_reference_points(points)
+    return r, qhull_simplices(r, "triangulation")
+
+
+def qhull_simplices(r: np.ndarray, name: str) -> np.ndarray:
+    """Qhull's Delaunay simplices of the checked points ``r`` (2D or 3D), int64; ``ValueError``
+    where Qhull fails or leaves points out (near-duplicates) of the ``name`` it makes."""
     try:
         tri = Delaunay(r)
     except QhullError as error:
@@ -143,9 +152,9 @@ def delaunay(points: object) -> tuple[np.ndarray, np.ndarray]:
         left = sorted(int(i) for i in tri.coplanar[:, 0])
         raise ValueError(
             f"reference_points {left} coincide (within Qhull's precision) with other points "
-            "and were left out of the triangulation; remove or move them"
+            f"and were left out of the {name}; remove or move them"
         )
-    return r, np.ascontiguousarray(tri.simplices, dtype=np.int64)
+    return np.ascontiguousarray(tri.simplices, dtype=np.int64)
 
 
 def _corner_angles(corners: np.ndarray) -> np.ndarray:
@@ -182,6 +191,24 @@ def check_angle_measure(angle: object) -> str:
             f"angle must be one of {', '.join(map(repr, ANGLE_MEASURES))}, got {angle!r}"
         )
     return angle
+
+
+def check_eps(eps: object) -> float:
+    """``eps`` if it is a positive number (eq. (11)'s epsilon), else ``ValueError``."""
+    if isinstance(eps, bool) or not isinstance(eps, (int, float)) or not eps > 0:
+        raise ValueError(f"eps must be a positive number, got {eps!r}")
+    return eps
+
+
+def deformed_points(m: Callable[[np.ndarray], np.ndarray], r: np.ndarray) -> np.ndarray:
+    """f(r) = ``m(r)`` as a new float64 array (the caller may freeze it); ``ValueError`` for
+    another shape than r's or points that are not finite."""
+    deformed = np.array(m(r), dtype=np.float64)  # a copy: the caller freezes it
+    if deformed.shape != r.shape:
+        raise ValueError(f"m(points) returned shape {deformed.shape}, expected {r.shape}")
+    if not np.isfinite(deformed).all():
+        raise ValueError("m(points) returned NaN or infinite points")
+    return deformed
 
 
 def triangle_errors_from_points(
@@ -272,14 +299,9 @@ def triangle_errors(
     [0.0, 0.0]
     """
     measure = check_angle_measure(angle)
-    if isinstance(eps, bool) or not isinstance(eps, (int, float)) or not eps > 0:
-        raise ValueError(f"eps must be a positive number, got {eps!r}")
+    check_eps(eps)
     r, simplices = delaunay(reference_points)
-    deformed = np.array(m(r), dtype=np.float64)  # a copy: we freeze it
-    if deformed.shape != r.shape:
-        raise ValueError(f"m(points) returned shape {deformed.shape}, expected {r.shape}")
-    if not np.isfinite(deformed).all():
-        raise ValueError("m(points) returned NaN or infinite points")
+    deformed = deformed_points(m, r)
     distance, errors, flipped = triangle_errors_from_points(
         r, deformed, simplices, eps=eps, angle=measure
     )

@@ -3,17 +3,14 @@
 from __future__ import annotations
 
 import dataclasses
-import json
-import time
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 
-from ..files.atomic import atomic_write
 from . import colormaps
 from .jacobians import CellJacobians, cell_jacobians
+from .reporting import SavedReport, StageClock, cmap_name
 from .stats import error_stats
 from .tetrahedra import SLIVER_QUALITY, TetrahedronErrors, tetrahedron_errors
 from .triangles import check_angle_measure
@@ -25,7 +22,7 @@ __all__ = ["VolumeReport", "volume_report"]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class VolumeReport:
+class VolumeReport(SavedReport):
     """What :func:`volume_report` found: statistics, timings and pictures of a 3D deformation.
 
     Attributes
@@ -67,44 +64,8 @@ class VolumeReport:
     jacobians: CellJacobians
     deformed: np.ndarray | None = None
 
-    def to_json(self, **options: object) -> str:
-        """The summary as JSON text.
-
-        Parameters
-        ----------
-        **options
-            :func:`json.dumps`'s keywords (default ``indent=2``).
-
-        Returns
-        -------
-        str
-            The JSON text.
-        """
-        return json.dumps(self.summary, **({"indent": 2} | options))  # type: ignore[arg-type]
-
-    def save(self, folder: str | Path) -> list[Path]:
-        """Write ``report.json`` and one PNG per picture into a folder, each whole or not at all.
-
-        Parameters
-        ----------
-        folder : str or pathlib.Path
-            The folder, created if needed.
-
-        Returns
-        -------
-        list of pathlib.Path
-            The paths written, ``report.json`` first.
-        """
-        out = Path(folder)
-        paths = [out / "report.json"]
-        with atomic_write(paths[0]) as tmp:
-            tmp.write_text(self.to_json() + "\n", encoding="utf-8")
-        for name, picture in self.images.items():
-            path = out / f"{name}.png"
-            with atomic_write(path) as tmp:
-                Image.fromarray(picture).save(tmp, format="PNG")
-            paths.append(path)
-        return paths
+    to_json = SavedReport.to_json  # listed among this class's methods
+    save = SavedReport.save
 
 
 def _check_volume(volume: object, name: str) -> np.ndarray:
@@ -236,7 +197,6 @@ def volume_report(
     >>> found.field.shape, found.summary["tetrahedra"]["tetrahedra"] > 0
     ((12, 12, 12), True)
     """
-    stage = on_stage if on_stage is not None else (lambda name: None)
     array = _check_volume(volume, "volume")
     dims = array.shape[:3]
     step = check_grid3(grid)
@@ -244,16 +204,13 @@ def volume_report(
     check_angle_measure(angle)
     at = check_slices(dims, slices)
     src, dst = as_points3(m.src, "m.src"), as_points3(m.dst, "m.dst")
-    timings: dict[str, float] = {}
-    start = time.perf_counter()
+    clock = StageClock(on_stage)
 
-    tick = time.perf_counter()
-    stage("error field")
+    clock.begin("error field")
     field = volume_error_field(m, dims, grid=step)
-    timings["error_field"] = time.perf_counter() - tick
+    clock.end("error_field")
 
-    tick = time.perf_counter()
-    stage("tetrahedra")
+    clock.begin("tetrahedra")
     found: TetrahedronErrors | None = None
     skipped = None
     try:
@@ -269,27 +226,24 @@ def volume_report(
         if reference_points is not None:
             raise
         skipped = f"the source handles as reference points: {error}"
-    timings["tetrahedron_errors"] = time.perf_counter() - tick
+    clock.end("tetrahedron_errors")
 
-    tick = time.perf_counter()
-    stage("jacobians")
+    clock.begin("jacobians")
     cells = cell_jacobians(m, dims, grid=cell_step)
-    timings["jacobians"] = time.perf_counter() - tick
+    clock.end("jacobians")
 
     warped = None
     if deformed is not None:
         warped = _check_volume(deformed, "deformed")
     elif warp and callable(getattr(m, "warp", None)):
-        tick = time.perf_counter()
-        stage("warp")
+        clock.begin("warp")
         try:
             warped = _check_volume(m.warp(array), "m.warp(volume)")  # type: ignore[attr-defined]
         except NotImplementedError:  # a deformation that cannot warp volumes
             warped = None
-        timings["warp"] = time.perf_counter() - tick
+        clock.end("warp")
 
-    tick = time.perf_counter()
-    stage("pictures")
+    clock.begin("pictures")
     shown = _shown(array)
     lo, hi = _grey_limits(shown)
     view = {"slices": at, "near": near}
@@ -317,8 +271,8 @@ def volume_report(
         cmap, d_lo, d_hi, length=256, label="det J"
     )
     images["folds"] = render_volume_slices(shown, mask=cells.mask, vmin=lo, vmax=hi, **view)
-    timings["render"] = time.perf_counter() - tick
-    timings["total"] = time.perf_counter() - start
+    clock.end("render")
+    clock.finish()
 
     config = getattr(m, "config", None)
     summary: dict[str, object] = {
@@ -337,13 +291,13 @@ def volume_report(
             "eps": eps,
             "min_quality": min_quality,
             "reference_points": "handles" if reference_points is None else "given",
-            "cmap": cmap if isinstance(cmap, str) else np.asarray(cmap).tolist(),
+            "cmap": cmap_name(cmap),
             "percentile": percentile,
             "slices": {"z": at[0], "y": at[1], "x": at[2]},
             "error_field_limits": [f_lo, f_hi],
             "det_limits": [d_lo, d_hi],
         },
-        "timings_s": timings,
+        "timings_s": clock.timings,
         "error_field": error_stats(field),
         "tetrahedra": found.stats() if found is not None else {"skipped": skipped},
         "jacobians": cells.stats(),

@@ -14,11 +14,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..core.weights import WEIGHTS
-from ..imaging.source import BORDERS
+from .controls import Controls, window_bindings
 from .editing import UNDO_DEPTH, Editor, Handles, pick
-from .events import BUTTONS, Event, Key, Move, Press, Release, Scroll
-from .settings import CONSTRUCTIONS, GRIDS, TRANSFORM_ORDER, Settings, cycle
+from .events import Key, Move, Press, Release, Scroll
+from .settings import CONSTRUCTIONS, GRIDS, TRANSFORM_ORDER, Settings
 from .zoom import ZOOM_STEP, ViewLimits, Zoom, pan, zoom_at
 
 __all__ = [
@@ -51,46 +50,35 @@ PAN_SHARE = 0.125
 #: (keys, action, what it does): the key bindings. Printable keys are the characters typed;
 #: others are named ("F1", "Escape", "Ctrl+Z", "Left"). The help screen (:mod:`.hud`) lists
 #: them all, grouped.
-BINDINGS: tuple[tuple[tuple[str, ...], str, str], ...] = (
-    (("F1", "?"), "help", "show / hide this help"),
-    (("t",), "transform", "cycle transform: rigid, similarity, affine"),
-    (("w",), "weight", f"cycle weight: {', '.join(WEIGHTS)}"),
-    (("+", "="), "raise", "raise the weight's parameter (idw alpha, else radius)"),
-    (("-",), "lower", "lower the weight's parameter"),
+BINDINGS: tuple[tuple[tuple[str, ...], str, str], ...] = window_bindings(
     (("c",), "construction", "cycle construction: quads nearest/linear, splat, backward"),
-    (("g",), "grid_finer", "finer grid (step / 2)"),
-    (("G",), "grid_coarser", "coarser grid (step x 2)"),
-    (("T",), "tolerance", "cycle the adaptive mesh (quads): off, 0.25 px, 0.05 px"),
-    (("b",), "border", f"cycle border: {', '.join(BORDERS)}"),
-    (("o",), "fit", "fit view: the whole deformed image / the input's frame"),
-    (("]",), "zoom_in", "zoom in (about the view's centre)"),
-    (("[",), "zoom_out", "zoom out"),
-    (("0",), "zoom_reset", "reset zoom and pan"),
-    (("Left",), "pan_left", "pan left"),
-    (("Right",), "pan_right", "pan right"),
-    (("Up",), "pan_up", "pan up"),
-    (("Down",), "pan_down", "pan down"),
-    (("h",), "overlay_handles", "overlay: handles (p -> q arrows, segments)"),
-    (("m",), "overlay_mesh", "overlay: deformed mesh wireframe"),
-    (("e",), "overlay_error", "overlay: MLS error field (eq. 7)"),
-    (("a",), "overlay_angle", "overlay: triangle angular error (degrees)"),
-    (("f",), "overlay_folds", "overlay: fold-overs"),
-    (("d",), "segment_mode", "segment mode on / off: a drag on empty space draws one"),
-    (("p",), "reference_mode", "reference-point mode on / off"),
-    (("r",), "reset", "reset: every target back to its source"),
-    (("R",), "restore", "restore the handles as loaded"),
-    (("u", "Ctrl+Z", "Backspace"), "undo", "undo the last handle edit"),
-    (("U", "Ctrl+Y", "Ctrl+Shift+Z"), "redo", "redo the last undone edit"),
-    (("s",), "save_image", "save the deformed image (full resolution)"),
-    (("j",), "save_handles", "save the handles as JSON"),
-    (("S",), "save_screenshot", "save a screenshot of the window"),
-    (("l",), "load_handles", "load the handles file"),
-    (("q", "Escape"), "quit", "quit"),
+    ((("T",), "tolerance", "cycle the adaptive mesh (quads): off, 0.25 px, 0.05 px"),),
+    (
+        (("o",), "fit", "fit view: the whole deformed image / the input's frame"),
+        (("]",), "zoom_in", "zoom in (about the view's centre)"),
+        (("[",), "zoom_out", "zoom out"),
+        (("0",), "zoom_reset", "reset zoom and pan"),
+        (("Left",), "pan_left", "pan left"),
+        (("Right",), "pan_right", "pan right"),
+        (("Up",), "pan_up", "pan up"),
+        (("Down",), "pan_down", "pan down"),
+        (("h",), "overlay_handles", "overlay: handles (p -> q arrows, segments)"),
+        (("m",), "overlay_mesh", "overlay: deformed mesh wireframe"),
+        (("e",), "overlay_error", "overlay: MLS error field (eq. 7)"),
+        (("a",), "overlay_angle", "overlay: triangle angular error (degrees)"),
+        (("f",), "overlay_folds", "overlay: fold-overs"),
+        (("d",), "segment_mode", "segment mode on / off: a drag on empty space draws one"),
+        (("p",), "reference_mode", "reference-point mode on / off"),
+    ),
+    (
+        (("s",), "save_image", "save the deformed image (full resolution)"),
+        (("j",), "save_handles", "save the handles as JSON"),
+    ),
 )
 ACTIONS = {key: action for keys, action, _ in BINDINGS for key in keys}
 
 
-class Controller:
+class Controller(Controls):
     """Handles (points and segments), reference points, settings, overlays and zoom, changed
     by :meth:`feed`.
 
@@ -211,25 +199,12 @@ class Controller:
 
     # -- events -------------------------------------------------------------------------------
 
-    def feed(self, event: Event) -> list[str]:
-        """Apply one event; returns the commands for the window (names in :data:`COMMANDS`)."""
-        if isinstance(event, Press):
-            self._press(event)
-        elif isinstance(event, Move):
-            self._move(event.x, event.y)
-        elif isinstance(event, Release):
-            self._release()
-        elif isinstance(event, Scroll):
-            self._zoom(zoom_at(self.zoom, self.view_limits, event.x, event.y, ZOOM_STEP**event.dy))
-        elif isinstance(event, Key):
-            return self._key(event.key)
-        else:
-            raise TypeError(f"unknown event {event!r}")
-        return []
+    # feed (Controls): the commands it returns are names in COMMANDS
+
+    def _scroll(self, event: Scroll) -> None:
+        self._zoom(zoom_at(self.zoom, self.view_limits, event.x, event.y, ZOOM_STEP**event.dy))
 
     def _press(self, event: Press) -> None:
-        if event.button not in BUTTONS:
-            raise ValueError(f"unknown mouse button {event.button!r}; use one of {BUTTONS}")
         self._release()  # a press while dragging (a lost release) ends the old drag
         x, y, r = event.x, event.y, self.pick_radius
         if event.button == "middle" or (event.button == "left" and "ctrl" in event.mods):
@@ -277,18 +252,6 @@ class Controller:
         self.settings = settings
         self._settings_revision += 1
 
-    def _reconfigure(self, **changes: object) -> None:
-        self._configure(replace(self.settings, config=replace(self.settings.config, **changes)))
-
-    def _do_help(self) -> None:
-        self.help_visible = not self.help_visible
-
-    def _do_transform(self) -> None:
-        self._reconfigure(transform=cycle(TRANSFORM_ORDER, self.settings.config.transform))
-
-    def _do_weight(self) -> None:
-        self._reconfigure(weight=cycle(WEIGHTS, self.settings.config.weight))
-
     def _do_raise(self) -> None:
         self._configure(self.settings.stepped(self.shape, up=True))
 
@@ -306,9 +269,6 @@ class Controller:
 
     def _do_tolerance(self) -> None:
         self._configure(self.settings.next_tolerance())
-
-    def _do_border(self) -> None:
-        self._configure(replace(self.settings, border=cycle(BORDERS, self.settings.border)))
 
     def _do_fit(self) -> None:
         self._configure(replace(self.settings, fit=not self.settings.fit))

@@ -15,6 +15,7 @@ from .text import GlyphAtlas, glyph_atlas
 __all__ = [
     "PANEL_CHARS",
     "TextGroups",
+    "frame_rate",
     "help_lines",
     "place_help",
     "readout",
@@ -45,6 +46,16 @@ def wrap(text: str, width: int) -> list[str]:
     return [*lines, line] if line else lines
 
 
+def frame_rate(frame_times: Sequence[float]) -> tuple[float, float]:
+    """(frames per second over the last second, the last frame's milliseconds) from the
+    frames' times in seconds."""
+    times = list(frame_times)
+    recent = [t for t in times if t >= times[-1] - 1.0] if times else []
+    fps = (len(recent) - 1) / (recent[-1] - recent[0]) if len(recent) > 2 else 0.0
+    frame_ms = 1000 * (recent[-1] - recent[-2]) if len(recent) > 1 else 0.0
+    return fps, frame_ms
+
+
 def readout(
     *,
     name: str,
@@ -58,10 +69,7 @@ def readout(
 ) -> list[str]:
     """The lines of the readout panel."""
     c, s = controller, controller.settings
-    times = list(frame_times)
-    recent = [t for t in times if t >= times[-1] - 1.0] if times else []
-    fps = (len(recent) - 1) / (recent[-1] - recent[0]) if len(recent) > 2 else 0.0
-    frame_ms = 1000 * (recent[-1] - recent[-2]) if len(recent) > 1 else 0.0
+    fps, frame_ms = frame_rate(frame_times)
     ms = {k: 1000 * v for k, v in timings.items()}
     on = [overlay for overlay in OVERLAYS if c.overlays[overlay]]
     height, width = shape

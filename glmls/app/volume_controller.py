@@ -17,10 +17,10 @@ import numpy as np
 
 from ..core.config import MLSConfig
 from ..core.handles3 import volume_diagonal
-from ..core.weights import WEIGHTS
 from ..imaging.source import BORDERS
-from .events import BUTTONS, Event, Key, Move, Press, Release, Scroll
-from .settings import ALPHA_RANGE, ALPHA_STEP, RADIUS_FACTOR, TRANSFORM_ORDER, cycle
+from .controls import Controls, window_bindings
+from .events import Press, Scroll
+from .settings import ALPHA_RANGE, ALPHA_STEP, RADIUS_FACTOR, cycle
 
 __all__ = [
     "VIEWS",
@@ -48,37 +48,27 @@ GAP = 4
 UNDO_DEPTH = 100
 
 #: (keys, action, what it does): the volume window's key bindings (named as the 2D window's).
-VOLUME_BINDINGS: tuple[tuple[tuple[str, ...], str, str], ...] = (
-    (("F1", "?"), "help", "show / hide this help"),
-    (("t",), "transform", "cycle transform: rigid, similarity, affine"),
-    (("w",), "weight", f"cycle weight: {', '.join(WEIGHTS)}"),
-    (("+", "="), "raise", "raise the weight's parameter (idw alpha, else radius)"),
-    (("-",), "lower", "lower the weight's parameter"),
+VOLUME_BINDINGS: tuple[tuple[tuple[str, ...], str, str], ...] = window_bindings(
     (("c",), "method", "cycle construction: quads (cells), backward"),
-    (("g",), "grid_finer", "finer grid (step / 2)"),
-    (("G",), "grid_coarser", "coarser grid (step x 2)"),
-    (("b",), "border", f"cycle border: {', '.join(BORDERS)}"),
-    (("e",), "overlay_error", "overlay: MLS error field E_MLS on / off"),
-    (("f",), "overlay_folds", "overlay: folds (det J <= 0) on / off"),
-    (("h",), "handles", "overlay: handles near the slices on / off"),
-    (("1",), "view_axial", "active view: axial (z)"),
-    (("2",), "view_coronal", "active view: coronal (y)"),
-    (("3",), "view_sagittal", "active view: sagittal (x)"),
-    (("Tab",), "view_next", "active view: the next one"),
-    (("Up", "PageUp"), "slice_up", "slice point +1 voxel along the active view's normal"),
-    (("Down", "PageDown"), "slice_down", "slice point -1 voxel along the active normal"),
-    (("Right",), "slice_up8", "slice point +8 voxels along the active normal"),
-    (("Left",), "slice_down8", "slice point -8 voxels along the active normal"),
-    (("0",), "centre", "slice point back to the volume's centre"),
-    (("r",), "reset", "reset: every target back to its source"),
-    (("R",), "restore", "restore the handles as loaded"),
-    (("u", "Ctrl+Z", "Backspace"), "undo", "undo the last handle edit"),
-    (("U", "Ctrl+Y", "Ctrl+Shift+Z"), "redo", "redo the last undone edit"),
-    (("s",), "save_volume", "save the deformed volume (.npy)"),
-    (("j",), "save_handles", "save the handles as 3D JSON"),
-    (("S",), "save_screenshot", "save a screenshot of the window"),
-    (("l",), "load_handles", "load the handles file"),
-    (("q", "Escape"), "quit", "quit"),
+    (),
+    (
+        (("e",), "overlay_error", "overlay: MLS error field E_MLS on / off"),
+        (("f",), "overlay_folds", "overlay: folds (det J <= 0) on / off"),
+        (("h",), "handles", "overlay: handles near the slices on / off"),
+        (("1",), "view_axial", "active view: axial (z)"),
+        (("2",), "view_coronal", "active view: coronal (y)"),
+        (("3",), "view_sagittal", "active view: sagittal (x)"),
+        (("Tab",), "view_next", "active view: the next one"),
+        (("Up", "PageUp"), "slice_up", "slice point +1 voxel along the active view's normal"),
+        (("Down", "PageDown"), "slice_down", "slice point -1 voxel along the active normal"),
+        (("Right",), "slice_up8", "slice point +8 voxels along the active normal"),
+        (("Left",), "slice_down8", "slice point -8 voxels along the active normal"),
+        (("0",), "centre", "slice point back to the volume's centre"),
+    ),
+    (
+        (("s",), "save_volume", "save the deformed volume (.npy)"),
+        (("j",), "save_handles", "save the handles as 3D JSON"),
+    ),
 )
 _ACTIONS = {key: action for keys, action, _ in VOLUME_BINDINGS for key in keys}
 
@@ -161,7 +151,16 @@ class SliceGrid:
         return np.asarray(points, np.float64)[:, [right, down]] + self.offset(view)
 
 
-class VolumeController:
+def _handles3(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
+    """The handles as two (N, 3) float64 arrays (new ones); ValueError unless alike."""
+    p = np.array(src, np.float64).reshape(-1, 3)
+    q = np.array(dst, np.float64).reshape(-1, 3)
+    if p.shape != q.shape:
+        raise ValueError(f"src and dst must be (N, 3) alike, got {p.shape} and {q.shape}")
+    return p, q
+
+
+class VolumeController(Controls):
     """3D point handles, the slice point, the active view, the overlay and the settings of
     the volume window, changed by :meth:`feed`.
 
@@ -209,10 +208,7 @@ class VolumeController:
         near: float = 3.0,
         pick_radius: float = 3.0,
     ) -> None:
-        p = np.array(src, np.float64).reshape(-1, 3)
-        q = np.array(dst, np.float64).reshape(-1, 3)
-        if p.shape != q.shape:
-            raise ValueError(f"src and dst must be (N, 3) alike, got {p.shape} and {q.shape}")
+        p, q = _handles3(src, dst)
         self.grid = SliceGrid(tuple(int(n) for n in shape))  # type: ignore[arg-type]
         self.settings = settings or VolumeSettings()
         self.near = float(near)
@@ -260,16 +256,14 @@ class VolumeController:
 
     def set_handles(self, src: object, dst: object) -> None:
         """Replace every handle (undoable), e.g. loaded from a file."""
-        p = np.array(src, np.float64).reshape(-1, 3)
-        q = np.array(dst, np.float64).reshape(-1, 3)
-        if p.shape != q.shape:
-            raise ValueError(f"src and dst must be (N, 3) alike, got {p.shape} and {q.shape}")
+        p, q = _handles3(src, dst)
         self._remember()
         self.src, self.dst = p, q
         self.revision += 1
 
-    def _remember(self) -> None:
-        self._undo.append((self.src.copy(), self.dst.copy()))
+    def _remember(self, before: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        """Keep the handles ``before`` an edit (default: as they are) for undo."""
+        self._undo.append(before or (self.src.copy(), self.dst.copy()))
         del self._undo[:-UNDO_DEPTH]
         self._redo.clear()
 
@@ -282,24 +276,13 @@ class VolumeController:
 
     # -- events -------------------------------------------------------------------------------
 
-    def feed(self, event: Event) -> list[str]:
-        """Apply one event; returns the commands for the window (in :data:`VOLUME_COMMANDS`)."""
-        if isinstance(event, Press):
-            self._press(event)
-        elif isinstance(event, Move):
-            self._move(event.x, event.y)
-        elif isinstance(event, Release):
-            self._release()
-        elif isinstance(event, Scroll):
-            found = self.grid.locate(event.x, event.y)
-            if found is not None:
-                normal = AXES[found[0]][2]
-                self._move_point(normal, self.point[normal] + round(event.dy))
-        elif isinstance(event, Key):
-            return self._key(event.key)
-        else:
-            raise TypeError(f"unknown event {event!r}")
-        return []
+    # feed (Controls): the commands it returns are names in VOLUME_COMMANDS
+
+    def _scroll(self, event: Scroll) -> None:
+        found = self.grid.locate(event.x, event.y)
+        if found is not None:
+            normal = AXES[found[0]][2]
+            self._move_point(normal, self.point[normal] + round(event.dy))
 
     def _pick(self, view: int, u: float, v: float) -> int | None:
         candidates = self.near_plane(view)
@@ -313,8 +296,6 @@ class VolumeController:
         return int(candidates[best]) if distance[best] <= self.pick_radius else None
 
     def _press(self, event: Press) -> None:
-        if event.button not in BUTTONS:
-            raise ValueError(f"unknown mouse button {event.button!r}; use one of {BUTTONS}")
         self._release()
         found = self.grid.locate(event.x, event.y)
         if found is None:
@@ -362,9 +343,7 @@ class VolumeController:
         _, _, (src, dst) = self._drag
         self._drag = None
         if not (np.array_equal(src, self.src) and np.array_equal(dst, self.dst)):
-            self._undo.append((src, dst))
-            del self._undo[:-UNDO_DEPTH]
-            self._redo.clear()
+            self._remember((src, dst))
 
     def _key(self, key: str) -> list[str]:
         action = _ACTIONS.get(key)
@@ -392,21 +371,8 @@ class VolumeController:
         self.settings = settings
         self.revision += 1
 
-    def _do_help(self) -> None:
-        self.help_visible = not self.help_visible
-
     def _do_handles(self) -> None:
         self.show_handles = not self.show_handles
-
-    def _do_transform(self) -> None:
-        config = self.settings.config
-        transform = cycle(TRANSFORM_ORDER, config.transform)
-        self._configure(replace(self.settings, config=replace(config, transform=transform)))
-
-    def _do_weight(self) -> None:
-        config = self.settings.config
-        weight = cycle(WEIGHTS, config.weight)
-        self._configure(replace(self.settings, config=replace(config, weight=weight)))
 
     @property
     def radius(self) -> float:
@@ -438,9 +404,6 @@ class VolumeController:
 
     def _do_method(self) -> None:
         self._configure(replace(self.settings, method=cycle(VOLUME_METHODS, self.settings.method)))
-
-    def _do_border(self) -> None:
-        self._configure(replace(self.settings, border=cycle(BORDERS, self.settings.border)))
 
     def _grid(self, step: int) -> None:
         k = VOLUME_GRIDS.index(self.settings.grid) + step

@@ -11,29 +11,21 @@ them; the operating-system window, the layout and the text are the 2D window's.
 from __future__ import annotations
 
 import time
-from collections import deque
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from ..files.landmarks import read_handles, write_handles
 from ..files.volumes import write_volume
-from ..gl.context import get_context
-from .events import Event, Recorder
-from .glfw_window import GlfwWindow, NoDisplayError
-from .hud import PANEL_CHARS, wrap
-from .layout import Layout, layout
-from .view import TEXT_SIZE
+from .glfw_window import NoDisplayError
+from .hud import PANEL_CHARS, frame_rate, wrap
+from .layout import layout
 from .volume_controller import AXES, VIEWS, VolumeController, VolumeSettings
 from .volume_session import VolumeSession, display_volume
 from .volume_view import VolumeView, text_groups
 from .window_loop import WindowLoop
 
 __all__ = ["NoDisplayError", "VolumeApp"]
-
-PICK_RADIUS = 10.0
-MESSAGE_SECONDS = 5.0
 
 
 class VolumeApp(WindowLoop):
@@ -75,96 +67,52 @@ class VolumeApp(WindowLoop):
         self.volume = np.asarray(volume)
         self.display = display_volume(self.volume)
         self.controller = VolumeController(src, dst, self.display.shape, settings=settings)
-        self.name = name
-        self.out_dir = Path(out_dir)
-        self.handles_path = Path(handles_path) if handles_path is not None else None
-        self.window_size = window_size
-        self.record_path = Path(record) if record is not None else None
-        self.recorder = Recorder() if record is not None else None
-        self.frame_times: deque[float] = deque(maxlen=240)
-        self.frames = 0
-        #: Seconds of the last frame's stages (handles, slices, analysis, draw).
-        self.timings: dict[str, float] = {}
-        self.layout: Layout = layout((1, 1), self.controller.grid.montage_shape, 0)
-        self._panel = 0
-        self._messages: list[tuple[float, str]] = []
-        self._last_view: tuple = ()
-        self._want_screenshot: Path | None = None
-        self._quit = False
-        self.window: GlfwWindow | None = None
+        self._start(
+            self.controller.grid.montage_shape,
+            name=name,
+            out_dir=out_dir,
+            handles_path=handles_path,
+            window_size=window_size,
+            record=record,
+        )
 
     def _open(self, *, vsync: bool) -> None:
         rows, columns = self.controller.grid.montage_shape
         scale = max(1.0, min(560 / rows, 900 / columns))
         panel = PANEL_CHARS * 8 + 24
         size = self.window_size or (panel + round(columns * scale), round(rows * scale))
-        self.window = GlfwWindow(size, f"glmls demo - {self.name}", vsync=vsync)
-        self.gl = get_context(self.window.context())
+        self._open_window(size, vsync=vsync)
         self.session = VolumeSession(self.gl, self.controller, self.display)
         self.view = VolumeView(self.gl, self.controller)
-        self.window.listen(
-            self.feed,
-            lambda x, y: self.layout.to_image(x, y, self.window.pixel_ratio),  # type: ignore[union-attr]
-            lambda: self.controller.dragging,
-        )
+        self._listen()
 
     # -- events and commands ----------------------------------------------------------------
 
-    def feed(self, event: Event) -> None:
-        """One event through the controller, then the commands it returned."""
-        if self.recorder is not None:
-            self.recorder.record(event)
-        c = self.controller
-        if self.window is not None:
-            c.pick_radius = PICK_RADIUS * self.window.pixel_ratio / self.layout.scale
-        for command in c.feed(event):
-            self._command(command)
-        if c.message:
-            self.say(c.message)
-            c.message = ""
+    def _save_warped(self) -> Path:
+        path = self._path("warped.npy")
+        mls = self.session.mls if self.window is not None else None
+        if mls is None:
+            raise ValueError("no valid deformation")
+        s = self.controller.settings
+        write_volume(
+            path, mls.warp(self.volume, method=s.method, interpolation="linear", grid=s.grid)
+        )
+        return path
 
-    def say(self, text: str) -> None:
-        """Show ``text`` in the readout for a few seconds."""
-        self._messages.append((time.perf_counter(), text))
-        del self._messages[:-4]
+    def _save_handles(self, path: Path) -> None:
+        write_handles(path, self.controller.src, self.controller.dst)
 
-    def _command(self, command: str) -> None:
+    def _load_handles(self, path: Path) -> str:
         c = self.controller
-        try:
-            if command == "quit":
-                self._quit = True
-            elif command == "save_volume":
-                path = self.out_dir / f"{self.name}-warped.npy"
-                mls = self.session.mls if self.window is not None else None
-                if mls is None:
-                    raise ValueError("no valid deformation")
-                s = c.settings
-                warped = mls.warp(self.volume, method=s.method, interpolation="linear", grid=s.grid)
-                write_volume(path, warped)
-                self.say(f"saved {path}")
-            elif command == "save_handles":
-                path = self.out_dir / f"{self.name}-handles.json"
-                write_handles(path, c.src, c.dst)
-                self.handles_path = self.handles_path or path
-                self.say(f"saved {path}")
-            elif command == "save_screenshot":
-                self._want_screenshot = self.out_dir / f"{self.name}-screenshot.png"
-            elif command == "load_handles":
-                path = self.handles_path or self.out_dir / f"{self.name}-handles.json"
-                c.set_handles(*read_handles(path, ndim=3))
-                self.say(f"loaded {len(c.src)} handles from {path}")
-        except (OSError, ValueError) as error:
-            self.say(f"{command.replace('_', ' ')} failed: {error}")
+        c.set_handles(*read_handles(path, ndim=3))
+        return f"loaded {len(c.src)} handles from {path}"
 
     # -- frames -----------------------------------------------------------------------------
 
     def readout(self) -> list[str]:
         """The lines of the on-screen readout."""
         c, s = self.controller, self.controller.settings
-        times = list(self.frame_times)
-        recent = [t for t in times if t >= times[-1] - 1.0] if times else []
-        fps = (len(recent) - 1) / (recent[-1] - recent[0]) if len(recent) > 2 else 0.0
-        frame_ms = 1000 * (recent[-1] - recent[-2]) if len(recent) > 1 else 0.0
+        fps, frame_ms = frame_rate(self.frame_times)
         ms = {k: 1000 * v for k, v in self.timings.items()}
         depth, height, width = self.display.shape
         x, y, z = c.point
@@ -190,10 +138,8 @@ class VolumeApp(WindowLoop):
             lines += wrap(f"! {self.session.error}", PANEL_CHARS) + ["  (the last valid f)"]
         lines += self.session.lines if self.window is not None else []
         lines += ["", "F1 or ?: help"]
-        now = time.perf_counter()
-        for stamp, message in self._messages:
-            if now - stamp < MESSAGE_SECONDS:
-                lines += wrap(message, PANEL_CHARS)
+        for message in self._shown_messages():
+            lines += wrap(message, PANEL_CHARS)
         return lines
 
     def _view_key(self) -> tuple:
@@ -251,32 +197,11 @@ class VolumeApp(WindowLoop):
         return parts
 
     def _lay_out(self):
-        window = self.window
-        assert window is not None
-        size = max(8, round(TEXT_SIZE * window.content_scale * window.pixel_ratio))
-        text = self.view.text_renderer(size).atlas
-        self._panel = round(PANEL_CHARS * text.advance["M"]) + 24
-        self.session.sync()
+        text = self._text_renderer().atlas
         self.layout = layout(
-            window.framebuffer_size, self.controller.grid.montage_shape, self._panel
+            self.window.framebuffer_size, self.controller.grid.montage_shape, self._panel
         )
         return text
 
-    def _frame(self, on_frame: Callable[[VolumeApp], None] | None) -> None:
-        self._last_view = self._view_key()
-        self.render()
-        self.frames += 1
-        self.frame_times.append(time.perf_counter())
-        self.timings = dict(self.session.timings)
-        if on_frame is not None:
-            on_frame(self)
-
-    def close(self) -> None:
-        """Release every GL object, glmls's programs for this context, and the window."""
-        if self.window is None:
-            return
-        self.session.release()
-        self.view.release()
-        self.gl.release()
-        self.window.close()
-        self.window = None
+    def _framed(self) -> None:
+        self.timings = dict(self.session.timings)  # handles, slices, analysis, draw

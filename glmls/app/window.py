@@ -11,30 +11,22 @@ overlays need on the CPU (their statistics) and screenshots.
 
 from __future__ import annotations
 
-import time
-from collections import deque
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
-from ..gl.context import get_context
 from .commands import load_handles, save_handles, save_image
 from .controller import Controller, Settings
-from .events import Event, Recorder
-from .glfw_window import GlfwWindow, NoDisplayError
+from .events import Event
+from .glfw_window import NoDisplayError
 from .hud import PANEL_CHARS, readout, text_quads
-from .layout import Layout, layout
+from .layout import layout
 from .session import Session
 from .text import TextRenderer
 from .view import TEXT_SIZE, View, display_image
 from .window_loop import WindowLoop
 
 __all__ = ["PANEL_CHARS", "TEXT_SIZE", "App", "NoDisplayError", "display_image"]
-
-#: Pick radius (window units) and how long messages stay (seconds).
-PICK_RADIUS = 10.0
-MESSAGE_SECONDS = 5.0
 
 
 class App(WindowLoop):
@@ -65,10 +57,14 @@ class App(WindowLoop):
         self.image = np.asarray(image)
         self.display = display_image(self.image)
         self.shape = (self.display.shape[0], self.display.shape[1])
-        self.name = name
-        self.out_dir = Path(out_dir)
-        self.handles_path = Path(handles_path) if handles_path is not None else None
-        self.window_size = window_size
+        self._start(
+            self.shape,
+            name=name,
+            out_dir=out_dir,
+            handles_path=handles_path,
+            window_size=window_size,
+            record=record,
+        )
         self.controller = Controller(
             src,
             dst,
@@ -78,20 +74,6 @@ class App(WindowLoop):
             dst_segments=dst_segments,
             settings=settings or Settings(),
         )
-        self.record_path = Path(record) if record is not None else None
-        self.recorder = Recorder() if record is not None else None
-        self.frame_times: deque[float] = deque(maxlen=240)
-        self.frames = 0
-        #: Seconds of the last frame's stages: CPU (handles, analysis) and GPU (warp,
-        #: overlays, text); kept after the window closes.
-        self.timings: dict[str, float] = {}
-        self.layout: Layout = layout((1, 1), self.shape, 0)
-        self._panel = 0
-        self._messages: list[tuple[float, str]] = []
-        self._last_view: tuple = ()
-        self._want_screenshot: Path | None = None
-        self._quit = False
-        self.window: GlfwWindow | None = None
 
     # -- window set-up ----------------------------------------------------------------------
 
@@ -103,75 +85,42 @@ class App(WindowLoop):
 
     def _open(self, *, vsync: bool) -> None:
         size = self.window_size or self._default_size()
-        self.window = GlfwWindow(size, f"glmls demo - {self.name}", vsync=vsync)
-        self.gl = get_context(self.window.context())  # glmls adopts the window's context
+        self._open_window(size, vsync=vsync)
         self.session = Session(self.gl, self.controller, self.shape)
         self.view = View(self.gl, self.display)
-        self.window.listen(
-            self.feed,
-            lambda x, y: self.layout.to_image(x, y, self.window.pixel_ratio),  # type: ignore[union-attr]
-            lambda: self.controller.dragging,
-        )
+        self._listen()
 
     # -- events and commands ----------------------------------------------------------------
 
-    def feed(self, event: Event) -> None:
-        """One event through the controller, then the commands it returned; the layout
-        follows a change of zoom at once (the next cursor position is read through it)."""
-        if self.recorder is not None:
-            self.recorder.record(event)
+    def _feed(self, event: Event) -> None:
+        """The controller's commands for ``event``; the layout follows a change of zoom at
+        once (the next cursor position is read through it)."""
         c = self.controller
-        if self.window is not None:
-            pixels = PICK_RADIUS * self.window.pixel_ratio
-            c.pick_radius = pixels / self.layout.scale
-            if self.layout.limits is not None:
-                c.view_limits = self.layout.limits
+        if self.window is not None and self.layout.limits is not None:
+            c.view_limits = self.layout.limits
         zoom = c.zoom
-        for command in c.feed(event):
-            self._command(command)
+        super()._feed(event)
         if c.zoom != zoom:
             self._relayout()
-        if c.message:
-            self.say(c.message)
-            c.message = ""
 
-    def say(self, text: str) -> None:
-        self._messages.append((time.perf_counter(), text))
-        del self._messages[:-4]
+    def _save_warped(self) -> Path:
+        path = self._path("warped.png")
+        mls = self.session.mls if self.window is not None else None
+        canvas = self.session.canvas
+        save_image(path, mls, self.image, self.display, self.controller.settings, canvas)
+        return path
 
-    def _path(self, suffix: str) -> Path:
-        return self.out_dir / f"{self.name}-{suffix}"
+    def _save_handles(self, path: Path) -> None:
+        save_handles(path, self.controller)
 
-    def _command(self, command: str) -> None:
-        c = self.controller
-        try:
-            if command == "quit":
-                self._quit = True
-            elif command == "save_image":
-                path = self._path("warped.png")
-                mls = self.session.mls if self.window is not None else None
-                canvas = self.session.canvas
-                save_image(path, mls, self.image, self.display, c.settings, canvas)
-                self.say(f"saved {path}")
-            elif command == "save_handles":
-                path = self._path("handles.json")
-                save_handles(path, c)
-                self.handles_path = self.handles_path or path
-                self.say(f"saved {path}")
-            elif command == "save_screenshot":
-                self._want_screenshot = self._path("screenshot.png")
-            elif command == "load_handles":
-                path = self.handles_path or self._path("handles.json")
-                loaded = load_handles(path, c)
-                self.say(f"loaded {loaded.points} points, {loaded.segments} segments from {path}")
-        except (OSError, ValueError) as error:
-            self.say(f"{command.replace('_', ' ')} failed: {error}")
+    def _load_handles(self, path: Path) -> str:
+        loaded = load_handles(path, self.controller)
+        return f"loaded {loaded.points} points, {loaded.segments} segments from {path}"
 
     # -- frames -----------------------------------------------------------------------------
 
     def readout(self) -> list[str]:
         """The lines of the on-screen readout."""
-        now = time.perf_counter()
         return readout(
             name=self.name,
             shape=self.shape,
@@ -180,7 +129,7 @@ class App(WindowLoop):
             timings=self.timings,
             error=self.session.error if self.window is not None else "",
             analysis_lines=self.session.analysis.lines if self.window is not None else [],
-            messages=[m for stamp, m in self._messages if now - stamp < MESSAGE_SECONDS],
+            messages=self._shown_messages(),
         )
 
     def _view_key(self) -> tuple:
@@ -216,12 +165,7 @@ class App(WindowLoop):
     def _lay_out(self) -> TextRenderer:
         """The text renderer for the window's scale, and the layout with its panel (before
         the first frame too, so that the first event goes through the right layout)."""
-        window = self.window
-        assert window is not None
-        size = max(8, round(TEXT_SIZE * window.content_scale * window.pixel_ratio))
-        text = self.view.text_renderer(size)
-        self._panel = round(PANEL_CHARS * text.atlas.advance["M"]) + 24
-        self.session.sync()
+        text = self._text_renderer()
         self._relayout()
         return text
 
@@ -236,22 +180,7 @@ class App(WindowLoop):
         if self.layout.limits is not None:
             c.view_limits = self.layout.limits
 
-    def _frame(self, on_frame: Callable[[App], None] | None) -> None:
-        self._last_view = self._view_key()
-        self.render()
-        self.frames += 1
-        self.frame_times.append(time.perf_counter())
+    def _framed(self) -> None:
+        # the stages: CPU (handles, analysis) and GPU (warp, overlays, text)
         self.view.next_frame(self.frames)
         self.timings = self.session.timings | self.view.timings
-        if on_frame is not None:
-            on_frame(self)
-
-    def close(self) -> None:
-        """Release every GL object, glmls's programs for this context, and the window."""
-        if self.window is None:
-            return
-        self.session.release()
-        self.view.release()
-        self.gl.release()  # shared pipeline and programs, before the context goes
-        self.window.close()
-        self.window = None

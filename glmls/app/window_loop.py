@@ -1,12 +1,14 @@
-"""The frame loop both windows share: replayed events, scripted frames and screenshots.
+"""What both windows share: their state, replayed events, the frame loop, the commands that
+save and load files, messages and screenshots.
 
 :class:`WindowLoop` runs a window (:class:`~glmls.app.window.App` and
 :class:`~glmls.app.volume_window.VolumeApp`) until it closes or for a number of frames; each
-window says how to open, lay out, feed an event, draw a frame (``_frame``) and close.
+window says how to open, lay out, draw a frame (``render``) and what its files hold.
 """
 
 from __future__ import annotations
 
+import time
 from collections import deque
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -16,22 +18,146 @@ import numpy as np
 
 from ..files.atomic import atomic_write
 from ..files.images import imwrite
-from .events import Wait
+from ..gl.context import get_context
+from .events import Event, Recorder, Wait
+from .glfw_window import GlfwWindow
+from .hud import PANEL_CHARS
+from .layout import Layout, layout
+from .view import TEXT_SIZE
 
-__all__ = ["WindowLoop"]
+__all__ = ["MESSAGE_SECONDS", "PICK_RADIUS", "WindowLoop"]
+
+#: Pick radius (window units) and how long messages stay (seconds).
+PICK_RADIUS = 10.0
+MESSAGE_SECONDS = 5.0
 
 
 class WindowLoop:
-    """The replay and frame loop of a window; subclasses provide the window itself."""
+    """The state, replay, frame loop and commands of a window; subclasses provide the window
+    itself (``_open``, ``_lay_out``, ``render``, ``_view_key``) and what its files hold
+    (``_save_warped``, ``_save_handles``, ``_load_handles``)."""
 
     window: Any
     view: Any
-    recorder: Any
-    record_path: Path | None
-    frames: int
-    _quit: bool
-    _last_view: tuple | None
-    _want_screenshot: Path | None
+    session: Any
+    controller: Any
+    gl: Any
+
+    def _start(
+        self,
+        shape: tuple[int, int],
+        *,
+        name: str,
+        out_dir: str | Path,
+        handles_path: str | Path | None,
+        window_size: tuple[int, int] | None,
+        record: str | Path | None,
+    ) -> None:
+        """The state of a window not yet opened, laid out for a canvas of ``shape``."""
+        self.name = name
+        self.out_dir = Path(out_dir)
+        self.handles_path = Path(handles_path) if handles_path is not None else None
+        self.window_size = window_size
+        self.record_path = Path(record) if record is not None else None
+        self.recorder = Recorder() if record is not None else None
+        self.frame_times: deque[float] = deque(maxlen=240)
+        self.frames = 0
+        #: Seconds of the last frame's stages; kept after the window closes.
+        self.timings: dict[str, float] = {}
+        self.layout: Layout = layout((1, 1), shape, 0)
+        self._panel = 0
+        self._messages: list[tuple[float, str]] = []
+        self._last_view: tuple = ()
+        self._want_screenshot: Path | None = None
+        self._quit = False
+        self.window: GlfwWindow | None = None
+
+    def _open_window(self, size: tuple[int, int], *, vsync: bool) -> None:
+        """The operating-system window, whose context glmls adopts."""
+        self.window = GlfwWindow(size, f"glmls demo - {self.name}", vsync=vsync)
+        self.gl = get_context(self.window.context())  # glmls adopts the window's context
+
+    def _listen(self) -> None:
+        """Feed the window's events, cursor positions through the layout."""
+        self.window.listen(
+            self.feed,
+            lambda x, y: self.layout.to_image(x, y, self.window.pixel_ratio),  # type: ignore[union-attr]
+            lambda: self.controller.dragging,
+        )
+
+    def _text_renderer(self) -> Any:
+        """The text renderer for the window's scale, the panel's width to fit it, and the
+        session in step with the controller."""
+        window = self.window
+        assert window is not None
+        size = max(8, round(TEXT_SIZE * window.content_scale * window.pixel_ratio))
+        text = self.view.text_renderer(size)
+        self._panel = round(PANEL_CHARS * text.atlas.advance["M"]) + 24
+        self.session.sync()
+        return text
+
+    # -- events and commands ----------------------------------------------------------------
+
+    def feed(self, event: Event) -> None:
+        """One event through the controller, then the commands it returned."""
+        if self.recorder is not None:
+            self.recorder.record(event)
+        c = self.controller
+        if self.window is not None:
+            c.pick_radius = PICK_RADIUS * self.window.pixel_ratio / self.layout.scale
+        self._feed(event)
+        if c.message:
+            self.say(c.message)
+            c.message = ""
+
+    def _feed(self, event: Event) -> None:
+        for command in self.controller.feed(event):
+            self._command(command)
+
+    def say(self, text: str) -> None:
+        """Show ``text`` in the readout for a few seconds."""
+        self._messages.append((time.perf_counter(), text))
+        del self._messages[:-4]
+
+    def _shown_messages(self) -> list[str]:
+        """The messages said within :data:`MESSAGE_SECONDS`."""
+        now = time.perf_counter()
+        return [m for stamp, m in self._messages if now - stamp < MESSAGE_SECONDS]
+
+    def _path(self, suffix: str) -> Path:
+        return self.out_dir / f"{self.name}-{suffix}"
+
+    def _command(self, command: str) -> None:
+        try:
+            if command == "quit":
+                self._quit = True
+            elif command in ("save_image", "save_volume"):
+                self.say(f"saved {self._save_warped()}")
+            elif command == "save_handles":
+                path = self._path("handles.json")
+                self._save_handles(path)
+                self.handles_path = self.handles_path or path
+                self.say(f"saved {path}")
+            elif command == "save_screenshot":
+                self._want_screenshot = self._path("screenshot.png")
+            elif command == "load_handles":
+                path = self.handles_path or self._path("handles.json")
+                self.say(self._load_handles(path))
+        except (OSError, ValueError) as error:
+            self.say(f"{command.replace('_', ' ')} failed: {error}")
+
+    def _save_warped(self) -> Path:
+        """Save the deformed image or volume; its path."""
+        raise NotImplementedError
+
+    def _save_handles(self, path: Path) -> None:
+        raise NotImplementedError
+
+    def _load_handles(self, path: Path) -> str:
+        """Load the handles; what to say."""
+        raise NotImplementedError
+
+    # -- frames -----------------------------------------------------------------------------
 
     def run(
         self,
@@ -83,7 +209,27 @@ class WindowLoop:
                 self.recorder.save(self.record_path)
 
     def _frame(self, on_frame: Callable[[Any], None] | None) -> None:
+        self._last_view = self._view_key()
+        self.render()
+        self.frames += 1
+        self.frame_times.append(time.perf_counter())
+        self._framed()
+        if on_frame is not None:
+            on_frame(self)
+
+    def _framed(self) -> None:
+        """After a frame: keep its timings."""
         raise NotImplementedError
+
+    def close(self) -> None:
+        """Release every GL object, glmls's programs for this context, and the window."""
+        if self.window is None:
+            return
+        self.session.release()
+        self.view.release()
+        self.gl.release()  # shared pipeline and programs, before the context goes
+        self.window.close()
+        self.window = None
 
     def screenshot(self) -> np.ndarray:
         """What the window shows (the back buffer just drawn), (H, W, 3) uint8, top row first."""

@@ -19,7 +19,7 @@ from typing import Any
 import albumentations as A
 import numpy as np
 
-from .core import Augment
+from .core import Augment, replay_labels, replay_masks
 
 __all__ = ["MLSDeform"]
 
@@ -189,18 +189,9 @@ class MLSDeform(A.DualTransform):
         [3]
         """
         layers = mask[..., None] if mask.ndim == 2 else mask
-        labels = layers.astype(np.uint8) if layers.dtype == bool else layers
-        shape = labels.shape[:2]
-        canvas = np.zeros((labels.shape[2], *shape), np.uint8)
-        out = self.augment.replay(
-            canvas, [mls] * labels.shape[2], masks=np.moveaxis(labels, 2, 0)
-        ).masks
-        out = np.moveaxis(np.asarray(out), 0, 2).astype(mask.dtype)
+        out = replay_masks(self.augment, [mls] * layers.shape[2], np.moveaxis(layers, 2, 0))
+        out = np.moveaxis(out, 0, 2)
         return out[..., 0] if mask.ndim == 2 else out
-
-    def _moved(self, points: np.ndarray, mls: dict) -> np.ndarray:
-        canvas = np.zeros((1, *mls["shape"]), np.uint8)
-        return np.asarray(self.augment.replay(canvas, [mls], keypoints=[points]).keypoints[0])
 
     def apply_to_keypoints(self, keypoints: np.ndarray, mls: dict, **params: Any) -> np.ndarray:
         """Keypoints moved (x, y; the other columns kept).
@@ -232,7 +223,8 @@ class MLSDeform(A.DualTransform):
         if len(keypoints) == 0:
             return keypoints
         out = np.array(keypoints, copy=True)
-        out[:, :2] = self._moved(np.asarray(keypoints[:, :2], np.float64), mls)
+        points = np.asarray(keypoints[:, :2], np.float64)
+        out[:, :2] = np.asarray(replay_labels(self.augment, [mls], keypoints=[points]).keypoints[0])
         return out
 
     def apply_to_bboxes(self, bboxes: np.ndarray, mls: dict, **params: Any) -> np.ndarray:
@@ -267,8 +259,7 @@ class MLSDeform(A.DualTransform):
         height, width = mls["shape"]
         scale = np.array([width, height, width, height], np.float64)
         boxes = np.asarray(bboxes[:, :4], np.float64) * scale - 0.5  # pixel centres at integers
-        canvas = np.zeros((1, height, width), np.uint8)
-        moved = self.augment.replay(canvas, [mls], boxes=[boxes]).boxes[0]
+        moved = replay_labels(self.augment, [mls], boxes=[boxes]).boxes[0]
         out = np.array(bboxes, np.float64, copy=True)
         out[:, :4] = (np.asarray(moved) + 0.5) / scale
         return out.astype(bboxes.dtype)

@@ -489,3 +489,17 @@ class Augment:
             params=[dict(p) for p in params],
             **fields,
         )
+
+
+def replay_labels(augment: Augment, params: Sequence[Mapping], **labels) -> AugmentResult:
+    """``augment.replay`` of labels alone (``masks``, ``keypoints``, ``boxes``): each draw
+    on an empty canvas of its shape, the draws all of one shape."""
+    canvas = np.zeros((len(params), *params[0]["shape"]), np.uint8)
+    return augment.replay(canvas, params, **labels)
+
+
+def replay_masks(augment: Augment, params: Sequence[Mapping], masks: np.ndarray) -> np.ndarray:
+    """(N, H, W) masks deformed, one per draw, with nearest sampling; of their dtype (bool
+    masks too)."""
+    labels = masks.astype(np.uint8) if masks.dtype == bool else masks
+    return np.asarray(replay_labels(augment, params, masks=labels).masks).astype(masks.dtype)

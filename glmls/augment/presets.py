@@ -61,6 +61,13 @@ def _fiducials(shape: tuple[int, int], segments: int) -> tuple[np.ndarray, np.nd
     return np.linspace(left, right, segments + 1), np.array([top, bottom])
 
 
+def _jitter(rng, size, shape: tuple[int, int], displacement: float, units: str) -> np.ndarray:
+    """Random offsets within +-``displacement`` per axis, in pixels or fractions of the
+    image's (W, H)."""
+    scale = np.array([shape[1], shape[0]], np.float64) if units == "fraction" else 1.0
+    return rng.uniform(-1.0, 1.0, size=size) * displacement * scale
+
+
 def _pairs(xs_top, ys_top, xs_bottom, ys_bottom) -> np.ndarray:
     """(2 (S + 1), 2) points: the top edge's, then the bottom edge's, left to right."""
     top = np.stack([xs_top, ys_top], axis=1)
@@ -141,46 +148,28 @@ class GridPreset:
             np.linspace(left, right, self.cols), np.linspace(top, bottom, self.rows)
         )
         src = np.stack([xs.ravel(), ys.ravel()], axis=1)
-        scale = np.array([shape[1], shape[0]], np.float64) if self.units == "fraction" else 1.0
-        offset = rng.uniform(-1.0, 1.0, size=src.shape) * self.displacement * scale
-        return src, src + offset
+        return src, src + _jitter(rng, src.shape, shape, self.displacement, self.units)
 
 
 @dataclass(frozen=True, kw_only=True)
-class TextDistortPreset:
-    """Luo et al.'s distortion of a text line: fiducial points moved within a radius.
+class _TextPreset:
+    """The options and the draw of Luo et al.'s text-line presets: ``segments`` patches,
+    fiducial points moved within ``radius``; each preset says its default radius and how
+    the points move."""
 
-    Every fiducial point moves at random: a corner by up to ``radius`` inwards along each
-    axis, any other point by up to ``radius / 2`` either way along each axis.
-
-    Parameters
-    ----------
-    segments : int, default 4
-        The patches along the width (2 (segments + 1) fiducial points).
-    radius : float or None, default None
-        R in pixels; None: W / segments / 3.
-
-    Raises
-    ------
-    ValueError
-        For a value out of range, naming it.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from glmls.augment import TextDistortPreset
-    >>> src, dst = TextDistortPreset().draw(np.random.default_rng(0), (32, 120))
-    >>> src.shape, bool(np.abs(dst - src).max() <= 10)
-    ((10, 2), True)
-    """
-
-    name = "text-distort"
     segments: int = 4
     radius: float | None = None
 
     def __post_init__(self) -> None:
         _check_count("segments", self.segments, 1)
         _check_length("radius", self.radius, optional=True)
+
+    def _default_radius(self, shape: tuple[int, int]) -> float:
+        raise NotImplementedError
+
+    def _move(self, rng, xs, top, bottom, radius, src) -> np.ndarray:
+        """dst from the fiducial columns ``xs``, the edges' y and the points ``src``."""
+        raise NotImplementedError
 
     def draw(self, rng: np.random.Generator, shape: tuple[int, int], landmarks=None):
         """One sample's handles.
@@ -208,19 +197,58 @@ class TextDistortPreset:
         [[-0.5, -0.5], [4.5, -0.5], [9.5, -0.5], [-0.5, 3.5], [4.5, 3.5], [9.5, 3.5]]
         """
         xs, (top, bottom) = _fiducials(shape, self.segments)
-        radius = shape[1] / self.segments / 3 if self.radius is None else float(self.radius)
+        radius = self._default_radius(shape) if self.radius is None else float(self.radius)
         count = len(xs)
         src = _pairs(xs, np.full(count, top), xs, np.full(count, bottom))
+        return src, self._move(rng, xs, top, bottom, radius, src)
+
+
+@dataclass(frozen=True, kw_only=True)
+class TextDistortPreset(_TextPreset):
+    """Luo et al.'s distortion of a text line: fiducial points moved within a radius.
+
+    Every fiducial point moves at random: a corner by up to ``radius`` inwards along each
+    axis, any other point by up to ``radius / 2`` either way along each axis.
+
+    Parameters
+    ----------
+    segments : int, default 4
+        The patches along the width (2 (segments + 1) fiducial points).
+    radius : float or None, default None
+        R in pixels; None: W / segments / 3.
+
+    Raises
+    ------
+    ValueError
+        For a value out of range, naming it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.augment import TextDistortPreset
+    >>> src, dst = TextDistortPreset().draw(np.random.default_rng(0), (32, 120))
+    >>> src.shape, bool(np.abs(dst - src).max() <= 10)
+    ((10, 2), True)
+    """
+
+    name = "text-distort"
+    draw = _TextPreset.draw  # listed among this preset's own methods
+
+    def _default_radius(self, shape: tuple[int, int]) -> float:
+        return shape[1] / self.segments / 3
+
+    def _move(self, rng, xs, top, bottom, radius, src) -> np.ndarray:
+        count = len(xs)
         offset = rng.uniform(-0.5, 0.5, size=src.shape) * radius
         inwards = rng.uniform(0.0, 1.0, size=(4, 2)) * radius
         corners = [0, count - 1, count, 2 * count - 1]  # top left, top right, bottom left, right
         signs = np.array([[1, 1], [-1, 1], [1, -1], [-1, -1]], np.float64)
         offset[corners] = inwards * signs
-        return src, src + offset
+        return src + offset
 
 
 @dataclass(frozen=True, kw_only=True)
-class TextStretchPreset:
+class TextStretchPreset(_TextPreset):
     """Luo et al.'s stretching of a text line: fiducial pairs moved horizontally.
 
     The inner fiducial points move horizontally by up to ``radius / 2`` either way, each top
@@ -245,53 +273,26 @@ class TextStretchPreset:
     >>> src, dst = TextStretchPreset().draw(np.random.default_rng(0), (32, 120))
     >>> bool((dst[:, 1] == src[:, 1]).all()), bool((dst[:5, 0] == dst[5:, 0]).all())
     (True, True)
+    >>> src, dst = TextStretchPreset(segments=1).draw(np.random.default_rng(0), (4, 10))
+    >>> bool((src == dst).all())
+    True
     """
 
     name = "text-stretch"
-    segments: int = 4
-    radius: float | None = None
+    draw = _TextPreset.draw  # listed among this preset's own methods
 
-    def __post_init__(self) -> None:
-        _check_count("segments", self.segments, 1)
-        _check_length("radius", self.radius, optional=True)
+    def _default_radius(self, shape: tuple[int, int]) -> float:
+        return shape[1] * 4 / 5 / self.segments
 
-    def draw(self, rng: np.random.Generator, shape: tuple[int, int], landmarks=None):
-        """One sample's handles.
-
-        Parameters
-        ----------
-        rng : numpy.random.Generator
-            The sample's random numbers.
-        shape : (int, int)
-            The image's (H, W).
-        landmarks : None
-            Not used.
-
-        Returns
-        -------
-        (numpy.ndarray, numpy.ndarray)
-            src and dst, (2 (segments + 1), 2): the top edge's points, then the bottom's.
-
-        Examples
-        --------
-        >>> import numpy as np
-        >>> from glmls.augment import TextStretchPreset
-        >>> src, dst = TextStretchPreset(segments=1).draw(np.random.default_rng(0), (4, 10))
-        >>> bool((src == dst).all())
-        True
-        """
-        xs, (top, bottom) = _fiducials(shape, self.segments)
-        radius = shape[1] * 4 / 5 / self.segments if self.radius is None else float(self.radius)
+    def _move(self, rng, xs, top, bottom, radius, src) -> np.ndarray:
         count = len(xs)
         move = rng.uniform(-0.5, 0.5, size=count) * radius
         move[[0, -1]] = 0.0
-        src = _pairs(xs, np.full(count, top), xs, np.full(count, bottom))
-        dst = _pairs(xs + move, np.full(count, top), xs + move, np.full(count, bottom))
-        return src, dst
+        return _pairs(xs + move, np.full(count, top), xs + move, np.full(count, bottom))
 
 
 @dataclass(frozen=True, kw_only=True)
-class TextPerspectivePreset:
+class TextPerspectivePreset(_TextPreset):
     """Luo et al.'s perspective change of a text line: its edges moved vertically.
 
     The top and bottom edges move vertically and independently, each corner by up to
@@ -317,50 +318,23 @@ class TextPerspectivePreset:
     >>> src, dst = TextPerspectivePreset().draw(np.random.default_rng(0), (32, 120))
     >>> bool((dst[:, 0] == src[:, 0]).all()), bool(np.abs(dst - src).max() <= 16)
     (True, True)
+    >>> _, dst = TextPerspectivePreset(radius=0).draw(np.random.default_rng(0), (4, 10))
+    >>> dst[:, 1].tolist()
+    [-0.5, -0.5, -0.5, -0.5, -0.5, 3.5, 3.5, 3.5, 3.5, 3.5]
     """
 
     name = "text-perspective"
-    segments: int = 4
-    radius: float | None = None
+    draw = _TextPreset.draw  # listed among this preset's own methods
 
-    def __post_init__(self) -> None:
-        _check_count("segments", self.segments, 1)
-        _check_length("radius", self.radius, optional=True)
+    def _default_radius(self, shape: tuple[int, int]) -> float:
+        return shape[0] / 2
 
-    def draw(self, rng: np.random.Generator, shape: tuple[int, int], landmarks=None):
-        """One sample's handles.
-
-        Parameters
-        ----------
-        rng : numpy.random.Generator
-            The sample's random numbers.
-        shape : (int, int)
-            The image's (H, W).
-        landmarks : None
-            Not used.
-
-        Returns
-        -------
-        (numpy.ndarray, numpy.ndarray)
-            src and dst, (2 (segments + 1), 2): the top edge's points, then the bottom's.
-
-        Examples
-        --------
-        >>> import numpy as np
-        >>> from glmls.augment import TextPerspectivePreset
-        >>> _, dst = TextPerspectivePreset(radius=0).draw(np.random.default_rng(0), (4, 10))
-        >>> dst[:, 1].tolist()
-        [-0.5, -0.5, -0.5, -0.5, -0.5, 3.5, 3.5, 3.5, 3.5, 3.5]
-        """
-        xs, (top, bottom) = _fiducials(shape, self.segments)
-        radius = shape[0] / 2 if self.radius is None else float(self.radius)
+    def _move(self, rng, xs, top, bottom, radius, src) -> np.ndarray:
         inwards = rng.uniform(0.0, 1.0, size=4) * radius  # top left, top right, bottom l, r
         t = (xs - xs[0]) / (xs[-1] - xs[0])
         ys_top = top + inwards[0] + t * (inwards[1] - inwards[0])
         ys_bottom = bottom - inwards[2] - t * (inwards[3] - inwards[2])
-        count = len(xs)
-        src = _pairs(xs, np.full(count, top), xs, np.full(count, bottom))
-        return src, _pairs(xs, ys_top, xs, ys_bottom)
+        return _pairs(xs, ys_top, xs, ys_bottom)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -441,9 +415,7 @@ class LandmarksPreset:
         points = np.zeros((0, 2)) if landmarks is None else np.asarray(landmarks, np.float64)
         if landmarks is None or (len(points) == 0 and not self.pin_corners):
             raise ValueError("the landmarks preset needs each image's landmarks (keypoints)")
-        scale = np.array([shape[1], shape[0]], np.float64) if self.units == "fraction" else 1.0
-        offset = rng.uniform(-1.0, 1.0, size=points.shape) * self.displacement * scale
-        src, dst = points, points + offset
+        src, dst = points, points + _jitter(rng, points.shape, shape, self.displacement, self.units)
         if self.pin_corners:
             left, top, right, bottom = _edges(shape)
             corners = np.array([[left, top], [right, top], [left, bottom], [right, bottom]])

@@ -73,7 +73,7 @@ from torchvision import tv_tensors  # noqa: E402
 from torchvision.transforms import v2  # noqa: E402
 from torchvision.transforms.v2 import functional as F  # noqa: E402
 
-from .core import Augment  # noqa: E402
+from .core import Augment, replay_labels, replay_masks  # noqa: E402
 
 __all__ = ["MLSTransform", "check_import_order"]
 
@@ -277,20 +277,15 @@ class MLSTransform(v2.Transform):
         height, width = masks.shape[-2:]
         array = masks.detach().cpu().numpy().reshape(count, -1, height, width)
         layers = array.shape[1]
-        labels = array.astype(np.uint8) if array.dtype == bool else array
-        flat = labels.reshape(count * layers, height, width)
         draws = [s for s in samples for _ in range(layers)]
-        canvas = np.zeros((len(flat), height, width), np.uint8)
-        out = np.asarray(self.augment.replay(canvas, draws, masks=flat).masks)
-        tensor = torch.from_numpy(out.astype(array.dtype).reshape(masks.shape))
+        out = replay_masks(self.augment, draws, array.reshape(count * layers, height, width))
+        tensor = torch.from_numpy(out.reshape(masks.shape))
         return tensor.to(masks.device)
 
     def _keypoints(self, points: torch.Tensor, samples: list[dict]) -> torch.Tensor:
         count = len(samples)
         array = points.detach().cpu().numpy().astype(np.float64).reshape(count, -1, 2)
-        height, width = samples[0]["shape"]
-        canvas = np.zeros((count, height, width), np.uint8)
-        moved = np.asarray(self.augment.replay(canvas, samples, keypoints=array).keypoints)
+        moved = np.asarray(replay_labels(self.augment, samples, keypoints=array).keypoints)
         tensor = torch.from_numpy(moved.reshape(points.shape))
         return tensor.to(device=points.device, dtype=points.dtype)
 
@@ -303,9 +298,7 @@ class MLSTransform(v2.Transform):
             new_format=tv_tensors.BoundingBoxFormat.XYXY,
         )
         array = xyxy.detach().cpu().numpy().astype(np.float64) - 0.5  # pixel centres at integers
-        height, width = sample["shape"]
-        canvas = np.zeros((1, height, width), np.uint8)
-        moved = np.asarray(self.augment.replay(canvas, [sample], boxes=[array]).boxes[0]) + 0.5
+        moved = np.asarray(replay_labels(self.augment, [sample], boxes=[array]).boxes[0]) + 0.5
         out = torch.from_numpy(moved).to(device=boxes.device, dtype=boxes.dtype)
         return F.convert_bounding_box_format(
             out, old_format=tv_tensors.BoundingBoxFormat.XYXY, new_format=boxes.format

@@ -7,14 +7,14 @@ Exit status: 0 done, 2 bad input (arguments, image, handles or events file), 1 r
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
 from ..core.handleset import HandleSet
-from ..errors import GLUnavailableError, InputFileError
+from ..errors import InputFileError
 from ..files.landmarks import read_handle_set, read_points
+from .demo_window import fail, replay_events, run_window, window_options
 from .inputs import read_image
 from .options import (
     UsageError,
@@ -123,11 +123,6 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_max_pixels(parser)
 
 
-def _fail(status: int, message: str) -> int:
-    print(f"glmls demo: error: {message}", file=sys.stderr)
-    return status
-
-
 def _inputs(args: argparse.Namespace):
     """(image, name, handles, reference) from the arguments, ``handles`` a
     :class:`~glmls.core.handleset.HandleSet`; raises ValueError/OSError."""
@@ -156,19 +151,18 @@ def _inputs(args: argparse.Namespace):
 def run(args: argparse.Namespace) -> int:
     """Run the window for parsed arguments; returns the exit status."""
     from ..app.controller import Settings
-    from ..app.events import read_events, replay_frames
-    from ..app.window import App, NoDisplayError
+    from ..app.window import App
     from .demo_volume import run_volume, volume_inputs
 
     try:
         volume = volume_inputs(args)
     except (ValueError, TypeError) as error:
-        return _fail(2, str(error))
+        return fail(2, str(error))
     if volume is not None:
         return run_volume(args, volume)
     try:
         image, name, handles, reference = _inputs(args)
-        events = read_events(args.replay) if args.replay is not None else None
+        events = replay_events(args)
         method, interpolation = (
             _CONSTRUCTIONS[args.construction]
             if args.construction is not None
@@ -192,24 +186,8 @@ def run(args: argparse.Namespace) -> int:
             reference=reference,
             settings=settings,
             name=name,
-            out_dir=args.out,
-            handles_path=args.handles,
-            window_size=args.window_size,
-            record=args.record,
+            **window_options(args),
         )
     except (ValueError, TypeError) as error:
-        return _fail(2, str(error))
-    frames = args.frames
-    if frames is None and (events is not None or args.screenshot is not None):
-        frames = replay_frames(events or []) + 1
-    try:
-        app.run(events=events, frames=frames, screenshot=args.screenshot)
-    except (NoDisplayError, GLUnavailableError) as error:
-        return _fail(1, str(error))
-    except (ValueError, TypeError) as error:  # e.g. an image over the GL texture limit
-        return _fail(2, str(error))
-    except OSError as error:  # the screenshot could not be written
-        return _fail(1, str(error))
-    except KeyboardInterrupt:
-        return 130
-    return 0
+        return fail(2, str(error))
+    return run_window(app, args, events)

@@ -9,7 +9,6 @@ demo --handles H3D`` with a file of 3D handles and no image (the phantom, those 
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +16,7 @@ import numpy as np
 from ..errors import InputFileError
 from ..files.landmarks import read_handles
 from ..files.volumes import is_volume_file, read_volume, volume_suffix
+from .demo_window import fail, replay_events, run_window, window_options
 
 __all__ = ["run_volume", "volume_inputs"]
 
@@ -62,23 +62,15 @@ def volume_inputs(
     return volume, name, src, dst
 
 
-def _fail(status: int, message: str) -> int:
-    print(f"glmls demo: error: {message}", file=sys.stderr)
-    return status
-
-
 def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
     """Run the volume window for parsed arguments and :func:`volume_inputs`; the exit status."""
-    from ..app.events import read_events, replay_frames
-    from ..app.glfw_window import NoDisplayError
     from ..app.volume_controller import VOLUME_METHODS, VolumeSettings
     from ..app.volume_window import VolumeApp
-    from ..errors import GLUnavailableError
     from .options import config_from_args
 
     volume, name, src, dst = inputs
     try:
-        events = read_events(args.replay) if args.replay is not None else None
+        events = replay_events(args)
         method = args.method if args.method in VOLUME_METHODS else "quads"
         border = args.border if args.border != "constant" else "edge"  # the 2D default
         settings = VolumeSettings(
@@ -90,24 +82,8 @@ def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
             dst,
             settings=settings,
             name=name,
-            out_dir=args.out,
-            handles_path=args.handles,
-            window_size=args.window_size,
-            record=args.record,
+            **window_options(args),
         )
     except (ValueError, TypeError) as error:
-        return _fail(2, str(error))
-    frames = args.frames
-    if frames is None and (events is not None or args.screenshot is not None):
-        frames = replay_frames(events or []) + 1
-    try:
-        app.run(events=events, frames=frames, screenshot=args.screenshot)
-    except (NoDisplayError, GLUnavailableError) as error:
-        return _fail(1, str(error))
-    except (ValueError, TypeError) as error:
-        return _fail(2, str(error))
-    except OSError as error:
-        return _fail(1, str(error))
-    except KeyboardInterrupt:
-        return 130
-    return 0
+        return fail(2, str(error))
+    return run_window(app, args, events)

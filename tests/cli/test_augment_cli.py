@@ -5,19 +5,14 @@ failed run leaves no output behind."""
 from __future__ import annotations
 
 import json
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import run_glmls
+from helpers import glmls_cli
 
 import glmls
 from glmls.augment import Augment
-
-
-def glmls_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return run_glmls(*args, cwd=cwd, module="glmls.cli")
 
 
 @pytest.fixture

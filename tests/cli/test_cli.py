@@ -3,22 +3,14 @@
 from __future__ import annotations
 
 import json
-import subprocess
-from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import run_glmls
+from helpers import CLI_DST as DST
+from helpers import CLI_SRC as SRC
+from helpers import glmls_cli, write_cli_handles
 
 import glmls
-
-SRC = [[4, 4], [36, 6], [20, 30], [6, 26]]
-DST = [[6, 5], [34, 8], [24, 28], [6, 26]]
-REFERENCE = [[10, 10], [30, 10], [20, 25], [12, 22], [28, 22]]
-
-
-def glmls_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return run_glmls(*args, cwd=cwd, module="glmls.cli")
 
 
 @pytest.fixture
@@ -27,8 +19,7 @@ def inputs(tmp_path):
     image = rng.integers(0, 256, (32, 40, 3), dtype=np.uint8)
     glmls.imwrite(tmp_path / "a.png", image)
     glmls.imwrite(tmp_path / "b.png", image[::-1].copy())
-    (tmp_path / "h.json").write_text(json.dumps({"src": SRC, "dst": DST}))
-    (tmp_path / "r.json").write_text(json.dumps({"points": REFERENCE}))
+    write_cli_handles(tmp_path)
     return tmp_path
 
 

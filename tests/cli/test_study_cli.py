@@ -4,24 +4,15 @@ from __future__ import annotations
 
 import importlib.util
 import json
-import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import run_glmls
+from helpers import glmls_cli, write_cli_handles
 
 import glmls
 from glmls.cli.main import main
-
-SRC = [[4, 4], [36, 6], [20, 30], [6, 26]]
-DST = [[6, 5], [34, 8], [24, 28], [6, 26]]
-REFERENCE = [[10, 10], [30, 10], [20, 25], [12, 22], [28, 22]]
-
-
-def glmls_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return run_glmls(*args, cwd=cwd, module="glmls.cli")
 
 
 @pytest.fixture
@@ -29,8 +20,7 @@ def inputs(tmp_path):
     rng = np.random.default_rng(3)
     for name, shape in (("a", (32, 40, 3)), ("b", (36, 44, 3)), ("c", (30, 40))):
         glmls.imwrite(tmp_path / f"{name}.png", rng.integers(0, 256, shape, dtype=np.uint8))
-    (tmp_path / "h.json").write_text(json.dumps({"src": SRC, "dst": DST}))
-    (tmp_path / "r.json").write_text(json.dumps({"points": REFERENCE}))
+    write_cli_handles(tmp_path)
     items = [
         {"name": name, "image": f"{name}.png", "handles": "h.json", "reference": "r.json"}
         for name in ("a", "b")

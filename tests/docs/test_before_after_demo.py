@@ -3,24 +3,14 @@ it writes the two panels side by side."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
-from pathlib import Path
-
-from helpers import child_env
+from helpers import run_demo
 
 import glmls
-
-ROOT = Path(__file__).resolve().parent.parent.parent
 
 
 def test_the_before_after_demo_runs(tmp_path):
     out = tmp_path / "before_after.png"
-    done = subprocess.run(
-        [sys.executable, "demos/before_after.py", "--out", str(out), "--scale", "0.25"],
-        cwd=ROOT, capture_output=True, text=True, timeout=300,
-        env=child_env(),
-    )  # fmt: skip
+    done = run_demo("before_after", "--out", str(out), "--scale", "0.25")
     assert done.returncode == 0, done.stderr
     assert "largest distance of f(p) from q: 0.0000 px" in done.stdout
     picture = glmls.imread(out)

@@ -4,17 +4,12 @@ point handles at the same ends bend them; and the bundled photograph it uses."""
 from __future__ import annotations
 
 import importlib.util
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
-from helpers import child_env
+from helpers import ROOT, run_demo
 
 import glmls
 from glmls import data
-
-ROOT = Path(__file__).resolve().parent.parent.parent
 
 
 def _demo():
@@ -51,11 +46,7 @@ def test_segment_handles_keep_the_edges_straight(gl):
 
 def test_the_segments_demo_runs(tmp_path):
     out = tmp_path / "segments.jpg"
-    done = subprocess.run(
-        [sys.executable, "demos/segments.py", "--out", str(out), "--scale", "0.25"],
-        cwd=ROOT, capture_output=True, text=True, timeout=300,
-        env=child_env(),
-    )  # fmt: skip
+    done = run_demo("segments", "--out", str(out), "--scale", "0.25")
     assert done.returncode == 0, done.stderr
     assert "| handle: rocket axis |" in done.stdout
     picture = glmls.imread(out)

@@ -9,6 +9,7 @@ from importlib import resources
 
 import numpy as np
 import pytest
+from helpers import write_text
 from numpy.testing import assert_array_equal
 
 import glmls
@@ -37,12 +38,6 @@ polyline,brow,5,10,5,11
 """
 
 
-def _write(tmp_path, name, text):
-    path = tmp_path / name
-    path.write_text(text, encoding="utf-8")
-    return path
-
-
 def _expected() -> HandleSet:
     a = np.concatenate([SEGMENTS[0], polyline_segments(POLYLINE[0])])
     b = np.concatenate([SEGMENTS[1], polyline_segments(POLYLINE[1])])
@@ -58,23 +53,23 @@ def assert_same(got: HandleSet, expected: HandleSet) -> None:
 def test_json_and_csv_with_segments_and_polylines(tmp_path):
     expected = _expected()
     assert expected.segments == 3  # the segment, then the polyline's two
-    got = read_handle_set(_write(tmp_path, "h.json", json.dumps(JSON)))
+    got = read_handle_set(write_text(tmp_path, "h.json", json.dumps(JSON)))
     assert isinstance(got, HandleSet)
     assert_same(got, expected)
-    assert_same(read_handle_set(_write(tmp_path, "h.csv", CSV)), expected)
+    assert_same(read_handle_set(write_text(tmp_path, "h.csv", CSV)), expected)
 
 
 def test_segments_alone_and_the_documented_example(tmp_path):
     alone = {"segments": {"src": SEGMENTS[0], "dst": SEGMENTS[1]}}
-    got = read_handle_set(_write(tmp_path, "s.json", json.dumps(alone)))
+    got = read_handle_set(write_text(tmp_path, "s.json", json.dumps(alone)))
     assert got.src.shape == (0, 2) and got.segments == 1
     lines = {"polylines": {"src": [POLYLINE[0]], "dst": [POLYLINE[1]]}, "src": [], "dst": []}
-    assert read_handle_set(_write(tmp_path, "l.json", json.dumps(lines))).segments == 2
+    assert read_handle_set(write_text(tmp_path, "l.json", json.dumps(lines))).segments == 2
     # the CSV example of the module's docstring
     doc = glmls.files.landmarks.__doc__
     example = doc.split("For example::")[1].split("\n\n")[1]
     table = "\n".join(line.strip() for line in example.splitlines()) + "\n"
-    handles = read_handle_set(_write(tmp_path, "doc.csv", table))
+    handles = read_handle_set(write_text(tmp_path, "doc.csv", table))
     assert (handles.points, handles.segments) == (1, 3)
 
 
@@ -130,11 +125,11 @@ def test_write_handles_takes_segments_and_refuses_bad_handles(tmp_path):
 
 
 def test_read_handles_is_for_points_only(tmp_path):
-    path = _write(tmp_path, "h.json", json.dumps(JSON))
+    path = write_text(tmp_path, "h.json", json.dumps(JSON))
     with pytest.raises(InputFileError, match=r"3 segment handles .* read it with read_handle_set"):
         read_handles(path)
     points = json.dumps({"src": POINTS[0], "dst": POINTS[1]})
-    src, dst = read_handles(_write(tmp_path, "p.json", points))
+    src, dst = read_handles(write_text(tmp_path, "p.json", points))
     assert_array_equal(src, POINTS[0])
     assert_array_equal(dst, POINTS[1])
     src[0, 0] = 7.0  # a plain writable array, as before
@@ -234,7 +229,7 @@ MALFORMED = [
 
 @pytest.mark.parametrize(("name", "text", "message"), MALFORMED)
 def test_malformed_segment_files(tmp_path, name, text, message):
-    path = _write(tmp_path, name, text)
+    path = write_text(tmp_path, name, text)
     with pytest.raises(InputFileError, match=f"^{re.escape(str(path))}: ") as info:
         read_handle_set(path)
     assert message in str(info.value)

@@ -4,16 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import assert_bad_handle_file, write_text
 from numpy.testing import assert_allclose
 
 from glmls.errors import InputFileError
 from glmls.files import atomic_write, read_handles, read_points, write_handles
-
-
-def _write(tmp_path, name, text):
-    path = tmp_path / name
-    path.write_text(text, encoding="utf-8")
-    return path
 
 
 def test_json_csv_and_bigwarp_handles(tmp_path):
@@ -23,7 +18,7 @@ def test_json_csv_and_bigwarp_handles(tmp_path):
         got = read_handles(tmp_path / name)
         assert_allclose(got[0], src)
         assert_allclose(got[1], dst)
-    bigwarp = _write(
+    bigwarp = write_text(
         tmp_path,
         "landmarks.csv",
         '"Pt-0","true","1.0","2.0","1.5","2.0"\n'
@@ -37,9 +32,10 @@ def test_json_csv_and_bigwarp_handles(tmp_path):
 
 def test_reference_points(tmp_path):
     assert_allclose(
-        read_points(_write(tmp_path, "r.json", '{"points": [[1, 2], [3, 4]]}')), [[1, 2], [3, 4]]
+        read_points(write_text(tmp_path, "r.json", '{"points": [[1, 2], [3, 4]]}')),
+        [[1, 2], [3, 4]],
     )
-    assert_allclose(read_points(_write(tmp_path, "r.csv", "x,y\n1,2\n3,4\n")), [[1, 2], [3, 4]])
+    assert_allclose(read_points(write_text(tmp_path, "r.csv", "x,y\n1,2\n3,4\n")), [[1, 2], [3, 4]])
 
 
 @pytest.mark.parametrize(
@@ -69,11 +65,7 @@ def test_reference_points(tmp_path):
     ],
 )
 def test_malformed_handle_files(tmp_path, name, text, message):
-    path = _write(tmp_path, name, text)
-    with pytest.raises(InputFileError) as info:
-        read_handles(path)
-    assert str(info.value).startswith(str(path))
-    assert message in str(info.value)
+    assert_bad_handle_file(write_text(tmp_path, name, text), message)
 
 
 def test_missing_file(tmp_path):
@@ -95,7 +87,7 @@ def test_missing_file(tmp_path):
 )
 def test_malformed_point_files(tmp_path, name, text, message):
     with pytest.raises(InputFileError, match=message.replace("[", r"\[")):
-        read_points(_write(tmp_path, name, text))
+        read_points(write_text(tmp_path, name, text))
 
 
 def test_atomic_write_leaves_nothing_on_failure(tmp_path):

@@ -8,6 +8,7 @@ import json
 
 import numpy as np
 import pytest
+from helpers import assert_bad_handle_file, write_text
 from numpy.testing import assert_allclose
 
 from glmls.errors import InputFileError
@@ -15,12 +16,6 @@ from glmls.files import read_handle_set, read_handles, write_handles
 
 SRC = np.array([[1.0, 2.0, 3.0], [4.5, 5.0, 6.0], [7.0, 8.0, 9.25]])
 DST = np.array([[1.5, 2.0, 3.0], [4.0, 5.5, 6.0], [7.0, 8.0, 10.0]])
-
-
-def _write(tmp_path, name, text):
-    path = tmp_path / name
-    path.write_text(text, encoding="utf-8")
-    return path
 
 
 @pytest.mark.parametrize("name", ["h.json", "h.csv"])
@@ -48,7 +43,7 @@ def _bigwarp_rows(ndim, ident):
 @pytest.mark.parametrize("ndim", [2, 3])
 @pytest.mark.parametrize("ident", [False, True])
 def test_bigwarp_csv_variants(tmp_path, ndim, ident):
-    path = _write(tmp_path, "landmarks.csv", _bigwarp_rows(ndim, ident))
+    path = write_text(tmp_path, "landmarks.csv", _bigwarp_rows(ndim, ident))
     src, dst = read_handles(path)
     assert_allclose(src, SRC[:, :ndim])  # moving points are the sources
     assert_allclose(dst, DST[:, :ndim])  # fixed points the targets
@@ -75,7 +70,7 @@ def test_bigwarp_json(tmp_path, ndim, wrapped):
     document = _bigwarp_json(ndim)
     if wrapped:  # BigWarp's settings file keeps them under "landmarks"
         document = {"landmarks": document, "Sources": {}}
-    path = _write(tmp_path, "landmarks.json", json.dumps(document))  # Infinity, as Gson writes
+    path = write_text(tmp_path, "landmarks.json", json.dumps(document))  # Infinity, as Gson writes
     src, dst = read_handles(path)
     assert_allclose(src, SRC[:, :ndim])
     assert_allclose(dst, DST[:, :ndim])
@@ -87,25 +82,27 @@ def _pts(kind, points):
 
 @pytest.mark.parametrize("kind", ["index", "point"])
 def test_elastix_pair(tmp_path, kind):
-    moving = _write(tmp_path, "moving.pts", _pts(kind, SRC.tolist()))
-    fixed = _write(tmp_path, "fixed.pts", _pts(kind, DST.tolist()))
+    moving = write_text(tmp_path, "moving.pts", _pts(kind, SRC.tolist()))
+    fixed = write_text(tmp_path, "fixed.pts", _pts(kind, DST.tolist()))
     src, dst = read_handles(moving, dst=fixed)
     assert_allclose(src, SRC)
     assert_allclose(dst, DST)
 
 
 def test_elastix_needs_both_files(tmp_path):
-    moving = _write(tmp_path, "moving.pts", _pts("index", SRC.tolist()))
+    moving = write_text(tmp_path, "moving.pts", _pts("index", SRC.tolist()))
     with pytest.raises(InputFileError, match=r"moving\.pts: content: an elastix point file holds"):
         read_handles(moving)
-    json_file = _write(tmp_path, "h.json", json.dumps({"src": SRC.tolist(), "dst": DST.tolist()}))
+    json_file = write_text(
+        tmp_path, "h.json", json.dumps({"src": SRC.tolist(), "dst": DST.tolist()})
+    )
     with pytest.raises(InputFileError, match=r"moving\.pts: a file of targets goes with"):
         read_handles(json_file, dst=moving)
 
 
 def test_dimension_expected(tmp_path):
-    three = _write(tmp_path, "h3.json", json.dumps({"src": SRC.tolist(), "dst": DST.tolist()}))
-    two = _write(tmp_path, "h2.csv", "src_x,src_y,dst_x,dst_y\n1,2,3,4\n")
+    three = write_text(tmp_path, "h3.json", json.dumps({"src": SRC.tolist(), "dst": DST.tolist()}))
+    two = write_text(tmp_path, "h2.csv", "src_x,src_y,dst_x,dst_y\n1,2,3,4\n")
     assert read_handles(three, ndim=3)[0].shape == (3, 3)
     with pytest.raises(InputFileError, match=r"h2.csv: content: 2D handles \(x, y\), where 3D"):
         read_handles(two, ndim=3)
@@ -177,11 +174,7 @@ def test_write_3d_refuses_bad_handles(tmp_path):
     ],
 )
 def test_malformed_3d_files(tmp_path, name, text, message):
-    path = _write(tmp_path, name, text)
-    with pytest.raises(InputFileError) as info:
-        read_handles(path)
-    assert str(info.value).startswith(str(path))
-    assert message in str(info.value)
+    assert_bad_handle_file(write_text(tmp_path, name, text), message)
 
 
 @pytest.mark.parametrize(
@@ -197,15 +190,15 @@ def test_malformed_3d_files(tmp_path, name, text, message):
     ],
 )
 def test_malformed_elastix_files(tmp_path, text, message):
-    moving = _write(tmp_path, "moving.pts", text)
-    fixed = _write(tmp_path, "fixed.pts", _pts("index", SRC[:1].tolist()))
+    moving = write_text(tmp_path, "moving.pts", text)
+    fixed = write_text(tmp_path, "fixed.pts", _pts("index", SRC[:1].tolist()))
     with pytest.raises(InputFileError) as info:
         read_handles(moving, dst=fixed)
     assert str(info.value).startswith(str(moving)) and message in str(info.value)
 
 
 def test_elastix_counts_must_match(tmp_path):
-    moving = _write(tmp_path, "moving.pts", _pts("index", SRC.tolist()))
-    fixed = _write(tmp_path, "fixed.pts", _pts("index", DST[:2].tolist()))
+    moving = write_text(tmp_path, "moving.pts", _pts("index", SRC.tolist()))
+    fixed = write_text(tmp_path, "fixed.pts", _pts("index", DST[:2].tolist()))
     with pytest.raises(InputFileError, match=r"fixed\.pts: content: 2 points of 3 coordinates"):
         read_handles(moving, dst=fixed)

@@ -4,13 +4,9 @@ needs)."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
-from helpers import child_env, smooth_handles, turned_handles
+from helpers import run_demo, smooth_handles, turned_handles
 from scipy import ndimage
 
 import glmls
@@ -27,7 +23,6 @@ SCIPY_MODES = {
     "wrap": "grid-wrap",
 }
 MODES = tuple(SCIPY_MODES)
-ROOT = Path(__file__).resolve().parent.parent.parent
 SHAPE = (48, 64)
 
 
@@ -255,11 +250,7 @@ def test_unknown_border_lists_the_choices(gl, bad):
 
 def test_the_borders_demo_runs(tmp_path):
     out = tmp_path / "borders.png"
-    done = subprocess.run(
-        [sys.executable, "demos/borders.py", "--out", str(out), "--scale", "0.2"],
-        cwd=ROOT, capture_output=True, text=True, timeout=300,
-        env=child_env(),
-    )  # fmt: skip
+    done = run_demo("borders", "--out", str(out), "--scale", "0.2")
     assert done.returncode == 0, done.stderr
     assert "border edge: 0 pixels left" in done.stdout
     assert "border symmetric: 0 pixels left" in done.stdout

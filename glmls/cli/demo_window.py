@@ -1,0 +1,56 @@
+"""What ``glmls demo`` does with a window once it is made (the image's or the volume's): run
+it for the replay, frames and screenshot asked for, and turn what stops it into an exit
+status and a one-line message."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+__all__ = ["fail", "replay_events", "run_window", "window_options"]
+
+
+def fail(status: int, message: str) -> int:
+    """Print ``glmls demo: error: message`` on standard error; ``status``."""
+    print(f"glmls demo: error: {message}", file=sys.stderr)
+    return status
+
+
+def replay_events(args: argparse.Namespace) -> list | None:
+    """The events of ``--replay``, or None."""
+    from ..app.events import read_events
+
+    return read_events(args.replay) if args.replay is not None else None
+
+
+def window_options(args: argparse.Namespace) -> dict:
+    """The keywords of either window that the arguments give: where it saves, the handles
+    file it loads, its size and the file it records the events to."""
+    return {
+        "out_dir": args.out,
+        "handles_path": args.handles,
+        "window_size": args.window_size,
+        "record": args.record,
+    }
+
+
+def run_window(app, args: argparse.Namespace, events: list | None) -> int:
+    """Run ``app`` (replaying ``events``) as the arguments ask; the exit status."""
+    from ..app.events import replay_frames
+    from ..app.glfw_window import NoDisplayError
+    from ..errors import GLUnavailableError
+
+    frames = args.frames
+    if frames is None and (events is not None or args.screenshot is not None):
+        frames = replay_frames(events or []) + 1
+    try:
+        app.run(events=events, frames=frames, screenshot=args.screenshot)
+    except (NoDisplayError, GLUnavailableError) as error:
+        return fail(1, str(error))
+    except (ValueError, TypeError) as error:  # e.g. an image over the GL texture limit
+        return fail(2, str(error))
+    except OSError as error:  # the screenshot could not be written
+        return fail(1, str(error))
+    except KeyboardInterrupt:
+        return 130
+    return 0
