@@ -16,7 +16,6 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..core.config import MLSConfig
-from ..core.handles3 import volume_diagonal
 from ..imaging.source import BORDERS
 from .controls import Controls, window_bindings
 from .events import Press, Scroll
@@ -66,7 +65,7 @@ VOLUME_BINDINGS: tuple[tuple[tuple[str, ...], str, str], ...] = window_bindings(
         (("0",), "centre", "slice point back to the volume's centre"),
     ),
     (
-        (("s",), "save_volume", "save the deformed volume (.npy)"),
+        (("s",), "save_volume", "save the deformed volume (the input's format)"),
         (("j",), "save_handles", "save the handles as 3D JSON"),
     ),
 )
@@ -96,7 +95,14 @@ class VolumeSettings:
 
 @dataclass(frozen=True)
 class SliceGrid:
-    """Where the three views of a volume of ``shape`` (D, H, W) lie on the montage.
+    """Where the three views of a volume of ``shape`` (D, H, W) and voxel ``spacing``
+    (dz, dy, dx) lie on the montage, and how montage points, voxels and handle units (the
+    voxel (i, j, k) sits at (i dx, j dy, k dz), as in :meth:`glmls.MLS.warp`) map onto each
+    other.
+
+    Each view is drawn with the physical aspect: an axis of n voxels of size d spans
+    ``round(n d / min(spacing))`` montage pixels (n for the smallest voxel size), so a voxel
+    of 0.5 x 3.0 is a rectangle of 1 x 6 montage pixels.
 
     Examples
     --------
@@ -105,14 +111,48 @@ class SliceGrid:
     ((34, 44), (34, 0), (10, 20))
     >>> grid.locate(36.0, 5.0)  # in the sagittal view: z = 2, y = 5
     (2, 2.0, 5.0)
+    >>> thick = SliceGrid((10, 20, 30), spacing=(3.0, 1.0, 1.0))  # slices 3 units apart
+    >>> thick.montage_shape, thick.size(2), thick.locate(38.0, 5.0)
+    ((54, 64), (30, 20), (2, 1.0, 5.0))
     """
 
     shape: tuple[int, int, int]
+    spacing: tuple[float, float, float] = (1.0, 1.0, 1.0)
+
+    def __post_init__(self) -> None:
+        steps = tuple(float(d) for d in self.spacing)
+        if len(steps) != 3 or not all(np.isfinite(d) and d > 0 for d in steps):
+            raise ValueError(f"spacing must be three numbers > 0 (dz, dy, dx), got {steps}")
+        object.__setattr__(self, "spacing", steps)
+
+    @property
+    def scale(self) -> np.ndarray:
+        """(dx, dy, dz): handle units per voxel along x, y and z."""
+        return np.array(self.spacing[::-1])
+
+    @property
+    def isotropic(self) -> bool:
+        """Whether handle units are voxels (the spacing is 1, 1, 1)."""
+        return self.spacing == (1.0, 1.0, 1.0)
+
+    @property
+    def diagonal(self) -> float:
+        """The volume's diagonal in handle units."""
+        return float(np.linalg.norm(np.array(self.shape[::-1]) * self.scale))
+
+    def pixels(self, axis: int) -> int:
+        """Montage pixels along ``axis`` (0 = x, 1 = y, 2 = z)."""
+        unit = min(self.spacing)
+        return max(1, round(self.extent(axis) * self.spacing[2 - axis] / unit))
+
+    def stretch(self, axis: int) -> float:
+        """Montage pixels per voxel along ``axis``."""
+        return self.pixels(axis) / self.extent(axis)
 
     @property
     def montage_shape(self) -> tuple[int, int]:
         """(rows, columns) of the montage."""
-        depth, height, width = self.shape
+        depth, height, width = (self.pixels(axis) for axis in (2, 1, 0))
         return height + GAP + depth, width + GAP + depth
 
     def extent(self, axis: int) -> int:
@@ -120,35 +160,61 @@ class SliceGrid:
         return self.shape[2 - axis]
 
     def size(self, view: int) -> tuple[int, int]:
-        """(columns, rows) of ``view``."""
+        """(columns, rows) of ``view`` in montage pixels."""
         right, down, _ = AXES[view]
-        return self.extent(right), self.extent(down)
+        return self.pixels(right), self.pixels(down)
 
     def offset(self, view: int) -> tuple[int, int]:
-        """The montage pixel of ``view``'s pixel (0, 0)."""
-        _, height, width = self.shape
+        """The montage point of ``view``'s voxel (0, 0) when voxels are one montage pixel;
+        the view spans ``offset - 0.5`` to ``offset + size - 0.5``."""
+        height, width = self.pixels(1), self.pixels(0)
         return ((0, 0), (0, height + GAP), (width + GAP, 0))[view]
 
+    def _voxel(self, axis: int, pixel: float) -> float:
+        """A montage coordinate along ``axis`` (less the view's offset) in voxels."""
+        k = self.stretch(axis)
+        return pixel if k == 1 else (pixel + 0.5) / k - 0.5
+
+    def _pixel(self, axis: int, voxel: np.ndarray) -> np.ndarray:
+        k = self.stretch(axis)
+        return voxel if k == 1 else (voxel + 0.5) * k - 0.5
+
     def locate(self, x: float, y: float) -> tuple[int, float, float] | None:
-        """(view, column, row) of montage point (x, y), or None between the views."""
+        """(view, column, row) of montage point (x, y), in voxels of the view's axes, or
+        None between the views."""
         for view in range(3):
             ox, oy = self.offset(view)
             columns, rows = self.size(view)
             u, v = x - ox, y - oy
             if -0.5 <= u < columns - 0.5 and -0.5 <= v < rows - 0.5:
-                return view, u, v
+                right, down, _ = AXES[view]
+                return view, self._voxel(right, u), self._voxel(down, v)
         return None
 
     def to_view(self, view: int, x: float, y: float) -> tuple[float, float]:
-        """Montage point (x, y) in ``view``'s pixels, cut to its extent."""
+        """Montage point (x, y) in voxels of ``view``'s axes, cut to its extent."""
         ox, oy = self.offset(view)
-        columns, rows = self.size(view)
-        return min(max(x - ox, 0.0), columns - 1.0), min(max(y - oy, 0.0), rows - 1.0)
+        right, down, _ = AXES[view]
+        u, v = self._voxel(right, x - ox), self._voxel(down, y - oy)
+        last_u, last_v = self.extent(right) - 1.0, self.extent(down) - 1.0
+        return min(max(u, 0.0), last_u), min(max(v, 0.0), last_v)
 
     def to_montage(self, view: int, points: np.ndarray) -> np.ndarray:
-        """(K, 3) points (x, y, z) as montage points (K, 2) of ``view`` (its normal dropped)."""
+        """(K, 3) points (x, y, z) in handle units as montage points (K, 2) of ``view``
+        (its normal dropped)."""
         right, down, _ = AXES[view]
-        return np.asarray(points, np.float64)[:, [right, down]] + self.offset(view)
+        voxels = self.to_voxels(points)
+        columns = self._pixel(right, voxels[:, right])
+        rows = self._pixel(down, voxels[:, down])
+        return np.stack([columns, rows], axis=1) + self.offset(view)
+
+    def to_voxels(self, points: object) -> np.ndarray:
+        """(K, 3) points (x, y, z) in handle units as voxels (x / dx, y / dy, z / dz)."""
+        return np.asarray(points, np.float64).reshape(-1, 3) / self.scale
+
+    def to_units(self, voxels: object) -> np.ndarray:
+        """(K, 3) voxels (x, y, z) in handle units (x dx, y dy, z dz)."""
+        return np.asarray(voxels, np.float64).reshape(-1, 3) * self.scale
 
 
 def _handles3(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
@@ -175,9 +241,13 @@ class VolumeController(Controls):
     Parameters
     ----------
     src, dst : array_like
-        The handles (N, 3) (x, y, z).
+        The handles (N, 3) (x, y, z), in handle units: voxel (i, j, k) sits at
+        (i dx, j dy, k dz).
     shape : tuple of int
         (D, H, W) of the volume.
+    spacing : (float, float, float), optional
+        The voxel size (dz, dy, dx); default 1 (handle units are voxels). The views are
+        drawn with the physical aspect (:class:`SliceGrid`).
     settings : VolumeSettings, optional
         The MLS configuration and the construction.
     near : float, default 3
@@ -204,12 +274,16 @@ class VolumeController(Controls):
         dst: object,
         shape: tuple[int, int, int],
         *,
+        spacing: tuple[float, float, float] | None = None,
         settings: VolumeSettings | None = None,
         near: float = 3.0,
         pick_radius: float = 3.0,
     ) -> None:
         p, q = _handles3(src, dst)
-        self.grid = SliceGrid(tuple(int(n) for n in shape))  # type: ignore[arg-type]
+        self.grid = SliceGrid(
+            tuple(int(n) for n in shape),  # type: ignore[arg-type]
+            spacing=(1.0, 1.0, 1.0) if spacing is None else tuple(spacing),  # type: ignore[arg-type]
+        )
         self.settings = settings or VolumeSettings()
         self.near = float(near)
         self.pick_radius = float(pick_radius)
@@ -248,9 +322,9 @@ class VolumeController(Controls):
         """Indices of the handles whose source or target lies within :attr:`near` voxels of
         ``view``'s plane."""
         normal = AXES[view][2]
-        at = self.point[normal]
-        close = (np.abs(self.src[:, normal] - at) <= self.near) | (
-            np.abs(self.dst[:, normal] - at) <= self.near
+        at, step = self.point[normal], self.grid.scale[normal]
+        close = (np.abs(self.src[:, normal] / step - at) <= self.near) | (
+            np.abs(self.dst[:, normal] / step - at) <= self.near
         )
         return np.nonzero(close)[0]
 
@@ -284,13 +358,12 @@ class VolumeController(Controls):
             normal = AXES[found[0]][2]
             self._move_point(normal, self.point[normal] + round(event.dy))
 
-    def _pick(self, view: int, u: float, v: float) -> int | None:
+    def _pick(self, view: int, x: float, y: float) -> int | None:
         candidates = self.near_plane(view)
         if not len(candidates):
             return None
-        right, down, _ = AXES[view]
-        targets = self.dst[candidates][:, [right, down]]
-        distance = np.hypot(targets[:, 0] - u, targets[:, 1] - v)
+        targets = self.grid.to_montage(view, self.dst[candidates])
+        distance = np.hypot(targets[:, 0] - x, targets[:, 1] - y)
         best = int(np.argmin(distance[::-1]))  # a tie goes to the later (drawn on top)
         best = len(distance) - 1 - best
         return int(candidates[best]) if distance[best] <= self.pick_radius else None
@@ -302,7 +375,7 @@ class VolumeController(Controls):
             return
         view, u, v = found
         self.active = view
-        index = self._pick(view, u, v)
+        index = self._pick(view, event.x, event.y)
         right, down, _ = AXES[view]
         if event.button == "right":
             if index is not None:
@@ -313,8 +386,9 @@ class VolumeController(Controls):
         elif event.button != "left":
             return
         elif "shift" in event.mods:
-            point = np.array(self.point, np.float64)
-            point[right], point[down] = round(u, 2), round(v, 2)
+            voxel = np.array(self.point, np.float64)
+            voxel[right], voxel[down] = round(u, 2), round(v, 2)
+            point = self.grid.to_units(voxel)[0]
             before = (self.src.copy(), self.dst.copy())
             self.src = np.vstack([self.src, point])
             self.dst = np.vstack([self.dst, point])
@@ -332,6 +406,7 @@ class VolumeController(Controls):
         index, view, _ = self._drag
         u, v = self.grid.to_view(view, x, y)
         right, down, _ = AXES[view]
+        u, v = u * self.grid.scale[right], v * self.grid.scale[down]
         if (self.dst[index, right], self.dst[index, down]) != (u, v):
             self.dst = self.dst.copy()
             self.dst[index, right], self.dst[index, down] = u, v
@@ -376,20 +451,25 @@ class VolumeController(Controls):
 
     @property
     def radius(self) -> float:
-        """The weight's radius R in voxels: the configured one, else the volume's diagonal."""
+        """The weight's radius R in handle units: the configured one, else the volume's
+        diagonal."""
         radius = self.settings.config.radius
-        return float(radius) if radius is not None else volume_diagonal(self.grid.shape)
+        return float(radius) if radius is not None else self.grid.diagonal
 
     def parameter(self) -> str:
-        """The weight's parameter as text, e.g. ``alpha 1.25`` or ``R 111 vox``."""
+        """The weight's parameter as text, e.g. ``alpha 1.25``, ``R 111 vox`` (handle units
+        are voxels) or ``R 55.5``."""
         config = self.settings.config
-        return f"R {self.radius:.0f} vox" if config.uses_radius else f"alpha {config.alpha:g}"
+        if not config.uses_radius:
+            return f"alpha {config.alpha:g}"
+        return f"R {self.radius:.0f} vox" if self.grid.isotropic else f"R {self.radius:.4g}"
 
     def _step(self, up: bool) -> None:
         config = self.settings.config
         if config.uses_radius:
             radius = self.radius * RADIUS_FACTOR if up else self.radius / RADIUS_FACTOR
-            radius = min(max(radius, 1.0), 100 * volume_diagonal(self.grid.shape))
+            least = min(self.grid.spacing)
+            radius = min(max(radius, least), 100 * self.grid.diagonal)
             config = replace(config, radius=radius)
         else:
             alpha = config.alpha + (ALPHA_STEP if up else -ALPHA_STEP)

@@ -13,6 +13,7 @@ takes each voxel, as in the 2D window, for no more warps than the slices alone.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -73,14 +74,30 @@ def display_volume(volume: np.ndarray) -> np.ndarray:
     return np.round(np.clip((values - low) / span, 0, 1) * 255).astype(np.uint8)
 
 
-def _plane(view: int, shape: tuple[int, int, int], point) -> tuple[tuple, tuple]:
-    """(output_shape, origin) of the one-voxel-thick canvas of ``view``'s plane."""
+def _plane(view: int, shape: tuple[int, int, int], point, scale) -> tuple[tuple, tuple]:
+    """(output_shape, origin) of the one-voxel-thick canvas of ``view``'s plane, the origin
+    in handle units (``scale``: handle units per voxel along x, y, z)."""
     normal = AXES[view][2]
     size = list(shape)
     size[2 - normal] = 1
     origin = [0.0, 0.0, 0.0]
-    origin[normal] = float(point[normal])
+    origin[normal] = float(point[normal] * scale[normal])
     return tuple(size), tuple(origin)
+
+
+class _AtVoxels:
+    """A 3D MLS in handle units seen at voxel points: ``m(v)`` is f at voxel v's position
+    ``v * scale`` (the analyses evaluate their lattices in voxels)."""
+
+    def __init__(self, mls: MLS, scale: np.ndarray) -> None:
+        self.mls, self.scale = mls, scale
+        self.src, self.dst = mls.src, mls.dst
+
+    def __call__(self, points: object) -> np.ndarray:
+        return self.mls(np.asarray(points, np.float64).reshape(-1, 3) * self.scale)
+
+    def matrices(self, points: object) -> tuple[np.ndarray, np.ndarray]:
+        return self.mls.matrices(np.asarray(points, np.float64).reshape(-1, 3) * self.scale)
 
 
 def _as_view(block: np.ndarray, view: int) -> np.ndarray:
@@ -125,7 +142,7 @@ class VolumeSession:
             if len(c.src) == 0:
                 raise ValueError("no handles: shift + click in a view adds one")
             if self.mls is None or config != self._config:
-                mls = MLS.from_config(c.src, c.dst, config, shape=self.shape, ctx=self.gl)
+                mls = self._mls(config)
                 if self.mls is not None:
                     self.mls.release()
                 self.mls, self._config = mls, config
@@ -136,6 +153,21 @@ class VolumeSession:
             self.error = str(error)
         self.revision = c.revision
         self.timings["handles"] = time.perf_counter() - start
+
+    def _mls(self, config) -> MLS:
+        """A new MLS of the controller's handles. Handle units other than voxels: no
+        ``shape`` (as ``glmls warp``), the radius weight's default radius given instead."""
+        c = self.controller
+        if c.grid.isotropic:
+            return MLS.from_config(c.src, c.dst, config, shape=self.shape, ctx=self.gl)
+        if config.uses_radius and config.radius is None:
+            config = replace(config, radius=c.radius)
+        return MLS.from_config(c.src, c.dst, config, ctx=self.gl)
+
+    def _deformation(self):
+        """The MLS as the analyses evaluate it: at voxel points."""
+        grid = self.controller.grid
+        return self.mls if grid.isotropic else _AtVoxels(self.mls, grid.scale)  # type: ignore[arg-type]
 
     def field(self) -> np.ndarray | None:
         """The overlay's field over the whole volume, (D, H, W) uint8, or None without one:
@@ -153,18 +185,19 @@ class VolumeSession:
             return self._field[1]
         start = time.perf_counter()
         if c.overlay == "error":
-            values = volume_error_field(self.mls, self.shape, grid=grid)
+            values = volume_error_field(self._deformation(), self.shape, grid=grid)
             low, high = color_limits(values, percentile=99.0)
             span = high - low if high > low else 1.0
             field = np.round(np.clip((values - low) / span, 0.0, 1.0) * 255).astype(np.uint8)
             stats = error_stats(values)
+            units = "voxels" if c.grid.isotropic else "units"
             self.lines = [
-                f"E_MLS over the volume (voxels^2, grid {grid}):",
+                f"E_MLS over the volume ({units}^2, grid {grid}):",
                 f"  mean {_number(stats['mean'])} std {_number(stats['std'])}",
                 f"  min {_number(stats['min'])} max {_number(stats['max'])}",
             ]
         else:
-            cells = cell_jacobians(self.mls, self.shape, grid=grid)
+            cells = cell_jacobians(self._deformation(), self.shape, grid=grid)
             field = np.where(cells.mask, np.uint8(255), np.uint8(0))
             self.lines = [f"folds (det J <= 0): {cells.count} of {cells.det.size} cells"]
         self._field = (key, field)
@@ -201,7 +234,7 @@ class VolumeSession:
             index[2 - normal] = slice(c.point[normal], c.point[normal] + 1)
             block = volume[tuple(index)]
         else:
-            size, origin = _plane(view, self.shape, c.point)
+            size, origin = _plane(view, self.shape, c.point, c.grid.scale)
             block = self.mls.warp(
                 volume,
                 method=s.method,
@@ -210,6 +243,7 @@ class VolumeSession:
                 border=s.border,
                 output_shape=size,
                 origin=origin,
+                spacing=c.grid.spacing,
             )
         picture = _as_view(block, view)
         return np.ascontiguousarray(picture if picture.ndim == 3 else picture[..., None])

@@ -62,15 +62,14 @@ def scene_geometry(c: VolumeController, scale: float) -> tuple[np.ndarray, np.nd
     """(triangles, lines): vertex rows x, y, r, g, b, a in montage pixels. Lines: each
     view's frame (the active one highlighted) and the crosshairs of the other two planes;
     triangles: the handles within :attr:`~VolumeController.near` voxels of each plane, an
-    arrow from p to q, a disk at each (drawn by their in-plane coordinates)."""
+    arrow from p to q, a disk at each (drawn at their physical in-plane positions)."""
     grid, unit = c.grid, 1.0 / scale
     lines, triangles = [], [np.zeros((0, 6), np.float32)]
     for view in range(3):
         (ox, oy), (columns, rows) = grid.offset(view), grid.size(view)
-        right, down, _ = AXES[view]
         box = _box(ox - 0.5, oy - 0.5, ox + columns - 0.5, oy + rows - 0.5)
         lines.append(_coloured(box, ACTIVE_RGBA if view == c.active else FRAME_RGBA))
-        u, v = ox + c.point[right], oy + c.point[down]
+        u, v = grid.to_montage(view, grid.to_units(c.point))[0]
         bottom, end = oy + rows - 0.5, ox + columns - 0.5
         cross = np.array([[u, oy - 0.5], [u, bottom], [ox - 0.5, v], [end, v]])
         lines.append(_coloured(cross, CROSSHAIR_RGBA))
@@ -110,8 +109,9 @@ class VolumeView:
         self._keys: list[tuple] = [(), ()]
 
     def _shape(self, view: int) -> tuple[int, int]:
-        columns, rows = self.grid.size(view)
-        return rows, columns
+        """(rows, columns) of ``view``'s picture: voxels, stretched onto its viewport."""
+        right, down, _ = AXES[view]
+        return self.grid.extent(down), self.grid.extent(right)
 
     def text_renderer(self, size: int) -> TextRenderer:
         """The text renderer of ``size`` pixels (made once)."""

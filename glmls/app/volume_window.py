@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..files.landmarks import read_handles, write_handles
-from ..files.volumes import write_volume
+from ..files.volumes import VOLUME_SUFFIXES, Volume, write_volume
 from .glfw_window import NoDisplayError
 from .hud import PANEL_CHARS, frame_rate, wrap
 from .layout import layout
@@ -33,10 +33,19 @@ class VolumeApp(WindowLoop):
 
     Parameters
     ----------
-    volume : numpy.ndarray
+    volume : numpy.ndarray or glmls.Volume
         (D, H, W) or (D, H, W, C); shown grey (:func:`~glmls.app.volume_session.display_volume`).
+        A :class:`~glmls.Volume` brings its spacing and affine.
     src, dst : array_like
-        The handles (N, 3) (x, y, z).
+        The handles (N, 3) (x, y, z) in handle units: voxel (i, j, k) sits at
+        (i dx, j dy, k dz), as in ``glmls warp`` and :meth:`glmls.MLS.warp`.
+    spacing : (float, float, float), optional
+        The voxel size (dz, dy, dx); default the volume's, else 1. The views show the
+        physical aspect, the slices and the saved volume are warped with it.
+    save_as : str, default ".npy"
+        The format of the deformed volume ``s`` saves (``.nii``, ``.nii.gz``,
+        ``.tif``, ``.tiff`` or ``.npy``); NIfTI keeps the volume's affine (else one of the
+        spacing), an ImageJ TIFF the spacing, ``.npy`` neither.
     settings : VolumeSettings, optional
         The MLS configuration and the construction of the slices.
     name : str
@@ -57,6 +66,8 @@ class VolumeApp(WindowLoop):
         src: object,
         dst: object,
         *,
+        spacing: tuple[float, float, float] | None = None,
+        save_as: str = ".npy",
         settings: VolumeSettings | None = None,
         name: str = "volume",
         out_dir: str | Path = ".",
@@ -64,9 +75,20 @@ class VolumeApp(WindowLoop):
         window_size: tuple[int, int] | None = None,
         record: str | Path | None = None,
     ) -> None:
-        self.volume = np.asarray(volume)
+        given = volume if isinstance(volume, Volume) else Volume(np.asarray(volume))
+        if save_as not in VOLUME_SUFFIXES:
+            raise ValueError(
+                f"save_as must be one of {', '.join(VOLUME_SUFFIXES)}, got {save_as!r}"
+            )
+        self.volume = given.data
+        #: The voxel size (dz, dy, dx) given or the volume's (None: 1) and its affine.
+        self.spacing = given.spacing if spacing is None else tuple(spacing)
+        self.affine = given.affine
+        self.save_as = save_as
         self.display = display_volume(self.volume)
-        self.controller = VolumeController(src, dst, self.display.shape, settings=settings)
+        self.controller = VolumeController(
+            src, dst, self.display.shape, spacing=self.spacing, settings=settings
+        )
         self._start(
             self.controller.grid.montage_shape,
             name=name,
@@ -89,13 +111,24 @@ class VolumeApp(WindowLoop):
     # -- events and commands ----------------------------------------------------------------
 
     def _save_warped(self) -> Path:
-        path = self._path("warped.npy")
+        path = self._path(f"warped{self.save_as}")
         mls = self.session.mls if self.window is not None else None
         if mls is None:
             raise ValueError("no valid deformation")
-        s = self.controller.settings
+        c = self.controller
+        s = c.settings
+        warped = mls.warp(
+            self.volume,
+            method=s.method,
+            interpolation="linear",
+            grid=s.grid,
+            border=s.border,
+            spacing=c.grid.spacing,
+        )
+        nifti = self.save_as in (".nii", ".nii.gz")
         write_volume(
-            path, mls.warp(self.volume, method=s.method, interpolation="linear", grid=s.grid)
+            path,
+            Volume(np.asarray(warped), spacing=self.spacing, affine=self.affine if nifti else None),
         )
         return path
 
@@ -118,7 +151,7 @@ class VolumeApp(WindowLoop):
         x, y, z = c.point
         normal = "xyz"[AXES[c.active][2]]
         lines = [
-            f"glmls  {self.name}  {width}x{height}x{depth}",
+            f"glmls  {self.name}  {width}x{height}x{depth}{self._voxel_size()}",
             f"fps {fps:5.1f}   frame {frame_ms:5.1f} ms",
             f"ms: handles {ms.get('handles', 0):.2f}  slices {ms.get('slices', 0):.1f}",
             f"    analysis {ms.get('analysis', 0):.1f}  draw {ms.get('draw', 0):.1f}",
@@ -141,6 +174,13 @@ class VolumeApp(WindowLoop):
         for message in self._shown_messages():
             lines += wrap(message, PANEL_CHARS)
         return lines
+
+    def _voxel_size(self) -> str:
+        """`` voxel dx x dy x dz`` for a volume with a spacing other than 1, else ""."""
+        grid = self.controller.grid
+        if grid.isotropic:
+            return ""
+        return "  voxel " + " x ".join(f"{d:g}" for d in grid.scale)
 
     def _view_key(self) -> tuple:
         c = self.controller

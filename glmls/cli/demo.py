@@ -24,6 +24,7 @@ from .options import (
     config_from_args,
     positive_int,
 )
+from .warp3d import parse_spacing
 
 __all__ = ["configure", "run"]
 
@@ -82,6 +83,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--handles",
         type=Path,
         help="handles file (JSON, CSV or BigWarp): points, segments and polylines",
+    )
+    parser.add_argument(
+        "--spacing",
+        type=parse_spacing,
+        metavar="DZ,DY,DX",
+        help="a volume's voxel size along z, y and x, or one number for all three, as for "
+        "glmls warp: the handles' units and the views' aspect (default: the file's: a NIfTI's "
+        "affine, an ImageJ TIFF stack's spacing; else 1)",
     )
     parser.add_argument(
         "--reference", type=Path, help="reference points (JSON or CSV) for the angle errors"

@@ -4,6 +4,12 @@ The volume window opens for ``glmls demo VOLUME`` (NIfTI ``.nii``/``.nii.gz``, a
 or a ``.npy`` array of 4 dimensions or of 3 whose last is over 4), for ``glmls demo
 --volume [VOLUME]`` (without a file: the bundled phantom and its handles), and for ``glmls
 demo --handles H3D`` with a file of 3D handles and no image (the phantom, those handles).
+
+The voxel spacing is ``glmls warp``'s: ``--spacing DZ,DY,DX``, else the file's (a NIfTI's
+affine, an ImageJ stack's spacing), else 1; the handles are in its units (voxel (i, j, k) at
+(i dx, j dy, k dz)), the views show the physical aspect and ``s`` saves the deformed volume
+in the input's format with its spacing (and a NIfTI's affine). The phantom's own handles,
+given in its voxels, are scaled by ``--spacing``.
 """
 
 from __future__ import annotations
@@ -15,7 +21,7 @@ import numpy as np
 
 from ..errors import InputFileError
 from ..files.landmarks import read_handles
-from ..files.volumes import is_volume_file, read_volume, volume_suffix
+from ..files.volumes import Volume, is_volume_file, read_volume, volume_suffix
 from .demo_window import fail, replay_events, run_window, window_options
 
 __all__ = ["run_volume", "volume_inputs"]
@@ -43,23 +49,39 @@ def _three_d_handles(path: Path | None) -> bool:
 
 def volume_inputs(
     args: argparse.Namespace,
-) -> tuple[np.ndarray, str, np.ndarray, np.ndarray] | None:
+) -> tuple[Volume, str, np.ndarray, np.ndarray] | None:
     """(volume, name, src, dst) when the arguments ask for the volume window, else None;
-    ``InputFileError`` (a ``ValueError``) for a bad volume or handles file."""
+    the volume a :class:`~glmls.Volume` with ``--spacing``'s spacing, else the file's.
+    ``InputFileError`` (a ``ValueError``) for a bad volume or handles file, ``ValueError``
+    for ``--spacing`` with a 2D image."""
     from .. import data
 
     wanted = args.volume or (args.image is not None and _is_volume(args.image))
     if not wanted and not (args.image is None and _three_d_handles(args.handles)):
+        if args.spacing is not None:
+            raise ValueError(
+                f"--spacing: for volumes, not for images ({args.image or 'the photograph'})"
+            )
         return None
     if args.image is None:
-        volume, name = data.phantom(), "phantom"
+        volume, name = Volume(data.phantom(), spacing=args.spacing), "phantom"
         src, dst = data.phantom_handles()
+        if args.spacing is not None:  # the phantom's handles are in its voxels
+            scale = np.array(args.spacing[::-1])
+            src, dst = src * scale, dst * scale
     else:
-        volume, name = read_volume(args.image).data, args.image.name.split(".")[0]
+        volume, name = read_volume(args.image), args.image.name.split(".")[0]
+        if args.spacing is not None:
+            volume = Volume(volume.data, spacing=args.spacing, affine=volume.affine)
         src = dst = np.zeros((0, 3))
     if args.handles is not None:
         src, dst = read_handles(args.handles, ndim=3)
     return volume, name, src, dst
+
+
+def _save_as(args: argparse.Namespace) -> str:
+    """The deformed volume's format: the input's (a ``.npy`` for the phantom)."""
+    return ".npy" if args.image is None else volume_suffix(args.image)
 
 
 def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
@@ -80,6 +102,7 @@ def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
             volume,
             src,
             dst,
+            save_as=_save_as(args),
             settings=settings,
             name=name,
             **window_options(args),
