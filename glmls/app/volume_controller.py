@@ -258,6 +258,7 @@ class VolumeController(Controls):
     Examples
     --------
     >>> import numpy as np
+    >>> from glmls.app.events import Key, Move, Press, Release
     >>> src = np.array([[2.0, 2, 5], [8, 8, 5]])
     >>> c = VolumeController(src, src, (10, 12, 12))
     >>> for event in (Press(2, 2), Move(4, 3), Release(4, 3)):  # drag q_0 in the axial view

@@ -151,7 +151,7 @@ class VolumeApp(WindowLoop):
         x, y, z = c.point
         normal = "xyz"[AXES[c.active][2]]
         lines = [
-            f"glmls  {self.name}  {width}x{height}x{depth}{self._voxel_size()}",
+            f"glmls  {self.name}  {width}x{height}x{depth}",
             f"fps {fps:5.1f}   frame {frame_ms:5.1f} ms",
             f"ms: handles {ms.get('handles', 0):.2f}  slices {ms.get('slices', 0):.1f}",
             f"    analysis {ms.get('analysis', 0):.1f}  draw {ms.get('draw', 0):.1f}",
@@ -162,6 +162,7 @@ class VolumeApp(WindowLoop):
             f"grid       {s.grid} voxels   (g/G)",
             f"border     {s.border}   (b)",
             f"point      x {x}  y {y}  z {z}   (click)",
+            *self._voxel_size(),
             f"active     {VIEWS[c.active]}: {normal} +/- (Up/Down)",
             f"handles    {len(c.src)} (shown within {c.near:g} voxels)",
             f"overlay    {c.overlay}   (e, f)",
@@ -175,12 +176,12 @@ class VolumeApp(WindowLoop):
             lines += wrap(message, PANEL_CHARS)
         return lines
 
-    def _voxel_size(self) -> str:
-        """`` voxel dx x dy x dz`` for a volume with a spacing other than 1, else ""."""
+    def _voxel_size(self) -> list[str]:
+        """The readout's line of the voxel size (x, y, z) where the spacing is not 1."""
         grid = self.controller.grid
         if grid.isotropic:
-            return ""
-        return "  voxel " + " x ".join(f"{d:g}" for d in grid.scale)
+            return []
+        return ["voxel      " + " x ".join(f"{d:g}" for d in grid.scale) + " (x, y, z)"]
 
     def _view_key(self) -> tuple:
         c = self.controller
