@@ -20,6 +20,15 @@ sys.path.insert(0, str(ROOT))  # glmls from the source tree when it is not insta
 
 import glmls  # noqa: E402
 
+# torchvision loads triton, whose LLVM crashes a process in which llvmpipe's LLVM is already
+# loaded (glmls.augment.torchvision.check_import_order). The gallery makes GL contexts, and
+# the API pages import the adapters (albumentations imports torch; reading its members can
+# load triton), in an order that depends on what an incremental build rereads: load it first.
+try:
+    import glmls.augment.torchvision
+except ImportError:  # the torch extra is not installed: nothing loads triton
+    pass
+
 project = "glmls"
 author = "the glmls authors"
 copyright = "the glmls authors"
