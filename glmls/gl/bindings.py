@@ -60,6 +60,9 @@ VOLUME_LATTICE = Binding("VOLUME_LATTICE", "storage", 11, "volumes: f at a band 
 VOLUME_KEYS = Binding("VOLUME_KEYS", "storage", 13, "volumes: each output voxel's first cell")
 VOLUME_COORDS = Binding("VOLUME_COORDS", "storage", 16, "volumes: each voxel's source point")
 VOLUME_SLOPES = Binding("VOLUME_SLOPES", "storage", 17, "volumes: d source / d output per voxel")
+MESH_FACES = Binding("MESH_FACES", "storage", 19, "3D meshes: the faces' vertex indices")
+MESH_NORMALS = Binding("MESH_NORMALS", "storage", 20, "3D meshes: vertex normals or their sums")
+MESH_FOLDS = Binding("MESH_FOLDS", "storage", 21, "3D meshes: each face's fold flag, a byte")
 # -- uniform blocks ----------------------------------------------------------------------------
 HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
 # -- texture units -----------------------------------------------------------------------------
@@ -106,6 +109,9 @@ ALL = (
     VOLUME_KEYS,
     VOLUME_COORDS,
     VOLUME_SLOPES,
+    MESH_FACES,
+    MESH_NORMALS,
+    MESH_FOLDS,
     HANDLES_BLOCK,
     SOURCE,
     COORDS,
