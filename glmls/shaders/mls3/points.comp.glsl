@@ -11,8 +11,7 @@
 //     mesh vertex instead (mls3/mesh.glsl): f - v, J, the deformed unit normal n cof(J)
 //     sign(det J) of the vertex's normal (MLS3_MESH_NORMALS: 0 none, 1 the mesh's own, 3
 //     floats per vertex, 2 the fixed-point sums of mls3/mesh_normals.comp.glsl), det J.
-// f and J come from one loop over the 7 points of the central differences' stencil around
-// one evaluation of f (mls3/core.glsl).
+// J: mls3_jacobian_inlined (mls3/core.glsl).
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "mls3/core.glsl"
@@ -114,7 +113,7 @@ void main() {
     vec3 v = mls3_item_point(min(i, max(u_count - 1, 0)));
 #if MLS3_WRITE_JACOBIAN
     MLS3Result r = mls3_eval(v);
-    mat3 J = mls3_jacobian(v, u_jacobian_step);
+    mat3 J = mls3_jacobian_inlined(v, u_jacobian_step);
 #else
     MLS3Result r = mls3_eval(v);
 #endif
