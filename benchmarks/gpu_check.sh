@@ -48,6 +48,7 @@ step profile-stages 45 "$PYTHON" benchmarks/profile_stages.py --size 1024 --hand
 step adaptive-stages-W1 30 "$PYTHON" benchmarks/adaptive_stages.py --workload W1 --tolerance 0.05
 step adaptive-stages-W2 30 "$PYTHON" benchmarks/adaptive_stages.py --workload W2 --tolerance 0.05
 step volume-bench 90 "$PYTHON" benchmarks/volume_bench.py --size 256 --repeat 3 --memory 512 --skip-peers
+step mesh-stages 60 "$PYTHON" benchmarks/gl_stages.py mesh
 
 if ((${#failed[@]})); then
     echo "gpu_check: failed: ${failed[*]} (results in $out/)" >&2

@@ -229,7 +229,7 @@ mat3 mls3_stencil_jacobian(vec3 v, float h, mat3 sums) {
 }
 
 // The same J with the six evaluations inlined: a program several times larger (longer to
-// compile), which llvmpipe runs ~1.4x faster than the loop (the points pass's choice).
+// compile), which llvmpipe runs faster than the loop (the points pass's choice).
 mat3 mls3_jacobian_inlined(vec3 v, float h) {
     mat3 sums = mat3(0.0);
     mls3_stencil_add(sums, 1, mls3_eval(mls3_stencil_point(v, 1, h)).d);
