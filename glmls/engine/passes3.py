@@ -1,6 +1,7 @@
 """The passes that evaluate the 3D f on the GPU (``glmls/shaders/mls3/points.comp.glsl``): at
 a list of points, read back in one piece (f, and M or the Jacobian J = df/dv where asked);
-or on a regular lattice, written into a GL buffer that stays on the GPU.
+or on a regular lattice, written into a GL buffer that stays on the GPU. The same program
+writes a mesh's vertex records for :mod:`glmls.engine.deform3`.
 """
 
 from __future__ import annotations

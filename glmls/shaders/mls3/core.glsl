@@ -194,10 +194,10 @@ MLS3Result mls3_eval(vec3 v) {
 
 // J = df/dv by central differences of step h (scaled), for row vectors: df = dv * J, the
 // mathematical J[r][c] = d f_c / d v_r (the GLSL J[c][r]). The stencil's points: k = 0 is v,
-// k = 1..6 are v + h e_a (k odd) and v - h e_a (k even), a = (k - 1) / 2. A pass walks k in a
-// loop around one evaluation of f (mls3_eval is most of a program's code: one copy, not six
-// or seven, keeps the program small), adds each f - v of k >= 1 with mls3_stencil_add, and
-// ends with mls3_stencil_jacobian.
+// k = 1..6 are v + h e_a (k odd) and v - h e_a (k even), a = (k - 1) / 2. Each f - v of
+// k >= 1 is added with mls3_stencil_add, and mls3_stencil_jacobian ends. mls3_jacobian walks
+// k in a loop around one evaluation of f (mls3_eval is most of a program's code: one copy,
+// not six, keeps the program small); mls3_jacobian_inlined writes the six out.
 vec3 mls3_stencil_axis(int k) {
     return k == 0 ? vec3(0.0) : vec3(equal(ivec3((k - 1) / 2), ivec3(0, 1, 2)));
 }
