@@ -106,7 +106,9 @@ def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         raise ValueError(f"mesh faces name vertices outside 0..{len(v) - 1}")
     if normals is not None and normals.shape != v.shape:
         normals = None
-    return v, f.astype(np.int64), normals
+    if f.dtype != np.int64 or f.flags.writeable:
+        f = f.astype(np.int64)  # a copy: the caller's array may change (a glmls.Mesh's cannot)
+    return v, f, normals
 
 
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
