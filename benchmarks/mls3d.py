@@ -6,8 +6,9 @@ mesh, with N random handles in a 256^3 volume.
 Prints the best of ``--repeat`` calls after an untimed one: seconds and millions of points per
 second for ``m(points)`` (one dispatch, one read-back), ``m.jacobian(points)`` (f and J by
 central differences: 7 evaluations of f per point) and ``m.deform`` of a mesh with that many
-vertices (the Jacobian pass plus the normals and folds on the host), split into the GPU pass
-and the host's part.
+vertices (f, J, the normals and the folds, all on the GPU), and for comparison the float64
+numpy reference of the normals and folds from the same f and J
+(``glmls.core.mesh3.deform_mesh``).
 """
 
 from __future__ import annotations
@@ -64,10 +65,10 @@ def main() -> None:
         _, jacobian = m.jacobian(vertices)
     deformed = vertices.copy()
 
-    def host() -> None:
+    def reference() -> None:
         deform_mesh(vertices, faces, None, deformed, jacobian)
 
-    rows["deform: host part"] = best(host, args.repeat)
+    rows["numpy reference"] = best(reference, args.repeat)
     print(
         f"{args.handles} handles, {args.transform}, {len(points):,} points, mesh of "
         f"{len(vertices):,} vertices and {len(faces):,} faces"

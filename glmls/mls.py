@@ -513,7 +513,7 @@ class MLS:
         """A triangle mesh or point cloud deformed by a 3D MLS (one made of (N, 3) handles).
 
         f at the vertices, the vertex normals carried by the inverse transpose of the
-        Jacobian J = df/dv, det J and the folds, from one pass on the GPU
+        Jacobian J = df/dv, det J and the folds, all computed on the GPU
         (:class:`~glmls.DeformedMesh`; docs/three_d.md).
 
         Parameters

@@ -15,7 +15,8 @@ import numpy as np
 
 from .core.handles import Scaling
 from .core.handles3 import as_points3, as_volume_shape, fit_scaling3, validate_handles3
-from .core.mesh3 import DeformedMesh, as_mesh, deform_mesh
+from .core.mesh3 import DeformedMesh, as_mesh
+from .engine.deform3 import deform_mesh3
 from .engine.kernel3 import MLSKernel3
 from .engine.passes3 import evaluate_points3, invert_points3
 from .gl.context import get_context
@@ -315,8 +316,9 @@ class MLS3(MLS):
         v = as_points3(points)
         return evaluate_points3(self._kernel, v, output="jacobian")  # type: ignore[arg-type, return-value]
 
+    @on_gpu
     def deform(self, mesh: object) -> DeformedMesh:
-        """A triangle mesh or point cloud deformed by f, in one GPU pass: see
+        """A triangle mesh or point cloud deformed by f on the GPU: see
         :meth:`glmls.MLS.deform`.
 
         Parameters
@@ -337,8 +339,7 @@ class MLS3(MLS):
         [[2.0, 3.0, 4.0]]
         """
         vertices, faces, normals = as_mesh(mesh)
-        deformed, jacobian = self.jacobian(vertices)
-        return deform_mesh(vertices, faces, normals, deformed, jacobian)
+        return deform_mesh3(self._kernel, vertices, faces, normals)  # type: ignore[arg-type]
 
     # -- volumes and what is 2D only --------------------------------------------------------
 

@@ -1,13 +1,15 @@
 """Triangle meshes and point clouds deformed by a 3D MLS: the input forms
-(:func:`as_mesh`), the vertex normals, the folds, and the result (:class:`DeformedMesh`).
+(:func:`as_mesh`), the result (:class:`DeformedMesh`), and the float64 reference of what
+the GPU computes for it (:mod:`glmls.engine.deform3`): the vertex normals, the cofactors,
+the deformed normals and the folds.
 
 A map folds a vertex where its Jacobian J = df/dv has det J <= 0 (f turns the volume inside
 out there, or flattens it). A face is folded when one of its vertices is, or when its
 orientation flips: its deformed normal points against its original normal carried by f
-(n C, C the mean of its vertices' cofactor matrices cof(J) = det(J) J^-T: a face's normal
+(n C, C the sum of its vertices' cofactor matrices cof(J) = det(J) J^-T: a face's normal
 goes to n cof(J) under a linear map J; for a map that does not fold, the two agree for every
-face small against the deformation's scale).
-"""
+face small against the deformation's scale). A face of zero area folds by this rule (its
+normal is zero)."""
 
 from __future__ import annotations
 
@@ -45,7 +47,8 @@ class DeformedMesh:
         the mesh's own ``vertex_normals``) carried by the inverse transpose of J, n J^-T;
         zeros where a vertex has none (a point cloud, an unused vertex) or J is singular.
     jacobian : numpy.ndarray
-        (V, 3, 3) float64 J = df/dv at each vertex, row vectors: J[k, r, c] = d f_c / d v_r.
+        (V, 3, 3) float64 J = df/dv at each vertex, row vectors: J[k, r, c] = d f_c / d v_r
+        (float32 values from the GPU, as are ``normals`` and ``det_j``).
     det_j : numpy.ndarray
         (V,) float64 det J: the local change of volume.
     vertex_folds : numpy.ndarray
@@ -103,7 +106,9 @@ def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         raise ValueError(f"mesh faces name vertices outside 0..{len(v) - 1}")
     if normals is not None and normals.shape != v.shape:
         normals = None
-    return v, f.astype(np.int64), normals
+    if f.dtype != np.int64 or f.flags.writeable:
+        f = f.astype(np.int64)  # a copy: the caller's array may change (a glmls.Mesh's cannot)
+    return v, f, normals
 
 
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -173,15 +178,15 @@ def face_folds(
     cofactors: np.ndarray,
     vertex_folds: np.ndarray,
 ) -> np.ndarray:
-    """(F,) bool: a vertex of the face folds, or its deformed normal points against its
-    original one (``face_normals_before``, (F, 3)) carried by the mean of its vertices'
-    :func:`cofactor` matrices (V, 3, 3). A sign test: float32 halves the gathers' memory."""
+    """(F,) bool: a vertex of the face folds, or its deformed normal (from ``deformed``, (V,
+    3)) points against its original one (``face_normals_before``, (F, 3)) carried by the sum
+    of its vertices' :func:`cofactor` matrices (V, 3, 3): their dot product is <= 0."""
     if not len(faces):
         return np.zeros(0, bool)
-    c = cofactors.astype(np.float32)
+    c = cofactors
     a, b, d = faces[:, 0], faces[:, 1], faces[:, 2]
-    carried = _carry(face_normals_before.astype(np.float32), c[a] + c[b] + c[d])
-    after = face_normals(deformed.astype(np.float32), faces)
+    carried = _carry(face_normals_before, c[a] + c[b] + c[d])
+    after = face_normals(deformed, faces)
     flips = (after * carried).sum(axis=1) <= 0
     return vertex_folds[a] | vertex_folds[b] | vertex_folds[d] | flips
 
@@ -203,7 +208,8 @@ def deform_mesh(
 ) -> DeformedMesh:
     """The :class:`DeformedMesh` of a mesh (:func:`as_mesh`'s ``vertices``, ``faces`` and
     ``normals``, None to take them from the faces) from f at its vertices (``deformed``) and
-    the Jacobians there."""
+    the Jacobians there, in float64 on the host: the reference of the GPU's
+    :func:`glmls.engine.deform3.deform_mesh3`."""
     before = face_normals(vertices, faces)
     if normals is None:
         normals = vertex_normals(vertices, faces, before) if len(faces) else vertices * 0.0

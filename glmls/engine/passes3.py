@@ -1,6 +1,7 @@
 """The passes that evaluate the 3D f on the GPU (``glmls/shaders/mls3/points.comp.glsl``): at
 a list of points, read back in one piece (f, and M or the Jacobian J = df/dv where asked);
-or on a regular lattice, written into a GL buffer that stays on the GPU.
+or on a regular lattice, written into a GL buffer that stays on the GPU. The same program
+writes a mesh's vertex records for :mod:`glmls.engine.deform3`.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from .kernel3 import MLSKernel3
 __all__ = [
     "INVERSE3_PASS",
     "JACOBIAN_STEP",
+    "MESH_NORMALS",
     "POINTS3_PASS",
     "evaluate_lattice3",
     "evaluate_points3",
@@ -31,19 +33,31 @@ POINTS3_PASS = "mls3/points.comp.glsl"
 JACOBIAN_STEP = 0.05
 #: What a points pass writes besides f.
 OUTPUTS = ("f", "matrix", "jacobian")
+#: A points pass's outputs: :data:`OUTPUTS`, or a mesh's vertex records (f, J, the deformed
+#: normal and det J; :mod:`glmls.engine.deform3`).
+PROGRAM_OUTPUTS = (*OUTPUTS, "mesh")
+#: Where the mesh pass takes vertex normals from: none, the mesh's own, or the sums of the
+#: faces' normals (``MLS3_MESH_NORMALS`` 0, 1, 2).
+MESH_NORMALS = ("none", "given", "faces")
 
 
 def points3_program(
-    kernel: MLSKernel3, *, lattice: bool, output: str = "f"
+    kernel: MLSKernel3, *, lattice: bool, output: str = "f", normals: str = "none"
 ) -> moderngl.ComputeShader:
     """The compiled 3D points pass: on a lattice (``lattice``) or a list; ``output`` one of
-    ``"f"``, ``"matrix"`` (f and M), ``"jacobian"`` (f and J)."""
-    if output not in OUTPUTS:
-        raise ValueError(f"unknown output {output!r}; choose one of {', '.join(OUTPUTS)}")
+    ``"f"``, ``"matrix"`` (f and M), ``"jacobian"`` (f and J), ``"mesh"`` (a mesh's vertex
+    records, with ``normals`` one of :data:`MESH_NORMALS`)."""
+    if output not in PROGRAM_OUTPUTS:
+        raise ValueError(f"unknown output {output!r}; choose one of {', '.join(PROGRAM_OUTPUTS)}")
+    if normals not in MESH_NORMALS:
+        raise ValueError(f"unknown normals {normals!r}; choose one of {', '.join(MESH_NORMALS)}")
+    mesh = output == "mesh"
     defines = {
         "MLS3_LATTICE": lattice,
         "MLS3_WRITE_MATRIX": output == "matrix",
-        "MLS3_WRITE_JACOBIAN": output == "jacobian",
+        "MLS3_WRITE_JACOBIAN": output in ("jacobian", "mesh"),
+        "MLS3_MESH": mesh,
+        "MLS3_MESH_NORMALS": MESH_NORMALS.index(normals) if mesh else 0,
     }
     return kernel.program(POINTS3_PASS, defines)
 
@@ -61,6 +75,8 @@ def evaluate_points3(
     :data:`JACOBIAN_STEP` voxels, J[r, c] = d f_c / d v_r) as (K, 3, 3) float64, else None.
     ``shape``: the volume whose diagonal is the default radius (None: the kernel's own).
     One dispatch per ``max_groups`` work groups (the GL limit by default), one read-back."""
+    if output not in OUTPUTS:
+        raise ValueError(f"unknown output {output!r}; choose one of {', '.join(OUTPUTS)}")
     count = len(points)
     if count == 0:
         kernel.check_alive()

@@ -62,6 +62,9 @@ VOLUME_COORDS = Binding("VOLUME_COORDS", "storage", 16, "volumes: each voxel's s
 VOLUME_SLOPES = Binding("VOLUME_SLOPES", "storage", 17, "volumes: d source / d output per voxel")
 FILL = Binding("FILL", "storage", 19, "a buffer being filled with one word (fill_buffer)")
 VOLUME_SURVEY = Binding("VOLUME_SURVEY", "storage", 20, "volumes: the box of f over each z layer")
+MESH_FACES = Binding("MESH_FACES", "storage", 21, "3D meshes: the faces' vertex indices")
+MESH_NORMALS = Binding("MESH_NORMALS", "storage", 22, "3D meshes: vertex normals or their sums")
+MESH_FOLDS = Binding("MESH_FOLDS", "storage", 23, "3D meshes: each face's fold flag, a byte")
 # -- uniform blocks ----------------------------------------------------------------------------
 HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
 # -- texture units -----------------------------------------------------------------------------
@@ -110,6 +113,9 @@ ALL = (
     VOLUME_SLOPES,
     FILL,
     VOLUME_SURVEY,
+    MESH_FACES,
+    MESH_NORMALS,
+    MESH_FOLDS,
     HANDLES_BLOCK,
     SOURCE,
     COORDS,

@@ -180,6 +180,9 @@ def compile_every_entry(gl):
     for stage in range(3):
         gl.compute("warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage})
     gl.compute("adaptive/scan.comp.glsl")  # the adaptive mesh (tolerance=)
+    for stage in range(2):  # a 3D mesh's normal sums, then its folds
+        gl.compute("mls3/mesh_normals.comp.glsl", {"MESH3_NORMALS_STAGE": stage})
+    gl.compute("mls3/mesh_folds.comp.glsl")
     for border in range(5):
         for linear, coords in ((0, 0), (1, 0), (0, 1)):
             fill = {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords, "WARP_BORDER": border}

@@ -8,6 +8,8 @@
 //   vec3 mls3_to_scaled(vec3 voxel), vec3 mls3_to_voxels(vec3 scaled)
 //   vec3 mls3_f_voxels(vec3 voxel)          f in voxel coordinates
 //   mat3 mls3_jacobian(vec3 v, float h)     df/dv by central differences of step h (scaled)
+//   mat3 mls3_jacobian_inlined(vec3 v, float h)   the same, six copies of f's code
+//   mls3_stencil_*                          the same differences, for a pass's own loop
 //
 // Scaled coordinates: (voxel - u_mls3_center) / u_mls3_scale (MLSKernel3.scaling), so that
 // float32 keeps ~1e-7 of the volume's extent. M is a GLSL mat3 used as ``v * M`` (row
@@ -190,20 +192,62 @@ MLS3Result mls3_eval(vec3 v) {
     return mls3_finish(a);
 }
 
-// Row r of J = df/dv at v: e_r + (d(v + h e_r) - d(v - h e_r)) / (the steps float32 took).
-vec3 mls3_difference(vec3 v, vec3 axis, float h) {
-    vec3 up = v + h * axis;
-    vec3 down = v - h * axis;
-    float taken = dot(up - v, axis) + dot(v - down, axis);
-    return axis + (mls3_eval(up).d - mls3_eval(down).d) / taken;
+// J = df/dv by central differences of step h (scaled), for row vectors: df = dv * J, the
+// mathematical J[r][c] = d f_c / d v_r (the GLSL J[c][r]). The stencil's points: k = 0 is v,
+// k = 1..6 are v + h e_a (k odd) and v - h e_a (k even), a = (k - 1) / 2. Each f - v of
+// k >= 1 is added with mls3_stencil_add, and mls3_stencil_jacobian ends. mls3_jacobian walks
+// k in a loop around one evaluation of f (mls3_eval is most of a program's code: one copy,
+// not six, keeps the program small); mls3_jacobian_inlined writes the six out.
+vec3 mls3_stencil_axis(int k) {
+    return k == 0 ? vec3(0.0) : vec3(equal(ivec3((k - 1) / 2), ivec3(0, 1, 2)));
 }
 
-// J = df/dv at v by central differences of step h (scaled; 6 evaluations of f), for row
-// vectors: df = dv * J, the mathematical J[r][c] = d f_c / d v_r (the GLSL J[c][r]).
+float mls3_stencil_sign(int k) {
+    return (k & 1) == 1 ? 1.0 : -1.0;
+}
+
+vec3 mls3_stencil_point(vec3 v, int k, float h) {
+    return v + (mls3_stencil_sign(k) * h) * mls3_stencil_axis(k);
+}
+
+// sums' column a: d(v + h e_a) - d(v - h e_a), d = f - v (k >= 1 only)
+void mls3_stencil_add(inout mat3 sums, int k, vec3 d) {
+    sums += outerProduct(mls3_stencil_sign(k) * d, mls3_stencil_axis(k));
+}
+
+// Row a of J: e_a + (d(v + h e_a) - d(v - h e_a)) / (the steps float32 took).
+mat3 mls3_stencil_jacobian(vec3 v, float h, mat3 sums) {
+    mat3 rows;
+    for (int a = 0; a < 3; ++a) {
+        vec3 axis = vec3(equal(ivec3(a), ivec3(0, 1, 2)));
+        vec3 up = v + h * axis;
+        vec3 down = v - h * axis;
+        float taken = dot(up - v, axis) + dot(v - down, axis);
+        rows[a] = axis + sums[a] / taken;
+    }
+    return transpose(rows);
+}
+
+// The same J with the six evaluations inlined: a program several times larger (longer to
+// compile), which llvmpipe runs faster than the loop (the points pass's choice).
+mat3 mls3_jacobian_inlined(vec3 v, float h) {
+    mat3 sums = mat3(0.0);
+    mls3_stencil_add(sums, 1, mls3_eval(mls3_stencil_point(v, 1, h)).d);
+    mls3_stencil_add(sums, 2, mls3_eval(mls3_stencil_point(v, 2, h)).d);
+    mls3_stencil_add(sums, 3, mls3_eval(mls3_stencil_point(v, 3, h)).d);
+    mls3_stencil_add(sums, 4, mls3_eval(mls3_stencil_point(v, 4, h)).d);
+    mls3_stencil_add(sums, 5, mls3_eval(mls3_stencil_point(v, 5, h)).d);
+    mls3_stencil_add(sums, 6, mls3_eval(mls3_stencil_point(v, 6, h)).d);
+    return mls3_stencil_jacobian(v, h, sums);
+}
+
+// J = df/dv at v by central differences of step h (scaled; 6 evaluations of f, one site).
 mat3 mls3_jacobian(vec3 v, float h) {
-    return transpose(mat3(mls3_difference(v, vec3(1.0, 0.0, 0.0), h),
-                          mls3_difference(v, vec3(0.0, 1.0, 0.0), h),
-                          mls3_difference(v, vec3(0.0, 0.0, 1.0), h)));
+    mat3 sums = mat3(0.0);
+    for (int k = 1; k <= 6; ++k) {
+        mls3_stencil_add(sums, k, mls3_eval(mls3_stencil_point(v, k, h)).d);
+    }
+    return mls3_stencil_jacobian(v, h, sums);
 }
 
 vec3 mls3_f(vec3 v) {

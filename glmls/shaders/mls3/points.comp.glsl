@@ -6,10 +6,16 @@
 //   a lattice: f(v) in voxels, 3 floats per point;
 //   MLS3_WRITE_MATRIX: M row by row (the mathematical M[i][j] at 9 i + 3 r + c), 9 floats;
 //   MLS3_WRITE_JACOBIAN: J = df/dv by central differences of step u_jacobian_step (scaled),
-//     J[r][c] = d f_c / d v_r (row vectors: df = dv J), 9 floats.
+//     J[r][c] = d f_c / d v_r (row vectors: df = dv J), 9 floats;
+//   MLS3_MESH (a list, with MLS3_WRITE_JACOBIAN): one record of MESH3_RECORD floats per
+//     mesh vertex instead (mls3/mesh.glsl): f - v, J, the deformed unit normal n cof(J)
+//     sign(det J) of the vertex's normal (MLS3_MESH_NORMALS: 0 none, 1 the mesh's own, 3
+//     floats per vertex, 2 the fixed-point sums of mls3/mesh_normals.comp.glsl), det J.
+// J: mls3_jacobian_inlined (mls3/core.glsl).
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "mls3/core.glsl"
+#include "mls3/mesh.glsl"
 
 #if MLS3_LATTICE
 uniform vec3 u_lattice3_origin;
@@ -28,9 +34,18 @@ uniform float u_jacobian_step;
 layout(std430, binding = BIND_DEFORMED) writeonly buffer MLS3OutF {
     float mls3_out_f[];
 };
-#if MLS3_WRITE_MATRIX || MLS3_WRITE_JACOBIAN
+#if (MLS3_WRITE_MATRIX || MLS3_WRITE_JACOBIAN) && !MLS3_MESH
 layout(std430, binding = BIND_MATRICES) writeonly buffer MLS3OutM {
     float mls3_out_m[];
+};
+#endif
+#if MLS3_MESH && MLS3_MESH_NORMALS == 1
+layout(std430, binding = BIND_MESH_NORMALS) readonly buffer MLS3Normals {
+    float mls3_normals[];
+};
+#elif MLS3_MESH && MLS3_MESH_NORMALS == 2
+layout(std430, binding = BIND_MESH_NORMALS) readonly buffer MLS3NormalSums {
+    int mls3_normal_sums[];
 };
 #endif
 
@@ -46,7 +61,7 @@ vec3 mls3_item_point(int i) {
 }
 
 void mls3_store_matrix(int i, mat3 M) {
-#if MLS3_WRITE_MATRIX || MLS3_WRITE_JACOBIAN
+#if (MLS3_WRITE_MATRIX || MLS3_WRITE_JACOBIAN) && !MLS3_MESH
     for (int r = 0; r < 3; ++r) {
         for (int c = 0; c < 3; ++c) {
             mls3_out_m[9 * i + 3 * r + c] = M[c][r];
@@ -55,16 +70,57 @@ void mls3_store_matrix(int i, mat3 M) {
 #endif
 }
 
+#if MLS3_MESH
+// the vertex's own normal (any length; zero where it has none)
+vec3 mls3_vertex_normal(int i) {
+#if MLS3_MESH_NORMALS == 1
+    return vec3(mls3_normals[3 * i], mls3_normals[3 * i + 1], mls3_normals[3 * i + 2]);
+#elif MLS3_MESH_NORMALS == 2
+    int at = MESH3_SUMS * i + 2;
+    return vec3(ivec3(mls3_normal_sums[at], mls3_normal_sums[at + 1], mls3_normal_sums[at + 2]));
+#else
+    return vec3(0.0);
+#endif
+}
+
+void mls3_store_record(int i, vec3 d, mat3 J) {
+    int at = MESH3_RECORD * i;
+    mls3_out_f[at] = d.x;
+    mls3_out_f[at + 1] = d.y;
+    mls3_out_f[at + 2] = d.z;
+    // the rows of J (the GLSL J's columns are the mathematical J's columns)
+    mat3 rows = transpose(J);
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) {
+            mls3_out_f[at + 3 + 3 * r + c] = rows[r][c];
+        }
+    }
+    mat3 cof = mesh3_cofactor(rows);
+    float det = dot(rows[0], cof[0]);
+    vec3 n = mesh3_unit(mls3_vertex_normal(i));
+    vec3 carried = mesh3_unit((cof * n) * sign(det));   // n cof(J): sum_r n_r cof's row r
+    mls3_out_f[at + 12] = carried.x;
+    mls3_out_f[at + 13] = carried.y;
+    mls3_out_f[at + 14] = carried.z;
+    mls3_out_f[at + 15] = det;
+}
+#endif
+
 void main() {
     // No early return for the items past the end: they evaluate the last point and store
     // nothing (see mls/points.comp.glsl: uniform handle loads need every lane active).
     int i = u_offset + int(gl_GlobalInvocationID.x);
     vec3 v = mls3_item_point(min(i, max(u_count - 1, 0)));
-    MLS3Result r = mls3_eval(v);
 #if MLS3_WRITE_JACOBIAN
-    mat3 J = mls3_jacobian(v, u_jacobian_step);
+    MLS3Result r = mls3_eval(v);
+    mat3 J = mls3_jacobian_inlined(v, u_jacobian_step);
+#else
+    MLS3Result r = mls3_eval(v);
 #endif
     if (i < u_count) {
+#if MLS3_MESH
+        mls3_store_record(i, r.d, J);
+#else
 #if MLS3_LATTICE
         vec3 f = v * u_mls3_scale + u_mls3_center + r.d * u_mls3_scale;
 #else
@@ -77,6 +133,7 @@ void main() {
         mls3_store_matrix(i, J);
 #elif MLS3_WRITE_MATRIX
         mls3_store_matrix(i, r.M);
+#endif
 #endif
     }
 }

@@ -1,0 +1,127 @@
+"""A triangle mesh deformed by the 3D f on the GPU (``glmls/shaders/mls3/``): f, J, det J,
+the deformed normals and the folds, read back in two pieces.
+
+The passes, all on buffers that stay on the GPU until the end:
+
+1. (a mesh with faces and without normals of its own) ``mls3/mesh_normals.comp.glsl``, twice:
+   per face, the area-weighted normals summed at the vertices in fixed point (exact integer
+   sums, so the result does not depend on the order the GPU adds in);
+2. ``mls3/points.comp.glsl`` (``MLS3_MESH``) per vertex: f and J by central differences, det J
+   and the normal carried by cof(J), into one record of 16 floats per vertex;
+3. ``mls3/mesh_folds.comp.glsl`` per face: the fold flags, one byte per face.
+
+The float64 reference of the same quantities is :func:`glmls.core.mesh3.deform_mesh`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.mesh3 import DeformedMesh
+from ..gl import bindings
+from ..gl.dispatch import run_1d, set_uniforms
+from .kernel3 import MLSKernel3
+from .passes3 import JACOBIAN_STEP, points3_program
+
+__all__ = ["MESH_FOLDS_PASS", "MESH_NORMALS_PASS", "RECORD", "deform_mesh3"]
+
+MESH_NORMALS_PASS = "mls3/mesh_normals.comp.glsl"
+MESH_FOLDS_PASS = "mls3/mesh_folds.comp.glsl"
+#: Floats per vertex record (``MESH3_RECORD``): f - v, J row by row, the normal, det J.
+RECORD = 16
+#: Ints per vertex of the normal sums (``MESH3_SUMS``).
+SUMS = 5
+#: Faces per invocation of the folds pass (a byte each, one uint written).
+FACES_PER_INVOCATION = 4
+
+
+def deform_mesh3(
+    kernel: MLSKernel3,
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    normals: np.ndarray | None,
+    *,
+    shape: tuple[int, int, int] | None = None,
+    max_groups: int | None = None,
+) -> DeformedMesh:
+    """The :class:`~glmls.core.mesh3.DeformedMesh` of a mesh by ``kernel``'s f, on the GPU.
+
+    ``vertices`` (V, 3) float64, ``faces`` (F, 3) integer indices in [0, V) and ``normals``
+    (V, 3) or None (then the area-weighted normals of the faces) as
+    :func:`glmls.core.mesh3.as_mesh` returns them. ``shape``: the volume whose diagonal is the
+    default radius (None: the kernel's own); ``max_groups`` work groups per dispatch (the GL
+    limit by default). J, det J and the normals are float32 on the GPU, returned as float64.
+    """
+    count, face_count = len(vertices), len(faces)
+    if count == 0:
+        kernel.check_alive()
+        empty = np.zeros((0, 3))
+        return DeformedMesh(
+            vertices=empty,
+            faces=faces,
+            normals=empty.copy(),
+            jacobian=np.zeros((0, 3, 3)),
+            det_j=np.zeros(0),
+            vertex_folds=np.zeros(0, bool),
+            face_folds=np.zeros(face_count, bool),
+        )
+    gl = kernel.gl
+    groups = max_groups if max_groups is not None else gl.limits["max_work_groups_x"]
+    scratch = kernel.scratch
+    with gl.use():
+        points = scratch.buffer("points3", count * 12)
+        points.write(np.ascontiguousarray(kernel.scaling.to_gpu(vertices)))
+        points.bind_to_storage_buffer(bindings.POINTS.index)
+        if face_count:
+            indices = scratch.buffer("faces3", face_count * 12)
+            indices.write(np.ascontiguousarray(faces, dtype=np.int32))
+            indices.bind_to_storage_buffer(bindings.MESH_FACES.index)
+        source = "none"
+        if normals is not None:
+            source = "given"
+            given = scratch.buffer("normals3", count * 12)
+            given.write(np.ascontiguousarray(normals, dtype=np.float32))
+            given.bind_to_storage_buffer(bindings.MESH_NORMALS.index)
+        elif face_count:
+            source = "faces"
+            _face_normals(kernel, count, face_count, groups)
+        program = points3_program(kernel, lattice=False, output="mesh", normals=source)
+        kernel.bind(program, shape)
+        records = scratch.buffer("records3", count * RECORD * 4)
+        records.bind_to_storage_buffer(bindings.DEFORMED.index)
+        set_uniforms(program, {"u_jacobian_step": JACOBIAN_STEP / kernel.scaling.scale})
+        run_1d(program, count, max_groups=groups)
+        gl.mgl.memory_barrier()
+        folds = np.zeros(-(-face_count // FACES_PER_INVOCATION) * FACES_PER_INVOCATION, np.uint8)
+        if face_count:
+            flags = scratch.buffer("folds3", folds.nbytes)
+            flags.bind_to_storage_buffer(bindings.MESH_FOLDS.index)
+            folds_program = gl.compute(MESH_FOLDS_PASS)
+            run_1d(folds_program, face_count, max_groups=groups, per_invocation=4)
+            gl.mgl.memory_barrier()
+            flags.read_into(folds, size=folds.nbytes)
+        out = np.empty((count, RECORD), np.float32)
+        records.read_into(out, size=out.nbytes)
+    det = out[:, 15]
+    return DeformedMesh(
+        vertices=vertices + out[:, 0:3] * kernel.scaling.scale,
+        faces=faces,
+        normals=out[:, 12:15].astype(np.float64),
+        jacobian=out[:, 3:12].astype(np.float64).reshape(count, 3, 3),
+        det_j=det.astype(np.float64),
+        vertex_folds=det <= 0,
+        face_folds=folds[:face_count].view(bool),
+    )
+
+
+def _face_normals(kernel: MLSKernel3, count: int, face_count: int, groups: int) -> None:
+    """The normal sums of the vertices (``mls3/mesh_normals.comp.glsl``'s two stages), bound
+    for the points pass; the vertices and faces are bound."""
+    gl = kernel.gl
+    sums = kernel.scratch.buffer("normal_sums3", count * SUMS * 4)
+    sums.clear()
+    sums.bind_to_storage_buffer(bindings.MESH_NORMALS.index)
+    for stage in (0, 1):
+        program = gl.compute(MESH_NORMALS_PASS, {"MESH3_NORMALS_STAGE": stage})
+        run_1d(program, face_count, max_groups=groups)
+        gl.mgl.memory_barrier()

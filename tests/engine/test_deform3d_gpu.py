@@ -1,0 +1,165 @@
+"""The GPU's deformed meshes (glmls.engine.deform3) against the float64 reference of
+glmls.core.mesh3, fed the GPU's own f and J: det J, the carried normals (from the faces, or
+the mesh's own), the vertex and face folds; meshes that fold, without faces, with degenerate
+faces; and dispatches split in pieces.
+
+Tolerances: det J within 1e-5 of the product of J's row lengths (float32 arithmetic on
+float32 J); unit normals within 1e-4 where the reference's sum of face normals is at least
+1% of the sum of their lengths (else the sum nearly cancels and its direction is
+ill-conditioned); fold flags equal wherever the reference's sign test is clear of 0 by
+1e-4 (relative: the cosine of the angle between the carried and the deformed normal, and
+det J against the product of J's row lengths)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import glmls
+from glmls.core import mesh3
+from glmls.engine.deform3 import deform_mesh3
+
+CLEAR = 1e-4
+
+
+def _random_mesh(rng, count=3000, faces=6000, size=128.0):
+    vertices = rng.uniform(0, size, (count, 3))
+    return vertices, rng.integers(0, count, (faces, 3))
+
+
+def _handles(rng, spread, count=24, size=128.0):
+    src = rng.uniform(0, size, (count, 3))
+    return src, src + rng.normal(0, spread, src.shape)
+
+
+def _row_scale(jacobian):
+    return np.prod(np.linalg.norm(jacobian, axis=2), axis=1)
+
+
+def _compare(out, vertices, faces, normals=None):
+    """``out`` (the GPU's) against the reference from the GPU's own f and J."""
+    ref = mesh3.deform_mesh(vertices, faces, normals, out.vertices, out.jacobian)
+    assert out.vertices.dtype == out.jacobian.dtype == out.normals.dtype == np.float64
+    assert out.det_j.dtype == np.float64 and out.face_folds.dtype == bool
+    assert out.normals.shape == out.vertices.shape == vertices.shape
+    assert out.jacobian.shape == (len(vertices), 3, 3) and out.face_folds.shape == (len(faces),)
+    scale = np.maximum(_row_scale(out.jacobian), 1e-30)
+    assert np.abs(out.det_j - ref.det_j).max(initial=0) <= 1e-5 * scale.max(initial=0)
+    # vertex folds: the GPU's det's sign, and the reference's where clear of 0
+    assert (out.vertex_folds == (out.det_j <= 0)).all()
+    clear = np.abs(ref.det_j) > CLEAR * scale
+    assert (out.vertex_folds == ref.vertex_folds)[clear].all()
+    # normals, where well conditioned
+    if normals is None and len(faces):
+        before = mesh3.face_normals(vertices, faces)
+        total = np.zeros(len(vertices))
+        np.add.at(total, faces.ravel(), np.repeat(np.linalg.norm(before, axis=1), 3))
+        summed = np.zeros_like(vertices)
+        for c in range(3):
+            np.add.at(summed, faces[:, c], before)
+        good = np.linalg.norm(summed, axis=1) >= 0.01 * total
+    else:
+        good = np.ones(len(vertices), bool)
+    good &= clear
+    assert np.abs(out.normals - ref.normals)[good].max(initial=0) < 1e-4
+    assert (out.normals[(ref.normals == 0).all(axis=1)] == 0).all()
+    # face folds, where the sign test is clear
+    if len(faces):
+        a, b, d = faces.T
+        cof = mesh3.cofactor(out.jacobian)
+        before = mesh3.face_normals(vertices, faces)
+        carried = np.einsum("fi,fij->fj", before, cof[a] + cof[b] + cof[d])
+        after = mesh3.face_normals(out.vertices, faces)
+        norms = np.linalg.norm(carried, axis=1) * np.linalg.norm(after, axis=1)
+        cosine = np.einsum("ij,ij->i", carried, after) / np.maximum(norms, 1e-300)
+        sure = (np.abs(cosine) > CLEAR) & (norms > 0) & clear[a] & clear[b] & clear[d]
+        assert (out.face_folds == ref.face_folds)[sure].all()
+        assert (out.face_folds[norms == 0]).all()  # a zero normal folds
+    return ref
+
+
+def test_a_gentle_map_against_the_reference(gl, rng):
+    vertices, faces = _random_mesh(rng)
+    src, dst = _handles(rng, 2.0)
+    with glmls.MLS(src, dst, transform="rigid", weight="idw") as m:
+        out = m.deform((vertices, faces))
+        f, jacobian = m.jacobian(vertices)
+    assert np.abs(out.vertices - f).max() == 0 and np.abs(out.jacobian - jacobian).max() == 0
+    _compare(out, vertices, faces)
+
+
+def test_a_folding_map_against_the_reference(gl, rng):
+    vertices, faces = _random_mesh(rng)
+    src, dst = _handles(rng, 25.0)
+    with glmls.MLS(src, dst, transform="affine", weight="idw") as m:
+        out = m.deform((vertices, faces))
+    assert 0 < out.vertex_folds.sum() < len(vertices)
+    ref = _compare(out, vertices, faces)
+    # faces that flip with no folded vertex are found too
+    a, b, d = faces.T
+    flips = out.face_folds & ~(out.vertex_folds[a] | out.vertex_folds[b] | out.vertex_folds[d])
+    assert flips.any() and ref.face_folds[flips].mean() > 0.9
+
+
+def test_the_meshs_own_normals(gl, rng):
+    class Own:  # as a trimesh.Trimesh: vertices, faces and (any length) vertex normals
+        def __init__(self, vertices, faces, normals):
+            self.vertices, self.faces, self.vertex_normals = vertices, faces, normals
+
+    vertices, faces = _random_mesh(rng, 500, 800)
+    normals = rng.normal(0, 3, vertices.shape)
+    normals[:5] = 0.0  # no normal: zeros out
+    src, dst = _handles(rng, 6.0)
+    with glmls.MLS(src, dst, transform="similarity") as m:
+        out = m.deform(Own(vertices, faces, normals))
+    _compare(out, vertices, faces, normals)
+    assert (out.normals[:5] == 0).all()
+    assert np.abs(np.linalg.norm(out.normals[5:], axis=1) - 1).max() < 1e-6
+
+
+def test_point_clouds_and_empty_meshes(gl, rng):
+    vertices, _ = _random_mesh(rng, 300)
+    src, dst = _handles(rng, 4.0)
+    with glmls.MLS(src, dst) as m:
+        cloud = m.deform(vertices)
+        tuple_form = m.deform((vertices, np.zeros((0, 3), np.int64)))
+        empty = m.deform(np.zeros((0, 3)))
+        f, jacobian = m.jacobian(vertices)
+    for out in (cloud, tuple_form):
+        assert out.faces.shape == (0, 3) and out.face_folds.shape == (0,)
+        assert (out.normals == 0).all() and np.abs(out.vertices - f).max() == 0
+        assert np.abs(out.jacobian - jacobian).max() == 0
+        _compare(out, vertices, out.faces)
+    assert empty.vertices.shape == (0, 3) and empty.jacobian.shape == (0, 3, 3)
+    assert empty.det_j.shape == empty.vertex_folds.shape == (0,) and not empty.folded
+
+
+def test_degenerate_faces(gl):
+    """Faces of zero area (a repeated vertex, collinear vertices) fold by the rule (their
+    normal is zero); a vertex only they use gets no normal; the others are unaffected."""
+    vertices = np.array(
+        [[10, 10, 10], [20, 10, 10], [10, 20, 10], [30, 30, 30], [40, 40, 40], [50, 50, 50]],
+        float,
+    )
+    faces = np.array([[0, 1, 2], [0, 0, 1], [3, 4, 5], [2, 2, 2]])
+    src = np.array([[0, 0, 0], [60, 0, 0], [0, 60, 0], [0, 0, 60]], float)
+    with glmls.MLS(src, src * 1.5 + 2.0, transform="affine") as m:
+        out = m.deform((vertices, faces))
+    _compare(out, vertices, faces)
+    assert out.face_folds.tolist() == [False, True, True, True]
+    assert np.abs(out.normals[:3] - [0, 0, 1]).max() < 1e-4  # J by float32 differences
+    assert (out.normals[3:] == 0).all()
+    assert not out.vertex_folds.any()
+
+
+def test_repeatable_and_split_into_dispatches(gl, rng):
+    """Normal sums in fixed point: the same result every call, however the work is split."""
+    vertices, faces = _random_mesh(rng, 2000, 3001)
+    src, dst = _handles(rng, 5.0)
+    with glmls.MLS(src, dst) as m:
+        mesh = mesh3.as_mesh((vertices, faces))
+        whole = deform_mesh3(m.kernel, *mesh)
+        again = deform_mesh3(m.kernel, *mesh)
+        split = deform_mesh3(m.kernel, *mesh, max_groups=3)
+    for out in (again, split):
+        for name in ("vertices", "normals", "jacobian", "det_j", "face_folds"):
+            assert np.array_equal(getattr(out, name), getattr(whole, name)), name
