@@ -14,6 +14,7 @@ from ..core.mesh import MeshLattice
 __all__ = [
     "EMBED_MARGIN",
     "SLACK",
+    "MeshVertices",
     "embedded",
     "mesh_corners",
     "mesh_keypoints",
@@ -211,3 +212,29 @@ def _covered_earlier(vertices: np.ndarray, points: np.ndarray, own: np.ndarray) 
 
 def _cross(e: np.ndarray, f: np.ndarray) -> np.ndarray:
     return e[..., 0] * f[..., 1] - e[..., 1] * f[..., 0]
+
+
+class MeshVertices:
+    """A chunk's deformed meshes (N, rows, columns, 2) in pixels, float64, as
+    :meth:`glmls.batch.gpu.BatchQuads.vertices` reads them: float32 f at the lattice
+    (scaled), converted (``scaled * scale + centre``, as a whole array would be) only where
+    indexed: ``v[k]`` image k's (rows, columns, 2), ``v[images, rows, columns]`` those
+    vertices' (P, 2)."""
+
+    ndim = 4
+
+    def __init__(self, scaled: np.ndarray, scales: np.ndarray, centers: np.ndarray) -> None:
+        self._scaled = scaled  # (N, rows, columns, 2) float32
+        self._scales = scales
+        self._centers = centers
+
+    def __len__(self) -> int:
+        return len(self._scaled)
+
+    def __getitem__(self, key):
+        image = key[0] if isinstance(key, tuple) else key
+        scaled = self._scaled[key].astype(np.float64)
+        extra = scaled.ndim - np.ndim(image) - 1  # the axes between the images' and x, y
+        scale = np.reshape(self._scales[image], np.shape(image) + (1,) * (extra + 1))
+        centre = np.reshape(self._centers[image], np.shape(image) + (1,) * extra + (2,))
+        return scaled * scale + centre

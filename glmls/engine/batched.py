@@ -32,13 +32,16 @@ from .storage import unroll_slots
 __all__ = ["BatchLattices"]
 
 
-def _bounds(points: list[np.ndarray], shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """(N, 2) lows and highs of each image's points and the image's pixel box."""
+def _bounds(
+    src: list[np.ndarray], dst: list[np.ndarray], shape: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 2) lows and highs of each image's handles p and q and the image's pixel box."""
     height, width = shape
-    if len({len(p) for p in points}) == 1:
-        stacked = np.stack(points)  # (N, 2K, 2)
-        lo, hi = stacked.min(axis=1), stacked.max(axis=1)
+    if len({len(p) for p in src}) == 1:
+        lo = np.minimum(np.stack(src).min(axis=1), np.stack(dst).min(axis=1))  # (N, K, 2)
+        hi = np.maximum(np.stack(src).max(axis=1), np.stack(dst).max(axis=1))
     else:
+        points = [np.concatenate([p, q]) for p, q in zip(src, dst, strict=True)]
         lo = np.array([p.min(axis=0) for p in points])
         hi = np.array([p.max(axis=0) for p in points])
     lo = np.minimum(lo, (-0.5, -0.5))
@@ -69,8 +72,7 @@ class BatchLattices:
                 check_affine_handles(p)
         self.config = config
         self.shape = tuple(shape)
-        points = [np.concatenate([p, q]) for p, q in zip(src, dst, strict=True)]
-        lo, hi = _bounds(points, self.shape)
+        lo, hi = _bounds(src, dst, self.shape)
         #: (N, 2) float64: each image's scaling centre (Scaling.center).
         self.centers = (lo + hi) / 2
         #: (N,) float64: each image's scale (Scaling.scale).
@@ -154,9 +156,12 @@ class BatchLattices:
             )
             set_uniforms(program, {"u_alpha": self.config.alpha})
             for j, part in enumerate(parts):
-                packed = np.concatenate(
-                    [self.packed[ends[i] - self.counts[i] : ends[i]] for i in part.tolist()]
-                )
+                if part[-1] - part[0] + 1 == len(part):  # consecutive images: one slice
+                    packed = self.packed[ends[part[0]] - self.counts[part[0]] : ends[part[-1]]]
+                else:
+                    packed = np.concatenate(
+                        [self.packed[ends[i] - self.counts[i] : ends[i]] for i in part.tolist()]
+                    )
                 rows = table[part]
                 rows[:, 12:].view(np.int32)[:, 0] = np.cumsum(self.counts[part]) - self.counts[part]
                 size = 16 * capacity if block else packed.nbytes

@@ -313,18 +313,25 @@ def test_bad_input_is_named(gl, kwargs, error, message):
 
 
 def test_quads_run_in_chunks_on_the_gpu_path(gl, rng, monkeypatch):
-    """quads with the constant border take the batched path, one submission per chunk; small
-    chunks give what one chunk gives."""
+    """quads with the constant border take the batched path, one submission per chunk (8-bit
+    nearest images on their bytes, :mod:`glmls.batch.texels`); small chunks give what one
+    chunk gives."""
+    from glmls.batch import chunks
     from glmls.batch.gpu import BatchQuads
 
     calls = []
-    warp = BatchQuads.warp
+    warp, warp_texels = BatchQuads.warp, chunks.warp_texels
 
     def counted(self, kernels, *args, **kwargs):
         calls.append(len(kernels))
         return warp(self, kernels, *args, **kwargs)
 
+    def counted_texels(quads, kernels, *args, **kwargs):
+        calls.append(len(kernels))
+        return warp_texels(quads, kernels, *args, **kwargs)
+
     monkeypatch.setattr(BatchQuads, "warp", counted)
+    monkeypatch.setattr(chunks, "warp_texels", counted_texels)
     batch = images(rng, 7)
     src, dst = handles(rng, 7)
     masks = rng.integers(0, 9, (7, *SHAPE)).astype(np.uint16)

@@ -12,8 +12,8 @@
 // warp's fused scan, every triangle also writes its source texel into the atlas (the sources
 // are an atlas too, image k's rows k * source H ...), and one that finds its pixel taken
 // lists it for batch/fixup.comp.glsl, which writes the winner's texel there. Images whose
-// meshes are embeddings (glmls.batch.labels.embedded) skip the keys: no pixel of theirs is
-// covered twice.
+// meshes are embeddings (batch/check.comp.glsl) skip the keys: no pixel of theirs is covered
+// twice. WARP_SOURCE_BYTES: the sources are the caller's bytes (batch/bytes.glsl).
 layout(local_size_x = LOCAL_SIZE) in;
 
 #ifndef WARP_CELLS_FUSED
@@ -25,8 +25,11 @@ layout(local_size_x = LOCAL_SIZE) in;
 #include "batch/mesh.glsl"
 #include "warp/coverage.glsl"
 #if WARP_CELLS_FUSED
-#include "warp/cells_packed.glsl"
 uniform ivec2 u_source_size;  // W, H of one source image
+#include "warp/cells_packed.glsl"
+layout(std430, binding = BIND_BATCH_CHECK) readonly buffer BatchCheck {
+    uvec4 batch_check[];   // per image, batch/check.comp.glsl's counts
+};
 #endif
 
 layout(std430, binding = BIND_WINNER) buffer WarpWinner {
@@ -84,9 +87,9 @@ void main() {
     RowWalk walk = row_walk(bounds, first, last);
     int base = k * u_target_size.x * u_target_size.y;
 #if WARP_CELLS_FUSED
-    // an image whose mesh the caller showed to be an embedding (batch_scaling[k].w 0) covers
-    // each pixel once: its colours need no keys (the single warp's fast pass)
-    bool keyed = batch_scaling[k].w != 0.0;
+    // an image whose mesh batch/check.comp.glsl showed to be an embedding covers each pixel
+    // once: its colours need no keys (the single warp's fast pass)
+    bool keyed = batch_check[k].xyz != uvec3(0u, 0u, 1u);
 #endif
     bool positive = s0 > 0.0 && s1 > 0.0;
     bool tie_a = edge_tie(p10 - p00);

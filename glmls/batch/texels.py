@@ -1,0 +1,173 @@
+"""The fused quads of a batch's chunk on the caller's bytes: 8-bit images in, 8-bit images out,
+nothing converted or copied per image on the host.
+
+For nearest ``quads`` of uint8 images (:func:`takes`), a chunk is
+
+1. one upload of the chunk's (N, H, W, C) bytes as they are (a slice of the caller's array,
+   no RGBA made on the host) and, where a label rides along, its (N, H, W) labels, into one
+   buffer that ``batch/bytes.glsl`` reads as the single warp's RGBA8 texels;
+2. f at every image's mesh vertices (:meth:`BatchLattices.evaluate`), then
+   ``batch/check.comp.glsl``: which meshes are embeddings, on the GPU;
+3. the fused scan ``batch/cells.comp.glsl`` (keys and fix-ups only for the images whose mesh
+   was not shown to be an embedding) and ``batch/fixup.comp.glsl``;
+4. ``batch/pack.comp.glsl``: the atlas packed into the caller's layout (C bytes a pixel, the
+   labels apart), and one read-back straight into the caller's output arrays.
+
+Each image equals its :func:`glmls.warp`, bit for bit (the texels, keys and sampling are the
+single warp's)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.mesh import MeshLattice
+from ..gl import bindings
+from ..gl.dispatch import run_1d, set_uniforms
+from ..imaging.frame import Frame
+from ..imaging.options import PipelineOptions, WarpOptions
+from ..imaging.quads import key_layout
+from .gpu import BatchQuads, mesh_stride
+
+__all__ = ["takes", "warp_texels"]
+
+#: The fix-up list's header before a scan: no pixel listed, an indirect dispatch of none.
+_NO_FIXUPS = np.array([0, 0, 0, 1], np.uint32).tobytes()
+
+
+def takes(options: WarpOptions, dtype: np.dtype, fused: bool) -> bool:
+    """Does a chunk of images of ``dtype`` take this path (nearest ``quads`` of uint8 images,
+    ``fused`` scans)?"""
+    return (
+        fused
+        and options.method == "quads"
+        and options.interpolation == "nearest"
+        and (np.dtype(dtype) == np.uint8)
+    )
+
+
+def _padded(nbytes: int) -> int:
+    return -(-nbytes // 4) * 4
+
+
+def warp_texels(
+    quads: BatchQuads,
+    lattices,
+    images: np.ndarray,
+    labels: np.ndarray | None,
+    grid: float,
+    frame: Frame,
+    background: tuple[float, float, float, float],
+    out: np.ndarray,
+    out_labels: np.ndarray | None,
+) -> bool:
+    """Warp the chunk ``images`` ((N, H, W) or (N, H, W, C) uint8, C-contiguous) into ``out``
+    ((N, H', W'[, C]) uint8, C-contiguous, the frame's canvas), with ``labels`` ((N, H, W)
+    uint8 or None) riding as one more channel into ``out_labels``; ``background``: the clear
+    colour of the texels (labels 0). False where the keys of this mesh do not fit in 31 bits
+    (nothing written; the single path's rasterizer then draws it)."""
+    count, height, width = images.shape[:3]
+    channels = images.shape[3] if images.ndim == 4 else 1
+    lattice = MeshLattice.corners((height, width), grid)
+    layout = key_layout(lattice, source_pixel=True)
+    if layout is None:
+        return False
+    sub_bits, col_shift, row_shift = layout
+    gl, resources = quads.ctx, quads.resources
+    mgl = gl.mgl
+    stride = mesh_stride(lattice)
+    mesh = resources.buffer("mesh", count * stride)
+    lattices.evaluate(gl, resources, lattice, mesh, stride)  # 1. every image's f
+    scaling = np.zeros((count, 4), np.float32)
+    scaling[:, :2] = lattices.centers
+    scaling[:, 2] = lattices.scales
+    scales = resources.buffer("scaling", scaling.nbytes)
+    scales.write(scaling)
+    labelled = labels is not None
+    defines = {"BATCH_CHANNELS": channels, "BATCH_LABELS": labelled}
+    source_bytes = _padded(images.nbytes)
+    texels = resources.buffer(
+        "bytes", source_bytes + (_padded(count * height * width) if labelled else 0) + 4
+    )
+    texels.write(images)
+    if labelled:
+        texels.write(labels, offset=source_bytes)
+    out_w, out_h = frame.size
+    pixels = out_w * out_h * count
+    values = {
+        **lattice.pixel_uniforms(),
+        "u_target_size": frame.size,
+        "u_origin": frame.origin,
+        "u_source_size": (width, height),
+        "u_mesh_dims": lattice.dims,
+        "u_mesh_stride": stride // 8,
+        "u_images": count,
+        "u_sub_bits": sub_bits,
+        "u_col_shift": col_shift,
+        "u_row_shift": row_shift,
+        "u_labels_at": source_bytes,
+    }
+    max_groups = gl.limits["max_work_groups_x"]
+    check = resources.buffer("check", 16 * count)
+    check.write(bytes(16 * count))
+    for binding, buffer in (
+        (bindings.DEFORMED, mesh),
+        (bindings.POINTS, scales),
+        (bindings.BATCH_CHECK, check),
+        (bindings.BATCH_BYTES, texels),
+    ):
+        buffer.bind_to_storage_buffer(binding.index)
+    tests = gl.compute("batch/check.comp.glsl")
+    set_uniforms(tests, values)
+    columns, rows = lattice.dims
+    per_image = (columns - 1) * (rows - 1) + 2 * (columns - 1) + 2 * (rows - 1)
+    mgl.memory_barrier()
+    run_1d(tests, per_image * count, max_groups=max_groups)  # 2. which are embeddings
+    atlas = (out_w, out_h * count)
+    winner = resources.buffer("winner", pixels * 4)
+    winner.clear(size=out_w * out_h * count * 4)
+    framebuffer = resources.framebuffer("atlas", atlas, "f1")
+    target = framebuffer.color_attachments[0]
+    resources.fill(target, background)
+    values["u_fixup_capacity"] = PipelineOptions().fixup_capacity(pixels)
+    fixups = resources.buffer("fixups", 16 + 4 * values["u_fixup_capacity"])
+    fixups.write(_NO_FIXUPS)
+    scan = gl.compute(
+        "batch/cells.comp.glsl",
+        {"WARP_CELLS_SOURCE": True, "WARP_CELLS_FUSED": True, "WARP_SOURCE_BYTES": True} | defines,
+    )
+    set_uniforms(scan, values)
+    winner.bind_to_storage_buffer(bindings.WINNER.index)
+    fixups.bind_to_storage_buffer(bindings.FIXUPS.index)
+    bindings.bind_texels(target, bindings.TEXEL_TARGET, write=True)
+    cells = (columns - 1) * (rows - 1)
+    mgl.memory_barrier()
+    run_1d(scan, cells * count, max_groups=max_groups)  # 3.
+    mgl.memory_barrier()
+    fixup = gl.compute("batch/fixup.comp.glsl", {"WARP_SOURCE_BYTES": True} | defines)
+    set_uniforms(fixup, values)
+    fixup.run_indirect(fixups, offset=4)
+    mgl.memory_barrier()
+    _pack(quads, target, atlas, pixels, channels, out, out_labels)  # 4.
+    return True
+
+
+def _pack(quads, target, atlas, pixels: int, channels: int, out, out_labels) -> None:
+    """The atlas packed by ``batch/pack.comp.glsl`` and read back into ``out`` (and the
+    labels into ``out_labels``)."""
+    gl, resources = quads.ctx, quads.resources
+    labelled = out_labels is not None
+    colour_bytes = _padded(pixels * channels)
+    label_bytes = _padded(pixels) if labelled else 0
+    packed = resources.buffer("packed", colour_bytes + label_bytes + 16)
+    program = gl.compute(
+        "batch/pack.comp.glsl", {"BATCH_CHANNELS": channels, "BATCH_LABELS": labelled}
+    )
+    values = {"u_atlas_width": atlas[0], "u_pixels": pixels, "u_labels_at": colour_bytes // 4}
+    set_uniforms(program, values)
+    bindings.bind_texels(target, bindings.TEXEL_SOURCE, write=False)
+    packed.bind_to_storage_buffer(bindings.BATCH_OUTPUT.index)
+    run_1d(program, -(-pixels // 4), max_groups=gl.limits["max_work_groups_x"])
+    gl.mgl.memory_barrier()
+    packed.read_into(out, size=pixels * channels)
+    if labelled:
+        packed.read_into(out_labels, size=pixels, offset=colour_bytes)
