@@ -113,11 +113,13 @@ class BatchLattices:
             table[:, k] = (value - self.centers[:, axis]) / self.scales  # lattice.uniforms
         table[:, 4] = lattice.grid / self.scales
         radius = self.config.resolve_radius(self.shape)
-        snap = np.empty(count, bool)
-        for k, scale in enumerate(self.scales.tolist()):
-            weights = weight_uniforms(self.config, scale, radius)
-            table[k, 5:8] = weights["u_log2_s"], weights["u_radius"], weights["u_hit2"]
-            snap[k] = weights["u_snap"]
+        distinct, inverse = np.unique(self.scales, return_inverse=True)  # often one scale
+        weights = np.empty((len(distinct), 4), np.float64)
+        for k, scale in enumerate(distinct.tolist()):
+            values = weight_uniforms(self.config, scale, radius)
+            weights[k] = values["u_log2_s"], values["u_radius"], values["u_hit2"], values["u_snap"]
+        table[:, 5:8] = weights[inverse, :3]
+        snap = weights[inverse, 3] != 0
         table[:, 8:10] = self.centers
         table[:, 10] = self.scales
         ints[:, 0] = np.concatenate([[0], np.cumsum(self.counts)[:-1]])
@@ -136,7 +138,8 @@ class BatchLattices:
         table = self.table(lattice)
         ends = np.cumsum(self.counts)
         capacity = int(gl.mgl.info["GL_MAX_UNIFORM_BLOCK_SIZE"]) // 16
-        unrolls = np.array([unroll_slots(int(c)) for c in self.counts])
+        distinct, inverse = np.unique(self.counts, return_inverse=True)
+        unrolls = np.array([unroll_slots(int(c)) for c in distinct])[inverse]
         for unroll in sorted(set(unrolls.tolist())):
             chosen = np.flatnonzero(unrolls == unroll)
             block = int(self.counts[chosen].max()) <= capacity

@@ -60,9 +60,9 @@ VOLUME_LATTICE = Binding("VOLUME_LATTICE", "storage", 11, "volumes: f at a band 
 VOLUME_KEYS = Binding("VOLUME_KEYS", "storage", 13, "volumes: each output voxel's first cell")
 VOLUME_COORDS = Binding("VOLUME_COORDS", "storage", 16, "volumes: each voxel's source point")
 VOLUME_SLOPES = Binding("VOLUME_SLOPES", "storage", 17, "volumes: d source / d output per voxel")
-BATCH_BYTES = Binding("BATCH_BYTES", "storage", 19, "batches: the chunk's source bytes, labels")
-BATCH_OUTPUT = Binding("BATCH_OUTPUT", "storage", 20, "batches: the chunk's output bytes, labels")
-BATCH_CHECK = Binding("BATCH_CHECK", "storage", 21, "batches: each image's embedding test")
+BATCH_BYTES = Binding("BATCH_BYTES", "storage", 22, "batches: the chunk's source bytes, labels")
+BATCH_OUTPUT = Binding("BATCH_OUTPUT", "storage", 23, "batches: the chunk's output bytes, labels")
+BATCH_CHECK = Binding("BATCH_CHECK", "storage", 24, "batches: each image's embedding test")
 # -- uniform blocks ----------------------------------------------------------------------------
 HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
 # -- texture units -----------------------------------------------------------------------------
