@@ -156,8 +156,9 @@ def _pack(quads, target, atlas, pixels: int, channels: int, out, out_labels) -> 
     labels into ``out_labels``)."""
     gl, resources = quads.ctx, quads.resources
     labelled = out_labels is not None
-    colour_bytes = _padded(pixels * channels)
-    label_bytes = _padded(pixels) if labelled else 0
+    groups = -(-pixels // 4)  # an invocation packs four pixels into C words (and one)
+    colour_bytes = 4 * channels * groups
+    label_bytes = 4 * groups if labelled else 0
     packed = resources.buffer("packed", colour_bytes + label_bytes + 16)
     program = gl.compute(
         "batch/pack.comp.glsl", {"BATCH_CHANNELS": channels, "BATCH_LABELS": labelled}
@@ -166,7 +167,7 @@ def _pack(quads, target, atlas, pixels: int, channels: int, out, out_labels) -> 
     set_uniforms(program, values)
     bindings.bind_texels(target, bindings.TEXEL_SOURCE, write=False)
     packed.bind_to_storage_buffer(bindings.BATCH_OUTPUT.index)
-    run_1d(program, -(-pixels // 4), max_groups=gl.limits["max_work_groups_x"])
+    run_1d(program, groups, max_groups=gl.limits["max_work_groups_x"])
     gl.mgl.memory_barrier()
     packed.read_into(out, size=pixels * channels)
     if labelled:

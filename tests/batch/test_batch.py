@@ -481,3 +481,31 @@ def test_one_mls_pass_for_many_handle_counts(gl, rng):
         for i in range(len(counts)):
             want = glmls.warp(batch[i], src[i], dst[i], method=method, grid=2)
             np.testing.assert_array_equal(out[i], want)
+
+
+@pytest.mark.parametrize("channels", [0, 1, 2, 3, 4])
+def test_nearest_bytes_in_and_out(gl, rng, channels):
+    """Nearest 8-bit chunks go up as the caller's bytes and come back packed into one array
+    (glmls.batch.texels): any channel count, a canvas of its own, a pixel count not a
+    multiple of 4, strided and listed inputs, small chunks, folded meshes among them; labels
+    riding along with 1 and 3 channels; all equal to single warps."""
+    shape = (13, 21)
+    batch = images(rng, 5, shape, channels)
+    src, dst = handles(rng, 5, 6, shape, spread=3.0)
+    p, q = folding_handles(shape)
+    src[2], dst[2] = p, q
+    options = {"grid": 2, "output_shape": (15, 19), "origin": (-1.0, 0.5), "background": 7}
+    want = np.stack(singles(batch, src, dst, **options))
+    out = glmls.warp_batch(batch, src, dst, **options)
+    np.testing.assert_array_equal(out, want)
+    strided = np.repeat(batch, 2, axis=0)[::2]
+    for given, budget in ((strided, None), (list(batch), None), (batch, 3000)):
+        again = glmls.warp_batch(given, src, dst, max_batch_bytes=budget, **options)
+        np.testing.assert_array_equal(again, want)
+    masks = rng.integers(0, 256, (5, *shape), dtype=np.uint8)
+    result = glmls.warp_batch(batch, src, dst, masks=masks, keypoints=src, **options)
+    np.testing.assert_array_equal(result.images, want)
+    for i in range(5):
+        mask = glmls.warp(masks[i], src[i], dst[i], **(options | {"background": 0}))
+        np.testing.assert_array_equal(result.masks[i], mask)
+    assert result.keypoints_valid.shape == (5, 6)
