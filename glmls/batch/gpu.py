@@ -19,6 +19,10 @@ Per chunk of images (:func:`chunk_size`):
    samples the sources there;
 4. ONE read-back of the atlas.
 
+Nearest 8-bit chunks take the fused scan on the caller's bytes instead
+(:mod:`glmls.batch.texels`: one upload, a GPU test of which meshes are embeddings, the
+colours written in the scan, the atlas packed into the caller's layout on the GPU).
+
 The arithmetic is the single warp's (the same edge functions, keys, barycentrics, Newton
 steps and sampling), so each image equals its :func:`glmls.warp`, bit for bit. This path
 takes the regular mesh with the ``constant`` border (the mesh then needs no margin, whose
