@@ -406,8 +406,10 @@ def test_chunk_size_follows_the_limits(gl):
 @pytest.mark.parametrize("fold", [False, True, "mixed"])
 def test_the_fill_draw_equals_the_fused_scan(gl, rng, monkeypatch, fold):
     """Nearest 8-bit chunks: colours written in the scan (without keys for meshes shown to
-    be embeddings, with keys and fix-ups for the others) or drawn from the keys give the
-    single warp's pixels, in chunks of folded and unfolded meshes alike."""
+    be embeddings, with keys and fix-ups for the others; the embeddings by a scan of their
+    own or not) or drawn from the keys give the single warp's pixels, in chunks of folded and
+    unfolded meshes alike."""
+    from glmls.batch import texels
     from glmls.batch.gpu import BatchQuads
 
     shape = (28, 36)
@@ -422,8 +424,9 @@ def test_the_fill_draw_equals_the_fused_scan(gl, rng, monkeypatch, fold):
         src, dst = list(src), list(dst)
         src[1], dst[1], src[2], dst[2] = p, q, p, q[::-1] * 0.5 + p * 0.5
     want = singles(batch, src, dst, grid=1)
-    for fused in (True, False):
+    for fused, fast in ((True, True), (True, False), (False, True)):
         monkeypatch.setattr(BatchQuads, "fused", fused)
+        monkeypatch.setattr(texels, "FAST_PASS", fast)  # embeddings by a scan of their own
         np.testing.assert_array_equal(glmls.warp_batch(batch, src, dst, grid=1), want)
 
 

@@ -19,6 +19,11 @@ layout(local_size_x = LOCAL_SIZE) in;
 #ifndef WARP_CELLS_FUSED
 #define WARP_CELLS_FUSED 0
 #endif
+// With WARP_CELLS_FUSED: 0 every image, 1 the images whose mesh is an embedding only (no
+// keys, both triangles of every cell positive: the single warp's fast pass), 2 the others.
+#ifndef BATCH_CELLS_PASS
+#define BATCH_CELLS_PASS 0
+#endif
 
 #include "common/groups.glsl"
 #include "common/lattice.glsl"
@@ -51,6 +56,24 @@ void main() {
     if (k >= u_images) {
         return;
     }
+#if WARP_CELLS_FUSED
+    // an image whose mesh batch/check.comp.glsl showed to be an embedding covers each pixel
+    // once: its colours need no keys (the single warp's fast pass)
+    bool embedded = batch_check[k].xyz == uvec3(0u, 0u, 1u);
+#if BATCH_CELLS_PASS == 1
+    if (!embedded) {
+        return;   // the keyed pass's
+    }
+    const bool keyed = false;
+#elif BATCH_CELLS_PASS == 2
+    if (embedded) {
+        return;   // the fast pass's
+    }
+    const bool keyed = true;
+#else
+    bool keyed = !embedded;
+#endif
+#endif
     int cell = item - k * cells;
     int cy = cell / cells_x;
     int cx = cell - cy * cells_x;
@@ -62,6 +85,12 @@ void main() {
 
     float s0 = sign(edge(p00, p10, p11));
     float s1 = sign(edge(p00, p11, p01));
+#if BATCH_CELLS_PASS == 1
+    // both 1 (batch/check.comp.glsl showed them positive by a margin above the rounding of
+    // the vertices): constants, the compiler drops the other orientations' code per pixel
+    s0 = 1.0;
+    s1 = 1.0;
+#endif
     if ((s0 == 0.0 && s1 == 0.0) || !within_pixels(vec4(p00, p10), vec4(p01, p11))) {
         return;
     }
@@ -86,11 +115,6 @@ void main() {
     RowBounds bounds = row_bounds(p00, p10, p11, p01, s0, convex);
     RowWalk walk = row_walk(bounds, first, last);
     int base = k * u_target_size.x * u_target_size.y;
-#if WARP_CELLS_FUSED
-    // an image whose mesh batch/check.comp.glsl showed to be an embedding covers each pixel
-    // once: its colours need no keys (the single warp's fast pass)
-    bool keyed = batch_check[k].xyz != uvec3(0u, 0u, 1u);
-#endif
     bool positive = s0 > 0.0 && s1 > 0.0;
     bool tie_a = edge_tie(p10 - p00);
     bool tie_b = edge_tie(p11 - p10);
