@@ -32,6 +32,8 @@ __all__ = ["takes", "warp_texels"]
 
 #: The fix-up list's header before a scan: no pixel listed, an indirect dispatch of none.
 _NO_FIXUPS = np.array([0, 0, 0, 1], np.uint32).tobytes()
+#: The scans' lists before the test: no image listed, indirect dispatches of none.
+_NO_LISTS = np.array([0, 1, 1, 0, 0, 1, 1, 0, 0, 0, 0, 0], np.uint32).tobytes()
 #: Scan the images whose mesh is an embedding by a program of their own (both triangles of
 #: every cell positive, no keys: the single warp's fast pass), the others by the keyed one;
 #: else one program takes every image, keys or not decided per image. Tests take both ways.
@@ -113,50 +115,64 @@ def warp_texels(
     max_groups = gl.limits["max_work_groups_x"]
     check = resources.buffer("check", 16 * count)
     check.write(bytes(16 * count))
+    lists = resources.buffer("lists", len(_NO_LISTS) + 8 * count)
+    lists.write(_NO_LISTS)
     for binding, buffer in (
         (bindings.DEFORMED, mesh),
         (bindings.POINTS, scales),
         (bindings.BATCH_CHECK, check),
+        (bindings.BATCH_LISTS, lists),
         (bindings.BATCH_BYTES, texels),
     ):
         buffer.bind_to_storage_buffer(binding.index)
-    tests = gl.compute("batch/check.comp.glsl")
-    set_uniforms(tests, values)
     columns, rows = lattice.dims
     per_image = (columns - 1) * (rows - 1) + 2 * (columns - 1) + 2 * (rows - 1)
     mgl.memory_barrier()
-    run_1d(tests, per_image * count, max_groups=max_groups)  # 2. which are embeddings
-    atlas = (out_w, out_h * count)
+    for stage, items in ((1, per_image * count), (2, count)):  # 2. which are embeddings
+        tests = gl.compute("batch/check.comp.glsl", {"BATCH_CHECK_STAGE": stage})
+        set_uniforms(tests, values)
+        run_1d(tests, items, max_groups=max_groups)
+        mgl.memory_barrier()
     winner = resources.buffer("winner", pixels * 4)
     winner.clear(size=out_w * out_h * count * 4)
-    framebuffer = resources.framebuffer("atlas", atlas, "f1")
-    target = framebuffer.color_attachments[0]
-    resources.fill(target, background)
+    atlas = resources.buffer("atlas", pixels * 4)  # not cleared: the winners say what is drawn
+    values["u_atlas_width"] = out_w
     values["u_fixup_capacity"] = PipelineOptions().fixup_capacity(pixels)
     fixups = resources.buffer("fixups", 16 + 4 * values["u_fixup_capacity"])
     fixups.write(_NO_FIXUPS)
     winner.bind_to_storage_buffer(bindings.WINNER.index)
     fixups.bind_to_storage_buffer(bindings.FIXUPS.index)
-    bindings.bind_texels(target, bindings.TEXEL_TARGET, write=True)
+    atlas.bind_to_storage_buffer(bindings.BATCH_ATLAS.index)
     cells = (columns - 1) * (rows - 1)
     mgl.memory_barrier()
     for part in (1, 2) if FAST_PASS else (0,):  # 3. the embeddings, then the others
         fused = {"WARP_CELLS_SOURCE": True, "WARP_CELLS_FUSED": True, "BATCH_CELLS_PASS": part}
         scan = gl.compute("batch/cells.comp.glsl", fused | {"WARP_SOURCE_BYTES": True} | defines)
         set_uniforms(scan, values)
-        run_1d(scan, cells * count, max_groups=max_groups)
+        if part:  # the images listed for it, sized on the GPU
+            scan.run_indirect(lists, offset=16 * (part - 1))
+        else:
+            run_1d(scan, cells * count, max_groups=max_groups)
     mgl.memory_barrier()
     fixup = gl.compute("batch/fixup.comp.glsl", {"WARP_SOURCE_BYTES": True} | defines)
     set_uniforms(fixup, values)
     fixup.run_indirect(fixups, offset=4)
     mgl.memory_barrier()
-    _pack(quads, target, atlas, pixels, channels, out, out_labels)  # 4.
+    _pack(quads, atlas, winner, _texel(background), pixels, channels, out, out_labels)  # 4.
     return True
 
 
-def _pack(quads, target, atlas, pixels: int, channels: int, out, out_labels) -> None:
-    """The atlas packed by ``batch/pack.comp.glsl`` and read back into ``out`` (and the
-    labels into ``out_labels``)."""
+def _texel(colour: tuple[float, float, float, float]) -> int:
+    """The RGBA8 texel (as a little-endian uint32) of a clear colour (each channel clamped
+    to 0..1 and rounded to the nearest of 0..255, as a framebuffer clear sets it)."""
+    values = np.clip(np.asarray(colour, np.float64), 0.0, 1.0)
+    return int(np.rint(values * 255.0).astype(np.uint8).view("<u4")[0])
+
+
+def _pack(quads, atlas, winner, background: int, pixels: int, channels: int, out, out_labels):
+    """The atlas packed by ``batch/pack.comp.glsl`` (``background`` where ``winner`` says
+    no triangle covers a pixel) and read back into ``out`` (and the labels into
+    ``out_labels``)."""
     gl, resources = quads.ctx, quads.resources
     labelled = out_labels is not None
     groups = -(-pixels // 4)  # an invocation packs four pixels into C words (and one)
@@ -166,9 +182,10 @@ def _pack(quads, target, atlas, pixels: int, channels: int, out, out_labels) -> 
     program = gl.compute(
         "batch/pack.comp.glsl", {"BATCH_CHANNELS": channels, "BATCH_LABELS": labelled}
     )
-    values = {"u_atlas_width": atlas[0], "u_pixels": pixels, "u_labels_at": colour_bytes // 4}
+    values = {"u_pixels": pixels, "u_labels_at": colour_bytes // 4, "u_background": background}
     set_uniforms(program, values)
-    bindings.bind_texels(target, bindings.TEXEL_SOURCE, write=False)
+    atlas.bind_to_storage_buffer(bindings.BATCH_ATLAS.index)
+    winner.bind_to_storage_buffer(bindings.WINNER.index)
     packed.bind_to_storage_buffer(bindings.BATCH_OUTPUT.index)
     run_1d(program, groups, max_groups=gl.limits["max_work_groups_x"])
     gl.mgl.memory_barrier()

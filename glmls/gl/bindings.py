@@ -63,6 +63,8 @@ VOLUME_SLOPES = Binding("VOLUME_SLOPES", "storage", 17, "volumes: d source / d o
 BATCH_BYTES = Binding("BATCH_BYTES", "storage", 22, "batches: the chunk's source bytes, labels")
 BATCH_OUTPUT = Binding("BATCH_OUTPUT", "storage", 23, "batches: the chunk's output bytes, labels")
 BATCH_CHECK = Binding("BATCH_CHECK", "storage", 24, "batches: each image's embedding test")
+BATCH_LISTS = Binding("BATCH_LISTS", "storage", 25, "batches: the images each scan takes")
+BATCH_ATLAS = Binding("BATCH_ATLAS", "storage", 26, "batches: the output canvases' texels")
 # -- uniform blocks ----------------------------------------------------------------------------
 HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
 # -- texture units -----------------------------------------------------------------------------
@@ -112,6 +114,8 @@ ALL = (
     BATCH_BYTES,
     BATCH_OUTPUT,
     BATCH_CHECK,
+    BATCH_LISTS,
+    BATCH_ATLAS,
     HANDLES_BLOCK,
     SOURCE,
     COORDS,

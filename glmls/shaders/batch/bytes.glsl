@@ -3,9 +3,15 @@
 // (N, H, W) uint8 labels from byte u_labels_at. warp_source_texel makes the RGBA8 texel that
 // the single warp's texture holds (glmls.imaging.source.as_rgba8: missing channels 0, alpha
 // 255; a label as the channel after the image's), so nothing is converted on the host.
+// warp_store writes a texel into the atlas of output canvases, a buffer of one texel per
+// pixel, row-major, u_atlas_width pixels a row (batch/pack.comp.glsl packs it).
 layout(std430, binding = BIND_BATCH_BYTES) readonly buffer BatchBytes {
     uint batch_bytes[];   // padded by a word: a read may reach one past the last byte
 };
+layout(std430, binding = BIND_BATCH_ATLAS) writeonly buffer BatchAtlas {
+    uint batch_atlas[];
+};
+uniform int u_atlas_width;
 // (u_source_size: W, H of one source image, declared by the including shader)
 #if BATCH_LABELS
 uniform uint u_labels_at;     // the labels' first byte
@@ -33,4 +39,11 @@ uint warp_source_texel(ivec2 s) {
     texel |= 0xFF000000u;
 #endif
     return texel;
+}
+
+// Texel ``texel`` at atlas pixel ``pixel``; (-1, -1): nothing to draw.
+void warp_store(ivec2 pixel, uint texel) {
+    if (pixel.x >= 0) {
+        batch_atlas[pixel.y * u_atlas_width + pixel.x] = texel;
+    }
 }

@@ -20,7 +20,8 @@ layout(local_size_x = LOCAL_SIZE) in;
 #define WARP_CELLS_FUSED 0
 #endif
 // With WARP_CELLS_FUSED: 0 every image, 1 the images whose mesh is an embedding only (no
-// keys, both triangles of every cell positive: the single warp's fast pass), 2 the others.
+// keys, both triangles of every cell positive: the single warp's fast pass), 2 the others;
+// 1 and 2 take the images batch/check.comp.glsl listed for them (batch/lists.glsl).
 #ifndef BATCH_CELLS_PASS
 #define BATCH_CELLS_PASS 0
 #endif
@@ -35,6 +36,7 @@ uniform ivec2 u_source_size;  // W, H of one source image
 layout(std430, binding = BIND_BATCH_CHECK) readonly buffer BatchCheck {
     uvec4 batch_check[];   // per image, batch/check.comp.glsl's counts
 };
+#include "batch/lists.glsl"
 #endif
 
 layout(std430, binding = BIND_WINNER) buffer WarpWinner {
@@ -51,30 +53,30 @@ uniform int u_row_shift;
 void main() {
     int cells_x = u_mesh_dims.x - 1;
     int cells = cells_x * (u_mesh_dims.y - 1);
+#if WARP_CELLS_FUSED && BATCH_CELLS_PASS != 0
+    // the cells of the images listed for this scan (an indirect dispatch, batch/lists.glsl)
+    int item = int(dispatch_item());
+    int listed = item / cells;
+    uint part = uint(BATCH_CELLS_PASS - 1);
+    if (listed >= int(part == 0u ? batch_listed.x : batch_listed.y)) {
+        return;
+    }
+    int k = int(batch_list[part * uint(u_images) + uint(listed)]);
+    int cell = item - listed * cells;
+    // an image whose mesh batch/check.comp.glsl showed to be an embedding covers each pixel
+    // once: its colours need no keys (the single warp's fast pass)
+    const bool keyed = BATCH_CELLS_PASS == 2;
+#else
     int item = u_offset + int(dispatch_item());
     int k = item / cells;
     if (k >= u_images) {
         return;
     }
-#if WARP_CELLS_FUSED
-    // an image whose mesh batch/check.comp.glsl showed to be an embedding covers each pixel
-    // once: its colours need no keys (the single warp's fast pass)
-    bool embedded = batch_check[k].xyz == uvec3(0u, 0u, 1u);
-#if BATCH_CELLS_PASS == 1
-    if (!embedded) {
-        return;   // the keyed pass's
-    }
-    const bool keyed = false;
-#elif BATCH_CELLS_PASS == 2
-    if (embedded) {
-        return;   // the fast pass's
-    }
-    const bool keyed = true;
-#else
-    bool keyed = !embedded;
-#endif
-#endif
     int cell = item - k * cells;
+#if WARP_CELLS_FUSED
+    bool keyed = batch_check[k].xyz != uvec3(0u, 0u, 1u);
+#endif
+#endif
     int cy = cell / cells_x;
     int cx = cell - cy * cells_x;
     ivec2 c00 = ivec2(cx, cy);
@@ -177,6 +179,11 @@ void main() {
         if (keyed) {
             before = atomicMax(warp_winner[i], id);
         }
+#if WARP_SOURCE_BYTES
+        else if (id != 0u) {
+            warp_winner[i] = 1u;   // covered: batch/pack.comp.glsl keeps its texel
+        }
+#endif
         ivec2 source = cell_lo + sp + ivec2(0, k * u_source_size.y);
         ivec2 target = ivec2(column, k * u_target_size.y + y);
         warp_store(id != 0u ? target : ivec2(-1), warp_source_texel(source));

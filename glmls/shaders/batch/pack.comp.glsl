@@ -1,4 +1,6 @@
-// The atlas of a batch's output canvases (RGBA8, read as r32ui) as the caller's bytes: four
+// The atlas of a batch's output canvases (a buffer of RGBA8 texels, the background where the
+// winner buffer says no triangle covers a pixel: the atlas is never cleared) as the caller's
+// bytes: four
 // pixels an invocation, their first BATCH_CHANNELS bytes packed one after the other into
 // BATCH_CHANNELS words (the (N, H, W, C) uint8 array, row k * H + y of the atlas being image
 // k's row y), and with BATCH_LABELS the next byte of each (a label that rode as the channel
@@ -8,11 +10,16 @@ layout(local_size_x = LOCAL_SIZE) in;
 
 #include "common/groups.glsl"
 
-layout(r32ui, binding = BIND_TEXEL_SOURCE) readonly uniform uimage2D batch_atlas;
+layout(std430, binding = BIND_BATCH_ATLAS) readonly buffer BatchAtlas {
+    uint batch_atlas[];   // the texels, one per pixel (batch/bytes.glsl)
+};
+layout(std430, binding = BIND_WINNER) readonly buffer WarpWinner {
+    uint warp_winner[];   // per pixel: 0 where no triangle covers it (batch/cells.comp.glsl)
+};
+uniform uint u_background;   // the texel of the pixels that no triangle covers
 layout(std430, binding = BIND_BATCH_OUTPUT) writeonly buffer BatchOutput {
     uint batch_out[];
 };
-uniform int u_atlas_width;
 uniform uint u_pixels;     // pixels of the atlas
 uniform int u_offset;      // first item of this dispatch
 #if BATCH_LABELS
@@ -27,8 +34,7 @@ void main() {
     uint texels[4];
     for (uint q = 0u; q < 4u; ++q) {
         uint p = 4u * j + q;
-        ivec2 xy = ivec2(int(p % uint(u_atlas_width)), int(p / uint(u_atlas_width)));
-        texels[q] = p < u_pixels ? imageLoad(batch_atlas, xy).x : 0u;
+        texels[q] = p < u_pixels ? (warp_winner[p] != 0u ? batch_atlas[p] : u_background) : 0u;
     }
 #if BATCH_CHANNELS == 4
     for (uint q = 0u; q < 4u; ++q) {
