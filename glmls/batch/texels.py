@@ -133,9 +133,10 @@ def warp_texels(
         set_uniforms(tests, values)
         run_1d(tests, items, max_groups=max_groups)
         mgl.memory_barrier()
-    winner = resources.buffer("winner", pixels * 4)
+    whole = -(-pixels // 16) * 64  # whole groups of sixteen pixels (batch/pack.comp.glsl)
+    winner = resources.buffer("winner", whole)
     winner.clear(size=out_w * out_h * count * 4)
-    atlas = resources.buffer("atlas", pixels * 4)  # not cleared: the winners say what is drawn
+    atlas = resources.buffer("atlas", whole)  # not cleared: the winners say what is drawn
     values["u_atlas_width"] = out_w
     values["u_fixup_capacity"] = PipelineOptions().fixup_capacity(pixels)
     fixups = resources.buffer("fixups", 16 + 4 * values["u_fixup_capacity"])
@@ -175,14 +176,14 @@ def _pack(quads, atlas, winner, background: int, pixels: int, channels: int, out
     ``out_labels``)."""
     gl, resources = quads.ctx, quads.resources
     labelled = out_labels is not None
-    groups = -(-pixels // 4)  # an invocation packs four pixels into C words (and one)
-    colour_bytes = 4 * channels * groups
-    label_bytes = 4 * groups if labelled else 0
-    packed = resources.buffer("packed", colour_bytes + label_bytes + 16)
+    groups = -(-pixels // 16)  # an invocation packs sixteen pixels into C uvec4 (and one)
+    colour_bytes = 16 * channels * groups
+    label_bytes = 16 * groups if labelled else 0
+    packed = resources.buffer("packed", colour_bytes + label_bytes)
     program = gl.compute(
         "batch/pack.comp.glsl", {"BATCH_CHANNELS": channels, "BATCH_LABELS": labelled}
     )
-    values = {"u_pixels": pixels, "u_labels_at": colour_bytes // 4, "u_background": background}
+    values = {"u_groups": groups, "u_labels_at": colour_bytes // 16, "u_background": background}
     set_uniforms(program, values)
     atlas.bind_to_storage_buffer(bindings.BATCH_ATLAS.index)
     winner.bind_to_storage_buffer(bindings.WINNER.index)
