@@ -62,9 +62,14 @@ def _instrument() -> None:
 
         return run
 
-    moderngl.ComputeShader.run = timing(
-        lambda p: "gpu " + _names.get(id(p), "?"), moderngl.ComputeShader.run
-    )
+    for method in ("run", "run_indirect"):  # indirect: dispatches sized on the GPU
+        setattr(
+            moderngl.ComputeShader,
+            method,
+            timing(
+                lambda p: "gpu " + _names.get(id(p), "?"), getattr(moderngl.ComputeShader, method)
+            ),
+        )
     for cls in (moderngl.Buffer, moderngl.Texture, moderngl.Texture3D, moderngl.TextureArray):
         for method in ("read", "write", "read_into"):
             if hasattr(cls, method):
