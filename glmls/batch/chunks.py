@@ -23,6 +23,7 @@ from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size
 from .inputs import BatchInput
 from .labels import embedded, mesh_keypoints
 from .single import ImageLabels, SingleWarper, mask_form, mask_options, packable, restore_mask
+from .texels import chunk_size as texel_chunk_size
 from .texels import takes, warp_texels
 
 __all__ = ["warp_chunks"]
@@ -71,12 +72,15 @@ def warp_chunks(
         source = prepare_image(first, limit, normalized=True)
         frame = make_frame(options.output_shape, options.origin, source.shape, limit)
         lattice = MeshLattice.corners(source.shape, options.grid)
-        size = chunk_size(
-            quads.ctx, source, frame, lattice, max_bytes or CHUNK_BYTES, backward=backward
-        )
+        budget = max_bytes or CHUNK_BYTES
+        size = chunk_size(quads.ctx, source, frame, lattice, budget, backward=backward)
         direct = None
         if takes(options, first.dtype, quads.fused):
             direct = _Direct(batch, indices, options, frame)
+            if not maps and (batch.masks is None or direct.packed):  # no texture atlas
+                size = texel_chunk_size(
+                    quads.ctx, first.shape, frame, lattice, direct.packed, budget
+                )
         for start in range(0, len(indices), size):
             chunk = indices[start : start + size]
             if backward and any(segments[i] for i in chunk):

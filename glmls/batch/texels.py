@@ -28,7 +28,7 @@ from ..imaging.options import PipelineOptions, WarpOptions
 from ..imaging.quads import key_layout
 from .gpu import BatchQuads, mesh_stride
 
-__all__ = ["takes", "warp_texels"]
+__all__ = ["FAST_PASS", "chunk_size", "takes", "warp_texels"]
 
 #: The fix-up list's header before a scan: no pixel listed, an indirect dispatch of none.
 _NO_FIXUPS = np.array([0, 0, 0, 1], np.uint32).tobytes()
@@ -49,6 +49,21 @@ def takes(options: WarpOptions, dtype: np.dtype, fused: bool) -> bool:
         and options.interpolation == "nearest"
         and (np.dtype(dtype) == np.uint8)
     )
+
+
+def chunk_size(
+    gl, shape: tuple[int, ...], frame: Frame, lattice: MeshLattice, labelled: bool, max_bytes: int
+) -> int:
+    """Images per chunk of this path for images of ``shape`` ((H, W) or (H, W, C)): every
+    buffer within the GL storage block size (no texture holds the chunk) and the chunk's
+    GPU memory (bytes, atlas, winners, packed output, meshes) within ``max_bytes``."""
+    height, width = shape[:2]
+    channels = (shape[2] if len(shape) == 3 else 1) + labelled
+    per_image = height * width * channels + frame.pixels * (8 + channels)
+    per_image += mesh_stride(lattice) + 32
+    block = int(gl.mgl.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27))
+    largest = max(4 * frame.pixels, height * width * channels, mesh_stride(lattice)) + 64
+    return max(1, min(block // largest, max_bytes // per_image))
 
 
 def _padded(nbytes: int) -> int:
