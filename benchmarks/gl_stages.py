@@ -2,7 +2,7 @@
 transfers, and the host's own time.
 
 ``python benchmarks/gl_stages.py volume [--size 256] [--method quads|backward] [--grid 1]``
-``python benchmarks/gl_stages.py batch [--n 256] [--size 224] [--keypoints]``
+``python benchmarks/gl_stages.py batch [--n 256] [--size 224] [--keypoints] [--move 5.6]``
 ``python benchmarks/gl_stages.py mesh [--vertices 1000000]``
 
 Each compute dispatch is followed by ``ctx.finish()`` and timed, and so is each buffer and
@@ -10,7 +10,8 @@ texture read and write, so the GPU stages do not overlap as they do in a normal 
 is at least the normal run's time (also printed, measured first without the finishes). The
 rest is the host's (Python, numpy, driver calls): the top host functions by own time follow
 (cProfile). Workloads: 64 handles (16 for a batch), rigid idw (seed 0); the volume as in
-``volume_bench.py``, the batch as in ``batch_bench.py`` (224 x 224 RGB, grid 4), the mesh
+``volume_bench.py``, the batch as in ``batch_bench.py`` (224 x 224 RGB, grid 4; the handles
+moved by N(0, ``--move`` px), size / 40 by default), the mesh
 points uniform in a 256^3 box.
 """
 
@@ -100,7 +101,7 @@ def batch_workload(args):
     n, size = args.n, args.size
     images = rng.integers(0, 255, (n, size, size, 3), dtype=np.uint8)
     src = rng.uniform(0, size - 1, (n, 16, 2))
-    dst = src + rng.normal(0, size / 40, src.shape)
+    dst = src + rng.normal(0, size / 40 if args.move is None else args.move, src.shape)
     labels = {}
     if args.keypoints:
         labels["keypoints"] = rng.uniform(0, size - 1, (n, 3, 2))
@@ -131,6 +132,9 @@ def main() -> None:
     parser.add_argument("--grid", type=int, default=1)
     parser.add_argument("--n", type=int, default=256)
     parser.add_argument("--keypoints", action="store_true")
+    parser.add_argument(
+        "--move", type=float, default=None, help="batch: the handles' move, px (size / 40)"
+    )
     parser.add_argument("--vertices", type=int, default=1_000_000)
     parser.add_argument("--top", type=int, default=12)
     args = parser.parse_args()
