@@ -38,8 +38,9 @@ def _bounds(
     """(N, 2) lows and highs of each image's handles p and q and the image's pixel box."""
     height, width = shape
     if len({len(p) for p in src}) == 1:
-        lo = np.minimum(np.stack(src).min(axis=1), np.stack(dst).min(axis=1))  # (N, K, 2)
-        hi = np.maximum(np.stack(src).max(axis=1), np.stack(dst).max(axis=1))
+        p, q = np.stack(src), np.stack(dst)  # (N, K, 2)
+        lo = np.minimum(p.min(axis=1), q.min(axis=1))
+        hi = np.maximum(p.max(axis=1), q.max(axis=1))
     else:
         points = [np.concatenate([p, q]) for p, q in zip(src, dst, strict=True)]
         lo = np.array([p.min(axis=0) for p in points])

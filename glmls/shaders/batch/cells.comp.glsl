@@ -186,7 +186,13 @@ void main() {
 #endif
         ivec2 source = cell_lo + sp + ivec2(0, k * u_source_size.y);
         ivec2 target = ivec2(column, k * u_target_size.y + y);
+#if WARP_SOURCE_BYTES
+        if (id != 0u) {   // the bytes read only where drawn (each lane's load is its own)
+            warp_store(target, warp_source_texel(source));
+        }
+#else
         warp_store(id != 0u ? target : ivec2(-1), warp_source_texel(source));
+#endif
         if (before != 0u && id != 0u) {
             uint n = atomicAdd(warp_fixup_count, 1u);
             if (n < uint(u_fixup_capacity)) {
