@@ -2,7 +2,8 @@
 transfers, and the host's own time.
 
 ``python benchmarks/gl_stages.py volume [--size 256] [--method quads|backward] [--grid 1]``
-``python benchmarks/gl_stages.py batch [--n 256] [--size 224] [--keypoints] [--move 5.6]``
+``python benchmarks/gl_stages.py batch [--n 256] [--size 224] [--keypoints] [--move 5.6]
+[--one-scan]``
 ``python benchmarks/gl_stages.py mesh [--vertices 1000000]``
 
 Each compute dispatch is followed by ``ctx.finish()`` and timed, and so is each buffer and
@@ -97,6 +98,10 @@ def volume_workload(args):
 
 
 def batch_workload(args):
+    if args.one_scan:
+        from glmls.batch import texels
+
+        texels.FAST_PASS = False
     rng = np.random.default_rng(0)
     n, size = args.n, args.size
     images = rng.integers(0, 255, (n, size, size, 3), dtype=np.uint8)
@@ -134,6 +139,11 @@ def main() -> None:
     parser.add_argument("--keypoints", action="store_true")
     parser.add_argument(
         "--move", type=float, default=None, help="batch: the handles' move, px (size / 40)"
+    )
+    parser.add_argument(
+        "--one-scan",
+        action="store_true",
+        help="batch: one scan program for every image (glmls.batch.texels.FAST_PASS off)",
     )
     parser.add_argument("--vertices", type=int, default=1_000_000)
     parser.add_argument("--top", type=int, default=12)
