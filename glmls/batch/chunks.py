@@ -265,8 +265,10 @@ def _finish(quads, batch, chunk, lattices, options, frame, lattice, maps, out, m
         moved_all = moved_all - np.asarray(frame.origin)
         height, width = frame.shape
         valid_all &= np.all((moved_all > -0.5) & (moved_all < (width - 0.5, height - 0.5)), axis=1)
-        ends = np.cumsum(sizes)[:-1]
-        moved_all, valid_all = np.split(moved_all, ends), np.split(valid_all, ends)
+        ends = np.cumsum(sizes).tolist()
+        starts = [0, *ends[:-1]]
+        moved_all = [moved_all[a:b] for a, b in zip(starts, ends, strict=True)]
+        valid_all = [valid_all[a:b] for a, b in zip(starts, ends, strict=True)]
     coords_all = covered_all = None
     if maps:  # the quads' source points, from the chunk's meshes still on the GPU
         if options.method == "backward":

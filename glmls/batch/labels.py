@@ -142,7 +142,7 @@ def mesh_keypoints(
     tested = np.flatnonzero(np.isin(image, meshes))
     if len(tested):
         which = np.searchsorted(meshes, image[tested])
-        hidden[tested] = _covered_earlier(vertices[meshes], which, out[tested], own[tested])
+        hidden[tested] = _covered_earlier(vertices, meshes, which, out[tested], own[tested])
     return out, inside & ~hidden
 
 
@@ -180,21 +180,19 @@ def embedded(vertices: np.ndarray) -> np.ndarray:
 
 
 def _covered_earlier(
-    vertices: np.ndarray, which: np.ndarray, points: np.ndarray, own: np.ndarray
+    vertices, chosen: np.ndarray, which: np.ndarray, points: np.ndarray, own: np.ndarray
 ) -> np.ndarray:
-    """(P,) bool: a triangle of deformed mesh ``which`` (of ``vertices``, (M, rows, columns,
-    2)) before key ``own`` holds the point strictly inside (either orientation: folded
-    triangles are drawn too). Every mesh's points at once: against the boxes of its rows of
-    cells, then of the cells of the rows whose box holds the point, then the triangles of the
-    cells whose box does."""
-    meshes = len(vertices)
+    """(P,) bool: a triangle of deformed mesh ``chosen[which]`` (of ``vertices``, (N, rows,
+    columns, 2), an array or :class:`MeshVertices`) before key ``own`` holds the point
+    strictly inside (either orientation: folded triangles are drawn too). Every mesh's points
+    at once: against the boxes of its rows of cells, then of the cells of the rows whose box
+    holds the point, then the triangles of the cells whose box does."""
+    meshes = len(chosen)
     columns = vertices.shape[2] - 1
     # each row of cells' box: of its two rows of vertices
-    x, y = vertices[..., 0], vertices[..., 1]
-    boxes = []
-    for values, reduce in ((x, np.minimum), (y, np.minimum), (x, np.maximum), (y, np.maximum)):
-        line = reduce.reduce(values, axis=2)  # (M, rows + 1)
-        boxes.append(reduce(line[:, :-1], line[:, 1:]))
+    reduces = (np.minimum, np.minimum, np.maximum, np.maximum)
+    extents = zip(_row_extents(vertices, chosen), reduces, strict=True)
+    boxes = [reduce(line[:, :-1], line[:, 1:]) for line, reduce in extents]
     # the points as (M, width) slots of their meshes (NaN where a mesh has fewer)
     counts = np.bincount(which, minlength=meshes)
     order = np.argsort(which, kind="stable")
@@ -209,7 +207,8 @@ def _covered_earlier(
     near = (lx[:, None] <= qx) & (qx <= hx[:, None]) & (ly[:, None] <= qy) & (qy <= hy[:, None])
     mesh, column, row = np.nonzero(near)  # (mesh, slot, row of cells): the row's box holds it
     qx, qy = grid[0][mesh, column][:, None], grid[1][mesh, column][:, None]
-    top, bottom = vertices[mesh, row], vertices[mesh, row + 1]  # (T, columns + 1, 2)
+    image = chosen[mesh]
+    top, bottom = vertices[image, row], vertices[image, row + 1]  # (T, columns + 1, 2)
     corners = [top[:, :-1], top[:, 1:], bottom[:, 1:], bottom[:, :-1]]  # 00, 10, 11, 01
     lx, ly, hx, hy = (
         reduce(
@@ -238,6 +237,16 @@ def _covered_earlier(
     return hidden
 
 
+def _row_extents(vertices, chosen: np.ndarray) -> list[np.ndarray]:
+    """Least x, least y, greatest x, greatest y of each row of vertices of the meshes
+    ``chosen``: four (M, rows) arrays (:meth:`MeshVertices.row_extents` where it is one)."""
+    if isinstance(vertices, MeshVertices):
+        return vertices.row_extents(chosen)
+    chosen_vertices = vertices[chosen]
+    low, high = chosen_vertices.min(axis=2), chosen_vertices.max(axis=2)  # (M, rows, 2)
+    return [low[..., 0], low[..., 1], high[..., 0], high[..., 1]]
+
+
 def _cross(e: np.ndarray, f: np.ndarray) -> np.ndarray:
     return e[..., 0] * f[..., 1] - e[..., 1] * f[..., 0]
 
@@ -258,6 +267,21 @@ class MeshVertices:
 
     def __len__(self) -> int:
         return len(self._scaled)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return self._scaled.shape
+
+    def row_extents(self, images: np.ndarray) -> list[np.ndarray]:
+        """Least x, least y, greatest x, greatest y of each row of vertices of ``images``:
+        four (M, rows) arrays, reduced in float32 and then converted (the conversion is
+        increasing, so the extremes are those of the converted vertices, bit for bit)."""
+        scaled = self._scaled[images]
+        scale = self._scales[images][:, None, None]
+        centre = self._centers[images][:, None, :]
+        low = scaled.min(axis=2).astype(np.float64) * scale + centre  # (M, rows, 2)
+        high = scaled.max(axis=2).astype(np.float64) * scale + centre
+        return [low[..., 0], low[..., 1], high[..., 0], high[..., 1]]
 
     def __getitem__(self, key):
         image = key[0] if isinstance(key, tuple) else key
