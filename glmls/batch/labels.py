@@ -243,8 +243,9 @@ def _row_extents(vertices, chosen: np.ndarray) -> list[np.ndarray]:
     if isinstance(vertices, MeshVertices):
         return vertices.row_extents(chosen)
     chosen_vertices = vertices[chosen]
-    low, high = chosen_vertices.min(axis=2), chosen_vertices.max(axis=2)  # (M, rows, 2)
-    return [low[..., 0], low[..., 1], high[..., 0], high[..., 1]]
+    return [
+        reduce(chosen_vertices[..., axis], axis=2) for reduce in (np.min, np.max) for axis in (0, 1)
+    ]
 
 
 def _cross(e: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -277,11 +278,14 @@ class MeshVertices:
         four (M, rows) arrays, reduced in float32 and then converted (the conversion is
         increasing, so the extremes are those of the converted vertices, bit for bit)."""
         scaled = self._scaled[images]
-        scale = self._scales[images][:, None, None]
-        centre = self._centers[images][:, None, :]
-        low = scaled.min(axis=2).astype(np.float64) * scale + centre  # (M, rows, 2)
-        high = scaled.max(axis=2).astype(np.float64) * scale + centre
-        return [low[..., 0], low[..., 1], high[..., 0], high[..., 1]]
+        scale = self._scales[images][:, None]
+        centre = self._centers[images]
+        out = []
+        for reduce in (np.min, np.max):
+            for axis in (0, 1):  # reduced along a row: a loop over its vertices, not over x, y
+                extreme = reduce(scaled[..., axis], axis=2).astype(np.float64)  # (M, rows)
+                out.append(extreme * scale + centre[:, axis, None])
+        return out
 
     def __getitem__(self, key):
         image = key[0] if isinstance(key, tuple) else key
