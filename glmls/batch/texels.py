@@ -7,11 +7,15 @@ For nearest ``quads`` of uint8 images (:func:`takes`), a chunk is
    no RGBA made on the host) and, where a label rides along, its (N, H, W) labels, into one
    buffer that ``batch/bytes.glsl`` reads as the single warp's RGBA8 texels;
 2. f at every image's mesh vertices (:meth:`BatchLattices.evaluate`), then
-   ``batch/check.comp.glsl``: which meshes are embeddings, on the GPU;
-3. the fused scan ``batch/cells.comp.glsl`` (keys and fix-ups only for the images whose mesh
-   was not shown to be an embedding) and ``batch/fixup.comp.glsl``;
+   ``batch/check.comp.glsl``: which meshes are embeddings, on the GPU, each image listed for
+   one of the two scans (``batch/lists.glsl``, indirect dispatches sized there);
+3. the fused scans ``batch/cells.comp.glsl``, writing the texels into an atlas buffer: the
+   embeddings without keys, both triangles of every cell known positive (the single warp's
+   fast pass), the others with keys, then ``batch/fixup.comp.glsl`` where two triangles
+   reached a pixel;
 4. ``batch/pack.comp.glsl``: the atlas packed into the caller's layout (C bytes a pixel, the
-   labels apart), and one read-back straight into the caller's output arrays.
+   labels apart; the background where the winner buffer says no triangle drew, so the atlas
+   is never cleared), and one read-back straight into the caller's output arrays.
 
 Each image equals its :func:`glmls.warp`, bit for bit (the texels, keys and sampling are the
 single warp's)."""

@@ -1,6 +1,6 @@
 // The quads of a batch of images scan-converted in one dispatch: one invocation per cell of
 // every image's mesh (cell c of image k is item k * cells + c). Each cell does what
-// warp/cells.comp.glsl's keyed pass does for a single image (no fused colours, no fast pass):
+// warp/cells.comp.glsl's keyed pass does for a single image:
 // the same edge functions, coverage and tie rules (warp/coverage.glsl), the same keys (cell
 // row | cell column | triangle | [WARP_CELLS_SOURCE: the nearest source pixel in the cell])
 // kept per pixel with atomicMax, so that where cells fold the FIRST in row-major scan order
@@ -13,7 +13,9 @@
 // are an atlas too, image k's rows k * source H ...), and one that finds its pixel taken
 // lists it for batch/fixup.comp.glsl, which writes the winner's texel there. Images whose
 // meshes are embeddings (batch/check.comp.glsl) skip the keys: no pixel of theirs is covered
-// twice. WARP_SOURCE_BYTES: the sources are the caller's bytes (batch/bytes.glsl).
+// twice (BATCH_CELLS_PASS 1 scans only them, the single warp's fast pass). WARP_SOURCE_BYTES:
+// the sources are the caller's bytes and the atlas a buffer (batch/bytes.glsl); the pixels an
+// embedding draws are marked 1 in the winner buffer (batch/pack.comp.glsl fills the rest).
 layout(local_size_x = LOCAL_SIZE) in;
 
 #ifndef WARP_CELLS_FUSED
