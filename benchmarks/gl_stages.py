@@ -2,7 +2,8 @@
 transfers, and the host's own time.
 
 ``python benchmarks/gl_stages.py volume [--size 256] [--method quads|backward] [--grid 1]``
-``python benchmarks/gl_stages.py batch [--n 256] [--size 224] [--keypoints]``
+``python benchmarks/gl_stages.py batch [--n 256] [--size 224] [--keypoints] [--move 5.6]
+[--one-scan]``
 ``python benchmarks/gl_stages.py mesh [--vertices 1000000]``
 
 Each compute dispatch is followed by ``ctx.finish()`` and timed, and so is each buffer and
@@ -10,7 +11,8 @@ texture read and write, so the GPU stages do not overlap as they do in a normal 
 is at least the normal run's time (also printed, measured first without the finishes). The
 rest is the host's (Python, numpy, driver calls): the top host functions by own time follow
 (cProfile). Workloads: 64 handles (16 for a batch), rigid idw (seed 0); the volume as in
-``volume_bench.py``, the batch as in ``batch_bench.py`` (224 x 224 RGB, grid 4), the mesh
+``volume_bench.py``, the batch as in ``batch_bench.py`` (224 x 224 RGB, grid 4; the handles
+moved by N(0, ``--move`` px), size / 40 by default), the mesh
 points uniform in a 256^3 box.
 """
 
@@ -62,9 +64,14 @@ def _instrument() -> None:
 
         return run
 
-    moderngl.ComputeShader.run = timing(
-        lambda p: "gpu " + _names.get(id(p), "?"), moderngl.ComputeShader.run
-    )
+    for method in ("run", "run_indirect"):  # indirect: dispatches sized on the GPU
+        setattr(
+            moderngl.ComputeShader,
+            method,
+            timing(
+                lambda p: "gpu " + _names.get(id(p), "?"), getattr(moderngl.ComputeShader, method)
+            ),
+        )
     for cls in (moderngl.Buffer, moderngl.Texture, moderngl.Texture3D, moderngl.TextureArray):
         for method in ("read", "write", "read_into"):
             if hasattr(cls, method):
@@ -91,11 +98,15 @@ def volume_workload(args):
 
 
 def batch_workload(args):
+    if args.one_scan:
+        from glmls.batch import texels
+
+        texels.FAST_PASS = False
     rng = np.random.default_rng(0)
     n, size = args.n, args.size
     images = rng.integers(0, 255, (n, size, size, 3), dtype=np.uint8)
     src = rng.uniform(0, size - 1, (n, 16, 2))
-    dst = src + rng.normal(0, size / 40, src.shape)
+    dst = src + rng.normal(0, size / 40 if args.move is None else args.move, src.shape)
     labels = {}
     if args.keypoints:
         labels["keypoints"] = rng.uniform(0, size - 1, (n, 3, 2))
@@ -126,6 +137,14 @@ def main() -> None:
     parser.add_argument("--grid", type=int, default=1)
     parser.add_argument("--n", type=int, default=256)
     parser.add_argument("--keypoints", action="store_true")
+    parser.add_argument(
+        "--move", type=float, default=None, help="batch: the handles' move, px (size / 40)"
+    )
+    parser.add_argument(
+        "--one-scan",
+        action="store_true",
+        help="batch: one scan program for every image (glmls.batch.texels.FAST_PASS off)",
+    )
     parser.add_argument("--vertices", type=int, default=1_000_000)
     parser.add_argument("--top", type=int, default=12)
     args = parser.parse_args()

@@ -17,12 +17,14 @@ from ..engine.storage import check_storage
 from ..imaging.frame import make_frame
 from ..imaging.options import WarpOptions
 from ..imaging.readback import add_channel, drop_channels
-from ..imaging.source import background_color, prepare_image
+from ..imaging.source import SourceImage, background_color, prepare_image
 from ..mls import MLS
 from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size
 from .inputs import BatchInput
-from .labels import mesh_keypoints
+from .labels import embedded, mesh_keypoints
 from .single import ImageLabels, SingleWarper, mask_form, mask_options, packable, restore_mask
+from .texels import chunk_size as texel_chunk_size
+from .texels import takes, warp_texels
 
 __all__ = ["warp_chunks"]
 
@@ -32,6 +34,8 @@ _CONFIG_KEYS = ("transform", "weight", "alpha", "s", "radius", "interpolating")
 
 def _groups(batch: BatchInput) -> dict[tuple, list[int]]:
     """Image indices by what a chunk shares: shape, dtype, and how its mask travels."""
+    if batch.array is not None and (batch.masks is None or batch.mask_array is not None):
+        return {(): list(range(len(batch)))}  # one array of images (and one of masks)
     groups: dict[tuple, list[int]] = defaultdict(list)
     for i, image in enumerate(batch.images):
         mask = None if batch.masks is None else batch.masks[i]
@@ -48,25 +52,35 @@ def warp_chunks(
     *,
     maps: bool,
     max_bytes: int | None,
-) -> list[ImageLabels | None]:
+) -> tuple[list[ImageLabels | None], dict[str, np.ndarray]]:
     """Each image's :class:`ImageLabels` from the batched GPU path (None for an image it
-    left to the single path: keys too long for its mesh)."""
+    left to the single path: keys too long for its mesh), and where that path wrote every
+    image's pixels (and masks) into one array, those arrays ("images", "masks"): the
+    per-image results are views of them."""
     results: list[ImageLabels | None] = [None] * len(batch)
+    whole: dict[str, np.ndarray] = {}
     quads = BatchQuads.of(mls_options.get("ctx"))
     warper = SingleWarper.of(mls_options.get("ctx"))
     limit = warper.pipeline.max_image_size
     config = _batch_config(batch, mls_options)
     backward = options.method == "backward"
     if backward and (config is None or batch.keypoints is not None):
-        return results  # f at the keypoints, bins, segments: each image's own MLS
-    for indices in _groups(batch).values():
+        return results, whole  # f at the keypoints, bins, segments: each image's own MLS
+    groups = _groups(batch)
+    for indices in groups.values():
         first = batch.images[indices[0]]
         source = prepare_image(first, limit, normalized=True)
         frame = make_frame(options.output_shape, options.origin, source.shape, limit)
         lattice = MeshLattice.corners(source.shape, options.grid)
-        size = chunk_size(
-            quads.ctx, source, frame, lattice, max_bytes or CHUNK_BYTES, backward=backward
-        )
+        budget = max_bytes or CHUNK_BYTES
+        size = chunk_size(quads.ctx, source, frame, lattice, budget, backward=backward)
+        direct = None
+        if takes(options, first.dtype, quads.fused):
+            direct = _Direct(batch, indices, options, frame)
+            if not maps and (batch.masks is None or direct.packed):  # no texture atlas
+                size = texel_chunk_size(
+                    quads.ctx, first.shape, frame, lattice, direct.packed, budget
+                )
         for start in range(0, len(indices), size):
             chunk = indices[start : start + size]
             if backward and any(segments[i] for i in chunk):
@@ -90,14 +104,85 @@ def warp_chunks(
                     ]
                     lattices = KernelLattices([m.kernel for m in mlss])
                 with quads.ctx.use():  # the chunk's passes, its meshes kept, in one hold
-                    done = _chunk(
-                        quads, warper, batch, chunk, lattices, options, frame, lattice, maps
-                    )
+                    args = (quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
+                    if direct is not None:
+                        done = direct.chunk(start, *args)
+                    else:
+                        done = _chunk(*args)
             if done is None:
+                if direct is not None:
+                    direct.complete = False
                 continue
             for i, labels in zip(chunk, done, strict=True):
                 results[i] = labels
-    return results
+        if direct is not None and direct.complete and len(groups) == 1:
+            whole["images"] = direct.out
+            if direct.labels is not None:
+                whole["masks"] = direct.labels
+    return results, whole
+
+
+class _Direct:
+    """A group's chunks on their bytes (:func:`~glmls.batch.texels.warp_texels`), written
+    into one array of the group's warped images (and of its labels where they ride along)."""
+
+    def __init__(self, batch: BatchInput, indices: list[int], options: WarpOptions, frame):
+        first = batch.images[indices[0]]
+        masks = batch.masks
+        self.packed = masks is not None and packable(first, masks[indices[0]], options)
+        channels = first.shape[2] if first.ndim == 3 else 1
+        form = SourceImage(
+            np.zeros((1, 1, channels + self.packed), np.uint8), np.dtype(np.uint8), False, True
+        )
+        self.background = background_color(options.background, form)
+        self.out = np.empty((len(indices), *frame.shape, *first.shape[2:]), np.uint8)
+        shape = (len(indices), *frame.shape)
+        self.labels = np.empty(shape, np.uint8) if self.packed else None
+        self.complete = True
+
+    def chunk(self, start, quads, warper, batch, chunk, lattices, options, frame, lattice, maps):
+        """The chunk of the group's images from its ``start``: its :class:`ImageLabels`, or
+        None where the keys do not fit (the single path takes them)."""
+        data = _slab(batch.array, batch.images, chunk)
+        labels = _slab(batch.mask_array, batch.masks, chunk) if self.packed else None
+        out = self.out[start : start + len(chunk)]
+        out_labels = None if self.labels is None else self.labels[start : start + len(chunk)]
+        grid = options.grid
+        if not warp_texels(
+            quads, lattices, data, labels, grid, frame, self.background, out, out_labels
+        ):
+            return None
+        folded = quads.folded(len(chunk)) if batch.keypoints is not None else None
+        warped_masks: list = [None] * len(chunk) if out_labels is None else list(out_labels)
+        if batch.masks is not None and not self.packed:
+            warped_masks = _warp_masks(quads, warper, batch, chunk, lattices, options, frame)
+            if warped_masks is None:
+                return None
+        labels = (lattice, maps, out, warped_masks, folded)
+        return _finish(quads, batch, chunk, lattices, options, frame, *labels)
+
+
+def _slab(array: np.ndarray | None, items: list[np.ndarray] | None, chunk: list[int]):
+    """The chunk's items as one C-contiguous array: a slice of ``array`` where they are
+    consecutive in it (no copy for a C-contiguous array), else stacked."""
+    if array is not None and chunk[-1] - chunk[0] + 1 == len(chunk):
+        return np.ascontiguousarray(array[chunk[0] : chunk[-1] + 1])
+    return np.stack([items[i] for i in chunk])  # type: ignore[index]
+
+
+def _warp_masks(quads, warper, batch, chunk, lattices, options, frame):
+    """The chunk's masks warped on their own (nearest, background 0), restored; None where
+    their keys do not fit."""
+    limit = warper.pipeline.max_image_size
+    masks = [batch.masks[i] for i in chunk]
+    label_sources = [prepare_image(mask_form(m), limit, normalized=True) for m in masks]
+    label_options = mask_options(options)
+    zero = background_color(0.0, label_sources[0])
+    warp = quads.backward if options.method == "backward" else quads.warp
+    warped = warp(lattices, label_sources, label_options, frame, zero)
+    if warped is None:
+        return None
+    return [restore_mask(w, masks[0].dtype) for w in warped]
 
 
 def _batch_config(batch: BatchInput, mls_options: dict) -> MLSConfig | None:
@@ -138,40 +223,40 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
         images = list(both)
     sources = [prepare_image(image, limit, normalized=True) for image in images]
     background = background_color(options.background, sources[0])
-    backward = options.method == "backward"
-    if backward:
+    if options.method == "backward":
         out = quads.backward(lattices, sources, options, frame, background)
     else:
-        out = quads.warp(lattices, sources, options, frame, background, both if packed else None)
+        out = quads.warp(lattices, sources, options, frame, background)
     if out is None:
         return None
     warped_masks: list = [None] * len(chunk)
     if packed:
         warped_masks = list(restore_mask(out[..., -1], masks[0].dtype))  # type: ignore[index]
         out = _drop_last(out, batch.images[chunk[0]].ndim == 2)
-    keypoints = batch.keypoints
-    vertices = folded = None
-    if keypoints is not None:  # the meshes, read back once
-        vertices, folded = quads.last_vertices, quads.last_folded
-        if vertices is None:
-            vertices = quads.vertices(lattices, lattice)
     if masks is not None and not packed:
-        label_sources = [prepare_image(mask_form(m), limit, normalized=True) for m in masks]
-        label_options = mask_options(options)
-        zero = background_color(0.0, label_sources[0])
-        warp = quads.backward if backward else quads.warp
-        warped = warp(lattices, label_sources, label_options, frame, zero)
-        if warped is None:  # the labels' keys are longer: the single path takes the chunk
+        warped_masks = _warp_masks(quads, warper, batch, chunk, lattices, options, frame)
+        if warped_masks is None:  # the labels' keys are longer: the single path takes them
             return None
-        warped_masks = [restore_mask(w, masks[0].dtype) for w in warped]  # type: ignore[union-attr]
+    labels = (lattice, maps, out, warped_masks, None)
+    return _finish(quads, batch, chunk, lattices, options, frame, *labels)
+
+
+def _finish(quads, batch, chunk, lattices, options, frame, lattice, maps, out, masks, folded):
+    """The chunk's :class:`ImageLabels`: its warped images ``out`` and ``masks``, its
+    keypoints moved (``folded``: the meshes not shown to be embeddings where known) and its
+    maps."""
+    keypoints = batch.keypoints
     moved_all = valid_all = None
-    if keypoints is not None:  # every keypoint of the chunk at once
+    if keypoints is not None:  # every keypoint of the chunk at once, the meshes read once
+        vertices = quads.vertices(lattices, lattice)
+        if folded is None:
+            folded = ~embedded(vertices[np.arange(len(chunk))])
         points = [keypoints[i] for i in chunk]
         sizes = [len(p) for p in points]
         which = np.repeat(np.arange(len(chunk)), sizes)
         moved_all, valid_all = mesh_keypoints(
             lattice,
-            vertices,
+            vertices,  # type: ignore[arg-type]
             np.concatenate(points),
             None,
             which,  # type: ignore[arg-type]
@@ -180,19 +265,21 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
         moved_all = moved_all - np.asarray(frame.origin)
         height, width = frame.shape
         valid_all &= np.all((moved_all > -0.5) & (moved_all < (width - 0.5, height - 0.5)), axis=1)
-        ends = np.cumsum(sizes)[:-1]
-        moved_all, valid_all = np.split(moved_all, ends), np.split(valid_all, ends)
+        ends = np.cumsum(sizes).tolist()
+        starts = [0, *ends[:-1]]
+        moved_all = [moved_all[a:b] for a, b in zip(starts, ends, strict=True)]
+        valid_all = [valid_all[a:b] for a, b in zip(starts, ends, strict=True)]
     coords_all = covered_all = None
     if maps:  # the quads' source points, from the chunk's meshes still on the GPU
-        if backward:
+        if options.method == "backward":
             coords_all, covered_all = quads.backward_coords(len(chunk), frame)
         else:
             coords_all, covered_all = quads.coords(len(chunk), lattice, frame)
     results = []
-    for k, _ in enumerate(chunk):
+    for k in range(len(chunk)):
         coords = None if coords_all is None else coords_all[k]
         covered = None if covered_all is None else covered_all[k]
         moved = None if moved_all is None else moved_all[k]
         valid = None if valid_all is None else valid_all[k]
-        results.append(ImageLabels(out[k], warped_masks[k], moved, valid, coords, covered))
+        results.append(ImageLabels(out[k], masks[k], moved, valid, coords, covered))
     return results

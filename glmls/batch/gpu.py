@@ -19,6 +19,10 @@ Per chunk of images (:func:`chunk_size`):
    samples the sources there;
 4. ONE read-back of the atlas.
 
+Nearest 8-bit chunks take the fused scan on the caller's bytes instead
+(:mod:`glmls.batch.texels`: one upload, a GPU test of which meshes are embeddings, the
+colours written in the scan, the atlas packed into the caller's layout on the GPU).
+
 The arithmetic is the single warp's (the same edge functions, keys, barycentrics, Newton
 steps and sampling), so each image equals its :func:`glmls.warp`, bit for bit. This path
 takes the regular mesh with the ``constant`` border (the mesh then needs no margin, whose
@@ -39,19 +43,24 @@ from ..gl.dispatch import LOCAL_SIZE_2D, fill_buffer, run_1d, set_uniforms
 from ..gl.resources import Resources
 from ..imaging.frame import Frame
 from ..imaging.inverse import NEWTON_ACCEPT, NEWTON_STEPS, NEWTON_TOLERANCE
-from ..imaging.options import PipelineOptions, WarpOptions
+from ..imaging.options import WarpOptions
 from ..imaging.quads import key_layout
 from ..imaging.readback import read_rgba8
 from ..imaging.source import SourceImage, texture_data, texture_form
-from .labels import embedded
+from .labels import MeshVertices
 
-__all__ = ["CHUNK_BYTES", "BatchQuads", "KernelLattices", "batchable", "chunk_size"]
+__all__ = [
+    "CHUNK_BYTES",
+    "BatchQuads",
+    "KernelLattices",
+    "batchable",
+    "chunk_size",
+    "mesh_stride",
+]
 
 #: The most GPU memory one chunk of a batch takes (sources, atlas, keys, meshes), bytes: a
 #: batch of 10,000 images runs chunk by chunk, never all on the GPU at once.
 CHUNK_BYTES = 256 << 20
-#: The fix-up list's header before a scan: no pixel listed, an indirect dispatch of none.
-_NO_FIXUPS = np.array([0, 0, 0, 1], np.uint32).tobytes()
 #: Bytes between two images' meshes in the mesh buffer are a multiple of this (at least the
 #: GL storage buffer offset alignment of any driver).
 MESH_ALIGN = 256
@@ -67,8 +76,8 @@ def batchable(options: WarpOptions) -> bool:
     )
 
 
-def _mesh_stride(lattice: MeshLattice) -> int:
-    """Bytes from one image's mesh to the next."""
+def mesh_stride(lattice: MeshLattice) -> int:
+    """Bytes from one image's mesh to the next in the mesh buffer."""
     return -(-lattice.count * 8 // MESH_ALIGN) * MESH_ALIGN
 
 
@@ -87,7 +96,7 @@ def chunk_size(
     (width, height), components, dtype = texture_form(source)
     texel = components * (1 if dtype == "f1" else 4)
     target = 4 if source.normalized else 16
-    per_image = width * height * texel + frame.pixels * (target + 8) + _mesh_stride(lattice)
+    per_image = width * height * texel + frame.pixels * (target + 8) + mesh_stride(lattice)
     per_image += frame.pixels * 16 if backward else 0
     atlas = gl.limits["max_texture_size"] // max(frame.shape[0], height)
     layers = int(gl.mgl.info.get("GL_MAX_ARRAY_TEXTURE_LAYERS", 256))
@@ -164,18 +173,14 @@ class BatchQuads:
     """The batched quads of a context (see the module docstring); one per context,
     :meth:`of`."""
 
-    #: Nearest RGBA8 chunks write the colours in the scan (fix-ups where triangles overlap)
-    #: instead of a fill draw from the keys; tests take both ways.
+    #: Nearest 8-bit chunks write the colours in the scan (fix-ups where triangles overlap,
+    #: :mod:`glmls.batch.texels`) instead of a fill draw from the keys; tests take both ways.
     fused: bool = True
 
     def __init__(self, gl: GLContext) -> None:
         self._gl = gl
         self._resources = Resources(gl, "the batch quads")
         self._array: tuple[tuple, moderngl.TextureArray] | None = None
-        #: The last :meth:`warp`'s mesh vertices where it read them (:meth:`vertices`).
-        self.last_vertices: np.ndarray | None = None
-        #: ... and which of them are not shown to be embeddings, where it tested them.
-        self.last_folded: np.ndarray | None = None
 
     @classmethod
     def of(cls, ctx: moderngl.Context | GLContext | None = None) -> BatchQuads:
@@ -222,7 +227,7 @@ class BatchQuads:
             "u_origin": frame.origin,
             "u_source_size": lattice.shape[::-1],
             "u_mesh_dims": lattice.dims,
-            "u_mesh_stride": _mesh_stride(lattice) // 8,
+            "u_mesh_stride": mesh_stride(lattice) // 8,
             "u_images": count,
             "u_sub_bits": sub_bits,
             "u_col_shift": col_shift,
@@ -263,14 +268,13 @@ class BatchQuads:
             return None
         count = len(sources)
         gl, mgl = self._gl, self._gl.mgl
-        stride = _mesh_stride(lattice)
+        stride = mesh_stride(lattice)
         mesh = self._resources.buffer("mesh", count * stride)
         lattices.evaluate(gl, self._resources, lattice, mesh, stride)
         scaling = np.zeros((count, 4), np.float32)
         scaling[:, :2] = lattices.centers
         scaling[:, 2] = lattices.scales
         self._resources.buffer("scaling", scaling.nbytes).write(scaling)
-        self.last_vertices = self.last_folded = None
         framebuffer, atlas = self._fill_coords(count, lattice, frame)
         coords = framebuffer.color_attachments[0]
         defines = {"WARP_SWAP": False, "WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": 0}
@@ -367,20 +371,33 @@ class BatchQuads:
         array.write(_texture_stack(sources))
         return array
 
+    @property
+    def resources(self) -> Resources:
+        """Its GL objects (the mesh buffer of the last chunk among them)."""
+        return self._resources
+
     @current
-    def vertices(self, lattices, lattice: MeshLattice) -> np.ndarray:
-        """(N, rows, columns, 2) float64: the last :meth:`warp`'s mesh vertices in pixels
-        (f at the lattice of each image of ``lattices``, its chunk's), read back."""
-        stride = _mesh_stride(lattice)
+    def vertices(self, lattices, lattice: MeshLattice) -> MeshVertices:
+        """The last chunk's mesh vertices in pixels (f at the lattice of each image of
+        ``lattices``, its chunk's), read back once and converted to float64 where indexed
+        (:class:`~glmls.batch.labels.MeshVertices`)."""
+        stride = mesh_stride(lattice)
         count = len(lattices)
         self._gl.mgl.memory_barrier()  # the lattice passes' stores before the read
         raw = self._resources.cached("mesh").read(size=count * stride)
         columns, rows = lattice.dims
         scaled = np.frombuffer(raw, np.float32).reshape(count, stride // 4)
         scaled = scaled[:, : rows * columns * 2].reshape(count, rows, columns, 2)
-        scale = lattices.scales[:, None, None, None]
-        centre = lattices.centers[:, None, None, :]
-        return scaled.astype(np.float64) * scale + centre  # Scaling.from_gpu, all at once
+        return MeshVertices(scaled, lattices.scales, lattices.centers)
+
+    @current
+    def folded(self, count: int) -> np.ndarray:
+        """(N,) bool: the meshes of the last chunk of :func:`~glmls.batch.texels.warp_texels`
+        that ``batch/check.comp.glsl`` did not show to be embeddings."""
+        self._gl.mgl.memory_barrier()
+        raw = self._resources.cached("check").read(size=16 * count)
+        counts = np.frombuffer(raw, np.uint32).reshape(count, 4)
+        return (counts[:, 0] != 0) | (counts[:, 1] != 0) | (counts[:, 2] != 1)
 
     @current
     def warp(
@@ -390,14 +407,13 @@ class BatchQuads:
         options: WarpOptions,
         frame: Frame,
         background: tuple[float, float, float, float],
-        stacked: np.ndarray | None = None,
     ) -> np.ndarray | None:
         """The chunk's images warped (``lattices``: their handles, a
-        :class:`~glmls.engine.batched.BatchLattices` or :class:`KernelLattices`): (N, H, W,
-        C) restored to the sources' dtype (each :meth:`SourceImage.restore`), or None where
-        the keys of this mesh do not fit in 31 bits (the single path's rasterizer then draws
-        it). ``stacked``: the sources' data as
-        one (N, H, W, 4) uint8 array where the caller has it (not copied again)."""
+        :class:`~glmls.engine.batched.BatchLattices` or :class:`KernelLattices`) by a fill
+        draw from the keys: (N, H, W, C) restored to the sources' dtype (each
+        :meth:`SourceImage.restore`), or None where the keys of this mesh do not fit in 31
+        bits (the single path's rasterizer then draws it). Nearest 8-bit chunks take the
+        fused scan on their bytes instead (:mod:`glmls.batch.texels`)."""
         height, width = sources[0].shape
         lattice = MeshLattice.corners((height, width), options.grid)
         linear = options.interpolation == "linear"
@@ -407,19 +423,13 @@ class BatchQuads:
         sub_bits, col_shift, row_shift = layout
         count = len(sources)
         gl, mgl = self._gl, self._gl.mgl
-        stride = _mesh_stride(lattice)
+        stride = mesh_stride(lattice)
         mesh = self._resources.buffer("mesh", count * stride)
         lattices.evaluate(gl, self._resources, lattice, mesh, stride)  # 1. every image's f
         scaling = np.zeros((count, 4), np.float32)
         scaling[:, :2] = lattices.centers
         scaling[:, 2] = lattices.scales
         source = sources[0]
-        fused = self.fused and not linear and texture_form(source)[1:] == (4, "f1")
-        self.last_vertices = self.last_folded = None
-        if fused:  # meshes shown to be embeddings are drawn without keys
-            self.last_vertices = self.vertices(lattices, lattice)
-            self.last_folded = ~embedded(self.last_vertices)
-            scaling[:, 3] = self.last_folded
         scales = self._resources.buffer("scaling", scaling.nbytes)
         scales.write(scaling)
         out_w, out_h = frame.size
@@ -441,34 +451,14 @@ class BatchQuads:
         mgl.memory_barrier()
         dtype = "f1" if source.normalized else "f4"
         framebuffer = self._resources.framebuffer("atlas", atlas, dtype)
-        target = framebuffer.color_attachments[0]
-        self._resources.fill(target, background)
+        self._resources.fill(framebuffer.color_attachments[0], background)
         cells = (lattice.dims[0] - 1) * (lattice.dims[1] - 1)
-        scan = gl.compute(
-            "batch/cells.comp.glsl",
-            {"WARP_CELLS_SOURCE": not linear, "WARP_CELLS_FUSED": fused},
-        )
-        buffers = {bindings.DEFORMED: mesh, bindings.POINTS: scales, bindings.WINNER: winner}
-        if fused:
-            values["u_fixup_capacity"] = PipelineOptions().fixup_capacity(out_w * out_h * count)
-            fixups = self._resources.buffer("fixups", 16 + 4 * values["u_fixup_capacity"])
-            fixups.write(_NO_FIXUPS)
-            buffers[bindings.FIXUPS] = fixups
-            texels = self._resources.texture("sources", (width, height * count), 4, "f1")
-            texels.write(stacked if stacked is not None else _texture_stack(sources))
+        scan = gl.compute("batch/cells.comp.glsl", {"WARP_CELLS_SOURCE": not linear})
         set_uniforms(scan, values)
-        for binding, buffer in buffers.items():
-            buffer.bind_to_storage_buffer(binding.index)
-        if fused:
-            bindings.bind_texels(texels, bindings.TEXEL_SOURCE, write=False)
-            bindings.bind_texels(target, bindings.TEXEL_TARGET, write=True)
+        mesh.bind_to_storage_buffer(bindings.DEFORMED.index)
+        scales.bind_to_storage_buffer(bindings.POINTS.index)
+        winner.bind_to_storage_buffer(bindings.WINNER.index)
         run_1d(scan, cells * count, max_groups=gl.limits["max_work_groups_x"])  # 2.
         mgl.memory_barrier()
-        if fused:  # the pixels that more than one triangle reached: the winner's texel
-            fixup = gl.compute("batch/fixup.comp.glsl")
-            set_uniforms(fixup, values)
-            fixup.run_indirect(fixups, offset=4)
-            mgl.memory_barrier()
-        else:
-            self._resolve(values, atlas, framebuffer, sources, winner, linear)  # 3.
+        self._resolve(values, atlas, framebuffer, sources, winner, linear)  # 3.
         return _read_atlas(self._gl.mgl, framebuffer, atlas, source, count, frame)  # 4.

@@ -19,7 +19,9 @@ class BatchInput:
     """A checked batch: per image, its array and handles (and labels, None where not given).
 
     ``stacked``: the images came as one array or as a sequence of one shape and dtype (the
-    outputs are then stacked too); ``stacked_points``: the keypoints came as one array."""
+    outputs are then stacked too); ``stacked_points``: the keypoints came as one array;
+    ``array`` and ``mask_array``: the images and masks as that one array where they came as
+    one (``images`` and ``masks`` are then its views)."""
 
     images: list[np.ndarray]
     src: list[np.ndarray]
@@ -28,6 +30,8 @@ class BatchInput:
     masks: list[np.ndarray] | None
     stacked: bool
     stacked_points: bool
+    array: np.ndarray | None = None
+    mask_array: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.images)
@@ -97,41 +101,67 @@ def _mask(array: np.ndarray, name: str, shape: tuple[int, int]) -> np.ndarray:
     return array
 
 
+def _point_items(value: object, name: str, *, empty: bool) -> tuple[list[np.ndarray], bool]:
+    """Per-image (P, 2) float64 point sets of ``value`` (:func:`_items`), each checked by
+    :func:`_points`: an (N, P, 2) array of real numbers all at once (the error, if any,
+    naming the first bad item as the item's own check would)."""
+    if not isinstance(value, np.ndarray) or value.ndim != 3 or len(value) == 0:
+        items, stacked = _items(value, name, (2,))
+        return [_points(a, f"{name}[{i}]", empty=empty) for i, a in enumerate(items)], stacked
+    _points(value[0], f"{name}[0]", empty=empty)  # dtype and shape, alike for every item
+    points = np.asarray(value, dtype=np.float64)
+    finite = np.isfinite(points).all(axis=(1, 2))
+    limit = not empty and points.size and np.abs(points).max() > COORDINATE_LIMIT
+    if not finite.all() or limit:
+        for i, item in enumerate(points):  # the first bad item names itself
+            _points(item, f"{name}[{i}]", empty=empty)
+    return list(points), True
+
+
 def check_batch(
     images: object, src: object, dst: object, keypoints: object, masks: object
 ) -> BatchInput:
     """The checked :class:`BatchInput`; ``ValueError``/``TypeError`` naming the bad item."""
     image_list, stacked = _items(images, "images", (2, 3))
     count = len(image_list)
-    image_list = [_image(a, f"images[{i}]") for i, a in enumerate(image_list)]
+    array = images if stacked and count else None
+    if array is not None:  # one shape and dtype: the first image's check is every image's
+        _image(image_list[0], "images[0]")
+    else:
+        image_list = [_image(a, f"images[{i}]") for i, a in enumerate(image_list)]
     if not stacked and image_list:
         first = image_list[0]
         stacked = all(a.shape == first.shape and a.dtype == first.dtype for a in image_list)
     handles = []
     for name, value in (("src", src), ("dst", dst)):
-        items, _ = _items(value, name, (2,))
+        items, _ = _point_items(value, name, empty=False)
         if len(items) != count:
             raise ValueError(f"{name} holds {len(items)} handle sets for {count} images")
-        handles.append([_points(a, f"{name}[{i}]", empty=False) for i, a in enumerate(items)])
+        handles.append(items)
     for i, (p, q) in enumerate(zip(*handles, strict=True)):
         if len(p) != len(q):
             raise ValueError(f"src[{i}] and dst[{i}] hold {len(p)} and {len(q)} points")
     points, stacked_points = None, False
     if keypoints is not None:
-        points, stacked_points = _items(keypoints, "keypoints", (2,))
+        points, stacked_points = _point_items(keypoints, "keypoints", empty=True)
         if len(points) != count:
             raise ValueError(f"keypoints holds {len(points)} point sets for {count} images")
-        points = [_points(a, f"keypoints[{i}]", empty=True) for i, a in enumerate(points)]
         stacked_points = stacked_points or len({len(a) for a in points}) == 1
-    mask_list = None
+    mask_list, mask_array = None, None
     if masks is not None:
-        mask_list, _ = _items(masks, "masks", (2,))
+        mask_list, one = _items(masks, "masks", (2,))
         if len(mask_list) != count:
             raise ValueError(f"masks holds {len(mask_list)} masks for {count} images")
-        mask_list = [
-            _mask(m, f"masks[{i}]", image_list[i].shape[:2]) for i, m in enumerate(mask_list)
-        ]
-    return BatchInput(image_list, *handles, points, mask_list, stacked, stacked_points)
+        if one and array is not None and count and masks.dtype in (np.uint8, np.uint16):  # type: ignore[union-attr]
+            _mask(mask_list[0], "masks[0]", image_list[0].shape[:2])
+            mask_array = masks
+        else:
+            mask_list = [
+                _mask(m, f"masks[{i}]", image_list[i].shape[:2]) for i, m in enumerate(mask_list)
+            ]
+    return BatchInput(
+        image_list, *handles, points, mask_list, stacked, stacked_points, array, mask_array
+    )
 
 
 def stack_or_list(arrays: list[np.ndarray], stacked: bool, empty: np.ndarray | None = None):

@@ -14,6 +14,7 @@ from ..core.mesh import MeshLattice
 __all__ = [
     "EMBED_MARGIN",
     "SLACK",
+    "MeshVertices",
     "embedded",
     "mesh_corners",
     "mesh_keypoints",
@@ -137,10 +138,11 @@ def mesh_keypoints(
     own = (row * columns + col) * 2 + (u < v)
     hidden = np.zeros(count, bool)
     folded = ~embedded(vertices) if folded is None else folded
-    for k in np.flatnonzero(folded):  # an embedding hides no point: only the others are tested
-        mine = np.flatnonzero(image == k)
-        if len(mine):
-            hidden[mine] = _covered_earlier(vertices[k], out[mine], own[mine])
+    meshes = np.flatnonzero(folded)  # an embedding hides no point: only the others are tested
+    tested = np.flatnonzero(np.isin(image, meshes))
+    if len(tested):
+        which = np.searchsorted(meshes, image[tested])
+        hidden[tested] = _covered_earlier(vertices, meshes, which, out[tested], own[tested])
     return out, inside & ~hidden
 
 
@@ -177,37 +179,118 @@ def embedded(vertices: np.ndarray) -> np.ndarray:
     return ok & (turn > margin).all(axis=1) & (angle < 3 * np.pi)
 
 
-def _covered_earlier(vertices: np.ndarray, points: np.ndarray, own: np.ndarray) -> np.ndarray:
-    """(P,) bool: a triangle of the deformed mesh (rows, columns, 2) before key ``own`` holds
-    the point strictly inside (either orientation: folded triangles are drawn too)."""
-    a = vertices[:-1, :-1].reshape(-1, 2)
-    b = vertices[:-1, 1:].reshape(-1, 2)
-    c = vertices[1:, 1:].reshape(-1, 2)
-    d = vertices[1:, :-1].reshape(-1, 2)
-    low = np.minimum(np.minimum(a, b), np.minimum(c, d))
-    high = np.maximum(np.maximum(a, b), np.maximum(c, d))
+def _covered_earlier(
+    vertices, chosen: np.ndarray, which: np.ndarray, points: np.ndarray, own: np.ndarray
+) -> np.ndarray:
+    """(P,) bool: a triangle of deformed mesh ``chosen[which]`` (of ``vertices``, (N, rows,
+    columns, 2), an array or :class:`MeshVertices`) before key ``own`` holds the point
+    strictly inside (either orientation: folded triangles are drawn too). Every mesh's points
+    at once: against the boxes of its rows of cells, then of the cells of the rows whose box
+    holds the point, then the triangles of the cells whose box does."""
+    meshes = len(chosen)
+    columns = vertices.shape[2] - 1
+    # each row of cells' box: of its two rows of vertices
+    reduces = (np.minimum, np.minimum, np.maximum, np.maximum)
+    extents = zip(_row_extents(vertices, chosen), reduces, strict=True)
+    boxes = [reduce(line[:, :-1], line[:, 1:]) for line, reduce in extents]
+    # the points as (M, width) slots of their meshes (NaN where a mesh has fewer)
+    counts = np.bincount(which, minlength=meshes)
+    order = np.argsort(which, kind="stable")
+    slot = np.empty(len(points), np.int64)
+    slot[order] = np.arange(len(points)) - np.repeat(np.cumsum(counts) - counts, counts)
+    grid = np.full((2, meshes, int(counts.max())), np.nan)
+    grid[:, which, slot] = points.T
+    index = np.zeros(grid.shape[1:], np.int64)
+    index[which, slot] = np.arange(len(points))
+    lx, ly, hx, hy = boxes
+    qx, qy = grid[0][..., None], grid[1][..., None]
+    near = (lx[:, None] <= qx) & (qx <= hx[:, None]) & (ly[:, None] <= qy) & (qy <= hy[:, None])
+    mesh, column, row = np.nonzero(near)  # (mesh, slot, row of cells): the row's box holds it
+    qx, qy = grid[0][mesh, column][:, None], grid[1][mesh, column][:, None]
+    image = chosen[mesh]
+    top, bottom = vertices[image, row], vertices[image, row + 1]  # (T, columns + 1, 2)
+    corners = [top[:, :-1], top[:, 1:], bottom[:, 1:], bottom[:, :-1]]  # 00, 10, 11, 01
+    lx, ly, hx, hy = (
+        reduce(
+            reduce(corners[0][..., k], corners[1][..., k]),
+            reduce(corners[2][..., k], corners[3][..., k]),
+        )
+        for reduce, k in ((np.minimum, 0), (np.minimum, 1), (np.maximum, 0), (np.maximum, 1))
+    )  # (T, columns): the boxes of that row's cells
+    pair, cell = np.nonzero((lx <= qx) & (qx <= hx) & (ly <= qy) & (qy <= hy))
+    point = index[mesh[pair], column[pair]]
     hidden = np.zeros(len(points), bool)
-    lx, ly, hx, hy = low[:, 0], low[:, 1], high[:, 0], high[:, 1]
-    for start in range(0, len(points), 64):  # (64, cells) candidates at a time
-        chunk = points[start : start + 64]
-        qx, qy = chunk[:, :1], chunk[:, 1:]
-        near = (lx <= qx) & (qx <= hx) & (ly <= qy) & (qy <= hy)
-        which, cell = np.nonzero(near)
-        if not len(which):
-            continue
-        q = chunk[which]
-        for triangle, (p0, p1, p2) in enumerate(((a, b, c), (a, c, d))):
-            earlier = cell * 2 + triangle < own[start + which]
-            x0, x1, x2 = p0[cell], p1[cell], p2[cell]
-            area = _cross(x1 - x0, x2 - x0)
-            sign = np.sign(area)
-            tiny = 1e-9 * np.abs(area)
-            strictly = (sign != 0) & earlier
-            for u, v in ((x0, x1), (x1, x2), (x2, x0)):
-                strictly &= _cross(v - u, q - u) * sign > tiny
-            hidden[start + which[strictly]] = True
+    if not len(pair):
+        return hidden
+    q = points[point]
+    key = (row[pair] * columns + cell) * 2
+    for triangle, (p0, p1, p2) in enumerate(((0, 1, 2), (0, 2, 3))):
+        earlier = key + triangle < own[point]
+        x0, x1, x2 = (corners[k][pair, cell] for k in (p0, p1, p2))
+        area = _cross(x1 - x0, x2 - x0)
+        sign = np.sign(area)
+        tiny = 1e-9 * np.abs(area)
+        strictly = (sign != 0) & earlier
+        for u, v in ((x0, x1), (x1, x2), (x2, x0)):
+            strictly &= _cross(v - u, q - u) * sign > tiny
+        hidden[point[strictly]] = True
     return hidden
+
+
+def _row_extents(vertices, chosen: np.ndarray) -> list[np.ndarray]:
+    """Least x, least y, greatest x, greatest y of each row of vertices of the meshes
+    ``chosen``: four (M, rows) arrays (:meth:`MeshVertices.row_extents` where it is one)."""
+    if isinstance(vertices, MeshVertices):
+        return vertices.row_extents(chosen)
+    chosen_vertices = vertices[chosen]
+    return [
+        reduce(chosen_vertices[..., axis], axis=2) for reduce in (np.min, np.max) for axis in (0, 1)
+    ]
 
 
 def _cross(e: np.ndarray, f: np.ndarray) -> np.ndarray:
     return e[..., 0] * f[..., 1] - e[..., 1] * f[..., 0]
+
+
+class MeshVertices:
+    """A chunk's deformed meshes (N, rows, columns, 2) in pixels, float64, as
+    :meth:`glmls.batch.gpu.BatchQuads.vertices` reads them: float32 f at the lattice
+    (scaled), converted (``scaled * scale + centre``, as a whole array would be) only where
+    indexed: ``v[k]`` image k's (rows, columns, 2), ``v[images, rows, columns]`` those
+    vertices' (P, 2)."""
+
+    ndim = 4
+
+    def __init__(self, scaled: np.ndarray, scales: np.ndarray, centers: np.ndarray) -> None:
+        self._scaled = scaled  # (N, rows, columns, 2) float32
+        self._scales = scales
+        self._centers = centers
+
+    def __len__(self) -> int:
+        return len(self._scaled)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return self._scaled.shape
+
+    def row_extents(self, images: np.ndarray) -> list[np.ndarray]:
+        """Least x, least y, greatest x, greatest y of each row of vertices of ``images``:
+        four (M, rows) arrays, reduced in float32 and then converted (the conversion is
+        increasing, so the extremes are those of the converted vertices, bit for bit)."""
+        scaled = self._scaled[images]
+        scale = self._scales[images][:, None]
+        centre = self._centers[images]
+        out = []
+        for reduce in (np.min, np.max):
+            for axis in (0, 1):  # reduced along a row: a loop over its vertices, not over x, y
+                extreme = reduce(scaled[..., axis], axis=2).astype(np.float64)  # (M, rows)
+                out.append(extreme * scale + centre[:, axis, None])
+        return out
+
+    def __getitem__(self, key):
+        image = key[0] if isinstance(key, tuple) else key
+        scaled = self._scaled[key].astype(np.float64)
+        extra = scaled.ndim - np.ndim(image) - 1  # the axes between the images' and x, y
+        scale = np.reshape(self._scales[image], np.shape(image) + (1,) * (extra + 1))
+        centre = np.reshape(self._centers[image], np.shape(image) + (1,) * extra + (2,))
+        return scaled * scale + centre

@@ -113,8 +113,9 @@ def warp_batch(
     segments = _check_segments(segments, len(batch))
     warper = SingleWarper.of(mls_options.get("ctx"))
     done: list = [None] * len(batch)
+    whole: dict = {}
     if batchable(chosen) and len(batch):
-        done = warp_chunks(
+        done, whole = warp_chunks(
             batch, chosen, mls_options, segments, maps=return_maps, max_bytes=max_batch_bytes
         )
     results = [
@@ -131,7 +132,7 @@ def warp_batch(
         )
         for i, image in enumerate(batch.images)
     ]
-    return _assemble(batch, results, chosen, images, return_maps, (keypoints, masks))
+    return _assemble(batch, results, chosen, images, return_maps, (keypoints, masks), whole)
 
 
 def _split_options(options: dict) -> tuple[WarpOptions, dict, dict]:
@@ -169,15 +170,21 @@ def _assemble(
     images: object,
     maps: bool,
     inputs: tuple[object, object],
+    whole: dict[str, np.ndarray],
 ):
     """The output of :func:`warp_batch`: stacked where the inputs were, the empty batch's
-    arrays of the right shapes (``inputs``: the keypoints and masks as given)."""
+    arrays of the right shapes (``inputs``: the keypoints and masks as given; ``whole``: the
+    arrays of every image's pixels or masks where the batched path wrote them, of which the
+    results are views)."""
     keypoints, masks = inputs
     empty = None
     if isinstance(images, np.ndarray) and len(batch) == 0:
         shape = tuple(options.output_shape or images.shape[1:3])
         empty = np.empty((0, *shape, *images.shape[3:]), images.dtype)
-    out = stack_or_list([r.image for r in results], batch.stacked, empty)
+    if batch.stacked and "images" in whole:
+        out = whole["images"]
+    else:
+        out = stack_or_list([r.image for r in results], batch.stacked, empty)
     if batch.keypoints is None and batch.masks is None and not maps:
         return out
 
@@ -199,7 +206,11 @@ def _assemble(
         keypoints_valid=field("keypoints_valid", batch.stacked_points, points, bool)
         if given
         else None,
-        masks=field("mask", batch.stacked, canvas, mask_dtype) if batch.masks is not None else None,
+        masks=whole["masks"]
+        if batch.stacked and "masks" in whole
+        else field("mask", batch.stacked, canvas, mask_dtype)
+        if batch.masks is not None
+        else None,
         maps=field("map", batch.stacked, (*canvas, 2), np.float32) if maps else None,
         valid=field("valid", batch.stacked, canvas, bool) if maps else None,
     )

@@ -32,13 +32,17 @@ from .storage import unroll_slots
 __all__ = ["BatchLattices"]
 
 
-def _bounds(points: list[np.ndarray], shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """(N, 2) lows and highs of each image's points and the image's pixel box."""
+def _bounds(
+    src: list[np.ndarray], dst: list[np.ndarray], shape: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 2) lows and highs of each image's handles p and q and the image's pixel box."""
     height, width = shape
-    if len({len(p) for p in points}) == 1:
-        stacked = np.stack(points)  # (N, 2K, 2)
-        lo, hi = stacked.min(axis=1), stacked.max(axis=1)
+    if len({len(p) for p in src}) == 1:
+        p, q = np.stack(src), np.stack(dst)  # (N, K, 2)
+        lo = np.minimum(p.min(axis=1), q.min(axis=1))
+        hi = np.maximum(p.max(axis=1), q.max(axis=1))
     else:
+        points = [np.concatenate([p, q]) for p, q in zip(src, dst, strict=True)]
         lo = np.array([p.min(axis=0) for p in points])
         hi = np.array([p.max(axis=0) for p in points])
     lo = np.minimum(lo, (-0.5, -0.5))
@@ -69,8 +73,7 @@ class BatchLattices:
                 check_affine_handles(p)
         self.config = config
         self.shape = tuple(shape)
-        points = [np.concatenate([p, q]) for p, q in zip(src, dst, strict=True)]
-        lo, hi = _bounds(points, self.shape)
+        lo, hi = _bounds(src, dst, self.shape)
         #: (N, 2) float64: each image's scaling centre (Scaling.center).
         self.centers = (lo + hi) / 2
         #: (N,) float64: each image's scale (Scaling.scale).
@@ -111,11 +114,13 @@ class BatchLattices:
             table[:, k] = (value - self.centers[:, axis]) / self.scales  # lattice.uniforms
         table[:, 4] = lattice.grid / self.scales
         radius = self.config.resolve_radius(self.shape)
-        snap = np.empty(count, bool)
-        for k, scale in enumerate(self.scales.tolist()):
-            weights = weight_uniforms(self.config, scale, radius)
-            table[k, 5:8] = weights["u_log2_s"], weights["u_radius"], weights["u_hit2"]
-            snap[k] = weights["u_snap"]
+        distinct, inverse = np.unique(self.scales, return_inverse=True)  # often one scale
+        weights = np.empty((len(distinct), 4), np.float64)
+        for k, scale in enumerate(distinct.tolist()):
+            values = weight_uniforms(self.config, scale, radius)
+            weights[k] = values["u_log2_s"], values["u_radius"], values["u_hit2"], values["u_snap"]
+        table[:, 5:8] = weights[inverse, :3]
+        snap = weights[inverse, 3] != 0
         table[:, 8:10] = self.centers
         table[:, 10] = self.scales
         ints[:, 0] = np.concatenate([[0], np.cumsum(self.counts)[:-1]])
@@ -134,7 +139,8 @@ class BatchLattices:
         table = self.table(lattice)
         ends = np.cumsum(self.counts)
         capacity = int(gl.mgl.info["GL_MAX_UNIFORM_BLOCK_SIZE"]) // 16
-        unrolls = np.array([unroll_slots(int(c)) for c in self.counts])
+        distinct, inverse = np.unique(self.counts, return_inverse=True)
+        unrolls = np.array([unroll_slots(int(c)) for c in distinct])[inverse]
         for unroll in sorted(set(unrolls.tolist())):
             chosen = np.flatnonzero(unrolls == unroll)
             block = int(self.counts[chosen].max()) <= capacity
@@ -154,9 +160,12 @@ class BatchLattices:
             )
             set_uniforms(program, {"u_alpha": self.config.alpha})
             for j, part in enumerate(parts):
-                packed = np.concatenate(
-                    [self.packed[ends[i] - self.counts[i] : ends[i]] for i in part.tolist()]
-                )
+                if part[-1] - part[0] + 1 == len(part):  # consecutive images: one slice
+                    packed = self.packed[ends[part[0]] - self.counts[part[0]] : ends[part[-1]]]
+                else:
+                    packed = np.concatenate(
+                        [self.packed[ends[i] - self.counts[i] : ends[i]] for i in part.tolist()]
+                    )
                 rows = table[part]
                 rows[:, 12:].view(np.int32)[:, 0] = np.cumsum(self.counts[part]) - self.counts[part]
                 size = 16 * capacity if block else packed.nbytes

@@ -65,6 +65,11 @@ VOLUME_SURVEY = Binding("VOLUME_SURVEY", "storage", 20, "volumes: the box of f o
 MESH_FACES = Binding("MESH_FACES", "storage", 21, "3D meshes: the faces' vertex indices")
 MESH_NORMALS = Binding("MESH_NORMALS", "storage", 22, "3D meshes: vertex normals or their sums")
 MESH_FOLDS = Binding("MESH_FOLDS", "storage", 23, "3D meshes: each face's fold flag, a byte")
+BATCH_BYTES = Binding("BATCH_BYTES", "storage", 24, "batches: the chunk's source bytes, labels")
+BATCH_OUTPUT = Binding("BATCH_OUTPUT", "storage", 25, "batches: the chunk's output bytes, labels")
+BATCH_CHECK = Binding("BATCH_CHECK", "storage", 26, "batches: each image's embedding test")
+BATCH_LISTS = Binding("BATCH_LISTS", "storage", 27, "batches: the images each scan takes")
+BATCH_ATLAS = Binding("BATCH_ATLAS", "storage", 28, "batches: the output canvases' texels")
 # -- uniform blocks ----------------------------------------------------------------------------
 HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
 # -- texture units -----------------------------------------------------------------------------
@@ -116,6 +121,11 @@ ALL = (
     MESH_FACES,
     MESH_NORMALS,
     MESH_FOLDS,
+    BATCH_BYTES,
+    BATCH_OUTPUT,
+    BATCH_CHECK,
+    BATCH_LISTS,
+    BATCH_ATLAS,
     HANDLES_BLOCK,
     SOURCE,
     COORDS,

@@ -313,18 +313,25 @@ def test_bad_input_is_named(gl, kwargs, error, message):
 
 
 def test_quads_run_in_chunks_on_the_gpu_path(gl, rng, monkeypatch):
-    """quads with the constant border take the batched path, one submission per chunk; small
-    chunks give what one chunk gives."""
+    """quads with the constant border take the batched path, one submission per chunk (8-bit
+    nearest images on their bytes, :mod:`glmls.batch.texels`); small chunks give what one
+    chunk gives."""
+    from glmls.batch import chunks
     from glmls.batch.gpu import BatchQuads
 
     calls = []
-    warp = BatchQuads.warp
+    warp, warp_texels = BatchQuads.warp, chunks.warp_texels
 
     def counted(self, kernels, *args, **kwargs):
         calls.append(len(kernels))
         return warp(self, kernels, *args, **kwargs)
 
+    def counted_texels(quads, kernels, *args, **kwargs):
+        calls.append(len(kernels))
+        return warp_texels(quads, kernels, *args, **kwargs)
+
     monkeypatch.setattr(BatchQuads, "warp", counted)
+    monkeypatch.setattr(chunks, "warp_texels", counted_texels)
     batch = images(rng, 7)
     src, dst = handles(rng, 7)
     masks = rng.integers(0, 9, (7, *SHAPE)).astype(np.uint16)
@@ -399,8 +406,10 @@ def test_chunk_size_follows_the_limits(gl):
 @pytest.mark.parametrize("fold", [False, True, "mixed"])
 def test_the_fill_draw_equals_the_fused_scan(gl, rng, monkeypatch, fold):
     """Nearest 8-bit chunks: colours written in the scan (without keys for meshes shown to
-    be embeddings, with keys and fix-ups for the others) or drawn from the keys give the
-    single warp's pixels, in chunks of folded and unfolded meshes alike."""
+    be embeddings, with keys and fix-ups for the others; the embeddings by a scan of their
+    own or not) or drawn from the keys give the single warp's pixels, in chunks of folded and
+    unfolded meshes alike."""
+    from glmls.batch import texels
     from glmls.batch.gpu import BatchQuads
 
     shape = (28, 36)
@@ -415,8 +424,9 @@ def test_the_fill_draw_equals_the_fused_scan(gl, rng, monkeypatch, fold):
         src, dst = list(src), list(dst)
         src[1], dst[1], src[2], dst[2] = p, q, p, q[::-1] * 0.5 + p * 0.5
     want = singles(batch, src, dst, grid=1)
-    for fused in (True, False):
+    for fused, fast in ((True, True), (True, False), (False, True)):
         monkeypatch.setattr(BatchQuads, "fused", fused)
+        monkeypatch.setattr(texels, "FAST_PASS", fast)  # embeddings by a scan of their own
         np.testing.assert_array_equal(glmls.warp_batch(batch, src, dst, grid=1), want)
 
 
@@ -474,3 +484,31 @@ def test_one_mls_pass_for_many_handle_counts(gl, rng):
         for i in range(len(counts)):
             want = glmls.warp(batch[i], src[i], dst[i], method=method, grid=2)
             np.testing.assert_array_equal(out[i], want)
+
+
+@pytest.mark.parametrize("channels", [0, 1, 2, 3, 4])
+def test_nearest_bytes_in_and_out(gl, rng, channels):
+    """Nearest 8-bit chunks go up as the caller's bytes and come back packed into one array
+    (glmls.batch.texels): any channel count, a canvas of its own, a pixel count not a
+    multiple of 4, strided and listed inputs, small chunks, folded meshes among them; labels
+    riding along with 1 and 3 channels; all equal to single warps."""
+    shape = (13, 21)
+    batch = images(rng, 5, shape, channels)
+    src, dst = handles(rng, 5, 6, shape, spread=3.0)
+    p, q = folding_handles(shape)
+    src[2], dst[2] = p, q
+    options = {"grid": 2, "output_shape": (15, 19), "origin": (-1.0, 0.5), "background": 7}
+    want = np.stack(singles(batch, src, dst, **options))
+    out = glmls.warp_batch(batch, src, dst, **options)
+    np.testing.assert_array_equal(out, want)
+    strided = np.repeat(batch, 2, axis=0)[::2]
+    for given, budget in ((strided, None), (list(batch), None), (batch, 3000)):
+        again = glmls.warp_batch(given, src, dst, max_batch_bytes=budget, **options)
+        np.testing.assert_array_equal(again, want)
+    masks = rng.integers(0, 256, (5, *shape), dtype=np.uint8)
+    result = glmls.warp_batch(batch, src, dst, masks=masks, keypoints=src, **options)
+    np.testing.assert_array_equal(result.images, want)
+    for i in range(5):
+        mask = glmls.warp(masks[i], src[i], dst[i], **(options | {"background": 0}))
+        np.testing.assert_array_equal(result.masks[i], mask)
+    assert result.keypoints_valid.shape == (5, 6)

@@ -1,6 +1,6 @@
 // The quads of a batch of images scan-converted in one dispatch: one invocation per cell of
 // every image's mesh (cell c of image k is item k * cells + c). Each cell does what
-// warp/cells.comp.glsl's keyed pass does for a single image (no fused colours, no fast pass):
+// warp/cells.comp.glsl's keyed pass does for a single image:
 // the same edge functions, coverage and tie rules (warp/coverage.glsl), the same keys (cell
 // row | cell column | triangle | [WARP_CELLS_SOURCE: the nearest source pixel in the cell])
 // kept per pixel with atomicMax, so that where cells fold the FIRST in row-major scan order
@@ -12,12 +12,20 @@
 // warp's fused scan, every triangle also writes its source texel into the atlas (the sources
 // are an atlas too, image k's rows k * source H ...), and one that finds its pixel taken
 // lists it for batch/fixup.comp.glsl, which writes the winner's texel there. Images whose
-// meshes are embeddings (glmls.batch.labels.embedded) skip the keys: no pixel of theirs is
-// covered twice.
+// meshes are embeddings (batch/check.comp.glsl) skip the keys: no pixel of theirs is covered
+// twice (BATCH_CELLS_PASS 1 scans only them, the single warp's fast pass). WARP_SOURCE_BYTES:
+// the sources are the caller's bytes and the atlas a buffer (batch/bytes.glsl); the pixels an
+// embedding draws are marked 1 in the winner buffer (batch/pack.comp.glsl fills the rest).
 layout(local_size_x = LOCAL_SIZE) in;
 
 #ifndef WARP_CELLS_FUSED
 #define WARP_CELLS_FUSED 0
+#endif
+// With WARP_CELLS_FUSED: 0 every image, 1 the images whose mesh is an embedding only (no
+// keys, both triangles of every cell positive: the single warp's fast pass), 2 the others;
+// 1 and 2 take the images batch/check.comp.glsl listed for them (batch/lists.glsl).
+#ifndef BATCH_CELLS_PASS
+#define BATCH_CELLS_PASS 0
 #endif
 
 #include "common/groups.glsl"
@@ -25,8 +33,12 @@ layout(local_size_x = LOCAL_SIZE) in;
 #include "batch/mesh.glsl"
 #include "warp/coverage.glsl"
 #if WARP_CELLS_FUSED
-#include "warp/cells_packed.glsl"
 uniform ivec2 u_source_size;  // W, H of one source image
+#include "warp/cells_packed.glsl"
+layout(std430, binding = BIND_BATCH_CHECK) readonly buffer BatchCheck {
+    uvec4 batch_check[];   // per image, batch/check.comp.glsl's counts
+};
+#include "batch/lists.glsl"
 #endif
 
 layout(std430, binding = BIND_WINNER) buffer WarpWinner {
@@ -43,12 +55,30 @@ uniform int u_row_shift;
 void main() {
     int cells_x = u_mesh_dims.x - 1;
     int cells = cells_x * (u_mesh_dims.y - 1);
+#if WARP_CELLS_FUSED && BATCH_CELLS_PASS != 0
+    // the cells of the images listed for this scan (an indirect dispatch, batch/lists.glsl)
+    int item = int(dispatch_item());
+    int listed = item / cells;
+    uint part = uint(BATCH_CELLS_PASS - 1);
+    if (listed >= int(part == 0u ? batch_listed.x : batch_listed.y)) {
+        return;
+    }
+    int k = int(batch_list[part * uint(u_images) + uint(listed)]);
+    int cell = item - listed * cells;
+    // an image whose mesh batch/check.comp.glsl showed to be an embedding covers each pixel
+    // once: its colours need no keys (the single warp's fast pass)
+    const bool keyed = BATCH_CELLS_PASS == 2;
+#else
     int item = u_offset + int(dispatch_item());
     int k = item / cells;
     if (k >= u_images) {
         return;
     }
     int cell = item - k * cells;
+#if WARP_CELLS_FUSED
+    bool keyed = batch_check[k].xyz != uvec3(0u, 0u, 1u);
+#endif
+#endif
     int cy = cell / cells_x;
     int cx = cell - cy * cells_x;
     ivec2 c00 = ivec2(cx, cy);
@@ -59,6 +89,12 @@ void main() {
 
     float s0 = sign(edge(p00, p10, p11));
     float s1 = sign(edge(p00, p11, p01));
+#if BATCH_CELLS_PASS == 1
+    // both 1 (batch/check.comp.glsl showed them positive by a margin above the rounding of
+    // the vertices): constants, the compiler drops the other orientations' code per pixel
+    s0 = 1.0;
+    s1 = 1.0;
+#endif
     if ((s0 == 0.0 && s1 == 0.0) || !within_pixels(vec4(p00, p10), vec4(p01, p11))) {
         return;
     }
@@ -83,11 +119,6 @@ void main() {
     RowBounds bounds = row_bounds(p00, p10, p11, p01, s0, convex);
     RowWalk walk = row_walk(bounds, first, last);
     int base = k * u_target_size.x * u_target_size.y;
-#if WARP_CELLS_FUSED
-    // an image whose mesh the caller showed to be an embedding (batch_scaling[k].w 0) covers
-    // each pixel once: its colours need no keys (the single warp's fast pass)
-    bool keyed = batch_scaling[k].w != 0.0;
-#endif
     bool positive = s0 > 0.0 && s1 > 0.0;
     bool tie_a = edge_tie(p10 - p00);
     bool tie_b = edge_tie(p11 - p10);
@@ -150,9 +181,20 @@ void main() {
         if (keyed) {
             before = atomicMax(warp_winner[i], id);
         }
+#if WARP_SOURCE_BYTES
+        else if (id != 0u) {
+            warp_winner[i] = 1u;   // covered: batch/pack.comp.glsl keeps its texel
+        }
+#endif
         ivec2 source = cell_lo + sp + ivec2(0, k * u_source_size.y);
         ivec2 target = ivec2(column, k * u_target_size.y + y);
+#if WARP_SOURCE_BYTES
+        if (id != 0u) {   // the bytes read only where drawn (each lane's load is its own)
+            warp_store(target, warp_source_texel(source));
+        }
+#else
         warp_store(id != 0u ? target : ivec2(-1), warp_source_texel(source));
+#endif
         if (before != 0u && id != 0u) {
             uint n = atomicAdd(warp_fixup_count, 1u);
             if (n < uint(u_fixup_capacity)) {

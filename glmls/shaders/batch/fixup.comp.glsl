@@ -5,6 +5,7 @@
 // listed than the list holds, every pixel is redone. Indirect dispatch, sized by the scan.
 layout(local_size_x = LOCAL_SIZE) in;
 
+uniform ivec2 u_source_size;  // W, H of one source image
 #include "warp/cells_packed.glsl"
 #include "warp/cells_key.glsl"
 
@@ -12,7 +13,6 @@ layout(std430, binding = BIND_WINNER) readonly buffer WarpWinner {
     uint warp_winner[];   // per atlas pixel, row-major: the shown triangle's key, 0 = none
 };
 uniform ivec2 u_target_size;  // W, H of one image's output canvas
-uniform ivec2 u_source_size;  // W, H of one source image
 uniform int u_images;
 
 void main() {

@@ -6,7 +6,7 @@ layout(std430, binding = BIND_DEFORMED) readonly buffer BatchMesh {
     vec2 batch_mesh[];
 };
 layout(std430, binding = BIND_POINTS) readonly buffer BatchScaling {
-    vec4 batch_scaling[];   // centre x, centre y, scale, keyed (batch/cells.comp.glsl)
+    vec4 batch_scaling[];   // centre x, centre y, scale, 0
 };
 
 uniform ivec2 u_mesh_dims;    // vertices per row, rows (of every image's mesh)

@@ -1,0 +1,214 @@
+"""The fused quads of a batch's chunk on the caller's bytes: 8-bit images in, 8-bit images out,
+nothing converted or copied per image on the host.
+
+For nearest ``quads`` of uint8 images (:func:`takes`), a chunk is
+
+1. one upload of the chunk's (N, H, W, C) bytes as they are (a slice of the caller's array,
+   no RGBA made on the host) and, where a label rides along, its (N, H, W) labels, into one
+   buffer that ``batch/bytes.glsl`` reads as the single warp's RGBA8 texels;
+2. f at every image's mesh vertices (:meth:`BatchLattices.evaluate`), then
+   ``batch/check.comp.glsl``: which meshes are embeddings, on the GPU, each image listed for
+   one of the two scans (``batch/lists.glsl``, indirect dispatches sized there);
+3. the fused scans ``batch/cells.comp.glsl``, writing the texels into an atlas buffer: the
+   embeddings without keys, both triangles of every cell known positive (the single warp's
+   fast pass), the others with keys, then ``batch/fixup.comp.glsl`` where two triangles
+   reached a pixel;
+4. ``batch/pack.comp.glsl``: the atlas packed into the caller's layout (C bytes a pixel, the
+   labels apart; the background where the winner buffer says no triangle drew, so the atlas
+   is never cleared), and one read-back straight into the caller's output arrays.
+
+Each image equals its :func:`glmls.warp`, bit for bit (the texels, keys and sampling are the
+single warp's)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.mesh import MeshLattice
+from ..gl import bindings
+from ..gl.dispatch import fill_buffer, run_1d, set_uniforms
+from ..imaging.frame import Frame
+from ..imaging.options import PipelineOptions, WarpOptions
+from ..imaging.quads import key_layout
+from .gpu import BatchQuads, mesh_stride
+
+__all__ = ["FAST_PASS", "chunk_size", "takes", "warp_texels"]
+
+#: The fix-up list's header before a scan: no pixel listed, an indirect dispatch of none.
+_NO_FIXUPS = np.array([0, 0, 0, 1], np.uint32).tobytes()
+#: The scans' lists before the test: no image listed, indirect dispatches of none.
+_NO_LISTS = np.array([0, 1, 1, 0, 0, 1, 1, 0, 0, 0, 0, 0], np.uint32).tobytes()
+#: Scan the images whose mesh is an embedding by a program of their own (both triangles of
+#: every cell positive, no keys: the single warp's fast pass), the others by the keyed one;
+#: else one program takes every image, keys or not decided per image. Tests take both ways.
+FAST_PASS = True
+
+
+def takes(options: WarpOptions, dtype: np.dtype, fused: bool) -> bool:
+    """Does a chunk of images of ``dtype`` take this path (nearest ``quads`` of uint8 images,
+    ``fused`` scans)?"""
+    return (
+        fused
+        and options.method == "quads"
+        and options.interpolation == "nearest"
+        and (np.dtype(dtype) == np.uint8)
+    )
+
+
+def chunk_size(
+    gl, shape: tuple[int, ...], frame: Frame, lattice: MeshLattice, labelled: bool, max_bytes: int
+) -> int:
+    """Images per chunk of this path for images of ``shape`` ((H, W) or (H, W, C)): every
+    buffer within the GL storage block size (no texture holds the chunk) and the chunk's
+    GPU memory (bytes, atlas, winners, packed output, meshes) within ``max_bytes``."""
+    height, width = shape[:2]
+    channels = (shape[2] if len(shape) == 3 else 1) + labelled
+    per_image = height * width * channels + frame.pixels * (8 + channels)
+    per_image += mesh_stride(lattice) + 32
+    block = int(gl.mgl.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27))
+    largest = max(4 * frame.pixels, height * width * channels, mesh_stride(lattice)) + 64
+    return max(1, min(block // largest, max_bytes // per_image))
+
+
+def _padded(nbytes: int) -> int:
+    return -(-nbytes // 4) * 4
+
+
+def warp_texels(
+    quads: BatchQuads,
+    lattices,
+    images: np.ndarray,
+    labels: np.ndarray | None,
+    grid: float,
+    frame: Frame,
+    background: tuple[float, float, float, float],
+    out: np.ndarray,
+    out_labels: np.ndarray | None,
+) -> bool:
+    """Warp the chunk ``images`` ((N, H, W) or (N, H, W, C) uint8, C-contiguous) into ``out``
+    ((N, H', W'[, C]) uint8, C-contiguous, the frame's canvas), with ``labels`` ((N, H, W)
+    uint8 or None) riding as one more channel into ``out_labels``; ``background``: the clear
+    colour of the texels (labels 0). False where the keys of this mesh do not fit in 31 bits
+    (nothing written; the single path's rasterizer then draws it)."""
+    count, height, width = images.shape[:3]
+    channels = images.shape[3] if images.ndim == 4 else 1
+    lattice = MeshLattice.corners((height, width), grid)
+    layout = key_layout(lattice, source_pixel=True)
+    if layout is None:
+        return False
+    sub_bits, col_shift, row_shift = layout
+    gl, resources = quads.ctx, quads.resources
+    mgl = gl.mgl
+    stride = mesh_stride(lattice)
+    mesh = resources.buffer("mesh", count * stride)
+    lattices.evaluate(gl, resources, lattice, mesh, stride)  # 1. every image's f
+    scaling = np.zeros((count, 4), np.float32)
+    scaling[:, :2] = lattices.centers
+    scaling[:, 2] = lattices.scales
+    scales = resources.buffer("scaling", scaling.nbytes)
+    scales.write(scaling)
+    labelled = labels is not None
+    defines = {"BATCH_CHANNELS": channels, "BATCH_LABELS": labelled}
+    source_bytes = _padded(images.nbytes)
+    texels = resources.buffer(
+        "bytes", source_bytes + (_padded(count * height * width) if labelled else 0) + 4
+    )
+    texels.write(images)
+    if labelled:
+        texels.write(labels, offset=source_bytes)
+    out_w, out_h = frame.size
+    pixels = out_w * out_h * count
+    values = {
+        **lattice.pixel_uniforms(),
+        "u_target_size": frame.size,
+        "u_origin": frame.origin,
+        "u_source_size": (width, height),
+        "u_mesh_dims": lattice.dims,
+        "u_mesh_stride": stride // 8,
+        "u_images": count,
+        "u_sub_bits": sub_bits,
+        "u_col_shift": col_shift,
+        "u_row_shift": row_shift,
+        "u_labels_at": source_bytes,
+    }
+    max_groups = gl.limits["max_work_groups_x"]
+    check = resources.buffer("check", 16 * count)
+    check.write(bytes(16 * count))
+    lists = resources.buffer("lists", len(_NO_LISTS) + 8 * count)
+    lists.write(_NO_LISTS)
+    for binding, buffer in (
+        (bindings.DEFORMED, mesh),
+        (bindings.POINTS, scales),
+        (bindings.BATCH_CHECK, check),
+        (bindings.BATCH_LISTS, lists),
+        (bindings.BATCH_BYTES, texels),
+    ):
+        buffer.bind_to_storage_buffer(binding.index)
+    columns, rows = lattice.dims
+    per_image = (columns - 1) * (rows - 1) + 2 * (columns - 1) + 2 * (rows - 1)
+    mgl.memory_barrier()
+    for stage, items in ((1, per_image * count), (2, count)):  # 2. which are embeddings
+        tests = gl.compute("batch/check.comp.glsl", {"BATCH_CHECK_STAGE": stage})
+        set_uniforms(tests, values)
+        run_1d(tests, items, max_groups=max_groups)
+        mgl.memory_barrier()
+    whole = -(-pixels // 16) * 64  # whole groups of sixteen pixels (batch/pack.comp.glsl)
+    winner = resources.buffer("winner", whole)
+    fill_buffer(gl, winner, out_w * out_h * count * 4)
+    atlas = resources.buffer("atlas", whole)  # not cleared: the winners say what is drawn
+    values["u_atlas_width"] = out_w
+    values["u_fixup_capacity"] = PipelineOptions().fixup_capacity(pixels)
+    fixups = resources.buffer("fixups", 16 + 4 * values["u_fixup_capacity"])
+    fixups.write(_NO_FIXUPS)
+    winner.bind_to_storage_buffer(bindings.WINNER.index)
+    fixups.bind_to_storage_buffer(bindings.FIXUPS.index)
+    atlas.bind_to_storage_buffer(bindings.BATCH_ATLAS.index)
+    cells = (columns - 1) * (rows - 1)
+    mgl.memory_barrier()
+    for part in (1, 2) if FAST_PASS else (0,):  # 3. the embeddings, then the others
+        fused = {"WARP_CELLS_SOURCE": True, "WARP_CELLS_FUSED": True, "BATCH_CELLS_PASS": part}
+        scan = gl.compute("batch/cells.comp.glsl", fused | {"WARP_SOURCE_BYTES": True} | defines)
+        set_uniforms(scan, values)
+        if part:  # the images listed for it, sized on the GPU
+            scan.run_indirect(lists, offset=16 * (part - 1))
+        else:
+            run_1d(scan, cells * count, max_groups=max_groups)
+    mgl.memory_barrier()
+    fixup = gl.compute("batch/fixup.comp.glsl", {"WARP_SOURCE_BYTES": True} | defines)
+    set_uniforms(fixup, values)
+    fixup.run_indirect(fixups, offset=4)
+    mgl.memory_barrier()
+    _pack(quads, atlas, winner, _texel(background), pixels, channels, out, out_labels)  # 4.
+    return True
+
+
+def _texel(colour: tuple[float, float, float, float]) -> int:
+    """The RGBA8 texel (as a little-endian uint32) of a clear colour (each channel clamped
+    to 0..1 and rounded to the nearest of 0..255, as a framebuffer clear sets it)."""
+    values = np.clip(np.asarray(colour, np.float64), 0.0, 1.0)
+    return int(np.rint(values * 255.0).astype(np.uint8).view("<u4")[0])
+
+
+def _pack(quads, atlas, winner, background: int, pixels: int, channels: int, out, out_labels):
+    """The atlas packed by ``batch/pack.comp.glsl`` (``background`` where ``winner`` says
+    no triangle covers a pixel) and read back into ``out`` (and the labels into
+    ``out_labels``)."""
+    gl, resources = quads.ctx, quads.resources
+    labelled = out_labels is not None
+    groups = -(-pixels // 16)  # an invocation packs sixteen pixels into C uvec4 (and one)
+    colour_bytes = 16 * channels * groups
+    label_bytes = 16 * groups if labelled else 0
+    packed = resources.buffer("packed", colour_bytes + label_bytes)
+    program = gl.compute(
+        "batch/pack.comp.glsl", {"BATCH_CHANNELS": channels, "BATCH_LABELS": labelled}
+    )
+    values = {"u_groups": groups, "u_labels_at": colour_bytes // 16, "u_background": background}
+    set_uniforms(program, values)
+    atlas.bind_to_storage_buffer(bindings.BATCH_ATLAS.index)
+    winner.bind_to_storage_buffer(bindings.WINNER.index)
+    packed.bind_to_storage_buffer(bindings.BATCH_OUTPUT.index)
+    run_1d(program, groups, max_groups=gl.limits["max_work_groups_x"])
+    gl.mgl.memory_barrier()
+    packed.read_into(out, size=pixels * channels)
+    if labelled:
+        packed.read_into(out_labels, size=pixels, offset=colour_bytes)
