@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import reference
+from ..gl.resources import keep_framebuffer
 from ..imaging.frame import Frame
 from ..imaging.pipeline import WarpPipeline
 
@@ -95,17 +96,16 @@ def source_points(m, shape, tolerance):
     with m.ctx.use():
         mesh = pipe.adaptive.mesh(m.kernel, shape, tolerance)
         mgl = m.ctx.mgl
-        bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
-        fb = mgl.simple_framebuffer((shape[1], shape[0]), components=4, dtype="f4")
-        try:
-            fb.use()
-            fb.clear(0, 0, 0, 0)
-            fill = {"linear": False, "coords": True, "flip_y": False, "border": 0}
-            pipe.adaptive.draw(mesh, None, Frame(shape), fb, **fill)
-            raw = fb.read(components=4, dtype="f4")
-        finally:
-            bound.use()  # never leave a released framebuffer bound
-            fb.release()
+        with keep_framebuffer(mgl):  # never leave a released framebuffer bound
+            fb = mgl.simple_framebuffer((shape[1], shape[0]), components=4, dtype="f4")
+            try:
+                fb.use()
+                fb.clear(0, 0, 0, 0)
+                fill = {"linear": False, "coords": True, "flip_y": False, "border": 0}
+                pipe.adaptive.draw(mesh, None, Frame(shape), fb, **fill)
+                raw = fb.read(components=4, dtype="f4")
+            finally:
+                fb.release()
     values = np.frombuffer(raw, np.float32).reshape(*shape, 4)
     return mesh, values[..., :2].astype(np.float64), values[..., 2] > 0.5
 

@@ -40,7 +40,7 @@ from ..engine.passes import evaluate_lattice
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import LOCAL_SIZE_2D, fill_buffer, run_1d, set_uniforms
-from ..gl.resources import Resources
+from ..gl.resources import Resources, keep_framebuffer
 from ..imaging.frame import Frame
 from ..imaging.inverse import NEWTON_ACCEPT, NEWTON_STEPS, NEWTON_TOLERANCE
 from ..imaging.options import WarpOptions
@@ -122,12 +122,9 @@ def _read_coords(mgl, framebuffer, atlas, count: int, frame: Frame, covered: int
     covered (its channel ``covered``)."""
     out_w, out_h = frame.size
     values_out = np.empty((atlas[1], atlas[0], 4), np.float32)
-    bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
-    try:
+    with keep_framebuffer(mgl):
         framebuffer.use()
         framebuffer.read_into(values_out, (0, 0, *atlas), 4, dtype="f4")
-    finally:
-        bound.use()
     values_out = values_out.reshape(count, out_h, out_w, 4)
     return values_out[..., :2].copy(), values_out[..., covered] > 0.5
 
@@ -135,8 +132,7 @@ def _read_coords(mgl, framebuffer, atlas, count: int, frame: Frame, covered: int
 def _read_atlas(mgl, framebuffer, atlas, source: SourceImage, count: int, frame: Frame):
     """The atlas read back as (N, H, W, C) in the sources' dtype."""
     out_w, out_h = frame.size
-    bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
-    try:
+    with keep_framebuffer(mgl):
         framebuffer.use()
         if source.normalized:
             values_out = read_rgba8(framebuffer, atlas, source.channels)
@@ -144,8 +140,6 @@ def _read_atlas(mgl, framebuffer, atlas, source: SourceImage, count: int, frame:
             values_out = np.empty((atlas[1], atlas[0], 4), np.float32)
             framebuffer.read_into(values_out, (0, 0, *atlas), 4, dtype="f4")
             values_out = values_out[..., : source.channels]
-    finally:
-        bound.use()
     return source.restore(values_out.reshape(count, out_h, out_w, -1))
 
 
@@ -304,8 +298,7 @@ class BatchQuads:
             {"WARP_LINEAR": linear, "WARP_BORDER": 0},
         )
         set_uniforms(program, {"u_target_size": frame.size, "u_source_size": (width, height)})
-        bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
-        try:
+        with keep_framebuffer(mgl):
             target.use()
             target.viewport = (0, 0, *atlas)
             array = self._sources(sources)
@@ -315,8 +308,6 @@ class BatchQuads:
             coords.use(bindings.COORDS.index)
             mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
             self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
-        finally:
-            bound.use()
         return _read_atlas(self._gl.mgl, target, atlas, source, count, frame)
 
     def backward_coords(self, count: int, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
@@ -335,8 +326,7 @@ class BatchQuads:
         gl, mgl = self._gl, self._gl.mgl
         keys = self._resources.texture("winner", atlas, 1, "u4")
         keys.write(winner)
-        bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
-        try:
+        with keep_framebuffer(mgl):
             framebuffer.use()
             framebuffer.viewport = (0, 0, *atlas)
             program = gl.program(
@@ -353,8 +343,6 @@ class BatchQuads:
             keys.use(bindings.WINNER_TEXTURE.index)
             mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
             self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
-        finally:
-            bound.use()
 
     def _sources(self, sources: list[SourceImage]) -> moderngl.TextureArray:
         (width, height), components, dtype = texture_form(sources[0])

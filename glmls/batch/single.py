@@ -11,7 +11,7 @@ import numpy as np
 
 from ..core.mesh import MeshLattice
 from ..gl.context import GLContext, current, get_context
-from ..gl.resources import Resources
+from ..gl.resources import Resources, keep_framebuffer
 from ..imaging.frame import Frame, border_margin, make_frame
 from ..imaging.options import WarpOptions
 from ..imaging.pipeline import WarpPipeline
@@ -218,10 +218,9 @@ class SingleWarper:
 
     def _quads_points(self, mls: MLS, lattice: MeshLattice, frame: Frame):
         mgl = self._gl.mgl
-        bound = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
-        framebuffer = self._resources.framebuffer("coords", frame.size)
-        texture = self._resources.texture("coords", frame.size, 4, "f4")
-        try:
+        with keep_framebuffer(mgl):
+            framebuffer = self._resources.framebuffer("coords", frame.size)
+            texture = self._resources.texture("coords", frame.size, 4, "f4")
             framebuffer.use()
             framebuffer.viewport = (0, 0, *frame.size)
             self._resources.fill(texture, (0.0, 0.0, 0.0, 0.0))
@@ -234,6 +233,4 @@ class SingleWarper:
                 pipe.raster.draw(mls.kernel, None, lattice, frame, **fill)
             mgl.memory_barrier()
             values = np.frombuffer(texture.read(), np.float32).reshape(*frame.shape, 4)
-        finally:
-            bound.use()
         return values[..., :2].copy(), values[..., 2] > 0.5

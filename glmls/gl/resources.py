@@ -8,7 +8,8 @@ Owners (an MLS kernel's scratch buffers, a warp pipeline) keep a :class:`Resourc
 
 from __future__ import annotations
 
-from collections.abc import Callable, Hashable
+import contextlib
+from collections.abc import Callable, Hashable, Iterator
 
 import moderngl
 import numpy as np
@@ -17,7 +18,7 @@ from ..errors import ReleasedError
 from .context import GLContext
 from .tables import Tables
 
-__all__ = ["FILL_BYTES", "Resources", "can_fill"]
+__all__ = ["FILL_BYTES", "Resources", "can_fill", "keep_framebuffer"]
 
 #: The most bytes of the buffer :meth:`Resources.fill` copies from (whole rows: one at least).
 FILL_BYTES = 1 << 20
@@ -205,3 +206,16 @@ def can_fill(texture: object) -> bool:
         and texture.dtype in ("f1", "f4")
         and texture.samples == 0
     )
+
+
+@contextlib.contextmanager
+def keep_framebuffer(mgl: moderngl.Context) -> Iterator[None]:
+    """Leave the bound framebuffer as found: moderngl re-binds the bound one when it creates
+    another, and binding one of ours after we released it is a GL error."""
+    bound = mgl.fbo
+    if bound is None:  # a standalone context starts with none: framebuffer 0
+        bound = mgl.detect_framebuffer(0)
+    try:
+        yield
+    finally:
+        bound.use()

@@ -23,8 +23,6 @@ path of ``quads`` (see :mod:`.quads` and :mod:`.raster`), in ``paper-quads`` (it
 
 from __future__ import annotations
 
-import contextlib
-from collections.abc import Iterator
 from typing import NamedTuple, Protocol
 
 import moderngl
@@ -35,7 +33,7 @@ from ..engine.kernel import MLSKernel
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import set_uniforms
-from ..gl.resources import Resources, can_fill
+from ..gl.resources import Resources, can_fill, keep_framebuffer
 from .adaptive import ROOT_STEP, AdaptiveScan
 from .bands import MeshBands
 from .frame import (
@@ -225,7 +223,7 @@ class WarpPipeline:
         if can_fill(target):
             self._resources.fill(target, color)  # type: ignore[arg-type]
         else:
-            with _keep_framebuffer(self._gl.mgl):
+            with keep_framebuffer(self._gl.mgl):
                 framebuffer.clear(*color)
 
     @current
@@ -281,7 +279,7 @@ class WarpPipeline:
             frame = make_frame(
                 options.output_shape, options.origin, (height, width), self.max_image_size
             )
-        with _keep_framebuffer(self._gl.mgl):
+        with keep_framebuffer(self._gl.mgl):
             self._render(mls, source, framebuffer, options, frame, flip_y=flip_y)
 
     def _render(
@@ -399,7 +397,7 @@ class WarpPipeline:
         check_options("backward", "nearest", grid, border)
         shape = as_shape(shape)
         frame = Frame(shape) if frame is None else frame
-        with _keep_framebuffer(self._gl.mgl):
+        with keep_framebuffer(self._gl.mgl):
             return self._solve(
                 mls, shape, frame, swap=swap, grid=grid, border=BORDERS.index(border)
             )
@@ -448,7 +446,7 @@ class WarpPipeline:
         lattice = MeshLattice.corners(shape, grid)
         budget = max(GUESS_MESH_POINTS, 4 * (shape[0] * shape[1] + count))
         margin = border_margin(kernel, lattice, frame, warn=False, max_points=budget)
-        with _keep_framebuffer(self._gl.mgl):
+        with keep_framebuffer(self._gl.mgl):
             out = self._inverse.solve_points(
                 kernel,
                 lattice.with_margin(margin),
@@ -534,7 +532,7 @@ class WarpPipeline:
         clear = background_color(options.background, source)
         texture = self.upload(source)
         dtype = "f1" if source.normalized else "f4"
-        with _keep_framebuffer(self._gl.mgl):
+        with keep_framebuffer(self._gl.mgl):
             framebuffer = self._resources.framebuffer("target", frame.size, dtype)
             framebuffer.use()
             framebuffer.viewport = (0, 0, *frame.size)
@@ -608,19 +606,6 @@ class WarpPipeline:
     def release(self) -> None:
         """Free every cached texture, framebuffer, buffer and vertex array. Idempotent."""
         self._resources.release()
-
-
-@contextlib.contextmanager
-def _keep_framebuffer(mgl: moderngl.Context) -> Iterator[None]:
-    """Leave the bound framebuffer as found: moderngl re-binds the bound one when it creates
-    another, and binding one of ours after we released it is a GL error."""
-    bound = mgl.fbo
-    if bound is None:  # a standalone context starts with none: framebuffer 0
-        bound = mgl.detect_framebuffer(0)
-    try:
-        yield
-    finally:
-        bound.use()
 
 
 def _within_limit(shape: object, limit: int) -> tuple[int, int]:
