@@ -176,21 +176,29 @@ def folding_handles(shape):
     return src, dst
 
 
+def hot_pixels(rng, shape, count, margin, dtype, fold):
+    """(hot (count, 2) pixels at least ``margin`` from the edges, a batch of images each
+    black but for its hot pixel at full scale, src, dst): a folding map for every image, or
+    random handles of each its own."""
+    height, width = shape
+    hot = np.c_[
+        rng.integers(margin, width - margin, count), rng.integers(margin, height - margin, count)
+    ]
+    batch = np.zeros((count, *shape), dtype)
+    batch[np.arange(count), hot[:, 1], hot[:, 0]] = 255 if dtype == np.uint8 else 1.0
+    if fold:
+        p, q = folding_handles(shape)
+        return hot, batch, np.repeat(p[None], count, 0), np.repeat(q[None], count, 0)
+    return hot, batch, *handles(rng, count, 6, shape, spread=1.5)
+
+
 @pytest.mark.parametrize("method", ["quads", "backward"])
 @pytest.mark.parametrize("grid", [1, 4])
 @pytest.mark.parametrize("fold", [False, True])
 def test_keypoints_land_on_their_pixels(gl, rng, method, grid, fold):
     shape = (28, 36)
-    height, width = shape
     count = 40
-    hot = np.c_[rng.integers(2, width - 2, count), rng.integers(2, height - 2, count)]
-    batch = np.zeros((count, *shape), np.uint8)
-    batch[np.arange(count), hot[:, 1], hot[:, 0]] = 255
-    if fold:
-        p, q = folding_handles(shape)
-        src, dst = np.repeat(p[None], count, 0), np.repeat(q[None], count, 0)
-    else:
-        src, dst = handles(rng, count, 6, shape, spread=1.5)
+    hot, batch, src, dst = hot_pixels(rng, shape, count, 2, np.uint8, fold)
     options = {"method": method, "grid": grid, "weight": "idw", "alpha": 2.0}
     result = glmls.warp_batch(batch, src, dst, keypoints=hot[:, None, :].astype(float), **options)
     errors = []
@@ -223,21 +231,13 @@ def test_keypoints_on_the_warped_hot_pixel_centre(gl, rng, method, grid, fold):
     footprint between output pixel centres shows it by a pixel or two, or by none, whose
     centroid is the pixels' own (docs/batch.md)."""
     shape = (28, 36)
-    height, width = shape
     count = 300
-    hot = np.c_[rng.integers(3, width - 3, count), rng.integers(3, height - 3, count)]
-    batch = np.zeros((count, *shape), np.float32)
-    batch[np.arange(count), hot[:, 1], hot[:, 0]] = 1.0
-    if fold:
-        p, q = folding_handles(shape)
-        src, dst = np.repeat(p[None], count, 0), np.repeat(q[None], count, 0)
-    else:
-        src, dst = handles(rng, count, 6, shape, spread=1.5)
+    hot, batch, src, dst = hot_pixels(rng, shape, count, 3, np.float32, fold)
     options = {"method": method, "grid": grid, "weight": "idw", "alpha": 2.0}
     ring = np.array([[x, y] for y in (0.0, -0.99, 0.99) for x in (0.0, -0.99, 0.99)])
     points = hot[:, None, :] + ring  # the centre first, then the footprint's edge
     result = glmls.warp_batch(batch, src, dst, keypoints=points, interpolation="linear", **options)
-    rows, cols = np.mgrid[:height, :width]
+    rows, cols = np.mgrid[: shape[0], : shape[1]]
     errors = []
     for i in range(count):
         if not result.keypoints_valid[i].all():
