@@ -9,11 +9,12 @@ An :class:`MLS` follows scikit-image's transform protocol: ``m(points)`` is f,
 
 from __future__ import annotations
 
-import functools
+import collections
 import inspect
 import math
-from collections.abc import Callable, Sequence
-from typing import ClassVar, TypeVar
+import pickle
+from collections.abc import Sequence
+from typing import ClassVar
 
 import moderngl
 import numpy as np
@@ -28,8 +29,9 @@ from .engine.error_field import error_at
 from .engine.error_field import error_field as evaluate_error_field
 from .engine.kernel import DEFAULT_STORAGE, MLSKernel
 from .engine.passes import evaluate_lattice, evaluate_points
+from .forking import ForkSafe, forwarded, in_helper, on_gpu
 from .gl import helper
-from .gl.context import GLContext, current, forked_from_gl, get_context
+from .gl.context import GLContext, forked_from_gl, get_context
 from .imaging.adaptive import AdaptiveMesh, check_adaptive, interpolate
 from .imaging.frame import Bounds
 from .imaging.inverse import NEWTON_ACCEPT
@@ -38,22 +40,39 @@ from .imaging.pipeline import WarpPipeline
 
 __all__ = ["MLS", "InverseMLS", "warp"]
 
-_R = TypeVar("_R")
+#: The helper process's MLS objects, by the pickled state they were made from (newest last).
+_SERVED: collections.OrderedDict[bytes, MLS] = collections.OrderedDict()
+_SERVED_KEPT = 4
 
 
-def on_gpu(method: Callable[..., _R]) -> Callable[..., _R]:
-    """Check the MLS is alive, then run ``method`` with its GL context current."""
-    inner = current(method)
+def serve_forked(state: tuple, name: str | None, grid: int | None, args: tuple, kwargs: dict):
+    """In the helper process of a forked process: ``name`` of the MLS made from ``state``
+    (:meth:`MLS._forked_state`; kept for the next calls), or of its inverse of ``grid``;
+    nothing but the making when ``name`` is None."""
+    key = pickle.dumps(state, pickle.HIGHEST_PROTOCOL)
+    m = _SERVED.pop(key, None)
+    if m is None:
+        src, dst, src_segments, dst_segments, config, shape, storage, bins = state
+        m = MLS.from_config(
+            src,
+            dst,
+            config,
+            src_segments=src_segments,
+            dst_segments=dst_segments,
+            shape=shape,
+            storage=storage,
+            bins=bins,
+        )
+    _SERVED[key] = m
+    while len(_SERVED) > _SERVED_KEPT:
+        _SERVED.popitem(last=False)[1].release()
+    if name is None:
+        return None
+    target = m if grid is None else type(m.inverse)(m, grid=grid)
+    return getattr(target, name)(*args, **kwargs)
 
-    @functools.wraps(method)
-    def wrapper(self, *args, **kwargs):
-        self.kernel.check_alive()
-        return inner(self, *args, **kwargs)
 
-    return wrapper
-
-
-class MLS:
+class MLS(ForkSafe):
     """A Moving Least Squares deformation f from source handles ``src`` (p) to ``dst`` (q).
 
     Points are ``(x, y)`` = (column, row) rows of (N, 2) float arrays; pixel centres sit at
@@ -228,10 +247,13 @@ class MLS:
         if self.shape is not None:
             config.resolve_radius(self.shape)
         handles = self._validate(*handles)
-        self._gl = get_context(ctx)
         self._options = {"shape": self.shape, "storage": storage, "bins": bins}
-        self._kernel = MLSKernel(self._gl, config, **self._options)  # type: ignore[arg-type]
         self._swapped: MLSKernel | None = None
+        if ctx is None and forked_from_gl():
+            self._made_forked(handles=handles)
+            return
+        self._gl = get_context(ctx)
+        self._kernel = MLSKernel(self._gl, config, **self._options)  # type: ignore[arg-type]
         try:
             self._store(handles)
         except ValueError:
@@ -245,9 +267,11 @@ class MLS:
         return handles
 
     def _store(self, handles: HandleSet) -> None:
-        """The one way handles get in: the kernel's upload, then the read-only copies."""
-        scaling = Scaling.fit(handles.source_points(), handles.target_points(), self.shape)
-        self._kernel.upload(handles, scaling)
+        """The one way handles get in: the kernel's upload (none in a process forked from one
+        that used GL: the helper's MLS takes them), then the read-only copies."""
+        if not forked_from_gl():
+            scaling = Scaling.fit(handles.source_points(), handles.target_points(), self.shape)
+            self._kernel.upload(handles, scaling)
         self._handles = handles
         if self._swapped is not None:
             self._swapped.release()
@@ -287,22 +311,22 @@ class MLS:
     @property
     def ctx(self) -> GLContext:
         """The :class:`~glmls.gl.GLContext` this MLS renders with."""
-        return self._gl
+        return self._here(self._gl)
 
     @property
     def kernel(self) -> MLSKernel:
         """The handles on the GPU and the defines and uniforms of the passes over f."""
-        return self._kernel
+        return self._here(self._kernel)
 
     @property
     def scaling(self) -> Scaling:
         """The GPU's coordinates: (pixel - center) / scale."""
-        return self._kernel.scaling
+        return self.kernel.scaling
 
     @property
     def storage(self) -> str:
         """The handle storage in use (``"auto"`` resolved for this many handles)."""
-        return self._kernel.storage
+        return self.kernel.storage
 
     def defines(self) -> dict[str, object]:
         """The ``#define`` values of the MLS shaders for this configuration (the kernel's).
@@ -312,7 +336,7 @@ class MLS:
         dict
             Name -> value, as the shaders are compiled with.
         """
-        return self._kernel.defines()
+        return self.kernel.defines()
 
     def uniforms(self, shape: tuple[int, int] | None = None) -> dict[str, float | bool]:
         """The MLS uniforms for an image of ``shape``, in scaled units (the kernel's).
@@ -327,9 +351,8 @@ class MLS:
         dict
             Uniform name -> value.
         """
-        return self._kernel.uniforms(shape)
+        return self.kernel.uniforms(shape)
 
-    @on_gpu
     def set_handles(
         self, src: object, dst: object, *, src_segments: object = None, dst_segments: object = None
     ) -> None:
@@ -362,7 +385,10 @@ class MLS:
         ...     print(m([[3, 3]]).tolist())
         [[3.0, 5.0]]
         """
-        self._store(self._validate(src, dst, src_segments, dst_segments))
+        self._check_alive()
+        handles = self._validate(src, dst, src_segments, dst_segments)
+        with self._current():
+            self._store(handles)
 
     def swapped_kernel(self) -> MLSKernel:
         """The kernel of the MLS map with p and q swapped (``backward-swap``).
@@ -378,7 +404,7 @@ class MLS:
         glmls.ReleasedError
             After :meth:`release`.
         """
-        self._kernel.check_alive()
+        self.kernel.check_alive()
         if self._swapped is None:
             swapped = MLSKernel(self._gl, self.config, **self._options)  # type: ignore[arg-type]
             swapped.upload(self._handles.swapped(), self.scaling)
@@ -433,7 +459,7 @@ class MLS:
         ...     print(np.round(m.inverse([[5, 5]]), 3).tolist())
         [[4.0, 4.0]]
         """
-        self._kernel.check_alive()
+        self._check_alive()
         return InverseMLS(self)
 
     def residuals(self, src: object, dst: object) -> np.ndarray:
@@ -650,6 +676,7 @@ class MLS:
             return interpolate(mesh, values, lattice.shape)  # type: ignore[arg-type]
         return evaluate_error_field(self._kernel, lattice.shape, grid=lattice.grid)
 
+    @forwarded
     def warp(
         self,
         image: object,
@@ -768,6 +795,7 @@ class MLS:
         )
         return self._pipeline().warp(self, image, chosen)
 
+    @forwarded
     def bounds(self, shape: Sequence[int], *, grid: int = 1) -> Bounds:
         """The bounding box of the deformed image of an image of ``shape``.
 
@@ -807,6 +835,7 @@ class MLS:
         """
         return self._pipeline().bounds(self, shape, grid=grid)
 
+    @forwarded
     def coordinate_map(
         self,
         shape: Sequence[int],
@@ -882,7 +911,8 @@ class MLS:
 
         Safe to call twice; later use raises :class:`glmls.ReleasedError`.
         """
-        if self._kernel.released:
+        self._dropped = True  # made in a forked process: the helper has the GPU side
+        if self._kernel is None or self._kernel.released:
             return
         if self._swapped is not None:
             self._swapped.release()
@@ -892,7 +922,7 @@ class MLS:
     @property
     def released(self) -> bool:
         """Whether :meth:`release` has freed the GPU buffers."""
-        return self._kernel.released
+        return self._dropped if self._kernel is None else self._kernel.released
 
     def __enter__(self) -> MLS:
         return self
@@ -910,18 +940,6 @@ class MLS:
             f"alpha={c.alpha}, s={c.s}, radius={c.radius}, interpolating={c.interpolating}"
             f"{state})"
         )
-
-    def _guess_shape(self) -> tuple[int, int]:
-        """(H, W) of the image whose mesh gives :attr:`inverse` its first guess: the MLS's
-        ``shape``; without one, the smallest image (pixel (0, 0) at the origin) that holds
-        the source handles, at least 1 x 1."""
-        if self.shape is not None:
-            return self.shape
-        points = self._handles.source_points()
-        if not len(points):
-            return 1, 1
-        x, y = (max(1, math.ceil(points[:, k].max() + 0.5)) for k in (0, 1))
-        return y, x
 
 
 class InverseMLS:
@@ -1050,13 +1068,31 @@ class InverseMLS:
         return (s, valid) if return_valid else s
 
     def _solve(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if forked_from_gl():  # see forwarded
+            return in_helper(self._forward, "_solve", (points,), {}, grid=self.grid)
+        return self._solved(points)
+
+    def _solved(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         m = self._forward
         pipeline = m._pipeline()  # checks that the MLS is alive
         m.config.resolve_radius(m.shape)  # f needs a radius, as m(points) does
-        s, residual = pipeline.inverse_points(m, points, m._guess_shape(), grid=self.grid)
+        s, residual = pipeline.inverse_points(m, points, self._guess_shape(), grid=self.grid)
         valid = residual <= NEWTON_ACCEPT  # False where NaN
         s[~valid] = np.nan
         return s, valid
+
+    def _guess_shape(self) -> tuple[int, int]:
+        """(H, W) of the image whose mesh gives the first guess: the MLS's ``shape``; without
+        one, the smallest image (pixel (0, 0) at the origin) that holds the source handles,
+        at least 1 x 1."""
+        m = self._forward
+        if m.shape is not None:
+            return m.shape
+        points = m._handles.source_points()
+        if not len(points):
+            return 1, 1
+        x, y = (max(1, math.ceil(points[:, k].max() + 0.5)) for k in (0, 1))
+        return y, x
 
     def residuals(self, src: object, dst: object) -> np.ndarray:
         """The distance between f's inverse at ``src`` and ``dst``, per point.

@@ -19,9 +19,10 @@ from .core.mesh3 import DeformedMesh, as_mesh
 from .engine.deform3 import deform_mesh3
 from .engine.kernel3 import MLSKernel3
 from .engine.passes3 import evaluate_points3, invert_points3
-from .gl.context import get_context
+from .forking import forwarded, on_gpu
+from .gl.context import forked_from_gl, get_context
 from .imaging.inverse import NEWTON_ACCEPT
-from .mls import MLS, InverseMLS, on_gpu
+from .mls import MLS, InverseMLS
 from .volume import volume_bounds, volume_coordinate_map, warp_volume
 
 __all__ = ["MLS3", "InverseMLS3"]
@@ -87,11 +88,17 @@ class MLS3(MLS):
         self.config = config
         self.shape = None if shape is None else as_volume_shape(shape)  # type: ignore[assignment]
         p, q = validate_handles3(src, dst)
-        self._gl = get_context(ctx)
         self._storage_name = storage
+        self._options = {"storage": storage, "bins": None}
+        self._swapped = None
+        if ctx is None and forked_from_gl():
+            p.setflags(write=False)
+            q.setflags(write=False)
+            self._made_forked(p=p, q=q)
+            return
+        self._gl = get_context(ctx)
         self._kernel = MLSKernel3(self._gl, config, shape=self.shape, storage=storage)  # type: ignore[assignment]
         self._kernel.radius()  # type: ignore[call-arg]  # a radius weight needs one
-        self._swapped = None
         try:
             self._store3(p, q)
         except ValueError:
@@ -99,7 +106,8 @@ class MLS3(MLS):
             raise
 
     def _store3(self, p: np.ndarray, q: np.ndarray) -> None:
-        self._kernel.upload(p, q, fit_scaling3(p, q, self.shape))  # type: ignore[call-arg, arg-type]
+        if not forked_from_gl():  # there the helper's MLS takes them
+            self._kernel.upload(p, q, fit_scaling3(p, q, self.shape))  # type: ignore[call-arg, arg-type]
         p.setflags(write=False)
         q.setflags(write=False)
         self._p, self._q = p, q
@@ -138,12 +146,12 @@ class MLS3(MLS):
     def kernel(self) -> MLSKernel3:  # type: ignore[override]
         """The handles on the GPU and the defines and uniforms of the passes over f
         (``#include "mls3/core.glsl"``: :meth:`MLSKernel3.program`, :meth:`MLSKernel3.bind`)."""
-        return self._kernel  # type: ignore[return-value]
+        return self._here(self._kernel)  # type: ignore[return-value]
 
     @property
     def scaling(self) -> Scaling:
         """The GPU's coordinates: (voxel - center) / scale."""
-        return self._kernel.scaling
+        return self.kernel.scaling
 
     def uniforms(self, shape: Sequence[int] | None = None) -> dict[str, object]:  # type: ignore[override]
         """The uniforms of ``mls3/core.glsl`` for a volume of ``shape``, scaled units.
@@ -158,9 +166,8 @@ class MLS3(MLS):
         dict
             Uniform name -> value.
         """
-        return self._kernel.uniforms(None if shape is None else as_volume_shape(shape))  # type: ignore[arg-type]
+        return self.kernel.uniforms(None if shape is None else as_volume_shape(shape))  # type: ignore[arg-type]
 
-    @on_gpu
     def set_handles(
         self, src: object, dst: object, *, src_segments: object = None, dst_segments: object = None
     ) -> None:
@@ -181,13 +188,16 @@ class MLS3(MLS):
         ...     print(m([[3, 3, 3]]).tolist())
         [[3.0, 3.0, 5.0]]
         """
+        self._check_alive()
         if src_segments is not None or dst_segments is not None:
             raise ValueError("segment handles are 2D only")
-        self._store3(*validate_handles3(src, dst))
+        p, q = validate_handles3(src, dst)
+        with self._current():
+            self._store3(p, q)
 
     def swapped_kernel(self) -> MLSKernel3:  # type: ignore[override]
         """The kernel of the MLS with p and q swapped: an approximate inverse of f."""
-        self._kernel.check_alive()
+        self.kernel.check_alive()
         if self._swapped is None:
             swapped = MLSKernel3(
                 self._gl,
@@ -228,7 +238,7 @@ class MLS3(MLS):
     @property
     def inverse(self) -> InverseMLS3:
         """f's inverse as a transform (an :class:`InverseMLS3`), solved on the GPU."""
-        self._kernel.check_alive()
+        self._check_alive()
         return InverseMLS3(self)
 
     def residuals(self, src: object, dst: object) -> np.ndarray:
@@ -343,6 +353,7 @@ class MLS3(MLS):
 
     # -- volumes and what is 2D only --------------------------------------------------------
 
+    @forwarded
     def warp(self, volume: object, **options: object) -> np.ndarray:  # type: ignore[override]
         """The volume deformed by f on the GPU (:func:`glmls.volume.warp_volume`).
 
@@ -379,6 +390,7 @@ class MLS3(MLS):
         """
         return warp_volume(self, volume, **options)
 
+    @forwarded
     def bounds(self, shape, *, grid=1, spacing=(1.0, 1.0, 1.0)):  # type: ignore[override]
         """The bounding box of the deformed volume (:func:`glmls.volume.volume_bounds`).
 
@@ -408,6 +420,7 @@ class MLS3(MLS):
         """
         return volume_bounds(self, shape, grid=grid, spacing=spacing)
 
+    @forwarded
     def coordinate_map(self, shape, **options):  # type: ignore[override]
         """The backward map of a volume (:func:`glmls.volume.volume_coordinate_map`).
 
@@ -524,7 +537,7 @@ class InverseMLS3(InverseMLS):
         s, valid = self._solve(as_points3(points))
         return (s, valid) if return_valid else s
 
-    def _solve(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _solved(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         m = self._forward
         m.kernel.check_alive()
         guess, _ = evaluate_points3(m.swapped_kernel(), points)  # type: ignore[arg-type]

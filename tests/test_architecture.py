@@ -17,7 +17,7 @@ LAYERS = (
     ("glmls.gl",),
     ("glmls.engine",),
     ("glmls.imaging", "glmls.volume"),
-    ("glmls.mls", "glmls.mls3"),
+    ("glmls.mls", "glmls.mls3", "glmls.forking"),
     ("glmls.batch",),
     ("glmls.analysis", "glmls.augment"),
     ("glmls.app",),

@@ -84,7 +84,7 @@ def test_a_child_forked_after_the_parent_warped_warps_bit_for_bit(tmp_path):
             for attempt in (
                 lambda: glmls.warp(image(0), SRC, DST, methd="quads"),
                 lambda: glmls.warp(image(0), SRC, DST, weight="nope"),
-                lambda: glmls.MLS(SRC, DST),  # a context of its own: refused, with advice
+                lambda: glmls.gl.get_context(),  # a context of its own: refused, with advice
             ):
                 try:
                     attempt()
@@ -97,11 +97,110 @@ def test_a_child_forked_after_the_parent_warped_warps_bit_for_bit(tmp_path):
         """,
         tmp_path,
     )
-    unknown, bad_value, mls = out.splitlines()
+    unknown, bad_value, context = out.splitlines()
     assert unknown == "TypeError: warp() got an unknown keyword methd"
     assert bad_value.startswith("ValueError") and "nope" in bad_value
-    assert mls.startswith("GLUnavailableError") and "'spawn' start method" in mls
-    assert "glmls.warp() works here" in mls
+    assert context.startswith("GLUnavailableError") and "'spawn' start method" in context
+    assert "glmls.MLS objects made without a ctx work here" in context
+
+
+MLS_USES = """
+POINTS = np.array([[3.5, 7.0], [20.0, 30.0], [44.0, 5.5]])
+
+def uses(m):
+    # every GPU method of a 2D MLS, as a dict of results
+    xy, residual = m.coordinate_map((48, 56), residual=True)
+    s, valid = m.inverse(POINTS, return_valid=True)
+    out = {
+        "f": m(POINTS), "M": m.matrices(POINTS)[0], "T": m.matrices(POINTS)[1],
+        "inverse": s, "valid": valid, "grid4": glmls.InverseMLS(m, grid=4)(POINTS),
+        "residuals": m.residuals(POINTS, POINTS + 1), "warp": m.warp(image(0)),
+        "backward": m.warp(image(0), method="backward", interpolation="linear"),
+        "map": xy, "map_residual": residual, "error": m.error_field((48, 56), grid=4),
+        "bounds": np.array(m.bounds((48, 56)).origin), "mesh": m.mesh((48, 56), grid=8)[1],
+    }
+    m.set_handles(SRC, DST + 1.5)
+    out["moved"] = m(POINTS)
+    m.set_handles(SRC, DST)
+    return out
+
+def uses3(m):
+    volume = np.random.default_rng(3).integers(0, 255, (10, 12, 14), dtype=np.uint8)
+    points = np.array([[1.0, 2.0, 3.0], [7.5, 4.0, 2.0]])
+    faces = np.array([[0, 1, 2]])
+    deformed = m.deform((np.array([[0.0, 0, 0], [5, 0, 0], [0, 5, 1]]), faces))
+    return {
+        "f": m(points), "J": m.jacobian(points)[1], "inverse": m.inverse(points),
+        "warp": m.warp(volume), "backward": m.warp(volume, method="backward"),
+        "normals": deformed.normals, "det": deformed.det_j,
+    }
+
+def same(a, b):
+    assert a.keys() == b.keys()
+    for key in a:
+        assert np.array_equal(a[key], b[key], equal_nan=True), key
+"""
+
+
+def test_an_mls_works_in_a_child_forked_after_the_parent_used_gl(tmp_path):
+    """An MLS made in the child, and one the parent made before the fork, do all their GPU
+    work there (through the helper) with the parent's results bit for bit; its errors are
+    the parent's; release and the GL internals say what they are."""
+    out = run_script(
+        MLS_USES
+        + textwrap.dedent(
+            """
+        SRC3 = np.array([[1.0, 1, 1], [12, 2, 1], [2, 10, 3], [3, 4, 8], [10, 9, 7]])
+        DST3 = SRC3 + [[0.5, 0, 0], [0, 1, 0], [0, 0, -1], [1, 1, 0], [0, 0, 0]]
+        parents = glmls.MLS(SRC, DST, weight="gaussian", radius=30.0)
+        expected = uses(parents)
+        parents3 = glmls.MLS(SRC3, DST3, transform="similarity")
+        expected3 = uses3(parents3)
+
+        def in_the_child():
+            made = glmls.MLS(SRC, DST, weight="gaussian", radius=30.0)
+            same(uses(made), expected)
+            same(uses(parents), expected)  # made before the fork
+            same(uses3(glmls.MLS(SRC3, DST3, transform="similarity")), expected3)
+            same(uses3(parents3), expected3)
+            found = []
+            for attempt in (
+                lambda: glmls.MLS(SRC, DST, weight="gaussian")(POINTS),  # no radius
+                lambda: glmls.MLS(SRC, DST, transform="affine").set_handles(SRC[:2], DST[:2]),
+                lambda: made.kernel,
+                lambda: made.ctx,
+            ):
+                try:
+                    attempt()
+                    found.append("no error")
+                except Exception as error:
+                    found.append(type(error).__name__)
+            made.release()
+            with glmls.MLS(SRC3, DST3) as m3:
+                pass
+            for released in (made, m3):
+                try:
+                    released(POINTS if released is made else SRC3)
+                    found.append("no error")
+                except Exception as error:
+                    found.append(type(error).__name__)
+            found.append(repr(made))
+            return found
+
+        found = in_child(in_the_child, timeout=240)
+        print("\\n".join(found))
+        same(uses(parents), expected)  # the parent's objects still work
+        assert glmls.gl.get_context().mgl.error == "GL_NO_ERROR"
+        """
+        ),
+        tmp_path,
+        timeout=300,
+    )
+    radius, degenerate, kernel, ctx, released, released3, shown = out.splitlines()
+    assert radius == "ValueError" and degenerate == "DegenerateHandlesError"
+    assert kernel == ctx == "GLUnavailableError"
+    assert released == released3 == "ReleasedError"
+    assert shown.startswith("MLS(4 handles") and shown.endswith(", released)")
 
 
 def test_children_forked_before_any_gl_and_spawned_children_work(tmp_path):

@@ -1,0 +1,104 @@
+"""An MLS in a process forked from one that used GL (a data loader's worker), where GL would
+hang (:mod:`glmls.gl.context`): its GPU work runs in the process's helper process
+(:mod:`glmls.gl.helper`) on an MLS made there from the same handles and settings
+(``glmls.mls.serve_forked``), whether the MLS was made before the fork or after it.
+
+:func:`on_gpu` and :func:`forwarded` decorate the MLS methods that use the GPU;
+:class:`ForkSafe` is the MLS's side of it: its state for the helper, its liveness, its GL
+objects (which a forked process does not have).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+from .errors import GLUnavailableError, ReleasedError
+from .gl import helper
+from .gl.context import current, forked_from_gl
+
+__all__ = ["ForkSafe", "forwarded", "in_helper", "on_gpu"]
+
+_R = TypeVar("_R")
+_SERVER = "glmls.mls"  # serve_forked: makes and keeps the helper's MLS objects
+
+
+def forwarded(method: Callable[..., _R]) -> Callable[..., _R]:
+    """``method`` of an MLS, or, in a process forked from one that used GL, the same method of
+    the helper process's MLS made from the same handles and settings."""
+
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        if forked_from_gl():
+            return self._served(method.__name__, args, kwargs)
+        return method(self, *args, **kwargs)
+
+    return wrapper
+
+
+def on_gpu(method: Callable[..., _R]) -> Callable[..., _R]:
+    """Check the MLS is alive, then run ``method`` with its GL context current; in a process
+    forked from one that used GL, run it in the helper process instead (:func:`forwarded`)."""
+    inner = current(method)
+
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        self.kernel.check_alive()
+        return inner(self, *args, **kwargs)
+
+    return forwarded(wrapper)
+
+
+class ForkSafe:
+    """What an MLS needs to work in a process forked from one that used GL. The MLS has the
+    handles (``src``, ``dst``, ``src_segments``, ``dst_segments``), ``config``, ``shape``,
+    ``_options`` (``storage`` and ``bins``), ``_kernel`` and ``_gl`` (None where it was made in
+    such a process) and ``released``."""
+
+    _dropped = False  # released, for an MLS made in a forked process
+
+    def _forked_state(self) -> tuple:
+        """What ``glmls.mls.serve_forked`` makes the helper's MLS from."""
+        m: Any = self
+        segments = (m.src_segments, m.dst_segments) if len(m.src_segments) else (None, None)
+        o = self._options  # type: ignore[attr-defined]
+        return (m.src, m.dst, *segments, m.config, m.shape, o["storage"], o["bins"])
+
+    def _made_forked(self, **handles: object) -> None:
+        """Made in a process forked from one that used GL: no GL objects here. The helper's
+        MLS, made now, raises what the kernel would (a radius weight without one, ...)."""
+        self._gl = self._kernel = None
+        for name, value in handles.items():
+            setattr(self, "_" + name, value)
+        helper.call(_SERVER, "serve_forked", (self._forked_state(), None, None, (), {}))
+
+    def _served(self, name: str, args: tuple, kwargs: dict, grid: int | None = None) -> Any:
+        """``name`` (of the inverse of ``grid`` if given) run by the helper process's MLS."""
+        self._check_alive()
+        state = (self._forked_state(), name, grid, args, kwargs)
+        return helper.call(_SERVER, "serve_forked", state)
+
+    def _check_alive(self) -> None:
+        if self.released:  # type: ignore[attr-defined]
+            raise ReleasedError("this MLS has been released; create a new one")
+        if not forked_from_gl():
+            self._kernel.check_alive()
+
+    def _current(self) -> contextlib.AbstractContextManager:
+        """The GL context made current, or nothing in a forked process (no GL work there)."""
+        return contextlib.nullcontext() if forked_from_gl() else self._gl.use()
+
+    def _here(self, value: Any) -> Any:
+        if value is None:
+            raise GLUnavailableError(
+                "this MLS was made in a process forked from one that used GL: its GPU work "
+                "runs in a helper process, and its GL objects live there"
+            )
+        return value
+
+
+def in_helper(m: ForkSafe, name: str, args: tuple, kwargs: dict, *, grid: int | None) -> Any:
+    """``name`` of the inverse of ``grid`` of the MLS ``m``, run by the helper process."""
+    return m._served(name, args, kwargs, grid)
