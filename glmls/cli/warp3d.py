@@ -4,16 +4,18 @@ format of its suffix.
 - A volume (NIfTI, a TIFF of more than one page, ``.npy``) is warped by
   :meth:`glmls.MLS.warp` with the voxel spacing of ``--spacing``, else of the file (a NIfTI's
   affine, an ImageJ stack's spacing); the output keeps the input's dtype (integers rounded
-  and clipped) and, written as NIfTI, the input's affine.
+  and clipped) and, written as NIfTI, the input's affine. A radius weight without ``--radius``
+  takes the volume's diagonal in the handles' units (those of the spacing).
 - A mesh (PLY, OBJ, STL) is deformed by :meth:`glmls.MLS.deform`; the output has the
   deformed vertices and the input's triangles, and stderr says how many vertices and faces
-  fold over.
+  fold over. A radius weight needs ``--radius`` there.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import os
 from pathlib import Path
 
@@ -109,6 +111,17 @@ def _handles(args: argparse.Namespace, kind: str) -> tuple[np.ndarray, np.ndarra
     return read_handles(args.handles, dst=args.targets, ndim=3)
 
 
+def _volume_config(config: MLSConfig, shape, spacing) -> MLSConfig:
+    """``config`` with the volume's diagonal, in the handles' units (the spacing's), as the
+    radius a radius weight needs where ``--radius`` is not given (the image diagonal's
+    counterpart)."""
+    if not config.uses_radius or config.radius is not None:
+        return config
+    steps = spacing or (1.0, 1.0, 1.0)
+    diagonal = math.sqrt(sum((n * d) ** 2 for n, d in zip(shape[:3], steps, strict=True)))
+    return dataclasses.replace(config, radius=diagonal)
+
+
 def _mls(src: np.ndarray, dst: np.ndarray, config: MLSConfig) -> MLS:
     settings = {f.name: getattr(config, f.name) for f in dataclasses.fields(MLSConfig)}
     try:
@@ -175,7 +188,7 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
     if dtype.name not in _WARPED_AS_IS:
         data = data.astype(np.float32)
     options = _volume_options(args, spacing)
-    with _mls(src, dst, config) as m:
+    with _mls(src, dst, _volume_config(config, data.shape, spacing)) as m:
         ticker = Ticker(f"warp {args.input}", quiet=args.quiet)
         with ticker, reported_warnings(f"glmls warp: {args.input}"):
             try:
@@ -209,6 +222,11 @@ def _count(folds: object) -> int:
 
 
 def _deform_mesh(args, config: MLSConfig, src, dst, target: Path) -> None:
+    if config.uses_radius and config.radius is None:
+        raise UsageError(
+            f"--weight {config.weight} needs --radius R for a mesh (in the units of its "
+            "coordinates): a mesh has no image or volume diagonal to default to"
+        )
     mesh = read_mesh(args.input)
     with _mls(src, dst, config) as m:
         with reported_warnings(f"glmls warp: {args.input}"):

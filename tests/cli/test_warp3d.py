@@ -106,6 +106,26 @@ def test_spacing_option_wins_and_other_formats(files, stand_in, capsys):
     capsys.readouterr()
 
 
+def test_a_radius_weight_defaults_to_the_volume_diagonal_in_handle_units(files, stand_in, capsys):
+    """As for images (the image diagonal): ``--weight gaussian`` without ``--radius`` takes the
+    volume's diagonal, in the units of the handles (the spacing's): v.nii.gz is 8 x 9 x 10
+    voxels of (dz, dy, dx) = (3, 1, 2)."""
+    argv = ["warp", "v.nii.gz", "out.nii.gz", "--handles", "h3.json", "--weight", "gaussian"]
+    assert main(argv) == 0
+    assert _last(stand_in.calls, "MLS")[2]["radius"] == pytest.approx(np.sqrt(24**2 + 9**2 + 20**2))
+    assert main([*argv, "--radius", "7"]) == 0
+    assert _last(stand_in.calls, "MLS")[2]["radius"] == 7.0
+    assert main(["warp", "v.nii.gz", "o.nii", "--handles", "h3.json"]) == 0
+    assert _last(stand_in.calls, "MLS")[2]["radius"] is None  # idw needs none
+    capsys.readouterr()
+
+
+def test_a_radius_weight_on_a_mesh_asks_for_the_radius(files, capsys):
+    assert main(["warp", "sphere.ply", "o.ply", "--handles", "h3.json", "--weight", "linear"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--weight linear needs --radius" in err
+
+
 def test_mesh_is_written_with_its_faces_and_the_folds_said(files, stand_in, capsys):
     assert main(["warp", "sphere.ply", "out.obj", "--handles", "h3.json"]) == 0
     out, err = capsys.readouterr()
