@@ -228,6 +228,11 @@ def _deform_mesh(args, config: MLSConfig, src, dst, target: Path) -> None:
             "coordinates): a mesh has no image or volume diagonal to default to"
         )
     mesh = read_mesh(args.input)
+    if not len(mesh.faces) and volume_suffix(target) == ".stl":
+        raise UsageError(
+            f"{target}: {args.input} is a point cloud (no faces); STL holds triangles only: "
+            "write it as .ply or .obj"
+        )
     with _mls(src, dst, config) as m:
         with reported_warnings(f"glmls warp: {args.input}"):
             try:

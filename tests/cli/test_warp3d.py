@@ -173,6 +173,17 @@ def test_mistakes_are_one_line_and_status_2(files, stand_in, capsys, argv, messa
     assert message in err
 
 
+def test_a_point_cloud_is_warped_to_ply_and_refused_as_stl(files, stand_in, capsys):
+    glmls.write_mesh(files / "cloud.ply", glmls.data.sphere().vertices, faces=[])
+    assert main(["warp", "cloud.ply", "out.ply", "--handles", "h3.json"]) == 0
+    assert glmls.read_mesh(files / "out.ply").vertices.shape == (162, 3)
+    capsys.readouterr()
+    assert main(["warp", "cloud.ply", "out.stl", "--handles", "h3.json"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "point cloud (no faces); STL holds triangles only" in err
+    assert not (files / "out.stl").exists()
+
+
 def test_elastix_pair_needs_its_targets(files, stand_in, capsys):
     src, dst = glmls.data.phantom_handles()
     for name, points in (("moving.pts", src), ("fixed.pts", dst)):
