@@ -25,6 +25,7 @@ from .options import (
     warp_options_from_args,
 )
 from .progress import Ticker
+from .warp3d import add_3d_options
 
 HELP = "error analysis of one deformation"
 EXAMPLES = """
@@ -46,6 +47,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     add_config_options(parser)
     add_warp_options(parser)
+    add_3d_options(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -53,6 +55,8 @@ def run(args: argparse.Namespace) -> int:
         return run_volume(args)
     if is_mesh_input(args):  # a mesh or point cloud (PLY, OBJ, STL): at its vertices
         return run_mesh(args)
+    if args.spacing is not None:
+        raise UsageError(f"--spacing: for volumes, not for images ({args.input or 'the example'})")
     config = config_from_args(args)
     warp_options = warp_options_from_args(args)
     image, handles, reference, name = example_or_files(args, need_reference=False)

@@ -77,9 +77,11 @@ def run_mesh(args: argparse.Namespace) -> int:
     """``glmls analyze MESH --handles H3 --out DIR``."""
     if args.handles is None:
         raise UsageError("missing --handles (a file of 3D handles for a mesh)")
+    if args.spacing is not None:
+        raise UsageError(f"--spacing: for volumes, not for a mesh ({args.input})")
     config = _check_radius(config_from_args(args))
     mesh = read_mesh(args.input)
-    src, dst = read_handles(args.handles, ndim=3)
+    src, dst = read_handles(args.handles, dst=args.targets, ndim=3)
     reference = read_points_3d(args.reference) if args.reference else None
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")

@@ -109,3 +109,31 @@ def test_3d_handles_on_an_image_exit_2_with_one_line(inputs):
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "3D handles (x, y, z), where 2D handles" in lines[0], result.stderr
+
+
+def test_the_spacing_of_the_file_or_the_option_is_glmls_warps(inputs):
+    glmls.imwrite(inputs / "a.png", np.zeros((20, 20), np.uint8))
+    """Handles in physical units on an anisotropic stack: analyze evaluates f where glmls warp
+    puts the voxels, (i dx, j dy, k dz), as --spacing or the file says, and takes elastix
+    pairs (--targets) as warp does."""
+    spacing = (2.0, 1.0, 0.5)
+    scale = np.array(spacing[::-1])
+    src, dst = np.array(SRC, float) * scale, np.array(DST, float) * scale
+    write_volume(inputs / "v.tif", np.load(inputs / "v.npy"), spacing=spacing)
+    for name, points in (("moving.pts", src), ("fixed.pts", dst)):
+        rows = "".join(" ".join(repr(float(v)) for v in p) + "\n" for p in points)
+        (inputs / name).write_text(f"point\n{len(points)}\n{rows}")
+    z, y, x = np.mgrid[0 : SHAPE[0], 0 : SHAPE[1], 0 : SHAPE[2]]
+    voxels = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1) * scale
+    expected = error_stats(glmls.reference.mls_error(src, dst, voxels, transform="affine"))
+    handles = ["--handles", "moving.pts", "--targets", "fixed.pts", "--transform", "affine"]
+    for given in (["v.tif"], ["v.npy", "--spacing", "2,1,0.5"]):
+        result = analyze(*given, *handles, "--out", "rep", cwd=inputs)
+        assert result.returncode == 0, result.stderr
+        summary = json.loads((inputs / "rep" / "report.json").read_text())
+        assert summary["analysis"]["spacing"] == list(spacing)
+        assert summary["configuration"]["src"] == src.tolist()
+        for key in ("mean", "median", "max"):
+            assert_allclose(summary["error_field"][key], expected[key], rtol=2e-3)
+    image = analyze("a.png", "--handles", "h2.json", "--spacing", "2", "--out", "x", cwd=inputs)
+    assert image.returncode == 2 and "--spacing: for volumes" in image.stderr
