@@ -204,9 +204,12 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
 
 
 def _in_dtype(result: np.ndarray, dtype: np.dtype) -> np.ndarray:
-    """The warped volume in the input's dtype: integers rounded and clipped to its range."""
+    """The warped volume in the input's dtype: integers rounded and clipped to its range, a
+    bool mask true where the warped value is at least 1/2."""
     if result.dtype == dtype:
         return result
+    if dtype == np.bool_:
+        return result >= 0.5
     if np.issubdtype(dtype, np.integer):
         info = np.iinfo(dtype)
         return np.clip(np.rint(result), info.min, info.max).astype(dtype)

@@ -126,6 +126,26 @@ def test_a_radius_weight_on_a_mesh_asks_for_the_radius(files, capsys):
     assert err.count("\n") == 1 and "--weight linear needs --radius" in err
 
 
+def test_a_mask_is_written_back_rounded_not_grown(files, monkeypatch, capsys):
+    """A bool volume (a mask) is warped as float32 and written back as bool: true where the
+    warped value is at least 1/2, as integers are rounded, not wherever it is above 0 (a
+    trilinear warp would grow the mask by a voxel all round)."""
+
+    class Halves(StandIn):
+        def warp(self, volume, **options):
+            return np.asarray(volume, dtype=np.float32) * np.float32(0.4) + np.float32(0.2)
+
+    monkeypatch.setattr(warp3d, "MLS", Halves)
+    mask = np.zeros((4, 5, 6), bool)
+    mask[1:3, 2:4, 2:5] = True
+    np.save(files / "mask.npy", mask)
+    assert main(["warp", "mask.npy", "out.npy", "--handles", "h3.json"]) == 0
+    written = np.load(files / "out.npy")
+    assert written.dtype == np.bool_
+    assert_array_equal(written, mask)  # 0.2 -> False, 0.6 -> True
+    capsys.readouterr()
+
+
 def test_mesh_is_written_with_its_faces_and_the_folds_said(files, stand_in, capsys):
     assert main(["warp", "sphere.ply", "out.obj", "--handles", "h3.json"]) == 0
     out, err = capsys.readouterr()
