@@ -78,8 +78,16 @@ def _warped(m: object, volume: np.ndarray, args: argparse.Namespace, spacing) ->
     if not callable(warp):
         say(args, "analyze: no deformed volume: this deformation cannot warp volumes")
         return None
+    options = {
+        "method": args.method,
+        "interpolation": args.interpolation,
+        "border": args.border,
+        "grid": args.grid,
+    }
+    if spacing is not None:
+        options["spacing"] = spacing
     try:
-        return np.asarray(warp(volume, **({} if spacing is None else {"spacing": spacing})))
+        return np.asarray(warp(volume, **options))
     except (TypeError, ValueError, NotImplementedError) as error:
         say(args, f"analyze: no deformed volume: {error}")
         return None

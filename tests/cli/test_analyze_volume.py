@@ -137,3 +137,28 @@ def test_the_spacing_of_the_file_or_the_option_is_glmls_warps(inputs):
             assert_allclose(summary["error_field"][key], expected[key], rtol=2e-3)
     image = analyze("a.png", "--handles", "h2.json", "--spacing", "2", "--out", "x", cwd=inputs)
     assert image.returncode == 2 and "--spacing: for volumes" in image.stderr
+
+
+def test_the_deformed_volume_is_built_with_the_construction_options(inputs, monkeypatch, capsys):
+    """--method, --interpolation, --border and --grid build the deformed volume that
+    deformed.png shows, as glmls warp builds it; an image-only method says why there is none."""
+    from glmls.cli.main import main
+    from glmls.mls3 import MLS3
+
+    calls = []
+    warp = MLS3.warp
+
+    def recording(self, volume, **options):
+        calls.append(options)
+        return warp(self, volume, **options)
+
+    monkeypatch.setattr(MLS3, "warp", recording)
+    monkeypatch.chdir(inputs)
+    argv = ["analyze", "v.npy", "--handles", "h3.json", "--analysis-grid", "3", "--out", "rep"]
+    options = ["--method", "backward", "--interpolation", "linear", "--border", "edge"]
+    assert main([*argv, *options, "--grid", "2"]) == 0
+    assert calls[-1] == {
+        "method": "backward", "interpolation": "linear", "border": "edge", "grid": 2
+    }  # fmt: skip
+    assert main([*argv, "--method", "splat"]) == 0
+    assert "no deformed volume: unknown method 'splat' for a volume" in capsys.readouterr().err
