@@ -162,3 +162,14 @@ def test_the_deformed_volume_is_built_with_the_construction_options(inputs, monk
     }  # fmt: skip
     assert main([*argv, "--method", "splat"]) == 0
     assert "no deformed volume: unknown method 'splat' for a volume" in capsys.readouterr().err
+
+
+def test_an_elastix_pair_of_2d_points_on_an_image(inputs):
+    glmls.imwrite(inputs / "a.png", np.full((24, 32), 90, np.uint8))
+    (inputs / "moving.pts").write_text("index\n4\n4 4\n27 4\n4 19\n27 19\n")
+    (inputs / "fixed.pts").write_text("index\n4\n5 4\n27 5\n4 19\n26 19\n")
+    argv = ["a.png", "--handles", "moving.pts", "--targets", "fixed.pts", "--out", "rep"]
+    result = analyze(*argv, cwd=inputs)
+    assert result.returncode == 0, result.stderr
+    summary = json.loads((inputs / "rep" / "report.json").read_text())
+    assert summary["triangles"]["triangles"] > 0
