@@ -22,6 +22,7 @@ from ..mls import MLS
 from .inputs import reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
+from .warp3d import voxel_handles
 
 __all__ = ["is_volume_input", "read_points_3d", "run_volume"]
 
@@ -101,7 +102,7 @@ def run_volume(args: argparse.Namespace) -> int:
     source = read_volume(args.input)
     volume = source.data
     spacing = args.spacing or source.spacing
-    src, dst = read_handles(args.handles, dst=args.targets, ndim=3)
+    src, dst = voxel_handles(args, *read_handles(args.handles, dst=args.targets, ndim=3), spacing)
     reference = read_points_3d(args.reference) if args.reference else None
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")

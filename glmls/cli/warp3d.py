@@ -5,7 +5,8 @@ format of its suffix.
   :meth:`glmls.MLS.warp` with the voxel spacing of ``--spacing``, else of the file (a NIfTI's
   affine, an ImageJ stack's spacing); the output keeps the input's dtype (integers rounded
   and clipped) and, written as NIfTI, the input's affine. A radius weight without ``--radius``
-  takes the volume's diagonal in the handles' units (those of the spacing).
+  takes the volume's diagonal in the handles' units (those of the spacing); an elastix pair
+  of ``index`` files (voxel indices) is put there by the spacing.
 - A mesh (PLY, OBJ, STL) is deformed by :meth:`glmls.MLS.deform`; the output has the
   deformed vertices and the input's triangles, and stderr says how many vertices and faces
   fold over. A radius weight needs ``--radius`` there.
@@ -22,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.config import MLSConfig
-from ..files.landmarks import handle_dimension, read_handles
+from ..files.landmarks import elastix_indices, handle_dimension, read_handles
 from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import (
     VOLUME_SUFFIXES,
@@ -37,7 +38,7 @@ from .inputs import reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
 
-__all__ = ["add_3d_options", "input_kind", "parse_spacing", "run_3d"]
+__all__ = ["add_3d_options", "input_kind", "parse_spacing", "run_3d", "voxel_handles"]
 
 #: The dtypes a volume is warped in as it is; others are warped as float32 and written back
 #: in their own dtype.
@@ -109,6 +110,15 @@ def _handles(args: argparse.Namespace, kind: str) -> tuple[np.ndarray, np.ndarra
             "handles (x, y, z)"
         )
     return read_handles(args.handles, dst=args.targets, ndim=3)
+
+
+def voxel_handles(args: argparse.Namespace, src, dst, spacing):
+    """(src, dst) in the handles' units: an elastix pair of ``index`` files (voxel indices)
+    times the spacing, (i dx, j dy, k dz); other handles as they are."""
+    if spacing is None or not elastix_indices(args.handles, dst=args.targets):
+        return src, dst
+    scale = np.array(spacing[::-1], dtype=np.float64)
+    return src * scale, dst * scale
 
 
 def _volume_config(config: MLSConfig, shape, spacing) -> MLSConfig:
@@ -188,6 +198,7 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
     if dtype.name not in _WARPED_AS_IS:
         data = data.astype(np.float32)
     options = _volume_options(args, spacing)
+    src, dst = voxel_handles(args, src, dst, spacing)
     with _mls(src, dst, _volume_config(config, data.shape, spacing)) as m:
         ticker = Ticker(f"warp {args.input}", quiet=args.quiet)
         with ticker, reported_warnings(f"glmls warp: {args.input}"):

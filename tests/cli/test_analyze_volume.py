@@ -135,6 +135,13 @@ def test_the_spacing_of_the_file_or_the_option_is_glmls_warps(inputs):
         assert summary["configuration"]["src"] == src.tolist()
         for key in ("mean", "median", "max"):
             assert_allclose(summary["error_field"][key], expected[key], rtol=2e-3)
+    for name, points in (("moving.pts", SRC), ("fixed.pts", DST)):  # voxel indices
+        rows = "".join(" ".join(str(v) for v in p) + "\n" for p in points)
+        (inputs / name).write_text(f"index\n{len(points)}\n{rows}")
+    result = analyze("v.tif", *handles, "--out", "indices", cwd=inputs)
+    assert result.returncode == 0, result.stderr
+    summary = json.loads((inputs / "indices" / "report.json").read_text())
+    assert summary["configuration"]["src"] == src.tolist()
     image = analyze("a.png", "--handles", "h2.json", "--spacing", "2", "--out", "x", cwd=inputs)
     assert image.returncode == 2 and "--spacing: for volumes" in image.stderr
 

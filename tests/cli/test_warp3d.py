@@ -217,6 +217,31 @@ def test_elastix_pair_needs_its_targets(files, stand_in, capsys):
     capsys.readouterr()
 
 
+def test_elastix_index_points_are_put_at_the_voxels_physical_places(files, monkeypatch, capsys):
+    """An elastix pair of index files holds voxel indices: the volume's spacing (dz, dy, dx)
+    = (3, 1, 2) of v.nii.gz puts them at (i dx, j dy, k dz), the units of the warp; point
+    files are coordinates, taken as they are."""
+    made = []
+
+    class Recording(StandIn):
+        def __init__(self, src, dst, **settings):
+            made.append((np.asarray(src), np.asarray(dst)))
+            super().__init__(src, dst, **settings)
+
+    monkeypatch.setattr(warp3d, "MLS", Recording)
+    src, dst = glmls.data.phantom_handles()
+    for kind in ("index", "point"):
+        for name, points in (("moving.pts", src), ("fixed.pts", dst)):
+            rows = "".join(" ".join(f"{v:g}" for v in p) + "\n" for p in points)
+            (files / name).write_text(f"{kind}\n{len(points)}\n{rows}")
+        argv = ["warp", "v.nii.gz", "o.nii", "--handles", "moving.pts", "--targets", "fixed.pts"]
+        assert main(argv) == 0
+        scale = [2.0, 1.0, 3.0] if kind == "index" else [1.0, 1.0, 1.0]
+        assert_allclose(made[-1][0], src * scale)
+        assert_allclose(made[-1][1], dst * scale)
+    capsys.readouterr()
+
+
 def test_parse_spacing():
     assert warp3d.parse_spacing("1,2,3") == (1.0, 2.0, 3.0)
     assert warp3d.parse_spacing("0.5") == (0.5, 0.5, 0.5)
