@@ -615,7 +615,10 @@ def _ridge(big_a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def _least_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(K, 3, 3): the rotation of least angle with a R parallel to b (row vectors), for unit
     ``a`` and any ``b``; I where b is 0. Antiparallel a and b: a half turn about an axis
-    perpendicular to a (any such axis is as good: the one choice that cannot be continuous)."""
+    perpendicular to a (any such axis is as good: the one choice that cannot be continuous),
+    a x e_i for the i of the smallest |a_i| + (0, 1e-3, 2e-3)_i: the first of tied |a_i|
+    (a along a coordinate axis or a diagonal), whatever rounding does to a (float32's on the
+    GPU)."""
     norm = np.linalg.norm(b, axis=-1, keepdims=True)
     bh = np.where(norm > 0, b / np.where(norm > 0, norm, 1.0), a)
     n = np.cross(a, bh)  # sin(angle) times the unit axis
@@ -627,7 +630,7 @@ def _least_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     factor = 1.0 / np.where(anti, 1.0, 1.0 + c)
     # Rodrigues for column vectors, R_c a = b^; row vectors take its transpose
     rc = np.eye(3) + cross + (cross @ cross) * factor[:, None, None]
-    helper = np.eye(3)[np.argmin(np.abs(a), axis=-1)]
+    helper = np.eye(3)[np.argmin(np.abs(a) + [0.0, 1e-3, 2e-3], axis=-1)]
     perp = np.cross(a, helper)
     perp /= np.linalg.norm(perp, axis=-1, keepdims=True)
     half = 2.0 * np.einsum("ki,kj->kij", perp, perp) - np.eye(3)  # a half turn about perp

@@ -35,6 +35,7 @@ from .volume_lattice import (
     check_grid3,
     evaluate,
     lattice_points,
+    spacing_scale,
 )
 
 __all__ = ["CellJacobians", "cell_jacobians"]
@@ -160,7 +161,9 @@ def cell_quantities(
     return det, ratio, min_det
 
 
-def cell_jacobians(m: Deformation3D, shape: Sequence[int], *, grid: int = 1) -> CellJacobians:
+def cell_jacobians(
+    m: Deformation3D, shape: Sequence[int], *, grid: int = 1, spacing: object = None
+) -> CellJacobians:
     """det J, the singular value ratio of J and the folds of ``m`` per cell of a volume.
 
     f is evaluated at the cell corners every ``grid`` voxels (``m(points)``, in blocks) and
@@ -176,6 +179,9 @@ def cell_jacobians(m: Deformation3D, shape: Sequence[int], *, grid: int = 1) -> 
         (D, H, W), or (D, H, W, C), of the volume.
     grid : int, optional
         The lattice's step in voxels (1: a cell per voxel; (D + 1)(H + 1)(W + 1) points).
+    spacing : (float, float, float), optional
+        (dz, dy, dx): voxel (k, j, i) is the point (i dx, j dy, k dz) of the handles' units,
+        as :meth:`glmls.MLS.warp` places it, and J is df/dv in those units (default: 1 each).
 
     Returns
     -------
@@ -206,7 +212,8 @@ def cell_jacobians(m: Deformation3D, shape: Sequence[int], *, grid: int = 1) -> 
     """
     dims = as_volume_shape(shape)
     step = check_grid3(grid)
-    z, y, x = (axis_corners(n, step) for n in dims)
+    dx, dy, dz = spacing_scale(spacing)
+    z, y, x = (axis_corners(n, step) * d for n, d in zip(dims, (dz, dy, dx), strict=True))
     cells = (len(z) - 1, len(y) - 1, len(x) - 1)
     det, ratio, min_det = np.empty(cells), np.empty(cells), np.empty(cells)
     # slabs of cells along z, each with its two planes of corners: bounded memory

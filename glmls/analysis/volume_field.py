@@ -24,6 +24,7 @@ from .volume_lattice import (
     check_grid3,
     interpolate_axis,
     lattice_points,
+    spacing_scale,
 )
 
 __all__ = ["Deformation3D", "ReferenceDeformation", "volume_error_field"]
@@ -172,7 +173,9 @@ def fit_residuals(src: np.ndarray, dst: np.ndarray, m: np.ndarray, t: np.ndarray
     return out
 
 
-def volume_error_field(m: Deformation3D, shape: Sequence[int], *, grid: int = 1) -> np.ndarray:
+def volume_error_field(
+    m: Deformation3D, shape: Sequence[int], *, grid: int = 1, spacing: object = None
+) -> np.ndarray:
     """The MLS error E_MLS (eq. 7) at every voxel of a volume.
 
     E_MLS(v) = sum_i |p_i M_v + T_v - q_i|^2, unweighted: how far the affine fit at v misses
@@ -189,11 +192,14 @@ def volume_error_field(m: Deformation3D, shape: Sequence[int], *, grid: int = 1)
         (D, H, W), or (D, H, W, C) of which (D, H, W) is used.
     grid : int, optional
         The step of the evaluated voxels (1: every voxel).
+    spacing : (float, float, float), optional
+        (dz, dy, dx): voxel (k, j, i) is the point (i dx, j dy, k dz) of the handles' units,
+        as :meth:`glmls.MLS.warp` places it (default: 1 each).
 
     Returns
     -------
     numpy.ndarray
-        (D, H, W) float64, in square voxels.
+        (D, H, W) float64, in square voxels (square handle units with ``spacing``).
 
     Raises
     ------
@@ -223,12 +229,13 @@ def volume_error_field(m: Deformation3D, shape: Sequence[int], *, grid: int = 1)
     """
     depth, height, width = as_volume_shape(shape)
     step = check_grid3(grid)
+    scale = spacing_scale(spacing)
     src, dst = as_points3(m.src, "m.src"), as_points3(m.dst, "m.dst")
     z, y, x = (axis_centres(n, step) for n in (depth, height, width))
     field = np.empty((len(z), len(y), len(x)))
     planes = max(1, CHUNK // (len(y) * len(x)))  # whole planes of points per call of m
     for start in range(0, len(z), planes):
-        block = lattice_points(z[start : start + planes], y, x)
+        block = lattice_points(z[start : start + planes], y, x) * scale
         matrix, translation = m.matrices(block)
         matrix = np.asarray(matrix, dtype=np.float64).reshape(len(block), 3, 3)
         translation = np.asarray(translation, dtype=np.float64).reshape(len(block), 3)

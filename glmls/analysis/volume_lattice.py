@@ -24,6 +24,7 @@ __all__ = [
     "evaluate",
     "interpolate_axis",
     "lattice_points",
+    "spacing_scale",
 ]
 
 #: Points per call of ``m`` (and per block of the numpy sums over them).
@@ -51,6 +52,20 @@ def check_grid3(grid: object, name: str = "grid") -> int:
     ):
         raise ValueError(f"{name} must be an integer from 1 to {MAX_GRID} (voxels), got {grid!r}")
     return int(grid)
+
+
+def spacing_scale(spacing: object) -> np.ndarray:
+    """(dx, dy, dz), the handle units per voxel along x, y, z, of ``spacing`` (dz, dy, dx):
+    three finite numbers > 0, or None for (1, 1, 1); ``ValueError`` otherwise."""
+    if spacing is None:
+        return np.ones(3)
+    try:
+        values = np.array([float(v) for v in spacing], dtype=np.float64)  # type: ignore[union-attr]
+    except (TypeError, ValueError):
+        raise ValueError(f"spacing must be (dz, dy, dx) numbers > 0, got {spacing!r}") from None
+    if values.shape != (3,) or not (np.isfinite(values).all() and (values > 0).all()):
+        raise ValueError(f"spacing must be (dz, dy, dx) numbers > 0, got {spacing!r}")
+    return values[::-1].copy()
 
 
 def as_points3(points: object, name: str = "points") -> np.ndarray:

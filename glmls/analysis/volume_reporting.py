@@ -15,7 +15,7 @@ from .stats import error_stats
 from .tetrahedra import SLIVER_QUALITY, TetrahedronErrors, tetrahedron_errors
 from .triangles import check_angle_measure
 from .volume_field import Deformation3D, volume_error_field
-from .volume_lattice import as_points3, check_grid3
+from .volume_lattice import as_points3, check_grid3, spacing_scale
 from .volume_pictures import check_slices, render_volume_slices
 
 __all__ = ["VolumeReport", "volume_report"]
@@ -117,6 +117,7 @@ def volume_report(
     near: float | None = None,
     deformed: object = None,
     warp: bool = True,
+    spacing: object = None,
     out_dir: str | Path | None = None,
     on_stage: Callable[[str], None] | None = None,
 ) -> VolumeReport:
@@ -166,6 +167,11 @@ def volume_report(
         ``warp`` method (and ``warp`` is true), else none.
     warp : bool, optional
         Whether to warp the volume with ``m.warp`` when no ``deformed`` is given.
+    spacing : (float, float, float), optional
+        (dz, dy, dx) of the voxels, the handles and reference points in its units, as
+        :meth:`glmls.MLS.warp` takes it: voxel (k, j, i) is the point (i dx, j dy, k dz).
+        The error field (then in square handle units) and J are evaluated there, and the
+        volume warped with it (default: 1 each, the handles in voxels).
     out_dir : str or pathlib.Path, optional
         Also write ``report.json`` and the PNGs there (:meth:`VolumeReport.save`).
     on_stage : callable, optional
@@ -204,10 +210,11 @@ def volume_report(
     check_angle_measure(angle)
     at = check_slices(dims, slices)
     src, dst = as_points3(m.src, "m.src"), as_points3(m.dst, "m.dst")
+    scale = spacing_scale(spacing)
     clock = StageClock(on_stage)
 
     clock.begin("error field")
-    field = volume_error_field(m, dims, grid=step)
+    field = volume_error_field(m, dims, grid=step, spacing=spacing)
     clock.end("error_field")
 
     clock.begin("tetrahedra")
@@ -229,7 +236,7 @@ def volume_report(
     clock.end("tetrahedron_errors")
 
     clock.begin("jacobians")
-    cells = cell_jacobians(m, dims, grid=cell_step)
+    cells = cell_jacobians(m, dims, grid=cell_step, spacing=spacing)
     clock.end("jacobians")
 
     warped = None
@@ -238,7 +245,8 @@ def volume_report(
     elif warp and callable(getattr(m, "warp", None)):
         clock.begin("warp")
         try:
-            warped = _check_volume(m.warp(array), "m.warp(volume)")  # type: ignore[attr-defined]
+            options = {} if spacing is None else {"spacing": tuple(scale[::-1])}
+            warped = _check_volume(m.warp(array, **options), "m.warp(volume)")  # type: ignore[attr-defined]
         except NotImplementedError:  # a deformation that cannot warp volumes
             warped = None
         clock.end("warp")
@@ -247,19 +255,16 @@ def volume_report(
     shown = _shown(array)
     lo, hi = _grey_limits(shown)
     view = {"slices": at, "near": near}
-    images = {
-        "input_handles": render_volume_slices(shown, src=src, dst=dst, vmin=lo, vmax=hi, **view)
-    }
+    drawn = {"src": src / scale, "dst": dst / scale}  # the handles in voxels
+    images = {"input_handles": render_volume_slices(shown, vmin=lo, vmax=hi, **drawn, **view)}
     if warped is not None:
-        images["deformed"] = render_volume_slices(
-            _shown(warped), src=src, dst=dst, vmin=lo, vmax=hi, **view
-        )
+        images["deformed"] = render_volume_slices(_shown(warped), vmin=lo, vmax=hi, **drawn, **view)
     f_lo, f_hi = colormaps.color_limits(field, percentile=percentile)
     images["error_field"] = render_volume_slices(
-        field, src=src, dst=dst, cmap=cmap, vmin=f_lo, vmax=f_hi, **view
+        field, cmap=cmap, vmin=f_lo, vmax=f_hi, **drawn, **view
     )
     images["error_field_colorbar"] = colormaps.colorbar(
-        cmap, f_lo, f_hi, length=256, label="E_MLS (voxel^2)"
+        cmap, f_lo, f_hi, length=256, label=f"E_MLS ({'voxel' if spacing is None else 'unit'}^2)"
     )
     index = np.ix_(*(np.arange(n) // cell_step for n in dims))
     det = cells.det[index]
@@ -291,6 +296,7 @@ def volume_report(
             "eps": eps,
             "min_quality": min_quality,
             "reference_points": "handles" if reference_points is None else "given",
+            "spacing": scale[::-1].tolist(),
             "cmap": cmap_name(cmap),
             "percentile": percentile,
             "slices": {"z": at[0], "y": at[1], "x": at[2]},

@@ -6,6 +6,7 @@ import argparse
 
 from ..analysis.reporting import report
 from ..analysis.triangles import ANGLE_MEASURES
+from .analyze_mesh import is_mesh_input, run_mesh
 from .analyze_volume import is_volume_input, run_volume
 from .inputs import (
     add_example_inputs,
@@ -24,6 +25,7 @@ from .options import (
     warp_options_from_args,
 )
 from .progress import Ticker
+from .warp3d import add_3d_options
 
 HELP = "error analysis of one deformation"
 EXAMPLES = """
@@ -31,6 +33,7 @@ examples:
   glmls analyze --example --out out/example
   glmls analyze photo.png --handles h.json --reference r.json --out report/
   glmls analyze volume.nii.gz --handles h3.json --analysis-grid 4 --out report/   # 3D
+  glmls analyze mesh.ply --handles h3.json --out report/   # a mesh: at its vertices
 """
 
 
@@ -44,11 +47,16 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     add_config_options(parser)
     add_warp_options(parser)
+    add_3d_options(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     if is_volume_input(args):  # a volume (.npy, NIfTI, TIFF stack): the 3D analysis
         return run_volume(args)
+    if is_mesh_input(args):  # a mesh or point cloud (PLY, OBJ, STL): at its vertices
+        return run_mesh(args)
+    if args.spacing is not None:
+        raise UsageError(f"--spacing: for volumes, not for images ({args.input or 'the example'})")
     config = config_from_args(args)
     warp_options = warp_options_from_args(args)
     image, handles, reference, name = example_or_files(args, need_reference=False)

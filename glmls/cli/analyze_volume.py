@@ -1,10 +1,14 @@
 """``glmls analyze`` on a volume (a ``.npy``, NIfTI or TIFF-stack input) with 3D handles: the
 3D analysis of :func:`glmls.analysis.volume_report` on the GPU (:class:`glmls.MLS` of (N, 3)
-handles), written as ``report.json`` and PNGs."""
+handles), written as ``report.json`` and PNGs. The voxel spacing is ``glmls warp``'s
+(``--spacing``, else the file's): the handles are in its units, and the volume is warped,
+and f evaluated, where ``glmls warp`` puts its voxels."""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import math
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +22,7 @@ from ..mls import MLS
 from .inputs import reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
+from .warp3d import voxel_handles
 
 __all__ = ["is_volume_input", "read_points_3d", "run_volume"]
 
@@ -56,21 +61,34 @@ def read_points_3d(path: str | Path) -> np.ndarray:
     return points
 
 
-def _deformation(src: np.ndarray, dst: np.ndarray, config: MLSConfig, shape) -> MLS:
-    """glmls.MLS of the 3D handles (on the GPU); :class:`UsageError` if it cannot take them."""
+def _deformation(src: np.ndarray, dst: np.ndarray, config: MLSConfig, shape, spacing) -> MLS:
+    """glmls.MLS of the 3D handles (on the GPU), a radius weight's default radius the
+    volume's diagonal in the handles' units; :class:`UsageError` if it cannot take them."""
+    if config.uses_radius and config.radius is None:
+        steps = spacing or (1.0, 1.0, 1.0)
+        diagonal = math.sqrt(sum((n * d) ** 2 for n, d in zip(shape, steps, strict=True)))
+        config = dataclasses.replace(config, radius=diagonal)
     try:
         return MLS.from_config(src, dst, config, shape=shape)
     except (TypeError, ValueError) as error:
         raise UsageError(f"handles: {error}") from None
 
 
-def _warped(m: object, volume: np.ndarray, args: argparse.Namespace) -> np.ndarray | None:
+def _warped(m: object, volume: np.ndarray, args: argparse.Namespace, spacing) -> np.ndarray | None:
     warp = getattr(m, "warp", None)
     if not callable(warp):
         say(args, "analyze: no deformed volume: this deformation cannot warp volumes")
         return None
+    options = {
+        "method": args.method,
+        "interpolation": args.interpolation,
+        "border": args.border,
+        "grid": args.grid,
+    }
+    if spacing is not None:
+        options["spacing"] = spacing
     try:
-        return np.asarray(warp(volume))
+        return np.asarray(warp(volume, **options))
     except (TypeError, ValueError, NotImplementedError) as error:
         say(args, f"analyze: no deformed volume: {error}")
         return None
@@ -81,17 +99,19 @@ def run_volume(args: argparse.Namespace) -> int:
     if args.handles is None:
         raise UsageError("missing --handles (a file of 3D handles for a volume)")
     config = config_from_args(args)
-    volume = read_volume(args.input).data
-    src, dst = read_handles(args.handles, ndim=3)
+    source = read_volume(args.input)
+    volume = source.data
+    spacing = args.spacing or source.spacing
+    src, dst = voxel_handles(args, *read_handles(args.handles, dst=args.targets, ndim=3), spacing)
     reference = read_points_3d(args.reference) if args.reference else None
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")
     ticker = Ticker("analyze", quiet=args.quiet)
-    m = _deformation(src, dst, config, volume.shape[:3])
+    m = _deformation(src, dst, config, volume.shape[:3], spacing)
     with m, ticker as tick, reported_warnings("analyze"):
         try:
             tick.stage("warp")
-            deformed = _warped(m, volume, args)
+            deformed = _warped(m, volume, args, spacing)
             result = volume_report(
                 volume,
                 m,
@@ -101,6 +121,7 @@ def run_volume(args: argparse.Namespace) -> int:
                 cmap=args.cmap,
                 deformed=deformed,
                 warp=False,
+                spacing=spacing,
                 on_stage=tick.stage,
             )
         except ValueError as error:

@@ -185,6 +185,6 @@ def example_or_files(args: argparse.Namespace, *, need_reference: bool):
     if missing:
         raise UsageError(f"missing {', '.join(missing)} (or use --example)")
     image = read_image(Path(args.input), args.max_pixels)
-    handles = read_handle_set(args.handles)
+    handles = read_handle_set(args.handles, dst=getattr(args, "targets", None))
     reference = read_points(args.reference) if args.reference else None
     return image, handles, reference, str(args.input)

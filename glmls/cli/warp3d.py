@@ -4,23 +4,26 @@ format of its suffix.
 - A volume (NIfTI, a TIFF of more than one page, ``.npy``) is warped by
   :meth:`glmls.MLS.warp` with the voxel spacing of ``--spacing``, else of the file (a NIfTI's
   affine, an ImageJ stack's spacing); the output keeps the input's dtype (integers rounded
-  and clipped) and, written as NIfTI, the input's affine.
+  and clipped) and, written as NIfTI, the input's affine. A radius weight without ``--radius``
+  takes the volume's diagonal in the handles' units (those of the spacing); an elastix pair
+  of ``index`` files (voxel indices) is put there by the spacing.
 - A mesh (PLY, OBJ, STL) is deformed by :meth:`glmls.MLS.deform`; the output has the
   deformed vertices and the input's triangles, and stderr says how many vertices and faces
-  fold over.
+  fold over. A radius weight needs ``--radius`` there.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import os
 from pathlib import Path
 
 import numpy as np
 
 from ..core.config import MLSConfig
-from ..files.landmarks import handle_dimension, read_handles
+from ..files.landmarks import elastix_indices, handle_dimension, read_handles
 from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import (
     VOLUME_SUFFIXES,
@@ -35,7 +38,7 @@ from .inputs import reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
 
-__all__ = ["add_3d_options", "input_kind", "parse_spacing", "run_3d"]
+__all__ = ["add_3d_options", "input_kind", "parse_spacing", "run_3d", "voxel_handles"]
 
 #: The dtypes a volume is warped in as it is; others are warped as float32 and written back
 #: in their own dtype.
@@ -109,6 +112,26 @@ def _handles(args: argparse.Namespace, kind: str) -> tuple[np.ndarray, np.ndarra
     return read_handles(args.handles, dst=args.targets, ndim=3)
 
 
+def voxel_handles(args: argparse.Namespace, src, dst, spacing):
+    """(src, dst) in the handles' units: an elastix pair of ``index`` files (voxel indices)
+    times the spacing, (i dx, j dy, k dz); other handles as they are."""
+    if spacing is None or not elastix_indices(args.handles, dst=args.targets):
+        return src, dst
+    scale = np.array(spacing[::-1], dtype=np.float64)
+    return src * scale, dst * scale
+
+
+def _volume_config(config: MLSConfig, shape, spacing) -> MLSConfig:
+    """``config`` with the volume's diagonal, in the handles' units (the spacing's), as the
+    radius a radius weight needs where ``--radius`` is not given (the image diagonal's
+    counterpart)."""
+    if not config.uses_radius or config.radius is not None:
+        return config
+    steps = spacing or (1.0, 1.0, 1.0)
+    diagonal = math.sqrt(sum((n * d) ** 2 for n, d in zip(shape[:3], steps, strict=True)))
+    return dataclasses.replace(config, radius=diagonal)
+
+
 def _mls(src: np.ndarray, dst: np.ndarray, config: MLSConfig) -> MLS:
     settings = {f.name: getattr(config, f.name) for f in dataclasses.fields(MLSConfig)}
     try:
@@ -175,7 +198,8 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
     if dtype.name not in _WARPED_AS_IS:
         data = data.astype(np.float32)
     options = _volume_options(args, spacing)
-    with _mls(src, dst, config) as m:
+    src, dst = voxel_handles(args, src, dst, spacing)
+    with _mls(src, dst, _volume_config(config, data.shape, spacing)) as m:
         ticker = Ticker(f"warp {args.input}", quiet=args.quiet)
         with ticker, reported_warnings(f"glmls warp: {args.input}"):
             try:
@@ -191,9 +215,12 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
 
 
 def _in_dtype(result: np.ndarray, dtype: np.dtype) -> np.ndarray:
-    """The warped volume in the input's dtype: integers rounded and clipped to its range."""
+    """The warped volume in the input's dtype: integers rounded and clipped to its range, a
+    bool mask true where the warped value is at least 1/2."""
     if result.dtype == dtype:
         return result
+    if dtype == np.bool_:
+        return result >= 0.5
     if np.issubdtype(dtype, np.integer):
         info = np.iinfo(dtype)
         return np.clip(np.rint(result), info.min, info.max).astype(dtype)
@@ -209,7 +236,17 @@ def _count(folds: object) -> int:
 
 
 def _deform_mesh(args, config: MLSConfig, src, dst, target: Path) -> None:
+    if config.uses_radius and config.radius is None:
+        raise UsageError(
+            f"--weight {config.weight} needs --radius R for a mesh (in the units of its "
+            "coordinates): a mesh has no image or volume diagonal to default to"
+        )
     mesh = read_mesh(args.input)
+    if not len(mesh.faces) and volume_suffix(target) == ".stl":
+        raise UsageError(
+            f"{target}: {args.input} is a point cloud (no faces); STL holds triangles only: "
+            "write it as .ply or .obj"
+        )
     with _mls(src, dst, config) as m:
         with reported_warnings(f"glmls warp: {args.input}"):
             try:

@@ -50,7 +50,8 @@ coordinates: JSON ``{"src": [[x, y, z], ...], "dst": [[x, y, z], ...]}``, CSV wi
 header ``src_x,src_y,src_z,dst_x,dst_y,dst_z``, BigWarp's 3D landmarks, or a pair of
 **elastix point files** (``.pts``): ``index`` (voxel indices) or ``point`` (physical
 coordinates, taken as they are) on the first line, the number of points on the second, then
-one point a line, its 2 or 3 coordinates separated by blanks. One file holds one side:
+one point a line, its 2 or 3 coordinates separated by blanks; both files of a pair of one
+kind (:func:`elastix_indices` says whether they are indices). One file holds one side:
 :func:`read_handles` takes the sources' file (elastix's moving points) and ``dst=`` the
 targets' (the fixed points), the command line ``--handles`` and ``--targets``. Segments and
 polylines are 2D only.
@@ -90,6 +91,7 @@ from .point_formats import (
     axes,
     bigwarp_csv,
     bigwarp_json,
+    elastix_kind,
     elastix_pair,
     is_bigwarp_csv,
     is_bigwarp_json,
@@ -104,6 +106,7 @@ __all__ = [
     "HANDLE_HEADER_3D",
     "KIND_HEADER",
     "POINT_HEADER",
+    "elastix_indices",
     "handle_dimension",
     "read_handle_set",
     "read_handles",
@@ -184,6 +187,15 @@ def _expect(path: Path, found: int, ndim: int | None, advice: str = "") -> None:
             f"{found}D handles {axes(found)}, where {ndim}D handles {axes(ndim)} are "
             f"expected{advice}",
         )
+
+
+def elastix_indices(path: str | os.PathLike, *, dst: str | os.PathLike | None = None) -> bool:
+    """Whether ``path`` and ``dst`` are an elastix pair of ``index`` files: voxel indices,
+    which a volume's spacing (dz, dy, dx) puts at (i dx, j dy, k dz) in the handles' units;
+    ``InputFileError`` for a ``.pts`` file that is not an elastix point file."""
+    if Path(path).suffix.lower() != ".pts" or dst is None:
+        return False
+    return elastix_kind(Path(path)) == "index"
 
 
 def handle_dimension(path: str | os.PathLike, *, dst: str | os.PathLike | None = None) -> int:

@@ -4,10 +4,11 @@ A :class:`Mesh` is its vertices (V, 3) float64, (x, y, z) in the coordinates of 
 that deform it, and its triangles (F, 3) of vertex indices. Reading keeps the file's
 vertices in their order (none merged, none dropped), except STL's: an STL file stores each
 triangle's three corners, so the corners at the same place are merged into one vertex.
-Faces of more than three vertices are split into triangles.
+Faces of more than three vertices are split into triangles. A point cloud is a mesh of no
+faces: PLY and OBJ hold one (STL holds triangles only, and refuses it).
 
 Written, by the suffix: PLY (binary) and STL (binary) hold float32 coordinates, as those
-formats usually do; OBJ (text) holds them to 17 significant digits, exactly. Every fault of
+formats usually do; OBJ (text) holds them exactly (each float64's shortest repr). Every fault of
 a file is an :class:`~glmls.errors.InputFileError` naming it.
 """
 
@@ -106,7 +107,8 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
     Returns
     -------
     Mesh
-        The vertices in the file's order (STL's shared corners merged) and the triangles.
+        The vertices in the file's order (STL's shared corners merged) and the triangles
+        (none for a point cloud).
 
     Raises
     ------
@@ -140,15 +142,16 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
         raise InputFileError(f"{path}: cannot read: {error.strerror or error}") from None
     trimesh = _trimesh()
     try:
-        loaded = trimesh.load(
-            io.BytesIO(content),
-            file_type=suffix[1:],
-            force="mesh",
-            process=False,
-            maintain_order=True,
-        )
+        loaded = _load(trimesh, content, suffix, "mesh")
+        if isinstance(loaded, trimesh.Trimesh) and not len(loaded.faces) and suffix != ".stl":
+            loaded = _load(trimesh, content, suffix, None)  # a point cloud: its vertices
     except Exception as error:  # trimesh's parsers raise many kinds on a malformed file
         raise InputFileError(f"{path}: not a readable {suffix} mesh: {error}") from None
+    if isinstance(loaded, trimesh.PointCloud) and len(loaded.vertices):
+        try:
+            return Mesh(np.asarray(loaded.vertices), np.zeros((0, 3), np.int64))
+        except (TypeError, ValueError) as error:
+            raise InputFileError(f"{path}: {error}") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.vertices) == 0:
         raise InputFileError(f"{path}: no mesh vertices in it")
     if suffix == ".stl":
@@ -157,6 +160,20 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
         return Mesh(np.asarray(loaded.vertices), np.asarray(loaded.faces).reshape(-1, 3))
     except (TypeError, ValueError) as error:
         raise InputFileError(f"{path}: {error}") from None
+
+
+def _load(trimesh, content: bytes, suffix: str, force: str | None):
+    return trimesh.load(
+        io.BytesIO(content), file_type=suffix[1:], force=force, process=False, maintain_order=True
+    )
+
+
+def _obj_text(mesh: Mesh) -> str:
+    """The OBJ text of ``mesh``: each coordinate as Python's shortest repr that reads back to
+    the same float64 (any magnitude), faces 1-based."""
+    lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in mesh.vertices.tolist()]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in mesh.faces.tolist()]
+    return "\n".join(lines) + "\n"
 
 
 def write_mesh(path: str | os.PathLike, mesh: object, *, faces: object = None) -> None:
@@ -171,13 +188,14 @@ def write_mesh(path: str | os.PathLike, mesh: object, *, faces: object = None) -
         given), such as the deformed mesh of :meth:`glmls.MLS.deform`, or the vertices
         (V, 3) themselves.
     faces : array_like, optional
-        The triangles (F, 3); default ``mesh.faces``.
+        The triangles (F, 3); default ``mesh.faces``. None of them (F = 0): a point cloud,
+        which PLY and OBJ hold and STL does not.
 
     Raises
     ------
     ValueError
         Before writing anything, for an unknown suffix or a bad mesh (no faces where
-        neither ``mesh`` nor ``faces`` gives them).
+        neither ``mesh`` nor ``faces`` gives them), or a point cloud to STL.
     OSError
         Naming ``path``, for a file that cannot be written.
 
@@ -202,9 +220,19 @@ def write_mesh(path: str | os.PathLike, mesh: object, *, faces: object = None) -
             raise ValueError(f"{path}: no faces: give faces= (F, 3) with vertices")
     checked = Mesh(vertices, faces)
     trimesh = _trimesh()
-    shape = trimesh.Trimesh(checked.vertices, checked.faces, process=False)
-    options = {"digits": 17} if suffix == ".obj" else {}
-    content = shape.export(file_type=suffix[1:], **options)
-    data = content.encode("utf-8") if isinstance(content, str) else content
+    if not len(checked.faces):
+        if suffix == ".stl":
+            raise ValueError(
+                f"{path}: an STL file holds triangles only; write a point cloud (no faces) "
+                "as .ply or .obj"
+            )
+        shape = trimesh.PointCloud(checked.vertices)
+    else:
+        shape = trimesh.Trimesh(checked.vertices, checked.faces, process=False)
+    if suffix == ".obj":
+        data = _obj_text(checked).encode("utf-8")
+    else:
+        content = shape.export(file_type=suffix[1:])
+        data = content.encode("utf-8") if isinstance(content, str) else content
     with atomic_write(path) as tmp:
         tmp.write_bytes(data)

@@ -22,6 +22,7 @@ __all__ = [
     "axes",
     "bigwarp_csv",
     "bigwarp_json",
+    "elastix_kind",
     "elastix_pair",
     "is_bigwarp_csv",
     "is_bigwarp_json",
@@ -216,11 +217,33 @@ def _elastix_points(path: Path) -> tuple[np.ndarray, list[str]]:
     return np.array(points, dtype=np.float64), where
 
 
+def elastix_kind(path: Path) -> str:
+    """``"index"`` (voxel indices) or ``"point"`` (coordinates): the first word of an elastix
+    point file; ``InputFileError`` as its reader's where it is neither."""
+    expected = "expected 'index' or 'point' (an elastix point file)"
+    for line, text in enumerate(read_text(path).splitlines(), start=1):
+        words = text.split()
+        if words:
+            if len(words) == 1 and words[0].lower() in ("index", "point"):
+                return words[0].lower()
+            raise fail(path, f"line {line}", f"{expected}, got {brief(text.strip())}")
+    raise fail(path, "content", f"{expected}, got an empty file")
+
+
 def elastix_pair(path: Path, dst_path: Path) -> tuple[int, HandleRows]:
     """The handles of two elastix point files: the sources (``path``, elastix's moving
-    points) and the targets (``dst_path``, the fixed points), in the same order."""
+    points) and the targets (``dst_path``, the fixed points), in the same order, of the same
+    kind (``index`` or ``point``)."""
     src, src_where = _elastix_points(path)
     dst, dst_where = _elastix_points(dst_path)
+    kinds = elastix_kind(path), elastix_kind(dst_path)
+    if kinds[0] != kinds[1]:
+        raise fail(
+            dst_path,
+            "line 1",
+            f"{kinds[1]!r} coordinates, but the sources' {path} holds {kinds[0]!r} ones: "
+            "voxel indices and coordinates do not mix; give both files the same kind",
+        )
     if src.shape != dst.shape:
         raise fail(
             dst_path,

@@ -36,8 +36,11 @@ _STEMS = {1: "r", 2: "rg", 3: "rgba", 4: "rgba"}  # image load/store has no 3-ch
 
 def check_volume(volume: object, name: str = "volume") -> np.ndarray:
     """``volume`` as an array, D x H x W or D x H x W x C (C in 1..4), of a dtype of
-    :data:`VOLUME_DTYPES`, not empty; ``TypeError``/``ValueError`` naming it as ``name``."""
+    :data:`VOLUME_DTYPES` (in either byte order: a big-endian one becomes native), not
+    empty; ``TypeError``/``ValueError`` naming it as ``name``."""
     array = np.asarray(volume)
+    if not array.dtype.isnative and array.dtype.newbyteorder("=") in VOLUME_DTYPES:
+        array = array.astype(array.dtype.newbyteorder("="))  # big-endian: the native dtype
     if array.dtype not in VOLUME_DTYPES:
         names = ", ".join(np.dtype(d).name for d in VOLUME_DTYPES)
         raise TypeError(f"{name} dtype must be one of {names}; got {array.dtype}")

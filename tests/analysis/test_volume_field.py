@@ -135,3 +135,24 @@ def test_blocks_of_planes_give_the_same_field(monkeypatch):
 
     monkeypatch.setattr(volume_field, "CHUNK", 1)  # one plane of points per call of m
     assert_allclose(volume_error_field(m, (7, 9, 10), grid=2), whole, rtol=1e-12)
+
+
+def test_spacing_puts_the_voxels_at_physical_points():
+    """With ``spacing`` (dz, dy, dx) voxel (k, j, i) is the point (i dx, j dy, k dz), as
+    MLS.warp places it: the error field and J are those of f there."""
+    spacing, shape = (1.5, 1.0, 2.0), (3, 4, 5)
+    bend = lambda v: v + [[0.01, 0.0, 0.0]] * v[:, :1] ** 2  # noqa: E731  (x + x^2 / 100, y, z)
+    cells = glmls.analysis.cell_jacobians(bend, shape, spacing=spacing)
+    # cell i spans x = (i -+ 1/2) 2: dx'/dx = 1 + (x0 + x1) / 100 = 1 + 0.04 i
+    np.testing.assert_allclose(cells.det[1, 2], 1 + 0.04 * np.arange(5), atol=1e-12)
+    src = np.array([[2.0, 2, 2], [13, 2, 2], [2, 13, 2], [2, 2, 13], [13, 13, 13]])
+    dst = src.copy()
+    dst[4] = [10.0, 10, 10]
+    m = glmls.analysis.ReferenceDeformation(src, dst)
+    field = glmls.analysis.volume_error_field(m, shape, spacing=spacing)
+    z, y, x = np.mgrid[0:3, 0:4, 0:5]
+    points = np.stack([x.ravel() * 2.0, y.ravel() * 1.0, z.ravel() * 1.5], axis=1)
+    exact = glmls.reference.mls_error(src, dst, points).reshape(shape)
+    np.testing.assert_allclose(field, exact, rtol=1e-9)
+    with pytest.raises(ValueError, match="spacing"):
+        glmls.analysis.volume_error_field(m, shape, spacing=(1.0, 0.0, 1.0))

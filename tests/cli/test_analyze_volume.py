@@ -109,3 +109,74 @@ def test_3d_handles_on_an_image_exit_2_with_one_line(inputs):
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "3D handles (x, y, z), where 2D handles" in lines[0], result.stderr
+
+
+def test_the_spacing_of_the_file_or_the_option_is_glmls_warps(inputs):
+    glmls.imwrite(inputs / "a.png", np.zeros((20, 20), np.uint8))
+    """Handles in physical units on an anisotropic stack: analyze evaluates f where glmls warp
+    puts the voxels, (i dx, j dy, k dz), as --spacing or the file says, and takes elastix
+    pairs (--targets) as warp does."""
+    spacing = (2.0, 1.0, 0.5)
+    scale = np.array(spacing[::-1])
+    src, dst = np.array(SRC, float) * scale, np.array(DST, float) * scale
+    write_volume(inputs / "v.tif", np.load(inputs / "v.npy"), spacing=spacing)
+    for name, points in (("moving.pts", src), ("fixed.pts", dst)):
+        rows = "".join(" ".join(repr(float(v)) for v in p) + "\n" for p in points)
+        (inputs / name).write_text(f"point\n{len(points)}\n{rows}")
+    z, y, x = np.mgrid[0 : SHAPE[0], 0 : SHAPE[1], 0 : SHAPE[2]]
+    voxels = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1) * scale
+    expected = error_stats(glmls.reference.mls_error(src, dst, voxels, transform="affine"))
+    handles = ["--handles", "moving.pts", "--targets", "fixed.pts", "--transform", "affine"]
+    for given in (["v.tif"], ["v.npy", "--spacing", "2,1,0.5"]):
+        result = analyze(*given, *handles, "--out", "rep", cwd=inputs)
+        assert result.returncode == 0, result.stderr
+        summary = json.loads((inputs / "rep" / "report.json").read_text())
+        assert summary["analysis"]["spacing"] == list(spacing)
+        assert summary["configuration"]["src"] == src.tolist()
+        for key in ("mean", "median", "max"):
+            assert_allclose(summary["error_field"][key], expected[key], rtol=2e-3)
+    for name, points in (("moving.pts", SRC), ("fixed.pts", DST)):  # voxel indices
+        rows = "".join(" ".join(str(v) for v in p) + "\n" for p in points)
+        (inputs / name).write_text(f"index\n{len(points)}\n{rows}")
+    result = analyze("v.tif", *handles, "--out", "indices", cwd=inputs)
+    assert result.returncode == 0, result.stderr
+    summary = json.loads((inputs / "indices" / "report.json").read_text())
+    assert summary["configuration"]["src"] == src.tolist()
+    image = analyze("a.png", "--handles", "h2.json", "--spacing", "2", "--out", "x", cwd=inputs)
+    assert image.returncode == 2 and "--spacing: for volumes" in image.stderr
+
+
+def test_the_deformed_volume_is_built_with_the_construction_options(inputs, monkeypatch, capsys):
+    """--method, --interpolation, --border and --grid build the deformed volume that
+    deformed.png shows, as glmls warp builds it; an image-only method says why there is none."""
+    from glmls.cli.main import main
+    from glmls.mls3 import MLS3
+
+    calls = []
+    warp = MLS3.warp
+
+    def recording(self, volume, **options):
+        calls.append(options)
+        return warp(self, volume, **options)
+
+    monkeypatch.setattr(MLS3, "warp", recording)
+    monkeypatch.chdir(inputs)
+    argv = ["analyze", "v.npy", "--handles", "h3.json", "--analysis-grid", "3", "--out", "rep"]
+    options = ["--method", "backward", "--interpolation", "linear", "--border", "edge"]
+    assert main([*argv, *options, "--grid", "2"]) == 0
+    assert calls[-1] == {
+        "method": "backward", "interpolation": "linear", "border": "edge", "grid": 2
+    }  # fmt: skip
+    assert main([*argv, "--method", "splat"]) == 0
+    assert "no deformed volume: unknown method 'splat' for a volume" in capsys.readouterr().err
+
+
+def test_an_elastix_pair_of_2d_points_on_an_image(inputs):
+    glmls.imwrite(inputs / "a.png", np.full((24, 32), 90, np.uint8))
+    (inputs / "moving.pts").write_text("index\n4\n4 4\n27 4\n4 19\n27 19\n")
+    (inputs / "fixed.pts").write_text("index\n4\n5 4\n27 5\n4 19\n26 19\n")
+    argv = ["a.png", "--handles", "moving.pts", "--targets", "fixed.pts", "--out", "rep"]
+    result = analyze(*argv, cwd=inputs)
+    assert result.returncode == 0, result.stderr
+    summary = json.loads((inputs / "rep" / "report.json").read_text())
+    assert summary["triangles"]["triangles"] > 0

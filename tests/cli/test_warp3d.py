@@ -106,6 +106,46 @@ def test_spacing_option_wins_and_other_formats(files, stand_in, capsys):
     capsys.readouterr()
 
 
+def test_a_radius_weight_defaults_to_the_volume_diagonal_in_handle_units(files, stand_in, capsys):
+    """As for images (the image diagonal): ``--weight gaussian`` without ``--radius`` takes the
+    volume's diagonal, in the units of the handles (the spacing's): v.nii.gz is 8 x 9 x 10
+    voxels of (dz, dy, dx) = (3, 1, 2)."""
+    argv = ["warp", "v.nii.gz", "out.nii.gz", "--handles", "h3.json", "--weight", "gaussian"]
+    assert main(argv) == 0
+    assert _last(stand_in.calls, "MLS")[2]["radius"] == pytest.approx(np.sqrt(24**2 + 9**2 + 20**2))
+    assert main([*argv, "--radius", "7"]) == 0
+    assert _last(stand_in.calls, "MLS")[2]["radius"] == 7.0
+    assert main(["warp", "v.nii.gz", "o.nii", "--handles", "h3.json"]) == 0
+    assert _last(stand_in.calls, "MLS")[2]["radius"] is None  # idw needs none
+    capsys.readouterr()
+
+
+def test_a_radius_weight_on_a_mesh_asks_for_the_radius(files, capsys):
+    assert main(["warp", "sphere.ply", "o.ply", "--handles", "h3.json", "--weight", "linear"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--weight linear needs --radius" in err
+
+
+def test_a_mask_is_written_back_rounded_not_grown(files, monkeypatch, capsys):
+    """A bool volume (a mask) is warped as float32 and written back as bool: true where the
+    warped value is at least 1/2, as integers are rounded, not wherever it is above 0 (a
+    trilinear warp would grow the mask by a voxel all round)."""
+
+    class Halves(StandIn):
+        def warp(self, volume, **options):
+            return np.asarray(volume, dtype=np.float32) * np.float32(0.4) + np.float32(0.2)
+
+    monkeypatch.setattr(warp3d, "MLS", Halves)
+    mask = np.zeros((4, 5, 6), bool)
+    mask[1:3, 2:4, 2:5] = True
+    np.save(files / "mask.npy", mask)
+    assert main(["warp", "mask.npy", "out.npy", "--handles", "h3.json"]) == 0
+    written = np.load(files / "out.npy")
+    assert written.dtype == np.bool_
+    assert_array_equal(written, mask)  # 0.2 -> False, 0.6 -> True
+    capsys.readouterr()
+
+
 def test_mesh_is_written_with_its_faces_and_the_folds_said(files, stand_in, capsys):
     assert main(["warp", "sphere.ply", "out.obj", "--handles", "h3.json"]) == 0
     out, err = capsys.readouterr()
@@ -153,6 +193,17 @@ def test_mistakes_are_one_line_and_status_2(files, stand_in, capsys, argv, messa
     assert message in err
 
 
+def test_a_point_cloud_is_warped_to_ply_and_refused_as_stl(files, stand_in, capsys):
+    glmls.write_mesh(files / "cloud.ply", glmls.data.sphere().vertices, faces=[])
+    assert main(["warp", "cloud.ply", "out.ply", "--handles", "h3.json"]) == 0
+    assert glmls.read_mesh(files / "out.ply").vertices.shape == (162, 3)
+    capsys.readouterr()
+    assert main(["warp", "cloud.ply", "out.stl", "--handles", "h3.json"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "point cloud (no faces); STL holds triangles only" in err
+    assert not (files / "out.stl").exists()
+
+
 def test_elastix_pair_needs_its_targets(files, stand_in, capsys):
     src, dst = glmls.data.phantom_handles()
     for name, points in (("moving.pts", src), ("fixed.pts", dst)):
@@ -163,6 +214,31 @@ def test_elastix_pair_needs_its_targets(files, stand_in, capsys):
     argv = ["warp", "v.nii.gz", "o.nii", "--handles", "moving.pts", "--targets", "fixed.pts"]
     assert main(argv) == 0
     assert _last(stand_in.calls, "MLS")[1] == (10, 3)
+    capsys.readouterr()
+
+
+def test_elastix_index_points_are_put_at_the_voxels_physical_places(files, monkeypatch, capsys):
+    """An elastix pair of index files holds voxel indices: the volume's spacing (dz, dy, dx)
+    = (3, 1, 2) of v.nii.gz puts them at (i dx, j dy, k dz), the units of the warp; point
+    files are coordinates, taken as they are."""
+    made = []
+
+    class Recording(StandIn):
+        def __init__(self, src, dst, **settings):
+            made.append((np.asarray(src), np.asarray(dst)))
+            super().__init__(src, dst, **settings)
+
+    monkeypatch.setattr(warp3d, "MLS", Recording)
+    src, dst = glmls.data.phantom_handles()
+    for kind in ("index", "point"):
+        for name, points in (("moving.pts", src), ("fixed.pts", dst)):
+            rows = "".join(" ".join(f"{v:g}" for v in p) + "\n" for p in points)
+            (files / name).write_text(f"{kind}\n{len(points)}\n{rows}")
+        argv = ["warp", "v.nii.gz", "o.nii", "--handles", "moving.pts", "--targets", "fixed.pts"]
+        assert main(argv) == 0
+        scale = [2.0, 1.0, 3.0] if kind == "index" else [1.0, 1.0, 1.0]
+        assert_allclose(made[-1][0], src * scale)
+        assert_allclose(made[-1][1], dst * scale)
     capsys.readouterr()
 
 

@@ -111,6 +111,21 @@ def test_degenerate_sets(gl, transform, name):
 
 
 @pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+@pytest.mark.parametrize("axis", [[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0], [3.0, 4, 0], [1.0, 1, 1]])
+def test_two_handles_swapped_turn_as_the_reference(gl, transform, axis):
+    """Two handles that trade places: the rotation about their axis is free, and the least
+    rotation is a half turn about a perpendicular that the rule of glmls.reference picks (the
+    one choice that cannot be continuous in the handles). Along a coordinate axis or a
+    diagonal, where the rule's candidates tie, float32's rounding of the principal axis must
+    not pick another perpendicular than the reference: that turns points 2 |v - axis| away."""
+    rng = np.random.default_rng(3)
+    src = 128.0 + np.array([[0.0, 0, 0], axis]) * 40.0 / np.linalg.norm(axis)
+    points = rng.uniform(0, 256, (2000, 3))
+    f_err, _ = _compare(src, src[::-1].copy(), points, MLSConfig(transform=transform))
+    assert f_err < RIDGE_TOLERANCE
+
+
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
 def test_identity_is_exact(gl, handles, transform):
     src, _, points = handles
     with glmls.MLS(src, src, transform=transform) as m:

@@ -13,6 +13,7 @@ from numpy.testing import assert_allclose
 
 from glmls.errors import InputFileError
 from glmls.files import read_handle_set, read_handles, write_handles
+from glmls.files.landmarks import elastix_indices
 
 SRC = np.array([[1.0, 2.0, 3.0], [4.5, 5.0, 6.0], [7.0, 8.0, 9.25]])
 DST = np.array([[1.5, 2.0, 3.0], [4.0, 5.5, 6.0], [7.0, 8.0, 10.0]])
@@ -87,6 +88,17 @@ def test_elastix_pair(tmp_path, kind):
     src, dst = read_handles(moving, dst=fixed)
     assert_allclose(src, SRC)
     assert_allclose(dst, DST)
+
+
+def test_elastix_indices_and_coordinates_do_not_mix(tmp_path):
+    """An ``index`` file (voxel indices) with a ``point`` file (coordinates) is a mistake that
+    would go unseen (they agree only for a spacing of 1): refused, naming both."""
+    moving = write_text(tmp_path, "moving.pts", _pts("index", SRC.tolist()))
+    fixed = write_text(tmp_path, "fixed.pts", _pts("point", DST.tolist()))
+    with pytest.raises(InputFileError, match=r"fixed\.pts: line 1: 'point' coordinates, but"):
+        read_handles(moving, dst=fixed)
+    assert elastix_indices(moving, dst=moving)
+    assert not elastix_indices(fixed, dst=fixed) and not elastix_indices(moving)
 
 
 def test_elastix_needs_both_files(tmp_path):

@@ -92,3 +92,34 @@ def test_bad_files_are_named(tmp_path, name, content, message):
 def test_missing_file(tmp_path):
     with pytest.raises(InputFileError, match=r"nope\.ply: no such file"):
         read_mesh(tmp_path / "nope.ply")
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".obj"])
+def test_point_clouds_round_trip_through_ply_and_obj(tmp_path, suffix):
+    """A point cloud (a mesh of no faces, as MLS.deform returns for (K, 3) points) is written
+    and read back, its points in their order."""
+    points = np.random.default_rng(0).uniform(-50, 50, (40, 3))
+    write_mesh(tmp_path / f"c{suffix}", points, faces=np.zeros((0, 3), int))
+    write_mesh(tmp_path / f"d{suffix}", Mesh(points, np.zeros((0, 3), int)))
+    for name in ("c", "d"):
+        back = read_mesh(tmp_path / f"{name}{suffix}")
+        assert back.faces.shape == (0, 3)
+        assert_allclose(back.vertices, points, rtol=0, atol=0 if suffix == ".obj" else 1e-4)
+
+
+def test_stl_refuses_a_point_cloud_before_writing(tmp_path):
+    """STL holds triangles only: a point cloud would be written as an empty file."""
+    with pytest.raises(ValueError, match=r"\.ply or \.obj"):
+        write_mesh(tmp_path / "c.stl", np.ones((4, 3)), faces=np.zeros((0, 3), int))
+    assert not (tmp_path / "c.stl").exists()
+
+
+def test_obj_keeps_small_and_large_coordinates_exactly(tmp_path):
+    """OBJ is text: every float64 comes back as it was, metres (0.00525...) as well as
+    voxels."""
+    mesh = glmls.data.sphere()
+    for vertices in ((mesh.vertices - 32) / 2000 + 1e-6, mesh.vertices * 1e5 + 1 / 3):
+        write_mesh(tmp_path / "m.obj", vertices, faces=mesh.faces)
+        back = read_mesh(tmp_path / "m.obj")
+        assert_array_equal(back.vertices, vertices)
+        assert_array_equal(back.faces, mesh.faces)

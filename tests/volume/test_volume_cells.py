@@ -36,6 +36,19 @@ def test_identity_reproduces_the_volume(kernel3, rng, dtype, channels):
         np.testing.assert_array_equal(out, volume.astype(np.float32).astype(dtype))
 
 
+@pytest.mark.parametrize("dtype", [">u2", ">f4", ">f8"])
+def test_big_endian_volumes_are_their_dtypes(kernel3, rng, dtype):
+    """A big-endian array (a .npy or FITS file written so) is warped as the native dtype of
+    the same name, and returned in that native dtype."""
+    volume = (rng.random((6, 7, 9)) * 1000).astype(dtype)
+    src, _ = box_handles(volume.shape, rng)
+    m = kernel3(src, src, volume.shape)
+    out = warp_volume(m, volume)
+    native = volume.dtype.newbyteorder("=")
+    assert out.dtype == native
+    np.testing.assert_array_equal(out, volume.astype(np.float32).astype(native))
+
+
 @pytest.mark.parametrize("method", ["quads", "backward"])
 @pytest.mark.parametrize("interpolation", ["nearest", "linear"])
 def test_integer_translation_shifts_exactly(kernel3, rng, volume, method, interpolation):

@@ -178,7 +178,7 @@ mat3 mls3_least_rotation(vec3 a, vec3 b) {
     // Rodrigues for column vectors, Rc = I + K + K^2 / (1 + c); row vectors take Rc^T
     // = I - K + K^2 / (1 + c) (K antisymmetric)
     mat3 r = mat3(1.0) - K + (K * K) * (1.0 / max(1.0 + c, 1e-30));
-    vec3 m = abs(a);
+    vec3 m = abs(a) + vec3(0.0, 1e-3, 2e-3);   // ties (a on an axis, a diagonal): the first
     vec3 helper = m.x <= m.y && m.x <= m.z ? vec3(1.0, 0.0, 0.0)
                 : (m.y <= m.z ? vec3(0.0, 1.0, 0.0) : vec3(0.0, 0.0, 1.0));
     vec3 perp = normalize(cross(a, helper));

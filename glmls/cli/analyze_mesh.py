@@ -1,0 +1,156 @@
+"""``glmls analyze`` on a mesh or point cloud (a PLY, OBJ or STL input) with 3D handles: the
+3D analysis at the mesh's vertices, on the GPU (:class:`glmls.MLS` of (N, 3) handles),
+written as ``report.json`` and the deformed mesh ``deformed.ply``.
+
+- ``error_field``: the MLS error E_MLS (eq. 7) at every vertex, sum_i |p_i M_v + T_v - q_i|^2,
+  and its statistics (eqs. 8, 9, the median and the trimmed mean);
+- ``tetrahedra``: the reference tetrahedra's distance and angular errors
+  (:func:`glmls.analysis.tetrahedron_errors`; the reference points of ``--reference``, else
+  the distinct source handles);
+- ``jacobians``: det J and the ratio of J's largest to smallest singular value at every
+  vertex, and the vertices and faces that fold (:meth:`glmls.MLS.deform`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..analysis.stats import error_stats
+from ..analysis.tetrahedra import tetrahedron_errors
+from ..analysis.volume_field import fit_residuals
+from ..core.config import MLSConfig
+from ..files.atomic import atomic_write
+from ..files.landmarks import read_handles
+from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
+from ..files.volumes import volume_suffix
+from ..mls import MLS
+from .analyze_volume import read_points_3d
+from .inputs import reported_warnings, say
+from .options import UsageError, config_from_args
+from .progress import Ticker
+
+__all__ = ["is_mesh_input", "run_mesh"]
+
+
+def is_mesh_input(args: argparse.Namespace) -> bool:
+    """Whether ``analyze``'s input is a mesh (by its suffix: PLY, OBJ, STL)."""
+    return (
+        not args.example and args.input is not None and volume_suffix(args.input) in MESH_SUFFIXES
+    )
+
+
+def _check_radius(config: MLSConfig) -> MLSConfig:
+    if config.uses_radius and config.radius is None:
+        raise UsageError(
+            f"--weight {config.weight} needs --radius R for a mesh (in the units of its "
+            "coordinates): a mesh has no image or volume diagonal to default to"
+        )
+    return config
+
+
+def _deformation(src: np.ndarray, dst: np.ndarray, config: MLSConfig) -> MLS:
+    try:
+        return MLS.from_config(src, dst, config)
+    except (TypeError, ValueError) as error:
+        raise UsageError(f"handles: {error}") from None
+
+
+def _distinct(points: np.ndarray) -> np.ndarray:
+    _, first = np.unique(points, axis=0, return_index=True)
+    return points[np.sort(first)]
+
+
+def _ratios(jacobian: np.ndarray) -> np.ndarray:
+    """The largest over the smallest singular value of each J (K, 3, 3); NaN where J is
+    singular."""
+    singular = np.linalg.svd(jacobian, compute_uv=False)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(singular[:, 2] > 0, singular[:, 0] / singular[:, 2], np.nan)
+
+
+def run_mesh(args: argparse.Namespace) -> int:
+    """``glmls analyze MESH --handles H3 --out DIR``."""
+    if args.handles is None:
+        raise UsageError("missing --handles (a file of 3D handles for a mesh)")
+    if args.spacing is not None:
+        raise UsageError(f"--spacing: for volumes, not for a mesh ({args.input})")
+    config = _check_radius(config_from_args(args))
+    mesh = read_mesh(args.input)
+    src, dst = read_handles(args.handles, dst=args.targets, ndim=3)
+    reference = read_points_3d(args.reference) if args.reference else None
+    if reference is None:
+        say(args, "analyze: no --reference given: the source handles are the reference points")
+    ticker = Ticker("analyze", quiet=args.quiet)
+    with _deformation(src, dst, config) as m, ticker as tick, reported_warnings("analyze"):
+        tick.stage("deform")
+        deformed = m.deform(mesh)
+        tick.stage("error field")
+        matrix, translation = m.matrices(mesh.vertices)
+        field = fit_residuals(src, dst, matrix, translation)
+        tick.stage("tetrahedra")
+        try:
+            found = tetrahedron_errors(
+                m, _distinct(src) if reference is None else reference, angle=args.angle
+            ).stats()
+        except ValueError as error:
+            if reference is not None:
+                raise UsageError(f"{args.reference}: {error}") from None
+            found = {"skipped": f"the source handles as reference points: {error}"}
+    vertex_folds, face_folds = int(deformed.vertex_folds.sum()), int(deformed.face_folds.sum())
+    summary = {
+        "mesh": {"vertices": len(mesh.vertices), "faces": len(mesh.faces)},
+        "configuration": dataclasses.asdict(config)
+        | {"handles": len(src), "src": src.tolist(), "dst": dst.tolist()},
+        "analysis": {
+            "angle": args.angle,
+            "reference_points": "handles" if reference is None else "given",
+        },
+        "error_field": error_stats(field),
+        "tetrahedra": found,
+        "jacobians": {
+            "vertices": len(mesh.vertices),
+            "det": error_stats(deformed.det_j),
+            "ratio": error_stats(_ratios(deformed.jacobian)),
+            "vertex_folds": vertex_folds,
+            "face_folds": face_folds,
+        },
+        "input": str(args.input),
+    }
+    out = Path(args.out)
+    paths = [out / "report.json", out / "deformed.ply"]
+    with atomic_write(paths[0]) as tmp:
+        tmp.write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    write_mesh(paths[1], deformed.vertices, faces=mesh.faces)
+    for path in paths:
+        print(path)
+    field_stats, det = summary["error_field"], summary["jacobians"]["det"]
+    say(
+        args,
+        f"analyze: E_MLS at {len(mesh.vertices)} vertices median "
+        f"{_number(field_stats['median'])}, trimmed mean {_number(field_stats['trimmed_mean'])}, "
+        f"mean {_number(field_stats['mean'])} (std {_number(field_stats['std'])})",
+    )
+    if "angle" in found:
+        say(
+            args,
+            f"analyze: {found['tetrahedra']} tetrahedra ({found['slivers']} slivers left out), "
+            f"angular error ({args.angle}) median {_number(found['angle']['median'])}, "
+            f"mean {_number(found['angle']['mean'])}; {found['inverted']} inverted",
+        )
+    else:
+        say(args, f"analyze: no tetrahedra: {found['skipped']}")
+    say(
+        args,
+        f"analyze: det J median {_number(det['median'])}, min {_number(det['min'])}; folded: "
+        f"{vertex_folds} vertices, {face_folds} faces",
+    )
+    return 0
+
+
+def _number(value: float | None) -> str:
+    return "n/a" if value is None else f"{value:.4g}"

@@ -1,0 +1,86 @@
+"""``glmls analyze`` on a mesh or a point cloud with 3D handles: the report at the vertices
+against the float64 reference, the deformed mesh, and the mistakes (one line, status 2)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+import glmls
+from glmls.analysis import ReferenceDeformation, error_stats, tetrahedron_errors
+from glmls.analysis.volume_field import fit_residuals
+from glmls.cli.main import main
+
+SRC = [[12, 32, 32], [52, 32, 32], [32, 12, 32], [32, 52, 32], [32, 32, 12], [32, 32, 52]]
+DST = [[10, 32, 32], [58, 32, 32], [32, 12, 32], [32, 52, 32], [32, 32, 12], [32, 33, 55]]
+REFERENCE = [[20, 32, 32], [44, 32, 32], [32, 20, 32], [32, 44, 32], [32, 32, 20], [32, 32, 44]]
+
+
+@pytest.fixture
+def inputs(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    glmls.write_mesh(tmp_path / "sphere.obj", glmls.data.sphere())
+    glmls.write_mesh(tmp_path / "cloud.ply", glmls.data.sphere().vertices, faces=[])
+    (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": DST}))
+    (tmp_path / "h2.json").write_text(json.dumps({"src": [[1, 2]], "dst": [[2, 3]]}))
+    (tmp_path / "r3.json").write_text(json.dumps({"points": REFERENCE}))
+    return tmp_path
+
+
+def test_analyze_a_mesh_reports_at_its_vertices(inputs, capsys):
+    argv = ["analyze", "sphere.obj", "--handles", "h3.json", "--reference", "r3.json"]
+    assert main([*argv, "--transform", "similarity", "--out", "rep"]) == 0
+    out, err = capsys.readouterr()
+    assert out.split() == ["rep/report.json", "rep/deformed.ply"]
+    assert "E_MLS at 162 vertices median" in err and "folded: 0 vertices, 0 faces" in err
+    summary = json.loads((inputs / "rep" / "report.json").read_text())
+    assert summary["mesh"] == {"vertices": 162, "faces": 320}
+    assert summary["analysis"]["reference_points"] == "given"
+    sphere = glmls.data.sphere()
+    m = ReferenceDeformation(SRC, DST, transform="similarity")
+    matrix, translation = m.matrices(sphere.vertices)
+    field = error_stats(fit_residuals(m.src, m.dst, matrix, translation))
+    for key in ("mean", "median", "trimmed_mean", "max"):
+        assert_allclose(summary["error_field"][key], field[key], rtol=1e-3)
+    tetrahedra = tetrahedron_errors(m, REFERENCE).stats()
+    assert summary["tetrahedra"]["tetrahedra"] == tetrahedra["tetrahedra"]
+    assert_allclose(summary["tetrahedra"]["angle"]["mean"], tetrahedra["angle"]["mean"], atol=1e-3)
+    jacobians = summary["jacobians"]
+    assert jacobians["vertex_folds"] == jacobians["face_folds"] == 0
+    assert jacobians["det"]["min"] > 0 and jacobians["ratio"]["min"] >= 1.0
+    deformed = glmls.read_mesh(inputs / "rep" / "deformed.ply")
+    assert_array_equal(deformed.faces, sphere.faces)
+    assert_allclose(deformed.vertices, m(sphere.vertices), atol=1e-3)
+
+
+def test_analyze_a_point_cloud_and_a_folding_map(inputs, capsys):
+    mirror = np.array(SRC, float) * [-1, 1, 1] + [64, 0, 0]  # a mirror: every J folds
+    (inputs / "m3.json").write_text(json.dumps({"src": SRC, "dst": mirror.tolist()}))
+    argv = ["analyze", "sphere.obj", "--handles", "m3.json", "--transform", "affine"]
+    assert main([*argv, "--out", "fold"]) == 0
+    jacobians = json.loads((inputs / "fold" / "report.json").read_text())["jacobians"]
+    assert jacobians["vertex_folds"] == 162 and jacobians["face_folds"] == 320
+    assert main(["analyze", "cloud.ply", "--handles", "h3.json", "--out", "cloud"]) == 0
+    summary = json.loads((inputs / "cloud" / "report.json").read_text())
+    assert summary["mesh"] == {"vertices": 162, "faces": 0}
+    assert summary["analysis"]["reference_points"] == "handles"
+    capsys.readouterr()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["sphere.obj", "--handles", "h2.json"], "2D handles (x, y), where 3D handles"),
+        (["sphere.obj"], "missing --handles"),
+        (["sphere.obj", "--handles", "h3.json", "--weight", "gaussian"], "needs --radius"),
+        (["missing.ply", "--handles", "h3.json"], "missing.ply: no such file"),
+    ],
+)
+def test_bad_mesh_inputs_exit_2_with_one_line(inputs, capsys, args, message):
+    assert main(["analyze", *args, "--out", "rep"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err, err
+    assert not (inputs / "rep" / "report.json").exists()
