@@ -71,13 +71,15 @@ def _points(array: np.ndarray, name: str, *, empty: bool) -> np.ndarray:
         np.issubdtype(array.dtype, np.number) and not np.issubdtype(array.dtype, np.complexfloating)
     ):
         raise TypeError(f"{name} has dtype {array.dtype}; expected real numbers")
+    if empty and array.size == 0 and array.ndim <= 2:  # [] or np.zeros((0, 2)): no points
+        array = array.reshape(0, 2)
     if array.ndim != 2 or array.shape[1] != 2 or (not empty and len(array) == 0):
         expected = "(P, 2)" if empty else "(K, 2) with K >= 1"
         raise ValueError(f"{name} has shape {array.shape}; expected {expected}")
     points = np.asarray(array, dtype=np.float64)
     if not np.isfinite(points).all():
         raise ValueError(f"{name} holds values that are not finite (NaN or inf)")
-    if not empty and np.abs(points).max() > COORDINATE_LIMIT:
+    if len(points) and np.abs(points).max() > COORDINATE_LIMIT:
         # as for one warp: float32 on the GPU keeps ~1e-7 of the coordinates' extent
         raise ValueError(
             f"{name} must lie within ±{COORDINATE_LIMIT:g} px of the origin in x and y; "
@@ -111,7 +113,7 @@ def _point_items(value: object, name: str, *, empty: bool) -> tuple[list[np.ndar
     _points(value[0], f"{name}[0]", empty=empty)  # dtype and shape, alike for every item
     points = np.asarray(value, dtype=np.float64)
     finite = np.isfinite(points).all(axis=(1, 2))
-    limit = not empty and points.size and np.abs(points).max() > COORDINATE_LIMIT
+    limit = points.size and np.abs(points).max() > COORDINATE_LIMIT
     if not finite.all() or limit:
         for i, item in enumerate(points):  # the first bad item names itself
             _points(item, f"{name}[{i}]", empty=empty)

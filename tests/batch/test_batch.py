@@ -268,6 +268,17 @@ def test_keypoints_outside_and_ragged(gl, rng):
     assert result.masks is None and result.maps is None and result.params is None
 
 
+def test_keypoint_sets_given_as_empty_lists(gl, rng):
+    """A sample without keypoints may be an empty list, as a list of point lists has it."""
+    batch = images(rng)
+    src, dst = handles(rng)
+    result = glmls.warp_batch(batch, src, dst, keypoints=[[[5.0, 5.0]], [], [[3.0, 9.0]]])
+    assert [len(k) for k in result.keypoints] == [1, 0, 1]
+    assert [np.shape(k) for k in result.keypoints_valid] == [(1,), (0,), (1,)]
+    none = glmls.warp_batch(batch, src, dst, keypoints=[[], [], []])
+    assert none.keypoints.shape == (N, 0, 2) and none.keypoints_valid.shape == (N, 0)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "error", "message"),
     [
@@ -296,6 +307,16 @@ def test_keypoints_outside_and_ragged(gl, rng):
         ({"images": np.zeros((3, 4, 4, 5), np.uint8)}, ValueError, r"images\[0\] has shape"),
         ({"keypoints": np.zeros((3, 2, 3))}, ValueError, r"keypoints\[0\] has shape \(2, 3\)"),
         ({"keypoints": [np.zeros((1, 2))] * 2}, ValueError, "keypoints holds 2 point sets"),
+        (
+            {"keypoints": [[[1.0, 2.0]], [[1e30, 2.0]], [[1.0, 2.0]]]},
+            ValueError,
+            r"keypoints\[1\] must lie within ±1e\+06 px",
+        ),
+        (
+            {"keypoints": np.array([[[1.0, 2.0]], [[1.0, 2.0]], [[2.0, -3e6]]])},
+            ValueError,
+            r"keypoints\[2\] must lie within ±1e\+06 px",
+        ),
         ({"masks": np.zeros((3, 4, 5), np.uint8)}, ValueError, r"masks\[0\] has shape \(4, 5\)"),
         ({"masks": np.zeros((3, 4, 4), np.float32)}, TypeError, r"masks\[0\] has dtype float32"),
         ({"methd": "quads"}, TypeError, "unknown keyword methd"),
