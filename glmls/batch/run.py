@@ -87,7 +87,8 @@ def warp_batch(
     ------
     ValueError, TypeError
         For an item of a bad shape, dtype or count, or not finite, naming it (``src[3] has
-        shape (5, 3); expected (K, 2) with K >= 1``), and as :func:`glmls.warp`.
+        shape (5, 3); expected (K, 2) with K >= 1``), for a ``return_maps`` that is not a
+        bool or a ``max_batch_bytes`` below 1, and as :func:`glmls.warp`.
 
     Examples
     --------
@@ -104,6 +105,7 @@ def warp_batch(
     ...
     ValueError: dst[1] has shape (1, 3); expected (K, 2) with K >= 1
     """
+    _check_flags(return_maps, max_batch_bytes)
     if options.get("ctx") is None and forked_from_gl():  # GL would hang here: a clean helper
         keywords = {"keypoints": keypoints, "masks": masks, "return_maps": return_maps}
         keywords["max_batch_bytes"] = max_batch_bytes
@@ -133,6 +135,21 @@ def warp_batch(
         for i, image in enumerate(batch.images)
     ]
     return _assemble(batch, results, chosen, images, return_maps, (keypoints, masks), whole)
+
+
+def _check_flags(return_maps: object, max_batch_bytes: object) -> None:
+    if not isinstance(return_maps, (bool, np.bool_)):
+        raise TypeError(f"return_maps must be True or False, got {return_maps!r}")
+    if max_batch_bytes is None:
+        return
+    if isinstance(max_batch_bytes, (bool, np.bool_)) or not isinstance(
+        max_batch_bytes, (int, np.integer)
+    ):
+        raise TypeError(f"max_batch_bytes must be an integer >= 1 or None, got {max_batch_bytes!r}")
+    if max_batch_bytes < 1:
+        raise ValueError(
+            f"max_batch_bytes must be an integer >= 1 or None, got {max_batch_bytes!r}"
+        )
 
 
 def _split_options(options: dict) -> tuple[WarpOptions, dict, dict]:

@@ -320,6 +320,10 @@ def test_keypoint_sets_given_as_empty_lists(gl, rng):
         ({"masks": np.zeros((3, 4, 5), np.uint8)}, ValueError, r"masks\[0\] has shape \(4, 5\)"),
         ({"masks": np.zeros((3, 4, 4), np.float32)}, TypeError, r"masks\[0\] has dtype float32"),
         ({"methd": "quads"}, TypeError, "unknown keyword methd"),
+        ({"max_batch_bytes": 0}, ValueError, "max_batch_bytes must be an integer >= 1 or None"),
+        ({"max_batch_bytes": -5}, ValueError, "max_batch_bytes must be .* got -5"),
+        ({"max_batch_bytes": "1M"}, TypeError, "max_batch_bytes must be .* got '1M'"),
+        ({"return_maps": "yes"}, TypeError, "return_maps must be True or False, got 'yes'"),
         ({"method": "swirl"}, ValueError, "unknown method 'swirl'"),
     ],
 )
