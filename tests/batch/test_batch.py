@@ -217,6 +217,27 @@ def test_keypoints_land_on_their_pixels(gl, rng, method, grid, fold):
     assert max(errors) <= 0.5 * np.sqrt(2) + 0.15, np.sort(errors)[-5:]
 
 
+def test_backward_swap_keypoints_land_on_their_pixels(gl, rng):
+    """``backward-swap`` shows at output pixel u the source point s(u), s the MLS map with p
+    and q swapped: a keypoint moves by s's inverse, which differs from f by pixels where the
+    handles move far, not by f."""
+    shape = (20, 26)
+    count = 30
+    hot, batch, _, _ = hot_pixels(rng, shape, count, 3, np.uint8, False)
+    src, dst = handles(rng, count, 6, shape, spread=2.5)
+    points = hot[:, None, :].astype(float)
+    result = glmls.warp_batch(batch, src, dst, keypoints=points, method="backward-swap")
+    errors = []
+    for i in range(count):
+        rows, cols = np.nonzero(result.images[i] == 255)
+        if result.keypoints_valid[i, 0] and len(rows):
+            errors.append(np.abs(result.keypoints[i, 0] - np.c_[cols, rows]).max(axis=1).min())
+    assert len(errors) >= count * 3 // 4
+    # as for the other methods; the greatest error where s folds a pixel's square away
+    assert np.percentile(errors, 90) <= 0.5 + 1e-6, np.sort(errors)[-5:]
+    assert max(errors) <= 1.5, np.sort(errors)[-5:]
+
+
 @pytest.mark.parametrize("method", ["quads", "backward"])
 @pytest.mark.parametrize("grid", [1, 4])
 @pytest.mark.parametrize("fold", [False, True])
