@@ -193,11 +193,16 @@ def read_labels(path: str, files: list[Path]) -> dict[str, dict]:
             if key not in entry:
                 continue
             try:
-                array = np.asarray(entry[key], dtype=np.float64).reshape(-1, columns)
+                array = np.asarray(entry[key], dtype=np.float64)
             except (TypeError, ValueError):
+                array = None
+            if array is not None and array.size == 0:
+                array = array.reshape(0, columns)
+            if array is None or array.ndim != 2 or array.shape[1] != columns:
                 raise UsageError(
-                    f"{path}: {name!r} {key} must be a list of [{columns} numbers]"
-                ) from None
+                    f"{path}: {name!r} {key} must be a list of [{columns} numbers], got "
+                    f"{json.dumps(entry[key])[:60]}"
+                )
             if not np.isfinite(array).all():
                 raise UsageError(f"{path}: {name!r} {key} holds values that are not finite")
             entry[key] = array.tolist()

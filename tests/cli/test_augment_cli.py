@@ -88,6 +88,8 @@ def test_augment_with_jobs_gives_the_same(inputs):
         (["--labels", "bad.json"], "bad.json: not a JSON labels file"),
         (["--labels", "other.json"], "'c.png' names no input image"),
         (["--labels", "nan.json"], "keypoints holds values that are not finite"),
+        (["--labels", "wide.json"], "'a.png' keypoints must be a list of [2 numbers], got [[1"),
+        (["--labels", "flat.json"], "'a.png' boxes must be a list of [4 numbers], got [1"),
         (["--preset", "landmarks"], "landmarks preset needs each image's landmarks"),
     ],
 )
@@ -95,6 +97,9 @@ def test_bad_input_is_one_line_and_status_2_and_leaves_nothing(inputs, args, mes
     (inputs / "bad.json").write_text("{not json")
     (inputs / "other.json").write_text(json.dumps({"c.png": {"keypoints": [[1, 1]]}}))
     (inputs / "nan.json").write_text('{"a.png": {"keypoints": [[1, NaN]]}}')
+    # four numbers are not two keypoints, nor eight two boxes
+    (inputs / "wide.json").write_text('{"a.png": {"keypoints": [[1, 2, 3, 4]]}}')
+    (inputs / "flat.json").write_text('{"a.png": {"boxes": [1, 2, 3, 4, 5, 6, 7, 8]}}')
     result = glmls_cli("augment", "in", "out", "--n", "2", *args, cwd=inputs)
     assert result.returncode == 2, result.stderr
     assert message in result.stderr and "Traceback" not in result.stderr
