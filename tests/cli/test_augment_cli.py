@@ -109,6 +109,20 @@ def test_bad_input_is_one_line_and_status_2_and_leaves_nothing(inputs, args, mes
     assert not out.exists() or not any(out.iterdir()), sorted(out.iterdir())
 
 
+@pytest.mark.parametrize("command", ["augment", "warp"])
+def test_a_malformed_scheduler_address_is_a_usage_error(inputs, command):
+    pytest.importorskip("distributed")
+    (inputs / "h.json").write_text(json.dumps({"src": [[1, 1]], "dst": [[2, 2]]}))
+    handles = ["--handles", "h.json"] if command == "warp" else []
+    result = glmls_cli(
+        command, "in", "out", *handles, "--jobs", "2", "--scheduler", "bogus", cwd=inputs
+    )
+    assert result.returncode == 2, result.stderr
+    assert "argument --scheduler: expected 'local' or a Dask scheduler's address" in result.stderr
+    assert "Traceback" not in result.stderr
+    assert not (inputs / "out").exists()
+
+
 def test_a_failure_midway_leaves_no_half_written_output(inputs):
     (inputs / "in" / "c.png").write_bytes(b"not a png")  # read after a.png and b.png
     result = glmls_cli("augment", "in", "out", "--n", "2", cwd=inputs)
