@@ -223,7 +223,9 @@ def test_bad_input_names_the_item(gl, images):
         aug(images[:2], indices=[0])
     with pytest.raises(ValueError, match=r"params\[0\] was drawn for shape \(8, 8\)"):
         aug.replay(images[:1], aug.draw([(8, 8)]))
-    with pytest.raises(ValueError, match=r"polygons\[0\]\[0\] has shape"):
+    with pytest.raises(
+        ValueError, match=r"polygons\[0\]\[0\] has shape \(3, 3\); expected \(V, 2\)"
+    ):
         aug(images[:1], polygons=[[np.ones((3, 3))]])
 
 
