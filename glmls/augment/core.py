@@ -535,7 +535,13 @@ def replay_labels(augment: Augment, params: Sequence[Mapping], **labels) -> Augm
 
 
 def replay_masks(augment: Augment, params: Sequence[Mapping], masks: np.ndarray) -> np.ndarray:
-    """(N, H, W) masks deformed, one per draw, with nearest sampling; of their dtype (bool
-    masks too)."""
+    """(N, H, W) masks deformed, one per draw, with nearest sampling, 0 where nothing is
+    shown; of their dtype (bool masks too; floating-point masks, as albumentations allows,
+    through float32, warped as images with the mask's sampling)."""
+    if masks.dtype.kind == "f":
+        nearest = {"interpolation": "nearest", "background": 0.0}
+        draws = [{**p, "options": {**p["options"], **nearest}} for p in params]
+        values = masks if masks.dtype in (np.float32, np.float64) else masks.astype(np.float32)
+        return np.asarray(augment.replay(values, draws).images).astype(masks.dtype)
     labels = masks.astype(np.uint8) if masks.dtype == bool else masks
     return np.asarray(replay_labels(augment, params, masks=labels).masks).astype(masks.dtype)

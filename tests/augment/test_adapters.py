@@ -74,6 +74,24 @@ def test_albumentations_compose_moves_every_target_through_one_map(gl, sample):
     assert not np.array_equal(other(image=image)["image"], out["image"])
 
 
+@pytest.mark.parametrize("dtype", [np.float32, np.float64, np.float16, bool, np.int32])
+def test_albumentations_masks_of_any_dtype_albumentations_takes(gl, sample, dtype):
+    """albumentations passes float masks (soft labels, a normalised pipeline) as readily as
+    integer ones: each is warped with nearest sampling, its values kept, of its dtype."""
+    image, mask = sample
+    scale = 0.75 if np.dtype(dtype).kind == "f" else 7  # 5 -> 0.75 or 35
+    values = (mask > 0) if dtype is bool else (mask / 5 * scale).astype(dtype)
+    transform = MLSDeform("grid", preset_options={"displacement": 0.05})
+    out = A.Compose([transform], seed=3)(image=image, mask=values, masks=[values, values])
+    expected = transform.augment.replay([image], [transform.get_applied_params()["mls"]],
+                                        masks=[mask])  # fmt: skip
+    assert out["mask"].dtype == values.dtype and out["mask"].shape == mask.shape
+    np.testing.assert_array_equal(out["mask"] != 0, expected.masks[0] != 0)
+    assert set(np.unique(out["mask"]).tolist()) <= set(np.unique(values).tolist())
+    for one in out["masks"]:
+        np.testing.assert_array_equal(one, out["mask"])
+
+
 def test_albumentations_landmarks_and_text_presets(gl, sample):
     image, _ = sample
     compose = A.Compose(
