@@ -136,6 +136,25 @@ def test_torchvision_batch_draws_per_sample(gl, rng):
     np.testing.assert_array_equal(transform(inputs[0]).numpy(), out_images.numpy())
 
 
+def test_torchvision_batch_labels_must_have_the_batch_first(gl, rng):
+    """One Mask or KeyPoints for a batch of N has N first; another first dimension is an
+    error, not the samples' labels split or merged."""
+    images = tv_tensors.Image(torch.zeros(4, 3, 24, 32, dtype=torch.uint8))
+    transform = MLSTransform("grid")
+    wrong = [
+        tv_tensors.KeyPoints(torch.rand(8, 2) * 20, canvas_size=(24, 32)),  # not 4 x (2, 2)
+        tv_tensors.Mask(torch.zeros(8, 24, 32, dtype=torch.uint8)),  # not 4 x 2 layers
+        tv_tensors.Mask(torch.zeros(24, 32, dtype=torch.uint8)),
+    ]
+    for label in wrong:
+        shape = tuple(label.shape)
+        with pytest.raises(ValueError, match=rf"of shape \({shape[0]}, .* for a batch of 4"):
+            transform(images, label)
+    one = tv_tensors.Image(torch.zeros(1, 3, 24, 32, dtype=torch.uint8))
+    points = tv_tensors.KeyPoints(torch.full((2, 2), 9.0), canvas_size=(24, 32))
+    assert tuple(transform(one, points)[1].shape) == (2, 2)  # a batch of one may leave it out
+
+
 def test_torchvision_boxes_per_sample_in_any_format(gl, rng):
     image = tv_tensors.Image(torch.from_numpy(rng.random((3, 32, 32), dtype=np.float32)))
     boxes = tv_tensors.BoundingBoxes(
