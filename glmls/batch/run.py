@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.handleset import HandleSet
 from ..gl import helper
 from ..gl.context import forked_from_gl
 from ..imaging.options import FIELDS, WarpOptions
@@ -113,7 +114,7 @@ def warp_batch(
         return helper.call(__name__, "warp_batch", (images, src, dst), keywords | options)
     chosen, mls_options, segments = _split_options(options)
     batch = check_batch(images, src, dst, keypoints, masks)
-    segments = _check_segments(segments, len(batch))
+    segments = _check_segments(segments, batch)
     warper = SingleWarper.of(mls_options.get("ctx"))
     done: list = [None] * len(batch)
     whole: dict = {}
@@ -166,7 +167,10 @@ def _split_options(options: dict) -> tuple[WarpOptions, dict, dict]:
     return chosen, options, segments
 
 
-def _check_segments(segments: dict, count: int) -> list[dict]:
+def _check_segments(segments: dict, batch: BatchInput) -> list[dict]:
+    """Per image, its ``src_segments`` and ``dst_segments`` where given, each image's
+    handles checked as its MLS will check them, the error naming the image."""
+    count = len(batch)
     per_image: list[dict] = [{} for _ in range(count)]
     for name, value in segments.items():
         if value is None:
@@ -178,6 +182,12 @@ def _check_segments(segments: dict, count: int) -> list[dict]:
         for i, item in enumerate(value):
             if item is not None:
                 per_image[i][name] = item
+    for i, given in enumerate(per_image):
+        if given:
+            try:
+                HandleSet.validate(batch.src[i], batch.dst[i], **given)
+            except (TypeError, ValueError) as error:
+                raise type(error)(f"images[{i}]: {error}") from None
     return per_image
 
 

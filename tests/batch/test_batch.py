@@ -341,6 +341,19 @@ def test_keypoint_sets_given_as_empty_lists(gl, rng):
         ({"masks": np.zeros((3, 4, 5), np.uint8)}, ValueError, r"masks\[0\] has shape \(4, 5\)"),
         ({"masks": np.zeros((3, 4, 4), np.float32)}, TypeError, r"masks\[0\] has dtype float32"),
         ({"methd": "quads"}, TypeError, "unknown keyword methd"),
+        (
+            {"src_segments": [None, None, [[[0, 0], [3, 0]]]]},
+            ValueError,
+            r"images\[2\]: src_segments needs dst_segments",
+        ),
+        (
+            {
+                "src_segments": [None, [[[0, 0], [3, 0]]], None],
+                "dst_segments": [None, [[0, 0]], None],
+            },
+            ValueError,
+            r"images\[1\]: dst_segments must have shape \(S, 2, 2\)",
+        ),
         ({"max_batch_bytes": 0}, ValueError, "max_batch_bytes must be an integer >= 1 or None"),
         ({"max_batch_bytes": -5}, ValueError, "max_batch_bytes must be .* got -5"),
         ({"max_batch_bytes": "1M"}, TypeError, "max_batch_bytes must be .* got '1M'"),
