@@ -340,7 +340,7 @@ class Augment:
             (N, P, 2) or per image (P_i, 2) points (x, y); the ``landmarks`` preset's
             handles.
         masks : array_like or sequence of array_like, optional
-            Per image, an (H, W) integer label image, warped with nearest sampling.
+            Per image, an (H, W) integer or bool label image, warped with nearest sampling.
         boxes : array_like or sequence of array_like, optional
             (N, B, 4) or per image (B_i, 4) boxes ``(x_min, y_min, x_max, y_max)``.
         polygons : sequence, optional

@@ -90,7 +90,7 @@ def _points(array: np.ndarray, name: str, *, empty: bool) -> np.ndarray:
 
 def _mask(array: np.ndarray, name: str, shape: tuple[int, int]) -> np.ndarray:
     if array.dtype == bool or not np.issubdtype(array.dtype, np.integer):
-        raise TypeError(f"{name} has dtype {array.dtype}; expected an integer dtype")
+        raise TypeError(f"{name} has dtype {array.dtype}; expected an integer or bool dtype")
     if array.shape != shape:
         raise ValueError(f"{name} has shape {array.shape}; expected its image's {shape}")
     if array.dtype not in (np.uint8, np.uint16) and array.size:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ..core.handleset import HandleSet
@@ -57,9 +59,9 @@ def warp_batch(
         linear map that placed the pixels, ``backward-swap`` by the inverse of the
         swapped-handles map that it samples with, the other methods by f.
     masks : array_like or sequence of array_like or None, default None
-        Per image, an (H, W) label image of an integer dtype (labels within +-2**24 unless
-        uint8 or uint16): warped like its image with nearest sampling (never a mixed label),
-        0 where nothing is shown.
+        Per image, an (H, W) label image of an integer or bool dtype (labels within
+        +-2**24 unless uint8, uint16 or bool): warped like its image with nearest sampling
+        (never a mixed label), 0 (False) where nothing is shown.
     return_maps : bool, default False
         Also return each image's map from output pixels to the source points they show and
         its valid mask.
@@ -108,10 +110,12 @@ def warp_batch(
     ValueError: dst[1] has shape (1, 3); expected (K, 2) with K >= 1
     """
     _check_flags(return_maps, max_batch_bytes)
+    masks, binary = _bytes_of_bool_masks(masks)
     if options.get("ctx") is None and forked_from_gl():  # GL would hang here: a clean helper
         keywords = {"keypoints": keypoints, "masks": masks, "return_maps": return_maps}
         keywords["max_batch_bytes"] = max_batch_bytes
-        return helper.call(__name__, "warp_batch", (images, src, dst), keywords | options)
+        result = helper.call(__name__, "warp_batch", (images, src, dst), keywords | options)
+        return _bool_masks_back(result, binary)
     chosen, mls_options, segments = _split_options(options)
     batch = check_batch(images, src, dst, keypoints, masks)
     segments = _check_segments(segments, batch)
@@ -136,7 +140,32 @@ def warp_batch(
         )
         for i, image in enumerate(batch.images)
     ]
-    return _assemble(batch, results, chosen, images, return_maps, (keypoints, masks), whole)
+    result = _assemble(batch, results, chosen, images, return_maps, (keypoints, masks), whole)
+    return _bool_masks_back(result, binary)
+
+
+def _bytes_of_bool_masks(masks: object) -> tuple[object, list[bool] | None]:
+    """Bool masks as uint8 views (labels 0 and 1), and per mask whether it was bool (None
+    where none was)."""
+    if isinstance(masks, np.ndarray) and masks.dtype == bool:
+        return masks.view(np.uint8), [True] * len(masks)
+    if isinstance(masks, (list, tuple)):
+        arrays = [np.asarray(m) for m in masks]
+        flags = [a.dtype == bool for a in arrays]
+        if any(flags):
+            return [a.view(np.uint8) if f else a for a, f in zip(arrays, flags, strict=True)], flags
+    return masks, None
+
+
+def _bool_masks_back(result: object, binary: list[bool] | None) -> object:
+    """``result`` with the warped masks of bool masks bool again."""
+    if binary is None or not isinstance(result, BatchResult) or result.masks is None:
+        return result
+    masks = result.masks
+    if isinstance(masks, np.ndarray) and all(binary):
+        return dataclasses.replace(result, masks=masks.astype(bool))
+    out = [m.astype(bool) if f else m for m, f in zip(masks, binary, strict=True)]
+    return dataclasses.replace(result, masks=out)
 
 
 def _check_flags(return_maps: object, max_batch_bytes: object) -> None:

@@ -142,6 +142,25 @@ def test_masks_keep_their_labels(gl, rng):
         np.testing.assert_array_equal(ones.masks[i], want)
 
 
+@pytest.mark.parametrize("method", ["quads", "backward", "splat"])
+def test_bool_masks_stay_bool(gl, rng, method):
+    """A binary mask may be bool: warped as the labels 0 and 1, it comes back bool, False
+    where nothing is shown, in a list beside masks of other dtypes."""
+    batch = images(rng)
+    src, dst = handles(rng, spread=4.0)
+    labels = rng.integers(0, 2, (N, *SHAPE), dtype=np.uint8)
+    options = {"method": method, "output_shape": (30, 36), "origin": (-3, -2)}
+    want = glmls.warp_batch(batch, src, dst, masks=labels, **options).masks
+    result = glmls.warp_batch(batch, src, dst, masks=labels.astype(bool), **options)
+    assert result.masks.dtype == bool and result.masks.shape == want.shape
+    np.testing.assert_array_equal(result.masks, want.astype(bool))
+    mixed = [labels[0].astype(bool), labels[1], labels[2].astype(bool).tolist()]
+    some = glmls.warp_batch(batch, src, dst, masks=mixed, **options).masks
+    assert isinstance(some, list) and [m.dtype for m in some] == [bool, np.uint8, bool]
+    for got, expected in zip(some, want, strict=True):
+        np.testing.assert_array_equal(got.astype(np.uint8), expected)
+
+
 @pytest.mark.parametrize("method", ["backward", "backward-swap"])
 def test_maps_agree_with_coordinate_map(gl, rng, method):
     batch = images(rng)
