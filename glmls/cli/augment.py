@@ -6,7 +6,8 @@ with sample index ``i * N + k`` for the i-th input (sorted by name), so that the
 gives the same images whatever ``--jobs``; and ``OUT/labels.json``: per output image its moved
 keypoints and boxes (where labels were given) with their validity, and its draw (``params``:
 the handles and options that :meth:`glmls.augment.Augment.replay` takes). Everything is
-written under temporary names and renamed at the end: a failed run leaves no output.
+written under temporary names and renamed at the end: a failed run leaves no output (and
+removes the folders it made).
 
 The labels file (``--labels``) is a JSON object keyed by input file name:
 ``{"photo.png": {"keypoints": [[x, y], ...], "boxes": [[x_min, y_min, x_max, y_max], ...]}}``
@@ -235,9 +236,17 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(str(error)) from None
     files, _ = image_inputs(args.input)
     labels = read_labels(args.labels, files) if args.labels else {}
+    if args.preset == "landmarks":  # its handles are the labels' keypoints: every input's
+        bare = [f.name for f in files if not labels.get(f.name, {}).get("keypoints")]
+        if bare:
+            raise UsageError(
+                f"the landmarks preset moves each image's keypoints; --labels gives none for "
+                f"{', '.join(bare[:3])}{' ...' if len(bare) > 3 else ''}"
+            )
     folder = Path(args.output)
     if folder.exists() and not folder.is_dir():
         raise UsageError(f"{folder}: must be a folder")
+    made = [p for p in (folder, *folder.parents) if not p.exists()]  # the deepest first
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as error:
@@ -277,6 +286,11 @@ def run(args: argparse.Namespace) -> int:
     except BaseException:
         for temporary, _ in written:
             Path(temporary).unlink(missing_ok=True)
+        for made_folder in made:  # the folders this run made, were they left empty
+            try:
+                made_folder.rmdir()
+            except OSError:
+                break
         raise
     for temporary, final in written:
         os.chmod(temporary, 0o666 & ~umask())
