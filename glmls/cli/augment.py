@@ -53,6 +53,8 @@ PRESET_FLAGS = {
     "radius": float,
 }
 LABELS_NAME = "labels.json"
+#: The most bytes of copies of one input that one call of :class:`Augment` deforms.
+CHUNK_BYTES = 64 << 20
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -123,12 +125,18 @@ def _names(task: AugmentTask) -> list[Path]:
 
 def augment_file(task: AugmentTask) -> AugmentOutcome:
     """Read one image, deform it ``count`` times, write the results under temporary names
-    beside their final ones; a mistake in the input is an outcome with ``error``."""
+    beside their final ones; a mistake in the input is an outcome with ``error``. The
+    copies are deformed :data:`CHUNK_BYTES` of them at a time (the same images: each draw
+    is numbered by its index alone), so that ``--n 1000`` of a large image does not hold a
+    thousand copies at once."""
     written: list[tuple[str, str]] = []
     try:
         image = read_image(task.source, task.max_pixels)
         targets = _names(task)
         channels = 1 if image.ndim == 2 else image.shape[2]
+        labels = task.labels or {}
+        keypoints = labels.get("keypoints")
+        boxes = labels.get("boxes")
         try:
             for target in targets:
                 check_writable(target, image.dtype, channels)
@@ -139,37 +147,43 @@ def augment_file(task: AugmentTask) -> AugmentOutcome:
                 box_step=task.box_step,
                 **task.preset_options,
             )
-            labels = task.labels or {}
-            keypoints = labels.get("keypoints")
-            boxes = labels.get("boxes")
-            result = aug(
-                np.stack([image] * task.count),
-                keypoints=None if keypoints is None else [keypoints] * task.count,
-                boxes=None if boxes is None else [boxes] * task.count,
-                indices=range(task.first_index, task.first_index + task.count),
-            )
         except (TypeError, ValueError) as error:
             raise UsageError(f"{task.source}: {error}") from None
         entries = {}
-        for k, target in enumerate(targets):
-            fd, name = tempfile.mkstemp(
-                prefix=f".{target.name}.", suffix=target.suffix, dir=task.folder
-            )
-            os.close(fd)
-            written.append((name, str(target)))
-            imwrite(name, result.images[k])
-            entry: dict = {"source": task.source.name, "params": result.params[k]}
-            if keypoints is not None:
-                entry["keypoints"] = np.asarray(result.keypoints[k]).tolist()
-                entry["keypoints_valid"] = np.asarray(result.keypoints_valid[k]).tolist()
-            if boxes is not None:
-                entry["boxes"] = np.asarray(result.boxes[k]).tolist()
-                entry["boxes_valid"] = np.asarray(result.boxes_valid[k]).tolist()
-            entries[target.name] = entry
-    except (UsageError, OSError) as error:
+        step = max(1, CHUNK_BYTES // max(1, image.nbytes))
+        for start in range(0, task.count, step):
+            count = min(step, task.count - start)
+            first = task.first_index + start
+            try:
+                result = aug(
+                    np.stack([image] * count),
+                    keypoints=None if keypoints is None else [keypoints] * count,
+                    boxes=None if boxes is None else [boxes] * count,
+                    indices=range(first, first + count),
+                )
+            except (TypeError, ValueError) as error:
+                raise UsageError(f"{task.source}: {error}") from None
+            for k, target in enumerate(targets[start : start + count]):
+                fd, name = tempfile.mkstemp(
+                    prefix=f".{target.name}.", suffix=target.suffix, dir=task.folder
+                )
+                os.close(fd)
+                written.append((name, str(target)))
+                imwrite(name, result.images[k])
+                entry: dict = {"source": task.source.name, "params": result.params[k]}
+                if keypoints is not None:
+                    entry["keypoints"] = np.asarray(result.keypoints[k]).tolist()
+                    entry["keypoints_valid"] = np.asarray(result.keypoints_valid[k]).tolist()
+                if boxes is not None:
+                    entry["boxes"] = np.asarray(result.boxes[k]).tolist()
+                    entry["boxes_valid"] = np.asarray(result.boxes_valid[k]).tolist()
+                entries[target.name] = entry
+    except BaseException as error:  # whatever stops it, it leaves no temporary file
         for name, _ in written:
             Path(name).unlink(missing_ok=True)
-        return AugmentOutcome(error=str(error))
+        if isinstance(error, (UsageError, OSError)):
+            return AugmentOutcome(error=str(error))
+        raise
     return AugmentOutcome(tuple(written), entries)
 
 

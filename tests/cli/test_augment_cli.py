@@ -142,3 +142,54 @@ def test_augment_help_lists_the_presets(inputs):
     assert result.returncode == 0 and "examples:" in result.stdout
     for name in ("grid", "text-distort", "text-stretch", "text-perspective", "landmarks"):
         assert name in result.stdout
+
+
+def _task(inputs, count):
+    from glmls.cli.augment import AugmentTask
+
+    labels = json.loads((inputs / "labels.json").read_text())["a.png"]
+    folder = inputs / "chunks"
+    folder.mkdir(exist_ok=True)
+    return AugmentTask(
+        inputs / "in" / "a.png", folder, 6, count, "grid", {}, 3,
+        {"transform": "similarity", "interpolation": "linear", "border": "edge"},
+        2.0, labels, 10**8,
+    )  # fmt: skip
+
+
+def test_many_copies_are_deformed_a_chunk_at_a_time(inputs, gl, monkeypatch):
+    """A chunk of copies at a time (one here), each draw numbered by its index: the same
+    images and labels as all at once."""
+    from glmls.cli import augment as command
+
+    whole = command.augment_file(_task(inputs, 3))
+    monkeypatch.setattr(command, "CHUNK_BYTES", 1)
+    calls = []
+    real = command.Augment.__call__
+    monkeypatch.setattr(
+        command.Augment, "__call__", lambda self, *a, **k: calls.append(1) or real(self, *a, **k)
+    )
+    chunked = command.augment_file(_task(inputs, 3))
+    assert len(calls) == 3 and whole.error is None and chunked.error is None
+    assert chunked.labels == whole.labels
+    for (one, _), (other, _) in zip(whole.written, chunked.written, strict=True):
+        np.testing.assert_array_equal(glmls.imread(one), glmls.imread(other))
+
+
+def test_an_unexpected_error_leaves_no_temporary_file(inputs, gl, monkeypatch):
+    from glmls.cli import augment as command
+
+    monkeypatch.setattr(command, "CHUNK_BYTES", 1)
+    real = command.Augment.__call__
+    calls = []
+
+    def fails_second(self, *args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise RuntimeError("the GL driver went away")
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(command.Augment, "__call__", fails_second)
+    with pytest.raises(RuntimeError, match="went away"):
+        command.augment_file(_task(inputs, 3))
+    assert not any((inputs / "chunks").iterdir())
