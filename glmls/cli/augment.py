@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import glob
 import json
 import os
 import sys
@@ -224,6 +225,16 @@ def read_labels(path: str, files: list[Path]) -> dict[str, dict]:
     return data
 
 
+def _remove_temporaries(tasks: list[AugmentTask]) -> None:
+    """Remove the temporary files of every output of ``tasks`` (:func:`augment_file`'s
+    ``.NAME.*`` beside each output), whoever wrote them: with ``--jobs``, the workers still
+    running when another input failed finish and write theirs, unreported."""
+    for task in tasks:
+        for target in _names(task):
+            for temporary in target.parent.glob(f".{glob.escape(target.name)}.*"):
+                temporary.unlink(missing_ok=True)
+
+
 def _preset_options(args: argparse.Namespace) -> dict:
     return {name: getattr(args, name) for name in PRESET_FLAGS if getattr(args, name) is not None}
 
@@ -300,6 +311,7 @@ def run(args: argparse.Namespace) -> int:
     except BaseException:
         for temporary, _ in written:
             Path(temporary).unlink(missing_ok=True)
+        _remove_temporaries(tasks)  # of workers that finished after the failure
         for made_folder in made:  # the folders this run made, were they left empty
             try:
                 made_folder.rmdir()

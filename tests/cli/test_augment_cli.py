@@ -137,6 +137,15 @@ def test_a_failure_midway_leaves_no_half_written_output(inputs):
     assert (inputs / "kept").is_dir() and not any((inputs / "kept").iterdir())
 
 
+def test_a_failure_with_jobs_leaves_no_temporary_file_of_the_other_workers(inputs):
+    """The bad input fails at once while another worker still deforms its copies: those
+    finish after the failure, and their temporary files go too."""
+    (inputs / "in" / "_bad.png").write_bytes(b"not a png")  # sorted first
+    result = glmls_cli("augment", "in", "out", "--n", "12", "--jobs", "2", cwd=inputs)
+    assert result.returncode == 2 and "_bad.png" in result.stderr, result.stderr
+    assert not (inputs / "out").exists(), sorted((inputs / "out").iterdir())
+
+
 def test_augment_help_lists_the_presets(inputs):
     result = glmls_cli("augment", "--help", cwd=inputs)
     assert result.returncode == 0 and "examples:" in result.stdout
