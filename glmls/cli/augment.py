@@ -260,6 +260,14 @@ def run(args: argparse.Namespace) -> int:
     except (TypeError, ValueError) as error:
         raise UsageError(str(error)) from None
     files, _ = image_inputs(args.input)
+    seen: dict[str, Path] = {}
+    for source in files:  # the outputs and the labels are named by the input's name
+        if source.name in seen:
+            raise UsageError(
+                f"{seen[source.name]} and {source} have one name: their outputs "
+                f"({source.stem}_000{source.suffix} ...) would overwrite each other"
+            )
+        seen[source.name] = source
     labels = read_labels(args.labels, files) if args.labels else {}
     if args.preset == "landmarks":  # its handles are the labels' keypoints: every input's
         bare = [f.name for f in files if not labels.get(f.name, {}).get("keypoints")]

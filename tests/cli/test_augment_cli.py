@@ -146,6 +146,16 @@ def test_a_failure_with_jobs_leaves_no_temporary_file_of_the_other_workers(input
     assert not (inputs / "out").exists(), sorted((inputs / "out").iterdir())
 
 
+def test_inputs_of_one_name_in_two_folders_are_a_usage_error(inputs):
+    for name in ("x", "y"):
+        (inputs / name).mkdir()
+        (inputs / name / "a.png").write_bytes((inputs / "in" / "a.png").read_bytes())
+    result = glmls_cli("augment", "*/a.png", "out", "--n", "2", cwd=inputs)
+    assert result.returncode == 2, result.stderr
+    assert "in/a.png and x/a.png have one name" in result.stderr
+    assert not (inputs / "out").exists()
+
+
 def test_augment_help_lists_the_presets(inputs):
     result = glmls_cli("augment", "--help", cwd=inputs)
     assert result.returncode == 0 and "examples:" in result.stdout
