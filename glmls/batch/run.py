@@ -52,7 +52,8 @@ def warp_batch(
         a sequence of N such images of any shapes.
     src, dst : array_like or sequence of array_like
         Per image, its handles p and q: (N, K, 2) arrays, or sequences of N arrays of shape
-        (K_i, 2) (a different number of handles per image).
+        (K_i, 2) (a different number of handles per image; none, as for :func:`glmls.warp`:
+        the identity, or the segment handles alone).
     keypoints : array_like or sequence of array_like or None, default None
         Per image, source points (x, y) to move along: an (N, P, 2) array or a sequence of
         (P_i, 2) arrays. ``quads`` on a regular mesh moves them by the mesh's piecewise
@@ -91,7 +92,7 @@ def warp_batch(
     ------
     ValueError, TypeError
         For an item of a bad shape, dtype or count, or not finite, naming it (``src[3] has
-        shape (5, 3); expected (K, 2) with K >= 1``), for a ``return_maps`` that is not a
+        shape (5, 3); expected (K, 2)``), for a ``return_maps`` that is not a
         bool or a ``max_batch_bytes`` below 1, and as :func:`glmls.warp`.
 
     Examples
@@ -107,7 +108,7 @@ def warp_batch(
     >>> glmls.warp_batch(images, src, [[[1, 0], [6, 3]], [[0, 0, 1]]])
     Traceback (most recent call last):
     ...
-    ValueError: dst[1] has shape (1, 3); expected (K, 2) with K >= 1
+    ValueError: dst[1] has shape (1, 3); expected (K, 2)
     """
     _check_flags(return_maps, max_batch_bytes)
     masks, binary = _bytes_of_bool_masks(masks)

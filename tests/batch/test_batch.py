@@ -103,6 +103,35 @@ def test_mls_options_and_segments(gl, rng):
         )
 
 
+@pytest.mark.parametrize("method", ["quads", "backward"])
+def test_no_point_handles_as_one_warp_takes_them(gl, rng, method):
+    """An image without point handles, as :func:`glmls.warp` takes it: the identity, or its
+    segment handles alone, beside images with handles, keypoints and maps asked for."""
+    batch = images(rng, count=4)
+    p, q = handles(rng, count=4)
+    none = np.zeros((0, 2))
+    src, dst = [p[0], none, none, p[3]], [q[0], none, none, q[3]]
+    segments = [None, None, np.array([[[3.0, 3.0], [25.0, 4.0]], [[3.0, 18.0], [25.0, 20.0]]])]
+    segments.append(None)
+    moved = [None, None, segments[2] + [[[0.0, 1.5], [1.0, -1.0]], [[1.0, 0.0], [0.0, 1.0]]], None]
+    points = rng.uniform(2, 20, (4, 3, 2))
+    options = {"method": method, "src_segments": segments, "dst_segments": moved}
+    result = glmls.warp_batch(batch, src, dst, keypoints=points, return_maps=True, **options)
+    plain = glmls.warp_batch(batch, src, dst, **options)
+    for i in range(4):
+        extra = (
+            {} if segments[i] is None else {"src_segments": segments[i], "dst_segments": moved[i]}
+        )
+        one = glmls.warp(batch[i], src[i], dst[i], method=method, **extra)
+        np.testing.assert_array_equal(result.images[i], one)
+        np.testing.assert_array_equal(plain[i], one)
+    np.testing.assert_array_equal(result.images[1], batch[1])
+    np.testing.assert_allclose(result.keypoints[1], points[1], atol=1e-5)
+    assert result.keypoints_valid[1].all()
+    same = glmls.warp_batch(batch, np.zeros((4, 0, 2)), np.zeros((4, 0, 2)), method=method)
+    np.testing.assert_array_equal(same, batch)
+
+
 def test_empty_batch(gl):
     out = glmls.warp_batch(
         np.zeros((0, 5, 6, 3), np.uint8), np.zeros((0, 3, 2)), np.zeros((0, 3, 2))
