@@ -166,7 +166,7 @@ class MLSDeform(A.DualTransform):
         Parameters
         ----------
         mask : numpy.ndarray
-            (H, W) or (H, W, C) labels (integers or bool).
+            (H, W) or (H, W, C) labels (integers, bool or floating point).
         mls : dict
             The draw.
         **params

@@ -125,6 +125,43 @@ def _keypoint_list(keypoints: object, count: int) -> tuple[list[np.ndarray] | No
     return checked, stacked
 
 
+def _jsonable(value: object) -> object:
+    """``value`` with numpy scalars and arrays, tuples and mappings made the lists, numbers
+    and dicts that JSON writes (and reads back equal)."""
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+#: What each draw of ``params`` holds for :meth:`Augment.replay`.
+_PARAM_KEYS = ("shape", "src", "dst", "options")
+
+
+def _check_params(params: object, count: int) -> list[Mapping]:
+    """``params`` as a list of ``count`` draws, each a mapping with :data:`_PARAM_KEYS`;
+    ``TypeError``/``ValueError`` naming the draw otherwise."""
+    if isinstance(params, (str, bytes, Mapping)) or not isinstance(params, Sequence):
+        raise TypeError(f"params must be a sequence of draws (dicts), got {type(params).__name__}")
+    if len(params) != count:
+        raise ValueError(f"params holds {len(params)} draws for {count} images")
+    for i, draw in enumerate(params):
+        if not isinstance(draw, Mapping):
+            raise TypeError(f"params[{i}] must be a dict, got {type(draw).__name__}")
+        missing = [key for key in _PARAM_KEYS if key not in draw]
+        if missing:
+            raise ValueError(f"params[{i}] has no {', '.join(map(repr, missing))}")
+        shape = draw["shape"]
+        if not (isinstance(shape, Sequence) and len(shape) == 2) or isinstance(shape, str):
+            raise ValueError(f"params[{i}]['shape'] must be [H, W], got {shape!r}")
+        if not isinstance(draw["options"], Mapping):
+            raise TypeError(f"params[{i}]['options'] must be a dict, got {draw['options']!r}")
+    return list(params)
+
+
 def _stack(items: list[np.ndarray], stacked: bool):
     if stacked and items and all(a.shape == items[0].shape for a in items):
         return np.stack(items)
@@ -270,13 +307,13 @@ class Augment:
             params.append(
                 {
                     "preset": self.preset.name,
-                    "config": dataclasses.asdict(self.preset),
+                    "config": _jsonable(dataclasses.asdict(self.preset)),
                     "seed": self.seed,
                     "index": index,
                     "shape": [int(shape[0]), int(shape[1])],
                     "src": np.asarray(src, np.float64).tolist(),
                     "dst": np.asarray(dst, np.float64).tolist(),
-                    "options": dict(self.warp_options),
+                    "options": _jsonable(self.warp_options),
                 }
             )
         return params
@@ -303,7 +340,7 @@ class Augment:
             (N, P, 2) or per image (P_i, 2) points (x, y); the ``landmarks`` preset's
             handles.
         masks : array_like or sequence of array_like, optional
-            Per image, an (H, W) integer label image, warped with nearest sampling.
+            Per image, an (H, W) integer or bool label image, warped with nearest sampling.
         boxes : array_like or sequence of array_like, optional
             (N, B, 4) or per image (B_i, 4) boxes ``(x_min, y_min, x_max, y_max)``.
         polygons : sequence, optional
@@ -371,8 +408,9 @@ class Augment:
 
         Raises
         ------
-        ValueError
-            For params of another count, or of an image of another shape, naming the index.
+        ValueError, TypeError
+            For params of another count, a draw without its ``shape``, ``src``, ``dst`` or
+            ``options``, or of an image of another shape, naming the index.
 
         Examples
         --------
@@ -392,9 +430,7 @@ class Augment:
             )
         items = _images(images)
         count = len(items)
-        params = list(params)
-        if len(params) != count:
-            raise ValueError(f"params holds {len(params)} draws for {count} images")
+        params = _check_params(params, count)
         for i, (image, p) in enumerate(zip(items, params, strict=True)):
             if tuple(p["shape"]) != image.shape[:2]:
                 raise ValueError(
@@ -499,7 +535,13 @@ def replay_labels(augment: Augment, params: Sequence[Mapping], **labels) -> Augm
 
 
 def replay_masks(augment: Augment, params: Sequence[Mapping], masks: np.ndarray) -> np.ndarray:
-    """(N, H, W) masks deformed, one per draw, with nearest sampling; of their dtype (bool
-    masks too)."""
+    """(N, H, W) masks deformed, one per draw, with nearest sampling, 0 where nothing is
+    shown; of their dtype (bool masks too; floating-point masks, as albumentations allows,
+    through float32, warped as images with the mask's sampling)."""
+    if masks.dtype.kind == "f":
+        nearest = {"interpolation": "nearest", "background": 0.0}
+        draws = [{**p, "options": {**p["options"], **nearest}} for p in params]
+        values = masks if masks.dtype in (np.float32, np.float64) else masks.astype(np.float32)
+        return np.asarray(augment.replay(values, draws).images).astype(masks.dtype)
     labels = masks.astype(np.uint8) if masks.dtype == bool else masks
     return np.asarray(replay_labels(augment, params, masks=labels).masks).astype(masks.dtype)

@@ -26,11 +26,11 @@ __all__ = [
 ]
 
 
-def _finite(array: np.ndarray, name: str, columns: int) -> np.ndarray:
+def _finite(array: np.ndarray, name: str, columns: int, rows: str = "B") -> np.ndarray:
     if array.dtype == object or not np.issubdtype(array.dtype, np.number):
         raise TypeError(f"{name} has dtype {array.dtype}; expected real numbers")
     if array.ndim != 2 or array.shape[1] != columns:
-        raise ValueError(f"{name} has shape {array.shape}; expected (B, {columns})")
+        raise ValueError(f"{name} has shape {array.shape}; expected ({rows}, {columns})")
     array = np.asarray(array, np.float64)
     if not np.isfinite(array).all():
         raise ValueError(f"{name} holds values that are not finite (NaN or inf)")
@@ -139,7 +139,7 @@ def check_polygons(polygons: object, count: int) -> list[list[np.ndarray]]:
             raise TypeError(f"polygons[{i}] must be a sequence of (V, 2) arrays")
         one = []
         for j, polygon in enumerate(shapes):
-            array = _finite(np.asarray(polygon), f"polygons[{i}][{j}]", 2)
+            array = _finite(np.asarray(polygon), f"polygons[{i}][{j}]", 2, "V")
             if len(array) == 0:
                 raise ValueError(f"polygons[{i}][{j}] has no vertices")
             one.append(array)

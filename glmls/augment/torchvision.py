@@ -98,6 +98,23 @@ def _size(value: object) -> tuple[int, int, int | None]:
     raise ValueError(f"expected an image (C, H, W) or a batch (N, C, H, W), got {tensor.shape}")  # type: ignore[attr-defined]
 
 
+def _check_batch_label(label: torch.Tensor, count: int) -> None:
+    """A batch's one Mask or KeyPoints has the batch as its first dimension: (N, H, W) or
+    (N, K, H, W) masks, (N, P, 2) keypoints (a batch of one may leave it out); else
+    ``ValueError`` (another first dimension would split or merge the samples' labels)."""
+    mask = isinstance(label, tv_tensors.Mask)
+    dims = (3, 4) if mask else (3,)
+    if label.ndim in dims and label.shape[0] == count:
+        return
+    if count == 1 and label.ndim == dims[0] - 1:
+        return
+    expected = f"({count}, H, W) or ({count}, K, H, W)" if mask else f"({count}, P, 2)"
+    raise ValueError(
+        f"a {type(label).__name__} of shape {tuple(label.shape)} for a batch of {count} "
+        f"images: expected {expected}, the batch first, or one per sample"
+    )
+
+
 class MLSTransform(v2.Transform):
     """A random MLS deformation as a torchvision v2 transform.
 
@@ -186,6 +203,7 @@ class MLSTransform(v2.Transform):
         for kind in _LABELS:
             labels = [x for x in flat_inputs if isinstance(x, kind)]
             if len(labels) == 1 and batched and kind is not tv_tensors.BoundingBoxes:
+                _check_batch_label(labels[0], count)
                 owners[id(labels[0])] = "batch"
             elif len(labels) == count:
                 owners.update({id(x): k for k, x in enumerate(labels)})

@@ -66,6 +66,8 @@ def warp_chunks(
     backward = options.method == "backward"
     if backward and (config is None or batch.keypoints is not None):
         return results, whole  # f at the keypoints, bins, segments: each image's own MLS
+    # segment handles, or no point handle at all: the image's own MLS, as one warp makes it
+    own = [bool(segments[i]) or not len(batch.src[i]) for i in range(len(batch))]
     groups = _groups(batch)
     for indices in groups.values():
         first = batch.images[indices[0]]
@@ -83,10 +85,10 @@ def warp_chunks(
                 )
         for start in range(0, len(indices), size):
             chunk = indices[start : start + size]
-            if backward and any(segments[i] for i in chunk):
+            if backward and any(own[i] for i in chunk):
                 continue
             with ExitStack() as stack:
-                if config is not None and not any(segments[i] for i in chunk):
+                if config is not None and not any(own[i] for i in chunk):
                     src, dst = [batch.src[i] for i in chunk], [batch.dst[i] for i in chunk]
                     lattices = BatchLattices(config, src, dst, source.shape)
                 else:  # each image's own MLS

@@ -66,18 +66,21 @@ def _image(array: np.ndarray, name: str) -> np.ndarray:
     return array
 
 
-def _points(array: np.ndarray, name: str, *, empty: bool) -> np.ndarray:
+def _points(array: np.ndarray, name: str, *, rows: str) -> np.ndarray:
+    """(``rows``, 2) finite float64 points within the coordinate limit (none may be given as
+    ``[]``)."""
     if array.dtype == object or not (
         np.issubdtype(array.dtype, np.number) and not np.issubdtype(array.dtype, np.complexfloating)
     ):
         raise TypeError(f"{name} has dtype {array.dtype}; expected real numbers")
-    if array.ndim != 2 or array.shape[1] != 2 or (not empty and len(array) == 0):
-        expected = "(P, 2)" if empty else "(K, 2) with K >= 1"
-        raise ValueError(f"{name} has shape {array.shape}; expected {expected}")
+    if array.size == 0 and array.ndim <= 2:  # [] or np.zeros((0, 2)): no points
+        array = array.reshape(0, 2)
+    if array.ndim != 2 or array.shape[1] != 2:
+        raise ValueError(f"{name} has shape {array.shape}; expected ({rows}, 2)")
     points = np.asarray(array, dtype=np.float64)
     if not np.isfinite(points).all():
         raise ValueError(f"{name} holds values that are not finite (NaN or inf)")
-    if not empty and np.abs(points).max() > COORDINATE_LIMIT:
+    if len(points) and np.abs(points).max() > COORDINATE_LIMIT:
         # as for one warp: float32 on the GPU keeps ~1e-7 of the coordinates' extent
         raise ValueError(
             f"{name} must lie within ±{COORDINATE_LIMIT:g} px of the origin in x and y; "
@@ -88,7 +91,7 @@ def _points(array: np.ndarray, name: str, *, empty: bool) -> np.ndarray:
 
 def _mask(array: np.ndarray, name: str, shape: tuple[int, int]) -> np.ndarray:
     if array.dtype == bool or not np.issubdtype(array.dtype, np.integer):
-        raise TypeError(f"{name} has dtype {array.dtype}; expected an integer dtype")
+        raise TypeError(f"{name} has dtype {array.dtype}; expected an integer or bool dtype")
     if array.shape != shape:
         raise ValueError(f"{name} has shape {array.shape}; expected its image's {shape}")
     if array.dtype not in (np.uint8, np.uint16) and array.size:
@@ -101,20 +104,20 @@ def _mask(array: np.ndarray, name: str, shape: tuple[int, int]) -> np.ndarray:
     return array
 
 
-def _point_items(value: object, name: str, *, empty: bool) -> tuple[list[np.ndarray], bool]:
+def _point_items(value: object, name: str, *, rows: str) -> tuple[list[np.ndarray], bool]:
     """Per-image (P, 2) float64 point sets of ``value`` (:func:`_items`), each checked by
     :func:`_points`: an (N, P, 2) array of real numbers all at once (the error, if any,
     naming the first bad item as the item's own check would)."""
     if not isinstance(value, np.ndarray) or value.ndim != 3 or len(value) == 0:
         items, stacked = _items(value, name, (2,))
-        return [_points(a, f"{name}[{i}]", empty=empty) for i, a in enumerate(items)], stacked
-    _points(value[0], f"{name}[0]", empty=empty)  # dtype and shape, alike for every item
+        return [_points(a, f"{name}[{i}]", rows=rows) for i, a in enumerate(items)], stacked
+    _points(value[0], f"{name}[0]", rows=rows)  # dtype and shape, alike for every item
     points = np.asarray(value, dtype=np.float64)
     finite = np.isfinite(points).all(axis=(1, 2))
-    limit = not empty and points.size and np.abs(points).max() > COORDINATE_LIMIT
+    limit = points.size and np.abs(points).max() > COORDINATE_LIMIT
     if not finite.all() or limit:
         for i, item in enumerate(points):  # the first bad item names itself
-            _points(item, f"{name}[{i}]", empty=empty)
+            _points(item, f"{name}[{i}]", rows=rows)
     return list(points), True
 
 
@@ -134,7 +137,7 @@ def check_batch(
         stacked = all(a.shape == first.shape and a.dtype == first.dtype for a in image_list)
     handles = []
     for name, value in (("src", src), ("dst", dst)):
-        items, _ = _point_items(value, name, empty=False)
+        items, _ = _point_items(value, name, rows="K")  # K = 0: f is the identity
         if len(items) != count:
             raise ValueError(f"{name} holds {len(items)} handle sets for {count} images")
         handles.append(items)
@@ -143,7 +146,7 @@ def check_batch(
             raise ValueError(f"src[{i}] and dst[{i}] hold {len(p)} and {len(q)} points")
     points, stacked_points = None, False
     if keypoints is not None:
-        points, stacked_points = _point_items(keypoints, "keypoints", empty=True)
+        points, stacked_points = _point_items(keypoints, "keypoints", rows="P")
         if len(points) != count:
             raise ValueError(f"keypoints holds {len(points)} point sets for {count} images")
         stacked_points = stacked_points or len({len(a) for a in points}) == 1

@@ -1,7 +1,8 @@
 """Keypoints moved by the object that placed the pixels: for ``quads`` on a regular mesh, the
 mesh's own piecewise linear map (each cell's two triangles (00, 10, 11) and (00, 11, 01),
 as ``warp/cells.comp.glsl`` and ``warp/mesh.vert.glsl`` fill them); for the other methods f
-itself. A keypoint is valid where it lands on the canvas and the output pixel nearest it
+itself (for ``backward-swap`` the inverse of the swapped-handles map it samples with). A
+keypoint is valid where it lands on the canvas and the output pixel nearest it
 shows the keypoint's own neighbourhood (in a fold another part of the image wins that pixel).
 """
 

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
+from ..core.handleset import HandleSet
 from ..gl import helper
 from ..gl.context import forked_from_gl
 from ..imaging.options import FIELDS, WarpOptions
@@ -49,15 +52,17 @@ def warp_batch(
         a sequence of N such images of any shapes.
     src, dst : array_like or sequence of array_like
         Per image, its handles p and q: (N, K, 2) arrays, or sequences of N arrays of shape
-        (K_i, 2) (a different number of handles per image).
+        (K_i, 2) (a different number of handles per image; none, as for :func:`glmls.warp`:
+        the identity, or the segment handles alone).
     keypoints : array_like or sequence of array_like or None, default None
         Per image, source points (x, y) to move along: an (N, P, 2) array or a sequence of
         (P_i, 2) arrays. ``quads`` on a regular mesh moves them by the mesh's piecewise
-        linear map that placed the pixels, the other methods by f.
+        linear map that placed the pixels, ``backward-swap`` by the inverse of the
+        swapped-handles map that it samples with, the other methods by f.
     masks : array_like or sequence of array_like or None, default None
-        Per image, an (H, W) label image of an integer dtype (labels within +-2**24 unless
-        uint8 or uint16): warped like its image with nearest sampling (never a mixed label),
-        0 where nothing is shown.
+        Per image, an (H, W) label image of an integer or bool dtype (labels within
+        +-2**24 unless uint8, uint16 or bool): warped like its image with nearest sampling
+        (never a mixed label), 0 (False) where nothing is shown.
     return_maps : bool, default False
         Also return each image's map from output pixels to the source points they show and
         its valid mask.
@@ -87,7 +92,8 @@ def warp_batch(
     ------
     ValueError, TypeError
         For an item of a bad shape, dtype or count, or not finite, naming it (``src[3] has
-        shape (5, 3); expected (K, 2) with K >= 1``), and as :func:`glmls.warp`.
+        shape (5, 3); expected (K, 2)``), for a ``return_maps`` that is not a
+        bool or a ``max_batch_bytes`` below 1, and as :func:`glmls.warp`.
 
     Examples
     --------
@@ -102,15 +108,18 @@ def warp_batch(
     >>> glmls.warp_batch(images, src, [[[1, 0], [6, 3]], [[0, 0, 1]]])
     Traceback (most recent call last):
     ...
-    ValueError: dst[1] has shape (1, 3); expected (K, 2) with K >= 1
+    ValueError: dst[1] has shape (1, 3); expected (K, 2)
     """
+    _check_flags(return_maps, max_batch_bytes)
+    masks, binary = _bytes_of_bool_masks(masks)
     if options.get("ctx") is None and forked_from_gl():  # GL would hang here: a clean helper
         keywords = {"keypoints": keypoints, "masks": masks, "return_maps": return_maps}
         keywords["max_batch_bytes"] = max_batch_bytes
-        return helper.call(__name__, "warp_batch", (images, src, dst), keywords | options)
+        result = helper.call(__name__, "warp_batch", (images, src, dst), keywords | options)
+        return _bool_masks_back(result, binary)
     chosen, mls_options, segments = _split_options(options)
     batch = check_batch(images, src, dst, keypoints, masks)
-    segments = _check_segments(segments, len(batch))
+    segments = _check_segments(segments, batch)
     warper = SingleWarper.of(mls_options.get("ctx"))
     done: list = [None] * len(batch)
     whole: dict = {}
@@ -132,7 +141,47 @@ def warp_batch(
         )
         for i, image in enumerate(batch.images)
     ]
-    return _assemble(batch, results, chosen, images, return_maps, (keypoints, masks), whole)
+    result = _assemble(batch, results, chosen, images, return_maps, (keypoints, masks), whole)
+    return _bool_masks_back(result, binary)
+
+
+def _bytes_of_bool_masks(masks: object) -> tuple[object, list[bool] | None]:
+    """Bool masks as uint8 views (labels 0 and 1), and per mask whether it was bool (None
+    where none was)."""
+    if isinstance(masks, np.ndarray) and masks.dtype == bool:
+        return masks.view(np.uint8), [True] * len(masks)
+    if isinstance(masks, (list, tuple)):
+        arrays = [np.asarray(m) for m in masks]
+        flags = [a.dtype == bool for a in arrays]
+        if any(flags):
+            return [a.view(np.uint8) if f else a for a, f in zip(arrays, flags, strict=True)], flags
+    return masks, None
+
+
+def _bool_masks_back(result: object, binary: list[bool] | None) -> object:
+    """``result`` with the warped masks of bool masks bool again."""
+    if binary is None or not isinstance(result, BatchResult) or result.masks is None:
+        return result
+    masks = result.masks
+    if isinstance(masks, np.ndarray) and all(binary):
+        return dataclasses.replace(result, masks=masks.astype(bool))
+    out = [m.astype(bool) if f else m for m, f in zip(masks, binary, strict=True)]
+    return dataclasses.replace(result, masks=out)
+
+
+def _check_flags(return_maps: object, max_batch_bytes: object) -> None:
+    if not isinstance(return_maps, (bool, np.bool_)):
+        raise TypeError(f"return_maps must be True or False, got {return_maps!r}")
+    if max_batch_bytes is None:
+        return
+    if isinstance(max_batch_bytes, (bool, np.bool_)) or not isinstance(
+        max_batch_bytes, (int, np.integer)
+    ):
+        raise TypeError(f"max_batch_bytes must be an integer >= 1 or None, got {max_batch_bytes!r}")
+    if max_batch_bytes < 1:
+        raise ValueError(
+            f"max_batch_bytes must be an integer >= 1 or None, got {max_batch_bytes!r}"
+        )
 
 
 def _split_options(options: dict) -> tuple[WarpOptions, dict, dict]:
@@ -148,7 +197,10 @@ def _split_options(options: dict) -> tuple[WarpOptions, dict, dict]:
     return chosen, options, segments
 
 
-def _check_segments(segments: dict, count: int) -> list[dict]:
+def _check_segments(segments: dict, batch: BatchInput) -> list[dict]:
+    """Per image, its ``src_segments`` and ``dst_segments`` where given, each image's
+    handles checked as its MLS will check them, the error naming the image."""
+    count = len(batch)
     per_image: list[dict] = [{} for _ in range(count)]
     for name, value in segments.items():
         if value is None:
@@ -160,6 +212,12 @@ def _check_segments(segments: dict, count: int) -> list[dict]:
         for i, item in enumerate(value):
             if item is not None:
                 per_image[i][name] = item
+    for i, given in enumerate(per_image):
+        if given:
+            try:
+                HandleSet.validate(batch.src[i], batch.dst[i], **given)
+            except (TypeError, ValueError) as error:
+                raise type(error)(f"images[{i}]: {error}") from None
     return per_image
 
 

@@ -186,15 +186,14 @@ class SingleWarper:
             deformed = mls(corners.reshape(-1, 2)).reshape(count, 4, 2)
             out, jacobian = mesh_map(corners, deformed, points)
             return out, jacobian, inside
-        step = 0.5
-        probes = np.concatenate([points, points + (step, 0.0), points + (0.0, step)])
-        values = mls(probes).reshape(3, count, 2)
-        jacobian = np.stack([values[1] - values[0], values[2] - values[0]], axis=1) / step
+        values, jacobian = _probed(mls, points)
+        if options.method == "backward-swap":
+            values, jacobian = _swapped_preimages(mls, points, values, jacobian)
         inside = np.ones(count, bool)
         if options.border == "constant":
             height, width = shape
             inside = np.all((points >= -0.5) & (points <= (width - 0.5, height - 0.5)), axis=1)
-        return values[0], jacobian, inside
+        return values, jacobian, inside
 
     @current
     def source_points(
@@ -234,3 +233,43 @@ class SingleWarper:
             mgl.memory_barrier()
             values = np.frombuffer(texture.read(), np.float32).reshape(*frame.shape, 4)
         return values[..., :2].copy(), values[..., 2] > 0.5
+
+
+def _probed(mls: MLS, points: np.ndarray, step: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+    """``mls`` at ``points`` (P, 2) and its Jacobians (P, 2, 2) (rows: d/dx, d/dy) by
+    forward differences of ``step`` pixels."""
+    count = len(points)
+    probes = np.concatenate([points, points + (step, 0.0), points + (0.0, step)])
+    values = mls(probes).reshape(3, count, 2)
+    jacobian = np.stack([values[1] - values[0], values[2] - values[0]], axis=1) / step
+    return values[0], jacobian
+
+
+def _swapped_preimages(
+    mls: MLS, points: np.ndarray, values: np.ndarray, jacobian: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Where ``backward-swap`` shows source ``points``: output pixel u shows s(u), s the MLS
+    map with p and q swapped, so a point p lands at s's inverse at p (not at f(p), which
+    differs from it by the shortcut's error), with the Jacobian the inverse of s's there.
+    ``values``, ``jacobian``: f's, kept where s has no preimage found."""
+    with MLS.from_config(
+        mls.dst,
+        mls.src,
+        mls.config,
+        src_segments=mls.dst_segments,
+        dst_segments=mls.src_segments,
+        shape=mls.shape,
+        ctx=mls.ctx,
+        storage=mls.storage,
+    ) as swapped:
+        found, ok = swapped.inverse(points, return_valid=True)
+        if not ok.any():
+            return values, jacobian
+        _, forward = _probed(swapped, found[ok])
+    det = forward[:, 0, 0] * forward[:, 1, 1] - forward[:, 0, 1] * forward[:, 1, 0]
+    regular = np.abs(det) > 1e-12  # s turns over there: f's values stay
+    where = np.flatnonzero(ok)[regular]
+    values, jacobian = values.copy(), jacobian.copy()
+    values[where] = found[where]
+    jacobian[where] = np.linalg.inv(forward[regular])
+    return values, jacobian

@@ -6,7 +6,8 @@ with sample index ``i * N + k`` for the i-th input (sorted by name), so that the
 gives the same images whatever ``--jobs``; and ``OUT/labels.json``: per output image its moved
 keypoints and boxes (where labels were given) with their validity, and its draw (``params``:
 the handles and options that :meth:`glmls.augment.Augment.replay` takes). Everything is
-written under temporary names and renamed at the end: a failed run leaves no output.
+written under temporary names and renamed at the end: a failed run leaves no output (and
+removes the folders it made).
 
 The labels file (``--labels``) is a JSON object keyed by input file name:
 ``{"photo.png": {"keypoints": [[x, y], ...], "boxes": [[x_min, y_min, x_max, y_max], ...]}}``
@@ -17,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import glob
 import json
 import os
 import sys
@@ -52,6 +54,8 @@ PRESET_FLAGS = {
     "radius": float,
 }
 LABELS_NAME = "labels.json"
+#: The most bytes of copies of one input that one call of :class:`Augment` deforms.
+CHUNK_BYTES = 64 << 20
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -122,12 +126,18 @@ def _names(task: AugmentTask) -> list[Path]:
 
 def augment_file(task: AugmentTask) -> AugmentOutcome:
     """Read one image, deform it ``count`` times, write the results under temporary names
-    beside their final ones; a mistake in the input is an outcome with ``error``."""
+    beside their final ones; a mistake in the input is an outcome with ``error``. The
+    copies are deformed :data:`CHUNK_BYTES` of them at a time (the same images: each draw
+    is numbered by its index alone), so that ``--n 1000`` of a large image does not hold a
+    thousand copies at once."""
     written: list[tuple[str, str]] = []
     try:
         image = read_image(task.source, task.max_pixels)
         targets = _names(task)
         channels = 1 if image.ndim == 2 else image.shape[2]
+        labels = task.labels or {}
+        keypoints = labels.get("keypoints")
+        boxes = labels.get("boxes")
         try:
             for target in targets:
                 check_writable(target, image.dtype, channels)
@@ -138,37 +148,43 @@ def augment_file(task: AugmentTask) -> AugmentOutcome:
                 box_step=task.box_step,
                 **task.preset_options,
             )
-            labels = task.labels or {}
-            keypoints = labels.get("keypoints")
-            boxes = labels.get("boxes")
-            result = aug(
-                np.stack([image] * task.count),
-                keypoints=None if keypoints is None else [keypoints] * task.count,
-                boxes=None if boxes is None else [boxes] * task.count,
-                indices=range(task.first_index, task.first_index + task.count),
-            )
         except (TypeError, ValueError) as error:
             raise UsageError(f"{task.source}: {error}") from None
         entries = {}
-        for k, target in enumerate(targets):
-            fd, name = tempfile.mkstemp(
-                prefix=f".{target.name}.", suffix=target.suffix, dir=task.folder
-            )
-            os.close(fd)
-            written.append((name, str(target)))
-            imwrite(name, result.images[k])
-            entry: dict = {"source": task.source.name, "params": result.params[k]}
-            if keypoints is not None:
-                entry["keypoints"] = np.asarray(result.keypoints[k]).tolist()
-                entry["keypoints_valid"] = np.asarray(result.keypoints_valid[k]).tolist()
-            if boxes is not None:
-                entry["boxes"] = np.asarray(result.boxes[k]).tolist()
-                entry["boxes_valid"] = np.asarray(result.boxes_valid[k]).tolist()
-            entries[target.name] = entry
-    except (UsageError, OSError) as error:
+        step = max(1, CHUNK_BYTES // max(1, image.nbytes))
+        for start in range(0, task.count, step):
+            count = min(step, task.count - start)
+            first = task.first_index + start
+            try:
+                result = aug(
+                    np.stack([image] * count),
+                    keypoints=None if keypoints is None else [keypoints] * count,
+                    boxes=None if boxes is None else [boxes] * count,
+                    indices=range(first, first + count),
+                )
+            except (TypeError, ValueError) as error:
+                raise UsageError(f"{task.source}: {error}") from None
+            for k, target in enumerate(targets[start : start + count]):
+                fd, name = tempfile.mkstemp(
+                    prefix=f".{target.name}.", suffix=target.suffix, dir=task.folder
+                )
+                os.close(fd)
+                written.append((name, str(target)))
+                imwrite(name, result.images[k])
+                entry: dict = {"source": task.source.name, "params": result.params[k]}
+                if keypoints is not None:
+                    entry["keypoints"] = np.asarray(result.keypoints[k]).tolist()
+                    entry["keypoints_valid"] = np.asarray(result.keypoints_valid[k]).tolist()
+                if boxes is not None:
+                    entry["boxes"] = np.asarray(result.boxes[k]).tolist()
+                    entry["boxes_valid"] = np.asarray(result.boxes_valid[k]).tolist()
+                entries[target.name] = entry
+    except BaseException as error:  # whatever stops it, it leaves no temporary file
         for name, _ in written:
             Path(name).unlink(missing_ok=True)
-        return AugmentOutcome(error=str(error))
+        if isinstance(error, (UsageError, OSError)):
+            return AugmentOutcome(error=str(error))
+        raise
     return AugmentOutcome(tuple(written), entries)
 
 
@@ -193,15 +209,30 @@ def read_labels(path: str, files: list[Path]) -> dict[str, dict]:
             if key not in entry:
                 continue
             try:
-                array = np.asarray(entry[key], dtype=np.float64).reshape(-1, columns)
+                array = np.asarray(entry[key], dtype=np.float64)
             except (TypeError, ValueError):
+                array = None
+            if array is not None and array.size == 0:
+                array = array.reshape(0, columns)
+            if array is None or array.ndim != 2 or array.shape[1] != columns:
                 raise UsageError(
-                    f"{path}: {name!r} {key} must be a list of [{columns} numbers]"
-                ) from None
+                    f"{path}: {name!r} {key} must be a list of [{columns} numbers], got "
+                    f"{json.dumps(entry[key])[:60]}"
+                )
             if not np.isfinite(array).all():
                 raise UsageError(f"{path}: {name!r} {key} holds values that are not finite")
             entry[key] = array.tolist()
     return data
+
+
+def _remove_temporaries(tasks: list[AugmentTask]) -> None:
+    """Remove the temporary files of every output of ``tasks`` (:func:`augment_file`'s
+    ``.NAME.*`` beside each output), whoever wrote them: with ``--jobs``, the workers still
+    running when another input failed finish and write theirs, unreported."""
+    for task in tasks:
+        for target in _names(task):
+            for temporary in target.parent.glob(f".{glob.escape(target.name)}.*"):
+                temporary.unlink(missing_ok=True)
 
 
 def _preset_options(args: argparse.Namespace) -> dict:
@@ -229,10 +260,26 @@ def run(args: argparse.Namespace) -> int:
     except (TypeError, ValueError) as error:
         raise UsageError(str(error)) from None
     files, _ = image_inputs(args.input)
+    seen: dict[str, Path] = {}
+    for source in files:  # the outputs and the labels are named by the input's name
+        if source.name in seen:
+            raise UsageError(
+                f"{seen[source.name]} and {source} have one name: their outputs "
+                f"({source.stem}_000{source.suffix} ...) would overwrite each other"
+            )
+        seen[source.name] = source
     labels = read_labels(args.labels, files) if args.labels else {}
+    if args.preset == "landmarks":  # its handles are the labels' keypoints: every input's
+        bare = [f.name for f in files if not labels.get(f.name, {}).get("keypoints")]
+        if bare:
+            raise UsageError(
+                f"the landmarks preset moves each image's keypoints; --labels gives none for "
+                f"{', '.join(bare[:3])}{' ...' if len(bare) > 3 else ''}"
+            )
     folder = Path(args.output)
     if folder.exists() and not folder.is_dir():
         raise UsageError(f"{folder}: must be a folder")
+    made = [p for p in (folder, *folder.parents) if not p.exists()]  # the deepest first
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as error:
@@ -272,6 +319,12 @@ def run(args: argparse.Namespace) -> int:
     except BaseException:
         for temporary, _ in written:
             Path(temporary).unlink(missing_ok=True)
+        _remove_temporaries(tasks)  # of workers that finished after the failure
+        for made_folder in made:  # the folders this run made, were they left empty
+            try:
+                made_folder.rmdir()
+            except OSError:
+                break
         raise
     for temporary, final in written:
         os.chmod(temporary, 0o666 & ~umask())

@@ -251,6 +251,27 @@ def parse_background(text: str) -> float | tuple[float, ...]:
     return values[0] if len(values) == 1 else values
 
 
+def scheduler_address(text: str) -> str:
+    """``local`` or a Dask scheduler's address (``tcp://host:8786``), checked by Dask where
+    it is installed (without it, :func:`glmls.analysis.jobs.check_scheduler` says how to
+    install it)."""
+    address = text.strip()
+    if address == "local":
+        return address
+    try:
+        from distributed.comm.addressing import get_address_host_port
+    except ImportError:
+        return text
+    try:
+        get_address_host_port(address)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(
+            f"expected 'local' or a Dask scheduler's address (tcp://host:8786), got {text!r}: "
+            f"{error}"
+        ) from None
+    return address
+
+
 def add_jobs_options(parser: argparse.ArgumentParser) -> None:
     """--jobs and --scheduler (:func:`glmls.analysis.jobs.run_jobs`)."""
     group = parser.add_argument_group("parallel work")
@@ -264,6 +285,7 @@ def add_jobs_options(parser: argparse.ArgumentParser) -> None:
     )
     group.add_argument(
         "--scheduler",
+        type=scheduler_address,
         metavar="ADDRESS",
         help="a Dask cluster: 'local' (one made on this machine with --jobs workers) or an "
         "existing scheduler's address (tcp://host:8786); needs pip install "

@@ -74,6 +74,24 @@ def test_albumentations_compose_moves_every_target_through_one_map(gl, sample):
     assert not np.array_equal(other(image=image)["image"], out["image"])
 
 
+@pytest.mark.parametrize("dtype", [np.float32, np.float64, np.float16, bool, np.int32])
+def test_albumentations_masks_of_any_dtype_albumentations_takes(gl, sample, dtype):
+    """albumentations passes float masks (soft labels, a normalised pipeline) as readily as
+    integer ones: each is warped with nearest sampling, its values kept, of its dtype."""
+    image, mask = sample
+    scale = 0.75 if np.dtype(dtype).kind == "f" else 7  # 5 -> 0.75 or 35
+    values = (mask > 0) if dtype is bool else (mask / 5 * scale).astype(dtype)
+    transform = MLSDeform("grid", preset_options={"displacement": 0.05})
+    out = A.Compose([transform], seed=3)(image=image, mask=values, masks=[values, values])
+    expected = transform.augment.replay([image], [transform.get_applied_params()["mls"]],
+                                        masks=[mask])  # fmt: skip
+    assert out["mask"].dtype == values.dtype and out["mask"].shape == mask.shape
+    np.testing.assert_array_equal(out["mask"] != 0, expected.masks[0] != 0)
+    assert set(np.unique(out["mask"]).tolist()) <= set(np.unique(values).tolist())
+    for one in out["masks"]:
+        np.testing.assert_array_equal(one, out["mask"])
+
+
 def test_albumentations_landmarks_and_text_presets(gl, sample):
     image, _ = sample
     compose = A.Compose(
@@ -116,6 +134,25 @@ def test_torchvision_batch_draws_per_sample(gl, rng):
     np.testing.assert_allclose(out_points.numpy(), expected.keypoints, atol=1e-5)
     torch.manual_seed(0)
     np.testing.assert_array_equal(transform(inputs[0]).numpy(), out_images.numpy())
+
+
+def test_torchvision_batch_labels_must_have_the_batch_first(gl, rng):
+    """One Mask or KeyPoints for a batch of N has N first; another first dimension is an
+    error, not the samples' labels split or merged."""
+    images = tv_tensors.Image(torch.zeros(4, 3, 24, 32, dtype=torch.uint8))
+    transform = MLSTransform("grid")
+    wrong = [
+        tv_tensors.KeyPoints(torch.rand(8, 2) * 20, canvas_size=(24, 32)),  # not 4 x (2, 2)
+        tv_tensors.Mask(torch.zeros(8, 24, 32, dtype=torch.uint8)),  # not 4 x 2 layers
+        tv_tensors.Mask(torch.zeros(24, 32, dtype=torch.uint8)),
+    ]
+    for label in wrong:
+        shape = tuple(label.shape)
+        with pytest.raises(ValueError, match=rf"of shape \({shape[0]}, .* for a batch of 4"):
+            transform(images, label)
+    one = tv_tensors.Image(torch.zeros(1, 3, 24, 32, dtype=torch.uint8))
+    points = tv_tensors.KeyPoints(torch.full((2, 2), 9.0), canvas_size=(24, 32))
+    assert tuple(transform(one, points)[1].shape) == (2, 2)  # a batch of one may leave it out
 
 
 def test_torchvision_boxes_per_sample_in_any_format(gl, rng):

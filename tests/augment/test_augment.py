@@ -67,6 +67,37 @@ def test_params_are_json_and_replay_exactly(gl, images, rng):
     assert params[0]["config"] == {"segments": 4, "radius": None}
 
 
+def test_params_of_numpy_options_are_json_too(gl, images):
+    """Options given as numpy values (an int64 grid, an array background) come out in the
+    params as JSON's numbers and lists, and replay the same from JSON."""
+    aug = Augment(
+        "grid",
+        seed=np.int64(2),
+        rows=np.int64(3),
+        displacement=np.float32(0.05),
+        warp_options={"grid": np.int64(2), "background": np.array([1, 2, 3])},
+    )
+    first = aug(images[:2])
+    params = json.loads(json.dumps(first.params))
+    assert params == first.params
+    assert params[0]["options"]["background"] == [1, 2, 3]
+    np.testing.assert_array_equal(aug.replay(images[:2], params).images, first.images)
+
+
+def test_replay_names_the_draw_it_cannot_use(gl, images):
+    aug = Augment("grid")
+    params = aug(images[:2]).params
+    with pytest.raises(TypeError, match="params must be a sequence of draws"):
+        aug.replay(images[:2], "params")
+    with pytest.raises(TypeError, match=r"params\[1\] must be a dict, got list"):
+        aug.replay(images[:2], [params[0], [1, 2]])
+    broken = [params[0], {k: v for k, v in params[1].items() if k != "src"}]
+    with pytest.raises(ValueError, match=r"params\[1\] has no 'src'"):
+        aug.replay(images[:2], broken)
+    with pytest.raises(ValueError, match=r"params\[0\]\['shape'\] must be \[H, W\]"):
+        aug.replay(images[:2], [params[0] | {"shape": "24x40"}, params[1]])
+
+
 def test_masks_keep_their_labels(gl, images, rng):
     masks = np.zeros((5, 24, 40), np.uint8)
     masks[:, 6:18, 10:30] = 7
@@ -192,7 +223,9 @@ def test_bad_input_names_the_item(gl, images):
         aug(images[:2], indices=[0])
     with pytest.raises(ValueError, match=r"params\[0\] was drawn for shape \(8, 8\)"):
         aug.replay(images[:1], aug.draw([(8, 8)]))
-    with pytest.raises(ValueError, match=r"polygons\[0\]\[0\] has shape"):
+    with pytest.raises(
+        ValueError, match=r"polygons\[0\]\[0\] has shape \(3, 3\); expected \(V, 2\)"
+    ):
         aug(images[:1], polygons=[[np.ones((3, 3))]])
 
 

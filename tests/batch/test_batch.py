@@ -103,6 +103,35 @@ def test_mls_options_and_segments(gl, rng):
         )
 
 
+@pytest.mark.parametrize("method", ["quads", "backward"])
+def test_no_point_handles_as_one_warp_takes_them(gl, rng, method):
+    """An image without point handles, as :func:`glmls.warp` takes it: the identity, or its
+    segment handles alone, beside images with handles, keypoints and maps asked for."""
+    batch = images(rng, count=4)
+    p, q = handles(rng, count=4)
+    none = np.zeros((0, 2))
+    src, dst = [p[0], none, none, p[3]], [q[0], none, none, q[3]]
+    segments = [None, None, np.array([[[3.0, 3.0], [25.0, 4.0]], [[3.0, 18.0], [25.0, 20.0]]])]
+    segments.append(None)
+    moved = [None, None, segments[2] + [[[0.0, 1.5], [1.0, -1.0]], [[1.0, 0.0], [0.0, 1.0]]], None]
+    points = rng.uniform(2, 20, (4, 3, 2))
+    options = {"method": method, "src_segments": segments, "dst_segments": moved}
+    result = glmls.warp_batch(batch, src, dst, keypoints=points, return_maps=True, **options)
+    plain = glmls.warp_batch(batch, src, dst, **options)
+    for i in range(4):
+        extra = (
+            {} if segments[i] is None else {"src_segments": segments[i], "dst_segments": moved[i]}
+        )
+        one = glmls.warp(batch[i], src[i], dst[i], method=method, **extra)
+        np.testing.assert_array_equal(result.images[i], one)
+        np.testing.assert_array_equal(plain[i], one)
+    np.testing.assert_array_equal(result.images[1], batch[1])
+    np.testing.assert_allclose(result.keypoints[1], points[1], atol=1e-5)
+    assert result.keypoints_valid[1].all()
+    same = glmls.warp_batch(batch, np.zeros((4, 0, 2)), np.zeros((4, 0, 2)), method=method)
+    np.testing.assert_array_equal(same, batch)
+
+
 def test_empty_batch(gl):
     out = glmls.warp_batch(
         np.zeros((0, 5, 6, 3), np.uint8), np.zeros((0, 3, 2)), np.zeros((0, 3, 2))
@@ -140,6 +169,25 @@ def test_masks_keep_their_labels(gl, rng):
     for i in range(N):
         want = glmls.warp(small[i], src[i], dst[i], method="backward")
         np.testing.assert_array_equal(ones.masks[i], want)
+
+
+@pytest.mark.parametrize("method", ["quads", "backward", "splat"])
+def test_bool_masks_stay_bool(gl, rng, method):
+    """A binary mask may be bool: warped as the labels 0 and 1, it comes back bool, False
+    where nothing is shown, in a list beside masks of other dtypes."""
+    batch = images(rng)
+    src, dst = handles(rng, spread=4.0)
+    labels = rng.integers(0, 2, (N, *SHAPE), dtype=np.uint8)
+    options = {"method": method, "output_shape": (30, 36), "origin": (-3, -2)}
+    want = glmls.warp_batch(batch, src, dst, masks=labels, **options).masks
+    result = glmls.warp_batch(batch, src, dst, masks=labels.astype(bool), **options)
+    assert result.masks.dtype == bool and result.masks.shape == want.shape
+    np.testing.assert_array_equal(result.masks, want.astype(bool))
+    mixed = [labels[0].astype(bool), labels[1], labels[2].astype(bool).tolist()]
+    some = glmls.warp_batch(batch, src, dst, masks=mixed, **options).masks
+    assert isinstance(some, list) and [m.dtype for m in some] == [bool, np.uint8, bool]
+    for got, expected in zip(some, want, strict=True):
+        np.testing.assert_array_equal(got.astype(np.uint8), expected)
 
 
 @pytest.mark.parametrize("method", ["backward", "backward-swap"])
@@ -217,6 +265,27 @@ def test_keypoints_land_on_their_pixels(gl, rng, method, grid, fold):
     assert max(errors) <= 0.5 * np.sqrt(2) + 0.15, np.sort(errors)[-5:]
 
 
+def test_backward_swap_keypoints_land_on_their_pixels(gl, rng):
+    """``backward-swap`` shows at output pixel u the source point s(u), s the MLS map with p
+    and q swapped: a keypoint moves by s's inverse, which differs from f by pixels where the
+    handles move far, not by f."""
+    shape = (20, 26)
+    count = 30
+    hot, batch, _, _ = hot_pixels(rng, shape, count, 3, np.uint8, False)
+    src, dst = handles(rng, count, 6, shape, spread=2.5)
+    points = hot[:, None, :].astype(float)
+    result = glmls.warp_batch(batch, src, dst, keypoints=points, method="backward-swap")
+    errors = []
+    for i in range(count):
+        rows, cols = np.nonzero(result.images[i] == 255)
+        if result.keypoints_valid[i, 0] and len(rows):
+            errors.append(np.abs(result.keypoints[i, 0] - np.c_[cols, rows]).max(axis=1).min())
+    assert len(errors) >= count * 3 // 4
+    # as for the other methods; the greatest error where s folds a pixel's square away
+    assert np.percentile(errors, 90) <= 0.5 + 1e-6, np.sort(errors)[-5:]
+    assert max(errors) <= 1.5, np.sort(errors)[-5:]
+
+
 @pytest.mark.parametrize("method", ["quads", "backward"])
 @pytest.mark.parametrize("grid", [1, 4])
 @pytest.mark.parametrize("fold", [False, True])
@@ -268,6 +337,17 @@ def test_keypoints_outside_and_ragged(gl, rng):
     assert result.masks is None and result.maps is None and result.params is None
 
 
+def test_keypoint_sets_given_as_empty_lists(gl, rng):
+    """A sample without keypoints may be an empty list, as a list of point lists has it."""
+    batch = images(rng)
+    src, dst = handles(rng)
+    result = glmls.warp_batch(batch, src, dst, keypoints=[[[5.0, 5.0]], [], [[3.0, 9.0]]])
+    assert [len(k) for k in result.keypoints] == [1, 0, 1]
+    assert [np.shape(k) for k in result.keypoints_valid] == [(1,), (0,), (1,)]
+    none = glmls.warp_batch(batch, src, dst, keypoints=[[], [], []])
+    assert none.keypoints.shape == (N, 0, 2) and none.keypoints_valid.shape == (N, 0)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "error", "message"),
     [
@@ -296,9 +376,36 @@ def test_keypoints_outside_and_ragged(gl, rng):
         ({"images": np.zeros((3, 4, 4, 5), np.uint8)}, ValueError, r"images\[0\] has shape"),
         ({"keypoints": np.zeros((3, 2, 3))}, ValueError, r"keypoints\[0\] has shape \(2, 3\)"),
         ({"keypoints": [np.zeros((1, 2))] * 2}, ValueError, "keypoints holds 2 point sets"),
+        (
+            {"keypoints": [[[1.0, 2.0]], [[1e30, 2.0]], [[1.0, 2.0]]]},
+            ValueError,
+            r"keypoints\[1\] must lie within ±1e\+06 px",
+        ),
+        (
+            {"keypoints": np.array([[[1.0, 2.0]], [[1.0, 2.0]], [[2.0, -3e6]]])},
+            ValueError,
+            r"keypoints\[2\] must lie within ±1e\+06 px",
+        ),
         ({"masks": np.zeros((3, 4, 5), np.uint8)}, ValueError, r"masks\[0\] has shape \(4, 5\)"),
         ({"masks": np.zeros((3, 4, 4), np.float32)}, TypeError, r"masks\[0\] has dtype float32"),
         ({"methd": "quads"}, TypeError, "unknown keyword methd"),
+        (
+            {"src_segments": [None, None, [[[0, 0], [3, 0]]]]},
+            ValueError,
+            r"images\[2\]: src_segments needs dst_segments",
+        ),
+        (
+            {
+                "src_segments": [None, [[[0, 0], [3, 0]]], None],
+                "dst_segments": [None, [[0, 0]], None],
+            },
+            ValueError,
+            r"images\[1\]: dst_segments must have shape \(S, 2, 2\)",
+        ),
+        ({"max_batch_bytes": 0}, ValueError, "max_batch_bytes must be an integer >= 1 or None"),
+        ({"max_batch_bytes": -5}, ValueError, "max_batch_bytes must be .* got -5"),
+        ({"max_batch_bytes": "1M"}, TypeError, "max_batch_bytes must be .* got '1M'"),
+        ({"return_maps": "yes"}, TypeError, "return_maps must be True or False, got 'yes'"),
         ({"method": "swirl"}, ValueError, "unknown method 'swirl'"),
     ],
 )

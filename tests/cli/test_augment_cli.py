@@ -88,27 +88,72 @@ def test_augment_with_jobs_gives_the_same(inputs):
         (["--labels", "bad.json"], "bad.json: not a JSON labels file"),
         (["--labels", "other.json"], "'c.png' names no input image"),
         (["--labels", "nan.json"], "keypoints holds values that are not finite"),
-        (["--preset", "landmarks"], "landmarks preset needs each image's landmarks"),
+        (["--labels", "wide.json"], "'a.png' keypoints must be a list of [2 numbers], got [[1"),
+        (["--labels", "flat.json"], "'a.png' boxes must be a list of [4 numbers], got [1"),
+        (["--preset", "landmarks"], "the landmarks preset moves each image's keypoints;"),
+        (
+            ["--preset", "landmarks", "--labels", "boxes.json"],
+            "--labels gives none for a.png",
+        ),
     ],
 )
 def test_bad_input_is_one_line_and_status_2_and_leaves_nothing(inputs, args, message):
     (inputs / "bad.json").write_text("{not json")
     (inputs / "other.json").write_text(json.dumps({"c.png": {"keypoints": [[1, 1]]}}))
     (inputs / "nan.json").write_text('{"a.png": {"keypoints": [[1, NaN]]}}')
+    (inputs / "boxes.json").write_text('{"a.png": {"boxes": [[1, 1, 5, 5]]}}')
+    # four numbers are not two keypoints, nor eight two boxes
+    (inputs / "wide.json").write_text('{"a.png": {"keypoints": [[1, 2, 3, 4]]}}')
+    (inputs / "flat.json").write_text('{"a.png": {"boxes": [1, 2, 3, 4, 5, 6, 7, 8]}}')
     result = glmls_cli("augment", "in", "out", "--n", "2", *args, cwd=inputs)
     assert result.returncode == 2, result.stderr
     assert message in result.stderr and "Traceback" not in result.stderr
     if "invalid choice" not in message:
         assert len(result.stderr.strip().splitlines()) == 1, result.stderr
-    out = inputs / "out"
-    assert not out.exists() or not any(out.iterdir()), sorted(out.iterdir())
+    assert not (inputs / "out").exists()
+
+
+@pytest.mark.parametrize("command", ["augment", "warp"])
+def test_a_malformed_scheduler_address_is_a_usage_error(inputs, command):
+    pytest.importorskip("distributed")
+    (inputs / "h.json").write_text(json.dumps({"src": [[1, 1]], "dst": [[2, 2]]}))
+    handles = ["--handles", "h.json"] if command == "warp" else []
+    result = glmls_cli(
+        command, "in", "out", *handles, "--jobs", "2", "--scheduler", "bogus", cwd=inputs
+    )
+    assert result.returncode == 2, result.stderr
+    assert "argument --scheduler: expected 'local' or a Dask scheduler's address" in result.stderr
+    assert "Traceback" not in result.stderr
+    assert not (inputs / "out").exists()
 
 
 def test_a_failure_midway_leaves_no_half_written_output(inputs):
     (inputs / "in" / "c.png").write_bytes(b"not a png")  # read after a.png and b.png
-    result = glmls_cli("augment", "in", "out", "--n", "2", cwd=inputs)
-    assert result.returncode == 2 and "c.png" in result.stderr, result.stderr
-    assert not any((inputs / "out").iterdir())
+    (inputs / "kept").mkdir()
+    for out in ("out/deeper", "kept"):
+        result = glmls_cli("augment", "in", out, "--n", "2", cwd=inputs)
+        assert result.returncode == 2 and "c.png" in result.stderr, result.stderr
+    assert not (inputs / "out").exists()  # the folders it made go again, empty
+    assert (inputs / "kept").is_dir() and not any((inputs / "kept").iterdir())
+
+
+def test_a_failure_with_jobs_leaves_no_temporary_file_of_the_other_workers(inputs):
+    """The bad input fails at once while another worker still deforms its copies: those
+    finish after the failure, and their temporary files go too."""
+    (inputs / "in" / "_bad.png").write_bytes(b"not a png")  # sorted first
+    result = glmls_cli("augment", "in", "out", "--n", "12", "--jobs", "2", cwd=inputs)
+    assert result.returncode == 2 and "_bad.png" in result.stderr, result.stderr
+    assert not (inputs / "out").exists(), sorted((inputs / "out").iterdir())
+
+
+def test_inputs_of_one_name_in_two_folders_are_a_usage_error(inputs):
+    for name in ("x", "y"):
+        (inputs / name).mkdir()
+        (inputs / name / "a.png").write_bytes((inputs / "in" / "a.png").read_bytes())
+    result = glmls_cli("augment", "*/a.png", "out", "--n", "2", cwd=inputs)
+    assert result.returncode == 2, result.stderr
+    assert "in/a.png and x/a.png have one name" in result.stderr
+    assert not (inputs / "out").exists()
 
 
 def test_augment_help_lists_the_presets(inputs):
@@ -116,3 +161,54 @@ def test_augment_help_lists_the_presets(inputs):
     assert result.returncode == 0 and "examples:" in result.stdout
     for name in ("grid", "text-distort", "text-stretch", "text-perspective", "landmarks"):
         assert name in result.stdout
+
+
+def _task(inputs, count):
+    from glmls.cli.augment import AugmentTask
+
+    labels = json.loads((inputs / "labels.json").read_text())["a.png"]
+    folder = inputs / "chunks"
+    folder.mkdir(exist_ok=True)
+    return AugmentTask(
+        inputs / "in" / "a.png", folder, 6, count, "grid", {}, 3,
+        {"transform": "similarity", "interpolation": "linear", "border": "edge"},
+        2.0, labels, 10**8,
+    )  # fmt: skip
+
+
+def test_many_copies_are_deformed_a_chunk_at_a_time(inputs, gl, monkeypatch):
+    """A chunk of copies at a time (one here), each draw numbered by its index: the same
+    images and labels as all at once."""
+    from glmls.cli import augment as command
+
+    whole = command.augment_file(_task(inputs, 3))
+    monkeypatch.setattr(command, "CHUNK_BYTES", 1)
+    calls = []
+    real = command.Augment.__call__
+    monkeypatch.setattr(
+        command.Augment, "__call__", lambda self, *a, **k: calls.append(1) or real(self, *a, **k)
+    )
+    chunked = command.augment_file(_task(inputs, 3))
+    assert len(calls) == 3 and whole.error is None and chunked.error is None
+    assert chunked.labels == whole.labels
+    for (one, _), (other, _) in zip(whole.written, chunked.written, strict=True):
+        np.testing.assert_array_equal(glmls.imread(one), glmls.imread(other))
+
+
+def test_an_unexpected_error_leaves_no_temporary_file(inputs, gl, monkeypatch):
+    from glmls.cli import augment as command
+
+    monkeypatch.setattr(command, "CHUNK_BYTES", 1)
+    real = command.Augment.__call__
+    calls = []
+
+    def fails_second(self, *args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise RuntimeError("the GL driver went away")
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(command.Augment, "__call__", fails_second)
+    with pytest.raises(RuntimeError, match="went away"):
+        command.augment_file(_task(inputs, 3))
+    assert not any((inputs / "chunks").iterdir())
