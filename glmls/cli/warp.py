@@ -1,5 +1,10 @@
 """``glmls warp``: deform one image, or many (a folder or a glob), by MLS; or one volume or
-mesh (:mod:`.warp3d`)."""
+mesh (:mod:`.warp3d`).
+
+Each image is written whole or not at all, as it finishes. A run stopped by a failing image
+(without ``--keep-going``) or by anything else keeps the images already written (and those
+that workers still running finish), and leaves no temporary file (a worker stopped while it
+wrote one leaves it: the run removes it) and none of the folders it made if they are empty."""
 
 from __future__ import annotations
 
@@ -14,6 +19,7 @@ from pathlib import Path
 from ..analysis.jobs import check_jobs, check_scheduler, run_jobs
 from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
+from ..files.atomic import missing_folders, remove_leftovers
 from ..files.images import check_writable
 from ..files.landmarks import handle_dimension, read_handle_set
 from ..imaging.options import WarpOptions
@@ -240,7 +246,12 @@ def run(args: argparse.Namespace) -> int:
                 print(outcome.target, flush=True)
             bar.advance()
 
-        run_jobs(warp_file, tasks, jobs=jobs, scheduler=scheduler, on_result=finished)
+        made = missing_folders(outputs)
+        try:
+            run_jobs(warp_file, tasks, jobs=jobs, scheduler=scheduler, on_result=finished)
+        except BaseException:  # the images written stay; no temporary file, no empty folder
+            remove_leftovers(outputs, made)
+            raise
     if failed:
         say(args, f"glmls warp: {len(failed)} of {len(files)} images failed")
         return 1

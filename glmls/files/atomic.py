@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import contextlib
+import glob
 import os
 import tempfile
 import threading
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-__all__ = ["atomic_write", "umask"]
+__all__ = ["atomic_write", "missing_folders", "remove_leftovers", "umask"]
 
 _umask_lock = threading.Lock()
 
@@ -51,3 +52,29 @@ def atomic_write(path: str | os.PathLike) -> Iterator[Path]:
         raise OSError(f"{path}: cannot write: {error.strerror or error}") from None
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def missing_folders(paths: Iterable[str | os.PathLike]) -> list[Path]:
+    """The folders above ``paths`` that do not exist yet (the deepest first): those that
+    writing them would make, for :func:`remove_leftovers` to take away after a failure."""
+    missing: dict[Path, None] = {}
+    for path in paths:
+        for folder in Path(path).parents:
+            if folder.exists():
+                break
+            missing[folder] = None
+    return sorted(missing, key=lambda folder: len(folder.parts), reverse=True)
+
+
+def remove_leftovers(paths: Iterable[str | os.PathLike], made: Iterable[Path] = ()) -> None:
+    """After a failed run: remove the temporary files that :func:`atomic_write` names
+    beside each of ``paths`` (``.NAME.*``), whoever wrote them (a worker process stopped
+    while it wrote one leaves it), then the folders of ``made`` (the deepest first, from
+    :func:`missing_folders`) that are left empty. Outputs written whole stay."""
+    for path in map(Path, paths):
+        if path.parent.is_dir():
+            for temporary in path.parent.glob(f".{glob.escape(path.name)}.*"):
+                temporary.unlink(missing_ok=True)
+    for folder in made:
+        with contextlib.suppress(OSError):  # not empty (or gone): it stays
+            folder.rmdir()

@@ -1,0 +1,57 @@
+"""A ``glmls warp`` of many images that stops half-way keeps the images written whole and
+leaves no temporary file and no empty folder it made (as ``glmls augment`` does)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import glmls
+from glmls.cli import warp as command
+from glmls.cli.main import main
+
+
+@pytest.fixture
+def inputs(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "in").mkdir()
+    image = np.zeros((8, 8), np.uint8)
+    for name in ("a.png", "b.png"):
+        glmls.imwrite(tmp_path / "in" / name, image)
+    handles = {"src": [[1, 1], [6, 1], [3, 6]], "dst": [[1, 2], [6, 1], [3, 6]]}
+    (tmp_path / "h.json").write_text(json.dumps(handles))
+    return tmp_path
+
+
+def _stopped_while_writing(function, tasks, *, on_result, **_):
+    """The first image written whole; the second's worker stopped in the middle of its
+    write (its temporary file left beside its output), and the run interrupted."""
+    first, second = tasks
+    first.target.parent.mkdir(parents=True, exist_ok=True)
+    glmls.imwrite(first.target, glmls.imread(first.source))  # as the worker writes it
+    on_result(0, command.WarpOutcome(first.target, (8, 8), None))
+    second.target.parent.mkdir(parents=True, exist_ok=True)
+    (second.target.parent / f".{second.target.name}.k3j_x.png").write_bytes(b"half")
+    raise KeyboardInterrupt
+
+
+def _stopped_before_any_image(function, tasks, *, on_result, **_):
+    for task in tasks:
+        task.target.parent.mkdir(parents=True, exist_ok=True)
+        (task.target.parent / f".{task.target.name}.q9z_1.png").write_bytes(b"half")
+    raise KeyboardInterrupt
+
+
+def test_a_stopped_batch_keeps_its_images_and_no_temporary_file(inputs, monkeypatch):
+    monkeypatch.setattr(command, "run_jobs", _stopped_while_writing)
+    assert main(["warp", "in", "out", "--handles", "h.json", "--jobs", "2"]) == 130
+    assert sorted(p.name for p in (inputs / "out").iterdir()) == ["a.png"]
+
+
+def test_a_stopped_batch_removes_the_folders_it_made_when_empty(inputs, monkeypatch):
+    monkeypatch.setattr(command, "run_jobs", _stopped_before_any_image)
+    (inputs / "kept").mkdir()
+    assert main(["warp", "in", "kept/new/deeper/", "--handles", "h.json", "--quiet"]) == 130
+    assert (inputs / "kept").is_dir() and not any((inputs / "kept").iterdir())
