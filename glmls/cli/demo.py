@@ -24,7 +24,7 @@ from .options import (
     config_from_args,
     positive_int,
 )
-from .warp3d import parse_spacing
+from .warp3d import TARGETS_HELP, parse_spacing
 
 __all__ = ["configure", "run"]
 
@@ -35,6 +35,7 @@ examples:
   glmls demo photo.png --handles h.json
   glmls demo --volume                          # the bundled 64^3 phantom, 3D handles
   glmls demo scan.nii.gz --handles h3d.json    # a volume: three orthogonal slices
+  glmls demo scan.nii --handles moving.pts --targets fixed.pts   # elastix points
   glmls demo --record session.json             # save the session's events to replay
   xvfb-run -a glmls demo --replay drag.json --frames 30 --screenshot shot.png
 """
@@ -82,8 +83,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--handles",
         type=Path,
-        help="handles file (JSON, CSV or BigWarp): points, segments and polylines",
+        help="handles file (JSON, CSV, BigWarp's CSV or JSON, elastix's .pts with --targets): "
+        "points, segments and polylines",
     )
+    parser.add_argument("--targets", type=Path, metavar="DST", help=TARGETS_HELP)
     parser.add_argument(
         "--spacing",
         type=parse_spacing,
@@ -151,7 +154,7 @@ def _inputs(args: argparse.Namespace):
         reference = np.zeros((0, 2))
     handles = HandleSet.validate(src, dst)
     if args.handles is not None:
-        handles = read_handle_set(args.handles)
+        handles = read_handle_set(args.handles, dst=args.targets)
     if args.reference is not None:
         reference = read_points(args.reference)
     return image, name, handles, reference

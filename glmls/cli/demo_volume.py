@@ -4,6 +4,7 @@ The volume window opens for ``glmls demo VOLUME`` (NIfTI ``.nii``/``.nii.gz``, a
 or a ``.npy`` array of 4 dimensions or of 3 whose last is over 4), for ``glmls demo
 --volume [VOLUME]`` (without a file: the bundled phantom and its handles), and for ``glmls
 demo --handles H3D`` with a file of 3D handles and no image (the phantom, those handles).
+An elastix pair is ``--handles MOVING.pts --targets FIXED.pts``, as for ``glmls warp``.
 
 The voxel spacing is ``glmls warp``'s: ``--spacing DZ,DY,DX``, else the file's (a NIfTI's
 affine, an ImageJ stack's spacing), else 1; the handles are in its units (voxel (i, j, k) at
@@ -23,6 +24,7 @@ from ..errors import InputFileError
 from ..files.landmarks import read_handles
 from ..files.volumes import Volume, is_volume_file, read_volume, volume_suffix
 from .demo_window import fail, replay_events, run_window, window_options
+from .warp3d import voxel_handles
 
 __all__ = ["run_volume", "volume_inputs"]
 
@@ -37,11 +39,11 @@ def _is_volume(path: Path) -> bool:
     return array.ndim == 4 or (array.ndim == 3 and array.shape[2] > 4)
 
 
-def _three_d_handles(path: Path | None) -> bool:
+def _three_d_handles(path: Path | None, targets: Path | None) -> bool:
     if path is None:
         return False
     try:
-        src, _ = read_handles(path)
+        src, _ = read_handles(path, dst=targets)
     except (InputFileError, OSError):
         return False  # the 2D reader says what is wrong with it
     return src.shape[1] == 3
@@ -57,7 +59,7 @@ def volume_inputs(
     from .. import data
 
     wanted = args.volume or (args.image is not None and _is_volume(args.image))
-    if not wanted and not (args.image is None and _three_d_handles(args.handles)):
+    if not wanted and not (args.image is None and _three_d_handles(args.handles, args.targets)):
         if args.spacing is not None:
             raise ValueError(
                 f"--spacing: for volumes, not for images ({args.image or 'the photograph'})"
@@ -74,8 +76,9 @@ def volume_inputs(
         if args.spacing is not None:
             volume = Volume(volume.data, spacing=args.spacing, affine=volume.affine)
         src = dst = np.zeros((0, 3))
-    if args.handles is not None:
-        src, dst = read_handles(args.handles, ndim=3)
+    if args.handles is not None:  # an elastix pair of voxel indices: times the spacing
+        src, dst = read_handles(args.handles, dst=args.targets, ndim=3)
+        src, dst = voxel_handles(args, src, dst, volume.spacing)
     return volume, name, src, dst
 
 

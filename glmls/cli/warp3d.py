@@ -60,15 +60,16 @@ def parse_spacing(text: str) -> tuple[float, float, float]:
     return values  # type: ignore[return-value]
 
 
+TARGETS_HELP = (
+    "the targets' elastix point file (.pts; elastix's fixed points), where --handles names the "
+    "sources' (the moving points)"
+)
+
+
 def add_3d_options(parser: argparse.ArgumentParser) -> None:
     """``--targets`` (an elastix pair) and ``--spacing`` (volumes)."""
     group = parser.add_argument_group("volumes and meshes")
-    group.add_argument(
-        "--targets",
-        metavar="DST",
-        help="the targets' elastix point file (.pts; elastix's fixed points), where --handles "
-        "names the sources' (the moving points)",
-    )
+    group.add_argument("--targets", metavar="DST", help=TARGETS_HELP)
     group.add_argument(
         "--spacing",
         type=parse_spacing,
