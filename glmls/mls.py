@@ -559,7 +559,8 @@ class MLS(ForkSafe):
         ValueError
             On an MLS of 2D handles, or for a malformed mesh (named).
         TypeError
-            For vertices that are not real numbers.
+            For vertices that are not real numbers, or faces that are not integers (a
+            float array of faces too: the message names its dtype).
 
         Examples
         --------

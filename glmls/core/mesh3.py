@@ -86,7 +86,8 @@ def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """(vertices (V, 3) float64, faces (F, 3) int64, the mesh's own vertex normals or None)
     of ``mesh``: an object with ``.vertices`` and ``.faces`` (a ``trimesh.Trimesh``), a
     ``(vertices, faces)`` tuple, or a (V, 3) array of points (no faces).
-    ``ValueError``/``TypeError`` for anything else, or faces naming missing vertices."""
+    ``ValueError``/``TypeError`` for anything else, or faces naming missing vertices;
+    ``TypeError`` naming the dtype for faces that are not integers (floats included)."""
     normals = None
     if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
         vertices, faces = mesh.vertices, mesh.faces  # type: ignore[attr-defined]
@@ -100,8 +101,16 @@ def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     f = np.asarray(faces)
     if f.size == 0:
         f = np.zeros((0, 3), np.int64)
-    if f.dtype.kind not in "iu" or f.ndim != 2 or f.shape[1] != 3:
-        raise ValueError(f"mesh faces must be (F, 3) integer vertex indices, got {f.shape}")
+    if f.dtype.kind not in "iu":  # floats too, whole or not: indices are integers
+        raise TypeError(
+            f"mesh faces must be integer vertex indices, got dtype {f.dtype} (shape {f.shape}): "
+            "convert them with faces.astype(int) where they hold whole numbers"
+        )
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise ValueError(
+            f"mesh faces must be (F, 3) integer vertex indices, got shape {f.shape} "
+            f"(dtype {f.dtype})"
+        )
     if len(f) and (f.min() < 0 or f.max() >= len(v)):
         raise ValueError(f"mesh faces name vertices outside 0..{len(v) - 1}")
     if normals is not None and normals.shape != v.shape:
