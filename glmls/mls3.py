@@ -49,7 +49,10 @@ class MLS3(MLS):
     transform, weight, alpha, s, radius, interpolating
         As :class:`glmls.MLS`'s (``radius`` in voxels).
     shape : (int, int, int) or None, default None
-        (D, H, W) of a volume, whose diagonal is the radius weights' default radius.
+        (D, H, W) of a volume, whose diagonal (in voxels) is the radius weights' default
+        radius for ``m(points)``; a volume warp (or ``bounds``, ``coordinate_map``) takes
+        the warped volume's diagonal in the handles' units, (D dz, H dy, W dx) with the
+        warp's ``spacing``.
     ctx : moderngl.Context or GLContext or None
         The context to compute with (default: glmls's shared one).
     storage : {"auto", "ssbo", "ubo", "texture"}, default "auto"

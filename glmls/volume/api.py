@@ -52,7 +52,9 @@ def warp_volume(
     **keywords
         Fields of :class:`VolumeOptions`: ``method`` (``"quads"``, the cells method, or
         ``"backward"``), ``interpolation``, ``grid``, ``border``, ``background``,
-        ``output_shape`` (D, H, W), ``origin`` (x, y, z), ``spacing`` (dz, dy, dx).
+        ``output_shape`` (D, H, W), ``origin`` (x, y, z), ``spacing`` (dz, dy, dx). A
+        radius weight of an MLS given no radius takes the diagonal of ``volume`` in the
+        handles' units: that of (D dz, H dy, W dx).
 
     Returns
     -------

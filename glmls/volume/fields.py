@@ -9,6 +9,8 @@ handles' units. :class:`ReferenceField` evaluates the float64 reference
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from typing import Protocol
 
 import moderngl
@@ -61,7 +63,8 @@ class Field(Protocol):
 class ReferenceField:
     """f of the float64 reference (:func:`glmls.reference.mls`) with (N, 3) handles
     ``src`` -> ``dst`` (handle units) for voxels of ``spacing`` (dz, dy, dx); ``shape``
-    (D, H, W) gives the default radius (its diagonal), as :func:`glmls.reference.mls`'s."""
+    (D, H, W) gives the default radius: its diagonal in the handles' units, that of
+    (D dz, H dy, W dx), as :class:`~glmls.volume.kernel_field.KernelField`'s."""
 
     def __init__(
         self,
@@ -74,7 +77,11 @@ class ReferenceField:
     ) -> None:
         self.src = np.asarray(src, dtype=np.float64)
         self.dst = np.asarray(dst, dtype=np.float64)
-        self.config = config if config is not None else MLSConfig()
+        config = config if config is not None else MLSConfig()
+        if config.uses_radius and config.radius is None and shape is not None:
+            extent = [float(n) * float(d) for n, d in zip(shape, spacing, strict=True)]
+            config = dataclasses.replace(config, radius=math.sqrt(sum(e * e for e in extent)))
+        self.config = config
         dz, dy, dx = spacing
         self.scale = np.array([dx, dy, dz], dtype=np.float64)
         self.shape = shape

@@ -15,7 +15,7 @@ from ..gl.dispatch import run_1d, set_uniforms
 from .fields import NEWTON_ACCEPT
 from .frame import CornerLattice
 
-__all__ = ["NEWTON_STEPS", "NEWTON_TOLERANCE", "KernelField"]
+__all__ = ["NEWTON_STEPS", "NEWTON_TOLERANCE", "KernelField", "physical_extent"]
 
 #: Newton on f stops below this residual |f(s) - u| (voxels) ...
 NEWTON_TOLERANCE = 1e-3
@@ -27,10 +27,19 @@ NEWTON_STEPS = 8
 NEWTON_MAX_STEP = 0.1
 
 
+def physical_extent(
+    shape: tuple[int, int, int], spacing: tuple[float, float, float]
+) -> tuple[float, float, float]:
+    """(D dz, H dy, W dx): the size of a (D, H, W) volume of voxels of ``spacing`` (dz, dy,
+    dx) in the handles' units, whose diagonal is a radius weight's default radius."""
+    return tuple(float(n) * float(d) for n, d in zip(shape, spacing, strict=True))  # type: ignore[return-value]
+
+
 class KernelField:
     """The :class:`~glmls.volume.fields.Field` of an :class:`~glmls.engine.kernel3.MLSKernel3`
     for voxels of ``spacing`` (dz, dy, dx); ``shape`` (D, H, W), the volume whose diagonal is
-    the default radius (None: the kernel's own)."""
+    the default radius of a radius weight (None: the kernel's own), measured in the handles'
+    units as the points are: the diagonal of (D dz, H dy, W dx)."""
 
     def __init__(
         self,
@@ -41,7 +50,9 @@ class KernelField:
         self.kernel = kernel
         dz, dy, dx = spacing
         self.scale = np.array([dx, dy, dz], dtype=np.float64)
-        self.shape = shape
+        #: What the kernel takes the default radius's diagonal of: the volume's extent in
+        #: the handles' units (the kernel's passes take it as a shape, and only for that).
+        self.shape = None if shape is None else physical_extent(shape, spacing)
 
     def _uniforms(self) -> dict[str, object]:
         return {"u_volume_scale": tuple(float(c) for c in self.scale)}

@@ -105,7 +105,9 @@ class VolumeOptions:
         ``origin + (i dx, j dy, k dz)`` (handle units); None: (0, 0, 0).
     spacing : (float, float, float), default (1.0, 1.0, 1.0)
         (dz, dy, dx): voxel (k, j, i) of the source sits at (i dx, j dy, k dz) in the
-        handles' units, and so does output voxel (k, j, i), shifted by ``origin``.
+        handles' units, and so does output voxel (k, j, i), shifted by ``origin``. A radius
+        weight given no radius takes the volume's diagonal in those units, that of
+        (D dz, H dy, W dx).
 
     Raises
     ------
