@@ -25,7 +25,7 @@ from .options import (
     warp_options_from_args,
 )
 from .progress import Ticker
-from .warp3d import add_3d_options
+from .warp3d import add_3d_options, check_world
 
 HELP = "error analysis of one deformation"
 EXAMPLES = """
@@ -57,6 +57,7 @@ def run(args: argparse.Namespace) -> int:
         return run_mesh(args)
     if args.spacing is not None:
         raise UsageError(f"--spacing: for volumes, not for images ({args.input or 'the example'})")
+    check_world(args)
     config = config_from_args(args)
     warp_options = warp_options_from_args(args)
     image, handles, reference, name = example_or_files(args, need_reference=False)

@@ -33,6 +33,7 @@ from .analyze_volume import read_points_3d
 from .inputs import reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
+from .warp3d import check_world
 
 __all__ = ["is_mesh_input", "run_mesh"]
 
@@ -79,6 +80,7 @@ def run_mesh(args: argparse.Namespace) -> int:
         raise UsageError("missing --handles (a file of 3D handles for a mesh)")
     if args.spacing is not None:
         raise UsageError(f"--spacing: for volumes, not for a mesh ({args.input})")
+    check_world(args)
     config = _check_radius(config_from_args(args))
     mesh = read_mesh(args.input)
     src, dst = read_handles(args.handles, dst=args.targets, ndim=3)

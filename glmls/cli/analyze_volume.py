@@ -22,7 +22,7 @@ from ..mls import MLS
 from .inputs import reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
-from .warp3d import voxel_handles
+from .warp3d import check_world, voxel_handles, world_handles
 
 __all__ = ["is_volume_input", "read_points_3d", "run_volume"]
 
@@ -98,12 +98,14 @@ def run_volume(args: argparse.Namespace) -> int:
     """``glmls analyze VOLUME --handles H3 --out DIR``."""
     if args.handles is None:
         raise UsageError("missing --handles (a file of 3D handles for a volume)")
+    check_world(args)
     config = config_from_args(args)
     source = read_volume(args.input)
     volume = source.data
     spacing = args.spacing or source.spacing
     src, dst = voxel_handles(args, *read_handles(args.handles, dst=args.targets, ndim=3), spacing)
     reference = read_points_3d(args.reference) if args.reference else None
+    src, dst, reference = world_handles(args, source, spacing, src, dst, reference)
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")
     ticker = Ticker("analyze", quiet=args.quiet)

@@ -44,7 +44,7 @@ from .options import (
     warp_options_from_args,
 )
 from .progress import Progress, Ticker
-from .warp3d import add_3d_options, input_kind, run_3d
+from .warp3d import add_3d_options, check_world, input_kind, run_3d
 
 HELP = "deform images, volumes and meshes by MLS"
 EXAMPLES = """
@@ -197,6 +197,7 @@ def run(args: argparse.Namespace) -> int:
         return run_3d(args, kind)
     if args.spacing is not None:
         raise UsageError(f"--spacing: for volumes, not for images ({args.input})")
+    check_world(args)
     config = config_from_args(args)
     try:
         jobs, scheduler = check_jobs(args.jobs), check_scheduler(args.scheduler)

@@ -6,7 +6,9 @@ format of its suffix.
   affine, an ImageJ stack's spacing); the output keeps the input's dtype (integers rounded
   and clipped) and, written as NIfTI, the input's affine. A radius weight without ``--radius``
   takes the volume's diagonal in the handles' units (those of the spacing); an elastix pair
-  of ``index`` files (voxel indices) is put there by the spacing.
+  of ``index`` files (voxel indices) is put there by the spacing. With ``--world`` (NIfTI
+  only) the handles are world coordinates of the file's affine, mapped through its inverse
+  to the voxels times the spacing (:func:`glmls.files.world_to_volume`).
 - A mesh (PLY, OBJ, STL) is deformed by :meth:`glmls.MLS.deform`; the output has the
   deformed vertices and the input's triangles, and stderr says how many vertices and faces
   fold over. A radius weight needs ``--radius`` there.
@@ -31,6 +33,7 @@ from ..files.volumes import (
     is_volume_file,
     read_volume,
     volume_suffix,
+    world_to_volume,
     write_volume,
 )
 from ..mls import MLS
@@ -70,6 +73,12 @@ def add_3d_options(parser: argparse.ArgumentParser) -> None:
     """``--targets`` (an elastix pair) and ``--spacing`` (volumes)."""
     group = parser.add_argument_group("volumes and meshes")
     group.add_argument("--targets", metavar="DST", help=TARGETS_HELP)
+    group.add_argument(
+        "--world",
+        action="store_true",
+        help="the handles (and reference points) are world coordinates of a NIfTI volume's "
+        "affine (nibabel's, RAS+): mapped through its inverse to the voxels times the spacing",
+    )
     group.add_argument(
         "--spacing",
         type=parse_spacing,
@@ -111,6 +120,42 @@ def _handles(args: argparse.Namespace, kind: str) -> tuple[np.ndarray, np.ndarra
             "handles (x, y, z)"
         )
     return read_handles(args.handles, dst=args.targets, ndim=3)
+
+
+def check_world(args: argparse.Namespace) -> None:
+    """``--world`` only with a NIfTI volume (the file whose affine defines the world), and
+    not with an elastix pair of voxel indices; :class:`UsageError` otherwise."""
+    if not getattr(args, "world", False):
+        return
+    name = args.input or "the example"
+    if volume_suffix(name) not in (".nii", ".nii.gz"):
+        raise UsageError(
+            f"--world: {name} has no affine to map world coordinates by (only NIfTI volumes, "
+            ".nii and .nii.gz, have one); give the handles in voxels times the spacing"
+        )
+    if elastix_indices(args.handles, dst=args.targets):
+        raise UsageError(
+            f"--world: {args.handles} holds elastix voxel indices ('index'), not world "
+            "coordinates ('point')"
+        )
+
+
+def world_handles(args: argparse.Namespace, volume: Volume, spacing, *points):
+    """``points`` (each (N, 3), or None) as they are, or with ``--world`` mapped from world
+    coordinates through the inverse of the volume's affine to (i dx, j dy, k dz) of
+    ``spacing`` (:func:`glmls.files.world_to_volume`)."""
+    if not getattr(args, "world", False):
+        return points
+    check_world(args)
+    if volume.affine is None:  # a NIfTI file always has one: checked all the same
+        raise UsageError(f"--world: {args.input} has no affine")
+    try:
+        return tuple(
+            None if p is None else world_to_volume(p, volume.affine, spacing=spacing)
+            for p in points
+        )
+    except ValueError as error:
+        raise UsageError(f"--world: {args.input}: {error}") from None
 
 
 def voxel_handles(args: argparse.Namespace, src, dst, spacing):
@@ -167,6 +212,7 @@ def _refuse_image_options(args: argparse.Namespace, kind: str) -> None:
 def run_3d(args: argparse.Namespace, kind: str) -> int:
     """``glmls warp`` on one volume or mesh."""
     _refuse_image_options(args, kind)
+    check_world(args)
     config = config_from_args(args)
     target = _target(args, kind)
     src, dst = _handles(args, kind)
@@ -200,6 +246,7 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
         data = data.astype(np.float32)
     options = _volume_options(args, spacing)
     src, dst = voxel_handles(args, src, dst, spacing)
+    src, dst = world_handles(args, volume, spacing, src, dst)
     with _mls(src, dst, _volume_config(config, data.shape, spacing)) as m:
         ticker = Ticker(f"warp {args.input}", quiet=args.quiet)
         with ticker, reported_warnings(f"glmls warp: {args.input}"):

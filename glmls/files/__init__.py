@@ -8,7 +8,7 @@ from .atomic import atomic_write
 from .images import imread, imwrite
 from .landmarks import read_handle_set, read_handles, read_points, write_handle_set, write_handles
 from .meshes import Mesh, read_mesh, write_mesh
-from .volumes import Volume, read_volume, write_volume
+from .volumes import Volume, read_volume, volume_to_world, world_to_volume, write_volume
 
 __all__ = [
     "Mesh",
@@ -21,6 +21,8 @@ __all__ = [
     "read_mesh",
     "read_points",
     "read_volume",
+    "volume_to_world",
+    "world_to_volume",
     "write_handle_set",
     "write_handles",
     "write_mesh",

@@ -43,6 +43,8 @@ __all__ = [
     "is_volume_file",
     "read_volume",
     "volume_suffix",
+    "volume_to_world",
+    "world_to_volume",
     "write_volume",
 ]
 
@@ -146,6 +148,108 @@ def _affine_spacing(affine: np.ndarray) -> tuple[float, float, float]:
     """(dz, dy, dx): the lengths of the affine's columns k, j, i."""
     lengths = np.linalg.norm(affine[:3, :3], axis=0)
     return (float(lengths[2]), float(lengths[1]), float(lengths[0]))
+
+
+def _world_frame(points: object, affine: object, spacing: object) -> tuple:
+    """(points (N, 3) float64, the affine (4, 4), its inverse, the scale (dx, dy, dz))."""
+    values = np.asarray(points, dtype=np.float64)
+    if values.ndim != 2 or values.shape[1] != 3:
+        raise ValueError(f"points must be (N, 3) coordinates (x, y, z), got shape {values.shape}")
+    if not np.isfinite(values).all():
+        raise ValueError("points must be finite")
+    matrix = np.asarray(affine, dtype=np.float64)
+    if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
+        raise ValueError(f"affine must be a finite 4 x 4 matrix, got shape {matrix.shape}")
+    if abs(np.linalg.det(matrix[:3, :3])) < 1e-12 * max(1.0, np.abs(matrix[:3, :3]).max()) ** 3:
+        raise ValueError("affine is singular: it maps no world point back to one voxel")
+    steps = _affine_spacing(matrix) if spacing is None else check_spacing(spacing)
+    return values, matrix, np.linalg.inv(matrix), np.array(steps[::-1])
+
+
+def world_to_volume(points: object, affine: object, *, spacing: object = None) -> np.ndarray:
+    """World coordinates of a NIfTI file's affine to the frame of glmls's 3D warps.
+
+    The affine maps a voxel's indices (i, j, k, 1) = (x, y, z, 1), glmls's point of the
+    voxel ``volume.data[k, j, i]`` (:func:`read_volume` transposes NIfTI's (i, j, k) array
+    to (z, y, x)), to world (scanner) coordinates, those nibabel's ``img.affine`` gives
+    (NIfTI's RAS+: x to the right, y to the front, z up; tools in ITK's LPS convention give
+    x and y with the opposite signs). This is its inverse, times the spacing: the point
+    (i dx, j dy, k dz), in the units in which :meth:`glmls.MLS.warp` with ``spacing``
+    places the voxels and takes the handles.
+
+    Parameters
+    ----------
+    points : array_like
+        (N, 3) world coordinates (x, y, z).
+    affine : array_like
+        The 4 x 4 affine (:attr:`Volume.affine`).
+    spacing : (float, float, float), optional
+        (dz, dy, dx) of the warp; default the affine's (the lengths of its columns, as
+        :func:`read_volume` gives :attr:`Volume.spacing`).
+
+    Returns
+    -------
+    numpy.ndarray
+        (N, 3) float64 points (i dx, j dy, k dz).
+
+    Raises
+    ------
+    ValueError
+        For points that are not (N, 3) finite numbers, an affine that is not a finite,
+        invertible 4 x 4 matrix, or a bad spacing.
+
+    See Also
+    --------
+    volume_to_world : The inverse.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.files import world_to_volume
+    >>> affine = np.diag([0.5, 0.5, 2.0, 1.0])  # dx = dy = 0.5, dz = 2
+    >>> affine[:3, 3] = [-10.0, 20.0, 5.0]  # the world point of voxel (0, 0, 0)
+    >>> world_to_volume([[-9.0, 21.0, 9.0]], affine).tolist()  # voxel (2, 2, 2)
+    [[1.0, 1.0, 4.0]]
+    """
+    values, _, inverse, scale = _world_frame(points, affine, spacing)
+    indices = values @ inverse[:3, :3].T + inverse[:3, 3]
+    return indices * scale
+
+
+def volume_to_world(points: object, affine: object, *, spacing: object = None) -> np.ndarray:
+    """Points of the frame of glmls's 3D warps to world coordinates: the inverse of
+    :func:`world_to_volume`.
+
+    Parameters
+    ----------
+    points : array_like
+        (N, 3) points (i dx, j dy, k dz) in the units of ``spacing``.
+    affine : array_like
+        The 4 x 4 affine (:attr:`Volume.affine`).
+    spacing : (float, float, float), optional
+        (dz, dy, dx); default the affine's.
+
+    Returns
+    -------
+    numpy.ndarray
+        (N, 3) float64 world coordinates (x, y, z).
+
+    Raises
+    ------
+    ValueError
+        As :func:`world_to_volume`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.files import volume_to_world
+    >>> affine = np.diag([0.5, 0.5, 2.0, 1.0])
+    >>> affine[:3, 3] = [-10.0, 20.0, 5.0]
+    >>> volume_to_world([[1.0, 1.0, 4.0]], affine).tolist()
+    [[-9.0, 21.0, 9.0]]
+    """
+    values, matrix, _, scale = _world_frame(points, affine, spacing)
+    return (values / scale) @ matrix[:3, :3].T + matrix[:3, 3]
 
 
 def read_volume(path: str | os.PathLike) -> Volume:

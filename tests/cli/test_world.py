@@ -1,0 +1,115 @@
+"""World coordinates of a NIfTI affine: ``glmls.files.world_to_volume`` maps them through the
+affine's inverse to the frame of the 3D warps (voxel indices times the spacing), and ``glmls
+warp --world`` takes handles so; refused for files without an affine."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+import glmls
+from glmls.cli.main import main
+from glmls.files import volume_to_world, world_to_volume
+
+SHAPE = (6, 10, 8)  # D, H, W
+STEPS = np.array([0.5, 0.8, 2.0])  # dx, dy, dz: the spacing (dz, dy, dx) = (2, 0.8, 0.5)
+
+
+def _rotation(axis: str, degrees: float) -> np.ndarray:
+    c, s = np.cos(np.radians(degrees)), np.sin(np.radians(degrees))
+    a, b = {"x": (1, 2), "y": (2, 0), "z": (0, 1)}[axis]
+    r = np.eye(3)
+    r[a, a], r[a, b], r[b, a], r[b, b] = c, -s, s, c
+    return r
+
+
+def _affine() -> np.ndarray:
+    """Voxel indices (i, j, k, 1) to the world: rotated, scaled by the spacing, shifted."""
+    affine = np.eye(4)
+    affine[:3, :3] = _rotation("z", 30) @ _rotation("x", -20) @ np.diag(STEPS)
+    affine[:3, 3] = [-40.0, 12.5, 80.0]
+    return affine
+
+
+def _to_world(points: np.ndarray) -> np.ndarray:
+    """(i dx, j dy, k dz) to world coordinates, with the affine as NIfTI defines it."""
+    indices = points / STEPS
+    return indices @ _affine()[:3, :3].T + _affine()[:3, 3]
+
+
+def test_world_to_volume_inverts_the_affine():
+    rng = np.random.default_rng(2)
+    points = rng.uniform(0, 5, (9, 3))
+    world = _to_world(points)
+    assert_allclose(world_to_volume(world, _affine()), points, atol=1e-12)
+    assert_allclose(volume_to_world(points, _affine()), world, atol=1e-12)
+    # another spacing for the warp: the same voxels, in its units
+    other = world_to_volume(world, _affine(), spacing=(1.0, 1.0, 1.0))
+    assert_allclose(other, points / STEPS, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("points", "affine", "message"),
+    [
+        (np.zeros((2, 2)), np.eye(4), r"\(N, 3\)"),
+        (np.full((1, 3), np.nan), np.eye(4), "finite"),
+        (np.zeros((1, 3)), np.eye(3), "4 x 4"),
+        (np.zeros((1, 3)), np.diag([1.0, 0.0, 1.0, 1.0]), "singular"),
+    ],
+)
+def test_world_to_volume_refuses_bad_input(points, affine, message):
+    with pytest.raises(ValueError, match=message):
+        world_to_volume(points, affine)
+
+
+@pytest.fixture
+def nifti(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    z, y, x = np.meshgrid(*(np.arange(n, dtype=np.float32) for n in SHAPE), indexing="ij")
+    data = (np.sin(x / 1.5) + np.cos(y / 2.0) + z / 3.0).astype(np.float32)
+    glmls.write_volume(tmp_path / "v.nii.gz", data, affine=_affine())
+    extent = (np.array(SHAPE[::-1]) - 1) * STEPS
+    rng = np.random.default_rng(4)
+    src = rng.uniform(0.1, 0.9, (6, 3)) * extent  # (i dx, j dy, k dz)
+    dst = src + rng.uniform(-0.6, 0.6, (6, 3))
+    (tmp_path / "units.json").write_text(json.dumps({"src": src.tolist(), "dst": dst.tolist()}))
+    world = {"src": _to_world(src).tolist(), "dst": _to_world(dst).tolist()}
+    (tmp_path / "world.json").write_text(json.dumps(world))
+    return tmp_path
+
+
+def test_world_handles_warp_as_the_same_handles_in_voxels_times_spacing(nifti, gl):
+    assert glmls.read_volume(nifti / "v.nii.gz").spacing == pytest.approx((2.0, 0.8, 0.5))
+    common = ["--quiet", "--method", "backward", "--interpolation", "linear"]
+    assert main(["warp", "v.nii.gz", "units.nii.gz", "--handles", "units.json", *common]) == 0
+    assert (
+        main(["warp", "v.nii.gz", "world.nii.gz", "--handles", "world.json", "--world", *common])
+        == 0
+    )
+    units, world = (glmls.read_volume(nifti / f"{n}.nii.gz") for n in ("units", "world"))
+    assert_allclose(world.data, units.data, rtol=0, atol=1e-5)
+    assert_allclose(world.affine, _affine(), atol=1e-6)  # the output keeps the input's affine
+    source = glmls.read_volume(nifti / "v.nii.gz").data
+    assert np.abs(world.data - source).max() > 0.05  # the handles moved it
+    # the same world handles taken as units are another warp
+    assert main(["warp", "v.nii.gz", "raw.nii.gz", "--handles", "world.json", *common]) == 0
+    raw = glmls.read_volume(nifti / "raw.nii.gz").data
+    assert np.abs(raw - units.data).max() > 0.05
+
+
+def test_world_needs_an_affine(nifti, capsys):
+    np.save(nifti / "v.npy", np.zeros(SHAPE, np.float32))
+    glmls.imwrite(nifti / "i.png", np.zeros((8, 8), np.uint8))
+    (nifti / "h2.json").write_text(json.dumps({"src": [[1, 1]], "dst": [[2, 1]]}))
+    for argv in (
+        ["warp", "v.npy", "o.npy", "--handles", "units.json", "--world"],
+        ["warp", "i.png", "o.png", "--handles", "h2.json", "--world"],
+        ["analyze", "v.npy", "--handles", "units.json", "--world", "--out", "rep"],
+    ):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert "--world" in err and "affine" in err and err.count("\n") == 1, err
+    assert not (nifti / "o.npy").exists() and not (nifti / "rep").exists()
