@@ -33,21 +33,22 @@ def _stopped_while_writing(function, tasks, *, on_result, **_):
     glmls.imwrite(first.target, glmls.imread(first.source))  # as the worker writes it
     on_result(0, command.WarpOutcome(first.target, (8, 8), None))
     second.target.parent.mkdir(parents=True, exist_ok=True)
-    (second.target.parent / f".{second.target.name}.k3j_x.png").write_bytes(b"half")
+    (second.target.parent / ".b.png.swp").write_bytes(b"not glmls's: it stays")
+    (second.target.parent / f".{second.target.name}.k3j_x0ab.png").write_bytes(b"half")
     raise KeyboardInterrupt
 
 
 def _stopped_before_any_image(function, tasks, *, on_result, **_):
     for task in tasks:
         task.target.parent.mkdir(parents=True, exist_ok=True)
-        (task.target.parent / f".{task.target.name}.q9z_1.png").write_bytes(b"half")
+        (task.target.parent / f".{task.target.name}.q9z_1cd2.png").write_bytes(b"half")
     raise KeyboardInterrupt
 
 
 def test_a_stopped_batch_keeps_its_images_and_no_temporary_file(inputs, monkeypatch):
     monkeypatch.setattr(command, "run_jobs", _stopped_while_writing)
     assert main(["warp", "in", "out", "--handles", "h.json", "--jobs", "2"]) == 130
-    assert sorted(p.name for p in (inputs / "out").iterdir()) == ["a.png"]
+    assert sorted(p.name for p in (inputs / "out").iterdir()) == [".b.png.swp", "a.png"]
 
 
 def test_a_stopped_batch_removes_the_folders_it_made_when_empty(inputs, monkeypatch):
