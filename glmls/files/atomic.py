@@ -68,9 +68,10 @@ def missing_folders(paths: Iterable[str | os.PathLike]) -> list[Path]:
 
 def remove_leftovers(paths: Iterable[str | os.PathLike], made: Iterable[Path] = ()) -> None:
     """After a failed run: remove the temporary files that :func:`atomic_write` names
-    beside each of ``paths`` (``.NAME.XXXXXXXX.SUFFIX``), whoever wrote them (a worker process stopped
-    while it wrote one leaves it), then the folders of ``made`` (the deepest first, from
-    :func:`missing_folders`) that are left empty. Outputs written whole stay."""
+    beside each of ``paths`` (``.NAME.XXXXXXXX.SUFFIX``), whoever wrote them (a worker
+    process stopped while it wrote one leaves it), then the folders of ``made`` (the
+    deepest first, from :func:`missing_folders`) that are left empty. Outputs written
+    whole stay, and so do other files."""
     for path in map(Path, paths):
         if path.parent.is_dir():  # mkstemp's names: 8 random characters between the two
             pattern = f".{glob.escape(path.name)}.{'?' * 8}{glob.escape(path.suffix)}"
