@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import glob
 import json
 import os
 import sys
@@ -29,7 +28,7 @@ import numpy as np
 
 from ..analysis.jobs import check_jobs, check_scheduler, run_jobs
 from ..augment import PRESETS, Augment
-from ..files.atomic import umask
+from ..files.atomic import remove_leftovers, umask
 from ..files.images import check_writable, imwrite
 from ..imaging.source import BORDERS, INTERPOLATIONS
 from .inputs import image_inputs, read_image, say
@@ -229,10 +228,7 @@ def _remove_temporaries(tasks: list[AugmentTask]) -> None:
     """Remove the temporary files of every output of ``tasks`` (:func:`augment_file`'s
     ``.NAME.*`` beside each output), whoever wrote them: with ``--jobs``, the workers still
     running when another input failed finish and write theirs, unreported."""
-    for task in tasks:
-        for target in _names(task):
-            for temporary in target.parent.glob(f".{glob.escape(target.name)}.*"):
-                temporary.unlink(missing_ok=True)
+    remove_leftovers([target for task in tasks for target in _names(task)])
 
 
 def _preset_options(args: argparse.Namespace) -> dict:
