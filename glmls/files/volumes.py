@@ -217,8 +217,10 @@ def world_to_volume(points: object, affine: object, *, spacing: object = None) -
 
 
 def volume_to_world(points: object, affine: object, *, spacing: object = None) -> np.ndarray:
-    """Points of the frame of glmls's 3D warps to world coordinates: the inverse of
-    :func:`world_to_volume`.
+    """Points of the frame of glmls's 3D warps to world coordinates of a NIfTI affine.
+
+    The inverse of :func:`world_to_volume`: (i dx, j dy, k dz) divided by the spacing, then
+    through the affine.
 
     Parameters
     ----------

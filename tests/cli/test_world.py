@@ -113,3 +113,19 @@ def test_world_needs_an_affine(nifti, capsys):
         err = capsys.readouterr().err
         assert "--world" in err and "affine" in err and err.count("\n") == 1, err
     assert not (nifti / "o.npy").exists() and not (nifti / "rep").exists()
+
+
+@pytest.mark.parametrize("function", [world_to_volume, volume_to_world])
+def test_the_examples_run(function):
+    """Their docstrings' examples (glmls.files is outside the packages whose doctests
+    tests/docs runs), and numpydoc's checks there."""
+    import doctest
+
+    from numpydoc.validate import validate
+
+    finder, runner = doctest.DocTestFinder(), doctest.DocTestRunner()
+    for test in finder.find(function, function.__name__, globs={}):
+        assert runner.run(test).failed == 0
+    errors = validate(f"glmls.files.{function.__name__}")["errors"]
+    checks = {"GL08", "SS01", "SS03", "SS06", "PR01", "PR02", "PR07", "RT01", "EX01"}
+    assert [e for e in errors if e[0] in checks] == []
