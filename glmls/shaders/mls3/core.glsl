@@ -110,15 +110,8 @@ MLS3Accum mls3_begin(vec3 v, float d2min, int nearest, int n) {
     return a;
 }
 
-void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
-    vec3 p = mls3_p(i);
-    vec3 dp = p - a.v;
-    float d2 = dot(dp, dp);
-    // an empty slot, and the snapped handle (and duplicates of it: their weight is
-    // infinite and their p^ zero), get no weight
-    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
-    vec3 P = p - a.op;
-    vec3 E = mls3_e(i) - a.oe;
+// Adds one handle of weight w, P = p - p_o, E = e - e_o and squared distance d2.
+void mls3_add(inout MLS3Accum a, float w, vec3 P, vec3 E, float d2) {
     vec3 wP = w * P;
     a.W += w;
     a.P += wP;
@@ -127,6 +120,16 @@ void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
     a.Ao += wP.xxy * P.yzz;
     a.D += outerProduct(wP, E);
     a.spread += w * d2;
+}
+
+void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
+    vec3 p = mls3_p(i);
+    vec3 dp = p - a.v;
+    float d2 = dot(dp, dp);
+    // an empty slot, and the snapped handle (and duplicates of it: their weight is
+    // infinite and their p^ zero), get no weight
+    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
+    mls3_add(a, w, p - a.op, mls3_e(i) - a.oe, d2);
 }
 
 MLS3Result mls3_identity(vec3 v) {
@@ -248,6 +251,131 @@ mat3 mls3_jacobian(vec3 v, float h) {
         mls3_stencil_add(sums, k, mls3_eval(mls3_stencil_point(v, k, h)).d);
     }
     return mls3_stencil_jacobian(v, h, sums);
+}
+
+// f and J = df/dv together (the points pass's J): the central differences of mls3_jacobian,
+// with the six probes' moments from the centre's one pass over the handles. Every moment
+// (W, sum w P, sum w E, A, D) is linear in the weights, so that the probe v +- h e_a has
+// M0 +- Delta_a, M0 the centre's moments and Delta_a = sum (w(v + h e_a) - w(v - h e_a)) / 2
+// times each handle's features (1, P, E, P P^T, P^T E, about the centre's nearest handle
+// o): M0 stands for the probes' mean (M(v + h e_a) + M(v - h e_a)) / 2, which moves J by
+// O(h^2) as the differences themselves do. Each probe then finishes and solves as f does.
+//
+// The probes' weights take one normalisation m_lo = (sqrt(m) - 1.1 h)^2, below every
+// probe's squared distance to any handle (mls/weights.glsl divides a weight by a factor
+// common to all handles: the centre's m would clip gaussian's max(d2 - m, 0) at a probe
+// nearer to a handle than the centre), and the centre's moments are rescaled to it by
+// lambda = w(m; m_lo) / w(m; m). A probe's spread (the yardstick of coincident sources) is
+// the centre's. Where a probe may come within the snapping distance of a handle, where no
+// handle reaches the centre, or where a probe's W would not be positive, J is mls3_jacobian's
+// own; f is mls3_eval's, bit for bit.
+struct MLS3Probes {
+    vec3 up;        // v + h and v - h, each coordinate: the probes' moved coordinates
+    vec3 down;
+    float m;        // the probes' normalisation m_lo
+    float inv_m;
+    float sigma;
+    vec3 Wup;       // sum w(v + h e_a) and sum w(v - h e_a), each a: exact
+    vec3 Wdown;
+    MLS3Accum x;    // Delta_a: the moments of (w(v + h e_a) - w(v - h e_a)) / 2
+    MLS3Accum y;
+    MLS3Accum z;
+};
+
+void mls3_probe_accumulate(inout MLS3Accum a, inout MLS3Probes s, int i, bool use) {
+    vec3 p = mls3_p(i);
+    vec3 dp = p - a.v;
+    float d2 = dot(dp, dp);
+    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
+    vec3 P = p - a.op;
+    vec3 E = mls3_e(i) - a.oe;
+    mls3_add(a, w, P, E, d2);
+    // a probe's squared distance: the centre's with one coordinate moved
+    vec3 sq = dp * dp;
+    vec3 rest = vec3(sq.y + sq.z, sq.x + sq.z, sq.x + sq.y);
+    vec3 du = p - s.up;
+    vec3 dd = p - s.down;
+    vec3 d2u = du * du + rest;
+    vec3 d2d = dd * dd + rest;
+    vec3 wu = vec3(mls_weight(d2u.x, s.m, s.inv_m, s.sigma),
+                   mls_weight(d2u.y, s.m, s.inv_m, s.sigma),
+                   mls_weight(d2u.z, s.m, s.inv_m, s.sigma));
+    vec3 wd = vec3(mls_weight(d2d.x, s.m, s.inv_m, s.sigma),
+                   mls_weight(d2d.y, s.m, s.inv_m, s.sigma),
+                   mls_weight(d2d.z, s.m, s.inv_m, s.sigma));
+    wu = use ? wu : vec3(0.0);
+    wd = use ? wd : vec3(0.0);
+    s.Wup += wu;
+    s.Wdown += wd;
+    vec3 delta = 0.5 * (wu - wd);
+    mls3_add(s.x, delta.x, P, E, 0.0);
+    mls3_add(s.y, delta.y, P, E, 0.0);
+    mls3_add(s.z, delta.z, P, E, 0.0);
+}
+
+// The probe v + sign h e_a: the centre's moments times lambda plus sign Delta_a.
+MLS3Accum mls3_probe(MLS3Accum a, MLS3Accum delta, float W, float lambda, float sign,
+                     vec3 point) {
+    MLS3Accum b = a;
+    b.v = point;
+    b.W = W;
+    b.P = lambda * a.P + sign * delta.P;
+    b.E = lambda * a.E + sign * delta.E;
+    b.Ad = lambda * a.Ad + sign * delta.Ad;
+    b.Ao = lambda * a.Ao + sign * delta.Ao;
+    b.D = lambda * a.D + sign * delta.D;
+    b.spread = lambda * a.spread;
+    return b;
+}
+
+#define MLS3_PROBE_ACC(i, use) mls3_probe_accumulate(a, s, i, use);
+
+MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
+    int n = u_mls3_count;
+    float d2min = 3.0e38;
+    int nearest = 0;
+    MLS3_EACH(MLS3_NEAR)
+    MLS3Accum a = mls3_begin(v, d2min, nearest, n);
+    MLS3Probes s;
+    s.up = v + h;
+    s.down = v - h;
+    float reach = sqrt(a.m) - 1.1 * h;   // a bound on every probe's distance to a handle
+    s.m = max(reach, 0.0) * max(reach, 0.0);
+    s.inv_m = 1.0 / s.m;
+#if MLS_WEIGHT_USES_S
+    s.sigma = min(exp2(u_log2_s - u_alpha * log2(s.m)), 1e30);
+#else
+    s.sigma = 0.0;
+#endif
+    s.Wup = vec3(0.0);
+    s.Wdown = vec3(0.0);
+    s.x = a;   // no moments yet
+    s.y = a;
+    s.z = a;
+    MLS3_EACH(MLS3_PROBE_ACC)
+    MLS3Result r = mls3_finish(a);
+    float lambda = mls_weight(a.m, s.m, s.inv_m, s.sigma) / mls_weight(a.m, a.m, a.inv_m, a.sigma);
+    bool together = !a.hit && s.m > u_hit2 && lambda > 1e-30 && lambda < 1e30
+                 && all(greaterThan(min(s.Wup, s.Wdown), vec3(0.0)));
+    // no handle within reach of any probe (radius weights): f - v = 0 at each, J = I
+    bool alone = !a.hit && !(a.W > 0.0) && reach > u_radius;
+    if (alone) {
+        J = mat3(1.0);
+    } else if (together) {
+        mat3 sums = mat3(0.0);
+        for (int k = 1; k <= 6; ++k) {
+            int axis = (k - 1) / 2;
+            MLS3Accum delta = axis == 0 ? s.x : (axis == 1 ? s.y : s.z);
+            float W = (k & 1) == 1 ? s.Wup[axis] : s.Wdown[axis];
+            MLS3Accum b = mls3_probe(a, delta, W, lambda, mls3_stencil_sign(k),
+                                     mls3_stencil_point(v, k, h));
+            mls3_stencil_add(sums, k, mls3_finish(b).d);
+        }
+        J = mls3_stencil_jacobian(v, h, sums);
+    } else {
+        J = mls3_jacobian(v, h);
+    }
+    return r;
 }
 
 vec3 mls3_f(vec3 v) {
