@@ -8,7 +8,8 @@
 //   vec3 mls3_to_scaled(vec3 voxel), vec3 mls3_to_voxels(vec3 scaled)
 //   vec3 mls3_f_voxels(vec3 voxel)          f in voxel coordinates
 //   mat3 mls3_jacobian(vec3 v, float h)     df/dv by central differences of step h (scaled)
-//   mat3 mls3_jacobian_inlined(vec3 v, float h)   the same, six copies of f's code
+//   MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J)   f, and J from the same
+//                                           differences with one pass over the handles per axis
 //   mls3_stencil_*                          the same differences, for a pass's own loop
 //
 // Scaled coordinates: (voxel - u_mls3_center) / u_mls3_scale (MLSKernel3.scaling), so that
@@ -200,7 +201,7 @@ MLS3Result mls3_eval(vec3 v) {
 // k = 1..6 are v + h e_a (k odd) and v - h e_a (k even), a = (k - 1) / 2. Each f - v of
 // k >= 1 is added with mls3_stencil_add, and mls3_stencil_jacobian ends. mls3_jacobian walks
 // k in a loop around one evaluation of f (mls3_eval is most of a program's code: one copy,
-// not six, keeps the program small); mls3_jacobian_inlined writes the six out.
+// not six, keeps the program small); mls3_eval_jacobian shares the passes over the handles.
 vec3 mls3_stencil_axis(int k) {
     return k == 0 ? vec3(0.0) : vec3(equal(ivec3((k - 1) / 2), ivec3(0, 1, 2)));
 }
@@ -231,19 +232,6 @@ mat3 mls3_stencil_jacobian(vec3 v, float h, mat3 sums) {
     return transpose(rows);
 }
 
-// The same J with the six evaluations inlined: a program several times larger (longer to
-// compile), which llvmpipe runs faster than the loop (the points pass's choice).
-mat3 mls3_jacobian_inlined(vec3 v, float h) {
-    mat3 sums = mat3(0.0);
-    mls3_stencil_add(sums, 1, mls3_eval(mls3_stencil_point(v, 1, h)).d);
-    mls3_stencil_add(sums, 2, mls3_eval(mls3_stencil_point(v, 2, h)).d);
-    mls3_stencil_add(sums, 3, mls3_eval(mls3_stencil_point(v, 3, h)).d);
-    mls3_stencil_add(sums, 4, mls3_eval(mls3_stencil_point(v, 4, h)).d);
-    mls3_stencil_add(sums, 5, mls3_eval(mls3_stencil_point(v, 5, h)).d);
-    mls3_stencil_add(sums, 6, mls3_eval(mls3_stencil_point(v, 6, h)).d);
-    return mls3_stencil_jacobian(v, h, sums);
-}
-
 // J = df/dv at v by central differences of step h (scaled; 6 evaluations of f, one site).
 mat3 mls3_jacobian(vec3 v, float h) {
     mat3 sums = mat3(0.0);
@@ -254,66 +242,53 @@ mat3 mls3_jacobian(vec3 v, float h) {
 }
 
 // f and J = df/dv together (the points pass's J): the central differences of mls3_jacobian,
-// with the six probes' moments from the centre's one pass over the handles. Every moment
-// (W, sum w P, sum w E, A, D) is linear in the weights, so that the probe v +- h e_a has
-// M0 +- Delta_a, M0 the centre's moments and Delta_a = sum (w(v + h e_a) - w(v - h e_a)) / 2
-// times each handle's features (1, P, E, P P^T, P^T E, about the centre's nearest handle
-// o): M0 stands for the probes' mean (M(v + h e_a) + M(v - h e_a)) / 2, which moves J by
-// O(h^2) as the differences themselves do. Each probe then finishes and solves as f does.
+// with the moments of the probes v +- h e_a from one pass over the handles per axis a instead
+// of a full evaluation of f per probe. Every moment (W, sum w P, sum w E, A, D) is linear in
+// the weights: about the centre's nearest handle o, the probe's are M0 +- Delta_a, M0 the
+// centre's and Delta_a the moments of the half differences (w(v + h e_a) - w(v - h e_a)) / 2
+// (features 1, P, E, P P^T, P^T E, each handle's P and E once for all probes). M0 stands for
+// the probes' mean (M(v + h e_a) + M(v - h e_a)) / 2, which moves J by O(h^2) as the
+// differences themselves do; W itself is summed exactly per probe (o's own weight, the one
+// that varies fastest near o, has P = E = 0 and enters W alone). Each probe then finishes and
+// solves as f does.
 //
-// The probes' weights take one normalisation m_lo = (sqrt(m) - 1.1 h)^2, below every
-// probe's squared distance to any handle (mls/weights.glsl divides a weight by a factor
-// common to all handles: the centre's m would clip gaussian's max(d2 - m, 0) at a probe
-// nearer to a handle than the centre), and the centre's moments are rescaled to it by
-// lambda = w(m; m_lo) / w(m; m). A probe's spread (the yardstick of coincident sources) is
-// the centre's. Where a probe may come within the snapping distance of a handle, where no
-// handle reaches the centre, or where a probe's W would not be positive, J is mls3_jacobian's
-// own; f is mls3_eval's, bit for bit.
+// The probes' weights take one normalisation m_lo = (sqrt(m) - 1.1 h)^2, below every probe's
+// squared distance to any handle (mls/weights.glsl divides a weight by a factor common to
+// all handles: the centre's m would clip gaussian's max(d2 - m, 0) at a probe nearer to a
+// handle than the centre), and M0 is rescaled to it by lambda = w(m; m_lo) / w(m; m). A
+// probe's spread (the yardstick of coincident sources) is the centre's times lambda. Where a
+// probe may come within the snapping distance of a handle, where no handle reaches the centre
+// (J = I where none reaches any probe), or where a probe's W is not positive, J is
+// mls3_jacobian's own; f is mls3_eval's, bit for bit.
 struct MLS3Probes {
-    vec3 up;        // v + h and v - h, each coordinate: the probes' moved coordinates
-    vec3 down;
+    int axis;       // a
+    float up;       // v_a + h and v_a - h: the probes' moved coordinate
+    float down;
     float m;        // the probes' normalisation m_lo
     float inv_m;
     float sigma;
-    vec3 Wup;       // sum w(v + h e_a) and sum w(v - h e_a), each a: exact
-    vec3 Wdown;
-    MLS3Accum x;    // Delta_a: the moments of (w(v + h e_a) - w(v - h e_a)) / 2
-    MLS3Accum y;
-    MLS3Accum z;
+    float Wup;      // sum w(v + h e_a) and sum w(v - h e_a)
+    float Wdown;
+    MLS3Accum delta;   // Delta_a (its W unused)
 };
 
-void mls3_probe_accumulate(inout MLS3Accum a, inout MLS3Probes s, int i, bool use) {
+void mls3_probe_accumulate(inout MLS3Probes s, vec3 v, vec3 op, vec3 oe, int i, bool use) {
     vec3 p = mls3_p(i);
-    vec3 dp = p - a.v;
-    float d2 = dot(dp, dp);
-    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
-    vec3 P = p - a.op;
-    vec3 E = mls3_e(i) - a.oe;
-    mls3_add(a, w, P, E, d2);
-    // a probe's squared distance: the centre's with one coordinate moved
+    vec3 dp = p - v;
     vec3 sq = dp * dp;
-    vec3 rest = vec3(sq.y + sq.z, sq.x + sq.z, sq.x + sq.y);
-    vec3 du = p - s.up;
-    vec3 dd = p - s.down;
-    vec3 d2u = du * du + rest;
-    vec3 d2d = dd * dd + rest;
-    vec3 wu = vec3(mls_weight(d2u.x, s.m, s.inv_m, s.sigma),
-                   mls_weight(d2u.y, s.m, s.inv_m, s.sigma),
-                   mls_weight(d2u.z, s.m, s.inv_m, s.sigma));
-    vec3 wd = vec3(mls_weight(d2d.x, s.m, s.inv_m, s.sigma),
-                   mls_weight(d2d.y, s.m, s.inv_m, s.sigma),
-                   mls_weight(d2d.z, s.m, s.inv_m, s.sigma));
-    wu = use ? wu : vec3(0.0);
-    wd = use ? wd : vec3(0.0);
+    // a probe's squared distance: the centre's with coordinate a moved
+    float pa = p[s.axis];
+    float rest = s.axis == 0 ? sq.y + sq.z : (s.axis == 1 ? sq.x + sq.z : sq.x + sq.y);
+    float du = pa - s.up;
+    float dd = pa - s.down;
+    float wu = use ? mls_weight(du * du + rest, s.m, s.inv_m, s.sigma) : 0.0;
+    float wd = use ? mls_weight(dd * dd + rest, s.m, s.inv_m, s.sigma) : 0.0;
     s.Wup += wu;
     s.Wdown += wd;
-    vec3 delta = 0.5 * (wu - wd);
-    mls3_add(s.x, delta.x, P, E, 0.0);
-    mls3_add(s.y, delta.y, P, E, 0.0);
-    mls3_add(s.z, delta.z, P, E, 0.0);
+    mls3_add(s.delta, 0.5 * (wu - wd), p - op, mls3_e(i) - oe, 0.0);
 }
 
-// The probe v + sign h e_a: the centre's moments times lambda plus sign Delta_a.
+// The probe v + sign h e_a: lambda M0 + sign Delta_a, W its own.
 MLS3Accum mls3_probe(MLS3Accum a, MLS3Accum delta, float W, float lambda, float sign,
                      vec3 point) {
     MLS3Accum b = a;
@@ -328,7 +303,28 @@ MLS3Accum mls3_probe(MLS3Accum a, MLS3Accum delta, float W, float lambda, float 
     return b;
 }
 
-#define MLS3_PROBE_ACC(i, use) mls3_probe_accumulate(a, s, i, use);
+#define MLS3_PROBE_ACC(i, use) mls3_probe_accumulate(s, v, a.op, a.oe, i, use);
+
+// One axis a of mls3_eval_jacobian: Delta_a and the probes' W, then both probes' f - v into
+// sums (a constant at each call: every coordinate index below is).
+void mls3_probe_axis(inout mat3 sums, inout bool together, inout MLS3Probes s, MLS3Accum a,
+                     MLS3Accum zero, float lambda, vec3 v, float h, int axis) {
+    int n = u_mls3_count;
+    s.axis = axis;
+    s.up = v[axis] + h;
+    s.down = v[axis] - h;
+    s.Wup = 0.0;
+    s.Wdown = 0.0;
+    s.delta = zero;
+    MLS3_EACH(MLS3_PROBE_ACC)
+    together = together && s.Wup > 0.0 && s.Wdown > 0.0;
+    int k = 2 * axis + 1;
+    MLS3Accum up = mls3_probe(a, s.delta, s.Wup, lambda, 1.0, mls3_stencil_point(v, k, h));
+    MLS3Accum down = mls3_probe(a, s.delta, s.Wdown, lambda, -1.0,
+                                mls3_stencil_point(v, k + 1, h));
+    mls3_stencil_add(sums, k, mls3_finish(up).d);
+    mls3_stencil_add(sums, k + 1, mls3_finish(down).d);
+}
 
 MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
     int n = u_mls3_count;
@@ -336,9 +332,10 @@ MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
     int nearest = 0;
     MLS3_EACH(MLS3_NEAR)
     MLS3Accum a = mls3_begin(v, d2min, nearest, n);
+    MLS3Accum zero = a;   // no moments yet
+    MLS3_EACH(MLS3_ACC)
+    MLS3Result r = mls3_finish(a);
     MLS3Probes s;
-    s.up = v + h;
-    s.down = v - h;
     float reach = sqrt(a.m) - 1.1 * h;   // a bound on every probe's distance to a handle
     s.m = max(reach, 0.0) * max(reach, 0.0);
     s.inv_m = 1.0 / s.m;
@@ -347,30 +344,17 @@ MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
 #else
     s.sigma = 0.0;
 #endif
-    s.Wup = vec3(0.0);
-    s.Wdown = vec3(0.0);
-    s.x = a;   // no moments yet
-    s.y = a;
-    s.z = a;
-    MLS3_EACH(MLS3_PROBE_ACC)
-    MLS3Result r = mls3_finish(a);
     float lambda = mls_weight(a.m, s.m, s.inv_m, s.sigma) / mls_weight(a.m, a.m, a.inv_m, a.sigma);
-    bool together = !a.hit && s.m > u_hit2 && lambda > 1e-30 && lambda < 1e30
-                 && all(greaterThan(min(s.Wup, s.Wdown), vec3(0.0)));
+    bool together = !a.hit && s.m > u_hit2 && lambda > 1e-30 && lambda < 1e30;
     // no handle within reach of any probe (radius weights): f - v = 0 at each, J = I
     bool alone = !a.hit && !(a.W > 0.0) && reach > u_radius;
+    mat3 sums = mat3(0.0);
+    mls3_probe_axis(sums, together, s, a, zero, lambda, v, h, 0);
+    mls3_probe_axis(sums, together, s, a, zero, lambda, v, h, 1);
+    mls3_probe_axis(sums, together, s, a, zero, lambda, v, h, 2);
     if (alone) {
         J = mat3(1.0);
     } else if (together) {
-        mat3 sums = mat3(0.0);
-        for (int k = 1; k <= 6; ++k) {
-            int axis = (k - 1) / 2;
-            MLS3Accum delta = axis == 0 ? s.x : (axis == 1 ? s.y : s.z);
-            float W = (k & 1) == 1 ? s.Wup[axis] : s.Wdown[axis];
-            MLS3Accum b = mls3_probe(a, delta, W, lambda, mls3_stencil_sign(k),
-                                     mls3_stencil_point(v, k, h));
-            mls3_stencil_add(sums, k, mls3_finish(b).d);
-        }
         J = mls3_stencil_jacobian(v, h, sums);
     } else {
         J = mls3_jacobian(v, h);

@@ -11,7 +11,7 @@
 //     mesh vertex instead (mls3/mesh.glsl): f - v, J, the deformed unit normal n cof(J)
 //     sign(det J) of the vertex's normal (MLS3_MESH_NORMALS: 0 none, 1 the mesh's own, 3
 //     floats per vertex, 2 the fixed-point sums of mls3/mesh_normals.comp.glsl), det J.
-// J: mls3_eval_jacobian (mls3/core.glsl), with f from the same pass over the handles.
+// J: mls3_eval_jacobian (mls3/core.glsl), f and J sharing the passes over the handles.
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "mls3/core.glsl"
