@@ -305,10 +305,102 @@ MLS3Accum mls3_probe(MLS3Accum a, MLS3Accum delta, float W, float lambda, float 
 
 #define MLS3_PROBE_ACC(i, use) mls3_probe_accumulate(s, v, a.op, a.oe, i, use);
 
+// The probes' short solve. Where the centre's moments are well inside the closed forms'
+// plain branch (every eigenvalue of A above 2e-3 trace A for affine, A^-1 D by Cholesky; the
+// middle one above 2e-3 and det B > 0.02 |B|^3 for the rotations, B's polar factor), so is
+// each probe's, O(h) away: affine solves by Cholesky alone; the rotations take the centre's
+// polar factor U (B = U H) to first order in the probe's B - B0, U (I + [w]x) with
+// (tr(H) I - H) w = axial(U^T dB - dB^T U). The error, O(h^2) and the same at both probes of
+// an axis, leaves their difference O(h^3): J as the differences of the full solves.
+struct MLS3Centre {
+    bool plain;   // the centre is in that branch
+    mat3 B;       // its normalised B, polar factor U, and (tr(H) I - H)^-1
+    mat3 U;
+    mat3 G;
+};
+
+// finish's centring and the solve's normalisation: A (diagonal a, off-diagonal o) and D in
+// units of trace(A), and p*, e*
+void mls3_moments(MLS3Accum b, out vec3 a, out vec3 o, out mat3 D, out vec3 pst, out vec3 est) {
+    vec3 dp = b.P / b.W;
+    vec3 de = b.E / b.W;
+    pst = b.op + dp;
+    est = b.oe + de;
+    a = b.Ad - b.P * dp;
+    o = b.Ao - b.P.xxy * dp.yzz;
+    D = b.D - outerProduct(b.P, de);
+    float inv = 1.0 / (a.x + a.y + a.z);
+    a *= inv;
+    o *= inv;
+    D *= inv;
+}
+
+MLS3Centre mls3_centre(MLS3Accum b) {
+    vec3 a, o, pst, est;
+    mat3 D;
+    mls3_moments(b, a, o, D, pst, est);
+    MLS3Centre c;
+    float tr = a.x + a.y + a.z;
+    float c2 = a.x * a.y + a.x * a.z + a.y * a.z - dot(o, o);
+    float det = a.x * (a.y * a.z - o.z * o.z) - o.x * (o.x * a.z - o.z * o.y)
+              + o.y * (o.x * o.z - a.y * o.y);
+    mat3 A = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z));
+    c.B = A + D;
+    c.plain = b.W > 0.0 && c2 > 4.0 * MLS3_DEGENERATE_SHARE * tr * tr;
+#if MLS_TRANSFORM == 0
+    c.plain = c.plain && det > 2.0 * MLS3_DEGENERATE_SHARE * c2 * tr;
+    c.U = mat3(1.0);
+    c.G = mat3(1.0);
+#else
+    float nb2 = dot(c.B[0], c.B[0]) + dot(c.B[1], c.B[1]) + dot(c.B[2], c.B[2]);
+    c.plain = c.plain && determinant(c.B) > 2.0 * MLS3_POLAR_DET * nb2 * sqrt(nb2);
+    c.U = mls3_polar(c.B);
+    mat3 H = transpose(c.U) * c.B;
+    H = 0.5 * (H + transpose(H));
+    c.G = inverse((H[0][0] + H[1][1] + H[2][2]) * mat3(1.0) - H);
+#endif
+    return c;
+}
+
+// f - v at a probe (moments b) by the short solve
+vec3 mls3_probe_d(MLS3Accum b, MLS3Centre c) {
+    vec3 a, o, pst, est;
+    mat3 D;
+    mls3_moments(b, a, o, D, pst, est);
+    bool zero = D[0] == vec3(0.0) && D[1] == vec3(0.0) && D[2] == vec3(0.0);
+    float tr = a.x + a.y + a.z;
+#if MLS_TRANSFORM == 0
+    vec3 l0 = vec3(sqrt(a.x), o.x, o.y);
+    l0.yz /= l0.x;
+    float l11 = sqrt(a.y - l0.y * l0.y);
+    vec3 l1 = vec3(0.0, l11, (o.z - l0.z * l0.y) / l11);
+    vec3 l2 = vec3(0.0, 0.0, sqrt(a.z - l0.z * l0.z - l1.z * l1.z));
+    mat3 N = mat3(mls3_cholesky_apply(l0, l1, l2, D[0]), mls3_cholesky_apply(l0, l1, l2, D[1]),
+                  mls3_cholesky_apply(l0, l1, l2, D[2]));
+#else
+    mat3 A = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z));
+    mat3 B = A + D;
+    mat3 K = transpose(c.U) * (B - c.B);
+    K -= transpose(K);
+    vec3 w = c.G * vec3(K[1][2], K[2][0], K[0][1]);
+    mat3 NR = (c.U - mat3(1.0)) + c.U * mls3_cross_matrix(w);
+    float gain = D[0][0] + D[1][1] + D[2][2]
+               + dot(NR[0], B[0]) + dot(NR[1], B[1]) + dot(NR[2], B[2]);
+    float along = tr + gain;
+#if MLS_TRANSFORM == 2
+    mat3 N = along > 1e-6 * tr ? NR : mat3(0.0);
+#else
+    mat3 N = (along / tr) * NR + (gain / tr) * mat3(1.0);
+#endif
+#endif
+    N = zero ? mat3(0.0) : N;
+    return est + (b.v - pst) * N;
+}
+
 // One axis a of mls3_eval_jacobian: Delta_a and the probes' W, then both probes' f - v into
 // sums (a constant at each call: every coordinate index below is).
 void mls3_probe_axis(inout mat3 sums, inout bool together, inout MLS3Probes s, MLS3Accum a,
-                     MLS3Accum zero, float lambda, vec3 v, float h, int axis) {
+                     MLS3Accum zero, MLS3Centre c, float lambda, vec3 v, float h, int axis) {
     int n = u_mls3_count;
     s.axis = axis;
     s.up = v[axis] + h;
@@ -322,8 +414,8 @@ void mls3_probe_axis(inout mat3 sums, inout bool together, inout MLS3Probes s, M
     MLS3Accum up = mls3_probe(a, s.delta, s.Wup, lambda, 1.0, mls3_stencil_point(v, k, h));
     MLS3Accum down = mls3_probe(a, s.delta, s.Wdown, lambda, -1.0,
                                 mls3_stencil_point(v, k + 1, h));
-    mls3_stencil_add(sums, k, mls3_finish(up).d);
-    mls3_stencil_add(sums, k + 1, mls3_finish(down).d);
+    mls3_stencil_add(sums, k, mls3_probe_d(up, c));
+    mls3_stencil_add(sums, k + 1, mls3_probe_d(down, c));
 }
 
 MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
@@ -345,13 +437,14 @@ MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
     s.sigma = 0.0;
 #endif
     float lambda = mls_weight(a.m, s.m, s.inv_m, s.sigma) / mls_weight(a.m, a.m, a.inv_m, a.sigma);
-    bool together = !a.hit && s.m > u_hit2 && lambda > 1e-30 && lambda < 1e30;
+    MLS3Centre c = mls3_centre(a);
+    bool together = !a.hit && c.plain && s.m > u_hit2 && lambda > 1e-30 && lambda < 1e30;
     // no handle within reach of any probe (radius weights): f - v = 0 at each, J = I
     bool alone = !a.hit && !(a.W > 0.0) && reach > u_radius;
     mat3 sums = mat3(0.0);
-    mls3_probe_axis(sums, together, s, a, zero, lambda, v, h, 0);
-    mls3_probe_axis(sums, together, s, a, zero, lambda, v, h, 1);
-    mls3_probe_axis(sums, together, s, a, zero, lambda, v, h, 2);
+    mls3_probe_axis(sums, together, s, a, zero, c, lambda, v, h, 0);
+    mls3_probe_axis(sums, together, s, a, zero, c, lambda, v, h, 1);
+    mls3_probe_axis(sums, together, s, a, zero, c, lambda, v, h, 2);
     if (alone) {
         J = mat3(1.0);
     } else if (together) {
