@@ -145,3 +145,15 @@ def test_degenerate_sets(gl, transform, name):
         assert np.median(error) < RIDGE_MEDIAN and error.max() < RIDGE_MAX
     else:
         assert error.max() < 5e-3  # coplanar: the rotation's ridge only
+
+
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_a_large_turn(gl, transform):
+    # the probes' rotation is the centre's to first order in B - B0, whatever the centre's
+    rng = np.random.default_rng(6)
+    src = rng.uniform(0, SIZE, (16, 3))
+    dst = (src - 64.0) @ _rotation(rng).T * 1.3 + 64.0 + rng.normal(0, 4, src.shape)
+    points = np.concatenate([rng.uniform(0, SIZE, (120, 3)), _near(rng, src, 40, 0.06, 3.0)])
+    jacobian = _jacobian(src, dst, points, transform=transform)
+    error = np.abs(jacobian - _reference_jacobian(src, dst, points, transform=transform))
+    assert error.max() < TOLERANCE

@@ -249,17 +249,17 @@ mat3 mls3_jacobian(vec3 v, float h) {
 // (features 1, P, E, P P^T, P^T E, each handle's P and E once for all probes). M0 stands for
 // the probes' mean (M(v + h e_a) + M(v - h e_a)) / 2, which moves J by O(h^2) as the
 // differences themselves do; W itself is summed exactly per probe (o's own weight, the one
-// that varies fastest near o, has P = E = 0 and enters W alone). Each probe then finishes and
-// solves as f does.
+// that varies fastest near o, has P = E = 0 and enters W alone). Each probe then finishes by
+// the short solve below (mls3_probe_d).
 //
 // The probes' weights take one normalisation m_lo = (sqrt(m) - 1.1 h)^2, below every probe's
 // squared distance to any handle (mls/weights.glsl divides a weight by a factor common to
 // all handles: the centre's m would clip gaussian's max(d2 - m, 0) at a probe nearer to a
-// handle than the centre), and M0 is rescaled to it by lambda = w(m; m_lo) / w(m; m). A
-// probe's spread (the yardstick of coincident sources) is the centre's times lambda. Where a
-// probe may come within the snapping distance of a handle, where no handle reaches the centre
-// (J = I where none reaches any probe), or where a probe's W is not positive, J is
-// mls3_jacobian's own; f is mls3_eval's, bit for bit.
+// handle than the centre), and M0 is rescaled to it by lambda = w(m; m_lo) / w(m; m). Where
+// a probe may come within the snapping distance of a handle, where no handle reaches the
+// centre (J = I where none reaches any probe), where a probe's W is not positive, or where
+// the centre is not well inside the solve's plain branch, J is mls3_jacobian's own; f is
+// mls3_eval's, bit for bit.
 struct MLS3Probes {
     int axis;       // a
     float up;       // v_a + h and v_a - h: the probes' moved coordinate
@@ -299,7 +299,6 @@ MLS3Accum mls3_probe(MLS3Accum a, MLS3Accum delta, float W, float lambda, float 
     b.Ad = lambda * a.Ad + sign * delta.Ad;
     b.Ao = lambda * a.Ao + sign * delta.Ao;
     b.D = lambda * a.D + sign * delta.D;
-    b.spread = lambda * a.spread;
     return b;
 }
 
