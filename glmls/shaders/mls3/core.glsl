@@ -8,7 +8,8 @@
 //   vec3 mls3_to_scaled(vec3 voxel), vec3 mls3_to_voxels(vec3 scaled)
 //   vec3 mls3_f_voxels(vec3 voxel)          f in voxel coordinates
 //   mat3 mls3_jacobian(vec3 v, float h)     df/dv by central differences of step h (scaled)
-//   mat3 mls3_jacobian_inlined(vec3 v, float h)   the same, six copies of f's code
+//   MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J)   f, and J from the same
+//                                           differences with one pass over the handles per axis
 //   mls3_stencil_*                          the same differences, for a pass's own loop
 //
 // Scaled coordinates: (voxel - u_mls3_center) / u_mls3_scale (MLSKernel3.scaling), so that
@@ -110,15 +111,8 @@ MLS3Accum mls3_begin(vec3 v, float d2min, int nearest, int n) {
     return a;
 }
 
-void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
-    vec3 p = mls3_p(i);
-    vec3 dp = p - a.v;
-    float d2 = dot(dp, dp);
-    // an empty slot, and the snapped handle (and duplicates of it: their weight is
-    // infinite and their p^ zero), get no weight
-    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
-    vec3 P = p - a.op;
-    vec3 E = mls3_e(i) - a.oe;
+// Adds one handle of weight w, P = p - p_o, E = e - e_o and squared distance d2.
+void mls3_add(inout MLS3Accum a, float w, vec3 P, vec3 E, float d2) {
     vec3 wP = w * P;
     a.W += w;
     a.P += wP;
@@ -127,6 +121,16 @@ void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
     a.Ao += wP.xxy * P.yzz;
     a.D += outerProduct(wP, E);
     a.spread += w * d2;
+}
+
+void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
+    vec3 p = mls3_p(i);
+    vec3 dp = p - a.v;
+    float d2 = dot(dp, dp);
+    // an empty slot, and the snapped handle (and duplicates of it: their weight is
+    // infinite and their p^ zero), get no weight
+    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
+    mls3_add(a, w, p - a.op, mls3_e(i) - a.oe, d2);
 }
 
 MLS3Result mls3_identity(vec3 v) {
@@ -197,7 +201,7 @@ MLS3Result mls3_eval(vec3 v) {
 // k = 1..6 are v + h e_a (k odd) and v - h e_a (k even), a = (k - 1) / 2. Each f - v of
 // k >= 1 is added with mls3_stencil_add, and mls3_stencil_jacobian ends. mls3_jacobian walks
 // k in a loop around one evaluation of f (mls3_eval is most of a program's code: one copy,
-// not six, keeps the program small); mls3_jacobian_inlined writes the six out.
+// not six, keeps the program small); mls3_eval_jacobian shares the passes over the handles.
 vec3 mls3_stencil_axis(int k) {
     return k == 0 ? vec3(0.0) : vec3(equal(ivec3((k - 1) / 2), ivec3(0, 1, 2)));
 }
@@ -228,19 +232,6 @@ mat3 mls3_stencil_jacobian(vec3 v, float h, mat3 sums) {
     return transpose(rows);
 }
 
-// The same J with the six evaluations inlined: a program several times larger (longer to
-// compile), which llvmpipe runs faster than the loop (the points pass's choice).
-mat3 mls3_jacobian_inlined(vec3 v, float h) {
-    mat3 sums = mat3(0.0);
-    mls3_stencil_add(sums, 1, mls3_eval(mls3_stencil_point(v, 1, h)).d);
-    mls3_stencil_add(sums, 2, mls3_eval(mls3_stencil_point(v, 2, h)).d);
-    mls3_stencil_add(sums, 3, mls3_eval(mls3_stencil_point(v, 3, h)).d);
-    mls3_stencil_add(sums, 4, mls3_eval(mls3_stencil_point(v, 4, h)).d);
-    mls3_stencil_add(sums, 5, mls3_eval(mls3_stencil_point(v, 5, h)).d);
-    mls3_stencil_add(sums, 6, mls3_eval(mls3_stencil_point(v, 6, h)).d);
-    return mls3_stencil_jacobian(v, h, sums);
-}
-
 // J = df/dv at v by central differences of step h (scaled; 6 evaluations of f, one site).
 mat3 mls3_jacobian(vec3 v, float h) {
     mat3 sums = mat3(0.0);
@@ -248,6 +239,219 @@ mat3 mls3_jacobian(vec3 v, float h) {
         mls3_stencil_add(sums, k, mls3_eval(mls3_stencil_point(v, k, h)).d);
     }
     return mls3_stencil_jacobian(v, h, sums);
+}
+
+// f and J = df/dv together (the points pass's J): the central differences of mls3_jacobian,
+// with the moments of the probes v +- h e_a from one pass over the handles per axis a instead
+// of a full evaluation of f per probe. Every moment (W, sum w P, sum w E, A, D) is linear in
+// the weights: about the centre's nearest handle o, the probe's are M0 +- Delta_a, M0 the
+// centre's and Delta_a the moments of the half differences (w(v + h e_a) - w(v - h e_a)) / 2
+// (features 1, P, E, P P^T, P^T E, each handle's P and E once for all probes). M0 stands for
+// the probes' mean (M(v + h e_a) + M(v - h e_a)) / 2, which moves J by O(h^2) as the
+// differences themselves do; W itself is summed exactly per probe (o's own weight, the one
+// that varies fastest near o, has P = E = 0 and enters W alone). Each probe then finishes by
+// the short solve below (mls3_probe_d).
+//
+// The probes' weights take one normalisation m_lo = (sqrt(m) - 1.1 h)^2, below every probe's
+// squared distance to any handle (mls/weights.glsl divides a weight by a factor common to
+// all handles: the centre's m would clip gaussian's max(d2 - m, 0) at a probe nearer to a
+// handle than the centre), and M0 is rescaled to it by lambda = w(m; m_lo) / w(m; m). Where
+// a probe may come within the snapping distance of a handle, where no handle reaches the
+// centre (J = I where none reaches any probe), where a probe's W is not positive, or where
+// the centre is not well inside the solve's plain branch, J is mls3_jacobian's own; f is
+// mls3_eval's, bit for bit.
+struct MLS3Probes {
+    int axis;       // a
+    float up;       // v_a + h and v_a - h: the probes' moved coordinate
+    float down;
+    float m;        // the probes' normalisation m_lo
+    float inv_m;
+    float sigma;
+    float Wup;      // sum w(v + h e_a) and sum w(v - h e_a)
+    float Wdown;
+    MLS3Accum delta;   // Delta_a (its W unused)
+};
+
+void mls3_probe_accumulate(inout MLS3Probes s, vec3 v, vec3 op, vec3 oe, int i, bool use) {
+    vec3 p = mls3_p(i);
+    vec3 dp = p - v;
+    vec3 sq = dp * dp;
+    // a probe's squared distance: the centre's with coordinate a moved
+    float pa = p[s.axis];
+    float rest = s.axis == 0 ? sq.y + sq.z : (s.axis == 1 ? sq.x + sq.z : sq.x + sq.y);
+    float du = pa - s.up;
+    float dd = pa - s.down;
+    float wu = use ? mls_weight(du * du + rest, s.m, s.inv_m, s.sigma) : 0.0;
+    float wd = use ? mls_weight(dd * dd + rest, s.m, s.inv_m, s.sigma) : 0.0;
+    s.Wup += wu;
+    s.Wdown += wd;
+    mls3_add(s.delta, 0.5 * (wu - wd), p - op, mls3_e(i) - oe, 0.0);
+}
+
+// The probe v + sign h e_a: lambda M0 + sign Delta_a, W its own.
+MLS3Accum mls3_probe(MLS3Accum a, MLS3Accum delta, float W, float lambda, float sign,
+                     vec3 point) {
+    MLS3Accum b = a;
+    b.v = point;
+    b.W = W;
+    b.P = lambda * a.P + sign * delta.P;
+    b.E = lambda * a.E + sign * delta.E;
+    b.Ad = lambda * a.Ad + sign * delta.Ad;
+    b.Ao = lambda * a.Ao + sign * delta.Ao;
+    b.D = lambda * a.D + sign * delta.D;
+    return b;
+}
+
+#define MLS3_PROBE_ACC(i, use) mls3_probe_accumulate(s, v, a.op, a.oe, i, use);
+
+// The probes' short solve. Where the centre's moments are well inside the closed forms'
+// plain branch (every eigenvalue of A above 2e-3 trace A for affine, A^-1 D by Cholesky; the
+// middle one above 2e-3 and det B > 0.02 |B|^3 for the rotations, B's polar factor), so is
+// each probe's, O(h) away: affine solves by Cholesky alone; the rotations take the centre's
+// polar factor U (B = U H) to first order in the probe's B - B0, U (I + [w]x) with
+// (tr(H) I - H) w = axial(U^T dB - dB^T U). The error, O(h^2) and the same at both probes of
+// an axis, leaves their difference O(h^3): J as the differences of the full solves.
+struct MLS3Centre {
+    bool plain;   // the centre is in that branch
+    mat3 B;       // its normalised B, polar factor U, and (tr(H) I - H)^-1
+    mat3 U;
+    mat3 G;
+};
+
+// finish's centring and the solve's normalisation: A (diagonal a, off-diagonal o) and D in
+// units of trace(A), and p*, e*
+void mls3_moments(MLS3Accum b, out vec3 a, out vec3 o, out mat3 D, out vec3 pst, out vec3 est) {
+    vec3 dp = b.P / b.W;
+    vec3 de = b.E / b.W;
+    pst = b.op + dp;
+    est = b.oe + de;
+    a = b.Ad - b.P * dp;
+    o = b.Ao - b.P.xxy * dp.yzz;
+    D = b.D - outerProduct(b.P, de);
+    float inv = 1.0 / (a.x + a.y + a.z);
+    a *= inv;
+    o *= inv;
+    D *= inv;
+}
+
+MLS3Centre mls3_centre(MLS3Accum b) {
+    vec3 a, o, pst, est;
+    mat3 D;
+    mls3_moments(b, a, o, D, pst, est);
+    MLS3Centre c;
+    float tr = a.x + a.y + a.z;
+    float c2 = a.x * a.y + a.x * a.z + a.y * a.z - dot(o, o);
+    float det = a.x * (a.y * a.z - o.z * o.z) - o.x * (o.x * a.z - o.z * o.y)
+              + o.y * (o.x * o.z - a.y * o.y);
+    mat3 A = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z));
+    c.B = A + D;
+    c.plain = b.W > 0.0 && c2 > 4.0 * MLS3_DEGENERATE_SHARE * tr * tr;
+#if MLS_TRANSFORM == 0
+    c.plain = c.plain && det > 2.0 * MLS3_DEGENERATE_SHARE * c2 * tr;
+    c.U = mat3(1.0);
+    c.G = mat3(1.0);
+#else
+    float nb2 = dot(c.B[0], c.B[0]) + dot(c.B[1], c.B[1]) + dot(c.B[2], c.B[2]);
+    c.plain = c.plain && determinant(c.B) > 2.0 * MLS3_POLAR_DET * nb2 * sqrt(nb2);
+    c.U = mls3_polar(c.B);
+    mat3 H = transpose(c.U) * c.B;
+    H = 0.5 * (H + transpose(H));
+    c.G = inverse((H[0][0] + H[1][1] + H[2][2]) * mat3(1.0) - H);
+#endif
+    return c;
+}
+
+// f - v at a probe (moments b) by the short solve
+vec3 mls3_probe_d(MLS3Accum b, MLS3Centre c) {
+    vec3 a, o, pst, est;
+    mat3 D;
+    mls3_moments(b, a, o, D, pst, est);
+    bool zero = D[0] == vec3(0.0) && D[1] == vec3(0.0) && D[2] == vec3(0.0);
+    float tr = a.x + a.y + a.z;
+#if MLS_TRANSFORM == 0
+    vec3 l0 = vec3(sqrt(a.x), o.x, o.y);
+    l0.yz /= l0.x;
+    float l11 = sqrt(a.y - l0.y * l0.y);
+    vec3 l1 = vec3(0.0, l11, (o.z - l0.z * l0.y) / l11);
+    vec3 l2 = vec3(0.0, 0.0, sqrt(a.z - l0.z * l0.z - l1.z * l1.z));
+    mat3 N = mat3(mls3_cholesky_apply(l0, l1, l2, D[0]), mls3_cholesky_apply(l0, l1, l2, D[1]),
+                  mls3_cholesky_apply(l0, l1, l2, D[2]));
+#else
+    mat3 A = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z));
+    mat3 B = A + D;
+    mat3 K = transpose(c.U) * (B - c.B);
+    K -= transpose(K);
+    vec3 w = c.G * vec3(K[1][2], K[2][0], K[0][1]);
+    mat3 NR = (c.U - mat3(1.0)) + c.U * mls3_cross_matrix(w);
+    float gain = D[0][0] + D[1][1] + D[2][2]
+               + dot(NR[0], B[0]) + dot(NR[1], B[1]) + dot(NR[2], B[2]);
+    float along = tr + gain;
+#if MLS_TRANSFORM == 2
+    mat3 N = along > 1e-6 * tr ? NR : mat3(0.0);
+#else
+    mat3 N = (along / tr) * NR + (gain / tr) * mat3(1.0);
+#endif
+#endif
+    N = zero ? mat3(0.0) : N;
+    return est + (b.v - pst) * N;
+}
+
+// One axis a of mls3_eval_jacobian: Delta_a and the probes' W, then both probes' f - v into
+// sums (a constant at each call: every coordinate index below is).
+void mls3_probe_axis(inout mat3 sums, inout bool together, inout MLS3Probes s, MLS3Accum a,
+                     MLS3Accum zero, MLS3Centre c, float lambda, vec3 v, float h, int axis) {
+    int n = u_mls3_count;
+    s.axis = axis;
+    s.up = v[axis] + h;
+    s.down = v[axis] - h;
+    s.Wup = 0.0;
+    s.Wdown = 0.0;
+    s.delta = zero;
+    MLS3_EACH(MLS3_PROBE_ACC)
+    together = together && s.Wup > 0.0 && s.Wdown > 0.0;
+    int k = 2 * axis + 1;
+    MLS3Accum up = mls3_probe(a, s.delta, s.Wup, lambda, 1.0, mls3_stencil_point(v, k, h));
+    MLS3Accum down = mls3_probe(a, s.delta, s.Wdown, lambda, -1.0,
+                                mls3_stencil_point(v, k + 1, h));
+    mls3_stencil_add(sums, k, mls3_probe_d(up, c));
+    mls3_stencil_add(sums, k + 1, mls3_probe_d(down, c));
+}
+
+MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
+    int n = u_mls3_count;
+    float d2min = 3.0e38;
+    int nearest = 0;
+    MLS3_EACH(MLS3_NEAR)
+    MLS3Accum a = mls3_begin(v, d2min, nearest, n);
+    MLS3Accum zero = a;   // no moments yet
+    MLS3_EACH(MLS3_ACC)
+    MLS3Result r = mls3_finish(a);
+    MLS3Probes s;
+    float reach = sqrt(a.m) - 1.1 * h;   // a bound on every probe's distance to a handle
+    s.m = max(reach, 0.0) * max(reach, 0.0);
+    s.inv_m = 1.0 / s.m;
+#if MLS_WEIGHT_USES_S
+    s.sigma = min(exp2(u_log2_s - u_alpha * log2(s.m)), 1e30);
+#else
+    s.sigma = 0.0;
+#endif
+    float lambda = mls_weight(a.m, s.m, s.inv_m, s.sigma) / mls_weight(a.m, a.m, a.inv_m, a.sigma);
+    MLS3Centre c = mls3_centre(a);
+    bool together = !a.hit && c.plain && s.m > u_hit2 && lambda > 1e-30 && lambda < 1e30;
+    // no handle within reach of any probe (radius weights): f - v = 0 at each, J = I
+    bool alone = !a.hit && !(a.W > 0.0) && reach > u_radius;
+    mat3 sums = mat3(0.0);
+    mls3_probe_axis(sums, together, s, a, zero, c, lambda, v, h, 0);
+    mls3_probe_axis(sums, together, s, a, zero, c, lambda, v, h, 1);
+    mls3_probe_axis(sums, together, s, a, zero, c, lambda, v, h, 2);
+    if (alone) {
+        J = mat3(1.0);
+    } else if (together) {
+        J = mls3_stencil_jacobian(v, h, sums);
+    } else {
+        J = mls3_jacobian(v, h);
+    }
+    return r;
 }
 
 vec3 mls3_f(vec3 v) {

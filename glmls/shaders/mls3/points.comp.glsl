@@ -11,7 +11,7 @@
 //     mesh vertex instead (mls3/mesh.glsl): f - v, J, the deformed unit normal n cof(J)
 //     sign(det J) of the vertex's normal (MLS3_MESH_NORMALS: 0 none, 1 the mesh's own, 3
 //     floats per vertex, 2 the fixed-point sums of mls3/mesh_normals.comp.glsl), det J.
-// J: mls3_jacobian_inlined (mls3/core.glsl).
+// J: mls3_eval_jacobian (mls3/core.glsl), f and J sharing the passes over the handles.
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "mls3/core.glsl"
@@ -112,8 +112,8 @@ void main() {
     int i = u_offset + int(gl_GlobalInvocationID.x);
     vec3 v = mls3_item_point(min(i, max(u_count - 1, 0)));
 #if MLS3_WRITE_JACOBIAN
-    MLS3Result r = mls3_eval(v);
-    mat3 J = mls3_jacobian_inlined(v, u_jacobian_step);
+    mat3 J;
+    MLS3Result r = mls3_eval_jacobian(v, u_jacobian_step, J);
 #else
     MLS3Result r = mls3_eval(v);
 #endif

@@ -1,0 +1,159 @@
+"""The 3D Jacobian J = df/dv of the points pass (``m.jacobian``, and ``m.deform``'s vertex
+records) against the float64 reference's central differences: every transform and weight,
+points near (not on) handles, on them and within the snapping distance, and the degenerate
+handle sets; f from the same pass equals the plain evaluation bit for bit.
+
+The GPU takes central differences of step ``JACOBIAN_STEP`` (0.05 voxel) with the probes'
+moments from the centre's passes over the handles (glmls/shaders/mls3/core.glsl,
+``mls3_eval_jacobian``); the reference differences float64 f with a step of 1e-3 voxel.
+Tolerances: 1e-3 where at least four handles in general position are in reach (float32's
+rounding of f, ~1e-5 voxel, over the 0.1-voxel stencil, plus the stencil's O(h^2) error)
+and the weights are smooth (idw, gaussian). The weights that reach 0 at d = R (cressman,
+shepard, linear) leave some points 3 handles in reach: J's median within 1e-4, its largest
+error within 0.15 (shepard's f is a cone at a handle, which a stencil next to it straddles:
+not tested there). Where fewer than four handles are in reach, a ridge of 1e-3 of the
+moments fixes what they leave free and float32's rounding of the moments moves f by up to
+~3e-4 of the distance to p* (test_mls3d's RIDGE_TOLERANCE of 0.1 voxel), which the
+0.1-voxel stencil turns into errors of J up to ~1."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import glmls
+from glmls import reference
+
+SIZE = 128.0
+#: Where at least four handles in general position are in reach.
+TOLERANCE = 1e-3
+#: The weights that reach 0 at R: J's median and largest error (see the module's docstring).
+BOUNDED_MEDIAN, BOUNDED_MAX = 1e-4, 0.15
+#: The ridge's sets (two, three, collinear handles; coplanar ones for affine): J's median
+#: and largest error (see the module's docstring).
+RIDGE_MEDIAN, RIDGE_MAX = 0.3, 1.5
+
+
+def _reference_jacobian(src, dst, points, **options):
+    """d f_c / d v_r by float64 central differences of step 1e-3 voxel, (K, 3, 3)."""
+    h = 1e-3
+    rows = [
+        reference.mls(src, dst, points + h * e, **options)[0]
+        - reference.mls(src, dst, points - h * e, **options)[0]
+        for e in np.eye(3)
+    ]
+    return np.stack(rows, axis=1) / (2 * h)
+
+
+def _near(rng, src, count, low, high):
+    """``count`` points at distances in [low, high] (log-uniform) of random handles."""
+    directions = rng.normal(size=(count, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    distance = np.exp(rng.uniform(np.log(low), np.log(high), count))
+    return src[rng.integers(0, len(src), count)] + directions * distance[:, None]
+
+
+def _jacobian(src, dst, points, **options):
+    """The GPU's f and J, checking f against the plain evaluation (bit for bit)."""
+    with glmls.MLS(src, dst, **options) as m:
+        f, jacobian = m.jacobian(points)
+        assert np.array_equal(f, m(points))
+    assert np.isfinite(jacobian).all()
+    return jacobian
+
+
+OPTIONS = [
+    {"transform": transform, "weight": weight} | ({"radius": 90.0} if weight != "idw" else {})
+    for transform in glmls.TRANSFORMS
+    for weight in glmls.WEIGHTS
+] + [
+    {"transform": "rigid", "alpha": 1.7, "s": 0.5},
+    {"transform": "similarity", "weight": "gaussian", "radius": 40.0, "interpolating": True},
+]
+
+
+@pytest.mark.parametrize("options", OPTIONS, ids=lambda o: "-".join(map(str, o.values())))
+def test_every_transform_and_weight(gl, options):
+    rng = np.random.default_rng(3)
+    src = rng.uniform(0, SIZE, (16, 3))
+    dst = src + rng.normal(0, 4, src.shape)
+    points = np.concatenate([rng.uniform(0, SIZE, (120, 3)), _near(rng, src, 80, 0.06, 3.0)])
+    if "radius" in options:
+        # J jumps where a handle's weight reaches 0 (at d = R): not within a step of it
+        d = np.linalg.norm(points[:, None] - src[None], axis=2)
+        points = points[np.abs(d - options["radius"]).min(axis=1) > 0.25]
+    jacobian = _jacobian(src, dst, points, **options)
+    error = np.abs(jacobian - _reference_jacobian(src, dst, points, **options))
+    error = error.max(axis=(1, 2))
+    if options.get("weight", "idw") in ("idw", "gaussian"):
+        assert error.max() < TOLERANCE
+    else:
+        assert np.median(error) < BOUNDED_MEDIAN and error.max() < BOUNDED_MAX
+
+
+@pytest.mark.parametrize("options", [{}, {"alpha": 1.7}, {"transform": "affine", "s": 0.5}])
+def test_on_and_next_to_handles(gl, options):
+    # on a handle, within the snapping distance, within a step (the probes' own evaluations)
+    # and just beyond
+    rng = np.random.default_rng(4)
+    src = rng.uniform(0, SIZE, (16, 3))
+    dst = src + rng.normal(0, 4, src.shape)
+    points = np.concatenate(
+        [src, src + 1e-4, _near(rng, src, 40, 0.01, 0.055), _near(rng, src, 40, 0.055, 0.1)]
+    )
+    jacobian = _jacobian(src, dst, points, **options)
+    error = np.abs(jacobian - _reference_jacobian(src, dst, points, **options)).max(axis=(1, 2))
+    assert error.max() < TOLERANCE
+
+
+def _rotation(rng) -> np.ndarray:
+    qr, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    qr = qr * np.sign(np.diag(r))
+    return qr if np.linalg.det(qr) > 0 else -qr
+
+
+def _sets(rng) -> dict[str, np.ndarray]:
+    general = rng.uniform(0, 256, (12, 3))
+    axes = _rotation(rng)[:2]
+    line = 128.0 + np.linspace(-100, 100, 5)[:, None] * np.array([[1.0, 2.0, -0.5]]) / 2.3
+    return {
+        "two": general[:2],
+        "three": general[:3],
+        "coplanar": 128.0 + rng.uniform(-100, 100, (6, 2)) @ axes,
+        "collinear": line,
+        "one": general[:1],
+        "coincident": np.repeat(general[:1], 4, axis=0),
+    }
+
+
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+@pytest.mark.parametrize("name", ["two", "three", "coplanar", "collinear", "one", "coincident"])
+def test_degenerate_sets(gl, transform, name):
+    rng = np.random.default_rng(11)
+    src = _sets(rng)[name]
+    dst = src @ _rotation(rng).T * 1.1 + 5.0
+    if name != "coincident":
+        dst += rng.normal(0, 3, src.shape)
+    points = rng.uniform(0, 256, (150, 3))
+    jacobian = _jacobian(src, dst, points, transform=transform)
+    error = np.abs(jacobian - _reference_jacobian(src, dst, points, transform=transform))
+    error = error.max(axis=(1, 2))
+    if name in ("one", "coincident"):
+        # a translation: J = I exactly
+        assert (jacobian == np.eye(3)).all()
+    elif name in ("two", "three", "collinear") or (name, transform) == ("coplanar", "affine"):
+        assert np.median(error) < RIDGE_MEDIAN and error.max() < RIDGE_MAX
+    else:
+        assert error.max() < 5e-3  # coplanar: the rotation's ridge only
+
+
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_a_large_turn(gl, transform):
+    # the probes' rotation is the centre's to first order in B - B0, whatever the centre's
+    rng = np.random.default_rng(6)
+    src = rng.uniform(0, SIZE, (16, 3))
+    dst = (src - 64.0) @ _rotation(rng).T * 1.3 + 64.0 + rng.normal(0, 4, src.shape)
+    points = np.concatenate([rng.uniform(0, SIZE, (120, 3)), _near(rng, src, 40, 0.06, 3.0)])
+    jacobian = _jacobian(src, dst, points, transform=transform)
+    error = np.abs(jacobian - _reference_jacobian(src, dst, points, transform=transform))
+    assert error.max() < TOLERANCE
