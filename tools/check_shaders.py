@@ -145,11 +145,14 @@ def main(argv: list[str] | None = None) -> int:
     programs = {tuple(a.get("program", ())) for a in ours.values()}
     jobs += [(p[0], ["-l", *p]) for p in sorted(programs) if len(p) > 1 and set(p) <= set(ours)]
     with ThreadPoolExecutor(max(1, options.jobs)) as pool:
-        results = pool.map(lambda job: (job[0], run(tool, job[1], options.folder)), jobs)
+        results = pool.map(lambda job: (job, run(tool, job[1], options.folder)), jobs)
         reports: dict[tuple, set[str]] = defaultdict(set)
-        for name, messages in results:
+        for (name, args), messages in results:
+            files = [a for a in args if a in ours]
             for severity, file, line, text in messages:
-                where = origin(ours[file], line) if file in ours else ("<link>", 0)
+                # glslang names a file by its path, or "0" (its first source string)
+                file = file if file in ours else files[0] if len(files) == 1 else None
+                where = origin(ours[file], line) if file else ("<link>", 0)
                 reports[(severity, *where, text)].add(file or name)
     shader_files = {str(p.relative_to(SHADERS)) for p in SHADERS.rglob("*.glsl")}
     used = {f for about in ours.values() for f, _ in about["origins"]}
@@ -164,8 +167,9 @@ def main(argv: list[str] | None = None) -> int:
         failures += why is None
         example = sorted(names)[0]
         print(f"{file}:{line}: {status}: {text}  [{len(names)} variants, e.g. {example}]")
-    for name in sorted(shader_files - used):
-        print(f"{name}: not in any dumped program (no test compiled it)")
+    if shader_files - used:
+        missing = ", ".join(sorted(shader_files - used))
+        print(f"check_shaders: not in any dumped program (no test compiled them): {missing}")
     print(f"check_shaders: {failures} problems")
     return 1 if failures else 0
 

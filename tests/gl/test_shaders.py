@@ -4,6 +4,10 @@ identifiers too), compile errors naming file and line, programs compiled once.""
 from __future__ import annotations
 
 import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
 
 import moderngl
 import numpy as np
@@ -130,6 +134,24 @@ def test_driver_locations_of_other_vendors_are_mapped(shader_dir):
 def test_every_packaged_shader_compiles(gl):
     with gl:
         compile_every_entry(gl)
+
+
+@pytest.mark.skipif(shutil.which("glslangValidator") is None, reason="no glslangValidator")
+def test_every_packaged_shader_passes_the_reference_compiler(tmp_path, monkeypatch):
+    """Khronos's glslangValidator (apt: glslang-tools), stricter than Mesa, accepts them
+    (tools/check_shaders.py; the GL tests compile many more variants than these)."""
+    monkeypatch.setenv("GLMLS_DUMP_SHADERS", str(tmp_path))
+    own = create_headless()
+    try:
+        with own:
+            compile_every_entry(own)
+    finally:
+        own.release()
+    tool = Path(__file__).resolve().parents[2] / "tools" / "check_shaders.py"
+    done = subprocess.run(
+        [sys.executable, str(tool), str(tmp_path)], capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
 
 
 def compile_every_entry(gl):
