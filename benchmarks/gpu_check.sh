@@ -45,7 +45,8 @@ step tests 240 env GLMLS_DUMP_SHADERS="$out/shaders" timeout -s INT 230 "$PYTHON
     -p no:cacheprovider -p no:benchmark "${parallel[@]}" \
     tests/gl tests/engine tests/imaging tests/volume tests/batch tests/test_inverse.py
 if command -v glslangValidator >/dev/null; then
-    step shaders 120 "$PYTHON" tools/check_shaders.py "$out/shaders"
+    # --driver: the vendor compiler's own warnings too
+    step shaders 120 "$PYTHON" tools/check_shaders.py "$out/shaders" --driver
 else
     echo "== shaders: skipped (no glslangValidator: apt-get install glslang-tools)" >&2
 fi

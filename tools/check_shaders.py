@@ -18,8 +18,11 @@ or both at once (the tests named, or by default the GL tests):
 
     python tools/check_shaders.py /tmp/shaders --collect [-- PYTEST ARGUMENTS]
 
-``--spirv`` also compiles each stage to SPIR-V for OpenGL (``-G``, locations and bindings
-mapped automatically, which GLSL does not need), which runs glslang's code generation too.
+``--driver`` also compiles each stage with this machine's GL driver and reports its info
+log (Mesa warns of a variable read before any write, for instance; on a GPU, its vendor's
+compiler speaks). ``--spirv`` also compiles each stage to SPIR-V for OpenGL (``-G``,
+locations and bindings mapped automatically, which GLSL does not need), which runs glslang's
+code generation too.
 Files under glmls/shaders/ that no dumped program includes are listed: add a test that
 compiles them.
 """
@@ -46,11 +49,18 @@ TESTS = (
     "tests/gl tests/engine tests/imaging tests/batch tests/volume tests/analysis tests/app "
     "tests/test_inverse.py tests/test_warp_options.py"
 ).split()
-#: (file pattern, message pattern, why it is not a fault of the shader): reports glslang
-#: makes on valid GLSL 4.30 core. None so far with glslang 12.0.0. (--spirv maps locations
-#: and bindings, which SPIR-V for OpenGL requires of every uniform and GLSL does not, and does
-#: not run spirv-val, which refuses bool uniforms, also valid GLSL.)
-ALLOWED: list[tuple[str, str, str]] = []
+#: (file pattern, message pattern, why it is not a fault of the shader): reports on valid
+#: GLSL 4.30 core. glslang 12.0.0 makes none. (--spirv maps locations and bindings, which
+#: SPIR-V for OpenGL requires of every uniform and GLSL does not, and does not run spirv-val,
+#: which refuses bool uniforms, also valid GLSL.)
+ALLOWED: list[tuple[str, str, str]] = [
+    (
+        "mls/*.glsl",
+        r"^driver: `mls_batch_(first|count|out)' used uninitiali[sz]ed",
+        "Mesa reads functions in source order: main writes these globals (mls_batch_begin) "
+        "before it calls the functions, defined earlier, that read them",
+    ),
+]
 _MESSAGE = re.compile(r"^(ERROR|WARNING): (?:(.*?):(\d+): )?(.*?)\s*$")
 _SUMMARY = re.compile(
     r"compilation errors\.|^Linking |SPIR-V is not generated|'' : compilation terminated"
@@ -81,6 +91,48 @@ def run(tool: str, args: list[str], cwd: Path) -> list[tuple[str, str | None, in
     return found
 
 
+_DRIVER_LINE = re.compile(r"^\s*0[:(](\d+)\)?(?:\(\d+\))?\s*:\s*(\w+)\b:?\s*(.*?)\s*$")
+_STAGE_ENUMS = {".comp": 0x91B9, ".vert": 0x8B31, ".frag": 0x8B30, ".geom": 0x8DD9}
+
+
+def driver_logs(folder: Path, names: list[str]) -> dict[str, list[tuple[str, None, int, str]]]:
+    """Each stage compiled by this machine's GL driver (through glmls's context), its info
+    log's messages: Mesa's "0:12(5): warning: ...", NVIDIA's "0(12) : warning C7050: ..."."""
+    import ctypes
+    import ctypes.util
+
+    # Mesa skips compiling a source its disk cache holds, and then logs nothing
+    os.environ["MESA_SHADER_CACHE_DISABLE"] = os.environ["MESA_GLSL_CACHE_DISABLE"] = "true"
+    sys.path.insert(0, str(ROOT))  # this checkout's glmls
+    import glmls.gl
+
+    context = glmls.gl.get_context()
+    gl = ctypes.CDLL(ctypes.util.find_library("OpenGL") or ctypes.util.find_library("GL"))
+    gl.glCreateShader.restype = ctypes.c_uint
+    logs = {}
+    with context:
+        for name in names:
+            shader = gl.glCreateShader(_STAGE_ENUMS[Path(name).suffix])
+            text = ctypes.c_char_p((folder / name).read_bytes())
+            gl.glShaderSource(shader, 1, ctypes.byref(text), None)
+            gl.glCompileShader(shader)
+            size = ctypes.c_int()
+            gl.glGetShaderiv(shader, 0x8B84, ctypes.byref(size))  # GL_INFO_LOG_LENGTH
+            log = ctypes.create_string_buffer(max(size.value, 1))
+            gl.glGetShaderInfoLog(shader, len(log), None, log)
+            gl.glDeleteShader(shader)
+            found = []
+            for raw in log.value.decode(errors="replace").splitlines():
+                match = _DRIVER_LINE.match(raw)
+                if match is not None:
+                    kind = "ERROR" if match.group(2).lower() == "error" else "WARNING"
+                    found.append((kind, None, int(match.group(1)), match.group(3)))
+                elif re.search(r"error|warning", raw, re.IGNORECASE):  # not headings
+                    found.append(("WARNING", None, 0, raw.strip()))
+            logs[name] = found
+    return logs
+
+
 def origin(about: dict, line: int) -> tuple[str, int]:
     origins = about["origins"]
     if 1 <= line <= len(origins):
@@ -108,6 +160,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("folder", type=Path, help="where GLMLS_DUMP_SHADERS wrote the sources")
     parser.add_argument("--collect", action="store_true", help="run the tests to fill it")
     parser.add_argument("--spirv", action="store_true", help="also generate SPIR-V (-G)")
+    parser.add_argument(
+        "--driver", action="store_true", help="also this machine's GL driver's info logs"
+    )
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     parser.add_argument("pytest", nargs="*", help="pytest's arguments for --collect")
     options = parser.parse_args(argv)
@@ -149,6 +204,10 @@ def main(argv: list[str] | None = None) -> int:
                 file = file if file in ours else files[0] if len(files) == 1 else None
                 where = origin(ours[file], line) if file else ("<link>", 0)
                 reports[(severity, *where, text)].add(file or name)
+    if options.driver:
+        for name, messages in driver_logs(options.folder, sorted(ours)).items():
+            for severity, _, line, text in messages:
+                reports[(severity, *origin(ours[name], line), f"driver: {text}")].add(name)
     shader_files = {str(p.relative_to(SHADERS)) for p in SHADERS.rglob("*.glsl")}
     used = {f for about in ours.values() for f, _ in about["origins"]}
     print(
