@@ -63,7 +63,7 @@ ALLOWED: list[tuple[str, str, str]] = [
 ]
 _MESSAGE = re.compile(r"^(ERROR|WARNING): (?:(.*?):(\d+): )?(.*?)\s*$")
 _SUMMARY = re.compile(
-    r"compilation errors\.|^Linking |SPIR-V is not generated|'' : compilation terminated"
+    r"compilation errors\.|Missing entry point|SPIR-V is not generated|'' : compilation termin"
 )
 
 
@@ -82,6 +82,9 @@ def run(tool: str, args: list[str], cwd: Path) -> list[tuple[str, str | None, in
     found = []
     for raw in (done.stdout + done.stderr).splitlines():
         match = _MESSAGE.match(raw)
+        if match is None and raw[:1].isspace() and raw.strip() and found:  # details
+            severity, file, line, text = found[-1]
+            found[-1] = (severity, file, line, f"{text} {raw.strip()}")
         if match is None or _SUMMARY.search(match.group(4)):
             continue
         line = int(match.group(3)) if match.group(3) else 0
