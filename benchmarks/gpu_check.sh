@@ -39,9 +39,17 @@ fi
 # -v names each failure as it happens, and SIGINT at the limit still prints the summary
 parallel=()
 if "$PYTHON" -c 'import xdist' 2>/dev/null; then parallel=(-n 14); fi
-step tests 240 timeout -s INT 230 "$PYTHON" -m pytest -v -rfE --durations=20 --maxfail=30 \
+# GLMLS_DUMP_SHADERS: the tests' composed shaders, for the reference compiler below
+rm -rf "$out/shaders"
+step tests 240 env GLMLS_DUMP_SHADERS="$out/shaders" timeout -s INT 230 "$PYTHON" -m pytest -v -rfE --durations=20 --maxfail=30 \
     -p no:cacheprovider -p no:benchmark "${parallel[@]}" \
     tests/gl tests/engine tests/imaging tests/volume tests/batch tests/test_inverse.py
+if command -v glslangValidator >/dev/null; then
+    # --driver: the vendor compiler's own warnings too
+    step shaders 120 "$PYTHON" tools/check_shaders.py "$out/shaders" --driver
+else
+    echo "== shaders: skipped (no glslangValidator: apt-get install glslang-tools)" >&2
+fi
 step bench 75 "$PYTHON" benchmarks/run_bench.py --quick --tools glmls --tolerances 0.05 --out "$out/bench"
 step batch-bench 45 "$PYTHON" benchmarks/batch_bench.py --quick
 step profile-stages 30 "$PYTHON" benchmarks/profile_stages.py --size 1024 --handles 64

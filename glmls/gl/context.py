@@ -41,7 +41,7 @@ import moderngl
 
 from ..errors import ContextError, GLUnavailableError, ReleasedError
 from . import bindings
-from .shaders import ComposedSource, ShaderCompileError, ShaderLibrary, library
+from .shaders import ComposedSource, ShaderCompileError, ShaderLibrary, dump, library
 
 REQUIRED_GL = 430
 #: Compute programs kept compiled per context (each is ~0.1-0.2 MB on llvmpipe, every
@@ -413,6 +413,9 @@ class GLContext:
         return self.mgl.compute_shader(compute_shader)
 
     def _compile(self, stages: dict[str, ComposedSource], build: Callable):
+        folder = os.environ.get("GLMLS_DUMP_SHADERS")
+        if folder:  # the sources, for tools/check_shaders.py (shaders.dump)
+            dump(stages, folder)
         try:
             return build(**{stage: source.text for stage, source in stages.items()})
         except moderngl.Error as error:

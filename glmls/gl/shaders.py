@@ -11,12 +11,19 @@ Compile errors name the file and line: the loader keeps, for every line of the c
 source, the file and line it came from, and rewrites the driver's locations (Mesa's
 ``0:12(5)``, NVIDIA's ``0(12)``, ``ERROR: 0:12:`` elsewhere) with them. (Drivers disagree on
 ``#line``'s source-string numbers, Mesa ignores them, so the map is the loader's.)
+
+With the environment variable ``GLMLS_DUMP_SHADERS`` set to a folder, every stage compiled
+is also written there (:func:`dump`; ``tools/check_shaders.py`` runs the Khronos reference
+compiler on them).
 """
 
 from __future__ import annotations
 
 import functools
+import hashlib
+import json
 import math
+import os
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -34,6 +41,7 @@ __all__ = [
     "ShaderLibrary",
     "common_defines",
     "define_value",
+    "dump",
     "library",
 ]
 
@@ -48,6 +56,7 @@ _LOCATIONS = (
     (re.compile(r"((?:ERROR|WARNING): )0:(\d+):"), "{prefix}{file}:{line}:"),
 )
 _STAGES = ("compute_shader", "vertex_shader", "fragment_shader", "geometry_shader")
+_SUFFIXES = dict(zip(_STAGES, ("comp", "vert", "frag", "geom"), strict=True))
 
 
 class ShaderCompileError(RuntimeError):
@@ -74,10 +83,11 @@ def define_value(value: object) -> str:
 @dataclass(frozen=True)
 class ComposedSource:
     """One stage's GLSL: ``text``, and for each of its lines (1-based) the file and line it
-    came from (``"<defines>"`` for the prologue)."""
+    came from (``"<defines>"`` for the prologue); ``entry``, its entry file."""
 
     text: str
     origins: tuple[tuple[str, int], ...]
+    entry: str = ""
 
     def locate(self, line: int) -> tuple[str, int]:
         if 1 <= line <= len(self.origins):
@@ -145,7 +155,7 @@ class ShaderLibrary:
         origins = [("<defines>", k + 1) for k in range(len(lines))]
         self._expand(entry, lines, origins, seen=set(), stack=())
         _check_conditions(lines, origins)
-        return ComposedSource("\n".join(lines) + "\n", tuple(origins))
+        return ComposedSource("\n".join(lines) + "\n", tuple(origins), entry)
 
     def _expand(self, name, lines, origins, *, seen: set[str], stack: tuple[str, ...]) -> None:
         if name in stack:
@@ -268,6 +278,29 @@ def _check_conditions(lines: list[str], origins: list[tuple[str, int]]) -> None:
             state.stack.append((not done, True))
         else:
             state.stack.pop()
+
+
+def dump(stages: Mapping[str, ComposedSource], folder: str) -> None:
+    """Write each stage's source to ``folder`` as ``ENTRY.HASH.SUFFIX`` (the entry file's
+    path with ``_`` for ``/``, a hash of the text, the stage: ``comp``, ``vert``, ``frag``,
+    ``geom``), and beside it ``ENTRY.HASH.SUFFIX.json``: the entry, each line's origin and the
+    program's stage files; a source already there is not written again.
+    :class:`~glmls.gl.GLContext` calls it for every program it compiles when
+    ``GLMLS_DUMP_SHADERS`` names a folder."""
+    os.makedirs(folder, exist_ok=True)
+    names = {}
+    for stage, source in stages.items():
+        digest = hashlib.sha256(source.text.encode()).hexdigest()[:12]
+        entry = (source.entry or "shader").removesuffix(".glsl").replace("/", "_")
+        names[stage] = f"{entry}.{digest}.{_SUFFIXES[stage]}"
+    for stage, source in stages.items():
+        path = os.path.join(folder, names[stage])
+        if not os.path.exists(path):
+            about = {"entry": source.entry, "origins": source.origins, "program": [*names.values()]}
+            with open(path + ".json", "w", encoding="utf-8") as file:
+                json.dump(about, file)
+            with open(path, "w", encoding="utf-8") as file:
+                file.write(source.text)
 
 
 @functools.cache

@@ -3,6 +3,12 @@ identifiers too), compile errors naming file and line, programs compiled once.""
 
 from __future__ import annotations
 
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
 import moderngl
 import numpy as np
 import pytest
@@ -130,6 +136,24 @@ def test_every_packaged_shader_compiles(gl):
         compile_every_entry(gl)
 
 
+@pytest.mark.skipif(shutil.which("glslangValidator") is None, reason="no glslangValidator")
+def test_every_packaged_shader_passes_the_reference_compiler(tmp_path, monkeypatch):
+    """Khronos's glslangValidator (apt: glslang-tools), stricter than Mesa, accepts them
+    (tools/check_shaders.py; the GL tests compile many more variants than these)."""
+    monkeypatch.setenv("GLMLS_DUMP_SHADERS", str(tmp_path))
+    own = create_headless()
+    try:
+        with own:
+            compile_every_entry(own)
+    finally:
+        own.release()
+    tool = Path(__file__).resolve().parents[2] / "tools" / "check_shaders.py"
+    done = subprocess.run(
+        [sys.executable, str(tool), str(tmp_path)], capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
 def compile_every_entry(gl):
     """The entry files (stages) of glmls/shaders compile with their defines' usual values."""
     mls = {
@@ -216,3 +240,38 @@ def test_programs_are_compiled_once(gl):
         assert gl.compute(entry, defines) is gl.compute(entry, dict(defines))
         assert isinstance(gl.compute(entry, defines), moderngl.ComputeShader)
     assert library() is library()
+
+
+def test_compiled_sources_are_dumped_where_the_environment_says(gl, shader_dir, monkeypatch):
+    """GLMLS_DUMP_SHADERS=folder: each stage compiled is written there once, with its line
+    origins and its program's stages (for tools/check_shaders.py)."""
+    folder = shader_dir / "dumped"
+    monkeypatch.setenv("GLMLS_DUMP_SHADERS", str(folder))
+    (shader_dir / "ok.vert.glsl").write_text("void main() { gl_Position = vec4(0.0); }\n")
+    (shader_dir / "ok.frag.glsl").write_text("out vec4 c;\nvoid main() { c = vec4(1.0); }\n")
+    own = create_headless(shaders=ShaderLibrary(shader_dir))
+    try:
+        with own:
+            own.compute("main.comp.glsl", {"VALUE": 1.0, "COUNT": 1})
+            own.compute("main.comp.glsl", {"VALUE": 2.0, "COUNT": 1})
+            own.program("ok.vert.glsl", "ok.frag.glsl")
+    finally:
+        own.release()
+    names = sorted(p.name for p in folder.iterdir() if p.suffix != ".json")
+    assert [name.split(".")[0] + "." + name.split(".")[-1] for name in names] == [
+        "main.comp",
+        "main.comp",
+        "ok.frag",
+        "ok.vert",
+    ]
+    about = about_of(folder, names[2])
+    assert about["entry"] == "ok.frag.glsl"
+    assert about["program"] == [names[3], names[2]]
+    text = (folder / names[0]).read_text().splitlines()
+    for line, (file, number) in zip(text, about_of(folder, names[0])["origins"], strict=True):
+        if file != "<defines>":
+            assert line == (shader_dir / file).read_text().splitlines()[number - 1]
+
+
+def about_of(folder, name):
+    return json.loads((folder / (name + ".json")).read_text())
