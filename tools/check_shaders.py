@@ -167,8 +167,11 @@ def main(argv: list[str] | None = None) -> int:
         "--driver", action="store_true", help="also this machine's GL driver's info logs"
     )
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
-    parser.add_argument("pytest", nargs="*", help="pytest's arguments for --collect")
-    options = parser.parse_args(argv)
+    # pytest's own arguments for --collect follow "--" (they may start with "-")
+    argv = sys.argv[1:] if argv is None else list(argv)
+    split = argv.index("--") if "--" in argv else len(argv)
+    options = parser.parse_args(argv[:split])
+    options.pytest = argv[split + 1 :]
     tool = validator()
     if tool is None:
         print("check_shaders: glslangValidator not found (apt-get install glslang-tools)")
