@@ -147,7 +147,8 @@ def background_color(background: object, image: SourceImage) -> tuple[float, flo
         values = np.array([background] * (channels - has_alpha), dtype=object)
     if values.ndim != 1 or len(values) not in (channels, channels - has_alpha):
         raise ValueError(
-            f"background must be a scalar or {channels} values (one per channel)"
+            f"background must be a scalar or {channels} value{'s' if channels > 1 else ''}"
+            " (one per channel)"
             + (f" or {channels - 1} (colour only)" if has_alpha else "")
             + f", got {background!r}"
         )

@@ -109,6 +109,8 @@ def test_background_per_channel_and_alpha(gl):
         assert_array_equal(m.warp(img, background=(1, 2, 3))[0, 0], [1, 2, 3, 0])
         assert_array_equal(m.warp(img, background=(1, 2, 3, 4))[0, 0], [1, 2, 3, 4])
         assert_array_equal(m.warp(img[..., :3], background=(1, 2, 3))[0, 0], [1, 2, 3])
+        with pytest.raises(ValueError, match=r"a scalar or 1 value \(one per channel\)"):
+            m.warp(img[..., 0], background=(1, 2))
 
 
 @pytest.mark.parametrize("shape", [(1, 1, 3), (1, 2, 3), (2, 1, 3), (7, 5, 3), (64, 33, 3)])
