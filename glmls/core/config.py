@@ -21,6 +21,12 @@ __all__ = [
 #: (``MLS_TRANSFORM`` in ``glmls/shaders/mls/core.glsl``).
 TRANSFORMS = ("affine", "similarity", "rigid")
 
+#: The largest idw power: d^(4 alpha) (``interpolating``) of any distance within the
+#: coordinate range (±1e6 px, distances up to 2.9e6 px) stays within float64 (the
+#: reference's weights), and alpha within float32 (the shaders'). The paper's typical values
+#: are 1 and 2.
+MAX_ALPHA = 10.0
+
 
 def transform_code(name: str) -> int:
     """``MLS_TRANSFORM`` of a transform name."""
@@ -62,7 +68,7 @@ class MLSConfig:
         ``cressman`` max(0, (R² - d²) / (R² + d²)); ``shepard`` max(0, (R - d) / (R d));
         ``gaussian`` exp(-d² / R²); ``linear`` max(0, R - d).
     alpha : float
-        The idw power (> 0), also used by ``interpolating``.
+        The idw power (> 0 and <= :data:`MAX_ALPHA`, 10), also used by ``interpolating``.
     s : float
         idw's adjusting term (>= 0), in pixel units (squared when alpha = 1).
     radius : float or None
@@ -76,7 +82,7 @@ class MLSConfig:
     Raises
     ------
     ValueError
-        For an unknown transform or weight, alpha <= 0, s < 0, radius <= 0, or a value that
+        For an unknown transform or weight, alpha <= 0 or > 10, s < 0, radius <= 0, or a value that
         is not finite.
     TypeError
         For a value of the wrong type (a transform that is not a string, a number that is not
@@ -116,6 +122,11 @@ class MLSConfig:
         alpha = _real("alpha", self.alpha)
         if alpha <= 0:
             raise ValueError(f"alpha must be > 0, got {alpha}")
+        if alpha > MAX_ALPHA:
+            raise ValueError(
+                f"alpha must be <= {MAX_ALPHA:g} (beyond, d^(2 alpha) of distances within the "
+                f"coordinate range leaves float64; typical values are 1 and 2), got {alpha}"
+            )
         s = _real("s", self.s)
         if s < 0:
             raise ValueError(f"s must be >= 0, got {s}")

@@ -41,6 +41,8 @@ def test_bad_handles(src, dst, error, match):
         ({"alpha": 0}, ValueError, "alpha must be > 0"),
         ({"alpha": -1.0}, ValueError, "alpha must be > 0"),
         ({"alpha": float("nan")}, ValueError, "alpha must be finite"),
+        ({"alpha": 1000.0}, ValueError, "alpha must be <= 10"),
+        ({"alpha": 1e308}, ValueError, "alpha must be <= 10"),
         ({"alpha": "1"}, TypeError, "alpha must be a real number"),
         ({"s": -1e-3}, ValueError, "s must be >= 0"),
         ({"radius": 0}, ValueError, "radius must be > 0"),
