@@ -117,3 +117,16 @@ def test_gpu_and_reference_follow_the_papers_closed_forms(gl, transform):
     assert_allclose(f[0], expected, atol=1e-12)
     with glmls.MLS(p, q, transform=transform, s=0.0, ctx=gl) as m:
         assert_allclose(m([v])[0], expected, atol=1e-5)
+
+
+@pytest.mark.parametrize("s", [1e30, 1e300])
+def test_idw_of_a_huge_s_is_the_global_least_squares_fit(s):
+    """s dwarfing every d^2 makes the weights equal: f is the unweighted fit everywhere.
+    The weights 1 / s (1e-300) made the affine moments' determinant underflow to 0."""
+    rng = np.random.default_rng(3)
+    p = rng.uniform(0, 100, (6, 2))
+    q = p + rng.normal(0, 5, (6, 2))
+    v = rng.uniform(0, 100, (5, 2))
+    big_m, t = _weighted_lstsq_affine(p, q, np.ones(len(p)))
+    f, _, _ = reference.mls(p, q, v, MLSConfig(transform="affine", s=s))
+    assert_allclose(f, v @ big_m + t, atol=1e-9)
