@@ -6,6 +6,8 @@ import math
 import numbers
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from .weights import RADIUS_WEIGHTS, REGISTRY, WEIGHTS, Weight
 
 __all__ = [
@@ -117,8 +119,9 @@ class MLSConfig:
     )
 
     def __post_init__(self) -> None:
-        _choice("transform", self.transform, TRANSFORMS)
-        _choice("weight", self.weight, tuple(REGISTRY))
+        # numpy's str_ and bool_ are stored as str and bool (equal, hashed alike, printed plainly)
+        object.__setattr__(self, "transform", str(_choice("transform", self.transform, TRANSFORMS)))
+        object.__setattr__(self, "weight", str(_choice("weight", self.weight, tuple(REGISTRY))))
         alpha = _real("alpha", self.alpha)
         if alpha <= 0:
             raise ValueError(f"alpha must be > 0, got {alpha}")
@@ -137,8 +140,9 @@ class MLSConfig:
             if radius <= 0:
                 raise ValueError(f"radius must be > 0, got {radius}")
             object.__setattr__(self, "radius", radius)
-        if not isinstance(self.interpolating, bool):
+        if not isinstance(self.interpolating, (bool, np.bool_)):
             raise TypeError(f"interpolating must be True or False, got {self.interpolating!r}")
+        object.__setattr__(self, "interpolating", bool(self.interpolating))
 
     @property
     def weight_entry(self) -> Weight:

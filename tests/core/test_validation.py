@@ -159,3 +159,10 @@ def test_points_of_no_coordinates_are_refused_in_3d(gl):
         with pytest.raises(ValueError, match=r"points must have shape \(N, 3\)"):
             m(np.zeros((4, 0)))
         assert m(np.zeros((0, 3))).shape == (0, 3)
+
+
+def test_numpy_bools_and_strings_are_taken_as_python_ones():
+    """``interpolating=np.True_`` (a mask's element, say) was refused as not a bool."""
+    config = glmls.MLSConfig(transform=np.str_("affine"), interpolating=np.True_)
+    assert config.interpolating is True and type(config.transform) is str
+    assert config == glmls.MLSConfig(transform="affine", interpolating=True)
