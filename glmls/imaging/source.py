@@ -77,6 +77,8 @@ def check_image(image: object, name: str = "image") -> np.ndarray:
     """``image`` as an array, H x W or H x W x C with C in 1..4, of a dtype of
     :data:`DTYPES` and not empty; ``TypeError``/``ValueError`` naming it as ``name``."""
     array = np.asarray(image)
+    if not array.dtype.isnative:  # big-endian data (some TIFF readers): the same values
+        array = array.astype(array.dtype.newbyteorder("="))
     if array.dtype not in DTYPES:
         names = ", ".join(np.dtype(d).name for d in DTYPES)
         raise TypeError(f"{name} dtype must be one of {names}; got {array.dtype}")
@@ -106,7 +108,14 @@ def prepare_image(image: object, max_size: int, *, normalized: bool = False) -> 
         return SourceImage(
             np.ascontiguousarray(array.reshape(height, width, -1)), array.dtype, squeeze, True
         )
-    data = np.ascontiguousarray(array.reshape(height, width, -1), dtype=np.float32)
+    try:
+        with np.errstate(over="raise"):
+            data = np.ascontiguousarray(array.reshape(height, width, -1), dtype=np.float32)
+    except FloatingPointError:
+        top = float(np.abs(array[np.isfinite(array)]).max())
+        raise ValueError(
+            f"image values must lie within float32's range (±3.4e38, the GPU's), got {top:g}"
+        ) from None
     return SourceImage(data, array.dtype, squeeze)
 
 
