@@ -7,6 +7,7 @@ read-back (:attr:`SourceImage.normalized`); other dtypes go through float32 (raw
 
 from __future__ import annotations
 
+import math
 import sys
 from dataclasses import dataclass
 
@@ -39,6 +40,7 @@ INTERPOLATIONS = ("nearest", "linear")
 #: image repeated. A mode's index is its ``WARP_BORDER`` code in the shaders.
 BORDERS = ("constant", "edge", "symmetric", "reflect", "wrap")
 DTYPES = (np.uint8, np.uint16, np.float32, np.float64)
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 @dataclass(frozen=True)
@@ -170,6 +172,10 @@ def background_color(background: object, image: SourceImage) -> tuple[float, flo
         top = np.iinfo(image.dtype).max
         if not all(0 <= v <= top for v in out):
             raise ValueError(f"background {background!r} is outside 0..{top} of {image.dtype}")
+    elif any(math.isfinite(v) and abs(v) > FLOAT32_MAX for v in out):
+        raise ValueError(
+            f"background {background!r} is beyond float32's range (±3.4e38, the GPU's)"
+        )
     if image.normalized:
         out = [v / 255.0 for v in out]
     if len(out) < channels:

@@ -78,6 +78,9 @@ def test_float64_values_beyond_float32_are_named(gl):
         with pytest.raises(ValueError, match=r"float32's range.*1e\+300"):
             m.warp(image)
         assert np.isinf(m.warp(np.full((4, 4), np.inf))[:, 1:]).all()  # inf stays inf
+        with pytest.raises(ValueError, match=r"background 1e\+300 is beyond float32's range"):
+            m.warp(image[:, :2], background=1e300)
+        assert np.isnan(m.warp(np.ones((4, 4)), background=np.nan)[:, 0]).all()
 
 
 def test_rows_come_back_top_down(gl):
