@@ -6,6 +6,8 @@ import math
 import numbers
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from .weights import RADIUS_WEIGHTS, REGISTRY, WEIGHTS, Weight
 
 __all__ = [
@@ -20,6 +22,12 @@ __all__ = [
 #: The transforms of Schaefer et al. (2006); a transform's index is its code in the shaders
 #: (``MLS_TRANSFORM`` in ``glmls/shaders/mls/core.glsl``).
 TRANSFORMS = ("affine", "similarity", "rigid")
+
+#: The largest idw power: d^(4 alpha) (``interpolating``) of any distance within the
+#: coordinate range (±1e6 px, distances up to 2.9e6 px) stays within float64 (the
+#: reference's weights), and alpha within float32 (the shaders'). The paper's typical values
+#: are 1 and 2.
+MAX_ALPHA = 10.0
 
 
 def transform_code(name: str) -> int:
@@ -62,7 +70,7 @@ class MLSConfig:
         ``cressman`` max(0, (R² - d²) / (R² + d²)); ``shepard`` max(0, (R - d) / (R d));
         ``gaussian`` exp(-d² / R²); ``linear`` max(0, R - d).
     alpha : float
-        The idw power (> 0), also used by ``interpolating``.
+        The idw power (> 0 and <= :data:`MAX_ALPHA`, 10), also used by ``interpolating``.
     s : float
         idw's adjusting term (>= 0), in pixel units (squared when alpha = 1).
     radius : float or None
@@ -76,7 +84,7 @@ class MLSConfig:
     Raises
     ------
     ValueError
-        For an unknown transform or weight, alpha <= 0, s < 0, radius <= 0, or a value that
+        For an unknown transform or weight, alpha <= 0 or > 10, s < 0, radius <= 0, or a value that
         is not finite.
     TypeError
         For a value of the wrong type (a transform that is not a string, a number that is not
@@ -111,11 +119,17 @@ class MLSConfig:
     )
 
     def __post_init__(self) -> None:
-        _choice("transform", self.transform, TRANSFORMS)
-        _choice("weight", self.weight, tuple(REGISTRY))
+        # numpy's str_ and bool_ are stored as str and bool (equal, hashed alike, printed plainly)
+        object.__setattr__(self, "transform", str(_choice("transform", self.transform, TRANSFORMS)))
+        object.__setattr__(self, "weight", str(_choice("weight", self.weight, tuple(REGISTRY))))
         alpha = _real("alpha", self.alpha)
         if alpha <= 0:
             raise ValueError(f"alpha must be > 0, got {alpha}")
+        if alpha > MAX_ALPHA:
+            raise ValueError(
+                f"alpha must be <= {MAX_ALPHA:g} (beyond, d^(2 alpha) of distances within the "
+                f"coordinate range leaves float64; typical values are 1 and 2), got {alpha}"
+            )
         s = _real("s", self.s)
         if s < 0:
             raise ValueError(f"s must be >= 0, got {s}")
@@ -126,8 +140,9 @@ class MLSConfig:
             if radius <= 0:
                 raise ValueError(f"radius must be > 0, got {radius}")
             object.__setattr__(self, "radius", radius)
-        if not isinstance(self.interpolating, bool):
+        if not isinstance(self.interpolating, (bool, np.bool_)):
             raise TypeError(f"interpolating must be True or False, got {self.interpolating!r}")
+        object.__setattr__(self, "interpolating", bool(self.interpolating))
 
     @property
     def weight_entry(self) -> Weight:

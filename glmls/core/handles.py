@@ -20,11 +20,14 @@ COORDINATE_LIMIT = 1e6
 
 def as_points(points: object, name: str = "points") -> np.ndarray:
     """``points`` as a C-contiguous float64 (N, 2) array; ``ValueError``/``TypeError`` if not."""
-    array = np.asarray(points)
+    try:
+        array = np.asarray(points)
+    except ValueError:  # ragged rows
+        raise ValueError(f"{name} must have shape (N, 2) as (x, y) rows, got {points!r}") from None
     if array.dtype.kind not in "iuf":  # integers and reals (np.issubdtype: ~4x the time)
         raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
     if array.ndim != 2 or array.shape[1] != 2:
-        if array.size == 0 and array.ndim >= 1:
+        if array.ndim in (1, 2) and len(array) == 0:
             return np.zeros((0, 2))
         raise ValueError(f"{name} must have shape (N, 2) as (x, y) rows, got {array.shape}")
     array = np.ascontiguousarray(array, dtype=np.float64)

@@ -26,7 +26,10 @@ __all__ = [
 
 def dimension_of(src: object) -> int:
     """3 where ``src`` has shape (N, 3), else 2 (the 2D validation then speaks)."""
-    shape = np.shape(src)
+    try:
+        shape = np.shape(src)
+    except ValueError:  # ragged rows: the 2D validation names them
+        return 2
     return 3 if len(shape) == 2 and shape[1] == 3 else 2
 
 
@@ -37,7 +40,7 @@ def as_points3(points: object, name: str = "points") -> np.ndarray:
     if array.dtype.kind not in "iuf":
         raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
     if array.ndim != 2 or array.shape[1] != 3:
-        if array.size == 0 and array.ndim >= 1:
+        if array.ndim in (1, 2) and len(array) == 0:
             return np.zeros((0, 3))
         raise ValueError(f"{name} must have shape (N, 3) as (x, y, z) rows, got {array.shape}")
     array = np.ascontiguousarray(array, dtype=np.float64)

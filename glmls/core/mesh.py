@@ -39,10 +39,15 @@ MAX_MARGIN = 1 << 24
 
 def as_shape(shape: object) -> tuple[int, int]:
     """(H, W) from an image shape ``(H, W)`` or ``(H, W, C)``; ``ValueError`` otherwise."""
+    if isinstance(shape, (str, bytes)):
+        raise TypeError(f"shape must be (H, W) integers, got {shape!r}")
     try:
-        dims = tuple(int(n) for n in shape)  # type: ignore[union-attr]
-    except (TypeError, ValueError):
+        values = tuple(shape)  # type: ignore[arg-type]
+        dims = tuple(int(n) for n in values)
+    except (TypeError, ValueError, OverflowError):
         raise TypeError(f"shape must be (H, W) integers, got {shape!r}") from None
+    if any(isinstance(n, (bool, np.bool_)) or n != d for n, d in zip(values, dims, strict=True)):
+        raise ValueError(f"shape must be (H, W) integers, got {shape!r}")
     if len(dims) not in (2, 3) or dims[0] < 1 or dims[1] < 1:
         raise ValueError(f"shape must be (H, W) with H, W >= 1, got {shape!r}")
     return dims[0], dims[1]

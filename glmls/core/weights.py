@@ -110,7 +110,10 @@ def _ratio(d2: np.ndarray, radius: float) -> np.ndarray:
 
 
 def _idw(d2: np.ndarray, params: WeightParameters, radius: float | None) -> np.ndarray:
-    return 1.0 / (params.s + d2**params.alpha)
+    # times max(s, 1), a factor common to every point and handle: with a large s (1e300) the
+    # weights (1e-300) would make the affine moments' determinant underflow to 0
+    scale = max(params.s, 1.0)
+    return 1.0 / (params.s / scale + d2**params.alpha / scale)
 
 
 def _cressman(d2: np.ndarray, params: WeightParameters, radius: float | None) -> np.ndarray:

@@ -7,6 +7,7 @@ read-back (:attr:`SourceImage.normalized`); other dtypes go through float32 (raw
 
 from __future__ import annotations
 
+import math
 import sys
 from dataclasses import dataclass
 
@@ -39,6 +40,7 @@ INTERPOLATIONS = ("nearest", "linear")
 #: image repeated. A mode's index is its ``WARP_BORDER`` code in the shaders.
 BORDERS = ("constant", "edge", "symmetric", "reflect", "wrap")
 DTYPES = (np.uint8, np.uint16, np.float32, np.float64)
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 @dataclass(frozen=True)
@@ -77,6 +79,8 @@ def check_image(image: object, name: str = "image") -> np.ndarray:
     """``image`` as an array, H x W or H x W x C with C in 1..4, of a dtype of
     :data:`DTYPES` and not empty; ``TypeError``/``ValueError`` naming it as ``name``."""
     array = np.asarray(image)
+    if not array.dtype.isnative:  # big-endian data (some TIFF readers): the same values
+        array = array.astype(array.dtype.newbyteorder("="))
     if array.dtype not in DTYPES:
         names = ", ".join(np.dtype(d).name for d in DTYPES)
         raise TypeError(f"{name} dtype must be one of {names}; got {array.dtype}")
@@ -106,7 +110,14 @@ def prepare_image(image: object, max_size: int, *, normalized: bool = False) -> 
         return SourceImage(
             np.ascontiguousarray(array.reshape(height, width, -1)), array.dtype, squeeze, True
         )
-    data = np.ascontiguousarray(array.reshape(height, width, -1), dtype=np.float32)
+    try:
+        with np.errstate(over="raise"):
+            data = np.ascontiguousarray(array.reshape(height, width, -1), dtype=np.float32)
+    except FloatingPointError:
+        top = float(np.abs(array[np.isfinite(array)]).max())
+        raise ValueError(
+            f"image values must lie within float32's range (±3.4e38, the GPU's), got {top:g}"
+        ) from None
     return SourceImage(data, array.dtype, squeeze)
 
 
@@ -147,7 +158,8 @@ def background_color(background: object, image: SourceImage) -> tuple[float, flo
         values = np.array([background] * (channels - has_alpha), dtype=object)
     if values.ndim != 1 or len(values) not in (channels, channels - has_alpha):
         raise ValueError(
-            f"background must be a scalar or {channels} values (one per channel)"
+            f"background must be a scalar or {channels} value{'s' if channels > 1 else ''}"
+            " (one per channel)"
             + (f" or {channels - 1} (colour only)" if has_alpha else "")
             + f", got {background!r}"
         )
@@ -160,6 +172,10 @@ def background_color(background: object, image: SourceImage) -> tuple[float, flo
         top = np.iinfo(image.dtype).max
         if not all(0 <= v <= top for v in out):
             raise ValueError(f"background {background!r} is outside 0..{top} of {image.dtype}")
+    elif any(math.isfinite(v) and abs(v) > FLOAT32_MAX for v in out):
+        raise ValueError(
+            f"background {background!r} is beyond float32's range (±3.4e38, the GPU's)"
+        )
     if image.normalized:
         out = [v / 255.0 for v in out]
     if len(out) < channels:

@@ -86,3 +86,21 @@ def test_uniforms_are_in_scaled_coordinates():
     assert_allclose(values["u_lattice_step"], (0.5, 0.5))
     assert_allclose(values["u_lattice_last"], ((11.5 - 10) / 4, (7.5 - 20) / 4))
     assert values["u_lattice_dims"] == (7, 5)
+
+
+@pytest.mark.parametrize("shape", [(1.5, 2), (12, 16.25), (True, 4)])
+def test_shape_of_non_integer_sizes_is_refused(shape):
+    """A size of 1.5 pixels was truncated to 1 (and a bool taken as 1) without a word."""
+    with pytest.raises(ValueError, match="shape must be"):
+        as_shape(shape)
+
+
+def test_shape_as_a_string_is_refused():
+    """``"12"`` was read as the shape (1, 2)."""
+    with pytest.raises(TypeError, match="shape must be"):
+        as_shape("12")
+
+
+def test_shape_of_integral_numbers_is_kept():
+    assert as_shape((np.int64(3), 4.0)) == (3, 4)
+    assert as_shape((3, 4, 3)) == (3, 4)

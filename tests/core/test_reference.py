@@ -80,3 +80,53 @@ def test_weights_follow_table_1():
     # linear is divided by R (a common factor), so that a huge R does not overflow
     assert_allclose(w(weight="linear"), np.maximum(0, r - d[0]) / r)
     assert_allclose(w(weight="linear", interpolating=True), np.maximum(0, r - d[0]) / d[0] ** 2 / r)
+
+
+def _perp(a):
+    return np.array([-a[1], a[0]])  # the paper's (x, y)^⊥ = (-y, x)
+
+
+def _paper_closed_form(p, q, v, transform):
+    """f(v) written out from Schaefer et al.'s closed forms, w_i = 1 / |p_i - v|^2."""
+    w = 1.0 / np.sum((p - v) ** 2, axis=1)
+    p_star, q_star = w @ p / w.sum(), w @ q / w.sum()  # eq. 4
+    p_hat, q_hat = p - p_star, q - q_star
+    if transform == "affine":  # eq. 5
+        a = sum(wi * np.outer(pi, pi) for wi, pi in zip(w, p_hat, strict=True))
+        b = sum(wi * np.outer(pi, qi) for wi, pi, qi in zip(w, p_hat, q_hat, strict=True))
+        return (v - p_star) @ np.linalg.inv(a) @ b + q_star
+    d = v - p_star
+    a_i = [
+        wi * np.array([pi, -_perp(pi)]) @ np.array([d, -_perp(d)]).T
+        for wi, pi in zip(w, p_hat, strict=True)
+    ]
+    f_r = sum(qi @ ai for qi, ai in zip(q_hat, a_i, strict=True))
+    if transform == "similarity":  # eq. 6: mu_s = sum w_i p̂_i p̂_i^T
+        return f_r / sum(wi * pi @ pi for wi, pi in zip(w, p_hat, strict=True)) + q_star
+    return np.linalg.norm(d) * f_r / np.linalg.norm(f_r) + q_star  # rigid
+
+
+@pytest.mark.parametrize("transform", ["affine", "similarity", "rigid"])
+def test_gpu_and_reference_follow_the_papers_closed_forms(gl, transform):
+    """A hand case: four handles, one point, the paper's equations written out anew."""
+    p = np.array([[0.0, 0.0], [4.0, 0.0], [0.0, 3.0], [5.0, 4.0]])
+    q = np.array([[0.0, 1.0], [4.5, 0.0], [-1.0, 3.0], [5.0, 5.0]])
+    v = np.array([1.0, 2.0])
+    expected = _paper_closed_form(p, q, v, transform)
+    f, _, _ = reference.mls(p, q, [v], MLSConfig(transform=transform, s=0.0))
+    assert_allclose(f[0], expected, atol=1e-12)
+    with glmls.MLS(p, q, transform=transform, s=0.0, ctx=gl) as m:
+        assert_allclose(m([v])[0], expected, atol=1e-5)
+
+
+@pytest.mark.parametrize("s", [1e30, 1e300])
+def test_idw_of_a_huge_s_is_the_global_least_squares_fit(s):
+    """s dwarfing every d^2 makes the weights equal: f is the unweighted fit everywhere.
+    The weights 1 / s (1e-300) made the affine moments' determinant underflow to 0."""
+    rng = np.random.default_rng(3)
+    p = rng.uniform(0, 100, (6, 2))
+    q = p + rng.normal(0, 5, (6, 2))
+    v = rng.uniform(0, 100, (5, 2))
+    big_m, t = _weighted_lstsq_affine(p, q, np.ones(len(p)))
+    f, _, _ = reference.mls(p, q, v, MLSConfig(transform="affine", s=s))
+    assert_allclose(f, v @ big_m + t, atol=1e-9)

@@ -23,6 +23,8 @@ P = [[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]]
         ([["a", "b"]], [[0, 0]], TypeError, "src must be real numbers"),
         ([[1 + 1j, 0]], [[0, 0]], TypeError, "src must be real numbers"),
         ([[1, 1], [1, 1]], [[2, 2], [3, 3]], ValueError, r"src\[0\] and src\[1\] are the same"),
+        ([[0, 0], [1]], [[0, 0], [1, 1]], ValueError, r"src must have shape \(N, 2\)"),
+        (np.zeros((4, 0)), np.zeros((4, 0)), ValueError, r"src must have shape \(N, 2\)"),
     ],
 )
 def test_bad_handles(src, dst, error, match):
@@ -39,6 +41,8 @@ def test_bad_handles(src, dst, error, match):
         ({"alpha": 0}, ValueError, "alpha must be > 0"),
         ({"alpha": -1.0}, ValueError, "alpha must be > 0"),
         ({"alpha": float("nan")}, ValueError, "alpha must be finite"),
+        ({"alpha": 1000.0}, ValueError, "alpha must be <= 10"),
+        ({"alpha": 1e308}, ValueError, "alpha must be <= 10"),
         ({"alpha": "1"}, TypeError, "alpha must be a real number"),
         ({"s": -1e-3}, ValueError, "s must be >= 0"),
         ({"radius": 0}, ValueError, "radius must be > 0"),
@@ -62,7 +66,10 @@ def test_radius_weight_without_radius_or_shape(gl):
         assert m.uniforms()["u_radius"] == pytest.approx(np.hypot(20, 30) / m.scaling.scale)
 
 
-@pytest.mark.parametrize("points", [[[1, 2, 3]], np.zeros((2, 2, 2)), [[np.nan, 1]]])
+@pytest.mark.parametrize(
+    "points",
+    [[[1, 2, 3]], np.zeros((2, 2, 2)), [[np.nan, 1]], np.zeros((4, 0)), np.zeros((2, 0, 2))],
+)
 def test_bad_points(gl, points):
     with glmls.MLS(P, P, ctx=gl) as m, pytest.raises(ValueError, match="points"):
         m(points)
@@ -143,3 +150,19 @@ def test_set_handles_rejects_bad_handles_and_keeps_the_old(gl):
         np.testing.assert_allclose(m([[5.0, 5.0]]), [[6.0, 6.0]], atol=1e-4)
     with pytest.raises(glmls.ReleasedError):
         m.set_handles(src, src)
+
+
+def test_points_of_no_coordinates_are_refused_in_3d(gl):
+    """(4, 0) points were taken for no points: four rows in, none out."""
+    p3 = [[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0], [0.0, 0.0, 10.0]]
+    with glmls.MLS(p3, p3, ctx=gl) as m:
+        with pytest.raises(ValueError, match=r"points must have shape \(N, 3\)"):
+            m(np.zeros((4, 0)))
+        assert m(np.zeros((0, 3))).shape == (0, 3)
+
+
+def test_numpy_bools_and_strings_are_taken_as_python_ones():
+    """``interpolating=np.True_`` (a mask's element, say) was refused as not a bool."""
+    config = glmls.MLSConfig(transform=np.str_("affine"), interpolating=np.True_)
+    assert config.interpolating is True and type(config.transform) is str
+    assert config == glmls.MLSConfig(transform="affine", interpolating=True)

@@ -61,6 +61,28 @@ def test_strided_and_reversed_arrays(gl, rng):
             assert_array_equal(m.warp(view), m.warp(np.ascontiguousarray(view)))
 
 
+@pytest.mark.parametrize("dtype", [">u2", ">f4", ">f8"])
+def test_big_endian_images_warp_as_native_ones(gl, rng, dtype):
+    """Big-endian uint16 and float64 were refused as an unknown dtype (float32 was taken)."""
+    native = rng.integers(0, 1000, (12, 16)).astype(np.dtype(dtype).newbyteorder("="))
+    p, q = smooth_handles((12, 16), rng)
+    with glmls.MLS(p, q, ctx=gl) as m:
+        assert_array_equal(m.warp(native.astype(dtype)), m.warp(native))
+
+
+def test_float64_values_beyond_float32_are_named(gl):
+    """1e300 overflowed the cast to float32 (a RuntimeWarning, inf in the output)."""
+    image = np.ones((4, 4))
+    image[1, 2] = -1e300
+    with glmls.MLS([[0, 0]], [[1, 0]], ctx=gl) as m:
+        with pytest.raises(ValueError, match=r"float32's range.*1e\+300"):
+            m.warp(image)
+        assert np.isinf(m.warp(np.full((4, 4), np.inf))[:, 1:]).all()  # inf stays inf
+        with pytest.raises(ValueError, match=r"background 1e\+300 is beyond float32's range"):
+            m.warp(image[:, :2], background=1e300)
+        assert np.isnan(m.warp(np.ones((4, 4)), background=np.nan)[:, 0]).all()
+
+
 def test_rows_come_back_top_down(gl):
     img = np.zeros((6, 4), np.uint8)
     img[0] = 200  # the top row
@@ -109,6 +131,8 @@ def test_background_per_channel_and_alpha(gl):
         assert_array_equal(m.warp(img, background=(1, 2, 3))[0, 0], [1, 2, 3, 0])
         assert_array_equal(m.warp(img, background=(1, 2, 3, 4))[0, 0], [1, 2, 3, 4])
         assert_array_equal(m.warp(img[..., :3], background=(1, 2, 3))[0, 0], [1, 2, 3])
+        with pytest.raises(ValueError, match=r"a scalar or 1 value \(one per channel\)"):
+            m.warp(img[..., 0], background=(1, 2))
 
 
 @pytest.mark.parametrize("shape", [(1, 1, 3), (1, 2, 3), (2, 1, 3), (7, 5, 3), (64, 33, 3)])
