@@ -1217,4 +1217,4 @@ def warp(image: object, src: object, dst: object, **options: object) -> np.ndarr
     array = np.asarray(image)
     shape = array.shape[:2] if array.ndim in (2, 3) and array.size else None
     with MLS(src, dst, shape=shape, **options) as m:  # type: ignore[arg-type]
-        return m.warp(array, options=chosen)
+        return m.warp(image, options=chosen)  # the caller's object: errors say what it was

@@ -83,7 +83,10 @@ def check_image(image: object, name: str = "image") -> np.ndarray:
         array = array.astype(array.dtype.newbyteorder("="))
     if array.dtype not in DTYPES:
         names = ", ".join(np.dtype(d).name for d in DTYPES)
-        raise TypeError(f"{name} dtype must be one of {names}; got {array.dtype}")
+        hint = ""
+        if not isinstance(image, np.ndarray) and np.issubdtype(array.dtype, np.integer):
+            hint = f" (Python ints become int64 in numpy: pass np.asarray({name}, np.uint8))"
+        raise TypeError(f"{name} dtype must be one of {names}; got {array.dtype}{hint}")
     if array.ndim not in (2, 3) or (array.ndim == 3 and not 1 <= array.shape[2] <= 4):
         hint = "; volumes (D x H x W) are warped by a 3D MLS, (N, 3) handles"
         raise ValueError(

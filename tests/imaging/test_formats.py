@@ -151,3 +151,17 @@ def test_rgb_is_padded_to_rgba_with_opaque_alpha(rng, shape, layout):
     got = as_rgba8(img)
     assert got.shape == (*shape[:2], 4) and got.dtype == np.uint8
     assert_array_equal(got, want)
+
+
+def test_an_image_of_python_ints_says_how_to_pass_it(gl):
+    """A list of ints is int64 to numpy: the error says so and how to give 8 bits."""
+    with glmls.MLS([[0, 0]], [[1, 0]], ctx=gl) as m:
+        with pytest.raises(
+            TypeError, match=r"got int64 \(Python ints .*np\.asarray\(image, np\.uint8\)"
+        ):
+            m.warp([[1, 2], [3, 4]])
+        with pytest.raises(TypeError, match=r"got int64$"):  # an array's dtype is the caller's
+            m.warp(np.array([[1, 2], [3, 4]], np.int64))
+        assert m.warp(np.asarray([[1, 2], [3, 4]], np.uint8)).dtype == np.uint8
+    with pytest.raises(TypeError, match=r"got int64 \(Python ints"):
+        glmls.warp([[1, 2], [3, 4]], [[0, 0]], [[1, 0]], ctx=gl)
