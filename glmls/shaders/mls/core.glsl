@@ -145,11 +145,7 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
     a.o = n.h;
     a.m = a.hit ? n.d2far : max(n.d2min, u_hit2);
     a.inv_m = 1.0 / a.m;
-#if MLS_WEIGHT_USES_S
-    a.sigma = min(exp2(u_log2_s - u_alpha * log2(a.m)), 1e30);
-#else
-    a.sigma = 0.0;
-#endif
+    a.sigma = mls_sigma(a.m);
     a.W = 0.0;
     a.P = vec2(0.0);
     a.E = vec2(0.0);

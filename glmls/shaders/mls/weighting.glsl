@@ -25,6 +25,16 @@ float mls_pow(float r) {
 
 #include "mls/weights.glsl"
 
+// sigma = s / m^alpha (scaled, capped): idw's s at a point whose normalisation is m
+// (mls/weights.glsl); 0 for the weights without s.
+float mls_sigma(float m) {
+#if MLS_WEIGHT_USES_S
+    return min(exp2(u_log2_s - u_alpha * log2(m)), 1e30);
+#else
+    return 0.0;
+#endif
+}
+
 // Weight of a handle at squared distance d2 (see mls/weights.glsl for m, inv_m and sigma).
 float mls_weight(float d2, float m, float inv_m, float sigma) {
     float w = MLS_WEIGHT_FUNCTION(d2, m, inv_m, sigma);

@@ -96,11 +96,7 @@ MLS3Accum mls3_begin(vec3 v, float d2min, int nearest, int n) {
     }
     a.m = a.hit ? d2far : max(d2min, u_hit2);
     a.inv_m = 1.0 / a.m;
-#if MLS_WEIGHT_USES_S
-    a.sigma = min(exp2(u_log2_s - u_alpha * log2(a.m)), 1e30);
-#else
-    a.sigma = 0.0;
-#endif
+    a.sigma = mls_sigma(a.m);
     a.W = 0.0;
     a.P = vec3(0.0);
     a.E = vec3(0.0);
@@ -430,11 +426,7 @@ MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
     float reach = sqrt(a.m) - 1.1 * h;   // a bound on every probe's distance to a handle
     s.m = max(reach, 0.0) * max(reach, 0.0);
     s.inv_m = 1.0 / s.m;
-#if MLS_WEIGHT_USES_S
-    s.sigma = min(exp2(u_log2_s - u_alpha * log2(s.m)), 1e30);
-#else
-    s.sigma = 0.0;
-#endif
+    s.sigma = mls_sigma(s.m);
     float lambda = mls_weight(a.m, s.m, s.inv_m, s.sigma) / mls_weight(a.m, a.m, a.inv_m, a.sigma);
     MLS3Centre c = mls3_centre(a);
     bool together = !a.hit && c.plain && s.m > u_hit2 && lambda > 1e-30 && lambda < 1e30;
