@@ -225,3 +225,26 @@ def live_gl_objects(*types: type) -> int:
             and obj.glo not in (0, None)
             and type(obj.mglo).__name__ != "InvalidObject"
         )
+
+
+def random_rotation(rng) -> np.ndarray:
+    """A random proper 3D rotation (row vectors), from the QR of a Gaussian matrix."""
+    qr, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    qr = qr * np.sign(np.diag(r))
+    return qr if np.linalg.det(qr) > 0 else -qr
+
+
+def degenerate_sets3(rng) -> dict[str, np.ndarray]:
+    """3D handle sets that 2D never had, in a 256^3 box: two, three, coplanar, collinear,
+    one and coincident handles."""
+    general = rng.uniform(0, 256, (12, 3))
+    axes = random_rotation(rng)[:2]
+    line = 128.0 + np.linspace(-100, 100, 5)[:, None] * np.array([[1.0, 2.0, -0.5]]) / 2.3
+    return {
+        "two": general[:2],
+        "three": general[:3],
+        "coplanar": 128.0 + rng.uniform(-100, 100, (6, 2)) @ axes,
+        "collinear": line,
+        "one": general[:1],
+        "coincident": np.repeat(general[:1], 4, axis=0),
+    }

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import random_rotation
 from numpy.testing import assert_allclose
 
 import glmls
@@ -14,16 +15,9 @@ from glmls.core.config import MLSConfig
 RADIUS = 150.0
 
 
-def _rotation(rng) -> np.ndarray:
-    """A random proper rotation (row vectors), from the QR of a Gaussian matrix."""
-    qr, r = np.linalg.qr(rng.normal(size=(3, 3)))
-    qr = qr * np.sign(np.diag(r))
-    return qr if np.linalg.det(qr) > 0 else -qr
-
-
 def _handle_sets(rng) -> dict[str, np.ndarray]:
     general = rng.uniform(0, 100, (12, 3))
-    plane_axes = _rotation(rng)[:2]  # a tilted plane through (50, 50, 50)
+    plane_axes = random_rotation(rng)[:2]  # a tilted plane through (50, 50, 50)
     coplanar = 50.0 + rng.uniform(-40, 40, (6, 2)) @ plane_axes
     line = 50.0 + np.linspace(-40, 40, 5)[:, None] * np.array([[1.0, 2.0, -0.5]]) / 2.3
     return {
@@ -75,7 +69,7 @@ def test_identity_is_exact_for_every_handle_set(rng, config):
 def test_global_motions_are_reproduced(rng, config):
     p = _handle_sets(rng)["general"]
     v = _points(rng, p)
-    rot = _rotation(rng)
+    rot = random_rotation(rng)
     shift = np.array([7.0, -3.0, 11.0])
     motions = {"rigid": rot, "similarity": 1.3 * rot, "affine": rot @ np.diag([1.2, 0.8, 1.1])}
     order = glmls.TRANSFORMS.index(config.transform)  # affine reproduces all three, ...
@@ -176,7 +170,7 @@ def test_the_plane_z_0_gives_the_2d_reference(rng, transform, weight):
 
 def test_mls_error_in_3d(rng):
     p = _handle_sets(rng)["general"]
-    rot = _rotation(rng)
+    rot = random_rotation(rng)
     v = rng.uniform(0, 100, (6, 3))
     assert_allclose(reference.mls_error(p, p @ rot + 5.0, v), 0.0, atol=1e-16 * 1e8)
     error = reference.mls_error(p, p + rng.normal(0, 3, p.shape), v, transform="affine")
@@ -244,7 +238,7 @@ def test_the_fit_minimises_the_weighted_least_squares(rng, transform):
     """Against scipy's minimiser over rotation vectors (and a log scale), and numpy's weighted
     lstsq for affine (eq. 2 about the weighted centroids)."""
     p = _handle_sets(rng)["general"]
-    q = p @ _rotation(rng) + rng.normal(0, 10, p.shape)
+    q = p @ random_rotation(rng) + rng.normal(0, 10, p.shape)
     config = MLSConfig(transform=transform, weight="idw")
     v = rng.uniform(0, 100, (4, 3))
     _, big_m, _ = reference.mls(p, q, v, config)
@@ -266,7 +260,7 @@ def test_degenerate_sets_reproduce_what_they_determine(rng, transform):
     reproduces a global similarity of them; handles on a line determine the line's image,
     which a global rigid motion keeps exact on the line."""
     sets = _handle_sets(rng)
-    rot = _rotation(rng)
+    rot = random_rotation(rng)
     motion = rot * (1.0 if transform == "rigid" else 1.3)
     config = MLSConfig(transform=transform)
     for name in ("three", "coplanar"):

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import degenerate_sets3, random_rotation
 
 import glmls
 from glmls import reference
@@ -106,32 +107,12 @@ def test_on_and_next_to_handles(gl, options):
     assert error.max() < TOLERANCE
 
 
-def _rotation(rng) -> np.ndarray:
-    qr, r = np.linalg.qr(rng.normal(size=(3, 3)))
-    qr = qr * np.sign(np.diag(r))
-    return qr if np.linalg.det(qr) > 0 else -qr
-
-
-def _sets(rng) -> dict[str, np.ndarray]:
-    general = rng.uniform(0, 256, (12, 3))
-    axes = _rotation(rng)[:2]
-    line = 128.0 + np.linspace(-100, 100, 5)[:, None] * np.array([[1.0, 2.0, -0.5]]) / 2.3
-    return {
-        "two": general[:2],
-        "three": general[:3],
-        "coplanar": 128.0 + rng.uniform(-100, 100, (6, 2)) @ axes,
-        "collinear": line,
-        "one": general[:1],
-        "coincident": np.repeat(general[:1], 4, axis=0),
-    }
-
-
 @pytest.mark.parametrize("transform", glmls.TRANSFORMS)
 @pytest.mark.parametrize("name", ["two", "three", "coplanar", "collinear", "one", "coincident"])
 def test_degenerate_sets(gl, transform, name):
     rng = np.random.default_rng(11)
-    src = _sets(rng)[name]
-    dst = src @ _rotation(rng).T * 1.1 + 5.0
+    src = degenerate_sets3(rng)[name]
+    dst = src @ random_rotation(rng).T * 1.1 + 5.0
     if name != "coincident":
         dst += rng.normal(0, 3, src.shape)
     points = rng.uniform(0, 256, (150, 3))
@@ -152,7 +133,7 @@ def test_a_large_turn(gl, transform):
     # the probes' rotation is the centre's to first order in B - B0, whatever the centre's
     rng = np.random.default_rng(6)
     src = rng.uniform(0, SIZE, (16, 3))
-    dst = (src - 64.0) @ _rotation(rng).T * 1.3 + 64.0 + rng.normal(0, 4, src.shape)
+    dst = (src - 64.0) @ random_rotation(rng).T * 1.3 + 64.0 + rng.normal(0, 4, src.shape)
     points = np.concatenate([rng.uniform(0, SIZE, (120, 3)), _near(rng, src, 40, 0.06, 3.0)])
     jacobian = _jacobian(src, dst, points, transform=transform)
     error = np.abs(jacobian - _reference_jacobian(src, dst, points, transform=transform))

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import degenerate_sets3, random_rotation
 
 import glmls
 from glmls import reference
@@ -20,12 +21,6 @@ SHAPE = (256, 256, 256)
 #: moments moves the result by up to ~3e-4 of the distance to p* (docs/mathematics.md, "The
 #: 3D solve on the GPU").
 RIDGE_TOLERANCE = 0.1
-
-
-def _rotation(rng) -> np.ndarray:
-    qr, r = np.linalg.qr(rng.normal(size=(3, 3)))
-    qr = qr * np.sign(np.diag(r))
-    return qr if np.linalg.det(qr) > 0 else -qr
 
 
 @pytest.fixture(scope="module")
@@ -82,26 +77,12 @@ def test_many_handles_storages(gl):
         assert f_err < 1e-3, storage
 
 
-def _sets(rng) -> dict[str, np.ndarray]:
-    general = rng.uniform(0, 256, (12, 3))
-    axes = _rotation(rng)[:2]
-    line = 128.0 + np.linspace(-100, 100, 5)[:, None] * np.array([[1.0, 2.0, -0.5]]) / 2.3
-    return {
-        "two": general[:2],
-        "three": general[:3],
-        "coplanar": 128.0 + rng.uniform(-100, 100, (6, 2)) @ axes,
-        "collinear": line,
-        "one": general[:1],
-        "coincident": np.repeat(general[:1], 4, axis=0),
-    }
-
-
 @pytest.mark.parametrize("transform", glmls.TRANSFORMS)
 @pytest.mark.parametrize("name", ["two", "three", "coplanar", "collinear", "one", "coincident"])
 def test_degenerate_sets(gl, transform, name):
     rng = np.random.default_rng(11)
-    src = _sets(rng)[name]
-    dst = src @ _rotation(rng).T * 1.1 + 5.0
+    src = degenerate_sets3(rng)[name]
+    dst = src @ random_rotation(rng).T * 1.1 + 5.0
     if name != "coincident":
         dst += rng.normal(0, 3, src.shape)
     points = rng.uniform(0, 256, (500, 3))
@@ -140,7 +121,7 @@ def test_identity_is_exact(gl, handles, transform):
 @pytest.mark.parametrize("name", ["two", "collinear", "three", "coplanar"])
 def test_continuous_between_neighbouring_points(gl, transform, name):
     rng = np.random.default_rng(5)
-    src = _sets(rng)[name]
+    src = degenerate_sets3(rng)[name]
     dst = src + rng.normal(0, 10, src.shape)
     # a segment through the handles' box, 0.05 voxel steps
     t = np.linspace(0.0, 1.0, 4001)[:, None]
