@@ -11,6 +11,7 @@ from .analyze_volume import is_volume_input, run_volume
 from .inputs import (
     add_example_inputs,
     example_or_files,
+    figure,
     make_mls,
     reference_or_handles,
     reported_warnings,
@@ -89,25 +90,21 @@ def run(args: argparse.Namespace) -> int:
     # the median and the trimmed mean first: one near-degenerate triangle moves the mean
     say(
         args,
-        f"analyze: E_MLS median {_number(field['median'])} px^2, trimmed mean "
-        f"{_number(field['trimmed_mean'])}, mean {_number(field['mean'])} "
-        f"(std {_number(field['std'])})",
+        f"analyze: E_MLS median {figure(field['median'])} px^2, trimmed mean "
+        f"{figure(field['trimmed_mean'])}, mean {figure(field['mean'])} "
+        f"(std {figure(field['std'])})",
     )
     say(
         args,
-        f"analyze: angular error ({args.angle}) median {_number(angle['median'])}{unit}, "
-        f"trimmed mean {_number(angle['trimmed_mean'])}, mean {_number(angle['mean'])}; "
+        f"analyze: angular error ({args.angle}) median {figure(angle['median'])}{unit}, "
+        f"trimmed mean {figure(angle['trimmed_mean'])}, mean {figure(angle['mean'])}; "
         f"fold-overs {summary['foldovers']['cells']} cells",
     )
     if "construction" in summary:
         built = summary["construction"]
         say(
             args,
-            f"analyze: construction error (0-1) median {_number(built['median'])}, "
-            f"trimmed mean {_number(built['trimmed_mean'])}, mean {_number(built['mean'])}",
+            f"analyze: construction error (0-1) median {figure(built['median'])}, "
+            f"trimmed mean {figure(built['trimmed_mean'])}, mean {figure(built['mean'])}",
         )
     return 0
-
-
-def _number(value: float | None) -> str:
-    return "n/a" if value is None else f"{value:.4g}"

@@ -30,7 +30,7 @@ from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import volume_suffix
 from ..mls import MLS
 from .analyze_volume import read_points_3d
-from .inputs import reported_warnings, say
+from .inputs import figure, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
 from .warp3d import check_world
@@ -134,25 +134,21 @@ def run_mesh(args: argparse.Namespace) -> int:
     say(
         args,
         f"analyze: E_MLS at {len(mesh.vertices)} vertices median "
-        f"{_number(field_stats['median'])}, trimmed mean {_number(field_stats['trimmed_mean'])}, "
-        f"mean {_number(field_stats['mean'])} (std {_number(field_stats['std'])})",
+        f"{figure(field_stats['median'])}, trimmed mean {figure(field_stats['trimmed_mean'])}, "
+        f"mean {figure(field_stats['mean'])} (std {figure(field_stats['std'])})",
     )
     if "angle" in found:
         say(
             args,
             f"analyze: {found['tetrahedra']} tetrahedra ({found['slivers']} slivers left out), "
-            f"angular error ({args.angle}) median {_number(found['angle']['median'])}, "
-            f"mean {_number(found['angle']['mean'])}; {found['inverted']} inverted",
+            f"angular error ({args.angle}) median {figure(found['angle']['median'])}, "
+            f"mean {figure(found['angle']['mean'])}; {found['inverted']} inverted",
         )
     else:
         say(args, f"analyze: no tetrahedra: {found['skipped']}")
     say(
         args,
-        f"analyze: det J median {_number(det['median'])}, min {_number(det['min'])}; folded: "
+        f"analyze: det J median {figure(det['median'])}, min {figure(det['min'])}; folded: "
         f"{vertex_folds} vertices, {face_folds} faces",
     )
     return 0
-
-
-def _number(value: float | None) -> str:
-    return "n/a" if value is None else f"{value:.4g}"

@@ -19,7 +19,7 @@ from ..files.landmarks import read_handles
 from ..files.parsing import csv_rows, fail, json_list, load_json, number, table
 from ..files.volumes import is_volume_file, read_volume
 from ..mls import MLS
-from .inputs import reported_warnings, say
+from .inputs import figure, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
 from .warp3d import check_world, voxel_handles, world_handles
@@ -135,28 +135,24 @@ def run_volume(args: argparse.Namespace) -> int:
     field, cells, tetrahedra = summary["error_field"], summary["jacobians"], summary["tetrahedra"]
     say(
         args,
-        f"analyze: E_MLS median {_number(field['median'])} voxel^2, trimmed mean "
-        f"{_number(field['trimmed_mean'])}, mean {_number(field['mean'])} "
-        f"(std {_number(field['std'])})",
+        f"analyze: E_MLS median {figure(field['median'])} voxel^2, trimmed mean "
+        f"{figure(field['trimmed_mean'])}, mean {figure(field['mean'])} "
+        f"(std {figure(field['std'])})",
     )
     if "angle" in tetrahedra:
         angle = tetrahedra["angle"]
         say(
             args,
             f"analyze: {tetrahedra['tetrahedra']} tetrahedra ({tetrahedra['slivers']} slivers "
-            f"left out), angular error ({args.angle}) median {_number(angle['median'])}, "
-            f"mean {_number(angle['mean'])}; {tetrahedra['inverted']} inverted",
+            f"left out), angular error ({args.angle}) median {figure(angle['median'])}, "
+            f"mean {figure(angle['mean'])}; {tetrahedra['inverted']} inverted",
         )
     else:
         say(args, f"analyze: no tetrahedra: {tetrahedra['skipped']}")
     say(
         args,
-        f"analyze: det J median {_number(cells['det']['median'])}, min "
-        f"{_number(cells['det']['min'])}; folds {cells['folds']} of {cells['cells']} cells "
+        f"analyze: det J median {figure(cells['det']['median'])}, min "
+        f"{figure(cells['det']['min'])}; folds {cells['folds']} of {cells['cells']} cells "
         f"(grid {cells['grid']})",
     )
     return 0
-
-
-def _number(value: float | None) -> str:
-    return "n/a" if value is None else f"{value:.4g}"

@@ -28,6 +28,7 @@ __all__ = [
     "IMAGE_SUFFIXES",
     "add_example_inputs",
     "example_or_files",
+    "figure",
     "image_inputs",
     "make_mls",
     "read_image",
@@ -114,6 +115,11 @@ def say(args: argparse.Namespace, message: str) -> None:
     """A message on stderr unless ``--quiet``."""
     if not args.quiet:
         print(message, file=sys.stderr)
+
+
+def figure(value: float | None) -> str:
+    """A statistic for a one-line summary: four significant digits, "n/a" where undefined."""
+    return "n/a" if value is None else f"{value:.4g}"
 
 
 def warn_about_handles(args: argparse.Namespace, handles: HandleSet, shape) -> None:
