@@ -4,7 +4,7 @@ transfers, and the host's own time.
 ``python benchmarks/gl_stages.py volume [--size 256] [--method quads|backward] [--grid 1]``
 ``python benchmarks/gl_stages.py batch [--n 256] [--size 224] [--keypoints] [--move 5.6]
 [--one-scan]``
-``python benchmarks/gl_stages.py mesh [--vertices 1000000]``
+``python benchmarks/gl_stages.py mesh [--vertices 1000000] [--surface random|torus]``
 
 Each compute dispatch is followed by ``ctx.finish()`` and timed, and so is each buffer and
 texture read and write, so the GPU stages do not overlap as they do in a normal run: the sum
@@ -13,7 +13,10 @@ rest is the host's (Python, numpy, driver calls): the top host functions by own 
 (cProfile). Workloads: 64 handles (16 for a batch), rigid idw (seed 0); the volume as in
 ``volume_bench.py``, the batch as in ``batch_bench.py`` (224 x 224 RGB, grid 4; the handles
 moved by N(0, ``--move`` px), size / 40 by default), the mesh
-points uniform in a 256^3 box.
+points uniform in a 256^3 box with twice as many faces joining random vertices (``--surface
+random``: every face's corners far apart in memory, the worst case for the passes over faces)
+or a torus in the same box whose vertices and faces follow its n x n lattice (``--surface
+torus``, n^2 about ``--vertices``: a surface as a modeller or a scanner writes it).
 """
 
 from __future__ import annotations
@@ -117,10 +120,27 @@ def batch_workload(args):
     return lambda: glmls.warp_batch(images, src, dst, grid=4, **labels)
 
 
+def torus(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """An n x n lattice on a torus in the 256^3 box: vertices in lattice order, two faces per
+    cell, outward."""
+    angle = np.arange(n) * (2 * np.pi / n)
+    u, v = np.meshgrid(angle, angle, indexing="ij")
+    ring = 80 + 40 * np.cos(v)
+    vertices = np.stack([128 + ring * np.cos(u), 128 + ring * np.sin(u), 128 + 40 * np.sin(v)])
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    a, b = i * n + j, i * n + (j + 1) % n
+    c, d = ((i + 1) % n) * n + j, ((i + 1) % n) * n + (j + 1) % n
+    faces = np.concatenate([np.stack([a, c, d], -1), np.stack([a, d, b], -1)], axis=1)
+    return vertices.reshape(3, -1).T, faces.reshape(-1, 3)
+
+
 def mesh_workload(args):
     rng = np.random.default_rng(0)
-    vertices = rng.uniform(0, 255, (args.vertices, 3))
-    faces = rng.integers(0, args.vertices, (2 * args.vertices, 3))
+    if args.surface == "torus":
+        vertices, faces = torus(round(args.vertices**0.5))
+    else:
+        vertices = rng.uniform(0, 255, (args.vertices, 3))
+        faces = rng.integers(0, args.vertices, (2 * args.vertices, 3))
     src = rng.uniform(0, 255, (64, 3))
     dst = src + rng.normal(0, 6, src.shape)
     m = glmls.MLS(src, dst, transform="rigid", weight="idw")
@@ -146,6 +166,7 @@ def main() -> None:
         help="batch: one scan program for every image (glmls.batch.texels.FAST_PASS off)",
     )
     parser.add_argument("--vertices", type=int, default=1_000_000)
+    parser.add_argument("--surface", default="random", choices=("random", "torus"))
     parser.add_argument("--top", type=int, default=12)
     args = parser.parse_args()
     if args.size is None:
