@@ -534,6 +534,33 @@ def replay_labels(augment: Augment, params: Sequence[Mapping], **labels) -> Augm
     return augment.replay(canvas, params, **labels)
 
 
+def replay_images(augment: Augment, images: np.ndarray, params: Sequence[Mapping]) -> np.ndarray:
+    """``augment.replay`` of (N, H, W) or (N, H, W, C) images of any number of channels, as
+    albumentations and torchvision take them: more than 4 channels go in groups of at most 4,
+    each group through the same draws (one map for every channel)."""
+    if images.ndim == 3 or images.shape[-1] <= 4:
+        return np.asarray(augment.replay(images, params).images)
+    groups = [
+        np.asarray(augment.replay(np.ascontiguousarray(images[..., k : k + 4]), params).images)
+        for k in range(0, images.shape[-1], 4)
+    ]
+    return np.concatenate(groups, axis=-1)
+
+
+def replay_boxes(
+    augment: Augment, params: Sequence[Mapping], boxes: Sequence[np.ndarray]
+) -> list[np.ndarray]:
+    """Per draw, its (B, 4) boxes ``(x_min, y_min, x_max, y_max)`` around their moved outlines,
+    NOT clipped to the canvas: albumentations and torchvision clip boxes themselves, and
+    albumentations' ``min_visibility`` measures what the clipping takes away."""
+    outlines = [lab.box_outlines(np.asarray(b, np.float64), augment.box_step) for b in boxes]
+    moved = replay_labels(augment, params, keypoints=[points for points, _ in outlines]).keypoints
+    return [
+        lab.boxes_from_outlines(np.asarray(points), counts, tuple(p["shape"]), clip=False)[0]
+        for points, (_, counts), p in zip(moved, outlines, params, strict=True)
+    ]
+
+
 def replay_masks(augment: Augment, params: Sequence[Mapping], masks: np.ndarray) -> np.ndarray:
     """(N, H, W) masks deformed, one per draw, with nearest sampling, 0 where nothing is
     shown; of their dtype (bool masks too; floating-point masks, as albumentations allows,

@@ -1,0 +1,82 @@
+"""The adapters of glmls.augment against their libraries' own contracts: what albumentations
+and torchvision do with their built-in distortions (A.GridDistortion, v2.ElasticTransform),
+MLSDeform and MLSTransform do in the same pipelines: the same call forms and targets, outputs
+of the same types, dtypes and shapes, and the libraries' own filtering of boxes."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+os.environ.setdefault("NO_ALBUMENTATIONS_UPDATE", "1")  # no version check over the network
+
+A = pytest.importorskip("albumentations", reason="albumentations not installed (the extra)")
+torch = pytest.importorskip("torch", reason="torch not installed (the torch extra)")
+tv_tensors = pytest.importorskip("torchvision.tv_tensors", reason="torchvision not installed")
+
+
+from glmls.augment.albumentations import MLSDeform  # noqa: E402
+
+#: A draw that moves every point 6 px to the left (a similarity MLS of a translation).
+SHIFT = 6.0
+
+
+def shifted_left(shape: tuple[int, int]) -> dict:
+    height, width = shape
+    src = [[0.0, 0.0], [width - 1.0, 0.0], [0.0, height - 1.0], [width - 1.0, height - 1.0]]
+    dst = [[x - SHIFT, y] for x, y in src]
+    return {
+        "preset": "grid",
+        "config": {},
+        "seed": 0,
+        "index": 0,
+        "shape": [height, width],
+        "src": src,
+        "dst": dst,
+        "options": {"transform": "similarity", "interpolation": "linear", "border": "edge"},
+    }
+
+
+class ShiftLeft(MLSDeform):
+    """MLSDeform with a fixed draw: everything 6 px to the left."""
+
+    def get_params_dependent_on_data(self, params, data):
+        return {"mls": shifted_left(tuple(params["shape"][:2]))}
+
+
+@pytest.mark.parametrize("channels", [5, 8])
+def test_albumentations_images_of_any_number_of_channels(gl, rng, channels):
+    """albumentations' distortions take any number of channels (multispectral images);
+    MLSDeform deforms them all by one map, as it deforms 4 or fewer."""
+    image = rng.integers(0, 255, (24, 32, channels), dtype=np.uint8)
+    transform = MLSDeform("grid", preset_options={"displacement": 0.05})
+    out = A.Compose([transform], seed=2)(image=image)["image"]
+    assert out.shape == image.shape and out.dtype == image.dtype
+    assert A.Compose([A.GridDistortion(p=1)], seed=2)(image=image)["image"].shape == out.shape
+    draw = transform.get_applied_params()["mls"]
+    for k in range(0, channels, 3):  # any group of channels is the image's part
+        part = image[..., k : k + 3]
+        expected = transform.augment.replay([part], [draw]).images[0]
+        np.testing.assert_array_equal(out[..., k : k + 3], expected)
+
+
+@pytest.mark.parametrize("min_visibility, kept", [(0.6, False), (0.4, True)])
+def test_albumentations_min_visibility_sees_boxes_pushed_out(gl, min_visibility, kept):
+    """A box pushed half out of the image by the deformation has half its area visible:
+    albumentations' min_visibility compares the box the transform returns with what is left
+    after clipping it, so the transform must not clip it first."""
+    image = np.zeros((24, 32, 3), np.uint8)
+    compose = A.Compose(
+        [ShiftLeft()],
+        bbox_params=A.BboxParams(
+            format="pascal_voc", label_fields=["labels"], min_visibility=min_visibility
+        ),
+    )
+    out = compose(image=image, bboxes=[(2.0, 10.0, 10.0, 20.0)], labels=[7])
+    if kept:
+        np.testing.assert_allclose(out["bboxes"], [[0.0, 10.0, 4.0, 20.0]], atol=1e-3)
+        assert list(out["labels"]) == [7]
+    else:
+        assert len(out["bboxes"]) == 0 and len(out["labels"]) == 0
