@@ -9,18 +9,19 @@ rather than let the process crash (:func:`check_import_order`).
 
 ``MLSTransform`` follows torchvision's contract: ``make_params`` draws once per call from
 torch's random numbers (``torch.manual_seed`` makes it repeat), and ``transform`` deforms each
-input by type: ``tv_tensors.Image`` (and a plain tensor taken as the image), ``Mask``
-(nearest, never a mixed label), ``KeyPoints`` and ``BoundingBoxes`` (the box around the
-densely sampled, moved outline, clipped to the canvas). Tensors stay of their dtype and on
-their device; the deformation runs on glmls's OpenGL context, so a CUDA tensor goes through
-the host's memory.
+input by type: ``tv_tensors.Image`` (and a plain tensor taken as the image; any number of
+channels), ``Video`` (its frames all by one draw, as torchvision's own transforms move them),
+``Mask`` (nearest, never a mixed label), ``KeyPoints`` and ``BoundingBoxes`` (the box around
+the densely sampled, moved outline, clamped to the canvas as its ``clamping_mode`` says).
+Tensors stay of their dtype and on their device; the deformation runs on glmls's OpenGL
+context, so a CUDA tensor goes through the host's memory.
 
 A batch is an image tensor with a leading dimension, (N, C, H, W): each sample draws its own
-deformation. Its masks are (N, H, W) or (N, K, H, W) and its keypoints (N, P, 2) (the first
-dimension the batch), or one ``Mask``/``KeyPoints``/``BoundingBoxes`` per sample in order
-(bounding boxes are two-dimensional in torchvision: one instance per sample). The draws of
-the last call are in ``last_params`` (JSON-able dicts, see
-:class:`glmls.augment.AugmentResult`).
+deformation (where torchvision's own transforms draw once for the whole batch). Its masks are
+(N, H, W) or (N, K, H, W) and its keypoints (N, P, 2) (the first dimension the batch), or one
+``Mask``/``KeyPoints``/``BoundingBoxes`` per sample in order (bounding boxes are
+two-dimensional in torchvision: one instance per sample). The draws of the last call are in
+``last_params`` (JSON-able dicts, see :class:`glmls.augment.AugmentResult`).
 """
 
 from __future__ import annotations
@@ -73,7 +74,7 @@ from torchvision import tv_tensors  # noqa: E402
 from torchvision.transforms import v2  # noqa: E402
 from torchvision.transforms.v2 import functional as F  # noqa: E402
 
-from .core import Augment, replay_labels, replay_masks  # noqa: E402
+from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks  # noqa: E402
 
 __all__ = ["MLSTransform", "check_import_order"]
 
@@ -91,6 +92,8 @@ def _size(value: object) -> tuple[int, int, int | None]:
     if isinstance(value, PIL.Image.Image):
         return value.height, value.width, None
     tensor = value  # type: ignore[assignment]
+    if isinstance(tensor, tv_tensors.Video) and tensor.ndim >= 4:  # one clip, its frames alike
+        return tensor.shape[-2], tensor.shape[-1], None
     if tensor.ndim == 4:  # type: ignore[attr-defined]
         return tensor.shape[-2], tensor.shape[-1], tensor.shape[0]  # type: ignore[attr-defined]
     if tensor.ndim in (2, 3):  # type: ignore[attr-defined]
@@ -279,9 +282,11 @@ class MLSTransform(v2.Transform):
         return self._images(inpt, samples)
 
     def _images(self, images: torch.Tensor, samples: list[dict]) -> torch.Tensor:
-        batch = images if images.ndim == 4 else images.reshape(1, -1, *images.shape[-2:])
-        array = np.moveaxis(batch.detach().cpu().numpy(), 1, -1)
-        out = np.asarray(self.augment.replay(np.ascontiguousarray(array), samples).images)
+        channels = 1 if images.ndim == 2 else images.shape[-3]
+        frames = images.reshape(-1, channels, *images.shape[-2:])  # a video's frames, one draw
+        draws = [s for s in samples for _ in range(len(frames) // len(samples))]
+        array = np.moveaxis(frames.detach().cpu().numpy(), 1, -1)
+        out = replay_images(self.augment, np.ascontiguousarray(array), draws)
         tensor = torch.from_numpy(np.ascontiguousarray(np.moveaxis(out, -1, 1)))
         tensor = tensor.reshape(images.shape).to(device=images.device, dtype=images.dtype)
         return (
@@ -316,8 +321,13 @@ class MLSTransform(v2.Transform):
             new_format=tv_tensors.BoundingBoxFormat.XYXY,
         )
         array = xyxy.detach().cpu().numpy().astype(np.float64) - 0.5  # pixel centres at integers
-        moved = np.asarray(replay_labels(self.augment, [sample], boxes=[array]).boxes[0]) + 0.5
-        out = torch.from_numpy(moved).to(device=boxes.device, dtype=boxes.dtype)
+        moved = replay_boxes(self.augment, [sample], [array])[0] + 0.5
+        out = F.clamp_bounding_boxes(  # as the boxes' clamping_mode says (None: not at all)
+            torch.from_numpy(moved),
+            format=tv_tensors.BoundingBoxFormat.XYXY,
+            canvas_size=boxes.canvas_size,
+            clamping_mode=boxes.clamping_mode,
+        ).to(device=boxes.device, dtype=boxes.dtype)
         return F.convert_bounding_box_format(
             out, old_format=tv_tensors.BoundingBoxFormat.XYXY, new_format=boxes.format
         )

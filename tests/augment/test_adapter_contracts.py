@@ -17,7 +17,10 @@ torch = pytest.importorskip("torch", reason="torch not installed (the torch extr
 tv_tensors = pytest.importorskip("torchvision.tv_tensors", reason="torchvision not installed")
 
 
+from torchvision.transforms import v2  # noqa: E402
+
 from glmls.augment.albumentations import MLSDeform  # noqa: E402
+from glmls.augment.torchvision import MLSTransform  # noqa: E402
 
 #: A draw that moves every point 6 px to the left (a similarity MLS of a translation).
 SHIFT = 6.0
@@ -80,3 +83,57 @@ def test_albumentations_min_visibility_sees_boxes_pushed_out(gl, min_visibility,
         assert list(out["labels"]) == [7]
     else:
         assert len(out["bboxes"]) == 0 and len(out["labels"]) == 0
+
+
+def test_torchvision_a_video_is_one_sample(gl, rng):
+    """torchvision transforms a Video's frames alike (v2.ElasticTransform does): one draw for
+    the whole clip, its frames moved together; only an Image batch draws per sample."""
+    frame = torch.from_numpy(rng.integers(0, 255, (3, 24, 32), dtype=np.uint8))
+    video = tv_tensors.Video(frame.expand(4, 3, 24, 32).clone())
+    transform = MLSTransform("grid", displacement=0.08)
+    torch.manual_seed(0)
+    out = transform(video)
+    assert isinstance(out, tv_tensors.Video) and out.shape == video.shape
+    assert len(transform.last_params) == 1
+    assert all(torch.equal(out[0], out[k]) for k in range(1, 4))
+    assert not torch.equal(out[0], frame)
+    elastic = v2.ElasticTransform(alpha=50.0)(video)
+    assert all(torch.equal(elastic[0], elastic[k]) for k in range(1, 4))
+    batch = transform(tv_tensors.Image(video.as_subclass(torch.Tensor)))
+    assert len(transform.last_params) == 4 and not torch.equal(batch[0], batch[1])
+
+
+@pytest.mark.parametrize("shape", [(5, 16, 20), (2, 6, 16, 20)])
+def test_torchvision_images_of_any_number_of_channels(gl, rng, shape):
+    image = tv_tensors.Image(torch.from_numpy(rng.random(shape, dtype=np.float32)))
+    torch.manual_seed(1)
+    out = MLSTransform("grid", displacement=0.05)(image)
+    assert isinstance(out, tv_tensors.Image) and out.shape == image.shape
+    assert out.dtype == image.dtype
+    assert v2.ElasticTransform(alpha=20.0, sigma=2.0)(image).shape == out.shape
+
+
+@pytest.mark.parametrize(
+    "mode, expected", [("soft", [0.0, 10.0, 4.0, 20.0]), (None, [-4.0, 10.0, 4.0, 20.0])]
+)
+def test_torchvision_boxes_clamped_by_their_clamping_mode(gl, mode, expected):
+    """torchvision clamps transformed boxes to the canvas as their ``clamping_mode`` says:
+    ``None`` leaves them as they are (for v2.SanitizeBoundingBoxes or the user to judge)."""
+    transform = MLSTransform("grid")
+    transform.augment.draw = lambda shapes, **_: [shifted_left(tuple(s)) for s in shapes]
+    image = tv_tensors.Image(torch.zeros(3, 24, 32, dtype=torch.uint8))
+    for fmt in ("XYXY", "XYWH", "CXCYWH"):
+        xyxy = torch.tensor([[2.0, 10.0, 10.0, 20.0]])
+        boxes = tv_tensors.BoundingBoxes(
+            v2.functional.convert_bounding_box_format(xyxy, old_format="XYXY", new_format=fmt),
+            format=fmt,
+            canvas_size=(24, 32),
+            clamping_mode=mode,
+        )
+        _, out = transform(image, boxes)
+        assert out.format == boxes.format and out.canvas_size == (24, 32)
+        assert out.clamping_mode == mode
+        back = v2.functional.convert_bounding_box_format(
+            out.as_subclass(torch.Tensor), old_format=fmt, new_format="XYXY"
+        )
+        np.testing.assert_allclose(back.numpy(), [expected], atol=1e-3)
