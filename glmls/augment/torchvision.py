@@ -10,9 +10,10 @@ rather than let the process crash (:func:`check_import_order`).
 ``MLSTransform`` follows torchvision's contract: ``make_params`` draws once per call from
 torch's random numbers (``torch.manual_seed`` makes it repeat), and ``transform`` deforms each
 input by type: ``tv_tensors.Image`` (and a plain tensor taken as the image; any number of
-channels), ``Video`` (its frames all by one draw, as torchvision's own transforms move them),
-``Mask`` (nearest, never a mixed label), ``KeyPoints`` and ``BoundingBoxes`` (the box around
-the densely sampled, moved outline, clamped to the canvas as its ``clamping_mode`` says).
+channels), a PIL image (in its mode; a palette image's indices with nearest sampling),
+``Video`` (its frames all by one draw, as torchvision's own transforms move them), ``Mask``
+(nearest, never a mixed label), ``KeyPoints`` and ``BoundingBoxes`` (the box around the
+densely sampled, moved outline, clamped to the canvas as its ``clamping_mode`` says).
 Tensors stay of their dtype and on their device; the deformation runs on glmls's OpenGL
 context, so a CUDA tensor goes through the host's memory.
 
@@ -277,9 +278,24 @@ class MLSTransform(v2.Transform):
         if isinstance(inpt, tv_tensors.BoundingBoxes):
             return tv_tensors.wrap(self._boxes(inpt, samples[0]), like=inpt)
         if isinstance(inpt, PIL.Image.Image):
-            array = self.augment.replay([np.asarray(inpt)], samples).images[0]
-            return PIL.Image.fromarray(np.asarray(array))
+            return self._pil(inpt, samples)
         return self._images(inpt, samples)
+
+    def _pil(self, image: PIL.Image.Image, samples: list[dict]) -> PIL.Image.Image:
+        """A PIL image deformed, in its mode (a palette image's indices with nearest sampling,
+        its palette kept; 32-bit integers through float64)."""
+        array = np.asarray(image)
+        if image.mode in ("P", "PA"):
+            nearest = {"interpolation": "nearest"}
+            samples = [{**s, "options": {**s["options"], **nearest}} for s in samples]
+        values = array.astype(np.float64) if array.dtype == np.int32 else array
+        out = np.asarray(self.augment.replay([values], samples).images[0])
+        if out.dtype != array.dtype:
+            out = np.clip(np.rint(out), -(2**31), 2**31 - 1).astype(array.dtype)
+        result = PIL.Image.frombytes(image.mode, image.size, np.ascontiguousarray(out).tobytes())
+        if image.mode in ("P", "PA"):
+            result.putpalette(image.getpalette())
+        return result
 
     def _images(self, images: torch.Tensor, samples: list[dict]) -> torch.Tensor:
         channels = 1 if images.ndim == 2 else images.shape[-3]

@@ -137,3 +137,22 @@ def test_torchvision_boxes_clamped_by_their_clamping_mode(gl, mode, expected):
             out.as_subclass(torch.Tensor), old_format=fmt, new_format="XYXY"
         )
         np.testing.assert_allclose(back.numpy(), [expected], atol=1e-3)
+
+
+@pytest.mark.parametrize("mode", ["RGB", "L", "LA", "CMYK", "YCbCr", "P", "I;16", "I", "F"])
+def test_torchvision_pil_images_keep_their_mode(gl, rng, mode):
+    """torchvision gives a PIL image back in its mode (v2.ElasticTransform keeps CMYK and
+    YCbCr); a palette image's indices are labels, moved with nearest sampling, its palette
+    kept."""
+    PIL = pytest.importorskip("PIL.Image")
+    image = PIL.fromarray(rng.integers(0, 255, (24, 32, 3), dtype=np.uint8)).convert(mode)
+    torch.manual_seed(2)
+    out = MLSTransform("grid", displacement=0.05)(image)
+    assert isinstance(out, PIL.Image) and out.mode == mode and out.size == image.size
+    assert np.asarray(out).dtype == np.asarray(image).dtype
+    assert not np.array_equal(np.asarray(out), np.asarray(image))
+    if mode == "P":
+        assert out.getpalette() == image.getpalette()
+        assert set(np.unique(out).tolist()) <= set(np.unique(image).tolist())
+    if mode in ("CMYK", "YCbCr"):
+        assert v2.ElasticTransform(alpha=20.0, sigma=2.0)(image).mode == mode
