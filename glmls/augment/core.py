@@ -334,8 +334,9 @@ class Augment:
         ----------
         images : array_like or sequence of array_like or torch.Tensor
             (N, H, W[, C]) or N images (H, W[, C]) (the dtypes of :func:`glmls.warp`); a torch
-            tensor (N, C, H, W) or (N, H, W) comes back as one, of its dtype and device (a
-            CUDA tensor through the host's memory).
+            tensor (N, C, H, W) or (N, H, W), or a list of (C, H, W) or (H, W) tensors, comes
+            back as one, of its dtype and device (a CUDA tensor through the host's memory;
+            float16 and bfloat16 through float32).
         keypoints : array_like or sequence of array_like, optional
             (N, P, 2) or per image (P_i, 2) points (x, y); the ``landmarks`` preset's
             handles.
@@ -368,7 +369,7 @@ class Augment:
         >>> out.boxes[0].shape, out.boxes[1].shape, out.boxes_valid[0].tolist()
         ((1, 4), (0, 4), [True])
         """
-        if tensors.is_tensor(images):
+        if tensors.is_tensors(images):
             return tensors.call_on_tensors(self, images, keypoints, masks, boxes, polygons, indices)
         items = _images(images)
         marks, _ = _keypoint_list(keypoints, len(items))
@@ -424,7 +425,7 @@ class Augment:
         >>> bool((aug.replay(images, params).images == first.images).all())
         True
         """
-        if tensors.is_tensor(images):
+        if tensors.is_tensors(images):
             return tensors.replay_on_tensors(
                 self, images, params, keypoints, masks, boxes, polygons
             )

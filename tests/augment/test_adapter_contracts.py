@@ -156,3 +156,39 @@ def test_torchvision_pil_images_keep_their_mode(gl, rng, mode):
         assert set(np.unique(out).tolist()) <= set(np.unique(image).tolist())
     if mode in ("CMYK", "YCbCr"):
         assert v2.ElasticTransform(alpha=20.0, sigma=2.0)(image).mode == mode
+
+
+@pytest.mark.parametrize("dtype", ["float16", "bfloat16"])
+def test_augment_half_precision_tensors(gl, rng, dtype):
+    """torch's half-precision images (mixed-precision training) go through float32 and come
+    back in their dtype, keypoints too."""
+    from glmls.augment import Augment
+
+    images = torch.from_numpy(rng.random((2, 3, 16, 24), dtype=np.float32))
+    points = torch.tensor([[[4.0, 4.0]], [[10.0, 8.0]]])
+    aug = Augment("grid", seed=1)
+    half = getattr(torch, dtype)
+    out = aug(images.to(half), keypoints=points.to(half))
+    assert out.images.dtype == half and out.images.shape == images.shape
+    assert out.keypoints.dtype == half
+    full = aug(images.to(half).float(), keypoints=points.to(half).float())
+    torch.testing.assert_close(out.images, full.images.to(half))
+    torch.testing.assert_close(out.keypoints, full.keypoints.to(half))
+
+
+def test_augment_a_list_of_tensors_in_torchs_layout(gl, rng):
+    """A ragged batch as a list of (C, H, W) or (H, W) tensors: each in torch's layout, as
+    one tensor of the batch is, and back as a list of tensors of their dtypes."""
+    from glmls.augment import Augment
+
+    first = torch.from_numpy(rng.integers(0, 255, (3, 16, 24), dtype=np.uint8))
+    second = torch.from_numpy(rng.random((20, 12), dtype=np.float32))
+    aug = Augment("grid", seed=4)
+    out = aug([first, second], keypoints=[torch.zeros(1, 2), torch.ones(2, 2)])
+    assert isinstance(out.images, list) and len(out.images) == 2
+    assert out.images[0].shape == first.shape and out.images[0].dtype == torch.uint8
+    assert out.images[1].shape == second.shape and out.images[1].dtype == torch.float32
+    alone = aug(first[None], indices=[0])
+    assert torch.equal(out.images[0], alone.images[0])
+    again = aug.replay([first, second], out.params)
+    assert all(torch.equal(a, b) for a, b in zip(again.images, out.images, strict=True))
