@@ -76,6 +76,7 @@ from torchvision.transforms import v2  # noqa: E402
 from torchvision.transforms.v2 import functional as F  # noqa: E402
 
 from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks  # noqa: E402
+from .tensors import to_numpy  # noqa: E402
 
 __all__ = ["MLSTransform", "check_import_order"]
 
@@ -229,7 +230,7 @@ class MLSTransform(v2.Transform):
         marks: list[np.ndarray | None] = [None] * count
         for x in flat_inputs:
             if isinstance(x, tv_tensors.KeyPoints):
-                points = x.detach().cpu().numpy().astype(np.float64)
+                points = to_numpy(x).astype(np.float64)
                 owner = owners[id(x)]
                 if owner == "batch":
                     marks = [p.reshape(-1, 2) for p in points]
@@ -301,7 +302,7 @@ class MLSTransform(v2.Transform):
         channels = 1 if images.ndim == 2 else images.shape[-3]
         frames = images.reshape(-1, channels, *images.shape[-2:])  # a video's frames, one draw
         draws = [s for s in samples for _ in range(len(frames) // len(samples))]
-        array = np.moveaxis(frames.detach().cpu().numpy(), 1, -1)
+        array = np.moveaxis(to_numpy(frames), 1, -1)
         out = replay_images(self.augment, np.ascontiguousarray(array), draws)
         tensor = torch.from_numpy(np.ascontiguousarray(np.moveaxis(out, -1, 1)))
         tensor = tensor.reshape(images.shape).to(device=images.device, dtype=images.dtype)
@@ -314,7 +315,7 @@ class MLSTransform(v2.Transform):
     def _masks(self, masks: torch.Tensor, samples: list[dict]) -> torch.Tensor:
         count = len(samples)
         height, width = masks.shape[-2:]
-        array = masks.detach().cpu().numpy().reshape(count, -1, height, width)
+        array = to_numpy(masks).reshape(count, -1, height, width)
         layers = array.shape[1]
         draws = [s for s in samples for _ in range(layers)]
         out = replay_masks(self.augment, draws, array.reshape(count * layers, height, width))
@@ -323,7 +324,7 @@ class MLSTransform(v2.Transform):
 
     def _keypoints(self, points: torch.Tensor, samples: list[dict]) -> torch.Tensor:
         count = len(samples)
-        array = points.detach().cpu().numpy().astype(np.float64).reshape(count, -1, 2)
+        array = to_numpy(points).astype(np.float64).reshape(count, -1, 2)
         moved = np.asarray(replay_labels(self.augment, samples, keypoints=array).keypoints)
         tensor = torch.from_numpy(moved.reshape(points.shape))
         return tensor.to(device=points.device, dtype=points.dtype)
@@ -336,7 +337,7 @@ class MLSTransform(v2.Transform):
             old_format=boxes.format,
             new_format=tv_tensors.BoundingBoxFormat.XYXY,
         )
-        array = xyxy.detach().cpu().numpy().astype(np.float64) - 0.5  # pixel centres at integers
+        array = to_numpy(xyxy).astype(np.float64) - 0.5  # pixel centres at integers
         moved = replay_boxes(self.augment, [sample], [array])[0] + 0.5
         out = F.clamp_bounding_boxes(  # as the boxes' clamping_mode says (None: not at all)
             torch.from_numpy(moved),

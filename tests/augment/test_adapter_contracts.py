@@ -192,3 +192,17 @@ def test_augment_a_list_of_tensors_in_torchs_layout(gl, rng):
     assert torch.equal(out.images[0], alone.images[0])
     again = aug.replay([first, second], out.params)
     assert all(torch.equal(a, b) for a, b in zip(again.images, out.images, strict=True))
+
+
+@pytest.mark.parametrize("dtype", ["float16", "bfloat16"])
+def test_torchvision_half_precision_inputs(gl, rng, dtype):
+    half = getattr(torch, dtype)
+    image = tv_tensors.Image(torch.from_numpy(rng.random((3, 16, 20), dtype=np.float32)).to(half))
+    points = tv_tensors.KeyPoints(torch.tensor([[4.0, 5.0]], dtype=half), canvas_size=(16, 20))
+    boxes = tv_tensors.BoundingBoxes(
+        torch.tensor([[2.0, 2.0, 9.0, 9.0]], dtype=half), format="XYXY", canvas_size=(16, 20)
+    )
+    torch.manual_seed(3)
+    out_image, out_points, out_boxes = MLSTransform("grid", displacement=0.05)(image, points, boxes)
+    assert out_image.dtype == half and out_points.dtype == half and out_boxes.dtype == half
+    assert isinstance(out_image, tv_tensors.Image) and out_image.shape == image.shape
