@@ -85,3 +85,27 @@ def test_uint8_images_and_the_forward_map(gl, photo):
         assert back is m
         v = np.array([[20.0, 30.0], [64.0, 64.0]])
         assert_allclose(back(m.inverse(v)), v, atol=1e-3)
+
+
+def test_points_as_scikit_image_takes_them(gl):
+    """skimage's transforms take (N, D) array_likes, and one point as a (D,) array (a (1, D)
+    row back); ``residuals`` are (N,) Euclidean distances, (0,) for no points."""
+    affine = transform.AffineTransform(translation=(1, 2))
+    src = np.array([[0.0, 0.0], [9.0, 0.0], [0.0, 9.0]])
+    with glmls.MLS(src, src + [1, 2], shape=(12, 12), ctx=gl) as m:
+        for points in ([4, 5], np.array([4.0, 5.0], np.float32), (4, 5)):
+            assert m(points).shape == affine(points).shape == (1, 2)
+            assert_allclose(m(points), affine(points), atol=1e-4)
+            assert_allclose(m.inverse(points), affine.inverse(points), atol=1e-3)
+        assert m.residuals([4, 5], [5, 8]).shape == affine.residuals([4, 5], [5, 8]).shape
+        assert_allclose(m.residuals([4, 5], [5, 8]), [1.0], atol=1e-4)
+        for points in ([[4, 5], [6, 7]], np.array([[4, 5]], np.int32), np.zeros((0, 2))):
+            assert m(points).shape == affine(points).shape and m(points).dtype == np.float64
+        assert m.residuals(np.zeros((0, 2)), np.zeros((0, 2))).shape == (0,)
+    src3 = np.array([[0.0, 0, 0], [9, 0, 0], [0, 9, 0], [0, 0, 9]])
+    with glmls.MLS(src3, src3 + [1, 2, 3], ctx=gl) as m3:
+        assert_allclose(m3([4, 5, 6]), [[5, 7, 9]], atol=1e-4)
+        assert_allclose(m3.inverse([5, 7, 9]), [[4, 5, 6]], atol=1e-3)
+        assert_allclose(m3.residuals([4, 5, 6], [5, 7, 9]), [0.0], atol=1e-4)
+        with pytest.raises(ValueError, match=r"shape \(N, 3\)"):
+            m3([4, 5])
