@@ -104,8 +104,8 @@ def from_numpy(array: object, like: object) -> object:
     ----------
     array : numpy.ndarray or list or None
         The values.
-    like : torch.Tensor
-        The tensor whose dtype and device to take.
+    like : torch.Tensor or list of torch.Tensor
+        The tensor whose dtype and device to take (for a list, one per item or one for all).
 
     Returns
     -------
@@ -121,7 +121,8 @@ def from_numpy(array: object, like: object) -> object:
     if array is None:
         return None
     if isinstance(array, list):
-        return [from_numpy(a, like) for a in array]
+        likes = like if isinstance(like, (list, tuple)) else [like] * len(array)
+        return [from_numpy(a, one) for a, one in zip(array, likes, strict=True)]
     torch = sys.modules["torch"]
     tensor = torch.from_numpy(np.ascontiguousarray(array))
     return tensor.to(device=like.device, dtype=like.dtype)  # type: ignore[attr-defined]
@@ -151,17 +152,20 @@ def _images_back(out, images, moved_channels: bool):
 
 def _flags(valid, like):
     torch = sys.modules["torch"]
+    if isinstance(valid, list):
+        likes = like if isinstance(like, (list, tuple)) else [like] * len(valid)
+        return [_flags(v, one) for v, one in zip(valid, likes, strict=True)]
     return torch.as_tensor(np.asarray(valid), device=like.device)
 
 
 def _back(result, images, keypoints, masks, boxes, moved_channels: bool):
     changes = {"images": _images_back(result.images, images, moved_channels)}
-    if is_tensor(keypoints) and result.keypoints is not None:
+    if is_tensors(keypoints) and result.keypoints is not None:
         changes["keypoints"] = from_numpy(result.keypoints, keypoints)
         changes["keypoints_valid"] = _flags(result.keypoints_valid, keypoints)
-    if is_tensor(masks) and result.masks is not None:
+    if is_tensors(masks) and result.masks is not None:
         changes["masks"] = from_numpy(result.masks, masks)
-    if is_tensor(boxes) and result.boxes is not None:
+    if is_tensors(boxes) and result.boxes is not None:
         changes["boxes"] = from_numpy(result.boxes, boxes)
         changes["boxes_valid"] = _flags(result.boxes_valid, boxes)
     return dataclasses.replace(result, **changes)

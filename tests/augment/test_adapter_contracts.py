@@ -190,6 +190,13 @@ def test_augment_a_list_of_tensors_in_torchs_layout(gl, rng):
     assert out.images[1].shape == second.shape and out.images[1].dtype == torch.float32
     alone = aug(first[None], indices=[0])
     assert torch.equal(out.images[0], alone.images[0])
+    assert [type(k).__name__ for k in out.keypoints] == ["Tensor", "Tensor"]
+    assert [tuple(k.shape) for k in out.keypoints] == [(1, 2), (2, 2)]
+    assert all(v.dtype == torch.bool for v in out.keypoints_valid)
+    boxes = [torch.tensor([[2.0, 2.0, 9.0, 9.0]]), torch.zeros(0, 4, dtype=torch.float64)]
+    boxed = aug([first, second], boxes=boxes)
+    assert [b.dtype for b in boxed.boxes] == [torch.float32, torch.float64]
+    assert [tuple(v.shape) for v in boxed.boxes_valid] == [(1,), (0,)]
     again = aug.replay([first, second], out.params)
     assert all(torch.equal(a, b) for a, b in zip(again.images, out.images, strict=True))
 
