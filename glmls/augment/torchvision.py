@@ -12,8 +12,9 @@ torch's random numbers (``torch.manual_seed`` makes it repeat), and ``transform`
 input by type: ``tv_tensors.Image`` (and a plain tensor taken as the image; any number of
 channels), a PIL image (in its mode; a palette image's indices with nearest sampling),
 ``Video`` (its frames all by one draw, as torchvision's own transforms move them), ``Mask``
-(nearest, never a mixed label), ``KeyPoints`` and ``BoundingBoxes`` (the box around the
-densely sampled, moved outline, clamped to the canvas as its ``clamping_mode`` says).
+(nearest, never a mixed label), ``KeyPoints`` and ``BoundingBoxes`` (an unrotated box becomes
+the box around its densely sampled, moved outline, a rotated one's corners move; clamped to
+the canvas as their ``clamping_mode`` says).
 Tensors stay of their dtype and on their device; the deformation runs on glmls's OpenGL
 context, so a CUDA tensor goes through the host's memory.
 
@@ -330,21 +331,28 @@ class MLSTransform(v2.Transform):
         return tensor.to(device=points.device, dtype=points.dtype)
 
     def _boxes(self, boxes: tv_tensors.BoundingBoxes, sample: dict) -> torch.Tensor:
-        if tv_tensors.is_rotated_bounding_format(boxes.format):
-            raise ValueError(f"rotated bounding boxes ({boxes.format}) are not supported")
-        xyxy = F.convert_bounding_box_format(
-            boxes.as_subclass(torch.Tensor),
-            old_format=boxes.format,
-            new_format=tv_tensors.BoundingBoxFormat.XYXY,
+        """Unrotated boxes: the box around the moved outline; rotated ones: their corners
+        moved (a quadrilateral, in XYXYXYXY); clamped as their ``clamping_mode`` says."""
+        rotated = tv_tensors.is_rotated_bounding_format(boxes.format)
+        middle = (
+            tv_tensors.BoundingBoxFormat.XYXYXYXY if rotated else tv_tensors.BoundingBoxFormat.XYXY
         )
-        array = to_numpy(xyxy).astype(np.float64) - 0.5  # pixel centres at integers
-        moved = replay_boxes(self.augment, [sample], [array])[0] + 0.5
+        given = F.convert_bounding_box_format(
+            boxes.as_subclass(torch.Tensor), old_format=boxes.format, new_format=middle
+        )
+        array = to_numpy(given).astype(np.float64) - 0.5  # pixel centres at integers
+        if rotated:
+            corners = [array.reshape(-1, 2)]
+            moved = np.asarray(
+                replay_labels(self.augment, [sample], keypoints=corners).keypoints[0]
+            )
+            moved = moved.reshape(-1, 8) + 0.5
+        else:
+            moved = replay_boxes(self.augment, [sample], [array])[0] + 0.5
         out = F.clamp_bounding_boxes(  # as the boxes' clamping_mode says (None: not at all)
             torch.from_numpy(moved),
-            format=tv_tensors.BoundingBoxFormat.XYXY,
+            format=middle,
             canvas_size=boxes.canvas_size,
             clamping_mode=boxes.clamping_mode,
         ).to(device=boxes.device, dtype=boxes.dtype)
-        return F.convert_bounding_box_format(
-            out, old_format=tv_tensors.BoundingBoxFormat.XYXY, new_format=boxes.format
-        )
+        return F.convert_bounding_box_format(out, old_format=middle, new_format=boxes.format)

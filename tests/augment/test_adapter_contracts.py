@@ -213,3 +213,26 @@ def test_torchvision_half_precision_inputs(gl, rng, dtype):
     out_image, out_points, out_boxes = MLSTransform("grid", displacement=0.05)(image, points, boxes)
     assert out_image.dtype == half and out_points.dtype == half and out_boxes.dtype == half
     assert isinstance(out_image, tv_tensors.Image) and out_image.shape == image.shape
+
+
+@pytest.mark.parametrize("fmt", ["XYWHR", "CXCYWHR", "XYXYXYXY"])
+def test_torchvision_rotated_boxes(gl, fmt):
+    """torchvision's rotated formats (v2.ElasticTransform takes them): the box's corners
+    move through the map, the box comes back in its format."""
+    F = v2.functional
+    transform = MLSTransform("grid")
+    transform.augment.draw = lambda shapes, **_: [shifted_left(tuple(s)) for s in shapes]
+    image = tv_tensors.Image(torch.zeros(3, 32, 40, dtype=torch.uint8))
+    given = torch.tensor([[20.0, 10.0, 6.0, 4.0, 30.0]])
+    shifted = given - torch.tensor([SHIFT, 0, 0, 0, 0])
+    boxes = tv_tensors.BoundingBoxes(
+        F.convert_bounding_box_format(given, old_format="XYWHR", new_format=fmt),
+        format=fmt,
+        canvas_size=(32, 40),
+    )
+    _, out = transform(image, boxes)
+    assert isinstance(out, tv_tensors.BoundingBoxes) and out.format == boxes.format
+    expected = F.convert_bounding_box_format(shifted, old_format="XYWHR", new_format=fmt)
+    torch.testing.assert_close(out.as_subclass(torch.Tensor), expected, atol=2e-3, rtol=0)
+    elastic = v2.ElasticTransform(alpha=5.0, sigma=2.0)(image, boxes)[1]
+    assert elastic.shape == out.shape and elastic.format == out.format
