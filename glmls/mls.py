@@ -20,7 +20,7 @@ import moderngl
 import numpy as np
 
 from .core.config import MLSConfig
-from .core.handles import Scaling, as_points, check_coordinates
+from .core.handles import Scaling, as_points, check_coordinates, point_rows
 from .core.handles3 import dimension_of
 from .core.handleset import HandleSet
 from .core.mesh import MeshLattice, as_shape, check_grid
@@ -420,7 +420,8 @@ class MLS(ForkSafe):
         Parameters
         ----------
         points : array_like
-            (K, 2) points (x, y), finite, within ±1e6 px; (0, 2) gives (0, 2).
+            (K, 2) points (x, y), finite, within ±1e6 px; (0, 2) gives (0, 2), one (2,) point
+            (1, 2), as scikit-image's transforms take them.
 
         Returns
         -------
@@ -1143,7 +1144,7 @@ MLS.__signature__ = inspect.signature(
 
 
 def _points(points: object, name: str = "points") -> np.ndarray:
-    return check_coordinates(as_points(points, name), name)
+    return check_coordinates(as_points(point_rows(points, 2), name), name)
 
 
 #: The keywords of :class:`MLS` that :func:`warp` passes on (``shape`` is the image's).

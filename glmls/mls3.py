@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .core.handles import Scaling
+from .core.handles import Scaling, point_rows
 from .core.handles3 import as_points3, as_volume_shape, fit_scaling3, validate_handles3
 from .core.mesh3 import DeformedMesh, as_mesh
 from .engine.deform3 import deform_mesh3
@@ -235,7 +235,7 @@ class MLS3(MLS):
         ...     print(m([[5, 5, 5]]).tolist())
         [[6.0, 7.0, 8.0]]
         """
-        f, _ = evaluate_points3(self._kernel, as_points3(points))  # type: ignore[arg-type]
+        f, _ = evaluate_points3(self._kernel, _rows(points))  # type: ignore[arg-type]
         return f
 
     @property
@@ -264,7 +264,7 @@ class MLS3(MLS):
         ...     print(m.residuals([[1, 1, 1]], [[1, 1, 1]]).tolist())
         [2.0]
         """
-        source, target = as_points3(src, "src"), as_points3(dst, "dst")
+        source, target = _rows(src, "src"), _rows(dst, "dst")
         if len(source) != len(target):
             raise ValueError(
                 f"src and dst must have the same length, got {len(source)} and {len(target)}"
@@ -296,7 +296,7 @@ class MLS3(MLS):
         >>> M[0].tolist(), T.tolist()
         ([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [[2.0, 0.0, 0.0]])
         """
-        v = as_points3(points)
+        v = _rows(points)
         f, m = evaluate_points3(self._kernel, v, output="matrix")  # type: ignore[arg-type]
         return m, f - np.einsum("ki,kij->kj", v, m)  # type: ignore[return-value]
 
@@ -326,7 +326,7 @@ class MLS3(MLS):
         >>> (np.round(J[0], 3) + 0.0).tolist()
         [[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0]]
         """
-        v = as_points3(points)
+        v = _rows(points)
         return evaluate_points3(self._kernel, v, output="jacobian")  # type: ignore[arg-type, return-value]
 
     @on_gpu
@@ -537,7 +537,7 @@ class InverseMLS3(InverseMLS):
         ...     print(m.inverse([[5, 1, 1]]).round(3).tolist())
         [[3.0, 1.0, 1.0]]
         """
-        s, valid = self._solve(as_points3(points))
+        s, valid = self._solve(_rows(points))
         return (s, valid) if return_valid else s
 
     def _solved(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -562,7 +562,7 @@ class InverseMLS3(InverseMLS):
         numpy.ndarray
             (K,) float64; NaN where ``src`` has no preimage.
         """
-        source, target = as_points3(src, "src"), as_points3(dst, "dst")
+        source, target = _rows(src, "src"), _rows(dst, "dst")
         if len(source) != len(target):
             raise ValueError(
                 f"src and dst must have the same length, got {len(source)} and {len(target)}"
@@ -571,3 +571,8 @@ class InverseMLS3(InverseMLS):
 
 
 MLS.kinds[3] = MLS3
+
+
+def _rows(points: object, name: str = "points") -> np.ndarray:
+    """(N, 3) points, one (3,) point as (1, 3) (as scikit-image's transforms take it)."""
+    return as_points3(point_rows(points, 3), name)

@@ -85,3 +85,52 @@ def test_uint8_images_and_the_forward_map(gl, photo):
         assert back is m
         v = np.array([[20.0, 30.0], [64.0, 64.0]])
         assert_allclose(back(m.inverse(v)), v, atol=1e-3)
+
+
+def test_points_as_scikit_image_takes_them(gl):
+    """skimage's transforms take (N, D) array_likes, and one point as a (D,) array (a (1, D)
+    row back); ``residuals`` are (N,) Euclidean distances, (0,) for no points."""
+    affine = transform.AffineTransform(translation=(1, 2))
+    src = np.array([[0.0, 0.0], [9.0, 0.0], [0.0, 9.0]])
+    with glmls.MLS(src, src + [1, 2], shape=(12, 12), ctx=gl) as m:
+        for points in ([4, 5], np.array([4.0, 5.0], np.float32), (4, 5)):
+            assert m(points).shape == affine(points).shape == (1, 2)
+            assert_allclose(m(points), affine(points), atol=1e-4)
+            assert_allclose(m.inverse(points), affine.inverse(points), atol=1e-3)
+        assert m.residuals([4, 5], [5, 8]).shape == affine.residuals([4, 5], [5, 8]).shape
+        assert_allclose(m.residuals([4, 5], [5, 8]), [1.0], atol=1e-4)
+        for points in ([[4, 5], [6, 7]], np.array([[4, 5]], np.int32), np.zeros((0, 2))):
+            assert m(points).shape == affine(points).shape and m(points).dtype == np.float64
+        assert m.residuals(np.zeros((0, 2)), np.zeros((0, 2))).shape == (0,)
+    src3 = np.array([[0.0, 0, 0], [9, 0, 0], [0, 9, 0], [0, 0, 9]])
+    with glmls.MLS(src3, src3 + [1, 2, 3], ctx=gl) as m3:
+        assert_allclose(m3([4, 5, 6]), [[5, 7, 9]], atol=1e-4)
+        assert_allclose(m3.inverse([5, 7, 9]), [[4, 5, 6]], atol=1e-3)
+        assert_allclose(m3.residuals([4, 5, 6], [5, 7, 9]), [0.0], atol=1e-4)
+        with pytest.raises(ValueError, match=r"shape \(N, 3\)"):
+            m3([4, 5])
+
+
+@pytest.mark.parametrize("mode", ["edge", "symmetric", "reflect", "wrap"])
+def test_every_mode_is_the_border_of_its_name(gl, mode):
+    """Handles pulled outwards make the output sample beyond the image on every side."""
+    image = np.random.default_rng(0).random((32, 32)).astype(np.float32)
+    src = np.array([[5.0, 5], [25, 5], [25, 25], [5, 25], [15, 15]])
+    dst = src + [[-3, 0], [0, -3], [3, 0], [0, 3], [2, 2]]
+    with glmls.MLS(src, dst, shape=image.shape, ctx=gl) as m:
+        ours = m.warp(image, method="backward", interpolation="linear", border=mode)
+        theirs = transform.warp(image, m.inverse, order=1, mode=mode)
+    assert np.abs(theirs - ours).max() < AGREE
+
+
+def test_a_volume_through_coordinates(gl):
+    """skimage takes a callable inverse_map for 2-D images only; a volume goes through the
+    coordinates that a 3D MLS's inverse gives at its voxels, (z, y, x) first."""
+    volume = np.random.default_rng(1).random((10, 12, 14))
+    src = np.array([[0.0, 0, 0], [13, 0, 0], [0, 11, 0], [0, 0, 9], [13, 11, 9]])
+    with glmls.MLS(src, src + [1, 2, 3], ctx=gl) as m:
+        z, y, x = np.indices(volume.shape).reshape(3, -1)
+        s = m.inverse(np.stack([x, y, z], axis=1))
+    coords = s[:, ::-1].T.reshape(3, *volume.shape)
+    out = transform.warp(volume, coords, order=1, mode="edge")
+    assert_allclose(out[3:, 2:, 1:], volume[:-3, :-2, :-1], atol=1e-3)

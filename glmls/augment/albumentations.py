@@ -6,9 +6,12 @@ This module imports albumentations; :mod:`glmls.augment` does not import this mo
 ``MLSDeform`` follows albumentations' contract: its random draw comes from the transform's
 ``random_generator`` (seeded by ``A.Compose(..., seed=...)``), the draw is in the params
 (``get_applied_params()``, a JSON-able dict under ``"mls"``), and every target of one call
-goes through the same map: the image (and ``images``), masks (nearest, never a mixed label),
-keypoints (x, y moved; angle and scale kept) and bounding boxes (the box around the densely
-sampled, moved outline, clipped to the image).
+goes through the same map: the image (and ``images``, of any number of channels), masks
+(nearest, never a mixed label), keypoints (x, y moved; angle and scale kept, as
+albumentations' own distortions ``GridDistortion``, ``ElasticTransform`` and
+``ThinPlateSpline`` keep them) and bounding boxes (the box around the densely sampled, moved
+outline, left unclipped for albumentations to clip, so that ``min_visibility`` sees what a
+deformation pushed out of the image).
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from typing import Any
 import albumentations as A
 import numpy as np
 
-from .core import Augment, replay_labels, replay_masks
+from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks
 
 __all__ = ["MLSDeform"]
 
@@ -136,7 +139,7 @@ class MLSDeform(A.DualTransform):
         Parameters
         ----------
         img : numpy.ndarray
-            (H, W) or (H, W, C), C in 1..4.
+            (H, W) or (H, W, C), any C (more than 4 go through the map in groups of 4).
         mls : dict
             The draw.
         **params
@@ -158,7 +161,7 @@ class MLSDeform(A.DualTransform):
         >>> t.apply(image, **draw).shape
         (16, 16)
         """
-        return np.asarray(self.augment.replay([img], [mls]).images[0])
+        return replay_images(self.augment, img[None], [mls])[0]
 
     def apply_to_mask(self, mask: np.ndarray, mls: dict, **params: Any) -> np.ndarray:
         """A mask deformed with nearest sampling (0 where nothing is shown).
@@ -228,7 +231,7 @@ class MLSDeform(A.DualTransform):
         return out
 
     def apply_to_bboxes(self, bboxes: np.ndarray, mls: dict, **params: Any) -> np.ndarray:
-        """Boxes around their moved outlines, clipped to the image.
+        """Boxes around their moved outlines (albumentations clips them and filters them).
 
         Parameters
         ----------
@@ -242,7 +245,8 @@ class MLSDeform(A.DualTransform):
         Returns
         -------
         numpy.ndarray
-            The moved boxes, normalised, the other columns kept.
+            The moved boxes, normalised, the other columns kept; not clipped (albumentations
+            clips them, and its ``min_visibility`` compares them with what is left).
 
         Examples
         --------
@@ -259,7 +263,7 @@ class MLSDeform(A.DualTransform):
         height, width = mls["shape"]
         scale = np.array([width, height, width, height], np.float64)
         boxes = np.asarray(bboxes[:, :4], np.float64) * scale - 0.5  # pixel centres at integers
-        moved = replay_labels(self.augment, [mls], boxes=[boxes]).boxes[0]
+        moved = replay_boxes(self.augment, [mls], [boxes])[0]
         out = np.array(bboxes, np.float64, copy=True)
         out[:, :4] = (np.asarray(moved) + 0.5) / scale
         return out.astype(bboxes.dtype)

@@ -334,8 +334,9 @@ class Augment:
         ----------
         images : array_like or sequence of array_like or torch.Tensor
             (N, H, W[, C]) or N images (H, W[, C]) (the dtypes of :func:`glmls.warp`); a torch
-            tensor (N, C, H, W) or (N, H, W) comes back as one, of its dtype and device (a
-            CUDA tensor through the host's memory).
+            tensor (N, C, H, W) or (N, H, W), or a list of (C, H, W) or (H, W) tensors, comes
+            back as one, of its dtype and device (a CUDA tensor through the host's memory;
+            float16 and bfloat16 through float32).
         keypoints : array_like or sequence of array_like, optional
             (N, P, 2) or per image (P_i, 2) points (x, y); the ``landmarks`` preset's
             handles.
@@ -368,7 +369,7 @@ class Augment:
         >>> out.boxes[0].shape, out.boxes[1].shape, out.boxes_valid[0].tolist()
         ((1, 4), (0, 4), [True])
         """
-        if tensors.is_tensor(images):
+        if tensors.is_tensors(images):
             return tensors.call_on_tensors(self, images, keypoints, masks, boxes, polygons, indices)
         items = _images(images)
         marks, _ = _keypoint_list(keypoints, len(items))
@@ -424,7 +425,7 @@ class Augment:
         >>> bool((aug.replay(images, params).images == first.images).all())
         True
         """
-        if tensors.is_tensor(images):
+        if tensors.is_tensors(images):
             return tensors.replay_on_tensors(
                 self, images, params, keypoints, masks, boxes, polygons
             )
@@ -532,6 +533,33 @@ def replay_labels(augment: Augment, params: Sequence[Mapping], **labels) -> Augm
     on an empty canvas of its shape, the draws all of one shape."""
     canvas = np.zeros((len(params), *params[0]["shape"]), np.uint8)
     return augment.replay(canvas, params, **labels)
+
+
+def replay_images(augment: Augment, images: np.ndarray, params: Sequence[Mapping]) -> np.ndarray:
+    """``augment.replay`` of (N, H, W) or (N, H, W, C) images of any number of channels, as
+    albumentations and torchvision take them: more than 4 channels go in groups of at most 4,
+    each group through the same draws (one map for every channel)."""
+    if images.ndim == 3 or images.shape[-1] <= 4:
+        return np.asarray(augment.replay(images, params).images)
+    groups = [
+        np.asarray(augment.replay(np.ascontiguousarray(images[..., k : k + 4]), params).images)
+        for k in range(0, images.shape[-1], 4)
+    ]
+    return np.concatenate(groups, axis=-1)
+
+
+def replay_boxes(
+    augment: Augment, params: Sequence[Mapping], boxes: Sequence[np.ndarray]
+) -> list[np.ndarray]:
+    """Per draw, its (B, 4) boxes ``(x_min, y_min, x_max, y_max)`` around their moved outlines,
+    NOT clipped to the canvas: albumentations and torchvision clip boxes themselves, and
+    albumentations' ``min_visibility`` measures what the clipping takes away."""
+    outlines = [lab.box_outlines(np.asarray(b, np.float64), augment.box_step) for b in boxes]
+    moved = replay_labels(augment, params, keypoints=[points for points, _ in outlines]).keypoints
+    return [
+        lab.boxes_from_outlines(np.asarray(points), counts, tuple(p["shape"]), clip=False)[0]
+        for points, (_, counts), p in zip(moved, outlines, params, strict=True)
+    ]
 
 
 def replay_masks(augment: Augment, params: Sequence[Mapping], masks: np.ndarray) -> np.ndarray:

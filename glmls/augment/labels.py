@@ -204,11 +204,13 @@ def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray
 
 
 def boxes_from_outlines(
-    moved: np.ndarray, counts: np.ndarray, shape: tuple[int, int]
+    moved: np.ndarray, counts: np.ndarray, shape: tuple[int, int], *, clip: bool = True
 ) -> tuple[np.ndarray, np.ndarray]:
     """The boxes around moved outlines, clipped to the canvas, and their validity.
 
     A box is valid where a positive width and height are left on the canvas of ``shape``.
+    With ``clip=False`` the boxes are the outlines' bounding boxes as they are (valid where
+    they have a positive width and height).
 
     Parameters
     ----------
@@ -218,6 +220,8 @@ def boxes_from_outlines(
         (B,) points per box.
     shape : (int, int)
         The output canvas (H, W).
+    clip : bool, default True
+        Clip the boxes to the canvas.
 
     Returns
     -------
@@ -237,6 +241,8 @@ def boxes_from_outlines(
     >>> boxes, valid = boxes_from_outlines(moved, np.array([3, 2]), (8, 8))
     >>> boxes.tolist(), valid.tolist()
     ([[-0.5, 1.0, 2.0, 3.0], [7.5, 7.5, 7.5, 7.5]], [True, False])
+    >>> boxes_from_outlines(moved, np.array([3, 2]), (8, 8), clip=False)[0][1].tolist()
+    [30.0, 30.0, 40.0, 31.0]
     """
     if int(np.sum(counts)) != len(moved):
         raise ValueError(f"the counts add up to {int(np.sum(counts))} points, not {len(moved)}")
@@ -246,9 +252,10 @@ def boxes_from_outlines(
     for k, (start, n) in enumerate(zip(starts, counts, strict=True)):
         points = moved[start : start + n]
         boxes[k] = [*points.min(axis=0), *points.max(axis=0)]
-    low = np.array([-0.5, -0.5, -0.5, -0.5])
-    high = np.array([width, height, width, height], np.float64) - 0.5
-    boxes = np.clip(boxes, low, high)
+    if clip:
+        low = np.array([-0.5, -0.5, -0.5, -0.5])
+        high = np.array([width, height, width, height], np.float64) - 0.5
+        boxes = np.clip(boxes, low, high)
     valid = (boxes[:, 2] > boxes[:, 0]) & (boxes[:, 3] > boxes[:, 1])
     return boxes, valid
 

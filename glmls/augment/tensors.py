@@ -1,10 +1,11 @@
 """torch tensors in and out of :class:`glmls.augment.Augment`, without importing torch: a
 tensor is recognised only where torch is already imported (``sys.modules``).
 
-Images are taken in torch's layout, (N, C, H, W) or (N, H, W), and come back in it, of
-their dtype and on their device. The deformation itself runs on glmls's OpenGL context, so
-a CUDA tensor goes through the host's memory (``.cpu()``, then ``.to(device)``): one copy
-each way per batch.
+Images are taken in torch's layout, (N, C, H, W) or (N, H, W), or as a list of (C, H, W) or
+(H, W) tensors (a ragged batch), and come back in it, of their dtype and on their device;
+half-precision tensors (float16, bfloat16) go through float32. The deformation itself runs on
+glmls's OpenGL context, so a CUDA tensor goes through the host's memory (``.cpu()``, then
+``.to(device)``): one copy each way per batch.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import sys
 
 import numpy as np
 
-__all__ = ["from_numpy", "is_tensor", "to_numpy"]
+__all__ = ["from_numpy", "is_tensor", "is_tensors", "to_numpy"]
 
 
 def is_tensor(value: object) -> bool:
@@ -41,9 +42,34 @@ def is_tensor(value: object) -> bool:
     return torch is not None and isinstance(value, torch.Tensor)
 
 
+def is_tensors(value: object) -> bool:
+    """Whether ``value`` is a torch tensor or a non-empty list or tuple of them.
+
+    Parameters
+    ----------
+    value : object
+        Anything.
+
+    Returns
+    -------
+    bool
+        True for a tensor or a sequence of tensors.
+
+    Examples
+    --------
+    >>> from glmls.augment.tensors import is_tensors
+    >>> is_tensors([1, 2])
+    False
+    """
+    if is_tensor(value):
+        return True
+    return isinstance(value, (list, tuple)) and bool(value) and all(is_tensor(v) for v in value)
+
+
 def to_numpy(value: object) -> object:
-    """A tensor as a numpy array (through the host for a CUDA tensor), a list of them as a
-    list of arrays, anything else as it is.
+    """A tensor as a numpy array (through the host for a CUDA tensor; float16 and bfloat16,
+    which numpy lacks or glmls does not take, as float32), a list of them as a list of
+    arrays, anything else as it is.
 
     Parameters
     ----------
@@ -62,6 +88,9 @@ def to_numpy(value: object) -> object:
     [1, 2]
     """
     if is_tensor(value):
+        torch = sys.modules["torch"]
+        if value.dtype in (torch.float16, torch.bfloat16):  # type: ignore[attr-defined]
+            value = value.float()  # type: ignore[attr-defined]
         return value.detach().cpu().numpy()  # type: ignore[attr-defined]
     if isinstance(value, (list, tuple)) and any(is_tensor(v) for v in value):
         return [to_numpy(v) for v in value]
@@ -75,8 +104,8 @@ def from_numpy(array: object, like: object) -> object:
     ----------
     array : numpy.ndarray or list or None
         The values.
-    like : torch.Tensor
-        The tensor whose dtype and device to take.
+    like : torch.Tensor or list of torch.Tensor
+        The tensor whose dtype and device to take (for a list, one per item or one for all).
 
     Returns
     -------
@@ -92,33 +121,53 @@ def from_numpy(array: object, like: object) -> object:
     if array is None:
         return None
     if isinstance(array, list):
-        return [from_numpy(a, like) for a in array]
+        likes = like if isinstance(like, (list, tuple)) else [like] * len(array)
+        return [from_numpy(a, one) for a, one in zip(array, likes, strict=True)]
     torch = sys.modules["torch"]
     tensor = torch.from_numpy(np.ascontiguousarray(array))
     return tensor.to(device=like.device, dtype=like.dtype)  # type: ignore[attr-defined]
 
 
-def _channels_last(images) -> tuple[np.ndarray, bool]:
+def _channels_last(images) -> tuple[object, bool]:
+    if isinstance(images, (list, tuple)):  # (C, H, W) or (H, W) each
+        arrays = [to_numpy(image) for image in images]
+        return [
+            np.ascontiguousarray(np.moveaxis(a, 0, -1)) if a.ndim == 3 else a for a in arrays
+        ], True
     array = to_numpy(images)
     if array.ndim == 4:  # (N, C, H, W)
         return np.ascontiguousarray(np.moveaxis(array, 1, -1)), True
     return array, False
 
 
-def _back(result, images, keypoints, masks, boxes, moved_channels: bool):
-    out = np.asarray(result.images)
-    if moved_channels:
-        out = np.moveaxis(out, -1, 1)
+def _images_back(out, images, moved_channels: bool):
+    if isinstance(images, (list, tuple)):
+        return [
+            from_numpy(np.moveaxis(o, -1, 0) if like.ndim == 3 else o, like)
+            for o, like in zip(map(np.asarray, out), images, strict=True)
+        ]
+    out = np.asarray(out)
+    return from_numpy(np.moveaxis(out, -1, 1) if moved_channels else out, images)
+
+
+def _flags(valid, like):
     torch = sys.modules["torch"]
-    changes = {"images": from_numpy(out, images)}
-    if is_tensor(keypoints) and result.keypoints is not None:
+    if isinstance(valid, list):
+        likes = like if isinstance(like, (list, tuple)) else [like] * len(valid)
+        return [_flags(v, one) for v, one in zip(valid, likes, strict=True)]
+    return torch.as_tensor(np.asarray(valid), device=like.device)
+
+
+def _back(result, images, keypoints, masks, boxes, moved_channels: bool):
+    changes = {"images": _images_back(result.images, images, moved_channels)}
+    if is_tensors(keypoints) and result.keypoints is not None:
         changes["keypoints"] = from_numpy(result.keypoints, keypoints)
-        changes["keypoints_valid"] = torch.as_tensor(np.asarray(result.keypoints_valid))
-    if is_tensor(masks) and result.masks is not None:
+        changes["keypoints_valid"] = _flags(result.keypoints_valid, keypoints)
+    if is_tensors(masks) and result.masks is not None:
         changes["masks"] = from_numpy(result.masks, masks)
-    if is_tensor(boxes) and result.boxes is not None:
+    if is_tensors(boxes) and result.boxes is not None:
         changes["boxes"] = from_numpy(result.boxes, boxes)
-        changes["boxes_valid"] = torch.as_tensor(np.asarray(result.boxes_valid))
+        changes["boxes_valid"] = _flags(result.boxes_valid, boxes)
     return dataclasses.replace(result, **changes)
 
 

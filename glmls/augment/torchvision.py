@@ -9,18 +9,21 @@ rather than let the process crash (:func:`check_import_order`).
 
 ``MLSTransform`` follows torchvision's contract: ``make_params`` draws once per call from
 torch's random numbers (``torch.manual_seed`` makes it repeat), and ``transform`` deforms each
-input by type: ``tv_tensors.Image`` (and a plain tensor taken as the image), ``Mask``
-(nearest, never a mixed label), ``KeyPoints`` and ``BoundingBoxes`` (the box around the
-densely sampled, moved outline, clipped to the canvas). Tensors stay of their dtype and on
-their device; the deformation runs on glmls's OpenGL context, so a CUDA tensor goes through
-the host's memory.
+input by type: ``tv_tensors.Image`` (and a plain tensor taken as the image; any number of
+channels), a PIL image (in its mode; a palette image's indices with nearest sampling),
+``Video`` (its frames all by one draw, as torchvision's own transforms move them), ``Mask``
+(nearest, never a mixed label), ``KeyPoints`` and ``BoundingBoxes`` (an unrotated box becomes
+the box around its densely sampled, moved outline, a rotated one's corners move; clamped to
+the canvas as their ``clamping_mode`` says).
+Tensors stay of their dtype and on their device; the deformation runs on glmls's OpenGL
+context, so a CUDA tensor goes through the host's memory.
 
 A batch is an image tensor with a leading dimension, (N, C, H, W): each sample draws its own
-deformation. Its masks are (N, H, W) or (N, K, H, W) and its keypoints (N, P, 2) (the first
-dimension the batch), or one ``Mask``/``KeyPoints``/``BoundingBoxes`` per sample in order
-(bounding boxes are two-dimensional in torchvision: one instance per sample). The draws of
-the last call are in ``last_params`` (JSON-able dicts, see
-:class:`glmls.augment.AugmentResult`).
+deformation (where torchvision's own transforms draw once for the whole batch). Its masks are
+(N, H, W) or (N, K, H, W) and its keypoints (N, P, 2) (the first dimension the batch), or one
+``Mask``/``KeyPoints``/``BoundingBoxes`` per sample in order (bounding boxes are
+two-dimensional in torchvision: one instance per sample). The draws of the last call are in
+``last_params`` (JSON-able dicts, see :class:`glmls.augment.AugmentResult`).
 """
 
 from __future__ import annotations
@@ -73,7 +76,8 @@ from torchvision import tv_tensors  # noqa: E402
 from torchvision.transforms import v2  # noqa: E402
 from torchvision.transforms.v2 import functional as F  # noqa: E402
 
-from .core import Augment, replay_labels, replay_masks  # noqa: E402
+from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks  # noqa: E402
+from .tensors import to_numpy  # noqa: E402
 
 __all__ = ["MLSTransform", "check_import_order"]
 
@@ -91,6 +95,8 @@ def _size(value: object) -> tuple[int, int, int | None]:
     if isinstance(value, PIL.Image.Image):
         return value.height, value.width, None
     tensor = value  # type: ignore[assignment]
+    if isinstance(tensor, tv_tensors.Video) and tensor.ndim >= 4:  # one clip, its frames alike
+        return tensor.shape[-2], tensor.shape[-1], None
     if tensor.ndim == 4:  # type: ignore[attr-defined]
         return tensor.shape[-2], tensor.shape[-1], tensor.shape[0]  # type: ignore[attr-defined]
     if tensor.ndim in (2, 3):  # type: ignore[attr-defined]
@@ -225,7 +231,7 @@ class MLSTransform(v2.Transform):
         marks: list[np.ndarray | None] = [None] * count
         for x in flat_inputs:
             if isinstance(x, tv_tensors.KeyPoints):
-                points = x.detach().cpu().numpy().astype(np.float64)
+                points = to_numpy(x).astype(np.float64)
                 owner = owners[id(x)]
                 if owner == "batch":
                     marks = [p.reshape(-1, 2) for p in points]
@@ -274,14 +280,31 @@ class MLSTransform(v2.Transform):
         if isinstance(inpt, tv_tensors.BoundingBoxes):
             return tv_tensors.wrap(self._boxes(inpt, samples[0]), like=inpt)
         if isinstance(inpt, PIL.Image.Image):
-            array = self.augment.replay([np.asarray(inpt)], samples).images[0]
-            return PIL.Image.fromarray(np.asarray(array))
+            return self._pil(inpt, samples)
         return self._images(inpt, samples)
 
+    def _pil(self, image: PIL.Image.Image, samples: list[dict]) -> PIL.Image.Image:
+        """A PIL image deformed, in its mode (a palette image's indices with nearest sampling,
+        its palette kept; 32-bit integers through float64)."""
+        array = np.asarray(image)
+        if image.mode in ("P", "PA"):
+            nearest = {"interpolation": "nearest"}
+            samples = [{**s, "options": {**s["options"], **nearest}} for s in samples]
+        values = array.astype(np.float64) if array.dtype == np.int32 else array
+        out = np.asarray(self.augment.replay([values], samples).images[0])
+        if out.dtype != array.dtype:
+            out = np.clip(np.rint(out), -(2**31), 2**31 - 1).astype(array.dtype)
+        result = PIL.Image.frombytes(image.mode, image.size, np.ascontiguousarray(out).tobytes())
+        if image.mode in ("P", "PA"):
+            result.putpalette(image.getpalette())
+        return result
+
     def _images(self, images: torch.Tensor, samples: list[dict]) -> torch.Tensor:
-        batch = images if images.ndim == 4 else images.reshape(1, -1, *images.shape[-2:])
-        array = np.moveaxis(batch.detach().cpu().numpy(), 1, -1)
-        out = np.asarray(self.augment.replay(np.ascontiguousarray(array), samples).images)
+        channels = 1 if images.ndim == 2 else images.shape[-3]
+        frames = images.reshape(-1, channels, *images.shape[-2:])  # a video's frames, one draw
+        draws = [s for s in samples for _ in range(len(frames) // len(samples))]
+        array = np.moveaxis(to_numpy(frames), 1, -1)
+        out = replay_images(self.augment, np.ascontiguousarray(array), draws)
         tensor = torch.from_numpy(np.ascontiguousarray(np.moveaxis(out, -1, 1)))
         tensor = tensor.reshape(images.shape).to(device=images.device, dtype=images.dtype)
         return (
@@ -293,7 +316,7 @@ class MLSTransform(v2.Transform):
     def _masks(self, masks: torch.Tensor, samples: list[dict]) -> torch.Tensor:
         count = len(samples)
         height, width = masks.shape[-2:]
-        array = masks.detach().cpu().numpy().reshape(count, -1, height, width)
+        array = to_numpy(masks).reshape(count, -1, height, width)
         layers = array.shape[1]
         draws = [s for s in samples for _ in range(layers)]
         out = replay_masks(self.augment, draws, array.reshape(count * layers, height, width))
@@ -302,22 +325,34 @@ class MLSTransform(v2.Transform):
 
     def _keypoints(self, points: torch.Tensor, samples: list[dict]) -> torch.Tensor:
         count = len(samples)
-        array = points.detach().cpu().numpy().astype(np.float64).reshape(count, -1, 2)
+        array = to_numpy(points).astype(np.float64).reshape(count, -1, 2)
         moved = np.asarray(replay_labels(self.augment, samples, keypoints=array).keypoints)
         tensor = torch.from_numpy(moved.reshape(points.shape))
         return tensor.to(device=points.device, dtype=points.dtype)
 
     def _boxes(self, boxes: tv_tensors.BoundingBoxes, sample: dict) -> torch.Tensor:
-        if tv_tensors.is_rotated_bounding_format(boxes.format):
-            raise ValueError(f"rotated bounding boxes ({boxes.format}) are not supported")
-        xyxy = F.convert_bounding_box_format(
-            boxes.as_subclass(torch.Tensor),
-            old_format=boxes.format,
-            new_format=tv_tensors.BoundingBoxFormat.XYXY,
+        """Unrotated boxes: the box around the moved outline; rotated ones: their corners
+        moved (a quadrilateral, in XYXYXYXY); clamped as their ``clamping_mode`` says."""
+        rotated = tv_tensors.is_rotated_bounding_format(boxes.format)
+        middle = (
+            tv_tensors.BoundingBoxFormat.XYXYXYXY if rotated else tv_tensors.BoundingBoxFormat.XYXY
         )
-        array = xyxy.detach().cpu().numpy().astype(np.float64) - 0.5  # pixel centres at integers
-        moved = np.asarray(replay_labels(self.augment, [sample], boxes=[array]).boxes[0]) + 0.5
-        out = torch.from_numpy(moved).to(device=boxes.device, dtype=boxes.dtype)
-        return F.convert_bounding_box_format(
-            out, old_format=tv_tensors.BoundingBoxFormat.XYXY, new_format=boxes.format
+        given = F.convert_bounding_box_format(
+            boxes.as_subclass(torch.Tensor), old_format=boxes.format, new_format=middle
         )
+        array = to_numpy(given).astype(np.float64) - 0.5  # pixel centres at integers
+        if rotated:
+            corners = [array.reshape(-1, 2)]
+            moved = np.asarray(
+                replay_labels(self.augment, [sample], keypoints=corners).keypoints[0]
+            )
+            moved = moved.reshape(-1, 8) + 0.5
+        else:
+            moved = replay_boxes(self.augment, [sample], [array])[0] + 0.5
+        out = F.clamp_bounding_boxes(  # as the boxes' clamping_mode says (None: not at all)
+            torch.from_numpy(moved),
+            format=middle,
+            canvas_size=boxes.canvas_size,
+            clamping_mode=boxes.clamping_mode,
+        ).to(device=boxes.device, dtype=boxes.dtype)
+        return F.convert_bounding_box_format(out, old_format=middle, new_format=boxes.format)

@@ -18,6 +18,35 @@ from ..errors import DegenerateHandlesError
 COORDINATE_LIMIT = 1e6
 
 
+def point_rows(points: object, dimension: int) -> object:
+    """One point given as a (D,) array_like as the (1, D) row scikit-image's transforms make
+    of it; anything else as it is (for :func:`as_points` to check).
+
+    Parameters
+    ----------
+    points : object
+        (N, D) points or one (D,) point.
+    dimension : int
+        D, 2 or 3.
+
+    Returns
+    -------
+    object
+        ``points``, a (D,) point reshaped to (1, D).
+
+    Examples
+    --------
+    >>> from glmls.core.handles import point_rows
+    >>> point_rows([4, 5], 2).tolist(), point_rows([[4, 5]], 2)
+    ([[4, 5]], [[4, 5]])
+    """
+    try:
+        shape = np.shape(points)
+    except ValueError:  # ragged rows: as_points names them
+        return points
+    return np.reshape(points, (1, dimension)) if shape == (dimension,) else points
+
+
 def as_points(points: object, name: str = "points") -> np.ndarray:
     """``points`` as a C-contiguous float64 (N, 2) array; ``ValueError``/``TypeError`` if not."""
     try:

@@ -1,0 +1,238 @@
+"""The adapters of glmls.augment against their libraries' own contracts: what albumentations
+and torchvision do with their built-in distortions (A.GridDistortion, v2.ElasticTransform),
+MLSDeform and MLSTransform do in the same pipelines: the same call forms and targets, outputs
+of the same types, dtypes and shapes, and the libraries' own filtering of boxes."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+os.environ.setdefault("NO_ALBUMENTATIONS_UPDATE", "1")  # no version check over the network
+
+A = pytest.importorskip("albumentations", reason="albumentations not installed (the extra)")
+torch = pytest.importorskip("torch", reason="torch not installed (the torch extra)")
+tv_tensors = pytest.importorskip("torchvision.tv_tensors", reason="torchvision not installed")
+
+
+from torchvision.transforms import v2  # noqa: E402
+
+from glmls.augment.albumentations import MLSDeform  # noqa: E402
+from glmls.augment.torchvision import MLSTransform  # noqa: E402
+
+#: A draw that moves every point 6 px to the left (a similarity MLS of a translation).
+SHIFT = 6.0
+
+
+def shifted_left(shape: tuple[int, int]) -> dict:
+    height, width = shape
+    src = [[0.0, 0.0], [width - 1.0, 0.0], [0.0, height - 1.0], [width - 1.0, height - 1.0]]
+    dst = [[x - SHIFT, y] for x, y in src]
+    return {
+        "preset": "grid",
+        "config": {},
+        "seed": 0,
+        "index": 0,
+        "shape": [height, width],
+        "src": src,
+        "dst": dst,
+        "options": {"transform": "similarity", "interpolation": "linear", "border": "edge"},
+    }
+
+
+class ShiftLeft(MLSDeform):
+    """MLSDeform with a fixed draw: everything 6 px to the left."""
+
+    def get_params_dependent_on_data(self, params, data):
+        return {"mls": shifted_left(tuple(params["shape"][:2]))}
+
+
+@pytest.mark.parametrize("channels", [5, 8])
+def test_albumentations_images_of_any_number_of_channels(gl, rng, channels):
+    """albumentations' distortions take any number of channels (multispectral images);
+    MLSDeform deforms them all by one map, as it deforms 4 or fewer."""
+    image = rng.integers(0, 255, (24, 32, channels), dtype=np.uint8)
+    transform = MLSDeform("grid", preset_options={"displacement": 0.05})
+    out = A.Compose([transform], seed=2)(image=image)["image"]
+    assert out.shape == image.shape and out.dtype == image.dtype
+    assert A.Compose([A.GridDistortion(p=1)], seed=2)(image=image)["image"].shape == out.shape
+    draw = transform.get_applied_params()["mls"]
+    for k in range(0, channels, 3):  # any group of channels is the image's part
+        part = image[..., k : k + 3]
+        expected = transform.augment.replay([part], [draw]).images[0]
+        np.testing.assert_array_equal(out[..., k : k + 3], expected)
+
+
+@pytest.mark.parametrize("min_visibility, kept", [(0.6, False), (0.4, True)])
+def test_albumentations_min_visibility_sees_boxes_pushed_out(gl, min_visibility, kept):
+    """A box pushed half out of the image by the deformation has half its area visible:
+    albumentations' min_visibility compares the box the transform returns with what is left
+    after clipping it, so the transform must not clip it first."""
+    image = np.zeros((24, 32, 3), np.uint8)
+    compose = A.Compose(
+        [ShiftLeft()],
+        bbox_params=A.BboxParams(
+            format="pascal_voc", label_fields=["labels"], min_visibility=min_visibility
+        ),
+    )
+    out = compose(image=image, bboxes=[(2.0, 10.0, 10.0, 20.0)], labels=[7])
+    if kept:
+        np.testing.assert_allclose(out["bboxes"], [[0.0, 10.0, 4.0, 20.0]], atol=1e-3)
+        assert list(out["labels"]) == [7]
+    else:
+        assert len(out["bboxes"]) == 0 and len(out["labels"]) == 0
+
+
+def test_torchvision_a_video_is_one_sample(gl, rng):
+    """torchvision transforms a Video's frames alike (v2.ElasticTransform does): one draw for
+    the whole clip, its frames moved together; only an Image batch draws per sample."""
+    frame = torch.from_numpy(rng.integers(0, 255, (3, 24, 32), dtype=np.uint8))
+    video = tv_tensors.Video(frame.expand(4, 3, 24, 32).clone())
+    transform = MLSTransform("grid", displacement=0.08)
+    torch.manual_seed(0)
+    out = transform(video)
+    assert isinstance(out, tv_tensors.Video) and out.shape == video.shape
+    assert len(transform.last_params) == 1
+    assert all(torch.equal(out[0], out[k]) for k in range(1, 4))
+    assert not torch.equal(out[0], frame)
+    elastic = v2.ElasticTransform(alpha=50.0)(video)
+    assert all(torch.equal(elastic[0], elastic[k]) for k in range(1, 4))
+    batch = transform(tv_tensors.Image(video.as_subclass(torch.Tensor)))
+    assert len(transform.last_params) == 4 and not torch.equal(batch[0], batch[1])
+
+
+@pytest.mark.parametrize("shape", [(5, 16, 20), (2, 6, 16, 20)])
+def test_torchvision_images_of_any_number_of_channels(gl, rng, shape):
+    image = tv_tensors.Image(torch.from_numpy(rng.random(shape, dtype=np.float32)))
+    torch.manual_seed(1)
+    out = MLSTransform("grid", displacement=0.05)(image)
+    assert isinstance(out, tv_tensors.Image) and out.shape == image.shape
+    assert out.dtype == image.dtype
+    assert v2.ElasticTransform(alpha=20.0, sigma=2.0)(image).shape == out.shape
+
+
+@pytest.mark.parametrize(
+    "mode, expected", [("soft", [0.0, 10.0, 4.0, 20.0]), (None, [-4.0, 10.0, 4.0, 20.0])]
+)
+def test_torchvision_boxes_clamped_by_their_clamping_mode(gl, mode, expected):
+    """torchvision clamps transformed boxes to the canvas as their ``clamping_mode`` says:
+    ``None`` leaves them as they are (for v2.SanitizeBoundingBoxes or the user to judge)."""
+    transform = MLSTransform("grid")
+    transform.augment.draw = lambda shapes, **_: [shifted_left(tuple(s)) for s in shapes]
+    image = tv_tensors.Image(torch.zeros(3, 24, 32, dtype=torch.uint8))
+    for fmt in ("XYXY", "XYWH", "CXCYWH"):
+        xyxy = torch.tensor([[2.0, 10.0, 10.0, 20.0]])
+        boxes = tv_tensors.BoundingBoxes(
+            v2.functional.convert_bounding_box_format(xyxy, old_format="XYXY", new_format=fmt),
+            format=fmt,
+            canvas_size=(24, 32),
+            clamping_mode=mode,
+        )
+        _, out = transform(image, boxes)
+        assert out.format == boxes.format and out.canvas_size == (24, 32)
+        assert out.clamping_mode == mode
+        back = v2.functional.convert_bounding_box_format(
+            out.as_subclass(torch.Tensor), old_format=fmt, new_format="XYXY"
+        )
+        np.testing.assert_allclose(back.numpy(), [expected], atol=1e-3)
+
+
+@pytest.mark.parametrize("mode", ["RGB", "L", "LA", "CMYK", "YCbCr", "P", "I;16", "I", "F"])
+def test_torchvision_pil_images_keep_their_mode(gl, rng, mode):
+    """torchvision gives a PIL image back in its mode (v2.ElasticTransform keeps CMYK and
+    YCbCr); a palette image's indices are labels, moved with nearest sampling, its palette
+    kept."""
+    PIL = pytest.importorskip("PIL.Image")
+    image = PIL.fromarray(rng.integers(0, 255, (24, 32, 3), dtype=np.uint8)).convert(mode)
+    torch.manual_seed(2)
+    out = MLSTransform("grid", displacement=0.05)(image)
+    assert isinstance(out, PIL.Image) and out.mode == mode and out.size == image.size
+    assert np.asarray(out).dtype == np.asarray(image).dtype
+    assert not np.array_equal(np.asarray(out), np.asarray(image))
+    if mode == "P":
+        assert out.getpalette() == image.getpalette()
+        assert set(np.unique(out).tolist()) <= set(np.unique(image).tolist())
+    if mode in ("CMYK", "YCbCr"):
+        assert v2.ElasticTransform(alpha=20.0, sigma=2.0)(image).mode == mode
+
+
+@pytest.mark.parametrize("dtype", ["float16", "bfloat16"])
+def test_augment_half_precision_tensors(gl, rng, dtype):
+    """torch's half-precision images (mixed-precision training) go through float32 and come
+    back in their dtype, keypoints too."""
+    from glmls.augment import Augment
+
+    images = torch.from_numpy(rng.random((2, 3, 16, 24), dtype=np.float32))
+    points = torch.tensor([[[4.0, 4.0]], [[10.0, 8.0]]])
+    aug = Augment("grid", seed=1)
+    half = getattr(torch, dtype)
+    out = aug(images.to(half), keypoints=points.to(half))
+    assert out.images.dtype == half and out.images.shape == images.shape
+    assert out.keypoints.dtype == half
+    full = aug(images.to(half).float(), keypoints=points.to(half).float())
+    torch.testing.assert_close(out.images, full.images.to(half))
+    torch.testing.assert_close(out.keypoints, full.keypoints.to(half))
+
+
+def test_augment_a_list_of_tensors_in_torchs_layout(gl, rng):
+    """A ragged batch as a list of (C, H, W) or (H, W) tensors: each in torch's layout, as
+    one tensor of the batch is, and back as a list of tensors of their dtypes."""
+    from glmls.augment import Augment
+
+    first = torch.from_numpy(rng.integers(0, 255, (3, 16, 24), dtype=np.uint8))
+    second = torch.from_numpy(rng.random((20, 12), dtype=np.float32))
+    aug = Augment("grid", seed=4)
+    out = aug([first, second], keypoints=[torch.zeros(1, 2), torch.ones(2, 2)])
+    assert isinstance(out.images, list) and len(out.images) == 2
+    assert out.images[0].shape == first.shape and out.images[0].dtype == torch.uint8
+    assert out.images[1].shape == second.shape and out.images[1].dtype == torch.float32
+    alone = aug(first[None], indices=[0])
+    assert torch.equal(out.images[0], alone.images[0])
+    assert [type(k).__name__ for k in out.keypoints] == ["Tensor", "Tensor"]
+    assert [tuple(k.shape) for k in out.keypoints] == [(1, 2), (2, 2)]
+    assert all(v.dtype == torch.bool for v in out.keypoints_valid)
+    boxes = [torch.tensor([[2.0, 2.0, 9.0, 9.0]]), torch.zeros(0, 4, dtype=torch.float64)]
+    boxed = aug([first, second], boxes=boxes)
+    assert [b.dtype for b in boxed.boxes] == [torch.float32, torch.float64]
+    assert [tuple(v.shape) for v in boxed.boxes_valid] == [(1,), (0,)]
+    again = aug.replay([first, second], out.params)
+    assert all(torch.equal(a, b) for a, b in zip(again.images, out.images, strict=True))
+
+
+@pytest.mark.parametrize("dtype", ["float16", "bfloat16"])
+def test_torchvision_half_precision_inputs(gl, rng, dtype):
+    half = getattr(torch, dtype)
+    image = tv_tensors.Image(torch.from_numpy(rng.random((3, 16, 20), dtype=np.float32)).to(half))
+    points = tv_tensors.KeyPoints(torch.tensor([[4.0, 5.0]], dtype=half), canvas_size=(16, 20))
+    boxes = tv_tensors.BoundingBoxes(
+        torch.tensor([[2.0, 2.0, 9.0, 9.0]], dtype=half), format="XYXY", canvas_size=(16, 20)
+    )
+    torch.manual_seed(3)
+    out_image, out_points, out_boxes = MLSTransform("grid", displacement=0.05)(image, points, boxes)
+    assert out_image.dtype == half and out_points.dtype == half and out_boxes.dtype == half
+    assert isinstance(out_image, tv_tensors.Image) and out_image.shape == image.shape
+
+
+@pytest.mark.parametrize("fmt", ["XYWHR", "CXCYWHR", "XYXYXYXY"])
+def test_torchvision_rotated_boxes(gl, fmt):
+    """torchvision's rotated formats (v2.ElasticTransform takes them): the box's corners
+    move through the map, the box comes back in its format."""
+    F = v2.functional
+    transform = MLSTransform("grid")
+    transform.augment.draw = lambda shapes, **_: [shifted_left(tuple(s)) for s in shapes]
+    image = tv_tensors.Image(torch.zeros(3, 32, 40, dtype=torch.uint8))
+    given = torch.tensor([[20.0, 10.0, 6.0, 4.0, 30.0]])
+    shifted = given - torch.tensor([SHIFT, 0, 0, 0, 0])
+    boxes = tv_tensors.BoundingBoxes(
+        F.convert_bounding_box_format(given, old_format="XYWHR", new_format=fmt),
+        format=fmt,
+        canvas_size=(32, 40),
+    )
+    _, out = transform(image, boxes)
+    assert isinstance(out, tv_tensors.BoundingBoxes) and out.format == boxes.format
+    expected = F.convert_bounding_box_format(shifted, old_format="XYWHR", new_format=fmt)
+    torch.testing.assert_close(out.as_subclass(torch.Tensor), expected, atol=2e-3, rtol=0)
+    elastic = v2.ElasticTransform(alpha=5.0, sigma=2.0)(image, boxes)[1]
+    assert elastic.shape == out.shape and elastic.format == out.format
