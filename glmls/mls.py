@@ -21,7 +21,7 @@ import numpy as np
 
 from .core.config import MLSConfig
 from .core.handles import Scaling, as_points, check_coordinates
-from .core.handles3 import dimension_of
+from .core.handles3 import dimension_of, planar_spacing
 from .core.handleset import HandleSet
 from .core.mesh import MeshLattice, as_shape, check_grid
 from .core.mesh3 import DeformedMesh
@@ -251,13 +251,7 @@ class MLS(ForkSafe):
         return self
 
     def _setup(self, handles, config, shape, ctx, storage, bins, spacing=None) -> None:
-        if spacing is not None:
-            raise ValueError(
-                f"spacing={spacing!r} is for (N, 3) handles (a volume's voxels); an image's "
-                "pixels are square: leave spacing out with (N, 2) handles"
-            )
-        #: (dz, dy, dx) of a 3D MLS's volume; None in 2D.
-        self.spacing: tuple[float, float, float] | None = None
+        self.spacing: tuple[float, float, float] | None = planar_spacing(spacing)
         self.config = config
         self.shape = None if shape is None else as_shape(shape)
         if self.shape is not None:
@@ -949,13 +943,11 @@ class MLS(ForkSafe):
 
     def __repr__(self) -> str:
         c = self.config
-        state = ", released" if self.released else ""
         segments = f", {self._handles.segments} segments" if self._handles.segments else ""
         return (
             f"MLS({self._handles.points} handles{segments}, transform={c.transform!r}, "
-            f"weight={c.weight!r}, "
-            f"alpha={c.alpha}, s={c.s}, radius={c.radius}, interpolating={c.interpolating}"
-            f"{state})"
+            f"weight={c.weight!r}, alpha={c.alpha}, s={c.s}, radius={c.radius}, "
+            f"interpolating={c.interpolating}{', released' if self.released else ''})"
         )
 
 

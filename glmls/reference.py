@@ -60,7 +60,7 @@ import numpy as np
 
 from .core.config import MLSConfig
 from .core.handles import as_points
-from .core.handles3 import as_volume_spacing, volume_diagonal
+from .core.handles3 import as_volume_spacing, planar_spacing, volume_diagonal
 from .core.handleset import HandleSet
 from .core.segments import REFERENCE_NODES, REFERENCE_PANELS, segment_config, sinh_nodes
 
@@ -390,7 +390,7 @@ def mls(
     config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
     if _dimension(src, dst, points) == 3:
         return _mls3_checked(src, dst, points, config, shape, spacing, src_segments, dst_segments)
-    _no_spacing(spacing)
+    planar_spacing(spacing)
     handles = HandleSet.validate(src, dst, src_segments, dst_segments)
     v = as_points(points)
     k = len(v)
@@ -542,7 +542,7 @@ def mls_error(
         )
         p, q = np.asarray(src, dtype=np.float64), np.asarray(dst, dtype=np.float64)
         return (_residual(p, q, big_m, t) ** 2).sum(axis=(1, 2))
-    _no_spacing(spacing)
+    planar_spacing(spacing)
     handles = HandleSet.validate(src, dst, src_segments, dst_segments)
     _, big_m, t = mls(
         handles.src,
@@ -600,14 +600,6 @@ def _dimension(src: object, dst: object, points: object) -> int:
             f"rows; got {got}"
         )
     return 3
-
-
-def _no_spacing(spacing: object) -> None:
-    if spacing is not None:
-        raise ValueError(
-            f"spacing={spacing!r} is for (N, 3) handles (a volume's voxels); an image's "
-            "pixels are square: leave spacing out with (N, 2) handles"
-        )
 
 
 def _mls3_checked(src, dst, points, config, shape, spacing, src_segments, dst_segments):

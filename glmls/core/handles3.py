@@ -20,6 +20,7 @@ __all__ = [
     "as_volume_spacing",
     "dimension_of",
     "fit_scaling3",
+    "planar_spacing",
     "spacing_conflict",
     "validate_handles3",
     "volume_diagonal",
@@ -138,6 +139,16 @@ def volume_diagonal(shape: Sequence[float], spacing: Sequence[float] | None = No
     """Length of the diagonal of a D x H x W volume: in voxels, or with ``spacing`` (dz, dy,
     dx) in the handles' units, that of (D dz, H dy, W dx)."""
     return math.sqrt(sum(e * e for e in volume_extent(shape, spacing)))
+
+
+def planar_spacing(spacing: object) -> None:
+    """The spacing of (N, 2) handles, None: ``ValueError`` for any other ``spacing`` (a
+    volume's voxels have one; an image's pixels are square)."""
+    if spacing is not None:
+        raise ValueError(
+            f"spacing={spacing!r} is for (N, 3) handles (a volume's voxels); an image's "
+            "pixels are square: leave spacing out with (N, 2) handles"
+        )
 
 
 def spacing_conflict(
