@@ -1154,11 +1154,12 @@ def _points(points: object, name: str = "points") -> np.ndarray:
     return check_coordinates(as_points(points, name), name)
 
 
-#: The keywords of :class:`MLS` that :func:`warp` passes on (``shape`` is the image's).
+#: The keywords of :class:`MLS` that :func:`warp` passes on (``shape`` is the image's;
+#: ``spacing`` is a volume's, and these warp images).
 MLS_KEYWORDS = frozenset(
     name
     for name, parameter in inspect.signature(MLS.__init__).parameters.items()
-    if parameter.kind is parameter.KEYWORD_ONLY and name != "shape"
+    if parameter.kind is parameter.KEYWORD_ONLY and name not in ("shape", "spacing")
 )
 
 

@@ -166,6 +166,11 @@ def test_spacing_is_3d_only(gl):
             function(src2, src2, [[1.0, 1.0]], spacing=(1, 1, 1))
     with glmls.MLS(src2, src2, ctx=gl) as m:
         assert m.spacing is None
+    image = np.zeros((4, 6), np.uint8)  # the image warps take no spacing
+    with pytest.raises(TypeError, match="unknown keyword spacing"):
+        glmls.warp(image, src2, src2, spacing=(1, 1, 1))
+    with pytest.raises(TypeError, match="unknown keyword spacing"):
+        glmls.warp_batch([image], [src2], [src2], spacing=(1, 1, 1))
 
 
 def test_mls_error_takes_the_spacing_too(problem):
