@@ -54,8 +54,8 @@ def on_gpu(method: Callable[..., _R]) -> Callable[..., _R]:
 class ForkSafe:
     """What an MLS needs to work in a process forked from one that used GL. The MLS has the
     handles (``src``, ``dst``, ``src_segments``, ``dst_segments``), ``config``, ``shape``,
-    ``_options`` (``storage`` and ``bins``), ``_kernel`` and ``_gl`` (None where it was made in
-    such a process) and ``released``."""
+    ``spacing``, ``_options`` (``storage`` and ``bins``), ``_kernel`` and ``_gl`` (None where
+    it was made in such a process) and ``released``."""
 
     _dropped = False  # released, for an MLS made in a forked process
 
@@ -64,7 +64,8 @@ class ForkSafe:
         m: Any = self
         segments = (m.src_segments, m.dst_segments) if len(m.src_segments) else (None, None)
         o = self._options  # type: ignore[attr-defined]
-        return (m.src, m.dst, *segments, m.config, m.shape, o["storage"], o["bins"])
+        state = (m.config, m.shape, m.spacing, o["storage"], o["bins"])
+        return (m.src, m.dst, *segments, *state)
 
     def _made_forked(self, **handles: object) -> None:
         """Made in a process forked from one that used GL: no GL objects here. The helper's

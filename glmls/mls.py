@@ -21,7 +21,7 @@ import numpy as np
 
 from .core.config import MLSConfig
 from .core.handles import Scaling, as_points, check_coordinates, point_rows
-from .core.handles3 import dimension_of
+from .core.handles3 import dimension_of, planar_spacing
 from .core.handleset import HandleSet
 from .core.mesh import MeshLattice, as_shape, check_grid
 from .core.mesh3 import DeformedMesh
@@ -52,7 +52,7 @@ def serve_forked(state: tuple, name: str | None, grid: int | None, args: tuple, 
     key = pickle.dumps(state, pickle.HIGHEST_PROTOCOL)
     m = _SERVED.pop(key, None)
     if m is None:
-        src, dst, src_segments, dst_segments, config, shape, storage, bins = state
+        src, dst, src_segments, dst_segments, config, shape, spacing, storage, bins = state
         m = MLS.from_config(
             src,
             dst,
@@ -60,6 +60,7 @@ def serve_forked(state: tuple, name: str | None, grid: int | None, args: tuple, 
             src_segments=src_segments,
             dst_segments=dst_segments,
             shape=shape,
+            spacing=spacing,
             storage=storage,
             bins=bins,
         )
@@ -120,6 +121,11 @@ class MLS(ForkSafe):
     shape : (int, int) or None, default None
         (H, W) of the image, for the default radius (and :attr:`inverse`'s first guess); in
         3D (D, H, W) of a volume.
+    spacing : (float, float, float) or None, default None
+        3D only: (dz, dy, dx) of the volume's voxels in the handles' units (ordered as
+        ``shape``): the default radius is then the diagonal of (D dz, H dy, W dx), and the
+        volume warps and analyses take this spacing unless given one (see
+        :class:`~glmls.mls3.MLS3`). ValueError with 2D handles.
     ctx : moderngl.Context or GLContext or None
         The context to render with (default: glmls's shared headless EGL one).
     storage : {"auto", "ssbo", "ubo", "texture"}, default "auto"
@@ -178,6 +184,7 @@ class MLS(ForkSafe):
         radius: float | None = None,
         interpolating: bool = False,
         shape: Sequence[int] | None = None,
+        spacing: Sequence[float] | None = None,
         ctx: moderngl.Context | GLContext | None = None,
         storage: str = DEFAULT_STORAGE,
         bins: bool | None = None,
@@ -191,7 +198,7 @@ class MLS(ForkSafe):
             interpolating=interpolating,
         )
         handles = (src, dst, src_segments, dst_segments)
-        self._setup(handles, config, shape, ctx, storage, bins)
+        self._setup(handles, config, shape, ctx, storage, bins, spacing)
 
     @classmethod
     def from_config(
@@ -203,6 +210,7 @@ class MLS(ForkSafe):
         src_segments: object = None,
         dst_segments: object = None,
         shape: Sequence[int] | None = None,
+        spacing: Sequence[float] | None = None,
         ctx: moderngl.Context | GLContext | None = None,
         storage: str = DEFAULT_STORAGE,
         bins: bool | None = None,
@@ -215,7 +223,7 @@ class MLS(ForkSafe):
             (N, 2) handle points.
         config : MLSConfig
             transform, weight, alpha, s, radius, interpolating.
-        src_segments, dst_segments, shape, ctx, storage, bins
+        src_segments, dst_segments, shape, spacing, ctx, storage, bins
             As :class:`MLS`'s.
 
         Returns
@@ -238,10 +246,12 @@ class MLS(ForkSafe):
         if not isinstance(config, MLSConfig):
             raise TypeError(f"config must be an MLSConfig, got {type(config).__name__}")
         self = cls.__new__(cls, src)
-        self._setup((src, dst, src_segments, dst_segments), config, shape, ctx, storage, bins)
+        handles = (src, dst, src_segments, dst_segments)
+        self._setup(handles, config, shape, ctx, storage, bins, spacing)
         return self
 
-    def _setup(self, handles, config, shape, ctx, storage, bins) -> None:
+    def _setup(self, handles, config, shape, ctx, storage, bins, spacing=None) -> None:
+        self.spacing: tuple[float, float, float] | None = planar_spacing(spacing)
         self.config = config
         self.shape = None if shape is None else as_shape(shape)
         if self.shape is not None:
@@ -934,13 +944,11 @@ class MLS(ForkSafe):
 
     def __repr__(self) -> str:
         c = self.config
-        state = ", released" if self.released else ""
         segments = f", {self._handles.segments} segments" if self._handles.segments else ""
         return (
             f"MLS({self._handles.points} handles{segments}, transform={c.transform!r}, "
-            f"weight={c.weight!r}, "
-            f"alpha={c.alpha}, s={c.s}, radius={c.radius}, interpolating={c.interpolating}"
-            f"{state})"
+            f"weight={c.weight!r}, alpha={c.alpha}, s={c.s}, radius={c.radius}, "
+            f"interpolating={c.interpolating}{', released' if self.released else ''})"
         )
 
 
@@ -1147,11 +1155,12 @@ def _points(points: object, name: str = "points") -> np.ndarray:
     return check_coordinates(as_points(point_rows(points, 2), name), name)
 
 
-#: The keywords of :class:`MLS` that :func:`warp` passes on (``shape`` is the image's).
+#: The keywords of :class:`MLS` that :func:`warp` passes on (``shape`` is the image's;
+#: ``spacing`` is a volume's, and these warp images).
 MLS_KEYWORDS = frozenset(
     name
     for name, parameter in inspect.signature(MLS.__init__).parameters.items()
-    if parameter.kind is parameter.KEYWORD_ONLY and name != "shape"
+    if parameter.kind is parameter.KEYWORD_ONLY and name not in ("shape", "spacing")
 )
 
 

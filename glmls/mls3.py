@@ -14,7 +14,14 @@ from collections.abc import Sequence
 import numpy as np
 
 from .core.handles import Scaling, point_rows
-from .core.handles3 import as_points3, as_volume_shape, fit_scaling3, validate_handles3
+from .core.handles3 import (
+    as_points3,
+    as_volume_shape,
+    as_volume_spacing,
+    fit_scaling3,
+    validate_handles3,
+    volume_extent,
+)
 from .core.mesh3 import DeformedMesh, as_mesh
 from .engine.deform3 import deform_mesh3
 from .engine.kernel3 import MLSKernel3
@@ -47,12 +54,20 @@ class MLS3(MLS):
     src_segments, dst_segments : None
         Segment handles are 2D only: ValueError unless None.
     transform, weight, alpha, s, radius, interpolating
-        As :class:`glmls.MLS`'s (``radius`` in voxels).
+        As :class:`glmls.MLS`'s (``radius`` in the handles' units).
     shape : (int, int, int) or None, default None
-        (D, H, W) of a volume, whose diagonal (in voxels) is the radius weights' default
-        radius for ``m(points)``; a volume warp (or ``bounds``, ``coordinate_map``) takes
-        the warped volume's diagonal in the handles' units, (D dz, H dy, W dx) with the
-        warp's ``spacing``.
+        (D, H, W) of a volume, whose diagonal in the handles' units is the radius weights'
+        default radius: that of (D dz, H dy, W dx) with ``spacing``, in voxels without. Every
+        method takes it (``m(points)``, :meth:`matrices`, :meth:`jacobian`, :meth:`deform`,
+        :attr:`inverse`, :meth:`residuals`, the analyses); a volume warp (or ``bounds``,
+        ``coordinate_map``) takes the warped volume's, the same for a volume of ``shape``.
+    spacing : (float, float, float) or None, default None
+        (dz, dy, dx) of the volume's voxels in the handles' units, ordered as ``shape``:
+        voxel (k, j, i) is the point (i dx, j dy, k dz). The volume warps, ``bounds``,
+        ``coordinate_map`` and the 3D analyses (:func:`glmls.analysis.volume_report`, ...)
+        take it when given no ``spacing``; given another, they raise ValueError (make an
+        MLS without ``spacing`` to warp volumes of several spacings, each warp's own then).
+        None: voxels, (1, 1, 1) for the warps.
     ctx : moderngl.Context or GLContext or None
         The context to compute with (default: glmls's shared one).
     storage : {"auto", "ssbo", "ubo", "texture"}, default "auto"
@@ -63,8 +78,11 @@ class MLS3(MLS):
     Raises
     ------
     ValueError
-        For malformed handles, segments, ``bins=True``, a bad ``shape``, or a radius weight
-        with neither ``radius`` nor ``shape``.
+        For malformed handles, segments, ``bins=True``, a bad ``shape``, a ``spacing`` that
+        is not three finite numbers > 0, or a radius weight with neither ``radius`` nor
+        ``shape``.
+    TypeError
+        For a ``spacing`` that is not real numbers.
 
     Examples
     --------
@@ -75,11 +93,27 @@ class MLS3(MLS):
     >>> with glmls.MLS(src, dst, transform="affine") as m:
     ...     print(type(m).__name__, np.round(m([[5, 5, 5]]), 3).tolist())
     MLS3 [[6.0, 5.0, 5.0]]
+
+    Handles in millimetres of a volume of 10 slices 2 mm apart, rows of 1 mm and columns of
+    0.5 mm: the default radius is the volume's diagonal in millimetres, for every method.
+
+    >>> volume = np.zeros((10, 20, 40), np.uint8)
+    >>> mm = [[2.0, 4.0, 4.0], [16.0, 4.0, 6.0], [4.0, 15.0, 10.0], [10.0, 10.0, 16.0]]
+    >>> moved = np.add(mm, [[1.0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]])
+    >>> m = glmls.MLS(mm, moved, weight="gaussian", shape=volume.shape, spacing=(2.0, 1.0, 0.5))
+    >>> m  # doctest: +NORMALIZE_WHITESPACE
+    MLS(4 3D handles, transform='rigid', weight='gaussian', alpha=1.0, s=1e-08, radius=None,
+        interpolating=False, shape=(10, 20, 40), spacing=(2.0, 1.0, 0.5))
+    >>> round(m.kernel.radius(), 6)  # sqrt(20² + 20² + 20²) mm
+    34.641016
+    >>> m.warp(volume).shape  # with the MLS's spacing
+    (10, 20, 40)
+    >>> m.release()
     """
 
     dimension = 3
 
-    def _setup(self, handles, config, shape, ctx, storage, bins) -> None:
+    def _setup(self, handles, config, shape, ctx, storage, bins, spacing=None) -> None:
         src, dst, src_segments, dst_segments = handles
         if src_segments is not None or dst_segments is not None:
             raise ValueError(
@@ -90,6 +124,7 @@ class MLS3(MLS):
             raise ValueError("bins are 2D only: bins must be None or False with (N, 3) handles")
         self.config = config
         self.shape = None if shape is None else as_volume_shape(shape)  # type: ignore[assignment]
+        self.spacing = None if spacing is None else as_volume_spacing(spacing)
         p, q = validate_handles3(src, dst)
         self._storage_name = storage
         self._options = {"storage": storage, "bins": None}
@@ -100,7 +135,7 @@ class MLS3(MLS):
             self._made_forked(p=p, q=q)
             return
         self._gl = get_context(ctx)
-        self._kernel = MLSKernel3(self._gl, config, shape=self.shape, storage=storage)  # type: ignore[assignment]
+        self._kernel = MLSKernel3(self._gl, config, shape=self._extent, storage=storage)  # type: ignore[assignment]
         self._kernel.radius()  # type: ignore[call-arg]  # a radius weight needs one
         try:
             self._store3(p, q)
@@ -110,13 +145,22 @@ class MLS3(MLS):
 
     def _store3(self, p: np.ndarray, q: np.ndarray) -> None:
         if not forked_from_gl():  # there the helper's MLS takes them
-            self._kernel.upload(p, q, fit_scaling3(p, q, self.shape))  # type: ignore[call-arg, arg-type]
+            scaling = fit_scaling3(p, q, self.shape, self.spacing)  # type: ignore[arg-type]
+            self._kernel.upload(p, q, scaling)  # type: ignore[call-arg, arg-type]
         p.setflags(write=False)
         q.setflags(write=False)
         self._p, self._q = p, q
         if self._swapped is not None:
             self._swapped.release()
             self._swapped = None
+
+    @property
+    def _extent(self) -> tuple[float, float, float] | None:
+        """The volume in the handles' units, (D dz, H dy, W dx), whose diagonal is the
+        default radius (the kernel's ``shape``); None without ``shape``."""
+        if self.shape is None:
+            return None
+        return self.shape if self.spacing is None else volume_extent(self.shape, self.spacing)  # type: ignore[return-value]
 
     # -- the handles and the GPU state ------------------------------------------------------
 
@@ -162,14 +206,17 @@ class MLS3(MLS):
         Parameters
         ----------
         shape : (int, int, int) or None
-            (D, H, W) whose diagonal is the default radius (None: the MLS's own).
+            The volume (D, H, W) whose diagonal is the default radius, in the handles' units
+            (None: the MLS's own, of its ``shape`` and ``spacing``).
 
         Returns
         -------
         dict
             Uniform name -> value.
         """
-        return self.kernel.uniforms(None if shape is None else as_volume_shape(shape))  # type: ignore[arg-type]
+        if shape is None:
+            return self.kernel.uniforms()
+        return self.kernel.uniforms(volume_extent(as_volume_shape(shape), self.spacing))  # type: ignore[arg-type]
 
     def set_handles(
         self, src: object, dst: object, *, src_segments: object = None, dst_segments: object = None
@@ -205,7 +252,7 @@ class MLS3(MLS):
             swapped = MLSKernel3(
                 self._gl,
                 self.config,
-                shape=self.shape,  # type: ignore[arg-type]
+                shape=self._extent,  # type: ignore[arg-type]
                 storage=self._storage_name,
             )
             swapped.upload(self._q, self._p, self.scaling)
@@ -367,7 +414,8 @@ class MLS3(MLS):
         **options
             :class:`glmls.volume.VolumeOptions`' fields: ``method`` (``"quads"``, the
             tetrahedra of the deformed lattice, or ``"backward"``), ``interpolation``,
-            ``grid``, ``border``, ``background``, ``output_shape``, ``origin``, ``spacing``.
+            ``grid``, ``border``, ``background``, ``output_shape``, ``origin``, ``spacing``
+            (default: the MLS's ``spacing``, else 1 each; another is a ValueError).
 
         Returns
         -------
@@ -394,7 +442,7 @@ class MLS3(MLS):
         return warp_volume(self, volume, **options)
 
     @forwarded
-    def bounds(self, shape, *, grid=1, spacing=(1.0, 1.0, 1.0)):  # type: ignore[override]
+    def bounds(self, shape, *, grid=1, spacing=None):  # type: ignore[override]
         """The bounding box of the deformed volume (:func:`glmls.volume.volume_bounds`).
 
         Parameters
@@ -403,8 +451,9 @@ class MLS3(MLS):
             (D, H, W) of the volume.
         grid : int, default 1
             The step of the lattice of voxel-cube corners where f is evaluated.
-        spacing : (float, float, float), default (1, 1, 1)
-            (dz, dy, dx) of the voxels, in the handles' units.
+        spacing : (float, float, float) or None, default None
+            (dz, dy, dx) of the voxels, in the handles' units (None: the MLS's ``spacing``,
+            else 1 each).
 
         Returns
         -------
@@ -478,11 +527,16 @@ class MLS3(MLS):
 
     def __repr__(self) -> str:
         c = self.config
+        volume = "".join(
+            f", {name}={value}"
+            for name, value in (("shape", self.shape), ("spacing", self.spacing))
+            if value is not None
+        )
         state = ", released" if self.released else ""
         return (
             f"MLS({len(self._p)} 3D handles, transform={c.transform!r}, weight={c.weight!r}, "
             f"alpha={c.alpha}, s={c.s}, radius={c.radius}, interpolating={c.interpolating}"
-            f"{state})"
+            f"{volume}{state})"
         )
 
 

@@ -56,12 +56,11 @@ the plane is a half turn).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from .core.config import MLSConfig
 from .core.handles import as_points
+from .core.handles3 import as_volume_spacing, planar_spacing, volume_diagonal
 from .core.handleset import HandleSet
 from .core.segments import REFERENCE_NODES, REFERENCE_PANELS, segment_config, sinh_nodes
 
@@ -301,6 +300,7 @@ def mls(
     config: MLSConfig | None = None,
     *,
     shape: tuple[int, int] | None = None,
+    spacing: tuple[float, float, float] | None = None,
     src_segments: object = None,
     dst_segments: object = None,
     **options: object,
@@ -323,6 +323,9 @@ def mls(
     shape : tuple of int, optional
         (H, W) of the image, or (D, H, W) of a volume, whose diagonal is the default radius
         of the radius weights.
+    spacing : (float, float, float), optional
+        3D only: (dz, dy, dx) of the volume's voxels in the handles' units, as
+        :class:`glmls.MLS`'s: the default radius is then the diagonal of (D dz, H dy, W dx).
     src_segments, dst_segments : array_like, optional
         Segment handles a-b -> c-d, (S, 2, 2); 2D only.
     **options
@@ -342,10 +345,11 @@ def mls(
     ------
     ValueError
         When the handles or points are malformed (also: some with 2 columns and some with 3,
-        or segments with 3D handles), an option is invalid, or a radius weight has neither
-        ``radius`` nor ``shape``.
+        or segments or ``spacing`` with 2D handles), an option is invalid, a ``spacing`` is
+        not three finite numbers > 0, or a radius weight has neither ``radius`` nor
+        ``shape``.
     TypeError
-        When an option has the wrong type.
+        When an option or the ``spacing`` has the wrong type.
 
     See Also
     --------
@@ -369,10 +373,24 @@ def mls(
     >>> f, M, T = glmls.reference.mls(src3, src3 @ quarter, [[5.0, 0.0, 2.0]])
     >>> f.round(6).tolist(), M.shape
     ([[0.0, 5.0, 2.0]], (1, 3, 3))
+
+    With handles in millimetres of a volume of 10 x 20 x 40 voxels of (2, 1, 0.5) mm, the
+    gaussian weight's default radius is the diagonal of (20, 20, 20) mm, as
+    ``glmls.MLS(..., shape=(10, 20, 40), spacing=(2.0, 1.0, 0.5))`` takes it:
+
+    >>> mm = dict(shape=(10, 20, 40), spacing=(2.0, 1.0, 0.5), weight="gaussian")
+    >>> moved = src3 + [[1.0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]]
+    >>> f, _, _ = glmls.reference.mls(src3, moved, [[4.0, 4.0, 4.0]], **mm)
+    >>> explicit = glmls.reference.mls(
+    ...     src3, moved, [[4.0, 4.0, 4.0]], weight="gaussian", radius=np.sqrt(3 * 20.0**2)
+    ... )[0]
+    >>> bool(np.array_equal(f, explicit))
+    True
     """
     config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
     if _dimension(src, dst, points) == 3:
-        return _mls3_checked(src, dst, points, config, shape, src_segments, dst_segments)
+        return _mls3_checked(src, dst, points, config, shape, spacing, src_segments, dst_segments)
+    planar_spacing(spacing)
     handles = HandleSet.validate(src, dst, src_segments, dst_segments)
     v = as_points(points)
     k = len(v)
@@ -462,6 +480,7 @@ def mls_error(
     config: MLSConfig | None = None,
     *,
     shape: tuple[int, int] | None = None,
+    spacing: tuple[float, float, float] | None = None,
     src_segments: object = None,
     dst_segments: object = None,
     **options: object,
@@ -484,6 +503,8 @@ def mls_error(
     shape : tuple of int, optional
         (H, W) of the image, or (D, H, W) of a volume, whose diagonal is the default radius
         of the radius weights.
+    spacing : (float, float, float), optional
+        3D only: (dz, dy, dx) of the volume's voxels in the handles' units (as :func:`mls`).
     src_segments, dst_segments : array_like, optional
         Segment handles a-b -> c-d, (S, 2, 2); 2D only.
     **options
@@ -516,9 +537,12 @@ def mls_error(
     """
     config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
     if _dimension(src, dst, points) == 3:
-        _, big_m, t = _mls3_checked(src, dst, points, config, shape, src_segments, dst_segments)
+        _, big_m, t = _mls3_checked(
+            src, dst, points, config, shape, spacing, src_segments, dst_segments
+        )
         p, q = np.asarray(src, dtype=np.float64), np.asarray(dst, dtype=np.float64)
         return (_residual(p, q, big_m, t) ** 2).sum(axis=(1, 2))
+    planar_spacing(spacing)
     handles = HandleSet.validate(src, dst, src_segments, dst_segments)
     _, big_m, t = mls(
         handles.src,
@@ -578,7 +602,7 @@ def _dimension(src: object, dst: object, points: object) -> int:
     return 3
 
 
-def _mls3_checked(src, dst, points, config, shape, src_segments, dst_segments):
+def _mls3_checked(src, dst, points, config, shape, spacing, src_segments, dst_segments):
     """Validate 3D inputs, then :func:`_mls3`."""
     if src_segments is not None or dst_segments is not None:
         raise ValueError(
@@ -588,8 +612,9 @@ def _mls3_checked(src, dst, points, config, shape, src_segments, dst_segments):
     p, q, v = _points3(src, "src"), _points3(dst, "dst"), _points3(points, "points")
     if len(p) != len(q):
         raise ValueError(f"src and dst must have the same length, got {len(p)} and {len(q)}")
+    steps = None if spacing is None else as_volume_spacing(spacing)
     if config.uses_radius and config.radius is None and shape is not None and len(shape) == 3:
-        radius: float | None = math.sqrt(sum(float(n) ** 2 for n in shape))
+        radius: float | None = volume_diagonal(shape, steps)
     else:
         radius = config.resolve_radius(shape)
     return _mls3(p, q, v, config, radius)

@@ -33,6 +33,7 @@ from .volume_lattice import (
     as_volume_shape,
     axis_corners,
     check_grid3,
+    deformation_spacing,
     evaluate,
     lattice_points,
     spacing_scale,
@@ -181,7 +182,9 @@ def cell_jacobians(
         The lattice's step in voxels (1: a cell per voxel; (D + 1)(H + 1)(W + 1) points).
     spacing : (float, float, float), optional
         (dz, dy, dx): voxel (k, j, i) is the point (i dx, j dy, k dz) of the handles' units,
-        as :meth:`glmls.MLS.warp` places it, and J is df/dv in those units (default: 1 each).
+        as :meth:`glmls.MLS.warp` places it, and J is df/dv in those units (default:
+        ``m.spacing`` where ``m`` has one, else 1 each; another than ``m.spacing`` is a
+        ValueError).
 
     Returns
     -------
@@ -212,7 +215,7 @@ def cell_jacobians(
     """
     dims = as_volume_shape(shape)
     step = check_grid3(grid)
-    dx, dy, dz = spacing_scale(spacing)
+    dx, dy, dz = spacing_scale(deformation_spacing(m, spacing))
     z, y, x = (axis_corners(n, step) * d for n, d in zip(dims, (dz, dy, dx), strict=True))
     cells = (len(z) - 1, len(y) - 1, len(x) - 1)
     det, ratio, min_det = np.empty(cells), np.empty(cells), np.empty(cells)

@@ -4,7 +4,8 @@ other 3D analyses can run on without a GPU.
 Every 3D analysis takes ``m``: a :class:`glmls.MLS` of (N, 3) handles, or a
 :class:`ReferenceDeformation` (the float64 numpy reference on the CPU), or anything with the
 same members: ``m(points)`` (K, 3) -> (K, 3), ``m.matrices(points)`` -> M (K, 3, 3), T (K, 3),
-and the handles ``m.src``, ``m.dst`` (N, 3).
+and the handles ``m.src``, ``m.dst`` (N, 3). An ``m.spacing`` (that of
+``glmls.MLS(..., spacing=...)``) is the analyses' spacing when they are given none.
 """
 
 from __future__ import annotations
@@ -16,12 +17,14 @@ import numpy as np
 
 from .. import reference
 from ..core.config import MLSConfig
+from ..core.handles3 import as_volume_spacing
 from .volume_lattice import (
     CHUNK,
     as_points3,
     as_volume_shape,
     axis_centres,
     check_grid3,
+    deformation_spacing,
     interpolate_axis,
     lattice_points,
     spacing_scale,
@@ -48,7 +51,8 @@ class ReferenceDeformation:
     """An MLS deformation of (N, 3) handles computed by :mod:`glmls.reference` (float64, CPU).
 
     The same members as :class:`glmls.MLS` that the 3D analyses use: ``m(points)``,
-    ``m.matrices(points)``, ``src``, ``dst``, ``config``, ``shape``, and ``with`` blocks. Slow
+    ``m.matrices(points)``, ``src``, ``dst``, ``config``, ``shape``, ``spacing``, and ``with``
+    blocks. Slow
     (the reference is O(K N) in memory and time, evaluated in blocks of points); it is the
     oracle the GPU is tested against, and runs where there is no GPU.
 
@@ -61,6 +65,10 @@ class ReferenceDeformation:
         (:class:`glmls.MLSConfig`'s fields: ``transform="affine"``, ...).
     shape : tuple of int, optional
         (D, H, W) of the volume: its diagonal is the default radius of the radius weights.
+    spacing : (float, float, float), optional
+        (dz, dy, dx) of the volume's voxels in the handles' units, as :class:`glmls.MLS`'s:
+        the default radius is then the diagonal of (D dz, H dy, W dx), and the analyses take
+        this spacing when given none.
 
     Attributes
     ----------
@@ -70,13 +78,16 @@ class ReferenceDeformation:
         The configuration.
     shape : tuple of int or None
         The volume's (D, H, W).
+    spacing : tuple of float or None
+        Its voxels' (dz, dy, dx).
 
     Raises
     ------
     ValueError
-        For handles that are not (N, 3) finite rows of the same count, or bad options.
+        For handles that are not (N, 3) finite rows of the same count, bad options, or a
+        ``spacing`` that is not three finite numbers > 0.
     TypeError
-        For handles that are not real numbers.
+        For handles or a ``spacing`` that are not real numbers.
 
     Examples
     --------
@@ -96,6 +107,7 @@ class ReferenceDeformation:
         config: MLSConfig | None = None,
         *,
         shape: Sequence[int] | None = None,
+        spacing: Sequence[float] | None = None,
         **options: object,
     ) -> None:
         p, q = as_points3(src, "src"), as_points3(dst, "dst")
@@ -105,6 +117,7 @@ class ReferenceDeformation:
             )
         self.config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
         self.shape = None if shape is None else as_volume_shape(shape)
+        self.spacing = None if spacing is None else as_volume_spacing(spacing)
         p.flags.writeable = q.flags.writeable = False
         self.src, self.dst = p, q
 
@@ -115,7 +128,12 @@ class ReferenceDeformation:
         for start in range(0, len(v), step):
             end = start + step
             f[start:end], m[start:end], t[start:end] = reference.mls(
-                self.src, self.dst, v[start:end], self.config, shape=self.shape
+                self.src,
+                self.dst,
+                v[start:end],
+                self.config,
+                shape=self.shape,
+                spacing=self.spacing,
             )
         return f, m, t
 
@@ -194,7 +212,8 @@ def volume_error_field(
         The step of the evaluated voxels (1: every voxel).
     spacing : (float, float, float), optional
         (dz, dy, dx): voxel (k, j, i) is the point (i dx, j dy, k dz) of the handles' units,
-        as :meth:`glmls.MLS.warp` places it (default: 1 each).
+        as :meth:`glmls.MLS.warp` places it (default: ``m.spacing``, else 1 each; another
+        than ``m.spacing`` is a ValueError).
 
     Returns
     -------
@@ -205,7 +224,7 @@ def volume_error_field(
     ------
     ValueError
         For a shape that is not (D, H, W) with D, H, W >= 1, a grid that is not an integer
-        from 1 on, or handles that are not (N, 3).
+        from 1 on, handles that are not (N, 3), or a bad ``spacing`` (or not ``m``'s).
     TypeError
         For a shape that is not integers.
 
@@ -229,7 +248,7 @@ def volume_error_field(
     """
     depth, height, width = as_volume_shape(shape)
     step = check_grid3(grid)
-    scale = spacing_scale(spacing)
+    scale = spacing_scale(deformation_spacing(m, spacing))
     src, dst = as_points3(m.src, "m.src"), as_points3(m.dst, "m.dst")
     z, y, x = (axis_centres(n, step) for n in (depth, height, width))
     field = np.empty((len(z), len(y), len(x)))

@@ -13,6 +13,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..core.handles3 import spacing_conflict
 from ..core.mesh import MAX_GRID
 
 __all__ = [
@@ -21,6 +22,7 @@ __all__ = [
     "axis_centres",
     "axis_corners",
     "check_grid3",
+    "deformation_spacing",
     "evaluate",
     "interpolate_axis",
     "lattice_points",
@@ -66,6 +68,20 @@ def spacing_scale(spacing: object) -> np.ndarray:
     if values.shape != (3,) or not (np.isfinite(values).all() and (values > 0).all()):
         raise ValueError(f"spacing must be (dz, dy, dx) numbers > 0, got {spacing!r}")
     return values[::-1].copy()
+
+
+def deformation_spacing(m: object, spacing: object) -> object:
+    """The spacing an analysis of ``m`` takes: ``spacing`` where given, else ``m.spacing``
+    (that of ``glmls.MLS(..., spacing=...)``; None: 1 each); ``ValueError`` where both are
+    given and differ."""
+    own = getattr(m, "spacing", None)
+    if spacing is None or own is None:
+        return own if spacing is None else spacing
+    given = tuple(spacing_scale(spacing)[::-1].tolist())
+    mine = tuple(spacing_scale(own)[::-1].tolist())
+    if given != mine:
+        raise spacing_conflict(given, mine)
+    return spacing
 
 
 def as_points3(points: object, name: str = "points") -> np.ndarray:

@@ -15,7 +15,7 @@ from .stats import error_stats
 from .tetrahedra import SLIVER_QUALITY, TetrahedronErrors, tetrahedron_errors
 from .triangles import check_angle_measure
 from .volume_field import Deformation3D, volume_error_field
-from .volume_lattice import as_points3, check_grid3, spacing_scale
+from .volume_lattice import as_points3, check_grid3, deformation_spacing, spacing_scale
 from .volume_pictures import check_slices, render_volume_slices
 
 __all__ = ["VolumeReport", "volume_report"]
@@ -171,7 +171,9 @@ def volume_report(
         (dz, dy, dx) of the voxels, the handles and reference points in its units, as
         :meth:`glmls.MLS.warp` takes it: voxel (k, j, i) is the point (i dx, j dy, k dz).
         The error field (then in square handle units) and J are evaluated there, and the
-        volume warped with it (default: 1 each, the handles in voxels).
+        volume warped with it (default: ``m.spacing``, that of
+        ``glmls.MLS(..., spacing=...)``, else 1 each, the handles in voxels; another than
+        ``m.spacing`` is a ValueError).
     out_dir : str or pathlib.Path, optional
         Also write ``report.json`` and the PNGs there (:meth:`VolumeReport.save`).
     on_stage : callable, optional
@@ -210,6 +212,7 @@ def volume_report(
     check_angle_measure(angle)
     at = check_slices(dims, slices)
     src, dst = as_points3(m.src, "m.src"), as_points3(m.dst, "m.dst")
+    spacing = deformation_spacing(m, spacing)
     scale = spacing_scale(spacing)
     clock = StageClock(on_stage)
 

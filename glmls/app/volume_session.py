@@ -13,7 +13,6 @@ takes each voxel, as in the 2D window, for no more warps than the slices alone.
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 
 import numpy as np
 
@@ -155,14 +154,12 @@ class VolumeSession:
         self.timings["handles"] = time.perf_counter() - start
 
     def _mls(self, config) -> MLS:
-        """A new MLS of the controller's handles. Handle units other than voxels: no
-        ``shape`` (as ``glmls warp``), the radius weight's default radius given instead."""
+        """A new MLS of the controller's handles, with the volume's shape and, in handle
+        units other than voxels, its spacing (as ``glmls warp``): a radius weight's default
+        radius is the volume's diagonal in those units."""
         c = self.controller
-        if c.grid.isotropic:
-            return MLS.from_config(c.src, c.dst, config, shape=self.shape, ctx=self.gl)
-        if config.uses_radius and config.radius is None:
-            config = replace(config, radius=c.radius)
-        return MLS.from_config(c.src, c.dst, config, ctx=self.gl)
+        spacing = None if c.grid.isotropic else c.grid.spacing
+        return MLS.from_config(c.src, c.dst, config, shape=self.shape, spacing=spacing, ctx=self.gl)
 
     def _deformation(self):
         """The MLS as the analyses evaluate it: at voxel points."""

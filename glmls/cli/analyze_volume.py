@@ -7,8 +7,6 @@ and f evaluated, where ``glmls warp`` puts its voxels."""
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import math
 from pathlib import Path
 
 import numpy as np
@@ -62,14 +60,11 @@ def read_points_3d(path: str | Path) -> np.ndarray:
 
 
 def _deformation(src: np.ndarray, dst: np.ndarray, config: MLSConfig, shape, spacing) -> MLS:
-    """glmls.MLS of the 3D handles (on the GPU), a radius weight's default radius the
-    volume's diagonal in the handles' units; :class:`UsageError` if it cannot take them."""
-    if config.uses_radius and config.radius is None:
-        steps = spacing or (1.0, 1.0, 1.0)
-        diagonal = math.sqrt(sum((n * d) ** 2 for n, d in zip(shape, steps, strict=True)))
-        config = dataclasses.replace(config, radius=diagonal)
+    """glmls.MLS of the 3D handles (on the GPU) with the volume's ``shape`` and ``spacing``: a
+    radius weight's default radius is the volume's diagonal in the handles' units, for the
+    analysis and the warp alike; :class:`UsageError` if it cannot take them."""
     try:
-        return MLS.from_config(src, dst, config, shape=shape)
+        return MLS.from_config(src, dst, config, shape=shape, spacing=spacing)
     except (TypeError, ValueError) as error:
         raise UsageError(f"handles: {error}") from None
 

@@ -4,8 +4,9 @@ format of its suffix.
 - A volume (NIfTI, a TIFF of more than one page, ``.npy``) is warped by
   :meth:`glmls.MLS.warp` with the voxel spacing of ``--spacing``, else of the file (a NIfTI's
   affine, an ImageJ stack's spacing); the output keeps the input's dtype (integers rounded
-  and clipped) and, written as NIfTI, the input's affine. A radius weight without ``--radius``
-  takes the volume's diagonal in the handles' units (those of the spacing); an elastix pair
+  and clipped) and, written as NIfTI, the input's affine. The MLS is made with the volume's
+  ``shape`` and ``spacing``, so a radius weight without ``--radius`` takes the volume's
+  diagonal in the handles' units (those of the spacing); an elastix pair
   of ``index`` files (voxel indices) is put there by the spacing. With ``--world`` (NIfTI
   only) the handles are world coordinates of the file's affine, mapped through its inverse
   to the voxels times the spacing (:func:`glmls.files.world_to_volume`).
@@ -18,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import math
 import os
 from pathlib import Path
 
@@ -167,21 +167,13 @@ def voxel_handles(args: argparse.Namespace, src, dst, spacing):
     return src * scale, dst * scale
 
 
-def _volume_config(config: MLSConfig, shape, spacing) -> MLSConfig:
-    """``config`` with the volume's diagonal, in the handles' units (the spacing's), as the
-    radius a radius weight needs where ``--radius`` is not given (the image diagonal's
-    counterpart)."""
-    if not config.uses_radius or config.radius is not None:
-        return config
-    steps = spacing or (1.0, 1.0, 1.0)
-    diagonal = math.sqrt(sum((n * d) ** 2 for n, d in zip(shape[:3], steps, strict=True)))
-    return dataclasses.replace(config, radius=diagonal)
-
-
-def _mls(src: np.ndarray, dst: np.ndarray, config: MLSConfig) -> MLS:
+def _mls(src: np.ndarray, dst: np.ndarray, config: MLSConfig, **volume: object) -> MLS:
+    """glmls.MLS of ``config``; ``volume``: a volume's ``shape`` and ``spacing``, whose
+    diagonal in the handles' units is a radius weight's default radius (the image
+    diagonal's counterpart)."""
     settings = {f.name: getattr(config, f.name) for f in dataclasses.fields(MLSConfig)}
     try:
-        return MLS(src, dst, **settings)
+        return MLS(src, dst, **settings, **volume)
     except (TypeError, ValueError) as error:
         raise UsageError(f"handles: {error}") from None
 
@@ -247,7 +239,7 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
     options = _volume_options(args, spacing)
     src, dst = voxel_handles(args, src, dst, spacing)
     src, dst = world_handles(args, volume, spacing, src, dst)
-    with _mls(src, dst, _volume_config(config, data.shape, spacing)) as m:
+    with _mls(src, dst, config, shape=data.shape[:3], spacing=spacing) as m:
         ticker = Ticker(f"warp {args.input}", quiet=args.quiet)
         with ticker, reported_warnings(f"glmls warp: {args.input}"):
             try:

@@ -17,10 +17,14 @@ from .handles import COORDINATE_LIMIT, Scaling
 __all__ = [
     "as_points3",
     "as_volume_shape",
+    "as_volume_spacing",
     "dimension_of",
     "fit_scaling3",
+    "planar_spacing",
+    "spacing_conflict",
     "validate_handles3",
     "volume_diagonal",
+    "volume_extent",
 ]
 
 
@@ -94,20 +98,92 @@ def as_volume_shape(shape: Sequence[int]) -> tuple[int, int, int]:
     return int(values[0]), int(values[1]), int(values[2])
 
 
-def volume_diagonal(shape: tuple[int, int, int]) -> float:
-    """Length of the diagonal of a D x H x W volume, in voxels."""
-    return math.sqrt(sum(float(n) ** 2 for n in shape))
+def as_volume_spacing(spacing: object, name: str = "spacing") -> tuple[float, float, float]:
+    """``spacing`` as (dz, dy, dx) floats, finite and > 0 (ordered as a volume's (D, H, W));
+    ``TypeError`` for what is not three real numbers, ``ValueError`` for another count or a
+    value that is not finite and > 0, naming the value."""
+    if isinstance(spacing, (str, bytes)):
+        raise TypeError(f"{name} must be (dz, dy, dx) numbers > 0, got {spacing!r}")
+    try:
+        values = tuple(spacing)  # type: ignore[call-overload]
+    except TypeError:
+        raise TypeError(f"{name} must be (dz, dy, dx) numbers > 0, got {spacing!r}") from None
+    for v in values:
+        real = isinstance(v, (int, float, np.integer, np.floating))
+        if not real or isinstance(v, (bool, np.bool_)):
+            raise TypeError(
+                f"{name} must be (dz, dy, dx) real numbers > 0, got {spacing!r} ({v!r} is not)"
+            )
+    if len(values) != 3:
+        raise ValueError(
+            f"{name} must be (dz, dy, dx), three numbers like the volume's (D, H, W), "
+            f"got {len(values)}: {spacing!r}"
+        )
+    steps = (float(values[0]), float(values[1]), float(values[2]))
+    for v in steps:
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"{name} must be (dz, dy, dx) finite numbers > 0, got {spacing!r}")
+    return steps
+
+
+def volume_extent(
+    shape: Sequence[float], spacing: Sequence[float] | None = None
+) -> tuple[float, float, float]:
+    """(D dz, H dy, W dx): the size of a (D, H, W) volume of voxels of ``spacing`` (dz, dy,
+    dx) in the handles' units (None: voxels, (D, H, W))."""
+    steps = (1.0, 1.0, 1.0) if spacing is None else spacing
+    return tuple(float(n) * float(d) for n, d in zip(shape, steps, strict=True))  # type: ignore[return-value]
+
+
+def volume_diagonal(shape: Sequence[float], spacing: Sequence[float] | None = None) -> float:
+    """Length of the diagonal of a D x H x W volume: in voxels, or with ``spacing`` (dz, dy,
+    dx) in the handles' units, that of (D dz, H dy, W dx)."""
+    return math.sqrt(sum(e * e for e in volume_extent(shape, spacing)))
+
+
+def planar_spacing(spacing: object) -> None:
+    """The spacing of (N, 2) handles, None: ``ValueError`` for any other ``spacing`` (a
+    volume's voxels have one; an image's pixels are square)."""
+    if spacing is not None:
+        raise ValueError(
+            f"spacing={spacing!r} is for (N, 3) handles (a volume's voxels); an image's "
+            "pixels are square: leave spacing out with (N, 2) handles"
+        )
+
+
+def spacing_conflict(
+    given: tuple[float, float, float], own: tuple[float, float, float]
+) -> ValueError:
+    """The error of a volume operation given ``spacing=given`` on an MLS of ``spacing=own``."""
+    return ValueError(
+        f"spacing={given} differs from the MLS's spacing={own}: its handles are in the units "
+        "of its own spacing, and so is its default radius; leave spacing out to use the "
+        "MLS's, or make an MLS with this spacing (or one without spacing, for volumes of "
+        "several spacings)"
+    )
 
 
 def fit_scaling3(
-    src: np.ndarray, dst: np.ndarray, shape: tuple[int, int, int] | None = None
+    src: np.ndarray,
+    dst: np.ndarray,
+    shape: tuple[int, int, int] | None = None,
+    spacing: tuple[float, float, float] | None = None,
 ) -> Scaling:
     """The scaling ``(v - center) / scale`` for the box around the handles and, if given, the
-    volume (x, y, z = column, row, slice); ``scale`` is a power of 2 (at least 1)."""
+    volume (x, y, z = column, row, slice; its voxels of ``spacing`` (dz, dy, dx) in the
+    handles' units, 1 each when None); ``scale`` is a power of 2 (at least 1)."""
     boxes = [src, dst]
     if shape is not None:
         depth, height, width = shape
-        boxes.append(np.array([[-0.5, -0.5, -0.5], [width - 0.5, height - 0.5, depth - 0.5]]))
+        dz, dy, dx = (1.0, 1.0, 1.0) if spacing is None else spacing
+        boxes.append(
+            np.array(
+                [
+                    [-0.5 * dx, -0.5 * dy, -0.5 * dz],
+                    [(width - 0.5) * dx, (height - 0.5) * dy, (depth - 0.5) * dz],
+                ]
+            )
+        )
     pts = np.concatenate(boxes)
     if len(pts) == 0:
         return Scaling((0.0, 0.0, 0.0), 1.0)  # type: ignore[arg-type]

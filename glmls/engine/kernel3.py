@@ -44,8 +44,8 @@ class MLSKernel3:
     """The (N, 3) handles of one 3D MLS on the GPU, for ``config`` on context ``gl``.
 
     ``shape``: the volume (D, H, W) whose diagonal is the radius where ``config.radius`` is
-    None; ``storage``: ``auto`` or one of :data:`glmls.engine.storage.STORAGES`. Empty until
-    :meth:`upload`.
+    None, in the handles' units ((D dz, H dy, W dx) for voxels of a spacing); ``storage``:
+    ``auto`` or one of :data:`glmls.engine.storage.STORAGES`. Empty until :meth:`upload`.
     """
 
     def __init__(
@@ -53,7 +53,7 @@ class MLSKernel3:
         gl: GLContext,
         config: MLSConfig,
         *,
-        shape: tuple[int, int, int] | None = None,
+        shape: tuple[float, float, float] | None = None,
         storage: str = DEFAULT_STORAGE,
     ) -> None:
         check_storage(storage)
@@ -111,9 +111,9 @@ class MLSKernel3:
         return self._storage.name if self._storage is not None else self._storage_request
 
     def radius(self, shape: tuple[int, int, int] | None = None) -> float | None:
-        """R in voxels: the configured radius, else the diagonal of ``shape`` (the kernel's
-        own when None); None for a weight without a radius. ``ValueError`` for a radius
-        weight with neither."""
+        """R in the handles' units: the configured radius, else the diagonal of ``shape``
+        (the kernel's own when None); None for a weight without a radius. ``ValueError`` for
+        a radius weight with neither."""
         config = self.config
         if not config.uses_radius or config.radius is not None:
             return config.radius

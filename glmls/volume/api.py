@@ -3,8 +3,11 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
+from ..core.handles3 import spacing_conflict
 from ..engine.kernel3 import MLSKernel3
 from .construction import VolumeWarper
 from .frame import VolumeBounds
@@ -24,6 +27,22 @@ def _kernel(mls: object) -> MLSKernel3:
         )
     kernel.check_alive()
     return kernel
+
+
+def _spacing(mls: object, given: tuple[float, float, float] | None) -> tuple[float, float, float]:
+    """The spacing of a volume operation given ``given`` (checked) on ``mls``: the MLS's own
+    when None (else 1 each); ValueError where it differs from the MLS's own."""
+    own = getattr(mls, "spacing", None)  # a 3D MLS's (a kernel has none)
+    if given is None:
+        return own if own is not None else (1.0, 1.0, 1.0)
+    if own is not None and tuple(given) != tuple(own):
+        raise spacing_conflict(given, own)
+    return given
+
+
+def _options(mls: object, options: VolumeOptions | None, keywords: dict) -> VolumeOptions:
+    options = VolumeOptions.of(options, **keywords)
+    return dataclasses.replace(options, spacing=_spacing(mls, options.spacing))
 
 
 def warp_volume(
@@ -52,9 +71,10 @@ def warp_volume(
     **keywords
         Fields of :class:`VolumeOptions`: ``method`` (``"quads"``, the cells method, or
         ``"backward"``), ``interpolation``, ``grid``, ``border``, ``background``,
-        ``output_shape`` (D, H, W), ``origin`` (x, y, z), ``spacing`` (dz, dy, dx). A
-        radius weight of an MLS given no radius takes the diagonal of ``volume`` in the
-        handles' units: that of (D dz, H dy, W dx).
+        ``output_shape`` (D, H, W), ``origin`` (x, y, z), ``spacing`` (dz, dy, dx): the
+        MLS's ``spacing`` when not given (else 1 each; another than the MLS's is a
+        ValueError). A radius weight of an MLS given no radius takes the diagonal of
+        ``volume`` in the handles' units: that of (D dz, H dy, W dx).
 
     Returns
     -------
@@ -65,8 +85,8 @@ def warp_volume(
     Raises
     ------
     ValueError
-        For a 2D image or a 2D MLS, a bad option, or a volume beyond the GL 3D texture
-        limit (2048 voxels a side at least).
+        For a 2D image or a 2D MLS, a bad option, a ``spacing`` other than the MLS's, or a
+        volume beyond the GL 3D texture limit (2048 voxels a side at least).
     TypeError
         For a bad dtype, or a keyword that is no option.
 
@@ -86,7 +106,7 @@ def warp_volume(
     >>> m.release()
     """
     kernel = _kernel(mls)
-    options = VolumeOptions.of(options, **keywords)
+    options = _options(mls, options, keywords)
     array = check_volume(volume)
     field = KernelField(kernel, options.spacing, array.shape[:3])
     return VolumeWarper.of(kernel.gl).warp(field, array, options, slabs)
@@ -107,7 +127,8 @@ def volume_coordinate_map(
     shape : (int, int, int)
         (D, H, W) of the source volume.
     options : VolumeOptions or None
-        Its ``grid``, ``border``, ``output_shape``, ``origin`` and ``spacing`` apply.
+        Its ``grid``, ``border``, ``output_shape``, ``origin`` and ``spacing`` apply (the
+        spacing as :func:`warp_volume`'s).
     **keywords
         Fields of :class:`VolumeOptions` replacing those of ``options``.
 
@@ -123,7 +144,7 @@ def volume_coordinate_map(
     Raises
     ------
     ValueError
-        For a 2D MLS, a bad ``shape`` or option.
+        For a 2D MLS, a bad ``shape`` or option, or a ``spacing`` other than the MLS's.
     TypeError
         For a keyword that is no option.
 
@@ -140,7 +161,7 @@ def volume_coordinate_map(
     >>> m.release()
     """
     kernel = _kernel(mls)
-    options = VolumeOptions.of(options, **keywords)
+    options = _options(mls, options, keywords)
     size = check_volume_shape(shape, "shape")
     field = KernelField(kernel, options.spacing, size)
     return VolumeWarper.of(kernel.gl).coordinate_map(field, size, options)  # type: ignore[arg-type]
@@ -151,7 +172,7 @@ def volume_bounds(
     shape: object,
     *,
     grid: int = 1,
-    spacing: object = (1.0, 1.0, 1.0),
+    spacing: object = None,
 ) -> VolumeBounds:
     """The bounding box of the deformed volume: f at the corners of the voxel cubes.
 
@@ -163,8 +184,9 @@ def volume_bounds(
         (D, H, W) of the volume.
     grid : int, default 1
         The step of the lattice of corners, voxels.
-    spacing : (float, float, float), default (1, 1, 1)
-        (dz, dy, dx) of the voxels, handle units.
+    spacing : (float, float, float) or None, default None
+        (dz, dy, dx) of the voxels, handle units (None: the MLS's ``spacing``, else 1
+        each).
 
     Returns
     -------
@@ -174,7 +196,7 @@ def volume_bounds(
     Raises
     ------
     ValueError
-        For a 2D MLS, a bad ``shape``, ``grid`` or ``spacing``.
+        For a 2D MLS, a bad ``shape``, ``grid`` or ``spacing``, or one other than the MLS's.
 
     Examples
     --------
@@ -190,7 +212,7 @@ def volume_bounds(
     """
     kernel = _kernel(mls)
     size = check_volume_shape(shape, "shape")
-    steps = check_spacing(spacing)
+    steps = _spacing(mls, None if spacing is None else check_spacing(spacing))
     field = KernelField(kernel, steps, size)
     box = VolumeWarper.of(kernel.gl).bounds(field, size, grid)  # type: ignore[arg-type]
     scale = field.scale

@@ -354,5 +354,5 @@ def make_volume_frame(options: VolumeOptions, shape: tuple[int, int, int]) -> Vo
     return VolumeFrame(
         options.output_shape or tuple(shape),  # type: ignore[arg-type]
         options.origin or (0.0, 0.0, 0.0),
-        options.spacing,
+        options.spacing or (1.0, 1.0, 1.0),
     )

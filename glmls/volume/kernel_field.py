@@ -8,6 +8,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from ..core.handles3 import volume_extent
 from ..engine.kernel3 import MLSKernel3
 from ..engine.passes3 import evaluate_points3
 from ..gl import bindings
@@ -32,7 +33,7 @@ def physical_extent(
 ) -> tuple[float, float, float]:
     """(D dz, H dy, W dx): the size of a (D, H, W) volume of voxels of ``spacing`` (dz, dy,
     dx) in the handles' units, whose diagonal is a radius weight's default radius."""
-    return tuple(float(n) * float(d) for n, d in zip(shape, spacing, strict=True))  # type: ignore[return-value]
+    return volume_extent(shape, spacing)
 
 
 class KernelField:

@@ -103,11 +103,12 @@ class VolumeOptions:
     origin : (float, float, float) or None, default None
         (x0, y0, z0): output voxel (k, j, i) shows the deformed space's point
         ``origin + (i dx, j dy, k dz)`` (handle units); None: (0, 0, 0).
-    spacing : (float, float, float), default (1.0, 1.0, 1.0)
+    spacing : (float, float, float) or None, default None
         (dz, dy, dx): voxel (k, j, i) of the source sits at (i dx, j dy, k dz) in the
         handles' units, and so does output voxel (k, j, i), shifted by ``origin``. A radius
         weight given no radius takes the volume's diagonal in those units, that of
-        (D dz, H dy, W dx).
+        (D dz, H dy, W dx). None: the MLS's ``spacing``, else (1, 1, 1); one that differs
+        from the MLS's is a ValueError.
 
     Raises
     ------
@@ -132,7 +133,7 @@ class VolumeOptions:
     background: float | tuple[float, ...] = 0.0
     output_shape: tuple[int, int, int] | None = None
     origin: tuple[float, float, float] | None = None
-    spacing: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    spacing: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
         for name, value, choices in (
@@ -150,7 +151,7 @@ class VolumeOptions:
             "background": check_background(self.background),
             "output_shape": check_volume_shape(self.output_shape),
             "origin": check_volume_origin(self.origin),
-            "spacing": check_spacing(self.spacing),
+            "spacing": None if self.spacing is None else check_spacing(self.spacing),
         }
         for name, value in checked.items():
             object.__setattr__(self, name, value)

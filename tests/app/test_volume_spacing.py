@@ -120,11 +120,11 @@ def test_the_session_warps_with_the_spacing(gl):
         dst = SRC + [[1.0, 0.5, 0.0], [0, 0, 3.0], [0, 0, 0], [0, 0, 0], [0, 0, 0]]
         c.set_handles(SRC, dst)
         s.sync()
-        assert s.error == "" and s.mls.shape is None  # as glmls warp: no shape
+        assert s.error == "" and (s.mls.shape, s.mls.spacing) == (SHAPE, SPACING)  # as glmls warp
         slices = s.slices()
         assert [p.shape for p in slices] == [(16, 12), (6, 12), (16, 6)]
-        with glmls.MLS(SRC, dst, transform="rigid", ctx=gl) as m:
-            whole = m.warp(data, interpolation="linear", grid=4, border="edge", spacing=SPACING)
+        with glmls.MLS(SRC, dst, transform="rigid", shape=SHAPE, spacing=SPACING, ctx=gl) as m:
+            whole = m.warp(data, interpolation="linear", grid=4, border="edge")
         x, y, z = c.point
         np.testing.assert_array_equal(slices[0], whole[z])
         np.testing.assert_array_equal(slices[1], whole[:, y])

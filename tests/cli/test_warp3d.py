@@ -106,18 +106,30 @@ def test_spacing_option_wins_and_other_formats(files, stand_in, capsys):
     capsys.readouterr()
 
 
-def test_a_radius_weight_defaults_to_the_volume_diagonal_in_handle_units(files, stand_in, capsys):
-    """As for images (the image diagonal): ``--weight gaussian`` without ``--radius`` takes the
-    volume's diagonal, in the units of the handles (the spacing's): v.nii.gz is 8 x 9 x 10
-    voxels of (dz, dy, dx) = (3, 1, 2)."""
+def test_the_mls_has_the_volume_shape_and_spacing(files, stand_in, capsys):
+    """As for images (the image diagonal): the MLS is made with the volume's shape and
+    spacing, so that ``--weight gaussian`` without ``--radius`` takes the volume's diagonal
+    in the units of the handles (the spacing's): v.nii.gz is 8 x 9 x 10 voxels of
+    (dz, dy, dx) = (3, 1, 2)."""
     argv = ["warp", "v.nii.gz", "out.nii.gz", "--handles", "h3.json", "--weight", "gaussian"]
     assert main(argv) == 0
-    assert _last(stand_in.calls, "MLS")[2]["radius"] == pytest.approx(np.sqrt(24**2 + 9**2 + 20**2))
+    settings = _last(stand_in.calls, "MLS")[2]
+    assert settings["shape"] == (8, 9, 10) and settings["spacing"] == (3.0, 1.0, 2.0)
+    assert settings["radius"] is None
     assert main([*argv, "--radius", "7"]) == 0
     assert _last(stand_in.calls, "MLS")[2]["radius"] == 7.0
-    assert main(["warp", "v.nii.gz", "o.nii", "--handles", "h3.json"]) == 0
-    assert _last(stand_in.calls, "MLS")[2]["radius"] is None  # idw needs none
     capsys.readouterr()
+
+
+def test_a_radius_weight_defaults_to_the_volume_diagonal_in_handle_units(files):
+    """End to end on the GPU: the default radius is the diagonal of (24, 9, 20), bit for bit
+    the warp with that radius given."""
+    argv = ["warp", "v.nii.gz", "--handles", "h3.json", "--weight", "gaussian", "--quiet"]
+    assert main([*argv[:2], "default.nii.gz", *argv[2:]]) == 0
+    radius = repr(float(np.sqrt(24**2 + 9**2 + 20**2)))
+    assert main([*argv[:2], "given.nii.gz", *argv[2:], "--radius", radius]) == 0
+    default = glmls.read_volume(files / "default.nii.gz").data
+    assert_array_equal(default, glmls.read_volume(files / "given.nii.gz").data)
 
 
 def test_a_radius_weight_on_a_mesh_asks_for_the_radius(files, capsys):

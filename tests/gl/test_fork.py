@@ -133,6 +133,7 @@ def uses3(m):
         "f": m(points), "J": m.jacobian(points)[1], "inverse": m.inverse(points),
         "warp": m.warp(volume), "backward": m.warp(volume, method="backward"),
         "normals": deformed.normals, "det": deformed.det_j,
+        "bounds": np.array(m.bounds((10, 12, 14)).origin),
     }
 
 def same(a, b):
@@ -156,6 +157,14 @@ def test_an_mls_works_in_a_child_forked_after_the_parent_used_gl(tmp_path):
         expected = uses(parents)
         parents3 = glmls.MLS(SRC3, DST3, transform="similarity")
         expected3 = uses3(parents3)
+        # handles in units of voxels of (2, 1, 0.5), a radius weight's default radius the
+        # diagonal in those units: the helper's MLS must take the spacing too
+        SPACED = dict(weight="gaussian", shape=(10, 12, 14), spacing=(2.0, 1.0, 0.5))
+        spaced = glmls.MLS(SRC3, DST3, **SPACED)
+        expected_spaced = uses3(spaced)
+        assert not np.array_equal(
+            expected_spaced["f"], uses3(glmls.MLS(SRC3, DST3, **(SPACED | {"spacing": None})))["f"]
+        )
 
         def in_the_child():
             made = glmls.MLS(SRC, DST, weight="gaussian", radius=30.0)
@@ -163,6 +172,10 @@ def test_an_mls_works_in_a_child_forked_after_the_parent_used_gl(tmp_path):
             same(uses(parents), expected)  # made before the fork
             same(uses3(glmls.MLS(SRC3, DST3, transform="similarity")), expected3)
             same(uses3(parents3), expected3)
+            made_spaced = glmls.MLS(SRC3, DST3, **SPACED)
+            assert made_spaced.spacing == (2.0, 1.0, 0.5) and "spacing=(2.0" in repr(made_spaced)
+            same(uses3(made_spaced), expected_spaced)
+            same(uses3(spaced), expected_spaced)  # made before the fork
             found = []
             for attempt in (
                 lambda: glmls.MLS(SRC, DST, weight="gaussian")(POINTS),  # no radius
