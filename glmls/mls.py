@@ -1173,19 +1173,25 @@ def warp(image: object, src: object, dst: object, **options: object) -> np.ndarr
     one in which glmls used GL (a data loader's worker), it runs in a helper process started
     fresh, with the same result (see :mod:`glmls.gl.context`).
 
+    With (N, 3) handles it deforms a volume: ``MLS(src, dst, shape=volume.shape[:3],
+    spacing=spacing, ...).warp(volume, **options)`` (:meth:`glmls.mls3.MLS3.warp`).
+
     Parameters
     ----------
     image : array_like
-        H x W or H x W x C (C in 1..4), uint8, uint16, float32 or float64.
+        H x W or H x W x C (C in 1..4), uint8, uint16, float32 or float64; with (N, 3)
+        handles, a (D, H, W) or (D, H, W, C) volume of uint8, uint16 or float32.
     src, dst : array_like
-        (N, 2) handle points.
+        (N, 2) handle points, or (N, 3) for a volume.
     **options
         Those of :meth:`MLS.warp` (the fields of :class:`WarpOptions`: ``method``,
         ``interpolation``, ``grid``, ``tolerance``, ``border``, ``background``,
         ``output_shape``, ``origin``; and ``options``, a :class:`WarpOptions` that those
         given replace fields of) and of :class:`MLS` (``src_segments``, ``dst_segments``,
         ``transform``, ``weight``, ``alpha``, ``s``, ``radius``, ``interpolating``,
-        ``ctx``, ``storage``, ``bins``).
+        ``ctx``, ``storage``, ``bins``). A volume takes those of
+        :class:`glmls.volume.VolumeOptions` instead of :class:`WarpOptions`, ``spacing``
+        (dz, dy, dx) among them: the MLS's, for handles in physical units.
 
     Returns
     -------
@@ -1213,9 +1219,19 @@ def warp(image: object, src: object, dst: object, **options: object) -> np.ndarr
     Traceback (most recent call last):
     ...
     TypeError: warp() got an unknown keyword methd
+
+    A volume, by 3D handles (x, y, z), moved one voxel along z:
+
+    >>> volume = np.zeros((6, 5, 4), np.uint8)
+    >>> volume[2, 2, 1] = 9
+    >>> src = np.array([[0.0, 0, 0], [3, 0, 0], [0, 4, 0], [0, 0, 5]])
+    >>> np.argwhere(glmls.warp(volume, src, src + [0, 0, 1])).tolist()
+    [[3, 2, 1]]
     """
     if options.get("ctx") is None and forked_from_gl():  # GL would hang here: a clean helper
         return helper.call(__name__, "warp", (image, src, dst), options)
+    if dimension_of(src) == 3:
+        return _warp_volume(image, src, dst, options)
     warp_options = {k: options.pop(k) for k in sorted(FIELDS | {"options"}) if k in options}
     unknown = sorted(set(options) - MLS_KEYWORDS)
     if unknown:
@@ -1228,3 +1244,14 @@ def warp(image: object, src: object, dst: object, **options: object) -> np.ndarr
     shape = array.shape[:2] if array.ndim in (2, 3) and array.size else None
     with MLS(src, dst, shape=shape, **options) as m:  # type: ignore[arg-type]
         return m.warp(image, options=chosen)  # the caller's object: errors say what it was
+
+
+def _warp_volume(volume: object, src: object, dst: object, options: dict) -> np.ndarray:
+    """:func:`warp` by (N, 3) handles: the MLS's keywords (and ``spacing``) make the MLS of
+    the volume's shape, the rest are its warp's (which names those it does not know)."""
+    keywords = MLS_KEYWORDS | {"spacing"}
+    made = {k: options.pop(k) for k in sorted(keywords) if k in options}
+    array = np.asarray(volume)
+    shape = array.shape[:3] if array.ndim in (3, 4) and array.size else None
+    with MLS(src, dst, shape=shape, **made) as m:  # type: ignore[arg-type]
+        return m.warp(volume, **options)

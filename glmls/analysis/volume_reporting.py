@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.config import MLSConfig
+from ..core.handles3 import volume_diagonal
 from . import colormaps
 from .jacobians import CellJacobians, cell_jacobians
 from .reporting import SavedReport, StageClock, cmap_name
@@ -291,7 +293,12 @@ def volume_report(
             "channels": 1 if array.ndim == 3 else array.shape[3],
         },
         "configuration": (dataclasses.asdict(config) if dataclasses.is_dataclass(config) else {})
-        | {"handles": len(src), "src": src.tolist(), "dst": dst.tolist()},
+        | {
+            "radius_used": _radius_used(config, dims, tuple(scale[::-1].tolist())),
+            "handles": len(src),
+            "src": src.tolist(),
+            "dst": dst.tolist(),
+        },
         "analysis": {
             "grid": step,
             "jacobian_grid": cell_step,
@@ -319,3 +326,12 @@ def volume_report(
     if out_dir is not None:
         result.save(out_dir)
     return result
+
+
+def _radius_used(config: object, dims: tuple[int, int, int], spacing: object) -> float | None:
+    """The radius the analysis evaluated with (handle units): the configured one, else a
+    radius weight's default, the diagonal of the analysed volume at ``spacing`` (dz, dy, dx;
+    None: voxels); None for a weight without a radius."""
+    if not isinstance(config, MLSConfig) or not config.uses_radius or config.radius is not None:
+        return getattr(config, "radius", None)
+    return volume_diagonal(dims, spacing)  # type: ignore[arg-type]

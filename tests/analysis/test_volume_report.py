@@ -180,3 +180,18 @@ def test_on_the_gpu_the_report_matches_the_reference_and_warps_the_volume(gl):
     assert abs(found.jacobians.count - exact.jacobians.count) <= 2
     assert found.jacobians.count > 0
     assert_array_equal(found.tetrahedra.inverted, exact.tetrahedra.inverted)
+
+
+def test_the_report_names_the_radius_it_evaluated_with(gl):
+    """A radius weight given no radius: the analysed volume's diagonal, in the handles' units
+    with a spacing; a given radius as given; None for a weight without one."""
+    dst = SRC + 0.5
+    spacing = (2.0, 1.0, 0.5)
+    made = ReferenceDeformation(SRC, dst, weight="gaussian", shape=SHAPE, spacing=spacing)
+    summary = volume_report(volume(), made, grid=4, jacobian_grid=4).summary
+    diagonal = float(np.sqrt(20.0**2 + 12.0**2 + 7.0**2))  # (D dz, H dy, W dx) = (20, 12, 7)
+    assert summary["configuration"]["radius_used"] == pytest.approx(diagonal)
+    given = ReferenceDeformation(SRC, dst, weight="gaussian", radius=9.0, shape=SHAPE)
+    assert volume_report(volume(), given, grid=4).summary["configuration"]["radius_used"] == 9.0
+    idw = ReferenceDeformation(SRC, dst, shape=SHAPE)
+    assert volume_report(volume(), idw, grid=4).summary["configuration"]["radius_used"] is None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from numpy.testing import assert_array_equal
 
 import glmls
@@ -34,3 +35,35 @@ def test_translation_bounds_hold_the_moved_volume(gl):
         b = m.bounds((5, 6, 7))
     assert b.output_shape == (5, 6, 7)
     assert b.origin == (2.0, -1.0, 3.0)
+
+
+def test_glmls_warp_takes_a_volume_by_3d_handles(gl):
+    """glmls.warp with (N, 3) handles is the 3D MLS of the volume's shape and spacing and its
+    warp, bit for bit, for both methods; its errors name what is wrong."""
+    src, dst = handles()
+    rng = np.random.default_rng(6)
+    volume = rng.integers(0, 255, (8, 12, 16), dtype=np.uint8)
+    spacing = (1.5, 1.0, 0.75)
+    options = {"weight": "gaussian", "transform": "similarity"}
+    for method, interpolation in (("quads", "nearest"), ("backward", "linear")):
+        got = glmls.warp(
+            volume,
+            src,
+            dst,
+            method=method,
+            interpolation=interpolation,
+            spacing=spacing,
+            ctx=gl,
+            **options,
+        )
+        with glmls.MLS(src, dst, shape=volume.shape, spacing=spacing, ctx=gl, **options) as m:
+            expected = m.warp(volume, method=method, interpolation=interpolation)
+        assert_array_equal(got, expected)
+    with pytest.raises(TypeError, match="methd"):
+        glmls.warp(volume, src, dst, methd="quads", ctx=gl)
+    with pytest.raises(ValueError, match="splat"):
+        glmls.warp(volume, src, dst, method="splat", ctx=gl)
+    with pytest.raises(ValueError, match="2D image"):
+        glmls.warp(volume[0], src, dst, ctx=gl)
+    with pytest.raises(TypeError, match="spacing"):  # an image's warp has no spacing
+        glmls.warp(volume[0], src[:, :2], dst[:, :2], spacing=spacing, ctx=gl)
