@@ -15,12 +15,14 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import struct
 import threading
 import warnings
 import zlib
 from collections.abc import Iterator
 from pathlib import Path
+from typing import NoReturn
 
 import imagecodecs
 import numpy as np
@@ -64,10 +66,14 @@ _pillow_lock = threading.Lock()
 
 def _too_large(path: Path, width: int, height: int, max_pixels: int) -> None:
     if width * height > max_pixels:
-        raise ValueError(
-            f"{path}: {width} x {height} = {width * height:,} pixels exceeds the limit of "
-            f"{max_pixels:,} (raise it with max_pixels=, or glmls's --max-pixels)"
-        )
+        _refuse(path, f"{width} x {height} = {width * height:,}", max_pixels)
+
+
+def _refuse(path: Path, pixels: str, max_pixels: int) -> NoReturn:
+    raise ValueError(
+        f"{path}: {pixels} pixels exceeds the limit of {max_pixels:,} "
+        "(raise it with max_pixels=, or glmls's --max-pixels)"
+    )
 
 
 def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> np.ndarray:
@@ -179,7 +185,7 @@ def _orient(array: np.ndarray, code: int) -> np.ndarray:
 @contextlib.contextmanager
 def _pillow_limit(max_pixels: int) -> Iterator[None]:
     """Pillow's own decompression-bomb limit set to ours while it opens the file (its warning
-    silenced: glmls checks the size itself)."""
+    silenced: glmls checks the size itself; Pillow refuses beyond twice the limit)."""
     with _pillow_lock, warnings.catch_warnings():
         warnings.simplefilter("ignore", Image.DecompressionBombWarning)
         saved = Image.MAX_IMAGE_PIXELS
@@ -195,7 +201,9 @@ def _read_pillow(path: Path, max_pixels: int) -> np.ndarray:
         with _pillow_limit(max_pixels):
             image = Image.open(path)
     except Image.DecompressionBombError as error:
-        raise ValueError(f"{path}: {error}") from None
+        # Pillow's message names the pixels and twice its limit: say ours
+        found = re.search(r"\((\d+) pixels\)", str(error))
+        _refuse(path, f"{int(found[1]):,}" if found else "the image's", max_pixels)
     except UnidentifiedImageError:
         size = path.stat().st_size
         with open(path, "rb") as file:

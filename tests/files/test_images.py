@@ -116,6 +116,13 @@ def test_oversized_images_are_refused_before_decoding(tmp_path):
         glmls.imread(small, max_pixels=50)
     assert glmls.imread(small, max_pixels=100).shape == (10, 10)
     assert Image.MAX_IMAGE_PIXELS != 50  # Pillow's own limit is left as it was
+    # far beyond the limit (where Pillow itself refuses the file): still the limit given
+    with pytest.raises(ValueError, match=r"small.png: 100 pixels exceeds the limit of 10 \("):
+        glmls.imread(small, max_pixels=10)
+    jpeg = tmp_path / "small.jpg"
+    glmls.imwrite(jpeg, np.zeros((10, 10, 3), np.uint8))
+    with pytest.raises(ValueError, match=r"small.jpg: 100 pixels exceeds the limit of 49 \("):
+        glmls.imread(jpeg, max_pixels=49)
 
 
 def test_exif_orientation_is_applied(tmp_path):
