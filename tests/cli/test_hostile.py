@@ -169,12 +169,16 @@ def test_every_option_shows_its_default(files):
         ("warp", ("--transform", "--weight", "--method", "--interpolation", "--max-pixels")),
         ("tune", ("--trials", "--seed", "--rank-by")),
         ("demo", ("--method", "--interpolation", "--out", "--grid")),
+        ("augment", ("--rows", "--cols", "--displacement", "--units", "--segments", "--radius")),
+        ("augment", ("--transform", "--interpolation", "--border")),
+        ("bench", ("--sizes", "--handles", "--grids", "--transforms", "--repeat", "--tools")),
     ):
         text = cli(command, "--help", cwd=files).stdout
         for option in options:
             start = text.index(f"\n  {option} ")  # its entry, not the usage line
             block = " ".join(text[start + 1 :].split("\n  -")[0].split())  # unwrapped
-            assert "(default: " in block, (command, option, block)
+            assert block.count("(default: ") == 1, (command, option, block)
+            assert "['" not in block, (command, option, block)  # not a Python list
 
 
 def test_the_window_takes_the_same_option_names(files):
