@@ -10,6 +10,7 @@ from .analyze_mesh import is_mesh_input, run_mesh
 from .analyze_volume import is_volume_input, run_volume
 from .inputs import (
     add_example_inputs,
+    check_example,
     example_or_files,
     make_mls,
     reference_or_handles,
@@ -51,6 +52,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_example(args)
     if is_volume_input(args):  # a volume (.npy, NIfTI, TIFF stack): the 3D analysis
         return run_volume(args)
     if is_mesh_input(args):  # a mesh or point cloud (PLY, OBJ, STL): at its vertices

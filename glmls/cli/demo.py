@@ -22,6 +22,7 @@ from .options import (
     add_max_pixels,
     add_warp_options,
     config_from_args,
+    folder_path,
     positive_int,
 )
 from .warp3d import TARGETS_HELP, parse_spacing
@@ -126,7 +127,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--out",
         "--out-dir",
         dest="out",
-        type=Path,
+        type=folder_path,
         default=Path("."),
         metavar="DIR",
         help="where the s, j and S keys save",

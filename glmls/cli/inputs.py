@@ -22,11 +22,12 @@ from ..files.atomic import atomic_write
 from ..files.images import DEFAULT_MAX_PIXELS, imread, imwrite
 from ..files.landmarks import read_handle_set, read_points
 from ..mls import MLS
-from .options import UsageError, add_max_pixels, handle_warnings, positive_int
+from .options import UsageError, add_max_pixels, folder_path, handle_warnings, positive_int
 
 __all__ = [
     "IMAGE_SUFFIXES",
     "add_example_inputs",
+    "check_example",
     "example_or_files",
     "image_inputs",
     "make_mls",
@@ -153,7 +154,9 @@ def add_example_inputs(parser: argparse.ArgumentParser, *, reference_required: b
     parser.add_argument(
         "--example", action="store_true", help="use the bundled photograph, handles and points"
     )
-    parser.add_argument("--out", metavar="DIR", required=True, help="output folder")
+    parser.add_argument(
+        "--out", metavar="DIR", type=folder_path, required=True, help="output folder"
+    )
     add_max_pixels(parser)
     parser.add_argument(
         "--analysis-grid",
@@ -169,9 +172,32 @@ def add_example_inputs(parser: argparse.ArgumentParser, *, reference_required: b
     )
 
 
+def check_example(args: argparse.Namespace) -> None:
+    """:class:`UsageError` for --example with the inputs it stands for (IN, --handles,
+    --reference, --targets), which it would otherwise leave unread."""
+    if not args.example:
+        return
+    given = [
+        f"{name} {value}"
+        for name, value in (
+            ("IN", args.input),
+            ("--handles", args.handles),
+            ("--reference", args.reference),
+            ("--targets", getattr(args, "targets", None)),
+        )
+        if value is not None
+    ]
+    if given:
+        raise UsageError(
+            "--example replaces IN, --handles and --reference (the bundled photograph and its "
+            f"points); leave out {', '.join(given)}"
+        )
+
+
 def example_or_files(args: argparse.Namespace, *, need_reference: bool):
     """(image, handles, reference or None, name) from --example or the given files;
     ``handles`` is a :class:`~glmls.core.handleset.HandleSet`."""
+    check_example(args)
     if args.example:
         return (
             data.astronaut(),

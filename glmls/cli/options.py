@@ -8,6 +8,8 @@ import argparse
 import dataclasses
 import math
 from collections.abc import Sequence
+from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 
@@ -17,14 +19,17 @@ from ..imaging.options import WarpOptions
 from ..imaging.source import BORDERS, INTERPOLATIONS, METHODS
 
 __all__ = [
+    "ArgumentParser",
     "HelpFormatter",
     "UsageError",
     "add_config_options",
     "add_jobs_options",
     "add_max_pixels",
     "add_warp_options",
+    "below_a_file",
     "config_from_args",
     "fit_background",
+    "folder_path",
     "handle_warnings",
     "nonnegative_int",
     "parse_background",
@@ -40,6 +45,14 @@ _CHOICES = {"transform": TRANSFORMS, "weight": WEIGHTS}
 
 class UsageError(ValueError):
     """A mistake in the command line or its input files (exit status 2)."""
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse's parser with a mistake on one line, as glmls's other errors: the command,
+    the fault and where the options are listed, not the whole usage first (exit status 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
 
 
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):
@@ -76,6 +89,28 @@ def _int_at_least(text: str, low: int) -> int:
     if value < low:
         raise argparse.ArgumentTypeError(f"expected an integer >= {low}, got {value}")
     return value
+
+
+def folder_path(text: str) -> Path:
+    """An output folder: one that exists or can be made, not a file (nor below one), so that
+    a run does not do all its work before it finds that it cannot write."""
+    fault = below_a_file(Path(text), itself=True)
+    if fault is not None:
+        raise argparse.ArgumentTypeError(fault)
+    return Path(text)
+
+
+def below_a_file(path: Path, *, itself: bool) -> str | None:
+    """Why ``path`` cannot be written for a file in its way: the first of the folders above
+    it that exists is a file (or, with ``itself``, ``path`` is one, where it is to be a
+    folder); None where nothing is in the way."""
+    for place in (path, *path.parents) if itself else path.parents:
+        if place.exists():
+            if place.is_dir():
+                return None
+            what = "" if place == path else f" {place} is"
+            return f"{path}:{what} a file, not a folder"
+    return None
 
 
 def text_table(heads: Sequence[str], cells: Sequence[Sequence[str]]) -> str:

@@ -38,6 +38,7 @@ from .options import (
     add_jobs_options,
     add_max_pixels,
     add_warp_options,
+    below_a_file,
     config_from_args,
     fit_background,
     parse_background,
@@ -107,8 +108,10 @@ def targets(output: str, files: list[Path], many: bool) -> list[Path]:
     existing folder, or a name ending in /). Unwritable formats are refused before any work."""
     out = Path(output)
     folder = many or out.is_dir() or output.endswith(("/", os.sep))
-    if folder and out.exists() and not out.is_dir():
-        raise UsageError(f"{out}: must be a folder when IN names several images")
+    fault = below_a_file(out, itself=folder)
+    if fault is not None:
+        why = " (IN names several images: OUT is their folder)" if many and out.is_file() else ""
+        raise UsageError(fault + why)
     paths = [out / f.name for f in files] if folder else [out]
     for path in paths:
         try:

@@ -153,11 +153,48 @@ def test_usage_errors(inputs):
         (["tune", "a.png", "--handles", "h.json", "--out", "x"], "missing --reference"),
         (["tune", "--example", "--out", "x", "--configs", "rigid"], "expected transform:weight"),
         (["warp", "h.json", "o.png", "--handles", "h.json"], "h.json: not an image format"),
+        (["analyze", "a.png", "--example", "--out", "x"], "--example replaces IN, --handles"),
+        (["tune", "--example", "--reference", "h.json", "--out", "x"], "out --reference h.json"),
     ]:
         result = glmls_cli(*args, cwd=inputs)
         assert result.returncode == 2, (args, result.stderr)
         assert message in result.stderr, (args, result.stderr)
         _no_traceback(result)
+
+
+def test_a_bad_option_is_one_line_not_the_usage(inputs):
+    """argparse's mistakes (a bad value, a missing argument, an unknown command) printed the
+    whole usage, a dozen lines, before the fault."""
+    for args, line in [
+        (["warp", "a.png", "o.png", "--handles", "h.json", "--grid", "0"],
+         "glmls warp: argument --grid: expected an integer >= 1, got 0 (see glmls warp --help)"),
+        (["warp"], "glmls warp: the following arguments are required: IN, OUT, --handles"),
+        (["wrap"], "glmls: argument COMMAND: invalid choice: 'wrap'"),
+    ]:  # fmt: skip
+        result = glmls_cli(*args, cwd=inputs)
+        assert result.returncode == 2, (args, result.stderr)
+        assert result.stderr.startswith(line), (args, result.stderr)
+        assert len(result.stderr.strip().splitlines()) == 1, (args, result.stderr)
+
+
+def test_an_output_folder_that_is_a_file_is_refused_before_any_work(inputs):
+    """--out naming a file (or a path below one) was found only when the report, the ranking
+    or the study was written, after all the work, as 'cannot write: File exists'."""
+    (inputs / "taken").write_text("a file")
+    for args, message in [
+        (["analyze", "--example", "--out", "taken"], "argument --out: taken: a file, not a folder"),
+        (["tune", "--example", "--out", "taken/x"], "taken/x: taken is a file, not a folder"),
+        (["study", "--out", "taken"], "taken: a file, not a folder"),
+        (["bench", "--quick", "--out", "taken"], "taken: a file, not a folder"),
+        (["warp", "a.png", "taken/o.png", "--handles", "h.json"], "taken is a file, not a"),
+        (["warp", "a.png", "taken/", "--handles", "h.json"], "taken: a file, not a folder"),
+    ]:
+        result = glmls_cli(*args, cwd=inputs)
+        assert result.returncode == 2, (args, result.stderr)
+        assert message in result.stderr, (args, result.stderr)
+        assert len(result.stderr.strip().splitlines()) == 1, (args, result.stderr)
+        _no_traceback(result)
+    assert (inputs / "taken").read_text() == "a file"
 
 
 def test_version_and_help(inputs):

@@ -27,6 +27,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ...core.config import TRANSFORMS
+from ..options import folder_path
 from .cases import (
     GRIDLESS_TOOLS,
     MLS_TOOLS,
@@ -165,7 +166,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--timeout", type=float, default=600.0, help="seconds per case before it is abandoned"
     )
     parser.add_argument(
-        "--out", type=Path, default=Path("bench-out"), help="folder for bench.csv and bench.png"
+        "--out",
+        type=folder_path,
+        default=Path("bench-out"),
+        help="folder for bench.csv and bench.png",
     )
     parser.add_argument("--worker", help=argparse.SUPPRESS)  # one case, in a child process
 
