@@ -68,6 +68,8 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
             return text
         if not action.option_strings:
             return text
+        if isinstance(default, (list, tuple)):  # as it is typed, not as a Python list
+            return f"{text} (default: {' '.join(map(str, default))})"
         return f"{text} (default: %(default)s)"
 
 

@@ -167,7 +167,7 @@ def test_suspicious_handles_warn_without_failing(files):
 def test_every_option_shows_its_default(files):
     for command, options in (
         ("warp", ("--transform", "--weight", "--method", "--interpolation", "--max-pixels")),
-        ("tune", ("--trials", "--seed", "--rank-by")),
+        ("tune", ("--trials", "--seed", "--rank-by", "--magnitudes")),
         ("demo", ("--method", "--interpolation", "--out", "--grid")),
         ("augment", ("--rows", "--cols", "--displacement", "--units", "--segments", "--radius")),
         ("augment", ("--transform", "--interpolation", "--border")),
