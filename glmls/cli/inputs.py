@@ -121,7 +121,14 @@ def warn_about_handles(args: argparse.Namespace, handles: HandleSet, shape) -> N
     """Warnings on stderr (not errors) for handles (their source points and segment ends)
     that look like another convention."""
     points, ends = handles.source_points(), handles.segments > 0
-    for message in handle_warnings(points, shape[:2], segment_ends=ends):
+    messages = handle_warnings(points, shape[:2], segment_ends=ends)
+    grid, (height, width) = getattr(args, "grid", 1), shape[:2]
+    if getattr(args, "tolerance", None) is None and grid > 1 and grid >= max(height, width):
+        messages.append(
+            f"--grid {grid} is not smaller than the {width} x {height} image: the mesh is one "
+            "cell, whose corners alone follow f (the handles inside it move nothing)"
+        )
+    for message in messages:
         say(args, f"glmls {args.command}: warning: {message}")
 
 

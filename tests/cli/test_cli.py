@@ -238,3 +238,13 @@ def test_warp_and_analyze_take_the_adaptive_tolerance(inputs, gl):
         bad = glmls_cli("warp", "a.png", "x.png", "--handles", "h.json", *args, cwd=inputs)
         assert bad.returncode == 2 and message in bad.stderr, (args, bad.stderr)
         _no_traceback(bad)
+
+
+def test_a_grid_as_large_as_the_image_is_warned_about(inputs, gl):
+    """--grid 100000 warped the image by its four corners alone, every handle ignored, and
+    said nothing."""
+    result = glmls_cli("warp", "a.png", "o.png", "--handles", "h.json", "--grid", "40", cwd=inputs)
+    assert result.returncode == 0, result.stderr
+    assert "warning: --grid 40 is not smaller than the 40 x 32 image" in result.stderr
+    result = glmls_cli("warp", "a.png", "o.png", "--handles", "h.json", "--grid", "39", cwd=inputs)
+    assert result.returncode == 0 and "--grid" not in result.stderr, result.stderr
