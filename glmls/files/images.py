@@ -43,9 +43,11 @@ WRITABLE = {
     ".tiff": (("uint8", "uint16", "float32", "float64"), True),
     ".jpg": (("uint8",), False),
     ".jpeg": (("uint8",), False),
-    ".bmp": (("uint8",), True),
+    ".bmp": (("uint8",), False),  # Pillow reads a 32-bit BMP's fourth channel as nothing
     ".webp": (("uint8",), True),
 }
+#: Formats of colour images only: a grey image would come back RGB (or RGBA).
+_COLOUR_ONLY = (".webp",)
 _PNG = b"\x89PNG\r\n\x1a\n"
 _TIFF = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
 #: Decoding failures of a corrupt file, whichever library meets them.
@@ -252,10 +254,27 @@ def check_writable(path: str | os.PathLike, dtype: object = None, channels: int 
     dtypes, alpha = WRITABLE[suffix]
     if dtype is not None and np.dtype(dtype).name not in dtypes:  # type: ignore[call-overload]
         fits = [s for s, (d, _) in WRITABLE.items() if np.dtype(dtype).name in d]  # type: ignore[call-overload]
-        where = f"; write it as {' or '.join(fits)}" if fits else ""
+        where = f"; write it as {', '.join(fits[:-1])} or {fits[-1]}" if len(fits) > 1 else ""
+        where = f"; write it as {fits[0]}" if len(fits) == 1 else where
         raise ValueError(f"{path}: {suffix} cannot hold {np.dtype(dtype).name} images{where}")  # type: ignore[call-overload]
     if channels is not None and channels in (2, 4) and not alpha:
-        raise ValueError(f"{path}: {suffix} has no alpha channel; write .png, .tif or .webp")
+        fits = _suffixes(dtype, channels)
+        raise ValueError(f"{path}: {suffix} has no alpha channel; write {fits}")
+    if channels is not None and channels in (1, 2) and suffix in _COLOUR_ONLY:
+        fits = _suffixes(dtype, channels)
+        raise ValueError(f"{path}: {suffix} holds colour images only, not grey; write {fits}")
+
+
+def _suffixes(dtype: object, channels: int) -> str:
+    """The suffixes that hold images of ``dtype`` (any, where None) and ``channels``."""
+    fits = [
+        suffix
+        for suffix, (dtypes, alpha) in WRITABLE.items()
+        if (dtype is None or np.dtype(dtype).name in dtypes)  # type: ignore[call-overload]
+        and (alpha or channels not in (2, 4))
+        and not (suffix in _COLOUR_ONLY and channels in (1, 2))
+    ]
+    return ", ".join(fits[:-1]) + f" or {fits[-1]}" if len(fits) > 1 else fits[0]
 
 
 def imwrite(path: str | os.PathLike, image: object) -> None:
