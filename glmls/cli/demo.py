@@ -13,9 +13,9 @@ import numpy as np
 
 from ..core.handleset import HandleSet
 from ..errors import InputFileError
-from ..files.landmarks import read_handle_set, read_points
+from ..files.landmarks import read_points
 from .demo_window import fail, replay_events, run_window, window_options
-from .inputs import read_image
+from .inputs import read_image, read_image_handles
 from .options import (
     UsageError,
     add_config_options,
@@ -155,7 +155,7 @@ def _inputs(args: argparse.Namespace):
         reference = np.zeros((0, 2))
     handles = HandleSet.validate(src, dst)
     if args.handles is not None:
-        handles = read_handle_set(args.handles, dst=args.targets)
+        handles = read_image_handles(args.handles, dst=args.targets, image=args.image or name)
     if args.reference is not None:
         reference = read_points(args.reference)
     return image, name, handles, reference

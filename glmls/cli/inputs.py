@@ -20,7 +20,7 @@ from ..core.handleset import HandleSet
 from ..errors import BorderWarning, ImageWarning
 from ..files.atomic import atomic_write
 from ..files.images import DEFAULT_MAX_PIXELS, imread, imwrite
-from ..files.landmarks import read_handle_set, read_points
+from ..files.landmarks import handle_dimension, read_handle_set, read_points
 from ..mls import MLS
 from .options import UsageError, add_max_pixels, folder_path, handle_warnings, positive_int
 
@@ -32,6 +32,7 @@ __all__ = [
     "image_inputs",
     "make_mls",
     "read_image",
+    "read_image_handles",
     "reference_or_handles",
     "say",
     "warn_about_handles",
@@ -201,6 +202,16 @@ def check_example(args: argparse.Namespace) -> None:
         )
 
 
+def read_image_handles(path, *, dst=None, image: object) -> HandleSet:
+    """The 2D handles of ``path`` (and ``dst``, an elastix pair's targets) for ``image``
+    (its name, for the message); :class:`UsageError` for a file of 3D handles."""
+    if handle_dimension(path, dst=dst) != 2:
+        raise UsageError(
+            f"{path}: 3D handles (x, y, z), but {image} is an image: it takes 2D handles (x, y)"
+        )
+    return read_handle_set(path, dst=dst)
+
+
 def example_or_files(args: argparse.Namespace, *, need_reference: bool):
     """(image, handles, reference or None, name) from --example or the given files;
     ``handles`` is a :class:`~glmls.core.handleset.HandleSet`."""
@@ -218,6 +229,6 @@ def example_or_files(args: argparse.Namespace, *, need_reference: bool):
     if missing:
         raise UsageError(f"missing {', '.join(missing)} (or use --example)")
     image = read_image(Path(args.input), args.max_pixels)
-    handles = read_handle_set(args.handles, dst=getattr(args, "targets", None))
+    handles = read_image_handles(args.handles, dst=getattr(args, "targets", None), image=args.input)
     reference = read_points(args.reference) if args.reference else None
     return image, handles, reference, str(args.input)

@@ -147,6 +147,7 @@ def test_malformed_input_exits_2_with_a_message(inputs, files, args, message):
 
 
 def test_usage_errors(inputs):
+    (inputs / "h3.json").write_text('{"src": [[1, 2, 3]], "dst": [[2, 2, 3]]}')
     for args, message in [
         (["warp", "missing.png", "o.png", "--handles", "h.json"], "no such file"),
         (["analyze", "--out", "x"], "missing IN, --handles (or use --example)"),
@@ -155,6 +156,12 @@ def test_usage_errors(inputs):
         (["warp", "h.json", "o.png", "--handles", "h.json"], "h.json: not an image format"),
         (["analyze", "a.png", "--example", "--out", "x"], "--example replaces IN, --handles"),
         (["tune", "--example", "--reference", "h.json", "--out", "x"], "out --reference h.json"),
+        (["tune", "--example", "--out", "x", "--seed", "-1"], "--seed: expected an integer >= 0"),
+        (["study", "--out", "x", "--seed", "-1"], "--seed: expected an integer >= 0, got -1"),
+        (
+            ["analyze", "a.png", "--handles", "h3.json", "--out", "x"],
+            "h3.json: 3D handles (x, y, z), but a.png is an image: it takes 2D handles (x, y)",
+        ),
     ]:
         result = glmls_cli(*args, cwd=inputs)
         assert result.returncode == 2, (args, result.stderr)
