@@ -140,13 +140,15 @@ class WarpTask:
 @dataclasses.dataclass(frozen=True)
 class WarpOutcome:
     """What became of one image: its shape (for the handle warnings), the error that
-    skipped it (``None``: written), lines to say (unless ``--quiet``) and stderr's text."""
+    skipped it (``None``: written), lines to say (unless ``--quiet``), stderr's text, and
+    whether the error is a failure to write (exit status 1) rather than a mistake (2)."""
 
     target: Path
     shape: tuple[int, ...] | None
     error: str | None
     notes: tuple[str, ...] = ()
     stderr: str = ""
+    unwritten: bool = False
 
 
 def warp_file(task: WarpTask) -> WarpOutcome:
@@ -191,6 +193,8 @@ def _warp_file(task: WarpTask) -> WarpOutcome:
         write_image(task.target, result)
     except UsageError as error:
         return WarpOutcome(task.target, shape, str(error), tuple(notes))
+    except OSError as error:  # its message names the output: no "item N" before it
+        return WarpOutcome(task.target, shape, str(error), tuple(notes), unwritten=True)
     return WarpOutcome(task.target, shape, None, tuple(notes))
 
 
@@ -243,7 +247,7 @@ def run(args: argparse.Namespace) -> int:
                 say(args, note)
             if outcome.error is not None:
                 if not args.keep_going:  # stops the batch: the items not started never start
-                    raise UsageError(outcome.error)
+                    raise (OSError if outcome.unwritten else UsageError)(outcome.error)
                 failed.append(files[index])
                 say(args, f"glmls warp: skipped {outcome.error}")
             else:

@@ -255,3 +255,19 @@ def test_a_grid_as_large_as_the_image_is_warned_about(inputs, gl):
     assert "warning: --grid 40 is not smaller than the 40 x 32 image" in result.stderr
     result = glmls_cli("warp", "a.png", "o.png", "--handles", "h.json", "--grid", "39", cwd=inputs)
     assert result.returncode == 0 and "--grid" not in result.stderr, result.stderr
+
+
+def test_an_output_that_cannot_be_written_is_named_once_with_status_1(
+    inputs, gl, monkeypatch, capsys
+):
+    """A full disk or a refused write said 'item 0: out.png: cannot write: ...' of one image."""
+    from glmls.cli import warp
+    from glmls.cli.main import main
+
+    def full(path, image):
+        raise OSError(f"{path}: cannot write: No space left on device")
+
+    monkeypatch.setattr(warp, "write_image", full)
+    monkeypatch.chdir(inputs)
+    assert main(["warp", "a.png", "o.png", "--handles", "h.json"]) == 1
+    assert capsys.readouterr().err == "glmls warp: o.png: cannot write: No space left on device\n"
