@@ -10,6 +10,8 @@ input with each source handle p (a disk) and an arrow to its target q; right, th
 deformation (idw, alpha 1) built by the default forward method with bilinear colours, with
 the targets q marked: every handle lands on its target.
 
+From the command line::
+
     python demos/before_after.py [--out demos/out/before_after.png] [--scale 0.9]
 """
 
