@@ -64,3 +64,19 @@ def test_examples_run_as_written(path, tmp_path):
         command, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600
     )
     assert done.returncode == 0, f"{path.name}:\n{done.stderr[-3000:]}"
+
+
+@pytest.mark.parametrize("path", DOCUMENTS, ids=lambda p: p.name)
+def test_every_code_block_is_closed_by_a_bare_fence(path):
+    """A closing fence with text after it ("``` The output ...") closes nothing: the block
+    swallows the paragraphs after it, up to the next bare fence."""
+    inside = None
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        if not line.startswith("```"):
+            continue
+        if inside is None:
+            inside = number
+        else:
+            assert line.rstrip() == "```", f"{path.name}:{number}: {line!r} closes the block"
+            inside = None
+    assert inside is None, f"{path.name}: the block of line {inside} is never closed"
