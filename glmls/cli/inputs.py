@@ -188,9 +188,9 @@ def check_example(args: argparse.Namespace) -> None:
     given = [
         f"{name} {value}"
         for name, value in (
-            ("IN", args.input),
-            ("--handles", args.handles),
-            ("--reference", args.reference),
+            ("IN", getattr(args, "input", None)),
+            ("--handles", getattr(args, "handles", None)),
+            ("--reference", getattr(args, "reference", None)),
             ("--targets", getattr(args, "targets", None)),
         )
         if value is not None
