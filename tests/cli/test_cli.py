@@ -148,6 +148,7 @@ def test_malformed_input_exits_2_with_a_message(inputs, files, args, message):
 
 def test_usage_errors(inputs):
     (inputs / "h3.json").write_text('{"src": [[1, 2, 3]], "dst": [[2, 2, 3]]}')
+    (inputs / "r2.json").write_text('{"points": [[1, 2], [3, 4]]}')
     for args, message in [
         (["warp", "missing.png", "o.png", "--handles", "h.json"], "no such file"),
         (["analyze", "--out", "x"], "missing IN, --handles (or use --example)"),
@@ -161,6 +162,10 @@ def test_usage_errors(inputs):
         (
             ["analyze", "a.png", "--handles", "h3.json", "--out", "x"],
             "h3.json: 3D handles (x, y, z), but a.png is an image: it takes 2D handles (x, y)",
+        ),
+        (
+            ["analyze", "a.png", "--handles", "h.json", "--reference", "r2.json", "--out", "x"],
+            "glmls analyze: r2.json: a triangulation needs at least 3 points, got 2\n",
         ),
     ]:
         result = glmls_cli(*args, cwd=inputs)
