@@ -147,7 +147,15 @@ def reference_or_handles(args: argparse.Namespace, reference, handles: HandleSet
 
 def add_example_inputs(parser: argparse.ArgumentParser, *, reference_required: bool) -> None:
     """IN, --handles, --reference, --example, --out, --analysis-grid and --cmap."""
-    parser.add_argument("input", metavar="IN", nargs="?", help="the image")
+    parser.add_argument(
+        "input",
+        metavar="IN",
+        nargs="?",
+        help="the image"
+        if reference_required
+        else "the image, or a volume (.nii, .nii.gz, a TIFF of several pages, .npy) or a mesh "
+        "(.ply, .obj, .stl) with 3D handles",
+    )
     parser.add_argument(
         "--handles",
         metavar="H",
