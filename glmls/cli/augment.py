@@ -30,7 +30,7 @@ from ..analysis.jobs import check_jobs, check_scheduler, run_jobs
 from ..augment import PRESETS, Augment
 from ..files.atomic import remove_leftovers, umask
 from ..files.images import check_writable, imwrite
-from ..imaging.source import BORDERS, INTERPOLATIONS
+from ..imaging.source import BORDERS, INTERPOLATIONS, check_image
 from .inputs import image_inputs, read_image, say
 from .options import UsageError, add_jobs_options, add_max_pixels, positive_float, positive_int
 
@@ -164,6 +164,10 @@ def augment_file(task: AugmentTask) -> AugmentOutcome:
         labels = task.labels or {}
         keypoints = labels.get("keypoints")
         boxes = labels.get("boxes")
+        try:
+            check_image(image, str(task.source))  # before the outputs: no suffix takes int16
+        except (TypeError, ValueError) as error:
+            raise UsageError(str(error)) from None
         try:
             for target in targets:
                 check_writable(target, image.dtype, channels)

@@ -23,6 +23,7 @@ from ..files.atomic import missing_folders, remove_leftovers
 from ..files.images import check_writable
 from ..files.landmarks import handle_dimension, read_handle_set
 from ..imaging.options import WarpOptions
+from ..imaging.source import check_image
 from .inputs import (
     image_inputs,
     make_mls,
@@ -169,8 +170,9 @@ def _warp_file(task: WarpTask) -> WarpOutcome:
         shape = image.shape
         channels = 1 if image.ndim == 2 else image.shape[2]
         try:
+            check_image(image, str(task.source))  # before the output: no suffix takes int16
             check_writable(task.target, image.dtype, channels)
-        except ValueError as error:
+        except (TypeError, ValueError) as error:
             raise UsageError(str(error)) from None
         options = task.options
         with make_mls(task.handles, task.config, image.shape) as m:

@@ -276,3 +276,17 @@ def test_an_output_that_cannot_be_written_is_named_once_with_status_1(
     monkeypatch.chdir(inputs)
     assert main(["warp", "a.png", "o.png", "--handles", "h.json"]) == 1
     assert capsys.readouterr().err == "glmls warp: o.png: cannot write: No space left on device\n"
+
+
+def test_an_image_of_a_dtype_glmls_does_not_warp_is_named_not_its_output(inputs):
+    """An int16 TIFF said 'o.tif: .tif cannot hold int16 images', as if another suffix would
+    do: no output takes it, the input is the fault."""
+    import tifffile
+
+    tifffile.imwrite(inputs / "i16.tif", np.zeros((8, 8), np.int16))
+    for args in (["warp", "i16.tif", "o.tif", "--handles", "h.json"], ["augment", "i16.tif", "o"]):
+        result = glmls_cli(*args, cwd=inputs)
+        assert result.returncode == 2, result.stderr
+        assert result.stderr.endswith(
+            "i16.tif dtype must be one of uint8, uint16, float32, float64; got int16\n"
+        ), result.stderr
