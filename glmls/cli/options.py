@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import NoReturn
@@ -150,11 +151,40 @@ def add_config_options(parser: argparse.ArgumentParser) -> None:
 
 
 def config_from_args(args: argparse.Namespace) -> MLSConfig:
-    """The :class:`MLSConfig` of parsed options; :class:`UsageError` if it is invalid."""
+    """The :class:`MLSConfig` of parsed options; :class:`UsageError` if it is invalid. An
+    option the weight does not use is said on stderr (unless ``--quiet``), not refused."""
     try:
-        return MLSConfig(**{f.name: getattr(args, f.name) for f in dataclasses.fields(MLSConfig)})
+        config = MLSConfig(**{f.name: getattr(args, f.name) for f in dataclasses.fields(MLSConfig)})
     except (TypeError, ValueError) as error:
         raise UsageError(str(error)) from None
+    if not getattr(args, "quiet", False):
+        for message in unused_config_options(config):
+            print(f"glmls {args.command}: warning: {message}", file=sys.stderr)
+    return config
+
+
+def unused_config_options(config: MLSConfig) -> list[str]:
+    """What of ``config``, set away from its default, the weight does not use: a radius with
+    idw; alpha with a radius weight not made interpolating; s with a weight other than idw."""
+    defaults = MLSConfig()
+    messages = []
+    if not config.uses_radius and config.radius is not None:
+        radius_weights = ", ".join(w for w in WEIGHTS if MLSConfig(weight=w).uses_radius)
+        messages.append(
+            f"--radius {config.radius:g} is not used by the {config.weight} weight (the radius "
+            f"weights use it: {radius_weights})"
+        )
+    unused = []
+    if config.uses_radius and not config.interpolating:
+        unused.append(("--alpha", config.alpha, defaults.alpha, "idw's, and --interpolating's"))
+    if not config.weight_entry.uses_s:
+        unused.append(("--s", config.s, defaults.s, "idw's"))
+    for option, value, default, whose in unused:
+        if value != default:
+            messages.append(
+                f"{option} {value:g} is not used by the {config.weight} weight ({whose})"
+            )
+    return messages
 
 
 def add_warp_options(parser: argparse.ArgumentParser, *, grid: int = 1) -> None:

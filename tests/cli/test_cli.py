@@ -290,3 +290,19 @@ def test_an_image_of_a_dtype_glmls_does_not_warp_is_named_not_its_output(inputs)
         assert result.stderr.endswith(
             "i16.tif dtype must be one of uint8, uint16, float32, float64; got int16\n"
         ), result.stderr
+
+
+def test_an_option_the_weight_does_not_use_is_warned_about(inputs, gl):
+    """--radius with idw, or --alpha with gaussian, changed nothing and said nothing."""
+    for args, warning in [
+        (["--radius", "50"], "warning: --radius 50 is not used by the idw weight"),
+        (["--weight", "gaussian", "--alpha", "2"], "warning: --alpha 2 is not used by the"),
+        (["--weight", "linear", "--s", "0.5"], "warning: --s 0.5 is not used by the linear"),
+    ]:
+        result = glmls_cli("warp", "a.png", "o.png", "--handles", "h.json", *args, cwd=inputs)
+        assert result.returncode == 0 and warning in result.stderr, (args, result.stderr)
+    result = glmls_cli(
+        "warp", "a.png", "o.png", "--handles", "h.json", "--weight", "gaussian", "--alpha", "2",
+        "--interpolating", cwd=inputs,
+    )  # fmt: skip
+    assert result.returncode == 0 and "warning" not in result.stderr, result.stderr
