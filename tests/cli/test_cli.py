@@ -175,8 +175,8 @@ def test_usage_errors(inputs):
 
 
 def test_a_bad_option_is_one_line_not_the_usage(inputs):
-    """argparse's mistakes (a bad value, a missing argument, an unknown command) printed the
-    whole usage, a dozen lines, before the fault."""
+    """argparse's mistakes (a bad value, a missing argument, an unknown command) are one line
+    with the fault and where the options are listed, not the dozen lines of the usage."""
     for args, line in [
         (["warp", "a.png", "o.png", "--handles", "h.json", "--grid", "0"],
          "glmls warp: argument --grid: expected an integer >= 1, got 0 (see glmls warp --help)"),
@@ -190,8 +190,8 @@ def test_a_bad_option_is_one_line_not_the_usage(inputs):
 
 
 def test_an_output_folder_that_is_a_file_is_refused_before_any_work(inputs):
-    """--out naming a file (or a path below one) was found only when the report, the ranking
-    or the study was written, after all the work, as 'cannot write: File exists'."""
+    """--out naming a file (or a path below one) is refused when the options are read, not
+    when the report, the ranking or the study is written after all the work."""
     (inputs / "taken").write_text("a file")
     for args, message in [
         (["analyze", "--example", "--out", "taken"], "argument --out: taken: a file, not a folder"),
@@ -253,8 +253,8 @@ def test_warp_and_analyze_take_the_adaptive_tolerance(inputs, gl):
 
 
 def test_a_grid_as_large_as_the_image_is_warned_about(inputs, gl):
-    """--grid 100000 warped the image by its four corners alone, every handle ignored, and
-    said nothing."""
+    """A grid not smaller than the image warps it by its four corners alone, every handle
+    inside ignored: stderr says so."""
     result = glmls_cli("warp", "a.png", "o.png", "--handles", "h.json", "--grid", "40", cwd=inputs)
     assert result.returncode == 0, result.stderr
     assert "warning: --grid 40 is not smaller than the 40 x 32 image" in result.stderr
@@ -265,7 +265,8 @@ def test_a_grid_as_large_as_the_image_is_warned_about(inputs, gl):
 def test_an_output_that_cannot_be_written_is_named_once_with_status_1(
     inputs, gl, monkeypatch, capsys
 ):
-    """A full disk or a refused write said 'item 0: out.png: cannot write: ...' of one image."""
+    """A full disk or a refused write is one line naming the output, no batch index before
+    it, exit status 1."""
     from glmls.cli import warp
     from glmls.cli.main import main
 
@@ -279,8 +280,8 @@ def test_an_output_that_cannot_be_written_is_named_once_with_status_1(
 
 
 def test_an_image_of_a_dtype_glmls_does_not_warp_is_named_not_its_output(inputs):
-    """An int16 TIFF said 'o.tif: .tif cannot hold int16 images', as if another suffix would
-    do: no output takes it, the input is the fault."""
+    """No output suffix takes an int16 image: the message names the input and the dtypes
+    glmls warps, not the output's format."""
     import tifffile
 
     tifffile.imwrite(inputs / "i16.tif", np.zeros((8, 8), np.int16))
@@ -293,7 +294,7 @@ def test_an_image_of_a_dtype_glmls_does_not_warp_is_named_not_its_output(inputs)
 
 
 def test_an_option_the_weight_does_not_use_is_warned_about(inputs, gl):
-    """--radius with idw, or --alpha with gaussian, changed nothing and said nothing."""
+    """--radius with idw, or --alpha with gaussian, changes nothing: stderr says so."""
     for args, warning in [
         (["--radius", "50"], "warning: --radius 50 is not used by the idw weight"),
         (["--weight", "gaussian", "--alpha", "2"], "warning: --alpha 2 is not used by the"),
