@@ -21,6 +21,7 @@ The photograph is glmls/data/astronaut.jpg (NASA, public domain; see demos/READM
 from __future__ import annotations
 
 import argparse
+import os
 from importlib import resources
 from pathlib import Path
 
@@ -96,7 +97,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    default = Path(__file__).parent / "out" / "augment_batch.jpg"
+    default = Path(os.path.relpath(Path(__file__).parent / "out")) / "augment_batch.jpg"
     parser.add_argument("--out", type=Path, default=default)
     parser.add_argument("--seed", type=int, default=0, help="the augmentation's seed")
     parser.add_argument("--n", type=int, default=3, help="samples per preset")

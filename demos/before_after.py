@@ -10,12 +10,15 @@ input with each source handle p (a disk) and an arrow to its target q; right, th
 deformation (idw, alpha 1) built by the default forward method with bilinear colours, with
 the targets q marked: every handle lands on its target.
 
+From the command line::
+
     python demos/before_after.py [--out demos/out/before_after.png] [--scale 0.9]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 import numpy as np
@@ -69,7 +72,7 @@ def mark_targets(image: np.ndarray, points: np.ndarray, radius: float = 5.0) -> 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description="Before and after: a deformation by MLS.")
-    default = Path(__file__).parent / "out" / "before_after.png"
+    default = Path(os.path.relpath(Path(__file__).parent / "out")) / "before_after.png"
     parser.add_argument("--out", type=Path, default=default, help="PNG or JPEG to write")
     parser.add_argument("--scale", type=float, default=0.9, help="size of the panels")
     parser.add_argument("--strength", type=float, default=1.5, help="the edit's scale")

@@ -17,6 +17,7 @@ The photograph is glmls/data/astronaut.jpg (NASA, public domain; see demos/READM
 from __future__ import annotations
 
 import argparse
+import os
 from importlib import resources
 from pathlib import Path
 
@@ -63,7 +64,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    default = Path(__file__).parent / "out" / "borders.png"
+    default = Path(os.path.relpath(Path(__file__).parent / "out")) / "borders.png"
     parser.add_argument("--out", type=Path, default=default)
     parser.add_argument("--scale", type=float, default=0.5, help="size of the panels")
     args = parser.parse_args()
@@ -89,7 +90,10 @@ def main() -> None:
             output_shape=b.output_shape,
             origin=b.origin,
         )
-        print(f"pushed out: bounds {b}, canvas {b.output_shape} from {b.origin}")
+        print(
+            f"pushed out: bounds x {b.x0:.1f} .. {b.x1:.1f}, y {b.y0:.1f} .. {b.y1:.1f}; "
+            f"canvas {b.output_shape} from {b.origin}"
+        )
     panels.append(panel(cut, args.scale, "pushed out: the input's frame"))
     panels.append(panel(whole, args.scale, "output_shape, origin = m.bounds"))
     args.out.parent.mkdir(parents=True, exist_ok=True)

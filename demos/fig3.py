@@ -18,6 +18,7 @@ The photograph is glmls/data/astronaut.jpg (NASA, public domain; see demos/READM
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from importlib import resources
 from pathlib import Path
@@ -72,7 +73,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "out" / "fig3.png")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path(os.path.relpath(Path(__file__).parent / "out")) / "fig3.png",
+    )
     parser.add_argument("--grid", type=int, default=1, help="mesh step of the quads, pixels")
     args = parser.parse_args()
 

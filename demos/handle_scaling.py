@@ -33,6 +33,7 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -163,7 +164,9 @@ def main() -> None:
     parser.add_argument("--grid", type=int, default=4)
     parser.add_argument("--radius", type=float, default=16.0, help="R of the radius weights, px")
     parser.add_argument("--max-seconds", type=float, default=5.0)
-    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "out")
+    parser.add_argument(
+        "--out", type=Path, default=Path(os.path.relpath(Path(__file__).parent / "out"))
+    )
     parser.add_argument(
         "--counts", help="handle counts to time, comma-separated (default 4, 16, ..., 65536)"
     )

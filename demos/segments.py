@@ -23,6 +23,7 @@ glmls/data/README.md).
 from __future__ import annotations
 
 import argparse
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -181,7 +182,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    default = Path(__file__).parent / "out" / "segments.jpg"
+    default = Path(os.path.relpath(Path(__file__).parent / "out")) / "segments.jpg"
     parser.add_argument("--out", type=Path, default=default)
     parser.add_argument("--tilt", type=float, default=9.0, help="degrees, clockwise")
     parser.add_argument("--scale", type=float, default=1.0, help="size of the panels")

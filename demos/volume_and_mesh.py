@@ -21,6 +21,7 @@ and ``glmls analyze phantom.nii.gz --handles h3.json --out report/``.
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 import numpy as np
@@ -80,7 +81,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    default = Path(__file__).parent / "out" / "volume_and_mesh.png"
+    default = Path(os.path.relpath(Path(__file__).parent / "out")) / "volume_and_mesh.png"
     parser.add_argument("--out", type=Path, default=default)
     args = parser.parse_args()
 

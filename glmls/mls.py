@@ -87,7 +87,7 @@ class MLS(ForkSafe):
     voxel centres at integer coordinates; ``shape`` a volume's (D, H, W)): f, :meth:`matrices`,
     :attr:`inverse` and :meth:`residuals` at (K, 3) points, :meth:`deform` for meshes and
     point clouds, :meth:`warp` for volumes; segment handles, bins and the image passes are
-    2D only (docs/three_d.md).
+    2D only (:doc:`the 3D guide </three_d>`).
 
     Special cases: no handles is the identity and one handle a translation by q - p, for every
     transform. Where a compact-support weight reaches fewer than the transform needs at a
@@ -551,7 +551,7 @@ class MLS(ForkSafe):
 
         f at the vertices, the vertex normals carried by the inverse transpose of the
         Jacobian J = df/dv, det J and the folds, all computed on the GPU
-        (:class:`~glmls.DeformedMesh`; docs/three_d.md).
+        (:class:`~glmls.DeformedMesh`; :doc:`the 3D guide </three_d>`).
 
         Parameters
         ----------
@@ -605,7 +605,7 @@ class MLS(ForkSafe):
             The mesh step, pixels.
         tolerance : float or None, default None
             Pixels (``grid`` must stay 1): the error-bounded adaptive mesh that :meth:`warp`
-            draws with that tolerance (``docs/adaptive.md``).
+            draws with that tolerance (:doc:`the adaptive mesh </adaptive>`).
 
         Returns
         -------
@@ -726,7 +726,7 @@ class MLS(ForkSafe):
             ``"paper-quads"``: the paper's pseudo-code exactly (squares of four adjacent
             pixel centres, each pixel inside a deformed square coloured by its nearest
             vertex; ``grid`` must be 1; ``"linear"`` blends the square's four vertices;
-            ``docs/warp.md`` says how it differs from ``"quads"``).
+            :doc:`the warping guide </warp>` says how it differs from ``"quads"``).
         interpolation : {"nearest", "linear"}, default "nearest"
             ``"nearest"`` takes one source pixel's value (no new colours); ``"linear"``
             interpolates bilinearly (``splat`` ignores it).
@@ -752,9 +752,10 @@ class MLS(ForkSafe):
             (i, j) (None: (0, 0)).
         tolerance : float or None, default None
             Pixels (``quads`` only; ``grid`` must stay 1): the error-bounded adaptive mesh
-            instead of the regular one (``docs/adaptive.md``): cells refined until the
-            estimated distance between each output pixel's source point and f's inverse is
-            within ``tolerance``, down to 1 px cells, and 1/2 or 1/4 px where f stretches.
+            instead of the regular one (:doc:`the adaptive mesh </adaptive>`): cells refined
+            until the estimated distance between each output pixel's source point and f's
+            inverse is within ``tolerance``, down to 1 px cells, and 1/2 or 1/4 px where f
+            stretches.
             None: the regular mesh at ``grid``.
         options : WarpOptions or None, default None
             All of the above as one value; the keywords given explicitly here replace its

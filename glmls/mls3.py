@@ -44,8 +44,8 @@ class MLS3(MLS):
 
     Made by :class:`glmls.MLS` from (N, 3) ``src`` and ``dst``, with the same parameters;
     the closed forms and their degenerate cases are those of :func:`glmls.reference.mls` in
-    three dimensions (docs/mathematics.md), evaluated in float32 on the GPU. Points are
-    (x, y, z) = (column, row, slice), voxel centres at integer coordinates.
+    three dimensions (:doc:`the mathematics </mathematics>`), evaluated in float32 on the
+    GPU. Points are (x, y, z) = (column, row, slice), voxel centres at integer coordinates.
 
     Parameters
     ----------

@@ -30,7 +30,7 @@ from ..analysis.jobs import check_jobs, check_scheduler, run_jobs
 from ..augment import PRESETS, Augment
 from ..files.atomic import remove_leftovers, umask
 from ..files.images import check_writable, imwrite
-from ..imaging.source import BORDERS, INTERPOLATIONS
+from ..imaging.source import BORDERS, INTERPOLATIONS, check_image
 from .inputs import image_inputs, read_image, say
 from .options import UsageError, add_jobs_options, add_max_pixels, positive_float, positive_int
 
@@ -67,20 +67,47 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--labels", metavar="JSON", help="keypoints and boxes per input file name (see above)"
     )
     group = parser.add_argument_group("preset options (those of the chosen preset)")
-    group.add_argument("--rows", type=positive_int, help="grid: rows of handles")
-    group.add_argument("--cols", type=positive_int, help="grid: columns of handles")
+    group.add_argument("--rows", type=positive_int, help="grid: rows of handles (default: 4)")
+    group.add_argument("--cols", type=positive_int, help="grid: columns of handles (default: 4)")
     group.add_argument(
-        "--displacement", type=float, help="grid, landmarks: the largest offset per axis"
+        "--displacement",
+        type=float,
+        help="grid, landmarks: the largest offset per axis (default: 0.03)",
     )
-    group.add_argument("--units", choices=("fraction", "pixels"), help="of --displacement")
-    group.add_argument("--segments", type=positive_int, help="text-*: patches along the width")
-    group.add_argument("--radius", type=float, help="text-*: the radius R in pixels")
+    group.add_argument(
+        "--units",
+        choices=("fraction", "pixels"),
+        help="of --displacement: a fraction of the image's width and height, or pixels "
+        "(default: fraction)",
+    )
+    group.add_argument(
+        "--segments", type=positive_int, help="text-*: patches along the width (default: 4)"
+    )
+    group.add_argument(
+        "--radius",
+        type=float,
+        help="text-*: the radius R in pixels (default: text-distort W / segments / 3, "
+        "text-stretch 4 W / 5 / segments, text-perspective H / 2)",
+    )
     warp = parser.add_argument_group("warp")
     warp.add_argument(
-        "--transform", choices=("affine", "similarity", "rigid"), default="similarity"
+        "--transform",
+        choices=("affine", "similarity", "rigid"),
+        default="similarity",
+        help="the MLS transform",
     )
-    warp.add_argument("--interpolation", choices=INTERPOLATIONS, default="linear")
-    warp.add_argument("--border", choices=BORDERS, default="edge")
+    warp.add_argument(
+        "--interpolation",
+        choices=INTERPOLATIONS,
+        default="linear",
+        help="nearest: one source pixel's value; linear: bilinear",
+    )
+    warp.add_argument(
+        "--border",
+        choices=BORDERS,
+        default="edge",
+        help="what lies beyond the image, numpy.pad's names",
+    )
     parser.add_argument(
         "--box-step",
         type=positive_float,
@@ -137,6 +164,10 @@ def augment_file(task: AugmentTask) -> AugmentOutcome:
         labels = task.labels or {}
         keypoints = labels.get("keypoints")
         boxes = labels.get("boxes")
+        try:
+            check_image(image, str(task.source))  # before the outputs: no suffix takes int16
+        except (TypeError, ValueError) as error:
+            raise UsageError(str(error)) from None
         try:
             for target in targets:
                 check_writable(target, image.dtype, channels)

@@ -13,15 +13,16 @@ import numpy as np
 
 from ..core.handleset import HandleSet
 from ..errors import InputFileError
-from ..files.landmarks import read_handle_set, read_points
+from ..files.landmarks import read_points
 from .demo_window import fail, replay_events, run_window, window_options
-from .inputs import read_image
+from .inputs import read_image, read_image_handles
 from .options import (
     UsageError,
     add_config_options,
     add_max_pixels,
     add_warp_options,
     config_from_args,
+    folder_path,
     positive_int,
 )
 from .warp3d import TARGETS_HELP, parse_spacing
@@ -126,7 +127,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--out",
         "--out-dir",
         dest="out",
-        type=Path,
+        type=folder_path,
         default=Path("."),
         metavar="DIR",
         help="where the s, j and S keys save",
@@ -154,7 +155,7 @@ def _inputs(args: argparse.Namespace):
         reference = np.zeros((0, 2))
     handles = HandleSet.validate(src, dst)
     if args.handles is not None:
-        handles = read_handle_set(args.handles, dst=args.targets)
+        handles = read_image_handles(args.handles, dst=args.targets, image=args.image or name)
     if args.reference is not None:
         reference = read_points(args.reference)
     return image, name, handles, reference

@@ -20,18 +20,20 @@ from ..core.handleset import HandleSet
 from ..errors import BorderWarning, ImageWarning
 from ..files.atomic import atomic_write
 from ..files.images import DEFAULT_MAX_PIXELS, imread, imwrite
-from ..files.landmarks import read_handle_set, read_points
+from ..files.landmarks import handle_dimension, read_handle_set, read_points
 from ..mls import MLS
-from .options import UsageError, add_max_pixels, handle_warnings, positive_int
+from .options import UsageError, add_max_pixels, folder_path, handle_warnings, positive_int
 
 __all__ = [
     "IMAGE_SUFFIXES",
     "add_example_inputs",
+    "check_example",
     "example_or_files",
     "figure",
     "image_inputs",
     "make_mls",
     "read_image",
+    "read_image_handles",
     "reference_or_handles",
     "say",
     "warn_about_handles",
@@ -126,7 +128,14 @@ def warn_about_handles(args: argparse.Namespace, handles: HandleSet, shape) -> N
     """Warnings on stderr (not errors) for handles (their source points and segment ends)
     that look like another convention."""
     points, ends = handles.source_points(), handles.segments > 0
-    for message in handle_warnings(points, shape[:2], segment_ends=ends):
+    messages = handle_warnings(points, shape[:2], segment_ends=ends)
+    grid, (height, width) = getattr(args, "grid", 1), shape[:2]
+    if getattr(args, "tolerance", None) is None and grid > 1 and grid >= max(height, width):
+        messages.append(
+            f"--grid {grid} is not smaller than the {width} x {height} image: the mesh is one "
+            "cell, whose corners alone follow f (the handles inside it move nothing)"
+        )
+    for message in messages:
         say(args, f"glmls {args.command}: warning: {message}")
 
 
@@ -144,7 +153,15 @@ def reference_or_handles(args: argparse.Namespace, reference, handles: HandleSet
 
 def add_example_inputs(parser: argparse.ArgumentParser, *, reference_required: bool) -> None:
     """IN, --handles, --reference, --example, --out, --analysis-grid and --cmap."""
-    parser.add_argument("input", metavar="IN", nargs="?", help="the image")
+    parser.add_argument(
+        "input",
+        metavar="IN",
+        nargs="?",
+        help="the image"
+        if reference_required
+        else "the image, or a volume (.nii, .nii.gz, a TIFF of several pages, .npy) or a mesh "
+        "(.ply, .obj, .stl) with 3D handles",
+    )
     parser.add_argument(
         "--handles",
         metavar="H",
@@ -159,7 +176,9 @@ def add_example_inputs(parser: argparse.ArgumentParser, *, reference_required: b
     parser.add_argument(
         "--example", action="store_true", help="use the bundled photograph, handles and points"
     )
-    parser.add_argument("--out", metavar="DIR", required=True, help="output folder")
+    parser.add_argument(
+        "--out", metavar="DIR", type=folder_path, required=True, help="output folder"
+    )
     add_max_pixels(parser)
     parser.add_argument(
         "--analysis-grid",
@@ -175,9 +194,42 @@ def add_example_inputs(parser: argparse.ArgumentParser, *, reference_required: b
     )
 
 
+def check_example(args: argparse.Namespace) -> None:
+    """:class:`UsageError` for --example with the inputs it stands for (IN, --handles,
+    --reference, --targets), which it would otherwise leave unread."""
+    if not args.example:
+        return
+    given = [
+        f"{name} {value}"
+        for name, value in (
+            ("IN", getattr(args, "input", None)),
+            ("--handles", getattr(args, "handles", None)),
+            ("--reference", getattr(args, "reference", None)),
+            ("--targets", getattr(args, "targets", None)),
+        )
+        if value is not None
+    ]
+    if given:
+        raise UsageError(
+            "--example replaces IN, --handles and --reference (the bundled photograph and its "
+            f"points); leave out {', '.join(given)}"
+        )
+
+
+def read_image_handles(path, *, dst=None, image: object) -> HandleSet:
+    """The 2D handles of ``path`` (and ``dst``, an elastix pair's targets) for ``image``
+    (its name, for the message); :class:`UsageError` for a file of 3D handles."""
+    if handle_dimension(path, dst=dst) != 2:
+        raise UsageError(
+            f"{path}: 3D handles (x, y, z), but {image} is an image: it takes 2D handles (x, y)"
+        )
+    return read_handle_set(path, dst=dst)
+
+
 def example_or_files(args: argparse.Namespace, *, need_reference: bool):
     """(image, handles, reference or None, name) from --example or the given files;
     ``handles`` is a :class:`~glmls.core.handleset.HandleSet`."""
+    check_example(args)
     if args.example:
         return (
             data.astronaut(),
@@ -191,6 +243,6 @@ def example_or_files(args: argparse.Namespace, *, need_reference: bool):
     if missing:
         raise UsageError(f"missing {', '.join(missing)} (or use --example)")
     image = read_image(Path(args.input), args.max_pixels)
-    handles = read_handle_set(args.handles, dst=getattr(args, "targets", None))
+    handles = read_image_handles(args.handles, dst=getattr(args, "targets", None), image=args.input)
     reference = read_points(args.reference) if args.reference else None
     return image, handles, reference, str(args.input)

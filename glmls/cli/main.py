@@ -17,7 +17,7 @@ from collections.abc import Sequence
 from ..errors import GLUnavailableError, InputFileError
 from ..version import __version__
 from . import analyze, augment, bench, demo, study, tune, warp
-from .options import HelpFormatter, UsageError
+from .options import ArgumentParser, HelpFormatter, UsageError
 
 __all__ = ["EXIT_FAILURE", "EXIT_USAGE", "build_parser", "main"]
 
@@ -35,7 +35,7 @@ COMMANDS = {
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="glmls",
         description="Image deformation by Moving Least Squares on the GPU, with error analysis.",
     )

@@ -7,7 +7,10 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import sys
 from collections.abc import Sequence
+from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 
@@ -17,14 +20,17 @@ from ..imaging.options import WarpOptions
 from ..imaging.source import BORDERS, INTERPOLATIONS, METHODS
 
 __all__ = [
+    "ArgumentParser",
     "HelpFormatter",
     "UsageError",
     "add_config_options",
     "add_jobs_options",
     "add_max_pixels",
     "add_warp_options",
+    "below_a_file",
     "config_from_args",
     "fit_background",
+    "folder_path",
     "handle_warnings",
     "nonnegative_int",
     "parse_background",
@@ -42,6 +48,14 @@ class UsageError(ValueError):
     """A mistake in the command line or its input files (exit status 2)."""
 
 
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse's parser with a mistake on one line, as glmls's other errors: the command,
+    the fault and where the options are listed, not the whole usage first (exit status 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
+
+
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):
     """Examples kept as written, and every option's default after its help (where it has one:
     an option without a value of its own says what happens in its help)."""
@@ -55,6 +69,8 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
             return text
         if not action.option_strings:
             return text
+        if isinstance(default, (list, tuple)):  # as it is typed, not as a Python list
+            return f"{text} (default: {' '.join(map(str, default))})"
         return f"{text} (default: %(default)s)"
 
 
@@ -76,6 +92,28 @@ def _int_at_least(text: str, low: int) -> int:
     if value < low:
         raise argparse.ArgumentTypeError(f"expected an integer >= {low}, got {value}")
     return value
+
+
+def folder_path(text: str) -> Path:
+    """An output folder: one that exists or can be made, not a file (nor below one), so that
+    a run does not do all its work before it finds that it cannot write."""
+    fault = below_a_file(Path(text), itself=True)
+    if fault is not None:
+        raise argparse.ArgumentTypeError(fault)
+    return Path(text)
+
+
+def below_a_file(path: Path, *, itself: bool) -> str | None:
+    """Why ``path`` cannot be written for a file in its way: the first of the folders above
+    it that exists is a file (or, with ``itself``, ``path`` is one, where it is to be a
+    folder); None where nothing is in the way."""
+    for place in (path, *path.parents) if itself else path.parents:
+        if place.exists():
+            if place.is_dir():
+                return None
+            what = "" if place == path else f" {place} is"
+            return f"{path}:{what} a file, not a folder"
+    return None
 
 
 def text_table(heads: Sequence[str], cells: Sequence[Sequence[str]]) -> str:
@@ -113,11 +151,40 @@ def add_config_options(parser: argparse.ArgumentParser) -> None:
 
 
 def config_from_args(args: argparse.Namespace) -> MLSConfig:
-    """The :class:`MLSConfig` of parsed options; :class:`UsageError` if it is invalid."""
+    """The :class:`MLSConfig` of parsed options; :class:`UsageError` if it is invalid. An
+    option the weight does not use is said on stderr (unless ``--quiet``), not refused."""
     try:
-        return MLSConfig(**{f.name: getattr(args, f.name) for f in dataclasses.fields(MLSConfig)})
+        config = MLSConfig(**{f.name: getattr(args, f.name) for f in dataclasses.fields(MLSConfig)})
     except (TypeError, ValueError) as error:
         raise UsageError(str(error)) from None
+    if not getattr(args, "quiet", False):
+        for message in unused_config_options(config):
+            print(f"glmls {args.command}: warning: {message}", file=sys.stderr)
+    return config
+
+
+def unused_config_options(config: MLSConfig) -> list[str]:
+    """What of ``config``, set away from its default, the weight does not use: a radius with
+    idw; alpha with a radius weight not made interpolating; s with a weight other than idw."""
+    defaults = MLSConfig()
+    messages = []
+    if not config.uses_radius and config.radius is not None:
+        radius_weights = ", ".join(w for w in WEIGHTS if MLSConfig(weight=w).uses_radius)
+        messages.append(
+            f"--radius {config.radius:g} is not used by the {config.weight} weight (the radius "
+            f"weights use it: {radius_weights})"
+        )
+    unused = []
+    if config.uses_radius and not config.interpolating:
+        unused.append(("--alpha", config.alpha, defaults.alpha, "idw's, and --interpolating's"))
+    if not config.weight_entry.uses_s:
+        unused.append(("--s", config.s, defaults.s, "idw's"))
+    for option, value, default, whose in unused:
+        if value != default:
+            messages.append(
+                f"{option} {value:g} is not used by the {config.weight} weight ({whose})"
+            )
+    return messages
 
 
 def add_warp_options(parser: argparse.ArgumentParser, *, grid: int = 1) -> None:

@@ -11,7 +11,7 @@ from ..analysis.jobs import check_jobs, check_scheduler
 from ..analysis.studies import study
 from ..analysis.tuning import parse_config
 from .inputs import say
-from .options import UsageError, add_jobs_options, positive_int
+from .options import UsageError, add_jobs_options, folder_path, nonnegative_int, positive_int
 from .progress import Progress
 
 HELP = "tune every image of a set and compare the winners"
@@ -33,7 +33,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
         nargs="?",
         help="the image set (JSON; default: the bundled set of six photographs)",
     )
-    parser.add_argument("--out", metavar="DIR", required=True, help="output folder")
+    parser.add_argument(
+        "--out", metavar="DIR", type=folder_path, required=True, help="output folder"
+    )
     parser.add_argument(
         "--configs",
         nargs="+",
@@ -47,7 +49,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="trials (deformations) per configuration and image (default: the tune's)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the random deformations")
+    parser.add_argument(
+        "--seed", type=nonnegative_int, default=0, help="seed of the random deformations (>= 0)"
+    )
     add_jobs_options(parser)
 
 

@@ -16,7 +16,7 @@ from ..analysis.tuning_trials import MAGNITUDES
 from ..core.config import MLSConfig
 from ..files.atomic import atomic_write
 from .inputs import add_example_inputs, example_or_files, make_mls, say, warn_about_handles
-from .options import UsageError, add_jobs_options, positive_int, text_table
+from .options import UsageError, add_jobs_options, nonnegative_int, positive_int, text_table
 from .progress import Progress
 from .tune_construction import configure_construction, run_construction
 
@@ -49,7 +49,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
         default=6,
         help="trials per configuration: the user's edit, then edits of it",
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the random edits")
+    parser.add_argument(
+        "--seed", type=nonnegative_int, default=0, help="seed of the random edits (>= 0)"
+    )
     parser.add_argument(
         "--magnitudes",
         type=_magnitudes,

@@ -23,6 +23,7 @@ from ..files.atomic import missing_folders, remove_leftovers
 from ..files.images import check_writable
 from ..files.landmarks import handle_dimension, read_handle_set
 from ..imaging.options import WarpOptions
+from ..imaging.source import check_image
 from .inputs import (
     image_inputs,
     make_mls,
@@ -38,6 +39,7 @@ from .options import (
     add_jobs_options,
     add_max_pixels,
     add_warp_options,
+    below_a_file,
     config_from_args,
     fit_background,
     parse_background,
@@ -107,8 +109,10 @@ def targets(output: str, files: list[Path], many: bool) -> list[Path]:
     existing folder, or a name ending in /). Unwritable formats are refused before any work."""
     out = Path(output)
     folder = many or out.is_dir() or output.endswith(("/", os.sep))
-    if folder and out.exists() and not out.is_dir():
-        raise UsageError(f"{out}: must be a folder when IN names several images")
+    fault = below_a_file(out, itself=folder)
+    if fault is not None:
+        why = " (IN names several images: OUT is their folder)" if many and out.is_file() else ""
+        raise UsageError(fault + why)
     paths = [out / f.name for f in files] if folder else [out]
     for path in paths:
         try:
@@ -137,13 +141,15 @@ class WarpTask:
 @dataclasses.dataclass(frozen=True)
 class WarpOutcome:
     """What became of one image: its shape (for the handle warnings), the error that
-    skipped it (``None``: written), lines to say (unless ``--quiet``) and stderr's text."""
+    skipped it (``None``: written), lines to say (unless ``--quiet``), stderr's text, and
+    whether the error is a failure to write (exit status 1) rather than a mistake (2)."""
 
     target: Path
     shape: tuple[int, ...] | None
     error: str | None
     notes: tuple[str, ...] = ()
     stderr: str = ""
+    unwritten: bool = False
 
 
 def warp_file(task: WarpTask) -> WarpOutcome:
@@ -164,8 +170,9 @@ def _warp_file(task: WarpTask) -> WarpOutcome:
         shape = image.shape
         channels = 1 if image.ndim == 2 else image.shape[2]
         try:
+            check_image(image, str(task.source))  # before the output: no suffix takes int16
             check_writable(task.target, image.dtype, channels)
-        except ValueError as error:
+        except (TypeError, ValueError) as error:
             raise UsageError(str(error)) from None
         options = task.options
         with make_mls(task.handles, task.config, image.shape) as m:
@@ -188,6 +195,8 @@ def _warp_file(task: WarpTask) -> WarpOutcome:
         write_image(task.target, result)
     except UsageError as error:
         return WarpOutcome(task.target, shape, str(error), tuple(notes))
+    except OSError as error:  # its message names the output: no "item N" before it
+        return WarpOutcome(task.target, shape, str(error), tuple(notes), unwritten=True)
     return WarpOutcome(task.target, shape, None, tuple(notes))
 
 
@@ -240,7 +249,7 @@ def run(args: argparse.Namespace) -> int:
                 say(args, note)
             if outcome.error is not None:
                 if not args.keep_going:  # stops the batch: the items not started never start
-                    raise UsageError(outcome.error)
+                    raise (OSError if outcome.unwritten else UsageError)(outcome.error)
                 failed.append(files[index])
                 say(args, f"glmls warp: skipped {outcome.error}")
             else:

@@ -188,17 +188,28 @@ def _refuse_image_options(args: argparse.Namespace, kind: str) -> None:
         )
         if value
     ]
-    if kind == "mesh":
-        given += [
-            option
-            for option, value in (
-                ("--spacing", args.spacing is not None),
-                ("--background", args.background != 0.0),
-            )
-            if value
-        ]
     if given:
         raise UsageError(f"{', '.join(given)}: for images, not for a {kind} ({args.input})")
+    if kind != "mesh":
+        return
+    if args.spacing is not None:
+        raise UsageError(f"--spacing: for volumes, not for a mesh ({args.input})")
+    sampling = [  # a mesh's vertices are moved by f itself: nothing is sampled
+        option
+        for option, value, default in (
+            ("--background", args.background, 0.0),
+            ("--method", args.method, "quads"),
+            ("--interpolation", args.interpolation, "nearest"),
+            ("--border", args.border, "constant"),
+            ("--grid", args.grid, 1),
+        )
+        if value != default
+    ]
+    if sampling:
+        raise UsageError(
+            f"{', '.join(sampling)}: for images and volumes, not for a mesh ({args.input}), "
+            "whose vertices f moves itself"
+        )
 
 
 def run_3d(args: argparse.Namespace, kind: str) -> int:

@@ -15,12 +15,14 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import struct
 import threading
 import warnings
 import zlib
 from collections.abc import Iterator
 from pathlib import Path
+from typing import NoReturn
 
 import imagecodecs
 import numpy as np
@@ -41,9 +43,11 @@ WRITABLE = {
     ".tiff": (("uint8", "uint16", "float32", "float64"), True),
     ".jpg": (("uint8",), False),
     ".jpeg": (("uint8",), False),
-    ".bmp": (("uint8",), True),
+    ".bmp": (("uint8",), False),  # Pillow reads a 32-bit BMP's fourth channel as nothing
     ".webp": (("uint8",), True),
 }
+#: Formats of colour images only: a grey image would come back RGB (or RGBA).
+_COLOUR_ONLY = (".webp",)
 _PNG = b"\x89PNG\r\n\x1a\n"
 _TIFF = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
 #: Decoding failures of a corrupt file, whichever library meets them.
@@ -64,10 +68,14 @@ _pillow_lock = threading.Lock()
 
 def _too_large(path: Path, width: int, height: int, max_pixels: int) -> None:
     if width * height > max_pixels:
-        raise ValueError(
-            f"{path}: {width} x {height} = {width * height:,} pixels exceeds the limit of "
-            f"{max_pixels:,} (raise it with max_pixels=, or glmls's --max-pixels)"
-        )
+        _refuse(path, f"{width} x {height} = {width * height:,}", max_pixels)
+
+
+def _refuse(path: Path, pixels: str, max_pixels: int) -> NoReturn:
+    raise ValueError(
+        f"{path}: {pixels} pixels exceeds the limit of {max_pixels:,} "
+        "(raise it with max_pixels=, or glmls's --max-pixels)"
+    )
 
 
 def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> np.ndarray:
@@ -179,7 +187,7 @@ def _orient(array: np.ndarray, code: int) -> np.ndarray:
 @contextlib.contextmanager
 def _pillow_limit(max_pixels: int) -> Iterator[None]:
     """Pillow's own decompression-bomb limit set to ours while it opens the file (its warning
-    silenced: glmls checks the size itself)."""
+    silenced: glmls checks the size itself; Pillow refuses beyond twice the limit)."""
     with _pillow_lock, warnings.catch_warnings():
         warnings.simplefilter("ignore", Image.DecompressionBombWarning)
         saved = Image.MAX_IMAGE_PIXELS
@@ -195,7 +203,9 @@ def _read_pillow(path: Path, max_pixels: int) -> np.ndarray:
         with _pillow_limit(max_pixels):
             image = Image.open(path)
     except Image.DecompressionBombError as error:
-        raise ValueError(f"{path}: {error}") from None
+        # Pillow's message names the pixels and twice its limit: say ours
+        found = re.search(r"\((\d+) pixels\)", str(error))
+        _refuse(path, f"{int(found[1]):,}" if found else "the image's", max_pixels)
     except UnidentifiedImageError:
         size = path.stat().st_size
         with open(path, "rb") as file:
@@ -244,10 +254,27 @@ def check_writable(path: str | os.PathLike, dtype: object = None, channels: int 
     dtypes, alpha = WRITABLE[suffix]
     if dtype is not None and np.dtype(dtype).name not in dtypes:  # type: ignore[call-overload]
         fits = [s for s, (d, _) in WRITABLE.items() if np.dtype(dtype).name in d]  # type: ignore[call-overload]
-        where = f"; write it as {' or '.join(fits)}" if fits else ""
+        where = f"; write it as {', '.join(fits[:-1])} or {fits[-1]}" if len(fits) > 1 else ""
+        where = f"; write it as {fits[0]}" if len(fits) == 1 else where
         raise ValueError(f"{path}: {suffix} cannot hold {np.dtype(dtype).name} images{where}")  # type: ignore[call-overload]
     if channels is not None and channels in (2, 4) and not alpha:
-        raise ValueError(f"{path}: {suffix} has no alpha channel; write .png, .tif or .webp")
+        fits = _suffixes(dtype, channels)
+        raise ValueError(f"{path}: {suffix} has no alpha channel; write {fits}")
+    if channels is not None and channels in (1, 2) and suffix in _COLOUR_ONLY:
+        fits = _suffixes(dtype, channels)
+        raise ValueError(f"{path}: {suffix} holds colour images only, not grey; write {fits}")
+
+
+def _suffixes(dtype: object, channels: int) -> str:
+    """The suffixes that hold images of ``dtype`` (any, where None) and ``channels``."""
+    fits = [
+        suffix
+        for suffix, (dtypes, alpha) in WRITABLE.items()
+        if (dtype is None or np.dtype(dtype).name in dtypes)  # type: ignore[call-overload]
+        and (alpha or channels not in (2, 4))
+        and not (suffix in _COLOUR_ONLY and channels in (1, 2))
+    ]
+    return ", ".join(fits[:-1]) + f" or {fits[-1]}" if len(fits) > 1 else fits[0]
 
 
 def imwrite(path: str | os.PathLike, image: object) -> None:

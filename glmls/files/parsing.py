@@ -62,6 +62,8 @@ def read_text(path: Path) -> str:
         return path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise InputFileError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise InputFileError(f"{path}: a folder, not a file") from None
     except (OSError, UnicodeDecodeError) as error:
         raise InputFileError(f"{path}: cannot read: {error}") from None
 
@@ -69,6 +71,8 @@ def read_text(path: Path) -> str:
 def load_json(path: Path) -> dict:
     """The top-level JSON object of ``path``."""
     text = read_text(path)  # its own InputFileError (missing, unreadable) passes through as is
+    if not text.strip():
+        raise fail(path, "content", "an empty file")
     try:
         data = json.loads(text)
     except json.JSONDecodeError as error:

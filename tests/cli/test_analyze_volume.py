@@ -108,7 +108,10 @@ def test_3d_handles_on_an_image_exit_2_with_one_line(inputs):
     result = analyze("a.png", "--handles", "h3.json", "--out", "rep", cwd=inputs)
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and "3D handles (x, y, z), where 2D handles" in lines[0], result.stderr
+    assert (
+        len(lines) == 1
+        and "3D handles (x, y, z), but a.png is an image: it takes 2D handles (x, y)" in lines[0]
+    ), result.stderr
 
 
 def test_the_spacing_of_the_file_or_the_option_is_glmls_warps(inputs):

@@ -147,17 +147,66 @@ def test_malformed_input_exits_2_with_a_message(inputs, files, args, message):
 
 
 def test_usage_errors(inputs):
+    (inputs / "h3.json").write_text('{"src": [[1, 2, 3]], "dst": [[2, 2, 3]]}')
+    (inputs / "r2.json").write_text('{"points": [[1, 2], [3, 4]]}')
     for args, message in [
         (["warp", "missing.png", "o.png", "--handles", "h.json"], "no such file"),
         (["analyze", "--out", "x"], "missing IN, --handles (or use --example)"),
         (["tune", "a.png", "--handles", "h.json", "--out", "x"], "missing --reference"),
         (["tune", "--example", "--out", "x", "--configs", "rigid"], "expected transform:weight"),
         (["warp", "h.json", "o.png", "--handles", "h.json"], "h.json: not an image format"),
+        (["analyze", "a.png", "--example", "--out", "x"], "--example replaces IN, --handles"),
+        (["tune", "--example", "--reference", "h.json", "--out", "x"], "out --reference h.json"),
+        (["tune", "--example", "--out", "x", "--seed", "-1"], "--seed: expected an integer >= 0"),
+        (["study", "--out", "x", "--seed", "-1"], "--seed: expected an integer >= 0, got -1"),
+        (
+            ["analyze", "a.png", "--handles", "h3.json", "--out", "x"],
+            "h3.json: 3D handles (x, y, z), but a.png is an image: it takes 2D handles (x, y)",
+        ),
+        (
+            ["analyze", "a.png", "--handles", "h.json", "--reference", "r2.json", "--out", "x"],
+            "glmls analyze: r2.json: a triangulation needs at least 3 points, got 2\n",
+        ),
     ]:
         result = glmls_cli(*args, cwd=inputs)
         assert result.returncode == 2, (args, result.stderr)
         assert message in result.stderr, (args, result.stderr)
         _no_traceback(result)
+
+
+def test_a_bad_option_is_one_line_not_the_usage(inputs):
+    """argparse's mistakes (a bad value, a missing argument, an unknown command) are one line
+    with the fault and where the options are listed, not the dozen lines of the usage."""
+    for args, line in [
+        (["warp", "a.png", "o.png", "--handles", "h.json", "--grid", "0"],
+         "glmls warp: argument --grid: expected an integer >= 1, got 0 (see glmls warp --help)"),
+        (["warp"], "glmls warp: the following arguments are required: IN, OUT, --handles"),
+        (["wrap"], "glmls: argument COMMAND: invalid choice: 'wrap'"),
+    ]:  # fmt: skip
+        result = glmls_cli(*args, cwd=inputs)
+        assert result.returncode == 2, (args, result.stderr)
+        assert result.stderr.startswith(line), (args, result.stderr)
+        assert len(result.stderr.strip().splitlines()) == 1, (args, result.stderr)
+
+
+def test_an_output_folder_that_is_a_file_is_refused_before_any_work(inputs):
+    """--out naming a file (or a path below one) is refused when the options are read, not
+    when the report, the ranking or the study is written after all the work."""
+    (inputs / "taken").write_text("a file")
+    for args, message in [
+        (["analyze", "--example", "--out", "taken"], "argument --out: taken: a file, not a folder"),
+        (["tune", "--example", "--out", "taken/x"], "taken/x: taken is a file, not a folder"),
+        (["study", "--out", "taken"], "taken: a file, not a folder"),
+        (["bench", "--quick", "--out", "taken"], "taken: a file, not a folder"),
+        (["warp", "a.png", "taken/o.png", "--handles", "h.json"], "taken is a file, not a"),
+        (["warp", "a.png", "taken/", "--handles", "h.json"], "taken: a file, not a folder"),
+    ]:
+        result = glmls_cli(*args, cwd=inputs)
+        assert result.returncode == 2, (args, result.stderr)
+        assert message in result.stderr, (args, result.stderr)
+        assert len(result.stderr.strip().splitlines()) == 1, (args, result.stderr)
+        _no_traceback(result)
+    assert (inputs / "taken").read_text() == "a file"
 
 
 def test_version_and_help(inputs):
@@ -201,3 +250,60 @@ def test_warp_and_analyze_take_the_adaptive_tolerance(inputs, gl):
         bad = glmls_cli("warp", "a.png", "x.png", "--handles", "h.json", *args, cwd=inputs)
         assert bad.returncode == 2 and message in bad.stderr, (args, bad.stderr)
         _no_traceback(bad)
+
+
+def test_a_grid_as_large_as_the_image_is_warned_about(inputs, gl):
+    """A grid not smaller than the image warps it by its four corners alone, every handle
+    inside ignored: stderr says so."""
+    result = glmls_cli("warp", "a.png", "o.png", "--handles", "h.json", "--grid", "40", cwd=inputs)
+    assert result.returncode == 0, result.stderr
+    assert "warning: --grid 40 is not smaller than the 40 x 32 image" in result.stderr
+    result = glmls_cli("warp", "a.png", "o.png", "--handles", "h.json", "--grid", "39", cwd=inputs)
+    assert result.returncode == 0 and "--grid" not in result.stderr, result.stderr
+
+
+def test_an_output_that_cannot_be_written_is_named_once_with_status_1(
+    inputs, gl, monkeypatch, capsys
+):
+    """A full disk or a refused write is one line naming the output, no batch index before
+    it, exit status 1."""
+    from glmls.cli import warp
+    from glmls.cli.main import main
+
+    def full(path, image):
+        raise OSError(f"{path}: cannot write: No space left on device")
+
+    monkeypatch.setattr(warp, "write_image", full)
+    monkeypatch.chdir(inputs)
+    assert main(["warp", "a.png", "o.png", "--handles", "h.json"]) == 1
+    assert capsys.readouterr().err == "glmls warp: o.png: cannot write: No space left on device\n"
+
+
+def test_an_image_of_a_dtype_glmls_does_not_warp_is_named_not_its_output(inputs):
+    """No output suffix takes an int16 image: the message names the input and the dtypes
+    glmls warps, not the output's format."""
+    import tifffile
+
+    tifffile.imwrite(inputs / "i16.tif", np.zeros((8, 8), np.int16))
+    for args in (["warp", "i16.tif", "o.tif", "--handles", "h.json"], ["augment", "i16.tif", "o"]):
+        result = glmls_cli(*args, cwd=inputs)
+        assert result.returncode == 2, result.stderr
+        assert result.stderr.endswith(
+            "i16.tif dtype must be one of uint8, uint16, float32, float64; got int16\n"
+        ), result.stderr
+
+
+def test_an_option_the_weight_does_not_use_is_warned_about(inputs, gl):
+    """--radius with idw, or --alpha with gaussian, changes nothing: stderr says so."""
+    for args, warning in [
+        (["--radius", "50"], "warning: --radius 50 is not used by the idw weight"),
+        (["--weight", "gaussian", "--alpha", "2"], "warning: --alpha 2 is not used by the"),
+        (["--weight", "linear", "--s", "0.5"], "warning: --s 0.5 is not used by the linear"),
+    ]:
+        result = glmls_cli("warp", "a.png", "o.png", "--handles", "h.json", *args, cwd=inputs)
+        assert result.returncode == 0 and warning in result.stderr, (args, result.stderr)
+    result = glmls_cli(
+        "warp", "a.png", "o.png", "--handles", "h.json", "--weight", "gaussian", "--alpha", "2",
+        "--interpolating", cwd=inputs,
+    )  # fmt: skip
+    assert result.returncode == 0 and "warning" not in result.stderr, result.stderr

@@ -64,7 +64,7 @@ def files(tmp_path):
         (("warp", "half16.png", "o.png"), ("half16.png", "corrupt or truncated 16-bit PNG")),
         (("warp", "signature.png", "o.png"), ("signature.png", "truncated PNG")),
         (("warp", "bomb.png", "o.png"), ("bomb.png", "400,000,000 pixels", "--max-pixels")),
-        (("warp", "deep16.png", "o.jpg"), ("o.jpg", ".jpg cannot hold uint16", ".png or .tif")),
+        (("warp", "deep16.png", "o.jpg"), ("o.jpg", ".jpg cannot hold uint16", ".png, .tif or")),
         (("warp", "a.png", "o.xyz"), ("o.xyz", "unknown image format .xyz")),
         (("warp", "a.png", "o.png", "--handles", "deep.json"), ("deep.json", "nested too deeply")),
         (("warp", "a.png", "o.png", "--handles", "wide.csv"), ("wide.csv", "field limit")),
@@ -167,14 +167,18 @@ def test_suspicious_handles_warn_without_failing(files):
 def test_every_option_shows_its_default(files):
     for command, options in (
         ("warp", ("--transform", "--weight", "--method", "--interpolation", "--max-pixels")),
-        ("tune", ("--trials", "--seed", "--rank-by")),
+        ("tune", ("--trials", "--seed", "--rank-by", "--magnitudes")),
         ("demo", ("--method", "--interpolation", "--out", "--grid")),
+        ("augment", ("--rows", "--cols", "--displacement", "--units", "--segments", "--radius")),
+        ("augment", ("--transform", "--interpolation", "--border")),
+        ("bench", ("--sizes", "--handles", "--grids", "--transforms", "--repeat", "--tools")),
     ):
         text = cli(command, "--help", cwd=files).stdout
         for option in options:
             start = text.index(f"\n  {option} ")  # its entry, not the usage line
             block = " ".join(text[start + 1 :].split("\n  -")[0].split())  # unwrapped
-            assert "(default: " in block, (command, option, block)
+            assert block.count("(default: ") == 1, (command, option, block)
+            assert "['" not in block, (command, option, block)  # not a Python list
 
 
 def test_the_window_takes_the_same_option_names(files):
@@ -213,4 +217,6 @@ def test_a_long_step_shows_that_it_works():
 def test_usage_mistakes_exit_2_with_argparses_message(files):
     result = cli("warp", "a.png", "o.png", "--handles", "h.json", "--grid", "0", cwd=files)
     assert result.returncode == 2 and "Traceback" not in result.stderr
-    assert result.stderr.strip().splitlines()[-1].endswith("expected an integer >= 1, got 0")
+    assert result.stderr.strip().splitlines() == [
+        "glmls warp: argument --grid: expected an integer >= 1, got 0 (see glmls warp --help)"
+    ]

@@ -189,7 +189,14 @@ def test_mesh_is_written_with_its_faces_and_the_folds_said(files, stand_in, caps
         (["warp", "sphere.ply", "o.nii", "--handles", "h3.json"], "o.nii: a mesh is written as"),
         (["warp", "a.png", "o.png", "--handles", "h2.json", "--spacing", "2"], "--spacing: for"),
         (["warp", "v.nii.gz", "o.nii", "--handles", "h3.json", "--fit"], "--fit: for images"),
-        (["warp", "sphere.ply", "o.ply", "--handles", "h3.json", "--spacing", "1"], "--spacing"),
+        (
+            ["warp", "sphere.ply", "o.ply", "--handles", "h3.json", "--spacing", "1"],
+            "--spacing: for volumes, not for a mesh (sphere.ply)",
+        ),
+        (
+            ["warp", "sphere.ply", "o.ply", "--handles", "h3.json", "--method", "backward"],
+            "--method: for images and volumes, not for a mesh (sphere.ply)",
+        ),
         (["warp", "v.nii.gz", "o.nii", "--handles", "m.pts", "--targets", "f.pts"], "m.pts: no "),
         (["warp", "missing.nii", "o.nii", "--handles", "h3.json"], "missing.nii: no such file"),
         (["warp", "bad.nii", "o.nii", "--handles", "h3.json"], "bad.nii: not a"),

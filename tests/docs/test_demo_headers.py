@@ -28,3 +28,15 @@ def test_the_demo_has_a_gallery_header(path):
         f"{path.name}: underline the title with '=', at least as long as the title"
     )
     assert not lines[2].strip() and lines[3].strip(), f"{path.name}: a paragraph after the title"
+
+
+@pytest.mark.parametrize("path", DEMOS, ids=lambda p: p.name)
+def test_the_command_line_in_a_header_is_a_literal_block(path):
+    """An indented command after a plain paragraph is a block quote, in which Sphinx makes
+    "--out" an en dash ("–out"): a reader who copies it gets an unknown option."""
+    docstring = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8")), clean=False)
+    lines = docstring.splitlines()
+    for number, line in enumerate(lines):
+        if line.startswith("    python demos/") and not lines[number - 1].startswith("    "):
+            before = [text for text in lines[:number] if text.strip()][-1]
+            assert before.endswith("::"), f"{path.name}: '{line.strip()}' after '{before}'"

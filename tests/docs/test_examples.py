@@ -16,6 +16,10 @@ from helpers import child_env
 ROOT = Path(__file__).resolve().parent.parent.parent
 DOCUMENTS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 _BLOCK = re.compile(r"^```python\n(.*?)^```", re.DOTALL | re.MULTILINE)
+#: torch's and torchvision's imports, which a page shows where it uses them; run as one
+#: program, they go first, before glmls's first GL context, as docs/augment.md says a program
+#: must import them where GL is Mesa's llvmpipe
+_TORCH_IMPORT = re.compile(r"^(?:import|from) (?:torch|torchvision)\b.*$", re.MULTILINE)
 
 
 def examples(path: Path) -> list[str]:
@@ -45,6 +49,8 @@ def test_the_documents_have_examples():
 @pytest.mark.parametrize("path", [p for p in DOCUMENTS if examples(p)], ids=lambda p: p.name)
 def test_examples_run_as_written(path, tmp_path):
     code = "\n\n".join(examples(path))
+    hoisted = _TORCH_IMPORT.findall(code)
+    code = "\n".join([*hoisted, _TORCH_IMPORT.sub("", code)])
     script = tmp_path / "example.py"
     script.write_text(code, encoding="utf-8")
     command = [sys.executable, str(script)]
@@ -58,3 +64,19 @@ def test_examples_run_as_written(path, tmp_path):
         command, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600
     )
     assert done.returncode == 0, f"{path.name}:\n{done.stderr[-3000:]}"
+
+
+@pytest.mark.parametrize("path", DOCUMENTS, ids=lambda p: p.name)
+def test_every_code_block_is_closed_by_a_bare_fence(path):
+    """A closing fence with text after it ("``` The output ...") closes nothing: the block
+    swallows the paragraphs after it, up to the next bare fence."""
+    inside = None
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        if not line.startswith("```"):
+            continue
+        if inside is None:
+            inside = number
+        else:
+            assert line.rstrip() == "```", f"{path.name}:{number}: {line!r} closes the block"
+            inside = None
+    assert inside is None, f"{path.name}: the block of line {inside} is never closed"

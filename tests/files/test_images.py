@@ -116,6 +116,13 @@ def test_oversized_images_are_refused_before_decoding(tmp_path):
         glmls.imread(small, max_pixels=50)
     assert glmls.imread(small, max_pixels=100).shape == (10, 10)
     assert Image.MAX_IMAGE_PIXELS != 50  # Pillow's own limit is left as it was
+    # far beyond the limit (where Pillow itself refuses the file): still the limit given
+    with pytest.raises(ValueError, match=r"small.png: 100 pixels exceeds the limit of 10 \("):
+        glmls.imread(small, max_pixels=10)
+    jpeg = tmp_path / "small.jpg"
+    glmls.imwrite(jpeg, np.zeros((10, 10, 3), np.uint8))
+    with pytest.raises(ValueError, match=r"small.jpg: 100 pixels exceeds the limit of 49 \("):
+        glmls.imread(jpeg, max_pixels=49)
 
 
 def test_exif_orientation_is_applied(tmp_path):
@@ -145,18 +152,34 @@ def test_animations_give_their_first_frame_with_a_warning(tmp_path):
 def test_imwrite_refuses_what_it_cannot_keep_before_writing(tmp_path):
     cases = [
         ("a.png", np.zeros((2, 2), np.float32), r"\.png cannot hold float32.*\.tif"),
-        ("a.jpg", np.zeros((2, 2, 3), np.uint16), r"\.jpg cannot hold uint16.*\.png or \.tif"),
+        ("a.jpg", np.zeros((2, 2, 3), np.uint16), r"write it as \.png, \.tif or \.tiff$"),
         ("a.jpg", np.zeros((2, 2, 4), np.uint8), "no alpha channel"),
         ("a.xyz", np.zeros((2, 2), np.uint8), r"unknown image format \.xyz"),
         ("noext", np.zeros((2, 2), np.uint8), r"unknown image format \(no suffix\)"),
         ("a.png", np.zeros((0, 2), np.uint8), "empty"),
         ("a.tif", np.zeros((2, 2), np.int64), "cannot hold int64"),
+        # BMP: Pillow writes no grey-with-alpha, and reads a 32-bit BMP's alpha as nothing
+        (
+            "a.bmp",
+            np.zeros((2, 2, 4), np.uint8),
+            r"\.bmp has no alpha.*\.png, \.tif, \.tiff or \.webp",
+        ),
+        ("a.bmp", np.zeros((2, 2, 2), np.uint8), r"\.bmp has no alpha.*\.png, \.tif or \.tiff$"),
+        # WebP: colour only, a grey image would come back RGB
+        ("a.webp", np.zeros((2, 2), np.uint8), r"\.webp holds colour.*\.png, \.tif, \.tiff, \.jpg"),
+        ("a.webp", np.zeros((2, 2, 2), np.uint8), r"\.webp holds colour.*\.png, \.tif or \.tiff$"),
     ]
     for name, image, message in cases:
         with pytest.raises(ValueError, match=message):
             glmls.imwrite(tmp_path / name, image)
         assert not (tmp_path / name).exists()
     check_writable("out.PNG", np.uint16, 4)  # suffixes in any case
+    for name, channels in (("a.webp", 4), ("a.webp", 3), ("a.bmp", 3), ("a.bmp", 1)):
+        image = np.arange(2 * 3 * channels, dtype=np.uint8).reshape(2, 3, channels).squeeze()
+        glmls.imwrite(tmp_path / name, image)
+        read = glmls.imread(tmp_path / name)  # WebP is lossy: its shape, BMP's values too
+        assert read.shape == image.shape, (name, channels)
+        assert name.endswith(".webp") or (read == image).all(), (name, channels)
 
 
 def test_reads_the_bundled_photograph():

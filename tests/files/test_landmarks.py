@@ -54,6 +54,8 @@ def test_reference_points(tmp_path):
         ("h.json", '{"src": [], "dst": []}', "content: no handles"),
         ("h.json", '{"src": [[1, 2]], "dst": [[1, 2], [3, 4]]}', "1 sources but 2 targets"),
         ("h.json", "[1, 2]", "expected a JSON object"),
+        ("h.json", "", "content: an empty file"),
+        ("h.json", " \n", "content: an empty file"),
         ("h.csv", "src_x,src_y,dst_x\n1,2,3\n", "line 1: expected the header"),
         ("h.csv", "src_x,src_y,dst_x,dst_y\n1,2,3,4\n5,6,7\n", "line 3: expected 4 columns, got 3"),
         ("h.csv", "src_x,src_y,dst_x,dst_y\n1,2,x,4\n", "line 2: expected a number, got 'x'"),
@@ -74,6 +76,12 @@ def test_missing_file(tmp_path):
         read_handles(path)
     # said once, plainly: not wrapped as an "invalid JSON" fault of the content
     assert str(info.value) == f"{path}: no such file"
+
+
+def test_a_folder_given_as_a_file(tmp_path):
+    with pytest.raises(InputFileError) as info:
+        read_handles(tmp_path)
+    assert str(info.value) == f"{tmp_path}: a folder, not a file"
 
 
 @pytest.mark.parametrize(

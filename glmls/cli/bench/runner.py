@@ -27,6 +27,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ...core.config import TRANSFORMS
+from ..options import folder_path
 from .cases import (
     GRIDLESS_TOOLS,
     MLS_TOOLS,
@@ -124,20 +125,31 @@ def _name_list(choices: Sequence[str]):
     return parse
 
 
+def _default(key: str) -> str:
+    """The help's note of an option's default, in the full matrix and with --quick."""
+    full, quick = FULL[key], QUICK[key]
+    if isinstance(full, list):
+        full, quick = ",".join(map(str, full)), ",".join(map(str, quick))
+    return f"(default: {full}; --quick: {quick})"
+
+
 def configure(parser: argparse.ArgumentParser) -> None:
     """Add ``glmls bench``'s options to ``parser``."""
     parser.description = "Time glmls against other image-warping tools on the same inputs."
     parser.add_argument(
         "--quick", action="store_true", help="a CI-sized subset (1024^2, 64 handles, grid 1, 4)"
     )
-    parser.add_argument("--sizes", type=_int_list, help="image sides, e.g. 512,1024,2048")
-    parser.add_argument("--handles", type=_int_list, help="handle counts, e.g. 16,64,256")
-    parser.add_argument("--grids", type=_int_list, help="mesh steps in pixels, e.g. 1,4,8")
-    parser.add_argument("--transforms", type=_name_list(TRANSFORMS), help="affine,similarity,rigid")
+    parser.add_argument("--sizes", type=_int_list, help=f"image sides {_default('sizes')}")
+    parser.add_argument("--handles", type=_int_list, help=f"handle counts {_default('handles')}")
+    parser.add_argument("--grids", type=_int_list, help=f"mesh steps in pixels {_default('grids')}")
+    parser.add_argument(
+        "--transforms", type=_name_list(TRANSFORMS), help=f"transforms {_default('transforms')}"
+    )
     parser.add_argument(
         "--workloads",
         type=_name_list(WORKLOADS),
-        help="lattice (handles on a lattice, no folds) and/or random (random handles, folds)",
+        help="lattice (handles on a lattice, no folds) and/or random (random handles, folds) "
+        f"{_default('workloads')}",
     )
     parser.add_argument(
         "--tolerances",
@@ -147,15 +159,17 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--tools",
         type=_name_list(TOOLS),
-        default=list(TOOLS),
-        help=f"which tools (default all that are installed): {','.join(TOOLS)}",
+        help=f"which tools, of {','.join(TOOLS)} (default: every one installed)",
     )
-    parser.add_argument("--repeat", type=int, help="timed runs per case (default 5; quick 3)")
+    parser.add_argument("--repeat", type=int, help=f"timed runs per case {_default('repeat')}")
     parser.add_argument(
         "--timeout", type=float, default=600.0, help="seconds per case before it is abandoned"
     )
     parser.add_argument(
-        "--out", type=Path, default=Path("bench-out"), help="folder for bench.csv and bench.png"
+        "--out",
+        type=folder_path,
+        default=Path("bench-out"),
+        help="folder for bench.csv and bench.png",
     )
     parser.add_argument("--worker", help=argparse.SUPPRESS)  # one case, in a child process
 
@@ -393,7 +407,7 @@ def run(args: argparse.Namespace) -> int:
             return _worker(args.worker)
         settings = _settings(args)
         tools = []
-        for tool in args.tools:
+        for tool in args.tools or TOOLS:
             why = available(tool)
             if why is None:
                 tools.append(tool)
