@@ -94,7 +94,7 @@ MLS3Accum mls3_begin(vec3 v, float d2min, int nearest, int n) {
             d2far = min(d2far, d2 > u_hit2 ? d2 : 3.0e38);
         }
     }
-    a.m = a.hit ? d2far : max(d2min, u_hit2);
+    a.m = mls_normalisation(a.hit ? d2far : max(d2min, u_hit2));
     a.inv_m = 1.0 / a.m;
     a.sigma = mls_sigma(a.m);
     a.W = 0.0;
