@@ -59,9 +59,17 @@ from __future__ import annotations
 import numpy as np
 
 from .core.config import MLSConfig
-from .core.handles import as_points
-from .core.handles3 import as_volume_spacing, planar_spacing, volume_diagonal
+from .core.handles import as_points, check_coordinates, point_rows
+from .core.handles3 import (
+    as_points3,
+    as_volume_shape,
+    as_volume_spacing,
+    planar_spacing,
+    validate_handles3,
+    volume_diagonal,
+)
 from .core.handleset import HandleSet
+from .core.mesh import as_shape
 from .core.segments import REFERENCE_NODES, REFERENCE_PANELS, segment_config, sinh_nodes
 
 __all__ = [
@@ -317,7 +325,8 @@ def mls(
         Point handles p_i -> q_i, (N, 2) (x, y) rows, or (N, 3) (x, y, z) rows in 3D; N may be
         0 with segments.
     points : array_like
-        The evaluated points v, (K, 2), or (K, 3) with 3D handles.
+        The evaluated points v, (K, 2), or (K, 3) with 3D handles; one point as a (2,) or
+        (3,) array is a (1, D) row.
     config : MLSConfig, optional
         The transform and weight; built from ``options`` when None.
     shape : tuple of int, optional
@@ -344,7 +353,9 @@ def mls(
     Raises
     ------
     ValueError
-        When the handles or points are malformed (also: some with 2 columns and some with 3,
+        When the handles or points are malformed or beyond ±1e6 (px or voxels), one source
+        point has two targets, a ``shape`` is not one that :class:`glmls.MLS` takes (the same
+        errors as it raises), or the inputs are mixed (some with 2 columns and some with 3,
         or segments or ``spacing`` with 2D handles), an option is invalid, a ``spacing`` is
         not three finite numbers > 0, or a radius weight has neither ``radius`` nor
         ``shape``.
@@ -392,7 +403,8 @@ def mls(
         return _mls3_checked(src, dst, points, config, shape, spacing, src_segments, dst_segments)
     planar_spacing(spacing)
     handles = HandleSet.validate(src, dst, src_segments, dst_segments)
-    v = as_points(points)
+    v = check_coordinates(as_points(point_rows(points, 2)), "points")
+    shape = None if shape is None else as_shape(shape)
     k = len(v)
     f = v.copy()
     big_m = np.broadcast_to(np.eye(2), (k, 2, 2)).copy()
@@ -497,7 +509,8 @@ def mls_error(
     src, dst : array_like
         Point handles p_i -> q_i, (N, 2) (x, y) rows, or (N, 3) (x, y, z) rows in 3D.
     points : array_like
-        The evaluated points v, (K, 2), or (K, 3) with 3D handles.
+        The evaluated points v, (K, 2), or (K, 3) with 3D handles; one point as a (2,) or
+        (3,) array is a (1, D) row.
     config : MLSConfig, optional
         The transform and weight; built from ``options`` when None.
     shape : tuple of int, optional
@@ -570,26 +583,11 @@ def mls_error(
 DEGENERATE_SHARE = 1e-3
 
 
-def _points3(array: object, name: str) -> np.ndarray:
-    """``array`` as (N, 3) finite float64; ValueError/TypeError naming ``name`` if not."""
-    a = np.asarray(array)
-    if a.dtype.kind not in "iuf":
-        raise TypeError(f"{name} must be real numbers, got dtype {a.dtype}")
-    if a.ndim != 2 or a.shape[1] != 3:
-        raise ValueError(
-            f"{name} must have shape (N, 3) as (x, y, z) rows like the 3D handles, got {a.shape}"
-        )
-    a = np.ascontiguousarray(a, dtype=np.float64)
-    if not np.isfinite(a).all():
-        row = int(np.argmax(~np.isfinite(a).all(axis=1)))
-        raise ValueError(f"{name} must be finite; row {row} is {a[row]}")
-    return a
-
-
 def _dimension(src: object, dst: object, points: object) -> int:
     """3 when src, dst and points all have 3 columns, 2 when none has (the 2D validation then
     applies); ValueError naming the shapes when they are mixed."""
     shapes = {name: np.shape(a) for name, a in (("src", src), ("dst", dst), ("points", points))}
+    shapes["points"] = np.shape(point_rows(points, 3))  # one (x, y, z) point: a (1, 3) row
     three = [len(s) == 2 and s[1] == 3 for s in shapes.values()]
     if not any(three):
         return 2
@@ -609,11 +607,11 @@ def _mls3_checked(src, dst, points, config, shape, spacing, src_segments, dst_se
             "segment handles are 2D only: src_segments and dst_segments must be None with "
             "(N, 3) handles"
         )
-    p, q, v = _points3(src, "src"), _points3(dst, "dst"), _points3(points, "points")
-    if len(p) != len(q):
-        raise ValueError(f"src and dst must have the same length, got {len(p)} and {len(q)}")
+    p, q = validate_handles3(src, dst)
+    v = as_points3(point_rows(points, 3))
+    shape = None if shape is None else as_volume_shape(shape)
     steps = None if spacing is None else as_volume_spacing(spacing)
-    if config.uses_radius and config.radius is None and shape is not None and len(shape) == 3:
+    if config.uses_radius and config.radius is None and shape is not None:
         radius: float | None = volume_diagonal(shape, steps)
     else:
         radius = config.resolve_radius(shape)

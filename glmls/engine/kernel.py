@@ -31,8 +31,15 @@ from .storage import HandleStorage, check_storage, make_storage, resolve_storage
 
 __all__ = ["DEFAULT_STORAGE", "SNAP_DISTANCE", "MLSKernel", "config_defines", "weight_uniforms"]
 
-#: Points closer than this (pixels) to a handle whose weight is infinite there map to q_i.
+#: Points closer than this (pixels) to a handle whose weight is infinite there map to q_i
+#: (closer still for alpha below ~1, see :func:`weight_uniforms`).
 SNAP_DISTANCE = 1e-3
+#: The largest relative weight that snapping may leave out: (h / d)^(2 alpha) for the snapping
+#: distance h and handles d ~ the scaled extent (1) away, float32's unit roundoff.
+SNAP_SHARE = 2.0**-24
+#: The smallest squared snapping distance (scaled): a float32 normal number, so that 1 / m of
+#: the weights' normalisation stays finite.
+SNAP_FLOOR2 = 1e-36
 #: Handle storage unless told otherwise: the uniform block where the handles fit, else the
 #: storage buffer (docs/handles.md: the uniform block is the fastest on llvmpipe wherever it
 #: fits; only the storage buffer and the texture take tens of thousands).
@@ -48,7 +55,10 @@ def weight_uniforms(
     makes its weight infinite at d = 0, so points on a handle snap."""
     alpha = config.alpha
     log2_s = math.log2(config.s) - 2 * alpha * math.log2(scale) if config.s > 0 else -1e30
-    hit2 = (SNAP_DISTANCE / scale) ** 2
+    # A snapped point leaves out the other handles, whose weights relative to the snapped
+    # one's are (h / d)^(2 alpha) at the snapping distance h: with a small alpha they are not
+    # negligible at h = 1e-3 px (0.25 for alpha = 0.1), so h shrinks until they are.
+    hit2 = max(min((SNAP_DISTANCE / scale) ** 2, SNAP_SHARE ** (1 / alpha)), SNAP_FLOOR2)
     # idw with a tiny s is infinite at d = 0 for float32: snap there too.
     tiny_s = config.weight_entry.uses_s and log2_s - alpha * math.log2(hit2) < math.log2(1e-6)
     return {

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from helpers import random_handles
@@ -130,3 +132,43 @@ def test_idw_of_a_huge_s_is_the_global_least_squares_fit(s):
     big_m, t = _weighted_lstsq_affine(p, q, np.ones(len(p)))
     f, _, _ = reference.mls(p, q, v, MLSConfig(transform="affine", s=s))
     assert_allclose(f, v @ big_m + t, atol=1e-9)
+
+
+P2 = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0], [7.0, 7.0]])
+P3 = np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0], [0.0, 0.0, 10.0]])
+
+
+def _invalid_inputs(p):
+    """(name, src, dst, points, keywords) that glmls.MLS refuses (or, for one point, takes)."""
+    d = p.shape[1]
+    point = p[:1] + 0.5
+    duplicate = p.copy()
+    duplicate[1] = duplicate[0]
+    far = np.full((1, d), 2e6)
+    image = (0, 5) if d == 2 else (0, 5, 4)
+    return [
+        ("points beyond the limit", p, p + 1, far, {}),
+        ("src beyond the limit", np.concatenate([p[:-1], far]), p + 1, point, {}),
+        ("dst beyond the limit", p, np.concatenate([p[:-1] + 1, far]), point, {}),
+        ("one source, two targets", duplicate, p + 1, point, {}),
+        ("an empty shape", p, p + 1, point, {"weight": "gaussian", "shape": image}),
+        ("a shape of 4", p, p + 1, point, {"weight": "gaussian", "shape": (3, 5, 6, 7)}),
+        ("one point as a (D,) array", p, p + 1, point[0], {}),
+    ]
+
+
+@pytest.mark.parametrize("p", [P2, P3], ids=["2D", "3D"])
+def test_invalid_input_is_refused_as_the_gpu_refuses_it(gl, p):
+    """The reference validates as glmls.MLS does: coordinates beyond ±1e6, one source point with
+    two targets in 3D, a malformed shape (it accepted all of these), and one (D,) point, which
+    MLS takes as a (1, D) row (the reference refused it)."""
+    for name, src, dst, points, options in _invalid_inputs(p):
+        try:
+            with glmls.MLS(src, dst, ctx=gl, **options) as m:
+                expected = m(points)
+        except (ValueError, TypeError) as error:
+            with pytest.raises(type(error), match=re.escape(str(error))):
+                reference.mls(src, dst, points, **options)
+        else:
+            assert_allclose(reference.mls(src, dst, points, **options)[0], expected, atol=1e-4)
+            assert name == "one point as a (D,) array"

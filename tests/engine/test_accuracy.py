@@ -56,6 +56,40 @@ def test_interpolates_handles_within_a_millipixel(gl, rng, transform, options):
         assert_allclose(m(p), q, rtol=0, atol=1e-3)
 
 
+@pytest.mark.parametrize(("alpha", "tolerance"), [(0.1, 0.1), (0.5, 1e-3)])
+@pytest.mark.parametrize("weight", ["idw", "gaussian"])
+def test_small_alpha_next_to_a_handle_is_not_snapped(gl, rng, weight, alpha, tolerance):
+    """Within 1e-3 px of a handle, 1 / d^(2 alpha) with a small alpha is far from dominating
+    the other handles' weights (0.25 of them for alpha = 0.1): f there is not yet q_i (22 px
+    from it here for alpha = 0.1, 0.003 px for 0.5), and snapping to q_i missed the reference
+    by as much. For alpha = 0.1, f ~ q_i + O(d^0.2) is so steep there that float32's rounding
+    of v itself moves it by ~0.06 px (docs/mathematics.md, "Precision")."""
+    p, q = random_handles(rng, 30)
+    v = p[:10] + rng.uniform(-7e-4, 7e-4, (10, 2))
+    options = {"weight": weight, "alpha": alpha, "s": 0.0, "interpolating": weight != "idw"}
+    for transform in glmls.TRANSFORMS:
+        with glmls.MLS(p, q, transform=transform, radius=1e4, ctx=gl, **options) as m:
+            f = m(v)
+            assert_allclose(m(p), q, rtol=0, atol=1e-3)  # on the handles: still q_i
+        f_ref, _, _ = reference.mls(p, q, v, m.config)
+        assert_allclose(f, f_ref, rtol=0, atol=tolerance)
+
+
+@pytest.mark.parametrize("s", [1e12, 1e30])
+def test_idw_with_a_large_s_on_and_next_to_handles(gl, rng, s):
+    """idw 1 / (s + d^(2 alpha)) with s far above d^(2 alpha) next to a handle: the handles
+    within s^(1 / (2 alpha)) weigh alike. The shader's s / m^alpha, normalised by the nearest
+    distance m, was capped at 1e30 there, and the weights fell off with d^(2 alpha) instead:
+    f on the handles missed the reference by up to 60 px."""
+    p, q = random_handles(rng, 100)
+    v = np.concatenate([p[:20], p[20:40] + 2e-3])
+    for transform in glmls.TRANSFORMS:
+        with glmls.MLS(p, q, transform=transform, s=s, alpha=3.7, ctx=gl) as m:
+            f = m(v)
+        f_ref, _, _ = reference.mls(p, q, v, m.config)
+        assert_allclose(f, f_ref, rtol=0, atol=1e-3)
+
+
 @pytest.mark.parametrize("weight", ["cressman", "gaussian", "linear"])
 def test_finite_weights_do_not_interpolate(gl, rng, weight):
     """The documented caveat: with a wide radius, f(p_i) misses q_i by pixels."""

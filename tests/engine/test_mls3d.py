@@ -77,6 +77,17 @@ def test_many_handles_storages(gl):
         assert f_err < 1e-3, storage
 
 
+def test_idw_with_a_large_s_on_handles(gl, handles):
+    """idw with s far above d^(2 alpha) next to a handle weighs the nearby handles alike (the
+    shader's capped s / m^alpha made them fall off: 10 voxels off on the handles)."""
+    src, dst, _ = handles
+    points = np.concatenate([src[:10], src[10:20] + 2e-3])
+    for transform in glmls.TRANSFORMS:
+        config = MLSConfig(transform=transform, s=1e12, alpha=3.7)
+        f_err, _ = _compare(src, dst, points, config)
+        assert f_err < 1e-3, transform
+
+
 @pytest.mark.parametrize("transform", glmls.TRANSFORMS)
 @pytest.mark.parametrize("name", ["two", "three", "coplanar", "collinear", "one", "coincident"])
 def test_degenerate_sets(gl, transform, name):

@@ -143,7 +143,7 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
 #endif
     a.hit = snaps && n.d2min <= u_hit2;
     a.o = n.h;
-    a.m = a.hit ? n.d2far : max(n.d2min, u_hit2);
+    a.m = mls_normalisation(a.hit ? n.d2far : max(n.d2min, u_hit2));
     a.inv_m = 1.0 / a.m;
     a.sigma = mls_sigma(a.m);
     a.W = 0.0;

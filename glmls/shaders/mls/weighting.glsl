@@ -35,6 +35,19 @@ float mls_sigma(float m) {
 #endif
 }
 
+// The normalisation m of a point whose nearest handle in use is at squared distance d2near.
+// idw (not interpolating) is 1 / (s + d^(2 alpha)): where s exceeds d2near^alpha, m is
+// s^(1/alpha) (bounded), so that sigma = s / m^alpha stays <= 1 and below mls_sigma's cap; a
+// capped sigma made the weights (sigma + 1) / (sigma + (d2 / m)^alpha) fall off where s keeps
+// them flat (the handles within s^(1/(2 alpha)) weigh alike).
+float mls_normalisation(float d2near) {
+#if MLS_WEIGHT_USES_S && !MLS_INTERPOLATING
+    return max(d2near, min(exp2(u_log2_s / u_alpha), 1e30));
+#else
+    return d2near;
+#endif
+}
+
 // Weight of a handle at squared distance d2 (see mls/weights.glsl for m, inv_m and sigma).
 float mls_weight(float d2, float m, float inv_m, float sigma) {
     float w = MLS_WEIGHT_FUNCTION(d2, m, inv_m, sigma);

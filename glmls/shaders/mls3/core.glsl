@@ -94,7 +94,7 @@ MLS3Accum mls3_begin(vec3 v, float d2min, int nearest, int n) {
             d2far = min(d2far, d2 > u_hit2 ? d2 : 3.0e38);
         }
     }
-    a.m = a.hit ? d2far : max(d2min, u_hit2);
+    a.m = mls_normalisation(a.hit ? d2far : max(d2min, u_hit2));
     a.inv_m = 1.0 / a.m;
     a.sigma = mls_sigma(a.m);
     a.W = 0.0;
@@ -357,6 +357,36 @@ MLS3Centre mls3_centre(MLS3Accum b) {
     return c;
 }
 
+// ``plain`` becomes false where a probe (moments b, f - v = d by the short solve) is not in
+// the plain branch of mls3_solve itself: its moments, the centre's moved by O(h), can leave
+// it where h is not small against the handles' spread about p* (a cluster of handles a few
+// h away), and Cholesky took the root of a negative pivot there (NaN in J)
+void mls3_check_probe(inout bool plain, MLS3Accum b, vec3 d, float Wmean) {
+    vec3 a, o, pst, est;
+    mat3 D;
+    mls3_moments(b, a, o, D, pst, est);
+    // the moments stand for the probes' mean, off by O(h^2); W is exact: their mismatch,
+    // magnified by the handles' spread about o against that about p*, moves A
+    float spread_o = b.Ad.x + b.Ad.y + b.Ad.z;
+    float spread_c = spread_o - dot(b.P, b.P) / b.W;
+    float mismatch = abs(b.W - Wmean) / b.W * spread_o / max(spread_c, 1e-30);
+    plain = plain && mismatch < 1e-3;
+    float tr = a.x + a.y + a.z;
+    float c2 = a.x * a.y + a.x * a.z + a.y * a.z - dot(o, o);
+    bool ok = c2 > 2.0 * MLS3_DEGENERATE_SHARE * tr * tr;
+#if MLS_TRANSFORM == 0
+    float det = a.x * (a.y * a.z - o.z * o.z) - o.x * (o.x * a.z - o.z * o.y)
+              + o.y * (o.x * o.z - a.y * o.y);
+    ok = ok && det > MLS3_DEGENERATE_SHARE * c2 * tr;
+#else
+    mat3 A = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z));
+    mat3 B = A + D;
+    float nb2 = dot(B[0], B[0]) + dot(B[1], B[1]) + dot(B[2], B[2]);
+    ok = ok && determinant(B) > MLS3_POLAR_DET * nb2 * sqrt(nb2);
+#endif
+    plain = plain && ok && !any(isnan(d)) && !any(isinf(d));
+}
+
 // f - v at a probe (moments b) by the short solve
 vec3 mls3_probe_d(MLS3Accum b, MLS3Centre c) {
     vec3 a, o, pst, est;
@@ -409,8 +439,12 @@ void mls3_probe_axis(inout mat3 sums, inout bool together, inout MLS3Probes s, M
     MLS3Accum up = mls3_probe(a, s.delta, s.Wup, lambda, 1.0, mls3_stencil_point(v, k, h));
     MLS3Accum down = mls3_probe(a, s.delta, s.Wdown, lambda, -1.0,
                                 mls3_stencil_point(v, k + 1, h));
-    mls3_stencil_add(sums, k, mls3_probe_d(up, c));
-    mls3_stencil_add(sums, k + 1, mls3_probe_d(down, c));
+    vec3 dup = mls3_probe_d(up, c);
+    vec3 ddown = mls3_probe_d(down, c);
+    mls3_check_probe(together, up, dup, lambda * a.W + s.delta.W);
+    mls3_check_probe(together, down, ddown, lambda * a.W - s.delta.W);
+    mls3_stencil_add(sums, k, dup);
+    mls3_stencil_add(sums, k + 1, ddown);
 }
 
 MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
