@@ -13,7 +13,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..core.handles3 import spacing_conflict
+from ..core.handles3 import chosen_spacing
 from ..core.mesh import MAX_GRID
 
 __all__ = [
@@ -74,14 +74,11 @@ def deformation_spacing(m: object, spacing: object) -> object:
     """The spacing an analysis of ``m`` takes: ``spacing`` where given, else ``m.spacing``
     (that of ``glmls.MLS(..., spacing=...)``; None: 1 each); ``ValueError`` where both are
     given and differ."""
-    own = getattr(m, "spacing", None)
-    if spacing is None or own is None:
-        return own if spacing is None else spacing
-    given = tuple(spacing_scale(spacing)[::-1].tolist())
-    mine = tuple(spacing_scale(own)[::-1].tolist())
-    if given != mine:
-        raise spacing_conflict(given, mine)
-    return spacing
+    own, given = (
+        None if s is None else tuple(spacing_scale(s)[::-1].tolist())
+        for s in (getattr(m, "spacing", None), spacing)
+    )
+    return chosen_spacing(given, own)  # type: ignore[arg-type]
 
 
 def as_points3(points: object, name: str = "points") -> np.ndarray:

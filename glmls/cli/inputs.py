@@ -216,13 +216,13 @@ def check_example(args: argparse.Namespace) -> None:
         )
 
 
-def read_image_handles(path, *, dst=None, image: object) -> HandleSet:
+def read_image_handles(path, *, dst=None, image: object, many: bool = False) -> HandleSet:
     """The 2D handles of ``path`` (and ``dst``, an elastix pair's targets) for ``image``
-    (its name, for the message); :class:`UsageError` for a file of 3D handles."""
+    (its name, for the message; ``many``: a name of several images); :class:`UsageError` for
+    a file of 3D handles."""
     if handle_dimension(path, dst=dst) != 2:
-        raise UsageError(
-            f"{path}: 3D handles (x, y, z), but {image} is an image: it takes 2D handles (x, y)"
-        )
+        which = "names images: they take" if many else "is an image: it takes"
+        raise UsageError(f"{path}: 3D handles (x, y, z), but {image} {which} 2D handles (x, y)")
     return read_handle_set(path, dst=dst)
 
 

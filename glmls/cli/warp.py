@@ -21,13 +21,13 @@ from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
 from ..files.atomic import missing_folders, remove_leftovers
 from ..files.images import check_writable
-from ..files.landmarks import handle_dimension, read_handle_set
 from ..imaging.options import WarpOptions
 from ..imaging.source import check_image
 from .inputs import (
     image_inputs,
     make_mls,
     read_image,
+    read_image_handles,
     reported_warnings,
     say,
     warn_about_handles,
@@ -212,12 +212,7 @@ def run(args: argparse.Namespace) -> int:
         jobs, scheduler = check_jobs(args.jobs), check_scheduler(args.scheduler)
     except (ImportError, TypeError, ValueError) as error:
         raise UsageError(str(error)) from None
-    if handle_dimension(args.handles, dst=args.targets) != 2:
-        raise UsageError(
-            f"{args.handles}: 3D handles (x, y, z), but {args.input} names images: they take "
-            "2D handles (x, y)"
-        )
-    handles = read_handle_set(args.handles, dst=args.targets)
+    handles = read_image_handles(args.handles, dst=args.targets, image=args.input, many=True)
     files, many = image_inputs(args.input)
     outputs = targets(args.output, files, many)
     options = warp_options_from_args(args)

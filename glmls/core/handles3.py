@@ -18,6 +18,7 @@ __all__ = [
     "as_points3",
     "as_volume_shape",
     "as_volume_spacing",
+    "chosen_spacing",
     "dimension_of",
     "fit_scaling3",
     "planar_spacing",
@@ -161,6 +162,17 @@ def spacing_conflict(
         "MLS's, or make an MLS with this spacing (or one without spacing, for volumes of "
         "several spacings)"
     )
+
+
+def chosen_spacing(
+    given: tuple[float, float, float] | None, own: tuple[float, float, float] | None
+) -> tuple[float, float, float] | None:
+    """The spacing (dz, dy, dx) of a volume operation given ``given`` on an MLS of spacing
+    ``own`` (both checked, None where there is none): ``given``, else ``own``;
+    :func:`spacing_conflict` where both are given and differ."""
+    if given is not None and own is not None and tuple(given) != tuple(own):
+        raise spacing_conflict(tuple(given), tuple(own))  # type: ignore[arg-type]
+    return own if given is None else given
 
 
 def fit_scaling3(

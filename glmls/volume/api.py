@@ -7,7 +7,7 @@ import dataclasses
 
 import numpy as np
 
-from ..core.handles3 import spacing_conflict
+from ..core.handles3 import chosen_spacing
 from ..engine.kernel3 import MLSKernel3
 from .construction import VolumeWarper
 from .frame import VolumeBounds
@@ -32,12 +32,8 @@ def _kernel(mls: object) -> MLSKernel3:
 def _spacing(mls: object, given: tuple[float, float, float] | None) -> tuple[float, float, float]:
     """The spacing of a volume operation given ``given`` (checked) on ``mls``: the MLS's own
     when None (else 1 each); ValueError where it differs from the MLS's own."""
-    own = getattr(mls, "spacing", None)  # a 3D MLS's (a kernel has none)
-    if given is None:
-        return own if own is not None else (1.0, 1.0, 1.0)
-    if own is not None and tuple(given) != tuple(own):
-        raise spacing_conflict(given, own)
-    return given
+    chosen = chosen_spacing(given, getattr(mls, "spacing", None))  # a kernel has none
+    return chosen if chosen is not None else (1.0, 1.0, 1.0)
 
 
 def _options(mls: object, options: VolumeOptions | None, keywords: dict) -> VolumeOptions:

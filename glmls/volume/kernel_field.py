@@ -16,7 +16,7 @@ from ..gl.dispatch import run_1d, set_uniforms
 from .fields import NEWTON_ACCEPT
 from .frame import CornerLattice
 
-__all__ = ["NEWTON_STEPS", "NEWTON_TOLERANCE", "KernelField", "physical_extent"]
+__all__ = ["NEWTON_STEPS", "NEWTON_TOLERANCE", "KernelField"]
 
 #: Newton on f stops below this residual |f(s) - u| (voxels) ...
 NEWTON_TOLERANCE = 1e-3
@@ -26,14 +26,6 @@ NEWTON_STEPS = 8
 #: Each step goes at most this share of the volume's largest side (far from the solution
 #: Newton's step may overshoot).
 NEWTON_MAX_STEP = 0.1
-
-
-def physical_extent(
-    shape: tuple[int, int, int], spacing: tuple[float, float, float]
-) -> tuple[float, float, float]:
-    """(D dz, H dy, W dx): the size of a (D, H, W) volume of voxels of ``spacing`` (dz, dy,
-    dx) in the handles' units, whose diagonal is a radius weight's default radius."""
-    return volume_extent(shape, spacing)
 
 
 class KernelField:
@@ -53,7 +45,7 @@ class KernelField:
         self.scale = np.array([dx, dy, dz], dtype=np.float64)
         #: What the kernel takes the default radius's diagonal of: the volume's extent in
         #: the handles' units (the kernel's passes take it as a shape, and only for that).
-        self.shape = None if shape is None else physical_extent(shape, spacing)
+        self.shape = None if shape is None else volume_extent(shape, spacing)
 
     def _uniforms(self) -> dict[str, object]:
         return {"u_volume_scale": tuple(float(c) for c in self.scale)}

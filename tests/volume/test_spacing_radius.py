@@ -11,9 +11,9 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 import glmls
 from glmls.core.config import MLSConfig
+from glmls.core.handles3 import volume_extent
 from glmls.volume import volume_bounds, volume_coordinate_map
 from glmls.volume.fields import ReferenceField
-from glmls.volume.kernel_field import physical_extent
 
 SHAPE = (5, 9, 8)  # D, H, W
 SPACING = (2.0, 1.0, 1.0)  # dz, dy, dx
@@ -32,7 +32,7 @@ def _problem():
 
 
 def test_the_physical_extent():
-    assert physical_extent(SHAPE, SPACING) == (10.0, 9.0, 8.0)
+    assert volume_extent(SHAPE, SPACING) == (10.0, 9.0, 8.0)
 
 
 def test_gaussian_volume_warp_with_spacing_takes_the_physical_diagonal(gl):
