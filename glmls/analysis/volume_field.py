@@ -224,9 +224,11 @@ def volume_error_field(
     ------
     ValueError
         For a shape that is not (D, H, W) with D, H, W >= 1, a grid that is not an integer
-        from 1 on, handles that are not (N, 3), or a bad ``spacing`` (or not ``m``'s).
+        from 1 on, handles that are not (N, 3), or a ``spacing`` of another length than 3,
+        with a value that is not finite and > 0, or other than ``m``'s.
     TypeError
-        For a shape that is not integers.
+        For a shape that is not integers, or a ``spacing`` that is not a sequence of real
+        numbers.
 
     See Also
     --------

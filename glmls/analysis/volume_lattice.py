@@ -13,7 +13,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..core.handles3 import chosen_spacing
+from ..core.handles3 import as_volume_spacing, chosen_spacing
 from ..core.mesh import MAX_GRID
 
 __all__ = [
@@ -57,17 +57,11 @@ def check_grid3(grid: object, name: str = "grid") -> int:
 
 
 def spacing_scale(spacing: object) -> np.ndarray:
-    """(dx, dy, dz), the handle units per voxel along x, y, z, of ``spacing`` (dz, dy, dx):
-    three finite numbers > 0, or None for (1, 1, 1); ``ValueError`` otherwise."""
+    """(dx, dy, dz), the handle units per voxel along x, y, z, of ``spacing`` (dz, dy, dx),
+    checked by :func:`~glmls.core.handles3.as_volume_spacing`; None: (1, 1, 1)."""
     if spacing is None:
         return np.ones(3)
-    try:
-        values = np.array([float(v) for v in spacing], dtype=np.float64)  # type: ignore[union-attr]
-    except (TypeError, ValueError):
-        raise ValueError(f"spacing must be (dz, dy, dx) numbers > 0, got {spacing!r}") from None
-    if values.shape != (3,) or not (np.isfinite(values).all() and (values > 0).all()):
-        raise ValueError(f"spacing must be (dz, dy, dx) numbers > 0, got {spacing!r}")
-    return values[::-1].copy()
+    return np.array(as_volume_spacing(spacing)[::-1], dtype=np.float64)
 
 
 def deformation_spacing(m: object, spacing: object) -> object:
@@ -75,8 +69,7 @@ def deformation_spacing(m: object, spacing: object) -> object:
     (that of ``glmls.MLS(..., spacing=...)``; None: 1 each); ``ValueError`` where both are
     given and differ."""
     own, given = (
-        None if s is None else tuple(spacing_scale(s)[::-1].tolist())
-        for s in (getattr(m, "spacing", None), spacing)
+        None if s is None else as_volume_spacing(s) for s in (getattr(m, "spacing", None), spacing)
     )
     return chosen_spacing(given, own)  # type: ignore[arg-type]
 

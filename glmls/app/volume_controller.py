@@ -16,6 +16,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..core.config import MLSConfig
+from ..core.handles3 import as_volume_spacing
 from ..imaging.source import BORDERS
 from .controls import Controls, window_bindings
 from .events import Press, Scroll
@@ -120,10 +121,7 @@ class SliceGrid:
     spacing: tuple[float, float, float] = (1.0, 1.0, 1.0)
 
     def __post_init__(self) -> None:
-        steps = tuple(float(d) for d in self.spacing)
-        if len(steps) != 3 or not all(np.isfinite(d) and d > 0 for d in steps):
-            raise ValueError(f"spacing must be three numbers > 0 (dz, dy, dx), got {steps}")
-        object.__setattr__(self, "spacing", steps)
+        object.__setattr__(self, "spacing", as_volume_spacing(self.spacing))
 
     @property
     def scale(self) -> np.ndarray:

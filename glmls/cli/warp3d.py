@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.config import MLSConfig
+from ..core.handles3 import as_volume_spacing
 from ..files.landmarks import elastix_indices, handle_dimension, read_handles
 from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import (
@@ -49,18 +50,16 @@ _WARPED_AS_IS = ("uint8", "uint16", "float32")
 
 
 def parse_spacing(text: str) -> tuple[float, float, float]:
-    """``DZ,DY,DX`` (three finite numbers > 0), or one number for all three."""
+    """``DZ,DY,DX`` (three finite numbers > 0, checked by
+    :func:`~glmls.core.handles3.as_volume_spacing`), or one number for all three."""
     try:
         values = tuple(float(part) for part in text.split(","))
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected DZ,DY,DX numbers, got {text!r}") from None
-    if len(values) == 1:
-        values = values * 3
-    if len(values) != 3 or not all(np.isfinite(v) and v > 0 for v in values):
-        raise argparse.ArgumentTypeError(
-            f"expected three finite numbers > 0 (DZ,DY,DX) or one, got {text!r}"
-        )
-    return values  # type: ignore[return-value]
+    try:
+        return as_volume_spacing(values * 3 if len(values) == 1 else values)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 TARGETS_HELP = (

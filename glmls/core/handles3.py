@@ -8,7 +8,7 @@ at integer coordinates. A volume's shape is ``(D, H, W)`` (slices, rows, columns
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
@@ -100,31 +100,71 @@ def as_volume_shape(shape: Sequence[int]) -> tuple[int, int, int]:
 
 
 def as_volume_spacing(spacing: object, name: str = "spacing") -> tuple[float, float, float]:
-    """``spacing`` as (dz, dy, dx) floats, finite and > 0 (ordered as a volume's (D, H, W));
-    ``TypeError`` for what is not three real numbers, ``ValueError`` for another count or a
-    value that is not finite and > 0, naming the value."""
-    if isinstance(spacing, (str, bytes)):
-        raise TypeError(f"{name} must be (dz, dy, dx) numbers > 0, got {spacing!r}")
+    """A voxel spacing (dz, dy, dx) as three floats, finite and > 0.
+
+    The one check of a spacing: :class:`glmls.Volume`, :func:`glmls.write_volume`,
+    :func:`glmls.files.world_to_volume`, ``glmls.MLS(..., spacing=...)``, the volume warps,
+    the 3D analyses, the window and the command line's ``--spacing`` all call it.
+
+    Parameters
+    ----------
+    spacing : sequence of 3 real numbers
+        (dz, dy, dx), ordered as a volume's (D, H, W): a tuple, list or numpy array of
+        Python or numpy numbers. One number is no spacing here (the command line's
+        ``--spacing D`` reads one number as (D, D, D) itself).
+    name : str, default "spacing"
+        What the messages call it.
+
+    Returns
+    -------
+    tuple of float
+        (dz, dy, dx).
+
+    Raises
+    ------
+    TypeError
+        Where ``spacing`` is no sequence (a number, a string, None, a dict) or an entry is no
+        real number (a string, None, a bool); the message names the value.
+    ValueError
+        Where there are not three entries, or one is not finite or not > 0; the message names
+        the value.
+
+    Examples
+    --------
+    >>> as_volume_spacing([2, 1, 0.5])
+    (2.0, 1.0, 0.5)
+    >>> as_volume_spacing((2.0, 0.0, 1.0))
+    Traceback (most recent call last):
+    ...
+    ValueError: spacing must be positive and finite (dz, dy, dx), got (2.0, 0.0, 1.0)
+    """
+    what = f"{name} must be three real numbers (dz, dy, dx)"
+    if isinstance(spacing, (str, bytes, dict)) or not isinstance(spacing, (Iterable, np.ndarray)):
+        raise TypeError(f"{what}, got {spacing!r}")
     try:
         values = tuple(spacing)  # type: ignore[call-overload]
-    except TypeError:
-        raise TypeError(f"{name} must be (dz, dy, dx) numbers > 0, got {spacing!r}") from None
+    except TypeError:  # a 0-d array
+        raise TypeError(f"{what}, got {spacing!r}") from None
     for v in values:
         real = isinstance(v, (int, float, np.integer, np.floating))
         if not real or isinstance(v, (bool, np.bool_)):
-            raise TypeError(
-                f"{name} must be (dz, dy, dx) real numbers > 0, got {spacing!r} ({v!r} is not)"
-            )
+            raise TypeError(f"{what}, got {spacing!r} ({v!r} is not a number)")
     if len(values) != 3:
         raise ValueError(
-            f"{name} must be (dz, dy, dx), three numbers like the volume's (D, H, W), "
+            f"{name} must be three numbers (dz, dy, dx) like the volume's (D, H, W), "
             f"got {len(values)}: {spacing!r}"
         )
     steps = (float(values[0]), float(values[1]), float(values[2]))
-    for v in steps:
-        if not (math.isfinite(v) and v > 0):
-            raise ValueError(f"{name} must be (dz, dy, dx) finite numbers > 0, got {spacing!r}")
+    if not all(math.isfinite(v) and v > 0 for v in steps):
+        raise ValueError(f"{name} must be positive and finite (dz, dy, dx), got {_shown(spacing)}")
     return steps
+
+
+def _shown(spacing: object) -> str:
+    """``spacing`` as the messages show it: a numpy array as its list of numbers."""
+    if isinstance(spacing, np.ndarray):
+        return repr(tuple(spacing.tolist()))
+    return repr(spacing)
 
 
 def volume_extent(

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import tifffile
 
+from ..core.handles3 import as_volume_spacing
 from ..errors import InputFileError
 from .atomic import atomic_write
 
@@ -119,7 +120,7 @@ class Volume:
             )
         object.__setattr__(self, "data", data)
         if self.spacing is not None:
-            object.__setattr__(self, "spacing", check_spacing(self.spacing))
+            object.__setattr__(self, "spacing", as_volume_spacing(self.spacing))
         if self.affine is not None:
             affine = np.array(self.affine, dtype=np.float64)
             if affine.shape != (4, 4) or not np.isfinite(affine).all():
@@ -131,17 +132,6 @@ class Volume:
     def shape(self) -> tuple[int, ...]:
         """The data's shape, (D, H, W) or (D, H, W, C)."""
         return self.data.shape
-
-
-def check_spacing(spacing: object) -> tuple[float, float, float]:
-    """``spacing`` as three finite floats > 0, (dz, dy, dx); ``ValueError`` otherwise."""
-    try:
-        values = tuple(float(v) for v in spacing)  # type: ignore[union-attr]
-    except (TypeError, ValueError):
-        raise ValueError(f"spacing must be three numbers (dz, dy, dx), got {spacing!r}") from None
-    if len(values) != 3 or not all(np.isfinite(v) and v > 0 for v in values):
-        raise ValueError(f"spacing must be three finite numbers > 0 (dz, dy, dx), got {values}")
-    return values  # type: ignore[return-value]
 
 
 def _affine_spacing(affine: np.ndarray) -> tuple[float, float, float]:
@@ -162,7 +152,7 @@ def _world_frame(points: object, affine: object, spacing: object) -> tuple:
         raise ValueError(f"affine must be a finite 4 x 4 matrix, got shape {matrix.shape}")
     if abs(np.linalg.det(matrix[:3, :3])) < 1e-12 * max(1.0, np.abs(matrix[:3, :3]).max()) ** 3:
         raise ValueError("affine is singular: it maps no world point back to one voxel")
-    steps = _affine_spacing(matrix) if spacing is None else check_spacing(spacing)
+    steps = _affine_spacing(matrix) if spacing is None else as_volume_spacing(spacing)
     return values, matrix, np.linalg.inv(matrix), np.array(steps[::-1])
 
 
@@ -196,7 +186,10 @@ def world_to_volume(points: object, affine: object, *, spacing: object = None) -
     ------
     ValueError
         For points that are not (N, 3) finite numbers, an affine that is not a finite,
-        invertible 4 x 4 matrix, or a bad spacing.
+        invertible 4 x 4 matrix, or a spacing of another length than 3 or with a value that
+        is not finite and > 0.
+    TypeError
+        For a spacing that is not a sequence of real numbers (a number, a string).
 
     See Also
     --------
@@ -376,7 +369,7 @@ def _tiff_spacing(tiff: tifffile.TiffFile) -> tuple[float, float, float] | None:
         dz = float(metadata["spacing"])
         dx = _resolution(page.tags["XResolution"].value)
         dy = _resolution(page.tags["YResolution"].value)
-        return check_spacing((dz, dy, dx))
+        return as_volume_spacing((dz, dy, dx))
     except (KeyError, TypeError, ValueError, ZeroDivisionError):
         return None
 
@@ -417,7 +410,10 @@ def write_volume(
     ------
     ValueError
         Before writing anything: an unknown suffix, a wrong shape, an affine with another
-        format than NIfTI, a bad spacing or affine.
+        format than NIfTI, a bad affine, or a spacing of another length than 3 or with a
+        value that is not finite and > 0.
+    TypeError
+        Before writing anything: a spacing that is not a sequence of real numbers.
     OSError
         Naming ``path``, for a file that cannot be written.
 

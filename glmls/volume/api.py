@@ -7,12 +7,12 @@ import dataclasses
 
 import numpy as np
 
-from ..core.handles3 import chosen_spacing
+from ..core.handles3 import as_volume_spacing, chosen_spacing
 from ..engine.kernel3 import MLSKernel3
 from .construction import VolumeWarper
 from .frame import VolumeBounds
 from .kernel_field import KernelField
-from .options import SlabOptions, VolumeOptions, check_spacing, check_volume_shape
+from .options import SlabOptions, VolumeOptions, check_volume_shape
 from .source import check_volume
 
 __all__ = ["volume_bounds", "volume_coordinate_map", "warp_volume"]
@@ -84,7 +84,8 @@ def warp_volume(
         For a 2D image or a 2D MLS, a bad option, a ``spacing`` other than the MLS's, or a
         volume beyond the GL 3D texture limit (2048 voxels a side at least).
     TypeError
-        For a bad dtype, or a keyword that is no option.
+        For a bad dtype, a keyword that is no option, or a ``spacing`` that is not a sequence
+        of real numbers.
 
     Examples
     --------
@@ -142,7 +143,8 @@ def volume_coordinate_map(
     ValueError
         For a 2D MLS, a bad ``shape`` or option, or a ``spacing`` other than the MLS's.
     TypeError
-        For a keyword that is no option.
+        For a keyword that is no option, or a ``spacing`` that is not a sequence of real
+        numbers.
 
     Examples
     --------
@@ -192,7 +194,10 @@ def volume_bounds(
     Raises
     ------
     ValueError
-        For a 2D MLS, a bad ``shape``, ``grid`` or ``spacing``, or one other than the MLS's.
+        For a 2D MLS, a bad ``shape`` or ``grid``, a ``spacing`` of another length than 3 or
+        with a value that is not finite and > 0, or one other than the MLS's.
+    TypeError
+        For a ``spacing`` that is not a sequence of real numbers.
 
     Examples
     --------
@@ -208,7 +213,7 @@ def volume_bounds(
     """
     kernel = _kernel(mls)
     size = check_volume_shape(shape, "shape")
-    steps = _spacing(mls, None if spacing is None else check_spacing(spacing))
+    steps = _spacing(mls, None if spacing is None else as_volume_spacing(spacing))
     field = KernelField(kernel, steps, size)
     box = VolumeWarper.of(kernel.gl).bounds(field, size, grid)  # type: ignore[arg-type]
     scale = field.scale

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.handles import COORDINATE_LIMIT
+from ..core.handles3 import as_volume_spacing
 from ..core.mesh import check_grid
 from ..imaging.options import Default
 from ..imaging.source import BORDERS, INTERPOLATIONS, check_background
@@ -64,14 +65,6 @@ def check_volume_origin(origin: object) -> tuple[float, float, float] | None:
             f"origin must be finite and within ±{COORDINATE_LIMIT:.0e}, got {origin!r}"
         )
     return point
-
-
-def check_spacing(spacing: object) -> tuple[float, float, float]:
-    """``spacing`` as (dz, dy, dx) finite floats > 0."""
-    values = _triple(spacing, "spacing", "(dz, dy, dx) positive numbers")
-    if not all(_real(v) and math.isfinite(float(v)) and float(v) > 0 for v in values):
-        raise ValueError(f"spacing must be (dz, dy, dx) positive numbers, got {spacing!r}")
-    return (float(values[0]), float(values[1]), float(values[2]))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -151,7 +144,7 @@ class VolumeOptions:
             "background": check_background(self.background),
             "output_shape": check_volume_shape(self.output_shape),
             "origin": check_volume_origin(self.origin),
-            "spacing": None if self.spacing is None else check_spacing(self.spacing),
+            "spacing": None if self.spacing is None else as_volume_spacing(self.spacing),
         }
         for name, value in checked.items():
             object.__setattr__(self, name, value)

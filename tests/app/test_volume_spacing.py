@@ -203,6 +203,11 @@ def test_spacing_is_refused_for_images_and_bad_values(tmp_path):
     assert "--spacing" in done.stderr and "photo.png" in done.stderr
     done = _glmls("demo", "--spacing", "2,1,1")  # the bundled photograph
     assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
-    for bad in ("0,1,1", "1,2", "a,b,c"):
+    for bad, message in (
+        ("0,1,1", "spacing must be positive and finite (dz, dy, dx), got (0.0, 1.0, 1.0)"),
+        ("1,2", "spacing must be three numbers (dz, dy, dx)"),
+        ("a,b,c", "expected DZ,DY,DX numbers, got 'a,b,c'"),
+    ):
         done = _glmls("demo", "--volume", "--spacing", bad)
-        assert done.returncode == 2 and "DZ,DY,DX" in done.stderr, done.stderr
+        assert done.returncode == 2 and message in done.stderr, done.stderr
+        assert done.stderr.count("\n") == 1, done.stderr

@@ -4,6 +4,7 @@ end to end on the bundled phantom and sphere with the GPU's 3D MLS."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import types
 from typing import ClassVar
@@ -264,8 +265,14 @@ def test_elastix_index_points_are_put_at_the_voxels_physical_places(files, monke
 def test_parse_spacing():
     assert warp3d.parse_spacing("1,2,3") == (1.0, 2.0, 3.0)
     assert warp3d.parse_spacing("0.5") == (0.5, 0.5, 0.5)
-    for bad in ("1,2", "0,1,1", "a", "1,inf,1"):
-        with pytest.raises(Exception, match="expected"):
+    for bad, message in (
+        ("1,2", r"spacing must be three numbers \(dz, dy, dx\) .* got 2: \(1\.0, 2\.0\)"),
+        ("0,1,1", r"spacing must be positive and finite \(dz, dy, dx\), got \(0\.0, 1\.0, 1\.0\)"),
+        ("1,inf,1", r"spacing must be positive and finite .*inf"),
+        ("-1", r"spacing must be positive and finite .*\(-1\.0, -1\.0, -1\.0\)"),
+        ("a", r"expected DZ,DY,DX numbers, got 'a'"),
+    ):
+        with pytest.raises(argparse.ArgumentTypeError, match=message):
             warp3d.parse_spacing(bad)
 
 

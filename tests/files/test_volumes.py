@@ -123,7 +123,7 @@ def test_writing_refuses_before_writing(tmp_path):
         write_volume(tmp_path / "v.tif", np.zeros((2, 2, 2)), affine=np.eye(4))
     with pytest.raises(ValueError, match=r"\(D, H, W\) or \(D, H, W, C\)"):
         write_volume(tmp_path / "v.npy", np.zeros((2, 2)))
-    with pytest.raises(ValueError, match="spacing must be three finite numbers > 0"):
+    with pytest.raises(ValueError, match=r"spacing must be positive and finite \(dz, dy, dx\)"):
         write_volume(tmp_path / "v.nii", np.zeros((2, 2, 2)), spacing=(1, 0, 1))
     assert list(tmp_path.iterdir()) == []
 
