@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -44,6 +45,12 @@ __all__ = [
 _CHOICES = {"transform": TRANSFORMS, "weight": WEIGHTS}
 
 
+#: The beginning of a word that is a value, not an option, although it begins with '-': a
+#: number or numbers (``-1``, ``-.5``, ``-1e-3``, ``-1,1,1``, ``-inf``); glmls has no option
+#: of one dash and a digit.
+_NEGATIVE_VALUE = re.compile(r"-(?:\.?\d|inf|nan)", re.IGNORECASE)
+
+
 class UsageError(ValueError):
     """A mistake in the command line or its input files (exit status 2)."""
 
@@ -54,6 +61,29 @@ class ArgumentParser(argparse.ArgumentParser):
 
     def error(self, message: str) -> NoReturn:
         self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
+
+    def parse_known_args(  # type: ignore[override]
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> tuple[argparse.Namespace, list[str]]:
+        """argparse's, where an option that takes one value takes a next word that begins
+        with '-' and a digit (``--spacing -1,1,1``, ``--alpha -1e-3``, ``--background
+        -1,0,0``) as ``--option=word``: argparse reads such a word as an option unless it is
+        one plain negative number, and then says the option expects an argument, where the
+        option's own check of the value has the clearer message."""
+        words = list(sys.argv[1:] if args is None else args)
+        return super().parse_known_args(self._negative_values(words), namespace)
+
+    def _negative_values(self, words: list[str]) -> list[str]:
+        joined: list[str] = []
+        for i, word in enumerate(words):
+            if word == "--":  # the rest are positional words, as they are
+                return joined + words[i:]
+            action = self._option_string_actions.get(joined[-1]) if joined else None
+            if action is not None and action.nargs is None and _NEGATIVE_VALUE.match(word):
+                joined[-1] = f"{joined[-1]}={word}"
+            else:
+                joined.append(word)
+        return joined
 
 
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):
