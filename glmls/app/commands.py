@@ -8,9 +8,10 @@ from pathlib import Path
 import numpy as np
 
 from ..core.handleset import HandleSet
+from ..errors import InputFileError
 from ..files.atomic import atomic_write
 from ..files.images import imwrite
-from ..files.landmarks import read_handle_set, write_handles
+from ..files.landmarks import handle_dimension, read_handle_set, write_handles
 from ..imaging.frame import Frame
 from ..mls import MLS
 from .controller import Controller
@@ -50,7 +51,13 @@ def save_handles(path: Path, controller: Controller) -> None:
 
 def load_handles(path: Path, controller: Controller) -> HandleSet:
     """Replace the controller's handles (undoably) with those of a handle file, points and
-    segments; returns them."""
+    segments; returns them. :class:`~glmls.errors.InputFileError` for a file of 3D handles,
+    said for the window of a 2D image."""
+    if handle_dimension(path) == 3:
+        raise InputFileError(
+            f"{path}: 3D handles (x, y, z), but the window shows a 2D image: it takes 2D "
+            "handles (x, y)"
+        )
     handles = read_handle_set(path)
     controller.set_handles(handles.src, handles.dst, handles.src_segments, handles.dst_segments)
     return handles

@@ -10,7 +10,7 @@ A manifest is a JSON file::
 
 (a bare list of the items is accepted too). Paths are relative to the manifest's folder (or
 absolute); ``handles`` is any handles file that :func:`glmls.files.landmarks.read_handle_set`
-reads (JSON, CSV or BigWarp: points, segments, polylines) and ``reference`` a reference-points
+reads (JSON, CSV or BigWarp: 2D points, segments, polylines) and ``reference`` a reference-points
 file (:func:`~glmls.files.landmarks.read_points`, at least 3 points). ``name`` is optional
 (default: the image's file name without its suffix) and must be unique, since it names the
 item's column in the study's table and its output folder; other keys (``"description"``) are
@@ -34,7 +34,7 @@ from PIL import Image
 from ..core.handleset import HandleSet
 from ..errors import InputFileError
 from ..files.images import DEFAULT_MAX_PIXELS, imread
-from ..files.landmarks import read_handle_set, read_points
+from ..files.landmarks import handle_dimension, read_handle_set, read_points
 from ..files.parsing import brief, fail, read_text
 
 __all__ = ["MIN_REFERENCE_POINTS", "StudyItem", "read_manifest"]
@@ -135,7 +135,8 @@ def read_manifest(path: str | os.PathLike) -> list[StudyItem]:
     ------
     InputFileError
         A ``ValueError`` naming the manifest, the item and the field: invalid JSON, no items,
-        a missing or unreadable file, fewer than 3 reference points, a name taken twice.
+        a missing or unreadable file, a file of 3D handles (a study deforms 2D images), fewer
+        than 3 reference points, a name taken twice.
 
     Examples
     --------
@@ -201,9 +202,16 @@ def _item(manifest: Path, where: str, entry: object) -> StudyItem:
     except (OSError, ValueError) as error:
         raise problem("image", f"{files['image']}: cannot read the image: {error}") from None
     try:
-        handles = read_handle_set(files["handles"])
+        three = handle_dimension(files["handles"]) == 3
+        handles = None if three else read_handle_set(files["handles"])
     except (InputFileError, OSError) as error:
         raise problem("handles", error) from None
+    if handles is None:  # said for a study, not as read_handle_set's advice to library callers
+        raise problem(
+            "handles",
+            f"{files['handles']}: 3D handles (x, y, z), but a study deforms 2D images: it "
+            "takes 2D handles (x, y), points, segments or polylines",
+        )
     try:
         reference = read_points(files["reference"])
     except (InputFileError, OSError) as error:

@@ -340,3 +340,18 @@ def test_the_window_falls_back_to_the_grid_where_the_adaptive_mesh_gives_up(gl):
     finally:
         if session.mls is not None:
             session.mls.release()
+
+
+def test_loading_3d_handles_into_the_image_window_says_it_takes_2d_ones(tmp_path):
+    from glmls.app.commands import load_handles
+    from glmls.errors import InputFileError
+    from glmls.files.landmarks import write_handles
+
+    points = np.array([[0.0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]])
+    write_handles(tmp_path / "h3.json", points, points + 1)
+    c = make()
+    with pytest.raises(InputFileError, match=r"h3\.json: 3D handles \(x, y, z\), but the window"):
+        load_handles(tmp_path / "h3.json", c)
+    assert np.array_equal(c.src, SRC)
+    write_handles(tmp_path / "h2.json", SRC[:2], SRC[:2] + 1)
+    assert len(load_handles(tmp_path / "h2.json", c)) == 2 and np.array_equal(c.src, SRC[:2])

@@ -127,3 +127,19 @@ def test_batch_warp_keep_going_over_workers(inputs):
     stopped = glmls_cli("warp", ".", "stop", "--handles", "h.json", "--jobs", "2", cwd=inputs)
     assert stopped.returncode == 2
     assert "b.png" in stopped.stderr and "Traceback" not in stopped.stderr
+
+
+def test_a_manifest_naming_3d_handles_says_studies_take_2d_ones(inputs, capsys, monkeypatch):
+    """A study deforms 2D images: a manifest's 3D handle file is an input error naming the
+    file and saying so, on one line (not the library's advice to call read_handles)."""
+    points = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]]
+    (inputs / "h3.json").write_text(json.dumps({"src": points, "dst": points}))
+    items = [{"image": "a.png", "handles": "h3.json", "reference": "r.json"}]
+    (inputs / "three.json").write_text(json.dumps({"items": items}))
+    monkeypatch.chdir(inputs)
+    assert run_main("study", "three.json", "--out", "x") == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert err.startswith('glmls study: three.json: "items"[0] (a)."handles": '), err
+    assert "h3.json: 3D handles (x, y, z), but a study deforms 2D images: it takes 2D" in err
+    assert "read_handles" not in err and not (inputs / "x").exists()
