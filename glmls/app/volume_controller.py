@@ -17,7 +17,7 @@ import numpy as np
 
 from ..core.config import MLSConfig
 from ..core.handles3 import as_volume_spacing
-from ..imaging.source import BORDERS
+from ..imaging.source import BORDERS, INTERPOLATIONS
 from .controls import Controls, window_bindings
 from .events import Press, Scroll
 from .settings import ALPHA_RANGE, ALPHA_STEP, RADIUS_FACTOR, cycle
@@ -76,14 +76,16 @@ _ACTIONS = {key: action for keys, action, _ in VOLUME_BINDINGS for key in keys}
 @dataclass(frozen=True)
 class VolumeSettings:
     """What the volume window computes: the MLS configuration, the construction of the
-    deformed slices (``method`` of :data:`glmls.volume.VOLUME_METHODS`, trilinear
-    interpolation), its ``grid`` (voxels) and ``border`` (what lies beyond the volume: the
-    default ``edge`` leaves no empty margin where f moves the volume's faces)."""
+    deformed slices (``method`` of :data:`glmls.volume.VOLUME_METHODS`, ``interpolation``,
+    trilinear by default, or nearest), its ``grid`` (voxels) and ``border`` (what lies beyond
+    the volume: the default ``edge`` leaves no empty margin where f moves the volume's
+    faces)."""
 
     config: MLSConfig = field(default_factory=lambda: MLSConfig(transform="rigid"))
     method: str = "quads"
     grid: int = 4
     border: str = "edge"
+    interpolation: str = "linear"
 
     def __post_init__(self) -> None:
         if self.method not in VOLUME_METHODS:
@@ -92,6 +94,10 @@ class VolumeSettings:
             raise ValueError(f"grid must be one of {VOLUME_GRIDS}, got {self.grid!r}")
         if self.border not in BORDERS:
             raise ValueError(f"border must be one of {BORDERS}, got {self.border!r}")
+        if self.interpolation not in INTERPOLATIONS:
+            raise ValueError(
+                f"interpolation must be one of {INTERPOLATIONS}, got {self.interpolation!r}"
+            )
 
 
 @dataclass(frozen=True)

@@ -235,7 +235,7 @@ class VolumeSession:
             block = self.mls.warp(
                 volume,
                 method=s.method,
-                interpolation="linear",
+                interpolation=s.interpolation,
                 grid=s.grid,
                 border=s.border,
                 output_shape=size,

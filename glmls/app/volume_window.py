@@ -120,7 +120,7 @@ class VolumeApp(WindowLoop):
         warped = mls.warp(
             self.volume,
             method=s.method,
-            interpolation="linear",
+            interpolation=s.interpolation,
             grid=s.grid,
             border=s.border,
             spacing=c.grid.spacing,
@@ -158,7 +158,7 @@ class VolumeApp(WindowLoop):
             "",
             f"transform  {s.config.transform}   (t)",
             f"weight     {s.config.weight}, {c.parameter()}   (w, +/-)",
-            f"construct  {s.method} linear   (c)",
+            f"construct  {s.method} {s.interpolation}   (c)",
             f"grid       {s.grid} voxels   (g/G)",
             f"border     {s.border}   (b)",
             f"point      x {x}  y {y}  z {z}   (click)",

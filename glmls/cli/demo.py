@@ -100,7 +100,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--reference", type=Path, help="reference points (JSON or CSV) for the angle errors"
     )
     add_config_options(parser)
-    add_warp_options(parser, grid=4)
+    add_warp_options(parser, grid=4, windows=True)
     parser.add_argument(
         "--construction", choices=tuple(_CONSTRUCTIONS), help=argparse.SUPPRESS
     )  # the former name of --method/--interpolation
@@ -161,12 +161,30 @@ def _inputs(args: argparse.Namespace):
     return image, name, handles, reference
 
 
+def image_settings(args: argparse.Namespace):
+    """The image window's first :class:`~glmls.app.controller.Settings`: the options given,
+    its own defaults for those left out (``--border``, ``--interpolation``)."""
+    from ..app.controller import Settings
+
+    given = {
+        "config": config_from_args(args),
+        "method": args.method,
+        "interpolation": args.interpolation,
+        "grid": args.grid,
+        "border": args.border,
+        "fit": args.fit,
+        "tolerance": args.tolerance,
+    }
+    return Settings(**{name: value for name, value in given.items() if value is not None})
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the window for parsed arguments; returns the exit status."""
-    from ..app.controller import Settings
     from ..app.window import App
     from .demo_volume import run_volume, volume_inputs
 
+    if args.construction is not None:  # the former name of --method/--interpolation
+        args.method, args.interpolation = _CONSTRUCTIONS[args.construction]
     try:
         volume = volume_inputs(args)
     except (ValueError, TypeError) as error:
@@ -176,20 +194,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         image, name, handles, reference = _inputs(args)
         events = replay_events(args)
-        method, interpolation = (
-            _CONSTRUCTIONS[args.construction]
-            if args.construction is not None
-            else (args.method, args.interpolation)
-        )
-        settings = Settings(
-            config=config_from_args(args),
-            method=method,
-            interpolation=interpolation,
-            grid=args.grid,
-            border=args.border,
-            fit=args.fit,
-            tolerance=args.tolerance,
-        )
+        settings = image_settings(args)
         app = App(
             image,
             handles.src,

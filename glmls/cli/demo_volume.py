@@ -87,20 +87,43 @@ def _save_as(args: argparse.Namespace) -> str:
     return ".npy" if args.image is None else volume_suffix(args.image)
 
 
+def volume_settings(args: argparse.Namespace):
+    """The volume window's first :class:`~glmls.app.volume_controller.VolumeSettings`: the
+    options given, its own defaults for those left out (``--border`` edge,
+    ``--interpolation`` linear); ``ValueError`` for an option it cannot take (a 2D method,
+    ``--fit``, ``--tolerance``, a grid other than 1, 2, 4, 8, 16)."""
+    from ..app.volume_controller import VOLUME_METHODS, VolumeSettings
+    from .options import config_from_args
+
+    images_only = [
+        option
+        for option, given in (("--fit", args.fit), ("--tolerance", args.tolerance is not None))
+        if given
+    ]
+    if images_only:
+        raise ValueError(f"{', '.join(images_only)}: for images, not for the volume window")
+    if args.method not in VOLUME_METHODS:
+        raise ValueError(
+            f"--method {args.method}: the volume window builds {' or '.join(VOLUME_METHODS)}"
+        )
+    given = {
+        "config": config_from_args(args),
+        "method": args.method,
+        "interpolation": args.interpolation,
+        "grid": args.grid,
+        "border": args.border,
+    }
+    return VolumeSettings(**{name: value for name, value in given.items() if value is not None})
+
+
 def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
     """Run the volume window for parsed arguments and :func:`volume_inputs`; the exit status."""
-    from ..app.volume_controller import VOLUME_METHODS, VolumeSettings
     from ..app.volume_window import VolumeApp
-    from .options import config_from_args
 
     volume, name, src, dst = inputs
     try:
         events = replay_events(args)
-        method = args.method if args.method in VOLUME_METHODS else "quads"
-        border = args.border if args.border != "constant" else "edge"  # the 2D default
-        settings = VolumeSettings(
-            config=config_from_args(args), method=method, grid=args.grid, border=border
-        )
+        settings = volume_settings(args)
         app = VolumeApp(
             volume,
             src,

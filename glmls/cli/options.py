@@ -217,9 +217,13 @@ def unused_config_options(config: MLSConfig) -> list[str]:
     return messages
 
 
-def add_warp_options(parser: argparse.ArgumentParser, *, grid: int = 1) -> None:
+def add_warp_options(
+    parser: argparse.ArgumentParser, *, grid: int = 1, windows: bool = False
+) -> None:
     """--method, --interpolation, --grid (default ``grid``), --tolerance, --border and
-    --fit."""
+    --fit. ``windows``: --interpolation and --border default to None, the default of the
+    window that opens (an image's: nearest, constant; a volume's: linear, edge), so that
+    a value given is told from one left out."""
     group = parser.add_argument_group("image construction")
     group.add_argument(
         "--method",
@@ -233,8 +237,9 @@ def add_warp_options(parser: argparse.ArgumentParser, *, grid: int = 1) -> None:
     group.add_argument(
         "--interpolation",
         choices=INTERPOLATIONS,
-        default="nearest",
-        help="nearest: one source pixel's value (no new colours); linear: bilinear",
+        default=None if windows else "nearest",
+        help="nearest: one source pixel's value (no new colours); linear: bilinear"
+        + (" (default: nearest for an image, linear for a volume)" if windows else ""),
     )
     group.add_argument("--grid", type=positive_int, default=grid, help="mesh step in pixels")
     group.add_argument(
@@ -248,10 +253,11 @@ def add_warp_options(parser: argparse.ArgumentParser, *, grid: int = 1) -> None:
     group.add_argument(
         "--border",
         choices=BORDERS,
-        default="constant",
+        default=None if windows else "constant",
         help="what lies beyond the image (numpy.pad's names): constant: the background; "
         "edge: the edge pixels repeated; symmetric: mirrored with them; reflect: mirrored "
-        "about them; wrap: the image repeated",
+        "about them; wrap: the image repeated"
+        + (" (default: constant for an image, edge for a volume)" if windows else ""),
     )
     group.add_argument(
         "--fit",
