@@ -333,7 +333,7 @@ def construction_errors(
         ``"matrix"`` J = the MLS's own M(r) (``m.matrices``), the paper's l_r. M(r) is not
         the derivative of f: on an ordinary edit they differ by 0.05-0.35, which misaligns
         the window's corners by up to a pixel and counts the deformation as a construction
-        error (docs/construction.md has the numbers), hence the Jacobian by default.
+        error (:doc:`/construction` has the numbers), hence the Jacobian by default.
     border : str, optional
         The warp's border mode (:data:`glmls.BORDERS`). With ``constant`` a point whose
         window's preimage leaves the image (beyond its pixels' edges) is undefined (NaN);

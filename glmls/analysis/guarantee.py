@@ -1,5 +1,5 @@
 """The adaptive mesh's guarantee, measured against the float64 reference: the maps of the
-table of ``docs/adaptive.md`` (:func:`guarantee_handles`), the source point the warp computes
+table of :doc:`/adaptive` (:func:`guarantee_handles`), the source point the warp computes
 at every output pixel (:func:`source_points`), its distance from f's true inverse
 (:func:`inverse_error`) and the leaf whose triangle drew each pixel (:func:`first_triangles`).
 
@@ -63,7 +63,7 @@ def jittered_moves(shape, rng):
 
 
 def guarantee_handles(case):
-    """The handles of the guarantee's maps (``docs/adaptive.md``), as ``MLS`` keywords:
+    """The handles of the guarantee's maps (:doc:`/adaptive`), as ``MLS`` keywords:
     smooth, two close handles pulled apart, two draws of random ones that fold, 60 handles
     moved by up to 3 px, and 8 point handles with 4 segments."""
     if case == "random2":

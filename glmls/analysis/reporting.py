@@ -243,7 +243,7 @@ def report(
         unless ``fit`` asks for the whole deformed image.
     construction : bool, optional
         Also measure the construction error of the warp at the reference points
-        (:func:`construction_errors`; docs/construction.md): its statistics in
+        (:func:`construction_errors`; :doc:`/construction`): its statistics in
         ``summary["construction"]``, its settings and colour limits in
         ``summary["analysis"]["construction"]``.
     construction_radius : int, optional

@@ -1,5 +1,5 @@
 """The window's events (mouse and keys, in image pixels) and their recording for ``--replay``
-(the format is in ``docs/window.md``).
+(the format is in :doc:`/window`).
 
 A JSON object ``{"events": [...]}`` (or the bare list). Each entry is one of::
 

@@ -1,6 +1,6 @@
 """``glmls tune --construction``: rank the ways of building the deformed image (quads nearest and
 linear, splat, backward...) by the construction error at the reference points
-(docs/construction.md), for one MLS configuration."""
+(:doc:`/construction`), for one MLS configuration."""
 
 from __future__ import annotations
 

@@ -41,7 +41,7 @@ SNAP_SHARE = 2.0**-24
 #: the weights' normalisation stays finite.
 SNAP_FLOOR2 = 1e-36
 #: Handle storage unless told otherwise: the uniform block where the handles fit, else the
-#: storage buffer (docs/handles.md: the uniform block is the fastest on llvmpipe wherever it
+#: storage buffer (:doc:`/handles`: the uniform block is the fastest on llvmpipe wherever it
 #: fits; only the storage buffer and the texture take tens of thousands).
 DEFAULT_STORAGE = "auto"
 

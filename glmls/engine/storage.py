@@ -3,7 +3,7 @@
 Every storage is a shader file (``glmls/shaders/mls/handles_<name>.glsl``, chosen by the
 ``MLS_STORAGE`` define) defining ``int mls_handle_count()`` and ``vec4 mls_handle(int i)`` (the
 handle as ``(p.x, p.y, q.x, q.y)``, scaled) plus the GL object behind it. They differ in how many
-handles fit and how fast a shader reads them (``docs/handles.md`` has the measurements):
+handles fit and how fast a shader reads them (:doc:`/handles` has the measurements):
 
 ========== ============================ ====================== ==========================
 storage     GL object                    guaranteed by GL 4.3    llvmpipe (this driver)
@@ -254,7 +254,7 @@ def resolve_storage(
     storage: str, ctx: moderngl.Context, count: int, *, binned: bool = False
 ) -> str:
     """``"auto"``: the uniform block where the handles fit (the fastest on llvmpipe at every
-    count it takes, docs/handles.md), else the texture for handles in bins (each lane reads
+    count it takes, :doc:`/handles`), else the texture for handles in bins (each lane reads
     its own handles: llvmpipe fetches texels 2x faster than it gathers from a storage
     buffer; 65,536 handles, R = 24 px), else the storage buffer; other names as they are."""
     if check_storage(storage) != "auto":

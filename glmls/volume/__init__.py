@@ -1,6 +1,6 @@
 """Volumes deformed by a 3D MLS on the GPU: the cells method (the deformed lattice's cells
 split into tetrahedra) and the backward method (Newton's method on f), slab by slab of output
-slices (see ``docs/volumes.md``).
+slices (see :doc:`/volumes`).
 
 The construction itself lives in :mod:`glmls.volume.construction` (``VolumeWarper``, one per
 GL context), what it deforms by in :mod:`glmls.volume.fields` and

@@ -24,7 +24,7 @@ __all__ = ["GUESS_LIMIT", "fan_vertices", "fans"]
 #: Source pixels. The scan starts each pixel's Newton step on its leaf's patch from the fan's
 #: linear interpolation; a leaf whose four corner triangles would start it farther than this
 #: from the patch keeps its edges' mid-points in its fan (eight triangles and more). Measured
-#: on the guarantee's 105 maps (``docs/adaptive.md``): their largest errors within 0.02 of
+#: on the guarantee's 105 maps (:doc:`/adaptive`): their largest errors within 0.02 of
 #: the tolerance of those with every mid-point but one (idw alpha 1.5, 0.25 px: 0.97, was
 #: 0.80); corners alone erred by up to 1.54 times the tolerance (a similarity map, 0.25 px).
 #: W1 and W2 at 0.05 px have 0.51 and 0.55 times the triangles of fans with every mid-point.
