@@ -97,6 +97,15 @@ class Volume:
         The NIfTI affine, (4, 4) float64: it maps the points (x, y, z, 1) of the volume to
         world coordinates; None for the other formats.
 
+    Raises
+    ------
+    ValueError
+        For data that is not (D, H, W) or (D, H, W, C), an affine that is not a finite 4 x 4
+        matrix, or a spacing of another length than 3 or with a value that is not finite
+        and > 0.
+    TypeError
+        For a spacing that is not a sequence of real numbers (a number, a string).
+
     See Also
     --------
     read_volume, write_volume : the files.
