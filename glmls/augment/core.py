@@ -12,6 +12,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..batch import BatchResult, warp_batch
+from ..core.config import MLSConfig
+from ..core.handles import COORDINATE_LIMIT
+from ..imaging.options import FIELDS, WarpOptions
+from ..mls import MLS_KEYWORDS
 from . import labels as lab
 from . import tensors
 from .presets import preset_from
@@ -57,6 +61,52 @@ class AugmentResult(BatchResult):
     boxes: np.ndarray | list[np.ndarray] | None = None
     boxes_valid: np.ndarray | list[np.ndarray] | None = None
     polygons: list[list[np.ndarray]] | None = None
+
+
+#: The keywords of :func:`glmls.warp_batch` that ``warp_options`` may hold (the labels are
+#: the call's own; the segment handles are per image).
+_WARP_KEYWORDS = (FIELDS | {"options", "return_maps", "max_batch_bytes"} | MLS_KEYWORDS) - {
+    "keypoints",
+    "masks",
+}
+#: The fields of :class:`MLSConfig` that ``warp_options`` may set.
+_CONFIG_FIELDS = ("transform", "weight", "alpha", "s", "radius", "interpolating")
+
+
+def _check_warp_options(options: Mapping[str, object]) -> None:
+    """``warp_options`` as :func:`glmls.warp_batch` will take them, checked now: a keyword
+    it does not take, or the labels that are the call's own, is a ``TypeError``, a bad
+    value a ``ValueError`` naming it."""
+    for name in options:
+        if name in ("keypoints", "masks"):
+            raise TypeError(f"warp_options cannot hold {name}: give them to the call")
+        if name not in _WARP_KEYWORDS:
+            raise TypeError(f"warp_options has no keyword {name}")
+    fields = {k: v for k, v in options.items() if k in FIELDS or k == "options"}
+    WarpOptions.of(fields.pop("options", None), **fields)
+    MLSConfig(**{k: v for k, v in options.items() if k in _CONFIG_FIELDS})
+
+
+def _check_positive(name: str, value: object) -> float:
+    """``value`` as a float, a finite number > 0 (numpy's numbers too, not a bool)."""
+    number = isinstance(value, (int, float, np.integer, np.floating))
+    if not number or isinstance(value, (bool, np.bool_)) or not math.isfinite(value) or value <= 0:
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    return float(value)
+
+
+def _check_reach(preset: object, dst: np.ndarray, index: int) -> None:
+    """A draw whose handles leave the coordinate range (the GPU's float32 keeps ~1e-7 of
+    it) names the preset's magnitude that sent them there."""
+    reach = float(np.abs(dst).max()) if np.size(dst) else 0.0
+    if reach <= COORDINATE_LIMIT:
+        return
+    names = [f for f in ("displacement", "radius", "units") if hasattr(preset, f)]
+    given = ", ".join(f"{f}={getattr(preset, f)!r}" for f in names)
+    raise ValueError(
+        f"images[{index}]: the {preset.name} preset's {given} moves handles to "  # type: ignore[attr-defined]
+        f"{reach:g} px, beyond ±{COORDINATE_LIMIT:g} px: use a smaller magnitude"
+    )
 
 
 def _index_list(indices: object, count: int) -> list[int]:
@@ -204,9 +254,13 @@ class Augment:
     Raises
     ------
     ValueError
-        For an unknown preset (the valid ones listed) or a value out of range, naming it.
+        For an unknown preset (the valid ones listed) or a value out of range, naming it
+        (also ``warp_options``' values; a magnitude that moves handles beyond the
+        coordinate range when it draws).
     TypeError
-        For an unknown option.
+        For an unknown option, a ``warp_options`` keyword that :func:`glmls.warp_batch`
+        does not take (or ``keypoints``, ``masks``: the call's own) or a ``clip_polygons``
+        that is not a bool.
 
     Examples
     --------
@@ -241,18 +295,16 @@ class Augment:
             raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
         if seed < 0:
             raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
-        for name, value in (("box_step", box_step), ("densify", densify)):
-            if value is None and name == "densify":
-                continue
-            if not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        self.box_step = _check_positive("box_step", box_step)
+        self.densify = None if densify is None else _check_positive("densify", densify)
+        if not isinstance(clip_polygons, (bool, np.bool_)):
+            raise TypeError(f"clip_polygons must be True or False, got {clip_polygons!r}")
         if warp_options is not None and not isinstance(warp_options, Mapping):
             raise TypeError(f"warp_options must be a mapping, got {type(warp_options)}")
+        _check_warp_options(dict(warp_options or {}))
         self.preset = preset_from(preset, preset_options)
         self.seed = int(seed)
         self.warp_options = {**DEFAULT_WARP_OPTIONS, **dict(warp_options or {})}
-        self.box_step = float(box_step)
-        self.densify = None if densify is None else float(densify)
         self.clip_polygons = bool(clip_polygons)
 
     def __repr__(self) -> str:
@@ -304,6 +356,7 @@ class Augment:
                 src, dst = self.preset.draw(rng, tuple(shape), marks)
             except ValueError as error:
                 raise ValueError(f"images[{i}]: {error}") from None
+            _check_reach(self.preset, dst, i)
             params.append(
                 {
                     "preset": self.preset.name,

@@ -443,6 +443,11 @@ def preset_from(preset: object, options: dict) -> object:
         if options:
             raise TypeError(f"options {sorted(options)} given with a preset object")
         return preset
+    if not isinstance(preset, str):
+        raise TypeError(
+            f"preset must be a name ({', '.join(PRESETS)}) or a preset object, got "
+            f"{type(preset).__name__}"
+        )
     if preset not in PRESETS:
         raise ValueError(f"unknown preset {preset!r}; expected one of {', '.join(PRESETS)}")
     cls = PRESETS[preset]  # type: ignore[index]

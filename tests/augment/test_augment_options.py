@@ -1,0 +1,52 @@
+"""glmls.augment.Augment's own options: each bad value is refused when the Augment is made
+(or, where the image's size decides, when it draws), the error naming the option."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from glmls.augment import Augment
+
+
+@pytest.mark.parametrize(
+    ("preset", "options", "message"),
+    [
+        ("grid", {"displacement": 1e30}, "displacement=1e+30"),
+        ("grid", {"displacement": 1e7, "units": "pixels"}, "displacement=10000000.0"),
+        ("landmarks", {"displacement": 1e12}, "displacement=1000000000000.0"),
+        ("text-distort", {"radius": 1e9}, "radius=1000000000.0"),
+        ("text-stretch", {"radius": 1e9}, "radius=1000000000.0"),
+        ("text-perspective", {"radius": 1e9}, "radius=1000000000.0"),
+    ],
+)
+def test_a_magnitude_beyond_the_coordinate_limit_names_the_option(gl, preset, options, message):
+    aug = Augment(preset, **options)
+    images = np.zeros((2, 16, 24), np.uint8)
+    with pytest.raises(ValueError, match=r"^images\[0\]: .*" + message.replace("+", r"\+")):
+        aug(images, keypoints=np.full((2, 1, 2), 5.0))
+
+
+@pytest.mark.parametrize(
+    ("options", "error", "message"),
+    [
+        ({"warp_options": {"methd": "quads"}}, TypeError, "warp_options has no keyword methd"),
+        ({"warp_options": {"keypoints": 1}}, TypeError, "warp_options cannot hold keypoints"),
+        ({"warp_options": {"masks": None}}, TypeError, "warp_options cannot hold masks"),
+        ({"warp_options": {"grid": 0}}, ValueError, "grid must be an integer from 1"),
+        ({"warp_options": {"method": "swirl"}}, ValueError, "unknown method 'swirl'"),
+        ({"clip_polygons": "no"}, TypeError, "clip_polygons must be True or False, got 'no'"),
+        ({"box_step": True}, ValueError, "box_step must be a finite number > 0, got True"),
+        (["grid"], TypeError, r"preset must be a name .* or a preset object, got list"),
+    ],
+)
+def test_bad_options_are_refused_when_made(options, error, message):
+    preset, keywords = ("grid", options) if isinstance(options, dict) else (options, {})
+    with pytest.raises(error, match=message):
+        Augment(preset, **keywords)
+
+
+@pytest.mark.parametrize("value", [np.float32(1.5), np.int64(2), np.float64(3.0), 4])
+def test_numpy_numbers_are_numbers(value):
+    aug = Augment("grid", box_step=value, densify=value)
+    assert aug.box_step == float(value) and aug.densify == float(value)
