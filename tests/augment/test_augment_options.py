@@ -50,3 +50,20 @@ def test_bad_options_are_refused_when_made(options, error, message):
 def test_numpy_numbers_are_numbers(value):
     aug = Augment("grid", box_step=value, densify=value)
     assert aug.box_step == float(value) and aug.densify == float(value)
+
+
+def test_landmarks_that_coincide_move_together(gl):
+    """Datasets mark a missing landmark with one point, (0, 0) say: equal landmarks are one
+    handle, moved by one offset (the first's), and a landmark on a pinned corner stays."""
+    images = np.zeros((2, 16, 24), np.uint8)
+    marks = np.array([[[0.0, 0.0], [12.0, 6.0], [0.0, 0.0], [-0.5, -0.5]]] * 2)
+    out = Augment("landmarks", displacement=2, units="pixels", seed=4)(images, keypoints=marks)
+    for params in out.params:
+        src, dst = np.array(params["src"]), np.array(params["dst"])
+        np.testing.assert_array_equal(dst[2], dst[0])
+        np.testing.assert_array_equal(dst[3], src[3])
+        assert not np.array_equal(dst[0], src[0])
+    np.testing.assert_array_equal(out.keypoints[:, 2], out.keypoints[:, 0])
+    unique = np.array([[[0.0, 0.0], [12.0, 6.0]]] * 2)
+    alone = Augment("landmarks", displacement=2, units="pixels", seed=4)(images, keypoints=unique)
+    np.testing.assert_array_equal(np.array(alone.params[0]["dst"])[:2], out.params[0]["dst"][:2])
