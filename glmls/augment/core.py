@@ -236,7 +236,9 @@ class Augment:
         The seed (>= 0) that, with each sample's index, numbers its random draw.
     warp_options : mapping or None, default None
         Keywords of :func:`glmls.warp_batch` (``transform``, ``interpolation``, ``border``,
-        ``method``, ``grid``...), over :data:`DEFAULT_WARP_OPTIONS`.
+        ``method``, ``grid``...), over :data:`DEFAULT_WARP_OPTIONS`; ``options``, a
+        :class:`glmls.WarpOptions`, stands for its fields (over the defaults, under the
+        other keywords).
     box_step : float, default 2.0
         Pixels between two points of a box's outline as it is moved.
     densify : float or None, default None
@@ -301,10 +303,13 @@ class Augment:
             raise TypeError(f"clip_polygons must be True or False, got {clip_polygons!r}")
         if warp_options is not None and not isinstance(warp_options, Mapping):
             raise TypeError(f"warp_options must be a mapping, got {type(warp_options)}")
-        _check_warp_options(dict(warp_options or {}))
+        given = dict(warp_options or {})
+        _check_warp_options(given)
         self.preset = preset_from(preset, preset_options)
         self.seed = int(seed)
-        self.warp_options = {**DEFAULT_WARP_OPTIONS, **dict(warp_options or {})}
+        packed = given.pop("options", None)  # a WarpOptions: its fields, JSON in the params
+        fields = {} if packed is None else dataclasses.asdict(packed)
+        self.warp_options = {**DEFAULT_WARP_OPTIONS, **fields, **given}
         self.clip_polygons = bool(clip_polygons)
 
     def __repr__(self) -> str:

@@ -67,3 +67,30 @@ def test_landmarks_that_coincide_move_together(gl):
     unique = np.array([[[0.0, 0.0], [12.0, 6.0]]] * 2)
     alone = Augment("landmarks", displacement=2, units="pixels", seed=4)(images, keypoints=unique)
     np.testing.assert_array_equal(np.array(alone.params[0]["dst"])[:2], out.params[0]["dst"][:2])
+
+
+def test_a_warp_options_object_is_its_fields(gl):
+    """``warp_options={"options": glmls.WarpOptions(...)}`` (a keyword warp_batch takes)
+    stands for its fields: over the defaults, under the other keywords given, and the
+    params stay JSON that replays."""
+    import json
+
+    import glmls
+
+    chosen = glmls.WarpOptions(method="backward", grid=4, border="reflect")
+    aug = Augment("grid", seed=2, warp_options={"options": chosen, "grid": 2})
+    images = np.random.default_rng(1).integers(0, 255, (2, 12, 16), dtype=np.uint8)
+    first = aug(images)
+    options = first.params[0]["options"]
+    assert "options" not in options
+    assert (options["method"], options["grid"], options["border"]) == ("backward", 2, "reflect")
+    assert options["interpolation"] == "nearest" and options["transform"] == "similarity"
+    record = json.loads(json.dumps(first.params))
+    np.testing.assert_array_equal(aug.replay(images, record).images, first.images)
+    expected = glmls.warp_batch(
+        images, [r["src"] for r in record], [r["dst"] for r in record], options=chosen,
+        grid=2, transform="similarity",
+    )  # fmt: skip
+    np.testing.assert_array_equal(first.images, expected)
+    with pytest.raises(TypeError):
+        Augment("grid", warp_options={"options": {"method": "backward"}})
