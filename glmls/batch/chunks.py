@@ -266,7 +266,7 @@ def _finish(quads, batch, chunk, lattices, options, frame, lattice, maps, out, m
         )
         moved_all = moved_all - np.asarray(frame.origin)
         height, width = frame.shape
-        valid_all &= np.all((moved_all > -0.5) & (moved_all < (width - 0.5, height - 0.5)), axis=1)
+        valid_all &= np.all((moved_all >= -0.5) & (moved_all < (width - 0.5, height - 0.5)), axis=1)
         ends = np.cumsum(sizes).tolist()
         starts = [0, *ends[:-1]]
         moved_all = [moved_all[a:b] for a, b in zip(starts, ends, strict=True)]

@@ -157,7 +157,7 @@ class SingleWarper:
             return moved, visible(points, moved, jacobian, coords, covered, inside)
         moved = moved - np.asarray(frame.origin)
         height, width = frame.shape
-        on = np.all((moved > -0.5) & (moved < (width - 0.5, height - 0.5)), axis=1)
+        on = np.all((moved >= -0.5) & (moved < (width - 0.5, height - 0.5)), axis=1)
         return moved, valid & on
 
     def lattice(self, mls: MLS, shape: tuple[int, int], options: WarpOptions, frame: Frame):

@@ -44,3 +44,19 @@ def test_affine_handles_on_a_line_name_their_image(gl, method):
     src[1] = [[1.0, 1.0], [2.0, 2.0], [4.0, 4.0]]
     with pytest.raises(glmls.DegenerateHandlesError, match=r"^images\[1\]: affine MLS needs"):
         glmls.warp_batch(images, src, dst, method=method, transform="affine")
+
+
+@pytest.mark.parametrize("method", glmls.METHODS)
+@pytest.mark.parametrize("border", ["constant", "edge"])
+def test_the_canvas_is_half_open_for_keypoints(gl, method, border):
+    """Output pixel c covers [c - 0.5, c + 0.5): a keypoint on the canvas's left or top edge
+    is on it (albumentations' 0 <= x < W, pixel centres at 0.5), one on its right or bottom
+    edge is not."""
+    images, src, _ = batch()  # 10 x 12
+    # past the right and bottom edges by more than float32's noise of the identity map
+    points = np.array([[-0.5, 3.0], [3.0, -0.5], [-0.5, -0.5], [11.501, 3], [3, 9.501], [-0.51, 3]])
+    result = glmls.warp_batch(
+        images, src, src, keypoints=np.stack([points] * 3), method=method, border=border
+    )
+    np.testing.assert_allclose(result.keypoints[0], points, atol=1e-5)
+    assert result.keypoints_valid.tolist() == [[True, True, True, False, False, False]] * 3
