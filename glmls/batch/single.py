@@ -18,7 +18,7 @@ from ..imaging.pipeline import WarpPipeline
 from ..mls import MLS
 from .labels import mesh_corners, mesh_keypoints, mesh_map, visible
 
-__all__ = ["ImageLabels", "SingleWarper", "mask_form", "restore_mask"]
+__all__ = ["ImageLabels", "SingleWarper", "beyond_mesh", "mask_form", "restore_mask"]
 
 
 class ImageLabels(NamedTuple):
@@ -30,6 +30,13 @@ class ImageLabels(NamedTuple):
     keypoints_valid: np.ndarray | None = None
     map: np.ndarray | None = None
     valid: np.ndarray | None = None
+
+
+def beyond_mesh(lattice: MeshLattice, points: np.ndarray) -> np.ndarray:
+    """(P,) bool: the source ``points`` outside the domain of ``lattice``'s cells, where
+    ``quads`` keypoints move by f (no cell's map reaches them)."""
+    origin, last = np.asarray(lattice.origin), np.asarray(lattice.last)
+    return ~np.all((points >= origin) & (points <= last), axis=1)
 
 
 def mask_form(mask: np.ndarray) -> np.ndarray:
@@ -147,6 +154,9 @@ class SingleWarper:
             moved, valid = mesh_keypoints(
                 lattice, vertices, points, values[rows * columns :] if backward else None
             )
+            beyond = beyond_mesh(lattice, points)
+            if not backward and beyond.any():  # no cell there: f, not a cell's map drawn out
+                moved[beyond] = mls(points[beyond])
             if backward:  # and shown by the backward map, which picks its own fold layer
                 _, jacobian, inside = self.move(mls, shape, options, frame, points)
                 on_canvas = moved - np.asarray(frame.origin)

@@ -60,3 +60,35 @@ def test_the_canvas_is_half_open_for_keypoints(gl, method, border):
     )
     np.testing.assert_allclose(result.keypoints[0], points, atol=1e-5)
     assert result.keypoints_valid.tolist() == [[True, True, True, False, False, False]] * 3
+
+
+@pytest.mark.parametrize("grid", [1, 4])
+@pytest.mark.parametrize("border", ["constant", "edge"])
+@pytest.mark.parametrize("chunks", [None, 1])
+def test_quads_keypoints_beyond_the_mesh_move_by_f(gl, grid, border, chunks):
+    """Where no cell of the mesh lies (outside the image with the constant border, beyond
+    the margin with the others) a keypoint moves by f, not by its nearest cell's map drawn
+    out (pixels away at a few pixels' distance): a box partly outside the image keeps its
+    shape. Inside the mesh, the mesh's own map, as before."""
+    rng = np.random.default_rng(4)
+    images = rng.integers(0, 255, (3, 20, 28), dtype=np.uint8)
+    src = rng.uniform(2, 18, (3, 6, 2))
+    dst = src + rng.normal(0, 3, src.shape)
+    outside = np.array([[-12.0, -9.0], [-3.0, 5.0], [40.0, 30.0], [-300.0, 8.0]])
+    inside = np.array([[3.0, 4.0], [20.0, 15.0]])
+    points = np.stack([np.concatenate([outside, inside])] * 3)
+    result = glmls.warp_batch(
+        images, src, dst, keypoints=points, grid=grid, border=border, max_batch_bytes=chunks
+    )
+    for k in range(3):
+        with glmls.MLS(src[k], dst[k], shape=(20, 28)) as f:
+            moved = result.keypoints[k]
+            if border == "constant":
+                np.testing.assert_allclose(moved[:4], f(outside), atol=1e-4)
+            else:
+                np.testing.assert_allclose(moved[3:4], f(outside[3:]), atol=1e-4)
+            assert np.abs(moved[4:] - f(inside)).max() < 0.5  # the mesh's map, near f
+    single = glmls.warp_batch(
+        images, src, dst, keypoints=points, grid=grid, border=border, interpolation="linear"
+    )
+    np.testing.assert_array_equal(single.keypoints, result.keypoints)
