@@ -83,6 +83,17 @@ def uses_mesh(options: WarpOptions) -> bool:
     return options.method == "quads" and options.tolerance is None
 
 
+#: The methods that push the source pixels forward, leaving holes where f stretches.
+FORWARD = ("splat", "paper-quads")
+
+
+def drawn(mls: MLS, shape: tuple[int, int], options: WarpOptions) -> np.ndarray:
+    """(H, W) bool of the canvas: the output pixels that ``mls.warp`` draws with
+    ``options`` (an image of ones warped, nearest, on a background of 0)."""
+    ones = np.ones(shape, np.uint8)
+    return mls.warp(ones, options=mask_options(options)) > 0
+
+
 class SingleWarper:
     """Per-image work of a batch on a context's shared :class:`~glmls.gl.WarpPipeline`."""
 
@@ -136,6 +147,8 @@ class SingleWarper:
             backward = options.method == "backward"
             if maps or (points is not None and (backward or not by_mesh(options))):
                 coords, covered = self.source_points(mls, shape, options, frame)
+                if options.method in FORWARD:  # what the fill drew, not f's inverse found
+                    covered = covered & drawn(mls, shape, options)
             if points is not None:
                 moved, valid = self.keypoints(mls, shape, options, frame, points, coords, covered)
             return ImageLabels(out, warped_mask, moved, valid, coords, covered)
