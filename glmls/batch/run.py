@@ -58,8 +58,7 @@ def warp_batch(
         Per image, source points (x, y) to move along: an (N, P, 2) array or a sequence of
         (P_i, 2) arrays. ``quads`` on a regular mesh moves them by the mesh's piecewise
         linear map that placed the pixels (by f beyond the mesh), ``backward-swap`` by the
-        inverse of the
-        swapped-handles map that it samples with, the other methods by f.
+        inverse of the swapped-handles map that it samples with, the other methods by f.
     masks : array_like or sequence of array_like or None, default None
         Per image, an (H, W) label image of an integer or bool dtype (labels within
         +-2**24 unless uint8, uint16 or bool): warped like its image with nearest sampling
