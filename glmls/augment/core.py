@@ -40,7 +40,8 @@ class AugmentResult(BatchResult):
     images, keypoints, keypoints_valid, masks, maps, valid, params : object
         As :class:`glmls.BatchResult`; ``params`` holds one dict per sample: ``preset``,
         ``config`` (the preset's options), ``seed``, ``index``, ``shape`` (H, W), ``src`` and
-        ``dst`` (the handles, lists of [x, y]) and ``options`` (the warp keywords).
+        ``dst`` (the handles, lists of [x, y]) and ``options`` (the warp keywords, but a
+        ``ctx``, which replay takes from the Augment).
     boxes : numpy.ndarray or list of numpy.ndarray or None
         (N, B, 4) or per image (B_i, 4) boxes ``(x_min, y_min, x_max, y_max)`` around the
         moved outlines, clipped to the canvas.
@@ -69,6 +70,9 @@ _WARP_KEYWORDS = (FIELDS | {"options", "return_maps", "max_batch_bytes"} | MLS_K
     "keypoints",
     "masks",
 }
+#: The ``warp_options`` that say where to render, not what: kept out of the params (JSON),
+#: added again on replay.
+_UNRECORDED = ("ctx",)
 #: The fields of :class:`MLSConfig` that ``warp_options`` may set.
 _CONFIG_FIELDS = ("transform", "weight", "alpha", "s", "radius", "interpolating")
 
@@ -371,7 +375,9 @@ class Augment:
                     "shape": [int(shape[0]), int(shape[1])],
                     "src": np.asarray(src, np.float64).tolist(),
                     "dst": np.asarray(dst, np.float64).tolist(),
-                    "options": _jsonable(self.warp_options),
+                    "options": _jsonable(
+                        {k: v for k, v in self.warp_options.items() if k not in _UNRECORDED}
+                    ),
                 }
             )
         return params
@@ -505,6 +511,7 @@ class Augment:
         options = dict(params[0]["options"])
         if any(dict(p["options"]) != options for p in params):
             raise ValueError("params with different warp options cannot be replayed together")
+        options |= {k: v for k, v in self.warp_options.items() if k in _UNRECORDED}
         src = [np.asarray(p["src"], np.float64) for p in params]
         dst = [np.asarray(p["dst"], np.float64) for p in params]
         result = warp_batch(images, src, dst, keypoints=points, masks=masks, **options)

@@ -94,3 +94,16 @@ def test_a_warp_options_object_is_its_fields(gl):
     np.testing.assert_array_equal(first.images, expected)
     with pytest.raises(TypeError):
         Augment("grid", warp_options={"options": {"method": "backward"}})
+
+
+def test_a_context_in_warp_options_stays_out_of_the_params(gl):
+    """``warp_options={"ctx": ...}`` renders on that context; the params, which must be
+    JSON, do not record it, and replay renders on the Augment's context again."""
+    import json
+
+    aug = Augment("grid", seed=5, warp_options={"ctx": gl})
+    images = np.random.default_rng(2).integers(0, 255, (2, 12, 16), dtype=np.uint8)
+    first = aug(images)
+    assert "ctx" not in first.params[0]["options"]
+    record = json.loads(json.dumps(first.params))
+    np.testing.assert_array_equal(aug.replay(images, record).images, first.images)
