@@ -12,6 +12,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..batch import BatchResult, warp_batch
+from ..core.config import MLSConfig
+from ..core.handles import COORDINATE_LIMIT
+from ..imaging.options import FIELDS, WarpOptions
+from ..mls import MLS_KEYWORDS
 from . import labels as lab
 from . import tensors
 from .presets import preset_from
@@ -36,7 +40,8 @@ class AugmentResult(BatchResult):
     images, keypoints, keypoints_valid, masks, maps, valid, params : object
         As :class:`glmls.BatchResult`; ``params`` holds one dict per sample: ``preset``,
         ``config`` (the preset's options), ``seed``, ``index``, ``shape`` (H, W), ``src`` and
-        ``dst`` (the handles, lists of [x, y]) and ``options`` (the warp keywords).
+        ``dst`` (the handles, lists of [x, y]) and ``options`` (the warp keywords, but a
+        ``ctx``, which replay takes from the Augment).
     boxes : numpy.ndarray or list of numpy.ndarray or None
         (N, B, 4) or per image (B_i, 4) boxes ``(x_min, y_min, x_max, y_max)`` around the
         moved outlines, clipped to the canvas.
@@ -57,6 +62,55 @@ class AugmentResult(BatchResult):
     boxes: np.ndarray | list[np.ndarray] | None = None
     boxes_valid: np.ndarray | list[np.ndarray] | None = None
     polygons: list[list[np.ndarray]] | None = None
+
+
+#: The keywords of :func:`glmls.warp_batch` that ``warp_options`` may hold (the labels are
+#: the call's own; the segment handles are per image).
+_WARP_KEYWORDS = (FIELDS | {"options", "return_maps", "max_batch_bytes"} | MLS_KEYWORDS) - {
+    "keypoints",
+    "masks",
+}
+#: The ``warp_options`` that say where to render, not what: kept out of the params (JSON),
+#: added again on replay.
+_UNRECORDED = ("ctx",)
+#: The fields of :class:`MLSConfig` that ``warp_options`` may set.
+_CONFIG_FIELDS = ("transform", "weight", "alpha", "s", "radius", "interpolating")
+
+
+def _check_warp_options(options: Mapping[str, object]) -> None:
+    """``warp_options`` as :func:`glmls.warp_batch` will take them, checked now: a keyword
+    it does not take, or the labels that are the call's own, is a ``TypeError``, a bad
+    value a ``ValueError`` naming it."""
+    for name in options:
+        if name in ("keypoints", "masks"):
+            raise TypeError(f"warp_options cannot hold {name}: give them to the call")
+        if name not in _WARP_KEYWORDS:
+            raise TypeError(f"warp_options has no keyword {name}")
+    fields = {k: v for k, v in options.items() if k in FIELDS or k == "options"}
+    WarpOptions.of(fields.pop("options", None), **fields)
+    MLSConfig(**{k: v for k, v in options.items() if k in _CONFIG_FIELDS})
+
+
+def _check_positive(name: str, value: object) -> float:
+    """``value`` as a float, a finite number > 0 (numpy's numbers too, not a bool)."""
+    number = isinstance(value, (int, float, np.integer, np.floating))
+    if not number or isinstance(value, (bool, np.bool_)) or not math.isfinite(value) or value <= 0:
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    return float(value)
+
+
+def _check_reach(preset: object, dst: np.ndarray, index: int) -> None:
+    """A draw whose handles leave the coordinate range (the GPU's float32 keeps ~1e-7 of
+    it) names the preset's magnitude that sent them there."""
+    reach = float(np.abs(dst).max()) if np.size(dst) else 0.0
+    if reach <= COORDINATE_LIMIT:
+        return
+    names = [f for f in ("displacement", "radius", "units") if hasattr(preset, f)]
+    given = ", ".join(f"{f}={getattr(preset, f)!r}" for f in names)
+    raise ValueError(
+        f"images[{index}]: the {preset.name} preset's {given} moves handles to "  # type: ignore[attr-defined]
+        f"{reach:g} px, beyond ±{COORDINATE_LIMIT:g} px: use a smaller magnitude"
+    )
 
 
 def _index_list(indices: object, count: int) -> list[int]:
@@ -186,7 +240,9 @@ class Augment:
         The seed (>= 0) that, with each sample's index, numbers its random draw.
     warp_options : mapping or None, default None
         Keywords of :func:`glmls.warp_batch` (``transform``, ``interpolation``, ``border``,
-        ``method``, ``grid``...), over :data:`DEFAULT_WARP_OPTIONS`.
+        ``method``, ``grid``...), over :data:`DEFAULT_WARP_OPTIONS`; ``options``, a
+        :class:`glmls.WarpOptions`, stands for its fields (over the defaults, under the
+        other keywords).
     box_step : float, default 2.0
         Pixels between two points of a box's outline as it is moved.
     densify : float or None, default None
@@ -204,9 +260,13 @@ class Augment:
     Raises
     ------
     ValueError
-        For an unknown preset (the valid ones listed) or a value out of range, naming it.
+        For an unknown preset (the valid ones listed) or a value out of range, naming it
+        (also ``warp_options``' values; a magnitude that moves handles beyond the
+        coordinate range when it draws).
     TypeError
-        For an unknown option.
+        For an unknown option, a ``warp_options`` keyword that :func:`glmls.warp_batch`
+        does not take (or ``keypoints``, ``masks``: the call's own) or a ``clip_polygons``
+        that is not a bool.
 
     Examples
     --------
@@ -241,18 +301,19 @@ class Augment:
             raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
         if seed < 0:
             raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
-        for name, value in (("box_step", box_step), ("densify", densify)):
-            if value is None and name == "densify":
-                continue
-            if not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        self.box_step = _check_positive("box_step", box_step)
+        self.densify = None if densify is None else _check_positive("densify", densify)
+        if not isinstance(clip_polygons, (bool, np.bool_)):
+            raise TypeError(f"clip_polygons must be True or False, got {clip_polygons!r}")
         if warp_options is not None and not isinstance(warp_options, Mapping):
             raise TypeError(f"warp_options must be a mapping, got {type(warp_options)}")
+        given = dict(warp_options or {})
+        _check_warp_options(given)
         self.preset = preset_from(preset, preset_options)
         self.seed = int(seed)
-        self.warp_options = {**DEFAULT_WARP_OPTIONS, **dict(warp_options or {})}
-        self.box_step = float(box_step)
-        self.densify = None if densify is None else float(densify)
+        packed = given.pop("options", None)  # a WarpOptions: its fields, JSON in the params
+        fields = {} if packed is None else dataclasses.asdict(packed)
+        self.warp_options = {**DEFAULT_WARP_OPTIONS, **fields, **given}
         self.clip_polygons = bool(clip_polygons)
 
     def __repr__(self) -> str:
@@ -304,6 +365,7 @@ class Augment:
                 src, dst = self.preset.draw(rng, tuple(shape), marks)
             except ValueError as error:
                 raise ValueError(f"images[{i}]: {error}") from None
+            _check_reach(self.preset, dst, i)
             params.append(
                 {
                     "preset": self.preset.name,
@@ -313,7 +375,9 @@ class Augment:
                     "shape": [int(shape[0]), int(shape[1])],
                     "src": np.asarray(src, np.float64).tolist(),
                     "dst": np.asarray(dst, np.float64).tolist(),
-                    "options": _jsonable(self.warp_options),
+                    "options": _jsonable(
+                        {k: v for k, v in self.warp_options.items() if k not in _UNRECORDED}
+                    ),
                 }
             )
         return params
@@ -447,6 +511,7 @@ class Augment:
         options = dict(params[0]["options"])
         if any(dict(p["options"]) != options for p in params):
             raise ValueError("params with different warp options cannot be replayed together")
+        options |= {k: v for k, v in self.warp_options.items() if k in _UNRECORDED}
         src = [np.asarray(p["src"], np.float64) for p in params]
         dst = [np.asarray(p["dst"], np.float64) for p in params]
         result = warp_batch(images, src, dst, keypoints=points, masks=masks, **options)

@@ -342,8 +342,9 @@ class LandmarksPreset:
     """Each image's own landmarks moved at random, the image's corners pinned.
 
     The landmarks are the ``keypoints`` given with the image, each moved by up to
-    +-``displacement`` per axis; with ``pin_corners`` the image's four corners are handles
-    that stay, so that the frame holds.
+    +-``displacement`` per axis (equal landmarks, as datasets mark missing ones, by one
+    offset); with ``pin_corners`` the image's four corners are handles that stay, so that
+    the frame holds (and a landmark on a corner stays too).
 
     Parameters
     ----------
@@ -415,10 +416,16 @@ class LandmarksPreset:
         points = np.zeros((0, 2)) if landmarks is None else np.asarray(landmarks, np.float64)
         if landmarks is None or (len(points) == 0 and not self.pin_corners):
             raise ValueError("the landmarks preset needs each image's landmarks (keypoints)")
-        src, dst = points, points + _jitter(rng, points.shape, shape, self.displacement, self.units)
+        offsets = _jitter(rng, points.shape, shape, self.displacement, self.units)
+        if len(points) > 1:  # equal landmarks (a dataset's mark of a missing one) move as one
+            _, first, which = np.unique(points, axis=0, return_index=True, return_inverse=True)
+            offsets = offsets[first[which.reshape(-1)]]
+        src, dst = points, points + offsets
         if self.pin_corners:
             left, top, right, bottom = _edges(shape)
             corners = np.array([[left, top], [right, top], [left, bottom], [right, bottom]])
+            pinned = (points[:, None] == corners[None]).all(axis=2).any(axis=1)
+            dst = np.where(pinned[:, None], points, dst)  # a landmark on a corner stays
             src, dst = np.concatenate([src, corners]), np.concatenate([dst, corners])
         return src, dst
 
@@ -443,6 +450,11 @@ def preset_from(preset: object, options: dict) -> object:
         if options:
             raise TypeError(f"options {sorted(options)} given with a preset object")
         return preset
+    if not isinstance(preset, str):
+        raise TypeError(
+            f"preset must be a name ({', '.join(PRESETS)}) or a preset object, got "
+            f"{type(preset).__name__}"
+        )
     if preset not in PRESETS:
         raise ValueError(f"unknown preset {preset!r}; expected one of {', '.join(PRESETS)}")
     cls = PRESETS[preset]  # type: ignore[index]

@@ -22,7 +22,15 @@ from ..mls import MLS
 from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size
 from .inputs import BatchInput
 from .labels import embedded, mesh_keypoints
-from .single import ImageLabels, SingleWarper, mask_form, mask_options, packable, restore_mask
+from .single import (
+    ImageLabels,
+    SingleWarper,
+    beyond_mesh,
+    mask_form,
+    mask_options,
+    packable,
+    restore_mask,
+)
 from .texels import chunk_size as texel_chunk_size
 from .texels import takes, warp_texels
 
@@ -117,11 +125,38 @@ def warp_chunks(
                 continue
             for i, labels in zip(chunk, done, strict=True):
                 results[i] = labels
+        if batch.keypoints is not None and not backward:
+            own_mls = (segments, mls_options, source.shape)
+            _beyond_mesh_by_f(results, indices, batch, lattice, frame, own_mls)
         if direct is not None and direct.complete and len(groups) == 1:
             whole["images"] = direct.out
             if direct.labels is not None:
                 whole["masks"] = direct.labels
     return results, whole
+
+
+def _beyond_mesh_by_f(results, indices, batch, lattice, frame, own_mls) -> None:
+    """The group's ``quads`` keypoints outside the mesh's domain (outside the image: the
+    constant border's mesh has no margin) moved by f, as the single path moves them: the
+    image's own MLS (``own_mls``: the per-image segments, the MLS keywords, the shape), made
+    only for the images that have such keypoints."""
+    sets = [batch.keypoints[i] for i in indices]
+    beyond = beyond_mesh(lattice, np.concatenate(sets))
+    if not beyond.any():
+        return
+    owner = np.repeat(np.asarray(indices), [len(p) for p in sets])
+    segments, mls_options, shape = own_mls
+    for i in np.unique(owner[beyond]).tolist():
+        labels = results[i]
+        if labels is None or labels.keypoints is None:
+            continue  # left to the single path, which moves them so itself
+        points = batch.keypoints[i]
+        far = beyond_mesh(lattice, points)
+        with MLS(batch.src[i], batch.dst[i], shape=shape, **segments[i], **mls_options) as mls:
+            values = mls(points[far])
+        moved = labels.keypoints.copy()
+        moved[far] = values - np.asarray(frame.origin)
+        results[i] = ImageLabels(*labels[:2], moved, *labels[3:])
 
 
 class _Direct:
@@ -266,7 +301,7 @@ def _finish(quads, batch, chunk, lattices, options, frame, lattice, maps, out, m
         )
         moved_all = moved_all - np.asarray(frame.origin)
         height, width = frame.shape
-        valid_all &= np.all((moved_all > -0.5) & (moved_all < (width - 0.5, height - 0.5)), axis=1)
+        valid_all &= np.all((moved_all >= -0.5) & (moved_all < (width - 0.5, height - 0.5)), axis=1)
         ends = np.cumsum(sizes).tolist()
         starts = [0, *ends[:-1]]
         moved_all = [moved_all[a:b] for a, b in zip(starts, ends, strict=True)]

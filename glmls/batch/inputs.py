@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.handles import COORDINATE_LIMIT
+from ..core.handles import COORDINATE_LIMIT, validate_handles
 from ..imaging.source import DTYPES
 
 __all__ = ["BatchInput", "check_batch", "stack_or_list"]
@@ -121,6 +121,22 @@ def _point_items(value: object, name: str, *, rows: str) -> tuple[list[np.ndarra
     return list(points), True
 
 
+def _check_targets(src: list[np.ndarray], dst: list[np.ndarray]) -> None:
+    """No image has a source point with two different targets (its MLS refuses it, as
+    :func:`glmls.warp` does): the error names the image. Only the images with two equal
+    source x are checked in full, found for handle sets of one size in one sort."""
+    if len({len(p) for p in src}) == 1 and len(src[0]) > 1:
+        xs = np.sort(np.stack(src)[..., 0], axis=1)
+        suspects = np.flatnonzero((xs[:, 1:] == xs[:, :-1]).any(axis=1)).tolist()
+    else:
+        suspects = [i for i, p in enumerate(src) if len(p) > 1]
+    for i in suspects:
+        try:
+            validate_handles(src[i], dst[i])
+        except ValueError as error:
+            raise ValueError(f"images[{i}]: {error}") from None
+
+
 def check_batch(
     images: object, src: object, dst: object, keypoints: object, masks: object
 ) -> BatchInput:
@@ -144,6 +160,7 @@ def check_batch(
     for i, (p, q) in enumerate(zip(*handles, strict=True)):
         if len(p) != len(q):
             raise ValueError(f"src[{i}] and dst[{i}] hold {len(p)} and {len(q)} points")
+    _check_targets(*handles)
     points, stacked_points = None, False
     if keypoints is not None:
         points, stacked_points = _point_items(keypoints, "keypoints", rows="P")

@@ -82,7 +82,7 @@ def visible(
     centre should show (else another part of the image folds over it)."""
     height, width = covered.shape
     pixel = np.rint(out)
-    on = inside & (out[:, 0] > -0.5) & (out[:, 1] > -0.5)
+    on = inside & (out[:, 0] >= -0.5) & (out[:, 1] >= -0.5)  # [c - 0.5, c + 0.5): pixel c
     on &= (out[:, 0] < width - 0.5) & (out[:, 1] < height - 0.5)
     ok = np.zeros(len(points), bool)
     if not on.any():

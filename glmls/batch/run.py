@@ -57,8 +57,8 @@ def warp_batch(
     keypoints : array_like or sequence of array_like or None, default None
         Per image, source points (x, y) to move along: an (N, P, 2) array or a sequence of
         (P_i, 2) arrays. ``quads`` on a regular mesh moves them by the mesh's piecewise
-        linear map that placed the pixels, ``backward-swap`` by the inverse of the
-        swapped-handles map that it samples with, the other methods by f.
+        linear map that placed the pixels (by f beyond the mesh), ``backward-swap`` by the
+        inverse of the swapped-handles map that it samples with, the other methods by f.
     masks : array_like or sequence of array_like or None, default None
         Per image, an (H, W) label image of an integer or bool dtype (labels within
         +-2**24 unless uint8, uint16 or bool): warped like its image with nearest sampling
@@ -119,7 +119,7 @@ def warp_batch(
         return _bool_masks_back(result, binary)
     chosen, mls_options, segments = _split_options(options)
     batch = check_batch(images, src, dst, keypoints, masks)
-    segments = _check_segments(segments, batch)
+    segments = _check_segments(segments, batch, mls_options.get("transform"))
     warper = SingleWarper.of(mls_options.get("ctx"))
     done: list = [None] * len(batch)
     whole: dict = {}
@@ -197,9 +197,10 @@ def _split_options(options: dict) -> tuple[WarpOptions, dict, dict]:
     return chosen, options, segments
 
 
-def _check_segments(segments: dict, batch: BatchInput) -> list[dict]:
+def _check_segments(segments: dict, batch: BatchInput, transform: object) -> list[dict]:
     """Per image, its ``src_segments`` and ``dst_segments`` where given, each image's
-    handles checked as its MLS will check them, the error naming the image."""
+    handles checked as its MLS will check them (segments; handles that span the plane for
+    the affine ``transform``), the error naming the image, before any GPU work."""
     count = len(batch)
     per_image: list[dict] = [{} for _ in range(count)]
     for name, value in segments.items():
@@ -212,10 +213,13 @@ def _check_segments(segments: dict, batch: BatchInput) -> list[dict]:
         for i, item in enumerate(value):
             if item is not None:
                 per_image[i][name] = item
+    affine = transform == "affine"
     for i, given in enumerate(per_image):
-        if given:
+        if given or affine:
             try:
-                HandleSet.validate(batch.src[i], batch.dst[i], **given)
+                handles = HandleSet.validate(batch.src[i], batch.dst[i], **given)
+                if affine:
+                    handles.check_affine()
             except (TypeError, ValueError) as error:
                 raise type(error)(f"images[{i}]: {error}") from None
     return per_image

@@ -18,7 +18,7 @@ from ..imaging.pipeline import WarpPipeline
 from ..mls import MLS
 from .labels import mesh_corners, mesh_keypoints, mesh_map, visible
 
-__all__ = ["ImageLabels", "SingleWarper", "mask_form", "restore_mask"]
+__all__ = ["ImageLabels", "SingleWarper", "beyond_mesh", "mask_form", "restore_mask"]
 
 
 class ImageLabels(NamedTuple):
@@ -30,6 +30,13 @@ class ImageLabels(NamedTuple):
     keypoints_valid: np.ndarray | None = None
     map: np.ndarray | None = None
     valid: np.ndarray | None = None
+
+
+def beyond_mesh(lattice: MeshLattice, points: np.ndarray) -> np.ndarray:
+    """(P,) bool: the source ``points`` outside the domain of ``lattice``'s cells, where
+    ``quads`` keypoints move by f (no cell's map reaches them)."""
+    origin, last = np.asarray(lattice.origin), np.asarray(lattice.last)
+    return ~np.all((points >= origin) & (points <= last), axis=1)
 
 
 def mask_form(mask: np.ndarray) -> np.ndarray:
@@ -74,6 +81,17 @@ def packable(image: np.ndarray, mask: np.ndarray | None, options: WarpOptions) -
 def uses_mesh(options: WarpOptions) -> bool:
     """Does the method place the pixels by the regular mesh's piecewise linear map?"""
     return options.method == "quads" and options.tolerance is None
+
+
+#: The methods that push the source pixels forward, leaving holes where f stretches.
+FORWARD = ("splat", "paper-quads")
+
+
+def drawn(mls: MLS, shape: tuple[int, int], options: WarpOptions) -> np.ndarray:
+    """(H, W) bool of the canvas: the output pixels that ``mls.warp`` draws with
+    ``options`` (an image of ones warped, nearest, on a background of 0)."""
+    ones = np.ones(shape, np.uint8)
+    return mls.warp(ones, options=mask_options(options)) > 0
 
 
 class SingleWarper:
@@ -129,6 +147,8 @@ class SingleWarper:
             backward = options.method == "backward"
             if maps or (points is not None and (backward or not by_mesh(options))):
                 coords, covered = self.source_points(mls, shape, options, frame)
+                if options.method in FORWARD:  # what the fill drew, not f's inverse found
+                    covered = covered & drawn(mls, shape, options)
             if points is not None:
                 moved, valid = self.keypoints(mls, shape, options, frame, points, coords, covered)
             return ImageLabels(out, warped_mask, moved, valid, coords, covered)
@@ -147,6 +167,9 @@ class SingleWarper:
             moved, valid = mesh_keypoints(
                 lattice, vertices, points, values[rows * columns :] if backward else None
             )
+            beyond = beyond_mesh(lattice, points)
+            if not backward and beyond.any():  # no cell there: f, not a cell's map drawn out
+                moved[beyond] = mls(points[beyond])
             if backward:  # and shown by the backward map, which picks its own fold layer
                 _, jacobian, inside = self.move(mls, shape, options, frame, points)
                 on_canvas = moved - np.asarray(frame.origin)
@@ -157,7 +180,7 @@ class SingleWarper:
             return moved, visible(points, moved, jacobian, coords, covered, inside)
         moved = moved - np.asarray(frame.origin)
         height, width = frame.shape
-        on = np.all((moved > -0.5) & (moved < (width - 0.5, height - 0.5)), axis=1)
+        on = np.all((moved >= -0.5) & (moved < (width - 0.5, height - 0.5)), axis=1)
         return moved, valid & on
 
     def lattice(self, mls: MLS, shape: tuple[int, int], options: WarpOptions, frame: Frame):

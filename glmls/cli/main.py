@@ -10,9 +10,12 @@ stderr, results to stdout or files; a user's mistake never prints a traceback.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import signal
 import sys
 import textwrap
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
 
 from ..errors import GLUnavailableError, InputFileError
 from ..version import __version__
@@ -61,11 +64,34 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised where the command runs, so that its cleanup runs as on Ctrl-C."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
+@contextlib.contextmanager
+def _terminate_as_exception() -> Iterator[None]:
+    """SIGTERM raises :class:`Terminated` in the main thread while the command runs (a
+    scheduler's or a container's stop then removes the temporaries, as Ctrl-C does)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return args.run(args)
+        with _terminate_as_exception():
+            return args.run(args)
     except (UsageError, InputFileError) as error:
         print(f"glmls {args.command}: {error}", file=sys.stderr)
         return EXIT_USAGE
@@ -78,6 +104,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"glmls {args.command}: interrupted", file=sys.stderr)
         return 130
+    except Terminated:
+        print(f"glmls {args.command}: terminated", file=sys.stderr)
+        return 128 + signal.SIGTERM
 
 
 if __name__ == "__main__":
