@@ -20,9 +20,10 @@ __all__ = ["NEWTON_STEPS", "NEWTON_TOLERANCE", "KernelField"]
 
 #: Newton on f stops below this residual |f(s) - u| (voxels) ...
 NEWTON_TOLERANCE = 1e-3
-#: ... or after this many steps; a voxel whose residual stays above
+#: ... or after this many steps (and as many halvings of a step that raised the residual, in
+#: all); a voxel whose residual stays above
 #: :data:`~glmls.volume.fields.NEWTON_ACCEPT` is left uncovered.
-NEWTON_STEPS = 8
+NEWTON_STEPS = 12
 #: Each step goes at most this share of the volume's largest side (far from the solution
 #: Newton's step may overshoot).
 NEWTON_MAX_STEP = 0.1
