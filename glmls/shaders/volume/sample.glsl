@@ -20,8 +20,17 @@ vec4 volume_texel(ivec3 p) {
     return vec4(texelFetch(u_volume, q, 0));
 }
 
+// A sample point within VOLUME_SNAP of its coordinate's size (about 8 float32 roundings) of a
+// voxel centre's plane is on that plane: the source points of the lattice's cells (cut short
+// at the volume's sides) and of Newton's method carry float32 rounding, which trilinear
+// weights would turn into values off by a few ulps where f copies voxels (the identity, a
+// shift by whole voxels).
+#define VOLUME_SNAP 1e-6
+
 vec4 volume_sample(vec3 s) {
 #if WARP_LINEAR
+    vec3 centre = floor(s + 0.5);
+    s = mix(s, centre, lessThanEqual(abs(s - centre), VOLUME_SNAP * max(abs(centre), vec3(8.0))));
     vec3 corner = floor(s);
     vec3 t = s - corner;
     ivec3 p = ivec3(corner);

@@ -1,0 +1,35 @@
+"""Warps that copy voxels copy them bit for bit, at every lattice step: the identity and whole-
+voxel translations, float32 volumes sampled trilinearly included (where the lattice's last
+cell is cut short by the volume's side, its barycentric coordinates round in float32)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import glmls
+
+SHAPE = (7, 9, 11)  # no side a multiple of the lattice steps below
+
+
+@pytest.fixture
+def volume(rng):
+    return rng.normal(0, 100, (*SHAPE, 2)).astype(np.float32)
+
+
+@pytest.mark.parametrize("grid", [2, 4, 5, 16])
+@pytest.mark.parametrize("method", ["quads", "backward"])
+@pytest.mark.parametrize("shift", [(0, 0, 0), (2, -1, 3)])
+def test_copies_are_exact_at_every_grid(gl, rng, volume, grid, method, shift):
+    src = rng.uniform(0, 10, (8, 3))
+    with glmls.MLS(src, src + shift, transform="rigid", shape=SHAPE) as m:
+        for border in glmls.BORDERS:
+            out = m.warp(volume, method=method, interpolation="linear", grid=grid, border=border)
+            pad = 8
+            padded = np.pad(volume, [(pad, pad)] * 3 + [(0, 0)], mode=border)
+            dx, dy, dz = shift
+            d, h, w = SHAPE
+            expected = padded[
+                pad - dz : pad - dz + d, pad - dy : pad - dy + h, pad - dx : pad - dx + w
+            ]
+            np.testing.assert_array_equal(out, expected, err_msg=border)
