@@ -1,0 +1,34 @@
+"""``glmls analyze`` takes every volume dtype ``glmls warp`` takes: a mask (bool) or an
+int64 volume is warped as float32 and analysed, never a traceback or a silently missing
+deformed volume."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from helpers import run_glmls
+
+SRC = [[2, 2, 2], [11, 2, 2], [2, 9, 2], [2, 2, 7], [11, 9, 7], [6, 6, 4]]
+DST = [*SRC[:5], [7, 5, 4]]
+
+
+@pytest.mark.parametrize("dtype", ["bool", "int64", "int16", "float64"])
+def test_analyze_takes_the_dtypes_that_warp_takes(tmp_path, dtype):
+    rng = np.random.default_rng(0)
+    volume = rng.integers(0, 2 if dtype == "bool" else 200, (10, 12, 14)).astype(dtype)
+    np.save(tmp_path / "v.npy", volume)
+    (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": DST}))
+    warped = run_glmls("warp", "v.npy", "w.npy", "--handles", "h3.json", cwd=tmp_path)
+    assert warped.returncode == 0, warped.stderr
+    assert np.load(tmp_path / "w.npy").dtype == volume.dtype
+    result = run_glmls(
+        "analyze", "v.npy", "--handles", "h3.json", "--out", "rep", cwd=tmp_path, module="glmls.cli"
+    )
+    assert result.returncode == 0, result.stderr
+    assert "Traceback" not in result.stderr
+    assert "no deformed volume" not in result.stderr
+    summary = json.loads((tmp_path / "rep" / "report.json").read_text())
+    assert summary["deformed"] is True
+    assert (tmp_path / "rep" / "deformed.png").exists()
