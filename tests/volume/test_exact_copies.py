@@ -1,6 +1,7 @@
 """Warps that copy voxels copy them bit for bit, at every lattice step: the identity and whole-
 voxel translations, float32 volumes sampled trilinearly included (where the lattice's last
-cell is cut short by the volume's side, its barycentric coordinates round in float32)."""
+cell is cut short by the volume's side, its barycentric coordinates round in float32), and
+their NaN and infinite voxels stay where they are (their neighbours' weight 0 for them)."""
 
 from __future__ import annotations
 
@@ -14,7 +15,9 @@ SHAPE = (7, 9, 11)  # no side a multiple of the lattice steps below
 
 @pytest.fixture
 def volume(rng):
-    return rng.normal(0, 100, (*SHAPE, 2)).astype(np.float32)
+    out = rng.normal(0, 100, (*SHAPE, 2)).astype(np.float32)
+    out[3, 4, 5, 0], out[1, 1, 1, 1], out[5, 7, 2, 0] = np.nan, np.inf, -np.inf
+    return out
 
 
 @pytest.mark.parametrize("grid", [2, 4, 5, 16])
@@ -32,4 +35,4 @@ def test_copies_are_exact_at_every_grid(gl, rng, volume, grid, method, shift):
             expected = padded[
                 pad - dz : pad - dz + d, pad - dy : pad - dy + h, pad - dx : pad - dx + w
             ]
-            np.testing.assert_array_equal(out, expected, err_msg=border)
+            np.testing.assert_array_equal(out, expected, err_msg=border, strict=True)
