@@ -52,11 +52,13 @@ class Field(Protocol):
         shape: tuple[int, int, int],
         *,
         constant: bool,
+        first: int = 0,
     ) -> None:
         """Newton's method from the first guesses in ``coords`` (x, y, z, w per voxel of a
-        slab of ``size`` (W, H, slices) whose voxel (0, 0, 0) shows ``origin``, source voxels;
-        w < 0: no guess), written back as (s, w): w the residual |f(s) - u| (voxels) where
-        found (inside a volume of ``shape`` with ``constant``), else -1 - residual."""
+        slab of ``size`` (W, H, slices) whose voxel (i, j, k) shows ``origin`` + (i, j,
+        ``first`` + k), source voxels; w < 0: no guess), written back as (s, w): w the
+        residual |f(s) - u| (voxels) where found (inside a volume of ``shape`` with
+        ``constant``), else -1 - residual."""
         ...
 
 
@@ -112,16 +114,17 @@ class ReferenceField:
         shape: tuple[int, int, int],
         *,
         constant: bool,
+        first: int = 0,
     ) -> None:
         """Newton's method in float64 (:func:`newton_inverse`) from the first guesses in
         ``coords`` ((x, y, z, w) per voxel of a slab of ``size`` (W, H, slices) whose voxel
-        (0, 0, 0) shows ``origin``, source voxels; w < 0: no guess, start at the voxel),
-        written back as the construction's backward pass does."""
+        (i, j, k) shows ``origin`` + (i, j, ``first`` + k), source voxels; w < 0: no guess,
+        start at the voxel), written back as the construction's backward pass does."""
         width, height, depth = size
         count = width * height * depth
         raw = np.frombuffer(coords.read(size=count * 16), np.float32).reshape(count, 4)
         k, j, i = np.meshgrid(np.arange(depth), np.arange(height), np.arange(width), indexing="ij")
-        u = np.stack([i, j, k], axis=-1).reshape(-1, 3) + np.asarray(origin)
+        u = np.stack([i, j, k + first], axis=-1).reshape(-1, 3) + np.asarray(origin)
         guess = np.where(raw[:, 3:4] >= 0, raw[:, :3].astype(np.float64), u)
         s, residual = newton_inverse(self, u, guess)
         found = residual <= NEWTON_ACCEPT

@@ -78,10 +78,12 @@ class KernelField:
         shape: tuple[int, int, int],
         *,
         constant: bool,
+        first: int = 0,
     ) -> None:
         """Newton's method on the GPU from the first guesses in ``coords`` (see
         ``volume/newton.comp.glsl``) for a slab of ``size`` (W, H, slices) whose voxel
-        (0, 0, 0) shows ``origin`` (source voxels), of a volume of ``shape``."""
+        (i, j, k) shows ``origin`` + (i, j, ``first`` + k) (source voxels), of a volume of
+        ``shape``."""
         kernel = self.kernel
         defines = {"WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": 0 if constant else 1}
         program = kernel.program("volume/newton.comp.glsl", defines)
@@ -93,7 +95,8 @@ class KernelField:
                 self._uniforms()
                 | {
                     "u_slab_size": size,
-                    "u_slab_origin": origin,
+                    "u_frame_origin": origin,
+                    "u_slab_first": first,
                     "u_volume_size": shape[::-1],
                     "u_tolerance": NEWTON_TOLERANCE,
                     "u_accept": NEWTON_ACCEPT,

@@ -25,7 +25,8 @@ layout(std430, binding = BIND_VOLUME_SLOPES) readonly buffer VolumeSlopes {
 uniform int u_offset;        // first item of this dispatch
 uniform int u_count;         // voxels of the slab
 uniform ivec3 u_slab_size;   // W, H and slices of the output slab
-uniform vec3 u_slab_origin;  // source voxels that the slab's voxel (0, 0, 0) shows
+uniform vec3 u_frame_origin; // source voxels that the output's voxel (0, 0, 0) shows
+uniform int u_slab_first;    // the slab's first output slice
 uniform ivec3 u_volume_size; // W, H, D of the source
 uniform float u_tolerance;
 uniform float u_accept;
@@ -37,7 +38,7 @@ void main() {
     int i = min(item, u_count - 1);
     ivec3 p = ivec3(i % u_slab_size.x, (i / u_slab_size.x) % u_slab_size.y,
                     i / (u_slab_size.x * u_slab_size.y));
-    vec3 u = u_slab_origin + vec3(p);
+    vec3 u = u_frame_origin + vec3(p + ivec3(0, 0, u_slab_first));
     vec4 guess = volume_coords[i];
     bool guided = guess.w >= 0.0;
     vec3 s = guided ? guess.xyz : u;
