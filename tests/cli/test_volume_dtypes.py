@@ -32,3 +32,20 @@ def test_analyze_takes_the_dtypes_that_warp_takes(tmp_path, dtype):
     summary = json.loads((tmp_path / "rep" / "report.json").read_text())
     assert summary["deformed"] is True
     assert (tmp_path / "rep" / "deformed.png").exists()
+
+
+@pytest.mark.parametrize("content", [b"II*\x00garbage", b"II*\x00\x08\x00\x00\x00\x00\x00"])
+@pytest.mark.parametrize("command", ["warp", "analyze"])
+def test_an_unreadable_tiff_is_one_line(tmp_path, content, command):
+    """A corrupt TIFF given with 3D handles: one line naming the file (not tifffile's log
+    lines), as unreadable where it has no page (not as a file of images)."""
+    (tmp_path / "v.tif").write_bytes(content)
+    (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": DST}))
+    out = ["w.tif"] if command == "warp" else ["--out", "rep"]
+    result = run_glmls(command, "v.tif", *out, "--handles", "h3.json", cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert "v.tif" in lines[0], lines[0]
+    if content.endswith(b"garbage"):  # no page at all (the other's first page is an image's)
+        assert "not a readable TIFF" in lines[0], lines[0]
