@@ -51,4 +51,4 @@ def test_every_inner_preimage_is_found(gl, case, grid):
     missed = np.flatnonzero(inner & ~covered)
     assert len(missed) == 0, f"{len(missed)} voxels with a preimage left uncovered: {missed[:5]}"
     found = inner & covered
-    assert np.abs(points.reshape(-1, 3)[found] - s[found]).max() < 0.02
+    assert np.abs(points.reshape(-1, 3)[found] - s[found]).max() < 0.01
