@@ -36,3 +36,8 @@ def test_copies_are_exact_at_every_grid(gl, rng, volume, grid, method, shift):
                 pad - dz : pad - dz + d, pad - dy : pad - dy + h, pad - dx : pad - dx + w
             ]
             np.testing.assert_array_equal(out, expected, err_msg=border, strict=True)
+
+
+def test_a_bad_grid_of_a_volume_warp_is_in_voxels():
+    with pytest.raises(ValueError, match=r"grid must be an integer from 1 to \d+ \(voxels\)"):
+        glmls.volume.VolumeOptions(grid=0)
