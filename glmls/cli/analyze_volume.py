@@ -96,7 +96,7 @@ def run_volume(args: argparse.Namespace) -> int:
     check_world(args)
     config = config_from_args(args)
     source = read_volume(args.input)
-    volume = warpable(source.data)  # as glmls warp warps it: a mask or int64 as float32
+    volume = warpable(source.data, args.input)  # as glmls warp does: a mask as float32
     spacing = args.spacing or source.spacing
     src, dst = voxel_handles(args, *read_handles(args.handles, dst=args.targets, ndim=3), spacing)
     reference = read_points_3d(args.reference) if args.reference else None

@@ -55,9 +55,15 @@ __all__ = [
 _WARPED_AS_IS = ("uint8", "uint16", "float32")
 
 
-def warpable(data: np.ndarray) -> np.ndarray:
-    """A volume in a dtype the GPU warps: uint8, uint16 and float32 as they are, the others
-    (bool, int16, int64, float64, ...) as float32."""
+def warpable(data: np.ndarray, name: object) -> np.ndarray:
+    """A volume in a dtype the GPU warps: uint8, uint16 and float32 as they are, the other
+    real ones (bool, int16, int64, float64, ...) as float32; :class:`UsageError` naming
+    ``name`` for others (complex numbers, objects, strings)."""
+    if data.dtype.kind not in "biuf":
+        raise UsageError(
+            f"{name}: a volume of {data.dtype} values; glmls warps real numbers (bool, "
+            "integers, floats)"
+        )
     return data if data.dtype.name in _WARPED_AS_IS else data.astype(np.float32)
 
 
@@ -257,7 +263,12 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
     volume = read_volume(args.input)
     spacing = args.spacing or volume.spacing
     dtype = volume.data.dtype
-    data = warpable(volume.data)
+    data = warpable(volume.data, args.input)
+    if volume_suffix(target) in (".tif", ".tiff") and data.shape[0] == 1:
+        raise UsageError(
+            f"{target}: a volume of one slice would be a TIFF of one page, which reads back "
+            "as an image; write it as .nii, .nii.gz or .npy"
+        )
     options = _volume_options(args, spacing)
     src, dst = voxel_handles(args, src, dst, spacing)
     src, dst = world_handles(args, volume, spacing, src, dst)

@@ -437,7 +437,8 @@ def write_volume(
     ------
     ValueError
         Before writing anything: an unknown suffix, a wrong shape, an affine with another
-        format than NIfTI, a bad spacing or affine.
+        format than NIfTI, a bad spacing or affine, a volume of one slice as TIFF (a TIFF
+        of one page is an image).
     OSError
         Naming ``path``, for a file that cannot be written.
 
@@ -469,6 +470,11 @@ def write_volume(
         affine = (volume.affine if nifti else None) if affine is None else affine
         volume = volume.data
     checked = Volume(np.asarray(volume), spacing=spacing, affine=affine)
+    if suffix in (".tif", ".tiff") and checked.shape[0] == 1:
+        raise ValueError(
+            f"{path}: a volume of one slice would be a TIFF of one page, which reads back as "
+            "an image; write it as .nii, .nii.gz or .npy"
+        )
     if suffix == ".npy":
         with atomic_write(path) as tmp, open(tmp, "wb") as file:
             np.save(file, np.ascontiguousarray(checked.data), allow_pickle=False)

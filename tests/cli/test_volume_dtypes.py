@@ -49,3 +49,28 @@ def test_an_unreadable_tiff_is_one_line(tmp_path, content, command):
     assert "v.tif" in lines[0], lines[0]
     if content.endswith(b"garbage"):  # no page at all (the other's first page is an image's)
         assert "not a readable TIFF" in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("command", ["warp", "analyze"])
+def test_a_complex_volume_is_refused_in_one_line(tmp_path, command):
+    """Complex voxels are no real volume: refused, not warped with their imaginary parts
+    silently dropped."""
+    np.save(tmp_path / "v.npy", np.full((4, 5, 6), 1 + 2j, np.complex64))
+    (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": DST}))
+    out = ["w.npy"] if command == "warp" else ["--out", "rep"]
+    result = run_glmls(command, "v.npy", *out, "--handles", "h3.json", cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "complex64" in lines[0], result.stderr
+
+
+def test_a_volume_of_one_slice_is_not_written_as_a_tiff(tmp_path):
+    """A TIFF of one page reads back as an image: a (1, H, W) volume is refused as a TIFF
+    output, in one line, and nothing is written."""
+    np.save(tmp_path / "v.npy", np.zeros((1, 12, 14), np.uint8))
+    (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": DST}))
+    result = run_glmls("warp", "v.npy", "w.tif", "--handles", "h3.json", cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert "one slice" in result.stderr
+    assert not (tmp_path / "w.tif").exists()
