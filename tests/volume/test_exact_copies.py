@@ -23,11 +23,14 @@ def volume(rng):
 @pytest.mark.parametrize("grid", [2, 4, 5, 16])
 @pytest.mark.parametrize("method", ["quads", "backward"])
 @pytest.mark.parametrize("shift", [(0, 0, 0), (2, -1, 3)])
-def test_copies_are_exact_at_every_grid(gl, rng, volume, grid, method, shift):
+@pytest.mark.parametrize("interpolation", ["nearest", "linear"])
+def test_copies_are_exact_at_every_grid(gl, rng, volume, grid, method, shift, interpolation):
     src = rng.uniform(0, 10, (8, 3))
     with glmls.MLS(src, src + shift, transform="rigid", shape=SHAPE) as m:
         for border in glmls.BORDERS:
-            out = m.warp(volume, method=method, interpolation="linear", grid=grid, border=border)
+            out = m.warp(
+                volume, method=method, interpolation=interpolation, grid=grid, border=border
+            )
             pad = 8
             padded = np.pad(volume, [(pad, pad)] * 3 + [(0, 0)], mode=border)
             dx, dy, dz = shift
