@@ -109,8 +109,10 @@ void main() {
     }
     bool found = residual <= u_accept;
 #if WARP_BORDER == 0
-    found = found && all(greaterThanEqual(s, vec3(-0.5))) &&
-            all(lessThanEqual(s, vec3(u_volume_size) - 0.5));
+    // in the volume's closed box, within Newton's tolerance: a preimage on its face (a
+    // quarter turn, a scale by 1/2 put some there) is in, whatever side rounding leaves it
+    found = found && all(greaterThanEqual(s, vec3(-0.5 - u_tolerance))) &&
+            all(lessThanEqual(s, vec3(u_volume_size) - 0.5 + u_tolerance));
 #endif
     if (store) {
         volume_coords[i] = vec4(s, found ? residual : -1.0 - min(residual, 1e30));

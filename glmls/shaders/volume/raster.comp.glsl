@@ -90,9 +90,20 @@ void main() {
                         to = -1.0;
                     }
                 }
+                // the interval, a voxel wider each side (its ends are divisions by slopes
+                // that rounding may leave near 0), clamped to the row before it becomes an
+                // int; each voxel in it tested itself, so that one on a face shared by two
+                // tetrahedra (within VOLUME_INSIDE_EPS of both) is in at least one
+                float span = float(hi.x - lo.x);
+                int x0 = lo.x + int(ceil(clamp(from, 0.0, span + 1.0))) - 1;
+                int x1 = lo.x + int(floor(clamp(to, -1.0, span))) + 1;
                 int row = ((z - u_slab_first) * u_slab_size.y + y) * u_slab_size.x;
-                for (int x = lo.x + int(ceil(from)); x <= lo.x + int(floor(to)); ++x) {
-                    atomicMin(volume_keys[row + x], key);
+                for (int x = max(x0, lo.x); x <= min(x1, hi.x); ++x) {
+                    float dx = float(x - lo.x);
+                    vec4 l = vec4(c + gx * dx, c0 + g0x * dx);
+                    if (min(min(l.x, l.y), min(l.z, l.w)) >= -VOLUME_INSIDE_EPS) {
+                        atomicMin(volume_keys[row + x], key);
+                    }
                 }
             }
         }
