@@ -44,3 +44,17 @@ def test_copies_are_exact_at_every_grid(gl, rng, volume, grid, method, shift, in
 def test_a_bad_grid_of_a_volume_warp_is_in_voxels():
     with pytest.raises(ValueError, match=r"grid must be an integer from 1 to \d+ \(voxels\)"):
         glmls.volume.VolumeOptions(grid=0)
+
+
+def test_a_glmls_volume_is_named_with_its_data(gl, rng, tmp_path):
+    """glmls.read_volume gives a glmls.Volume: a warp given one says to give its .data (and
+    its spacing to the MLS), not 'dtype object'."""
+    glmls.write_volume(tmp_path / "v.npy", rng.integers(0, 9, SHAPE, dtype=np.uint8))
+    volume = glmls.read_volume(tmp_path / "v.npy")
+    src = rng.uniform(0, 10, (5, 3))
+    with glmls.MLS(src, src + 1) as m:
+        with pytest.raises(TypeError, match=r"glmls\.Volume.*\.data"):
+            m.warp(volume)
+        assert m.warp(volume.data).shape == SHAPE
+    with pytest.raises(TypeError, match=r"glmls\.Volume.*\.data"):
+        glmls.warp(volume, src, src + 1)
