@@ -558,7 +558,8 @@ class MLS(ForkSafe):
         mesh : object
             An object with ``.vertices`` (V, 3) and ``.faces`` (F, 3) integer indices (a
             ``trimesh.Trimesh``; its ``vertex_normals`` are used), a ``(vertices, faces)``
-            tuple, or a (V, 3) array of points (a point cloud: no faces, zero normals).
+            tuple, or a point cloud (no faces, zero normals): a (V, 3) array of points, or
+            an object with ``.vertices`` alone (a ``trimesh.PointCloud``).
 
         Returns
         -------

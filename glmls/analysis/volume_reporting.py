@@ -10,6 +10,7 @@ import numpy as np
 
 from ..core.config import MLSConfig
 from ..core.handles3 import volume_diagonal
+from ..files.volumes import Volume
 from . import colormaps
 from .jacobians import CellJacobians, cell_jacobians
 from .reporting import SavedReport, StageClock, cmap_name
@@ -71,6 +72,11 @@ class VolumeReport(SavedReport):
 
 
 def _check_volume(volume: object, name: str) -> np.ndarray:
+    if isinstance(volume, Volume):
+        raise TypeError(
+            f"{name} is a glmls.Volume: give its .data (and its spacing, spacing=volume.spacing, "
+            "for handles in its physical units)"
+        )
     array = np.asarray(volume)
     if array.ndim not in (3, 4) or 0 in array.shape or (array.ndim == 4 and array.shape[3] > 4):
         raise ValueError(f"{name} must be (D, H, W) or (D, H, W, C), got shape {array.shape}")

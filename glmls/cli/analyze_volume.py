@@ -20,7 +20,7 @@ from ..mls import MLS
 from .inputs import figure, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
-from .warp3d import check_world, voxel_handles, world_handles
+from .warp3d import check_world, voxel_handles, warpable, world_handles
 
 __all__ = ["is_volume_input", "read_points_3d", "run_volume"]
 
@@ -96,7 +96,7 @@ def run_volume(args: argparse.Namespace) -> int:
     check_world(args)
     config = config_from_args(args)
     source = read_volume(args.input)
-    volume = source.data
+    volume = warpable(source.data, args.input)  # as glmls warp does: a mask as float32
     spacing = args.spacing or source.spacing
     src, dst = voxel_handles(args, *read_handles(args.handles, dst=args.targets, ndim=3), spacing)
     reference = read_points_3d(args.reference) if args.reference else None
@@ -121,7 +121,7 @@ def run_volume(args: argparse.Namespace) -> int:
                 spacing=spacing,
                 on_stage=tick.stage,
             )
-        except ValueError as error:
+        except (TypeError, ValueError) as error:
             raise UsageError(str(error)) from None
     result.summary["input"] = str(args.input)
     for path in result.save(args.out):

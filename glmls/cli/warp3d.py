@@ -42,11 +42,30 @@ from .inputs import reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
 
-__all__ = ["add_3d_options", "input_kind", "parse_spacing", "run_3d", "voxel_handles"]
+__all__ = [
+    "add_3d_options",
+    "input_kind",
+    "parse_spacing",
+    "run_3d",
+    "voxel_handles",
+    "warpable",
+]
 
 #: The dtypes a volume is warped in as it is; others are warped as float32 and written back
 #: in their own dtype.
 _WARPED_AS_IS = ("uint8", "uint16", "float32")
+
+
+def warpable(data: np.ndarray, name: object) -> np.ndarray:
+    """A volume in a dtype the GPU warps: uint8, uint16 and float32 as they are, the other
+    real ones (bool, int16, int64, float64, ...) as float32; :class:`UsageError` naming
+    ``name`` for others (complex numbers, objects, strings)."""
+    if data.dtype.kind not in "biuf":
+        raise UsageError(
+            f"{name}: a volume of {data.dtype} values; glmls warps real numbers (bool, "
+            "integers, floats)"
+        )
+    return data if data.dtype.name in _WARPED_AS_IS else data.astype(np.float32)
 
 
 def parse_spacing(text: str) -> tuple[float, float, float]:
@@ -242,10 +261,13 @@ def _volume_options(args: argparse.Namespace, spacing) -> dict:
 def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
     volume = read_volume(args.input)
     spacing = args.spacing or volume.spacing
-    data = volume.data
-    dtype = data.dtype
-    if dtype.name not in _WARPED_AS_IS:
-        data = data.astype(np.float32)
+    dtype = volume.data.dtype
+    data = warpable(volume.data, args.input)
+    if volume_suffix(target) in (".tif", ".tiff") and data.shape[0] == 1:
+        raise UsageError(
+            f"{target}: a volume of one slice would be a TIFF of one page, which reads back "
+            "as an image; write it as .nii, .nii.gz or .npy"
+        )
     options = _volume_options(args, spacing)
     src, dst = voxel_handles(args, src, dst, spacing)
     src, dst = world_handles(args, volume, spacing, src, dst)

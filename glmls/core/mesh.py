@@ -53,15 +53,15 @@ def as_shape(shape: object) -> tuple[int, int]:
     return dims[0], dims[1]
 
 
-def check_grid(grid: object) -> int:
+def check_grid(grid: object, unit: str = "pixels") -> int:
     """``grid`` as an int if it is an integer (numpy's too) from 1 to :data:`MAX_GRID` (a mesh
-    step in pixels); ``ValueError`` otherwise."""
+    step in ``unit``: pixels, or a volume's voxels); ``ValueError`` otherwise."""
     if (
         isinstance(grid, bool)
         or not isinstance(grid, (int, np.integer))
         or not 1 <= grid <= MAX_GRID
     ):
-        raise ValueError(f"grid must be an integer from 1 to {MAX_GRID} (pixels), got {grid!r}")
+        raise ValueError(f"grid must be an integer from 1 to {MAX_GRID} ({unit}), got {grid!r}")
     return int(grid)
 
 

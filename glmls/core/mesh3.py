@@ -85,7 +85,8 @@ class DeformedMesh:
 def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """(vertices (V, 3) float64, faces (F, 3) int64, the mesh's own vertex normals or None)
     of ``mesh``: an object with ``.vertices`` and ``.faces`` (a ``trimesh.Trimesh``), a
-    ``(vertices, faces)`` tuple, or a (V, 3) array of points (no faces).
+    ``(vertices, faces)`` tuple, an object with ``.vertices`` alone (a
+    ``trimesh.PointCloud``) or a (V, 3) array of points (no faces).
     ``ValueError``/``TypeError`` for anything else, or faces naming missing vertices;
     ``TypeError`` naming the dtype for faces that are not integers (floats included)."""
     normals = None
@@ -95,6 +96,8 @@ def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         normals = None if own is None else np.asarray(own, dtype=np.float64)
     elif isinstance(mesh, tuple) and len(mesh) == 2:
         vertices, faces = mesh
+    elif hasattr(mesh, "vertices"):  # vertices alone (a trimesh.PointCloud): a point cloud
+        vertices, faces = mesh.vertices, np.zeros((0, 3), np.int64)  # type: ignore[attr-defined]
     else:
         vertices, faces = mesh, np.zeros((0, 3), np.int64)
     v = as_points3(vertices, "mesh vertices")

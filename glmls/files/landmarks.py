@@ -230,6 +230,8 @@ def read_handles(
     returns."""
     path = Path(path)
     found, rows = _handle_rows(path, dst)
+    if not rows.src and not rows.src_segments:
+        raise fail(path, "content", "no handles")  # of no dimension: none to compare
     _expect(path, found, ndim)
     if found == 3:
         return points_3d(path, rows)

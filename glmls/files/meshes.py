@@ -4,8 +4,9 @@ A :class:`Mesh` is its vertices (V, 3) float64, (x, y, z) in the coordinates of 
 that deform it, and its triangles (F, 3) of vertex indices. Reading keeps the file's
 vertices in their order (none merged, none dropped), except STL's: an STL file stores each
 triangle's three corners, so the corners at the same place are merged into one vertex.
-Faces of more than three vertices are split into triangles. A point cloud is a mesh of no
-faces: PLY and OBJ hold one (STL holds triangles only, and refuses it).
+Faces of more than three vertices are split into triangles. Only the geometry is read and
+written: vertex colours, normals and texture coordinates are not kept. A point cloud is a
+mesh of no faces: PLY and OBJ hold one (STL holds triangles only, and refuses it).
 
 Written, by the suffix: PLY (binary) and STL (binary) hold float32 coordinates, as those
 formats usually do; OBJ (text) holds them exactly (each float64's shortest repr). Every fault of
@@ -108,7 +109,8 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
     -------
     Mesh
         The vertices in the file's order (STL's shared corners merged) and the triangles
-        (none for a point cloud).
+        (none for a point cloud): the geometry only, a file's vertex colours, normals and
+        texture coordinates are not kept (``glmls.MLS.deform`` carries normals of its own).
 
     Raises
     ------

@@ -24,8 +24,10 @@ naming it.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import gzip
+import logging
 import os
 import struct
 import zlib
@@ -66,20 +68,37 @@ def volume_suffix(path: str | os.PathLike) -> str:
     return ".nii.gz" if name.endswith(".nii.gz") else Path(name).suffix
 
 
+@contextlib.contextmanager
+def _quiet_tifffile():
+    """tifffile's log records of a corrupt file held back: glmls reports the fault itself,
+    in one line."""
+    logger = logging.getLogger("tifffile")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
 def is_volume_file(path: str | os.PathLike) -> bool:
     """Whether ``path`` names a volume: a NIfTI or ``.npy`` file by its suffix, or a TIFF of
     more than one page (an existing file is opened to count its pages; a TIFF that does
-    not exist yet is not a volume)."""
+    not exist yet is not a volume). ``InputFileError`` for an existing TIFF file of no
+    readable page."""
     suffix = volume_suffix(path)
     if suffix in (".nii", ".nii.gz", ".npy"):
         return True
     if suffix not in (".tif", ".tiff") or not Path(path).is_file():
         return False
     try:
-        with tifffile.TiffFile(path) as tiff:
-            return len(tiff.pages) > 1
-    except (tifffile.TiffFileError, *_CORRUPT):
-        return False
+        with _quiet_tifffile(), tifffile.TiffFile(path) as tiff:
+            pages = len(tiff.pages)
+    except (tifffile.TiffFileError, *_CORRUPT) as error:
+        raise InputFileError(f"{path}: not a readable TIFF file: {error}") from None
+    if pages == 0:
+        raise InputFileError(f"{path}: not a readable TIFF file: no page")
+    return pages > 1
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -306,7 +325,8 @@ def read_volume(path: str | os.PathLike) -> Volume:
         if suffix == ".npy":
             volume = Volume(np.load(path, allow_pickle=False))
         elif suffix in (".tif", ".tiff"):
-            volume = _read_tiff(path)
+            with _quiet_tifffile():
+                volume = _read_tiff(path)
         else:
             volume = _read_nifti(path)
     except InputFileError:
@@ -419,8 +439,9 @@ def write_volume(
     ------
     ValueError
         Before writing anything: an unknown suffix, a wrong shape, an affine with another
-        format than NIfTI, a bad affine, or a spacing of another length than 3 or with a
-        value that is not finite and > 0.
+        format than NIfTI, a bad affine, a volume of one slice as TIFF (a TIFF of one page
+        is an image), or a spacing of another length than 3 or with a value that is not
+        finite and > 0.
     TypeError
         Before writing anything: a spacing that is not a sequence of real numbers.
     OSError
@@ -454,6 +475,11 @@ def write_volume(
         affine = (volume.affine if nifti else None) if affine is None else affine
         volume = volume.data
     checked = Volume(np.asarray(volume), spacing=spacing, affine=affine)
+    if suffix in (".tif", ".tiff") and checked.shape[0] == 1:
+        raise ValueError(
+            f"{path}: a volume of one slice would be a TIFF of one page, which reads back as "
+            "an image; write it as .nii, .nii.gz or .npy"
+        )
     if suffix == ".npy":
         with atomic_write(path) as tmp, open(tmp, "wb") as file:
             np.save(file, np.ascontiguousarray(checked.data), allow_pickle=False)

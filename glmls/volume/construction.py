@@ -228,12 +228,16 @@ class VolumeWarper:
         coords = source is None
         lattice = bands.lattice
         ox, oy, oz = frame.origin_voxels
-        origin = (ox, oy, oz + slab.first)
+        origin = (ox, oy, oz + slab.first)  # the slab's voxel (0, 0, 0), to choose bands
         keys = self._resources.buffer("volume_keys", slab.voxels * KEY_BYTES)
         fill_buffer(self._gl, keys, slab.voxels * KEY_BYTES, word=_NO_KEY)
         keys.bind_to_storage_buffer(bindings.VOLUME_KEYS.index)
         ncx, ncy, _ = lattice.cells
-        common = lattice.uniforms() | {"u_slab_size": slab.size, "u_slab_origin": origin}
+        common = lattice.uniforms() | {
+            "u_slab_size": slab.size,
+            "u_frame_origin": (ox, oy, oz),
+            "u_slab_first": slab.first,
+        }
         raster = self._gl.compute("volume/raster.comp.glsl")
         wanted = bands.bands_for(origin[2] - 1.0, origin[2] + slab.depth)
         for first, layers in wanted:
@@ -284,9 +288,10 @@ class VolumeWarper:
         field.refine(
             coords,
             slab.size,
-            (ox, oy, oz + slab.first),
+            (ox, oy, oz),
             shape,
             constant=options.border == "constant",
+            first=slab.first,
         )
         self._gl.mgl.memory_barrier()
         return coords

@@ -24,6 +24,9 @@ __all__ = ["NEWTON_ACCEPT", "Field", "ReferenceField", "newton_inverse"]
 
 #: A voxel whose Newton residual |f(s) - u| stays above this (voxels) is left uncovered.
 NEWTON_ACCEPT = 0.05
+#: How far outside the volume's box [-1/2, n - 1/2] a preimage may lie and still be in it
+#: (``constant`` border): Newton's tolerance, so that a preimage on a face is in.
+NEWTON_BOX = 1e-3
 
 
 class Field(Protocol):
@@ -52,11 +55,13 @@ class Field(Protocol):
         shape: tuple[int, int, int],
         *,
         constant: bool,
+        first: int = 0,
     ) -> None:
         """Newton's method from the first guesses in ``coords`` (x, y, z, w per voxel of a
-        slab of ``size`` (W, H, slices) whose voxel (0, 0, 0) shows ``origin``, source voxels;
-        w < 0: no guess), written back as (s, w): w the residual |f(s) - u| (voxels) where
-        found (inside a volume of ``shape`` with ``constant``), else -1 - residual."""
+        slab of ``size`` (W, H, slices) whose voxel (i, j, k) shows ``origin`` + (i, j,
+        ``first`` + k), source voxels; w < 0: no guess), written back as (s, w): w the
+        residual |f(s) - u| (voxels) where found (inside a volume of ``shape`` with
+        ``constant``), else -1 - residual."""
         ...
 
 
@@ -112,22 +117,23 @@ class ReferenceField:
         shape: tuple[int, int, int],
         *,
         constant: bool,
+        first: int = 0,
     ) -> None:
         """Newton's method in float64 (:func:`newton_inverse`) from the first guesses in
         ``coords`` ((x, y, z, w) per voxel of a slab of ``size`` (W, H, slices) whose voxel
-        (0, 0, 0) shows ``origin``, source voxels; w < 0: no guess, start at the voxel),
-        written back as the construction's backward pass does."""
+        (i, j, k) shows ``origin`` + (i, j, ``first`` + k), source voxels; w < 0: no guess,
+        start at the voxel), written back as the construction's backward pass does."""
         width, height, depth = size
         count = width * height * depth
         raw = np.frombuffer(coords.read(size=count * 16), np.float32).reshape(count, 4)
         k, j, i = np.meshgrid(np.arange(depth), np.arange(height), np.arange(width), indexing="ij")
-        u = np.stack([i, j, k], axis=-1).reshape(-1, 3) + np.asarray(origin)
+        u = np.stack([i, j, k + first], axis=-1).reshape(-1, 3) + np.asarray(origin)
         guess = np.where(raw[:, 3:4] >= 0, raw[:, :3].astype(np.float64), u)
         s, residual = newton_inverse(self, u, guess)
         found = residual <= NEWTON_ACCEPT
-        if constant:
-            top = np.array(shape[::-1], dtype=np.float64) - 0.5
-            found &= np.all((s >= -0.5) & (s <= top), axis=1)
+        if constant:  # the closed box, within Newton's tolerance (as the GPU's pass)
+            top = np.array(shape[::-1], dtype=np.float64) - 0.5 + NEWTON_BOX
+            found &= np.all((s >= -0.5 - NEWTON_BOX) & (s <= top), axis=1)
         w = np.where(found, residual, -1.0 - np.minimum(residual, 1e30))
         out = np.concatenate([s, w[:, None]], axis=1).astype(np.float32)
         coords.write(np.ascontiguousarray(out))

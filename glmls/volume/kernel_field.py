@@ -20,9 +20,10 @@ __all__ = ["NEWTON_STEPS", "NEWTON_TOLERANCE", "KernelField"]
 
 #: Newton on f stops below this residual |f(s) - u| (voxels) ...
 NEWTON_TOLERANCE = 1e-3
-#: ... or after this many steps; a voxel whose residual stays above
+#: ... or after this many steps (and as many halvings of a step that raised the residual, in
+#: all); a voxel whose residual stays above
 #: :data:`~glmls.volume.fields.NEWTON_ACCEPT` is left uncovered.
-NEWTON_STEPS = 8
+NEWTON_STEPS = 12
 #: Each step goes at most this share of the volume's largest side (far from the solution
 #: Newton's step may overshoot).
 NEWTON_MAX_STEP = 0.1
@@ -77,10 +78,12 @@ class KernelField:
         shape: tuple[int, int, int],
         *,
         constant: bool,
+        first: int = 0,
     ) -> None:
         """Newton's method on the GPU from the first guesses in ``coords`` (see
         ``volume/newton.comp.glsl``) for a slab of ``size`` (W, H, slices) whose voxel
-        (0, 0, 0) shows ``origin`` (source voxels), of a volume of ``shape``."""
+        (i, j, k) shows ``origin`` + (i, j, ``first`` + k) (source voxels), of a volume of
+        ``shape``."""
         kernel = self.kernel
         defines = {"WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": 0 if constant else 1}
         program = kernel.program("volume/newton.comp.glsl", defines)
@@ -92,7 +95,8 @@ class KernelField:
                 self._uniforms()
                 | {
                     "u_slab_size": size,
-                    "u_slab_origin": origin,
+                    "u_frame_origin": origin,
+                    "u_slab_first": first,
                     "u_volume_size": shape[::-1],
                     "u_tolerance": NEWTON_TOLERANCE,
                     "u_accept": NEWTON_ACCEPT,

@@ -140,7 +140,7 @@ class VolumeOptions:
                     f"unknown {name} {value!r}{extra}; choose one of {', '.join(choices)}"
                 )
         checked = {
-            "grid": check_grid(self.grid),
+            "grid": check_grid(self.grid, "voxels"),
             "background": check_background(self.background),
             "output_shape": check_volume_shape(self.output_shape),
             "origin": check_volume_origin(self.origin),

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..files.volumes import Volume
+
 __all__ = [
     "VOLUME_DTYPES",
     "SourceVolume",
@@ -38,6 +40,11 @@ def check_volume(volume: object, name: str = "volume") -> np.ndarray:
     """``volume`` as an array, D x H x W or D x H x W x C (C in 1..4), of a dtype of
     :data:`VOLUME_DTYPES` (in either byte order: a big-endian one becomes native), not
     empty; ``TypeError``/``ValueError`` naming it as ``name``."""
+    if isinstance(volume, Volume):
+        raise TypeError(
+            f"{name} is a glmls.Volume: warp its .data (and give its spacing to the MLS, "
+            "glmls.MLS(..., spacing=volume.spacing), for handles in its physical units)"
+        )
     array = np.asarray(volume)
     if not array.dtype.isnative and array.dtype.newbyteorder("=") in VOLUME_DTYPES:
         array = array.astype(array.dtype.newbyteorder("="))  # big-endian: the native dtype

@@ -195,3 +195,11 @@ def test_the_report_names_the_radius_it_evaluated_with(gl):
     assert volume_report(volume(), given, grid=4).summary["configuration"]["radius_used"] == 9.0
     idw = ReferenceDeformation(SRC, dst, shape=SHAPE)
     assert volume_report(volume(), idw, grid=4).summary["configuration"]["radius_used"] is None
+
+
+def test_a_glmls_volume_is_named_with_its_data(tmp_path):
+    glmls.write_volume(tmp_path / "v.npy", np.zeros((6, 7, 8), np.uint8))
+    src = np.array([[1.0, 1, 1], [6, 1, 1], [1, 5, 1], [1, 1, 4], [6, 5, 4]])
+    m = glmls.analysis.ReferenceDeformation(src, src + 0.5)
+    with pytest.raises(TypeError, match=r"glmls\.Volume.*\.data"):
+        glmls.analysis.volume_report(glmls.read_volume(tmp_path / "v.npy"), m)

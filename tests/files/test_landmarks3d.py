@@ -214,3 +214,11 @@ def test_elastix_counts_must_match(tmp_path):
     fixed = write_text(tmp_path, "fixed.pts", _pts("index", DST[:2].tolist()))
     with pytest.raises(InputFileError, match=r"fixed\.pts: content: 2 points of 3 coordinates"):
         read_handles(moving, dst=fixed)
+
+
+@pytest.mark.parametrize("ndim", [2, 3])
+def test_an_empty_json_is_no_handles_whatever_the_dimension(tmp_path, ndim):
+    path = tmp_path / "empty.json"
+    path.write_text('{"src": [], "dst": []}')
+    with pytest.raises(InputFileError, match=r"empty.json: content: no handles$"):
+        read_handles(path, ndim=ndim)

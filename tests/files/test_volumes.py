@@ -184,3 +184,13 @@ def test_nifti_takes_int64_and_the_nearest_dtype_for_bool_and_float16(tmp_path):
     assert read_volume(path).data.dtype == np.uint8
     write_volume(path, np.full((2, 3, 4), 0.5, np.float16))
     assert read_volume(path).data.dtype == np.float32
+
+
+def test_a_volume_of_one_slice_is_refused_as_a_tiff(tmp_path):
+    """glmls.read_volume takes a TIFF of one page for an image: writing a (1, H, W) volume
+    there would not round-trip."""
+    with pytest.raises(ValueError, match="one slice"):
+        glmls.write_volume(tmp_path / "one.tif", np.zeros((1, 4, 5), np.uint8))
+    assert not (tmp_path / "one.tif").exists()
+    glmls.write_volume(tmp_path / "one.npy", np.zeros((1, 4, 5), np.uint8))
+    assert glmls.read_volume(tmp_path / "one.npy").shape == (1, 4, 5)

@@ -5,8 +5,10 @@
 // first its tetrahedron's (the slopes buffer: the piecewise linear inverse's), else, and
 // wherever the residual falls by less than half in a step, f's own by forward differences
 // (a quarter voxel: the MLS Jacobian is not M), kept while it converges fast;
-// at most WARP_NEWTON_STEPS steps, each at most u_max_step voxels; stops below u_tolerance
-// or where the Jacobian is singular (a fold's edge). Out: (s, w), w = the residual
+// at most WARP_NEWTON_STEPS steps, each at most u_max_step voxels; a step that raises the
+// residual (f curves within it, and Newton would cycle between two points) is halved, up to
+// WARP_NEWTON_STEPS halvings in all; stops below u_tolerance or where the Jacobian is
+// singular (a fold's edge), keeping the best point. Out: (s, w), w = the residual
 // |f(s) - u| (voxels) where it is at most u_accept and (constant border) s is inside the
 // volume, else -1 - residual.
 layout(local_size_x = LOCAL_SIZE) in;
@@ -23,7 +25,8 @@ layout(std430, binding = BIND_VOLUME_SLOPES) readonly buffer VolumeSlopes {
 uniform int u_offset;        // first item of this dispatch
 uniform int u_count;         // voxels of the slab
 uniform ivec3 u_slab_size;   // W, H and slices of the output slab
-uniform vec3 u_slab_origin;  // source voxels that the slab's voxel (0, 0, 0) shows
+uniform vec3 u_frame_origin; // source voxels that the output's voxel (0, 0, 0) shows
+uniform int u_slab_first;    // the slab's first output slice
 uniform ivec3 u_volume_size; // W, H, D of the source
 uniform float u_tolerance;
 uniform float u_accept;
@@ -35,7 +38,7 @@ void main() {
     int i = min(item, u_count - 1);
     ivec3 p = ivec3(i % u_slab_size.x, (i / u_slab_size.x) % u_slab_size.y,
                     i / (u_slab_size.x * u_slab_size.y));
-    vec3 u = u_slab_origin + vec3(p);
+    vec3 u = u_frame_origin + vec3(p + ivec3(0, 0, u_slab_first));
     vec4 guess = volume_coords[i];
     bool guided = guess.w >= 0.0;
     vec3 s = guided ? guess.xyz : u;
@@ -47,20 +50,30 @@ void main() {
     vec3 fs = vec3(0.0);
     vec3 r = vec3(0.0);
     float residual = 0.0;
-    float last = 1e30;
+    float last = 1e30;    // the residual at the point the last step started from
+    vec3 start = s;       // that point
     bool fresh = false;   // slope is f's inverse Jacobian at an iterate
     int steps = 0;
+    int halvings = 0;
     int probe = 0;        // 0: f at the iterate s; 1, 2, 3: at s + h along x, y, z
     // One place evaluates f, the iterate's or a probe's: f is most of the shader's code, and
     // one copy of it (not four) keeps the program small enough for a GPU's registers.
-    for (int n = 0; n < 4 * WARP_NEWTON_STEPS + 1; ++n) {
+    for (int n = 0; n < 5 * WARP_NEWTON_STEPS + 1; ++n) {
         vec3 axis = vec3(equal(ivec3(probe - 1), ivec3(0, 1, 2)));
         vec3 fx = volume_f(s + h * axis);
         if (probe == 0) {
             fs = fx;
             r = fs - u;
             residual = length(r);
-            if (residual <= u_tolerance || steps == WARP_NEWTON_STEPS) {
+            if (residual <= u_tolerance) {
+                break;
+            }
+            if (residual > last && halvings < WARP_NEWTON_STEPS) {
+                s = 0.5 * (start + s);   // the step overshot: half of it
+                ++halvings;
+                continue;
+            }
+            if (steps == WARP_NEWTON_STEPS) {
                 break;
             }
             if (!guided || (residual > 0.5 * last && !fresh)) {
@@ -84,15 +97,22 @@ void main() {
             fresh = true;
         }
         last = residual;
+        start = s;
         vec3 step = slope * r;
         float len = length(step);
         s -= len > u_max_step ? step * (u_max_step / len) : step;
         ++steps;
     }
+    if (residual > last) {   // the last step's halvings did not bring it back down
+        s = start;
+        residual = last;
+    }
     bool found = residual <= u_accept;
 #if WARP_BORDER == 0
-    found = found && all(greaterThanEqual(s, vec3(-0.5))) &&
-            all(lessThanEqual(s, vec3(u_volume_size) - 0.5));
+    // in the volume's closed box, within Newton's tolerance: a preimage on its face (a
+    // quarter turn, a scale by 1/2 put some there) is in, whatever side rounding leaves it
+    found = found && all(greaterThanEqual(s, vec3(-0.5 - u_tolerance))) &&
+            all(lessThanEqual(s, vec3(u_volume_size) - 0.5 + u_tolerance));
 #endif
     if (store) {
         volume_coords[i] = vec4(s, found ? residual : -1.0 - min(residual, 1e30));

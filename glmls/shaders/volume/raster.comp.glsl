@@ -18,7 +18,11 @@ uniform int u_offset;       // first item of this dispatch
 uniform int u_count;        // cells of the band
 uniform int u_cell_first;   // the band's first layer of cells
 uniform ivec3 u_slab_size;  // W, H and slices of the output slab
-uniform vec3 u_slab_origin; // source voxels that the slab's voxel (0, 0, 0) shows
+// source voxels that the output's voxel (0, 0, 0) shows, and the slab's first output slice:
+// every place is taken relative to the output's origin, not the slab's, so that a voxel's
+// float32 arithmetic is the same whatever slab it falls in
+uniform vec3 u_frame_origin;
+uniform int u_slab_first;
 
 void main() {
     int item = u_offset + int(gl_GlobalInvocationID.x);
@@ -32,15 +36,16 @@ void main() {
     vec3 low = vec3(1e30);
     vec3 high = vec3(-1e30);
     for (int c = 0; c < 8; ++c) {
-        q[c] = volume_deformed(volume_corner(cell, c)) - u_slab_origin;
+        q[c] = volume_deformed(volume_corner(cell, c)) - u_frame_origin;
         low = min(low, q[c]);
         high = max(high, q[c]);
     }
     if (any(isnan(low)) || any(isnan(high)) || any(isinf(low)) || any(isinf(high))) {
         return;
     }
-    ivec3 last = u_slab_size - 1;
-    if (any(greaterThan(low, vec3(last) + 0.5)) || any(lessThan(high, vec3(-0.5)))) {
+    ivec3 first = ivec3(0, 0, u_slab_first);
+    ivec3 last = first + u_slab_size - 1;
+    if (any(greaterThan(low, vec3(last) + 0.5)) || any(lessThan(high, vec3(first) - 0.5))) {
         return;
     }
     uint first_key = 6u * volume_key_of(cell);
@@ -63,7 +68,7 @@ void main() {
         float g0x = -(gx.x + gx.y + gx.z);
         vec3 tlo = min(min(a, a + e1), min(a + e2, a + e3));
         vec3 thi = max(max(a, a + e1), max(a + e2, a + e3));
-        ivec3 lo = max(ivec3(ceil(tlo - VOLUME_INSIDE_EPS)), ivec3(0));
+        ivec3 lo = max(ivec3(ceil(tlo - VOLUME_INSIDE_EPS)), first);
         ivec3 hi = min(ivec3(floor(thi + VOLUME_INSIDE_EPS)), last);
         for (int z = lo.z; z <= hi.z; ++z) {
             for (int y = lo.y; y <= hi.y; ++y) {
@@ -85,9 +90,20 @@ void main() {
                         to = -1.0;
                     }
                 }
-                int row = (z * u_slab_size.y + y) * u_slab_size.x;
-                for (int x = lo.x + int(ceil(from)); x <= lo.x + int(floor(to)); ++x) {
-                    atomicMin(volume_keys[row + x], key);
+                // the interval, a voxel wider each side (its ends are divisions by slopes
+                // that rounding may leave near 0), clamped to the row before it becomes an
+                // int; each voxel in it tested itself, so that one on a face shared by two
+                // tetrahedra (within VOLUME_INSIDE_EPS of both) is in at least one
+                float span = float(hi.x - lo.x);
+                int x0 = lo.x + int(ceil(clamp(from, 0.0, span + 1.0))) - 1;
+                int x1 = lo.x + int(floor(clamp(to, -1.0, span))) + 1;
+                int row = ((z - u_slab_first) * u_slab_size.y + y) * u_slab_size.x;
+                for (int x = max(x0, lo.x); x <= min(x1, hi.x); ++x) {
+                    float dx = float(x - lo.x);
+                    vec4 l = vec4(c + gx * dx, c0 + g0x * dx);
+                    if (min(min(l.x, l.y), min(l.z, l.w)) >= -VOLUME_INSIDE_EPS) {
+                        atomicMin(volume_keys[row + x], key);
+                    }
                 }
             }
         }

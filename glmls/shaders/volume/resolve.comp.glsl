@@ -34,7 +34,8 @@ layout(std430, binding = BIND_VOLUME_KEYS) readonly buffer VolumeKeys {
 uniform int u_offset;        // first item of this dispatch
 uniform int u_count;         // voxels of the slab
 uniform ivec3 u_slab_size;   // W, H and slices of the output slab
-uniform vec3 u_slab_origin;  // source voxels that the slab's voxel (0, 0, 0) shows
+uniform vec3 u_frame_origin; // source voxels that the output's voxel (0, 0, 0) shows
+uniform int u_slab_first;    // the slab's first output slice
 uniform uint u_key_first;    // the band's cells: keys u_key_first .. u_key_end - 1
 uniform uint u_key_end;
 uniform bool u_write_uncovered;
@@ -73,10 +74,11 @@ void main() {
     ivec3 b = volume_corner(cell, VOLUME_TETRA[2 * best]);
     ivec3 c = volume_corner(cell, VOLUME_TETRA[2 * best + 1]);
     vec3 coords;
-    // as the raster pass: corners relative to the slab's origin
-    volume_barycentric(volume_deformed(cell) - u_slab_origin, volume_deformed(b) - u_slab_origin,
-                       volume_deformed(c) - u_slab_origin,
-                       volume_deformed(cell + ivec3(1)) - u_slab_origin, vec3(p), coords);
+    // as the raster pass: corners and voxel relative to the output's origin
+    volume_barycentric(volume_deformed(cell) - u_frame_origin,
+                       volume_deformed(b) - u_frame_origin, volume_deformed(c) - u_frame_origin,
+                       volume_deformed(cell + ivec3(1)) - u_frame_origin,
+                       vec3(p + ivec3(0, 0, u_slab_first)), coords);
     vec3 s0 = volume_lattice_point(cell);
     vec3 s = s0 + coords.x * (volume_lattice_point(b) - s0) +
              coords.y * (volume_lattice_point(c) - s0) +

@@ -20,16 +20,31 @@ vec4 volume_texel(ivec3 p) {
     return vec4(texelFetch(u_volume, q, 0));
 }
 
+// A sample point within VOLUME_SNAP of its coordinate's size (about 8 float32 roundings) of a
+// voxel centre's plane is on that plane: the source points of the lattice's cells (cut short
+// at the volume's sides) and of Newton's method carry float32 rounding, which trilinear
+// weights would turn into values off by a few ulps where f copies voxels (the identity, a
+// shift by whole voxels).
+#define VOLUME_SNAP 1e-6
+
+// a blended with b by t; a itself where t is 0, so that a NaN or infinite b of weight 0 does
+// not make the result NaN (0 * inf): a point on a voxel centre's plane takes only its voxels
+vec4 volume_mix(vec4 a, vec4 b, float t) {
+    return t == 0.0 ? a : mix(a, b, t);
+}
+
 vec4 volume_sample(vec3 s) {
 #if WARP_LINEAR
+    vec3 centre = floor(s + 0.5);
+    s = mix(s, centre, lessThanEqual(abs(s - centre), VOLUME_SNAP * max(abs(centre), vec3(8.0))));
     vec3 corner = floor(s);
     vec3 t = s - corner;
     ivec3 p = ivec3(corner);
-    vec4 c00 = mix(volume_texel(p), volume_texel(p + ivec3(1, 0, 0)), t.x);
-    vec4 c10 = mix(volume_texel(p + ivec3(0, 1, 0)), volume_texel(p + ivec3(1, 1, 0)), t.x);
-    vec4 c01 = mix(volume_texel(p + ivec3(0, 0, 1)), volume_texel(p + ivec3(1, 0, 1)), t.x);
-    vec4 c11 = mix(volume_texel(p + ivec3(0, 1, 1)), volume_texel(p + ivec3(1, 1, 1)), t.x);
-    return mix(mix(c00, c10, t.y), mix(c01, c11, t.y), t.z);
+    vec4 c00 = volume_mix(volume_texel(p), volume_texel(p + ivec3(1, 0, 0)), t.x);
+    vec4 c10 = volume_mix(volume_texel(p + ivec3(0, 1, 0)), volume_texel(p + ivec3(1, 1, 0)), t.x);
+    vec4 c01 = volume_mix(volume_texel(p + ivec3(0, 0, 1)), volume_texel(p + ivec3(1, 0, 1)), t.x);
+    vec4 c11 = volume_mix(volume_texel(p + ivec3(0, 1, 1)), volume_texel(p + ivec3(1, 1, 1)), t.x);
+    return volume_mix(volume_mix(c00, c10, t.y), volume_mix(c01, c11, t.y), t.z);
 #else
     return volume_texel(ivec3(floor(s + 0.5)));
 #endif

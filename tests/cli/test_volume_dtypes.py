@@ -1,0 +1,76 @@
+"""``glmls analyze`` takes every volume dtype ``glmls warp`` takes: a mask (bool) or an
+int64 volume is warped as float32 and analysed, never a traceback or a silently missing
+deformed volume."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from helpers import run_glmls
+
+SRC = [[2, 2, 2], [11, 2, 2], [2, 9, 2], [2, 2, 7], [11, 9, 7], [6, 6, 4]]
+DST = [*SRC[:5], [7, 5, 4]]
+
+
+@pytest.mark.parametrize("dtype", ["bool", "int64", "int16", "float64"])
+def test_analyze_takes_the_dtypes_that_warp_takes(tmp_path, dtype):
+    rng = np.random.default_rng(0)
+    volume = rng.integers(0, 2 if dtype == "bool" else 200, (10, 12, 14)).astype(dtype)
+    np.save(tmp_path / "v.npy", volume)
+    (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": DST}))
+    warped = run_glmls("warp", "v.npy", "w.npy", "--handles", "h3.json", cwd=tmp_path)
+    assert warped.returncode == 0, warped.stderr
+    assert np.load(tmp_path / "w.npy").dtype == volume.dtype
+    result = run_glmls(
+        "analyze", "v.npy", "--handles", "h3.json", "--out", "rep", cwd=tmp_path, module="glmls.cli"
+    )
+    assert result.returncode == 0, result.stderr
+    assert "Traceback" not in result.stderr
+    assert "no deformed volume" not in result.stderr
+    summary = json.loads((tmp_path / "rep" / "report.json").read_text())
+    assert summary["deformed"] is True
+    assert (tmp_path / "rep" / "deformed.png").exists()
+
+
+@pytest.mark.parametrize("content", [b"II*\x00garbage", b"II*\x00\x08\x00\x00\x00\x00\x00"])
+@pytest.mark.parametrize("command", ["warp", "analyze"])
+def test_an_unreadable_tiff_is_one_line(tmp_path, content, command):
+    """A corrupt TIFF given with 3D handles: one line naming the file (not tifffile's log
+    lines), as unreadable where it has no page (not as a file of images)."""
+    (tmp_path / "v.tif").write_bytes(content)
+    (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": DST}))
+    out = ["w.tif"] if command == "warp" else ["--out", "rep"]
+    result = run_glmls(command, "v.tif", *out, "--handles", "h3.json", cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert "v.tif" in lines[0], lines[0]
+    if content.endswith(b"garbage"):  # no page at all (the other's first page is an image's)
+        assert "not a readable TIFF" in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("command", ["warp", "analyze"])
+def test_a_complex_volume_is_refused_in_one_line(tmp_path, command):
+    """Complex voxels are no real volume: refused, not warped with their imaginary parts
+    silently dropped."""
+    np.save(tmp_path / "v.npy", np.full((4, 5, 6), 1 + 2j, np.complex64))
+    (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": DST}))
+    out = ["w.npy"] if command == "warp" else ["--out", "rep"]
+    result = run_glmls(command, "v.npy", *out, "--handles", "h3.json", cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "complex64" in lines[0], result.stderr
+
+
+def test_a_volume_of_one_slice_is_not_written_as_a_tiff(tmp_path):
+    """A TIFF of one page reads back as an image: a (1, H, W) volume is refused as a TIFF
+    output, in one line, and nothing is written."""
+    np.save(tmp_path / "v.npy", np.zeros((1, 12, 14), np.uint8))
+    (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": DST}))
+    result = run_glmls("warp", "v.npy", "w.tif", "--handles", "h3.json", cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert "one slice" in result.stderr
+    assert not (tmp_path / "w.tif").exists()
