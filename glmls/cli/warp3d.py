@@ -42,7 +42,14 @@ from .inputs import reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
 
-__all__ = ["add_3d_options", "input_kind", "parse_spacing", "run_3d", "voxel_handles"]
+__all__ = [
+    "add_3d_options",
+    "input_kind",
+    "parse_spacing",
+    "run_3d",
+    "spacing_text",
+    "voxel_handles",
+]
 
 #: The dtypes a volume is warped in as it is; others are warped as float32 and written back
 #: in their own dtype.
@@ -258,10 +265,16 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
                 raise UsageError(f"{args.input}: {error}") from None
     result = _in_dtype(result, dtype)
     depth, height, width = result.shape[:3]
-    where = "" if spacing is None else f", spacing (dz, dy, dx) = {tuple(spacing)}"
+    where = "" if spacing is None else f", spacing (dz, dy, dx) = {spacing_text(spacing)}"
     say(args, f"warp: volume {width} x {height} x {depth} voxels (x, y, z){where}")
     affine = volume.affine if volume_suffix(target) in (".nii", ".nii.gz") else None
     write_volume(target, Volume(result, spacing=spacing, affine=affine))
+
+
+def spacing_text(spacing) -> str:
+    """``(dz, dy, dx)`` for a message, each to 7 significant digits: a NIfTI header holds its
+    affine in float32, whose 0.8 reads back as 0.800000011920929."""
+    return "(" + ", ".join(repr(float(f"{float(v):.7g}")) for v in spacing) + ")"
 
 
 def _in_dtype(result: np.ndarray, dtype: np.dtype) -> np.ndarray:

@@ -107,6 +107,17 @@ def test_spacing_option_wins_and_other_formats(files, stand_in, capsys):
     capsys.readouterr()
 
 
+def test_stderr_gives_the_spacing_as_the_file_was_written(files, stand_in, capsys):
+    """A NIfTI header holds its affine in float32: a voxel of 0.8 reads back as
+    0.800000011920929, which stderr does not show."""
+    affine = np.diag([0.5, 0.8, 2.0, 1.0])
+    glmls.write_volume(files / "thin.nii.gz", glmls.data.phantom()[:4, :5, :6], affine=affine)
+    assert glmls.read_volume(files / "thin.nii.gz").spacing[1] != 0.8  # float32's 0.8
+    assert main(["warp", "thin.nii.gz", "out.nii.gz", "--handles", "h3.json"]) == 0
+    err = capsys.readouterr().err
+    assert "spacing (dz, dy, dx) = (2.0, 0.8, 0.5)" in err, err
+
+
 def test_the_mls_has_the_volume_shape_and_spacing(files, stand_in, capsys):
     """As for images (the image diagonal): the MLS is made with the volume's shape and
     spacing, so that ``--weight gaussian`` without ``--radius`` takes the volume's diagonal
