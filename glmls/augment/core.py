@@ -24,7 +24,7 @@ __all__ = ["DEFAULT_WARP_OPTIONS", "Augment", "AugmentResult"]
 DEFAULT_WARP_OPTIONS = {"transform": "similarity", "interpolation": "linear", "border": "edge"}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)  # BatchResult's repr: shapes, not pixels
 class AugmentResult(BatchResult):
     """What :class:`Augment` returns: a batch result with boxes, polygons and the draws.
 

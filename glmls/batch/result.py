@@ -2,20 +2,46 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
 __all__ = ["BatchResult"]
 
 
-@dataclass(frozen=True)
+#: The items of a list that a result's repr describes one by one.
+_SHOWN = 3
+
+
+def _describe(value: object) -> str:
+    """A field of a result in a few words: an array's shape and dtype, a list's length and
+    kinds, ``None`` as it is (the pixels themselves would fill a notebook)."""
+    if value is None:
+        return "None"
+    if hasattr(value, "shape") and hasattr(value, "dtype"):
+        kind = "array" if isinstance(value, np.ndarray) else type(value).__name__
+        return f"{kind}({tuple(value.shape)}, {value.dtype})"
+    if isinstance(value, (list, tuple)):
+        if not value:
+            return "[]"
+        if all(hasattr(item, "shape") and hasattr(item, "dtype") for item in value):
+            shown = [f"{tuple(item.shape)} {item.dtype}" for item in value[:_SHOWN]]
+            more = ", ..." if len(value) > _SHOWN else ""
+            return f"[{len(value)} arrays: {', '.join(shown)}{more}]"
+        kinds = sorted({type(item).__name__ for item in value})
+        return f"[{len(value)} {'/'.join(kinds)}s]"
+    text = repr(value)
+    return text if len(text) <= 60 else f"<{type(value).__name__}>"
+
+
+@dataclass(frozen=True, repr=False)
 class BatchResult:
     """The warped images of a batch with their labels and maps.
 
     Each field is an array with the batch's leading dimension N where every image of the
     batch has one shape (and, for ``images``, one dtype and channel count), else a list of N
-    arrays in the order of the input; None where it was not asked for.
+    arrays in the order of the input; None where it was not asked for. Printed, it shows
+    each field's shape and dtype, not its values.
 
     Parameters
     ----------
@@ -50,6 +76,8 @@ class BatchResult:
     ((2, 8, 8), (2, 1, 2), True)
     >>> len(out)
     2
+    >>> repr(out)[:54]
+    'BatchResult(images=array((2, 8, 8), uint8), keypoints='
     """
 
     images: np.ndarray | list[np.ndarray]
@@ -63,3 +91,8 @@ class BatchResult:
     def __len__(self) -> int:
         """The number of images N."""
         return len(self.images)
+
+    def __repr__(self) -> str:
+        """The fields' shapes and dtypes (and lists' lengths), not their values."""
+        parts = [f"{f.name}={_describe(getattr(self, f.name))}" for f in fields(self)]
+        return f"{type(self).__name__}({', '.join(parts)})"
