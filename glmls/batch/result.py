@@ -2,36 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.summary import fields_repr
+
 __all__ = ["BatchResult"]
-
-
-#: The items of a list that a result's repr describes one by one.
-_SHOWN = 3
-
-
-def _describe(value: object) -> str:
-    """A field of a result in a few words: an array's shape and dtype, a list's length and
-    kinds, ``None`` as it is (the pixels themselves would fill a notebook)."""
-    if value is None:
-        return "None"
-    if hasattr(value, "shape") and hasattr(value, "dtype"):
-        kind = "array" if isinstance(value, np.ndarray) else type(value).__name__
-        return f"{kind}({tuple(value.shape)}, {value.dtype})"
-    if isinstance(value, (list, tuple)):
-        if not value:
-            return "[]"
-        if all(hasattr(item, "shape") and hasattr(item, "dtype") for item in value):
-            shown = [f"{tuple(item.shape)} {item.dtype}" for item in value[:_SHOWN]]
-            more = ", ..." if len(value) > _SHOWN else ""
-            return f"[{len(value)} arrays: {', '.join(shown)}{more}]"
-        kinds = sorted({type(item).__name__ for item in value})
-        return f"[{len(value)} {'/'.join(kinds)}s]"
-    text = repr(value)
-    return text if len(text) <= 60 else f"<{type(value).__name__}>"
 
 
 @dataclass(frozen=True, repr=False)
@@ -94,5 +71,4 @@ class BatchResult:
 
     def __repr__(self) -> str:
         """The fields' shapes and dtypes (and lists' lengths), not their values."""
-        parts = [f"{f.name}={_describe(getattr(self, f.name))}" for f in fields(self)]
-        return f"{type(self).__name__}({', '.join(parts)})"
+        return fields_repr(self)

@@ -35,6 +35,7 @@ import numpy as np
 import tifffile
 
 from ..core.handles3 import as_volume_spacing
+from ..core.summary import fields_repr
 from ..errors import InputFileError
 from .atomic import atomic_write
 
@@ -82,7 +83,7 @@ def is_volume_file(path: str | os.PathLike) -> bool:
         return False
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
 class Volume:
     """A volume and the geometry its file gives.
 
@@ -141,6 +142,10 @@ class Volume:
     def shape(self) -> tuple[int, ...]:
         """The data's shape, (D, H, W) or (D, H, W, C)."""
         return self.data.shape
+
+    def __repr__(self) -> str:
+        """The arrays' shapes and dtypes, not their values."""
+        return fields_repr(self)
 
 
 def _affine_spacing(affine: np.ndarray) -> tuple[float, float, float]:
