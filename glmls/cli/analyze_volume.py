@@ -20,7 +20,7 @@ from ..mls import MLS
 from .inputs import figure, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
-from .warp3d import check_world, voxel_handles, world_handles
+from .warp3d import check_world, volume_handle_warnings, voxel_handles, world_handles
 
 __all__ = ["is_volume_input", "read_points_3d", "run_volume"]
 
@@ -101,6 +101,8 @@ def run_volume(args: argparse.Namespace) -> int:
     src, dst = voxel_handles(args, *read_handles(args.handles, dst=args.targets, ndim=3), spacing)
     reference = read_points_3d(args.reference) if args.reference else None
     src, dst, reference = world_handles(args, source, spacing, src, dst, reference)
+    for message in volume_handle_warnings(args, src, volume.shape, spacing, source.affine):
+        say(args, f"glmls analyze: warning: {args.input}: {message}")
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")
     ticker = Ticker("analyze", quiet=args.quiet)

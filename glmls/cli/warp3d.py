@@ -48,6 +48,7 @@ __all__ = [
     "parse_spacing",
     "run_3d",
     "spacing_text",
+    "volume_handle_warnings",
     "voxel_handles",
 ]
 
@@ -164,6 +165,47 @@ def world_handles(args: argparse.Namespace, volume: Volume, spacing, *points):
         raise UsageError(f"--world: {args.input}: {error}") from None
 
 
+def _inside(points: np.ndarray, shape, scale: np.ndarray) -> np.ndarray:
+    """Which (x, y, z) points lie in the box of the voxels of ``shape`` (D, H, W), each voxel
+    (i, j, k) at (i, j, k) times ``scale`` (dx, dy, dz)."""
+    size = np.array(shape[:3][::-1], dtype=np.float64)
+    low, high = -0.5 * scale, (size - 0.5) * scale
+    return ((points >= low) & (points <= high)).all(axis=1)
+
+
+def volume_handle_warnings(args: argparse.Namespace, src, shape, spacing, affine) -> list[str]:
+    """Warnings for source handles of which half or more lie outside the volume, in the
+    frame of the warp (voxel (k, j, i) at (i dx, j dy, k dz)), with a hint where another
+    convention would put most of them inside: voxel indices given with a spacing other than
+    1, or world coordinates of a NIfTI affine given without ``--world``."""
+    points = np.asarray(src, dtype=np.float64)
+    scale = np.ones(3) if spacing is None else np.array(spacing[::-1], dtype=np.float64)
+    inside = _inside(points, shape, scale)
+    if not len(points) or inside.mean() >= 0.5:
+        return []
+    depth, height, width = shape[:3]
+    units = "" if spacing is None else f" of spacing (dz, dy, dx) = {spacing_text(spacing)}"
+    hint = ""
+    if getattr(args, "world", False):
+        hint = (
+            "; --world took them as world coordinates (RAS+) of the file's affine: ITK's LPS "
+            "(elastix) has x and y of the opposite signs"
+        )
+    elif not np.allclose(scale, 1.0) and _inside(points, shape, np.ones(3)).mean() > 0.5:
+        hint = (
+            "; in voxel indices? the handles are in the units of the spacing, voxel "
+            "(i, j, k) at (i dx, j dy, k dz)"
+        )
+    elif affine is not None:
+        voxels = world_to_volume(points, affine, spacing=(1.0, 1.0, 1.0))
+        if _inside(voxels, shape, np.ones(3)).mean() > 0.5:
+            hint = "; world coordinates of the file's affine? add --world"
+    return [
+        f"{int((~inside).sum())} of {len(points)} handles lie outside the {width} x {height} "
+        f"x {depth} volume{units}{hint}"
+    ]
+
+
 def voxel_handles(args: argparse.Namespace, src, dst, spacing):
     """(src, dst) in the handles' units: an elastix pair of ``index`` files (voxel indices)
     times the spacing, (i dx, j dy, k dz); other handles as they are."""
@@ -256,6 +298,8 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
     options = _volume_options(args, spacing)
     src, dst = voxel_handles(args, src, dst, spacing)
     src, dst = world_handles(args, volume, spacing, src, dst)
+    for message in volume_handle_warnings(args, src, data.shape, spacing, volume.affine):
+        say(args, f"glmls warp: warning: {args.input}: {message}")
     with _mls(src, dst, config, shape=data.shape[:3], spacing=spacing) as m:
         ticker = Ticker(f"warp {args.input}", quiet=args.quiet)
         with ticker, reported_warnings(f"glmls warp: {args.input}"):
