@@ -201,7 +201,7 @@ def world_to_volume(points: object, affine: object, *, spacing: object = None) -
     ValueError
         For points that are not (N, 3) finite numbers, an affine that is not a finite,
         invertible 4 x 4 matrix, or a spacing of another length than 3 or with a value that
-        is not finite and > 0.
+        is not a finite number > 0.
     TypeError
         For a spacing that is not a sequence of real numbers (a number, a string).
 
@@ -425,7 +425,7 @@ def write_volume(
     ValueError
         Before writing anything: an unknown suffix, a wrong shape, an affine with another
         format than NIfTI, a bad affine, or a spacing of another length than 3 or with a
-        value that is not finite and > 0.
+        value that is not a finite number > 0.
     TypeError
         Before writing anything: a spacing that is not a sequence of real numbers.
     OSError
