@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..batch import BatchResult, warp_batch
+from ..batch.run import check_warp_keywords
 from . import labels as lab
 from . import tensors
 from .presets import preset_from
@@ -251,6 +252,7 @@ class Augment:
         self.preset = preset_from(preset, preset_options)
         self.seed = int(seed)
         self.warp_options = {**DEFAULT_WARP_OPTIONS, **dict(warp_options or {})}
+        check_warp_keywords(self.warp_options, "warp_options")  # here, not in a worker
         self.box_step = float(box_step)
         self.densify = None if densify is None else float(densify)
         self.clip_polygons = bool(clip_polygons)

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 
 import numpy as np
 
+from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
 from ..gl import helper
 from ..gl.context import forked_from_gl
@@ -17,9 +19,11 @@ from .inputs import BatchInput, check_batch, stack_or_list
 from .result import BatchResult
 from .single import ImageLabels, SingleWarper
 
-__all__ = ["warp_batch"]
+__all__ = ["check_warp_keywords", "warp_batch"]
 
 _PER_IMAGE = ("src_segments", "dst_segments")
+#: The keywords of :func:`warp_batch` that configure the MLS (the others: ctx, storage, bins).
+CONFIG_FIELDS = frozenset(f.name for f in dataclasses.fields(MLSConfig))
 
 
 def warp_batch(
@@ -182,6 +186,26 @@ def _check_flags(return_maps: object, max_batch_bytes: object) -> None:
         raise ValueError(
             f"max_batch_bytes must be an integer >= 1 or None, got {max_batch_bytes!r}"
         )
+
+
+def check_warp_keywords(options: Mapping[str, object], name: str = "options") -> None:
+    """Check the warp keywords that :func:`warp_batch` would take with ``**options`` before
+    any call: their names, the :class:`~glmls.WarpOptions` values and the MLS configuration
+    (:class:`~glmls.MLSConfig`); ``TypeError``/``ValueError`` naming ``name`` and the bad
+    keyword, and for a label (``keypoints``, ``masks``, ``return_maps``), which is a
+    keyword of each call."""
+    labels = sorted({"keypoints", "masks", "return_maps"} & set(options))
+    if labels:
+        raise TypeError(
+            f"{name}: {', '.join(labels)} {'is a label' if len(labels) == 1 else 'are labels'} "
+            "of each call, not a warp option"
+        )
+    try:
+        _, mls_options, _ = _split_options(dict(options))
+        config = {k: v for k, v in mls_options.items() if k in CONFIG_FIELDS}
+        MLSConfig(**config)
+    except (TypeError, ValueError) as error:
+        raise type(error)(f"{name}: {error}") from None
 
 
 def _split_options(options: dict) -> tuple[WarpOptions, dict, dict]:
