@@ -13,14 +13,19 @@ import numpy as np
 
 from ..analysis.volume_reporting import volume_report
 from ..core.config import MLSConfig
-from ..files.landmarks import read_handles
 from ..files.parsing import csv_rows, fail, json_list, load_json, number, table
 from ..files.volumes import is_volume_file, read_volume
 from ..mls import MLS
 from .inputs import figure, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
-from .warp3d import check_world, volume_handle_warnings, voxel_handles, world_handles
+from .warp3d import (
+    check_world,
+    read_3d_handles,
+    volume_handle_warnings,
+    voxel_handles,
+    world_handles,
+)
 
 __all__ = ["is_volume_input", "read_points_3d", "run_volume"]
 
@@ -98,7 +103,7 @@ def run_volume(args: argparse.Namespace) -> int:
     source = read_volume(args.input)
     volume = source.data
     spacing = args.spacing or source.spacing
-    src, dst = voxel_handles(args, *read_handles(args.handles, dst=args.targets, ndim=3), spacing)
+    src, dst = voxel_handles(args, *read_3d_handles(args, "volume"), spacing)
     reference = read_points_3d(args.reference) if args.reference else None
     src, dst, reference = world_handles(args, source, spacing, src, dst, reference)
     for message in volume_handle_warnings(args, src, volume.shape, spacing, source.affine):

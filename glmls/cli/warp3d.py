@@ -46,6 +46,7 @@ __all__ = [
     "add_3d_options",
     "input_kind",
     "parse_spacing",
+    "read_3d_handles",
     "run_3d",
     "spacing_text",
     "volume_handle_warnings",
@@ -119,7 +120,9 @@ def _target(args: argparse.Namespace, kind: str) -> Path:
     return out
 
 
-def _handles(args: argparse.Namespace, kind: str) -> tuple[np.ndarray, np.ndarray]:
+def read_3d_handles(args: argparse.Namespace, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """The 3D handles of ``--handles`` (and ``--targets``) for ``IN``, a volume or a mesh;
+    :class:`UsageError` naming both for a file of 2D handles."""
     ndim = handle_dimension(args.handles, dst=args.targets)
     if ndim != 3:
         raise UsageError(
@@ -266,7 +269,7 @@ def run_3d(args: argparse.Namespace, kind: str) -> int:
     check_world(args)
     config = config_from_args(args)
     target = _target(args, kind)
-    src, dst = _handles(args, kind)
+    src, dst = read_3d_handles(args, kind)
     if kind == "volume":
         _warp_volume(args, config, src, dst, target)
     else:

@@ -72,7 +72,10 @@ def test_analyze_a_volume_writes_the_report_and_pictures(inputs):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["v.npy", "--handles", "h2.json"], "2D handles (x, y), where 3D handles (x, y, z)"),
+        (
+            ["v.npy", "--handles", "h2.json"],
+            "h2.json: 2D handles (x, y), but v.npy is a volume: it takes 3D handles (x, y, z)",
+        ),
         (["v.npy"], "missing --handles"),
         (["v.npy", "--handles", "h3.json", "--reference", "h2.json"], 'missing the key "points"'),
         (["missing.npy", "--handles", "h3.json"], "no such file"),
