@@ -28,7 +28,7 @@ from ..files.atomic import atomic_write
 from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import volume_suffix
 from ..mls import MLS
-from .analyze_volume import read_points_3d
+from .analyze_volume import read_points_3d, refuse_image_options
 from .inputs import figure, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
@@ -80,6 +80,7 @@ def run_mesh(args: argparse.Namespace) -> int:
     if args.spacing is not None:
         raise UsageError(f"--spacing: for volumes, not for a mesh ({args.input})")
     check_world(args)
+    refuse_image_options(args, "mesh")
     config = _check_radius(config_from_args(args))
     mesh = read_mesh(args.input)
     src, dst = read_3d_handles(args, "mesh")

@@ -27,7 +27,7 @@ from .warp3d import (
     world_handles,
 )
 
-__all__ = ["is_volume_input", "read_points_3d", "run_volume"]
+__all__ = ["is_volume_input", "read_points_3d", "refuse_image_options", "run_volume"]
 
 
 def is_volume_input(args: argparse.Namespace) -> bool:
@@ -94,11 +94,27 @@ def _warped(m: object, volume: np.ndarray, args: argparse.Namespace, spacing) ->
         return None
 
 
+def refuse_image_options(args: argparse.Namespace, kind: str) -> None:
+    """:class:`UsageError` for ``--fit`` or ``--tolerance`` (the image construction's
+    options) on a volume or mesh, as ``glmls warp`` refuses them."""
+    given = [
+        option
+        for option, value in (
+            ("--fit", getattr(args, "fit", False)),
+            ("--tolerance", getattr(args, "tolerance", None) is not None),
+        )
+        if value
+    ]
+    if given:
+        raise UsageError(f"{', '.join(given)}: for images, not for a {kind} ({args.input})")
+
+
 def run_volume(args: argparse.Namespace) -> int:
     """``glmls analyze VOLUME --handles H3 --out DIR``."""
     if args.handles is None:
         raise UsageError("missing --handles (a file of 3D handles for a volume)")
     check_world(args)
+    refuse_image_options(args, "volume")
     config = config_from_args(args)
     source = read_volume(args.input)
     volume = source.data

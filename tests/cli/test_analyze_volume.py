@@ -77,6 +77,11 @@ def test_analyze_a_volume_writes_the_report_and_pictures(inputs):
             "h2.json: 2D handles (x, y), but v.npy is a volume: it takes 3D handles (x, y, z)",
         ),
         (["v.npy"], "missing --handles"),
+        (["v.npy", "--handles", "h3.json", "--fit"], "--fit: for images, not for a volume (v.npy)"),
+        (
+            ["v.npy", "--handles", "h3.json", "--tolerance", "0.1"],
+            "--tolerance: for images, not for a volume (v.npy)",
+        ),
         (["v.npy", "--handles", "h3.json", "--reference", "h2.json"], 'missing the key "points"'),
         (["missing.npy", "--handles", "h3.json"], "no such file"),
     ],
