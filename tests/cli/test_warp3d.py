@@ -374,3 +374,11 @@ def test_handles_outside_the_volume_are_warned_of_with_the_likely_convention(
     argv = ["warp", "big.nii.gz", "out.nii.gz", "--handles", "world.json", "--world"]
     assert main(argv) == 0
     assert "warning" not in capsys.readouterr().err
+
+
+def test_the_radius_help_names_the_units_of_volumes_and_meshes(capsys):
+    with pytest.raises(SystemExit):
+        main(["warp", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--radius RADIUS influence radius in the handles' units, pixels for an image" in text
+    assert "a volume's in its handles' units; a mesh needs one" in text
