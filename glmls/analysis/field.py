@@ -46,7 +46,7 @@ def error_field(
     ------
     ValueError
         For a shape that is not (H, W) with H, W >= 1, a grid that is not an integer from 1
-        on, or a tolerance that is not finite and > 0.
+        on, or a tolerance that is not a finite number > 0.
     TypeError
         For a shape that is not integers, or a tolerance that is not a number.
 

@@ -197,7 +197,7 @@ def cell_jacobians(
     ValueError
         For a shape that is not (D, H, W) with D, H, W >= 1, a grid that is not an integer
         from 1 on, ``m`` returning the wrong shape or values that are not finite, or a
-        ``spacing`` of another length than 3, with a value that is not finite and > 0, or
+        ``spacing`` of another length than 3, with a value that is not a finite number > 0, or
         other than ``m``'s.
     TypeError
         For a shape that is not integers, or a ``spacing`` that is not a sequence of real

@@ -225,7 +225,7 @@ def volume_error_field(
     ValueError
         For a shape that is not (D, H, W) with D, H, W >= 1, a grid that is not an integer
         from 1 on, handles that are not (N, 3), or a ``spacing`` of another length than 3,
-        with a value that is not finite and > 0, or other than ``m``'s.
+        with a value that is not a finite number > 0, or other than ``m``'s.
     TypeError
         For a shape that is not integers, or a ``spacing`` that is not a sequence of real
         numbers.

@@ -196,7 +196,7 @@ def volume_report(
     ------
     ValueError
         For a bad volume, grid, slices, angle measure, reference points or tetrahedra, or a
-        ``spacing`` of another length than 3, with a value that is not finite and > 0, or
+        ``spacing`` of another length than 3, with a value that is not a finite number > 0, or
         other than ``m.spacing``.
     TypeError
         For a volume that is not real numbers, or a ``spacing`` that is not a sequence of

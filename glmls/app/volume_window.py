@@ -169,7 +169,9 @@ class VolumeApp(WindowLoop):
             "",
         ]
         if self.window is not None and self.session.error:
-            lines += wrap(f"! {self.session.error}", PANEL_CHARS) + ["  (the last valid f)"]
+            # with no valid f yet (opened without handles) the slices show the volume itself
+            kept = "the last valid f" if self.session.mls is not None else "the volume as it is"
+            lines += wrap(f"! {self.session.error}", PANEL_CHARS) + [f"  ({kept})"]
         lines += self.session.lines if self.window is not None else []
         lines += ["", "F1 or ?: help"]
         for message in self._shown_messages():

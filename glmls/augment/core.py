@@ -28,7 +28,7 @@ __all__ = ["DEFAULT_WARP_OPTIONS", "Augment", "AugmentResult"]
 DEFAULT_WARP_OPTIONS = {"transform": "similarity", "interpolation": "linear", "border": "edge"}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)  # BatchResult's repr: shapes, not pixels
 class AugmentResult(BatchResult):
     """What :class:`Augment` returns: a batch result with boxes, polygons and the draws.
 
@@ -87,8 +87,11 @@ def _check_warp_options(options: Mapping[str, object]) -> None:
         if name not in _WARP_KEYWORDS:
             raise TypeError(f"warp_options has no keyword {name}")
     fields = {k: v for k, v in options.items() if k in FIELDS or k == "options"}
-    WarpOptions.of(fields.pop("options", None), **fields)
-    MLSConfig(**{k: v for k, v in options.items() if k in _CONFIG_FIELDS})
+    try:
+        WarpOptions.of(fields.pop("options", None), **fields)
+        MLSConfig(**{k: v for k, v in options.items() if k in _CONFIG_FIELDS})
+    except (TypeError, ValueError) as error:
+        raise type(error)(f"warp_options: {error}") from None
 
 
 def _check_positive(name: str, value: object) -> float:

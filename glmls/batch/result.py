@@ -6,16 +6,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.summary import fields_repr
+
 __all__ = ["BatchResult"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class BatchResult:
     """The warped images of a batch with their labels and maps.
 
     Each field is an array with the batch's leading dimension N where every image of the
     batch has one shape (and, for ``images``, one dtype and channel count), else a list of N
-    arrays in the order of the input; None where it was not asked for.
+    arrays in the order of the input; None where it was not asked for. Printed, it shows
+    each field's shape and dtype, not its values.
 
     Parameters
     ----------
@@ -50,6 +53,8 @@ class BatchResult:
     ((2, 8, 8), (2, 1, 2), True)
     >>> len(out)
     2
+    >>> repr(out)[:54]
+    'BatchResult(images=array((2, 8, 8), uint8), keypoints='
     """
 
     images: np.ndarray | list[np.ndarray]
@@ -63,3 +68,7 @@ class BatchResult:
     def __len__(self) -> int:
         """The number of images N."""
         return len(self.images)
+
+    def __repr__(self) -> str:
+        """The fields' shapes and dtypes (and lists' lengths), not their values."""
+        return fields_repr(self)

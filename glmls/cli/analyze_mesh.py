@@ -25,15 +25,14 @@ from ..analysis.tetrahedra import tetrahedron_errors
 from ..analysis.volume_field import fit_residuals
 from ..core.config import MLSConfig
 from ..files.atomic import atomic_write
-from ..files.landmarks import read_handles
 from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import volume_suffix
 from ..mls import MLS
-from .analyze_volume import read_points_3d
+from .analyze_volume import read_points_3d, refuse_image_options
 from .inputs import figure, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
-from .warp3d import check_world
+from .warp3d import check_world, read_3d_handles
 
 __all__ = ["is_mesh_input", "run_mesh"]
 
@@ -81,9 +80,10 @@ def run_mesh(args: argparse.Namespace) -> int:
     if args.spacing is not None:
         raise UsageError(f"--spacing: for volumes, not for a mesh ({args.input})")
     check_world(args)
+    refuse_image_options(args, "mesh")
     config = _check_radius(config_from_args(args))
     mesh = read_mesh(args.input)
-    src, dst = read_handles(args.handles, dst=args.targets, ndim=3)
+    src, dst = read_3d_handles(args, "mesh")
     reference = read_points_3d(args.reference) if args.reference else None
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")

@@ -13,16 +13,22 @@ import numpy as np
 
 from ..analysis.volume_reporting import volume_report
 from ..core.config import MLSConfig
-from ..files.landmarks import read_handles
 from ..files.parsing import csv_rows, fail, json_list, load_json, number, table
 from ..files.volumes import is_volume_file, read_volume
 from ..mls import MLS
 from .inputs import figure, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
-from .warp3d import check_world, voxel_handles, warpable, world_handles
+from .warp3d import (
+    check_world,
+    read_3d_handles,
+    volume_handle_warnings,
+    voxel_handles,
+    warpable,
+    world_handles,
+)
 
-__all__ = ["is_volume_input", "read_points_3d", "run_volume"]
+__all__ = ["is_volume_input", "read_points_3d", "refuse_image_options", "run_volume"]
 
 
 def is_volume_input(args: argparse.Namespace) -> bool:
@@ -89,18 +95,36 @@ def _warped(m: object, volume: np.ndarray, args: argparse.Namespace, spacing) ->
         return None
 
 
+def refuse_image_options(args: argparse.Namespace, kind: str) -> None:
+    """:class:`UsageError` for ``--fit`` or ``--tolerance`` (the image construction's
+    options) on a volume or mesh, as ``glmls warp`` refuses them."""
+    given = [
+        option
+        for option, value in (
+            ("--fit", getattr(args, "fit", False)),
+            ("--tolerance", getattr(args, "tolerance", None) is not None),
+        )
+        if value
+    ]
+    if given:
+        raise UsageError(f"{', '.join(given)}: for images, not for a {kind} ({args.input})")
+
+
 def run_volume(args: argparse.Namespace) -> int:
     """``glmls analyze VOLUME --handles H3 --out DIR``."""
     if args.handles is None:
         raise UsageError("missing --handles (a file of 3D handles for a volume)")
     check_world(args)
+    refuse_image_options(args, "volume")
     config = config_from_args(args)
     source = read_volume(args.input)
     volume = warpable(source.data, args.input)  # as glmls warp does: a mask as float32
     spacing = args.spacing or source.spacing
-    src, dst = voxel_handles(args, *read_handles(args.handles, dst=args.targets, ndim=3), spacing)
+    src, dst = voxel_handles(args, *read_3d_handles(args, "volume"), spacing)
     reference = read_points_3d(args.reference) if args.reference else None
     src, dst, reference = world_handles(args, source, spacing, src, dst, reference)
+    for message in volume_handle_warnings(args, src, volume.shape, spacing, source.affine):
+        say(args, f"glmls analyze: warning: {args.input}: {message}")
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")
     ticker = Ticker("analyze", quiet=args.quiet)
@@ -128,9 +152,11 @@ def run_volume(args: argparse.Namespace) -> int:
         print(path)
     summary = result.summary
     field, cells, tetrahedra = summary["error_field"], summary["jacobians"], summary["tetrahedra"]
+    # E_MLS is a squared distance in the handles' units: voxels only where a voxel is 1 x 1 x 1
+    unit = "voxel^2" if spacing is None or set(spacing) == {1.0} else "(handle units)^2"
     say(
         args,
-        f"analyze: E_MLS median {figure(field['median'])} voxel^2, trimmed mean "
+        f"analyze: E_MLS median {figure(field['median'])} {unit}, trimmed mean "
         f"{figure(field['trimmed_mean'])}, mean {figure(field['mean'])} "
         f"(std {figure(field['std'])})",
     )

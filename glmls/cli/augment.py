@@ -263,7 +263,21 @@ def _remove_temporaries(tasks: list[AugmentTask]) -> None:
 
 
 def _preset_options(args: argparse.Namespace) -> dict:
-    return {name: getattr(args, name) for name in PRESET_FLAGS if getattr(args, name) is not None}
+    """The preset options given as flags; :class:`UsageError` naming the flags that
+    ``--preset`` does not take and those it does."""
+    given = {name: getattr(args, name) for name in PRESET_FLAGS if getattr(args, name) is not None}
+    preset = PRESETS.get(args.preset)
+    if preset is None:  # argparse's choices said so already
+        return given
+    known = {field.name for field in dataclasses.fields(preset)}
+    unknown = [f"--{name}" for name in given if name not in known]
+    if unknown:
+        takes = [f"--{name}" for name in PRESET_FLAGS if name in known]
+        raise UsageError(
+            f"{', '.join(unknown)}: not an option of --preset {args.preset}; it takes "
+            f"{', '.join(takes) or 'none'}"
+        )
+    return given
 
 
 def run(args: argparse.Namespace) -> int:

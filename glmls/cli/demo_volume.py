@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputFileError
-from ..files.landmarks import read_handles
+from ..files.landmarks import handle_dimension, read_handles
 from ..files.volumes import Volume, is_volume_file, read_volume, volume_suffix
 from .demo_window import fail, replay_events, run_window, window_options
 from .warp3d import voxel_handles
@@ -77,6 +77,11 @@ def volume_inputs(
             volume = Volume(volume.data, spacing=args.spacing, affine=volume.affine)
         src = dst = np.zeros((0, 3))
     if args.handles is not None:  # an elastix pair of voxel indices: times the spacing
+        if handle_dimension(args.handles, dst=args.targets) == 2:  # as glmls warp says it
+            raise ValueError(
+                f"{args.handles}: 2D handles (x, y), but {args.image or 'the phantom'} is a "
+                "volume: it takes 3D handles (x, y, z)"
+            )
         src, dst = read_handles(args.handles, dst=args.targets, ndim=3)
         src, dst = voxel_handles(args, src, dst, volume.spacing)
     return volume, name, src, dst

@@ -46,7 +46,10 @@ __all__ = [
     "add_3d_options",
     "input_kind",
     "parse_spacing",
+    "read_3d_handles",
     "run_3d",
+    "spacing_text",
+    "volume_handle_warnings",
     "voxel_handles",
     "warpable",
 ]
@@ -130,7 +133,9 @@ def _target(args: argparse.Namespace, kind: str) -> Path:
     return out
 
 
-def _handles(args: argparse.Namespace, kind: str) -> tuple[np.ndarray, np.ndarray]:
+def read_3d_handles(args: argparse.Namespace, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """The 3D handles of ``--handles`` (and ``--targets``) for ``IN``, a volume or a mesh;
+    :class:`UsageError` naming both for a file of 2D handles."""
     ndim = handle_dimension(args.handles, dst=args.targets)
     if ndim != 3:
         raise UsageError(
@@ -174,6 +179,47 @@ def world_handles(args: argparse.Namespace, volume: Volume, spacing, *points):
         )
     except ValueError as error:
         raise UsageError(f"--world: {args.input}: {error}") from None
+
+
+def _inside(points: np.ndarray, shape, scale: np.ndarray) -> np.ndarray:
+    """Which (x, y, z) points lie in the box of the voxels of ``shape`` (D, H, W), each voxel
+    (i, j, k) at (i, j, k) times ``scale`` (dx, dy, dz)."""
+    size = np.array(shape[:3][::-1], dtype=np.float64)
+    low, high = -0.5 * scale, (size - 0.5) * scale
+    return ((points >= low) & (points <= high)).all(axis=1)
+
+
+def volume_handle_warnings(args: argparse.Namespace, src, shape, spacing, affine) -> list[str]:
+    """Warnings for source handles of which half or more lie outside the volume, in the
+    frame of the warp (voxel (k, j, i) at (i dx, j dy, k dz)), with a hint where another
+    convention would put most of them inside: voxel indices given with a spacing other than
+    1, or world coordinates of a NIfTI affine given without ``--world``."""
+    points = np.asarray(src, dtype=np.float64)
+    scale = np.ones(3) if spacing is None else np.array(spacing[::-1], dtype=np.float64)
+    inside = _inside(points, shape, scale)
+    if not len(points) or inside.mean() >= 0.5:
+        return []
+    depth, height, width = shape[:3]
+    units = "" if spacing is None else f" of spacing (dz, dy, dx) = {spacing_text(spacing)}"
+    hint = ""
+    if getattr(args, "world", False):
+        hint = (
+            "; --world took them as world coordinates (RAS+) of the file's affine: ITK's LPS "
+            "(elastix) has x and y of the opposite signs"
+        )
+    elif not np.allclose(scale, 1.0) and _inside(points, shape, np.ones(3)).mean() > 0.5:
+        hint = (
+            "; in voxel indices? the handles are in the units of the spacing, voxel "
+            "(i, j, k) at (i dx, j dy, k dz)"
+        )
+    elif affine is not None:
+        voxels = world_to_volume(points, affine, spacing=(1.0, 1.0, 1.0))
+        if _inside(voxels, shape, np.ones(3)).mean() > 0.5:
+            hint = "; world coordinates of the file's affine? add --world"
+    return [
+        f"{int((~inside).sum())} of {len(points)} handles lie outside the {width} x {height} "
+        f"x {depth} volume{units}{hint}"
+    ]
 
 
 def voxel_handles(args: argparse.Namespace, src, dst, spacing):
@@ -236,7 +282,7 @@ def run_3d(args: argparse.Namespace, kind: str) -> int:
     check_world(args)
     config = config_from_args(args)
     target = _target(args, kind)
-    src, dst = _handles(args, kind)
+    src, dst = read_3d_handles(args, kind)
     if kind == "volume":
         _warp_volume(args, config, src, dst, target)
     else:
@@ -271,6 +317,8 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
     options = _volume_options(args, spacing)
     src, dst = voxel_handles(args, src, dst, spacing)
     src, dst = world_handles(args, volume, spacing, src, dst)
+    for message in volume_handle_warnings(args, src, data.shape, spacing, volume.affine):
+        say(args, f"glmls warp: warning: {args.input}: {message}")
     with _mls(src, dst, config, shape=data.shape[:3], spacing=spacing) as m:
         ticker = Ticker(f"warp {args.input}", quiet=args.quiet)
         with ticker, reported_warnings(f"glmls warp: {args.input}"):
@@ -280,10 +328,16 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
                 raise UsageError(f"{args.input}: {error}") from None
     result = _in_dtype(result, dtype)
     depth, height, width = result.shape[:3]
-    where = "" if spacing is None else f", spacing (dz, dy, dx) = {tuple(spacing)}"
+    where = "" if spacing is None else f", spacing (dz, dy, dx) = {spacing_text(spacing)}"
     say(args, f"warp: volume {width} x {height} x {depth} voxels (x, y, z){where}")
     affine = volume.affine if volume_suffix(target) in (".nii", ".nii.gz") else None
     write_volume(target, Volume(result, spacing=spacing, affine=affine))
+
+
+def spacing_text(spacing) -> str:
+    """``(dz, dy, dx)`` for a message, each to 7 significant digits: a NIfTI header holds its
+    affine in float32, whose 0.8 reads back as 0.800000011920929."""
+    return "(" + ", ".join(repr(float(f"{float(v):.7g}")) for v in spacing) + ")"
 
 
 def _in_dtype(result: np.ndarray, dtype: np.dtype) -> np.ndarray:

@@ -112,7 +112,11 @@ class MLSConfig:
     alpha: float = field(default=1.0, metadata={"help": "idw power (and interpolating's)"})
     s: float = field(default=1e-8, metadata={"help": "idw adjusting term"})
     radius: float | None = field(
-        default=None, metadata={"help": "influence radius in pixels (default: image diagonal)"}
+        default=None,
+        metadata={
+            "help": "influence radius in the handles' units, pixels for an image (default: the "
+            "image's diagonal, a volume's in its handles' units; a mesh needs one)"
+        },
     )
     interpolating: bool = field(
         default=False, metadata={"help": "make any weight interpolate the handles"}

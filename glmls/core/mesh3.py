@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .handles3 import as_points3
+from .summary import fields_repr
 
 __all__ = [
     "DeformedMesh",
@@ -32,7 +33,7 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class DeformedMesh:
     """A mesh (or point cloud) deformed by a 3D :class:`~glmls.MLS` (:meth:`glmls.MLS.deform`).
 
@@ -80,6 +81,10 @@ class DeformedMesh:
     def folded(self) -> bool:
         """Whether any vertex or face folds."""
         return bool(self.vertex_folds.any() or self.face_folds.any())
+
+    def __repr__(self) -> str:
+        """The arrays' shapes and dtypes, not their values."""
+        return fields_repr(self)
 
 
 def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:

@@ -120,8 +120,9 @@ class MLSKernel3:
         shape = shape if shape is not None else self.shape
         if shape is None:
             raise ValueError(
-                f"weight {config.weight!r} needs an influence radius: pass radius=R (voxels), "
-                "or shape=(D, H, W) to use the volume diagonal"
+                f"weight {config.weight!r} needs an influence radius: pass radius=R (in "
+                "the handles' units: voxels, or a mesh's coordinates), or shape=(D, H, W) to use "
+                "the volume diagonal"
             )
         return volume_diagonal(shape)
 

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.summary import fields_repr
 from ..errors import InputFileError
 from .atomic import atomic_write
 
@@ -31,7 +32,7 @@ __all__ = ["MESH_SUFFIXES", "Mesh", "read_mesh", "write_mesh"]
 MESH_SUFFIXES = (".ply", ".obj", ".stl")
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
 class Mesh:
     """A triangle mesh: vertices and faces, read-only copies.
 
@@ -80,6 +81,10 @@ class Mesh:
         faces.flags.writeable = False
         object.__setattr__(self, "vertices", vertices)
         object.__setattr__(self, "faces", faces)
+
+    def __repr__(self) -> str:
+        """The arrays' shapes and dtypes, not their values."""
+        return fields_repr(self)
 
 
 def _trimesh():

@@ -37,6 +37,7 @@ import numpy as np
 import tifffile
 
 from ..core.handles3 import as_volume_spacing
+from ..core.summary import fields_repr
 from ..errors import InputFileError
 from .atomic import atomic_write
 
@@ -101,7 +102,7 @@ def is_volume_file(path: str | os.PathLike) -> bool:
     return pages > 1
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
 class Volume:
     """A volume and the geometry its file gives.
 
@@ -161,6 +162,10 @@ class Volume:
         """The data's shape, (D, H, W) or (D, H, W, C)."""
         return self.data.shape
 
+    def __repr__(self) -> str:
+        """The arrays' shapes and dtypes, not their values."""
+        return fields_repr(self)
+
 
 def _affine_spacing(affine: np.ndarray) -> tuple[float, float, float]:
     """(dz, dy, dx): the lengths of the affine's columns k, j, i."""
@@ -215,7 +220,7 @@ def world_to_volume(points: object, affine: object, *, spacing: object = None) -
     ValueError
         For points that are not (N, 3) finite numbers, an affine that is not a finite,
         invertible 4 x 4 matrix, or a spacing of another length than 3 or with a value that
-        is not finite and > 0.
+        is not a finite number > 0.
     TypeError
         For a spacing that is not a sequence of real numbers (a number, a string).
 
@@ -440,8 +445,8 @@ def write_volume(
     ValueError
         Before writing anything: an unknown suffix, a wrong shape, an affine with another
         format than NIfTI, a bad affine, a volume of one slice as TIFF (a TIFF of one page
-        is an image), or a spacing of another length than 3 or with a value that is not
-        finite and > 0.
+        is an image), or a spacing of another length than 3 or with a value that is not a
+        finite number > 0.
     TypeError
         Before writing anything: a spacing that is not a sequence of real numbers.
     OSError

@@ -195,7 +195,7 @@ def volume_bounds(
     ------
     ValueError
         For a 2D MLS, a bad ``shape`` or ``grid``, a ``spacing`` of another length than 3 or
-        with a value that is not finite and > 0, or one other than the MLS's.
+        with a value that is not a finite number > 0, or one other than the MLS's.
     TypeError
         For a ``spacing`` that is not a sequence of real numbers.
 

@@ -50,7 +50,13 @@ def check_volume(volume: object, name: str = "volume") -> np.ndarray:
         array = array.astype(array.dtype.newbyteorder("="))  # big-endian: the native dtype
     if array.dtype not in VOLUME_DTYPES:
         names = ", ".join(np.dtype(d).name for d in VOLUME_DTYPES)
-        raise TypeError(f"{name} dtype must be one of {names}; got {array.dtype}")
+        hint = ""
+        if array.dtype.kind in "biuf":  # int16 (CT), int32, bool, float16...: as float32
+            hint = (
+                f" (warp {name}.astype(np.float32), which holds every value up to 2**24 "
+                "exactly, and round the result back to your dtype, as glmls warp does)"
+            )
+        raise TypeError(f"{name} dtype must be one of {names}; got {array.dtype}{hint}")
     if array.ndim == 2:
         raise ValueError(
             f"{name} of shape {array.shape} is a 2D image; a 3D MLS ((N, 3) handles) "

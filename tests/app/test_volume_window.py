@@ -6,6 +6,7 @@ import json
 import shutil
 import subprocess
 import sys
+import types
 
 import numpy as np
 import pytest
@@ -22,6 +23,7 @@ from glmls.app.volume_controller import (
 )
 from glmls.app.volume_session import VolumeSession, display_volume
 from glmls.app.volume_view import help_text, scene_geometry
+from glmls.app.volume_window import VolumeApp
 
 SHAPE = (16, 20, 24)  # D, H, W
 SRC = np.array([[4.0, 4, 8], [18, 15, 8], [12, 10, 3], [12, 10, 13], [6, 16, 12]])
@@ -274,7 +276,9 @@ def test_the_command_refuses_2d_handles_for_a_volume(tmp_path):
     glmls.files.write_handles(handles, [[1.0, 2.0]], [[1.0, 3.0]])
     done = _demo("--volume", "--handles", str(handles))
     assert done.returncode == 2 and done.stderr.count("\n") == 1
-    assert "h2.json" in done.stderr
+    assert "h2.json: 2D handles (x, y), but the phantom is a volume: it takes 3D handles" in (
+        done.stderr
+    )
 
 
 @pytest.mark.skipif(XVFB is None, reason="xvfb-run is not installed")
@@ -286,3 +290,17 @@ def test_3d_handles_without_an_image_open_the_phantom(tmp_path):
     done = _demo("--handles", str(handles), "--screenshot", str(shot), xvfb=True)
     assert done.returncode == 0, done.stderr
     assert glmls.imread(shot).std() > 10
+
+
+def test_the_readout_says_what_the_slices_show_after_an_error():
+    """Opened without handles there is no f yet: the readout says the slices show the volume
+    as it is, not "the last valid f"; after a valid f, that f."""
+    volume = glmls.data.phantom()
+    empty = np.zeros((0, 3))
+    app = VolumeApp(volume, empty, empty)
+    app.window = object()  # the readout's error lines are the open window's
+    app.session = types.SimpleNamespace(error="no handles: shift + click in a view adds one",
+                                        mls=None, lines=[])  # fmt: skip
+    assert "  (the volume as it is)" in app.readout()
+    app.session.mls = object()
+    assert "  (the last valid f)" in app.readout()

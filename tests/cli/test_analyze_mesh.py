@@ -73,7 +73,11 @@ def test_analyze_a_point_cloud_and_a_folding_map(inputs, capsys):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["sphere.obj", "--handles", "h2.json"], "2D handles (x, y), where 3D handles"),
+        (["sphere.obj", "--handles", "h3.json", "--fit"], "--fit: for images, not for a mesh"),
+        (
+            ["sphere.obj", "--handles", "h2.json"],
+            "h2.json: 2D handles (x, y), but sphere.obj is a mesh: it takes 3D handles (x, y, z)",
+        ),
         (["sphere.obj"], "missing --handles"),
         (["sphere.obj", "--handles", "h3.json", "--weight", "gaussian"], "needs --radius"),
         (["missing.ply", "--handles", "h3.json"], "missing.ply: no such file"),

@@ -43,6 +43,7 @@ def test_analyze_a_volume_writes_the_report_and_pictures(inputs):
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
     assert "Traceback" not in result.stderr
+    assert "voxel^2" in result.stderr  # no spacing: the handles are in voxels
     summary = json.loads((inputs / "rep" / "report.json").read_text())
     assert summary["input"] == "v.npy"
     assert summary["volume"] == {"depth": 10, "height": 12, "width": 14, "channels": 1}
@@ -71,8 +72,16 @@ def test_analyze_a_volume_writes_the_report_and_pictures(inputs):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["v.npy", "--handles", "h2.json"], "2D handles (x, y), where 3D handles (x, y, z)"),
+        (
+            ["v.npy", "--handles", "h2.json"],
+            "h2.json: 2D handles (x, y), but v.npy is a volume: it takes 3D handles (x, y, z)",
+        ),
         (["v.npy"], "missing --handles"),
+        (["v.npy", "--handles", "h3.json", "--fit"], "--fit: for images, not for a volume (v.npy)"),
+        (
+            ["v.npy", "--handles", "h3.json", "--tolerance", "0.1"],
+            "--tolerance: for images, not for a volume (v.npy)",
+        ),
         (["v.npy", "--handles", "h3.json", "--reference", "h2.json"], 'missing the key "points"'),
         (["missing.npy", "--handles", "h3.json"], "no such file"),
     ],
@@ -138,6 +147,8 @@ def test_the_spacing_of_the_file_or_the_option_is_glmls_warps(inputs):
         assert summary["configuration"]["src"] == src.tolist()
         for key in ("mean", "median", "max"):
             assert_allclose(summary["error_field"][key], expected[key], rtol=2e-3)
+        # E_MLS in the handles' units, not voxels, said so on stderr
+        assert "(handle units)^2" in result.stderr and "voxel^2" not in result.stderr
     for name, points in (("moving.pts", SRC), ("fixed.pts", DST)):  # voxel indices
         rows = "".join(" ".join(str(v) for v in p) + "\n" for p in points)
         (inputs / name).write_text(f"index\n{len(points)}\n{rows}")

@@ -82,7 +82,11 @@ def test_augment_with_jobs_gives_the_same(inputs):
     [
         (["--preset", "wave"], "invalid choice: 'wave'"),
         (["--seed", "-1"], "seed must be an integer >= 0, got -1"),
-        (["--preset", "text-stretch", "--rows", "3"], "preset 'text-stretch' has no option rows"),
+        (
+            ["--preset", "text-stretch", "--rows", "3"],
+            "--rows: not an option of --preset text-stretch; it takes --segments, --radius",
+        ),
+        (["--cols", "3", "--radius", "2"], "--radius: not an option of --preset grid; it takes"),
         (["--displacement", "nan"], "displacement must be a finite number >= 0"),
         (["--labels", "missing.json"], "missing.json: no such file"),
         (["--labels", "bad.json"], "bad.json: not a JSON labels file"),

@@ -107,6 +107,17 @@ def test_spacing_option_wins_and_other_formats(files, stand_in, capsys):
     capsys.readouterr()
 
 
+def test_stderr_gives_the_spacing_as_the_file_was_written(files, stand_in, capsys):
+    """A NIfTI header holds its affine in float32: a voxel of 0.8 reads back as
+    0.800000011920929, which stderr does not show."""
+    affine = np.diag([0.5, 0.8, 2.0, 1.0])
+    glmls.write_volume(files / "thin.nii.gz", glmls.data.phantom()[:4, :5, :6], affine=affine)
+    assert glmls.read_volume(files / "thin.nii.gz").spacing[1] != 0.8  # float32's 0.8
+    assert main(["warp", "thin.nii.gz", "out.nii.gz", "--handles", "h3.json"]) == 0
+    err = capsys.readouterr().err
+    assert "spacing (dz, dy, dx) = (2.0, 0.8, 0.5)" in err, err
+
+
 def test_the_mls_has_the_volume_shape_and_spacing(files, stand_in, capsys):
     """As for images (the image diagonal): the MLS is made with the volume's shape and
     spacing, so that ``--weight gaussian`` without ``--radius`` takes the volume's diagonal
@@ -335,3 +346,39 @@ def test_elastix_pair_of_2d_points_warps_an_image(files, capsys):
     assert main(argv) == 0
     assert capsys.readouterr().out.strip() == "o.png"
     assert glmls.imread(files / "o.png").shape == (8, 10)
+
+
+def test_handles_outside_the_volume_are_warned_of_with_the_likely_convention(
+    files, stand_in, capsys
+):
+    """Handles mostly outside the volume in the frame of the warp: a warning on stderr (the
+    warp goes on), with a hint where voxel indices (given with a spacing) or world
+    coordinates (given without --world) would lie inside."""
+    np.save(files / "big.npy", np.zeros((64, 64, 64), np.uint8))
+    assert main(["warp", "big.npy", "out.npy", "--handles", "h3.json"]) == 0
+    assert "warning" not in capsys.readouterr().err  # the phantom's handles, in voxels
+    argv = ["warp", "big.npy", "out.npy", "--handles", "h3.json", "--spacing", "0.5"]
+    assert main(argv) == 0  # the volume spans 32 units: the voxel handles lie outside it
+    err = capsys.readouterr().err
+    assert "glmls warp: warning: big.npy: 9 of 10 handles lie outside the 64 x 64 x 64 " in err
+    assert "in voxel indices? the handles are in the units of the spacing" in err
+    affine = np.array([[0, -2.0, 0, 100], [1.0, 0, 0, -5], [0, 0, 1.0, 7], [0, 0, 0, 1]])
+    glmls.write_volume(files / "big.nii.gz", np.zeros((64, 64, 64), np.uint8), affine=affine)
+    src, dst = glmls.data.phantom_handles()
+    scale = np.array([1.0, 2.0, 1.0])  # (dx, dy, dz) of the affine
+    world = {k: glmls.files.volume_to_world(p * scale, affine).tolist() for k, p in
+             (("src", src), ("dst", dst))}  # fmt: skip
+    (files / "world.json").write_text(json.dumps(world))
+    assert main(["warp", "big.nii.gz", "out.nii.gz", "--handles", "world.json"]) == 0
+    assert "world coordinates of the file's affine? add --world" in capsys.readouterr().err
+    argv = ["warp", "big.nii.gz", "out.nii.gz", "--handles", "world.json", "--world"]
+    assert main(argv) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
+def test_the_radius_help_names_the_units_of_volumes_and_meshes(capsys):
+    with pytest.raises(SystemExit):
+        main(["warp", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--radius RADIUS influence radius in the handles' units, pixels for an image" in text
+    assert "a volume's in its handles' units; a mesh needs one" in text
