@@ -77,13 +77,14 @@ def _terminate_as_exception() -> Iterator[None]:
     """SIGTERM raises :class:`Terminated` in the main thread while the command runs (a
     scheduler's or a container's stop then removes the temporaries, as Ctrl-C does)."""
     if threading.current_thread() is not threading.main_thread():
-        yield
+        yield  # Python sets handlers in the main thread only
         return
     previous = signal.signal(signal.SIGTERM, _terminate)
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        # None: a handler that C code installed, which Python cannot set back.
+        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

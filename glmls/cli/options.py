@@ -78,12 +78,26 @@ class ArgumentParser(argparse.ArgumentParser):
         for i, word in enumerate(words):
             if word == "--":  # the rest are positional words, as they are
                 return joined + words[i:]
-            action = self._option_string_actions.get(joined[-1]) if joined else None
+            action = self._option_action(joined[-1]) if joined else None
             if action is not None and action.nargs is None and _NEGATIVE_VALUE.match(word):
                 joined[-1] = f"{joined[-1]}={word}"
             else:
                 joined.append(word)
         return joined
+
+    def _option_action(self, word: str) -> argparse.Action | None:
+        """The action of the option ``word`` names: its full name, or, as argparse allows, an
+        unambiguous prefix of a long option's (an ambiguous one is left to argparse's
+        error)."""
+        action = self._option_string_actions.get(word)
+        if action is not None or not (self.allow_abbrev and word.startswith("--")):
+            return action
+        actions = {
+            id(found): found
+            for name, found in self._option_string_actions.items()
+            if name.startswith(word)
+        }
+        return next(iter(actions.values())) if len(actions) == 1 else None
 
 
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):

@@ -83,3 +83,39 @@ def test_a_negative_background_warps(tmp_path):
     assert main([*argv, "--background", "-2.5", "--quiet"]) == 0
     warped = glmls.imread(out)
     assert warped.min() == -2.5 and warped.max() == 1.0
+
+
+@pytest.mark.parametrize(
+    ("given", "field", "expected"),
+    [
+        (["--spac", "-1,2,3"], "spacing", "spacing must be positive and finite"),
+        (["--backg", "-1,0,0"], "background", (-1.0, 0.0, 0.0)),
+        (["--alp", "-1e-3"], "alpha", -1e-3),
+    ],
+)
+def test_an_abbreviated_option_takes_its_negative_value(capsys, given, field, expected):
+    """argparse takes an unambiguous prefix of a long option for the option; its value is
+    read as it is after the option's full name."""
+    argv = ["warp", "a.png", "b.png", "--handles", "h", *given]
+    if isinstance(expected, str):
+        assert expected in _one_line_error(capsys, argv)
+    else:
+        assert getattr(build_parser().parse_args(argv), field) == expected
+
+
+def test_an_ambiguous_prefix_is_argparse_s_error(capsys):
+    """An option's full name is that option although it is the prefix of others (--s of
+    --spacing, --seed); a prefix of two options is argparse's error, as without a value."""
+    argv = ["warp", "a.png", "b.png", "--handles", "h", "--s", "-1e-3"]
+    assert build_parser().parse_args(argv).s == -1e-3
+    argv = ["warp", "a.png", "b.png", "--handles", "h", "--inter", "-1e-3"]
+    err = _one_line_error(capsys, argv)
+    assert "ambiguous option: --inter" in err, err
+
+
+def test_words_after_a_double_dash_are_left_alone(capsys):
+    """``--`` ends the options: a word after it is not an option's value, even after an
+    option's name."""
+    argv = ["warp", "a.png", "b.png", "--handles", "h", "--alpha", "--", "-1e-3"]
+    err = _one_line_error(capsys, argv)
+    assert "argument --alpha: expected one argument" in err, err
