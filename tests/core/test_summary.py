@@ -37,3 +37,25 @@ def test_deformed_mesh_mesh_and_volume_print_their_shapes():
     assert (
         repr(volume) == "Volume(data=array((4, 5, 6), uint8), spacing=(2.0, 1.0, 1.0), affine=None)"
     )
+
+
+def test_describe_keeps_shapes_of_a_ragged_list_with_gaps():
+    """A per-image list may hold None where an image has nothing: the arrays' shapes still
+    show, and None in its place."""
+    assert describe([np.zeros(3), None]) == "[2 arrays: (3,) float64, None]"
+    assert describe([None, None]) == "[None, None]"
+
+
+def test_describe_shows_scalars_as_values():
+    """A 0-d array and a numpy scalar are one number: shown as the number."""
+    assert describe(np.array(2.5)) == "array(2.5, float64)"
+    assert describe(np.float32(3)) == "3.0"
+    assert describe([np.int64(1), np.int64(2)]) == "[1, 2]"
+
+
+def test_describe_names_tensors_as_tensors():
+    class Tensor:  # the shape and dtype attributes of a torch tensor, without torch
+        shape, dtype = (2, 3), "torch.float32"
+
+    assert describe(Tensor()) == "Tensor((2, 3), torch.float32)"
+    assert describe([Tensor()] * 2) == "[2 Tensors: (2, 3) torch.float32, (2, 3) torch.float32]"
