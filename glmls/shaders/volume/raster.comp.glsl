@@ -68,8 +68,10 @@ void main() {
         float g0x = -(gx.x + gx.y + gx.z);
         vec3 tlo = min(min(a, a + e1), min(a + e2, a + e3));
         vec3 thi = max(max(a, a + e1), max(a + e2, a + e3));
-        ivec3 lo = max(ivec3(ceil(tlo - VOLUME_INSIDE_EPS)), first);
-        ivec3 hi = min(ivec3(floor(thi + VOLUME_INSIDE_EPS)), last);
+        // clamped to the slab as floats, then made ints: a corner far outside (a float past
+        // the int range) has no defined int, and x86 (llvmpipe) makes INT_MIN of it
+        ivec3 lo = ivec3(max(ceil(tlo - VOLUME_INSIDE_EPS), vec3(first)));
+        ivec3 hi = ivec3(min(floor(thi + VOLUME_INSIDE_EPS), vec3(last)));
         for (int z = lo.z; z <= hi.z; ++z) {
             for (int y = lo.y; y <= hi.y; ++y) {
                 // along the row: l_i(x) = c_i + gx_i (x - lo.x), all >= -eps on an interval
