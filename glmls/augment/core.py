@@ -5,7 +5,6 @@ batch with :func:`glmls.warp_batch` and moves its labels along."""
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -92,14 +91,6 @@ def _check_warp_options(options: Mapping[str, object]) -> None:
         MLSConfig(**{k: v for k, v in options.items() if k in _CONFIG_FIELDS})
     except (TypeError, ValueError) as error:
         raise type(error)(f"warp_options: {error}") from None
-
-
-def _check_positive(name: str, value: object) -> float:
-    """``value`` as a float, a finite number > 0 (numpy's numbers too, not a bool)."""
-    number = isinstance(value, (int, float, np.integer, np.floating))
-    if not number or isinstance(value, (bool, np.bool_)) or not math.isfinite(value) or value <= 0:
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return float(value)
 
 
 def _check_reach(preset: object, dst: np.ndarray, index: int) -> None:
@@ -304,8 +295,8 @@ class Augment:
             raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
         if seed < 0:
             raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
-        self.box_step = _check_positive("box_step", box_step)
-        self.densify = None if densify is None else _check_positive("densify", densify)
+        self.box_step = lab.check_positive("box_step", box_step)
+        self.densify = None if densify is None else lab.check_positive("densify", densify)
         if not isinstance(clip_polygons, (bool, np.bool_)):
             raise TypeError(f"clip_polygons must be True or False, got {clip_polygons!r}")
         if warp_options is not None and not isinstance(warp_options, Mapping):

@@ -21,6 +21,7 @@ __all__ = [
     "boxes_from_outlines",
     "check_boxes",
     "check_polygons",
+    "check_positive",
     "clip_polygon",
     "densify_polygon",
 ]
@@ -147,10 +148,13 @@ def check_polygons(polygons: object, count: int) -> list[list[np.ndarray]]:
     return checked
 
 
-def _check_step(step: object) -> None:
-    ok = isinstance(step, (int, float, np.integer, np.floating)) and not isinstance(step, bool)
-    if not ok or not (math.isfinite(float(step)) and float(step) > 0):  # type: ignore[arg-type]
-        raise ValueError(f"step must be a finite number > 0, got {step!r}")
+def check_positive(name: str, value: object) -> float:
+    """``value`` as a float, a finite number > 0 (numpy's numbers too, not a bool);
+    ``ValueError`` naming ``name`` otherwise."""
+    number = isinstance(value, (int, float, np.integer, np.floating))
+    if not number or isinstance(value, (bool, np.bool_)) or not math.isfinite(value) or value <= 0:
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    return float(value)
 
 
 def _samples(length: float, step: float) -> int:
@@ -185,7 +189,7 @@ def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray
     >>> counts.tolist(), points[:3].tolist()
     ([6], [[0.0, 0.0], [2.0, 0.0], [4.0, 0.0]])
     """
-    _check_step(step)
+    check_positive("step", step)
     outlines = []
     for x0, y0, x1, y1 in boxes:
         corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1], [x0, y0]])
@@ -289,7 +293,7 @@ def densify_polygon(polygon: np.ndarray, step: float | None) -> np.ndarray:
     """
     if step is None:
         return polygon
-    _check_step(step)
+    check_positive("step", step)
     if len(polygon) < 2:
         return polygon
     nxt = np.roll(polygon, -1, axis=0)

@@ -92,7 +92,7 @@ def test_a_warp_options_object_is_its_fields(gl):
         grid=2, transform="similarity",
     )  # fmt: skip
     np.testing.assert_array_equal(first.images, expected)
-    with pytest.raises(TypeError):
+    with pytest.raises(TypeError, match=r"warp_options: options must be a glmls\.WarpOptions"):
         Augment("grid", warp_options={"options": {"method": "backward"}})
 
 
