@@ -21,7 +21,7 @@ from ..imaging.source import SourceImage, background_color, prepare_image
 from ..mls import MLS
 from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size
 from .inputs import BatchInput
-from .labels import embedded, mesh_keypoints
+from .labels import embedded, mesh_keypoints, on_canvas
 from .single import (
     ImageLabels,
     SingleWarper,
@@ -300,8 +300,7 @@ def _finish(quads, batch, chunk, lattices, options, frame, lattice, maps, out, m
             folded,
         )
         moved_all = moved_all - np.asarray(frame.origin)
-        height, width = frame.shape
-        valid_all &= np.all((moved_all >= -0.5) & (moved_all < (width - 0.5, height - 0.5)), axis=1)
+        valid_all &= on_canvas(moved_all, frame.shape)
         ends = np.cumsum(sizes).tolist()
         starts = [0, *ends[:-1]]
         moved_all = [moved_all[a:b] for a, b in zip(starts, ends, strict=True)]

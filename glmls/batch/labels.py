@@ -20,8 +20,16 @@ __all__ = [
     "mesh_corners",
     "mesh_keypoints",
     "mesh_map",
+    "on_canvas",
     "visible",
 ]
+
+
+def on_canvas(out: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """(P,) bool: the output points ``out`` (P, 2) on a canvas of ``shape`` (H, W), which
+    spans [-0.5, W - 0.5) x [-0.5, H - 0.5): output pixel c covers [c - 0.5, c + 0.5)."""
+    height, width = shape
+    return np.all((out >= -0.5) & (out < (width - 0.5, height - 0.5)), axis=1)
 
 
 def mesh_corners(lattice: MeshLattice, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -82,8 +90,7 @@ def visible(
     centre should show (else another part of the image folds over it)."""
     height, width = covered.shape
     pixel = np.rint(out)
-    on = inside & (out[:, 0] >= -0.5) & (out[:, 1] >= -0.5)  # [c - 0.5, c + 0.5): pixel c
-    on &= (out[:, 0] < width - 0.5) & (out[:, 1] < height - 0.5)
+    on = inside & on_canvas(out, (height, width))
     ok = np.zeros(len(points), bool)
     if not on.any():
         return ok

@@ -16,7 +16,7 @@ from ..imaging.frame import Frame, border_margin, make_frame
 from ..imaging.options import WarpOptions
 from ..imaging.pipeline import WarpPipeline
 from ..mls import MLS
-from .labels import mesh_corners, mesh_keypoints, mesh_map, visible
+from .labels import mesh_corners, mesh_keypoints, mesh_map, on_canvas, visible
 
 __all__ = ["ImageLabels", "SingleWarper", "beyond_mesh", "mask_form", "restore_mask"]
 
@@ -172,16 +172,14 @@ class SingleWarper:
                 moved[beyond] = mls(points[beyond])
             if backward:  # and shown by the backward map, which picks its own fold layer
                 _, jacobian, inside = self.move(mls, shape, options, frame, points)
-                on_canvas = moved - np.asarray(frame.origin)
-                valid &= visible(points, on_canvas, jacobian, coords, covered, inside)
+                landed = moved - np.asarray(frame.origin)
+                valid &= visible(points, landed, jacobian, coords, covered, inside)
         else:
             moved, jacobian, inside = self.move(mls, shape, options, frame, points)
             moved = moved - np.asarray(frame.origin)
             return moved, visible(points, moved, jacobian, coords, covered, inside)
         moved = moved - np.asarray(frame.origin)
-        height, width = frame.shape
-        on = np.all((moved >= -0.5) & (moved < (width - 0.5, height - 0.5)), axis=1)
-        return moved, valid & on
+        return moved, valid & on_canvas(moved, frame.shape)
 
     def lattice(self, mls: MLS, shape: tuple[int, int], options: WarpOptions, frame: Frame):
         """The quads' mesh, as the pipeline builds it: extended past the image as far as the
