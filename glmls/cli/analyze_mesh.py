@@ -28,11 +28,11 @@ from ..files.atomic import atomic_write
 from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import volume_suffix
 from ..mls import MLS
-from .analyze_volume import read_points_3d, refuse_image_options
+from .analyze_volume import read_points_3d
 from .inputs import figure, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
-from .warp3d import check_world, read_3d_handles
+from .warp3d import check_world, read_3d_handles, refuse_image_options
 
 __all__ = ["is_mesh_input", "run_mesh"]
 

@@ -22,13 +22,14 @@ from .progress import Ticker
 from .warp3d import (
     check_world,
     read_3d_handles,
+    refuse_image_options,
     volume_handle_warnings,
     voxel_handles,
     warpable,
     world_handles,
 )
 
-__all__ = ["is_volume_input", "read_points_3d", "refuse_image_options", "run_volume"]
+__all__ = ["is_volume_input", "read_points_3d", "run_volume"]
 
 
 def is_volume_input(args: argparse.Namespace) -> bool:
@@ -93,21 +94,6 @@ def _warped(m: object, volume: np.ndarray, args: argparse.Namespace, spacing) ->
     except (TypeError, ValueError, NotImplementedError) as error:
         say(args, f"analyze: no deformed volume: {error}")
         return None
-
-
-def refuse_image_options(args: argparse.Namespace, kind: str) -> None:
-    """:class:`UsageError` for ``--fit`` or ``--tolerance`` (the image construction's
-    options) on a volume or mesh, as ``glmls warp`` refuses them."""
-    given = [
-        option
-        for option, value in (
-            ("--fit", getattr(args, "fit", False)),
-            ("--tolerance", getattr(args, "tolerance", None) is not None),
-        )
-        if value
-    ]
-    if given:
-        raise UsageError(f"{', '.join(given)}: for images, not for a {kind} ({args.input})")
 
 
 def run_volume(args: argparse.Namespace) -> int:

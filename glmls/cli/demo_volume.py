@@ -24,7 +24,7 @@ from ..errors import InputFileError
 from ..files.landmarks import handle_dimension, read_handles
 from ..files.volumes import Volume, is_volume_file, read_volume, volume_suffix
 from .demo_window import fail, replay_events, run_window, window_options
-from .warp3d import voxel_handles
+from .warp3d import image_options_given, voxel_handles
 
 __all__ = ["run_volume", "volume_inputs"]
 
@@ -100,11 +100,7 @@ def volume_settings(args: argparse.Namespace):
     from ..app.volume_controller import VOLUME_METHODS, VolumeSettings
     from .options import config_from_args
 
-    images_only = [
-        option
-        for option, given in (("--fit", args.fit), ("--tolerance", args.tolerance is not None))
-        if given
-    ]
+    images_only = image_options_given(args)
     if images_only:
         raise ValueError(f"{', '.join(images_only)}: for images, not for the volume window")
     if args.method not in VOLUME_METHODS:

@@ -44,14 +44,18 @@ from .progress import Ticker
 
 __all__ = [
     "add_3d_options",
+    "check_world",
+    "image_options_given",
     "input_kind",
     "parse_spacing",
     "read_3d_handles",
+    "refuse_image_options",
     "run_3d",
     "spacing_text",
     "volume_handle_warnings",
     "voxel_handles",
     "warpable",
+    "world_handles",
 ]
 
 #: The dtypes a volume is warped in as it is; others are warped as float32 and written back
@@ -242,18 +246,28 @@ def _mls(src: np.ndarray, dst: np.ndarray, config: MLSConfig, **volume: object) 
         raise UsageError(f"handles: {error}") from None
 
 
-def _refuse_image_options(args: argparse.Namespace, kind: str) -> None:
-    given = [
-        option
-        for option, value in (
-            ("--fit", args.fit),
-            ("--tolerance", args.tolerance is not None),
-            ("--keep-going", args.keep_going),
-        )
-        if value
-    ]
+def image_options_given(args: argparse.Namespace) -> list[str]:
+    """Those of ``--fit``, ``--tolerance`` (the image construction's) and ``--keep-going``
+    (a batch of images') given, which a volume or mesh refuses; a command without one of
+    them has it not given."""
+    given = (
+        ("--fit", getattr(args, "fit", False)),
+        ("--tolerance", getattr(args, "tolerance", None) is not None),
+        ("--keep-going", getattr(args, "keep_going", False)),
+    )
+    return [option for option, value in given if value]
+
+
+def refuse_image_options(args: argparse.Namespace, kind: str) -> None:
+    """:class:`UsageError` for an option of :func:`image_options_given` on a ``kind``
+    ("volume", "mesh") of ``args.input``."""
+    given = image_options_given(args)
     if given:
         raise UsageError(f"{', '.join(given)}: for images, not for a {kind} ({args.input})")
+
+
+def _refuse_other_options(args: argparse.Namespace, kind: str) -> None:
+    refuse_image_options(args, kind)
     if kind != "mesh":
         return
     if args.spacing is not None:
@@ -278,7 +292,7 @@ def _refuse_image_options(args: argparse.Namespace, kind: str) -> None:
 
 def run_3d(args: argparse.Namespace, kind: str) -> int:
     """``glmls warp`` on one volume or mesh."""
-    _refuse_image_options(args, kind)
+    _refuse_other_options(args, kind)
     check_world(args)
     config = config_from_args(args)
     target = _target(args, kind)
