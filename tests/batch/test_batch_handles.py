@@ -69,7 +69,7 @@ def test_quads_keypoints_beyond_the_mesh_move_by_f(gl, grid, border, chunks):
     """Where no cell of the mesh lies (outside the image with the constant border, beyond
     the margin with the others) a keypoint moves by f, not by its nearest cell's map drawn
     out (pixels away at a few pixels' distance): a box partly outside the image keeps its
-    shape. Inside the mesh, the mesh's own map, as before."""
+    shape. Inside the mesh, the mesh's own map."""
     rng = np.random.default_rng(4)
     images = rng.integers(0, 255, (3, 20, 28), dtype=np.uint8)
     src = rng.uniform(2, 18, (3, 6, 2))
