@@ -63,12 +63,18 @@ class AugmentResult(BatchResult):
     polygons: list[list[np.ndarray]] | None = None
 
 
-#: The keywords of :func:`glmls.warp_batch` that ``warp_options`` may hold (the labels are
-#: the call's own; the segment handles are per image).
-_WARP_KEYWORDS = (FIELDS | {"options", "return_maps", "max_batch_bytes"} | MLS_KEYWORDS) - {
-    "keypoints",
-    "masks",
+#: The keywords of :func:`glmls.warp_batch` that ``warp_options`` cannot hold, each with the
+#: reason its error gives: the labels are each call's own, and segment handles would go
+#: with handles that the preset draws per image.
+_NOT_OPTIONS = {
+    "keypoints": "give them to the call",
+    "masks": "give them to the call",
+    "src_segments": "the preset draws each image's handles",
+    "dst_segments": "the preset draws each image's handles",
 }
+_WARP_KEYWORDS = (FIELDS | {"options", "return_maps", "max_batch_bytes"} | MLS_KEYWORDS) - set(
+    _NOT_OPTIONS
+)
 #: The ``warp_options`` that say where to render, not what: kept out of the params (JSON),
 #: added again on replay.
 _UNRECORDED = ("ctx",)
@@ -81,8 +87,8 @@ def _check_warp_options(options: Mapping[str, object]) -> None:
     it does not take, or the labels that are the call's own, is a ``TypeError``, a bad
     value a ``ValueError`` naming it."""
     for name in options:
-        if name in ("keypoints", "masks"):
-            raise TypeError(f"warp_options cannot hold {name}: give them to the call")
+        if name in _NOT_OPTIONS:
+            raise TypeError(f"warp_options cannot hold {name}: {_NOT_OPTIONS[name]}")
         if name not in _WARP_KEYWORDS:
             raise TypeError(f"warp_options has no keyword {name}")
     fields = {k: v for k, v in options.items() if k in FIELDS or k == "options"}
@@ -259,7 +265,8 @@ class Augment:
         coordinate range when it draws).
     TypeError
         For an unknown option, a ``warp_options`` keyword that :func:`glmls.warp_batch`
-        does not take (or ``keypoints``, ``masks``: the call's own) or a ``clip_polygons``
+        does not take (or ``keypoints``, ``masks``: the call's own; ``src_segments``,
+        ``dst_segments``: the preset draws the handles) or a ``clip_polygons``
         that is not a bool.
 
     Examples

@@ -18,6 +18,11 @@ from glmls.augment import Augment
         ({"grid": 0}, ValueError, "warp_options: grid must be an integer"),
         ({"weight": "gaussian", "radius": -1}, ValueError, "warp_options: radius must be > 0"),
         ({"keypoints": 1}, TypeError, "warp_options cannot hold keypoints: give them to the call"),
+        (
+            {"src_segments": [[[0, 0], [4, 0]]]},
+            TypeError,
+            "warp_options cannot hold src_segments: the preset draws each image's handles",
+        ),
     ],
 )
 def test_bad_warp_options_are_refused_by_the_constructor(options, error, message):
