@@ -40,9 +40,8 @@ def warp_batch(
     chunk of images of one shape, f on every image's mesh in one pass, one scan of every
     mesh (and for ``backward`` one Newton pass over every pixel), one fill and one
     read-back; the other methods and borders take the single pipeline image by image
-    (:doc:`/batch`). In a
-    process forked from one in which glmls used GL (a data loader's worker),
-    it runs in a helper process started fresh, with the same result (see
+    (:doc:`/batch`). In a process forked from one in which glmls used GL (a data loader's
+    worker), it runs in a helper process started fresh, with the same result (see
     :mod:`glmls.gl.context`).
 
     Parameters
