@@ -20,13 +20,14 @@ from .. import reference
 from ..core.config import MLSConfig
 from .frame import CornerLattice
 
-__all__ = ["NEWTON_ACCEPT", "Field", "ReferenceField", "newton_inverse"]
+__all__ = ["NEWTON_ACCEPT", "NEWTON_TOLERANCE", "Field", "ReferenceField", "newton_inverse"]
 
 #: A voxel whose Newton residual |f(s) - u| stays above this (voxels) is left uncovered.
 NEWTON_ACCEPT = 0.05
-#: How far outside the volume's box [-1/2, n - 1/2] a preimage may lie and still be in it
-#: (``constant`` border): Newton's tolerance, so that a preimage on a face is in.
-NEWTON_BOX = 1e-3
+#: Newton on f stops below this residual |f(s) - u| (voxels); a preimage this far outside
+#: the volume's box [-1/2, n - 1/2] is still in it (``constant`` border), so that one on a
+#: face is in whatever side rounding leaves it.
+NEWTON_TOLERANCE = 1e-3
 
 
 class Field(Protocol):
@@ -132,8 +133,8 @@ class ReferenceField:
         s, residual = newton_inverse(self, u, guess)
         found = residual <= NEWTON_ACCEPT
         if constant:  # the closed box, within Newton's tolerance (as the GPU's pass)
-            top = np.array(shape[::-1], dtype=np.float64) - 0.5 + NEWTON_BOX
-            found &= np.all((s >= -0.5 - NEWTON_BOX) & (s <= top), axis=1)
+            top = np.array(shape[::-1], dtype=np.float64) - 0.5 + NEWTON_TOLERANCE
+            found &= np.all((s >= -0.5 - NEWTON_TOLERANCE) & (s <= top), axis=1)
         w = np.where(found, residual, -1.0 - np.minimum(residual, 1e30))
         out = np.concatenate([s, w[:, None]], axis=1).astype(np.float32)
         coords.write(np.ascontiguousarray(out))

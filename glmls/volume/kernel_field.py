@@ -13,16 +13,14 @@ from ..engine.kernel3 import MLSKernel3
 from ..engine.passes3 import evaluate_points3
 from ..gl import bindings
 from ..gl.dispatch import run_1d, set_uniforms
-from .fields import NEWTON_ACCEPT
+from .fields import NEWTON_ACCEPT, NEWTON_TOLERANCE
 from .frame import CornerLattice
 
 __all__ = ["NEWTON_STEPS", "NEWTON_TOLERANCE", "KernelField"]
 
-#: Newton on f stops below this residual |f(s) - u| (voxels) ...
-NEWTON_TOLERANCE = 1e-3
-#: ... or after this many steps (and as many halvings of a step that raised the residual, in
-#: all); a voxel whose residual stays above
-#: :data:`~glmls.volume.fields.NEWTON_ACCEPT` is left uncovered.
+#: Newton on f stops below :data:`~glmls.volume.fields.NEWTON_TOLERANCE` or after this many
+#: steps (and as many halvings of a step that raised the residual, in all); a voxel whose
+#: residual stays above :data:`~glmls.volume.fields.NEWTON_ACCEPT` is left uncovered.
 NEWTON_STEPS = 12
 #: Each step goes at most this share of the volume's largest side (far from the solution
 #: Newton's step may overshoot).
