@@ -65,11 +65,13 @@ class ArgumentParser(argparse.ArgumentParser):
     def parse_known_args(  # type: ignore[override]
         self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
     ) -> tuple[argparse.Namespace, list[str]]:
-        """argparse's, where an option that takes one value takes a next word that begins
-        with '-' and a digit (``--spacing -1,1,1``, ``--alpha -1e-3``, ``--background
-        -1,0,0``) as ``--option=word``: argparse reads such a word as an option unless it is
-        one plain negative number, and then says the option expects an argument, where the
-        option's own check of the value has the clearer message."""
+        """argparse's, where an option that takes one value (named in full or by a prefix
+        argparse takes for it) takes a next word that begins with '-' and a digit
+        (``--spacing -1,1,1``, ``--alpha -1e-3``, ``--backg -1,0,0``) as ``--option=word``:
+        argparse reads such a word as an option unless it is one plain negative number, and
+        then says the option expects an argument, where the option's own check of the value
+        has the clearer message. Words after ``--`` are left as they are; an option of no
+        value or of several (``nargs``) is left to argparse."""
         words = list(sys.argv[1:] if args is None else args)
         return super().parse_known_args(self._negative_values(words), namespace)
 
