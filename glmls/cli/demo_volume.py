@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputFileError
+from ..files.images import DEFAULT_MAX_PIXELS
 from ..files.landmarks import handle_dimension, read_handles
 from ..files.volumes import Volume, is_volume_file, read_volume, volume_suffix
 from .demo_window import fail, replay_events, run_window, window_options
@@ -96,13 +97,19 @@ def volume_settings(args: argparse.Namespace):
     """The volume window's first :class:`~glmls.app.volume_controller.VolumeSettings`: the
     options given, its own defaults for those left out (``--border`` edge,
     ``--interpolation`` linear); ``ValueError`` for an option it cannot take (a 2D method,
-    ``--fit``, ``--tolerance``, a grid other than 1, 2, 4, 8, 16)."""
+    ``--fit``, ``--tolerance``, ``--reference``, ``--max-pixels``, a grid other than 1, 2, 4,
+    8, 16)."""
     from ..app.volume_controller import VOLUME_METHODS, VolumeSettings
     from .options import config_from_args
 
     images_only = [
         option
-        for option, given in (("--fit", args.fit), ("--tolerance", args.tolerance is not None))
+        for option, given in (
+            ("--fit", args.fit),
+            ("--tolerance", args.tolerance is not None),
+            ("--reference", args.reference is not None),
+            ("--max-pixels", args.max_pixels != DEFAULT_MAX_PIXELS),
+        )
         if given
     ]
     if images_only:
