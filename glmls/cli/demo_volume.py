@@ -16,6 +16,7 @@ given in its voxels, are scaled by ``--spacing``.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +26,7 @@ from ..files.images import DEFAULT_MAX_PIXELS
 from ..files.landmarks import handle_dimension, read_handles
 from ..files.volumes import Volume, is_volume_file, read_volume, volume_suffix
 from .demo_window import fail, replay_events, run_window, window_options
-from .warp3d import voxel_handles
+from .warp3d import volume_handle_warnings, voxel_handles
 
 __all__ = ["run_volume", "volume_inputs"]
 
@@ -129,7 +130,9 @@ def volume_settings(args: argparse.Namespace):
 
 
 def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
-    """Run the volume window for parsed arguments and :func:`volume_inputs`; the exit status."""
+    """Run the volume window for parsed arguments and :func:`volume_inputs`; the exit status.
+    Source handles of ``--handles`` half or more outside the volume are warned of on stderr,
+    in ``glmls warp``'s words."""
     from ..app.volume_window import VolumeApp
 
     volume, name, src, dst = inputs
@@ -147,4 +150,9 @@ def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
         )
     except (ValueError, TypeError) as error:
         return fail(2, str(error))
+    if args.handles is not None:  # as glmls warp and analyze say it
+        for message in volume_handle_warnings(
+            args, src, volume.shape, volume.spacing, volume.affine
+        ):
+            print(f"glmls demo: warning: {args.image or name}: {message}", file=sys.stderr)
     return run_window(app, args, events)
