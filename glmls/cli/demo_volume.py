@@ -150,9 +150,7 @@ def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
         )
     except (ValueError, TypeError) as error:
         return fail(2, str(error))
-    if args.handles is not None:  # as glmls warp and analyze say it
-        for message in volume_handle_warnings(
-            args, src, volume.shape, volume.spacing, volume.affine
-        ):
+    if args.handles is not None:  # as glmls warp says it; no affine: no --world hint here
+        for message in volume_handle_warnings(args, src, volume.shape, volume.spacing, None):
             print(f"glmls demo: warning: {args.image or name}: {message}", file=sys.stderr)
     return run_window(app, args, events)
