@@ -185,6 +185,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.construction is not None:  # the former name of --method/--interpolation
         args.method, args.interpolation = _CONSTRUCTIONS[args.construction]
+    if args.targets is not None and args.handles is None:
+        return fail(2, "--targets: with --handles (the source points), as for glmls warp")
     try:
         volume = volume_inputs(args)
     except (ValueError, TypeError) as error:

@@ -84,3 +84,13 @@ def test_demo_warns_of_handles_outside_the_volume_as_warp_does(tmp_path, capsys,
     )
     warned = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
     assert [line.replace("glmls warp:", "glmls demo:") for line in warned] == [err.strip()]
+
+
+@pytest.mark.parametrize("window", [["--volume"], []])
+def test_demo_refuses_targets_without_handles(tmp_path, capsys, window):
+    """--targets is the second file of a pair: without --handles either window would ignore
+    it, so it is refused, in one line, exit status 2."""
+    fixed = _pts(tmp_path / "f.pts", "point", DST)
+    assert main(["demo", *window, "--targets", fixed]) == 2
+    message = capsys.readouterr().err
+    assert "--targets: with --handles" in message and message.count("\n") == 1, message
