@@ -97,7 +97,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "affine, an ImageJ TIFF stack's spacing; else 1)",
     )
     parser.add_argument(
-        "--reference", type=Path, help="reference points (JSON or CSV) for the angle errors"
+        "--reference",
+        type=Path,
+        help="reference points (JSON or CSV) for the angle errors (images only)",
     )
     add_config_options(parser)
     add_warp_options(parser, grid=4, windows=True)
