@@ -12,10 +12,11 @@ Degenerate cases follow the same rules as the shader (``glmls/shaders/mls/core.g
 - rigid with all targets in reach collapsed to one point: M = I;
 - affine with a singular moment matrix: the similarity solution.
 
-Segment handles (:mod:`glmls.core.segments`) add the integrals of the same moments along each
-segment, per unit length, computed by an accurate quadrature (:func:`segment_moments`). A point
-on a segment whose weight is infinite there maps to the segment's target at the same
-parameter, and M is the limit, about that point (the segment adds only its second moment).
+Segment handles (the segments of a :class:`glmls.HandleSet`) add the integrals of the same
+moments along each segment, per unit length, computed by an accurate quadrature
+(:func:`segment_moments`). A point on a segment whose weight is infinite there maps to the
+segment's target at the same parameter, and M is the limit, about that point (the segment
+adds only its second moment).
 
 In three dimensions (:func:`mls` with (N, 3) handles and (K, 3) points, (x, y, z) = (column,
 row, slice); point handles only) the moments are A = sum w p^T p^ and B = sum w p^T q^ (3 x 3,

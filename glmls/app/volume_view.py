@@ -4,6 +4,7 @@ point's crosshairs, the active view's frame, the handles near each plane, and th
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import moderngl
@@ -12,12 +13,21 @@ import numpy as np
 from ..analysis.canvas import HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR
 from ..analysis.shapes import arrow_triangles, disk_triangles
 from ..gl.context import GLContext
-from .layout import Layout
+from .layout import Layout, layout
 from .overlays import GeometryDrawer, PictureDrawer
 from .text import GlyphAtlas, TextRenderer, glyph_atlas
 from .volume_controller import AXES, VOLUME_BINDINGS, VolumeController
 
-__all__ = ["VolumeView", "help_text", "scene_geometry", "text_groups", "view_viewport"]
+__all__ = [
+    "MARGIN",
+    "VolumeView",
+    "help_text",
+    "montage_layout",
+    "scene_geometry",
+    "text_groups",
+    "view_viewport",
+    "window_size",
+]
 
 BACKGROUND = (0.13, 0.13, 0.14)
 CROSSHAIR_RGBA = (0.2, 0.9, 1.0, 0.5)
@@ -31,6 +41,29 @@ MOUSE_HELP = (
     ("right-click", "delete the handle there"),
     ("wheel", "slice point along the normal"),
 )
+
+
+#: Montage pixels of background around the three views, in which their frame lines lie (at
+#: the window's very edge a line would fall outside the framebuffer).
+MARGIN = 1
+
+
+def window_size(grid, panel: int) -> tuple[int, int]:
+    """The window's default (width, height) for the montage of ``grid`` and its margin beside
+    a panel ``panel`` pixels wide: scaled up (never down) to about 560 rows or 900 columns,
+    rounded up so that the views fit whole."""
+    rows, columns = grid.montage_shape
+    rows, columns = rows + 2 * MARGIN, columns + 2 * MARGIN
+    scale = max(1.0, min(560 / rows, 900 / columns))
+    return panel + math.ceil(columns * scale), math.ceil(rows * scale)
+
+
+def montage_layout(framebuffer: tuple[int, int], grid, panel: int) -> Layout:
+    """The montage of ``grid``, with :data:`MARGIN` montage pixels all round, fitted into
+    ``framebuffer`` beside the panel."""
+    rows, columns = grid.montage_shape
+    shape = (rows + 2 * MARGIN, columns + 2 * MARGIN)
+    return layout(framebuffer, shape, panel, origin=(-MARGIN, -MARGIN))
 
 
 def view_viewport(layout: Layout, grid, view: int) -> tuple[int, int, int, int]:
@@ -157,6 +190,7 @@ class VolumeView:
                 if shown:
                     self.overlays[view].draw(opacity=1.0, linear=False)
             screen.viewport = layout.viewport
+            self.geometry.frame = layout.frame  # the montage and its margin
             triangles, lines = scene_geometry(c, layout.scale)
             self.geometry.draw(lines, moderngl.LINES)
             self.geometry.draw(triangles)

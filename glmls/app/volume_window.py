@@ -19,10 +19,9 @@ from ..files.landmarks import read_handles, write_handles
 from ..files.volumes import VOLUME_SUFFIXES, Volume, write_volume
 from .glfw_window import NoDisplayError
 from .hud import PANEL_CHARS, frame_rate, wrap
-from .layout import layout
 from .volume_controller import AXES, VIEWS, VolumeController, VolumeSettings
 from .volume_session import VolumeSession, display_volume
-from .volume_view import VolumeView, text_groups
+from .volume_view import VolumeView, montage_layout, text_groups, window_size
 from .window_loop import WindowLoop
 
 __all__ = ["NoDisplayError", "VolumeApp"]
@@ -99,10 +98,8 @@ class VolumeApp(WindowLoop):
         )
 
     def _open(self, *, vsync: bool) -> None:
-        rows, columns = self.controller.grid.montage_shape
-        scale = max(1.0, min(560 / rows, 900 / columns))
         panel = PANEL_CHARS * 8 + 24
-        size = self.window_size or (panel + round(columns * scale), round(rows * scale))
+        size = self.window_size or window_size(self.controller.grid, panel)
         self._open_window(size, vsync=vsync)
         self.session = VolumeSession(self.gl, self.controller, self.display)
         self.view = VolumeView(self.gl, self.controller)
@@ -241,8 +238,8 @@ class VolumeApp(WindowLoop):
 
     def _lay_out(self):
         text = self._text_renderer().atlas
-        self.layout = layout(
-            self.window.framebuffer_size, self.controller.grid.montage_shape, self._panel
+        self.layout = montage_layout(
+            self.window.framebuffer_size, self.controller.grid, self._panel
         )
         return text
 

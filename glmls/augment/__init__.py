@@ -9,7 +9,8 @@ The adapters for other libraries are modules of their own, imported only when us
 :mod:`glmls.augment.albumentations` (an albumentations ``DualTransform``, ``pip install
 'glmls[albumentations]'``) and :mod:`glmls.augment.torchvision` (a torchvision v2
 ``Transform``, ``pip install 'glmls[torch]'``). :class:`Augment` itself takes and gives
-torch tensors too (:mod:`glmls.augment.tensors`).
+torch tensors too, in torch's layout, of their dtype and on their device (:doc:`the guide
+</augment>`, "torch tensors, torchvision and albumentations").
 """
 
 from .core import DEFAULT_WARP_OPTIONS, Augment, AugmentResult

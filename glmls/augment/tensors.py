@@ -1,5 +1,6 @@
 """torch tensors in and out of :class:`glmls.augment.Augment`, without importing torch: a
-tensor is recognised only where torch is already imported (``sys.modules``).
+tensor is recognised only where torch is already imported (``sys.modules``). Internal to
+:class:`~glmls.augment.Augment` and the adapters; users pass tensors to them.
 
 Images are taken in torch's layout, (N, C, H, W) or (N, H, W), or as a list of (C, H, W) or
 (H, W) tensors (a ragged batch), and come back in it, of their dtype and on their device;

@@ -97,7 +97,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "affine, an ImageJ TIFF stack's spacing; else 1)",
     )
     parser.add_argument(
-        "--reference", type=Path, help="reference points (JSON or CSV) for the angle errors"
+        "--reference",
+        type=Path,
+        help="reference points (JSON or CSV) for the angle errors (images only)",
     )
     add_config_options(parser)
     add_warp_options(parser, grid=4, windows=True)
@@ -185,6 +187,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.construction is not None:  # the former name of --method/--interpolation
         args.method, args.interpolation = _CONSTRUCTIONS[args.construction]
+    if args.targets is not None and args.handles is None:
+        return fail(2, "--targets: with --handles (the source points), as for glmls warp")
     try:
         volume = volume_inputs(args)
     except (ValueError, TypeError) as error:

@@ -16,15 +16,17 @@ given in its voxels, are scaled by ``--spacing``.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputFileError
+from ..files.images import DEFAULT_MAX_PIXELS
 from ..files.landmarks import handle_dimension, read_handles
 from ..files.volumes import Volume, is_volume_file, read_volume, volume_suffix
 from .demo_window import fail, replay_events, run_window, window_options
-from .warp3d import image_options_given, voxel_handles
+from .warp3d import image_options_given, volume_handle_warnings, voxel_handles
 
 __all__ = ["run_volume", "volume_inputs"]
 
@@ -96,11 +98,19 @@ def volume_settings(args: argparse.Namespace):
     """The volume window's first :class:`~glmls.app.volume_controller.VolumeSettings`: the
     options given, its own defaults for those left out (``--border`` edge,
     ``--interpolation`` linear); ``ValueError`` for an option it cannot take (a 2D method,
-    ``--fit``, ``--tolerance``, a grid other than 1, 2, 4, 8, 16)."""
+    ``--fit``, ``--tolerance``, ``--reference``, ``--max-pixels``, a grid other than 1, 2, 4,
+    8, 16)."""
     from ..app.volume_controller import VOLUME_METHODS, VolumeSettings
     from .options import config_from_args
 
-    images_only = image_options_given(args)
+    images_only = image_options_given(args) + [
+        option
+        for option, given in (
+            ("--reference", args.reference is not None),
+            ("--max-pixels", args.max_pixels != DEFAULT_MAX_PIXELS),
+        )
+        if given
+    ]
     if images_only:
         raise ValueError(f"{', '.join(images_only)}: for images, not for the volume window")
     if args.method not in VOLUME_METHODS:
@@ -118,7 +128,9 @@ def volume_settings(args: argparse.Namespace):
 
 
 def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
-    """Run the volume window for parsed arguments and :func:`volume_inputs`; the exit status."""
+    """Run the volume window for parsed arguments and :func:`volume_inputs`; the exit status.
+    Source handles of ``--handles`` half or more outside the volume are warned of on stderr,
+    in ``glmls warp``'s words."""
     from ..app.volume_window import VolumeApp
 
     volume, name, src, dst = inputs
@@ -136,4 +148,7 @@ def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
         )
     except (ValueError, TypeError) as error:
         return fail(2, str(error))
+    if args.handles is not None:  # as glmls warp says it; no affine: no --world hint here
+        for message in volume_handle_warnings(args, src, volume.shape, volume.spacing, None):
+            print(f"glmls demo: warning: {args.image or name}: {message}", file=sys.stderr)
     return run_window(app, args, events)

@@ -30,6 +30,7 @@ import tifffile
 from PIL import Image, ImageOps, UnidentifiedImageError
 
 from ..errors import ImageWarning
+from .tiffs import quiet_tifffile
 
 __all__ = ["DEFAULT_MAX_PIXELS", "WRITABLE", "check_writable", "imread", "imwrite"]
 
@@ -150,7 +151,7 @@ def _read_png16(path: Path, head: bytes, max_pixels: int) -> np.ndarray:
 
 
 def _read_tiff(path: Path, max_pixels: int) -> np.ndarray:
-    with tifffile.TiffFile(path) as tiff:
+    with quiet_tifffile(), tifffile.TiffFile(path) as tiff:
         page = tiff.pages[0]
         shape = page.shape
         _too_large(path, shape[1] if len(shape) > 1 else 1, shape[0], max_pixels)
@@ -161,6 +162,8 @@ def _read_tiff(path: Path, max_pixels: int) -> np.ndarray:
         array = page.asarray()
         orientation = page.tags.get("Orientation")
         code = int(orientation.value) if orientation is not None else 1
+    if array.ndim not in (2, 3) or not array.size:
+        raise ValueError(f"{path}: not an image: its first page is of shape {array.shape}")
     if array.ndim == 3 and array.shape[0] in (3, 4) and array.shape[2] not in (1, 2, 3, 4):
         array = np.moveaxis(array, 0, -1)  # planar storage
     return _orient(np.ascontiguousarray(array), code)

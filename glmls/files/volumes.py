@@ -24,10 +24,8 @@ naming it.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import gzip
-import logging
 import os
 import struct
 import zlib
@@ -40,6 +38,7 @@ from ..core.handles3 import as_volume_spacing
 from ..core.summary import fields_repr
 from ..errors import InputFileError
 from .atomic import atomic_write
+from .tiffs import quiet_tifffile
 
 __all__ = [
     "VOLUME_SUFFIXES",
@@ -69,19 +68,6 @@ def volume_suffix(path: str | os.PathLike) -> str:
     return ".nii.gz" if name.endswith(".nii.gz") else Path(name).suffix
 
 
-@contextlib.contextmanager
-def _quiet_tifffile():
-    """tifffile's log records of a corrupt file held back: glmls reports the fault itself,
-    in one line."""
-    logger = logging.getLogger("tifffile")
-    level = logger.level
-    logger.setLevel(logging.CRITICAL + 1)
-    try:
-        yield
-    finally:
-        logger.setLevel(level)
-
-
 def is_volume_file(path: str | os.PathLike) -> bool:
     """Whether ``path`` names a volume: a NIfTI or ``.npy`` file by its suffix, or a TIFF of
     more than one page (an existing file is opened to count its pages; a TIFF that does
@@ -93,7 +79,7 @@ def is_volume_file(path: str | os.PathLike) -> bool:
     if suffix not in (".tif", ".tiff") or not Path(path).is_file():
         return False
     try:
-        with _quiet_tifffile(), tifffile.TiffFile(path) as tiff:
+        with quiet_tifffile(), tifffile.TiffFile(path) as tiff:
             pages = len(tiff.pages)
     except (tifffile.TiffFileError, *_CORRUPT) as error:
         raise InputFileError(f"{path}: not a readable TIFF file: {error}") from None
@@ -330,7 +316,7 @@ def read_volume(path: str | os.PathLike) -> Volume:
         if suffix == ".npy":
             volume = Volume(np.load(path, allow_pickle=False))
         elif suffix in (".tif", ".tiff"):
-            with _quiet_tifffile():
+            with quiet_tifffile():
                 volume = _read_tiff(path)
         else:
             volume = _read_nifti(path)

@@ -6,10 +6,10 @@ Most users never touch this package: :class:`glmls.MLS` and :func:`glmls.warp` u
 headless context of the calling thread. It is for rendering into a context of your own (a
 window's), for threads and processes, and for choosing between the pipeline's internal paths.
 
-The modules below know nothing of MLS: shader loading (:mod:`.shaders`), the binding points
-(:mod:`.bindings`), cached GL objects (:mod:`.resources`) and compute dispatches
-(:mod:`.dispatch`). :class:`WarpPipeline` lives in the imaging layer above and is re-exported
-here lazily, so that importing this package never imports the layers built on it.
+Beside these, the package holds plumbing that knows nothing of MLS (shader loading, binding
+points, cached GL objects, compute dispatches; :doc:`/architecture`). :class:`WarpPipeline`
+lives in the imaging layer above and is re-exported here lazily, so that importing this
+package never imports the layers built on it.
 """
 
 from __future__ import annotations

@@ -2,9 +2,8 @@
 split into tetrahedra) and the backward method (Newton's method on f), slab by slab of output
 slices (see :doc:`/volumes`).
 
-The construction itself lives in :mod:`glmls.volume.construction` (``VolumeWarper``, one per
-GL context), what it deforms by in :mod:`glmls.volume.fields` and
-:mod:`glmls.volume.kernel_field`."""
+How the construction is built (one per GL context, and the fields it deforms by) is in
+:doc:`/architecture`."""
 
 from .api import volume_bounds, volume_coordinate_map, warp_volume
 from .frame import VolumeBounds

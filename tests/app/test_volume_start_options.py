@@ -63,6 +63,9 @@ def test_the_image_window_keeps_its_own_defaults():
         (["--grid", "3"], "grid must be one of (1, 2, 4, 8, 16), got 3"),
         (["--fit"], "--fit: for images, not for the volume window"),
         (["--tolerance", "0.05"], "--tolerance: for images, not for the volume window"),
+        (["--reference", "r.json"], "--reference: for images, not for the volume window"),
+        (["--max-pixels", "1000"], "--max-pixels: for images, not for the volume window"),
+        (["--construction", "splat"], "--method splat: the volume window builds quads or"),
     ],
 )
 def test_an_option_the_volume_window_cannot_take_exits_2(capsys, words, message):

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
@@ -54,3 +56,41 @@ def test_demo_without_targets_names_the_option_it_has(tmp_path, capsys):
     assert main(["demo", str(volume), "--handles", moving]) == 2
     message = capsys.readouterr().err
     assert "--targets" in message and message.count("\n") == 1, message
+
+
+def test_demo_warns_of_handles_outside_the_volume_as_warp_does(tmp_path, capsys, monkeypatch):
+    """The volume window says what ``glmls warp`` says of source handles half or more outside
+    the volume (the same words, hint included), and opens all the same."""
+    from glmls.cli import demo_volume
+
+    monkeypatch.setattr(demo_volume, "run_window", lambda app, args, events: 0)
+    np.save(tmp_path / "big.npy", np.zeros((64, 64, 64), np.uint8))
+    src, dst = glmls.data.phantom_handles()
+    (tmp_path / "h3.json").write_text(json.dumps({"src": src.tolist(), "dst": dst.tolist()}))
+    volume, handles = str(tmp_path / "big.npy"), str(tmp_path / "h3.json")
+    assert main(["demo", volume, "--handles", handles]) == 0
+    assert "warning" not in capsys.readouterr().err  # the phantom's handles, in voxels
+    assert main(["demo", volume, "--handles", handles, "--spacing", "0.5"]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith(
+        f"glmls demo: warning: {volume}: 9 of 10 handles lie outside the 64 x 64 x 64 volume "
+        "of spacing (dz, dy, dx) = (0.5, 0.5, 0.5); in voxel indices? the handles are in the "
+        "units of the spacing"
+    ), err
+    assert err.count("\n") == 1, err
+    assert (
+        main(["warp", volume, str(tmp_path / "o.npy"), "--handles", handles, "--spacing", "0.5"])
+        == 0
+    )
+    warned = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
+    assert [line.replace("glmls warp:", "glmls demo:") for line in warned] == [err.strip()]
+
+
+@pytest.mark.parametrize("window", [["--volume"], []])
+def test_demo_refuses_targets_without_handles(tmp_path, capsys, window):
+    """--targets is the second file of a pair: without --handles either window would ignore
+    it, so it is refused, in one line, exit status 2."""
+    fixed = _pts(tmp_path / "f.pts", "point", DST)
+    assert main(["demo", *window, "--targets", fixed]) == 2
+    message = capsys.readouterr().err
+    assert "--targets: with --handles" in message and message.count("\n") == 1, message

@@ -1,0 +1,45 @@
+"""What the TIFF readers (:mod:`.images`, :mod:`.volumes`) share: tifffile's log records held
+back while a file is read, since glmls reports a corrupt file itself, in one line."""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import threading
+from collections.abc import Iterator
+
+__all__ = ["quiet_tifffile"]
+
+_lock = threading.Lock()
+_depth = 0
+_level = logging.NOTSET
+
+
+@contextlib.contextmanager
+def quiet_tifffile() -> Iterator[None]:
+    """Within the block, tifffile's logger passes nothing on; after the last of nested or
+    concurrent blocks (reads on other threads) its level is as it was.
+
+    Examples
+    --------
+    >>> import logging
+    >>> with quiet_tifffile():
+    ...     logging.getLogger("tifffile").isEnabledFor(logging.CRITICAL)
+    False
+    >>> logging.getLogger("tifffile").isEnabledFor(logging.CRITICAL)
+    True
+    """
+    global _depth, _level
+    logger = logging.getLogger("tifffile")
+    with _lock:
+        if _depth == 0:
+            _level = logger.level
+            logger.setLevel(logging.CRITICAL + 1)
+        _depth += 1
+    try:
+        yield
+    finally:
+        with _lock:
+            _depth -= 1
+            if _depth == 0:
+                logger.setLevel(_level)

@@ -1,0 +1,44 @@
+"""The volume window's default size and layout (no display): every view, its frame lines
+included, lies inside the framebuffer, for isotropic and highly anisotropic spacings."""
+
+from __future__ import annotations
+
+import itertools
+
+import pytest
+
+from glmls.app.volume_controller import SliceGrid
+from glmls.app.volume_view import montage_layout, view_viewport, window_size
+
+PANELS = (0, 342, 368, 448)  # the panel's widths at text sizes 12, 13 and 16
+SHAPES = ((16, 64, 64), (5, 48, 17), (40, 101, 90), (3, 200, 32), (64, 64, 64))
+SPACINGS = ((2.0, 0.5, 0.5), (1.0, 1.0, 1.0), (5.0, 1.0, 1.0), (0.7, 0.3, 0.3), (1.0, 3.0, 0.5))
+
+
+@pytest.mark.parametrize(("shape", "spacing"), list(itertools.product(SHAPES, SPACINGS)))
+def test_every_view_and_its_frame_fit_the_default_window(shape, spacing):
+    grid = SliceGrid(shape, spacing=spacing)
+    for panel in PANELS:
+        size = window_size(grid, panel)
+        layout = montage_layout(size, grid, panel)
+        width, height = layout.framebuffer
+        for view in range(3):
+            x0, y0, w, h = view_viewport(layout, grid, view)
+            assert x0 >= layout.panel and y0 >= 0, (panel, view, size, (x0, y0, w, h))
+            assert x0 + w <= width and y0 + h <= height, (panel, view, size, (x0, y0, w, h))
+            (ox, oy), (columns, rows) = grid.offset(view), grid.size(view)
+            # the frame lines, drawn half a montage pixel beyond the view's pixel centres
+            for x, y in ((ox - 0.5, oy - 0.5), (ox + columns - 0.5, oy + rows - 0.5)):
+                fx, fy = layout.to_framebuffer(x, y)
+                assert 0.5 <= fx <= width - 0.5 and 0.5 <= fy <= height - 0.5, (
+                    panel, view, size, (fx, fy)
+                )  # fmt: skip
+
+
+def test_the_default_size_is_the_montage_at_its_scale_beside_the_panel():
+    grid = SliceGrid((16, 64, 64), spacing=(2.0, 0.5, 0.5))
+    assert grid.montage_shape == (132, 132)  # 64 + 4 + 64 both ways: z spans 16 x 4 pixels
+    width, height = window_size(grid, 368)
+    assert height >= 560 and width >= 368 + 560
+    layout = montage_layout((width, height), grid, 368)
+    assert layout.scale == pytest.approx(560 / 132, rel=0.02)  # the views keep their size
