@@ -1,8 +1,8 @@
 """Reading and writing images without loss of depth.
 
 - PNG: Pillow, except 16-bit colour and grey-with-alpha PNGs (Pillow reduces them to 8 bits),
-  which imagecodecs (libpng) decodes and encodes.
-- TIFF: tifffile (16-bit colour, float32, float64 as they are).
+  which imagecodecs (libpng) decodes and encodes; the orientation of an ``eXIf`` chunk applied.
+- TIFF: tifffile (16-bit colour, float32, float64 as they are); the orientation tag applied.
 - Everything else Pillow reads: JPEG, BMP, WebP, GIF, ...; the EXIF orientation is applied, and
   an animated image gives its first frame with an :class:`~glmls.errors.ImageWarning`.
 
@@ -83,8 +83,9 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     """Read an image file into an array, without loss of depth.
 
     PNG (16-bit too), TIFF (16-bit, float32, float64 as they are), and everything else Pillow
-    reads (JPEG, BMP, WebP, GIF, ...) with the EXIF orientation applied. Palette and other
-    modes become RGB or RGBA.
+    reads (JPEG, BMP, WebP, GIF, ...). The EXIF (or TIFF) orientation is applied in every
+    format, as ``PIL.ImageOps.exif_transpose`` applies it: the array is the image as viewers
+    show it. Palette and other modes become RGB or RGBA.
 
     Parameters
     ----------
@@ -144,10 +145,32 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
 def _read_png16(path: Path, head: bytes, max_pixels: int) -> np.ndarray:
     width, height = struct.unpack(">II", head[16:24])
     _too_large(path, width, height, max_pixels)
+    data = path.read_bytes()
     try:
-        return np.asarray(imagecodecs.png_decode(path.read_bytes()))
+        array = np.asarray(imagecodecs.png_decode(data))
     except (imagecodecs.PngError, UnicodeDecodeError) as error:
         raise ValueError(f"{path}: corrupt or truncated 16-bit PNG ({error})") from None
+    return _orient(array, _png_orientation(data))
+
+
+def _png_orientation(data: bytes) -> int:
+    """The EXIF orientation in a PNG's eXIf chunk (1 where there is none or it is unreadable),
+    as Pillow finds it for the PNGs it decodes."""
+    at = len(_PNG)
+    while at + 8 <= len(data):
+        size = struct.unpack(">I", data[at : at + 4])[0]
+        kind = data[at + 4 : at + 8]
+        if kind == b"eXIf":
+            exif = Image.Exif()
+            try:
+                exif.load(data[at + 8 : at + 8 + size])
+                return int(exif.get(0x0112, 1))
+            except _CORRUPT:
+                return 1
+        if kind == b"IEND":
+            break
+        at += 12 + size
+    return 1
 
 
 def _read_tiff(path: Path, max_pixels: int) -> np.ndarray:
@@ -177,7 +200,7 @@ def _orient(array: np.ndarray, code: int) -> np.ndarray:
         4: (True, 2, False),
         5: (False, 0, True),
         6: (False, 3, False),
-        7: (True, 1, False),
+        7: (True, 3, False),
         8: (False, 1, False),
     }.get(code, (False, 0, False))
     if transpose:

@@ -7,10 +7,12 @@ import struct
 import zlib
 from importlib import resources
 
+import imagecodecs
 import numpy as np
 import pytest
+import tifffile
 from numpy.testing import assert_array_equal
-from PIL import Image
+from PIL import Image, ImageOps
 
 import glmls
 from glmls.errors import ImageWarning
@@ -185,3 +187,29 @@ def test_imwrite_refuses_what_it_cannot_keep_before_writing(tmp_path):
 def test_reads_the_bundled_photograph():
     img = glmls.imread(resources.files("glmls") / "data" / "astronaut.jpg")
     assert img.shape == (512, 512, 3) and img.dtype == np.uint8
+
+
+@pytest.mark.parametrize("code", range(1, 9))
+def test_every_orientation_reads_as_pillow_shows_it(tmp_path, rng, code):
+    """Orientations 1-8, in a TIFF's tag and in a PNG's EXIF (8-bit and 16-bit), read as
+    PIL.ImageOps.exif_transpose shows them (what viewers, skimage and imageio show)."""
+    stored = rng.integers(0, 256, (5, 7, 3), dtype=np.uint8)
+    tagged = Image.fromarray(stored)
+    exif = tagged.getexif()
+    exif[0x0112] = code
+    tagged.save(tmp_path / "tagged.png", exif=exif)
+    with Image.open(tmp_path / "tagged.png") as image:
+        shown = np.asarray(ImageOps.exif_transpose(image))
+    assert_array_equal(glmls.imread(tmp_path / "tagged.png"), shown)
+    tifffile.imwrite(tmp_path / "tagged.tif", stored, extratags=[(274, "H", 1, code, True)])
+    assert_array_equal(glmls.imread(tmp_path / "tagged.tif"), shown)
+    deep = stored.astype(np.uint16) * 257
+    Image.fromarray(stored).save(tmp_path / "deep.png", exif=exif)  # an eXIf chunk to copy
+    png = (tmp_path / "deep.png").read_bytes()
+    at = png.index(b"eXIf") - 4
+    size = struct.unpack(">I", png[at : at + 4])[0]
+    exif_chunk = png[at : at + 12 + size]
+    encoded = imagecodecs.png_encode(deep)
+    ihdr_end = 8 + 25
+    (tmp_path / "deep.png").write_bytes(encoded[:ihdr_end] + exif_chunk + encoded[ihdr_end:])
+    assert_array_equal(glmls.imread(tmp_path / "deep.png"), shown.astype(np.uint16) * 257)
