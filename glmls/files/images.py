@@ -85,7 +85,8 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     PNG (16-bit too), TIFF (16-bit, float32, float64 as they are), and everything else Pillow
     reads (JPEG, BMP, WebP, GIF, ...). The EXIF (or TIFF) orientation is applied in every
     format, as ``PIL.ImageOps.exif_transpose`` applies it: the array is the image as viewers
-    show it. Palette and other modes become RGB or RGBA.
+    show it. Palette and other modes become RGB or RGBA; a transparent colour (a PNG's
+    ``tRNS``, a GIF's transparent index) becomes an alpha channel.
 
     Parameters
     ----------
@@ -260,6 +261,9 @@ def _as_array(image: Image.Image) -> np.ndarray:
         return array
     if mode == "F":
         return np.asarray(image, dtype=np.float32)
+    if mode in ("L", "RGB") and "transparency" in image.info:
+        # a PNG's tRNS colour: an alpha channel, as for a palette's transparent entries
+        return np.asarray(image.convert("RGBA" if mode == "RGB" else "LA")).copy()
     if mode not in ("L", "LA", "RGB", "RGBA"):
         alpha = "A" in mode or "transparency" in image.info
         image = image.convert("RGBA" if alpha else "RGB")

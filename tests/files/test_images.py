@@ -213,3 +213,17 @@ def test_every_orientation_reads_as_pillow_shows_it(tmp_path, rng, code):
     ihdr_end = 8 + 25
     (tmp_path / "deep.png").write_bytes(encoded[:ihdr_end] + exif_chunk + encoded[ihdr_end:])
     assert_array_equal(glmls.imread(tmp_path / "deep.png"), shown.astype(np.uint16) * 257)
+
+
+@pytest.mark.parametrize("mode", ["L", "RGB", "P"])
+def test_a_transparent_colour_becomes_alpha(tmp_path, mode):
+    """A PNG's tRNS colour is an alpha channel in grey and RGB PNGs as in palette ones."""
+    grey = np.arange(12, dtype=np.uint8).reshape(3, 4) * 20
+    image = Image.fromarray(grey).convert(mode)
+    key = {"L": 100, "RGB": (100, 100, 100)}.get(mode, image.getpixel((1, 1)))
+    image.save(tmp_path / "keyed.png", transparency=key)
+    read = glmls.imread(tmp_path / "keyed.png")
+    assert read.shape == (3, 4, 2 if mode == "L" else 4)
+    expected = np.where(grey == 100, 0, 255)
+    assert_array_equal(read[..., -1], expected)
+    assert_array_equal(read[..., 0], grey)
