@@ -311,7 +311,8 @@ def imwrite(path: str | os.PathLike, image: object) -> None:
     """Write an image to a file whose suffix names its format.
 
     uint8 to any format of :data:`WRITABLE`, uint16 to PNG or TIFF, float32 and float64 to
-    TIFF; 2 or 4 channels (with alpha) to PNG, TIFF or WebP.
+    TIFF; 2 or 4 channels (with alpha) to PNG, TIFF or WebP. PNG, TIFF and BMP are lossless;
+    JPEG and WebP are lossy, at Pillow's default quality (75 and 80).
 
     Parameters
     ----------
