@@ -1,0 +1,41 @@
+"""glmls warp on image files as viewers show them: the EXIF orientation applied before the
+handles (in displayed coordinates) deform the image, and a transparent colour kept as alpha."""
+
+from __future__ import annotations
+
+import numpy as np
+import tifffile
+from helpers import CLI_DST as DST
+from helpers import CLI_SRC as SRC
+from helpers import glmls_cli, write_cli_handles
+from PIL import Image
+
+import glmls
+
+
+def test_warp_applies_the_orientation_before_the_handles(tmp_path, gl):
+    """A TIFF stored on its side with orientation 7 (transverse) is warped upright."""
+    rng = np.random.default_rng(5)
+    stored = rng.integers(0, 65536, (40, 32, 3), dtype=np.uint16)
+    tifffile.imwrite(tmp_path / "side.tif", stored, extratags=[(274, "H", 1, 7, True)])
+    write_cli_handles(tmp_path)
+    result = glmls_cli("warp", "side.tif", "out.tif", "--handles", "h.json", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    shown = np.ascontiguousarray(np.rot90(stored[:, ::-1], -1))  # as Pillow shows it
+    assert shown.shape == (32, 40, 3)
+    expected = glmls.warp(shown, SRC, DST, ctx=gl)
+    np.testing.assert_array_equal(glmls.imread(tmp_path / "out.tif"), expected)
+
+
+def test_a_keyed_grey_png_keeps_its_alpha(tmp_path):
+    """A grey PNG's tRNS colour is alpha: written to PNG with it, refused by JPEG clearly."""
+    grey = np.full((32, 40), 90, np.uint8)
+    grey[10:20, 10:30] = 200
+    Image.fromarray(grey).save(tmp_path / "keyed.png", transparency=200)
+    write_cli_handles(tmp_path)
+    result = glmls_cli("warp", "keyed.png", "out.png", "--handles", "h.json", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert glmls.imread(tmp_path / "out.png").shape == (32, 40, 2)
+    result = glmls_cli("warp", "keyed.png", "out.jpg", "--handles", "h.json", cwd=tmp_path)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert ".jpg has no alpha channel" in result.stderr
