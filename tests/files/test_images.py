@@ -227,3 +227,34 @@ def test_a_transparent_colour_becomes_alpha(tmp_path, mode):
     expected = np.where(grey == 100, 0, 255)
     assert_array_equal(read[..., -1], expected)
     assert_array_equal(read[..., 0], grey)
+
+
+@pytest.mark.parametrize("mode", ["P", "CMYK", "1"])
+def test_tiffs_of_palette_cmyk_and_bilevel_read_as_shown(tmp_path, mode):
+    """Palette indices, CMYK inks and 1-bit TIFFs read as the colours Pillow shows, as the
+    same modes in a PNG or a JPEG do, not as their stored numbers."""
+    grey = np.arange(48, dtype=np.uint8).reshape(6, 8) * 5
+    Image.fromarray(np.dstack([grey, grey[::-1], grey])).convert(mode).save(tmp_path / "a.tif")
+    with Image.open(tmp_path / "a.tif") as image:
+        shown = np.asarray(image.convert("RGB"))
+    assert_array_equal(glmls.imread(tmp_path / "a.tif"), shown)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_min_is_white_tiffs_read_as_shown(tmp_path, dtype):
+    stored = np.arange(12, dtype=dtype).reshape(3, 4) * 20
+    tifffile.imwrite(tmp_path / "mw.tif", stored, photometric="miniswhite")
+    assert_array_equal(glmls.imread(tmp_path / "mw.tif"), np.iinfo(dtype).max - stored)
+
+
+def test_16_bit_palette_and_cmyk_tiffs(tmp_path):
+    indices = np.arange(12, dtype=np.uint16).reshape(3, 4) * 5000
+    colormap = np.stack([np.arange(65536, dtype=np.uint16)] * 3)
+    colormap[0] = 7
+    tifffile.imwrite(tmp_path / "p.tif", indices, photometric="palette", colormap=colormap)
+    read = glmls.imread(tmp_path / "p.tif")
+    assert read.dtype == np.uint16
+    assert_array_equal(read, np.dstack([np.full_like(indices, 7), indices, indices]))
+    tifffile.imwrite(tmp_path / "c.tif", np.zeros((3, 4, 4), np.uint16), photometric="separated")
+    with pytest.raises(ValueError, match=r"c.tif: a 16-bit SEPARATED TIFF; glmls reads such"):
+        glmls.imread(tmp_path / "c.tif")
