@@ -3,7 +3,8 @@
 - PNG: Pillow, except 16-bit colour and grey-with-alpha PNGs (Pillow reduces them to 8 bits),
   which imagecodecs (libpng) decodes and encodes; the orientation of an ``eXIf`` chunk applied.
 - TIFF: tifffile (16-bit colour, float32, float64 as they are); the orientation tag applied;
-  8-bit palette, CMYK, min-is-white and 1-bit TIFFs through Pillow, as the colours shown.
+  palette, CMYK, min-is-white and 1-bit TIFFs converted to the colours shown, as Pillow
+  converts them.
 - Everything else Pillow reads: JPEG, BMP, WebP, GIF, ...; the EXIF orientation is applied, and
   an animated image gives its first frame with an :class:`~glmls.errors.ImageWarning`.
 
@@ -68,7 +69,6 @@ _CORRUPT = (
 _pillow_lock = threading.Lock()
 #: TIFF photometric interpretations whose stored values are not the colours shown.
 _MINISWHITE, _PALETTE, _CMYK = 0, 3, 5
-_SHOWN_BY_PILLOW = (_MINISWHITE, _PALETTE, _CMYK)
 
 
 def _too_large(path: Path, width: int, height: int, max_pixels: int) -> None:
@@ -183,34 +183,43 @@ def _read_tiff(path: Path, max_pixels: int) -> np.ndarray:
         page = tiff.pages[0]
         shape = page.shape
         _too_large(path, shape[1] if len(shape) > 1 else 1, shape[0], max_pixels)
-        photometric, bits = int(page.photometric), int(page.bitspersample)
-        if bits == 1 or (bits <= 8 and photometric in _SHOWN_BY_PILLOW):
-            pillow = True  # bilevel, palette, min-is-white or CMYK: Pillow converts them
-        else:
-            pillow = False
-            if len(tiff.pages) > 1:
-                pages = f"{path}: {len(tiff.pages)} pages; reading the first"
-                warnings.warn(pages, ImageWarning, stacklevel=4)
-            array = page.asarray()
-            colormap = page.colormap
-            orientation = page.tags.get("Orientation")
-            code = int(orientation.value) if orientation is not None else 1
-    if pillow:
-        return _read_pillow(path, max_pixels)
+        if len(tiff.pages) > 1:
+            warnings.warn(
+                f"{path}: {len(tiff.pages)} pages; reading the first", ImageWarning, stacklevel=4
+            )
+        array = page.asarray()
+        photometric, colormap = int(page.photometric), page.colormap
+        orientation = page.tags.get("Orientation")
+        code = int(orientation.value) if orientation is not None else 1
     if array.ndim not in (2, 3) or not array.size:
         raise ValueError(f"{path}: not an image: its first page is of shape {array.shape}")
     if array.ndim == 3 and array.shape[0] in (3, 4) and array.shape[2] not in (1, 2, 3, 4):
         array = np.moveaxis(array, 0, -1)  # planar storage
+    return _orient(np.ascontiguousarray(_as_shown(path, array, photometric, colormap)), code)
+
+
+def _as_shown(
+    path: Path, array: np.ndarray, photometric: int, colormap: np.ndarray | None
+) -> np.ndarray:
+    """A TIFF's stored numbers as the colours they show, as Pillow converts them: palette
+    indices through the colormap, CMYK inks to RGB, min-is-white inverted, 1-bit to RGB."""
+    if array.dtype == bool:
+        white = array != (photometric == _MINISWHITE)
+        return np.repeat((white * np.uint8(255))[..., None], 3, axis=2)
     if photometric == _PALETTE and colormap is not None and array.ndim == 2:
-        array = np.moveaxis(colormap, 0, -1)[array]  # 16-bit indices into 16-bit RGB
-    elif photometric == _MINISWHITE and array.dtype.kind == "u":
-        array = np.iinfo(array.dtype).max - array  # stored dark-is-high: shown as it is seen
-    elif photometric in _SHOWN_BY_PILLOW:
-        raise ValueError(
-            f"{path}: a {bits}-bit {tifffile.PHOTOMETRIC(photometric).name} TIFF; glmls reads "
-            "such TIFFs of 8 bits: convert it to RGB or grey"
-        )
-    return _orient(np.ascontiguousarray(array), code)
+        if array.dtype == np.uint8:  # 8-bit entries: the high bytes, as Pillow and libtiff
+            colormap = (colormap >> 8).astype(np.uint8)
+        return np.moveaxis(colormap, 0, -1)[array]
+    if photometric == _MINISWHITE and array.dtype.kind == "u":
+        return np.iinfo(array.dtype).max - array
+    if photometric == _CMYK:
+        if array.dtype != np.uint8 or array.ndim != 3 or array.shape[2] != 4:
+            raise ValueError(
+                f"{path}: a CMYK TIFF of {array.dtype.name} x {array.shape[-1]}; glmls reads "
+                "8-bit CMYK: convert it to RGB"
+            )
+        return np.asarray(Image.fromarray(array, "CMYK").convert("RGB"))
+    return array
 
 
 def _orient(array: np.ndarray, code: int) -> np.ndarray:

@@ -229,15 +229,17 @@ def test_a_transparent_colour_becomes_alpha(tmp_path, mode):
     assert_array_equal(read[..., 0], grey)
 
 
+@pytest.mark.parametrize("code", [1, 6, 7])
 @pytest.mark.parametrize("mode", ["P", "CMYK", "1"])
-def test_tiffs_of_palette_cmyk_and_bilevel_read_as_shown(tmp_path, mode):
+def test_tiffs_of_palette_cmyk_and_bilevel_read_as_shown(tmp_path, mode, code):
     """Palette indices, CMYK inks and 1-bit TIFFs read as the colours Pillow shows, as the
-    same modes in a PNG or a JPEG do, not as their stored numbers."""
+    same modes in a PNG or a JPEG do, not as their stored numbers; oriented as any TIFF."""
     grey = np.arange(48, dtype=np.uint8).reshape(6, 8) * 5
-    Image.fromarray(np.dstack([grey, grey[::-1], grey])).convert(mode).save(tmp_path / "a.tif")
-    with Image.open(tmp_path / "a.tif") as image:
-        shown = np.asarray(image.convert("RGB"))
-    assert_array_equal(glmls.imread(tmp_path / "a.tif"), shown)
+    image = Image.fromarray(np.dstack([grey, grey[::-1], grey])).convert(mode)
+    image.save(tmp_path / "a.tif", tiffinfo={274: code})
+    shown = np.asarray(image.convert("RGB"))
+    turned = {1: shown, 6: np.rot90(shown, -1), 7: np.rot90(shown[:, ::-1], -1)}[code]
+    assert_array_equal(glmls.imread(tmp_path / "a.tif"), turned)
 
 
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
@@ -256,5 +258,5 @@ def test_16_bit_palette_and_cmyk_tiffs(tmp_path):
     assert read.dtype == np.uint16
     assert_array_equal(read, np.dstack([np.full_like(indices, 7), indices, indices]))
     tifffile.imwrite(tmp_path / "c.tif", np.zeros((3, 4, 4), np.uint16), photometric="separated")
-    with pytest.raises(ValueError, match=r"c.tif: a 16-bit SEPARATED TIFF; glmls reads such"):
+    with pytest.raises(ValueError, match=r"c.tif: a CMYK TIFF of uint16 x 4; glmls reads 8-bit"):
         glmls.imread(tmp_path / "c.tif")
