@@ -93,7 +93,11 @@ def search_space(
     """The default configurations: each transform x each weight x a small parameter grid
     (idw alpha 1 and 2; radius a quarter, half and all of the image diagonal). Weights that
     are finite at d = 0 (cressman, gaussian, linear) do not reach their targets: they enter
-    through their ``interpolating=True`` variant, which does."""
+    through their ``interpolating=True`` variant, which does. ``ValueError`` for an empty
+    or a bare-string list of names, or an unknown name."""
+    for name, values in (("transforms", transforms), ("weights", weights)):
+        if isinstance(values, str) or not len(values):
+            raise ValueError(f"{name} must be a non-empty sequence of names, got {values!r}")
     diagonal = image_diagonal(as_shape(shape))
     configs = []
     for transform in transforms:

@@ -192,6 +192,13 @@ def test_bad_arguments():
         tuning.tune(
             (30, 40), SRC, DST, REFERENCE, jobs=0, configs=tuning.search_space((30, 40))[:1]
         )
+    for bad in ([], (), "rigid"):
+        with pytest.raises(ValueError, match="transforms must be"):
+            tuning.search_space((30, 40), transforms=bad)
+        with pytest.raises(ValueError, match="weights must be"):
+            tuning.search_space((30, 40), weights=bad)
+    with pytest.raises(ValueError, match="unknown weight 'idww'"):
+        tuning.search_space((30, 40), weights=["idw", "idww"])
     with pytest.raises(TypeError, match="MLSConfig"):
         tuning.tune((30, 40), SRC, DST, REFERENCE, configs=["rigid:idw"])
     with pytest.raises(ValueError, match="at least 3"):
