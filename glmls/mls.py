@@ -685,8 +685,7 @@ class MLS(ForkSafe):
         """
         lattice = MeshLattice.corners(shape, grid)  # validates shape and grid
         if tolerance is not None:
-            check_adaptive("quads", grid, tolerance)  # grid must stay 1, as for mesh and warp
-            mesh = self.mesh(lattice.shape, tolerance=tolerance)
+            mesh = self.mesh(lattice.shape, tolerance=check_adaptive("quads", grid, tolerance))
             values = error_at(self._kernel, mesh.source, lattice.shape)  # type: ignore[union-attr]
             return interpolate(mesh, values, lattice.shape)  # type: ignore[arg-type]
         return evaluate_error_field(self._kernel, lattice.shape, grid=lattice.grid)
