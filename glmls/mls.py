@@ -670,7 +670,8 @@ class MLS(ForkSafe):
         Raises
         ------
         ValueError
-            For a bad ``shape``, ``grid`` or ``tolerance`` (named).
+            For a bad ``shape``, ``grid`` or ``tolerance`` (named), or a ``grid`` other than
+            1 with a ``tolerance``.
         glmls.ReleasedError
             After :meth:`release`.
 
@@ -684,7 +685,7 @@ class MLS(ForkSafe):
         """
         lattice = MeshLattice.corners(shape, grid)  # validates shape and grid
         if tolerance is not None:
-            mesh = self.mesh(lattice.shape, tolerance=tolerance)
+            mesh = self.mesh(lattice.shape, tolerance=check_adaptive("quads", grid, tolerance))
             values = error_at(self._kernel, mesh.source, lattice.shape)  # type: ignore[union-attr]
             return interpolate(mesh, values, lattice.shape)  # type: ignore[arg-type]
         return evaluate_error_field(self._kernel, lattice.shape, grid=lattice.grid)

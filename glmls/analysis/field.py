@@ -35,7 +35,7 @@ def error_field(
         Evaluate the mesh every ``grid`` pixels and interpolate bilinearly (1: every pixel).
     tolerance : float, optional
         Evaluate at the vertices of the adaptive mesh of that tolerance (pixels) and
-        interpolate on its leaves, instead of a regular grid.
+        interpolate on its leaves, instead of a regular grid (``grid`` must then stay 1).
 
     Returns
     -------
@@ -46,7 +46,8 @@ def error_field(
     ------
     ValueError
         For a shape that is not (H, W) with H, W >= 1, a grid that is not an integer from 1
-        on, or a tolerance that is not a finite number > 0.
+        on, a tolerance that is not a finite number > 0, or both a grid other than 1 and a
+        tolerance.
     TypeError
         For a shape that is not integers, or a tolerance that is not a number.
 

@@ -292,7 +292,8 @@ def render_triangle_errors(
     Raises
     ------
     ValueError
-        For an unknown ``which``, a bad origin, image, colour map or limits.
+        For an unknown ``which``, a bad origin, image, colour map or limits, or ``errors``
+        whose simplices refer to missing points or whose errors are not one per triangle.
     TypeError
         For ``errors`` that are not a :class:`TriangleErrors`.
 
@@ -313,16 +314,21 @@ def render_triangle_errors(
     if not isinstance(errors, TriangleErrors):
         raise TypeError(f"errors must be a TriangleErrors, got {type(errors).__name__}")
     values = errors.angle if which == "angle" else errors.distance
+    points = (errors.deformed_points if deformed else errors.points) - _origin(origin)
+    a, b = _edges(points, errors.simplices)  # checks the simplices against the points
+    if np.shape(values) != (len(errors.simplices),):
+        raise ValueError(
+            f"errors.{which} has shape {np.shape(values)}, expected one value per triangle "
+            f"({len(errors.simplices)},)"
+        )
     colors = apply_colormap(
         values, cmap=cmap, vmin=vmin, vmax=vmax, percentile=percentile, nan_color=nan_color
     )
     rgb = as_rgb8(image)
-    points = (errors.deformed_points if deformed else errors.points) - _origin(origin)
     with Canvas(rgb.shape[:2], ctx=ctx) as canvas:
         canvas.image(rgb)
         canvas.triangles(points[errors.simplices], colors, opacity=opacity)
         if edge_color is not None:
-            a, b = _edges(points, errors.simplices)
             canvas.lines(a, b, color=edge_color, width=width)
         return canvas.read()
 

@@ -8,6 +8,8 @@ __all__ = ["TRIM", "error_stats"]
 
 #: The share of values cut from each end for ``trimmed_mean``.
 TRIM = 0.1
+#: Rounding allowed in ``within``'s comparisons, in units of the largest magnitude.
+_SLACK = 16 * np.finfo(np.float64).eps
 
 
 def error_stats(values: object) -> dict[str, float | int | list[float] | None]:
@@ -29,7 +31,8 @@ def error_stats(values: object) -> dict[str, float | int | list[float] | None]:
         (eq. 9, the population standard deviation), ``median``, ``trimmed_mean`` (the mean of
         the values left after cutting :data:`TRIM` = 10 % from each end, as
         ``scipy.stats.trim_mean``), ``min``, ``max``, ``within`` (the shares of values with
-        |x - mean| <= 1, 2 and 3 std, in that order). With no values left, the statistics
+        |x - mean| <= 1, 2 and 3 std, in that order, up to float64 rounding: both of
+        two values lie at exactly 1 std). With no values left, the statistics
         are None.
 
     Raises
@@ -70,7 +73,12 @@ def error_stats(values: object) -> dict[str, float | int | list[float] | None]:
     mean = float(scaled.mean())
     deviation = np.abs(scaled - mean)
     std = float(np.sqrt(np.mean(deviation**2)))
-    within = [float(np.count_nonzero(deviation <= k * std)) / finite.size for k in (1, 2, 3)]
+    # a value on the boundary (|x - mean| = k std, as both of two values are at 1 std) counts
+    # in, whatever the last bits of rounding in the mean and the std say
+    slack = _SLACK * (1.0 + std)
+    within = [
+        float(np.count_nonzero(deviation <= k * std + slack)) / finite.size for k in (1, 2, 3)
+    ]
     mean, std = mean * unit, std * unit
     ordered = np.sort(finite)
     cut = int(TRIM * ordered.size)  # scipy.stats.trim_mean's count

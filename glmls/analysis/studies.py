@@ -40,7 +40,7 @@ from ..data.manifest import StudyItem
 from ..files.atomic import atomic_write
 from .colormaps import VIRIDIS
 from .jobs import run_jobs
-from .tuning import TuneResult, label, parse_config, search_space, tune
+from .tuning import TuneResult, check_seed, label, parse_config, search_space, tune
 
 __all__ = ["StudyResult", "StudyTask", "render_heatmap", "study", "tune_item"]
 
@@ -259,7 +259,7 @@ def study(
     Raises
     ------
     ValueError
-        For no items, repeated names, bad trials, no configurations, or an item whose
+        For no items, repeated names, bad trials or seed, no configurations, or an item whose
         handles or points cannot be tuned (naming the item).
     TypeError
         For items that are not :class:`~glmls.data.StudyItem` values, or configurations
@@ -302,6 +302,7 @@ def study(
         isinstance(trials, bool) or not isinstance(trials, int) or trials < 1
     ):
         raise ValueError(f"trials must be an integer >= 1, got {trials!r}")
+    seed = check_seed(seed)
     per_item = [_configs_for(item.shape, configs) for item in items]
     if not per_item[0]:
         raise ValueError("no configurations to compare")

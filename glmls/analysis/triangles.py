@@ -17,6 +17,7 @@ Two angular measures (:data:`ANGLE_MEASURES`):
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -194,9 +195,14 @@ def check_angle_measure(angle: object) -> str:
 
 
 def check_eps(eps: object) -> float:
-    """``eps`` if it is a positive number (eq. (11)'s epsilon), else ``ValueError``."""
-    if isinstance(eps, bool) or not isinstance(eps, (int, float)) or not eps > 0:
-        raise ValueError(f"eps must be a positive number, got {eps!r}")
+    """``eps`` if it is a finite positive number (eq. (11)'s epsilon), else ``ValueError``
+    (an infinite eps makes every corner inf / inf = NaN)."""
+    if (
+        isinstance(eps, bool)
+        or not isinstance(eps, (int, float))
+        or not (eps > 0 and math.isfinite(eps))
+    ):
+        raise ValueError(f"eps must be a finite positive number, got {eps!r}")
     return eps
 
 
@@ -267,7 +273,7 @@ def triangle_errors(
         similarity; ``"paper"``: eq. (11) as printed, whose denominator |cos a| + eps makes
         right angles blow up (see :mod:`glmls.analysis.triangles`).
     eps : float, optional
-        Eq. (11)'s epsilon (> 0).
+        Eq. (11)'s epsilon (finite, > 0).
 
     Returns
     -------
@@ -278,7 +284,7 @@ def triangle_errors(
     ------
     ValueError
         For fewer than 3 points, NaN, duplicates or points all on one line; an unknown
-        ``angle``; ``eps`` <= 0; ``m`` returning the wrong shape or points that are not
+        ``angle``; ``eps`` <= 0 or infinite; ``m`` returning the wrong shape or points that are not
         finite.
 
     See Also

@@ -48,6 +48,7 @@ __all__ = [
     "MEASURES",
     "MISS_LIMIT",
     "TuneResult",
+    "check_seed",
     "label",
     "parse_config",
     "search_space",
@@ -92,7 +93,11 @@ def search_space(
     """The default configurations: each transform x each weight x a small parameter grid
     (idw alpha 1 and 2; radius a quarter, half and all of the image diagonal). Weights that
     are finite at d = 0 (cressman, gaussian, linear) do not reach their targets: they enter
-    through their ``interpolating=True`` variant, which does."""
+    through their ``interpolating=True`` variant, which does. ``ValueError`` for an empty
+    or a bare-string list of names, or an unknown name."""
+    for name, values in (("transforms", transforms), ("weights", weights)):
+        if isinstance(values, str) or not len(values):
+            raise ValueError(f"{name} must be a non-empty sequence of names, got {values!r}")
     diagonal = image_diagonal(as_shape(shape))
     configs = []
     for transform in transforms:
@@ -302,6 +307,13 @@ def _run_job(job: _Job, ctx: GLContext | None = None) -> list[dict] | str:
         return str(error)
 
 
+def check_seed(seed: object) -> int:
+    """``seed`` if it is an integer >= 0 (the edits' seed), else ``ValueError`` naming it."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    return int(seed)
+
+
 def _check_magnitudes(magnitudes: object) -> tuple[float, ...]:
     try:
         values = tuple(float(m) for m in magnitudes)  # type: ignore[attr-defined]
@@ -383,8 +395,9 @@ def tune(
     Raises
     ------
     ValueError
-        For a bad shape, handles, reference points, trials, grid, magnitudes, angle or
-        ``rank_by``, no configurations, or none that can be built for these handles.
+        For a bad shape, handles, reference points, trials, seed (not an integer >= 0), grid,
+        magnitudes, angle or ``rank_by``, no configurations, or none that can be built for
+        these handles.
     TypeError
         For configurations that are not :class:`~glmls.MLSConfig` values.
 
@@ -413,6 +426,7 @@ def tune(
         raise ValueError(f"trials must be an integer >= 1, got {trials!r}")
     if isinstance(grid, bool) or not isinstance(grid, int) or grid < 1:
         raise ValueError(f"grid must be an integer >= 1, got {grid!r}")
+    seed = check_seed(seed)
     magnitudes = _check_magnitudes(magnitudes)
     configs = list(configs) if configs is not None else search_space(shape)
     if not configs:

@@ -113,3 +113,32 @@ def test_bad_input(gl):
     errors = glmls.analysis.triangle_errors(lambda v: v, [[0, 0], [3, 0], [0, 3]])
     with pytest.raises(ValueError, match="which"):
         glmls.analysis.render_triangle_errors(np.zeros((4, 4)), errors, which="area", ctx=gl)
+
+
+def test_triangle_errors_made_by_hand_are_checked(gl):
+    errors = glmls.analysis.triangle_errors(lambda v: 1.1 * v, [[0, 0], [3, 0], [0, 3], [3, 3]])
+    image = np.zeros((4, 4))
+    missing = glmls.analysis.TriangleErrors(
+        errors.points,
+        errors.deformed_points,
+        np.array([[0, 1, 7], [1, 2, 3]]),
+        errors.distance,
+        errors.angle,
+        errors.flipped,
+        errors.eps,
+    )
+    for deformed in (True, False):
+        with pytest.raises(ValueError, match="simplices refer to points that do not exist"):
+            glmls.analysis.render_triangle_errors(image, missing, deformed=deformed, ctx=gl)
+    short = glmls.analysis.TriangleErrors(
+        errors.points,
+        errors.deformed_points,
+        errors.simplices,
+        errors.distance[:1],
+        errors.angle,
+        errors.flipped,
+        errors.eps,
+    )
+    with pytest.raises(ValueError, match=r"errors.distance has shape \(1,\)"):
+        glmls.analysis.render_triangle_errors(image, short, which="distance", ctx=gl)
+    glmls.analysis.render_triangle_errors(image, short, which="angle", ctx=gl)

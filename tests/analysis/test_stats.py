@@ -80,3 +80,10 @@ def test_median_and_trimmed_mean_against_scipy(rng):
     assert result["trimmed_mean"] < 20 < result["mean"]
     assert glmls.analysis.error_stats([np.nan])["median"] is None
     assert glmls.analysis.error_stats([3.0])["trimmed_mean"] == 3.0
+
+
+def test_values_at_exactly_one_std_count_within():
+    # two values, or any symmetric pair repeated, lie at exactly 1 std from the mean; the mean
+    # and the std in float64 round differently and must not push them out
+    for pair in ([0.1, 0.3], [0.7, 1.1], [1e-3, 3e-3], [2.2, 2.6] * 3):
+        assert glmls.analysis.error_stats(pair)["within"] == [1.0, 1.0, 1.0], pair

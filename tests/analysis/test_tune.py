@@ -183,12 +183,22 @@ def test_bad_arguments():
         tuning.tune((30, 40), SRC, DST, REFERENCE, trials=0)
     with pytest.raises(ValueError, match="angle must be"):
         tuning.tune((30, 40), SRC, DST, REFERENCE, angle="cosine")
+    for seed in (-1, 1.5, "0", True):
+        with pytest.raises(ValueError, match="seed must be"):
+            tuning.tune((30, 40), SRC, DST, REFERENCE, seed=seed)
     with pytest.raises(ValueError, match="magnitudes"):
         tuning.tune((30, 40), SRC, DST, REFERENCE, magnitudes=[2.0])
     with pytest.raises(ValueError, match="jobs"):
         tuning.tune(
             (30, 40), SRC, DST, REFERENCE, jobs=0, configs=tuning.search_space((30, 40))[:1]
         )
+    for bad in ([], (), "rigid"):
+        with pytest.raises(ValueError, match="transforms must be"):
+            tuning.search_space((30, 40), transforms=bad)
+        with pytest.raises(ValueError, match="weights must be"):
+            tuning.search_space((30, 40), weights=bad)
+    with pytest.raises(ValueError, match="unknown weight 'idww'"):
+        tuning.search_space((30, 40), weights=["idw", "idww"])
     with pytest.raises(TypeError, match="MLSConfig"):
         tuning.tune((30, 40), SRC, DST, REFERENCE, configs=["rigid:idw"])
     with pytest.raises(ValueError, match="at least 3"):

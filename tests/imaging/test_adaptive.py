@@ -613,8 +613,9 @@ def test_the_mesh_and_error_field_take_the_tolerance(gl, rng):
         field = m.error_field(SHAPE, tolerance=0.05)
         np.testing.assert_array_equal(glmls.analysis.error_field(m, SHAPE, tolerance=0.05), field)
         coarse = m.error_field(SHAPE, grid=4)
-        with pytest.raises(ValueError, match="grid and tolerance exclude each other"):
-            m.mesh(SHAPE, grid=4, tolerance=0.05)
+        for both in (m.mesh, m.error_field):
+            with pytest.raises(ValueError, match="grid and tolerance exclude each other"):
+                both(SHAPE, grid=4, tolerance=0.05)
         with pytest.raises(ValueError, match="tolerance must be finite"):
             m.error_field(SHAPE, tolerance=0.0)
         config = m.config
