@@ -209,26 +209,33 @@ def config_from_args(args: argparse.Namespace) -> MLSConfig:
     return config
 
 
-def unused_config_options(config: MLSConfig) -> list[str]:
+def unused_config_options(config: MLSConfig, *, flags: bool = True) -> list[str]:
     """What of ``config``, set away from its default, the weight does not use: a radius with
-    idw; alpha with a radius weight not made interpolating; s with a weight other than idw."""
+    idw; alpha with a radius weight not made interpolating; s with a weight other than idw.
+    ``flags``: the options named as command-line flags (``--radius 5``), else as a
+    configuration's parameters (``radius=5``)."""
+
+    def named(option: str, value: float) -> str:
+        return f"--{option} {value:g}" if flags else f"{option}={value:g}"
+
     defaults = MLSConfig()
     messages = []
     if not config.uses_radius and config.radius is not None:
         radius_weights = ", ".join(w for w in WEIGHTS if MLSConfig(weight=w).uses_radius)
         messages.append(
-            f"--radius {config.radius:g} is not used by the {config.weight} weight (the radius "
-            f"weights use it: {radius_weights})"
+            f"{named('radius', config.radius)} is not used by the {config.weight} weight (the "
+            f"radius weights use it: {radius_weights})"
         )
     unused = []
     if config.uses_radius and not config.interpolating:
-        unused.append(("--alpha", config.alpha, defaults.alpha, "idw's, and --interpolating's"))
+        whose = "idw's, and --interpolating's" if flags else "idw's, and interpolating's"
+        unused.append(("alpha", config.alpha, defaults.alpha, whose))
     if not config.weight_entry.uses_s:
-        unused.append(("--s", config.s, defaults.s, "idw's"))
+        unused.append(("s", config.s, defaults.s, "idw's"))
     for option, value, default, whose in unused:
         if value != default:
             messages.append(
-                f"{option} {value:g} is not used by the {config.weight} weight ({whose})"
+                f"{named(option, value)} is not used by the {config.weight} weight ({whose})"
             )
     return messages
 

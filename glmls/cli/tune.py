@@ -6,6 +6,7 @@ import argparse
 import csv
 import io
 import json
+import sys
 from pathlib import Path
 
 from ..analysis.jobs import DistributedUnavailableError
@@ -16,7 +17,14 @@ from ..analysis.tuning_trials import MAGNITUDES
 from ..core.config import MLSConfig
 from ..files.atomic import atomic_write
 from .inputs import add_example_inputs, example_or_files, make_mls, say, warn_about_handles
-from .options import UsageError, add_jobs_options, nonnegative_int, positive_int, text_table
+from .options import (
+    UsageError,
+    add_jobs_options,
+    nonnegative_int,
+    positive_int,
+    text_table,
+    unused_config_options,
+)
 from .progress import Progress
 from .tune_construction import configure_construction, run_construction
 
@@ -132,6 +140,22 @@ def _csv_text(rows: list[dict]) -> str:
     return buffer.getvalue()
 
 
+def warn_about_configs(args: argparse.Namespace) -> None:
+    """Say on stderr what a ``--configs`` entry that names its weight sets and the weight
+    does not use (``rigid:idw:radius=5``), as the MLS options' own warnings do; an entry of
+    every weight (``*``) sets its parameters for the weights that use them."""
+    if args.quiet:
+        return
+    shape = (2, 2)  # the parameters given, not the default grid, are what is checked
+    for spec in args.configs or ():
+        parts = spec.split(":")
+        if len(parts) != 3 or parts[1] == "*":
+            continue
+        for config in parse_config(spec, shape):
+            for message in unused_config_options(config, flags=False):
+                print(f"glmls tune: warning: --configs {spec}: {message}", file=sys.stderr)
+
+
 def run(args: argparse.Namespace) -> int:
     image, handles, reference, name = example_or_files(args, need_reference=True)
     warn_about_handles(args, handles, image.shape)
@@ -144,6 +168,7 @@ def run(args: argparse.Namespace) -> int:
         )
     except (TypeError, ValueError) as error:
         raise UsageError(str(error)) from None
+    warn_about_configs(args)
     count = len(configs) if configs is not None else len(search_space(shape))
     say(args, f"tune: {name}, {count} configurations x {args.trials} random deformations")
     with Progress(count * args.trials, "tune", quiet=args.quiet) as bar:

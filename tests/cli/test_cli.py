@@ -117,6 +117,21 @@ def test_tune_is_reproducible_for_a_seed(inputs):
     assert (inputs / "t1" / "ranking.csv").read_text().startswith("transform,weight,")
     assert (inputs / "t1" / "winner" / "report.json").is_file()
     assert "left" in first.stderr  # progress with the time left
+    assert "warning" not in first.stderr  # every parameter given is used
+
+
+def test_tune_warns_of_a_configuration_parameter_its_weight_does_not_use(inputs):
+    result = glmls_cli(
+        "tune", "a.png", "--handles", "h.json", "--reference", "r.json", "--out", "t",
+        "--trials", "1", "--configs", "rigid:idw:radius=5", "*:*:s=0.5",
+        cwd=inputs,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    warnings = [line for line in result.stderr.splitlines() if "warning" in line]
+    assert warnings == [
+        "glmls tune: warning: --configs rigid:idw:radius=5: radius=5 is not used by the idw "
+        "weight (the radius weights use it: cressman, shepard, gaussian, linear)"
+    ]
 
 
 @pytest.mark.parametrize(
