@@ -14,14 +14,13 @@ import numpy as np
 from ..core.handleset import HandleSet
 from ..errors import InputFileError
 from ..files.landmarks import read_points
-from .demo_window import fail, replay_events, run_window, window_options
+from .demo_window import fail, replay_events, run_window, start_settings, window_options
 from .inputs import read_image, read_image_handles
 from .options import (
     UsageError,
     add_config_options,
     add_max_pixels,
     add_warp_options,
-    config_from_args,
     folder_path,
     positive_int,
 )
@@ -168,16 +167,7 @@ def image_settings(args: argparse.Namespace):
     its own defaults for those left out (``--border``, ``--interpolation``)."""
     from ..app.controller import Settings
 
-    given = {
-        "config": config_from_args(args),
-        "method": args.method,
-        "interpolation": args.interpolation,
-        "grid": args.grid,
-        "border": args.border,
-        "fit": args.fit,
-        "tolerance": args.tolerance,
-    }
-    return Settings(**{name: value for name, value in given.items() if value is not None})
+    return Settings(**start_settings(args, "fit", "tolerance"))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -25,7 +25,7 @@ from ..errors import InputFileError
 from ..files.images import DEFAULT_MAX_PIXELS
 from ..files.landmarks import handle_dimension, read_handles
 from ..files.volumes import Volume, is_volume_file, read_volume, volume_suffix
-from .demo_window import fail, replay_events, run_window, window_options
+from .demo_window import fail, replay_events, run_window, start_settings, window_options
 from .warp3d import image_options_given, volume_handle_warnings, voxel_handles
 
 __all__ = ["run_volume", "volume_inputs"]
@@ -101,7 +101,6 @@ def volume_settings(args: argparse.Namespace):
     ``--fit``, ``--tolerance``, ``--reference``, ``--max-pixels``, a grid other than 1, 2, 4,
     8, 16)."""
     from ..app.volume_controller import VOLUME_METHODS, VolumeSettings
-    from .options import config_from_args
 
     images_only = image_options_given(args) + [
         option
@@ -117,14 +116,7 @@ def volume_settings(args: argparse.Namespace):
         raise ValueError(
             f"--method {args.method}: the volume window builds {' or '.join(VOLUME_METHODS)}"
         )
-    given = {
-        "config": config_from_args(args),
-        "method": args.method,
-        "interpolation": args.interpolation,
-        "grid": args.grid,
-        "border": args.border,
-    }
-    return VolumeSettings(**{name: value for name, value in given.items() if value is not None})
+    return VolumeSettings(**start_settings(args))
 
 
 def run_volume(args: argparse.Namespace, inputs: tuple) -> int:

@@ -34,6 +34,17 @@ def window_options(args: argparse.Namespace) -> dict:
     }
 
 
+def start_settings(args: argparse.Namespace, *names: str) -> dict:
+    """A window's first settings from the options given: the MLS configuration, ``--method``,
+    ``--interpolation``, ``--grid``, ``--border`` and ``names``; an option left out (None)
+    is left to the window's own default."""
+    from .options import config_from_args
+
+    fields = ("method", "interpolation", "grid", "border", *names)
+    given = {"config": config_from_args(args), **{name: getattr(args, name) for name in fields}}
+    return {name: value for name, value in given.items() if value is not None}
+
+
 def run_window(app, args: argparse.Namespace, events: list | None) -> int:
     """Run ``app`` (replaying ``events``) as the arguments ask; the exit status."""
     from ..app.events import replay_frames

@@ -140,20 +140,24 @@ def _csv_text(rows: list[dict]) -> str:
     return buffer.getvalue()
 
 
-def warn_about_configs(args: argparse.Namespace) -> None:
-    """Say on stderr what a ``--configs`` entry that names its weight sets and the weight
-    does not use (``rigid:idw:radius=5``), as the MLS options' own warnings do; an entry of
-    every weight (``*``) sets its parameters for the weights that use them."""
-    if args.quiet:
-        return
-    shape = (2, 2)  # the parameters given, not the default grid, are what is checked
-    for spec in args.configs or ():
+def parse_configs(args: argparse.Namespace, shape: tuple[int, int]) -> list[MLSConfig] | None:
+    """The configurations of ``--configs`` (None: the default search space); an entry that
+    names its weight and sets a parameter the weight does not use (``rigid:idw:radius=5``)
+    is said on stderr, as the MLS options' own warnings are; an entry of every weight
+    (``*``) sets its parameters for the weights that use them."""
+    if not args.configs:
+        return None
+    configs = []
+    for spec in args.configs:
+        parsed = parse_config(spec, shape)
+        configs += parsed
         parts = spec.split(":")
-        if len(parts) != 3 or parts[1] == "*":
+        if args.quiet or len(parts) != 3 or parts[1] == "*":
             continue
-        for config in parse_config(spec, shape):
+        for config in parsed:
             for message in unused_config_options(config, flags=False):
                 print(f"glmls tune: warning: --configs {spec}: {message}", file=sys.stderr)
+    return configs
 
 
 def run(args: argparse.Namespace) -> int:
@@ -161,14 +165,9 @@ def run(args: argparse.Namespace) -> int:
     warn_about_handles(args, handles, image.shape)
     shape = image.shape[:2]
     try:
-        configs = (
-            [c for spec in args.configs for c in parse_config(spec, shape)]
-            if args.configs
-            else None
-        )
+        configs = parse_configs(args, shape)
     except (TypeError, ValueError) as error:
         raise UsageError(str(error)) from None
-    warn_about_configs(args)
     count = len(configs) if configs is not None else len(search_space(shape))
     say(args, f"tune: {name}, {count} configurations x {args.trials} random deformations")
     with Progress(count * args.trials, "tune", quiet=args.quiet) as bar:
