@@ -15,6 +15,7 @@ from typing import NoReturn
 
 import numpy as np
 
+from ..analysis.tuning import parse_config
 from ..core.config import TRANSFORMS, WEIGHTS, MLSConfig
 from ..files.images import DEFAULT_MAX_PIXELS
 from ..imaging.options import WarpOptions
@@ -238,6 +239,27 @@ def unused_config_options(config: MLSConfig, *, flags: bool = True) -> list[str]
                 f"{named(option, value)} is not used by the {config.weight} weight ({whose})"
             )
     return messages
+
+
+def parse_config_specs(
+    specs: Sequence[str], shape: Sequence[int], *, command: str, quiet: bool = False
+) -> list[MLSConfig]:
+    """The configurations of ``--configs`` entries (``transform:weight[:name=value,...]``) for
+    an image of ``shape``; a ValueError names the bad entry. An entry that names its weight and
+    sets a parameter the weight does not use (``rigid:idw:radius=5``) is said on stderr
+    (unless ``quiet``), as the MLS options' own warnings are; an entry of every weight
+    (``*``) sets its parameters for the weights that use them."""
+    configs = []
+    for spec in specs:
+        parsed = parse_config(spec, shape)
+        configs += parsed
+        parts = spec.split(":")
+        if quiet or len(parts) != 3 or parts[1] == "*":
+            continue
+        for config in parsed:
+            for message in unused_config_options(config, flags=False):
+                print(f"glmls {command}: warning: --configs {spec}: {message}", file=sys.stderr)
+    return configs
 
 
 def add_warp_options(

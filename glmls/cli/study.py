@@ -9,9 +9,15 @@ from pathlib import Path
 from .. import data
 from ..analysis.jobs import check_jobs, check_scheduler
 from ..analysis.studies import study
-from ..analysis.tuning import parse_config
 from .inputs import say
-from .options import UsageError, add_jobs_options, folder_path, nonnegative_int, positive_int
+from .options import (
+    UsageError,
+    add_jobs_options,
+    folder_path,
+    nonnegative_int,
+    parse_config_specs,
+    positive_int,
+)
 from .progress import Progress
 
 HELP = "tune every image of a set and compare the winners"
@@ -66,11 +72,10 @@ def run(args: argparse.Namespace) -> int:
         items, source = data.read_manifest(Path(args.manifest)), args.manifest
     configs = args.configs
     if configs:
-        for spec in configs:  # a bad spec is a usage error before any work
-            try:
-                parse_config(spec, items[0].shape)
-            except (TypeError, ValueError) as error:
-                raise UsageError(str(error)) from None
+        try:  # a bad spec is a usage error before any work
+            parse_config_specs(configs, items[0].shape, command="study", quiet=args.quiet)
+        except (TypeError, ValueError) as error:
+            raise UsageError(str(error)) from None
     where = f", {jobs} jobs" if jobs > 1 and scheduler is None else ""
     where += f", Dask scheduler {scheduler}" if scheduler else ""
     say(args, f"study: {len(items)} images from {source}{where}")

@@ -6,13 +6,12 @@ import argparse
 import csv
 import io
 import json
-import sys
 from pathlib import Path
 
 from ..analysis.jobs import DistributedUnavailableError
 from ..analysis.reporting import report
 from ..analysis.triangles import ANGLE_MEASURES
-from ..analysis.tuning import MEASURES, label, parse_config, search_space, tune
+from ..analysis.tuning import MEASURES, label, search_space, tune
 from ..analysis.tuning_trials import MAGNITUDES
 from ..core.config import MLSConfig
 from ..files.atomic import atomic_write
@@ -21,9 +20,9 @@ from .options import (
     UsageError,
     add_jobs_options,
     nonnegative_int,
+    parse_config_specs,
     positive_int,
     text_table,
-    unused_config_options,
 )
 from .progress import Progress
 from .tune_construction import configure_construction, run_construction
@@ -141,23 +140,11 @@ def _csv_text(rows: list[dict]) -> str:
 
 
 def parse_configs(args: argparse.Namespace, shape: tuple[int, int]) -> list[MLSConfig] | None:
-    """The configurations of ``--configs`` (None: the default search space); an entry that
-    names its weight and sets a parameter the weight does not use (``rigid:idw:radius=5``)
-    is said on stderr, as the MLS options' own warnings are; an entry of every weight
-    (``*``) sets its parameters for the weights that use them."""
+    """The configurations of ``--configs`` (None: the default search space), with
+    :func:`parse_config_specs`'s warnings."""
     if not args.configs:
         return None
-    configs = []
-    for spec in args.configs:
-        parsed = parse_config(spec, shape)
-        configs += parsed
-        parts = spec.split(":")
-        if args.quiet or len(parts) != 3 or parts[1] == "*":
-            continue
-        for config in parsed:
-            for message in unused_config_options(config, flags=False):
-                print(f"glmls tune: warning: --configs {spec}: {message}", file=sys.stderr)
-    return configs
+    return parse_config_specs(args.configs, shape, command="tune", quiet=args.quiet)
 
 
 def run(args: argparse.Namespace) -> int:

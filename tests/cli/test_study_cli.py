@@ -143,3 +143,19 @@ def test_a_manifest_naming_3d_handles_says_studies_take_2d_ones(inputs, capsys, 
     assert err.startswith('glmls study: three.json: "items"[0] (a)."handles": '), err
     assert "h3.json: 3D handles (x, y, z), but a study deforms 2D images: it takes 2D" in err
     assert "read_handles" not in err and not (inputs / "x").exists()
+
+
+def test_study_warns_of_a_configuration_parameter_its_weight_does_not_use(
+    inputs, capsys, monkeypatch
+):
+    monkeypatch.chdir(inputs)
+    code = run_main(
+        "study", "set.json", "--out", str(inputs / "st"), "--configs", "rigid:gaussian:s=2",
+        "--trials", "1",
+    )  # fmt: skip
+    assert code == 0
+    warnings = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
+    assert warnings == [
+        "glmls study: warning: --configs rigid:gaussian:s=2: s=2 is not used by the gaussian "
+        "weight (idw's)"
+    ]
