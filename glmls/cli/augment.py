@@ -31,7 +31,7 @@ from ..augment import PRESETS, Augment
 from ..files.atomic import remove_leftovers, umask
 from ..files.images import check_writable, imwrite
 from ..imaging.source import BORDERS, INTERPOLATIONS, check_image
-from .inputs import image_inputs, read_image, say
+from .inputs import image_inputs, kept_profile, read_image, say
 from .options import UsageError, add_jobs_options, add_max_pixels, positive_float, positive_int
 
 HELP = "random MLS deformations of images, with their labels (data augmentation)"
@@ -180,6 +180,7 @@ def augment_file(task: AugmentTask) -> AugmentOutcome:
             )
         except (TypeError, ValueError) as error:
             raise UsageError(f"{task.source}: {error}") from None
+        profile = kept_profile(task.source, targets[0], channels, "glmls augment")
         entries = {}
         step = max(1, CHUNK_BYTES // max(1, image.nbytes))
         for start in range(0, task.count, step):
@@ -200,7 +201,7 @@ def augment_file(task: AugmentTask) -> AugmentOutcome:
                 )
                 os.close(fd)
                 written.append((name, str(target)))
-                imwrite(name, result.images[k])
+                imwrite(name, result.images[k], icc_profile=profile)
                 entry: dict = {"source": task.source.name, "params": result.params[k]}
                 if keypoints is not None:
                     entry["keypoints"] = np.asarray(result.keypoints[k]).tolist()

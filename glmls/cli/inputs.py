@@ -21,6 +21,7 @@ from ..errors import BorderWarning, ImageWarning
 from ..files.atomic import atomic_write
 from ..files.images import DEFAULT_MAX_PIXELS, imread, imwrite
 from ..files.landmarks import handle_dimension, read_handle_set, read_points
+from ..files.profiles import profile_problem, read_icc_profile
 from ..mls import MLS
 from .options import UsageError, add_max_pixels, folder_path, handle_warnings, positive_int
 
@@ -31,6 +32,7 @@ __all__ = [
     "example_or_files",
     "figure",
     "image_inputs",
+    "kept_profile",
     "make_mls",
     "read_image",
     "read_image_handles",
@@ -92,9 +94,23 @@ def reported_warnings(prefix: str) -> Iterator[None]:
         print(f"{prefix}: warning: {warning.message}", file=sys.stderr)
 
 
-def write_image(path: Path, image: np.ndarray) -> None:
+def write_image(path: Path, image: np.ndarray, *, icc_profile: bytes | None = None) -> None:
     with atomic_write(path) as tmp:
-        imwrite(tmp, image)
+        imwrite(tmp, image, icc_profile=icc_profile)
+
+
+def kept_profile(source: Path, target: Path, channels: int, prefix: str) -> bytes | None:
+    """``source``'s ICC colour profile, for writing ``target`` (an image of ``channels``)
+    with it; None where it has none, or (said on stderr) where ``target`` cannot keep it."""
+    profile = read_icc_profile(source)
+    if profile is None:
+        return None
+    problem = profile_problem(target, profile, channels)
+    if problem:
+        print(f"{prefix}: warning: {source}: its colour profile is not kept: {problem}",
+              file=sys.stderr)  # fmt: skip
+        return None
+    return profile
 
 
 def make_mls(handles: HandleSet, config: MLSConfig, shape) -> MLS:

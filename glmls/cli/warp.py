@@ -25,6 +25,7 @@ from ..imaging.options import WarpOptions
 from ..imaging.source import check_image
 from .inputs import (
     image_inputs,
+    kept_profile,
     make_mls,
     read_image,
     read_image_handles,
@@ -192,7 +193,9 @@ def _warp_file(task: WarpTask) -> WarpOutcome:
                         notes.append(f"warp: {w} x {h} pixels from ({x0:g}, {y0:g})")
                 except (TypeError, ValueError) as error:
                     raise UsageError(f"{task.source}: {error}") from None
-        write_image(task.target, result)
+        channels = 1 if result.ndim == 2 else result.shape[2]
+        profile = kept_profile(task.source, task.target, channels, "glmls warp")
+        write_image(task.target, result, icc_profile=profile)
     except UsageError as error:
         return WarpOutcome(task.target, shape, str(error), tuple(notes))
     except OSError as error:  # its message names the output: no "item N" before it

@@ -32,6 +32,7 @@ import tifffile
 from PIL import Image, ImageOps, UnidentifiedImageError
 
 from ..errors import ImageWarning
+from .profiles import profile_problem, with_png_profile
 from .tiffs import quiet_tifffile
 
 __all__ = ["DEFAULT_MAX_PIXELS", "WRITABLE", "check_writable", "imread", "imwrite"]
@@ -336,7 +337,7 @@ def _suffixes(dtype: object, channels: int) -> str:
     return ", ".join(fits[:-1]) + f" or {fits[-1]}" if len(fits) > 1 else fits[0]
 
 
-def imwrite(path: str | os.PathLike, image: object) -> None:
+def imwrite(path: str | os.PathLike, image: object, *, icc_profile: bytes | None = None) -> None:
     """Write an image to a file whose suffix names its format.
 
     uint8 to any format of :data:`WRITABLE`, uint16 to PNG or TIFF, float32 and float64 to
@@ -349,12 +350,18 @@ def imwrite(path: str | os.PathLike, image: object) -> None:
         The file; its suffix (``.png``, ``.jpg``, ``.tif``, ...) chooses the format.
     image : array_like
         H x W or H x W x C with C in 1..4.
+    icc_profile : bytes, optional
+        An ICC colour profile written with the image (PNG, TIFF, JPEG and WebP hold one): an
+        RGB profile for 3 or 4 channels, a grey one for 1 or 2. A photograph's own,
+        ``glmls.files.read_icc_profile(path)``, keeps its colours as viewers show
+        them; without one, viewers take the pixels for sRGB.
 
     Raises
     ------
     ValueError
         Before writing anything, for an unknown suffix, a format that cannot hold the image's
-        dtype or alpha, an empty image or a wrong shape.
+        dtype or alpha, an empty image or a wrong shape, or an ``icc_profile`` that is not an
+        ICC profile, does not fit the image's channels or that the format cannot hold.
 
     See Also
     --------
@@ -380,14 +387,24 @@ def imwrite(path: str | os.PathLike, image: object) -> None:
     if array.size == 0:
         raise ValueError(f"image is empty: shape {array.shape}")
     check_writable(path, array.dtype, _channels(array))
+    if icc_profile is not None:
+        problem = profile_problem(path, icc_profile, _channels(array))
+        if problem:
+            raise ValueError(f"{path}: {problem}")
+        icc_profile = bytes(icc_profile)
     suffix = Path(path).suffix.lower()
     array = np.ascontiguousarray(array)
     if suffix in (".tif", ".tiff"):
         channels = _channels(array)
         photometric = "rgb" if channels >= 3 else "minisblack"
         extra = ["unassalpha"] if channels in (2, 4) else None
-        tifffile.imwrite(path, array, photometric=photometric, extrasamples=extra)
+        tifffile.imwrite(
+            path, array, photometric=photometric, extrasamples=extra, iccprofile=icc_profile
+        )
     elif array.dtype == np.uint16:
-        Path(path).write_bytes(imagecodecs.png_encode(array, level=6))
+        png = imagecodecs.png_encode(array, level=6)
+        Path(path).write_bytes(with_png_profile(png, icc_profile) if icc_profile else png)
+    elif icc_profile:
+        Image.fromarray(array).save(path, icc_profile=icc_profile)
     else:
         Image.fromarray(array).save(path)

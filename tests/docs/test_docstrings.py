@@ -19,6 +19,7 @@ from numpydoc.docscrape import ClassDoc, FunctionDoc
 from numpydoc.validate import validate
 
 import glmls
+import glmls.files
 import glmls.volume
 
 MODULES = [
@@ -30,6 +31,12 @@ MODULES = [
     glmls.data,
     glmls.mls3,
     glmls.volume,
+]
+#: Names of other modules that the API reference documents (docs/api/glmls.rst).
+NAMED = [
+    glmls.files.read_icc_profile,
+    glmls.files.world_to_volume,
+    glmls.files.volume_to_world,
 ]
 
 #: The numpydoc.validate checks every public function passes: a docstring (GL08) with a
@@ -53,6 +60,7 @@ def public_names() -> list[tuple[str, object]]:
             obj = getattr(module, name)
             if inspect.isfunction(obj) or inspect.isclass(obj):
                 found.append((f"{module.__name__}.{name}", obj))
+    found += [(f"glmls.files.{obj.__name__}", obj) for obj in NAMED]
     return found
 
 
