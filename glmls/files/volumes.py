@@ -69,10 +69,11 @@ def volume_suffix(path: str | os.PathLike) -> str:
 
 
 def is_volume_file(path: str | os.PathLike) -> bool:
-    """Whether ``path`` names a volume: a NIfTI or ``.npy`` file by its suffix, or a TIFF of
-    more than one page (an existing file is opened to count its pages; a TIFF that does
-    not exist yet is not a volume). ``InputFileError`` for an existing TIFF file of no
-    readable page."""
+    """Whether ``path`` names a volume: a NIfTI or ``.npy`` file by its suffix, or a TIFF
+    whose first series (tifffile's: pages of one shape) has more than one page (an existing
+    file is opened to count them; a TIFF that does not exist yet is not a volume; an image
+    with a thumbnail or a pyramid of smaller pages is an image). ``InputFileError`` for an
+    existing TIFF file of no readable page."""
     suffix = volume_suffix(path)
     if suffix in (".nii", ".nii.gz", ".npy"):
         return True
@@ -81,11 +82,12 @@ def is_volume_file(path: str | os.PathLike) -> bool:
     try:
         with quiet_tifffile(), tifffile.TiffFile(path) as tiff:
             pages = len(tiff.pages)
+            stacked = len(tiff.series[0].pages) if pages and tiff.series else pages
     except (tifffile.TiffFileError, *_CORRUPT) as error:
         raise InputFileError(f"{path}: not a readable TIFF file: {error}") from None
     if pages == 0:
         raise InputFileError(f"{path}: not a readable TIFF file: no page")
-    return pages > 1
+    return stacked > 1
 
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)

@@ -39,3 +39,24 @@ def test_a_keyed_grey_png_keeps_its_alpha(tmp_path):
     result = glmls_cli("warp", "keyed.png", "out.jpg", "--handles", "h.json", cwd=tmp_path)
     assert result.returncode == 2 and "Traceback" not in result.stderr
     assert ".jpg has no alpha channel" in result.stderr
+
+
+def test_a_tiff_with_a_thumbnail_is_an_image_and_a_stack_a_volume(tmp_path, gl):
+    """Pages of different sizes (a thumbnail, a pyramid) make an image: its first page is
+    warped; pages of one size make a volume, which 2D handles do not deform."""
+    rng = np.random.default_rng(6)
+    photo = rng.integers(0, 256, (32, 40, 3), dtype=np.uint8)
+    with tifffile.TiffWriter(tmp_path / "thumb.tif") as tiff:
+        tiff.write(photo, photometric="rgb")
+        tiff.write(photo[::4, ::4], photometric="rgb")
+    stack = photo[..., 0][None].repeat(4, axis=0)
+    tifffile.imwrite(tmp_path / "stack.tif", stack, photometric="minisblack")
+    write_cli_handles(tmp_path)
+    result = glmls_cli("warp", "thumb.tif", "out.tif", "--handles", "h.json", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "thumb.tif: 2 pages; reading the first" in result.stderr
+    expected = glmls.warp(photo, SRC, DST, ctx=gl)
+    np.testing.assert_array_equal(glmls.imread(tmp_path / "out.tif"), expected)
+    result = glmls_cli("warp", "stack.tif", "o.tif", "--handles", "h.json", cwd=tmp_path)
+    assert result.returncode == 2
+    assert "2D handles (x, y), but stack.tif is a volume" in result.stderr
