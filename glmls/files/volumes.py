@@ -13,8 +13,8 @@ the world as they are: it is kept as read, unchanged.
 axes, as :meth:`glmls.MLS.warp` takes it) and the affine, where the file says them:
 
 - NIfTI: the affine; the spacing is the length of its columns (k, j, i);
-- TIFF: the spacing of an ImageJ stack (its ``spacing`` and X/Y resolutions, which
-  :func:`write_volume` writes), else none; no affine;
+- TIFF: the spacing of a calibrated ImageJ stack (its ``spacing``, 1 where ImageJ leaves
+  it out, and X/Y resolutions, which :func:`write_volume` writes), else none; no affine;
 - ``.npy``: the array only.
 
 A TIFF is a volume when it holds more than one page (a stack); one page is an image
@@ -382,15 +382,22 @@ def _read_tiff(path: Path) -> Volume:
 
 
 def _tiff_spacing(tiff: tifffile.TiffFile) -> tuple[float, float, float] | None:
-    """(dz, dy, dx) of an ImageJ stack: its ``spacing`` and the pages' resolutions."""
+    """(dz, dy, dx) of a calibrated ImageJ stack, None for others.
+
+    ImageJ (Fiji) writes a calibrated stack's unit (``unit=``), the pixel size as the X/Y
+    resolutions, and ``spacing=`` (the voxel depth) only where that depth is neither 0 nor 1:
+    a stack of 0.25 x 0.25 x 1 um voxels has no ``spacing``, and its depth is 1."""
     metadata = tiff.imagej_metadata or {}
-    page = tiff.pages[0]
+    unit = str(metadata.get("unit", "pixel")).lower()
+    if "spacing" not in metadata and unit in ("pixel", "pixels", ""):
+        return None  # not calibrated
+    tags = tiff.pages[0].tags
     try:
-        dz = float(metadata["spacing"])
-        dx = _resolution(page.tags["XResolution"].value)
-        dy = _resolution(page.tags["YResolution"].value)
+        dz = float(metadata.get("spacing", 1.0))
+        dx = _resolution(tags["XResolution"].value) if "XResolution" in tags else 1.0
+        dy = _resolution(tags["YResolution"].value) if "YResolution" in tags else 1.0
         return as_volume_spacing((dz, dy, dx))
-    except (KeyError, TypeError, ValueError, ZeroDivisionError):
+    except (TypeError, ValueError, ZeroDivisionError):
         return None
 
 
@@ -417,7 +424,9 @@ def write_volume(
         (D, H, W) or (D, H, W, C); a :class:`Volume` brings its spacing and affine.
     affine : array_like, optional
         NIfTI: the 4 x 4 affine of the points (x, y, z, 1); default the volume's, else a
-        diagonal one of the spacing, else the identity. Given with another format: refused
+        diagonal one of the spacing, else the identity. Written as the sform, and as the
+        qform where a qform holds it (a sheared affine's qform is left unset, code 0, so
+        that no tool reads another geometry from it). Given with another format: refused
         (a :class:`Volume`'s own affine is left out of other formats).
     spacing : sequence of float, optional
         The voxel size (dz, dy, dx); default the volume's. NIfTI: used where no affine is
@@ -512,8 +521,14 @@ def _write_nifti(path: Path, volume: Volume, *, compress: bool) -> None:
         image = nib.Nifti1Image(data, np.asarray(affine), dtype=data.dtype)
     except (nib.spatialimages.HeaderDataError, ValueError) as error:
         raise ValueError(f"{path}: NIfTI cannot hold this volume: {error}") from None
-    image.set_qform(np.asarray(affine), code=1)
     image.set_sform(np.asarray(affine), code=1)
+    # a qform is a rotation (or a reflection of one), voxel sizes and a translation: for a
+    # sheared affine nibabel would write the nearest one, another geometry for the tools
+    # that read the qform first (ITK where its code is > 0); there the qform is left unset
+    image.set_qform(np.asarray(affine), code=1)
+    tolerance = 1e-6 * max(1.0, float(np.abs(affine).max()))
+    if not np.allclose(image.get_qform(), affine, rtol=0, atol=tolerance):
+        image.set_qform(None, code=0)
     content = image.to_bytes()
     if compress:
         content = gzip.compress(content, compresslevel=6, mtime=0)
