@@ -159,6 +159,10 @@ def _affine_spacing(affine: np.ndarray) -> tuple[float, float, float]:
     return (float(lengths[2]), float(lengths[1]), float(lengths[0]))
 
 
+#: ITK's LPS world from NIfTI's RAS+ one and back: x and y negated.
+_LPS = np.array([-1.0, -1.0, 1.0])
+
+
 def _world_frame(points: object, affine: object, spacing: object) -> tuple:
     """(points (N, 3) float64, the affine (4, 4), its inverse, the scale (dx, dy, dz))."""
     values = np.asarray(points, dtype=np.float64)
@@ -175,16 +179,20 @@ def _world_frame(points: object, affine: object, spacing: object) -> tuple:
     return values, matrix, np.linalg.inv(matrix), np.array(steps[::-1])
 
 
-def world_to_volume(points: object, affine: object, *, spacing: object = None) -> np.ndarray:
+def world_to_volume(
+    points: object, affine: object, *, spacing: object = None, lps: bool = False
+) -> np.ndarray:
     """World coordinates of a NIfTI file's affine to the frame of glmls's 3D warps.
 
     The affine maps a voxel's indices (i, j, k, 1) = (x, y, z, 1), glmls's point of the
     voxel ``volume.data[k, j, i]`` (:func:`read_volume` transposes NIfTI's (i, j, k) array
     to (z, y, x)), to world (scanner) coordinates, those nibabel's ``img.affine`` gives
-    (NIfTI's RAS+: x to the right, y to the front, z up; tools in ITK's LPS convention give
-    x and y with the opposite signs). This is its inverse, times the spacing: the point
-    (i dx, j dy, k dz), in the units in which :meth:`glmls.MLS.warp` with ``spacing``
-    places the voxels and takes the handles.
+    (NIfTI's RAS+: x to the right, y to the front, z up). This is its inverse, times the
+    spacing: the point (i dx, j dy, k dz), in the units in which :meth:`glmls.MLS.warp` with
+    ``spacing`` places the voxels and takes the handles. ITK (SimpleITK, elastix's
+    ``point`` files, ITK-SNAP's and 3D Slicer's exported LPS points) gives the same world
+    in LPS: x and y negated (ITK's NIfTI reader negates the affine's first two rows);
+    ``lps=True`` takes points so.
 
     Parameters
     ----------
@@ -195,6 +203,8 @@ def world_to_volume(points: object, affine: object, *, spacing: object = None) -
     spacing : (float, float, float), optional
         (dz, dy, dx) of the warp; default the affine's (the lengths of its columns, as
         :func:`read_volume` gives :attr:`Volume.spacing`).
+    lps : bool, default False
+        The points are in ITK's LPS world (x to the left, y to the back), not RAS+.
 
     Returns
     -------
@@ -222,13 +232,19 @@ def world_to_volume(points: object, affine: object, *, spacing: object = None) -
     >>> affine[:3, 3] = [-10.0, 20.0, 5.0]  # the world point of voxel (0, 0, 0)
     >>> world_to_volume([[-9.0, 21.0, 9.0]], affine).tolist()  # voxel (2, 2, 2)
     [[1.0, 1.0, 4.0]]
+    >>> world_to_volume([[9.0, -21.0, 9.0]], affine, lps=True).tolist()  # the same, LPS
+    [[1.0, 1.0, 4.0]]
     """
     values, _, inverse, scale = _world_frame(points, affine, spacing)
+    if lps:
+        values = values * _LPS
     indices = values @ inverse[:3, :3].T + inverse[:3, 3]
     return indices * scale
 
 
-def volume_to_world(points: object, affine: object, *, spacing: object = None) -> np.ndarray:
+def volume_to_world(
+    points: object, affine: object, *, spacing: object = None, lps: bool = False
+) -> np.ndarray:
     """Points of the frame of glmls's 3D warps to world coordinates of a NIfTI affine.
 
     The inverse of :func:`world_to_volume`: (i dx, j dy, k dz) divided by the spacing, then
@@ -242,6 +258,8 @@ def volume_to_world(points: object, affine: object, *, spacing: object = None) -
         The 4 x 4 affine (:attr:`Volume.affine`).
     spacing : (float, float, float), optional
         (dz, dy, dx); default the affine's.
+    lps : bool, default False
+        Give the world points in ITK's LPS convention (x and y negated), not RAS+.
 
     Returns
     -------
@@ -263,7 +281,8 @@ def volume_to_world(points: object, affine: object, *, spacing: object = None) -
     [[-9.0, 21.0, 9.0]]
     """
     values, matrix, _, scale = _world_frame(points, affine, spacing)
-    return (values / scale) @ matrix[:3, :3].T + matrix[:3, 3]
+    world = (values / scale) @ matrix[:3, :3].T + matrix[:3, 3]
+    return world * _LPS if lps else world
 
 
 def read_volume(path: str | os.PathLike) -> Volume:
