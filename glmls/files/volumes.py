@@ -14,7 +14,9 @@ axes, as :meth:`glmls.MLS.warp` takes it) and the affine, where the file says th
 
 - NIfTI: the affine; the spacing is the length of its columns (k, j, i);
 - TIFF: the spacing of a calibrated ImageJ stack (its ``spacing``, 1 where ImageJ leaves
-  it out, and X/Y resolutions, which :func:`write_volume` writes), else none; no affine;
+  it out, and X/Y resolutions, which :func:`write_volume` writes) or of an OME-TIFF (its
+  ``PhysicalSizeZ``, ``Y``, ``X``, in micrometres where their units differ), else none; no
+  affine;
 - ``.npy``: the array only.
 
 A TIFF is a volume when it holds more than one page (a stack); one page is an image
@@ -388,7 +390,7 @@ def _read_tiff(path: Path) -> Volume:
             )
         series = tiff.series[0]
         data, axes = series.asarray(), series.axes
-        spacing = _tiff_spacing(tiff)
+        spacing = _tiff_spacing(tiff) or _ome_spacing(tiff)
     if data.ndim == 4 and axes[1] == "C":  # an ImageJ hyperstack: (Z, C, Y, X)
         data = np.moveaxis(data, 1, -1)
     elif data.ndim == 4 and axes[-1] not in "SC":
@@ -417,6 +419,45 @@ def _tiff_spacing(tiff: tifffile.TiffFile) -> tuple[float, float, float] | None:
         dy = _resolution(tags["YResolution"].value) if "YResolution" in tags else 1.0
         return as_volume_spacing((dz, dy, dx))
     except (TypeError, ValueError, ZeroDivisionError):
+        return None
+
+
+#: OME's length units in micrometres, to put the axes of an OME-TIFF in one unit.
+_OME_MICROMETRES = {
+    "pm": 1e-6,
+    "Å": 1e-4,
+    "nm": 1e-3,
+    "µm": 1.0,
+    "μm": 1.0,
+    "um": 1.0,
+    "mm": 1e3,
+    "cm": 1e4,
+    "m": 1e6,
+}
+
+
+def _ome_spacing(tiff: tifffile.TiffFile) -> tuple[float, float, float] | None:
+    """(dz, dy, dx) of an OME-TIFF's first image: its ``PhysicalSizeZ``, ``Y`` and ``X`` (1
+    where one is missing; None where all are), in their unit (OME's default, um), or in
+    micrometres where the axes' units differ."""
+    if not tiff.is_ome or not tiff.ome_metadata:
+        return None
+    import xml.etree.ElementTree as ElementTree
+
+    try:
+        root = ElementTree.fromstring(tiff.ome_metadata)
+    except ElementTree.ParseError:
+        return None
+    pixels = next((e for e in root.iter() if e.tag.rsplit("}", 1)[-1] == "Pixels"), None)
+    if pixels is None or not any(f"PhysicalSize{a}" in pixels.attrib for a in "XYZ"):
+        return None
+    units = [pixels.get(f"PhysicalSize{a}Unit", "µm") for a in "ZYX"]
+    try:
+        steps = [float(pixels.get(f"PhysicalSize{a}", 1.0)) for a in "ZYX"]
+        if len(set(units)) > 1:
+            steps = [step * _OME_MICROMETRES[unit] for step, unit in zip(steps, units, strict=True)]
+        return as_volume_spacing(steps)
+    except (KeyError, TypeError, ValueError):
         return None
 
 

@@ -107,3 +107,34 @@ def test_an_affine_a_qform_holds_is_written_as_both(tmp_path, affine):
     assert_allclose(sform, affine, atol=1e-6)
     # nibabel's array is (i, j, k) = (x, y, z): glmls's data transposed
     assert_array_equal(np.asanyarray(image.dataobj), DATA.transpose(2, 1, 0))
+
+
+@pytest.mark.parametrize(
+    ("sizes", "expected"),
+    [
+        ({"PhysicalSizeX": 0.25, "PhysicalSizeY": 0.25, "PhysicalSizeZ": 2.0}, (2.0, 0.25, 0.25)),
+        ({"PhysicalSizeX": 0.5, "PhysicalSizeY": 0.5}, (1.0, 0.5, 0.5)),
+        # the units of each axis: the spacing in micrometres where they differ
+        (
+            {
+                "PhysicalSizeX": 250.0,
+                "PhysicalSizeXUnit": "nm",
+                "PhysicalSizeY": 250.0,
+                "PhysicalSizeYUnit": "nm",
+                "PhysicalSizeZ": 2.0,
+            },
+            (2.0, 0.25, 0.25),
+        ),
+        ({}, None),
+    ],
+)
+def test_an_ome_tiff_stack_gives_its_physical_sizes(tmp_path, sizes, expected):
+    """OME-TIFF (Bio-Formats' export, Fiji's among them) says the voxel size in its XML."""
+    path = tmp_path / "stack.ome.tif"
+    tifffile.imwrite(path, DATA, ome=True, metadata={"axes": "ZYX", **sizes})
+    volume = read_volume(path)
+    assert_array_equal(volume.data, DATA)
+    if expected is None:
+        assert volume.spacing is None
+    else:
+        assert_allclose(volume.spacing, expected, rtol=1e-12)
