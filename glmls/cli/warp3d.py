@@ -111,7 +111,7 @@ def add_3d_options(parser: argparse.ArgumentParser) -> None:
         type=parse_spacing,
         metavar="DZ,DY,DX",
         help="a volume's voxel size along z, y and x, or one number for all three (default: "
-        "the file's: a NIfTI's affine, an ImageJ TIFF stack's spacing; else 1)",
+        "the file's: a NIfTI's affine, an ImageJ or OME TIFF stack's spacing; else 1)",
     )
 
 

@@ -491,9 +491,10 @@ def write_volume(
     spacing : sequence of float, optional
         The voxel size (dz, dy, dx); default the volume's. NIfTI: used where no affine is
         given; TIFF: written as an ImageJ stack's spacing and X/Y resolutions (uint8,
-        uint16, int16 and float32 data of one channel; others are written as a plain TIFF,
-        without it). NIfTI lacks bool and float16: they are written as uint8 and float32.
-        ``.npy`` holds none.
+        uint16, int16 and float32 data: a stack, an RGB stack for 3 channels of uint8, a
+        hyperstack (Z, C, Y, X) for other channels, as Fiji opens them; other dtypes are
+        written as a plain TIFF, without it). NIfTI lacks bool and float16: they are written
+        as uint8 and float32. ``.npy`` holds none.
 
     Raises
     ------
@@ -550,21 +551,32 @@ def write_volume(
 
 
 def _write_tiff(path: Path, volume: Volume) -> None:
+    """An ImageJ stack for ImageJ's dtypes (Fiji opens it with its calibration): one channel
+    (Z, Y, X), 3 channels of uint8 an RGB stack, other channels a hyperstack (Z, C, Y, X);
+    other dtypes a plain TIFF of D pages, channels as samples."""
     data = np.ascontiguousarray(volume.data)
     channels = 1 if data.ndim == 3 else data.shape[3]
     options: dict = {}
-    if channels > 1:
+    if data.dtype.name in _IMAGEJ_DTYPES:
+        metadata: dict = {"axes": "ZYX"}
+        if channels == 3 and data.dtype == np.uint8:
+            options["photometric"] = "rgb"
+            metadata["axes"] = "ZYXS"
+        elif channels > 1:
+            data = np.ascontiguousarray(np.moveaxis(data, 3, 1))
+            metadata["axes"] = "ZCYX"
+        if volume.spacing is not None:
+            dz, dy, dx = volume.spacing
+            options["resolution"] = (1 / dx, 1 / dy)
+            metadata["spacing"] = dz
+        options.update(imagej=True, metadata=metadata)
+    elif channels > 1:
         options["photometric"] = "rgb" if channels in (3, 4) else "minisblack"
         options["planarconfig"] = "contig"
         if channels in (2, 4):
             options["extrasamples"] = ["unassalpha"]
     else:
         options["photometric"] = "minisblack"
-    imagej = volume.spacing is not None and data.dtype.name in _IMAGEJ_DTYPES and channels == 1
-    if imagej:
-        dz, dy, dx = volume.spacing  # type: ignore[misc]
-        options.update(imagej=True, resolution=(1 / dx, 1 / dy), metadata={"spacing": dz})
-        options["metadata"]["axes"] = "ZYX"
     with atomic_write(path) as tmp:
         tifffile.imwrite(tmp, data, **options)
 

@@ -138,3 +138,24 @@ def test_an_ome_tiff_stack_gives_its_physical_sizes(tmp_path, sizes, expected):
         assert volume.spacing is None
     else:
         assert_allclose(volume.spacing, expected, rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("dtype", "channels", "axes"),
+    [("uint16", 2, "ZCYX"), ("float32", 4, "ZCYX"), ("uint8", 3, "ZYXS"), ("uint16", 3, "ZCYX")],
+)
+def test_channels_are_written_as_fiji_reads_them_with_the_spacing(tmp_path, dtype, channels, axes):
+    """A volume of channels is an ImageJ hyperstack (Z, C, Y, X), or an RGB stack for 3
+    channels of uint8, with its calibration: Fiji opens it as channels of a stack."""
+    data = (np.random.default_rng(2).random((4, 5, 6, channels)) * 200).astype(dtype)
+    path = tmp_path / "channels.tif"
+    write_volume(path, data, spacing=(3.0, 0.5, 0.25))
+    with tifffile.TiffFile(path) as tiff:
+        assert tiff.is_imagej and tiff.series[0].axes == axes
+        assert tiff.imagej_metadata["spacing"] == 3.0
+        if axes == "ZCYX":
+            assert tiff.imagej_metadata["channels"] == channels
+    volume = read_volume(path)
+    assert volume.spacing == (3.0, 0.5, 0.25)
+    assert volume.data.dtype == data.dtype
+    assert_array_equal(volume.data, data)
