@@ -103,3 +103,30 @@ def test_a_fiji_stack_moves_by_bigwarp_landmarks_in_microns(gl, tmp_path, monkey
     out = glmls.read_volume(tmp_path / "out.tif")
     assert out.spacing == (1.0, 0.5, 0.5)
     assert_array_equal(out.data, ndi.shift(volume, (0, 0, 1), order=0, mode="constant"))
+
+
+def test_a_canvas_origin_is_a_shift_of_the_affine(gl):
+    """Output voxel (k, j, i) shows the point origin + (i dx, j dy, k dz): written with the
+    affine times the shift by origin / (dx, dy, dz) voxels, it keeps its world place."""
+    volume = _volume()
+    spacing = (3.0, 1.0, 2.0)  # dz, dy, dx
+    steps = np.array(spacing[::-1])
+    affine = np.diag([*steps, 1.0])
+    affine[:3, 3] = [-5.0, 10.0, 20.0]
+    src = _corners(scale=steps)
+    origin = np.array([2.0, 1.0, 0.0]) * steps  # (x0, y0, z0): voxel (2, 1, 0)
+    out = glmls.warp(
+        volume,
+        src,
+        src,
+        transform="affine",
+        spacing=spacing,
+        output_shape=(6, 6, 6),
+        origin=tuple(origin),
+    )
+    assert_array_equal(out[:, :6, :6], volume[:, 1:7, 2:8])
+    shift = np.eye(4)
+    shift[:3, 3] = origin / steps
+    world_out = (affine @ shift) @ [0.0, 0.0, 0.0, 1.0]
+    world_in = affine @ [2.0, 1.0, 0.0, 1.0]
+    np.testing.assert_allclose(world_out, world_in)
