@@ -230,7 +230,8 @@ def volume_handle_warnings(args: argparse.Namespace, src, shape, spacing, affine
             "(i, j, k) at (i dx, j dy, k dz)"
         )
     elif affine is not None:
-        voxels = world_to_volume(points, affine, spacing=(1.0, 1.0, 1.0))
+        lps = elastix_physical(args.handles, dst=args.targets)  # ITK's world, as --world
+        voxels = world_to_volume(points, affine, spacing=(1.0, 1.0, 1.0), lps=lps)
         if _inside(voxels, shape, np.ones(3)).mean() > 0.5:
             hint = "; world coordinates of the file's affine? add --world"
     return [

@@ -8,6 +8,7 @@ inside it."""
 from __future__ import annotations
 
 import json
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -15,7 +16,9 @@ from numpy.testing import assert_allclose
 
 import glmls
 from glmls.cli.main import main
+from glmls.cli.warp3d import volume_handle_warnings
 from glmls.files import volume_to_world, world_to_volume
+from glmls.files.landmarks import read_handles
 
 SHAPE = (8, 10, 12)  # D, H, W
 #: 2 x 1.5 x 1 mm voxels, the volume's centre at the world's origin (RAS+)
@@ -63,3 +66,21 @@ def test_elastix_point_files_with_world_are_itk_lps(scan, gl):
     units, lps = (glmls.read_volume(scan / f"{n}.nii.gz").data for n in ("units", "lps"))
     assert np.abs(units - glmls.read_volume(scan / "v.nii.gz").data).max() > 0.05  # moved
     assert_allclose(lps, units, rtol=0, atol=1e-4)
+
+
+def test_elastix_point_files_without_world_are_told_to_add_it(tmp_path):
+    """Taken as they are, the moving points of a volume away from the world's origin lie
+    outside its frame: the warning names --world, under which they fall inside as ITK's LPS
+    world (as RAS+ they would not)."""
+    affine = AFFINE.copy()
+    affine[:3, 3] = [40.0, 30.0, 5.0]
+    src = np.array([[4.0, 3.0, 2.0], [10.0, 6.0, 3.0], [16.0, 9.0, 5.0]])  # (i dx, j dy, k dz)
+    _pts(tmp_path / "moving.pts", volume_to_world(src, affine) * LPS)
+    _pts(tmp_path / "fixed.pts", volume_to_world(src + 0.5, affine) * LPS)
+    args = SimpleNamespace(
+        handles=tmp_path / "moving.pts", targets=tmp_path / "fixed.pts", world=False
+    )
+    taken, _ = read_handles(args.handles, dst=args.targets)
+    spacing = (1.0, 1.5, 2.0)
+    [message] = volume_handle_warnings(args, taken, SHAPE, spacing, affine)
+    assert message.endswith("add --world"), message
