@@ -7,7 +7,9 @@ images are (H, W) arrays with points (x, y). A NIfTI data array is indexed (i, j
 (x, y, z), so reading transposes it to (z, y, x) and writing back again: the voxel at NIfTI
 index (i, j, k) is ``volume.data[k, j, i]``, glmls's point (i, j, k). The NIfTI affine maps
 voxel indices (i, j, k, 1) to world coordinates, so it maps glmls's points (x, y, z, 1) to
-the world as they are: it is kept as read, unchanged.
+the world as they are: it is kept as read, unchanged. Channels are NIfTI's vector
+dimension, the 5th ((i, j, k, 1, C), intent ``vector``, as ITK writes vector images; the 4th
+is time): written so, and read from it, from a 4th dimension or from RGB records.
 
 :class:`Volume` holds the data, the voxel spacing (dz, dy, dx) (in the order of the array's
 axes, as :meth:`glmls.MLS.warp` takes it) and the affine, where the file says them:
@@ -589,10 +591,14 @@ def _write_nifti(path: Path, volume: Volume, *, compress: bool) -> None:
         affine = np.diag([dx, dy, dz, 1.0])
     data = np.ascontiguousarray(np.swapaxes(volume.data, 0, 2))  # (z, y, x) -> (x, y, z)
     data = data.astype(_NIFTI_AS.get(data.dtype.name, data.dtype), copy=False)
+    if data.ndim == 4:  # channels: NIfTI's vector dimension, the 5th (the 4th is time)
+        data = data[:, :, :, np.newaxis, :]
     try:
         image = nib.Nifti1Image(data, np.asarray(affine), dtype=data.dtype)
     except (nib.spatialimages.HeaderDataError, ValueError) as error:
         raise ValueError(f"{path}: NIfTI cannot hold this volume: {error}") from None
+    if data.ndim == 5:
+        image.header.set_intent("vector")
     image.set_sform(np.asarray(affine), code=1)
     # a qform is a rotation (or a reflection of one), voxel sizes and a translation: for a
     # sheared affine nibabel would write the nearest one, another geometry for the tools

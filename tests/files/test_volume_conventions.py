@@ -159,3 +159,19 @@ def test_channels_are_written_as_fiji_reads_them_with_the_spacing(tmp_path, dtyp
     assert volume.spacing == (3.0, 0.5, 0.25)
     assert volume.data.dtype == data.dtype
     assert_array_equal(volume.data, data)
+
+
+def test_nifti_channels_are_a_vector_dimension_not_time(tmp_path):
+    """NIfTI keeps a voxel's components in its 5th dimension (intent vector, the 4th, time,
+    of size 1), as ITK writes and reads vector images; a 4th dimension would be time
+    points."""
+    data = (np.random.default_rng(3).random((4, 5, 6, 3)) * 200).astype(np.float32)
+    path = tmp_path / "vectors.nii.gz"
+    write_volume(path, data, spacing=(2.0, 1.0, 0.5))
+    image = nib.load(path)
+    assert image.shape == (6, 5, 4, 1, 3)
+    assert image.header.get_intent()[0] == "vector"
+    assert_array_equal(np.asanyarray(image.dataobj)[:, :, :, 0, :], data.transpose(2, 1, 0, 3))
+    volume = read_volume(path)
+    assert_array_equal(volume.data, data)
+    assert volume.spacing == (2.0, 1.0, 0.5)
