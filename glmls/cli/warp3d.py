@@ -9,7 +9,8 @@ format of its suffix.
   diagonal in the handles' units (those of the spacing); an elastix pair
   of ``index`` files (voxel indices) is put there by the spacing. With ``--world`` (NIfTI
   only) the handles are world coordinates of the file's affine, mapped through its inverse
-  to the voxels times the spacing (:func:`glmls.files.world_to_volume`).
+  to the voxels times the spacing (:func:`glmls.files.world_to_volume`): nibabel's RAS+,
+  and for an elastix pair of ``point`` files ITK's LPS (x and y negated).
 - A mesh (PLY, OBJ, STL) is deformed by :meth:`glmls.MLS.deform`; the output has the
   deformed vertices and the input's triangles, and stderr says how many vertices and faces
   fold over. A radius weight needs ``--radius`` there.
@@ -26,7 +27,7 @@ import numpy as np
 
 from ..core.config import MLSConfig
 from ..core.handles3 import as_volume_spacing
-from ..files.landmarks import elastix_indices, handle_dimension, read_handles
+from ..files.landmarks import elastix_indices, elastix_physical, handle_dimension, read_handles
 from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import (
     VOLUME_SUFFIXES,
@@ -102,14 +103,15 @@ def add_3d_options(parser: argparse.ArgumentParser) -> None:
         "--world",
         action="store_true",
         help="the handles (and reference points) are world coordinates of a NIfTI volume's "
-        "affine (nibabel's, RAS+): mapped through its inverse to the voxels times the spacing",
+        "affine (nibabel's, RAS+; an elastix pair of 'point' files: ITK's, LPS): mapped "
+        "through its inverse to the voxels times the spacing",
     )
     group.add_argument(
         "--spacing",
         type=parse_spacing,
         metavar="DZ,DY,DX",
         help="a volume's voxel size along z, y and x, or one number for all three (default: "
-        "the file's: a NIfTI's affine, an ImageJ TIFF stack's spacing; else 1)",
+        "the file's: a NIfTI's affine, an ImageJ or OME TIFF stack's spacing; else 1)",
     )
 
 
@@ -167,17 +169,23 @@ def check_world(args: argparse.Namespace) -> None:
         )
 
 
-def world_handles(args: argparse.Namespace, volume: Volume, spacing, *points):
-    """``points`` (each (N, 3), or None) as they are, or with ``--world`` mapped from world
-    coordinates through the inverse of the volume's affine to (i dx, j dy, k dz) of
-    ``spacing`` (:func:`glmls.files.world_to_volume`)."""
+def world_handles(args: argparse.Namespace, volume: Volume, spacing, src, dst, *points):
+    """The handles ``src``, ``dst`` and other ``points`` (each (N, 3), or None) as they are,
+    or with ``--world`` mapped from world coordinates through the inverse of the volume's
+    affine to (i dx, j dy, k dz) of ``spacing`` (:func:`glmls.files.world_to_volume`): RAS+
+    (nibabel's), except the handles of an elastix pair of ``point`` files, which are ITK's
+    physical points, LPS (x and y negated)."""
     if not getattr(args, "world", False):
-        return points
+        return (src, dst, *points)
     check_world(args)
     if volume.affine is None:  # a NIfTI file always has one: checked all the same
         raise UsageError(f"--world: {args.input} has no affine")
+    lps = elastix_physical(args.handles, dst=args.targets)
     try:
         return tuple(
+            None if p is None else world_to_volume(p, volume.affine, spacing=spacing, lps=lps)
+            for p in (src, dst)
+        ) + tuple(
             None if p is None else world_to_volume(p, volume.affine, spacing=spacing)
             for p in points
         )
@@ -211,13 +219,19 @@ def volume_handle_warnings(args: argparse.Namespace, src, shape, spacing, affine
             "; --world took them as world coordinates (RAS+) of the file's affine: ITK's LPS "
             "(elastix) has x and y of the opposite signs"
         )
+        if elastix_physical(args.handles, dst=args.targets):
+            hint = (
+                "; --world took them as world coordinates of the file's affine in ITK's LPS "
+                "(elastix's 'point' files), x and y the negated RAS+ ones"
+            )
     elif not np.allclose(scale, 1.0) and _inside(points, shape, np.ones(3)).mean() > 0.5:
         hint = (
             "; in voxel indices? the handles are in the units of the spacing, voxel "
             "(i, j, k) at (i dx, j dy, k dz)"
         )
     elif affine is not None:
-        voxels = world_to_volume(points, affine, spacing=(1.0, 1.0, 1.0))
+        lps = elastix_physical(args.handles, dst=args.targets)  # ITK's world, as --world
+        voxels = world_to_volume(points, affine, spacing=(1.0, 1.0, 1.0), lps=lps)
         if _inside(voxels, shape, np.ones(3)).mean() > 0.5:
             hint = "; world coordinates of the file's affine? add --world"
     return [

@@ -34,8 +34,9 @@ polyline's.
       polyline,brow,270,150,270,146
 
 - BigWarp's landmark CSV (no header): name, active, moving x, moving y, fixed x, fixed y;
-  with an id column after ``active`` (7 columns), as BigWarp reads them too; 3D: moving
-  x y z, fixed x y z (8 columns, 9 with the id).
+  3D: moving x y z, fixed x y z (8 columns), as BigWarp writes and reads them (fields
+  quoted: a name may hold a comma); also with an id column after ``active`` (7 columns, 9
+  in 3D), a variant BigWarp itself does not read.
 
 **BigWarp's landmark JSON** (``.json``): ``{"type": "BigWarpLandmarks", "numDimensions":
 3, "movingPoints": [[x, y, z], ...], "fixedPoints": [...], "active": [true, ...],
@@ -43,13 +44,18 @@ polyline's.
 settings file). Of both BigWarp formats, the moving points are the sources and the fixed
 points the targets: glmls moves the moving image's landmarks onto the fixed ones, as
 BigWarp's warped moving image does. Inactive landmarks (``false``, BigWarp's unpaired ones
-among them) are skipped.
+among them) are skipped. BigWarp's coordinates are physical (the pixel indices times the
+image's calibration, plus an ImageJ origin where there is one): 3D handles in the units of a
+volume's spacing, as glmls's are; glmls's 2D handles are pixels, so those of a calibrated
+2D image need dividing by its pixel size.
 
 **3D point handles** (x, y, z) = (column, row, slice) of a volume (D, H, W), or a mesh's
 coordinates: JSON ``{"src": [[x, y, z], ...], "dst": [[x, y, z], ...]}``, CSV with the
 header ``src_x,src_y,src_z,dst_x,dst_y,dst_z``, BigWarp's 3D landmarks, or a pair of
 **elastix point files** (``.pts``): ``index`` (voxel indices) or ``point`` (physical
-coordinates, taken as they are) on the first line, the number of points on the second, then
+coordinates, taken as they are; for a NIfTI volume ITK's LPS world coordinates, which
+:func:`glmls.files.world_to_volume` maps with ``lps=True``, :func:`elastix_physical`) on the
+first line, the number of points on the second, then
 one point a line, its 2 or 3 coordinates separated by blanks; both files of a pair of one
 kind (:func:`elastix_indices` says whether they are indices). One file holds one side:
 :func:`read_handles` takes the sources' file (elastix's moving points) and ``dst=`` the
@@ -107,6 +113,7 @@ __all__ = [
     "KIND_HEADER",
     "POINT_HEADER",
     "elastix_indices",
+    "elastix_physical",
     "handle_dimension",
     "read_handle_set",
     "read_handles",
@@ -196,6 +203,16 @@ def elastix_indices(path: str | os.PathLike, *, dst: str | os.PathLike | None = 
     if Path(path).suffix.lower() != ".pts" or dst is None:
         return False
     return elastix_kind(Path(path)) == "index"
+
+
+def elastix_physical(path: str | os.PathLike, *, dst: str | os.PathLike | None = None) -> bool:
+    """Whether ``path`` and ``dst`` are an elastix pair of ``point`` files: ITK physical
+    points, which for a NIfTI volume are world coordinates in ITK's LPS convention
+    (:func:`glmls.files.world_to_volume` with ``lps=True`` maps them); ``InputFileError`` for
+    a ``.pts`` file that is not an elastix point file."""
+    if Path(path).suffix.lower() != ".pts" or dst is None:
+        return False
+    return elastix_kind(Path(path)) == "point"
 
 
 def handle_dimension(path: str | os.PathLike, *, dst: str | os.PathLike | None = None) -> int:

@@ -7,14 +7,18 @@ images are (H, W) arrays with points (x, y). A NIfTI data array is indexed (i, j
 (x, y, z), so reading transposes it to (z, y, x) and writing back again: the voxel at NIfTI
 index (i, j, k) is ``volume.data[k, j, i]``, glmls's point (i, j, k). The NIfTI affine maps
 voxel indices (i, j, k, 1) to world coordinates, so it maps glmls's points (x, y, z, 1) to
-the world as they are: it is kept as read, unchanged.
+the world as they are: it is kept as read, unchanged. Channels are NIfTI's vector
+dimension, the 5th ((i, j, k, 1, C), intent ``vector``, as ITK writes vector images; the 4th
+is time): written so, and read from it, from a 4th dimension or from RGB records.
 
 :class:`Volume` holds the data, the voxel spacing (dz, dy, dx) (in the order of the array's
 axes, as :meth:`glmls.MLS.warp` takes it) and the affine, where the file says them:
 
 - NIfTI: the affine; the spacing is the length of its columns (k, j, i);
-- TIFF: the spacing of an ImageJ stack (its ``spacing`` and X/Y resolutions, which
-  :func:`write_volume` writes), else none; no affine;
+- TIFF: the spacing of a calibrated ImageJ stack (its ``spacing``, 1 where ImageJ leaves
+  it out, and X/Y resolutions, which :func:`write_volume` writes) or of an OME-TIFF (its
+  ``PhysicalSizeZ``, ``Y``, ``X``, in micrometres where their units differ), else none; no
+  affine;
 - ``.npy``: the array only.
 
 A TIFF is a volume when it holds more than one page (a stack); one page is an image
@@ -161,6 +165,10 @@ def _affine_spacing(affine: np.ndarray) -> tuple[float, float, float]:
     return (float(lengths[2]), float(lengths[1]), float(lengths[0]))
 
 
+#: ITK's LPS world from NIfTI's RAS+ one and back: x and y negated.
+_LPS = np.array([-1.0, -1.0, 1.0])
+
+
 def _world_frame(points: object, affine: object, spacing: object) -> tuple:
     """(points (N, 3) float64, the affine (4, 4), its inverse, the scale (dx, dy, dz))."""
     values = np.asarray(points, dtype=np.float64)
@@ -177,16 +185,20 @@ def _world_frame(points: object, affine: object, spacing: object) -> tuple:
     return values, matrix, np.linalg.inv(matrix), np.array(steps[::-1])
 
 
-def world_to_volume(points: object, affine: object, *, spacing: object = None) -> np.ndarray:
+def world_to_volume(
+    points: object, affine: object, *, spacing: object = None, lps: bool = False
+) -> np.ndarray:
     """World coordinates of a NIfTI file's affine to the frame of glmls's 3D warps.
 
     The affine maps a voxel's indices (i, j, k, 1) = (x, y, z, 1), glmls's point of the
     voxel ``volume.data[k, j, i]`` (:func:`read_volume` transposes NIfTI's (i, j, k) array
     to (z, y, x)), to world (scanner) coordinates, those nibabel's ``img.affine`` gives
-    (NIfTI's RAS+: x to the right, y to the front, z up; tools in ITK's LPS convention give
-    x and y with the opposite signs). This is its inverse, times the spacing: the point
-    (i dx, j dy, k dz), in the units in which :meth:`glmls.MLS.warp` with ``spacing``
-    places the voxels and takes the handles.
+    (NIfTI's RAS+: x to the right, y to the front, z up). This is its inverse, times the
+    spacing: the point (i dx, j dy, k dz), in the units in which :meth:`glmls.MLS.warp` with
+    ``spacing`` places the voxels and takes the handles. ITK (SimpleITK, elastix's
+    ``point`` files, ITK-SNAP's and 3D Slicer's exported LPS points) gives the same world
+    in LPS: x and y negated (ITK's NIfTI reader negates the affine's first two rows);
+    ``lps=True`` takes points so.
 
     Parameters
     ----------
@@ -197,6 +209,8 @@ def world_to_volume(points: object, affine: object, *, spacing: object = None) -
     spacing : (float, float, float), optional
         (dz, dy, dx) of the warp; default the affine's (the lengths of its columns, as
         :func:`read_volume` gives :attr:`Volume.spacing`).
+    lps : bool, default False
+        The points are in ITK's LPS world (x to the left, y to the back), not RAS+.
 
     Returns
     -------
@@ -224,13 +238,19 @@ def world_to_volume(points: object, affine: object, *, spacing: object = None) -
     >>> affine[:3, 3] = [-10.0, 20.0, 5.0]  # the world point of voxel (0, 0, 0)
     >>> world_to_volume([[-9.0, 21.0, 9.0]], affine).tolist()  # voxel (2, 2, 2)
     [[1.0, 1.0, 4.0]]
+    >>> world_to_volume([[9.0, -21.0, 9.0]], affine, lps=True).tolist()  # the same, LPS
+    [[1.0, 1.0, 4.0]]
     """
     values, _, inverse, scale = _world_frame(points, affine, spacing)
+    if lps:
+        values = values * _LPS
     indices = values @ inverse[:3, :3].T + inverse[:3, 3]
     return indices * scale
 
 
-def volume_to_world(points: object, affine: object, *, spacing: object = None) -> np.ndarray:
+def volume_to_world(
+    points: object, affine: object, *, spacing: object = None, lps: bool = False
+) -> np.ndarray:
     """Points of the frame of glmls's 3D warps to world coordinates of a NIfTI affine.
 
     The inverse of :func:`world_to_volume`: (i dx, j dy, k dz) divided by the spacing, then
@@ -244,6 +264,8 @@ def volume_to_world(points: object, affine: object, *, spacing: object = None) -
         The 4 x 4 affine (:attr:`Volume.affine`).
     spacing : (float, float, float), optional
         (dz, dy, dx); default the affine's.
+    lps : bool, default False
+        Give the world points in ITK's LPS convention (x and y negated), not RAS+.
 
     Returns
     -------
@@ -265,7 +287,8 @@ def volume_to_world(points: object, affine: object, *, spacing: object = None) -
     [[-9.0, 21.0, 9.0]]
     """
     values, matrix, _, scale = _world_frame(points, affine, spacing)
-    return (values / scale) @ matrix[:3, :3].T + matrix[:3, 3]
+    world = (values / scale) @ matrix[:3, :3].T + matrix[:3, 3]
+    return world * _LPS if lps else world
 
 
 def read_volume(path: str | os.PathLike) -> Volume:
@@ -371,7 +394,7 @@ def _read_tiff(path: Path) -> Volume:
             )
         series = tiff.series[0]
         data, axes = series.asarray(), series.axes
-        spacing = _tiff_spacing(tiff)
+        spacing = _tiff_spacing(tiff) or _ome_spacing(tiff)
     if data.ndim == 4 and axes[1] == "C":  # an ImageJ hyperstack: (Z, C, Y, X)
         data = np.moveaxis(data, 1, -1)
     elif data.ndim == 4 and axes[-1] not in "SC":
@@ -384,15 +407,61 @@ def _read_tiff(path: Path) -> Volume:
 
 
 def _tiff_spacing(tiff: tifffile.TiffFile) -> tuple[float, float, float] | None:
-    """(dz, dy, dx) of an ImageJ stack: its ``spacing`` and the pages' resolutions."""
+    """(dz, dy, dx) of a calibrated ImageJ stack, None for others.
+
+    ImageJ (Fiji) writes a calibrated stack's unit (``unit=``), the pixel size as the X/Y
+    resolutions, and ``spacing=`` (the voxel depth) only where that depth is neither 0 nor 1:
+    a stack of 0.25 x 0.25 x 1 um voxels has no ``spacing``, and its depth is 1."""
     metadata = tiff.imagej_metadata or {}
-    page = tiff.pages[0]
+    unit = str(metadata.get("unit", "pixel")).lower()
+    if "spacing" not in metadata and unit in ("pixel", "pixels", ""):
+        return None  # not calibrated
+    tags = tiff.pages[0].tags
     try:
-        dz = float(metadata["spacing"])
-        dx = _resolution(page.tags["XResolution"].value)
-        dy = _resolution(page.tags["YResolution"].value)
+        dz = float(metadata.get("spacing", 1.0))
+        dx = _resolution(tags["XResolution"].value) if "XResolution" in tags else 1.0
+        dy = _resolution(tags["YResolution"].value) if "YResolution" in tags else 1.0
         return as_volume_spacing((dz, dy, dx))
-    except (KeyError, TypeError, ValueError, ZeroDivisionError):
+    except (TypeError, ValueError, ZeroDivisionError):
+        return None
+
+
+#: OME's length units in micrometres, to put the axes of an OME-TIFF in one unit.
+_OME_MICROMETRES = {
+    "pm": 1e-6,
+    "Å": 1e-4,
+    "nm": 1e-3,
+    "µm": 1.0,
+    "μm": 1.0,
+    "um": 1.0,
+    "mm": 1e3,
+    "cm": 1e4,
+    "m": 1e6,
+}
+
+
+def _ome_spacing(tiff: tifffile.TiffFile) -> tuple[float, float, float] | None:
+    """(dz, dy, dx) of an OME-TIFF's first image: its ``PhysicalSizeZ``, ``Y`` and ``X`` (1
+    where one is missing; None where all are), in their unit (OME's default, um), or in
+    micrometres where the axes' units differ."""
+    if not tiff.is_ome or not tiff.ome_metadata:
+        return None
+    import xml.etree.ElementTree as ElementTree
+
+    try:
+        root = ElementTree.fromstring(tiff.ome_metadata)
+    except ElementTree.ParseError:
+        return None
+    pixels = next((e for e in root.iter() if e.tag.rsplit("}", 1)[-1] == "Pixels"), None)
+    if pixels is None or not any(f"PhysicalSize{a}" in pixels.attrib for a in "XYZ"):
+        return None
+    units = [pixels.get(f"PhysicalSize{a}Unit", "µm") for a in "ZYX"]
+    try:
+        steps = [float(pixels.get(f"PhysicalSize{a}", 1.0)) for a in "ZYX"]
+        if len(set(units)) > 1:
+            steps = [step * _OME_MICROMETRES[unit] for step, unit in zip(steps, units, strict=True)]
+        return as_volume_spacing(steps)
+    except (KeyError, TypeError, ValueError):
         return None
 
 
@@ -419,14 +488,17 @@ def write_volume(
         (D, H, W) or (D, H, W, C); a :class:`Volume` brings its spacing and affine.
     affine : array_like, optional
         NIfTI: the 4 x 4 affine of the points (x, y, z, 1); default the volume's, else a
-        diagonal one of the spacing, else the identity. Given with another format: refused
+        diagonal one of the spacing, else the identity. Written as the sform, and as the
+        qform where a qform holds it (a sheared affine's qform is left unset, code 0, so
+        that no tool reads another geometry from it). Given with another format: refused
         (a :class:`Volume`'s own affine is left out of other formats).
     spacing : sequence of float, optional
         The voxel size (dz, dy, dx); default the volume's. NIfTI: used where no affine is
         given; TIFF: written as an ImageJ stack's spacing and X/Y resolutions (uint8,
-        uint16, int16 and float32 data of one channel; others are written as a plain TIFF,
-        without it). NIfTI lacks bool and float16: they are written as uint8 and float32.
-        ``.npy`` holds none.
+        uint16, int16 and float32 data: a stack, an RGB stack for 3 channels of uint8, a
+        hyperstack (Z, C, Y, X) for other channels, as Fiji opens them; other dtypes are
+        written as a plain TIFF, without it). NIfTI lacks bool and float16: they are written
+        as uint8 and float32. ``.npy`` holds none.
 
     Raises
     ------
@@ -483,21 +555,32 @@ def write_volume(
 
 
 def _write_tiff(path: Path, volume: Volume) -> None:
+    """An ImageJ stack for ImageJ's dtypes (Fiji opens it with its calibration): one channel
+    (Z, Y, X), 3 channels of uint8 an RGB stack, other channels a hyperstack (Z, C, Y, X);
+    other dtypes a plain TIFF of D pages, channels as samples."""
     data = np.ascontiguousarray(volume.data)
     channels = 1 if data.ndim == 3 else data.shape[3]
     options: dict = {}
-    if channels > 1:
+    if data.dtype.name in _IMAGEJ_DTYPES:
+        metadata: dict = {"axes": "ZYX"}
+        if channels == 3 and data.dtype == np.uint8:
+            options["photometric"] = "rgb"
+            metadata["axes"] = "ZYXS"
+        elif channels > 1:
+            data = np.ascontiguousarray(np.moveaxis(data, 3, 1))
+            metadata["axes"] = "ZCYX"
+        if volume.spacing is not None:
+            dz, dy, dx = volume.spacing
+            options["resolution"] = (1 / dx, 1 / dy)
+            metadata["spacing"] = dz
+        options.update(imagej=True, metadata=metadata)
+    elif channels > 1:
         options["photometric"] = "rgb" if channels in (3, 4) else "minisblack"
         options["planarconfig"] = "contig"
         if channels in (2, 4):
             options["extrasamples"] = ["unassalpha"]
     else:
         options["photometric"] = "minisblack"
-    imagej = volume.spacing is not None and data.dtype.name in _IMAGEJ_DTYPES and channels == 1
-    if imagej:
-        dz, dy, dx = volume.spacing  # type: ignore[misc]
-        options.update(imagej=True, resolution=(1 / dx, 1 / dy), metadata={"spacing": dz})
-        options["metadata"]["axes"] = "ZYX"
     with atomic_write(path) as tmp:
         tifffile.imwrite(tmp, data, **options)
 
@@ -510,12 +593,22 @@ def _write_nifti(path: Path, volume: Volume, *, compress: bool) -> None:
         affine = np.diag([dx, dy, dz, 1.0])
     data = np.ascontiguousarray(np.swapaxes(volume.data, 0, 2))  # (z, y, x) -> (x, y, z)
     data = data.astype(_NIFTI_AS.get(data.dtype.name, data.dtype), copy=False)
+    if data.ndim == 4:  # channels: NIfTI's vector dimension, the 5th (the 4th is time)
+        data = data[:, :, :, np.newaxis, :]
     try:
         image = nib.Nifti1Image(data, np.asarray(affine), dtype=data.dtype)
     except (nib.spatialimages.HeaderDataError, ValueError) as error:
         raise ValueError(f"{path}: NIfTI cannot hold this volume: {error}") from None
-    image.set_qform(np.asarray(affine), code=1)
+    if data.ndim == 5:
+        image.header.set_intent("vector")
     image.set_sform(np.asarray(affine), code=1)
+    # a qform is a rotation (or a reflection of one), voxel sizes and a translation: for a
+    # sheared affine nibabel would write the nearest one, another geometry for the tools
+    # that read the qform first (ITK where its code is > 0); there the qform is left unset
+    image.set_qform(np.asarray(affine), code=1)
+    tolerance = 1e-6 * max(1.0, float(np.abs(affine).max()))
+    if not np.allclose(image.get_qform(), affine, rtol=0, atol=tolerance):
+        image.set_qform(None, code=0)
     content = image.to_bytes()
     if compress:
         content = gzip.compress(content, compresslevel=6, mtime=0)
