@@ -8,7 +8,11 @@ crashes a process that already holds Mesa's; this module raises ``ImportError`` 
 rather than let the process crash (:func:`check_import_order`).
 
 ``MLSTransform`` follows torchvision's contract: ``make_params`` draws once per call from
-torch's random numbers (``torch.manual_seed`` makes it repeat), and ``transform`` deforms each
+torch's random numbers (``torch.manual_seed`` makes it repeat: the transform has no seed of its
+own), every input of a call moves by that one draw (two images of one sample, an image and
+its depth map, as many masks, keypoints and boxes as the sample has), plain tensors are taken
+as torchvision takes them (the first one is the image where there is no ``tv_tensors.Image``,
+``Video`` or PIL image, the others pass through untouched), and ``transform`` deforms each
 input by type: ``tv_tensors.Image`` (and a plain tensor taken as the image; any number of
 channels), a PIL image (in its mode; a palette image's indices with nearest sampling),
 ``Video`` (its frames all by one draw, as torchvision's own transforms move them), ``Mask``
@@ -19,7 +23,8 @@ Tensors stay of their dtype and on their device; the deformation runs on glmls's
 context, so a CUDA tensor goes through the host's memory.
 
 A batch is an image tensor with a leading dimension, (N, C, H, W): each sample draws its own
-deformation (where torchvision's own transforms draw once for the whole batch). Its masks are
+deformation (where torchvision's own transforms draw once for the whole batch); the images of
+a call are all single images or all batches of one size, else ``ValueError``. A batch's masks are
 (N, H, W) or (N, K, H, W) and its keypoints (N, P, 2) (the first dimension the batch), or one
 ``Mask``/``KeyPoints``/``BoundingBoxes`` per sample in order (bounding boxes are
 two-dimensional in torchvision: one instance per sample). The draws of the last call are in
@@ -104,6 +109,12 @@ def _size(value: object) -> tuple[int, int, int | None]:
     raise ValueError(f"expected an image (C, H, W) or a batch (N, C, H, W), got {tensor.shape}")  # type: ignore[attr-defined]
 
 
+def _shown(size: tuple[int, int, int | None]) -> tuple[int, ...]:
+    """(H, W), or (N, H, W) for a batch, as an error shows it."""
+    height, width, batch = size
+    return (height, width) if batch is None else (batch, height, width)
+
+
 def _check_batch_label(label: torch.Tensor, count: int) -> None:
     """A batch's one Mask or KeyPoints has the batch as its first dimension: (N, H, W) or
     (N, K, H, W) masks, (N, P, 2) keypoints (a batch of one may leave it out); else
@@ -184,7 +195,8 @@ class MLSTransform(v2.Transform):
         Raises
         ------
         ValueError
-            Without an image, or for labels that match neither one image nor the batch.
+            Without an image, for images of different sizes (or single images with a batch),
+            or for a batch's labels that match neither the batch nor its samples.
 
         Examples
         --------
@@ -198,17 +210,20 @@ class MLSTransform(v2.Transform):
         if not images:
             raise ValueError("MLSTransform needs an image (tv_tensors.Image or a tensor)")
         sizes = [_size(x) for x in images]
-        batched = len(images) == 1 and sizes[0][2] is not None
-        count = sizes[0][2] if batched else len(images)
-        shapes = [sizes[0][:2]] * count if batched else [s[:2] for s in sizes]
-        owners: dict[int, Any] = {}
-        if batched:
-            owners[id(images[0])] = "batch"
-        else:
-            owners.update({id(x): k for k, x in enumerate(images)})
+        if len({s[:2] for s in sizes}) > 1 or len({s[2] for s in sizes}) > 1:
+            found = ", ".join(sorted({str(_shown(s)) for s in sizes}))
+            raise ValueError(
+                f"the images of one call have different sizes, {found}: every input of a call "
+                "moves by the same deformation (give a batch of one size, N first)"
+            )
+        height, width, batch = sizes[0]
+        count = 1 if batch is None else batch
+        owners: dict[int, Any] = {id(x): 0 if batch is None else "batch" for x in images}
         for kind in _LABELS:
             labels = [x for x in flat_inputs if isinstance(x, kind)]
-            if len(labels) == 1 and batched and kind is not tv_tensors.BoundingBoxes:
+            if batch is None:  # one sample: every label of the call is its own
+                owners.update({id(x): 0 for x in labels})
+            elif len(labels) == 1 and kind is not tv_tensors.BoundingBoxes:
                 _check_batch_label(labels[0], count)
                 owners[id(labels[0])] = "batch"
             elif len(labels) == count:
@@ -218,6 +233,7 @@ class MLSTransform(v2.Transform):
                     f"{len(labels)} {kind.__name__} for {count} samples: give one per sample, "
                     "or one with the batch as its first dimension"
                 )
+        shapes = [(height, width)] * count
         landmarks = None
         if self.augment.preset.name == "landmarks":
             landmarks = self._landmarks(flat_inputs, owners, count)
@@ -228,18 +244,20 @@ class MLSTransform(v2.Transform):
 
     @staticmethod
     def _landmarks(flat_inputs, owners, count) -> list[np.ndarray]:
-        marks: list[np.ndarray | None] = [None] * count
+        """Each sample's landmarks: all its KeyPoints, in the order of the inputs."""
+        marks: list[list[np.ndarray]] = [[] for _ in range(count)]
         for x in flat_inputs:
             if isinstance(x, tv_tensors.KeyPoints):
                 points = to_numpy(x).astype(np.float64)
                 owner = owners[id(x)]
                 if owner == "batch":
-                    marks = [p.reshape(-1, 2) for p in points]
+                    for k, p in enumerate(points.reshape(count, -1, 2)):
+                        marks[k].append(p)
                 else:
-                    marks[owner] = points.reshape(-1, 2)
-        if any(m is None for m in marks):
+                    marks[owner].append(points.reshape(-1, 2))
+        if any(not m for m in marks):
             raise ValueError("the landmarks preset needs KeyPoints for every sample")
-        return marks  # type: ignore[return-value]
+        return [np.concatenate(m) for m in marks]
 
     def _samples(self, inpt: Any, params: dict[str, Any]) -> list[dict]:
         owner = params["owners"][id(inpt)]
