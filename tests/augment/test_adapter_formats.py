@@ -8,6 +8,7 @@ transforms; and torch tensors in and out of Augment in any memory layout."""
 from __future__ import annotations
 
 import os
+import re
 
 import numpy as np
 import pytest
@@ -456,5 +457,9 @@ def test_augment_tensors_in_any_memory_layout(gl, rng):
 def test_augment_tensors_of_the_wrong_rank_name_torchs_layout():
     aug = Augment("grid", seed=1)
     for shape in [(8,), (2, 2, 3, 8, 8)]:
-        with pytest.raises(ValueError, match=r"\(N, C, H, W\)"):
+        with pytest.raises(
+            ValueError, match=re.escape(f"shape {shape}; expected a batch (N, C, H, W)")
+        ):
             aug(torch.zeros(shape))
+    with pytest.raises(ValueError, match=r"images\[1\] is a tensor of shape \(8,\)"):
+        aug([torch.zeros(3, 8, 8), torch.zeros(8)])
