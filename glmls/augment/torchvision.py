@@ -339,7 +339,7 @@ class MLSTransform(v2.Transform):
         draws = [s for s in samples for _ in range(layers)]
         out = replay_masks(self.augment, draws, array.reshape(count * layers, height, width))
         tensor = torch.from_numpy(out.reshape(masks.shape))
-        return tensor.to(masks.device)
+        return tensor.to(device=masks.device, dtype=masks.dtype)  # float16 went as float32
 
     def _keypoints(self, points: torch.Tensor, samples: list[dict]) -> torch.Tensor:
         count = len(samples)

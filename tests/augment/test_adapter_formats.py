@@ -226,6 +226,37 @@ def test_albumentations_masks_and_images_of_every_kind_move_alike(gl, rng):
     np.testing.assert_allclose(soft * 255, out["image"], atol=1.0)
 
 
+@pytest.mark.parametrize("dtype", [np.float64, np.float32, np.float16])
+def test_floating_point_masks_keep_their_values_exactly(gl, dtype):
+    """A floating-point mask's values are labels (or soft labels): nearest sampling gives each
+    pixel one of them, bit for bit, in albumentations and torchvision alike; a float64 value
+    is not rounded to float32 on the way."""
+    mask = np.zeros((H, W), dtype)
+    mask[ROWS[0] : ROWS[1] + 1, COLS[0] : COLS[1] + 1] = 1 / 3
+    mask[ROWS[0] : ROWS[0] + 4, COLS[0] : COLS[0] + 4] = 0.1
+    mask[-8:, :10] = -2.7
+    compose = A.Compose([MLSDeform("grid", preset_options=GRID)], seed=2)
+    out = compose(image=object_image(), mask=mask, masks=[mask])
+    reference = compose.transforms[0].get_applied_params()["mls"]
+    for moved in (out["mask"], out["masks"][0]):
+        assert moved.dtype == mask.dtype
+        assert set(np.unique(moved).tolist()) == set(np.unique(mask).tolist())
+    labels = np.searchsorted(np.unique(mask), mask).astype(np.uint8) + 1
+    expected = Augment("grid").replay([object_image()], [reference], masks=[labels]).masks[0]
+    np.testing.assert_array_equal(out["mask"], np.r_[0, np.unique(mask)][expected])
+    torch.manual_seed(0)
+    transform = MLSTransform("grid", **GRID)
+    _, moved = transform(tv_tensors.Image(image_tensor(object_image())), tv_tensors.Mask(mask))
+    assert moved.dtype == torch.from_numpy(mask).dtype
+    assert set(np.unique(moved.numpy()).tolist()) == set(np.unique(mask).tolist())
+    if dtype == np.float32:  # and torch's bfloat16, which numpy lacks
+        half = tv_tensors.Mask(torch.from_numpy(mask).to(torch.bfloat16))
+        torch.manual_seed(0)
+        _, moved = transform(tv_tensors.Image(image_tensor(object_image())), half)
+        assert moved.dtype == torch.bfloat16
+        assert set(torch.unique(moved).tolist()) == set(torch.unique(half).tolist())
+
+
 def test_albumentations_alone_as_in_compose(gl):
     """Called alone with its random generator seeded as Compose seeds it, the transform gives
     what it gives in A.Compose(seed=...) (targets in albumentations' own format)."""
