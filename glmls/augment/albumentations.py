@@ -46,7 +46,9 @@ class MLSDeform(A.DualTransform):
     Raises
     ------
     ValueError, TypeError
-        As :class:`glmls.augment.Augment`.
+        As :class:`glmls.augment.Augment`; a ``TypeError`` for ``preset_options`` or
+        ``warp_options`` that are not mappings, a ``ValueError`` for a ``p`` outside [0, 1]
+        (albumentations' own check).
 
     Examples
     --------
@@ -73,6 +75,9 @@ class MLSDeform(A.DualTransform):
         p: float = 1.0,
     ) -> None:
         super().__init__(p=p)
+        for name, value in (("preset_options", preset_options), ("warp_options", warp_options)):
+            if value is not None and not isinstance(value, Mapping):
+                raise TypeError(f"{name} must be a mapping or None, got {value!r}")
         self.preset = preset
         self.preset_options = dict(preset_options or {})
         self.warp_options = None if warp_options is None else dict(warp_options)

@@ -302,6 +302,13 @@ def test_albumentations_p_out_of_range_is_refused(p):
         MLSDeform(p=p)
 
 
+@pytest.mark.parametrize("name", ["preset_options", "warp_options"])
+@pytest.mark.parametrize("value", ["rows=3", [1, 2], 5])
+def test_albumentations_options_that_are_not_mappings_are_named(name, value):
+    with pytest.raises(TypeError, match=f"{name} must be a mapping or None, got"):
+        MLSDeform(**{name: value})
+
+
 def test_albumentations_landmarks_without_keypoints_is_an_error(gl):
     """The landmarks preset moves the keypoints it is given: without them there is nothing to
     move, which would be an identity in silence; albumentations' targets_as_params says so."""
