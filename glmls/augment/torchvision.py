@@ -14,12 +14,12 @@ its depth map, as many masks, keypoints and boxes as the sample has), plain tens
 as torchvision takes them (the first one is the image where there is no ``tv_tensors.Image``,
 ``Video`` or PIL image, the others pass through untouched), and ``transform`` deforms each
 input by type: ``tv_tensors.Image`` (and a plain tensor taken as the image; any number of
-channels), a PIL image (in its mode; a palette image's indices with nearest sampling),
-``Video`` (its frames all by one draw, as torchvision's own transforms move them), ``Mask``
-(nearest, never a mixed label), ``KeyPoints`` and ``BoundingBoxes`` (an unrotated box becomes
-the box around its densely sampled, moved outline, a rotated one's corners move; clamped to
-the canvas as their ``clamping_mode`` says).
-Tensors stay of their dtype and on their device; the deformation runs on glmls's OpenGL
+channels), a PIL image (in its mode; a palette image's indices and a bilevel image's pixels
+with nearest sampling), ``Video`` (its frames all by one draw, as torchvision's own
+transforms move them), ``Mask`` (nearest, never a mixed label), ``KeyPoints`` and
+``BoundingBoxes`` (an unrotated box becomes the box around its densely sampled, moved
+outline, a rotated one's corners move; clamped to the canvas as their ``clamping_mode``
+says). Tensors stay of their dtype and on their device; the deformation runs on glmls's OpenGL
 context, so a CUDA tensor goes through the host's memory.
 
 A batch is an image tensor with a leading dimension, (N, C, H, W): each sample draws its own
@@ -302,14 +302,17 @@ class MLSTransform(v2.Transform):
         return self._images(inpt, samples)
 
     def _pil(self, image: PIL.Image.Image, samples: list[dict]) -> PIL.Image.Image:
-        """A PIL image deformed, in its mode (a palette image's indices with nearest sampling,
-        its palette kept; 32-bit integers through float64)."""
+        """A PIL image deformed, in its mode (a palette image's indices and a bilevel image's
+        pixels with nearest sampling, the palette kept; 32-bit integers through float64)."""
         array = np.asarray(image)
-        if image.mode in ("P", "PA"):
+        if image.mode in ("P", "PA", "1"):  # indices, or a bilevel image's bools: labels
             nearest = {"interpolation": "nearest"}
             samples = [{**s, "options": {**s["options"], **nearest}} for s in samples]
         values = array.astype(np.float64) if array.dtype == np.int32 else array
+        values = values.astype(np.uint8) if image.mode == "1" else values
         out = np.asarray(self.augment.replay([values], samples).images[0])
+        if image.mode == "1":
+            return PIL.Image.fromarray(out.astype(bool))
         if out.dtype != array.dtype:
             out = np.clip(np.rint(out), -(2**31), 2**31 - 1).astype(array.dtype)
         result = PIL.Image.frombytes(image.mode, image.size, np.ascontiguousarray(out).tobytes())

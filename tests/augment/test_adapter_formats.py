@@ -442,6 +442,22 @@ def test_torchvision_plain_tensors_and_pil_as_torchvision_takes_them(gl, rng):
     assert out_plain is image
 
 
+def test_torchvision_a_bilevel_pil_image(gl):
+    """PIL's mode "1" (torchvision's own RandomAffine keeps it): its pixels move with nearest
+    sampling, as the object's pixels do in a float image."""
+    bilevel = PIL.Image.fromarray(object_image() > 0)
+    assert bilevel.mode == "1"
+    torch.manual_seed(7)
+    out = MLSTransform("grid", **GRID)(bilevel)
+    torch.manual_seed(7)
+    grey = MLSTransform("grid", **GRID, warp_options={"interpolation": "nearest"})(
+        tv_tensors.Image(image_tensor(object_image()))
+    )
+    assert isinstance(out, PIL.Image.Image) and out.mode == "1" and out.size == (W, H)
+    np.testing.assert_array_equal(np.asarray(out), grey.numpy()[0] > 0.5)
+    assert v2.RandomAffine(10)(bilevel).mode == "1"
+
+
 @pytest.mark.parametrize("dtype", ["bool", "int64", "uint8"])
 def test_torchvision_masks_and_images_keep_their_types(gl, dtype):
     labels = torch.from_numpy((object_image() > 0).astype(np.uint8) * 3).to(getattr(torch, dtype))
