@@ -179,6 +179,24 @@ class MLSTransform(v2.Transform):
         self.preset = preset
         self.last_params: list[dict] = []
 
+    def extra_repr(self) -> str:
+        """What the repr shows: the preset with its options, the warp options and box_step
+        (not ``last_params``, the last call's handles).
+
+        Returns
+        -------
+        str
+            The text inside ``MLSTransform(...)``.
+
+        Examples
+        --------
+        >>> from glmls.augment.torchvision import MLSTransform
+        >>> MLSTransform("text-distort", segments=3).extra_repr()
+        "preset=TextDistortPreset(segments=3, radius=None), warp_options={...}, box_step=2.0"
+        """
+        aug = self.augment
+        return f"preset={aug.preset!r}, warp_options={aug.warp_options!r}, box_step={aug.box_step}"
+
     def make_params(self, flat_inputs: list[Any]) -> dict[str, Any]:
         """Draw each sample's handles from torch's random numbers.
 

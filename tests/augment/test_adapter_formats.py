@@ -470,6 +470,17 @@ def test_torchvision_masks_and_images_keep_their_types(gl, dtype):
     np.testing.assert_array_equal(out_mask.numpy() != 0, out_image.numpy()[0] > 0.5)
 
 
+def test_torchvision_repr_shows_the_options_not_the_last_draw(gl):
+    """torchvision's transforms show their parameters in their repr (a v2.Compose prints
+    them); the last call's handles are no parameter."""
+    transform = MLSTransform("grid", **GRID, warp_options={"transform": "rigid"})
+    torch.manual_seed(0)
+    transform(tv_tensors.Image(torch.zeros(8, 3, H, W)))
+    shown = repr(v2.Compose([transform]))
+    assert "rows=3, cols=3, displacement=0.06" in shown and "'rigid'" in shown
+    assert "last_params" not in shown and len(shown) < 400
+
+
 def test_torchvision_compose_with_sanitize_bounding_boxes(gl):
     """v2.Compose([MLSTransform, v2.SanitizeBoundingBoxes()]): a box the deformation leaves
     on the canvas stays with its label, a degenerate one goes with its label."""
