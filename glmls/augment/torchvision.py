@@ -23,8 +23,11 @@ says). Tensors stay of their dtype and on their device; the deformation runs on 
 context, so a CUDA tensor goes through the host's memory.
 
 A batch is an image tensor with a leading dimension, (N, C, H, W): each sample draws its own
-deformation (where torchvision's own transforms draw once for the whole batch); the images of
-a call are all single images or all batches of one size, else ``ValueError``. A batch's masks are
+deformation (where torchvision's own transforms draw once for the whole batch). The inputs of
+a call have one size (H, W), the ``canvas_size`` of boxes and keypoints too, as torchvision
+requires, and are single images or one batch, else ``ValueError``; so is an unrotated box
+whose maximum lies below its minimum (boxes of another format than their label, which the
+deformation would make into plausible boxes). A batch's masks are
 (N, H, W) or (N, K, H, W) and its keypoints (N, P, 2) (the first dimension the batch), or one
 ``Mask``/``KeyPoints``/``BoundingBoxes`` per sample in order (bounding boxes are
 two-dimensional in torchvision: one instance per sample). The draws of the last call are in
@@ -95,6 +98,10 @@ def _is_image(value: object) -> bool:
     )
 
 
+def _is_label(value: object) -> bool:
+    return isinstance(value, _LABELS)
+
+
 def _size(value: object) -> tuple[int, int, int | None]:
     """(H, W, N): N the batch size of a 4-D image tensor, None for one image."""
     if isinstance(value, PIL.Image.Image):
@@ -113,6 +120,19 @@ def _shown(size: tuple[int, int, int | None]) -> tuple[int, ...]:
     """(H, W), or (N, H, W) for a batch, as an error shows it."""
     height, width, batch = size
     return (height, width) if batch is None else (batch, height, width)
+
+
+def _check_extents(boxes: tv_tensors.BoundingBoxes, xyxy: np.ndarray) -> None:
+    """``ValueError`` for a box whose maximum lies below its minimum in x or y, naming it:
+    boxes labelled with another format than theirs (XYWH read as XYXY), which a deformation
+    would otherwise turn into a plausible box in silence."""
+    wrong = np.flatnonzero((xyxy[:, 2] < xyxy[:, 0]) | (xyxy[:, 3] < xyxy[:, 1]))
+    if len(wrong):
+        j = int(wrong[0])
+        raise ValueError(
+            f"BoundingBoxes[{j}] {boxes[j].tolist()} in {boxes.format.name} has a negative "
+            "width or height: boxes in another format than the one they are labelled with?"
+        )
 
 
 def _check_batch_label(label: torch.Tensor, count: int) -> None:
@@ -213,8 +233,9 @@ class MLSTransform(v2.Transform):
         Raises
         ------
         ValueError
-            Without an image, for images of different sizes (or single images with a batch),
-            or for a batch's labels that match neither the batch nor its samples.
+            Without an image, for inputs of different sizes (H, W) (the ``canvas_size`` of
+            boxes and keypoints too), single images with a batch, or a batch's labels that
+            match neither the batch nor its samples.
 
         Examples
         --------
@@ -228,12 +249,22 @@ class MLSTransform(v2.Transform):
         if not images:
             raise ValueError("MLSTransform needs an image (tv_tensors.Image or a tensor)")
         sizes = [_size(x) for x in images]
-        if len({s[:2] for s in sizes}) > 1 or len({s[2] for s in sizes}) > 1:
-            found = ", ".join(sorted({str(_shown(s)) for s in sizes}))
+        found = {tuple(F.get_size(x)) for x in flat_inputs if _is_image(x) or _is_label(x)}
+        if len(found) > 1:  # as torchvision's own transforms refuse them
             raise ValueError(
-                f"the images of one call have different sizes, {found}: every input of a call "
-                "moves by the same deformation (give a batch of one size, N first)"
+                f"the inputs of one call have different sizes (H, W), "
+                f"{', '.join(map(str, sorted(found)))} (the canvas_size of boxes and "
+                "keypoints): every input of a call moves by the same deformation"
             )
+        if len({s[2] is None for s in sizes}) > 1:
+            found_shapes = ", ".join(sorted({str(_shown(s)) for s in sizes}))
+            raise ValueError(
+                f"single images and a batch in one call, {found_shapes}: give one batch "
+                "(N, C, H, W) or single images"
+            )
+        if len({s[2] for s in sizes}) > 1:
+            found_shapes = ", ".join(sorted({str(_shown(s)) for s in sizes}))
+            raise ValueError(f"batches of different sizes in one call: {found_shapes}")
         height, width, batch = sizes[0]
         count = 1 if batch is None else batch
         owners: dict[int, Any] = {id(x): 0 if batch is None else "batch" for x in images}
@@ -380,6 +411,8 @@ class MLSTransform(v2.Transform):
             boxes.as_subclass(torch.Tensor), old_format=boxes.format, new_format=middle
         )
         array = to_numpy(given).astype(np.float64) - 0.5  # pixel centres at integers
+        if not rotated:
+            _check_extents(boxes, array)
         if rotated:
             corners = [array.reshape(-1, 2)]
             moved = np.asarray(

@@ -422,6 +422,27 @@ def test_torchvision_landmarks_of_a_batch_of_one(gl):
     np.testing.assert_allclose(xy, spot_centres(out_image.numpy()[0, 0], xy), atol=0.3)
 
 
+def test_torchvision_labels_that_do_not_fit_are_named(gl):
+    """A canvas_size other than the image's (torchvision's own transforms refuse it: "Found
+    multiple HxW dimensions") and boxes whose maximum lies below their minimum (XYWH labelled
+    XYXY) are errors naming them, not boxes and keypoints moved by another image's map or
+    turned into plausible boxes."""
+    image = tv_tensors.Image(image_tensor(object_image()))
+    transform = MLSTransform("grid", **GRID)
+    turned = tv_tensors.KeyPoints(torch.from_numpy(SPOTS), canvas_size=(W, H))
+    with pytest.raises(ValueError, match=rf"\({H}, {W}\), \({W}, {H}\)"):
+        transform(image, turned)
+    with pytest.raises(ValueError, match="multiple HxW"):
+        v2.RandomCrop(8)(image, turned)
+    xywh = tv_tensors.BoundingBoxes(
+        torch.tensor([[4.0, 4.0, 30.0, 30.0], [30.0, 10.0, 12.0, 20.0]]),
+        format="XYXY",
+        canvas_size=(H, W),
+    )
+    with pytest.raises(ValueError, match=r"BoundingBoxes\[1\] \[30.0, 10.0, 12.0, 20.0\] in XYXY"):
+        transform(image, xywh)
+
+
 def test_torchvision_plain_tensors_and_pil_as_torchvision_takes_them(gl, rng):
     """Without a tv_tensors.Image, Video or PIL image, the first plain tensor is the image
     and the others pass through untouched (torchvision's rule); with one, every plain tensor
