@@ -19,8 +19,10 @@ with nearest sampling), ``Video`` (its frames all by one draw, as torchvision's 
 transforms move them), ``Mask`` (nearest, never a mixed label), ``KeyPoints`` and
 ``BoundingBoxes`` (an unrotated box becomes the box around its densely sampled, moved
 outline, a rotated one's corners move; clamped to the canvas as their ``clamping_mode``
-says). Tensors stay of their dtype and on their device; the deformation runs on glmls's OpenGL
-context, so a CUDA tensor goes through the host's memory.
+says). Tensors stay of their dtype and on their device, detached (no gradient flows back
+through the deformation, where torchvision's own geometric transforms keep autograd's
+graph); the deformation runs on glmls's OpenGL context, so a CUDA tensor goes through the
+host's memory.
 
 A batch is an image tensor with a leading dimension, (N, C, H, W): each sample draws its own
 deformation (where torchvision's own transforms draw once for the whole batch). The inputs of

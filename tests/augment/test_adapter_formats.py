@@ -538,6 +538,9 @@ def test_augment_tensors_in_any_memory_layout(gl, rng):
     out = aug(floats, keypoints=points)
     assert not out.images.requires_grad and out.keypoints.dtype == torch.float64
     torch.testing.assert_close(out.images * 255, expected.float(), atol=1.0, rtol=0)
+    image = tv_tensors.Image(floats.detach()[0].clone().requires_grad_())
+    moved = MLSTransform("grid", **GRID)(image)
+    assert isinstance(moved, tv_tensors.Image) and not moved.requires_grad
 
 
 def test_augment_tensors_of_the_wrong_rank_name_torchs_layout():
