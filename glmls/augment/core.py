@@ -636,7 +636,8 @@ def replay_masks(augment: Augment, params: Sequence[Mapping], masks: np.ndarray)
     """(N, H, W) masks deformed, one per draw, with nearest sampling, 0 where nothing is
     shown; of their dtype (bool masks too; floating-point masks, as albumentations and
     torchvision allow, as labels numbering their distinct values, so that every value comes
-    back bit for bit: the GPU's float32 would round a float64 value)."""
+    back bit for bit: the GPU's float32 would round a float64 value; a mask of 2**24 distinct
+    values or more goes as a float32 image with nearest sampling)."""
     if masks.dtype.kind == "f":
         values, numbers = np.unique(masks, return_inverse=True)
         if len(values) < _FLOAT_LABELS:  # label 0: nothing shown, value k + 1: values[k]
