@@ -6,9 +6,8 @@ Images are taken in torch's layout, (N, C, H, W) or (N, H, W), or as a list of (
 (H, W) tensors (a ragged batch), and come back in it, of their dtype and on their device
 (contiguous, whatever their memory format or strides); half-precision tensors (float16,
 bfloat16) go through float32. The results are new tensors, detached: no gradient flows back
-through the deformation. The deformation itself runs on
-glmls's OpenGL context, so a CUDA tensor goes through the host's memory (``.cpu()``, then
-``.to(device)``): one copy each way per batch.
+through the deformation. The deformation itself runs on glmls's OpenGL context, so a CUDA tensor
+goes through the host's memory (``.cpu()``, then ``.to(device)``): one copy each way per batch.
 """
 
 from __future__ import annotations

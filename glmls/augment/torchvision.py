@@ -9,31 +9,30 @@ rather than let the process crash (:func:`check_import_order`).
 
 ``MLSTransform`` follows torchvision's contract: ``make_params`` draws once per call from
 torch's random numbers (``torch.manual_seed`` makes it repeat: the transform has no seed of its
-own), every input of a call moves by that one draw (two images of one sample, an image and
-its depth map, as many masks, keypoints and boxes as the sample has), plain tensors are taken
-as torchvision takes them (the first one is the image where there is no ``tv_tensors.Image``,
-``Video`` or PIL image, the others pass through untouched), and ``transform`` deforms each
-input by type: ``tv_tensors.Image`` (and a plain tensor taken as the image; any number of
-channels), a PIL image (in its mode; a palette image's indices and a bilevel image's pixels
-with nearest sampling), ``Video`` (its frames all by one draw, as torchvision's own
-transforms move them), ``Mask`` (nearest, never a mixed label), ``KeyPoints`` and
-``BoundingBoxes`` (an unrotated box becomes the box around its densely sampled, moved
-outline, a rotated one's corners move; clamped to the canvas as their ``clamping_mode``
-says). Tensors stay of their dtype and on their device, detached (no gradient flows back
-through the deformation, where torchvision's own geometric transforms keep autograd's
-graph); the deformation runs on glmls's OpenGL context, so a CUDA tensor goes through the
-host's memory.
+own), every input of a call moves by that one draw (two images of one sample, an image and its
+depth map, as many masks, keypoints and boxes as the sample has), plain tensors are taken as
+torchvision takes them (the first one is the image where there is no ``tv_tensors.Image``,
+``Video`` or PIL image, the others pass through untouched), and ``transform`` deforms each input
+by type: ``tv_tensors.Image`` (and a plain tensor taken as the image; any number of channels), a
+PIL image (in its mode; a palette image's indices and a bilevel image's pixels with nearest
+sampling), ``Video`` (its frames all by one draw, as torchvision's own transforms move them),
+``Mask`` (nearest, never a mixed label), ``KeyPoints`` and ``BoundingBoxes`` (an unrotated box
+becomes the box around its densely sampled, moved outline, a rotated one's corners move; clamped
+to the canvas as their ``clamping_mode`` says). Tensors stay of their dtype and on their device,
+detached (no gradient flows back through the deformation, where torchvision's own geometric
+transforms keep autograd's graph); the deformation runs on glmls's OpenGL context, so a CUDA
+tensor goes through the host's memory.
 
 A batch is an image tensor with a leading dimension, (N, C, H, W): each sample draws its own
-deformation (where torchvision's own transforms draw once for the whole batch). The inputs of
-a call have one size (H, W), the ``canvas_size`` of boxes and keypoints too, as torchvision
-requires, and are single images or one batch, else ``ValueError``; so is an unrotated box
-whose maximum lies below its minimum (boxes of another format than their label, which the
-deformation would make into plausible boxes). A batch's masks are
-(N, H, W) or (N, K, H, W) and its keypoints (N, P, 2) (the first dimension the batch), or one
-``Mask``/``KeyPoints``/``BoundingBoxes`` per sample in order (bounding boxes are
-two-dimensional in torchvision: one instance per sample). The draws of the last call are in
-``last_params`` (JSON-able dicts, see :class:`glmls.augment.AugmentResult`).
+deformation (where torchvision's own transforms draw once for the whole batch). The inputs of a
+call have one size (H, W), the ``canvas_size`` of boxes and keypoints too, as torchvision
+requires, and are single images or one batch, else ``ValueError``; so is an unrotated box whose
+maximum lies below its minimum (boxes of another format than their label, which the deformation
+would make into plausible boxes). A batch's masks are (N, H, W) or (N, K, H, W) and its
+keypoints (N, P, 2) (the first dimension the batch), or one
+``Mask``/``KeyPoints``/``BoundingBoxes`` per sample in order (bounding boxes are two-dimensional
+in torchvision: one instance per sample). The draws of the last call are in ``last_params``
+(JSON-able dicts, see :class:`glmls.augment.AugmentResult`).
 """
 
 from __future__ import annotations
@@ -413,8 +412,6 @@ class MLSTransform(v2.Transform):
             boxes.as_subclass(torch.Tensor), old_format=boxes.format, new_format=middle
         )
         array = to_numpy(given).astype(np.float64) - 0.5  # pixel centres at integers
-        if not rotated:
-            _check_extents(boxes, array)
         if rotated:
             corners = [array.reshape(-1, 2)]
             moved = np.asarray(
@@ -422,6 +419,7 @@ class MLSTransform(v2.Transform):
             )
             moved = moved.reshape(-1, 8) + 0.5
         else:
+            _check_extents(boxes, array)
             moved = replay_boxes(self.augment, [sample], [array])[0] + 0.5
         out = F.clamp_bounding_boxes(  # as the boxes' clamping_mode says (None: not at all)
             torch.from_numpy(moved),
