@@ -119,6 +119,10 @@ def test_albumentations_a_box_follows_its_object_in_every_format(gl, fmt):
     moved = from_format(out["bboxes"][0], fmt)
     assert np.abs(moved - OBJECT_BOX).max() > 1.5  # the deformation moved it
     np.testing.assert_allclose(moved, object_box(out["image"]), atol=1.0)
+    half = A.Compose([HalfSize()], bbox_params=A.BboxParams(format=fmt, label_fields=[]))
+    halved = half(image=object_image(), bboxes=[to_format(OBJECT_BOX, fmt)])["bboxes"][0]
+    expected = np.array(OBJECT_BOX, np.float64) / 2 + 0.25  # a half-pixel slip would show
+    np.testing.assert_allclose(from_format(halved, fmt), expected, atol=2e-3)
 
 
 @pytest.mark.parametrize(
@@ -145,13 +149,23 @@ def test_albumentations_a_keypoint_follows_its_spot_in_every_format(gl, fmt, ext
     assert np.abs(xy - SPOTS).max() > 1.0  # the deformation moved them
     np.testing.assert_allclose(xy, spot_centres(out["image"], xy), atol=0.3)
     np.testing.assert_allclose(moved[:, 2:], np.array(given)[:, 2:], atol=1e-4)
+    half = A.Compose([HalfSize()], keypoint_params=params)(
+        image=spots_image(), keypoints=given, ids=[0, 1, 2]
+    )
+    halved = np.asarray(half["keypoints"], np.float64)
+    np.testing.assert_allclose(
+        halved[:, ::-1] if fmt == "yx" else halved[:, :2], SPOTS / 2, atol=1e-3
+    )
     grid = A.Compose([A.GridDistortion(p=1)], keypoint_params=params, seed=5)
     kept = np.asarray(grid(image=spots_image(), keypoints=given, ids=[0, 1, 2])["keypoints"])
     np.testing.assert_allclose(kept[:, 2:], np.array(given)[:, 2:], atol=1e-4)
 
 
-class ShiftLeft(MLSDeform):
-    """MLSDeform with a fixed draw: every point 6 px to the left."""
+class Fixed(MLSDeform):
+    """MLSDeform with a fixed draw: every point (x, y) to scale (x, y) + (shift, 0), pixel
+    centres at integers (a similarity MLS of four corner handles)."""
+
+    scale, shift = 1.0, 0.0
 
     def get_params_dependent_on_data(self, params, data):
         height, width = params["shape"][:2]
@@ -160,10 +174,24 @@ class ShiftLeft(MLSDeform):
             "preset": "grid",
             "shape": [height, width],
             "src": src,
-            "dst": [[x - 6.0, y] for x, y in src],
+            "dst": [[self.scale * x + self.shift, self.scale * y] for x, y in src],
             "options": {"transform": "similarity", "interpolation": "linear", "border": "edge"},
         }
         return {"mls": draw}
+
+
+class ShiftLeft(Fixed):
+    """Every point 6 px to the left."""
+
+    shift = -6.0
+
+
+class HalfSize(Fixed):
+    """The image shrunk to half its size towards the centre of pixel (0, 0): a pixel's edge
+    at e (pixel edges at integers, as boxes count) goes to e / 2 + 1/4, a pixel centre at c
+    (as keypoints count) to c / 2."""
+
+    scale = 0.5
 
 
 @pytest.mark.parametrize("remove_invisible", [True, False])
@@ -330,6 +358,16 @@ def test_albumentations_landmarks_without_keypoints_is_an_error(gl):
 # --- torchvision ----------------------------------------------------------------------------
 
 
+def half_size(shape: tuple[int, int]) -> dict:
+    """HalfSize's draw for MLSTransform: (x, y) to (x, y) / 2, pixel centres at integers."""
+    return {
+        **HalfSize().get_params_dependent_on_data({"shape": shape}, {})["mls"],
+        "config": {},
+        "seed": 0,
+        "index": 0,
+    }
+
+
 def image_tensor(array: np.ndarray) -> torch.Tensor:
     return torch.from_numpy(np.ascontiguousarray(array))[None]  # (1, H, W)
 
@@ -353,6 +391,15 @@ def test_torchvision_a_box_follows_its_object_in_every_format(gl, fmt):
     np.testing.assert_allclose(xyxy, object_box(out_image.numpy()[0]), atol=1.0)
     elastic = v2.ElasticTransform(alpha=20.0)(image, boxes)[1]  # torchvision's own: the same kind
     assert elastic.format == out_boxes.format and elastic.canvas_size == out_boxes.canvas_size
+    half = MLSTransform("grid")
+    half.augment.draw = lambda shapes, **_: [half_size(tuple(s)) for s in shapes]
+    points = tv_tensors.KeyPoints(torch.from_numpy(SPOTS), canvas_size=(H, W))
+    _, halved, moved = half(image, boxes, points)
+    xyxy = F.convert_bounding_box_format(
+        halved.as_subclass(torch.Tensor), old_format=fmt, new_format="XYXY"
+    )[0].numpy()
+    np.testing.assert_allclose(xyxy, np.array(OBJECT_BOX) / 2 + 0.25, atol=2e-3)
+    np.testing.assert_allclose(moved.numpy(), SPOTS / 2, atol=1e-3)
 
 
 def test_torchvision_keypoints_follow_their_spots_in_a_batch(gl):
