@@ -46,7 +46,9 @@ class MLSDeform(A.DualTransform):
     Raises
     ------
     ValueError, TypeError
-        As :class:`glmls.augment.Augment`.
+        As :class:`glmls.augment.Augment`; a ``TypeError`` for ``preset_options`` or
+        ``warp_options`` that are not mappings, a ``ValueError`` for a ``p`` outside [0, 1]
+        (albumentations' own check).
 
     Examples
     --------
@@ -73,6 +75,9 @@ class MLSDeform(A.DualTransform):
         p: float = 1.0,
     ) -> None:
         super().__init__(p=p)
+        for name, value in (("preset_options", preset_options), ("warp_options", warp_options)):
+            if value is not None and not isinstance(value, Mapping):
+                raise TypeError(f"{name} must be a mapping or None, got {value!r}")
         self.preset = preset
         self.preset_options = dict(preset_options or {})
         self.warp_options = None if warp_options is None else dict(warp_options)
@@ -96,6 +101,27 @@ class MLSDeform(A.DualTransform):
         ('preset', 'preset_options', 'warp_options', 'box_step')
         """
         return ("preset", "preset_options", "warp_options", "box_step")
+
+    @property
+    def targets_as_params(self) -> list[str]:
+        """The targets the draw depends on: the ``landmarks`` preset's keypoints.
+
+        albumentations refuses a call without them (a ``ValueError`` naming them): the
+        landmarks preset moves the keypoints it is given, and without them would move
+        nothing.
+
+        Returns
+        -------
+        list of str
+            ``["keypoints"]`` for the ``landmarks`` preset, else ``[]``.
+
+        Examples
+        --------
+        >>> from glmls.augment.albumentations import MLSDeform
+        >>> MLSDeform("landmarks").targets_as_params, MLSDeform("grid").targets_as_params
+        (['keypoints'], [])
+        """
+        return ["keypoints"] if self.augment.preset.name == "landmarks" else []
 
     def get_params_dependent_on_data(
         self, params: dict[str, Any], data: dict[str, Any]
@@ -129,7 +155,7 @@ class MLSDeform(A.DualTransform):
         index = int(self.random_generator.integers(0, 2**63 - 1))
         landmarks = None
         if self.augment.preset.name == "landmarks":
-            points = np.asarray(data.get("keypoints", np.zeros((0, 2))), np.float64)
+            points = np.asarray(data["keypoints"], np.float64)
             landmarks = [points.reshape(-1, points.shape[-1] if points.size else 2)[:, :2]]
         return {"mls": self.augment.draw([shape], indices=[index], landmarks=landmarks)[0]}
 

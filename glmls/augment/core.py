@@ -628,12 +628,23 @@ def replay_boxes(
     ]
 
 
+#: The most distinct values of a floating-point mask that travel as integer labels.
+_FLOAT_LABELS = 1 << 24
+
+
 def replay_masks(augment: Augment, params: Sequence[Mapping], masks: np.ndarray) -> np.ndarray:
     """(N, H, W) masks deformed, one per draw, with nearest sampling, 0 where nothing is
-    shown; of their dtype (bool masks too; floating-point masks, as albumentations allows,
-    through float32, warped as images with the mask's sampling)."""
+    shown; of their dtype (bool masks too; floating-point masks, as albumentations and
+    torchvision allow, as labels numbering their distinct values, so that every value comes
+    back bit for bit: the GPU's float32 would round a float64 value; a mask of 2**24 distinct
+    values or more goes as a float32 image with nearest sampling)."""
     if masks.dtype.kind == "f":
-        nearest = {"interpolation": "nearest", "background": 0.0}
+        values, numbers = np.unique(masks, return_inverse=True)
+        if len(values) < _FLOAT_LABELS:  # label 0: nothing shown, value k + 1: values[k]
+            labels = (numbers.reshape(masks.shape) + 1).astype(np.int32)
+            moved = np.asarray(replay_labels(augment, params, masks=labels).masks)
+            return np.concatenate([np.zeros(1, masks.dtype), values])[moved]
+        nearest = {"interpolation": "nearest", "background": 0.0}  # soft values, very many
         draws = [{**p, "options": {**p["options"], **nearest}} for p in params]
         values = masks if masks.dtype in (np.float32, np.float64) else masks.astype(np.float32)
         return np.asarray(augment.replay(values, draws).images).astype(masks.dtype)

@@ -3,10 +3,11 @@ tensor is recognised only where torch is already imported (``sys.modules``). Int
 :class:`~glmls.augment.Augment` and the adapters; users pass tensors to them.
 
 Images are taken in torch's layout, (N, C, H, W) or (N, H, W), or as a list of (C, H, W) or
-(H, W) tensors (a ragged batch), and come back in it, of their dtype and on their device;
-half-precision tensors (float16, bfloat16) go through float32. The deformation itself runs on
-glmls's OpenGL context, so a CUDA tensor goes through the host's memory (``.cpu()``, then
-``.to(device)``): one copy each way per batch.
+(H, W) tensors (a ragged batch), and come back in it, of their dtype and on their device
+(contiguous, whatever their memory format or strides); half-precision tensors (float16,
+bfloat16) go through float32. The results are new tensors, detached: no gradient flows back
+through the deformation. The deformation itself runs on glmls's OpenGL context, so a CUDA tensor
+goes through the host's memory (``.cpu()``, then ``.to(device)``): one copy each way per batch.
 """
 
 from __future__ import annotations
@@ -129,7 +130,25 @@ def from_numpy(array: object, like: object) -> object:
     return tensor.to(device=like.device, dtype=like.dtype)  # type: ignore[attr-defined]
 
 
+def _check_rank(images) -> None:
+    """A tensor batch of torch's layout: ``ValueError`` naming the layouts, in torch's order
+    (the numpy path's message would name numpy's)."""
+    if isinstance(images, (list, tuple)):
+        for i, image in enumerate(images):
+            if image.ndim not in (2, 3):
+                raise ValueError(
+                    f"images[{i}] is a tensor of shape {tuple(image.shape)}; expected (C, H, W) "
+                    "or (H, W)"
+                )
+    elif images.ndim not in (3, 4):
+        raise ValueError(
+            f"images is a tensor of shape {tuple(images.shape)}; expected a batch (N, C, H, W) "
+            "or (N, H, W), or a list of (C, H, W) or (H, W) tensors"
+        )
+
+
 def _channels_last(images) -> tuple[object, bool]:
+    _check_rank(images)
     if isinstance(images, (list, tuple)):  # (C, H, W) or (H, W) each
         arrays = [to_numpy(image) for image in images]
         return [

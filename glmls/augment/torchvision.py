@@ -8,22 +8,31 @@ crashes a process that already holds Mesa's; this module raises ``ImportError`` 
 rather than let the process crash (:func:`check_import_order`).
 
 ``MLSTransform`` follows torchvision's contract: ``make_params`` draws once per call from
-torch's random numbers (``torch.manual_seed`` makes it repeat), and ``transform`` deforms each
-input by type: ``tv_tensors.Image`` (and a plain tensor taken as the image; any number of
-channels), a PIL image (in its mode; a palette image's indices with nearest sampling),
-``Video`` (its frames all by one draw, as torchvision's own transforms move them), ``Mask``
-(nearest, never a mixed label), ``KeyPoints`` and ``BoundingBoxes`` (an unrotated box becomes
-the box around its densely sampled, moved outline, a rotated one's corners move; clamped to
-the canvas as their ``clamping_mode`` says).
-Tensors stay of their dtype and on their device; the deformation runs on glmls's OpenGL
-context, so a CUDA tensor goes through the host's memory.
+torch's random numbers (``torch.manual_seed`` makes it repeat: the transform has no seed of its
+own), every input of a call moves by that one draw (two images of one sample, an image and its
+depth map, as many masks, keypoints and boxes as the sample has), plain tensors are taken as
+torchvision takes them (the first one is the image where there is no ``tv_tensors.Image``,
+``Video`` or PIL image, the others pass through untouched), and ``transform`` deforms each input
+by type: ``tv_tensors.Image`` (and a plain tensor taken as the image; any number of channels), a
+PIL image (in its mode; a palette image's indices and a bilevel image's pixels with nearest
+sampling), ``Video`` (its frames all by one draw, as torchvision's own transforms move them),
+``Mask`` (nearest, never a mixed label), ``KeyPoints`` and ``BoundingBoxes`` (an unrotated box
+becomes the box around its densely sampled, moved outline, a rotated one's corners move; clamped
+to the canvas as their ``clamping_mode`` says). Tensors stay of their dtype and on their device,
+detached (no gradient flows back through the deformation, where torchvision's own geometric
+transforms keep autograd's graph); the deformation runs on glmls's OpenGL context, so a CUDA
+tensor goes through the host's memory.
 
 A batch is an image tensor with a leading dimension, (N, C, H, W): each sample draws its own
-deformation (where torchvision's own transforms draw once for the whole batch). Its masks are
-(N, H, W) or (N, K, H, W) and its keypoints (N, P, 2) (the first dimension the batch), or one
-``Mask``/``KeyPoints``/``BoundingBoxes`` per sample in order (bounding boxes are
-two-dimensional in torchvision: one instance per sample). The draws of the last call are in
-``last_params`` (JSON-able dicts, see :class:`glmls.augment.AugmentResult`).
+deformation (where torchvision's own transforms draw once for the whole batch). The inputs of a
+call have one size (H, W), the ``canvas_size`` of boxes and keypoints too, as torchvision
+requires, and are single images or one batch, else ``ValueError``; so is an unrotated box whose
+maximum lies below its minimum (boxes of another format than their label, which the deformation
+would make into plausible boxes). A batch's masks are (N, H, W) or (N, K, H, W) and its
+keypoints (N, P, 2) (the first dimension the batch), or one
+``Mask``/``KeyPoints``/``BoundingBoxes`` per sample in order (bounding boxes are two-dimensional
+in torchvision: one instance per sample). The draws of the last call are in ``last_params``
+(JSON-able dicts, see :class:`glmls.augment.AugmentResult`).
 """
 
 from __future__ import annotations
@@ -90,6 +99,10 @@ def _is_image(value: object) -> bool:
     )
 
 
+def _is_label(value: object) -> bool:
+    return isinstance(value, _LABELS)
+
+
 def _size(value: object) -> tuple[int, int, int | None]:
     """(H, W, N): N the batch size of a 4-D image tensor, None for one image."""
     if isinstance(value, PIL.Image.Image):
@@ -102,6 +115,25 @@ def _size(value: object) -> tuple[int, int, int | None]:
     if tensor.ndim in (2, 3):  # type: ignore[attr-defined]
         return tensor.shape[-2], tensor.shape[-1], None  # type: ignore[attr-defined]
     raise ValueError(f"expected an image (C, H, W) or a batch (N, C, H, W), got {tensor.shape}")  # type: ignore[attr-defined]
+
+
+def _shown(size: tuple[int, int, int | None]) -> tuple[int, ...]:
+    """(H, W), or (N, H, W) for a batch, as an error shows it."""
+    height, width, batch = size
+    return (height, width) if batch is None else (batch, height, width)
+
+
+def _check_extents(boxes: tv_tensors.BoundingBoxes, xyxy: np.ndarray) -> None:
+    """``ValueError`` for a box whose maximum lies below its minimum in x or y, naming it:
+    boxes labelled with another format than theirs (XYWH read as XYXY), which a deformation
+    would otherwise turn into a plausible box in silence."""
+    wrong = np.flatnonzero((xyxy[:, 2] < xyxy[:, 0]) | (xyxy[:, 3] < xyxy[:, 1]))
+    if len(wrong):
+        j = int(wrong[0])
+        raise ValueError(
+            f"BoundingBoxes[{j}] {boxes[j].tolist()} in {boxes.format.name} has a negative "
+            "width or height: boxes in another format than the one they are labelled with?"
+        )
 
 
 def _check_batch_label(label: torch.Tensor, count: int) -> None:
@@ -168,6 +200,24 @@ class MLSTransform(v2.Transform):
         self.preset = preset
         self.last_params: list[dict] = []
 
+    def extra_repr(self) -> str:
+        """What the repr shows: the preset with its options, the warp options and box_step
+        (not ``last_params``, the last call's handles).
+
+        Returns
+        -------
+        str
+            The text inside ``MLSTransform(...)``.
+
+        Examples
+        --------
+        >>> from glmls.augment.torchvision import MLSTransform
+        >>> MLSTransform("text-distort", segments=3).extra_repr()
+        "preset=TextDistortPreset(segments=3, radius=None), warp_options={...}, box_step=2.0"
+        """
+        aug = self.augment
+        return f"preset={aug.preset!r}, warp_options={aug.warp_options!r}, box_step={aug.box_step}"
+
     def make_params(self, flat_inputs: list[Any]) -> dict[str, Any]:
         """Draw each sample's handles from torch's random numbers.
 
@@ -184,7 +234,9 @@ class MLSTransform(v2.Transform):
         Raises
         ------
         ValueError
-            Without an image, or for labels that match neither one image nor the batch.
+            Without an image, for inputs of different sizes (H, W) (the ``canvas_size`` of
+            boxes and keypoints too), single images with a batch, or a batch's labels that
+            match neither the batch nor its samples.
 
         Examples
         --------
@@ -198,17 +250,30 @@ class MLSTransform(v2.Transform):
         if not images:
             raise ValueError("MLSTransform needs an image (tv_tensors.Image or a tensor)")
         sizes = [_size(x) for x in images]
-        batched = len(images) == 1 and sizes[0][2] is not None
-        count = sizes[0][2] if batched else len(images)
-        shapes = [sizes[0][:2]] * count if batched else [s[:2] for s in sizes]
-        owners: dict[int, Any] = {}
-        if batched:
-            owners[id(images[0])] = "batch"
-        else:
-            owners.update({id(x): k for k, x in enumerate(images)})
+        found = {tuple(F.get_size(x)) for x in flat_inputs if _is_image(x) or _is_label(x)}
+        if len(found) > 1:  # as torchvision's own transforms refuse them
+            raise ValueError(
+                f"the inputs of one call have different sizes (H, W), "
+                f"{', '.join(map(str, sorted(found)))} (the canvas_size of boxes and "
+                "keypoints): every input of a call moves by the same deformation"
+            )
+        if len({s[2] is None for s in sizes}) > 1:
+            found_shapes = ", ".join(sorted({str(_shown(s)) for s in sizes}))
+            raise ValueError(
+                f"single images and a batch in one call, {found_shapes}: give one batch "
+                "(N, C, H, W) or single images"
+            )
+        if len({s[2] for s in sizes}) > 1:
+            found_shapes = ", ".join(sorted({str(_shown(s)) for s in sizes}))
+            raise ValueError(f"batches of different sizes in one call: {found_shapes}")
+        height, width, batch = sizes[0]
+        count = 1 if batch is None else batch
+        owners: dict[int, Any] = {id(x): 0 if batch is None else "batch" for x in images}
         for kind in _LABELS:
             labels = [x for x in flat_inputs if isinstance(x, kind)]
-            if len(labels) == 1 and batched and kind is not tv_tensors.BoundingBoxes:
+            if batch is None:  # one sample: every label of the call is its own
+                owners.update({id(x): 0 for x in labels})
+            elif len(labels) == 1 and kind is not tv_tensors.BoundingBoxes:
                 _check_batch_label(labels[0], count)
                 owners[id(labels[0])] = "batch"
             elif len(labels) == count:
@@ -218,6 +283,7 @@ class MLSTransform(v2.Transform):
                     f"{len(labels)} {kind.__name__} for {count} samples: give one per sample, "
                     "or one with the batch as its first dimension"
                 )
+        shapes = [(height, width)] * count
         landmarks = None
         if self.augment.preset.name == "landmarks":
             landmarks = self._landmarks(flat_inputs, owners, count)
@@ -228,18 +294,20 @@ class MLSTransform(v2.Transform):
 
     @staticmethod
     def _landmarks(flat_inputs, owners, count) -> list[np.ndarray]:
-        marks: list[np.ndarray | None] = [None] * count
+        """Each sample's landmarks: all its KeyPoints, in the order of the inputs."""
+        marks: list[list[np.ndarray]] = [[] for _ in range(count)]
         for x in flat_inputs:
             if isinstance(x, tv_tensors.KeyPoints):
                 points = to_numpy(x).astype(np.float64)
                 owner = owners[id(x)]
                 if owner == "batch":
-                    marks = [p.reshape(-1, 2) for p in points]
+                    for k, p in enumerate(points.reshape(count, -1, 2)):
+                        marks[k].append(p)
                 else:
-                    marks[owner] = points.reshape(-1, 2)
-        if any(m is None for m in marks):
+                    marks[owner].append(points.reshape(-1, 2))
+        if any(not m for m in marks):
             raise ValueError("the landmarks preset needs KeyPoints for every sample")
-        return marks  # type: ignore[return-value]
+        return [np.concatenate(m) for m in marks]
 
     def _samples(self, inpt: Any, params: dict[str, Any]) -> list[dict]:
         owner = params["owners"][id(inpt)]
@@ -284,14 +352,17 @@ class MLSTransform(v2.Transform):
         return self._images(inpt, samples)
 
     def _pil(self, image: PIL.Image.Image, samples: list[dict]) -> PIL.Image.Image:
-        """A PIL image deformed, in its mode (a palette image's indices with nearest sampling,
-        its palette kept; 32-bit integers through float64)."""
+        """A PIL image deformed, in its mode (a palette image's indices and a bilevel image's
+        pixels with nearest sampling, the palette kept; 32-bit integers through float64)."""
         array = np.asarray(image)
-        if image.mode in ("P", "PA"):
+        if image.mode in ("P", "PA", "1"):  # indices, or a bilevel image's bools: labels
             nearest = {"interpolation": "nearest"}
             samples = [{**s, "options": {**s["options"], **nearest}} for s in samples]
         values = array.astype(np.float64) if array.dtype == np.int32 else array
+        values = values.astype(np.uint8) if image.mode == "1" else values
         out = np.asarray(self.augment.replay([values], samples).images[0])
+        if image.mode == "1":
+            return PIL.Image.fromarray(out.astype(bool))
         if out.dtype != array.dtype:
             out = np.clip(np.rint(out), -(2**31), 2**31 - 1).astype(array.dtype)
         result = PIL.Image.frombytes(image.mode, image.size, np.ascontiguousarray(out).tobytes())
@@ -321,7 +392,7 @@ class MLSTransform(v2.Transform):
         draws = [s for s in samples for _ in range(layers)]
         out = replay_masks(self.augment, draws, array.reshape(count * layers, height, width))
         tensor = torch.from_numpy(out.reshape(masks.shape))
-        return tensor.to(masks.device)
+        return tensor.to(device=masks.device, dtype=masks.dtype)  # float16 went as float32
 
     def _keypoints(self, points: torch.Tensor, samples: list[dict]) -> torch.Tensor:
         count = len(samples)
@@ -348,6 +419,7 @@ class MLSTransform(v2.Transform):
             )
             moved = moved.reshape(-1, 8) + 0.5
         else:
+            _check_extents(boxes, array)
             moved = replay_boxes(self.augment, [sample], [array])[0] + 0.5
         out = F.clamp_bounding_boxes(  # as the boxes' clamping_mode says (None: not at all)
             torch.from_numpy(moved),

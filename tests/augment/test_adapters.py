@@ -170,7 +170,7 @@ def test_torchvision_boxes_per_sample_in_any_format(gl, rng):
     _, shifted = moved(image, boxes)
     assert not torch.allclose(shifted, boxes)
     with pytest.raises(ValueError, match="2 BoundingBoxes for 3 samples"):
-        moved(tv_tensors.Image(torch.zeros(3, 1, 8, 8)), boxes, boxes)
+        moved(tv_tensors.Image(torch.zeros(3, 1, 32, 32)), boxes, boxes)
 
 
 def test_torchvision_landmarks_and_a_single_image(gl):
