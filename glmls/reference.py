@@ -10,7 +10,8 @@ Degenerate cases follow the same rules as the shader (``glmls/shaders/mls/core.g
 - no handle in reach (compact-support weights): identity;
 - coincident source handles in reach (spread about p* below 1e-13 of that about v): M = I;
 - rigid with all targets in reach collapsed to one point: M = I;
-- affine with a singular moment matrix: the similarity solution.
+- affine whose moment matrix A is singular or nearly (det A <= 1e-5 trace(A)^2: fewer than
+  3 handles in reach, or handles along one line): the similarity solution.
 
 Segment handles (the segments of a :class:`glmls.HandleSet`) add the integrals of the same
 moments along each segment, per unit length, computed by an accurate quadrature
