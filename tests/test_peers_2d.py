@@ -261,3 +261,35 @@ def test_thin_plate_spline_and_piecewise_affine_agree_at_the_handles(deformed):
     inside = np.array([[10.0, 8.0], [16.0, 12.0], [12.0, 12.0]])
     assert np.hypot(*(m(inside) - tps(inside)).T).max() < 3.0
     assert np.hypot(*(m(inside) - piecewise(inside)).T).max() < 3.0
+
+
+#: numpy.pad's modes and OpenCV's border types of the same meaning, as docs/warp.md names them
+OPENCV_BORDERS = {
+    "edge": "BORDER_REPLICATE",
+    "symmetric": "BORDER_REFLECT",
+    "reflect": "BORDER_REFLECT_101",
+    "wrap": "BORDER_WRAP",
+}
+
+
+@pytest.mark.parametrize("border", sorted(OPENCV_BORDERS))
+@pytest.mark.parametrize("method", glmls.METHODS)
+def test_the_identity_on_a_larger_canvas_is_numpy_pad_and_opencv(gl, border, method):
+    """Each border continues the image as numpy.pad's mode of its name (and OpenCV's
+    copyMakeBorder with the type the docs give): a canvas 3 px wider on each side, and more
+    than the image's size on one, so that symmetric, reflect and wrap come back round."""
+    image = np.random.default_rng(10).integers(0, 256, (5, 7, 3), dtype=np.uint8)
+    top, bottom, left, right = 3, 8, 3, 9
+    padded = np.pad(image, ((top, bottom), (left, right), (0, 0)), mode=border)
+    with glmls.MLS(np.zeros((0, 2)), np.zeros((0, 2))) as m:
+        out = m.warp(
+            image,
+            method=method,
+            border=border,
+            output_shape=padded.shape[:2],
+            origin=(-left, -top),
+        )
+    assert np.array_equal(out, padded)
+    cv2 = pytest.importorskip("cv2")
+    kind = getattr(cv2, OPENCV_BORDERS[border])
+    assert np.array_equal(cv2.copyMakeBorder(image, top, bottom, left, right, kind), padded)
