@@ -9,6 +9,8 @@ layout(binding = BIND_COORDS) uniform sampler2D u_coords;   // (s.x, s.y, residu
 uniform ivec2 u_target_size;  // W, H of one image's output canvas
 uniform ivec2 u_source_size;  // W, H of the source images
 
+#include "batch/sample.glsl"
+
 layout(location = 0) out vec4 out_color;
 
 void main() {
@@ -20,8 +22,7 @@ void main() {
     int k = atlas.y / u_target_size.y;
     vec2 s = c.xy;
 #if WARP_LINEAR
-    vec2 size = vec2(textureSize(u_sources, 0).xy);
-    out_color = texture(u_sources, vec3((s + 0.5) / size, float(k)));   // edges clamped
+    out_color = batch_sample(s, k);   // edges clamped
 #else
     ivec2 p = border_pixel(ivec2(floor(s + 0.5)), u_source_size);
     out_color = texelFetch(u_sources, ivec3(p, k), 0);

@@ -21,6 +21,8 @@ uniform int u_sub_bits;       // key layout, see warp/cells.comp.glsl
 uniform int u_col_shift;
 uniform int u_row_shift;
 
+#include "batch/sample.glsl"
+
 layout(location = 0) out vec4 out_color;
 
 void main() {
@@ -54,8 +56,7 @@ void main() {
 #if WARP_OUTPUT_COORDS
     out_color = vec4(s, 1.0, 0.0);   // the source point itself (the map of the output pixels)
 #else
-    vec2 size = vec2(textureSize(u_sources, 0).xy);
-    out_color = texture(u_sources, vec3((s + 0.5) / size, float(k)));
+    out_color = batch_sample(s, k);
 #endif
 #else
     uint sub_mask = (1u << u_sub_bits) - 1u;

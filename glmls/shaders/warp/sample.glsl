@@ -15,11 +15,14 @@ vec4 warp_texel(ivec2 p) {
     return texelFetch(u_source, border_pixel(p, u_source_size), 0);
 }
 
-// The source at point s (source pixels): the backward methods.
+// The source at point s (source pixels): the backward methods. Bilinear weights are taken
+// in float32 from s itself, for every border rule (constant clamps the four pixels to the
+// image, "edges clamped"): the texture unit's filtering would take them from the normalized
+// coordinate (s + 0.5) / size, whose rounding moves a sample at a pixel centre off it (the
+// identity would not copy float images exactly), and GPUs filter with as few as 8 bits of
+// sub-texel precision (weights in steps of 1/256).
 vec4 warp_sample(vec2 s) {
-#if WARP_LINEAR && WARP_BORDER == 0
-    return texture(u_source, (s + 0.5) / vec2(textureSize(u_source, 0)));   // edges clamped
-#elif WARP_LINEAR
+#if WARP_LINEAR
     vec2 corner = floor(s);
     vec2 t = s - corner;
     ivec2 p = ivec2(corner);

@@ -1,0 +1,177 @@
+"""glmls's MLS in 2D against an independent float64 implementation of the paper (``mls64``).
+
+Both ``glmls.reference`` and the GPU (``glmls.MLS(...)(points)`` and ``m.matrices``) are
+checked, for every transform, every weight of ``glmls.WEIGHTS`` with its parameters, and
+``interpolating``, at random points inside and around a 96 x 128 image, on the handles and
+next to them. Segment handles are checked against the limit they are defined as: densely
+sampled point handles weighted per unit of length (Schaefer et al. 2006, section 4).
+
+Tolerances: the reference within 1e-9 px (f) and 1e-9 (M), float64 rounding; the GPU, in
+float32 on coordinates scaled to the image (spacing ~1e-7 of its size), within 1e-5 of the
+image's size for f (0.0013 px here) and 1e-4 for M.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from mls64 import mls64, sampled_segments
+
+import glmls
+from glmls import reference
+
+H, W = 96, 128
+SIZE = max(H, W)
+rng = np.random.default_rng(0)
+P = rng.uniform(5, [W - 5, H - 5], (7, 2))
+Q = P + rng.uniform(-8, 8, P.shape)
+POINTS = np.concatenate([rng.uniform(-20, [W + 20, H + 20], (60, 2)), P, P + 0.3, P - 2e-2])
+
+PARAMETERS = {
+    "idw": [{}, {"alpha": 2.0}, {"alpha": 0.5, "s": 0.0}, {"s": 5.0}, {"interpolating": True}],
+    "radius": [
+        {"radius": 60.0},
+        {"radius": 200.0},
+        {"radius": 60.0, "interpolating": True},
+        {"radius": 200.0, "alpha": 2.0, "interpolating": True},
+    ],
+}
+CASES = [
+    (transform, weight, params)
+    for transform in glmls.TRANSFORMS
+    for weight in glmls.WEIGHTS
+    for params in PARAMETERS["idw" if weight == "idw" else "radius"]
+]
+
+
+def case_id(case):
+    transform, weight, params = case
+    return "-".join([transform, weight, *(f"{k}={v}" for k, v in params.items())])
+
+
+@pytest.mark.parametrize("case", CASES, ids=case_id)
+def test_reference_and_gpu_are_the_paper(gl, case):
+    transform, weight, params = case
+    f0, m0, t0 = mls64(P, Q, POINTS, transform, weight, **params)
+    f1, m1, t1 = reference.mls(P, Q, POINTS, transform=transform, weight=weight, **params)
+    assert np.abs(f1 - f0).max() < 1e-9
+    assert np.abs(m1 - m0).max() < 1e-9
+    assert np.abs(t1 - t0).max() < 1e-7
+    with glmls.MLS(P, Q, transform=transform, weight=weight, shape=(H, W), **params) as m:
+        f2 = m(POINTS)
+        m2, t2 = m.matrices(POINTS)
+    assert np.abs(f2 - f0).max() < 1e-5 * SIZE
+    assert np.abs(m2 - m0).max() < 1e-4
+    assert np.abs(t2 - t0).max() < 1e-5 * SIZE + 1e-4 * np.abs(POINTS).max()
+
+
+@pytest.mark.parametrize("weight", glmls.WEIGHTS)
+def test_handles_are_interpolated_where_the_weight_is_infinite(gl, weight):
+    """f(p_i) = q_i exactly where w is infinite at d = 0 (idw with s = 0, shepard, any weight
+    made interpolating); M there is the limit, the fit of the other handles about p_i."""
+    params = {"s": 0.0} if weight == "idw" else {"radius": 150.0, "interpolating": True}
+    f0, m0, _ = mls64(P, Q, P, "similarity", weight, **params)
+    assert np.array_equal(f0, Q)
+    near, _, _ = mls64(P, Q, P + 1e-7, "similarity", weight, **params)  # the limit, from aside
+    assert np.abs(near - Q).max() < 1e-5
+    f1, m1, _ = reference.mls(P, Q, P, transform="similarity", weight=weight, **params)
+    assert np.abs(f1 - Q).max() < 1e-12 and np.abs(m1 - m0).max() < 1e-9
+    with glmls.MLS(P, Q, transform="similarity", weight=weight, shape=(H, W), **params) as m:
+        assert np.abs(m(P) - Q).max() < 1e-3
+        assert np.abs(m.matrices(P)[0] - m0).max() < 1e-4
+
+
+STEEP = [
+    {"weight": "idw", "alpha": 1.5, "interpolating": True},
+    {"weight": "gaussian", "radius": 25.0, "alpha": 2.0, "interpolating": True},
+    {"weight": "shepard", "radius": 25.0, "alpha": 2.0, "interpolating": True},
+    {"weight": "linear", "radius": 40.0, "alpha": 2.0, "interpolating": True},
+]
+
+
+@pytest.mark.parametrize("params", STEEP, ids=lambda params: params["weight"])
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_m_next_to_a_handle_whose_weight_is_steep(gl, transform, params):
+    """Within 1e-2 px of a handle whose weight grows like 1 / d^(2 alpha) with alpha > 1, its
+    own w d^2 is 1e17 times the others' spread about p*: that is no sign of coincident
+    sources (M = I), M is still the others' fit, continuous up to the handle's limit; and
+    the others' moments (~1e-27 on the GPU) are not lost to float32 underflow."""
+    v = np.concatenate([P + 1e-3, P - 3e-3, P + [4e-3, -2e-3]])
+    f0, m0, _ = mls64(P, Q, v, transform, **params)
+    limit = mls64(P, Q, P, transform, **params)[1]
+    assert np.abs(m0 - np.tile(limit, (3, 1, 1))).max() < 1e-2  # continuous
+    f1, m1, _ = reference.mls(P, Q, v, transform=transform, **params)
+    assert np.abs(f1 - f0).max() < 1e-9
+    assert np.abs(m1 - m0).max() < 1e-6
+    with glmls.MLS(P, Q, transform=transform, shape=(H, W), **params) as m:
+        assert np.abs(m(v) - f0).max() < 1e-5 * SIZE
+        # affine inverts the others' 2 x 2 moments, tiny against the handle's: 3e-4
+        assert np.abs(m.matrices(v)[0] - m0).max() < (3e-4 if transform == "affine" else 1e-4)
+
+
+def test_affine_takes_the_similarity_solution_where_the_handles_in_reach_are_on_a_line(gl):
+    """Two handles in a compact weight's reach (the rest beyond R): the affine fit is not
+    defined, and both glmls's reference and the GPU take the similarity solution."""
+    p = np.array([[10.0, 10.0], [40.0, 12.0], [200.0, 200.0], [10.0, 200.0]])
+    q = p + [[2.0, 1.0], [-1.0, 3.0], [0.0, 0.0], [0.0, 0.0]]
+    v = np.array([[25.0, 20.0], [20.0, 5.0]])
+    options = {"weight": "cressman", "radius": 60.0}
+    similarity, _, _ = mls64(p, q, v, "similarity", **options)
+    affine, _, _ = mls64(p, q, v, "affine", **options)
+    assert np.abs(affine - similarity).max() < 1e-12
+    f, _, _ = reference.mls(p, q, v, transform="affine", **options)
+    assert np.abs(f - similarity).max() < 1e-9
+    with glmls.MLS(p, q, transform="affine", shape=(256, 256), **options) as m:
+        assert np.abs(m(v) - similarity).max() < 1e-3
+
+
+SEGMENT_CASES = [
+    ("idw", {}),
+    ("idw", {"alpha": 2.0}),
+    ("idw", {"alpha": 0.75, "s": 0.0}),
+    ("gaussian", {"radius": 40.0}),
+    ("cressman", {"radius": 200.0}),
+    ("shepard", {"radius": 300.0}),
+    ("linear", {"radius": 300.0}),
+    ("gaussian", {"radius": 60.0, "interpolating": True}),
+]
+
+
+@pytest.fixture(scope="module")
+def segments():
+    rng = np.random.default_rng(1)
+    a = np.array([[[20.0, 20.0], [100.0, 30.0]], [[30.0, 80.0], [60.0, 50.0]]])
+    b = a + rng.uniform(-6, 6, a.shape)
+    v = rng.uniform(0, [W, H], (40, 2))
+    # points at least 3 px from the segments, where 4,000 samples per segment converge
+    t = np.clip(
+        np.einsum("ksi,si->ks", v[:, None] - a[None, :, 0], a[:, 1] - a[:, 0])
+        / ((a[:, 1] - a[:, 0]) ** 2).sum(-1),
+        0,
+        1,
+    )
+    foot = a[None, :, 0] + t[..., None] * (a[:, 1] - a[:, 0])[None]
+    v = v[np.hypot(*(v[:, None] - foot).transpose(2, 0, 1)).min(1) > 3]
+    return a, b, v, sampled_segments(a, b, 4000)
+
+
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+@pytest.mark.parametrize(("weight", "params"), SEGMENT_CASES)
+def test_segments_are_the_limit_of_dense_point_handles(gl, segments, transform, weight, params):
+    a, b, v, (ps, qs, length) = segments
+    p, q = np.array([[110.0, 80.0]]), np.array([[113.0, 78.0]])
+    dense = np.concatenate([p, ps]), np.concatenate([q, qs])
+    density = np.concatenate([[1.0], length])
+    f0, m0, _ = mls64(*dense, v, transform, weight, density=density, **params)
+    options = {"transform": transform, "weight": weight, "src_segments": a, "dst_segments": b}
+    f1, m1, _ = reference.mls(p, q, v, **options, **params)
+    assert np.abs(f1 - f0).max() < 1e-6  # the midpoint rule's error at 3 px and more
+    assert np.abs(m1 - m0).max() < 1e-7
+    with glmls.MLS(p, q, shape=(H, W), **options, **params) as m:
+        assert np.abs(m(v) - f0).max() < 1e-5 * SIZE
+        assert np.abs(m.matrices(v)[0] - m0).max() < 1e-4
+        if weight in ("idw", "shepard") or params.get("interpolating"):
+            t = np.linspace(0, 1, 9)[:, None]
+            for (a0, a1), (b0, b1) in zip(a, b, strict=True):
+                on = m((1 - t) * a0 + t * a1)
+                assert np.abs(on - ((1 - t) * b0 + t * b1)).max() < 1e-3
