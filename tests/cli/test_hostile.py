@@ -220,3 +220,14 @@ def test_usage_mistakes_exit_2_with_argparses_message(files):
     assert result.stderr.strip().splitlines() == [
         "glmls warp: argument --grid: expected an integer >= 1, got 0 (see glmls warp --help)"
     ]
+
+
+@pytest.mark.parametrize("command", ["tune", "analyze"])
+def test_reference_points_that_make_no_triangle_are_named_before_any_work(files, command):
+    (files / "two.json").write_text(json.dumps({"points": [[5, 5], [20, 5]]}))
+    args = ("a.png", "--handles", "h.json", "--reference", "two.json", "--out", "report")
+    result = cli(command, *args, "--trials", "1", cwd=files) if command == "tune" else None
+    result = result or cli(command, *args, cwd=files)
+    # tune said its plan, then "reference_points: ..." with no file, after starting
+    one_line_error(result, 2, f"glmls {command}: two.json: a triangulation needs at least 3")
+    assert not (files / "report").exists()
