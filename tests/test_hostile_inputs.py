@@ -130,3 +130,9 @@ def test_coordinate_map_names_a_residual_that_is_not_a_bool(gl):
             m.coordinate_map((6, 8), residual="yes")
         xy, res = m.coordinate_map((6, 8), residual=np.True_)
     assert xy.shape == (6, 8, 2) and res.shape == (6, 8)
+
+
+@pytest.mark.parametrize("m", ["m", None])
+def test_report_names_an_m_that_is_not_an_mls(image, m):
+    with pytest.raises(TypeError, match=f"m must be a glmls.MLS .*got {type(m).__name__}"):
+        glmls.analysis.report(image, m, REF)
