@@ -136,3 +136,12 @@ def test_coordinate_map_names_a_residual_that_is_not_a_bool(gl):
 def test_report_names_an_m_that_is_not_an_mls(image, m):
     with pytest.raises(TypeError, match=f"m must be a glmls.MLS .*got {type(m).__name__}"):
         glmls.analysis.report(image, m, REF)
+
+
+def test_size_messages_say_which_side_is_which(gl):
+    # the command line's warnings say W x H ("the 16385 x 1 image"); these said H x W
+    limit = gl.limits["max_texture_size"]
+    with pytest.raises(ValueError, match=f"image {limit + 1} pixels wide and 1 high exceeds"):
+        glmls.warp(np.ones((1, limit + 1), np.uint8), [[0, 0]], [[1, 0]])
+    with pytest.raises(ValueError, match="image 8 pixels wide and 1 high has none"):
+        glmls.warp(np.ones((1, 8), np.uint8), [[0, 0]], [[1, 0]], method="paper-quads")

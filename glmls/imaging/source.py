@@ -112,7 +112,7 @@ def prepare_image(image: object, max_size: int, *, normalized: bool = False) -> 
     height, width = array.shape[:2]
     if max(height, width) > max_size:
         raise ValueError(
-            f"image of {height} x {width} pixels exceeds the GL texture size limit of "
+            f"image {width} pixels wide and {height} high exceeds the GL texture size limit of "
             f"{max_size} pixels per side on this device; split it or scale it down"
         )
     squeeze = array.ndim == 2
