@@ -10,6 +10,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 import glmls
 from glmls import reference
+from glmls.analysis.canvas import as_rgb8
 from glmls.core.mesh import as_shape
 
 SRC = np.array([[0.0, 0], [7, 0], [0, 5], [7, 5]])
@@ -145,3 +146,22 @@ def test_size_messages_say_which_side_is_which(gl):
         glmls.warp(np.ones((1, limit + 1), np.uint8), [[0, 0]], [[1, 0]])
     with pytest.raises(ValueError, match="image 8 pixels wide and 1 high has none"):
         glmls.warp(np.ones((1, 8), np.uint8), [[0, 0]], [[1, 0]], method="paper-quads")
+
+
+@pytest.mark.parametrize(
+    "picture",
+    [np.full((4, 5), 65535, np.uint16), np.full((4, 5, 1), 255, np.uint8),
+     np.dstack([np.full((4, 5), 1.0), np.zeros((4, 5))]), np.full((4, 5, 4), 65535, np.uint16)],
+)  # fmt: skip
+def test_pictures_take_every_image_imread_gives(picture):
+    # uint16 (16-bit PNG, TIFF) and grey + alpha were refused: glmls analyze and tune failed
+    # with a traceback on them, tune after the whole tuning
+    assert_array_equal(as_rgb8(picture), np.full((4, 5, 3), 255, np.uint8))
+    assert as_rgb8(np.full((2, 2), 257 * 7, np.uint16))[0, 0].tolist() == [7, 7, 7]
+
+
+def test_a_report_of_a_16_bit_image(gl, image):
+    with glmls.MLS(SRC, DST) as m:
+        report = glmls.analysis.report(image.astype(np.uint16) * 257, m, REF, construction=False)
+        same = glmls.analysis.report(image, m, REF, construction=False)
+    assert_array_equal(report.images["deformed"], same.images["deformed"])

@@ -204,7 +204,7 @@ def report(
     Parameters
     ----------
     image : array_like
-        (H, W), (H, W, 3) or (H, W, 4): uint8, or floats in [0, 1].
+        (H, W) or (H, W, C) with C in 1..4: uint8, uint16, or floats in [0, 1].
     m : MLS
         The deformation.
     reference_points : array_like

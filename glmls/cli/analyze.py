@@ -11,6 +11,7 @@ from .analyze_volume import is_volume_input, run_volume
 from .inputs import (
     add_example_inputs,
     check_example,
+    check_picture,
     check_reference,
     example_or_files,
     figure,
@@ -70,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
     check_reference(
         args, reference, "the source handles (the reference points without --reference)"
     )
+    check_picture(image, name)
     ticker = Ticker("analyze", quiet=args.quiet)
     with make_mls(handles, config, image.shape) as m, ticker as tick, reported_warnings("analyze"):
         try:

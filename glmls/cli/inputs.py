@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import data
+from ..analysis.canvas import as_rgb8
 from ..analysis.triangles import check_reference_points
 from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
@@ -161,6 +162,15 @@ def check_reference(args: argparse.Namespace, reference: np.ndarray, fallback: s
         where = args.reference or fallback
         fault = str(error).replace("reference_points: ", "").replace("reference_points", "points")
         raise UsageError(f"{where}: {fault}") from None
+
+
+def check_picture(image: np.ndarray, name: str) -> None:
+    """:class:`UsageError` naming the file if the analysis cannot picture ``image`` (NaN or
+    infinite values); before any work is started."""
+    try:
+        as_rgb8(image, name)
+    except (TypeError, ValueError) as error:
+        raise UsageError(str(error)) from None
 
 
 def add_example_inputs(parser: argparse.ArgumentParser, *, reference_required: bool) -> None:

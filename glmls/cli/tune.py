@@ -18,6 +18,7 @@ from ..core.config import MLSConfig
 from ..files.atomic import atomic_write
 from .inputs import (
     add_example_inputs,
+    check_picture,
     check_reference,
     example_or_files,
     make_mls,
@@ -171,6 +172,7 @@ def run(args: argparse.Namespace) -> int:
     image, handles, reference, name = example_or_files(args, need_reference=True)
     warn_about_handles(args, handles, image.shape)
     check_reference(args, reference, "the example's reference points")
+    check_picture(image, name)  # the winner's report pictures it, after the tuning
     shape = image.shape[:2]
     try:
         configs = parse_configs(args, shape)
