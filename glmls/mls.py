@@ -1070,7 +1070,7 @@ class InverseMLS:
             For points of another shape, non-finite or beyond ±1e6 px, or a radius weight
             without radius or shape (as ``m(points)``).
         TypeError
-            For points that are not real numbers.
+            For points that are not real numbers, or a ``return_valid`` that is not a bool.
         glmls.ReleasedError
             After the MLS's :meth:`~MLS.release`.
 
@@ -1082,6 +1082,7 @@ class InverseMLS:
         ...     print(m.inverse(np.zeros((0, 2))).shape, m.inverse([[5, 1]]).tolist())
         (0, 2) [[3.0, 1.0]]
         """
+        return_valid = check_flag("return_valid", return_valid)
         s, valid = self._solve(_points(points))
         return (s, valid) if return_valid else s
 

@@ -165,3 +165,11 @@ def test_a_report_of_a_16_bit_image(gl, image):
         report = glmls.analysis.report(image.astype(np.uint16) * 257, m, REF, construction=False)
         same = glmls.analysis.report(image, m, REF, construction=False)
     assert_array_equal(report.images["deformed"], same.images["deformed"])
+
+
+def test_inverse_names_a_return_valid_that_is_not_a_bool(gl):
+    with glmls.MLS(SRC, DST) as m:
+        with pytest.raises(TypeError, match="return_valid must be True or False, got 1"):
+            m.inverse(REF, return_valid=1)
+        s, valid = m.inverse(REF, return_valid=np.True_)
+    assert s.shape == (5, 2) and valid.all()
