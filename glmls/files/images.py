@@ -360,7 +360,8 @@ def imwrite(path: str | os.PathLike, image: object) -> None:
     path : str or os.PathLike
         The file; its suffix (``.png``, ``.jpg``, ``.tif``, ...) chooses the format.
     image : array_like
-        H x W or H x W x C with C in 1..4.
+        H x W or H x W x C with C in 1..4 (H x W x 1 is written as grey: it reads back
+        H x W).
 
     Raises
     ------
