@@ -21,7 +21,7 @@ def check_deformation(m: object, method: str) -> None:
     has them all), before anything of it is called."""
     if not callable(getattr(m, method, None)):
         raise TypeError(
-            f"m must be a glmls.MLS (anything with a {method} method), got {type(m).__name__}"
+            f"m must be a glmls.MLS (anything with the method {method}), got {type(m).__name__}"
         )
 
 
