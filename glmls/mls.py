@@ -19,7 +19,7 @@ from typing import ClassVar
 import moderngl
 import numpy as np
 
-from .core.config import MLSConfig
+from .core.config import MLSConfig, check_flag
 from .core.handles import Scaling, as_points, check_coordinates, point_rows
 from .core.handles3 import dimension_of, planar_spacing
 from .core.handleset import HandleSet
@@ -716,7 +716,10 @@ class MLS(ForkSafe):
         ----------
         image : array_like
             H x W or H x W x C (C in 1..4), uint8, uint16, float32 or float64 (computed as
-            float32).
+            float32). NaN and infinite pixels are carried as they are: with ``"linear"``
+            interpolation an output pixel that blends a NaN is NaN, one that blends an
+            infinity infinite (or NaN where its weight is 0: inf x 0). A masked array's mask
+            is ignored (its data are warped).
         method : str, default "quads"
             ``"quads"``: forward with polygon interpolation (the mesh of pixel-square
             corners, step ``grid`` pixels, is deformed and each deformed quad filled);
@@ -899,6 +902,8 @@ class MLS(ForkSafe):
         ------
         ValueError
             For another method or a bad option (named).
+        TypeError
+            For a ``residual`` that is not a bool, or an option of the wrong type.
         glmls.ReleasedError
             After :meth:`release`.
 
@@ -913,9 +918,9 @@ class MLS(ForkSafe):
         """
         if method not in ("backward", "backward-swap"):
             raise ValueError(f"unknown method {method!r}; choose backward or backward-swap")
-        options = WarpOptions(
-            method=method, grid=grid, border=border, output_shape=output_shape, origin=origin
-        )
+        residual = check_flag("residual", residual)  # before any GPU work
+        frame = {"output_shape": output_shape, "origin": origin}
+        options = WarpOptions(method=method, grid=grid, border=border, **frame)  # type: ignore[arg-type]
         xy, res, _ = self._pipeline().coordinate_map(self, shape, options)
         return (xy, res) if residual else xy
 
@@ -1065,7 +1070,7 @@ class InverseMLS:
             For points of another shape, non-finite or beyond ±1e6 px, or a radius weight
             without radius or shape (as ``m(points)``).
         TypeError
-            For points that are not real numbers.
+            For points that are not real numbers, or a ``return_valid`` that is not a bool.
         glmls.ReleasedError
             After the MLS's :meth:`~MLS.release`.
 
@@ -1077,6 +1082,7 @@ class InverseMLS:
         ...     print(m.inverse(np.zeros((0, 2))).shape, m.inverse([[5, 1]]).tolist())
         (0, 2) [[3.0, 1.0]]
         """
+        return_valid = check_flag("return_valid", return_valid)
         s, valid = self._solve(_points(points))
         return (s, valid) if return_valid else s
 

@@ -32,21 +32,26 @@ EDGE_COLOR = (255, 255, 0)
 
 
 def as_rgb8(image: object, name: str = "image") -> np.ndarray:
-    """An image as (H, W, 3) uint8: grey (H, W), RGB or RGBA (alpha dropped); uint8, or
-    floats in [0, 1]."""
+    """An image as (H, W, 3) uint8, from any image :func:`glmls.imread` gives: grey (H, W)
+    or (H, W, 1), grey and alpha (H, W, 2), RGB or RGBA (alpha dropped); uint8, uint16
+    (scaled by 255 / 65535), or floats in [0, 1] (clipped to it)."""
     array = np.asarray(image)
     if array.ndim == 2:
-        array = np.repeat(array[:, :, None], 3, axis=2)
-    if array.ndim != 3 or array.shape[2] not in (3, 4) or min(array.shape[:2]) < 1:
-        raise ValueError(f"{name} must be (H, W), (H, W, 3) or (H, W, 4), got {array.shape}")
-    array = array[:, :, :3]
+        array = array[:, :, None]
+    if array.ndim != 3 or not 1 <= array.shape[2] <= 4 or min(array.shape[:2]) < 1:
+        raise ValueError(f"{name} must be (H, W) or (H, W, C) with C in 1..4, got {array.shape}")
+    colour = array[:, :, :3] if array.shape[2] >= 3 else array[:, :, :1]
     if array.dtype == np.uint8:
-        return np.ascontiguousarray(array)
-    if np.issubdtype(array.dtype, np.floating):
-        if not np.isfinite(array).all():
+        rgb = colour
+    elif array.dtype == np.uint16:
+        rgb = np.round(colour / 257.0).astype(np.uint8)
+    elif np.issubdtype(array.dtype, np.floating):
+        if not np.isfinite(colour).all():
             raise ValueError(f"{name} holds NaN or infinite values")
-        return np.ascontiguousarray(np.round(np.clip(array, 0.0, 1.0) * 255).astype(np.uint8))
-    raise TypeError(f"{name} must be uint8 or float in [0, 1], got dtype {array.dtype}")
+        rgb = np.round(np.clip(colour, 0.0, 1.0) * 255).astype(np.uint8)
+    else:
+        raise TypeError(f"{name} must be uint8, uint16 or float in [0, 1], got dtype {array.dtype}")
+    return np.ascontiguousarray(np.broadcast_to(rgb, (*rgb.shape[:2], 3)))
 
 
 def _rgba(color: object, opacity: float, name: str) -> tuple[float, float, float, float]:
@@ -193,7 +198,8 @@ class Canvas:
         Parameters
         ----------
         image : array_like
-            (H, W), (H, W, 3) or (H, W, 4) (alpha dropped): uint8, or floats in [0, 1].
+            (H, W) or (H, W, C) with C in 1..4 (alpha dropped): uint8, uint16, or floats
+            in [0, 1].
 
         Returns
         -------

@@ -7,13 +7,22 @@ from typing import Protocol
 
 import numpy as np
 
-__all__ = ["error_field"]
+__all__ = ["check_deformation", "error_field"]
 
 
 class HasErrorField(Protocol):
     def error_field(
         self, shape: Sequence[int], *, grid: int = 1, tolerance: float | None = None
     ) -> np.ndarray: ...
+
+
+def check_deformation(m: object, method: str) -> None:
+    """``TypeError`` naming ``m`` unless it has the method ``method`` (a :class:`glmls.MLS`
+    has them all), before anything of it is called."""
+    if not callable(getattr(m, method, None)):
+        raise TypeError(
+            f"m must be a glmls.MLS (anything with the method {method}), got {type(m).__name__}"
+        )
 
 
 def error_field(
@@ -49,7 +58,8 @@ def error_field(
         on, a tolerance that is not a finite number > 0, or both a grid other than 1 and a
         tolerance.
     TypeError
-        For a shape that is not integers, or a tolerance that is not a number.
+        For an ``m`` without an ``error_field`` method, a shape that is not integers, or a
+        tolerance that is not a number.
 
     See Also
     --------
@@ -69,4 +79,5 @@ def error_field(
     >>> coarse.shape
     (16, 16)
     """
+    check_deformation(m, "error_field")
     return m.error_field(shape, grid=grid, tolerance=tolerance)

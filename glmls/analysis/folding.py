@@ -10,6 +10,7 @@ from typing import NamedTuple, Protocol
 import numpy as np
 
 from ..core.mesh import MeshLattice
+from .field import check_deformation
 
 __all__ = ["Foldovers", "folded_cells", "foldovers"]
 
@@ -82,7 +83,7 @@ def foldovers(m: HasMesh, shape: object, grid: int = 1) -> Foldovers:
         For a shape that is not (H, W) with H, W >= 1, or a grid that is not an integer from
         1 on.
     TypeError
-        For a shape that is not integers.
+        For an ``m`` without a ``mesh`` method, or a shape that is not integers.
 
     Examples
     --------
@@ -96,6 +97,7 @@ def foldovers(m: HasMesh, shape: object, grid: int = 1) -> Foldovers:
     ...     glmls.analysis.foldovers(m, (16, 16)).count
     0
     """
+    check_deformation(m, "mesh")
     lattice = MeshLattice.corners(shape, grid)  # validates shape and grid
     _, deformed = m.mesh(lattice.shape, grid=lattice.grid)
     folded = folded_cells(deformed)

@@ -106,8 +106,8 @@ def render_handles(
     Parameters
     ----------
     image : array_like
-        The picture's background: (H, W), (H, W, 3) or (H, W, 4), uint8 or floats in
-        [0, 1]; its size is the picture's.
+        The picture's background: (H, W) or (H, W, C) with C in 1..4, uint8, uint16 or
+        floats in [0, 1]; its size is the picture's.
     src, dst : array_like
         Point handles, (N, 2) each.
     src_segments, dst_segments : array_like, optional
@@ -171,8 +171,8 @@ def render_triangulation(
     Parameters
     ----------
     image : array_like
-        The picture's background: (H, W), (H, W, 3) or (H, W, 4), uint8 or floats in
-        [0, 1]; its size is the picture's.
+        The picture's background: (H, W) or (H, W, C) with C in 1..4, uint8, uint16 or
+        floats in [0, 1]; its size is the picture's.
     points : array_like
         The vertices, (N, 2).
     simplices : array_like
@@ -258,8 +258,8 @@ def render_triangle_errors(
     Parameters
     ----------
     image : array_like
-        The picture's background: (H, W), (H, W, 3) or (H, W, 4), uint8 or floats in
-        [0, 1]; its size is the picture's.
+        The picture's background: (H, W) or (H, W, C) with C in 1..4, uint8, uint16 or
+        floats in [0, 1]; its size is the picture's.
     errors : TriangleErrors
         As :func:`triangle_errors` returns them.
     which : {"angle", "distance"}, optional
@@ -347,8 +347,8 @@ def render_mesh(
     Parameters
     ----------
     image : array_like
-        The picture's background: (H, W), (H, W, 3) or (H, W, 4), uint8 or floats in
-        [0, 1]; its size is the picture's.
+        The picture's background: (H, W) or (H, W, C) with C in 1..4, uint8, uint16 or
+        floats in [0, 1]; its size is the picture's.
     deformed : array_like
         The deformed mesh's vertices, (rows, columns, 2), e.g. ``MLS.mesh(...)[1]``.
     color : sequence of float, optional
@@ -420,8 +420,8 @@ def render_construction_errors(
     Parameters
     ----------
     image : array_like
-        The picture's background: (H, W), (H, W, 3) or (H, W, 4), uint8 or floats in
-        [0, 1]; its size is the picture's.
+        The picture's background: (H, W) or (H, W, C) with C in 1..4, uint8, uint16 or
+        floats in [0, 1]; its size is the picture's.
     errors : ConstructionErrors
         As :func:`construction_errors` returns them.
     deformed : bool, optional

@@ -23,6 +23,7 @@ from .construction import (
     check_radius,
     construction_errors,
 )
+from .field import check_deformation
 from .folding import foldovers
 from .pictures import (
     render_construction_errors,
@@ -203,7 +204,7 @@ def report(
     Parameters
     ----------
     image : array_like
-        (H, W), (H, W, 3) or (H, W, 4): uint8, or floats in [0, 1].
+        (H, W) or (H, W, C) with C in 1..4: uint8, uint16, or floats in [0, 1].
     m : MLS
         The deformation.
     reference_points : array_like
@@ -265,7 +266,7 @@ def report(
         For an unknown ``triangle_error``, warp option or angle measure, bad reference
         points, radius or image; checked before the long stages where possible.
     TypeError
-        For an image of an unsupported dtype.
+        For an image of an unsupported dtype, or an ``m`` that is not an MLS.
 
     Examples
     --------
@@ -284,6 +285,8 @@ def report(
     """
     rgb = as_rgb8(image)
     shape = rgb.shape[:2]
+    for method_of_m in ("error_field", "mesh", "warp", "bounds"):
+        check_deformation(m, method_of_m)
     if triangle_error not in ("angle", "distance"):
         raise ValueError(f"triangle_error must be 'angle' or 'distance', got {triangle_error!r}")
     options = WarpOptions.of(  # checked before the long stages

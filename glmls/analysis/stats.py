@@ -83,10 +83,13 @@ def error_stats(values: object) -> dict[str, float | int | list[float] | None]:
     ordered = np.sort(finite)
     cut = int(TRIM * ordered.size)  # scipy.stats.trim_mean's count
     kept = ordered[cut : ordered.size - cut] / unit
+    middle = ordered.size // 2
+    # halves first (exact): np.median's (a + b) / 2 overflows for values near the float64 limit
+    median = ordered[middle] if ordered.size % 2 else ordered[middle - 1] / 2 + ordered[middle] / 2
     return stats | {
         "mean": mean,
         "std": std,
-        "median": float(np.median(ordered)),
+        "median": float(median),
         "trimmed_mean": float(kept.mean()) * unit,
         "min": float(finite.min()),
         "max": float(finite.max()),

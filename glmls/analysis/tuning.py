@@ -395,9 +395,9 @@ def tune(
     Raises
     ------
     ValueError
-        For a bad shape, handles, reference points, trials, seed (not an integer >= 0), grid,
-        magnitudes, angle or ``rank_by``, no configurations, or none that can be built for
-        these handles.
+        For a bad shape, handles (or none at all), reference points, trials, seed (not an
+        integer >= 0), grid, magnitudes, angle or ``rank_by``, no configurations, or none
+        that can be built for these handles.
     TypeError
         For configurations that are not :class:`~glmls.MLSConfig` values.
 
@@ -435,6 +435,8 @@ def tune(
         if not isinstance(config, MLSConfig):
             raise TypeError(f"configs must be MLSConfig values, got {config!r}")
     handles = HandleSet.validate(src, dst, src_segments, dst_segments)
+    if not len(handles):  # every configuration is the identity: nothing to compare
+        raise ValueError("tune needs at least one handle (a point or a segment), got none")
     reference = check_reference_points(reference_points)
     edits = random_edits(handles, trials, seed=seed, shape=shape, magnitudes=magnitudes)
     known = known_deformations(handles, trials, seed=seed, shape=shape, magnitudes=magnitudes)

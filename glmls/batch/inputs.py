@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.handles import COORDINATE_LIMIT, validate_handles
-from ..imaging.source import DTYPES
+from ..imaging.source import DTYPES, native_order
 
 __all__ = ["BatchInput", "check_batch", "stack_or_list"]
 
@@ -56,6 +56,7 @@ def _items(value: object, name: str, item_ndims: tuple[int, ...]) -> tuple[list,
 
 
 def _image(array: np.ndarray, name: str) -> np.ndarray:
+    array = native_order(array)  # big-endian images are their values, as for one warp
     if array.dtype not in DTYPES:
         names = ", ".join(np.dtype(d).name for d in DTYPES)
         raise TypeError(f"{name} has dtype {array.dtype}; expected one of {names}")
@@ -141,6 +142,8 @@ def check_batch(
     images: object, src: object, dst: object, keypoints: object, masks: object
 ) -> BatchInput:
     """The checked :class:`BatchInput`; ``ValueError``/``TypeError`` naming the bad item."""
+    if isinstance(images, np.ndarray):
+        images = native_order(images)
     image_list, stacked = _items(images, "images", (2, 3))
     count = len(image_list)
     array = images if stacked and count else None

@@ -5,12 +5,14 @@ from __future__ import annotations
 import argparse
 
 from ..analysis.reporting import report
-from ..analysis.triangles import ANGLE_MEASURES, check_reference_points
+from ..analysis.triangles import ANGLE_MEASURES
 from .analyze_mesh import is_mesh_input, run_mesh
 from .analyze_volume import is_volume_input, run_volume
 from .inputs import (
     add_example_inputs,
     check_example,
+    check_picture,
+    check_reference,
     example_or_files,
     figure,
     make_mls,
@@ -66,12 +68,10 @@ def run(args: argparse.Namespace) -> int:
     image, handles, reference, name = example_or_files(args, need_reference=False)
     warn_about_handles(args, handles, image.shape)
     reference = reference_or_handles(args, reference, handles)
-    try:  # before any work, naming where the points came from
-        check_reference_points(reference)
-    except ValueError as error:
-        where = args.reference or "the source handles (the reference points without --reference)"
-        fault = str(error).replace("reference_points: ", "").replace("reference_points", "points")
-        raise UsageError(f"{where}: {fault}") from None
+    check_reference(
+        args, reference, "the source handles (the reference points without --reference)"
+    )
+    check_picture(image, name)
     ticker = Ticker("analyze", quiet=args.quiet)
     with make_mls(handles, config, image.shape) as m, ticker as tick, reported_warnings("analyze"):
         try:

@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import data
+from ..analysis.canvas import as_rgb8
+from ..analysis.triangles import check_reference_points
 from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
 from ..errors import BorderWarning, ImageWarning
@@ -165,6 +167,26 @@ def reference_or_handles(args: argparse.Namespace, reference, handles: HandleSet
     what = "handles (points and segment ends)" if handles.segments else "handles"
     say(args, f"{args.command}: no --reference given: the source {what} are the reference points")
     return points[np.sort(first)]
+
+
+def check_reference(args: argparse.Namespace, reference: np.ndarray, fallback: str) -> None:
+    """:class:`UsageError` naming where the reference points came from (``--reference``, else
+    ``fallback``) if they make no triangulation; before any work is started."""
+    try:
+        check_reference_points(reference)
+    except ValueError as error:
+        where = args.reference or fallback
+        fault = str(error).replace("reference_points: ", "").replace("reference_points", "points")
+        raise UsageError(f"{where}: {fault}") from None
+
+
+def check_picture(image: np.ndarray, name: str) -> None:
+    """:class:`UsageError` naming the file if the analysis cannot picture ``image`` (NaN or
+    infinite values); before any work is started."""
+    try:
+        as_rgb8(image, name)
+    except (TypeError, ValueError) as error:
+        raise UsageError(str(error)) from None
 
 
 def add_example_inputs(parser: argparse.ArgumentParser, *, reference_required: bool) -> None:

@@ -15,7 +15,15 @@ from ..analysis.tuning import MEASURES, label, search_space, tune
 from ..analysis.tuning_trials import MAGNITUDES
 from ..core.config import MLSConfig
 from ..files.atomic import atomic_write
-from .inputs import add_example_inputs, example_or_files, make_mls, say, warn_about_handles
+from .inputs import (
+    add_example_inputs,
+    check_picture,
+    check_reference,
+    example_or_files,
+    make_mls,
+    say,
+    warn_about_handles,
+)
 from .options import (
     UsageError,
     add_jobs_options,
@@ -150,6 +158,8 @@ def parse_configs(args: argparse.Namespace, shape: tuple[int, int]) -> list[MLSC
 def run(args: argparse.Namespace) -> int:
     image, handles, reference, name = example_or_files(args, need_reference=True)
     warn_about_handles(args, handles, image.shape)
+    check_reference(args, reference, "the example's reference points")
+    check_picture(image, name)  # the winner's report pictures it, after the tuning
     shape = image.shape[:2]
     try:
         configs = parse_configs(args, shape)

@@ -15,6 +15,7 @@ __all__ = [
     "TRANSFORMS",
     "WEIGHTS",
     "MLSConfig",
+    "check_flag",
     "image_diagonal",
     "transform_code",
 ]
@@ -50,6 +51,14 @@ def _real(name: str, value: object) -> float:
     if not math.isfinite(number):
         raise ValueError(f"{name} must be finite, got {number}")
     return number
+
+
+def check_flag(name: str, value: object) -> bool:
+    """``value`` as a bool if it is one (numpy's too); ``TypeError`` naming ``name`` else
+    (1, "yes" and None are not flags)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
 
 
 @dataclass(frozen=True)
@@ -144,9 +153,7 @@ class MLSConfig:
             if radius <= 0:
                 raise ValueError(f"radius must be > 0, got {radius}")
             object.__setattr__(self, "radius", radius)
-        if not isinstance(self.interpolating, (bool, np.bool_)):
-            raise TypeError(f"interpolating must be True or False, got {self.interpolating!r}")
-        object.__setattr__(self, "interpolating", bool(self.interpolating))
+        object.__setattr__(self, "interpolating", check_flag("interpolating", self.interpolating))
 
     @property
     def weight_entry(self) -> Weight:

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .handles import Scaling
+from .handles import COORDINATE_LIMIT, Scaling
 
 __all__ = ["KINDS", "MAX_GRID", "MAX_MARGIN", "MeshLattice", "as_shape", "check_grid"]
 
@@ -38,7 +38,9 @@ MAX_MARGIN = 1 << 24
 
 
 def as_shape(shape: object) -> tuple[int, int]:
-    """(H, W) from an image shape ``(H, W)`` or ``(H, W, C)``; ``ValueError`` otherwise."""
+    """(H, W) from an image shape ``(H, W)`` or ``(H, W, C)``; ``ValueError`` otherwise,
+    also for a side beyond :data:`~glmls.core.handles.COORDINATE_LIMIT` (the image's pixels
+    are points in the coordinate range, and f's float32 scaling spans the image)."""
     if isinstance(shape, (str, bytes)):
         raise TypeError(f"shape must be (H, W) integers, got {shape!r}")
     try:
@@ -50,6 +52,11 @@ def as_shape(shape: object) -> tuple[int, int]:
         raise ValueError(f"shape must be (H, W) integers, got {shape!r}")
     if len(dims) not in (2, 3) or dims[0] < 1 or dims[1] < 1:
         raise ValueError(f"shape must be (H, W) with H, W >= 1, got {shape!r}")
+    if max(dims[0], dims[1]) > COORDINATE_LIMIT:
+        raise ValueError(
+            f"shape must have H, W <= {COORDINATE_LIMIT:.0e} (glmls's coordinate range, pixels), "
+            f"got {shape!r}"
+        )
     return dims[0], dims[1]
 
 

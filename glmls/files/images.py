@@ -84,6 +84,14 @@ def _refuse(path: Path, pixels: str, max_pixels: int) -> NoReturn:
     )
 
 
+def _check_max_pixels(max_pixels: object) -> None:
+    """Before any file is read: a bad limit would else surface as a corrupt file."""
+    if isinstance(max_pixels, bool) or not isinstance(max_pixels, (int, np.integer)):
+        raise TypeError(f"max_pixels must be an integer, got {max_pixels!r}")
+    if max_pixels < 1:
+        raise ValueError(f"max_pixels must be >= 1, got {max_pixels}")
+
+
 def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> np.ndarray:
     """Read an image file into an array, without loss of depth.
 
@@ -111,7 +119,10 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     FileNotFoundError, PermissionError
         For a missing or unreadable file.
     ValueError
-        Naming the file, for a corrupt or unsupported one, or one of more than ``max_pixels``.
+        Naming the file, for a corrupt or unsupported one, or one of more than ``max_pixels``;
+        for ``max_pixels`` below 1.
+    TypeError
+        For ``max_pixels`` that is not an integer.
 
     Warns
     -----
@@ -131,6 +142,7 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     >>> image.shape, image.dtype.name, image[2].tolist()
     ((3, 4), 'uint16', [40000, 45000, 50000, 55000])
     """
+    _check_max_pixels(max_pixels)
     path = Path(path)
     with open(path, "rb") as file:
         head = file.read(32)
@@ -349,7 +361,8 @@ def imwrite(path: str | os.PathLike, image: object, *, icc_profile: bytes | None
     path : str or os.PathLike
         The file; its suffix (``.png``, ``.jpg``, ``.tif``, ...) chooses the format.
     image : array_like
-        H x W or H x W x C with C in 1..4.
+        H x W or H x W x C with C in 1..4 (H x W x 1 is written as grey: it reads back
+        H x W).
     icc_profile : bytes, optional
         An ICC colour profile written with the image (PNG, TIFF, JPEG and WebP hold one): an
         RGB profile for 3 or 4 channels, a grey one for 1 or 2. A photograph's own,

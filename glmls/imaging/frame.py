@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -165,6 +166,13 @@ class Bounds:
     x1, y1 : float
         Its largest x and y, pixels.
 
+    Raises
+    ------
+    TypeError
+        For a value that is not a real number.
+    ValueError
+        For a value that is not finite.
+
     Examples
     --------
     >>> import glmls
@@ -179,6 +187,14 @@ class Bounds:
     y0: float
     x1: float
     y1: float
+
+    def __post_init__(self) -> None:
+        for name in ("x0", "y0", "x1", "y1"):
+            value = getattr(self, name)
+            if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+                raise TypeError(f"Bounds {name} must be a real number, got {value!r}")
+            if not math.isfinite(value):
+                raise ValueError(f"Bounds {name} must be finite, got {value!r}")
 
     @property
     def origin(self) -> tuple[float, float]:

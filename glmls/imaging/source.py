@@ -26,6 +26,7 @@ __all__ = [
     "check_background",
     "check_image",
     "check_options",
+    "native_order",
     "prepare_image",
     "texture_data",
     "texture_form",
@@ -75,12 +76,18 @@ class SourceImage:
         return out[..., 0] if self.squeeze else out
 
 
+def native_order(array: np.ndarray) -> np.ndarray:
+    """``array`` with its bytes in this machine's order: big-endian data (some TIFF readers,
+    ``np.dtype(">u2")``) as the same values in native order, any other array as it is."""
+    if array.dtype.isnative:
+        return array
+    return array.astype(array.dtype.newbyteorder("="))
+
+
 def check_image(image: object, name: str = "image") -> np.ndarray:
     """``image`` as an array, H x W or H x W x C with C in 1..4, of a dtype of
     :data:`DTYPES` and not empty; ``TypeError``/``ValueError`` naming it as ``name``."""
-    array = np.asarray(image)
-    if not array.dtype.isnative:  # big-endian data (some TIFF readers): the same values
-        array = array.astype(array.dtype.newbyteorder("="))
+    array = native_order(np.asarray(image))
     if array.dtype not in DTYPES:
         names = ", ".join(np.dtype(d).name for d in DTYPES)
         hint = ""
@@ -105,7 +112,7 @@ def prepare_image(image: object, max_size: int, *, normalized: bool = False) -> 
     height, width = array.shape[:2]
     if max(height, width) > max_size:
         raise ValueError(
-            f"image of {height} x {width} pixels exceeds the GL texture size limit of "
+            f"image {width} pixels wide and {height} high exceeds the GL texture size limit of "
             f"{max_size} pixels per side on this device; split it or scale it down"
         )
     squeeze = array.ndim == 2

@@ -96,7 +96,7 @@ def test_mesh_picture_draws_the_deformed_lines(gl):
 
 def test_bad_input(gl):
     with pytest.raises(ValueError, match="image must be"):
-        as_rgb8(np.zeros((4, 4, 2)))
+        as_rgb8(np.zeros((4, 4, 5)))
     with pytest.raises(TypeError, match="dtype"):
         as_rgb8(np.zeros((4, 4), np.int32))
     with pytest.raises(ValueError, match="values must be"):

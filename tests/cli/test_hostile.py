@@ -220,3 +220,30 @@ def test_usage_mistakes_exit_2_with_argparses_message(files):
     assert result.stderr.strip().splitlines() == [
         "glmls warp: argument --grid: expected an integer >= 1, got 0 (see glmls warp --help)"
     ]
+
+
+@pytest.mark.parametrize("command", ["tune", "analyze"])
+def test_reference_points_that_make_no_triangle_are_named_before_any_work(files, command):
+    (files / "two.json").write_text(json.dumps({"points": [[5, 5], [20, 5]]}))
+    args = ("a.png", "--handles", "h.json", "--reference", "two.json", "--out", "report")
+    result = cli(command, *args, "--trials", "1", cwd=files) if command == "tune" else None
+    result = result or cli(command, *args, cwd=files)
+    # tune said its plan, then "reference_points: ..." with no file, after starting
+    one_line_error(result, 2, f"glmls {command}: two.json: a triangulation needs at least 3")
+    assert not (files / "report").exists()
+
+
+@pytest.mark.parametrize("command", ["tune", "analyze"])
+def test_images_the_analysis_takes_and_refuses(files, command):
+    grey_alpha = np.random.default_rng(2).integers(0, 256, (32, 40, 2), dtype=np.uint8)
+    glmls.imwrite(files / "ga.png", grey_alpha)
+    glmls.imwrite(files / "nan.tif", np.full((32, 40), np.nan, np.float32))
+    (files / "r.json").write_text(json.dumps({"points": [[8, 8], [30, 8], [18, 24], [8, 22]]}))
+    more = ("--handles", "h.json", "--reference", "r.json", "--quiet")
+    more += ("--trials", "1") if command == "tune" else ()
+    for name in ("deep16.png", "ga.png"):  # a traceback (tune: after the whole tuning)
+        result = cli(command, name, "--out", f"out_{name}", *more, cwd=files)
+        assert result.returncode == 0, result.stderr
+    result = cli(command, "nan.tif", "--out", "nan_out", *more, cwd=files)
+    one_line_error(result, 2, f"glmls {command}: nan.tif holds NaN or infinite values")
+    assert not (files / "nan_out").exists()

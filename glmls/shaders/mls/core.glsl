@@ -148,7 +148,10 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
 #endif
     a.hit = snaps && n.d2min <= u_hit2;
     a.o = n.h;
-    a.m = mls_normalisation(a.hit ? n.d2far : max(n.d2min, u_hit2));
+    // every handle within the snapping distance (v on a lone segment): no far one to scale
+    // the weights by, and m = 3e38 overflowed the segment's J2 (NaN f); 1, the scaled unit
+    float far = n.d2far < 1e30 ? n.d2far : 1.0;
+    a.m = mls_normalisation(a.hit ? far : max(n.d2min, u_hit2));
     a.inv_m = 1.0 / a.m;
     a.sigma = mls_sigma(a.m);
     a.W = 0.0;

@@ -143,7 +143,10 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
     float k = sqrt(k2);
     float x0 = view.x0, x1 = view.x1;
     float dtheta = mls_atan_positive(k * (x1 - x0), k2 + x0 * x1);
-    float J0 = k > 0.0 ? dtheta / k : 0.0;   // k = 0 only on a snapped segment (J0 unused)
+    // k = 0: v on the segment's line (s negligible). Beyond the segment (x0, x1 of one sign)
+    // J0 is dtheta / k's limit, 1 / x0 - 1 / x1 (dtheta is 0 there: J0 was 0, and f wrong by
+    // pixels along the line); on it, v is snapped (J0 unused).
+    float J0 = k > 0.0 ? dtheta / k : (x0 * x1 > 0.0 ? (x1 - x0) / (x0 * x1) : 0.0);
     float J1, J2;
     if (max(x0 * x0, x1 * x1) < 0.0625 * k2) {
         J1 = 0.5 * (mls_log1p(x1 * x1 / k2) - mls_log1p(x0 * x0 / k2));
@@ -156,6 +159,23 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
     // at a snapped end (k = 0, x0 = 0) J1 is infinite (log 0), and 0 * inf would be NaN
     // (NVIDIA's log(0) is -inf; llvmpipe forgave it).
     float xc = view.xc;
+    if (abs(xc) > x1 - x0) {
+        // the foot beyond the segment by more than its length: J2 - 2 xc J1 + xc^2 J0 would
+        // cancel to ~L^3 / xc^2 from terms ~L (a short segment far away: its spread, all
+        // that a lone segment says of a rotation, lost in float32). There the weight is
+        // smooth over the segment (its peak at least |xc| away): Gauss-Legendre in y = x - xc.
+        float half_length = 0.5 * (x1 - x0);
+        float mid = xc > 0.0 ? half_length : -half_length;   // y from 0 to L, or -L to 0
+        vec3 J = vec3(0.0);
+        for (int j = 0; j < 8; ++j) {
+            float node = (j < 4 ? -MLS_GL_X[3 - j] : MLS_GL_X[j - 4]);
+            float gw = (j < 4 ? MLS_GL_W[3 - j] : MLS_GL_W[j - 4]);
+            float y = mid + half_length * node;
+            float x = xc + y;
+            J += gw / (k2 + x * x) * vec3(1.0, y, y * y);
+        }
+        return K * u_length_unit * half_length * J;
+    }
     if (xc != 0.0) {
         J2 = J2 - 2.0 * xc * J1 + xc * xc * J0;
         J1 = J1 - xc * J0;

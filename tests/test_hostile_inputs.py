@@ -1,0 +1,175 @@
+"""Hostile input to the public 2D surface: each gets a ValueError/TypeError naming the bad
+value, or a documented result; never an error from deep inside, a NaN, or a silent wrong
+answer. The images are tiny: GL runs on the CPU in the tests."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+import glmls
+from glmls import reference
+from glmls.analysis.canvas import as_rgb8
+from glmls.core.mesh import as_shape
+
+SRC = np.array([[0.0, 0], [7, 0], [0, 5], [7, 5]])
+DST = SRC + [[1, 0], [0, 1], [0, 0], [1, 1]]
+REF = np.array([[1.0, 1], [5, 1], [1, 4], [6, 4], [3, 2]])
+
+
+@pytest.fixture
+def image() -> np.ndarray:
+    return np.random.default_rng(3).integers(1, 255, (6, 8), dtype=np.uint8)
+
+
+# -- shapes beyond the coordinate range ---------------------------------------------------
+
+
+@pytest.mark.parametrize("shape", [(2**40, 5), (5, 1_000_001), (10**12, 10**12, 3)])
+def test_a_shape_beyond_the_coordinate_range_is_refused(shape):
+    with pytest.raises(ValueError, match=r"shape must have H, W <= 1e\+06"):
+        as_shape(shape)
+
+
+def test_an_mls_of_a_huge_shape_is_refused_not_imprecise(gl):
+    # the image box entered f's float32 scaling: with shape (2**40, 5), f missed the float64
+    # reference by more than a pixel at points next to the handles
+    with pytest.raises(ValueError, match=r"shape must have H, W <= 1e\+06.*1099511627776"):
+        glmls.MLS(SRC, DST, shape=(2**40, 5))
+    with glmls.MLS(SRC, DST, shape=(1_000_000, 5)) as m:  # the limit itself works
+        f, _, _ = reference.mls(SRC, DST, REF, m.config, shape=m.shape)
+        assert_allclose(m(REF), f, atol=0.1)
+
+
+# -- warp_batch takes the images glmls.warp takes ----------------------------------------
+
+
+@pytest.mark.parametrize("stacked", [True, False])
+def test_warp_batch_takes_big_endian_images_as_warp_does(gl, image, stacked):
+    images = np.stack([image, image[::-1]]).astype(np.uint16) * 200
+    big = images.astype(">u2")
+    src, dst = np.stack([SRC, SRC]), np.stack([DST, DST])
+    expected = glmls.warp_batch(images, src, dst)
+    out = glmls.warp_batch(big if stacked else list(big), src, dst)
+    assert_array_equal(np.asarray(out), expected)
+    assert_array_equal(expected[0], glmls.warp(big[0], SRC, DST))
+
+
+# -- analysis -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "call, method",
+    [
+        (lambda m: glmls.analysis.error_field(m, (6, 8)), "error_field"),
+        (lambda m: glmls.analysis.foldovers(m, (6, 8)), "mesh"),
+    ],
+)
+@pytest.mark.parametrize("m", ["m", None, np.zeros((4, 2))])
+def test_analysis_names_an_m_that_is_not_an_mls(call, method, m):
+    expected = f"m must be a glmls.MLS .*{method}.*got {type(m).__name__}"
+    with pytest.raises(TypeError, match=expected):
+        call(m)
+
+
+def test_error_stats_of_values_near_the_float64_limit_are_finite():
+    big = np.finfo(np.float64).max
+    stats = glmls.analysis.error_stats([big, big])
+    assert stats["median"] == stats["mean"] == stats["max"] == big
+    assert glmls.analysis.error_stats([1.0, 2.0, 3.0, 10.0])["median"] == 2.5
+
+
+def test_tune_names_handles_that_are_none(gl):
+    with pytest.raises(ValueError, match="tune needs at least one handle"):
+        glmls.analysis.tune((6, 8), np.zeros((0, 2)), np.zeros((0, 2)), REF, trials=1)
+
+
+# -- files --------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "limit, error, text",
+    [("a", TypeError, "max_pixels must be an integer"), (True, TypeError, "got True"),
+     (1.5, TypeError, "got 1.5"), (0, ValueError, "max_pixels must be >= 1, got 0"),
+     (-5, ValueError, "got -5")],
+)  # fmt: skip
+def test_imread_names_a_bad_max_pixels_not_the_file(tmp_path, image, limit, error, text):
+    path = tmp_path / "a.png"
+    glmls.imwrite(path, image)
+    with pytest.raises(error, match=text):
+        glmls.imread(path, max_pixels=limit)  # was "corrupt or truncated PNG" for "a"
+    assert_array_equal(glmls.imread(path, max_pixels=np.int64(48)), image)
+
+
+# -- values -------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "values, error, text",
+    [((0, 0, np.nan, 1), ValueError, "x1 must be finite"),
+     ((0, np.inf, 1, 1), ValueError, "y0 must be finite"),
+     (("a", 0, 1, 1), TypeError, "x0 must be a real number, got 'a'"),
+     ((0, 0, 1, True), TypeError, "y1 must be a real number, got True"),
+     ((0, 0, None, 1), TypeError, "x1 must be a real number, got None")],
+)  # fmt: skip
+def test_bounds_names_a_value_that_is_not_a_finite_number(values, error, text):
+    with pytest.raises(error, match=text):
+        glmls.Bounds(*values)
+
+
+def test_bounds_of_numpy_numbers():
+    assert glmls.Bounds(np.float32(-0.5), np.int64(-1), 5.5, np.float64(3.5)).output_shape == (
+        5,
+        6,
+    )
+
+
+def test_coordinate_map_names_a_residual_that_is_not_a_bool(gl):
+    with glmls.MLS(SRC, DST) as m:
+        with pytest.raises(TypeError, match="residual must be True or False, got 'yes'"):
+            m.coordinate_map((6, 8), residual="yes")
+        xy, res = m.coordinate_map((6, 8), residual=np.True_)
+    assert xy.shape == (6, 8, 2) and res.shape == (6, 8)
+
+
+@pytest.mark.parametrize("m", ["m", None])
+def test_report_names_an_m_that_is_not_an_mls(image, m):
+    with pytest.raises(TypeError, match=f"m must be a glmls.MLS .*got {type(m).__name__}"):
+        glmls.analysis.report(image, m, REF)
+
+
+def test_size_messages_say_which_side_is_which(gl):
+    # the command line's warnings say W x H ("the 16385 x 1 image"); these said H x W
+    limit = gl.limits["max_texture_size"]
+    with pytest.raises(ValueError, match=f"image {limit + 1} pixels wide and 1 high exceeds"):
+        glmls.warp(np.ones((1, limit + 1), np.uint8), [[0, 0]], [[1, 0]])
+    with pytest.raises(ValueError, match="image 8 pixels wide and 1 high has none"):
+        glmls.warp(np.ones((1, 8), np.uint8), [[0, 0]], [[1, 0]], method="paper-quads")
+
+
+@pytest.mark.parametrize(
+    "picture",
+    [np.full((4, 5), 65535, np.uint16), np.full((4, 5, 1), 255, np.uint8),
+     np.dstack([np.full((4, 5), 1.0), np.zeros((4, 5))]), np.full((4, 5, 4), 65535, np.uint16)],
+)  # fmt: skip
+def test_pictures_take_every_image_imread_gives(picture):
+    # uint16 (16-bit PNG, TIFF) and grey + alpha were refused: glmls analyze and tune failed
+    # with a traceback on them, tune after the whole tuning
+    assert_array_equal(as_rgb8(picture), np.full((4, 5, 3), 255, np.uint8))
+    assert as_rgb8(np.full((2, 2), 257 * 7, np.uint16))[0, 0].tolist() == [7, 7, 7]
+
+
+def test_a_report_of_a_16_bit_image(gl, image):
+    with glmls.MLS(SRC, DST) as m:
+        report = glmls.analysis.report(image.astype(np.uint16) * 257, m, REF, construction=False)
+        same = glmls.analysis.report(image, m, REF, construction=False)
+    assert_array_equal(report.images["deformed"], same.images["deformed"])
+
+
+def test_inverse_names_a_return_valid_that_is_not_a_bool(gl):
+    with glmls.MLS(SRC, DST) as m:
+        with pytest.raises(TypeError, match="return_valid must be True or False, got 1"):
+            m.inverse(REF, return_valid=1)
+        s, valid = m.inverse(REF, return_valid=np.True_)
+    assert s.shape == (5, 2) and valid.all()
