@@ -64,7 +64,8 @@ class PaperQuads:
             # no square of four pixel centres: every pixel would keep the background
             raise ValueError(
                 f"method 'paper-quads' fills squares of four adjacent pixel centres, and an "
-                f"image {lattice.shape[1]} pixels wide and {lattice.shape[0]} high has none; use "
+                f"image {lattice.shape[1]} pixel{'s' * (lattice.shape[1] != 1)} wide and "
+                f"{lattice.shape[0]} high has none; use "
                 f"method 'quads', or a border mode other than 'constant'"
             )
         if (columns - 1) * (rows - 1) > MAX_SQUARES:

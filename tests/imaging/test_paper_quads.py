@@ -188,7 +188,8 @@ def test_an_image_without_squares_is_refused(gl, shape):
     squares past the image, and the identity comes back."""
     image = np.arange(shape[0] * shape[1], dtype=np.uint8).reshape(shape) + 1
     none = np.zeros((0, 2))
-    wide = f"image {shape[1]} pixels wide and {shape[0]} high has none"
+    pixels = "pixel" if shape[1] == 1 else "pixels"
+    wide = f"image {shape[1]} {pixels} wide and {shape[0]} high has none"
     with pytest.raises(ValueError, match=wide):
         glmls.warp(image, none, none, method="paper-quads", ctx=gl)
     out = glmls.warp(image, none, none, method="paper-quads", border="edge", ctx=gl)
