@@ -29,7 +29,16 @@ from ..gl.resources import Resources
 from .bins import BinBuffer, HandleBins, worth_binning
 from .storage import HandleStorage, check_storage, make_storage, resolve_storage, unroll_slots
 
-__all__ = ["DEFAULT_STORAGE", "SNAP_DISTANCE", "MLSKernel", "config_defines", "weight_uniforms"]
+__all__ = [
+    "CAPPED_NEWTON_HANDLES",
+    "DEFAULT_STORAGE",
+    "NEWTON_PASSES",
+    "SNAP_DISTANCE",
+    "MLSKernel",
+    "check_loop_budget",
+    "config_defines",
+    "weight_uniforms",
+]
 
 #: Points closer than this (pixels) to a handle whose weight is infinite there map to q_i
 #: (closer still for alpha below ~1, see :func:`weight_uniforms`).
@@ -91,6 +100,38 @@ def config_defines(
         "MLS_SEGMENT_CLOSED": entry.segment_closed_form(config) and not config.interpolating,
         "MLS_SEGMENT_SUPPORT": SUPPORTS.index(entry.support),
     }
+
+
+#: The passes that run Newton's method: each invocation evaluates f (and a Jacobian) up to
+#: tens of times, walking every handle two or three times per evaluation.
+NEWTON_PASSES = frozenset(
+    {
+        "warp/inverse.comp.glsl",
+        "warp/inverse_points.comp.glsl",
+        "mls3/inverse.comp.glsl",
+        "volume/newton.comp.glsl",
+    }
+)
+#: The most handles those passes take where the driver caps an invocation's loop iterations
+#: (:attr:`glmls.gl.GLContext.loop_limit`): at sixteen handles a loop iteration
+#: (mls/handles.glsl), every Newton step taken (24 in 3D, each f and J: five walks) stays
+#: within Mesa's 65,535.
+CAPPED_NEWTON_HANDLES = 8192
+
+
+def check_loop_budget(gl: GLContext, entry: str, count: int, *, binned: bool = False) -> None:
+    """``ValueError`` where pass ``entry`` with ``count`` handles (visited all, not through
+    bins) could run more loop iterations than ``gl``'s driver runs in one invocation: it
+    would leave handles out of f without a word."""
+    if gl.loop_limit is None or binned or entry not in NEWTON_PASSES:
+        return
+    if count > CAPPED_NEWTON_HANDLES:
+        raise ValueError(
+            f"{count:,} handles: the inverse of f (Newton's method) takes at most "
+            f"{CAPPED_NEWTON_HANDLES:,} on Mesa's llvmpipe, which stops a shader's loops after "
+            f"{gl.loop_limit:,} iterations (more would leave handles out); use fewer handles "
+            f"or a GPU"
+        )
 
 
 class MLSKernel:
@@ -291,6 +332,7 @@ class MLSKernel:
         """The compute program of ``entry`` (a pass including ``mls/visit.glsl``) with this
         kernel's defines and ``defines``."""
         self.check_alive()
+        check_loop_budget(self.gl, entry, self.count, binned=self._bins is not None)
         with self.gl.use():
             return self.gl.compute(entry, self.defines() | dict(defines or {}))
 

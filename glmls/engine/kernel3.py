@@ -24,7 +24,7 @@ from ..errors import ReleasedError
 from ..gl.context import GLContext
 from ..gl.dispatch import set_uniforms
 from ..gl.resources import Resources
-from .kernel import DEFAULT_STORAGE, weight_uniforms
+from .kernel import DEFAULT_STORAGE, check_loop_budget, weight_uniforms
 from .storage import HandleStorage, check_storage, make_storage, resolve_storage
 
 __all__ = ["UNROLL_SLOTS3", "MLSKernel3", "unroll_slots3"]
@@ -160,6 +160,7 @@ class MLSKernel3:
         """The compute program of ``entry`` (a pass including ``mls3/core.glsl``) with this
         kernel's defines and ``defines``."""
         self.check_alive()
+        check_loop_budget(self.gl, entry, self._count)
         with self.gl.use():
             return self.gl.compute(entry, self.defines() | dict(defines or {}))
 

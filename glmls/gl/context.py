@@ -252,6 +252,13 @@ class GLContext:
             "max_renderbuffer_size": int(info["GL_MAX_RENDERBUFFER_SIZE"]),
         }
 
+    @property
+    def loop_limit(self) -> int | None:
+        """The most loop iterations the driver runs in one shader invocation, counted over
+        all its loops, where it caps them (Mesa's llvmpipe: 65,535, then it leaves the loops
+        as if done); None where it runs them all (GPU drivers)."""
+        return 65535 if "llvmpipe" in str(self.mgl.info["GL_RENDERER"]).lower() else None
+
     # -- being current ----------------------------------------------------------------------
 
     @property

@@ -58,6 +58,19 @@ uniform int u_count;
 #endif
 #endif
 
+// Handle i's squared residual |p_i M + T - q_i|^2 at the point (r: f there), added to e. A
+// residual below float32's resolution of its terms is rounding noise: it counts as 0, so
+// that a deformation that fits every handle exactly (identity) gives E = 0.
+void mls_error_add(inout float e, MLSResult r, vec2 v, int i, bool use) {
+    vec4 h = mls_handle(i);
+    vec2 dp = h.xy - v;
+    vec2 res = vec2(dp.x * r.M.x + dp.y * r.M.z, dp.x * r.M.y + dp.y * r.M.w) + (r.f - h.zw);
+    float res2 = dot(res, res);
+    float floor = MLS_ERROR_FLOOR * (1.0 + length(dp));
+    e += use && res2 > floor * floor ? res2 : 0.0;
+}
+#define MLS_ERROR_ADD(i, use) mls_error_add(e, r, v, i, use);
+
 void main() {
     ivec2 ij = ivec2(gl_GlobalInvocationID.xy);
 #if MLS_ERROR_INTERPOLATE
@@ -88,16 +101,7 @@ void main() {
     MLSResult r = mls_eval(v);
     float e = 0.0;
     int n = mls_handle_count();
-    for (int i = 0; i < n; ++i) {
-        vec4 h = mls_handle(i);
-        vec2 dp = h.xy - v;
-        vec2 res = vec2(dp.x * r.M.x + dp.y * r.M.z, dp.x * r.M.y + dp.y * r.M.w) + (r.f - h.zw);
-        float res2 = dot(res, res);
-        // A residual below float32's resolution of its terms is rounding noise: count it as
-        // 0, so that a deformation that fits every handle exactly (identity) gives E = 0.
-        float floor = MLS_ERROR_FLOOR * (1.0 + length(dp));
-        e += res2 > floor * floor ? res2 : 0.0;
-    }
+    MLS_BLOCKS(MLS_ERROR_ADD, n)
 #if MLS_SEGMENTS
     for (int s = 0; s < u_segment_count; ++s) {
         vec4 src = mls_handle(u_segment_offset + 2 * s);

@@ -19,7 +19,8 @@
 // MLS_EACH(F): F(i, use) for every handle i of the plain path (n = mls_handle_count()). Where
 // MLS_UNROLL (16 or 64) slots are unrolled by the preprocessor, i is a constant: llvmpipe then
 // loads a handle once for all lanes instead of gathering it per lane (1.5x faster), and slots
-// from n on are zero and given no weight (use: i < n). Past 64 handles, a loop (use: true).
+// from n on are zero and given no weight (use: i < n). Past 64 handles, a loop of blocks
+// (mls/handles.glsl's MLS_BLOCKS: llvmpipe's limit on loop iterations).
 #define MLS_SLOT(F, i) F(i, (i) < n)
 #define MLS_R4(F, i) MLS_SLOT(F, i) MLS_SLOT(F, i + 1) MLS_SLOT(F, i + 2) MLS_SLOT(F, i + 3)
 #define MLS_R16(F, i) MLS_R4(F, i) MLS_R4(F, i + 4) MLS_R4(F, i + 8) MLS_R4(F, i + 12)
@@ -31,12 +32,14 @@
 #elif MLS_UNROLL
 #error "MLS_UNROLL: 0, 16 or 64"
 #else
-#define MLS_EACH(F) for (int i = 0; i < n; ++i) { F(i, true) }
+#define MLS_EACH(F) MLS_BLOCKS(F, n)
 #endif
 #define MLS_NEAR(i, use) mls_nearest_index(d2min, nearest, v, mls_handle(i).xy, i, use);
 #define MLS_ACC(i, use) mls_accumulate(a, mls_handle(i), use);
 #define MLS_NEAR_PAIR(i, use) mls_nearest_pair(d2min, nearest, v0, v1, i, use);
 #define MLS_ACC_PAIR(i, use) mls_accumulate_pair(a0, a1, i, use);
+#define MLS_NEAR_ADD(i, use) mls_nearest_add(near, mls_handle(i), v, use);
+#define MLS_FAR(i, use) mls_nearest_far(near.d2far, v, i, use);
 
 #if MLS_BINS
 // Handles sorted by the bins of a square grid (glmls/engine/bins.py): bin b's handles are
@@ -195,16 +198,12 @@ void mls_accumulate_pair(inout MLSAccum a0, inout MLSAccum a1, int i, bool use) 
 // Both passes over every handle, in storage order (where the bins give up).
 void mls_nearest_all(inout MLSNearest near, vec2 v) {
     int n = mls_handle_count();
-    for (int i = 0; i < n; ++i) {
-        mls_nearest_add(near, mls_handle(i), v, true);
-    }
+    MLS_BLOCKS(MLS_NEAR_ADD, n)
 }
 
 void mls_accumulate_all(inout MLSAccum a) {
     int n = mls_handle_count();
-    for (int i = 0; i < n; ++i) {
-        mls_accumulate(a, mls_handle(i), true);
-    }
+    MLS_BLOCKS(MLS_ACC, n)
 }
 
 #if !MLS_BINS
@@ -222,9 +221,7 @@ MLSNearest mls_nearest_found(float d2min, int nearest, vec2 v, int n) {
         // under a mask whether or not a lane takes it, but leaves a loop as soon as no
         // lane is in it, and lanes rarely snap (64 unrolled slots here cost ~5 % of the
         // whole pass at 64 handles; the loop's per-lane reads only where one snaps).
-        for (int i = 0; i < n; ++i) {
-            mls_nearest_far(near.d2far, v, i, true);
-        }
+        MLS_BLOCKS(MLS_FAR, n)
     }
     return near;
 }

@@ -78,6 +78,13 @@ void mls3_nearest(inout float d2min, inout int nearest, vec3 v, int i, bool use)
     d2min = min(d2min, d2);
 }
 
+void mls3_far(inout float d2far, vec3 v, int i, bool use) {
+    vec3 dp = mls3_p(i) - v;
+    float d2 = use ? dot(dp, dp) : 3.0e38;
+    d2far = min(d2far, d2 > u_hit2 ? d2 : 3.0e38);
+}
+#define MLS3_FAR(i, use) mls3_far(d2far, v, i, use);
+
 MLS3Accum mls3_begin(vec3 v, float d2min, int nearest, int n) {
     MLS3Accum a;
     a.v = v;
@@ -88,11 +95,7 @@ MLS3Accum mls3_begin(vec3 v, float d2min, int nearest, int n) {
     if (a.hit) {
         // the normalisation distance of a snapped point: the nearest beyond the snapping
         // distance (a loop: lanes rarely take it)
-        for (int i = 0; i < n; ++i) {
-            vec3 dp = mls3_p(i) - v;
-            float d2 = dot(dp, dp);
-            d2far = min(d2far, d2 > u_hit2 ? d2 : 3.0e38);
-        }
+        MLS_BLOCKS(MLS3_FAR, n)
     }
     a.m = mls_normalisation(a.hit ? d2far : max(d2min, u_hit2));
     a.inv_m = 1.0 / a.m;
@@ -165,7 +168,7 @@ MLS3Result mls3_finish(MLS3Accum a) {
 
 // MLS3_EACH(F): F(i, use) for every handle i (n = u_mls3_count), unrolled at constant
 // indices where MLS3_UNROLL is 16 or 64 (llvmpipe then loads a handle once for all lanes),
-// else a loop.
+// else a loop of blocks (mls/handles.glsl's MLS_BLOCKS: llvmpipe's limit on loop iterations).
 #define MLS3_SLOT(F, i) F(i, (i) < n)
 #define MLS3_R4(F, i) MLS3_SLOT(F, i) MLS3_SLOT(F, i + 1) MLS3_SLOT(F, i + 2) MLS3_SLOT(F, i + 3)
 #define MLS3_R16(F, i) MLS3_R4(F, i) MLS3_R4(F, i + 4) MLS3_R4(F, i + 8) MLS3_R4(F, i + 12)
@@ -177,7 +180,7 @@ MLS3Result mls3_finish(MLS3Accum a) {
 #elif MLS3_UNROLL
 #error "MLS3_UNROLL: 0, 16 or 64"
 #else
-#define MLS3_EACH(F) for (int i = 0; i < n; ++i) { F(i, true) }
+#define MLS3_EACH(F) MLS_BLOCKS(F, n)
 #endif
 #define MLS3_NEAR(i, use) mls3_nearest(d2min, nearest, v, i, use);
 #define MLS3_ACC(i, use) mls3_accumulate(a, i, use);
