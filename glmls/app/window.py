@@ -81,7 +81,9 @@ class App(WindowLoop):
         height, width = self.shape
         scale = min(1.0, 1000 / width, 760 / height)
         panel = PANEL_CHARS * 8 + 24
-        return panel + round(width * scale), max(round(height * scale), 480)
+        # an image area at least the panel's width: a narrower one would drop the panel and
+        # put the readout over the image (layout.MIN_IMAGE_SHARE)
+        return panel + max(round(width * scale), panel), max(round(height * scale), 480)
 
     def _open(self, *, vsync: bool) -> None:
         size = self.window_size or self._default_size()

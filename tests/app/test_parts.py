@@ -15,6 +15,7 @@ from glmls.app.layout import layout
 from glmls.app.overlays import mesh_lines
 from glmls.app.text import GlyphAtlas
 from glmls.app.view import display_image
+from glmls.app.window import PANEL_CHARS, TEXT_SIZE, App
 from glmls.cli.demo import configure, run
 from glmls.errors import InputFileError
 
@@ -25,6 +26,16 @@ def test_layout_letterboxes_beside_the_panel():
     lay = layout((900, 600), (300, 400), panel=300)  # H 300, W 400 in a 600 x 600 area
     assert lay.viewport == (300, 75, 600, 450)
     assert lay.scale == 1.5
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (128, 128), (1, 300), (300, 1), (512, 512), (300, 3000)])
+def test_the_default_window_keeps_the_readout_beside_the_image(shape):
+    # an image narrower than the panel got a window so narrow that the panel was dropped:
+    # the readout covered the image
+    app = App(np.zeros((*shape, 3), np.uint8), np.zeros((0, 2)), np.zeros((0, 2)))
+    panel = round(PANEL_CHARS * GlyphAtlas(TEXT_SIZE).advance["M"]) + 24
+    lay = layout(app._default_size(), shape, panel)
+    assert lay.panel == panel and lay.viewport[0] >= panel
 
 
 def test_layout_drops_the_panel_when_narrow():
