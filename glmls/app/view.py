@@ -38,7 +38,9 @@ _STAGES = ("warp", "overlays", "text")
 
 def display_image(image: np.ndarray) -> np.ndarray:
     """An image as float32 RGB in [0, 1] for the window's 8-bit framebuffer: the pipeline
-    writes the texture's raw values, so 0-255 values would all show white."""
+    writes the texture's raw values, so 0-255 values would all show white. Integers are
+    divided by their dtype's maximum; floats within [0, 1] stay, others are stretched from
+    the lower of 0 and their minimum (black) to the higher of 1 and their maximum (white)."""
     array = np.asarray(image)
     if array.ndim == 2:
         array = array[:, :, None]
@@ -47,7 +49,11 @@ def display_image(image: np.ndarray) -> np.ndarray:
     if np.issubdtype(array.dtype, np.integer):
         values = array.astype(np.float32) / float(np.iinfo(array.dtype).max)
     elif np.issubdtype(array.dtype, np.floating):
-        values = np.clip(array.astype(np.float32), 0.0, 1.0)
+        values = array.astype(np.float32)
+        low, high = float(values.min(initial=0.0)), float(values.max(initial=1.0))
+        if low < 0.0 or high > 1.0:  # e.g. 0..255 or -1..1: its range, not all white
+            values = (values - low) / (high - low)
+        values = np.clip(values, 0.0, 1.0)
     else:
         raise TypeError(f"image dtype must be integer or float, got {array.dtype}")
     colour = values[..., :3] if values.shape[2] >= 3 else np.repeat(values[..., :1], 3, axis=2)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .commands import load_handles, save_handles, save_image
+from .commands import load_handles, save_handles, save_image, warped_suffix
 from .controller import Controller, Settings
 from .events import Event
 from .glfw_window import NoDisplayError
@@ -106,7 +106,7 @@ class App(WindowLoop):
             self._relayout()
 
     def _save_warped(self) -> Path:
-        path = self._path("warped.png")
+        path = self._path(f"warped{warped_suffix(self.image)}")
         mls = self.session.mls if self.window is not None else None
         canvas = self.session.canvas
         save_image(path, mls, self.image, self.display, self.controller.settings, canvas)

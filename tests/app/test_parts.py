@@ -145,6 +145,17 @@ def test_display_image_normalises_for_an_8_bit_window():
         display_image(np.zeros((2, 2, 5)))
 
 
+def test_float_images_outside_0_1_are_shown_from_their_minimum_to_their_maximum():
+    # a float image of 0..255 (or -1..2) was clipped to [0, 1]: a white window
+    ramp = np.linspace(0.0, 255.0, 6, dtype=np.float32).reshape(2, 3)
+    assert display_image(ramp)[..., 0].ravel().tolist() == pytest.approx([0, 0.2, 0.4, 0.6, 0.8, 1])
+    signed = np.array([[-1.0, 0.5, 2.0]])
+    assert display_image(signed)[0, :, 0].tolist() == pytest.approx([0.0, 0.5, 1.0])
+    within = np.array([[0.25, 0.5]], np.float32)  # [0, 1] images are shown as they are
+    assert display_image(within)[0, :, 0].tolist() == [0.25, 0.5]
+    assert (display_image(np.full((2, 2), 7.0)) == 1.0).all()  # one value: no range
+
+
 def test_folded_cells_matches_the_fold_rule():
     ys, xs = np.mgrid[0:3, 0:3].astype(float)
     mesh = np.stack([xs, ys], axis=-1)
