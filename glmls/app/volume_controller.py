@@ -513,7 +513,7 @@ class VolumeController(Controls):
         self.set_handles(*self.loaded)
 
     def _do_undo(self) -> None:
-        self._drag = None
+        self._release()  # a drag under way ends as one edit, the one undone
         if not self._undo:
             self.message = "nothing to undo"
             return
@@ -522,7 +522,7 @@ class VolumeController(Controls):
         self.revision += 1
 
     def _do_redo(self) -> None:
-        self._drag = None
+        self._release()
         if not self._redo:
             self.message = "nothing to redo"
             return

@@ -65,6 +65,26 @@ def test_dragging_a_target_moves_it_within_the_plane():
     np.testing.assert_array_equal(c.dst[2], [14, 10, 5])
 
 
+@pytest.mark.parametrize("key", ["u", "Ctrl+Z"])
+def test_undo_during_a_drag_undoes_that_drag(key):
+    # as in the image window: the drag ends as one edit, which undo takes back; undo
+    # dropped the drag instead and undid the edit before it (or nothing, the drag kept)
+    c = make()
+    drag(c, (4, 4), (7, 2))  # one edit: q_0 to (7, 2)
+    c.feed(Press(18, 15))  # handle 1's target
+    c.feed(Move(15, 12))
+    assert c.dragging
+    c.feed(Key(key))  # the button still down
+    np.testing.assert_array_equal(c.dst[0], [7, 2, 8])  # the edit before stays
+    np.testing.assert_array_equal(c.dst[1], SRC[1])
+    assert not c.dragging and c.undo_depth == 1
+    c.feed(Move(10, 14))  # a move after the undo drags nothing
+    c.feed(Release(10, 14))
+    np.testing.assert_array_equal(c.dst[1], SRC[1])
+    c.feed(Key("U"))
+    np.testing.assert_array_equal(c.dst[1], [15, 12, 8])
+
+
 def test_only_handles_near_the_plane_are_picked():
     c = make()
     c.feed(Key("Up"))  # z = 9: handle 4 (z = 12) is 3 away, handle 0 (z = 8) 1
