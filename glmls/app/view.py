@@ -46,6 +46,8 @@ def display_image(image: np.ndarray) -> np.ndarray:
         array = array[:, :, None]
     if array.ndim != 3 or not 1 <= array.shape[2] <= 4:
         raise ValueError(f"image must be H x W or H x W x C with C in 1..4, got {array.shape}")
+    if array.size == 0:
+        raise ValueError(f"image must not be empty, got shape {np.asarray(image).shape}")
     if np.issubdtype(array.dtype, np.integer):
         values = array.astype(np.float32) / float(np.iinfo(array.dtype).max)
     elif np.issubdtype(array.dtype, np.floating):

@@ -156,6 +156,13 @@ def test_float_images_outside_0_1_are_shown_from_their_minimum_to_their_maximum(
     assert (display_image(np.full((2, 2), 7.0)) == 1.0).all()  # one value: no range
 
 
+@pytest.mark.parametrize("shape", [(0, 0, 3), (0, 5), (5, 0)])
+def test_an_empty_image_is_refused_by_name(shape):
+    # it raised ZeroDivisionError
+    with pytest.raises(ValueError, match="empty"):
+        App(np.zeros(shape, np.uint8), np.zeros((0, 2)), np.zeros((0, 2)))
+
+
 def test_folded_cells_matches_the_fold_rule():
     ys, xs = np.mgrid[0:3, 0:3].astype(float)
     mesh = np.stack([xs, ys], axis=-1)
