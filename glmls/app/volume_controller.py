@@ -306,6 +306,7 @@ class VolumeController(Controls):
         self._undo: list[tuple[np.ndarray, np.ndarray]] = []
         self._redo: list[tuple[np.ndarray, np.ndarray]] = []
         self._drag: tuple[int, int, tuple[np.ndarray, np.ndarray]] | None = None
+        self._wheel = 0.0  # wheel notches not yet taken (fractions of one)
 
     # -- state --------------------------------------------------------------------------------
 
@@ -359,9 +360,15 @@ class VolumeController(Controls):
 
     def _scroll(self, event: Scroll) -> None:
         found = self.grid.locate(event.x, event.y)
-        if found is not None:
+        if found is None:
+            return
+        # a touchpad's fractions of a notch add up to whole slices; the rest waits
+        self._wheel += min(max(event.dy, -1e6), 1e6)
+        steps = int(self._wheel)
+        self._wheel -= steps
+        if steps:
             normal = AXES[found[0]][2]
-            self._move_point(normal, self.point[normal] + round(event.dy))
+            self._move_point(normal, self.point[normal] + steps)
 
     def _pick(self, view: int, x: float, y: float) -> int | None:
         candidates = self.near_plane(view)

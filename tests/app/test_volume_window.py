@@ -96,6 +96,21 @@ def test_only_handles_near_the_plane_are_picked():
     assert c.revision == revision and c.point[:2] == (4, 4)  # the slice point moved instead
 
 
+def test_fractions_of_a_wheel_notch_add_up():
+    # a touchpad sends fractions of a notch: each was rounded to 0 and the slice never moved
+    c = make()
+    for _ in range(4):
+        c.feed(Scroll(5, 5, 0.25))
+    assert c.point == (12, 10, 9)
+    c.feed(Scroll(5, 5, 0.4))
+    c.feed(Scroll(5, 5, -0.4))  # back and forth: no move
+    assert c.point == (12, 10, 9)
+    c.feed(Scroll(5, 5, -1.0))
+    assert c.point == (12, 10, 8)
+    c.feed(Scroll(5, 5, 1e300))  # any finite dy: the last slice
+    assert c.point == (12, 10, 15)
+
+
 def test_the_slice_point_moves_along_the_active_normal_and_stays_inside():
     c = make()
     assert c.point == (12, 10, 8)
