@@ -55,8 +55,11 @@ def warped_suffix(image: np.ndarray) -> str:
 
 def save_handles(path: Path, controller: Controller) -> None:
     """The controller's points and segments as a handle file (JSON by its suffix, else
-    CSV); ``ValueError`` for handles MLS would refuse."""
+    CSV); ``ValueError`` for handles MLS would refuse, and for none (a handle file holds
+    one at least: ``l`` could not load it back)."""
     c = controller
+    if not len(c.src) and not len(c.src_segments):
+        raise ValueError("no handles to save")
     write_handles(path, c.src, c.dst, src_segments=c.src_segments, dst_segments=c.dst_segments)
 
 

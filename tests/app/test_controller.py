@@ -355,3 +355,13 @@ def test_loading_3d_handles_into_the_image_window_says_it_takes_2d_ones(tmp_path
     assert np.array_equal(c.src, SRC)
     write_handles(tmp_path / "h2.json", SRC[:2], SRC[:2] + 1)
     assert len(load_handles(tmp_path / "h2.json", c)) == 2 and np.array_equal(c.src, SRC[:2])
+
+
+def test_saving_no_handles_is_refused_rather_than_writing_a_file_l_cannot_load(tmp_path):
+    # j wrote {"src": [], "dst": []}, which l then refused ("no handles")
+    from glmls.app.commands import save_handles
+
+    c = Controller(np.zeros((0, 2)), np.zeros((0, 2)), (100, 120))
+    with pytest.raises(ValueError, match="no handles to save"):
+        save_handles(tmp_path / "h.json", c)
+    assert not (tmp_path / "h.json").exists()

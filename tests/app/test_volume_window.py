@@ -339,3 +339,10 @@ def test_the_readout_says_what_the_slices_show_after_an_error():
     assert "  (the volume as it is)" in app.readout()
     app.session.mls = object()
     assert "  (the last valid f)" in app.readout()
+
+
+def test_saving_no_handles_says_so(tmp_path):
+    app = VolumeApp(np.zeros((4, 5, 6), np.uint8), np.zeros((0, 3)), np.zeros((0, 3)))
+    with pytest.raises(ValueError, match="no handles to save"):
+        app._save_handles(tmp_path / "h.json")
+    assert not (tmp_path / "h.json").exists()
