@@ -125,6 +125,15 @@ class Settings:
         return replace(self, tolerance=TOLERANCES[(index + 1) % len(TOLERANCES)])
 
     def next_grid(self, step: int) -> Settings:
-        """``step`` places along :data:`GRIDS` (finer for negative), stopping at the ends."""
-        index = GRIDS.index(self.grid) if self.grid in GRIDS else 2
-        return replace(self, grid=GRIDS[min(max(index + step, 0), len(GRIDS) - 1)])
+        """``step`` places along :data:`GRIDS` (finer for negative), stopping at the ends;
+        from a grid between them (``--grid 3``) the first step is to the next one that way,
+        and past the coarsest (``--grid 64``) ``G`` keeps it."""
+        if self.grid in GRIDS:
+            index = GRIDS.index(self.grid) + step
+        elif step < 0:
+            index = sum(g < self.grid for g in GRIDS) + step
+        else:
+            index = sum(g < self.grid for g in GRIDS) + step - 1
+            if index >= len(GRIDS):
+                return self
+        return replace(self, grid=GRIDS[min(max(index, 0), len(GRIDS) - 1)])

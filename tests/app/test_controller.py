@@ -214,6 +214,15 @@ def test_grid_keys_step_through_powers_of_two():
     assert c.settings.grid == 32
 
 
+@pytest.mark.parametrize(
+    ("grid", "finer", "coarser"), [(3, 2, 4), (6, 4, 8), (64, 32, 64), (48, 32, 48), (4, 2, 8)]
+)
+def test_grid_keys_from_a_grid_off_the_steps(grid, finer, coarser):
+    # --grid 64 then G (coarser) gave 8, and --grid 3 then G gave 8, past 4
+    assert Settings(grid=grid).next_grid(-1).grid == finer
+    assert Settings(grid=grid).next_grid(+1).grid == coarser
+
+
 def test_the_tolerance_key_cycles_the_adaptive_mesh():
     c = make(settings=Settings(grid=4))
     assert c.settings.tolerance is None and c.settings.mesh_options == {"grid": 4}
