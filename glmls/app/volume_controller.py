@@ -20,7 +20,7 @@ from ..core.handles3 import as_volume_spacing
 from ..imaging.source import BORDERS, INTERPOLATIONS
 from .controls import Controls, window_bindings
 from .events import Press, Scroll
-from .settings import ALPHA_RANGE, ALPHA_STEP, RADIUS_FACTOR, cycle
+from .settings import ALPHA_RANGE, ALPHA_STEP, RADIUS_FACTOR, bounded_step, cycle
 
 __all__ = [
     "VIEWS",
@@ -479,13 +479,13 @@ class VolumeController(Controls):
     def _step(self, up: bool) -> None:
         config = self.settings.config
         if config.uses_radius:
-            radius = self.radius * RADIUS_FACTOR if up else self.radius / RADIUS_FACTOR
+            new = self.radius * RADIUS_FACTOR if up else self.radius / RADIUS_FACTOR
             least = min(self.grid.spacing)
-            radius = min(max(radius, least), 100 * self.grid.diagonal)
+            radius = bounded_step(self.radius, new, least, 100 * self.grid.diagonal)
             config = replace(config, radius=radius)
         else:
-            alpha = config.alpha + (ALPHA_STEP if up else -ALPHA_STEP)
-            config = replace(config, alpha=min(max(alpha, ALPHA_RANGE[0]), ALPHA_RANGE[1]))
+            new = config.alpha + (ALPHA_STEP if up else -ALPHA_STEP)
+            config = replace(config, alpha=bounded_step(config.alpha, new, *ALPHA_RANGE))
         self._configure(replace(self.settings, config=config))
 
     def _do_raise(self) -> None:

@@ -17,7 +17,8 @@ from glmls.app.controller import (
     Settings,
     pick,
 )
-from glmls.core.config import WEIGHTS, image_diagonal
+from glmls.app.volume_controller import VolumeController, VolumeSettings
+from glmls.core.config import WEIGHTS, MLSConfig, image_diagonal
 from glmls.imaging.source import BORDERS
 
 SRC = np.array([[10.0, 10.0], [50.0, 10.0], [30.0, 40.0]])
@@ -212,6 +213,28 @@ def test_grid_keys_step_through_powers_of_two():
     for _ in range(5):
         c.feed(Key("G"))
     assert c.settings.grid == 32
+
+
+@pytest.mark.parametrize("window", ["image", "volume"])
+@pytest.mark.parametrize(
+    ("weight", "value", "up", "down"),
+    [("idw", 10.0, 10.0, 9.75), ("idw", 0.1, 0.35, 0.1), ("cressman", 1e6, 1e6, 8e5)],
+)
+def test_plus_never_lowers_and_minus_never_raises_a_start_value_off_the_range(
+    window, weight, value, up, down
+):
+    # --alpha 10 then + gave 4 (the top of the range), --alpha 0.1 then - gave 0.25
+    given = {"alpha": value} if weight == "idw" else {"radius": value}
+    config = MLSConfig(weight=weight, **given)
+    name = "alpha" if weight == "idw" else "radius"
+    for key, wanted in (("+", up), ("-", down)):
+        if window == "image":
+            c = make(settings=Settings(config=config))
+        else:
+            c = VolumeController(np.zeros((0, 3)), np.zeros((0, 3)), (8, 8, 8))
+            c.settings = VolumeSettings(config=config)
+        c.feed(Key(key))
+        assert getattr(c.settings.config, name) == pytest.approx(wanted)
 
 
 @pytest.mark.parametrize(
