@@ -25,7 +25,7 @@ from .overlays import (
 from .session import Analysis, Session
 from .text import TextRenderer, glyph_atlas
 
-__all__ = ["BACKGROUND", "FIELD_OPACITY", "TEXT_SIZE", "View", "display_image"]
+__all__ = ["BACKGROUND", "FIELD_OPACITY", "TEXT_SIZE", "View", "display_image", "shown_reference"]
 
 #: Text size (points at a content scale of 1).
 TEXT_SIZE = 13
@@ -60,6 +60,17 @@ def display_image(image: np.ndarray) -> np.ndarray:
         raise TypeError(f"image dtype must be integer or float, got {array.dtype}")
     colour = values[..., :3] if values.shape[2] >= 3 else np.repeat(values[..., :1], 3, axis=2)
     return np.ascontiguousarray(colour)
+
+
+def shown_reference(c: Controller, session: Session) -> np.ndarray | None:
+    """The reference points to draw, or None: in reference mode where they are (where a
+    click picks them, as the sources p are drawn at p), else with the angle overlay at f(r),
+    the corners of the deformed triangles."""
+    if not len(c.reference):
+        return None
+    if c.reference_mode:
+        return c.reference
+    return session.deformed_reference() if c.overlays["angle"] else None
 
 
 class View:
@@ -171,8 +182,8 @@ class View:
         self.geometry.draw(segment_geometry(a, b, layout.scale, c.drawing))  # and the drawing
         if shown:
             self.geometry.draw(handle_geometry(c.src, c.dst, layout.scale))
-        if (c.reference_mode or c.overlays["angle"]) and len(c.reference):
-            points = session.deformed_reference()
+        points = shown_reference(c, session)
+        if points is not None:
             self.geometry.draw(reference_geometry(points, layout.scale))
 
     def _draw_image(self, screen, layout: Layout, session: Session, s: Settings) -> None:

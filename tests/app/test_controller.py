@@ -397,3 +397,27 @@ def test_saving_no_handles_is_refused_rather_than_writing_a_file_l_cannot_load(t
     with pytest.raises(ValueError, match="no handles to save"):
         save_handles(tmp_path / "h.json", c)
     assert not (tmp_path / "h.json").exists()
+
+
+class _Deformed:
+    """A session whose f moves every point 20 px right."""
+
+    def deformed_reference(self):
+        return self.controller.reference + [20.0, 0.0]
+
+
+def test_reference_points_are_drawn_where_reference_mode_picks_them():
+    # they were drawn at f(r) in reference mode too, while a click picks r: a press on the
+    # dot added a new point instead of grabbing it
+    from glmls.app.view import shown_reference
+
+    c = make(mode="reference")
+    c.feed(Press(30, 30))
+    c.feed(Release(30, 30))
+    session = _Deformed()
+    session.controller = c
+    np.testing.assert_array_equal(shown_reference(c, session), [[30, 30]])
+    c.feed(Key("p"))  # out of reference mode: none drawn without the angle overlay
+    assert shown_reference(c, session) is None
+    c.feed(Key("a"))  # the angle overlay: at f(r), the deformed triangles' corners
+    np.testing.assert_array_equal(shown_reference(c, session), [[50, 30]])
