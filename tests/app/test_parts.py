@@ -216,3 +216,25 @@ def test_readout_lines_are_wrapped_to_the_panel():
     lines = wrap("saved /a/very/long/path/" + "x" * 100 + ".png now", 40)
     assert all(len(line) <= 40 for line in lines)
     assert "".join(line.strip() for line in lines).startswith("saved/a/very")
+
+
+def test_long_analysis_lines_are_wrapped_to_the_panel_whole():
+    # "angle error: <why>" was cut at 80 characters and ran past the panel over the image
+    from glmls.app.controller import Controller
+    from glmls.app.hud import PANEL_CHARS, readout
+
+    why = "reference_points[0] and reference_points[1] are the same point [20.0, 20.0]"
+    lines = readout(
+        name="x",
+        shape=(10, 10),
+        controller=Controller(np.zeros((0, 2)), np.zeros((0, 2)), (10, 10)),
+        frame_times=[],
+        timings={},
+        error="",
+        analysis_lines=["E_MLS px^2: mean 1 std 2", "  min 0 max 3", f"angle error: {why}"],
+        messages=[],
+    )
+    assert all(len(line) <= PANEL_CHARS for line in lines)
+    assert "  min 0 max 3" in lines  # short lines keep their indent
+    joined = " ".join(line.strip() for line in lines)
+    assert f"angle error: {why}" in joined
