@@ -238,3 +238,18 @@ def test_long_analysis_lines_are_wrapped_to_the_panel_whole():
     assert "  min 0 max 3" in lines  # short lines keep their indent
     joined = " ".join(line.strip() for line in lines)
     assert f"angle error: {why}" in joined
+
+
+@pytest.mark.parametrize("error", ["", "affine MLS needs at least 3 source handles"])
+def test_s_says_when_it_saved_the_last_valid_deformation(tmp_path, error):
+    # with the handles or settings refused, s saves the last valid f (what the window
+    # shows): it said only "saved PATH", though the readout names the refused settings
+    from types import SimpleNamespace
+
+    app = App(np.zeros((4, 4), np.uint8), np.zeros((0, 2)), np.zeros((0, 2)))
+    app.window, app.session = object(), SimpleNamespace(error=error)
+    app._save_warped = lambda: tmp_path / "x.png"
+    app._command("save_image")
+    [message] = app._shown_messages()
+    assert message.startswith(f"saved {tmp_path / 'x.png'}")
+    assert ("the last valid f" in message) == bool(error)
