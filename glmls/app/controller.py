@@ -248,12 +248,17 @@ class Controller(Controls):
         elif action.startswith("pan_"):
             self._pan_key(action.removeprefix("pan_"))
         else:
-            getattr(self, f"_do_{action}")()
+            try:
+                getattr(self, f"_do_{action}")()
+            except ValueError as error:  # e.g. a grid the construction refuses: said
+                self.message = str(error)
         return []
 
     # -- key actions --------------------------------------------------------------------------
 
     def _configure(self, settings: Settings) -> None:
+        if settings == self.settings:  # e.g. g at the finest grid: nothing to redo
+            return
         self.settings = settings
         self._settings_revision += 1
 

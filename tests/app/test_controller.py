@@ -421,3 +421,16 @@ def test_reference_points_are_drawn_where_reference_mode_picks_them():
     assert shown_reference(c, session) is None
     c.feed(Key("a"))  # the angle overlay: at f(r), the deformed triangles' corners
     np.testing.assert_array_equal(shown_reference(c, session), [[50, 30]])
+
+
+@pytest.mark.parametrize("key", ["G", "g"])
+def test_a_grid_the_construction_refuses_is_said_not_raised(key):
+    # paper-quads takes grid 1 only: G raised out of the window, which closed with exit 2
+    c = make(settings=Settings(method="paper-quads", grid=1))
+    revision = c.revision
+    assert c.feed(Key(key)) == []
+    assert c.settings.grid == 1 and c.revision == revision
+    assert ("grid must be 1" in c.message) == (key == "G")
+    c.feed(Key("c"))  # another construction: the grid keys work again
+    c.feed(Key("G"))
+    assert c.settings.grid == 2
