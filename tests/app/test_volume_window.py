@@ -346,3 +346,15 @@ def test_saving_no_handles_says_so(tmp_path):
     with pytest.raises(ValueError, match="no handles to save"):
         app._save_handles(tmp_path / "h.json")
     assert not (tmp_path / "h.json").exists()
+
+
+def test_the_analysis_time_is_zero_with_no_overlay(session):
+    # the readout kept the last overlay's analysis time after the overlay was turned off
+    c, s, _, dst = session
+    c.set_handles(c.src, dst)
+    s.sync()
+    c.feed(Key("f"))
+    s.overlays()
+    assert s.timings["analysis"] > 0
+    c.feed(Key("f"))
+    assert s.overlays() is None and s.timings["analysis"] == 0
