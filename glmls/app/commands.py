@@ -17,7 +17,10 @@ from ..mls import MLS
 from .controller import Controller
 from .settings import Settings
 
-__all__ = ["load_handles", "save_handles", "save_image"]
+__all__ = ["KEPT_DTYPES", "load_handles", "save_handles", "save_image", "warped_suffix"]
+
+#: The image dtypes ``s`` saves as they are (others: 8-bit).
+KEPT_DTYPES = (np.uint8, np.uint16, np.float32, np.float64)
 
 
 def save_image(
@@ -30,22 +33,33 @@ def save_image(
 ) -> None:
     """The deformed image on ``canvas`` (the input's frame, or with ``fit`` the whole
     deformed image) at full resolution, in the input's dtype where it can be written (uint8,
-    uint16), else 8-bit; ``ValueError`` without a valid deformation."""
+    uint16; float32 and float64 to a TIFF, :func:`warped_suffix`), else 8-bit; ``ValueError``
+    without a valid deformation."""
     if mls is None:
         raise ValueError("no valid deformation to save")
     s = settings
-    source = image if image.dtype in (np.uint8, np.uint16) else display
+    source = image if image.dtype in KEPT_DTYPES else display
     out = mls.warp(source, options=s.warp_options(output_shape=canvas.shape, origin=canvas.origin))
-    if out.dtype not in (np.uint8, np.uint16):
+    floating = np.issubdtype(image.dtype, np.floating)  # its own values, to a TIFF
+    if not floating and out.dtype not in (np.uint8, np.uint16):
         out = np.round(np.clip(out, 0, 1) * 255).astype(np.uint8)
     with atomic_write(path) as tmp:  # creates the folder; whole file or none
         imwrite(tmp, out)
 
 
+def warped_suffix(image: np.ndarray) -> str:
+    """The file type ``s`` saves the deformed ``image`` as: ``.tif`` for a float image (a
+    PNG cannot hold its values), else ``.png``."""
+    return ".tif" if np.issubdtype(image.dtype, np.floating) else ".png"
+
+
 def save_handles(path: Path, controller: Controller) -> None:
     """The controller's points and segments as a handle file (JSON by its suffix, else
-    CSV); ``ValueError`` for handles MLS would refuse."""
+    CSV); ``ValueError`` for handles MLS would refuse, and for none (a handle file holds
+    one at least: ``l`` could not load it back)."""
     c = controller
+    if not len(c.src) and not len(c.src_segments):
+        raise ValueError("no handles to save")
     write_handles(path, c.src, c.dst, src_segments=c.src_segments, dst_segments=c.dst_segments)
 
 

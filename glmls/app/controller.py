@@ -46,6 +46,8 @@ COMMANDS = ("save_image", "save_handles", "save_screenshot", "load_handles", "qu
 MODES = ("points", "segments", "reference")
 #: The arrow keys pan by this share of the view.
 PAN_SHARE = 0.125
+#: Mouse-wheel notches taken from one event at most (ZOOM_STEP ** 1000 is past any zoom).
+MAX_NOTCHES = 1000.0
 
 #: (keys, action, what it does): the key bindings. Printable keys are the characters typed;
 #: others are named ("F1", "Escape", "Ctrl+Z", "Left"). The help screen (:mod:`.hud`) lists
@@ -202,7 +204,10 @@ class Controller(Controls):
     # feed (Controls): the commands it returns are names in COMMANDS
 
     def _scroll(self, event: Scroll) -> None:
-        self._zoom(zoom_at(self.zoom, self.view_limits, event.x, event.y, ZOOM_STEP**event.dy))
+        # past a few hundred notches every zoom is at a limit: a replay's dy of 1e6 would
+        # overflow ZOOM_STEP ** dy
+        notches = min(max(event.dy, -MAX_NOTCHES), MAX_NOTCHES)
+        self._zoom(zoom_at(self.zoom, self.view_limits, event.x, event.y, ZOOM_STEP**notches))
 
     def _press(self, event: Press) -> None:
         self._release()  # a press while dragging (a lost release) ends the old drag
@@ -243,12 +248,17 @@ class Controller(Controls):
         elif action.startswith("pan_"):
             self._pan_key(action.removeprefix("pan_"))
         else:
-            getattr(self, f"_do_{action}")()
+            try:
+                getattr(self, f"_do_{action}")()
+            except ValueError as error:  # e.g. a grid the construction refuses: said
+                self.message = str(error)
         return []
 
     # -- key actions --------------------------------------------------------------------------
 
     def _configure(self, settings: Settings) -> None:
+        if settings == self.settings:  # e.g. g at the finest grid: nothing to redo
+            return
         self.settings = settings
         self._settings_revision += 1
 

@@ -97,7 +97,8 @@ def readout(
     ]
     if error:
         lines += wrap(f"! {error}", PANEL_CHARS) + ["  (showing the last valid f)"]
-    lines += analysis_lines
+    for line in analysis_lines:  # a long one (why an analysis failed) wrapped, whole
+        lines += [line] if len(line) <= PANEL_CHARS else wrap(line, PANEL_CHARS)
     if not any(c.overlays[n] for n in ("error", "angle", "folds")):
         lines.append("errors: e field, a angles, f folds")
     lines += ["", "F1 or ?: help"]

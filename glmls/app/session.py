@@ -180,7 +180,7 @@ class Session:
         try:
             tri = triangle_errors(m, points)
         except ValueError as error:
-            return [f"angle error: {error}"[:80]]
+            return [f"angle error: {error}"]
         fill, edges, _ = triangle_geometry(tri.deformed_points, tri.simplices, tri.angle)
         result.geometry += [(fill, moderngl.TRIANGLES), (edges, moderngl.LINES)]
         angle, distance = error_stats(tri.angle), error_stats(tri.distance)

@@ -20,6 +20,7 @@ __all__ = [
     "TOLERANCES",
     "TRANSFORM_ORDER",
     "Settings",
+    "bounded_step",
     "cycle",
 ]
 
@@ -40,6 +41,15 @@ ALPHA_RANGE = (0.25, 4.0)
 ALPHA_STEP = 0.25
 #: + / - multiply or divide the radius by this.
 RADIUS_FACTOR = 1.25
+
+
+def bounded_step(value: float, new: float, low: float, high: float) -> float:
+    """``new``, one step from ``value``, kept within [low, high]; a ``value`` already
+    beyond them (given on the command line) is never stepped the wrong way: up stays up,
+    down stays down (or it stays where it is)."""
+    if new >= value:
+        return min(new, max(high, value))
+    return max(new, min(low, value))
 
 
 def cycle(values: Sequence, value: object, step: int = 1):
@@ -105,11 +115,11 @@ class Settings:
         config = self.config
         if config.uses_radius:
             radius = float(config.resolve_radius(shape))  # type: ignore[arg-type]
-            radius = radius * RADIUS_FACTOR if up else radius / RADIUS_FACTOR
-            radius = min(max(radius, 1.0), 100 * image_diagonal(shape))
+            new = radius * RADIUS_FACTOR if up else radius / RADIUS_FACTOR
+            radius = bounded_step(radius, new, 1.0, 100 * image_diagonal(shape))
             return replace(self, config=replace(config, radius=radius))
-        alpha = config.alpha + (ALPHA_STEP if up else -ALPHA_STEP)
-        alpha = min(max(alpha, ALPHA_RANGE[0]), ALPHA_RANGE[1])
+        new = config.alpha + (ALPHA_STEP if up else -ALPHA_STEP)
+        alpha = bounded_step(config.alpha, new, *ALPHA_RANGE)
         return replace(self, config=replace(config, alpha=alpha))
 
     def next_construction(self) -> Settings:
@@ -125,6 +135,15 @@ class Settings:
         return replace(self, tolerance=TOLERANCES[(index + 1) % len(TOLERANCES)])
 
     def next_grid(self, step: int) -> Settings:
-        """``step`` places along :data:`GRIDS` (finer for negative), stopping at the ends."""
-        index = GRIDS.index(self.grid) if self.grid in GRIDS else 2
-        return replace(self, grid=GRIDS[min(max(index + step, 0), len(GRIDS) - 1)])
+        """``step`` places along :data:`GRIDS` (finer for negative), stopping at the ends;
+        from a grid between them (``--grid 3``) the first step is to the next one that way,
+        and past the coarsest (``--grid 64``) ``G`` keeps it."""
+        if self.grid in GRIDS:
+            index = GRIDS.index(self.grid) + step
+        elif step < 0:
+            index = sum(g < self.grid for g in GRIDS) + step
+        else:
+            index = sum(g < self.grid for g in GRIDS) + step - 1
+            if index >= len(GRIDS):
+                return self
+        return replace(self, grid=GRIDS[min(max(index, 0), len(GRIDS) - 1)])

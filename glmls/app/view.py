@@ -25,7 +25,7 @@ from .overlays import (
 from .session import Analysis, Session
 from .text import TextRenderer, glyph_atlas
 
-__all__ = ["BACKGROUND", "FIELD_OPACITY", "TEXT_SIZE", "View", "display_image"]
+__all__ = ["BACKGROUND", "FIELD_OPACITY", "TEXT_SIZE", "View", "display_image", "shown_reference"]
 
 #: Text size (points at a content scale of 1).
 TEXT_SIZE = 13
@@ -38,20 +38,39 @@ _STAGES = ("warp", "overlays", "text")
 
 def display_image(image: np.ndarray) -> np.ndarray:
     """An image as float32 RGB in [0, 1] for the window's 8-bit framebuffer: the pipeline
-    writes the texture's raw values, so 0-255 values would all show white."""
+    writes the texture's raw values, so 0-255 values would all show white. Integers are
+    divided by their dtype's maximum; floats within [0, 1] stay, others are stretched from
+    the lower of 0 and their minimum (black) to the higher of 1 and their maximum (white)."""
     array = np.asarray(image)
     if array.ndim == 2:
         array = array[:, :, None]
     if array.ndim != 3 or not 1 <= array.shape[2] <= 4:
         raise ValueError(f"image must be H x W or H x W x C with C in 1..4, got {array.shape}")
+    if array.size == 0:
+        raise ValueError(f"image must not be empty, got shape {np.asarray(image).shape}")
     if np.issubdtype(array.dtype, np.integer):
         values = array.astype(np.float32) / float(np.iinfo(array.dtype).max)
     elif np.issubdtype(array.dtype, np.floating):
-        values = np.clip(array.astype(np.float32), 0.0, 1.0)
+        values = array.astype(np.float32)
+        low, high = float(values.min(initial=0.0)), float(values.max(initial=1.0))
+        if low < 0.0 or high > 1.0:  # e.g. 0..255 or -1..1: its range, not all white
+            values = (values - low) / (high - low)
+        values = np.clip(values, 0.0, 1.0)
     else:
         raise TypeError(f"image dtype must be integer or float, got {array.dtype}")
     colour = values[..., :3] if values.shape[2] >= 3 else np.repeat(values[..., :1], 3, axis=2)
     return np.ascontiguousarray(colour)
+
+
+def shown_reference(c: Controller, session: Session) -> np.ndarray | None:
+    """The reference points to draw, or None: in reference mode where they are (where a
+    click picks them, as the sources p are drawn at p), else with the angle overlay at f(r),
+    the corners of the deformed triangles."""
+    if not len(c.reference):
+        return None
+    if c.reference_mode:
+        return c.reference
+    return session.deformed_reference() if c.overlays["angle"] else None
 
 
 class View:
@@ -163,8 +182,8 @@ class View:
         self.geometry.draw(segment_geometry(a, b, layout.scale, c.drawing))  # and the drawing
         if shown:
             self.geometry.draw(handle_geometry(c.src, c.dst, layout.scale))
-        if (c.reference_mode or c.overlays["angle"]) and len(c.reference):
-            points = session.deformed_reference()
+        points = shown_reference(c, session)
+        if points is not None:
             self.geometry.draw(reference_geometry(points, layout.scale))
 
     def _draw_image(self, screen, layout: Layout, session: Session, s: Settings) -> None:

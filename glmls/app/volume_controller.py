@@ -20,7 +20,7 @@ from ..core.handles3 import as_volume_spacing
 from ..imaging.source import BORDERS, INTERPOLATIONS
 from .controls import Controls, window_bindings
 from .events import Press, Scroll
-from .settings import ALPHA_RANGE, ALPHA_STEP, RADIUS_FACTOR, cycle
+from .settings import ALPHA_RANGE, ALPHA_STEP, RADIUS_FACTOR, bounded_step, cycle
 
 __all__ = [
     "VIEWS",
@@ -306,6 +306,7 @@ class VolumeController(Controls):
         self._undo: list[tuple[np.ndarray, np.ndarray]] = []
         self._redo: list[tuple[np.ndarray, np.ndarray]] = []
         self._drag: tuple[int, int, tuple[np.ndarray, np.ndarray]] | None = None
+        self._wheel = 0.0  # wheel notches not yet taken (fractions of one)
 
     # -- state --------------------------------------------------------------------------------
 
@@ -359,9 +360,15 @@ class VolumeController(Controls):
 
     def _scroll(self, event: Scroll) -> None:
         found = self.grid.locate(event.x, event.y)
-        if found is not None:
+        if found is None:
+            return
+        # a touchpad's fractions of a notch add up to whole slices; the rest waits
+        self._wheel += min(max(event.dy, -1e6), 1e6)
+        steps = int(self._wheel)
+        self._wheel -= steps
+        if steps:
             normal = AXES[found[0]][2]
-            self._move_point(normal, self.point[normal] + round(event.dy))
+            self._move_point(normal, self.point[normal] + steps)
 
     def _pick(self, view: int, x: float, y: float) -> int | None:
         candidates = self.near_plane(view)
@@ -472,13 +479,13 @@ class VolumeController(Controls):
     def _step(self, up: bool) -> None:
         config = self.settings.config
         if config.uses_radius:
-            radius = self.radius * RADIUS_FACTOR if up else self.radius / RADIUS_FACTOR
+            new = self.radius * RADIUS_FACTOR if up else self.radius / RADIUS_FACTOR
             least = min(self.grid.spacing)
-            radius = min(max(radius, least), 100 * self.grid.diagonal)
+            radius = bounded_step(self.radius, new, least, 100 * self.grid.diagonal)
             config = replace(config, radius=radius)
         else:
-            alpha = config.alpha + (ALPHA_STEP if up else -ALPHA_STEP)
-            config = replace(config, alpha=min(max(alpha, ALPHA_RANGE[0]), ALPHA_RANGE[1]))
+            new = config.alpha + (ALPHA_STEP if up else -ALPHA_STEP)
+            config = replace(config, alpha=bounded_step(config.alpha, new, *ALPHA_RANGE))
         self._configure(replace(self.settings, config=config))
 
     def _do_raise(self) -> None:
@@ -513,7 +520,7 @@ class VolumeController(Controls):
         self.set_handles(*self.loaded)
 
     def _do_undo(self) -> None:
-        self._drag = None
+        self._release()  # a drag under way ends as one edit, the one undone
         if not self._undo:
             self.message = "nothing to undo"
             return
@@ -522,7 +529,7 @@ class VolumeController(Controls):
         self.revision += 1
 
     def _do_redo(self) -> None:
-        self._drag = None
+        self._release()
         if not self._redo:
             self.message = "nothing to redo"
             return

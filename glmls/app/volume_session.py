@@ -175,6 +175,7 @@ class VolumeSession:
         c = self.controller
         if c.overlay == "none" or self.mls is None:
             self.lines = []
+            self.timings["analysis"] = 0.0  # none made: not the last overlay's time
             return None
         grid = max(c.settings.grid, FIELD_GRID)
         key = (self.revision, c.overlay, grid)

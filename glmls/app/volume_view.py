@@ -50,11 +50,13 @@ MARGIN = 1
 
 def window_size(grid, panel: int) -> tuple[int, int]:
     """The window's default (width, height) for the montage of ``grid`` and its margin beside
-    a panel ``panel`` pixels wide: scaled up (never down) to about 560 rows or 900 columns,
-    rounded up so that the views fit whole."""
+    a panel ``panel`` pixels wide: a small montage scaled up to about 560 rows or 900
+    columns, a large one down to 1000 rows and 1600 columns at most (a screen's), rounded up
+    so that the views fit whole."""
     rows, columns = grid.montage_shape
     rows, columns = rows + 2 * MARGIN, columns + 2 * MARGIN
     scale = max(1.0, min(560 / rows, 900 / columns))
+    scale = min(scale, 1000 / rows, 1600 / columns)
     return panel + math.ceil(columns * scale), math.ceil(rows * scale)
 
 

@@ -130,6 +130,8 @@ class VolumeApp(WindowLoop):
         return path
 
     def _save_handles(self, path: Path) -> None:
+        if not len(self.controller.src):  # a handle file holds one at least
+            raise ValueError("no handles to save")
         write_handles(path, self.controller.src, self.controller.dst)
 
     def _load_handles(self, path: Path) -> str:

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .commands import load_handles, save_handles, save_image
+from .commands import load_handles, save_handles, save_image, warped_suffix
 from .controller import Controller, Settings
 from .events import Event
 from .glfw_window import NoDisplayError
@@ -81,7 +81,9 @@ class App(WindowLoop):
         height, width = self.shape
         scale = min(1.0, 1000 / width, 760 / height)
         panel = PANEL_CHARS * 8 + 24
-        return panel + round(width * scale), max(round(height * scale), 480)
+        # an image area at least the panel's width: a narrower one would drop the panel and
+        # put the readout over the image (layout.MIN_IMAGE_SHARE)
+        return panel + max(round(width * scale), panel), max(round(height * scale), 480)
 
     def _open(self, *, vsync: bool) -> None:
         size = self.window_size or self._default_size()
@@ -104,7 +106,7 @@ class App(WindowLoop):
             self._relayout()
 
     def _save_warped(self) -> Path:
-        path = self._path("warped.png")
+        path = self._path(f"warped{warped_suffix(self.image)}")
         mls = self.session.mls if self.window is not None else None
         canvas = self.session.canvas
         save_image(path, mls, self.image, self.display, self.controller.settings, canvas)

@@ -132,7 +132,10 @@ class WindowLoop:
             if command == "quit":
                 self._quit = True
             elif command in ("save_image", "save_volume"):
-                self.say(f"saved {self._save_warped()}")
+                path = self._save_warped()
+                # refused handles or settings: what the window shows, not what it names
+                kept = " (the last valid f)" if self.window and self.session.error else ""
+                self.say(f"saved {path}{kept}")
             elif command == "save_handles":
                 path = self._path("handles.json")
                 self._save_handles(path)

@@ -17,7 +17,8 @@ from glmls.app.controller import (
     Settings,
     pick,
 )
-from glmls.core.config import WEIGHTS, image_diagonal
+from glmls.app.volume_controller import VolumeController, VolumeSettings
+from glmls.core.config import WEIGHTS, MLSConfig, image_diagonal
 from glmls.imaging.source import BORDERS
 
 SRC = np.array([[10.0, 10.0], [50.0, 10.0], [30.0, 40.0]])
@@ -214,6 +215,37 @@ def test_grid_keys_step_through_powers_of_two():
     assert c.settings.grid == 32
 
 
+@pytest.mark.parametrize("window", ["image", "volume"])
+@pytest.mark.parametrize(
+    ("weight", "value", "up", "down"),
+    [("idw", 10.0, 10.0, 9.75), ("idw", 0.1, 0.35, 0.1), ("cressman", 1e6, 1e6, 8e5)],
+)
+def test_plus_never_lowers_and_minus_never_raises_a_start_value_off_the_range(
+    window, weight, value, up, down
+):
+    # --alpha 10 then + gave 4 (the top of the range), --alpha 0.1 then - gave 0.25
+    given = {"alpha": value} if weight == "idw" else {"radius": value}
+    config = MLSConfig(weight=weight, **given)
+    name = "alpha" if weight == "idw" else "radius"
+    for key, wanted in (("+", up), ("-", down)):
+        if window == "image":
+            c = make(settings=Settings(config=config))
+        else:
+            c = VolumeController(np.zeros((0, 3)), np.zeros((0, 3)), (8, 8, 8))
+            c.settings = VolumeSettings(config=config)
+        c.feed(Key(key))
+        assert getattr(c.settings.config, name) == pytest.approx(wanted)
+
+
+@pytest.mark.parametrize(
+    ("grid", "finer", "coarser"), [(3, 2, 4), (6, 4, 8), (64, 32, 64), (48, 32, 48), (4, 2, 8)]
+)
+def test_grid_keys_from_a_grid_off_the_steps(grid, finer, coarser):
+    # --grid 64 then G (coarser) gave 8, and --grid 3 then G gave 8, past 4
+    assert Settings(grid=grid).next_grid(-1).grid == finer
+    assert Settings(grid=grid).next_grid(+1).grid == coarser
+
+
 def test_the_tolerance_key_cycles_the_adaptive_mesh():
     c = make(settings=Settings(grid=4))
     assert c.settings.tolerance is None and c.settings.mesh_options == {"grid": 4}
@@ -355,3 +387,50 @@ def test_loading_3d_handles_into_the_image_window_says_it_takes_2d_ones(tmp_path
     assert np.array_equal(c.src, SRC)
     write_handles(tmp_path / "h2.json", SRC[:2], SRC[:2] + 1)
     assert len(load_handles(tmp_path / "h2.json", c)) == 2 and np.array_equal(c.src, SRC[:2])
+
+
+def test_saving_no_handles_is_refused_rather_than_writing_a_file_l_cannot_load(tmp_path):
+    # j wrote {"src": [], "dst": []}, which l then refused ("no handles")
+    from glmls.app.commands import save_handles
+
+    c = Controller(np.zeros((0, 2)), np.zeros((0, 2)), (100, 120))
+    with pytest.raises(ValueError, match="no handles to save"):
+        save_handles(tmp_path / "h.json", c)
+    assert not (tmp_path / "h.json").exists()
+
+
+class _Deformed:
+    """A session whose f moves every point 20 px right."""
+
+    def deformed_reference(self):
+        return self.controller.reference + [20.0, 0.0]
+
+
+def test_reference_points_are_drawn_where_reference_mode_picks_them():
+    # they were drawn at f(r) in reference mode too, while a click picks r: a press on the
+    # dot added a new point instead of grabbing it
+    from glmls.app.view import shown_reference
+
+    c = make(mode="reference")
+    c.feed(Press(30, 30))
+    c.feed(Release(30, 30))
+    session = _Deformed()
+    session.controller = c
+    np.testing.assert_array_equal(shown_reference(c, session), [[30, 30]])
+    c.feed(Key("p"))  # out of reference mode: none drawn without the angle overlay
+    assert shown_reference(c, session) is None
+    c.feed(Key("a"))  # the angle overlay: at f(r), the deformed triangles' corners
+    np.testing.assert_array_equal(shown_reference(c, session), [[50, 30]])
+
+
+@pytest.mark.parametrize("key", ["G", "g"])
+def test_a_grid_the_construction_refuses_is_said_not_raised(key):
+    # paper-quads takes grid 1 only: G raised out of the window, which closed with exit 2
+    c = make(settings=Settings(method="paper-quads", grid=1))
+    revision = c.revision
+    assert c.feed(Key(key)) == []
+    assert c.settings.grid == 1 and c.revision == revision
+    assert ("grid must be 1" in c.message) == (key == "G")
+    c.feed(Key("c"))  # another construction: the grid keys work again
+    c.feed(Key("G"))
+    assert c.settings.grid == 2

@@ -4,6 +4,7 @@ recorded events are written in the replay format and read back the same."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,6 +27,7 @@ from glmls.app.helpscreen import HELP, help_layout
 from glmls.app.hud import PANEL_CHARS, help_lines, place_help, readout, text_quads
 from glmls.app.text import glyph_atlas
 from glmls.app.view import TEXT_SIZE
+from glmls.app.volume_controller import VOLUME_BINDINGS
 from glmls.core.weights import WEIGHTS
 from glmls.imaging.source import BORDERS
 
@@ -37,6 +39,27 @@ def test_the_help_covers_every_binding():
     assert sorted(listed) == sorted(action for _, action, _ in BINDINGS)
     text = " ".join(" ".join(help_lines()).split())  # wrapped lines joined
     assert all(name in text for name in (*WEIGHTS, *BORDERS, "rigid", "similarity", "affine"))
+
+
+def key_table(text: str) -> str:
+    """The first table of ``text`` whose header is ``| key | effect |``."""
+    start = text.index("| key | effect |")
+    end = text.find("\n\n", start)
+    return text[start:end]
+
+
+@pytest.mark.parametrize("window", ["image", "volume"])
+def test_the_guide_lists_every_key(window):
+    # the adaptive mesh's T was missing from the image window's table
+    guide = (Path(__file__).parents[2] / "docs" / "window.md").read_text(encoding="utf-8")
+    if window == "volume":
+        guide = guide[guide.index("## Volumes") :]
+    table = key_table(guide)
+    bindings = BINDINGS if window == "image" else VOLUME_BINDINGS
+    arrows = {"Left", "Right", "Up", "Down"} if window == "image" else set()
+    keys = {key for keys, _, _ in bindings for key in keys} - arrows
+    assert not [key for key in sorted(keys) if f"`{key}`" not in table]
+    assert not arrows or "arrow keys" in table
 
 
 def readout_lines() -> list[str]:

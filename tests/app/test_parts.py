@@ -15,6 +15,7 @@ from glmls.app.layout import layout
 from glmls.app.overlays import mesh_lines
 from glmls.app.text import GlyphAtlas
 from glmls.app.view import display_image
+from glmls.app.window import PANEL_CHARS, TEXT_SIZE, App
 from glmls.cli.demo import configure, run
 from glmls.errors import InputFileError
 
@@ -25,6 +26,16 @@ def test_layout_letterboxes_beside_the_panel():
     lay = layout((900, 600), (300, 400), panel=300)  # H 300, W 400 in a 600 x 600 area
     assert lay.viewport == (300, 75, 600, 450)
     assert lay.scale == 1.5
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (128, 128), (1, 300), (300, 1), (512, 512), (300, 3000)])
+def test_the_default_window_keeps_the_readout_beside_the_image(shape):
+    # an image narrower than the panel got a window so narrow that the panel was dropped:
+    # the readout covered the image
+    app = App(np.zeros((*shape, 3), np.uint8), np.zeros((0, 2)), np.zeros((0, 2)))
+    panel = round(PANEL_CHARS * GlyphAtlas(TEXT_SIZE).advance["M"]) + 24
+    lay = layout(app._default_size(), shape, panel)
+    assert lay.panel == panel and lay.viewport[0] >= panel
 
 
 def test_layout_drops_the_panel_when_narrow():
@@ -134,6 +145,24 @@ def test_display_image_normalises_for_an_8_bit_window():
         display_image(np.zeros((2, 2, 5)))
 
 
+def test_float_images_outside_0_1_are_shown_from_their_minimum_to_their_maximum():
+    # a float image of 0..255 (or -1..2) was clipped to [0, 1]: a white window
+    ramp = np.linspace(0.0, 255.0, 6, dtype=np.float32).reshape(2, 3)
+    assert display_image(ramp)[..., 0].ravel().tolist() == pytest.approx([0, 0.2, 0.4, 0.6, 0.8, 1])
+    signed = np.array([[-1.0, 0.5, 2.0]])
+    assert display_image(signed)[0, :, 0].tolist() == pytest.approx([0.0, 0.5, 1.0])
+    within = np.array([[0.25, 0.5]], np.float32)  # [0, 1] images are shown as they are
+    assert display_image(within)[0, :, 0].tolist() == [0.25, 0.5]
+    assert (display_image(np.full((2, 2), 7.0)) == 1.0).all()  # one value: no range
+
+
+@pytest.mark.parametrize("shape", [(0, 0, 3), (0, 5), (5, 0)])
+def test_an_empty_image_is_refused_by_name(shape):
+    # it raised ZeroDivisionError
+    with pytest.raises(ValueError, match="empty"):
+        App(np.zeros(shape, np.uint8), np.zeros((0, 2)), np.zeros((0, 2)))
+
+
 def test_folded_cells_matches_the_fold_rule():
     ys, xs = np.mgrid[0:3, 0:3].astype(float)
     mesh = np.stack([xs, ys], axis=-1)
@@ -187,3 +216,40 @@ def test_readout_lines_are_wrapped_to_the_panel():
     lines = wrap("saved /a/very/long/path/" + "x" * 100 + ".png now", 40)
     assert all(len(line) <= 40 for line in lines)
     assert "".join(line.strip() for line in lines).startswith("saved/a/very")
+
+
+def test_long_analysis_lines_are_wrapped_to_the_panel_whole():
+    # "angle error: <why>" was cut at 80 characters and ran past the panel over the image
+    from glmls.app.controller import Controller
+    from glmls.app.hud import PANEL_CHARS, readout
+
+    why = "reference_points[0] and reference_points[1] are the same point [20.0, 20.0]"
+    lines = readout(
+        name="x",
+        shape=(10, 10),
+        controller=Controller(np.zeros((0, 2)), np.zeros((0, 2)), (10, 10)),
+        frame_times=[],
+        timings={},
+        error="",
+        analysis_lines=["E_MLS px^2: mean 1 std 2", "  min 0 max 3", f"angle error: {why}"],
+        messages=[],
+    )
+    assert all(len(line) <= PANEL_CHARS for line in lines)
+    assert "  min 0 max 3" in lines  # short lines keep their indent
+    joined = " ".join(line.strip() for line in lines)
+    assert f"angle error: {why}" in joined
+
+
+@pytest.mark.parametrize("error", ["", "affine MLS needs at least 3 source handles"])
+def test_s_says_when_it_saved_the_last_valid_deformation(tmp_path, error):
+    # with the handles or settings refused, s saves the last valid f (what the window
+    # shows): it said only "saved PATH", though the readout names the refused settings
+    from types import SimpleNamespace
+
+    app = App(np.zeros((4, 4), np.uint8), np.zeros((0, 2)), np.zeros((0, 2)))
+    app.window, app.session = object(), SimpleNamespace(error=error)
+    app._save_warped = lambda: tmp_path / "x.png"
+    app._command("save_image")
+    [message] = app._shown_messages()
+    assert message.startswith(f"saved {tmp_path / 'x.png'}")
+    assert ("the last valid f" in message) == bool(error)

@@ -42,3 +42,17 @@ def test_the_default_size_is_the_montage_at_its_scale_beside_the_panel():
     assert height >= 560 and width >= 368 + 560
     layout = montage_layout((width, height), grid, 368)
     assert layout.scale == pytest.approx(560 / 132, rel=0.02)  # the views keep their size
+
+
+@pytest.mark.parametrize(
+    ("shape", "spacing"), [((64, 64, 64), (0.01, 1.0, 1.0)), ((300, 1024, 1024), (1.0, 1.0, 1.0))]
+)
+def test_the_default_window_of_a_large_montage_fits_a_screen(shape, spacing):
+    # it was never scaled down: 6846 x 6470 for the phantom with --spacing 0.01,1,1
+    grid = SliceGrid(shape, spacing=spacing)
+    width, height = window_size(grid, 368)
+    assert width <= 368 + 1600 and height <= 1000
+    layout = montage_layout((width, height), grid, 368)
+    for view in range(3):
+        x0, y0, w, h = view_viewport(layout, grid, view)
+        assert x0 >= 368 and y0 >= 0 and x0 + w <= width and y0 + h <= height

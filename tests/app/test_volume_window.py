@@ -65,6 +65,26 @@ def test_dragging_a_target_moves_it_within_the_plane():
     np.testing.assert_array_equal(c.dst[2], [14, 10, 5])
 
 
+@pytest.mark.parametrize("key", ["u", "Ctrl+Z"])
+def test_undo_during_a_drag_undoes_that_drag(key):
+    # as in the image window: the drag ends as one edit, which undo takes back; undo
+    # dropped the drag instead and undid the edit before it (or nothing, the drag kept)
+    c = make()
+    drag(c, (4, 4), (7, 2))  # one edit: q_0 to (7, 2)
+    c.feed(Press(18, 15))  # handle 1's target
+    c.feed(Move(15, 12))
+    assert c.dragging
+    c.feed(Key(key))  # the button still down
+    np.testing.assert_array_equal(c.dst[0], [7, 2, 8])  # the edit before stays
+    np.testing.assert_array_equal(c.dst[1], SRC[1])
+    assert not c.dragging and c.undo_depth == 1
+    c.feed(Move(10, 14))  # a move after the undo drags nothing
+    c.feed(Release(10, 14))
+    np.testing.assert_array_equal(c.dst[1], SRC[1])
+    c.feed(Key("U"))
+    np.testing.assert_array_equal(c.dst[1], [15, 12, 8])
+
+
 def test_only_handles_near_the_plane_are_picked():
     c = make()
     c.feed(Key("Up"))  # z = 9: handle 4 (z = 12) is 3 away, handle 0 (z = 8) 1
@@ -74,6 +94,21 @@ def test_only_handles_near_the_plane_are_picked():
     revision = c.revision
     drag(c, (4, 4), (6, 6))
     assert c.revision == revision and c.point[:2] == (4, 4)  # the slice point moved instead
+
+
+def test_fractions_of_a_wheel_notch_add_up():
+    # a touchpad sends fractions of a notch: each was rounded to 0 and the slice never moved
+    c = make()
+    for _ in range(4):
+        c.feed(Scroll(5, 5, 0.25))
+    assert c.point == (12, 10, 9)
+    c.feed(Scroll(5, 5, 0.4))
+    c.feed(Scroll(5, 5, -0.4))  # back and forth: no move
+    assert c.point == (12, 10, 9)
+    c.feed(Scroll(5, 5, -1.0))
+    assert c.point == (12, 10, 8)
+    c.feed(Scroll(5, 5, 1e300))  # any finite dy: the last slice
+    assert c.point == (12, 10, 15)
 
 
 def test_the_slice_point_moves_along_the_active_normal_and_stays_inside():
@@ -304,3 +339,22 @@ def test_the_readout_says_what_the_slices_show_after_an_error():
     assert "  (the volume as it is)" in app.readout()
     app.session.mls = object()
     assert "  (the last valid f)" in app.readout()
+
+
+def test_saving_no_handles_says_so(tmp_path):
+    app = VolumeApp(np.zeros((4, 5, 6), np.uint8), np.zeros((0, 3)), np.zeros((0, 3)))
+    with pytest.raises(ValueError, match="no handles to save"):
+        app._save_handles(tmp_path / "h.json")
+    assert not (tmp_path / "h.json").exists()
+
+
+def test_the_analysis_time_is_zero_with_no_overlay(session):
+    # the readout kept the last overlay's analysis time after the overlay was turned off
+    c, s, _, dst = session
+    c.set_handles(c.src, dst)
+    s.sync()
+    c.feed(Key("f"))
+    s.overlays()
+    assert s.timings["analysis"] > 0
+    c.feed(Key("f"))
+    assert s.overlays() is None and s.timings["analysis"] == 0

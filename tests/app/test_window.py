@@ -227,3 +227,27 @@ def test_the_window_draws_on_the_grid_where_the_adaptive_mesh_gives_up(tmp_path,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
     assert image_area(glmls.imread(shot)).any()
+
+
+@needs_xvfb
+def test_a_float_image_is_shown_by_its_range_and_saved_as_float(tmp_path):
+    # a float image of 0..255 was clipped to [0, 1] (a white window), and s saved an 8-bit
+    # PNG of that, though the key table says "input dtype"
+    image = np.zeros((*SHAPE, 3), np.float32)
+    image[:] = BLUE
+    image[30:50, 30:50] = 255.0
+    path = tmp_path / "float.tif"
+    glmls.imwrite(path, image)
+    shot_path = tmp_path / "shot.png"
+    result = demo(
+        str(path), "--replay", str(events(tmp_path / "e.json", "h", "s")),
+        "--screenshot", str(shot_path), "--window-size", f"{WINDOW[0]}x{WINDOW[1]}",
+        "--out", str(tmp_path / "saved"),
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    shot = glmls.imread(shot_path)
+    np.testing.assert_allclose(at(shot, 80, 80), BLUE, atol=8)  # not white
+    assert (at(shot, 60, 55) > 240).all()
+    warped = glmls.imread(tmp_path / "saved" / "float-warped.tif")
+    expected = glmls.warp(image, [[40.0, 40.0]], [[60.0, 55.0]], grid=4)
+    assert warped.dtype == np.float32 and np.array_equal(warped, expected)

@@ -159,3 +159,13 @@ def test_zoom_keys():
     revision = c.revision
     c.feed(Scroll(10, 10, -3))  # out, past the whole view: stays whole
     assert c.zoom == Zoom() and c.revision == revision
+
+
+@pytest.mark.parametrize("notches", [1e6, -1e6, 1e308])
+def test_a_wheel_turned_past_any_zoom_stops_at_the_limits(notches):
+    # a replay may give any finite dy: 1.25 ** 1e6 overflows a float
+    c = Controller(np.zeros((0, 2)), np.zeros((0, 2)), SHAPE)
+    c.view_limits = lay().limits
+    c.feed(Scroll(100, 100, notches))
+    wanted = c.view_limits.max_zoom if notches > 0 else 1.0
+    assert c.zoom.factor == pytest.approx(wanted)
