@@ -70,13 +70,13 @@ class Mesh:
             np.issubdtype(faces.dtype, np.floating) and (faces == np.round(faces)).all()
         ):
             raise TypeError(f"faces must be integer vertex indices, got dtype {faces.dtype}")
-        faces = np.array(faces, dtype=np.int64)
         if faces.ndim != 2 or faces.shape[1] != 3:
             raise ValueError(f"faces must be (F, 3) triangles, got shape {faces.shape}")
+        # the range before the cast to int64: a uint64 index of 2**63 must not wrap
         if len(faces) and (faces.min() < 0 or faces.max() >= len(vertices)):
-            raise ValueError(
-                f"faces index vertices 0..{len(vertices) - 1}, got {faces.min()}..{faces.max()}"
-            )
+            low, high = int(faces.min()), int(faces.max())
+            raise ValueError(f"faces index vertices 0..{len(vertices) - 1}, got {low}..{high}")
+        faces = np.array(faces, dtype=np.int64)
         vertices.flags.writeable = False
         faces.flags.writeable = False
         object.__setattr__(self, "vertices", vertices)

@@ -26,6 +26,7 @@ __all__ = [
     "check_background",
     "check_image",
     "check_options",
+    "native_order",
     "prepare_image",
     "texture_data",
     "texture_form",
@@ -75,12 +76,18 @@ class SourceImage:
         return out[..., 0] if self.squeeze else out
 
 
+def native_order(array: np.ndarray) -> np.ndarray:
+    """``array`` in this machine's byte order: big-endian data (some TIFF readers) as the
+    same values in the native dtype; ``array`` itself where it already is."""
+    if array.dtype.isnative:
+        return array
+    return array.astype(array.dtype.newbyteorder("="))
+
+
 def check_image(image: object, name: str = "image") -> np.ndarray:
     """``image`` as an array, H x W or H x W x C with C in 1..4, of a dtype of
     :data:`DTYPES` and not empty; ``TypeError``/``ValueError`` naming it as ``name``."""
-    array = np.asarray(image)
-    if not array.dtype.isnative:  # big-endian data (some TIFF readers): the same values
-        array = array.astype(array.dtype.newbyteorder("="))
+    array = native_order(np.asarray(image))
     if array.dtype not in DTYPES:
         names = ", ".join(np.dtype(d).name for d in DTYPES)
         hint = ""

@@ -1,0 +1,103 @@
+"""Hostile inputs to the 3D surface: each is refused with a ValueError or TypeError naming
+the bad value, or gives the documented result; never an error from deep inside, a huge
+allocation or a silent wrong answer."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+import glmls
+from glmls import analysis
+from glmls.errors import InputFileError
+
+SRC = np.array([[0.0, 0, 0], [7, 0, 0], [0, 7, 0], [0, 0, 7], [7, 7, 7]])
+DST = SRC + [[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0], [0, 0, 0]]
+
+
+@pytest.fixture
+def mls3(gl):
+    m = glmls.MLS(SRC, DST, ctx=gl)
+    yield m
+    m.release()
+
+
+@pytest.fixture
+def volume():
+    return (np.random.default_rng(1).random((6, 7, 8)) * 250).astype(np.uint8)
+
+
+def test_the_error_field_of_an_mls_without_handles_is_zero(gl):
+    with glmls.MLS(np.zeros((0, 3)), np.zeros((0, 3)), ctx=gl) as m:
+        field = analysis.volume_error_field(m, (3, 4, 5))
+    assert field.shape == (3, 4, 5)
+    assert (field == 0).all()
+
+
+@pytest.mark.parametrize("shape", [(2.5, 3, 3), (3, 3.5, 3, 1), (True, 3, 3)])
+@pytest.mark.parametrize("analyse", [analysis.volume_error_field, analysis.cell_jacobians])
+def test_the_3d_analyses_refuse_a_shape_that_is_not_integers(mls3, analyse, shape):
+    with pytest.raises(ValueError, match=r"shape must be \(D, H, W\) integers"):
+        analyse(mls3, shape)
+
+
+@pytest.mark.parametrize("method", ["quads", "backward"])
+def test_an_output_shape_beyond_the_gl_limit_is_refused_before_its_array_is_made(
+    mls3, volume, method
+):
+    huge = (10**6, 10**6, 10**6)  # 1e18 voxels: no allocation may be tried
+    with pytest.raises(ValueError, match="exceed the GL 3D texture size limit"):
+        mls3.warp(volume, method=method, output_shape=huge)
+    with pytest.raises(ValueError, match="exceed the GL 3D texture size limit"):
+        mls3.coordinate_map(volume.shape, output_shape=huge)
+
+
+@pytest.mark.parametrize(
+    "layout",
+    [
+        np.asfortranarray,
+        lambda v: v[::-1, :, ::-1].copy()[::-1, :, ::-1],  # negative strides
+        lambda v: v.astype(">u2").astype(">u2"),  # big-endian
+        lambda v: np.frombuffer(v.tobytes(), v.dtype).reshape(v.shape),  # read-only
+    ],
+)
+@pytest.mark.parametrize("method", ["quads", "backward"])
+def test_any_memory_layout_gives_the_c_ordered_volume_s_result(mls3, volume, layout, method):
+    given = layout(volume)
+    kept = given.copy()
+    expected = mls3.warp(np.ascontiguousarray(volume, given.dtype.newbyteorder("=")), method=method)
+    first, second = mls3.warp(given, method=method), mls3.warp(given, method=method)
+    np.testing.assert_array_equal(first, expected)
+    np.testing.assert_array_equal(second, first)
+    np.testing.assert_array_equal(given, kept)  # not modified in place
+
+
+@pytest.mark.parametrize("dtype", [np.complex128, object, "U3", "datetime64[s]"])
+def test_a_volume_of_no_real_numbers_is_refused_and_no_file_is_written(tmp_path, dtype):
+    data = np.zeros((2, 3, 4), dtype)
+    with pytest.raises(
+        TypeError, match=f"a volume holds real numbers .*got dtype {re.escape(str(data.dtype))}"
+    ):
+        glmls.Volume(data)
+    for suffix in (".nii", ".npy", ".tif"):
+        with pytest.raises(TypeError, match="a volume holds real numbers"):
+            glmls.write_volume(tmp_path / f"out{suffix}", data)
+    assert not list(tmp_path.iterdir())
+
+
+def test_reading_a_npy_of_complex_numbers_names_the_file(tmp_path):
+    path = tmp_path / "complex.npy"
+    np.save(path, np.zeros((2, 3, 4), np.complex64))
+    with pytest.raises(InputFileError, match=r"complex\.npy: a volume holds real numbers"):
+        glmls.read_volume(path)
+
+
+def test_a_mesh_face_index_beyond_int64_is_named_as_given():
+    vertices = [[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    faces = np.array([[0, 1, 2**63]], np.uint64)
+    with pytest.raises(
+        ValueError, match=r"faces index vertices 0\.\.2, got 0\.\.9223372036854775808"
+    ):
+        glmls.Mesh(vertices, faces)
