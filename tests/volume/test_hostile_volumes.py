@@ -101,3 +101,47 @@ def test_a_mesh_face_index_beyond_int64_is_named_as_given():
         ValueError, match=r"faces index vertices 0\.\.2, got 0\.\.9223372036854775808"
     ):
         glmls.Mesh(vertices, faces)
+
+
+@pytest.mark.parametrize("method", ["quads", "backward"])
+@pytest.mark.parametrize("value", [1e300, -1e39])
+def test_float64_values_beyond_float32_are_refused_not_made_inf(mls3, method, value):
+    volume = np.full((4, 5, 6), value)
+    with pytest.raises(ValueError, match=r"volume values must lie within float32's range"):
+        mls3.warp(volume, method=method)
+
+
+def test_float64_infinities_stay_what_they_are(mls3):
+    volume = np.zeros((4, 5, 6))
+    volume[2, 2, 2] = np.inf
+    out = mls3.warp(volume, interpolation="nearest")
+    assert np.isinf(out).sum() == 1
+
+
+class _Mesh:
+    """A mesh object with its own vertex normals, as a trimesh.Trimesh has."""
+
+    def __init__(self, normals):
+        self.vertices = np.array([[0.0, 0, 0], [4, 0, 0], [0, 4, 0]])
+        self.faces = np.array([[0, 1, 2]])
+        self.vertex_normals = normals
+
+
+def test_a_mesh_s_own_normals_of_any_scale_give_the_unit_normals(mls3):
+    unit = mls3.deform(_Mesh(np.tile([0.0, 0, 1], (3, 1)))).normals
+    for scale in (1e-300, 1e300):  # float32 would make them 0 or inf
+        normals = mls3.deform(_Mesh(np.tile([0.0, 0, scale], (3, 1)))).normals
+        np.testing.assert_allclose(normals, unit, atol=1e-6)
+    np.testing.assert_allclose(np.linalg.norm(unit, axis=1), 1.0, atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("normals", "error", "message"),
+    [
+        (np.full((3, 3), np.nan), ValueError, r"vertex_normals must be finite; row 0"),
+        (np.ones((3, 3), np.complex128), TypeError, "vertex_normals must be real numbers"),
+    ],
+)
+def test_a_mesh_s_own_normals_must_be_finite_real_numbers(mls3, normals, error, message):
+    with pytest.raises(error, match=message):
+        mls3.deform(_Mesh(normals))
