@@ -145,3 +145,20 @@ def test_a_mesh_s_own_normals_of_any_scale_give_the_unit_normals(mls3):
 def test_a_mesh_s_own_normals_must_be_finite_real_numbers(mls3, normals, error, message):
     with pytest.raises(error, match=message):
         mls3.deform(_Mesh(normals))
+
+
+@pytest.mark.parametrize(
+    ("vertices", "error", "message"),
+    [
+        (np.ones((3, 3), np.complex128), TypeError, "vertices must be real numbers, got dtype"),
+        ("abc", TypeError, "vertices must be real numbers, got dtype <U3"),
+        (np.ones((3, 3), bool), TypeError, "vertices must be real numbers, got dtype bool"),
+        ([[0, 0, 0], [1, 0]], ValueError, "rows of 3 numbers each"),
+    ],
+)
+def test_a_mesh_s_vertices_must_be_real_numbers(tmp_path, vertices, error, message):
+    with pytest.raises(error, match=message):
+        glmls.Mesh(vertices, [[0, 1, 2]])
+    with pytest.raises(error, match=message):
+        glmls.write_mesh(tmp_path / "out.ply", vertices, faces=[[0, 1, 2]])
+    assert not list(tmp_path.iterdir())
