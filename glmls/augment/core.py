@@ -550,11 +550,21 @@ class Augment:
                 pieces.append(marks[i])
                 part["keypoints"] = len(marks[i])
             if box_list is not None:
-                outline, counts = lab.box_outlines(box_list[i], self.box_step)
+                try:
+                    outline, counts = lab.box_outlines(box_list[i], self.box_step)
+                except ValueError as error:
+                    raise ValueError(
+                        f"boxes[{i}] with box_step={self.box_step:g}: {error}"
+                    ) from None
                 pieces.append(outline)
                 part["boxes"] = counts
             if polygon_list is not None:
-                dense = [lab.densify_polygon(poly, self.densify) for poly in polygon_list[i]]
+                try:
+                    dense = [lab.densify_polygon(poly, self.densify) for poly in polygon_list[i]]
+                except ValueError as error:
+                    raise ValueError(
+                        f"polygons[{i}] with densify={self.densify:g}: {error}"
+                    ) from None
                 pieces += dense
                 part["polygons"] = [len(poly) for poly in dense]
             points.append(np.concatenate(pieces) if pieces else np.zeros((0, 2)))

@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from glmls.augment import Augment
+from glmls.augment import Augment, box_outlines, clip_polygon, densify_polygon
 
 IMAGES = np.random.default_rng(0).integers(0, 255, (2, 16, 20), dtype=np.uint8)
 
@@ -95,3 +95,46 @@ def test_draw_refuses_shapes_that_are_no_image_sizes(shapes, error, message):
 def test_draw_takes_an_image_s_shape_with_its_channels():
     aug = Augment("grid", rows=2, cols=2)
     assert aug.draw([(8, 9, 3)]) == aug.draw([(8, 9)])
+
+
+@pytest.mark.parametrize(
+    ("labels", "error", "message"),
+    [
+        ({"boxes": [np.ones((1, 4), np.complex128), []]}, TypeError, r"boxes\[0\] has dtype"),
+        ({"polygons": [[np.ones((3, 2), np.complex128)], []]}, TypeError, r"polygons\[0\]\[0\]"),
+        ({"boxes": [[[0, 0, 1e30, 4]], []]}, ValueError, r"boxes\[0\] must lie within"),
+        (
+            {"polygons": [[[[1, 1], [1e30, 1], [5, 8]]], []]},
+            ValueError,
+            r"polygons\[0\]\[0\] must lie within",  # not the keypoints they become
+        ),
+    ],
+)
+def test_labels_that_are_not_real_coordinates_are_named(labels, error, message):
+    with pytest.raises(error, match=message):
+        Augment("grid")(IMAGES, **labels)
+
+
+@pytest.mark.parametrize(
+    ("options", "labels", "message"),
+    [
+        ({"box_step": 1e-9}, {"boxes": [[[1, 1, 10, 10]], []]}, r"boxes\[0\] with box_step=1e-09"),
+        (
+            {"densify": 1e-9},
+            {"polygons": [[[[1, 1], [10, 1], [5, 8]]], []]},
+            r"polygons\[0\] with densify=1e-09",
+        ),
+    ],
+)
+def test_a_step_that_would_take_billions_of_points_is_refused(options, labels, message):
+    with pytest.raises(ValueError, match=message + r": step 1e-09 px puts \d+ points"):
+        Augment("grid", **options)(IMAGES, **labels)
+
+
+def test_the_label_helpers_refuse_coordinates_that_are_not_finite():
+    with pytest.raises(ValueError, match="polygon holds values that are not finite"):
+        clip_polygon(np.array([[1.0, 1.0], [np.nan, 1.0], [5.0, 8.0]]), (20, 24))
+    with pytest.raises(ValueError, match="coordinates must be finite"):
+        box_outlines(np.array([[0.0, 0.0, np.inf, 4.0]]), 2.0)
+    with pytest.raises(ValueError, match="use a larger step"):
+        densify_polygon(np.array([[0.0, 0.0], [9.0, 0.0], [5.0, 8.0]]), 1e-12)
