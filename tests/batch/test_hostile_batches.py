@@ -58,3 +58,13 @@ def test_the_same_batch_twice_gives_the_same_result_and_leaves_its_inputs(gl, ba
     np.testing.assert_array_equal(first.masks, second.masks)
     for now, before in zip((images, src, dst, keypoints, masks), given, strict=True):
         np.testing.assert_array_equal(now, before)
+
+
+@pytest.mark.parametrize("method", ["quads", "backward"])
+@pytest.mark.parametrize("stacked", [True, False])
+def test_a_float64_value_beyond_float32_names_its_image(gl, method, stacked):
+    images = np.zeros((3, 8, 8))
+    images[2, 3, 3] = 1e300
+    given = images if stacked else list(images)
+    with pytest.raises(ValueError, match=r"^images\[2\]: image values must lie within float32"):
+        glmls.warp_batch(given, np.zeros((3, 1, 2)), np.ones((3, 1, 2)), method=method, ctx=gl)
