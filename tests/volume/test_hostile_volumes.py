@@ -162,3 +162,31 @@ def test_a_mesh_s_vertices_must_be_real_numbers(tmp_path, vertices, error, messa
     with pytest.raises(error, match=message):
         glmls.write_mesh(tmp_path / "out.ply", vertices, faces=[[0, 1, 2]])
     assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize(
+    ("options", "error", "message"),
+    [
+        ({"eps": 0}, ValueError, "eps must be a finite positive number, got 0"),
+        ({"min_quality": 1}, ValueError, r"min_quality must be in \[0, 1\), got 1"),
+        ({"warp": "no"}, TypeError, "warp must be True or False, got 'no'"),
+        ({"near": -1}, ValueError, r"near must be a finite number >= 0 \(voxels\), got -1"),
+        ({"near": float("nan")}, ValueError, "near must be a finite number >= 0"),
+    ],
+)
+def test_volume_report_refuses_bad_options_even_where_the_handles_form_no_tetrahedron(
+    gl, options, error, message
+):
+    # four coplanar handles: no tetrahedron, which the report leaves out (and must not take
+    # the bad option's error for)
+    src = np.array([[1.0, 1, 2], [5, 1, 2], [1, 5, 2], [5, 5, 2]])
+    with glmls.MLS(src, src + [0.5, 0, 0], ctx=gl) as m:
+        with pytest.raises(error, match=message):
+            analysis.volume_report(np.zeros((4, 6, 7), np.uint8), m, **options)
+
+
+def test_volume_slices_of_nan_are_refused():
+    volume = np.zeros((3, 4, 5), np.float32)
+    volume[1, 2, 3] = np.nan
+    with pytest.raises(ValueError, match="volume holds NaN or infinite values"):
+        analysis.render_volume_slices(volume)
