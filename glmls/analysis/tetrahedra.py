@@ -34,6 +34,7 @@ from .volume_lattice import as_points3
 __all__ = [
     "SLIVER_QUALITY",
     "TetrahedronErrors",
+    "check_tetrahedron_options",
     "delaunay3",
     "tetrahedron_errors",
     "tetrahedron_quality",
@@ -268,6 +269,18 @@ def _user_tetrahedra(tetrahedra: object, count: int) -> np.ndarray:
     return np.ascontiguousarray(array, dtype=np.int64)
 
 
+def check_tetrahedron_options(min_quality: object, angle: object, eps: object) -> str:
+    """The options of :func:`tetrahedron_errors`, checked: the angle measure it names;
+    ``ValueError`` for ``min_quality`` out of [0, 1), an unknown ``angle`` or ``eps`` <= 0."""
+    measure = check_angle_measure(angle)
+    check_eps(eps)
+    if isinstance(min_quality, bool) or not isinstance(min_quality, (int, float)):
+        raise ValueError(f"min_quality must be a number in [0, 1), got {min_quality!r}")
+    if not 0 <= min_quality < 1:
+        raise ValueError(f"min_quality must be in [0, 1), got {min_quality!r}")
+    return measure
+
+
 def tetrahedron_errors(
     m: Callable[[np.ndarray], np.ndarray],
     reference_points: object,
@@ -332,12 +345,7 @@ def tetrahedron_errors(
     >>> bool(stretched.angle.min() > 0), stretched.stats()["slivers"]
     (True, 0)
     """
-    measure = check_angle_measure(angle)
-    check_eps(eps)
-    if isinstance(min_quality, bool) or not isinstance(min_quality, (int, float)):
-        raise ValueError(f"min_quality must be a number in [0, 1), got {min_quality!r}")
-    if not 0 <= min_quality < 1:
-        raise ValueError(f"min_quality must be in [0, 1), got {min_quality!r}")
+    measure = check_tetrahedron_options(min_quality, angle, eps)
     if tetrahedra is None:
         r, simplices = delaunay3(reference_points)
     else:

@@ -181,9 +181,10 @@ class ReferenceDeformation:
 
 
 def fit_residuals(src: np.ndarray, dst: np.ndarray, m: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """E_MLS = sum_i |p_i M + T - q_i|^2 for each (M, T) of (K, 3, 3), (K, 3): (K,)."""
+    """E_MLS = sum_i |p_i M + T - q_i|^2 for each (M, T) of (K, 3, 3), (K, 3): (K,); 0 each
+    without handles."""
     out = np.empty(len(m))
-    step = max(1, CHUNK // (4 * len(src)))
+    step = max(1, CHUNK // (4 * max(1, len(src))))
     for start in range(0, len(m), step):
         end = start + step
         fitted = np.einsum("nd,kde->kne", src, m[start:end]) + t[start:end, None, :]

@@ -13,6 +13,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..core.handles3 import as_volume_shape as core_volume_shape
 from ..core.handles3 import as_volume_spacing, chosen_spacing
 from ..core.mesh import MAX_GRID
 
@@ -34,15 +35,18 @@ CHUNK = 1 << 18
 
 
 def as_volume_shape(shape: object) -> tuple[int, int, int]:
-    """(D, H, W) from a volume's shape (D, H, W) or (D, H, W, C); ``ValueError`` /
+    """(D, H, W) from a volume's shape (D, H, W) or (D, H, W, C), each an integer >= 1
+    (:func:`glmls.core.handles3.as_volume_shape`'s rule: 2.5 is no size); ``ValueError`` /
     ``TypeError`` otherwise."""
+    if isinstance(shape, (str, bytes)):
+        raise TypeError(f"shape must be (D, H, W) integers, got {shape!r}")
     try:
-        dims = tuple(int(n) for n in shape)  # type: ignore[union-attr]
-    except (TypeError, ValueError):
+        dims = tuple(shape)  # type: ignore[call-overload]
+    except TypeError:
         raise TypeError(f"shape must be (D, H, W) integers, got {shape!r}") from None
-    if len(dims) not in (3, 4) or min(dims[:3]) < 1:
+    if len(dims) not in (3, 4):
         raise ValueError(f"shape must be (D, H, W) with D, H, W >= 1, got {shape!r}")
-    return dims[0], dims[1], dims[2]
+    return core_volume_shape(dims[:3])
 
 
 def check_grid3(grid: object, name: str = "grid") -> int:

@@ -17,6 +17,7 @@ a mask: any voxel along z).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import moderngl
@@ -135,8 +136,8 @@ def render_volume_slices(
     Raises
     ------
     ValueError
-        For a volume that is not (D, H, W) or (D, H, W, 3), or bad handles, slices, mask,
-        limits, scale or projection.
+        For a volume that is not (D, H, W) or (D, H, W, 3) finite values, or bad handles,
+        slices, ``near``, mask, limits, scale or projection.
 
     Examples
     --------
@@ -154,6 +155,14 @@ def render_volume_slices(
         raise ValueError(f"volume must be (D, H, W) or (D, H, W, 3), got shape {array.shape}")
     if array.dtype.kind not in "iuf" or (rgb_volume and array.dtype != np.uint8):
         raise ValueError(f"volume must be real numbers (RGB: uint8), got dtype {array.dtype}")
+    if array.dtype.kind == "f" and not np.isfinite(array).all():
+        raise ValueError("volume holds NaN or infinite values")
+    if near is not None and (
+        isinstance(near, (bool, np.bool_))
+        or not isinstance(near, (int, float, np.integer, np.floating))
+        or not (math.isfinite(near) and near >= 0)
+    ):
+        raise ValueError(f"near must be a finite number >= 0 (voxels), got {near!r}")
     dims = array.shape[:3]
     at = check_slices(dims, slices)
     if projection not in ("max", "min"):

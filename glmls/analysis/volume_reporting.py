@@ -15,8 +15,12 @@ from . import colormaps
 from .jacobians import CellJacobians, cell_jacobians
 from .reporting import SavedReport, StageClock, cmap_name
 from .stats import error_stats
-from .tetrahedra import SLIVER_QUALITY, TetrahedronErrors, tetrahedron_errors
-from .triangles import check_angle_measure
+from .tetrahedra import (
+    SLIVER_QUALITY,
+    TetrahedronErrors,
+    check_tetrahedron_options,
+    tetrahedron_errors,
+)
 from .volume_field import Deformation3D, volume_error_field
 from .volume_lattice import as_points3, check_grid3, deformation_spacing, spacing_scale
 from .volume_pictures import check_slices, render_volume_slices
@@ -195,9 +199,11 @@ def volume_report(
     Raises
     ------
     ValueError
-        For a bad volume, grid, slices, angle measure, reference points or tetrahedra, or a
-        ``spacing`` of another length than 3, with a value that is not a finite number > 0, or
-        other than ``m.spacing``.
+        For a bad volume, grid, slices, angle measure, ``min_quality``, ``eps``, ``near``,
+        reference points or tetrahedra, or a ``spacing`` of another length than 3, with a
+        value that is not a finite number > 0, or other than ``m.spacing``.
+    TypeError
+        For a ``warp`` that is not a bool.
     TypeError
         For a volume that is not real numbers, or a ``spacing`` that is not a sequence of
         real numbers.
@@ -220,7 +226,10 @@ def volume_report(
     dims = array.shape[:3]
     step = check_grid3(grid)
     cell_step = step if jacobian_grid is None else check_grid3(jacobian_grid, "jacobian_grid")
-    check_angle_measure(angle)
+    # checked now: a bad option must not pass for source handles that form no tetrahedron
+    check_tetrahedron_options(min_quality, angle, eps)
+    if not isinstance(warp, (bool, np.bool_)):
+        raise TypeError(f"warp must be True or False, got {warp!r}")
     at = check_slices(dims, slices)
     src, dst = as_points3(m.src, "m.src"), as_points3(m.dst, "m.dst")
     spacing = deformation_spacing(m, spacing)

@@ -11,8 +11,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..batch import BatchResult, warp_batch
+from ..batch.inputs import check_points
 from ..core.config import MLSConfig
 from ..core.handles import COORDINATE_LIMIT
+from ..core.mesh import as_shape
 from ..imaging.options import FIELDS, WarpOptions
 from ..mls import MLS_KEYWORDS
 from . import labels as lab
@@ -82,21 +84,22 @@ _UNRECORDED = ("ctx",)
 _CONFIG_FIELDS = ("transform", "weight", "alpha", "s", "radius", "interpolating")
 
 
-def _check_warp_options(options: Mapping[str, object]) -> None:
-    """``warp_options`` as :func:`glmls.warp_batch` will take them, checked now: a keyword
-    it does not take, or the labels that are the call's own, is a ``TypeError``, a bad
-    value a ``ValueError`` naming it."""
+def _check_warp_options(options: Mapping[str, object], what: str = "warp_options") -> None:
+    """``warp_options`` (or a draw's recorded options, called ``what``) as
+    :func:`glmls.warp_batch` will take them, checked now: a keyword it does not take, or the
+    labels that are the call's own, is a ``TypeError``, a bad value a ``ValueError`` naming
+    it."""
     for name in options:
         if name in _NOT_OPTIONS:
-            raise TypeError(f"warp_options cannot hold {name}: {_NOT_OPTIONS[name]}")
+            raise TypeError(f"{what} cannot hold {name}: {_NOT_OPTIONS[name]}")
         if name not in _WARP_KEYWORDS:
-            raise TypeError(f"warp_options has no keyword {name}")
+            raise TypeError(f"{what} has no keyword {name}")
     fields = {k: v for k, v in options.items() if k in FIELDS or k == "options"}
     try:
         WarpOptions.of(fields.pop("options", None), **fields)
         MLSConfig(**{k: v for k, v in options.items() if k in _CONFIG_FIELDS})
     except (TypeError, ValueError) as error:
-        raise type(error)(f"warp_options: {error}") from None
+        raise type(error)(f"{what}: {error}") from None
 
 
 def _check_reach(preset: object, dst: np.ndarray, index: int) -> None:
@@ -167,15 +170,7 @@ def _keypoint_list(keypoints: object, count: int) -> tuple[list[np.ndarray] | No
         raise TypeError(f"keypoints must be an array or a sequence, got {type(keypoints)}")
     if len(items) != count:
         raise ValueError(f"keypoints holds {len(items)} point sets for {count} images")
-    checked = []
-    for i, item in enumerate(items):
-        array = item.reshape(0, 2) if item.size == 0 else item
-        if array.ndim != 2 or array.shape[1] != 2:
-            raise ValueError(f"keypoints[{i}] has shape {item.shape}; expected (P, 2)")
-        array = np.asarray(array, np.float64)
-        if not np.isfinite(array).all():
-            raise ValueError(f"keypoints[{i}] holds values that are not finite (NaN or inf)")
-        checked.append(array)
+    checked = [check_points(item, f"keypoints[{i}]", rows="P") for i, item in enumerate(items)]
     return checked, stacked
 
 
@@ -213,7 +208,22 @@ def _check_params(params: object, count: int) -> list[Mapping]:
             raise ValueError(f"params[{i}]['shape'] must be [H, W], got {shape!r}")
         if not isinstance(draw["options"], Mapping):
             raise TypeError(f"params[{i}]['options'] must be a dict, got {draw['options']!r}")
+        _check_warp_options(draw["options"], f"params[{i}]['options']")
     return list(params)
+
+
+def _param_points(params: Sequence[Mapping], key: str) -> list[np.ndarray]:
+    """Each draw's ``key`` ("src" or "dst") as (K, 2) float64 points, checked as
+    :func:`glmls.warp_batch` checks handles, the error naming ``params[i]['src']``."""
+    points = []
+    for i, draw in enumerate(params):
+        name = f"params[{i}][{key!r}]"
+        try:
+            array = np.asarray(draw[key])
+        except ValueError:  # ragged rows
+            raise ValueError(f"{name} must be (K, 2) rows of numbers, got {draw[key]!r}") from None
+        points.append(check_points(array, name, rows="K"))
+    return points
 
 
 def _stack(items: list[np.ndarray], stacked: bool):
@@ -346,7 +356,10 @@ class Augment:
         Raises
         ------
         ValueError
-            For indices of the wrong count or value, or missing landmarks.
+            For indices of the wrong count or value, a shape that is not (H, W) integers
+            >= 1 (or an image's (H, W, C)), or missing landmarks.
+        TypeError
+            For ``shapes`` that is no sequence.
 
         Examples
         --------
@@ -357,9 +370,15 @@ class Augment:
         >>> first[1] == again[0], len(first[0]["src"])
         (True, 4)
         """
+        if isinstance(shapes, (str, bytes)) or not isinstance(shapes, Sequence):
+            raise TypeError(f"shapes must be a sequence of (H, W), got {type(shapes).__name__}")
         index_list = _index_list(indices, len(shapes))
         params = []
-        for i, (shape, index) in enumerate(zip(shapes, index_list, strict=True)):
+        for i, (given, index) in enumerate(zip(shapes, index_list, strict=True)):
+            try:
+                shape = as_shape(given)
+            except (TypeError, ValueError) as error:
+                raise type(error)(f"shapes[{i}]: {error}") from None
             rng = np.random.default_rng((self.seed, index))
             marks = None if landmarks is None else landmarks[i]
             try:
@@ -513,8 +532,7 @@ class Augment:
         if any(dict(p["options"]) != options for p in params):
             raise ValueError("params with different warp options cannot be replayed together")
         options |= {k: v for k, v in self.warp_options.items() if k in _UNRECORDED}
-        src = [np.asarray(p["src"], np.float64) for p in params]
-        dst = [np.asarray(p["dst"], np.float64) for p in params]
+        src, dst = _param_points(params, "src"), _param_points(params, "dst")
         result = warp_batch(images, src, dst, keypoints=points, masks=masks, **options)
         if not isinstance(result, BatchResult):
             result = BatchResult(images=result)
@@ -532,11 +550,21 @@ class Augment:
                 pieces.append(marks[i])
                 part["keypoints"] = len(marks[i])
             if box_list is not None:
-                outline, counts = lab.box_outlines(box_list[i], self.box_step)
+                try:
+                    outline, counts = lab.box_outlines(box_list[i], self.box_step)
+                except ValueError as error:
+                    raise ValueError(
+                        f"boxes[{i}] with box_step={self.box_step:g}: {error}"
+                    ) from None
                 pieces.append(outline)
                 part["boxes"] = counts
             if polygon_list is not None:
-                dense = [lab.densify_polygon(poly, self.densify) for poly in polygon_list[i]]
+                try:
+                    dense = [lab.densify_polygon(poly, self.densify) for poly in polygon_list[i]]
+                except ValueError as error:
+                    raise ValueError(
+                        f"polygons[{i}] with densify={self.densify:g}: {error}"
+                    ) from None
                 pieces += dense
                 part["polygons"] = [len(poly) for poly in dense]
             points.append(np.concatenate(pieces) if pieces else np.zeros((0, 2)))

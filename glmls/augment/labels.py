@@ -16,6 +16,8 @@ import math
 
 import numpy as np
 
+from ..core.handles import COORDINATE_LIMIT
+
 __all__ = [
     "box_outlines",
     "boxes_from_outlines",
@@ -27,14 +29,27 @@ __all__ = [
 ]
 
 
+#: The most points :func:`box_outlines` puts on one side of a box, and :func:`densify_polygon`
+#: on one edge: 2**22 (64 MiB of float64 points); a smaller ``step`` is refused.
+MAX_EDGE_POINTS = 1 << 22
+
+
 def _finite(array: np.ndarray, name: str, columns: int, rows: str = "B") -> np.ndarray:
-    if array.dtype == object or not np.issubdtype(array.dtype, np.number):
+    """``array`` as (``rows``, ``columns``) finite float64 coordinates within
+    :data:`~glmls.core.handles.COORDINATE_LIMIT`, as the points they become must be."""
+    real = np.issubdtype(array.dtype, np.number) and array.dtype.kind != "c"
+    if array.dtype == object or not real:  # complex would lose its imaginary part
         raise TypeError(f"{name} has dtype {array.dtype}; expected real numbers")
     if array.ndim != 2 or array.shape[1] != columns:
         raise ValueError(f"{name} has shape {array.shape}; expected ({rows}, {columns})")
     array = np.asarray(array, np.float64)
     if not np.isfinite(array).all():
         raise ValueError(f"{name} holds values that are not finite (NaN or inf)")
+    if array.size and np.abs(array).max() > COORDINATE_LIMIT:
+        raise ValueError(
+            f"{name} must lie within ±{COORDINATE_LIMIT:g} px of the origin in x and y; "
+            f"it reaches {np.abs(array).max():g}"
+        )
     return array
 
 
@@ -158,7 +173,17 @@ def check_positive(name: str, value: object) -> float:
 
 
 def _samples(length: float, step: float) -> int:
-    return max(1, math.ceil(length / step))
+    """Points on an edge of ``length`` px, ``step`` px apart; ``ValueError`` for a length
+    that is not finite, or more than ``MAX_EDGE_POINTS`` (2**22) points."""
+    if not math.isfinite(length):
+        raise ValueError(f"an edge of length {length} px: coordinates must be finite")
+    count = max(1, math.ceil(length / step))
+    if count > MAX_EDGE_POINTS:
+        raise ValueError(
+            f"step {step:g} px puts {count} points on an edge of {length:g} px, more than "
+            f"{MAX_EDGE_POINTS}: use a larger step"
+        )
+    return count
 
 
 def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
@@ -179,7 +204,8 @@ def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray
     Raises
     ------
     ValueError
-        For a ``step`` that is not a finite number > 0.
+        For a ``step`` that is not a finite number > 0, a box that is not finite, or a side
+        that would take more than ``MAX_EDGE_POINTS`` (2**22) points.
 
     Examples
     --------
@@ -282,7 +308,8 @@ def densify_polygon(polygon: np.ndarray, step: float | None) -> np.ndarray:
     Raises
     ------
     ValueError
-        For a ``step`` that is not None or a finite number > 0.
+        For a ``step`` that is not None or a finite number > 0, a vertex that is not finite,
+        or an edge that would take more than ``MAX_EDGE_POINTS`` (2**22) points.
 
     Examples
     --------
@@ -325,7 +352,7 @@ def clip_polygon(polygon: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     Raises
     ------
     ValueError
-        For a polygon that is not (V, 2).
+        For a polygon that is not (V, 2) or not finite.
 
     Examples
     --------
@@ -337,6 +364,8 @@ def clip_polygon(polygon: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     polygon = np.asarray(polygon, np.float64)
     if polygon.ndim != 2 or polygon.shape[1] != 2:
         raise ValueError(f"polygon has shape {polygon.shape}; expected (V, 2)")
+    if not np.isfinite(polygon).all():
+        raise ValueError("polygon holds values that are not finite (NaN or inf)")
     height, width = shape
     planes = ((0, -0.5, 1.0), (1, -0.5, 1.0), (0, width - 0.5, -1.0), (1, height - 0.5, -1.0))
     points = [tuple(p) for p in np.asarray(polygon, np.float64)]

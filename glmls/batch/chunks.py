@@ -79,7 +79,7 @@ def warp_chunks(
     groups = _groups(batch)
     for indices in groups.values():
         first = batch.images[indices[0]]
-        source = prepare_image(first, limit, normalized=True)
+        source = _prepared(first, limit, indices[0])
         frame = make_frame(options.output_shape, options.origin, source.shape, limit)
         lattice = MeshLattice.corners(source.shape, options.grid)
         budget = max_bytes or CHUNK_BYTES
@@ -248,6 +248,15 @@ def _drop_last(rgba: np.ndarray, squeeze: bool) -> np.ndarray:
     return out
 
 
+def _prepared(image: np.ndarray, limit: int, index: int) -> SourceImage:
+    """:func:`prepare_image` of the batch's image ``index``, its errors (a float64 value
+    beyond float32's range) naming it as ``images[index]``."""
+    try:
+        return prepare_image(image, limit, normalized=True)
+    except ValueError as error:
+        raise ValueError(f"images[{index}]: {error}") from None
+
+
 def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps):
     limit = warper.pipeline.max_image_size
     images = [batch.images[i] for i in chunk]
@@ -258,7 +267,7 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
         both = np.empty((len(images), *images[0].shape[:2], channels + 1), np.uint8)
         add_channel(np.stack(images), np.stack(masks), both)
         images = list(both)
-    sources = [prepare_image(image, limit, normalized=True) for image in images]
+    sources = [_prepared(image, limit, i) for image, i in zip(images, chunk, strict=True)]
     background = background_color(options.background, sources[0])
     if options.method == "backward":
         out = quads.backward(lattices, sources, options, frame, background)

@@ -11,7 +11,7 @@ import numpy as np
 from ..core.handles import COORDINATE_LIMIT, validate_handles
 from ..imaging.source import DTYPES, native_order
 
-__all__ = ["BatchInput", "check_batch", "stack_or_list"]
+__all__ = ["BatchInput", "check_batch", "check_points", "stack_or_list"]
 
 
 @dataclass(frozen=True)
@@ -67,9 +67,12 @@ def _image(array: np.ndarray, name: str) -> np.ndarray:
     return array
 
 
-def _points(array: np.ndarray, name: str, *, rows: str) -> np.ndarray:
-    """(``rows``, 2) finite float64 points within the coordinate limit (none may be given as
-    ``[]``)."""
+def check_points(array: np.ndarray, name: str, *, rows: str) -> np.ndarray:
+    """``array`` as (``rows``, 2) finite float64 points within the coordinate limit (none may
+    be given as ``[]``): the check of every handle set and keypoint set of a batch (and of
+    :class:`glmls.augment.Augment`'s keypoints and recorded handles). ``TypeError`` for
+    values that are not real numbers, ``ValueError`` for another shape, a value that is not
+    finite or one beyond the limit, each naming ``name``."""
     if array.dtype == object or not (
         np.issubdtype(array.dtype, np.number) and not np.issubdtype(array.dtype, np.complexfloating)
     ):
@@ -107,18 +110,18 @@ def _mask(array: np.ndarray, name: str, shape: tuple[int, int]) -> np.ndarray:
 
 def _point_items(value: object, name: str, *, rows: str) -> tuple[list[np.ndarray], bool]:
     """Per-image (P, 2) float64 point sets of ``value`` (:func:`_items`), each checked by
-    :func:`_points`: an (N, P, 2) array of real numbers all at once (the error, if any,
+    :func:`check_points`: an (N, P, 2) array of real numbers all at once (the error, if any,
     naming the first bad item as the item's own check would)."""
     if not isinstance(value, np.ndarray) or value.ndim != 3 or len(value) == 0:
         items, stacked = _items(value, name, (2,))
-        return [_points(a, f"{name}[{i}]", rows=rows) for i, a in enumerate(items)], stacked
-    _points(value[0], f"{name}[0]", rows=rows)  # dtype and shape, alike for every item
+        return [check_points(a, f"{name}[{i}]", rows=rows) for i, a in enumerate(items)], stacked
+    check_points(value[0], f"{name}[0]", rows=rows)  # dtype and shape, alike for every item
     points = np.asarray(value, dtype=np.float64)
     finite = np.isfinite(points).all(axis=(1, 2))
     limit = points.size and np.abs(points).max() > COORDINATE_LIMIT
     if not finite.all() or limit:
         for i, item in enumerate(points):  # the first bad item names itself
-            _points(item, f"{name}[{i}]", rows=rows)
+            check_points(item, f"{name}[{i}]", rows=rows)
     return list(points), True
 
 

@@ -93,12 +93,14 @@ def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     ``(vertices, faces)`` tuple, an object with ``.vertices`` alone (a
     ``trimesh.PointCloud``) or a (V, 3) array of points (no faces).
     ``ValueError``/``TypeError`` for anything else, or faces naming missing vertices;
-    ``TypeError`` naming the dtype for faces that are not integers (floats included)."""
+    ``TypeError`` naming the dtype for faces that are not integers (floats included). The
+    mesh's own ``vertex_normals`` are used where they are (V, 3) (else the faces' are): real
+    numbers (``TypeError``), finite (``ValueError``), each row scaled to at most 1 (only
+    their directions count)."""
     normals = None
     if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
         vertices, faces = mesh.vertices, mesh.faces  # type: ignore[attr-defined]
-        own = getattr(mesh, "vertex_normals", None)
-        normals = None if own is None else np.asarray(own, dtype=np.float64)
+        normals = getattr(mesh, "vertex_normals", None)
     elif isinstance(mesh, tuple) and len(mesh) == 2:
         vertices, faces = mesh
     elif hasattr(mesh, "vertices"):  # vertices alone (a trimesh.PointCloud): a point cloud
@@ -121,11 +123,29 @@ def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         )
     if len(f) and (f.min() < 0 or f.max() >= len(v)):
         raise ValueError(f"mesh faces name vertices outside 0..{len(v) - 1}")
-    if normals is not None and normals.shape != v.shape:
-        normals = None
+    if normals is not None:
+        normals = _own_normals(normals, v.shape)
     if f.dtype != np.int64 or f.flags.writeable:
         f = f.astype(np.int64)  # a copy: the caller's array may change (a glmls.Mesh's cannot)
     return v, f, normals
+
+
+def _own_normals(normals: object, shape: tuple[int, ...]) -> np.ndarray | None:
+    """A mesh's own vertex normals as (V, 3) float64 rows of largest component 1 (0 rows
+    stay 0): None where they are not of ``shape``; ``TypeError``/``ValueError`` where they
+    are not finite real numbers."""
+    array = np.asarray(normals)
+    if array.shape != shape:
+        return None
+    if array.dtype.kind not in "iuf":
+        raise TypeError(f"mesh vertex_normals must be real numbers, got dtype {array.dtype}")
+    array = array.astype(np.float64)
+    finite = np.isfinite(array).all(axis=1)
+    if not finite.all():
+        row = int(np.argmin(finite))
+        raise ValueError(f"mesh vertex_normals must be finite; row {row} is {array[row].tolist()}")
+    top = np.abs(array).max(axis=1, keepdims=True)
+    return array / np.where(top > 0, top, 1.0)  # directions: no overflow in float32 later
 
 
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

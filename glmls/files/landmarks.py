@@ -217,8 +217,12 @@ def elastix_physical(path: str | os.PathLike, *, dst: str | os.PathLike | None =
 
 def handle_dimension(path: str | os.PathLike, *, dst: str | os.PathLike | None = None) -> int:
     """The dimension of the handles in a file (or an elastix pair, ``dst`` the targets'),
-    2 or 3; ``InputFileError`` for a file that cannot be read as far as that."""
-    return _handle_rows(Path(path), dst)[0]
+    2 or 3; ``InputFileError`` for a file that cannot be read as far as that, or that holds
+    no handles (of no dimension: a volume's warp would call them 2D)."""
+    found, rows = _handle_rows(Path(path), dst)
+    if not rows.src and not rows.src_segments:
+        raise fail(Path(path), "content", "no handles")
+    return found
 
 
 def read_handle_set(path: str | os.PathLike, *, dst: str | os.PathLike | None = None) -> HandleSet:

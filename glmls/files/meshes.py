@@ -43,6 +43,15 @@ class Mesh:
     faces : array_like
         (F, 3) vertex indices of the triangles, each in [0, V); kept as int64.
 
+    Raises
+    ------
+    ValueError
+        For vertices that are not (V, 3) finite numbers (V >= 1), or faces that are not
+        (F, 3) indices of them.
+    TypeError
+        For vertices that are not real numbers (complex, strings, bools, objects), or faces
+        that are not integers.
+
     See Also
     --------
     read_mesh, write_mesh : the files.
@@ -58,8 +67,13 @@ class Mesh:
     faces: np.ndarray
 
     def __post_init__(self) -> None:
-        vertices = np.array(self.vertices, dtype=np.float64)
-        faces = np.asarray(self.faces)
+        try:
+            given, faces = np.asarray(self.vertices), np.asarray(self.faces)
+        except ValueError:  # ragged rows
+            raise ValueError("vertices and faces must be rows of 3 numbers each") from None
+        if given.dtype.kind not in "iuf":  # complex would lose its imaginary part silently
+            raise TypeError(f"vertices must be real numbers, got dtype {given.dtype}")
+        vertices = np.array(given, dtype=np.float64)
         if vertices.ndim != 2 or vertices.shape[1] != 3 or not len(vertices):
             raise ValueError(f"vertices must be (V, 3) with V >= 1, got shape {vertices.shape}")
         if not np.isfinite(vertices).all():
@@ -70,13 +84,13 @@ class Mesh:
             np.issubdtype(faces.dtype, np.floating) and (faces == np.round(faces)).all()
         ):
             raise TypeError(f"faces must be integer vertex indices, got dtype {faces.dtype}")
-        faces = np.array(faces, dtype=np.int64)
         if faces.ndim != 2 or faces.shape[1] != 3:
             raise ValueError(f"faces must be (F, 3) triangles, got shape {faces.shape}")
+        # the range before the cast to int64: a uint64 index of 2**63 must not wrap
         if len(faces) and (faces.min() < 0 or faces.max() >= len(vertices)):
-            raise ValueError(
-                f"faces index vertices 0..{len(vertices) - 1}, got {faces.min()}..{faces.max()}"
-            )
+            low, high = int(faces.min()), int(faces.max())
+            raise ValueError(f"faces index vertices 0..{len(vertices) - 1}, got {low}..{high}")
+        faces = np.array(faces, dtype=np.int64)
         vertices.flags.writeable = False
         faces.flags.writeable = False
         object.__setattr__(self, "vertices", vertices)
@@ -203,6 +217,9 @@ def write_mesh(path: str | os.PathLike, mesh: object, *, faces: object = None) -
     ValueError
         Before writing anything, for an unknown suffix or a bad mesh (no faces where
         neither ``mesh`` nor ``faces`` gives them), or a point cloud to STL.
+    TypeError
+        Before writing anything, for vertices that are not real numbers or faces that are
+        not integers.
     OSError
         Naming ``path``, for a file that cannot be written.
 

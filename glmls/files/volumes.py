@@ -116,7 +116,8 @@ class Volume:
         matrix, or a spacing of another length than 3 or with a value that is not finite
         and > 0.
     TypeError
-        For a spacing that is not a sequence of real numbers (a number, a string).
+        For data that is not real numbers (complex, objects, strings), or a spacing that is
+        not a sequence of real numbers (a number, a string).
 
     See Also
     --------
@@ -138,6 +139,10 @@ class Volume:
         if data.ndim not in (3, 4) or data.size == 0:
             raise ValueError(
                 f"a volume is (D, H, W) or (D, H, W, C) and not empty, got shape {data.shape}"
+            )
+        if data.dtype.kind not in "biuf":  # no volume format holds complex numbers or objects
+            raise TypeError(
+                f"a volume holds real numbers (bool, integers or floats), got dtype {data.dtype}"
             )
         object.__setattr__(self, "data", data)
         if self.spacing is not None:
@@ -347,8 +352,8 @@ def read_volume(path: str | os.PathLike) -> Volume:
             volume = _read_nifti(path)
     except InputFileError:
         raise
-    except (tifffile.TiffFileError, ImportError, *_CORRUPT) as error:
-        if isinstance(error, ValueError) and str(error).startswith("a volume is"):
+    except (tifffile.TiffFileError, ImportError, TypeError, *_CORRUPT) as error:
+        if isinstance(error, (TypeError, ValueError)) and str(error).startswith("a volume "):
             raise InputFileError(f"{path}: {error}") from None
         raise InputFileError(f"{path}: not a readable {suffix} volume: {error}") from None
     return volume
@@ -508,7 +513,8 @@ def write_volume(
         is an image), or a spacing of another length than 3 or with a value that is not a
         finite number > 0.
     TypeError
-        Before writing anything: a spacing that is not a sequence of real numbers.
+        Before writing anything: data that is not real numbers (complex, objects), or a
+        spacing that is not a sequence of real numbers.
     OSError
         Naming ``path``, for a file that cannot be written.
 

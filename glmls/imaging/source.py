@@ -21,6 +21,7 @@ __all__ = [
     "INTERPOLATIONS",
     "METHODS",
     "SourceImage",
+    "as_float32",
     "as_rgba8",
     "background_color",
     "check_background",
@@ -120,15 +121,21 @@ def prepare_image(image: object, max_size: int, *, normalized: bool = False) -> 
         return SourceImage(
             np.ascontiguousarray(array.reshape(height, width, -1)), array.dtype, squeeze, True
         )
+    data = as_float32(array.reshape(height, width, -1))
+    return SourceImage(data, array.dtype, squeeze)
+
+
+def as_float32(array: np.ndarray, name: str = "image") -> np.ndarray:
+    """``array`` as a C-contiguous float32 array, as the GPU holds it; ``ValueError`` naming
+    ``name`` where a finite value lies beyond float32's range (it would become inf)."""
     try:
         with np.errstate(over="raise"):
-            data = np.ascontiguousarray(array.reshape(height, width, -1), dtype=np.float32)
+            return np.ascontiguousarray(array, dtype=np.float32)
     except FloatingPointError:
         top = float(np.abs(array[np.isfinite(array)]).max())
         raise ValueError(
-            f"image values must lie within float32's range (±3.4e38, the GPU's), got {top:g}"
+            f"{name} values must lie within float32's range (±3.4e38, the GPU's), got {top:g}"
         ) from None
-    return SourceImage(data, array.dtype, squeeze)
 
 
 def _is_real(value: object) -> bool:

@@ -114,12 +114,14 @@ class VolumeWarper:
         source = prepare_volume(volume)
         frame = make_volume_frame(options, source.shape)
         background = volume_background(options.background, source)
+        backward = options.method == "backward"
+        per_voxel = COORD_BYTES + SLOPE_BYTES if backward else KEY_BYTES
+        # the GL limits on the output's slices first: an output_shape beyond them is a
+        # ValueError, not the allocation of its array
+        planned = list(self.slabs(frame, max(per_voxel, source.voxel_bytes), slabs.slab_bytes))
         out = source.empty_output(frame.shape)
         texture = SourceTexture(self._gl, source, slabs.texture_bytes)
         try:
-            backward = options.method == "backward"
-            per_voxel = COORD_BYTES + SLOPE_BYTES if backward else KEY_BYTES
-            planned = list(self.slabs(frame, max(per_voxel, source.voxel_bytes), slabs.slab_bytes))
             survey = len(planned) > 1
             bands = self._bands(field, source.shape, frame, options, slabs, survey=survey)
             for slab in planned:
@@ -168,8 +170,8 @@ class VolumeWarper:
         self._resources.check_alive()
         slabs = slabs if slabs is not None else SlabOptions()
         frame = make_volume_frame(options, shape)
-        points = np.empty((*frame.shape, 4), np.float32)
         planned = list(self.slabs(frame, COORD_BYTES + SLOPE_BYTES, slabs.slab_bytes))
+        points = np.empty((*frame.shape, 4), np.float32)
         bands = self._bands(field, shape, frame, options, slabs, survey=len(planned) > 1)
         for slab in planned:
             coords = self._solve(field, bands, frame, slab, options, shape)

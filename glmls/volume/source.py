@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..files.volumes import Volume
+from ..imaging.source import as_float32
 
 __all__ = [
     "VOLUME_DTYPES",
@@ -132,8 +133,9 @@ def prepare_volume(volume: object) -> SourceVolume:
     squeeze = array.ndim == 3
     data = array[..., None] if squeeze else array
     dtype = array.dtype
-    target = np.float32 if dtype == np.float64 else dtype
-    return SourceVolume(np.ascontiguousarray(data, dtype=target), np.dtype(dtype), squeeze)
+    if dtype == np.float64:  # values beyond float32's range are refused, not made inf
+        return SourceVolume(as_float32(data, "volume"), np.dtype(dtype), squeeze)
+    return SourceVolume(np.ascontiguousarray(data), np.dtype(dtype), squeeze)
 
 
 def volume_background(background: object, volume: SourceVolume) -> tuple[float, ...]:

@@ -1,0 +1,140 @@
+"""Hostile inputs to glmls.augment.Augment: keypoints, recorded params and shapes that are
+not what they should be are refused, the error naming the item, before any warp."""
+
+from __future__ import annotations
+
+import copy
+import json
+
+import numpy as np
+import pytest
+
+from glmls.augment import Augment, box_outlines, clip_polygon, densify_polygon
+
+IMAGES = np.random.default_rng(0).integers(0, 255, (2, 16, 20), dtype=np.uint8)
+
+
+@pytest.mark.parametrize(
+    "points",
+    [
+        np.ones((2, 2, 2), np.complex128),  # the imaginary part may not be dropped
+        [np.array([[1, None]])] * 2,
+        [np.array([["a", "b"]])] * 2,
+    ],
+)
+def test_keypoints_that_are_not_real_numbers_are_refused(points):
+    with pytest.raises(TypeError, match=r"keypoints\[0\] has dtype .*; expected real numbers"):
+        Augment("grid")(IMAGES, keypoints=points)
+
+
+@pytest.fixture
+def recorded(gl):
+    aug = Augment("grid", seed=3)
+    return aug, json.loads(json.dumps(aug(IMAGES).params))
+
+
+def _edited(params, edit):
+    params = copy.deepcopy(params)
+    edit(params)
+    return params
+
+
+@pytest.mark.parametrize(
+    ("edit", "error", "message"),
+    [
+        (lambda p: p[1].__setitem__("src", "abc"), TypeError, r"params\[1\]\['src'\] has dtype"),
+        (
+            lambda p: p[0]["dst"].__setitem__(0, [1.0]),
+            ValueError,
+            r"params\[0\]\['dst'\] must be \(K, 2\) rows of numbers",
+        ),
+        (
+            lambda p: p[0].__setitem__("src", [[1.0, 2.0, 3.0]]),
+            ValueError,
+            r"params\[0\]\['src'\] has shape \(1, 3\); expected \(K, 2\)",
+        ),
+        (
+            lambda p: [d["options"].__setitem__("keypoints", 1) for d in p],
+            TypeError,
+            r"params\[0\]\['options'\] cannot hold keypoints",
+        ),
+        (
+            lambda p: [d["options"].__setitem__("method", "swirl") for d in p],
+            ValueError,
+            r"params\[0\]\['options'\]: unknown method 'swirl'",
+        ),
+    ],
+)
+def test_replay_of_edited_params_names_the_bad_entry(recorded, edit, error, message):
+    aug, params = recorded
+    with pytest.raises(error, match=message):
+        aug.replay(IMAGES, _edited(params, edit))
+
+
+def test_replay_of_the_params_through_json_gives_the_same_images(recorded):
+    aug, params = recorded
+    first = aug.replay(IMAGES, params)
+    np.testing.assert_array_equal(first.images, aug(IMAGES).images)
+    np.testing.assert_array_equal(aug.replay(IMAGES, params).images, first.images)
+
+
+@pytest.mark.parametrize(
+    ("shapes", "error", "message"),
+    [
+        ([(0, 5)], ValueError, r"shapes\[0\]: shape must be \(H, W\) with H, W >= 1"),
+        ([(8, 8), (-3, 5)], ValueError, r"shapes\[1\]: shape must be \(H, W\) with H, W >= 1"),
+        ([(3.5, 5)], ValueError, r"shapes\[0\]: shape must be \(H, W\) integers"),
+        ("ab", TypeError, "shapes must be a sequence of"),
+    ],
+)
+def test_draw_refuses_shapes_that_are_no_image_sizes(shapes, error, message):
+    with pytest.raises(error, match=message):
+        Augment("grid").draw(shapes)
+
+
+def test_draw_takes_an_image_s_shape_with_its_channels():
+    aug = Augment("grid", rows=2, cols=2)
+    assert aug.draw([(8, 9, 3)]) == aug.draw([(8, 9)])
+
+
+@pytest.mark.parametrize(
+    ("labels", "error", "message"),
+    [
+        ({"boxes": [np.ones((1, 4), np.complex128), []]}, TypeError, r"boxes\[0\] has dtype"),
+        ({"polygons": [[np.ones((3, 2), np.complex128)], []]}, TypeError, r"polygons\[0\]\[0\]"),
+        ({"boxes": [[[0, 0, 1e30, 4]], []]}, ValueError, r"boxes\[0\] must lie within"),
+        (
+            {"polygons": [[[[1, 1], [1e30, 1], [5, 8]]], []]},
+            ValueError,
+            r"polygons\[0\]\[0\] must lie within",  # not the keypoints they become
+        ),
+    ],
+)
+def test_labels_that_are_not_real_coordinates_are_named(labels, error, message):
+    with pytest.raises(error, match=message):
+        Augment("grid")(IMAGES, **labels)
+
+
+@pytest.mark.parametrize(
+    ("options", "labels", "message"),
+    [
+        ({"box_step": 1e-9}, {"boxes": [[[1, 1, 10, 10]], []]}, r"boxes\[0\] with box_step=1e-09"),
+        (
+            {"densify": 1e-9},
+            {"polygons": [[[[1, 1], [10, 1], [5, 8]]], []]},
+            r"polygons\[0\] with densify=1e-09",
+        ),
+    ],
+)
+def test_a_step_that_would_take_billions_of_points_is_refused(options, labels, message):
+    with pytest.raises(ValueError, match=message + r": step 1e-09 px puts \d+ points"):
+        Augment("grid", **options)(IMAGES, **labels)
+
+
+def test_the_label_helpers_refuse_coordinates_that_are_not_finite():
+    with pytest.raises(ValueError, match="polygon holds values that are not finite"):
+        clip_polygon(np.array([[1.0, 1.0], [np.nan, 1.0], [5.0, 8.0]]), (20, 24))
+    with pytest.raises(ValueError, match="coordinates must be finite"):
+        box_outlines(np.array([[0.0, 0.0, np.inf, 4.0]]), 2.0)
+    with pytest.raises(ValueError, match="use a larger step"):
+        densify_polygon(np.array([[0.0, 0.0], [9.0, 0.0], [5.0, 8.0]]), 1e-12)

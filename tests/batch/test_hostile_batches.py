@@ -1,0 +1,70 @@
+"""Hostile inputs to glmls.warp_batch: what glmls.warp takes, a batch takes too, with the
+same result; inputs are never modified."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import glmls
+
+
+@pytest.fixture
+def batch():
+    rng = np.random.default_rng(0)
+    images = (rng.random((3, 12, 14)) * 60000).astype(np.uint16)
+    src = np.array([[[2.0, 2], [10, 2], [2, 9], [10, 9]]] * 3)
+    return images, src, src + [1.0, 0.5]
+
+
+@pytest.mark.parametrize("method", ["quads", "backward", "splat"])
+def test_big_endian_images_warp_as_glmls_warp_warps_them(gl, batch, method):
+    images, src, dst = batch
+    swapped = images.astype(">u2")
+    kept = swapped.copy()
+    expected = np.stack(
+        [
+            glmls.warp(i, s, d, method=method, ctx=gl)
+            for i, s, d in zip(swapped, src, dst, strict=True)
+        ]
+    )
+    stacked = glmls.warp_batch(swapped, src, dst, method=method, ctx=gl)
+    listed = glmls.warp_batch(list(swapped), list(src), list(dst), method=method, ctx=gl)
+    np.testing.assert_array_equal(stacked, expected)
+    np.testing.assert_array_equal(listed, expected)
+    assert stacked.dtype == np.uint16
+    np.testing.assert_array_equal(swapped, kept)
+
+
+def test_big_endian_masks_warp_as_native_ones(gl, batch):
+    images, src, dst = batch
+    masks = (images % 5).astype(np.uint16)
+    native = glmls.warp_batch(images, src, dst, masks=masks, ctx=gl)
+    swapped = glmls.warp_batch(images, src, dst, masks=masks.astype(">u2"), ctx=gl)
+    np.testing.assert_array_equal(swapped.masks, native.masks)
+
+
+def test_the_same_batch_twice_gives_the_same_result_and_leaves_its_inputs(gl, batch):
+    images, src, dst = batch
+    keypoints = np.random.default_rng(1).random((3, 5, 2)) * 10
+    masks = (images % 3).astype(np.uint8)
+    given = [a.copy() for a in (images, src, dst, keypoints, masks)]
+    first = glmls.warp_batch(images, src, dst, keypoints=keypoints, masks=masks, ctx=gl)
+    second = glmls.warp_batch(
+        np.asfortranarray(images), src, dst, keypoints=keypoints, masks=masks, ctx=gl
+    )
+    np.testing.assert_array_equal(first.images, second.images)
+    np.testing.assert_array_equal(first.keypoints, second.keypoints)
+    np.testing.assert_array_equal(first.masks, second.masks)
+    for now, before in zip((images, src, dst, keypoints, masks), given, strict=True):
+        np.testing.assert_array_equal(now, before)
+
+
+@pytest.mark.parametrize("method", ["quads", "backward"])
+@pytest.mark.parametrize("stacked", [True, False])
+def test_a_float64_value_beyond_float32_names_its_image(gl, method, stacked):
+    images = np.zeros((3, 8, 8))
+    images[2, 3, 3] = 1e300
+    given = images if stacked else list(images)
+    with pytest.raises(ValueError, match=r"^images\[2\]: image values must lie within float32"):
+        glmls.warp_batch(given, np.zeros((3, 1, 2)), np.ones((3, 1, 2)), method=method, ctx=gl)

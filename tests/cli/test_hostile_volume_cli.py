@@ -1,0 +1,41 @@
+"""Hostile files to ``glmls warp`` and ``glmls analyze`` on volumes and meshes: one line
+naming the file and the fault, exit status 2, no traceback, no output written."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from helpers import run_glmls as cli
+
+import glmls
+
+
+@pytest.fixture
+def files(tmp_path):
+    volume = (np.random.default_rng(0).random((6, 7, 8)) * 250).astype(np.uint8)
+    np.save(tmp_path / "v.npy", volume)
+    glmls.write_mesh(
+        tmp_path / "m.ply", [[0, 0, 0], [4, 0, 0], [0, 4, 0], [0, 0, 4]], faces=[[0, 1, 2]]
+    )
+    (tmp_path / "none.json").write_text(json.dumps({"src": [], "dst": []}))
+    (tmp_path / "out").mkdir()
+    return tmp_path
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("warp", "v.npy", "out/o.npy"),
+        ("warp", "m.ply", "out/o.ply", "--radius", "10", "--weight", "gaussian"),
+        ("analyze", "v.npy", "--out", "out/a"),
+    ],
+)
+def test_a_handle_file_of_no_handles_is_named_as_such_not_as_2d(files, args):
+    result = cli(*args, "--handles", "none.json", cwd=files)
+    assert result.returncode == 2, result.stderr
+    assert "Traceback" not in result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert lines == ["glmls " + args[0] + ": none.json: content: no handles"], lines
+    assert not list((files / "out").iterdir())

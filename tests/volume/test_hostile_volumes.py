@@ -1,0 +1,192 @@
+"""Hostile inputs to the 3D surface: each is refused with a ValueError or TypeError naming
+the bad value, or gives the documented result; never an error from deep inside, a huge
+allocation or a silent wrong answer."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+import glmls
+from glmls import analysis
+from glmls.errors import InputFileError
+
+SRC = np.array([[0.0, 0, 0], [7, 0, 0], [0, 7, 0], [0, 0, 7], [7, 7, 7]])
+DST = SRC + [[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0], [0, 0, 0]]
+
+
+@pytest.fixture
+def mls3(gl):
+    m = glmls.MLS(SRC, DST, ctx=gl)
+    yield m
+    m.release()
+
+
+@pytest.fixture
+def volume():
+    return (np.random.default_rng(1).random((6, 7, 8)) * 250).astype(np.uint8)
+
+
+def test_the_error_field_of_an_mls_without_handles_is_zero(gl):
+    with glmls.MLS(np.zeros((0, 3)), np.zeros((0, 3)), ctx=gl) as m:
+        field = analysis.volume_error_field(m, (3, 4, 5))
+    assert field.shape == (3, 4, 5)
+    assert (field == 0).all()
+
+
+@pytest.mark.parametrize("shape", [(2.5, 3, 3), (3, 3.5, 3, 1), (True, 3, 3)])
+@pytest.mark.parametrize("analyse", [analysis.volume_error_field, analysis.cell_jacobians])
+def test_the_3d_analyses_refuse_a_shape_that_is_not_integers(mls3, analyse, shape):
+    with pytest.raises(ValueError, match=r"shape must be \(D, H, W\) integers"):
+        analyse(mls3, shape)
+
+
+@pytest.mark.parametrize("method", ["quads", "backward"])
+def test_an_output_shape_beyond_the_gl_limit_is_refused_before_its_array_is_made(
+    mls3, volume, method
+):
+    huge = (10**6, 10**6, 10**6)  # 1e18 voxels: no allocation may be tried
+    with pytest.raises(ValueError, match="exceed the GL 3D texture size limit"):
+        mls3.warp(volume, method=method, output_shape=huge)
+    with pytest.raises(ValueError, match="exceed the GL 3D texture size limit"):
+        mls3.coordinate_map(volume.shape, output_shape=huge)
+
+
+@pytest.mark.parametrize(
+    "layout",
+    [
+        np.asfortranarray,
+        lambda v: v[::-1, :, ::-1].copy()[::-1, :, ::-1],  # negative strides
+        lambda v: v.astype(">u2").astype(">u2"),  # big-endian
+        lambda v: np.frombuffer(v.tobytes(), v.dtype).reshape(v.shape),  # read-only
+    ],
+)
+@pytest.mark.parametrize("method", ["quads", "backward"])
+def test_any_memory_layout_gives_the_c_ordered_volume_s_result(mls3, volume, layout, method):
+    given = layout(volume)
+    kept = given.copy()
+    expected = mls3.warp(np.ascontiguousarray(volume, given.dtype.newbyteorder("=")), method=method)
+    first, second = mls3.warp(given, method=method), mls3.warp(given, method=method)
+    np.testing.assert_array_equal(first, expected)
+    np.testing.assert_array_equal(second, first)
+    np.testing.assert_array_equal(given, kept)  # not modified in place
+
+
+@pytest.mark.parametrize("dtype", [np.complex128, object, "U3", "datetime64[s]"])
+def test_a_volume_of_no_real_numbers_is_refused_and_no_file_is_written(tmp_path, dtype):
+    data = np.zeros((2, 3, 4), dtype)
+    with pytest.raises(
+        TypeError, match=f"a volume holds real numbers .*got dtype {re.escape(str(data.dtype))}"
+    ):
+        glmls.Volume(data)
+    for suffix in (".nii", ".npy", ".tif"):
+        with pytest.raises(TypeError, match="a volume holds real numbers"):
+            glmls.write_volume(tmp_path / f"out{suffix}", data)
+    assert not list(tmp_path.iterdir())
+
+
+def test_reading_a_npy_of_complex_numbers_names_the_file(tmp_path):
+    path = tmp_path / "complex.npy"
+    np.save(path, np.zeros((2, 3, 4), np.complex64))
+    with pytest.raises(InputFileError, match=r"complex\.npy: a volume holds real numbers"):
+        glmls.read_volume(path)
+
+
+def test_a_mesh_face_index_beyond_int64_is_named_as_given():
+    vertices = [[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    faces = np.array([[0, 1, 2**63]], np.uint64)
+    with pytest.raises(
+        ValueError, match=r"faces index vertices 0\.\.2, got 0\.\.9223372036854775808"
+    ):
+        glmls.Mesh(vertices, faces)
+
+
+@pytest.mark.parametrize("method", ["quads", "backward"])
+@pytest.mark.parametrize("value", [1e300, -1e39])
+def test_float64_values_beyond_float32_are_refused_not_made_inf(mls3, method, value):
+    volume = np.full((4, 5, 6), value)
+    with pytest.raises(ValueError, match=r"volume values must lie within float32's range"):
+        mls3.warp(volume, method=method)
+
+
+def test_float64_infinities_stay_what_they_are(mls3):
+    volume = np.zeros((4, 5, 6))
+    volume[2, 2, 2] = np.inf
+    out = mls3.warp(volume, interpolation="nearest")
+    assert np.isinf(out).sum() == 1
+
+
+class _Mesh:
+    """A mesh object with its own vertex normals, as a trimesh.Trimesh has."""
+
+    def __init__(self, normals):
+        self.vertices = np.array([[0.0, 0, 0], [4, 0, 0], [0, 4, 0]])
+        self.faces = np.array([[0, 1, 2]])
+        self.vertex_normals = normals
+
+
+def test_a_mesh_s_own_normals_of_any_scale_give_the_unit_normals(mls3):
+    unit = mls3.deform(_Mesh(np.tile([0.0, 0, 1], (3, 1)))).normals
+    for scale in (1e-300, 1e300):  # float32 would make them 0 or inf
+        normals = mls3.deform(_Mesh(np.tile([0.0, 0, scale], (3, 1)))).normals
+        np.testing.assert_allclose(normals, unit, atol=1e-6)
+    np.testing.assert_allclose(np.linalg.norm(unit, axis=1), 1.0, atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("normals", "error", "message"),
+    [
+        (np.full((3, 3), np.nan), ValueError, r"vertex_normals must be finite; row 0"),
+        (np.ones((3, 3), np.complex128), TypeError, "vertex_normals must be real numbers"),
+    ],
+)
+def test_a_mesh_s_own_normals_must_be_finite_real_numbers(mls3, normals, error, message):
+    with pytest.raises(error, match=message):
+        mls3.deform(_Mesh(normals))
+
+
+@pytest.mark.parametrize(
+    ("vertices", "error", "message"),
+    [
+        (np.ones((3, 3), np.complex128), TypeError, "vertices must be real numbers, got dtype"),
+        ("abc", TypeError, "vertices must be real numbers, got dtype <U3"),
+        (np.ones((3, 3), bool), TypeError, "vertices must be real numbers, got dtype bool"),
+        ([[0, 0, 0], [1, 0]], ValueError, "rows of 3 numbers each"),
+    ],
+)
+def test_a_mesh_s_vertices_must_be_real_numbers(tmp_path, vertices, error, message):
+    with pytest.raises(error, match=message):
+        glmls.Mesh(vertices, [[0, 1, 2]])
+    with pytest.raises(error, match=message):
+        glmls.write_mesh(tmp_path / "out.ply", vertices, faces=[[0, 1, 2]])
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize(
+    ("options", "error", "message"),
+    [
+        ({"eps": 0}, ValueError, "eps must be a finite positive number, got 0"),
+        ({"min_quality": 1}, ValueError, r"min_quality must be in \[0, 1\), got 1"),
+        ({"warp": "no"}, TypeError, "warp must be True or False, got 'no'"),
+        ({"near": -1}, ValueError, r"near must be a finite number >= 0 \(voxels\), got -1"),
+        ({"near": float("nan")}, ValueError, "near must be a finite number >= 0"),
+    ],
+)
+def test_volume_report_refuses_bad_options_even_where_the_handles_form_no_tetrahedron(
+    gl, options, error, message
+):
+    # four coplanar handles: no tetrahedron, which the report leaves out (and must not take
+    # the bad option's error for)
+    src = np.array([[1.0, 1, 2], [5, 1, 2], [1, 5, 2], [5, 5, 2]])
+    with glmls.MLS(src, src + [0.5, 0, 0], ctx=gl) as m:
+        with pytest.raises(error, match=message):
+            analysis.volume_report(np.zeros((4, 6, 7), np.uint8), m, **options)
+
+
+def test_volume_slices_of_nan_are_refused():
+    volume = np.zeros((3, 4, 5), np.float32)
+    volume[1, 2, 3] = np.nan
+    with pytest.raises(ValueError, match="volume holds NaN or infinite values"):
+        analysis.render_volume_slices(volume)
