@@ -58,6 +58,7 @@ uniform int u_count;
 #endif
 #endif
 
+#if !MLS_ERROR_INTERPOLATE
 // Handle i's squared residual |p_i M + T - q_i|^2 at the point (r: f there), added to e. A
 // residual below float32's resolution of its terms is rounding noise: it counts as 0, so
 // that a deformation that fits every handle exactly (identity) gives E = 0.
@@ -70,6 +71,7 @@ void mls_error_add(inout float e, MLSResult r, vec2 v, int i, bool use) {
     e += use && res2 > floor * floor ? res2 : 0.0;
 }
 #define MLS_ERROR_ADD(i, use) mls_error_add(e, r, v, i, use);
+#endif
 
 void main() {
     ivec2 ij = ivec2(gl_GlobalInvocationID.xy);
