@@ -239,8 +239,8 @@ def read_labels(path: str, files: list[Path]) -> dict[str, dict]:
         for key, columns in (("keypoints", 2), ("boxes", 4)):
             if key not in entry:
                 continue
-            try:
-                array = np.asarray(entry[key], dtype=np.float64)
+            try:  # JSON's true and false are no coordinates, though numpy takes them as 1, 0
+                array = np.asarray(entry[key], dtype=np.float64) if _numbers(entry[key]) else None
             except (TypeError, ValueError):
                 array = None
             if array is not None and array.size == 0:
@@ -254,6 +254,13 @@ def read_labels(path: str, files: list[Path]) -> dict[str, dict]:
                 raise UsageError(f"{path}: {name!r} {key} holds values that are not finite")
             entry[key] = array.tolist()
     return data
+
+
+def _numbers(value: object) -> bool:
+    """Whether a JSON value is a number or (nested) lists of numbers, not booleans."""
+    if isinstance(value, list):
+        return all(_numbers(item) for item in value)
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def _remove_temporaries(tasks: list[AugmentTask]) -> None:

@@ -215,3 +215,19 @@ def test_an_unexpected_error_leaves_no_temporary_file(inputs, gl, monkeypatch):
     with pytest.raises(RuntimeError, match="went away"):
         command.augment_file(_task(inputs, 3))
     assert not any((inputs / "chunks").iterdir())
+
+
+@pytest.mark.parametrize(
+    "keypoints", [[[True, 2.0]], [[1.0, False]], [["1", 2.0]], [[1.0, None]], [[[1.0], 2.0]]]
+)
+def test_labels_that_are_not_numbers_are_named(tmp_path, keypoints):
+    """JSON's true and false are no coordinates, though numpy reads them as 1 and 0."""
+    from glmls.cli.augment import read_labels
+    from glmls.cli.options import UsageError
+
+    (tmp_path / "labels.json").write_text(json.dumps({"a.png": {"keypoints": keypoints}}))
+    with pytest.raises(UsageError, match=r"'a\.png' keypoints must be a list of \[2 numbers\]"):
+        read_labels(str(tmp_path / "labels.json"), [tmp_path / "a.png"])
+    (tmp_path / "labels.json").write_text(json.dumps({"a.png": {"keypoints": [[1, 2.5]]}}))
+    labels = read_labels(str(tmp_path / "labels.json"), [tmp_path / "a.png"])
+    assert labels["a.png"]["keypoints"] == [[1.0, 2.5]]
