@@ -285,7 +285,7 @@ def test_an_output_that_cannot_be_written_is_named_once_with_status_1(
     from glmls.cli import warp
     from glmls.cli.main import main
 
-    def full(path, image):
+    def full(path, image, **options):
         raise OSError(f"{path}: cannot write: No space left on device")
 
     monkeypatch.setattr(warp, "write_image", full)
