@@ -35,12 +35,12 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 from scipy.stats import kendalltau
 
-from ..core.config import MLSConfig, image_diagonal
+from ..core.config import MLSConfig, check_seed, image_diagonal
 from ..data.manifest import StudyItem
 from ..files.atomic import atomic_write
 from .colormaps import VIRIDIS
 from .jobs import run_jobs
-from .tuning import TuneResult, check_seed, label, parse_config, search_space, tune
+from .tuning import TuneResult, label, parse_config, search_space, tune
 
 __all__ = ["StudyResult", "StudyTask", "render_heatmap", "study", "tune_item"]
 

@@ -34,7 +34,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from scipy.stats import rankdata
 
-from ..core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig, image_diagonal
+from ..core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig, check_seed, image_diagonal
 from ..core.handleset import HandleSet
 from ..core.mesh import as_shape
 from ..errors import DegenerateHandlesError
@@ -48,7 +48,6 @@ __all__ = [
     "MEASURES",
     "MISS_LIMIT",
     "TuneResult",
-    "check_seed",
     "label",
     "parse_config",
     "search_space",
@@ -305,13 +304,6 @@ def _run_job(job: _Job, ctx: GLContext | None = None) -> list[dict] | str:
         )
     except DegenerateHandlesError as error:
         return str(error)
-
-
-def check_seed(seed: object) -> int:
-    """``seed`` if it is an integer >= 0 (the edits' seed), else ``ValueError`` naming it."""
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
-    return int(seed)
 
 
 def _check_magnitudes(magnitudes: object) -> tuple[float, ...]:

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..batch import BatchResult, warp_batch
 from ..batch.inputs import check_points
-from ..core.config import MLSConfig
+from ..core.config import MLSConfig, check_flag, check_seed
 from ..core.handles import COORDINATE_LIMIT
 from ..core.mesh import as_shape
 from ..imaging.options import FIELDS, WarpOptions
@@ -308,24 +308,20 @@ class Augment:
         clip_polygons: bool = True,
         **preset_options: object,
     ) -> None:
-        if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
-            raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
-        if seed < 0:
-            raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+        seed = check_seed(seed)
         self.box_step = lab.check_positive("box_step", box_step)
         self.densify = None if densify is None else lab.check_positive("densify", densify)
-        if not isinstance(clip_polygons, (bool, np.bool_)):
-            raise TypeError(f"clip_polygons must be True or False, got {clip_polygons!r}")
+        clip_polygons = check_flag("clip_polygons", clip_polygons)
         if warp_options is not None and not isinstance(warp_options, Mapping):
             raise TypeError(f"warp_options must be a mapping, got {type(warp_options)}")
         given = dict(warp_options or {})
         _check_warp_options(given)
         self.preset = preset_from(preset, preset_options)
-        self.seed = int(seed)
+        self.seed = seed
         packed = given.pop("options", None)  # a WarpOptions: its fields, JSON in the params
         fields = {} if packed is None else dataclasses.asdict(packed)
         self.warp_options = {**DEFAULT_WARP_OPTIONS, **fields, **given}
-        self.clip_polygons = bool(clip_polygons)
+        self.clip_polygons = clip_polygons
 
     def __repr__(self) -> str:
         return f"Augment({self.preset!r}, seed={self.seed})"

@@ -16,6 +16,7 @@ __all__ = [
     "WEIGHTS",
     "MLSConfig",
     "check_flag",
+    "check_seed",
     "image_diagonal",
     "transform_code",
 ]
@@ -59,6 +60,14 @@ def check_flag(name: str, value: object) -> bool:
     if not isinstance(value, (bool, np.bool_)):
         raise TypeError(f"{name} must be True or False, got {value!r}")
     return bool(value)
+
+
+def check_seed(seed: object) -> int:
+    """``seed`` if it is an integer >= 0 (a random draw's seed), else ``ValueError`` naming
+    it (True is no seed)."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    return int(seed)
 
 
 @dataclass(frozen=True)
