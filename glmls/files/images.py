@@ -33,7 +33,7 @@ from PIL import Image, ImageOps, UnidentifiedImageError
 
 from ..errors import ImageWarning
 from .profiles import profile_problem, with_png_profile
-from .tiffs import quiet_tifffile
+from .tiffs import TIFF_SIGNATURES, quiet_tifffile
 
 __all__ = ["DEFAULT_MAX_PIXELS", "WRITABLE", "check_writable", "imread", "imwrite"]
 
@@ -53,7 +53,6 @@ WRITABLE = {
 #: Formats of colour images only: a grey image would come back RGB (or RGBA).
 _COLOUR_ONLY = (".webp",)
 _PNG = b"\x89PNG\r\n\x1a\n"
-_TIFF = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
 #: Decoding failures of a corrupt file, whichever library meets them.
 _CORRUPT = (
     OSError,
@@ -149,7 +148,7 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     try:
         if head.startswith(_PNG) and len(head) >= 26 and head[24] == 16:
             return _read_png16(path, head, max_pixels)
-        if head[:4] in _TIFF:
+        if head[:4] in TIFF_SIGNATURES:
             return _read_tiff(path, max_pixels)
         return _read_pillow(path, max_pixels)
     except _CORRUPT as error:

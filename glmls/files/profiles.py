@@ -18,13 +18,12 @@ from pathlib import Path
 import tifffile
 from PIL import Image
 
-from .tiffs import quiet_tifffile
+from .tiffs import TIFF_SIGNATURES, quiet_tifffile
 
 __all__ = ["HOLD_PROFILES", "profile_problem", "read_icc_profile", "with_png_profile"]
 
 HOLD_PROFILES = (".png", ".tif", ".tiff", ".jpg", ".jpeg", ".webp")
 _SPACES = {b"RGB ": "RGB", b"GRAY": "grey", b"CMYK": "CMYK", b"Lab ": "Lab", b"XYZ ": "XYZ"}
-_TIFF = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
 
 
 def read_icc_profile(path: str | os.PathLike) -> bytes | None:
@@ -64,7 +63,7 @@ def read_icc_profile(path: str | os.PathLike) -> bytes | None:
     with open(path, "rb") as file:
         head = file.read(4)
     try:
-        if head in _TIFF:
+        if head in TIFF_SIGNATURES:
             with quiet_tifffile(), tifffile.TiffFile(path) as tiff:
                 tag = tiff.pages[0].tags.get(34675)
                 profile = None if tag is None else tag.value

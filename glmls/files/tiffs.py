@@ -1,5 +1,6 @@
-"""What the TIFF readers (:mod:`.images`, :mod:`.volumes`) share: tifffile's log records held
-back while a file is read, since glmls reports a corrupt file itself, in one line."""
+"""What the TIFF readers (:mod:`.images`, :mod:`.volumes`, :mod:`.profiles`) share: the
+files' first four bytes, and tifffile's log records held back while a file is read, since
+glmls reports a corrupt file itself, in one line."""
 
 from __future__ import annotations
 
@@ -8,7 +9,10 @@ import logging
 import threading
 from collections.abc import Iterator
 
-__all__ = ["quiet_tifffile"]
+__all__ = ["TIFF_SIGNATURES", "quiet_tifffile"]
+
+#: The first four bytes of a TIFF (little- and big-endian) or BigTIFF file.
+TIFF_SIGNATURES = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
 
 _lock = threading.Lock()
 _depth = 0
