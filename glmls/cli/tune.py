@@ -147,14 +147,6 @@ def _csv_text(rows: list[dict]) -> str:
     return buffer.getvalue()
 
 
-def parse_configs(args: argparse.Namespace, shape: tuple[int, int]) -> list[MLSConfig] | None:
-    """The configurations of ``--configs`` (None: the default search space), with
-    :func:`parse_config_specs`'s warnings."""
-    if not args.configs:
-        return None
-    return parse_config_specs(args.configs, shape, command="tune", quiet=args.quiet)
-
-
 def run(args: argparse.Namespace) -> int:
     image, handles, reference, name = example_or_files(args, need_reference=True)
     warn_about_handles(args, handles, image.shape)
@@ -162,7 +154,11 @@ def run(args: argparse.Namespace) -> int:
     check_picture(image, name)  # the winner's report pictures it, after the tuning
     shape = image.shape[:2]
     try:
-        configs = parse_configs(args, shape)
+        configs = (  # None: the default search space
+            parse_config_specs(args.configs, shape, command="tune", quiet=args.quiet)
+            if args.configs
+            else None
+        )
     except (TypeError, ValueError) as error:
         raise UsageError(str(error)) from None
     count = len(configs) if configs is not None else len(search_space(shape))
