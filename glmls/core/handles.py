@@ -156,12 +156,12 @@ class Scaling:
 
     def to_gpu(self, points: np.ndarray) -> np.ndarray:
         points = np.asarray(points, dtype=np.float64)
-        if points.ndim != 2 or points.shape[1] != 2:
+        if points.ndim != 2 or points.shape[1] != len(self.center):
             return ((points - np.asarray(self.center)) / self.scale).astype(np.float32)
         # column by column: numpy broadcasts (N, 2) against (2,) ~3x slower
         out = np.empty(points.shape, np.float32)
-        for axis in (0, 1):
-            out[:, axis] = (points[:, axis] - self.center[axis]) / self.scale
+        for axis, center in enumerate(self.center):
+            out[:, axis] = (points[:, axis] - center) / self.scale
         return out
 
     def from_gpu(self, points: np.ndarray) -> np.ndarray:

@@ -49,11 +49,15 @@ def as_points3(points: object, name: str = "points") -> np.ndarray:
             return np.zeros((0, 3))
         raise ValueError(f"{name} must have shape (N, 3) as (x, y, z) rows, got {array.shape}")
     array = np.ascontiguousarray(array, dtype=np.float64)
+    # two reductions without temporaries decide every good array (NaN fails both
+    # comparisons); the rows are looked for only on the way to an error
+    if not len(array) or (-COORDINATE_LIMIT <= array.min() and array.max() <= COORDINATE_LIMIT):
+        return array
     finite = np.isfinite(array).all(axis=1)
     if not finite.all():
         row = int(np.argmin(finite))
         raise ValueError(f"{name} must be finite; row {row} is {array[row]}")
-    if len(array) and np.abs(array).max() > COORDINATE_LIMIT:
+    if np.abs(array).max() > COORDINATE_LIMIT:
         row = int(np.argmax(np.abs(array).max(axis=1) > COORDINATE_LIMIT))
         raise ValueError(
             f"{name} must lie within ±{COORDINATE_LIMIT:.0e} voxels of the origin (float32 on "

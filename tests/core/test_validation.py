@@ -166,3 +166,25 @@ def test_numpy_bools_and_strings_are_taken_as_python_ones():
     config = glmls.MLSConfig(transform=np.str_("affine"), interpolating=np.True_)
     assert config.interpolating is True and type(config.transform) is str
     assert config == glmls.MLSConfig(transform="affine", interpolating=True)
+
+
+@pytest.mark.parametrize(
+    ("bad", "message"),
+    [
+        (np.nan, r"points must be finite; row 2"),
+        (np.inf, r"points must be finite; row 2"),
+        (-np.inf, r"points must be finite; row 2"),
+        (2e6, r"points must lie within ±1e\+06 voxels of the origin .* row 2"),
+        (-2e6, r"points must lie within ±1e\+06 voxels of the origin .* row 2"),
+    ],
+)
+def test_points3_name_the_first_bad_row(bad: float, message: str) -> None:
+    from glmls.core.handles3 import as_points3
+
+    points = np.zeros((4, 3))
+    points[2, 1] = bad
+    points[3, 0] = bad
+    with pytest.raises(ValueError, match=message):
+        as_points3(points)
+    good = np.array([[1e6, -1e6, 0.5]])
+    assert np.array_equal(as_points3(good), good)  # the limit itself is within
