@@ -21,7 +21,7 @@ from .tetrahedra import (
     check_tetrahedron_options,
     tetrahedron_errors,
 )
-from .volume_field import Deformation3D, volume_error_field
+from .volume_field import Deformation3D, volume_deformation, volume_error_field
 from .volume_lattice import as_points3, check_grid3, deformation_spacing, spacing_scale
 from .volume_pictures import check_slices, render_volume_slices
 
@@ -234,10 +234,11 @@ def volume_report(
     src, dst = as_points3(m.src, "m.src"), as_points3(m.dst, "m.dst")
     spacing = deformation_spacing(m, spacing)
     scale = spacing_scale(spacing)
+    measured = volume_deformation(m, dims, spacing)  # f as m.warp(volume) has it
     clock = StageClock(on_stage)
 
     clock.begin("error field")
-    field = volume_error_field(m, dims, grid=step, spacing=spacing)
+    field = volume_error_field(measured, dims, grid=step, spacing=spacing)
     clock.end("error_field")
 
     clock.begin("tetrahedra")
@@ -245,7 +246,7 @@ def volume_report(
     skipped = None
     try:
         found = tetrahedron_errors(
-            m,
+            measured,
             _distinct(src) if reference_points is None else reference_points,
             tetrahedra=tetrahedra,
             min_quality=min_quality,
@@ -259,7 +260,7 @@ def volume_report(
     clock.end("tetrahedron_errors")
 
     clock.begin("jacobians")
-    cells = cell_jacobians(m, dims, grid=cell_step, spacing=spacing)
+    cells = cell_jacobians(measured, dims, grid=cell_step, spacing=spacing)
     clock.end("jacobians")
 
     warped = None
