@@ -280,6 +280,7 @@ def volume_report(
     lo, hi = _grey_limits(shown)
     view = {"slices": at, "near": near}
     drawn = {"src": src / scale, "dst": dst / scale}  # the handles in voxels
+    voxels = bool((scale == 1.0).all())  # E_MLS in square voxels, else square handle units
     images = {"input_handles": render_volume_slices(shown, vmin=lo, vmax=hi, **drawn, **view)}
     if warped is not None:
         images["deformed"] = render_volume_slices(_shown(warped), vmin=lo, vmax=hi, **drawn, **view)
@@ -288,7 +289,7 @@ def volume_report(
         field, cmap=cmap, vmin=f_lo, vmax=f_hi, **drawn, **view
     )
     images["error_field_colorbar"] = colormaps.colorbar(
-        cmap, f_lo, f_hi, length=256, label=f"E_MLS ({'voxel' if spacing is None else 'unit'}^2)"
+        cmap, f_lo, f_hi, length=256, label=f"E_MLS ({'voxel' if voxels else 'unit'}^2)"
     )
     index = np.ix_(*(np.arange(n) // cell_step for n in dims))
     det = cells.det[index]
