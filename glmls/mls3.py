@@ -59,8 +59,9 @@ class MLS3(MLS):
         (D, H, W) of a volume, whose diagonal in the handles' units is the radius weights'
         default radius: that of (D dz, H dy, W dx) with ``spacing``, in voxels without. Every
         method takes it (``m(points)``, :meth:`matrices`, :meth:`jacobian`, :meth:`deform`,
-        :attr:`inverse`, :meth:`residuals`, the analyses); a volume warp (or ``bounds``,
-        ``coordinate_map``) takes the warped volume's, the same for a volume of ``shape``.
+        :attr:`inverse`, :meth:`residuals`); a volume warp (or ``bounds``,
+        ``coordinate_map``) and the 3D analyses of a volume take that volume's, the same for
+        a volume of ``shape``.
     spacing : (float, float, float) or None, default None
         (dz, dy, dx) of the volume's voxels in the handles' units, ordered as ``shape``:
         voxel (k, j, i) is the point (i dx, j dy, k dz). The volume warps, ``bounds``,

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .stats import error_stats
-from .volume_field import Deformation3D
+from .volume_field import Deformation3D, volume_deformation
 from .volume_lattice import (
     as_volume_shape,
     axis_corners,
@@ -170,7 +170,9 @@ def cell_jacobians(
     f is evaluated at the cell corners every ``grid`` voxels (``m(points)``, in blocks) and
     differentiated per cell (:mod:`glmls.analysis.jacobians`). A cell folds where det J <= 0
     at its centre or on any of its six Kuhn tetrahedra, as the 2D fold-overs test both
-    triangles of a cell.
+    triangles of a cell. f is that of the volume's warp: a radius weight given no radius
+    takes the diagonal of this volume in the handles' units (``volume_deformation`` of
+    :mod:`glmls.analysis.volume_field`).
 
     Parameters
     ----------
@@ -218,7 +220,9 @@ def cell_jacobians(
     """
     dims = as_volume_shape(shape)
     step = check_grid3(grid)
-    dx, dy, dz = spacing_scale(deformation_spacing(m, spacing))
+    steps = deformation_spacing(m, spacing)
+    dx, dy, dz = spacing_scale(steps)
+    m = volume_deformation(m, dims, steps)  # f as the volume's warp has it
     z, y, x = (axis_corners(n, step) * d for n, d in zip(dims, (dz, dy, dx), strict=True))
     cells = (len(z) - 1, len(y) - 1, len(x) - 1)
     det, ratio, min_det = np.empty(cells), np.empty(cells), np.empty(cells)

@@ -17,7 +17,9 @@ import numpy as np
 
 from .. import reference
 from ..core.config import MLSConfig
-from ..core.handles3 import as_volume_spacing
+from ..core.handles3 import as_volume_spacing, volume_extent
+from ..engine.kernel3 import MLSKernel3
+from ..engine.passes3 import evaluate_points3
 from .volume_lattice import (
     CHUNK,
     as_points3,
@@ -30,7 +32,13 @@ from .volume_lattice import (
     spacing_scale,
 )
 
-__all__ = ["Deformation3D", "ReferenceDeformation", "volume_error_field"]
+__all__ = [
+    "Deformation3D",
+    "KernelDeformation",
+    "ReferenceDeformation",
+    "volume_deformation",
+    "volume_error_field",
+]
 
 
 class Deformation3D(Protocol):
@@ -180,6 +188,52 @@ class ReferenceDeformation:
         self.release()
 
 
+class KernelDeformation:
+    """f of a :class:`glmls.MLS`'s GPU kernel with the default radius of a volume of
+    ``extent`` (D dz, H dy, W dx, the handles' units), as its warp evaluates f: the members
+    of ``Deformation3D`` (``src``, ``dst``, ``config`` and ``spacing`` are the MLS's)."""
+
+    def __init__(self, m: object, kernel: MLSKernel3, extent: tuple[float, float, float]):
+        self.src, self.dst = as_points3(m.src, "m.src"), as_points3(m.dst, "m.dst")  # type: ignore[attr-defined]
+        self.config = m.config  # type: ignore[attr-defined]
+        self.spacing = getattr(m, "spacing", None)
+        self._kernel, self._extent = kernel, extent
+
+    def __call__(self, points: object) -> np.ndarray:
+        f, _ = evaluate_points3(self._kernel, as_points3(points), shape=self._extent)  # type: ignore[arg-type]
+        return f
+
+    def matrices(self, points: object) -> tuple[np.ndarray, np.ndarray]:
+        v = as_points3(points)
+        f, m = evaluate_points3(self._kernel, v, output="matrix", shape=self._extent)  # type: ignore[arg-type]
+        return m, f - np.einsum("ki,kij->kj", v, m)  # type: ignore[arg-type]
+
+
+def volume_deformation(m: Deformation3D, shape: Sequence[int], spacing: object) -> Deformation3D:
+    """``m`` evaluated as the warp of a volume of ``shape`` (D, H, W) and ``spacing`` ((dz,
+    dy, dx), None: voxels) evaluates it: a radius weight given no radius takes that volume's
+    diagonal in the handles' units, whatever ``shape`` and ``spacing`` ``m`` was made with
+    (an MLS made without ``spacing`` leaves each warp, and so each analysis, its own). ``m``
+    itself where that changes nothing (another weight, an explicit radius, the volume ``m``
+    was made for) or where ``m`` is neither a :class:`ReferenceDeformation` nor a
+    :class:`glmls.MLS`."""
+    config = getattr(m, "config", None)
+    if not isinstance(config, MLSConfig) or not config.uses_radius or config.radius is not None:
+        return m
+    dims = as_volume_shape(shape)
+    steps = None if spacing is None else as_volume_spacing(spacing)
+    extent = volume_extent(dims, steps)
+    own = getattr(m, "shape", None)
+    if own is not None and volume_extent(own, getattr(m, "spacing", None)) == extent:
+        return m
+    if isinstance(m, ReferenceDeformation):
+        return ReferenceDeformation(m.src, m.dst, config, shape=dims, spacing=steps)
+    kernel = getattr(m, "kernel", None)
+    if isinstance(kernel, MLSKernel3):
+        return KernelDeformation(m, kernel, extent)
+    return m
+
+
 def fit_residuals(src: np.ndarray, dst: np.ndarray, m: np.ndarray, t: np.ndarray) -> np.ndarray:
     """E_MLS = sum_i |p_i M + T - q_i|^2 for each (M, T) of (K, 3, 3), (K, 3): (K,); 0 each
     without handles."""
@@ -201,7 +255,9 @@ def volume_error_field(
     the handles. With ``grid`` = 1 it is evaluated at every voxel centre; with ``grid`` = g
     at the voxel centres 0, g, 2 g, ... along each axis (and the last voxel) and
     interpolated trilinearly between them: g^3 times fewer fits, for big volumes (a 256^3
-    volume at g = 4 fits 65^3 points).
+    volume at g = 4 fits 65^3 points). f is that of the volume's warp: a radius weight given
+    no radius takes the diagonal of this volume in the handles' units
+    (``volume_deformation``).
 
     Parameters
     ----------
@@ -251,7 +307,9 @@ def volume_error_field(
     """
     depth, height, width = as_volume_shape(shape)
     step = check_grid3(grid)
-    scale = spacing_scale(deformation_spacing(m, spacing))
+    steps = deformation_spacing(m, spacing)
+    scale = spacing_scale(steps)
+    m = volume_deformation(m, (depth, height, width), steps)  # f as the volume's warp has it
     src, dst = as_points3(m.src, "m.src"), as_points3(m.dst, "m.dst")
     z, y, x = (axis_centres(n, step) for n in (depth, height, width))
     field = np.empty((len(z), len(y), len(x)))

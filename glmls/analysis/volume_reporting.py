@@ -21,7 +21,7 @@ from .tetrahedra import (
     check_tetrahedron_options,
     tetrahedron_errors,
 )
-from .volume_field import Deformation3D, volume_error_field
+from .volume_field import Deformation3D, volume_deformation, volume_error_field
 from .volume_lattice import as_points3, check_grid3, deformation_spacing, spacing_scale
 from .volume_pictures import check_slices, render_volume_slices
 
@@ -234,10 +234,11 @@ def volume_report(
     src, dst = as_points3(m.src, "m.src"), as_points3(m.dst, "m.dst")
     spacing = deformation_spacing(m, spacing)
     scale = spacing_scale(spacing)
+    measured = volume_deformation(m, dims, spacing)  # f as m.warp(volume) has it
     clock = StageClock(on_stage)
 
     clock.begin("error field")
-    field = volume_error_field(m, dims, grid=step, spacing=spacing)
+    field = volume_error_field(measured, dims, grid=step, spacing=spacing)
     clock.end("error_field")
 
     clock.begin("tetrahedra")
@@ -245,7 +246,7 @@ def volume_report(
     skipped = None
     try:
         found = tetrahedron_errors(
-            m,
+            measured,
             _distinct(src) if reference_points is None else reference_points,
             tetrahedra=tetrahedra,
             min_quality=min_quality,
@@ -259,7 +260,7 @@ def volume_report(
     clock.end("tetrahedron_errors")
 
     clock.begin("jacobians")
-    cells = cell_jacobians(m, dims, grid=cell_step, spacing=spacing)
+    cells = cell_jacobians(measured, dims, grid=cell_step, spacing=spacing)
     clock.end("jacobians")
 
     warped = None
@@ -279,6 +280,7 @@ def volume_report(
     lo, hi = _grey_limits(shown)
     view = {"slices": at, "near": near}
     drawn = {"src": src / scale, "dst": dst / scale}  # the handles in voxels
+    voxels = bool((scale == 1.0).all())  # E_MLS in square voxels, else square handle units
     images = {"input_handles": render_volume_slices(shown, vmin=lo, vmax=hi, **drawn, **view)}
     if warped is not None:
         images["deformed"] = render_volume_slices(_shown(warped), vmin=lo, vmax=hi, **drawn, **view)
@@ -287,7 +289,7 @@ def volume_report(
         field, cmap=cmap, vmin=f_lo, vmax=f_hi, **drawn, **view
     )
     images["error_field_colorbar"] = colormaps.colorbar(
-        cmap, f_lo, f_hi, length=256, label=f"E_MLS ({'voxel' if spacing is None else 'unit'}^2)"
+        cmap, f_lo, f_hi, length=256, label=f"E_MLS ({'voxel' if voxels else 'unit'}^2)"
     )
     index = np.ix_(*(np.arange(n) // cell_step for n in dims))
     det = cells.det[index]

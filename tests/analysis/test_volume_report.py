@@ -203,3 +203,16 @@ def test_a_glmls_volume_is_named_with_its_data(tmp_path):
     m = glmls.analysis.ReferenceDeformation(src, src + 0.5)
     with pytest.raises(TypeError, match=r"glmls\.Volume.*\.data"):
         glmls.analysis.volume_report(glmls.read_volume(tmp_path / "v.npy"), m)
+
+
+def test_the_error_colorbar_names_voxels_for_unit_spacing():
+    """E_MLS is in square voxels where a voxel is 1 x 1 x 1, given as spacing or not (as
+    ``glmls analyze`` says), in square handle units otherwise."""
+    from glmls.analysis import colormaps
+
+    m = crossing()
+    for spacing, unit in (((1.0, 1.0, 1.0), "voxel"), ((2.0, 1.0, 1.0), "unit")):
+        found = volume_report(volume(), m, grid=4, spacing=spacing)
+        lo, hi = found.summary["analysis"]["error_field_limits"]
+        expected = colormaps.colorbar("viridis", lo, hi, length=256, label=f"E_MLS ({unit}^2)")
+        assert_array_equal(found.images["error_field_colorbar"], expected)
