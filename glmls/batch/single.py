@@ -60,9 +60,11 @@ def mask_options(options: WarpOptions) -> WarpOptions:
 
 
 def by_mesh(options: WarpOptions) -> bool:
-    """Are keypoints tested for folds on the regular mesh (``quads``, whose fill it is, and
-    ``backward``, whose first guess it is)?"""
-    return options.tolerance is None and options.method in ("quads", "backward")
+    """Are keypoints moved by the regular mesh and tested for folds on it (``quads``, whose
+    fill it is)? The other methods test them against their backward map, which shows, where
+    f folds, the layer its own search finds: for ``backward`` often not the one the mesh's
+    scan order shows."""
+    return uses_mesh(options)
 
 
 def packable(image: np.ndarray, mask: np.ndarray | None, options: WarpOptions) -> bool:
@@ -144,8 +146,7 @@ class SingleWarper:
             limit = self.pipeline.max_image_size
             frame = make_frame(options.output_shape, options.origin, shape, limit)
             coords = covered = moved = valid = None
-            backward = options.method == "backward"
-            if maps or (points is not None and (backward or not by_mesh(options))):
+            if maps or (points is not None and not by_mesh(options)):
                 coords, covered = self.source_points(mls, shape, options, frame)
                 if options.method in FORWARD:  # what the fill drew, not f's inverse found
                     covered = covered & drawn(mls, shape, options)
@@ -155,29 +156,18 @@ class SingleWarper:
 
     def keypoints(self, mls, shape, options, frame, points, coords, covered):
         """(P, 2) keypoints on the canvas and (P,) bool valid."""
-        if by_mesh(options):
-            lattice = self.lattice(mls, shape, options, frame)
-            grid = lattice.points()
-            rows, columns = grid.shape[:2]
-            backward = options.method == "backward"
-            values = mls(
-                np.concatenate([grid.reshape(-1, 2), points] if backward else [grid.reshape(-1, 2)])
-            )
-            vertices = values[: rows * columns].reshape(rows, columns, 2)
-            moved, valid = mesh_keypoints(
-                lattice, vertices, points, values[rows * columns :] if backward else None
-            )
-            beyond = beyond_mesh(lattice, points)
-            if not backward and beyond.any():  # no cell there: f, not a cell's map drawn out
-                moved[beyond] = mls(points[beyond])
-            if backward:  # and shown by the backward map, which picks its own fold layer
-                _, jacobian, inside = self.move(mls, shape, options, frame, points)
-                landed = moved - np.asarray(frame.origin)
-                valid &= visible(points, landed, jacobian, coords, covered, inside)
-        else:
+        if not by_mesh(options):
             moved, jacobian, inside = self.move(mls, shape, options, frame, points)
             moved = moved - np.asarray(frame.origin)
             return moved, visible(points, moved, jacobian, coords, covered, inside)
+        lattice = self.lattice(mls, shape, options, frame)
+        grid = lattice.points()
+        rows, columns = grid.shape[:2]
+        vertices = mls(grid.reshape(-1, 2)).reshape(rows, columns, 2)
+        moved, valid = mesh_keypoints(lattice, vertices, points, None)
+        beyond = beyond_mesh(lattice, points)
+        if beyond.any():  # no cell there: f, not a cell's map drawn out
+            moved[beyond] = mls(points[beyond])
         moved = moved - np.asarray(frame.origin)
         return moved, valid & on_canvas(moved, frame.shape)
 
