@@ -186,8 +186,14 @@ def _samples(length: float, step: float) -> int:
     return count
 
 
-def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+def box_outlines(
+    boxes: np.ndarray, step: float, *, mesh: tuple[int, tuple[int, int]] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Points along each box's outline, a point at most ``step`` pixels from the next.
+
+    With ``mesh``, the outline also holds every point where a side crosses an edge of the
+    ``quads`` mesh's cells or triangles: the mesh's map is linear between two such points,
+    so the moved outline's bounding box is that of the whole moved outline, exactly.
 
     Parameters
     ----------
@@ -195,6 +201,10 @@ def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray
         (B, 4) boxes ``(x_min, y_min, x_max, y_max)``.
     step : float
         The largest distance between two outline points, in pixels (> 0).
+    mesh : (int, (int, int)) or None, default None
+        ``(grid, (H, W))``: the regular mesh of ``quads`` at ``grid`` over an image of that
+        shape (its cells past the image too, as border modes draw them); None: the samples
+        every ``step`` alone.
 
     Returns
     -------
@@ -214,6 +224,9 @@ def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray
     >>> points, counts = box_outlines(np.array([[0.0, 0.0, 4.0, 2.0]]), 2.0)
     >>> counts.tolist(), points[:3].tolist()
     ([6], [[0.0, 0.0], [2.0, 0.0], [4.0, 0.0]])
+    >>> box = np.array([[0.0, 0.0, 4.0, 2.0]])  # mesh lines x = 1.5, 3.5; a diagonal at 2
+    >>> box_outlines(box, 8.0, mesh=(2, (4, 4)))[0][:4].tolist()
+    [[0.0, 0.0], [1.5, 0.0], [2.0, 0.0], [3.5, 0.0]]
     """
     check_positive("step", step)
     outlines = []
@@ -222,8 +235,10 @@ def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray
         sides = []
         for a, b in itertools.pairwise(corners):
             n = _samples(float(np.abs(b - a).max()), step)
-            t = np.arange(n)[:, None] / n
-            sides.append(a + t * (b - a))
+            t = np.arange(n) / n
+            if mesh is not None:
+                t = np.union1d(t, _mesh_crossings(a, b, *mesh))
+            sides.append(a + t[:, None] * (b - a))
         outline = np.concatenate(sides)
         if x1 == x0 or y1 == y0:  # a line or a point: its samples once each
             outline = np.unique(outline, axis=0)
@@ -231,6 +246,49 @@ def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray
     counts = np.array([len(o) for o in outlines], np.int64)
     points = np.concatenate(outlines) if outlines else np.zeros((0, 2))
     return points, counts
+
+
+def _mesh_crossings(a: np.ndarray, b: np.ndarray, grid: int, shape: tuple[int, int]):
+    """The t in (0, 1) where the axis-aligned side a + t (b - a) crosses an edge of the
+    regular mesh at ``grid`` over an image of ``shape`` (:class:`glmls.core.mesh.MeshLattice`
+    ``corners``): the lines every ``grid`` pixels from -0.5 and the image's last edge, and
+    each cell's diagonal from its corner 00 to 11, in the square cells of a mesh extended
+    past the image (y - x a multiple of ``grid``) and in the image's last column and row
+    of cells, which its edge cuts short."""
+    length = float(np.abs(b - a).max())
+    if length == 0:
+        return np.zeros(0)
+    axis = 0 if a[1] == b[1] else 1  # the coordinate that runs along the side
+    other = 1 - axis
+    low, high = sorted((float(a[axis]), float(b[axis])))
+    level = float(a[other])
+    height, width = shape
+    ends = (width - 0.5, height - 0.5)
+    # the lines across the side, and the diagonals of the square cells (y - x = k grid)
+    first, last = math.ceil((low + 0.5) / grid), math.floor((high + 0.5) / grid)
+    found = [-0.5 + grid * np.arange(first, last + 1), [ends[axis]]]
+    if axis == 0:  # along x at y = level: x = level - k grid
+        ks = np.arange(math.ceil((level - high) / grid), math.floor((level - low) / grid) + 1)
+        found.append(level - ks * grid)
+    else:  # along y at x = level: y = level + k grid
+        ks = np.arange(math.ceil((low - level) / grid), math.floor((high - level) / grid) + 1)
+        found.append(level + ks * grid)
+    # the image's last column and row of cells, cut short by its edge: their diagonals
+    axes = [
+        (-0.5 + grid * np.arange(math.ceil(n / grid) + 1)).clip(max=n - 0.5)
+        for n in (width, height)
+    ]
+    along, across = axes[axis], axes[other]
+    row = np.clip(np.searchsorted(across, level, side="right") - 1, 0, len(across) - 2)
+    c_low, c_high = across[row], across[row + 1]
+    if c_high > c_low:
+        s = (level - c_low) / (c_high - c_low)
+        cell_low, cell_high = along[:-1], along[1:]
+        short = (cell_high - cell_low < grid) | (c_high - c_low < grid)
+        found.append((cell_low + s * (cell_high - cell_low))[short])
+    values = np.concatenate([np.asarray(v, np.float64).ravel() for v in found])
+    t = (values - float(a[axis])) / (float(b[axis]) - float(a[axis]))
+    return np.unique(t[(t > 0) & (t < 1)])
 
 
 def boxes_from_outlines(
