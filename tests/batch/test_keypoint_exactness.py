@@ -150,3 +150,30 @@ def test_backward_keypoints_shown_by_their_pixel_are_valid(gl, grid):
     assert near.sum() > len(points) // 8
     missed = np.flatnonzero(on)[near & ~valid[on]]
     assert not len(missed), (points[missed[:5]], moved[missed[:5]])
+
+
+@pytest.mark.parametrize("method", ["quads", "backward", "backward-swap"])
+@pytest.mark.parametrize("border", ["constant", "edge", "reflect", "symmetric"])
+def test_maps_sampled_with_nearest_give_the_pixels(gl, rng, method, border):
+    """The maps are the flow of the pixels: the input, read at each valid output pixel's
+    map value rounded to the nearest pixel (by the border rule beyond the image), is that
+    output pixel, on a canvas other than the input's too."""
+    shape = (24, 34)
+    images = rng.integers(0, 256, (3, *shape), dtype=np.uint8)
+    src = rng.uniform((2, 2), (shape[1] - 3, shape[0] - 3), (3, 6, 2))
+    dst = src + rng.normal(0, 2.0, src.shape)
+    canvas = {"output_shape": (30, 40), "origin": (-4.0, -3.0)}
+    result = glmls.warp_batch(
+        images, src, dst, return_maps=True, method=method, border=border, grid=4, **canvas
+    )
+    pad = 100
+    mode = border  # numpy.pad's names
+    for i in range(len(images)):
+        column, row = np.rint(result.maps[i]).astype(int).transpose(2, 0, 1)
+        valid = result.valid[i]
+        if border == "constant":
+            valid = valid & (column >= 0) & (column < shape[1]) & (row >= 0) & (row < shape[0])
+        padded = np.pad(images[i], pad, mode=mode)
+        shown = padded[row + pad, column + pad]
+        assert valid.mean() > 0.5
+        np.testing.assert_array_equal(shown[valid], result.images[i][valid])
