@@ -292,16 +292,27 @@ def _preset_options(args: argparse.Namespace) -> dict:
     return given
 
 
-def _check_replaceable(folder: Path, files: list[Path], count: int) -> None:
+def _check_replaceable(folder: Path, files: list[Path], count: int, labels: str | None) -> None:
     """:class:`UsageError` naming an output (an image or the labels file) that exists and
-    is no file, a folder say, which the final renames could not replace: checked before any
-    work, so that the run does not stop with part of its outputs renamed into place."""
+    is no file, a folder say, which the final renames could not replace, or that is one of
+    the inputs or the ``--labels`` file, which it would overwrite (OUT the input folder):
+    checked before any work, so that the run does not stop with part of its outputs renamed
+    into place, nor destroy what it read."""
     targets = [folder / LABELS_NAME]
     for source in files:
         targets += _output_names(folder, source, count)
+    read = {path.resolve(): "an input image" for path in files}
+    if labels is not None:
+        read[Path(labels).resolve()] = "the --labels file"
     for target in targets:
         if target.exists() and not target.is_file():
             raise UsageError(f"{target}: an output's name, but it exists and is not a file")
+        what = read.get(target.resolve()) if target.exists() else None
+        if what is not None:
+            raise UsageError(
+                f"{target}: an output's name, but it is {what}, which the outputs would "
+                f"overwrite: write to another folder"
+            )
 
 
 def _rename_all(written: list[tuple[str, str]]) -> None:
@@ -358,7 +369,7 @@ def run(args: argparse.Namespace) -> int:
     folder = Path(args.output)
     if folder.exists() and not folder.is_dir():
         raise UsageError(f"{folder}: must be a folder")
-    _check_replaceable(folder, files, args.n)
+    _check_replaceable(folder, files, args.n, args.labels)
     made = [p for p in (folder, *folder.parents) if not p.exists()]  # the deepest first
     try:
         folder.mkdir(parents=True, exist_ok=True)
