@@ -233,7 +233,8 @@ def box_outlines(
     corners = np.stack([np.c_[x0, y0], np.c_[x1, y0], np.c_[x1, y1], np.c_[x0, y1]], axis=1)
     starts = corners.reshape(-1, 2)  # (4 B, 2): the sides, box by box, a -> b
     ends = np.roll(corners, -1, axis=1).reshape(-1, 2)
-    lengths = np.abs(ends - starts).max(axis=1)
+    with np.errstate(invalid="ignore"):  # inf - inf: a length that _samples refuses
+        lengths = np.abs(ends - starts).max(axis=1)
     counts = np.array([_samples(float(length), step) for length in lengths], np.int64)
     owner = np.repeat(np.arange(len(starts)), counts)
     t = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / np.repeat(
