@@ -125,9 +125,9 @@ def mesh_keypoints(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Keypoints through the deformed meshes of ``lattice`` (``vertices``: f at its points,
     (N, rows, columns, 2), or (rows, columns, 2) for one image): (P, 2) output points (the
-    mesh's own map, or ``moved`` where given, f's values for the backward methods) and (P,)
-    bool, inside the lattice's domain and not covered by a triangle earlier in the fill's
-    scan order (cell row, column, then triangle (00, 10, 11) before (00, 11, 01)) than the
+    mesh's own map, or ``moved``, points moved otherwise, where given) and (P,) bool,
+    inside the lattice's domain and not covered by a triangle earlier in the fill's scan
+    order (cell row, column, then triangle (00, 10, 11) before (00, 11, 01)) than the
     keypoint's own: where cells fold, the first shows (``warp/cells.comp.glsl``). ``images``:
     (P,) the image of each point (default: all of image 0). ``folded``: (N,) bool, the
     meshes not shown to be embeddings (``~embedded(vertices)``) where the caller has it."""
