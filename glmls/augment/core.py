@@ -116,6 +116,14 @@ def _check_reach(preset: object, dst: np.ndarray, index: int) -> None:
     )
 
 
+def _mesh_grid(options: Mapping[str, object]) -> int | None:
+    """The grid of the regular mesh whose piecewise linear map moves the points with a
+    draw's warp ``options`` (``quads`` without a ``tolerance``), else None."""
+    fields = {k: v for k, v in options.items() if k in FIELDS or k == "options"}
+    chosen = WarpOptions.of(fields.pop("options", None), **fields)
+    return chosen.grid if chosen.method == "quads" and chosen.tolerance is None else None
+
+
 def _index_list(indices: object, count: int) -> list[int]:
     if indices is None:
         return list(range(count))
@@ -254,7 +262,9 @@ class Augment:
         :class:`glmls.WarpOptions`, stands for its fields (over the defaults, under the
         other keywords).
     box_step : float, default 2.0
-        Pixels between two points of a box's outline as it is moved.
+        Pixels between two points of a box's outline as it is moved (with ``quads`` on the
+        regular mesh, the points where the outline crosses the mesh's cell and triangle
+        edges are added: the box is then the moved outline's extent exactly).
     densify : float or None, default None
         Pixels: add points along each polygon's edges so that none is longer, before moving
         it (a straight edge may bend); None: move the vertices only.
@@ -523,10 +533,12 @@ class Augment:
         if boxes is not None:
             box_list, stacked_boxes = lab.check_boxes(boxes, count)
         polygon_list = None if polygons is None else lab.check_polygons(polygons, count)
-        points, parts = self._points(count, marks, box_list, polygon_list)
         options = dict(params[0]["options"])
         if any(dict(p["options"]) != options for p in params):
             raise ValueError("params with different warp options cannot be replayed together")
+        grid = _mesh_grid(options)
+        meshes = [None if grid is None else (grid, tuple(p["shape"])) for p in params]
+        points, parts = self._points(count, marks, box_list, polygon_list, meshes)
         options |= {k: v for k, v in self.warp_options.items() if k in _UNRECORDED}
         src, dst = _param_points(params, "src"), _param_points(params, "dst")
         result = warp_batch(images, src, dst, keypoints=points, masks=masks, **options)
@@ -534,8 +546,9 @@ class Augment:
             result = BatchResult(images=result)
         return self._assemble(result, params, parts, stacked_marks, stacked_boxes)
 
-    def _points(self, count, marks, box_list, polygon_list):
-        """Every image's points to move: its keypoints, box outlines and polygons, one after
+    def _points(self, count, marks, box_list, polygon_list, meshes):
+        """Every image's points to move: its keypoints, box outlines (with the crossings of
+        ``meshes[i]``, the image's ``quads`` mesh where it has one) and polygons, one after
         another; ``parts`` records where each kind lies."""
         if marks is None and box_list is None and polygon_list is None:
             return None, None
@@ -547,7 +560,7 @@ class Augment:
                 part["keypoints"] = len(marks[i])
             if box_list is not None:
                 try:
-                    outline, counts = lab.box_outlines(box_list[i], self.box_step)
+                    outline, counts = lab.box_outlines(box_list[i], self.box_step, mesh=meshes[i])
                 except ValueError as error:
                     raise ValueError(
                         f"boxes[{i}] with box_step={self.box_step:g}: {error}"
@@ -644,7 +657,15 @@ def replay_boxes(
     """Per draw, its (B, 4) boxes ``(x_min, y_min, x_max, y_max)`` around their moved outlines,
     NOT clipped to the canvas: albumentations and torchvision clip boxes themselves, and
     albumentations' ``min_visibility`` measures what the clipping takes away."""
-    outlines = [lab.box_outlines(np.asarray(b, np.float64), augment.box_step) for b in boxes]
+    grid = _mesh_grid(params[0]["options"]) if len(params) else None
+    outlines = [
+        lab.box_outlines(
+            np.asarray(b, np.float64),
+            augment.box_step,
+            mesh=None if grid is None else (grid, tuple(p["shape"])),
+        )
+        for b, p in zip(boxes, params, strict=True)
+    ]
     moved = replay_labels(augment, params, keypoints=[points for points, _ in outlines]).keypoints
     return [
         lab.boxes_from_outlines(np.asarray(points), counts, tuple(p["shape"]), clip=False)[0]

@@ -11,7 +11,6 @@ canvas, and a box is valid where what is left has a positive width and height.
 
 from __future__ import annotations
 
-import itertools
 import math
 
 import numpy as np
@@ -186,8 +185,14 @@ def _samples(length: float, step: float) -> int:
     return count
 
 
-def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+def box_outlines(
+    boxes: np.ndarray, step: float, *, mesh: tuple[int, tuple[int, int]] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Points along each box's outline, a point at most ``step`` pixels from the next.
+
+    With ``mesh``, the outline also holds every point where a side crosses an edge of the
+    ``quads`` mesh's cells or triangles: the mesh's map is linear between two such points,
+    so the moved outline's bounding box is that of the whole moved outline, exactly.
 
     Parameters
     ----------
@@ -195,6 +200,10 @@ def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray
         (B, 4) boxes ``(x_min, y_min, x_max, y_max)``.
     step : float
         The largest distance between two outline points, in pixels (> 0).
+    mesh : (int, (int, int)) or None, default None
+        ``(grid, (H, W))``: the regular mesh of ``quads`` at ``grid`` over an image of that
+        shape (its cells past the image too, as border modes draw them); None: the samples
+        every ``step`` alone.
 
     Returns
     -------
@@ -214,23 +223,108 @@ def box_outlines(boxes: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray
     >>> points, counts = box_outlines(np.array([[0.0, 0.0, 4.0, 2.0]]), 2.0)
     >>> counts.tolist(), points[:3].tolist()
     ([6], [[0.0, 0.0], [2.0, 0.0], [4.0, 0.0]])
+    >>> box = np.array([[0.0, 0.0, 4.0, 2.0]])  # mesh lines x = 1.5, 3.5; a diagonal at 2
+    >>> box_outlines(box, 8.0, mesh=(2, (4, 4)))[0][:4].tolist()
+    [[0.0, 0.0], [1.5, 0.0], [2.0, 0.0], [3.5, 0.0]]
     """
     check_positive("step", step)
-    outlines = []
-    for x0, y0, x1, y1 in boxes:
-        corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1], [x0, y0]])
-        sides = []
-        for a, b in itertools.pairwise(corners):
-            n = _samples(float(np.abs(b - a).max()), step)
-            t = np.arange(n)[:, None] / n
-            sides.append(a + t * (b - a))
-        outline = np.concatenate(sides)
-        if x1 == x0 or y1 == y0:  # a line or a point: its samples once each
-            outline = np.unique(outline, axis=0)
-        outlines.append(outline)
-    counts = np.array([len(o) for o in outlines], np.int64)
-    points = np.concatenate(outlines) if outlines else np.zeros((0, 2))
+    boxes = np.asarray(boxes, np.float64).reshape(-1, 4)
+    x0, y0, x1, y1 = boxes.T
+    corners = np.stack([np.c_[x0, y0], np.c_[x1, y0], np.c_[x1, y1], np.c_[x0, y1]], axis=1)
+    starts = corners.reshape(-1, 2)  # (4 B, 2): the sides, box by box, a -> b
+    ends = np.roll(corners, -1, axis=1).reshape(-1, 2)
+    with np.errstate(invalid="ignore"):  # inf - inf: a length that _samples refuses
+        lengths = np.abs(ends - starts).max(axis=1)
+    counts = np.array([_samples(float(length), step) for length in lengths], np.int64)
+    owner = np.repeat(np.arange(len(starts)), counts)
+    t = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / np.repeat(
+        counts, counts
+    )
+    if mesh is not None and len(starts):
+        side, crossing = _mesh_crossings(starts, ends, *mesh)
+        owner, t = np.r_[owner, side], np.r_[t, crossing]
+        order = np.lexsort((t, owner))
+        owner, t = owner[order], t[order]
+        keep = np.r_[True, (np.diff(owner) != 0) | (np.diff(t) != 0)]
+        owner, t = owner[keep], t[keep]
+    points = starts[owner] + t[:, None] * (ends - starts)[owner]
+    counts = np.bincount(owner // 4, minlength=len(boxes)).astype(np.int64)
+    lines = np.flatnonzero((x1 == x0) | (y1 == y0))
+    if len(lines):  # a line or a point: its samples once each
+        pieces = np.split(points, np.cumsum(counts)[:-1])
+        for k in lines:
+            pieces[k] = np.unique(pieces[k], axis=0)
+        counts = np.array([len(piece) for piece in pieces], np.int64)
+        points = np.concatenate(pieces)
     return points, counts
+
+
+def _ranges(first: np.ndarray, last: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For integer bounds per row, the rows and the integers ``first[i] .. last[i]`` (none
+    where ``last < first``), one after another."""
+    first, last = np.asarray(first).astype(np.int64), np.asarray(last).astype(np.int64)
+    counts = np.maximum(last - first + 1, 0)
+    rows = np.repeat(np.arange(len(counts)), counts)
+    offsets = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    return rows, np.repeat(first, counts) + offsets
+
+
+def _mesh_crossings(starts: np.ndarray, ends: np.ndarray, grid: int, shape: tuple[int, int]):
+    """The sides and the t in (0, 1) where the axis-aligned sides a + t (b - a) (``starts``,
+    ``ends``: (S, 2)) cross an edge of the regular mesh at ``grid`` over an image of
+    ``shape`` (:class:`glmls.core.mesh.MeshLattice` ``corners``): the lines every ``grid``
+    pixels from -0.5 and the image's last edge, and each cell's diagonal from its corner 00
+    to 11, in the square cells of a mesh extended past the image (y - x a multiple of
+    ``grid``) and in the image's last column and row of cells, which its edge cuts short."""
+    moving = np.abs(ends - starts).max(axis=1) > 0
+    along = (starts[:, 1] != ends[:, 1]).astype(np.int64)  # 0: the side runs along x
+    index = np.arange(len(starts))
+    a = starts[index, along]
+    b = ends[index, along]
+    level = starts[index, 1 - along]
+    low, high = np.minimum(a, b), np.maximum(a, b)
+    sizes = np.array([shape[1], shape[0]], np.float64)  # (W, H)
+    size_along, size_across = sizes[along], sizes[1 - along]
+    found_side, found_value = [], []
+
+    def add(rows: np.ndarray, values: np.ndarray) -> None:
+        found_side.append(rows)
+        found_value.append(values)
+
+    # the lines across the side: -0.5 + k grid, and the image's last edge
+    rows, k = _ranges(np.ceil((low + 0.5) / grid), np.floor((high + 0.5) / grid))
+    add(rows, -0.5 + k * grid)
+    add(index, size_along - 0.5)
+    # the square cells' diagonals, y - x = k grid: along x, x = level - k grid; along y,
+    # y = level + k grid
+    sign = np.where(along == 0, -1.0, 1.0)
+    first = np.where(along == 0, np.ceil((level - high) / grid), np.ceil((low - level) / grid))
+    last = np.where(along == 0, np.floor((level - low) / grid), np.floor((high - level) / grid))
+    rows, k = _ranges(first, last)
+    add(rows, level[rows] + sign[rows] * k * grid)
+    # the image's last column and row of cells, cut short by its edge: in the row of cells
+    # (across the side) that holds the side, each cell's diagonal at the side's level
+    cells_across = np.ceil(size_across / grid)
+    row = np.clip(np.floor((level + 0.5) / grid), 0, cells_across - 1)
+    c_low = -0.5 + row * grid
+    c_high = np.minimum(c_low + grid, size_across - 0.5)
+    s = (level - c_low) / np.maximum(c_high - c_low, 1e-300)
+    cells_along = np.ceil(size_along / grid)
+    last_low = -0.5 + (cells_along - 1) * grid  # the last cell along: to the image's edge
+    add(index, last_low + s * (size_along - 0.5 - last_low))
+    short = np.flatnonzero(c_high - c_low < grid)  # a short row: each cell's diagonal
+    if len(short):
+        shift = s[short] * grid  # the cells before the last along: grid wide
+        first = np.ceil((low[short] + 0.5 - shift) / grid)
+        last = np.floor((high[short] + 0.5 - shift) / grid)
+        rows, k = _ranges(np.maximum(first, 0), np.minimum(last, cells_along[short] - 2))
+        add(short[rows], -0.5 + k * grid + shift[rows])
+    side = np.concatenate(found_side).astype(np.int64)
+    value = np.concatenate(found_value)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (value - a[side]) / (b - a)[side]
+    inside = moving[side] & (t > 0) & (t < 1)
+    return side[inside], t[inside]
 
 
 def boxes_from_outlines(

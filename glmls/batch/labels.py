@@ -81,13 +81,18 @@ def visible(
     coords: np.ndarray,
     covered: np.ndarray,
     inside: np.ndarray,
+    *,
+    drawn: bool = False,
 ) -> np.ndarray:
     """(P,) bool: keypoints ``points`` (source, (P, 2)) landing at ``out`` with local
     ``jacobian`` (P, 2, 2) that show: on the canvas of ``coords`` ((H, W, 2) source point per
     output pixel, the frame's pixel (0, 0) at out (0, 0)), ``covered`` there, ``inside`` the
     source domain, and the source point shown at the nearest output pixel within
     :data:`SLACK` plus the local map's change of the source point that pixel's
-    centre should show (else another part of the image folds over it)."""
+    centre should show (else another part of the image folds over it). ``drawn``: ``coords``
+    are the source pixels (centres) that a forward fill drew, not the source points of the
+    output pixels' centres: the test allows the half pixel's diagonal more, through the
+    local map."""
     height, width = covered.shape
     pixel = np.rint(out)
     on = inside & on_canvas(out, (height, width))
@@ -103,7 +108,9 @@ def visible(
         inverse = np.linalg.pinv(jacobian[idx])  # (k, 2, 2): rows d/du
     expected = points[idx] + np.einsum("ki,kij->kj", step, inverse)
     reach = np.linalg.norm(step, axis=1) * np.linalg.norm(inverse, ord=2, axis=(1, 2))
-    near = np.linalg.norm(shown - expected, axis=1) <= SLACK + 0.5 * reach
+    spread = np.linalg.norm(inverse, ord=2, axis=(1, 2))
+    slack = SLACK + (np.sqrt(0.5) * np.maximum(spread, 1.0) if drawn else 0.0)
+    near = np.linalg.norm(shown - expected, axis=1) <= slack + 0.5 * reach
     ok[idx] = covered[row, col] & near
     return ok
 
@@ -118,9 +125,9 @@ def mesh_keypoints(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Keypoints through the deformed meshes of ``lattice`` (``vertices``: f at its points,
     (N, rows, columns, 2), or (rows, columns, 2) for one image): (P, 2) output points (the
-    mesh's own map, or ``moved`` where given, f's values for the backward methods) and (P,)
-    bool, inside the lattice's domain and not covered by a triangle earlier in the fill's
-    scan order (cell row, column, then triangle (00, 10, 11) before (00, 11, 01)) than the
+    mesh's own map, or ``moved``, points moved otherwise, where given) and (P,) bool,
+    inside the lattice's domain and not covered by a triangle earlier in the fill's scan
+    order (cell row, column, then triangle (00, 10, 11) before (00, 11, 01)) than the
     keypoint's own: where cells fold, the first shows (``warp/cells.comp.glsl``). ``images``:
     (P,) the image of each point (default: all of image 0). ``folded``: (N,) bool, the
     meshes not shown to be embeddings (``~embedded(vertices)``) where the caller has it."""

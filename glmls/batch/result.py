@@ -35,7 +35,9 @@ class BatchResult:
         where nothing is shown).
     maps : numpy.ndarray or list of numpy.ndarray or None
         (N, H, W, 2) float32: for each output pixel the source point (x, y) it shows (the
-        convention of :meth:`glmls.MLS.coordinate_map`).
+        convention of :meth:`glmls.MLS.coordinate_map`); for ``splat`` and ``paper-quads``
+        f's inverse there, whose nearest source pixel is not always the one that their
+        forward pass drew.
     valid : numpy.ndarray or list of numpy.ndarray or None
         (N, H, W) bool: the output pixels that some source pixel covers (with ``maps``).
     params : object or None

@@ -60,9 +60,11 @@ def mask_options(options: WarpOptions) -> WarpOptions:
 
 
 def by_mesh(options: WarpOptions) -> bool:
-    """Are keypoints tested for folds on the regular mesh (``quads``, whose fill it is, and
-    ``backward``, whose first guess it is)?"""
-    return options.tolerance is None and options.method in ("quads", "backward")
+    """Are keypoints moved by the regular mesh and tested for folds on it (``quads``, whose
+    fill it is)? The other methods test them against their backward map, which shows, where
+    f folds, the layer its own search finds: for ``backward`` often not the one the mesh's
+    scan order shows."""
+    return uses_mesh(options)
 
 
 def packable(image: np.ndarray, mask: np.ndarray | None, options: WarpOptions) -> bool:
@@ -87,11 +89,15 @@ def uses_mesh(options: WarpOptions) -> bool:
 FORWARD = ("splat", "paper-quads")
 
 
-def drawn(mls: MLS, shape: tuple[int, int], options: WarpOptions) -> np.ndarray:
-    """(H, W) bool of the canvas: the output pixels that ``mls.warp`` draws with
-    ``options`` (an image of ones warped, nearest, on a background of 0)."""
-    ones = np.ones(shape, np.uint8)
-    return mls.warp(ones, options=mask_options(options)) > 0
+def drawn(mls: MLS, shape: tuple[int, int], options: WarpOptions) -> tuple[np.ndarray, np.ndarray]:
+    """The source pixel (x, y) that ``mls.warp`` draws with ``options`` at each output
+    pixel, (H, W, 2) float64, and (H, W) bool, the pixels it draws: an image of its pixels'
+    coordinates + 1 warped with nearest sampling on a background of 0 (float32: exact)."""
+    height, width = shape
+    rows, columns = np.mgrid[:height, :width]
+    numbers = np.dstack([columns + 1, rows + 1]).astype(np.float32)
+    warped = mls.warp(numbers, options=mask_options(options)).astype(np.float64)
+    return warped - 1.0, warped[..., 0] > 0.5
 
 
 class SingleWarper:
@@ -144,40 +150,40 @@ class SingleWarper:
             limit = self.pipeline.max_image_size
             frame = make_frame(options.output_shape, options.origin, shape, limit)
             coords = covered = moved = valid = None
-            backward = options.method == "backward"
-            if maps or (points is not None and (backward or not by_mesh(options))):
+            shown = None  # the source points the picture shows, to test keypoints against
+            if maps or (points is not None and not by_mesh(options)):
                 coords, covered = self.source_points(mls, shape, options, frame)
+                shown = coords, covered
                 if options.method in FORWARD:  # what the fill drew, not f's inverse found
-                    covered = covered & drawn(mls, shape, options)
+                    pixels, filled = drawn(mls, shape, options)
+                    covered = covered & filled
+                    if options.border != "constant":  # beyond the image a drawn pixel is
+                        # the border rule's copy, of another number: f's inverse there
+                        height, width = shape
+                        edge = (coords < 0.5) | (coords > (width - 1.5, height - 1.5))
+                        pixels = np.where(edge.any(axis=-1)[..., None], coords, pixels)
+                    shown = pixels, filled
             if points is not None:
-                moved, valid = self.keypoints(mls, shape, options, frame, points, coords, covered)
+                moved, valid = self.keypoints(mls, shape, options, frame, points, shown)
             return ImageLabels(out, warped_mask, moved, valid, coords, covered)
 
-    def keypoints(self, mls, shape, options, frame, points, coords, covered):
-        """(P, 2) keypoints on the canvas and (P,) bool valid."""
-        if by_mesh(options):
-            lattice = self.lattice(mls, shape, options, frame)
-            grid = lattice.points()
-            rows, columns = grid.shape[:2]
-            backward = options.method == "backward"
-            values = mls(
-                np.concatenate([grid.reshape(-1, 2), points] if backward else [grid.reshape(-1, 2)])
-            )
-            vertices = values[: rows * columns].reshape(rows, columns, 2)
-            moved, valid = mesh_keypoints(
-                lattice, vertices, points, values[rows * columns :] if backward else None
-            )
-            beyond = beyond_mesh(lattice, points)
-            if not backward and beyond.any():  # no cell there: f, not a cell's map drawn out
-                moved[beyond] = mls(points[beyond])
-            if backward:  # and shown by the backward map, which picks its own fold layer
-                _, jacobian, inside = self.move(mls, shape, options, frame, points)
-                landed = moved - np.asarray(frame.origin)
-                valid &= visible(points, landed, jacobian, coords, covered, inside)
-        else:
+    def keypoints(self, mls, shape, options, frame, points, shown):
+        """(P, 2) keypoints on the canvas and (P,) bool valid (``shown``: the source points
+        the output pixels show and where they show one, or for ``splat`` and
+        ``paper-quads`` the source pixels they drew; unused for the mesh)."""
+        if not by_mesh(options):
             moved, jacobian, inside = self.move(mls, shape, options, frame, points)
             moved = moved - np.asarray(frame.origin)
-            return moved, visible(points, moved, jacobian, coords, covered, inside)
+            forward = options.method in FORWARD
+            return moved, visible(points, moved, jacobian, *shown, inside, drawn=forward)
+        lattice = self.lattice(mls, shape, options, frame)
+        grid = lattice.points()
+        rows, columns = grid.shape[:2]
+        vertices = mls(grid.reshape(-1, 2)).reshape(rows, columns, 2)
+        moved, valid = mesh_keypoints(lattice, vertices, points, None)
+        beyond = beyond_mesh(lattice, points)
+        if beyond.any():  # no cell there: f, not a cell's map drawn out
+            moved[beyond] = mls(points[beyond])
         moved = moved - np.asarray(frame.origin)
         return moved, valid & on_canvas(moved, frame.shape)
 

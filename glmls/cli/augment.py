@@ -145,9 +145,13 @@ class AugmentOutcome:
 
 
 def _names(task: AugmentTask) -> list[Path]:
-    width = max(3, len(str(task.count - 1)))
-    stem, suffix = task.source.stem, task.source.suffix
-    return [task.folder / f"{stem}_{k:0{width}d}{suffix}" for k in range(task.count)]
+    return _output_names(task.folder, task.source, task.count)
+
+
+def _output_names(folder: Path, source: Path, count: int) -> list[Path]:
+    """``folder/NAME_k.EXT`` for input ``NAME.EXT``, k = 0 .. count - 1 zero-padded."""
+    width = max(3, len(str(count - 1)))
+    return [folder / f"{source.stem}_{k:0{width}d}{source.suffix}" for k in range(count)]
 
 
 def augment_file(task: AugmentTask) -> AugmentOutcome:
@@ -288,6 +292,43 @@ def _preset_options(args: argparse.Namespace) -> dict:
     return given
 
 
+def _check_replaceable(folder: Path, files: list[Path], count: int, labels: str | None) -> None:
+    """:class:`UsageError` naming an output (an image or the labels file) that exists and
+    is no file, a folder say, which the final renames could not replace, or that is one of
+    the inputs or the ``--labels`` file, which it would overwrite (OUT the input folder):
+    checked before any work, so that the run does not stop with part of its outputs renamed
+    into place, nor destroy what it read."""
+    targets = [folder / LABELS_NAME]
+    for source in files:
+        targets += _output_names(folder, source, count)
+    read = {path.resolve(): "an input image" for path in files}
+    if labels is not None:
+        read[Path(labels).resolve()] = "the --labels file"
+    for target in targets:
+        if target.exists() and not target.is_file():
+            raise UsageError(f"{target}: an output's name, but it exists and is not a file")
+        what = read.get(target.resolve()) if target.exists() else None
+        if what is not None:
+            raise UsageError(
+                f"{target}: an output's name, but it is {what}, which the outputs would "
+                f"overwrite: write to another folder"
+            )
+
+
+def _rename_all(written: list[tuple[str, str]]) -> None:
+    """Rename every temporary file onto its final name (with the user's umask); where one
+    rename fails, the temporary files not renamed yet are removed and an ``OSError`` names
+    the output."""
+    for k, (temporary, final) in enumerate(written):
+        try:
+            os.chmod(temporary, 0o666 & ~umask())
+            os.replace(temporary, final)
+        except OSError as error:
+            for name, _ in written[k:]:
+                Path(name).unlink(missing_ok=True)
+            raise OSError(f"{final}: cannot write: {error.strerror or error}") from None
+
+
 def run(args: argparse.Namespace) -> int:
     try:
         jobs, scheduler = check_jobs(args.jobs), check_scheduler(args.scheduler)
@@ -328,6 +369,7 @@ def run(args: argparse.Namespace) -> int:
     folder = Path(args.output)
     if folder.exists() and not folder.is_dir():
         raise UsageError(f"{folder}: must be a folder")
+    _check_replaceable(folder, files, args.n, args.labels)
     made = [p for p in (folder, *folder.parents) if not p.exists()]  # the deepest first
     try:
         folder.mkdir(parents=True, exist_ok=True)
@@ -375,9 +417,7 @@ def run(args: argparse.Namespace) -> int:
             except OSError:
                 break
         raise
-    for temporary, final in written:
-        os.chmod(temporary, 0o666 & ~umask())
-        os.replace(temporary, final)
+    _rename_all(written)
     for outcome in outcomes:  # the images, in the order of the inputs
         for _, final in outcome.written:
             print(final, flush=True)

@@ -231,3 +231,33 @@ def test_labels_that_are_not_numbers_are_named(tmp_path, keypoints):
     (tmp_path / "labels.json").write_text(json.dumps({"a.png": {"keypoints": [[1, 2.5]]}}))
     labels = read_labels(str(tmp_path / "labels.json"), [tmp_path / "a.png"])
     assert labels["a.png"]["keypoints"] == [[1.0, 2.5]]
+
+
+@pytest.mark.parametrize("name", ["b_001.png", "labels.json"])
+def test_an_output_name_taken_by_a_folder_is_refused_before_any_output(inputs, name):
+    """A folder where an output goes cannot be replaced: refused before the work, not found
+    by the final renames after the outputs before it were renamed into place (and the
+    temporary files after it left behind)."""
+    (inputs / "out" / name).mkdir(parents=True)
+    result = glmls_cli("augment", "in", "out", "--n", "3", "--labels", "labels.json", cwd=inputs)
+    assert result.returncode == 2, result.stderr
+    assert f"{name}: an output's name, but it exists and is not a file" in result.stderr
+    assert sorted(p.name for p in (inputs / "out").iterdir()) == [name]
+
+
+def test_outputs_that_would_overwrite_an_input_or_the_labels_are_refused(inputs):
+    """OUT the input folder: an output named like an input image (a_001.png, an input, is
+    also a.png's second output), or like the --labels file, would overwrite what the run
+    read: refused before any work, every file as it was."""
+    folder = inputs / "in"
+    (folder / "a_001.png").write_bytes((folder / "a.png").read_bytes())
+    (folder / "labels.json").write_text((inputs / "labels.json").read_text())
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    for labels, message in [
+        ("in/labels.json", "in/labels.json: an output's name, but it is the --labels file"),
+        ("labels.json", "in/a_001.png: an output's name, but it is an input image"),
+    ]:
+        result = glmls_cli("augment", "in", "in", "--n", "2", "--labels", labels, cwd=inputs)
+        assert result.returncode == 2, result.stderr
+        assert message in result.stderr, result.stderr
+        assert {p.name: p.read_bytes() for p in folder.iterdir()} == before

@@ -1,0 +1,80 @@
+"""Boxes hold their warped objects: with ``quads`` the moved outline holds every point where
+a side crosses a cell's or a triangle's edge of the mesh, whose map is linear between them,
+so the box is the warped outline's extent, exactly (a float64 reference of the mesh's map
+on an outline sampled every 0.005 px says so), and every output pixel that shows the object
+lies in it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from glmls import reference
+from glmls.augment import Augment, box_outlines
+from glmls.core.mesh import MeshLattice
+
+
+def objects(rng, count, shape):
+    """Per image one rectangle of pixels off the image's edge (where the edge border would
+    repeat it), as a mask, and its box around the pixels' squares."""
+    height, width = shape
+    masks = np.zeros((count, height, width), np.uint8)
+    boxes = np.zeros((count, 1, 4))
+    for i in range(count):
+        x0, y0 = rng.integers(1, width - 12), rng.integers(1, height - 12)
+        x1 = min(x0 + int(rng.integers(3, 20)), width - 2)
+        y1 = min(y0 + int(rng.integers(3, 20)), height - 2)
+        masks[i, y0 : y1 + 1, x0 : x1 + 1] = 1
+        boxes[i, 0] = [x0 - 0.5, y0 - 0.5, x1 + 0.5, y1 + 0.5]
+    return masks, boxes
+
+
+@pytest.mark.parametrize("grid", [1, 4, 7])
+def test_a_box_holds_its_warped_object(gl, grid):
+    rng = np.random.default_rng(3)
+    masks, boxes = objects(rng, 60, (48, 64))
+    aug = Augment("grid", seed=5, displacement=0.08, warp_options={"grid": grid})
+    out = aug(masks * 255, masks=masks, boxes=boxes)
+    for i in range(len(masks)):
+        rows, columns = np.nonzero(out.masks[i])
+        x_min, y_min, x_max, y_max = out.boxes[i][0]
+        assert out.boxes_valid[i][0]
+        assert x_min <= columns.min() and columns.max() <= x_max, (i, out.boxes[i])
+        assert y_min <= rows.min() and rows.max() <= y_max, (i, out.boxes[i])
+
+
+def mesh_map(f, lattice: MeshLattice, points: np.ndarray) -> np.ndarray:
+    """The mesh's piecewise linear map at ``points`` in the lattice, in float64: the cell
+    holding each, its triangle (00, 10, 11) where u >= v, else (00, 11, 01)."""
+    origin, last = np.asarray(lattice.origin), np.asarray(lattice.last)
+    index = np.clip(np.floor((points - origin) / lattice.grid), 0, np.asarray(lattice.cells) - 1)
+    low = np.minimum(origin + index * lattice.grid, last)
+    high = np.minimum(origin + (index + 1) * lattice.grid, last)
+    u, v = ((points - low) / (high - low)).T
+    corners = [low, np.c_[high[:, 0], low[:, 1]], np.c_[low[:, 0], high[:, 1]], high]
+    d00, d10, d01, d11 = (f(c) for c in corners)
+    lower = (u >= v)[:, None]
+    ex = np.where(lower, d10 - d00, d11 - d01)
+    ey = np.where(lower, d11 - d10, d01 - d00)
+    return d00 + u[:, None] * ex + v[:, None] * ey
+
+
+@pytest.mark.parametrize(("grid", "shape"), [(1, (30, 41)), (4, (30, 41)), (6, (33, 50))])
+def test_quads_boxes_are_the_warped_outlines_extent(gl, grid, shape):
+    rng = np.random.default_rng(4)
+    _, boxes = objects(rng, 12, shape)
+    options = {"grid": grid, "border": "constant"}  # the mesh of the image alone
+    aug = Augment("grid", seed=2, displacement=0.1, warp_options=options)
+    out = aug(np.zeros((len(boxes), *shape), np.uint8), boxes=boxes)
+    lattice = MeshLattice.corners(shape, grid)
+    for i, draw in enumerate(out.params):
+        src, dst = np.array(draw["src"]), np.array(draw["dst"])
+
+        def f(points, src=src, dst=dst):
+            return reference.mls(src, dst, points, shape=shape, transform="similarity")[0]
+
+        outline, _ = box_outlines(boxes[i], 0.005)
+        moved = mesh_map(f, lattice, outline)
+        high = (shape[1] - 0.5, shape[0] - 0.5)  # clipped to the canvas
+        extent = np.clip([*moved.min(axis=0), *moved.max(axis=0)], -0.5, [*high, *high])
+        np.testing.assert_allclose(out.boxes[i][0], extent, rtol=0, atol=2e-3)
