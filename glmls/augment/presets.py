@@ -107,6 +107,8 @@ class GridPreset:
     """
 
     name = "grid"
+    #: the quads' mesh step it warps with by default (glmls.augment.DEFAULT_WARP_OPTIONS)
+    warp_grid = 4
     rows: int = 4
     cols: int = 4
     displacement: float = 0.03
@@ -159,6 +161,9 @@ class _TextPreset:
 
     segments: int = 4
     radius: float | None = None
+    #: the quads' mesh step it warps with by default (glmls.augment.DEFAULT_WARP_OPTIONS):
+    #: a text crop's strong bends on a few dozen rows want a finer mesh than grid 4
+    warp_grid = 2
 
     def __post_init__(self) -> None:
         _check_count("segments", self.segments, 1)
@@ -372,6 +377,8 @@ class LandmarksPreset:
     """
 
     name = "landmarks"
+    #: grid 1: each landmark lands on its drawn target (a coarser mesh departs from f)
+    warp_grid = 1
     displacement: float = 0.03
     units: str = "fraction"
     pin_corners: bool = True
