@@ -259,6 +259,15 @@ class GLContext:
         as if done); None where it runs them all (GPU drivers)."""
         return 65535 if "llvmpipe" in str(self.mgl.info["GL_RENDERER"]).lower() else None
 
+    @functools.cached_property
+    def _compute_defines(self) -> dict[str, object]:
+        """What every compute program of this context is compiled with besides the library's
+        common defines: ``SCAN_PIECE_PIXELS``, the most pixels one invocation of a scan
+        conversion walks (``common/pieces.glsl``): a quarter of :attr:`loop_limit` (a walk
+        steps at most twice per pixel, the rest is margin), 0 (no bound) without one."""
+        limit = self.loop_limit
+        return {"SCAN_PIECE_PIXELS": 0 if limit is None else limit // 4}
+
     # -- being current ----------------------------------------------------------------------
 
     @property
@@ -371,7 +380,7 @@ class GLContext:
         key = (entry, _frozen(defines))
         program = self._programs.get(key)
         if program is None:
-            source = self.shaders.compose(entry, defines)
+            source = self.shaders.compose(entry, self._compute_defines | dict(defines or {}))
             program = self._compile({"compute_shader": source}, self._compute_shader)
             self._programs[key] = program
             while len(self._programs) > self.max_programs:

@@ -1,0 +1,68 @@
+"""Cells magnified past what one shader invocation may walk on a driver that caps an
+invocation's loop iterations (Mesa's llvmpipe: 65,535 over all its loops): each is walked in
+pieces (glmls/shaders/common/pieces.glsl) and every output pixel it covers is drawn, the pixel
+the exact map gives. On GPU drivers the same tests run the scans as they are."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import coordinate_image
+from numpy.testing import assert_allclose, assert_array_equal
+
+import glmls
+
+SCALE = 100.0  # a 4 px cell covers 400 x 400 output pixels, a 1 px one 100 x 100
+SHAPE = (16, 16)
+OUT = (380, 380)  # all inside one 4 px cell (and past 65,535 pixels)
+
+
+def magnified(mirror=False, scale=SCALE):
+    """Handles of f(v) = scale v (x negated with ``mirror``: every cell reversed), and the
+    origin of an output canvas inside one cell of 4 px (pixel centres off the source's
+    pixel boundaries, so that nearest sampling has no ties)."""
+    p = np.array([[0, 0], [15, 0], [0, 15], [15, 15.0]])
+    sign = np.array([-1.0 if mirror else 1.0, 1.0])
+    origin = (-(scale * 8 - 10.3) - OUT[1] if mirror else scale * 4 + 10.3, scale * 4 + 10.3)
+    return p, p * scale * sign, origin
+
+
+def source_points(origin, mirror=False, scale=SCALE):
+    """The exact source point (x, y) of every output pixel, (H, W, 2)."""
+    yy, xx = np.mgrid[0 : OUT[0], 0 : OUT[1]].astype(float)
+    x = (xx + origin[0]) / scale
+    return np.dstack([-x if mirror else x, (yy + origin[1]) / scale])
+
+
+@pytest.mark.parametrize(
+    ("path", "options", "dtype", "interpolation", "mirror"),
+    [
+        ("fused fast", {}, np.uint8, "nearest", False),
+        ("fused fast", {}, np.uint8, "nearest", True),  # the keyed pass redraws every cell
+        ("fused", {"fast_embedded": False}, np.uint8, "nearest", False),
+        ("nearest", {}, np.uint16, "nearest", False),
+        ("interpolated", {}, np.float32, "linear", False),
+    ],
+)
+def test_a_cell_larger_than_the_loop_limit_is_drawn_whole(
+    gl, pipeline, path, options, dtype, interpolation, mirror
+):
+    p, q, origin = magnified(mirror)
+    img = coordinate_image(*SHAPE).astype(dtype)
+    pipe = pipeline(**options)
+    with glmls.MLS(p, q, transform="affine", ctx=gl) as m:
+        out = pipe.warp(
+            m,
+            img,
+            grid=4,
+            output_shape=OUT,
+            origin=origin,
+            background=255,
+            interpolation=interpolation,
+        )
+    assert pipe.cells.last_path == path
+    s = source_points(origin, mirror)
+    if interpolation == "nearest":
+        assert_array_equal(out[..., :2], np.rint(s).astype(dtype))
+    else:
+        assert_allclose(out[..., :2], s, atol=2e-3)
