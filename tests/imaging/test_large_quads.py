@@ -18,20 +18,21 @@ OUT = (380, 380)  # all inside one 4 px cell (and past 65,535 pixels)
 
 
 def magnified(mirror=False, scale=SCALE):
-    """Handles of f(v) = scale v (x negated with ``mirror``: every cell reversed), and the
-    origin of an output canvas inside one cell of 4 px (pixel centres off the source's
-    pixel boundaries, so that nearest sampling has no ties)."""
+    """Handles of f(v) = scale v (x mirrored with ``mirror``: every cell reversed, the same
+    box), and the origin of an output canvas inside one cell of 4 px (pixel centres off the
+    source's pixel boundaries, so that nearest sampling has no ties)."""
     p = np.array([[0, 0], [15, 0], [0, 15], [15, 15.0]])
-    sign = np.array([-1.0 if mirror else 1.0, 1.0])
-    origin = (-(scale * 8 - 10.3) - OUT[1] if mirror else scale * 4 + 10.3, scale * 4 + 10.3)
-    return p, p * scale * sign, origin
+    q = p * scale
+    if mirror:
+        q[:, 0] = 15 * scale - q[:, 0]
+    return p, q, (scale * 4 + 10.3, scale * 4 + 10.3)
 
 
-def source_points(origin, mirror=False, scale=SCALE):
+def source_points(origin, mirror=False, scale=SCALE, shape=OUT):
     """The exact source point (x, y) of every output pixel, (H, W, 2)."""
-    yy, xx = np.mgrid[0 : OUT[0], 0 : OUT[1]].astype(float)
+    yy, xx = np.mgrid[0 : shape[0], 0 : shape[1]].astype(float)
     x = (xx + origin[0]) / scale
-    return np.dstack([-x if mirror else x, (yy + origin[1]) / scale])
+    return np.dstack([15 - x if mirror else x, (yy + origin[1]) / scale])
 
 
 @pytest.mark.parametrize(
