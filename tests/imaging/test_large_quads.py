@@ -67,3 +67,53 @@ def test_a_cell_larger_than_the_loop_limit_is_drawn_whole(
         assert_array_equal(out[..., :2], np.rint(s).astype(dtype))
     else:
         assert_allclose(out[..., :2], s, atol=2e-3)
+
+
+@pytest.mark.parametrize(
+    ("dtype", "interpolation"),
+    [(np.uint8, "nearest"), (np.uint16, "nearest"), (np.float32, "linear")],
+)
+def test_adaptive_triangles_larger_than_the_loop_limit_are_drawn_whole(gl, dtype, interpolation):
+    """The adaptive mesh's leaves (16 px at most) magnified 100x."""
+    p = np.array([[0, 0], [63, 0], [0, 63], [63, 63.0]])
+    origin = (SCALE * 20 + 10.3, SCALE * 20 + 10.3)
+    img = coordinate_image(64, 64).astype(dtype)
+    with glmls.MLS(p, p * SCALE, transform="affine", ctx=gl) as m:
+        out = m.warp(
+            img,
+            tolerance=0.05,
+            output_shape=OUT,
+            origin=origin,
+            background=255,
+            interpolation=interpolation,
+        )
+    s = source_points(origin)
+    if interpolation == "nearest":
+        assert_array_equal(out[..., :2], np.rint(s).astype(dtype))
+    else:
+        assert_allclose(out[..., :2], s, atol=2e-3)
+
+
+@pytest.mark.parametrize("interpolation", ["nearest", "linear"])
+def test_paper_squares_larger_than_the_loop_limit_are_drawn_whole(gl, interpolation):
+    """paper-quads' 1 px squares magnified 400x: each output pixel shows the square's
+    nearest vertex (linear: its source point)."""
+    scale = 400.0
+    p, q, _ = magnified(scale=scale)
+    origin = (scale * 4 + 10.3, scale * 4 + 10.3)
+    dtype = np.uint16 if interpolation == "nearest" else np.float32
+    img = coordinate_image(*SHAPE).astype(dtype)
+    with glmls.MLS(p, q, transform="affine", ctx=gl) as m:
+        out = m.warp(
+            img,
+            method="paper-quads",
+            output_shape=OUT,
+            origin=origin,
+            background=255,
+            interpolation=interpolation,
+        )
+    s = source_points(origin, scale=scale)
+    if interpolation == "nearest":
+        assert_array_equal(out[..., :2], np.rint(s).astype(dtype))
+    else:  # float32's inversion of the square's bilinear map: 0.034 px at 50x as well
+        assert_allclose(out[..., :2], s, atol=0.05)

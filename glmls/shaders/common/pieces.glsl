@@ -16,6 +16,11 @@
 #ifndef SCAN_PIECE_PIXELS
 #define SCAN_PIECE_PIXELS 0
 #endif
+// Loop iterations a pixel of the includer's walk costs (its loops per pixel, besides the
+// walk's own step): its tiles hold SCAN_PIECE_PIXELS / SCAN_PIECE_COST pixels.
+#ifndef SCAN_PIECE_COST
+#define SCAN_PIECE_COST 1
+#endif
 
 #if SCAN_PIECE_PIXELS
 layout(std430, binding = BIND_PIECES) buffer ScanPieces {
@@ -25,18 +30,32 @@ layout(std430, binding = BIND_PIECES) buffer ScanPieces {
 };
 uniform int u_piece_first;   // 0: the dispatch over the primitives, 1: the pieces'
 
-// This invocation's piece of the pixel box first..last, which it narrows to the piece's
-// tile; false where the primitive has no such piece (an empty box has piece 0 only).
-bool scan_piece(inout ivec2 first, inout ivec2 last) {
-    int piece = int(gl_WorkGroupID.z) + u_piece_first;
+// The tiles of the pixel box first..last: their width and height, and how many across and
+// down (an empty box: one piece, a tile of no pixel).
+ivec4 scan_tiles(ivec2 first, ivec2 last) {
     ivec2 size = last - first + 1;
     if (any(lessThan(size, ivec2(1)))) {
-        return piece == 0;
+        return ivec4(1, 1, 1, 1);
     }
-    int w = min(size.x, SCAN_PIECE_PIXELS);      // the tiles' width and height
-    int h = max(SCAN_PIECE_PIXELS / w, 1);
-    int across = (size.x + w - 1) / w;
-    int pieces = across * ((size.y + h - 1) / h);
+    const int pixels = SCAN_PIECE_PIXELS / SCAN_PIECE_COST;
+    int w = min(size.x, pixels);
+    int h = max(pixels / w, 1);
+    return ivec4(w, h, (size.x + w - 1) / w, (size.y + h - 1) / h);
+}
+
+// How many pieces a primitive with the pixel box first..last is walked in.
+int scan_pieces(ivec2 first, ivec2 last) {
+    ivec4 tiles = scan_tiles(first, last);
+    return tiles.z * tiles.w;
+}
+
+// This invocation's piece of the pixel box first..last, which it narrows to the piece's
+// tile; false where the primitive has no such piece (an empty box has piece 0 only, as it
+// is).
+bool scan_piece(inout ivec2 first, inout ivec2 last) {
+    int piece = int(gl_WorkGroupID.z) + u_piece_first;
+    ivec4 tiles = scan_tiles(first, last);
+    int pieces = tiles.z * tiles.w;
     if (piece == 0 && pieces > 1) {
         atomicMax(scan_pieces_x, gl_NumWorkGroups.x);
         atomicMax(scan_pieces_y, gl_NumWorkGroups.y);
@@ -45,9 +64,11 @@ bool scan_piece(inout ivec2 first, inout ivec2 last) {
     if (piece >= pieces) {
         return false;
     }
-    int row = piece / across;
-    first += ivec2((piece - row * across) * w, row * h);
-    last = min(last, first + ivec2(w, h) - 1);
+    if (pieces > 1) {
+        int row = piece / tiles.z;
+        first += ivec2((piece - row * tiles.z) * tiles.x, row * tiles.y);
+        last = min(last, first + tiles.xy - 1);
+    }
     return true;
 }
 
@@ -56,6 +77,10 @@ bool scan_first_piece() {
     return gl_WorkGroupID.z == 0u && u_piece_first == 0;
 }
 #else
+int scan_pieces(ivec2 first, ivec2 last) {
+    return 1;
+}
+
 bool scan_piece(inout ivec2 first, inout ivec2 last) {
     return true;
 }
