@@ -1,5 +1,6 @@
 // Scan conversions that walk a primitive's pixels in one invocation (warp/cells.comp.glsl,
-// batch/cells.comp.glsl, adaptive/scan.comp.glsl, warp/paper_quads.comp.glsl), on a driver
+// batch/cells.comp.glsl, adaptive/scan.comp.glsl, warp/paper_quads.comp.glsl; the voxels
+// of a volume's deformed cell: volume/raster.comp.glsl), on a driver
 // that caps an invocation's loop iterations: Mesa's llvmpipe stops all the loops of an
 // invocation after 65,535 iterations, without a word (glmls.gl.GLContext.loop_limit), so a
 // primitive magnified past that many pixels would be left partly unfilled. There
@@ -20,6 +21,9 @@
 // walk's own step): its tiles hold SCAN_PIECE_PIXELS / SCAN_PIECE_COST pixels.
 #ifndef SCAN_PIECE_COST
 #define SCAN_PIECE_COST 1
+#endif
+#ifndef SCAN_PIECE_ROW_COST
+#define SCAN_PIECE_ROW_COST 1
 #endif
 
 #if SCAN_PIECE_PIXELS
@@ -72,11 +76,48 @@ bool scan_piece(inout ivec2 first, inout ivec2 last) {
     return true;
 }
 
+// The same for a box of voxels (volume/raster.comp.glsl), in tiles of at most
+// SCAN_PIECE_PIXELS / SCAN_PIECE_COST voxels and SCAN_PIECE_PIXELS / SCAN_PIECE_ROW_COST
+// rows (the includer's loop iterations per voxel and per row), whole rows where they fit.
+bool scan_piece_3d(inout ivec3 first, inout ivec3 last) {
+    int piece = int(gl_WorkGroupID.z) + u_piece_first;
+    ivec3 size = last - first + 1;
+    if (any(lessThan(size, ivec3(1)))) {
+        return piece == 0;
+    }
+    const int voxels = SCAN_PIECE_PIXELS / SCAN_PIECE_COST;
+    const int rows = SCAN_PIECE_PIXELS / SCAN_PIECE_ROW_COST;
+    ivec3 tile;
+    tile.x = min(size.x, voxels);
+    int most = max(min(voxels / tile.x, rows), 1);   // rows of a tile
+    tile.y = min(size.y, most);
+    tile.z = max(most / tile.y, 1);
+    ivec3 across = (size + tile - 1) / tile;
+    int pieces = across.x * across.y * across.z;
+    if (piece == 0 && pieces > 1) {
+        atomicMax(scan_pieces_x, gl_NumWorkGroups.x);
+        atomicMax(scan_pieces_y, gl_NumWorkGroups.y);
+        atomicMax(scan_pieces_z, uint(pieces - 1));
+    }
+    if (piece >= pieces) {
+        return false;
+    }
+    ivec3 at = ivec3(piece % across.x, (piece / across.x) % across.y,
+                     piece / (across.x * across.y));
+    first += at * tile;
+    last = min(last, first + tile - 1);
+    return true;
+}
+
 // Is this the invocation that walks piece 0 (the one that counts or lists its primitive)?
 bool scan_first_piece() {
     return gl_WorkGroupID.z == 0u && u_piece_first == 0;
 }
 #else
+bool scan_piece_3d(inout ivec3 first, inout ivec3 last) {
+    return true;
+}
+
 int scan_pieces(ivec2 first, ivec2 last) {
     return 1;
 }
