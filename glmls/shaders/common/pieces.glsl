@@ -27,6 +27,11 @@
 #endif
 
 #if SCAN_PIECE_PIXELS
+// The most work groups z the pieces' dispatch may have (GL's least maximum): the pieces
+// past it stay undrawn, in a box of more than 65,535 tiles (10^9 pixels for the quads'
+// tiles, 1.3 x 10^8 for paper-quads' smaller ones, 2.7 x 10^8 voxels).
+#define SCAN_PIECES_MAX 65535
+
 layout(std430, binding = BIND_PIECES) buffer ScanPieces {
     uint scan_pieces_x;   // the pieces' indirect dispatch (x, y, z): (0, 0, 0) before the
     uint scan_pieces_y;   // first dispatch, raised by it
@@ -63,7 +68,7 @@ bool scan_piece(inout ivec2 first, inout ivec2 last) {
     if (piece == 0 && pieces > 1) {
         atomicMax(scan_pieces_x, gl_NumWorkGroups.x);
         atomicMax(scan_pieces_y, gl_NumWorkGroups.y);
-        atomicMax(scan_pieces_z, uint(pieces - 1));
+        atomicMax(scan_pieces_z, uint(min(pieces - 1, SCAN_PIECES_MAX)));
     }
     if (piece >= pieces) {
         return false;
@@ -97,7 +102,7 @@ bool scan_piece_3d(inout ivec3 first, inout ivec3 last) {
     if (piece == 0 && pieces > 1) {
         atomicMax(scan_pieces_x, gl_NumWorkGroups.x);
         atomicMax(scan_pieces_y, gl_NumWorkGroups.y);
-        atomicMax(scan_pieces_z, uint(pieces - 1));
+        atomicMax(scan_pieces_z, uint(min(pieces - 1, SCAN_PIECES_MAX)));
     }
     if (piece >= pieces) {
         return false;
