@@ -54,13 +54,19 @@ void main() {
     if (any(greaterThan(low, vec3(last) + 0.5)) || any(lessThan(high, vec3(first) - 0.5))) {
         return;
     }
-    // this invocation's piece of the cell's voxels (the whole box but on llvmpipe); each
-    // tetrahedron's arithmetic is the same whatever piece its voxels are walked in
+    // this invocation's piece of the cell's voxels (on llvmpipe; elsewhere the slab, which
+    // holds every tetrahedron's box); each tetrahedron's arithmetic is the same whatever
+    // piece its voxels are walked in
+#if SCAN_PIECE_PIXELS
     ivec3 piece_first = ivec3(max(ceil(low - VOLUME_INSIDE_EPS), vec3(first)));
     ivec3 piece_last = ivec3(min(floor(high + VOLUME_INSIDE_EPS), vec3(last)));
     if (!scan_piece_3d(piece_first, piece_last)) {
         return;
     }
+#else
+    ivec3 piece_first = first;
+    ivec3 piece_last = last;
+#endif
     uint first_key = 6u * volume_key_of(cell);
     for (int t = 0; t < 6; ++t) {
         uint key = first_key + uint(t);
