@@ -195,7 +195,8 @@ class CellScan:
     @current
     def redrawn_cells(self) -> int:
         """How many cells the keyed pass of the last fast scan redrew (0 where the mesh was
-        an embedding): those reaching a hot tile, or all where the boundary failed its test
+        an embedding): those reaching a hot tile (on llvmpipe each piece of a cell walked
+        in pieces counts, ``common/pieces.glsl``), or all where the boundary failed its test
         or more cells folded than it lists. Reads back: for tests and diagnostics, not
         frames."""
         self._gl.mgl.memory_barrier()

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import coordinate_image
+from helpers import coordinate_image, folded_case
 from numpy.testing import assert_allclose, assert_array_equal
 
 import glmls
@@ -117,3 +117,28 @@ def test_paper_squares_larger_than_the_loop_limit_are_drawn_whole(gl, interpolat
         assert_array_equal(out[..., :2], np.rint(s).astype(dtype))
     else:  # float32's inversion of the square's bilinear map: 0.034 px at 50x as well
         assert_allclose(out[..., :2], s, atol=0.05)
+
+
+def test_fast_quads_redraw_large_folded_cells_as_the_keyed_pass(gl, pipeline):
+    """A fold magnified 100x (4 px cells of 400 x 400 output pixels): the fast pass's keyed
+    redraw of the cells near it (warp/cells_hot.glsl), walked in pieces, shows what the
+    keyed pass shows."""
+    shape, p, q = folded_case()
+    img = coordinate_image(*shape).astype(np.uint8)
+    options = {"grid": 4, "output_shape": (500, 500), "origin": (3900.0, 1700.0), "background": 255}
+    fast_pipe, keyed_pipe = pipeline(), pipeline(fast_embedded=False)
+    with glmls.MLS(p, q * 100, transform="similarity", ctx=gl) as m:
+        fast = fast_pipe.warp(m, img, **options)
+        keyed = keyed_pipe.warp(m, img, **options)
+    assert fast_pipe.cells.last_path == "fused fast"
+    assert keyed_pipe.cells.last_path == "fused"
+    bad, crossings = fast_pipe.cells.embedding_counts()
+    assert bad > 0 and crossings == 1  # folds inside a simple boundary: only cells near them
+    assert fast_pipe.cells.redrawn_cells() > 0
+    assert_array_equal(fast, keyed)
+    # the pixels that 1 px cells (100 x 100 output pixels, one piece each) cover, but for
+    # the boundary's chords and the fold, which differ at grid 4
+    with glmls.MLS(p, q * 100, transform="similarity", ctx=gl) as m:
+        fine = keyed_pipe.warp(m, img, **(options | {"grid": 1}))
+    missed = (keyed[..., 0] == 255) & (fine[..., 0] != 255)
+    assert missed.mean() < 0.01, missed.mean()
