@@ -260,13 +260,20 @@ class GLContext:
         return 65535 if "llvmpipe" in str(self.mgl.info["GL_RENDERER"]).lower() else None
 
     @functools.cached_property
+    def piece_pixels(self) -> int:
+        """The most pixels one invocation of a scan conversion walks, larger primitives
+        being walked in pieces (``glmls/shaders/common/pieces.glsl``): a quarter of
+        :attr:`loop_limit` (a walk steps at most twice per pixel, the rest is margin); 0, no
+        bound and no pieces, without one. Set on a context before its first compute program
+        to walk in smaller pieces (the tests check that pieces change no pixel)."""
+        limit = self.loop_limit
+        return 0 if limit is None else limit // 4
+
+    @property
     def _compute_defines(self) -> dict[str, object]:
         """What every compute program of this context is compiled with besides the library's
-        common defines: ``SCAN_PIECE_PIXELS``, the most pixels one invocation of a scan
-        conversion walks (``common/pieces.glsl``): a quarter of :attr:`loop_limit` (a walk
-        steps at most twice per pixel, the rest is margin), 0 (no bound) without one."""
-        limit = self.loop_limit
-        return {"SCAN_PIECE_PIXELS": 0 if limit is None else limit // 4}
+        common defines: ``SCAN_PIECE_PIXELS`` (:attr:`piece_pixels`)."""
+        return {"SCAN_PIECE_PIXELS": self.piece_pixels}
 
     # -- being current ----------------------------------------------------------------------
 

@@ -152,7 +152,8 @@ class ScanPieces:
     """The second dispatch of a scan conversion on a driver that caps an invocation's loop
     iterations (``common/pieces.glsl``): the pieces of the primitives too large for one
     invocation, in an indirect dispatch that the first sized (no work group where there are
-    none; nothing is read back). With ``gl.loop_limit`` None (GPU drivers) it does nothing.
+    none; nothing is read back). Where ``gl.piece_pixels`` is 0 (no loop limit: GPU
+    drivers) it does nothing.
 
     Around the dispatches over the primitives of ``program``: :meth:`start` before them,
     :meth:`finish` after them, with the ``u_offset`` of each if there were several.
@@ -160,7 +161,7 @@ class ScanPieces:
 
     def __init__(self, gl) -> None:
         self._gl = gl
-        self.active = gl.loop_limit is not None
+        self.active = gl.piece_pixels > 0
 
     def start(self, program: moderngl.ComputeShader) -> None:
         """Clear the pieces' dispatch size and bind it; ``program`` walks piece 0 of each
