@@ -39,7 +39,7 @@ from ..core.mesh import MeshLattice
 from ..engine.passes import evaluate_lattice
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
-from ..gl.dispatch import LOCAL_SIZE_2D, fill_buffer, run_1d, set_uniforms
+from ..gl.dispatch import LOCAL_SIZE_2D, ScanPieces, fill_buffer, set_uniforms
 from ..gl.resources import Resources, keep_framebuffer
 from ..imaging.frame import Frame
 from ..imaging.inverse import NEWTON_ACCEPT, NEWTON_STEPS, NEWTON_TOLERANCE
@@ -234,7 +234,7 @@ class BatchQuads:
         winner.bind_to_storage_buffer(bindings.WINNER.index)
         cells = (lattice.dims[0] - 1) * (lattice.dims[1] - 1)
         mgl.memory_barrier()
-        run_1d(scan, cells * count, max_groups=gl.limits["max_work_groups_x"])
+        ScanPieces(gl).run_1d(scan, cells * count, max_groups=gl.limits["max_work_groups_x"])
         mgl.memory_barrier()
         framebuffer = self._resources.framebuffer("coords", atlas, "f4")
         self._resources.fill(framebuffer.color_attachments[0], (0.0, 0.0, 0.0, 0.0))
@@ -446,7 +446,8 @@ class BatchQuads:
         mesh.bind_to_storage_buffer(bindings.DEFORMED.index)
         scales.bind_to_storage_buffer(bindings.POINTS.index)
         winner.bind_to_storage_buffer(bindings.WINNER.index)
-        run_1d(scan, cells * count, max_groups=gl.limits["max_work_groups_x"])  # 2.
+        max_groups = gl.limits["max_work_groups_x"]
+        ScanPieces(gl).run_1d(scan, cells * count, max_groups=max_groups)  # 2.
         mgl.memory_barrier()
         self._resolve(values, atlas, framebuffer, sources, winner, linear)  # 3.
         return _read_atlas(self._gl.mgl, framebuffer, atlas, source, count, frame)  # 4.

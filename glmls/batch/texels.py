@@ -26,7 +26,7 @@ import numpy as np
 
 from ..core.mesh import MeshLattice
 from ..gl import bindings
-from ..gl.dispatch import fill_buffer, run_1d, set_uniforms
+from ..gl.dispatch import ScanPieces, fill_buffer, run_1d, set_uniforms
 from ..imaging.frame import Frame
 from ..imaging.options import PipelineOptions, WarpOptions
 from ..imaging.quads import key_layout
@@ -165,14 +165,17 @@ def warp_texels(
     atlas.bind_to_storage_buffer(bindings.BATCH_ATLAS.index)
     cells = (columns - 1) * (rows - 1)
     mgl.memory_barrier()
+    pieces = ScanPieces(gl)  # large cells on llvmpipe (common/pieces.glsl)
     for part in (1, 2) if FAST_PASS else (0,):  # 3. the embeddings, then the others
         fused = {"WARP_CELLS_SOURCE": True, "WARP_CELLS_FUSED": True, "BATCH_CELLS_PASS": part}
         scan = gl.compute("batch/cells.comp.glsl", fused | {"WARP_SOURCE_BYTES": True} | defines)
         set_uniforms(scan, values)
         if part:  # the images listed for it, sized on the GPU
+            pieces.start(scan)
             scan.run_indirect(lists, offset=16 * (part - 1))
+            pieces.finish(scan)
         else:
-            run_1d(scan, cells * count, max_groups=max_groups)
+            pieces.run_1d(scan, cells * count, max_groups=max_groups)
     mgl.memory_barrier()
     fixup = gl.compute("batch/fixup.comp.glsl", {"WARP_SOURCE_BYTES": True} | defines)
     set_uniforms(fixup, values)

@@ -70,6 +70,7 @@ BATCH_OUTPUT = Binding("BATCH_OUTPUT", "storage", 25, "batches: the chunk's outp
 BATCH_CHECK = Binding("BATCH_CHECK", "storage", 26, "batches: each image's embedding test")
 BATCH_LISTS = Binding("BATCH_LISTS", "storage", 27, "batches: the images each scan takes")
 BATCH_ATLAS = Binding("BATCH_ATLAS", "storage", 28, "batches: the output canvases' texels")
+PIECES = Binding("PIECES", "storage", 29, "scans: the dispatch of large primitives' pieces")
 # -- uniform blocks ----------------------------------------------------------------------------
 HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
 # -- texture units -----------------------------------------------------------------------------
@@ -126,6 +127,7 @@ ALL = (
     BATCH_CHECK,
     BATCH_LISTS,
     BATCH_ATLAS,
+    PIECES,
     HANDLES_BLOCK,
     SOURCE,
     COORDS,

@@ -259,6 +259,22 @@ class GLContext:
         as if done); None where it runs them all (GPU drivers)."""
         return 65535 if "llvmpipe" in str(self.mgl.info["GL_RENDERER"]).lower() else None
 
+    @functools.cached_property
+    def piece_pixels(self) -> int:
+        """The most pixels one invocation of a scan conversion walks, larger primitives
+        being walked in pieces (``glmls/shaders/common/pieces.glsl``): a quarter of
+        :attr:`loop_limit` (a walk steps at most twice per pixel, the rest is margin); 0, no
+        bound and no pieces, without one. Set on a context before its first compute program
+        to walk in smaller pieces (the tests check that pieces change no pixel)."""
+        limit = self.loop_limit
+        return 0 if limit is None else limit // 4
+
+    @property
+    def _compute_defines(self) -> dict[str, object]:
+        """What every compute program of this context is compiled with besides the library's
+        common defines: ``SCAN_PIECE_PIXELS`` (:attr:`piece_pixels`)."""
+        return {"SCAN_PIECE_PIXELS": self.piece_pixels}
+
     # -- being current ----------------------------------------------------------------------
 
     @property
@@ -371,7 +387,7 @@ class GLContext:
         key = (entry, _frozen(defines))
         program = self._programs.get(key)
         if program is None:
-            source = self.shaders.compose(entry, defines)
+            source = self.shaders.compose(entry, self._compute_defines | dict(defines or {}))
             program = self._compile({"compute_shader": source}, self._compute_shader)
             self._programs[key] = program
             while len(self._programs) > self.max_programs:

@@ -17,6 +17,7 @@ from . import bindings
 __all__ = [
     "LOCAL_SIZE",
     "LOCAL_SIZE_2D",
+    "ScanPieces",
     "fill_buffer",
     "run_1d",
     "run_2d",
@@ -145,3 +146,59 @@ def run_2d(program: moderngl.ComputeShader, dims: tuple[int, int], *, max_groups
         raise ValueError(f"lattice of {dims[0]} x {dims[1]} points is too large for one dispatch")
     set_uniforms(program, {"u_dims": dims})
     program.run(group_x=groups[0], group_y=groups[1])
+
+
+class ScanPieces:
+    """The second dispatch of a scan conversion on a driver that caps an invocation's loop
+    iterations (``common/pieces.glsl``): the pieces of the primitives too large for one
+    invocation, in an indirect dispatch that the first sized (no work group where there are
+    none; nothing is read back). Where ``gl.piece_pixels`` is 0 (no loop limit: GPU
+    drivers) it does nothing.
+
+    Around the dispatches over the primitives of ``program``: :meth:`start` before them,
+    :meth:`finish` after them, with the ``u_offset`` of each if there were several.
+    """
+
+    def __init__(self, gl) -> None:
+        self._gl = gl
+        self.active = gl.piece_pixels > 0
+
+    def start(self, program: moderngl.ComputeShader) -> None:
+        """Clear the pieces' dispatch size and bind it; ``program`` walks piece 0 of each
+        primitive."""
+        if not self.active:
+            return
+        buffer = self._gl.shared(_PIECES, lambda: self._gl.mgl.buffer(reserve=16))
+        buffer.write(_NO_PIECES)
+        buffer.bind_to_storage_buffer(bindings.PIECES.index)
+        set_uniforms(program, {"u_piece_first": 0})
+
+    def finish(self, program: moderngl.ComputeShader, offsets: tuple[int, ...] = ()) -> None:
+        """Dispatch the other pieces of ``program``'s primitives: once, or once per
+        ``u_offset`` in ``offsets`` (those of the dispatches over the primitives)."""
+        if not self.active:
+            return
+        gl = self._gl
+        buffer = gl.shared(_PIECES, lambda: gl.mgl.buffer(reserve=16))
+        buffer.bind_to_storage_buffer(bindings.PIECES.index)
+        gl.mgl.memory_barrier()  # the sizes, before the indirect dispatch reads them
+        set_uniforms(program, {"u_piece_first": 1})
+        for offset in offsets or (None,):
+            if offset is not None:
+                set_uniforms(program, {"u_offset": offset})
+            program.run_indirect(buffer)
+        set_uniforms(program, {"u_piece_first": 0})
+
+    def run_1d(self, program: moderngl.ComputeShader, count: int, *, max_groups: int) -> None:
+        """:func:`run_1d` over ``count`` primitives, one per invocation, with their pieces."""
+        self.start(program)
+        run_1d(program, count, max_groups=max_groups)
+        items = LOCAL_SIZE
+        offsets = tuple(first * items for first in range(0, math.ceil(count / items), max_groups))
+        self.finish(program, offsets)
+
+
+#: The shared object of :class:`ScanPieces` (its indirect dispatch's sizes), and their value
+#: before a scan: no work group.
+_PIECES = "scan pieces"
+_NO_PIECES = bytes(16)

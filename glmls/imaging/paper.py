@@ -22,7 +22,7 @@ from ..core.paper_quads import EDGE_TOLERANCE
 from ..engine.kernel import MLSKernel
 from ..gl import bindings
 from ..gl.context import GLContext, current
-from ..gl.dispatch import fill_buffer, run_1d, set_uniforms
+from ..gl.dispatch import ScanPieces, fill_buffer, set_uniforms
 from ..gl.resources import Resources
 from .bands import MeshBands
 from .frame import Frame
@@ -142,6 +142,8 @@ class PaperQuads:
             winner.bind_to_storage_buffer(bindings.WINNER.index)
             squares = (dims[0] - 1) * (dims[1] - 1)
             if squares > 0:
-                run_1d(program, squares, max_groups=self._gl.limits["max_work_groups_x"])
+                # with the pieces of large squares on llvmpipe (common/pieces.glsl)
+                pieces = ScanPieces(self._gl)
+                pieces.run_1d(program, squares, max_groups=self._gl.limits["max_work_groups_x"])
             count += 1
         return dims if count == 1 else None

@@ -35,7 +35,7 @@ from ..core.mesh import MeshLattice
 from ..engine.kernel import MLSKernel
 from ..gl import bindings
 from ..gl.context import GLContext, current
-from ..gl.dispatch import fill_buffer, run_1d, set_uniforms
+from ..gl.dispatch import ScanPieces, fill_buffer, set_uniforms
 from ..gl.resources import Resources
 from .bands import MeshBands
 from .frame import Frame
@@ -97,6 +97,7 @@ class CellScan:
         self.last_path: str | None = None
         self._fast_dims = (1, 1)  # the mesh of the last fast scan
         self._fold_capacity = 0  # and the length of its list of folded cells
+        self._pieces = ScanPieces(gl)  # large cells on llvmpipe (common/pieces.glsl)
 
     @current
     def draw(
@@ -162,7 +163,9 @@ class CellScan:
                 band = values | {"u_mesh_dims": dims, "u_first_row": first}
                 self._scan_fast(cells, band, border)
             else:
-                run_1d(cells, (dims[0] - 1) * (dims[1] - 1), max_groups=self._max_groups)
+                self._pieces.run_1d(
+                    cells, (dims[0] - 1) * (dims[1] - 1), max_groups=self._max_groups
+                )
             bands += 1
         self._gl.mgl.memory_barrier()
         if fused:
@@ -192,7 +195,8 @@ class CellScan:
     @current
     def redrawn_cells(self) -> int:
         """How many cells the keyed pass of the last fast scan redrew (0 where the mesh was
-        an embedding): those reaching a hot tile, or all where the boundary failed its test
+        an embedding): those reaching a hot tile (on llvmpipe each piece of a cell walked
+        in pieces counts, ``common/pieces.glsl``), or all where the boundary failed its test
         or more cells folded than it lists. Reads back: for tests and diagnostics, not
         frames."""
         self._gl.mgl.memory_barrier()
@@ -266,7 +270,8 @@ class CellScan:
         check = self._resources.buffer("check", 48 + 4 * (block_list + blocks))
         check.clear(size=48 + 4 * folded_list)
         check.bind_to_storage_buffer(bindings.CHECK.index)
-        run_1d(fast, cells, max_groups=self._max_groups)
+        pieces = self._pieces
+        pieces.run_1d(fast, cells, max_groups=self._max_groups)
         gl.mgl.memory_barrier()
         stages[1].run(group_x=1)  # the boundary's test, then the sizes of what follows
         gl.mgl.memory_barrier()
@@ -278,8 +283,10 @@ class CellScan:
         stages[2].run_indirect(check, offset=16)
         gl.mgl.memory_barrier()
         set_uniforms(every, {"u_offset": 0})
-        every.run_indirect(check, offset=32)
-        keyed.run_indirect(check, offset=48)
+        for program, offset in ((every, 32), (keyed, 48)):
+            pieces.start(program)
+            program.run_indirect(check, offset=offset)
+            pieces.finish(program)
 
     def _prepare_fused(self, capacity: int) -> None:
         """An empty fix-up list, its dispatch of no work groups (the textures need no

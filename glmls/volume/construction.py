@@ -27,7 +27,7 @@ import numpy as np
 
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
-from ..gl.dispatch import fill_buffer, run_1d, set_uniforms
+from ..gl.dispatch import ScanPieces, fill_buffer, run_1d, set_uniforms
 from ..gl.resources import Resources
 from ..imaging.source import BORDERS
 from .bands import KEY_BYTES, POINT_BYTES, LatticeBands, Slab, border_margin3
@@ -250,7 +250,8 @@ class VolumeWarper:
                 common | {"u_band_first": bands.band_first, "u_cell_first": first},
             )
             self._gl.mgl.memory_barrier()
-            run_1d(raster, layers * ncx * ncy, max_groups=self._max_groups)
+            # with the pieces of large cells on llvmpipe (common/pieces.glsl)
+            ScanPieces(self._gl).run_1d(raster, layers * ncx * ncy, max_groups=self._max_groups)
         program = self._gl.compute("volume/resolve.comp.glsl", defines | {"VOLUME_COORDS": coords})
         set_uniforms(program, common | uniforms)
         # the last band rastered is still held: resolved first

@@ -18,7 +18,7 @@ from ...core.mesh import MeshLattice
 from ...engine.kernel import MLSKernel
 from ...gl import bindings
 from ...gl.context import GLContext
-from ...gl.dispatch import fill_buffer, run_1d, set_uniforms
+from ...gl.dispatch import ScanPieces, fill_buffer, run_1d, set_uniforms
 from ...gl.resources import Resources
 from ..frame import Frame
 from .cells import GPUCells, known_points
@@ -293,7 +293,8 @@ class AdaptiveScan:
         gl = self._gl
         scan = gl.compute("adaptive/scan.comp.glsl", defines)
         set_uniforms(scan, values)
-        run_1d(scan, count, max_groups=gl.limits["max_work_groups_x"])
+        # with the pieces of large triangles on llvmpipe (common/pieces.glsl)
+        ScanPieces(gl).run_1d(scan, count, max_groups=gl.limits["max_work_groups_x"])
         gl.mgl.memory_barrier()
 
 

@@ -32,6 +32,9 @@
 // source): source and target are bound as r32ui images and each texel is copied whole
 // (warp/texels.glsl).
 //
+// A triangle too large for one invocation on a driver that caps its loops (llvmpipe) is
+// walked in pieces, tiles of its pixel box, by more invocations (common/pieces.glsl).
+//
 // Coverage is OpenGL's: pixel centres strictly inside, and on an edge for one of the two
 // triangles sharing it (a top-left style tie rule). Each edge function is computed from the
 // edge's end points in vertex-index order, with `precise`, so the two triangles on either
@@ -55,6 +58,7 @@ layout(local_size_x = LOCAL_SIZE) in;
 #define ADAPTIVE_LIST 0
 #endif
 #include "common/groups.glsl"
+#include "common/pieces.glsl"
 #include "adaptive/mesh.glsl"
 
 layout(std430, binding = BIND_WINNER) buffer AdaptiveWinner {
@@ -161,7 +165,7 @@ void main() {
 #if ADAPTIVE_FILL == 2 && !ADAPTIVE_HOT
     // the one pass counts the triangles the fold check would (adaptive/folds.comp.glsl):
     // run without it, where the mesh is most likely an embedding, none must be found
-    if (representable && adaptive_turned(a, b, c, area)) {
+    if (representable && adaptive_turned(a, b, c, area) && scan_first_piece()) {
         atomicAdd(adaptive_reversed, 1u);
     }
 #endif
@@ -179,11 +183,18 @@ void main() {
         return;
     }
 #if ADAPTIVE_HOT
-    if (reaches_hot(first, last)) {
-        adaptive_hot[atomicAdd(adaptive_hot_count, 1u)] = uint(t);   // for the keyed passes
+    // a triangle walked in pieces (common/pieces.glsl) is listed whole, by its first piece
+    // (the loop over its hot tiles could be long): the keyed passes draw it
+    if (scan_pieces(first, last) > 1 || reaches_hot(first, last)) {
+        if (scan_first_piece()) {
+            adaptive_hot[atomicAdd(adaptive_hot_count, 1u)] = uint(t);   // for the keyed passes
+        }
         return;
     }
 #endif
+    if (!scan_piece(first, last)) {
+        return;   // a large triangle's piece it does not have (common/pieces.glsl)
+    }
 #if ADAPTIVE_FILL
     LeafPatch leaf = load_patch(int(ids.w));
     // the linear guess in the leaf's centred coordinates (adaptive/patch.glsl), an affine

@@ -16,6 +16,8 @@
 // twice (BATCH_CELLS_PASS 1 scans only them, the single warp's fast pass). WARP_SOURCE_BYTES:
 // the sources are the caller's bytes and the atlas a buffer (batch/bytes.glsl); the pixels an
 // embedding draws are marked 1 in the winner buffer (batch/pack.comp.glsl fills the rest).
+// A cell too large for one invocation on a driver that caps its loops (llvmpipe) is walked
+// in pieces by more invocations (common/pieces.glsl).
 layout(local_size_x = LOCAL_SIZE) in;
 
 #ifndef WARP_CELLS_FUSED
@@ -32,6 +34,7 @@ layout(local_size_x = LOCAL_SIZE) in;
 #include "common/lattice.glsl"
 #include "batch/mesh.glsl"
 #include "warp/coverage.glsl"
+#include "common/pieces.glsl"
 #if WARP_CELLS_FUSED
 uniform ivec2 u_source_size;  // W, H of one source image
 #include "warp/cells_packed.glsl"
@@ -102,6 +105,9 @@ void main() {
     vec2 hi = max(max(p00, p10), max(p01, p11));
     ivec2 first = max(ivec2(ceil(lo)), ivec2(0));
     ivec2 last = min(ivec2(floor(hi)), u_target_size - 1);
+    if (!scan_piece(first, last)) {
+        return;   // a large cell's piece it does not have (common/pieces.glsl)
+    }
     int row = cy;
     uint id0 = 0x80000000u - (uint(row) << u_row_shift | uint(cx) << u_col_shift);
     uint id1 = id0 - (1u << (2 * u_sub_bits));

@@ -9,6 +9,12 @@ layout(local_size_x = LOCAL_SIZE) in;
 
 #include "volume/lattice.glsl"
 #include "volume/tetra.glsl"
+// A cell too large for one invocation on a driver that caps its loops (llvmpipe) is walked
+// in pieces, tiles of its voxel box, by more invocations: per voxel of a tile at most one
+// step of each of its 6 tetrahedra, per row 6 times the 4 bounds and a step
+#define SCAN_PIECE_COST 4
+#define SCAN_PIECE_ROW_COST 40
+#include "common/pieces.glsl"
 
 layout(std430, binding = BIND_VOLUME_KEYS) buffer VolumeKeys {
     uint volume_keys[];
@@ -48,6 +54,19 @@ void main() {
     if (any(greaterThan(low, vec3(last) + 0.5)) || any(lessThan(high, vec3(first) - 0.5))) {
         return;
     }
+    // this invocation's piece of the cell's voxels (on llvmpipe; elsewhere the slab, which
+    // holds every tetrahedron's box); each tetrahedron's arithmetic is the same whatever
+    // piece its voxels are walked in
+#if SCAN_PIECE_PIXELS
+    ivec3 piece_first = ivec3(max(ceil(low - VOLUME_INSIDE_EPS), vec3(first)));
+    ivec3 piece_last = ivec3(min(floor(high + VOLUME_INSIDE_EPS), vec3(last)));
+    if (!scan_piece_3d(piece_first, piece_last)) {
+        return;
+    }
+#else
+    ivec3 piece_first = first;
+    ivec3 piece_last = last;
+#endif
     uint first_key = 6u * volume_key_of(cell);
     for (int t = 0; t < 6; ++t) {
         uint key = first_key + uint(t);
@@ -72,8 +91,8 @@ void main() {
         // the int range) has no defined int, and x86 (llvmpipe) makes INT_MIN of it
         ivec3 lo = ivec3(max(ceil(tlo - VOLUME_INSIDE_EPS), vec3(first)));
         ivec3 hi = ivec3(min(floor(thi + VOLUME_INSIDE_EPS), vec3(last)));
-        for (int z = lo.z; z <= hi.z; ++z) {
-            for (int y = lo.y; y <= hi.y; ++y) {
+        for (int z = max(lo.z, piece_first.z); z <= min(hi.z, piece_last.z); ++z) {
+            for (int y = max(lo.y, piece_first.y); y <= min(hi.y, piece_last.y); ++y) {
                 // along the row: l_i(x) = c_i + gx_i (x - lo.x), all >= -eps on an interval
                 vec3 r = vec3(float(lo.x), float(y), float(z)) - a;
                 vec3 c = vec3(dot(r, g1), dot(r, g2), dot(r, g3));
@@ -100,7 +119,8 @@ void main() {
                 int x0 = lo.x + int(ceil(clamp(from, 0.0, span + 1.0))) - 1;
                 int x1 = lo.x + int(floor(clamp(to, -1.0, span))) + 1;
                 int row = ((z - u_slab_first) * u_slab_size.y + y) * u_slab_size.x;
-                for (int x = max(x0, lo.x); x <= min(x1, hi.x); ++x) {
+                int x_end = min(min(x1, hi.x), piece_last.x);
+                for (int x = max(max(x0, lo.x), piece_first.x); x <= x_end; ++x) {
                     float dx = float(x - lo.x);
                     vec4 l = vec4(c + gx * dx, c0 + g0x * dx);
                     if (min(min(l.x, l.y), min(l.z, l.w)) >= -VOLUME_INSIDE_EPS) {

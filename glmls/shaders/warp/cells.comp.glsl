@@ -39,6 +39,9 @@
 // pixel p is p + u_lattice_offset, read by the border rule (common/border.glsl). Target
 // pixels are the output frame's (warp/frame.glsl).
 //
+// A cell too large for one invocation on a driver that caps its loops (llvmpipe) is walked
+// in pieces, tiles of its pixel box, by more invocations (common/pieces.glsl).
+//
 // Coverage is OpenGL's: pixel centres strictly inside, and on an edge only for one of the two
 // triangles that share it (a top-left style tie rule). Each edge function is computed from
 // the edge's endpoints in mesh-index order, with `precise`, so the two triangles on either
@@ -52,6 +55,7 @@ layout(local_size_x = LOCAL_SIZE) in;
 #include "warp/cells_packed.glsl"
 #include "warp/frame.glsl"
 #include "common/lattice.glsl"
+#include "common/pieces.glsl"
 
 layout(binding = BIND_MESH) uniform sampler2D warp_mesh;   // f at the band's vertices
                                                           // (scaled), fetched as texels
@@ -114,9 +118,11 @@ void main() {
     if (!(s0 > 0.0 && s1 > 0.0)) {
         // folded or degenerate: listed, the keyed pass redraws the cells near it (the least
         // code here: this branch slows the scan of meshes that never take it)
-        uint k = atomicAdd(warp_check_folded, 1u);
-        if (k < uint(u_folded_capacity)) {
-            warp_check_data[u_folded_list + int(k)] = uint(cy * cells_x + cx);
+        if (scan_first_piece()) {
+            uint k = atomicAdd(warp_check_folded, 1u);
+            if (k < uint(u_folded_capacity)) {
+                warp_check_data[u_folded_list + int(k)] = uint(cy * cells_x + cx);
+            }
         }
         return;
     }
@@ -131,11 +137,14 @@ void main() {
     vec2 hi = max(max(p00, p10), max(p01, p11));
     ivec2 first = max(ivec2(ceil(lo)), ivec2(0));
     ivec2 last = min(ivec2(floor(hi)), u_target_size - 1);
+    if (!scan_piece(first, last)) {
+        return;   // a large cell's piece it does not have (common/pieces.glsl)
+    }
 #if WARP_CELLS_HOT
     if (any(greaterThan(first, last)) || !warp_reaches_hot(first, last)) {
         return;   // no pixel, or drawn by the fast pass and covered by no other cell
     }
-    atomicAdd(warp_check_redrawn, 1u);
+    atomicAdd(warp_check_redrawn, 1u);   // (each piece of a large cell counts)
 #endif
     int row = cy + u_first_row;
     // 2^31 - the fields: the first triangle in scan order has the largest key

@@ -24,6 +24,10 @@ layout(local_size_x = LOCAL_SIZE) in;
 
 #include "common/groups.glsl"
 #include "warp/frame.glsl"
+// a large square is walked in pieces on llvmpipe; a pixel runs the loops over the square's
+// vertices (4) and the roots (2) besides its own step
+#define SCAN_PIECE_COST 8
+#include "common/pieces.glsl"
 
 layout(std430, binding = BIND_DEFORMED) readonly buffer WarpMesh {
     vec2 warp_mesh[];   // f at the band's pixel centres, scaled coordinates
@@ -124,6 +128,9 @@ void main() {
     // the bounding rectangle, widened by the tolerance of the edges
     ivec2 first = max(ivec2(ceil(lo - PAPER_TOLERANCE)), ivec2(0));
     ivec2 last = min(ivec2(floor(hi + PAPER_TOLERANCE)), u_target_size - 1);
+    if (!scan_piece(first, last)) {
+        return;   // a large square's piece it does not have (common/pieces.glsl)
+    }
     int row = sy + u_first_row;
     uint k = uint(row) * uint(squares_x) + uint(sx);   // scan index in the whole lattice
     for (int y = first.y; y <= last.y; ++y) {
