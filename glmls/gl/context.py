@@ -17,13 +17,14 @@ used from that thread: another raises :class:`~glmls.ContextError`.
 Processes: GL drivers do not survive ``fork()``: on Mesa's llvmpipe even a new context made in
 the child hangs in its first compute dispatch (the driver's worker threads are gone), and
 NVIDIA's driver does not support use after fork either. So in a process forked from one in
-which glmls made a GL context, :func:`glmls.warp`, :func:`glmls.warp_batch` and the methods of
-an :class:`~glmls.MLS` (made before the fork or after it, without a ``ctx``) run in a helper
-process started fresh (:mod:`glmls.gl.helper`; one per forked process, started on first use and
-kept), with the same result bit for bit; making a context there (:func:`get_context`, a window,
-an MLS given a ``ctx``) raises :class:`~glmls.GLUnavailableError` at once, saying to use the
-``spawn`` start method. A process forked before glmls touched GL makes its own context on first
-use.
+which glmls made a GL context, :func:`glmls.warp`, :func:`glmls.warp_batch`, the methods of an
+:class:`~glmls.MLS` (made before the fork or after it, without a ``ctx``) and the ``render_*``
+pictures of :mod:`glmls.analysis` run in a helper process started fresh
+(:mod:`glmls.gl.helper`; one per forked process, started on first use and kept), with the same
+result bit for bit; making a context there (:func:`get_context`, a window, a
+:class:`~glmls.analysis.Canvas`, an MLS given a ``ctx``) raises
+:class:`~glmls.GLUnavailableError` at once, saying to use the ``spawn`` start method. A
+process forked before glmls touched GL makes its own context on first use.
 """
 
 from __future__ import annotations
@@ -51,8 +52,9 @@ _MIN_PROGRAMS = 16  # one image pass uses up to ~8: never evict one while it run
 _FORK = (
     "OpenGL unavailable: glmls made a GL context in process {pid}, and this process was "
     "forked from it; GL drivers do not survive fork (GL here would hang), so only "
-    "glmls.warp(), glmls.warp_batch() and glmls.MLS objects made without a ctx work here "
-    "(they run in a helper process). Use the 'spawn' start method "
+    "glmls.warp(), glmls.warp_batch(), glmls.augment, glmls.MLS objects made without a ctx "
+    "and the render_* pictures of glmls.analysis work here (they run in a helper process). "
+    "Use the 'spawn' start method "
     "(multiprocessing.get_context('spawn'); PyTorch: DataLoader(..., "
     "multiprocessing_context='spawn')), or make the first glmls GL call in the worker "
     "processes only."

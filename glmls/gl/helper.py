@@ -30,6 +30,7 @@ The helper's life:
 from __future__ import annotations
 
 import atexit
+import functools
 import importlib
 import os
 import pickle
@@ -39,12 +40,14 @@ import subprocess
 import sys
 import threading
 import warnings
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from ..errors import GLUnavailableError
+from .context import forked_from_gl
 
-__all__ = ["call", "process_id", "stop"]
+__all__ = ["call", "process_id", "stop", "when_forked"]
 
 _ROOT = str(Path(__file__).resolve().parents[2])  # the folder holding the glmls package
 _SIZE = struct.Struct("<Q")
@@ -186,6 +189,23 @@ def call(module: str, name: str, args: tuple = (), kwargs: dict | None = None) -
     if not ok:
         raise value
     return value
+
+
+_R = TypeVar("_R")
+
+
+def when_forked(function: Callable[..., _R]) -> Callable[..., _R]:
+    """``function`` (a module-level function of arrays that takes a ``ctx`` keyword), or, in a
+    process forked from one that used GL and without a ``ctx``, the same function run by this
+    process's helper (:func:`call`)."""
+
+    @functools.wraps(function)
+    def wrapper(*args, **kwargs):
+        if kwargs.get("ctx") is None and forked_from_gl():
+            return call(function.__module__, function.__name__, args, kwargs)
+        return function(*args, **kwargs)
+
+    return wrapper
 
 
 def process_id() -> int | None:

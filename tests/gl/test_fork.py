@@ -101,7 +101,7 @@ def test_a_child_forked_after_the_parent_warped_warps_bit_for_bit(tmp_path):
     assert unknown == "TypeError: warp() got an unknown keyword methd"
     assert bad_value.startswith("ValueError") and "nope" in bad_value
     assert context.startswith("GLUnavailableError") and "'spawn' start method" in context
-    assert "glmls.MLS objects made without a ctx work here" in context
+    assert "glmls.MLS objects made without a ctx" in context and "render_*" in context
 
 
 MLS_USES = """
@@ -290,3 +290,56 @@ def test_the_helper_raises_and_warns_in_the_caller():
     with pytest.raises(ZeroDivisionError):
         helper.call("operator", "truediv", (1, 0))
     assert helper.call("operator", "add", (np.arange(3), 1)).tolist() == [1, 2, 3]
+
+
+def test_pictures_and_reports_render_in_a_child_forked_after_the_parent_used_gl(tmp_path):
+    """The analysis pictures (drawn on the GPU) and the reports that hold them: in the child
+    through the helper, equal to the parent's; a Canvas of one's own is refused there."""
+    out = run_script(
+        """
+        import hashlib
+
+        from glmls import analysis as A
+
+        m = glmls.MLS(SRC, DST, weight="gaussian", radius=30.0)
+        POINTS = np.array([[12.0, 12.0], [48.0, 14.0], [30.0, 38.0], [14.0, 42.0], [30.0, 20.0]])
+
+        def pictures(m):  # digests: a pipe holds 64 KiB until the parent reads it
+            picture = image(0)
+            errors = A.triangle_errors(m, POINTS)
+            built = A.construction_errors(picture, m.warp(picture), m, POINTS)
+            report = A.report(picture, m, POINTS, construction=False, mesh_grid=8)
+            drawn = {
+                "field": A.render_field(A.error_field(m, (48, 56), grid=4)),
+                "handles": A.render_handles(picture, SRC, DST),
+                "triangulation": A.render_triangulation(picture, POINTS, errors.simplices),
+                "triangles": A.render_triangle_errors(picture, errors),
+                "mesh": A.render_mesh(picture, m.mesh((48, 56), grid=8)[1]),
+                "construction": A.render_construction_errors(picture, built),
+                **{"report " + name: p for name, p in report.images.items()},
+            }
+            digests = {k: (p.shape, hashlib.sha256(p.tobytes()).hexdigest())
+                       for k, p in drawn.items()}
+            return digests, report.summary["gl_renderer"]
+
+        expected, renderer = pictures(m)
+
+        def child():
+            made = glmls.MLS(SRC, DST, weight="gaussian", radius=30.0)
+            try:
+                A.Canvas((8, 8))
+                refused = "no error"
+            except glmls.GLUnavailableError as error:
+                refused = "GLUnavailableError"
+            return pictures(m), pictures(made), refused
+
+        (before, renderer_before), (made, renderer_made), refused = in_child(child)
+        assert before == made == expected
+        assert renderer_before == renderer_made == renderer and renderer
+        print(refused, len(expected))
+        """,
+        tmp_path,
+        timeout=180,
+    )
+    refused, count = out.split()
+    assert refused == "GLUnavailableError" and int(count) > 6
