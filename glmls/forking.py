@@ -92,10 +92,13 @@ class ForkSafe:
         return contextlib.nullcontext() if forked_from_gl() else self._gl.use()
 
     def _here(self, value: Any) -> Any:
-        if value is None:
+        """A GL internal (``kernel``, ``ctx``), which a process forked from one that used GL
+        does not have: the MLS's GL objects there are the helper's (or, for an MLS made
+        before the fork, its parent's, which GL cannot use here)."""
+        if value is None or forked_from_gl():
             raise GLUnavailableError(
-                "this MLS was made in a process forked from one that used GL: its GPU work "
-                "runs in a helper process, and its GL objects live there"
+                "this process was forked from one that used GL: an MLS's GPU work runs in a "
+                "helper process here, and its GL objects (kernel, ctx) live there"
             )
         return value
 

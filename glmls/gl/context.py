@@ -373,6 +373,7 @@ class GLContext:
         key = (entry, _frozen(defines))
         program = self._programs.get(key)
         if program is None:
+            self.check_usable()
             source = self.shaders.compose(entry, defines)
             program = self._compile({"compute_shader": source}, self._compute_shader)
             self._programs[key] = program
@@ -405,6 +406,7 @@ class GLContext:
         key = (vertex, fragment, _frozen(defines))
         program = self._render_programs.get(key)
         if program is None:
+            self.check_usable()
             stages = {
                 "vertex_shader": self.shaders.compose(vertex, defines),
                 "fragment_shader": self.shaders.compose(fragment, defines),
@@ -574,7 +576,8 @@ def get_context(ctx: moderngl.Context | GLContext | None = None) -> GLContext:
     ----------
     ctx : moderngl.Context or GLContext, optional
         None for the shared headless context; a moderngl context to adopt (one wrapper per
-        moderngl context); a :class:`GLContext` is returned as it is.
+        moderngl context); a :class:`GLContext` is returned as it is (one made before a fork
+        is refused in the child).
 
     Returns
     -------
@@ -598,6 +601,8 @@ def get_context(ctx: moderngl.Context | GLContext | None = None) -> GLContext:
     """
     global _default
     if isinstance(ctx, GLContext):
+        if ctx.pid != os.getpid():  # made before a fork: its driver state is not ours
+            raise GLUnavailableError(_FORK.format(pid=ctx.pid))
         return ctx
     with _registry_lock:
         if ctx is None:

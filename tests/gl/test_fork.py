@@ -343,3 +343,44 @@ def test_pictures_and_reports_render_in_a_child_forked_after_the_parent_used_gl(
     )
     refused, count = out.split()
     assert refused == "GLUnavailableError" and int(count) > 6
+
+
+def test_the_parents_contexts_are_refused_in_the_child_at_once(tmp_path):
+    """A GL context made before the fork, handed to glmls in the child (``ctx=``, its
+    programs, an MLS's GL internals), raises GLUnavailableError at once, before any GL call:
+    GL there would hang or draw on the parent's driver state."""
+    out = run_script(
+        """
+        from glmls.gl.context import create_headless
+
+        own, default = create_headless(), glmls.gl.get_context()
+        m = glmls.MLS(SRC, DST, ctx=own)
+        expected = m(SRC)
+
+        def child():
+            found = []
+            for attempt in (
+                lambda: glmls.MLS(SRC, DST, ctx=own),
+                lambda: glmls.MLS(SRC, DST, ctx=default),
+                lambda: glmls.warp(image(0), SRC, DST, ctx=own),
+                lambda: glmls.warp_batch(image(0)[None], SRC[None], DST[None], ctx=own),
+                lambda: glmls.analysis.render_field(np.zeros((4, 4)), ctx=own),
+                lambda: glmls.gl.WarpPipeline.of(own),
+                lambda: own.compute("mls/points.comp.glsl", {"MLS_STORAGE": 0}),
+                lambda: m.ctx,
+                lambda: m.kernel,
+            ):
+                try:
+                    attempt()
+                    found.append("no error")
+                except Exception as error:
+                    found.append(type(error).__name__)
+            return found, np.array_equal(m(SRC), expected)  # through the helper
+
+        found, same = in_child(child)
+        print(" ".join(found), same)
+        """,
+        tmp_path,
+    )
+    *found, same = out.split()
+    assert found == ["GLUnavailableError"] * 9 and same == "True"
