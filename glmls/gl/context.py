@@ -34,6 +34,7 @@ import contextlib
 import functools
 import os
 import threading
+import weakref
 from collections import OrderedDict
 from collections.abc import Callable, Hashable, Mapping
 from typing import Protocol, TypeVar
@@ -233,6 +234,7 @@ class GLContext:
         self._render_programs: dict[tuple, moderngl.Program] = {}
         self._shared: dict[Hashable, Releasable] = {}
         self._lock = threading.RLock()
+        _every.add(self)
         #: The thread keeping this context current outside glmls's calls, if any: the
         #: adopting thread for a borrowed context, else the caller of make_current().
         self._held_by: int | None = None
@@ -524,6 +526,8 @@ _registry_lock = threading.RLock()
 _default: GLContext | None = None
 #: Every live wrapper by id() of its moderngl context: one GLContext per moderngl context.
 _wrappers: dict[int, GLContext] = {}
+#: Every live GLContext, whose locks a forked child makes anew (see _after_fork_in_child).
+_every: weakref.WeakSet[GLContext] = weakref.WeakSet()
 
 
 def forked_from_gl() -> bool:
@@ -635,12 +639,17 @@ def release_all() -> None:
 
 
 def _after_fork_in_child() -> None:
-    """Forget the parent's contexts without touching them (their driver state is not ours)."""
+    """Forget the parent's contexts without touching them (their driver state is not ours).
+    Their locks are made anew: one held by another thread of the parent at the fork would
+    be held for ever here, and release() or unbind() of such a context would hang."""
     global _default, _wrappers, _registry_lock
     _default = None
     _wrappers = {}
     _registry_lock = threading.RLock()
     _thread.current = None
+    for context in list(_every):
+        context._lock = threading.RLock()
+        context._held_by = None  # no thread of the parent's exists here
 
 
 os.register_at_fork(after_in_child=_after_fork_in_child)

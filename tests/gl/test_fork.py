@@ -384,3 +384,44 @@ def test_the_parents_contexts_are_refused_in_the_child_at_once(tmp_path):
     )
     *found, same = out.split()
     assert found == ["GLUnavailableError"] * 9 and same == "True"
+
+
+def test_a_context_held_by_another_thread_at_the_fork_releases_in_the_child(tmp_path):
+    """A context's lock held by another thread of the parent at the fork (a warp running
+    there) is never released in the child: releasing or unbinding the context there must not
+    wait for it."""
+    out = run_script(
+        """
+        from glmls.gl.context import create_headless
+
+        own, default = create_headless(), glmls.gl.get_context()
+        m = glmls.MLS(SRC, DST, ctx=own)
+        held, done = threading.Event(), threading.Event()
+
+        def hold():
+            with own.use(), default.use():
+                held.set()
+                done.wait(60)
+
+        thread = threading.Thread(target=hold)
+        thread.start()
+        held.wait(60)
+
+        def child():
+            own.unbind()
+            m.release()
+            own.release()
+            default.release()
+            glmls.gl.context.release_all()
+            return own.released, default.released, m.released
+
+        try:
+            print(in_child(child, timeout=20))
+        finally:
+            done.set()
+            thread.join()
+        assert not own.released and np.array_equal(m(SRC), m(SRC))  # the parent's still work
+        """,
+        tmp_path,
+    )
+    assert out.strip() == "(True, True, True)"
