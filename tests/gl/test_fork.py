@@ -425,3 +425,47 @@ def test_a_context_held_by_another_thread_at_the_fork_releases_in_the_child(tmp_
         tmp_path,
     )
     assert out.strip() == "(True, True, True)"
+
+
+def test_image_reads_of_another_thread_at_the_fork_do_not_block_the_childs(tmp_path):
+    """A thread of the parent inside glmls.imread at the fork (the locks around Pillow's limit
+    and tifffile's logger held): the child's reads must not wait for it for ever."""
+    out = run_script(
+        """
+        import logging
+        import shutil
+        import tempfile
+
+        from glmls.files import images, tiffs
+
+        folder = tempfile.mkdtemp()
+        for suffix in ("png", "tif"):
+            glmls.imwrite(f"{folder}/picture.{suffix}", image(0))
+
+        def holding(lock, function):
+            held, done = threading.Event(), threading.Event()
+
+            def hold():
+                with lock:
+                    held.set()
+                    done.wait(60)
+
+            thread = threading.Thread(target=hold)
+            thread.start()
+            held.wait(60)
+            try:
+                return in_child(function, timeout=20)
+            finally:
+                done.set()
+                thread.join()
+
+        pillow = holding(images._pillow_lock, lambda: glmls.imread(f"{folder}/picture.png").shape)
+        tiff = holding(tiffs._lock, lambda: glmls.imread(f"{folder}/picture.tif").shape)
+        with tiffs.quiet_tifffile():  # a read under way at the fork: the child's logger level
+            level = in_child(lambda: logging.getLogger("tifffile").level)
+        print(pillow, tiff, level == logging.getLogger("tifffile").level)
+        shutil.rmtree(folder)
+        """,
+        tmp_path,
+    )
+    assert out.strip() == "(48, 56, 3) (48, 56, 3) True"
