@@ -51,6 +51,7 @@ __all__ = ["call", "process_id", "stop", "when_forked"]
 
 _ROOT = str(Path(__file__).resolve().parents[2])  # the folder holding the glmls package
 _SIZE = struct.Struct("<Q")
+_JOINED = 1 << 16  # parts smaller than this are joined into one write
 _STARTUP = (
     "import signal; signal.signal(signal.SIGINT, signal.SIG_IGN); "
     "from glmls.gl.helper import serve; serve()"
@@ -259,12 +260,20 @@ def _loads(data: bytearray, buffers: list[bytearray]) -> Any:
 
 
 def _write(fd: int, parts: list) -> None:
-    sizes = [memoryview(part).nbytes for part in parts]
-    header = _SIZE.pack(len(parts)) + b"".join(_SIZE.pack(size) for size in sizes)
-    for part in (header, *parts):
-        view = memoryview(part).cast("B")
-        while view:
-            view = view[os.write(fd, view) :]
+    """The message in as few writes as it takes: small parts joined (each write wakes the
+    reader), large ones written from where they are."""
+    views = [memoryview(part).cast("B") for part in parts]
+    pending = bytearray(_SIZE.pack(len(views)))
+    for view in views:
+        pending += _SIZE.pack(view.nbytes)
+    for view in [*views, None]:
+        if view is not None and view.nbytes < _JOINED:
+            pending += view
+            continue
+        for chunk in (memoryview(pending), view):
+            while chunk:
+                chunk = chunk[os.write(fd, chunk) :]
+        pending = bytearray()
 
 
 def _read_exact(fd: int, size: int) -> bytearray:
