@@ -97,6 +97,30 @@ class _ThreadState(threading.local):
         self.current: GLContext | None = None
         #: Open ``with context:`` blocks of this thread, innermost last.
         self.blocks: list[contextlib.AbstractContextManager] = []
+        #: The contexts this thread keeps current (make_current()), unbound when it ends.
+        self.unbinders: dict[GLContext, _Unbinder] = {}
+
+
+class _Unbinder:
+    """Unbinds a context kept current by a thread (:meth:`GLContext.make_current`) when that
+    thread ends without :meth:`GLContext.unbind`: held in the thread's own state, it goes with
+    the thread, in the thread. EGL would keep the context current in the ended thread, and
+    no other thread could bind it again (every GL call there would fail)."""
+
+    __slots__ = ("context",)
+
+    def __init__(self, context: GLContext) -> None:
+        self.context = context
+
+    def __del__(self) -> None:
+        context = self.context
+        try:
+            if context._held_by == threading.get_ident() and context.pid == os.getpid():
+                context._held_by = None
+                if context.alive and not context.released:
+                    context.mgl.__exit__(None, None, None)
+        except Exception:  # a thread's end: no one to report to
+            pass
 
 
 _thread = _ThreadState()
@@ -342,12 +366,15 @@ class GLContext:
                     previous._held_by = None
                 _thread.current = self
             self._held_by = me
+            if self not in _thread.unbinders:
+                _thread.unbinders[self] = _Unbinder(self)
 
     def unbind(self) -> None:
         """Undo :meth:`make_current` in the calling thread."""
         with self._lock:
             if self._held_by == threading.get_ident():
                 self._held_by = None
+            _thread.unbinders.pop(self, None)
             if _thread.current is self and self.alive:
                 self.mgl.__exit__(None, None, None)
                 _thread.current = None

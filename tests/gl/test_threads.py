@@ -134,6 +134,29 @@ def test_a_context_kept_current_elsewhere_names_the_rule(gl):
         own.release()
 
 
+def test_a_context_kept_current_by_a_thread_that_ended_works_elsewhere(gl):
+    """A thread that bound a context with make_current() and ended without unbind(): EGL
+    would keep the context current in the ended thread, where no other thread could bind it
+    (every GL call failing with moderngl's "cannot create buffer"); the thread's end unbinds
+    it."""
+    own = create_headless()
+    try:
+        expected = glmls.warp(image(0), SRC, DST, ctx=own)
+        thread = threading.Thread(target=own.make_current)
+        thread.start()
+        thread.join(60)
+        results = []
+        thread = threading.Thread(
+            target=lambda: results.append(glmls.warp(image(0), SRC, DST, ctx=own))
+        )
+        thread.start()
+        thread.join(60)
+        assert len(results) == 1 and np.array_equal(results[0], expected)
+        assert np.array_equal(glmls.warp(image(0), SRC, DST, ctx=own), expected)
+    finally:
+        own.release()
+
+
 def test_an_adopted_context_belongs_to_its_thread():
     mgl = moderngl.create_context(standalone=True, backend="egl", require=430)
     try:
