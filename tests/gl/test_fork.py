@@ -469,3 +469,31 @@ def test_image_reads_of_another_thread_at_the_fork_do_not_block_the_childs(tmp_p
         tmp_path,
     )
     assert out.strip() == "(48, 56, 3) (48, 56, 3) True"
+
+
+def test_forkserver_workers_of_a_script_that_uses_gl_at_import(tmp_path):
+    """forkserver (Python 3.14's default on Linux) forks its workers from a server process
+    started fresh; a script that makes an MLS at its top level (imported again by each
+    worker, and by the server where told to preload it) gives the parent's results there."""
+    run_script(
+        """
+        BEND = glmls.MLS(SRC, DST, transform="similarity")  # GL at import, in the server too
+
+        def both(seed):
+            return warps(seed)[0], BEND.warp(image(seed), method="backward"), os.getpid()
+
+        if __name__ == "__main__":
+            expected = warps(3)[0], BEND.warp(image(3), method="backward")
+            for preload in (False, True):
+                context = multiprocessing.get_context("forkserver")
+                if preload:
+                    context.set_forkserver_preload(["__main__"])
+                with context.Pool(1) as pool:
+                    quads, bent, pid = pool.apply(both, (3,))
+                assert pid != os.getpid()
+                assert all(np.array_equal(a, b) for a, b in zip(quads, expected[0]))
+                assert np.array_equal(bent, expected[1])
+        """,
+        tmp_path,
+        timeout=180,
+    )
