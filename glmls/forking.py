@@ -17,9 +17,9 @@ from typing import Any, TypeVar
 
 from .errors import GLUnavailableError, ReleasedError
 from .gl import helper
-from .gl.context import current, forked_from_gl
+from .gl.context import current, forked_from_gl, get_context
 
-__all__ = ["ForkSafe", "forwarded", "in_helper", "on_gpu"]
+__all__ = ["ForkSafe", "forwarded", "in_helper", "on_gpu", "renderer"]
 
 _R = TypeVar("_R")
 _SERVER = "glmls.mls"  # serve_forked: makes and keeps the helper's MLS objects
@@ -92,10 +92,13 @@ class ForkSafe:
         return contextlib.nullcontext() if forked_from_gl() else self._gl.use()
 
     def _here(self, value: Any) -> Any:
-        if value is None:
+        """A GL internal (``kernel``, ``ctx``), which a process forked from one that used GL
+        does not have: the MLS's GL objects there are the helper's (or, for an MLS made
+        before the fork, its parent's, which GL cannot use here)."""
+        if value is None or forked_from_gl():
             raise GLUnavailableError(
-                "this MLS was made in a process forked from one that used GL: its GPU work "
-                "runs in a helper process, and its GL objects live there"
+                "this process was forked from one that used GL: an MLS's GPU work runs in a "
+                "helper process here, and its GL objects (kernel, ctx) live there"
             )
         return value
 
@@ -103,3 +106,13 @@ class ForkSafe:
 def in_helper(m: ForkSafe, name: str, args: tuple, kwargs: dict, *, grid: int | None) -> Any:
     """``name`` of the inverse of ``grid`` of the MLS ``m``, run by the helper process."""
     return m._served(name, args, kwargs, grid)
+
+
+def renderer(m: object = None) -> str | None:
+    """The GL renderer (``GL_RENDERER``) that does the GPU work of ``m`` (an MLS; None: of the
+    shared headless context), the helper process's in a process forked from one that used GL;
+    None where ``m`` has no GL context (a CPU reference)."""
+    if isinstance(m, ForkSafe) and forked_from_gl():
+        return helper.call(__name__, "renderer")
+    ctx = get_context() if m is None else getattr(m, "ctx", None)
+    return None if ctx is None else str(ctx.mgl.info.get("GL_RENDERER"))

@@ -14,6 +14,7 @@ import numpy as np
 from ..core.handles import as_points
 from ..core.segments import validate_segments
 from ..gl.context import GLContext
+from ..gl.helper import when_forked
 from .canvas import EDGE_COLOR, HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR, Canvas, as_rgb8
 from .colormaps import NAN_COLOR, apply_colormap
 from .construction import ConstructionErrors
@@ -30,6 +31,7 @@ __all__ = [
 ]
 
 
+@when_forked
 def render_field(
     values: object,
     *,
@@ -83,6 +85,7 @@ def render_field(
         return canvas.read()
 
 
+@when_forked
 def render_handles(
     image: object,
     src: object,
@@ -156,6 +159,7 @@ def render_handles(
         return canvas.read()
 
 
+@when_forked
 def render_triangulation(
     image: object,
     points: object,
@@ -236,6 +240,7 @@ def _edges(points: np.ndarray, simplices: object) -> tuple[np.ndarray, np.ndarra
     return points[pairs[:, 0]], points[pairs[:, 1]]
 
 
+@when_forked
 def render_triangle_errors(
     image: object,
     errors: TriangleErrors,
@@ -333,6 +338,7 @@ def render_triangle_errors(
         return canvas.read()
 
 
+@when_forked
 def render_mesh(
     image: object,
     deformed: object,
@@ -400,6 +406,7 @@ def render_mesh(
 _DISK_SIDES = 16
 
 
+@when_forked
 def render_construction_errors(
     image: object,
     errors: ConstructionErrors,

@@ -13,6 +13,7 @@ import numpy as np
 from PIL import Image
 
 from ..files.atomic import atomic_write
+from ..forking import renderer
 from ..imaging.frame import Frame
 from ..imaging.options import WarpOptions, default
 from . import colormaps
@@ -424,7 +425,7 @@ def report(
             "output_shape": list(output_shape),
             "origin": list(origin),
         },
-        "gl_renderer": m.ctx.mgl.info.get("GL_RENDERER"),
+        "gl_renderer": renderer(m),
     }
     if built is not None:
         summary["analysis"]["construction"] = built.settings() | {"limits": [c_lo, c_hi]}

@@ -11,6 +11,7 @@ import numpy as np
 from ..core.config import MLSConfig
 from ..core.handles3 import volume_diagonal
 from ..files.volumes import Volume
+from ..forking import renderer
 from . import colormaps
 from .jacobians import CellJacobians, cell_jacobians
 from .reporting import SavedReport, StageClock, cmap_name
@@ -339,9 +340,9 @@ def volume_report(
         "jacobians": cells.stats(),
         "deformed": warped is not None,
     }
-    ctx = getattr(m, "ctx", None)
-    if ctx is not None:
-        summary["gl_renderer"] = ctx.mgl.info.get("GL_RENDERER")
+    gl_renderer = renderer(m)
+    if gl_renderer is not None:
+        summary["gl_renderer"] = gl_renderer
     result = VolumeReport(summary, images, field, found, cells, warped)
     if out_dir is not None:
         result.save(out_dir)

@@ -67,6 +67,7 @@ _CORRUPT = (
     tifffile.TiffFileError,
 )
 _pillow_lock = threading.Lock()
+_pillow_saved: int | None = None  # Pillow's own limit while a read has set ours
 #: TIFF photometric interpretations whose stored values are not the colours shown.
 _MINISWHITE, _PALETTE, _CMYK = 0, 3, 5
 
@@ -256,14 +257,27 @@ def _orient(array: np.ndarray, code: int) -> np.ndarray:
 def _pillow_limit(max_pixels: int) -> Iterator[None]:
     """Pillow's own decompression-bomb limit set to ours while it opens the file (its warning
     silenced: glmls checks the size itself; Pillow refuses beyond twice the limit)."""
+    global _pillow_saved
     with _pillow_lock, warnings.catch_warnings():
         warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-        saved = Image.MAX_IMAGE_PIXELS
+        _pillow_saved = Image.MAX_IMAGE_PIXELS
         Image.MAX_IMAGE_PIXELS = max_pixels
         try:
             yield
         finally:
-            Image.MAX_IMAGE_PIXELS = saved
+            Image.MAX_IMAGE_PIXELS, _pillow_saved = _pillow_saved, None
+
+
+def _after_fork_in_child() -> None:
+    """A read that another thread of the parent was doing at the fork never ends here: its
+    lock is made anew (else every read here would wait for ever) and Pillow's limit put back."""
+    global _pillow_lock, _pillow_saved
+    _pillow_lock = threading.Lock()
+    if _pillow_saved is not None:
+        Image.MAX_IMAGE_PIXELS, _pillow_saved = _pillow_saved, None
+
+
+os.register_at_fork(after_in_child=_after_fork_in_child)
 
 
 def _read_pillow(path: Path, max_pixels: int) -> np.ndarray:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
 import threading
 from collections.abc import Iterator
 
@@ -47,3 +48,16 @@ def quiet_tifffile() -> Iterator[None]:
             _depth -= 1
             if _depth == 0:
                 logger.setLevel(_level)
+
+
+def _after_fork_in_child() -> None:
+    """Reads that other threads of the parent were doing at the fork never end here: the
+    lock is made anew (else every read here could wait for ever) and the level put back."""
+    global _lock, _depth
+    _lock = threading.Lock()
+    if _depth:
+        logging.getLogger("tifffile").setLevel(_level)
+        _depth = 0
+
+
+os.register_at_fork(after_in_child=_after_fork_in_child)

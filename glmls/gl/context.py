@@ -17,13 +17,14 @@ used from that thread: another raises :class:`~glmls.ContextError`.
 Processes: GL drivers do not survive ``fork()``: on Mesa's llvmpipe even a new context made in
 the child hangs in its first compute dispatch (the driver's worker threads are gone), and
 NVIDIA's driver does not support use after fork either. So in a process forked from one in
-which glmls made a GL context, :func:`glmls.warp`, :func:`glmls.warp_batch` and the methods of
-an :class:`~glmls.MLS` (made before the fork or after it, without a ``ctx``) run in a helper
-process started fresh (:mod:`glmls.gl.helper`; one per forked process, started on first use and
-kept), with the same result bit for bit; making a context there (:func:`get_context`, a window,
-an MLS given a ``ctx``) raises :class:`~glmls.GLUnavailableError` at once, saying to use the
-``spawn`` start method. A process forked before glmls touched GL makes its own context on first
-use.
+which glmls made a GL context, :func:`glmls.warp`, :func:`glmls.warp_batch`, the methods of an
+:class:`~glmls.MLS` (made before the fork or after it, without a ``ctx``) and the ``render_*``
+pictures of :mod:`glmls.analysis` run in a helper process started fresh
+(:mod:`glmls.gl.helper`; one per forked process, started on first use and kept), with the same
+result bit for bit; making a context there (:func:`get_context`, a window, a
+:class:`~glmls.analysis.Canvas`, an MLS given a ``ctx``) raises
+:class:`~glmls.GLUnavailableError` at once, saying to use the ``spawn`` start method. A
+process forked before glmls touched GL makes its own context on first use.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ import contextlib
 import functools
 import os
 import threading
+import weakref
 from collections import OrderedDict
 from collections.abc import Callable, Hashable, Mapping
 from typing import Protocol, TypeVar
@@ -51,8 +53,9 @@ _MIN_PROGRAMS = 16  # one image pass uses up to ~8: never evict one while it run
 _FORK = (
     "OpenGL unavailable: glmls made a GL context in process {pid}, and this process was "
     "forked from it; GL drivers do not survive fork (GL here would hang), so only "
-    "glmls.warp(), glmls.warp_batch() and glmls.MLS objects made without a ctx work here "
-    "(they run in a helper process). Use the 'spawn' start method "
+    "glmls.warp(), glmls.warp_batch(), glmls.augment, glmls.MLS objects made without a ctx "
+    "and the render_* pictures of glmls.analysis work here (they run in a helper process). "
+    "Use the 'spawn' start method "
     "(multiprocessing.get_context('spawn'); PyTorch: DataLoader(..., "
     "multiprocessing_context='spawn')), or make the first glmls GL call in the worker "
     "processes only."
@@ -94,6 +97,30 @@ class _ThreadState(threading.local):
         self.current: GLContext | None = None
         #: Open ``with context:`` blocks of this thread, innermost last.
         self.blocks: list[contextlib.AbstractContextManager] = []
+        #: The contexts this thread keeps current (make_current()), unbound when it ends.
+        self.unbinders: dict[GLContext, _Unbinder] = {}
+
+
+class _Unbinder:
+    """Unbinds a context kept current by a thread (:meth:`GLContext.make_current`) when that
+    thread ends without :meth:`GLContext.unbind`: held in the thread's own state, it goes with
+    the thread, in the thread. EGL would keep the context current in the ended thread, and
+    no other thread could bind it again (every GL call there would fail)."""
+
+    __slots__ = ("context",)
+
+    def __init__(self, context: GLContext) -> None:
+        self.context = context
+
+    def __del__(self) -> None:
+        context = self.context
+        try:
+            if context._held_by == threading.get_ident() and context.pid == os.getpid():
+                context._held_by = None
+                if context.alive and not context.released:
+                    context.mgl.__exit__(None, None, None)
+        except Exception:  # a thread's end: no one to report to
+            pass
 
 
 _thread = _ThreadState()
@@ -231,6 +258,7 @@ class GLContext:
         self._render_programs: dict[tuple, moderngl.Program] = {}
         self._shared: dict[Hashable, Releasable] = {}
         self._lock = threading.RLock()
+        _every.add(self)
         #: The thread keeping this context current outside glmls's calls, if any: the
         #: adopting thread for a borrowed context, else the caller of make_current().
         self._held_by: int | None = None
@@ -354,12 +382,15 @@ class GLContext:
                     previous._held_by = None
                 _thread.current = self
             self._held_by = me
+            if self not in _thread.unbinders:
+                _thread.unbinders[self] = _Unbinder(self)
 
     def unbind(self) -> None:
         """Undo :meth:`make_current` in the calling thread."""
         with self._lock:
             if self._held_by == threading.get_ident():
                 self._held_by = None
+            _thread.unbinders.pop(self, None)
             if _thread.current is self and self.alive:
                 self.mgl.__exit__(None, None, None)
                 _thread.current = None
@@ -387,6 +418,7 @@ class GLContext:
         key = (entry, _frozen(defines))
         program = self._programs.get(key)
         if program is None:
+            self.check_usable()
             source = self.shaders.compose(entry, self._compute_defines | dict(defines or {}))
             program = self._compile({"compute_shader": source}, self._compute_shader)
             self._programs[key] = program
@@ -419,6 +451,7 @@ class GLContext:
         key = (vertex, fragment, _frozen(defines))
         program = self._render_programs.get(key)
         if program is None:
+            self.check_usable()
             stages = {
                 "vertex_shader": self.shaders.compose(vertex, defines),
                 "fragment_shader": self.shaders.compose(fragment, defines),
@@ -536,6 +569,8 @@ _registry_lock = threading.RLock()
 _default: GLContext | None = None
 #: Every live wrapper by id() of its moderngl context: one GLContext per moderngl context.
 _wrappers: dict[int, GLContext] = {}
+#: Every live GLContext, whose locks a forked child makes anew (see _after_fork_in_child).
+_every: weakref.WeakSet[GLContext] = weakref.WeakSet()
 
 
 def forked_from_gl() -> bool:
@@ -588,7 +623,8 @@ def get_context(ctx: moderngl.Context | GLContext | None = None) -> GLContext:
     ----------
     ctx : moderngl.Context or GLContext, optional
         None for the shared headless context; a moderngl context to adopt (one wrapper per
-        moderngl context); a :class:`GLContext` is returned as it is.
+        moderngl context); a :class:`GLContext` is returned as it is (one made before a fork
+        is refused in the child).
 
     Returns
     -------
@@ -612,6 +648,8 @@ def get_context(ctx: moderngl.Context | GLContext | None = None) -> GLContext:
     """
     global _default
     if isinstance(ctx, GLContext):
+        if ctx.pid != os.getpid():  # made before a fork: its driver state is not ours
+            raise GLUnavailableError(_FORK.format(pid=ctx.pid))
         return ctx
     with _registry_lock:
         if ctx is None:
@@ -644,12 +682,17 @@ def release_all() -> None:
 
 
 def _after_fork_in_child() -> None:
-    """Forget the parent's contexts without touching them (their driver state is not ours)."""
+    """Forget the parent's contexts without touching them (their driver state is not ours).
+    Their locks are made anew: one held by another thread of the parent at the fork would
+    be held for ever here, and release() or unbind() of such a context would hang."""
     global _default, _wrappers, _registry_lock
     _default = None
     _wrappers = {}
     _registry_lock = threading.RLock()
     _thread.current = None
+    for context in list(_every):
+        context._lock = threading.RLock()
+        context._held_by = None  # no thread of the parent's exists here
 
 
 os.register_at_fork(after_in_child=_after_fork_in_child)

@@ -101,7 +101,7 @@ def test_a_child_forked_after_the_parent_warped_warps_bit_for_bit(tmp_path):
     assert unknown == "TypeError: warp() got an unknown keyword methd"
     assert bad_value.startswith("ValueError") and "nope" in bad_value
     assert context.startswith("GLUnavailableError") and "'spawn' start method" in context
-    assert "glmls.MLS objects made without a ctx work here" in context
+    assert "glmls.MLS objects made without a ctx" in context and "render_*" in context
 
 
 MLS_USES = """
@@ -290,3 +290,210 @@ def test_the_helper_raises_and_warns_in_the_caller():
     with pytest.raises(ZeroDivisionError):
         helper.call("operator", "truediv", (1, 0))
     assert helper.call("operator", "add", (np.arange(3), 1)).tolist() == [1, 2, 3]
+
+
+def test_pictures_and_reports_render_in_a_child_forked_after_the_parent_used_gl(tmp_path):
+    """The analysis pictures (drawn on the GPU) and the reports that hold them: in the child
+    through the helper, equal to the parent's; a Canvas of one's own is refused there."""
+    out = run_script(
+        """
+        import hashlib
+
+        from glmls import analysis as A
+
+        m = glmls.MLS(SRC, DST, weight="gaussian", radius=30.0)
+        POINTS = np.array([[12.0, 12.0], [48.0, 14.0], [30.0, 38.0], [14.0, 42.0], [30.0, 20.0]])
+
+        def pictures(m):  # digests: a pipe holds 64 KiB until the parent reads it
+            picture = image(0)
+            errors = A.triangle_errors(m, POINTS)
+            built = A.construction_errors(picture, m.warp(picture), m, POINTS)
+            report = A.report(picture, m, POINTS, construction=False, mesh_grid=8)
+            drawn = {
+                "field": A.render_field(A.error_field(m, (48, 56), grid=4)),
+                "handles": A.render_handles(picture, SRC, DST),
+                "triangulation": A.render_triangulation(picture, POINTS, errors.simplices),
+                "triangles": A.render_triangle_errors(picture, errors),
+                "mesh": A.render_mesh(picture, m.mesh((48, 56), grid=8)[1]),
+                "construction": A.render_construction_errors(picture, built),
+                **{"report " + name: p for name, p in report.images.items()},
+            }
+            digests = {k: (p.shape, hashlib.sha256(p.tobytes()).hexdigest())
+                       for k, p in drawn.items()}
+            return digests, report.summary["gl_renderer"]
+
+        expected, renderer = pictures(m)
+
+        def child():
+            made = glmls.MLS(SRC, DST, weight="gaussian", radius=30.0)
+            try:
+                A.Canvas((8, 8))
+                refused = "no error"
+            except glmls.GLUnavailableError as error:
+                refused = "GLUnavailableError"
+            return pictures(m), pictures(made), refused
+
+        (before, renderer_before), (made, renderer_made), refused = in_child(child)
+        assert before == made == expected
+        assert renderer_before == renderer_made == renderer and renderer
+        print(refused, len(expected))
+        """,
+        tmp_path,
+        timeout=180,
+    )
+    refused, count = out.split()
+    assert refused == "GLUnavailableError" and int(count) > 6
+
+
+def test_the_parents_contexts_are_refused_in_the_child_at_once(tmp_path):
+    """A GL context made before the fork, handed to glmls in the child (``ctx=``, its
+    programs, an MLS's GL internals), raises GLUnavailableError at once, before any GL call:
+    GL there would hang or draw on the parent's driver state."""
+    out = run_script(
+        """
+        from glmls.gl.context import create_headless
+
+        own, default = create_headless(), glmls.gl.get_context()
+        m = glmls.MLS(SRC, DST, ctx=own)
+        expected = m(SRC)
+
+        def child():
+            found = []
+            for attempt in (
+                lambda: glmls.MLS(SRC, DST, ctx=own),
+                lambda: glmls.MLS(SRC, DST, ctx=default),
+                lambda: glmls.warp(image(0), SRC, DST, ctx=own),
+                lambda: glmls.warp_batch(image(0)[None], SRC[None], DST[None], ctx=own),
+                lambda: glmls.analysis.render_field(np.zeros((4, 4)), ctx=own),
+                lambda: glmls.gl.WarpPipeline.of(own),
+                lambda: own.compute("mls/points.comp.glsl", {"MLS_STORAGE": 0}),
+                lambda: m.ctx,
+                lambda: m.kernel,
+            ):
+                try:
+                    attempt()
+                    found.append("no error")
+                except Exception as error:
+                    found.append(type(error).__name__)
+            return found, np.array_equal(m(SRC), expected)  # through the helper
+
+        found, same = in_child(child)
+        print(" ".join(found), same)
+        """,
+        tmp_path,
+    )
+    *found, same = out.split()
+    assert found == ["GLUnavailableError"] * 9 and same == "True"
+
+
+def test_a_context_held_by_another_thread_at_the_fork_releases_in_the_child(tmp_path):
+    """A context's lock held by another thread of the parent at the fork (a warp running
+    there) is never released in the child: releasing or unbinding the context there must not
+    wait for it."""
+    out = run_script(
+        """
+        from glmls.gl.context import create_headless
+
+        own, default = create_headless(), glmls.gl.get_context()
+        m = glmls.MLS(SRC, DST, ctx=own)
+        held, done = threading.Event(), threading.Event()
+
+        def hold():
+            with own.use(), default.use():
+                held.set()
+                done.wait(60)
+
+        thread = threading.Thread(target=hold)
+        thread.start()
+        held.wait(60)
+
+        def child():
+            own.unbind()
+            m.release()
+            own.release()
+            default.release()
+            glmls.gl.context.release_all()
+            return own.released, default.released, m.released
+
+        try:
+            print(in_child(child, timeout=20))
+        finally:
+            done.set()
+            thread.join()
+        assert not own.released and np.array_equal(m(SRC), m(SRC))  # the parent's still work
+        """,
+        tmp_path,
+    )
+    assert out.strip() == "(True, True, True)"
+
+
+def test_image_reads_of_another_thread_at_the_fork_do_not_block_the_childs(tmp_path):
+    """A thread of the parent inside glmls.imread at the fork (the locks around Pillow's limit
+    and tifffile's logger held): the child's reads must not wait for it for ever."""
+    out = run_script(
+        """
+        import logging
+        import shutil
+        import tempfile
+
+        from glmls.files import images, tiffs
+
+        folder = tempfile.mkdtemp()
+        for suffix in ("png", "tif"):
+            glmls.imwrite(f"{folder}/picture.{suffix}", image(0))
+
+        def holding(lock, function):
+            held, done = threading.Event(), threading.Event()
+
+            def hold():
+                with lock:
+                    held.set()
+                    done.wait(60)
+
+            thread = threading.Thread(target=hold)
+            thread.start()
+            held.wait(60)
+            try:
+                return in_child(function, timeout=20)
+            finally:
+                done.set()
+                thread.join()
+
+        pillow = holding(images._pillow_lock, lambda: glmls.imread(f"{folder}/picture.png").shape)
+        tiff = holding(tiffs._lock, lambda: glmls.imread(f"{folder}/picture.tif").shape)
+        with tiffs.quiet_tifffile():  # a read under way at the fork: the child's logger level
+            level = in_child(lambda: logging.getLogger("tifffile").level)
+        print(pillow, tiff, level == logging.getLogger("tifffile").level)
+        shutil.rmtree(folder)
+        """,
+        tmp_path,
+    )
+    assert out.strip() == "(48, 56, 3) (48, 56, 3) True"
+
+
+def test_forkserver_workers_of_a_script_that_uses_gl_at_import(tmp_path):
+    """forkserver (Python 3.14's default on Linux) forks its workers from a server process
+    started fresh; a script that makes an MLS at its top level (imported again by each
+    worker, and by the server where told to preload it) gives the parent's results there."""
+    run_script(
+        """
+        BEND = glmls.MLS(SRC, DST, transform="similarity")  # GL at import, in the server too
+
+        def both(seed):
+            return warps(seed)[0], BEND.warp(image(seed), method="backward"), os.getpid()
+
+        if __name__ == "__main__":
+            expected = warps(3)[0], BEND.warp(image(3), method="backward")
+            for preload in (False, True):
+                context = multiprocessing.get_context("forkserver")
+                if preload:
+                    context.set_forkserver_preload(["__main__"])
+                with context.Pool(1) as pool:
+                    quads, bent, pid = pool.apply(both, (3,))
+                assert pid != os.getpid()
+                assert all(np.array_equal(a, b) for a, b in zip(quads, expected[0]))
+                assert np.array_equal(bent, expected[1])
+        """,
+        tmp_path,
+        timeout=180,
+    )

@@ -73,6 +73,56 @@ def test_releasing_the_default_context_leaves_clear_errors(tmp_path):
     assert out.count("ReleasedError:") == 3 and "context" in out
 
 
+def test_exit_with_live_objects_threads_and_forked_children_is_quiet(tmp_path):
+    """Exit with GL objects alive (MLS, own contexts, a volume MLS, an augmenter), daemon
+    threads warping, and a forked child that warps through its helper from daemon threads:
+    exit status 0 everywhere, nothing on stderr under -X dev -W error (no segfault, no
+    ResourceWarning, no traceback)."""
+    script = tmp_path / "script.py"
+    script.write_text(
+        COMMON
+        + textwrap.dedent(
+            """
+            import threading
+            from glmls.gl.context import create_headless
+
+            m = glmls.MLS(SRC, DST)
+            own = create_headless()
+            mine = glmls.MLS(SRC, DST, ctx=own)
+            mine.warp(image(0))
+            src3 = np.array([[1.0, 1, 1], [12, 2, 1], [2, 10, 3], [3, 4, 8]])
+            m3 = glmls.MLS(src3, src3 + [0, 0, 1])
+            m3.warp(np.zeros((8, 8, 8), np.uint8))
+            augment = glmls.augment.Augment("grid", seed=0)
+            augment(image(0)[None])
+
+            def busy():
+                while True:
+                    warp(0)
+
+            pid = os.fork()
+            if pid == 0:
+                for _ in range(2):
+                    threading.Thread(target=busy, daemon=True).start()
+                m.warp(image(1))
+                sys.exit(0)
+            for _ in range(2):
+                threading.Thread(target=busy, daemon=True).start()
+            assert os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]) == 0
+            print("done")
+            """
+        )
+    )
+    done = subprocess.run(
+        [sys.executable, "-X", "dev", "-W", "error", str(script)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0 and done.stdout == "done\n", done.stderr[-3000:]
+    assert done.stderr == ""
+
+
 # -- threads -----------------------------------------------------------------------------------
 
 
@@ -130,6 +180,29 @@ def test_a_context_kept_current_elsewhere_names_the_rule(gl):
         thread.start()
         thread.join(60)
         assert len(errors) == 1  # now it works from the other thread
+    finally:
+        own.release()
+
+
+def test_a_context_kept_current_by_a_thread_that_ended_works_elsewhere(gl):
+    """A thread that bound a context with make_current() and ended without unbind(): EGL
+    would keep the context current in the ended thread, where no other thread could bind it
+    (every GL call failing with moderngl's "cannot create buffer"); the thread's end unbinds
+    it."""
+    own = create_headless()
+    try:
+        expected = glmls.warp(image(0), SRC, DST, ctx=own)
+        thread = threading.Thread(target=own.make_current)
+        thread.start()
+        thread.join(60)
+        results = []
+        thread = threading.Thread(
+            target=lambda: results.append(glmls.warp(image(0), SRC, DST, ctx=own))
+        )
+        thread.start()
+        thread.join(60)
+        assert len(results) == 1 and np.array_equal(results[0], expected)
+        assert np.array_equal(glmls.warp(image(0), SRC, DST, ctx=own), expected)
     finally:
         own.release()
 
