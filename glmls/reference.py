@@ -8,7 +8,8 @@ Degenerate cases follow the same rules as the shader (``glmls/shaders/mls/core.g
 - a point exactly on a handle whose weight is infinite there: f = q_i, and M is the limit,
   the solution over the other handles about p_i;
 - no handle in reach (compact-support weights): identity;
-- coincident source handles in reach (spread about p* below 1e-13 of that about v): M = I;
+- coincident source handles in reach (spread about p* below 1e-13 of that about v of the
+  handles not at the nearest one's place): M = I;
 - rigid with all targets in reach collapsed to one point: M = I;
 - affine whose moment matrix A is singular or nearly (det A <= 1e-5 trace(A)^2: fewer than
   3 handles in reach, or handles along one line): the similarity solution.
@@ -461,13 +462,29 @@ def mls(
 
     big_m = _solve(a11, a12, a22, b, config.transform)
     # coincident source handles: their spread about p* is negligible against that about v
-    spread = (w * d2).sum(1) + (seg["h2"] * j0 + j2).sum(1)
-    coincident = ~(a11 + a22 > 1e-13 * spread)
+    # of the handles not at the nearest one's place (next to a handle whose weight is steep,
+    # its own w d^2 grows without bound and would outweigh any spread of the others), and
+    # float64 noise (~1e-32) against the whole spread about v (one handle in reach alone)
+    spread = w * d2
+    apart = (spread * _apart_from_nearest(p, d2, seg["dist2"])).sum(1)
+    apart += (seg["h2"] * j0 + j2).sum(1)
+    coincident = ~(a11 + a22 > 1e-13 * apart + 1e-26 * spread.sum(1))
     big_m[coincident | ~reached] = np.eye(2)
     f = v + qst - np.einsum("ki,kij->kj", pst, big_m)
     f[~reached] = v[~reached]
     t = f - np.einsum("ki,kij->kj", v, big_m)
     return f, big_m, t
+
+
+def _apart_from_nearest(p: np.ndarray, d2: np.ndarray, segment_d2: np.ndarray) -> np.ndarray:
+    """(K, N) True for the point handles not at the place of the nearest handle (where the
+    nearest is a point handle; a segment nearer than every point handle excludes none)."""
+    if not d2.shape[1]:
+        return np.ones(d2.shape, dtype=bool)
+    nearest = np.argmin(d2, axis=1)
+    at_nearest = (p[None, :, :] == p[nearest][:, None, :]).all(-1)
+    closer_segment = segment_d2.min(axis=1, initial=np.inf) < d2[np.arange(len(d2)), nearest]
+    return ~at_nearest | closer_segment[:, None]
 
 
 def _segment_products(j0, j1, j2, pf, u, qf, g) -> np.ndarray:

@@ -81,6 +81,34 @@ def test_handles_are_interpolated_where_the_weight_is_infinite(gl, weight):
         assert np.abs(m.matrices(P)[0] - m0).max() < 1e-4
 
 
+STEEP = [
+    {"weight": "idw", "alpha": 1.5, "interpolating": True},
+    {"weight": "gaussian", "radius": 25.0, "alpha": 2.0, "interpolating": True},
+    {"weight": "shepard", "radius": 25.0, "alpha": 2.0, "interpolating": True},
+    {"weight": "linear", "radius": 40.0, "alpha": 2.0, "interpolating": True},
+]
+
+
+@pytest.mark.parametrize("params", STEEP, ids=lambda params: params["weight"])
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_m_next_to_a_handle_whose_weight_is_steep(gl, transform, params):
+    """Within 1e-2 px of a handle whose weight grows like 1 / d^(2 alpha) with alpha > 1, its
+    own w d^2 is 1e17 times the others' spread about p*: that is no sign of coincident
+    sources (M = I), M is still the others' fit, continuous up to the handle's limit; and
+    the others' moments (~1e-27 on the GPU) are not lost to float32 underflow."""
+    v = np.concatenate([P + 1e-3, P - 3e-3, P + [4e-3, -2e-3]])
+    f0, m0, _ = mls64(P, Q, v, transform, **params)
+    limit = mls64(P, Q, P, transform, **params)[1]
+    assert np.abs(m0 - np.tile(limit, (3, 1, 1))).max() < 1e-2  # continuous
+    f1, m1, _ = reference.mls(P, Q, v, transform=transform, **params)
+    assert np.abs(f1 - f0).max() < 1e-9
+    assert np.abs(m1 - m0).max() < 1e-6
+    with glmls.MLS(P, Q, transform=transform, shape=(H, W), **params) as m:
+        assert np.abs(m(v) - f0).max() < 1e-5 * SIZE
+        # affine inverts the others' 2 x 2 moments, tiny against the handle's: 3e-4
+        assert np.abs(m.matrices(v)[0] - m0).max() < (3e-4 if transform == "affine" else 1e-4)
+
+
 def test_affine_takes_the_similarity_solution_where_the_handles_in_reach_are_on_a_line(gl):
     """Two handles in a compact weight's reach (the rest beyond R): the affine fit is not
     defined, and both glmls's reference and the GPU take the similarity solution."""
