@@ -35,8 +35,8 @@ ridge, the spectral function of A that is 0 unless an eigenvalue e of A is below
 ``DEGENERATE_SHARE`` (1e-3) of trace(A), where it grows as 1e-3 trace(A) (1 - e / (1e-3
 trace(A)))^2, so well-spread sources get the exact closed forms:
 
-- one handle in reach, or coincident sources (spread about p* below 1e-13 of that about v):
-  M = I, a translation;
+- one handle in reach, or coincident sources (spread about p* below 1e-13 of that about v
+  of the handles not at the nearest one's place, as 2D): M = I, a translation;
 - collinear sources (two handles, or more on a line): the rotation about the line is free;
   R is the SVD solution of B + c |B| R0, with c = 1e-3 (1 - e2 / (1e-3 trace(A)))^2 for
   A's middle eigenvalue e2 (0 unless e2 < 1e-3 trace(A): the sources near one line) and R0
@@ -725,15 +725,20 @@ def _mls3(p, q, v, config: MLSConfig, radius: float | None):
     if len(p) == 0 or k == 0:
         return f, big_m, f - np.einsum("ki,kij->kj", v, big_m)
     rows = np.arange(k)
-    dp = p[None] - v[:, None]
-    dq = q[None] - v[:, None]
-    d2 = (dp**2).sum(-1)
+    d2 = ((p[None] - v[:, None]) ** 2).sum(-1)
     w = weights(d2, config, radius)
     on_point = np.isinf(w)
     hit = on_point.any(axis=1)
     w = np.where(on_point, 0.0, w)
     wsum = w.sum(axis=1)
     reached = hit | (wsum > 0)
+    # p - p_o and q - q_o about the nearest handle o (exactly 0 at its place): the centroids
+    # and moments about them keep float64's precision where o's weight outweighs the others'
+    # by far (next to a handle whose weight is steep, 1e40 against 1e-8), instead of losing
+    # the others to the rounding of p* about v
+    nearest = np.argmin(d2, axis=1)
+    dp = p[None] - p[nearest][:, None]
+    dq = q[None] - q[nearest][:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         pst = (w[..., None] * dp).sum(1) / wsum[:, None]
         qst = (w[..., None] * dq).sum(1) / wsum[:, None]
@@ -746,11 +751,18 @@ def _mls3(p, q, v, config: MLSConfig, radius: float | None):
     qh = dq - qst[:, None]
     big_a = np.einsum("kn,kni,knj->kij", w, ph, ph)
     b = np.einsum("kn,kni,knj->kij", w, ph, qh)
-    spread = (w * d2).sum(1)
-    coincident = ~(np.trace(big_a, axis1=-2, axis2=-1) > 1e-13 * spread)
+    # coincident sources: their spread about p* against that about v of the handles not at
+    # the nearest one's place, as 2D (:func:`mls`): next to a handle whose weight is steep its
+    # own w d^2 grows without bound and would outweigh any spread of the others. Sources all
+    # at one place have p - p_o = 0 exactly: no rounding noise to allow for
+    apart = (w * d2 * _apart_from_nearest(p, d2, np.empty((k, 0)))).sum(1)
+    coincident = ~(np.trace(big_a, axis1=-2, axis2=-1) > 1e-13 * apart)
     live = reached & ~coincident
     if live.any():
         big_m[live] = _solve3(big_a[live], b[live], config.transform)
+    # f(v) = q* + (v - p*) M, with p* - v = (p_o - v) + (p* - p_o)
+    pst += p[nearest] - v
+    qst += q[nearest] - v
     f = v + qst - np.einsum("ki,kij->kj", pst, big_m)
     f[~reached] = v[~reached]
     return f, big_m, f - np.einsum("ki,kij->kj", v, big_m)
