@@ -68,7 +68,8 @@ struct MLS3Accum {
     vec3 Ad;        // sum w P P^T: diagonal
     vec3 Ao;        // ... and (01, 02, 12)
     mat3 D;         // sum w P^T E
-    float spread;   // sum w |p - v|^2
+    float spread;   // sum w |p - v|^2 over the handles not at p_o: the yardstick for
+                    // "coincident" (mls3_solve)
 };
 
 void mls3_nearest(inout float d2min, inout int nearest, vec3 v, int i, bool use) {
@@ -119,7 +120,10 @@ void mls3_add(inout MLS3Accum a, float w, vec3 P, vec3 E, float d2) {
     a.Ad += wP * P;
     a.Ao += wP.xxy * P.yzz;
     a.D += outerProduct(wP, E);
-    a.spread += w * d2;
+    // Not the handles at the nearest one's place (P = 0): next to a handle whose weight is
+    // steep (1 / d^(2 alpha) of interpolating, alpha > 1) its w d2 grows without bound and
+    // would outweigh any spread of the others about p*, which decides M there.
+    a.spread += P != vec3(0.0) ? w * d2 : 0.0;
 }
 
 void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
