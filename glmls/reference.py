@@ -385,7 +385,7 @@ def mls(
     >>> src3 = np.array([[0.0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]])
     >>> quarter = np.array([[0.0, 1, 0], [-1, 0, 0], [0, 0, 1]])  # x -> y, y -> -x
     >>> f, M, T = glmls.reference.mls(src3, src3 @ quarter, [[5.0, 0.0, 2.0]])
-    >>> f.round(6).tolist(), M.shape
+    >>> (f.round(6) + 0.0).tolist(), M.shape
     ([[0.0, 5.0, 2.0]], (1, 3, 3))
 
     With handles in millimetres of a volume of 10 x 20 x 40 voxels of (2, 1, 0.5) mm, the
