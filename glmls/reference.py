@@ -74,6 +74,7 @@ from .core.handles3 import (
 from .core.handleset import HandleSet
 from .core.mesh import as_shape
 from .core.segments import REFERENCE_NODES, REFERENCE_PANELS, segment_config, sinh_nodes
+from .core.weights import GAUSSIAN_NEGLIGIBLE, gaussian_excess
 
 __all__ = [
     "DEGENERATE_SHARE",
@@ -461,14 +462,12 @@ def mls(
     a11, a12, a22 = big_a[:, 0, 0], big_a[:, 0, 1], big_a[:, 1, 1]
 
     big_m = _solve(a11, a12, a22, b, config.transform)
-    # coincident source handles: their spread about p* is negligible against that about v
-    # of the handles not at the nearest one's place (next to a handle whose weight is steep,
-    # its own w d^2 grows without bound and would outweigh any spread of the others), and
-    # float64 noise (~1e-32) against the whole spread about v (one handle in reach alone)
-    spread = w * d2
-    apart = (spread * _apart_from_nearest(p, d2, seg["dist2"])).sum(1)
-    apart += (seg["h2"] * j0 + j2).sum(1)
-    coincident = ~(a11 + a22 > 1e-13 * apart + 1e-26 * spread.sum(1))
+    # coincident source handles: their spread about p* is negligible against the yardstick
+    # (_yardstick: the spread about v, the nearest handle's own left out unless a gaussian's
+    # tail), and float64 noise (~1e-32) against the whole spread about v (one handle alone)
+    yardstick = _yardstick(p, w, d2, seg["dist2"], config, radius)
+    yardstick += (seg["h2"] * j0 + j2).sum(1)
+    coincident = ~(a11 + a22 > 1e-13 * yardstick + 1e-26 * (w * d2).sum(1))
     big_m[coincident | ~reached] = np.eye(2)
     f = v + qst - np.einsum("ki,kij->kj", pst, big_m)
     f[~reached] = v[~reached]
@@ -476,15 +475,34 @@ def mls(
     return f, big_m, t
 
 
-def _apart_from_nearest(p: np.ndarray, d2: np.ndarray, segment_d2: np.ndarray) -> np.ndarray:
-    """(K, N) True for the point handles not at the place of the nearest handle (where the
-    nearest is a point handle; a segment nearer than every point handle excludes none)."""
+def _yardstick(p, w, d2, segment_d2, config: MLSConfig, radius) -> np.ndarray:
+    """(K,) the yardstick of "coincident sources": sum w |p - v|^2 over the point handles.
+
+    The handles at the nearest one's place (a point handle; a segment nearer than every
+    point handle leaves none out) count only for a gaussian at points where every other
+    handle is in its tail (weight below tau = 2^-24 of the nearest's, exponent beyond
+    ``GAUSSIAN_NEGLIGIBLE``). Next to a handle whose weight is steep (1 / d^(2 alpha),
+    alpha > 1) its own w d^2 grows without bound and would make any spread of the others
+    about p* look like noise, though their fit is M there (continuous up to the handle, and
+    float32 computes their power-law weights to its precision). In a gaussian's far tail the
+    others' weights are exp of large arguments, which float32 cannot compute (nor the bins'
+    cut keep): there the nearest's w d^2 keeps M = I unless the others' spread is not
+    negligible against it, as on the GPU (``glmls/shaders/mls/core.glsl``).
+    """
+    spread = w * d2
     if not d2.shape[1]:
-        return np.ones(d2.shape, dtype=bool)
+        return spread.sum(1)
+    rows = np.arange(len(d2))
     nearest = np.argmin(d2, axis=1)
     at_nearest = (p[None, :, :] == p[nearest][:, None, :]).all(-1)
-    closer_segment = segment_d2.min(axis=1, initial=np.inf) < d2[np.arange(len(d2)), nearest]
-    return ~at_nearest | closer_segment[:, None]
+    closer_segment = segment_d2.min(axis=1, initial=np.inf) < d2[rows, nearest]
+    apart = ~at_nearest | closer_segment[:, None]
+    yardstick = np.where(apart, spread, 0.0).sum(1)
+    if config.weight_entry.support == "gaussian":
+        near = apart & (w > 0) & (gaussian_excess(d2, radius) <= GAUSSIAN_NEGLIGIBLE)
+        tail = ~near.any(axis=1)
+        yardstick += np.where(tail[:, None] & ~apart, spread, 0.0).sum(1)
+    return yardstick
 
 
 def _segment_products(j0, j1, j2, pf, u, qf, g) -> np.ndarray:
@@ -751,12 +769,11 @@ def _mls3(p, q, v, config: MLSConfig, radius: float | None):
     qh = dq - qst[:, None]
     big_a = np.einsum("kn,kni,knj->kij", w, ph, ph)
     b = np.einsum("kn,kni,knj->kij", w, ph, qh)
-    # coincident sources: their spread about p* against that about v of the handles not at
-    # the nearest one's place, as 2D (:func:`mls`): next to a handle whose weight is steep its
-    # own w d^2 grows without bound and would outweigh any spread of the others. Sources all
-    # at one place have p - p_o = 0 exactly: no rounding noise to allow for
-    apart = (w * d2 * _apart_from_nearest(p, d2, np.empty((k, 0)))).sum(1)
-    coincident = ~(np.trace(big_a, axis1=-2, axis2=-1) > 1e-13 * apart)
+    # coincident sources: their spread about p* against the yardstick, as 2D (:func:`mls`,
+    # _yardstick). Sources all at one place have p - p_o = 0 exactly: no rounding noise to
+    # allow for
+    yardstick = _yardstick(p, w, d2, np.empty((k, 0)), config, radius)
+    coincident = ~(np.trace(big_a, axis1=-2, axis2=-1) > 1e-13 * yardstick)
     live = reached & ~coincident
     if live.any():
         big_m[live] = _solve3(big_a[live], b[live], config.transform)
