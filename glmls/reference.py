@@ -9,7 +9,8 @@ Degenerate cases follow the same rules as the shader (``glmls/shaders/mls/core.g
   the solution over the other handles about p_i;
 - no handle in reach (compact-support weights): identity;
 - coincident source handles in reach (spread about p* below 1e-13 of that about v of the
-  handles not at the nearest one's place): M = I;
+  handles not at the nearest one's place, the nearest's own counted for a gaussian where
+  every other handle is in its far tail): M = I;
 - rigid with all targets in reach collapsed to one point: M = I;
 - affine whose moment matrix A is singular or nearly (det A <= 1e-5 trace(A)^2: fewer than
   3 handles in reach, or handles along one line): the similarity solution.

@@ -109,6 +109,37 @@ def test_m_next_to_a_handle_whose_weight_is_steep(gl, transform, params):
         assert np.abs(m.matrices(v)[0] - m0).max() < (3e-4 if transform == "affine" else 1e-4)
 
 
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_m_is_a_translation_in_a_gaussians_far_tail(gl, transform):
+    """Tens of pixels from every handle with R = 12 px, where the other handles weigh
+    exp(-30) to exp(-45) of the nearest: below float32's resolution against it (2^-24: they
+    do not change the sum of the weights), left out by the spatial bins' cut, and further
+    out computed with relative errors ~1e-7 d^2 / R^2 or not at all. There the nearest's own
+    w d^2 stays in the coincidence yardstick, the others' spread about p* is below 1e-13 of
+    it, and M = I, in the reference as on the GPU; without it (as where the weight is steep,
+    test above) float64 would fit M to the others, whose spread is far above 1e-13 of their
+    own w d^2."""
+    config = glmls.MLSConfig(transform=transform, weight="gaussian", radius=12.0)
+    far = np.random.default_rng(5)
+    v = np.concatenate([far.uniform(-60, -30, (200, 2)), far.uniform(W + 30, W + 60, (200, 2))])
+    d2 = ((P[None] - v[:, None]) ** 2).sum(-1)
+    excess = np.sort(d2 - d2.min(1, keepdims=True), axis=1)[:, 1] / 144.0
+    tail = (excess > 30) & (excess < 45)  # every other handle in the tail, in float64's range
+    v, d2 = v[tail], d2[tail]
+    assert len(v) > 100
+    w = reference.weights(d2, config, 12.0)
+    pst = np.einsum("kn,ni->ki", w, P) / w.sum(1, keepdims=True)
+    spread_p = (w * ((P[None] - pst[:, None]) ** 2).sum(-1)).sum(1)
+    others = np.where(d2 > d2.min(1, keepdims=True), w * d2, 0.0).sum(1)
+    assert (spread_p < 1e-13 * (w * d2).sum(1)).all()
+    assert (spread_p > 1e-3 * others).all()
+    f0, m0, _ = reference.mls(P, Q, v, config)
+    assert (m0 == np.eye(2)).all()
+    with glmls.MLS.from_config(P, Q, config) as m:
+        assert (m.matrices(v)[0] == np.eye(2)).all()
+        assert np.abs(m(v) - f0).max() < 1e-5 * SIZE
+
+
 def test_affine_takes_the_similarity_solution_where_the_handles_in_reach_are_on_a_line(gl):
     """Two handles in a compact weight's reach (the rest beyond R): the affine fit is not
     defined, and both glmls's reference and the GPU take the similarity solution."""

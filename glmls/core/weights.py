@@ -21,12 +21,13 @@ from typing import Protocol
 import numpy as np
 
 #: Where a weight reaches: every handle (no spatial bins), exactly 0 from d = R on
-#: ("radius"), or never 0 but cut where its tail is negligible ("gaussian"). The "gaussian"
-#: support is also the one whose weights float32 cannot compute far into the tail (exp of
-#: arguments ~d^2 / R^2, relative error ~1e-7 d^2 / R^2, underflow below 1e-38): MLS's
+#: ("radius"), or never 0 but cut where its tail is negligible ("gaussian"). A "gaussian"
+#: tail is also where float32 loses the weights (the cut leaves them out; further out exp
+#: of large arguments has relative errors ~1e-7 d^2 / R^2, then underflows): MLS's
 #: "coincident sources" yardstick keeps the nearest handle's own w d^2 where every other
-#: handle is that far (:func:`gaussian_excess`), and leaves it out for the other weights,
-#: whose ratios float32 keeps to its precision however large (powers of d).
+#: handle is in it (beyond :data:`GAUSSIAN_NEGLIGIBLE`, see :func:`gaussian_excess`), and
+#: leaves it out otherwise and for the other weights, whose ratios, powers of d, float32
+#: keeps to its precision however large.
 SUPPORTS = ("everywhere", "radius", "gaussian")
 #: The gaussian cut leaves out weights summing to less than this share of the total
 #: (float32's unit roundoff; see :func:`reach` and ``glmls/engine/bins.py``).
