@@ -8,7 +8,9 @@ Degenerate cases follow the same rules as the shader (``glmls/shaders/mls/core.g
 - a point exactly on a handle whose weight is infinite there: f = q_i, and M is the limit,
   the solution over the other handles about p_i;
 - no handle in reach (compact-support weights): identity;
-- coincident source handles in reach (spread about p* below 1e-13 of that about v): M = I;
+- coincident source handles in reach (spread about p* below 1e-13 of that about v of the
+  handles not at the nearest one's place, the nearest's own counted for a gaussian where
+  every other handle is in its far tail): M = I;
 - rigid with all targets in reach collapsed to one point: M = I;
 - affine whose moment matrix A is singular or nearly (det A <= 1e-5 trace(A)^2: fewer than
   3 handles in reach, or handles along one line): the similarity solution.
@@ -34,8 +36,8 @@ ridge, the spectral function of A that is 0 unless an eigenvalue e of A is below
 ``DEGENERATE_SHARE`` (1e-3) of trace(A), where it grows as 1e-3 trace(A) (1 - e / (1e-3
 trace(A)))^2, so well-spread sources get the exact closed forms:
 
-- one handle in reach, or coincident sources (spread about p* below 1e-13 of that about v):
-  M = I, a translation;
+- one handle in reach, or coincident sources (spread about p* below 1e-13 of that about v
+  of the handles not at the nearest one's place, as 2D): M = I, a translation;
 - collinear sources (two handles, or more on a line): the rotation about the line is free;
   R is the SVD solution of B + c |B| R0, with c = 1e-3 (1 - e2 / (1e-3 trace(A)))^2 for
   A's middle eigenvalue e2 (0 unless e2 < 1e-3 trace(A): the sources near one line) and R0
@@ -73,6 +75,7 @@ from .core.handles3 import (
 from .core.handleset import HandleSet
 from .core.mesh import as_shape
 from .core.segments import REFERENCE_NODES, REFERENCE_PANELS, segment_config, sinh_nodes
+from .core.weights import GAUSSIAN_NEGLIGIBLE, gaussian_excess
 
 __all__ = [
     "DEGENERATE_SHARE",
@@ -384,7 +387,7 @@ def mls(
     >>> src3 = np.array([[0.0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]])
     >>> quarter = np.array([[0.0, 1, 0], [-1, 0, 0], [0, 0, 1]])  # x -> y, y -> -x
     >>> f, M, T = glmls.reference.mls(src3, src3 @ quarter, [[5.0, 0.0, 2.0]])
-    >>> f.round(6).tolist(), M.shape
+    >>> (f.round(6) + 0.0).tolist(), M.shape
     ([[0.0, 5.0, 2.0]], (1, 3, 3))
 
     With handles in millimetres of a volume of 10 x 20 x 40 voxels of (2, 1, 0.5) mm, the
@@ -460,14 +463,47 @@ def mls(
     a11, a12, a22 = big_a[:, 0, 0], big_a[:, 0, 1], big_a[:, 1, 1]
 
     big_m = _solve(a11, a12, a22, b, config.transform)
-    # coincident source handles: their spread about p* is negligible against that about v
-    spread = (w * d2).sum(1) + (seg["h2"] * j0 + j2).sum(1)
-    coincident = ~(a11 + a22 > 1e-13 * spread)
+    # coincident source handles: their spread about p* is negligible against the yardstick
+    # (_yardstick: the spread about v, the nearest handle's own left out unless a gaussian's
+    # tail), and float64 noise (~1e-32) against the whole spread about v (one handle alone)
+    yardstick = _yardstick(p, w, d2, seg["dist2"], config, radius)
+    yardstick += (seg["h2"] * j0 + j2).sum(1)
+    coincident = ~(a11 + a22 > 1e-13 * yardstick + 1e-26 * (w * d2).sum(1))
     big_m[coincident | ~reached] = np.eye(2)
     f = v + qst - np.einsum("ki,kij->kj", pst, big_m)
     f[~reached] = v[~reached]
     t = f - np.einsum("ki,kij->kj", v, big_m)
     return f, big_m, t
+
+
+def _yardstick(p, w, d2, segment_d2, config: MLSConfig, radius) -> np.ndarray:
+    """(K,) the yardstick of "coincident sources": sum w |p - v|^2 over the point handles.
+
+    The handles at the nearest one's place (a point handle; a segment nearer than every
+    point handle leaves none out) count only for a gaussian at points where every other
+    handle is in its tail (weight below tau = 2^-24 of the nearest's, exponent beyond
+    ``GAUSSIAN_NEGLIGIBLE``). Next to a handle whose weight is steep (1 / d^(2 alpha),
+    alpha > 1) its own w d^2 grows without bound and would make any spread of the others
+    about p* look like noise, though their fit is M there (continuous up to the handle, and
+    float32 computes their power-law weights to its precision). In a gaussian's far tail the
+    others' weights are exp of large arguments, which float32 cannot compute (nor the bins'
+    cut keep): there the nearest's w d^2 keeps M = I unless the others' spread is not
+    negligible against it, as on the GPU (``glmls/shaders/mls/core.glsl``).
+    """
+    spread = w * d2
+    if not d2.shape[1]:
+        return spread.sum(1)
+    rows = np.arange(len(d2))
+    nearest = np.argmin(d2, axis=1)
+    at_nearest = (p[None, :, :] == p[nearest][:, None, :]).all(-1)
+    closer_segment = segment_d2.min(axis=1, initial=np.inf) < d2[rows, nearest]
+    apart = ~at_nearest | closer_segment[:, None]
+    yardstick = np.where(apart, spread, 0.0).sum(1)
+    if config.weight_entry.support == "gaussian":
+        near = apart & (w > 0) & (gaussian_excess(d2, radius) <= GAUSSIAN_NEGLIGIBLE)
+        tail = ~near.any(axis=1)
+        yardstick += np.where(tail[:, None] & ~apart, spread, 0.0).sum(1)
+    return yardstick
 
 
 def _segment_products(j0, j1, j2, pf, u, qf, g) -> np.ndarray:
@@ -708,15 +744,20 @@ def _mls3(p, q, v, config: MLSConfig, radius: float | None):
     if len(p) == 0 or k == 0:
         return f, big_m, f - np.einsum("ki,kij->kj", v, big_m)
     rows = np.arange(k)
-    dp = p[None] - v[:, None]
-    dq = q[None] - v[:, None]
-    d2 = (dp**2).sum(-1)
+    d2 = ((p[None] - v[:, None]) ** 2).sum(-1)
     w = weights(d2, config, radius)
     on_point = np.isinf(w)
     hit = on_point.any(axis=1)
     w = np.where(on_point, 0.0, w)
     wsum = w.sum(axis=1)
     reached = hit | (wsum > 0)
+    # p - p_o and q - q_o about the nearest handle o (exactly 0 at its place): the centroids
+    # and moments about them keep float64's precision where o's weight outweighs the others'
+    # by far (next to a handle whose weight is steep, 1e40 against 1e-8), instead of losing
+    # the others to the rounding of p* about v
+    nearest = np.argmin(d2, axis=1)
+    dp = p[None] - p[nearest][:, None]
+    dq = q[None] - q[nearest][:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         pst = (w[..., None] * dp).sum(1) / wsum[:, None]
         qst = (w[..., None] * dq).sum(1) / wsum[:, None]
@@ -729,11 +770,17 @@ def _mls3(p, q, v, config: MLSConfig, radius: float | None):
     qh = dq - qst[:, None]
     big_a = np.einsum("kn,kni,knj->kij", w, ph, ph)
     b = np.einsum("kn,kni,knj->kij", w, ph, qh)
-    spread = (w * d2).sum(1)
-    coincident = ~(np.trace(big_a, axis1=-2, axis2=-1) > 1e-13 * spread)
+    # coincident sources: their spread about p* against the yardstick, as 2D (:func:`mls`,
+    # _yardstick). Sources all at one place have p - p_o = 0 exactly: no rounding noise to
+    # allow for
+    yardstick = _yardstick(p, w, d2, np.empty((k, 0)), config, radius)
+    coincident = ~(np.trace(big_a, axis1=-2, axis2=-1) > 1e-13 * yardstick)
     live = reached & ~coincident
     if live.any():
         big_m[live] = _solve3(big_a[live], b[live], config.transform)
+    # f(v) = q* + (v - p*) M, with p* - v = (p_o - v) + (p* - p_o)
+    pst += p[nearest] - v
+    qst += q[nearest] - v
     f = v + qst - np.einsum("ki,kij->kj", pst, big_m)
     f[~reached] = v[~reached]
     return f, big_m, f - np.einsum("ki,kij->kj", v, big_m)

@@ -81,6 +81,65 @@ def test_handles_are_interpolated_where_the_weight_is_infinite(gl, weight):
         assert np.abs(m.matrices(P)[0] - m0).max() < 1e-4
 
 
+STEEP = [
+    {"weight": "idw", "alpha": 1.5, "interpolating": True},
+    {"weight": "gaussian", "radius": 25.0, "alpha": 2.0, "interpolating": True},
+    {"weight": "shepard", "radius": 25.0, "alpha": 2.0, "interpolating": True},
+    {"weight": "linear", "radius": 40.0, "alpha": 2.0, "interpolating": True},
+]
+
+
+@pytest.mark.parametrize("params", STEEP, ids=lambda params: params["weight"])
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_m_next_to_a_handle_whose_weight_is_steep(gl, transform, params):
+    """Within 1e-2 px of a handle whose weight grows like 1 / d^(2 alpha) with alpha > 1, its
+    own w d^2 is 1e17 times the others' spread about p*: that is no sign of coincident
+    sources (M = I), M is still the others' fit, continuous up to the handle's limit; and
+    the others' moments (~1e-27 on the GPU) are not lost to float32 underflow."""
+    v = np.concatenate([P + 1e-3, P - 3e-3, P + [4e-3, -2e-3]])
+    f0, m0, _ = mls64(P, Q, v, transform, **params)
+    limit = mls64(P, Q, P, transform, **params)[1]
+    assert np.abs(m0 - np.tile(limit, (3, 1, 1))).max() < 1e-2  # continuous
+    f1, m1, _ = reference.mls(P, Q, v, transform=transform, **params)
+    assert np.abs(f1 - f0).max() < 1e-9
+    assert np.abs(m1 - m0).max() < 1e-6
+    with glmls.MLS(P, Q, transform=transform, shape=(H, W), **params) as m:
+        assert np.abs(m(v) - f0).max() < 1e-5 * SIZE
+        # affine inverts the others' 2 x 2 moments, tiny against the handle's: 3e-4
+        assert np.abs(m.matrices(v)[0] - m0).max() < (3e-4 if transform == "affine" else 1e-4)
+
+
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_m_is_a_translation_in_a_gaussians_far_tail(gl, transform):
+    """Tens of pixels from every handle with R = 12 px, where the other handles weigh
+    exp(-30) to exp(-45) of the nearest: below float32's resolution against it (2^-24: they
+    do not change the sum of the weights), left out by the spatial bins' cut, and further
+    out computed with relative errors ~1e-7 d^2 / R^2 or not at all. There the nearest's own
+    w d^2 stays in the coincidence yardstick, the others' spread about p* is below 1e-13 of
+    it, and M = I, in the reference as on the GPU; without it (as where the weight is steep,
+    test above) float64 would fit M to the others, whose spread is far above 1e-13 of their
+    own w d^2."""
+    config = glmls.MLSConfig(transform=transform, weight="gaussian", radius=12.0)
+    far = np.random.default_rng(5)
+    v = np.concatenate([far.uniform(-60, -30, (200, 2)), far.uniform(W + 30, W + 60, (200, 2))])
+    d2 = ((P[None] - v[:, None]) ** 2).sum(-1)
+    excess = np.sort(d2 - d2.min(1, keepdims=True), axis=1)[:, 1] / 144.0
+    tail = (excess > 30) & (excess < 45)  # every other handle in the tail, in float64's range
+    v, d2 = v[tail], d2[tail]
+    assert len(v) > 100
+    w = reference.weights(d2, config, 12.0)
+    pst = np.einsum("kn,ni->ki", w, P) / w.sum(1, keepdims=True)
+    spread_p = (w * ((P[None] - pst[:, None]) ** 2).sum(-1)).sum(1)
+    others = np.where(d2 > d2.min(1, keepdims=True), w * d2, 0.0).sum(1)
+    assert (spread_p < 1e-13 * (w * d2).sum(1)).all()
+    assert (spread_p > 1e-3 * others).all()
+    f0, m0, _ = reference.mls(P, Q, v, config)
+    assert (m0 == np.eye(2)).all()
+    with glmls.MLS.from_config(P, Q, config) as m:
+        assert (m.matrices(v)[0] == np.eye(2)).all()
+        assert np.abs(m(v) - f0).max() < 1e-5 * SIZE
+
+
 def test_affine_takes_the_similarity_solution_where_the_handles_in_reach_are_on_a_line(gl):
     """Two handles in a compact weight's reach (the rest beyond R): the affine fit is not
     defined, and both glmls's reference and the GPU take the similarity solution."""

@@ -21,11 +21,20 @@ from typing import Protocol
 import numpy as np
 
 #: Where a weight reaches: every handle (no spatial bins), exactly 0 from d = R on
-#: ("radius"), or never 0 but cut where its tail is negligible ("gaussian").
+#: ("radius"), or never 0 but cut where its tail is negligible ("gaussian"). A "gaussian"
+#: tail is also where float32 loses the weights (the cut leaves them out; further out exp
+#: of large arguments has relative errors ~1e-7 d^2 / R^2, then underflows): MLS's
+#: "coincident sources" yardstick keeps the nearest handle's own w d^2 where every other
+#: handle is in it (beyond :data:`GAUSSIAN_NEGLIGIBLE`, see :func:`gaussian_excess`), and
+#: leaves it out otherwise and for the other weights, whose ratios, powers of d, float32
+#: keeps to its precision however large.
 SUPPORTS = ("everywhere", "radius", "gaussian")
 #: The gaussian cut leaves out weights summing to less than this share of the total
 #: (float32's unit roundoff; see :func:`reach` and ``glmls/engine/bins.py``).
 GAUSSIAN_TOLERANCE = 2.0**-24
+#: ln(1 / tau): a handle whose gaussian exponent exceeds the nearest one's by more than this
+#: weighs less than tau (:data:`GAUSSIAN_TOLERANCE`) of it, out of float32's resolution.
+GAUSSIAN_NEGLIGIBLE = math.log(1.0 / GAUSSIAN_TOLERANCE)
 
 
 class WeightParameters(Protocol):
@@ -95,6 +104,13 @@ def gaussian_cut(count: int) -> float:
     return math.log(max(count, 1) / GAUSSIAN_TOLERANCE)
 
 
+def gaussian_excess(d2: np.ndarray, radius: float) -> np.ndarray:
+    """(d^2 - d_min^2) / R^2 for squared distances ``d2`` (K, N), d_min per row: how far a
+    handle's gaussian exponent is beyond the nearest one's (its weight relative to the
+    nearest's is exp of minus this); bounded by 1e300, finite for any R."""
+    return _ratio(d2 - d2.min(axis=1, keepdims=True, initial=np.inf), radius)
+
+
 # -- the float64 formulas ------------------------------------------------------------------------
 
 
@@ -128,7 +144,7 @@ def _shepard(d2: np.ndarray, params: WeightParameters, radius: float | None) -> 
 
 def _gaussian(d2: np.ndarray, params: WeightParameters, radius: float | None) -> np.ndarray:
     # divided by its value at the nearest handle, so that it does not underflow far away
-    return np.exp(-_ratio(d2 - d2.min(axis=1, keepdims=True), radius))  # type: ignore[arg-type]
+    return np.exp(-gaussian_excess(d2, radius))  # type: ignore[arg-type]
 
 
 def _linear(d2: np.ndarray, params: WeightParameters, radius: float | None) -> np.ndarray:

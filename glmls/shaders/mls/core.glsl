@@ -44,17 +44,21 @@ MLSResult mls_identity(vec2 v) {
 // N = M - I for similarity / rigid, from mu = sum w |p^|^2 and the displacement moments
 // D (see mls_finish). M = [[A, B], [-B, A]] / norm with A = mu + D11 + D22, B = D12 - D21.
 vec4 mls_rotation_scale(float mu, vec4 D, float spread) {
-    // Source handles in reach coincide (their spread about p* is float32 noise against their
-    // spread about v): only a translation is defined.
+    // Source handles in reach coincide (their spread about p* is float32 noise against the
+    // spread about v of those not at the nearest one's place): only a translation is
+    // defined.
     if (!(mu > 1e-13 * spread)) {
         return vec4(0.0);
     }
     float B = D.y - D.z;
 #if MLS_TRANSFORM == 2
-    float A = mu + D.x + D.w;
+    // A and B relative to mu: next to a handle whose weight is steep the others' moments
+    // can be ~1e-27, and their squares would underflow float32
+    float A = 1.0 + (D.x + D.w) / mu;
+    B /= mu;
     float n = sqrt(A * A + B * B);
     // Targets collapsed to a point: no rotation is defined, keep the identity.
-    if (n <= 1e-6 * mu) {
+    if (n <= 1e-6) {
         return vec4(0.0);
     }
     // A / n - 1 without cancellation for small rotations
@@ -130,7 +134,12 @@ struct MLSAccum {
     vec3 PP;        // sum w P P^T as (xx, xy, yy); similarity, rigid: (its trace, 0, 0)
     vec4 PE;        // sum w P_i E_j as (11, 12, 21, 22); similarity, rigid: (11 + 22,
                     // 12 - 21, 0, 0) (mls_add_moments)
-    float spread;   // sum w |p - v|^2, the yardstick for "coincident"
+    float spread;   // sum w |p - v|^2 over the handles not at p_o: the yardstick for
+                    // "coincident" (mls_yardstick)
+#if MLS_REACH_GAUSSIAN
+    float spread_o; // ... over those at p_o
+    float excess;   // the least mls_gaussian_excess of the handles not at p_o in reach
+#endif
 };
 
 MLSAccum mls_begin(vec2 v, MLSNearest n) {
@@ -155,6 +164,10 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
     a.PP = vec3(0.0);
     a.PE = vec4(0.0);
     a.spread = 0.0;
+#if MLS_REACH_GAUSSIAN
+    a.spread_o = 0.0;
+    a.excess = 3.0e38;
+#endif
     return a;
 }
 
@@ -200,7 +213,29 @@ void mls_accumulate(inout MLSAccum a, vec4 h, bool use) {
     a.PP.x += dot(wP, P);
     a.PE.xy += vec2(dot(wP, E), wP.x * E.y - wP.y * E.x);
 #endif
-    a.spread += w * d2;
+    // The handles at the nearest one's place (P = 0) apart (mls_yardstick).
+    bool apart = any(notEqual(P, vec2(0.0)));
+    float wd2 = w * d2;
+    a.spread += apart ? wd2 : 0.0;
+#if MLS_REACH_GAUSSIAN
+    a.spread_o += apart ? 0.0 : wd2;
+    a.excess = min(a.excess, apart && w > 0.0 ? mls_gaussian_excess(d2, a.m) : 3.0e38);
+#endif
+}
+
+// The yardstick of "coincident sources": sum w |p - v|^2, the handles at the nearest one's
+// place left out but where the weight is a gaussian and every other handle is in its tail
+// (glmls.reference's _yardstick). Next to a handle whose weight is steep (1 / d^(2 alpha),
+// alpha > 1) its own w d2 grows without bound and would outweigh any spread of the others
+// about p*, which decides M there (their power-law weights float32 computes to its
+// precision); far in a gaussian's tail the others' weights are exp of large arguments that
+// float32 cannot compute, and the nearest's w d2 keeps M = I unless their spread counts.
+float mls_yardstick(MLSAccum a) {
+#if MLS_REACH_GAUSSIAN
+    return a.spread + (a.excess > MLS_GAUSSIAN_NEGLIGIBLE ? a.spread_o : 0.0);
+#else
+    return a.spread;
+#endif
 }
 
 MLSResult mls_finish(MLSAccum a) {
@@ -223,18 +258,21 @@ MLSResult mls_finish(MLSAccum a) {
     // Snapped: p* = p_o and q* = q_o exactly, and the moments about them are the sums.
     vec3 A = a.PP;
     vec4 D = a.PE;
-    float spread = a.spread;
+    float spread = mls_yardstick(a);
     vec4 N;   // M - I
 #if MLS_TRANSFORM == 0
-    float a11 = A.x, a12 = A.y, a22 = A.z;
-    float mu = a11 + a22;
-    float det = a11 * a22 - a12 * a12;
-    if (mu > 1e-13 * spread && det > 1e-5 * mu * mu) {
+    float mu = A.x + A.z;
+    // A and D relative to mu (mu > 0 where used): the products below stay in float32's
+    // range where the moments are tiny (next to a handle whose weight is steep)
+    vec3 An = A / mu;
+    vec4 Dn = D / mu;
+    float det = An.x * An.z - An.y * An.y;
+    if (mu > 1e-13 * spread && det > 1e-5) {
         // M = A^-1 (A + D) = I + A^-1 D, with A = [[a11, a12], [a12, a22]]
-        vec2 r0 = vec2(a22, -a12) / det;
-        vec2 r1 = vec2(-a12, a11) / det;
-        N = vec4(r0.x * D.x + r0.y * D.z, r0.x * D.y + r0.y * D.w,
-                 r1.x * D.x + r1.y * D.z, r1.x * D.y + r1.y * D.w);
+        vec2 r0 = vec2(An.z, -An.y) / det;
+        vec2 r1 = vec2(-An.y, An.x) / det;
+        N = vec4(r0.x * Dn.x + r0.y * Dn.z, r0.x * Dn.y + r0.y * Dn.w,
+                 r1.x * Dn.x + r1.y * Dn.z, r1.x * Dn.y + r1.y * Dn.w);
     } else {
         // Fewer than 3 non-collinear handles in reach: the similarity solution.
         N = mls_rotation_scale(mu, D, spread);

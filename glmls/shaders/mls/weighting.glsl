@@ -48,6 +48,18 @@ float mls_normalisation(float d2near) {
 #endif
 }
 
+#ifndef MLS_REACH_GAUSSIAN
+#define MLS_REACH_GAUSSIAN 0   // 1: the weight is the gaussian (glmls.core.weights support)
+#endif
+#if MLS_REACH_GAUSSIAN
+// How far the gaussian's exponent at squared distance d2 is beyond the nearest handle's (m):
+// above MLS_GAUSSIAN_NEGLIGIBLE, ln(1 / tau), the handle weighs less than tau of the nearest,
+// in the tail float32 cannot compute (glmls.core.weights.gaussian_excess).
+float mls_gaussian_excess(float d2, float m) {
+    return mls_radius_ratio(max(d2 - m, 0.0));
+}
+#endif
+
 // Weight of a handle at squared distance d2 (see mls/weights.glsl for m, inv_m and sigma).
 float mls_weight(float d2, float m, float inv_m, float sigma) {
     float w = MLS_WEIGHT_FUNCTION(d2, m, inv_m, sigma);

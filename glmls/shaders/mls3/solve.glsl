@@ -206,7 +206,8 @@ vec3 mls3_cholesky_apply(vec3 l0, vec3 l1, vec3 l2, vec3 d) {
 }
 
 // N = M - I from the symmetric A (diagonal a, off-diagonal o = (01, 02, 12)) and D, about
-// p* and q*; spread = sum w |p - v|^2, the yardstick for coincident sources.
+// p* and q*; spread = sum w |p - v|^2 over the handles not at the nearest one's place, the
+// yardstick for coincident sources (mls3_add).
 //
 // Where A's eigenvalues provably keep every ridge at 0 (its invariants bound them: with
 // trace 1, det A / c2 <= e_min and c2 < 2 e_mid for e_mid < 1e-3, c2 the sum of A's
@@ -214,7 +215,8 @@ vec3 mls3_cholesky_apply(vec3 l0, vec3 l1, vec3 l2, vec3 d) {
 // the similarity solution: A^-1 D by Cholesky, Horn's rotation of B itself.
 mat3 mls3_solve(vec3 a, vec3 o, mat3 D, float spread) {
     float mu = a.x + a.y + a.z;
-    // Coincident sources in reach (or one handle): a translation. All displacements equal
+    // Coincident sources in reach, or one handle (the spread about p* is float32 noise
+    // against the yardstick): a translation. All displacements equal
     // (D = 0, the identity among them): N = 0 exactly, as every closed form gives it.
     bool zero = D[0] == vec3(0.0) && D[1] == vec3(0.0) && D[2] == vec3(0.0);
     if (!(mu > 1e-13 * spread) || zero) {
