@@ -12,7 +12,7 @@ another radius (``radius=None``: the image diagonal) rebuilds the bins through t
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import moderngl
 import numpy as np
@@ -175,6 +175,7 @@ class MLSKernel:
         self._segments = np.zeros((0, 4), np.float32)  # two rows per segment: (a, b), (c, d)
         #: Scratch buffers of the passes (points in, f and M out, error fields).
         self.scratch = Resources(gl, "this MLS")
+        self._memo: dict[tuple, object] = {}
         self._released = False
 
     # -- the one upload path ------------------------------------------------------------
@@ -219,7 +220,16 @@ class MLSKernel:
                 self._storage.release()
             self._storage = storage
         self._packed, self._segments, self.scaling = packed, segments, scaling
+        self._memo.clear()
         self._write(radius, binned)
+
+    def memo(self, key: tuple, compute: Callable[[], object]) -> object:
+        """``compute()``'s value for ``key``, computed once per upload of the handles: for
+        what a pass derives from f alone (the warp and its labels both need a mesh's
+        margin)."""
+        if key not in self._memo:
+            self._memo[key] = compute()
+        return self._memo[key]
 
     def _use_bins(
         self, packed: np.ndarray, segments: np.ndarray, radius: float | None, request: bool | None

@@ -292,7 +292,31 @@ def border_margin(
     that much) the rest keeps the background, with a :class:`~glmls.errors.BorderWarning`
     where ``warn`` (the backward methods, which only start Newton there, do not warn).
     ``max_points``: that budget of mesh points instead (at grid 1), for a frame that is not
-    drawn pixel by pixel (the first guess of f's inverse at scattered points)."""
+    drawn pixel by pixel (the first guess of f's inverse at scattered points).
+
+    The search runs once per upload of the kernel's handles for each lattice, frame and
+    budget (:meth:`~glmls.engine.kernel.MLSKernel.memo`): a warp and the labels that follow
+    its mesh ask for the same margin."""
+    key = ("border_margin", lattice.shape, lattice.grid, frame.shape, frame.origin, max_points)
+    margin, encloses_frame = kernel.memo(
+        key, lambda: _search_margin(kernel, lattice, frame, max_points)
+    )
+    if warn and not encloses_frame:
+        warnings.warn(
+            f"the mesh reaches {margin} px past the image, the most for this image and "
+            "canvas, and f's image of it does not cover the whole canvas: pixels beyond "
+            "keep the background",
+            BorderWarning,
+            stacklevel=7,  # the caller of MLS.warp
+        )
+    return margin
+
+
+def _search_margin(
+    kernel: MLSKernel, lattice: MeshLattice, frame: Frame, max_points: int | None
+) -> tuple[int, bool]:
+    """:func:`border_margin`'s search: the margin, and whether f's image of its border
+    encloses the frame."""
     height, width = as_shape(lattice.shape)
     grid = lattice.grid
     low, high = frame.centre_box(ENCLOSE_PAD)
@@ -301,7 +325,7 @@ def border_margin(
     ring = base.boundary()
     deformed, _ = evaluate_points(kernel, ring, with_matrix=False, shape=lattice.shape)
     if encloses(deformed, low, high):
-        return 0
+        return 0, True
     moved = float(np.max(np.abs(deformed - ring))) if np.all(np.isfinite(deformed)) else 0.0
     budget = max(MARGIN_POINTS, 2 * (height * width + frame.pixels))
     points = (budget if max_points is None else max_points) * grid * grid
@@ -312,18 +336,9 @@ def border_margin(
         ring = base.with_margin(margin).boundary()
         deformed, _ = evaluate_points(kernel, ring, with_matrix=False, shape=lattice.shape)
         if encloses(deformed, low, high):
-            return margin
+            return margin, True
         if margin >= limit:
-            if not warn:
-                return margin
-            warnings.warn(
-                f"the mesh reaches {margin} px past the image, the most for this image and "
-                "canvas, and f's image of it does not cover the whole canvas: pixels beyond "
-                "keep the background",
-                BorderWarning,
-                stacklevel=7,  # the caller of MLS.warp
-            )
-            return margin
+            return margin, False
         margin = min(limit, 2 * margin)
 
 

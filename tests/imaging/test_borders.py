@@ -269,3 +269,34 @@ def test_a_canvas_out_of_reach_warns_and_never_hangs(gl):
         assert (out == 0).all()
         out = m.warp(image, border="edge", method="backward", **far)
         assert (out == 7).all()
+
+
+def test_the_margin_is_searched_once_per_upload(gl, monkeypatch):
+    """A warp and the labels that follow its mesh take one margin search (f on the mesh's
+    border rings) between them; new handles search again, and a canvas the mesh cannot
+    cover warns at every warp, not only at the first."""
+    from glmls.imaging import frame as frames
+
+    calls = []
+    search = frames._search_margin
+    monkeypatch.setattr(
+        frames, "_search_margin", lambda *args: calls.append(args[1].grid) or search(*args)
+    )
+    image = np.zeros((40, 40), np.uint8)
+    src = np.array([[5.0, 5.0], [34.0, 5.0], [20.0, 34.0]])
+    dst = src + [[3.0, 3.0], [-3.0, 3.0], [0.0, -3.0]]  # pulls the frame in: a margin
+    batch = glmls.warp_batch(image[None], src[None], dst[None], keypoints=[src], border="edge")
+    assert calls == [1]
+    np.testing.assert_allclose(batch.keypoints[0], dst, atol=0.01)  # the mesh, not f
+    with glmls.MLS(src, dst) as m:
+        first = m.warp(image, border="edge", grid=4)
+        assert m.warp(image, border="edge", grid=4) is not first
+        assert calls == [1, 4]
+        m.set_handles(src, src)
+        m.warp(image, border="edge", grid=4)
+        assert calls == [1, 4, 4]
+    far = {"output_shape": (10, 10), "origin": (-1e6, 0.0)}
+    with glmls.MLS(np.zeros((0, 2)), np.zeros((0, 2))) as m:
+        for _ in range(2):
+            with pytest.warns(glmls.BorderWarning, match="does not cover the whole canvas"):
+                m.warp(image, border="edge", **far)
