@@ -115,7 +115,9 @@ class MLS(ForkSafe):
     s : float, default 1e-8
         idw's regularisation.
     radius : float or None, default None
-        Influence radius in pixels (radius weights); None: the image diagonal of ``shape``.
+        Influence radius in pixels (radius weights); None: the image diagonal, that of
+        ``shape`` for f at points and that of the image warped for :meth:`warp` (a warp of
+        an image of another size than ``shape`` takes its own diagonal).
     interpolating : bool, default False
         Make any weight interpolate the handles.
     shape : (int, int) or None, default None
@@ -130,7 +132,8 @@ class MLS(ForkSafe):
         The context to render with (default: glmls's shared headless EGL one).
     storage : {"auto", "ssbo", "ubo", "texture"}, default "auto"
         Where the handles live on the GPU: ``auto`` takes ``ubo`` where they fit, else
-        ``ssbo`` (:mod:`glmls.engine.storage`).
+        ``texture`` for handles in spatial bins and ``ssbo`` for the others
+        (:mod:`glmls.engine.storage`).
     bins : bool or None, default None
         Sort the handles into a spatial grid so that each point visits only those in reach
         (radius weights, :mod:`glmls.engine.bins`): None where it pays, True always, False
