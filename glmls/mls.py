@@ -1192,7 +1192,8 @@ def warp(image: object, src: object, dst: object, **options: object) -> np.ndarr
     ----------
     image : array_like
         H x W or H x W x C (C in 1..4), uint8, uint16, float32 or float64; with (N, 3)
-        handles, a (D, H, W) or (D, H, W, C) volume of uint8, uint16 or float32.
+        handles, a (D, H, W) or (D, H, W, C) volume of uint8, uint16, float32 or float64
+        (computed as float32).
     src, dst : array_like
         (N, 2) handle points, or (N, 3) for a volume.
     **options

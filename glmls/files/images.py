@@ -105,8 +105,9 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     ----------
     path : str or os.PathLike
         The file.
-    max_pixels : int, optional
-        The largest image read (W x H); larger ones are refused before they are decoded.
+    max_pixels : int, default 268435456
+        The largest image read (W x H; the default is 16384²);
+        larger ones are refused before they are decoded.
 
     Returns
     -------
