@@ -367,7 +367,8 @@ def imwrite(path: str | os.PathLike, image: object, *, icc_profile: bytes | None
     """Write an image to a file whose suffix names its format.
 
     uint8 to any format of :data:`WRITABLE`, uint16 to PNG or TIFF, float32 and float64 to
-    TIFF; 2 or 4 channels (with alpha) to PNG, TIFF or WebP. PNG, TIFF and BMP are lossless;
+    TIFF; 2 or 4 channels (with alpha) to PNG or TIFF, and 4 to WebP, which holds colour
+    images only (3 or 4 channels). PNG, TIFF and BMP are lossless;
     JPEG and WebP are lossy, at Pillow's default quality (75 and 80).
 
     Parameters
@@ -387,8 +388,9 @@ def imwrite(path: str | os.PathLike, image: object, *, icc_profile: bytes | None
     ------
     ValueError
         Before writing anything, for an unknown suffix, a format that cannot hold the image's
-        dtype or alpha, an empty image or a wrong shape, or an ``icc_profile`` that is not an
-        ICC profile, does not fit the image's channels or that the format cannot hold.
+        dtype or alpha (or a grey image: WebP), an empty image or a wrong shape, or an
+        ``icc_profile`` that is not an ICC profile, does not fit the image's channels or that
+        the format cannot hold.
 
     See Also
     --------
