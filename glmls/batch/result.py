@@ -28,8 +28,9 @@ class BatchResult:
         (N, P, 2) float64 output points (x, y) of the ``keypoints`` asked for: where each
         source point lands on the output canvas.
     keypoints_valid : numpy.ndarray or list of numpy.ndarray or None
-        (N, P) bool: the point lands on the canvas, inside the warped image, and shows there
-        (no other part of the image folds over it).
+        (N, P) bool: the point lands on the canvas, inside the warped image (with the
+        ``constant`` border; with the other borders the image's surroundings count too), and
+        shows there (no other part of the image folds over it).
     masks : numpy.ndarray or list of numpy.ndarray or None
         (N, H, W) label images warped with nearest sampling, of the input masks' dtype (0
         where nothing is shown).
