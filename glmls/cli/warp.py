@@ -44,6 +44,7 @@ from .options import (
     config_from_args,
     fit_background,
     parse_background,
+    refuse_overwriting,
     warp_options_from_args,
 )
 from .progress import Progress, Ticker
@@ -121,6 +122,16 @@ def targets(output: str, files: list[Path], many: bool) -> list[Path]:
         except ValueError as error:
             raise UsageError(str(error)) from None
     return paths
+
+
+def inputs_read(args: argparse.Namespace, files: list[Path]) -> dict[Path, str]:
+    """The files ``glmls warp`` reads, which no output may overwrite: IN's, --handles and
+    --targets."""
+    read = {path: "an input image" for path in files}
+    for option, name in (("--handles", args.handles), ("--targets", args.targets)):
+        if name is not None:
+            read.setdefault(Path(name), f"the {option} file")
+    return read
 
 
 @dataclasses.dataclass(frozen=True)
@@ -218,6 +229,7 @@ def run(args: argparse.Namespace) -> int:
     handles = read_image_handles(args.handles, dst=args.targets, image=args.input, many=True)
     files, many = image_inputs(args.input)
     outputs = targets(args.output, files, many)
+    refuse_overwriting(outputs, inputs_read(args, files))
     options = warp_options_from_args(args)
     capture = jobs > 1 or scheduler is not None
     tasks = [

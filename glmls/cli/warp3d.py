@@ -40,7 +40,7 @@ from ..files.volumes import (
 )
 from ..mls import MLS
 from .inputs import reported_warnings, say
-from .options import UsageError, config_from_args
+from .options import UsageError, config_from_args, refuse_overwriting
 from .progress import Ticker
 
 __all__ = [
@@ -310,6 +310,10 @@ def run_3d(args: argparse.Namespace, kind: str) -> int:
     check_world(args)
     config = config_from_args(args)
     target = _target(args, kind)
+    read = {Path(args.input): f"the input {kind}", Path(args.handles): "the --handles file"}
+    if args.targets is not None:
+        read.setdefault(Path(args.targets), "the --targets file")
+    refuse_overwriting([target], read)
     src, dst = read_3d_handles(args, kind)
     if kind == "volume":
         _warp_volume(args, config, src, dst, target)

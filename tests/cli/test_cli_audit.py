@@ -1,0 +1,57 @@
+"""The command line as a demanding user drives it: outputs never destroy the inputs."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import glmls
+from glmls.cli.main import main
+
+SRC = [[4, 4], [36, 6], [20, 30], [6, 26]]
+DST = [[6, 5], [34, 8], [24, 28], [6, 26]]
+SRC3 = [[1, 1, 1], [6, 1, 1], [1, 6, 2], [4, 4, 3]]
+DST3 = [[1, 2, 1], [6, 1, 1], [2, 6, 2], [4, 4, 3]]
+
+
+@pytest.fixture
+def inputs(tmp_path, monkeypatch):
+    rng = np.random.default_rng(3)
+    glmls.imwrite(tmp_path / "a.png", rng.integers(0, 256, (32, 40, 3), dtype=np.uint8))
+    (tmp_path / "frames").mkdir()
+    for name in ("f1.png", "f2.png"):
+        glmls.imwrite(tmp_path / "frames" / name, rng.integers(0, 256, (32, 40), dtype=np.uint8))
+    np.save(tmp_path / "v.npy", rng.integers(0, 256, (4, 8, 8), dtype=np.uint8))
+    (tmp_path / "h.json").write_text(json.dumps({"src": SRC, "dst": DST}))
+    (tmp_path / "h3.json").write_text(json.dumps({"src": SRC3, "dst": DST3}))
+    (tmp_path / "link.png").symlink_to(tmp_path / "a.png")
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+def contents(folder):
+    return {p.relative_to(folder): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.mark.parametrize(
+    "args, named",
+    [
+        (("warp", "a.png", "a.png", "--handles", "h.json"), "a.png"),
+        (("warp", "a.png", "./a.png", "--handles", "h.json"), "a.png"),
+        (("warp", "a.png", "link.png", "--handles", "h.json"), "link.png"),
+        (("warp", "a.png", ".", "--handles", "h.json"), "a.png"),
+        (("warp", "frames", "frames", "--handles", "h.json"), "frames/f1.png"),
+        (("warp", "frames/*.png", "frames/", "--handles", "h.json"), "frames/f1.png"),
+        (("warp", "v.npy", "v.npy", "--handles", "h3.json"), "v.npy"),
+        (("warp", "v.npy", "./", "--handles", "h3.json"), "v.npy"),
+    ],
+)
+def test_warp_refuses_to_overwrite_its_inputs(inputs, capsys, args, named):
+    before = contents(inputs)
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"glmls warp: {named}: the output is "), err
+    assert "overwrite" in err[0]
+    assert contents(inputs) == before
