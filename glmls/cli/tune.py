@@ -33,7 +33,11 @@ from .options import (
     text_table,
 )
 from .progress import Progress
-from .tune_construction import configure_construction, run_construction
+from .tune_construction import (
+    check_construction_options,
+    configure_construction,
+    run_construction,
+)
 
 HELP = "choose the best configuration automatically"
 EXAMPLES = """
@@ -148,6 +152,7 @@ def _csv_text(rows: list[dict]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_construction_options(args)
     image, handles, reference, name = example_or_files(args, need_reference=True)
     warn_about_handles(args, handles, image.shape)
     check_reference(args, reference, "the example's reference points")

@@ -55,3 +55,30 @@ def test_warp_refuses_to_overwrite_its_inputs(inputs, capsys, args, named):
     assert len(err) == 1 and err[0].startswith(f"glmls warp: {named}: the output is "), err
     assert "overwrite" in err[0]
     assert contents(inputs) == before
+
+
+@pytest.mark.parametrize(
+    "extra, fault",
+    [
+        (
+            ("--construction", "--construction-methods", "bogus"),
+            "--construction-methods bogus: unknown method 'bogus'",
+        ),
+        (
+            ("--construction", "--construction-methods", "quads:cubic"),
+            "--construction-methods quads:cubic: unknown interpolation 'cubic'",
+        ),
+        (("--construction-methods", "splat"), "--construction-methods: for --construction"),
+        (("--construction-radius", "3"), "--construction-radius: for --construction"),
+    ],
+)
+def test_tune_checks_the_construction_options_before_any_work(inputs, capsys, extra, fault):
+    (inputs / "r.json").write_text(json.dumps({"points": SRC}))
+    args = ("tune", "a.png", "--handles", "h.json", "--reference", "r.json", "--out", "out")
+    args += ("--configs", "rigid:idw:alpha=1", "--trials", "1", "--quiet", *extra)
+    assert main(args) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"glmls tune: {fault}"), lines
+    assert not (inputs / "out").exists()
