@@ -210,7 +210,9 @@ def run(args: argparse.Namespace) -> int:
         say(args, "tune: no configuration meets every property; the best is set apart: "
             + "; ".join(best["set_apart"]))  # fmt: skip
     with make_mls(handles, result.best, shape) as m:
-        winner = report(image, m, reference, grid=args.analysis_grid, cmap=args.cmap)
+        winner = report(
+            image, m, reference, grid=args.analysis_grid, angle=args.angle, cmap=args.cmap
+        )
     winner.summary["input"] = name
     winner.save(out / "winner")
     say(args, f"tune: best by {result.rank_by}: {best['label']}; wrote {out}")

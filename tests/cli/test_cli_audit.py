@@ -82,3 +82,15 @@ def test_tune_checks_the_construction_options_before_any_work(inputs, capsys, ex
     lines = captured.err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"glmls tune: {fault}"), lines
     assert not (inputs / "out").exists()
+
+
+def test_the_tune_winner_s_report_measures_the_angle_asked_for(inputs, capsys):
+    (inputs / "r.json").write_text(json.dumps({"points": SRC}))
+    args = ("tune", "a.png", "--handles", "h.json", "--reference", "r.json", "--out", "out")
+    args += ("--configs", "rigid:idw:alpha=1", "--trials", "1", "--quiet", "--angle", "paper")
+    assert main(args) == 0
+    capsys.readouterr()
+    ranking = json.loads((inputs / "out" / "ranking.json").read_text())
+    winner = json.loads((inputs / "out" / "winner" / "report.json").read_text())
+    assert ranking["settings"]["angle"] == winner["analysis"]["angle"] == "paper"
+    assert winner["triangles"]["angle_measure"] == "paper"
