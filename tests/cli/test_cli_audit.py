@@ -94,3 +94,17 @@ def test_the_tune_winner_s_report_measures_the_angle_asked_for(inputs, capsys):
     winner = json.loads((inputs / "out" / "winner" / "report.json").read_text())
     assert ranking["settings"]["angle"] == winner["analysis"]["angle"] == "paper"
     assert winner["triangles"]["angle_measure"] == "paper"
+
+
+@pytest.mark.parametrize("name", ["shot.gif", "shot"])
+def test_demo_refuses_a_screenshot_it_cannot_write_before_the_window_opens(
+    inputs, capsys, monkeypatch, name
+):
+    """Without a display the window would fail first (exit 1); with one, it rendered and
+    then failed naming its temporary file."""
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(("demo", "a.png", "--handles", "h.json", "--screenshot", name)) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"glmls demo: error: --screenshot: {name}:")
+    assert not list(inputs.glob(".shot*"))
