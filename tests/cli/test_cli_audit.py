@@ -108,3 +108,17 @@ def test_demo_refuses_a_screenshot_it_cannot_write_before_the_window_opens(
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"glmls demo: error: --screenshot: {name}:")
     assert not list(inputs.glob(".shot*"))
+
+
+@pytest.mark.parametrize("method", ["splat", "backward-swap", "paper-quads"])
+def test_analyze_refuses_a_method_the_volume_warp_lacks(inputs, capsys, method):
+    """It went on without the deformed volume, exit 0, where glmls warp refuses it."""
+    args = ("analyze", "v.npy", "--handles", "h3.json", "--out", "out", "--method", method)
+    assert main(args) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1, lines
+    assert lines[0] == (
+        f"glmls analyze: v.npy: unknown method '{method}' for a volume; choose one of quads, "
+        "backward"
+    )
+    assert not (inputs / "out").exists()
