@@ -122,3 +122,9 @@ def test_analyze_refuses_a_method_the_volume_warp_lacks(inputs, capsys, method):
         "backward"
     )
     assert not (inputs / "out").exists()
+
+
+@pytest.mark.parametrize("n, said", [("1", "1 image and"), ("2", "2 images and")])
+def test_augment_counts_its_images_in_words(inputs, capsys, n, said):
+    assert main(("augment", "a.png", "out", "--n", n)) == 0
+    assert f"glmls augment: {said} out/labels.json" in capsys.readouterr().err
