@@ -261,13 +261,15 @@ def _mls(src: np.ndarray, dst: np.ndarray, config: MLSConfig, **volume: object) 
 
 
 def image_options_given(args: argparse.Namespace) -> list[str]:
-    """Those of ``--fit``, ``--tolerance`` (the image construction's) and ``--keep-going``
-    (a batch of images') given, which a volume or mesh refuses; a command without one of
-    them has it not given."""
+    """Those of ``--fit``, ``--tolerance`` (the image construction's), ``--keep-going``,
+    ``--jobs`` and ``--scheduler`` (a batch of images') given, which a volume or mesh
+    refuses; a command without one of them has it not given."""
     given = (
         ("--fit", getattr(args, "fit", False)),
         ("--tolerance", getattr(args, "tolerance", None) is not None),
         ("--keep-going", getattr(args, "keep_going", False)),
+        ("--jobs", getattr(args, "jobs", 1) != 1),
+        ("--scheduler", getattr(args, "scheduler", None) is not None),
     )
     return [option for option, value in given if value]
 

@@ -128,3 +128,14 @@ def test_analyze_refuses_a_method_the_volume_warp_lacks(inputs, capsys, method):
 def test_augment_counts_its_images_in_words(inputs, capsys, n, said):
     assert main(("augment", "a.png", "out", "--n", n)) == 0
     assert f"glmls augment: {said} out/labels.json" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "option", [("--jobs", "2"), ("--scheduler", "local"), ("--keep-going",), ("--fit",)]
+)
+def test_warp_refuses_the_batch_options_on_a_volume(inputs, capsys, option):
+    """--jobs and --scheduler share out a batch of images; on one volume they did nothing."""
+    assert main(("warp", "v.npy", "out.npy", "--handles", "h3.json", *option)) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines == [f"glmls warp: {option[0]}: for images, not for a volume (v.npy)"]
+    assert not (inputs / "out.npy").exists()
