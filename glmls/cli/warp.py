@@ -116,6 +116,14 @@ def targets(output: str, files: list[Path], many: bool) -> list[Path]:
         why = " (IN names several images: OUT is their folder)" if many and out.is_file() else ""
         raise UsageError(fault + why)
     paths = [out / f.name for f in files] if folder else [out]
+    seen: dict[Path, Path] = {}
+    for source, path in zip(files, paths, strict=False):  # a glob over several folders
+        if path in seen:
+            raise UsageError(
+                f"{seen[path]} and {source} have one name: their outputs ({path}) would "
+                "overwrite each other"
+            )
+        seen[path] = source
     for path in paths:
         try:
             check_writable(path)

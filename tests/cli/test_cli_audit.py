@@ -139,3 +139,17 @@ def test_warp_refuses_the_batch_options_on_a_volume(inputs, capsys, option):
     lines = capsys.readouterr().err.strip().splitlines()
     assert lines == [f"glmls warp: {option[0]}: for images, not for a volume (v.npy)"]
     assert not (inputs / "out.npy").exists()
+
+
+def test_warp_refuses_a_batch_of_inputs_of_one_name(inputs, capsys):
+    """A glob over several folders: the second output replaced the first, both printed."""
+    (inputs / "other").mkdir()
+    glmls.imwrite(inputs / "other" / "f1.png", np.zeros((32, 40), np.uint8))
+    assert main(("warp", "*/f1.png", "out", "--handles", "h.json")) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err.strip().splitlines() == [
+        "glmls warp: frames/f1.png and other/f1.png have one name: their outputs (out/f1.png) "
+        "would overwrite each other"
+    ]
+    assert not (inputs / "out").exists()
