@@ -202,7 +202,7 @@ def _inside(points: np.ndarray, shape, scale: np.ndarray) -> np.ndarray:
 
 
 def volume_handle_warnings(args: argparse.Namespace, src, shape, spacing, affine) -> list[str]:
-    """Warnings for source handles of which half or more lie outside the volume, in the
+    """Warnings for source handles of which more than half lie outside the volume, in the
     frame of the warp (voxel (k, j, i) at (i dx, j dy, k dz)), with a hint where another
     convention would put most of them inside: voxel indices given with a spacing other than
     1, or world coordinates of a NIfTI affine given without ``--world``."""

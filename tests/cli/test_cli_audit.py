@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -153,3 +154,19 @@ def test_warp_refuses_a_batch_of_inputs_of_one_name(inputs, capsys):
         "would overwrite each other"
     ]
     assert not (inputs / "out").exists()
+
+
+def test_the_handle_warning_comes_where_more_than_half_lie_outside():
+    """As docs/cli.md says: half outside is no warning, more than half is."""
+    from glmls.cli.options import handle_warnings
+    from glmls.cli.warp3d import volume_handle_warnings
+
+    half = np.array([[5.0, 5.0], [10.0, 10.0], [100.0, 5.0], [5.0, 100.0]])
+    assert handle_warnings(half, (40, 60)) == []
+    assert handle_warnings(half[1:], (40, 60)) == ["2 of 3 handles lie outside the 60 x 40 image"]
+    args = SimpleNamespace(world=False, handles="h.json", targets=None)
+    half3 = np.array([[1.0, 1, 1], [2, 2, 2], [100, 1, 1], [1, 100, 1]])
+    assert volume_handle_warnings(args, half3, (8, 8, 8), None, None) == []
+    assert volume_handle_warnings(args, half3[1:], (8, 8, 8), None, None) == [
+        "2 of 3 handles lie outside the 8 x 8 x 8 volume"
+    ]
