@@ -268,8 +268,8 @@ def run(args: argparse.Namespace) -> int:
             if outcome.error is not None:
                 if not args.keep_going:  # stops the batch: the items not started never start
                     raise (OSError if outcome.unwritten else UsageError)(outcome.error)
-                failed.append(files[index])
-                say(args, f"glmls warp: skipped {outcome.error}")
+                failed.append(files[index])  # an error: said even with --quiet
+                print(f"glmls warp: skipped {outcome.error}", file=sys.stderr)
             else:
                 print(outcome.target, flush=True)
             bar.advance()
@@ -281,6 +281,6 @@ def run(args: argparse.Namespace) -> int:
             remove_leftovers(outputs, made)
             raise
     if failed:
-        say(args, f"glmls warp: {len(failed)} of {len(files)} images failed")
+        print(f"glmls warp: {len(failed)} of {len(files)} images failed", file=sys.stderr)
         return 1
     return 0

@@ -170,3 +170,16 @@ def test_the_handle_warning_comes_where_more_than_half_lie_outside():
     assert volume_handle_warnings(args, half3[1:], (8, 8, 8), None, None) == [
         "2 of 3 handles lie outside the 8 x 8 x 8 volume"
     ]
+
+
+def test_keep_going_says_what_it_skipped_even_when_quiet(inputs, capsys):
+    """--quiet silences progress and messages, not errors: exit 1 said nothing."""
+    (inputs / "frames" / "zz.png").write_bytes(b"not a png")
+    args = ("warp", "frames", "out", "--handles", "h.json", "--keep-going", "--quiet")
+    assert main(args) == 1
+    captured = capsys.readouterr()
+    assert captured.err.strip().splitlines() == [
+        "glmls warp: skipped frames/zz.png: not an image format glmls reads (9 bytes)",
+        "glmls warp: 1 of 3 images failed",
+    ]
+    assert captured.out.split() == ["out/f1.png", "out/f2.png"]
