@@ -16,6 +16,7 @@ from ..core.config import MLSConfig
 from ..files.parsing import csv_rows, fail, json_list, load_json, number, table
 from ..files.volumes import is_volume_file, read_volume
 from ..mls import MLS
+from ..volume import VolumeOptions
 from .inputs import figure, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
@@ -103,6 +104,15 @@ def run_volume(args: argparse.Namespace) -> int:
     check_world(args)
     refuse_image_options(args, "volume")
     config = config_from_args(args)
+    try:  # the warp's options, before any work: a volume takes fewer methods than an image
+        VolumeOptions(
+            method=args.method,
+            interpolation=args.interpolation,
+            border=args.border,
+            grid=args.grid,
+        )
+    except (TypeError, ValueError) as error:
+        raise UsageError(f"{args.input}: {error}") from None
     source = read_volume(args.input)
     volume = warpable(source.data, args.input)  # as glmls warp does: a mask as float32
     spacing = args.spacing or source.spacing

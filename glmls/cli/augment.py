@@ -421,6 +421,7 @@ def run(args: argparse.Namespace) -> int:
     for outcome in outcomes:  # the images, in the order of the inputs
         for _, final in outcome.written:
             print(final, flush=True)
-    say(args, f"glmls augment: {len(written) - 1} images and {folder / LABELS_NAME}")
+    count = len(written) - 1
+    say(args, f"glmls augment: {count} image{'s' * (count != 1)} and {folder / LABELS_NAME}")
     sys.stdout.flush()
     return 0

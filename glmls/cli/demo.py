@@ -13,6 +13,7 @@ import numpy as np
 
 from ..core.handleset import HandleSet
 from ..errors import InputFileError
+from ..files.images import check_writable
 from ..files.landmarks import read_points
 from .demo_window import fail, replay_events, run_window, start_settings, window_options
 from .inputs import read_image, read_image_handles
@@ -179,6 +180,11 @@ def run(args: argparse.Namespace) -> int:
         args.method, args.interpolation = _CONSTRUCTIONS[args.construction]
     if args.targets is not None and args.handles is None:
         return fail(2, "--targets: with --handles (the source points), as for glmls warp")
+    if args.screenshot is not None:  # an RGB uint8 picture; before the window opens
+        try:
+            check_writable(args.screenshot, np.uint8, 3)
+        except ValueError as error:
+            return fail(2, f"--screenshot: {error}")
     try:
         volume = volume_inputs(args)
     except (ValueError, TypeError) as error:

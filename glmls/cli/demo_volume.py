@@ -121,7 +121,7 @@ def volume_settings(args: argparse.Namespace):
 
 def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
     """Run the volume window for parsed arguments and :func:`volume_inputs`; the exit status.
-    Source handles of ``--handles`` half or more outside the volume are warned of on stderr,
+    Where more than half of the source handles lie outside the volume, stderr says so,
     in ``glmls warp``'s words."""
     from ..app.volume_window import VolumeApp
 

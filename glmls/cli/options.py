@@ -163,6 +163,33 @@ def below_a_file(path: Path, *, itself: bool) -> str | None:
     return None
 
 
+def refuse_overwriting(outputs: Sequence[Path], inputs: dict[Path, str]) -> None:
+    """:class:`UsageError` for an output that is one of ``inputs`` (a path and what it is:
+    "an input image", "the --handles file"), which writing it would destroy; checked before
+    any work, by the file itself (a link or another spelling of its name is the same file)."""
+    read = {}
+    for path, what in inputs.items():
+        identity = _file_identity(path)
+        if identity is not None:
+            read.setdefault(identity, what)
+    for output in outputs:
+        what = read.get(_file_identity(output))
+        if what is not None:
+            raise UsageError(
+                f"{output}: the output is {what}, which writing it would overwrite: write to "
+                "another name or folder"
+            )
+
+
+def _file_identity(path: Path) -> tuple[int, int] | None:
+    """The device and inode of the file at ``path``; None where there is none."""
+    try:
+        status = path.stat()
+    except (OSError, ValueError):
+        return None
+    return (status.st_dev, status.st_ino)
+
+
 def text_table(heads: Sequence[str], cells: Sequence[Sequence[str]]) -> str:
     """Columns of text, left-aligned, two spaces apart, without trailing blanks."""
     widths = [max(len(h), *(len(c[i]) for c in cells)) for i, h in enumerate(heads)]

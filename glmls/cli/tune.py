@@ -33,7 +33,11 @@ from .options import (
     text_table,
 )
 from .progress import Progress
-from .tune_construction import configure_construction, run_construction
+from .tune_construction import (
+    check_construction_options,
+    configure_construction,
+    run_construction,
+)
 
 HELP = "choose the best configuration automatically"
 EXAMPLES = """
@@ -148,6 +152,7 @@ def _csv_text(rows: list[dict]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_construction_options(args)
     image, handles, reference, name = example_or_files(args, need_reference=True)
     warn_about_handles(args, handles, image.shape)
     check_reference(args, reference, "the example's reference points")
@@ -205,7 +210,9 @@ def run(args: argparse.Namespace) -> int:
         say(args, "tune: no configuration meets every property; the best is set apart: "
             + "; ".join(best["set_apart"]))  # fmt: skip
     with make_mls(handles, result.best, shape) as m:
-        winner = report(image, m, reference, grid=args.analysis_grid, cmap=args.cmap)
+        winner = report(
+            image, m, reference, grid=args.analysis_grid, angle=args.angle, cmap=args.cmap
+        )
     winner.summary["input"] = name
     winner.save(out / "winner")
     say(args, f"tune: best by {result.rank_by}: {best['label']}; wrote {out}")

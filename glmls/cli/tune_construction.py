@@ -14,14 +14,19 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.construction import DEFAULT_RADIUS
-from ..analysis.construction_ranking import rank_constructions
+from ..analysis.construction_ranking import parse_construction, rank_constructions
 from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
 from ..files.atomic import atomic_write
 from .inputs import make_mls, reference_or_handles, say
 from .options import UsageError, nonnegative_int, text_table
 
-__all__ = ["configure_construction", "construction_table", "run_construction"]
+__all__ = [
+    "check_construction_options",
+    "configure_construction",
+    "construction_table",
+    "run_construction",
+]
 
 UNITS = "RMS colour difference per reference point, intensity scaled to 0-1"
 
@@ -43,6 +48,27 @@ def configure_construction(parser: argparse.ArgumentParser) -> None:
         help="constructions to rank, e.g. quads:linear splat backward:nearest "
         "(default: quads and backward nearest and linear, splat, paper-quads where offered)",
     )
+
+
+def check_construction_options(args: argparse.Namespace) -> None:
+    """:class:`UsageError`, before any work, for ``--construction-methods`` or
+    ``--construction-radius`` without ``--construction`` (they would change nothing), or a
+    construction that is not one (the ranking would otherwise fail after the whole tune)."""
+    given = [
+        option
+        for option, value in (
+            ("--construction-methods", args.construction_methods is not None),
+            ("--construction-radius", args.construction_radius != DEFAULT_RADIUS),
+        )
+        if value
+    ]
+    if given and not args.construction:
+        raise UsageError(f"{', '.join(given)}: for --construction, which is not given")
+    for spec in args.construction_methods or ():
+        try:
+            parse_construction(spec)
+        except (TypeError, ValueError) as error:
+            raise UsageError(f"--construction-methods {spec}: {error}") from None
 
 
 _TABLE_COLUMNS = (

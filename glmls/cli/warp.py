@@ -44,6 +44,7 @@ from .options import (
     config_from_args,
     fit_background,
     parse_background,
+    refuse_overwriting,
     warp_options_from_args,
 )
 from .progress import Progress, Ticker
@@ -115,12 +116,30 @@ def targets(output: str, files: list[Path], many: bool) -> list[Path]:
         why = " (IN names several images: OUT is their folder)" if many and out.is_file() else ""
         raise UsageError(fault + why)
     paths = [out / f.name for f in files] if folder else [out]
+    seen: dict[Path, Path] = {}
+    for source, path in zip(files, paths, strict=False):  # a glob over several folders
+        if path in seen:
+            raise UsageError(
+                f"{seen[path]} and {source} have one name: their outputs ({path}) would "
+                "overwrite each other"
+            )
+        seen[path] = source
     for path in paths:
         try:
             check_writable(path)
         except ValueError as error:
             raise UsageError(str(error)) from None
     return paths
+
+
+def inputs_read(args: argparse.Namespace, files: list[Path]) -> dict[Path, str]:
+    """The files ``glmls warp`` reads, which no output may overwrite: IN's, --handles and
+    --targets."""
+    read = {path: "an input image" for path in files}
+    for option, name in (("--handles", args.handles), ("--targets", args.targets)):
+        if name is not None:
+            read.setdefault(Path(name), f"the {option} file")
+    return read
 
 
 @dataclasses.dataclass(frozen=True)
@@ -218,6 +237,7 @@ def run(args: argparse.Namespace) -> int:
     handles = read_image_handles(args.handles, dst=args.targets, image=args.input, many=True)
     files, many = image_inputs(args.input)
     outputs = targets(args.output, files, many)
+    refuse_overwriting(outputs, inputs_read(args, files))
     options = warp_options_from_args(args)
     capture = jobs > 1 or scheduler is not None
     tasks = [
@@ -248,8 +268,8 @@ def run(args: argparse.Namespace) -> int:
             if outcome.error is not None:
                 if not args.keep_going:  # stops the batch: the items not started never start
                     raise (OSError if outcome.unwritten else UsageError)(outcome.error)
-                failed.append(files[index])
-                say(args, f"glmls warp: skipped {outcome.error}")
+                failed.append(files[index])  # an error: said even with --quiet
+                print(f"glmls warp: skipped {outcome.error}", file=sys.stderr)
             else:
                 print(outcome.target, flush=True)
             bar.advance()
@@ -261,6 +281,6 @@ def run(args: argparse.Namespace) -> int:
             remove_leftovers(outputs, made)
             raise
     if failed:
-        say(args, f"glmls warp: {len(failed)} of {len(files)} images failed")
+        print(f"glmls warp: {len(failed)} of {len(files)} images failed", file=sys.stderr)
         return 1
     return 0

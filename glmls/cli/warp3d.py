@@ -40,7 +40,7 @@ from ..files.volumes import (
 )
 from ..mls import MLS
 from .inputs import reported_warnings, say
-from .options import UsageError, config_from_args
+from .options import UsageError, config_from_args, refuse_overwriting
 from .progress import Ticker
 
 __all__ = [
@@ -202,7 +202,7 @@ def _inside(points: np.ndarray, shape, scale: np.ndarray) -> np.ndarray:
 
 
 def volume_handle_warnings(args: argparse.Namespace, src, shape, spacing, affine) -> list[str]:
-    """Warnings for source handles of which half or more lie outside the volume, in the
+    """Warnings for source handles of which more than half lie outside the volume, in the
     frame of the warp (voxel (k, j, i) at (i dx, j dy, k dz)), with a hint where another
     convention would put most of them inside: voxel indices given with a spacing other than
     1, or world coordinates of a NIfTI affine given without ``--world``."""
@@ -261,13 +261,15 @@ def _mls(src: np.ndarray, dst: np.ndarray, config: MLSConfig, **volume: object) 
 
 
 def image_options_given(args: argparse.Namespace) -> list[str]:
-    """Those of ``--fit``, ``--tolerance`` (the image construction's) and ``--keep-going``
-    (a batch of images') given, which a volume or mesh refuses; a command without one of
-    them has it not given."""
+    """Those of ``--fit``, ``--tolerance`` (the image construction's), ``--keep-going``,
+    ``--jobs`` and ``--scheduler`` (a batch of images') given, which a volume or mesh
+    refuses; a command without one of them has it not given."""
     given = (
         ("--fit", getattr(args, "fit", False)),
         ("--tolerance", getattr(args, "tolerance", None) is not None),
         ("--keep-going", getattr(args, "keep_going", False)),
+        ("--jobs", getattr(args, "jobs", 1) != 1),
+        ("--scheduler", getattr(args, "scheduler", None) is not None),
     )
     return [option for option, value in given if value]
 
@@ -310,6 +312,10 @@ def run_3d(args: argparse.Namespace, kind: str) -> int:
     check_world(args)
     config = config_from_args(args)
     target = _target(args, kind)
+    read = {Path(args.input): f"the input {kind}", Path(args.handles): "the --handles file"}
+    if args.targets is not None:
+        read.setdefault(Path(args.targets), "the --targets file")
+    refuse_overwriting([target], read)
     src, dst = read_3d_handles(args, kind)
     if kind == "volume":
         _warp_volume(args, config, src, dst, target)

@@ -162,7 +162,7 @@ def test_the_spacing_of_the_file_or_the_option_is_glmls_warps(inputs):
 
 def test_the_deformed_volume_is_built_with_the_construction_options(inputs, monkeypatch, capsys):
     """--method, --interpolation, --border and --grid build the deformed volume that
-    deformed.png shows, as glmls warp builds it; an image-only method says why there is none."""
+    deformed.png shows, as glmls warp builds it; an image-only method is refused, as by warp."""
     from glmls.cli.main import main
     from glmls.mls3 import MLS3
 
@@ -181,8 +181,8 @@ def test_the_deformed_volume_is_built_with_the_construction_options(inputs, monk
     assert calls[-1] == {
         "method": "backward", "interpolation": "linear", "border": "edge", "grid": 2
     }  # fmt: skip
-    assert main([*argv, "--method", "splat"]) == 0
-    assert "no deformed volume: unknown method 'splat' for a volume" in capsys.readouterr().err
+    assert main([*argv, "--method", "splat"]) == 2  # refused before any work, as by warp
+    assert "unknown method 'splat' for a volume" in capsys.readouterr().err
 
 
 def test_an_elastix_pair_of_2d_points_on_an_image(inputs):
