@@ -29,6 +29,10 @@ class Interrupted(Exception):
 def interrupt(*_):
     raise Interrupted()
 
+# Ctrl-C raises KeyboardInterrupt here even where the tests run as a background job, which
+# starts Python with SIGINT ignored
+signal.signal(signal.SIGINT, signal.default_int_handler)
+
 def image(seed, size=(48, 56, 3)):
     return np.random.default_rng(seed).integers(0, 255, size, dtype=np.uint8)
 
