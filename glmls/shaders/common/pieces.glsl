@@ -39,6 +39,14 @@ layout(std430, binding = BIND_PIECES) buffer ScanPieces {
 };
 uniform int u_piece_first;   // 0: the dispatch over the primitives, 1: the pieces'
 
+// Piece 0 of a primitive walked in ``pieces`` pieces: the pieces' dispatch takes as many
+// work groups as this one, and at least pieces - 1 in z.
+void scan_raise_pieces(int pieces) {
+    atomicMax(scan_pieces_x, gl_NumWorkGroups.x);
+    atomicMax(scan_pieces_y, gl_NumWorkGroups.y);
+    atomicMax(scan_pieces_z, uint(min(pieces - 1, SCAN_PIECES_MAX)));
+}
+
 // The tiles of the pixel box first..last: their width and height, and how many across and
 // down (an empty box: one piece, a tile of no pixel).
 ivec4 scan_tiles(ivec2 first, ivec2 last) {
@@ -66,9 +74,7 @@ bool scan_piece(inout ivec2 first, inout ivec2 last) {
     ivec4 tiles = scan_tiles(first, last);
     int pieces = tiles.z * tiles.w;
     if (piece == 0 && pieces > 1) {
-        atomicMax(scan_pieces_x, gl_NumWorkGroups.x);
-        atomicMax(scan_pieces_y, gl_NumWorkGroups.y);
-        atomicMax(scan_pieces_z, uint(min(pieces - 1, SCAN_PIECES_MAX)));
+        scan_raise_pieces(pieces);
     }
     if (piece >= pieces) {
         return false;
@@ -100,9 +106,7 @@ bool scan_piece_3d(inout ivec3 first, inout ivec3 last) {
     ivec3 across = (size + tile - 1) / tile;
     int pieces = across.x * across.y * across.z;
     if (piece == 0 && pieces > 1) {
-        atomicMax(scan_pieces_x, gl_NumWorkGroups.x);
-        atomicMax(scan_pieces_y, gl_NumWorkGroups.y);
-        atomicMax(scan_pieces_z, uint(min(pieces - 1, SCAN_PIECES_MAX)));
+        scan_raise_pieces(pieces);
     }
     if (piece >= pieces) {
         return false;

@@ -134,12 +134,7 @@ struct MLSAccum {
     vec3 PP;        // sum w P P^T as (xx, xy, yy); similarity, rigid: (its trace, 0, 0)
     vec4 PE;        // sum w P_i E_j as (11, 12, 21, 22); similarity, rigid: (11 + 22,
                     // 12 - 21, 0, 0) (mls_add_moments)
-    float spread;   // sum w |p - v|^2 over the handles not at p_o: the yardstick for
-                    // "coincident" (mls_yardstick)
-#if MLS_REACH_GAUSSIAN
-    float spread_o; // ... over those at p_o
-    float excess;   // the least mls_gaussian_excess of the handles not at p_o in reach
-#endif
+    MLSYardstick yard;   // for "coincident" sources (mls/weighting.glsl)
 };
 
 MLSAccum mls_begin(vec2 v, MLSNearest n) {
@@ -163,11 +158,7 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
     a.E = vec2(0.0);
     a.PP = vec3(0.0);
     a.PE = vec4(0.0);
-    a.spread = 0.0;
-#if MLS_REACH_GAUSSIAN
-    a.spread_o = 0.0;
-    a.excess = 3.0e38;
-#endif
+    a.yard = mls_yardstick_begin();
     return a;
 }
 
@@ -213,29 +204,8 @@ void mls_accumulate(inout MLSAccum a, vec4 h, bool use) {
     a.PP.x += dot(wP, P);
     a.PE.xy += vec2(dot(wP, E), wP.x * E.y - wP.y * E.x);
 #endif
-    // The handles at the nearest one's place (P = 0) apart (mls_yardstick).
-    bool apart = any(notEqual(P, vec2(0.0)));
-    float wd2 = w * d2;
-    a.spread += apart ? wd2 : 0.0;
-#if MLS_REACH_GAUSSIAN
-    a.spread_o += apart ? 0.0 : wd2;
-    a.excess = min(a.excess, apart && w > 0.0 ? mls_gaussian_excess(d2, a.m) : 3.0e38);
-#endif
-}
-
-// The yardstick of "coincident sources": sum w |p - v|^2, the handles at the nearest one's
-// place left out but where the weight is a gaussian and every other handle is in its tail
-// (glmls.reference's _yardstick). Next to a handle whose weight is steep (1 / d^(2 alpha),
-// alpha > 1) its own w d2 grows without bound and would outweigh any spread of the others
-// about p*, which decides M there (their power-law weights float32 computes to its
-// precision); far in a gaussian's tail the others' weights are exp of large arguments that
-// float32 cannot compute, and the nearest's w d2 keeps M = I unless their spread counts.
-float mls_yardstick(MLSAccum a) {
-#if MLS_REACH_GAUSSIAN
-    return a.spread + (a.excess > MLS_GAUSSIAN_NEGLIGIBLE ? a.spread_o : 0.0);
-#else
-    return a.spread;
-#endif
+    // the handles at the nearest one's place (P = 0) apart
+    mls_yardstick_add(a.yard, any(notEqual(P, vec2(0.0))), w, d2, a.m);
 }
 
 MLSResult mls_finish(MLSAccum a) {
@@ -258,7 +228,7 @@ MLSResult mls_finish(MLSAccum a) {
     // Snapped: p* = p_o and q* = q_o exactly, and the moments about them are the sums.
     vec3 A = a.PP;
     vec4 D = a.PE;
-    float spread = mls_yardstick(a);
+    float spread = mls_yardstick(a.yard);
     vec4 N;   // M - I
 #if MLS_TRANSFORM == 0
     float mu = A.x + A.z;

@@ -255,5 +255,5 @@ void mls_accumulate_segment(inout MLSAccum a, MLSSegment seg) {
             + J1 * vec4(P.x * du.x + u.x * E.x, P.x * du.y + u.x * E.y,
                         P.y * du.x + u.y * E.x, P.y * du.y + u.y * E.y)
             + J2 * vec4(u.x * du.x, u.x * du.y, u.y * du.x, u.y * du.y));
-    a.spread += (view.h2 + view.xc * view.xc) * J0 + 2.0 * view.xc * J1 + J2;
+    a.yard.spread += (view.h2 + view.xc * view.xc) * J0 + 2.0 * view.xc * J1 + J2;
 }

@@ -68,3 +68,48 @@ float mls_weight(float d2, float m, float inv_m, float sigma) {
 #endif
     return w;
 }
+
+// The yardstick of "coincident sources" of one point, 2D and 3D (glmls.reference's
+// _yardstick): sum w |p - v|^2 over the handles not at the nearest one's place, that sum
+// over those at it added back where the weight is a gaussian and every other handle is in
+// its tail. Next to a handle whose weight is steep (1 / d^(2 alpha), alpha > 1) its own
+// w d2 grows without bound and would outweigh any spread of the others about p*, which
+// decides M there (their power-law weights float32 computes to its precision); far in a
+// gaussian's tail the others' weights are exp of large arguments that float32 cannot
+// compute, and the nearest's w d2 keeps M = I unless their spread counts.
+struct MLSYardstick {
+    float spread;   // sum w |p - v|^2 over the handles not at p_o
+#if MLS_REACH_GAUSSIAN
+    float spread_o; // ... over those at p_o
+    float excess;   // the least mls_gaussian_excess of the handles not at p_o in reach
+#endif
+};
+
+MLSYardstick mls_yardstick_begin() {
+    MLSYardstick y;
+    y.spread = 0.0;
+#if MLS_REACH_GAUSSIAN
+    y.spread_o = 0.0;
+    y.excess = 3.0e38;
+#endif
+    return y;
+}
+
+// A handle of weight w at squared distance d2, ``apart`` from the nearest one's place
+// (P != 0); m, the point's normalisation distance.
+void mls_yardstick_add(inout MLSYardstick y, bool apart, float w, float d2, float m) {
+    float wd2 = w * d2;
+    y.spread += apart ? wd2 : 0.0;
+#if MLS_REACH_GAUSSIAN
+    y.spread_o += apart ? 0.0 : wd2;
+    y.excess = min(y.excess, apart && w > 0.0 ? mls_gaussian_excess(d2, m) : 3.0e38);
+#endif
+}
+
+float mls_yardstick(MLSYardstick y) {
+#if MLS_REACH_GAUSSIAN
+    return y.spread + (y.excess > MLS_GAUSSIAN_NEGLIGIBLE ? y.spread_o : 0.0);
+#else
+    return y.spread;
+#endif
+}

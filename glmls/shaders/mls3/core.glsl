@@ -68,12 +68,7 @@ struct MLS3Accum {
     vec3 Ad;        // sum w P P^T: diagonal
     vec3 Ao;        // ... and (01, 02, 12)
     mat3 D;         // sum w P^T E
-    float spread;   // sum w |p - v|^2 over the handles not at p_o: the yardstick for
-                    // "coincident" (mls3_solve, mls3_yardstick)
-#if MLS_REACH_GAUSSIAN
-    float spread_o; // ... over those at p_o
-    float excess;   // the least mls_gaussian_excess of the handles not at p_o in reach
-#endif
+    MLSYardstick yard;   // for "coincident" sources (mls/weighting.glsl, mls3_solve)
 };
 
 void mls3_nearest(inout float d2min, inout int nearest, vec3 v, int i, bool use) {
@@ -111,11 +106,7 @@ MLS3Accum mls3_begin(vec3 v, float d2min, int nearest, int n) {
     a.Ad = vec3(0.0);
     a.Ao = vec3(0.0);
     a.D = mat3(0.0);
-    a.spread = 0.0;
-#if MLS_REACH_GAUSSIAN
-    a.spread_o = 0.0;
-    a.excess = 3.0e38;
-#endif
+    a.yard = mls_yardstick_begin();
     return a;
 }
 
@@ -128,24 +119,8 @@ void mls3_add(inout MLS3Accum a, float w, vec3 P, vec3 E, float d2) {
     a.Ad += wP * P;
     a.Ao += wP.xxy * P.yzz;
     a.D += outerProduct(wP, E);
-    // The handles at the nearest one's place (P = 0) apart (mls3_yardstick).
-    bool apart = P != vec3(0.0);
-    float wd2 = w * d2;
-    a.spread += apart ? wd2 : 0.0;
-#if MLS_REACH_GAUSSIAN
-    a.spread_o += apart ? 0.0 : wd2;
-    a.excess = min(a.excess, apart && w > 0.0 ? mls_gaussian_excess(d2, a.m) : 3.0e38);
-#endif
-}
-
-// The yardstick of "coincident sources", as 2D (mls/core.glsl's mls_yardstick): the handles
-// at the nearest one's place left out but in a gaussian's far tail.
-float mls3_yardstick(MLS3Accum a) {
-#if MLS_REACH_GAUSSIAN
-    return a.spread + (a.excess > MLS_GAUSSIAN_NEGLIGIBLE ? a.spread_o : 0.0);
-#else
-    return a.spread;
-#endif
+    // the handles at the nearest one's place (P = 0) apart
+    mls_yardstick_add(a.yard, P != vec3(0.0), w, d2, a.m);
 }
 
 void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
@@ -183,7 +158,7 @@ MLS3Result mls3_finish(MLS3Accum a) {
         a.D -= outerProduct(a.P, de);
     }
     // snapped: p* = p_o and q* = q_o exactly, and the moments about them are the sums
-    mat3 N = mls3_solve(a.Ad, a.Ao, a.D, mls3_yardstick(a));
+    mat3 N = mls3_solve(a.Ad, a.Ao, a.D, mls_yardstick(a.yard));
     MLS3Result r;
     // f(v) = q* + (v - p*) M = v + e* + (v - p*) N
     r.d = est + (a.v - pst) * N;
