@@ -10,7 +10,9 @@ Workloads (uint8, a random handle move per image):
   bottom) moved by N(0, 2 px), the thin-plate-spline rectification setting.
 
 For each workload and batch size: ``glmls.warp`` per image, ``glmls.warp_batch`` (``quads``,
-grid 4, nearest) without labels, and with 20 keypoints and a uint8 mask per image; then,
+grid 4, nearest) without labels, and with 20 keypoints and a uint8 mask per image, and
+``glmls.augment.Augment`` with its defaults (``grid`` at 224 x 224, ``text-distort`` on text
+crops: its own random handles, bilinear, the ``edge`` border) with the same labels; then,
 where importable, the peers with keypoints and a mask per image (albumentations 2
 ``GridDistortion``, ``ElasticTransform``, ``ThinPlateSpline``, ``PiecewiseAffine``, each
 ``Compose``d with ``KeypointParams``), kornia's ``RandomThinPlateSpline`` on CPU tensors and
@@ -66,8 +68,12 @@ def workload(name: str, count: int, seed: int = 0) -> dict[str, np.ndarray]:
 
 
 def glmls_cases(data: dict[str, np.ndarray]) -> dict[str, Callable[[], object]]:
+    from glmls.augment import Augment
+
     images, src, dst = data["images"], data["src"], data["dst"]
     options = {"grid": 4}
+    # the augmentation users call: its own random handles, bilinear, the edge border
+    augment = Augment("grid" if images.shape[1] == 224 else "text-distort", seed=0)
     return {
         "glmls warp (loop)": lambda: [
             glmls.warp(image, p, q, **options) for image, p, q in zip(images, src, dst, strict=True)
@@ -75,6 +81,9 @@ def glmls_cases(data: dict[str, np.ndarray]) -> dict[str, Callable[[], object]]:
         "glmls warp_batch": lambda: glmls.warp_batch(images, src, dst, **options),
         "glmls warp_batch +kp +mask": lambda: glmls.warp_batch(
             images, src, dst, keypoints=data["keypoints"], masks=data["masks"], **options
+        ),
+        "glmls Augment +kp +mask": lambda: augment(
+            images, keypoints=data["keypoints"], masks=data["masks"]
         ),
     }
 

@@ -19,9 +19,10 @@ from ..imaging.options import WarpOptions
 from ..imaging.readback import add_channel, drop_channels
 from ..imaging.source import SourceImage, background_color, prepare_image
 from ..mls import MLS
-from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size
+from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size, fits
 from .inputs import BatchInput
 from .labels import embedded, mesh_keypoints, on_canvas
+from .margins import batch_margins, warn_short
 from .single import (
     ImageLabels,
     SingleWarper,
@@ -74,60 +75,64 @@ def warp_chunks(
     backward = options.method == "backward"
     if backward and (config is None or batch.keypoints is not None):
         return results, whole  # f at the keypoints, bins, segments: each image's own MLS
+    bordered = options.border != "constant"
+    if bordered and config is None:
+        return results, whole  # each image's own kernel finds its mesh's margin
     # segment handles, or no point handle at all: the image's own MLS, as one warp makes it
     own = [bool(segments[i]) or not len(batch.src[i]) for i in range(len(batch))]
     groups = _groups(batch)
+    budget = max_bytes or CHUNK_BYTES
     for indices in groups.values():
         first = batch.images[indices[0]]
         source = _prepared(first, limit, indices[0])
         frame = make_frame(options.output_shape, options.origin, source.shape, limit)
         lattice = MeshLattice.corners(source.shape, options.grid)
-        budget = max_bytes or CHUNK_BYTES
-        size = chunk_size(quads.ctx, source, frame, lattice, budget, backward=backward)
+        parts = [(lattice, indices)]
+        if bordered:  # the images by their meshes' margins, each part on its own lattice
+            taken = [i for i in indices if not own[i]]
+            found, short = batch_margins(quads.ctx, config, batch, taken, lattice, frame)
+            parts = [(lattice.with_margin(m), part) for m, part in sorted(found.items())]
         direct = None
-        if takes(options, first.dtype, quads.fused):
+        if takes(options, first.dtype, quads.fused):  # the constant border: one part
             direct = _Direct(batch, indices, options, frame)
-            if not maps and (batch.masks is None or direct.packed):  # no texture atlas
-                size = texel_chunk_size(
-                    quads.ctx, first.shape, frame, lattice, direct.packed, budget
-                )
-        for start in range(0, len(indices), size):
-            chunk = indices[start : start + size]
-            if backward and any(own[i] for i in chunk):
-                continue
-            with ExitStack() as stack:
-                if config is not None and not any(own[i] for i in chunk):
-                    src, dst = [batch.src[i] for i in chunk], [batch.dst[i] for i in chunk]
-                    lattices = BatchLattices(config, src, dst, source.shape)
-                else:  # each image's own MLS
-                    mlss = [
-                        stack.enter_context(
-                            MLS(
-                                batch.src[i],
-                                batch.dst[i],
-                                shape=source.shape,
-                                **segments[i],
-                                **mls_options,
-                            )
-                        )
-                        for i in chunk
-                    ]
-                    lattices = KernelLattices([m.kernel for m in mlss])
-                with quads.ctx.use():  # the chunk's passes, its meshes kept, in one hold
-                    args = (quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
-                    if direct is not None:
-                        done = direct.chunk(start, *args)
-                    else:
-                        done = _chunk(*args)
-            if done is None:
+        for mesh, part in parts:
+            if not fits(quads.ctx, source.shape, frame, mesh):
                 if direct is not None:
                     direct.complete = False
-                continue
-            for i, labels in zip(chunk, done, strict=True):
-                results[i] = labels
-        if batch.keypoints is not None and not backward:
-            own_mls = (segments, mls_options, source.shape)
-            _beyond_mesh_by_f(results, indices, batch, lattice, frame, own_mls)
+                continue  # the single pipeline, in bands
+            size = chunk_size(quads.ctx, source, frame, mesh, budget, backward=backward)
+            if direct is not None and not maps and (batch.masks is None or direct.packed):
+                size = texel_chunk_size(quads.ctx, first.shape, frame, mesh, direct.packed, budget)
+            for start in range(0, len(part), size):
+                chunk = part[start : start + size]
+                if backward and any(own[i] for i in chunk):
+                    continue
+                done = _run_chunk(
+                    quads,
+                    warper,
+                    batch,
+                    chunk,
+                    (config, mls_options, segments),
+                    own,
+                    options,
+                    frame,
+                    mesh,
+                    maps,
+                    direct,
+                    start,
+                    source,
+                )
+                if done is None:
+                    if direct is not None:
+                        direct.complete = False
+                    continue
+                for i, labels in zip(chunk, done, strict=True):
+                    results[i] = labels
+            if batch.keypoints is not None and not backward:
+                own_mls = (segments, mls_options, source.shape)
+                _beyond_mesh_by_f(results, part, batch, mesh, frame, own_mls)
+        if bordered:
+            warn_short(short, results, stacklevel=3)  # warp_batch's caller
         if direct is not None and direct.complete and len(groups) == 1:
             whole["images"] = direct.out
             if direct.labels is not None:
@@ -135,9 +140,38 @@ def warp_chunks(
     return results, whole
 
 
+def _run_chunk(
+    quads, warper, batch, chunk, how, own, options, frame, lattice, maps, direct, start, source
+) -> list[ImageLabels] | None:
+    """One chunk through the GPU path, on ``lattice`` (``how``: the batch's configuration,
+    MLS keywords and per-image segments; ``direct``: the group's :class:`_Direct` where the
+    chunk takes it, ``start`` its place there): the chunk's :class:`ImageLabels`, or None
+    where the keys do not fit (the single path then takes it)."""
+    config, mls_options, segments = how
+    with ExitStack() as stack:
+        if config is not None and not any(own[i] for i in chunk):
+            src, dst = [batch.src[i] for i in chunk], [batch.dst[i] for i in chunk]
+            lattices = BatchLattices(config, src, dst, source.shape)
+        else:  # each image's own MLS
+            mlss = [
+                stack.enter_context(
+                    MLS(
+                        batch.src[i], batch.dst[i], shape=source.shape, **segments[i], **mls_options
+                    )
+                )
+                for i in chunk
+            ]
+            lattices = KernelLattices([m.kernel for m in mlss])
+        with quads.ctx.use():  # the chunk's passes, its meshes kept, in one hold
+            args = (quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
+            if direct is not None:
+                return direct.chunk(start, *args)
+            return _chunk(*args)
+
+
 def _beyond_mesh_by_f(results, indices, batch, lattice, frame, own_mls) -> None:
     """The group's ``quads`` keypoints outside the mesh's domain (outside the image: the
-    constant border's mesh has no margin) moved by f, as the single path moves them: the
+    past the margin of a border mode) moved by f, as the single path moves them: the
     image's own MLS (``own_mls``: the per-image segments, the MLS keywords, the shape), made
     only for the images that have such keypoints."""
     sets = [batch.keypoints[i] for i in indices]
@@ -192,7 +226,9 @@ class _Direct:
         folded = quads.folded(len(chunk)) if batch.keypoints is not None else None
         warped_masks: list = [None] * len(chunk) if out_labels is None else list(out_labels)
         if batch.masks is not None and not self.packed:
-            warped_masks = _warp_masks(quads, warper, batch, chunk, lattices, options, frame)
+            warped_masks = _warp_masks(
+                quads, warper, batch, chunk, lattices, options, frame, lattice
+            )
             if warped_masks is None:
                 return None
         labels = (lattice, maps, out, warped_masks, folded)
@@ -207,7 +243,7 @@ def _slab(array: np.ndarray | None, items: list[np.ndarray] | None, chunk: list[
     return np.stack([items[i] for i in chunk])  # type: ignore[index]
 
 
-def _warp_masks(quads, warper, batch, chunk, lattices, options, frame):
+def _warp_masks(quads, warper, batch, chunk, lattices, options, frame, lattice):
     """The chunk's masks warped on their own (nearest, background 0), restored; None where
     their keys do not fit."""
     limit = warper.pipeline.max_image_size
@@ -216,7 +252,7 @@ def _warp_masks(quads, warper, batch, chunk, lattices, options, frame):
     label_options = mask_options(options)
     zero = background_color(0.0, label_sources[0])
     warp = quads.backward if options.method == "backward" else quads.warp
-    warped = warp(lattices, label_sources, label_options, frame, zero)
+    warped = warp(lattices, label_sources, label_options, frame, zero, lattice)
     if warped is None:
         return None
     return [restore_mask(w, masks[0].dtype) for w in warped]
@@ -270,9 +306,9 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
     sources = [_prepared(image, limit, i) for image, i in zip(images, chunk, strict=True)]
     background = background_color(options.background, sources[0])
     if options.method == "backward":
-        out = quads.backward(lattices, sources, options, frame, background)
+        out = quads.backward(lattices, sources, options, frame, background, lattice)
     else:
-        out = quads.warp(lattices, sources, options, frame, background)
+        out = quads.warp(lattices, sources, options, frame, background, lattice)
     if out is None:
         return None
     warped_masks: list = [None] * len(chunk)
@@ -280,7 +316,7 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
         warped_masks = list(restore_mask(out[..., -1], masks[0].dtype))  # type: ignore[index]
         out = _drop_last(out, batch.images[chunk[0]].ndim == 2)
     if masks is not None and not packed:
-        warped_masks = _warp_masks(quads, warper, batch, chunk, lattices, options, frame)
+        warped_masks = _warp_masks(quads, warper, batch, chunk, lattices, options, frame, lattice)
         if warped_masks is None:  # the labels' keys are longer: the single path takes them
             return None
     labels = (lattice, maps, out, warped_masks, None)

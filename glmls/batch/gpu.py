@@ -25,8 +25,9 @@ colours written in the scan, the atlas packed into the caller's layout on the GP
 
 The arithmetic is the single warp's (the same edge functions, keys, barycentrics, Newton
 steps and sampling), so each image equals its :func:`glmls.warp`, bit for bit. This path
-takes the regular mesh with the ``constant`` border (the mesh then needs no margin, whose
-size f decides per image); the other methods and borders take the single pipeline per image
+takes the regular mesh: ``quads`` with any border (a chunk's images share the margin of
+their meshes past the image, :mod:`glmls.batch.margins`), ``backward`` with the ``constant``
+border; the other methods and cases take the single pipeline per image
 (:mod:`glmls.batch.single`).
 """
 
@@ -36,17 +37,17 @@ import moderngl
 import numpy as np
 
 from ..core.mesh import MeshLattice
-from ..engine.passes import evaluate_lattice
+from ..engine.passes import POINTS_PER_INVOCATION, evaluate_lattice
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
-from ..gl.dispatch import LOCAL_SIZE_2D, ScanPieces, fill_buffer, set_uniforms
+from ..gl.dispatch import LOCAL_SIZE, LOCAL_SIZE_2D, ScanPieces, fill_buffer, set_uniforms
 from ..gl.resources import Resources, keep_framebuffer
 from ..imaging.frame import Frame
 from ..imaging.inverse import NEWTON_ACCEPT, NEWTON_STEPS, NEWTON_TOLERANCE
 from ..imaging.options import WarpOptions
 from ..imaging.quads import key_layout
 from ..imaging.readback import read_rgba8
-from ..imaging.source import SourceImage, texture_data, texture_form
+from ..imaging.source import BORDERS, SourceImage, texture_data, texture_form
 from .labels import MeshVertices
 
 __all__ = [
@@ -55,6 +56,7 @@ __all__ = [
     "KernelLattices",
     "batchable",
     "chunk_size",
+    "fits",
     "mesh_stride",
 ]
 
@@ -67,12 +69,12 @@ MESH_ALIGN = 256
 
 
 def batchable(options: WarpOptions) -> bool:
-    """Does a batch of these options take the batched GPU path (``quads`` or ``backward``,
-    regular mesh, ``constant`` border)?"""
-    return (
-        options.method in ("quads", "backward")
-        and options.tolerance is None
-        and options.border == "constant"
+    """Does a batch of these options take the batched GPU path (``quads`` on the regular mesh
+    with any border, ``backward`` with the ``constant`` border)?"""
+    if options.tolerance is not None:
+        return False
+    return options.method == "quads" or (
+        options.method == "backward" and options.border == "constant"
     )
 
 
@@ -100,7 +102,24 @@ def chunk_size(
     per_image += frame.pixels * 16 if backward else 0
     atlas = gl.limits["max_texture_size"] // max(frame.shape[0], height)
     layers = int(gl.mgl.info.get("GL_MAX_ARRAY_TEXTURE_LAYERS", 256))
-    return max(1, min(atlas, layers, max_bytes // per_image))
+    block = gl.limits["max_ssbo_size"] // max(4 * frame.pixels, mesh_stride(lattice))  # keys
+    return max(1, min(atlas, layers, block, max_bytes // per_image))
+
+
+def fits(gl: GLContext, shape: tuple[int, int], frame: Frame, lattice: MeshLattice) -> bool:
+    """Can one image of ``shape`` (H, W) take this path to ``frame`` on ``lattice``: its
+    mesh in one lattice dispatch and one storage block, its keys in one storage block, its
+    canvas and source within the texture size? (A larger one takes the single pipeline,
+    which runs it in bands.)"""
+    columns, rows = lattice.dims
+    groups = -(-columns * rows // (LOCAL_SIZE * POINTS_PER_INVOCATION))
+    block = gl.limits["max_ssbo_size"]
+    side = gl.limits["max_texture_size"]
+    return (
+        groups <= gl.limits["max_work_groups_x"]
+        and max(mesh_stride(lattice), 4 * frame.pixels) <= block
+        and max(*shape, *frame.shape) <= side
+    )
 
 
 def _texture_stack(sources: list[SourceImage]) -> np.ndarray:
@@ -238,7 +257,7 @@ class BatchQuads:
         mgl.memory_barrier()
         framebuffer = self._resources.framebuffer("coords", atlas, "f4")
         self._resources.fill(framebuffer.color_attachments[0], (0.0, 0.0, 0.0, 0.0))
-        self._resolve(values, atlas, framebuffer, None, winner, True, coords=True)
+        self._resolve(values, atlas, framebuffer, None, winner, True, 0, coords=True)
         return framebuffer, atlas
 
     @current
@@ -249,15 +268,16 @@ class BatchQuads:
         options: WarpOptions,
         frame: Frame,
         background: tuple[float, float, float, float],
+        lattice: MeshLattice,
     ) -> np.ndarray | None:
-        """The chunk's images warped by ``backward`` (constant border): the quads' source
+        """The chunk's images warped by ``backward`` (constant border; ``lattice``: the mesh's,
+        the images' corners every ``options.grid`` pixels): the quads' source
         points as the first guess (:meth:`coords`' fill), Newton on each image's f for every
         output pixel of every image in one dispatch (``warp/inverse.comp.glsl`` with
         ``MLS_BATCH``), one draw sampling the sources (``batch/backward.frag.glsl``), one
         read-back; as :meth:`warp` returns. The backward maps stay in the ``coords`` atlas
         (:meth:`backward_coords`)."""
         height, width = sources[0].shape
-        lattice = MeshLattice.corners((height, width), options.grid)
         if key_layout(lattice, source_pixel=False) is None:
             return None
         count = len(sources)
@@ -319,10 +339,11 @@ class BatchQuads:
         return _read_coords(self._gl.mgl, framebuffer, atlas, count, frame, 3)
 
     def _resolve(
-        self, values, atlas, framebuffer, sources, winner, linear, *, coords: bool = False
+        self, values, atlas, framebuffer, sources, winner, linear, border, *, coords=False
     ) -> None:
-        """The atlas filled from the keys by one draw (batch/resolve.frag.glsl); ``coords``:
-        the source points instead of colours (``sources`` unused)."""
+        """The atlas filled from the keys by one draw (batch/resolve.frag.glsl), the sources
+        read by the border rule ``border`` (its WARP_BORDER code); ``coords``: the source
+        points instead of colours (``sources`` unused)."""
         gl, mgl = self._gl, self._gl.mgl
         keys = self._resources.texture("winner", atlas, 1, "u4")
         keys.write(winner)
@@ -332,7 +353,7 @@ class BatchQuads:
             program = gl.program(
                 "common/fullscreen.vert.glsl",
                 "batch/resolve.frag.glsl",
-                {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords},
+                {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords, "WARP_BORDER": border},
             )
             set_uniforms(program, values)
             if not coords:
@@ -395,15 +416,16 @@ class BatchQuads:
         options: WarpOptions,
         frame: Frame,
         background: tuple[float, float, float, float],
+        lattice: MeshLattice,
     ) -> np.ndarray | None:
         """The chunk's images warped (``lattices``: their handles, a
-        :class:`~glmls.engine.batched.BatchLattices` or :class:`KernelLattices`) by a fill
-        draw from the keys: (N, H, W, C) restored to the sources' dtype (each
+        :class:`~glmls.engine.batched.BatchLattices` or :class:`KernelLattices`; ``lattice``:
+        their mesh's, past the images by the margin of a border mode) by a fill draw from the
+        keys: (N, H, W, C) restored to the sources' dtype (each
         :meth:`SourceImage.restore`), or None where the keys of this mesh do not fit in 31
         bits (the single path's rasterizer then draws it). Nearest 8-bit chunks take the
         fused scan on their bytes instead (:mod:`glmls.batch.texels`)."""
         height, width = sources[0].shape
-        lattice = MeshLattice.corners((height, width), options.grid)
         linear = options.interpolation == "linear"
         layout = key_layout(lattice, source_pixel=not linear)
         if layout is None:
@@ -449,5 +471,6 @@ class BatchQuads:
         max_groups = gl.limits["max_work_groups_x"]
         ScanPieces(gl).run_1d(scan, cells * count, max_groups=max_groups)  # 2.
         mgl.memory_barrier()
-        self._resolve(values, atlas, framebuffer, sources, winner, linear)  # 3.
+        border = BORDERS.index(options.border)
+        self._resolve(values, atlas, framebuffer, sources, winner, linear, border)  # 3.
         return _read_atlas(self._gl.mgl, framebuffer, atlas, source, count, frame)  # 4.

@@ -45,11 +45,12 @@ FAST_PASS = True
 
 
 def takes(options: WarpOptions, dtype: np.dtype, fused: bool) -> bool:
-    """Does a chunk of images of ``dtype`` take this path (nearest ``quads`` of uint8 images,
-    ``fused`` scans)?"""
+    """Does a chunk of images of ``dtype`` take this path (nearest ``quads`` of uint8 images
+    with the ``constant`` border, ``fused`` scans)?"""
     return (
         fused
         and options.method == "quads"
+        and options.border == "constant"
         and options.interpolation == "nearest"
         and (np.dtype(dtype) == np.uint8)
     )

@@ -200,3 +200,43 @@ class BatchLattices:
             set_uniforms(program, uniforms)
             target.bind_to_storage_buffer(bindings.DEFORMED.index)
             program.run(group_x=groups, group_y=rows)
+
+    def evaluate_points(
+        self, gl: GLContext, resources: Resources, points: list[np.ndarray], shape
+    ) -> list[np.ndarray]:
+        """f at each image's own ``points`` ((K_i, 2) float64 pixels; ``shape`` (H, W): the
+        image whose default radius applies) as (K_i, 2) float64 arrays, in one dispatch per
+        :meth:`dispatches` part: what :func:`~glmls.engine.passes.evaluate_points` of each
+        image's own kernel gives, bit for bit (the same scaled points, pairs of points per
+        invocation and float64 sum)."""
+        count = len(self)
+        sizes = np.array([len(p) for p in points])
+        stride = max(2, int(sizes.max()) + int(sizes.max()) % 2)  # pairs never span images
+        scaled = np.empty((count, stride, 2), np.float32)
+        for k, p in enumerate(points):
+            for axis in range(2):  # Scaling.to_gpu, column by column
+                scaled[k, : len(p), axis] = (p[:, axis] - self.centers[k, axis]) / self.scales[k]
+            scaled[k, len(p) :] = scaled[k, max(len(p) - 1, 0)] if len(p) else 0.0
+        with gl.use():
+            source = resources.buffer("batch points", scaled.nbytes)
+            source.write(scaled)
+            target = resources.buffer("batch points f", scaled.nbytes)
+            groups = -(-stride // (LOCAL_SIZE * POINTS_PER_INVOCATION))
+            defines = {
+                "MLS_LATTICE": False,
+                "MLS_WRITE_MATRIX": False,
+                "MLS_POINTS_PER_INVOCATION": POINTS_PER_INVOCATION,
+            }
+            lattice = MeshLattice.corners(self.shape)  # the table's lattice rows go unread
+            for program, rows in self.dispatches(gl, resources, lattice, POINTS_PASS, defines):
+                uniforms = {"u_count": stride, "u_offset": 0, "u_out_first": 0}
+                set_uniforms(program, uniforms | {"u_batch_stride": stride})
+                source.bind_to_storage_buffer(bindings.BATCH_POINTS.index)
+                target.bind_to_storage_buffer(bindings.DEFORMED.index)
+                program.run(group_x=groups, group_y=rows)
+            gl.mgl.memory_barrier()
+            d = np.frombuffer(target.read(size=scaled.nbytes), np.float32).reshape(scaled.shape)
+        # f = v + (f - v), as evaluate_points sums it
+        return [
+            p + d[k, : len(p)].astype(np.float64) * self.scales[k] for k, p in enumerate(points)
+        ]

@@ -71,6 +71,7 @@ BATCH_CHECK = Binding("BATCH_CHECK", "storage", 26, "batches: each image's embed
 BATCH_LISTS = Binding("BATCH_LISTS", "storage", 27, "batches: the images each scan takes")
 BATCH_ATLAS = Binding("BATCH_ATLAS", "storage", 28, "batches: the output canvases' texels")
 PIECES = Binding("PIECES", "storage", 29, "scans: the dispatch of large primitives' pieces")
+BATCH_POINTS = Binding("BATCH_POINTS", "storage", 30, "batches: each image's points to evaluate")
 # -- uniform blocks ----------------------------------------------------------------------------
 HANDLES_BLOCK = Binding("HANDLES_BLOCK", "uniform", 0, "handles, the ubo storage")
 # -- texture units -----------------------------------------------------------------------------
@@ -128,6 +129,7 @@ ALL = (
     BATCH_LISTS,
     BATCH_ATLAS,
     PIECES,
+    BATCH_POINTS,
     HANDLES_BLOCK,
     SOURCE,
     COORDS,

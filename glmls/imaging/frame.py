@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import numbers
 import warnings
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,7 +34,10 @@ __all__ = [
     "check_output_shape",
     "covering_frame",
     "deformed_bounds",
+    "encloses_all",
     "make_frame",
+    "margin_shortfall",
+    "search_margins",
 ]
 
 #: A box edge this close (pixels) to a pixel's edge does not make :class:`Bounds` take in the
@@ -254,15 +257,25 @@ def encloses(ring: np.ndarray, low: np.ndarray, high: np.ndarray) -> bool:
     """Does the closed polygon ``ring`` ((K, 2)) wind around the box [low, high] without
     touching it? Then every point of the box is covered by the piecewise linear image of
     the mesh whose border ``ring`` is (its degree there is the winding number, not 0)."""
-    if len(ring) < 3 or not np.all(np.isfinite(ring)):
-        return False
-    following = np.roll(ring, -1, axis=0)
-    if _segments_meet_box(ring, following, low, high).any():
-        return False
+    return bool(encloses_all(np.asarray(ring)[None], low, high)[0])
+
+
+def encloses_all(rings: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """:func:`encloses` of each of N closed polygons of K points, ``rings`` (N, K, 2): (N,)
+    bool."""
+    count, corners = rings.shape[:2]
+    if corners < 3:
+        return np.zeros(count, bool)
+    following = np.roll(rings, -1, axis=1)
+    meets = _segments_meet_box(rings.reshape(-1, 2), following.reshape(-1, 2), low, high)
     centre = (low + high) / 2
-    a, b = ring - centre, following - centre
-    angles = np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], np.sum(a * b, axis=1))
-    return abs(angles.sum()) > np.pi
+    a, b = rings - centre, following - centre
+    cross = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    angles = np.arctan2(cross, a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1])
+    finite = np.isfinite(rings).all(axis=(1, 2))
+    with np.errstate(invalid="ignore"):
+        winds = np.abs(angles.sum(axis=1)) > np.pi
+    return finite & ~meets.reshape(count, corners).any(axis=1) & winds
 
 
 #: The most points of the extended mesh (at grid 1; divided by grid^2), unless the image and
@@ -302,14 +315,17 @@ def border_margin(
         key, lambda: _search_margin(kernel, lattice, frame, max_points)
     )
     if warn and not encloses_frame:
-        warnings.warn(
-            f"the mesh reaches {margin} px past the image, the most for this image and "
-            "canvas, and f's image of it does not cover the whole canvas: pixels beyond "
-            "keep the background",
-            BorderWarning,
-            stacklevel=7,  # the caller of MLS.warp
-        )
+        warnings.warn(margin_shortfall(margin), BorderWarning, stacklevel=7)  # MLS.warp's caller
     return margin
+
+
+def margin_shortfall(margin: int) -> str:
+    """The :class:`~glmls.errors.BorderWarning` of a mesh whose largest ``margin`` (pixels)
+    still leaves part of the canvas uncovered."""
+    return (
+        f"the mesh reaches {margin} px past the image, the most for this image and canvas, "
+        "and f's image of it does not cover the whole canvas: pixels beyond keep the background"
+    )
 
 
 def _search_margin(
@@ -317,29 +333,69 @@ def _search_margin(
 ) -> tuple[int, bool]:
     """:func:`border_margin`'s search: the margin, and whether f's image of its border
     encloses the frame."""
+
+    def evaluate(rings: list[np.ndarray | None]) -> list[np.ndarray | None]:
+        ring = rings[0]
+        assert ring is not None
+        return [evaluate_points(kernel, ring, with_matrix=False, shape=lattice.shape)[0]]
+
+    return search_margins(evaluate, 1, lattice, frame, max_points)[0]
+
+
+def search_margins(
+    evaluate: Callable[[list[np.ndarray | None]], list[np.ndarray | None]],
+    count: int,
+    lattice: MeshLattice,
+    frame: Frame,
+    max_points: int | None = None,
+) -> list[tuple[int, bool]]:
+    """:func:`border_margin`'s search for ``count`` maps at once (a batch's images): per map,
+    its margin and whether f's image of the margin's border encloses the frame.
+    ``evaluate(rings)``: f of each map at its ring of points (pixels, (K, 2); None for a
+    map whose search has ended, whose value goes unread), as
+    :func:`~glmls.engine.passes.evaluate_points` gives it (float64): one call per step of
+    the search, every map's ring in it."""
     height, width = as_shape(lattice.shape)
     grid = lattice.grid
     low, high = frame.centre_box(ENCLOSE_PAD)
     overhang = max(0.0, -0.5 - low[0], -0.5 - low[1], high[0] - width + 0.5, high[1] - height + 0.5)
     base = lattice.with_margin(0)
     ring = base.boundary()
-    deformed, _ = evaluate_points(kernel, ring, with_matrix=False, shape=lattice.shape)
-    if encloses(deformed, low, high):
-        return 0, True
-    moved = float(np.max(np.abs(deformed - ring))) if np.all(np.isfinite(deformed)) else 0.0
+    deformed = np.stack(evaluate([ring] * count))  # type: ignore[arg-type]
+    found: list[tuple[int, bool] | None] = [None] * count
+    inside = encloses_all(deformed, low, high)
     budget = max(MARGIN_POINTS, 2 * (height * width + frame.pixels))
     points = (budget if max_points is None else max_points) * grid * grid
     reach = max(grid, _margin_within(height, width, points) // grid * grid)
     limit = min(MAX_MARGIN, _round_up(overhang + 2 * max(height, width), grid), reach)
-    margin = min(limit, _round_up(moved + overhang + 1, grid))
+    margins = [0] * count
+    finite = np.isfinite(deformed).all(axis=(1, 2))
+    moved = np.abs(deformed - ring).max(axis=(1, 2), initial=0.0)
+    for k in range(count):
+        if inside[k]:
+            found[k] = (0, True)
+        else:
+            step = float(moved[k]) if finite[k] else 0.0
+            margins[k] = min(limit, _round_up(step + overhang + 1, grid))
+    rings: dict[int, np.ndarray] = {}
     while True:
-        ring = base.with_margin(margin).boundary()
-        deformed, _ = evaluate_points(kernel, ring, with_matrix=False, shape=lattice.shape)
-        if encloses(deformed, low, high):
-            return margin, True
-        if margin >= limit:
-            return margin, False
-        margin = min(limit, 2 * margin)
+        active = [k for k in range(count) if found[k] is None]
+        if not active:
+            return found  # type: ignore[return-value]
+        asked: list[np.ndarray | None] = [None] * count
+        for k in active:
+            if margins[k] not in rings:
+                rings[margins[k]] = base.with_margin(margins[k]).boundary()
+            asked[k] = rings[margins[k]]
+        values = evaluate(asked)
+        for margin in sorted({margins[k] for k in active}):
+            alike = [k for k in active if margins[k] == margin]
+            inside = encloses_all(np.stack([values[k] for k in alike]), low, high)  # type: ignore[misc]
+            for k, covered in zip(alike, inside.tolist(), strict=True):
+                if covered or margin >= limit:
+                    found[k] = (margin, covered)
+                else:
+                    margins[k] = min(limit, 2 * margin)
 
 
 def _margin_within(height: int, width: int, pixels: int) -> int:

@@ -420,7 +420,7 @@ def test_bad_input_is_named(gl, kwargs, error, message):
 
 
 def test_quads_run_in_chunks_on_the_gpu_path(gl, rng, monkeypatch):
-    """quads with the constant border take the batched path, one submission per chunk (8-bit
+    """quads take the batched path, one submission per chunk (8-bit
     nearest images on their bytes, :mod:`glmls.batch.texels`); small chunks give what one
     chunk gives."""
     from glmls.batch import chunks
@@ -456,7 +456,7 @@ def test_quads_run_in_chunks_on_the_gpu_path(gl, rng, monkeypatch):
             np.testing.assert_array_equal(getattr(chunked, name), getattr(whole, name))
     np.testing.assert_array_equal(whole.images, singles(batch, src, dst, grid=2))
     calls.clear()
-    glmls.warp_batch(batch, src, dst, border="edge")
+    glmls.warp_batch(batch, src, dst, method="backward", border="edge")
     glmls.warp_batch(batch, src, dst, method="backward", keypoints=points)
     assert calls == []  # the single pipeline, image by image
 

@@ -275,13 +275,18 @@ def test_the_margin_is_searched_once_per_upload(gl, monkeypatch):
     """A warp and the labels that follow its mesh take one margin search (f on the mesh's
     border rings) between them; new handles search again, and a canvas the mesh cannot
     cover warns at every warp, not only at the first."""
+    from glmls.batch import margins
     from glmls.imaging import frame as frames
 
     calls = []
-    search = frames._search_margin
-    monkeypatch.setattr(
-        frames, "_search_margin", lambda *args: calls.append(args[1].grid) or search(*args)
-    )
+    search = frames.search_margins
+
+    def counted(evaluate, count, lattice, *args):
+        calls.extend([lattice.grid] * count)
+        return search(evaluate, count, lattice, *args)
+
+    monkeypatch.setattr(frames, "search_margins", counted)
+    monkeypatch.setattr(margins, "search_margins", counted)  # the batch's, every image at once
     image = np.zeros((40, 40), np.uint8)
     src = np.array([[5.0, 5.0], [34.0, 5.0], [20.0, 34.0]])
     dst = src + [[3.0, 3.0], [-3.0, 3.0], [0.0, -3.0]]  # pulls the frame in: a margin

@@ -2,7 +2,8 @@
 // the winner keys of batch/cells.comp.glsl, as warp/cells_nearest.frag.glsl (nearest: the
 // key's source pixel) and warp/cells.frag.glsl (linear: the winning triangle interpolated at
 // the pixel centre, then sampled bilinearly) fill a single image's canvas; the sources are
-// the layers of one texture array. WARP_BORDER 0 only (constant: the mesh has no margin).
+// the layers of one texture array, read past the image by the border rule WARP_BORDER (the
+// lattice then has a margin, u_lattice_offset).
 // WARP_OUTPUT_COORDS (with WARP_LINEAR): the interpolated source point instead of a colour,
 // (s.x, s.y, 1, 0), as warp/cells.frag.glsl writes it.
 #include "common/lattice.glsl"

@@ -31,7 +31,7 @@ layout(std430, binding = BIND_HANDLES) readonly buffer MLSHandles {
     vec4 mls_handles[];
 };
 #endif
-uniform int u_batch_stride;   // the lattice pass: vec2 outputs from one image to the next
+uniform int u_batch_stride;   // vec2 items (lattice points, or a list's) from one image to the next
 float u_log2_s;
 float u_radius;
 float u_hit2;

@@ -1,7 +1,8 @@
 // Evaluates f (and optionally M) at a list of points, or (MLS_LATTICE) at the points of a
 // lattice (mls/lattice.glsl) band by band: the band's first row is lattice row u_first_row,
 // and its points are written from index 0 (u_count of them, whole rows). For a list of points
-// the output is the displacement f(v) - v (scaled), for a lattice f(v) itself.
+// the output is the displacement f(v) - v (scaled), for a lattice f(v) itself. A batch's
+// (MLS_BATCH) list: image b's points and outputs from b * u_batch_stride on.
 layout(local_size_x = LOCAL_SIZE) in;
 
 #ifndef MLS_POINTS_PER_INVOCATION
@@ -20,6 +21,10 @@ const int mls_batch_out = 0;
 #if MLS_LATTICE
 #include "mls/lattice.glsl"
 uniform int u_first_row;
+#elif MLS_BATCH  // the image table takes BIND_POINTS
+layout(std430, binding = BIND_BATCH_POINTS) readonly buffer MLSPoints {
+    vec2 mls_points[];
+};
 #else
 layout(std430, binding = BIND_POINTS) readonly buffer MLSPoints {
     vec2 mls_points[];
@@ -44,7 +49,7 @@ void mls_store(int i, MLSResult r) {
 #if MLS_LATTICE
     mls_out_f[mls_batch_out + i] = r.f;
 #else
-    mls_out_f[u_out_first + i] = r.d;
+    mls_out_f[u_out_first + mls_batch_out + i] = r.d;
 #endif
 #if MLS_WRITE_MATRIX
     mls_out_m[i] = r.M;
@@ -56,7 +61,7 @@ vec2 mls_item_point(int i) {
     int nx = u_lattice_dims.x;
     return mls_lattice_point(ivec2(i % nx, i / nx + u_first_row));
 #else
-    return mls_points[i];
+    return mls_points[mls_batch_out + i];
 #endif
 }
 

@@ -1,0 +1,187 @@
+"""warp_batch's quads with a border mode on the batched GPU path: each image's mesh margin
+found as its single warp finds it, the images run in parts of one margin, and images,
+masks, keypoints and maps equal to the single pipeline's."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import glmls
+from glmls.batch import run
+from glmls.batch.gpu import BatchQuads
+from glmls.batch.inputs import check_batch
+from glmls.batch.margins import batch_margins
+from glmls.core.config import MLSConfig
+from glmls.core.mesh import MeshLattice
+from glmls.errors import BorderWarning
+from glmls.imaging.frame import border_margin, make_frame
+
+SHAPE = (26, 34)
+BORDERS = [b for b in glmls.BORDERS if b != "constant"]
+
+
+def draw(rng, count: int, spreads=(0.0, 2.0, 6.0, 12.0)):
+    """Images whose handles move by different amounts: their meshes need different
+    margins."""
+    height, width = SHAPE
+    src = rng.uniform((1, 1), (width - 2, height - 2), (count, 7, 2))
+    spread = np.resize(np.asarray(spreads), count)[:, None, None]
+    dst = src + rng.normal(0, 1, src.shape) * spread
+    batch = rng.integers(0, 256, (count, *SHAPE, 3), dtype=np.uint8)
+    return batch, src, dst
+
+
+def single_path(monkeypatch, *args, **kwargs):
+    """warp_batch with the batched GPU path turned off: each image by the single pipeline."""
+    with monkeypatch.context() as patch:
+        patch.setattr(run, "batchable", lambda options: False)
+        return glmls.warp_batch(*args, **kwargs)
+
+
+def counting(monkeypatch) -> list[int]:
+    calls: list[int] = []
+    warp = BatchQuads.warp
+
+    def counted(self, lattices, *args, **kwargs):
+        calls.append(len(lattices))
+        return warp(self, lattices, *args, **kwargs)
+
+    monkeypatch.setattr(BatchQuads, "warp", counted)
+    return calls
+
+
+@pytest.mark.parametrize("border", BORDERS)
+@pytest.mark.parametrize("interpolation", glmls.INTERPOLATIONS)
+def test_border_modes_run_batched_as_single_warps(gl, rng, monkeypatch, border, interpolation):
+    batch, src, dst = draw(rng, 8)
+    masks = rng.integers(0, 7, (8, *SHAPE)).astype(np.uint16)
+    points = rng.uniform((-6, -6), (SHAPE[1] + 6, SHAPE[0] + 6), (8, 12, 2))
+    options = {
+        "border": border,
+        "interpolation": interpolation,
+        "grid": 3,
+        "output_shape": (30, 40),
+        "origin": (-3.0, -2.0),
+    }
+    labels = {"keypoints": points, "masks": masks, "return_maps": True}
+    calls = counting(monkeypatch)
+    got = glmls.warp_batch(batch, src, dst, **labels, **options)
+    assert calls and sum(calls) == 2 * 8  # images and masks, batched
+    assert len(calls) > 2  # several margins, a part each
+    want = single_path(monkeypatch, batch, src, dst, **labels, **options)
+    for name in ("images", "masks", "keypoints_valid", "maps", "valid"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(want, name), err_msg=name)
+    # the batched meshes' vertices are f read from the lattice pass, the single path's from
+    # the points pass: the same f to float32's rounding
+    np.testing.assert_allclose(got.keypoints, want.keypoints, rtol=0, atol=1e-3)
+    for i in range(8):
+        np.testing.assert_array_equal(
+            got.images[i], glmls.warp(batch[i], src[i], dst[i], **options)
+        )
+
+
+@pytest.mark.parametrize("dtype", [np.uint16, np.float32])
+def test_border_modes_for_other_dtypes_and_packed_masks(gl, rng, monkeypatch, dtype):
+    data, src, dst = draw(rng, 5)
+    batch = data.astype(np.float32) / 255 if dtype == np.float32 else data.astype(dtype) * 257
+    masks = rng.integers(0, 3, (5, *SHAPE)).astype(np.uint8)
+    options = {"border": "reflect", "interpolation": "linear", "transform": "rigid"}
+    got = glmls.warp_batch(batch, src, dst, masks=masks, **options)
+    want = single_path(monkeypatch, batch, src, dst, masks=masks, **options)
+    assert got.images.dtype == dtype
+    np.testing.assert_array_equal(got.images, want.images)
+    np.testing.assert_array_equal(got.masks, want.masks)
+    nearest = {"border": "wrap", "interpolation": "nearest"}
+    got = glmls.warp_batch(data, src, dst, masks=masks, **nearest)
+    want = single_path(monkeypatch, data, src, dst, masks=masks, **nearest)
+    np.testing.assert_array_equal(got.images, want.images)  # the mask rides as a channel
+    np.testing.assert_array_equal(got.masks, want.masks)
+
+
+def test_margins_are_the_single_warps(gl, rng):
+    batch, src, dst = draw(rng, 12, spreads=(0.0, 1.0, 4.0, 9.0, 20.0, 40.0))
+    config = MLSConfig(transform="similarity", weight="gaussian")  # as the MLS below
+    checked = check_batch(batch, src, dst, None, None)
+    lattice = MeshLattice.corners(SHAPE, 2)
+    for output_shape, origin in ((None, None), ((40, 50), (-8.0, -6.0)), ((10, 12), (20, 5))):
+        frame = make_frame(output_shape, origin, SHAPE, 16384)
+        parts, short = batch_margins(gl, config, checked, list(range(12)), lattice, frame)
+        found = {i: margin for margin, part in parts.items() for i in part}
+        assert sorted(found) == list(range(12))
+        for i in range(12):
+            with glmls.MLS(
+                src[i], dst[i], shape=SHAPE, transform="similarity", weight="gaussian"
+            ) as mls:
+                want = border_margin(mls.kernel, lattice, frame, warn=False)
+            assert found[i] == want, (i, output_shape)
+        assert len(parts) > 1 and short == {}
+
+
+def test_a_canvas_the_mesh_cannot_cover_warns_naming_the_image(gl, rng, monkeypatch):
+    """A map that shrinks the plane and a canvas 100 px off the image: the largest margin
+    leaves part of it uncovered, a BorderWarning names each image, and the pixels equal the
+    single warps'."""
+    batch, src, dst = draw(rng, 3)
+    dst = [p * 0.3 + 3.0 for p in src]
+    options = {
+        "border": "edge",
+        "transform": "similarity",
+        "grid": 4,
+        "output_shape": (10, 10),
+        "origin": (-100.0, 0.0),
+    }
+    calls = counting(monkeypatch)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = glmls.warp_batch(batch, src, dst, **options)
+    messages = [str(w.message) for w in caught if issubclass(w.category, BorderWarning)]
+    assert [m.split(":")[0] for m in messages] == ["images[0]", "images[1]", "images[2]"]
+    assert all("does not cover the whole canvas" in m for m in messages)
+    assert calls == [3]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", BorderWarning)
+        want = single_path(monkeypatch, batch, src, dst, **options)
+    np.testing.assert_array_equal(got, want)
+
+
+def test_segments_with_a_border_take_the_single_pipeline(gl, rng, monkeypatch):
+    batch, src, dst = draw(rng, 3)
+    segments = [np.array([[[4.0, 4.0], [20.0, 6.0]]])] * 3
+    moved = [s + 1.5 for s in segments]
+    options = {"border": "symmetric", "src_segments": segments, "dst_segments": moved}
+    calls = counting(monkeypatch)
+    got = glmls.warp_batch(batch, src, dst, **options)
+    assert calls == []
+    for i in range(3):
+        one = glmls.warp(
+            batch[i],
+            src[i],
+            dst[i],
+            border="symmetric",
+            src_segments=segments[i],
+            dst_segments=moved[i],
+        )
+        np.testing.assert_array_equal(got[i], one)
+
+
+def test_a_mesh_too_large_for_one_dispatch_takes_the_single_pipeline(gl, rng, monkeypatch):
+    """Past the GL limits of one lattice dispatch (a large image at grid 1, or a large
+    margin), images take the single pipeline, which runs their mesh in bands: the same
+    pixels, no error."""
+    batch, src, dst = draw(rng, 3)
+    calls = counting(monkeypatch)
+    want = [glmls.warp(batch[i], src[i], dst[i], border="edge", grid=1) for i in range(3)]
+    limits = type(gl).limits
+    few = property(lambda self: limits.fget(self) | {"max_work_groups_x": 4})
+    monkeypatch.setattr(type(gl), "limits", few)  # 35 x 27 points or more: 8 groups
+    got = glmls.warp_batch(batch, src, dst, border="edge", grid=1)
+    assert calls == []
+    np.testing.assert_array_equal(got, want)
+    got = glmls.warp_batch(batch, src, dst, grid=1)
+    assert calls == []
+    np.testing.assert_array_equal(
+        got, [glmls.warp(b, p, q, grid=1) for b, p, q in zip(batch, src, dst, strict=True)]
+    )
