@@ -63,34 +63,47 @@ def warp_chunks(
     max_bytes: int | None,
 ) -> tuple[list[ImageLabels | None], dict[str, np.ndarray]]:
     """Each image's :class:`ImageLabels` from the batched GPU path (None for an image it
-    left to the single path: keys too long for its mesh), and where that path wrote every
-    image's pixels (and masks) into one array, those arrays ("images", "masks"): the
-    per-image results are views of them."""
-    results: list[ImageLabels | None] = [None] * len(batch)
-    whole: dict[str, np.ndarray] = {}
-    quads = BatchQuads.of(mls_options.get("ctx"))
-    warper = SingleWarper.of(mls_options.get("ctx"))
-    limit = warper.pipeline.max_image_size
-    config = _batch_config(batch, mls_options)
-    backward = options.method == "backward"
-    if backward and (config is None or batch.keypoints is not None):
-        return results, whole  # f at the keypoints, bins, segments: each image's own MLS
-    bordered = options.border != "constant"
-    if bordered and config is None:
-        return results, whole  # each image's own kernel finds its mesh's margin
-    # segment handles, or no point handle at all: the image's own MLS, as one warp makes it
-    own = [bool(segments[i]) or not len(batch.src[i]) for i in range(len(batch))]
-    groups = _groups(batch)
-    budget = max_bytes or CHUNK_BYTES
-    for indices in groups.values():
+    left to the single path: keys too long for its mesh, a mesh beyond one dispatch), and
+    where that path wrote every image's pixels (and masks) into one array, those arrays
+    ("images", "masks"): the per-image results are views of them."""
+    run = _GPURun(batch, options, mls_options, segments, maps, max_bytes or CHUNK_BYTES)
+    return run.results, run.whole
+
+
+class _GPURun:
+    """One :func:`warp_chunks`: the batch's groups of one shape, each group's parts of one
+    mesh lattice (one margin past the images, with a border mode), each part's chunks."""
+
+    def __init__(self, batch, options, mls_options, segments, maps, budget) -> None:
+        self.batch, self.options, self.maps, self.budget = batch, options, maps, budget
+        self.mls_options, self.segments = mls_options, segments
+        self.results: list[ImageLabels | None] = [None] * len(batch)
+        self.whole: dict[str, np.ndarray] = {}
+        self.quads = BatchQuads.of(mls_options.get("ctx"))
+        self.warper = SingleWarper.of(mls_options.get("ctx"))
+        self.config = _batch_config(batch, mls_options)
+        self.backward = options.method == "backward"
+        if self.backward and (self.config is None or batch.keypoints is not None):
+            return  # f at the keypoints, bins, segments: each image's own MLS
+        if options.border != "constant" and self.config is None:
+            return  # each image's own kernel finds its mesh's margin
+        # segment handles, or no point handle at all: the image's own MLS, as one warp does
+        self.own = [bool(segments[i]) or not len(batch.src[i]) for i in range(len(batch))]
+        groups = _groups(batch)
+        for indices in groups.values():
+            self._group(indices, alone=len(groups) == 1)
+
+    def _group(self, indices: list[int], *, alone: bool) -> None:
+        batch, options, quads = self.batch, self.options, self.quads
         first = batch.images[indices[0]]
+        limit = self.warper.pipeline.max_image_size
         source = _prepared(first, limit, indices[0])
         frame = make_frame(options.output_shape, options.origin, source.shape, limit)
         lattice = MeshLattice.corners(source.shape, options.grid)
-        parts = [(lattice, indices)]
-        if bordered:  # the images by their meshes' margins, each part on its own lattice
-            taken = [i for i in indices if not own[i]]
-            found, short = batch_margins(quads.ctx, config, batch, taken, lattice, frame)
+        parts, short = [(lattice, indices)], {}
+        if options.border != "constant":  # the images by their meshes' margins
+            taken = [i for i in indices if not self.own[i]]
+            found, short = batch_margins(quads.ctx, self.config, batch, taken, lattice, frame)
             parts = [(lattice.with_margin(m), part) for m, part in sorted(found.items())]
         direct = None
         if takes(options, first.dtype, quads.fused):  # the constant border: one part
@@ -100,73 +113,65 @@ def warp_chunks(
                 if direct is not None:
                     direct.complete = False
                 continue  # the single pipeline, in bands
-            size = chunk_size(quads.ctx, source, frame, mesh, budget, backward=backward)
-            if direct is not None and not maps and (batch.masks is None or direct.packed):
-                size = texel_chunk_size(quads.ctx, first.shape, frame, mesh, direct.packed, budget)
-            for start in range(0, len(part), size):
-                chunk = part[start : start + size]
-                if backward and any(own[i] for i in chunk):
-                    continue
-                done = _run_chunk(
-                    quads,
-                    warper,
-                    batch,
-                    chunk,
-                    (config, mls_options, segments),
-                    own,
-                    options,
-                    frame,
-                    mesh,
-                    maps,
-                    direct,
-                    start,
-                    source,
-                )
-                if done is None:
-                    if direct is not None:
-                        direct.complete = False
-                    continue
-                for i, labels in zip(chunk, done, strict=True):
-                    results[i] = labels
-            if batch.keypoints is not None and not backward:
-                own_mls = (segments, mls_options, source.shape)
-                _beyond_mesh_by_f(results, part, batch, mesh, frame, own_mls)
-        if bordered:
-            warn_short(short, results, stacklevel=3)  # warp_batch's caller
-        if direct is not None and direct.complete and len(groups) == 1:
-            whole["images"] = direct.out
+            self._part(part, mesh, frame, source, direct)
+        if not self.backward:  # backward warns nowhere: Newton needs no mesh there
+            warn_short(short, self.results, stacklevel=5)  # warp_batch's caller
+        if direct is not None and direct.complete and alone:
+            self.whole["images"] = direct.out
             if direct.labels is not None:
-                whole["masks"] = direct.labels
-    return results, whole
+                self.whole["masks"] = direct.labels
 
+    def _part(self, part: list[int], mesh, frame, source, direct) -> None:
+        """The images ``part`` of one group on one ``mesh`` lattice, chunk by chunk."""
+        batch, quads, budget = self.batch, self.quads, self.budget
+        size = chunk_size(quads.ctx, source, frame, mesh, budget, backward=self.backward)
+        if direct is not None and not self.maps and (batch.masks is None or direct.packed):
+            size = texel_chunk_size(
+                quads.ctx, batch.images[part[0]].shape, frame, mesh, direct.packed, budget
+            )
+        for start in range(0, len(part), size):
+            chunk = part[start : start + size]
+            if self.backward and any(self.own[i] for i in chunk):
+                continue
+            done = self._chunk(chunk, mesh, frame, source, direct, start)
+            if done is None:  # the keys do not fit: the single path takes the chunk
+                if direct is not None:
+                    direct.complete = False
+                continue
+            for i, labels in zip(chunk, done, strict=True):
+                self.results[i] = labels
+        if batch.keypoints is not None and not self.backward:
+            own_mls = (self.segments, self.mls_options, source.shape)
+            _beyond_mesh_by_f(self.results, part, batch, mesh, frame, own_mls)
 
-def _run_chunk(
-    quads, warper, batch, chunk, how, own, options, frame, lattice, maps, direct, start, source
-) -> list[ImageLabels] | None:
-    """One chunk through the GPU path, on ``lattice`` (``how``: the batch's configuration,
-    MLS keywords and per-image segments; ``direct``: the group's :class:`_Direct` where the
-    chunk takes it, ``start`` its place there): the chunk's :class:`ImageLabels`, or None
-    where the keys do not fit (the single path then takes it)."""
-    config, mls_options, segments = how
-    with ExitStack() as stack:
-        if config is not None and not any(own[i] for i in chunk):
-            src, dst = [batch.src[i] for i in chunk], [batch.dst[i] for i in chunk]
-            lattices = BatchLattices(config, src, dst, source.shape)
-        else:  # each image's own MLS
-            mlss = [
-                stack.enter_context(
-                    MLS(
-                        batch.src[i], batch.dst[i], shape=source.shape, **segments[i], **mls_options
+    def _chunk(self, chunk, lattice, frame, source, direct, start) -> list[ImageLabels] | None:
+        """One chunk through the GPU path on ``lattice`` (``direct``: the group's
+        :class:`_Direct` where it takes the chunk, ``start`` the chunk's place there)."""
+        batch = self.batch
+        with ExitStack() as stack:
+            if self.config is not None and not any(self.own[i] for i in chunk):
+                src, dst = [batch.src[i] for i in chunk], [batch.dst[i] for i in chunk]
+                lattices = BatchLattices(self.config, src, dst, source.shape)
+            else:  # each image's own MLS
+                mlss = [
+                    stack.enter_context(
+                        MLS(
+                            batch.src[i],
+                            batch.dst[i],
+                            shape=source.shape,
+                            **self.segments[i],
+                            **self.mls_options,
+                        )
                     )
-                )
-                for i in chunk
-            ]
-            lattices = KernelLattices([m.kernel for m in mlss])
-        with quads.ctx.use():  # the chunk's passes, its meshes kept, in one hold
-            args = (quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
-            if direct is not None:
-                return direct.chunk(start, *args)
-            return _chunk(*args)
+                    for i in chunk
+                ]
+                lattices = KernelLattices([m.kernel for m in mlss])
+            with self.quads.ctx.use():  # the chunk's passes, its meshes kept, in one hold
+                args = (self.quads, self.warper, batch, chunk, lattices, self.options, frame)
+                args += (lattice, self.maps)
+                if direct is not None:
+                    return direct.chunk(start, *args)
+                return _chunk(*args)
 
 
 def _beyond_mesh_by_f(results, indices, batch, lattice, frame, own_mls) -> None:

@@ -25,10 +25,9 @@ colours written in the scan, the atlas packed into the caller's layout on the GP
 
 The arithmetic is the single warp's (the same edge functions, keys, barycentrics, Newton
 steps and sampling), so each image equals its :func:`glmls.warp`, bit for bit. This path
-takes the regular mesh: ``quads`` with any border (a chunk's images share the margin of
-their meshes past the image, :mod:`glmls.batch.margins`), ``backward`` with the ``constant``
-border; the other methods and cases take the single pipeline per image
-(:mod:`glmls.batch.single`).
+takes ``quads`` and ``backward`` on the regular mesh with any border (a chunk's images
+share the margin of their meshes past the image, :mod:`glmls.batch.margins`); the other
+methods and cases take the single pipeline per image (:mod:`glmls.batch.single`).
 """
 
 from __future__ import annotations
@@ -69,13 +68,9 @@ MESH_ALIGN = 256
 
 
 def batchable(options: WarpOptions) -> bool:
-    """Does a batch of these options take the batched GPU path (``quads`` on the regular mesh
-    with any border, ``backward`` with the ``constant`` border)?"""
-    if options.tolerance is not None:
-        return False
-    return options.method == "quads" or (
-        options.method == "backward" and options.border == "constant"
-    )
+    """Does a batch of these options take the batched GPU path (``quads`` or ``backward``, on
+    the regular mesh)?"""
+    return options.method in ("quads", "backward") and options.tolerance is None
 
 
 def mesh_stride(lattice: MeshLattice) -> int:
@@ -270,8 +265,8 @@ class BatchQuads:
         background: tuple[float, float, float, float],
         lattice: MeshLattice,
     ) -> np.ndarray | None:
-        """The chunk's images warped by ``backward`` (constant border; ``lattice``: the mesh's,
-        the images' corners every ``options.grid`` pixels): the quads' source
+        """The chunk's images warped by ``backward`` (``lattice``: the first guess's mesh, past
+        the images by the margin of a border mode): the quads' source
         points as the first guess (:meth:`coords`' fill), Newton on each image's f for every
         output pixel of every image in one dispatch (``warp/inverse.comp.glsl`` with
         ``MLS_BATCH``), one draw sampling the sources (``batch/backward.frag.glsl``), one
@@ -291,7 +286,8 @@ class BatchQuads:
         self._resources.buffer("scaling", scaling.nbytes).write(scaling)
         framebuffer, atlas = self._fill_coords(count, lattice, frame)
         coords = framebuffer.color_attachments[0]
-        defines = {"WARP_SWAP": False, "WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": 0}
+        border = BORDERS.index(options.border)
+        defines = {"WARP_SWAP": False, "WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": border}
         groups = [-(-n // LOCAL_SIZE_2D) for n in frame.size]
         uniforms = {
             **frame.uniforms(),
@@ -315,7 +311,7 @@ class BatchQuads:
         program = gl.program(
             "common/fullscreen.vert.glsl",
             "batch/backward.frag.glsl",
-            {"WARP_LINEAR": linear, "WARP_BORDER": 0},
+            {"WARP_LINEAR": linear, "WARP_BORDER": border},
         )
         set_uniforms(program, {"u_target_size": frame.size, "u_source_size": (width, height)})
         with keep_framebuffer(mgl):

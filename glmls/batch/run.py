@@ -35,9 +35,9 @@ def warp_batch(
 ) -> np.ndarray | list[np.ndarray] | BatchResult:
     """Deform a batch of images, each by the MLS map of its own handles, with its labels.
 
-    Equal to one :func:`glmls.warp` per image, bit for bit. ``quads`` on the regular mesh
-    (any border) and ``backward`` with the ``constant`` border run batched on the GPU: per
-    chunk of images of one shape (and, with a border mode, of one mesh margin), f on every
+    Equal to one :func:`glmls.warp` per image, bit for bit. ``quads`` and ``backward`` on
+    the regular mesh run batched on the GPU: per chunk of images of one shape (and, with a
+    border mode, of one mesh margin), f on every
     image's mesh in one pass, one scan of every mesh (and for ``backward`` one Newton pass
     over every pixel), one fill and one read-back; the other methods and cases take the
     single pipeline image by image (:doc:`/batch`). In a process forked from one in which

@@ -11,11 +11,19 @@ import numpy as np
 
 from ..gl import bindings
 from ..gl.context import GLContext
-from ..gl.dispatch import run_groups, set_uniforms
+from ..gl.dispatch import LOCAL_SIZE, run_groups, set_uniforms
 from .fields import Field
 from .frame import CornerLattice, VolumeFrame
 
-__all__ = ["KEY_BYTES", "POINT_BYTES", "LatticeBands", "Slab", "border_margin3"]
+__all__ = [
+    "KEY_BYTES",
+    "POINT_BYTES",
+    "SURVEY_PIECE",
+    "LatticeBands",
+    "Slab",
+    "border_margin3",
+    "survey_pieces",
+]
 
 #: Bytes of one lattice point in the band buffer (3 float32).
 POINT_BYTES = 12
@@ -72,11 +80,22 @@ def border_margin3(field: Field, lattice: CornerLattice, frame: VolumeFrame) -> 
     return int(grid * max(1, math.ceil(margin / grid)))
 
 
+#: Lattice points of a z layer that one work group of ``volume/survey.comp.glsl`` reduces,
+#: at most (its loop stays far below llvmpipe's cap on a loop's iterations, 65,535).
+SURVEY_PIECE = LOCAL_SIZE * 16384
+
+
+def survey_pieces(nx: int, ny: int) -> int:
+    """The pieces of :data:`SURVEY_PIECE` points in a z layer of ``nx`` x ``ny`` points."""
+    return max(1, -(-nx * ny // SURVEY_PIECE))
+
+
 class LatticeBands:
     """f on a lattice, held band by band of z layers in one buffer of at most ``band_bytes``.
 
     Where the whole lattice fits in one band it is evaluated once and kept. With
-    ``survey_out`` (a buffer for six floats a z layer of points), every band is evaluated
+    ``survey_out`` (a buffer for six floats a piece of a z layer of points,
+    :func:`survey_pieces`), every band is evaluated
     once first and reduced on the GPU to the z range (source voxels) that each layer of
     cells reaches, so that each slab evaluates and scans only the layers that reach it
     (without, every slab takes every band). :attr:`box` (the box of every deformed point)
@@ -129,22 +148,27 @@ class LatticeBands:
 
     def _survey(self) -> None:
         """Each band evaluated once, its layers' boxes reduced on the GPU
-        (``volume/survey.comp.glsl``): six floats a layer come back, not the lattice."""
-        nz = self.cells + 1
+        (``volume/survey.comp.glsl``, each layer in :func:`survey_pieces`): six floats a
+        piece come back, not the lattice."""
+        nx, ny, nz = self.lattice.dims
         boxes = np.empty((nz, 6), np.float32)
         gl = self.gl
-        survey = gl.compute("volume/survey.comp.glsl")
+        survey = gl.compute("volume/survey.comp.glsl", {"VOLUME_SURVEY_PIECE": SURVEY_PIECE})
         out = self.survey_out
+        pieces = survey_pieces(nx, ny)
         for first, layers in self.all_bands():
             self.load(first, layers)
             self.buffer.bind_to_storage_buffer(bindings.VOLUME_LATTICE.index)
             out.bind_to_storage_buffer(bindings.VOLUME_SURVEY.index)
-            set_uniforms(survey, self.lattice.uniforms())
+            set_uniforms(survey, self.lattice.uniforms() | {"u_pieces": pieces})
             gl.mgl.memory_barrier()
-            run_groups(survey, layers + 1, max_groups=gl.limits["max_work_groups_x"])
+            items = (layers + 1) * pieces
+            run_groups(survey, items, max_groups=gl.limits["max_work_groups_x"])
             gl.mgl.memory_barrier()
-            raw = out.read(size=(layers + 1) * 6 * 4)
-            boxes[first : first + layers + 1] = np.frombuffer(raw, np.float32).reshape(-1, 6)
+            raw = np.frombuffer(out.read(size=items * 6 * 4), np.float32)
+            raw = raw.reshape(layers + 1, pieces, 6)
+            boxes[first : first + layers + 1, :3] = raw[..., :3].min(axis=1)  # NaN-free
+            boxes[first : first + layers + 1, 3:] = raw[..., 3:].max(axis=1)
         with np.errstate(all="ignore"):
             # a layer of NaN only (a degenerate f) reads +inf, -inf: left out by fmin, fmax
             self.box = np.concatenate(

@@ -30,7 +30,7 @@ from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import ScanPieces, fill_buffer, run_1d, set_uniforms
 from ..gl.resources import Resources
 from ..imaging.source import BORDERS
-from .bands import KEY_BYTES, POINT_BYTES, LatticeBands, Slab, border_margin3
+from .bands import KEY_BYTES, POINT_BYTES, LatticeBands, Slab, border_margin3, survey_pieces
 from .fields import Field
 from .frame import CornerLattice, VolumeFrame
 from .options import SlabOptions, VolumeOptions
@@ -210,9 +210,9 @@ class VolumeWarper:
         size = min(band_bytes, nx * ny * nz * POINT_BYTES)
         buffer = self._resources.buffer("volume_lattice", size)
         out = None
-        if survey:  # per z layer of points, its box (6 floats), a band at a time
+        if survey:  # per piece of a z layer of points, its box (6 floats), a band at a time
             layers = min(nz, max(1, band_bytes // (nx * ny * POINT_BYTES)))
-            out = self._resources.buffer("volume_survey", layers * 6 * 4)
+            out = self._resources.buffer("volume_survey", layers * survey_pieces(nx, ny) * 24)
         return LatticeBands(field, lattice, buffer, band_bytes, gl=self._gl, survey_out=out)
 
     def _cells(

@@ -456,7 +456,6 @@ def test_quads_run_in_chunks_on_the_gpu_path(gl, rng, monkeypatch):
             np.testing.assert_array_equal(getattr(chunked, name), getattr(whole, name))
     np.testing.assert_array_equal(whole.images, singles(batch, src, dst, grid=2))
     calls.clear()
-    glmls.warp_batch(batch, src, dst, method="backward", border="edge")
     glmls.warp_batch(batch, src, dst, method="backward", keypoints=points)
     assert calls == []  # the single pipeline, image by image
 

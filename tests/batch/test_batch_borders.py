@@ -140,6 +140,7 @@ def test_a_canvas_the_mesh_cannot_cover_warns_naming_the_image(gl, rng, monkeypa
     messages = [str(w.message) for w in caught if issubclass(w.category, BorderWarning)]
     assert [m.split(":")[0] for m in messages] == ["images[0]", "images[1]", "images[2]"]
     assert all("does not cover the whole canvas" in m for m in messages)
+    assert {w.filename for w in caught} == {__file__}  # the caller of warp_batch
     assert calls == [3]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BorderWarning)
@@ -185,3 +186,32 @@ def test_a_mesh_too_large_for_one_dispatch_takes_the_single_pipeline(gl, rng, mo
     np.testing.assert_array_equal(
         got, [glmls.warp(b, p, q, grid=1) for b, p, q in zip(batch, src, dst, strict=True)]
     )
+
+
+@pytest.mark.parametrize("border", BORDERS)
+def test_backward_with_a_border_runs_batched_as_single_warps(gl, rng, monkeypatch, border):
+    """backward with a border mode: the first guess's meshes past the images by each one's
+    margin, Newton and the sampling by the border rule, in one submission per part."""
+    batch, src, dst = draw(rng, 6)
+    masks = rng.integers(0, 5, (6, *SHAPE)).astype(np.uint16)
+    calls: list[int] = []
+    backward = BatchQuads.backward
+
+    def counted(self, lattices, *args, **kwargs):
+        calls.append(len(lattices))
+        return backward(self, lattices, *args, **kwargs)
+
+    monkeypatch.setattr(BatchQuads, "backward", counted)
+    options = {
+        "method": "backward",
+        "border": border,
+        "interpolation": "linear",
+        "grid": 2,
+        "output_shape": (30, 40),
+        "origin": (-3.0, -2.0),
+    }
+    got = glmls.warp_batch(batch, src, dst, masks=masks, return_maps=True, **options)
+    assert sum(calls) == 2 * 6  # images and masks, batched
+    want = single_path(monkeypatch, batch, src, dst, masks=masks, return_maps=True, **options)
+    for name in ("images", "masks", "maps", "valid"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(want, name), err_msg=name)

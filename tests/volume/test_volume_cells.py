@@ -171,14 +171,21 @@ def test_volumes_larger_than_a_texture_are_held_by_slices(kernel3, rng, volume):
 
 
 @pytest.mark.parametrize("band_layers", [2, 3, 100])
-def test_survey_box_is_f_over_the_lattice(kernel3, rng, band_layers):
-    """The bounds' box, reduced on the GPU band by band, is the box of f at every lattice
-    point (f evaluated on the host side through the field), NaN-free, whatever the bands."""
+@pytest.mark.parametrize("piece", [None, 5, 17])
+def test_survey_box_is_f_over_the_lattice(kernel3, rng, monkeypatch, band_layers, piece):
+    """The bounds' box, reduced on the GPU band by band (each layer in pieces of ``piece``
+    points; None: the default, one piece here), is the box of f at every lattice point (f
+    evaluated on the host side through the field), NaN-free, whatever the bands."""
+    from glmls.volume import bands
+
+    if piece is not None:
+        monkeypatch.setattr(bands, "SURVEY_PIECE", piece)
     src, dst = box_handles(SHAPE, rng)
     m = kernel3(src, dst + rng.normal(0, 1.5, dst.shape), SHAPE)
     field = KernelField(m, (1.0, 1.0, 1.0), SHAPE)
     lattice = CornerLattice(SHAPE, 2)
     nx, ny, _ = lattice.dims
+    assert (bands.survey_pieces(nx, ny) > 1) == (piece is not None)
     slabs = SlabOptions(band_bytes=nx * ny * 12 * band_layers)  # band_layers - 1 cell layers
     box = VolumeWarper.of(m.gl).bounds(field, SHAPE, 2, slabs)
     points = lattice.layer_points(0, lattice.dims[2]).reshape(-1, 3)

@@ -1,6 +1,7 @@
 // Samples a batch's sources (the layers of one texture array) at the atlas of backward maps
 // that warp/inverse.comp.glsl (MLS_BATCH) found, image k's rows k * H .. k * H + H - 1: as
-// warp/backward.frag.glsl samples a single image. WARP_BORDER 0 only (constant).
+// warp/backward.frag.glsl samples a single image, by the border rule WARP_BORDER past the
+// image.
 #include "common/border.glsl"
 
 layout(binding = BIND_SOURCE) uniform sampler2DArray u_sources;
@@ -22,7 +23,7 @@ void main() {
     int k = atlas.y / u_target_size.y;
     vec2 s = c.xy;
 #if WARP_LINEAR
-    out_color = batch_sample(s, k);   // edges clamped
+    out_color = batch_sample(s, k);
 #else
     ivec2 p = border_pixel(ivec2(floor(s + 0.5)), u_source_size);
     out_color = texelFetch(u_sources, ivec3(p, k), 0);
