@@ -249,15 +249,14 @@ def _slab(array: np.ndarray | None, items: list[np.ndarray] | None, chunk: list[
 
 
 def _warp_masks(quads, warper, batch, chunk, lattices, options, frame, lattice):
-    """The chunk's masks warped on their own (nearest, background 0), restored; None where
-    their keys do not fit."""
+    """The chunk's masks warped on their own (nearest, background 0) after the fused scan of
+    its images (which keeps no keys to share), restored; None where their keys do not fit."""
     limit = warper.pipeline.max_image_size
     masks = [batch.masks[i] for i in chunk]
     label_sources = [prepare_image(mask_form(m), limit, normalized=True) for m in masks]
     label_options = mask_options(options)
     zero = background_color(0.0, label_sources[0])
-    warp = quads.backward if options.method == "backward" else quads.warp
-    warped = warp(lattices, label_sources, label_options, frame, zero, lattice)
+    warped = quads.warp(lattices, label_sources, label_options, frame, zero, lattice)
     if warped is None:
         return None
     return [restore_mask(w, masks[0].dtype) for w in warped]
@@ -310,20 +309,23 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
         images = list(both)
     sources = [_prepared(image, limit, i) for image, i in zip(images, chunk, strict=True)]
     background = background_color(options.background, sources[0])
-    if options.method == "backward":
-        out = quads.backward(lattices, sources, options, frame, background, lattice)
+    warped_masks: list = [None] * len(chunk)
+    warp = quads.backward if options.method == "backward" else quads.warp
+    if masks is not None and not packed:  # the labels from the images' scan (or maps)
+        label_sources = [prepare_image(mask_form(m), limit, normalized=True) for m in masks]
+        both = (label_sources, background_color(0.0, label_sources[0]))
+        done = warp(lattices, sources, options, frame, background, lattice, both)
+        if done is None:
+            return None
+        out, warped = done
+        warped_masks = [restore_mask(w, masks[0].dtype) for w in warped]
     else:
-        out = quads.warp(lattices, sources, options, frame, background, lattice)
+        out = warp(lattices, sources, options, frame, background, lattice)
     if out is None:
         return None
-    warped_masks: list = [None] * len(chunk)
     if packed:
         warped_masks = list(restore_mask(out[..., -1], masks[0].dtype))  # type: ignore[index]
         out = _drop_last(out, batch.images[chunk[0]].ndim == 2)
-    if masks is not None and not packed:
-        warped_masks = _warp_masks(quads, warper, batch, chunk, lattices, options, frame, lattice)
-        if warped_masks is None:  # the labels' keys are longer: the single path takes them
-            return None
     labels = (lattice, maps, out, warped_masks, None)
     return _finish(quads, batch, chunk, lattices, options, frame, *labels)
 

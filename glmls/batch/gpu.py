@@ -188,7 +188,7 @@ class BatchQuads:
     def __init__(self, gl: GLContext) -> None:
         self._gl = gl
         self._resources = Resources(gl, "the batch quads")
-        self._array: tuple[tuple, moderngl.TextureArray] | None = None
+        self._arrays: dict[tuple, moderngl.TextureArray] = {}
 
     @classmethod
     def of(cls, ctx: moderngl.Context | GLContext | None = None) -> BatchQuads:
@@ -203,9 +203,9 @@ class BatchQuads:
 
     def release(self) -> None:
         """Free the GL objects."""
-        if self._array is not None:
-            self._array[1].release()
-            self._array = None
+        for array in self._arrays.values():
+            array.release()
+        self._arrays.clear()
         self._resources.release()
 
     @current
@@ -264,9 +264,11 @@ class BatchQuads:
         frame: Frame,
         background: tuple[float, float, float, float],
         lattice: MeshLattice,
-    ) -> np.ndarray | None:
+        labels: tuple[list[SourceImage], tuple[float, float, float, float]] | None = None,
+    ):
         """The chunk's images warped by ``backward`` (``lattice``: the first guess's mesh, past
-        the images by the margin of a border mode): the quads' source
+        the images by the margin of a border mode; ``labels``: as :meth:`warp`'s, sampled
+        nearest at the same maps, (images, labels) returned): the quads' source
         points as the first guess (:meth:`coords`' fill), Newton on each image's f for every
         output pixel of every image in one dispatch (``warp/inverse.comp.glsl`` with
         ``MLS_BATCH``), one draw sampling the sources (``batch/backward.frag.glsl``), one
@@ -303,11 +305,25 @@ class BatchQuads:
             coords.bind_to_image(bindings.INVERSE_MAP.index, read=True, write=True)
             program.run(group_x=groups[0], group_y=groups[1], group_z=rows)
         mgl.memory_barrier()
-        source = sources[0]
-        dtype = "f1" if source.normalized else "f4"
-        target = self._resources.framebuffer("atlas", atlas, dtype)
-        self._resources.fill(target.color_attachments[0], background)
         linear = options.interpolation == "linear"
+        out = self._sample(sources, coords, atlas, frame, background, linear, border, "atlas")
+        if labels is None:
+            return out
+        label_sources, zero = labels
+        warped = self._sample(
+            label_sources, coords, atlas, frame, zero, False, border, "labels atlas"
+        )
+        return out, warped
+
+    def _sample(self, sources, coords, atlas, frame, background, linear, border, name):
+        """``sources`` sampled at the backward maps ``coords`` into the atlas framebuffer
+        ``name`` (``background`` where no map point is), read back (batch/backward.frag.glsl)."""
+        source = sources[0]
+        height, width = source.shape
+        gl, mgl = self._gl, self._gl.mgl
+        dtype = "f1" if source.normalized else "f4"
+        target = self._resources.framebuffer(name, atlas, dtype)
+        self._resources.fill(target.color_attachments[0], background)
         program = gl.program(
             "common/fullscreen.vert.glsl",
             "batch/backward.frag.glsl",
@@ -324,7 +340,7 @@ class BatchQuads:
             coords.use(bindings.COORDS.index)
             mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
             self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
-        return _read_atlas(self._gl.mgl, target, atlas, source, count, frame)
+        return _read_atlas(mgl, target, atlas, source, len(sources), frame)
 
     def backward_coords(self, count: int, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
         """The last :meth:`backward`'s maps: (N, H, W, 2) float32 source points and (N, H,
@@ -339,10 +355,12 @@ class BatchQuads:
     ) -> None:
         """The atlas filled from the keys by one draw (batch/resolve.frag.glsl), the sources
         read by the border rule ``border`` (its WARP_BORDER code); ``coords``: the source
-        points instead of colours (``sources`` unused)."""
+        points instead of colours (``sources`` unused). ``winner`` None: the keys of the
+        last resolve again."""
         gl, mgl = self._gl, self._gl.mgl
         keys = self._resources.texture("winner", atlas, 1, "u4")
-        keys.write(winner)
+        if winner is not None:
+            keys.write(winner)
         with keep_framebuffer(mgl):
             framebuffer.use()
             framebuffer.viewport = (0, 0, *atlas)
@@ -362,17 +380,20 @@ class BatchQuads:
             self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
 
     def _sources(self, sources: list[SourceImage]) -> moderngl.TextureArray:
+        """A texture array holding ``sources``, one of the forms last used (a chunk's images
+        and its labels each keep theirs)."""
         (width, height), components, dtype = texture_form(sources[0])
         key = (width, height, len(sources), components, dtype)
-        if self._array is None or self._array[0] != key:
-            if self._array is not None:
-                self._array[1].release()
+        if key not in self._arrays:
+            if len(self._arrays) >= 2:
+                oldest = next(iter(self._arrays))
+                self._arrays.pop(oldest).release()
             array = self._gl.mgl.texture_array(
                 (width, height, len(sources)), components, dtype=dtype
             )
             array.repeat_x = array.repeat_y = False
-            self._array = (key, array)
-        array = self._array[1]
+            self._arrays[key] = array
+        array = self._arrays[key]
         array.write(_texture_stack(sources))
         return array
 
@@ -413,17 +434,25 @@ class BatchQuads:
         frame: Frame,
         background: tuple[float, float, float, float],
         lattice: MeshLattice,
-    ) -> np.ndarray | None:
+        labels: tuple[list[SourceImage], tuple[float, float, float, float]] | None = None,
+    ):
         """The chunk's images warped (``lattices``: their handles, a
         :class:`~glmls.engine.batched.BatchLattices` or :class:`KernelLattices`; ``lattice``:
         their mesh's, past the images by the margin of a border mode) by a fill draw from the
         keys: (N, H, W, C) restored to the sources' dtype (each
         :meth:`SourceImage.restore`), or None where the keys of this mesh do not fit in 31
         bits (the single path's rasterizer then draws it). Nearest 8-bit chunks take the
-        fused scan on their bytes instead (:mod:`glmls.batch.texels`)."""
+        fused scan on their bytes instead (:mod:`glmls.batch.texels`).
+
+        ``labels`` (the chunk's label images and their background) are warped with nearest
+        sampling from the same scan: its keys then carry the nearest source pixel, and a
+        bilinear fill of the images takes only the winning triangle from them (the one the
+        keys without source pixels pick: those bits rank below the triangle's). Returns
+        (images, labels) then."""
         height, width = sources[0].shape
         linear = options.interpolation == "linear"
-        layout = key_layout(lattice, source_pixel=not linear)
+        nearest_keys = not linear or labels is not None
+        layout = key_layout(lattice, source_pixel=nearest_keys)
         if layout is None:
             return None
         sub_bits, col_shift, row_shift = layout
@@ -459,7 +488,7 @@ class BatchQuads:
         framebuffer = self._resources.framebuffer("atlas", atlas, dtype)
         self._resources.fill(framebuffer.color_attachments[0], background)
         cells = (lattice.dims[0] - 1) * (lattice.dims[1] - 1)
-        scan = gl.compute("batch/cells.comp.glsl", {"WARP_CELLS_SOURCE": not linear})
+        scan = gl.compute("batch/cells.comp.glsl", {"WARP_CELLS_SOURCE": nearest_keys})
         set_uniforms(scan, values)
         mesh.bind_to_storage_buffer(bindings.DEFORMED.index)
         scales.bind_to_storage_buffer(bindings.POINTS.index)
@@ -469,4 +498,12 @@ class BatchQuads:
         mgl.memory_barrier()
         border = BORDERS.index(options.border)
         self._resolve(values, atlas, framebuffer, sources, winner, linear, border)  # 3.
-        return _read_atlas(self._gl.mgl, framebuffer, atlas, source, count, frame)  # 4.
+        out = _read_atlas(self._gl.mgl, framebuffer, atlas, source, count, frame)  # 4.
+        if labels is None:
+            return out
+        label_sources, zero = labels
+        dtype = "f1" if label_sources[0].normalized else "f4"
+        framebuffer = self._resources.framebuffer("labels atlas", atlas, dtype)
+        self._resources.fill(framebuffer.color_attachments[0], zero)
+        self._resolve(values, atlas, framebuffer, label_sources, None, False, border)
+        return out, _read_atlas(mgl, framebuffer, atlas, label_sources[0], count, frame)

@@ -36,7 +36,8 @@ void main() {
     ivec2 p = ivec2(atlas.x, atlas.y - k * u_target_size.y);
     uint key = 0x80000000u - id;
 #if WARP_LINEAR
-    int triangle = int(key & 1u);
+    // the triangle's bit sits above the source pixel's (keys made for nearest labels too)
+    int triangle = int((key >> uint(2 * u_sub_bits)) & 1u);
     uint columns = key & ((1u << u_row_shift) - 1u);
     ivec2 g = ivec2(columns >> u_col_shift, int(key >> u_row_shift));
     ivec2 kb = triangle == 0 ? ivec2(1, 0) : ivec2(1, 1);
