@@ -41,15 +41,16 @@ def single_path(monkeypatch, *args, **kwargs):
         return glmls.warp_batch(*args, **kwargs)
 
 
-def counting(monkeypatch) -> list[int]:
+def counting(monkeypatch, method: str = "warp") -> list[int]:
+    """The images of each call of the batched path's ``BatchQuads.<method>``, as made."""
     calls: list[int] = []
-    warp = BatchQuads.warp
+    original = getattr(BatchQuads, method)
 
     def counted(self, lattices, *args, **kwargs):
         calls.append(len(lattices))
-        return warp(self, lattices, *args, **kwargs)
+        return original(self, lattices, *args, **kwargs)
 
-    monkeypatch.setattr(BatchQuads, "warp", counted)
+    monkeypatch.setattr(BatchQuads, method, counted)
     return calls
 
 
@@ -194,14 +195,7 @@ def test_backward_with_a_border_runs_batched_as_single_warps(gl, rng, monkeypatc
     margin, Newton and the sampling by the border rule, in one submission per part."""
     batch, src, dst = draw(rng, 6)
     masks = rng.integers(0, 5, (6, *SHAPE)).astype(np.uint16)
-    calls: list[int] = []
-    backward = BatchQuads.backward
-
-    def counted(self, lattices, *args, **kwargs):
-        calls.append(len(lattices))
-        return backward(self, lattices, *args, **kwargs)
-
-    monkeypatch.setattr(BatchQuads, "backward", counted)
+    calls = counting(monkeypatch, "backward")
     options = {
         "method": "backward",
         "border": border,
