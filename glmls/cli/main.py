@@ -64,6 +64,17 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: The library's advice in keyword form, and the command line's options that say it.
+_FLAGS = (("transform='similarity' or 'rigid'", "--transform similarity or rigid"),)
+
+
+def in_flags(message: str) -> str:
+    """``message`` (a library error's) with its advice in the command line's options."""
+    for keyword, flag in _FLAGS:
+        message = message.replace(keyword, flag)
+    return message
+
+
 class Terminated(BaseException):
     """SIGTERM, raised where the command runs, so that its cleanup runs as on Ctrl-C."""
 
@@ -94,7 +105,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         with _terminate_as_exception():
             return args.run(args)
     except (UsageError, InputFileError) as error:
-        print(f"glmls {args.command}: {error}", file=sys.stderr)
+        print(f"glmls {args.command}: {in_flags(str(error))}", file=sys.stderr)
         return EXIT_USAGE
     except GLUnavailableError as error:
         print(f"glmls {args.command}: {error}", file=sys.stderr)

@@ -183,3 +183,15 @@ def test_keep_going_says_what_it_skipped_even_when_quiet(inputs, capsys):
         "glmls warp: 1 of 3 images failed",
     ]
     assert captured.out.split() == ["out/f1.png", "out/f2.png"]
+
+
+def test_advice_names_the_command_line_options(inputs, capsys):
+    """The library's advice for handles on one line speaks the options a user types."""
+    line = {"src": [[2, 2], [10, 10], [20, 20]], "dst": [[3, 2], [11, 10], [21, 20]]}
+    (inputs / "line.json").write_text(json.dumps(line))
+    args = ["warp", "a.png", "out.png", "--handles", "line.json", "--transform", "affine"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("glmls warp: handles: affine MLS needs")
+    assert "Use --transform similarity or rigid, or add a handle." in err
+    assert "transform='" not in err and not (inputs / "out.png").exists()
