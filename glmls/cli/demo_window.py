@@ -11,8 +11,9 @@ __all__ = ["fail", "replay_events", "run_window", "window_options"]
 
 
 def fail(status: int, message: str) -> int:
-    """Print ``glmls demo: error: message`` on standard error; ``status``."""
-    print(f"glmls demo: error: {message}", file=sys.stderr)
+    """Print ``glmls demo: message`` on standard error, as every command says its errors;
+    ``status``."""
+    print(f"glmls demo: {message}", file=sys.stderr)
     return status
 
 

@@ -193,7 +193,7 @@ def test_bad_events_file_exits_2_before_any_window(tmp_path, capsys):
     path.write_text('[{"type": "move"}]')
     assert run(parse("--replay", str(path))) == 2
     err = capsys.readouterr().err
-    assert err.startswith("glmls demo: error: ") and 'missing "x"' in err
+    assert err.startswith("glmls demo: ") and 'missing "x"' in err
     assert len(err.strip().splitlines()) == 1
 
 

@@ -189,7 +189,7 @@ def test_no_display_is_a_one_line_message(tmp_path):
     assert "Traceback" not in result.stderr
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1, result.stderr
-    assert lines[0].startswith("glmls demo: error: no display")
+    assert lines[0].startswith("glmls demo: no display")
     assert "headless" in lines[0]
 
 
