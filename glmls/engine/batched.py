@@ -18,7 +18,7 @@ import moderngl
 import numpy as np
 
 from ..core.config import MLSConfig
-from ..core.handles import check_affine_handles
+from ..core.handles import Scaling, check_affine_handles
 from ..core.mesh import MeshLattice
 from ..gl import bindings
 from ..gl.context import GLContext
@@ -212,11 +212,12 @@ class BatchLattices:
         count = len(self)
         sizes = np.array([len(p) for p in points])
         stride = max(2, int(sizes.max()) + int(sizes.max()) % 2)  # pairs never span images
-        scaled = np.empty((count, stride, 2), np.float32)
+        scaled = np.zeros((count, stride, 2), np.float32)
         for k, p in enumerate(points):
-            for axis in range(2):  # Scaling.to_gpu, column by column
-                scaled[k, : len(p), axis] = (p[:, axis] - self.centers[k, axis]) / self.scales[k]
-            scaled[k, len(p) :] = scaled[k, max(len(p) - 1, 0)] if len(p) else 0.0
+            if len(p):  # the padding repeats the last point
+                scaling = Scaling(tuple(self.centers[k].tolist()), float(self.scales[k]))
+                scaled[k, : len(p)] = scaling.to_gpu(p)
+                scaled[k, len(p) :] = scaled[k, len(p) - 1]
         with gl.use():
             source = resources.buffer("batch points", scaled.nbytes)
             source.write(scaled)
