@@ -321,9 +321,7 @@ class BatchQuads:
         source = sources[0]
         height, width = source.shape
         gl, mgl = self._gl, self._gl.mgl
-        dtype = "f1" if source.normalized else "f4"
-        target = self._resources.framebuffer(name, atlas, dtype)
-        self._resources.fill(target.color_attachments[0], background)
+        target = self._atlas(name, source, atlas, background)
         program = gl.program(
             "common/fullscreen.vert.glsl",
             "batch/backward.frag.glsl",
@@ -349,6 +347,14 @@ class BatchQuads:
         atlas = (out_w, out_h * count)
         framebuffer = self._resources.framebuffer("coords", atlas, "f4")
         return _read_coords(self._gl.mgl, framebuffer, atlas, count, frame, 3)
+
+    def _atlas(self, name: str, source: SourceImage, atlas, background) -> moderngl.Framebuffer:
+        """The framebuffer ``name`` of an atlas of ``atlas`` (W, H) texels in ``source``'s
+        form (RGBA8, or RGBA32F for unnormalized values), filled with ``background``."""
+        dtype = "f1" if source.normalized else "f4"
+        framebuffer = self._resources.framebuffer(name, atlas, dtype)
+        self._resources.fill(framebuffer.color_attachments[0], background)
+        return framebuffer
 
     def _resolve(
         self, values, atlas, framebuffer, sources, winner, linear, border, *, coords=False
@@ -484,9 +490,7 @@ class BatchQuads:
             "u_row_shift": row_shift,
         }
         mgl.memory_barrier()
-        dtype = "f1" if source.normalized else "f4"
-        framebuffer = self._resources.framebuffer("atlas", atlas, dtype)
-        self._resources.fill(framebuffer.color_attachments[0], background)
+        framebuffer = self._atlas("atlas", source, atlas, background)
         cells = (lattice.dims[0] - 1) * (lattice.dims[1] - 1)
         scan = gl.compute("batch/cells.comp.glsl", {"WARP_CELLS_SOURCE": nearest_keys})
         set_uniforms(scan, values)
@@ -502,8 +506,6 @@ class BatchQuads:
         if labels is None:
             return out
         label_sources, zero = labels
-        dtype = "f1" if label_sources[0].normalized else "f4"
-        framebuffer = self._resources.framebuffer("labels atlas", atlas, dtype)
-        self._resources.fill(framebuffer.color_attachments[0], zero)
+        framebuffer = self._atlas("labels atlas", label_sources[0], atlas, zero)
         self._resolve(values, atlas, framebuffer, label_sources, None, False, border)
         return out, _read_atlas(mgl, framebuffer, atlas, label_sources[0], count, frame)
