@@ -1,7 +1,8 @@
 """Images per second of batched warps: glmls's ``warp`` in a loop, ``warp_batch``, and the
 augmentation libraries' random deformations, on the data of model training.
 
-``python benchmarks/batch_bench.py [--quick] [--batches 64 256] [--repeat 3] [--json out.json]``
+``python benchmarks/batch_bench.py [--quick] [--batches 64 256] [--repeat 3] [--keypoints 20]
+[--json out.json]``
 
 Workloads (uint8, a random handle move per image):
 
@@ -10,7 +11,8 @@ Workloads (uint8, a random handle move per image):
   bottom) moved by N(0, 2 px), the thin-plate-spline rectification setting.
 
 For each workload and batch size: ``glmls.warp`` per image, ``glmls.warp_batch`` (``quads``,
-grid 4, nearest) without labels, and with 20 keypoints and a uint8 mask per image, and
+grid 4, nearest) without labels, and with ``--keypoints`` (20) keypoints and a uint8 mask
+per image, and
 ``glmls.augment.Augment`` with its defaults (``grid`` at 224 x 224, ``text-distort`` on text
 crops: its own random handles, bilinear, the ``edge`` border) with the same labels; then,
 where importable, the peers with keypoints and a mask per image (albumentations 2
@@ -46,7 +48,9 @@ import glmls
 KEYPOINTS = 20
 
 
-def workload(name: str, count: int, seed: int = 0) -> dict[str, np.ndarray]:
+def workload(
+    name: str, count: int, seed: int = 0, keypoints: int = KEYPOINTS
+) -> dict[str, np.ndarray]:
     """Images, handles, keypoints and masks of a workload (see the module docstring)."""
     rng = np.random.default_rng(seed)
     if name == "224":
@@ -62,7 +66,7 @@ def workload(name: str, count: int, seed: int = 0) -> dict[str, np.ndarray]:
         src = np.repeat(edge[None], count, 0)
         dst = src + rng.normal(0, 2, src.shape)
     images = rng.integers(0, 256, (count, height, width, 3), dtype=np.uint8)
-    points = rng.uniform((0, 0), (width - 1, height - 1), (count, KEYPOINTS, 2))
+    points = rng.uniform((0, 0), (width - 1, height - 1), (count, keypoints, 2))
     masks = rng.integers(0, 8, (count, height, width), dtype=np.uint8)
     return {"images": images, "src": src, "dst": dst, "keypoints": points, "masks": masks}
 
@@ -230,13 +234,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--peer-images", type=int, default=32, help="images per timed run of each peer"
     )
+    parser.add_argument(
+        "--keypoints",
+        type=int,
+        default=KEYPOINTS,
+        help="keypoints per image (the peers' time grows with them: compare at yours)",
+    )
     parser.add_argument("--json", help="also write the results to this file")
     args = parser.parse_args(argv)
     batches, repeat = ([64], 1) if args.quick else (args.batches, args.repeat)
     rows = []
     for name in args.workloads:
         for count in batches:
-            data = workload(name, count)
+            data = workload(name, count, keypoints=args.keypoints)
             for label, run in glmls_cases(data).items():
                 value, cpu = measure(run, count, repeat)
                 rows.append(
@@ -253,7 +263,7 @@ def main(argv: list[str] | None = None) -> int:
             continue
         # the peers work image by image: their rate does not depend on the batch
         count = args.peer_images
-        data = workload(name, count)
+        data = workload(name, count, keypoints=args.keypoints)
         peers = [
             (label, *measure(run, count, repeat))
             for label, run in albumentations_cases(data).items()
@@ -267,6 +277,7 @@ def main(argv: list[str] | None = None) -> int:
         "machine": platform.platform(),
         "renderer": glmls.gl.get_context().mgl.info["GL_RENDERER"],
         "threads": threads(),
+        "keypoints": args.keypoints,
         "results": rows,
     }
     if not args.quick:

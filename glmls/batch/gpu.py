@@ -41,6 +41,7 @@ from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import LOCAL_SIZE, LOCAL_SIZE_2D, ScanPieces, fill_buffer, set_uniforms
 from ..gl.resources import Resources, keep_framebuffer
+from ..gl.tables import TABLE_WIDTH, table_rows
 from ..imaging.frame import Frame
 from ..imaging.inverse import NEWTON_ACCEPT, NEWTON_STEPS, NEWTON_TOLERANCE
 from ..imaging.options import WarpOptions
@@ -56,6 +57,7 @@ __all__ = [
     "batchable",
     "chunk_size",
     "fits",
+    "mesh_capacity",
     "mesh_stride",
 ]
 
@@ -98,7 +100,13 @@ def chunk_size(
     atlas = gl.limits["max_texture_size"] // max(frame.shape[0], height)
     layers = int(gl.mgl.info.get("GL_MAX_ARRAY_TEXTURE_LAYERS", 256))
     block = gl.limits["max_ssbo_size"] // max(4 * frame.pixels, mesh_stride(lattice))  # keys
-    return max(1, min(atlas, layers, block, max_bytes // per_image))
+    return max(1, min(atlas, layers, block, mesh_capacity(gl, lattice), max_bytes // per_image))
+
+
+def mesh_capacity(gl: GLContext, lattice: MeshLattice) -> int:
+    """The most images whose meshes on ``lattice`` the mesh table holds (a texture of
+    ``TABLE_WIDTH`` x ``GL_MAX_TEXTURE_SIZE`` vertices)."""
+    return max(1, TABLE_WIDTH * gl.limits["max_texture_size"] // (mesh_stride(lattice) // 8))
 
 
 def fits(gl: GLContext, shape: tuple[int, int], frame: Frame, lattice: MeshLattice) -> bool:
@@ -243,8 +251,9 @@ class BatchQuads:
         }
         scan = gl.compute("batch/cells.comp.glsl", {"WARP_CELLS_SOURCE": False})
         set_uniforms(scan, values)
-        self._resources.cached("mesh").bind_to_storage_buffer(bindings.DEFORMED.index)
-        self._resources.cached("scaling").bind_to_storage_buffer(bindings.POINTS.index)
+        tables = self._resources.tables  # the chunk's meshes, bound again
+        tables.bind("batch mesh", bindings.BATCH_MESH.index)
+        tables.bind("batch scaling", bindings.BATCH_SCALING.index)
         winner.bind_to_storage_buffer(bindings.WINNER.index)
         cells = (lattice.dims[0] - 1) * (lattice.dims[1] - 1)
         mgl.memory_barrier()
@@ -279,13 +288,7 @@ class BatchQuads:
             return None
         count = len(sources)
         gl, mgl = self._gl, self._gl.mgl
-        stride = mesh_stride(lattice)
-        mesh = self._resources.buffer("mesh", count * stride)
-        lattices.evaluate(gl, self._resources, lattice, mesh, stride)
-        scaling = np.zeros((count, 4), np.float32)
-        scaling[:, :2] = lattices.centers
-        scaling[:, 2] = lattices.scales
-        self._resources.buffer("scaling", scaling.nbytes).write(scaling)
+        self.meshes(lattices, lattice)
         framebuffer, atlas = self._fill_coords(count, lattice, frame)
         coords = framebuffer.color_attachments[0]
         border = BORDERS.index(options.border)
@@ -409,6 +412,26 @@ class BatchQuads:
         return self._resources
 
     @current
+    def meshes(self, lattices, lattice: MeshLattice) -> moderngl.Buffer:
+        """f of every image of ``lattices`` at the points of ``lattice``, image k's from byte
+        ``k * mesh_stride(lattice)`` of the mesh buffer (returned: :meth:`vertices` reads it
+        back), copied into the mesh table that ``batch/mesh.glsl`` reads, with the images'
+        scalings in a table of their own; both bound."""
+        gl, resources = self._gl, self._resources
+        stride = mesh_stride(lattice)
+        vertices = len(lattices) * stride // 8
+        # whole rows of the table: its copy reads them
+        mesh = resources.buffer("mesh", table_rows(vertices) * TABLE_WIDTH * 8)
+        lattices.evaluate(gl, resources, lattice, mesh, stride)
+        scaling = np.zeros((len(lattices), 4), np.float32)
+        scaling[:, :2] = lattices.centers
+        scaling[:, 2] = lattices.scales
+        gl.mgl.memory_barrier()  # the lattice passes' stores before the copy
+        resources.tables.copy("batch mesh", mesh, (0, vertices), 2, bindings.BATCH_MESH.index)
+        resources.tables.write("batch scaling", scaling, bindings.BATCH_SCALING.index)
+        return mesh
+
+    @current
     def vertices(self, lattices, lattice: MeshLattice) -> MeshVertices:
         """The last chunk's mesh vertices in pixels (f at the lattice of each image of
         ``lattices``, its chunk's), read back once and converted to float64 where indexed
@@ -465,14 +488,8 @@ class BatchQuads:
         count = len(sources)
         gl, mgl = self._gl, self._gl.mgl
         stride = mesh_stride(lattice)
-        mesh = self._resources.buffer("mesh", count * stride)
-        lattices.evaluate(gl, self._resources, lattice, mesh, stride)  # 1. every image's f
-        scaling = np.zeros((count, 4), np.float32)
-        scaling[:, :2] = lattices.centers
-        scaling[:, 2] = lattices.scales
+        self.meshes(lattices, lattice)  # 1. every image's f
         source = sources[0]
-        scales = self._resources.buffer("scaling", scaling.nbytes)
-        scales.write(scaling)
         out_w, out_h = frame.size
         atlas = (out_w, out_h * count)
         winner = self._resources.buffer("winner", out_w * out_h * count * 4)
@@ -494,8 +511,6 @@ class BatchQuads:
         cells = (lattice.dims[0] - 1) * (lattice.dims[1] - 1)
         scan = gl.compute("batch/cells.comp.glsl", {"WARP_CELLS_SOURCE": nearest_keys})
         set_uniforms(scan, values)
-        mesh.bind_to_storage_buffer(bindings.DEFORMED.index)
-        scales.bind_to_storage_buffer(bindings.POINTS.index)
         winner.bind_to_storage_buffer(bindings.WINNER.index)
         max_groups = gl.limits["max_work_groups_x"]
         ScanPieces(gl).run_1d(scan, cells * count, max_groups=max_groups)  # 2.

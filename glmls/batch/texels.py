@@ -4,18 +4,18 @@ nothing converted or copied per image on the host.
 For nearest ``quads`` of uint8 images (:func:`takes`), a chunk is
 
 1. one upload of the chunk's (N, H, W, C) bytes as they are (a slice of the caller's array,
-   no RGBA made on the host) and, where a label rides along, its (N, H, W) labels, into one
-   buffer that ``batch/bytes.glsl`` reads as the single warp's RGBA8 texels;
+   no RGBA made on the host) and, where a label rides along, its (N, H, W) labels, into
+   uint32 tables (:mod:`glmls.gl.tables`) that ``batch/bytes.glsl`` reads as the single
+   warp's RGBA8 texels;
 2. f at every image's mesh vertices (:meth:`BatchLattices.evaluate`), then
    ``batch/check.comp.glsl``: which meshes are embeddings, on the GPU, each image listed for
    one of the two scans (``batch/lists.glsl``, indirect dispatches sized there);
-3. the fused scans ``batch/cells.comp.glsl``, writing the texels into an atlas buffer: the
-   embeddings without keys, both triangles of every cell known positive (the single warp's
-   fast pass), the others with keys, then ``batch/fixup.comp.glsl`` where two triangles
-   reached a pixel;
+3. the fused scans ``batch/cells.comp.glsl``, writing the texels into an atlas (an RGBA8
+   texture filled with the background): the embeddings without keys, both triangles of
+   every cell known positive (the single warp's fast pass), the others with keys, then
+   ``batch/fixup.comp.glsl`` where two triangles reached a pixel;
 4. ``batch/pack.comp.glsl``: the atlas packed into the caller's layout (C bytes a pixel, the
-   labels apart; the background where the winner buffer says no triangle drew, so the atlas
-   is never cleared), and one read-back straight into the caller's output arrays.
+   labels apart), and one read-back straight into the caller's output arrays.
 
 Each image equals its :func:`glmls.warp`, bit for bit (the texels, keys and sampling are the
 single warp's)."""
@@ -27,10 +27,11 @@ import numpy as np
 from ..core.mesh import MeshLattice
 from ..gl import bindings
 from ..gl.dispatch import ScanPieces, fill_buffer, run_1d, set_uniforms
+from ..gl.tables import TABLE_WIDTH, table_rows
 from ..imaging.frame import Frame
 from ..imaging.options import PipelineOptions, WarpOptions
 from ..imaging.quads import key_layout
-from .gpu import BatchQuads, mesh_stride
+from .gpu import BatchQuads, mesh_capacity, mesh_stride
 
 __all__ = ["FAST_PASS", "chunk_size", "takes", "warp_texels"]
 
@@ -60,19 +61,29 @@ def chunk_size(
     gl, shape: tuple[int, ...], frame: Frame, lattice: MeshLattice, labelled: bool, max_bytes: int
 ) -> int:
     """Images per chunk of this path for images of ``shape`` ((H, W) or (H, W, C)): every
-    buffer within the GL storage block size (no texture holds the chunk) and the chunk's
-    GPU memory (bytes, atlas, winners, packed output, meshes) within ``max_bytes``."""
+    buffer within the GL storage block size, the tables of bytes and the atlas within a
+    texture, and the chunk's GPU memory (bytes, atlas, winners, packed output, meshes)
+    within ``max_bytes``."""
     height, width = shape[:2]
     channels = (shape[2] if len(shape) == 3 else 1) + labelled
     per_image = height * width * channels + frame.pixels * (8 + channels)
     per_image += mesh_stride(lattice) + 32
     block = int(gl.mgl.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27))
     largest = max(4 * frame.pixels, height * width * channels, mesh_stride(lattice)) + 64
-    return max(1, min(block // largest, max_bytes // per_image))
+    # a table's words (the bytes), or the atlas's texels, in one texture (a row to spare)
+    texels = TABLE_WIDTH * (gl.limits["max_texture_size"] - 1)
+    most = max(frame.pixels, -(-height * width * channels // 4)) + 1
+    capacity = mesh_capacity(gl, lattice)
+    return max(1, min(block // largest, max_bytes // per_image, texels // most, capacity))
 
 
-def _padded(nbytes: int) -> int:
-    return -(-nbytes // 4) * 4
+def _words(data: np.ndarray) -> np.ndarray:
+    """The bytes of the C-contiguous array ``data`` as (n, 1) little-endian uint32 words (a
+    view; a copy padded with zeros where the bytes are not whole words)."""
+    flat = data.reshape(-1).view(np.uint8)
+    if flat.size % 4:
+        flat = np.concatenate([flat, np.zeros(4 - flat.size % 4, np.uint8)])
+    return flat.view("<u4").reshape(-1, 1)
 
 
 def warp_texels(
@@ -101,22 +112,15 @@ def warp_texels(
     gl, resources = quads.ctx, quads.resources
     mgl = gl.mgl
     stride = mesh_stride(lattice)
-    mesh = resources.buffer("mesh", count * stride)
-    lattices.evaluate(gl, resources, lattice, mesh, stride)  # 1. every image's f
-    scaling = np.zeros((count, 4), np.float32)
-    scaling[:, :2] = lattices.centers
-    scaling[:, 2] = lattices.scales
-    scales = resources.buffer("scaling", scaling.nbytes)
-    scales.write(scaling)
+    quads.meshes(lattices, lattice)  # 1. every image's f
     labelled = labels is not None
     defines = {"BATCH_CHANNELS": channels, "BATCH_LABELS": labelled}
-    source_bytes = _padded(images.nbytes)
-    texels = resources.buffer(
-        "bytes", source_bytes + (_padded(count * height * width) if labelled else 0) + 4
-    )
-    texels.write(images)
+    tables = resources.tables
+    tables.write("batch source", _words(images), None)
+    tables.bind_image("batch source", bindings.BATCH_SOURCE.index)
     if labelled:
-        texels.write(labels, offset=source_bytes)
+        tables.write("batch labels", _words(labels), None)
+        tables.bind_image("batch labels", bindings.BATCH_LABEL_WORDS.index)
     out_w, out_h = frame.size
     pixels = out_w * out_h * count
     values = {
@@ -130,7 +134,6 @@ def warp_texels(
         "u_sub_bits": sub_bits,
         "u_col_shift": col_shift,
         "u_row_shift": row_shift,
-        "u_labels_at": source_bytes,
     }
     max_groups = gl.limits["max_work_groups_x"]
     check = resources.buffer("check", 16 * count)
@@ -138,11 +141,8 @@ def warp_texels(
     lists = resources.buffer("lists", len(_NO_LISTS) + 8 * count)
     lists.write(_NO_LISTS)
     for binding, buffer in (
-        (bindings.DEFORMED, mesh),
-        (bindings.POINTS, scales),
         (bindings.BATCH_CHECK, check),
         (bindings.BATCH_LISTS, lists),
-        (bindings.BATCH_BYTES, texels),
     ):
         buffer.bind_to_storage_buffer(binding.index)
     columns, rows = lattice.dims
@@ -153,17 +153,16 @@ def warp_texels(
         set_uniforms(tests, values)
         run_1d(tests, items, max_groups=max_groups)
         mgl.memory_barrier()
-    whole = -(-pixels // 16) * 64  # whole groups of sixteen pixels (batch/pack.comp.glsl)
-    winner = resources.buffer("winner", whole)
-    fill_buffer(gl, winner, out_w * out_h * count * 4)
-    atlas = resources.buffer("atlas", whole)  # not cleared: the winners say what is drawn
+    winner = resources.buffer("winner", 4 * pixels)
+    fill_buffer(gl, winner, 4 * pixels)
+    atlas = _atlas(resources, pixels, background, gl.limits["max_texture_size"])
     values["u_atlas_width"] = out_w
     values["u_fixup_capacity"] = PipelineOptions().fixup_capacity(pixels)
     fixups = resources.buffer("fixups", 16 + 4 * values["u_fixup_capacity"])
     fixups.write(_NO_FIXUPS)
     winner.bind_to_storage_buffer(bindings.WINNER.index)
     fixups.bind_to_storage_buffer(bindings.FIXUPS.index)
-    atlas.bind_to_storage_buffer(bindings.BATCH_ATLAS.index)
+    bindings.bind_texels(atlas, bindings.TEXEL_TARGET, write=True)
     cells = (columns - 1) * (rows - 1)
     mgl.memory_barrier()
     pieces = ScanPieces(gl)  # large cells on llvmpipe (common/pieces.glsl)
@@ -182,36 +181,39 @@ def warp_texels(
     set_uniforms(fixup, values)
     fixup.run_indirect(fixups, offset=4)
     mgl.memory_barrier()
-    _pack(quads, atlas, winner, _texel(background), pixels, channels, out, out_labels)  # 4.
+    _pack(quads, atlas, pixels, channels, out, out_labels)  # 4.
     return True
 
 
-def _texel(colour: tuple[float, float, float, float]) -> int:
-    """The RGBA8 texel (as a little-endian uint32) of a clear colour (each channel clamped
-    to 0..1 and rounded to the nearest of 0..255, as a framebuffer clear sets it)."""
-    values = np.clip(np.asarray(colour, np.float64), 0.0, 1.0)
-    return int(np.rint(values * 255.0).astype(np.uint8).view("<u4")[0])
+def _atlas(resources, pixels: int, background, limit: int):
+    """The RGBA8 texture of a chunk's ``pixels`` output texels (a table's layout: texel i
+    at (i % TABLE_WIDTH, i // TABLE_WIDTH)), its first rows (those the pixels and the pack's
+    last group of four reach) filled with the ``background`` colour. Its rows are a power of
+    two (``limit`` at most), so that chunks of a little fewer pixels keep the texture."""
+    rows = table_rows(pixels)
+    texture = resources.texture(
+        "batch atlas", (TABLE_WIDTH, min(limit, 1 << (rows - 1).bit_length())), 4, "f1"
+    )
+    resources.fill(texture, background, rows=rows)
+    return texture
 
 
-def _pack(quads, atlas, winner, background: int, pixels: int, channels: int, out, out_labels):
-    """The atlas packed by ``batch/pack.comp.glsl`` (``background`` where ``winner`` says
-    no triangle covers a pixel) and read back into ``out`` (and the labels into
-    ``out_labels``)."""
+def _pack(quads, atlas, pixels: int, channels: int, out, out_labels):
+    """The atlas packed by ``batch/pack.comp.glsl`` and read back into ``out`` (and the
+    labels into ``out_labels``)."""
     gl, resources = quads.ctx, quads.resources
     labelled = out_labels is not None
-    groups = -(-pixels // 16)  # an invocation packs sixteen pixels into C uvec4 (and one)
-    colour_bytes = 16 * channels * groups
-    label_bytes = 16 * groups if labelled else 0
+    quads_of_four = -(-pixels // 4)  # an invocation packs four pixels into C words (and one)
+    colour_bytes = 4 * channels * quads_of_four
+    label_bytes = 4 * quads_of_four if labelled else 0
     packed = resources.buffer("packed", colour_bytes + label_bytes)
     program = gl.compute(
         "batch/pack.comp.glsl", {"BATCH_CHANNELS": channels, "BATCH_LABELS": labelled}
     )
-    values = {"u_groups": groups, "u_labels_at": colour_bytes // 16, "u_background": background}
-    set_uniforms(program, values)
-    atlas.bind_to_storage_buffer(bindings.BATCH_ATLAS.index)
-    winner.bind_to_storage_buffer(bindings.WINNER.index)
+    set_uniforms(program, {"u_quads": quads_of_four, "u_labels_at": colour_bytes // 4})
+    bindings.bind_texels(atlas, bindings.TEXEL_SOURCE, write=False)
     packed.bind_to_storage_buffer(bindings.BATCH_OUTPUT.index)
-    run_1d(program, groups, max_groups=gl.limits["max_work_groups_x"])
+    run_1d(program, quads_of_four, max_groups=gl.limits["max_work_groups_x"])
     gl.mgl.memory_barrier()
     packed.read_into(out, size=pixels * channels)
     if labelled:

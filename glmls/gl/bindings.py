@@ -65,11 +65,9 @@ VOLUME_SURVEY = Binding("VOLUME_SURVEY", "storage", 20, "volumes: the box of f o
 MESH_FACES = Binding("MESH_FACES", "storage", 21, "3D meshes: the faces' vertex indices")
 MESH_NORMALS = Binding("MESH_NORMALS", "storage", 22, "3D meshes: vertex normals or their sums")
 MESH_FOLDS = Binding("MESH_FOLDS", "storage", 23, "3D meshes: each face's fold flag, a byte")
-BATCH_BYTES = Binding("BATCH_BYTES", "storage", 24, "batches: the chunk's source bytes, labels")
 BATCH_OUTPUT = Binding("BATCH_OUTPUT", "storage", 25, "batches: the chunk's output bytes, labels")
 BATCH_CHECK = Binding("BATCH_CHECK", "storage", 26, "batches: each image's embedding test")
 BATCH_LISTS = Binding("BATCH_LISTS", "storage", 27, "batches: the images each scan takes")
-BATCH_ATLAS = Binding("BATCH_ATLAS", "storage", 28, "batches: the output canvases' texels")
 PIECES = Binding("PIECES", "storage", 29, "scans: the dispatch of large primitives' pieces")
 BATCH_POINTS = Binding("BATCH_POINTS", "storage", 30, "batches: each image's points to evaluate")
 # -- uniform blocks ----------------------------------------------------------------------------
@@ -85,6 +83,8 @@ VALUES = Binding("VALUES", "texture", 6, "a scalar field to colour (value, defin
 COLOR_TABLE = Binding("COLOR_TABLE", "texture", 7, "a colour map, n x 1 RGBA8")
 GLYPHS = Binding("GLYPHS", "texture", 8, "the glyph atlas of on-screen text")
 VOLUME_SOURCE = Binding("VOLUME_SOURCE", "texture", 14, "the source volume being warped")
+BATCH_MESH = Binding("BATCH_MESH", "texture", 15, "batches: f at every image's mesh, a table")
+BATCH_SCALING = Binding("BATCH_SCALING", "texture", 16, "batches: each image's scaling, a table")
 # the adaptive mesh's tables (glmls.gl.tables): read item by item, fetched as texels
 ADAPTIVE_VERTICES = Binding("ADAPTIVE_VERTICES", "texture", 9, "adaptive: (output, source) points")
 ADAPTIVE_TRIANGLES = Binding("ADAPTIVE_TRIANGLES", "texture", 10, "adaptive: vertex ids, leaf")
@@ -97,6 +97,8 @@ ADAPTIVE_TARGET = Binding("ADAPTIVE_TARGET", "image", 1, "adaptive: the RGBA8 ta
 TEXEL_SOURCE = Binding("TEXEL_SOURCE", "image", 2, "the RGBA8 source as r32ui (bind_texels)")
 TEXEL_TARGET = Binding("TEXEL_TARGET", "image", 3, "the RGBA8 target as r32ui (bind_texels)")
 VOLUME_TARGET = Binding("VOLUME_TARGET", "image", 4, "volumes: the output slab")
+BATCH_SOURCE = Binding("BATCH_SOURCE", "image", 5, "batches: the chunk's bytes, a uint32 table")
+BATCH_LABEL_WORDS = Binding("BATCH_LABEL_WORDS", "image", 6, "batches: its labels' bytes, too")
 
 ALL = (
     HANDLES,
@@ -123,11 +125,9 @@ ALL = (
     MESH_FACES,
     MESH_NORMALS,
     MESH_FOLDS,
-    BATCH_BYTES,
     BATCH_OUTPUT,
     BATCH_CHECK,
     BATCH_LISTS,
-    BATCH_ATLAS,
     PIECES,
     BATCH_POINTS,
     HANDLES_BLOCK,
@@ -141,6 +141,8 @@ ALL = (
     COLOR_TABLE,
     GLYPHS,
     VOLUME_SOURCE,
+    BATCH_MESH,
+    BATCH_SCALING,
     ADAPTIVE_VERTICES,
     ADAPTIVE_TRIANGLES,
     ADAPTIVE_LEAVES,
@@ -151,6 +153,8 @@ ALL = (
     TEXEL_SOURCE,
     TEXEL_TARGET,
     VOLUME_TARGET,
+    BATCH_SOURCE,
+    BATCH_LABEL_WORDS,
 )
 
 

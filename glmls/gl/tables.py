@@ -78,9 +78,9 @@ class Tables:
         self._textures[role] = texture
         return texture
 
-    def write(self, role: str, data: np.ndarray, unit: int) -> None:
+    def write(self, role: str, data: np.ndarray, unit: int | None) -> None:
         """Items ``data`` ((N, C) float32 or uint32, C in 1, 2, 4; C-contiguous) into the
-        table ``role``, bound to texture ``unit``."""
+        table ``role``, bound to texture ``unit`` (None: not bound; :meth:`bind_image`)."""
         data = np.asarray(data)
         if data.ndim != 2 or data.shape[1] not in (1, 2, 4) or data.dtype not in _DTYPES:
             raise ValueError(
@@ -96,7 +96,8 @@ class Tables:
         if count > full * TABLE_WIDTH:
             rest = data[full * TABLE_WIDTH :]
             texture.write(rest, viewport=(0, full, len(rest), 1))
-        texture.use(unit)
+        if unit is not None:
+            texture.use(unit)
 
     def copy(
         self,
@@ -135,6 +136,20 @@ class Tables:
                 source = self._staging
             texture.write(source, viewport=(0, top, TABLE_WIDTH, rows - top))
         texture.use(unit)
+
+    def bind(self, role: str, unit: int) -> None:
+        """Bind the table ``role`` (written before) to texture ``unit`` again."""
+        self._textures[role].use(unit)
+
+    def bind_image(self, role: str, unit: int) -> None:
+        """Bind the one-component uint32 table ``role`` (written before) to image ``unit`` as
+        r32ui, read-only (``common/table.glsl``'s ``TABLE_LOAD``): where a shader reads
+        words of it at random, llvmpipe loads an image's texels in about half the time of
+        a texel fetch."""
+        texture = self._textures[role]
+        if (texture.components, texture.dtype) != (1, "u4"):
+            raise ValueError(f"{role}: an image binding takes a table of single uint32 items")
+        texture.bind_to_image(unit, read=True, write=False)
 
     def release(self) -> None:
         """Free the textures (idempotent)."""

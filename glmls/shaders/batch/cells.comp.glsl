@@ -14,8 +14,8 @@
 // lists it for batch/fixup.comp.glsl, which writes the winner's texel there. Images whose
 // meshes are embeddings (batch/check.comp.glsl) skip the keys: no pixel of theirs is covered
 // twice (BATCH_CELLS_PASS 1 scans only them, the single warp's fast pass). WARP_SOURCE_BYTES:
-// the sources are the caller's bytes and the atlas a buffer (batch/bytes.glsl); the pixels an
-// embedding draws are marked 1 in the winner buffer (batch/pack.comp.glsl fills the rest).
+// the sources are the caller's bytes and the atlas a texture filled with the background
+// beforehand (batch/bytes.glsl), so an embedding's scan writes its texels and nothing else.
 // A cell too large for one invocation on a driver that caps its loops (llvmpipe) is walked
 // in pieces by more invocations (common/pieces.glsl).
 layout(local_size_x = LOCAL_SIZE) in;
@@ -188,9 +188,6 @@ void main() {
             before = atomicMax(warp_winner[i], id);
         }
 #if WARP_SOURCE_BYTES
-        else if (id != 0u) {
-            warp_winner[i] = 1u;   // covered: batch/pack.comp.glsl keeps its texel
-        }
 #endif
         ivec2 source = cell_lo + sp + ivec2(0, k * u_source_size.y);
         ivec2 target = ivec2(column, k * u_target_size.y + y);

@@ -8,3 +8,5 @@ ivec2 table_texel(int i) {
 }
 
 #define TABLE_FETCH(table, i) texelFetch(table, table_texel(int(i)), 0)
+// Item i of a uint32 table bound as an r32ui image (Tables.bind_image), a uint.
+#define TABLE_LOAD(image, i) imageLoad(image, table_texel(int(i))).x
