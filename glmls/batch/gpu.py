@@ -112,16 +112,18 @@ def mesh_capacity(gl: GLContext, lattice: MeshLattice) -> int:
 def fits(gl: GLContext, shape: tuple[int, int], frame: Frame, lattice: MeshLattice) -> bool:
     """Can one image of ``shape`` (H, W) take this path to ``frame`` on ``lattice``: its
     mesh in one lattice dispatch and one storage block, its keys in one storage block, its
-    canvas and source within the texture size? (A larger one takes the single pipeline,
-    which runs it in bands.)"""
+    canvas and source within the texture size, its bytes (4 a pixel at most) and its mesh
+    within a table? (A larger one takes the single pipeline, which runs it in bands.)"""
     columns, rows = lattice.dims
     groups = -(-columns * rows // (LOCAL_SIZE * POINTS_PER_INVOCATION))
     block = gl.limits["max_ssbo_size"]
     side = gl.limits["max_texture_size"]
+    table = TABLE_WIDTH * (side - 1)  # items (a row to spare)
     return (
         groups <= gl.limits["max_work_groups_x"]
         and max(mesh_stride(lattice), 4 * frame.pixels) <= block
         and max(*shape, *frame.shape) <= side
+        and max(shape[0] * shape[1], frame.pixels, mesh_stride(lattice) // 8) <= table
     )
 
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import glmls
+from glmls.batch import chunks as chunks_module
 from glmls.batch import run
 from glmls.batch.gpu import BatchQuads
 from glmls.batch.inputs import check_batch
@@ -227,3 +228,25 @@ def test_masks_under_bilinear_images_come_from_the_images_scan(gl, rng, monkeypa
     np.testing.assert_array_equal(got.images, want.images)
     np.testing.assert_array_equal(got.masks, want.masks)
     assert got.masks.dtype == dtype
+
+
+def test_chunks_keep_their_tables_within_the_texture_size(gl, rng, monkeypatch):
+    """The fused path keeps a chunk's bytes, meshes and atlas in textures of the GL's size
+    (a table: 8192 items a row): where the size is small, the chunks are smaller, the same
+    pixels, no error."""
+    batch, src, dst = draw(rng, 320, spreads=(0.0, 1.0))
+    want = glmls.warp_batch(batch, src, dst, grid=4)
+    chunks: list[int] = []
+    original = chunks_module.warp_texels
+
+    def counted(quads, lattices, images, *args, **kwargs):
+        chunks.append(len(images))
+        return original(quads, lattices, images, *args, **kwargs)
+
+    monkeypatch.setattr(chunks_module, "warp_texels", counted)
+    limits = type(gl).limits
+    small = property(lambda self: limits.fget(self) | {"max_texture_size": max(SHAPE)})
+    monkeypatch.setattr(type(gl), "limits", small)  # 33 rows: 305 images of 885 texels
+    got = glmls.warp_batch(batch, src, dst, grid=4)
+    assert len(chunks) == 2 and max(chunks) * (SHAPE[0] * SHAPE[1] + 1) <= 8192 * 33, chunks
+    np.testing.assert_array_equal(got, want)
