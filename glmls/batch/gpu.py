@@ -362,12 +362,23 @@ class BatchQuads:
         return framebuffer
 
     def _resolve(
-        self, values, atlas, framebuffer, sources, winner, linear, border, *, coords=False
+        self,
+        values,
+        atlas,
+        framebuffer,
+        sources,
+        winner,
+        linear,
+        border,
+        *,
+        coords=False,
+        labels: list[SourceImage] | None = None,
     ) -> None:
         """The atlas filled from the keys by one draw (batch/resolve.frag.glsl), the sources
         read by the border rule ``border`` (its WARP_BORDER code); ``coords``: the source
         points instead of colours (``sources`` unused). ``winner`` None: the keys of the
-        last resolve again."""
+        last resolve again. ``labels``: label images sampled at the keys' nearest source
+        pixels into the framebuffer's second attachment by the same draw."""
         gl, mgl = self._gl, self._gl.mgl
         keys = self._resources.texture("winner", atlas, 1, "u4")
         if winner is not None:
@@ -375,30 +386,30 @@ class BatchQuads:
         with keep_framebuffer(mgl):
             framebuffer.use()
             framebuffer.viewport = (0, 0, *atlas)
-            program = gl.program(
-                "common/fullscreen.vert.glsl",
-                "batch/resolve.frag.glsl",
-                {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords, "WARP_BORDER": border},
-            )
+            defines = {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords, "WARP_BORDER": border}
+            defines["BATCH_RESOLVE_LABELS"] = labels is not None
+            program = gl.program("common/fullscreen.vert.glsl", "batch/resolve.frag.glsl", defines)
             set_uniforms(program, values)
             if not coords:
                 array = self._sources(sources)
                 mode = moderngl.LINEAR if linear else moderngl.NEAREST
                 array.filter = (mode, mode)
                 array.use(bindings.SOURCE.index)
+            if labels is not None:
+                self._sources(labels, "labels").use(bindings.LABEL_SOURCES.index)
             keys.use(bindings.WINNER_TEXTURE.index)
             mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
             self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
 
-    def _sources(self, sources: list[SourceImage]) -> moderngl.TextureArray:
-        """A texture array holding ``sources``, one of the forms last used (a chunk's images
-        and its labels each keep theirs)."""
+    def _sources(self, sources: list[SourceImage], role: str = "images") -> moderngl.TextureArray:
+        """A texture array holding ``sources``, one of the two forms of ``role`` last used
+        (a chunk's images and its labels, drawn together, each have their own)."""
         (width, height), components, dtype = texture_form(sources[0])
-        key = (width, height, len(sources), components, dtype)
+        key = (role, width, height, len(sources), components, dtype)
         if key not in self._arrays:
-            if len(self._arrays) >= 2:
-                oldest = next(iter(self._arrays))
-                self._arrays.pop(oldest).release()
+            kept = [k for k in self._arrays if k[0] == role]
+            if len(kept) >= 2:
+                self._arrays.pop(kept[0]).release()
             array = self._gl.mgl.texture_array(
                 (width, height, len(sources)), components, dtype=dtype
             )
@@ -518,11 +529,12 @@ class BatchQuads:
         ScanPieces(gl).run_1d(scan, cells * count, max_groups=max_groups)  # 2.
         mgl.memory_barrier()
         border = BORDERS.index(options.border)
-        self._resolve(values, atlas, framebuffer, sources, winner, linear, border)  # 3.
-        out = _read_atlas(self._gl.mgl, framebuffer, atlas, source, count, frame)  # 4.
         if labels is None:
-            return out
-        label_sources, zero = labels
-        framebuffer = self._atlas("labels atlas", label_sources[0], atlas, zero)
-        self._resolve(values, atlas, framebuffer, label_sources, None, False, border)
-        return out, _read_atlas(mgl, framebuffer, atlas, label_sources[0], count, frame)
+            self._resolve(values, atlas, framebuffer, sources, winner, linear, border)  # 3.
+            return _read_atlas(mgl, framebuffer, atlas, source, count, frame)  # 4.
+        label_sources, zero = labels  # 3. into a second attachment of the same draw
+        label_buffer = self._atlas("labels atlas", label_sources[0], atlas, zero)
+        both = self._resources.attached("atlas and labels", ("atlas", "labels atlas"))
+        self._resolve(values, atlas, both, sources, winner, linear, border, labels=label_sources)
+        out = _read_atlas(mgl, framebuffer, atlas, source, count, frame)  # 4.
+        return out, _read_atlas(mgl, label_buffer, atlas, label_sources[0], count, frame)

@@ -85,6 +85,7 @@ GLYPHS = Binding("GLYPHS", "texture", 8, "the glyph atlas of on-screen text")
 VOLUME_SOURCE = Binding("VOLUME_SOURCE", "texture", 14, "the source volume being warped")
 BATCH_MESH = Binding("BATCH_MESH", "texture", 15, "batches: f at every image's mesh, a table")
 BATCH_SCALING = Binding("BATCH_SCALING", "texture", 16, "batches: each image's scaling, a table")
+LABEL_SOURCES = Binding("LABEL_SOURCES", "texture", 17, "batches: the label images being warped")
 # the adaptive mesh's tables (glmls.gl.tables): read item by item, fetched as texels
 ADAPTIVE_VERTICES = Binding("ADAPTIVE_VERTICES", "texture", 9, "adaptive: (output, source) points")
 ADAPTIVE_TRIANGLES = Binding("ADAPTIVE_TRIANGLES", "texture", 10, "adaptive: vertex ids, leaf")
@@ -143,6 +144,7 @@ ALL = (
     VOLUME_SOURCE,
     BATCH_MESH,
     BATCH_SCALING,
+    LABEL_SOURCES,
     ADAPTIVE_VERTICES,
     ADAPTIVE_TRIANGLES,
     ADAPTIVE_LEAVES,

@@ -34,6 +34,8 @@ class Resources:
         self._buffers: dict[str, tuple[Hashable, moderngl.Buffer]] = {}
         self._textures: dict[str, tuple[tuple, moderngl.Texture]] = {}
         self._framebuffers: dict[str, tuple[int, moderngl.Framebuffer]] = {}
+        #: framebuffers over several of the textures: role -> (their roles, framebuffer)
+        self._attached: dict[str, tuple[tuple[str, ...], moderngl.Framebuffer]] = {}
         self._vaos: dict[tuple, moderngl.VertexArray] = {}
         self._released = False
         #: The owner's read-only arrays for compute shaders (:mod:`.tables`).
@@ -116,6 +118,8 @@ class Resources:
         framebuffer = self._framebuffers.pop(role, None)
         if framebuffer is not None:
             framebuffer[1].release()
+        for name in [n for n, (roles, _) in self._attached.items() if role in roles]:
+            self._attached.pop(name)[1].release()
         texture.release()
 
     def fill(
@@ -166,6 +170,21 @@ class Resources:
         self._framebuffers[role] = (texture.glo, framebuffer)
         return framebuffer
 
+    def attached(self, role: str, textures: tuple[str, ...]) -> moderngl.Framebuffer:
+        """A framebuffer ``role`` whose colour attachments are the textures of the roles
+        ``textures`` (made by :meth:`texture` or :meth:`framebuffer`), in that order: one
+        draw writes them all. Made again when one of them is made again."""
+        cached = self._attached.get(role)
+        if cached is not None and cached[0] == textures:
+            return cached[1]
+        if cached is not None:
+            self._attached.pop(role)[1].release()
+        self.check_alive()
+        attachments = [self._textures[name][1] for name in textures]
+        framebuffer = self._gl.mgl.framebuffer(color_attachments=attachments)
+        self._attached[role] = (textures, framebuffer)
+        return framebuffer
+
     def vertex_array(
         self, program: moderngl.Program, index: moderngl.Buffer | None = None
     ) -> moderngl.VertexArray:
@@ -192,7 +211,7 @@ class Resources:
         if self._gl.usable:
             with self._gl.use():
                 for role in list(self._textures):
-                    self._drop_texture(role)
+                    self._drop_texture(role)  # and the framebuffers over it
                 for vao in self._vaos.values():
                     vao.release()
                 for _, buffer in self._buffers.values():
@@ -200,6 +219,7 @@ class Resources:
                 self.tables.release()
         self._textures.clear()
         self._framebuffers.clear()
+        self._attached.clear()
         self._vaos.clear()
         self._buffers.clear()
         self._released = True

@@ -90,3 +90,22 @@ def test_pipeline_clear_fills_a_texture_and_clears_anything_else(gl):
         finally:
             for thing in (on_texture, on_renderbuffer, texture, renderbuffer):
                 thing.release()
+
+
+def test_a_framebuffer_over_several_textures_is_made_again_with_them(gl, resources):
+    """Resources.attached: one framebuffer whose attachments are the textures of several
+    roles (a batch's images and labels drawn together), kept while they are, made again
+    when one is made again (its old one released with it), released with the rest."""
+    first = resources.framebuffer("a", (8, 4), "f1")
+    resources.framebuffer("b", (8, 4), "f4")
+    both = resources.attached("a and b", ("a", "b"))
+    assert len(both.color_attachments) == 2
+    assert both.color_attachments[0].glo == first.color_attachments[0].glo
+    assert resources.attached("a and b", ("a", "b")) is both
+    remade = resources.framebuffer("b", (8, 4), "f1")  # another dtype: a new texture
+    again = resources.attached("a and b", ("a", "b"))
+    assert again is not both and type(both.mglo).__name__ == "InvalidObject"  # released
+    assert again.color_attachments[1].glo == remade.color_attachments[0].glo
+    resources.release()
+    assert type(again.mglo).__name__ == "InvalidObject"
+    assert gl.mgl.error == "GL_NO_ERROR"

@@ -6,11 +6,17 @@
 // lattice then has a margin, u_lattice_offset).
 // WARP_OUTPUT_COORDS (with WARP_LINEAR): the interpolated source point instead of a colour,
 // (s.x, s.y, 1, 0), as warp/cells.frag.glsl writes it.
+// BATCH_RESOLVE_LABELS (keys that carry the nearest source pixel): the chunk's label images
+// too, layers of a second texture array read at that pixel into a second attachment, as a
+// nearest resolve of them alone would write them, in the same draw.
 #include "common/lattice.glsl"
 #include "batch/mesh.glsl"
 
 #ifndef WARP_OUTPUT_COORDS
 #define WARP_OUTPUT_COORDS 0
+#endif
+#ifndef BATCH_RESOLVE_LABELS
+#define BATCH_RESOLVE_LABELS 0
 #endif
 
 layout(binding = BIND_SOURCE) uniform sampler2DArray u_sources;
@@ -25,6 +31,19 @@ uniform int u_row_shift;
 #include "batch/sample.glsl"
 
 layout(location = 0) out vec4 out_color;
+#if BATCH_RESOLVE_LABELS
+layout(binding = BIND_LABEL_SOURCES) uniform sampler2DArray u_label_sources;
+layout(location = 1) out vec4 out_label;
+#endif
+
+// The source pixel a key carries (keys made with the nearest source pixel), before the
+// lattice's offset.
+ivec2 key_source_pixel(uint key) {
+    uint sub_mask = (1u << u_sub_bits) - 1u;
+    ivec2 sub = ivec2(key & sub_mask, (key >> u_sub_bits) & sub_mask);
+    uint columns = key & ((1u << u_row_shift) - 1u);
+    return ivec2(columns >> u_col_shift, key >> u_row_shift) * u_grid + sub;
+}
 
 void main() {
     ivec2 atlas = ivec2(gl_FragCoord.xy);
@@ -35,6 +54,10 @@ void main() {
     int k = atlas.y / u_target_size.y;
     ivec2 p = ivec2(atlas.x, atlas.y - k * u_target_size.y);
     uint key = 0x80000000u - id;
+#if BATCH_RESOLVE_LABELS
+    ivec2 nearest = border_pixel(key_source_pixel(key) + u_lattice_offset, u_source_size);
+    out_label = texelFetch(u_label_sources, ivec3(nearest, k), 0);
+#endif
 #if WARP_LINEAR
     // the triangle's bit sits above the source pixel's (keys made for nearest labels too)
     int triangle = int((key >> uint(2 * u_sub_bits)) & 1u);
@@ -61,10 +84,7 @@ void main() {
     out_color = batch_sample(s, k);
 #endif
 #else
-    uint sub_mask = (1u << u_sub_bits) - 1u;
-    ivec2 sub = ivec2(key & sub_mask, (key >> u_sub_bits) & sub_mask);
-    uint columns = key & ((1u << u_row_shift) - 1u);
-    ivec2 s = ivec2(columns >> u_col_shift, key >> u_row_shift) * u_grid + sub;
+    ivec2 s = key_source_pixel(key);
     out_color = texelFetch(u_sources, ivec3(border_pixel(s + u_lattice_offset, u_source_size), k), 0);
 #endif
 }
