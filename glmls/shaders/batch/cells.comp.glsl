@@ -187,8 +187,6 @@ void main() {
         if (keyed) {
             before = atomicMax(warp_winner[i], id);
         }
-#if WARP_SOURCE_BYTES
-#endif
         ivec2 source = cell_lo + sp + ivec2(0, k * u_source_size.y);
         ivec2 target = ivec2(column, k * u_target_size.y + y);
 #if WARP_SOURCE_BYTES
