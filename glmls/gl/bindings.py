@@ -86,6 +86,9 @@ VOLUME_SOURCE = Binding("VOLUME_SOURCE", "texture", 14, "the source volume being
 BATCH_MESH = Binding("BATCH_MESH", "texture", 15, "batches: f at every image's mesh, a table")
 BATCH_SCALING = Binding("BATCH_SCALING", "texture", 16, "batches: each image's scaling, a table")
 LABEL_SOURCES = Binding("LABEL_SOURCES", "texture", 17, "batches: the label images being warped")
+VOLUME_JACOBIANS = Binding(
+    "VOLUME_JACOBIANS", "texture", 18, "volumes: f's inverse Jacobian and f at a band's points"
+)
 # the adaptive mesh's tables (glmls.gl.tables): read item by item, fetched as texels
 ADAPTIVE_VERTICES = Binding("ADAPTIVE_VERTICES", "texture", 9, "adaptive: (output, source) points")
 ADAPTIVE_TRIANGLES = Binding("ADAPTIVE_TRIANGLES", "texture", 10, "adaptive: vertex ids, leaf")
@@ -100,6 +103,10 @@ TEXEL_TARGET = Binding("TEXEL_TARGET", "image", 3, "the RGBA8 target as r32ui (b
 VOLUME_TARGET = Binding("VOLUME_TARGET", "image", 4, "volumes: the output slab")
 BATCH_SOURCE = Binding("BATCH_SOURCE", "image", 5, "batches: the chunk's bytes, a uint32 table")
 BATCH_LABEL_WORDS = Binding("BATCH_LABEL_WORDS", "image", 6, "batches: its labels' bytes, too")
+# the last of the 8 image units NVIDIA's drivers give
+VOLUME_JACOBIANS_OUT = Binding(
+    "VOLUME_JACOBIANS_OUT", "image", 7, "volumes: the inverse Jacobians being written"
+)
 
 ALL = (
     HANDLES,
@@ -145,6 +152,7 @@ ALL = (
     BATCH_MESH,
     BATCH_SCALING,
     LABEL_SOURCES,
+    VOLUME_JACOBIANS,
     ADAPTIVE_VERTICES,
     ADAPTIVE_TRIANGLES,
     ADAPTIVE_LEAVES,
@@ -157,6 +165,7 @@ ALL = (
     VOLUME_TARGET,
     BATCH_SOURCE,
     BATCH_LABEL_WORDS,
+    VOLUME_JACOBIANS_OUT,
 )
 
 

@@ -11,17 +11,20 @@ import numpy as np
 
 from ..gl import bindings
 from ..gl.context import GLContext
-from ..gl.dispatch import LOCAL_SIZE, run_groups, set_uniforms
+from ..gl.dispatch import LOCAL_SIZE, run_1d, run_groups, set_uniforms
 from .fields import Field
 from .frame import CornerLattice, VolumeFrame
 
 __all__ = [
+    "JACOBIAN_BYTES",
     "KEY_BYTES",
     "POINT_BYTES",
     "SURVEY_PIECE",
     "LatticeBands",
     "Slab",
+    "band_layers",
     "border_margin3",
+    "jacobian_band",
     "survey_pieces",
 ]
 
@@ -29,6 +32,9 @@ __all__ = [
 POINT_BYTES = 12
 #: Bytes of one voxel's key (6 cell + tetrahedron).
 KEY_BYTES = 4
+#: Bytes of one lattice point's inverse Jacobian and f in the backward method's texture (three
+#: RGBA32F texels: ``volume/jacobians.comp.glsl``).
+JACOBIAN_BYTES = 48
 
 
 @dataclass(frozen=True)
@@ -90,6 +96,50 @@ def survey_pieces(nx: int, ny: int) -> int:
     return max(1, -(-nx * ny // SURVEY_PIECE))
 
 
+def band_layers(lattice: CornerLattice, band_bytes: int, *, jacobians: bool = False) -> int:
+    """The cell layers of ``lattice`` that a band of ``band_bytes`` holds (with
+    ``jacobians``, their inverse Jacobians and a layer of points either side too).
+
+    Raises
+    ------
+    ValueError
+        Where not even one cell layer fits.
+    """
+    nx, ny, _ = lattice.dims
+    layer_bytes = nx * ny * (POINT_BYTES + (JACOBIAN_BYTES if jacobians else 0))
+    extra = 3 if jacobians else 1  # a band's layers of points past its cell layers
+    if band_bytes // layer_bytes < 1 + extra:
+        raise ValueError(
+            f"a layer of {nx} x {ny} lattice points does not fit {1 + extra} times in the "
+            f"lattice buffer of {band_bytes} bytes; use a coarser grid"
+        )
+    return band_bytes // layer_bytes - extra
+
+
+def jacobian_band(
+    lattice: CornerLattice, band_bytes: int, max_buffer: int, side: int
+) -> tuple[tuple[int, int, int], int] | None:
+    """Where the backward method holds f's inverse Jacobians at a band's lattice points (its
+    second-order first guess): the texture's size (3 nx, ny, layers) and the bytes of a band
+    with it, for storage buffers of at most ``max_buffer`` bytes and 3D textures of at most
+    ``side`` texels a side. None at grid 1 (the linear guess is within Newton's tolerance
+    at most voxels there, and the texture would take 4 times the lattice's memory) and
+    where a layer of points is wider than a texture or four layers exceed a buffer.
+
+    Whether it is used depends on the lattice and the device, never on ``band_bytes``, so
+    that the result does not depend on the bands either: a band holds at least four layers
+    of points (one cell layer and its neighbours), past ``band_bytes`` if need be."""
+    nx, ny, nz = lattice.dims
+    layer_bytes = nx * ny * (POINT_BYTES + JACOBIAN_BYTES)
+    fits = 4 * nx * ny * POINT_BYTES <= max_buffer
+    if lattice.grid < 2 or 3 * nx > side or ny > side or not fits:
+        return None
+    budget = min(band_bytes, max_buffer // POINT_BYTES * layer_bytes, side * layer_bytes)
+    budget = max(budget, 4 * layer_bytes)
+    cell_layers = band_layers(lattice, budget, jacobians=True)
+    return (3 * nx, ny, min(nz, cell_layers + 3)), budget
+
+
 class LatticeBands:
     """f on a lattice, held band by band of z layers in one buffer of at most ``band_bytes``.
 
@@ -99,7 +149,15 @@ class LatticeBands:
     once first and reduced on the GPU to the z range (source voxels) that each layer of
     cells reaches, so that each slab evaluates and scans only the layers that reach it
     (without, every slab takes every band). :attr:`box` (the box of every deformed point)
-    is known after a survey."""
+    is known after a survey.
+
+    With ``jacobians`` (a 3D RGBA32F texture of at least (3 nx, ny, :attr:`cell_layers` + 3)
+    texels),
+    each band is held with one more z layer of points on either side (where the lattice has
+    one), and f's inverse Jacobian at each of the band's own points is computed from its
+    neighbours' f into the texture (``volume/jacobians.comp.glsl``): the same values
+    whatever the bands, since every point's neighbours are held with it. ``band_bytes`` then
+    bounds the buffer and the texture together."""
 
     def __init__(
         self,
@@ -110,20 +168,18 @@ class LatticeBands:
         *,
         gl: GLContext,
         survey_out: moderngl.Buffer | None = None,
+        jacobians: moderngl.Texture3D | None = None,
     ) -> None:
-        nx, ny, nz = lattice.dims
+        nz = lattice.dims[2]
         self.field = field
         self.gl = gl
         self.survey_out = survey_out
+        self.jacobians = jacobians
         self.lattice = lattice
         self.buffer = buffer
-        layer_bytes = nx * ny * POINT_BYTES
-        self.cell_layers = max(1, band_bytes // layer_bytes - 1)  # cell layers a band holds
-        if band_bytes // layer_bytes < 2:
-            raise ValueError(
-                f"a layer of {nx} x {ny} lattice points does not fit twice in the lattice "
-                f"buffer of {band_bytes} bytes; use a coarser grid"
-            )
+        #: z layers of points held either side of a band's own (for the inverse Jacobians)
+        self.halo = 0 if jacobians is None else 1
+        self.cell_layers = band_layers(lattice, band_bytes, jacobians=jacobians is not None)
         if 6 * lattice.cell_count >= 0xFFFFFFFF:  # keys: 6 per cell, in 32 bits
             raise ValueError(
                 f"a lattice of {lattice.cell_count} cells is more than the construction "
@@ -131,6 +187,7 @@ class LatticeBands:
             )
         self.cells = nz - 1
         self.loaded: tuple[int, int] | None = None
+        self._held_first = 0
         #: per cell layer, the z range its deformed cells reach (None: not surveyed)
         self.low: np.ndarray | None = None
         self.high: np.ndarray | None = None
@@ -160,7 +217,10 @@ class LatticeBands:
             self.load(first, layers)
             self.buffer.bind_to_storage_buffer(bindings.VOLUME_LATTICE.index)
             out.bind_to_storage_buffer(bindings.VOLUME_SURVEY.index)
-            set_uniforms(survey, self.lattice.uniforms() | {"u_pieces": pieces})
+            skip = first - self._held_first  # halo layers before the band's own
+            set_uniforms(
+                survey, self.lattice.uniforms() | {"u_pieces": pieces, "u_skip_layers": skip}
+            )
             gl.mgl.memory_barrier()
             items = (layers + 1) * pieces
             run_groups(survey, items, max_groups=gl.limits["max_work_groups_x"])
@@ -189,12 +249,34 @@ class LatticeBands:
             held_first, held_layers = self.loaded
             if held_first <= first and first + layers <= held_first + held_layers:
                 return
-        self.field.fill(self.lattice, first, layers + 1, self.buffer)
+        low = max(0, first - self.halo)
+        high = min(self.cells, first + layers + self.halo)  # the last layer of points held
+        self.field.fill(self.lattice, low, high - low + 1, self.buffer)
         self.loaded = (first, layers)
+        self._held_first = low
+        if self.jacobians is not None:
+            self._invert(first, layers + 1)
+
+    def _invert(self, first: int, layers: int) -> None:
+        """f's inverse Jacobian at z layers of points ``first`` .. ``first + layers - 1``
+        (held with their neighbours) into :attr:`jacobians`."""
+        nx, ny, _ = self.lattice.dims
+        gl = self.gl
+        program = gl.compute("volume/jacobians.comp.glsl")
+        self.buffer.bind_to_storage_buffer(bindings.VOLUME_LATTICE.index)
+        self.jacobians.bind_to_image(  # type: ignore[union-attr]
+            bindings.VOLUME_JACOBIANS_OUT.index, read=False, write=True
+        )
+        uniforms = {"u_band_first": self._held_first, "u_first_layer": first}
+        set_uniforms(program, self.lattice.uniforms() | uniforms)
+        gl.mgl.memory_barrier()
+        run_1d(program, nx * ny * layers, max_groups=gl.limits["max_work_groups_x"])
+        gl.mgl.memory_barrier()
 
     @property
     def band_first(self) -> int:
-        return self.loaded[0] if self.loaded is not None else 0
+        """The first z layer of points held in the buffer (and the texture)."""
+        return self._held_first if self.loaded is not None else 0
 
     def bands_for(self, z_low: float, z_high: float) -> list[tuple[int, int]]:
         """The bands (first cell layer, layers) of the cell layers that reach z from

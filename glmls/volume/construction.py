@@ -30,7 +30,16 @@ from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import ScanPieces, fill_buffer, run_1d, set_uniforms
 from ..gl.resources import Resources
 from ..imaging.source import BORDERS
-from .bands import KEY_BYTES, POINT_BYTES, LatticeBands, Slab, border_margin3, survey_pieces
+from .bands import (
+    KEY_BYTES,
+    POINT_BYTES,
+    LatticeBands,
+    Slab,
+    band_layers,
+    border_margin3,
+    jacobian_band,
+    survey_pieces,
+)
 from .fields import Field
 from .frame import CornerLattice, VolumeFrame
 from .options import SlabOptions, VolumeOptions
@@ -67,11 +76,12 @@ class VolumeWarper:
 
     def release(self) -> None:
         """Free the cached GL objects. Idempotent."""
-        cached = getattr(self, "_target_texture", None)
-        if cached is not None and self._gl.usable:
-            with self._gl.use():
-                cached[1].release()
-        self._target_texture = None
+        for name in ("_target_texture", "_jacobian_texture"):
+            cached = getattr(self, name, None)
+            if cached is not None and self._gl.usable:
+                with self._gl.use():
+                    cached[1].release()
+            setattr(self, name, None)
         self._resources.release()
 
     # -- planning -------------------------------------------------------------------------
@@ -123,7 +133,9 @@ class VolumeWarper:
         texture = SourceTexture(self._gl, source, slabs.texture_bytes)
         try:
             survey = len(planned) > 1
-            bands = self._bands(field, source.shape, frame, options, slabs, survey=survey)
+            bands = self._bands(
+                field, source.shape, frame, options, slabs, survey=survey, backward=backward
+            )
             for slab in planned:
                 target = self._target(slab, source)
                 defines = {
@@ -172,7 +184,9 @@ class VolumeWarper:
         frame = make_volume_frame(options, shape)
         planned = list(self.slabs(frame, COORD_BYTES + SLOPE_BYTES, slabs.slab_bytes))
         points = np.empty((*frame.shape, 4), np.float32)
-        bands = self._bands(field, shape, frame, options, slabs, survey=len(planned) > 1)
+        bands = self._bands(
+            field, shape, frame, options, slabs, survey=len(planned) > 1, backward=True
+        )
         for slab in planned:
             coords = self._solve(field, bands, frame, slab, options, shape)
             raw = coords.read(size=slab.voxels * COORD_BYTES)
@@ -201,19 +215,48 @@ class VolumeWarper:
     def _max_groups(self) -> int:
         return self._gl.limits["max_work_groups_x"]
 
-    def _bands(self, field, shape, frame, options, slabs, *, survey=True) -> LatticeBands:
+    def _bands(
+        self, field, shape, frame, options, slabs, *, survey=True, backward=False
+    ) -> LatticeBands:
         lattice = CornerLattice(shape, options.grid)
         if options.border != "constant":
             lattice = CornerLattice(shape, options.grid, border_margin3(field, lattice, frame))
         nx, ny, nz = lattice.dims
         band_bytes = min(slabs.band_bytes, self._gl.limits["max_ssbo_size"])
-        size = min(band_bytes, nx * ny * nz * POINT_BYTES)
-        buffer = self._resources.buffer("volume_lattice", size)
+        jacobians = None
+        if backward:
+            planned = self._jacobians(lattice, slabs.band_bytes)
+            if planned is not None:
+                jacobians, band_bytes = planned
+        # the layers of points a band holds
+        held = band_layers(lattice, band_bytes, jacobians=jacobians is not None)
+        held = min(nz, held + (1 if jacobians is None else 3))
+        buffer = self._resources.buffer("volume_lattice", nx * ny * held * POINT_BYTES)
         out = None
         if survey:  # per piece of a z layer of points, its box (6 floats), a band at a time
-            layers = min(nz, max(1, band_bytes // (nx * ny * POINT_BYTES)))
-            out = self._resources.buffer("volume_survey", layers * survey_pieces(nx, ny) * 24)
-        return LatticeBands(field, lattice, buffer, band_bytes, gl=self._gl, survey_out=out)
+            out = self._resources.buffer("volume_survey", held * survey_pieces(nx, ny) * 24)
+        return LatticeBands(
+            field, lattice, buffer, band_bytes, gl=self._gl, survey_out=out, jacobians=jacobians
+        )
+
+    def _jacobians(
+        self, lattice: CornerLattice, band_bytes: int
+    ) -> tuple[moderngl.Texture3D, int] | None:
+        """The texture of :func:`~.bands.jacobian_band`'s plan, and the band's bytes."""
+        side = int(self._gl.mgl.info["GL_MAX_3D_TEXTURE_SIZE"])
+        plan = jacobian_band(lattice, band_bytes, self._gl.limits["max_ssbo_size"], side)
+        if plan is None:
+            return None
+        size, budget = plan
+        cached = getattr(self, "_jacobian_texture", None)
+        if cached is not None and cached[0] == size:
+            return cached[1], budget
+        if cached is not None:
+            cached[1].release()
+        texture = self._gl.mgl.texture3d(size, 4, dtype="f4")
+        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self._jacobian_texture = (size, texture)
+        return texture, budget
 
     def _cells(
         self,
@@ -252,7 +295,11 @@ class VolumeWarper:
             self._gl.mgl.memory_barrier()
             # with the pieces of large cells on llvmpipe (common/pieces.glsl)
             ScanPieces(self._gl).run_1d(raster, layers * ncx * ncy, max_groups=self._max_groups)
-        program = self._gl.compute("volume/resolve.comp.glsl", defines | {"VOLUME_COORDS": coords})
+        hermite = coords and bands.jacobians is not None
+        program = self._gl.compute(
+            "volume/resolve.comp.glsl",
+            defines | {"VOLUME_COORDS": coords, "VOLUME_HERMITE": hermite},
+        )
         set_uniforms(program, common | uniforms)
         # the last band rastered is still held: resolved first
         for index, (first, layers) in enumerate(wanted[::-1] or [(0, 0)]):
@@ -263,6 +310,8 @@ class VolumeWarper:
                 set_uniforms(program, {"u_source_first": held})
             bands.buffer.bind_to_storage_buffer(bindings.VOLUME_LATTICE.index)
             keys.bind_to_storage_buffer(bindings.VOLUME_KEYS.index)
+            if hermite:
+                bands.jacobians.use(bindings.VOLUME_JACOBIANS.index)  # type: ignore[union-attr]
             set_uniforms(
                 program,
                 {

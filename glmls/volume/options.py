@@ -82,7 +82,8 @@ class VolumeOptions:
         construction in 3D; where cells fold, the first cell in scan order of the source,
         smallest (z, y, x), shows). ``"backward"``: each output voxel samples the source at
         its preimage under f, found by Newton's method from the cells' piecewise linear
-        inverse (``grid`` is that first guess's lattice step).
+        inverse (``grid`` is that first guess's lattice step; from grid 2 it is corrected to
+        second order by f's inverse Jacobians at the lattice points).
     interpolation : {"nearest", "linear"}, default "nearest"
         One source voxel's value, or trilinear interpolation (float32).
     grid : int, default 1
@@ -205,9 +206,11 @@ class SlabOptions:
         The output slab's largest buffer (4 bytes a voxel for the keys, 16 for backward's
         source points).
     band_bytes : int, default 2**28
-        The deformed lattice's buffer (12 bytes a lattice point); the GL limit of a storage
-        buffer caps it (128 MiB on llvmpipe). The default holds the whole lattice of a 256^3
-        volume at grid 1 (204 MB), evaluated once.
+        The deformed lattice's buffer (12 bytes a lattice point; the backward method at grid
+        2 and above adds f's inverse Jacobians, 48 bytes a point, and holds at least four
+        layers of points); the GL limit of a storage buffer caps the buffer (128 MiB on
+        llvmpipe). The default holds the whole lattice of a 256^3 volume at grid 1 (204 MB),
+        evaluated once.
     texture_bytes : int, default 2**30
         The source volume's texture: a larger volume is held a range of slices at a time,
         those each slab (and each band of the lattice) samples.

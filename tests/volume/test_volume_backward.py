@@ -9,9 +9,15 @@ from volume_reference import inverse, sample
 
 from glmls import BORDERS
 from glmls.core.config import MLSConfig
-from glmls.volume import VolumeOptions, volume_bounds, volume_coordinate_map, warp_volume
+from glmls.volume import (
+    VolumeOptions,
+    kernel_field,
+    volume_bounds,
+    volume_coordinate_map,
+    warp_volume,
+)
 from glmls.volume.construction import VolumeWarper
-from glmls.volume.fields import ReferenceField
+from glmls.volume.fields import NEWTON_TOLERANCE, ReferenceField
 
 SHAPE = (9, 10, 12)
 
@@ -143,3 +149,28 @@ def test_the_facade_warps_volumes(gl, rng, volume):
     with glmls.MLS([[0, 0], [5, 3]], [[1, 0], [6, 3]], ctx=gl) as m2:
         with pytest.raises(ValueError, match="3D MLS"):
             m2.warp(volume)
+
+
+@pytest.mark.parametrize("grid, ratio", [(2, 8), (4, 3)])
+def test_the_first_guess_is_second_order(kernel3, monkeypatch, grid, ratio):
+    """At grid >= 2 Newton starts from the cells' piecewise linear inverse corrected by f's
+    inverse Jacobians at the tetrahedron's corners (docs/mathematics.md): with no Newton
+    step allowed, the guess's residual |f(s) - u| is a fraction of the linear guess's (the
+    more so the finer the lattice: third order against second), and at grid 2 within
+    Newton's tolerance at most voxels."""
+    shape = (32, 32, 32)
+    rng = np.random.default_rng(5)
+    src = rng.uniform(0, 31, (8, 3))
+    dst = src + rng.normal(0, 1.0, src.shape)
+    m = kernel3(src, dst, shape, transform="rigid")
+    monkeypatch.setattr(kernel_field, "NEWTON_STEPS", 0)  # f at the guess, no step
+    inner = (slice(4, -4),) * 3  # voxels that cells cover
+    _, second, _ = volume_coordinate_map(m, shape, grid=grid)
+    monkeypatch.setattr(VolumeWarper, "_jacobians", lambda *args: None)
+    _, linear, _ = volume_coordinate_map(m, shape, grid=grid)
+    second, linear = second[inner], linear[inner]
+    assert np.all(np.isfinite(second))
+    assert np.median(second) < np.median(linear) / ratio
+    assert np.percentile(second, 90) < np.percentile(linear, 90) / (ratio / 2)
+    if grid == 2:
+        assert np.mean(second <= NEWTON_TOLERANCE) > 0.5

@@ -20,6 +20,7 @@ layout(std430, binding = BIND_VOLUME_SURVEY) writeonly buffer VolumeSurvey {
 uniform int u_offset;   // the first item of this dispatch (from the band's first layer's)
 uniform int u_count;    // items: layers times u_pieces
 uniform int u_pieces;   // pieces a layer
+uniform int u_skip_layers;   // layers of points held before the band's first
 
 shared vec3 survey_low[LOCAL_SIZE];
 shared vec3 survey_high[LOCAL_SIZE];
@@ -33,7 +34,7 @@ void main() {
     vec3 low = vec3(uintBitsToFloat(0x7F800000u));   // +inf
     vec3 high = -low;
     if (item < u_count) {
-        int first = 3 * layer * points;
+        int first = 3 * (layer + u_skip_layers) * points;
         int end = min(points, (piece + 1) * VOLUME_SURVEY_PIECE);
         for (int k = piece * VOLUME_SURVEY_PIECE + lane; k < end; k += LOCAL_SIZE) {
             vec3 f = vec3(volume_lattice_f[first + 3 * k], volume_lattice_f[first + 3 * k + 1],
