@@ -13,10 +13,12 @@ Per chunk of images (:func:`chunk_size`):
    bottom;
 3. ``batch/resolve.frag.glsl``: ONE draw fills the atlas from the keys, sampling the sources
    as layers of one texture array (nearest: the key's source pixel; linear: the winning
-   triangle interpolated, then sampled bilinearly); for ``backward`` (:meth:`BatchQuads.backward`)
-   the draw writes the source points, ONE dispatch of ``warp/inverse.comp.glsl`` refines
-   them by Newton's method on each image's f, and ONE draw of ``batch/backward.frag.glsl``
-   samples the sources there;
+   triangle interpolated, then sampled bilinearly; where ``batch/check.comp.glsl`` shows a
+   bilinear image's mesh to be an embedding, the scan colours its pixels itself, without
+   keys, and the draw covers only the other images' rows: :mod:`.fill`); for ``backward``
+   (:meth:`BatchQuads.backward`) the draw writes the source points, ONE dispatch of
+   ``warp/inverse.comp.glsl`` refines them by Newton's method on each image's f, and ONE
+   draw of ``batch/backward.frag.glsl`` samples the sources there;
 4. ONE read-back of the atlas.
 
 Nearest 8-bit chunks take the fused scan on the caller's bytes instead
@@ -39,7 +41,13 @@ from ..core.mesh import MeshLattice
 from ..engine.passes import POINTS_PER_INVOCATION, evaluate_lattice
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
-from ..gl.dispatch import LOCAL_SIZE, LOCAL_SIZE_2D, ScanPieces, fill_buffer, set_uniforms
+from ..gl.dispatch import (
+    LOCAL_SIZE,
+    LOCAL_SIZE_2D,
+    ScanPieces,
+    fill_buffer,
+    set_uniforms,
+)
 from ..gl.resources import Resources, keep_framebuffer
 from ..gl.tables import TABLE_WIDTH, table_rows
 from ..imaging.frame import Frame
@@ -47,7 +55,8 @@ from ..imaging.inverse import NEWTON_ACCEPT, NEWTON_STEPS, NEWTON_TOLERANCE
 from ..imaging.options import WarpOptions
 from ..imaging.quads import key_layout
 from ..imaging.readback import read_rgba8
-from ..imaging.source import BORDERS, SourceImage, texture_data, texture_form
+from ..imaging.source import BORDERS, SourceImage, texture_form
+from .fill import SourceArrays, embedding_flags, runs, scan
 from .labels import MeshVertices
 
 __all__ = [
@@ -127,20 +136,6 @@ def fits(gl: GLContext, shape: tuple[int, int], frame: Frame, lattice: MeshLatti
     )
 
 
-def _texture_stack(sources: list[SourceImage]) -> np.ndarray:
-    """The sources' texture data (:func:`texture_data`) one after the other, converted as
-    one image (an RGB chunk to RGBA in one pass)."""
-    data = np.stack([s.data for s in sources])
-    return np.ascontiguousarray(texture_data(_stacked(sources[0], data)))
-
-
-def _stacked(first: SourceImage, data: np.ndarray) -> SourceImage:
-    """The chunk's data (N, H, W, C) as one tall image of ``first``'s form."""
-    count, height, width, channels = data.shape
-    tall = data.reshape(count * height, width, channels)
-    return SourceImage(tall, first.dtype, first.squeeze, first.normalized)
-
-
 def _read_coords(mgl, framebuffer, atlas, count: int, frame: Frame, covered: int):
     """An RGBA32F atlas of maps read back: (N, H, W, 2) source points and (N, H, W) bool
     covered (its channel ``covered``)."""
@@ -194,11 +189,14 @@ class BatchQuads:
     #: Nearest 8-bit chunks write the colours in the scan (fix-ups where triangles overlap,
     #: :mod:`glmls.batch.texels`) instead of a fill draw from the keys; tests take both ways.
     fused: bool = True
+    #: Bilinear chunks: the meshes shown to be embeddings are coloured by the scan, without
+    #: keys (``BATCH_CELLS_LINEAR``), the others by the fill draw; tests take both ways.
+    fused_linear: bool = True
 
     def __init__(self, gl: GLContext) -> None:
         self._gl = gl
         self._resources = Resources(gl, "the batch quads")
-        self._arrays: dict[tuple, moderngl.TextureArray] = {}
+        self._sources = SourceArrays(gl)
 
     @classmethod
     def of(cls, ctx: moderngl.Context | GLContext | None = None) -> BatchQuads:
@@ -213,9 +211,7 @@ class BatchQuads:
 
     def release(self) -> None:
         """Free the GL objects."""
-        for array in self._arrays.values():
-            array.release()
-        self._arrays.clear()
+        self._sources.release()
         self._resources.release()
 
     @current
@@ -263,7 +259,7 @@ class BatchQuads:
         mgl.memory_barrier()
         framebuffer = self._resources.framebuffer("coords", atlas, "f4")
         self._resources.fill(framebuffer.color_attachments[0], (0.0, 0.0, 0.0, 0.0))
-        self._resolve(values, atlas, framebuffer, None, winner, True, 0, coords=True)
+        self._resolve(values, atlas, framebuffer, winner, True, 0, coords=True)
         return framebuffer, atlas
 
     @current
@@ -336,7 +332,7 @@ class BatchQuads:
         with keep_framebuffer(mgl):
             target.use()
             target.viewport = (0, 0, *atlas)
-            array = self._sources(sources)
+            array = self._sources.upload(sources)
             mode = moderngl.LINEAR if linear else moderngl.NEAREST
             array.filter = (mode, mode)
             array.use(bindings.SOURCE.index)
@@ -366,58 +362,41 @@ class BatchQuads:
         values,
         atlas,
         framebuffer,
-        sources,
         winner,
         linear,
         border,
         *,
         coords=False,
-        labels: list[SourceImage] | None = None,
+        labels=False,
+        keyed: np.ndarray | None = None,
     ) -> None:
         """The atlas filled from the keys by one draw (batch/resolve.frag.glsl), the sources
-        read by the border rule ``border`` (its WARP_BORDER code); ``coords``: the source
-        points instead of colours (``sources`` unused). ``winner`` None: the keys of the
-        last resolve again. ``labels``: label images sampled at the keys' nearest source
-        pixels into the framebuffer's second attachment by the same draw."""
+        (bound by :meth:`_bind_sources`) read by the border rule ``border`` (its WARP_BORDER
+        code); ``coords``: the source points instead of colours. ``winner`` None: the keys
+        of the last resolve again. ``labels``: the label images sampled at the keys' nearest
+        source pixels into the framebuffer's second attachment by the same draw. ``keyed``
+        ((N,) bool): draw only the rows of those images (a draw over rows without keys
+        costs llvmpipe as much as one with them); None: every image."""
         gl, mgl = self._gl, self._gl.mgl
+        count = len(keyed) if keyed is not None else 1
+        drawn = [(0, count)] if keyed is None else runs(keyed)
+        if not drawn:
+            return
         keys = self._resources.texture("winner", atlas, 1, "u4")
         if winner is not None:
             keys.write(winner)
         with keep_framebuffer(mgl):
             framebuffer.use()
-            framebuffer.viewport = (0, 0, *atlas)
             defines = {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords, "WARP_BORDER": border}
-            defines["BATCH_RESOLVE_LABELS"] = labels is not None
+            defines["BATCH_RESOLVE_LABELS"] = labels
             program = gl.program("common/fullscreen.vert.glsl", "batch/resolve.frag.glsl", defines)
             set_uniforms(program, values)
-            if not coords:
-                array = self._sources(sources)
-                mode = moderngl.LINEAR if linear else moderngl.NEAREST
-                array.filter = (mode, mode)
-                array.use(bindings.SOURCE.index)
-            if labels is not None:
-                self._sources(labels, "labels").use(bindings.LABEL_SOURCES.index)
             keys.use(bindings.WINNER_TEXTURE.index)
             mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
-            self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
-
-    def _sources(self, sources: list[SourceImage], role: str = "images") -> moderngl.TextureArray:
-        """A texture array holding ``sources``, one of the two forms of ``role`` last used
-        (a chunk's images and its labels, drawn together, each have their own)."""
-        (width, height), components, dtype = texture_form(sources[0])
-        key = (role, width, height, len(sources), components, dtype)
-        if key not in self._arrays:
-            kept = [k for k in self._arrays if k[0] == role]
-            if len(kept) >= 2:
-                self._arrays.pop(kept[0]).release()
-            array = self._gl.mgl.texture_array(
-                (width, height, len(sources)), components, dtype=dtype
-            )
-            array.repeat_x = array.repeat_y = False
-            self._arrays[key] = array
-        array = self._arrays[key]
-        array.write(_texture_stack(sources))
-        return array
+            rows = atlas[1] // count  # an image's
+            for first, end in drawn:  # gl_FragCoord stays the atlas's pixel
+                framebuffer.viewport = (0, first * rows, atlas[0], (end - first) * rows)
+                self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
 
     @property
     def resources(self) -> Resources:
@@ -462,10 +441,7 @@ class BatchQuads:
     def folded(self, count: int) -> np.ndarray:
         """(N,) bool: the meshes of the last chunk of :func:`~glmls.batch.texels.warp_texels`
         that ``batch/check.comp.glsl`` did not show to be embeddings."""
-        self._gl.mgl.memory_barrier()
-        raw = self._resources.cached("check").read(size=16 * count)
-        counts = np.frombuffer(raw, np.uint32).reshape(count, 4)
-        return (counts[:, 0] != 0) | (counts[:, 1] != 0) | (counts[:, 2] != 1)
+        return embedding_flags(self._gl, self._resources, count)
 
     @current
     def warp(
@@ -521,20 +497,25 @@ class BatchQuads:
         }
         mgl.memory_barrier()
         framebuffer = self._atlas("atlas", source, atlas, background)
-        cells = (lattice.dims[0] - 1) * (lattice.dims[1] - 1)
-        scan = gl.compute("batch/cells.comp.glsl", {"WARP_CELLS_SOURCE": nearest_keys})
-        set_uniforms(scan, values)
+        label_sources, label_buffer = None, None
+        if labels is not None:
+            label_sources, zero = labels
+            label_buffer = self._atlas("labels atlas", label_sources[0], atlas, zero)
         winner.bind_to_storage_buffer(bindings.WINNER.index)
-        max_groups = gl.limits["max_work_groups_x"]
-        ScanPieces(gl).run_1d(scan, cells * count, max_groups=max_groups)  # 2.
-        mgl.memory_barrier()
+        self._sources.bind(sources, label_sources, linear)
+        targets = [framebuffer, label_buffer]
+        targets = [None if t is None else t.color_attachments[0] for t in targets]
         border = BORDERS.index(options.border)
+        keys_form = (nearest_keys, linear, border)  # 2.
+        fused = self.fused_linear
+        keyed = scan(gl, self._resources, values, lattice, count, keys_form, targets, fused=fused)
+        mgl.memory_barrier()
+        fill = (winner, linear, border)
         if labels is None:
-            self._resolve(values, atlas, framebuffer, sources, winner, linear, border)  # 3.
+            self._resolve(values, atlas, framebuffer, *fill, keyed=keyed)  # 3.
             return _read_atlas(mgl, framebuffer, atlas, source, count, frame)  # 4.
-        label_sources, zero = labels  # 3. into a second attachment of the same draw
-        label_buffer = self._atlas("labels atlas", label_sources[0], atlas, zero)
+        # 3. into a second attachment of the same draw
         both = self._resources.attached("atlas and labels", ("atlas", "labels atlas"))
-        self._resolve(values, atlas, both, sources, winner, linear, border, labels=label_sources)
+        self._resolve(values, atlas, both, *fill, labels=True, keyed=keyed)
         out = _read_atlas(mgl, framebuffer, atlas, source, count, frame)  # 4.
         return out, _read_atlas(mgl, label_buffer, atlas, label_sources[0], count, frame)

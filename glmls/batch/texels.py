@@ -31,14 +31,13 @@ from ..gl.tables import TABLE_WIDTH, table_rows
 from ..imaging.frame import Frame
 from ..imaging.options import PipelineOptions, WarpOptions
 from ..imaging.quads import key_layout
+from .fill import check_embeddings
 from .gpu import BatchQuads, mesh_capacity, mesh_stride
 
 __all__ = ["FAST_PASS", "chunk_size", "takes", "warp_texels"]
 
 #: The fix-up list's header before a scan: no pixel listed, an indirect dispatch of none.
 _NO_FIXUPS = np.array([0, 0, 0, 1], np.uint32).tobytes()
-#: The scans' lists before the test: no image listed, indirect dispatches of none.
-_NO_LISTS = np.array([0, 1, 1, 0, 0, 1, 1, 0, 0, 0, 0, 0], np.uint32).tobytes()
 #: Scan the images whose mesh is an embedding by a program of their own (both triangles of
 #: every cell positive, no keys: the single warp's fast pass), the others by the keyed one;
 #: else one program takes every image, keys or not decided per image. Tests take both ways.
@@ -120,7 +119,7 @@ def warp_texels(
     tables.bind_image("batch source", bindings.BATCH_SOURCE.index)
     if labelled:
         tables.write("batch labels", _words(labels), None)
-        tables.bind_image("batch labels", bindings.BATCH_LABEL_WORDS.index)
+        tables.bind_image("batch labels", bindings.BATCH_LABEL_IMAGE.index)
     out_w, out_h = frame.size
     pixels = out_w * out_h * count
     values = {
@@ -136,23 +135,7 @@ def warp_texels(
         "u_row_shift": row_shift,
     }
     max_groups = gl.limits["max_work_groups_x"]
-    check = resources.buffer("check", 16 * count)
-    check.write(bytes(16 * count))
-    lists = resources.buffer("lists", len(_NO_LISTS) + 8 * count)
-    lists.write(_NO_LISTS)
-    for binding, buffer in (
-        (bindings.BATCH_CHECK, check),
-        (bindings.BATCH_LISTS, lists),
-    ):
-        buffer.bind_to_storage_buffer(binding.index)
-    columns, rows = lattice.dims
-    per_image = (columns - 1) * (rows - 1) + 2 * (columns - 1) + 2 * (rows - 1)
-    mgl.memory_barrier()
-    for stage, items in ((1, per_image * count), (2, count)):  # 2. which are embeddings
-        tests = gl.compute("batch/check.comp.glsl", {"BATCH_CHECK_STAGE": stage})
-        set_uniforms(tests, values)
-        run_1d(tests, items, max_groups=max_groups)
-        mgl.memory_barrier()
+    lists = check_embeddings(gl, resources, values, lattice, count)  # 2.
     winner = resources.buffer("winner", 4 * pixels)
     fill_buffer(gl, winner, 4 * pixels)
     atlas = _atlas(resources, pixels, background, gl.limits["max_texture_size"])
@@ -163,6 +146,7 @@ def warp_texels(
     winner.bind_to_storage_buffer(bindings.WINNER.index)
     fixups.bind_to_storage_buffer(bindings.FIXUPS.index)
     bindings.bind_texels(atlas, bindings.TEXEL_TARGET, write=True)
+    columns, rows = lattice.dims
     cells = (columns - 1) * (rows - 1)
     mgl.memory_barrier()
     pieces = ScanPieces(gl)  # large cells on llvmpipe (common/pieces.glsl)

@@ -102,7 +102,12 @@ TEXEL_SOURCE = Binding("TEXEL_SOURCE", "image", 2, "the RGBA8 source as r32ui (b
 TEXEL_TARGET = Binding("TEXEL_TARGET", "image", 3, "the RGBA8 target as r32ui (bind_texels)")
 VOLUME_TARGET = Binding("VOLUME_TARGET", "image", 4, "volumes: the output slab")
 BATCH_SOURCE = Binding("BATCH_SOURCE", "image", 5, "batches: the chunk's bytes, a uint32 table")
-BATCH_LABEL_WORDS = Binding("BATCH_LABEL_WORDS", "image", 6, "batches: its labels' bytes, too")
+BATCH_LABEL_IMAGE = Binding(
+    "BATCH_LABEL_IMAGE",
+    "image",
+    6,
+    "batches: the labels' bytes (r32ui), or their atlas a scan writes",
+)
 # the last of the 8 image units NVIDIA's drivers give
 VOLUME_JACOBIANS_OUT = Binding(
     "VOLUME_JACOBIANS_OUT", "image", 7, "volumes: the inverse Jacobians being written"
@@ -164,7 +169,7 @@ ALL = (
     TEXEL_TARGET,
     VOLUME_TARGET,
     BATCH_SOURCE,
-    BATCH_LABEL_WORDS,
+    BATCH_LABEL_IMAGE,
     VOLUME_JACOBIANS_OUT,
 )
 

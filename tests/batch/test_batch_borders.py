@@ -250,3 +250,37 @@ def test_chunks_keep_their_tables_within_the_texture_size(gl, rng, monkeypatch):
     got = glmls.warp_batch(batch, src, dst, grid=4)
     assert len(chunks) == 2 and max(chunks) * (SHAPE[0] * SHAPE[1] + 1) <= 8192 * 33, chunks
     np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("border", ["constant", "edge", "reflect"])
+def test_bilinear_embeddings_are_coloured_by_the_scan(gl, rng, monkeypatch, border):
+    """Bilinear chunks: the images whose meshes are embeddings are coloured by the scan
+    itself, no keys kept, and the fill draw runs over the other images' rows only; either
+    way, interleaved, the images and their masks equal the single warps, bit for bit."""
+    batch, src, dst = draw(rng, 6, spreads=(1.0,))
+    folding = [1, 3, 4]
+    dst[folding, :2] = dst[folding, 2:4]  # handles swapped over: those meshes fold
+    masks = rng.integers(0, 6, (6, *SHAPE)).astype(np.uint8)
+    options = {"interpolation": "linear", "grid": 2, "border": border}
+    want = single_path(monkeypatch, batch, src, dst, masks=masks, **options)
+    drawn: list[list[bool]] = []
+    original = BatchQuads._resolve
+
+    def resolve(self, *args, keyed=None, **kwargs):
+        drawn.append(None if keyed is None else keyed.tolist())
+        return original(self, *args, keyed=keyed, **kwargs)
+
+    monkeypatch.setattr(BatchQuads, "_resolve", resolve)
+    for fused in (True, False):
+        monkeypatch.setattr(BatchQuads, "fused_linear", fused)
+        drawn.clear()
+        got = glmls.warp_batch(batch, src, dst, masks=masks, **options)
+        np.testing.assert_array_equal(got.images, want.images, err_msg=f"fused {fused}")
+        np.testing.assert_array_equal(got.masks, want.masks, err_msg=f"fused {fused}")
+        if not fused:
+            assert drawn and all(keyed is None for keyed in drawn)
+            continue
+        flags = [flag for keyed in drawn for flag in keyed]
+        assert sorted(flags) == [False] * 3 + [True] * 3
+        if border == "constant":  # one chunk, in order
+            assert drawn == [[i in folding for i in range(6)]]

@@ -14,7 +14,7 @@
 
 layout(r32ui, binding = BIND_BATCH_SOURCE) readonly uniform uimage2D batch_source_words;
 #if BATCH_LABELS
-layout(r32ui, binding = BIND_BATCH_LABEL_WORDS) readonly uniform uimage2D batch_label_words;
+layout(r32ui, binding = BIND_BATCH_LABEL_IMAGE) readonly uniform uimage2D batch_label_words;
 #endif
 layout(r32ui, binding = BIND_TEXEL_TARGET) writeonly uniform uimage2D batch_atlas_image;
 uniform int u_atlas_width;

@@ -16,6 +16,13 @@
 // twice (BATCH_CELLS_PASS 1 scans only them, the single warp's fast pass). WARP_SOURCE_BYTES:
 // the sources are the caller's bytes and the atlas a texture filled with the background
 // beforehand (batch/bytes.glsl), so an embedding's scan writes its texels and nothing else.
+// BATCH_CELLS_LINEAR (bilinear images, with BATCH_CELLS_PASS): the embeddings' scan (1)
+// colours each covered pixel itself, no key kept: the source point as batch/resolve.frag.glsl
+// computes it from a key (batch_source_point), sampled as it samples (batch/sample.glsl),
+// stored into the atlas (TEXEL_TARGET, in the atlas's format BATCH_ATLAS_FORMAT: an image
+// store converts to 8 bits as a framebuffer write does) and, with BATCH_CELLS_LABELS, the
+// label image at the key's nearest source pixel into the labels' atlas; the others' scan (2)
+// keeps the keys, which the resolve draw then fills.
 // A cell too large for one invocation on a driver that caps its loops (llvmpipe) is walked
 // in pieces by more invocations (common/pieces.glsl).
 layout(local_size_x = LOCAL_SIZE) in;
@@ -29,6 +36,12 @@ layout(local_size_x = LOCAL_SIZE) in;
 #ifndef BATCH_CELLS_PASS
 #define BATCH_CELLS_PASS 0
 #endif
+#ifndef BATCH_CELLS_LINEAR
+#define BATCH_CELLS_LINEAR 0
+#endif
+#ifndef BATCH_CELLS_LABELS
+#define BATCH_CELLS_LABELS 0
+#endif
 
 #include "common/groups.glsl"
 #include "common/lattice.glsl"
@@ -38,10 +51,23 @@ layout(local_size_x = LOCAL_SIZE) in;
 #if WARP_CELLS_FUSED
 uniform ivec2 u_source_size;  // W, H of one source image
 #include "warp/cells_packed.glsl"
+#endif
+#if WARP_CELLS_FUSED || BATCH_CELLS_LINEAR
 layout(std430, binding = BIND_BATCH_CHECK) readonly buffer BatchCheck {
     uvec4 batch_check[];   // per image, batch/check.comp.glsl's counts
 };
 #include "batch/lists.glsl"
+#endif
+#if BATCH_CELLS_LINEAR && BATCH_CELLS_PASS == 1
+layout(binding = BIND_SOURCE) uniform sampler2DArray u_sources;
+uniform ivec2 u_source_size;  // W, H of one source image
+#include "batch/sample.glsl"
+layout(BATCH_ATLAS_FORMAT, binding = BIND_TEXEL_TARGET) writeonly uniform image2D batch_atlas;
+#if BATCH_CELLS_LABELS
+layout(binding = BIND_LABEL_SOURCES) uniform sampler2DArray u_label_sources;
+layout(BATCH_LABEL_FORMAT, binding = BIND_BATCH_LABEL_IMAGE) writeonly uniform image2D
+    batch_label_atlas;
+#endif
 #endif
 
 layout(std430, binding = BIND_WINNER) buffer WarpWinner {
@@ -58,7 +84,7 @@ uniform int u_row_shift;
 void main() {
     int cells_x = u_mesh_dims.x - 1;
     int cells = cells_x * (u_mesh_dims.y - 1);
-#if WARP_CELLS_FUSED && BATCH_CELLS_PASS != 0
+#if (WARP_CELLS_FUSED || BATCH_CELLS_LINEAR) && BATCH_CELLS_PASS != 0
     // the cells of the images listed for this scan (an indirect dispatch, batch/lists.glsl)
     int item = int(dispatch_item());
     int listed = item / cells;
@@ -177,6 +203,10 @@ void main() {
             }
         }
         id = in_row ? id : 0u;
+#if BATCH_CELLS_LINEAR && BATCH_CELLS_PASS == 1
+        // the triangle of id, as a key names it: 0 (00, 10, 11), 1 (00, 11, 01)
+        bool second = id == id1;
+#endif
 #if WARP_CELLS_SOURCE
         ivec2 sp = clamp(ivec2(floor(s00 + t * size + 0.5)), cell_lo, cell_hi) - cell_lo;
         id -= id != 0u ? uint(sp.y << u_sub_bits | sp.x) : 0u;
@@ -202,6 +232,20 @@ void main() {
                 warp_fixups[n] = uint(i);
             }
             warp_fixup_listed(n, uint(u_images * u_target_size.x * u_target_size.y));
+        }
+#elif BATCH_CELLS_LINEAR && BATCH_CELLS_PASS == 1
+        if (id != 0u) {   // no other triangle covers it: no key to keep
+            ivec2 kb = second ? ivec2(1, 1) : ivec2(1, 0);
+            ivec2 kc = second ? ivec2(0, 1) : ivec2(1, 1);
+            vec2 s = batch_source_point(p00, second ? p11 : p10, second ? p01 : p11, c00, kb,
+                                        kc, p);
+            ivec2 at = ivec2(column, k * u_target_size.y + y);
+            imageStore(batch_atlas, at, batch_sample(s + vec2(u_lattice_offset), k));
+#if BATCH_CELLS_LABELS
+            // the key's source pixel, as batch/resolve.frag.glsl reads the labels there
+            ivec2 nearest = border_pixel(cell_lo + sp + u_lattice_offset, u_source_size);
+            imageStore(batch_label_atlas, at, texelFetch(u_label_sources, ivec3(nearest, k), 0));
+#endif
         }
 #else
         atomicMax(warp_winner[i], id);

@@ -1,5 +1,6 @@
 // Fills the atlas of a batch's output canvases (image k's rows k * H .. k * H + H - 1) from
-// the winner keys of batch/cells.comp.glsl, as warp/cells_nearest.frag.glsl (nearest: the
+// the winner keys of batch/cells.comp.glsl (pixels without a key, the background or, with
+// BATCH_CELLS_LINEAR, those the scan coloured itself, are left as they are), as warp/cells_nearest.frag.glsl (nearest: the
 // key's source pixel) and warp/cells.frag.glsl (linear: the winning triangle interpolated at
 // the pixel centre, then sampled bilinearly) fill a single image's canvas; the sources are
 // the layers of one texture array, read past the image by the border rule WARP_BORDER (the
@@ -68,16 +69,7 @@ void main() {
     vec2 a = batch_vertex_px(k, g);
     vec2 b = batch_vertex_px(k, g + kb);
     vec2 d = batch_vertex_px(k, g + kc);
-    vec2 x = vec2(p);
-    float area = (b.x - a.x) * (d.y - a.y) - (b.y - a.y) * (d.x - a.x);
-    float nb = (x.x - a.x) * (d.y - a.y) - (x.y - a.y) * (d.x - a.x);   // lb * area
-    float nd = (b.x - a.x) * (x.y - a.y) - (b.y - a.y) * (x.x - a.x);   // ld * area
-    // the corner 00 plus the offset in the cell, as warp/cells.frag.glsl computes it
-    vec2 s00 = lattice_corner(g);
-    vec2 sb = lattice_corner(g + kb) - s00;
-    vec2 sd = lattice_corner(g + kc) - s00;
-    vec2 s = s00 + (sb * nb + sd * nd) / area;
-    s += vec2(u_lattice_offset);
+    vec2 s = batch_source_point(a, b, d, g, kb, kc, vec2(p)) + vec2(u_lattice_offset);
 #if WARP_OUTPUT_COORDS
     out_color = vec4(s, 1.0, 0.0);   // the source point itself (the map of the output pixels)
 #else

@@ -17,9 +17,9 @@ uniform int u_first_layer;  // the first layer of points computed
 
 // J's column along axis k at point a: its neighbours' difference over their distance
 vec3 volume_jacobian_column(ivec3 a, int k) {
-    ivec3 step = ivec3(equal(ivec3(k), ivec3(0, 1, 2)));
-    ivec3 lo = max(a - step, ivec3(0));
-    ivec3 hi = min(a + step, u_lattice_dims - 1);
+    ivec3 unit = ivec3(equal(ivec3(k), ivec3(0, 1, 2)));
+    ivec3 lo = max(a - unit, ivec3(0));
+    ivec3 hi = min(a + unit, u_lattice_dims - 1);
     float span = volume_lattice_point(hi)[k] - volume_lattice_point(lo)[k];
     return (volume_deformed(hi) - volume_deformed(lo)) / span;
 }
