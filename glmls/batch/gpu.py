@@ -41,13 +41,7 @@ from ..core.mesh import MeshLattice
 from ..engine.passes import POINTS_PER_INVOCATION, evaluate_lattice
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
-from ..gl.dispatch import (
-    LOCAL_SIZE,
-    LOCAL_SIZE_2D,
-    ScanPieces,
-    fill_buffer,
-    set_uniforms,
-)
+from ..gl.dispatch import LOCAL_SIZE, LOCAL_SIZE_2D, ScanPieces, fill_buffer, set_uniforms
 from ..gl.resources import Resources, keep_framebuffer
 from ..gl.tables import TABLE_WIDTH, table_rows
 from ..imaging.frame import Frame
@@ -332,10 +326,7 @@ class BatchQuads:
         with keep_framebuffer(mgl):
             target.use()
             target.viewport = (0, 0, *atlas)
-            array = self._sources.upload(sources)
-            mode = moderngl.LINEAR if linear else moderngl.NEAREST
-            array.filter = (mode, mode)
-            array.use(bindings.SOURCE.index)
+            self._sources.bind(sources, None, linear)
             coords.use(bindings.COORDS.index)
             mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
             self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
@@ -371,12 +362,12 @@ class BatchQuads:
         keyed: np.ndarray | None = None,
     ) -> None:
         """The atlas filled from the keys by one draw (batch/resolve.frag.glsl), the sources
-        (bound by :meth:`_bind_sources`) read by the border rule ``border`` (its WARP_BORDER
-        code); ``coords``: the source points instead of colours. ``winner`` None: the keys
-        of the last resolve again. ``labels``: the label images sampled at the keys' nearest
-        source pixels into the framebuffer's second attachment by the same draw. ``keyed``
-        ((N,) bool): draw only the rows of those images (a draw over rows without keys
-        costs llvmpipe as much as one with them); None: every image."""
+        (bound by :meth:`.fill.SourceArrays.bind`) read by the border rule ``border`` (its
+        WARP_BORDER code); ``coords``: the source points instead of colours. ``winner``
+        None: the keys of the last resolve again. ``labels``: the label images sampled at
+        the keys' nearest source pixels into the framebuffer's second attachment by the same
+        draw. ``keyed`` ((N,) bool): draw only the rows of those images (a draw over rows
+        without keys costs llvmpipe as much as one with them); None: every image."""
         gl, mgl = self._gl, self._gl.mgl
         count = len(keyed) if keyed is not None else 1
         drawn = [(0, count)] if keyed is None else runs(keyed)

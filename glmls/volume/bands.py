@@ -152,12 +152,12 @@ class LatticeBands:
     is known after a survey.
 
     With ``jacobians`` (a 3D RGBA32F texture of at least (3 nx, ny, :attr:`cell_layers` + 3)
-    texels),
-    each band is held with one more z layer of points on either side (where the lattice has
-    one), and f's inverse Jacobian at each of the band's own points is computed from its
-    neighbours' f into the texture (``volume/jacobians.comp.glsl``): the same values
-    whatever the bands, since every point's neighbours are held with it. ``band_bytes`` then
-    bounds the buffer and the texture together."""
+    texels, :func:`jacobian_band`), each band is held with one more z layer of points on
+    either side (where the lattice has one), and f's inverse Jacobian at each of the band's
+    own points is computed from its neighbours' f into the texture
+    (``volume/jacobians.comp.glsl``): the same values whatever the bands, since every
+    point's neighbours are held with it. ``band_bytes`` then bounds the buffer and the
+    texture together."""
 
     def __init__(
         self,

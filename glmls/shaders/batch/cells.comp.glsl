@@ -18,7 +18,7 @@
 // beforehand (batch/bytes.glsl), so an embedding's scan writes its texels and nothing else.
 // BATCH_CELLS_LINEAR (bilinear images, with BATCH_CELLS_PASS): the embeddings' scan (1)
 // colours each covered pixel itself, no key kept: the source point as batch/resolve.frag.glsl
-// computes it from a key (batch_source_point), sampled as it samples (batch/sample.glsl),
+// computes it from a key (lattice_source_point), sampled as it samples (batch/sample.glsl),
 // stored into the atlas (TEXEL_TARGET, in the atlas's format BATCH_ATLAS_FORMAT: an image
 // store converts to 8 bits as a framebuffer write does) and, with BATCH_CELLS_LABELS, the
 // label image at the key's nearest source pixel into the labels' atlas; the others' scan (2)
@@ -237,7 +237,7 @@ void main() {
         if (id != 0u) {   // no other triangle covers it: no key to keep
             ivec2 kb = second ? ivec2(1, 1) : ivec2(1, 0);
             ivec2 kc = second ? ivec2(0, 1) : ivec2(1, 1);
-            vec2 s = batch_source_point(p00, second ? p11 : p10, second ? p01 : p11, c00, kb,
+            vec2 s = lattice_source_point(p00, second ? p11 : p10, second ? p01 : p11, c00, kb,
                                         kc, p);
             ivec2 at = ivec2(column, k * u_target_size.y + y);
             imageStore(batch_atlas, at, batch_sample(s + vec2(u_lattice_offset), k));

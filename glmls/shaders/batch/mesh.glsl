@@ -19,18 +19,3 @@ vec2 batch_vertex_px(int k, ivec2 ij) {
     vec2 scaled = TABLE_FETCH(batch_mesh_table, k * u_mesh_stride + ij.y * u_mesh_dims.x + ij.x).xy;
     return scaled * sc.z + sc.xy - u_origin;
 }
-
-// The source point (lattice pixels, before u_lattice_offset) at output pixel x of the triangle
-// (a, b, d) of cell g whose corners are the mesh vertices g, g + kb, g + kc: the corner 00
-// plus the offset in the cell, as warp/cells.frag.glsl computes it for a single image (needs
-// common/lattice.glsl). batch/resolve.frag.glsl and the bilinear scan of the embeddings
-// (batch/cells.comp.glsl, BATCH_CELLS_LINEAR) share it, so that both give the same floats.
-vec2 batch_source_point(vec2 a, vec2 b, vec2 d, ivec2 g, ivec2 kb, ivec2 kc, vec2 x) {
-    float area = (b.x - a.x) * (d.y - a.y) - (b.y - a.y) * (d.x - a.x);
-    float nb = (x.x - a.x) * (d.y - a.y) - (x.y - a.y) * (d.x - a.x);   // lb * area
-    float nd = (b.x - a.x) * (x.y - a.y) - (b.y - a.y) * (x.x - a.x);   // ld * area
-    vec2 s00 = lattice_corner(g);
-    vec2 sb = lattice_corner(g + kb) - s00;
-    vec2 sd = lattice_corner(g + kc) - s00;
-    return s00 + (sb * nb + sd * nd) / area;
-}

@@ -69,7 +69,7 @@ void main() {
     vec2 a = batch_vertex_px(k, g);
     vec2 b = batch_vertex_px(k, g + kb);
     vec2 d = batch_vertex_px(k, g + kc);
-    vec2 s = batch_source_point(a, b, d, g, kb, kc, vec2(p)) + vec2(u_lattice_offset);
+    vec2 s = lattice_source_point(a, b, d, g, kb, kc, vec2(p)) + vec2(u_lattice_offset);
 #if WARP_OUTPUT_COORDS
     out_color = vec4(s, 1.0, 0.0);   // the source point itself (the map of the output pixels)
 #else

@@ -26,10 +26,6 @@ uniform int u_row_shift;
 
 layout(location = 0) out vec4 out_color;
 
-vec2 source_point(ivec2 ij) {
-    return lattice_corner(ij);
-}
-
 void main() {
     ivec2 p = warp_target_pixel();
     uint id = texelFetch(u_winner, p, 0).r;
@@ -50,20 +46,8 @@ void main() {
     vec2 a = warp_output_point(texelFetch(u_mesh, c, 0).xy);
     vec2 b = warp_output_point(texelFetch(u_mesh, c + kb, 0).xy);
     vec2 d = warp_output_point(texelFetch(u_mesh, c + kc, 0).xy);
-    // barycentric coordinates of the pixel centre
-    vec2 x = vec2(p);
-    float area = (b.x - a.x) * (d.y - a.y) - (b.y - a.y) * (d.x - a.x);
-    float nb = (x.x - a.x) * (d.y - a.y) - (x.y - a.y) * (d.x - a.x);   // lb * area
-    float nd = (b.x - a.x) * (x.y - a.y) - (b.y - a.y) * (x.x - a.x);   // ld * area
-    // The source point: the corner 00 (exact) plus the offset in the cell, whose size is a
-    // few pixels, so that its rounding is too (~1e-7 px). Weighting the corners' absolute
-    // positions by the barycentrics instead rounds at their magnitude (0.001 px at 16384
-    // px), enough to leave a bilinear weight on the neighbouring texel where the identity
-    // should give the input exactly. One division, last: exact where the map is.
-    vec2 s00 = source_point(g);
-    vec2 sb = source_point(g + kb) - s00;
-    vec2 sd = source_point(g + kc) - s00;
-    vec2 s = s00 + (sb * nb + sd * nd) / area;
+    // the source point at the pixel centre, in the triangle
+    vec2 s = lattice_source_point(a, b, d, g, kb, kc, vec2(p));
 #if WARP_OUTPUT_COORDS
     out_color = vec4(s + vec2(u_lattice_offset), 1.0, 0.0);   // source pixels
 #else
