@@ -220,3 +220,21 @@ def _subscript_of_program(call: ast.Call) -> bool:
     """``program["u_..."].write(...)``: a uniform member written raw."""
     owner = call.func.value  # type: ignore[attr-defined]
     return isinstance(owner, ast.Subscript) and isinstance(owner.slice, ast.Constant)
+
+
+def test_importing_glmls_leaves_the_heavy_libraries_for_later():
+    """``import glmls`` (and the command line's module) load no scipy and no optional
+    library: every process that warps (a data loader's spawned worker, each CLI call) pays
+    the import, and scipy alone takes most of a second. They load where a call needs them."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, glmls, glmls.cli\n"
+        "heavy = ('scipy', 'torch', 'albumentations', 'dask', 'nibabel', 'trimesh', 'glfw')\n"
+        "print(sorted({m.split('.')[0] for m in sys.modules} & set(heavy)))\n"
+    )
+    found = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
+    )
+    assert found.stdout.strip() == "[]", found.stdout

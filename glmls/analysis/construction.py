@@ -18,7 +18,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from ..core.handles import as_points
 from ..imaging.source import BORDERS, check_image
@@ -269,6 +268,8 @@ def _inverse(matrices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _sample(image: np.ndarray, xy: np.ndarray, mode: str) -> np.ndarray:
     """Bilinear samples (..., C) of (H, W, C) float64 ``image`` at (x, y) points (..., 2)."""
+    from scipy import ndimage  # here: scipy's import takes most of ``import glmls``'s time
+
     coordinates = [xy[..., 1].ravel(), xy[..., 0].ravel()]
     channels = [
         ndimage.map_coordinates(image[..., c], coordinates, order=1, mode=mode, prefilter=False)

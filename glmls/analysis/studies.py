@@ -33,7 +33,6 @@ from pathlib import Path
 
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
-from scipy.stats import kendalltau
 
 from ..core.config import MLSConfig, check_seed, image_diagonal
 from ..data.manifest import StudyItem
@@ -402,6 +401,8 @@ def _number(value: object) -> float | None:
 def rank_agreement(rows: list[dict], names: list[str]) -> dict:
     """Kendall's tau between each pair of images (over the configurations ranked on both),
     their mean, and Kendall's W over all images (over the configurations ranked on all)."""
+    from scipy.stats import kendalltau  # here: scipy.stats takes ~0.7 s to import
+
     pairs = []
     matrix = [[1.0 if a == b else None for b in names] for a in names]
     for (i, a), (j, b) in itertools.combinations(enumerate(names), 2):

@@ -22,7 +22,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import Delaunay, QhullError
 
 from ..core.handles import as_points
 from .stats import error_stats
@@ -145,6 +144,8 @@ def delaunay(points: object) -> tuple[np.ndarray, np.ndarray]:
 def qhull_simplices(r: np.ndarray, name: str) -> np.ndarray:
     """Qhull's Delaunay simplices of the checked points ``r`` (2D or 3D), int64; ``ValueError``
     where Qhull fails or leaves points out (near-duplicates) of the ``name`` it makes."""
+    from scipy.spatial import Delaunay, QhullError  # here: a slow import most calls never need
+
     try:
         tri = Delaunay(r)
     except QhullError as error:

@@ -32,7 +32,6 @@ import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
-from scipy.stats import rankdata
 
 from ..core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig, check_seed, image_diagonal
 from ..core.handleset import HandleSet
@@ -244,6 +243,8 @@ def _tier(row: dict) -> int:
 
 def _score_group(rows: list[dict]) -> None:
     """Each criterion's ranks per trial among ``rows``, and the weighted mean rank."""
+    from scipy.stats import rankdata  # here: scipy.stats takes ~0.7 s to import
+
     if not rows:
         return
     trials = len(rows[0]["_trials"])

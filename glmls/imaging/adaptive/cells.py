@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ...engine.kernel import MLSKernel
 from ...engine.passes import evaluate_points
@@ -114,6 +113,8 @@ def known_points(kernel: MLSKernel, shape: tuple[int, int]) -> tuple[np.ndarray,
     parts = [sources] if power is not None and power < 1.0 else []
     parts += _along(kernel.segment_sources, SEGMENT_STEP)
     if power is not None and power > MAX_SMOOTH_ALPHA and len(sources) > 1:
+        from scipy.spatial import cKDTree  # here: scipy.spatial takes ~0.3 s to import
+
         pairs = cKDTree(sources).query_pairs(PAIR_REACH, output_type="ndarray")
         a, b = sources[pairs[:, 0]], sources[pairs[:, 1]]
         parts += [a + t * (b - a) for t in (0.25, 0.5, 0.75)]

@@ -121,11 +121,8 @@ void main() {
     ivec3 lo = cell * u_lattice_grid - u_lattice_margin;
     ivec3 hi = min(lo + u_lattice_grid - 1, u_volume_size + u_lattice_margin - 1);
 #if VOLUME_COORDS
-    // d s / d p = S E^-1: source edges over deformed edges
-    mat3 deformed = mat3(yb - y0, yc - y0, yd - y0);
-    mat3 source = mat3(volume_lattice_point(b) - s0, volume_lattice_point(c) - s0,
-                       volume_lattice_point(d) - s0);
-    mat3 slope = abs(determinant(deformed)) > 0.0 ? source * inverse(deformed) : mat3(0.0);
+    mat3 slope;
+    bool linear = true;
 #if VOLUME_HERMITE
     gb -= g0;
     gc -= g0;
@@ -141,8 +138,16 @@ void main() {
     if (known && length(correction) < 0.25 * float(u_lattice_grid)) {
         s += correction;
         slope = g0 + coords.x * gb + coords.y * gc + coords.z * gd;
+        linear = false;
     }
 #endif
+    if (linear) {
+        // d s / d p = S E^-1: source edges over deformed edges
+        mat3 deformed = mat3(yb - y0, yc - y0, yd - y0);
+        mat3 source = mat3(volume_lattice_point(b) - s0, volume_lattice_point(c) - s0,
+                           volume_lattice_point(d) - s0);
+        slope = abs(determinant(deformed)) > 0.0 ? source * inverse(deformed) : mat3(0.0);
+    }
     volume_slopes[3 * i] = vec4(slope[0], 0.0);
     volume_slopes[3 * i + 1] = vec4(slope[1], 0.0);
     volume_slopes[3 * i + 2] = vec4(slope[2], 0.0);
