@@ -11,10 +11,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..batch import BatchResult, warp_batch
-from ..batch.inputs import check_points
+from ..batch.inputs import check_points, item_array
+from ..batch.run import check_flags
 from ..core.config import MLSConfig, check_flag, check_seed
 from ..core.handles import COORDINATE_LIMIT
 from ..core.mesh import as_shape
+from ..engine.kernel import check_bins
+from ..engine.storage import check_storage
+from ..gl.context import check_ctx
 from ..imaging.options import FIELDS, WarpOptions
 from ..mls import MLS_KEYWORDS
 from . import labels as lab
@@ -101,7 +105,13 @@ def _check_warp_options(options: Mapping[str, object], what: str = "warp_options
     fields = {k: v for k, v in options.items() if k in FIELDS or k == "options"}
     try:
         WarpOptions.of(fields.pop("options", None), **fields)
-        MLSConfig(**{k: v for k, v in options.items() if k in _CONFIG_FIELDS})
+        config = MLSConfig(**{k: v for k, v in options.items() if k in _CONFIG_FIELDS})
+        # and what warp_batch would refuse only at the first batch (in a data-loader worker)
+        check_flags(options.get("return_maps", False), options.get("max_batch_bytes"))
+        if "storage" in options:
+            check_storage(options["storage"])
+        check_bins(options.get("bins"), config)
+        check_ctx(options.get("ctx"))
     except (TypeError, ValueError) as error:
         raise type(error)(f"{what}: {error}") from None
 
@@ -131,7 +141,13 @@ def _mesh_grid(options: Mapping[str, object]) -> int | None:
 def _index_list(indices: object, count: int) -> list[int]:
     if indices is None:
         return list(range(count))
-    values = list(np.asarray(indices).reshape(-1)) if not isinstance(indices, list) else indices
+    if isinstance(indices, list):
+        values = indices
+    else:
+        array = np.asarray(indices)
+        if array.ndim != 1:  # a scalar, or a table that reshape would flatten silently
+            raise ValueError(f"indices must be a sequence of N integers, got shape {array.shape}")
+        values = list(array)
     if len(values) != count:
         raise ValueError(f"indices holds {len(values)} values for {count} images")
     checked = []
@@ -153,7 +169,7 @@ def _images(images: object) -> list[np.ndarray]:
             )
         items = list(images)
     elif isinstance(images, (list, tuple)):
-        items = [np.asarray(image) for image in images]
+        items = [item_array(image, f"images[{i}]") for i, image in enumerate(images)]
     else:
         raise TypeError(f"images must be an array or a sequence, got {type(images).__name__}")
     if not items:
@@ -177,13 +193,27 @@ def _keypoint_list(keypoints: object, count: int) -> tuple[list[np.ndarray] | No
             )
         items, stacked = list(keypoints), True
     elif isinstance(keypoints, (list, tuple)):
-        items, stacked = [np.asarray(k) for k in keypoints], False
+        items = [item_array(k, f"keypoints[{i}]") for i, k in enumerate(keypoints)]
+        stacked = False
     else:
         raise TypeError(f"keypoints must be an array or a sequence, got {type(keypoints)}")
     if len(items) != count:
         raise ValueError(f"keypoints holds {len(items)} point sets for {count} images")
     checked = [check_points(item, f"keypoints[{i}]", rows="P") for i, item in enumerate(items)]
     return checked, stacked
+
+
+def _landmark_list(landmarks: object, count: int) -> list[np.ndarray]:
+    """:meth:`Augment.draw`'s ``landmarks``: ``count`` (P, 2) point sets, checked as
+    keypoints are, the errors naming ``landmarks[i]``."""
+    if isinstance(landmarks, (str, bytes)) or not isinstance(landmarks, (Sequence, np.ndarray)):
+        raise TypeError(f"landmarks must be a sequence of (P, 2) arrays, got {type(landmarks)}")
+    if len(landmarks) != count:
+        raise ValueError(f"landmarks holds {len(landmarks)} point sets for {count} images")
+    return [
+        check_points(item_array(marks, f"landmarks[{i}]"), f"landmarks[{i}]", rows="P")
+        for i, marks in enumerate(landmarks)
+    ]
 
 
 def _jsonable(value: object) -> object:
@@ -230,11 +260,7 @@ def _param_points(params: Sequence[Mapping], key: str) -> list[np.ndarray]:
     points = []
     for i, draw in enumerate(params):
         name = f"params[{i}][{key!r}]"
-        try:
-            array = np.asarray(draw[key])
-        except ValueError:  # ragged rows
-            raise ValueError(f"{name} must be (K, 2) rows of numbers, got {draw[key]!r}") from None
-        points.append(check_points(array, name, rows="K"))
+        points.append(check_points(item_array(draw[key], name), name, rows="K"))
     return points
 
 
@@ -384,6 +410,8 @@ class Augment:
         if isinstance(shapes, (str, bytes)) or not isinstance(shapes, Sequence):
             raise TypeError(f"shapes must be a sequence of (H, W), got {type(shapes).__name__}")
         index_list = _index_list(indices, len(shapes))
+        if landmarks is not None:
+            landmarks = _landmark_list(landmarks, len(shapes))
         params = []
         for i, (given, index) in enumerate(zip(shapes, index_list, strict=True)):
             try:

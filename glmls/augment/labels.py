@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from ..batch.inputs import item_array
 from ..core.handles import COORDINATE_LIMIT
 
 __all__ = [
@@ -103,7 +104,7 @@ def check_boxes(boxes: object, count: int) -> tuple[list[np.ndarray], bool]:
     items, stacked = _per_image(boxes, "boxes", count)
     checked = []
     for i, item in enumerate(items):
-        array = np.asarray(item)
+        array = item_array(item, f"boxes[{i}]")
         if array.size == 0:
             array = array.reshape(0, 4)
         array = _finite(array, f"boxes[{i}]", 4)
@@ -154,7 +155,8 @@ def check_polygons(polygons: object, count: int) -> list[list[np.ndarray]]:
             raise TypeError(f"polygons[{i}] must be a sequence of (V, 2) arrays")
         one = []
         for j, polygon in enumerate(shapes):
-            array = _finite(np.asarray(polygon), f"polygons[{i}][{j}]", 2, "V")
+            name = f"polygons[{i}][{j}]"
+            array = _finite(item_array(polygon, name), name, 2, "V")
             if len(array) == 0:
                 raise ValueError(f"polygons[{i}][{j}] has no vertices")
             one.append(array)

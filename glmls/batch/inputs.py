@@ -11,7 +11,7 @@ import numpy as np
 from ..core.handles import COORDINATE_LIMIT, validate_handles
 from ..imaging.source import DTYPES, native_order
 
-__all__ = ["BatchInput", "check_batch", "check_points", "stack_or_list"]
+__all__ = ["BatchInput", "check_batch", "check_points", "item_array", "stack_or_list"]
 
 
 @dataclass(frozen=True)
@@ -37,6 +37,18 @@ class BatchInput:
         return len(self.images)
 
 
+def item_array(value: object, name: str) -> np.ndarray:
+    """One item of a batch (an image, a handle or keypoint set, a mask) as an array;
+    ``ValueError`` naming ``name`` (``src[1]``) where its rows have different lengths, which
+    numpy refuses without saying which item."""
+    try:
+        return np.asarray(value)
+    except ValueError:  # ragged: [[1, 2], [3]]
+        raise ValueError(
+            f"{name} is ragged (rows of different lengths); expected an array of one shape"
+        ) from None
+
+
 def _items(value: object, name: str, item_ndims: tuple[int, ...]) -> tuple[list, bool]:
     """``value`` as a list of per-image arrays: an array whose first axis is the batch, or a
     sequence; the flag says it was one array."""
@@ -52,7 +64,7 @@ def _items(value: object, name: str, item_ndims: tuple[int, ...]) -> tuple[list,
         raise TypeError(
             f"{name} must be an array or a sequence of arrays, got {type(value).__name__}"
         )
-    return [np.asarray(item) for item in value], False
+    return [item_array(item, f"{name}[{i}]") for i, item in enumerate(value)], False
 
 
 def _image(array: np.ndarray, name: str) -> np.ndarray:

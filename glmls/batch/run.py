@@ -13,11 +13,11 @@ from ..imaging.options import FIELDS, WarpOptions
 from ..mls import MLS, MLS_KEYWORDS
 from .chunks import warp_chunks
 from .gpu import batchable
-from .inputs import BatchInput, check_batch, stack_or_list
+from .inputs import BatchInput, check_batch, item_array, stack_or_list
 from .result import BatchResult
 from .single import ImageLabels, SingleWarper
 
-__all__ = ["warp_batch"]
+__all__ = ["check_flags", "warp_batch"]
 
 _PER_IMAGE = ("src_segments", "dst_segments")
 
@@ -109,7 +109,7 @@ def warp_batch(
     ...
     ValueError: dst[1] has shape (1, 3); expected (K, 2)
     """
-    _check_flags(return_maps, max_batch_bytes)
+    check_flags(return_maps, max_batch_bytes)
     masks, binary = _bytes_of_bool_masks(masks)
     if options.get("ctx") is None and forked_from_gl():  # GL would hang here: a clean helper
         keywords = {"keypoints": keypoints, "masks": masks, "return_maps": return_maps}
@@ -150,7 +150,7 @@ def _bytes_of_bool_masks(masks: object) -> tuple[object, list[bool] | None]:
     if isinstance(masks, np.ndarray) and masks.dtype == bool:
         return masks.view(np.uint8), [True] * len(masks)
     if isinstance(masks, (list, tuple)):
-        arrays = [np.asarray(m) for m in masks]
+        arrays = [item_array(m, f"masks[{i}]") for i, m in enumerate(masks)]
         flags = [a.dtype == bool for a in arrays]
         if any(flags):
             return [a.view(np.uint8) if f else a for a, f in zip(arrays, flags, strict=True)], flags
@@ -168,7 +168,9 @@ def _bool_masks_back(result: object, binary: list[bool] | None) -> object:
     return dataclasses.replace(result, masks=out)
 
 
-def _check_flags(return_maps: object, max_batch_bytes: object) -> None:
+def check_flags(return_maps: object, max_batch_bytes: object) -> None:
+    """:func:`warp_batch`'s ``return_maps`` and ``max_batch_bytes``, checked (``TypeError``,
+    ``ValueError`` naming the value)."""
     if not isinstance(return_maps, (bool, np.bool_)):
         raise TypeError(f"return_maps must be True or False, got {return_maps!r}")
     if max_batch_bytes is None:

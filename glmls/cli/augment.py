@@ -366,6 +366,8 @@ def run(args: argparse.Namespace) -> int:
                 f"the landmarks preset moves each image's keypoints; --labels gives none for "
                 f"{', '.join(bare[:3])}{' ...' if len(bare) > 3 else ''}"
             )
+    if not args.output.strip():  # Path("") is the working folder: not what "" says
+        raise UsageError("OUT is empty: give the folder to write into (. for this one)")
     folder = Path(args.output)
     if folder.exists() and not folder.is_dir():
         raise UsageError(f"{folder}: must be a folder")

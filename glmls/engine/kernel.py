@@ -35,6 +35,7 @@ __all__ = [
     "NEWTON_PASSES",
     "SNAP_DISTANCE",
     "MLSKernel",
+    "check_bins",
     "check_loop_budget",
     "config_defines",
     "weight_uniforms",
@@ -135,6 +136,18 @@ def check_loop_budget(gl: GLContext, entry: str, count: int, *, binned: bool = F
         )
 
 
+def check_bins(bins: object, config: MLSConfig) -> None:
+    """``bins`` as :class:`MLSKernel` takes it for ``config``: ``TypeError`` for a value
+    that is not True, False or None, ``ValueError`` for bins with a weight without a radius."""
+    if bins is not None and not isinstance(bins, bool):
+        raise TypeError(f"bins must be True, False or None, got {bins!r}")
+    if bins and not config.uses_radius:
+        raise ValueError(
+            f"bins need a weight with a radius ({', '.join(RADIUS_WEIGHTS)}); "
+            f"{config.weight!r} reaches every handle"
+        )
+
+
 class MLSKernel:
     """The handles of one MLS on the GPU, for ``config`` on context ``gl``.
 
@@ -154,13 +167,7 @@ class MLSKernel:
         bins: bool | None = None,
     ) -> None:
         check_storage(storage)
-        if bins is not None and not isinstance(bins, bool):
-            raise TypeError(f"bins must be True, False or None, got {bins!r}")
-        if bins and not config.uses_radius:
-            raise ValueError(
-                f"bins need a weight with a radius ({', '.join(RADIUS_WEIGHTS)}); "
-                f"{config.weight!r} reaches every handle"
-            )
+        check_bins(bins, config)
         if bins and config.radius is None and shape is None:
             raise ValueError("bins need a radius: give radius= or shape=")
         self.gl = gl

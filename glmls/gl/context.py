@@ -657,14 +657,20 @@ def get_context(ctx: moderngl.Context | GLContext | None = None) -> GLContext:
                 _default = create_headless()
                 _wrappers[id(_default.mgl)] = _default
             return _default
-        if not isinstance(ctx, moderngl.Context):
-            raise TypeError(f"ctx must be a moderngl.Context or None, got {type(ctx).__name__}")
+        check_ctx(ctx)
         _check_process()
         wrapper = _wrappers.get(id(ctx))
         if wrapper is None or wrapper.released or wrapper.mgl is not ctx:
             wrapper = _wrappers[id(ctx)] = GLContext(ctx, owned=False)
             _gl_pids.add(os.getpid())
         return wrapper
+
+
+def check_ctx(ctx: object) -> None:
+    """``TypeError`` unless ``ctx`` is None, a moderngl context or a :class:`GLContext` (the
+    ``ctx`` that :func:`get_context` takes), checked without making or touching a context."""
+    if ctx is not None and not isinstance(ctx, (moderngl.Context, GLContext)):
+        raise TypeError(f"ctx must be a moderngl.Context or None, got {type(ctx).__name__}")
 
 
 def release_all() -> None:

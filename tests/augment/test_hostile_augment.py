@@ -46,7 +46,7 @@ def _edited(params, edit):
         (
             lambda p: p[0]["dst"].__setitem__(0, [1.0]),
             ValueError,
-            r"params\[0\]\['dst'\] must be \(K, 2\) rows of numbers",
+            r"params\[0\]\['dst'\] is ragged \(rows of different lengths\)",
         ),
         (
             lambda p: p[0].__setitem__("src", [[1.0, 2.0, 3.0]]),
@@ -138,3 +138,61 @@ def test_the_label_helpers_refuse_coordinates_that_are_not_finite():
         box_outlines(np.array([[0.0, 0.0, np.inf, 4.0]]), 2.0)
     with pytest.raises(ValueError, match="use a larger step"):
         densify_polygon(np.array([[0.0, 0.0], [9.0, 0.0], [5.0, 8.0]]), 1e-12)
+
+
+RAGGED = [[1.0, 2.0], [3.0]]
+
+
+@pytest.mark.parametrize(
+    ("labels", "message"),
+    [
+        ({"keypoints": [RAGGED, [[1.0, 2.0]]]}, r"keypoints\[0\] is ragged"),
+        ({"boxes": [[[1.0, 2.0, 3.0, 4.0]], [[1.0, 2.0, 3.0, 4.0], [3.0]]]}, r"boxes\[1\] is"),
+        ({"polygons": [[], [[[1.0, 2.0], [3.0]]]]}, r"polygons\[1\]\[0\] is ragged"),
+    ],
+)
+def test_ragged_labels_are_named(labels, message):
+    with pytest.raises(ValueError, match=message):
+        Augment("grid")(IMAGES, **labels)
+
+
+def test_ragged_images_are_named():
+    with pytest.raises(ValueError, match=r"images\[1\] is ragged"):
+        Augment("grid")([IMAGES[0], [[1, 2], [3]]])
+
+
+@pytest.mark.parametrize(
+    ("options", "error", "message"),
+    [
+        ({"max_batch_bytes": -1}, ValueError, "max_batch_bytes must be an integer >= 1"),
+        ({"return_maps": 1}, TypeError, "return_maps must be True or False"),
+        ({"storage": "fast"}, ValueError, "unknown storage 'fast'"),
+        ({"bins": 4}, TypeError, "bins must be True, False or None"),
+        ({"bins": True}, ValueError, "bins need a weight with a radius"),
+        ({"ctx": "gpu0"}, TypeError, "ctx must be a moderngl.Context or None"),
+    ],
+)
+def test_warp_options_are_checked_when_the_augment_is_made(options, error, message):
+    # not at the first batch, in a data-loader worker
+    with pytest.raises(error, match=f"warp_options: {message}"):
+        Augment("grid", warp_options=options)
+
+
+@pytest.mark.parametrize(
+    ("landmarks", "message"),
+    [
+        ([np.zeros((1, 2))], "landmarks holds 1 point sets for 2 images"),
+        ([np.zeros((1, 2)), np.full((1, 2), np.nan)], r"landmarks\[1\] holds values that are"),
+        ([np.zeros((1, 3)), np.zeros((1, 2))], r"landmarks\[0\] has shape \(1, 3\)"),
+        ([RAGGED, np.zeros((1, 2))], r"landmarks\[0\] is ragged"),
+    ],
+)
+def test_draw_checks_its_landmarks(landmarks, message):
+    with pytest.raises(ValueError, match=message):
+        Augment("landmarks").draw([(8, 8), (8, 8)], landmarks=landmarks)
+
+
+@pytest.mark.parametrize("indices", [0, np.arange(2).reshape(1, 2)])
+def test_indices_of_another_shape_are_refused(indices):
+    with pytest.raises(ValueError, match="indices must be a sequence of N integers"):
+        Augment("grid").draw([(8, 8), (8, 8)], indices=indices)

@@ -68,3 +68,18 @@ def test_a_float64_value_beyond_float32_names_its_image(gl, method, stacked):
     given = images if stacked else list(images)
     with pytest.raises(ValueError, match=r"^images\[2\]: image values must lie within float32"):
         glmls.warp_batch(given, np.zeros((3, 1, 2)), np.ones((3, 1, 2)), method=method, ctx=gl)
+
+
+@pytest.mark.parametrize("item", ["images", "src", "dst", "keypoints", "masks"])
+def test_a_ragged_item_is_named(item):
+    inputs = {
+        "images": [np.zeros((8, 8), np.uint8)] * 2,
+        "src": [np.array([[2.0, 2.0], [5.0, 5.0]])] * 2,
+        "dst": [np.array([[2.0, 2.0], [5.0, 6.0]])] * 2,
+        "keypoints": [np.zeros((1, 2))] * 2,
+        "masks": [np.zeros((8, 8), np.uint8)] * 2,
+    }
+    inputs[item] = [inputs[item][0], [[1, 2], [3]]]
+    images, src, dst = inputs.pop("images"), inputs.pop("src"), inputs.pop("dst")
+    with pytest.raises(ValueError, match=rf"^{item}\[1\] is ragged"):
+        glmls.warp_batch(images, src, dst, **inputs)
