@@ -176,8 +176,10 @@ def volume_report(
     near : float, optional
         How far from a slice, in voxels, a handle is drawn on it.
     deformed : array_like, optional
-        The deformed volume, when made elsewhere; else ``m.warp(volume)`` where ``m`` has a
-        ``warp`` method (and ``warp`` is true), else none.
+        The deformed volume, when made elsewhere (the volume's (D, H, W)); else
+        ``m.warp(volume)`` where ``m`` has a ``warp`` method (and ``warp`` is true), a
+        volume of another real dtype than uint8, uint16, float32 and float64 (int16, bool,
+        ...) warped as float32; else none.
     warp : bool, optional
         Whether to warp the volume with ``m.warp`` when no ``deformed`` is given.
     spacing : (float, float, float), optional
@@ -232,6 +234,12 @@ def volume_report(
     if not isinstance(warp, (bool, np.bool_)):
         raise TypeError(f"warp must be True or False, got {warp!r}")
     at = check_slices(dims, slices)
+    given = None if deformed is None else _check_volume(deformed, "deformed")
+    if given is not None and given.shape[:3] != dims:  # now, not after the analysis
+        raise ValueError(
+            f"deformed has shape {given.shape}; expected the volume's {dims} (D, H, W) "
+            f"voxels: the pictures show both at the same slices"
+        )
     src, dst = as_points3(m.src, "m.src"), as_points3(m.dst, "m.dst")
     spacing = deformation_spacing(m, spacing)
     scale = spacing_scale(spacing)
@@ -265,13 +273,17 @@ def volume_report(
     clock.end("jacobians")
 
     warped = None
-    if deformed is not None:
-        warped = _check_volume(deformed, "deformed")
+    if given is not None:
+        warped = given
     elif warp and callable(getattr(m, "warp", None)):
         clock.begin("warp")
         try:
             options = {} if spacing is None else {"spacing": tuple(scale[::-1])}
-            warped = _check_volume(m.warp(array, **options), "m.warp(volume)")  # type: ignore[attr-defined]
+            # int16, bool, int64 ... warped as float32 (what the GPU warps: uint8, uint16,
+            # float32 and float64)
+            takes = array.dtype in (np.uint8, np.uint16, np.float32, np.float64)
+            source = array if takes else array.astype(np.float32)
+            warped = _check_volume(m.warp(source, **options), "m.warp(volume)")  # type: ignore[attr-defined]
         except NotImplementedError:  # a deformation that cannot warp volumes
             warped = None
         clock.end("warp")

@@ -94,6 +94,7 @@ def test_coplanar_handles_leave_the_tetrahedra_out_but_given_points_must_form_th
         ({"angle": "radians"}, ValueError, "angle"),
         ({"slices": (1, 2)}, ValueError, "slices"),
         ({"slices": (10, 0, 0)}, ValueError, "slices"),
+        ({"deformed": np.zeros((3, 3, 3), np.uint8)}, ValueError, r"deformed has shape \(3, 3"),
     ],
 )
 def test_bad_arguments_raise_before_the_work(kwargs, error, message):
@@ -216,3 +217,16 @@ def test_the_error_colorbar_names_voxels_for_unit_spacing():
         lo, hi = found.summary["analysis"]["error_field_limits"]
         expected = colormaps.colorbar("viridis", lo, hi, length=256, label=f"E_MLS ({unit}^2)")
         assert_array_equal(found.images["error_field_colorbar"], expected)
+
+
+def test_a_volume_of_a_dtype_the_gpu_does_not_warp_is_warped_as_float32(gl):
+    pytest.importorskip("glmls.volume")
+    dst = SRC.copy()
+    dst[5] += [1.0, 0.5, 0.0]
+    values = volume().astype(np.int16) - 100  # negative values too
+    stages = []
+    with glmls.MLS(SRC, dst, shape=SHAPE, ctx=gl) as m:
+        found = volume_report(values, m, grid=2, on_stage=stages.append)
+        warped = m.warp(values.astype(np.float32))
+    assert "warp" in stages and found.deformed.dtype == np.float32
+    assert_array_equal(found.deformed, warped)
