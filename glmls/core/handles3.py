@@ -30,18 +30,28 @@ __all__ = [
 
 
 def dimension_of(src: object) -> int:
-    """3 where ``src`` has shape (N, 3), else 2 (the 2D validation then speaks)."""
+    """3 where ``src`` has shape (N, 3), else 2 (the 2D validation then speaks);
+    ``ValueError`` for (N, C) rows of another width C, which neither takes."""
     try:
         shape = np.shape(src)
     except ValueError:  # ragged rows: the 2D validation names them
         return 2
+    if len(shape) == 2 and shape[0] and shape[1] not in (2, 3):
+        raise ValueError(
+            f"src must have shape (N, 2) as (x, y) rows or (N, 3) as (x, y, z) rows, got {shape}"
+        )
     return 3 if len(shape) == 2 and shape[1] == 3 else 2
 
 
 def as_points3(points: object, name: str = "points") -> np.ndarray:
     """``points`` as a C-contiguous float64 (N, 3) array of finite coordinates within
     ±:data:`~glmls.core.handles.COORDINATE_LIMIT`; ``ValueError``/``TypeError`` if not."""
-    array = np.asarray(points)
+    try:
+        array = np.asarray(points)
+    except ValueError:  # ragged rows (or a (vertices, faces, ...) sequence that is no mesh)
+        raise ValueError(
+            f"{name} must have shape (N, 3) as (x, y, z) rows; got rows of different lengths"
+        ) from None
     if array.dtype.kind not in "iuf":
         raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
     if array.ndim != 2 or array.shape[1] != 3:

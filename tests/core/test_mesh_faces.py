@@ -25,3 +25,12 @@ def test_integer_faces_of_any_width_pass():
     for dtype in (np.uint8, np.int32, np.int64):
         _, faces, _ = as_mesh((np.eye(3), np.array([[0, 1, 2]], dtype=dtype)))
         assert faces.dtype == np.int64 and faces.tolist() == [[0, 1, 2]]
+
+
+@pytest.mark.parametrize(
+    "mesh", [(np.eye(3), np.array([[0, 1, 2]]), None), [np.eye(3).tolist(), [[0, 1, 2]]]]
+)
+def test_a_sequence_that_is_no_mesh_is_named_not_left_to_numpy(mesh):
+    # a (vertices, faces) pair is a tuple of two; anything else is read as the points
+    with pytest.raises(ValueError, match=r"mesh vertices must have shape \(N, 3\)"):
+        as_mesh(mesh)

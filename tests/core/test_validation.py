@@ -15,6 +15,7 @@ P = [[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]]
     ("src", "dst", "error", "match"),
     [
         ([[0, 0, 0, 0]], [[0, 0, 0, 0]], ValueError, r"src must have shape \(N, 2\)"),
+        ([[0, 0, 0, 0]], [[0, 0, 0, 0]], ValueError, r"or \(N, 3\) as \(x, y, z\) rows, got"),
         ([0, 0], [0, 0], ValueError, r"shape \(N, 2\)"),
         (P, P[:2], ValueError, "same length, got 3 and 2"),
         ([[0, np.nan]], [[0, 0]], ValueError, "src must be finite; row 0"),
