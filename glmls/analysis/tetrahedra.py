@@ -29,7 +29,7 @@ import numpy as np
 
 from .stats import error_stats
 from .triangles import check_angle_measure, check_eps, deformed_points, qhull_simplices
-from .volume_lattice import as_points3
+from .volume_lattice import as_points3, check_three_d
 
 __all__ = [
     "SLIVER_QUALITY",
@@ -346,6 +346,7 @@ def tetrahedron_errors(
     (True, 0)
     """
     measure = check_tetrahedron_options(min_quality, angle, eps)
+    check_three_d(m)
     if tetrahedra is None:
         r, simplices = delaunay3(reference_points)
     else:

@@ -26,6 +26,7 @@ from .volume_lattice import (
     as_volume_shape,
     axis_centres,
     check_grid3,
+    check_three_d,
     deformation_spacing,
     interpolate_axis,
     lattice_points,
@@ -217,6 +218,7 @@ def volume_deformation(m: Deformation3D, shape: Sequence[int], spacing: object) 
     itself where that changes nothing (another weight, an explicit radius, the volume ``m``
     was made for) or where ``m`` is neither a :class:`ReferenceDeformation` nor a
     :class:`glmls.MLS`."""
+    check_three_d(m)
     config = getattr(m, "config", None)
     if not isinstance(config, MLSConfig) or not config.uses_radius or config.radius is not None:
         return m

@@ -23,6 +23,7 @@ __all__ = [
     "axis_centres",
     "axis_corners",
     "check_grid3",
+    "check_three_d",
     "deformation_spacing",
     "evaluate",
     "interpolate_axis",
@@ -76,6 +77,17 @@ def deformation_spacing(m: object, spacing: object) -> object:
         None if s is None else as_volume_spacing(s) for s in (getattr(m, "spacing", None), spacing)
     )
     return chosen_spacing(given, own)  # type: ignore[arg-type]
+
+
+def check_three_d(m: object) -> None:
+    """``ValueError`` where the deformation ``m`` has 2D handles (an ``m.src`` of (N, 2)
+    rows): the 3D analyses would fail later on its (K, 2) results, without saying why."""
+    src = getattr(m, "src", None)
+    if src is not None and np.ndim(src) == 2 and np.shape(src)[1] == 2:
+        raise ValueError(
+            f"m is a 2D deformation (src of shape {np.shape(src)}); the volume analyses take "
+            "one of (N, 3) handles"
+        )
 
 
 def as_points3(points: object, name: str = "points") -> np.ndarray:

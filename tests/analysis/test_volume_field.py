@@ -156,3 +156,17 @@ def test_spacing_puts_the_voxels_at_physical_points():
     np.testing.assert_allclose(field, exact, rtol=1e-9)
     with pytest.raises(ValueError, match="spacing"):
         glmls.analysis.volume_error_field(m, shape, spacing=(1.0, 0.0, 1.0))
+
+
+def test_a_2d_deformation_is_named_by_every_volume_analysis(gl):
+    from glmls.analysis import cell_jacobians, tetrahedron_errors
+
+    cube = [[x, y, z] for z in (0, 4) for y in (0, 4) for x in (0, 4)]
+    with glmls.MLS([[0, 0], [10, 0], [0, 10]], [[0, 0], [10, 1], [0, 10]], ctx=gl) as m:
+        for analyse in (
+            lambda: cell_jacobians(m, (6, 6, 6)),
+            lambda: volume_error_field(m, (6, 6, 6)),
+            lambda: tetrahedron_errors(m, cube),
+        ):
+            with pytest.raises(ValueError, match=r"m is a 2D deformation \(src of shape \(3, 2\)"):
+                analyse()
