@@ -344,6 +344,9 @@ def read_volume(path: str | os.PathLike) -> Volume:
         raise InputFileError(f"{path}: no such file")
     try:
         if suffix == ".npy":
+            with path.open("rb") as file:  # else numpy speaks of pickles for any bad header
+                if file.read(6) != b"\x93NUMPY":
+                    raise InputFileError(f"{path}: not a .npy file (no NumPy header)")
             volume = Volume(np.load(path, allow_pickle=False))
         elif suffix in (".tif", ".tiff"):
             with quiet_tifffile():
@@ -546,6 +549,9 @@ def write_volume(
         affine = (volume.affine if nifti else None) if affine is None else affine
         volume = volume.data
     checked = Volume(np.asarray(volume), spacing=spacing, affine=affine)
+    if checked.affine is not None and not abs(np.linalg.det(checked.affine[:3, :3])) > 0:
+        # nibabel's decomposition of it would warn, then fail with the matrix in its message
+        raise ValueError(f"{path}: the affine is singular (its 3 x 3 part has no inverse)")
     if suffix in (".tif", ".tiff") and checked.shape[0] == 1:
         raise ValueError(
             f"{path}: a volume of one slice would be a TIFF of one page, which reads back as "

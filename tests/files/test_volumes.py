@@ -4,6 +4,7 @@ trips of every dtype, and bad files named."""
 from __future__ import annotations
 
 import gzip
+import warnings
 
 import nibabel as nib
 import numpy as np
@@ -194,3 +195,19 @@ def test_a_volume_of_one_slice_is_refused_as_a_tiff(tmp_path):
     assert not (tmp_path / "one.tif").exists()
     glmls.write_volume(tmp_path / "one.npy", np.zeros((1, 4, 5), np.uint8))
     assert glmls.read_volume(tmp_path / "one.npy").shape == (1, 4, 5)
+
+
+def test_a_singular_affine_is_refused_before_nibabel_sees_it(tmp_path):
+    path = tmp_path / "flat.nii"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # nibabel's warnings must not reach the user either
+        with pytest.raises(ValueError, match=r"flat.nii: the affine is singular"):
+            glmls.write_volume(path, np.zeros((4, 4, 4), np.uint8), affine=np.diag([1, 1, 0, 1]))
+    assert not path.exists()
+
+
+def test_a_file_without_a_numpy_header_is_named_as_such(tmp_path):
+    path = tmp_path / "short.npy"
+    path.write_bytes(b"xx")
+    with pytest.raises(glmls.InputFileError, match=r"short.npy: not a .npy file"):
+        glmls.read_volume(path)
