@@ -73,6 +73,11 @@ def warpable(data: np.ndarray, name: object) -> np.ndarray:
             f"{name}: a volume of {data.dtype} values; glmls warps real numbers (bool, "
             "integers, floats)"
         )
+    if data.ndim == 4 and data.shape[3] > 4:  # before the handles' warnings: one line
+        raise UsageError(
+            f"{name}: a volume of {data.shape[3]} channels; glmls warps 1 to 4 at a time "
+            "(warp the channels in groups of 4 or fewer)"
+        )
     return data if data.dtype.name in _WARPED_AS_IS else data.astype(np.float32)
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import json
 import types
+from pathlib import Path
 from typing import ClassVar
 
 import numpy as np
@@ -148,6 +149,15 @@ def test_a_radius_weight_on_a_mesh_asks_for_the_radius(files, capsys):
     assert main(["warp", "sphere.ply", "o.ply", "--handles", "h3.json", "--weight", "linear"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--weight linear needs --radius" in err
+
+
+def test_a_volume_of_more_than_four_channels_is_one_line(files, capsys):
+    # the channels decide before the handles' warnings, which would come first otherwise
+    glmls.write_volume("seven.nii", np.zeros((6, 8, 10, 7), np.uint8))
+    assert main(["warp", "seven.nii", "o.nii", "--handles", "h3.json"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "a volume of 7 channels; glmls warps 1 to 4" in err
+    assert not Path("o.nii").exists()
 
 
 def test_a_mask_is_written_back_rounded_not_grown(files, monkeypatch, capsys):
