@@ -178,8 +178,27 @@ def _flags(valid, like):
     return torch.as_tensor(np.asarray(valid), device=like.device)
 
 
-def _back(result, images, keypoints, masks, boxes, moved_channels: bool):
+def _polygons_in(polygons: object) -> object:
+    """Per image, its polygons as numpy arrays where they came as tensors."""
+    if not isinstance(polygons, (list, tuple)):
+        return polygons
+    return [to_numpy(list(shapes)) if is_tensors(shapes) else shapes for shapes in polygons]
+
+
+def _polygons_back(moved: list | None, polygons: object) -> list | None:
+    """The moved polygons as tensors where the image's came as tensors (each like its own)."""
+    if moved is None or not isinstance(polygons, (list, tuple)):
+        return moved
+    return [
+        from_numpy(list(out), list(given)) if is_tensors(given) else out
+        for out, given in zip(moved, polygons, strict=True)
+    ]
+
+
+def _back(result, images, keypoints, masks, boxes, moved_channels: bool, polygons=None):
     changes = {"images": _images_back(result.images, images, moved_channels)}
+    if getattr(result, "polygons", None) is not None:
+        changes["polygons"] = _polygons_back(result.polygons, polygons)
     if is_tensors(keypoints) and result.keypoints is not None:
         changes["keypoints"] = from_numpy(result.keypoints, keypoints)
         changes["keypoints_valid"] = _flags(result.keypoints_valid, keypoints)
@@ -199,10 +218,10 @@ def call_on_tensors(aug, images, keypoints, masks, boxes, polygons, indices):
         keypoints=to_numpy(keypoints),
         masks=to_numpy(masks),
         boxes=to_numpy(boxes),
-        polygons=polygons,
+        polygons=_polygons_in(polygons),
         indices=to_numpy(indices),
     )
-    return _back(result, images, keypoints, masks, boxes, moved)
+    return _back(result, images, keypoints, masks, boxes, moved, polygons)
 
 
 def replay_on_tensors(aug, images, params, keypoints, masks, boxes, polygons):
@@ -214,6 +233,6 @@ def replay_on_tensors(aug, images, params, keypoints, masks, boxes, polygons):
         keypoints=to_numpy(keypoints),
         masks=to_numpy(masks),
         boxes=to_numpy(boxes),
-        polygons=polygons,
+        polygons=_polygons_in(polygons),
     )
-    return _back(result, images, keypoints, masks, boxes, moved)
+    return _back(result, images, keypoints, masks, boxes, moved, polygons)

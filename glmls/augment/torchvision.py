@@ -29,9 +29,11 @@ call have one size (H, W), the ``canvas_size`` of boxes and keypoints too, as to
 requires, and are single images or one batch, else ``ValueError``; so is an unrotated box whose
 maximum lies below its minimum (boxes of another format than their label, which the deformation
 would make into plausible boxes). A batch's masks are (N, H, W) or (N, K, H, W) and its
-keypoints (N, P, 2) (the first dimension the batch), or one
+keypoints (N, P, 2) (the first dimension the batch; any number of them), or one
 ``Mask``/``KeyPoints``/``BoundingBoxes`` per sample in order (bounding boxes are two-dimensional
-in torchvision: one instance per sample). The draws of the last call are in ``last_params``
+in torchvision: one instance per sample). A label's shape decides which: one whose first
+dimension is N is the batch's, so a sample's own masks are (H, W), or (K, H, W) with K other
+than N. The draws of the last call are in ``last_params``
 (JSON-able dicts, see :class:`glmls.augment.AugmentResult`).
 """
 
@@ -136,18 +138,21 @@ def _check_extents(boxes: tv_tensors.BoundingBoxes, xyxy: np.ndarray) -> None:
         )
 
 
-def _check_batch_label(label: torch.Tensor, count: int) -> None:
-    """A batch's one Mask or KeyPoints has the batch as its first dimension: (N, H, W) or
-    (N, K, H, W) masks, (N, P, 2) keypoints (a batch of one may leave it out); else
-    ``ValueError`` (another first dimension would split or merge the samples' labels)."""
+def _batch_first(label: torch.Tensor, count: int) -> bool:
+    """Whether a Mask or KeyPoints is the batch's own, the batch its first dimension:
+    (N, H, W) or (N, K, H, W) masks, (N, P, 2) keypoints. Such a shape is read so, as
+    torchvision reads a label's leading dimensions: a sample's own masks are (H, W), or
+    (K, H, W) with K other than N."""
+    dims = (3, 4) if isinstance(label, tv_tensors.Mask) else (3,)
+    return label.ndim in dims and label.shape[0] == count
+
+
+def _batch_label_error(label: torch.Tensor, count: int) -> ValueError:
+    """The error for a batch's one Mask or KeyPoints whose first dimension is not the
+    batch's (it would split or merge the samples' labels)."""
     mask = isinstance(label, tv_tensors.Mask)
-    dims = (3, 4) if mask else (3,)
-    if label.ndim in dims and label.shape[0] == count:
-        return
-    if count == 1 and label.ndim == dims[0] - 1:
-        return
     expected = f"({count}, H, W) or ({count}, K, H, W)" if mask else f"({count}, P, 2)"
-    raise ValueError(
+    return ValueError(
         f"a {type(label).__name__} of shape {tuple(label.shape)} for a batch of {count} "
         f"images: expected {expected}, the batch first, or one per sample"
     )
@@ -273,15 +278,23 @@ class MLSTransform(v2.Transform):
             labels = [x for x in flat_inputs if isinstance(x, kind)]
             if batch is None:  # one sample: every label of the call is its own
                 owners.update({id(x): 0 for x in labels})
-            elif len(labels) == 1 and kind is not tv_tensors.BoundingBoxes:
-                _check_batch_label(labels[0], count)
-                owners[id(labels[0])] = "batch"
-            elif len(labels) == count:
-                owners.update({id(x): k for k, x in enumerate(labels)})
-            elif labels:
+                continue
+            # the batch's own labels (any number: a semantic and an instance mask), by their
+            # shape; the others are the samples' own, one each in order
+            ours = kind is not tv_tensors.BoundingBoxes
+            whole = [x for x in labels if ours and _batch_first(x, count)]
+            owners.update({id(x): "batch" for x in whole})
+            rest = [x for x in labels if not (ours and _batch_first(x, count))]
+            if count == 1:
+                owners.update({id(x): 0 for x in rest})
+            elif len(rest) == count:
+                owners.update({id(x): k for k, x in enumerate(rest)})
+            elif len(rest) == 1 and ours:
+                raise _batch_label_error(rest[0], count)
+            elif rest:
                 raise ValueError(
-                    f"{len(labels)} {kind.__name__} for {count} samples: give one per sample, "
-                    "or one with the batch as its first dimension"
+                    f"{len(rest)} {kind.__name__} for {count} samples: give one per sample, "
+                    "or ones with the batch as their first dimension"
                 )
         shapes = [(height, width)] * count
         landmarks = None
@@ -341,6 +354,8 @@ class MLSTransform(v2.Transform):
         64
         """
         samples = self._samples(inpt, params)
+        if not samples:  # an empty batch (0, C, H, W): empty out, as torchvision's own give
+            return inpt.clone() if isinstance(inpt, torch.Tensor) else inpt
         if isinstance(inpt, tv_tensors.Mask):
             return tv_tensors.wrap(self._masks(inpt, samples), like=inpt)
         if isinstance(inpt, tv_tensors.KeyPoints):
@@ -397,7 +412,12 @@ class MLSTransform(v2.Transform):
     def _keypoints(self, points: torch.Tensor, samples: list[dict]) -> torch.Tensor:
         count = len(samples)
         array = to_numpy(points).astype(np.float64).reshape(count, -1, 2)
+        # a NaN point (a missing landmark's usual mark) stays NaN, as torchvision's own
+        # transforms carry it; the deformation moves the others
+        missing = np.isnan(array).any(axis=-1)
+        array = np.where(missing[..., None], 0.0, array)
         moved = np.asarray(replay_labels(self.augment, samples, keypoints=array).keypoints)
+        moved = np.where(missing[..., None], np.nan, moved)
         tensor = torch.from_numpy(moved.reshape(points.shape))
         return tensor.to(device=points.device, dtype=points.dtype)
 

@@ -236,3 +236,70 @@ def test_torchvision_rotated_boxes(gl, fmt):
     torch.testing.assert_close(out.as_subclass(torch.Tensor), expected, atol=2e-3, rtol=0)
     elastic = v2.ElasticTransform(alpha=5.0, sigma=2.0)(image, boxes)[1]
     assert elastic.shape == out.shape and elastic.format == out.format
+
+
+def test_torchvision_several_batch_labels_each_follow_every_sample(gl):
+    """Two (N, H, W) masks (a semantic and an instance one) and two (N, P, 2) keypoint sets
+    for a batch of N = 2 are each the batch's, as one of them alone is: not one per sample
+    (sample 1's labels moved by sample 0's draw)."""
+    height, width = 32, 48
+    images = tv_tensors.Image(torch.randint(0, 255, (2, 3, height, width), dtype=torch.uint8))
+    mask = torch.zeros(2, height, width, dtype=torch.uint8)
+    mask[:, 8:24, 10:30] = 1
+    points = torch.tensor([[[20.0, 15.0]], [[20.0, 15.0]]])
+    transform = MLSTransform(displacement=0.1)
+
+    def keypoints():
+        return tv_tensors.KeyPoints(points.clone(), canvas_size=(height, width))
+
+    torch.manual_seed(0)
+    _, one_mask, one_points = transform(images, tv_tensors.Mask(mask), keypoints())
+    assert not torch.equal(one_points[0], one_points[1])  # the samples' draws differ
+    torch.manual_seed(0)
+    out = transform(
+        images, tv_tensors.Mask(mask), tv_tensors.Mask(mask.clone()), keypoints(), keypoints()
+    )
+    for got, expected in zip(out[1:], (one_mask, one_mask, one_points, one_points), strict=True):
+        assert torch.equal(got, expected)
+    # per sample: (P, 2) keypoints, one each in order, move with their own sample
+    torch.manual_seed(0)
+    _, first, second = transform(
+        images,
+        tv_tensors.KeyPoints(points[0], canvas_size=(height, width)),
+        tv_tensors.KeyPoints(points[1], canvas_size=(height, width)),
+    )
+    assert torch.equal(first, one_points[0]) and torch.equal(second, one_points[1])
+
+
+def test_torchvision_a_nan_keypoint_stays_nan(gl):
+    # a missing landmark's usual mark passes through, as torchvision's own transforms carry it
+    height, width = 32, 48
+    image = tv_tensors.Image(torch.zeros(3, height, width, dtype=torch.uint8))
+    points = torch.tensor([[float("nan"), float("nan")], [10.0, 10.0]])
+    torch.manual_seed(0)
+    _, moved = MLSTransform()(image, tv_tensors.KeyPoints(points, canvas_size=(height, width)))
+    torch.manual_seed(0)
+    _, alone = MLSTransform()(image, tv_tensors.KeyPoints(points[1:], canvas_size=(height, width)))
+    assert torch.isnan(moved[0]).all() and torch.equal(moved[1:], alone)
+
+
+def test_torchvision_an_empty_batch_gives_an_empty_batch(gl):
+    images = tv_tensors.Image(torch.zeros(0, 3, 16, 24, dtype=torch.uint8))
+    out, masks = MLSTransform()(images, tv_tensors.Mask(torch.zeros(0, 16, 24)))
+    assert isinstance(out, tv_tensors.Image) and out.shape == (0, 3, 16, 24)
+    assert isinstance(masks, tv_tensors.Mask) and masks.shape == (0, 16, 24)
+
+
+def test_augment_polygons_of_tensors_come_back_as_tensors(gl):
+    from glmls.augment import Augment
+
+    images = torch.randint(0, 255, (2, 3, 32, 32), dtype=torch.uint8)
+    polygon = torch.tensor([[4.0, 4.0], [20.0, 4.0], [20.0, 20.0]])
+    given = [[polygon], [polygon.double(), polygon]]
+    augment = Augment("grid", seed=1)
+    result = augment(images, polygons=given)
+    as_arrays = augment(images, polygons=[[p.numpy() for p in shapes] for shapes in given])
+    for got, expected, inputs in zip(result.polygons, as_arrays.polygons, given, strict=True):
+        for tensor, array, one in zip(got, expected, inputs, strict=True):
+            assert isinstance(tensor, torch.Tensor) and tensor.dtype == one.dtype
+            np.testing.assert_allclose(tensor.numpy(), array, rtol=0, atol=1e-5)
