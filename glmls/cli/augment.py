@@ -32,7 +32,14 @@ from ..files.atomic import remove_leftovers, umask
 from ..files.images import check_writable, imwrite
 from ..imaging.source import BORDERS, INTERPOLATIONS, check_image
 from .inputs import image_inputs, kept_profile, read_image, say
-from .options import UsageError, add_jobs_options, add_max_pixels, positive_float, positive_int
+from .options import (
+    UsageError,
+    add_jobs_options,
+    add_max_pixels,
+    below_a_file,
+    positive_float,
+    positive_int,
+)
 
 HELP = "random MLS deformations of images, with their labels (data augmentation)"
 EXAMPLES = """
@@ -371,6 +378,9 @@ def run(args: argparse.Namespace) -> int:
     folder = Path(args.output)
     if folder.exists() and not folder.is_dir():
         raise UsageError(f"{folder}: must be a folder")
+    fault = below_a_file(folder, itself=False)
+    if fault is not None:
+        raise UsageError(fault)
     _check_replaceable(folder, files, args.n, args.labels)
     made = [p for p in (folder, *folder.parents) if not p.exists()]  # the deepest first
     try:

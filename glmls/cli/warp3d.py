@@ -40,7 +40,7 @@ from ..files.volumes import (
 )
 from ..mls import MLS
 from .inputs import reported_warnings, say
-from .options import UsageError, config_from_args, refuse_overwriting
+from .options import UsageError, below_a_file, config_from_args, refuse_overwriting
 from .progress import Ticker
 
 __all__ = [
@@ -317,6 +317,9 @@ def run_3d(args: argparse.Namespace, kind: str) -> int:
     check_world(args)
     config = config_from_args(args)
     target = _target(args, kind)
+    fault = below_a_file(target, itself=False)  # now, not after the warp
+    if fault is not None:
+        raise UsageError(fault)
     read = {Path(args.input): f"the input {kind}", Path(args.handles): "the --handles file"}
     if args.targets is not None:
         read.setdefault(Path(args.targets), "the --targets file")

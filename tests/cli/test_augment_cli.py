@@ -261,3 +261,13 @@ def test_outputs_that_would_overwrite_an_input_or_the_labels_are_refused(inputs)
         assert result.returncode == 2, result.stderr
         assert message in result.stderr, result.stderr
         assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+
+
+@pytest.mark.parametrize("out", ["", "labels.json/sub"])
+def test_an_out_that_cannot_be_a_folder_is_refused_before_the_work(inputs, out):
+    # "" named the working folder; a folder below a file was found only when it was made
+    result = glmls_cli("augment", "in", out, "--n", "1", cwd=inputs)
+    assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
+    expected = "OUT is empty" if not out else "labels.json is a file, not a folder"
+    assert expected in result.stderr
+    assert sorted(p.name for p in inputs.iterdir()) == ["in", "labels.json"]

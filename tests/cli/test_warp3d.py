@@ -392,3 +392,10 @@ def test_the_radius_help_names_the_units_of_volumes_and_meshes(capsys):
     text = " ".join(capsys.readouterr().out.split())
     assert "--radius RADIUS influence radius in the handles' units, pixels for an image" in text
     assert "a volume's in its handles' units; a mesh needs one" in text
+
+
+@pytest.mark.parametrize("name", ["v.nii.gz", "sphere.ply"])
+def test_an_output_below_a_file_is_refused_before_the_warp(files, capsys, name):
+    assert main(["warp", name, f"h3.json/{name}", "--handles", "h3.json"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "h3.json is a file, not a folder" in err
