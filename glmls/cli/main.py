@@ -60,7 +60,7 @@ def build_parser() -> argparse.ArgumentParser:
             default=argparse.SUPPRESS,
             help="no progress or messages",
         )
-        sub.set_defaults(run=command.run)
+        sub.set_defaults(run=command.run, command_parser=sub)
     return parser
 
 
@@ -100,7 +100,9 @@ def _terminate_as_exception() -> Iterator[None]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # the command's mistake: its name and its --help, not glmls's
+        args.command_parser.error(f"unrecognized arguments: {' '.join(extra)}")
     try:
         with _terminate_as_exception():
             return args.run(args)

@@ -67,7 +67,9 @@ def test_an_option_is_still_an_option(capsys):
     leaves it to the rest of the line."""
     argv = ["warp", "a.png", "b.png", "--handles", "h.json", "--keep-going", "-1,1"]
     err = _one_line_error(capsys, argv)
-    assert "unrecognized arguments: -1,1" in err, err
+    # the command's own mistake: named by it, pointing to its --help
+    assert err.startswith("glmls warp: unrecognized arguments: -1,1"), err
+    assert err.endswith("(see glmls warp --help)\n"), err
     err = _one_line_error(capsys, ["warp", "a.png", "b.png", "--spacing"])
     assert "argument --spacing: expected one argument" in err, err
 
