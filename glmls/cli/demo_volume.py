@@ -22,7 +22,6 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputFileError
-from ..files.images import DEFAULT_MAX_PIXELS
 from ..files.landmarks import handle_dimension, read_handles
 from ..files.volumes import Volume, is_volume_file, read_volume, volume_suffix
 from .demo_window import fail, replay_events, run_window, start_settings, window_options
@@ -102,14 +101,7 @@ def volume_settings(args: argparse.Namespace):
     8, 16)."""
     from ..app.volume_controller import VOLUME_METHODS, VolumeSettings
 
-    images_only = image_options_given(args) + [
-        option
-        for option, given in (
-            ("--reference", args.reference is not None),
-            ("--max-pixels", args.max_pixels != DEFAULT_MAX_PIXELS),
-        )
-        if given
-    ]
+    images_only = image_options_given(args) + ([] if args.reference is None else ["--reference"])
     if images_only:
         raise ValueError(f"{', '.join(images_only)}: for images, not for the volume window")
     if args.method not in VOLUME_METHODS:

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..core.config import MLSConfig
 from ..core.handles3 import as_volume_spacing
+from ..files.images import DEFAULT_MAX_PIXELS
 from ..files.landmarks import elastix_indices, elastix_physical, handle_dimension, read_handles
 from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import (
@@ -267,9 +268,11 @@ def _mls(src: np.ndarray, dst: np.ndarray, config: MLSConfig, **volume: object) 
 
 def image_options_given(args: argparse.Namespace) -> list[str]:
     """Those of ``--fit``, ``--tolerance`` (the image construction's), ``--keep-going``,
-    ``--jobs`` and ``--scheduler`` (a batch of images') given, which a volume or mesh
-    refuses; a command without one of them has it not given."""
+    ``--jobs`` and ``--scheduler`` (a batch of images') and ``--max-pixels`` (an image
+    file's bound) given, which a volume or mesh refuses; a command without one of them has
+    it not given."""
     given = (
+        ("--max-pixels", getattr(args, "max_pixels", DEFAULT_MAX_PIXELS) != DEFAULT_MAX_PIXELS),
         ("--fit", getattr(args, "fit", False)),
         ("--tolerance", getattr(args, "tolerance", None) is not None),
         ("--keep-going", getattr(args, "keep_going", False)),

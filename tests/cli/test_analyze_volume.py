@@ -79,6 +79,10 @@ def test_analyze_a_volume_writes_the_report_and_pictures(inputs):
         (["v.npy"], "missing --handles"),
         (["v.npy", "--handles", "h3.json", "--fit"], "--fit: for images, not for a volume (v.npy)"),
         (
+            ["v.npy", "--handles", "h3.json", "--max-pixels", "9"],
+            "--max-pixels: for images, not for a volume (v.npy)",
+        ),
+        (
             ["v.npy", "--handles", "h3.json", "--tolerance", "0.1"],
             "--tolerance: for images, not for a volume (v.npy)",
         ),

@@ -132,7 +132,14 @@ def test_augment_counts_its_images_in_words(inputs, capsys, n, said):
 
 
 @pytest.mark.parametrize(
-    "option", [("--jobs", "2"), ("--scheduler", "local"), ("--keep-going",), ("--fit",)]
+    "option",
+    [
+        ("--jobs", "2"),
+        ("--scheduler", "local"),
+        ("--keep-going",),
+        ("--fit",),
+        ("--max-pixels", "9"),
+    ],
 )
 def test_warp_refuses_the_batch_options_on_a_volume(inputs, capsys, option):
     """--jobs and --scheduler share out a batch of images; on one volume they did nothing."""
