@@ -362,7 +362,16 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
     options = _volume_options(args, spacing)
     src, dst = voxel_handles(args, src, dst, spacing)
     src, dst = world_handles(args, volume, spacing, src, dst)
-    for message in volume_handle_warnings(args, src, data.shape, spacing, volume.affine):
+    messages = volume_handle_warnings(args, src, data.shape, spacing, volume.affine)
+    grid = getattr(args, "grid", 1)
+    if args.method == "quads" and grid > 1 and grid >= max(data.shape[:3]):
+        depth, height, width = data.shape[:3]
+        messages.append(
+            f"--grid {grid} is not smaller than the {width} x {height} x {depth} volume: the "
+            "lattice is one cell, whose corners alone follow f (the handles inside it move "
+            "nothing)"
+        )
+    for message in messages:
         say(args, f"glmls warp: warning: {args.input}: {message}")
     with _mls(src, dst, config, shape=data.shape[:3], spacing=spacing) as m:
         ticker = Ticker(f"warp {args.input}", quiet=args.quiet)

@@ -399,3 +399,10 @@ def test_an_output_below_a_file_is_refused_before_the_warp(files, capsys, name):
     assert main(["warp", name, f"h3.json/{name}", "--handles", "h3.json"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "h3.json is a file, not a folder" in err
+
+
+def test_a_grid_not_smaller_than_the_volume_is_warned_about(files, stand_in, capsys):
+    assert main(["warp", "v.nii.gz", "o.nii.gz", "--handles", "h3.json", "--grid", "10"]) == 0
+    assert "--grid 10 is not smaller than the 10 x 9 x 8 volume" in capsys.readouterr().err
+    assert main(["warp", "v.nii.gz", "o.nii.gz", "--handles", "h3.json", "--grid", "9"]) == 0
+    assert "--grid" not in capsys.readouterr().err
