@@ -24,6 +24,7 @@ from ..files.atomic import atomic_write
 from ..files.images import DEFAULT_MAX_PIXELS, imread, imwrite
 from ..files.landmarks import handle_dimension, read_handle_set, read_points
 from ..files.profiles import profile_problem, read_icc_profile
+from ..files.volumes import is_volume_file
 from ..mls import MLS
 from .options import UsageError, add_max_pixels, folder_path, handle_warnings, positive_int
 
@@ -71,6 +72,11 @@ def read_image(path: Path, max_pixels: int = DEFAULT_MAX_PIXELS) -> np.ndarray:
     except FileNotFoundError:
         raise UsageError(f"{path}: no such file") from None
     except ValueError as error:  # imread's messages name the file
+        if Path(path).suffix.lower() in (".npy", ".nii", ".gz") and is_volume_file(path):
+            raise UsageError(  # not "not an image format": the command takes images only
+                f"{path}: a volume; this command takes 2D images (warp, analyze and demo "
+                "take volumes)"
+            ) from None
         raise UsageError(str(error)) from None
     except OSError as error:
         raise UsageError(f"{path}: cannot read the image: {error.strerror or error}") from None

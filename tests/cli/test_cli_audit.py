@@ -202,3 +202,20 @@ def test_advice_names_the_command_line_options(inputs, capsys):
     assert err.startswith("glmls warp: handles: affine MLS needs")
     assert "Use --transform similarity or rigid, or add a handle." in err
     assert "transform='" not in err and not (inputs / "out.png").exists()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ("augment", "v.npy", "out", "--n", "1"),
+        ("tune", "v.npy", "--handles", "h.json", "--reference", "h.json", "--out", "out"),
+    ],
+)
+def test_a_volume_given_to_an_images_only_command_is_named_a_volume(inputs, capsys, argv):
+    assert main(argv) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines == [
+        f"glmls {argv[0]}: v.npy: a volume; this command takes 2D images (warp, analyze and "
+        "demo take volumes)"
+    ]
+    assert not (inputs / "out").exists()
