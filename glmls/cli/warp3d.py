@@ -166,7 +166,10 @@ def check_world(args: argparse.Namespace) -> None:
     if volume_suffix(name) not in (".nii", ".nii.gz"):
         raise UsageError(
             f"--world: {name} has no affine to map world coordinates by (only NIfTI volumes, "
-            ".nii and .nii.gz, have one); give the handles in voxels times the spacing"
+            ".nii and .nii.gz, have one); give the handles in "
+            + {"volume": "voxels times the spacing", "mesh": "the mesh's own coordinates"}.get(
+                input_kind(name), "pixels"
+            )
         )
     if elastix_indices(args.handles, dst=args.targets):
         raise UsageError(

@@ -148,8 +148,8 @@ def volume_background(background: object, volume: SourceVolume) -> tuple[float, 
         values = np.full(channels, float(values))
     if values.ndim != 1 or len(values) != channels:
         raise ValueError(
-            f"background must be a scalar or {channels} values (one per channel), "
-            f"got {background!r}"
+            f"background must be a scalar or {channels} value{'s' if channels > 1 else ''} "
+            f"(one per channel), got {background!r}"
         )
     if np.issubdtype(volume.dtype, np.integer):
         top = np.iinfo(volume.dtype).max

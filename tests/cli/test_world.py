@@ -104,14 +104,15 @@ def test_world_needs_an_affine(nifti, capsys):
     np.save(nifti / "v.npy", np.zeros(SHAPE, np.float32))
     glmls.imwrite(nifti / "i.png", np.zeros((8, 8), np.uint8))
     (nifti / "h2.json").write_text(json.dumps({"src": [[1, 1]], "dst": [[2, 1]]}))
-    for argv in (
-        ["warp", "v.npy", "o.npy", "--handles", "units.json", "--world"],
-        ["warp", "i.png", "o.png", "--handles", "h2.json", "--world"],
-        ["analyze", "v.npy", "--handles", "units.json", "--world", "--out", "rep"],
+    for argv, frame in (
+        (["warp", "v.npy", "o.npy", "--handles", "units.json", "--world"], "voxels times"),
+        (["warp", "i.png", "o.png", "--handles", "h2.json", "--world"], "handles in pixels"),
+        (["analyze", "v.npy", "--handles", "units.json", "--world", "--out", "rep"], "voxels"),
     ):
         assert main(argv) == 2, argv
         err = capsys.readouterr().err
         assert "--world" in err and "affine" in err and err.count("\n") == 1, err
+        assert frame in err, err  # the frame of the input's kind: no voxels for an image
     assert not (nifti / "o.npy").exists() and not (nifti / "rep").exists()
 
 
