@@ -248,7 +248,41 @@ def read_handles(
     sources with ``dst`` the elastix point file of the targets. ``ndim`` (2 or 3): the
     dimension expected. ``InputFileError`` if malformed, of another dimension than
     ``ndim``, or if it holds segments or polylines, which only :func:`read_handle_set`
-    returns."""
+    returns.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The handle file (JSON, CSV, BigWarp's CSV or JSON, an elastix ``.pts``).
+    dst : str or os.PathLike, optional
+        The targets' elastix point file, where ``path`` is the sources'.
+    ndim : {2, 3}, optional
+        The dimension the handles must have.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        src and dst, (N, 2) or (N, 3) float64.
+
+    Raises
+    ------
+    glmls.InputFileError
+        For a file that is missing or malformed, of another dimension than ``ndim``, or
+        holding segments or polylines.
+
+    Examples
+    --------
+    >>> import json, pathlib, tempfile
+    >>> from glmls.files import read_handles
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (folder / "h.json").write_text(json.dumps({"src": [[1, 2, 3]], "dst": [[2, 2, 3]]}))
+    >>> src, dst = read_handles(folder / "h.json", ndim=3)
+    >>> src.tolist(), dst.tolist()
+    ([[1.0, 2.0, 3.0]], [[2.0, 2.0, 3.0]])
+    >>> _ = (folder / "bigwarp.csv").write_text('"Pt-0","true","10","12","4","11","12","5"')
+    >>> read_handles(folder / "bigwarp.csv")[1].tolist()  # the fixed points: the targets
+    [[11.0, 12.0, 5.0]]
+    """
     path = Path(path)
     found, rows = _handle_rows(path, dst)
     if not rows.src and not rows.src_segments:

@@ -45,9 +45,26 @@ def axes(ndim: int) -> str:
 # -- BigWarp -------------------------------------------------------------------------------
 
 
+def _numeric(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def is_bigwarp_csv(rows: list[Row]) -> bool:
+    """Whether the first row is a BigWarp landmark: an active flag second, or (a flag
+    mistyped, which :func:`bigwarp_csv` then names) BigWarp's shape: 6 to 9 columns, a name
+    and a flag that are no numbers, then numbers (a header has no numbers)."""
     first = rows[0][1]
-    return len(first) >= 2 and first[1].lower() in ("true", "false")
+    if len(first) >= 2 and first[1].lower() in ("true", "false"):
+        return True
+    return (
+        len(first) in _BIGWARP_COLUMNS
+        and not _numeric(first[1])
+        and all(_numeric(text) for text in first[-4:])
+    )
 
 
 def bigwarp_csv(path: Path, rows: list[Row]) -> tuple[int, HandleRows]:
@@ -88,10 +105,13 @@ def is_bigwarp_json(data: dict) -> bool:
 
 def bigwarp_json(path: Path, data: dict) -> tuple[int, HandleRows]:
     """The active landmarks of BigWarp's JSON: ``"numDimensions"``, ``"movingPoints"``,
-    ``"fixedPoints"``, ``"active"`` (and ``"names"``, not needed)."""
+    ``"fixedPoints"``, ``"active"`` (every landmark where left out; ``"names"`` not
+    needed)."""
     prefix = ""
     if data.get("type") != "BigWarpLandmarks":
         data, prefix = data["landmarks"], '"landmarks".'
+    if "active" not in data and isinstance(data.get("movingPoints"), list):
+        data = {**data, "active": [True] * len(data["movingPoints"])}  # every landmark
     for key in ("numDimensions", "movingPoints", "fixedPoints", "active"):
         if key not in data:
             raise fail(path, f"{prefix.rstrip('.') or 'top level'}", f'missing the key "{key}"')

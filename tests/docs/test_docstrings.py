@@ -35,6 +35,7 @@ MODULES = [
 #: Names of other modules that the API reference documents (docs/api/glmls.rst).
 NAMED = [
     glmls.files.read_icc_profile,
+    glmls.files.read_handles,
     glmls.files.world_to_volume,
     glmls.files.volume_to_world,
 ]

@@ -5,10 +5,13 @@ CSV and as JSON's bare ``Infinity``; the moving points are the sources."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from numpy.testing import assert_array_equal
 
+from glmls.errors import InputFileError
 from glmls.files.landmarks import read_handle_set, read_handles
 
 
@@ -49,3 +52,27 @@ def test_bigwarp_json_with_an_unpaired_landmark(tmp_path, wrapped):
     assert_array_equal(src, [[1.0, 2.0, 3.0]])
     assert_array_equal(dst, [[1.5, 2.0, 3.0]])
     assert np.isfinite(dst).all()
+
+
+def test_a_bigwarp_row_with_a_mistyped_flag_names_the_flag(tmp_path):
+    path = tmp_path / "landmarks.csv"
+    path.write_text("Pt-0,maybe,10,10,12,8\n")
+    with pytest.raises(InputFileError, match=r"line 1: expected true/false, got 'maybe'"):
+        read_handles(path)
+
+
+def test_bigwarp_json_without_active_flags_takes_every_landmark(tmp_path):
+    path = tmp_path / "landmarks.json"
+    moving, fixed = [[1, 2], [5, 6], [9, 1]], [[1, 2], [5, 7], [9, 1]]
+    path.write_text(
+        json.dumps(
+            {
+                "type": "BigWarpLandmarks",
+                "numDimensions": 2,
+                "movingPoints": moving,
+                "fixedPoints": fixed,
+            }
+        )
+    )
+    src, dst = read_handles(path)
+    assert src.tolist() == moving and dst.tolist() == fixed
