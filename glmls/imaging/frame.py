@@ -388,8 +388,11 @@ def search_margins(
                 rings[margins[k]] = base.with_margin(margins[k]).boundary()
             asked[k] = rings[margins[k]]
         values = evaluate(asked)
-        for margin in sorted({margins[k] for k in active}):
-            alike = [k for k in active if margins[k] == margin]
+        # the margins each map was evaluated at: the loop below doubles some of them, and a
+        # doubled one must wait for its own ring, not be judged by this one's values
+        evaluated = list(margins)
+        for margin in sorted({evaluated[k] for k in active}):
+            alike = [k for k in active if evaluated[k] == margin]
             inside = encloses_all(np.stack([values[k] for k in alike]), low, high)  # type: ignore[misc]
             for k, covered in zip(alike, inside.tolist(), strict=True):
                 if covered or margin >= limit:

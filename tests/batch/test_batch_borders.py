@@ -8,6 +8,7 @@ import warnings
 
 import numpy as np
 import pytest
+from numpy.testing import assert_array_equal
 
 import glmls
 from glmls.batch import chunks as chunks_module
@@ -284,3 +285,18 @@ def test_bilinear_embeddings_are_coloured_by_the_scan(gl, rng, monkeypatch, bord
         assert sorted(flags) == [False] * 3 + [True] * 3
         if border == "constant":  # one chunk, in order
             assert drawn == [[i in folding for i in range(6)]]
+
+
+@pytest.mark.parametrize("method", ["quads", "backward"])
+def test_images_whose_margin_searches_double_past_each_other(gl, method):
+    """Image 0's margin (a shrink) is found at the search's first ring, image 1's (a 19 px
+    move) doubles from a smaller ring to image 0's size within the same step: each is judged
+    by its own ring's values (the batch raised "all input arrays must have the same shape")."""
+    images = np.random.default_rng(0).integers(0, 256, (2, 32, 32), dtype=np.uint8)
+    corners = np.array([[8.0, 8.0], [24.0, 8.0], [8.0, 24.0]])
+    src = [corners, corners[:1]]
+    dst = [(corners - 16) * 0.5 + 16, corners[:1] + [19, 0]]
+    options = {"border": "edge", "transform": "similarity", "method": method, "ctx": gl}
+    out = glmls.warp_batch(images, src, dst, **options)
+    for k in range(2):
+        assert_array_equal(out[k], glmls.warp(images[k], src[k], dst[k], **options))
