@@ -1,7 +1,8 @@
 // f's inverse at a list of points u (scaled): Newton's method on f(s) = u from a first guess
 // s0 (the caller's: the MLS with p and q swapped, at u), then, where that does not converge,
 // from u itself. Each step s -= (f(s) - u) J^-1, J = df/dv by central differences (row
-// vectors), its length capped at u_max_step; it stops below u_tolerance. Writes s (scaled)
+// vectors), its length capped at u_max_step and halved where it raises the residual; it
+// stops below u_tolerance. Writes s (scaled)
 // and |f(s) - u| (scaled), 4 floats per point.
 layout(local_size_x = LOCAL_SIZE) in;
 
@@ -24,19 +25,38 @@ vec3 mls3_residual(vec3 s, vec3 u) {
     return (s - u) + mls3_eval(s).d;
 }
 
-// Newton from s; returns the last |f(s) - u| and leaves s there.
+// Newton from s; returns the least |f(s) - u| it reached and leaves s there. A step that
+// raises the residual (f curves within it, and Newton would cycle or leave) is halved, up to
+// u_steps halvings in all, and taken where none brings it down (Newton may have to climb
+// out of a dip).
 float mls3_newton(inout vec3 s, vec3 u) {
+    float residual = length(mls3_residual(s, u));
+    vec3 best = s;
+    float least = residual;
     vec3 r = mls3_residual(s, u);
-    for (int k = 0; k < u_steps && length(r) > u_tolerance; ++k) {
+    int halvings = 0;
+    for (int k = 0; k < u_steps && residual > u_tolerance; ++k) {
         mat3 J = mls3_jacobian(s, u_jacobian_step);
         float det = determinant(J);
         vec3 move = abs(det) > 1e-12 ? r * inverse(J) : r;
         float len = length(move);
         move *= len > u_max_step ? u_max_step / len : 1.0;
-        s -= move;
-        r = mls3_residual(s, u);
+        vec3 t = s - move;
+        vec3 rt = mls3_residual(t, u);
+        while (length(rt) > residual && halvings < u_steps) {
+            move *= 0.5;
+            t = s - move;
+            rt = mls3_residual(t, u);
+            ++halvings;
+        }
+        s = t;
+        r = rt;
+        residual = length(r);
+        best = residual < least ? s : best;
+        least = min(residual, least);
     }
-    return length(r);
+    s = best;
+    return least;
 }
 
 void main() {
