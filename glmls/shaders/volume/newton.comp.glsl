@@ -1,7 +1,7 @@
 // The backward method: for each output voxel u of the slab, the source point s with
 // f(s) = u by Newton's method on f (source voxels), from the first guess in the coordinates
 // buffer ((x, y, z, w), w >= 0: the cells' piecewise linear inverse covers u) or from u
-// itself. Each step takes one evaluation of f and a slope, the inverse Jacobian: from a guess
+// itself (and from u where the guess's ends above u_accept). Each step takes one evaluation of f and a slope, the inverse Jacobian: from a guess
 // first its tetrahedron's (the slopes buffer: the piecewise linear inverse's), else, and
 // wherever the residual falls by less than half in a step, f's own by forward differences
 // (a quarter voxel: the MLS Jacobian is not M), kept while it converges fast;
@@ -32,18 +32,9 @@ uniform float u_tolerance;
 uniform float u_accept;
 uniform float u_max_step;
 
-void main() {
-    int item = u_offset + int(gl_GlobalInvocationID.x);
-    bool store = item < u_count;
-    int i = min(item, u_count - 1);
-    ivec3 p = ivec3(i % u_slab_size.x, (i / u_slab_size.x) % u_slab_size.y,
-                    i / (u_slab_size.x * u_slab_size.y));
-    vec3 u = u_frame_origin + vec3(p + ivec3(0, 0, u_slab_first));
-    vec4 guess = volume_coords[i];
-    bool guided = guess.w >= 0.0;
-    vec3 s = guided ? guess.xyz : u;
-    mat3 slope = mat3(volume_slopes[3 * i].xyz, volume_slopes[3 * i + 1].xyz,
-                      volume_slopes[3 * i + 2].xyz);
+// Newton from s (a guess of the cells' inverse with its slope where guided, else u itself
+// and f's own Jacobians); leaves s at the point it ends at and returns its residual.
+float volume_newton(inout vec3 s, vec3 u, bool guided, mat3 slope) {
     // f's Jacobian by forward differences of a quarter voxel (the MLS Jacobian is not M)
     const float h = 0.25;
     mat3 jacobian = mat3(0.0);
@@ -106,6 +97,35 @@ void main() {
     if (residual > last) {   // the last step's halvings did not bring it back down
         s = start;
         residual = last;
+    }
+    return residual;
+}
+
+void main() {
+    int item = u_offset + int(gl_GlobalInvocationID.x);
+    bool store = item < u_count;
+    int i = min(item, u_count - 1);
+    ivec3 p = ivec3(i % u_slab_size.x, (i / u_slab_size.x) % u_slab_size.y,
+                    i / (u_slab_size.x * u_slab_size.y));
+    vec3 u = u_frame_origin + vec3(p + ivec3(0, 0, u_slab_first));
+    vec4 guess = volume_coords[i];
+    bool guided = guess.w >= 0.0;
+    mat3 slope = mat3(volume_slopes[3 * i].xyz, volume_slopes[3 * i + 1].xyz,
+                      volume_slopes[3 * i + 2].xyz);
+    vec3 s = u;
+    float residual = 1e30;
+    // from the guess; where it leads off (next to a fold, the cells' inverse may be another
+    // sheet's), again from u itself with f's own Jacobians, keeping the better end. One call
+    // in a loop, not two calls: one copy of f in the program.
+    for (int attempt = 0; attempt < 2; ++attempt) {
+        bool from_guess = attempt == 0 && guided;
+        vec3 t = from_guess ? guess.xyz : u;
+        float got = volume_newton(t, u, from_guess, slope);
+        s = got < residual ? t : s;
+        residual = min(got, residual);
+        if (residual <= u_accept || !guided) {
+            break;
+        }
     }
     bool found = residual <= u_accept;
 #if WARP_BORDER == 0
