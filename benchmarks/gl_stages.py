@@ -3,7 +3,7 @@ transfers, and the host's own time.
 
 ``python benchmarks/gl_stages.py volume [--size 256] [--method quads|backward] [--grid 1]``
 ``python benchmarks/gl_stages.py batch [--n 256] [--size 224] [--keypoints] [--move 5.6]
-[--one-scan]``
+[--one-scan] [--interpolation nearest|linear] [--border constant|edge|reflect|...]``
 ``python benchmarks/gl_stages.py mesh [--vertices 1000000] [--surface random|torus]``
 
 Each compute dispatch is followed by ``ctx.finish()`` and timed, and so is each buffer and
@@ -114,10 +114,11 @@ def batch_workload(args):
     if args.keypoints:
         labels["keypoints"] = rng.uniform(0, size - 1, (n, 3, 2))
         labels["masks"] = rng.integers(0, 4, (n, size, size), dtype=np.uint8)
+    options = {"grid": 4, "interpolation": args.interpolation, "border": args.border}
     glmls.warp_batch(
-        images[:2], src[:2], dst[:2], grid=4, **labels and {k: v[:2] for k, v in labels.items()}
+        images[:2], src[:2], dst[:2], **options, **{k: v[:2] for k, v in labels.items()}
     )
-    return lambda: glmls.warp_batch(images, src, dst, grid=4, **labels)
+    return lambda: glmls.warp_batch(images, src, dst, **options, **labels)
 
 
 def torus(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -165,6 +166,8 @@ def main() -> None:
         action="store_true",
         help="batch: one scan program for every image (glmls.batch.texels.FAST_PASS off)",
     )
+    parser.add_argument("--interpolation", default="nearest", choices=glmls.INTERPOLATIONS)
+    parser.add_argument("--border", default="constant", choices=glmls.BORDERS)
     parser.add_argument("--vertices", type=int, default=1_000_000)
     parser.add_argument("--surface", default="random", choices=("random", "torus"))
     parser.add_argument("--top", type=int, default=12)
