@@ -248,3 +248,21 @@ def degenerate_sets3(rng) -> dict[str, np.ndarray]:
         "one": general[:1],
         "coincident": np.repeat(general[:1], 4, axis=0),
     }
+
+
+def context_with_shaders(root: Path, shaders: dict[str, str], *, package: tuple[str, ...] = ()):
+    """A headless GL context whose shader library is ``root``, holding the package's shader
+    files ``package`` (paths under glmls/shaders, as they are) and ``shaders`` (path: source):
+    a test's own entry file that includes the package's pieces it checks."""
+    from importlib import resources
+
+    from glmls.gl.context import create_headless
+    from glmls.gl.shaders import ShaderLibrary
+
+    files = {
+        name: resources.files("glmls").joinpath("shaders", name).read_text() for name in package
+    }
+    for name, source in {**files, **shaders}.items():
+        (root / name).parent.mkdir(parents=True, exist_ok=True)
+        (root / name).write_text(source)
+    return create_headless(shaders=ShaderLibrary(root))

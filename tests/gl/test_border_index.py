@@ -4,14 +4,11 @@ float-quotient remainder must give numpy's integer one everywhere."""
 
 from __future__ import annotations
 
-import importlib.resources as package_files
-
 import numpy as np
 import pytest
+from helpers import context_with_shaders
 
 from glmls.gl import bindings
-from glmls.gl.context import create_headless
-from glmls.gl.shaders import ShaderLibrary
 from glmls.imaging.source import BORDERS
 
 INDEX = """
@@ -41,11 +38,7 @@ PAD = {
 @pytest.fixture(scope="module")
 def indexer(tmp_path_factory):
     root = tmp_path_factory.mktemp("border")
-    (root / "common").mkdir()
-    helper = package_files.files("glmls").joinpath("shaders", "common", "border.glsl")
-    (root / "common" / "border.glsl").write_text(helper.read_text())
-    (root / "index.comp.glsl").write_text(INDEX)
-    own = create_headless(shaders=ShaderLibrary(root))
+    own = context_with_shaders(root, {"index.comp.glsl": INDEX}, package=("common/border.glsl",))
     yield own
     own.release()
 

@@ -3,16 +3,14 @@
 
 from __future__ import annotations
 
-from importlib import resources as package_files
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from helpers import context_with_shaders
 from numpy.testing import assert_array_equal
 
 from glmls.gl import bindings
-from glmls.gl.context import create_headless
-from glmls.gl.shaders import ShaderLibrary
 from glmls.gl.tables import TABLE_WIDTH, Tables, table_rows
 
 READ = """\
@@ -37,11 +35,7 @@ def reader(tmp_path_factory):
     """A context whose shader library holds the package's common/table.glsl and a shader
     that copies items 0 .. u_count - 1 of the table on unit 0 into a buffer."""
     root = tmp_path_factory.mktemp("tables")
-    (root / "common").mkdir()
-    helper = package_files.files("glmls").joinpath("shaders", "common", "table.glsl")
-    (root / "common" / "table.glsl").write_text(helper.read_text())
-    (root / "read.comp.glsl").write_text(READ)
-    own = create_headless(shaders=ShaderLibrary(root))
+    own = context_with_shaders(root, {"read.comp.glsl": READ}, package=("common/table.glsl",))
     yield own
     own.release()
 
