@@ -30,10 +30,10 @@ vec3 mls3_residual(vec3 s, vec3 u) {
 // u_steps halvings in all, and taken where none brings it down (Newton may have to climb
 // out of a dip).
 float mls3_newton(inout vec3 s, vec3 u) {
-    float residual = length(mls3_residual(s, u));
+    vec3 r = mls3_residual(s, u);
+    float residual = length(r);
     vec3 best = s;
     float least = residual;
-    vec3 r = mls3_residual(s, u);
     int halvings = 0;
     for (int k = 0; k < u_steps && residual > u_tolerance; ++k) {
         mat3 J = mls3_jacobian(s, u_jacobian_step);
@@ -41,14 +41,19 @@ float mls3_newton(inout vec3 s, vec3 u) {
         vec3 move = abs(det) > 1e-12 ? r * inverse(J) : r;
         float len = length(move);
         move *= len > u_max_step ? u_max_step / len : 1.0;
-        vec3 t = s - move;
-        vec3 rt = mls3_residual(t, u);
-        while (length(rt) > residual && halvings < u_steps) {
-            move *= 0.5;
+        // the step, then its halves while they raise the residual: one place evaluates f
+        vec3 t;
+        vec3 rt;
+        bool whole = true;
+        do {
+            if (!whole) {
+                move *= 0.5;
+                ++halvings;
+            }
+            whole = false;
             t = s - move;
             rt = mls3_residual(t, u);
-            ++halvings;
-        }
+        } while (length(rt) > residual && halvings < u_steps);
         s = t;
         r = rt;
         residual = length(r);
