@@ -37,6 +37,7 @@ __all__ = [
     "image_inputs",
     "kept_profile",
     "make_mls",
+    "one_cell_warning",
     "read_image",
     "read_image_handles",
     "reference_or_handles",
@@ -148,17 +149,33 @@ def figure(value: float | None) -> str:
     return "n/a" if value is None else f"{value:.4g}"
 
 
+def one_cell_warning(grid: int, shape: tuple[int, ...]) -> str | None:
+    """The warning for a ``--grid`` not smaller than the image (H, W) or volume (D, H, W) of
+    ``shape``: its mesh is one cell; None where the grid is finer (or 1)."""
+    if not (grid > 1 and grid >= max(shape)):
+        return None
+    if len(shape) == 2:
+        height, width = shape
+        return (
+            f"--grid {grid} is not smaller than the {width} x {height} image: the mesh is one "
+            "cell, whose corners alone follow f (the handles inside it move nothing)"
+        )
+    depth, height, width = shape
+    return (
+        f"--grid {grid} is not smaller than the {width} x {height} x {depth} volume: the "
+        "lattice is one cell, whose corners alone follow f (the handles inside it move "
+        "nothing)"
+    )
+
+
 def warn_about_handles(args: argparse.Namespace, handles: HandleSet, shape) -> None:
     """Warnings on stderr (not errors) for handles (their source points and segment ends)
     that look like another convention."""
     points, ends = handles.source_points(), handles.segments > 0
     messages = handle_warnings(points, shape[:2], segment_ends=ends)
-    grid, (height, width) = getattr(args, "grid", 1), shape[:2]
-    if getattr(args, "tolerance", None) is None and grid > 1 and grid >= max(height, width):
-        messages.append(
-            f"--grid {grid} is not smaller than the {width} x {height} image: the mesh is one "
-            "cell, whose corners alone follow f (the handles inside it move nothing)"
-        )
+    one_cell = one_cell_warning(getattr(args, "grid", 1), shape[:2])
+    if getattr(args, "tolerance", None) is None and one_cell is not None:
+        messages.append(one_cell)
     for message in messages:
         say(args, f"glmls {args.command}: warning: {message}")
 

@@ -40,7 +40,7 @@ from ..files.volumes import (
     write_volume,
 )
 from ..mls import MLS
-from .inputs import reported_warnings, say
+from .inputs import one_cell_warning, reported_warnings, say
 from .options import UsageError, below_a_file, config_from_args, refuse_overwriting
 from .progress import Ticker
 
@@ -366,14 +366,9 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
     src, dst = voxel_handles(args, src, dst, spacing)
     src, dst = world_handles(args, volume, spacing, src, dst)
     messages = volume_handle_warnings(args, src, data.shape, spacing, volume.affine)
-    grid = getattr(args, "grid", 1)
-    if args.method == "quads" and grid > 1 and grid >= max(data.shape[:3]):
-        depth, height, width = data.shape[:3]
-        messages.append(
-            f"--grid {grid} is not smaller than the {width} x {height} x {depth} volume: the "
-            "lattice is one cell, whose corners alone follow f (the handles inside it move "
-            "nothing)"
-        )
+    one_cell = one_cell_warning(getattr(args, "grid", 1), data.shape[:3])
+    if args.method == "quads" and one_cell is not None:
+        messages.append(one_cell)
     for message in messages:
         say(args, f"glmls warp: warning: {args.input}: {message}")
     with _mls(src, dst, config, shape=data.shape[:3], spacing=spacing) as m:
