@@ -282,9 +282,12 @@ class MLSTransform(v2.Transform):
             # the batch's own labels (any number: a semantic and an instance mask), by their
             # shape; the others are the samples' own, one each in order
             ours = kind is not tv_tensors.BoundingBoxes
-            whole = [x for x in labels if ours and _batch_first(x, count)]
-            owners.update({id(x): "batch" for x in whole})
-            rest = [x for x in labels if not (ours and _batch_first(x, count))]
+            rest = []
+            for x in labels:
+                if ours and _batch_first(x, count):
+                    owners[id(x)] = "batch"
+                else:
+                    rest.append(x)
             if count == 1:
                 owners.update({id(x): 0 for x in rest})
             elif len(rest) == count:
