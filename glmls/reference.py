@@ -9,8 +9,9 @@ Degenerate cases follow the same rules as the shader (``glmls/shaders/mls/core.g
   the solution over the other handles about p_i;
 - no handle in reach (compact-support weights): identity;
 - coincident source handles in reach (spread about p* below 1e-13 of that about v of the
-  handles not at the nearest one's place, the nearest's own counted for a gaussian where
-  every other handle is in its far tail): M = I;
+  handles not at the nearest one's place): M = I; in a gaussian's far tail, where the
+  nearest outweighs the others by e^30 and more, their fit is M however small their weights
+  (the moments are taken about the nearest handle);
 - rigid with all targets in reach collapsed to one point: M = I;
 - affine whose moment matrix A is singular or nearly (det A <= 1e-5 trace(A)^2: fewer than
   3 handles in reach, or handles along one line): the similarity solution.
@@ -75,7 +76,6 @@ from .core.handles3 import (
 from .core.handleset import HandleSet
 from .core.mesh import as_shape
 from .core.segments import REFERENCE_NODES, REFERENCE_PANELS, segment_config, sinh_nodes
-from .core.weights import GAUSSIAN_NEGLIGIBLE, gaussian_excess
 
 __all__ = [
     "DEGENERATE_SHARE",
@@ -439,6 +439,19 @@ def mls(
 
     wsum = w.sum(axis=1) + j0.sum(axis=1)
     reached = hit | (wsum > 0)
+    # the moments about the nearest point handle o (p - p_o exactly 0 at its place), as 3D
+    # (_mls3): where o's weight outweighs the others' by far (next to a steep weight's handle,
+    # in a gaussian's far tail) the others' spread about p* keeps float64's precision
+    # instead of being lost to the rounding of p* about v
+    origin_p = np.zeros((k, 2))
+    origin_q = np.zeros((k, 2))
+    if len(p):
+        nearest = np.argmin(d2, axis=1)
+        origin_p, origin_q = dp[rows, nearest], dq[rows, nearest]  # p_o - v, q_o - v
+        dp = p[None, :, :] - p[nearest][:, None, :]
+        dq = q[None, :, :] - q[nearest][:, None, :]
+        foot = foot - origin_p[:, None, :]
+        target = target - origin_q[:, None, :]
     with np.errstate(divide="ignore", invalid="ignore"):
         pmean = (w[..., None] * dp).sum(1) + (j0[..., None] * foot + j1[..., None] * u).sum(1)
         qmean = (w[..., None] * dq).sum(1) + (j0[..., None] * target + j1[..., None] * g).sum(1)
@@ -464,31 +477,27 @@ def mls(
 
     big_m = _solve(a11, a12, a22, b, config.transform)
     # coincident source handles: their spread about p* is negligible against the yardstick
-    # (_yardstick: the spread about v, the nearest handle's own left out unless a gaussian's
-    # tail), and float64 noise (~1e-32) against the whole spread about v (one handle alone)
-    yardstick = _yardstick(p, w, d2, seg["dist2"], config, radius)
+    # (_yardstick: the spread about v, the nearest handle's own left out); sources all at
+    # one place have p - p_o = 0 exactly
+    yardstick = _yardstick(p, w, d2, seg["dist2"])
     yardstick += (seg["h2"] * j0 + j2).sum(1)
-    coincident = ~(a11 + a22 > 1e-13 * yardstick + 1e-26 * (w * d2).sum(1))
+    coincident = ~(a11 + a22 > 1e-13 * yardstick)
     big_m[coincident | ~reached] = np.eye(2)
-    f = v + qst - np.einsum("ki,kij->kj", pst, big_m)
+    # f(v) = q* + (v - p*) M, with p* - v = (p_o - v) + (p* - p_o)
+    f = v + (origin_q + qst) - np.einsum("ki,kij->kj", origin_p + pst, big_m)
     f[~reached] = v[~reached]
     t = f - np.einsum("ki,kij->kj", v, big_m)
     return f, big_m, t
 
 
-def _yardstick(p, w, d2, segment_d2, config: MLSConfig, radius) -> np.ndarray:
-    """(K,) the yardstick of "coincident sources": sum w |p - v|^2 over the point handles.
-
-    The handles at the nearest one's place (a point handle; a segment nearer than every
-    point handle leaves none out) count only for a gaussian at points where every other
-    handle is in its tail (weight below tau = 2^-24 of the nearest's, exponent beyond
-    ``GAUSSIAN_NEGLIGIBLE``). Next to a handle whose weight is steep (1 / d^(2 alpha),
-    alpha > 1) its own w d^2 grows without bound and would make any spread of the others
-    about p* look like noise, though their fit is M there (continuous up to the handle, and
-    float32 computes their power-law weights to its precision). In a gaussian's far tail the
-    others' weights are exp of large arguments, which float32 cannot compute (nor the bins'
-    cut keep): there the nearest's w d^2 keeps M = I unless the others' spread is not
-    negligible against it, as on the GPU (``glmls/shaders/mls/core.glsl``).
+def _yardstick(p, w, d2, segment_d2) -> np.ndarray:
+    """(K,) the yardstick of "coincident sources": sum w |p - v|^2 over the point handles
+    not at the nearest one's place (a point handle; a segment nearer than every point handle
+    leaves none out). The nearest's own w d^2 is left out: next to a handle whose weight is
+    steep (1 / d^(2 alpha), alpha > 1) it grows without bound, and in a gaussian's far tail
+    it outweighs the others by e^30 and more, yet in both places the others' spread about p*
+    decides M (continuous up to the handle; and in the tail the fit of the nearest handles
+    apart, however small their weights), as on the GPU (``glmls/shaders/mls/weighting.glsl``).
     """
     spread = w * d2
     if not d2.shape[1]:
@@ -498,12 +507,7 @@ def _yardstick(p, w, d2, segment_d2, config: MLSConfig, radius) -> np.ndarray:
     at_nearest = (p[None, :, :] == p[nearest][:, None, :]).all(-1)
     closer_segment = segment_d2.min(axis=1, initial=np.inf) < d2[rows, nearest]
     apart = ~at_nearest | closer_segment[:, None]
-    yardstick = np.where(apart, spread, 0.0).sum(1)
-    if config.weight_entry.support == "gaussian":
-        near = apart & (w > 0) & (gaussian_excess(d2, radius) <= GAUSSIAN_NEGLIGIBLE)
-        tail = ~near.any(axis=1)
-        yardstick += np.where(tail[:, None] & ~apart, spread, 0.0).sum(1)
-    return yardstick
+    return np.where(apart, spread, 0.0).sum(1)
 
 
 def _segment_products(j0, j1, j2, pf, u, qf, g) -> np.ndarray:
@@ -773,7 +777,7 @@ def _mls3(p, q, v, config: MLSConfig, radius: float | None):
     # coincident sources: their spread about p* against the yardstick, as 2D (:func:`mls`,
     # _yardstick). Sources all at one place have p - p_o = 0 exactly: no rounding noise to
     # allow for
-    yardstick = _yardstick(p, w, d2, np.empty((k, 0)), config, radius)
+    yardstick = _yardstick(p, w, d2, np.empty((k, 0)))
     coincident = ~(np.trace(big_a, axis1=-2, axis2=-1) > 1e-13 * yardstick)
     live = reached & ~coincident
     if live.any():

@@ -21,20 +21,12 @@ from typing import Protocol
 import numpy as np
 
 #: Where a weight reaches: every handle (no spatial bins), exactly 0 from d = R on
-#: ("radius"), or never 0 but cut where its tail is negligible ("gaussian"). A "gaussian"
-#: tail is also where float32 loses the weights (the cut leaves them out; further out exp
-#: of large arguments has relative errors ~1e-7 d^2 / R^2, then underflows): MLS's
-#: "coincident sources" yardstick keeps the nearest handle's own w d^2 where every other
-#: handle is in it (beyond :data:`GAUSSIAN_NEGLIGIBLE`, see :func:`gaussian_excess`), and
-#: leaves it out otherwise and for the other weights, whose ratios, powers of d, float32
-#: keeps to its precision however large.
+#: ("radius"), or never 0 but cut where its tail is negligible ("gaussian": against the
+#: nearest handles apart from the nearest one's place, whose moments about it decide M).
 SUPPORTS = ("everywhere", "radius", "gaussian")
 #: The gaussian cut leaves out weights summing to less than this share of the total
 #: (float32's unit roundoff; see :func:`reach` and ``glmls/engine/bins.py``).
 GAUSSIAN_TOLERANCE = 2.0**-24
-#: ln(1 / tau): a handle whose gaussian exponent exceeds the nearest one's by more than this
-#: weighs less than tau (:data:`GAUSSIAN_TOLERANCE`) of it, out of float32's resolution.
-GAUSSIAN_NEGLIGIBLE = math.log(1.0 / GAUSSIAN_TOLERANCE)
 
 
 class WeightParameters(Protocol):
@@ -90,8 +82,9 @@ class Weight:
     def reach(self, radius: float, count: int) -> float | None:
         """How far (in the units of ``radius``) a point looks for handles among ``count``:
         None for every handle; R where the weight is 0 from R on; R sqrt(ln(N / tau)) for the
-        gaussian, whose weights below tau / N of the nearest one's (tau =
-        :data:`GAUSSIAN_TOLERANCE`) are left out. With a margin against rounding at the edges.
+        gaussian, whose weights below tau / N of the nearest handle's apart from the nearest
+        one's place (tau = :data:`GAUSSIAN_TOLERANCE`) are left out. With a margin against
+        rounding at the edges.
         """
         if self.support == "everywhere":
             return None

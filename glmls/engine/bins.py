@@ -8,17 +8,19 @@ the bins that meet the square of half-side ``reach`` around the point: one conti
 sorted handles per bin row, from a table of where each bin's handles start (a storage buffer,
 binding ``BIN_STARTS``).
 
-Gaussian cut: weights are normalised so that the nearest handle's is 1 (it is the largest),
-and a handle is left out when its weight is below tau W1 / N: d^2 > m + R^2 ln(N / (tau W1)),
-m the nearest's squared distance, N the handle count, tau = GAUSSIAN_TOLERANCE = 2^-24
-(float32's unit roundoff, in ``glmls.core.weights``) and W1 >= 1 a lower bound of the total
-weight: the weights of the handles in the bins next to the point (all kept), or 1 (the
-nearest alone). At most N handles
-are left out, so the left-out weight is below tau W1 <= tau W: under one float32 rounding of
-the total. The denser the handles, the larger W1 and the nearer the cut (65,536 handles on a
+Gaussian cut: measured against the nearest handles apart from the nearest one's place (at
+squared distance g, the least above the nearest's), whose moments about the nearest handle
+decide M (the nearest's own are 0): a handle is left out when its weight is below tau W1 / N
+of theirs: d^2 > g + R^2 ln(N / (tau W1)), N the handle count, tau = GAUSSIAN_TOLERANCE =
+2^-24 (float32's unit roundoff, in ``glmls.core.weights``) and W1 >= 1 a lower bound of the
+total weight of the handles apart, relative to theirs: the weights of those in the bins next
+to the point (all kept), or 1. At most N handles are left out, so the left-out weight is
+below tau W1 <= tau W: under one float32 rounding of the moments' total weight, also in a
+gaussian's far tail, where the nearest outweighs the others by e^30 and more. The denser
+the handles, the larger W1 and the nearer the cut (65,536 handles on a
 1024^2 lattice, R = 16 px: W1 ~ 25, the cut at ~4.95 R instead of 5.3 R with W1 = 1). Points
 with no handle within R sqrt(ln(N / tau)) look on in squares of twice the side until the
-nearest is certain.
+nearest, and the nearest apart from its place, are certain.
 
 Segment handles go into every bin their reach touches (the bins within ``reach`` of the
 segment, plus a bin's half-diagonal): a point visits the segments listed in its own bin only,

@@ -19,7 +19,7 @@ import numpy as np
 from ..core.config import MLSConfig, transform_code
 from ..core.handles import Scaling
 from ..core.handles3 import volume_diagonal
-from ..core.weights import GAUSSIAN_NEGLIGIBLE, GAUSSIAN_TOLERANCE
+from ..core.weights import GAUSSIAN_TOLERANCE
 from ..errors import ReleasedError
 from ..gl.context import GLContext
 from ..gl.dispatch import set_uniforms
@@ -137,7 +137,6 @@ class MLSKernel3:
             "MLS_WEIGHT_USES_S": entry.uses_s,
             "MLS_GAUSSIAN_TOLERANCE": GAUSSIAN_TOLERANCE,
             "MLS_REACH_GAUSSIAN": entry.support == "gaussian",
-            "MLS_GAUSSIAN_NEGLIGIBLE": GAUSSIAN_NEGLIGIBLE,
             "MLS_TRANSFORM": transform_code(config.transform),
             "MLS_INTERPOLATING": config.interpolating,
             "MLS_ALPHA_ONE": config.alpha == 1.0,

@@ -72,6 +72,25 @@ def test_gaussian_far_from_every_handle_equals_plain(gl, rng):
     assert_allclose(f_bins, f_plain, rtol=0, atol=2e-4)
 
 
+def test_gaussian_cut_keeps_the_handles_apart_from_the_nearest(gl, rng):
+    """Handles 25 px apart with R = 4 px: next to a handle the others weigh exp(-30) of it
+    and less, below the cut measured against the nearest (ln(N / tau) ~ 22.6), yet their
+    moments about it decide M. The cut is measured against the nearest handles apart from
+    the nearest one's place, so the bins keep them."""
+    y, x = np.mgrid[0:20, 0:20] * 25.0 + 10.0
+    p = np.stack([x.ravel(), y.ravel()], 1)
+    q = p + rng.uniform(-3, 3, p.shape)
+    v = p[rng.choice(len(p), 200)] + rng.uniform(-3, 3, (200, 2))
+    d2 = np.sort(((p[None] - v[:, None]) ** 2).sum(-1), axis=1)
+    assert np.median((d2[:, 1] - d2[:, 0]) / 16.0) > 25.0
+    options = {"weight": "gaussian", "radius": 4.0, "shape": SHAPE, "ctx": gl}
+    f_plain, f_bins, _ = plain_and_binned(p, q, v, **options)
+    assert_allclose(f_bins, f_plain, rtol=0, atol=2e-4)
+    f_ref, m_ref, _ = reference.mls(p, q, v, weight="gaussian", radius=4.0)
+    assert (np.abs(m_ref - np.eye(2)).max(axis=(1, 2)) > 1e-6).all()
+    assert_allclose(f_bins, f_ref, rtol=0, atol=2e-3)
+
+
 @pytest.mark.parametrize("weight, radius, n", [("gaussian", 3.0, 8), ("cressman", 40.0, 4)])
 def test_few_handles_far_apart_equal_plain(gl, rng, weight, radius, n):
     """More bin rows than handles: the points visit every handle instead of the rows."""

@@ -4,7 +4,6 @@ identifiers too), compile errors naming file and line, programs compiled once.""
 from __future__ import annotations
 
 import json
-import math
 import shutil
 import subprocess
 import sys
@@ -162,7 +161,6 @@ def compile_every_entry(gl):
         "MLS_WEIGHT_USES_S": 0,
         "MLS_REACH_GAUSSIAN": 1,
         "MLS_GAUSSIAN_TOLERANCE": 2.0**-24,
-        "MLS_GAUSSIAN_NEGLIGIBLE": 24 * math.log(2.0),
         "MLS_TRANSFORM": 0,
         "MLS_INTERPOLATING": 1,
         "MLS_ALPHA_ONE": 0,

@@ -108,26 +108,23 @@ def test_gpu_m_is_continuous_up_to_the_handle(gl, config):
 
 
 @pytest.mark.parametrize("transform", glmls.TRANSFORMS)
-def test_m_is_a_translation_in_a_gaussians_far_tail(gl, transform):
+def test_m_is_the_fit_of_the_handles_apart_in_a_gaussians_far_tail(gl, transform):
     """As 2D (tests/test_float64_2d.py): tens of voxels from every handle with R = 4 voxels,
-    where the others weigh exp(-30) to exp(-45) of the nearest, in the gaussian's tail: the
-    nearest's own w d^2 stays in the yardstick and M = I in the reference and on the GPU,
-    where the others alone would give a fit."""
+    where the others weigh exp(-30) to exp(-45) of the nearest, in the gaussian's tail:
+    their spread about p* decides M however small their weights (the moments are taken
+    about the nearest handle), in the reference and on the GPU, where M is no translation.
+    (The nearest handle apart outweighs the rest there, so the fit is that of about two
+    handles, whose turn about their axis the degenerate-set rule decides.) Float32 on the
+    GPU: M within 4e-5 of the reference, f within 5e-3 voxel ~100 voxels from the handles
+    (measured)."""
     config = MLSConfig(transform=transform, weight="gaussian", radius=4.0)
     v = np.random.default_rng(5).uniform(80, 120, (300, 3))
-    d2 = ((P[None] - v[:, None]) ** 2).sum(-1)
-    excess = np.sort(d2 - d2.min(1, keepdims=True), axis=1)[:, 1] / 16.0
-    tail = (excess > 30) & (excess < 45)
-    v, d2 = v[tail], d2[tail]
+    d2 = np.sort(((P[None] - v[:, None]) ** 2).sum(-1), axis=1)
+    excess = (d2[:, 1] - d2[:, 0]) / 16.0
+    v = v[(excess > 30) & (excess < 45)]
     assert len(v) > 50
-    w = reference.weights(d2, config, 4.0)
-    pst = np.einsum("kn,ni->ki", w, P) / w.sum(1, keepdims=True)
-    spread_p = (w * ((P[None] - pst[:, None]) ** 2).sum(-1)).sum(1)
-    others = np.where(d2 > d2.min(1, keepdims=True), w * d2, 0.0).sum(1)
-    assert (spread_p < 1e-13 * (w * d2).sum(1)).all()
-    assert (spread_p > 1e-3 * others).all()
     f_ref, m_ref, _ = reference.mls(P, Q, v, config)
-    assert (m_ref == np.eye(3)).all()
+    assert (np.abs(m_ref - np.eye(3)).max(axis=(1, 2)) > 0.05).all()
     with glmls.MLS.from_config(P, Q, config) as m:
-        assert (m.matrices(v)[0] == np.eye(3)).all()
-        assert np.abs(m(v) - f_ref).max() < 2e-5
+        assert np.abs(m(v) - f_ref).max() < 1e-2
+        assert np.abs(m.matrices(v)[0] - m_ref).max() < 1e-4

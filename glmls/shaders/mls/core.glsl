@@ -88,9 +88,16 @@ vec4 mls_rotation_scale(float mu, vec4 D, float spread) {
 // whenever lanes disagree, so a "rare" branch costs its full price on every handle.
 // Working with displacements e = q - p keeps the identity exact and small deformations
 // precise: f(v) = v + e* + (v - p*) N with N = M - I.
+#ifndef MLS_REACH_GAUSSIAN
+#define MLS_REACH_GAUSSIAN 0   // 1: the weight is the gaussian (glmls.core.weights support)
+#endif
 struct MLSNearest {
     float d2min;    // squared distance of the nearest handle
     float d2far;    // ... of the nearest beyond the snapping distance
+#if MLS_REACH_GAUSSIAN
+    float d2next;   // ... the least above d2min: the nearest handles apart from the nearest's
+                    // place, whose weights the gaussian cut measures against (mls/visit.glsl)
+#endif
     vec4 h;         // the nearest handle
 #if MLS_SEGMENTS
     bool segment;   // it is a point of a segment handle (mls/segments.glsl)
@@ -101,11 +108,21 @@ MLSNearest mls_nearest_begin() {
     MLSNearest n;
     n.d2min = 3.0e38;
     n.d2far = 3.0e38;
+#if MLS_REACH_GAUSSIAN
+    n.d2next = 3.0e38;
+#endif
     n.h = vec4(0.0);
 #if MLS_SEGMENTS
     n.segment = false;
 #endif
     return n;
+}
+
+// The least squared distance above the nearest's, with d2 seen (before d2min takes it).
+void mls_nearest_next(inout MLSNearest n, float d2) {
+#if MLS_REACH_GAUSSIAN
+    n.d2next = d2 < n.d2min ? n.d2min : (d2 > n.d2min ? min(n.d2next, d2) : n.d2next);
+#endif
 }
 
 // ``use``: false for an empty slot (see MLS_UNROLL), which changes nothing.
@@ -117,6 +134,7 @@ void mls_nearest_add(inout MLSNearest n, vec4 h, vec2 v, bool use) {
 #if MLS_SEGMENTS
     n.segment = nearer ? false : n.segment;
 #endif
+    mls_nearest_next(n, d2);
     n.d2min = min(n.d2min, d2);
     n.d2far = min(n.d2far, d2 > u_hit2 ? d2 : 3.0e38);
 }
@@ -205,7 +223,7 @@ void mls_accumulate(inout MLSAccum a, vec4 h, bool use) {
     a.PE.xy += vec2(dot(wP, E), wP.x * E.y - wP.y * E.x);
 #endif
     // the handles at the nearest one's place (P = 0) apart
-    mls_yardstick_add(a.yard, any(notEqual(P, vec2(0.0))), w, d2, a.m);
+    mls_yardstick_add(a.yard, any(notEqual(P, vec2(0.0))), w, d2);
 }
 
 MLSResult mls_finish(MLSAccum a) {

@@ -87,6 +87,7 @@ void mls_nearest_add_segment(inout MLSNearest n, MLSSegment seg, vec2 v) {
     bool nearer = d2 < n.d2min;
     n.h = nearer ? h : n.h;
     n.segment = nearer ? true : n.segment;
+    mls_nearest_next(n, d2);
     n.d2min = min(n.d2min, d2);
     n.d2far = min(n.d2far, d2 > u_hit2 ? d2 : 3.0e38);
 }

@@ -72,7 +72,12 @@ bool mls_nearest_certain(MLSNearest near, float side, ivec2 lo, ivec2 hi) {
     }
     bool snapped = u_snap && near.d2min <= u_hit2;
     float side2 = side * side;
-    return near.d2min <= side2 && (!snapped || near.d2far <= side2);
+    bool certain = near.d2min <= side2 && (!snapped || near.d2far <= side2);
+#if MLS_REACH_GAUSSIAN
+    // the gaussian cut is measured against the nearest handles apart from the nearest's place
+    certain = certain && near.d2next <= side2;
+#endif
+    return certain;
 }
 
 // The sorted handles of bins x0..x1 of bin row y: indices run.x .. run.y - 1 (none when
@@ -93,17 +98,20 @@ void mls_nearest_bins(inout MLSNearest near, vec2 v, ivec2 lo, ivec2 hi) {
 }
 
 #if MLS_REACH_GAUSSIAN
-// W1, a lower bound of the total weight at a.v for the gaussian cut (glmls/engine/bins.py): the
-// weights of the handles in the bins lo..hi that every cut keeps (weight >= tolerance, so
-// within the disc whose bins pass 2 walks), and at least the nearest handle's, 1.
-float mls_weight_bound(MLSAccum a, ivec2 lo, ivec2 hi) {
+// W1, a lower bound of the total weight at a.v of the handles apart from the nearest one's
+// place, relative to the nearest of them (at squared distance g, weight 1), for the gaussian
+// cut (glmls/engine/bins.py): the weights of those in the bins lo..hi that every cut keeps
+// (weight >= tolerance), and at least the nearest apart's, 1. Those handles, not the nearest
+// (whose own moments about itself are 0), make the central moments that decide M.
+float mls_weight_bound(MLSAccum a, float g, ivec2 lo, ivec2 hi) {
     float w1 = 0.0;
+    float inv_g = 1.0 / g;
     for (int y = lo.y; y <= hi.y; ++y) {
         ivec2 run = mls_bin_run(y, lo.x, hi.x);
         for (int i = run.x; i < run.y; ++i) {
             vec2 dp = mls_handle(i).xy - a.v;
             float d2 = dot(dp, dp);
-            float w = mls_handle_weight(a, d2);
+            float w = d2 >= g ? mls_weight(d2, g, inv_g, a.sigma) : 0.0;
             w1 += w >= MLS_GAUSSIAN_TOLERANCE ? w : 0.0;
         }
     }
@@ -238,7 +246,8 @@ MLSResult mls_eval(vec2 v) {
 #if MLS_BINS
     // Pass 1 finds the nearest handle, first in the bins within u_bin_near of v (about a
     // handle spacing, glmls/engine/bins.py), then within reach: a compact weight is 0
-    // beyond R, so if none is there no handle reaches v. The gaussian goes on in squares of twice the side until the nearest is certain.
+    // beyond R, so if none is there no handle reaches v. The gaussian goes on in squares of
+    // twice the side until the nearest, and the nearest apart from its place, are certain.
     // Where a square or the disc spans more bin rows than there are handles (a few handles
     // far apart), walking its rows costs more than visiting every handle: that is done.
     int n = mls_handle_count();
@@ -268,9 +277,11 @@ MLSResult mls_eval(vec2 v) {
     MLSAccum a = mls_begin(v, near);
     float r = u_bin_reach;
 #if MLS_REACH_GAUSSIAN
-    // gaussian: weights below tau W1 / N of the nearest one's are left out (glmls/engine/bins.py)
-    float cut = u_bin_cut - log(mls_weight_bound(a, lo1, hi1));
-    r = sqrt(a.m + cut * u_radius * u_radius);
+    // gaussian: weights below tau W1 / N of the nearest apart from the nearest one's place
+    // are left out (glmls/engine/bins.py); with no handle apart, those of the nearest
+    float g = near.d2next < 3.0e38 ? near.d2next : a.m;
+    float cut = u_bin_cut - log(mls_weight_bound(a, g, lo1, hi1));
+    r = sqrt(g + cut * u_radius * u_radius);
 #endif
     // Pass 2 over the disc of radius r, row by row (or over every handle, which adds
     // only weights that are zero or within the cut's tolerance).

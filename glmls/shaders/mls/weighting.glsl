@@ -48,18 +48,6 @@ float mls_normalisation(float d2near) {
 #endif
 }
 
-#ifndef MLS_REACH_GAUSSIAN
-#define MLS_REACH_GAUSSIAN 0   // 1: the weight is the gaussian (glmls.core.weights support)
-#endif
-#if MLS_REACH_GAUSSIAN
-// How far the gaussian's exponent at squared distance d2 is beyond the nearest handle's (m):
-// above MLS_GAUSSIAN_NEGLIGIBLE, ln(1 / tau), the handle weighs less than tau of the nearest,
-// in the tail float32 cannot compute (glmls.core.weights.gaussian_excess).
-float mls_gaussian_excess(float d2, float m) {
-    return mls_radius_ratio(max(d2 - m, 0.0));
-}
-#endif
-
 // Weight of a handle at squared distance d2 (see mls/weights.glsl for m, inv_m and sigma).
 float mls_weight(float d2, float m, float inv_m, float sigma) {
     float w = MLS_WEIGHT_FUNCTION(d2, m, inv_m, sigma);
@@ -70,46 +58,28 @@ float mls_weight(float d2, float m, float inv_m, float sigma) {
 }
 
 // The yardstick of "coincident sources" of one point, 2D and 3D (glmls.reference's
-// _yardstick): sum w |p - v|^2 over the handles not at the nearest one's place, that sum
-// over those at it added back where the weight is a gaussian and every other handle is in
-// its tail. Next to a handle whose weight is steep (1 / d^(2 alpha), alpha > 1) its own
-// w d2 grows without bound and would outweigh any spread of the others about p*, which
-// decides M there (their power-law weights float32 computes to its precision); far in a
-// gaussian's tail the others' weights are exp of large arguments that float32 cannot
-// compute, and the nearest's w d2 keeps M = I unless their spread counts.
+// _yardstick): sum w |p - v|^2 over the handles not at the nearest one's place. The
+// nearest's own w d2 is left out: next to a handle whose weight is steep (1 / d^(2 alpha),
+// alpha > 1) it grows without bound, and in a gaussian's far tail it outweighs the others by
+// e^30 and more, yet the others' spread about p* decides M in both places (the moments are
+// taken about the nearest handle, which adds nothing to them, so float32 keeps the others'
+// small weights to its precision until they underflow).
 struct MLSYardstick {
     float spread;   // sum w |p - v|^2 over the handles not at p_o
-#if MLS_REACH_GAUSSIAN
-    float spread_o; // ... over those at p_o
-    float excess;   // the least mls_gaussian_excess of the handles not at p_o in reach
-#endif
 };
 
 MLSYardstick mls_yardstick_begin() {
     MLSYardstick y;
     y.spread = 0.0;
-#if MLS_REACH_GAUSSIAN
-    y.spread_o = 0.0;
-    y.excess = 3.0e38;
-#endif
     return y;
 }
 
 // A handle of weight w at squared distance d2, ``apart`` from the nearest one's place
-// (P != 0); m, the point's normalisation distance.
-void mls_yardstick_add(inout MLSYardstick y, bool apart, float w, float d2, float m) {
-    float wd2 = w * d2;
-    y.spread += apart ? wd2 : 0.0;
-#if MLS_REACH_GAUSSIAN
-    y.spread_o += apart ? 0.0 : wd2;
-    y.excess = min(y.excess, apart && w > 0.0 ? mls_gaussian_excess(d2, m) : 3.0e38);
-#endif
+// (P != 0).
+void mls_yardstick_add(inout MLSYardstick y, bool apart, float w, float d2) {
+    y.spread += apart ? w * d2 : 0.0;
 }
 
 float mls_yardstick(MLSYardstick y) {
-#if MLS_REACH_GAUSSIAN
-    return y.spread + (y.excess > MLS_GAUSSIAN_NEGLIGIBLE ? y.spread_o : 0.0);
-#else
     return y.spread;
-#endif
 }

@@ -120,7 +120,7 @@ void mls3_add(inout MLS3Accum a, float w, vec3 P, vec3 E, float d2) {
     a.Ao += wP.xxy * P.yzz;
     a.D += outerProduct(wP, E);
     // the handles at the nearest one's place (P = 0) apart
-    mls_yardstick_add(a.yard, P != vec3(0.0), w, d2, a.m);
+    mls_yardstick_add(a.yard, P != vec3(0.0), w, d2);
 }
 
 void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
