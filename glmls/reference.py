@@ -92,8 +92,10 @@ def weights(d2: np.ndarray, config: MLSConfig, radius: float | None) -> np.ndarr
     """Table 1 weights for squared distances; +inf where a weight is infinite at d = 0.
 
     Each weight's formula is its registry entry's (``glmls.core.weights``); a common factor
-    per point is allowed (the Gaussian is divided by its value at the nearest handle, so that
-    it does not underflow far from every handle).
+    per point is allowed: the Gaussian is divided by its value at the nearest handles apart
+    from the nearest one's place (the least distance above the least), so that it does not
+    underflow far from every handle, where their moments about the nearest decide M
+    (``glmls.core.weights.gaussian_excess``).
 
     Parameters
     ----------
@@ -125,8 +127,9 @@ def weights(d2: np.ndarray, config: MLSConfig, radius: float | None) -> np.ndarr
     >>> glmls.reference.weights(d2, glmls.MLSConfig(), None).tolist()  # 1 / (s + d^2)
     [[100000000.0, 0.9999999900000002, 0.249999999375]]
     >>> config = glmls.MLSConfig(weight="gaussian", radius=2.0)
-    >>> glmls.reference.weights(d2, config, 2.0).round(3).tolist()  # exp(-d^2 / R^2)
-    [[1.0, 0.779, 0.368]]
+    >>> w = glmls.reference.weights(d2, config, 2.0)  # exp(-d^2 / R^2) / exp(-1 / R^2)
+    >>> w.round(3).tolist(), (w / w[:, :1]).round(3).tolist()
+    ([[1.284, 1.0, 0.472]], [[1.0, 0.779, 0.368]])
     """
     with np.errstate(divide="ignore", invalid="ignore"):
         w = config.weight_entry.reference(d2, config, radius)

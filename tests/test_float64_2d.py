@@ -156,6 +156,26 @@ def test_m_is_the_fit_of_the_handles_apart_in_a_gaussians_far_tail(gl, transform
         assert np.abs(m.matrices(tail)[0] - m_ref).max() < (1e-3 if transform == "affine" else 1e-4)
 
 
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_the_deep_tail_does_not_underflow(gl, transform):
+    """With R = 4 px the others weigh exp(-100) to exp(-600) of the nearest, below float32's
+    range (~e^-87): relative to the nearest handles apart from the nearest one's place they
+    do not underflow, and M is still their fit, on the GPU as in the reference."""
+    config = glmls.MLSConfig(transform=transform, weight="gaussian", radius=4.0)
+    v = far_tail_points(4.0, 100.0, 600.0, 100)
+    turn = np.array([[np.cos(0.4), np.sin(0.4)], [-np.sin(0.4), np.cos(0.4)]])
+    moved = P @ turn + [3.0, -2.0]
+    tolerance = 0.05 if transform == "affine" else 1e-5 * SIZE
+    f_ref, _, _ = reference.mls(P, moved, v, config)
+    assert np.abs(f_ref - (v @ turn + [3.0, -2.0])).max() < 1e-7
+    with glmls.MLS.from_config(P, moved, config) as m:
+        assert np.abs(m(v) - f_ref).max() < tolerance
+    f_ref, m_ref, _ = reference.mls(P, Q, v, config)
+    assert (np.abs(m_ref - np.eye(2)).max(axis=(1, 2)) > 1e-2).all()
+    with glmls.MLS.from_config(P, Q, config) as m:
+        assert np.abs(m(v) - f_ref).max() < tolerance
+
+
 def test_f_is_continuous_in_a_gaussians_tail(gl):
     """Along a line out of four handles' square into the gaussian's tail (R = 50 px, the
     others down to exp(-80) of the nearest), f moves by about the step: it does not jump."""

@@ -27,6 +27,9 @@ SUPPORTS = ("everywhere", "radius", "gaussian")
 #: The gaussian cut leaves out weights summing to less than this share of the total
 #: (float32's unit roundoff; see :func:`reach` and ``glmls/engine/bins.py``).
 GAUSSIAN_TOLERANCE = 2.0**-24
+#: The gaussian's weights are taken relative to those of the nearest handles apart from the
+#: nearest one's place (:func:`gaussian_excess`), the nearer ones' at most e^GAUSSIAN_CAP.
+GAUSSIAN_CAP = 60.0
 
 
 class WeightParameters(Protocol):
@@ -98,10 +101,22 @@ def gaussian_cut(count: int) -> float:
 
 
 def gaussian_excess(d2: np.ndarray, radius: float) -> np.ndarray:
-    """(d^2 - d_min^2) / R^2 for squared distances ``d2`` (K, N), d_min per row: how far a
-    handle's gaussian exponent is beyond the nearest one's (its weight relative to the
-    nearest's is exp of minus this); bounded by 1e300, finite for any R."""
-    return _ratio(d2 - d2.min(axis=1, keepdims=True, initial=np.inf), radius)
+    """(d^2 - g) / R^2 for squared distances ``d2`` (K, N), g per row the least squared
+    distance above the row's least (the nearest handles apart from the nearest one's place;
+    the least where no distance is above it), at least -:data:`GAUSSIAN_CAP`: how far a
+    handle's gaussian exponent is beyond theirs (its weight relative to theirs is exp of minus
+    this). Relative to them, not to the nearest, because their moments about the nearest
+    decide M in the gaussian's far tail, where the nearest outweighs them by e^30 and more,
+    and relative to the nearest their weights would underflow (float32 from ~e^-87, float64
+    from ~e^-745); the cap bounds the nearer handles' weights (e^60: their share of the
+    others' moments there is far below float64's precision). Finite for any R."""
+    low = d2.min(axis=1, keepdims=True, initial=np.inf)
+    above = np.where(d2 > low, d2, np.inf).min(axis=1, keepdims=True, initial=np.inf)
+    offset = np.where(np.isfinite(above), above, low)
+    with np.errstate(invalid="ignore"):
+        shifted = np.where(d2 > offset, d2 - offset, 0.0)
+        nearer = np.where(d2 < offset, offset - d2, 0.0)
+    return np.maximum(_ratio(shifted, radius) - _ratio(nearer, radius), -GAUSSIAN_CAP)
 
 
 # -- the float64 formulas ------------------------------------------------------------------------
@@ -136,7 +151,8 @@ def _shepard(d2: np.ndarray, params: WeightParameters, radius: float | None) -> 
 
 
 def _gaussian(d2: np.ndarray, params: WeightParameters, radius: float | None) -> np.ndarray:
-    # divided by its value at the nearest handle, so that it does not underflow far away
+    # divided by its value at the nearest handles apart from the nearest one's place, so that
+    # it does not underflow far away (gaussian_excess)
     return np.exp(-gaussian_excess(d2, radius))  # type: ignore[arg-type]
 
 

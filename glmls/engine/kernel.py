@@ -21,7 +21,7 @@ from ..core.config import MLSConfig, image_diagonal, transform_code
 from ..core.handles import Scaling, pack_handles
 from ..core.handleset import HandleSet
 from ..core.segments import segment_config
-from ..core.weights import GAUSSIAN_TOLERANCE, RADIUS_WEIGHTS, SUPPORTS
+from ..core.weights import GAUSSIAN_CAP, GAUSSIAN_TOLERANCE, RADIUS_WEIGHTS, SUPPORTS
 from ..errors import ReleasedError
 from ..gl.context import GLContext
 from ..gl.dispatch import set_uniforms
@@ -92,6 +92,7 @@ def config_defines(
         "MLS_WEIGHT_USES_S": entry.uses_s,
         "MLS_REACH_GAUSSIAN": entry.support == "gaussian",
         "MLS_GAUSSIAN_TOLERANCE": GAUSSIAN_TOLERANCE,
+        "MLS_GAUSSIAN_CAP": GAUSSIAN_CAP,
         "MLS_TRANSFORM": transform_code(config.transform),
         "MLS_INTERPOLATING": config.interpolating,
         "MLS_ALPHA_ONE": config.alpha == 1.0,

@@ -19,7 +19,7 @@ import numpy as np
 from ..core.config import MLSConfig, transform_code
 from ..core.handles import Scaling
 from ..core.handles3 import volume_diagonal
-from ..core.weights import GAUSSIAN_TOLERANCE
+from ..core.weights import GAUSSIAN_CAP, GAUSSIAN_TOLERANCE
 from ..errors import ReleasedError
 from ..gl.context import GLContext
 from ..gl.dispatch import set_uniforms
@@ -136,6 +136,7 @@ class MLSKernel3:
             "MLS_WEIGHT_FUNCTION": entry.glsl_function,
             "MLS_WEIGHT_USES_S": entry.uses_s,
             "MLS_GAUSSIAN_TOLERANCE": GAUSSIAN_TOLERANCE,
+            "MLS_GAUSSIAN_CAP": GAUSSIAN_CAP,
             "MLS_REACH_GAUSSIAN": entry.support == "gaussian",
             "MLS_TRANSFORM": transform_code(config.transform),
             "MLS_INTERPOLATING": config.interpolating,

@@ -10,7 +10,7 @@ from numpy.testing import assert_allclose
 
 import glmls
 from glmls import reference
-from glmls.core.weights import GAUSSIAN_TOLERANCE, gaussian_cut
+from glmls.core.weights import GAUSSIAN_CAP, GAUSSIAN_TOLERANCE, gaussian_cut
 from glmls.engine.bins import HandleBins, worth_binning
 
 SHAPE = (512, 512)
@@ -109,6 +109,7 @@ def test_gaussian_cut_constants_reach_the_shader(gl, rng):
     with glmls.MLS(p, q, weight="gaussian", radius=8.0, ctx=gl, bins=True) as m:
         defines = m.kernel.defines()
     assert defines["MLS_GAUSSIAN_TOLERANCE"] == GAUSSIAN_TOLERANCE == 2.0**-24
+    assert defines["MLS_GAUSSIAN_CAP"] == GAUSSIAN_CAP == 60.0
     assert defines["MLS_REACH_GAUSSIAN"] and defines["MLS_BINS"]
     assert gaussian_cut(65536) == pytest.approx(math.log(65536) + 24 * math.log(2))
 

@@ -88,9 +88,6 @@ vec4 mls_rotation_scale(float mu, vec4 D, float spread) {
 // whenever lanes disagree, so a "rare" branch costs its full price on every handle.
 // Working with displacements e = q - p keeps the identity exact and small deformations
 // precise: f(v) = v + e* + (v - p*) N with N = M - I.
-#ifndef MLS_REACH_GAUSSIAN
-#define MLS_REACH_GAUSSIAN 0   // 1: the weight is the gaussian (glmls.core.weights support)
-#endif
 struct MLSNearest {
     float d2min;    // squared distance of the nearest handle
     float d2far;    // ... of the nearest beyond the snapping distance
@@ -144,6 +141,8 @@ struct MLSAccum {
     bool hit;       // v snaps to handle o: f(v) = its q
     vec4 o;         // the nearest handle: moments are taken about it
     float m;        // normalisation distance (see mls_weight)
+    float g;        // the weights' offset: m, or for the gaussian the nearest handles' apart
+                    // from the nearest one's place (mls_gaussian_offset)
     float inv_m;    // 1 / m
     float sigma;    // idw: s / m^alpha
     float W;        // sum w
@@ -171,6 +170,11 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
     a.m = mls_normalisation(a.hit ? far : max(n.d2min, u_hit2));
     a.inv_m = 1.0 / a.m;
     a.sigma = mls_sigma(a.m);
+#if MLS_REACH_GAUSSIAN && !MLS_SEGMENTS
+    a.g = mls_gaussian_offset(a.m, n.d2next);
+#else
+    a.g = a.m;   // segment handles' gaussian integrals are taken relative to m
+#endif
     a.W = 0.0;
     a.P = vec2(0.0);
     a.E = vec2(0.0);
@@ -183,7 +187,7 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
 // The weight at a.v of a handle at squared distance d2. The snapped handle (and duplicates
 // of it) is left out: its weight is infinite and its p^ zero, see mls_finish.
 float mls_handle_weight(MLSAccum a, float d2) {
-    return (u_snap && d2 <= u_hit2) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
+    return (u_snap && d2 <= u_hit2) ? 0.0 : mls_weight(d2, a.g, a.inv_m, a.sigma);
 }
 
 // Add second moments (sum w P P^T as (xx, xy, yy), sum w P_i E_j as (11, 12, 21, 22)) to the

@@ -34,9 +34,9 @@
 #else
 #define MLS_EACH(F) MLS_BLOCKS(F, n)
 #endif
-#define MLS_NEAR(i, use) mls_nearest_index(d2min, nearest, v, mls_handle(i).xy, i, use);
+#define MLS_NEAR(i, use) mls_nearest_index(d2min, d2next, nearest, v, mls_handle(i).xy, i, use);
 #define MLS_ACC(i, use) mls_accumulate(a, mls_handle(i), use);
-#define MLS_NEAR_PAIR(i, use) mls_nearest_pair(d2min, nearest, v0, v1, i, use);
+#define MLS_NEAR_PAIR(i, use) mls_nearest_pair(d2min, d2next, nearest, v0, v1, i, use);
 #define MLS_ACC_PAIR(i, use) mls_accumulate_pair(a0, a1, i, use);
 #define MLS_NEAR_ADD(i, use) mls_nearest_add(near, mls_handle(i), v, use);
 #define MLS_FAR(i, use) mls_nearest_far(near.d2far, v, i, use);
@@ -177,10 +177,16 @@ void mls_accumulate_segments(inout MLSAccum a) {
 // nearest's distance and index, and the handle is read once after it; the nearest beyond the
 // snapping distance is looked for in a second pass only where v snaps, which a work group
 // away from the handles skips. ``use``: false for an empty slot (MLS_UNROLL).
-void mls_nearest_index(inout float d2min, inout int nearest, vec2 v, vec2 p, int i, bool use) {
+// With the gaussian it tracks the least squared distance above the nearest's too (d2next,
+// see mls_gaussian_offset).
+void mls_nearest_index(inout float d2min, inout float d2next, inout int nearest, vec2 v, vec2 p,
+                       int i, bool use) {
     vec2 dp = p - v;
     float d2 = use ? dot(dp, dp) : 3.0e38;
     nearest = d2 < d2min ? i : nearest;
+#if MLS_REACH_GAUSSIAN
+    d2next = d2 < d2min ? d2min : (d2 > d2min ? min(d2next, d2) : d2next);
+#endif
     d2min = min(d2min, d2);
 }
 
@@ -191,10 +197,11 @@ void mls_nearest_far(inout float d2far, vec2 v, int i, bool use) {
 }
 
 // Two points' steps with the handle read once (mls_eval_pair).
-void mls_nearest_pair(inout vec2 d2min, inout ivec2 nearest, vec2 v0, vec2 v1, int i, bool use) {
+void mls_nearest_pair(inout vec2 d2min, inout vec2 d2next, inout ivec2 nearest, vec2 v0, vec2 v1,
+                      int i, bool use) {
     vec2 p = mls_handle(i).xy;
-    mls_nearest_index(d2min.x, nearest.x, v0, p, i, use);
-    mls_nearest_index(d2min.y, nearest.y, v1, p, i, use);
+    mls_nearest_index(d2min.x, d2next.x, nearest.x, v0, p, i, use);
+    mls_nearest_index(d2min.y, d2next.y, nearest.y, v1, p, i, use);
 }
 
 void mls_accumulate_pair(inout MLSAccum a0, inout MLSAccum a1, int i, bool use) {
@@ -217,9 +224,12 @@ void mls_accumulate_all(inout MLSAccum a) {
 #if !MLS_BINS
 // The plain path's record of the nearest handle once its index is known, with the nearest
 // beyond the snapping distance where v snaps.
-MLSNearest mls_nearest_found(float d2min, int nearest, vec2 v, int n) {
+MLSNearest mls_nearest_found(float d2min, float d2next, int nearest, vec2 v, int n) {
     MLSNearest near = mls_nearest_begin();
     near.d2min = d2min;
+#if MLS_REACH_GAUSSIAN
+    near.d2next = d2next;
+#endif
     near.h = n > 0 ? mls_handle(nearest) : vec4(0.0);
 #if MLS_SEGMENTS
     mls_nearest_segments(near, v);
@@ -279,7 +289,7 @@ MLSResult mls_eval(vec2 v) {
 #if MLS_REACH_GAUSSIAN
     // gaussian: weights below tau W1 / N of the nearest apart from the nearest one's place
     // are left out (glmls/engine/bins.py); with no handle apart, those of the nearest
-    float g = near.d2next < 3.0e38 ? near.d2next : a.m;
+    float g = mls_gaussian_offset(a.m, near.d2next);
     float cut = u_bin_cut - log(mls_weight_bound(a, g, lo1, hi1));
     r = sqrt(g + cut * u_radius * u_radius);
 #endif
@@ -304,9 +314,10 @@ MLSResult mls_eval(vec2 v) {
 #else
     int n = mls_handle_count();
     float d2min = 3.0e38;
+    float d2next = 3.0e38;
     int nearest = 0;
     MLS_EACH(MLS_NEAR)
-    MLSAccum a = mls_begin(v, mls_nearest_found(d2min, nearest, v, n));
+    MLSAccum a = mls_begin(v, mls_nearest_found(d2min, d2next, nearest, v, n));
     MLS_EACH(MLS_ACC)
     return mls_end(a);
 #endif
@@ -323,10 +334,11 @@ void mls_eval_pair(vec2 v0, vec2 v1, out MLSResult r0, out MLSResult r1) {
 #else
     int n = mls_handle_count();
     vec2 d2min = vec2(3.0e38);
+    vec2 d2next = vec2(3.0e38);
     ivec2 nearest = ivec2(0);
     MLS_EACH(MLS_NEAR_PAIR)
-    MLSAccum a0 = mls_begin(v0, mls_nearest_found(d2min.x, nearest.x, v0, n));
-    MLSAccum a1 = mls_begin(v1, mls_nearest_found(d2min.y, nearest.y, v1, n));
+    MLSAccum a0 = mls_begin(v0, mls_nearest_found(d2min.x, d2next.x, nearest.x, v0, n));
+    MLSAccum a1 = mls_begin(v1, mls_nearest_found(d2min.y, d2next.y, nearest.y, v1, n));
     MLS_EACH(MLS_ACC_PAIR)
     r0 = mls_end(a0);
     r1 = mls_end(a1);

@@ -4,6 +4,10 @@
 //
 // Defines: MLS_WEIGHT_FUNCTION, MLS_INTERPOLATING, MLS_ALPHA_ONE (see mls/core.glsl).
 
+#ifndef MLS_REACH_GAUSSIAN
+#define MLS_REACH_GAUSSIAN 0   // 1: the weight is the gaussian (glmls.core.weights support)
+#endif
+
 uniform float u_alpha;      // idw / interpolating power
 #ifndef MLS_BATCH
 #define MLS_BATCH 0   // 1: a batch's passes (mls/batch.glsl)
@@ -46,6 +50,15 @@ float mls_normalisation(float d2near) {
 #else
     return d2near;
 #endif
+}
+
+// The gaussian's weights at a point are taken relative to those of the nearest handles apart
+// from the nearest one's place (squared distance d2next, the least above the nearest's): in
+// a gaussian's far tail the nearest outweighs them by e^30 and more, yet their moments about
+// the nearest decide M, and relative to the nearest their weights would underflow float32
+// (from ~e^-87). With no handle apart (d2next = 3e38), relative to the nearest, m.
+float mls_gaussian_offset(float m, float d2next) {
+    return d2next < 3.0e38 ? max(d2next, m) : m;
 }
 
 // Weight of a handle at squared distance d2 (see mls/weights.glsl for m, inv_m and sigma).

@@ -35,10 +35,17 @@ float mls_weight_shepard(float d2, float m, float inv_m, float sigma) {
     return d < u_radius ? (1.0 - d / u_radius) * sqrt(m / d2) : 0.0;
 }
 
-// exp(-d^2 / R^2), divided by its value at the nearest handle (m; handles nearer than m, all
-// within the snapping distance, count as the nearest)
+// exp(-d^2 / R^2), divided by its value at squared distance m: the nearest handle's, or the
+// gaussian offset g of a point (mls_gaussian_offset), where the handles nearer than g weigh
+// more than 1, at most e^MLS_GAUSSIAN_CAP (sums of a few stay in float32's range; the capped
+// weights outweigh the rest by so much that the cap changes no digit of their moments), as
+// glmls.core.weights.gaussian_excess
+#ifndef MLS_GAUSSIAN_CAP
+#define MLS_GAUSSIAN_CAP 60.0   // glmls.core.weights.GAUSSIAN_CAP
+#endif
 float mls_weight_gaussian(float d2, float m, float inv_m, float sigma) {
-    return exp(-mls_radius_ratio(max(d2 - m, 0.0)));
+    float t = mls_radius_ratio(abs(d2 - m));
+    return exp(d2 < m ? min(t, MLS_GAUSSIAN_CAP) : -t);
 }
 
 // max(0, R - d), divided by R

@@ -60,6 +60,7 @@ struct MLS3Accum {
     vec3 op;        // the nearest handle's p and e
     vec3 oe;
     float m;        // normalisation distance (mls/weights.glsl)
+    float g;        // the weights' offset: m, or the gaussian's (mls_gaussian_offset)
     float inv_m;
     float sigma;
     float W;        // sum w
@@ -71,10 +72,16 @@ struct MLS3Accum {
     MLSYardstick yard;   // for "coincident" sources (mls/weighting.glsl, mls3_solve)
 };
 
-void mls3_nearest(inout float d2min, inout int nearest, vec3 v, int i, bool use) {
+// With the gaussian it tracks the least squared distance above the nearest's too (d2next,
+// see mls_gaussian_offset).
+void mls3_nearest(inout float d2min, inout float d2next, inout int nearest, vec3 v, int i,
+                  bool use) {
     vec3 dp = mls3_p(i) - v;
     float d2 = use ? dot(dp, dp) : 3.0e38;
     nearest = d2 < d2min ? i : nearest;
+#if MLS_REACH_GAUSSIAN
+    d2next = d2 < d2min ? d2min : (d2 > d2min ? min(d2next, d2) : d2next);
+#endif
     d2min = min(d2min, d2);
 }
 
@@ -85,7 +92,7 @@ void mls3_far(inout float d2far, vec3 v, int i, bool use) {
 }
 #define MLS3_FAR(i, use) mls3_far(d2far, v, i, use);
 
-MLS3Accum mls3_begin(vec3 v, float d2min, int nearest, int n) {
+MLS3Accum mls3_begin(vec3 v, float d2min, float d2next, int nearest, int n) {
     MLS3Accum a;
     a.v = v;
     a.hit = u_snap && d2min <= u_hit2;
@@ -100,6 +107,11 @@ MLS3Accum mls3_begin(vec3 v, float d2min, int nearest, int n) {
     a.m = mls_normalisation(a.hit ? d2far : max(d2min, u_hit2));
     a.inv_m = 1.0 / a.m;
     a.sigma = mls_sigma(a.m);
+#if MLS_REACH_GAUSSIAN
+    a.g = mls_gaussian_offset(a.m, d2next);
+#else
+    a.g = a.m;
+#endif
     a.W = 0.0;
     a.P = vec3(0.0);
     a.E = vec3(0.0);
@@ -129,7 +141,7 @@ void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
     float d2 = dot(dp, dp);
     // an empty slot, and the snapped handle (and duplicates of it: their weight is
     // infinite and their p^ zero), get no weight
-    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(d2, a.m, a.inv_m, a.sigma);
+    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(d2, a.g, a.inv_m, a.sigma);
     mls3_add(a, w, p - a.op, mls3_e(i) - a.oe, d2);
 }
 
@@ -183,15 +195,16 @@ MLS3Result mls3_finish(MLS3Accum a) {
 #else
 #define MLS3_EACH(F) MLS_BLOCKS(F, n)
 #endif
-#define MLS3_NEAR(i, use) mls3_nearest(d2min, nearest, v, i, use);
+#define MLS3_NEAR(i, use) mls3_nearest(d2min, d2next, nearest, v, i, use);
 #define MLS3_ACC(i, use) mls3_accumulate(a, i, use);
 
 MLS3Result mls3_eval(vec3 v) {
     int n = u_mls3_count;
     float d2min = 3.0e38;
+    float d2next = 3.0e38;
     int nearest = 0;
     MLS3_EACH(MLS3_NEAR)
-    MLS3Accum a = mls3_begin(v, d2min, nearest, n);
+    MLS3Accum a = mls3_begin(v, d2min, d2next, nearest, n);
     MLS3_EACH(MLS3_ACC)
     return mls3_finish(a);
 }
@@ -454,9 +467,10 @@ void mls3_probe_axis(inout mat3 sums, inout bool together, inout MLS3Probes s, M
 MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
     int n = u_mls3_count;
     float d2min = 3.0e38;
+    float d2next = 3.0e38;
     int nearest = 0;
     MLS3_EACH(MLS3_NEAR)
-    MLS3Accum a = mls3_begin(v, d2min, nearest, n);
+    MLS3Accum a = mls3_begin(v, d2min, d2next, nearest, n);
     MLS3Accum zero = a;   // no moments yet
     MLS3_EACH(MLS3_ACC)
     MLS3Result r = mls3_finish(a);
@@ -465,9 +479,13 @@ MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
     s.m = max(reach, 0.0) * max(reach, 0.0);
     s.inv_m = 1.0 / s.m;
     s.sigma = mls_sigma(s.m);
-    float lambda = mls_weight(a.m, s.m, s.inv_m, s.sigma) / mls_weight(a.m, a.m, a.inv_m, a.sigma);
+    // the factor from the centre's weights (offset a.g) to the probes' (s.m), the same for
+    // every handle unless the gaussian's cap (mls/weights.glsl) bounds the nearest's
+    float lambda = mls_weight(a.m, s.m, s.inv_m, s.sigma) / mls_weight(a.m, a.g, a.inv_m, a.sigma);
     MLS3Centre c = mls3_centre(a);
+    bool uncapped = mls_radius_ratio(a.g - a.m) < MLS_GAUSSIAN_CAP;
     bool together = !a.hit && c.plain && s.m > u_hit2 && lambda > 1e-30 && lambda < 1e30;
+    together = together && uncapped;
     // no handle within reach of any probe (radius weights): f - v = 0 at each, J = I
     bool alone = !a.hit && !(a.W > 0.0) && reach > u_radius;
     mat3 sums = mat3(0.0);
