@@ -114,7 +114,9 @@ def run_volume(args: argparse.Namespace) -> int:
     except (TypeError, ValueError) as error:
         raise UsageError(f"{args.input}: {error}") from None
     source = read_volume(args.input)
-    volume = warpable(source.data, args.input)  # as glmls warp does: a mask as float32
+    time = source.nifti is not None and source.nifti.time_step is not None
+    # as glmls warp does: a mask as float32
+    volume = warpable(source.data, args.input, time=time)
     spacing = args.spacing or source.spacing
     src, dst = voxel_handles(args, *read_3d_handles(args, "volume"), spacing)
     reference = read_points_3d(args.reference) if args.reference else None

@@ -65,14 +65,21 @@ __all__ = [
 _WARPED_AS_IS = ("uint8", "uint16", "float32")
 
 
-def warpable(data: np.ndarray, name: object) -> np.ndarray:
+def warpable(data: np.ndarray, name: object, *, time: bool = False) -> np.ndarray:
     """A volume in a dtype the GPU warps: uint8, uint16 and float32 as they are, the other
     real ones (bool, int16, int64, float64, ...) as float32; :class:`UsageError` naming
-    ``name`` for others (complex numbers, objects, strings)."""
+    ``name`` for others (complex numbers, objects, strings), and for more than 4 channels
+    (``time``: the channels are a NIfTI time series's time points)."""
     if data.dtype.kind not in "biuf":
         raise UsageError(
             f"{name}: a volume of {data.dtype} values; glmls warps real numbers (bool, "
             "integers, floats)"
+        )
+    if data.ndim == 4 and data.shape[3] > 4 and time:
+        raise UsageError(
+            f"{name}: a time series of {data.shape[3]} time points (NIfTI's 4th axis); glmls "
+            "warps them as channels, 1 to 4 at a time (split the series into parts of 4 or "
+            "fewer time points)"
         )
     if data.ndim == 4 and data.shape[3] > 4:  # before the handles' warnings: one line
         raise UsageError(
@@ -356,7 +363,8 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
     volume = read_volume(args.input)
     spacing = args.spacing or volume.spacing
     dtype = volume.data.dtype
-    data = warpable(volume.data, args.input)
+    time = volume.nifti is not None and volume.nifti.time_step is not None
+    data = warpable(volume.data, args.input, time=time)
     if volume_suffix(target) in (".tif", ".tiff") and data.shape[0] == 1:
         raise UsageError(
             f"{target}: a volume of one slice would be a TIFF of one page, which reads back "
@@ -383,7 +391,7 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
     where = "" if spacing is None else f", spacing (dz, dy, dx) = {spacing_text(spacing)}"
     say(args, f"warp: volume {width} x {height} x {depth} voxels (x, y, z){where}")
     affine = volume.affine if volume_suffix(target) in (".nii", ".nii.gz") else None
-    write_volume(target, Volume(result, spacing=spacing, affine=affine))
+    write_volume(target, Volume(result, spacing=spacing, affine=affine, nifti=volume.nifti))
 
 
 def spacing_text(spacing) -> str:

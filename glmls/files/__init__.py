@@ -10,10 +10,18 @@ from .images import imread, imwrite
 from .landmarks import read_handle_set, read_handles, read_points, write_handle_set, write_handles
 from .meshes import Mesh, read_mesh, write_mesh
 from .profiles import read_icc_profile
-from .volumes import Volume, read_volume, volume_to_world, world_to_volume, write_volume
+from .volumes import (
+    NiftiHeader,
+    Volume,
+    read_volume,
+    volume_to_world,
+    world_to_volume,
+    write_volume,
+)
 
 __all__ = [
     "Mesh",
+    "NiftiHeader",
     "Volume",
     "atomic_write",
     "imread",

@@ -34,9 +34,10 @@ polyline's.
       polyline,brow,270,150,270,146
 
 - BigWarp's landmark CSV (no header): name, active, moving x, moving y, fixed x, fixed y;
-  3D: moving x y z, fixed x y z (8 columns), as BigWarp writes and reads them (fields
+  3D: moving x y z, fixed x y z (8 columns), as BigWarp's table saves them (fields
   quoted: a name may hold a comma); also with an id column after ``active`` (7 columns, 9
-  in 3D), a variant BigWarp itself does not read.
+  in 3D), the layout that BigWarp's CSV loader (``LandmarkTableModel.loadCsvHelper``)
+  parses.
 
 **BigWarp's landmark JSON** (``.json``): ``{"type": "BigWarpLandmarks", "numDimensions":
 3, "movingPoints": [[x, y, z], ...], "fixedPoints": [...], "active": [true, ...],

@@ -1,10 +1,12 @@
-"""Reading and writing triangle meshes: PLY, OBJ and STL, through trimesh.
+"""Reading and writing triangle meshes: PLY and STL through trimesh, OBJ by glmls itself.
 
 A :class:`Mesh` is its vertices (V, 3) float64, (x, y, z) in the coordinates of the handles
 that deform it, and its triangles (F, 3) of vertex indices. Reading keeps the file's
-vertices in their order (none merged, none dropped), except STL's: an STL file stores each
-triangle's three corners, so the corners at the same place are merged into one vertex.
-Faces of more than three vertices are split into triangles. Only the geometry is read and
+vertices in their order (none merged, none dropped) and its faces in their order, except
+STL's: an STL file stores each triangle's three corners, so the corners at the same place
+are merged into one vertex. An OBJ file is read by glmls itself, its ``v`` and ``f`` lines
+(objects, groups and materials do not split or reorder it). Faces of more than three
+vertices are split into triangles (a fan from their first vertex). Only the geometry is read and
 written: vertex colours, normals and texture coordinates are not kept. A point cloud is a
 mesh of no faces: PLY and OBJ hold one (STL holds triangles only, and refuses it).
 
@@ -161,6 +163,8 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
         content = path.read_bytes()
     except OSError as error:
         raise InputFileError(f"{path}: cannot read: {error.strerror or error}") from None
+    if suffix == ".obj":
+        return _read_obj(path, content)
     trimesh = _trimesh()
     try:
         loaded = _load(trimesh, content, suffix, "mesh")
@@ -181,6 +185,56 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
         return Mesh(np.asarray(loaded.vertices), np.asarray(loaded.faces).reshape(-1, 3))
     except (TypeError, ValueError) as error:
         raise InputFileError(f"{path}: {error}") from None
+
+
+def _read_obj(path: Path, content: bytes) -> Mesh:
+    """The mesh of an OBJ file's ``v`` and ``f`` lines, in the file's order.
+
+    trimesh splits an OBJ by material (``usemtl``) and joins the parts again, which
+    duplicates the shared vertices and reorders the faces; its texture coordinates and normals
+    split vertices too. Only the positions (the first three numbers of a ``v`` line) and the
+    vertex indices of an ``f`` line (``i``, ``i/t``, ``i//n``, ``i/t/n``; negative: from the
+    last vertex so far) are geometry, so those are all that is read."""
+    text = content.decode("utf-8", errors="replace").replace("\\\r\n", " ").replace("\\\n", " ")
+    vertices: list[list[str]] = []
+    faces: list[tuple[int, int, int]] = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        fields = line.split()
+        if not fields or fields[0] not in ("v", "f"):
+            continue  # comments, normals, texture coordinates, groups, materials, lines
+        if fields[0] == "v":
+            if len(fields) < 4:
+                raise InputFileError(f"{path}: line {number}: a vertex of fewer than 3 numbers")
+            vertices.append(fields[1:4])
+            continue
+        corners = [_obj_index(path, number, field, len(vertices)) for field in fields[1:]]
+        if len(corners) < 3:
+            raise InputFileError(f"{path}: line {number}: a face of fewer than 3 vertices")
+        faces += [(corners[0], corners[i], corners[i + 1]) for i in range(1, len(corners) - 1)]
+    if not vertices:
+        raise InputFileError(f"{path}: no mesh vertices in it")
+    try:
+        coordinates = np.array(vertices, dtype=np.float64)
+    except ValueError as error:
+        raise InputFileError(f"{path}: not a readable .obj mesh: {error}") from None
+    try:
+        return Mesh(coordinates, np.array(faces, dtype=np.int64).reshape(-1, 3))
+    except (TypeError, ValueError) as error:
+        raise InputFileError(f"{path}: {error}") from None
+
+
+def _obj_index(path: Path, number: int, field: str, count: int) -> int:
+    """The 0-based vertex index of a face's corner ``field`` on line ``number``; ``count``
+    vertices are before it, from which a negative index counts back."""
+    try:
+        index = int(field.split("/", 1)[0])
+    except ValueError:
+        raise InputFileError(f"{path}: line {number}: {field!r} is no vertex index") from None
+    if index == 0 or index < -count:  # a positive index may name a vertex read later
+        raise InputFileError(
+            f"{path}: line {number}: vertex {index} of a face, with {count} vertices before it"
+        )
+    return index - 1 if index > 0 else count + index
 
 
 def _load(trimesh, content: bytes, suffix: str, force: str | None):

@@ -9,12 +9,17 @@ index (i, j, k) is ``volume.data[k, j, i]``, glmls's point (i, j, k). The NIfTI 
 voxel indices (i, j, k, 1) to world coordinates, so it maps glmls's points (x, y, z, 1) to
 the world as they are: it is kept as read, unchanged. Channels are NIfTI's vector
 dimension, the 5th ((i, j, k, 1, C), intent ``vector``, as ITK writes vector images; the 4th
-is time): written so, and read from it, from a 4th dimension or from RGB records.
+is time): written so, and read from it or from RGB records. A time series (i, j, k, T) is
+read as T channels, one a time point, and written back as it was read: 4D, with its time
+step (:class:`NiftiHeader`). A volume read from a NIfTI file keeps the header fields that
+say what its numbers mean (:class:`NiftiHeader`: the sform and qform codes, the units, the
+description), and :func:`write_volume` writes them back.
 
 :class:`Volume` holds the data, the voxel spacing (dz, dy, dx) (in the order of the array's
 axes, as :meth:`glmls.MLS.warp` takes it) and the affine, where the file says them:
 
-- NIfTI: the affine; the spacing is the length of its columns (k, j, i);
+- NIfTI: the affine; the spacing is the length of its columns (k, j, i); the header fields
+  :class:`NiftiHeader` holds;
 - TIFF: the spacing of a calibrated ImageJ stack (its ``spacing``, 1 where ImageJ leaves
   it out, and X/Y resolutions, which :func:`write_volume` writes) or of an OME-TIFF (its
   ``PhysicalSizeZ``, ``Y``, ``X``, in micrometres where their units differ), else none; no
@@ -22,7 +27,10 @@ axes, as :meth:`glmls.MLS.warp` takes it) and the affine, where the file says th
 - ``.npy``: the array only.
 
 A TIFF is a volume when it holds more than one page (a stack); one page is an image
-(:func:`glmls.imread`). Every fault of a file is an :class:`~glmls.errors.InputFileError`
+(:func:`glmls.imread`). The pages are slices where the file's axes (ImageJ's or OME's
+metadata, as tifffile reads them) have a Z axis, or where no metadata names them; a stack
+of the channels or time points of one 2D image (axes ``CYX``, ``TYX``, ``TCYX``) is
+refused, not read as slices. Every fault of a file is an :class:`~glmls.errors.InputFileError`
 naming it.
 """
 
@@ -46,6 +54,7 @@ from .tiffs import quiet_tifffile
 
 __all__ = [
     "VOLUME_SUFFIXES",
+    "NiftiHeader",
     "Volume",
     "is_volume_file",
     "read_volume",
@@ -77,7 +86,9 @@ def is_volume_file(path: str | os.PathLike) -> bool:
     whose first series (tifffile's: pages of one shape) has more than one page (an existing
     file is opened to count them; a TIFF that does not exist yet is not a volume; an image
     with a thumbnail or a pyramid of smaller pages is an image). ``InputFileError`` for an
-    existing TIFF file of no readable page."""
+    existing TIFF file of no readable page, or of pages that are the channels or time
+    points of one 2D image (axes ``CYX``, ``TYX``: neither a volume nor an image glmls
+    reads whole)."""
     suffix = volume_suffix(path)
     if suffix in (".nii", ".nii.gz", ".npy"):
         return True
@@ -87,11 +98,83 @@ def is_volume_file(path: str | os.PathLike) -> bool:
         with quiet_tifffile(), tifffile.TiffFile(path) as tiff:
             pages = len(tiff.pages)
             stacked = len(tiff.series[0].pages) if pages and tiff.series else pages
+            series = tiff.series[0] if stacked > 1 else None
+            axes, shape = (series.axes, series.shape) if series is not None else ("", ())
     except (tifffile.TiffFileError, *_CORRUPT) as error:
         raise InputFileError(f"{path}: not a readable TIFF file: {error}") from None
     if pages == 0:
         raise InputFileError(f"{path}: not a readable TIFF file: no page")
+    if stacked > 1:
+        _check_axes(Path(path), axes, shape)
     return stacked > 1
+
+
+@dataclasses.dataclass(frozen=True)
+class NiftiHeader:
+    """The fields of a NIfTI header that a volume read from it carries, to be written back.
+
+    Parameters
+    ----------
+    sform_code, qform_code : int, default 1
+        What world the affine maps to (NIfTI's ``NIFTI_XFORM_*`` codes: 0 unknown, 1 scanner,
+        2 aligned to another volume, 3 Talairach, 4 MNI 152, 5 a template), for the sform and
+        the qform; 0 for no sform or qform.
+    xyzt_units : int, default 0
+        NIfTI's units byte: the space unit (1 m, 2 mm, 3 um) plus the time unit (8 s, 16 ms,
+        24 us); 0 where the file says none.
+    descrip : str, default ""
+        The file's description, at most 80 characters (of Latin-1).
+    time_step : float or None, default None
+        Not None where the volume's channels are the file's time points (its 4th dimension,
+        (i, j, k, T)): the time between two of them (``pixdim[4]``, in the time unit); the
+        volume is written back so. None where the channels are a vector (5th) dimension or
+        RGB, or there are none.
+
+    Raises
+    ------
+    ValueError
+        For a code outside 0..32767, a units byte outside 0..255, a description longer than
+        80 characters or not Latin-1, or a time step that is not finite.
+    TypeError
+        For a code or units value that is not an integer.
+
+    See Also
+    --------
+    Volume : what carries it.
+
+    Examples
+    --------
+    >>> from glmls.files import NiftiHeader
+    >>> header = NiftiHeader(sform_code=4, qform_code=4, xyzt_units=2 + 8)  # MNI; mm and s
+    >>> volume = glmls.Volume(np.zeros((4, 5, 6), np.int16), affine=np.eye(4), nifti=header)
+    >>> volume.nifti.sform_code
+    4
+    """
+
+    sform_code: int = 1
+    qform_code: int = 1
+    xyzt_units: int = 0
+    descrip: str = ""
+    time_step: float | None = None
+
+    def __post_init__(self) -> None:
+        for name, top in (("sform_code", 32767), ("qform_code", 32767), ("xyzt_units", 255)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | np.integer):
+                raise TypeError(f"{name} must be an integer, got {value!r}")
+            if not 0 <= value <= top:
+                raise ValueError(f"{name} must be in 0..{top}, got {value}")
+            object.__setattr__(self, name, int(value))
+        try:
+            size = len(str(self.descrip).encode("latin-1"))
+        except UnicodeEncodeError:
+            raise ValueError("descrip must be Latin-1 text") from None
+        if size > 80:
+            raise ValueError(f"descrip holds at most 80 characters, got {size}")
+        if self.time_step is not None:
+            if not np.isfinite(float(self.time_step)):
+                raise ValueError(f"time_step must be finite, got {self.time_step}")
+            object.__setattr__(self, "time_step", float(self.time_step))
 
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
@@ -108,6 +191,10 @@ class Volume:
     affine : numpy.ndarray or None
         The NIfTI affine, (4, 4) float64: it maps the points (x, y, z, 1) of the volume to
         world coordinates; None for the other formats.
+    nifti : NiftiHeader or None
+        The NIfTI file's codes, units, description and time step, which
+        :func:`write_volume` writes back to a NIfTI file; None for the other formats (a
+        NIfTI file written gets codes 1, scanner, and no units).
 
     Raises
     ------
@@ -116,8 +203,9 @@ class Volume:
         matrix, or a spacing of another length than 3 or with a value that is not finite
         and > 0.
     TypeError
-        For data that is not real numbers (complex, objects, strings), or a spacing that is
-        not a sequence of real numbers (a number, a string).
+        For data that is not real numbers (complex, objects, strings), a spacing that is
+        not a sequence of real numbers (a number, a string), or a ``nifti`` that is not a
+        :class:`NiftiHeader`.
 
     See Also
     --------
@@ -133,6 +221,7 @@ class Volume:
     data: np.ndarray
     spacing: tuple[float, float, float] | None = None
     affine: np.ndarray | None = None
+    nifti: NiftiHeader | None = None
 
     def __post_init__(self) -> None:
         data = np.asarray(self.data)
@@ -153,6 +242,8 @@ class Volume:
                 raise ValueError(f"affine must be a finite 4 x 4 matrix, got {affine.shape}")
             affine.flags.writeable = False
             object.__setattr__(self, "affine", affine)
+        if self.nifti is not None and not isinstance(self.nifti, NiftiHeader):
+            raise TypeError(f"nifti must be a NiftiHeader, got {type(self.nifti).__name__}")
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -377,6 +468,8 @@ def _read_nifti(path: Path) -> Volume:
     if not isinstance(image, nib.Nifti1Image | nib.Nifti2Image):
         raise InputFileError(f"{path}: not a NIfTI image ({type(image).__name__})")
     data = np.asanyarray(image.dataobj)
+    header = image.header
+    time = data.ndim == 4 and not data.dtype.names  # (x, y, z, T): NIfTI's 4th is time
     if data.dtype.names:  # RGB24/RGBA32: a record per voxel
         data = np.stack([data[name] for name in data.dtype.names], axis=-1)
         data = data.reshape(*data.shape[:3], -1)
@@ -389,7 +482,15 @@ def _read_nifti(path: Path) -> Volume:
         )
     volume = np.ascontiguousarray(np.swapaxes(data, 0, 2))  # (x, y, z[, C]) -> (z, y, x[, C])
     affine = np.asarray(image.affine, dtype=np.float64)
-    return Volume(volume, spacing=_affine_spacing(affine), affine=affine)
+    step = float(header["pixdim"][4])
+    fields = NiftiHeader(
+        sform_code=int(header["sform_code"]),
+        qform_code=int(header["qform_code"]),
+        xyzt_units=int(header["xyzt_units"]),
+        descrip=bytes(header["descrip"]).split(b"\0", 1)[0].decode("latin-1"),
+        time_step=(step if np.isfinite(step) else 0.0) if time else None,
+    )
+    return Volume(volume, spacing=_affine_spacing(affine), affine=affine, nifti=fields)
 
 
 def _read_tiff(path: Path) -> Volume:
@@ -403,6 +504,7 @@ def _read_tiff(path: Path) -> Volume:
         series = tiff.series[0]
         data, axes = series.asarray(), series.axes
         spacing = _tiff_spacing(tiff) or _ome_spacing(tiff)
+    _check_axes(path, axes, data.shape)
     if data.ndim == 4 and axes[1] == "C":  # an ImageJ hyperstack: (Z, C, Y, X)
         data = np.moveaxis(data, 1, -1)
     elif data.ndim == 4 and axes[-1] not in "SC":
@@ -412,6 +514,23 @@ def _read_tiff(path: Path) -> Volume:
             f"{path}: a TIFF of axes {axes} {data.shape}: expected a stack of pages of one size"
         )
     return Volume(np.ascontiguousarray(data), spacing=spacing)
+
+
+#: What the first axis of a TIFF's series without a Z axis holds (tifffile's axis letters).
+_AXIS_NAMES = {"C": "channels", "T": "time points", "S": "samples"}
+
+
+def _check_axes(path: Path, axes: str, shape: tuple[int, ...]) -> None:
+    """``InputFileError`` for a TIFF series of neither a Z axis nor unnamed pages first (I, Q):
+    the channels or time points of one 2D image, whose pages are no slices."""
+    if "Z" in axes or axes[0] in "IQ":
+        return
+    what = f"{shape[0]} {_AXIS_NAMES.get(axes[0], f'steps along {axes[0]}')} of a 2D image"
+    what = "one 2D image" if axes[0] == "Y" else what
+    raise InputFileError(
+        f"{path}: a TIFF of axes {axes} {tuple(shape)}, {what}, not a volume (a stack of "
+        "slices: axis Z, or pages without axes)"
+    )
 
 
 def _tiff_spacing(tiff: tifffile.TiffFile) -> tuple[float, float, float] | None:
@@ -498,8 +617,12 @@ def write_volume(
         NIfTI: the 4 x 4 affine of the points (x, y, z, 1); default the volume's, else a
         diagonal one of the spacing, else the identity. Written as the sform, and as the
         qform where a qform holds it (a sheared affine's qform is left unset, code 0, so
-        that no tool reads another geometry from it). Given with another format: refused
-        (a :class:`Volume`'s own affine is left out of other formats).
+        that no tool reads another geometry from it), with the codes of the volume's
+        :class:`NiftiHeader` (1, scanner, where it has none or ``affine`` is given). The
+        header's units and description are written too, and a time series (its
+        ``time_step`` not None) is written 4D (i, j, k, T) with that step, as it was read;
+        other channels are the vector dimension (i, j, k, 1, C). Given with another format:
+        refused (a :class:`Volume`'s own affine and header are left out of other formats).
     spacing : sequence of float, optional
         The voxel size (dz, dy, dx); default the volume's. NIfTI: used where no affine is
         given; TIFF: written as an ImageJ stack's spacing and X/Y resolutions (uint8,
@@ -544,11 +667,17 @@ def write_volume(
     nifti = suffix in (".nii", ".nii.gz")
     if affine is not None and not nifti:
         raise ValueError(f"{path}: only NIfTI files hold an affine; {suffix} does not")
+    header = None
     if isinstance(volume, Volume):
         spacing = volume.spacing if spacing is None else spacing
+        if nifti and volume.nifti is not None:
+            # another affine is another world: only the codes go with the volume's own
+            header = volume.nifti
+            if affine is not None:
+                header = dataclasses.replace(header, sform_code=1, qform_code=1)
         affine = (volume.affine if nifti else None) if affine is None else affine
         volume = volume.data
-    checked = Volume(np.asarray(volume), spacing=spacing, affine=affine)
+    checked = Volume(np.asarray(volume), spacing=spacing, affine=affine, nifti=header)
     if checked.affine is not None and not abs(np.linalg.det(checked.affine[:3, :3])) > 0:
         # nibabel's decomposition of it would warn, then fail with the matrix in its message
         raise ValueError(f"{path}: the affine is singular (its 3 x 3 part has no inverse)")
@@ -605,22 +734,34 @@ def _write_nifti(path: Path, volume: Volume, *, compress: bool) -> None:
         affine = np.diag([dx, dy, dz, 1.0])
     data = np.ascontiguousarray(np.swapaxes(volume.data, 0, 2))  # (z, y, x) -> (x, y, z)
     data = data.astype(_NIFTI_AS.get(data.dtype.name, data.dtype), copy=False)
-    if data.ndim == 4:  # channels: NIfTI's vector dimension, the 5th (the 4th is time)
+    fields = volume.nifti or NiftiHeader()
+    time = data.ndim == 4 and fields.time_step is not None
+    if data.ndim == 4 and not time:  # channels: NIfTI's vector dimension, the 5th
         data = data[:, :, :, np.newaxis, :]
+    header = nib.Nifti1Header()
     try:
-        image = nib.Nifti1Image(data, np.asarray(affine), dtype=data.dtype)
+        header.set_data_dtype(data.dtype)
+        header.set_data_shape(data.shape)
     except (nib.spatialimages.HeaderDataError, ValueError) as error:
         raise ValueError(f"{path}: NIfTI cannot hold this volume: {error}") from None
     if data.ndim == 5:
-        image.header.set_intent("vector")
-    image.set_sform(np.asarray(affine), code=1)
+        header.set_intent("vector")
+    if time:
+        header["pixdim"][4] = fields.time_step
+    header.set_sform(np.asarray(affine))
     # a qform is a rotation (or a reflection of one), voxel sizes and a translation: for a
     # sheared affine nibabel would write the nearest one, another geometry for the tools
     # that read the qform first (ITK where its code is > 0); there the qform is left unset
-    image.set_qform(np.asarray(affine), code=1)
+    header.set_qform(np.asarray(affine))
     tolerance = 1e-6 * max(1.0, float(np.abs(affine).max()))
-    if not np.allclose(image.get_qform(), affine, rtol=0, atol=tolerance):
-        image.set_qform(None, code=0)
+    held = np.allclose(header.get_qform(), affine, rtol=0, atol=tolerance)
+    # set as numbers: nibabel's setters know only the codes of its own table
+    header["sform_code"] = fields.sform_code or (0 if held else fields.qform_code)
+    header["qform_code"] = fields.qform_code if held else 0
+    header["xyzt_units"] = fields.xyzt_units
+    header["descrip"] = fields.descrip.encode("latin-1")
+    # no affine given to nibabel: with one, it would rewrite the codes where they are 0
+    image = nib.Nifti1Image(data, None, header=header, dtype=data.dtype)
     content = image.to_bytes()
     if compress:
         content = gzip.compress(content, compresslevel=6, mtime=0)

@@ -406,3 +406,55 @@ def test_a_grid_not_smaller_than_the_volume_is_warned_about(files, stand_in, cap
     assert "--grid 10 is not smaller than the 10 x 9 x 8 volume" in capsys.readouterr().err
     assert main(["warp", "v.nii.gz", "o.nii.gz", "--handles", "h3.json", "--grid", "9"]) == 0
     assert "--grid" not in capsys.readouterr().err
+
+
+def test_a_nifti_output_keeps_the_inputs_codes_units_and_description(files, stand_in):
+    import nibabel as nib
+
+    image = nib.Nifti1Image(np.zeros((10, 9, 8), np.int16), AFFINE)
+    image.set_sform(AFFINE, code=4)
+    image.set_qform(AFFINE, code=2)
+    image.header.set_xyzt_units("mm", "sec")
+    image.header["descrip"] = b"an atlas"
+    nib.save(image, "mni.nii.gz")
+    assert main(["warp", "mni.nii.gz", "out.nii.gz", "--handles", "h3.json", "--quiet"]) == 0
+    header = nib.load("out.nii.gz").header
+    assert (int(header["sform_code"]), int(header["qform_code"])) == (4, 2)
+    assert header.get_xyzt_units() == ("mm", "sec") and header["descrip"] == b"an atlas"
+
+
+def test_a_time_series_is_warped_and_written_back_4d(files, stand_in):
+    import nibabel as nib
+
+    image = nib.Nifti1Image(np.zeros((10, 9, 8, 3), np.float32), AFFINE)
+    image.header["pixdim"][4] = 2.0
+    nib.save(image, "bold.nii.gz")
+    assert main(["warp", "bold.nii.gz", "out.nii.gz", "--handles", "h3.json", "--quiet"]) == 0
+    header = nib.load("out.nii.gz").header
+    assert header["dim"][:6].tolist() == [4, 10, 9, 8, 3, 1] and header["pixdim"][4] == 2.0
+
+
+def test_a_long_time_series_is_one_line_about_its_time_points(files, capsys):
+    import nibabel as nib
+
+    nib.save(nib.Nifti1Image(np.zeros((10, 9, 8, 7), np.int16), AFFINE), "bold.nii.gz")
+    assert main(["warp", "bold.nii.gz", "o.nii.gz", "--handles", "h3.json"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "a time series of 7 time points (NIfTI's 4th axis)" in err
+    assert "channels;" not in err and not Path("o.nii.gz").exists()
+
+
+@pytest.mark.parametrize("handles", ["h2.json", "h3.json"])
+@pytest.mark.parametrize(("axes", "what"), [("CYX", "3 channels"), ("TYX", "3 time points")])
+def test_a_tiff_of_a_2d_images_channels_is_one_line_naming_its_axes(
+    files, capsys, handles, axes, what
+):
+    import tifffile
+
+    tifffile.imwrite("c.tif", np.zeros((3, 20, 24), np.uint8), imagej=True, metadata={"axes": axes})
+    assert main(["warp", "c.tif", "o.tif", "--handles", handles]) == 2
+    err = capsys.readouterr().err
+    assert err == (
+        f"glmls warp: c.tif: a TIFF of axes {axes} (3, 20, 24), {what} of a 2D image, not a "
+        "volume (a stack of slices: axis Z, or pages without axes)\n"
+    )

@@ -123,3 +123,71 @@ def test_obj_keeps_small_and_large_coordinates_exactly(tmp_path):
         back = read_mesh(tmp_path / "m.obj")
         assert_array_equal(back.vertices, vertices)
         assert_array_equal(back.faces, mesh.faces)
+
+
+_FIVE = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 1 1 1\n"
+
+
+@pytest.mark.parametrize(
+    "parts",
+    [
+        "usemtl red\nf 1 2 3\nusemtl blue\nf 1 3 4\nf 2 5 3\n",
+        "mtllib m.mtl\nusemtl red\nf 1 2 3\nusemtl blue\nf 1 3 4\nusemtl red\nf 2 5 3\n",
+        "o A\nf 1 2 3\no B\nf 1 3 4\nf 2 5 3\n",
+        "g A\nusemtl red\nf 1 2 3\ng B\nusemtl blue\nf 1 3 4\nf 2 5 3\n",
+    ],
+)
+def test_obj_of_several_materials_or_groups_keeps_the_files_order(tmp_path, parts):
+    """The OBJ's vertices in its order, none duplicated, and its faces in their order,
+    whatever materials, objects and groups divide them."""
+    path = tmp_path / "parts.obj"
+    (tmp_path / "m.mtl").write_text("newmtl red\nKd 1 0 0\nnewmtl blue\nKd 0 0 1\n")
+    path.write_text(_FIVE + parts)
+    mesh = read_mesh(path)
+    assert mesh.vertices.tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]]
+    assert mesh.faces.tolist() == [[0, 1, 2], [0, 2, 3], [1, 4, 2]]
+
+
+def test_obj_texture_coordinates_and_normals_do_not_split_vertices(tmp_path):
+    path = tmp_path / "uv.obj"
+    path.write_text(
+        _FIVE + "vt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\nvn 1 0 0\n"
+        "f 1/1/1 2/2/1 3/3/1\nf 1/2/2 3/1/2 4/3/2\nf 2//1 5//2 3//1\n"
+    )
+    mesh = read_mesh(path)
+    assert mesh.vertices.shape == (5, 3)
+    assert mesh.faces.tolist() == [[0, 1, 2], [0, 2, 3], [1, 4, 2]]
+
+
+def test_obj_negative_indices_polygons_and_extra_vertex_values(tmp_path):
+    """A negative index counts back from the last vertex before the face; a polygon is a fan
+    of triangles from its first vertex; a vertex's colour (or w) is not its position."""
+    path = tmp_path / "n.obj"
+    path.write_text(
+        "# a pentagon\nv 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 1 1 0\nv 0.5 2 0\nv -1 1 0 1.0\n"
+        "f -5 -4 -3 -2 -1\n"
+    )
+    mesh = read_mesh(path)
+    assert mesh.vertices[:, 2].tolist() == [0] * 5 and mesh.vertices[1].tolist() == [1, 0, 0]
+    assert mesh.faces.tolist() == [[0, 1, 2], [0, 2, 3], [0, 3, 4]]
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "faces index vertices 0..2, got 0..3"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n", "line 4: vertex 0 of a face"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 -2 -1\n", "line 4: vertex -4 of a face"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 x 3\n", "line 4: 'x' is no vertex index"),
+        ("v 0 0 0\nv 1 0 0\nf 1 2\n", "line 3: a face of fewer than 3 vertices"),
+        ("v 0 0\n", "line 1: a vertex of fewer than 3 numbers"),
+        ("v 0 0 nan\n", "vertices must be finite"),
+        ("v 0 0 zero\n", "not a readable .obj mesh"),
+    ],
+)
+def test_bad_obj_lines_are_named(tmp_path, content, message):
+    path = tmp_path / "bad.obj"
+    path.write_text(content)
+    with pytest.raises(InputFileError) as info:
+        read_mesh(path)
+    assert str(info.value).startswith(f"{path}: ") and message in str(info.value)
