@@ -20,7 +20,7 @@ import moderngl
 import numpy as np
 
 from .core.config import MLSConfig, check_flag
-from .core.handles import Scaling, as_points, check_coordinates, point_rows
+from .core.handles import Scaling, as_points, check_coordinates, check_gpu_distinct, point_rows
 from .core.handles3 import dimension_of, planar_spacing
 from .core.handleset import HandleSet
 from .core.mesh import MeshLattice, as_shape, check_grid
@@ -284,6 +284,8 @@ class MLS(ForkSafe):
         that used GL: the helper's MLS takes them), then the read-only copies."""
         if not forked_from_gl():
             scaling = Scaling.fit(handles.source_points(), handles.target_points(), self.shape)
+            src, dst = handles.src, handles.dst
+            check_gpu_distinct(src, dst, scaling.to_gpu(src), scaling.to_gpu(dst), scaling.scale)
             self._kernel.upload(handles, scaling)
         self._handles = handles
         if self._swapped is not None:

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .core.handles import Scaling, point_rows
+from .core.handles import Scaling, check_gpu_distinct, point_rows
 from .core.handles3 import (
     as_points3,
     as_volume_shape,
@@ -147,6 +147,7 @@ class MLS3(MLS):
     def _store3(self, p: np.ndarray, q: np.ndarray) -> None:
         if not forked_from_gl():  # there the helper's MLS takes them
             scaling = fit_scaling3(p, q, self.shape, self.spacing)  # type: ignore[arg-type]
+            check_gpu_distinct(p, q, scaling.to_gpu(p), scaling.to_gpu(q), scaling.scale)
             self._kernel.upload(p, q, scaling)  # type: ignore[call-arg, arg-type]
         p.setflags(write=False)
         q.setflags(write=False)

@@ -92,20 +92,49 @@ def point_bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _same_source_pair(p: np.ndarray, q: np.ndarray) -> tuple[int, int] | None:
-    """Indices i < j of the first two handles (in (x, y) order) with the same source point
-    and different targets, or None."""
+    """Indices i < j of the first two handles (in (x, y[, z]) order) with the same source
+    point and different targets, or None."""
     xs = np.sort(p[:, 0])
     if not (xs[1:] == xs[:-1]).any():
-        return None  # all x differ (the usual case): no full (x, y) sort needed
-    sub = np.lexsort((p[:, 1], p[:, 0]))  # stable: equal points in index order
+        return None  # all x differ (the usual case): no full sort needed
+    sub = np.lexsort(p.T[::-1])  # stable: equal points in index order
     ps, qs = p[sub], q[sub]
-    same_p = (ps[1:, 0] == ps[:-1, 0]) & (ps[1:, 1] == ps[:-1, 1])
-    conflict = same_p & ((qs[1:, 0] != qs[:-1, 0]) | (qs[1:, 1] != qs[:-1, 1]))
+    same_p = (ps[1:] == ps[:-1]).all(axis=1)
+    conflict = same_p & (qs[1:] != qs[:-1]).any(axis=1)
     if not conflict.any():
         return None
     k = int(np.argmax(conflict))
     i, j = sorted((int(sub[k]), int(sub[k + 1])))
     return i, j
+
+
+def check_gpu_distinct(
+    p: np.ndarray, q: np.ndarray, p32: np.ndarray, q32: np.ndarray, scale: float
+) -> None:
+    """``ValueError`` if two source points p that differ become one in the GPU's float32
+    scaled coordinates ``p32`` while their targets there, ``q32``, differ: f would take the
+    mean of the targets at both, silently missing each. Exact duplicates pass.
+
+    Parameters
+    ----------
+    p, q : numpy.ndarray
+        Validated source and target points, (N, D) float64.
+    p32, q32 : numpy.ndarray
+        The same as the GPU holds them, (N, D) float32 (:meth:`Scaling.to_gpu`).
+    scale : float
+        The scaling's scale (pixels per scaled unit), for the message.
+    """
+    pair = _same_source_pair(p32, q32) if len(p) > 1 else None
+    if pair is None:
+        return
+    i, j = pair
+    distance = float(np.linalg.norm(p[i] - p[j]))
+    spacing = float(np.spacing(np.abs(p32[i])).max()) * scale
+    raise ValueError(
+        f"src[{i}] {p[i].tolist()} and src[{j}] {p[j].tolist()} are {distance:.3g} px apart, "
+        f"closer than float32 on the GPU tells apart at this scale (it steps by {spacing:.3g} "
+        f"px there), with different targets {q[i].tolist()} and {q[j].tolist()}"
+    )
 
 
 def validate_handles(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:

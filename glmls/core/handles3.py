@@ -12,7 +12,7 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from .handles import COORDINATE_LIMIT, Scaling
+from .handles import COORDINATE_LIMIT, Scaling, _same_source_pair
 
 __all__ = [
     "as_points3",
@@ -84,17 +84,13 @@ def validate_handles3(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]
     p, q = as_points3(src, "src"), as_points3(dst, "dst")
     if len(p) != len(q):
         raise ValueError(f"src and dst must have the same length, got {len(p)} and {len(q)}")
-    if len(p) > 1:
-        order = np.lexsort((p[:, 2], p[:, 1], p[:, 0]))
-        ps, qs = p[order], q[order]
-        same = (ps[1:] == ps[:-1]).all(axis=1) & (qs[1:] != qs[:-1]).any(axis=1)
-        if same.any():
-            k = int(np.argmax(same))
-            i, j = sorted((int(order[k]), int(order[k + 1])))
-            raise ValueError(
-                f"src[{i}] and src[{j}] are the same point {p[i].tolist()} with different "
-                f"targets {q[i].tolist()} and {q[j].tolist()}"
-            )
+    pair = _same_source_pair(p, q) if len(p) > 1 else None
+    if pair is not None:
+        i, j = pair
+        raise ValueError(
+            f"src[{i}] and src[{j}] are the same point {p[i].tolist()} with different "
+            f"targets {q[i].tolist()} and {q[j].tolist()}"
+        )
     return p, q
 
 

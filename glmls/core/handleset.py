@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import DegenerateHandlesError
 from .handles import check_affine_handles, validate_handles
-from .segments import validate_segments
+from .segments import check_on_segments, validate_segments
 
 __all__ = ["HANDLE_KINDS", "HandleSet"]
 
@@ -90,12 +90,14 @@ class HandleSet:
         ------
         ValueError
             Naming the bad value: a wrong shape, different lengths, a value that is not
-            finite, a zero-length source segment.
+            finite, a zero-length source segment, a source point with two targets (two
+            point handles, a point handle on a segment, segments sharing a point).
         TypeError
             For arrays that are not numeric.
         """
         p, q = validate_handles(src, dst)
         a, b = validate_segments(src_segments, dst_segments)
+        check_on_segments(p, q, a, b)
         return cls(_frozen(p), _frozen(q), _frozen(a), _frozen(b))
 
     @property

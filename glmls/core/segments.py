@@ -24,6 +24,7 @@ from .handles import as_points, check_coordinates
 __all__ = [
     "SEGMENT_S_FLOOR",
     "as_segments",
+    "check_on_segments",
     "polyline_segments",
     "segment_config",
     "segment_feet",
@@ -117,10 +118,125 @@ def _check_conflicts(a: np.ndarray, b: np.ndarray) -> None:
     if conflict.any():
         k = int(np.argmax(conflict))
         i, j = sorted((int(order[k]), int(order[k + 1])))
+        # b[j] in a[i]'s direction, so that the two targets compare end by end
+        reversed_ = flip[i] != flip[j]
+        other = b[j, ::-1] if reversed_ else b[j]
+        given = f" (src_segments[{j}] reversed, its target too)" if reversed_ else ""
         raise ValueError(
             f"src_segments[{i}] and src_segments[{j}] are the same segment {a[i].tolist()} "
-            f"with different targets {b[i].tolist()} and {b[j].tolist()}"
+            f"with different targets {b[i].tolist()} and {other.tolist()}{given}"
         )
+
+
+#: Candidate (point, segment) pairs tested at once by :func:`check_on_segments` (memory bound).
+_PAIR_BLOCK = 1 << 18
+
+
+def check_on_segments(p: np.ndarray, q: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
+    """``ValueError`` if a source point lies on a source segment whose target there is not
+    the point's own target: f cannot take both values.
+
+    The points are the point handles and the ends of the segments (a segment's end on
+    another segment, two segments sharing a vertex); "on" and "the same target" are up to
+    a tolerance of a few float32 steps of the handles' extent (what the GPU tells apart),
+    the target's widened by the segment's stretch (its target's length over its own).
+
+    Parameters
+    ----------
+    p, q : numpy.ndarray
+        Validated point handles, (N, 2) float64.
+    a, b : numpy.ndarray
+        Validated segment handles, (S, 2, 2) float64, no zero-length source segment.
+    """
+    if not len(a):
+        return
+    x = np.concatenate([p, a.reshape(-1, 2)])
+    y = np.concatenate([q, b.reshape(-1, 2)])
+    owner = np.concatenate([np.full(len(p), -1), np.repeat(np.arange(len(a)), 2)])
+    both = np.concatenate([x, y])
+    extent = float((both.max(axis=0) - both.min(axis=0)).max())
+    tol = 4.0 * float(np.finfo(np.float32).eps) * max(extent / 2.0, 1.0)
+    found = _first_on_segment(x, y, owner, a, b, tol)
+    if found is None:
+        return
+    k, s, t, there = found
+    if k < len(p):
+        name, own = f"src[{k}] {p[k].tolist()}", "its target"
+    else:
+        name = f"src_segments[{(k - len(p)) // 2}][{(k - len(p)) % 2}] {x[k].tolist()}"
+        own = "that end's target"
+    raise ValueError(
+        f"{name} lies on src_segments[{s}] {a[s].tolist()} (at t = {t:.6g}), whose target "
+        f"there is {there.tolist()}, but {own} is {y[k].tolist()}"
+    )
+
+
+def _cell_candidates(
+    x: np.ndarray, a: np.ndarray, tol: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Which points x may lie within ``tol`` of which source segment a: with the points
+    sorted into square cells (``order``), each item (segment ``seg``, cell) holds the sorted
+    points ``order[lo:lo + counts]``. The cells a segment covers are those of samples half a
+    cell apart along it and their 8 neighbours (a cell is at least 4 tol wide): a point within
+    tol of the segment is within half a cell of a sample. Work grows with the points near the
+    segments, not with points times segments."""
+    both = np.concatenate([x, a.reshape(-1, 2)])
+    low = both.min(axis=0)
+    extent = max(float((both.max(axis=0) - low).max()), tol)
+    length = np.hypot(*(a[:, 1] - a[:, 0]).T)
+    # about one point per cell, and no wider than a typical segment (where a polyline's many
+    # ends crowd); at most 2^20 samples along the segments, 4096 cells across
+    cell = min(extent / np.sqrt(len(x)), float(np.median(length)))
+    cell = max(cell, 2.0 * float(length.sum()) / 2**20, extent / 4096.0, 4.0 * tol)
+    width = int(extent / cell) + 3  # cells -1 .. grid + 1 of the neighbourhoods
+    corner = np.floor((x - low) / cell).astype(np.int64) + 1
+    order = np.argsort(corner[:, 0] * width + corner[:, 1], kind="stable")
+    keys = (corner[:, 0] * width + corner[:, 1])[order]
+    n = np.maximum(np.ceil(2.0 * length / cell).astype(np.int64) + 1, 2)
+    seg = np.repeat(np.arange(len(a)), n)
+    t = (np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n - 1, n)
+    samples = a[seg, 0] + t[:, None] * (a[seg, 1] - a[seg, 0])
+    centre = np.floor((samples - low) / cell).astype(np.int64) + 1
+    near = [(centre[:, 0] + i) * width + centre[:, 1] + j for i in (-1, 0, 1) for j in (-1, 0, 1)]
+    items = np.unique(np.tile(seg, 9) * width * width + np.concatenate(near))
+    cells = items % (width * width)
+    lo = np.searchsorted(keys, cells, "left")
+    return order, items // (width * width), lo, np.searchsorted(keys, cells, "right") - lo
+
+
+def _first_on_segment(
+    x: np.ndarray, y: np.ndarray, owner: np.ndarray, a: np.ndarray, b: np.ndarray, tol: float
+) -> tuple[int, int, float, np.ndarray] | None:
+    """The first (point k, segment s, parameter t, segment target there) of a point x[k]
+    within ``tol`` of a source segment s other than its own (``owner[k]``) whose target
+    there is off y[k] by more than the tolerance; None if there is none."""
+    order, item_seg, lo, counts = _cell_candidates(x, a, tol)
+    first = np.cumsum(counts) - counts
+    best: tuple[int, int] | None = None
+    for block in np.split(np.arange(len(lo)), np.flatnonzero(np.diff(first // _PAIR_BLOCK)) + 1):
+        n = counts[block]
+        if not n.sum():
+            continue
+        seg = np.repeat(item_seg[block], n)
+        k = order[np.repeat(lo[block], n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)]
+        start, step = a[seg, 0], a[seg, 1] - a[seg, 0]
+        t = np.clip(((x[k] - start) * step).sum(axis=1) / (step**2).sum(axis=1), 0.0, 1.0)
+        on = (((start + t[:, None] * step - x[k]) ** 2).sum(axis=1) <= tol**2) & (owner[k] != seg)
+        if not on.any():
+            continue
+        k, seg, t = k[on], seg[on], t[on]
+        there = (1.0 - t)[:, None] * b[seg, 0] + t[:, None] * b[seg, 1]
+        stretch = np.hypot(*(b[seg, 1] - b[seg, 0]).T) / np.hypot(*(a[seg, 1] - a[seg, 0]).T)
+        off = np.hypot(*(y[k] - there).T) > tol * (1.0 + stretch)
+        if off.any():
+            pairs = sorted(zip(k[off].tolist(), seg[off].tolist(), strict=True))
+            best = pairs[0] if best is None else min(best, pairs[0])
+    if best is None:
+        return None
+    k, s = best
+    step = a[s, 1] - a[s, 0]
+    t = float(np.clip(np.dot(x[k] - a[s, 0], step) / np.dot(step, step), 0.0, 1.0))
+    return k, s, t, (1.0 - t) * b[s, 0] + t * b[s, 1]
 
 
 def polyline_segments(points: object) -> np.ndarray:

@@ -18,7 +18,7 @@ import moderngl
 import numpy as np
 
 from ..core.config import MLSConfig
-from ..core.handles import Scaling, check_affine_handles
+from ..core.handles import Scaling, check_affine_handles, check_gpu_distinct
 from ..core.mesh import MeshLattice
 from ..gl import bindings
 from ..gl.context import GLContext
@@ -86,6 +86,24 @@ class BatchLattices:
         for k, column in enumerate((both[0][:, 0], both[0][:, 1], both[1][:, 0], both[1][:, 1])):
             packed[:, k] = (column - center[:, k % 2]) / scale  # Scaling.to_gpu, column by column
         self.packed = packed
+        self._check_distinct(src, dst)
+
+    def _check_distinct(self, src: list[np.ndarray], dst: list[np.ndarray]) -> None:
+        """:func:`~glmls.core.handles.check_gpu_distinct` of every image, the error naming
+        the image; only images with two equal scaled source x are checked in full."""
+        xs = self.packed[:, 0]
+        if len(set(self.counts.tolist())) == 1:
+            rows = np.sort(xs.reshape(len(self.counts), -1), axis=1)
+            suspects = np.flatnonzero((rows[:, 1:] == rows[:, :-1]).any(axis=1)).tolist()
+        else:
+            suspects = range(len(self.counts))
+        starts = np.cumsum(self.counts) - self.counts
+        for i in suspects:
+            rows = self.packed[starts[i] : starts[i] + self.counts[i]]
+            try:
+                check_gpu_distinct(src[i], dst[i], rows[:, :2], rows[:, 2:], self.scales[i])
+            except ValueError as error:
+                raise ValueError(f"images[{i}]: {error}") from None
 
     @staticmethod
     def takes(config: MLSConfig, counts: list[int], storage: str, bins: bool | None) -> bool:

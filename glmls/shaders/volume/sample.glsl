@@ -4,6 +4,7 @@
 //                  centres, in float32.
 //   WARP_BORDER    the rule outside the volume (common/border.glsl; constant clamps).
 //   VOLUME_INTEGER the source is an integer texture (uint8, uint16).
+#include "common/blend.glsl"
 #include "common/border.glsl"
 
 #if VOLUME_INTEGER
@@ -30,7 +31,7 @@ vec4 volume_texel(ivec3 p) {
 // a blended with b by t; a itself where t is 0, so that a NaN or infinite b of weight 0 does
 // not make the result NaN (0 * inf): a point on a voxel centre's plane takes only its voxels
 vec4 volume_mix(vec4 a, vec4 b, float t) {
-    return t == 0.0 ? a : mix(a, b, t);
+    return t == 0.0 ? a : sample_blend(a, b, t);
 }
 
 vec4 volume_sample(vec3 s) {

@@ -4,6 +4,7 @@
 //                  is an input colour; 1: bilinear between the four nearest pixel centres.
 //   WARP_BORDER    the rule outside the image (common/border.glsl).
 // The texture holds the image's raw values (float32, or 8-bit normalized for uint8 images).
+#include "common/blend.glsl"
 #include "common/border.glsl"
 #include "common/lattice.glsl"
 
@@ -26,9 +27,9 @@ vec4 warp_sample(vec2 s) {
     vec2 corner = floor(s);
     vec2 t = s - corner;
     ivec2 p = ivec2(corner);
-    vec4 top = mix(warp_texel(p), warp_texel(p + ivec2(1, 0)), t.x);
-    vec4 bottom = mix(warp_texel(p + ivec2(0, 1)), warp_texel(p + ivec2(1, 1)), t.x);
-    return mix(top, bottom, t.y);
+    vec4 top = sample_blend(warp_texel(p), warp_texel(p + ivec2(1, 0)), t.x);
+    vec4 bottom = sample_blend(warp_texel(p + ivec2(0, 1)), warp_texel(p + ivec2(1, 1)), t.x);
+    return sample_blend(top, bottom, t.y);
 #else
     return warp_texel(ivec2(floor(s + 0.5)));
 #endif
