@@ -44,6 +44,7 @@ import moderngl
 from ..errors import ContextError, GLUnavailableError, ReleasedError
 from . import bindings
 from .shaders import ComposedSource, ShaderCompileError, ShaderLibrary, dump, library
+from .signals import signals_held
 
 REQUIRED_GL = 430
 #: Compute programs kept compiled per context (each is ~0.1-0.2 MB on llvmpipe, every
@@ -150,6 +151,7 @@ class _Binding:
         except BaseException:
             context._lock.release()
             raise
+        context._release_orphans()
         return context
 
     def __exit__(self, *exc: object) -> None:
@@ -257,6 +259,9 @@ class GLContext:
         self._programs: OrderedDict[tuple, moderngl.ComputeShader] = OrderedDict()
         self._render_programs: dict[tuple, moderngl.Program] = {}
         self._shared: dict[Hashable, Releasable] = {}
+        #: Objects given back by the garbage collector (release_later), released at the
+        #: start of the next use.
+        self._orphans: list[Releasable] = []
         self._lock = threading.RLock()
         _every.add(self)
         #: The thread keeping this context current outside glmls's calls, if any: the
@@ -472,10 +477,32 @@ class GLContext:
         folder = os.environ.get("GLMLS_DUMP_SHADERS")
         if folder:  # the sources, for tools/check_shaders.py (shaders.dump)
             dump(stages, folder)
+        texts = {stage: source.text for stage, source in stages.items()}
         try:
-            return build(**{stage: source.text for stage, source in stages.items()})
+            with signals_held():  # moderngl dies of an exception in its callbacks
+                return build(**texts)
         except moderngl.Error as error:
             raise ShaderCompileError(self.shaders.explain(str(error), stages)) from None
+
+    def release_later(self, obj: Releasable) -> None:
+        """Release ``obj`` at the start of this context's next use, in the thread that uses it.
+
+        For finalizers: the garbage collector runs anywhere, in any thread, even inside a GL
+        call or another context's, where releasing GL objects is not safe.
+
+        Parameters
+        ----------
+        obj : object
+            Has a ``release()`` method that frees its GL objects on this context.
+        """
+        self._orphans.append(obj)  # a list's append is atomic: no lock, which a finalizer
+        # could otherwise wait on in the thread that holds it
+
+    def _release_orphans(self) -> None:
+        while self._orphans:
+            obj = self._orphans.pop()
+            with contextlib.suppress(Exception):  # a leftover must not fail the user's call
+                obj.release()
 
     def shared(self, key: Hashable, factory: Callable[[], _T]) -> _T:
         """The object stored under ``key`` for this context, made on first use.
@@ -526,6 +553,7 @@ class GLContext:
                     self.unbind()
                     self.mgl.release()
             self._shared.clear()
+            self._orphans.clear()  # released with the context
             self._programs.clear()
             self._render_programs.clear()
             if _thread.current is self:
