@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import weakref
 from collections.abc import Callable
 from typing import Any, TypeVar
 
@@ -51,6 +52,11 @@ def on_gpu(method: Callable[..., _R]) -> Callable[..., _R]:
     return forwarded(wrapper)
 
 
+def _give_back(gl: Any, kernels: list) -> None:
+    for kernel in kernels:
+        gl.release_later(kernel)
+
+
 class ForkSafe:
     """What an MLS needs to work in a process forked from one that used GL. The MLS has the
     handles (``src``, ``dst``, ``src_segments``, ``dst_segments``), ``config``, ``shape``,
@@ -58,6 +64,19 @@ class ForkSafe:
     it was made in such a process) and ``released``."""
 
     _dropped = False  # released, for an MLS made in a forked process
+
+    def _release_when_dropped(self, kernel: Any) -> None:
+        """Give ``kernel`` (and the swapped handles' kernel, :meth:`_owns`) back to its context
+        when this object is collected without :meth:`release` (an MLS used as scikit-image
+        uses a transform, made and dropped in a loop): the context releases them at its next
+        use (:meth:`~glmls.gl.context.GLContext.release_later`)."""
+        self._owned = [kernel]
+        finalizer = weakref.finalize(self, _give_back, kernel.gl, self._owned)
+        finalizer.atexit = False  # at exit the process's GL goes as a whole
+
+    def _owns(self, kernel: Any) -> None:
+        """``kernel``, made later, is given back with the first (:meth:`_release_when_dropped`)."""
+        self._owned.append(kernel)
 
     def _forked_state(self) -> tuple:
         """What ``glmls.mls.serve_forked`` makes the helper's MLS from."""

@@ -267,6 +267,7 @@ class MLS(ForkSafe):
             return
         self._gl = get_context(ctx)
         self._kernel = MLSKernel(self._gl, config, **self._options)  # type: ignore[arg-type]
+        self._release_when_dropped(self._kernel)
         try:
             self._store(handles)
         except ValueError:
@@ -423,6 +424,7 @@ class MLS(ForkSafe):
         if self._swapped is None:
             swapped = MLSKernel(self._gl, self.config, **self._options)  # type: ignore[arg-type]
             swapped.upload(self._handles.swapped(), self.scaling)
+            self._owns(swapped)
             self._swapped = swapped
         return self._swapped
 

@@ -137,6 +137,7 @@ class MLS3(MLS):
             return
         self._gl = get_context(ctx)
         self._kernel = MLSKernel3(self._gl, config, shape=self._extent, storage=storage)  # type: ignore[assignment]
+        self._release_when_dropped(self._kernel)
         self._kernel.radius()  # type: ignore[call-arg]  # a radius weight needs one
         try:
             self._store3(p, q)
@@ -258,6 +259,7 @@ class MLS3(MLS):
                 storage=self._storage_name,
             )
             swapped.upload(self._q, self._p, self.scaling)
+            self._owns(swapped)
             self._swapped = swapped  # type: ignore[assignment]
         return self._swapped  # type: ignore[return-value]
 
