@@ -205,6 +205,36 @@ def test_splat_leaves_gaps_that_quads_fill(gl):
     assert 0.2 < (splat == 1).mean() < 0.8  # 1 / 1.6² of the pixels are hit
 
 
+def test_splat_writes_each_pixel_at_round_f(gl):
+    """Each source pixel v lands on the output pixel round(f(v)), also where f(v) lies within
+    the rasteriser's sub-pixel step (1/256 px) of a half-integer; where several land on one
+    pixel, the first in scan order shows."""
+    height, width = 40, 50
+    yy, xx = np.mgrid[0:height, 0:width]
+    img = np.stack([xx, yy, np.full_like(xx, 255)], -1).astype(np.uint8)  # names its source
+    centres = np.stack([xx, yy], -1).reshape(-1, 2).astype(float)
+    p = np.array([[8.0, 8], [42, 8], [25, 20], [8, 32], [42, 32]])
+    q = p.copy()
+    q[2] = [33, 26]
+    with glmls.MLS(p, q, transform="rigid", shape=(height, width), ctx=gl) as m:
+        out = m.warp(img, method="splat")
+        f = m(centres)
+    shown = out[..., 2] == 255
+    source = out[shown][:, :2].astype(int)
+    target = np.stack(np.nonzero(shown)[::-1], -1)
+    fv = f[source[:, 1] * width + source[:, 0]]
+    # the GPU's f and m(points) are the same float32 evaluation, added to v in float64
+    assert (np.floor(fv + 0.5).astype(int) == target).all()
+    near_half = np.abs(fv - np.floor(fv) - 0.5).min(axis=1) < 1 / 256
+    assert near_half.sum() >= 1  # the case the rasteriser's snapping got wrong
+    first = {}
+    for k in range(len(centres)):  # scan order: the first source pixel that lands wins
+        key = tuple(np.floor(f[k] + 0.5).astype(int))
+        first.setdefault(key, k)
+    for (x, y), (sx, sy) in zip(target, source, strict=True):
+        assert first[(x, y)] == sy * width + sx
+
+
 def test_grid_coarser_mesh_stays_close_to_grid_one(gl, rng):
     shape = (64, 80)
     p, q = smooth_handles(shape, rng, displacement=5)

@@ -60,6 +60,11 @@ void main() {
     v_offsets = vec4(x.x, y.x, x.y, y.y);
 #endif
     vec2 pixel = warp_output_point(warp_mesh[i]);
+#if WARP_SPLAT
+    // round(f(v)) here, a pixel centre: the rasteriser's sub-pixel snapping (1/256 px) would
+    // round points within that of a half-integer the other way
+    pixel = floor(pixel + 0.5);
+#endif
     vec2 ndc = (pixel + 0.5) / vec2(u_target_size) * 2.0 - 1.0;
     gl_Position = vec4(ndc.x, u_flip_y ? -ndc.y : ndc.y, 0.0, 1.0);
 }
