@@ -34,7 +34,7 @@ from .gl import helper
 from .gl.context import GLContext, forked_from_gl, get_context
 from .imaging.adaptive import AdaptiveMesh, check_adaptive, interpolate
 from .imaging.frame import Bounds
-from .imaging.inverse import NEWTON_ACCEPT
+from .imaging.inverse import accept_residual
 from .imaging.options import FIELDS, WarpOptions, default
 from .imaging.pipeline import WarpPipeline
 
@@ -983,9 +983,11 @@ class InverseMLS:
     own, as ``m(points)`` evaluates it, so ``m(inv(u))`` is u within about 1e-3 px (float32
     on the GPU).
 
-    Which points have a preimage: u has one where Newton ends with |f(s) - u| <= 0.05 px,
-    for s anywhere in the plane (not only inside the image: ``skimage.transform.warp`` then
-    samples outside the image by its ``mode``, as glmls's ``border`` does). Elsewhere the
+    Which points have a preimage: u has one where Newton ends with |f(s) - u| <= 0.05 px
+    (or 4 float32 steps of the coordinates where that is more, far from the image and the
+    handles: :func:`glmls.imaging.inverse.accept_residual`), for s anywhere in the plane
+    (not only inside the image: ``skimage.transform.warp`` then samples outside the image by
+    its ``mode``, as glmls's ``border`` does). Elsewhere the
     row is NaN: where f leaves u uncovered (e.g. where a compact-support weight's reach
     ends, f jumps from the handles' transform to the identity and may skip a region; or a
     map that collapses the plane), and where Newton does not get there (u beyond the
@@ -1103,7 +1105,7 @@ class InverseMLS:
         pipeline = m._pipeline()  # checks that the MLS is alive
         m.config.resolve_radius(m.shape)  # f needs a radius, as m(points) does
         s, residual = pipeline.inverse_points(m, points, self._guess_shape(), grid=self.grid)
-        valid = residual <= NEWTON_ACCEPT  # False where NaN
+        valid = residual <= accept_residual(m.scaling, points, s)  # False where NaN
         s[~valid] = np.nan
         return s, valid
 

@@ -28,7 +28,7 @@ from .engine.kernel3 import MLSKernel3
 from .engine.passes3 import evaluate_points3, invert_points3
 from .forking import forwarded, on_gpu
 from .gl.context import forked_from_gl, get_context
-from .imaging.inverse import NEWTON_ACCEPT
+from .imaging.inverse import accept_residual
 from .mls import MLS, InverseMLS
 from .volume import volume_bounds, volume_coordinate_map, warp_volume
 
@@ -603,7 +603,7 @@ class InverseMLS3(InverseMLS):
         m.kernel.check_alive()
         guess, _ = evaluate_points3(m.swapped_kernel(), points)  # type: ignore[arg-type]
         s, residual = invert_points3(m.kernel, points, guess)  # type: ignore[arg-type]
-        valid = residual <= NEWTON_ACCEPT
+        valid = residual <= accept_residual(m.scaling, points, s)
         s[~valid] = np.nan
         return s, valid
 

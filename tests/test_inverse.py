@@ -222,3 +222,24 @@ def test_at_pixel_centres_it_is_the_coordinate_map(gl, dst):
         assert_allclose(m(s[other]), pixels[other], atol=0.01)
     if np.array_equal(dst, DST):  # f is one to one: one preimage only
         assert not other.any()
+
+
+def test_a_translation_near_the_coordinate_limit_keeps_every_pixel(gl):
+    """Handles and canvas 9.5e5 px away, within the 1e6 px coordinates may reach: float32
+    steps by 0.0625 px there, more than the 0.05 px residual a preimage needs near the
+    image, so the residual accepted grows to a few of float32's steps (backward, the batch's
+    backward and the inverse at points)."""
+    height, width = 24, 32
+    image = np.full((height, width), 200, np.uint8)
+    src = np.array([[3.0, 3.0], [28.0, 3.0], [3.0, 20.0], [28.0, 20.0]])
+    shift = np.array([-9.5e5, 9e5])
+    frame = {"output_shape": (height, width), "origin": tuple(shift)}
+    with glmls.MLS(src, src + shift, shape=(height, width), ctx=gl) as m:
+        assert (m.warp(image, method="backward", **frame) == 200).all()
+        s, valid = m.inverse(shift + [[0.0, 5.0], [10.0, 5.0]], return_valid=True)
+    assert valid.all()
+    assert np.abs(s - [[0.0, 5.0], [10.0, 5.0]]).max() < 0.1
+    batch = glmls.warp_batch(
+        image[None], src[None], (src + shift)[None], method="backward", ctx=gl, **frame
+    )
+    assert (batch == 200).all()

@@ -45,7 +45,7 @@ from ..gl.dispatch import LOCAL_SIZE, LOCAL_SIZE_2D, ScanPieces, fill_buffer, se
 from ..gl.resources import Resources, keep_framebuffer
 from ..gl.tables import TABLE_WIDTH, table_rows
 from ..imaging.frame import Frame
-from ..imaging.inverse import NEWTON_ACCEPT, NEWTON_STEPS, NEWTON_TOLERANCE
+from ..imaging.inverse import ACCEPT_STEPS, NEWTON_ACCEPT, NEWTON_STEPS, NEWTON_TOLERANCE
 from ..imaging.options import WarpOptions
 from ..imaging.quads import key_layout
 from ..imaging.readback import read_rgba8
@@ -291,6 +291,7 @@ class BatchQuads:
             "u_source_size": (width, height),
             "u_tolerance": NEWTON_TOLERANCE,
             "u_accept": NEWTON_ACCEPT,
+            "u_accept_steps": ACCEPT_STEPS,
         }
         for program, rows in lattices.dispatches(
             gl, self._resources, lattice, "warp/inverse.comp.glsl", defines

@@ -16,6 +16,7 @@ import math
 import moderngl
 import numpy as np
 
+from ..core.handles import Scaling
 from ..core.mesh import MeshLattice
 from ..engine.kernel import MLSKernel
 from ..gl import bindings
@@ -28,6 +29,7 @@ from .quads import CellScan
 from .raster import MeshRaster
 
 __all__ = [
+    "ACCEPT_STEPS",
     "GUESS_MAX_TEXELS",
     "GUESS_TEXELS",
     "NEWTON_ACCEPT",
@@ -37,6 +39,7 @@ __all__ = [
     "POINTS_NEWTON_STEPS",
     "POINTS_TOLERANCE",
     "InverseSolver",
+    "accept_residual",
     "guess_size",
 ]
 
@@ -46,6 +49,25 @@ NEWTON_TOLERANCE = 1e-3
 #: left uncovered (no source point found).
 NEWTON_STEPS = 8
 NEWTON_ACCEPT = 0.05
+#: ... or this many float32 steps of the scaled coordinates, where that is more: far from
+#: the scaling's centre (up to the 1e6 px that coordinates may reach) float32 cannot tell
+#: f(s) from u to 0.05 px (its step is 0.0625 px at 9.5e5 px), ``warp/newton.glsl``'s
+#: warp_accept.
+ACCEPT_STEPS = 4.0
+
+
+def accept_residual(scaling: Scaling, u: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """(K,) the residual |f(s) - u| (pixels) up to which s counts as a preimage of the
+    points ``u``, (K, D) pixels: :data:`NEWTON_ACCEPT`, or :data:`ACCEPT_STEPS` float32
+    steps of the larger scaled coordinate of u and s, times the scale, where more."""
+    center = np.asarray(scaling.center, np.float64)
+    with np.errstate(invalid="ignore"):
+        far = np.maximum(np.abs(u - center).max(axis=1), np.abs(s - center).max(axis=1))
+    far = np.nan_to_num(far / scaling.scale, nan=0.0)
+    steps = ACCEPT_STEPS * float(np.finfo(np.float32).eps) * np.maximum(far, 1.0)
+    return np.maximum(NEWTON_ACCEPT, steps * scaling.scale)
+
+
 #: f's inverse at a list of points stops below this residual instead (pixels): a list is
 #: short next to an image's pixels, and its points are read back as numbers. Where float32
 #: noise in f keeps Newton above it, the last iterate (within NEWTON_ACCEPT) is kept.
@@ -139,6 +161,7 @@ class InverseSolver:
                 "u_scale": sc.scale,
                 "u_tolerance": NEWTON_TOLERANCE,
                 "u_accept": NEWTON_ACCEPT,
+                "u_accept_steps": ACCEPT_STEPS,
             },
         )
         self._gl.mgl.memory_barrier()

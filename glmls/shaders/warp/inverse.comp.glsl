@@ -21,7 +21,8 @@ layout(rgba32f, binding = BIND_INVERSE_MAP) uniform image2D u_map;
 uniform ivec2 u_target_size;   // W, H of the output
 uniform ivec2 u_source_size;   // W, H of the source
 uniform float u_tolerance;     // stop below this residual, pixels
-uniform float u_accept;        // a residual above this (pixels) leaves the pixel uncovered
+uniform float u_accept;        // a residual above this (pixels) leaves the pixel uncovered,
+uniform float u_accept_steps;  // ... or above this many float32 steps (warp_accept)
 
 void main() {
     // No early return past the edge (as mls/points.comp.glsl: behind a return llvmpipe
@@ -45,8 +46,8 @@ void main() {
     vec2 s = guess.z > 0.5 ? (guess.xy - u_center) / u_scale : u;
     float residual;
     s = warp_newton(s, u, u_tolerance / u_scale, 0.2, residual);   // a tenth of the image
+    bool converged = residual <= warp_accept(u_accept, u_accept_steps, u, s);
     residual *= u_scale;
-    bool converged = residual <= u_accept;
 #endif
     vec2 sp = s * u_scale + u_center;
 #if WARP_BORDER == 0

@@ -3,6 +3,15 @@
 // with v). Needs mls/visit.glsl (mls_eval), u_scale (warp/frame.glsl) and WARP_NEWTON_STEPS,
 // the most steps.
 
+// The residual (scaled) up to which s counts as a preimage of u (scaled): ``accept`` (pixels),
+// or ``steps`` float32 steps of the larger coordinate of u and s where that is more: far from
+// the scaling's centre float32 cannot tell f(s) from u to a twentieth of a pixel
+// (glmls.imaging.inverse.accept_residual).
+float warp_accept(float accept, float steps, vec2 u, vec2 s) {
+    float far = max(1.0, max(max(abs(u.x), abs(u.y)), max(abs(s.x), abs(s.y))));
+    return max(accept / u_scale, steps * 1.1920929e-7 * far);
+}
+
 // The last iterate from ``s``: stops once |f(s) - u| <= tolerance (scaled), after
 // WARP_NEWTON_STEPS steps, or where f is singular (a fold's edge); ``residual`` is its
 // |f(s) - u|, scaled. A step goes at most ``max_step`` (scaled): far from the solution,
