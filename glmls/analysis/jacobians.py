@@ -17,6 +17,14 @@ evaluated at the corners. Per cell:
   the corners has an exact Jacobian: as the 2D code's two triangles per cell.
 - a fold: ``det`` <= 0 or ``min_det`` <= 0 (f turns the cell, or part of it, inside out, or
   flattens it).
+
+**Flattened cells.** Rounding leaves a determinant that should be 0 (f projects onto a plane
+not along the axes) at +-1e-16 or so, of either sign. So J counts as singular where its
+smallest singular value is within 32 (``FLAT_ULPS``) times f's precision (float64's,
+float32's where f comes from the GPU) of J's largest plus the rounding of f at the corners
+over the cell's side: ``det`` is then 0 and ``ratio`` NaN, and the cell folds. A Kuhn
+tetrahedron whose image has volume 0 to that rounding has det 0 alike. Thin cells far above
+the rounding (det J = 1e-9 in float64) keep their values.
 """
 
 from __future__ import annotations
@@ -28,13 +36,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from .stats import error_stats
-from .volume_field import Deformation3D, volume_deformation
+from .volume_field import Deformation3D, precision, volume_deformation
 from .volume_lattice import (
+    FLAT_ULPS,
     as_volume_shape,
     axis_corners,
     check_grid3,
     deformation_spacing,
     evaluate,
+    flat_triples,
     lattice_points,
     spacing_scale,
 )
@@ -66,14 +76,16 @@ class CellJacobians:
     grid : int
         The lattice's step in voxels.
     det : numpy.ndarray
-        (cz, cy, cx): det J at each cell's centre.
+        (cz, cy, cx): det J at each cell's centre; 0 where J is singular to rounding (f
+        flattens the cell).
     ratio : numpy.ndarray
         (cz, cy, cx): J's largest singular value over its smallest, >= 1; NaN where J is
-        singular.
+        singular to rounding (left out of :meth:`stats`, counted as its ``nan_count``).
     min_det : numpy.ndarray
-        (cz, cy, cx): the smallest det J of the cell's six Kuhn tetrahedra.
+        (cz, cy, cx): the smallest det J of the cell's six Kuhn tetrahedra (0 for one that f
+        flattens to rounding).
     folded : numpy.ndarray
-        (cz, cy, cx) bool: ``det`` <= 0 or ``min_det`` <= 0.
+        (cz, cy, cx) bool: ``det`` <= 0 or ``min_det`` <= 0: f folds or flattens the cell.
     mask : numpy.ndarray
         (D, H, W) bool: the voxels of the folded cells.
 
@@ -127,12 +139,22 @@ def _triple(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     return (a * np.cross(b, c)).sum(-1)
 
 
+def _corner_max(values: np.ndarray) -> np.ndarray:
+    """The largest of ``values`` (cz + 1, cy + 1, cx + 1) over each cell's eight corners."""
+    cz, cy, cx = (n - 1 for n in values.shape)
+    out = values[:cz, :cy, :cx].copy()
+    for dz, dy, dx in itertools.product((0, 1), repeat=3):
+        np.maximum(out, values[dz : dz + cz, dy : dy + cy, dx : dx + cx], out=out)
+    return out
+
+
 def cell_quantities(
-    corners: np.ndarray, steps: Sequence[np.ndarray]
+    corners: np.ndarray, axes: Sequence[np.ndarray], rounding: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(det, ratio, min_det) per cell from f at the corners (cz + 1, cy + 1, cx + 1, 3) and
-    the cells' sides along (x, y, z)."""
-    hx, hy, hz = (s.astype(np.float64) for s in steps)
+    """(det, ratio, min_det) per cell from f at the corners (cz + 1, cy + 1, cx + 1, 3), the
+    corners' coordinates along (x, y, z) and the rounding of f (``precision``)."""
+    x, y, z = (np.asarray(a, dtype=np.float64) for a in axes)
+    hx, hy, hz = np.diff(x), np.diff(y), np.diff(z)
     f = corners
     hx3, hy3, hz3 = hx[None, None, :, None], hy[None, :, None, None], hz[:, None, None, None]
     # edges along x of every cell (4 per cell), likewise y and z
@@ -145,8 +167,16 @@ def cell_quantities(
     jacobian = np.stack([jx, jy, jz], axis=-1)  # column a: df/dv_a
     det = np.linalg.det(jacobian)
     singular = np.linalg.svd(jacobian, compute_uv=False)
+    # rounding moves f by about rounding x (|f| + |J| |v|) at each corner, and so J by that
+    # over a side: a smallest singular value within it is 0, whatever its sign in det J
+    zz, yy, xx = np.meshgrid(np.abs(z), np.abs(y), np.abs(x), indexing="ij")
+    reach = _corner_max(np.maximum(np.maximum(zz, yy), xx))
+    side = np.minimum(np.minimum(hz3[..., 0], hy3[..., 0]), hx3[..., 0])
+    noise = _corner_max(np.abs(f).max(axis=-1)) + singular[..., 0] * reach
+    flat = singular[..., 2] <= FLAT_ULPS * rounding * (singular[..., 0] + noise / side)
+    det[flat] = 0.0
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(singular[..., 2] > 0, singular[..., 0] / singular[..., 2], np.nan)
+        ratio = np.where(flat, np.nan, singular[..., 0] / singular[..., 2])
     volume = hx3[..., 0] * hy3[..., 0] * hz3[..., 0]
     cz, cy, cx = det.shape
     min_det = np.full(det.shape, np.inf)
@@ -158,7 +188,8 @@ def cell_quantities(
             at[axis] += 1
             end = f[at[2] : at[2] + cz, at[1] : at[1] + cy, at[0] : at[0] + cx]
             edges.append(end - start)
-        np.minimum(min_det, sign * _triple(*edges) / volume, out=min_det)
+        value = np.where(flat_triples(edges, rounding, noise), 0.0, sign * _triple(*edges))
+        np.minimum(min_det, value / volume, out=min_det)
     return det, ratio, min_det
 
 
@@ -170,8 +201,10 @@ def cell_jacobians(
     f is evaluated at the cell corners every ``grid`` voxels (``m(points)``, in blocks) and
     differentiated per cell (:mod:`glmls.analysis.jacobians`). A cell folds where det J <= 0
     at its centre or on any of its six Kuhn tetrahedra, as the 2D fold-overs test both
-    triangles of a cell. f is that of the volume's warp: a radius weight given no radius
-    takes the diagonal of this volume in the handles' units (``volume_deformation`` of
+    triangles of a cell; a det J within rounding of 0 (f flattens the cell, J singular to
+    f's precision: float64, or float32 on the GPU) is 0, a fold, with the ratio NaN. f is
+    that of the volume's warp: a radius weight given no radius takes the diagonal of this
+    volume in the handles' units (``volume_deformation`` of
     :mod:`glmls.analysis.volume_field`).
 
     Parameters
@@ -234,7 +267,7 @@ def cell_jacobians(
         values = values.reshape(len(planes), len(y), len(x), 3)
         part = slice(start, start + len(planes) - 1)
         det[part], ratio[part], min_det[part] = cell_quantities(
-            values, (np.diff(x), np.diff(y), np.diff(planes))
+            values, (x, y, planes), precision(m)
         )
     folded = (det <= 0) | (min_det <= 0)
     index = [np.arange(n) // step for n in dims]

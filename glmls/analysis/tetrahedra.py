@@ -9,7 +9,10 @@ own) and each is compared with its image under f:
   (``glmls.analysis.ANGLE_MEASURES``): ``"degrees"``, the mean of |a - a'| in degrees over the 12
   angles, 0 for every similarity; or ``"paper"``, eq. (11) per angle;
 - ``inverted``: f reverses the tetrahedron's orientation (its signed volume changes sign), a
-  fold that the face angles do not show.
+  fold that the face angles do not show, or flattens it: an image whose volume is 0 to
+  rounding (within 32 (``FLAT_ULPS``) times f's precision, float64's or float32's on the
+  GPU, of its edges' and f's scale) has no orientation, its sign mere rounding, and counts
+  as inverted.
 
 **Slivers.** A nearly flat tetrahedron (four points near a plane, common on the hull of a
 Delaunay triangulation) has an orientation that the slightest change of f flips, and such
@@ -29,7 +32,8 @@ import numpy as np
 
 from .stats import error_stats
 from .triangles import check_angle_measure, check_eps, deformed_points, qhull_simplices
-from .volume_lattice import as_points3, check_three_d
+from .volume_field import precision
+from .volume_lattice import as_points3, check_three_d, flat_triples
 
 __all__ = [
     "SLIVER_QUALITY",
@@ -69,7 +73,8 @@ class TetrahedronErrors:
         (T,): the mean change of the 12 face angles, in degrees (``"degrees"``) or by eq.
         (11) (``"paper"``); NaN where f collapses an edge to a point.
     inverted : numpy.ndarray
-        (T,) bool: f reverses the tetrahedron's orientation.
+        (T,) bool: f reverses the tetrahedron's orientation, or flattens it to zero volume
+        (to rounding).
     quality : numpy.ndarray
         (T,): the radius ratio 3 r / R of each reference tetrahedron, in (0, 1].
     slivers : numpy.ndarray
@@ -237,8 +242,10 @@ def tetrahedron_errors_from_points(
     *,
     angle: str = "degrees",
     eps: float = 1e-6,
+    rounding: float = float(np.finfo(np.float64).eps),
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(distance, angle, inverted) per tetrahedron from r, f(r) and the tetrahedra."""
+    """(distance, angle, inverted) per tetrahedron from r, f(r) and the tetrahedra;
+    ``rounding``: that of f(r) (``precision``), within which f flattens a tetrahedron."""
     measure = check_angle_measure(angle)
     ref, out = points[simplices], deformed[simplices]
     len_ref = np.linalg.norm(ref[:, EDGES[:, 1]] - ref[:, EDGES[:, 0]], axis=-1)
@@ -250,7 +257,13 @@ def tetrahedron_errors_from_points(
         errors = (np.abs(cos_ref - cos_out) + eps) / (np.abs(cos_ref) + eps)
     else:
         errors = np.abs(a_ref - a_out)
-    inverted = np.sign(_signed_volumes(ref)) * np.sign(_signed_volumes(out)) < 0
+    # rounding moves each f(r) by about rounding x (|f(r)| + the stretch x |r|): an image
+    # within that of zero volume is flattened, its orientation's sign mere rounding
+    stretch = len_out.max(axis=1) / len_ref.min(axis=1)
+    noise = np.abs(out).max(axis=(1, 2)) + stretch * np.abs(ref).max(axis=(1, 2))
+    flat = flat_triples(tuple(out[:, k] - out[:, 0] for k in (1, 2, 3)), rounding, noise)
+    turned = np.sign(_signed_volumes(ref)) * np.sign(_signed_volumes(out)) < 0
+    inverted = turned | flat
     return distance, np.mean(errors, axis=1), inverted
 
 
@@ -362,7 +375,7 @@ def tetrahedron_errors(
     deformed = deformed_points(m, r)
     kept = simplices[~sliver]
     distance, errors, inverted = tetrahedron_errors_from_points(
-        r, deformed, kept, angle=measure, eps=eps
+        r, deformed, kept, angle=measure, eps=eps, rounding=precision(m)
     )
     quality, slivers = quality[~sliver], simplices[sliver]
     for array in (r, deformed, kept, distance, errors, inverted, quality, slivers):

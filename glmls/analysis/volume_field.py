@@ -37,6 +37,7 @@ __all__ = [
     "Deformation3D",
     "KernelDeformation",
     "ReferenceDeformation",
+    "precision",
     "volume_deformation",
     "volume_error_field",
 ]
@@ -210,6 +211,14 @@ class KernelDeformation:
         return m, f - np.einsum("ki,kij->kj", v, m)  # type: ignore[arg-type]
 
 
+def precision(m: object) -> float:
+    """The rounding of f as ``m`` computes it: float32's epsilon for the GPU kernel of a
+    :class:`glmls.MLS` (its displacements are float32), float64's for the reference and
+    other functions."""
+    gpu = isinstance(m, KernelDeformation) or isinstance(getattr(m, "kernel", None), MLSKernel3)
+    return float(np.finfo(np.float32 if gpu else np.float64).eps)
+
+
 def volume_deformation(m: Deformation3D, shape: Sequence[int], spacing: object) -> Deformation3D:
     """``m`` evaluated as the warp of a volume of ``shape`` (D, H, W) and ``spacing`` ((dz,
     dy, dx), None: voxels) evaluates it: a radius weight given no radius takes that volume's
@@ -283,8 +292,9 @@ def volume_error_field(
     ------
     ValueError
         For a shape that is not (D, H, W) with D, H, W >= 1, a grid that is not an integer
-        from 1 on, handles that are not (N, 3), or a ``spacing`` of another length than 3,
-        with a value that is not a finite number > 0, or other than ``m``'s.
+        from 1 on, handles that are not (N, 3), ``m.matrices`` returning values that are not
+        finite, or a ``spacing`` of another length than 3, with a value that is not a finite
+        number > 0, or other than ``m``'s.
     TypeError
         For a shape that is not integers, or a ``spacing`` that is not a sequence of real
         numbers.
@@ -321,6 +331,9 @@ def volume_error_field(
         matrix, translation = m.matrices(block)
         matrix = np.asarray(matrix, dtype=np.float64).reshape(len(block), 3, 3)
         translation = np.asarray(translation, dtype=np.float64).reshape(len(block), 3)
+        # a NaN fit would pass as a NaN voxel, which error_stats leaves out as undefined
+        if not (np.isfinite(matrix).all() and np.isfinite(translation).all()):
+            raise ValueError("m.matrices(points) returned NaN or infinite values")
         residuals = fit_residuals(src, dst, matrix, translation)
         field[start : start + planes] = residuals.reshape(-1, len(y), len(x))
     field = interpolate_axis(field, x, width, 2)

@@ -9,7 +9,7 @@ its arguments. Points are (x, y, z) = (column, row, slice), voxel centres at int
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -26,6 +26,7 @@ __all__ = [
     "check_three_d",
     "deformation_spacing",
     "evaluate",
+    "flat_triples",
     "interpolate_axis",
     "lattice_points",
     "spacing_scale",
@@ -33,6 +34,10 @@ __all__ = [
 
 #: Points per call of ``m`` (and per block of the numpy sums over them).
 CHUNK = 1 << 18
+
+#: How many units of f's precision a determinant may lie from 0 and count as 0: f flattens
+#: the cell or tetrahedron (its sign is then rounding, not orientation).
+FLAT_ULPS = 32
 
 
 def as_volume_shape(shape: object) -> tuple[int, int, int]:
@@ -102,6 +107,17 @@ def as_points3(points: object, name: str = "points") -> np.ndarray:
         row = int(np.argmax(~np.isfinite(array).all(axis=1)))
         raise ValueError(f"{name} must be finite; row {row} is {array[row].tolist()}")
     return array
+
+
+def flat_triples(edges: Sequence[np.ndarray], precision: float, noise: np.ndarray) -> np.ndarray:
+    """Whether the triple products a . (b x c) of the edges (a, b, c), (..., 3) each, are 0
+    within rounding: at most :data:`FLAT_ULPS` times the rounding ``precision`` of
+    |a| |b| |c|, plus the change an error of ``precision`` x ``noise`` (the scale of f at
+    the edges' ends) in each edge makes."""
+    a, b, c = (np.linalg.norm(e, axis=-1) for e in edges)
+    triple = (edges[0] * np.cross(edges[1], edges[2])).sum(-1)
+    tolerance = FLAT_ULPS * precision * (a * b * c + noise * (a * b + b * c + a * c))
+    return np.abs(triple) <= tolerance
 
 
 def axis_centres(n: int, grid: int) -> np.ndarray:

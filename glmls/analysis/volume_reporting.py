@@ -85,11 +85,13 @@ def _check_volume(volume: object, name: str) -> np.ndarray:
     array = np.asarray(volume)
     if array.ndim not in (3, 4) or 0 in array.shape or (array.ndim == 4 and array.shape[3] > 4):
         raise ValueError(f"{name} must be (D, H, W) or (D, H, W, C), got shape {array.shape}")
-    if array.dtype.kind not in "iuf":
+    if array.dtype.kind not in "biuf":
         raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
     if array.dtype.kind == "f" and not np.isfinite(array).all():
         raise ValueError(f"{name} holds NaN or infinite values")
-    return array
+    # the pictures draw numbers and the GPU warps no bool: a mask is its 0/1 in float32, as
+    # the other dtypes the GPU does not take are warped
+    return array.astype(np.float32) if array.dtype.kind == "b" else array
 
 
 def _shown(array: np.ndarray) -> np.ndarray:
@@ -149,7 +151,7 @@ def volume_report(
     Parameters
     ----------
     volume : array_like
-        (D, H, W) or (D, H, W, C) real values.
+        (D, H, W) or (D, H, W, C) real values (a bool mask as 0 and 1).
     m : glmls.MLS or ReferenceDeformation
         The deformation, of (N, 3) handles ``m.src`` -> ``m.dst``.
     reference_points : array_like, optional
@@ -279,8 +281,8 @@ def volume_report(
         clock.begin("warp")
         try:
             options = {} if spacing is None else {"spacing": tuple(scale[::-1])}
-            # int16, bool, int64 ... warped as float32 (what the GPU warps: uint8, uint16,
-            # float32 and float64)
+            # int16, int64 ... warped as float32 (what the GPU warps: uint8, uint16, float32
+            # and float64; a bool mask is float32 since _check_volume)
             takes = array.dtype in (np.uint8, np.uint16, np.float32, np.float64)
             source = array if takes else array.astype(np.float32)
             warped = _check_volume(m.warp(source, **options), "m.warp(volume)")  # type: ignore[attr-defined]

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from glmls.analysis import ReferenceDeformation, cell_jacobians
+import glmls
+from glmls.analysis import ReferenceDeformation, cell_jacobians, tetrahedron_errors
 
 
 def folded_in_x(v):
@@ -54,6 +55,52 @@ def test_a_collapse_folds_every_cell_with_a_singular_ratio():
     cells = cell_jacobians(lambda v: v * [1.0, 1.0, 0.0], (2, 3, 3))
     assert cells.count == 18 and np.isnan(cells.ratio).all()
     assert cells.stats()["ratio"]["nan_count"] == 18
+
+
+def onto_plane(v, offset=0.0):
+    """f projects onto the plane x + y + z = offset: det J is 0, but rounds to +-4e-16."""
+    v = np.asarray(v, dtype=float)
+    return v - (v.sum(axis=1, keepdims=True) - offset) / 3
+
+
+@pytest.mark.parametrize(
+    "f",
+    [
+        onto_plane,
+        lambda v: onto_plane(v, 3000.0),
+        lambda v: np.outer(v @ [1.0, 2.0, 3.0], [0.3, 0.5, 0.7]),  # onto a line
+        lambda v: np.zeros_like(v) + 5.0,  # onto a point
+    ],
+)
+@pytest.mark.parametrize("grid", [1, 2])
+def test_a_flattening_that_rounds_off_zero_folds_every_cell_with_a_singular_ratio(f, grid):
+    cells = cell_jacobians(f, (4, 5, 6), grid=grid)
+    assert cells.count == cells.det.size and cells.mask.all()
+    assert (cells.det == 0).all() and (cells.min_det == 0).all()
+    assert np.isnan(cells.ratio).all() and cells.stats()["ratio"]["count"] == 0
+
+
+def test_a_thin_squeeze_is_no_flattening():
+    cells = cell_jacobians(lambda v: v * [1.0, 1.0, 1e-9] + 100.0, (3, 4, 5))
+    assert cells.count == 0 and not np.isnan(cells.ratio).any()
+    assert_allclose(cells.det, 1e-9, rtol=1e-4)
+    assert_allclose(cells.min_det, 1e-9, rtol=1e-4)
+    assert_allclose(cells.ratio, 1e9, rtol=1e-4)
+
+
+def test_on_the_gpu_a_flattening_mls_folds_every_cell_and_inverts_every_tetrahedron(gl):
+    src = np.random.default_rng(0).uniform(0, [13, 11, 9], (8, 3))
+    dst = onto_plane(src, 5.0)  # an affine fit of it is f itself, in float32 on the GPU
+    shape = (10, 12, 14)
+    try:
+        m = glmls.MLS(src, dst, transform="affine", shape=shape, ctx=gl)
+    except (TypeError, ValueError) as error:
+        pytest.skip(f"glmls.MLS takes no (N, 3) handles here: {error}")
+    with m:
+        cells = cell_jacobians(m, shape)
+        tetrahedra = tetrahedron_errors(m, src)
+    assert cells.count == cells.det.size and np.isnan(cells.ratio).all()
+    assert tetrahedra.inverted.all()
 
 
 @pytest.mark.parametrize("grid", [1, 2])

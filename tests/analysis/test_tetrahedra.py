@@ -87,6 +87,18 @@ def test_a_mirror_inverts_every_tetrahedron_but_keeps_the_angles():
     assert found.stats()["inverted"] == len(found.simplices)
 
 
+@pytest.mark.parametrize("offset", [0.0, 3000.0])
+def test_a_flattening_that_rounds_off_zero_inverts_every_tetrahedron(offset):
+    # onto the plane x + y + z = offset: every image has volume 0, but rounds to +-1e-13
+    found = tetrahedron_errors(lambda r: r - (r.sum(1, keepdims=True) - offset) / 3, CUBE + 3)
+    assert found.inverted.all() and found.stats()["inverted"] == len(found.simplices)
+
+
+def test_a_thin_squeeze_inverts_nothing():
+    found = tetrahedron_errors(lambda r: r * [1.0, 1.0, 1e-9] + 100.0, CUBE + 3)
+    assert not found.inverted.any()
+
+
 def test_the_mls_of_crossing_handles_inverts_the_tetrahedra_between_them():
     src = np.array([[10.0, 10, 10], [30, 10, 10], [20, 25, 10], [20, 15, 25], [20, 15, 0]])
     dst = src.copy()

@@ -115,6 +115,25 @@ def test_the_field_checks_its_arguments():
     assert volume_error_field(m, (3, 4, 5, 2)).shape == (3, 4, 5)
 
 
+class UndefinedAtHalf:
+    """A deformation whose affine fit is NaN at every other point."""
+
+    src = dst = SRC
+
+    def __call__(self, points):
+        return np.full(np.shape(points), np.nan)
+
+    def matrices(self, points):
+        matrix = np.tile(np.eye(3), (len(points), 1, 1))
+        matrix[::2] = np.nan
+        return matrix, np.zeros((len(points), 3))
+
+
+def test_nan_from_the_deformation_raises():
+    with pytest.raises(ValueError, match=r"m.matrices\(points\) returned NaN"):
+        volume_error_field(UndefinedAtHalf(), (6, 6, 6))
+
+
 def test_the_gpu_deformation_matches_the_reference(gl):
     shape = (9, 12, 14)
     try:

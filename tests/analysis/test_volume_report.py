@@ -87,7 +87,7 @@ def test_coplanar_handles_leave_the_tetrahedra_out_but_given_points_must_form_th
     ("kwargs", "error", "message"),
     [
         ({"volume": np.zeros((4, 4))}, ValueError, "D, H, W"),
-        ({"volume": np.zeros((4, 4, 4), bool)}, TypeError, "real numbers"),
+        ({"volume": np.zeros((4, 4, 4), complex)}, TypeError, "real numbers"),
         ({"volume": np.full((4, 4, 4), np.nan)}, ValueError, "NaN"),
         ({"grid": 0}, ValueError, "grid"),
         ({"jacobian_grid": -1}, ValueError, "jacobian_grid"),
@@ -230,3 +230,17 @@ def test_a_volume_of_a_dtype_the_gpu_does_not_warp_is_warped_as_float32(gl):
         warped = m.warp(values.astype(np.float32))
     assert "warp" in stages and found.deformed.dtype == np.float32
     assert_array_equal(found.deformed, warped)
+
+
+def test_a_bool_mask_is_analysed_and_warped_as_its_0_and_1_in_float32(gl):
+    pytest.importorskip("glmls.volume")
+    dst = SRC.copy()
+    dst[5] += [1.0, 0.5, 0.0]
+    mask = volume() > 120
+    with glmls.MLS(SRC, dst, shape=SHAPE, ctx=gl) as m:
+        found = volume_report(mask, m, grid=2)
+        numbers = volume_report(mask.astype(np.float32), m, grid=2)
+    assert found.deformed.dtype == np.float32
+    assert_array_equal(found.deformed, numbers.deformed)
+    for name, picture in numbers.images.items():
+        assert_array_equal(found.images[name], picture, err_msg=name)
