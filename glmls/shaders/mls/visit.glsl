@@ -276,7 +276,13 @@ MLSResult mls_eval(vec2 v) {
             break;
         }
 #endif
+#if MLS_REACH_GAUSSIAN
+        // the nearest known, the next distance is near it (a handle spacing): the square
+        // doubles, where the nearest's search goes to the cut's reach at once
+        side = near.d2min <= side * side ? 2.0 * side : max(2.0 * side, u_bin_reach);
+#else
         side = max(2.0 * side, u_bin_reach);
+#endif
         mls_bin_range(v, side, lo, hi);
         if (hi.y - lo.y >= n) {
             mls_nearest_all(near, v);
