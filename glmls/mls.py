@@ -286,7 +286,9 @@ class MLS(ForkSafe):
         if not forked_from_gl():
             scaling = Scaling.fit(handles.source_points(), handles.target_points(), self.shape)
             src, dst = handles.src, handles.dst
-            check_gpu_distinct(src, dst, scaling.to_gpu(src), scaling.to_gpu(dst), scaling.scale)
+            check_gpu_distinct(
+                src, dst, scaling.to_gpu(src), lambda: scaling.to_gpu(dst), scaling.scale
+            )
             self._kernel.upload(handles, scaling)
         self._handles = handles
         if self._swapped is not None:

@@ -148,7 +148,7 @@ class MLS3(MLS):
     def _store3(self, p: np.ndarray, q: np.ndarray) -> None:
         if not forked_from_gl():  # there the helper's MLS takes them
             scaling = fit_scaling3(p, q, self.shape, self.spacing)  # type: ignore[arg-type]
-            check_gpu_distinct(p, q, scaling.to_gpu(p), scaling.to_gpu(q), scaling.scale)
+            check_gpu_distinct(p, q, scaling.to_gpu(p), lambda: scaling.to_gpu(q), scaling.scale)
             self._kernel.upload(p, q, scaling)  # type: ignore[call-arg, arg-type]
         p.setflags(write=False)
         q.setflags(write=False)

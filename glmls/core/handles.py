@@ -6,6 +6,7 @@ integer coordinates (scikit-image's convention).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -109,7 +110,11 @@ def _same_source_pair(p: np.ndarray, q: np.ndarray) -> tuple[int, int] | None:
 
 
 def check_gpu_distinct(
-    p: np.ndarray, q: np.ndarray, p32: np.ndarray, q32: np.ndarray, scale: float
+    p: np.ndarray,
+    q: np.ndarray,
+    p32: np.ndarray,
+    q32: np.ndarray | Callable[[], np.ndarray],
+    scale: float,
 ) -> None:
     """``ValueError`` if two source points p that differ become one in the GPU's float32
     scaled coordinates ``p32`` while their targets there, ``q32``, differ: f would take the
@@ -120,11 +125,19 @@ def check_gpu_distinct(
     p, q : numpy.ndarray
         Validated source and target points, (N, D) float64.
     p32, q32 : numpy.ndarray
-        The same as the GPU holds them, (N, D) float32 (:meth:`Scaling.to_gpu`).
+        The same as the GPU holds them, (N, D) float32 (:meth:`Scaling.to_gpu`); ``q32`` may
+        be a function that makes them, called only where two sources merge.
     scale : float
         The scaling's scale (pixels per scaled unit), for the message.
     """
-    pair = _same_source_pair(p32, q32) if len(p) > 1 else None
+    if len(p) < 2:
+        return
+    xs = np.sort(p32[:, 0])
+    if (xs[1:] != xs[:-1]).all():
+        return  # every x differs on the GPU (the usual case): no pair to look for
+    if callable(q32):
+        q32 = q32()
+    pair = _same_source_pair(p32, q32)
     if pair is None:
         return
     i, j = pair
