@@ -190,8 +190,10 @@ def test_reference_integrals_against_adaptive_quadrature():
     handles = HandleSet.validate(NONE, NONE, segment, [[[0, 0], [1, 1]]])
     v = np.array([[250.0, 140.0 + 0.05], [250.0, 300.0], [50.0, 90.0], [420.0, 185.0]])
     geometry = reference.segment_geometry(handles, v)
-    # a point handle at distance 0 fixes the gaussian's common factor to 1
-    at_zero = np.zeros((len(v), 1))
+    # point handles at distances 0 and 1e-6 px fix the gaussian's common factor (its weights
+    # relative to the least distance above the least, glmls.core.weights.gaussian_excess) to
+    # exp(1e-12 / R^2) = 1 in float64
+    at_zero = np.tile([0.0, 1e-12], (len(v), 1))
     for weight in glmls.WEIGHTS:
         config = MLSConfig(weight=weight, radius=300.0, alpha=1.5 if weight == "idw" else 1.0)
         moments, _ = segment_moments(geometry, config, 300.0, at_zero)
@@ -201,8 +203,8 @@ def test_reference_integrals_against_adaptive_quadrature():
 
             def integrand(t, power, h=h, h2=h2, config=config):
                 x = h * np.sinh(t)
-                d2 = np.array([[0.0, h2 + x * x]])
-                w = reference.weights(d2, segment_config(config), 300.0)[0, 1]
+                d2 = np.array([[0.0, 1e-12, h2 + x * x]])
+                w = reference.weights(d2, segment_config(config), 300.0)[0, 2]
                 return w * x**power * h * np.cosh(t)
 
             t0, t1 = np.arcsinh(x0 / h), np.arcsinh(x1 / h)
