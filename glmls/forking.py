@@ -74,6 +74,13 @@ class ForkSafe:
         finalizer = weakref.finalize(self, _give_back, kernel.gl, self._owned)
         finalizer.atexit = False  # at exit the process's GL goes as a whole
 
+    def _drop_swapped(self) -> None:
+        """Release the swapped handles' kernel, made again when next needed."""
+        swapped = getattr(self, "_swapped", None)
+        if swapped is not None:
+            swapped.release()
+            self._swapped = None
+
     def _owns(self, kernel: Any) -> None:
         """``kernel``, made later, is given back with the first (:meth:`_release_when_dropped`)."""
         self._owned.append(kernel)

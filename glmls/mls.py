@@ -20,7 +20,7 @@ import moderngl
 import numpy as np
 
 from .core.config import MLSConfig, check_flag
-from .core.handles import Scaling, as_points, check_coordinates, check_gpu_distinct, point_rows
+from .core.handles import Scaling, as_points, check_coordinates, point_rows
 from .core.handles3 import dimension_of, planar_spacing
 from .core.handleset import HandleSet
 from .core.mesh import MeshLattice, as_shape, check_grid
@@ -284,16 +284,9 @@ class MLS(ForkSafe):
         """The one way handles get in: the kernel's upload (none in a process forked from one
         that used GL: the helper's MLS takes them), then the read-only copies."""
         if not forked_from_gl():
-            scaling = Scaling.fit(handles.source_points(), handles.target_points(), self.shape)
-            src, dst = handles.src, handles.dst
-            check_gpu_distinct(
-                src, dst, scaling.to_gpu(src), lambda: scaling.to_gpu(dst), scaling.scale
-            )
-            self._kernel.upload(handles, scaling)
+            self._kernel.upload(handles, handles.gpu_scaling(self.shape))
         self._handles = handles
-        if self._swapped is not None:
-            self._swapped.release()
-            self._swapped = None
+        self._drop_swapped()
 
     def _pipeline(self) -> WarpPipeline:
         self._kernel.check_alive()
@@ -943,9 +936,7 @@ class MLS(ForkSafe):
         self._dropped = True  # made in a forked process: the helper has the GPU side
         if self._kernel is None or self._kernel.released:
             return
-        if self._swapped is not None:
-            self._swapped.release()
-            self._swapped = None
+        self._drop_swapped()
         self._kernel.release()
 
     @property

@@ -153,9 +153,7 @@ class MLS3(MLS):
         p.setflags(write=False)
         q.setflags(write=False)
         self._p, self._q = p, q
-        if self._swapped is not None:
-            self._swapped.release()
-            self._swapped = None
+        self._drop_swapped()
 
     @property
     def _extent(self) -> tuple[float, float, float] | None:

@@ -92,7 +92,7 @@ def point_bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
-def _same_source_pair(p: np.ndarray, q: np.ndarray) -> tuple[int, int] | None:
+def same_source_pair(p: np.ndarray, q: np.ndarray) -> tuple[int, int] | None:
     """Indices i < j of the first two handles (in (x, y[, z]) order) with the same source
     point and different targets, or None."""
     xs = np.sort(p[:, 0])
@@ -137,7 +137,7 @@ def check_gpu_distinct(
         return  # every x differs on the GPU (the usual case): no pair to look for
     if callable(q32):
         q32 = q32()
-    pair = _same_source_pair(p32, q32)
+    pair = same_source_pair(p32, q32)
     if pair is None:
         return
     i, j = pair
@@ -160,7 +160,7 @@ def validate_handles(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
     q = check_coordinates(as_points(dst, "dst"), "dst")
     if len(p) != len(q):
         raise ValueError(f"src and dst must have the same length, got {len(p)} and {len(q)}")
-    pair = _same_source_pair(p, q) if len(p) > 1 else None
+    pair = same_source_pair(p, q) if len(p) > 1 else None
     if pair is not None:
         i, j = pair
         raise ValueError(

@@ -12,7 +12,7 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from .handles import COORDINATE_LIMIT, Scaling, _same_source_pair
+from .handles import COORDINATE_LIMIT, Scaling, same_source_pair
 
 __all__ = [
     "as_points3",
@@ -84,7 +84,7 @@ def validate_handles3(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]
     p, q = as_points3(src, "src"), as_points3(dst, "dst")
     if len(p) != len(q):
         raise ValueError(f"src and dst must have the same length, got {len(p)} and {len(q)}")
-    pair = _same_source_pair(p, q) if len(p) > 1 else None
+    pair = same_source_pair(p, q) if len(p) > 1 else None
     if pair is not None:
         i, j = pair
         raise ValueError(

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DegenerateHandlesError
-from .handles import check_affine_handles, validate_handles
+from .handles import Scaling, check_affine_handles, check_gpu_distinct, validate_handles
 from .segments import check_on_segments, validate_segments
 
 __all__ = ["HANDLE_KINDS", "HandleSet"]
@@ -121,6 +121,42 @@ class HandleSet:
     def target_points(self) -> np.ndarray:
         """Every target point and segment end, (N + 2 S, 2)."""
         return np.concatenate([self.dst, self.dst_segments.reshape(-1, 2)])
+
+    def gpu_scaling(self, shape: tuple[int, int] | None) -> Scaling:
+        """The GPU's scaling of these handles with an image of ``shape``.
+
+        Coordinates go to the GPU as float32 ``(x - center) / scale`` about the box of the
+        handles and the image (:class:`~glmls.core.handles.Scaling`); two source points
+        that float32 merges there must not have different targets.
+
+        Parameters
+        ----------
+        shape : tuple of int or None
+            (H, W) of the image the MLS deforms, or None for the handles' box alone.
+
+        Returns
+        -------
+        Scaling
+            The centre and scale.
+
+        Raises
+        ------
+        ValueError
+            For two source points float32 cannot tell apart at that scale, with different
+            targets (:func:`~glmls.core.handles.check_gpu_distinct`).
+
+        Examples
+        --------
+        >>> handles = glmls.HandleSet.validate([[0.0, 0.0], [100.0, 50.0]], [[1, 0], [99, 52]])
+        >>> handles.gpu_scaling((60, 120)).center
+        (59.5, 29.5)
+        """
+        scaling = Scaling.fit(self.source_points(), self.target_points(), shape)
+        dst = self.dst
+        check_gpu_distinct(
+            self.src, dst, scaling.to_gpu(self.src), lambda: scaling.to_gpu(dst), scaling.scale
+        )
+        return scaling
 
     def swapped(self) -> HandleSet:
         """Sources and targets exchanged (the map the other way)."""

@@ -35,7 +35,8 @@ def test_deformed_mesh_mesh_and_volume_print_their_shapes():
     assert "jacobian=array((3, 3, 3), float64)" in text and len(text) < 300
     volume = glmls.Volume(np.zeros((4, 5, 6), np.uint8), spacing=(2.0, 1.0, 1.0))
     assert (
-        repr(volume) == "Volume(data=array((4, 5, 6), uint8), spacing=(2.0, 1.0, 1.0), affine=None)"
+        repr(volume)
+        == "Volume(data=array((4, 5, 6), uint8), spacing=(2.0, 1.0, 1.0), affine=None, nifti=None)"
     )
 
 

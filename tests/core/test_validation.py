@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import glmls
-from glmls.core.handles import _same_source_pair
+from glmls.core.handles import same_source_pair
 
 P = [[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]]
 
@@ -83,7 +83,7 @@ def test_empty_points_give_empty_results(gl):
         assert big_m.shape == (0, 2, 2) and t.shape == (0, 2)
 
 
-def test_same_source_pairs_match_brute_force():
+def testsame_source_pairs_match_brute_force():
     """Ties in x are common on a lattice: the pair found conflicts, and one is found iff any."""
     rng = np.random.default_rng(3)
     for _ in range(200):
@@ -95,7 +95,7 @@ def test_same_source_pairs_match_brute_force():
             for j in range(i + 1, 12)
             if (p[i] == p[j]).all() and (q[i] != q[j]).any()
         }
-        pair = _same_source_pair(p, q)
+        pair = same_source_pair(p, q)
         assert (pair is None) == (not conflicts)
         assert pair is None or pair in conflicts
 
