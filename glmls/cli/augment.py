@@ -29,7 +29,7 @@ import numpy as np
 from ..analysis.jobs import check_jobs, check_scheduler, run_jobs
 from ..augment import PRESETS, Augment
 from ..files.atomic import remove_leftovers, umask
-from ..files.images import check_writable, imwrite
+from ..files.images import check_writable, image_bytes
 from ..imaging.source import BORDERS, INTERPOLATIONS, check_image
 from .inputs import image_inputs, kept_profile, read_image, say
 from .options import (
@@ -212,7 +212,11 @@ def augment_file(task: AugmentTask) -> AugmentOutcome:
                 )
                 os.close(fd)
                 written.append((name, str(target)))
-                imwrite(name, result.images[k], icc_profile=profile)
+                data = image_bytes(target, result.images[k], icc_profile=profile)
+                try:  # a checked write: a short one (a full disk) raises
+                    Path(name).write_bytes(data)
+                except OSError as error:
+                    raise OSError(f"{target}: cannot write: {error.strerror or error}") from None
                 entry: dict = {"source": task.source.name, "params": result.params[k]}
                 if keypoints is not None:
                     entry["keypoints"] = np.asarray(result.keypoints[k]).tolist()

@@ -20,7 +20,6 @@ from ..analysis.triangles import check_reference_points
 from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
 from ..errors import BorderWarning, ImageWarning
-from ..files.atomic import atomic_write
 from ..files.images import DEFAULT_MAX_PIXELS, imread, imwrite
 from ..files.landmarks import handle_dimension, read_handle_set, read_points
 from ..files.profiles import profile_problem, read_icc_profile
@@ -104,8 +103,7 @@ def reported_warnings(prefix: str) -> Iterator[None]:
 
 
 def write_image(path: Path, image: np.ndarray, *, icc_profile: bytes | None = None) -> None:
-    with atomic_write(path) as tmp:
-        imwrite(tmp, image, icc_profile=icc_profile)
+    imwrite(path, image, icc_profile=icc_profile)  # whole or not at all
 
 
 def kept_profile(source: Path, target: Path, channels: int, prefix: str) -> bytes | None:

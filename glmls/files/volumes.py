@@ -50,7 +50,7 @@ from ..core.handles3 import as_volume_spacing
 from ..core.summary import fields_repr
 from ..errors import InputFileError
 from .atomic import atomic_write
-from .tiffs import quiet_tifffile
+from .tiffs import TIFF_SIGNATURES, quiet_tifffile
 
 __all__ = [
     "VOLUME_SUFFIXES",
@@ -84,7 +84,8 @@ def volume_suffix(path: str | os.PathLike) -> str:
 def is_volume_file(path: str | os.PathLike) -> bool:
     """Whether ``path`` names a volume: a NIfTI or ``.npy`` file by its suffix, or a TIFF
     whose first series (tifffile's: pages of one shape) has more than one page (an existing
-    file is opened to count them; a TIFF that does not exist yet is not a volume; an image
+    file is opened to count them; a TIFF that does not exist yet is not a volume, nor a
+    ``.tif`` file of another format by its first bytes, such as a PNG; an image
     with a thumbnail or a pyramid of smaller pages is an image). ``InputFileError`` for an
     existing TIFF file of no readable page, or of pages that are the channels or time
     points of one 2D image (axes ``CYX``, ``TYX``: neither a volume nor an image glmls
@@ -94,6 +95,12 @@ def is_volume_file(path: str | os.PathLike) -> bool:
         return True
     if suffix not in (".tif", ".tiff") or not Path(path).is_file():
         return False
+    try:  # by content: a PNG or JPEG named .tif is an image, as imread reads it
+        with open(path, "rb") as file:
+            if file.read(4) not in TIFF_SIGNATURES:
+                return False
+    except OSError:
+        pass  # unreadable: tifffile's error below names it
     try:
         with quiet_tifffile(), tifffile.TiffFile(path) as tiff:
             pages = len(tiff.pages)
