@@ -23,7 +23,7 @@ from ..errors import BorderWarning, ImageWarning
 from ..files.images import DEFAULT_MAX_PIXELS, imread, imwrite
 from ..files.landmarks import handle_dimension, read_handle_set, read_points
 from ..files.profiles import profile_problem, read_icc_profile
-from ..files.volumes import is_volume_file
+from ..files.volumes import flat_npy, is_volume_file
 from ..mls import MLS
 from .options import UsageError, add_max_pixels, folder_path, handle_warnings, positive_int
 
@@ -72,6 +72,9 @@ def read_image(path: Path, max_pixels: int = DEFAULT_MAX_PIXELS) -> np.ndarray:
     except FileNotFoundError:
         raise UsageError(f"{path}: no such file") from None
     except ValueError as error:  # imread's messages name the file
+        flat = flat_npy(path)
+        if flat is not None:
+            raise UsageError(flat) from None
         if Path(path).suffix.lower() in (".npy", ".nii", ".gz") and is_volume_file(path):
             raise UsageError(  # not "not an image format": the command takes images only
                 f"{path}: a volume; this command takes 2D images (warp, analyze and demo "

@@ -56,6 +56,7 @@ __all__ = [
     "VOLUME_SUFFIXES",
     "NiftiHeader",
     "Volume",
+    "flat_npy",
     "is_volume_file",
     "read_volume",
     "volume_suffix",
@@ -72,6 +73,23 @@ _IMAGEJ_DTYPES = ("uint8", "uint16", "int16", "float32")
 #: dtypes NIfTI lacks, written as the nearest it has: masks as uint8, half floats as float32.
 _NIFTI_AS = {"bool": np.uint8, "float16": np.float32}
 _CORRUPT = (OSError, EOFError, ValueError, KeyError, IndexError, struct.error, zlib.error)
+
+
+def flat_npy(path: str | os.PathLike) -> str | None:
+    """For a ``.npy`` file of a 2D array: the one line that says what to do with it (a 2D
+    image belongs in an image file); None for any other file."""
+    if volume_suffix(path) != ".npy":
+        return None
+    try:
+        shape = np.load(path, mmap_mode="r", allow_pickle=False).shape
+    except (*_CORRUPT, TypeError):
+        return None  # read_volume says what is wrong with it
+    if len(shape) != 2:
+        return None
+    return (
+        f"{path}: a 2D array {shape}, but .npy files are volumes, (D, H, W) or (D, H, W, C): "
+        "save a 2D image as an image file (e.g. with glmls.imwrite to .png or .tif)"
+    )
 
 
 def volume_suffix(path: str | os.PathLike) -> str:
@@ -445,6 +463,9 @@ def read_volume(path: str | os.PathLike) -> Volume:
             with path.open("rb") as file:  # else numpy speaks of pickles for any bad header
                 if file.read(6) != b"\x93NUMPY":
                     raise InputFileError(f"{path}: not a .npy file (no NumPy header)")
+            flat = flat_npy(path)
+            if flat is not None:
+                raise InputFileError(flat)
             volume = Volume(np.load(path, allow_pickle=False))
         elif suffix in (".tif", ".tiff"):
             with quiet_tifffile():

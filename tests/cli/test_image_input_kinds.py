@@ -3,11 +3,15 @@ suffix says TIFF, and with messages that lead somewhere."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
+import pytest
 from helpers import glmls_cli, write_cli_handles
 from PIL import Image
 
 import glmls
+from glmls.errors import InputFileError
 
 
 def test_a_png_named_tif_is_an_image_to_warp_and_analyze(tmp_path):
@@ -22,3 +26,41 @@ def test_a_png_named_tif_is_an_image_to_warp_and_analyze(tmp_path):
     )
     assert result.returncode == 0, result.stderr
     assert (tmp_path / "rep" / "report.json").exists()
+
+
+def test_augment_writes_a_gifs_copies_as_png(tmp_path):
+    Image.fromarray(np.full((32, 40, 3), 80, np.uint8)).save(tmp_path / "still.gif")
+    result = glmls_cli("augment", "still.gif", "aug", "--n", "2", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["aug/still_000.png", "aug/still_001.png"]
+    assert "still.gif: glmls writes no .gif; its copies are .png" in result.stderr
+    assert glmls.imread(tmp_path / "aug" / "still_001.png").shape == (32, 40, 3)
+
+
+def test_augment_refuses_a_gif_and_a_png_of_one_stem(tmp_path):
+    for suffix in (".gif", ".png"):
+        Image.fromarray(np.full((32, 40, 3), 80, np.uint8)).save(tmp_path / f"a{suffix}")
+    result = glmls_cli("augment", "a.*", "aug", "--n", "1", cwd=tmp_path)
+    assert result.returncode == 2
+    assert "would overwrite each other" in result.stderr
+    assert not (tmp_path / "aug").exists()
+
+
+def test_a_2d_npy_file_is_told_to_be_an_image_file(tmp_path):
+    np.save(tmp_path / "plane.npy", np.zeros((32, 40), np.float32))
+    write_cli_handles(tmp_path)
+    points = [[2, 2, 0], [30, 3, 1], [5, 20, 1], [35, 20, 0]]
+    (tmp_path / "h3.json").write_text(json.dumps({"src": points, "dst": points}))
+    for command in (
+        ["warp", "plane.npy", "o.npy", "--handles", "h.json"],
+        ["warp", "plane.npy", "o.npy", "--handles", "h3.json"],
+        ["analyze", "plane.npy", "--handles", "h.json", "--out", "rep"],
+        ["augment", "plane.npy", "aug", "--n", "1"],
+    ):
+        result = glmls_cli(*command, cwd=tmp_path)
+        assert result.returncode == 2, (command, result.stderr)
+        assert result.stderr.count("\n") == 1, result.stderr
+        assert "plane.npy: a 2D array (32, 40), but .npy files are volumes" in result.stderr
+        assert "save a 2D image as an image file" in result.stderr
+    with pytest.raises(InputFileError, match=r"\.npy files are volumes"):
+        glmls.read_volume(tmp_path / "plane.npy")
