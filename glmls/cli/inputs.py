@@ -19,7 +19,7 @@ from ..analysis.canvas import as_rgb8
 from ..analysis.triangles import check_reference_points
 from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
-from ..errors import BorderWarning, ImageWarning
+from ..errors import BorderWarning, ImageWarning, InputFileError
 from ..files.images import DEFAULT_MAX_PIXELS, imread, imwrite
 from ..files.landmarks import handle_dimension, read_handle_set, read_points
 from ..files.profiles import profile_problem, read_icc_profile
@@ -67,6 +67,19 @@ def image_inputs(pattern: str) -> tuple[list[Path], bool]:
 
 
 def read_image(path: Path, max_pixels: int = DEFAULT_MAX_PIXELS) -> np.ndarray:
+    """The image of ``path`` (its warnings on stderr); :class:`UsageError` naming the file
+    for anything else, a TIFF stack too: imread would give its first page, which among a
+    batch of images would be written under the stack's name as if it were all of it."""
+    if Path(path).suffix.lower() in (".tif", ".tiff"):
+        try:
+            stack = is_volume_file(path)
+        except InputFileError as error:  # the channels of one image, or no page
+            raise UsageError(str(error)) from None
+        if stack:
+            raise UsageError(
+                f"{path}: a volume (a TIFF stack); 2D images only here: warp, analyze and "
+                "demo take a volume named on its own, with 3D handles"
+            )
     try:
         return _read(path, max_pixels)
     except FileNotFoundError:

@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 import pytest
+import tifffile
 from helpers import glmls_cli, write_cli_handles
 from PIL import Image
 
@@ -64,3 +65,41 @@ def test_a_2d_npy_file_is_told_to_be_an_image_file(tmp_path):
         assert "save a 2D image as an image file" in result.stderr
     with pytest.raises(InputFileError, match=r"\.npy files are volumes"):
         glmls.read_volume(tmp_path / "plane.npy")
+
+
+def _stack_and_image(folder) -> None:
+    folder.mkdir()
+    ramp = np.tile(np.arange(40, dtype=np.uint8), (32, 1))
+    tifffile.imwrite(
+        folder / "stack.tif", np.stack([ramp, ramp + 1, ramp + 2]), photometric="minisblack"
+    )
+    glmls.imwrite(folder / "photo.png", ramp)
+
+
+def test_a_tiff_stack_in_a_batch_of_images_is_refused_not_shortened(tmp_path):
+    _stack_and_image(tmp_path / "in")
+    write_cli_handles(tmp_path)
+    result = glmls_cli("warp", "in", "out", "--handles", "h.json", "--keep-going", cwd=tmp_path)
+    assert result.returncode == 1, result.stderr
+    assert result.stdout.split() == ["out/photo.png"]
+    assert (
+        "glmls warp: skipped in/stack.tif: a volume (a TIFF stack); 2D images only here"
+        in result.stderr
+    )
+    assert "1 of 2 images failed" in result.stderr
+    assert not (tmp_path / "out" / "stack.tif").exists()
+    result = glmls_cli("warp", "in", "out2", "--handles", "h.json", "--quiet", cwd=tmp_path)
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1 and "in/stack.tif: a volume" in result.stderr
+    assert not (tmp_path / "out2" / "stack.tif").exists()
+
+
+def test_augment_refuses_a_tiff_stack(tmp_path):
+    _stack_and_image(tmp_path / "in")
+    result = glmls_cli("augment", "in/stack.tif", "aug", "--n", "1", cwd=tmp_path)
+    assert result.returncode == 2
+    assert result.stderr.strip() == (
+        "glmls augment: in/stack.tif: a volume (a TIFF stack); 2D images only here: warp, "
+        "analyze and demo take a volume named on its own, with 3D handles"
+    )
+    assert not (tmp_path / "aug").exists()
