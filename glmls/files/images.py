@@ -124,15 +124,16 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     -------
     numpy.ndarray
         H x W (grey) or H x W x C; uint8, uint16 (16-bit PNG and TIFF), float32 or float64
-        (TIFF).
+        (TIFF); a TIFF of another dtype (int8, int16, int32, uint32, float16, ...) as it is
+        stored, which :func:`glmls.warp` takes converted (to float32, say).
 
     Raises
     ------
     FileNotFoundError, PermissionError
         For a missing or unreadable file.
     ValueError
-        Naming the file, for a corrupt or unsupported one, or one of more than ``max_pixels``;
-        for ``max_pixels`` below 1.
+        Naming the file, for a corrupt or unsupported one, a folder, or one of more than
+        ``max_pixels``; for ``max_pixels`` below 1.
     TypeError
         For ``max_pixels`` that is not an integer.
 
@@ -156,8 +157,11 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     """
     _check_max_pixels(max_pixels)
     path = Path(path)
-    with open(path, "rb") as file:
-        head = file.read(32)
+    try:
+        with open(path, "rb") as file:
+            head = file.read(32)
+    except IsADirectoryError:
+        raise ValueError(f"{path}: a folder, not an image file") from None
     try:
         if head.startswith(_PNG) and len(head) >= 26 and head[24] == 16:
             return _read_png16(path, head, max_pixels)

@@ -1,6 +1,6 @@
 """16-bit PNGs (decoded by libpng, not Pillow) read as Pillow reads 8-bit ones: the EXIF
 orientation of ImageMagick's "Raw profile type exif" text chunk applied, and an animation's
-frames warned about."""
+frames warned about; and what imread gives for a folder and for TIFFs of other dtypes."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import zlib
 
 import numpy as np
 import pytest
+import tifffile
 from PIL import Image
 
 import glmls
@@ -92,3 +93,20 @@ def test_an_animated_png_warns_at_either_depth(tmp_path, dtype):
     with pytest.warns(ImageWarning, match=r"anim\.png: 3 frames; reading the first"):
         image = glmls.imread(tmp_path / "anim.png")
     np.testing.assert_array_equal(image, first)
+
+
+def test_imread_of_a_folder_is_a_value_error_naming_it(tmp_path):
+    (tmp_path / "photos").mkdir()
+    with pytest.raises(ValueError, match=r"photos: a folder, not an image file$"):
+        glmls.imread(tmp_path / "photos")
+
+
+@pytest.mark.parametrize("dtype", ["int16", "uint32", "float16"])
+def test_imread_gives_other_tiff_dtypes_as_stored(tmp_path, dtype):
+    """As its docstring says: for the caller to convert (glmls.warp does not take them)."""
+    stored = np.arange(20).reshape(4, 5).astype(dtype)
+    tifffile.imwrite(tmp_path / "a.tif", stored, photometric="minisblack")
+    image = glmls.imread(tmp_path / "a.tif")
+    assert image.dtype == np.dtype(dtype)
+    np.testing.assert_array_equal(image, stored)
+    assert dtype in glmls.imread.__doc__
