@@ -1,7 +1,8 @@
 """``glmls augment``: random MLS deformations of images (:class:`glmls.augment.Augment`),
 N per input, with their labels (keypoints, boxes) moved along.
 
-Output: for input ``NAME.EXT`` and k = 0 .. N - 1, ``OUT/NAME_k.EXT`` (k zero-padded), drawn
+Output: for input ``NAME.EXT`` and k = 0 .. N - 1, ``OUT/NAME_k.EXT`` (k zero-padded; EXT
+``.png`` where glmls does not write EXT: a GIF), drawn
 with sample index ``i * N + k`` for the i-th input (sorted by name), so that the same command
 gives the same images whatever ``--jobs``; and ``OUT/labels.json``: per output image its moved
 keypoints and boxes (where labels were given) with their validity, and its draw (``params``:
@@ -29,7 +30,7 @@ import numpy as np
 from ..analysis.jobs import check_jobs, check_scheduler, run_jobs
 from ..augment import PRESETS, Augment
 from ..files.atomic import remove_leftovers, umask
-from ..files.images import check_writable, imwrite
+from ..files.images import WRITABLE, check_writable, image_bytes
 from ..imaging.source import BORDERS, INTERPOLATIONS, check_image
 from .inputs import image_inputs, kept_profile, read_image, say
 from .options import (
@@ -156,9 +157,15 @@ def _names(task: AugmentTask) -> list[Path]:
 
 
 def _output_names(folder: Path, source: Path, count: int) -> list[Path]:
-    """``folder/NAME_k.EXT`` for input ``NAME.EXT``, k = 0 .. count - 1 zero-padded."""
+    """``folder/NAME_k.EXT`` for input ``NAME.EXT``, k = 0 .. count - 1 zero-padded (EXT
+    ``.png`` where glmls does not write EXT: a GIF)."""
     width = max(3, len(str(count - 1)))
-    return [folder / f"{source.stem}_{k:0{width}d}{source.suffix}" for k in range(count)]
+    suffix = _output_suffix(source)
+    return [folder / f"{source.stem}_{k:0{width}d}{suffix}" for k in range(count)]
+
+
+def _output_suffix(source: Path) -> str:
+    return source.suffix if source.suffix.lower() in WRITABLE else ".png"
 
 
 def augment_file(task: AugmentTask) -> AugmentOutcome:
@@ -212,7 +219,11 @@ def augment_file(task: AugmentTask) -> AugmentOutcome:
                 )
                 os.close(fd)
                 written.append((name, str(target)))
-                imwrite(name, result.images[k], icc_profile=profile)
+                data = image_bytes(target, result.images[k], icc_profile=profile)
+                try:  # a checked write: a short one (a full disk) raises
+                    Path(name).write_bytes(data)
+                except OSError as error:
+                    raise OSError(f"{target}: cannot write: {error.strerror or error}") from None
                 entry: dict = {"source": task.source.name, "params": result.params[k]}
                 if keypoints is not None:
                     entry["keypoints"] = np.asarray(result.keypoints[k]).tolist()
@@ -359,12 +370,13 @@ def run(args: argparse.Namespace) -> int:
     files, _ = image_inputs(args.input)
     seen: dict[str, Path] = {}
     for source in files:  # the outputs and the labels are named by the input's name
-        if source.name in seen:
+        named = source.stem + _output_suffix(source)  # a.gif's copies are a_k.png, as a.png's
+        if named in seen:
             raise UsageError(
-                f"{seen[source.name]} and {source} have one name: their outputs "
-                f"({source.stem}_000{source.suffix} ...) would overwrite each other"
+                f"{seen[named]} and {source} have one name: their outputs "
+                f"({source.stem}_000{_output_suffix(source)} ...) would overwrite each other"
             )
-        seen[source.name] = source
+        seen[named] = source
     labels = read_labels(args.labels, files) if args.labels else {}
     if args.preset == "landmarks":  # its handles are the labels' keypoints: every input's
         bare = [f.name for f in files if not labels.get(f.name, {}).get("keypoints")]
@@ -433,6 +445,12 @@ def run(args: argparse.Namespace) -> int:
     for outcome in outcomes:  # the images, in the order of the inputs
         for _, final in outcome.written:
             print(final, flush=True)
+    for source in files:
+        if _output_suffix(source) != source.suffix:
+            say(
+                args,
+                f"glmls augment: {source}: glmls writes no {source.suffix}; its copies are .png",
+            )
     count = len(written) - 1
     say(args, f"glmls augment: {count} image{'s' * (count != 1)} and {folder / LABELS_NAME}")
     sys.stdout.flush()

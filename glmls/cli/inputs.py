@@ -19,12 +19,11 @@ from ..analysis.canvas import as_rgb8
 from ..analysis.triangles import check_reference_points
 from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
-from ..errors import BorderWarning, ImageWarning
-from ..files.atomic import atomic_write
+from ..errors import BorderWarning, ImageWarning, InputFileError
 from ..files.images import DEFAULT_MAX_PIXELS, imread, imwrite
 from ..files.landmarks import handle_dimension, read_handle_set, read_points
 from ..files.profiles import profile_problem, read_icc_profile
-from ..files.volumes import is_volume_file
+from ..files.volumes import flat_npy, is_volume_file
 from ..mls import MLS
 from .options import UsageError, add_max_pixels, folder_path, handle_warnings, positive_int
 
@@ -68,11 +67,27 @@ def image_inputs(pattern: str) -> tuple[list[Path], bool]:
 
 
 def read_image(path: Path, max_pixels: int = DEFAULT_MAX_PIXELS) -> np.ndarray:
+    """The image of ``path`` (its warnings on stderr); :class:`UsageError` naming the file
+    for anything else, a TIFF stack too: imread would give its first page, which among a
+    batch of images would be written under the stack's name as if it were all of it."""
+    if Path(path).suffix.lower() in (".tif", ".tiff"):
+        try:
+            stack = is_volume_file(path)
+        except InputFileError as error:  # the channels of one image, or no page
+            raise UsageError(str(error)) from None
+        if stack:
+            raise UsageError(
+                f"{path}: a volume (a TIFF stack); 2D images only here: warp, analyze and "
+                "demo take a volume named on its own, with 3D handles"
+            )
     try:
         return _read(path, max_pixels)
     except FileNotFoundError:
         raise UsageError(f"{path}: no such file") from None
     except ValueError as error:  # imread's messages name the file
+        flat = flat_npy(path)
+        if flat is not None:
+            raise UsageError(flat) from None
         if Path(path).suffix.lower() in (".npy", ".nii", ".gz") and is_volume_file(path):
             raise UsageError(  # not "not an image format": the command takes images only
                 f"{path}: a volume; this command takes 2D images (warp, analyze and demo "
@@ -104,8 +119,7 @@ def reported_warnings(prefix: str) -> Iterator[None]:
 
 
 def write_image(path: Path, image: np.ndarray, *, icc_profile: bytes | None = None) -> None:
-    with atomic_write(path) as tmp:
-        imwrite(tmp, image, icc_profile=icc_profile)
+    imwrite(path, image, icc_profile=icc_profile)  # whole or not at all
 
 
 def kept_profile(source: Path, target: Path, channels: int, prefix: str) -> bytes | None:

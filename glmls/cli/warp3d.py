@@ -33,6 +33,7 @@ from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import (
     VOLUME_SUFFIXES,
     Volume,
+    flat_npy,
     is_volume_file,
     read_volume,
     volume_suffix,
@@ -156,6 +157,9 @@ def read_3d_handles(args: argparse.Namespace, kind: str) -> tuple[np.ndarray, np
     """The 3D handles of ``--handles`` (and ``--targets``) for ``IN``, a volume or a mesh;
     :class:`UsageError` naming both for a file of 2D handles."""
     ndim = handle_dimension(args.handles, dst=args.targets)
+    flat = flat_npy(args.input) if kind == "volume" and ndim != 3 else None
+    if flat is not None:
+        raise UsageError(flat)
     if ndim != 3:
         raise UsageError(
             f"{args.handles}: 2D handles (x, y), but {args.input} is a {kind}: it takes 3D "

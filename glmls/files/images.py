@@ -16,6 +16,7 @@ take) raises ``ValueError`` before it is decoded.
 from __future__ import annotations
 
 import contextlib
+import io
 import os
 import re
 import struct
@@ -32,10 +33,18 @@ import tifffile
 from PIL import Image, ImageOps, UnidentifiedImageError
 
 from ..errors import ImageWarning
+from .atomic import atomic_write
 from .profiles import profile_problem, with_png_profile
 from .tiffs import TIFF_SIGNATURES, quiet_tifffile
 
-__all__ = ["DEFAULT_MAX_PIXELS", "WRITABLE", "check_writable", "imread", "imwrite"]
+__all__ = [
+    "DEFAULT_MAX_PIXELS",
+    "WRITABLE",
+    "check_writable",
+    "image_bytes",
+    "imread",
+    "imwrite",
+]
 
 #: Images of more pixels are refused unless ``max_pixels`` says otherwise: 16384 x 16384, the
 #: texture limit of common OpenGL drivers (a 4-channel float32 copy of it is 4 GB).
@@ -53,6 +62,8 @@ WRITABLE = {
 #: Formats of colour images only: a grey image would come back RGB (or RGBA).
 _COLOUR_ONLY = (".webp",)
 _PNG = b"\x89PNG\r\n\x1a\n"
+#: The most of a compressed PNG text chunk decoded (Pillow's limit).
+_MAX_TEXT = 1 << 20
 #: Decoding failures of a corrupt file, whichever library meets them.
 _CORRUPT = (
     OSError,
@@ -113,15 +124,16 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     -------
     numpy.ndarray
         H x W (grey) or H x W x C; uint8, uint16 (16-bit PNG and TIFF), float32 or float64
-        (TIFF).
+        (TIFF); a TIFF of another dtype (int8, int16, int32, uint32, float16, ...) as it is
+        stored, which :func:`glmls.warp` takes converted (to float32, say).
 
     Raises
     ------
     FileNotFoundError, PermissionError
         For a missing or unreadable file.
     ValueError
-        Naming the file, for a corrupt or unsupported one, or one of more than ``max_pixels``;
-        for ``max_pixels`` below 1.
+        Naming the file, for a corrupt or unsupported one, a folder, or one of more than
+        ``max_pixels``; for ``max_pixels`` below 1.
     TypeError
         For ``max_pixels`` that is not an integer.
 
@@ -145,8 +157,11 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     """
     _check_max_pixels(max_pixels)
     path = Path(path)
-    with open(path, "rb") as file:
-        head = file.read(32)
+    try:
+        with open(path, "rb") as file:
+            head = file.read(32)
+    except IsADirectoryError:
+        raise ValueError(f"{path}: a folder, not an image file") from None
     try:
         if head.startswith(_PNG) and len(head) >= 26 and head[24] == 16:
             return _read_png16(path, head, max_pixels)
@@ -169,27 +184,60 @@ def _read_png16(path: Path, head: bytes, max_pixels: int) -> np.ndarray:
         array = np.asarray(imagecodecs.png_decode(data))
     except (imagecodecs.PngError, UnicodeDecodeError) as error:
         raise ValueError(f"{path}: corrupt or truncated 16-bit PNG ({error})") from None
-    return _orient(array, _png_orientation(data))
+    orientation, frames = _png_chunks(data)
+    if frames > 1:  # libpng decodes the default image: an APNG's first frame
+        warnings.warn(f"{path}: {frames} frames; reading the first", ImageWarning, stacklevel=4)
+    return _orient(array, orientation)
 
 
-def _png_orientation(data: bytes) -> int:
-    """The EXIF orientation in a PNG's eXIf chunk (1 where there is none or it is unreadable),
-    as Pillow finds it for the PNGs it decodes."""
+def _png_chunks(data: bytes) -> tuple[int, int]:
+    """A PNG's EXIF orientation and frames, as Pillow finds them for the PNGs it decodes:
+    the orientation of an ``eXIf`` chunk, else of ImageMagick's "Raw profile type exif"
+    text chunk (1 where there is none or it is unreadable); the frames of an APNG's
+    ``acTL`` chunk (1 for a still image)."""
+    exif, raw, frames = None, None, 1
     at = len(_PNG)
     while at + 8 <= len(data):
         size = struct.unpack(">I", data[at : at + 4])[0]
-        kind = data[at + 4 : at + 8]
-        if kind == b"eXIf":
-            exif = Image.Exif()
-            try:
-                exif.load(data[at + 8 : at + 8 + size])
-                return int(exif.get(0x0112, 1))
-            except _CORRUPT:
-                return 1
-        if kind == b"IEND":
+        kind, body = data[at + 4 : at + 8], data[at + 8 : at + 8 + size]
+        if kind == b"eXIf" and exif is None:
+            exif = body
+        elif kind in (b"tEXt", b"zTXt", b"iTXt") and raw is None:
+            raw = _raw_exif(kind, body)
+        elif kind == b"acTL" and len(body) >= 4:
+            frames = max(1, struct.unpack(">I", body[:4])[0])
+        elif kind == b"IEND":
             break
         at += 12 + size
-    return 1
+    found = exif if exif is not None else raw
+    if found is None:
+        return 1, frames
+    try:
+        loaded = Image.Exif()
+        loaded.load(found)
+        return int(loaded.get(0x0112, 1)), frames
+    except _CORRUPT:
+        return 1, frames
+
+
+def _raw_exif(kind: bytes, body: bytes) -> bytes | None:
+    """The EXIF of a text chunk keyed "Raw profile type exif" (ImageMagick's: a name, the
+    length, then the bytes in hexadecimal, on lines of their own), else None."""
+    keyword, _, text = body.partition(b"\0")
+    if keyword != b"Raw profile type exif":
+        return None
+    compressed = kind == b"zTXt"
+    if kind == b"iTXt":  # compression flag and method, language, translated keyword
+        fields = text[2:].split(b"\0", 2)
+        compressed, text = text[:1] == b"\x01", fields[-1] if len(fields) == 3 else b""
+    elif compressed:
+        text = text[1:]
+    try:
+        if compressed:  # bounded, as Pillow bounds text chunks: no decompression bomb
+            text = zlib.decompressobj().decompress(text, _MAX_TEXT)
+        return bytes.fromhex("".join(text.decode("latin-1").split("\n")[3:]))
+    except (zlib.error, ValueError):
+        return None
 
 
 def _read_tiff(path: Path, max_pixels: int) -> np.ndarray:
@@ -391,6 +439,9 @@ def imwrite(path: str | os.PathLike, image: object, *, icc_profile: bytes | None
         dtype or alpha (or a grey image: WebP), an empty image or a wrong shape, or an
         ``icc_profile`` that is not an ICC profile, does not fit the image's channels or that
         the format cannot hold.
+    OSError
+        ``PATH: cannot write: ...``, for a failed write (a full disk, no permission): the
+        file is written whole or not at all.
 
     See Also
     --------
@@ -408,6 +459,18 @@ def imwrite(path: str | os.PathLike, image: object, *, icc_profile: bytes | None
         ...
     ValueError: ...depth.jpg: .jpg cannot hold float32 images; write it as .tif or .tiff
     """
+    data = image_bytes(path, image, icc_profile=icc_profile)
+    # a checked write of bytes encoded in memory: Pillow's encoders write to the file
+    # descriptor and pass over a short write (a full disk), leaving a truncated file
+    with atomic_write(path) as tmp, open(tmp, "wb") as file:
+        file.write(data)
+
+
+def image_bytes(
+    path: str | os.PathLike, image: object, *, icc_profile: bytes | None = None
+) -> bytes:
+    """The file :func:`imwrite` writes, as bytes: for a writer of its own (a temporary name
+    that it renames), checked as :func:`imwrite` checks (``ValueError``)."""
     array = np.asarray(image)
     if array.ndim == 3 and array.shape[2] == 1:
         array = array[..., 0]
@@ -421,19 +484,24 @@ def imwrite(path: str | os.PathLike, image: object, *, icc_profile: bytes | None
         if problem:
             raise ValueError(f"{path}: {problem}")
         icc_profile = bytes(icc_profile)
-    suffix = Path(path).suffix.lower()
-    array = np.ascontiguousarray(array)
+    return _encode(Path(path).suffix.lower(), np.ascontiguousarray(array), icc_profile)
+
+
+def _encode(suffix: str, array: np.ndarray, icc_profile: bytes | None) -> bytes:
+    """The file of format ``suffix`` holding ``array`` (checked by :func:`imwrite`)."""
     if suffix in (".tif", ".tiff"):
         channels = _channels(array)
         photometric = "rgb" if channels >= 3 else "minisblack"
         extra = ["unassalpha"] if channels in (2, 4) else None
+        buffer = io.BytesIO()
         tifffile.imwrite(
-            path, array, photometric=photometric, extrasamples=extra, iccprofile=icc_profile
+            buffer, array, photometric=photometric, extrasamples=extra, iccprofile=icc_profile
         )
-    elif array.dtype == np.uint16:
+        return buffer.getvalue()
+    if array.dtype == np.uint16:
         png = imagecodecs.png_encode(array, level=6)
-        Path(path).write_bytes(with_png_profile(png, icc_profile) if icc_profile else png)
-    elif icc_profile:
-        Image.fromarray(array).save(path, icc_profile=icc_profile)
-    else:
-        Image.fromarray(array).save(path)
+        return with_png_profile(png, icc_profile) if icc_profile else png
+    buffer = io.BytesIO()
+    options = {"icc_profile": icc_profile} if icc_profile else {}
+    Image.fromarray(array).save(buffer, format=Image.registered_extensions()[suffix], **options)
+    return buffer.getvalue()

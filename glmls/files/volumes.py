@@ -50,12 +50,13 @@ from ..core.handles3 import as_volume_spacing
 from ..core.summary import fields_repr
 from ..errors import InputFileError
 from .atomic import atomic_write
-from .tiffs import quiet_tifffile
+from .tiffs import TIFF_SIGNATURES, quiet_tifffile
 
 __all__ = [
     "VOLUME_SUFFIXES",
     "NiftiHeader",
     "Volume",
+    "flat_npy",
     "is_volume_file",
     "read_volume",
     "volume_suffix",
@@ -74,6 +75,23 @@ _NIFTI_AS = {"bool": np.uint8, "float16": np.float32}
 _CORRUPT = (OSError, EOFError, ValueError, KeyError, IndexError, struct.error, zlib.error)
 
 
+def flat_npy(path: str | os.PathLike) -> str | None:
+    """For a ``.npy`` file of a 2D array: the one line that says what to do with it (a 2D
+    image belongs in an image file); None for any other file."""
+    if volume_suffix(path) != ".npy":
+        return None
+    try:
+        shape = np.load(path, mmap_mode="r", allow_pickle=False).shape
+    except (*_CORRUPT, TypeError):
+        return None  # read_volume says what is wrong with it
+    if len(shape) != 2:
+        return None
+    return (
+        f"{path}: a 2D array {shape}, but .npy files are volumes, (D, H, W) or (D, H, W, C): "
+        "save a 2D image as an image file (e.g. with glmls.imwrite to .png or .tif)"
+    )
+
+
 def volume_suffix(path: str | os.PathLike) -> str:
     """The format suffix of ``path``, lower case: ``.nii.gz`` for gzipped NIfTI, else its last
     suffix (``.nii``, ``.tif``, ``.npy``, ...)."""
@@ -84,7 +102,8 @@ def volume_suffix(path: str | os.PathLike) -> str:
 def is_volume_file(path: str | os.PathLike) -> bool:
     """Whether ``path`` names a volume: a NIfTI or ``.npy`` file by its suffix, or a TIFF
     whose first series (tifffile's: pages of one shape) has more than one page (an existing
-    file is opened to count them; a TIFF that does not exist yet is not a volume; an image
+    file is opened to count them; a TIFF that does not exist yet is not a volume, nor a
+    ``.tif`` file of another format by its first bytes, such as a PNG; an image
     with a thumbnail or a pyramid of smaller pages is an image). ``InputFileError`` for an
     existing TIFF file of no readable page, or of pages that are the channels or time
     points of one 2D image (axes ``CYX``, ``TYX``: neither a volume nor an image glmls
@@ -94,6 +113,12 @@ def is_volume_file(path: str | os.PathLike) -> bool:
         return True
     if suffix not in (".tif", ".tiff") or not Path(path).is_file():
         return False
+    try:  # by content: a PNG or JPEG named .tif is an image, as imread reads it
+        with open(path, "rb") as file:
+            if file.read(4) not in TIFF_SIGNATURES:
+                return False
+    except OSError:
+        pass  # unreadable: tifffile's error below names it
     try:
         with quiet_tifffile(), tifffile.TiffFile(path) as tiff:
             pages = len(tiff.pages)
@@ -438,6 +463,9 @@ def read_volume(path: str | os.PathLike) -> Volume:
             with path.open("rb") as file:  # else numpy speaks of pickles for any bad header
                 if file.read(6) != b"\x93NUMPY":
                     raise InputFileError(f"{path}: not a .npy file (no NumPy header)")
+            flat = flat_npy(path)
+            if flat is not None:
+                raise InputFileError(flat)
             volume = Volume(np.load(path, allow_pickle=False))
         elif suffix in (".tif", ".tiff"):
             with quiet_tifffile():

@@ -150,7 +150,7 @@ def test_bad_files_are_named(tmp_path, name, content, message):
 def test_a_2d_array_is_not_a_volume(tmp_path):
     path = tmp_path / "flat.npy"
     np.save(path, np.zeros((4, 5)))
-    with pytest.raises(InputFileError, match=r"flat.npy: a volume is \(D, H, W\)"):
+    with pytest.raises(InputFileError, match=r"flat.npy: a 2D array .* are volumes, \(D, H, W\)"):
         read_volume(path)
 
 
