@@ -9,7 +9,6 @@ import numpy as np
 
 from ..core.handleset import HandleSet
 from ..errors import InputFileError
-from ..files.atomic import atomic_write
 from ..files.images import imwrite
 from ..files.landmarks import handle_dimension, read_handle_set, write_handles
 from ..imaging.frame import Frame
@@ -43,8 +42,7 @@ def save_image(
     floating = np.issubdtype(image.dtype, np.floating)  # its own values, to a TIFF
     if not floating and out.dtype not in (np.uint8, np.uint16):
         out = np.round(np.clip(out, 0, 1) * 255).astype(np.uint8)
-    with atomic_write(path) as tmp:  # creates the folder; whole file or none
-        imwrite(tmp, out)
+    imwrite(path, out)  # creates the folder; whole file or none
 
 
 def warped_suffix(image: np.ndarray) -> str:

@@ -16,7 +16,6 @@ from typing import Any
 
 import numpy as np
 
-from ..files.atomic import atomic_write
 from ..files.images import imwrite
 from ..gl.context import get_context
 from .events import Event, Recorder, Wait
@@ -241,8 +240,7 @@ class WindowLoop:
     def _save_screenshot(self, path: Path, *, quiet: bool) -> None:
         self._want_screenshot = None
         try:
-            with atomic_write(path) as tmp:
-                imwrite(tmp, self.screenshot())
+            imwrite(path, self.screenshot())  # whole file or none
             if not quiet:
                 self.say(f"saved {path}")
         except (OSError, ValueError) as error:
