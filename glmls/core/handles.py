@@ -109,6 +109,18 @@ def same_source_pair(p: np.ndarray, q: np.ndarray) -> tuple[int, int] | None:
     return i, j
 
 
+def check_one_target(p: np.ndarray, q: np.ndarray) -> None:
+    """``ValueError`` naming the first two handles (N, D) with one source point and different
+    targets (f cannot take two values there); exact duplicate pairs pass."""
+    pair = same_source_pair(p, q) if len(p) > 1 else None
+    if pair is not None:
+        i, j = pair
+        raise ValueError(
+            f"src[{i}] and src[{j}] are the same point {p[i].tolist()} with different "
+            f"targets {q[i].tolist()} and {q[j].tolist()}"
+        )
+
+
 def check_gpu_distinct(
     p: np.ndarray,
     q: np.ndarray,
@@ -160,13 +172,7 @@ def validate_handles(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
     q = check_coordinates(as_points(dst, "dst"), "dst")
     if len(p) != len(q):
         raise ValueError(f"src and dst must have the same length, got {len(p)} and {len(q)}")
-    pair = same_source_pair(p, q) if len(p) > 1 else None
-    if pair is not None:
-        i, j = pair
-        raise ValueError(
-            f"src[{i}] and src[{j}] are the same point {p[i].tolist()} with different "
-            f"targets {q[i].tolist()} and {q[j].tolist()}"
-        )
+    check_one_target(p, q)
     return p, q
 
 

@@ -12,7 +12,7 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from .handles import COORDINATE_LIMIT, Scaling, same_source_pair
+from .handles import COORDINATE_LIMIT, Scaling, check_one_target
 
 __all__ = [
     "as_points3",
@@ -84,13 +84,7 @@ def validate_handles3(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]
     p, q = as_points3(src, "src"), as_points3(dst, "dst")
     if len(p) != len(q):
         raise ValueError(f"src and dst must have the same length, got {len(p)} and {len(q)}")
-    pair = same_source_pair(p, q) if len(p) > 1 else None
-    if pair is not None:
-        i, j = pair
-        raise ValueError(
-            f"src[{i}] and src[{j}] are the same point {p[i].tolist()} with different "
-            f"targets {q[i].tolist()} and {q[j].tolist()}"
-        )
+    check_one_target(p, q)
     return p, q
 
 

@@ -83,7 +83,7 @@ def test_empty_points_give_empty_results(gl):
         assert big_m.shape == (0, 2, 2) and t.shape == (0, 2)
 
 
-def testsame_source_pairs_match_brute_force():
+def test_same_source_pairs_match_brute_force():
     """Ties in x are common on a lattice: the pair found conflicts, and one is found iff any."""
     rng = np.random.default_rng(3)
     for _ in range(200):

@@ -118,7 +118,7 @@ MLSNearest mls_nearest_begin() {
 // The least squared distance above the nearest's, with d2 seen (before d2min takes it).
 void mls_nearest_next(inout MLSNearest n, float d2) {
 #if MLS_REACH_GAUSSIAN
-    n.d2next = d2 < n.d2min ? n.d2min : (d2 > n.d2min ? min(n.d2next, d2) : n.d2next);
+    mls_track_next(n.d2next, n.d2min, d2);
 #endif
 }
 

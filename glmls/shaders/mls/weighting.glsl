@@ -52,6 +52,15 @@ float mls_normalisation(float d2near) {
 #endif
 }
 
+// The least squared distance above the nearest's (d2next), with a handle at squared distance
+// d2 seen before the nearest's (d2min) takes it: the gaussian's offset (below). Nothing
+// without the gaussian.
+void mls_track_next(inout float d2next, float d2min, float d2) {
+#if MLS_REACH_GAUSSIAN
+    d2next = d2 < d2min ? d2min : (d2 > d2min ? min(d2next, d2) : d2next);
+#endif
+}
+
 // The gaussian's weights at a point are taken relative to those of the nearest handles apart
 // from the nearest one's place (squared distance d2next, the least above the nearest's): in
 // a gaussian's far tail the nearest outweighs them by e^30 and more, yet their moments about

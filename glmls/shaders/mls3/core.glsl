@@ -79,9 +79,7 @@ void mls3_nearest(inout float d2min, inout float d2next, inout int nearest, vec3
     vec3 dp = mls3_p(i) - v;
     float d2 = use ? dot(dp, dp) : 3.0e38;
     nearest = d2 < d2min ? i : nearest;
-#if MLS_REACH_GAUSSIAN
-    d2next = d2 < d2min ? d2min : (d2 > d2min ? min(d2next, d2) : d2next);
-#endif
+    mls_track_next(d2next, d2min, d2);
     d2min = min(d2min, d2);
 }
 
