@@ -209,6 +209,43 @@ def test_affine_takes_the_similarity_solution_where_the_handles_in_reach_are_on_
         assert np.abs(m(v) - similarity).max() < 1e-3
 
 
+@pytest.mark.parametrize(
+    ("transform", "p", "q", "v"),
+    [
+        # a third handle enters reach: affine turns from the similarity of two to the exact
+        # fit of three
+        (
+            "affine",
+            [[100.0, 100], [140, 100], [120, 160]],
+            [[0.0, 0], [5, 0], [-10, 8]],
+            [120.0, 110.0],
+        ),
+        # a second handle enters reach: the translation of one turns into a rotation
+        ("rigid", [[100.0, 100], [160, 100]], [[0.0, 0], [0, 10]], [110.0, 100.0]),
+        ("similarity", [[100.0, 100], [160, 100]], [[0.0, 0], [0, 10]], [110.0, 100.0]),
+    ],
+    ids=["affine", "rigid", "similarity"],
+)
+@pytest.mark.parametrize("weight", [w for w in glmls.RADIUS_WEIGHTS if w != "gaussian"])
+def test_f_jumps_where_a_handle_enters_a_compact_weights_reach(gl, transform, p, q, v, weight):
+    """MLS itself is discontinuous at the edge of a compact weight's reach where the handle
+    that enters decides what the others left free: as its weight tends to 0 the fit with it
+    tends to the fit it makes exact, not to the fit without it. The GPU follows the float64
+    implementation across that edge (R = 50 px, points 0.001 px on either side), jump
+    included."""
+    p = np.array(p)
+    q = p + np.array(q)
+    far = p[-1]
+    toward = (np.array(v) - far) / np.linalg.norm(np.array(v) - far)
+    edge = far + 50.0 * toward
+    points = np.array([edge - 1e-3 * toward, edge + 1e-3 * toward])
+    options = {"weight": weight, "radius": 50.0}
+    expected, _, _ = mls64(p, q, points, transform, **options)
+    assert np.linalg.norm(expected[1] - expected[0]) > 1.0  # the jump, in float64
+    with glmls.MLS(p, q, transform=transform, **options) as m:
+        assert np.abs(m(points) - expected).max() < 1e-3
+
+
 SEGMENT_CASES = [
     ("idw", {}),
     ("idw", {"alpha": 2.0}),
