@@ -85,6 +85,26 @@ def test_undo_during_a_drag_undoes_that_drag(key):
     np.testing.assert_array_equal(c.dst[1], [15, 12, 8])
 
 
+@pytest.mark.parametrize("key", ["R", "r"])
+def test_restore_or_reset_during_a_drag_ends_the_drag_first(key):
+    # a handle added with shift + click and still dragged, then R: the drag held the index
+    # of a handle R had removed, and the next move raised IndexError out of the event loop
+    c = make()
+    oy = c.grid.offset(1)[1]
+    c.feed(Press(20, oy + 3, mods=frozenset({"shift"})))  # coronal: a sixth handle
+    c.feed(Move(21, oy + 4))
+    c.feed(Key(key))  # the button still down
+    assert not c.dragging
+    c.feed(Move(22, oy + 6))  # drags nothing
+    c.feed(Release(22, oy + 6))
+    assert len(c.src) == (5 if key == "R" else 6)
+    np.testing.assert_array_equal(c.dst, c.src)
+    c.feed(Key("u"))  # undo takes back the restore (or reset), then the drag
+    assert len(c.src) == 6 and c.dst[5].tolist() == [21, 10, 4]
+    c.feed(Key("u"))
+    assert len(c.src) == 5
+
+
 def test_only_handles_near_the_plane_are_picked():
     c = make()
     c.feed(Key("Up"))  # z = 9: handle 4 (z = 12) is 3 away, handle 0 (z = 8) 1
