@@ -9,15 +9,19 @@ import json
 import numpy as np
 import pytest
 
+import glmls
 from glmls.analysis.folding import folded_cells
+from glmls.app.commands import save_image, warped_suffix
 from glmls.app.events import Key, Move, Press, Release, Wait, read_events, replay_frames
 from glmls.app.layout import layout
 from glmls.app.overlays import mesh_lines
+from glmls.app.settings import Settings
 from glmls.app.text import GlyphAtlas
 from glmls.app.view import display_image
 from glmls.app.window import PANEL_CHARS, TEXT_SIZE, App
 from glmls.cli.demo import configure, run
 from glmls.errors import InputFileError
+from glmls.imaging.frame import Frame
 
 # -- layout -------------------------------------------------------------------------------------
 
@@ -253,3 +257,16 @@ def test_s_says_when_it_saved_the_last_valid_deformation(tmp_path, error):
     [message] = app._shown_messages()
     assert message.startswith(f"saved {tmp_path / 'x.png'}")
     assert ("the last valid f" in message) == bool(error)
+
+
+@pytest.mark.parametrize("dtype", [np.float16, np.float32])
+def test_s_saves_a_float_image_of_any_precision_as_its_values(gl, tmp_path, dtype):
+    # a float16 image was saved as the window's display: RGB, stretched to [0, 1]
+    image = (np.arange(24 * 32).reshape(24, 32) % 200).astype(dtype)
+    src = np.array([[5.0, 5.0], [20.0, 12.0]])
+    path = tmp_path / f"x{warped_suffix(image)}"
+    with glmls.MLS(src, src, shape=image.shape, ctx=gl) as m:
+        save_image(path, m, image, display_image(image), Settings(), Frame(image.shape))
+    out = glmls.imread(path)
+    assert out.shape == image.shape and out.dtype == np.float32
+    np.testing.assert_array_equal(out, image.astype(np.float32))  # f is the identity
