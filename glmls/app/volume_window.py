@@ -194,7 +194,7 @@ class VolumeApp(WindowLoop):
             c.show_handles,
             c.help_visible,
             self.window.framebuffer_size,  # type: ignore[union-attr]
-            len(self._messages),
+            self._shown(),
         )
 
     def render(self) -> None:

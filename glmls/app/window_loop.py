@@ -120,8 +120,13 @@ class WindowLoop:
 
     def _shown_messages(self) -> list[str]:
         """The messages said within :data:`MESSAGE_SECONDS`."""
+        return [m for _, m in self._shown()]
+
+    def _shown(self) -> tuple[tuple[float, str], ...]:
+        """(when, what) of the messages shown: part of a window's view key, so that a frame
+        is drawn when one is said (the fifth too, though only four are kept) or expires."""
         now = time.perf_counter()
-        return [m for stamp, m in self._messages if now - stamp < MESSAGE_SECONDS]
+        return tuple((stamp, m) for stamp, m in self._messages if now - stamp < MESSAGE_SECONDS)
 
     def _path(self, suffix: str) -> Path:
         return self.out_dir / f"{self.name}-{suffix}"

@@ -18,7 +18,9 @@ from glmls.app.overlays import mesh_lines
 from glmls.app.settings import Settings
 from glmls.app.text import GlyphAtlas
 from glmls.app.view import display_image
+from glmls.app.volume_window import VolumeApp
 from glmls.app.window import PANEL_CHARS, TEXT_SIZE, App
+from glmls.app.window_loop import MESSAGE_SECONDS
 from glmls.cli.demo import configure, run
 from glmls.errors import InputFileError
 from glmls.imaging.frame import Frame
@@ -270,3 +272,23 @@ def test_s_saves_a_float_image_of_any_precision_as_its_values(gl, tmp_path, dtyp
     out = glmls.imread(path)
     assert out.shape == image.shape and out.dtype == np.float32
     np.testing.assert_array_equal(out, image.astype(np.float32))  # f is the identity
+
+
+@pytest.mark.parametrize("volume", [False, True])
+def test_a_message_said_or_expired_redraws_an_idle_window(volume):
+    # the view key counted the messages kept (four at most): a fifth message (a failed
+    # load after four saves) or one that expired drew no frame in an idle window
+    from types import SimpleNamespace
+
+    empty = np.zeros((0, 3 if volume else 2))
+    app = (VolumeApp(np.zeros((4, 5, 6), np.uint8), empty, empty) if volume
+           else App(np.zeros((4, 4), np.uint8), empty, empty))  # fmt: skip
+    app.window = SimpleNamespace(framebuffer_size=(640, 480))
+    for n in range(4):
+        app.say(f"saved {n}")
+    before = app._view_key()
+    app.say("load handles failed")
+    assert app._view_key() != before
+    before = app._view_key()
+    app._messages = [(stamp - MESSAGE_SECONDS, text) for stamp, text in app._messages]
+    assert app._view_key() != before and app._shown_messages() == []
