@@ -378,3 +378,28 @@ def test_the_analysis_time_is_zero_with_no_overlay(session):
     assert s.timings["analysis"] > 0
     c.feed(Key("f"))
     assert s.overlays() is None and s.timings["analysis"] == 0
+
+
+@pytest.mark.parametrize(
+    ("dtype", "suffix"),
+    [(np.int16, ".nii.gz"), (np.int16, ".tif"), (np.int32, ".npy"), (np.bool_, ".npy")],
+)
+def test_s_saves_a_volume_of_any_real_dtype_in_that_dtype(gl, tmp_path, dtype, suffix):
+    # an int16 volume (a CT scan) reached the GPU warp as it was: the TypeError closed the
+    # window (exit status 2); it is warped as float32 and written back, as glmls warp does
+    rng = np.random.default_rng(0)
+    data = rng.integers(0, 2, SHAPE) if dtype == np.bool_ else rng.integers(-900, 900, SHAPE)
+    data = data.astype(dtype)
+    dst = SRC + [[1.5, 0.5, 0.0], [0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]]
+    app = VolumeApp(data, SRC, dst, save_as=suffix, out_dir=tmp_path)
+    with glmls.MLS(SRC, dst, transform="rigid", shape=SHAPE, ctx=gl) as m:
+        app.window, app.session = object(), types.SimpleNamespace(mls=m, error="")
+        app._command("save_volume")
+        expected = m.warp(data.astype(np.float32), interpolation="linear", grid=4, border="edge")
+    assert app._shown_messages() == [f"saved {tmp_path / ('volume-warped' + suffix)}"]
+    saved = glmls.files.read_volume(tmp_path / f"volume-warped{suffix}").data
+    assert saved.dtype == dtype and saved.shape == SHAPE
+    if dtype == np.bool_:
+        np.testing.assert_array_equal(saved, expected >= 0.5)
+    else:
+        np.testing.assert_array_equal(saved, np.rint(expected).astype(dtype))
