@@ -36,8 +36,8 @@ FIELD_GRID = 4
 
 def display_volume(volume: np.ndarray) -> np.ndarray:
     """A volume as uint8 grey (D, H, W) for the window: the first channel (the mean of
-    three or four), from its 0.5th (black) to its 99.5th percentile (white); uint8 grey
-    volumes stay as they are.
+    three or four), from the 0.5th (black) to the 99.5th percentile (white) of its finite
+    values (NaN black, infinities at the ends); uint8 grey volumes stay as they are.
 
     Parameters
     ----------
@@ -68,9 +68,11 @@ def display_volume(volume: np.ndarray) -> np.ndarray:
     if array.dtype == np.uint8:
         return np.ascontiguousarray(array)
     values = array.astype(np.float32)
-    low, high = np.percentile(values, [0.5, 99.5])
+    finite = values[np.isfinite(values)]  # NaN (masked voxels) would make every percentile NaN
+    low, high = np.percentile(finite, [0.5, 99.5]) if finite.size else (0.0, 1.0)
     span = float(high - low) if high > low else 1.0
-    return np.round(np.clip((values - low) / span, 0, 1) * 255).astype(np.uint8)
+    shown = np.clip(np.nan_to_num((values - low) / span, nan=0.0), 0, 1)
+    return np.round(shown * 255).astype(np.uint8)
 
 
 def _plane(view: int, shape: tuple[int, int, int], point, scale) -> tuple[tuple, tuple]:

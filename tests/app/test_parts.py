@@ -162,6 +162,15 @@ def test_float_images_outside_0_1_are_shown_from_their_minimum_to_their_maximum(
     assert (display_image(np.full((2, 2), 7.0)) == 1.0).all()  # one value: no range
 
 
+def test_float_images_with_nan_or_infinite_values_are_shown_from_their_finite_values():
+    # a depth map with NaN holes: its range was NaN, the window refused to open ("image
+    # holds NaN or infinite values") though glmls.warp warps it
+    depth = np.array([[np.nan, 0.0, 50.0, 200.0, np.inf, -np.inf]], np.float32)
+    shown = display_image(depth)[0, :, 0]
+    assert np.isfinite(shown).all()
+    assert shown.tolist() == pytest.approx([0.0, 0.0, 0.25, 1.0, 1.0, 0.0])
+
+
 @pytest.mark.parametrize("shape", [(0, 0, 3), (0, 5), (5, 0)])
 def test_an_empty_image_is_refused_by_name(shape):
     # it raised ZeroDivisionError

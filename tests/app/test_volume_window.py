@@ -213,6 +213,20 @@ def test_display_volume_is_grey_uint8():
         display_volume(np.zeros((3, 4)))
 
 
+def test_a_volume_with_nan_voxels_is_shown_from_its_finite_values():
+    # one NaN voxel (a masked region of a statistical map) made every percentile NaN: the
+    # whole volume was shown black, with a RuntimeWarning for the cast
+    ramp = np.linspace(0.0, 100.0, 2 * 3 * 4, dtype=np.float32).reshape(2, 3, 4)
+    holes = ramp.copy()
+    holes[0, 0, :3] = [np.nan, np.inf, -np.inf]
+    grey = display_volume(holes)
+    assert grey[0, 0, :3].tolist() == [0, 255, 0]  # NaN black, infinities at the ends
+    finite = np.isfinite(holes)
+    np.testing.assert_array_equal(
+        grey[finite], display_volume(ramp[finite].reshape(1, 1, -1))[0, 0]
+    )
+
+
 @pytest.fixture
 def session(gl):
     volume = glmls.data.phantom()
