@@ -105,6 +105,12 @@ class WindowLoop:
         if self.window is not None:
             c.pick_radius = PICK_RADIUS * self.window.pixel_ratio / self.layout.scale
         self._feed(event)
+        self._take_message()
+
+    def _take_message(self) -> None:
+        """Say what the controller was told to say (by an event, or while a frame was
+        drawn: the adaptive mesh giving up)."""
+        c = self.controller
         if c.message:
             self.say(c.message)
             c.message = ""
@@ -218,6 +224,7 @@ class WindowLoop:
     def _frame(self, on_frame: Callable[[Any], None] | None) -> None:
         self._last_view = self._view_key()
         self.render()
+        self._take_message()  # a new view key: the next frame shows it
         self.frames += 1
         self.frame_times.append(time.perf_counter())
         self._framed()

@@ -301,3 +301,18 @@ def test_a_message_said_or_expired_redraws_an_idle_window(volume):
     before = app._view_key()
     app._messages = [(stamp - MESSAGE_SECONDS, text) for stamp, text in app._messages]
     assert app._view_key() != before and app._shown_messages() == []
+
+
+def test_a_message_of_the_drawing_is_said_after_that_frame():
+    # the adaptive mesh giving up is found while a frame is drawn; its message waited in
+    # the controller for the next event, so an idle window (or a screenshot) never said it
+    from types import SimpleNamespace
+
+    empty = np.zeros((0, 2))
+    app = App(np.zeros((4, 4), np.uint8), empty, empty)
+    app.window = SimpleNamespace(framebuffer_size=(640, 480))
+    app.render = lambda: setattr(app.controller, "message", "adaptive mesh: ...; drawn on the grid")
+    app._framed = lambda: None
+    app._frame(None)
+    assert app._shown_messages() == ["adaptive mesh: ...; drawn on the grid"]
+    assert app.controller.message == "" and app._view_key() != app._last_view  # drawn again
