@@ -32,14 +32,19 @@ def save_image(
 ) -> None:
     """The deformed image on ``canvas`` (the input's frame, or with ``fit`` the whole
     deformed image) at full resolution, in the input's dtype where it can be written (uint8,
-    uint16; float32 and float64 to a TIFF, :func:`warped_suffix`), else 8-bit; ``ValueError``
-    without a valid deformation."""
+    uint16; float32 and float64 to a TIFF, :func:`warped_suffix`), another float's values as
+    float32 to a TIFF, else 8-bit; ``ValueError`` without a valid deformation."""
     if mls is None:
         raise ValueError("no valid deformation to save")
     s = settings
-    source = image if image.dtype in KEPT_DTYPES else display
-    out = mls.warp(source, options=s.warp_options(output_shape=canvas.shape, origin=canvas.origin))
     floating = np.issubdtype(image.dtype, np.floating)  # its own values, to a TIFF
+    if image.dtype in KEPT_DTYPES:
+        source = image
+    elif floating:  # float16, longdouble: as float32, not the display's stretched RGB
+        source = image.astype(np.float32)
+    else:
+        source = display
+    out = mls.warp(source, options=s.warp_options(output_shape=canvas.shape, origin=canvas.origin))
     if not floating and out.dtype not in (np.uint8, np.uint16):
         out = np.round(np.clip(out, 0, 1) * 255).astype(np.uint8)
     imwrite(path, out)  # creates the folder; whole file or none

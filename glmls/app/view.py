@@ -40,7 +40,8 @@ def display_image(image: np.ndarray) -> np.ndarray:
     """An image as float32 RGB in [0, 1] for the window's 8-bit framebuffer: the pipeline
     writes the texture's raw values, so 0-255 values would all show white. Integers are
     divided by their dtype's maximum; floats within [0, 1] stay, others are stretched from
-    the lower of 0 and their minimum (black) to the higher of 1 and their maximum (white)."""
+    the lower of 0 and their minimum (black) to the higher of 1 and their maximum (white),
+    of the finite values: NaN is black, infinities at the ends."""
     array = np.asarray(image)
     if array.ndim == 2:
         array = array[:, :, None]
@@ -52,10 +53,11 @@ def display_image(image: np.ndarray) -> np.ndarray:
         values = array.astype(np.float32) / float(np.iinfo(array.dtype).max)
     elif np.issubdtype(array.dtype, np.floating):
         values = array.astype(np.float32)
-        low, high = float(values.min(initial=0.0)), float(values.max(initial=1.0))
+        finite = values[np.isfinite(values)]  # a NaN (a depth map's hole) makes no range
+        low, high = float(finite.min(initial=0.0)), float(finite.max(initial=1.0))
         if low < 0.0 or high > 1.0:  # e.g. 0..255 or -1..1: its range, not all white
             values = (values - low) / (high - low)
-        values = np.clip(values, 0.0, 1.0)
+        values = np.clip(np.nan_to_num(values, nan=0.0), 0.0, 1.0)
     else:
         raise TypeError(f"image dtype must be integer or float, got {array.dtype}")
     colour = values[..., :3] if values.shape[2] >= 3 else np.repeat(values[..., :1], 3, axis=2)

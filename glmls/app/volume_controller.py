@@ -335,8 +335,10 @@ class VolumeController(Controls):
         return np.nonzero(close)[0]
 
     def set_handles(self, src: object, dst: object) -> None:
-        """Replace every handle (undoable), e.g. loaded from a file."""
+        """Replace every handle (undoable), e.g. loaded from a file; a drag under way ends
+        first, as its own edit (its index may not survive the change)."""
         p, q = _handles3(src, dst)
+        self._release()
         self._remember()
         self.src, self.dst = p, q
         self.revision += 1

@@ -36,8 +36,8 @@ FIELD_GRID = 4
 
 def display_volume(volume: np.ndarray) -> np.ndarray:
     """A volume as uint8 grey (D, H, W) for the window: the first channel (the mean of
-    three or four), from its 0.5th (black) to its 99.5th percentile (white); uint8 grey
-    volumes stay as they are.
+    three or four), from the 0.5th (black) to the 99.5th percentile (white) of its finite
+    values (NaN black, infinities at the ends); uint8 grey volumes stay as they are.
 
     Parameters
     ----------
@@ -68,9 +68,11 @@ def display_volume(volume: np.ndarray) -> np.ndarray:
     if array.dtype == np.uint8:
         return np.ascontiguousarray(array)
     values = array.astype(np.float32)
-    low, high = np.percentile(values, [0.5, 99.5])
+    finite = values[np.isfinite(values)]  # NaN (masked voxels) would make every percentile NaN
+    low, high = np.percentile(finite, [0.5, 99.5]) if finite.size else (0.0, 1.0)
     span = float(high - low) if high > low else 1.0
-    return np.round(np.clip((values - low) / span, 0, 1) * 255).astype(np.uint8)
+    shown = np.clip(np.nan_to_num((values - low) / span, nan=0.0), 0, 1)
+    return np.round(shown * 255).astype(np.uint8)
 
 
 def _plane(view: int, shape: tuple[int, int, int], point, scale) -> tuple[tuple, tuple]:
@@ -82,21 +84,6 @@ def _plane(view: int, shape: tuple[int, int, int], point, scale) -> tuple[tuple,
     origin = [0.0, 0.0, 0.0]
     origin[normal] = float(point[normal] * scale[normal])
     return tuple(size), tuple(origin)
-
-
-class _AtVoxels:
-    """A 3D MLS in handle units seen at voxel points: ``m(v)`` is f at voxel v's position
-    ``v * scale`` (the analyses evaluate their lattices in voxels)."""
-
-    def __init__(self, mls: MLS, scale: np.ndarray) -> None:
-        self.mls, self.scale = mls, scale
-        self.src, self.dst = mls.src, mls.dst
-
-    def __call__(self, points: object) -> np.ndarray:
-        return self.mls(np.asarray(points, np.float64).reshape(-1, 3) * self.scale)
-
-    def matrices(self, points: object) -> tuple[np.ndarray, np.ndarray]:
-        return self.mls.matrices(np.asarray(points, np.float64).reshape(-1, 3) * self.scale)
 
 
 def _as_view(block: np.ndarray, view: int) -> np.ndarray:
@@ -156,15 +143,11 @@ class VolumeSession:
     def _mls(self, config) -> MLS:
         """A new MLS of the controller's handles, with the volume's shape and, in handle
         units other than voxels, its spacing (as ``glmls warp``): a radius weight's default
-        radius is the volume's diagonal in those units."""
+        radius is the volume's diagonal in those units. The overlays' analyses take that
+        spacing from the MLS, as ``glmls.analysis`` does: the same folds and error field."""
         c = self.controller
         spacing = None if c.grid.isotropic else c.grid.spacing
         return MLS.from_config(c.src, c.dst, config, shape=self.shape, spacing=spacing, ctx=self.gl)
-
-    def _deformation(self):
-        """The MLS as the analyses evaluate it: at voxel points."""
-        grid = self.controller.grid
-        return self.mls if grid.isotropic else _AtVoxels(self.mls, grid.scale)  # type: ignore[arg-type]
 
     def field(self) -> np.ndarray | None:
         """The overlay's field over the whole volume, (D, H, W) uint8, or None without one:
@@ -183,7 +166,7 @@ class VolumeSession:
             return self._field[1]
         start = time.perf_counter()
         if c.overlay == "error":
-            values = volume_error_field(self._deformation(), self.shape, grid=grid)
+            values = volume_error_field(self.mls, self.shape, grid=grid)
             low, high = color_limits(values, percentile=99.0)
             span = high - low if high > low else 1.0
             field = np.round(np.clip((values - low) / span, 0.0, 1.0) * 255).astype(np.uint8)
@@ -195,7 +178,7 @@ class VolumeSession:
                 f"  min {_number(stats['min'])} max {_number(stats['max'])}",
             ]
         else:
-            cells = cell_jacobians(self._deformation(), self.shape, grid=grid)
+            cells = cell_jacobians(self.mls, self.shape, grid=grid)
             field = np.where(cells.mask, np.uint8(255), np.uint8(0))
             self.lines = [f"folds (det J <= 0): {cells.count} of {cells.det.size} cells"]
         self._field = (key, field)

@@ -52,12 +52,14 @@ def window_size(grid, panel: int) -> tuple[int, int]:
     """The window's default (width, height) for the montage of ``grid`` and its margin beside
     a panel ``panel`` pixels wide: a small montage scaled up to about 560 rows or 900
     columns, a large one down to 1000 rows and 1600 columns at most (a screen's), rounded up
-    so that the views fit whole."""
+    so that the views fit whole; the montage's area at least the panel's width."""
     rows, columns = grid.montage_shape
     rows, columns = rows + 2 * MARGIN, columns + 2 * MARGIN
     scale = max(1.0, min(560 / rows, 900 / columns))
     scale = min(scale, 1000 / rows, 1600 / columns)
-    return panel + math.ceil(columns * scale), math.ceil(rows * scale)
+    # a narrower area would drop the panel and put the readout over the views
+    # (layout.MIN_IMAGE_SHARE)
+    return panel + max(math.ceil(columns * scale), panel), math.ceil(rows * scale)
 
 
 def montage_layout(framebuffer: tuple[int, int], grid, panel: int) -> Layout:

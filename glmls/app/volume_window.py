@@ -24,7 +24,24 @@ from .volume_session import VolumeSession, display_volume
 from .volume_view import VolumeView, montage_layout, text_groups, window_size
 from .window_loop import WindowLoop
 
-__all__ = ["NoDisplayError", "VolumeApp"]
+__all__ = ["WARPED_AS_IS", "NoDisplayError", "VolumeApp", "in_dtype"]
+
+#: The dtypes the volume warps take as they are; ``s`` warps others as float32 (exact for
+#: integers within +-2**24) and writes them back in their own dtype, as ``glmls warp`` does.
+WARPED_AS_IS = (np.uint8, np.uint16, np.float32, np.float64)
+
+
+def in_dtype(warped: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """A warped volume in ``dtype``: integers rounded and clipped to its range, a bool mask
+    true where the warped value is at least 1/2."""
+    if warped.dtype == dtype:
+        return warped
+    if dtype == np.bool_:
+        return warped >= 0.5
+    if np.issubdtype(dtype, np.integer):
+        info = np.iinfo(dtype)
+        return np.clip(np.rint(warped), info.min, info.max).astype(dtype)
+    return warped.astype(dtype)
 
 
 class VolumeApp(WindowLoop):
@@ -114,8 +131,11 @@ class VolumeApp(WindowLoop):
             raise ValueError("no valid deformation")
         c = self.controller
         s = c.settings
+        data = self.volume
+        if data.dtype not in WARPED_AS_IS:  # int16 (CT), bool, ...: the GPU takes floats
+            data = data.astype(np.float32)
         warped = mls.warp(
-            self.volume,
+            data,
             method=s.method,
             interpolation=s.interpolation,
             grid=s.grid,
@@ -125,7 +145,11 @@ class VolumeApp(WindowLoop):
         nifti = self.save_as in (".nii", ".nii.gz")
         write_volume(
             path,
-            Volume(np.asarray(warped), spacing=self.spacing, affine=self.affine if nifti else None),
+            Volume(
+                in_dtype(np.asarray(warped), self.volume.dtype),
+                spacing=self.spacing,
+                affine=self.affine if nifti else None,
+            ),
         )
         return path
 
@@ -194,7 +218,7 @@ class VolumeApp(WindowLoop):
             c.show_handles,
             c.help_visible,
             self.window.framebuffer_size,  # type: ignore[union-attr]
-            len(self._messages),
+            self._shown(),
         )
 
     def render(self) -> None:

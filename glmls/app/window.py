@@ -145,7 +145,7 @@ class App(WindowLoop):
             c.zoom,
             None if c.drawing is None else c.drawing.tobytes(),
             self.window.framebuffer_size,  # type: ignore[union-attr]
-            len(self._messages),
+            self._shown(),
         )
 
     def render(self) -> None:

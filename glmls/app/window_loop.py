@@ -105,6 +105,12 @@ class WindowLoop:
         if self.window is not None:
             c.pick_radius = PICK_RADIUS * self.window.pixel_ratio / self.layout.scale
         self._feed(event)
+        self._take_message()
+
+    def _take_message(self) -> None:
+        """Say what the controller was told to say (by an event, or while a frame was
+        drawn: the adaptive mesh giving up)."""
+        c = self.controller
         if c.message:
             self.say(c.message)
             c.message = ""
@@ -120,8 +126,13 @@ class WindowLoop:
 
     def _shown_messages(self) -> list[str]:
         """The messages said within :data:`MESSAGE_SECONDS`."""
+        return [m for _, m in self._shown()]
+
+    def _shown(self) -> tuple[tuple[float, str], ...]:
+        """(when, what) of the messages shown: part of a window's view key, so that a frame
+        is drawn when one is said (the fifth too, though only four are kept) or expires."""
         now = time.perf_counter()
-        return [m for stamp, m in self._messages if now - stamp < MESSAGE_SECONDS]
+        return tuple((stamp, m) for stamp, m in self._messages if now - stamp < MESSAGE_SECONDS)
 
     def _path(self, suffix: str) -> Path:
         return self.out_dir / f"{self.name}-{suffix}"
@@ -213,6 +224,7 @@ class WindowLoop:
     def _frame(self, on_frame: Callable[[Any], None] | None) -> None:
         self._last_view = self._view_key()
         self.render()
+        self._take_message()  # a new view key: the next frame shows it
         self.frames += 1
         self.frame_times.append(time.perf_counter())
         self._framed()

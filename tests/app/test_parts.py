@@ -9,15 +9,21 @@ import json
 import numpy as np
 import pytest
 
+import glmls
 from glmls.analysis.folding import folded_cells
+from glmls.app.commands import save_image, warped_suffix
 from glmls.app.events import Key, Move, Press, Release, Wait, read_events, replay_frames
 from glmls.app.layout import layout
 from glmls.app.overlays import mesh_lines
+from glmls.app.settings import Settings
 from glmls.app.text import GlyphAtlas
 from glmls.app.view import display_image
+from glmls.app.volume_window import VolumeApp
 from glmls.app.window import PANEL_CHARS, TEXT_SIZE, App
+from glmls.app.window_loop import MESSAGE_SECONDS
 from glmls.cli.demo import configure, run
 from glmls.errors import InputFileError
+from glmls.imaging.frame import Frame
 
 # -- layout -------------------------------------------------------------------------------------
 
@@ -156,6 +162,15 @@ def test_float_images_outside_0_1_are_shown_from_their_minimum_to_their_maximum(
     assert (display_image(np.full((2, 2), 7.0)) == 1.0).all()  # one value: no range
 
 
+def test_float_images_with_nan_or_infinite_values_are_shown_from_their_finite_values():
+    # a depth map with NaN holes: its range was NaN, the window refused to open ("image
+    # holds NaN or infinite values") though glmls.warp warps it
+    depth = np.array([[np.nan, 0.0, 50.0, 200.0, np.inf, -np.inf]], np.float32)
+    shown = display_image(depth)[0, :, 0]
+    assert np.isfinite(shown).all()
+    assert shown.tolist() == pytest.approx([0.0, 0.0, 0.25, 1.0, 1.0, 0.0])
+
+
 @pytest.mark.parametrize("shape", [(0, 0, 3), (0, 5), (5, 0)])
 def test_an_empty_image_is_refused_by_name(shape):
     # it raised ZeroDivisionError
@@ -253,3 +268,51 @@ def test_s_says_when_it_saved_the_last_valid_deformation(tmp_path, error):
     [message] = app._shown_messages()
     assert message.startswith(f"saved {tmp_path / 'x.png'}")
     assert ("the last valid f" in message) == bool(error)
+
+
+@pytest.mark.parametrize("dtype", [np.float16, np.float32])
+def test_s_saves_a_float_image_of_any_precision_as_its_values(gl, tmp_path, dtype):
+    # a float16 image was saved as the window's display: RGB, stretched to [0, 1]
+    image = (np.arange(24 * 32).reshape(24, 32) % 200).astype(dtype)
+    src = np.array([[5.0, 5.0], [20.0, 12.0]])
+    path = tmp_path / f"x{warped_suffix(image)}"
+    with glmls.MLS(src, src, shape=image.shape, ctx=gl) as m:
+        save_image(path, m, image, display_image(image), Settings(), Frame(image.shape))
+    out = glmls.imread(path)
+    assert out.shape == image.shape and out.dtype == np.float32
+    np.testing.assert_array_equal(out, image.astype(np.float32))  # f is the identity
+
+
+@pytest.mark.parametrize("volume", [False, True])
+def test_a_message_said_or_expired_redraws_an_idle_window(volume):
+    # the view key counted the messages kept (four at most): a fifth message (a failed
+    # load after four saves) or one that expired drew no frame in an idle window
+    from types import SimpleNamespace
+
+    empty = np.zeros((0, 3 if volume else 2))
+    app = (VolumeApp(np.zeros((4, 5, 6), np.uint8), empty, empty) if volume
+           else App(np.zeros((4, 4), np.uint8), empty, empty))  # fmt: skip
+    app.window = SimpleNamespace(framebuffer_size=(640, 480))
+    for n in range(4):
+        app.say(f"saved {n}")
+    before = app._view_key()
+    app.say("load handles failed")
+    assert app._view_key() != before
+    before = app._view_key()
+    app._messages = [(stamp - MESSAGE_SECONDS, text) for stamp, text in app._messages]
+    assert app._view_key() != before and app._shown_messages() == []
+
+
+def test_a_message_of_the_drawing_is_said_after_that_frame():
+    # the adaptive mesh giving up is found while a frame is drawn; its message waited in
+    # the controller for the next event, so an idle window (or a screenshot) never said it
+    from types import SimpleNamespace
+
+    empty = np.zeros((0, 2))
+    app = App(np.zeros((4, 4), np.uint8), empty, empty)
+    app.window = SimpleNamespace(framebuffer_size=(640, 480))
+    app.render = lambda: setattr(app.controller, "message", "adaptive mesh: ...; drawn on the grid")
+    app._framed = lambda: None
+    app._frame(None)
+    assert app._shown_messages() == ["adaptive mesh: ...; drawn on the grid"]
+    assert app.controller.message == "" and app._view_key() != app._last_view  # drawn again

@@ -7,6 +7,9 @@ import itertools
 
 import pytest
 
+from glmls.app.hud import PANEL_CHARS
+from glmls.app.text import GlyphAtlas
+from glmls.app.view import TEXT_SIZE
 from glmls.app.volume_controller import SliceGrid
 from glmls.app.volume_view import montage_layout, view_viewport, window_size
 
@@ -56,3 +59,17 @@ def test_the_default_window_of_a_large_montage_fits_a_screen(shape, spacing):
     for view in range(3):
         x0, y0, w, h = view_viewport(layout, grid, view)
         assert x0 >= 368 and y0 >= 0 and x0 + w <= width and y0 + h <= height
+
+
+@pytest.mark.parametrize(
+    "shape", [(64, 64, 1), (1, 64, 64), (64, 256, 64), (3, 200, 32), (1, 1, 1), (64, 64, 64)]
+)
+def test_the_default_window_keeps_the_readout_beside_the_views(shape):
+    # a montage narrower than the panel got a window so narrow that the panel was dropped:
+    # the readout covered the axial view
+    grid = SliceGrid(shape)
+    panel = round(PANEL_CHARS * GlyphAtlas(TEXT_SIZE).advance["M"]) + 24
+    size = window_size(grid, PANEL_CHARS * 8 + 24)  # the window's estimate of the panel
+    layout = montage_layout(size, grid, panel)
+    assert layout.panel == panel
+    assert min(view_viewport(layout, grid, view)[0] for view in range(3)) >= panel

@@ -14,9 +14,10 @@ import pytest
 from helpers import child_env
 
 import glmls
+from glmls.analysis.colormaps import format_number
 from glmls.app.events import Move, Press, Release
 from glmls.app.layout import layout
-from glmls.app.volume_controller import SliceGrid, VolumeController
+from glmls.app.volume_controller import SliceGrid, VolumeController, VolumeSettings
 from glmls.app.volume_session import VolumeSession
 from glmls.app.volume_view import scene_geometry, view_viewport
 
@@ -211,3 +212,30 @@ def test_spacing_is_refused_for_images_and_bad_values(tmp_path):
         done = _glmls("demo", "--volume", "--spacing", bad)
         assert done.returncode == 2 and message in done.stderr, done.stderr
         assert done.stderr.count("\n") == 1, done.stderr
+
+
+def test_the_fold_overlay_is_glmls_analysis_cell_jacobians_with_the_spacing(gl):
+    # f flattens the volume along z: every cell is flat to f's float32 precision, a fold for
+    # cell_jacobians; the overlay judged that flatness in float64 and left some cells out
+    rng = np.random.default_rng(1)
+    src = rng.uniform(0.0, 1.0, (12, 3)) * [5.5, 7.5, 16.5]
+    dst = src * [1.0, 1.0, 0.0] + [0.0, 0.0, 9.0]
+    config = glmls.MLSConfig(transform="affine")
+    settings = VolumeSettings(config=config)
+    c = VolumeController(src, dst, SHAPE, spacing=SPACING, settings=settings)
+    s = VolumeSession(gl, c, volume())
+    try:
+        s.sync()
+        c.feed(glmls.app.events.Key("f"))
+        shown = s.field() == 255
+        cells = glmls.analysis.cell_jacobians(s.mls, SHAPE, grid=4)
+        assert cells.count > 0
+        np.testing.assert_array_equal(shown, cells.mask)
+        assert s.lines == [f"folds (det J <= 0): {cells.count} of {cells.det.size} cells"]
+        c.feed(glmls.app.events.Key("e"))
+        s.field()
+        stats = glmls.analysis.error_stats(glmls.analysis.volume_error_field(s.mls, SHAPE, grid=4))
+        mean, std = (format_number(stats[name]) for name in ("mean", "std"))
+        assert s.lines[1] == f"  mean {mean} std {std}"
+    finally:
+        s.release()

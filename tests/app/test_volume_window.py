@@ -85,6 +85,26 @@ def test_undo_during_a_drag_undoes_that_drag(key):
     np.testing.assert_array_equal(c.dst[1], [15, 12, 8])
 
 
+@pytest.mark.parametrize("key", ["R", "r"])
+def test_restore_or_reset_during_a_drag_ends_the_drag_first(key):
+    # a handle added with shift + click and still dragged, then R: the drag held the index
+    # of a handle R had removed, and the next move raised IndexError out of the event loop
+    c = make()
+    oy = c.grid.offset(1)[1]
+    c.feed(Press(20, oy + 3, mods=frozenset({"shift"})))  # coronal: a sixth handle
+    c.feed(Move(21, oy + 4))
+    c.feed(Key(key))  # the button still down
+    assert not c.dragging
+    c.feed(Move(22, oy + 6))  # drags nothing
+    c.feed(Release(22, oy + 6))
+    assert len(c.src) == (5 if key == "R" else 6)
+    np.testing.assert_array_equal(c.dst, c.src)
+    c.feed(Key("u"))  # undo takes back the restore (or reset), then the drag
+    assert len(c.src) == 6 and c.dst[5].tolist() == [21, 10, 4]
+    c.feed(Key("u"))
+    assert len(c.src) == 5
+
+
 def test_only_handles_near_the_plane_are_picked():
     c = make()
     c.feed(Key("Up"))  # z = 9: handle 4 (z = 12) is 3 away, handle 0 (z = 8) 1
@@ -191,6 +211,20 @@ def test_display_volume_is_grey_uint8():
     assert grey[0].max() == 0 and grey[1].min() == 255
     with pytest.raises(ValueError, match="D x H x W"):
         display_volume(np.zeros((3, 4)))
+
+
+def test_a_volume_with_nan_voxels_is_shown_from_its_finite_values():
+    # one NaN voxel (a masked region of a statistical map) made every percentile NaN: the
+    # whole volume was shown black, with a RuntimeWarning for the cast
+    ramp = np.linspace(0.0, 100.0, 2 * 3 * 4, dtype=np.float32).reshape(2, 3, 4)
+    holes = ramp.copy()
+    holes[0, 0, :3] = [np.nan, np.inf, -np.inf]
+    grey = display_volume(holes)
+    assert grey[0, 0, :3].tolist() == [0, 255, 0]  # NaN black, infinities at the ends
+    finite = np.isfinite(holes)
+    np.testing.assert_array_equal(
+        grey[finite], display_volume(ramp[finite].reshape(1, 1, -1))[0, 0]
+    )
 
 
 @pytest.fixture
@@ -358,3 +392,28 @@ def test_the_analysis_time_is_zero_with_no_overlay(session):
     assert s.timings["analysis"] > 0
     c.feed(Key("f"))
     assert s.overlays() is None and s.timings["analysis"] == 0
+
+
+@pytest.mark.parametrize(
+    ("dtype", "suffix"),
+    [(np.int16, ".nii.gz"), (np.int16, ".tif"), (np.int32, ".npy"), (np.bool_, ".npy")],
+)
+def test_s_saves_a_volume_of_any_real_dtype_in_that_dtype(gl, tmp_path, dtype, suffix):
+    # an int16 volume (a CT scan) reached the GPU warp as it was: the TypeError closed the
+    # window (exit status 2); it is warped as float32 and written back, as glmls warp does
+    rng = np.random.default_rng(0)
+    data = rng.integers(0, 2, SHAPE) if dtype == np.bool_ else rng.integers(-900, 900, SHAPE)
+    data = data.astype(dtype)
+    dst = SRC + [[1.5, 0.5, 0.0], [0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]]
+    app = VolumeApp(data, SRC, dst, save_as=suffix, out_dir=tmp_path)
+    with glmls.MLS(SRC, dst, transform="rigid", shape=SHAPE, ctx=gl) as m:
+        app.window, app.session = object(), types.SimpleNamespace(mls=m, error="")
+        app._command("save_volume")
+        expected = m.warp(data.astype(np.float32), interpolation="linear", grid=4, border="edge")
+    assert app._shown_messages() == [f"saved {tmp_path / ('volume-warped' + suffix)}"]
+    saved = glmls.files.read_volume(tmp_path / f"volume-warped{suffix}").data
+    assert saved.dtype == dtype and saved.shape == SHAPE
+    if dtype == np.bool_:
+        np.testing.assert_array_equal(saved, expected >= 0.5)
+    else:
+        np.testing.assert_array_equal(saved, np.rint(expected).astype(dtype))
