@@ -14,7 +14,16 @@ from dataclasses import dataclass
 
 import moderngl
 
-__all__ = ["ALL", "KINDS", "Binding", "bind_texels", "defines", "holds_texels", "needed"]
+__all__ = [
+    "ALL",
+    "KINDS",
+    "Binding",
+    "bind_texels",
+    "defines",
+    "holds_texels",
+    "needed",
+    "shortfall",
+]
 
 #: Binding namespaces, with the GL limit that bounds each one's indices.
 KINDS = {
@@ -186,6 +195,18 @@ def needed() -> dict[str, int]:
         limit = KINDS[binding.kind]
         out[limit] = max(out.get(limit, 0), binding.index + 1)
     return out
+
+
+def shortfall(info: dict) -> str | None:
+    """What a driver whose ``ctx.info`` is ``info`` lacks of the binding points the table
+    needs (:func:`needed`), in words; None where it has them all."""
+    for limit, count in needed().items():
+        offered = info.get(limit)
+        if offered is not None and int(offered) < count:
+            return (
+                f"glmls needs {count} binding points of {limit}, this driver offers {int(offered)}"
+            )
+    return None
 
 
 #: GL_R32UI, the image format of :func:`bind_texels`.

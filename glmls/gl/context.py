@@ -29,7 +29,6 @@ process forked before glmls touched GL makes its own context on first use.
 
 from __future__ import annotations
 
-import atexit
 import contextlib
 import functools
 import os
@@ -42,7 +41,7 @@ from typing import Protocol, TypeVar
 import moderngl
 
 from ..errors import ContextError, GLUnavailableError, ReleasedError
-from . import bindings
+from . import bindings, exiting
 from .shaders import ComposedSource, ShaderCompileError, ShaderLibrary, dump, library
 from .signals import signals_held
 
@@ -100,6 +99,8 @@ class _ThreadState(threading.local):
         self.blocks: list[contextlib.AbstractContextManager] = []
         #: The contexts this thread keeps current (make_current()), unbound when it ends.
         self.unbinders: dict[GLContext, _Unbinder] = {}
+        #: Open bindings of this thread (GLContext.use() blocks), each holding its lock.
+        self.held = 0
 
 
 class _Unbinder:
@@ -138,8 +139,14 @@ class _Binding:
 
     def __enter__(self) -> GLContext:
         context = self.context
+        exiting.halt_if_exiting(holding=_thread.held > 0)  # a daemon thread at exit
         context.check_usable()
         context._lock.acquire()
+        if context.released:  # released by another thread while this one waited
+            context._lock.release()
+            exiting.halt_if_exiting(holding=_thread.held > 0)
+            context.check_usable()
+        _thread.held += 1
         try:
             if _thread.current is not context:
                 context._check_thread()
@@ -149,6 +156,7 @@ class _Binding:
             else:  # bound by another block of this thread meanwhile
                 self.previous = context
         except BaseException:
+            _thread.held -= 1
             context._lock.release()
             raise
         context._release_orphans()
@@ -167,6 +175,7 @@ class _Binding:
                     context.mgl.__exit__(None, None, None)
                 _thread.current = None
         finally:
+            _thread.held -= 1
             context._lock.release()
 
 
@@ -250,7 +259,9 @@ class GLContext:
             raise TypeError(f"max_programs must be an integer, got {max_programs!r}")
         if max_programs < _MIN_PROGRAMS:
             raise ValueError(f"max_programs must be >= {_MIN_PROGRAMS}, got {max_programs}")
-        _check_binding_limits(mgl)
+        lacking = bindings.shortfall(mgl.info)  # the binding points of glmls.gl.bindings
+        if lacking:
+            raise GLUnavailableError(f"OpenGL unavailable: {lacking}. {_FIX}")
         self.mgl = mgl
         self.owned = owned
         self.shaders = shaders if shaders is not None else library()
@@ -565,17 +576,6 @@ def _frozen(defines: Mapping[str, object] | None) -> tuple:
     return tuple(sorted((defines or {}).items()))
 
 
-def _check_binding_limits(mgl: moderngl.Context) -> None:
-    """The binding points of :mod:`glmls.gl.bindings` must exist on this driver."""
-    for limit, needed in bindings.needed().items():
-        offered = mgl.info.get(limit)
-        if offered is not None and int(offered) < needed:
-            raise GLUnavailableError(
-                f"OpenGL unavailable: glmls needs {needed} binding points of {limit}, this "
-                f"driver offers {int(offered)}. {_FIX}"
-            )
-
-
 _R = TypeVar("_R")
 
 
@@ -675,6 +675,7 @@ def get_context(ctx: moderngl.Context | GLContext | None = None) -> GLContext:
     True
     """
     global _default
+    exiting.halt_if_exiting(holding=_thread.held > 0)  # no new context at exit
     if isinstance(ctx, GLContext):
         if ctx.pid != os.getpid():  # made before a fork: its driver state is not ours
             raise GLUnavailableError(_FORK.format(pid=ctx.pid))
@@ -730,4 +731,4 @@ def _after_fork_in_child() -> None:
 
 
 os.register_at_fork(after_in_child=_after_fork_in_child)
-atexit.register(release_all)
+exiting.at_exit(release_all)

@@ -29,7 +29,6 @@ The helper's life:
 
 from __future__ import annotations
 
-import atexit
 import functools
 import importlib
 import os
@@ -45,6 +44,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from ..errors import GLUnavailableError
+from . import exiting
 from .context import forked_from_gl
 
 __all__ = ["call", "process_id", "stop", "when_forked"]
@@ -156,6 +156,8 @@ def call(module: str, name: str, args: tuple = (), kwargs: dict | None = None) -
     """
     global _helper
     request = (module, name, args, kwargs or {})
+    exiting.halt_if_exiting()  # a daemon thread at exit: no new helper (glmls.gl.exiting)
+    failed: BaseException | None = None
     with _lock:
         helper = _helper
         try:
@@ -168,16 +170,20 @@ def call(module: str, name: str, args: tuple = (), kwargs: dict | None = None) -
         except (OSError, EOFError) as error:
             _helper = None
             how = "did not start" if helper is None else helper.end()
-            raise GLUnavailableError(
+            failed = GLUnavailableError(
                 "OpenGL unavailable: the helper process that does glmls's GL work for this "
                 f"process (forked from one that used GL) {how} ({error!r}); the next call "
                 "starts another. Use the 'spawn' start method to avoid the helper"
-            ) from error
+            )
+            failed.__cause__ = error
         except BaseException:  # interrupted: its answer would be read as the next call's
             _helper = None
             if helper is not None:
                 helper.end()
             raise
+    if failed is not None:
+        exiting.halt_if_exiting()  # stop() at exit ended the helper under a daemon thread
+        raise failed
     try:
         ok, value, caught = _loads(*message)
     except Exception as error:
@@ -241,7 +247,7 @@ def _after_fork_in_child() -> None:
     _helper, _lock = None, threading.Lock()
 
 
-atexit.register(stop)
+exiting.at_exit(stop)
 os.register_at_fork(after_in_child=_after_fork_in_child)
 
 

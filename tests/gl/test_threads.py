@@ -123,6 +123,64 @@ def test_exit_with_live_objects_threads_and_forked_children_is_quiet(tmp_path):
     assert done.stderr == ""
 
 
+@pytest.mark.parametrize("forked", [False, True], ids=["process", "forked-child"])
+def test_a_daemon_thread_calling_glmls_after_its_exit_functions_waits_quietly(tmp_path, forked):
+    """A daemon thread that calls glmls once glmls's exit functions have released its
+    contexts (or ended a forked child's helper) waits for the end of the process: no
+    ReleasedError or GLUnavailableError traceback, no new context or helper at exit. The
+    program's own exit function runs after glmls's (registered before the import) and lets
+    the thread go."""
+    script = tmp_path / "script.py"
+    script.write_text(
+        textwrap.dedent(
+            f"""
+            import atexit, os, sys, threading
+            go = threading.Event()
+            called = threading.Event()
+            returned = []
+
+            def late():
+                go.set()
+                called.wait(5)
+                called.clear()
+                called.wait(2)  # a traceback would be printed meanwhile
+                print("returned" if returned else "waiting", flush=True)
+
+            atexit.register(late)  # before glmls's: runs after them
+            import numpy as np
+            import glmls
+            SRC = np.array([[10.0, 10.0], [50.0, 12.0], [30.0, 40.0], [12.0, 44.0]])
+            DST = SRC + [[4.0, -2.0], [0, 0], [3, -4], [0, 0]]
+            image = np.zeros((48, 56, 3), np.uint8)
+
+            def busy():
+                go.wait()
+                called.set()
+                glmls.warp(image, SRC, DST)
+                returned.append(True)
+
+            glmls.warp(image, SRC, DST)
+            if {forked!r}:
+                pid = os.fork()
+                if pid:
+                    atexit.unregister(late)  # the child's threads are the case
+                    assert os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]) == 0
+                    sys.exit(0)
+                glmls.warp(image, SRC, DST)  # the child's helper
+            threading.Thread(target=busy, daemon=True).start()
+            """
+        )
+    )
+    done = subprocess.run(
+        [sys.executable, "-X", "dev", "-W", "error", str(script)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0 and done.stdout == "waiting\n", done.stderr[-3000:]
+    assert done.stderr == ""
+
+
 # -- threads -----------------------------------------------------------------------------------
 
 
