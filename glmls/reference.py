@@ -13,8 +13,11 @@ Degenerate cases follow the same rules as the shader (``glmls/shaders/mls/core.g
   nearest outweighs the others by e^30 and more, their fit is M however small their weights
   (the moments are taken about the nearest handle);
 - rigid with all targets in reach collapsed to one point: M = I;
-- affine whose moment matrix A is singular or nearly (det A <= 1e-5 trace(A)^2: fewer than
-  3 handles in reach, or handles along one line): the similarity solution.
+- affine whose moment matrix A is singular or nearly (fewer than 3 handles in reach, or
+  handles along one line or near it): (A + g(A))^-1 (B + g(A) M_sim), the ridge g(A) of A's
+  small eigenvalue toward the similarity solution M_sim, as 3D below; on a line that is
+  M_sim itself, and where the handles spread (A's small eigenvalue above 1e-3 trace(A)) the
+  exact affine fit, with a smooth blend between.
 
 Segment handles (the segments of a :class:`glmls.HandleSet`) add the integrals of the same
 moments along each segment, per unit length, computed by an accurate quadrature
@@ -158,11 +161,14 @@ def _solve(a11, a12, a22, b, transform):
     rot[~ok] = np.eye(2)
     if transform != "affine":
         return rot
-    det = a11 * a22 - a12**2
-    regular = det > 1e-5 * mu**2
-    safe = np.where(regular, det, 1.0)
-    inv = np.stack([np.stack([a22, -a12], -1), np.stack([-a12, a11], -1)], -2) / safe[:, None, None]
-    return np.where(regular[:, None, None], inv @ b, rot)
+    # (A + g(A))^-1 (B + g(A) M_sim): the ridge toward the similarity solution where A's
+    # small eigenvalue is below DEGENERATE_SHARE of its trace, as 3D (_solve3)
+    big_a = np.stack([np.stack([a11, a12], -1), np.stack([a12, a22], -1)], -2)
+    ridge, _, _ = _ridge_matrix(big_a)
+    lhs = big_a + ridge
+    regular = np.linalg.det(lhs) > 0
+    lhs[~regular] = np.eye(2)
+    return np.where(regular[:, None, None], np.linalg.solve(lhs, b + ridge @ rot), rot)
 
 
 #: A point nearer than this (pixels) to a segment whose weight is infinite there is on it.
@@ -663,20 +669,25 @@ def _mls3_checked(src, dst, points, config, shape, spacing, src_segments, dst_se
     return _mls3(p, q, v, config, radius)
 
 
-def _ridge(big_a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The near-degenerate directions of A (K, 3, 3), per point.
-
-    Returns g(A) (K, 3, 3), the spectral function of A that is 0 unless an eigenvalue e of A
-    is below DEGENERATE_SHARE of trace(A), where it grows smoothly to DEGENERATE_SHARE
-    trace(A) at e = 0; the same function's share for A's middle eigenvalue, (K,), which is
-    above 0 only where the sources are near one line; and A's unit principal axis (K, 3).
-    """
+def _ridge_matrix(big_a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """g(A) (K, n, n) for A (K, n, n), n = 2 or 3: the spectral function of A that is 0
+    unless an eigenvalue e of A is below DEGENERATE_SHARE of trace(A), where it grows
+    smoothly to DEGENERATE_SHARE trace(A) at e = 0; with each eigenvalue's share (K, n) and
+    A's eigenvectors (K, n, n), columns in ascending order of their eigenvalues."""
     e, vectors = np.linalg.eigh(big_a)
     trace = np.maximum(e.sum(-1), 0.0)[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         x = np.where(trace > 0, np.maximum(e, 0.0) / trace, 1.0)
     share = DEGENERATE_SHARE * np.maximum(0.0, 1.0 - x / DEGENERATE_SHARE) ** 2
     ridge = np.einsum("kin,kn,kjn->kij", vectors, share * trace, vectors)
+    return ridge, share, vectors
+
+
+def _ridge(big_a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The near-degenerate directions of A (K, 3, 3), per point: g(A) (_ridge_matrix), the
+    ridge's share for A's middle eigenvalue (K,), above 0 only where the sources are near
+    one line, and A's unit principal axis (K, 3)."""
+    ridge, share, vectors = _ridge_matrix(big_a)
     return ridge, share[:, 1], vectors[:, :, 2]
 
 

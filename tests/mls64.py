@@ -3,7 +3,8 @@
 Schaefer, McPhail and Warren (2006) with the weights of Table 1 of "Extensions to the MLS
 method for image deformation". Nothing here comes from :mod:`glmls`: the weights are the
 table's formulas, the affine fit is a weighted least squares solved by
-:func:`numpy.linalg.lstsq`, the similarity and rigid fits are complex numbers (with row
+:func:`numpy.linalg.lstsq` (near one line, with glmls's documented ridge toward the
+similarity fit), the similarity and rigid fits are complex numbers (with row
 vectors, v M for M = [[a, b], [-b, a]] is the complex product (x + iy)(a + ib)), and segment
 handles are densely sampled point handles weighted per unit of length (the limit the
 segment integrals of the paper's section 4 are).
@@ -35,15 +36,33 @@ def table1(d: np.ndarray, weight: str, *, alpha=1.0, s=1e-8, radius=None, interp
     return w
 
 
+#: glmls's share of trace(A) below which A's small eigenvalue gets the ridge (affine)
+RIDGE = 1e-3
+
+
 def fit(ph: np.ndarray, qh: np.ndarray, w: np.ndarray, transform: str) -> np.ndarray:
     """The M minimising sum w |p^ M - q^|^2 over the transform's family, one point."""
     z = (ph[:, 0] + 1j * ph[:, 1]), (qh[:, 0] + 1j * qh[:, 1])
     if transform == "affine":
         r = np.sqrt(w)[:, None]
         m, _, rank, _ = np.linalg.lstsq(r * ph, r * qh, rcond=1e-9)
-        if rank == 2:
+        a = (r * ph).T @ (r * ph)
+        e, u = np.linalg.eigh(a)  # ascending: e[0] the small eigenvalue
+        x = e[0] / e.sum()
+        if rank == 2 and x >= RIDGE:
             return m
-        transform = "similarity"  # fewer than the affine fit needs: documented fallback
+        if rank == 0:
+            transform = "similarity"  # no spread: a translation's M, as similarity's
+        else:
+            # glmls's documented definition near one line (docs/mathematics.md): a ridge
+            # RIDGE (1 - x / RIDGE)^2 trace(A) toward the similarity fit in the direction of
+            # A's small eigenvalue, solved as a least squares with that one extra row
+            sim = fit(ph, qh, w, "similarity")
+            g = RIDGE * (1.0 - max(x, 0.0) / RIDGE) ** 2 * e.sum()
+            n = u[:, 0]
+            return np.linalg.solve(
+                a + g * np.outer(n, n), (r * ph).T @ (r * qh) + g * np.outer(n, n @ sim)
+            )
     c = (w * np.conj(z[0]) * z[1]).sum()
     if transform == "similarity":
         c = c / (w * np.abs(z[0]) ** 2).sum()

@@ -8,7 +8,10 @@ sampled point handles weighted per unit of length (Schaefer et al. 2006, section
 
 Tolerances: the reference within 1e-9 px (f) and 1e-9 (M), float64 rounding; the GPU, in
 float32 on coordinates scaled to the image (spacing ~1e-7 of its size), within 1e-5 of the
-image's size for f (0.0013 px here) and 1e-4 for M.
+image's size for f (0.0013 px here) and 1e-4 for M; affine with a radius, where points have
+only two handles in reach, 1e-4 of the size (0.013 px) and 3e-4: there the ridge toward the
+similarity solution (docs/mathematics.md, "Affine near one line") divides float32's rounding
+of the moments' small eigenvalue, ~1e-7 of their trace, by 1e-3.
 """
 
 from __future__ import annotations
@@ -60,9 +63,11 @@ def test_reference_and_gpu_are_the_paper(gl, case):
     with glmls.MLS(P, Q, transform=transform, weight=weight, shape=(H, W), **params) as m:
         f2 = m(POINTS)
         m2, t2 = m.matrices(POINTS)
-    assert np.abs(f2 - f0).max() < 1e-5 * SIZE
-    assert np.abs(m2 - m0).max() < 1e-4
-    assert np.abs(t2 - t0).max() < 1e-5 * SIZE + 1e-4 * np.abs(POINTS).max()
+    ridge = transform == "affine" and "radius" in params
+    f_tol, m_tol = (1e-4 * SIZE, 3e-4) if ridge else (1e-5 * SIZE, 1e-4)
+    assert np.abs(f2 - f0).max() < f_tol
+    assert np.abs(m2 - m0).max() < m_tol
+    assert np.abs(t2 - t0).max() < f_tol + m_tol * np.abs(POINTS).max()
 
 
 @pytest.mark.parametrize("weight", glmls.WEIGHTS)
@@ -209,41 +214,74 @@ def test_affine_takes_the_similarity_solution_where_the_handles_in_reach_are_on_
         assert np.abs(m(v) - similarity).max() < 1e-3
 
 
-@pytest.mark.parametrize(
-    ("transform", "p", "q", "v"),
-    [
-        # a third handle enters reach: affine turns from the similarity of two to the exact
-        # fit of three
-        (
-            "affine",
-            [[100.0, 100], [140, 100], [120, 160]],
-            [[0.0, 0], [5, 0], [-10, 8]],
-            [120.0, 110.0],
-        ),
-        # a second handle enters reach: the translation of one turns into a rotation
-        ("rigid", [[100.0, 100], [160, 100]], [[0.0, 0], [0, 10]], [110.0, 100.0]),
-        ("similarity", [[100.0, 100], [160, 100]], [[0.0, 0], [0, 10]], [110.0, 100.0]),
-    ],
-    ids=["affine", "rigid", "similarity"],
-)
-@pytest.mark.parametrize("weight", [w for w in glmls.RADIUS_WEIGHTS if w != "gaussian"])
-def test_f_jumps_where_a_handle_enters_a_compact_weights_reach(gl, transform, p, q, v, weight):
+EDGE_CASES = {
+    # a second handle enters reach: the translation of one turns into a rotation
+    "two": ([[100.0, 100], [160, 100]], [[0.0, 0], [0, 10]], [110.0, 100.0]),
+    # a third handle enters reach: the similarity of two becomes the exact fit of three
+    "three": ([[100.0, 100], [140, 100], [120, 160]], [[0.0, 0], [5, 0], [-10, 8]], [120.0, 110.0]),
+}
+COMPACT = [w for w in glmls.RADIUS_WEIGHTS if w != "gaussian"]
+
+
+def across_edge(case: str, offsets) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """p, q and points at ``offsets`` px along the line from the last handle through the
+    case's point, from the edge of its reach at R = 50 px (negative: inside)."""
+    p, q, v = (np.array(a) for a in EDGE_CASES[case])
+    toward = (v - p[-1]) / np.linalg.norm(v - p[-1])
+    edge = p[-1] + 50.0 * toward
+    return p, p + q, edge + np.asarray(offsets)[:, None] * toward
+
+
+@pytest.mark.parametrize("transform", ["rigid", "similarity"])
+@pytest.mark.parametrize("weight", COMPACT)
+def test_f_jumps_where_a_second_handle_enters_a_compact_weights_reach(gl, transform, weight):
     """MLS itself is discontinuous at the edge of a compact weight's reach where the handle
-    that enters decides what the others left free: as its weight tends to 0 the fit with it
-    tends to the fit it makes exact, not to the fit without it. The GPU follows the float64
-    implementation across that edge (R = 50 px, points 0.001 px on either side), jump
-    included."""
-    p = np.array(p)
-    q = p + np.array(q)
-    far = p[-1]
-    toward = (np.array(v) - far) / np.linalg.norm(np.array(v) - far)
-    edge = far + 50.0 * toward
-    points = np.array([edge - 1e-3 * toward, edge + 1e-3 * toward])
+    that enters decides what the one in reach left free: as its weight tends to 0 the
+    rotation tends to the one it makes exact, not to the identity of one handle. The GPU
+    follows the float64 implementation across that edge (R = 50 px, points 0.001 px on
+    either side), jump included."""
+    p, q, points = across_edge("two", [-1e-3, 1e-3])
     options = {"weight": weight, "radius": 50.0}
     expected, _, _ = mls64(p, q, points, transform, **options)
     assert np.linalg.norm(expected[1] - expected[0]) > 1.0  # the jump, in float64
     with glmls.MLS(p, q, transform=transform, **options) as m:
         assert np.abs(m(points) - expected).max() < 1e-3
+
+
+@pytest.mark.parametrize("weight", COMPACT)
+def test_affine_is_continuous_where_a_third_handle_enters_a_compact_weights_reach(gl, weight):
+    """Where a third handle enters reach off the line of two, the affine fit of three is
+    exact however small its weight; the ridge toward the similarity solution makes the
+    change continuous (f within 1e-3 px across 2e-7 px of the edge), though steep: about
+    2 px over the last 0.01 px of the reach. The GPU follows the float64 implementation
+    outside that ramp."""
+    p, q, points = across_edge("three", [-1e-7, 1e-7, -1.0, -0.1, 0.1, 1.0])
+    options = {"weight": weight, "radius": 50.0}
+    expected, _, _ = mls64(p, q, points, "affine", **options)
+    assert np.linalg.norm(expected[1] - expected[0]) < 1e-3
+    assert np.linalg.norm(expected[2] - expected[5]) > 1.0  # the fit of three against two
+    with glmls.MLS(p, q, transform="affine", **options) as m:
+        assert np.abs(m(points[2:]) - expected[2:]).max() < 1e-3
+
+
+def test_affine_near_one_line_is_continuous(gl):
+    """Four handles, one 0.5 px off the line of the others, moved by a few pixels (idw): the
+    exact affine fit sends points 20 px off the line by ~90 px, and a switch to the
+    similarity solution at a threshold tore f there (94 px between points 0.016 px apart).
+    Along lines across the plane f moves by about the step, in float64 and on the GPU, and
+    the GPU follows the float64 implementation."""
+    p = np.array([[0.0, 100], [100, 100], [200, 100], [100, 100.5]])
+    q = p + [[0, 0], [0, 3], [0, 0], [2, 1]]
+    t = np.linspace(0.0, 1.0, 4001)[:, None]
+    with glmls.MLS(p, q, transform="affine") as m:
+        for a, b in (([-50.0, 50], [250, 150]), ([100.0, 0], [100, 200])):
+            v = np.array(a) + t * (np.array(b) - np.array(a))
+            expected, _, _ = mls64(p, q, v, "affine")
+            f = m(v)
+            step = np.linalg.norm(np.array(b) - np.array(a)) / 4000
+            for g in (expected, f):
+                assert np.linalg.norm(np.diff(g, axis=0), axis=1).max() < 10 * step
+            assert np.abs(f - expected).max() < 1e-3
 
 
 SEGMENT_CASES = [

@@ -25,6 +25,10 @@
 #include "mls/handles.glsl"
 
 #include "mls/weighting.glsl"
+
+// glmls.reference.DEGENERATE_SHARE: below this share of trace A, A's small eigenvalue gets
+// the ridge toward the similarity solution (affine)
+#define MLS_DEGENERATE_SHARE 1e-3
 uniform bool u_snap_segments;   // the same as u_snap for segment handles (glmls.core.segments)
 
 struct MLSResult {
@@ -258,16 +262,35 @@ MLSResult mls_finish(MLSAccum a) {
     // range where the moments are tiny (next to a handle whose weight is steep)
     vec3 An = A / mu;
     vec4 Dn = D / mu;
+    // The similarity solution, and a ridge toward it where A is nearly singular (fewer than 3
+    // handles in reach, or handles on or near one line), as glmls.reference (_solve,
+    // _ridge_matrix) and 3D: M = (A + g)^-1 (B + g M_sim), g = share u2 u2^T for A's small
+    // eigenvalue e2 (An's trace is 1) and its unit eigenvector u2, share = c (1 - e2 / c)^2
+    // below c = MLS_DEGENERATE_SHARE, else 0 (the exact affine fit). In N = M - I:
+    // N = (A + g)^-1 (D + g N_sim). On a line that is N_sim; between, a smooth blend where
+    // a threshold would tear the image.
+    vec4 sim = mls_rotation_scale(mu, D, spread);
     float det = An.x * An.z - An.y * An.y;
-    if (mu > 1e-13 * spread && det > 1e-5) {
-        // M = A^-1 (A + D) = I + A^-1 D, with A = [[a11, a12], [a12, a22]]
-        vec2 r0 = vec2(An.z, -An.y) / det;
-        vec2 r1 = vec2(-An.y, An.x) / det;
-        N = vec4(r0.x * Dn.x + r0.y * Dn.z, r0.x * Dn.y + r0.y * Dn.w,
-                 r1.x * Dn.x + r1.y * Dn.z, r1.x * Dn.y + r1.y * Dn.w);
+    float gap = sqrt((An.x - An.z) * (An.x - An.z) + 4.0 * An.y * An.y);   // e1 - e2
+    float e1 = 0.5 * (1.0 + gap);
+    float e2 = max(det, 0.0) / e1;   // without the cancellation of (1 - gap) / 2
+    float x = 1.0 - e2 / MLS_DEGENERATE_SHARE;
+    // g = share u2 u2^T with u2 u2^T = (e1 I - A) / (e1 - e2); gap > 1 - 2c wherever x > 0
+    vec3 G = x > 0.0 ? (MLS_DEGENERATE_SHARE * x * x / gap) * vec3(e1 - An.x, -An.y, e1 - An.z)
+                     : vec3(0.0);
+    vec3 L = An + G;
+    vec4 R = Dn + vec4(G.x * sim.x + G.y * sim.z, G.x * sim.y + G.y * sim.w,
+                       G.y * sim.x + G.z * sim.z, G.y * sim.y + G.z * sim.w);
+    float detL = L.x * L.z - L.y * L.y;
+    if (mu > 1e-13 * spread && detL > 0.0) {
+        // N = L^-1 R, with L = [[l11, l12], [l12, l22]]
+        vec2 r0 = vec2(L.z, -L.y) / detL;
+        vec2 r1 = vec2(-L.y, L.x) / detL;
+        N = vec4(r0.x * R.x + r0.y * R.z, r0.x * R.y + r0.y * R.w,
+                 r1.x * R.x + r1.y * R.z, r1.x * R.y + r1.y * R.w);
     } else {
-        // Fewer than 3 non-collinear handles in reach: the similarity solution.
-        N = mls_rotation_scale(mu, D, spread);
+        // no handle spread about p* (one in reach, or coincident sources)
+        N = sim;
     }
 #else
     // the trace of A, and D11 + D22, D12 - D21 as (D.x + D.w, D.y - D.z) (mls_add_moments)
