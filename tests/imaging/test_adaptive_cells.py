@@ -12,6 +12,7 @@ import pytest
 from helpers import folded_case, jittered_moves, stretched_handles
 
 import glmls
+from glmls.analysis.guarantee import guarantee_handles
 from glmls.core.mesh import MeshLattice
 from glmls.engine import passes
 from glmls.gl.dispatch import LOCAL_SIZE
@@ -287,3 +288,30 @@ def test_the_prediction_keeps_further_from_the_handles_where_f_has_a_cusp(rng, o
     with glmls.MLS(p, q, shape=SHAPE, **options) as m:
         assert adaptive_cells.smooth_reach(m.kernel) == reach
     assert adaptive_cells.SMOOTH_REACH < adaptive_cells.CUSP_REACH
+
+
+@pytest.mark.parametrize(("radius", "predicted"), [(12.0, False), (60.0, True)])
+def test_the_gaussian_predicts_only_children_smaller_than_its_turns(gl, radius, predicted):
+    """Where the gaussian's radius is small against the distance between neighbouring
+    handles, f turns from one's transformation to the other's within a few pixels: a 16 px
+    child is tested, whatever its prediction (R = 12 against handles 70-150 px apart), and
+    predicted where R is large (60)."""
+    p, q = guarantee_handles("smooth").values()
+    options = {"weight": "gaussian", "radius": radius, "bins": False}
+    resources = Resources(gl)
+    try:
+        with glmls.MLS(p, q, shape=SHAPE, ctx=gl, **options) as m:
+            cells = GPUCells(gl, resources, m.kernel, SHAPE, 0.05)
+            assert cells.predicts
+            side = adaptive_cells.predicted_side(m.kernel, SHAPE)
+            assert (side >= 16.0) is predicted
+            # a 32 px cell far from every handle: its children nearly exact
+            lattice = np.stack(np.meshgrid(np.arange(5.0), np.arange(5.0)), -1).reshape(25, 2)
+            cells.evaluate(1000 + 8 * lattice)
+            place = np.array([5 * r + c for r, c in NODES + TESTS])
+            nodes, tests = place[None, :9], place[None, 9:]
+            size, centres = np.full(1, 32.0), np.full((1, 2), 1016.0)
+            _, _, error, _ = cells.test(nodes, tests, size, size, centres, np.ones(1, bool))
+            assert bool(np.isfinite(error).all()) is predicted
+    finally:
+        resources.release()
