@@ -66,7 +66,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .core.config import MLSConfig
+from .core.config import MLSConfig, config_or_options
 from .core.handles import as_points, check_coordinates, point_rows
 from .core.handles3 import (
     as_points3,
@@ -412,7 +412,7 @@ def mls(
     >>> bool(np.array_equal(f, explicit))
     True
     """
-    config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
+    config = config_or_options(config, options)
     if _dimension(src, dst, points) == 3:
         return _mls3_checked(src, dst, points, config, shape, spacing, src_segments, dst_segments)
     planar_spacing(spacing)
@@ -599,7 +599,7 @@ def mls_error(
     >>> glmls.reference.mls_error(src, dst, [[5.0, 5.0]]).round(3).tolist()
     [2.364]
     """
-    config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
+    config = config_or_options(config, options)
     if _dimension(src, dst, points) == 3:
         _, big_m, t = _mls3_checked(
             src, dst, points, config, shape, spacing, src_segments, dst_segments

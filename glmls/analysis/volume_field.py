@@ -16,7 +16,7 @@ from typing import Protocol
 import numpy as np
 
 from .. import reference
-from ..core.config import MLSConfig
+from ..core.config import MLSConfig, config_or_options
 from ..core.handles3 import as_volume_spacing, volume_extent
 from ..engine.kernel3 import MLSKernel3
 from ..engine.passes3 import evaluate_points3
@@ -125,7 +125,7 @@ class ReferenceDeformation:
             raise ValueError(
                 f"src and dst must be (N, 3) with N >= 1 alike, got {p.shape} and {q.shape}"
             )
-        self.config = config if config is not None else MLSConfig(**options)  # type: ignore[arg-type]
+        self.config = config_or_options(config, options)
         self.shape = None if shape is None else as_volume_shape(shape)
         self.spacing = None if spacing is None else as_volume_spacing(spacing)
         p.flags.writeable = q.flags.writeable = False

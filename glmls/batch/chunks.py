@@ -12,7 +12,7 @@ import numpy as np
 from ..core.config import MLSConfig
 from ..core.mesh import MeshLattice
 from ..engine.batched import BatchLattices
-from ..engine.kernel import DEFAULT_STORAGE
+from ..engine.kernel import DEFAULT_STORAGE, check_loop_budget
 from ..engine.storage import check_storage
 from ..imaging.frame import make_frame
 from ..imaging.options import WarpOptions
@@ -85,6 +85,8 @@ class _GPURun:
         self.backward = options.method == "backward"
         if self.backward and (self.config is None or batch.keypoints is not None):
             return  # f at the keypoints, bins, segments: each image's own MLS
+        if self.backward:
+            _check_newton_budget(self.quads.ctx, batch)
         if options.border != "constant" and self.config is None:
             return  # each image's own kernel finds its mesh's margin
         # segment handles, or no point handle at all: the image's own MLS, as one warp does
@@ -260,6 +262,17 @@ def _warp_masks(quads, warper, batch, chunk, lattices, options, frame, lattice):
     if warped is None:
         return None
     return [restore_mask(w, masks[0].dtype) for w in warped]
+
+
+def _check_newton_budget(gl, batch: BatchInput) -> None:
+    """``ValueError`` naming the first image whose handles the batched Newton pass could
+    not all visit on ``gl``'s driver, as that image's own MLS refuses them: the pass would
+    leave handles out of its f without a word."""
+    for i, p in enumerate(batch.src):
+        try:
+            check_loop_budget(gl, "warp/inverse.comp.glsl", len(p))
+        except ValueError as error:
+            raise ValueError(f"images[{i}]: {error}") from None
 
 
 def _batch_config(batch: BatchInput, mls_options: dict) -> MLSConfig | None:

@@ -72,7 +72,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--preset", choices=tuple(PRESETS), default="grid", help="the deformation")
     parser.add_argument("--seed", type=int, default=0, help="the random seed (>= 0)")
     parser.add_argument(
-        "--labels", metavar="JSON", help="keypoints and boxes per input file name (see above)"
+        "--labels",
+        metavar="JSON",
+        help='keypoints and boxes per input file name: {"photo.png": {"keypoints": [[x, y], '
+        '...], "boxes": [[x_min, y_min, x_max, y_max], ...]}}, in pixels',
     )
     group = parser.add_argument_group("preset options (those of the chosen preset)")
     group.add_argument("--rows", type=positive_int, help="grid: rows of handles (default: 4)")

@@ -17,6 +17,7 @@ __all__ = [
     "MLSConfig",
     "check_flag",
     "check_seed",
+    "config_or_options",
     "image_diagonal",
     "transform_code",
 ]
@@ -68,6 +69,23 @@ def check_seed(seed: object) -> int:
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
     return int(seed)
+
+
+def config_or_options(config: MLSConfig | None, options: dict[str, object]) -> MLSConfig:
+    """``config``, or an :class:`MLSConfig` of the keyword ``options`` where it is None.
+
+    Both at once is a ``TypeError`` naming the options: one of them would go unused, and f
+    would silently be another weight's or transform's than the one asked for.
+    """
+    if config is None:
+        return MLSConfig(**options)  # type: ignore[arg-type]
+    if options:
+        names = ", ".join(sorted(options))
+        raise TypeError(
+            f"give a config or its keyword options ({names}), not both: "
+            f"dataclasses.replace(config, {names.split(', ')[0]}=...) changes a field"
+        )
+    return config
 
 
 @dataclass(frozen=True)

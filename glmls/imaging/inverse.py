@@ -133,6 +133,12 @@ class InverseSolver:
         (constant): pixels whose source point lies outside the image are not covered; other
         modes keep them. Leaves the texture's framebuffer bound."""
         height, width = lattice.shape
+        # first, so that a pass the driver cannot run is refused before the first guess's
+        # mesh, which with many handles over a large image takes long on a CPU renderer
+        program = kernel.program(
+            "warp/inverse.comp.glsl",
+            {"WARP_SWAP": swap, "WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": border},
+        )
         framebuffer = self._resources.framebuffer("coords", frame.size)
         texture = self._resources.texture("coords", frame.size, 4, "f4")
         if not swap:
@@ -146,10 +152,6 @@ class InverseSolver:
                 self._raster.draw(
                     kernel, None, lattice, frame, linear=False, coords=True, flip_y=False
                 )
-        program = kernel.program(
-            "warp/inverse.comp.glsl",
-            {"WARP_SWAP": swap, "WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": border},
-        )
         kernel.bind(program, lattice.shape)
         sc = kernel.scaling
         set_uniforms(
@@ -188,6 +190,9 @@ class InverseSolver:
         of an image of ``shape`` (None: the kernel's own), as :meth:`glmls.MLS.__call__`'s.
         Leaves the guess's framebuffer bound."""
         size = guess_size(frame, len(points), limit)
+        program = kernel.program(  # first, as in solve
+            "warp/inverse_points.comp.glsl", {"WARP_NEWTON_STEPS": POINTS_NEWTON_STEPS}
+        )
         framebuffer = self._resources.framebuffer("guess", size)
         texture = self._resources.texture("guess", size, 4, "f4")
         framebuffer.use()
@@ -201,9 +206,6 @@ class InverseSolver:
         )
         if not drawn:
             self._raster.draw(kernel, None, lattice, frame, **fill)  # type: ignore[arg-type]
-        program = kernel.program(
-            "warp/inverse_points.comp.glsl", {"WARP_NEWTON_STEPS": POINTS_NEWTON_STEPS}
-        )
         kernel.bind(program, shape)
         sc = kernel.scaling
         texel = max(frame.size[0] / size[0], frame.size[1] / size[1])  # pixels

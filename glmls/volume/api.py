@@ -8,6 +8,7 @@ import dataclasses
 import numpy as np
 
 from ..core.handles3 import as_volume_spacing, chosen_spacing
+from ..engine.kernel import check_loop_budget
 from ..engine.kernel3 import MLSKernel3
 from .construction import VolumeWarper
 from .frame import VolumeBounds
@@ -105,8 +106,16 @@ def warp_volume(
     kernel = _kernel(mls)
     options = _options(mls, options, keywords)
     array = check_volume(volume)
+    if options.method == "backward":
+        _check_newton(kernel)
     field = KernelField(kernel, options.spacing, array.shape[:3])
     return VolumeWarper.of(kernel.gl).warp(field, array, options, slabs)
+
+
+def _check_newton(kernel: MLSKernel3) -> None:
+    """``ValueError`` where the driver could not run the Newton pass over every handle,
+    raised before f on the cells' lattice, which with that many handles takes long."""
+    check_loop_budget(kernel.gl, "volume/newton.comp.glsl", kernel.count)
 
 
 def volume_coordinate_map(
@@ -161,6 +170,7 @@ def volume_coordinate_map(
     kernel = _kernel(mls)
     options = _options(mls, options, keywords)
     size = check_volume_shape(shape, "shape")
+    _check_newton(kernel)
     field = KernelField(kernel, options.spacing, size)
     return VolumeWarper.of(kernel.gl).coordinate_map(field, size, options)  # type: ignore[arg-type]
 

@@ -12,6 +12,7 @@ from scipy.optimize import minimize
 
 import glmls
 from glmls import reference
+from glmls.analysis import ReferenceDeformation
 from glmls.core.config import MLSConfig
 
 
@@ -173,3 +174,21 @@ def test_invalid_input_is_refused_as_the_gpu_refuses_it(gl, p):
         else:
             assert_allclose(reference.mls(src, dst, points, **options)[0], expected, atol=1e-4)
             assert name == "one point as a (D,) array"
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda config, **options: reference.mls(P2, P2 + 1.0, P2[:1], config, **options),
+        lambda config, **options: reference.mls_error(P2, P2 + 1.0, P2[:1], config, **options),
+        lambda config, **options: ReferenceDeformation(P3, P3 + 1.0, config, **options),
+    ],
+    ids=["mls", "mls_error", "ReferenceDeformation"],
+)
+def test_config_and_options_together_are_refused(call):
+    """A configuration and keyword options at once would leave the options unused: an error
+    naming them, rather than f of another weight than the one asked for."""
+    with pytest.raises(TypeError, match="weight"):
+        call(MLSConfig(), weight="gaussian", radius=5.0)
+    call(MLSConfig(weight="gaussian", radius=5.0))
+    call(None, weight="gaussian", radius=5.0)

@@ -35,3 +35,59 @@ def test_a_newton_pass_beyond_the_loop_limit_is_refused(gl, rng):
             m.inverse([[10.0, 10.0]])
     with glmls.MLS(src[:CAPPED_NEWTON_HANDLES], src[:CAPPED_NEWTON_HANDLES] + 0.5, ctx=gl) as m:
         np.testing.assert_allclose(m.inverse([[10.5, 10.5]]), [[10.0, 10.0]], atol=1e-3)
+
+
+def test_a_batched_newton_pass_beyond_the_loop_limit_is_refused(gl, rng):
+    """warp_batch's backward method runs Newton for every image in one batched pass: it
+    refuses the image its own glmls.warp refuses, naming it, rather than leave handles out."""
+    if gl.loop_limit is None:
+        pytest.skip("this driver runs every loop iteration")
+    count = CAPPED_NEWTON_HANDLES + 1
+    images = rng.integers(0, 255, (2, 8, 8), dtype=np.uint8)
+    src = [rng.uniform(0, 7, (3, 2)), rng.uniform(0, 7, (count, 2))]
+    dst = [p + 0.25 for p in src]
+    with pytest.raises(ValueError, match=f"{count:,} handles: the inverse of f .* llvmpipe"):
+        glmls.warp(images[1], src[1], dst[1], method="backward", ctx=gl)
+    with pytest.raises(ValueError, match=f"images\\[1\\]: {count:,} handles: the inverse of f"):
+        glmls.warp_batch(images, src, dst, method="backward", ctx=gl)
+
+
+def test_the_newton_budget_is_checked_before_the_first_guess(gl, rng, monkeypatch):
+    """The refusal comes before the first guess's mesh is drawn: with thousands of handles
+    spread over a large image that mesh alone takes minutes on llvmpipe."""
+    if gl.loop_limit is None:
+        pytest.skip("this driver runs every loop iteration")
+    from glmls.imaging.quads import CellScan
+    from glmls.imaging.raster import MeshRaster
+
+    def drawn(*args, **kwargs):
+        raise AssertionError("the first guess was drawn before the refusal")
+
+    src = rng.uniform(0, 50, (CAPPED_NEWTON_HANDLES + 1, 2))
+    with glmls.MLS(src, src + 0.5, ctx=gl) as m:
+        monkeypatch.setattr(CellScan, "draw", drawn)
+        monkeypatch.setattr(MeshRaster, "draw", drawn)
+        with pytest.raises(ValueError, match="the inverse of f"):
+            m.inverse([[10.0, 10.0]])
+        with pytest.raises(ValueError, match="the inverse of f"):
+            m.coordinate_map((8, 8))
+
+
+def test_a_volume_newton_pass_is_refused_before_the_lattice(gl, rng, monkeypatch):
+    """A volume's backward warp and map refuse the handles their Newton pass could not all
+    visit before f is evaluated on the cells' lattice, the long part with many handles."""
+    if gl.loop_limit is None:
+        pytest.skip("this driver runs every loop iteration")
+    from glmls.volume import volume_coordinate_map
+    from glmls.volume.kernel_field import KernelField
+
+    def filled(*args, **kwargs):
+        raise AssertionError("the lattice was evaluated before the refusal")
+
+    src = rng.uniform(0, 50, (CAPPED_NEWTON_HANDLES + 1, 3))
+    with glmls.MLS(src, src + 0.5, ctx=gl) as m:
+        monkeypatch.setattr(KernelField, "fill", filled)
+        with pytest.raises(ValueError, match="the inverse of f"):
+            m.warp(np.zeros((4, 5, 6), np.uint8), method="backward")
+        with pytest.raises(ValueError, match="the inverse of f"):
+            volume_coordinate_map(m, (4, 5, 6))
