@@ -39,9 +39,11 @@ _STAGES = ("warp", "overlays", "text")
 def display_image(image: np.ndarray) -> np.ndarray:
     """An image as float32 RGB in [0, 1] for the window's 8-bit framebuffer: the pipeline
     writes the texture's raw values, so 0-255 values would all show white. Integers are
-    divided by their dtype's maximum; floats within [0, 1] stay, others are stretched from
-    the lower of 0 and their minimum (black) to the higher of 1 and their maximum (white),
-    of the finite values: NaN is black, infinities at the ends."""
+    divided by their dtype's maximum where that is the scale of their values (uint8,
+    uint16); floats within [0, 1] stay, and others, like the other integers (int16 CT slices,
+    int32 labels, which their dtype's maximum would show black), are stretched from the lower
+    of 0 and their minimum (black) to the higher of 1 and their maximum (white), of the finite
+    values: NaN is black, infinities at the ends."""
     array = np.asarray(image)
     if array.ndim == 2:
         array = array[:, :, None]
@@ -49,9 +51,9 @@ def display_image(image: np.ndarray) -> np.ndarray:
         raise ValueError(f"image must be H x W or H x W x C with C in 1..4, got {array.shape}")
     if array.size == 0:
         raise ValueError(f"image must not be empty, got shape {np.asarray(image).shape}")
-    if np.issubdtype(array.dtype, np.integer):
+    if array.dtype in (np.uint8, np.uint16):
         values = array.astype(np.float32) / float(np.iinfo(array.dtype).max)
-    elif np.issubdtype(array.dtype, np.floating):
+    elif np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating):
         values = array.astype(np.float32)
         finite = values[np.isfinite(values)]  # a NaN (a depth map's hole) makes no range
         low, high = float(finite.min(initial=0.0)), float(finite.max(initial=1.0))

@@ -162,6 +162,19 @@ def test_float_images_outside_0_1_are_shown_from_their_minimum_to_their_maximum(
     assert (display_image(np.full((2, 2), 7.0)) == 1.0).all()  # one value: no range
 
 
+@pytest.mark.parametrize("dtype", [np.int16, np.int32, np.int64, np.uint32, np.int8])
+def test_other_integer_images_are_shown_from_their_range(dtype):
+    # divided by their dtype's maximum, int32 labels 0..5 showed black (5 / 2^31) and an int16
+    # CT slice dim and clipped below 0
+    labels = np.arange(6, dtype=dtype).reshape(2, 3)
+    assert display_image(labels)[..., 0].ravel().tolist() == pytest.approx(
+        [0, 0.2, 0.4, 0.6, 0.8, 1]
+    )
+    if np.issubdtype(dtype, np.signedinteger):
+        signed = np.array([[-100, 0, 100]], dtype)
+        assert display_image(signed)[0, :, 0].tolist() == pytest.approx([0.0, 0.5, 1.0])
+
+
 def test_float_images_with_nan_or_infinite_values_are_shown_from_their_finite_values():
     # a depth map with NaN holes: its range was NaN, the window refused to open ("image
     # holds NaN or infinite values") though glmls.warp warps it
