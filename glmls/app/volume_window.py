@@ -100,6 +100,7 @@ class VolumeApp(WindowLoop):
         #: The voxel size (dz, dy, dx) given or the volume's (None: 1) and its affine.
         self.spacing = given.spacing if spacing is None else tuple(spacing)
         self.affine = given.affine
+        self.nifti = given.nifti  # a NIfTI input's header fields, kept by s as glmls warp does
         self.save_as = save_as
         self.display = display_volume(self.volume)
         self.controller = VolumeController(
@@ -149,6 +150,7 @@ class VolumeApp(WindowLoop):
                 in_dtype(np.asarray(warped), self.volume.dtype),
                 spacing=self.spacing,
                 affine=self.affine if nifti else None,
+                nifti=self.nifti if nifti else None,
             ),
         )
         return path

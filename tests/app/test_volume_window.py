@@ -394,6 +394,23 @@ def test_the_analysis_time_is_zero_with_no_overlay(session):
     assert s.overlays() is None and s.timings["analysis"] == 0
 
 
+def test_s_keeps_a_nifti_inputs_header_fields(gl, tmp_path):
+    # only the affine was kept: the sform/qform codes (MNI here), units and description of
+    # the input went, where glmls warp keeps them
+    header = glmls.files.NiftiHeader(sform_code=4, qform_code=4, xyzt_units=2, descrip="t1")
+    affine = np.diag([2.0, 1.0, 1.5, 1.0])
+    data = np.random.default_rng(0).integers(0, 255, SHAPE).astype(np.uint8)
+    volume = glmls.Volume(data, affine=affine, nifti=header)
+    dst = SRC + [[1.5, 0.5, 0.0], [0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]]
+    app = VolumeApp(volume, SRC, dst, save_as=".nii.gz", out_dir=tmp_path)
+    with glmls.MLS(SRC, dst, transform="rigid", shape=SHAPE, ctx=gl) as m:
+        app.window, app.session = object(), types.SimpleNamespace(mls=m, error="")
+        app._command("save_volume")
+    saved = glmls.files.read_volume(tmp_path / "volume-warped.nii.gz")
+    assert saved.nifti == header
+    np.testing.assert_allclose(saved.affine, affine)
+
+
 @pytest.mark.parametrize(
     ("dtype", "suffix"),
     [(np.int16, ".nii.gz"), (np.int16, ".tif"), (np.int32, ".npy"), (np.bool_, ".npy")],
