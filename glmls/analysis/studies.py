@@ -41,7 +41,7 @@ from .colormaps import VIRIDIS
 from .jobs import run_jobs
 from .tuning import TuneResult, label, parse_config, search_space, tune
 
-__all__ = ["StudyResult", "StudyTask", "render_heatmap", "study", "tune_item"]
+__all__ = ["StudyResult", "StudyTask", "render_heatmap", "study", "study_label", "tune_item"]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -66,7 +66,7 @@ def tune_item(task: StudyTask) -> tuple[TuneResult, float]:
             task.item.reference,
             src_segments=handles.src_segments,
             dst_segments=handles.dst_segments,
-            configs=list(task.configs),
+            configs=list(dict.fromkeys(task.configs)),  # a repeat once, in its first place
             seed=task.seed,
             **({} if task.trials is None else {"trials": task.trials}),
         )
@@ -78,7 +78,9 @@ def tune_item(task: StudyTask) -> tuple[TuneResult, float]:
 def _configs_for(shape: tuple[int, int], configs: Sequence[MLSConfig | str] | None):
     """The configurations for an image of ``shape``: the default search space, or each spec
     parsed for this shape (specs without a radius size it by the diagonal), or the
-    configurations given; repeats dropped (the first kept)."""
+    configurations given. Repeats stay: a configuration's place in this list matches it
+    between images, and a spec can repeat one on some images only (an explicit radius equal
+    to a fraction of one image's diagonal); the tune meets each once."""
     if configs is None:
         made = search_space(shape)
     else:
@@ -90,7 +92,7 @@ def _configs_for(shape: tuple[int, int], configs: Sequence[MLSConfig | str] | No
                 made.append(config)
             else:
                 raise TypeError(f"configs: expected MLSConfig or spec strings, got {config!r}")
-    return tuple(dict.fromkeys(made))
+    return tuple(made)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -104,7 +106,8 @@ class StudyResult:
     results : list of TuneResult
         Each item's tune.
     configs : list of tuple of MLSConfig
-        Each item's configurations, matched between items by place.
+        Each item's configurations, matched between items by place (a configuration that
+        comes twice for an item is tuned once and fills its first place only).
     diagonals : list of float
         Each item's image diagonal in pixels.
     settings : dict
@@ -342,14 +345,34 @@ def study(
     )
 
 
-def _study_label(configs: list[MLSConfig], diagonals: list[float]) -> str:
+def study_label(configs: list[MLSConfig], diagonals: list[float]) -> str:
     """The label of a configuration matched over images: its own, or with the radius as a
-    fraction of the diagonal where the radius differs from image to image."""
+    fraction of the diagonal where the radius differs from image to image.
+
+    Parameters
+    ----------
+    configs : list of MLSConfig
+        The configuration on each image.
+    diagonals : list of float
+        Each image's diagonal in pixels.
+
+    Returns
+    -------
+    str
+        E.g. ``rigid gaussian R=0.25 diag interp``; ``R=varies`` where the radii are no
+        one fraction of the diagonals.
+    """
     first = label(configs[0])
     if all(c == configs[0] for c in configs) or configs[0].radius is None:
         return first
-    fractions = {round(c.radius / d, 3) for c, d in zip(configs, diagonals, strict=True)}
-    text = f"R={fractions.pop():g} diag" if len(fractions) == 1 else "R=varies"
+    # the search space rounds each radius to 0.1 px: one fraction is within 0.05 px of all
+    widest = int(np.argmax(diagonals))
+    fraction = configs[widest].radius / diagonals[widest]
+    same = all(
+        c.radius is not None and abs(c.radius - fraction * d) <= 0.1
+        for c, d in zip(configs, diagonals, strict=True)
+    )
+    text = f"R={fraction:.3g} diag" if same else "R=varies"
     replaced = re.sub(r"R=[0-9.e+-]+", text, first)
     return replaced if replaced != first else f"{first} ({text})"
 
@@ -357,7 +380,9 @@ def _study_label(configs: list[MLSConfig], diagonals: list[float]) -> str:
 def _table(result: StudyResult) -> list[dict]:
     entries: dict[tuple, dict] = {}
     for name, tuned, configs in zip(result.names, result.results, result.configs, strict=True):
-        place = {config: k for k, config in enumerate(configs)}
+        place: dict[MLSConfig, int] = {}
+        for k, config in enumerate(configs):
+            place.setdefault(config, k)  # a repeat on this image fills its first place
         for row in tuned.rows:
             config = MLSConfig(**row["config"])
             own = label(config)
@@ -376,7 +401,7 @@ def _table(result: StudyResult) -> list[dict]:
     for (_, suffix), entry in entries.items():
         owners = [i for i, n in enumerate(result.names) if n in entry["images"]]
         configs = [MLSConfig(**entry["images"][result.names[i]]["config"]) for i in owners]
-        base = _study_label(configs, [result.diagonals[i] for i in owners])
+        base = study_label(configs, [result.diagonals[i] for i in owners])
         ranks = [cell["rank"] for cell in entry["images"].values()]
         rows.append(
             {

@@ -154,12 +154,15 @@ def parse_config(spec: str, shape: Sequence[int]) -> list[MLSConfig]:
 
 
 def label(config: MLSConfig) -> str:
-    """A short name such as ``rigid idw a=2`` or ``affine gaussian R=362``."""
+    """A short name such as ``rigid idw a=2``, ``affine gaussian R=362`` or ``rigid gaussian
+    R=362 interp a=2`` (the power of the interpolating factor, where it is not 1)."""
     if config.weight == "idw":
         parameter = f"a={config.alpha:g}" + (f" s={config.s:g}" if config.s != 1e-8 else "")
     else:
         parameter = f"R={config.radius:g}" if config.radius is not None else "R=diag"
     extra = " interp" if config.interpolating else ""
+    if config.interpolating and config.weight != "idw" and config.alpha != 1.0:
+        extra += f" a={config.alpha:g}"  # the interpolating factor's power, 1 / d^(2 alpha)
     return f"{config.transform} {config.weight} {parameter}{extra}"
 
 

@@ -9,7 +9,8 @@ import pytest
 from scipy.stats import kendalltau
 
 from glmls.analysis import studies
-from glmls.analysis.tuning import parse_config
+from glmls.analysis.tuning import label, parse_config, search_space
+from glmls.core.config import image_diagonal
 from glmls.core.handleset import HandleSet
 from glmls.data import StudyItem, read_manifest
 from glmls.errors import InputFileError
@@ -209,3 +210,43 @@ def test_bad_manifest_files(files):
             read_manifest(files / "set.json")
     with pytest.raises(InputFileError, match="no such file"):
         read_manifest(files / "missing.json")
+
+
+def test_a_spec_that_repeats_a_configuration_on_one_image_keeps_the_places(gl):
+    """On "small" (diagonal 51.2) the explicit radius 25.6 is the default grid's half
+    diagonal too: the repeat is tuned once, and the rows after it still hold one
+    configuration each, the same fraction of every image's diagonal."""
+    found = studies.study(
+        items(), configs=["rigid:gaussian:radius=25.6,interpolating=true", "rigid:gaussian"],
+        trials=1,
+    )  # fmt: skip
+    diagonals = dict(zip(found.names, found.diagonals, strict=True))
+    for row in found.table():
+        fractions = {
+            round(cell["config"]["radius"] / diagonals[name], 2)
+            for name, cell in row["images"].items()
+        }
+        explicit = all(cell["config"]["radius"] == 25.6 for cell in row["images"].values())
+        assert explicit or len(fractions) == 1, row
+    ranked = {r["label"]: sorted(r["images"]) for r in found.table()}
+    assert ranked == {
+        "rigid gaussian R=25.6 interp": ["large", "small"],
+        "rigid gaussian R=0.25 diag interp": ["large", "small"],
+        "rigid gaussian R=38.4 interp": ["large"],  # half of large's diagonal
+        "rigid gaussian R=1 diag interp": ["large", "small"],
+    }
+
+
+def test_labels_tell_configurations_apart():
+    one = parse_config("rigid:gaussian:radius=20,interpolating=true", (32, 40))[0]
+    two = parse_config("rigid:gaussian:radius=20,interpolating=true,alpha=2", (32, 40))[0]
+    assert label(one) == "rigid gaussian R=20 interp"
+    assert label(two) == "rigid gaussian R=20 interp a=2"
+
+
+def test_a_radius_of_the_same_fraction_is_labelled_by_it_whatever_the_rounding():
+    """Each image's radius is rounded to 0.1 px: half of 62.48 px is 31.2, 0.4994 of it."""
+    shapes = ((40, 48), (56, 64))
+    configs = [search_space(s, transforms=["rigid"], weights=["gaussian"])[1] for s in shapes]
+    diagonals = [image_diagonal(shape) for shape in shapes]
+    assert studies.study_label(configs, diagonals) == "rigid gaussian R=0.5 diag interp"
