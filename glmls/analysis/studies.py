@@ -35,6 +35,7 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 from ..core.config import MLSConfig, check_seed, image_diagonal
+from ..core.handles import check_reference_points
 from ..data.manifest import StudyItem
 from ..files.atomic import atomic_write
 from .colormaps import VIRIDIS
@@ -305,6 +306,11 @@ def study(
     ):
         raise ValueError(f"trials must be an integer >= 1, got {trials!r}")
     seed = check_seed(seed)
+    for index, item in enumerate(items):  # before any tune: not after hours of the others
+        try:
+            check_reference_points(item.reference)
+        except ValueError as error:
+            raise ValueError(f"item {index}: {item.name}: {error}") from None
     per_item = [_configs_for(item.shape, configs) for item in items]
     if not per_item[0]:
         raise ValueError("no configurations to compare")

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.handles import as_points
+from ..core.handles import check_reference_points
 from .stats import error_stats
 
 #: The angular measures of :func:`triangle_errors` (the first is the default).
@@ -108,27 +108,6 @@ class TriangleErrors:
             "distance": error_stats(self.distance),
             "angle": error_stats(self.angle),
         }
-
-
-def check_reference_points(points: object) -> np.ndarray:
-    """The reference points as (N, 2) float64; ``ValueError`` unless they can be triangulated
-    (at least 3, finite, no duplicates, not all on one line)."""
-    r = as_points(points, "reference_points")  # raises ValueError on NaN / inf
-    if len(r) < 3:
-        raise ValueError(f"reference_points: a triangulation needs at least 3 points, got {len(r)}")
-    order = np.lexsort((r[:, 1], r[:, 0]))
-    same = (r[order[1:]] == r[order[:-1]]).all(axis=1)
-    if same.any():
-        k = int(np.argmax(same))
-        i, j = sorted((int(order[k]), int(order[k + 1])))
-        raise ValueError(
-            f"reference_points[{i}] and reference_points[{j}] are the same point {r[i].tolist()}"
-        )
-    centred = r - r.mean(axis=0)
-    singular = np.linalg.svd(centred, compute_uv=False)
-    if singular[1] <= 1e-10 * singular[0]:
-        raise ValueError("reference_points all lie on one line: no triangle can be formed")
-    return r
 
 
 def delaunay(points: object) -> tuple[np.ndarray, np.ndarray]:

@@ -67,6 +67,27 @@ def as_points(points: object, name: str = "points") -> np.ndarray:
     return array
 
 
+def check_reference_points(points: object) -> np.ndarray:
+    """The reference points as (N, 2) float64; ``ValueError`` unless they can be triangulated
+    (at least 3, finite, no duplicates, not all on one line)."""
+    r = as_points(points, "reference_points")  # raises ValueError on NaN / inf
+    if len(r) < 3:
+        raise ValueError(f"reference_points: a triangulation needs at least 3 points, got {len(r)}")
+    order = np.lexsort((r[:, 1], r[:, 0]))
+    same = (r[order[1:]] == r[order[:-1]]).all(axis=1)
+    if same.any():
+        k = int(np.argmax(same))
+        i, j = sorted((int(order[k]), int(order[k + 1])))
+        raise ValueError(
+            f"reference_points[{i}] and reference_points[{j}] are the same point {r[i].tolist()}"
+        )
+    centred = r - r.mean(axis=0)
+    singular = np.linalg.svd(centred, compute_uv=False)
+    if singular[1] <= 1e-10 * singular[0]:
+        raise ValueError("reference_points all lie on one line: no triangle can be formed")
+    return r
+
+
 def check_coordinates(points: np.ndarray, name: str = "points") -> np.ndarray:
     """``points`` ((N, 2) float64) if every coordinate lies within :data:`COORDINATE_LIMIT`;
     ``ValueError`` naming the range and the first row beyond it otherwise."""

@@ -11,10 +11,11 @@ A manifest is a JSON file::
 (a bare list of the items is accepted too). Paths are relative to the manifest's folder (or
 absolute); ``handles`` is any handles file that :func:`glmls.files.landmarks.read_handle_set`
 reads (JSON, CSV or BigWarp: 2D points, segments, polylines) and ``reference`` a reference-points
-file (:func:`~glmls.files.landmarks.read_points`, at least 3 points). ``name`` is optional
-(default: the image's file name without its suffix) and must be unique, since it names the
-item's column in the study's table and its output folder; other keys (``"description"``) are
-ignored. Only the image's header is read (its size): a study needs the image's shape only.
+file (:func:`~glmls.files.landmarks.read_points`, at least 3 points, no point twice, not all on
+one line). ``name`` is optional (default: the image's file name without its suffix) and must
+be unique, since it names the item's column in the study's table and its output folder; other
+keys (``"description"``) are ignored. Only the image's header is read (its size): a study
+needs the image's shape only.
 
 Every fault is an :class:`~glmls.errors.InputFileError` naming the manifest, the item and the
 field: ``set.json: "items"[2] (cat): "handles": cat.json: no such file``.
@@ -31,6 +32,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from ..core.handles import check_reference_points
 from ..core.handleset import HandleSet
 from ..errors import InputFileError
 from ..files.images import DEFAULT_MAX_PIXELS, imread
@@ -136,7 +138,8 @@ def read_manifest(path: str | os.PathLike) -> list[StudyItem]:
     InputFileError
         A ``ValueError`` naming the manifest, the item and the field: invalid JSON, no items,
         a missing or unreadable file, a file of 3D handles (a study deforms 2D images), fewer
-        than 3 reference points, a name taken twice.
+        than 3 reference points, or reference points that cannot be triangulated (the same
+        point twice, all on one line), a name taken twice.
 
     Examples
     --------
@@ -222,5 +225,9 @@ def _item(manifest: Path, where: str, entry: object) -> StudyItem:
             f"{files['reference']}: {len(reference)} reference points; the triangle errors "
             f"need at least {MIN_REFERENCE_POINTS}",
         )
+    try:  # here, not after the tunes of the items before it
+        reference = check_reference_points(reference)
+    except ValueError as error:
+        raise problem("reference", f"{files['reference']}: {error}") from None
     reference.flags.writeable = False
     return StudyItem(name, shape, handles, reference, files["image"])

@@ -132,8 +132,13 @@ def test_bad_arguments(gl):
     with pytest.raises(TypeError, match="items must be StudyItems"):
         studies.study(["x"])
     flat = StudyItem("flat", (32, 40), items()[0].handles, np.array([[1, 1], [5, 5], [9, 9.0]]))
-    with pytest.raises(ValueError, match=r"^item 1: flat: "):
-        studies.study([items()[1], flat], configs=["rigid:idw:alpha=1"], trials=1)
+    done = []
+    with pytest.raises(ValueError, match=r"^item 1: flat: reference_points all lie on one"):
+        studies.study(
+            [items()[1], flat], configs=["rigid:idw:alpha=1"], trials=1,
+            on_step=lambda: done.append(1),
+        )  # fmt: skip
+    assert not done  # found before any image is tuned
     configs = parse_config("rigid:idw:alpha=2", (32, 40))
     one = studies.study(items(), configs=configs, trials=1)
     assert [r["label"] for r in one.table()] == ["rigid idw a=2"]
@@ -153,6 +158,8 @@ def files(tmp_path):
     (tmp_path / "h.json").write_text(json.dumps({"src": SRC.tolist(), "dst": SRC.tolist()}))
     (tmp_path / "r.json").write_text(json.dumps({"points": REFERENCE.tolist()}))
     (tmp_path / "two.json").write_text(json.dumps({"points": [[1, 1], [5, 5]]}))
+    (tmp_path / "line.json").write_text(json.dumps({"points": [[1, 1], [5, 5], [9, 9]]}))
+    (tmp_path / "twice.json").write_text(json.dumps({"points": [[1, 1], [5, 1], [1, 1], [3, 9]]}))
     return tmp_path
 
 
@@ -185,6 +192,8 @@ GOOD = {"image": "a.png", "handles": "h.json", "reference": "r.json"}
             r'"items"\[0\] \(a\)\."handles": .*gone.json: no such',
         ),
         ([{**GOOD, "reference": "two.json"}], r'"reference": .*2 reference points; .* at least 3'),
+        ([{**GOOD, "reference": "line.json"}], r'\(a\)\."reference": .*line.json: .*on one line'),
+        ([{**GOOD, "reference": "twice.json"}], r'"reference": .*twice.json: .* the same point'),
         ([{**GOOD, "handles": "bad.json"}], r'"handles": .*bad.json: line 1: invalid JSON'),
         ([{"image": "a.png", "handles": "h.json"}], r'"items"\[0\]\."reference": expected a file'),
         ([GOOD, GOOD], r'"items"\[1\]: the name \'a\' is taken by item 0'),
