@@ -40,7 +40,7 @@ from ..data.manifest import StudyItem
 from ..files.atomic import atomic_write
 from .colormaps import VIRIDIS
 from .jobs import run_jobs
-from .tuning import TuneResult, label, parse_config, search_space, tune
+from .tuning import MISS_LIMIT, TuneResult, label, parse_config, search_space, tune
 
 __all__ = ["StudyResult", "StudyTask", "render_heatmap", "study", "study_label", "tune_item"]
 
@@ -152,8 +152,10 @@ class StudyResult:
         -------
         list of dict
             ``label``, ``mean_rank``, ``wins``, ``ranked_on`` and ``images``: name ->
-            {rank, score, admissible, handle_miss, config} (absent where the configuration
-            could not be built for the image's handles).
+            {rank, tied_rank, score, admissible, handle_miss, config} (absent where the
+            configuration could not be built for the image's handles); ``tied_rank`` is
+            the rank shared by the configurations the tune cannot tell apart (the same
+            score), which the rank agreement uses.
         """
         return _table(self)
 
@@ -386,10 +388,11 @@ def study_label(configs: list[MLSConfig], diagonals: list[float]) -> str:
 def _table(result: StudyResult) -> list[dict]:
     entries: dict[tuple, dict] = {}
     for name, tuned, configs in zip(result.names, result.results, result.configs, strict=True):
+        tied = _tied_ranks(tuned)
         place: dict[MLSConfig, int] = {}
         for k, config in enumerate(configs):
             place.setdefault(config, k)  # a repeat on this image fills its first place
-        for row in tuned.rows:
+        for row, tied_rank in zip(tuned.rows, tied, strict=True):
             config = MLSConfig(**row["config"])
             own = label(config)
             # a tune that ranks more than one row per configuration names them apart
@@ -398,6 +401,7 @@ def _table(result: StudyResult) -> list[dict]:
             entry = entries.setdefault(key, {"images": {}})
             entry["images"][name] = {
                 "rank": int(row["rank"]),
+                "tied_rank": tied_rank,
                 "score": _number(row.get("score", row.get("combined"))),
                 "admissible": row.get("admissible"),
                 "handle_miss": _number(row.get("handle_miss_mean")),
@@ -422,6 +426,27 @@ def _table(result: StudyResult) -> list[dict]:
     return rows
 
 
+def _tied_ranks(tuned: TuneResult) -> list[float]:
+    """Each row's rank, shared (the mean of their places) by the rows the tune cannot tell
+    apart: the same group (admissible, folding, missing) and the same score. The tune
+    orders those by name, which says nothing of the image (one handle: every configuration
+    is the same translation)."""
+    key = "score" if tuned.rank_by == "rank" else f"{tuned.rank_by}_mean"
+
+    def standing(row: dict) -> tuple:
+        missing = row.get("handle_miss_max", 0.0) > MISS_LIMIT
+        score = row.get("score", row.get("combined"))
+        return (row.get("admissible"), missing, row.get(key, score), score)
+
+    ranks: list[float] = []
+    start = 0
+    for _, group in itertools.groupby(tuned.rows, key=standing):
+        size = len(list(group))
+        ranks += [start + (size + 1) / 2] * size
+        start += size
+    return ranks
+
+
 def _number(value: object) -> float | None:
     if value is None:
         return None
@@ -440,8 +465,8 @@ def rank_agreement(rows: list[dict], names: list[str]) -> dict:
         common = [r for r in rows if a in r["images"] and b in r["images"]]
         tau = p_value = None
         if len(common) >= 2:
-            found = kendalltau(
-                [r["images"][a]["rank"] for r in common], [r["images"][b]["rank"] for r in common]
+            found = kendalltau(  # tau-b: configurations an image ranks alike are a tie
+                [_rank(r, a) for r in common], [_rank(r, b) for r in common]
             )
             if math.isfinite(found.statistic):
                 tau, p_value = float(found.statistic), float(found.pvalue)
@@ -462,17 +487,30 @@ def rank_agreement(rows: list[dict], names: list[str]) -> dict:
     }
 
 
+def _rank(row: dict, name: str) -> float:
+    """The configuration's rank on the image, shared with those the tune cannot tell apart."""
+    cell = row["images"][name]
+    return cell.get("tied_rank", cell["rank"])
+
+
 def _kendall_w(rows: list[dict], names: list[str]) -> float | None:
-    """Kendall's coefficient of concordance W = 12 S / (m² (n³ - n)) of m images ranking n
-    configurations (ranked again among these n; tune ranks have no ties)."""
+    """Kendall's coefficient of concordance W = 12 S / (m² (n³ - n) - m Σ T) of m images
+    ranking n configurations (ranked again among these n, ties sharing their mean rank; T =
+    Σ (t³ - t) over each image's groups of t tied configurations); None where every image
+    ties them all."""
+    from scipy.stats import rankdata  # here: scipy.stats takes ~0.7 s to import
+
     m, n = len(names), len(rows)
     if m < 2 or n < 2:
         return None
-    ranks = np.array([[r["images"][name]["rank"] for r in rows] for name in names], float)
-    ranks = ranks.argsort(axis=1).argsort(axis=1) + 1.0
+    ranks = rankdata([[_rank(r, name) for r in rows] for name in names], axis=1)
+    ties = sum(
+        float((c**3 - c).sum()) for c in (np.unique(x, return_counts=True)[1] for x in ranks)
+    )
     totals = ranks.sum(axis=0)
     spread = float(((totals - totals.mean()) ** 2).sum())
-    return 12.0 * spread / (m**2 * (n**3 - n))
+    denominator = m**2 * (n**3 - n) - m * ties
+    return 12.0 * spread / denominator if denominator > 0 else None
 
 
 def _summary(result: StudyResult, rows: list[dict]) -> dict:

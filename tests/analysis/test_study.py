@@ -259,3 +259,19 @@ def test_a_radius_of_the_same_fraction_is_labelled_by_it_whatever_the_rounding()
     configs = [search_space(s, transforms=["rigid"], weights=["gaussian"])[1] for s in shapes]
     diagonals = [image_diagonal(shape) for shape in shapes]
     assert studies.study_label(configs, diagonals) == "rigid gaussian R=0.5 diag interp"
+
+
+def test_configurations_a_tune_cannot_tell_apart_share_their_rank(gl):
+    """With one handle every configuration is the same translation: the tune's order of
+    them is by name only, and says nothing of which suits the image."""
+    one = HandleSet.validate(SRC[:1], SRC[:1] + [3.0, 2.0])
+    found = studies.study(
+        [items()[0], StudyItem("one", (32, 40), one, REFERENCE)],
+        configs=["rigid:idw", "affine:idw:alpha=1"], trials=2,
+    )  # fmt: skip
+    scores = {r["images"]["one"]["score"] for r in found.table()}
+    assert len(scores) == 1  # a three-way tie
+    agreement = found.summary()["rank_agreement"]
+    assert agreement["kendall_tau"][0]["tau"] is None  # no order to agree with
+    assert agreement["kendall_w"] == pytest.approx(0.5)  # a mean Spearman correlation of 0
+    assert [r["images"]["one"]["tied_rank"] for r in found.table()] == [2.0, 2.0, 2.0]
