@@ -365,7 +365,8 @@ def tune(
     seed : int, optional
         The seed of the edits.
     configs : sequence of MLSConfig, optional
-        The configurations compared (default :func:`search_space`).
+        The configurations compared (default :func:`search_space`); one given twice is
+        compared once.
     grid : int, optional
         The error field's mesh step in pixels.
     magnitudes : sequence of float, optional
@@ -430,6 +431,7 @@ def tune(
     for config in configs:
         if not isinstance(config, MLSConfig):
             raise TypeError(f"configs must be MLSConfig values, got {config!r}")
+    configs = list(dict.fromkeys(configs))  # a repeat would tie with itself, moving the others
     handles = HandleSet.validate(src, dst, src_segments, dst_segments)
     if not len(handles):  # every configuration is the identity: nothing to compare
         raise ValueError("tune needs at least one handle (a point or a segment), got none")

@@ -166,6 +166,8 @@ def run(args: argparse.Namespace) -> int:
         )
     except (TypeError, ValueError) as error:
         raise UsageError(str(error)) from None
+    if configs is not None:  # the tune ranks a repeat once: the progress bar counts it once
+        configs = list(dict.fromkeys(configs))
     count = len(configs) if configs is not None else len(search_space(shape))
     say(args, f"tune: {name}, {count} configurations x {args.trials} random deformations")
     with Progress(count * args.trials, "tune", quiet=args.quiet) as bar:

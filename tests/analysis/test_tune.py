@@ -203,3 +203,13 @@ def test_bad_arguments():
         tuning.tune((30, 40), SRC, DST, REFERENCE, configs=["rigid:idw"])
     with pytest.raises(ValueError, match="at least 3"):
         tuning.tune((30, 40), SRC, DST, REFERENCE[:2])
+
+
+def test_a_configuration_given_twice_is_ranked_once(gl):
+    """``rigid:idw`` holds ``rigid:idw:alpha=1``: a second row of it would be a tie that
+    moves every other configuration's ranks."""
+    configs = tuning.parse_config("rigid:idw", (32, 40)) + tuning.parse_config(
+        "rigid:idw:alpha=1", (32, 40)
+    )
+    once = tuning.tune((32, 40), SRC, DST, REFERENCE, trials=1, configs=configs, ctx=gl)
+    assert sorted(r["label"] for r in once.rows) == ["rigid idw a=1", "rigid idw a=2"]
