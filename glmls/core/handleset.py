@@ -90,7 +90,8 @@ class HandleSet:
         ------
         ValueError
             Naming the bad value: a wrong shape, different lengths, a value that is not
-            finite, a zero-length source segment, a source point with two targets (two
+            finite, a source segment of zero length or shorter than float32 on the GPU
+            tells apart at the handles' extent, a source point with two targets (two
             point handles, a point handle on a segment, segments sharing a point).
         TypeError
             For arrays that are not numeric.

@@ -134,7 +134,8 @@ _PAIR_BLOCK = 1 << 18
 
 def check_on_segments(p: np.ndarray, q: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
     """``ValueError`` if a source point lies on a source segment whose target there is not
-    the point's own target: f cannot take both values.
+    the point's own target: f cannot take both values; or if a source segment is no longer
+    than the tolerance below (a point to the GPU).
 
     The points are the point handles and the ends of the segments (a segment's end on
     another segment, two segments sharing a vertex); "on" and "the same target" are up to
@@ -156,6 +157,15 @@ def check_on_segments(p: np.ndarray, q: np.ndarray, a: np.ndarray, b: np.ndarray
     both = np.concatenate([x, y])
     extent = float((both.max(axis=0) - both.min(axis=0)).max())
     tol = 4.0 * float(np.finfo(np.float32).eps) * max(extent / 2.0, 1.0)
+    length = np.hypot(*(a[:, 1] - a[:, 0]).T)
+    if (length <= tol).any():
+        # its ends (nearly) one point on the GPU: its moments are lost, or NaN
+        s = int(np.argmax(length <= tol))
+        raise ValueError(
+            f"src_segments[{s}] {a[s].tolist()} is {length[s]:.3g} px long, shorter than "
+            f"float32 on the GPU tells apart at this scale ({tol:.3g} px): give it as a "
+            "point handle"
+        )
     found = _first_on_segment(x, y, owner, a, b, tol)
     if found is None:
         return

@@ -94,6 +94,23 @@ def test_a_reversed_duplicate_segment_shows_its_targets_in_one_direction():
     assert HandleSet.validate(NONE, NONE, np.stack([a, a[::-1]]), np.stack([b, b[::-1]]))
 
 
+@pytest.mark.parametrize("length", [1e-7, 1e-5, 1e-12])
+def test_a_segment_shorter_than_float32_tells_apart_is_refused(length):
+    # its ends merged in the GPU's float32 coordinates: f was NaN everywhere (1e-7 px at
+    # 500 px), or its moments lost (1e-5 px: f 0.2-0.4 px off half a pixel from it)
+    p = np.array([[10.0, 10.0], [500.0, 20.0], [200.0, 400.0]])
+    segment = np.array([[[500.0, 500.0], [500.0 + length, 500.0]]])
+    match = (
+        r"src_segments\[0\] .* is .* px long, shorter than float32 on the GPU tells apart "
+        r"at this scale \(.* px\): give it as a point handle"
+    )
+    with pytest.raises(ValueError, match=match):
+        glmls.MLS(p, p + 1.0, src_segments=segment, dst_segments=segment + 3.0)
+    # a thousandth of a pixel is a segment (tests/engine/test_segment_precision.py)
+    segment[0, 1, 0] = 500.001
+    assert HandleSet.validate(p, p, segment, segment).segments == 1
+
+
 def _near_pair(dimension: int) -> tuple[np.ndarray, np.ndarray]:
     """Sources 1e-7 px apart (one point in float32 scaled coordinates), targets 10 px apart."""
     corners = np.eye(dimension) * 25.0 + 5.0

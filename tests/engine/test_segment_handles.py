@@ -118,6 +118,28 @@ def test_a_segment_split_in_two_is_the_same_handle(rng, weight):
         assert_allclose(halves(v), whole(v), atol=1e-3)
 
 
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_crossing_segments_keep_their_targets_up_to_the_crossing(transform):
+    """Interiors that cross are accepted whatever their targets there ([10, 10] and [10, 15]
+    at the middle of both): each segment maps onto its target, and the crossing point onto
+    the target of the segment given first, on the GPU as in the reference."""
+    a = np.array([[[0.0, 0.0], [20.0, 20.0]], [[0.0, 20.0], [20.0, 0.0]]])
+    b = a + [[[0.0, 0.0], [0.0, 0.0]], [[0.0, 5.0], [0.0, 5.0]]]
+    t = np.array([[0.1, 0.3, 0.49, 0.51, 0.8]] * 2)
+    crossing = np.array([[10.0, 10.0]])
+    for order in ([0, 1], [1, 0]):
+        with glmls.MLS(
+            NONE, NONE, src_segments=a[order], dst_segments=b[order], transform=transform
+        ) as m:
+            assert_allclose(m(along(a, t)), along(b, t), atol=1e-2)
+            assert_allclose(m(crossing), [[10.0, 10.0 + 5.0 * order[0]]], atol=1e-3)
+            v = crossing + [[0.3, 0.0], [0.0, -0.7], [2.0, 1.0]]
+            ref = reference.mls(
+                NONE, NONE, v, transform=transform, src_segments=a[order], dst_segments=b[order]
+            )[0]
+            assert_allclose(m(v), ref, atol=1e-2)
+
+
 def test_identity_segments_give_the_identity_exactly(rng):
     a, _ = random_segments(rng, 8)
     p = rng.uniform(0, SIZE, (5, 2))
