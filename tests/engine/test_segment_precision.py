@@ -68,3 +68,23 @@ def test_points_on_a_lone_segment(gl, transform, length):
     assert np.isfinite(f).all() and np.isfinite(M).all()
     assert_allclose(f, f_ref, atol=1e-4)
     assert_allclose(M, M_ref, atol=1e-4)
+
+
+@pytest.mark.parametrize("transform", ["similarity", "rigid"])
+def test_a_segment_that_decides_m_in_a_gaussians_tail_counts(gl, transform):
+    """Three point handles and a segment, gaussian R = 50 px: at (300, 300) the nearest
+    handle outweighs the segment by e^24 and the other points by e^44 and more, so the
+    segment decides M. The segments' quadrature cut it where it weighed below e^-24 of the
+    nearest (f 1.5 px off, the segment ignored); it counts down to float32's range now."""
+    p = np.array([[10.0, 10], [500, 20], [200, 400]])
+    q = p + [[1.0, 1], [-2, 1], [0, 3]]
+    src_segments = np.array([[[500.0, 500], [510, 500]]])
+    dst_segments = src_segments + [3.0, 4.0]
+    v = np.array([[300.0, 300], [250, 350]])
+    options = {"transform": transform, "weight": "gaussian", "radius": 50.0}
+    segments = {"src_segments": src_segments, "dst_segments": dst_segments}
+    expected, _, _ = reference.mls(p, q, v, **options, **segments)
+    without, _, _ = reference.mls(p, q, v, **options)
+    assert np.abs(expected - without).max() > 0.5  # the segment matters there
+    with glmls.MLS(p, q, **options, **segments) as m:
+        assert_allclose(m(v), expected, atol=1e-3)

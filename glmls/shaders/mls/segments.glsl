@@ -29,7 +29,10 @@ uniform float u_segment_sigma;   // 1, or 0 where idw's s is negligible (glmls.c
 
 const float MLS_PANEL_WIDTH = 1.5;
 const int MLS_MAX_PANELS = 24;
-const float MLS_SEGMENT_GAUSSIAN_CUT = 24.0;
+// e^-80 of the nearest handle's weight: in a gaussian's far tail the handles apart from the
+// nearest decide M however small their weights (mls/weights.glsl), so a segment there counts
+// down to float32's range (a cut at e^-24 dropped a segment that decided M: f 1.5 px off)
+const float MLS_SEGMENT_GAUSSIAN_CUT = 80.0;
 // 8-point Gauss-Legendre nodes and weights on [-1, 1] (the positive half; symmetric)
 const float MLS_GL_X[4] = float[4](0.1834346424956498, 0.5255324099163290,
                                    0.7966664774136267, 0.9602898564975363);
