@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..files.landmarks import read_handles, write_handles
-from ..files.volumes import VOLUME_SUFFIXES, Volume, write_volume
+from ..files.volumes import VOLUME_SUFFIXES, Volume, in_dtype, write_volume
 from .glfw_window import NoDisplayError
 from .hud import PANEL_CHARS, frame_rate, wrap
 from .volume_controller import AXES, VIEWS, VolumeController, VolumeSettings
@@ -24,24 +24,11 @@ from .volume_session import VolumeSession, display_volume
 from .volume_view import VolumeView, montage_layout, text_groups, window_size
 from .window_loop import WindowLoop
 
-__all__ = ["WARPED_AS_IS", "NoDisplayError", "VolumeApp", "in_dtype"]
+__all__ = ["WARPED_AS_IS", "NoDisplayError", "VolumeApp"]
 
 #: The dtypes the volume warps take as they are; ``s`` warps others as float32 (exact for
 #: integers within +-2**24) and writes them back in their own dtype, as ``glmls warp`` does.
 WARPED_AS_IS = (np.uint8, np.uint16, np.float32, np.float64)
-
-
-def in_dtype(warped: np.ndarray, dtype: np.dtype) -> np.ndarray:
-    """A warped volume in ``dtype``: integers rounded and clipped to its range, a bool mask
-    true where the warped value is at least 1/2."""
-    if warped.dtype == dtype:
-        return warped
-    if dtype == np.bool_:
-        return warped >= 0.5
-    if np.issubdtype(dtype, np.integer):
-        info = np.iinfo(dtype)
-        return np.clip(np.rint(warped), info.min, info.max).astype(dtype)
-    return warped.astype(dtype)
 
 
 class VolumeApp(WindowLoop):

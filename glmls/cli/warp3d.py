@@ -34,6 +34,7 @@ from ..files.volumes import (
     VOLUME_SUFFIXES,
     Volume,
     flat_npy,
+    in_dtype,
     is_volume_file,
     read_volume,
     volume_suffix,
@@ -390,7 +391,7 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
                 result = np.asarray(m.warp(data, **options))
             except (TypeError, ValueError, NotImplementedError) as error:
                 raise UsageError(f"{args.input}: {error}") from None
-    result = _in_dtype(result, dtype)
+    result = in_dtype(result, dtype)
     depth, height, width = result.shape[:3]
     where = "" if spacing is None else f", spacing (dz, dy, dx) = {spacing_text(spacing)}"
     say(args, f"warp: volume {width} x {height} x {depth} voxels (x, y, z){where}")
@@ -402,19 +403,6 @@ def spacing_text(spacing) -> str:
     """``(dz, dy, dx)`` for a message, each to 7 significant digits: a NIfTI header holds its
     affine in float32, whose 0.8 reads back as 0.800000011920929."""
     return "(" + ", ".join(repr(float(f"{float(v):.7g}")) for v in spacing) + ")"
-
-
-def _in_dtype(result: np.ndarray, dtype: np.dtype) -> np.ndarray:
-    """The warped volume in the input's dtype: integers rounded and clipped to its range, a
-    bool mask true where the warped value is at least 1/2."""
-    if result.dtype == dtype:
-        return result
-    if dtype == np.bool_:
-        return result >= 0.5
-    if np.issubdtype(dtype, np.integer):
-        info = np.iinfo(dtype)
-        return np.clip(np.rint(result), info.min, info.max).astype(dtype)
-    return result.astype(dtype)
 
 
 def _count(folds: object) -> int:
