@@ -394,6 +394,12 @@ def test_the_analysis_time_is_zero_with_no_overlay(session):
     assert s.overlays() is None and s.timings["analysis"] == 0
 
 
+def save_with(app: VolumeApp, m: glmls.MLS) -> None:
+    """``s`` in ``app`` as if its window were open and showing ``m``'s deformation."""
+    app.window, app.session = object(), types.SimpleNamespace(mls=m, error="")
+    app._command("save_volume")
+
+
 def test_s_keeps_a_nifti_inputs_header_fields(gl, tmp_path):
     # only the affine was kept: the sform/qform codes (MNI here), units and description of
     # the input went, where glmls warp keeps them
@@ -404,8 +410,7 @@ def test_s_keeps_a_nifti_inputs_header_fields(gl, tmp_path):
     dst = SRC + [[1.5, 0.5, 0.0], [0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]]
     app = VolumeApp(volume, SRC, dst, save_as=".nii.gz", out_dir=tmp_path)
     with glmls.MLS(SRC, dst, transform="rigid", shape=SHAPE, ctx=gl) as m:
-        app.window, app.session = object(), types.SimpleNamespace(mls=m, error="")
-        app._command("save_volume")
+        save_with(app, m)
     saved = glmls.files.read_volume(tmp_path / "volume-warped.nii.gz")
     assert saved.nifti == header
     np.testing.assert_allclose(saved.affine, affine)
@@ -424,8 +429,7 @@ def test_s_saves_a_volume_of_any_real_dtype_in_that_dtype(gl, tmp_path, dtype, s
     dst = SRC + [[1.5, 0.5, 0.0], [0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]]
     app = VolumeApp(data, SRC, dst, save_as=suffix, out_dir=tmp_path)
     with glmls.MLS(SRC, dst, transform="rigid", shape=SHAPE, ctx=gl) as m:
-        app.window, app.session = object(), types.SimpleNamespace(mls=m, error="")
-        app._command("save_volume")
+        save_with(app, m)
         expected = m.warp(data.astype(np.float32), interpolation="linear", grid=4, border="edge")
     assert app._shown_messages() == [f"saved {tmp_path / ('volume-warped' + suffix)}"]
     saved = glmls.files.read_volume(tmp_path / f"volume-warped{suffix}").data

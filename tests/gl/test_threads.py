@@ -46,6 +46,19 @@ def run_script(body: str, tmp_path, timeout: float = 120) -> subprocess.Complete
     return done
 
 
+def assert_quiet_run(script, stdout: str) -> None:
+    """Run ``script`` under ``-X dev -W error``: exit status 0, ``stdout`` as given, nothing on
+    stderr (no segfault, ResourceWarning or traceback)."""
+    done = subprocess.run(
+        [sys.executable, "-X", "dev", "-W", "error", str(script)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0 and done.stdout == stdout, done.stderr[-3000:]
+    assert done.stderr == ""
+
+
 def image(seed):
     return np.random.default_rng(seed).integers(0, 255, (48, 56, 3), dtype=np.uint8)
 
@@ -113,14 +126,7 @@ def test_exit_with_live_objects_threads_and_forked_children_is_quiet(tmp_path):
             """
         )
     )
-    done = subprocess.run(
-        [sys.executable, "-X", "dev", "-W", "error", str(script)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert done.returncode == 0 and done.stdout == "done\n", done.stderr[-3000:]
-    assert done.stderr == ""
+    assert_quiet_run(script, "done\n")
 
 
 @pytest.mark.parametrize("forked", [False, True], ids=["process", "forked-child"])
@@ -171,14 +177,7 @@ def test_a_daemon_thread_calling_glmls_after_its_exit_functions_waits_quietly(tm
             """
         )
     )
-    done = subprocess.run(
-        [sys.executable, "-X", "dev", "-W", "error", str(script)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert done.returncode == 0 and done.stdout == "waiting\n", done.stderr[-3000:]
-    assert done.stderr == ""
+    assert_quiet_run(script, "waiting\n")
 
 
 # -- threads -----------------------------------------------------------------------------------

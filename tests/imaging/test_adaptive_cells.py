@@ -262,15 +262,22 @@ def test_children_are_predicted_only_where_f_is_smooth(gl, rng, options, smooth)
             assert adaptive_cells.smooth_weight(m.kernel) is smooth
             assert cells.predicts is smooth
             # a cell far from every handle, on an affine f: its children exact
-            lattice = np.stack(np.meshgrid(np.arange(5.0), np.arange(5.0)), -1).reshape(25, 2)
-            cells.evaluate(1000 + 2 * lattice)
-            place = np.array([5 * r + c for r, c in NODES + TESTS])
-            nodes, tests = place[None, :9], place[None, 9:]
-            size, centres = np.full(1, 8.0), np.full((1, 2), 1004.0)
-            _, _, error, _ = cells.test(nodes, tests, size, size, centres, np.ones(1, bool))
+            error = far_cell_children(cells, 8.0)
             assert bool(np.isfinite(error).all()) is smooth  # else every child tested
     finally:
         resources.release()
+
+
+def far_cell_children(cells: GPUCells, side: float) -> np.ndarray:
+    """The children's predicted errors (1, 4) of a split cell of ``side`` px at (1000, 1000),
+    far from every handle, tested by ``cells`` from its 5 x 5 grid."""
+    lattice = np.stack(np.meshgrid(np.arange(5.0), np.arange(5.0)), -1).reshape(25, 2)
+    cells.evaluate(1000 + side / 4 * lattice)
+    place = np.array([5 * r + c for r, c in NODES + TESTS])
+    nodes, tests = place[None, :9], place[None, 9:]
+    size, centres = np.full(1, side), np.full((1, 2), 1000.0 + side / 2)
+    _, _, error, _ = cells.test(nodes, tests, size, size, centres, np.ones(1, bool))
+    return error
 
 
 @pytest.mark.parametrize(
@@ -306,12 +313,6 @@ def test_the_gaussian_predicts_only_children_smaller_than_its_turns(gl, radius, 
             side = adaptive_cells.predicted_side(m.kernel, SHAPE)
             assert (side >= 16.0) is predicted
             # a 32 px cell far from every handle: its children nearly exact
-            lattice = np.stack(np.meshgrid(np.arange(5.0), np.arange(5.0)), -1).reshape(25, 2)
-            cells.evaluate(1000 + 8 * lattice)
-            place = np.array([5 * r + c for r, c in NODES + TESTS])
-            nodes, tests = place[None, :9], place[None, 9:]
-            size, centres = np.full(1, 32.0), np.full((1, 2), 1016.0)
-            _, _, error, _ = cells.test(nodes, tests, size, size, centres, np.ones(1, bool))
-            assert bool(np.isfinite(error).all()) is predicted
+            assert bool(np.isfinite(far_cell_children(cells, 32.0)).all()) is predicted
     finally:
         resources.release()
