@@ -16,6 +16,7 @@ import weakref
 from collections.abc import Callable
 from typing import Any, TypeVar
 
+from .core.config import MLSConfig
 from .errors import GLUnavailableError, ReleasedError
 from .gl import helper
 from .gl.context import current, forked_from_gl, get_context
@@ -59,11 +60,31 @@ def _give_back(gl: Any, kernels: list) -> None:
 
 class ForkSafe:
     """What an MLS needs to work in a process forked from one that used GL. The MLS has the
-    handles (``src``, ``dst``, ``src_segments``, ``dst_segments``), ``config``, ``shape``,
-    ``spacing``, ``_options`` (``storage`` and ``bins``), ``_kernel`` and ``_gl`` (None where
-    it was made in such a process) and ``released``."""
+    handles (``src``, ``dst``, ``src_segments``, ``dst_segments``), ``_config``, ``_shape``,
+    ``_spacing`` (read here as :attr:`config`, :attr:`shape` and :attr:`spacing`),
+    ``_options`` (``storage`` and ``bins``), ``_kernel`` and ``_gl`` (None where it was made
+    in such a process) and ``released``."""
 
     _dropped = False  # released, for an MLS made in a forked process
+
+    # Read-only: the GPU's f was made from them; a value assigned later would reach the repr,
+    # the inverse's first guess and a forked process's f, but not this process's f.
+    @property
+    def config(self) -> MLSConfig:
+        """The :class:`~glmls.MLSConfig` f was made with (read-only)."""
+        return self._config  # type: ignore[attr-defined]
+
+    @property
+    def shape(self) -> tuple[int, ...] | None:
+        """(H, W) of the image (a volume's (D, H, W)) given when it was made, or None
+        (read-only)."""
+        return self._shape  # type: ignore[attr-defined]
+
+    @property
+    def spacing(self) -> tuple[float, float, float] | None:
+        """3D: (dz, dy, dx) of the volume's voxels given when it was made, or None
+        (read-only)."""
+        return self._spacing  # type: ignore[attr-defined]
 
     def _release_when_dropped(self, kernel: Any) -> None:
         """Give ``kernel`` (and the swapped handles' kernel, :meth:`_owns`) back to its context

@@ -254,11 +254,11 @@ class MLS(ForkSafe):
         return self
 
     def _setup(self, handles, config, shape, ctx, storage, bins, spacing=None) -> None:
-        self.spacing: tuple[float, float, float] | None = planar_spacing(spacing)
-        self.config = config
-        self.shape = None if shape is None else as_shape(shape)
-        if self.shape is not None:
-            config.resolve_radius(self.shape)
+        self._spacing: tuple[float, float, float] | None = planar_spacing(spacing)
+        self._config = config
+        self._shape = None if shape is None else as_shape(shape)
+        if self._shape is not None:
+            config.resolve_radius(self._shape)
         handles = self._validate(*handles)
         self._options = {"shape": self.shape, "storage": storage, "bins": bins}
         self._swapped: MLSKernel | None = None
@@ -1040,7 +1040,12 @@ class InverseMLS:
         if not isinstance(forward, MLS):
             raise TypeError(f"forward must be a glmls.MLS, got {type(forward).__name__}")
         self._forward = forward
-        self.grid = check_grid(grid)
+        self._grid = check_grid(grid)
+
+    @property
+    def grid(self) -> int:
+        """The first guess's mesh step, pixels (read-only)."""
+        return self._grid
 
     @property
     def inverse(self) -> MLS:

@@ -123,9 +123,9 @@ class MLS3(MLS):
             )
         if bins:
             raise ValueError("bins are 2D only: bins must be None or False with (N, 3) handles")
-        self.config = config
-        self.shape = None if shape is None else as_volume_shape(shape)  # type: ignore[assignment]
-        self.spacing = None if spacing is None else as_volume_spacing(spacing)
+        self._config = config
+        self._shape = None if shape is None else as_volume_shape(shape)
+        self._spacing = None if spacing is None else as_volume_spacing(spacing)
         p, q = validate_handles3(src, dst)
         self._storage_name = storage
         self._options = {"storage": storage, "bins": None}

@@ -173,3 +173,27 @@ def test_inverse_names_a_return_valid_that_is_not_a_bool(gl):
             m.inverse(REF, return_valid=1)
         s, valid = m.inverse(REF, return_valid=np.True_)
     assert s.shape == (5, 2) and valid.all()
+
+
+def test_an_mls_settings_are_read_only(gl):
+    """f is fixed by the handles and the configuration it was made with: assigning another
+    ``config``, ``shape``, ``spacing`` or inverse ``grid`` is refused, not taken by the repr
+    and the inverse's first guess while the GPU keeps the old f."""
+    src3 = np.array([[0.0, 0, 0], [9, 0, 0], [0, 9, 0], [0, 0, 9]])
+    with glmls.MLS(SRC, DST, shape=(6, 8)) as m, glmls.MLS(src3, src3 + 1, shape=(4, 5, 6)) as m3:
+        before = m(REF)
+        for name, value in [
+            ("config", glmls.MLSConfig(transform="affine", alpha=2.0)),
+            ("shape", (3, 3)),
+            ("spacing", (1.0, 1.0, 2.0)),
+        ]:
+            for mls in (m, m3):
+                with pytest.raises(AttributeError, match=name):
+                    setattr(mls, name, value)
+        inverse = m.inverse
+        with pytest.raises(AttributeError, match="grid"):
+            inverse.grid = 0
+        assert m.config == glmls.MLSConfig() and m.shape == (6, 8) and m.spacing is None
+        assert m3.shape == (4, 5, 6) and inverse.grid == 1
+        assert_array_equal(m(REF), before)
+        assert "alpha=1.0" in repr(m)
