@@ -88,13 +88,13 @@ def config_or_options(config: MLSConfig | None, options: dict[str, object]) -> M
     return config
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class MLSConfig:
     """How f is built from the handles: the transform and the distance weight (Table 1).
 
-    A frozen dataclass; each field's ``metadata["help"]`` is its one-line description (the
-    command line's help). d below is the distance from the evaluated point to a source
-    handle, R the ``radius``.
+    A frozen dataclass of keyword-only fields; each field's ``metadata["help"]`` is its
+    one-line description (the command line's help). d below is the distance from the
+    evaluated point to a source handle, R the ``radius``.
 
     Parameters
     ----------

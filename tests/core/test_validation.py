@@ -189,3 +189,11 @@ def test_points3_name_the_first_bad_row(bad: float, message: str) -> None:
         as_points3(points)
     good = np.array([[1e6, -1e6, 0.5]])
     assert np.array_equal(as_points3(good), good)  # the limit itself is within
+
+
+def test_mls_config_takes_keywords_only():
+    """As WarpOptions and MLS's options: ``MLSConfig("affine", "idw", 2.0, 0.5)`` read which of
+    alpha and s is which from the fields' order."""
+    with pytest.raises(TypeError, match="positional"):
+        glmls.MLSConfig("affine", "idw", 2.0, 0.5)  # type: ignore[misc]
+    assert glmls.MLSConfig(transform="affine", alpha=2.0, s=0.5).s == 0.5
