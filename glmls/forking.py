@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import importlib
 import weakref
 from collections.abc import Callable
 from typing import Any, TypeVar
@@ -21,7 +22,7 @@ from .errors import GLUnavailableError, ReleasedError
 from .gl import helper
 from .gl.context import current, forked_from_gl, get_context
 
-__all__ = ["ForkSafe", "forwarded", "in_helper", "on_gpu", "renderer"]
+__all__ = ["ForkSafe", "forwarded", "in_helper", "on_gpu", "remade", "renderer"]
 
 _R = TypeVar("_R")
 _SERVER = "glmls.mls"  # serve_forked: makes and keeps the helper's MLS objects
@@ -114,6 +115,19 @@ class ForkSafe:
         state = (m.config, m.shape, m.spacing, o["storage"], o["bins"])
         return (m.src, m.dst, *segments, *state)
 
+    # Pickled and copied as what it is made from, as the helper's MLS is: its GPU objects
+    # cannot travel, and a copy sharing them would be released with the original.
+    def __reduce__(self) -> tuple:
+        self._check_alive()
+        return remade, (self._forked_state(),)
+
+    def __copy__(self) -> Any:
+        self._check_alive()
+        return remade(self._forked_state(), None if forked_from_gl() else self._gl)  # type: ignore[attr-defined]
+
+    def __deepcopy__(self, memo: dict) -> Any:
+        return self.__copy__()
+
     def _made_forked(self, **handles: object) -> None:
         """Made in a process forked from one that used GL: no GL objects here. The helper's
         MLS, made now, raises what the kernel would (a radius weight without one, ...)."""
@@ -148,6 +162,12 @@ class ForkSafe:
                 "helper process here, and its GL objects (kernel, ctx) live there"
             )
         return value
+
+
+def remade(state: tuple, ctx: Any = None) -> Any:
+    """An unpickled or copied MLS: a new one made from ``state`` (``ForkSafe._forked_state``),
+    on ``ctx`` (None: the process's shared context)."""
+    return importlib.import_module(_SERVER).made_from(state, ctx)
 
 
 def in_helper(m: ForkSafe, name: str, args: tuple, kwargs: dict, *, grid: int | None) -> Any:

@@ -45,6 +45,24 @@ _SERVED: collections.OrderedDict[bytes, MLS] = collections.OrderedDict()
 _SERVED_KEPT = 4
 
 
+def made_from(state: tuple, ctx: moderngl.Context | GLContext | None = None) -> MLS:
+    """A new MLS on ``ctx`` from the handles and settings of ``state``
+    (:meth:`MLS._forked_state`): the helper's, an unpickled or a copied one."""
+    src, dst, src_segments, dst_segments, config, shape, spacing, storage, bins = state
+    return MLS.from_config(
+        src,
+        dst,
+        config,
+        src_segments=src_segments,
+        dst_segments=dst_segments,
+        shape=shape,
+        spacing=spacing,
+        ctx=ctx,
+        storage=storage,
+        bins=bins,
+    )
+
+
 def serve_forked(state: tuple, name: str | None, grid: int | None, args: tuple, kwargs: dict):
     """In the helper process of a forked process: ``name`` of the MLS made from ``state``
     (:meth:`MLS._forked_state`; kept for the next calls), or of its inverse of ``grid``;
@@ -52,18 +70,7 @@ def serve_forked(state: tuple, name: str | None, grid: int | None, args: tuple, 
     key = pickle.dumps(state, pickle.HIGHEST_PROTOCOL)
     m = _SERVED.pop(key, None)
     if m is None:
-        src, dst, src_segments, dst_segments, config, shape, spacing, storage, bins = state
-        m = MLS.from_config(
-            src,
-            dst,
-            config,
-            src_segments=src_segments,
-            dst_segments=dst_segments,
-            shape=shape,
-            spacing=spacing,
-            storage=storage,
-            bins=bins,
-        )
+        m = made_from(state)
     _SERVED[key] = m
     while len(_SERVED) > _SERVED_KEPT:
         _SERVED.popitem(last=False)[1].release()
