@@ -57,7 +57,8 @@ def as_points(points: object, name: str = "points") -> np.ndarray:
     if array.dtype.kind not in "iuf":  # integers and reals (np.issubdtype: ~4x the time)
         raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
     if array.ndim != 2 or array.shape[1] != 2:
-        if array.ndim in (1, 2) and len(array) == 0:
+        # [] is no points; (0, 3) rows, even none, are the points of another dimension
+        if array.size == 0 and (array.ndim == 1 or array.shape == (0, 0)):
             return np.zeros((0, 2))
         raise ValueError(f"{name} must have shape (N, 2) as (x, y) rows, got {array.shape}")
     array = np.ascontiguousarray(array, dtype=np.float64)

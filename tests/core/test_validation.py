@@ -197,3 +197,19 @@ def test_mls_config_takes_keywords_only():
     with pytest.raises(TypeError, match="positional"):
         glmls.MLSConfig("affine", "idw", 2.0, 0.5)  # type: ignore[misc]
     assert glmls.MLSConfig(transform="affine", alpha=2.0, s=0.5).s == 0.5
+
+
+def test_no_points_of_the_other_dimension_are_refused(gl):
+    """(0, 3) points were taken by a 2D MLS as no points (and (0, 2) by a 3D one): empty or
+    not, rows of another width are another dimension's points, as scikit-image refuses them."""
+    p3 = [[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0], [0.0, 0.0, 10.0]]
+    with glmls.MLS([[0.0, 0.0]], [[1.0, 0.0]], ctx=gl) as m, glmls.MLS(p3, p3, ctx=gl) as m3:
+        for mls, other, width in ((m, (0, 3), 2), (m3, (0, 2), 3)):
+            for call in (mls, mls.inverse, lambda x, f=mls: f.residuals(x, x)):
+                with pytest.raises(ValueError, match=rf"must have shape \(N, {width}\).*{other}"):
+                    call(np.zeros(other))
+            for empty in ([], np.zeros(0), np.zeros((0, width))):
+                assert mls(empty).shape == (0, width)
+    for src, dst in (((0, 2), (0, 3)), ((0, 3), (0, 2)), ((0, 5), (0, 5))):
+        with pytest.raises(ValueError, match="must have shape"):
+            glmls.MLS(np.zeros(src), np.zeros(dst), ctx=gl)
