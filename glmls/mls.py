@@ -973,11 +973,12 @@ class InverseMLS:
     ``inv(points)`` is, for each point u, the source point s with f(s) = u; ``inv.inverse``
     is f (the :class:`MLS`).
 
-    Usually reached as :attr:`MLS.inverse`. Solved on the GPU as the ``backward`` method
-    solves each output pixel: a first guess from the rasterized inverse of the deformed mesh
-    of the MLS's image (its ``shape``; without one, the smallest image from pixel (0, 0)
-    that holds the source handles), extended past the image until its deformed border
-    encloses the points (:func:`glmls.imaging.frame.border_margin`, within
+    Usually reached as :attr:`MLS.inverse`; ``InverseMLS(m)`` of a 3D MLS is its
+    :class:`~glmls.mls3.InverseMLS3`, as ``m.inverse`` is. Solved on the GPU as the
+    ``backward`` method solves each output pixel: a first guess from the rasterized inverse
+    of the deformed mesh of the MLS's image (its ``shape``; without one, the smallest image
+    from pixel (0, 0) that holds the source handles), extended past the image until its
+    deformed border encloses the points (:func:`glmls.imaging.frame.border_margin`, within
     :data:`glmls.imaging.pipeline.GUESS_MESH_POINTS` mesh points) and drawn over a canvas
     that holds them, then Newton's method on f, stopping below 1e-4 px. f is the MLS's
     own, as ``m(points)`` evaluates it, so ``m(inv(u))`` is u within about 1e-3 px (float32
@@ -1016,7 +1017,8 @@ class InverseMLS:
     Raises
     ------
     TypeError
-        If ``forward`` is not an :class:`MLS`.
+        If ``forward`` is not an :class:`MLS`, or, for a subclass, an MLS of another
+        dimension.
     ValueError
         For a bad ``grid``.
 
@@ -1043,9 +1045,24 @@ class InverseMLS:
     ([[30.0, 30.0], [nan, nan], [70.0, 30.0]], [True, False, True])
     """
 
+    #: The dimension of the MLS it inverts; :data:`kinds` maps each other dimension to the
+    #: subclass that ``InverseMLS(m)`` makes for it (``glmls.mls3`` registers 3).
+    dimension = 2
+    kinds: ClassVar[dict[int, type[InverseMLS]]] = {}
+
+    def __new__(cls, forward: object = None, *args: object, **kwargs: object) -> InverseMLS:
+        dimension = getattr(forward, "dimension", None) if isinstance(forward, MLS) else None
+        kind = InverseMLS.kinds.get(dimension) if cls is InverseMLS else None  # type: ignore[arg-type]
+        return object.__new__(kind if kind is not None else cls)
+
     def __init__(self, forward: MLS, *, grid: int = 1) -> None:
         if not isinstance(forward, MLS):
             raise TypeError(f"forward must be a glmls.MLS, got {type(forward).__name__}")
+        if forward.dimension != self.dimension:
+            raise TypeError(
+                f"forward must be a glmls.MLS of (N, {self.dimension}) handles for "
+                f"{type(self).__name__}, got one of (N, {forward.dimension}): use its .inverse"
+            )
         self._forward = forward
         self._grid = check_grid(grid)
 
@@ -1165,13 +1182,14 @@ class InverseMLS:
         return f"InverseMLS({self._forward!r}{grid})"
 
 
-# ``MLS.__new__`` picks the class of the handles' dimension; the signature is ``__init__``'s.
-MLS.__signature__ = inspect.signature(
-    MLS.__init__
-).replace(  # type: ignore[attr-defined]
-    parameters=list(inspect.signature(MLS.__init__).parameters.values())[1:],
-    return_annotation=inspect.Signature.empty,
-)
+# ``__new__`` picks the class of the handles' dimension; the signature is ``__init__``'s.
+for _kind in (MLS, InverseMLS):
+    _kind.__signature__ = inspect.signature(
+        _kind.__init__
+    ).replace(  # type: ignore[attr-defined]
+        parameters=list(inspect.signature(_kind.__init__).parameters.values())[1:],
+        return_annotation=inspect.Signature.empty,
+    )
 
 
 def _points(points: object, name: str = "points") -> np.ndarray:

@@ -568,6 +568,8 @@ class InverseMLS3(InverseMLS):
     [[4.0, 4.0, 4.0]]
     """
 
+    dimension = 3
+
     def __call__(
         self, points: object, *, return_valid: bool = False
     ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
@@ -627,6 +629,7 @@ class InverseMLS3(InverseMLS):
 
 
 MLS.kinds[3] = MLS3
+InverseMLS.kinds[3] = InverseMLS3
 
 
 def _rows(points: object, name: str = "points") -> np.ndarray:

@@ -171,6 +171,19 @@ def test_inverse_mls_checks_its_arguments(gl):
             m.inverse([[1, 2]], True)  # type: ignore[misc]
 
 
+def test_inverse_mls_of_a_3d_mls_is_its_3d_inverse(gl):
+    """``glmls.InverseMLS(m)`` of a 3D MLS is what ``m.inverse`` gives (as ``glmls.MLS``
+    makes the class of its handles' dimension); the 3D inverse refuses a 2D MLS by name."""
+    p3 = np.array([[0.0, 0, 0], [9, 0, 0], [0, 9, 0], [0, 0, 9]])
+    with glmls.MLS(p3, p3 + [1, 2, 3], ctx=gl) as m3, glmls.MLS(SRC, DST, ctx=gl) as m:
+        inverse = glmls.InverseMLS(m3)
+        assert type(inverse) is type(m3.inverse) and inverse.inverse is m3
+        assert_allclose(inverse([[5, 7, 9]]), [[4, 5, 6]], atol=1e-3)
+        assert type(glmls.InverseMLS(m)) is glmls.InverseMLS
+        with pytest.raises(TypeError, match=r"forward must be a glmls\.MLS of \(N, 3\) handles"):
+            type(m3.inverse)(m)
+
+
 def test_the_mask_is_the_residual_threshold(gl):
     """The rows the mask keeps are those Newton solved within NEWTON_ACCEPT."""
     with glmls.MLS([[40, 30]], [[30, 30]], weight="cressman", radius=20, ctx=gl) as m:
