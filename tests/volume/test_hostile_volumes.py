@@ -190,3 +190,18 @@ def test_volume_slices_of_nan_are_refused():
     volume[1, 2, 3] = np.nan
     with pytest.raises(ValueError, match="volume holds NaN or infinite values"):
         analysis.render_volume_slices(volume)
+
+
+@pytest.mark.parametrize(
+    ("shape", "spacing"),
+    [((10**7, 5, 5), None), ((2**40, 5, 5), None), ((10, 10, 10), (2e5, 1, 1))],
+)
+def test_an_mls_of_a_volume_beyond_the_coordinate_range_is_refused(gl, shape, spacing):
+    """As a 2D MLS refuses an image beyond ±1e6 px: the volume's extent enters f's float32
+    scaling, and with shape (1e7, 5, 5) f missed the float64 reference by 0.03 voxel next to
+    the handles (with 2**40, an error about the handles)."""
+    with pytest.raises(ValueError, match=r"shape.*extent.*1e\+06"):
+        glmls.MLS(SRC, DST, shape=shape, spacing=spacing, ctx=gl)
+    with glmls.MLS(SRC, DST, shape=(10**6, 5, 5), ctx=gl) as m:  # the limit itself works
+        f, _, _ = glmls.reference.mls(SRC, DST, SRC[:2] + 0.5, m.config)
+        assert np.abs(m(SRC[:2] + 0.5) - f).max() < 1e-3
