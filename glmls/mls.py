@@ -960,10 +960,11 @@ class MLS(ForkSafe):
     def __repr__(self) -> str:
         c = self.config
         segments = f", {self._handles.segments} segments" if self._handles.segments else ""
+        shape = "" if self.shape is None else f", shape={self.shape}"  # radius None: its diagonal
         return (
             f"MLS({self._handles.points} handles{segments}, transform={c.transform!r}, "
             f"weight={c.weight!r}, alpha={c.alpha}, s={c.s}, radius={c.radius}, "
-            f"interpolating={c.interpolating}{', released' if self.released else ''})"
+            f"interpolating={c.interpolating}{shape}{', released' if self.released else ''})"
         )
 
 

@@ -213,3 +213,18 @@ def test_no_points_of_the_other_dimension_are_refused(gl):
     for src, dst in (((0, 2), (0, 3)), ((0, 3), (0, 2)), ((0, 5), (0, 5))):
         with pytest.raises(ValueError, match="must have shape"):
             glmls.MLS(np.zeros(src), np.zeros(dst), ctx=gl)
+
+
+def test_the_repr_shows_the_shape_that_sets_the_default_radius(gl):
+    """With ``radius=None`` a radius weight reaches the diagonal of ``shape``: two MLS of
+    other shapes are other maps, and their reprs say so (as a 3D MLS's does)."""
+    src, dst = [[2.0, 2.0], [20.0, 4.0]], [[3.0, 2.0], [20.0, 8.0]]
+    with (
+        glmls.MLS(src, dst, weight="cressman", shape=(6, 8), ctx=gl) as small,
+        glmls.MLS(src, dst, weight="cressman", shape=(100, 300), ctx=gl) as large,
+    ):
+        assert np.abs(small([[12.0, 6.0]]) - large([[12.0, 6.0]])).max() > 0.5
+        assert repr(small).endswith("interpolating=False, shape=(6, 8))")
+        assert repr(large) != repr(small)
+    with glmls.MLS(src, dst, ctx=gl) as m:
+        assert repr(m).endswith("interpolating=False)")
