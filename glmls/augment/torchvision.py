@@ -310,7 +310,8 @@ class MLSTransform(v2.Transform):
 
     @staticmethod
     def _landmarks(flat_inputs, owners, count) -> list[np.ndarray]:
-        """Each sample's landmarks: all its KeyPoints, in the order of the inputs."""
+        """Each sample's landmarks: all its KeyPoints but the NaN (missing) ones, in the
+        order of the inputs."""
         marks: list[list[np.ndarray]] = [[] for _ in range(count)]
         for x in flat_inputs:
             if isinstance(x, tv_tensors.KeyPoints):
@@ -323,7 +324,9 @@ class MLSTransform(v2.Transform):
                     marks[owner].append(points.reshape(-1, 2))
         if any(not m for m in marks):
             raise ValueError("the landmarks preset needs KeyPoints for every sample")
-        return [np.concatenate(m) for m in marks]
+        joined = [np.concatenate(m) for m in marks]
+        # a NaN landmark is a missing one: no handle (it comes back NaN, as it came)
+        return [m[~np.isnan(m).any(axis=1)] for m in joined]
 
     def _samples(self, inpt: Any, params: dict[str, Any]) -> list[dict]:
         owner = params["owners"][id(inpt)]
