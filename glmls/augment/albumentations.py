@@ -156,7 +156,8 @@ class MLSDeform(A.DualTransform):
         landmarks = None
         if self.augment.preset.name == "landmarks":
             points = np.asarray(data["keypoints"], np.float64)
-            landmarks = [points.reshape(-1, points.shape[-1] if points.size else 2)[:, :2]]
+            points = points.reshape(-1, points.shape[-1] if points.size else 2)[:, :2]
+            landmarks = [points[~np.isnan(points).any(axis=1)]]  # a NaN one is missing
         return {"mls": self.augment.draw([shape], indices=[index], landmarks=landmarks)[0]}
 
     def apply(self, img: np.ndarray, mls: dict, **params: Any) -> np.ndarray:
@@ -223,7 +224,7 @@ class MLSDeform(A.DualTransform):
         return out[..., 0] if mask.ndim == 2 else out
 
     def apply_to_keypoints(self, keypoints: np.ndarray, mls: dict, **params: Any) -> np.ndarray:
-        """Keypoints moved (x, y; the other columns kept).
+        """Keypoints moved (x, y; the other columns kept; a NaN one stays NaN).
 
         Parameters
         ----------
@@ -253,7 +254,12 @@ class MLSDeform(A.DualTransform):
             return keypoints
         out = np.array(keypoints, copy=True)
         points = np.asarray(keypoints[:, :2], np.float64)
-        out[:, :2] = np.asarray(replay_labels(self.augment, [mls], keypoints=[points]).keypoints[0])
+        # a NaN keypoint (a missing one) stays NaN, as albumentations' affine transforms
+        # carry it; the deformation moves the others
+        missing = np.isnan(points).any(axis=1)
+        points = np.where(missing[:, None], 0.0, points)
+        moved = np.asarray(replay_labels(self.augment, [mls], keypoints=[points]).keypoints[0])
+        out[:, :2] = np.where(missing[:, None], np.nan, moved)
         return out
 
     def apply_to_bboxes(self, bboxes: np.ndarray, mls: dict, **params: Any) -> np.ndarray:

@@ -308,6 +308,28 @@ def test_torchvision_landmarks_skip_a_missing_landmark(gl, batched):
     assert (moved[..., [0, 2], :] - present).abs().max() > 0  # the landmarks did move
 
 
+@pytest.mark.parametrize("preset", ["grid", "landmarks"])
+def test_albumentations_a_nan_keypoint_stays_nan(gl, preset):
+    # as A.Affine and the flips carry a NaN (missing) keypoint; the landmarks preset takes
+    # no handle from it, so the others move as they would without it
+    image = np.zeros((32, 48, 3), np.uint8)
+    nan = float("nan")
+    options = {"displacement": 2, "units": "pixels"}
+
+    def run(points):
+        compose = A.Compose(
+            [MLSDeform(preset, preset_options=options)],
+            keypoint_params=A.KeypointParams(format="xy", remove_invisible=False),
+            seed=0,
+        )
+        return np.asarray(compose(image=image, keypoints=points)["keypoints"])
+
+    moved = run([(10.0, 12.0), (nan, nan), (30.0, 20.0)])
+    alone = run([(10.0, 12.0), (30.0, 20.0)])
+    assert np.isnan(moved[1]).all()
+    np.testing.assert_array_equal(moved[[0, 2]], alone)
+
+
 def test_torchvision_an_empty_batch_gives_an_empty_batch(gl):
     images = tv_tensors.Image(torch.zeros(0, 3, 16, 24, dtype=torch.uint8))
     out, masks = MLSTransform()(images, tv_tensors.Mask(torch.zeros(0, 16, 24)))
