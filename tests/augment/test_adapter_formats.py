@@ -538,6 +538,18 @@ def test_torchvision_masks_and_images_keep_their_types(gl, dtype):
     np.testing.assert_array_equal(out_mask.numpy() != 0, out_image.numpy()[0] > 0.5)
 
 
+def test_torchvision_masks_with_large_labels(gl):
+    """Instance ids beyond 2**24 in an int64 Mask come back bit for bit."""
+    ids = (object_image() > 0).astype(np.int64) * (2**40 + 1)
+    image = tv_tensors.Image(image_tensor(object_image()))
+    torch.manual_seed(4)
+    _, out = MLSTransform("grid", **GRID)(image, tv_tensors.Mask(torch.from_numpy(ids)))
+    torch.manual_seed(4)
+    _, small = MLSTransform("grid", **GRID)(image, tv_tensors.Mask(torch.from_numpy(ids > 0)))
+    assert out.dtype == torch.int64
+    np.testing.assert_array_equal(out.numpy(), small.numpy() * (2**40 + 1))
+
+
 def test_torchvision_repr_shows_the_options_not_the_last_draw(gl):
     """torchvision's transforms show their parameters in their repr (a v2.Compose prints
     them); the last call's handles are no parameter."""
