@@ -23,6 +23,7 @@ import albumentations as A
 import numpy as np
 
 from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks
+from .labels import canvas_shape
 
 __all__ = ["MLSDeform"]
 
@@ -297,5 +298,6 @@ class MLSDeform(A.DualTransform):
         boxes = np.asarray(bboxes[:, :4], np.float64) * scale - 0.5  # pixel centres at integers
         moved = replay_boxes(self.augment, [mls], [boxes])[0]
         out = np.array(bboxes, np.float64, copy=True)
-        out[:, :4] = (np.asarray(moved) + 0.5) / scale
+        height, width = canvas_shape(mls)  # fractions of the output's size (output_shape)
+        out[:, :4] = (np.asarray(moved) + 0.5) / np.array([width, height, width, height])
         return out.astype(bboxes.dtype)

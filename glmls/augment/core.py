@@ -133,8 +133,7 @@ def _check_reach(preset: object, dst: np.ndarray, index: int) -> None:
 def _mesh_grid(options: Mapping[str, object]) -> int | None:
     """The grid of the regular mesh whose piecewise linear map moves the points with a
     draw's warp ``options`` (``quads`` without a ``tolerance``), else None."""
-    fields = {k: v for k, v in options.items() if k in FIELDS or k == "options"}
-    chosen = WarpOptions.of(fields.pop("options", None), **fields)
+    chosen = lab.warp_options_of(options)
     return chosen.grid if chosen.method == "quads" and chosen.tolerance is None else None
 
 
