@@ -23,6 +23,7 @@ import albumentations as A
 import numpy as np
 
 from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks
+from .labels import canvas_shape
 
 __all__ = ["MLSDeform"]
 
@@ -156,7 +157,8 @@ class MLSDeform(A.DualTransform):
         landmarks = None
         if self.augment.preset.name == "landmarks":
             points = np.asarray(data["keypoints"], np.float64)
-            landmarks = [points.reshape(-1, points.shape[-1] if points.size else 2)[:, :2]]
+            points = points.reshape(-1, points.shape[-1] if points.size else 2)[:, :2]
+            landmarks = [points[~np.isnan(points).any(axis=1)]]  # a NaN one is missing
         return {"mls": self.augment.draw([shape], indices=[index], landmarks=landmarks)[0]}
 
     def apply(self, img: np.ndarray, mls: dict, **params: Any) -> np.ndarray:
@@ -223,7 +225,7 @@ class MLSDeform(A.DualTransform):
         return out[..., 0] if mask.ndim == 2 else out
 
     def apply_to_keypoints(self, keypoints: np.ndarray, mls: dict, **params: Any) -> np.ndarray:
-        """Keypoints moved (x, y; the other columns kept).
+        """Keypoints moved (x, y; the other columns kept; a NaN one stays NaN).
 
         Parameters
         ----------
@@ -253,7 +255,12 @@ class MLSDeform(A.DualTransform):
             return keypoints
         out = np.array(keypoints, copy=True)
         points = np.asarray(keypoints[:, :2], np.float64)
-        out[:, :2] = np.asarray(replay_labels(self.augment, [mls], keypoints=[points]).keypoints[0])
+        # a NaN keypoint (a missing one) stays NaN, as albumentations' affine transforms
+        # carry it; the deformation moves the others
+        missing = np.isnan(points).any(axis=1)
+        points = np.where(missing[:, None], 0.0, points)
+        moved = np.asarray(replay_labels(self.augment, [mls], keypoints=[points]).keypoints[0])
+        out[:, :2] = np.where(missing[:, None], np.nan, moved)
         return out
 
     def apply_to_bboxes(self, bboxes: np.ndarray, mls: dict, **params: Any) -> np.ndarray:
@@ -291,5 +298,6 @@ class MLSDeform(A.DualTransform):
         boxes = np.asarray(bboxes[:, :4], np.float64) * scale - 0.5  # pixel centres at integers
         moved = replay_boxes(self.augment, [mls], [boxes])[0]
         out = np.array(bboxes, np.float64, copy=True)
-        out[:, :4] = (np.asarray(moved) + 0.5) / scale
+        height, width = canvas_shape(mls)  # fractions of the output's size (output_shape)
+        out[:, :4] = (np.asarray(moved) + 0.5) / np.array([width, height, width, height])
         return out.astype(bboxes.dtype)

@@ -133,8 +133,7 @@ def _check_reach(preset: object, dst: np.ndarray, index: int) -> None:
 def _mesh_grid(options: Mapping[str, object]) -> int | None:
     """The grid of the regular mesh whose piecewise linear map moves the points with a
     draw's warp ``options`` (``quads`` without a ``tolerance``), else None."""
-    fields = {k: v for k, v in options.items() if k in FIELDS or k == "options"}
-    chosen = WarpOptions.of(fields.pop("options", None), **fields)
+    chosen = lab.warp_options_of(options)
     return chosen.grid if chosen.method == "quads" and chosen.tolerance is None else None
 
 
@@ -715,13 +714,18 @@ def replay_masks(augment: Augment, params: Sequence[Mapping], masks: np.ndarray)
     shown; of their dtype (bool masks too; floating-point masks, as albumentations and
     torchvision allow, as labels numbering their distinct values, so that every value comes
     back bit for bit: the GPU's float32 would round a float64 value; a mask of 2**24 distinct
-    values or more goes as a float32 image with nearest sampling)."""
-    if masks.dtype.kind == "f":
+    values or more goes as a float32 image with nearest sampling). Integer labels beyond
+    +-2**24 (instance ids) are numbered alike."""
+    wide = masks.dtype.kind in "iu" and masks.dtype.itemsize > 2 and masks.size
+    large = wide and max(-int(masks.min()), int(masks.max())) > _FLOAT_LABELS  # instance ids
+    if masks.dtype.kind == "f" or large:
         values, numbers = np.unique(masks, return_inverse=True)
         if len(values) < _FLOAT_LABELS:  # label 0: nothing shown, value k + 1: values[k]
             labels = (numbers.reshape(masks.shape) + 1).astype(np.int32)
             moved = np.asarray(replay_labels(augment, params, masks=labels).masks)
             return np.concatenate([np.zeros(1, masks.dtype), values])[moved]
+        if large:
+            raise ValueError(f"masks hold {len(values)} distinct labels beyond +-2**24")
         nearest = {"interpolation": "nearest", "background": 0.0}  # soft values, very many
         draws = [{**p, "options": {**p["options"], **nearest}} for p in params]
         values = masks if masks.dtype in (np.float32, np.float64) else masks.astype(np.float32)

@@ -12,20 +12,24 @@ canvas, and a box is valid where what is left has a positive width and height.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 
 from ..batch.inputs import item_array
 from ..core.handles import COORDINATE_LIMIT
+from ..imaging.options import FIELDS, WarpOptions
 
 __all__ = [
     "box_outlines",
     "boxes_from_outlines",
+    "canvas_shape",
     "check_boxes",
     "check_polygons",
     "check_positive",
     "clip_polygon",
     "densify_polygon",
+    "warp_options_of",
 ]
 
 
@@ -162,6 +166,20 @@ def check_polygons(polygons: object, count: int) -> list[list[np.ndarray]]:
             one.append(array)
         checked.append(one)
     return checked
+
+
+def warp_options_of(options: Mapping[str, object]) -> WarpOptions:
+    """The :class:`glmls.WarpOptions` that a draw's warp ``options`` (keywords of
+    :func:`glmls.warp_batch`) stand for."""
+    fields = {k: v for k, v in options.items() if k in FIELDS or k == "options"}
+    return WarpOptions.of(fields.pop("options", None), **fields)
+
+
+def canvas_shape(draw: Mapping) -> tuple[int, int]:
+    """(H, W) of the canvas that a draw (a record of ``params``) warps onto: its
+    ``output_shape``, else its image's shape."""
+    chosen = warp_options_of(draw["options"])
+    return chosen.output_shape or (int(draw["shape"][0]), int(draw["shape"][1]))
 
 
 def check_positive(name: str, value: object) -> float:

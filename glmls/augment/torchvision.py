@@ -88,6 +88,7 @@ from torchvision.transforms import v2  # noqa: E402
 from torchvision.transforms.v2 import functional as F  # noqa: E402
 
 from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks  # noqa: E402
+from .labels import canvas_shape  # noqa: E402
 from .tensors import to_numpy  # noqa: E402
 
 __all__ = ["MLSTransform", "check_import_order"]
@@ -310,7 +311,8 @@ class MLSTransform(v2.Transform):
 
     @staticmethod
     def _landmarks(flat_inputs, owners, count) -> list[np.ndarray]:
-        """Each sample's landmarks: all its KeyPoints, in the order of the inputs."""
+        """Each sample's landmarks: all its KeyPoints but the NaN (missing) ones, in the
+        order of the inputs."""
         marks: list[list[np.ndarray]] = [[] for _ in range(count)]
         for x in flat_inputs:
             if isinstance(x, tv_tensors.KeyPoints):
@@ -323,7 +325,9 @@ class MLSTransform(v2.Transform):
                     marks[owner].append(points.reshape(-1, 2))
         if any(not m for m in marks):
             raise ValueError("the landmarks preset needs KeyPoints for every sample")
-        return [np.concatenate(m) for m in marks]
+        joined = [np.concatenate(m) for m in marks]
+        # a NaN landmark is a missing one: no handle (it comes back NaN, as it came)
+        return [m[~np.isnan(m).any(axis=1)] for m in joined]
 
     def _samples(self, inpt: Any, params: dict[str, Any]) -> list[dict]:
         owner = params["owners"][id(inpt)]
@@ -361,10 +365,11 @@ class MLSTransform(v2.Transform):
             return inpt.clone() if isinstance(inpt, torch.Tensor) else inpt
         if isinstance(inpt, tv_tensors.Mask):
             return tv_tensors.wrap(self._masks(inpt, samples), like=inpt)
+        canvas = canvas_shape(samples[0])  # the output's size: output_shape, else the input's
         if isinstance(inpt, tv_tensors.KeyPoints):
-            return tv_tensors.wrap(self._keypoints(inpt, samples), like=inpt)
+            return tv_tensors.wrap(self._keypoints(inpt, samples), like=inpt, canvas_size=canvas)
         if isinstance(inpt, tv_tensors.BoundingBoxes):
-            return tv_tensors.wrap(self._boxes(inpt, samples[0]), like=inpt)
+            return tv_tensors.wrap(self._boxes(inpt, samples[0]), like=inpt, canvas_size=canvas)
         if isinstance(inpt, PIL.Image.Image):
             return self._pil(inpt, samples)
         return self._images(inpt, samples)
@@ -383,7 +388,8 @@ class MLSTransform(v2.Transform):
             return PIL.Image.fromarray(out.astype(bool))
         if out.dtype != array.dtype:
             out = np.clip(np.rint(out), -(2**31), 2**31 - 1).astype(array.dtype)
-        result = PIL.Image.frombytes(image.mode, image.size, np.ascontiguousarray(out).tobytes())
+        size = (out.shape[1], out.shape[0])  # (W, H) of the output's canvas
+        result = PIL.Image.frombytes(image.mode, size, np.ascontiguousarray(out).tobytes())
         if image.mode in ("P", "PA"):
             result.putpalette(image.getpalette())
         return result
@@ -395,7 +401,8 @@ class MLSTransform(v2.Transform):
         array = np.moveaxis(to_numpy(frames), 1, -1)
         out = replay_images(self.augment, np.ascontiguousarray(array), draws)
         tensor = torch.from_numpy(np.ascontiguousarray(np.moveaxis(out, -1, 1)))
-        tensor = tensor.reshape(images.shape).to(device=images.device, dtype=images.dtype)
+        tensor = tensor.reshape(*images.shape[:-2], *tensor.shape[-2:])
+        tensor = tensor.to(device=images.device, dtype=images.dtype)
         return (
             tv_tensors.wrap(tensor, like=images)
             if isinstance(images, tv_tensors.TVTensor)
@@ -409,7 +416,7 @@ class MLSTransform(v2.Transform):
         layers = array.shape[1]
         draws = [s for s in samples for _ in range(layers)]
         out = replay_masks(self.augment, draws, array.reshape(count * layers, height, width))
-        tensor = torch.from_numpy(out.reshape(masks.shape))
+        tensor = torch.from_numpy(out.reshape(*masks.shape[:-2], *out.shape[-2:]))
         return tensor.to(device=masks.device, dtype=masks.dtype)  # float16 went as float32
 
     def _keypoints(self, points: torch.Tensor, samples: list[dict]) -> torch.Tensor:
@@ -447,7 +454,7 @@ class MLSTransform(v2.Transform):
         out = F.clamp_bounding_boxes(  # as the boxes' clamping_mode says (None: not at all)
             torch.from_numpy(moved),
             format=middle,
-            canvas_size=boxes.canvas_size,
+            canvas_size=canvas_shape(sample),
             clamping_mode=boxes.clamping_mode,
         ).to(device=boxes.device, dtype=boxes.dtype)
         return F.convert_bounding_box_format(out, old_format=middle, new_format=boxes.format)

@@ -283,6 +283,53 @@ def test_torchvision_a_nan_keypoint_stays_nan(gl):
     assert torch.isnan(moved[0]).all() and torch.equal(moved[1:], alone)
 
 
+@pytest.mark.parametrize("batched", [False, True])
+def test_torchvision_landmarks_skip_a_missing_landmark(gl, batched):
+    # the landmarks preset's handles are the landmarks there are: a NaN one (missing) is no
+    # handle and comes back NaN, the others move as they would without it
+    height, width = 32, 48
+    nan = float("nan")
+    points = torch.tensor([[10.0, 12.0], [nan, nan], [30.0, 20.0]])
+    image = torch.zeros(3, height, width, dtype=torch.uint8)
+    if batched:
+        image, points = image[None].repeat(2, 1, 1, 1), points[None].repeat(2, 1, 1)
+    transform = MLSTransform("landmarks", displacement=2.0, units="pixels")
+    torch.manual_seed(0)
+    _, moved = transform(
+        tv_tensors.Image(image), tv_tensors.KeyPoints(points, canvas_size=(height, width))
+    )
+    torch.manual_seed(0)
+    present = points[..., [0, 2], :]
+    _, alone = transform(
+        tv_tensors.Image(image), tv_tensors.KeyPoints(present, canvas_size=(height, width))
+    )
+    assert torch.isnan(moved[..., 1, :]).all()
+    assert torch.equal(moved[..., [0, 2], :], alone)
+    assert (moved[..., [0, 2], :] - present).abs().max() > 0  # the landmarks did move
+
+
+@pytest.mark.parametrize("preset", ["grid", "landmarks"])
+def test_albumentations_a_nan_keypoint_stays_nan(gl, preset):
+    # as A.Affine and the flips carry a NaN (missing) keypoint; the landmarks preset takes
+    # no handle from it, so the others move as they would without it
+    image = np.zeros((32, 48, 3), np.uint8)
+    nan = float("nan")
+    options = {"displacement": 2, "units": "pixels"}
+
+    def run(points):
+        compose = A.Compose(
+            [MLSDeform(preset, preset_options=options)],
+            keypoint_params=A.KeypointParams(format="xy", remove_invisible=False),
+            seed=0,
+        )
+        return np.asarray(compose(image=image, keypoints=points)["keypoints"])
+
+    moved = run([(10.0, 12.0), (nan, nan), (30.0, 20.0)])
+    alone = run([(10.0, 12.0), (30.0, 20.0)])
+    assert np.isnan(moved[1]).all()
+    np.testing.assert_array_equal(moved[[0, 2]], alone)
+
+
 def test_torchvision_an_empty_batch_gives_an_empty_batch(gl):
     images = tv_tensors.Image(torch.zeros(0, 3, 16, 24, dtype=torch.uint8))
     out, masks = MLSTransform()(images, tv_tensors.Mask(torch.zeros(0, 16, 24)))

@@ -538,6 +538,18 @@ def test_torchvision_masks_and_images_keep_their_types(gl, dtype):
     np.testing.assert_array_equal(out_mask.numpy() != 0, out_image.numpy()[0] > 0.5)
 
 
+def test_torchvision_masks_with_large_labels(gl):
+    """Instance ids beyond 2**24 in an int64 Mask come back bit for bit."""
+    ids = (object_image() > 0).astype(np.int64) * (2**40 + 1)
+    image = tv_tensors.Image(image_tensor(object_image()))
+    torch.manual_seed(4)
+    _, out = MLSTransform("grid", **GRID)(image, tv_tensors.Mask(torch.from_numpy(ids)))
+    torch.manual_seed(4)
+    _, small = MLSTransform("grid", **GRID)(image, tv_tensors.Mask(torch.from_numpy(ids > 0)))
+    assert out.dtype == torch.int64
+    np.testing.assert_array_equal(out.numpy(), small.numpy() * (2**40 + 1))
+
+
 def test_torchvision_repr_shows_the_options_not_the_last_draw(gl):
     """torchvision's transforms show their parameters in their repr (a v2.Compose prints
     them); the last call's handles are no parameter."""
@@ -599,3 +611,50 @@ def test_augment_tensors_of_the_wrong_rank_name_torchs_layout():
             aug(torch.zeros(shape))
     with pytest.raises(ValueError, match=r"images\[1\] is a tensor of shape \(8,\)"):
         aug([torch.zeros(3, 8, 8), torch.zeros(8)])
+
+
+#: A canvas 8 px larger on every side: ``output_shape`` and ``origin`` among the warp options.
+CANVAS = {"output_shape": (H + 16, W + 16), "origin": (-8.0, -8.0)}
+
+
+def test_albumentations_on_a_canvas_of_another_size(gl):
+    """With ``output_shape``, the image, mask, keypoints and boxes all land on the new
+    canvas: albumentations' boxes are fractions of the output image's size."""
+    transform = MLSDeform("grid", preset_options={"displacement": 0}, warp_options=CANVAS)
+    compose = A.Compose(
+        [transform],
+        bbox_params=A.BboxParams(format="pascal_voc", label_fields=["labels"]),
+        keypoint_params=A.KeypointParams(format="xy"),
+        seed=0,
+    )
+    mask = (object_image() > 0).astype(np.uint8)
+    out = compose(
+        image=object_image(), mask=mask, bboxes=[OBJECT_BOX], labels=[1], keypoints=[SPOTS[0]]
+    )
+    assert out["image"].shape == out["mask"].shape == CANVAS["output_shape"]
+    np.testing.assert_array_equal(out["mask"][8:-8, 8:-8], mask)
+    np.testing.assert_allclose(out["keypoints"][0], SPOTS[0] + 8, atol=1e-3)
+    np.testing.assert_allclose(out["bboxes"][0], np.add(OBJECT_BOX, 8), atol=1e-3)
+
+
+def test_torchvision_on_a_canvas_of_another_size(gl):
+    """With ``output_shape``, every input lands on the new canvas, the ``canvas_size`` of
+    boxes and keypoints the output's, as torchvision's resizing transforms give them."""
+    transform = MLSTransform("grid", displacement=0, warp_options=CANVAS)
+    mask = torch.from_numpy((object_image() > 0).astype(np.uint8))
+    boxes = tv_tensors.BoundingBoxes(torch.tensor([OBJECT_BOX]), format="XYXY", canvas_size=(H, W))
+    points = tv_tensors.KeyPoints(torch.from_numpy(SPOTS[:1]), canvas_size=(H, W))
+    torch.manual_seed(0)
+    image, moved_mask, moved_boxes, moved_points = transform(
+        tv_tensors.Image(image_tensor(object_image())), tv_tensors.Mask(mask), boxes, points
+    )
+    canvas = CANVAS["output_shape"]
+    assert image.shape == (1, *canvas) and moved_mask.shape == canvas
+    np.testing.assert_array_equal(moved_mask[8:-8, 8:-8].numpy(), mask.numpy())
+    assert moved_boxes.canvas_size == canvas and moved_points.canvas_size == canvas
+    np.testing.assert_allclose(moved_boxes[0].numpy(), np.add(OBJECT_BOX, 8), atol=1e-3)
+    np.testing.assert_allclose(moved_points[0].numpy(), SPOTS[0] + 8, atol=1e-3)
+    pil = transform(PIL.Image.fromarray(mask.numpy() * 255))
+    assert pil.size == (canvas[1], canvas[0])
+    batch = transform(tv_tensors.Image(torch.zeros(2, 3, H, W)))
+    assert batch.shape == (2, 3, *canvas)

@@ -92,6 +92,24 @@ def test_albumentations_masks_of_any_dtype_albumentations_takes(gl, sample, dtyp
         np.testing.assert_array_equal(one, out["mask"])
 
 
+@pytest.mark.parametrize(
+    ("dtype", "label"), [(np.int64, 2**40), (np.uint32, 3_000_000_000), (np.int32, -(2**30))]
+)
+def test_albumentations_integer_masks_with_large_labels(gl, sample, dtype, label):
+    """Instance ids beyond 2**24 (which float32 would round) come back bit for bit, as
+    floating-point masks' values do: a mask is labels, however large its numbers."""
+    image, mask = sample
+    values = np.where(mask > 0, label, 7).astype(dtype)
+    transform = MLSDeform("grid", preset_options={"displacement": 0.05})
+    out = A.Compose([transform], seed=3)(image=image, mask=values)["mask"]
+    draw = transform.get_applied_params()["mls"]
+    small = np.where(mask > 0, 2, 1).astype(np.uint8)
+    expected = transform.augment.replay([image], [draw], masks=[small])
+    lookup = np.array([0, 7, label], dtype)
+    assert out.dtype == values.dtype
+    np.testing.assert_array_equal(out, lookup[expected.masks[0]])
+
+
 def test_albumentations_landmarks_and_text_presets(gl, sample):
     image, _ = sample
     compose = A.Compose(

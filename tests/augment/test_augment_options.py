@@ -69,6 +69,22 @@ def test_landmarks_that_coincide_move_together(gl):
     np.testing.assert_array_equal(np.array(alone.params[0]["dst"])[:2], out.params[0]["dst"][:2])
 
 
+def test_landmarks_next_to_another_handle(gl):
+    """docs/augment.md: a landmark next to another handle that moves differently lands off
+    its drawn target with the mesh, by up to most of the difference between the two moves;
+    ``method="backward"`` moves it by f, onto the target."""
+    images = np.zeros((16, 64, 64), np.uint8)
+    marks = np.random.default_rng(2).uniform(10, 50, (16, 2, 2))
+    marks[:, 1] = marks[:, 0] + (0.2, 0.0)
+    for options, share in (({}, 0.9), ({"method": "backward"}, 1e-4)):
+        out = Augment("landmarks", seed=0, warp_options=options)(images, keypoints=marks)
+        for params, moved in zip(out.params, out.keypoints, strict=True):
+            src, dst = np.array(params["src"])[:2], np.array(params["dst"])[:2]
+            apart = np.linalg.norm((dst - src)[0] - (dst - src)[1])
+            error = np.linalg.norm(moved - dst, axis=1).max()
+            assert error <= share * apart, (options, error, apart)
+
+
 def test_a_warp_options_object_is_its_fields(gl):
     """``warp_options={"options": glmls.WarpOptions(...)}`` (a keyword warp_batch takes)
     stands for its fields: over the defaults, under the other keywords given, and the
