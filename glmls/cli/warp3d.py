@@ -13,7 +13,8 @@ format of its suffix.
   and for an elastix pair of ``point`` files ITK's LPS (x and y negated).
 - A mesh (PLY, OBJ, STL) is deformed by :meth:`glmls.MLS.deform`; the output has the
   deformed vertices and the input's triangles, and stderr says how many vertices and faces
-  fold over. A radius weight needs ``--radius`` there.
+  fold over. A radius weight needs ``--radius`` there; an elastix pair of ``index`` files is
+  refused (voxel indices, and a mesh has no voxels).
 """
 
 from __future__ import annotations
@@ -165,6 +166,12 @@ def read_3d_handles(args: argparse.Namespace, kind: str) -> tuple[np.ndarray, np
         raise UsageError(
             f"{args.handles}: 2D handles (x, y), but {args.input} is a {kind}: it takes 3D "
             "handles (x, y, z)"
+        )
+    if kind == "mesh" and elastix_indices(args.handles, dst=args.targets):
+        # only a volume's spacing turns an index into a place: a mesh has no voxels
+        raise UsageError(
+            f"{args.handles}: elastix voxel indices ('index'), but {args.input} is a mesh, "
+            "which has no voxels to put them at: give 'point' files in the mesh's coordinates"
         )
     return read_handles(args.handles, dst=args.targets, ndim=3)
 
