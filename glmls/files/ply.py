@@ -233,7 +233,8 @@ def read_ply(content: bytes) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError("no vertex element with x, y and z")
     vertices = np.stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"], axis=1)
     face = found.get("face", {})
-    name = next((n for n in _FACE_LISTS if n in face), None)
+    lists = [p.name for e in elements if e.name == "face" for p in e.properties if p.count]
+    name = next((n for n in _FACE_LISTS if n in face), lists[0] if len(lists) == 1 else None)
     if name is None:
         return vertices, np.zeros((0, 3), np.int64)
     polygons = face[name]

@@ -234,3 +234,10 @@ def test_ply_faces_of_fewer_than_three_vertices_are_named(tmp_path, binary):
     path.write_bytes(_ply([[0, 1, 2], [0, 1]], binary=binary))
     with pytest.raises(InputFileError, match=r"edges\.ply: .*face 1: a face of 2 vertices"):
         read_mesh(path)
+
+
+def test_ply_face_list_of_another_name_is_read(tmp_path):
+    """The face element's only list is its vertex indices, whatever its name."""
+    path = tmp_path / "named.ply"
+    path.write_bytes(_ply([[0, 1, 2], [0, 2, 3, 4]]).replace(b"vertex_indices", b"vertex_ids"))
+    assert read_mesh(path).faces.tolist() == [[0, 1, 2], [0, 2, 3], [0, 3, 4]]
