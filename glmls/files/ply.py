@@ -225,8 +225,10 @@ def read_ply(content: bytes) -> tuple[np.ndarray, np.ndarray]:
                 values, position = _ascii_rows(words, position, element)
             else:
                 values, position = _binary_rows(content, position, element, order)
-        except (IndexError, ValueError) as error:
-            raise ValueError(f"element {element.name!r}: {error or 'rows end early'}") from None
+        except IndexError:
+            raise ValueError(f"element {element.name!r}: its rows end early") from None
+        except ValueError as error:
+            raise ValueError(f"element {element.name!r}: {error}") from None
         found[element.name] = {p.name: v for p, v in zip(element.properties, values, strict=True)}
     vertex = found.get("vertex", {})
     if not all(axis in vertex for axis in "xyz"):

@@ -241,3 +241,13 @@ def test_ply_face_list_of_another_name_is_read(tmp_path):
     path = tmp_path / "named.ply"
     path.write_bytes(_ply([[0, 1, 2], [0, 2, 3, 4]]).replace(b"vertex_indices", b"vertex_ids"))
     assert read_mesh(path).faces.tolist() == [[0, 1, 2], [0, 2, 3], [0, 3, 4]]
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_a_truncated_ply_is_named(tmp_path, binary):
+    path = tmp_path / "cut.ply"
+    path.write_bytes(_ply([[0, 1, 2], [0, 2, 3, 4]], binary=binary)[:-3])
+    with pytest.raises(
+        InputFileError, match=r"cut\.ply: not a readable \.ply mesh: element 'face'"
+    ):
+        read_mesh(path)
