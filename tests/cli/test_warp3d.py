@@ -488,3 +488,16 @@ def test_elastix_index_files_on_a_mesh_are_refused(files, stand_in, capsys):
         capsys.readouterr()
         assert main([*argv, "--out", "report"]) == 2
         assert "voxel indices" in capsys.readouterr().err
+
+
+def test_3d_handles_on_a_tiff_of_one_page_say_why_it_is_an_image(files, capsys):
+    """A volume of one slice saved as an ImageJ stack is a TIFF of one page, which glmls
+    reads as an image: the refusal of its 3D handles says so, and where such a volume goes."""
+    import tifffile
+
+    tifffile.imwrite(files / "one.tif", np.zeros((1, 8, 9), np.uint8), imagej=True)
+    assert main(["warp", "one.tif", "o.tif", "--handles", "h3.json"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "a TIFF of one page is an image" in err and ".npy" in err
+    assert main(["warp", "a.png", "o.png", "--handles", "h3.json"]) == 2
+    assert "TIFF" not in capsys.readouterr().err
