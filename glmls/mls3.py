@@ -25,7 +25,7 @@ from .core.handles3 import (
 from .core.mesh3 import DeformedMesh, as_mesh
 from .engine.deform3 import deform_mesh3
 from .engine.kernel3 import MLSKernel3
-from .engine.passes3 import evaluate_points3, invert_points3
+from .engine.passes3 import evaluate_points3, invert_points3, length_unit
 from .forking import forwarded, on_gpu
 from .gl.context import forked_from_gl, get_context
 from .imaging.inverse import accept_residual
@@ -554,8 +554,10 @@ class InverseMLS3(InverseMLS):
     ``inv(points)`` solves f(s) = u at (K, 3) points on the GPU by Newton's method (J by
     central differences, stopping below 1e-4 voxel), from the MLS with p and q swapped at u,
     then from u itself. A row is NaN where Newton does not end within 0.05 voxel of u (no
-    preimage, or none found); ``return_valid=True`` also returns the mask of the rows that
-    have one. Where f folds, u has several preimages and one of them is found.
+    preimage, or none found); a voxel is the handles' unit, or less where their box is
+    smaller than 32 units (``glmls.engine.passes3.length_unit``); ``return_valid=True``
+    also returns the mask of the rows that have one. Where f folds, u has several preimages
+    and one of them is found.
 
     Parameters
     ----------
@@ -609,7 +611,8 @@ class InverseMLS3(InverseMLS):
         m.kernel.check_alive()
         guess, _ = evaluate_points3(m.swapped_kernel(), points)  # type: ignore[arg-type]
         s, residual = invert_points3(m.kernel, points, guess)  # type: ignore[arg-type]
-        valid = residual <= accept_residual(m.scaling, points, s)
+        unit = length_unit(m.kernel)  # type: ignore[arg-type]
+        valid = residual <= accept_residual(m.scaling, points, s, unit=unit)
         s[~valid] = np.nan
         return s, valid
 

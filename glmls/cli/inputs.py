@@ -297,7 +297,16 @@ def read_image_handles(path, *, dst=None, image: object, many: bool = False) -> 
     a file of 3D handles."""
     if handle_dimension(path, dst=dst) != 2:
         which = "names images: they take" if many else "is an image: it takes"
-        raise UsageError(f"{path}: 3D handles (x, y, z), but {image} {which} 2D handles (x, y)")
+        hint = ""
+        if str(image).lower().endswith((".tif", ".tiff")) and Path(str(image)).is_file():
+            # a volume of one slice, saved as a stack, is a TIFF of one page
+            hint = (
+                " (a TIFF of one page is an image; a volume of one slice is read from .nii, "
+                ".nii.gz or .npy)"
+            )
+        raise UsageError(
+            f"{path}: 3D handles (x, y, z), but {image} {which} 2D handles (x, y){hint}"
+        )
     return read_handle_set(path, dst=dst)
 
 

@@ -13,7 +13,8 @@ format of its suffix.
   and for an elastix pair of ``point`` files ITK's LPS (x and y negated).
 - A mesh (PLY, OBJ, STL) is deformed by :meth:`glmls.MLS.deform`; the output has the
   deformed vertices and the input's triangles, and stderr says how many vertices and faces
-  fold over. A radius weight needs ``--radius`` there.
+  fold over. A radius weight needs ``--radius`` there; an elastix pair of ``index`` files is
+  refused (voxel indices, and a mesh has no voxels).
 """
 
 from __future__ import annotations
@@ -166,6 +167,12 @@ def read_3d_handles(args: argparse.Namespace, kind: str) -> tuple[np.ndarray, np
             f"{args.handles}: 2D handles (x, y), but {args.input} is a {kind}: it takes 3D "
             "handles (x, y, z)"
         )
+    if kind == "mesh" and elastix_indices(args.handles, dst=args.targets):
+        # only a volume's spacing turns an index into a place: a mesh has no voxels
+        raise UsageError(
+            f"{args.handles}: elastix voxel indices ('index'), but {args.input} is a mesh, "
+            "which has no voxels to put them at: give 'point' files in the mesh's coordinates"
+        )
     return read_handles(args.handles, dst=args.targets, ndim=3)
 
 
@@ -230,8 +237,9 @@ def volume_handle_warnings(args: argparse.Namespace, src, shape, spacing, affine
     points = np.asarray(src, dtype=np.float64)
     scale = np.ones(3) if spacing is None else np.array(spacing[::-1], dtype=np.float64)
     inside = _inside(points, shape, scale)
+    sheared = _shear_warning(args, affine)
     if not len(points) or inside.mean() >= 0.5:
-        return []
+        return sheared
     depth, height, width = shape[:3]
     units = "" if spacing is None else f" of spacing (dz, dy, dx) = {spacing_text(spacing)}"
     hint = ""
@@ -257,7 +265,27 @@ def volume_handle_warnings(args: argparse.Namespace, src, shape, spacing, affine
             hint = "; world coordinates of the file's affine? add --world"
     return [
         f"{int((~inside).sum())} of {len(points)} handles lie outside the {width} x {height} "
-        f"x {depth} volume{units}{hint}"
+        f"x {depth} volume{units}{hint}",
+        *sheared,
+    ]
+
+
+def _shear_warning(args: argparse.Namespace, affine) -> list[str]:
+    """With ``--world``, the warning for an affine whose columns are not orthogonal: the
+    warp's frame is then a shear of the world, in which distances and angles differ from the
+    world's, so that a rigid or similarity fit is rigid in the frame, not in the world."""
+    if not getattr(args, "world", False) or affine is None:
+        return []
+    columns = np.asarray(affine, dtype=np.float64)[:3, :3]
+    units = columns / np.linalg.norm(columns, axis=0)
+    lean = np.abs(units.T @ units - np.eye(3)).max()  # cosines between the voxel axes
+    if lean <= 1e-4:
+        return []
+    return [
+        f"--world: the affine is sheared (its voxel axes {np.degrees(np.arcsin(lean)):.3g} "
+        "degrees off square): the warp works in (i dx, j dy, k dz), the world sheared, where "
+        "distances differ from the world's and a rigid or similarity fit is rigid in that "
+        "frame, not in the world"
     ]
 
 

@@ -21,7 +21,7 @@ from ..core.mesh3 import DeformedMesh
 from ..gl import bindings
 from ..gl.dispatch import run_1d, set_uniforms
 from .kernel3 import MLSKernel3
-from .passes3 import JACOBIAN_STEP, points3_program
+from .passes3 import jacobian_uniforms, points3_program
 
 __all__ = ["MESH_FOLDS_PASS", "MESH_NORMALS_PASS", "RECORD", "deform_mesh3"]
 
@@ -89,7 +89,7 @@ def deform_mesh3(
         kernel.bind(program, shape)
         records = scratch.buffer("records3", count * RECORD * 4)
         records.bind_to_storage_buffer(bindings.DEFORMED.index)
-        set_uniforms(program, {"u_jacobian_step": JACOBIAN_STEP / kernel.scaling.scale})
+        set_uniforms(program, jacobian_uniforms(kernel))
         run_1d(program, count, max_groups=groups)
         gl.mgl.memory_barrier()
         folds = np.zeros(-(-face_count // FACES_PER_INVOCATION) * FACES_PER_INVOCATION, np.uint8)

@@ -61,6 +61,7 @@ class MLSKernel3:
         self.config = config
         self.shape = shape
         self.scaling = Scaling((0.0, 0.0, 0.0), 1.0)  # type: ignore[arg-type]
+        self.extent = 0.0
         self._storage_request = storage
         self._storage: HandleStorage | None = None
         self._rows = np.zeros((0, 4), np.float32)
@@ -97,6 +98,9 @@ class MLSKernel3:
                 self._storage = storage
             storage.upload(rows)
         self._rows, self._count, self.scaling = rows, count, scaling
+        both = np.concatenate([src, dst]) if count else np.zeros((1, 3))
+        #: half the largest side of the handles' box, in their units
+        self.extent = float((both.max(axis=0) - both.min(axis=0)).max()) / 2
 
     # -- what the passes need -----------------------------------------------------------
 

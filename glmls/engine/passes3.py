@@ -17,12 +17,17 @@ from .kernel3 import MLSKernel3
 
 __all__ = [
     "INVERSE3_PASS",
+    "JACOBIAN_FLOOR",
     "JACOBIAN_STEP",
     "MESH_NORMALS",
     "POINTS3_PASS",
+    "STEP_BOX",
     "evaluate_lattice3",
     "evaluate_points3",
     "invert_points3",
+    "jacobian_steps",
+    "jacobian_uniforms",
+    "length_unit",
     "points3_program",
 ]
 
@@ -31,6 +36,15 @@ POINTS3_PASS = "mls3/points.comp.glsl"
 #: error is second order in it), large against float32's spacing of the coordinates
 #: (~1e-7 of the volume's extent; the steps are the ones float32 really took).
 JACOBIAN_STEP = 0.05
+#: The half side of the box of the handles (and volume) from which on J's step and the
+#: inverse's tolerances are JACOBIAN_STEP, NEWTON_TOLERANCE3 and NEWTON_ACCEPT handle units
+#: (voxels); in a smaller box they shrink with it, so that handles in metres get the
+#: derivatives and inverse that the same handles in millimetres do.
+STEP_BOX = 16.0
+#: J's step is at least this share of the larger of the box's half side and the point's
+#: distance from its centre: float32's rounding of f stays about eps32 / JACOBIAN_FLOOR
+#: (5e-4) of J, in units however large (micrometres) and far from the handles.
+JACOBIAN_FLOOR = 2.0**-12
 #: What a points pass writes besides f.
 OUTPUTS = ("f", "matrix", "jacobian")
 #: A points pass's outputs: :data:`OUTPUTS`, or a mesh's vertex records (f, J, the deformed
@@ -60,6 +74,36 @@ def points3_program(
         "MLS3_MESH_NORMALS": MESH_NORMALS.index(normals) if mesh else 0,
     }
     return kernel.program(POINTS3_PASS, defines)
+
+
+def length_unit(kernel: MLSKernel3) -> float:
+    """The length, handle units, of which J's step and the inverse's tolerances are the
+    fixed shares: 1, or less in a box of half side below :data:`STEP_BOX`."""
+    scale = kernel.scaling.scale
+    half = max(kernel.extent, scale / 2 if scale > 1 else 0.0)  # scale: the volume's box too
+    return min(1.0, half / STEP_BOX) if half > 0 else 1.0
+
+
+def jacobian_uniforms(kernel: MLSKernel3) -> dict[str, float]:
+    """The uniforms of J's central differences (scaled units): the step of
+    :func:`length_unit`, and the least step per unit of the larger of the box's half side
+    and the point's largest scaled coordinate (``u_jacobian_floor``, ``u_jacobian_box``)."""
+    scale = kernel.scaling.scale
+    half = max(kernel.extent, scale / 2 if scale > 1 else 0.0)
+    return {
+        "u_jacobian_step": JACOBIAN_STEP * length_unit(kernel) / scale,
+        "u_jacobian_floor": JACOBIAN_FLOOR,
+        "u_jacobian_box": half / scale,
+    }
+
+
+def jacobian_steps(kernel: MLSKernel3, points: np.ndarray) -> np.ndarray:
+    """(K,) the central differences' step of J at each of ``points`` (K, 3), handle units:
+    what ``mls3_jacobian_step`` of the shaders takes."""
+    values = jacobian_uniforms(kernel)
+    scaled = np.abs(kernel.scaling.to_gpu(points)).max(axis=1)
+    least = values["u_jacobian_floor"] * np.maximum(values["u_jacobian_box"], scaled)
+    return np.maximum(values["u_jacobian_step"], least) * kernel.scaling.scale
 
 
 def evaluate_points3(
@@ -92,7 +136,7 @@ def evaluate_points3(
         f_out.bind_to_storage_buffer(bindings.DEFORMED.index)
         if output != "f":
             scratch.buffer("M3", count * 36).bind_to_storage_buffer(bindings.MATRICES.index)
-        set_uniforms(program, {"u_jacobian_step": JACOBIAN_STEP / kernel.scaling.scale})
+        set_uniforms(program, jacobian_uniforms(kernel))
         groups = max_groups if max_groups is not None else kernel.gl.limits["max_work_groups_x"]
         run_1d(program, count, max_groups=groups)
         kernel.gl.mgl.memory_barrier()
@@ -190,8 +234,8 @@ def invert_points3(
         set_uniforms(
             program,
             {
-                "u_jacobian_step": JACOBIAN_STEP / scaling.scale,
-                "u_tolerance": NEWTON_TOLERANCE3 / scaling.scale,
+                **jacobian_uniforms(kernel),
+                "u_tolerance": NEWTON_TOLERANCE3 * length_unit(kernel) / scaling.scale,
                 "u_max_step": NEWTON_MAX_STEP3,
                 "u_steps": NEWTON_STEPS3,
             },

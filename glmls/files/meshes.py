@@ -1,4 +1,5 @@
-"""Reading and writing triangle meshes: PLY and STL through trimesh, OBJ by glmls itself.
+"""Reading and writing triangle meshes: STL through trimesh, PLY and OBJ read by glmls itself
+(PLY written by trimesh).
 
 A :class:`Mesh` is its vertices (V, 3) float64, (x, y, z) in the coordinates of the handles
 that deform it, and its triangles (F, 3) of vertex indices. Reading keeps the file's
@@ -6,9 +7,11 @@ vertices in their order (none merged, none dropped) and its faces in their order
 STL's: an STL file stores each triangle's three corners, so the corners at the same place
 are merged into one vertex. An OBJ file is read by glmls itself, its ``v`` and ``f`` lines
 (objects, groups and materials do not split or reorder it). Faces of more than three
-vertices are split into triangles (a fan from their first vertex). Only the geometry is read and
-written: vertex colours, normals and texture coordinates are not kept. A point cloud is a
-mesh of no faces: PLY and OBJ hold one (STL holds triangles only, and refuses it).
+vertices are split into triangles (a fan from their first vertex, in the face's place among
+the faces, in OBJ and PLY alike); a face of fewer than three is refused. Only the geometry
+is read and written: vertex colours, normals and texture coordinates are not kept. A point
+cloud is a mesh of no faces: PLY and OBJ hold one (STL holds triangles only, and refuses
+it).
 
 Written, by the suffix: PLY (binary) and STL (binary) hold float32 coordinates, as those
 formats usually do; OBJ (text) holds them exactly (each float64's shortest repr). Every fault of
@@ -27,6 +30,7 @@ import numpy as np
 from ..core.summary import fields_repr
 from ..errors import InputFileError
 from .atomic import atomic_write
+from .ply import read_ply
 
 __all__ = ["MESH_SUFFIXES", "Mesh", "read_mesh", "write_mesh"]
 
@@ -165,22 +169,16 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
         raise InputFileError(f"{path}: cannot read: {error.strerror or error}") from None
     if suffix == ".obj":
         return _read_obj(path, content)
+    if suffix == ".ply":
+        return _read_ply(path, content)
     trimesh = _trimesh()
     try:
         loaded = _load(trimesh, content, suffix, "mesh")
-        if isinstance(loaded, trimesh.Trimesh) and not len(loaded.faces) and suffix != ".stl":
-            loaded = _load(trimesh, content, suffix, None)  # a point cloud: its vertices
     except Exception as error:  # trimesh's parsers raise many kinds on a malformed file
         raise InputFileError(f"{path}: not a readable {suffix} mesh: {error}") from None
-    if isinstance(loaded, trimesh.PointCloud) and len(loaded.vertices):
-        try:
-            return Mesh(np.asarray(loaded.vertices), np.zeros((0, 3), np.int64))
-        except (TypeError, ValueError) as error:
-            raise InputFileError(f"{path}: {error}") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.vertices) == 0:
         raise InputFileError(f"{path}: no mesh vertices in it")
-    if suffix == ".stl":
-        loaded.merge_vertices(merge_tex=True, merge_norm=True)
+    loaded.merge_vertices(merge_tex=True, merge_norm=True)  # STL: each triangle's own corners
     try:
         return Mesh(np.asarray(loaded.vertices), np.asarray(loaded.faces).reshape(-1, 3))
     except (TypeError, ValueError) as error:
@@ -219,6 +217,21 @@ def _read_obj(path: Path, content: bytes) -> Mesh:
         raise InputFileError(f"{path}: not a readable .obj mesh: {error}") from None
     try:
         return Mesh(coordinates, np.array(faces, dtype=np.int64).reshape(-1, 3))
+    except (TypeError, ValueError) as error:
+        raise InputFileError(f"{path}: {error}") from None
+
+
+def _read_ply(path: Path, content: bytes) -> Mesh:
+    """The mesh of a PLY file, in the file's order (:mod:`glmls.files.ply`: trimesh reorders
+    the faces of a mix of triangles and polygons, and refuses them in a binary file)."""
+    try:
+        vertices, faces = read_ply(content)
+    except ValueError as error:
+        raise InputFileError(f"{path}: not a readable .ply mesh: {error}") from None
+    if not len(vertices):
+        raise InputFileError(f"{path}: no mesh vertices in it")
+    try:
+        return Mesh(vertices, faces)
     except (TypeError, ValueError) as error:
         raise InputFileError(f"{path}: {error}") from None
 

@@ -320,7 +320,9 @@ def world_to_volume(
     ``spacing`` places the voxels and takes the handles. ITK (SimpleITK, elastix's
     ``point`` files, ITK-SNAP's and 3D Slicer's exported LPS points) gives the same world
     in LPS: x and y negated (ITK's NIfTI reader negates the affine's first two rows);
-    ``lps=True`` takes points so.
+    ``lps=True`` takes points so. The frame is the world turned, flipped and moved where
+    the affine's columns are orthogonal; a sheared affine makes it the world sheared, whose
+    distances and angles are not the world's.
 
     Parameters
     ----------

@@ -56,16 +56,19 @@ NEWTON_ACCEPT = 0.05
 ACCEPT_STEPS = 4.0
 
 
-def accept_residual(scaling: Scaling, u: np.ndarray, s: np.ndarray) -> np.ndarray:
+def accept_residual(
+    scaling: Scaling, u: np.ndarray, s: np.ndarray, *, unit: float = 1.0
+) -> np.ndarray:
     """(K,) the residual |f(s) - u| (pixels) up to which s counts as a preimage of the
-    points ``u``, (K, D) pixels: :data:`NEWTON_ACCEPT`, or :data:`ACCEPT_STEPS` float32
-    steps of the larger scaled coordinate of u and s, times the scale, where more."""
+    points ``u``, (K, D) pixels: :data:`NEWTON_ACCEPT` times ``unit`` (the length of a
+    pixel, less for 3D handles in a small box), or :data:`ACCEPT_STEPS` float32 steps of the
+    larger scaled coordinate of u and s, times the scale, where more."""
     center = np.asarray(scaling.center, np.float64)
     with np.errstate(invalid="ignore"):
         far = np.maximum(np.abs(u - center).max(axis=1), np.abs(s - center).max(axis=1))
     far = np.nan_to_num(far / scaling.scale, nan=0.0)
     steps = ACCEPT_STEPS * float(np.finfo(np.float32).eps) * np.maximum(far, 1.0)
-    return np.maximum(NEWTON_ACCEPT, steps * scaling.scale)
+    return np.maximum(NEWTON_ACCEPT * unit, steps * scaling.scale)
 
 
 #: f's inverse at a list of points stops below this residual instead (pixels): a list is

@@ -458,3 +458,46 @@ def test_a_tiff_of_a_2d_images_channels_is_one_line_naming_its_axes(
         f"glmls warp: c.tif: a TIFF of axes {axes} (3, 20, 24), {what} of a 2D image, not a "
         "volume (a stack of slices: axis Z, or pages without axes)\n"
     )
+
+
+def test_elastix_index_files_on_a_mesh_are_refused(files, stand_in, capsys):
+    """Voxel indices need a volume's geometry to become coordinates; a mesh has none, so an
+    elastix pair of ``index`` files is refused (``point`` files are its coordinates)."""
+    src, dst = glmls.data.phantom_handles()
+    for kind in ("index", "point"):
+        for name, points in (("moving.pts", src), ("fixed.pts", dst)):
+            rows = "".join(" ".join(f"{v:g}" for v in p) + "\n" for p in points)
+            (files / name).write_text(f"{kind}\n{len(points)}\n{rows}")
+        argv = ["warp", "sphere.ply", "o.ply", "--handles", "moving.pts", "--targets", "fixed.pts"]
+        capsys.readouterr()
+        if kind == "index":
+            assert main(argv) == 2
+            err = capsys.readouterr().err
+            assert err.count("\n") == 1 and "voxel indices" in err and "mesh" in err, err
+            assert not (files / "o.ply").exists()
+        else:
+            assert main(argv) == 0
+    for command in ("analyze",):
+        argv = [command, "sphere.ply", "--handles", "moving.pts", "--targets", "fixed.pts"]
+        (files / "moving.pts").write_text(
+            (files / "moving.pts").read_text().replace("point", "index", 1)
+        )
+        (files / "fixed.pts").write_text(
+            (files / "fixed.pts").read_text().replace("point", "index", 1)
+        )
+        capsys.readouterr()
+        assert main([*argv, "--out", "report"]) == 2
+        assert "voxel indices" in capsys.readouterr().err
+
+
+def test_3d_handles_on_a_tiff_of_one_page_say_why_it_is_an_image(files, capsys):
+    """A volume of one slice saved as an ImageJ stack is a TIFF of one page, which glmls
+    reads as an image: the refusal of its 3D handles says so, and where such a volume goes."""
+    import tifffile
+
+    tifffile.imwrite(files / "one.tif", np.zeros((1, 8, 9), np.uint8), imagej=True)
+    assert main(["warp", "one.tif", "o.tif", "--handles", "h3.json"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "a TIFF of one page is an image" in err and ".npy" in err
+    assert main(["warp", "a.png", "o.png", "--handles", "h3.json"]) == 2
+    assert "TIFF" not in capsys.readouterr().err

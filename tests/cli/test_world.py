@@ -130,3 +130,23 @@ def test_the_examples_run(function):
     errors = validate(f"glmls.files.{function.__name__}")["errors"]
     checks = {"GL08", "SS01", "SS03", "SS06", "PR01", "PR02", "PR07", "RT01", "EX01"}
     assert [e for e in errors if e[0] in checks] == []
+
+
+def test_world_handles_of_a_sheared_affine_are_warned_of():
+    """The warp's frame (i dx, j dy, k dz) is the world through the inverse of the affine:
+    an isometry of it where the affine's columns are orthogonal (rotations, flips), but a
+    shear of it where they are not, in which a rigid motion of the world is no rigid motion
+    (nor distances the world's): --world says so, once."""
+    from types import SimpleNamespace
+
+    from glmls.cli.warp3d import volume_handle_warnings
+
+    args = SimpleNamespace(handles="h.json", targets=None, world=True)
+    src = np.array([[1.0, 1.0, 1.0], [3.0, 4.0, 2.0]])
+    assert volume_handle_warnings(args, src, SHAPE, (2.0, 0.8, 0.5), _affine()) == []
+    sheared = _affine()
+    sheared[:3, 1] += 0.3 * sheared[:3, 0]  # column j leans towards column i
+    [message] = volume_handle_warnings(args, src, SHAPE, (2.0, 0.8, 0.5), sheared)
+    assert "sheared" in message and "rigid" in message, message
+    args.world = False  # handles in the frame itself: nothing to warn of
+    assert volume_handle_warnings(args, src, SHAPE, (2.0, 0.8, 0.5), sheared) == []

@@ -163,3 +163,34 @@ def test_repeatable_and_split_into_dispatches(gl, rng):
     for out in (again, split):
         for name in ("vertices", "normals", "jacobian", "det_j", "face_folds"):
             assert np.array_equal(getattr(out, name), getattr(whole, name)), name
+
+
+def test_derivatives_and_inverse_do_not_depend_on_the_handles_unit(gl):
+    """The same handles, mesh and points in millimetres, metres and micrometres (times 1,
+    1e-3 and 1e3): J, det J, the normals and the inverse are the same to float32's
+    precision. J's central differences and Newton's tolerance are fixed shares of a voxel
+    only in a box of a few voxels or more; a mesh of 0.1 m got a step of half its size, one
+    of 1e5 um a step below float32's rounding."""
+    rng = np.random.default_rng(0)
+    src = rng.uniform(0, 100, (8, 3))
+    dst = src + rng.normal(0, 6, src.shape)
+    points = rng.uniform(10, 90, (200, 3))
+    sphere = glmls.data.sphere()
+    vertices = np.asarray(sphere.vertices, float)
+    vertices = (vertices - vertices.mean(axis=0)) / np.abs(vertices).max() * 40 + 50
+    faces = np.asarray(sphere.faces)
+    found = {}
+    for unit in (1.0, 1e-3, 1e3):
+        with glmls.MLS(src * unit, dst * unit) as m:
+            _, jacobian = m.jacobian(points * unit)
+            out = m.deform((vertices * unit, faces))
+            back, valid = m.inverse(m(points * unit), return_valid=True)
+        assert valid.all(), unit
+        assert np.abs(back / unit - points).max() < 1e-3, unit  # of a 100 mm box
+        found[unit] = jacobian, out
+    jacobian, out = found[1.0]
+    for unit in (1e-3, 1e3):
+        other_j, other = found[unit]
+        assert np.abs(other_j - jacobian).max() < 1e-3, unit
+        assert np.abs(other.det_j - out.det_j).max() < 1e-3, unit
+        assert np.abs(other.normals - out.normals).max() < 1e-3, unit

@@ -142,20 +142,22 @@ def test_a_large_turn(gl, transform):
 
 @pytest.mark.parametrize("transform", glmls.TRANSFORMS)
 def test_a_cluster_a_few_steps_away(gl, transform):
-    """Handles within 1e-3 voxel of each other, seen from 2 to 4 steps h away: the probes'
-    moments, the centre's moved by O(h^2), are off by more than the cluster's own spread
-    about p*, so the short solve does not hold there (J was NaN or off by tens) and the full
-    central differences are taken."""
-    from glmls.engine.passes3 import JACOBIAN_STEP
+    """Handles within 1e-3 voxel of each other, seen from 2 to 4 steps h away (J's step
+    there, ``jacobian_steps``): the probes' moments, the centre's moved by O(h^2), are off
+    by more than the cluster's own spread about p*, so the short solve does not hold there
+    (J was NaN or off by tens) and the full central differences are taken."""
+    from glmls.engine.passes3 import jacobian_steps
 
     rng = np.random.default_rng(4)
     src = 120.0 + rng.uniform(-1e-3, 1e-3, (16, 3))
     dst = src + [1.5, -3.9, 3.3] + rng.normal(0, 1e-3, src.shape)
     direction = rng.normal(size=(40, 3))
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    points = 120.0 + direction * rng.uniform(0.09, 0.2, (40, 1))
-    h = JACOBIAN_STEP
     with glmls.MLS(src, dst, transform=transform, alpha=3.7, ctx=gl) as m:
+        h = jacobian_steps(m.kernel, np.full((1, 3), 120.0))[0]
+        points = 120.0 + direction * rng.uniform(1.8 * h, 4.0 * h, (40, 1))
+        assert np.allclose(jacobian_steps(m.kernel, points), h, rtol=0.1)
+        h = jacobian_steps(m.kernel, points)[:, None]
         _, jacobian = m.jacobian(points)
         expected = np.stack(
             [(m(points + h * e) - m(points - h * e)) / (2 * h) for e in np.eye(3)], 1

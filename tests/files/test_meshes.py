@@ -191,3 +191,63 @@ def test_bad_obj_lines_are_named(tmp_path, content, message):
     with pytest.raises(InputFileError) as info:
         read_mesh(path)
     assert str(info.value).startswith(f"{path}: ") and message in str(info.value)
+
+
+def _ply(faces: list[list[int]], *, binary: bool = False) -> bytes:
+    """A PLY of the five vertices of a unit square and its apex, and ``faces``."""
+    vertices = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1]]
+    kind = "binary_little_endian" if binary else "ascii"
+    header = (
+        f"ply\nformat {kind} 1.0\nelement vertex {len(vertices)}\nproperty float x\n"
+        "property float y\nproperty float z\n"
+        f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n"
+    ).encode()
+    if not binary:
+        rows = [" ".join(map(str, v)) for v in vertices]
+        rows += [" ".join(map(str, [len(f), *f])) for f in faces]
+        return header + ("\n".join(rows) + "\n").encode()
+    body = np.array(vertices, "<f4").tobytes()
+    for face in faces:
+        body += np.uint8(len(face)).tobytes() + np.array(face, "<i4").tobytes()
+    return header + body
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_ply_polygons_are_fans_in_the_files_order(tmp_path, binary):
+    """A PLY of triangles, quads and larger polygons keeps its faces' order, each polygon a
+    fan from its first vertex in its place, as an OBJ's polygons are."""
+    path = tmp_path / "mixed.ply"
+    path.write_bytes(_ply([[0, 1, 2, 3], [0, 1, 4], [3, 2, 1, 0], [4, 1, 2]], binary=binary))
+    expected = [[0, 1, 2], [0, 2, 3], [0, 1, 4], [3, 2, 1], [3, 1, 0], [4, 1, 2]]
+    assert read_mesh(path).faces.tolist() == expected
+    path.write_bytes(_ply([[0, 1, 2, 3], [1, 2, 3, 4]], binary=binary))  # quads alone
+    assert read_mesh(path).faces.tolist() == [[0, 1, 2], [0, 2, 3], [1, 2, 3], [1, 3, 4]]
+    path.write_bytes(_ply([[0, 1, 2, 3, 4]], binary=binary))
+    assert read_mesh(path).faces.tolist() == [[0, 1, 2], [0, 2, 3], [0, 3, 4]]
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_ply_faces_of_fewer_than_three_vertices_are_named(tmp_path, binary):
+    """A face of two vertices (an edge) is no triangle: the file is refused, not read as a
+    point cloud with its faces dropped."""
+    path = tmp_path / "edges.ply"
+    path.write_bytes(_ply([[0, 1, 2], [0, 1]], binary=binary))
+    with pytest.raises(InputFileError, match=r"edges\.ply: .*face 1: a face of 2 vertices"):
+        read_mesh(path)
+
+
+def test_ply_face_list_of_another_name_is_read(tmp_path):
+    """The face element's only list is its vertex indices, whatever its name."""
+    path = tmp_path / "named.ply"
+    path.write_bytes(_ply([[0, 1, 2], [0, 2, 3, 4]]).replace(b"vertex_indices", b"vertex_ids"))
+    assert read_mesh(path).faces.tolist() == [[0, 1, 2], [0, 2, 3], [0, 3, 4]]
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_a_truncated_ply_is_named(tmp_path, binary):
+    path = tmp_path / "cut.ply"
+    path.write_bytes(_ply([[0, 1, 2], [0, 2, 3, 4]], binary=binary)[:-3])
+    with pytest.raises(
+        InputFileError, match=r"cut\.ply: not a readable \.ply mesh: element 'face'"
+    ):
+        read_mesh(path)

@@ -17,6 +17,13 @@ layout(std430, binding = BIND_DEFORMED) writeonly buffer MLS3Sources {
 uniform int u_count;
 uniform int u_offset;
 uniform float u_jacobian_step;
+uniform float u_jacobian_floor;  // as mls3/points.comp.glsl's
+uniform float u_jacobian_box;
+
+float mls3_jacobian_step(vec3 v) {
+    vec3 a = abs(v);
+    return max(u_jacobian_step, u_jacobian_floor * max(u_jacobian_box, max(a.x, max(a.y, a.z))));
+}
 uniform float u_tolerance;
 uniform float u_max_step;
 uniform int u_steps;
@@ -36,7 +43,7 @@ float mls3_newton(inout vec3 s, vec3 u) {
     float least = residual;
     int halvings = 0;
     for (int k = 0; k < u_steps && residual > u_tolerance; ++k) {
-        mat3 J = mls3_jacobian(s, u_jacobian_step);
+        mat3 J = mls3_jacobian(s, mls3_jacobian_step(s));
         float det = determinant(J);
         vec3 move = abs(det) > 1e-12 ? r * inverse(J) : r;
         float len = length(move);

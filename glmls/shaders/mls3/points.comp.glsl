@@ -5,7 +5,7 @@
 //   a list: f(v) - v (scaled; the caller adds v in float64), 3 floats per point;
 //   a lattice: f(v) in voxels, 3 floats per point;
 //   MLS3_WRITE_MATRIX: M row by row (the mathematical M[i][j] at 9 i + 3 r + c), 9 floats;
-//   MLS3_WRITE_JACOBIAN: J = df/dv by central differences of step u_jacobian_step (scaled),
+//   MLS3_WRITE_JACOBIAN: J = df/dv by central differences of step mls3_jacobian_step(v) (scaled),
 //     J[r][c] = d f_c / d v_r (row vectors: df = dv J), 9 floats;
 //   MLS3_MESH (a list, with MLS3_WRITE_JACOBIAN): one record of MESH3_RECORD floats per
 //     mesh vertex instead (mls3/mesh.glsl): f - v, J, the deformed unit normal n cof(J)
@@ -30,6 +30,15 @@ layout(std430, binding = BIND_POINTS) readonly buffer MLS3Points {
 uniform int u_count;     // items of this run
 uniform int u_offset;    // first index of this dispatch (dispatches are capped in size)
 uniform float u_jacobian_step;
+uniform float u_jacobian_floor;  // the least step per unit of max(u_jacobian_box, |v|)
+uniform float u_jacobian_box;    // half the handles' box, scaled
+
+// J's step at v: u_jacobian_step, or more where float32's rounding of f far out would
+// outweigh it (glmls.engine.passes3.jacobian_uniforms)
+float mls3_jacobian_step(vec3 v) {
+    vec3 a = abs(v);
+    return max(u_jacobian_step, u_jacobian_floor * max(u_jacobian_box, max(a.x, max(a.y, a.z))));
+}
 
 layout(std430, binding = BIND_DEFORMED) writeonly buffer MLS3OutF {
     float mls3_out_f[];
@@ -113,7 +122,7 @@ void main() {
     vec3 v = mls3_item_point(min(i, max(u_count - 1, 0)));
 #if MLS3_WRITE_JACOBIAN
     mat3 J;
-    MLS3Result r = mls3_eval_jacobian(v, u_jacobian_step, J);
+    MLS3Result r = mls3_eval_jacobian(v, mls3_jacobian_step(v), J);
 #else
     MLS3Result r = mls3_eval(v);
 #endif

@@ -1,0 +1,254 @@
+"""Reading PLY meshes: the vertices' x, y, z and the faces, in the file's order.
+
+A PLY file (ASCII, or binary of either byte order) is a header of elements, each a count of
+rows of properties (scalars, or lists with a count before their items), then the rows of
+each element in turn. glmls reads every element so as to find the vertices (``x``, ``y``,
+``z`` of ``vertex``) and the faces (the list ``vertex_indices`` or ``vertex_index`` of
+``face``); the rest is geometry glmls does not keep (colours, normals, edges, materials).
+A face of more than three vertices is a fan from its first vertex, in its place among the
+faces; a face of fewer is refused. Faults are ``ValueError``s that say where, which
+:func:`glmls.files.meshes.read_mesh` reports naming the file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["fan_triangles", "read_ply"]
+
+#: PLY's scalar types and their NumPy codes (without the byte order).
+_TYPES = {
+    "char": "i1",
+    "int8": "i1",
+    "uchar": "u1",
+    "uint8": "u1",
+    "short": "i2",
+    "int16": "i2",
+    "ushort": "u2",
+    "uint16": "u2",
+    "int": "i4",
+    "int32": "i4",
+    "uint": "u4",
+    "uint32": "u4",
+    "float": "f4",
+    "float32": "f4",
+    "double": "f8",
+    "float64": "f8",
+}
+_ORDERS = {"ascii": "", "binary_little_endian": "<", "binary_big_endian": ">"}
+_FACE_LISTS = ("vertex_indices", "vertex_index")
+
+
+@dataclass
+class _Property:
+    name: str
+    kind: str  # the NumPy code of a scalar, or of a list's items
+    count: str | None = None  # a list's count type; None for a scalar
+
+
+@dataclass
+class _Element:
+    name: str
+    rows: int
+    properties: list[_Property] = field(default_factory=list)
+
+
+def _scalar(word: str) -> str:
+    if word not in _TYPES:
+        raise ValueError(f"unknown PLY type {word!r}")
+    return _TYPES[word]
+
+
+def _header(content: bytes) -> tuple[str, list[_Element], int]:
+    """(the byte order code, or "" for ASCII; the elements; where the rows begin)."""
+    end = content.find(b"end_header")
+    if not content.startswith(b"ply") or end < 0:
+        raise ValueError("no PLY header (ply ... end_header)")
+    start = content.find(b"\n", end)
+    if start < 0:
+        raise ValueError("nothing after the header")
+    order, elements = None, []
+    for raw in content[:end].decode("latin-1").splitlines()[1:]:
+        words = raw.split()
+        if not words or words[0] in ("comment", "obj_info"):
+            continue
+        if words[0] == "format" and len(words) == 3 and words[1] in _ORDERS:
+            order = _ORDERS[words[1]]
+        elif words[0] == "element" and len(words) == 3 and words[2].isdigit():
+            elements.append(_Element(words[1], int(words[2])))
+        elif words[0] == "property" and elements and len(words) == 5 and words[1] == "list":
+            elements[-1].properties.append(
+                _Property(words[4], _scalar(words[3]), _scalar(words[2]))
+            )
+        elif words[0] == "property" and elements and len(words) == 3:
+            elements[-1].properties.append(_Property(words[2], _scalar(words[1])))
+        else:
+            raise ValueError(f"a header line PLY does not have: {raw.strip()[:60]!r}")
+    if order is None:
+        raise ValueError("no 'format ascii|binary_little_endian|binary_big_endian 1.0' line")
+    return order, elements, start + 1
+
+
+def _fixed_dtype(element: _Element, order: str, lengths: int) -> np.dtype:
+    """The record of a row whose lists all hold ``lengths`` items."""
+    parts = []
+    for index, p in enumerate(element.properties):
+        if p.count is None:
+            parts.append((f"p{index}", order + p.kind))
+        else:
+            parts.append((f"n{index}", order + p.count))
+            parts.append((f"p{index}", order + p.kind, (lengths,)))
+    return np.dtype(parts)
+
+
+def _binary_rows(content: bytes, at: int, element: _Element, order: str) -> tuple[list, int]:
+    """Each property's values (an array, or a list of arrays for a list property) and where
+    the next element begins."""
+    lists = [i for i, p in enumerate(element.properties) if p.count is not None]
+    if element.rows == 0:
+        return [np.zeros(0) for _ in element.properties], at
+    first = _fixed_dtype(element, order, 0)
+    if lists:  # every list as long as the first row's first list: one read, checked
+        head = np.frombuffer(content, first, 1, at)
+        length = int(head[f"n{lists[0]}"][0])
+        dtype = _fixed_dtype(element, order, length)
+        if at + dtype.itemsize * element.rows <= len(content):
+            rows = np.frombuffer(content, dtype, element.rows, at)
+            if all((rows[f"n{i}"] == length).all() for i in lists):
+                values = [rows[f"p{i}"] for i in range(len(element.properties))]
+                return values, at + dtype.itemsize * element.rows
+        return _binary_loop(content, at, element, order)
+    rows = np.frombuffer(content, first, element.rows, at)
+    return [rows[f"p{i}"] for i in range(len(element.properties))], at + first.itemsize * rows.size
+
+
+def _binary_loop(content: bytes, at: int, element: _Element, order: str) -> tuple[list, int]:
+    """Row by row: lists of different lengths."""
+    values: list[list] = [[] for _ in element.properties]
+    for _ in range(element.rows):
+        for index, p in enumerate(element.properties):
+            if p.count is None:
+                kind = np.dtype(order + p.kind)
+                values[index].append(np.frombuffer(content, kind, 1, at)[0])
+                at += kind.itemsize
+                continue
+            counter = np.dtype(order + p.count)
+            length = int(np.frombuffer(content, counter, 1, at)[0])
+            at += counter.itemsize
+            kind = np.dtype(order + p.kind)
+            values[index].append(np.frombuffer(content, kind, length, at))
+            at += kind.itemsize * length
+    return values, at
+
+
+def _ascii_rows(words: list[bytes], at: int, element: _Element) -> tuple[list, int]:
+    """As :func:`_binary_rows`, from the whitespace-separated words of an ASCII body."""
+    width = len(element.properties)
+    if element.rows and all(p.count is None for p in element.properties):
+        block = words[at : at + element.rows * width]
+        if len(block) < element.rows * width:
+            raise ValueError(f"the rows of {element.name!r} end early")
+        table = np.array(block, dtype=np.float64).reshape(element.rows, width)
+        return list(table.T), at + element.rows * width
+    fixed = _ascii_fixed(words, at, element)
+    if fixed is not None:
+        return fixed
+    values: list[list] = [[] for _ in element.properties]
+    for _ in range(element.rows):
+        for index, p in enumerate(element.properties):
+            if p.count is None:
+                values[index].append(float(words[at]))
+                at += 1
+                continue
+            length = int(words[at])
+            values[index].append(np.array(words[at + 1 : at + 1 + length], dtype=np.float64))
+            at += 1 + length
+    if at > len(words):
+        raise ValueError(f"the rows of {element.name!r} end early")
+    return [v if element.properties[i].count else np.array(v) for i, v in enumerate(values)], at
+
+
+def _ascii_fixed(words: list[bytes], at: int, element: _Element) -> tuple[list, int] | None:
+    """:func:`_ascii_rows` at once where every row is as long as the first (its lists of
+    the same lengths, as a mesh of triangles alone has them); None where they are not."""
+    spans, start = [], at
+    for p in element.properties:  # the first row's columns: (count column or None, width)
+        if start >= len(words):
+            return None
+        length = 0 if p.count is None else int(words[start])
+        spans.append((length, start - at))
+        start += 1 if p.count is None else 1 + length
+    width = start - at
+    block = words[at : at + element.rows * width]
+    if element.rows == 0 or len(block) < element.rows * width:
+        return None
+    table = np.array(block, dtype=np.float64).reshape(element.rows, width)
+    values: list = []
+    for p, (length, column) in zip(element.properties, spans, strict=True):
+        if p.count is None:
+            values.append(table[:, column])
+            continue
+        if (table[:, column] != length).any():
+            return None
+        values.append(table[:, column + 1 : column + 1 + length])
+    return values, at + element.rows * width
+
+
+def fan_triangles(polygons: list) -> np.ndarray:
+    """(F, 3) int64 triangles of polygons (vertex index sequences), each polygon a fan from
+    its first vertex in its place; ``ValueError`` naming a face of fewer than 3 vertices."""
+    triangles = []
+    for index, polygon in enumerate(polygons):
+        corners = np.asarray(polygon).ravel()
+        if len(corners) < 3:
+            raise ValueError(f"face {index}: a face of {len(corners)} vertices, not a polygon")
+        if (corners != np.round(corners)).any():
+            raise ValueError(f"face {index}: vertex indices that are not whole numbers")
+        corners = corners.astype(np.int64)
+        for k in range(1, len(corners) - 1):
+            triangles.append((corners[0], corners[k], corners[k + 1]))
+    return np.array(triangles, dtype=np.int64).reshape(-1, 3)
+
+
+def read_ply(content: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (V, 3) float64, faces (F, 3) int64) of a PLY file's bytes; ``ValueError``
+    for a file that is not one, or whose vertices have no x, y and z."""
+    order, elements, at = _header(content)
+    words = content[at:].split() if order == "" else []
+    position = 0 if order == "" else at
+    found: dict[str, dict[str, object]] = {}
+    for element in elements:
+        try:
+            if order == "":
+                values, position = _ascii_rows(words, position, element)
+            else:
+                values, position = _binary_rows(content, position, element, order)
+        except IndexError:
+            raise ValueError(f"element {element.name!r}: its rows end early") from None
+        except ValueError as error:
+            raise ValueError(f"element {element.name!r}: {error}") from None
+        found[element.name] = {p.name: v for p, v in zip(element.properties, values, strict=True)}
+    vertex = found.get("vertex", {})
+    if not all(axis in vertex for axis in "xyz"):
+        raise ValueError("no vertex element with x, y and z")
+    vertices = np.stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"], axis=1)
+    face = found.get("face", {})
+    lists = [p.name for e in elements if e.name == "face" for p in e.properties if p.count]
+    name = next((n for n in _FACE_LISTS if n in face), lists[0] if len(lists) == 1 else None)
+    if name is None:
+        return vertices, np.zeros((0, 3), np.int64)
+    polygons = face[name]
+    if isinstance(polygons, np.ndarray) and polygons.ndim == 2 and polygons.shape[1] >= 3:
+        # polygons of one size: their fans at once, each in its face's place
+        if (polygons != np.round(polygons)).any():
+            raise ValueError("face vertex indices that are not whole numbers")
+        corners = polygons.astype(np.int64)
+        steps = np.arange(1, corners.shape[1] - 1)
+        fans = np.stack(
+            [np.repeat(corners[:, :1], len(steps), 1), corners[:, steps], corners[:, steps + 1]],
+            axis=-1,
+        )
+        return vertices, fans.reshape(-1, 3)
+    return vertices, fan_triangles(list(polygons))
