@@ -7,6 +7,7 @@
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "mls3/core.glsl"
+#include "mls3/jacobian_step.glsl"
 
 layout(std430, binding = BIND_POINTS) readonly buffer MLS3Targets {
     float mls3_targets[];   // u, then s0, 6 floats per point
@@ -16,14 +17,6 @@ layout(std430, binding = BIND_DEFORMED) writeonly buffer MLS3Sources {
 };
 uniform int u_count;
 uniform int u_offset;
-uniform float u_jacobian_step;
-uniform float u_jacobian_floor;  // as mls3/points.comp.glsl's
-uniform float u_jacobian_box;
-
-float mls3_jacobian_step(vec3 v) {
-    vec3 a = abs(v);
-    return max(u_jacobian_step, u_jacobian_floor * max(u_jacobian_box, max(a.x, max(a.y, a.z))));
-}
 uniform float u_tolerance;
 uniform float u_max_step;
 uniform int u_steps;

@@ -16,6 +16,7 @@ layout(local_size_x = LOCAL_SIZE) in;
 
 #include "mls3/core.glsl"
 #include "mls3/mesh.glsl"
+#include "mls3/jacobian_step.glsl"
 
 #if MLS3_LATTICE
 uniform vec3 u_lattice3_origin;
@@ -29,16 +30,6 @@ layout(std430, binding = BIND_POINTS) readonly buffer MLS3Points {
 #endif
 uniform int u_count;     // items of this run
 uniform int u_offset;    // first index of this dispatch (dispatches are capped in size)
-uniform float u_jacobian_step;
-uniform float u_jacobian_floor;  // the least step per unit of max(u_jacobian_box, |v|)
-uniform float u_jacobian_box;    // half the handles' box, scaled
-
-// J's step at v: u_jacobian_step, or more where float32's rounding of f far out would
-// outweigh it (glmls.engine.passes3.jacobian_uniforms)
-float mls3_jacobian_step(vec3 v) {
-    vec3 a = abs(v);
-    return max(u_jacobian_step, u_jacobian_floor * max(u_jacobian_box, max(a.x, max(a.y, a.z))));
-}
 
 layout(std430, binding = BIND_DEFORMED) writeonly buffer MLS3OutF {
     float mls3_out_f[];
