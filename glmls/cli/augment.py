@@ -247,12 +247,14 @@ def augment_file(task: AugmentTask) -> AugmentOutcome:
 def read_labels(path: str, files: list[Path]) -> dict[str, dict]:
     """The labels file: per input file name, its ``keypoints`` and ``boxes`` as lists;
     :class:`UsageError` naming what is wrong."""
-    try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    try:  # utf-8-sig: a Windows editor's byte order mark, which the handle files take too
+        data = json.loads(Path(path).read_text(encoding="utf-8-sig"))
     except FileNotFoundError:
         raise UsageError(f"{path}: no such file") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+    except (OSError, ValueError) as error:  # ValueError: JSON's faults, an int of > 4300 digits
         raise UsageError(f"{path}: not a JSON labels file: {error}") from None
+    except RecursionError:
+        raise UsageError(f"{path}: not a JSON labels file: nested too deeply") from None
     if not isinstance(data, dict):
         raise UsageError(f"{path}: expected an object keyed by image file name")
     known = {f.name for f in files}
