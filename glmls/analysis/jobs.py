@@ -22,6 +22,7 @@ items not yet started are cancelled and the workers shut down.
 from __future__ import annotations
 
 import concurrent.futures
+import itertools
 import logging
 import multiprocessing
 from collections.abc import Callable, Iterable
@@ -177,15 +178,26 @@ def _indexed(error: BaseException, index: int) -> BaseException:
 def _run_processes(function, items: list, jobs: int, finished) -> None:
     context = multiprocessing.get_context("spawn")  # fork would inherit a dead GL driver
     workers = min(jobs, len(items))
+    pending = iter(enumerate(items))
     with concurrent.futures.ProcessPoolExecutor(workers, mp_context=context) as pool:
-        futures = {pool.submit(function, item): index for index, item in enumerate(items)}
+        # One item per worker at a time: the pool hands the items submitted to its workers
+        # ahead of time, beyond cancelling, so a stopped run would go on with them.
+        futures = {
+            pool.submit(function, item): index for index, item in itertools.islice(pending, workers)
+        }
         try:
-            for future in concurrent.futures.as_completed(futures):
-                index = futures[future]
-                error = future.exception()
-                if error is not None:
-                    raise _indexed(error, index) from error
-                finished(index, future.result())
+            while futures:
+                done, _ = concurrent.futures.wait(
+                    futures, return_when=concurrent.futures.FIRST_COMPLETED
+                )
+                for future in done:
+                    index = futures.pop(future)
+                    error = future.exception()
+                    if error is not None:
+                        raise _indexed(error, index) from error
+                    finished(index, future.result())
+                    for next_index, item in itertools.islice(pending, 1):
+                        futures[pool.submit(function, item)] = next_index
         except BaseException:
             # the items not started yet never start; the running ones end, then the
             # workers exit (leaving the with block waits for them: no process is left)
