@@ -57,6 +57,14 @@ def mark_or_fail(item: tuple[str, int]) -> int:
     return index
 
 
+def fail_soon(item: int) -> int:
+    """Item 0 fails after a moment; item 1 is still running then, and ends well."""
+    time.sleep(0.5 if item == 0 else 2.0)
+    if item == 0:
+        raise ValueError("bad item 0")
+    return item
+
+
 ITEMS = [0.0, 3.0, 6.0, 9.0]
 
 
@@ -133,3 +141,12 @@ def test_after_a_failure_the_items_not_started_never_start(tmp_path):
     with pytest.raises(ValueError, match="item 0: bad item 0"):
         run_jobs(mark_or_fail, items, jobs=2)
     assert sorted(p.name for p in tmp_path.iterdir()) in ([], ["ran_1"])
+
+
+def test_the_items_running_when_one_fails_are_reported():
+    """A worker's item that ends after another failed is done (its file written): the caller
+    hears of it, as of the items before, so that it can say what was written."""
+    seen = []
+    with pytest.raises(ValueError, match="item 0: bad item 0"):
+        run_jobs(fail_soon, [0, 1], jobs=2, on_result=lambda i, r: seen.append((i, r)))
+    assert seen == [(1, 1)]
