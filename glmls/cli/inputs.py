@@ -59,7 +59,11 @@ def image_inputs(pattern: str) -> tuple[list[Path], bool]:
     """The images named by ``pattern`` (a file, a folder or a glob) and whether it is many."""
     path = Path(pattern)
     if path.is_dir():
-        files = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+        files = sorted(  # as folder/* names them: no hidden file (macOS's ._NAME), no folder
+            p
+            for p in path.iterdir()
+            if p.suffix.lower() in IMAGE_SUFFIXES and not p.name.startswith(".") and p.is_file()
+        )
         many = True
     elif path.is_file():
         return [path], False
