@@ -70,7 +70,10 @@ def image_inputs(pattern: str) -> tuple[list[Path], bool]:
     else:
         many = glob.has_magic(pattern)
         if not many:
-            raise UsageError(f"{pattern}: no such file or folder")
+            exists = path.exists()  # a device, a pipe: no image file
+            raise UsageError(
+                f"{pattern}: {'not a file or folder' if exists else 'no such file or folder'}"
+            )
         files = sorted(Path(p) for p in glob.glob(pattern) if Path(p).is_file())
     if not files:
         raise UsageError(f"{pattern}: no images found")

@@ -289,16 +289,20 @@ def test_a_labels_file_with_a_byte_order_mark_is_read(tmp_path):
         ('{"a.png": {"keypoints": [[1' + "0" * 5000 + ", 1]]}}", "4300 digits"),
         ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
         ("", "not a JSON labels file"),
+        (None, "/dev/zero: a device, not a file"),
     ],
 )
 def test_a_labels_file_json_cannot_hold_is_one_line(inputs, capsys, text, fault):
     """An integer beyond Python's 4300 digits or nesting beyond its recursion limit is a
-    mistake in the file: one line and exit status 2, not a traceback."""
+    mistake in the file, and an endless device no file: one line and exit status 2, not a
+    traceback or a read that never ends."""
     from glmls.cli.main import main
 
-    (inputs / "labels.json").write_text(text)
+    labels = inputs / "labels.json" if text is not None else Path("/dev/zero")  # endless
+    if text is not None:
+        labels.write_text(text)
     assert main(["augment", str(inputs / "in"), str(inputs / "out"), "--labels",
-                 str(inputs / "labels.json")]) == 2  # fmt: skip
+                 str(labels)]) == 2  # fmt: skip
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and fault in err and "labels.json" in err, err
+    assert err.count("\n") == 1 and fault in err and labels.name in err, err
     assert not (inputs / "out").exists()

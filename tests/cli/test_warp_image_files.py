@@ -75,3 +75,14 @@ def test_a_folder_leaves_out_hidden_files_and_folders(tmp_path):
     (folder / "c.png").mkdir()
     assert image_inputs(str(folder)) == ([folder / "a.png"], True)
     assert image_inputs(str(folder / "*")) == ([folder / "a.png"], True)
+
+
+def test_a_device_given_as_the_input_is_named_so(tmp_path, capsys):
+    from glmls.cli.main import main
+
+    write_cli_handles(tmp_path)
+    assert (
+        main(["warp", "/dev/zero", str(tmp_path / "o.png"), "--handles", str(tmp_path / "h.json")])
+        == 2
+    )
+    assert capsys.readouterr().err == "glmls warp: /dev/zero: not a file or folder\n"
