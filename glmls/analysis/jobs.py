@@ -14,14 +14,18 @@
 ``function`` must be picklable (a module-level function) and so must the items and the
 results. Results come back in the order of ``items``; ``on_result(index, result)`` is called
 in the calling thread as each item finishes (in the order they finish), e.g. for a progress
-bar. An exception raised by ``function`` reaches the caller with the failing item's index in
-its message (``item 3: ...``), of the same type where it can be rebuilt from a message; the
-items not yet started are cancelled and the workers shut down.
+bar; with worker processes, also for the items that were running when another failed and
+ended well, before the failure is raised. An exception raised by ``function`` reaches the
+caller with the failing item's index in its message (``item 3: ...``), of the same type where
+it can be rebuilt from a message; the items not yet started are cancelled and the workers
+shut down.
 """
 
 from __future__ import annotations
 
 import concurrent.futures
+import contextlib
+import itertools
 import logging
 import multiprocessing
 from collections.abc import Callable, Iterable
@@ -177,20 +181,43 @@ def _indexed(error: BaseException, index: int) -> BaseException:
 def _run_processes(function, items: list, jobs: int, finished) -> None:
     context = multiprocessing.get_context("spawn")  # fork would inherit a dead GL driver
     workers = min(jobs, len(items))
+    pending = iter(enumerate(items))
     with concurrent.futures.ProcessPoolExecutor(workers, mp_context=context) as pool:
-        futures = {pool.submit(function, item): index for index, item in enumerate(items)}
+        # One item per worker at a time: the pool hands the items submitted to its workers
+        # ahead of time, beyond cancelling, so a stopped run would go on with them.
+        futures = {
+            pool.submit(function, item): index for index, item in itertools.islice(pending, workers)
+        }
         try:
-            for future in concurrent.futures.as_completed(futures):
-                index = futures[future]
-                error = future.exception()
-                if error is not None:
-                    raise _indexed(error, index) from error
-                finished(index, future.result())
+            while futures:
+                done, _ = concurrent.futures.wait(
+                    futures, return_when=concurrent.futures.FIRST_COMPLETED
+                )
+                for future in done:
+                    index = futures.pop(future)
+                    error = future.exception()
+                    if error is not None:
+                        raise _indexed(error, index) from error
+                    finished(index, future.result())
+                    for next_index, item in itertools.islice(pending, 1):
+                        futures[pool.submit(function, item)] = next_index
         except BaseException:
             # the items not started yet never start; the running ones end, then the
             # workers exit (leaving the with block waits for them: no process is left)
             pool.shutdown(wait=True, cancel_futures=True)
+            _report_the_rest(futures, finished)
             raise
+
+
+def _report_the_rest(futures: dict, finished) -> None:
+    """After a failure: ``finished`` for the items that ended well all the same (their work
+    is done: a file written), before the failure is raised; what ``finished`` raises for them
+    gives way to that failure."""
+    for future, index in futures.items():
+        if future.cancelled() or not future.done() or future.exception() is not None:
+            continue
+        with contextlib.suppress(Exception):
+            finished(index, future.result())
 
 
 def _run_dask(function, items: list, jobs: int, scheduler: str, finished) -> None:

@@ -533,13 +533,20 @@ def _summary(result: StudyResult, rows: list[dict]) -> dict:
     distinct = len(counts)
     everywhere = distinct == 1 and len(result.names) > 1
     tau, w = agreement["mean_tau"], agreement["kendall_w"]
-    answer = (
-        f"{distinct} distinct winner{'s' * (distinct != 1)} over {len(result.names)} images: "
-        + ("one configuration" if everywhere else "no configuration")
-        + " wins everywhere"
-        + (f"; mean Kendall tau {tau:.2f}" if tau is not None else "")
-        + (f", Kendall W {w:.2f}" if w is not None else "")
-    )
+    if len(result.names) == 1:  # its winner wins everywhere, which answers nothing
+        answer = (
+            f"1 winner over 1 image: {overall['label']}; one image cannot tell whether one "
+            "configuration wins everywhere"
+        )
+    else:
+        answer = (
+            f"{distinct} distinct winner{'s' * (distinct != 1)} over {len(result.names)} "
+            "images: "
+            + ("one configuration" if everywhere else "no configuration")
+            + " wins everywhere"
+            + (f"; mean Kendall tau {tau:.2f}" if tau is not None else "")
+            + (f", Kendall W {w:.2f}" if w is not None else "")
+        )
     return {
         "images": result.names,
         "configurations": len(rows),

@@ -134,6 +134,7 @@ def parse_config(spec: str, shape: Sequence[int]) -> list[MLSConfig]:
                 )
         return search_space(shape, transforms=transforms, weights=weights)
     options: dict[str, object] = {}
+    given: dict[str, str] = {}
     for item in parts[2].split(","):
         name, _, value = item.partition("=")
         if name not in _PARAMETERS or not value:
@@ -141,6 +142,11 @@ def parse_config(spec: str, shape: Sequence[int]) -> list[MLSConfig]:
                 f"configuration {spec!r}: expected name=value with name "
                 f"{', '.join(_PARAMETERS)}, got {item!r}"
             )
+        if name in given:  # which one was meant is the user's to say
+            raise ValueError(
+                f"configuration {spec!r}: {name} given twice, as {given[name]} and as {value}"
+            )
+        given[name] = value
         if isinstance(_PARAMETERS[name], bool):
             if value not in ("true", "false"):
                 raise ValueError(f"configuration {spec!r}: {name}=true or false")

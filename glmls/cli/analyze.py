@@ -15,8 +15,10 @@ from .inputs import (
     check_reference,
     example_or_files,
     figure,
+    keep_inputs,
     make_mls,
     reference_or_handles,
+    report_paths,
     reported_warnings,
     say,
     warn_about_handles,
@@ -89,6 +91,7 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as error:
             raise UsageError(str(error)) from None
     result.summary["input"] = name
+    keep_inputs(args, report_paths(args.out, result.images))
     paths = result.save(args.out)
     for path in paths:
         print(path)

@@ -29,7 +29,7 @@ from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import volume_suffix
 from ..mls import MLS
 from .analyze_volume import read_points_3d
-from .inputs import figure, reported_warnings, say
+from .inputs import figure, keep_inputs, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
 from .warp3d import check_world, read_3d_handles, refuse_image_options
@@ -87,6 +87,7 @@ def run_mesh(args: argparse.Namespace) -> int:
     reference = read_points_3d(args.reference) if args.reference else None
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")
+    keep_inputs(args, [Path(args.out) / "report.json", Path(args.out) / "deformed.ply"])
     ticker = Ticker("analyze", quiet=args.quiet)
     with _deformation(src, dst, config) as m, ticker as tick, reported_warnings("analyze"):
         tick.stage("deform")

@@ -17,7 +17,7 @@ from ..files.parsing import csv_rows, fail, json_list, load_json, number, table
 from ..files.volumes import is_volume_file, read_volume
 from ..mls import MLS
 from ..volume import VolumeOptions
-from .inputs import figure, reported_warnings, say
+from .inputs import figure, keep_inputs, report_paths, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
 from .warp3d import (
@@ -146,6 +146,7 @@ def run_volume(args: argparse.Namespace) -> int:
         except (TypeError, ValueError) as error:
             raise UsageError(str(error)) from None
     result.summary["input"] = str(args.input)
+    keep_inputs(args, report_paths(args.out, result.images))
     for path in result.save(args.out):
         print(path)
     summary = result.summary

@@ -31,6 +31,7 @@ from ..analysis.jobs import check_jobs, check_scheduler, run_jobs
 from ..augment import PRESETS, Augment
 from ..files.atomic import remove_leftovers, umask
 from ..files.images import WRITABLE, check_writable, image_bytes
+from ..files.parsing import read_text
 from ..imaging.source import BORDERS, INTERPOLATIONS, check_image
 from .inputs import image_inputs, kept_profile, read_image, say
 from .options import (
@@ -246,13 +247,15 @@ def augment_file(task: AugmentTask) -> AugmentOutcome:
 
 def read_labels(path: str, files: list[Path]) -> dict[str, dict]:
     """The labels file: per input file name, its ``keypoints`` and ``boxes`` as lists;
-    :class:`UsageError` naming what is wrong."""
+    :class:`UsageError` naming what is wrong (:class:`InputFileError` where the file cannot
+    be read)."""
+    text = read_text(Path(path))  # a byte order mark read as the handle files read it
     try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise UsageError(f"{path}: no such file") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        data = json.loads(text)
+    except ValueError as error:  # JSON's faults, and an integer of more than 4300 digits
         raise UsageError(f"{path}: not a JSON labels file: {error}") from None
+    except RecursionError:
+        raise UsageError(f"{path}: not a JSON labels file: nested too deeply") from None
     if not isinstance(data, dict):
         raise UsageError(f"{path}: expected an object keyed by image file name")
     known = {f.name for f in files}

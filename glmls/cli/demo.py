@@ -24,6 +24,7 @@ from .options import (
     add_warp_options,
     folder_path,
     positive_int,
+    refuse_overwriting,
 )
 from .warp3d import TARGETS_HELP, parse_spacing
 
@@ -185,6 +186,23 @@ def run(args: argparse.Namespace) -> int:
             check_writable(args.screenshot, np.uint8, 3)
         except ValueError as error:
             return fail(2, f"--screenshot: {error}")
+    try:  # both are written on exit: over a file the window read, they would replace it
+        refuse_overwriting(
+            [path for path in (args.screenshot, args.record) if path is not None],
+            {
+                Path(value): what
+                for value, what in (
+                    (args.image, "the input"),
+                    (args.handles, "the --handles file"),
+                    (args.targets, "the --targets file"),
+                    (args.reference, "the --reference file"),
+                    (args.replay, "the --replay file"),
+                )
+                if value is not None
+            },
+        )
+    except UsageError as error:
+        return fail(2, str(error))
     try:
         volume = volume_inputs(args)
     except (ValueError, TypeError) as error:

@@ -25,7 +25,14 @@ from ..files.landmarks import handle_dimension, read_handle_set, read_points
 from ..files.profiles import profile_problem, read_icc_profile
 from ..files.volumes import flat_npy, is_volume_file
 from ..mls import MLS
-from .options import UsageError, add_max_pixels, folder_path, handle_warnings, positive_int
+from .options import (
+    UsageError,
+    add_max_pixels,
+    folder_path,
+    handle_warnings,
+    positive_int,
+    refuse_overwriting,
+)
 
 __all__ = [
     "IMAGE_SUFFIXES",
@@ -52,14 +59,21 @@ def image_inputs(pattern: str) -> tuple[list[Path], bool]:
     """The images named by ``pattern`` (a file, a folder or a glob) and whether it is many."""
     path = Path(pattern)
     if path.is_dir():
-        files = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+        files = sorted(  # as folder/* names them: no hidden file (macOS's ._NAME), no folder
+            p
+            for p in path.iterdir()
+            if p.suffix.lower() in IMAGE_SUFFIXES and not p.name.startswith(".") and p.is_file()
+        )
         many = True
     elif path.is_file():
         return [path], False
     else:
         many = glob.has_magic(pattern)
         if not many:
-            raise UsageError(f"{pattern}: no such file or folder")
+            exists = path.exists()  # a device, a pipe: no image file
+            raise UsageError(
+                f"{pattern}: {'not a file or folder' if exists else 'no such file or folder'}"
+            )
         files = sorted(Path(p) for p in glob.glob(pattern) if Path(p).is_file())
     if not files:
         raise UsageError(f"{pattern}: no images found")
@@ -308,6 +322,32 @@ def read_image_handles(path, *, dst=None, image: object, many: bool = False) -> 
             f"{path}: 3D handles (x, y, z), but {image} {which} 2D handles (x, y){hint}"
         )
     return read_handle_set(path, dst=dst)
+
+
+#: The options that name files a command reads, and what each file is.
+_READ = (
+    ("input", "the input"),
+    ("handles", "the --handles file"),
+    ("targets", "the --targets file"),
+    ("reference", "the --reference file"),
+)
+
+
+def keep_inputs(args: argparse.Namespace, outputs: list[Path]) -> None:
+    """:class:`UsageError` for one of ``outputs`` that is a file the command reads (IN,
+    --handles, --targets, --reference), which writing it would destroy."""
+    read = {
+        Path(value): what
+        for option, what in _READ
+        if isinstance(value := getattr(args, option, None), str)
+    }
+    refuse_overwriting(outputs, read)
+
+
+def report_paths(folder: str | Path, images: dict) -> list[Path]:
+    """The files a report's ``save(folder)`` writes: ``report.json`` and its pictures."""
+    folder = Path(folder)
+    return [folder / "report.json", *(folder / f"{name}.png" for name in images)]
 
 
 def example_or_files(args: argparse.Namespace, *, need_reference: bool):

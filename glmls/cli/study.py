@@ -17,6 +17,7 @@ from .options import (
     nonnegative_int,
     parse_config_specs,
     positive_int,
+    refuse_overwriting,
 )
 from .progress import Progress
 
@@ -70,6 +71,11 @@ def run(args: argparse.Namespace) -> int:
         items, source = data.study_set(), "the bundled set"
     else:
         items, source = data.read_manifest(Path(args.manifest)), args.manifest
+    if args.manifest is not None:  # the study's outputs must not replace it
+        out = Path(args.out)
+        written = ["summary.json", "table.json", "table.csv", "heatmap.png"]
+        written += [f"{item.name}/ranking.json" for item in items]
+        refuse_overwriting([out / name for name in written], {Path(args.manifest): "the manifest"})
     configs = args.configs
     if configs:
         try:  # a bad spec is a usage error before any work

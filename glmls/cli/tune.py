@@ -20,7 +20,9 @@ from .inputs import (
     check_picture,
     check_reference,
     example_or_files,
+    keep_inputs,
     make_mls,
+    report_paths,
     say,
     warn_about_handles,
 )
@@ -157,6 +159,9 @@ def run(args: argparse.Namespace) -> int:
     warn_about_handles(args, handles, image.shape)
     check_reference(args, reference, "the example's reference points")
     check_picture(image, name)  # the winner's report pictures it, after the tuning
+    written = ["ranking.json", "ranking.csv"]
+    written += ["construction.json", "construction.csv"] if args.construction else []
+    keep_inputs(args, [Path(args.out) / name for name in written])
     shape = image.shape[:2]
     try:
         configs = (  # None: the default search space
@@ -216,6 +221,7 @@ def run(args: argparse.Namespace) -> int:
             image, m, reference, grid=args.analysis_grid, angle=args.angle, cmap=args.cmap
         )
     winner.summary["input"] = name
+    keep_inputs(args, report_paths(out / "winner", winner.images))
     winner.save(out / "winner")
     say(args, f"tune: best by {result.rank_by}: {best['label']}; wrote {out}")
     if args.construction:

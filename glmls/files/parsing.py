@@ -8,6 +8,7 @@ import csv
 import io
 import json
 import math
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -59,6 +60,10 @@ def number(path: Path, where: str, text: object) -> float:
 
 def read_text(path: Path) -> str:
     try:
+        mode = path.stat().st_mode
+        if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+            # /dev/zero, a disk: read whole, they never end or fill the memory (a pipe ends)
+            raise InputFileError(f"{path}: a device, not a file")
         return path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise InputFileError(f"{path}: no such file") from None

@@ -6,6 +6,8 @@ from __future__ import annotations
 import os
 import sys
 import threading
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -42,6 +44,25 @@ class CodedError(Exception):
 
 def raise_coded(item: int) -> int:
     raise CodedError(item, "coded")
+
+
+def mark_or_fail(item: tuple[str, int]) -> int:
+    """Item 0 fails at once; item 1 runs a while; each other leaves a file saying it ran."""
+    folder, index = item
+    if index == 0:
+        raise ValueError("bad item 0")
+    if index == 1:
+        time.sleep(2.0)
+    (Path(folder) / f"ran_{index}").touch()
+    return index
+
+
+def fail_soon(item: int) -> int:
+    """Item 0 fails after a moment; item 1 is still running then, and ends well."""
+    time.sleep(0.5 if item == 0 else 2.0)
+    if item == 0:
+        raise ValueError("bad item 0")
+    return item
 
 
 ITEMS = [0.0, 3.0, 6.0, 9.0]
@@ -111,3 +132,21 @@ def test_a_local_dask_cluster_of_two_workers():
         np.testing.assert_array_equal(a, b)
     with pytest.raises(ValueError, match=r"^item 2: bad item 2$"):
         run_jobs(fail_on_two, range(4), jobs=2, scheduler="local")
+
+
+def test_after_a_failure_the_items_not_started_never_start(tmp_path):
+    """Only as many items as workers are handed out at a time: a worker free after its item
+    failed takes no queued item (an interrupted batch would go on writing several more)."""
+    items = [(str(tmp_path), index) for index in range(8)]
+    with pytest.raises(ValueError, match="item 0: bad item 0"):
+        run_jobs(mark_or_fail, items, jobs=2)
+    assert sorted(p.name for p in tmp_path.iterdir()) in ([], ["ran_1"])
+
+
+def test_the_items_running_when_one_fails_are_reported():
+    """A worker's item that ends after another failed is done (its file written): the caller
+    hears of it, as of the items before, so that it can say what was written."""
+    seen = []
+    with pytest.raises(ValueError, match="item 0: bad item 0"):
+        run_jobs(fail_soon, [0, 1], jobs=2, on_result=lambda i, r: seen.append((i, r)))
+    assert seen == [(1, 1)]

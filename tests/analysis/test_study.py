@@ -275,3 +275,13 @@ def test_configurations_a_tune_cannot_tell_apart_share_their_rank(gl):
     assert agreement["kendall_tau"][0]["tau"] is None  # no order to agree with
     assert agreement["kendall_w"] == pytest.approx(0.5)  # a mean Spearman correlation of 0
     assert [r["images"]["one"]["tied_rank"] for r in found.table()] == [2.0, 2.0, 2.0]
+
+
+def test_a_study_of_one_image_does_not_answer_the_question(gl):
+    """One image has one winner: that it wins everywhere says nothing, and that no
+    configuration does is false; the answer says that one image cannot tell."""
+    summary = studies.study(items()[:1], configs=["rigid:idw"], trials=1).summary()
+    assert summary["distinct_winners"] == 1
+    assert summary["answer"].startswith("1 winner over 1 image: ")
+    assert "no configuration wins everywhere" not in summary["answer"]
+    assert "one image cannot tell" in summary["answer"]

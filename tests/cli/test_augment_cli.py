@@ -271,3 +271,38 @@ def test_an_out_that_cannot_be_a_folder_is_refused_before_the_work(inputs, out):
     expected = "OUT is empty" if not out else "labels.json is a file, not a folder"
     assert expected in result.stderr
     assert sorted(p.name for p in inputs.iterdir()) == ["in", "labels.json"]
+
+
+def test_a_labels_file_with_a_byte_order_mark_is_read(tmp_path):
+    """Windows editors start UTF-8 files with a byte order mark, as the handle files take."""
+    from glmls.cli.augment import read_labels
+
+    text = json.dumps({"a.png": {"keypoints": [[1, 2.5]]}})
+    (tmp_path / "labels.json").write_text(text, encoding="utf-8-sig")
+    labels = read_labels(str(tmp_path / "labels.json"), [tmp_path / "a.png"])
+    assert labels["a.png"]["keypoints"] == [[1.0, 2.5]]
+
+
+@pytest.mark.parametrize(
+    ("text", "fault"),
+    [
+        ('{"a.png": {"keypoints": [[1' + "0" * 5000 + ", 1]]}}", "4300 digits"),
+        ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
+        ("", "not a JSON labels file"),
+        (None, "/dev/zero: a device, not a file"),
+    ],
+)
+def test_a_labels_file_json_cannot_hold_is_one_line(inputs, capsys, text, fault):
+    """An integer beyond Python's 4300 digits or nesting beyond its recursion limit is a
+    mistake in the file, and an endless device no file: one line and exit status 2, not a
+    traceback or a read that never ends."""
+    from glmls.cli.main import main
+
+    labels = inputs / "labels.json" if text is not None else Path("/dev/zero")  # endless
+    if text is not None:
+        labels.write_text(text)
+    assert main(["augment", str(inputs / "in"), str(inputs / "out"), "--labels",
+                 str(labels)]) == 2  # fmt: skip
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and fault in err and labels.name in err, err
+    assert not (inputs / "out").exists()

@@ -94,3 +94,29 @@ def test_demo_refuses_targets_without_handles(tmp_path, capsys, window):
     assert main(["demo", *window, "--targets", fixed]) == 2
     message = capsys.readouterr().err
     assert "--targets: with --handles" in message and message.count("\n") == 1, message
+
+
+@pytest.mark.parametrize(
+    ("option", "name", "what"),
+    [
+        ("--screenshot", "in.png", "the input"),
+        ("--record", "h.json", "the --handles file"),
+        ("--record", "r.json", "the --reference file"),
+        ("--record", "events.json", "the --replay file"),
+    ],
+)
+def test_demo_refuses_to_save_over_a_file_it_reads(tmp_path, capsys, option, name, what):
+    """The screenshot and the recorded events are written on exit: over an input, they
+    would replace it. Refused before the window opens (no display is needed to see it)."""
+    glmls.imwrite(tmp_path / "in.png", np.zeros((8, 8), np.uint8))
+    (tmp_path / "h.json").write_text(json.dumps({"src": [[1, 1]], "dst": [[2, 1]]}))
+    (tmp_path / "r.json").write_text(json.dumps({"points": [[1, 1], [6, 1], [3, 6]]}))
+    (tmp_path / "events.json").write_text(json.dumps({"events": []}))
+    before = (tmp_path / name).read_bytes()
+    args = ["demo", str(tmp_path / "in.png"), "--handles", str(tmp_path / "h.json"),
+            "--reference", str(tmp_path / "r.json"), "--replay", str(tmp_path / "events.json"),
+            option, str(tmp_path / name)]  # fmt: skip
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert f"{tmp_path / name}: the output is {what}" in err, err
+    assert (tmp_path / name).read_bytes() == before

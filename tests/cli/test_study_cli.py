@@ -159,3 +159,21 @@ def test_study_warns_of_a_configuration_parameter_its_weight_does_not_use(
         "glmls study: warning: --configs rigid:gaussian:s=2: s=2 is not used by the gaussian "
         "weight (idw's)"
     ]
+
+
+@pytest.mark.parametrize("name", ["summary.json", "table.json", "a/ranking.json"])
+def test_study_keeps_a_manifest_named_like_an_output(inputs, capsys, monkeypatch, name):
+    """The manifest in --out under an output's name is refused before the work, and stays."""
+    monkeypatch.chdir(inputs)
+    manifest = inputs / name
+    manifest.parent.mkdir(exist_ok=True)
+    text = (inputs / "set.json").read_text()
+    if "/" in name:  # its items' paths are relative to it
+        text = text.replace('"a.png"', '"../a.png"').replace('"b.png"', '"../b.png"')
+        text = text.replace('"h.json"', '"../h.json"').replace('"r.json"', '"../r.json"')
+    manifest.write_text(text)
+    assert run_main("study", name, "--out", ".", "--configs", "rigid:idw", "--trials", "1") == 2
+    err = capsys.readouterr().err
+    assert f"{name}: the output is the manifest" in err, err
+    assert manifest.read_text() == text
+    assert not (inputs / "heatmap.png").exists()

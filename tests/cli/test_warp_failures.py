@@ -4,6 +4,7 @@ leaves no temporary file and no empty folder it made (as ``glmls augment`` does)
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -56,3 +57,21 @@ def test_a_stopped_batch_removes_the_folders_it_made_when_empty(inputs, monkeypa
     (inputs / "kept").mkdir()
     assert main(["warp", "in", "kept/new/deeper/", "--handles", "h.json", "--quiet"]) == 130
     assert (inputs / "kept").is_dir() and not any((inputs / "kept").iterdir())
+
+
+def test_with_jobs_a_stopped_batch_prints_every_image_it_wrote(inputs):
+    """With worker processes, a failing image stops the batch: the images not started never
+    start, and stdout lists each image that was written, those that the other worker was
+    still warping among them."""
+    from helpers import glmls_cli
+
+    image = np.arange(64 * 64, dtype=np.uint16).reshape(64, 64)
+    for name in ("a.png", "c.png", "d.png", "e.png", "f.png"):
+        glmls.imwrite(inputs / "in" / name, image)
+    (inputs / "in" / "b.png").write_bytes(b"\x89PNG\r\n\x1a\n broken")
+    result = glmls_cli("warp", "in", "out", "--handles", "h.json", "--jobs", "2", cwd=inputs)
+    assert result.returncode == 2, result.stderr
+    assert "b.png" in result.stderr
+    written = sorted(p.name for p in (inputs / "out").iterdir())
+    assert sorted(Path(line).name for line in result.stdout.splitlines()) == written
+    assert len(written) <= 2, written  # a.png; c.png where a worker took it before b.png failed

@@ -60,3 +60,29 @@ def test_a_tiff_with_a_thumbnail_is_an_image_and_a_stack_a_volume(tmp_path, gl):
     result = glmls_cli("warp", "stack.tif", "o.tif", "--handles", "h.json", cwd=tmp_path)
     assert result.returncode == 2
     assert "2D handles (x, y), but stack.tif is a volume" in result.stderr
+
+
+def test_a_folder_leaves_out_hidden_files_and_folders(tmp_path):
+    """A folder of images is what ``folder/*`` names: macOS's ``._photo.png`` companions and
+    other hidden files are no images, and a folder named like an image is no file."""
+    from glmls.cli.inputs import image_inputs
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    glmls.imwrite(folder / "a.png", np.zeros((8, 8), np.uint8))
+    (folder / "._a.png").write_bytes(b"\x00\x05\x16\x07 AppleDouble")
+    (folder / ".b.png.k3j_x0ab.png").write_bytes(b"half")
+    (folder / "c.png").mkdir()
+    assert image_inputs(str(folder)) == ([folder / "a.png"], True)
+    assert image_inputs(str(folder / "*")) == ([folder / "a.png"], True)
+
+
+def test_a_device_given_as_the_input_is_named_so(tmp_path, capsys):
+    from glmls.cli.main import main
+
+    write_cli_handles(tmp_path)
+    assert (
+        main(["warp", "/dev/zero", str(tmp_path / "o.png"), "--handles", str(tmp_path / "h.json")])
+        == 2
+    )
+    assert capsys.readouterr().err == "glmls warp: /dev/zero: not a file or folder\n"

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from helpers import assert_bad_handle_file, write_text
@@ -82,6 +84,14 @@ def test_a_folder_given_as_a_file(tmp_path):
     with pytest.raises(InputFileError) as info:
         read_handles(tmp_path)
     assert str(info.value) == f"{tmp_path}: a folder, not a file"
+
+
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="a system without /dev/zero")
+def test_an_endless_device_given_as_a_file():
+    """/dev/zero never ends: reading it whole would fill the memory."""
+    with pytest.raises(InputFileError) as info:
+        read_handles(Path("/dev/zero"))
+    assert str(info.value) == "/dev/zero: a device, not a file"
 
 
 @pytest.mark.parametrize(
