@@ -20,7 +20,7 @@ from ..analysis.jobs import check_jobs, check_scheduler, run_jobs
 from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
 from ..files.atomic import missing_folders, remove_leftovers
-from ..files.images import check_writable
+from ..files.images import WRITABLE, check_writable
 from ..imaging.options import WarpOptions
 from ..imaging.source import check_image
 from .inputs import (
@@ -108,14 +108,16 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def targets(output: str, files: list[Path], many: bool) -> list[Path]:
     """Where each input goes: OUT itself, or OUT/name where OUT is a folder (many inputs, an
-    existing folder, or a name ending in /). Unwritable formats are refused before any work."""
+    existing folder, or a name ending in /; NAME.png for an input in a format glmls reads
+    but does not write, a GIF, as ``glmls augment`` names its copies). Unwritable formats
+    named in OUT are refused before any work."""
     out = Path(output)
     folder = many or out.is_dir() or output.endswith(("/", os.sep))
     fault = below_a_file(out, itself=folder)
     if fault is not None:
         why = " (IN names several images: OUT is their folder)" if many and out.is_file() else ""
         raise UsageError(fault + why)
-    paths = [out / f.name for f in files] if folder else [out]
+    paths = [out / written_name(f) for f in files] if folder else [out]
     seen: dict[Path, Path] = {}
     for source, path in zip(files, paths, strict=False):  # a glob over several folders
         if path in seen:
@@ -130,6 +132,12 @@ def targets(output: str, files: list[Path], many: bool) -> list[Path]:
         except ValueError as error:
             raise UsageError(str(error)) from None
     return paths
+
+
+def written_name(source: Path) -> str:
+    """The name of ``source``'s output in a folder: its own, or ``NAME.png`` where glmls
+    does not write its format."""
+    return source.name if source.suffix.lower() in WRITABLE else source.stem + ".png"
 
 
 def inputs_read(args: argparse.Namespace, files: list[Path]) -> dict[Path, str]:
@@ -238,6 +246,9 @@ def run(args: argparse.Namespace) -> int:
     files, many = image_inputs(args.input)
     outputs = targets(args.output, files, many)
     refuse_overwriting(outputs, inputs_read(args, files))
+    for source, target in zip(files, outputs, strict=True):
+        if target.suffix.lower() != source.suffix.lower() and target.name == written_name(source):
+            say(args, f"glmls warp: {source}: glmls writes no {source.suffix}; written as {target}")
     options = warp_options_from_args(args)
     capture = jobs > 1 or scheduler is not None
     tasks = [

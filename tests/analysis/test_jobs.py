@@ -47,12 +47,18 @@ def raise_coded(item: int) -> int:
 
 
 def mark_or_fail(item: tuple[str, int]) -> int:
-    """Item 0 fails at once; item 1 runs a while; each other leaves a file saying it ran."""
+    """Item 0 fails; item 1 ends a second after it, however late either worker started;
+    each other leaves a file saying it ran."""
     folder, index = item
+    failing = Path(folder) / "failing"
     if index == 0:
+        failing.touch()
         raise ValueError("bad item 0")
     if index == 1:
-        time.sleep(2.0)
+        deadline = time.monotonic() + 120
+        while not failing.exists() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        time.sleep(1.0)
     (Path(folder) / f"ran_{index}").touch()
     return index
 
@@ -140,7 +146,7 @@ def test_after_a_failure_the_items_not_started_never_start(tmp_path):
     items = [(str(tmp_path), index) for index in range(8)]
     with pytest.raises(ValueError, match="item 0: bad item 0"):
         run_jobs(mark_or_fail, items, jobs=2)
-    assert sorted(p.name for p in tmp_path.iterdir()) in ([], ["ran_1"])
+    assert sorted(p.name for p in tmp_path.iterdir()) in (["failing"], ["failing", "ran_1"])
 
 
 def test_the_items_running_when_one_fails_are_reported():

@@ -60,9 +60,10 @@ def test_a_stopped_batch_removes_the_folders_it_made_when_empty(inputs, monkeypa
 
 
 def test_with_jobs_a_stopped_batch_prints_every_image_it_wrote(inputs):
-    """With worker processes, a failing image stops the batch: the images not started never
-    start, and stdout lists each image that was written, those that the other worker was
-    still warping among them."""
+    """With worker processes, a failing image stops the batch, and stdout lists each image
+    that was written, those that the other worker was still warping among them (how many
+    that is depends on how fast each worker starts: the items not started never start is
+    tests/analysis/test_jobs.py's)."""
     from helpers import glmls_cli
 
     image = np.arange(64 * 64, dtype=np.uint16).reshape(64, 64)
@@ -74,4 +75,4 @@ def test_with_jobs_a_stopped_batch_prints_every_image_it_wrote(inputs):
     assert "b.png" in result.stderr
     written = sorted(p.name for p in (inputs / "out").iterdir())
     assert sorted(Path(line).name for line in result.stdout.splitlines()) == written
-    assert len(written) <= 2, written  # a.png; c.png where a worker took it before b.png failed
+    assert "b.png" not in written

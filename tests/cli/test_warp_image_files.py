@@ -86,3 +86,25 @@ def test_a_device_given_as_the_input_is_named_so(tmp_path, capsys):
         == 2
     )
     assert capsys.readouterr().err == "glmls warp: /dev/zero: not a file or folder\n"
+
+
+def test_a_gif_into_a_folder_is_written_as_a_png(tmp_path, gl):
+    """glmls reads GIFs but writes none: into a folder a GIF's output is NAME.png (as
+    ``glmls augment`` names its copies), which stderr says; a PNG of that name beside it in
+    the batch is refused, as two inputs of one name are."""
+    rng = np.random.default_rng(7)
+    frame = rng.integers(0, 256, (32, 40, 3), dtype=np.uint8)
+    Image.fromarray(frame).save(tmp_path / "anim.gif")
+    shown = glmls.imread(tmp_path / "anim.gif")
+    write_cli_handles(tmp_path)
+    (tmp_path / "out").mkdir()
+    result = glmls_cli("warp", "anim.gif", "out", "--handles", "h.json", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "anim.gif: glmls writes no .gif; written as out/anim.png" in result.stderr
+    assert result.stdout.split() == ["out/anim.png"]
+    expected = glmls.warp(shown, SRC, DST, ctx=gl)
+    np.testing.assert_array_equal(glmls.imread(tmp_path / "out" / "anim.png"), expected)
+    glmls.imwrite(tmp_path / "anim.png", frame)
+    result = glmls_cli("warp", "anim.*", "many/", "--handles", "h.json", cwd=tmp_path)
+    assert result.returncode == 2 and "have one name" in result.stderr
+    assert not (tmp_path / "many").exists()
