@@ -118,7 +118,7 @@ def weights(d2: np.ndarray, config: MLSConfig, radius: float | None) -> np.ndarr
     Raises
     ------
     TypeError
-        When ``radius`` is None for a weight that needs one (the formula meets None).
+        When ``radius`` is None for a weight that needs one.
 
     See Also
     --------
@@ -134,6 +134,11 @@ def weights(d2: np.ndarray, config: MLSConfig, radius: float | None) -> np.ndarr
     >>> w.round(3).tolist(), (w / w[:, :1]).round(3).tolist()
     ([[1.284, 1.0, 0.472]], [[1.0, 0.779, 0.368]])
     """
+    if radius is None and config.uses_radius:
+        raise TypeError(
+            f"radius must be a number in pixels for weight {config.weight!r} "
+            "(config.resolve_radius(shape) gives the default), got None"
+        )
     with np.errstate(divide="ignore", invalid="ignore"):
         w = config.weight_entry.reference(d2, config, radius)
         if config.interpolating:

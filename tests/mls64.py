@@ -94,7 +94,11 @@ def mls64(p, q, v, transform="rigid", weight="idw", *, density=None, **params):
             ms.append(np.eye(2))
             continue
         else:
-            pst, qst = (w @ dp) / w.sum(), (w @ dq) / w.sum()
+            # about the heaviest handle: next to a handle whose weight is steep (1e40 against
+            # 1e-15) the others' spread about p* would be lost to the rounding of p* about v
+            o = np.argmax(w)
+            pst = dp[o] + (w @ (dp - dp[o])) / w.sum()
+            qst = dq[o] + (w @ (dq - dq[o])) / w.sum()
         keep = w > 0
         if len(np.unique(p[keep | inf], axis=0)) < 2:  # a translation (one handle, coincident)
             m = np.eye(2)

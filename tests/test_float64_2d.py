@@ -114,6 +114,39 @@ def test_m_next_to_a_handle_whose_weight_is_steep(gl, transform, params):
         assert np.abs(m.matrices(v)[0] - m0).max() < (3e-4 if transform == "affine" else 1e-4)
 
 
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_m_next_to_a_handle_of_idw_alpha_4_keeps_the_others(gl, transform):
+    """idw with s = 0 and alpha = 4, just outside the snapping distance: the others weigh
+    (d / D)^8 ~ 1e-31 of the nearest, inside float32's range (docs/mathematics.md,
+    "Coincident sources"), so M is their fit, not the nearest's alone (I)."""
+    v = np.concatenate([P + [2e-3, 0.0], P - [0.0, 5e-3]])
+    params = {"alpha": 4.0, "s": 0.0}
+    f0, m0, _ = mls64(P, Q, v, transform, **params)
+    assert np.abs(m0 - np.eye(2)).max() > 0.02  # I would fail the checks below
+    with glmls.MLS(P, Q, transform=transform, shape=(H, W), **params) as m:
+        assert np.abs(m(v) - f0).max() < 1e-5 * SIZE
+        assert np.abs(m.matrices(v)[0] - m0).max() < (3e-4 if transform == "affine" else 1e-4)
+
+
+@pytest.mark.parametrize("params", [{"s": 0.0}, {"s": 1e-30}], ids=["s=0", "s=1e-30"])
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_m_next_to_a_handle_of_idw_alpha_10_keeps_the_others(gl, transform, params):
+    """idw with alpha = 10 next to a handle (on it, where s > 0 keeps its weight finite):
+    the others weigh (d / D)^20, 1e-50 of the nearest and less, below float32's range
+    relative to it; relative to the nearest of them they are in range, and M is their fit,
+    not the nearest's alone (I)."""
+    v = np.concatenate([P, P + [5e-2, 0.0], P - [0.0, 0.2]])
+    params = {"alpha": 10.0, **params}
+    f0, m0, _ = mls64(P, Q, v, transform, **params)
+    assert np.abs(m0 - np.eye(2)).max() > 0.02  # I would fail the checks below
+    f1, m1, _ = reference.mls(P, Q, v, transform=transform, **params)
+    assert np.abs(f1 - f0).max() < 1e-9
+    assert np.abs(m1 - m0).max() < 1e-9
+    with glmls.MLS(P, Q, transform=transform, shape=(H, W), **params) as m:
+        assert np.abs(m(v) - f0).max() < 1e-5 * SIZE
+        assert np.abs(m.matrices(v)[0] - m0).max() < (3e-4 if transform == "affine" else 1e-4)
+
+
 def far_tail_points(radius: float, low: float, high: float, count: int) -> np.ndarray:
     """Points around the image where the nearest handle apart from the nearest one's place
     weighs exp(-low) to exp(-high) of the nearest's under the gaussian of ``radius``."""

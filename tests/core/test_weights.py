@@ -69,6 +69,13 @@ def test_the_gaussian_is_table_1_up_to_a_common_factor():
     assert_allclose(w / w[0, 0], np.exp(-d2 / 16) / np.exp(-1 / 16))
 
 
+@pytest.mark.parametrize("name", RADIUS_WEIGHTS)
+def test_reference_weights_name_a_missing_radius(name):
+    config = MLSConfig(weight=name)
+    with pytest.raises(TypeError, match=f"radius .*{name}.* got None"):
+        reference.weights(np.array([[1.0, 4.0]]), config, None)
+
+
 def test_every_entry_has_one_glsl_function_and_no_other():
     text = (SHADERS / "mls" / "weights.glsl").read_text()
     assert sorted(re.findall(SIGNATURE, text)) == sorted(REGISTRY)

@@ -95,7 +95,7 @@ vec4 mls_rotation_scale(float mu, vec4 D, float spread) {
 struct MLSNearest {
     float d2min;    // squared distance of the nearest handle
     float d2far;    // ... of the nearest beyond the snapping distance
-#if MLS_REACH_GAUSSIAN
+#if MLS_TRACK_NEXT
     float d2next;   // ... the least above d2min: the nearest handles apart from the nearest's
                     // place, whose weights the gaussian cut measures against (mls/visit.glsl)
 #endif
@@ -109,7 +109,7 @@ MLSNearest mls_nearest_begin() {
     MLSNearest n;
     n.d2min = 3.0e38;
     n.d2far = 3.0e38;
-#if MLS_REACH_GAUSSIAN
+#if MLS_TRACK_NEXT
     n.d2next = 3.0e38;
 #endif
     n.h = vec4(0.0);
@@ -121,7 +121,7 @@ MLSNearest mls_nearest_begin() {
 
 // The least squared distance above the nearest's, with d2 seen (before d2min takes it).
 void mls_nearest_next(inout MLSNearest n, float d2) {
-#if MLS_REACH_GAUSSIAN
+#if MLS_TRACK_NEXT
     mls_track_next(n.d2next, n.d2min, d2);
 #endif
 }
@@ -156,6 +156,10 @@ struct MLSAccum {
     vec4 PE;        // sum w P_i E_j as (11, 12, 21, 22); similarity, rigid: (11 + 22,
                     // 12 - 21, 0, 0) (mls_add_moments)
     MLSYardstick yard;   // for "coincident" sources (mls/weighting.glsl)
+#if MLS_IDW_NEXT
+    float near2;    // idw: the least squared distance a weight sees, where (d2 / m)^alpha is
+                    // 2^-50: the nearest's weight at most 2^100 (interpolating), no 1 / 0
+#endif
 };
 
 MLSAccum mls_begin(vec2 v, MLSNearest n) {
@@ -176,6 +180,19 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
     a.sigma = mls_sigma(a.m);
 #if MLS_REACH_GAUSSIAN && !MLS_SEGMENTS
     a.g = mls_gaussian_offset(a.m, n.d2next);
+#elif MLS_IDW_NEXT
+    // idw relative to the nearest handles apart from the nearest one's place, not to the
+    // nearest: next to a handle with a large alpha the others weigh (d / D)^(2 alpha) of
+    // it, below float32's range (1e-50 for alpha = 10 at 0.05 px of handles 20 px apart),
+    // yet their moments about it decide M. The nearest's weight is bounded (near2), which
+    // changes p* by far less than float32 shows.
+    if (!a.hit && n.d2next < 3.0e38) {
+        a.m = max(a.m, n.d2next);
+        a.inv_m = 1.0 / a.m;
+        a.sigma = mls_sigma(a.m);
+    }
+    a.g = a.m;
+    a.near2 = a.m * exp2(-50.0 / u_alpha);
 #else
     a.g = a.m;   // segment handles' gaussian integrals are taken relative to m
 #endif
@@ -191,7 +208,12 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
 // The weight at a.v of a handle at squared distance d2. The snapped handle (and duplicates
 // of it) is left out: its weight is infinite and its p^ zero, see mls_finish.
 float mls_handle_weight(MLSAccum a, float d2) {
-    return (u_snap && d2 <= u_hit2) ? 0.0 : mls_weight(d2, a.g, a.inv_m, a.sigma);
+#if MLS_IDW_NEXT
+    float w = mls_weight(max(d2, a.near2), a.g, a.inv_m, a.sigma);
+#else
+    float w = mls_weight(d2, a.g, a.inv_m, a.sigma);
+#endif
+    return (u_snap && d2 <= u_hit2) ? 0.0 : w;
 }
 
 // Add second moments (sum w P P^T as (xx, xy, yy), sum w P_i E_j as (11, 12, 21, 22)) to the

@@ -225,7 +225,7 @@ void mls_accumulate_all(inout MLSAccum a) {
 MLSNearest mls_nearest_found(float d2min, float d2next, int nearest, vec2 v, int n) {
     MLSNearest near = mls_nearest_begin();
     near.d2min = d2min;
-#if MLS_REACH_GAUSSIAN
+#if MLS_TRACK_NEXT
     near.d2next = d2next;
 #endif
     near.h = n > 0 ? mls_handle(nearest) : vec4(0.0);

@@ -7,6 +7,11 @@
 #ifndef MLS_REACH_GAUSSIAN
 #define MLS_REACH_GAUSSIAN 0   // 1: the weight is the gaussian (glmls.core.weights support)
 #endif
+#ifndef MLS_IDW_NEXT
+#define MLS_IDW_NEXT 0   // 1: idw without segments, relative to the nearest apart (mls_begin)
+#endif
+// the least squared distance above the nearest's is tracked (mls_track_next)
+#define MLS_TRACK_NEXT (MLS_REACH_GAUSSIAN || MLS_IDW_NEXT)
 
 uniform float u_alpha;      // idw / interpolating power
 #ifndef MLS_BATCH
@@ -56,7 +61,7 @@ float mls_normalisation(float d2near) {
 // d2 seen before the nearest's (d2min) takes it: the gaussian's offset (below). Nothing
 // without the gaussian.
 void mls_track_next(inout float d2next, float d2min, float d2) {
-#if MLS_REACH_GAUSSIAN
+#if MLS_TRACK_NEXT
     d2next = d2 < d2min ? d2min : (d2 > d2min ? min(d2next, d2) : d2next);
 #endif
 }
