@@ -16,7 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from ..files.landmarks import read_handles, write_handles
-from ..files.volumes import VOLUME_SUFFIXES, Volume, in_dtype, write_volume
+from ..files.volume_dtypes import in_dtype, warped_as
+from ..files.volumes import VOLUME_SUFFIXES, Volume, write_volume
 from .glfw_window import NoDisplayError
 from .hud import PANEL_CHARS, frame_rate, wrap
 from .volume_controller import AXES, VIEWS, VolumeController, VolumeSettings
@@ -24,11 +25,7 @@ from .volume_session import VolumeSession, display_volume
 from .volume_view import VolumeView, montage_layout, text_groups, window_size
 from .window_loop import WindowLoop
 
-__all__ = ["WARPED_AS_IS", "NoDisplayError", "VolumeApp"]
-
-#: The dtypes the volume warps take as they are; ``s`` warps others as float32 (exact for
-#: integers within +-2**24) and writes them back in their own dtype, as ``glmls warp`` does.
-WARPED_AS_IS = (np.uint8, np.uint16, np.float32, np.float64)
+__all__ = ["NoDisplayError", "VolumeApp"]
 
 
 class VolumeApp(WindowLoop):
@@ -119,11 +116,8 @@ class VolumeApp(WindowLoop):
             raise ValueError("no valid deformation")
         c = self.controller
         s = c.settings
-        data = self.volume
-        if data.dtype not in WARPED_AS_IS:  # int16 (CT), bool, ...: the GPU takes floats
-            data = data.astype(np.float32)
         warped = mls.warp(
-            data,
+            warped_as(self.volume),  # int16 (CT), bool, ...: the GPU takes floats
             method=s.method,
             interpolation=s.interpolation,
             grid=s.grid,

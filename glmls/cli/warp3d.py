@@ -31,11 +31,11 @@ from ..core.handles3 import as_volume_spacing
 from ..files.images import DEFAULT_MAX_PIXELS
 from ..files.landmarks import elastix_indices, elastix_physical, handle_dimension, read_handles
 from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
+from ..files.volume_dtypes import in_dtype, warped_as
 from ..files.volumes import (
     VOLUME_SUFFIXES,
     Volume,
     flat_npy,
-    in_dtype,
     is_volume_file,
     read_volume,
     volume_suffix,
@@ -63,10 +63,6 @@ __all__ = [
     "world_handles",
 ]
 
-#: The dtypes a volume is warped in as it is; others are warped as float32 and written back
-#: in their own dtype.
-_WARPED_AS_IS = ("uint8", "uint16", "float32")
-
 
 def warpable(data: np.ndarray, name: object, *, time: bool = False) -> np.ndarray:
     """A volume in a dtype the GPU warps: uint8, uint16 and float32 as they are, the other
@@ -89,7 +85,7 @@ def warpable(data: np.ndarray, name: object, *, time: bool = False) -> np.ndarra
             f"{name}: a volume of {data.shape[3]} channels; glmls warps 1 to 4 at a time "
             "(warp the channels in groups of 4 or fewer)"
         )
-    return data if data.dtype.name in _WARPED_AS_IS else data.astype(np.float32)
+    return warped_as(data)
 
 
 def parse_spacing(text: str) -> tuple[float, float, float]:

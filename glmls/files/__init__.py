@@ -1,8 +1,8 @@
 """Files: images (:mod:`.images`, 16-bit PNGs kept 16-bit; their colour profiles:
-:mod:`.profiles`), volumes (:mod:`.volumes`: NIfTI,
-TIFF stacks, ``.npy``), triangle meshes (:mod:`.meshes`: PLY, OBJ, STL), handle and
-reference-point files (:mod:`.landmarks`: points, segments and polylines in 2D, points in 3D,
-BigWarp's and elastix's landmarks), and writing outputs whole or not at all
+:mod:`.profiles`), volumes (:mod:`.volumes`: NIfTI, TIFF stacks, ``.npy``; the dtypes they
+are warped in: :mod:`.volume_dtypes`), triangle meshes (:mod:`.meshes`: PLY, OBJ, STL),
+handle and reference-point files (:mod:`.landmarks`: points, segments and polylines in 2D,
+points in 3D, BigWarp's and elastix's landmarks), and writing outputs whole or not at all
 (:mod:`.atomic`)."""
 
 from .atomic import atomic_write

@@ -57,7 +57,6 @@ __all__ = [
     "NiftiHeader",
     "Volume",
     "flat_npy",
-    "in_dtype",
     "is_volume_file",
     "read_volume",
     "volume_suffix",
@@ -627,20 +626,6 @@ def _resolution(value: tuple[int, int]) -> float:
     """The pixel size of a TIFF resolution (pixels per unit, a fraction)."""
     numerator, denominator = value
     return denominator / numerator
-
-
-def in_dtype(warped: np.ndarray, dtype: np.dtype) -> np.ndarray:
-    """A volume warped in float32 written back in its input's ``dtype`` (``glmls warp``, the
-    volume window's save): integers rounded and clipped to the dtype's range, a bool mask
-    true where the warped value is at least 1/2, other dtypes cast."""
-    if warped.dtype == dtype:
-        return warped
-    if dtype == np.bool_:
-        return warped >= 0.5
-    if np.issubdtype(dtype, np.integer):
-        info = np.iinfo(dtype)
-        return np.clip(np.rint(warped), info.min, info.max).astype(dtype)
-    return warped.astype(dtype)
 
 
 def write_volume(

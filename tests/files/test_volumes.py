@@ -14,7 +14,14 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 import glmls
 from glmls.errors import InputFileError
-from glmls.files.volumes import Volume, is_volume_file, read_volume, volume_suffix, write_volume
+from glmls.files.volume_dtypes import in_dtype, warped_as
+from glmls.files.volumes import (
+    Volume,
+    is_volume_file,
+    read_volume,
+    volume_suffix,
+    write_volume,
+)
 
 SUFFIXES = (".nii", ".nii.gz", ".tif", ".npy")
 #: an affine with the axes permuted and scaled, and a translation
@@ -211,3 +218,23 @@ def test_a_file_without_a_numpy_header_is_named_as_such(tmp_path):
     path.write_bytes(b"xx")
     with pytest.raises(glmls.InputFileError, match=r"short.npy: not a .npy file"):
         glmls.read_volume(path)
+
+
+def test_a_volume_is_warped_in_its_dtype_or_float32_and_written_back_in_its_own():
+    """``glmls warp`` and the volume window's save warp uint8, uint16 and float32 as they
+    are and every other real dtype as float32, which ``in_dtype`` turns back: integers
+    rounded and clipped, a mask true from 1/2, float64 cast."""
+    for dtype in (np.uint8, np.uint16, np.float32):
+        data = np.ones((2, 3, 4), dtype)
+        assert warped_as(data) is data
+    for dtype in (np.int16, np.int32, np.bool_, np.float64, np.uint32):
+        data = np.ones((2, 3, 4), dtype)
+        assert warped_as(data).dtype == np.float32
+    warped = np.array([-40000.4, -1.5, 0.49, 0.5, 2.5, 70000.0], np.float32)
+    np.testing.assert_array_equal(
+        in_dtype(warped, np.dtype(np.int16)), [-32768, -2, 0, 0, 2, 32767]
+    )
+    np.testing.assert_array_equal(
+        in_dtype(warped, np.dtype(np.bool_)), [False, False, False, True, True, True]
+    )
+    assert in_dtype(warped, np.dtype(np.float64)).dtype == np.float64
