@@ -74,6 +74,14 @@ def write_cli_handles(folder: Path) -> None:
     (folder / "r.json").write_text(json.dumps({"points": CLI_REFERENCE}))
 
 
+def write_elastix_points(path: Path, kind: str, points) -> str:
+    """An elastix point file at ``path``: ``kind`` (``point`` or ``index``), the count, and
+    each point's coordinates in full precision; the path as a string."""
+    rows = "".join(" ".join(repr(float(v)) for v in p) + "\n" for p in points)
+    path.write_text(f"{kind}\n{len(points)}\n{rows}")
+    return str(path)
+
+
 def write_text(folder: Path, name: str, text: str) -> Path:
     """``text`` written to ``folder / name`` in UTF-8; the path."""
     path = folder / name

@@ -70,6 +70,14 @@ def test_reference_and_gpu_are_the_paper(gl, case):
     assert np.abs(t2 - t0).max() < f_tol + m_tol * np.abs(POINTS).max()
 
 
+def assert_gpu_next_to_a_handle(transform, v, f0, m0, params) -> None:
+    """The GPU's f and M at ``v`` next to a handle, against float64's ``f0`` and ``m0``:
+    affine inverts the others' 2 x 2 moments, tiny against the handle's (M within 3e-4)."""
+    with glmls.MLS(P, Q, transform=transform, shape=(H, W), **params) as m:
+        assert np.abs(m(v) - f0).max() < 1e-5 * SIZE
+        assert np.abs(m.matrices(v)[0] - m0).max() < (3e-4 if transform == "affine" else 1e-4)
+
+
 @pytest.mark.parametrize("weight", glmls.WEIGHTS)
 def test_handles_are_interpolated_where_the_weight_is_infinite(gl, weight):
     """f(p_i) = q_i exactly where w is infinite at d = 0 (idw with s = 0, shepard, any weight
@@ -108,10 +116,7 @@ def test_m_next_to_a_handle_whose_weight_is_steep(gl, transform, params):
     f1, m1, _ = reference.mls(P, Q, v, transform=transform, **params)
     assert np.abs(f1 - f0).max() < 1e-9
     assert np.abs(m1 - m0).max() < 1e-6
-    with glmls.MLS(P, Q, transform=transform, shape=(H, W), **params) as m:
-        assert np.abs(m(v) - f0).max() < 1e-5 * SIZE
-        # affine inverts the others' 2 x 2 moments, tiny against the handle's: 3e-4
-        assert np.abs(m.matrices(v)[0] - m0).max() < (3e-4 if transform == "affine" else 1e-4)
+    assert_gpu_next_to_a_handle(transform, v, f0, m0, params)
 
 
 @pytest.mark.parametrize("transform", glmls.TRANSFORMS)
@@ -123,9 +128,7 @@ def test_m_next_to_a_handle_of_idw_alpha_4_keeps_the_others(gl, transform):
     params = {"alpha": 4.0, "s": 0.0}
     f0, m0, _ = mls64(P, Q, v, transform, **params)
     assert np.abs(m0 - np.eye(2)).max() > 0.02  # I would fail the checks below
-    with glmls.MLS(P, Q, transform=transform, shape=(H, W), **params) as m:
-        assert np.abs(m(v) - f0).max() < 1e-5 * SIZE
-        assert np.abs(m.matrices(v)[0] - m0).max() < (3e-4 if transform == "affine" else 1e-4)
+    assert_gpu_next_to_a_handle(transform, v, f0, m0, params)
 
 
 @pytest.mark.parametrize("params", [{"s": 0.0}, {"s": 1e-30}], ids=["s=0", "s=1e-30"])
@@ -142,9 +145,7 @@ def test_m_next_to_a_handle_of_idw_alpha_10_keeps_the_others(gl, transform, para
     f1, m1, _ = reference.mls(P, Q, v, transform=transform, **params)
     assert np.abs(f1 - f0).max() < 1e-9
     assert np.abs(m1 - m0).max() < 1e-9
-    with glmls.MLS(P, Q, transform=transform, shape=(H, W), **params) as m:
-        assert np.abs(m(v) - f0).max() < 1e-5 * SIZE
-        assert np.abs(m.matrices(v)[0] - m0).max() < (3e-4 if transform == "affine" else 1e-4)
+    assert_gpu_next_to_a_handle(transform, v, f0, m0, params)
 
 
 def far_tail_points(radius: float, low: float, high: float, count: int) -> np.ndarray:

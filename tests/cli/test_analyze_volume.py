@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 import pytest
-from helpers import run_glmls
+from helpers import run_glmls, write_elastix_points
 from numpy.testing import assert_allclose
 
 import glmls
@@ -137,8 +137,7 @@ def test_the_spacing_of_the_file_or_the_option_is_glmls_warps(inputs):
     src, dst = np.array(SRC, float) * scale, np.array(DST, float) * scale
     write_volume(inputs / "v.tif", np.load(inputs / "v.npy"), spacing=spacing)
     for name, points in (("moving.pts", src), ("fixed.pts", dst)):
-        rows = "".join(" ".join(repr(float(v)) for v in p) + "\n" for p in points)
-        (inputs / name).write_text(f"point\n{len(points)}\n{rows}")
+        write_elastix_points(inputs / name, "point", points)
     z, y, x = np.mgrid[0 : SHAPE[0], 0 : SHAPE[1], 0 : SHAPE[2]]
     voxels = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1) * scale
     expected = error_stats(glmls.reference.mls_error(src, dst, voxels, transform="affine"))
@@ -154,8 +153,7 @@ def test_the_spacing_of_the_file_or_the_option_is_glmls_warps(inputs):
         # E_MLS in the handles' units, not voxels, said so on stderr
         assert "(handle units)^2" in result.stderr and "voxel^2" not in result.stderr
     for name, points in (("moving.pts", SRC), ("fixed.pts", DST)):  # voxel indices
-        rows = "".join(" ".join(str(v) for v in p) + "\n" for p in points)
-        (inputs / name).write_text(f"index\n{len(points)}\n{rows}")
+        write_elastix_points(inputs / name, "index", points)
     result = analyze("v.tif", *handles, "--out", "indices", cwd=inputs)
     assert result.returncode == 0, result.stderr
     summary = json.loads((inputs / "indices" / "report.json").read_text())

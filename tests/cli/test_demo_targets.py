@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 import pytest
+from helpers import write_elastix_points
 from numpy.testing import assert_allclose
 
 import glmls
@@ -18,19 +19,14 @@ SRC = np.array([[1.0, 2.0, 1.0], [5.0, 2.0, 2.0], [3.0, 6.0, 3.0], [2.0, 4.0, 1.
 DST = SRC + [0.5, -0.25, 0.0]
 
 
-def _pts(path, kind, points):
-    rows = "".join(" ".join(map(str, p)) + "\n" for p in points)
-    path.write_text(f"{kind}\n{len(points)}\n{rows}")
-    return str(path)
-
-
 @pytest.mark.parametrize(("kind", "scale"), [("point", 1.0), ("index", [0.5, 0.5, 2.0])])
 def test_demo_reads_an_elastix_pair_on_a_volume(tmp_path, kind, scale):
     """Point files are in the handles' units; index files are voxel indices, which the
     spacing (dz, dy, dx) = (2, 0.5, 0.5) puts at (i dx, j dy, k dz), as in ``glmls warp``."""
     volume = tmp_path / "v.nii.gz"
     glmls.write_volume(volume, np.zeros((4, 8, 8), np.uint8), spacing=(2.0, 0.5, 0.5))
-    moving, fixed = _pts(tmp_path / "m.pts", kind, SRC), _pts(tmp_path / "f.pts", kind, DST)
+    moving = write_elastix_points(tmp_path / "m.pts", kind, SRC)
+    fixed = write_elastix_points(tmp_path / "f.pts", kind, DST)
     args = build_parser().parse_args(["demo", str(volume), "--handles", moving, "--targets", fixed])
     _, _, src, dst = volume_inputs(args)
     assert_allclose(src, SRC * scale)
@@ -40,8 +36,8 @@ def test_demo_reads_an_elastix_pair_on_a_volume(tmp_path, kind, scale):
 def test_demo_reads_a_2d_elastix_pair(tmp_path):
     image = tmp_path / "i.png"
     glmls.imwrite(image, np.zeros((8, 8), np.uint8))
-    moving = _pts(tmp_path / "m.pts", "point", SRC[:, :2])
-    fixed = _pts(tmp_path / "f.pts", "point", DST[:, :2])
+    moving = write_elastix_points(tmp_path / "m.pts", "point", SRC[:, :2])
+    fixed = write_elastix_points(tmp_path / "f.pts", "point", DST[:, :2])
     args = build_parser().parse_args(["demo", str(image), "--handles", moving, "--targets", fixed])
     assert volume_inputs(args) is None
     _, _, handles, _ = demo._inputs(args)
@@ -52,7 +48,7 @@ def test_demo_reads_a_2d_elastix_pair(tmp_path):
 def test_demo_without_targets_names_the_option_it_has(tmp_path, capsys):
     volume = tmp_path / "v.npy"
     np.save(volume, np.zeros((4, 8, 8, 1), np.uint8))
-    moving = _pts(tmp_path / "m.pts", "point", SRC)
+    moving = write_elastix_points(tmp_path / "m.pts", "point", SRC)
     assert main(["demo", str(volume), "--handles", moving]) == 2
     message = capsys.readouterr().err
     assert "--targets" in message and message.count("\n") == 1, message
@@ -90,7 +86,7 @@ def test_demo_warns_of_handles_outside_the_volume_as_warp_does(tmp_path, capsys,
 def test_demo_refuses_targets_without_handles(tmp_path, capsys, window):
     """--targets is the second file of a pair: without --handles either window would ignore
     it, so it is refused, in one line, exit status 2."""
-    fixed = _pts(tmp_path / "f.pts", "point", DST)
+    fixed = write_elastix_points(tmp_path / "f.pts", "point", DST)
     assert main(["demo", *window, "--targets", fixed]) == 2
     message = capsys.readouterr().err
     assert "--targets: with --handles" in message and message.count("\n") == 1, message

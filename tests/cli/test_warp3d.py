@@ -12,7 +12,7 @@ from typing import ClassVar
 
 import numpy as np
 import pytest
-from helpers import run_glmls
+from helpers import run_glmls, write_elastix_points
 from numpy.testing import assert_allclose, assert_array_equal
 
 import glmls
@@ -248,8 +248,7 @@ def test_a_point_cloud_is_warped_to_ply_and_refused_as_stl(files, stand_in, caps
 def test_elastix_pair_needs_its_targets(files, stand_in, capsys):
     src, dst = glmls.data.phantom_handles()
     for name, points in (("moving.pts", src), ("fixed.pts", dst)):
-        rows = "".join(" ".join(f"{v:g}" for v in p) + "\n" for p in points)
-        (files / name).write_text(f"index\n{len(points)}\n{rows}")
+        write_elastix_points(files / name, "index", points)
     assert main(["warp", "v.nii.gz", "o.nii", "--handles", "moving.pts"]) == 2
     assert "give the targets' file too" in capsys.readouterr().err
     argv = ["warp", "v.nii.gz", "o.nii", "--handles", "moving.pts", "--targets", "fixed.pts"]
@@ -273,8 +272,7 @@ def test_elastix_index_points_are_put_at_the_voxels_physical_places(files, monke
     src, dst = glmls.data.phantom_handles()
     for kind in ("index", "point"):
         for name, points in (("moving.pts", src), ("fixed.pts", dst)):
-            rows = "".join(" ".join(f"{v:g}" for v in p) + "\n" for p in points)
-            (files / name).write_text(f"{kind}\n{len(points)}\n{rows}")
+            write_elastix_points(files / name, kind, points)
         argv = ["warp", "v.nii.gz", "o.nii", "--handles", "moving.pts", "--targets", "fixed.pts"]
         assert main(argv) == 0
         scale = [2.0, 1.0, 3.0] if kind == "index" else [1.0, 1.0, 1.0]
@@ -466,8 +464,7 @@ def test_elastix_index_files_on_a_mesh_are_refused(files, stand_in, capsys):
     src, dst = glmls.data.phantom_handles()
     for kind in ("index", "point"):
         for name, points in (("moving.pts", src), ("fixed.pts", dst)):
-            rows = "".join(" ".join(f"{v:g}" for v in p) + "\n" for p in points)
-            (files / name).write_text(f"{kind}\n{len(points)}\n{rows}")
+            write_elastix_points(files / name, kind, points)
         argv = ["warp", "sphere.ply", "o.ply", "--handles", "moving.pts", "--targets", "fixed.pts"]
         capsys.readouterr()
         if kind == "index":
