@@ -180,7 +180,7 @@ def augment_file(task: AugmentTask) -> AugmentOutcome:
     thousand copies at once."""
     written: list[tuple[str, str]] = []
     try:
-        image = read_image(task.source, task.max_pixels)
+        image = read_image(task.source, task.max_pixels, prefix="glmls augment")
         targets = _names(task)
         channels = 1 if image.ndim == 2 else image.shape[2]
         labels = task.labels or {}

@@ -150,7 +150,7 @@ def _inputs(args: argparse.Namespace):
         reference = data.astronaut_reference_points()
     else:
         try:
-            image = read_image(args.image, args.max_pixels)
+            image = read_image(args.image, args.max_pixels, prefix="glmls demo")
         except UsageError as error:
             raise InputFileError(str(error)) from None
         name = args.image.stem

@@ -80,8 +80,11 @@ def image_inputs(pattern: str) -> tuple[list[Path], bool]:
     return files, many
 
 
-def read_image(path: Path, max_pixels: int = DEFAULT_MAX_PIXELS) -> np.ndarray:
-    """The image of ``path`` (its warnings on stderr); :class:`UsageError` naming the file
+def read_image(
+    path: Path, max_pixels: int = DEFAULT_MAX_PIXELS, *, prefix: str = "glmls"
+) -> np.ndarray:
+    """The image of ``path`` (its warnings on stderr, ``prefix: warning: ...``, the prefix
+    naming the command); :class:`UsageError` naming the file
     for anything else, a TIFF stack too: imread would give its first page, which among a
     batch of images would be written under the stack's name as if it were all of it."""
     if Path(path).suffix.lower() in (".tif", ".tiff"):
@@ -95,7 +98,7 @@ def read_image(path: Path, max_pixels: int = DEFAULT_MAX_PIXELS) -> np.ndarray:
                 "demo take a volume named on its own, with 3D handles"
             )
     try:
-        return _read(path, max_pixels)
+        return _read(path, max_pixels, prefix)
     except FileNotFoundError:
         raise UsageError(f"{path}: no such file") from None
     except ValueError as error:  # imread's messages name the file
@@ -112,12 +115,12 @@ def read_image(path: Path, max_pixels: int = DEFAULT_MAX_PIXELS) -> np.ndarray:
         raise UsageError(f"{path}: cannot read the image: {error.strerror or error}") from None
 
 
-def _read(path: Path, max_pixels: int) -> np.ndarray:
+def _read(path: Path, max_pixels: int, prefix: str) -> np.ndarray:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ImageWarning)
         image = imread(path, max_pixels=max_pixels)
     for warning in caught:
-        print(f"glmls: warning: {warning.message}", file=sys.stderr)
+        print(f"{prefix}: warning: {warning.message}", file=sys.stderr)
     return image
 
 
@@ -366,7 +369,7 @@ def example_or_files(args: argparse.Namespace, *, need_reference: bool):
         missing.append("--reference")
     if missing:
         raise UsageError(f"missing {', '.join(missing)} (or use --example)")
-    image = read_image(Path(args.input), args.max_pixels)
+    image = read_image(Path(args.input), args.max_pixels, prefix=f"glmls {args.command}")
     handles = read_image_handles(args.handles, dst=getattr(args, "targets", None), image=args.input)
     reference = read_points(args.reference) if args.reference else None
     return image, handles, reference, str(args.input)

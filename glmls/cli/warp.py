@@ -194,7 +194,7 @@ def warp_file(task: WarpTask) -> WarpOutcome:
 def _warp_file(task: WarpTask) -> WarpOutcome:
     shape, notes = None, []
     try:
-        image = read_image(task.source, task.max_pixels)
+        image = read_image(task.source, task.max_pixels, prefix="glmls warp")
         shape = image.shape
         channels = 1 if image.ndim == 2 else image.shape[2]
         try:

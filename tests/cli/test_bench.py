@@ -142,3 +142,21 @@ def test_availability_is_a_reason_or_none():
     assert available("glmls") is None
     reason = available("opencv-tps")
     assert reason is None or "OpenCV" in reason or "cv2" in reason
+
+
+@pytest.mark.parametrize("existing", [False, True])
+def test_a_stopped_run_leaves_no_empty_out_folder(tmp_path, monkeypatch, existing):
+    """Ctrl-C during the first case: the --out folder the run made goes with it; one the
+    user had stays."""
+
+    def interrupted(*args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(bench, "_spawn", interrupted)
+    out = tmp_path / "runs" / "bench"
+    if existing:
+        out.mkdir(parents=True)
+    with pytest.raises(KeyboardInterrupt):
+        bench.run(parse("--quick", "--tools", "glmls", "--out", str(out)))
+    assert out.exists() == existing
+    assert (tmp_path / "runs").exists() == existing

@@ -54,9 +54,12 @@ def test_a_tiff_with_a_thumbnail_is_an_image_and_a_stack_a_volume(tmp_path, gl):
     write_cli_handles(tmp_path)
     result = glmls_cli("warp", "thumb.tif", "out.tif", "--handles", "h.json", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
-    assert "thumb.tif: 2 pages; reading the first" in result.stderr
+    assert "glmls warp: warning: thumb.tif: 2 pages; reading the first" in result.stderr
     expected = glmls.warp(photo, SRC, DST, ctx=gl)
     np.testing.assert_array_equal(glmls.imread(tmp_path / "out.tif"), expected)
+    result = glmls_cli("analyze", "thumb.tif", "--handles", "h.json", "--out", "a", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "glmls analyze: warning: thumb.tif: 2 pages; reading the first" in result.stderr
     result = glmls_cli("warp", "stack.tif", "o.tif", "--handles", "h.json", cwd=tmp_path)
     assert result.returncode == 2
     assert "2D handles (x, y), but stack.tif is a volume" in result.stderr

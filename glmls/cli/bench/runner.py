@@ -18,6 +18,7 @@ the adaptive mesh (where this glmls has one).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import json
 import math
@@ -416,17 +417,15 @@ def run(args: argparse.Namespace) -> int:
         if "glmls" not in tools:
             raise UsageError("glmls must be among --tools: ratios are against it")
         cases = plan(settings, tools)
-        args.out.mkdir(parents=True, exist_ok=True)
-        rows = []
-        for number, case in enumerate(cases, 1):
-            mesh = f"tolerance {case.tolerance:g}" if case.tolerance else f"grid {case.grid or '-'}"
-            print(
-                f"[{number}/{len(cases)}] {case.tool} {case.mode} {case.workload} {case.size}^2 "
-                f"{case.handles} handles {mesh} {case.transform}",
-                file=sys.stderr,
-                flush=True,
-            )
-            rows.append(summarise(case, _spawn(case, settings["repeat"], args.timeout)))
+        made = [f for f in (args.out, *args.out.parents) if not f.exists()]
+        args.out.mkdir(parents=True, exist_ok=True)  # an unwritable --out fails before the runs
+        try:
+            rows = [_timed(case, n, cases, settings, args) for n, case in enumerate(cases, 1)]
+        except BaseException:  # Ctrl-C, or a failure: no empty folders of --out left behind
+            with contextlib.suppress(OSError):
+                for folder in made:  # the innermost first; rmdir stops at a non-empty one
+                    folder.rmdir()
+            raise
         add_ratios(rows)
         print(format_table(rows))
         write_csv(rows, args.out / "bench.csv")
@@ -440,6 +439,18 @@ def run(args: argparse.Namespace) -> int:
     except (OSError, RuntimeError, ValueError) as error:
         print(f"glmls bench: {error}", file=sys.stderr)
         return 1
+
+
+def _timed(case: Case, number: int, cases: list[Case], settings: dict, args) -> dict:
+    """The summary row of ``case``, the ``number``-th of ``cases``, its line on stderr."""
+    mesh = f"tolerance {case.tolerance:g}" if case.tolerance else f"grid {case.grid or '-'}"
+    print(
+        f"[{number}/{len(cases)}] {case.tool} {case.mode} {case.workload} {case.size}^2 "
+        f"{case.handles} handles {mesh} {case.transform}",
+        file=sys.stderr,
+        flush=True,
+    )
+    return summarise(case, _spawn(case, settings["repeat"], args.timeout))
 
 
 def _worker(payload: str) -> int:
