@@ -14,8 +14,9 @@
 ``function`` must be picklable (a module-level function) and so must the items and the
 results. Results come back in the order of ``items``; ``on_result(index, result)`` is called
 in the calling thread as each item finishes (in the order they finish), e.g. for a progress
-bar; with worker processes, also for the items that were running when another failed and
-ended well, before the failure is raised. An exception raised by ``function`` reaches the
+bar, also for the items that were running when another failed and ended well, before the
+failure is raised. Each worker (each thread of a Dask worker) is handed one item at a time,
+so that a failed or interrupted run starts no more items. An exception raised by ``function`` reaches the
 caller with the failing item's index in its message (``item 3: ...``), of the same type where
 it can be rebuilt from a message; the items not yet started are cancelled and the workers
 shut down.
@@ -221,7 +222,7 @@ def _report_the_rest(futures: dict, finished) -> None:
 
 
 def _run_dask(function, items: list, jobs: int, scheduler: str, finished) -> None:
-    from distributed import Client, LocalCluster, as_completed
+    from distributed import Client, LocalCluster
 
     cluster = None
     if scheduler == "local":
@@ -240,20 +241,48 @@ def _run_dask(function, items: list, jobs: int, scheduler: str, finished) -> Non
         except OSError as error:
             raise OSError(f"cannot reach the Dask scheduler at {scheduler}: {error}") from None
     try:
-        # pure=False: two equal items are two tasks (their functions may write files)
-        futures = [client.submit(function, item, pure=False) for item in items]
-        where = {future.key: index for index, future in enumerate(futures)}
-        try:
-            for future in as_completed(futures):
-                index = where[future.key]
-                if future.status == "error":
-                    error = future.exception()
-                    raise _indexed(error, index) from error
-                finished(index, future.result())
-        except BaseException:
-            client.cancel(futures)
-            raise
+        _run_on(client, function, items, finished)
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+def _run_on(client, function, items: list, finished) -> None:
+    """The items on ``client``'s cluster, as many at a time as its workers have threads (at
+    least one; counted again as items end, workers may join): like the worker processes, a
+    failed or interrupted run starts none of the rest, lets the running ones end and reports
+    those that ended well."""
+    from distributed import as_completed
+    from distributed import wait as distributed_wait
+
+    pending = iter(enumerate(items))
+    running: dict = {}  # future key: (index, future)
+    completed = as_completed()
+
+    def submit() -> None:
+        slots = max(1, sum(client.nthreads().values())) - len(running)
+        for index, item in itertools.islice(pending, max(slots, 0)):
+            # pure=False: two equal items are two tasks (their functions may write files)
+            future = client.submit(function, item, pure=False)
+            running[future.key] = (index, future)
+            completed.add(future)
+
+    submit()
+    try:
+        for future in completed:
+            index, _ = running.pop(future.key)
+            if future.status == "error":
+                error = future.exception()
+                raise _indexed(error, index) from error
+            finished(index, future.result())
+            submit()
+    except BaseException:
+        futures = [future for _, future in running.values()]
+        with contextlib.suppress(Exception):
+            distributed_wait(futures)
+        for index, future in running.values():
+            if future.status == "finished":
+                with contextlib.suppress(Exception):
+                    finished(index, future.result())
+        raise

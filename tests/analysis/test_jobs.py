@@ -140,19 +140,27 @@ def test_a_local_dask_cluster_of_two_workers():
         run_jobs(fail_on_two, range(4), jobs=2, scheduler="local")
 
 
-def test_after_a_failure_the_items_not_started_never_start(tmp_path):
+@pytest.mark.parametrize("scheduler", [None, "local"])
+def test_after_a_failure_the_items_not_started_never_start(tmp_path, scheduler):
     """Only as many items as workers are handed out at a time: a worker free after its item
     failed takes no queued item (an interrupted batch would go on writing several more)."""
     items = [(str(tmp_path), index) for index in range(8)]
     with pytest.raises(ValueError, match="item 0: bad item 0"):
-        run_jobs(mark_or_fail, items, jobs=2)
+        run_jobs(mark_or_fail, items, jobs=2, scheduler=scheduler)
     assert sorted(p.name for p in tmp_path.iterdir()) in (["failing"], ["failing", "ran_1"])
 
 
-def test_the_items_running_when_one_fails_are_reported():
+@pytest.mark.parametrize("scheduler", [None, "local"])
+def test_the_items_running_when_one_fails_are_reported(scheduler):
     """A worker's item that ends after another failed is done (its file written): the caller
     hears of it, as of the items before, so that it can say what was written."""
     seen = []
     with pytest.raises(ValueError, match="item 0: bad item 0"):
-        run_jobs(fail_soon, [0, 1], jobs=2, on_result=lambda i, r: seen.append((i, r)))
+        run_jobs(
+            fail_soon,
+            [0, 1],
+            jobs=2,
+            scheduler=scheduler,
+            on_result=lambda i, r: seen.append((i, r)),
+        )
     assert seen == [(1, 1)]
