@@ -88,3 +88,51 @@ def test_a_segment_that_decides_m_in_a_gaussians_tail_counts(gl, transform):
     assert np.abs(expected - without).max() > 0.5  # the segment matters there
     with glmls.MLS(p, q, **options, **segments) as m:
         assert_allclose(m(v), expected, atol=1e-3)
+
+
+@pytest.mark.parametrize("transform", ["rigid", "similarity", "affine"])
+def test_a_gaussian_seen_from_beyond_a_segments_end(gl, transform):
+    """Gaussian R = 3 px, points 10 R and more past the segments' ends: along a segment the
+    weight falls from its near end within R^2 / (2 |end|) ~ 0.15 px, which quadrature nodes
+    spread about the foot of the perpendicular missed (p* 0.1 px off a lone segment)."""
+    ss = np.array([[[20.0, 20], [40, 22]], [[60, 70], [62, 90]], [[20, 80], [30, 70]]])
+    ds = ss + np.random.default_rng(3).uniform(-3, 3, ss.shape)
+    v = np.array([[50.0, 50], [5, 95], [90, 10], [45, 45], [25, 50], [70, 40]])
+    f, f_ref, M, M_ref = gpu_and_reference(
+        NONE, NONE, ss, ds, v, transform=transform, weight="gaussian", radius=3.0, shape=(100, 100)
+    )
+    assert_allclose(f, f_ref, atol=1e-3)
+    assert_allclose(M, M_ref, atol=1e-3)
+
+
+@pytest.mark.parametrize(
+    ("h", "x0", "length", "radius"),
+    [(5.0, 20.0, 20.0, 3.0), (0.5, 60.0, 10.0, 3.0), (0.5, 200.0, 10.0, 1.0), (2, -50, 46.5, 3)],
+)
+def test_the_references_gaussian_moments_past_a_segments_end(h, x0, length, radius):
+    """The float64 reference's moments J_k = integral of w x^k along a segment (x from the foot
+    of the perpendicular) against scipy's adaptive quadrature, where the weight is a sliver
+    at the segment's near end."""
+    from scipy.integrate import quad
+
+    handles = glmls.HandleSet.validate(
+        NONE, NONE, [[[x0, 0.0], [x0 + length, 0.0]]], [[[x0, 1.0], [x0 + length, 1.0]]]
+    )
+    v = np.array([[0.0, h]])
+    geometry = reference.segment_geometry(handles, v)
+    config = glmls.MLSConfig(weight="gaussian")
+    moments, _ = reference.segment_moments(geometry, config, radius, np.zeros((1, 0)))
+    near = min(abs(x0), abs(x0 + length))
+
+    def w(x):  # relative to the nearest point's weight, as the reference's common factor
+        return np.exp(-(x * x - near * near) / radius**2)
+
+    sliver = radius**2 / (2 * near)
+    end = x0 if x0 > 0 else x0 + length
+    step = sliver if x0 > 0 else -sliver
+    breaks = sorted(end + step * k for k in (1, 4, 16, 64))
+    expected = [
+        quad(lambda x, k=k: w(x) * x**k, x0, x0 + length, points=breaks, limit=400, epsrel=1e-12)[0]
+        for k in range(3)
+    ]
+    assert_allclose(moments[0, 0] / moments[0, 0, 0], np.array(expected) / expected[0], rtol=1e-9)

@@ -208,9 +208,19 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
 #else
     float c = max(min(view.h, u_radius), sqrt(u_hit2));
 #endif
+#if MLS_SEGMENT_SUPPORT == 2
+    // a segment beyond the foot: the gaussian falls from its near end xs within
+    // R^2 / (2 |xs|), a sliver of a width of R or h once |xs| exceeds R (at 10 R, 1 / 20 of
+    // it, where 8 nodes of a panel about the foot gave p* 0.1 px off): x = xs + c sinh(t)
+    // about the near end, of that width
+    float xs = clamp(0.0, x0, x1);
+    c = xs != 0.0 ? max(min(c, u_radius * u_radius / (2.0 * abs(xs))), sqrt(u_hit2)) : c;
+#else
+    const float xs = 0.0;
+#endif
     float sigma = a.sigma * u_segment_sigma;
-    float t0 = mls_asinh(x0 / c);
-    float t1 = mls_asinh(x1 / c);
+    float t0 = mls_asinh((x0 - xs) / c);
+    float t1 = mls_asinh((x1 - xs) / c);
     int panels = clamp(int(ceil((t1 - t0) / MLS_PANEL_WIDTH)), 1, MLS_MAX_PANELS);
     float half_width = 0.5 * (t1 - t0) / float(panels);
     vec3 J = vec3(0.0);
@@ -220,9 +230,10 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
             float node = (j < 4 ? -MLS_GL_X[3 - j] : MLS_GL_X[j - 4]);
             float gw = (j < 4 ? MLS_GL_W[3 - j] : MLS_GL_W[j - 4]);
             float e = exp(mid + half_width * node);
-            float x = c * 0.5 * (e - 1.0 / e);   // c sinh(t), and c cosh(t) below
+            float dx = c * 0.5 * (e - 1.0 / e);   // c sinh(t), and c cosh(t) below
+            float x = xs + dx;
             float w = mls_weight(view.h2 + x * x, a.m, a.inv_m, sigma) * gw * c * 0.5 * (e + 1.0 / e);
-            float y = x - view.xc;
+            float y = (xs - view.xc) + dx;   // not x - xc: xs may be far from the foot
             J += w * vec3(1.0, y, y * y);
         }
     }
