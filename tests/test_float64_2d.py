@@ -368,3 +368,19 @@ def test_segments_are_the_limit_of_dense_point_handles(gl, segments, transform, 
             for (a0, a1), (b0, b1) in zip(a, b, strict=True):
                 on = m((1 - t) * a0 + t * a1)
                 assert np.abs(on - ((1 - t) * b0 + t * b1)).max() < 1e-3
+
+
+@pytest.mark.parametrize("weight", ["cressman", "shepard", "gaussian", "linear"])
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_m_next_to_a_handle_of_an_interpolating_weight_of_alpha_8(gl, transform, weight):
+    """Any weight made interpolating (w / d^(2 alpha)) with alpha = 8 next to a handle: the
+    others weigh (d / D)^16 of the nearest, below float32's range relative to it; relative
+    to the nearest of them they are in range, and M is their fit, not the nearest's alone."""
+    v = np.concatenate([P + [5e-2, 0.0], P - [0.0, 3e-3]])
+    params = {"weight": weight, "radius": 150.0, "alpha": 8.0, "interpolating": True}
+    f0, m0, _ = mls64(P, Q, v, transform, **params)
+    assert np.abs(m0 - np.eye(2)).max() > 0.02  # I would fail the checks below
+    f1, m1, _ = reference.mls(P, Q, v, transform=transform, **params)
+    assert np.abs(f1 - f0).max() < 1e-9
+    assert np.abs(m1 - m0).max() < 1e-6
+    assert_gpu_next_to_a_handle(transform, v, f0, m0, params)

@@ -91,9 +91,9 @@ def config_defines(
         "MLS_WEIGHT_FUNCTION": entry.glsl_function,
         "MLS_WEIGHT_USES_S": entry.uses_s,
         "MLS_REACH_GAUSSIAN": entry.support == "gaussian",
-        # idw's point handles: weights relative to the nearest handles apart from the
-        # nearest one's place (mls/core.glsl, mls_begin)
-        "MLS_IDW_NEXT": entry.uses_s and not segments,
+        # idw's point handles, and any interpolating weight's: weights relative to the
+        # nearest handles apart from the nearest one's place (mls/core.glsl, mls_begin)
+        "MLS_WEIGHT_NEXT": (entry.uses_s or config.interpolating) and not segments,
         "MLS_GAUSSIAN_TOLERANCE": GAUSSIAN_TOLERANCE,
         "MLS_GAUSSIAN_CAP": GAUSSIAN_CAP,
         "MLS_TRANSFORM": transform_code(config.transform),

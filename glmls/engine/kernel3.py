@@ -142,6 +142,8 @@ class MLSKernel3:
             "MLS_GAUSSIAN_TOLERANCE": GAUSSIAN_TOLERANCE,
             "MLS_GAUSSIAN_CAP": GAUSSIAN_CAP,
             "MLS_REACH_GAUSSIAN": entry.support == "gaussian",
+            # as in 2D (glmls.engine.kernel.config_defines)
+            "MLS_WEIGHT_NEXT": entry.uses_s or config.interpolating,
             "MLS_TRANSFORM": transform_code(config.transform),
             "MLS_INTERPOLATING": config.interpolating,
             "MLS_ALPHA_ONE": config.alpha == 1.0,

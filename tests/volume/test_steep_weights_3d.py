@@ -25,6 +25,7 @@ import pytest
 import glmls
 from glmls import reference
 from glmls.core.config import MLSConfig
+from glmls.engine.passes3 import jacobian_steps
 
 rng = np.random.default_rng(1)
 P = rng.uniform(0, 50, (8, 3))
@@ -128,3 +129,43 @@ def test_m_is_the_fit_of_the_handles_apart_in_a_gaussians_far_tail(gl, transform
     with glmls.MLS.from_config(P, Q, config) as m:
         assert np.abs(m(v) - f_ref).max() < 1e-2
         assert np.abs(m.matrices(v)[0] - m_ref).max() < 1e-4
+
+
+STEEPER = [
+    {"weight": "idw", "alpha": 8.0, "interpolating": True},
+    {"weight": "cressman", "radius": 60.0, "alpha": 8.0, "interpolating": True},
+    {"weight": "gaussian", "radius": 30.0, "alpha": 8.0, "interpolating": True},
+]
+
+
+@pytest.mark.parametrize(
+    "config",
+    [MLSConfig(transform=t, **params) for t in glmls.TRANSFORMS for params in STEEPER],
+    ids=_id,
+)
+def test_gpu_m_next_to_a_handle_of_alpha_8(gl, config):
+    """alpha = 8 made interpolating: next to a handle the others weigh (d / D)^16 of it, below
+    float32's range from ~1e-2 voxel; relative to the nearest of them they are in range
+    (as 2D, tests/test_float64_2d.py), and M is their fit, not the nearest's alone (I)."""
+    v = np.concatenate([_points(h) for h in HANDLES])
+    f_ref, m_ref, _ = reference.mls(P, Q, v, config)
+    assert (np.abs(m_ref - np.eye(3)).max(axis=(1, 2)) > 0.02).all()  # I would fail below
+    with glmls.MLS.from_config(P, Q, config) as m:
+        f = m(v)
+        big_m, _ = m.matrices(v)
+        f_j, jac = m.jacobian(v)
+        steps = jacobian_steps(m.kernel, v)
+    assert np.abs(f - f_ref).max() < 2e-5
+    assert np.abs(f_j - f_ref).max() < 2e-5
+    assert np.abs(big_m - m_ref).max() < 1e-4
+    # J: the float64 central differences of the GPU's step (1e-4 in measurements)
+    expected = np.empty_like(jac)
+    for axis in range(3):
+        step = np.zeros_like(v)
+        step[:, axis] = steps
+        ahead, behind = (
+            reference.mls(P, Q, v + step, config)[0],
+            reference.mls(P, Q, v - step, config)[0],
+        )
+        expected[:, axis] = (ahead - behind) / (2 * steps[:, None])
+    assert np.abs(jac - expected).max() < 5e-4

@@ -156,9 +156,9 @@ struct MLSAccum {
     vec4 PE;        // sum w P_i E_j as (11, 12, 21, 22); similarity, rigid: (11 + 22,
                     // 12 - 21, 0, 0) (mls_add_moments)
     MLSYardstick yard;   // for "coincident" sources (mls/weighting.glsl)
-#if MLS_IDW_NEXT
-    float near2;    // idw: the least squared distance a weight sees, where (d2 / m)^alpha is
-                    // 2^-50: the nearest's weight at most 2^100 (interpolating), no 1 / 0
+#if MLS_WEIGHT_NEXT
+    float near2;    // the least squared distance a weight sees, where (d2 / m)^alpha is
+                    // 2^-50: the nearest's weight at most 2^100 (idw interpolating), no 1 / 0
 #endif
 };
 
@@ -178,21 +178,21 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
     a.m = mls_normalisation(a.hit ? far : max(n.d2min, u_hit2));
     a.inv_m = 1.0 / a.m;
     a.sigma = mls_sigma(a.m);
-#if MLS_REACH_GAUSSIAN && !MLS_SEGMENTS
-    a.g = mls_gaussian_offset(a.m, n.d2next);
-#elif MLS_IDW_NEXT
-    // idw relative to the nearest handles apart from the nearest one's place, not to the
-    // nearest: next to a handle with a large alpha the others weigh (d / D)^(2 alpha) of
-    // it, below float32's range (1e-50 for alpha = 10 at 0.05 px of handles 20 px apart),
-    // yet their moments about it decide M. The nearest's weight is bounded (near2), which
-    // changes p* by far less than float32 shows.
+#if MLS_WEIGHT_NEXT
+    // idw, and any weight made interpolating, relative to the nearest handles apart from
+    // the nearest one's place, not to the nearest: next to a handle with a large alpha the
+    // others weigh (d / D)^(2 alpha) of it, below float32's range (1e-50 for alpha = 10 at
+    // 0.05 px of handles 20 px apart), yet their moments about it decide M. The nearest's
+    // weight is bounded (near2), which changes p* by far less than float32 shows.
     if (!a.hit && n.d2next < 3.0e38) {
         a.m = max(a.m, n.d2next);
         a.inv_m = 1.0 / a.m;
         a.sigma = mls_sigma(a.m);
     }
-    a.g = a.m;
     a.near2 = a.m * exp2(-50.0 / u_alpha);
+#endif
+#if MLS_REACH_GAUSSIAN && !MLS_SEGMENTS
+    a.g = mls_gaussian_offset(a.m, n.d2next);
 #else
     a.g = a.m;   // segment handles' gaussian integrals are taken relative to m
 #endif
@@ -208,7 +208,7 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
 // The weight at a.v of a handle at squared distance d2. The snapped handle (and duplicates
 // of it) is left out: its weight is infinite and its p^ zero, see mls_finish.
 float mls_handle_weight(MLSAccum a, float d2) {
-#if MLS_IDW_NEXT
+#if MLS_WEIGHT_NEXT
     float w = mls_weight(max(d2, a.near2), a.g, a.inv_m, a.sigma);
 #else
     float w = mls_weight(d2, a.g, a.inv_m, a.sigma);

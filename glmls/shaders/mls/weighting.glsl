@@ -7,11 +7,13 @@
 #ifndef MLS_REACH_GAUSSIAN
 #define MLS_REACH_GAUSSIAN 0   // 1: the weight is the gaussian (glmls.core.weights support)
 #endif
-#ifndef MLS_IDW_NEXT
-#define MLS_IDW_NEXT 0   // 1: idw without segments, relative to the nearest apart (mls_begin)
+#ifndef MLS_WEIGHT_NEXT
+// 1: idw or an interpolating weight without segments, relative to the nearest apart
+// (mls/core.glsl, mls_begin)
+#define MLS_WEIGHT_NEXT 0
 #endif
 // the least squared distance above the nearest's is tracked (mls_track_next)
-#define MLS_TRACK_NEXT (MLS_REACH_GAUSSIAN || MLS_IDW_NEXT)
+#define MLS_TRACK_NEXT (MLS_REACH_GAUSSIAN || MLS_WEIGHT_NEXT)
 
 uniform float u_alpha;      // idw / interpolating power
 #ifndef MLS_BATCH

@@ -70,6 +70,9 @@ struct MLS3Accum {
     vec3 Ao;        // ... and (01, 02, 12)
     mat3 D;         // sum w P^T E
     MLSYardstick yard;   // for "coincident" sources (mls/weighting.glsl, mls3_solve)
+#if MLS_WEIGHT_NEXT
+    float near2;    // the least squared distance a weight sees (mls/core.glsl, mls_begin)
+#endif
 };
 
 // With the gaussian it tracks the least squared distance above the nearest's too (d2next,
@@ -105,6 +108,18 @@ MLS3Accum mls3_begin(vec3 v, float d2min, float d2next, int nearest, int n) {
     a.m = mls_normalisation(a.hit ? d2far : max(d2min, u_hit2));
     a.inv_m = 1.0 / a.m;
     a.sigma = mls_sigma(a.m);
+#if MLS_WEIGHT_NEXT
+    // the weights relative to the nearest handles apart from the nearest one's place (see
+    // mls/core.glsl, mls_begin); m stays the nearest's, which bounds the probes' distances
+    // (mls3_eval_jacobian)
+    a.near2 = 0.0;
+    if (!a.hit && d2next < 3.0e38) {
+        float next = max(a.m, d2next);
+        a.inv_m = 1.0 / next;
+        a.sigma = mls_sigma(next);
+        a.near2 = next * exp2(-50.0 / u_alpha);
+    }
+#endif
 #if MLS_REACH_GAUSSIAN
     a.g = mls_gaussian_offset(a.m, d2next);
 #else
@@ -139,7 +154,12 @@ void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
     float d2 = dot(dp, dp);
     // an empty slot, and the snapped handle (and duplicates of it: their weight is
     // infinite and their p^ zero), get no weight
-    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(d2, a.g, a.inv_m, a.sigma);
+#if MLS_WEIGHT_NEXT
+    float seen = max(d2, a.near2);
+#else
+    float seen = d2;
+#endif
+    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(seen, a.g, a.inv_m, a.sigma);
     mls3_add(a, w, p - a.op, mls3_e(i) - a.oe, d2);
 }
 
