@@ -102,3 +102,23 @@ def test_an_empty_batch_array_is_checked_as_a_batch_of_one(images, masks, error,
     none = np.zeros((0, 1, 2))
     with pytest.raises(error, match=text):
         glmls.warp_batch(images, none, none, masks=masks)
+
+
+@pytest.mark.parametrize("method", ["quads", "backward", "splat"])
+def test_a_background_that_does_not_fit_an_image_names_it(gl, method):
+    """In a list of images of different channels or dtypes, a background that fits some of
+    them names the first image it does not fit, on the batched path as on the single one."""
+    rgb = np.zeros((8, 9, 3), np.uint8)
+    handles = np.array([[[2.0, 2.0], [6.0, 5.0]]] * 3)
+    with pytest.raises(ValueError, match=r"^images\[1\]: background must be a scalar or 1 "):
+        glmls.warp_batch(
+            [rgb, rgb[..., 0], rgb],
+            handles,
+            handles + 1,
+            background=(1, 2, 3),
+            method=method,
+            ctx=gl,
+        )
+    wide = [rgb.astype(np.uint16), rgb, rgb]
+    with pytest.raises(ValueError, match=r"^images\[1\]: background 300.0 is outside 0..255"):
+        glmls.warp_batch(wide, handles, handles + 1, background=300, method=method, ctx=gl)
