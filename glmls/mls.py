@@ -36,7 +36,7 @@ from .imaging.adaptive import AdaptiveMesh, check_adaptive, interpolate
 from .imaging.frame import Bounds
 from .imaging.inverse import accept_residual
 from .imaging.options import FIELDS, WarpOptions, default
-from .imaging.pipeline import WarpPipeline
+from .imaging.pipeline import GUESS_MESH_POINTS, WarpPipeline
 
 __all__ = ["MLS", "InverseMLS", "warp"]
 
@@ -978,10 +978,11 @@ class InverseMLS:
     :class:`~glmls.mls3.InverseMLS3`, as ``m.inverse`` is. Solved on the GPU as the
     ``backward`` method solves each output pixel: a first guess from the rasterized inverse
     of the deformed mesh of the MLS's image (its ``shape``; without one, the smallest image
-    from pixel (0, 0) that holds the source handles), extended past the image until its
-    deformed border encloses the points (:func:`glmls.imaging.frame.border_margin`, within
-    :data:`glmls.imaging.pipeline.GUESS_MESH_POINTS` mesh points) and drawn over a canvas
-    that holds them, then Newton's method on f, stopping below 1e-4 px. f is the MLS's
+    from pixel (0, 0) that holds the source handles, its mesh coarser than ``grid`` where it
+    would have more than :data:`glmls.imaging.pipeline.GUESS_MESH_POINTS` points), extended
+    past the image until its deformed border encloses the points
+    (:func:`glmls.imaging.frame.border_margin`, within that many mesh points) and drawn over
+    a canvas that holds them, then Newton's method on f, stopping below 1e-4 px. f is the MLS's
     own, as ``m(points)`` evaluates it, so ``m(inv(u))`` is u within about 1e-3 px (float32
     on the GPU).
 
@@ -1127,23 +1128,27 @@ class InverseMLS:
         m = self._forward
         pipeline = m._pipeline()  # checks that the MLS is alive
         m.config.resolve_radius(m.shape)  # f needs a radius, as m(points) does
-        s, residual = pipeline.inverse_points(m, points, self._guess_shape(), grid=self.grid)
+        shape, grid = self._guess_mesh()
+        s, residual = pipeline.inverse_points(m, points, shape, grid=grid)
         valid = residual <= accept_residual(m.scaling, points, s)  # False where NaN
         s[~valid] = np.nan
         return s, valid
 
-    def _guess_shape(self) -> tuple[int, int]:
-        """(H, W) of the image whose mesh gives the first guess: the MLS's ``shape``; without
-        one, the smallest image (pixel (0, 0) at the origin) that holds the source handles,
-        at least 1 x 1."""
+    def _guess_mesh(self) -> tuple[tuple[int, int], int]:
+        """(H, W) of the image whose mesh gives the first guess, and that mesh's step: the
+        MLS's ``shape`` at :attr:`grid`; without one, the smallest image (pixel (0, 0) at the
+        origin) that holds the source handles, at least 1 x 1, at :attr:`grid` or the step
+        that keeps its mesh within :data:`~glmls.imaging.pipeline.GUESS_MESH_POINTS` points
+        (handles far from the origin span an image of up to 1e12 pixels)."""
         m = self._forward
         if m.shape is not None:
-            return m.shape
+            return m.shape, self.grid
         points = m._handles.source_points()
         if not len(points):
-            return 1, 1
+            return (1, 1), self.grid
         x, y = (max(1, math.ceil(points[:, k].max() + 0.5)) for k in (0, 1))
-        return y, x
+        coarsest = math.ceil(math.sqrt(x * y / GUESS_MESH_POINTS))
+        return (y, x), max(self.grid, coarsest)
 
     def residuals(self, src: object, dst: object) -> np.ndarray:
         """The distance between f's inverse at ``src`` and ``dst``, per point.

@@ -9,7 +9,9 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 import glmls
 from glmls import reference
+from glmls.core.mesh import MeshLattice
 from glmls.imaging.inverse import NEWTON_ACCEPT
+from glmls.imaging.pipeline import GUESS_MESH_POINTS, WarpPipeline
 
 #: |f(inverse(u)) - u| with f in float64 (glmls.reference), pixels: Newton stops below
 #: 1e-4 px on the GPU's float32 f, whose own error here is ~1e-5 px.
@@ -159,6 +161,28 @@ def test_without_shape_and_with_a_coarser_guess(gl, rng):
             m([[1, 2]])
         with pytest.raises(ValueError, match="needs an influence radius"):
             m.inverse([[1, 2]])
+
+
+def test_without_shape_handles_far_from_the_origin_keep_the_guess_small(gl, monkeypatch):
+    """Without a shape the first guess's image runs from pixel (0, 0) to the handles: handles
+    9e5 px away span an image of 8e11 pixels, whose mesh takes a coarser step so that it
+    stays within GUESS_MESH_POINTS points (at grid 1 it would not finish)."""
+    meshes = []
+    solve = WarpPipeline.inverse_points
+
+    def bounded(self, mls, points, shape, *, grid=1):
+        lattice = MeshLattice.corners(shape, grid)
+        meshes.append(lattice.count)
+        assert lattice.count <= 2 * GUESS_MESH_POINTS, f"a guess mesh of {lattice.count} points"
+        return solve(self, mls, points, shape, grid=grid)
+
+    monkeypatch.setattr(WarpPipeline, "inverse_points", bounded)
+    src = np.array([[0.0, 0.0], [9e5, 10.0], [10.0, 9e5]])
+    u = np.array([[3.0, 3.0], [4.5e5, 4.5e5], [9e5 + 1, 11.0]])
+    with glmls.MLS(src, src + 1, ctx=gl) as m:
+        s, valid = m.inverse(u, return_valid=True)
+        assert valid.all() and meshes
+        assert_allclose(m(s), u, atol=0.5)
 
 
 def test_inverse_mls_checks_its_arguments(gl):

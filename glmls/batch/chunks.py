@@ -212,7 +212,7 @@ class _Direct:
         form = SourceImage(
             np.zeros((1, 1, channels + self.packed), np.uint8), np.dtype(np.uint8), False, True
         )
-        self.background = background_color(options.background, form)
+        self.background = _background(options, form, indices[0])
         self.out = np.empty((len(indices), *frame.shape, *first.shape[2:]), np.uint8)
         shape = (len(indices), *frame.shape)
         self.labels = np.empty(shape, np.uint8) if self.packed else None
@@ -310,6 +310,16 @@ def _prepared(image: np.ndarray, limit: int, index: int) -> SourceImage:
         raise ValueError(f"images[{index}]: {error}") from None
 
 
+def _background(options: WarpOptions, source: SourceImage, index: int) -> tuple:
+    """:func:`background_color` of the options for the group or chunk whose first image is the
+    batch's image ``index`` (its dtype and channels are theirs), its errors naming that image
+    as the single path's do."""
+    try:
+        return background_color(options.background, source)
+    except ValueError as error:
+        raise ValueError(f"images[{index}]: {error}") from None
+
+
 def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps):
     limit = warper.pipeline.max_image_size
     images = [batch.images[i] for i in chunk]
@@ -321,7 +331,7 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
         add_channel(np.stack(images), np.stack(masks), both)
         images = list(both)
     sources = [_prepared(image, limit, i) for image, i in zip(images, chunk, strict=True)]
-    background = background_color(options.background, sources[0])
+    background = _background(options, sources[0], chunk[0])
     warped_masks: list = [None] * len(chunk)
     warp = quads.backward if options.method == "backward" else quads.warp
     if masks is not None and not packed:  # the labels from the images' scan (or maps)

@@ -83,3 +83,42 @@ def test_a_ragged_item_is_named(item):
     images, src, dst = inputs.pop("images"), inputs.pop("src"), inputs.pop("dst")
     with pytest.raises(ValueError, match=rf"^{item}\[1\] is ragged"):
         glmls.warp_batch(images, src, dst, **inputs)
+
+
+@pytest.mark.parametrize(
+    ("images", "masks", "error", "text"),
+    [
+        (np.zeros((0, 8, 8), np.int64), None, TypeError, "each image has dtype int64"),
+        (np.zeros((0, 8, 8), bool), None, TypeError, "each image has dtype bool"),
+        (np.zeros((0, 8, 8, 5), np.uint8), None, ValueError, r"shape \(8, 8, 5\)"),
+        (np.zeros((0, 0, 8), np.uint8), None, ValueError, "each image is empty"),
+        (np.zeros((0, 8, 8), np.uint8), np.zeros((0, 8, 8), np.float32), TypeError, "float32"),
+        (np.zeros((0, 8, 8), np.uint8), np.zeros((0, 8, 9), np.uint8), ValueError, r"\(8, 9\)"),
+    ],
+)
+def test_an_empty_batch_array_is_checked_as_a_batch_of_one(images, masks, error, text):
+    """An empty (0, ...) array of images (or masks) that no batch of one would take is refused
+    as that batch is, not given back as an empty array of its dtype."""
+    none = np.zeros((0, 1, 2))
+    with pytest.raises(error, match=text):
+        glmls.warp_batch(images, none, none, masks=masks)
+
+
+@pytest.mark.parametrize("method", ["quads", "backward", "splat"])
+def test_a_background_that_does_not_fit_an_image_names_it(gl, method):
+    """In a list of images of different channels or dtypes, a background that fits some of
+    them names the first image it does not fit, on the batched path as on the single one."""
+    rgb = np.zeros((8, 9, 3), np.uint8)
+    handles = np.array([[[2.0, 2.0], [6.0, 5.0]]] * 3)
+    with pytest.raises(ValueError, match=r"^images\[1\]: background must be a scalar or 1 "):
+        glmls.warp_batch(
+            [rgb, rgb[..., 0], rgb],
+            handles,
+            handles + 1,
+            background=(1, 2, 3),
+            method=method,
+            ctx=gl,
+        )
+    wide = [rgb.astype(np.uint16), rgb, rgb]
+    with pytest.raises(ValueError, match=r"^images\[1\]: background 300.0 is outside 0..255"):
+        glmls.warp_batch(wide, handles, handles + 1, background=300, method=method, ctx=gl)

@@ -153,6 +153,24 @@ def test_paper_quads_linear_blends_the_square_of_the_pixel(gl, rng):
     assert np.abs(out[covered][:, :2] - nearest[covered][:, :2]).max() <= 1.0
 
 
+@pytest.mark.parametrize("border", ["constant", "edge"])
+def test_paper_quads_linear_inverts_an_affine_map_exactly(gl, border):
+    """Where f is affine (every handle moved by one affine map) each deformed square is a
+    parallelogram, and ``linear`` gives each pixel its exact source point: the quadratic of
+    Q's bilinear inverse degenerates to a linear one, whose root float32 keeps to ~1e-5 px."""
+    height, width = 40, 50
+    img = coordinate_image(height, width)[..., :2].astype(np.float32)
+    p = np.array([[3.0, 4.0], [40.0, 5.0], [25.0, 30.0], [4.0, 34.0], [20.0, 20.0]])
+    matrix, shift = np.array([[1.1, 0.2], [-0.15, 0.95]]), np.array([2.3, -1.7])
+    with glmls.MLS(p, p @ matrix + shift, transform="affine", ctx=gl) as m:
+        out = m.warp(img, method="paper-quads", interpolation="linear", border=border)
+    u = img.astype(np.float64)  # the output pixels (x, y)
+    s = (u - shift) @ np.linalg.inv(matrix)
+    inside = ((s >= 0) & (s <= [width - 1, height - 1])).all(axis=-1)
+    assert inside.sum() > 1500
+    assert np.abs(out - s)[inside].max() < 1e-3
+
+
 def test_paper_quads_options(gl):
     img = np.zeros((10, 12), np.uint8)
     with glmls.MLS([[2.0, 2.0]], [[3.0, 2.0]], ctx=gl) as m:

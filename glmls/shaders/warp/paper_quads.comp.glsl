@@ -82,11 +82,14 @@ vec2 inverse_bilinear(vec2 q00, vec2 q10, vec2 q11, vec2 q01, vec2 p) {
     float k2 = cross2(g, f);
     float k1 = cross2(e, f) + cross2(h, g);
     float k0 = cross2(h, e);
-    vec2 roots = vec2(-k0 / k1);   // a parallelogram: one root, linear in b
-    if (abs(k2) > 1e-6 * max(abs(k1), 1e-30)) {
-        float w = sqrt(max(k1 * k1 - 4.0 * k0 * k2, 0.0));
-        roots = vec2(-k1 - w, -k1 + w) / (2.0 * k2);
-    }
+    // the roots of k2 b^2 + k1 b + k0 without cancellation: t = -(k1 + sign(k1) w) / 2 and
+    // b = k0 / t, t / k2. Where Q is a parallelogram up to float32 rounding (k2 ~ 1e-6 k1:
+    // every affine map) the first is -k0 / k1 to rounding and the second far outside the
+    // square (infinite where k2 = 0); the textbook (-k1 + w) / (2 k2) loses there all but
+    // a few bits of b to the difference of two nearly equal numbers.
+    float w = sqrt(max(k1 * k1 - 4.0 * k0 * k2, 0.0));
+    float t = -0.5 * (k1 + (k1 < 0.0 ? -w : w));
+    vec2 roots = vec2(k0 / t, t / k2);
     vec2 best = vec2(0.0);
     float best_miss = 1e30;
     for (int r = 0; r < 2; ++r) {
