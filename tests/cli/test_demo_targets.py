@@ -116,3 +116,16 @@ def test_demo_refuses_to_save_over_a_file_it_reads(tmp_path, capsys, option, nam
     err = capsys.readouterr().err
     assert f"{tmp_path / name}: the output is {what}" in err, err
     assert (tmp_path / name).read_bytes() == before
+
+
+def test_demo_says_the_spacing_a_file_gives_as_warp_does():
+    """``demo`` reads a volume as ``warp`` does (``read_volume``): its --help names the same
+    sources of the file's spacing, an OME-TIFF's among them."""
+    commands = next(a for a in build_parser()._actions if a.dest == "command").choices
+
+    def file_default(command: str) -> str:
+        action = next(a for a in commands[command]._actions if a.dest == "spacing")
+        return action.help[action.help.index("default:") :]
+
+    assert "OME" in file_default("warp")
+    assert file_default("demo") == file_default("warp")
