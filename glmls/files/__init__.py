@@ -1,11 +1,11 @@
-"""Files: images (:func:`imread`, :func:`imwrite`: 16-bit PNGs kept 16-bit, and their
-colour profiles, :func:`read_icc_profile`), volumes (:func:`read_volume`,
-:func:`write_volume`: NIfTI, TIFF stacks, ``.npy``; a NIfTI file's :class:`NiftiHeader` and
-world coordinates, :func:`world_to_volume`), triangle meshes (:func:`read_mesh`,
-:func:`write_mesh`: PLY, OBJ, STL), handle and reference-point files
-(:func:`read_handle_set`, :func:`read_handles`, :func:`read_points`, :func:`write_handles`:
-points, segments and polylines in 2D, points in 3D, BigWarp's and elastix's landmarks), and
-writing outputs whole or not at all (:func:`atomic_write`).
+"""Files: images (:func:`~glmls.imread`, :func:`~glmls.imwrite`: 16-bit PNGs kept 16-bit,
+and their colour profiles, :func:`read_icc_profile`), volumes (:func:`~glmls.read_volume`,
+:func:`~glmls.write_volume`: NIfTI, TIFF stacks, ``.npy``; a NIfTI file's
+:class:`NiftiHeader` and world coordinates, :func:`world_to_volume`), triangle meshes
+(:func:`~glmls.read_mesh`, :func:`~glmls.write_mesh`: PLY, OBJ, STL), handle and
+reference-point files (:func:`read_handle_set`, :func:`read_handles`, :func:`read_points`,
+:func:`write_handles`: points, segments and polylines in 2D, points in 3D, BigWarp's and
+elastix's landmarks), and writing outputs whole or not at all (:func:`atomic_write`).
 
 The modules inside (``glmls.files.volumes``, ``glmls.files.landmarks``, ...) hold these and
 the rules they follow, such as the dtypes a volume is warped in
