@@ -135,7 +135,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help="where the s, j and S keys save",
     )
-    parser.add_argument("--window-size", type=_size, metavar="WxH", help="window size")
+    parser.add_argument(
+        "--window-size",
+        type=_size,
+        metavar="WxH",
+        help="window size, 64 to 16384 pixels per side (default: fitted to the image or volume)",
+    )
     add_max_pixels(parser)
 
 
