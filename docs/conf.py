@@ -77,8 +77,44 @@ def _escape_bars(app, what, name, obj, options, lines) -> None:
         lines[i] = "".join(parts)
 
 
+def _public_classes() -> set[type]:
+    """The classes that the API reference documents: those in the public modules' __all__."""
+    import glmls.files
+    import glmls.volume
+
+    modules = (glmls, glmls.analysis, glmls.augment, glmls.data, glmls.files, glmls.gl)
+    modules += (glmls.mls3, glmls.reference, glmls.volume)
+    found = set()
+    for module in modules:
+        for name in module.__all__:
+            value = getattr(module, name)
+            if isinstance(value, type):
+                found.add(value)
+    return found
+
+
+def _public_bases(app, name, obj, options, bases) -> None:
+    """A class's "Bases:" line names what a reader can look up: a base that is glmls's own
+    but not documented (a private ``_TextPreset``, the MLS's ``ForkSafe``) is replaced by its
+    own bases, up to documented classes or ``object``."""
+    public = _public_classes()
+
+    def shown(base: object) -> list[object]:
+        if not isinstance(base, type) or not base.__module__.startswith("glmls"):
+            return [base]
+        if base in public:
+            return [base]
+        return [b for parent in base.__bases__ for b in shown(parent)]
+
+    kept = list(dict.fromkeys(b for base in bases for b in shown(base)))
+    if len(kept) > 1 and object in kept:
+        kept.remove(object)
+    bases[:] = kept
+
+
 def setup(app) -> None:
     app.connect("autodoc-process-docstring", _escape_bars, priority=400)
+    app.connect("autodoc-process-bases", _public_bases)
 
 
 # --- Gallery -------------------------------------------------------------------------------

@@ -95,7 +95,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="DZ,DY,DX",
         help="a volume's voxel size along z, y and x, or one number for all three, as for "
         "glmls warp: the handles' units and the views' aspect (default: the file's: a NIfTI's "
-        "affine, an ImageJ TIFF stack's spacing; else 1)",
+        "affine, an ImageJ or OME TIFF stack's spacing; else 1)",
     )
     parser.add_argument(
         "--reference",
@@ -135,7 +135,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help="where the s, j and S keys save",
     )
-    parser.add_argument("--window-size", type=_size, metavar="WxH", help="window size")
+    parser.add_argument(
+        "--window-size",
+        type=_size,
+        metavar="WxH",
+        help="window size, 64 to 16384 pixels per side (default: fitted to the image or volume)",
+    )
     add_max_pixels(parser)
 
 

@@ -1,9 +1,15 @@
-"""Files: images (:mod:`.images`, 16-bit PNGs kept 16-bit; their colour profiles:
-:mod:`.profiles`), volumes (:mod:`.volumes`: NIfTI, TIFF stacks, ``.npy``; the dtypes they
-are warped in: :mod:`.volume_dtypes`), triangle meshes (:mod:`.meshes`: PLY, OBJ, STL),
-handle and reference-point files (:mod:`.landmarks`: points, segments and polylines in 2D,
-points in 3D, BigWarp's and elastix's landmarks), and writing outputs whole or not at all
-(:mod:`.atomic`)."""
+"""Files: images (:func:`~glmls.imread`, :func:`~glmls.imwrite`: 16-bit PNGs kept 16-bit,
+and their colour profiles, :func:`read_icc_profile`), volumes (:func:`~glmls.read_volume`,
+:func:`~glmls.write_volume`: NIfTI, TIFF stacks, ``.npy``; a NIfTI file's
+:class:`NiftiHeader` and world coordinates, :func:`world_to_volume`), triangle meshes
+(:func:`~glmls.read_mesh`, :func:`~glmls.write_mesh`: PLY, OBJ, STL), handle and
+reference-point files (:func:`read_handle_set`, :func:`read_handles`, :func:`read_points`,
+:func:`write_handles`: points, segments and polylines in 2D, points in 3D, BigWarp's and
+elastix's landmarks), and writing outputs whole or not at all (:func:`atomic_write`).
+
+The modules inside (``glmls.files.volumes``, ``glmls.files.landmarks``, ...) hold these and
+the rules they follow, such as the dtypes a volume is warped in
+(``glmls.files.volume_dtypes``)."""
 
 from .atomic import atomic_write
 from .images import imread, imwrite

@@ -32,10 +32,47 @@ def umask() -> int:
 
 @contextlib.contextmanager
 def atomic_write(path: str | os.PathLike) -> Iterator[Path]:
-    """Yield a temporary path beside ``path`` (its folders made as needed); rename it onto
-    ``path`` only on success, so that the output is written whole or not at all. The file
-    gets the user's umask (``0666 & ~umask``, as ``open()`` would give), and a failure to
-    write (full disk, no permission) is an ``OSError`` naming ``path``, not the temporary."""
+    """A temporary path beside ``path``, renamed onto it when the block succeeds.
+
+    The output is written whole or not at all: the block writes the temporary file (its
+    folders made as needed), which replaces ``path`` only when the block ends without an
+    exception, and is removed otherwise. The file gets the user's umask (``0666 & ~umask``,
+    as ``open()`` would give).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The output file.
+
+    Yields
+    ------
+    pathlib.Path
+        The temporary file to write, in ``path``'s folder, with ``path``'s suffix.
+
+    Raises
+    ------
+    OSError
+        When the file cannot be written (full disk, no permission), naming ``path``, not
+        the temporary.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from glmls.files import atomic_write
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "out" / "table.csv"
+    >>> with atomic_write(path) as tmp:
+    ...     _ = tmp.write_text("x,y\\n1,2\\n")
+    >>> path.read_text()
+    'x,y\\n1,2\\n'
+    >>> try:
+    ...     with atomic_write(path) as tmp:
+    ...         _ = tmp.write_text("half")
+    ...         raise KeyboardInterrupt
+    ... except KeyboardInterrupt:
+    ...     pass
+    >>> path.read_text(), sorted(p.name for p in path.parent.iterdir())
+    ('x,y\\n1,2\\n', ['table.csv'])
+    """
     path = Path(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)

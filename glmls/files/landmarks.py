@@ -227,10 +227,36 @@ def handle_dimension(path: str | os.PathLike, *, dst: str | os.PathLike | None =
 
 
 def read_handle_set(path: str | os.PathLike, *, dst: str | os.PathLike | None = None) -> HandleSet:
-    """The 2D handles of every kind in a JSON, CSV or BigWarp landmark file (see the module's
-    description of the formats), or of an elastix pair (``path`` the sources', ``dst`` the
-    targets'), checked; ``InputFileError`` naming the place of a fault, and for a file of
-    3D handles (:func:`read_handles` reads those)."""
+    """The 2D handles of every kind (points, segments, polylines) in a handle file, checked.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A JSON, CSV or BigWarp file (the module's formats), or the sources' elastix ``.pts``.
+    dst : str or os.PathLike, optional
+        The targets' elastix point file, where ``path`` is the sources'.
+
+    Returns
+    -------
+    glmls.HandleSet
+        The points and segments, a polyline as its segments.
+
+    Raises
+    ------
+    glmls.InputFileError
+        Naming the place of a fault; also for 3D handles (:func:`read_handles` reads those).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from glmls.files import read_handle_set
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "h.csv"
+    >>> _ = path.write_text("kind,id,src_x,src_y,dst_x,dst_y\\n"
+    ...     "point,,5,5,6,5\\nsegment,a,0,0,0,1\\nsegment,a,0,9,1,9\\n")
+    >>> handles = read_handle_set(path)
+    >>> handles.points, handles.segments, handles.dst_segments.tolist()
+    (1, 1, [[[0.0, 1.0], [1.0, 9.0]]])
+    """
     path = Path(path)
     ndim, rows = _handle_rows(path, dst)
     _expect(path, ndim, 2, ": read_handles reads 3D point handles")
@@ -303,7 +329,32 @@ def read_handles(
 
 
 def read_points(path: str | os.PathLike) -> np.ndarray:
-    """Reference points (K, 2) from JSON ``{"points": ...}`` or a CSV with header ``x,y``."""
+    """Reference points from JSON ``{"points": [[x, y], ...]}`` or a CSV with header ``x,y``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; ``.json`` is JSON, any other suffix CSV.
+
+    Returns
+    -------
+    numpy.ndarray
+        (K, 2) float64, K >= 1.
+
+    Raises
+    ------
+    glmls.InputFileError
+        For a missing or malformed file, or one of no points.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from glmls.files import read_points
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "points.csv"
+    >>> _ = path.write_text("x,y\\n10,20\\n30,40\\n")
+    >>> read_points(path).tolist()
+    [[10.0, 20.0], [30.0, 40.0]]
+    """
     path = Path(path)
     if path.suffix.lower() == ".json":
         points = np.array(json_points(path, load_json(path), "points"), dtype=np.float64)
@@ -321,10 +372,37 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
 
 
 def write_handle_set(path: str | os.PathLike, handles: HandleSet) -> None:
-    """``handles`` as JSON (``.json``) or CSV, written atomically, in a form that
-    :func:`read_handle_set` reads back to the same handles: CSV with the header
-    ``src_x,src_y,dst_x,dst_y`` for points alone, ``kind,id,...`` with segments; segments
-    that join end to start (in the source and the target) are written as polylines."""
+    """Write 2D handles to a file that :func:`read_handle_set` reads back to the same handles.
+
+    JSON for ``.json``, else CSV (``src_x,src_y,dst_x,dst_y``; ``kind,id,...`` with segments,
+    those that join end to start as polylines), written whole or not at all.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The output file (its folders made as needed).
+    handles : glmls.HandleSet
+        The handles.
+
+    Raises
+    ------
+    TypeError
+        When ``handles`` is not a :class:`glmls.HandleSet`.
+    OSError
+        When the file cannot be written (the message names ``path``).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from glmls.files import read_handle_set, write_handle_set
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "h.json"
+    >>> segment = [[[5, 0], [5, 9]]]
+    >>> handles = glmls.HandleSet.validate([[0, 0]], [[1, 0]], segment, segment)
+    >>> write_handle_set(path, handles)
+    >>> back = read_handle_set(path)
+    >>> back.points, back.segments, back.dst.tolist()
+    (1, 1, [[1.0, 0.0]])
+    """
     if not isinstance(handles, HandleSet):
         raise TypeError(f"handles must be a HandleSet, got {type(handles).__name__}")
     path = Path(path)
@@ -351,11 +429,38 @@ def write_handles(
     src_segments: object = None,
     dst_segments: object = None,
 ) -> None:
-    """Point handles, 2D (N, 2) or 3D (N, 3), and 2D segments (S, 2, 2), if given, to
-    ``path`` (``.json``, else CSV), written atomically in a form that :func:`read_handles`
-    (:func:`read_handle_set` for 2D ones) reads back to the same handles: see
-    :func:`write_handle_set` for 2D. ``ValueError``/``TypeError`` for handles that
-    :class:`glmls.MLS` would refuse."""
+    """Write handles to a file that :func:`read_handles` reads back to the same handles.
+
+    JSON for ``.json``, else CSV (``src_x,src_y,dst_x,dst_y`` or ``src_x,...,dst_z``), written
+    whole or not at all; 2D handles with segments as :func:`write_handle_set` writes them.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The output file (its folders made as needed).
+    src, dst : array_like
+        (N, 2) or (N, 3) source and target points.
+    src_segments, dst_segments : array_like, optional
+        (S, 2, 2) segment handles, 2D only.
+
+    Raises
+    ------
+    ValueError, TypeError
+        For handles that :class:`glmls.MLS` would refuse, and segments beside 3D points.
+    OSError
+        When the file cannot be written (the message names ``path``).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from glmls.files import read_handles, write_handles
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "h3d.csv"
+    >>> write_handles(path, [[1, 2, 3]], [[2, 2, 3]])
+    >>> print(path.read_text().splitlines()[0])
+    src_x,src_y,src_z,dst_x,dst_y,dst_z
+    >>> read_handles(path)[1].tolist()
+    [[2.0, 2.0, 3.0]]
+    """
     if np.ndim(src) == 2 and np.shape(src)[1] == 3:
         if src_segments is not None or dst_segments is not None:
             raise ValueError("segment handles are 2D; 3D handles are points only")

@@ -1,6 +1,6 @@
-"""The OpenGL plumbing: contexts (:class:`GLContext`, :func:`get_context`) and the warp
-pipeline that builds deformed images on one context (:class:`WarpPipeline`, configured by
-:class:`PipelineOptions`).
+"""The OpenGL plumbing: contexts (:class:`GLContext`, :func:`get_context`,
+:func:`create_headless`) and the warp pipeline that builds deformed images on one context
+(:class:`WarpPipeline`, configured by :class:`PipelineOptions`).
 
 Most users never touch this package: :class:`glmls.MLS` and :func:`glmls.warp` use the shared
 headless context of the calling thread. It is for rendering into a context of your own (a
@@ -14,9 +14,15 @@ package never imports the layers built on it.
 
 from __future__ import annotations
 
-from .context import GLContext, get_context
+from .context import GLContext, create_headless, get_context
 
-__all__ = ["GLContext", "PipelineOptions", "WarpPipeline", "get_context"]
+__all__ = [
+    "GLContext",
+    "PipelineOptions",
+    "WarpPipeline",
+    "create_headless",
+    "get_context",
+]
 
 
 def __getattr__(name: str) -> object:

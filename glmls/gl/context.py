@@ -228,7 +228,7 @@ class GLContext:
 
     Examples
     --------
-    >>> from glmls.gl.context import create_headless
+    >>> from glmls.gl import create_headless
     >>> context = create_headless()  # a headless context of one's own
     >>> context.owned, context.alive, context.compiled
     (True, True, 0)
@@ -618,10 +618,45 @@ def _check_process() -> None:
 def create_headless(
     *, shaders: ShaderLibrary | None = None, max_programs: int = MAX_PROGRAMS
 ) -> GLContext:
-    """A new offscreen OpenGL 4.3+ core context through EGL (no display needed), owned by
-    glmls, compiling from ``shaders`` (the package's by default). Usable from any thread (see
-    the module docstring); threads that should render in parallel can each have their own
-    (``MLS(..., ctx=...)``). Release it with :meth:`GLContext.release`."""
+    """A new offscreen OpenGL 4.3+ core context of one's own, through EGL (no display needed).
+
+    The context is owned by glmls and usable from any thread, one call at a time; threads
+    that should render in parallel can each have their own (``MLS(..., ctx=...)``). Release
+    it with :meth:`GLContext.release`.
+
+    Parameters
+    ----------
+    shaders : ShaderLibrary, optional
+        Where programs come from (the package's shaders by default).
+    max_programs : int, optional
+        Compute programs kept compiled (least recently used released first), at least 16.
+
+    Returns
+    -------
+    GLContext
+        The new context, owned by glmls.
+
+    Raises
+    ------
+    GLUnavailableError
+        Where EGL, a driver or OpenGL 4.3 is missing (naming what and the packages that
+        provide it), and in a process forked from one that used GL.
+    TypeError, ValueError
+        For a ``max_programs`` that is not an integer of at least 16.
+
+    See Also
+    --------
+    get_context : the shared context that glmls uses by default.
+
+    Examples
+    --------
+    >>> context = glmls.gl.create_headless()
+    >>> src = np.array([[0.0, 0.0], [20.0, 0.0], [0.0, 20.0]])
+    >>> with glmls.MLS(src, src + 1.0, ctx=context) as m:
+    ...     print(m.ctx is context, m([[5.0, 5.0]]).round(3).tolist())
+    True [[6.0, 6.0]]
+    >>> context.release()
+    """
     _check_process()
     previous = _thread.current
     try:

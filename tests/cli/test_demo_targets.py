@@ -116,3 +116,26 @@ def test_demo_refuses_to_save_over_a_file_it_reads(tmp_path, capsys, option, nam
     err = capsys.readouterr().err
     assert f"{tmp_path / name}: the output is {what}" in err, err
     assert (tmp_path / name).read_bytes() == before
+
+
+def test_demo_says_the_spacing_a_file_gives_as_warp_does():
+    """``demo`` reads a volume as ``warp`` does (``read_volume``): its --help names the same
+    sources of the file's spacing, an OME-TIFF's among them."""
+    commands = next(a for a in build_parser()._actions if a.dest == "command").choices
+
+    def file_default(command: str) -> str:
+        action = next(a for a in commands[command]._actions if a.dest == "spacing")
+        return action.help[action.help.index("default:") :]
+
+    assert "OME" in file_default("warp")
+    assert file_default("demo") == file_default("warp")
+
+
+def test_demo_help_gives_the_window_size_default_and_range():
+    """``glmls COMMAND --help`` gives every option's default (docs/cli.md): --window-size's
+    is the fitted size, and the range that the option takes."""
+    commands = next(a for a in build_parser()._actions if a.dest == "command").choices
+    action = next(a for a in commands["demo"]._actions if a.dest == "window_size")
+    assert "default: fitted" in action.help and "64 to 16384" in action.help
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["demo", "--window-size", "32x600"])

@@ -1,8 +1,9 @@
 """Every public function and class of glmls has a numpydoc docstring, and its Examples run.
 
 The public names are the functions and classes (exceptions and warnings included) in the
-``__all__`` of :mod:`glmls`, :mod:`glmls.analysis`, :mod:`glmls.augment`, :mod:`glmls.gl`,
-:mod:`glmls.reference` and :mod:`glmls.data`. Each docstring parses as numpydoc and passes
+``__all__`` of :mod:`glmls`, :mod:`glmls.analysis`, :mod:`glmls.augment`, :mod:`glmls.files`,
+:mod:`glmls.gl`, :mod:`glmls.reference`, :mod:`glmls.data`, :mod:`glmls.mls3` and
+:mod:`glmls.volume`. Each docstring parses as numpydoc and passes
 :data:`CHECKS` of ``numpydoc.validate``; its Examples (and those of the class's methods) run
 as doctests with ``np`` and ``glmls`` imported, on glmls's shared headless context.
 """
@@ -26,18 +27,12 @@ MODULES = [
     glmls,
     glmls.analysis,
     glmls.augment,
+    glmls.files,
     glmls.gl,
     glmls.reference,
     glmls.data,
     glmls.mls3,
     glmls.volume,
-]
-#: Names of other modules that the API reference documents (docs/api/glmls.rst).
-NAMED = [
-    glmls.files.read_icc_profile,
-    glmls.files.read_handles,
-    glmls.files.world_to_volume,
-    glmls.files.volume_to_world,
 ]
 
 #: The numpydoc.validate checks every public function passes: a docstring (GL08) with a
@@ -54,14 +49,15 @@ _FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 
 
 def public_names() -> list[tuple[str, object]]:
-    """(qualified name, object) for every function and class in the modules' ``__all__``."""
-    found = []
+    """(qualified name, object) for every function and class in the modules' ``__all__``,
+    each once (``glmls.imread`` is ``glmls.files.imread``)."""
+    found, seen = [], set()
     for module in MODULES:
         for name in module.__all__:
             obj = getattr(module, name)
-            if inspect.isfunction(obj) or inspect.isclass(obj):
+            if (inspect.isfunction(obj) or inspect.isclass(obj)) and id(obj) not in seen:
+                seen.add(id(obj))
                 found.append((f"{module.__name__}.{name}", obj))
-    found += [(f"glmls.files.{obj.__name__}", obj) for obj in NAMED]
     return found
 
 
@@ -126,6 +122,8 @@ def test_the_public_names_are_found():
         "glmls.ReleasedError",
         "glmls.analysis.tune",
         "glmls.data.astronaut",
+        "glmls.files.read_handle_set",
+        "glmls.gl.create_headless",
         "glmls.gl.get_context",
         "glmls.reference.mls",
     ):
