@@ -118,6 +118,23 @@ def test_float64_infinities_stay_what_they_are(mls3):
     assert np.isinf(out).sum() == 1
 
 
+@pytest.mark.parametrize("method", ["quads", "backward"])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("background", [1e39, (-1e300,)])
+def test_a_background_beyond_float32_is_refused_not_made_inf(mls3, method, dtype, background):
+    volume = np.zeros((4, 5, 6), dtype)
+    with pytest.raises(ValueError, match=r"background .* is beyond float32's range"):
+        mls3.warp(volume, method=method, background=background)
+
+
+@pytest.mark.parametrize("background", [np.inf, -np.inf, np.nan])
+def test_a_background_of_inf_or_nan_is_what_uncovered_voxels_hold(gl, background):
+    with glmls.MLS(SRC, SRC + [2.0, 0, 0], ctx=gl) as m:  # the first 2 columns uncovered
+        out = m.warp(np.zeros((4, 5, 6), np.float32), background=background)
+    np.testing.assert_array_equal(out[..., :2], np.float32(background))
+    assert (out[..., 2:] == 0).all()
+
+
 class _Mesh:
     """A mesh object with its own vertex normals, as a trimesh.Trimesh has."""
 
