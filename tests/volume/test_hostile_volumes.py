@@ -222,3 +222,9 @@ def test_an_mls_of_a_volume_beyond_the_coordinate_range_is_refused(gl, shape, sp
     with glmls.MLS(SRC, DST, shape=(10**6, 5, 5), ctx=gl) as m:  # the limit itself works
         f, _, _ = glmls.reference.mls(SRC, DST, SRC[:2] + 0.5, m.config)
         assert np.abs(m(SRC[:2] + 0.5) - f).max() < 1e-3
+
+
+@pytest.mark.parametrize("slabs", [5, {"slab_bytes": 4096}, "small"])
+def test_slabs_that_are_no_slab_options_are_a_type_error_naming_them(mls3, volume, slabs):
+    with pytest.raises(TypeError, match=r"slabs must be a glmls\.volume\.SlabOptions, got"):
+        mls3.warp(volume, slabs=slabs)
