@@ -37,6 +37,7 @@ from .imaging.frame import Bounds
 from .imaging.inverse import accept_residual
 from .imaging.options import FIELDS, WarpOptions, default
 from .imaging.pipeline import GUESS_MESH_POINTS, WarpPipeline
+from .volume.options import VOLUME_WARP_KEYWORDS
 
 __all__ = ["MLS", "InverseMLS", "warp"]
 
@@ -1281,12 +1282,7 @@ def warp(image: object, src: object, dst: object, **options: object) -> np.ndarr
     if dimension_of(src) == 3:
         return _warp_volume(image, src, dst, options)
     warp_options = {k: options.pop(k) for k in sorted(FIELDS | {"options"}) if k in options}
-    unknown = sorted(set(options) - MLS_KEYWORDS)
-    if unknown:
-        raise TypeError(
-            f"warp() got {'unknown keywords' if len(unknown) > 1 else 'an unknown keyword'} "
-            f"{', '.join(unknown)}"
-        )
+    _refuse_unknown(set(options) - MLS_KEYWORDS)
     chosen = WarpOptions.of(warp_options.pop("options", None), **warp_options)  # type: ignore[arg-type]
     array = np.asarray(image)
     shape = array.shape[:2] if array.ndim in (2, 3) and array.size else None
@@ -1294,11 +1290,19 @@ def warp(image: object, src: object, dst: object, **options: object) -> np.ndarr
         return m.warp(image, options=chosen)  # the caller's object: errors say what it was
 
 
+def _refuse_unknown(unknown: set[str]) -> None:
+    """``TypeError`` naming the keywords :func:`warp` takes neither for its MLS nor its warp."""
+    if unknown:
+        words = "unknown keywords" if len(unknown) > 1 else "an unknown keyword"
+        raise TypeError(f"warp() got {words} {', '.join(sorted(unknown))}")
+
+
 def _warp_volume(volume: object, src: object, dst: object, options: dict) -> np.ndarray:
     """:func:`warp` by (N, 3) handles: the MLS's keywords (and ``spacing``) make the MLS of
-    the volume's shape, the rest are its warp's (which names those it does not know)."""
+    the volume's shape, the rest are its warp's; a keyword of neither is a TypeError."""
     keywords = MLS_KEYWORDS | {"spacing"}
     made = {k: options.pop(k) for k in sorted(keywords) if k in options}
+    _refuse_unknown(set(options) - VOLUME_WARP_KEYWORDS)
     array = np.asarray(volume)
     shape = array.shape[:3] if array.ndim in (3, 4) and array.size else None
     with MLS(src, dst, shape=shape, **made) as m:  # type: ignore[arg-type]

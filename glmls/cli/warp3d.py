@@ -31,7 +31,7 @@ from ..core.handles3 import as_volume_spacing
 from ..files.images import DEFAULT_MAX_PIXELS
 from ..files.landmarks import elastix_indices, elastix_physical, handle_dimension, read_handles
 from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
-from ..files.volume_dtypes import in_dtype, warped_as
+from ..files.volume_dtypes import check_file_background, in_dtype, warped_as
 from ..files.volumes import (
     VOLUME_SUFFIXES,
     Volume,
@@ -67,8 +67,9 @@ __all__ = [
 def warpable(data: np.ndarray, name: object, *, time: bool = False) -> np.ndarray:
     """A volume in a dtype the GPU warps: uint8, uint16 and float32 as they are, the other
     real ones (bool, int16, int64, float64, ...) as float32; :class:`UsageError` naming
-    ``name`` for others (complex numbers, objects, strings), and for more than 4 channels
-    (``time``: the channels are a NIfTI time series's time points)."""
+    ``name`` for others (complex numbers, objects, strings), for values float32 would change
+    (:func:`~glmls.files.volume_dtypes.warped_as`), and for more than 4 channels (``time``:
+    the channels are a NIfTI time series's time points)."""
     if data.dtype.kind not in "biuf":
         raise UsageError(
             f"{name}: a volume of {data.dtype} values; glmls warps real numbers (bool, "
@@ -85,7 +86,10 @@ def warpable(data: np.ndarray, name: object, *, time: bool = False) -> np.ndarra
             f"{name}: a volume of {data.shape[3]} channels; glmls warps 1 to 4 at a time "
             "(warp the channels in groups of 4 or fewer)"
         )
-    return warped_as(data)
+    try:
+        return warped_as(data, name)
+    except ValueError as error:  # a value float32 would not hold
+        raise UsageError(str(error)) from None
 
 
 def parse_spacing(text: str) -> tuple[float, float, float]:
@@ -400,6 +404,10 @@ def _warp_volume(args, config: MLSConfig, src, dst, target: Path) -> None:
             "as an image; write it as .nii, .nii.gz or .npy"
         )
     options = _volume_options(args, spacing)
+    try:  # that of the file's dtype, which the float32 warp of an int16 volume cannot check
+        check_file_background(args.background, dtype, args.input)
+    except ValueError as error:
+        raise UsageError(str(error)) from None
     src, dst = voxel_handles(args, src, dst, spacing)
     src, dst = world_handles(args, volume, spacing, src, dst)
     messages = volume_handle_warnings(args, src, data.shape, spacing, volume.affine)

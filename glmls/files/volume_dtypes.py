@@ -4,9 +4,11 @@ float32 and write the result in the input's own dtype."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-__all__ = ["WARPED_AS_IS", "in_dtype", "warped_as"]
+__all__ = ["WARPED_AS_IS", "check_file_background", "in_dtype", "warped_as"]
 
 #: The dtypes a volume is warped in as it is (``glmls warp``, the volume window's save);
 #: the others are warped as float32 (:func:`warped_as`; integers exact within +-2**24) and
@@ -14,11 +16,65 @@ __all__ = ["WARPED_AS_IS", "in_dtype", "warped_as"]
 #: GPU computes in float32 either way, and the float32 copy holds half the memory.
 WARPED_AS_IS = ("uint8", "uint16", "float32")
 
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+_EXACT = 1 << 24  # float32 holds every integer within +-2**24 exactly
 
-def warped_as(data: np.ndarray) -> np.ndarray:
+
+def warped_as(data: np.ndarray, name: object = "volume") -> np.ndarray:
     """``data`` (a real-valued volume) in the dtype it is warped in: itself where its dtype
-    is one of :data:`WARPED_AS_IS`, else a float32 copy."""
-    return data if data.dtype.name in WARPED_AS_IS else data.astype(np.float32)
+    is one of :data:`WARPED_AS_IS`, else a float32 copy; ``ValueError`` naming ``name`` where
+    that copy would change a value: a finite float beyond float32's range (it would become
+    inf), or an integer float32 does not hold (some beyond +-2**24, such as 2**24 + 1)."""
+    if data.dtype.name in WARPED_AS_IS:
+        return data
+    if data.dtype.kind == "f":
+        with np.errstate(over="ignore"):
+            copy = data.astype(np.float32)
+        beyond = np.isinf(copy) & np.isfinite(data)
+        if beyond.any():
+            raise ValueError(
+                f"{name}: values must lie within float32's range (±3.4e38, the GPU's), got "
+                f"{float(data[beyond].flat[0]):g}"
+            )
+        return copy
+    copy = data.astype(np.float32)
+    if data.dtype.kind in "iu" and data.size:
+        low, high = int(data.min()), int(data.max())
+        if low < -_EXACT or high > _EXACT:
+            inexact = copy.astype(np.float64) != data.astype(np.float64)
+            inexact |= np.abs(data.astype(np.float64)) >= 2.0**53  # float64 may round those
+            if inexact.any():
+                raise ValueError(
+                    f"{name}: {data.dtype} values from {low} to {high}, of which float32 (the "
+                    f"GPU's) would round {int(data[inexact].flat[0])}; integers within "
+                    "+-2**24 are warped exactly (renumber labels, or rescale the values)"
+                )
+    return copy
+
+
+def check_file_background(background: float | tuple[float, ...], dtype: np.dtype, name: object):
+    """``ValueError`` naming ``name`` where ``background`` (one value or one per channel) is
+    not a value of a volume of ``dtype`` warped as float32 and written back (:func:`in_dtype`):
+    outside an integer dtype's range or NaN there, outside 0..1 for bool, a finite value
+    beyond float32's range (or a float16's) for a float dtype."""
+    values = background if isinstance(background, tuple) else (background,)
+    dtype = np.dtype(dtype)
+    if dtype == np.bool_:
+        low, high = 0.0, 1.0
+    elif dtype.kind in "iu":
+        info = np.iinfo(dtype)
+        low, high = float(info.min), float(info.max)
+    else:
+        top = min(float(np.finfo(dtype).max), _FLOAT32_MAX)
+        if any(math.isfinite(v) and abs(v) > top for v in values):
+            raise ValueError(
+                f"{name}: background {background!r} is beyond the range of {dtype} (±{top:.4g})"
+            )
+        return
+    if not all(low <= v <= high for v in values):
+        raise ValueError(
+            f"{name}: background {background!r} is outside {low:g}..{high:g} of {dtype}"
+        )
 
 
 def in_dtype(warped: np.ndarray, dtype: np.dtype) -> np.ndarray:
@@ -31,5 +87,8 @@ def in_dtype(warped: np.ndarray, dtype: np.dtype) -> np.ndarray:
         return warped >= 0.5
     if np.issubdtype(dtype, np.integer):
         info = np.iinfo(dtype)
-        return np.clip(np.rint(warped), info.min, info.max).astype(dtype)
+        low, high = np.float64(info.min), np.float64(info.max)
+        if int(high) > info.max:  # int64's and uint64's largest values round up in float64
+            high = np.nextafter(high, 0.0)
+        return np.clip(np.rint(warped.astype(np.float64)), low, high).astype(dtype)
     return warped.astype(dtype)

@@ -85,8 +85,8 @@ def warp_volume(
         For a 2D image or a 2D MLS, a bad option, a ``spacing`` other than the MLS's, or a
         volume beyond the GL 3D texture limit (2048 voxels a side at least).
     TypeError
-        For a bad dtype, a keyword that is no option, or a ``spacing`` that is not a sequence
-        of real numbers.
+        For a bad dtype, a keyword that is no option, ``slabs`` that is no
+        :class:`SlabOptions`, or a ``spacing`` that is not a sequence of real numbers.
 
     Examples
     --------
@@ -105,6 +105,8 @@ def warp_volume(
     """
     kernel = _kernel(mls)
     options = _options(mls, options, keywords)
+    if slabs is not None and not isinstance(slabs, SlabOptions):
+        raise TypeError(f"slabs must be a glmls.volume.SlabOptions, got {slabs!r}")
     array = check_volume(volume)
     if options.method == "backward":
         _check_newton(kernel)

@@ -16,7 +16,7 @@ from ..core.mesh import check_grid
 from ..imaging.options import Default
 from ..imaging.source import BORDERS, INTERPOLATIONS, check_background
 
-__all__ = ["VOLUME_METHODS", "SlabOptions", "VolumeOptions"]
+__all__ = ["VOLUME_METHODS", "VOLUME_WARP_KEYWORDS", "SlabOptions", "VolumeOptions"]
 
 #: How a deformed volume is built: ``quads`` (the default, named as the 2D default): the cells
 #: method, the deformed cells of the voxel-corner lattice, each split into 6 tetrahedra,
@@ -190,6 +190,13 @@ class VolumeOptions:
         if options is None:
             return cls(**given)  # type: ignore[arg-type]
         return dataclasses.replace(options, **given) if given else options  # type: ignore[arg-type]
+
+
+#: The keywords of a volume warp (:func:`glmls.volume.warp_volume`): the fields of
+#: :class:`VolumeOptions`, ``options`` and ``slabs``.
+VOLUME_WARP_KEYWORDS = frozenset(
+    {f.name for f in dataclasses.fields(VolumeOptions)} | {"options", "slabs"}
+)
 
 
 @dataclass(frozen=True)

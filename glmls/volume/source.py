@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..files.volumes import Volume
-from ..imaging.source import as_float32
+from ..imaging.source import FLOAT32_MAX, as_float32
 
 __all__ = [
     "VOLUME_DTYPES",
@@ -140,8 +140,8 @@ def prepare_volume(volume: object) -> SourceVolume:
 
 def volume_background(background: object, volume: SourceVolume) -> tuple[float, ...]:
     """The value of uncovered voxels as 4 floats: ``background`` is a scalar (every channel)
-    or one value per channel; ``ValueError`` for another count, or a value outside an integer
-    dtype's range."""
+    or one value per channel; ``ValueError`` for another count, a value outside an integer
+    dtype's range, or a finite value beyond float32's (the GPU's: it would become inf)."""
     channels = volume.channels
     values = np.asarray(background, dtype=np.float64)
     if values.ndim == 0:
@@ -155,5 +155,9 @@ def volume_background(background: object, volume: SourceVolume) -> tuple[float, 
         top = np.iinfo(volume.dtype).max
         if not np.all((values >= 0) & (values <= top)):
             raise ValueError(f"background {background!r} is outside 0..{top} of {volume.dtype}")
+    elif np.any(np.isfinite(values) & (np.abs(values) > FLOAT32_MAX)):
+        raise ValueError(
+            f"background {background!r} is beyond float32's range (±3.4e38, the GPU's)"
+        )
     out = [float(v) for v in values]
     return (*out, *[0.0] * (4 - len(out)))

@@ -74,3 +74,57 @@ def test_a_volume_of_one_slice_is_not_written_as_a_tiff(tmp_path):
     assert len(result.stderr.strip().splitlines()) == 1, result.stderr
     assert "one slice" in result.stderr
     assert not (tmp_path / "w.tif").exists()
+
+
+@pytest.mark.parametrize(
+    ("volume", "named"),
+    [
+        (np.full((4, 5, 6), 2**31 - 1, np.int32), "would round 2147483647"),
+        (np.full((4, 5, 6), 2**24 + 1, np.int64), "would round 16777217"),
+        (np.full((4, 5, 6), -1e300), "within float32's range"),
+    ],
+)
+@pytest.mark.parametrize("command", ["warp", "analyze"])
+def test_values_float32_would_change_are_refused_in_one_line(tmp_path, volume, named, command):
+    """An int32 volume's largest value was written back as its smallest, 2**24 + 1 as 2**24
+    and -1e300 as -inf: each is refused, naming the file and the value."""
+    np.save(tmp_path / "v.npy", volume)
+    (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": SRC}))
+    out = ["w.npy"] if command == "warp" else ["--out", "rep"]
+    result = run_glmls(command, "v.npy", *out, "--handles", "h3.json", cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "v.npy" in lines[0] and named in lines[0], result.stderr
+    assert not (tmp_path / "w.npy").exists()
+
+
+@pytest.mark.parametrize(
+    ("dtype", "background"),
+    [("int16", "nan"), ("int16", "40000"), ("bool", "2"), ("float16", "1e5")],
+)
+def test_a_background_the_volume_s_dtype_cannot_hold_is_refused(tmp_path, dtype, background):
+    """The volume is warped as float32, which holds these: they were written back as 0, as
+    32767, as True and as inf."""
+    np.save(tmp_path / "v.npy", np.ones((4, 5, 6), dtype))
+    (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": DST}))
+    result = run_glmls(
+        "warp", "v.npy", "w.npy", "--handles", "h3.json", "--background", background, cwd=tmp_path
+    )
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"v.npy: background {float(background)}" in lines[0], lines
+    assert not (tmp_path / "w.npy").exists()
+
+
+def test_an_int32_volume_keeps_its_largest_value_as_the_background(tmp_path):
+    np.save(tmp_path / "v.npy", np.full((4, 5, 6), 7, np.int32))
+    moved = [[x + 3, y, z] for x, y, z in SRC]  # the first columns uncovered
+    (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": moved}))
+    top = str(2**31 - 1)
+    result = run_glmls(
+        "warp", "v.npy", "w.npy", "--handles", "h3.json", "--background", top, cwd=tmp_path
+    )
+    assert result.returncode == 0, result.stderr
+    assert "Warning" not in result.stderr
+    warped = np.load(tmp_path / "w.npy")
+    assert set(np.unique(warped)) == {7, 2**31 - 1}

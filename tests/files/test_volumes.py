@@ -14,7 +14,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 import glmls
 from glmls.errors import InputFileError
-from glmls.files.volume_dtypes import in_dtype, warped_as
+from glmls.files.volume_dtypes import check_file_background, in_dtype, warped_as
 from glmls.files.volumes import (
     Volume,
     is_volume_file,
@@ -238,3 +238,67 @@ def test_a_volume_is_warped_in_its_dtype_or_float32_and_written_back_in_its_own(
         in_dtype(warped, np.dtype(np.bool_)), [False, False, False, True, True, True]
     )
     assert in_dtype(warped, np.dtype(np.float64)).dtype == np.float64
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.int64, np.uint32, np.uint64])
+def test_the_largest_integers_are_written_back_clipped_not_wrapped(dtype):
+    """float32 rounds int32's largest value up to 2**31: written back it is that largest
+    value, not the smallest (the cast of 2**31 to int32 wraps)."""
+    info = np.iinfo(dtype)
+    warped = np.array([info.max, info.min, 7], np.float32)
+    with np.errstate(all="raise"):  # and no overflow on the way
+        back = in_dtype(warped, np.dtype(dtype))
+    assert back.dtype == dtype
+    assert back[0] >= info.max - 2**40 and back[1] == info.min and back[2] == 7
+
+
+@pytest.mark.parametrize(
+    ("values", "dtype", "named"),
+    [
+        ([0, 2**24 + 1], np.int32, "16777217"),
+        ([-(2**31), 5], np.int64, None),  # exact in float32: taken
+        ([2**31 - 1], np.int32, "2147483647"),
+        ([2**53 + 1], np.int64, "9007199254740993"),
+        ([2**64 - 1], np.uint64, "18446744073709551615"),
+    ],
+)
+def test_integers_float32_would_round_are_refused_named(values, dtype, named):
+    data = np.array(values, dtype).reshape(1, 1, -1)
+    if named is None:
+        np.testing.assert_array_equal(warped_as(data, "v.npy"), data)
+        return
+    with pytest.raises(ValueError, match=rf"v\.npy: .*would round {named}"):
+        warped_as(data, "v.npy")
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float16])
+def test_floats_beyond_float32_are_refused_and_infinities_kept(dtype):
+    if dtype == np.float64:
+        with pytest.raises(ValueError, match=r"v\.npy: values must lie within float32's range"):
+            warped_as(np.array([[[1.0, -1e300]]]), "v.npy")
+    kept = np.array([[[np.inf, -np.inf, np.nan, 1.0]]], dtype)
+    np.testing.assert_array_equal(warped_as(kept, "v.npy"), kept.astype(np.float32))
+
+
+@pytest.mark.parametrize(
+    ("background", "dtype", "message"),
+    [
+        (np.nan, np.int16, r"outside -32768\.\.32767 of int16"),
+        (40000.0, np.int16, r"outside -32768\.\.32767 of int16"),
+        ((0.0, -1.0), np.uint32, r"outside 0\.\.4\.29497e\+09 of uint32"),
+        (2.0, np.bool_, r"outside 0\.\.1 of bool"),
+        (1e5, np.float16, r"beyond the range of float16"),
+        (1e39, np.float64, r"beyond the range of float64 \(±3\.403e\+38\)"),
+    ],
+)
+def test_a_background_the_file_s_dtype_cannot_hold_is_refused(background, dtype, message):
+    with pytest.raises(ValueError, match=r"v\.npy: background .*" + message):
+        check_file_background(background, np.dtype(dtype), "v.npy")
+
+
+@pytest.mark.parametrize(
+    ("background", "dtype"),
+    [(-32768.0, np.int16), ((0.0, 1.0), np.bool_), (np.inf, np.float16), (np.nan, np.float64)],
+)
+def test_a_background_the_file_s_dtype_holds_is_taken(background, dtype):
+    check_file_background(background, np.dtype(dtype), "v.npy")

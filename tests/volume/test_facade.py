@@ -67,3 +67,19 @@ def test_glmls_warp_takes_a_volume_by_3d_handles(gl):
         glmls.warp(volume[0], src, dst, ctx=gl)
     with pytest.raises(TypeError, match="spacing"):  # an image's warp has no spacing
         glmls.warp(volume[0], src[:, :2], dst[:, :2], spacing=spacing, ctx=gl)
+
+
+@pytest.mark.parametrize("keywords", [{"transfrm": "affine"}, {"methd": "quads", "radus": 3.0}])
+def test_glmls_warp_names_an_unknown_keyword_of_a_volume_as_of_an_image(gl, keywords):
+    """Neither the MLS's keywords nor the warp's: named as the image warp names them, not as
+    an unknown warp option beside a list of the warp's alone (which lacks ``transform``)."""
+    src, _ = handles()
+    volume = np.zeros((4, 5, 6), np.uint8)
+    names = ", ".join(sorted(keywords))
+    for image, points in ((volume, src), (volume[0], src[:, :2])):
+        with pytest.raises(TypeError) as error:
+            glmls.warp(image, points, points, ctx=gl, **keywords)
+        assert str(error.value) == (
+            f"warp() got {'unknown keywords' if len(keywords) > 1 else 'an unknown keyword'} "
+            f"{names}"
+        )

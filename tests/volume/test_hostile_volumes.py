@@ -118,6 +118,23 @@ def test_float64_infinities_stay_what_they_are(mls3):
     assert np.isinf(out).sum() == 1
 
 
+@pytest.mark.parametrize("method", ["quads", "backward"])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("background", [1e39, (-1e300,)])
+def test_a_background_beyond_float32_is_refused_not_made_inf(mls3, method, dtype, background):
+    volume = np.zeros((4, 5, 6), dtype)
+    with pytest.raises(ValueError, match=r"background .* is beyond float32's range"):
+        mls3.warp(volume, method=method, background=background)
+
+
+@pytest.mark.parametrize("background", [np.inf, -np.inf, np.nan])
+def test_a_background_of_inf_or_nan_is_what_uncovered_voxels_hold(gl, background):
+    with glmls.MLS(SRC, SRC + [2.0, 0, 0], ctx=gl) as m:  # the first 2 columns uncovered
+        out = m.warp(np.zeros((4, 5, 6), np.float32), background=background)
+    np.testing.assert_array_equal(out[..., :2], np.float32(background))
+    assert (out[..., 2:] == 0).all()
+
+
 class _Mesh:
     """A mesh object with its own vertex normals, as a trimesh.Trimesh has."""
 
@@ -205,3 +222,9 @@ def test_an_mls_of_a_volume_beyond_the_coordinate_range_is_refused(gl, shape, sp
     with glmls.MLS(SRC, DST, shape=(10**6, 5, 5), ctx=gl) as m:  # the limit itself works
         f, _, _ = glmls.reference.mls(SRC, DST, SRC[:2] + 0.5, m.config)
         assert np.abs(m(SRC[:2] + 0.5) - f).max() < 1e-3
+
+
+@pytest.mark.parametrize("slabs", [5, {"slab_bytes": 4096}, "small"])
+def test_slabs_that_are_no_slab_options_are_a_type_error_naming_them(mls3, volume, slabs):
+    with pytest.raises(TypeError, match=r"slabs must be a glmls\.volume\.SlabOptions, got"):
+        mls3.warp(volume, slabs=slabs)
