@@ -16,10 +16,10 @@ results. Results come back in the order of ``items``; ``on_result(index, result)
 in the calling thread as each item finishes (in the order they finish), e.g. for a progress
 bar, also for the items that were running when another failed and ended well, before the
 failure is raised. Each worker (each thread of a Dask worker) is handed one item at a time,
-so that a failed or interrupted run starts no more items. An exception raised by ``function`` reaches the
-caller with the failing item's index in its message (``item 3: ...``), of the same type where
-it can be rebuilt from a message; the items not yet started are cancelled and the workers
-shut down.
+so that a failed or interrupted run starts no more items. An exception raised by
+``function`` reaches the caller with the failing item's index in its message (``item 3:
+...``), of the same type where it can be rebuilt from a message; the items not yet started
+are cancelled and the workers shut down.
 """
 
 from __future__ import annotations
