@@ -150,9 +150,11 @@ def check_background(background: object) -> float | tuple[float, ...]:
     image's channels decide which counts fit: :func:`background_color`)."""
     values = np.asarray(background, dtype=object)
     if values.ndim == 0:
-        if not _is_real(background):
+        # a 0-d array or tensor, as its number (as a 1-value one is)
+        scalar = background.item() if getattr(background, "ndim", None) == 0 else background  # type: ignore[union-attr]
+        if not _is_real(scalar):
             raise TypeError(f"background values must be real numbers, got {background!r}")
-        return float(background)  # type: ignore[arg-type]
+        return float(scalar)  # type: ignore[arg-type]
     if values.ndim != 1 or not 1 <= len(values) <= 4:
         raise ValueError(
             f"background must be a scalar or 1 to 4 values (one per channel), got {background!r}"

@@ -131,6 +131,11 @@ def test_background_per_channel_and_alpha(gl):
         assert_array_equal(m.warp(img, background=(1, 2, 3))[0, 0], [1, 2, 3, 0])
         assert_array_equal(m.warp(img, background=(1, 2, 3, 4))[0, 0], [1, 2, 3, 4])
         assert_array_equal(m.warp(img[..., :3], background=(1, 2, 3))[0, 0], [1, 2, 3])
+        # a 0-d array or tensor is its number, as a 1-value one is
+        assert_array_equal(m.warp(img, background=np.array(5))[0, 0], [5, 5, 5, 0])
+        assert_array_equal(m.warp(img, background=np.float32(5))[0, 0], [5, 5, 5, 0])
+        with pytest.raises(TypeError, match="real numbers"):
+            m.warp(img, background=np.array(True))
         with pytest.raises(ValueError, match=r"a scalar or 1 value \(one per channel\)"):
             m.warp(img[..., 0], background=(1, 2))
 
