@@ -455,8 +455,8 @@ class MLS3(MLS):
 
         Parameters
         ----------
-        shape : (int, int, int)
-            (D, H, W) of the volume.
+        shape : tuple of int
+            (D, H, W) of the volume, or its (D, H, W, C) with channels.
         grid : int, default 1
             The step of the lattice of voxel-cube corners where f is evaluated.
         spacing : (float, float, float) or None, default None
@@ -486,8 +486,8 @@ class MLS3(MLS):
 
         Parameters
         ----------
-        shape : (int, int, int)
-            (D, H, W) of the source volume.
+        shape : tuple of int
+            (D, H, W) of the source volume, or its (D, H, W, C) with channels.
         **options
             :class:`glmls.volume.VolumeOptions`' ``grid``, ``border``, ``output_shape``,
             ``origin`` and ``spacing``.

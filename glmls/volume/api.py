@@ -13,7 +13,7 @@ from ..engine.kernel3 import MLSKernel3
 from .construction import VolumeWarper
 from .frame import VolumeBounds
 from .kernel_field import KernelField
-from .options import SlabOptions, VolumeOptions, check_volume_shape
+from .options import SlabOptions, VolumeOptions, volume_shape
 from .source import check_volume
 
 __all__ = ["volume_bounds", "volume_coordinate_map", "warp_volume"]
@@ -132,8 +132,8 @@ def volume_coordinate_map(
     ----------
     mls : glmls.MLS or MLSKernel3
         A 3D MLS, or its GPU kernel.
-    shape : (int, int, int)
-        (D, H, W) of the source volume.
+    shape : tuple of int
+        (D, H, W) of the source volume, or its (D, H, W, C) with channels.
     options : VolumeOptions or None
         Its ``grid``, ``border``, ``output_shape``, ``origin`` and ``spacing`` apply (the
         spacing as :func:`warp_volume`'s).
@@ -171,7 +171,7 @@ def volume_coordinate_map(
     """
     kernel = _kernel(mls)
     options = _options(mls, options, keywords)
-    size = check_volume_shape(shape, "shape")
+    size = volume_shape(shape)
     _check_newton(kernel)
     field = KernelField(kernel, options.spacing, size)
     return VolumeWarper.of(kernel.gl).coordinate_map(field, size, options)  # type: ignore[arg-type]
@@ -190,8 +190,8 @@ def volume_bounds(
     ----------
     mls : glmls.MLS or MLSKernel3
         A 3D MLS, or its GPU kernel.
-    shape : (int, int, int)
-        (D, H, W) of the volume.
+    shape : tuple of int
+        (D, H, W) of the volume, or its (D, H, W, C) with channels.
     grid : int, default 1
         The step of the lattice of corners, voxels.
     spacing : (float, float, float) or None, default None
@@ -224,7 +224,7 @@ def volume_bounds(
     >>> m.release()
     """
     kernel = _kernel(mls)
-    size = check_volume_shape(shape, "shape")
+    size = volume_shape(shape)
     steps = _spacing(mls, None if spacing is None else as_volume_spacing(spacing))
     field = KernelField(kernel, steps, size)
     box = VolumeWarper.of(kernel.gl).bounds(field, size, grid)  # type: ignore[arg-type]

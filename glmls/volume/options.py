@@ -24,13 +24,29 @@ __all__ = ["VOLUME_METHODS", "VOLUME_WARP_KEYWORDS", "SlabOptions", "VolumeOptio
 VOLUME_METHODS = ("quads", "backward")
 
 
+def _shown(value: object) -> str:
+    """``value`` for a message: an array by its shape (a volume passed as a shape would
+    print every voxel)."""
+    if isinstance(value, np.ndarray) and value.size > 8:
+        return f"an array of shape {value.shape}"
+    return repr(value)
+
+
 def _triple(value: object, name: str, what: str) -> tuple:
     if isinstance(value, (str, bytes)) or not isinstance(value, (Iterable, np.ndarray)):
-        raise TypeError(f"{name} must be {what}, got {value!r}")
+        raise TypeError(f"{name} must be {what}, got {_shown(value)}")
     items = list(value)  # type: ignore[call-overload]
     if len(items) != 3:
-        raise ValueError(f"{name} must be {what}, got {value!r}")
+        raise ValueError(f"{name} must be {what}, got {_shown(value)}")
     return tuple(items)
+
+
+def volume_shape(shape: object) -> tuple[int, int, int]:
+    """The (D, H, W) of ``shape``: (D, H, W), or a volume's (D, H, W, C) with 1 to 4
+    channels, as ``volume.shape`` gives it (:func:`check_volume_shape`'s errors)."""
+    if isinstance(shape, (tuple, list)) and len(shape) == 4 and shape[3] in (1, 2, 3, 4):
+        shape = shape[:3]
+    return check_volume_shape(shape, "shape")  # type: ignore[return-value]
 
 
 def _real(value: object) -> bool:
@@ -45,10 +61,10 @@ def check_volume_shape(shape: object, name: str = "output_shape") -> tuple[int, 
         return None
     dims = _triple(shape, name, "(D, H, W) integers")
     if not all(_real(n) and float(n).is_integer() for n in dims):
-        raise ValueError(f"{name} must be (D, H, W) integers, got {shape!r}")
+        raise ValueError(f"{name} must be (D, H, W) integers, got {_shown(shape)}")
     out = (int(dims[0]), int(dims[1]), int(dims[2]))
     if min(out) < 1:
-        raise ValueError(f"{name} must have D, H, W >= 1, got {shape!r}")
+        raise ValueError(f"{name} must have D, H, W >= 1, got {_shown(shape)}")
     return out
 
 

@@ -228,3 +228,18 @@ def test_an_mls_of_a_volume_beyond_the_coordinate_range_is_refused(gl, shape, sp
 def test_slabs_that_are_no_slab_options_are_a_type_error_naming_them(mls3, volume, slabs):
     with pytest.raises(TypeError, match=r"slabs must be a glmls\.volume\.SlabOptions, got"):
         mls3.warp(volume, slabs=slabs)
+
+
+def test_bounds_and_coordinate_map_take_a_volume_s_shape_with_its_channels(mls3):
+    """As 2D takes ``image.shape``: (D, H, W, C) is the volume's (D, H, W); the volume
+    itself passed as a shape is named by its shape, not printed voxel by voxel."""
+    channels = np.zeros((6, 7, 8, 2), np.float32)
+    assert mls3.bounds(channels.shape) == mls3.bounds((6, 7, 8))
+    points, _, covered = mls3.coordinate_map(channels.shape)
+    expected, _, expected_covered = mls3.coordinate_map((6, 7, 8))
+    np.testing.assert_array_equal(points, expected)
+    np.testing.assert_array_equal(covered, expected_covered)
+    with pytest.raises(ValueError, match=r"got an array of shape \(6, 7, 8, 2\)$"):
+        mls3.bounds(channels)
+    with pytest.raises(ValueError, match=r"\(D, H, W\) integers, got \(6, 7, 8, 5\)"):
+        mls3.bounds((6, 7, 8, 5))
