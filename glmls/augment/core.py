@@ -23,7 +23,7 @@ from ..imaging.options import FIELDS, WarpOptions
 from ..mls import MLS_KEYWORDS
 from . import labels as lab
 from . import tensors
-from .presets import preset_from
+from .presets import mesh_step, preset_from
 
 __all__ = ["DEFAULT_WARP_OPTIONS", "Augment", "AugmentResult"]
 
@@ -33,7 +33,8 @@ __all__ = ["DEFAULT_WARP_OPTIONS", "Augment", "AugmentResult"]
 #: ``warp_grid``: 4 for ``grid`` and 2 for the text presets (f's evaluations a sixteenth
 #: and a quarter of grid 1's; the pixels and the labels follow that same mesh exactly, which
 #: departs from f by about 0.1 px at most with the presets' default displacements), 1 for
-#: ``landmarks`` (each landmark lands next to its drawn target, a tenth of a pixel away).
+#: ``landmarks`` (each landmark lands next to its drawn target, a tenth of a pixel away), and
+#: none where a ``tolerance`` (the adaptive mesh) or ``paper-quads`` is asked for (grid 1).
 DEFAULT_WARP_OPTIONS = {"transform": "similarity", "interpolation": "linear", "border": "edge"}
 
 
@@ -358,9 +359,9 @@ class Augment:
         self.preset = preset_from(preset, preset_options)
         self.seed = seed
         packed = given.pop("options", None)  # a WarpOptions: its fields, JSON in the params
-        fields = {} if packed is None else dataclasses.asdict(packed)
-        grid = {"grid": self.preset.warp_grid}
-        self.warp_options = {**DEFAULT_WARP_OPTIONS, **grid, **fields, **given}
+        chosen = {**({} if packed is None else dataclasses.asdict(packed)), **given}
+        self.warp_options = {**DEFAULT_WARP_OPTIONS, **mesh_step(self.preset, chosen), **chosen}
+        _check_warp_options(self.warp_options)  # what the options make together
         self.clip_polygons = clip_polygons
 
     def __repr__(self) -> str:
