@@ -438,8 +438,8 @@ class MLSTransform(v2.Transform):
         middle = (
             tv_tensors.BoundingBoxFormat.XYXYXYXY if rotated else tv_tensors.BoundingBoxFormat.XYXY
         )
-        given = F.convert_bounding_box_format(
-            boxes.as_subclass(torch.Tensor), old_format=boxes.format, new_format=middle
+        given = F.convert_bounding_box_format(  # integer boxes through float, as torchvision's
+            boxes.as_subclass(torch.Tensor).double(), old_format=boxes.format, new_format=middle
         )
         array = to_numpy(given).astype(np.float64) - 0.5  # pixel centres at integers
         if rotated:
@@ -456,5 +456,6 @@ class MLSTransform(v2.Transform):
             format=middle,
             canvas_size=canvas_shape(sample),
             clamping_mode=boxes.clamping_mode,
-        ).to(device=boxes.device, dtype=boxes.dtype)
-        return F.convert_bounding_box_format(out, old_format=middle, new_format=boxes.format)
+        )
+        out = F.convert_bounding_box_format(out, old_format=middle, new_format=boxes.format)
+        return out.to(device=boxes.device, dtype=boxes.dtype)  # in their format, then their dtype

@@ -139,6 +139,29 @@ def test_torchvision_boxes_clamped_by_their_clamping_mode(gl, mode, expected):
         np.testing.assert_allclose(back.numpy(), [expected], atol=1e-3)
 
 
+@pytest.mark.parametrize(
+    "fmt, given",
+    [("XYWH", [18, 13, 27, 19]), ("CXCYWH", [32, 22, 27, 19]), ("CXCYWH", [31, 21, 28, 20])],
+)
+def test_torchvision_integer_boxes_go_through_float_as_torchvisions_own(gl, fmt, given):
+    """torchvision's own transforms take integer boxes as float, in their format, and cast
+    the result in their format: an odd width in CXCYWH keeps its half pixel until then."""
+    image = tv_tensors.Image(torch.zeros(3, 40, 60, dtype=torch.uint8))
+    outs = {}
+    for dtype in (torch.int64, torch.float32):
+        boxes = tv_tensors.BoundingBoxes(
+            torch.tensor([given], dtype=dtype), format=fmt, canvas_size=(40, 60)
+        )
+        torch.manual_seed(5)
+        outs[dtype] = MLSTransform("grid", displacement=0.05)(image, boxes)[1]
+    assert (
+        outs[torch.int64].dtype == torch.int64
+        and outs[torch.int64].format == outs[torch.float32].format
+    )
+    expected = outs[torch.float32].as_subclass(torch.Tensor).to(torch.int64)
+    assert outs[torch.int64].tolist() == expected.tolist()
+
+
 @pytest.mark.parametrize("mode", ["RGB", "L", "LA", "CMYK", "YCbCr", "P", "I;16", "I", "F"])
 def test_torchvision_pil_images_keep_their_mode(gl, rng, mode):
     """torchvision gives a PIL image back in its mode (v2.ElasticTransform keeps CMYK and
