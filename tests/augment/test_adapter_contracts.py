@@ -162,6 +162,39 @@ def test_torchvision_integer_boxes_go_through_float_as_torchvisions_own(gl, fmt,
     assert outs[torch.int64].tolist() == expected.tolist()
 
 
+@pytest.mark.parametrize(
+    "edit, error, message",
+    [
+        (lambda d: d.pop("shape"), ValueError, r"params\[0\] has no 'shape'"),
+        (
+            lambda d: d.__setitem__("shape", [24.0, 32.0]),
+            ValueError,
+            r"params\[0\]\['shape'\] must be \[H, W\], integers >= 1",
+        ),
+        (lambda d: d.__setitem__("options", None), TypeError, r"params\[0\]\['options'\]"),
+    ],
+)
+@pytest.mark.parametrize("target", ["keypoints", "bboxes", "mask", "image"])
+def test_albumentations_an_edited_record_is_refused_for_every_target(
+    gl, target, edit, error, message
+):
+    """A record edited in A.ReplayCompose's replay dict (or written by hand) reaches each
+    apply_to_* of MLSDeform: every target names the bad entry, as the image does."""
+    transform = MLSDeform()
+    transform.set_random_seed(0)
+    draw = transform.get_params_dependent_on_data({"shape": (24, 32)}, {})["mls"]
+    edit(draw)
+    data = {
+        "keypoints": np.array([[4.0, 5.0]]),
+        "bboxes": np.array([[0.1, 0.2, 0.5, 0.6]]),
+        "mask": np.ones((24, 32), np.uint8),
+        "image": np.zeros((24, 32, 3), np.uint8),
+    }[target]
+    apply = transform.apply if target == "image" else getattr(transform, f"apply_to_{target}")
+    with pytest.raises(error, match=message):
+        apply(data, mls=draw)
+
+
 @pytest.mark.parametrize("mode", ["RGB", "L", "LA", "CMYK", "YCbCr", "P", "I;16", "I", "F"])
 def test_torchvision_pil_images_keep_their_mode(gl, rng, mode):
     """torchvision gives a PIL image back in its mode (v2.ElasticTransform keeps CMYK and
