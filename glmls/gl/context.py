@@ -283,6 +283,20 @@ class GLContext:
             _thread.current = self
         self.released = False
 
+    # A context is this process's GL state, not a value: a copy of what holds it (an Augment
+    # or a transform given ctx=) renders on it too, and no other process can use it.
+    def __copy__(self) -> GLContext:
+        return self
+
+    def __deepcopy__(self, memo: dict) -> GLContext:
+        return self
+
+    def __reduce__(self) -> tuple:
+        raise TypeError(
+            "a glmls GLContext cannot be pickled: it is this process's OpenGL state, and "
+            "another process (a spawn worker) makes its own: leave ctx out of what it is sent"
+        )
+
     @property
     def limits(self) -> dict[str, int]:
         """GL limits that bound image and handle sizes."""
