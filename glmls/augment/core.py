@@ -108,7 +108,9 @@ def _index_list(indices: object, count: int) -> list[int]:
     if len(values) != count:
         raise ValueError(f"indices holds {len(values)} values for {count} images")
     checked = []
-    for i, value in enumerate(values):
+    for i, value in enumerate(tensors.to_numpy(values)):
+        if isinstance(value, np.ndarray) and value.ndim == 0:  # a 0-d array or tensor
+            value = value[()]
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
             raise ValueError(f"indices[{i}] must be an integer >= 0, got {value!r}")
         if value < 0:

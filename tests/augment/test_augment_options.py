@@ -143,3 +143,17 @@ def test_an_augment_with_a_context_of_its_own_copies_and_says_why_it_does_not_pi
             pickle.dumps(aug)
     finally:
         ctx.release()
+
+
+@pytest.mark.parametrize("kind", ["numpy", "torch"])
+def test_indices_may_be_zero_dimensional_arrays_and_tensors(gl, kind):
+    """An index taken from an array or a tensor (``for i in torch.randperm(n)``) is 0-d: it
+    numbers the draw as its integer does."""
+    make = np.array if kind == "numpy" else pytest.importorskip("torch").tensor
+    aug = Augment("grid", seed=4)
+    images = np.random.default_rng(1).integers(0, 255, (2, 10, 12), dtype=np.uint8)
+    out = aug(images, indices=[make(7), make(2)])
+    assert [p["index"] for p in out.params] == [7, 2]
+    np.testing.assert_array_equal(out.images, aug(images, indices=[7, 2]).images)
+    with pytest.raises(ValueError, match=r"indices\[0\] must be an integer >= 0"):
+        aug(images, indices=[make(1.0), make(2)])
