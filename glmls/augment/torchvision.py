@@ -129,7 +129,11 @@ def _shown(size: tuple[int, int, int | None]) -> tuple[int, ...]:
 def _check_extents(boxes: tv_tensors.BoundingBoxes, xyxy: np.ndarray) -> None:
     """``ValueError`` for a box whose maximum lies below its minimum in x or y, naming it:
     boxes labelled with another format than theirs (XYWH read as XYXY), which a deformation
-    would otherwise turn into a plausible box in silence."""
+    would otherwise turn into a plausible box in silence; and for one that is not finite."""
+    lost = np.flatnonzero(~np.isfinite(xyxy).all(axis=1))
+    if len(lost):
+        j = int(lost[0])
+        raise ValueError(f"BoundingBoxes[{j}] {boxes[j].tolist()} holds values that are not finite")
     wrong = np.flatnonzero((xyxy[:, 2] < xyxy[:, 0]) | (xyxy[:, 3] < xyxy[:, 1]))
     if len(wrong):
         j = int(wrong[0])
