@@ -24,6 +24,7 @@ import numpy as np
 
 from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks
 from .labels import canvas_shape
+from .params import check_params
 
 __all__ = ["MLSDeform"]
 
@@ -293,7 +294,7 @@ class MLSDeform(A.DualTransform):
         """
         if len(bboxes) == 0:
             return bboxes
-        height, width = mls["shape"]
+        height, width = check_params([mls], 1)[0]["shape"]
         scale = np.array([width, height, width, height], np.float64)
         boxes = np.asarray(bboxes[:, :4], np.float64) * scale - 0.5  # pixel centres at integers
         moved = replay_boxes(self.augment, [mls], [boxes])[0]

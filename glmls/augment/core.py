@@ -12,18 +12,13 @@ import numpy as np
 
 from ..batch import BatchResult, warp_batch
 from ..batch.inputs import check_points, item_array
-from ..batch.run import check_flags
-from ..core.config import MLSConfig, check_flag, check_seed
+from ..core.config import check_flag, check_seed
 from ..core.handles import COORDINATE_LIMIT
 from ..core.mesh import as_shape
-from ..engine.kernel import check_bins
-from ..engine.storage import check_storage
-from ..gl.context import check_ctx
-from ..imaging.options import FIELDS, WarpOptions
-from ..mls import MLS_KEYWORDS
 from . import labels as lab
 from . import tensors
-from .presets import preset_from
+from .params import check_params, check_warp_options, jsonable, param_points
+from .presets import mesh_step, preset_from
 
 __all__ = ["DEFAULT_WARP_OPTIONS", "Augment", "AugmentResult"]
 
@@ -33,7 +28,8 @@ __all__ = ["DEFAULT_WARP_OPTIONS", "Augment", "AugmentResult"]
 #: ``warp_grid``: 4 for ``grid`` and 2 for the text presets (f's evaluations a sixteenth
 #: and a quarter of grid 1's; the pixels and the labels follow that same mesh exactly, which
 #: departs from f by about 0.1 px at most with the presets' default displacements), 1 for
-#: ``landmarks`` (each landmark lands next to its drawn target, a tenth of a pixel away).
+#: ``landmarks`` (each landmark lands next to its drawn target, a tenth of a pixel away), and
+#: none where a ``tolerance`` (the adaptive mesh) or ``paper-quads`` is asked for (grid 1).
 DEFAULT_WARP_OPTIONS = {"transform": "similarity", "interpolation": "linear", "border": "edge"}
 
 
@@ -73,47 +69,9 @@ class AugmentResult(BatchResult):
     polygons: list[list[np.ndarray]] | None = None
 
 
-#: The keywords of :func:`glmls.warp_batch` that ``warp_options`` cannot hold, each with the
-#: reason its error gives: the labels are each call's own, and segment handles would go
-#: with handles that the preset draws per image.
-_NOT_OPTIONS = {
-    "keypoints": "give them to the call",
-    "masks": "give them to the call",
-    "src_segments": "the preset draws each image's handles",
-    "dst_segments": "the preset draws each image's handles",
-}
-_WARP_KEYWORDS = (FIELDS | {"options", "return_maps", "max_batch_bytes"} | MLS_KEYWORDS) - set(
-    _NOT_OPTIONS
-)
 #: The ``warp_options`` that say where to render, not what: kept out of the params (JSON),
 #: added again on replay.
 _UNRECORDED = ("ctx",)
-#: The fields of :class:`MLSConfig` that ``warp_options`` may set.
-_CONFIG_FIELDS = ("transform", "weight", "alpha", "s", "radius", "interpolating")
-
-
-def _check_warp_options(options: Mapping[str, object], what: str = "warp_options") -> None:
-    """``warp_options`` (or a draw's recorded options, called ``what``) as
-    :func:`glmls.warp_batch` will take them, checked now: a keyword it does not take, or the
-    labels that are the call's own, is a ``TypeError``, a bad value a ``ValueError`` naming
-    it."""
-    for name in options:
-        if name in _NOT_OPTIONS:
-            raise TypeError(f"{what} cannot hold {name}: {_NOT_OPTIONS[name]}")
-        if name not in _WARP_KEYWORDS:
-            raise TypeError(f"{what} has no keyword {name}")
-    fields = {k: v for k, v in options.items() if k in FIELDS or k == "options"}
-    try:
-        WarpOptions.of(fields.pop("options", None), **fields)
-        config = MLSConfig(**{k: v for k, v in options.items() if k in _CONFIG_FIELDS})
-        # and what warp_batch would refuse only at the first batch (in a data-loader worker)
-        check_flags(options.get("return_maps", False), options.get("max_batch_bytes"))
-        if "storage" in options:
-            check_storage(options["storage"])
-        check_bins(options.get("bins"), config)
-        check_ctx(options.get("ctx"))
-    except (TypeError, ValueError) as error:
-        raise type(error)(f"{what}: {error}") from None
 
 
 def _check_reach(preset: object, dst: np.ndarray, index: int) -> None:
@@ -150,7 +108,9 @@ def _index_list(indices: object, count: int) -> list[int]:
     if len(values) != count:
         raise ValueError(f"indices holds {len(values)} values for {count} images")
     checked = []
-    for i, value in enumerate(values):
+    for i, value in enumerate(tensors.to_numpy(values)):
+        if isinstance(value, np.ndarray) and value.ndim == 0:  # a 0-d array or tensor
+            value = value[()]
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
             raise ValueError(f"indices[{i}] must be an integer >= 0, got {value!r}")
         if value < 0:
@@ -213,54 +173,6 @@ def _landmark_list(landmarks: object, count: int) -> list[np.ndarray]:
         check_points(item_array(marks, f"landmarks[{i}]"), f"landmarks[{i}]", rows="P")
         for i, marks in enumerate(landmarks)
     ]
-
-
-def _jsonable(value: object) -> object:
-    """``value`` with numpy scalars and arrays, tuples and mappings made the lists, numbers
-    and dicts that JSON writes (and reads back equal)."""
-    if isinstance(value, Mapping):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
-
-
-#: What each draw of ``params`` holds for :meth:`Augment.replay`.
-_PARAM_KEYS = ("shape", "src", "dst", "options")
-
-
-def _check_params(params: object, count: int) -> list[Mapping]:
-    """``params`` as a list of ``count`` draws, each a mapping with :data:`_PARAM_KEYS`;
-    ``TypeError``/``ValueError`` naming the draw otherwise."""
-    if isinstance(params, (str, bytes, Mapping)) or not isinstance(params, Sequence):
-        raise TypeError(f"params must be a sequence of draws (dicts), got {type(params).__name__}")
-    if len(params) != count:
-        raise ValueError(f"params holds {len(params)} draws for {count} images")
-    for i, draw in enumerate(params):
-        if not isinstance(draw, Mapping):
-            raise TypeError(f"params[{i}] must be a dict, got {type(draw).__name__}")
-        missing = [key for key in _PARAM_KEYS if key not in draw]
-        if missing:
-            raise ValueError(f"params[{i}] has no {', '.join(map(repr, missing))}")
-        shape = draw["shape"]
-        if not (isinstance(shape, Sequence) and len(shape) == 2) or isinstance(shape, str):
-            raise ValueError(f"params[{i}]['shape'] must be [H, W], got {shape!r}")
-        if not isinstance(draw["options"], Mapping):
-            raise TypeError(f"params[{i}]['options'] must be a dict, got {draw['options']!r}")
-        _check_warp_options(draw["options"], f"params[{i}]['options']")
-    return list(params)
-
-
-def _param_points(params: Sequence[Mapping], key: str) -> list[np.ndarray]:
-    """Each draw's ``key`` ("src" or "dst") as (K, 2) float64 points, checked as
-    :func:`glmls.warp_batch` checks handles, the error naming ``params[i]['src']``."""
-    points = []
-    for i, draw in enumerate(params):
-        name = f"params[{i}][{key!r}]"
-        points.append(check_points(item_array(draw[key], name), name, rows="K"))
-    return points
 
 
 def _stack(items: list[np.ndarray], stacked: bool):
@@ -354,13 +266,13 @@ class Augment:
         if warp_options is not None and not isinstance(warp_options, Mapping):
             raise TypeError(f"warp_options must be a mapping, got {type(warp_options)}")
         given = dict(warp_options or {})
-        _check_warp_options(given)
+        check_warp_options(given)
         self.preset = preset_from(preset, preset_options)
         self.seed = seed
         packed = given.pop("options", None)  # a WarpOptions: its fields, JSON in the params
-        fields = {} if packed is None else dataclasses.asdict(packed)
-        grid = {"grid": self.preset.warp_grid}
-        self.warp_options = {**DEFAULT_WARP_OPTIONS, **grid, **fields, **given}
+        chosen = {**({} if packed is None else dataclasses.asdict(packed)), **given}
+        self.warp_options = {**DEFAULT_WARP_OPTIONS, **mesh_step(self.preset, chosen), **chosen}
+        check_warp_options(self.warp_options)  # what the options make together
         self.clip_polygons = clip_polygons
 
     def __repr__(self) -> str:
@@ -427,13 +339,13 @@ class Augment:
             params.append(
                 {
                     "preset": self.preset.name,
-                    "config": _jsonable(dataclasses.asdict(self.preset)),
+                    "config": jsonable(dataclasses.asdict(self.preset)),
                     "seed": self.seed,
                     "index": index,
                     "shape": [int(shape[0]), int(shape[1])],
                     "src": np.asarray(src, np.float64).tolist(),
                     "dst": np.asarray(dst, np.float64).tolist(),
-                    "options": _jsonable(
+                    "options": jsonable(
                         {k: v for k, v in self.warp_options.items() if k not in _UNRECORDED}
                     ),
                 }
@@ -553,7 +465,7 @@ class Augment:
             )
         items = _images(images)
         count = len(items)
-        params = _check_params(params, count)
+        params = check_params(params, count)
         for i, (image, p) in enumerate(zip(items, params, strict=True)):
             if tuple(p["shape"]) != image.shape[:2]:
                 raise ValueError(
@@ -572,7 +484,7 @@ class Augment:
         meshes = [None if grid is None else (grid, tuple(p["shape"])) for p in params]
         points, parts = self._points(count, marks, box_list, polygon_list, meshes)
         options |= {k: v for k, v in self.warp_options.items() if k in _UNRECORDED}
-        src, dst = _param_points(params, "src"), _param_points(params, "dst")
+        src, dst = param_points(params, "src"), param_points(params, "dst")
         result = warp_batch(images, src, dst, keypoints=points, masks=masks, **options)
         if not isinstance(result, BatchResult):
             result = BatchResult(images=result)
@@ -666,7 +578,7 @@ class Augment:
 def replay_labels(augment: Augment, params: Sequence[Mapping], **labels) -> AugmentResult:
     """``augment.replay`` of labels alone (``masks``, ``keypoints``, ``boxes``): each draw
     on an empty canvas of its shape, the draws all of one shape."""
-    canvas = np.zeros((len(params), *params[0]["shape"]), np.uint8)
+    canvas = np.zeros((len(params), *check_params(params, len(params))[0]["shape"]), np.uint8)
     return augment.replay(canvas, params, **labels)
 
 
@@ -689,6 +601,7 @@ def replay_boxes(
     """Per draw, its (B, 4) boxes ``(x_min, y_min, x_max, y_max)`` around their moved outlines,
     NOT clipped to the canvas: albumentations and torchvision clip boxes themselves, and
     albumentations' ``min_visibility`` measures what the clipping takes away."""
+    params = check_params(params, len(boxes))
     grid = _mesh_grid(params[0]["options"]) if len(params) else None
     outlines = [
         lab.box_outlines(
@@ -716,6 +629,7 @@ def replay_masks(augment: Augment, params: Sequence[Mapping], masks: np.ndarray)
     back bit for bit: the GPU's float32 would round a float64 value; a mask of 2**24 distinct
     values or more goes as a float32 image with nearest sampling). Integer labels beyond
     +-2**24 (instance ids) are numbered alike."""
+    params = check_params(params, len(masks))
     wide = masks.dtype.kind in "iu" and masks.dtype.itemsize > 2 and masks.size
     large = wide and max(-int(masks.min()), int(masks.max())) > _FLOAT_LABELS  # instance ids
     if masks.dtype.kind == "f" or large:

@@ -474,3 +474,11 @@ def preset_from(preset: object, options: dict) -> object:
             f"{', '.join(sorted(known))}"
         )
     return cls(**options)
+
+
+def mesh_step(preset: object, options: dict) -> dict:
+    """``{"grid": preset.warp_grid}``, the preset's step of the ``quads`` mesh, where the warp
+    ``options`` keep the regular mesh; ``{}`` for the adaptive mesh (a ``tolerance``) and
+    ``paper-quads``, which take grid 1."""
+    regular = options.get("tolerance") is None and options.get("method") != "paper-quads"
+    return {"grid": preset.warp_grid} if regular else {}  # type: ignore[attr-defined]

@@ -129,7 +129,11 @@ def _shown(size: tuple[int, int, int | None]) -> tuple[int, ...]:
 def _check_extents(boxes: tv_tensors.BoundingBoxes, xyxy: np.ndarray) -> None:
     """``ValueError`` for a box whose maximum lies below its minimum in x or y, naming it:
     boxes labelled with another format than theirs (XYWH read as XYXY), which a deformation
-    would otherwise turn into a plausible box in silence."""
+    would otherwise turn into a plausible box in silence; and for one that is not finite."""
+    lost = np.flatnonzero(~np.isfinite(xyxy).all(axis=1))
+    if len(lost):
+        j = int(lost[0])
+        raise ValueError(f"BoundingBoxes[{j}] {boxes[j].tolist()} holds values that are not finite")
     wrong = np.flatnonzero((xyxy[:, 2] < xyxy[:, 0]) | (xyxy[:, 3] < xyxy[:, 1]))
     if len(wrong):
         j = int(wrong[0])
@@ -438,8 +442,8 @@ class MLSTransform(v2.Transform):
         middle = (
             tv_tensors.BoundingBoxFormat.XYXYXYXY if rotated else tv_tensors.BoundingBoxFormat.XYXY
         )
-        given = F.convert_bounding_box_format(
-            boxes.as_subclass(torch.Tensor), old_format=boxes.format, new_format=middle
+        given = F.convert_bounding_box_format(  # integer boxes through float, as torchvision's
+            boxes.as_subclass(torch.Tensor).double(), old_format=boxes.format, new_format=middle
         )
         array = to_numpy(given).astype(np.float64) - 0.5  # pixel centres at integers
         if rotated:
@@ -456,5 +460,6 @@ class MLSTransform(v2.Transform):
             format=middle,
             canvas_size=canvas_shape(sample),
             clamping_mode=boxes.clamping_mode,
-        ).to(device=boxes.device, dtype=boxes.dtype)
-        return F.convert_bounding_box_format(out, old_format=middle, new_format=boxes.format)
+        )
+        out = F.convert_bounding_box_format(out, old_format=middle, new_format=boxes.format)
+        return out.to(device=boxes.device, dtype=boxes.dtype)  # in their format, then their dtype

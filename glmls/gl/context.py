@@ -44,44 +44,13 @@ from ..errors import ContextError, GLUnavailableError, ReleasedError
 from . import bindings, exiting
 from .shaders import ComposedSource, ShaderCompileError, ShaderLibrary, dump, library
 from .signals import signals_held
+from .unavailable import FIX, FORKED, explain
 
 REQUIRED_GL = 430
 #: Compute programs kept compiled per context (each is ~0.1-0.2 MB on llvmpipe, every
 #: configuration together ~1 GB): the least recently used beyond this are released.
 MAX_PROGRAMS = 128
 _MIN_PROGRAMS = 16  # one image pass uses up to ~8: never evict one while it runs
-_FORK = (
-    "OpenGL unavailable: glmls made a GL context in process {pid}, and this process was "
-    "forked from it; GL drivers do not survive fork (GL here would hang), so only "
-    "glmls.warp(), glmls.warp_batch(), glmls.augment, glmls.MLS objects made without a ctx "
-    "and the render_* pictures of glmls.analysis work here (they run in a helper process). "
-    "Use the 'spawn' start method "
-    "(multiprocessing.get_context('spawn'); PyTorch: DataLoader(..., "
-    "multiprocessing_context='spawn')), or make the first glmls GL call in the worker "
-    "processes only."
-)
-
-_PACKAGES_EGL = "libegl1"
-_PACKAGES_DRIVER = "libegl-mesa0 libgl1-mesa-dri"
-_FIX = (
-    "On Debian/Ubuntu: apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri "
-    "(Mesa's llvmpipe runs GL 4.5 on the CPU); with an NVIDIA GPU, its driver's EGL "
-    "library (libnvidia-egl) instead of Mesa's."
-)
-
-
-def _explain(error: Exception) -> GLUnavailableError:
-    """Turn glcontext's terse errors into one that says what is missing and how to fix it."""
-    text = str(error)
-    if "not loaded" in text:
-        what = f"the EGL or GL library could not be loaded ({text}); install {_PACKAGES_EGL}"
-    elif "device" in text or "eglInitialize" in text or "eglGetDisplay" in text:
-        what = f"no EGL driver answered ({text}); install {_PACKAGES_DRIVER}"
-    elif "eglCreateContext" in text or "version" in text.lower():
-        what = f"the driver offers no OpenGL 4.3 core context ({text})"
-    else:
-        what = f"creating a headless EGL context failed ({text})"
-    return GLUnavailableError(f"OpenGL unavailable: {what}. {_FIX}")
 
 
 class Releasable(Protocol):
@@ -253,7 +222,7 @@ class GLContext:
         if mgl.version_code < REQUIRED_GL:
             raise GLUnavailableError(
                 f"OpenGL unavailable: glmls needs OpenGL {REQUIRED_GL // 100}.3 core "
-                f"(compute shaders), this context is {mgl.version_code}. {_FIX}"
+                f"(compute shaders), this context is {mgl.version_code}. {FIX}"
             )
         if isinstance(max_programs, bool) or not isinstance(max_programs, int):
             raise TypeError(f"max_programs must be an integer, got {max_programs!r}")
@@ -261,7 +230,7 @@ class GLContext:
             raise ValueError(f"max_programs must be >= {_MIN_PROGRAMS}, got {max_programs}")
         lacking = bindings.shortfall(mgl.info)  # the binding points of glmls.gl.bindings
         if lacking:
-            raise GLUnavailableError(f"OpenGL unavailable: {lacking}. {_FIX}")
+            raise GLUnavailableError(f"OpenGL unavailable: {lacking}. {FIX}")
         self.mgl = mgl
         self.owned = owned
         self.shaders = shaders if shaders is not None else library()
@@ -282,6 +251,20 @@ class GLContext:
             self._held_by = threading.get_ident()
             _thread.current = self
         self.released = False
+
+    # A context is this process's GL state, not a value: a copy of what holds it (an Augment
+    # or a transform given ctx=) renders on it too, and no other process can use it.
+    def __copy__(self) -> GLContext:
+        return self
+
+    def __deepcopy__(self, memo: dict) -> GLContext:
+        return self
+
+    def __reduce__(self) -> tuple:
+        raise TypeError(
+            "a glmls GLContext cannot be pickled: it is this process's OpenGL state, and "
+            "another process (a spawn worker) makes its own: leave ctx out of what it is sent"
+        )
 
     @property
     def limits(self) -> dict[str, int]:
@@ -337,7 +320,7 @@ class GLContext:
             In a process forked from the one that made it.
         """
         if self.pid != os.getpid():
-            raise GLUnavailableError(_FORK.format(pid=self.pid))
+            raise GLUnavailableError(FORKED.format(pid=self.pid))
         if self.released or not self.alive:
             raise ReleasedError(
                 "the GL context of this object has been released (GLContext.release(), or "
@@ -612,7 +595,7 @@ def _check_process() -> None:
     pid = os.getpid()
     parents = _gl_pids - {pid}
     if parents:
-        raise GLUnavailableError(_FORK.format(pid=min(parents)))
+        raise GLUnavailableError(FORKED.format(pid=min(parents)))
 
 
 def create_headless(
@@ -662,7 +645,7 @@ def create_headless(
     try:
         mgl = moderngl.create_context(standalone=True, backend="egl", require=REQUIRED_GL)
     except Exception as error:  # glcontext raises bare Exception
-        raise _explain(error) from error
+        raise explain(error) from error
     _gl_pids.add(os.getpid())
     try:
         context = GLContext(mgl, owned=True, shaders=shaders, max_programs=max_programs)
@@ -713,7 +696,7 @@ def get_context(ctx: moderngl.Context | GLContext | None = None) -> GLContext:
     exiting.halt_if_exiting(holding=_thread.held > 0)  # no new context at exit
     if isinstance(ctx, GLContext):
         if ctx.pid != os.getpid():  # made before a fork: its driver state is not ours
-            raise GLUnavailableError(_FORK.format(pid=ctx.pid))
+            raise GLUnavailableError(FORKED.format(pid=ctx.pid))
         return ctx
     with _registry_lock:
         if ctx is None:

@@ -139,6 +139,62 @@ def test_torchvision_boxes_clamped_by_their_clamping_mode(gl, mode, expected):
         np.testing.assert_allclose(back.numpy(), [expected], atol=1e-3)
 
 
+@pytest.mark.parametrize(
+    "fmt, given",
+    [("XYWH", [18, 13, 27, 19]), ("CXCYWH", [32, 22, 27, 19]), ("CXCYWH", [31, 21, 28, 20])],
+)
+def test_torchvision_integer_boxes_go_through_float_as_torchvisions_own(gl, fmt, given):
+    """torchvision's own transforms take integer boxes as float, in their format, and cast
+    the result in their format: an odd width in CXCYWH keeps its half pixel until then."""
+    image = tv_tensors.Image(torch.zeros(3, 40, 60, dtype=torch.uint8))
+    outs = {}
+    for dtype in (torch.int64, torch.float32):
+        boxes = tv_tensors.BoundingBoxes(
+            torch.tensor([given], dtype=dtype), format=fmt, canvas_size=(40, 60)
+        )
+        torch.manual_seed(5)
+        outs[dtype] = MLSTransform("grid", displacement=0.05)(image, boxes)[1]
+    assert (
+        outs[torch.int64].dtype == torch.int64
+        and outs[torch.int64].format == outs[torch.float32].format
+    )
+    expected = outs[torch.float32].as_subclass(torch.Tensor).to(torch.int64)
+    assert outs[torch.int64].tolist() == expected.tolist()
+
+
+@pytest.mark.parametrize(
+    "edit, error, message",
+    [
+        (lambda d: d.pop("shape"), ValueError, r"params\[0\] has no 'shape'"),
+        (
+            lambda d: d.__setitem__("shape", [24.0, 32.0]),
+            ValueError,
+            r"params\[0\]\['shape'\] must be \[H, W\], integers >= 1",
+        ),
+        (lambda d: d.__setitem__("options", None), TypeError, r"params\[0\]\['options'\]"),
+    ],
+)
+@pytest.mark.parametrize("target", ["keypoints", "bboxes", "mask", "image"])
+def test_albumentations_an_edited_record_is_refused_for_every_target(
+    gl, target, edit, error, message
+):
+    """A record edited in A.ReplayCompose's replay dict (or written by hand) reaches each
+    apply_to_* of MLSDeform: every target names the bad entry, as the image does."""
+    transform = MLSDeform()
+    transform.set_random_seed(0)
+    draw = transform.get_params_dependent_on_data({"shape": (24, 32)}, {})["mls"]
+    edit(draw)
+    data = {
+        "keypoints": np.array([[4.0, 5.0]]),
+        "bboxes": np.array([[0.1, 0.2, 0.5, 0.6]]),
+        "mask": np.ones((24, 32), np.uint8),
+        "image": np.zeros((24, 32, 3), np.uint8),
+    }[target]
+    apply = transform.apply if target == "image" else getattr(transform, f"apply_to_{target}")
+    with pytest.raises(error, match=message):
+        apply(data, mls=draw)
+
+
 @pytest.mark.parametrize("mode", ["RGB", "L", "LA", "CMYK", "YCbCr", "P", "I;16", "I", "F"])
 def test_torchvision_pil_images_keep_their_mode(gl, rng, mode):
     """torchvision gives a PIL image back in its mode (v2.ElasticTransform keeps CMYK and

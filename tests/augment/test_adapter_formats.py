@@ -488,6 +488,14 @@ def test_torchvision_labels_that_do_not_fit_are_named(gl):
     )
     with pytest.raises(ValueError, match=r"BoundingBoxes\[1\] \[30.0, 10.0, 12.0, 20.0\] in XYXY"):
         transform(image, xywh)
+    for fmt in ("XYXY", "XYWH", "CXCYWH"):
+        lost = tv_tensors.BoundingBoxes(
+            torch.tensor([[4.0, 4.0, 30.0, 30.0], [float("nan"), 10.0, 12.0, 20.0]]),
+            format=fmt,
+            canvas_size=(H, W),
+        )
+        with pytest.raises(ValueError, match=r"BoundingBoxes\[1\] \[nan, .* not finite"):
+            transform(image, lost)
 
 
 def test_torchvision_plain_tensors_and_pil_as_torchvision_takes_them(gl, rng):

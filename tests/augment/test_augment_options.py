@@ -3,10 +3,14 @@
 
 from __future__ import annotations
 
+import copy
+import pickle
+
 import numpy as np
 import pytest
 
 from glmls.augment import Augment
+from glmls.gl.context import create_headless
 
 
 @pytest.mark.parametrize(
@@ -123,3 +127,33 @@ def test_a_context_in_warp_options_stays_out_of_the_params(gl):
     assert "ctx" not in first.params[0]["options"]
     record = json.loads(json.dumps(first.params))
     np.testing.assert_array_equal(aug.replay(images, record).images, first.images)
+
+
+def test_an_augment_with_a_context_of_its_own_copies_and_says_why_it_does_not_pickle(gl):
+    """A context is the process's GL state: a (deep) copy of an Augment given ``ctx`` renders
+    on that context too, and pickling it (for a spawn worker) says what to do."""
+    ctx = create_headless()
+    try:
+        aug = Augment("grid", seed=2, warp_options={"ctx": ctx})
+        images = np.random.default_rng(0).integers(0, 255, (2, 12, 16), dtype=np.uint8)
+        for copied in (copy.copy(aug), copy.deepcopy(aug)):
+            assert copied.warp_options["ctx"] is ctx
+            np.testing.assert_array_equal(copied(images).images, aug(images).images)
+        with pytest.raises(TypeError, match=r"GLContext cannot be pickled: .* leave ctx out"):
+            pickle.dumps(aug)
+    finally:
+        ctx.release()
+
+
+@pytest.mark.parametrize("kind", ["numpy", "torch"])
+def test_indices_may_be_zero_dimensional_arrays_and_tensors(gl, kind):
+    """An index taken from an array or a tensor (``for i in torch.randperm(n)``) is 0-d: it
+    numbers the draw as its integer does."""
+    make = np.array if kind == "numpy" else pytest.importorskip("torch").tensor
+    aug = Augment("grid", seed=4)
+    images = np.random.default_rng(1).integers(0, 255, (2, 10, 12), dtype=np.uint8)
+    out = aug(images, indices=[make(7), make(2)])
+    assert [p["index"] for p in out.params] == [7, 2]
+    np.testing.assert_array_equal(out.images, aug(images, indices=[7, 2]).images)
+    with pytest.raises(ValueError, match=r"indices\[0\] must be an integer >= 0"):
+        aug(images, indices=[make(1.0), make(2)])

@@ -59,6 +59,11 @@ def _edited(params, edit):
             r"params\[0\]\['options'\] cannot hold keypoints",
         ),
         (
+            lambda p: p[0].__setitem__("shape", [16.0, 20.0]),
+            ValueError,
+            r"params\[0\]\['shape'\] must be \[H, W\], integers >= 1, got \[16.0, 20.0\]",
+        ),
+        (
             lambda p: [d["options"].__setitem__("method", "swirl") for d in p],
             ValueError,
             r"params\[0\]\['options'\]: unknown method 'swirl'",

@@ -4,8 +4,10 @@ are keywords of each call."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
+import glmls
 from glmls.augment import Augment
 
 
@@ -36,3 +38,31 @@ def test_good_warp_options_are_kept():
     assert aug.warp_options == {
         "transform": "rigid", "interpolation": "linear", "border": "reflect", "grid": 2,
     }  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "options", [{"tolerance": 0.05}, {"method": "paper-quads"}, {"tolerance": 0.05, "grid": 1}]
+)
+def test_a_mesh_of_its_own_replaces_the_presets_grid(gl, options):
+    """The adaptive mesh (a tolerance) and paper-quads take no coarser grid: the preset's
+    mesh step gives way to them, and the batch is what warp_batch makes of the draws."""
+    aug = Augment("grid", seed=3, warp_options=options)
+    assert "grid" not in aug.warp_options or aug.warp_options["grid"] == 1
+    images = np.random.default_rng(0).integers(0, 255, (2, 12, 16), dtype=np.uint8)
+    out = aug(images, keypoints=np.full((2, 1, 2), 6.0))
+    same = glmls.warp_batch(
+        images, [p["src"] for p in out.params], [p["dst"] for p in out.params], **aug.warp_options
+    )
+    np.testing.assert_array_equal(out.images, same)
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"tolerance": 0.05, "grid": 2}, "grid and tolerance exclude each other"),
+        ({"method": "paper-quads", "grid": 4}, "grid must be 1, got 4"),
+    ],
+)
+def test_options_that_exclude_each_other_are_refused_when_made(options, message):
+    with pytest.raises(ValueError, match=message):
+        Augment("grid", warp_options=options)

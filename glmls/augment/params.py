@@ -1,0 +1,114 @@
+"""The records of :class:`glmls.augment.Augment`'s draws: the warp options they carry,
+checked as :func:`glmls.warp_batch` will take them, made JSON-able when drawn and checked
+again when replayed (a record read back from a file, or edited, is refused naming the bad
+entry: ``params[2]['dst']``), before any GPU work."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from ..batch.inputs import check_points, item_array
+from ..batch.run import check_flags
+from ..core.config import MLSConfig
+from ..engine.kernel import check_bins
+from ..engine.storage import check_storage
+from ..gl.context import check_ctx
+from ..imaging.options import FIELDS, WarpOptions
+from ..mls import MLS_KEYWORDS
+
+__all__ = ["check_params", "check_warp_options", "jsonable", "param_points"]
+
+
+#: The keywords of :func:`glmls.warp_batch` that ``warp_options`` cannot hold, each with the
+#: reason its error gives: the labels are each call's own, and segment handles would go
+#: with handles that the preset draws per image.
+_NOT_OPTIONS = {
+    "keypoints": "give them to the call",
+    "masks": "give them to the call",
+    "src_segments": "the preset draws each image's handles",
+    "dst_segments": "the preset draws each image's handles",
+}
+_WARP_KEYWORDS = (FIELDS | {"options", "return_maps", "max_batch_bytes"} | MLS_KEYWORDS) - set(
+    _NOT_OPTIONS
+)
+#: The fields of :class:`MLSConfig` that ``warp_options`` may set.
+_CONFIG_FIELDS = ("transform", "weight", "alpha", "s", "radius", "interpolating")
+
+
+def check_warp_options(options: Mapping[str, object], what: str = "warp_options") -> None:
+    """``warp_options`` (or a draw's recorded options, called ``what``) as
+    :func:`glmls.warp_batch` will take them, checked now: a keyword it does not take, or the
+    labels that are the call's own, is a ``TypeError``, a bad value a ``ValueError`` naming
+    it."""
+    for name in options:
+        if name in _NOT_OPTIONS:
+            raise TypeError(f"{what} cannot hold {name}: {_NOT_OPTIONS[name]}")
+        if name not in _WARP_KEYWORDS:
+            raise TypeError(f"{what} has no keyword {name}")
+    fields = {k: v for k, v in options.items() if k in FIELDS or k == "options"}
+    try:
+        WarpOptions.of(fields.pop("options", None), **fields)
+        config = MLSConfig(**{k: v for k, v in options.items() if k in _CONFIG_FIELDS})
+        # and what warp_batch would refuse only at the first batch (in a data-loader worker)
+        check_flags(options.get("return_maps", False), options.get("max_batch_bytes"))
+        if "storage" in options:
+            check_storage(options["storage"])
+        check_bins(options.get("bins"), config)
+        check_ctx(options.get("ctx"))
+    except (TypeError, ValueError) as error:
+        raise type(error)(f"{what}: {error}") from None
+
+
+def jsonable(value: object) -> object:
+    """``value`` with numpy scalars and arrays, tuples and mappings made the lists, numbers
+    and dicts that JSON writes (and reads back equal)."""
+    if isinstance(value, Mapping):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+#: What each draw of ``params`` holds for :meth:`Augment.replay`.
+_PARAM_KEYS = ("shape", "src", "dst", "options")
+
+
+def check_params(params: object, count: int) -> list[Mapping]:
+    """``params`` as a list of ``count`` draws, each a mapping with :data:`_PARAM_KEYS`;
+    ``TypeError``/``ValueError`` naming the draw otherwise."""
+    if isinstance(params, (str, bytes, Mapping)) or not isinstance(params, Sequence):
+        raise TypeError(f"params must be a sequence of draws (dicts), got {type(params).__name__}")
+    if len(params) != count:
+        raise ValueError(f"params holds {len(params)} draws for {count} images")
+    for i, draw in enumerate(params):
+        if not isinstance(draw, Mapping):
+            raise TypeError(f"params[{i}] must be a dict, got {type(draw).__name__}")
+        missing = [key for key in _PARAM_KEYS if key not in draw]
+        if missing:
+            raise ValueError(f"params[{i}] has no {', '.join(map(repr, missing))}")
+        shape = draw["shape"]
+        if (
+            not (isinstance(shape, Sequence) and len(shape) == 2)
+            or isinstance(shape, str)
+            or not all(isinstance(n, (int, np.integer)) and not isinstance(n, bool) for n in shape)
+            or min(shape) < 1
+        ):
+            raise ValueError(f"params[{i}]['shape'] must be [H, W], integers >= 1, got {shape!r}")
+        if not isinstance(draw["options"], Mapping):
+            raise TypeError(f"params[{i}]['options'] must be a dict, got {draw['options']!r}")
+        check_warp_options(draw["options"], f"params[{i}]['options']")
+    return list(params)
+
+
+def param_points(params: Sequence[Mapping], key: str) -> list[np.ndarray]:
+    """Each draw's ``key`` ("src" or "dst") as (K, 2) float64 points, checked as
+    :func:`glmls.warp_batch` checks handles, the error naming ``params[i]['src']``."""
+    points = []
+    for i, draw in enumerate(params):
+        name = f"params[{i}][{key!r}]"
+        points.append(check_points(item_array(draw[key], name), name, rows="K"))
+    return points
