@@ -19,6 +19,7 @@ from .overlays import (
     GeometryDrawer,
     PictureDrawer,
     handle_geometry,
+    read_screen,
     reference_geometry,
     segment_geometry,
 )
@@ -235,11 +236,7 @@ class View:
 
     def screenshot(self, framebuffer: tuple[int, int]) -> np.ndarray:
         """The back buffer just drawn, (H, W, 3) uint8, top row first."""
-        width, height = framebuffer
-        with self.gl.use():
-            screen = self.gl.mgl.screen
-            data = screen.read(viewport=(0, 0, width, height), components=3, alignment=1)
-        return np.frombuffer(data, np.uint8).reshape(height, width, 3)[::-1].copy()
+        return read_screen(self.gl, framebuffer)
 
     def release(self) -> None:
         if self.gl.usable:

@@ -14,7 +14,7 @@ from ..analysis.canvas import HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR
 from ..analysis.shapes import arrow_triangles, disk_triangles
 from ..gl.context import GLContext
 from .layout import Layout, layout
-from .overlays import GeometryDrawer, PictureDrawer
+from .overlays import GeometryDrawer, PictureDrawer, read_screen
 from .text import GlyphAtlas, TextRenderer, glyph_atlas
 from .volume_controller import AXES, VOLUME_BINDINGS, VolumeController
 
@@ -204,10 +204,7 @@ class VolumeView:
 
     def screenshot(self, framebuffer: tuple[int, int]) -> np.ndarray:
         """The back buffer just drawn, (H, W, 3) uint8, top row first."""
-        width, height = framebuffer
-        with self.gl.use():
-            data = self.gl.mgl.screen.read(viewport=(0, 0, width, height), components=3)
-        return np.frombuffer(data, np.uint8).reshape(height, width, 3)[::-1].copy()
+        return read_screen(self.gl, framebuffer)
 
     def release(self) -> None:
         """Release the view's GL objects."""
