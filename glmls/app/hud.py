@@ -19,6 +19,7 @@ __all__ = [
     "help_lines",
     "place_help",
     "readout",
+    "readout_quads",
     "text_quads",
     "wrap",
 ]
@@ -124,6 +125,28 @@ def place_help(atlas: GlyphAtlas, readout_width: float, framebuffer: tuple[int, 
     return help_layout([beside, whole], sizes, glyph_atlas)
 
 
+def readout_quads(
+    atlas: GlyphAtlas, lines: Sequence[str], height: float
+) -> tuple[int, list[np.ndarray], float]:
+    """(text size, glyph quads on a dark panel, the panel's width) of the readout at the top
+    left: at ``atlas``'s size, or smaller (down to :data:`HELP_MIN_SHARE` of it, 8 pixels at
+    least) where its lines would run past the ``height`` of the framebuffer, so that the
+    last ones (what a key did) stay in view."""
+    smallest = min(atlas.size, max(8, round(HELP_MIN_SHARE * atlas.size)))
+    for size in range(atlas.size, smallest - 1, -1):
+        sized = glyph_atlas(size) if size != atlas.size else atlas
+        pad = sized.cell[1] // 2
+        panel_height = len(lines) * sized.line_height + 2 * pad
+        if panel_height <= height:
+            break
+    width = max(sized.width(line) for line in lines) + 2 * pad
+    parts = [
+        sized.rectangle(0, 0, width, panel_height, (0.0, 0.0, 0.0, 0.55)),
+        sized.quads("\n".join(lines), pad, pad, (0.95, 0.95, 0.95, 1.0)),
+    ]
+    return sized.size, parts, width
+
+
 def text_quads(
     atlas: GlyphAtlas,
     lines: Sequence[str],
@@ -134,14 +157,8 @@ def text_quads(
 ) -> TextGroups:
     """Glyph quads of the readout (top left, on a dark panel) and, if shown, the help
     (:func:`place_help`), grouped by text size."""
-    pad = atlas.cell[1] // 2
-    width = max(atlas.width(line) for line in lines) + 2 * pad
-    height = len(lines) * atlas.line_height + 2 * pad
-    readout_parts = [
-        atlas.rectangle(0, 0, width, height, (0.0, 0.0, 0.0, 0.55)),
-        atlas.quads("\n".join(lines), pad, pad, (0.95, 0.95, 0.95, 1.0)),
-    ]
-    groups: TextGroups = [(atlas.size, readout_parts)]
+    size, readout_parts, width = readout_quads(atlas, lines, framebuffer[1])
+    groups: TextGroups = [(size, readout_parts)]
     if help_visible:
         placed = place_help(atlas, max(width, panel), framebuffer)
         help_atlas = glyph_atlas(placed.size)

@@ -13,6 +13,7 @@ import numpy as np
 from ..analysis.canvas import HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR
 from ..analysis.shapes import arrow_triangles, disk_triangles
 from ..gl.context import GLContext
+from .hud import readout_quads
 from .layout import Layout, layout
 from .overlays import GeometryDrawer, PictureDrawer, read_screen
 from .text import GlyphAtlas, TextRenderer, glyph_atlas
@@ -218,20 +219,12 @@ class VolumeView:
 def text_groups(
     atlas: GlyphAtlas, lines: Sequence[str], *, help_visible: bool, framebuffer: tuple[int, int]
 ) -> list[tuple[int, list[np.ndarray]]]:
-    """Glyph quads of the readout (top left, on a dark panel) and, if shown, the help beside
-    it (at a smaller size where it would not fit, down to 8 pixels), by text size."""
+    """Glyph quads of the readout (top left, on a dark panel, smaller where it would not fit
+    the height, :func:`~glmls.app.hud.readout_quads`) and, if shown, the help beside it (at
+    a smaller size where it would not fit, down to 8 pixels), by text size."""
     pad = atlas.cell[1] // 2
-    width = max(atlas.width(line) for line in lines) + 2 * pad
-    height = len(lines) * atlas.line_height + 2 * pad
-    groups = [
-        (
-            atlas.size,
-            [
-                atlas.rectangle(0, 0, width, height, (0.0, 0.0, 0.0, 0.55)),
-                atlas.quads("\n".join(lines), pad, pad, (0.95, 0.95, 0.95, 1.0)),
-            ],
-        )
-    ]
+    size, parts, width = readout_quads(atlas, lines, framebuffer[1])
+    groups = [(size, parts)]
     if help_visible:
         text = help_text()
         size = atlas.size

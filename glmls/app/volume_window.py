@@ -220,7 +220,8 @@ class VolumeApp(WindowLoop):
             help_visible=c.help_visible,
             framebuffer=window.framebuffer_size,
         )
-        groups[0][1].extend(self._labels(text))
+        # the labels under the help, at their own size (the readout may be smaller)
+        groups.insert(1, (text.size, self._labels(text)))
         self.view.draw(
             self.layout,
             c,
