@@ -13,6 +13,7 @@ from .helpscreen import HelpLayout, help_blocks, help_layout
 from .text import GlyphAtlas, glyph_atlas
 
 __all__ = [
+    "MIN_WINDOW_HEIGHT",
     "PANEL_CHARS",
     "TextGroups",
     "frame_rate",
@@ -26,6 +27,8 @@ __all__ = [
 
 #: Panel width in characters.
 PANEL_CHARS = 44
+#: The least height (pixels) of a window's default size: the readout's lines at their size.
+MIN_WINDOW_HEIGHT = 480
 #: The help's text may shrink to this share of the readout's (and 8 pixels at least).
 HELP_MIN_SHARE = 0.6
 #: Glyph quads to draw, by text size (pixels): each group with that size's atlas.

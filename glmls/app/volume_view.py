@@ -13,7 +13,7 @@ import numpy as np
 from ..analysis.canvas import HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR
 from ..analysis.shapes import arrow_triangles, disk_triangles
 from ..gl.context import GLContext
-from .hud import readout_quads
+from .hud import MIN_WINDOW_HEIGHT, readout_quads
 from .layout import Layout, layout
 from .overlays import GeometryDrawer, PictureDrawer, read_screen
 from .text import GlyphAtlas, TextRenderer, glyph_atlas
@@ -53,14 +53,16 @@ def window_size(grid, panel: int) -> tuple[int, int]:
     """The window's default (width, height) for the montage of ``grid`` and its margin beside
     a panel ``panel`` pixels wide: a small montage scaled up to about 560 rows or 900
     columns, a large one down to 1000 rows and 1600 columns at most (a screen's), rounded up
-    so that the views fit whole; the montage's area at least the panel's width."""
+    so that the views fit whole; the montage's area at least the panel's width, the height
+    at least :data:`~glmls.app.hud.MIN_WINDOW_HEIGHT` (the readout's)."""
     rows, columns = grid.montage_shape
     rows, columns = rows + 2 * MARGIN, columns + 2 * MARGIN
     scale = max(1.0, min(560 / rows, 900 / columns))
     scale = min(scale, 1000 / rows, 1600 / columns)
     # a narrower area would drop the panel and put the readout over the views
     # (layout.MIN_IMAGE_SHARE)
-    return panel + max(math.ceil(columns * scale), panel), math.ceil(rows * scale)
+    height = max(math.ceil(rows * scale), MIN_WINDOW_HEIGHT)  # the readout's, for a flat one
+    return panel + max(math.ceil(columns * scale), panel), height
 
 
 def montage_layout(framebuffer: tuple[int, int], grid, panel: int) -> Layout:

@@ -19,7 +19,7 @@ from .commands import load_handles, save_handles, save_image, warped_suffix
 from .controller import Controller, Settings
 from .events import Event
 from .glfw_window import NoDisplayError
-from .hud import PANEL_CHARS, readout, text_quads
+from .hud import MIN_WINDOW_HEIGHT, PANEL_CHARS, readout, text_quads
 from .layout import layout
 from .session import Session
 from .text import TextRenderer
@@ -83,7 +83,9 @@ class App(WindowLoop):
         panel = PANEL_CHARS * 8 + 24
         # an image area at least the panel's width: a narrower one would drop the panel and
         # put the readout over the image (layout.MIN_IMAGE_SHARE)
-        return panel + max(round(width * scale), panel), max(round(height * scale), 480)
+        return panel + max(round(width * scale), panel), max(
+            round(height * scale), MIN_WINDOW_HEIGHT
+        )
 
     def _open(self, *, vsync: bool) -> None:
         size = self.window_size or self._default_size()
