@@ -85,6 +85,20 @@ def test_undo_during_a_drag_undoes_that_drag(key):
     np.testing.assert_array_equal(c.dst[1], [15, 12, 8])
 
 
+def test_restore_with_the_handles_as_loaded_leaves_no_undo_step():
+    c = make()
+    drag(c, (4, 4), (7, 2))
+    c.feed(Key("u"))
+    c.feed(Key("R"))  # as loaded already
+    assert c.undo_depth == 0
+    c.feed(Key("U"))  # the redo kept, too
+    np.testing.assert_array_equal(c.dst[0], [7, 2, 8])
+    c.feed(Key("u"))
+    c.feed(Press(4, 4))  # a target grabbed, not moved: R ends the drag
+    c.feed(Key("R"))
+    assert not c.dragging and c.undo_depth == 0
+
+
 @pytest.mark.parametrize("key", ["R", "r"])
 def test_restore_or_reset_during_a_drag_ends_the_drag_first(key):
     # a handle added with shift + click and still dragged, then R: the drag held the index
