@@ -241,6 +241,24 @@ def test_a_volume_with_nan_voxels_is_shown_from_its_finite_values():
     )
 
 
+@pytest.mark.parametrize(
+    ("volume", "shown"),
+    [
+        (np.full((2, 3, 4), 7.0, np.float32), 255),  # was black: its percentiles are equal
+        (np.ones((2, 3, 4), bool), 255),  # a mask of one label
+        (np.full((2, 3, 4), 0.25), 64),  # within [0, 1]: as it is
+        (np.zeros((2, 3, 4), np.int16), 0),
+        (np.full((2, 3, 4), -5.0), 0),
+    ],
+)
+def test_a_constant_volume_is_shown_as_an_image_of_its_value(volume, shown):
+    grey = display_volume(volume)
+    assert grey.dtype == np.uint8 and set(grey.ravel().tolist()) == {shown}
+    mostly = np.zeros((1, 10, 100), np.float32)  # 0.1 % of the voxels at 3: both
+    mostly[0, 0, 0] = 3.0  # percentiles 0, that voxel white as before
+    assert display_volume(mostly)[0, 0, 0] == 255 and display_volume(mostly)[0, 1].max() == 0
+
+
 @pytest.fixture
 def session(gl):
     volume = glmls.data.phantom()
