@@ -70,8 +70,10 @@ def readout(
     error: str,
     analysis_lines: Sequence[str],
     messages: Sequence[str],
+    showing: str = "the last valid f",
 ) -> list[str]:
-    """The lines of the readout panel."""
+    """The lines of the readout panel; ``showing``: what the window draws while ``error``
+    says why the handles or settings give no f."""
     c, s = controller, controller.settings
     fps, frame_ms = frame_rate(frame_times)
     ms = {k: 1000 * v for k, v in timings.items()}
@@ -100,7 +102,7 @@ def readout(
         "",
     ]
     if error:
-        lines += wrap(f"! {error}", PANEL_CHARS) + ["  (showing the last valid f)"]
+        lines += wrap(f"! {error}", PANEL_CHARS) + [f"  (showing {showing})"]
     for line in analysis_lines:  # a long one (why an analysis failed) wrapped, whole
         lines += [line] if len(line) <= PANEL_CHARS else wrap(line, PANEL_CHARS)
     if not any(c.overlays[n] for n in ("error", "angle", "folds")):

@@ -137,7 +137,7 @@ class View:
 
     def _draw(self, layout, controller, session, analysis, text) -> None:
         mgl = self.gl.mgl
-        c, s, mls = controller, controller.settings, session.mls
+        c, s = controller, controller.settings
         framebuffer = layout.framebuffer
         screen = mgl.screen
         screen.use()
@@ -150,15 +150,14 @@ class View:
         s = session.construction(s)
         try:
             with self._queries["warp"]:
-                if mls is not None:
-                    try:
-                        self._draw_image(screen, layout, session, s)
-                    except ValueError as error:  # the adaptive mesh's budget: the grid
-                        if s.adaptive is None:
-                            raise
-                        c.message = session.adaptive_failed(s, error)
-                        s = session.construction(s)
-                        self._draw_image(screen, layout, session, s)
+                try:
+                    self._draw_image(screen, layout, session, s)
+                except ValueError as error:  # the adaptive mesh's budget: the grid
+                    if s.adaptive is None:
+                        raise
+                    c.message = session.adaptive_failed(s, error)
+                    s = session.construction(s)
+                    self._draw_image(screen, layout, session, s)
             with self._queries["overlays"]:
                 screen.viewport = layout.viewport
                 self._overlays(screen, layout, c, s, session, analysis)
@@ -198,7 +197,7 @@ class View:
             # directly (an image-sized RGBA8 target), 2-3x faster than the rasterizer here.
             screen.viewport = layout.viewport
             self.pipeline.render(
-                session.mls,  # type: ignore[arg-type]
+                session.drawn,
                 self.source,
                 screen,
                 s.warp_options(),
@@ -218,7 +217,7 @@ class View:
         picture.framebuffer.use()
         self.pipeline.clear(picture.framebuffer)
         self.pipeline.render(
-            session.mls,  # type: ignore[arg-type]
+            session.drawn,
             source,
             picture.framebuffer,
             s.warp_options(border=border),

@@ -134,6 +134,9 @@ class App(WindowLoop):
             error=self.session.error if self.window is not None else "",
             analysis_lines=self.session.analysis.lines if self.window is not None else [],
             messages=self._shown_messages(),
+            showing="the last valid f"
+            if self.window is None or self.session.mls is not None
+            else "the input: no valid f yet",
         )
 
     def _view_key(self) -> tuple:

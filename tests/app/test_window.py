@@ -251,3 +251,21 @@ def test_a_float_image_is_shown_by_its_range_and_saved_as_float(tmp_path):
     warped = glmls.imread(tmp_path / "saved" / "float-warped.tif")
     expected = glmls.warp(image, [[40.0, 40.0]], [[60.0, 55.0]], grid=4)
     assert warped.dtype == np.float32 and np.array_equal(warped, expected)
+
+
+@needs_xvfb
+def test_handles_never_valid_show_the_input_not_a_black_image(tmp_path, square):
+    # affine with every source on one line has no f from the start: the image area was
+    # black, and the readout spoke of "the last valid f"
+    handles = tmp_path / "line.json"
+    handles.write_text(json.dumps({"src": [[10, 10], [20, 20], [30, 30]],
+                                   "dst": [[12, 10], [22, 20], [32, 30]]}))  # fmt: skip
+    shot_path = tmp_path / "shot.png"
+    result = demo(
+        str(square), "--handles", str(handles), "--transform", "affine",
+        "--screenshot", str(shot_path), "--window-size", f"{WINDOW[0]}x{WINDOW[1]}",
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    shot = glmls.imread(shot_path)
+    assert (at(shot, 40, 40) > 240).all()  # the square, where it is in the input
+    np.testing.assert_allclose(at(shot, 80, 80), BLUE, atol=8)
