@@ -33,9 +33,10 @@ class App(WindowLoop):
     """The window: one image, its handles and reference points, and a :class:`Controller`.
 
     ``out_dir``: where ``s``/``j``/``S`` save; ``handles_path``: the file ``l`` loads (else
-    the last one saved); ``src_segments``/``dst_segments``: segment handles (S, 2, 2);
-    ``record``: write every event fed (mouse, keys, replayed ones) there as a replay file
-    when the window closes. Open with :meth:`run`.
+    the last one saved), ``targets_path`` its targets' file where it is an elastix pair;
+    ``src_segments``/``dst_segments``: segment handles (S, 2, 2); ``record``: write every
+    event fed (mouse, keys, replayed ones) there as a replay file when the window closes.
+    Open with :meth:`run`.
     """
 
     def __init__(
@@ -51,6 +52,7 @@ class App(WindowLoop):
         name: str = "image",
         out_dir: str | Path = ".",
         handles_path: str | Path | None = None,
+        targets_path: str | Path | None = None,
         window_size: tuple[int, int] | None = None,
         record: str | Path | None = None,
     ) -> None:
@@ -62,6 +64,7 @@ class App(WindowLoop):
             name=name,
             out_dir=out_dir,
             handles_path=handles_path,
+            targets_path=targets_path,
             window_size=window_size,
             record=record,
         )
@@ -117,8 +120,8 @@ class App(WindowLoop):
     def _save_handles(self, path: Path) -> None:
         save_handles(path, self.controller)
 
-    def _load_handles(self, path: Path) -> str:
-        loaded = load_handles(path, self.controller)
+    def _load_handles(self, path: Path, targets: Path | None) -> str:
+        loaded = load_handles(path, self.controller, targets=targets)
         return f"loaded {loaded.points} points, {loaded.segments} segments from {path}"
 
     # -- frames -----------------------------------------------------------------------------
