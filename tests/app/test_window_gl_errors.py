@@ -56,7 +56,6 @@ print(json.dumps(errors))
 
 @pytest.mark.parametrize("window", ["image", "volume"])
 def test_no_key_leaves_a_gl_error(tmp_path, window):
-    # one window a process: xvfb-run's server resets when its last client leaves
     script = tmp_path / "keys.py"
     script.write_text(EVERY_KEY)
     result = subprocess.run(
