@@ -231,10 +231,14 @@ def read_screen(gl: GLContext, framebuffer: tuple[int, int]) -> np.ndarray:
 
     Copied into a texture and read from there: moderngl's ``screen.read`` selects colour
     attachment 0 as the read buffer, which the default framebuffer does not have
-    (``GL_INVALID_OPERATION`` left on the context)."""
+    (``GL_INVALID_OPERATION`` left on the context); read there only for a window larger than
+    the largest texture."""
     width, height = framebuffer
     mgl = gl.mgl
     with gl.use():
+        if max(width, height) > mgl.info["GL_MAX_TEXTURE_SIZE"]:  # no texture that large
+            data = mgl.screen.read(viewport=(0, 0, width, height), components=3, alignment=1)
+            return np.frombuffer(data, np.uint8).reshape(height, width, 3)[::-1].copy()
         texture = mgl.texture((width, height), 3)
         try:
             mgl.copy_framebuffer(texture, mgl.screen)
