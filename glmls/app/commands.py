@@ -66,15 +66,16 @@ def save_handles(path: Path, controller: Controller) -> None:
     write_handles(path, c.src, c.dst, src_segments=c.src_segments, dst_segments=c.dst_segments)
 
 
-def load_handles(path: Path, controller: Controller) -> HandleSet:
-    """Replace the controller's handles (undoably) with those of a handle file, points and
-    segments; returns them. :class:`~glmls.errors.InputFileError` for a file of 3D handles,
-    said for the window of a 2D image."""
-    if handle_dimension(path) == 3:
+def load_handles(path: Path, controller: Controller, *, targets: Path | None = None) -> HandleSet:
+    """Replace the controller's handles (undoably) with those of a handle file (or of an
+    elastix pair, ``targets`` the targets' file), points and segments; returns them.
+    :class:`~glmls.errors.InputFileError` for a file of 3D handles, said for the window of a
+    2D image."""
+    if handle_dimension(path, dst=targets) == 3:
         raise InputFileError(
             f"{path}: 3D handles (x, y, z), but the window shows a 2D image: it takes 2D "
             "handles (x, y)"
         )
-    handles = read_handle_set(path)
+    handles = read_handle_set(path, dst=targets)
     controller.set_handles(handles.src, handles.dst, handles.src_segments, handles.dst_segments)
     return handles

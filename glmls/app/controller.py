@@ -316,8 +316,10 @@ class Controller(Controls):
             self.set_handles(s.src, s.src, s.src_segments, s.src_segments)
 
     def _do_restore(self) -> None:
+        self._release()  # a drag under way ends first, as its own edit
         loaded = self.editor.loaded
-        self.set_handles(loaded.src, loaded.dst, loaded.src_segments, loaded.dst_segments)
+        if not loaded.same_handles(self.editor.state):  # as loaded: no edit to undo
+            self.set_handles(loaded.src, loaded.dst, loaded.src_segments, loaded.dst_segments)
 
     def _do_undo(self) -> None:
         self._pan_anchor = None

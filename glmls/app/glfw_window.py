@@ -3,6 +3,7 @@ and key callbacks turned into the controller's events (positions in image pixels
 
 from __future__ import annotations
 
+import atexit
 from collections.abc import Callable
 
 import moderngl
@@ -22,6 +23,13 @@ class NoDisplayError(RuntimeError):
     """No window could be opened (no display, no glfw, or no GL 4.3 core context on it)."""
 
 
+#: Whether glfw's termination at exit is registered: glfw stays initialised from the first
+#: window on, so that closing one window does not close the connection to the display (an
+#: X server started by ``xvfb-run`` resets when its last client leaves, and a window opened
+#: meanwhile finds no display).
+_TERMINATE_AT_EXIT: list[bool] = []
+
+
 def _text(value: object) -> str:
     return value.decode(errors="replace") if isinstance(value, bytes) else str(value)
 
@@ -39,6 +47,9 @@ class GlfwWindow:
         glfw.set_error_callback(lambda code, text: self._errors.append(_text(text)))
         if not glfw.init():
             raise NoDisplayError(NO_DISPLAY_HINT.format(why=self._why("glfw could not start")))
+        if not _TERMINATE_AT_EXIT:
+            atexit.register(glfw.terminate)
+            _TERMINATE_AT_EXIT.append(True)
         glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 4)
         glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
         glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
@@ -48,7 +59,6 @@ class GlfwWindow:
         self.handle = glfw.create_window(size[0], size[1], title, None, None)
         if not self.handle:
             why = self._why("no OpenGL 4.3 core context")
-            glfw.terminate()
             raise NoDisplayError(NO_DISPLAY_HINT.format(why=why))
         glfw.make_context_current(self.handle)
         glfw.swap_interval(1 if vsync else 0)
@@ -160,5 +170,5 @@ class GlfwWindow:
         glfw.set_key_callback(self.handle, on_key)
 
     def close(self) -> None:
+        """Destroy the window; glfw itself stays up for the next one (terminated at exit)."""
         self.glfw.destroy_window(self.handle)
-        self.glfw.terminate()

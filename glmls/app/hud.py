@@ -13,18 +13,22 @@ from .helpscreen import HelpLayout, help_blocks, help_layout
 from .text import GlyphAtlas, glyph_atlas
 
 __all__ = [
+    "MIN_WINDOW_HEIGHT",
     "PANEL_CHARS",
     "TextGroups",
     "frame_rate",
     "help_lines",
     "place_help",
     "readout",
+    "readout_quads",
     "text_quads",
     "wrap",
 ]
 
 #: Panel width in characters.
 PANEL_CHARS = 44
+#: The least height (pixels) of a window's default size: the readout's lines at their size.
+MIN_WINDOW_HEIGHT = 480
 #: The help's text may shrink to this share of the readout's (and 8 pixels at least).
 HELP_MIN_SHARE = 0.6
 #: Glyph quads to draw, by text size (pixels): each group with that size's atlas.
@@ -66,8 +70,10 @@ def readout(
     error: str,
     analysis_lines: Sequence[str],
     messages: Sequence[str],
+    showing: str = "the last valid f",
 ) -> list[str]:
-    """The lines of the readout panel."""
+    """The lines of the readout panel; ``showing``: what the window draws while ``error``
+    says why the handles or settings give no f."""
     c, s = controller, controller.settings
     fps, frame_ms = frame_rate(frame_times)
     ms = {k: 1000 * v for k, v in timings.items()}
@@ -96,7 +102,7 @@ def readout(
         "",
     ]
     if error:
-        lines += wrap(f"! {error}", PANEL_CHARS) + ["  (showing the last valid f)"]
+        lines += wrap(f"! {error}", PANEL_CHARS) + [f"  (showing {showing})"]
     for line in analysis_lines:  # a long one (why an analysis failed) wrapped, whole
         lines += [line] if len(line) <= PANEL_CHARS else wrap(line, PANEL_CHARS)
     if not any(c.overlays[n] for n in ("error", "angle", "folds")):
@@ -124,6 +130,28 @@ def place_help(atlas: GlyphAtlas, readout_width: float, framebuffer: tuple[int, 
     return help_layout([beside, whole], sizes, glyph_atlas)
 
 
+def readout_quads(
+    atlas: GlyphAtlas, lines: Sequence[str], height: float
+) -> tuple[int, list[np.ndarray], float]:
+    """(text size, glyph quads on a dark panel, the panel's width) of the readout at the top
+    left: at ``atlas``'s size, or smaller (down to :data:`HELP_MIN_SHARE` of it, 8 pixels at
+    least) where its lines would run past the ``height`` of the framebuffer, so that the
+    last ones (what a key did) stay in view."""
+    smallest = min(atlas.size, max(8, round(HELP_MIN_SHARE * atlas.size)))
+    for size in range(atlas.size, smallest - 1, -1):
+        sized = glyph_atlas(size) if size != atlas.size else atlas
+        pad = sized.cell[1] // 2
+        panel_height = len(lines) * sized.line_height + 2 * pad
+        if panel_height <= height:
+            break
+    width = max(sized.width(line) for line in lines) + 2 * pad
+    parts = [
+        sized.rectangle(0, 0, width, panel_height, (0.0, 0.0, 0.0, 0.55)),
+        sized.quads("\n".join(lines), pad, pad, (0.95, 0.95, 0.95, 1.0)),
+    ]
+    return sized.size, parts, width
+
+
 def text_quads(
     atlas: GlyphAtlas,
     lines: Sequence[str],
@@ -134,14 +162,8 @@ def text_quads(
 ) -> TextGroups:
     """Glyph quads of the readout (top left, on a dark panel) and, if shown, the help
     (:func:`place_help`), grouped by text size."""
-    pad = atlas.cell[1] // 2
-    width = max(atlas.width(line) for line in lines) + 2 * pad
-    height = len(lines) * atlas.line_height + 2 * pad
-    readout_parts = [
-        atlas.rectangle(0, 0, width, height, (0.0, 0.0, 0.0, 0.55)),
-        atlas.quads("\n".join(lines), pad, pad, (0.95, 0.95, 0.95, 1.0)),
-    ]
-    groups: TextGroups = [(atlas.size, readout_parts)]
+    size, readout_parts, width = readout_quads(atlas, lines, framebuffer[1])
+    groups: TextGroups = [(size, readout_parts)]
     if help_visible:
         placed = place_help(atlas, max(width, panel), framebuffer)
         help_atlas = glyph_atlas(placed.size)

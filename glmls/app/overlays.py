@@ -29,6 +29,7 @@ __all__ = [
     "fold_geometry",
     "handle_geometry",
     "mesh_lines",
+    "read_screen",
     "reference_geometry",
     "segment_geometry",
     "triangle_geometry",
@@ -223,3 +224,25 @@ class PictureDrawer:
         self._vao.release()
         self.framebuffer.release()
         self.texture.release()
+
+
+def read_screen(gl: GLContext, framebuffer: tuple[int, int]) -> np.ndarray:
+    """The window's back buffer just drawn, (H, W, 3) uint8, top row first.
+
+    Copied into a texture and read from there: moderngl's ``screen.read`` selects colour
+    attachment 0 as the read buffer, which the default framebuffer does not have
+    (``GL_INVALID_OPERATION`` left on the context); read there only for a window larger than
+    the largest texture."""
+    width, height = framebuffer
+    mgl = gl.mgl
+    with gl.use():
+        if max(width, height) > mgl.info["GL_MAX_TEXTURE_SIZE"]:  # no texture that large
+            data = mgl.screen.read(viewport=(0, 0, width, height), components=3, alignment=1)
+            return np.frombuffer(data, np.uint8).reshape(height, width, 3)[::-1].copy()
+        texture = mgl.texture((width, height), 3)
+        try:
+            mgl.copy_framebuffer(texture, mgl.screen)
+            data = texture.read(alignment=1)
+        finally:
+            texture.release()
+    return np.frombuffer(data, np.uint8).reshape(height, width, 3)[::-1].copy()

@@ -61,6 +61,7 @@ class Session:
         #: What the view shows: the input's frame, or with ``fit`` the deformed image's
         #: bounds joined with the input's frame (so that the handles stay in view).
         self.canvas = Frame(shape)
+        self._identity: MLS | None = None
         # (revision, tolerance) where the adaptive mesh gave up (its build's budget)
         self._adaptive_failed: tuple[int, float | None] | None = None
 
@@ -106,6 +107,18 @@ class Session:
         self.revision = c.revision
         self.canvas = self._canvas()
         self.timings["handles"] = time.perf_counter() - start
+
+    @property
+    def drawn(self) -> MLS:
+        """The MLS the view draws: the last valid one, else (the handles and settings were
+        never valid together, e.g. affine with every source on one line) the identity, so
+        that the input is shown as it is rather than nothing."""
+        if self.mls is not None:
+            return self.mls
+        if self._identity is None:
+            none = np.zeros((0, 2))
+            self._identity = MLS(none, none, shape=self.shape, ctx=self.gl)
+        return self._identity
 
     def _canvas(self) -> Frame:
         s, m = self.controller.settings, self.mls
@@ -200,6 +213,7 @@ class Session:
         return self._reference[1]
 
     def release(self) -> None:
-        if self.mls is not None:
-            self.mls.release()
-            self.mls = None
+        for mls in (self.mls, self._identity):
+            if mls is not None:
+                mls.release()
+        self.mls = self._identity = None

@@ -19,6 +19,7 @@ from .overlays import (
     GeometryDrawer,
     PictureDrawer,
     handle_geometry,
+    read_screen,
     reference_geometry,
     segment_geometry,
 )
@@ -136,7 +137,7 @@ class View:
 
     def _draw(self, layout, controller, session, analysis, text) -> None:
         mgl = self.gl.mgl
-        c, s, mls = controller, controller.settings, session.mls
+        c, s = controller, controller.settings
         framebuffer = layout.framebuffer
         screen = mgl.screen
         screen.use()
@@ -149,15 +150,14 @@ class View:
         s = session.construction(s)
         try:
             with self._queries["warp"]:
-                if mls is not None:
-                    try:
-                        self._draw_image(screen, layout, session, s)
-                    except ValueError as error:  # the adaptive mesh's budget: the grid
-                        if s.adaptive is None:
-                            raise
-                        c.message = session.adaptive_failed(s, error)
-                        s = session.construction(s)
-                        self._draw_image(screen, layout, session, s)
+                try:
+                    self._draw_image(screen, layout, session, s)
+                except ValueError as error:  # the adaptive mesh's budget: the grid
+                    if s.adaptive is None:
+                        raise
+                    c.message = session.adaptive_failed(s, error)
+                    s = session.construction(s)
+                    self._draw_image(screen, layout, session, s)
             with self._queries["overlays"]:
                 screen.viewport = layout.viewport
                 self._overlays(screen, layout, c, s, session, analysis)
@@ -197,7 +197,7 @@ class View:
             # directly (an image-sized RGBA8 target), 2-3x faster than the rasterizer here.
             screen.viewport = layout.viewport
             self.pipeline.render(
-                session.mls,  # type: ignore[arg-type]
+                session.drawn,
                 self.source,
                 screen,
                 s.warp_options(),
@@ -217,7 +217,7 @@ class View:
         picture.framebuffer.use()
         self.pipeline.clear(picture.framebuffer)
         self.pipeline.render(
-            session.mls,  # type: ignore[arg-type]
+            session.drawn,
             source,
             picture.framebuffer,
             s.warp_options(border=border),
@@ -235,11 +235,7 @@ class View:
 
     def screenshot(self, framebuffer: tuple[int, int]) -> np.ndarray:
         """The back buffer just drawn, (H, W, 3) uint8, top row first."""
-        width, height = framebuffer
-        with self.gl.use():
-            screen = self.gl.mgl.screen
-            data = screen.read(viewport=(0, 0, width, height), components=3, alignment=1)
-        return np.frombuffer(data, np.uint8).reshape(height, width, 3)[::-1].copy()
+        return read_screen(self.gl, framebuffer)
 
     def release(self) -> None:
         if self.gl.usable:

@@ -519,7 +519,10 @@ class VolumeController(Controls):
             self.set_handles(self.src, self.src)
 
     def _do_restore(self) -> None:
-        self.set_handles(*self.loaded)
+        self._release()  # a drag under way ends first, as its own edit
+        src, dst = self.loaded
+        if not (np.array_equal(src, self.src) and np.array_equal(dst, self.dst)):
+            self.set_handles(src, dst)  # as loaded already: no edit to undo
 
     def _do_undo(self) -> None:
         self._release()  # a drag under way ends as one edit, the one undone

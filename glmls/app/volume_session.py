@@ -37,7 +37,9 @@ FIELD_GRID = 4
 def display_volume(volume: np.ndarray) -> np.ndarray:
     """A volume as uint8 grey (D, H, W) for the window: the first channel (the mean of
     three or four), from the 0.5th (black) to the 99.5th percentile (white) of its finite
-    values (NaN black, infinities at the ends); uint8 grey volumes stay as they are.
+    values (NaN black, infinities at the ends); where the two are equal (a constant volume),
+    from the lower of 0 and that value to the higher of 1 and it; uint8 grey volumes stay as
+    they are.
 
     Parameters
     ----------
@@ -70,8 +72,9 @@ def display_volume(volume: np.ndarray) -> np.ndarray:
     values = array.astype(np.float32)
     finite = values[np.isfinite(values)]  # NaN (masked voxels) would make every percentile NaN
     low, high = np.percentile(finite, [0.5, 99.5]) if finite.size else (0.0, 1.0)
-    span = float(high - low) if high > low else 1.0
-    shown = np.clip(np.nan_to_num((values - low) / span, nan=0.0), 0, 1)
+    if high <= low:  # (nearly) constant: as an image, within [0, 1] or stretched to reach it
+        low, high = min(0.0, float(low)), max(1.0, float(high))
+    shown = np.clip(np.nan_to_num((values - low) / float(high - low), nan=0.0), 0, 1)
     return np.round(shown * 255).astype(np.uint8)
 
 

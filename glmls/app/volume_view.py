@@ -13,8 +13,9 @@ import numpy as np
 from ..analysis.canvas import HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR
 from ..analysis.shapes import arrow_triangles, disk_triangles
 from ..gl.context import GLContext
+from .hud import MIN_WINDOW_HEIGHT, readout_quads
 from .layout import Layout, layout
-from .overlays import GeometryDrawer, PictureDrawer
+from .overlays import GeometryDrawer, PictureDrawer, read_screen
 from .text import GlyphAtlas, TextRenderer, glyph_atlas
 from .volume_controller import AXES, VOLUME_BINDINGS, VolumeController
 
@@ -52,14 +53,16 @@ def window_size(grid, panel: int) -> tuple[int, int]:
     """The window's default (width, height) for the montage of ``grid`` and its margin beside
     a panel ``panel`` pixels wide: a small montage scaled up to about 560 rows or 900
     columns, a large one down to 1000 rows and 1600 columns at most (a screen's), rounded up
-    so that the views fit whole; the montage's area at least the panel's width."""
+    so that the views fit whole; the montage's area at least the panel's width, the height
+    at least :data:`~glmls.app.hud.MIN_WINDOW_HEIGHT` (the readout's)."""
     rows, columns = grid.montage_shape
     rows, columns = rows + 2 * MARGIN, columns + 2 * MARGIN
     scale = max(1.0, min(560 / rows, 900 / columns))
     scale = min(scale, 1000 / rows, 1600 / columns)
     # a narrower area would drop the panel and put the readout over the views
     # (layout.MIN_IMAGE_SHARE)
-    return panel + max(math.ceil(columns * scale), panel), math.ceil(rows * scale)
+    height = max(math.ceil(rows * scale), MIN_WINDOW_HEIGHT)  # the readout's, for a flat one
+    return panel + max(math.ceil(columns * scale), panel), height
 
 
 def montage_layout(framebuffer: tuple[int, int], grid, panel: int) -> Layout:
@@ -204,10 +207,7 @@ class VolumeView:
 
     def screenshot(self, framebuffer: tuple[int, int]) -> np.ndarray:
         """The back buffer just drawn, (H, W, 3) uint8, top row first."""
-        width, height = framebuffer
-        with self.gl.use():
-            data = self.gl.mgl.screen.read(viewport=(0, 0, width, height), components=3)
-        return np.frombuffer(data, np.uint8).reshape(height, width, 3)[::-1].copy()
+        return read_screen(self.gl, framebuffer)
 
     def release(self) -> None:
         """Release the view's GL objects."""
@@ -221,20 +221,12 @@ class VolumeView:
 def text_groups(
     atlas: GlyphAtlas, lines: Sequence[str], *, help_visible: bool, framebuffer: tuple[int, int]
 ) -> list[tuple[int, list[np.ndarray]]]:
-    """Glyph quads of the readout (top left, on a dark panel) and, if shown, the help beside
-    it (at a smaller size where it would not fit, down to 8 pixels), by text size."""
+    """Glyph quads of the readout (top left, on a dark panel, smaller where it would not fit
+    the height, :func:`~glmls.app.hud.readout_quads`) and, if shown, the help beside it (at
+    a smaller size where it would not fit, down to 8 pixels), by text size."""
     pad = atlas.cell[1] // 2
-    width = max(atlas.width(line) for line in lines) + 2 * pad
-    height = len(lines) * atlas.line_height + 2 * pad
-    groups = [
-        (
-            atlas.size,
-            [
-                atlas.rectangle(0, 0, width, height, (0.0, 0.0, 0.0, 0.55)),
-                atlas.quads("\n".join(lines), pad, pad, (0.95, 0.95, 0.95, 1.0)),
-            ],
-        )
-    ]
+    size, parts, width = readout_quads(atlas, lines, framebuffer[1])
+    groups = [(size, parts)]
     if help_visible:
         text = help_text()
         size = atlas.size

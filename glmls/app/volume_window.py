@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..files.landmarks import read_handles, write_handles
+from ..files.landmarks import elastix_indices, read_handles, write_handles
 from ..files.volume_dtypes import in_dtype, warped_as
 from ..files.volumes import VOLUME_SUFFIXES, Volume, write_volume
 from .glfw_window import NoDisplayError
@@ -54,6 +54,10 @@ class VolumeApp(WindowLoop):
         Where ``s``, ``j`` and ``S`` save.
     handles_path : str or os.PathLike, optional
         The file ``l`` loads (else the last one saved).
+    targets_path : str or os.PathLike, optional
+        The targets' file where ``handles_path`` is an elastix pair's sources'; a pair of
+        ``index`` files (voxel indices) is put in the handles' units by the spacing, as
+        ``glmls warp`` does.
     window_size : tuple of int, optional
         (width, height) of the window.
     record : str or os.PathLike, optional
@@ -72,6 +76,7 @@ class VolumeApp(WindowLoop):
         name: str = "volume",
         out_dir: str | Path = ".",
         handles_path: str | Path | None = None,
+        targets_path: str | Path | None = None,
         window_size: tuple[int, int] | None = None,
         record: str | Path | None = None,
     ) -> None:
@@ -95,6 +100,7 @@ class VolumeApp(WindowLoop):
             name=name,
             out_dir=out_dir,
             handles_path=handles_path,
+            targets_path=targets_path,
             window_size=window_size,
             record=record,
         )
@@ -141,9 +147,13 @@ class VolumeApp(WindowLoop):
             raise ValueError("no handles to save")
         write_handles(path, self.controller.src, self.controller.dst)
 
-    def _load_handles(self, path: Path) -> str:
+    def _load_handles(self, path: Path, targets: Path | None) -> str:
         c = self.controller
-        c.set_handles(*read_handles(path, ndim=3))
+        src, dst = read_handles(path, dst=targets, ndim=3)
+        if self.spacing is not None and elastix_indices(path, dst=targets):  # voxel indices
+            scale = np.array(self.spacing[::-1], dtype=np.float64)
+            src, dst = src * scale, dst * scale
+        c.set_handles(src, dst)
         return f"loaded {len(c.src)} handles from {path}"
 
     # -- frames -----------------------------------------------------------------------------
@@ -220,7 +230,8 @@ class VolumeApp(WindowLoop):
             help_visible=c.help_visible,
             framebuffer=window.framebuffer_size,
         )
-        groups[0][1].extend(self._labels(text))
+        # the labels under the help, at their own size (the readout may be smaller)
+        groups.insert(1, (text.size, self._labels(text)))
         self.view.draw(
             self.layout,
             c,

@@ -19,7 +19,7 @@ from .commands import load_handles, save_handles, save_image, warped_suffix
 from .controller import Controller, Settings
 from .events import Event
 from .glfw_window import NoDisplayError
-from .hud import PANEL_CHARS, readout, text_quads
+from .hud import MIN_WINDOW_HEIGHT, PANEL_CHARS, readout, text_quads
 from .layout import layout
 from .session import Session
 from .text import TextRenderer
@@ -33,9 +33,10 @@ class App(WindowLoop):
     """The window: one image, its handles and reference points, and a :class:`Controller`.
 
     ``out_dir``: where ``s``/``j``/``S`` save; ``handles_path``: the file ``l`` loads (else
-    the last one saved); ``src_segments``/``dst_segments``: segment handles (S, 2, 2);
-    ``record``: write every event fed (mouse, keys, replayed ones) there as a replay file
-    when the window closes. Open with :meth:`run`.
+    the last one saved), ``targets_path`` its targets' file where it is an elastix pair;
+    ``src_segments``/``dst_segments``: segment handles (S, 2, 2); ``record``: write every
+    event fed (mouse, keys, replayed ones) there as a replay file when the window closes.
+    Open with :meth:`run`.
     """
 
     def __init__(
@@ -51,6 +52,7 @@ class App(WindowLoop):
         name: str = "image",
         out_dir: str | Path = ".",
         handles_path: str | Path | None = None,
+        targets_path: str | Path | None = None,
         window_size: tuple[int, int] | None = None,
         record: str | Path | None = None,
     ) -> None:
@@ -62,6 +64,7 @@ class App(WindowLoop):
             name=name,
             out_dir=out_dir,
             handles_path=handles_path,
+            targets_path=targets_path,
             window_size=window_size,
             record=record,
         )
@@ -83,7 +86,9 @@ class App(WindowLoop):
         panel = PANEL_CHARS * 8 + 24
         # an image area at least the panel's width: a narrower one would drop the panel and
         # put the readout over the image (layout.MIN_IMAGE_SHARE)
-        return panel + max(round(width * scale), panel), max(round(height * scale), 480)
+        return panel + max(round(width * scale), panel), max(
+            round(height * scale), MIN_WINDOW_HEIGHT
+        )
 
     def _open(self, *, vsync: bool) -> None:
         size = self.window_size or self._default_size()
@@ -115,8 +120,8 @@ class App(WindowLoop):
     def _save_handles(self, path: Path) -> None:
         save_handles(path, self.controller)
 
-    def _load_handles(self, path: Path) -> str:
-        loaded = load_handles(path, self.controller)
+    def _load_handles(self, path: Path, targets: Path | None) -> str:
+        loaded = load_handles(path, self.controller, targets=targets)
         return f"loaded {loaded.points} points, {loaded.segments} segments from {path}"
 
     # -- frames -----------------------------------------------------------------------------
@@ -132,6 +137,9 @@ class App(WindowLoop):
             error=self.session.error if self.window is not None else "",
             analysis_lines=self.session.analysis.lines if self.window is not None else [],
             messages=self._shown_messages(),
+            showing="the last valid f"
+            if self.window is None or self.session.mls is not None
+            else "the input: no valid f yet",
         )
 
     def _view_key(self) -> tuple:

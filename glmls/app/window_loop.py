@@ -49,6 +49,7 @@ class WindowLoop:
         name: str,
         out_dir: str | Path,
         handles_path: str | Path | None,
+        targets_path: str | Path | None = None,
         window_size: tuple[int, int] | None,
         record: str | Path | None,
     ) -> None:
@@ -56,6 +57,8 @@ class WindowLoop:
         self.name = name
         self.out_dir = Path(out_dir)
         self.handles_path = Path(handles_path) if handles_path is not None else None
+        #: The targets' file of an elastix pair, ``handles_path`` the sources'.
+        self.targets_path = Path(targets_path) if targets_path is not None else None
         self.window_size = window_size
         self.record_path = Path(record) if record is not None else None
         self.recorder = Recorder() if record is not None else None
@@ -155,7 +158,8 @@ class WindowLoop:
                 self._want_screenshot = self._path("screenshot.png")
             elif command == "load_handles":
                 path = self.handles_path or self._path("handles.json")
-                self.say(self._load_handles(path))
+                targets = self.targets_path if self.handles_path is not None else None
+                self.say(self._load_handles(path, targets))
         except (OSError, ValueError) as error:
             self.say(f"{command.replace('_', ' ')} failed: {error}")
 
@@ -166,8 +170,8 @@ class WindowLoop:
     def _save_handles(self, path: Path) -> None:
         raise NotImplementedError
 
-    def _load_handles(self, path: Path) -> str:
-        """Load the handles; what to say."""
+    def _load_handles(self, path: Path, targets: Path | None) -> str:
+        """Load the handles (``targets``: an elastix pair's targets' file); what to say."""
         raise NotImplementedError
 
     # -- frames -----------------------------------------------------------------------------

@@ -30,6 +30,7 @@ def window_options(args: argparse.Namespace) -> dict:
     return {
         "out_dir": args.out,
         "handles_path": args.handles,
+        "targets_path": args.targets,
         "window_size": args.window_size,
         "record": args.record,
     }

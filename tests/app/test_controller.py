@@ -130,6 +130,22 @@ def test_reset_and_restore():
     np.testing.assert_array_equal(c.src[2], [35, 45])
 
 
+def test_restore_with_the_handles_as_loaded_leaves_no_undo_step():
+    # R pushed a step that changed nothing: the next u seemed to do nothing
+    c = make()
+    drag(c, (30, 40), (35, 45), mods=frozenset({"shift"}))
+    c.feed(Key("u"))
+    c.feed(Key("R"))
+    assert (c.undo_depth, c.redo_depth) == (0, 1)  # the redo kept, too
+    c.feed(Key("U"))
+    np.testing.assert_array_equal(c.src[2], [35, 45])
+    c.feed(Press(*SRC[0] + [2.0, 0.0]))  # a target grabbed, not moved: R ends the drag
+    c.feed(Key("R"))
+    c.feed(Key("R"))
+    assert not c.dragging and c.undo_depth == 2  # the shift-drag, the first R
+    np.testing.assert_array_equal(c.src, SRC)
+
+
 def test_reference_mode_adds_moves_and_deletes_reference_points():
     c = make()
     c.feed(Key("p"))

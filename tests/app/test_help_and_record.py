@@ -28,6 +28,7 @@ from glmls.app.hud import PANEL_CHARS, help_lines, place_help, readout, text_qua
 from glmls.app.text import glyph_atlas
 from glmls.app.view import TEXT_SIZE
 from glmls.app.volume_controller import VOLUME_BINDINGS
+from glmls.app.volume_view import text_groups
 from glmls.core.weights import WEIGHTS
 from glmls.imaging.source import BORDERS
 
@@ -95,6 +96,29 @@ def test_the_help_fits_beside_the_readout(framebuffer):
     assert glyphs == sum(len(line.replace(" ", "")) for line in help_lines())  # every line
     if framebuffer[0] >= 1200:
         assert help_size == TEXT_SIZE
+
+
+@pytest.mark.parametrize("volume", [False, True])
+def test_what_a_key_did_stays_in_view_below_a_long_readout(volume):
+    # every error overlay's statistics and three saves: 32 lines, more than the default
+    # window's 512 pixels hold at the readout's size; the last ones say what the keys did
+    atlas = glyph_atlas(TEXT_SIZE)
+    lines = readout_lines() + [f"statistic {k}" for k in range(7)]
+    lines += [f"saved out/astronaut-{k}.png" for k in ("warped", "handles", "screenshot")]
+    assert len(lines) * atlas.line_height > DEFAULT_WINDOW[1]
+    if volume:
+        groups = text_groups(atlas, lines, help_visible=True, framebuffer=DEFAULT_WINDOW)
+    else:
+        panel = round(PANEL_CHARS * atlas.advance["M"]) + 24
+        groups = text_quads(
+            atlas, lines, help_visible=True, panel=panel, framebuffer=DEFAULT_WINDOW
+        )
+    (size, parts), (_, help_parts) = groups
+    assert 8 <= size < TEXT_SIZE
+    _, high = boxes(parts)
+    assert high[1] <= DEFAULT_WINDOW[1]  # the last line too
+    assert len(parts[1]) // 6 == sum(len(line.replace(" ", "")) for line in lines)
+    assert boxes(help_parts)[0][0] >= high[0]  # the help still beside it
 
 
 def test_the_help_takes_the_whole_window_only_where_nothing_else_fits():

@@ -73,3 +73,18 @@ def test_the_default_window_keeps_the_readout_beside_the_views(shape):
     layout = montage_layout(size, grid, panel)
     assert layout.panel == panel
     assert min(view_viewport(layout, grid, view)[0] for view in range(3)) >= panel
+
+
+@pytest.mark.parametrize("shape", [(2, 3, 400), (1, 1, 50), (1, 2, 5000), (300, 2, 2)])
+def test_the_default_window_of_a_flat_montage_holds_the_readout(shape):
+    # a volume of 2 x 3 x 400 voxels got a window 25 pixels tall: the readout and the help
+    # were cut to their first line
+    grid = SliceGrid(shape)
+    panel = round(PANEL_CHARS * GlyphAtlas(TEXT_SIZE).advance["M"]) + 24
+    width, height = window_size(grid, panel)
+    assert height >= 20 * GlyphAtlas(TEXT_SIZE).line_height  # 20 lines of the readout
+    assert width <= panel + 1600 and height <= 1000
+    layout = montage_layout((width, height), grid, panel)
+    for view in range(3):  # the views still fit, letterboxed
+        x0, y0, w, h = view_viewport(layout, grid, view)
+        assert x0 >= panel and y0 >= 0 and x0 + w <= width and y0 + h <= height

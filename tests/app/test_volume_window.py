@@ -85,6 +85,20 @@ def test_undo_during_a_drag_undoes_that_drag(key):
     np.testing.assert_array_equal(c.dst[1], [15, 12, 8])
 
 
+def test_restore_with_the_handles_as_loaded_leaves_no_undo_step():
+    c = make()
+    drag(c, (4, 4), (7, 2))
+    c.feed(Key("u"))
+    c.feed(Key("R"))  # as loaded already
+    assert c.undo_depth == 0
+    c.feed(Key("U"))  # the redo kept, too
+    np.testing.assert_array_equal(c.dst[0], [7, 2, 8])
+    c.feed(Key("u"))
+    c.feed(Press(4, 4))  # a target grabbed, not moved: R ends the drag
+    c.feed(Key("R"))
+    assert not c.dragging and c.undo_depth == 0
+
+
 @pytest.mark.parametrize("key", ["R", "r"])
 def test_restore_or_reset_during_a_drag_ends_the_drag_first(key):
     # a handle added with shift + click and still dragged, then R: the drag held the index
@@ -225,6 +239,24 @@ def test_a_volume_with_nan_voxels_is_shown_from_its_finite_values():
     np.testing.assert_array_equal(
         grey[finite], display_volume(ramp[finite].reshape(1, 1, -1))[0, 0]
     )
+
+
+@pytest.mark.parametrize(
+    ("volume", "shown"),
+    [
+        (np.full((2, 3, 4), 7.0, np.float32), 255),  # was black: its percentiles are equal
+        (np.ones((2, 3, 4), bool), 255),  # a mask of one label
+        (np.full((2, 3, 4), 0.25), 64),  # within [0, 1]: as it is
+        (np.zeros((2, 3, 4), np.int16), 0),
+        (np.full((2, 3, 4), -5.0), 0),
+    ],
+)
+def test_a_constant_volume_is_shown_as_an_image_of_its_value(volume, shown):
+    grey = display_volume(volume)
+    assert grey.dtype == np.uint8 and set(grey.ravel().tolist()) == {shown}
+    mostly = np.zeros((1, 10, 100), np.float32)  # 0.1 % of the voxels at 3: both
+    mostly[0, 0, 0] = 3.0  # percentiles 0, that voxel white as before
+    assert display_volume(mostly)[0, 0, 0] == 255 and display_volume(mostly)[0, 1].max() == 0
 
 
 @pytest.fixture

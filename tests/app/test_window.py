@@ -251,3 +251,50 @@ def test_a_float_image_is_shown_by_its_range_and_saved_as_float(tmp_path):
     warped = glmls.imread(tmp_path / "saved" / "float-warped.tif")
     expected = glmls.warp(image, [[40.0, 40.0]], [[60.0, 55.0]], grid=4)
     assert warped.dtype == np.float32 and np.array_equal(warped, expected)
+
+
+@needs_xvfb
+def test_handles_never_valid_show_the_input_not_a_black_image(tmp_path, square):
+    # affine with every source on one line has no f from the start: the image area was
+    # black, and the readout spoke of "the last valid f"
+    handles = tmp_path / "line.json"
+    handles.write_text(json.dumps({"src": [[10, 10], [20, 20], [30, 30]],
+                                   "dst": [[12, 10], [22, 20], [32, 30]]}))  # fmt: skip
+    shot_path = tmp_path / "shot.png"
+    result = demo(
+        str(square), "--handles", str(handles), "--transform", "affine",
+        "--screenshot", str(shot_path), "--window-size", f"{WINDOW[0]}x{WINDOW[1]}",
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    shot = glmls.imread(shot_path)
+    assert (at(shot, 40, 40) > 240).all()  # the square, where it is in the input
+    np.testing.assert_allclose(at(shot, 80, 80), BLUE, atol=8)
+
+
+TWO_WINDOWS = """
+import glfw
+import numpy as np
+from glmls.app.window import App
+
+none = np.zeros((0, 2))
+App(np.zeros((8, 8), np.uint8), none, none).run(frames=1)
+errors = []
+glfw.set_error_callback(lambda code, text: errors.append(code))
+glfw.get_primary_monitor()  # GLFW_NOT_INITIALIZED if the closed window terminated glfw
+App(np.zeros((8, 8), np.uint8), none, none).run(frames=1)
+print(errors == [])
+"""
+
+
+@needs_xvfb
+def test_windows_opened_one_after_another_keep_the_display(tmp_path):
+    # closing a window terminated glfw, closing the connection to the display: xvfb-run's X
+    # server then resets, and a window opened meanwhile failed ("Failed to open display")
+    script = tmp_path / "two.py"
+    script.write_text(TWO_WINDOWS)
+    result = subprocess.run(
+        [XVFB, "-a", sys.executable, str(script)],
+        capture_output=True, text=True, env=_env(), timeout=120,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["True"]
