@@ -136,3 +136,41 @@ def test_the_references_gaussian_moments_past_a_segments_end(h, x0, length, radi
         for k in range(3)
     ]
     assert_allclose(moments[0, 0] / moments[0, 0, 0], np.array(expected) / expected[0], rtol=1e-9)
+
+
+RNG = np.random.default_rng(2)
+POINTS_P = RNG.uniform(10, 90, (6, 2))
+POINTS_Q = POINTS_P + RNG.uniform(-3, 3, (6, 2))
+SEGMENTS_SRC = np.array([[[20.0, 20], [40, 22]], [[60, 70], [62, 90]]])
+SEGMENTS_DST = SEGMENTS_SRC + RNG.uniform(-2, 2, SEGMENTS_SRC.shape)
+
+
+@pytest.mark.parametrize("alpha", [2.0, 6.0])
+@pytest.mark.parametrize("transform", ["rigid", "affine"])
+def test_segments_keep_their_share_next_to_a_point_handle(gl, transform, alpha):
+    """idw with the default s (below the floor under which segments leave it out): a point
+    handle's weight carries the factor (s + m^alpha) of its normalisation, and so must a
+    segment's. Within 0.01 px of a point handle that factor is s-dominated, and segments
+    without it lost their share (M 0.15 off at alpha 2)."""
+    v = np.concatenate([POINTS_P + [0.05, 0], POINTS_P + [0.003, 0.002], POINTS_P - [0.0, 1e-4]])
+    f, f_ref, M, M_ref = gpu_and_reference(
+        POINTS_P, POINTS_Q, SEGMENTS_SRC, SEGMENTS_DST, v, transform=transform, alpha=alpha,
+        shape=(100, 100),
+    )  # fmt: skip
+    assert_allclose(f, f_ref, atol=1e-4)
+    assert_allclose(M, M_ref, atol=1e-4)
+
+
+@pytest.mark.parametrize("s", [1e-8, 1e-12, 0.0])
+@pytest.mark.parametrize("transform", ["rigid", "similarity", "affine"])
+def test_alpha_10_next_to_a_segment_is_finite(gl, transform, s):
+    """0.002 px from a segment with alpha = 10: without s (left out of segments' weights
+    below the floor) a segment's weight relative to idw's s-normalisation overflowed
+    float32 (NaN f); it is bounded where the point handles no longer count."""
+    v = np.array([[61.0, 80.02], [61.0, 80.0], [60.9999, 80.0], [30.0, 21.0001], [50, 50]])
+    f, f_ref, M, _ = gpu_and_reference(
+        POINTS_P, POINTS_Q, SEGMENTS_SRC, SEGMENTS_DST, v, transform=transform, alpha=10.0, s=s,
+        shape=(100, 100),
+    )  # fmt: skip
+    assert np.isfinite(f).all() and np.isfinite(M).all()
+    assert_allclose(f, f_ref, atol=1e-3)

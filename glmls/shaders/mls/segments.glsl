@@ -142,7 +142,9 @@ float mls_atan_positive(float y, float x) {
 // the segment is short against k (J1, J2 would cancel).
 vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
     float sigma = a.sigma * u_segment_sigma;
-    float K = (sigma + 1.0) * a.m;
+    // (a.sigma + 1), not (sigma + 1): a segment leaves a negligible s out of its weight, not
+    // out of the factor the point handles' weights carry (mls_weight_idw's sigma + 1)
+    float K = (a.sigma + 1.0) * a.m;
     float k2 = sigma * a.m + view.h2;
     float k = sqrt(k2);
     float x0 = view.x0, x1 = view.x1;
@@ -219,6 +221,14 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
     const float xs = 0.0;
 #endif
     float sigma = a.sigma * u_segment_sigma;
+    // the point handles' factor sigma + 1 where the segment leaves s out (see above)
+    float carried = (a.sigma + 1.0) / (sigma + 1.0);
+    // without s a weight is infinite at the segment, and m may lie far above h^2 (idw's
+    // normalisation by s, mls_normalisation): the least squared distance a weight sees,
+    // where (d2 / m)^alpha is 2^-100, keeps it finite (an overflow made f NaN within
+    // ~0.005 px of a segment at alpha 10). The point handles weigh 2^-90 of it and less
+    // there, as they are negligible against the segment's true weight.
+    float near2 = a.m * exp2(-100.0 / u_alpha);
     float t0 = mls_asinh((x0 - xs) / c);
     float t1 = mls_asinh((x1 - xs) / c);
     int panels = clamp(int(ceil((t1 - t0) / MLS_PANEL_WIDTH)), 1, MLS_MAX_PANELS);
@@ -232,12 +242,13 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
             float e = exp(mid + half_width * node);
             float dx = c * 0.5 * (e - 1.0 / e);   // c sinh(t), and c cosh(t) below
             float x = xs + dx;
-            float w = mls_weight(view.h2 + x * x, a.m, a.inv_m, sigma) * gw * c * 0.5 * (e + 1.0 / e);
+            float w = mls_weight(max(view.h2 + x * x, near2), a.m, a.inv_m, sigma) * gw * c * 0.5
+                    * (e + 1.0 / e);
             float y = (xs - view.xc) + dx;   // not x - xc: xs may be far from the foot
             J += w * vec3(1.0, y, y * y);
         }
     }
-    return (half_width * u_length_unit) * J;
+    return (carried * half_width * u_length_unit) * J;
 }
 #endif
 
