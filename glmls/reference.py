@@ -302,12 +302,14 @@ def segment_moments(
                 # w = 0 from d = R on: integrate where |x| < sqrt(R^2 - h^2) only
                 reach2 = r2 - h2
             else:
-                # gaussian: weights below e^-40 of the nearest handle's add nothing
-                nearest = np.minimum(
-                    geometry["dist2"].min(axis=1, initial=np.inf),
-                    d2_points.min(axis=1, initial=np.inf),
-                )
-                reach2 = nearest[:, None] + 40.0 * r2 - h2
+                # gaussian: weights below e^-40 of the nearest handles' apart from the
+                # nearest one's place add nothing (in the far tail those decide M however
+                # small against the nearest: relative to it, a segment that counted was cut)
+                every = np.concatenate([geometry["dist2"], d2_points], axis=1)
+                low = every.min(axis=1, keepdims=True, initial=np.inf)
+                above = np.where(every > low, every, np.inf).min(axis=1, initial=np.inf)
+                offset = np.where(np.isfinite(above), above, low[:, 0])
+                reach2 = offset[:, None] + 40.0 * r2 - h2
             reach = np.sqrt(np.maximum(reach2, 0.0))
         x0, x1 = np.clip(x0, -reach, reach), np.clip(x1, -reach, reach)
         width = np.minimum(width, radius)  # type: ignore[call-overload]

@@ -174,3 +174,36 @@ def test_alpha_10_next_to_a_segment_is_finite(gl, transform, s):
     )  # fmt: skip
     assert np.isfinite(f).all() and np.isfinite(M).all()
     assert_allclose(f, f_ref, atol=1e-3)
+
+
+FAR = np.array([[5.0, 95.0], [95, 5], [50, 50], [95, 95], [3, 3], [50, 60]])
+
+
+def test_the_references_gaussian_keeps_a_segment_that_decides_m_in_the_far_tail():
+    """At (5, 95) the nearest point handle outweighs a segment by e^40 (R ~ 6.1 px) and the
+    next point handle by more: in the tail the handles apart from the nearest decide M, and
+    the segment leads them. f is continuous in R; a cut of the segments at e^-40 of the
+    nearest's weight made it jump by 2.7 px at R = 6.11."""
+    f = [
+        reference.mls(
+            POINTS_P, POINTS_Q, FAR[:1], transform="affine", weight="gaussian", radius=radius,
+            src_segments=SEGMENTS_SRC, dst_segments=SEGMENTS_DST,
+        )[0][0]
+        for radius in (6.08, 6.10, 6.12, 6.14)
+    ]  # fmt: skip
+    assert np.abs(np.diff(f, axis=0)).max() < 0.01
+
+
+@pytest.mark.parametrize("radius", [3.0, 2.0])
+@pytest.mark.parametrize("transform", ["rigid", "similarity", "affine"])
+def test_a_gaussian_with_segments_in_its_far_tail(gl, transform, radius):
+    """Point handles and segments with a gaussian of R = 2-3 px, points 30-60 px from every
+    handle: relative to the nearest point handle the others weigh e^-100 and less (below
+    float32); relative to the nearest handles apart from it they are in range, as without
+    segments (f was up to 6.5 px off)."""
+    f, f_ref, M, M_ref = gpu_and_reference(
+        POINTS_P, POINTS_Q, SEGMENTS_SRC, SEGMENTS_DST, FAR, transform=transform,
+        weight="gaussian", radius=radius, shape=(100, 100),
+    )  # fmt: skip
+    assert_allclose(f, f_ref, atol=1e-3)
+    assert_allclose(M, M_ref, atol=1e-3)

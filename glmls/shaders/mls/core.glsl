@@ -191,10 +191,15 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
     }
     a.near2 = a.m * exp2(-50.0 / u_alpha);
 #endif
-#if MLS_REACH_GAUSSIAN && !MLS_SEGMENTS
+#if MLS_REACH_GAUSSIAN && MLS_SEGMENTS
+    // relative to the nearest handles apart where the nearest is a point handle (whose own
+    // moments about itself are 0, so the cap of its weight changes nothing); relative to a
+    // nearest segment itself, whose spread along it counts: a cap would flatten it
+    a.g = n.segment ? a.m : mls_gaussian_offset(a.m, n.d2next);
+#elif MLS_REACH_GAUSSIAN
     a.g = mls_gaussian_offset(a.m, n.d2next);
 #else
-    a.g = a.m;   // segment handles' gaussian integrals are taken relative to m
+    a.g = a.m;
 #endif
     a.W = 0.0;
     a.P = vec2(0.0);

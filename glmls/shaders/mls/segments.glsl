@@ -194,7 +194,7 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
 #if MLS_SEGMENT_SUPPORT == 1
     float reach2 = (u_radius - view.h) * (u_radius + view.h);   // no cancellation at h ~ R
 #elif MLS_SEGMENT_SUPPORT == 2
-    float reach2 = a.m + MLS_SEGMENT_GAUSSIAN_CUT * u_radius * u_radius - view.h2;
+    float reach2 = a.g + MLS_SEGMENT_GAUSSIAN_CUT * u_radius * u_radius - view.h2;
 #endif
 #if MLS_SEGMENT_SUPPORT != 0
     if (!(reach2 > 0.0)) {
@@ -242,7 +242,7 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
             float e = exp(mid + half_width * node);
             float dx = c * 0.5 * (e - 1.0 / e);   // c sinh(t), and c cosh(t) below
             float x = xs + dx;
-            float w = mls_weight(max(view.h2 + x * x, near2), a.m, a.inv_m, sigma) * gw * c * 0.5
+            float w = mls_weight(max(view.h2 + x * x, near2), a.g, a.inv_m, sigma) * gw * c * 0.5
                     * (e + 1.0 / e);
             float y = (xs - view.xc) + dx;   // not x - xc: xs may be far from the foot
             J += w * vec3(1.0, y, y * y);
