@@ -148,10 +148,7 @@ class Controller(Controls):
     >>> from glmls.app import Controller, Key, Move, Press, Release
     >>> c = Controller([[20.0, 20], [80, 80]], [[20.0, 20], [80, 80]], (100, 120))
     >>> for event in (Press(20, 20), Move(30, 25), Release(30, 25)):
-    ...     c.feed(event)
-    []
-    []
-    []
+    ...     _ = c.feed(event)  # no command
     >>> c.dst.tolist(), c.undo_depth
     ([[30.0, 25.0], [80.0, 80.0]], 1)
     >>> c.feed(Key("t")), c.settings.config.transform
