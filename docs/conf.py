@@ -57,7 +57,9 @@ myst_heading_anchors = 3  # `[text](#a-heading)` links inside and between guides
 # --- API reference -------------------------------------------------------------------------
 autosummary_generate = True
 autosummary_imported_members = True
-autodoc_default_options = {"members": True, "inherited-members": False}
+# no "inherited-members" here: a default that is not text overrides the directive's own
+# option, and the class_inherited template (glmls.app's pages) shows what a class inherits
+autodoc_default_options = {"members": True}
 autodoc_typehints = "none"  # numpydoc's Parameters sections carry the types
 numpydoc_show_class_members = False  # the class template lists the members itself
 numpydoc_class_members_toctree = False

@@ -81,14 +81,85 @@ ACTIONS = {key: action for keys, action, _ in BINDINGS for key in keys}
 
 
 class Controller(Controls):
-    """Handles (points and segments), reference points, settings, overlays and zoom, changed
-    by :meth:`feed`.
+    """The image window's interaction, without a window: events in, state and commands out.
 
-    ``revision`` grows whenever the handles or the settings change (the window then
-    re-uploads the handles); ``reference_revision`` when the reference points change.
-    ``pick_radius`` (image pixels) is how near a click must be to grab a point or segment;
-    the window keeps it at a fixed size on screen, and keeps ``view_limits`` (what zoom and
-    pan may show) in step with its layout.
+    It holds the handles (points and segments), the reference points, the :class:`Settings`,
+    the overlays and the zoom, and :meth:`feed` changes them: one event at a time, in image
+    pixels (x, y) = (column, row), as :data:`BINDINGS` and :doc:`/window` say. What only a
+    window can do (save or load files, quit) comes back as commands. :class:`App` keeps one;
+    on its own it tests, scripts or replays an interaction headless.
+
+    Parameters
+    ----------
+    src, dst : array_like
+        The point handles p and q, (N, 2) (x, y) in image pixels (N may be 0).
+    shape : tuple of int
+        (H, W) of the image.
+    reference : array_like, optional
+        Reference points (M, 2), whose angle errors the window reports; none by default.
+    src_segments, dst_segments : array_like, optional
+        Segment handles (S, 2, 2), each two end points (x, y); none by default.
+    settings : Settings, optional
+        What is shown: the MLS configuration and the image construction; ``Settings()`` by
+        default.
+    pick_radius : float, default 8
+        How near (image pixels) a click must be to grab a point or a segment; the window
+        keeps it at a fixed size on screen.
+    overlays : dict of str to bool, optional
+        Which of the overlays (``handles``, ``mesh``, ``error``, ``angle``, ``folds``) are
+        on; by default the handles only.
+    mode : {"points", "segments", "reference"}, default "points"
+        What a left click on empty space does: add a point handle, draw a segment handle,
+        or add a reference point.
+    help_visible : bool, default False
+        Whether the help screen shows.
+
+    Attributes
+    ----------
+    settings : Settings
+        What is shown now (replaced, never changed, by the keys).
+    overlays : dict of str to bool
+        Which overlays are on.
+    mode : str
+        One of "points", "segments" and "reference".
+    zoom : glmls.app.zoom.Zoom
+        The zoom factor (``zoom.factor``) and the pan.
+    message : str
+        A line for the readout, set by an action ("nothing to undo"); the window clears it.
+    view_limits : glmls.app.zoom.ViewLimits
+        What zoom and pan may show; the window keeps it in step with its layout.
+
+    Raises
+    ------
+    ValueError
+        For handles of the wrong shape or not finite, or an unknown ``mode``.
+    TypeError
+        For ``settings`` that are not :class:`Settings`.
+
+    See Also
+    --------
+    App : the window around it.
+    VolumeController : the volume window's.
+
+    Examples
+    --------
+    Drag the target of a handle, cycle the transform, then undo the drag:
+
+    >>> from glmls.app import Controller, Key, Move, Press, Release
+    >>> c = Controller([[20.0, 20], [80, 80]], [[20.0, 20], [80, 80]], (100, 120))
+    >>> for event in (Press(20, 20), Move(30, 25), Release(30, 25)):
+    ...     _ = c.feed(event)  # no command
+    >>> c.dst.tolist(), c.undo_depth
+    ([[30.0, 25.0], [80.0, 80.0]], 1)
+    >>> c.feed(Key("t")), c.settings.config.transform
+    ([], 'similarity')
+    >>> c.feed(Key("u")), c.dst.tolist()
+    ([], [[20.0, 20.0], [80.0, 80.0]])
+
+    The file keys are commands for the window:
+
+    >>> c.feed(Key("j")), c.feed(Key("q"))
+    (['save_handles'], ['quit'])
     """
 
     def __init__(
@@ -134,22 +205,27 @@ class Controller(Controls):
 
     @property
     def src(self) -> np.ndarray:
+        """The point handles' sources p, (N, 2)."""
         return self.editor.state.src
 
     @property
     def dst(self) -> np.ndarray:
+        """The point handles' targets q, (N, 2)."""
         return self.editor.state.dst
 
     @property
     def src_segments(self) -> np.ndarray:
+        """The segment handles' sources, (S, 2, 2)."""
         return self.editor.state.src_segments
 
     @property
     def dst_segments(self) -> np.ndarray:
+        """The segment handles' targets, (S, 2, 2)."""
         return self.editor.state.dst_segments
 
     @property
     def reference(self) -> np.ndarray:
+        """The reference points, (M, 2); set it to replace them (not undoable)."""
         return self.editor.state.reference
 
     @reference.setter
@@ -164,18 +240,23 @@ class Controller(Controls):
 
     @property
     def revision(self) -> int:
+        """Grows whenever the handles or the settings change (the window then re-uploads
+        the handles)."""
         return self.editor.revision + self._settings_revision
 
     @property
     def reference_revision(self) -> int:
+        """Grows whenever the reference points change."""
         return self.editor.reference_revision
 
     @property
     def reference_mode(self) -> bool:
+        """Whether a left click adds or moves a reference point (``p``)."""
         return self.mode == "reference"
 
     @property
     def segment_mode(self) -> bool:
+        """Whether a drag on empty space draws a segment handle (``d``)."""
         return self.mode == "segments"
 
     @property
@@ -185,17 +266,26 @@ class Controller(Controls):
 
     @property
     def undo_depth(self) -> int:
+        """How many handle edits ``u`` can undo."""
         return self.editor.undo_depth
 
     @property
     def redo_depth(self) -> int:
+        """How many undone edits ``U`` can redo."""
         return self.editor.redo_depth
 
     def set_handles(
         self, src: object, dst: object, src_segments: object = None, dst_segments: object = None
     ) -> None:
-        """Replace every handle (undoable; ``None`` segments: none), e.g. loaded from a file;
-        the reference points stay."""
+        """Replace every handle (undoable), e.g. loaded from a file; the reference points stay.
+
+        Parameters
+        ----------
+        src, dst : array_like
+            The point handles (N, 2).
+        src_segments, dst_segments : array_like, optional
+            The segment handles (S, 2, 2); ``None``: none.
+        """
         reference = self.editor.state.reference
         self.editor.replace(Handles.of(src, dst, src_segments, dst_segments, reference))
 

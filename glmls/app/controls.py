@@ -86,7 +86,26 @@ class Controls:
     help_visible: bool
 
     def feed(self, event: Event) -> list[str]:
-        """Apply one event; returns the commands for the window."""
+        """Apply one event: change the state, and return what only the window can do.
+
+        Parameters
+        ----------
+        event : Press, Move, Release, Scroll or Key
+            The event, its position in image pixels (montage pixels in the volume window).
+
+        Returns
+        -------
+        list of str
+            The commands for the window (``save_image`` or ``save_volume``,
+            ``save_handles``, ``save_screenshot``, ``load_handles``, ``quit``); mostly none.
+
+        Raises
+        ------
+        ValueError
+            For a press of an unknown button.
+        TypeError
+            For something that is not an event.
+        """
         if isinstance(event, Press):
             if event.button not in BUTTONS:
                 raise ValueError(f"unknown mouse button {event.button!r}; use one of {BUTTONS}")

@@ -50,7 +50,31 @@ MODIFIERS = ("shift", "ctrl", "alt")
 
 @dataclass(frozen=True)
 class Press:
-    """A mouse button pressed at image point (x, y)."""
+    """A mouse button pressed at image point (x, y).
+
+    Parameters
+    ----------
+    x, y : float
+        The point, in image pixels (x, y) = (column, row) (montage pixels in the volume
+        window).
+    button : {"left", "right", "middle"}, default "left"
+        The button (:data:`BUTTONS`); a controller refuses another with a ``ValueError``.
+    mods : frozenset of str, default none
+        The modifier keys held down: any of "shift", "ctrl" and "alt" (:data:`MODIFIERS`).
+
+    See Also
+    --------
+    Move, Release : the drag that follows.
+    glmls.app.Controller.feed : what the image window does with it.
+
+    Examples
+    --------
+    >>> from glmls.app import Press
+    >>> Press(226, 40)
+    Press(x=226, y=40, button='left', mods=frozenset())
+    >>> Press(226, 40, mods=frozenset({"shift"})).mods  # shift + press: move a source
+    frozenset({'shift'})
+    """
 
     x: float
     y: float
@@ -60,7 +84,19 @@ class Press:
 
 @dataclass(frozen=True)
 class Move:
-    """The cursor moved to image point (x, y)."""
+    """The cursor moved to image point (x, y).
+
+    Parameters
+    ----------
+    x, y : float
+        The point, in image pixels (montage pixels in the volume window).
+
+    Examples
+    --------
+    >>> from glmls.app import Move
+    >>> Move(250.0, 52.0)
+    Move(x=250.0, y=52.0)
+    """
 
     x: float
     y: float
@@ -68,7 +104,21 @@ class Move:
 
 @dataclass(frozen=True)
 class Release:
-    """A mouse button released at image point (x, y)."""
+    """A mouse button released at image point (x, y).
+
+    Parameters
+    ----------
+    x, y : float
+        The point, in image pixels (montage pixels in the volume window).
+    button : {"left", "right", "middle"}, default "left"
+        The button.
+
+    Examples
+    --------
+    >>> from glmls.app import Release
+    >>> Release(250, 52, button="middle")
+    Release(x=250, y=52, button='middle')
+    """
 
     x: float
     y: float
@@ -77,8 +127,24 @@ class Release:
 
 @dataclass(frozen=True)
 class Scroll:
-    """The mouse wheel turned ``dy`` notches (> 0: away from the user, zoom in) with the
-    cursor at image point (x, y)."""
+    """The mouse wheel turned ``dy`` notches with the cursor at image point (x, y).
+
+    Parameters
+    ----------
+    x, y : float
+        The cursor, in image pixels (montage pixels in the volume window).
+    dy : float
+        Notches turned: > 0 away from the user (the image window zooms in about the cursor,
+        the volume window moves the slice point up), < 0 towards; a touchpad gives fractions.
+
+    Examples
+    --------
+    >>> from glmls.app import Controller, Scroll
+    >>> c = Controller([[10.0, 10]], [[10.0, 10]], (100, 100))
+    >>> _ = c.feed(Scroll(50, 50, 1))
+    >>> c.zoom.factor > 1
+    True
+    """
 
     x: float
     y: float
@@ -87,7 +153,23 @@ class Scroll:
 
 @dataclass(frozen=True)
 class Key:
-    """A key: the character typed ("t", "G", "?") or a name ("F1", "Escape", "Ctrl+Z")."""
+    """A key: the character typed ("t", "G", "?") or a name ("F1", "Escape", "Ctrl+Z").
+
+    Parameters
+    ----------
+    key : str
+        The character typed, or the key's name with its modifiers (``Ctrl+Shift+Z``), as
+        :data:`~glmls.app.BINDINGS` lists them; a key bound to nothing does nothing.
+
+    Examples
+    --------
+    >>> from glmls.app import Controller, Key
+    >>> c = Controller([[10.0, 10]], [[12.0, 10]], (100, 100))
+    >>> c.feed(Key("t")), c.settings.config.transform  # the next transform
+    ([], 'similarity')
+    >>> c.feed(Key("s"))  # a file key: a command for the window
+    ['save_image']
+    """
 
     key: str
 
@@ -97,7 +179,20 @@ Event = Press | Move | Release | Scroll | Key
 
 @dataclass(frozen=True)
 class Wait:
-    """Render ``frames`` frames without an event (replays only)."""
+    """Render ``frames`` frames without an event (replays only).
+
+    Parameters
+    ----------
+    frames : int
+        Frames to render (>= 0) before the next event is fed.
+
+    Examples
+    --------
+    >>> from glmls.app import Key, Wait
+    >>> replay = [Key("e"), Wait(5), Key("e")]  # the error overlay on for five frames
+    >>> replay[1].frames
+    5
+    """
 
     frames: int
 
@@ -165,8 +260,45 @@ def _event(path: Path, where: str, entry: object):
 
 
 def read_events(path: str | os.PathLike) -> list:
-    """The events of a replay file, in order; :class:`~glmls.files.InputFileError` (a
-    ``ValueError``) naming the file, the entry and the fault if it is malformed."""
+    """The events of a replay file (``glmls demo --replay``), in order.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A JSON file of ``{"events": [...]}`` or the bare list, each entry an event in the
+        format of :mod:`glmls.app.events` (:doc:`/window` has it in full).
+
+    Returns
+    -------
+    list of Press, Move, Release, Scroll, Key or Wait
+        The events, in the file's order.
+
+    Raises
+    ------
+    glmls.files.InputFileError
+        (a ``ValueError``) naming the file, the entry and the fault: a missing file, invalid
+        JSON, an unknown type or field, a position that is not a finite number, an unknown
+        button or modifier, a negative ``frames``.
+
+    See Also
+    --------
+    write_events : writes them back.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from glmls.app import read_events
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "drag.json"
+    >>> _ = path.write_text('{"events": [{"type": "press", "x": 226, "y": 40}, '
+    ...                     '{"type": "key", "key": "e"}, {"type": "wait", "frames": 2}]}')
+    >>> read_events(path)
+    [Press(x=226.0, y=40.0, button='left', mods=frozenset()), Key(key='e'), Wait(frames=2)]
+    >>> _ = path.write_text('[{"type": "press", "x": 1}]')
+    >>> read_events(path)
+    Traceback (most recent call last):
+    ...
+    glmls.errors.InputFileError: ...drag.json: events[0]: missing "y"
+    """
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8-sig")
@@ -218,8 +350,43 @@ def event_entry(event: Event | Wait) -> dict[str, object]:
 
 
 def write_events(path: str | os.PathLike, events: list) -> None:
-    """Write ``events`` as a replay file (``{"events": [...]}``, one entry a line; the whole
-    file or none)."""
+    """Write ``events`` as a replay file (``{"events": [...]}``, one entry a line).
+
+    The file is written whole or not at all (:func:`glmls.files.atomic_write`);
+    :func:`read_events` reads it back as the same events.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The JSON file to write (replaced if it exists).
+    events : list of Press, Move, Release, Scroll, Key or Wait
+        The events, in order.
+
+    Raises
+    ------
+    TypeError
+        For an entry that is not an event.
+    OSError
+        Where the file cannot be written.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from glmls.app import Key, Move, Press, Release, read_events, write_events
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "drag.json"
+    >>> events = [Press(226, 40), Move(250, 52), Release(250, 52), Key("e")]
+    >>> write_events(path, events)
+    >>> print(path.read_text())
+    {"events": [
+      {"type": "press", "x": 226, "y": 40},
+      {"type": "move", "x": 250, "y": 52},
+      {"type": "release", "x": 250, "y": 52},
+      {"type": "key", "key": "e"}
+    ]}
+    <BLANKLINE>
+    >>> read_events(path) == events
+    True
+    """
     lines = ",\n".join("  " + json.dumps(event_entry(e)) for e in events)
     text = '{"events": [\n' + lines + ("\n" if lines else "") + "]}\n"
     with atomic_write(Path(path)) as tmp:
@@ -227,14 +394,49 @@ def write_events(path: str | os.PathLike, events: list) -> None:
 
 
 class Recorder:
-    """The events of a live session, in order, for :func:`write_events` (one event per
-    frame on replay: the session's pace is not kept, its outcome is)."""
+    """The events fed to a window, in order, to be saved as a replay file.
+
+    A window given ``record=`` (``glmls demo --record``) keeps one and saves it when it
+    closes. A replay feeds one event per frame: the session's pace is not kept, its outcome
+    is.
+
+    Attributes
+    ----------
+    events : list of Press, Move, Release, Scroll or Key
+        The events recorded so far.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from glmls.app import Key, Press, Recorder, read_events
+    >>> recorder = Recorder()
+    >>> recorder.record(Press(10, 20))
+    >>> recorder.record(Key("t"))
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "session.json"
+    >>> recorder.save(path)
+    >>> read_events(path)
+    [Press(x=10.0, y=20.0, button='left', mods=frozenset()), Key(key='t')]
+    """
 
     def __init__(self) -> None:
         self.events: list[Event] = []
 
     def record(self, event: Event) -> None:
+        """Add ``event`` to :attr:`events`.
+
+        Parameters
+        ----------
+        event : Press, Move, Release, Scroll or Key
+            The event fed.
+        """
         self.events.append(event)
 
     def save(self, path: str | os.PathLike) -> None:
+        """Write :attr:`events` as a replay file (:func:`write_events`).
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The JSON file to write.
+        """
         write_events(path, self.events)

@@ -59,10 +59,52 @@ def cycle(values: Sequence, value: object, step: int = 1):
 
 @dataclass(frozen=True)
 class Settings:
-    """What the window shows: the MLS configuration, the image construction, and whether
-    the view fits the whole deformed image (``fit``) or shows the input's frame.
-    ``tolerance`` (px): quads (and the mesh and error overlays) on the adaptive mesh instead
-    of the regular one at ``grid``; the other constructions ignore it."""
+    """What the image window shows: the MLS configuration and the image construction.
+
+    A frozen value: the window's keys replace it with a changed copy (:meth:`stepped`,
+    :meth:`next_construction`, :meth:`next_grid`, ...), as ``dataclasses.replace`` does.
+
+    Parameters
+    ----------
+    config : glmls.MLSConfig, optional
+        The transform, the weight and its parameter; ``MLSConfig()`` by default.
+    method : str, default "quads"
+        The image construction, one of :data:`glmls.METHODS` (as :func:`glmls.warp`'s);
+        ``c`` cycles quads (nearest, linear), splat and backward.
+    interpolation : {"nearest", "linear"}, default "nearest"
+        How the input is sampled.
+    grid : int, default 4
+        The mesh step in pixels (quads, splat's triangles and the overlays).
+    border : str, default "constant"
+        What lies beyond the image (:data:`glmls.BORDERS`).
+    fit : bool, default False
+        Whether the view fits the whole deformed image (``o``) or shows the input's frame.
+    tolerance : float, optional
+        Pixels: quads (and the mesh and error overlays) on the adaptive mesh of this
+        tolerance instead of the regular one at ``grid``; the other constructions ignore it.
+
+    Raises
+    ------
+    ValueError
+        For an unknown method, interpolation or border, a grid below 1, a tolerance that is
+        not a positive number, or a construction that refuses the combination.
+    TypeError
+        For a ``config`` that is not an :class:`~glmls.MLSConfig`, or a ``fit`` that is not
+        True or False.
+
+    Examples
+    --------
+    >>> from glmls.app import Settings
+    >>> s = Settings(config=glmls.MLSConfig(weight="gaussian", radius=200.0), grid=8)
+    >>> s.parameter((512, 512)), s.stepped((512, 512), up=True).parameter((512, 512))
+    ('R 200 px', 'R 250 px')
+    >>> s.next_construction().method, s.next_grid(-1).grid, s.warp_options().grid
+    ('quads', 4, 8)
+    >>> Settings(grid=0)
+    Traceback (most recent call last):
+    ...
+    ValueError: grid must be ...
+    """
 
     config: MLSConfig = field(default_factory=MLSConfig)
     method: str = "quads"
@@ -102,16 +144,42 @@ class Settings:
         return WarpOptions(**values)  # type: ignore[arg-type]
 
     def parameter(self, shape: tuple[int, int]) -> str:
-        """The weight's parameter as text, e.g. ``alpha 1.25`` or ``R 362 px``."""
+        """The weight's parameter as text, e.g. ``alpha 1.25`` or ``R 362 px``.
+
+        Parameters
+        ----------
+        shape : tuple of int
+            (H, W) of the image (a default radius is the image's diagonal).
+
+        Returns
+        -------
+        str
+            What the readout shows.
+        """
         config = self.config
         if config.uses_radius:
             return f"R {config.resolve_radius(shape):.0f} px"
         return f"alpha {config.alpha:g}"
 
     def stepped(self, shape: tuple[int, int], up: bool) -> Settings:
-        """The weight's parameter one step up or down: idw alpha by :data:`ALPHA_STEP`
-        within :data:`ALPHA_RANGE`, else the radius times or over :data:`RADIUS_FACTOR`
-        (1 px to 100 image diagonals)."""
+        """The weight's parameter one step up or down (``+`` and ``-``).
+
+        idw's alpha steps by :data:`ALPHA_STEP` within :data:`ALPHA_RANGE`, another weight's
+        radius is multiplied or divided by :data:`RADIUS_FACTOR` (1 px to 100 image
+        diagonals); a value given beyond those bounds is never stepped the wrong way.
+
+        Parameters
+        ----------
+        shape : tuple of int
+            (H, W) of the image (a default radius is the image's diagonal).
+        up : bool
+            Up (``+``) or down (``-``).
+
+        Returns
+        -------
+        Settings
+            The changed copy.
+        """
         config = self.config
         if config.uses_radius:
             radius = float(config.resolve_radius(shape))  # type: ignore[arg-type]
@@ -135,9 +203,21 @@ class Settings:
         return replace(self, tolerance=TOLERANCES[(index + 1) % len(TOLERANCES)])
 
     def next_grid(self, step: int) -> Settings:
-        """``step`` places along :data:`GRIDS` (finer for negative), stopping at the ends;
-        from a grid between them (``--grid 3``) the first step is to the next one that way,
-        and past the coarsest (``--grid 64``) ``G`` keeps it."""
+        """The grid ``step`` places along :data:`GRIDS` (``g`` and ``G``).
+
+        It stops at the ends; from a grid between them (``--grid 3``) the first step is to
+        the next one that way, and past the coarsest (``--grid 64``) ``G`` keeps it.
+
+        Parameters
+        ----------
+        step : int
+            Places to move: negative for finer, positive for coarser.
+
+        Returns
+        -------
+        Settings
+            The changed copy.
+        """
         if self.grid in GRIDS:
             index = GRIDS.index(self.grid) + step
         elif step < 0:

@@ -75,11 +75,46 @@ _ACTIONS = {key: action for keys, action, _ in VOLUME_BINDINGS for key in keys}
 
 @dataclass(frozen=True)
 class VolumeSettings:
-    """What the volume window computes: the MLS configuration, the construction of the
-    deformed slices (``method`` of :data:`glmls.volume.VOLUME_METHODS`, ``interpolation``,
-    trilinear by default, or nearest), its ``grid`` (voxels) and ``border`` (what lies beyond
-    the volume: the default ``edge`` leaves no empty margin where f moves the volume's
-    faces)."""
+    """What the volume window computes: the MLS configuration and the slices' construction.
+
+    A frozen value: the window's keys replace it with a changed copy.
+
+    Parameters
+    ----------
+    config : glmls.MLSConfig, optional
+        The transform, the weight and its parameter; ``MLSConfig(transform="rigid")`` by
+        default.
+    method : {"quads", "backward"}, default "quads"
+        The construction of the deformed slices (:data:`glmls.volume.VOLUME_METHODS`;
+        quads is the cells method).
+    grid : {1, 2, 4, 8, 16}, default 4
+        The lattice step in voxels.
+    border : str, default "edge"
+        What lies beyond the volume (:data:`glmls.BORDERS`): the default ``edge`` leaves no
+        empty margin where f moves the volume's faces.
+    interpolation : {"linear", "nearest"}, default "linear"
+        How the volume is sampled: trilinear, or the nearest voxel.
+
+    Raises
+    ------
+    ValueError
+        For a method, grid, border or interpolation outside those.
+
+    See Also
+    --------
+    VolumeController : what holds it.
+
+    Examples
+    --------
+    >>> from glmls.app import VolumeSettings
+    >>> s = VolumeSettings(config=glmls.MLSConfig(transform="affine"), method="backward")
+    >>> s.grid, s.border, s.interpolation
+    (4, 'edge', 'linear')
+    >>> VolumeSettings(grid=3)
+    Traceback (most recent call last):
+    ...
+    ValueError: grid must be one of (1, 2, 4, 8, 16), got 3
+    """
 
     config: MLSConfig = field(default_factory=lambda: MLSConfig(transform="rigid"))
     method: str = "quads"
@@ -231,8 +266,12 @@ def _handles3(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
 
 
 class VolumeController(Controls):
-    """3D point handles, the slice point, the active view, the overlay and the settings of
-    the volume window, changed by :meth:`feed`.
+    """The volume window's interaction, without a window: events in, state and commands out.
+
+    It holds the 3D point handles, the slice point, the active view, the overlay and the
+    :class:`VolumeSettings` of the volume window, and :meth:`feed` changes them; events
+    carry montage pixels (:class:`~glmls.app.volume_controller.SliceGrid`). What only a
+    window can do (save or load files, quit) comes back as commands.
 
     ``revision`` grows whenever the handles or the settings change, ``point_revision`` when
     the slice point moves. A left press on a handle's target (within ``pick_radius`` montage
@@ -259,10 +298,35 @@ class VolumeController(Controls):
     pick_radius : float, default 3
         Montage pixels (the window sets it from 10 screen pixels).
 
+    Attributes
+    ----------
+    src, dst : numpy.ndarray
+        The handles (N, 3), replaced (never changed in place) by each edit.
+    point : tuple of int
+        The slice point (x, y, z) in voxels; the three views' planes pass through it.
+    active : int
+        The active view: 0 axial, 1 coronal, 2 sagittal.
+    overlay : str
+        ``none``, ``error`` or ``folds``.
+    settings : VolumeSettings
+        What is computed now.
+    grid : glmls.app.volume_controller.SliceGrid
+        Where the views lie on the montage.
+
+    Raises
+    ------
+    ValueError
+        For ``src`` and ``dst`` that are not (N, 3) alike.
+
+    See Also
+    --------
+    VolumeApp : the window around it.
+    Controller : the image window's.
+
     Examples
     --------
     >>> import numpy as np
-    >>> from glmls.app.events import Key, Move, Press, Release
+    >>> from glmls.app import Key, Move, Press, Release, VolumeController
     >>> src = np.array([[2.0, 2, 5], [8, 8, 5]])
     >>> c = VolumeController(src, src, (10, 12, 12))
     >>> for event in (Press(2, 2), Move(4, 3), Release(4, 3)):  # drag q_0 in the axial view
@@ -322,11 +386,23 @@ class VolumeController(Controls):
 
     @property
     def undo_depth(self) -> int:
+        """How many handle edits ``u`` can undo."""
         return len(self._undo)
 
     def near_plane(self, view: int) -> np.ndarray:
         """Indices of the handles whose source or target lies within :attr:`near` voxels of
-        ``view``'s plane."""
+        ``view``'s plane.
+
+        Parameters
+        ----------
+        view : int
+            0 axial, 1 coronal, 2 sagittal.
+
+        Returns
+        -------
+        numpy.ndarray
+            The indices, ascending.
+        """
         normal = AXES[view][2]
         at, step = self.point[normal], self.grid.scale[normal]
         close = (np.abs(self.src[:, normal] / step - at) <= self.near) | (
@@ -335,8 +411,15 @@ class VolumeController(Controls):
         return np.nonzero(close)[0]
 
     def set_handles(self, src: object, dst: object) -> None:
-        """Replace every handle (undoable), e.g. loaded from a file; a drag under way ends
-        first, as its own edit (its index may not survive the change)."""
+        """Replace every handle (undoable), e.g. loaded from a file.
+
+        A drag under way ends first, as its own edit (its index may not survive the change).
+
+        Parameters
+        ----------
+        src, dst : array_like
+            The handles (N, 3) (x, y, z) in handle units.
+        """
         p, q = _handles3(src, dst)
         self._release()
         self._remember()

@@ -29,7 +29,13 @@ __all__ = ["NoDisplayError", "VolumeApp"]
 
 
 class VolumeApp(WindowLoop):
-    """The volume window: a volume, its 3D handles and a :class:`VolumeController`.
+    """The volume window (``glmls demo VOLUME``): a volume, its 3D handles and a controller.
+
+    Three orthogonal slices through the slice point are deformed live by a 3D MLS as the
+    handles are dragged within their planes; :doc:`/window` lists the mouse actions and the
+    keys. Constructing it opens nothing: :meth:`run` opens the window (it needs a display: a
+    desktop, or Xvfb with ``xvfb-run``) and returns when it closes, or after ``frames``
+    frames. Its :class:`VolumeController` takes the events.
 
     Parameters
     ----------
@@ -62,6 +68,40 @@ class VolumeApp(WindowLoop):
         (width, height) of the window.
     record : str or os.PathLike, optional
         Write every event fed there as a replay file when the window closes.
+
+    Attributes
+    ----------
+    controller : VolumeController
+        The handles, the settings, the slice point and the view's state; :meth:`feed`
+        changes it.
+    frames : int
+        Frames drawn so far.
+
+    Raises
+    ------
+    ValueError
+        For handles that are not (N, 3) alike, or an unknown ``save_as``.
+
+    See Also
+    --------
+    App : the image window.
+
+    Examples
+    --------
+    Construction opens nothing, and the controller takes events at once:
+
+    >>> from glmls.app import Key, VolumeApp, VolumeSettings
+    >>> volume = glmls.data.phantom()
+    >>> src, dst = glmls.data.phantom_handles()
+    >>> app = VolumeApp(volume, src, dst, settings=VolumeSettings(method="backward"))
+    >>> app.feed(Key("Up"))
+    >>> app.controller.point
+    (32, 32, 33)
+
+    Running the window needs a display (so these lines are not run here):
+
+    >>> app.run(events=[Key("e")], frames=3, screenshot="volume.png")  # doctest: +SKIP
+    >>> app.run()  # until the window is closed  # doctest: +SKIP
     """
 
     def __init__(

@@ -30,13 +30,76 @@ __all__ = ["PANEL_CHARS", "TEXT_SIZE", "App", "NoDisplayError", "display_image"]
 
 
 class App(WindowLoop):
-    """The window: one image, its handles and reference points, and a :class:`Controller`.
+    """The real-time window (``glmls demo``): one image, its handles and a :class:`Controller`.
 
-    ``out_dir``: where ``s``/``j``/``S`` save; ``handles_path``: the file ``l`` loads (else
-    the last one saved), ``targets_path`` its targets' file where it is an elastix pair;
-    ``src_segments``/``dst_segments``: segment handles (S, 2, 2); ``record``: write every
-    event fed (mouse, keys, replayed ones) there as a replay file when the window closes.
-    Open with :meth:`run`.
+    The image is deformed live as the handles are dragged, with the same pipeline as
+    headless use; :doc:`/window` lists the mouse actions and the keys. Constructing it opens
+    nothing: :meth:`run` opens the window (it needs a display: a desktop, or Xvfb with
+    ``xvfb-run``) and returns when it closes, or after ``frames`` frames.
+
+    Parameters
+    ----------
+    image : numpy.ndarray
+        (H, W) or (H, W, C), of any dtype :func:`glmls.warp` takes; shown as 8-bit RGB.
+    src, dst : array_like
+        The point handles p and q, (N, 2) (x, y) in image pixels.
+    reference : array_like, optional
+        Reference points (M, 2), whose angle errors the window reports.
+    src_segments, dst_segments : array_like, optional
+        Segment handles (S, 2, 2).
+    settings : Settings, optional
+        The MLS configuration and the image construction at first; ``Settings()`` by
+        default.
+    name : str, default "image"
+        The image's name: the title and the saved files' names (``NAME-warped.png``).
+    out_dir : str or os.PathLike, default "."
+        Where ``s``, ``j`` and ``S`` save.
+    handles_path : str or os.PathLike, optional
+        The file ``l`` loads (else the last one saved).
+    targets_path : str or os.PathLike, optional
+        The targets' file where ``handles_path`` is an elastix pair's sources'.
+    window_size : tuple of int, optional
+        (width, height) of the window in screen units; by default the image fits in about
+        1000 x 760 beside the text panel.
+    record : str or os.PathLike, optional
+        Write every event fed (mouse, keys, replayed ones) there as a replay file
+        (:func:`write_events`) when the window closes.
+
+    Attributes
+    ----------
+    controller : Controller
+        The handles, the settings and the view's state; :meth:`feed` changes it.
+    frames : int
+        Frames drawn so far.
+
+    Raises
+    ------
+    ValueError
+        For handles of the wrong shape or not finite.
+
+    See Also
+    --------
+    VolumeApp : the volume window.
+
+    Examples
+    --------
+    Construction opens nothing, and the controller takes events at once:
+
+    >>> from glmls.app import App, Key, Settings
+    >>> image = glmls.data.astronaut()
+    >>> src, dst = glmls.data.astronaut_handles()
+    >>> settings = Settings(config=glmls.MLSConfig(weight="gaussian", radius=200.0), grid=8)
+    >>> app = App(image, src, dst, settings=settings, name="astronaut")
+    >>> app.feed(Key("t"))
+    >>> app.controller.settings.config.transform
+    'similarity'
+
+    Running the window needs a display (so these lines are not run here); with ``frames``
+    it draws that many frames, feeding the ``events`` one per frame, saves the last one as
+    ``screenshot`` and closes:
+
+    >>> app.run(events=[Key("e")], frames=5, screenshot="window.png")  # doctest: +SKIP
+    >>> app.run()  # until the window is closed  # doctest: +SKIP
     """
 
     def __init__(

@@ -101,7 +101,16 @@ class WindowLoop:
     # -- events and commands ----------------------------------------------------------------
 
     def feed(self, event: Event) -> None:
-        """One event through the controller, then the commands it returned."""
+        """One event through the controller, then the commands it returned.
+
+        With the window open the commands save or load files; a recording window keeps the
+        event.
+
+        Parameters
+        ----------
+        event : Press, Move, Release, Scroll or Key
+            The event, at image pixels (montage pixels in the volume window).
+        """
         if self.recorder is not None:
             self.recorder.record(event)
         c = self.controller
@@ -123,7 +132,13 @@ class WindowLoop:
             self._command(command)
 
     def say(self, text: str) -> None:
-        """Show ``text`` in the readout for a few seconds."""
+        """Show ``text`` in the readout for a few seconds.
+
+        Parameters
+        ----------
+        text : str
+            The message.
+        """
         self._messages.append((time.perf_counter(), text))
         del self._messages[:-4]
 
@@ -186,8 +201,25 @@ class WindowLoop:
     ) -> None:
         """Open the window and run until closed, or for ``frames`` frames when given.
 
-        ``events`` (replay) are fed one per frame before it is drawn (``Wait(n)`` skips n
-        frames); ``screenshot`` saves the last frame drawn. Raises :class:`NoDisplayError`.
+        The window closes (and a recording is saved) however the run ends.
+
+        Parameters
+        ----------
+        events : sequence of events, optional
+            A replay: fed one per frame before it is drawn (``Wait(n)`` skips n frames).
+        frames : int, optional
+            Draw this many frames and close; by default run until the window is closed
+            (``q``, ``Escape`` or the window's close button).
+        screenshot : str or os.PathLike, optional
+            Save the last frame drawn there (with ``frames``).
+        on_frame : callable, optional
+            Called with the window after each frame.
+
+        Raises
+        ------
+        glmls.app.glfw_window.NoDisplayError
+            (a ``RuntimeError``) where no window can be opened: no display, no glfw, or no
+            OpenGL 4.3 core context on it.
         """
         scripted = frames is not None
         self._open(vsync=not scripted)

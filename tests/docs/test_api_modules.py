@@ -82,6 +82,7 @@ def test_every_public_name_is_in_the_reference():
     pages, _ = documented_modules()
     names, objects = documented_objects()
     assert "glmls.files.read_handle_set" in names and "glmls.volume.VOLUME_METHODS" in names
+    assert "glmls.app" in pages and "glmls.app.VolumeApp" in names
     missing = []
     for package in pages:
         module = importlib.import_module(package)

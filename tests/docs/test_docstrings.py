@@ -2,8 +2,8 @@
 
 The public names are the functions and classes (exceptions and warnings included) in the
 ``__all__`` of :mod:`glmls`, :mod:`glmls.analysis`, :mod:`glmls.augment`, :mod:`glmls.files`,
-:mod:`glmls.gl`, :mod:`glmls.reference`, :mod:`glmls.data`, :mod:`glmls.mls3` and
-:mod:`glmls.volume`. Each docstring parses as numpydoc and passes
+:mod:`glmls.gl`, :mod:`glmls.reference`, :mod:`glmls.data`, :mod:`glmls.mls3`,
+:mod:`glmls.volume` and :mod:`glmls.app`. Each docstring parses as numpydoc and passes
 :data:`CHECKS` of ``numpydoc.validate``; its Examples (and those of the class's methods) run
 as doctests with ``np`` and ``glmls`` imported, on glmls's shared headless context.
 """
@@ -20,6 +20,7 @@ from numpydoc.docscrape import ClassDoc, FunctionDoc
 from numpydoc.validate import validate
 
 import glmls
+import glmls.app
 import glmls.files
 import glmls.volume
 
@@ -33,6 +34,7 @@ MODULES = [
     glmls.data,
     glmls.mls3,
     glmls.volume,
+    glmls.app,
 ]
 
 #: The numpydoc.validate checks every public function passes: a docstring (GL08) with a
