@@ -166,3 +166,20 @@ def test_fuzz_every_transform_and_weight_stays_finite(roomy):
                 assert np.isfinite(m.error_field((16, 16), grid=4)).all(), (kind, options)
         tried += 1
     assert tried > 2000
+
+
+@pytest.mark.parametrize("dimension", [2, 3])
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_an_interpolating_gaussian_of_a_small_radius_stays_finite(gl, transform, dimension):
+    """The gaussian made interpolating, alpha 5, R well below the handles' spacing: the
+    nearest handle's weight is the gaussian's cap (e^60) times its bounded power, within
+    float32 (it overflowed to inf: NaN f next to a handle and far from every one)."""
+    rng = np.random.default_rng(0)
+    p = rng.uniform(0, 500, (4, dimension))
+    q = p + rng.normal(0, 5, p.shape)
+    v = np.concatenate([rng.uniform(-100, 600, (30, dimension)), p + 1e-3, p + 0.3])
+    options = {"weight": "gaussian", "radius": 0.05, "alpha": 5.0, "s": 1.0, "interpolating": True}
+    with glmls.MLS(p, q, transform=transform, shape=(512,) * dimension, ctx=gl, **options) as m:
+        f = m(v)
+        big_m, t = m.matrices(v)
+    assert np.isfinite(f).all() and np.isfinite(big_m).all() and np.isfinite(t).all()

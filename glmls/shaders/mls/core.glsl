@@ -158,7 +158,8 @@ struct MLSAccum {
     MLSYardstick yard;   // for "coincident" sources (mls/weighting.glsl)
 #if MLS_WEIGHT_NEXT
     float near2;    // the least squared distance a weight sees, where (d2 / m)^alpha is
-                    // 2^-50: the nearest's weight at most 2^100 (idw interpolating), no 1 / 0
+                    // 2^-MLS_NEAR_BITS: the nearest's weight at most 2^100 (idw
+                    // interpolating), e^60 2^30 (gaussian interpolating), no 1 / 0
 #endif
 };
 
@@ -189,7 +190,7 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
         a.inv_m = 1.0 / a.m;
         a.sigma = mls_sigma(a.m);
     }
-    a.near2 = a.m * exp2(-50.0 / u_alpha);
+    a.near2 = a.m * exp2(-MLS_NEAR_BITS / u_alpha);
 #endif
 #if MLS_REACH_GAUSSIAN && MLS_SEGMENTS
     // relative to the nearest handles apart where the nearest is a point handle (whose own

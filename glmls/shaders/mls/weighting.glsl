@@ -14,6 +14,13 @@
 #endif
 // the least squared distance above the nearest's is tracked (mls_track_next)
 #define MLS_TRACK_NEXT (MLS_REACH_GAUSSIAN || MLS_WEIGHT_NEXT)
+// With MLS_WEIGHT_NEXT, the nearest's power (d2 / m)^-alpha is bounded at 2^MLS_NEAR_BITS:
+// times the gaussian's cap (e^60, ~2^87) it stays within float32's 2^128 with room for sums
+#if MLS_REACH_GAUSSIAN
+#define MLS_NEAR_BITS 30.0
+#else
+#define MLS_NEAR_BITS 50.0
+#endif
 
 uniform float u_alpha;      // idw / interpolating power
 #ifndef MLS_BATCH

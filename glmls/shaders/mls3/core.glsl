@@ -117,7 +117,7 @@ MLS3Accum mls3_begin(vec3 v, float d2min, float d2next, int nearest, int n) {
         float next = max(a.m, d2next);
         a.inv_m = 1.0 / next;
         a.sigma = mls_sigma(next);
-        a.near2 = next * exp2(-50.0 / u_alpha);
+        a.near2 = next * exp2(-MLS_NEAR_BITS / u_alpha);
     }
 #endif
 #if MLS_REACH_GAUSSIAN
