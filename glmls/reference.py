@@ -79,6 +79,7 @@ from .core.handles3 import (
 from .core.handleset import HandleSet
 from .core.mesh import as_shape
 from .core.segments import REFERENCE_NODES, REFERENCE_PANELS, segment_config, sinh_nodes
+from .core.weights import nearest_apart
 
 __all__ = [
     "DEGENERATE_SHARE",
@@ -305,11 +306,8 @@ def segment_moments(
                 # gaussian: weights below e^-40 of the nearest handles' apart from the
                 # nearest one's place add nothing (in the far tail those decide M however
                 # small against the nearest: relative to it, a segment that counted was cut)
-                every = np.concatenate([geometry["dist2"], d2_points], axis=1)
-                low = every.min(axis=1, keepdims=True, initial=np.inf)
-                above = np.where(every > low, every, np.inf).min(axis=1, initial=np.inf)
-                offset = np.where(np.isfinite(above), above, low[:, 0])
-                reach2 = offset[:, None] + 40.0 * r2 - h2
+                offset = nearest_apart(np.concatenate([geometry["dist2"], d2_points], axis=1))
+                reach2 = offset + 40.0 * r2 - h2
             reach = np.sqrt(np.maximum(reach2, 0.0))
         x0, x1 = np.clip(x0, -reach, reach), np.clip(x1, -reach, reach)
         width = np.minimum(width, radius)  # type: ignore[call-overload]

@@ -100,6 +100,15 @@ def gaussian_cut(count: int) -> float:
     return math.log(max(count, 1) / GAUSSIAN_TOLERANCE)
 
 
+def nearest_apart(d2: np.ndarray) -> np.ndarray:
+    """(K, 1): per row of squared distances ``d2`` (K, N), the least above the row's least
+    (the nearest handles apart from the nearest one's place), or the least where none is
+    above it: the gaussian's offset (:func:`gaussian_excess`)."""
+    low = d2.min(axis=1, keepdims=True, initial=np.inf)
+    above = np.where(d2 > low, d2, np.inf).min(axis=1, keepdims=True, initial=np.inf)
+    return np.where(np.isfinite(above), above, low)
+
+
 def gaussian_excess(d2: np.ndarray, radius: float) -> np.ndarray:
     """(d^2 - g) / R^2 for squared distances ``d2`` (K, N), g per row the least squared
     distance above the row's least (the nearest handles apart from the nearest one's place;
@@ -110,9 +119,7 @@ def gaussian_excess(d2: np.ndarray, radius: float) -> np.ndarray:
     and relative to the nearest their weights would underflow (float32 from ~e^-87, float64
     from ~e^-745); the cap bounds the nearer handles' weights (e^60: their share of the
     others' moments there is far below float64's precision). Finite for any R."""
-    low = d2.min(axis=1, keepdims=True, initial=np.inf)
-    above = np.where(d2 > low, d2, np.inf).min(axis=1, keepdims=True, initial=np.inf)
-    offset = np.where(np.isfinite(above), above, low)
+    offset = nearest_apart(d2)
     with np.errstate(invalid="ignore"):
         shifted = np.where(d2 > offset, d2 - offset, 0.0)
         nearer = np.where(d2 < offset, offset - d2, 0.0)
