@@ -278,11 +278,8 @@ def _run_on(client, function, items: list, finished) -> None:
             finished(index, future.result())
             submit()
     except BaseException:
-        futures = [future for _, future in running.values()]
+        futures = {future: index for index, future in running.values()}
         with contextlib.suppress(Exception):
-            distributed_wait(futures)
-        for index, future in running.values():
-            if future.status == "finished":
-                with contextlib.suppress(Exception):
-                    finished(index, future.result())
+            distributed_wait(list(futures))
+        _report_the_rest(futures, finished)
         raise
