@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core.handles import as_points
 from ..imaging.source import BORDERS, check_image
+from .field import image_deformation
 from .stats import error_stats
 
 __all__ = [
@@ -394,7 +395,9 @@ def construction_errors(
     k = int(radius)
     n = len(r)
     if n:
-        f, linear = local_maps(m, r, alignment=alignment)
+        # f as m.warp(image) evaluates it: a radius weight's default radius is the image's
+        with image_deformation(m, source.shape[:2]) as warp:
+            f, linear = local_maps(warp, r, alignment=alignment)
         values, centres = _window_errors(source, result, r, f, linear, k, border, canvas, snap)
         values /= scale
     else:

@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import contextlib
+import dataclasses
+from collections.abc import Iterator, Sequence
 from typing import Protocol
 
 import numpy as np
 
-__all__ = ["check_deformation", "error_field"]
+from ..core.config import MLSConfig
+from ..core.mesh import as_shape
+from ..gl.context import forked_from_gl
+from ..mls import MLS
+
+__all__ = ["check_deformation", "error_field", "image_deformation"]
 
 
 class HasErrorField(Protocol):
@@ -81,3 +88,31 @@ def error_field(
     """
     check_deformation(m, "error_field")
     return m.error_field(shape, grid=grid, tolerance=tolerance)
+
+
+@contextlib.contextmanager
+def image_deformation(m: object, shape: Sequence[int]) -> Iterator[object]:
+    """``m`` as its warp of an image of ``shape`` (H, W) evaluates f at points: a radius
+    weight given no radius takes that image's diagonal (as ``m.warp(image)``,
+    ``m.error_field(shape)`` and ``m.mesh(shape)`` do), whatever ``shape`` the
+    :class:`glmls.MLS` was made with (or none). A new MLS of that radius for the duration of
+    the block, released after it; ``m`` itself where that changes nothing (another weight,
+    an explicit radius, the image ``m`` was made for) or where ``m`` is not a 2D
+    :class:`glmls.MLS`."""
+    config = getattr(m, "config", None)
+    size = as_shape(shape)
+    if (
+        not isinstance(m, MLS)
+        or not isinstance(config, MLSConfig)
+        or not config.uses_radius
+        or config.radius is not None
+        or m.dimension != 2
+        or m.shape == size
+    ):
+        yield m
+        return
+    fixed = dataclasses.replace(config, radius=config.resolve_radius(size))
+    ctx = None if forked_from_gl() else m.ctx
+    segments = {"src_segments": m.src_segments, "dst_segments": m.dst_segments}
+    with MLS.from_config(m.src, m.dst, fixed, shape=size, ctx=ctx, **segments) as warped:
+        yield warped

@@ -24,7 +24,7 @@ from .construction import (
     check_radius,
     construction_errors,
 )
-from .field import check_deformation
+from .field import check_deformation, image_deformation
 from .folding import foldovers
 from .pictures import (
     render_construction_errors,
@@ -307,7 +307,9 @@ def report(
     clock.end("error_field")
 
     clock.begin("triangles")
-    triangles = triangle_errors(m, reference_points, angle=angle, eps=eps)
+    # f at points as the warp of this image evaluates it (a radius weight's default radius)
+    with image_deformation(m, shape) as f:
+        triangles = triangle_errors(f, reference_points, angle=angle, eps=eps)
     clock.end("triangle_errors")
 
     clock.begin("warp")

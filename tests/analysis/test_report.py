@@ -171,3 +171,22 @@ def test_report_refuses_a_bad_border_before_any_work(gl):
     with glmls.MLS(SRC, DST, ctx=gl) as m:
         with pytest.raises(ValueError, match="unknown border 'clamp'; choose one of constant"):
             glmls.analysis.report(np.zeros((20, 20), np.uint8), m, REFERENCE, border="clamp")
+
+
+@pytest.mark.parametrize("made_for", [(24, 30), None])
+def test_points_measured_with_the_radius_of_the_analysed_image(gl, rng, made_for):
+    # a radius weight given no radius warps an image with that image's diagonal: the
+    # triangles and the construction errors measure that f, not the one of the MLS's shape
+    shape = (48, 60)
+    image = rng.integers(0, 256, (*shape, 3), dtype=np.uint8)
+    options = {"transform": "similarity", "weight": "gaussian"}
+    points = np.array(REFERENCE)
+    with glmls.MLS(SRC, DST, shape=made_for, ctx=gl, **options) as m:
+        result = glmls.analysis.report(image, m, points, mesh_grid=8)
+        built = glmls.analysis.construction_errors(image, m.warp(image), m, points)
+    warped, _, _ = reference.mls(SRC, DST, points, shape=shape, **options)
+    radius = result.summary["configuration"]["radius_used"]
+    assert radius == pytest.approx(np.hypot(*shape))
+    np.testing.assert_allclose(result.triangles.deformed_points, warped, rtol=0, atol=1e-3)
+    np.testing.assert_allclose(result.construction.deformed_points, warped, rtol=0, atol=1e-3)
+    np.testing.assert_allclose(built.deformed_points, warped, rtol=0, atol=1e-3)
