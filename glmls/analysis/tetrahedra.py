@@ -219,7 +219,11 @@ def delaunay3(points: object) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(f"reference_points[{twice}] repeats the point {r[twice].tolist()}")
     singular = np.linalg.svd(r - r.mean(axis=0), compute_uv=False)
     if singular[2] <= 1e-10 * singular[0]:
-        raise ValueError("reference_points all lie on one plane: no tetrahedron can be formed")
+        raise ValueError(
+            "reference_points all lie on one plane, to within 1e-10 of their extent (the "
+            "singular values of the centred points are "
+            f"{', '.join(f'{v:.3g}' for v in singular)}): no tetrahedron can be formed"
+        )
     return r, qhull_simplices(r, "tetrahedra")
 
 

@@ -85,7 +85,11 @@ def check_reference_points(points: object) -> np.ndarray:
     centred = r - r.mean(axis=0)
     singular = np.linalg.svd(centred, compute_uv=False)
     if singular[1] <= 1e-10 * singular[0]:
-        raise ValueError("reference_points all lie on one line: no triangle can be formed")
+        raise ValueError(
+            "reference_points all lie on one line, to within 1e-10 of their extent (the "
+            f"singular values of the centred points are {singular[0]:.3g} and "
+            f"{singular[1]:.3g}): no triangle can be formed"
+        )
     return r
 
 

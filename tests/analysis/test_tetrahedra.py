@@ -167,6 +167,7 @@ def test_delaunay_slivers_of_random_points_are_below_the_threshold():
     [
         (CORNER[:3], {}, "at least 4"),
         ([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], {}, "one plane"),
+        ([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1e300, 0, 0]], {}, r"within 1e-10 .*, 0\."),
         ([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 0, 0]], {}, r"\[4\] repeats"),
         ([[0, 0], [1, 0], [0, 1], [1, 1]], {}, r"\(N, 3\)"),
         (CORNER, {"tetrahedra": [[0, 1, 2, 4]]}, "index the 4"),

@@ -108,6 +108,8 @@ def test_collapsed_edge_gives_nan_angle(rng):
     [
         ([[0.0, 0.0], [1.0, 1.0]], "at least 3"),
         ([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0], [5.0, 5.0]], "one line"),
+        # not on one line, but within float64's reach of one: the message says how close
+        ([[1.0, 1.0], [3.0, 7.0], [9.0, 2.0], [1e300, 2.0]], r"one line, to within 1e-10 .* 4\.55"),
         ([[0.0, 0.0], [1.0, 0.0], [np.nan, 1.0]], "finite"),
         ([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 0.0]], r"\[1\] and reference_points\[3\]"),
         ([[100.0, 100.0], [200.0, 100.0], [100.0, 200.0], [100.0 + 1e-12, 100.0]], "coincide"),
