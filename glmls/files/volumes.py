@@ -72,7 +72,16 @@ VOLUME_SUFFIXES = (".nii", ".nii.gz", ".tif", ".tiff", ".npy")
 _IMAGEJ_DTYPES = ("uint8", "uint16", "int16", "float32")
 #: dtypes NIfTI lacks, written as the nearest it has: masks as uint8, half floats as float32.
 _NIFTI_AS = {"bool": np.uint8, "float16": np.float32}
-_CORRUPT = (OSError, EOFError, ValueError, KeyError, IndexError, struct.error, zlib.error)
+_CORRUPT = (
+    OSError,
+    EOFError,
+    ValueError,
+    KeyError,
+    IndexError,
+    OverflowError,
+    struct.error,
+    zlib.error,
+)
 
 
 def flat_npy(path: str | os.PathLike) -> str | None:
@@ -479,7 +488,9 @@ def read_volume(path: str | os.PathLike) -> Volume:
     except (tifffile.TiffFileError, ImportError, TypeError, *_CORRUPT) as error:
         if isinstance(error, (TypeError, ValueError)) and str(error).startswith("a volume "):
             raise InputFileError(f"{path}: {error}") from None
-        raise InputFileError(f"{path}: not a readable {suffix} volume: {error}") from None
+        raise InputFileError(
+            f"{path}: not a readable {suffix} volume: {_one_line(error)}"
+        ) from None
     return volume
 
 
@@ -491,13 +502,23 @@ def _nibabel():
 
 def _read_nifti(path: Path) -> Volume:
     nib = _nibabel()
+    refused = (
+        nib.filebasedimages.ImageFileError,
+        nib.spatialimages.HeaderDataError,
+        nib.spatialimages.HeaderTypeError,
+    )
     try:
-        image = nib.load(path)
-    except nib.filebasedimages.ImageFileError as error:
-        raise InputFileError(f"{path}: not a NIfTI file: {error}") from None
+        with nib.imageglobals.LoggingOutputSuppressor():  # its repairs, logged to stderr
+            image = nib.load(path)
+    except refused as error:  # no NIfTI, or a header of a dimension or dtype NIfTI has not
+        raise InputFileError(f"{path}: not a NIfTI file: {_one_line(error)}") from None
     if not isinstance(image, nib.Nifti1Image | nib.Nifti2Image):
         raise InputFileError(f"{path}: not a NIfTI image ({type(image).__name__})")
-    data = np.asanyarray(image.dataobj)
+    _check_nifti_size(path, image.dataobj)
+    try:
+        data = np.asanyarray(image.dataobj)
+    except MemoryError:
+        raise InputFileError(f"{path}: too large to read into memory") from None
     header = image.header
     time = data.ndim == 4 and not data.dtype.names  # (x, y, z, T): NIfTI's 4th is time
     if data.dtype.names:  # RGB24/RGBA32: a record per voxel
@@ -521,6 +542,37 @@ def _read_nifti(path: Path) -> Volume:
         time_step=(step if np.isfinite(step) else 0.0) if time else None,
     )
     return Volume(volume, spacing=_affine_spacing(affine), affine=affine, nifti=fields)
+
+
+#: The most bytes a gzip file's one byte of deflate data expands to (deflate's limit, 1032:1).
+_DEFLATE_RATIO = 1032
+
+
+def _one_line(error: BaseException) -> str:
+    """An error's message on one line (nibabel's may hold line breaks)."""
+    return " ".join(str(error).split())
+
+
+def _check_nifti_size(path: Path, proxy: object) -> None:
+    """``InputFileError`` where the header's data (its shape, dtype and offset) cannot be in
+    the file: a negative size, more bytes than a ``.nii`` holds after the offset, or than a
+    ``.nii.gz`` of its size could expand to; before any of it is read or allocated."""
+    shape = tuple(int(n) for n in proxy.shape)
+    if any(n < 0 for n in shape):
+        raise InputFileError(f"{path}: not a readable NIfTI file: its header's shape {shape}")
+    needed = int(np.prod(shape, dtype=object)) * proxy.dtype.itemsize + int(proxy.offset)
+    size = path.stat().st_size
+    compressed = volume_suffix(path) == ".nii.gz"
+    if needed > (size * _DEFLATE_RATIO if compressed else size):
+        holds = (
+            f"a gzip file of {size} bytes holds at most {size * _DEFLATE_RATIO}"
+            if (compressed)
+            else f"the file has {size}"
+        )
+        raise InputFileError(
+            f"{path}: not a readable NIfTI file: its header's {shape} voxels of "
+            f"{proxy.dtype} need {needed} bytes, {holds} (truncated, or a damaged header)"
+        )
 
 
 def _read_tiff(path: Path) -> Volume:
