@@ -587,7 +587,7 @@ def _read_tiff(path: Path) -> Volume:
         data, axes = series.asarray(), series.axes
         spacing = _tiff_spacing(tiff) or _ome_spacing(tiff)
     _check_axes(path, axes, data.shape)
-    if data.ndim == 4 and axes[1] == "C":  # an ImageJ hyperstack: (Z, C, Y, X)
+    if data.ndim == 4 and axes[1] in "CS":  # an ImageJ hyperstack (Z, C, Y, X), or planes
         data = np.moveaxis(data, 1, -1)
     elif data.ndim == 4 and axes[-1] not in "SC":
         raise InputFileError(f"{path}: a TIFF of axes {axes} {data.shape}: expected a stack")
@@ -692,7 +692,9 @@ def write_volume(
     Parameters
     ----------
     path : str or os.PathLike
-        ``.nii``, ``.nii.gz``, ``.tif``/``.tiff`` (a stack of D pages) or ``.npy``.
+        ``.nii``, ``.nii.gz``, ``.tif``/``.tiff`` (a stack of D pages; a volume of one
+        channel, (D, H, W, 1), is written as the stack (D, H, W) and reads back so) or
+        ``.npy``.
     volume : Volume or array_like
         (D, H, W) or (D, H, W, C); a :class:`Volume` brings its spacing and affine.
     affine : array_like, optional
@@ -780,8 +782,11 @@ def write_volume(
 def _write_tiff(path: Path, volume: Volume) -> None:
     """An ImageJ stack for ImageJ's dtypes (Fiji opens it with its calibration): one channel
     (Z, Y, X), 3 channels of uint8 an RGB stack, other channels a hyperstack (Z, C, Y, X);
-    other dtypes a plain TIFF of D pages, channels as samples."""
+    other dtypes a plain TIFF of D pages, channels as samples (bool's as planes: tifffile
+    reads 1-bit samples side by side wrongly); one channel (D, H, W, 1) a stack (D, H, W)."""
     data = np.ascontiguousarray(volume.data)
+    if data.ndim == 4 and data.shape[3] == 1:  # as a stack: the hyperstack needs C > 1
+        data = data[..., 0]
     channels = 1 if data.ndim == 3 else data.shape[3]
     options: dict = {}
     if data.dtype.name in _IMAGEJ_DTYPES:
@@ -797,6 +802,9 @@ def _write_tiff(path: Path, volume: Volume) -> None:
             options["resolution"] = (1 / dx, 1 / dy)
             metadata["spacing"] = dz
         options.update(imagej=True, metadata=metadata)
+    elif channels > 1 and data.dtype == np.bool_:
+        data = np.ascontiguousarray(np.moveaxis(data, 3, 1))  # (Z, S, Y, X): planes
+        options.update(photometric="minisblack", planarconfig="separate")
     elif channels > 1:
         options["photometric"] = "rgb" if channels in (3, 4) else "minisblack"
         options["planarconfig"] = "contig"
