@@ -163,12 +163,18 @@ class NiftiHeader:
         (i, j, k, T)): the time between two of them (``pixdim[4]``, in the time unit); the
         volume is written back so. None where the channels are a vector (5th) dimension or
         RGB, or there are none.
+    qform : tuple or None, default None
+        The file's qform, a 4 x 4 matrix as a tuple of 4 rows, where the file has both a
+        qform and an sform (codes > 0) and they differ (the sform, the volume's affine, maps
+        to another world, an atlas's, than the qform's scanner): written back as the
+        qform, beside the affine as the sform. None where the affine is both.
 
     Raises
     ------
     ValueError
         For a code outside 0..32767, a units byte outside 0..255, a description longer than
-        80 characters or not Latin-1, or a time step that is not finite.
+        80 characters or not Latin-1, a time step that is not finite, or a qform that is not
+        a finite 4 x 4 matrix.
     TypeError
         For a code or units value that is not an integer.
 
@@ -190,6 +196,7 @@ class NiftiHeader:
     xyzt_units: int = 0
     descrip: str = ""
     time_step: float | None = None
+    qform: tuple | None = None
 
     def __post_init__(self) -> None:
         for name, top in (("sform_code", 32767), ("qform_code", 32767), ("xyzt_units", 255)):
@@ -209,6 +216,11 @@ class NiftiHeader:
             if not np.isfinite(float(self.time_step)):
                 raise ValueError(f"time_step must be finite, got {self.time_step}")
             object.__setattr__(self, "time_step", float(self.time_step))
+        if self.qform is not None:
+            matrix = np.asarray(self.qform, dtype=np.float64)
+            if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
+                raise ValueError(f"qform must be a finite 4 x 4 matrix, got {matrix.shape}")
+            object.__setattr__(self, "qform", tuple(tuple(row) for row in matrix.tolist()))
 
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
@@ -540,6 +552,7 @@ def _read_nifti(path: Path) -> Volume:
         xyzt_units=int(header["xyzt_units"]),
         descrip=bytes(header["descrip"]).split(b"\0", 1)[0].decode("latin-1"),
         time_step=(step if np.isfinite(step) else 0.0) if time else None,
+        qform=_own_qform(header, affine),
     )
     return Volume(volume, spacing=_affine_spacing(affine), affine=affine, nifti=fields)
 
@@ -573,6 +586,18 @@ def _check_nifti_size(path: Path, proxy: object) -> None:
             f"{path}: not a readable NIfTI file: its header's {shape} voxels of "
             f"{proxy.dtype} need {needed} bytes, {holds} (truncated, or a damaged header)"
         )
+
+
+def _own_qform(header: object, affine: np.ndarray) -> tuple | None:
+    """The header's qform where it has both a qform and an sform and they differ (a tool's
+    write of the qform beside the sform would otherwise lose it), else None."""
+    if int(header["qform_code"]) == 0 or int(header["sform_code"]) == 0:
+        return None
+    qform = np.asarray(header.get_qform(), dtype=np.float64)
+    tolerance = 1e-6 * max(1.0, float(np.abs(affine).max()))
+    if np.allclose(qform, affine, rtol=0, atol=tolerance):
+        return None
+    return tuple(tuple(row) for row in qform.tolist())
 
 
 def _read_tiff(path: Path) -> Volume:
@@ -758,7 +783,7 @@ def write_volume(
             # another affine is another world: only the codes go with the volume's own
             header = volume.nifti
             if affine is not None:
-                header = dataclasses.replace(header, sform_code=1, qform_code=1)
+                header = dataclasses.replace(header, sform_code=1, qform_code=1, qform=None)
         affine = (volume.affine if nifti else None) if affine is None else affine
         volume = volume.data
     checked = Volume(np.asarray(volume), spacing=spacing, affine=affine, nifti=header)
@@ -842,9 +867,12 @@ def _write_nifti(path: Path, volume: Volume, *, compress: bool) -> None:
     # a qform is a rotation (or a reflection of one), voxel sizes and a translation: for a
     # sheared affine nibabel would write the nearest one, another geometry for the tools
     # that read the qform first (ITK where its code is > 0); there the qform is left unset
-    header.set_qform(np.asarray(affine))
-    tolerance = 1e-6 * max(1.0, float(np.abs(affine).max()))
-    held = np.allclose(header.get_qform(), affine, rtol=0, atol=tolerance)
+    # the file's own qform where it differs from the sform (another world, its own code)
+    own = fields.qform is not None and fields.sform_code > 0
+    qform = np.asarray(fields.qform if own else affine, dtype=np.float64)
+    header.set_qform(qform)
+    tolerance = 1e-6 * max(1.0, float(np.abs(qform).max()))
+    held = np.allclose(header.get_qform(), qform, rtol=0, atol=tolerance)
     # set as numbers: nibabel's setters know only the codes of its own table
     header["sform_code"] = fields.sform_code or (0 if held else fields.qform_code)
     header["qform_code"] = fields.qform_code if held else 0
