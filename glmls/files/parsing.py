@@ -73,13 +73,30 @@ def read_text(path: Path) -> str:
         raise InputFileError(f"{path}: cannot read: {error}") from None
 
 
+class _DuplicateKey(Exception):
+    """A key twice in one JSON object (``json`` keeps the last without a word)."""
+
+
+def _unique_keys(pairs: list[tuple[str, object]]) -> dict:
+    data = dict(pairs)
+    if len(data) != len(pairs):
+        seen: set[str] = set()
+        raise _DuplicateKey(next(k for k, _ in pairs if k in seen or seen.add(k)))
+    return data
+
+
 def load_json(path: Path) -> dict:
-    """The top-level JSON object of ``path``."""
+    """The top-level JSON object of ``path``; a key given twice in one object is refused
+    (which of the two was meant is not known)."""
     text = read_text(path)  # its own InputFileError (missing, unreadable) passes through as is
     if not text.strip():
         raise fail(path, "content", "an empty file")
     try:
-        data = json.loads(text)
+        data = json.loads(text, object_pairs_hook=_unique_keys)
+    except _DuplicateKey as error:
+        raise fail(
+            path, "content", f"the key {json.dumps(error.args[0])} twice in one object"
+        ) from None
     except json.JSONDecodeError as error:
         raise fail(path, f"line {error.lineno}", f"invalid JSON: {error.msg}") from None
     except ValueError as error:  # an integer of more than 4,300 digits

@@ -6,7 +6,8 @@ each element in turn. glmls reads every element so as to find the vertices (``x`
 ``z`` of ``vertex``) and the faces (the list ``vertex_indices`` or ``vertex_index`` of
 ``face``); the rest is geometry glmls does not keep (colours, normals, edges, materials).
 A face of more than three vertices is a fan from its first vertex, in its place among the
-faces; a face of fewer is refused. Faults are ``ValueError``s that say where, which
+faces; a face of fewer is refused, and so is an ASCII file of more values than the header's
+counts of rows take. Faults are ``ValueError``s that say where, which
 :func:`glmls.files.meshes.read_mesh` reports naming the file.
 """
 
@@ -230,6 +231,11 @@ def read_ply(content: bytes) -> tuple[np.ndarray, np.ndarray]:
         except ValueError as error:
             raise ValueError(f"element {element.name!r}: {error}") from None
         found[element.name] = {p.name: v for p, v in zip(element.properties, values, strict=True)}
+    if order == "" and position < len(words):  # more rows than the header counts
+        raise ValueError(
+            f"{len(words) - position} values after the rows the header counts "
+            f"({', '.join(f'{e.rows} {e.name}' for e in elements)}): a count too small?"
+        )
     vertex = found.get("vertex", {})
     if not all(axis in vertex for axis in "xyz"):
         raise ValueError("no vertex element with x, y and z")

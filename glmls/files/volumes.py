@@ -37,7 +37,6 @@ naming it.
 from __future__ import annotations
 
 import dataclasses
-import gzip
 import os
 import struct
 import zlib
@@ -50,6 +49,7 @@ from ..core.handles3 import as_volume_spacing
 from ..core.summary import fields_repr
 from ..errors import InputFileError
 from .atomic import atomic_write
+from .nifti import NiftiHeader, one_line, read_nifti, write_nifti
 from .tiffs import TIFF_SIGNATURES, quiet_tifffile
 
 __all__ = [
@@ -70,9 +70,16 @@ __all__ = [
 VOLUME_SUFFIXES = (".nii", ".nii.gz", ".tif", ".tiff", ".npy")
 #: The dtypes an ImageJ TIFF holds (it keeps the spacing); others are written as plain TIFF.
 _IMAGEJ_DTYPES = ("uint8", "uint16", "int16", "float32")
-#: dtypes NIfTI lacks, written as the nearest it has: masks as uint8, half floats as float32.
-_NIFTI_AS = {"bool": np.uint8, "float16": np.float32}
-_CORRUPT = (OSError, EOFError, ValueError, KeyError, IndexError, struct.error, zlib.error)
+_CORRUPT = (
+    OSError,
+    EOFError,
+    ValueError,
+    KeyError,
+    IndexError,
+    OverflowError,
+    struct.error,
+    zlib.error,
+)
 
 
 def flat_npy(path: str | os.PathLike) -> str | None:
@@ -132,74 +139,6 @@ def is_volume_file(path: str | os.PathLike) -> bool:
     if stacked > 1:
         _check_axes(Path(path), axes, shape)
     return stacked > 1
-
-
-@dataclasses.dataclass(frozen=True)
-class NiftiHeader:
-    """The fields of a NIfTI header that a volume read from it carries, to be written back.
-
-    Parameters
-    ----------
-    sform_code, qform_code : int, default 1
-        What world the affine maps to (NIfTI's ``NIFTI_XFORM_*`` codes: 0 unknown, 1 scanner,
-        2 aligned to another volume, 3 Talairach, 4 MNI 152, 5 a template), for the sform and
-        the qform; 0 for no sform or qform.
-    xyzt_units : int, default 0
-        NIfTI's units byte: the space unit (1 m, 2 mm, 3 um) plus the time unit (8 s, 16 ms,
-        24 us); 0 where the file says none.
-    descrip : str, default ""
-        The file's description, at most 80 characters (of Latin-1).
-    time_step : float or None, default None
-        Not None where the volume's channels are the file's time points (its 4th dimension,
-        (i, j, k, T)): the time between two of them (``pixdim[4]``, in the time unit); the
-        volume is written back so. None where the channels are a vector (5th) dimension or
-        RGB, or there are none.
-
-    Raises
-    ------
-    ValueError
-        For a code outside 0..32767, a units byte outside 0..255, a description longer than
-        80 characters or not Latin-1, or a time step that is not finite.
-    TypeError
-        For a code or units value that is not an integer.
-
-    See Also
-    --------
-    Volume : what carries it.
-
-    Examples
-    --------
-    >>> from glmls.files import NiftiHeader
-    >>> header = NiftiHeader(sform_code=4, qform_code=4, xyzt_units=2 + 8)  # MNI; mm and s
-    >>> volume = glmls.Volume(np.zeros((4, 5, 6), np.int16), affine=np.eye(4), nifti=header)
-    >>> volume.nifti.sform_code
-    4
-    """
-
-    sform_code: int = 1
-    qform_code: int = 1
-    xyzt_units: int = 0
-    descrip: str = ""
-    time_step: float | None = None
-
-    def __post_init__(self) -> None:
-        for name, top in (("sform_code", 32767), ("qform_code", 32767), ("xyzt_units", 255)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | np.integer):
-                raise TypeError(f"{name} must be an integer, got {value!r}")
-            if not 0 <= value <= top:
-                raise ValueError(f"{name} must be in 0..{top}, got {value}")
-            object.__setattr__(self, name, int(value))
-        try:
-            size = len(str(self.descrip).encode("latin-1"))
-        except UnicodeEncodeError:
-            raise ValueError("descrip must be Latin-1 text") from None
-        if size > 80:
-            raise ValueError(f"descrip holds at most 80 characters, got {size}")
-        if self.time_step is not None:
-            if not np.isfinite(float(self.time_step)):
-                raise ValueError(f"time_step must be finite, got {self.time_step}")
-            object.__setattr__(self, "time_step", float(self.time_step))
 
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
@@ -473,54 +412,15 @@ def read_volume(path: str | os.PathLike) -> Volume:
             with quiet_tifffile():
                 volume = _read_tiff(path)
         else:
-            volume = _read_nifti(path)
+            data, affine, fields = read_nifti(path)
+            volume = Volume(data, spacing=_affine_spacing(affine), affine=affine, nifti=fields)
     except InputFileError:
         raise
     except (tifffile.TiffFileError, ImportError, TypeError, *_CORRUPT) as error:
         if isinstance(error, (TypeError, ValueError)) and str(error).startswith("a volume "):
             raise InputFileError(f"{path}: {error}") from None
-        raise InputFileError(f"{path}: not a readable {suffix} volume: {error}") from None
+        raise InputFileError(f"{path}: not a readable {suffix} volume: {one_line(error)}") from None
     return volume
-
-
-def _nibabel():
-    import nibabel  # a dependency; imported where used: it is slow to import
-
-    return nibabel
-
-
-def _read_nifti(path: Path) -> Volume:
-    nib = _nibabel()
-    try:
-        image = nib.load(path)
-    except nib.filebasedimages.ImageFileError as error:
-        raise InputFileError(f"{path}: not a NIfTI file: {error}") from None
-    if not isinstance(image, nib.Nifti1Image | nib.Nifti2Image):
-        raise InputFileError(f"{path}: not a NIfTI image ({type(image).__name__})")
-    data = np.asanyarray(image.dataobj)
-    header = image.header
-    time = data.ndim == 4 and not data.dtype.names  # (x, y, z, T): NIfTI's 4th is time
-    if data.dtype.names:  # RGB24/RGBA32: a record per voxel
-        data = np.stack([data[name] for name in data.dtype.names], axis=-1)
-        data = data.reshape(*data.shape[:3], -1)
-    elif data.ndim == 5 and data.shape[3] == 1:  # (x, y, z, 1, C): the vector convention
-        data = data[:, :, :, 0]
-    if data.ndim not in (3, 4):
-        raise InputFileError(
-            f"{path}: a {data.ndim}D NIfTI image {data.shape}; a volume is (x, y, z) or "
-            "(x, y, z, C)"
-        )
-    volume = np.ascontiguousarray(np.swapaxes(data, 0, 2))  # (x, y, z[, C]) -> (z, y, x[, C])
-    affine = np.asarray(image.affine, dtype=np.float64)
-    step = float(header["pixdim"][4])
-    fields = NiftiHeader(
-        sform_code=int(header["sform_code"]),
-        qform_code=int(header["qform_code"]),
-        xyzt_units=int(header["xyzt_units"]),
-        descrip=bytes(header["descrip"]).split(b"\0", 1)[0].decode("latin-1"),
-        time_step=(step if np.isfinite(step) else 0.0) if time else None,
-    )
-    return Volume(volume, spacing=_affine_spacing(affine), affine=affine, nifti=fields)
 
 
 def _read_tiff(path: Path) -> Volume:
@@ -535,7 +435,7 @@ def _read_tiff(path: Path) -> Volume:
         data, axes = series.asarray(), series.axes
         spacing = _tiff_spacing(tiff) or _ome_spacing(tiff)
     _check_axes(path, axes, data.shape)
-    if data.ndim == 4 and axes[1] == "C":  # an ImageJ hyperstack: (Z, C, Y, X)
+    if data.ndim == 4 and axes[1] in "CS":  # an ImageJ hyperstack (Z, C, Y, X), or planes
         data = np.moveaxis(data, 1, -1)
     elif data.ndim == 4 and axes[-1] not in "SC":
         raise InputFileError(f"{path}: a TIFF of axes {axes} {data.shape}: expected a stack")
@@ -640,7 +540,9 @@ def write_volume(
     Parameters
     ----------
     path : str or os.PathLike
-        ``.nii``, ``.nii.gz``, ``.tif``/``.tiff`` (a stack of D pages) or ``.npy``.
+        ``.nii``, ``.nii.gz``, ``.tif``/``.tiff`` (a stack of D pages; a volume of one
+        channel, (D, H, W, 1), is written as the stack (D, H, W) and reads back so) or
+        ``.npy``.
     volume : Volume or array_like
         (D, H, W) or (D, H, W, C); a :class:`Volume` brings its spacing and affine.
     affine : array_like, optional
@@ -704,7 +606,7 @@ def write_volume(
             # another affine is another world: only the codes go with the volume's own
             header = volume.nifti
             if affine is not None:
-                header = dataclasses.replace(header, sform_code=1, qform_code=1)
+                header = dataclasses.replace(header, sform_code=1, qform_code=1, qform=None)
         affine = (volume.affine if nifti else None) if affine is None else affine
         volume = volume.data
     checked = Volume(np.asarray(volume), spacing=spacing, affine=affine, nifti=header)
@@ -722,14 +624,21 @@ def write_volume(
     elif suffix in (".tif", ".tiff"):
         _write_tiff(path, checked)
     else:
-        _write_nifti(path, checked, compress=suffix == ".nii.gz")
+        affine = checked.affine
+        if affine is None:
+            dz, dy, dx = checked.spacing or (1.0, 1.0, 1.0)
+            affine = np.diag([dx, dy, dz, 1.0])
+        write_nifti(path, checked.data, affine, checked.nifti, compress=suffix == ".nii.gz")
 
 
 def _write_tiff(path: Path, volume: Volume) -> None:
     """An ImageJ stack for ImageJ's dtypes (Fiji opens it with its calibration): one channel
     (Z, Y, X), 3 channels of uint8 an RGB stack, other channels a hyperstack (Z, C, Y, X);
-    other dtypes a plain TIFF of D pages, channels as samples."""
+    other dtypes a plain TIFF of D pages, channels as samples (bool's as planes: tifffile
+    reads 1-bit samples side by side wrongly); one channel (D, H, W, 1) a stack (D, H, W)."""
     data = np.ascontiguousarray(volume.data)
+    if data.ndim == 4 and data.shape[3] == 1:  # as a stack: the hyperstack needs C > 1
+        data = data[..., 0]
     channels = 1 if data.ndim == 3 else data.shape[3]
     options: dict = {}
     if data.dtype.name in _IMAGEJ_DTYPES:
@@ -745,6 +654,9 @@ def _write_tiff(path: Path, volume: Volume) -> None:
             options["resolution"] = (1 / dx, 1 / dy)
             metadata["spacing"] = dz
         options.update(imagej=True, metadata=metadata)
+    elif channels > 1 and data.dtype == np.bool_:
+        data = np.ascontiguousarray(np.moveaxis(data, 3, 1))  # (Z, S, Y, X): planes
+        options.update(photometric="minisblack", planarconfig="separate")
     elif channels > 1:
         options["photometric"] = "rgb" if channels in (3, 4) else "minisblack"
         options["planarconfig"] = "contig"
@@ -754,46 +666,3 @@ def _write_tiff(path: Path, volume: Volume) -> None:
         options["photometric"] = "minisblack"
     with atomic_write(path) as tmp:
         tifffile.imwrite(tmp, data, **options)
-
-
-def _write_nifti(path: Path, volume: Volume, *, compress: bool) -> None:
-    nib = _nibabel()
-    affine = volume.affine
-    if affine is None:
-        dz, dy, dx = volume.spacing or (1.0, 1.0, 1.0)
-        affine = np.diag([dx, dy, dz, 1.0])
-    data = np.ascontiguousarray(np.swapaxes(volume.data, 0, 2))  # (z, y, x) -> (x, y, z)
-    data = data.astype(_NIFTI_AS.get(data.dtype.name, data.dtype), copy=False)
-    fields = volume.nifti or NiftiHeader()
-    time = data.ndim == 4 and fields.time_step is not None
-    if data.ndim == 4 and not time:  # channels: NIfTI's vector dimension, the 5th
-        data = data[:, :, :, np.newaxis, :]
-    header = nib.Nifti1Header()
-    try:
-        header.set_data_dtype(data.dtype)
-        header.set_data_shape(data.shape)
-    except (nib.spatialimages.HeaderDataError, ValueError) as error:
-        raise ValueError(f"{path}: NIfTI cannot hold this volume: {error}") from None
-    if data.ndim == 5:
-        header.set_intent("vector")
-    if time:
-        header["pixdim"][4] = fields.time_step
-    header.set_sform(np.asarray(affine))
-    # a qform is a rotation (or a reflection of one), voxel sizes and a translation: for a
-    # sheared affine nibabel would write the nearest one, another geometry for the tools
-    # that read the qform first (ITK where its code is > 0); there the qform is left unset
-    header.set_qform(np.asarray(affine))
-    tolerance = 1e-6 * max(1.0, float(np.abs(affine).max()))
-    held = np.allclose(header.get_qform(), affine, rtol=0, atol=tolerance)
-    # set as numbers: nibabel's setters know only the codes of its own table
-    header["sform_code"] = fields.sform_code or (0 if held else fields.qform_code)
-    header["qform_code"] = fields.qform_code if held else 0
-    header["xyzt_units"] = fields.xyzt_units
-    header["descrip"] = fields.descrip.encode("latin-1")
-    # no affine given to nibabel: with one, it would rewrite the codes where they are 0
-    image = nib.Nifti1Image(data, None, header=header, dtype=data.dtype)
-    content = image.to_bytes()
-    if compress:
-        content = gzip.compress(content, compresslevel=6, mtime=0)
-    with atomic_write(path) as tmp:
-        tmp.write_bytes(content)

@@ -56,6 +56,16 @@ def test_reference_points(tmp_path):
         ("h.json", '{"src": [], "dst": []}', "content: no handles"),
         ("h.json", '{"src": [[1, 2]], "dst": [[1, 2], [3, 4]]}', "1 sources but 2 targets"),
         ("h.json", "[1, 2]", "expected a JSON object"),
+        (
+            "h.json",
+            '{"src": [[1, 2]], "dst": [[1, 2]], "src": [[5, 5]]}',
+            'content: the key "src" twice in one object',
+        ),
+        (
+            "h.json",
+            '{"segments": {"src": [[[0, 0], [0, 9]]], "dst": [], "dst": [[[0, 0], [1, 9]]]}}',
+            'content: the key "dst" twice in one object',
+        ),
         ("h.json", "", "content: an empty file"),
         ("h.json", " \n", "content: an empty file"),
         ("h.csv", "src_x,src_y,dst_x\n1,2,3\n", "line 1: expected the header"),

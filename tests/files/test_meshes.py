@@ -251,3 +251,16 @@ def test_a_truncated_ply_is_named(tmp_path, binary):
         InputFileError, match=r"cut\.ply: not a readable \.ply mesh: element 'face'"
     ):
         read_mesh(path)
+
+
+def test_an_ascii_ply_of_more_rows_than_its_header_counts_is_refused(tmp_path):
+    """A count too small would read part of the file as the whole mesh."""
+    path = tmp_path / "more.ply"
+    path.write_bytes(
+        b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+        b"property float z\nend_header\n0 0 0\n1 0 0\n5 5 5\n"
+    )
+    with pytest.raises(InputFileError, match=r"more\.ply: .*3 values after the rows .*2 vertex"):
+        read_mesh(path)
+    path.write_bytes(path.read_bytes().replace(b"vertex 2", b"vertex 3") + b"\n \n")
+    assert read_mesh(path).vertices.tolist()[2] == [5.0, 5.0, 5.0]

@@ -159,3 +159,51 @@ def test_pages_that_no_metadata_names_stay_a_stack(tmp_path):
             tiff.write(np.full((4, 5), value, np.uint8), metadata=None)
     assert is_volume_file(path)
     assert_array_equal(read_volume(path).data[:, 0, 0], [0, 1, 2])
+
+
+@pytest.mark.parametrize("suffix", [".nii", ".nii.gz"])
+def test_a_qform_other_than_the_sform_is_written_back_as_it_was(tmp_path, suffix):
+    """An sform registered to an atlas beside the scanner's qform: both come back."""
+    scanner = np.array(
+        [[0.0, -1.0, 0.0, 30.0], [1.0, 0.0, 0.0, -20.0], [0.0, 0.0, 2.0, 4.0], [0, 0, 0, 1]]
+    )
+    image = nib.Nifti1Image(np.arange(60, dtype=np.int16).reshape(5, 4, 3), None)
+    image.set_sform(AFFINE, code=4)
+    image.set_qform(scanner, code=1)
+    nib.save(image, tmp_path / f"in{suffix}")
+    volume = read_volume(tmp_path / f"in{suffix}")
+    assert_allclose(volume.affine, AFFINE, atol=1e-6)
+    assert_allclose(volume.nifti.qform, scanner, atol=1e-6)
+    write_volume(tmp_path / f"out{suffix}", volume)
+    header = nib.load(tmp_path / f"out{suffix}").header
+    sform, scode = header.get_sform(coded=True)
+    qform, qcode = header.get_qform(coded=True)
+    assert (int(scode), int(qcode)) == (4, 1)
+    assert_allclose(sform, AFFINE, atol=1e-6)
+    assert_allclose(qform, scanner, atol=1e-6)
+    assert read_volume(tmp_path / f"out{suffix}").nifti == volume.nifti
+
+
+def test_the_qform_goes_with_its_own_affine_only(tmp_path):
+    """Another affine given to write_volume is another world: written as both forms."""
+    image = nib.Nifti1Image(np.zeros((3, 4, 5), np.uint8), None)
+    image.set_sform(AFFINE, code=2)
+    image.set_qform(np.eye(4), code=1)
+    nib.save(image, tmp_path / "in.nii")
+    moved = np.diag([2.0, 2.0, 2.0, 1.0])
+    write_volume(tmp_path / "out.nii", read_volume(tmp_path / "in.nii"), affine=moved)
+    header = nib.load(tmp_path / "out.nii").header
+    assert_allclose(header.get_qform(), moved, atol=1e-6)
+    assert_allclose(header.get_sform(), moved, atol=1e-6)
+
+
+def test_a_file_whose_forms_agree_carries_no_qform(tmp_path):
+    _mni(tmp_path / "in.nii")
+    assert read_volume(tmp_path / "in.nii").nifti.qform is None
+
+
+def test_a_qform_must_be_a_finite_4_by_4_matrix():
+    with pytest.raises(ValueError, match=r"qform must be a finite 4 x 4 matrix, got \(3, 3\)"):
+        NiftiHeader(qform=np.eye(3))
+    with pytest.raises(ValueError, match="qform must be a finite"):
+        NiftiHeader(qform=np.full((4, 4), np.nan))
