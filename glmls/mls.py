@@ -19,7 +19,7 @@ from typing import ClassVar
 import moderngl
 import numpy as np
 
-from .core.config import MLSConfig, check_flag
+from .core.config import MLSConfig, check_choice, check_flag
 from .core.handles import Scaling, as_points, check_coordinates, point_rows
 from .core.handles3 import dimension_of, planar_spacing
 from .core.handleset import HandleSet
@@ -926,8 +926,7 @@ class MLS(ForkSafe):
         >>> xy.shape, np.round(xy[0, 3], 3).tolist()
         ((4, 6, 2), [2.0, 0.0])
         """
-        if method not in ("backward", "backward-swap"):
-            raise ValueError(f"unknown method {method!r}; choose backward or backward-swap")
+        check_choice("method", method, ("backward", "backward-swap"))
         residual = check_flag("residual", residual)  # before any GPU work
         frame = {"output_shape": output_shape, "origin": origin}
         options = WarpOptions(method=method, grid=grid, border=border, **frame)  # type: ignore[arg-type]

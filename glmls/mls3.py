@@ -490,7 +490,9 @@ class MLS3(MLS):
             (D, H, W) of the source volume, or its (D, H, W, C) with channels.
         **options
             :class:`glmls.volume.VolumeOptions`' ``grid``, ``border``, ``output_shape``,
-            ``origin`` and ``spacing``.
+            ``origin`` and ``spacing`` (and ``method="backward"``, the map's);
+            ``interpolation`` and ``background``, which a map does not use, are a
+            ``TypeError``.
 
         Returns
         -------

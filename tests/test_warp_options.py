@@ -64,10 +64,11 @@ def test_values_are_normalised_frozen_hashable_and_picklable():
         ({"method": "swirl"}, ValueError, "unknown method 'swirl'"),
         ({"interpolation": "cubic"}, ValueError, "unknown interpolation 'cubic'"),
         ({"border": "mirror"}, ValueError, "unknown border 'mirror'"),
-        ({"method": 3}, ValueError, "unknown method 3"),
+        ({"method": 3}, TypeError, "method must be a string, one of quads"),
         ({"grid": 0}, ValueError, "grid must be an integer from 1"),
-        ({"grid": 2.5}, ValueError, "grid must be an integer"),
-        ({"grid": True}, ValueError, "grid must be an integer"),
+        ({"grid": 2.5}, TypeError, "grid must be an integer"),
+        ({"grid": 2.0}, TypeError, "grid must be an integer"),
+        ({"grid": True}, TypeError, "grid must be an integer"),
         ({"method": "paper-quads", "grid": 2}, ValueError, "grid must be 1, got 2"),
         ({"tolerance": 0.05, "grid": 4}, ValueError, "grid and tolerance exclude each other"),
         ({"tolerance": 0.05, "method": "splat"}, ValueError, "method 'quads'"),
@@ -80,10 +81,13 @@ def test_values_are_normalised_frozen_hashable_and_picklable():
         ({"background": [[1, 2]]}, ValueError, "1 to 4 values"),
         ({"output_shape": (4,)}, ValueError, "output_shape must be (H, W) integers"),
         ({"output_shape": (0, 4)}, ValueError, "H, W >= 1"),
+        ({"output_shape": (5.0, 4)}, TypeError, "output_shape must be (H, W) integers"),
+        ({"output_shape": (np.True_, 4)}, TypeError, "output_shape must be (H, W) integers"),
         ({"output_shape": "4x6"}, TypeError, "output_shape must be (H, W)"),
         ({"origin": (np.nan, 0)}, ValueError, "origin must be finite"),
         ({"origin": (1, 2, 3)}, ValueError, "origin must be (x0, y0)"),
         ({"origin": 5}, TypeError, "origin must be (x0, y0)"),
+        ({"origin": (True, 0)}, TypeError, "origin must be (x0, y0) real numbers, got (True, 0)"),
     ],
 )
 def test_bad_values_are_named(values, error, message):
@@ -151,9 +155,9 @@ def test_the_pipeline_takes_options(gl):
         xy, residual, covered = pipe.coordinate_map(m, IMAGE.shape[:2])
         assert_array_equal(xy, m.coordinate_map(IMAGE.shape[:2]))
         assert covered.any() and residual.shape == IMAGE.shape[:2]
-        with pytest.raises(ValueError, match="choose backward or backward-swap"):
+        with pytest.raises(ValueError, match="choose one of backward, backward-swap"):
             pipe.coordinate_map(m, IMAGE.shape[:2], options)
-        with pytest.raises(ValueError, match="choose backward or backward-swap"):
+        with pytest.raises(ValueError, match="choose one of backward, backward-swap"):
             m.coordinate_map(IMAGE.shape[:2], method="quads")
 
 

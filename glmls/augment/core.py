@@ -12,7 +12,7 @@ import numpy as np
 
 from ..batch import BatchResult, warp_batch
 from ..batch.inputs import check_points, item_array
-from ..core.config import check_flag, check_seed
+from ..core.config import check_flag, check_integer, check_seed, counted
 from ..core.handles import COORDINATE_LIMIT
 from ..core.mesh import as_shape
 from . import labels as lab
@@ -106,16 +106,14 @@ def _index_list(indices: object, count: int) -> list[int]:
             raise ValueError(f"indices must be a sequence of N integers, got shape {array.shape}")
         values = list(array)
     if len(values) != count:
-        raise ValueError(f"indices holds {len(values)} values for {count} images")
+        raise ValueError(
+            f"indices holds {counted(len(values), 'value')} for {counted(count, 'image')}"
+        )
     checked = []
     for i, value in enumerate(tensors.to_numpy(values)):
         if isinstance(value, np.ndarray) and value.ndim == 0:  # a 0-d array or tensor
             value = value[()]
-        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-            raise ValueError(f"indices[{i}] must be an integer >= 0, got {value!r}")
-        if value < 0:
-            raise ValueError(f"indices[{i}] must be an integer >= 0, got {value!r}")
-        checked.append(int(value))
+        checked.append(check_integer(f"indices[{i}]", value, 0))
     return checked
 
 
@@ -157,7 +155,9 @@ def _keypoint_list(keypoints: object, count: int) -> tuple[list[np.ndarray] | No
     else:
         raise TypeError(f"keypoints must be an array or a sequence, got {type(keypoints)}")
     if len(items) != count:
-        raise ValueError(f"keypoints holds {len(items)} point sets for {count} images")
+        raise ValueError(
+            f"keypoints holds {counted(len(items), 'point set')} for {counted(count, 'image')}"
+        )
     checked = [check_points(item, f"keypoints[{i}]", rows="P") for i, item in enumerate(items)]
     return checked, stacked
 
@@ -168,7 +168,9 @@ def _landmark_list(landmarks: object, count: int) -> list[np.ndarray]:
     if isinstance(landmarks, (str, bytes)) or not isinstance(landmarks, (Sequence, np.ndarray)):
         raise TypeError(f"landmarks must be a sequence of (P, 2) arrays, got {type(landmarks)}")
     if len(landmarks) != count:
-        raise ValueError(f"landmarks holds {len(landmarks)} point sets for {count} images")
+        raise ValueError(
+            f"landmarks holds {counted(len(landmarks), 'point set')} for {counted(count, 'image')}"
+        )
     return [
         check_points(item_array(marks, f"landmarks[{i}]"), f"landmarks[{i}]", rows="P")
         for i, marks in enumerate(landmarks)

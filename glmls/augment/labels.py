@@ -17,6 +17,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..batch.inputs import item_array
+from ..core.config import counted
 from ..core.handles import COORDINATE_LIMIT
 from ..imaging.options import FIELDS, WarpOptions
 
@@ -70,7 +71,9 @@ def _per_image(value: object, name: str, count: int) -> tuple[list, bool]:
     else:
         raise TypeError(f"{name} must be an array or a sequence, got {type(value).__name__}")
     if len(items) != count:
-        raise ValueError(f"{name} holds {len(items)} items for {count} images")
+        raise ValueError(
+            f"{name} holds {counted(len(items), 'item')} for {counted(count, 'image')}"
+        )
     return items, stacked
 
 
@@ -152,7 +155,9 @@ def check_polygons(polygons: object, count: int) -> list[list[np.ndarray]]:
     if not isinstance(polygons, (list, tuple)):
         raise TypeError(f"polygons must be a sequence, got {type(polygons).__name__}")
     if len(polygons) != count:
-        raise ValueError(f"polygons holds {len(polygons)} items for {count} images")
+        raise ValueError(
+            f"polygons holds {counted(len(polygons), 'item')} for {counted(count, 'image')}"
+        )
     checked = []
     for i, shapes in enumerate(polygons):
         if not isinstance(shapes, (list, tuple)):

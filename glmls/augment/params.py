@@ -11,7 +11,7 @@ import numpy as np
 
 from ..batch.inputs import check_points, item_array
 from ..batch.run import check_flags
-from ..core.config import MLSConfig
+from ..core.config import MLSConfig, counted
 from ..engine.kernel import check_bins
 from ..engine.storage import check_storage
 from ..gl.context import check_ctx
@@ -83,7 +83,9 @@ def check_params(params: object, count: int) -> list[Mapping]:
     if isinstance(params, (str, bytes, Mapping)) or not isinstance(params, Sequence):
         raise TypeError(f"params must be a sequence of draws (dicts), got {type(params).__name__}")
     if len(params) != count:
-        raise ValueError(f"params holds {len(params)} draws for {count} images")
+        raise ValueError(
+            f"params holds {counted(len(params), 'draw')} for {counted(count, 'image')}"
+        )
     for i, draw in enumerate(params):
         if not isinstance(draw, Mapping):
             raise TypeError(f"params[{i}] must be a dict, got {type(draw).__name__}")

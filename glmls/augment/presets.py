@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.config import check_integer
+
 __all__ = [
     "PRESETS",
     "GridPreset",
@@ -32,8 +34,7 @@ UNITS = ("fraction", "pixels")
 
 
 def _check_count(name: str, value: object, low: int) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+    check_integer(name, value, low)
 
 
 def _check_length(name: str, value: object, *, optional: bool = False) -> None:

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.config import counted
 from ..core.handles import COORDINATE_LIMIT, validate_handles
 from ..imaging.source import DTYPES, native_order
 
@@ -181,7 +182,9 @@ def check_batch(
     for name, value in (("src", src), ("dst", dst)):
         items, _ = _point_items(value, name, rows="K")  # K = 0: f is the identity
         if len(items) != count:
-            raise ValueError(f"{name} holds {len(items)} handle sets for {count} images")
+            raise ValueError(
+                f"{name} holds {counted(len(items), 'handle set')} for {counted(count, 'image')}"
+            )
         handles.append(items)
     for i, (p, q) in enumerate(zip(*handles, strict=True)):
         if len(p) != len(q):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import operator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -15,10 +16,15 @@ __all__ = [
     "TRANSFORMS",
     "WEIGHTS",
     "MLSConfig",
+    "check_choice",
     "check_flag",
+    "check_integer",
+    "check_real",
     "check_seed",
     "config_or_options",
+    "counted",
     "image_diagonal",
+    "is_integer",
     "transform_code",
 ]
 
@@ -38,12 +44,15 @@ def transform_code(name: str) -> int:
     return TRANSFORMS.index(name)
 
 
-def _choice(name: str, value: object, choices: tuple[str, ...]) -> str:
+def check_choice(name: str, value: object, choices: tuple[str, ...], where: str = "") -> str:
+    """``value`` if it is one of the strings ``choices``: ``TypeError`` naming ``name`` for
+    a value that is no string (None, a number), ``ValueError`` for another string (``where``,
+    e.g. " for a volume", said after the value)."""
     if not isinstance(value, str):
         raise TypeError(f"{name} must be a string, one of {', '.join(choices)}; got {value!r}")
     if value not in choices:
-        raise ValueError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")
-    return value
+        raise ValueError(f"unknown {name} {value!r}{where}; choose one of {', '.join(choices)}")
+    return str(value)
 
 
 def _real(name: str, value: object) -> float:
@@ -63,12 +72,61 @@ def check_flag(name: str, value: object) -> bool:
     return bool(value)
 
 
+def is_integer(value: object) -> bool:
+    """Whether ``value`` is an integer as every integer option of glmls takes one: a Python
+    or numpy integer, or a 0-d integer array (what :func:`operator.index` accepts, as numpy's
+    own sizes do), but not a bool, and not a float even where it is whole (``2.0``)."""
+    if isinstance(value, (bool, np.bool_)):
+        return False
+    try:
+        operator.index(value)  # type: ignore[arg-type]
+    except TypeError:
+        return False
+    return True
+
+
+def check_integer(
+    name: str, value: object, low: int, high: int | None = None, *, what: str | None = None
+) -> int:
+    """``value`` as an int from ``low`` to ``high`` (None: no upper bound).
+
+    The one rule of glmls's integer options (:func:`is_integer`): a value of another type
+    (a float such as ``2.0``, a bool, a string, None) is a ``TypeError``, an integer out of
+    range a ``ValueError``; both name ``name`` and the value, in the same words (``what``:
+    what the option must be; by default "an integer >= low" or "an integer from low to
+    high")."""
+    if what is None:
+        what = f"an integer >= {low}" if high is None else f"an integer from {low} to {high}"
+    message = f"{name} must be {what}, got {value!r}"
+    if not is_integer(value):
+        raise TypeError(message)
+    number = operator.index(value)  # type: ignore[arg-type]
+    if number < low or (high is not None and number > high):
+        raise ValueError(message)
+    return number
+
+
+def check_real(name: str, value: object, *, what: str = "a real number") -> float:
+    """``value`` as a float if it is a real number (numpy's too, a 0-d array; not a bool):
+    ``TypeError`` naming ``name`` and the value otherwise (a string, None, a complex). The
+    range is the caller's to check (``ValueError``)."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be {what}, got {value!r}")
+    return float(value)  # type: ignore[arg-type]
+
+
+def counted(count: int, noun: str, plural: str | None = None) -> str:
+    """``count`` and ``noun`` for a message, the noun plural unless the count is 1:
+    ``counted(1, "pixel")`` is "1 pixel", ``counted(3, "pixel")`` "3 pixels"."""
+    return f"{count} {noun if count == 1 else (plural or noun + 's')}"
+
+
 def check_seed(seed: object) -> int:
-    """``seed`` if it is an integer >= 0 (a random draw's seed), else ``ValueError`` naming
-    it (True is no seed)."""
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
-    return int(seed)
+    """``seed`` if it is an integer >= 0 (a random draw's seed): ``TypeError`` naming it for
+    another type (True is no seed), ``ValueError`` for a negative one."""
+    return check_integer("seed", seed, 0)
 
 
 def config_or_options(config: MLSConfig | None, options: dict[str, object]) -> MLSConfig:
@@ -160,8 +218,8 @@ class MLSConfig:
 
     def __post_init__(self) -> None:
         # numpy's str_ and bool_ are stored as str and bool (equal, hashed alike, printed plainly)
-        object.__setattr__(self, "transform", str(_choice("transform", self.transform, TRANSFORMS)))
-        object.__setattr__(self, "weight", str(_choice("weight", self.weight, tuple(REGISTRY))))
+        object.__setattr__(self, "transform", check_choice("transform", self.transform, TRANSFORMS))
+        object.__setattr__(self, "weight", check_choice("weight", self.weight, tuple(REGISTRY)))
         alpha = _real("alpha", self.alpha)
         if alpha <= 0:
             raise ValueError(f"alpha must be > 0, got {alpha}")

@@ -8,10 +8,12 @@ at integer coordinates. A volume's shape is ``(D, H, W)`` (slices, rows, columns
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Iterable, Sequence
 
 import numpy as np
 
+from .config import is_integer
 from .handles import COORDINATE_LIMIT, Scaling, check_one_target
 
 __all__ = [
@@ -95,13 +97,13 @@ def as_volume_shape(shape: Sequence[int]) -> tuple[int, int, int]:
         values = tuple(shape)
     except TypeError:
         raise TypeError(f"shape must be (D, H, W), got {shape!r}") from None
-    if len(values) != 3 or not all(
-        isinstance(n, (int, np.integer)) and not isinstance(n, bool) for n in values
-    ):
+    if len(values) != 3:
         raise ValueError(f"shape must be (D, H, W) integers for 3D handles, got {shape!r}")
-    if min(values) < 1:
-        raise ValueError(f"shape must be positive, got {values}")
-    return int(values[0]), int(values[1]), int(values[2])
+    if not all(is_integer(n) for n in values):
+        raise TypeError(f"shape must be (D, H, W) integers for 3D handles, got {shape!r}")
+    if min(operator.index(n) for n in values) < 1:
+        raise ValueError(f"shape must have D, H, W >= 1, got {shape!r}")
+    return operator.index(values[0]), operator.index(values[1]), operator.index(values[2])
 
 
 def as_volume_spacing(spacing: object, name: str = "spacing") -> tuple[float, float, float]:

@@ -21,11 +21,13 @@ the image passes use the lattice's own pixels (``glmls/shaders/common/lattice.gl
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+import operator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
+from .config import check_integer, is_integer
 from .handles import COORDINATE_LIMIT, Scaling
 
 __all__ = ["KINDS", "MAX_GRID", "MAX_MARGIN", "MeshLattice", "as_shape", "check_grid"]
@@ -38,19 +40,20 @@ MAX_MARGIN = 1 << 24
 
 
 def as_shape(shape: object) -> tuple[int, int]:
-    """(H, W) from an image shape ``(H, W)`` or ``(H, W, C)``; ``ValueError`` otherwise,
-    also for a side beyond :data:`~glmls.core.handles.COORDINATE_LIMIT` (the image's pixels
-    are points in the coordinate range, and f's float32 scaling spans the image)."""
-    if isinstance(shape, (str, bytes)):
+    """(H, W) from an image shape ``(H, W)`` or ``(H, W, C)`` of integers
+    (:func:`~glmls.core.config.is_integer`: a float such as 5.0 or a bool is a
+    ``TypeError``); ``ValueError`` for another length, a side below 1 or beyond
+    :data:`~glmls.core.handles.COORDINATE_LIMIT` (the image's pixels are points in the
+    coordinate range, and f's float32 scaling spans the image)."""
+    if isinstance(shape, (str, bytes)) or not isinstance(shape, (Iterable, np.ndarray)):
         raise TypeError(f"shape must be (H, W) integers, got {shape!r}")
-    try:
-        values = tuple(shape)  # type: ignore[arg-type]
-        dims = tuple(int(n) for n in values)
-    except (TypeError, ValueError, OverflowError):
-        raise TypeError(f"shape must be (H, W) integers, got {shape!r}") from None
-    if any(isinstance(n, (bool, np.bool_)) or n != d for n, d in zip(values, dims, strict=True)):
-        raise ValueError(f"shape must be (H, W) integers, got {shape!r}")
-    if len(dims) not in (2, 3) or dims[0] < 1 or dims[1] < 1:
+    values = tuple(shape)  # type: ignore[arg-type]
+    if len(values) not in (2, 3):
+        raise ValueError(f"shape must be (H, W) or (H, W, C), got {shape!r}")
+    if not all(is_integer(n) for n in values):
+        raise TypeError(f"shape must be (H, W) integers, got {shape!r}")
+    dims = tuple(operator.index(n) for n in values)
+    if dims[0] < 1 or dims[1] < 1:
         raise ValueError(f"shape must be (H, W) with H, W >= 1, got {shape!r}")
     if max(dims[0], dims[1]) > COORDINATE_LIMIT:
         raise ValueError(
@@ -61,15 +64,11 @@ def as_shape(shape: object) -> tuple[int, int]:
 
 
 def check_grid(grid: object, unit: str = "pixels") -> int:
-    """``grid`` as an int if it is an integer (numpy's too) from 1 to :data:`MAX_GRID` (a mesh
-    step in ``unit``: pixels, or a volume's voxels); ``ValueError`` otherwise."""
-    if (
-        isinstance(grid, bool)
-        or not isinstance(grid, (int, np.integer))
-        or not 1 <= grid <= MAX_GRID
-    ):
-        raise ValueError(f"grid must be an integer from 1 to {MAX_GRID} ({unit}), got {grid!r}")
-    return int(grid)
+    """``grid`` as an int from 1 to :data:`MAX_GRID` (a mesh step in ``unit``: pixels, or a
+    volume's voxels): ``TypeError`` for another type than an integer (2.0 too), ``ValueError``
+    out of range (:func:`~glmls.core.config.check_integer`)."""
+    what = f"an integer from 1 to {MAX_GRID} ({unit})"
+    return check_integer("grid", grid, 1, MAX_GRID, what=what)
 
 
 @dataclass(frozen=True)
@@ -90,14 +89,7 @@ class MeshLattice:
             raise ValueError(f"kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
         if self.kind == "centres" and self.grid != 1:
             raise ValueError("the lattice of pixel centres has grid 1")
-        margin = self.margin
-        if (
-            isinstance(margin, bool)
-            or not isinstance(margin, (int, np.integer))
-            or not 0 <= margin <= MAX_MARGIN
-        ):
-            raise ValueError(f"margin must be an integer from 0 to {MAX_MARGIN}, got {margin!r}")
-        object.__setattr__(self, "margin", int(margin))
+        object.__setattr__(self, "margin", check_integer("margin", self.margin, 0, MAX_MARGIN))
 
     @classmethod
     def corners(cls, shape: object, grid: object = 1, *, margin: int = 0) -> MeshLattice:

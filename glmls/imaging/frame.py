@@ -13,12 +13,14 @@ from __future__ import annotations
 
 import math
 import numbers
+import operator
 import warnings
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.config import check_real, is_integer
 from ..core.handles import COORDINATE_LIMIT, point_bounds
 from ..core.mesh import MAX_MARGIN, MeshLattice, as_shape
 from ..engine.kernel import MLSKernel
@@ -46,14 +48,6 @@ FIT_SLACK = 1e-3
 #: A frame's pixel centres must stay this far (pixels) inside the deformed border of the
 #: extended mesh (:func:`border_margin`).
 ENCLOSE_PAD = 0.25
-
-
-def _is_integral(value: object) -> bool:
-    if isinstance(value, (bool, np.bool_)):
-        return False
-    if isinstance(value, (int, np.integer)):
-        return True
-    return isinstance(value, (float, np.floating)) and float(value).is_integer()
 
 
 @dataclass(frozen=True)
@@ -87,18 +81,23 @@ class Frame:
 
 
 def check_output_shape(output_shape: object) -> tuple[int, int] | None:
-    """``output_shape`` as (H, W) ints >= 1 (None stays None: the input's shape);
-    ``TypeError``/``ValueError`` naming a bad value."""
+    """``output_shape`` as (H, W) ints >= 1 (None stays None: the input's shape):
+    ``TypeError`` for another type, or sides that are not integers
+    (:func:`~glmls.core.config.is_integer`: 5.0 and True are not), ``ValueError`` for
+    another length or a side below 1; both name the value."""
     if output_shape is None:
         return None
+    message = f"output_shape must be (H, W) integers, got {output_shape!r}"
     if isinstance(output_shape, (str, bytes)) or not isinstance(
         output_shape, (Iterable, np.ndarray)
     ):
-        raise TypeError(f"output_shape must be (H, W) integers, got {output_shape!r}")
+        raise TypeError(message)
     dims = list(output_shape)  # type: ignore[call-overload]
-    if len(dims) != 2 or not all(_is_integral(n) for n in dims):
-        raise ValueError(f"output_shape must be (H, W) integers, got {output_shape!r}")
-    shape = (int(dims[0]), int(dims[1]))
+    if len(dims) != 2:
+        raise ValueError(message)
+    if not all(is_integer(n) for n in dims):
+        raise TypeError(message)
+    shape = (operator.index(dims[0]), operator.index(dims[1]))
     if min(shape) < 1:
         raise ValueError(f"output_shape must have H, W >= 1, got {output_shape!r}")
     return shape
@@ -106,23 +105,26 @@ def check_output_shape(output_shape: object) -> tuple[int, int] | None:
 
 def check_origin(origin: object) -> tuple[float, float] | None:
     """``origin`` as (x0, y0) finite floats within the coordinate limit (None stays None:
-    (0, 0)); ``TypeError``/``ValueError`` naming a bad value."""
+    (0, 0)): ``TypeError`` for another type, or values that are not real numbers (a bool, a
+    string, a complex), ``ValueError`` for another length or a value that is not finite or
+    beyond the limit; both name the value."""
     if origin is None:
         return None
+    message = f"origin must be (x0, y0) real numbers, got {origin!r}"
     if isinstance(origin, (str, bytes)) or not isinstance(origin, (Iterable, np.ndarray)):
-        raise TypeError(f"origin must be (x0, y0) real numbers, got {origin!r}")
+        raise TypeError(message)
     values = list(origin)  # type: ignore[call-overload]
-    if len(values) != 2 or not all(
-        isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
-        for v in values
-    ):
-        raise ValueError(f"origin must be (x0, y0) real numbers, got {origin!r}")
-    point = (float(values[0]), float(values[1]))
+    if len(values) != 2:
+        raise ValueError(message)
+    try:
+        point = tuple(check_real("origin", v) for v in values)
+    except TypeError:
+        raise TypeError(message) from None
     if not all(math.isfinite(v) and abs(v) <= COORDINATE_LIMIT for v in point):
         raise ValueError(
             f"origin must be finite and within ±{COORDINATE_LIMIT:.0e} px, got {origin!r}"
         )
-    return point
+    return point  # type: ignore[return-value]
 
 
 def make_frame(

@@ -11,6 +11,7 @@ import dataclasses
 from dataclasses import dataclass
 from typing import TypeVar, cast
 
+from ..core.config import check_flag, check_integer
 from ..core.mesh import check_grid
 from .adaptive import check_adaptive
 from .frame import check_origin, check_output_shape
@@ -75,11 +76,14 @@ class WarpOptions:
         For an unknown ``method``, ``interpolation`` or ``border``, a ``grid`` outside 1 ..
         2**20 (or not 1 with ``paper-quads`` or with a ``tolerance``), a ``tolerance`` below
         0.001 px or with another method than ``quads``, a ``background`` of more than 4
-        values, an ``output_shape`` that is not two integers >= 1, or an ``origin`` that is
-        not two finite numbers; the message names the value.
+        values, an ``output_shape`` that is not two values or has a side below 1, or an
+        ``origin`` that is not two values or not finite; the message names the value.
     TypeError
-        For a ``tolerance``, ``background``, ``output_shape`` or ``origin`` of the wrong
-        type (e.g. a string).
+        For a value of the wrong type: a ``grid`` or ``output_shape`` side that is not an
+        integer (integer options take Python and numpy integers; a float such as ``2.0``
+        or a bool is refused, as numpy refuses them for sizes), a ``tolerance``,
+        ``background`` or ``origin`` value that is not a real number (a string, a bool, a
+        complex); the message names the value.
 
     Examples
     --------
@@ -194,7 +198,10 @@ class PipelineOptions:
     Raises
     ------
     ValueError
-        If ``band_bytes``, ``fixup_min`` or ``fixup_fraction`` is not an integer >= 1 (named).
+        If ``band_bytes``, ``fixup_min`` or ``fixup_fraction`` is an integer below 1 (named).
+    TypeError
+        If one of them is not an integer (a float such as 4096.0, a bool), or
+        ``compute_quads`` or ``fast_embedded`` is not a bool (named).
 
     Examples
     --------
@@ -216,9 +223,9 @@ class PipelineOptions:
 
     def __post_init__(self) -> None:
         for name in ("band_bytes", "fixup_min", "fixup_fraction"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+            object.__setattr__(self, name, check_integer(name, getattr(self, name), 1))
+        for name in ("compute_quads", "fast_embedded"):
+            object.__setattr__(self, name, check_flag(name, getattr(self, name)))
 
     def fixup_capacity(self, pixels: int) -> int:
         """The fix-up list's capacity for a target of ``pixels`` pixels.

@@ -28,6 +28,7 @@ from typing import NamedTuple, Protocol
 import moderngl
 import numpy as np
 
+from ..core.config import check_choice
 from ..core.mesh import MeshLattice, as_shape
 from ..engine.kernel import MLSKernel
 from ..gl import bindings
@@ -585,8 +586,7 @@ class WarpPipeline:
         self._resources.check_alive()
         options = WarpOptions.of(options or WarpOptions(method="backward"), **keywords)
         method = options.method
-        if method not in ("backward", "backward-swap"):
-            raise ValueError(f"unknown method {method!r}; choose backward or backward-swap")
+        check_choice("method", method, ("backward", "backward-swap"))
         shape = _within_limit(shape, self.max_image_size)
         frame = make_frame(options.output_shape, options.origin, shape, self.max_image_size)
         texture = self.solve_inverse(

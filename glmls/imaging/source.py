@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.config import check_choice, counted
 from ..core.mesh import check_grid
 
 __all__ = [
@@ -113,8 +114,8 @@ def prepare_image(image: object, max_size: int, *, normalized: bool = False) -> 
     height, width = array.shape[:2]
     if max(height, width) > max_size:
         raise ValueError(
-            f"image {width} pixels wide and {height} high exceeds the GL texture size limit of "
-            f"{max_size} pixels per side on this device; split it or scale it down"
+            f"image {counted(width, 'pixel')} wide and {height} high exceeds the GL texture "
+            f"size limit of {max_size} pixels per side on this device; split it or scale it down"
         )
     squeeze = array.ndim == 2
     if normalized and array.dtype == np.uint8:
@@ -205,14 +206,14 @@ def background_color(background: object, image: SourceImage) -> tuple[float, flo
 def check_options(
     method: object, interpolation: object, grid: object, border: object = "constant"
 ) -> None:
-    """``ValueError`` naming a bad ``method``, ``interpolation``, ``grid`` or ``border``."""
+    """``ValueError`` naming a bad ``method``, ``interpolation``, ``grid`` or ``border``
+    (``TypeError`` for one of the wrong type: a method that is no string, a float grid)."""
     for name, value, choices in (
         ("method", method, METHODS),
         ("interpolation", interpolation, INTERPOLATIONS),
         ("border", border, BORDERS),
     ):
-        if not isinstance(value, str) or value not in choices:
-            raise ValueError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")
+        check_choice(name, value, choices)
     if check_grid(grid) != 1 and method == "paper-quads":
         # the paper's squares are of adjacent pixels: a coarser lattice would colour pixels
         # with a vertex up to grid / 2 pixels away (a mosaic), which the paper never does

@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 
+from ..core.config import check_choice
 from ..core.handles3 import as_volume_spacing, chosen_spacing
 from ..engine.kernel import check_loop_budget
 from ..engine.kernel3 import MLSKernel3
@@ -136,9 +137,12 @@ def volume_coordinate_map(
         (D, H, W) of the source volume, or its (D, H, W, C) with channels.
     options : VolumeOptions or None
         Its ``grid``, ``border``, ``output_shape``, ``origin`` and ``spacing`` apply (the
-        spacing as :func:`warp_volume`'s).
+        spacing as :func:`warp_volume`'s); its other fields are not used.
     **keywords
-        Fields of :class:`VolumeOptions` replacing those of ``options``.
+        Fields of :class:`VolumeOptions` replacing those of ``options``: ``grid``,
+        ``border``, ``output_shape``, ``origin``, ``spacing``, and ``method`` if it is
+        ``"backward"`` (the map is that method's); ``interpolation`` and ``background``,
+        which the map does not use, are refused.
 
     Returns
     -------
@@ -154,8 +158,8 @@ def volume_coordinate_map(
     ValueError
         For a 2D MLS, a bad ``shape`` or option, or a ``spacing`` other than the MLS's.
     TypeError
-        For a keyword that is no option, or a ``spacing`` that is not a sequence of real
-        numbers.
+        For a keyword that is no option or that the map does not use (``interpolation``,
+        ``background``), or a ``spacing`` that is not a sequence of real numbers.
 
     Examples
     --------
@@ -170,11 +174,27 @@ def volume_coordinate_map(
     >>> m.release()
     """
     kernel = _kernel(mls)
-    options = _options(mls, options, keywords)
+    options = _options(mls, options, _map_keywords(keywords))
     size = volume_shape(shape)
     _check_newton(kernel)
     field = KernelField(kernel, options.spacing, size)
     return VolumeWarper.of(kernel.gl).coordinate_map(field, size, options)  # type: ignore[arg-type]
+
+
+def _map_keywords(keywords: dict) -> dict:
+    """:func:`volume_coordinate_map`'s ``keywords`` less ``method``: the map is the backward
+    method's (``method="backward"`` is accepted, another is a ``ValueError``); ``TypeError``
+    naming ``interpolation`` or ``background``, which it would not use (it samples
+    nothing)."""
+    unused = sorted({"interpolation", "background"} & set(keywords))
+    if unused:
+        raise TypeError(
+            f"coordinate_map() takes no {' or '.join(unused)}: the map holds the source "
+            "points of the backward method, and samples nothing"
+        )
+    keywords = dict(keywords)
+    check_choice("method", keywords.pop("method", "backward"), ("backward",))
+    return keywords
 
 
 def volume_bounds(

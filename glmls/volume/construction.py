@@ -41,7 +41,7 @@ from .bands import (
     survey_pieces,
 )
 from .fields import Field
-from .frame import CornerLattice, VolumeFrame
+from .frame import CornerLattice, VolumeFrame, check_memory
 from .options import SlabOptions, VolumeOptions
 from .source import SourceVolume, prepare_volume, volume_background
 from .texture import SourceTexture, border_slices
@@ -129,6 +129,7 @@ class VolumeWarper:
         # the GL limits on the output's slices first: an output_shape beyond them is a
         # ValueError, not the allocation of its array
         planned = list(self.slabs(frame, max(per_voxel, source.voxel_bytes), slabs.slab_bytes))
+        check_memory(frame.shape, source.channels * np.dtype(source.dtype).itemsize)
         out = source.empty_output(frame.shape)
         texture = SourceTexture(self._gl, source, slabs.texture_bytes)
         try:
@@ -183,6 +184,7 @@ class VolumeWarper:
         slabs = slabs if slabs is not None else SlabOptions()
         frame = make_volume_frame(options, shape)
         planned = list(self.slabs(frame, COORD_BYTES + SLOPE_BYTES, slabs.slab_bytes))
+        check_memory(frame.shape, 16 + 12 + 4 + 1)  # points, the result's, residual, covered
         points = np.empty((*frame.shape, 4), np.float32)
         bands = self._bands(
             field, shape, frame, options, slabs, survey=len(planned) > 1, backward=True

@@ -12,13 +12,31 @@
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..imaging.frame import FIT_SLACK
 
-__all__ = ["CornerLattice", "VolumeBounds", "VolumeFrame"]
+__all__ = ["CornerLattice", "VolumeBounds", "VolumeFrame", "check_memory"]
+
+
+def check_memory(shape: tuple[int, ...], voxel_bytes: int) -> None:
+    """``ValueError`` naming ``output_shape`` where the arrays of an output of ``shape``
+    (D, H, W), ``voxel_bytes`` a voxel, would not fit in this machine's memory: refused
+    before anything is allocated or evaluated (where the system does not say its memory,
+    nothing is checked)."""
+    needed = math.prod(shape) * voxel_bytes
+    try:
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return
+    if needed > memory:
+        raise ValueError(
+            f"output_shape {tuple(shape)} needs {needed / 2**30:,.1f} GiB, more than this "
+            f"machine's memory ({memory / 2**30:,.1f} GiB)"
+        )
 
 
 @dataclass(frozen=True)

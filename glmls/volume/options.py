@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import operator
 from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.config import check_choice, check_integer, check_real, is_integer
 from ..core.handles import COORDINATE_LIMIT
 from ..core.handles3 import as_volume_spacing
 from ..core.mesh import check_grid
@@ -49,38 +51,43 @@ def volume_shape(shape: object) -> tuple[int, int, int]:
     return check_volume_shape(shape, "shape")  # type: ignore[return-value]
 
 
-def _real(value: object) -> bool:
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
-        value, (bool, np.bool_)
-    )
-
-
 def check_volume_shape(shape: object, name: str = "output_shape") -> tuple[int, int, int] | None:
-    """``shape`` as (D, H, W) ints >= 1 (None stays None); ``TypeError``/``ValueError``."""
+    """``shape`` as (D, H, W) ints >= 1 (None stays None): ``TypeError`` for another type
+    or sides that are not integers (:func:`~glmls.core.config.is_integer`: 5.0 and True are
+    not), ``ValueError`` for another length or a side below 1 or beyond the coordinate
+    range (1e6 voxels)."""
     if shape is None:
         return None
     dims = _triple(shape, name, "(D, H, W) integers")
-    if not all(_real(n) and float(n).is_integer() for n in dims):
-        raise ValueError(f"{name} must be (D, H, W) integers, got {_shown(shape)}")
-    out = (int(dims[0]), int(dims[1]), int(dims[2]))
+    if not all(is_integer(n) for n in dims):
+        raise TypeError(f"{name} must be (D, H, W) integers, got {_shown(shape)}")
+    out = (operator.index(dims[0]), operator.index(dims[1]), operator.index(dims[2]))
     if min(out) < 1:
         raise ValueError(f"{name} must have D, H, W >= 1, got {_shown(shape)}")
+    if max(out) > COORDINATE_LIMIT:
+        raise ValueError(
+            f"{name} must have D, H, W <= {COORDINATE_LIMIT:.0e} (glmls's coordinate range, "
+            f"voxels), got {_shown(shape)}"
+        )
     return out
 
 
 def check_volume_origin(origin: object) -> tuple[float, float, float] | None:
-    """``origin`` as (x0, y0, z0) finite floats (None stays None)."""
+    """``origin`` as (x0, y0, z0) finite floats (None stays None): ``TypeError`` for values
+    that are not real numbers, ``ValueError`` for another length or a value that is not
+    finite or beyond the coordinate limit."""
     if origin is None:
         return None
     values = _triple(origin, "origin", "(x0, y0, z0) real numbers")
-    if not all(_real(v) for v in values):
-        raise ValueError(f"origin must be (x0, y0, z0) real numbers, got {origin!r}")
-    point = (float(values[0]), float(values[1]), float(values[2]))
+    try:
+        point = tuple(check_real("origin", v) for v in values)
+    except TypeError:
+        raise TypeError(f"origin must be (x0, y0, z0) real numbers, got {origin!r}") from None
     if not all(math.isfinite(v) and abs(v) <= COORDINATE_LIMIT for v in point):
         raise ValueError(
             f"origin must be finite and within ±{COORDINATE_LIMIT:.0e}, got {origin!r}"
         )
-    return point
+    return point  # type: ignore[return-value]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -151,11 +158,7 @@ class VolumeOptions:
             ("interpolation", self.interpolation, INTERPOLATIONS),
             ("border", self.border, BORDERS),
         ):
-            if not isinstance(value, str) or value not in choices:
-                extra = " for a volume" if name == "method" else ""
-                raise ValueError(
-                    f"unknown {name} {value!r}{extra}; choose one of {', '.join(choices)}"
-                )
+            check_choice(name, value, choices, " for a volume" if name == "method" else "")
         checked = {
             "grid": check_grid(self.grid, "voxels"),
             "background": check_background(self.background),
@@ -251,6 +254,4 @@ class SlabOptions:
 
     def __post_init__(self) -> None:
         for name in ("slab_bytes", "band_bytes", "texture_bytes"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 64:
-                raise ValueError(f"{name} must be an integer >= 64, got {value!r}")
+            object.__setattr__(self, name, check_integer(name, getattr(self, name), 64))

@@ -219,7 +219,7 @@ def test_bad_input_names_the_item(gl, images):
         aug(images[:1], boxes=[[[0, 0, np.inf, 1]]])
     with pytest.raises(ValueError, match=r"indices\[1\] must be an integer >= 0, got -2"):
         aug(images[:2], indices=[0, -2])
-    with pytest.raises(ValueError, match="indices holds 1 values for 2 images"):
+    with pytest.raises(ValueError, match="indices holds 1 value for 2 images"):
         aug(images[:2], indices=[0])
     with pytest.raises(ValueError, match=r"params\[0\] was drawn for shape \(8, 8\)"):
         aug.replay(images[:1], aug.draw([(8, 8)]))

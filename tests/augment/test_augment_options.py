@@ -155,5 +155,5 @@ def test_indices_may_be_zero_dimensional_arrays_and_tensors(gl, kind):
     out = aug(images, indices=[make(7), make(2)])
     assert [p["index"] for p in out.params] == [7, 2]
     np.testing.assert_array_equal(out.images, aug(images, indices=[7, 2]).images)
-    with pytest.raises(ValueError, match=r"indices\[0\] must be an integer >= 0"):
+    with pytest.raises(TypeError, match=r"indices\[0\] must be an integer >= 0"):
         aug(images, indices=[make(1.0), make(2)])

@@ -88,7 +88,7 @@ def test_replay_of_the_params_through_json_gives_the_same_images(recorded):
     [
         ([(0, 5)], ValueError, r"shapes\[0\]: shape must be \(H, W\) with H, W >= 1"),
         ([(8, 8), (-3, 5)], ValueError, r"shapes\[1\]: shape must be \(H, W\) with H, W >= 1"),
-        ([(3.5, 5)], ValueError, r"shapes\[0\]: shape must be \(H, W\) integers"),
+        ([(3.5, 5)], TypeError, r"shapes\[0\]: shape must be \(H, W\) integers"),
         ("ab", TypeError, "shapes must be a sequence of"),
     ],
 )
@@ -186,7 +186,7 @@ def test_warp_options_are_checked_when_the_augment_is_made(options, error, messa
 @pytest.mark.parametrize(
     ("landmarks", "message"),
     [
-        ([np.zeros((1, 2))], "landmarks holds 1 point sets for 2 images"),
+        ([np.zeros((1, 2))], "landmarks holds 1 point set for 2 images"),
         ([np.zeros((1, 2)), np.full((1, 2), np.nan)], r"landmarks\[1\] holds values that are"),
         ([np.zeros((1, 3)), np.zeros((1, 2))], r"landmarks\[0\] has shape \(1, 3\)"),
         ([RAGGED, np.zeros((1, 2))], r"landmarks\[0\] is ragged"),

@@ -31,9 +31,12 @@ def test_centres_are_the_pixel_centres():
         MeshLattice((3, 5), 2, "centres")
 
 
-@pytest.mark.parametrize("grid", [0, -1, 1.5, True])
-def test_bad_grid(grid):
-    with pytest.raises(ValueError, match="grid must be an integer from 1 to"):
+@pytest.mark.parametrize(
+    ("grid", "error"),
+    [(0, ValueError), (-1, ValueError), (1.5, TypeError), (2.0, TypeError), (True, TypeError)],
+)
+def test_bad_grid(grid, error):
+    with pytest.raises(error, match="grid must be an integer from 1 to"):
         MeshLattice.corners((4, 4), grid)
 
 
@@ -88,10 +91,10 @@ def test_uniforms_are_in_scaled_coordinates():
     assert values["u_lattice_dims"] == (7, 5)
 
 
-@pytest.mark.parametrize("shape", [(1.5, 2), (12, 16.25), (True, 4)])
+@pytest.mark.parametrize("shape", [(1.5, 2), (12, 16.25), (True, 4), (4.0, 4)])
 def test_shape_of_non_integer_sizes_is_refused(shape):
     """A size of 1.5 pixels was truncated to 1 (and a bool taken as 1) without a word."""
-    with pytest.raises(ValueError, match="shape must be"):
+    with pytest.raises(TypeError, match="shape must be"):
         as_shape(shape)
 
 
@@ -102,5 +105,6 @@ def test_shape_as_a_string_is_refused():
 
 
 def test_shape_of_integral_numbers_is_kept():
-    assert as_shape((np.int64(3), 4.0)) == (3, 4)
+    assert as_shape((np.int64(3), np.uint8(4))) == (3, 4)
+    assert as_shape((np.array(3), 4)) == (3, 4)
     assert as_shape((3, 4, 3)) == (3, 4)

@@ -168,15 +168,18 @@ def test_canvas_larger_than_the_image_with_every_method(gl):
         ((0, 10), None, ValueError, "output_shape"),
         ((10, -1), None, ValueError, "output_shape"),
         ((10,), None, ValueError, "output_shape"),
-        ((10, 2.5), None, ValueError, "output_shape"),
-        ((10, True), None, ValueError, "output_shape"),
+        ((10, 2.5), None, TypeError, "output_shape"),
+        ((10, True), None, TypeError, "output_shape"),
+        ((10.0, 10), None, TypeError, "output_shape"),
         ("10x10", None, TypeError, "output_shape"),
         (7, None, TypeError, "output_shape"),
         ((10, 1 << 30), None, ValueError, "GL limit"),
         (None, (np.nan, 0), ValueError, "origin"),
         (None, (0, 1e9), ValueError, "origin"),
         (None, (1, 2, 3), ValueError, "origin"),
-        (None, ("a", 0), ValueError, "origin"),
+        (None, ("a", 0), TypeError, "origin"),
+        (None, (True, 0), TypeError, "origin"),
+        (None, (1j, 0), TypeError, "origin"),
         (None, 5.0, TypeError, "origin"),
     ],
 )
@@ -191,7 +194,8 @@ def test_bad_canvas(gl, output_shape, origin, error, match):
 def test_canvas_accepts_numpy_values():
     frame = make_frame(np.array([5, 6]), (np.float32(1.5), np.int64(-2)), (3, 3), 100)
     assert frame.shape == (5, 6) and frame.origin == (1.5, -2.0)
-    assert make_frame((5.0, 6.0), None, (3, 3), 100).shape == (5, 6)
+    assert make_frame(np.array([5, 6], np.uint16), None, (3, 3), 100).shape == (5, 6)
+    assert make_frame((np.array(5), 6), np.array([0.5, 1], np.float16), (3, 3), 100).shape == (5, 6)
 
 
 def test_lattice_margin():
@@ -218,8 +222,9 @@ def test_lattice_margin():
     centres = MeshLattice.centres((4, 5), margin=2)
     assert centres.origin == (-2.0, -2.0) and centres.last == (6.0, 5.0)
     assert centres.dims == (9, 8)
-    for bad in (-1, 1.5, True, 1 << 30):
-        with pytest.raises(ValueError, match="margin"):
+    refused = ((-1, ValueError), (1.5, TypeError), (True, TypeError), (1 << 30, ValueError))
+    for bad, error in refused:
+        with pytest.raises(error, match="margin"):
             MeshLattice.corners((4, 4), 1, margin=bad)
 
 

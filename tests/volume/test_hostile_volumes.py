@@ -39,7 +39,7 @@ def test_the_error_field_of_an_mls_without_handles_is_zero(gl):
 @pytest.mark.parametrize("shape", [(2.5, 3, 3), (3, 3.5, 3, 1), (True, 3, 3)])
 @pytest.mark.parametrize("analyse", [analysis.volume_error_field, analysis.cell_jacobians])
 def test_the_3d_analyses_refuse_a_shape_that_is_not_integers(mls3, analyse, shape):
-    with pytest.raises(ValueError, match=r"shape must be \(D, H, W\) integers"):
+    with pytest.raises(TypeError, match=r"shape must be \(D, H, W\) integers"):
         analyse(mls3, shape)
 
 
