@@ -237,7 +237,8 @@ class Augment:
     box_step : float, default 2.0
         Pixels between two points of a box's outline as it is moved (with ``quads`` on the
         regular mesh, the points where the outline crosses the mesh's cell and triangle
-        edges are added: the box is then the moved outline's extent exactly).
+        edges and the mesh's vertices inside the box are added: the box is then the moved
+        box's extent exactly, where the map folds too).
     densify : float or None, default None
         Pixels: add points along each polygon's edges so that none is longer, before moving
         it (a straight edge may bend); None: move the vertices only.
