@@ -88,6 +88,36 @@ def _check_reach(preset: object, dst: np.ndarray, index: int) -> None:
     )
 
 
+def _words(value: int) -> list[int]:
+    """``value`` (>= 0) as 32-bit words, least significant first; 0 as one word."""
+    words = [value & 0xFFFFFFFF]
+    while value >> 32:
+        value >>= 32
+        words.append(value & 0xFFFFFFFF)
+    return words
+
+
+def sample_rng(seed: int, index: int) -> np.random.Generator:
+    """The random numbers of sample ``index`` under ``seed``: ``numpy.random.default_rng((seed,
+    index))`` for a seed below 2**32. numpy reads that pair as the words of both numbers, the
+    last ones zero-padded, so a larger seed would share its draws with smaller ones (seed
+    2**32 + s at index 0 with seed s at index 1); a seed of 2**32 or more draws from its
+    word count, its words, the index's words and a closing 0, which no other pair spells.
+
+    Examples
+    --------
+    >>> from glmls.augment.core import sample_rng
+    >>> first = sample_rng(2**32, 0).uniform(size=3)
+    >>> bool((first != sample_rng(0, 1).uniform(size=3)).all())
+    True
+    """
+    if seed < 1 << 32:
+        return np.random.default_rng((seed, index))
+    seed_words = _words(seed)
+    words = [len(seed_words), *seed_words, *_words(index), 0]
+    return np.random.default_rng(np.random.SeedSequence(np.array(words, np.uint32)))
+
+
 def _mesh_grid(options: Mapping[str, object]) -> int | None:
     """The grid of the regular mesh whose piecewise linear map moves the points with a
     draw's warp ``options`` (``quads`` without a ``tolerance``), else None."""
@@ -187,9 +217,11 @@ class Augment:
     """A random MLS deformation of a batch, reproducible sample by sample.
 
     Sample i draws its handles from the preset with ``numpy.random.default_rng((seed,
-    indices[i]))``: ``aug(images[2:4], indices=[2, 3])`` equals ``aug(images)`` at 2 and 3
-    whatever the batch size, order or number of workers. Each sample's draw is kept in the
-    result's ``params`` (JSON-able dicts) and :meth:`replay` makes it again.
+    indices[i]))`` (for a seed below 2**32; a larger seed draws from its words and the
+    index's, so that no two seeds share a draw): ``aug(images[2:4], indices=[2, 3])``
+    equals ``aug(images)`` at 2 and 3 whatever the batch size, order or number of workers.
+    Each sample's draw is kept in the result's ``params`` (JSON-able dicts) and
+    :meth:`replay` makes it again.
 
     Parameters
     ----------
@@ -207,7 +239,8 @@ class Augment:
     box_step : float, default 2.0
         Pixels between two points of a box's outline as it is moved (with ``quads`` on the
         regular mesh, the points where the outline crosses the mesh's cell and triangle
-        edges are added: the box is then the moved outline's extent exactly).
+        edges and the mesh's vertices inside the box are added: the box is then the moved
+        box's extent exactly, where the map folds too).
     densify : float or None, default None
         Pixels: add points along each polygon's edges so that none is longer, before moving
         it (a straight edge may bend); None: move the vertices only.
@@ -331,7 +364,7 @@ class Augment:
                 shape = as_shape(given)
             except (TypeError, ValueError) as error:
                 raise type(error)(f"shapes[{i}]: {error}") from None
-            rng = np.random.default_rng((self.seed, index))
+            rng = sample_rng(self.seed, index)
             marks = None if landmarks is None else landmarks[i]
             try:
                 src, dst = self.preset.draw(rng, tuple(shape), marks)

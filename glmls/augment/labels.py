@@ -216,8 +216,10 @@ def box_outlines(
     """Points along each box's outline, a point at most ``step`` pixels from the next.
 
     With ``mesh``, the outline also holds every point where a side crosses an edge of the
-    ``quads`` mesh's cells or triangles: the mesh's map is linear between two such points,
-    so the moved outline's bounding box is that of the whole moved outline, exactly.
+    ``quads`` mesh's cells or triangles, and each box's points end with the mesh's vertices
+    inside it (on the image): the mesh's map is linear between them, so the moved points'
+    bounding box is that of the whole moved box, exactly, also where the map folds (and
+    turns the box's inside past its moved outline).
 
     Parameters
     ----------
@@ -275,13 +277,35 @@ def box_outlines(
     points = starts[owner] + t[:, None] * (ends - starts)[owner]
     counts = np.bincount(owner // 4, minlength=len(boxes)).astype(np.int64)
     lines = np.flatnonzero((x1 == x0) | (y1 == y0))
-    if len(lines):  # a line or a point: its samples once each
+    if len(lines) or (mesh is not None and len(boxes)):
         pieces = np.split(points, np.cumsum(counts)[:-1])
-        for k in lines:
+        for k in lines:  # a line or a point: its samples once each
             pieces[k] = np.unique(pieces[k], axis=0)
+        if mesh is not None:  # where the map folds, a box's inside reaches past its outline
+            pieces = [
+                np.concatenate([piece, _inner_vertices(box, *mesh)])
+                for piece, box in zip(pieces, boxes, strict=True)
+            ]
         counts = np.array([len(piece) for piece in pieces], np.int64)
         points = np.concatenate(pieces)
     return points, counts
+
+
+def _inner_vertices(box: np.ndarray, grid: int, shape: tuple[int, int]) -> np.ndarray:
+    """The vertices of the regular mesh at ``grid`` over an image of ``shape`` that lie
+    strictly inside ``box`` (the image's own vertices, every ``grid`` pixels from -0.5 and
+    its last edge): the mesh's map is linear on each triangle, so the extent of the moved box
+    is that of its moved outline points (:func:`box_outlines`) and these, also where the map
+    folds the box's inside past its outline."""
+    axes = []
+    for low, high, size in ((box[0], box[2], shape[1]), (box[1], box[3], shape[0])):
+        edge = size - 0.5
+        first = max(math.ceil((low + 0.5) / grid), 0)
+        last = min(math.floor((high + 0.5) / grid), math.ceil(size / grid))
+        values = np.unique(np.append(-0.5 + grid * np.arange(first, last + 1.0), edge))
+        axes.append(values[(values > low) & (values < high) & (values <= edge)])
+    xs, ys = np.meshgrid(*axes)
+    return np.stack([xs.ravel(), ys.ravel()], axis=1)
 
 
 def _ranges(first: np.ndarray, last: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

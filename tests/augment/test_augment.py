@@ -237,3 +237,20 @@ def test_importing_glmls_imports_no_adapter_library():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"
+
+
+def test_every_seed_and_index_draws_its_own():
+    """numpy reads (seed, index) as the words of both numbers, zero-padded: a seed of 2**32
+    or more draws otherwise, so that it shares no draw with a smaller seed (2**32 + s at
+    index 0 is not s at index 1), while a seed below 2**32 draws from (seed, index)."""
+    seeds = [0, 1, 7, 2**32, 2**32 + 1, 2**32 + 7, 3 * 2**32 + 7, 2**64, 2**64 + 1, 2**65]
+    seen = {}
+    for seed in seeds:
+        for draw in Augment("grid", seed=seed).draw([(8, 8)] * 4):
+            key = tuple(np.ravel(draw["dst"]))
+            assert key not in seen, (seed, draw["index"], seen.get(key))
+            seen[key] = (seed, draw["index"])
+    draw = Augment("grid", seed=5).draw([(8, 8)], indices=[3])[0]
+    src = np.array(draw["src"])
+    offsets = np.random.default_rng((5, 3)).uniform(-1.0, 1.0, src.shape) * 0.03 * 8
+    np.testing.assert_array_equal(draw["dst"], src + offsets)

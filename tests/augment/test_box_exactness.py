@@ -1,8 +1,9 @@
 """Boxes hold their warped objects: with ``quads`` the moved outline holds every point where
 a side crosses a cell's or a triangle's edge of the mesh, whose map is linear between them,
 so the box is the warped outline's extent, exactly (a float64 reference of the mesh's map
-on an outline sampled every 0.005 px says so), and every output pixel that shows the object
-lies in it."""
+on an outline sampled every 0.005 px says so); with the mesh's vertices inside the box it is
+the whole warped box's extent where the map folds too, and every output pixel that shows
+the object lies in it."""
 
 from __future__ import annotations
 
@@ -78,3 +79,32 @@ def test_quads_boxes_are_the_warped_outlines_extent(gl, grid, shape):
         high = (shape[1] - 0.5, shape[0] - 0.5)  # clipped to the canvas
         extent = np.clip([*moved.min(axis=0), *moved.max(axis=0)], -0.5, [*high, *high])
         np.testing.assert_allclose(out.boxes[i][0], extent, rtol=0, atol=2e-3)
+
+
+@pytest.mark.parametrize(
+    ("preset", "options", "grid", "shape"),
+    [
+        ("grid", {"displacement": 0.3}, 4, (48, 64)),
+        ("grid", {"displacement": 0.3}, 1, (48, 64)),
+        ("text-perspective", {"radius": 40.0}, 2, (32, 128)),
+    ],
+)
+def test_a_box_holds_its_object_where_the_map_folds(gl, preset, options, grid, shape):
+    """Where the map folds, the inside of a box can land past its moved outline (a fold
+    turns it back over the outline): the box holds the mesh's vertices inside it too, and
+    with them every output pixel that shows the object."""
+    rng = np.random.default_rng(1)
+    masks, boxes = objects(rng, 120, shape)
+    aug = Augment(preset, seed=5, warp_options={"grid": grid, "border": "constant"}, **options)
+    out = aug(masks * 255, masks=masks, boxes=boxes)
+    outside = []
+    for i in range(len(masks)):
+        rows, columns = np.nonzero(out.masks[i])
+        if not len(rows):
+            continue
+        x_min, y_min, x_max, y_max = out.boxes[i][0]
+        reach = max(x_min - columns.min(), columns.max() - x_max)
+        reach = max(reach, y_min - rows.min(), rows.max() - y_max)
+        if reach > 0:
+            outside.append((i, float(reach)))
+    assert not outside, outside
