@@ -254,7 +254,6 @@ def _run_on(client, function, items: list, finished) -> None:
     failed or interrupted run starts none of the rest, lets the running ones end and reports
     those that ended well."""
     from distributed import as_completed
-    from distributed import wait as distributed_wait
 
     pending = iter(enumerate(items))
     running: dict = {}  # future key: (index, future)
@@ -279,7 +278,27 @@ def _run_on(client, function, items: list, finished) -> None:
             submit()
     except BaseException:
         futures = {future: index for index, future in running.values()}
-        with contextlib.suppress(Exception):
-            distributed_wait(list(futures))
+        _let_end(client, list(futures))
         _report_the_rest(futures, finished)
         raise
+
+
+def _let_end(client, futures: list) -> None:
+    """Wait for ``futures`` to end while the cluster has a worker to run them: Ctrl-C in a
+    terminal reaches a local cluster's workers too, and a future whose worker is gone would
+    never end."""
+    from distributed import wait
+
+    while futures:
+        try:
+            wait(futures, timeout=1.0)
+            return
+        except TimeoutError:
+            pass
+        except Exception:  # a cluster that went away: nothing left to wait for
+            return
+        try:
+            if not client.nthreads():
+                return
+        except Exception:
+            return

@@ -112,6 +112,36 @@ class SavedReport:
         return paths
 
 
+def picture_names(*, triangle_error: str = "angle", construction: bool = True) -> list[str]:
+    """The pictures :func:`report` draws with these options, in its order; ``save`` writes
+    each as ``NAME.png``, so that a caller can check, before any work, that none of them
+    would replace a file it keeps.
+
+    Parameters
+    ----------
+    triangle_error : {"angle", "distance"}, optional
+        The error the triangle picture shows, as for :func:`report`.
+    construction : bool, optional
+        Whether the report measures the construction error (its picture and colour bar).
+
+    Returns
+    -------
+    list of str
+        The names, without ``.png``.
+
+    Examples
+    --------
+    >>> glmls.analysis.reporting.picture_names(construction=False)[-2:]
+    ['triangle_angle', 'triangle_angle_colorbar']
+    """
+    triangles = f"triangle_{triangle_error}"
+    names = ["input_handles", "deformed", "deformed_mesh", "error_field"]
+    names += ["error_field_colorbar", "triangulation", triangles, f"{triangles}_colorbar"]
+    if construction:
+        names += ["construction_errors", "construction_errors_colorbar"]
+    return names
+
+
 def cmap_name(cmap: object) -> object:
     """A colour map as the summaries record it: its name, or its colours as lists."""
     return cmap if isinstance(cmap, str) else np.asarray(cmap).tolist()

@@ -26,7 +26,19 @@ from .volume_field import Deformation3D, volume_deformation, volume_error_field
 from .volume_lattice import as_points3, check_grid3, deformation_spacing, spacing_scale
 from .volume_pictures import check_slices, render_volume_slices
 
-__all__ = ["VolumeReport", "volume_report"]
+__all__ = ["VOLUME_PICTURES", "VolumeReport", "volume_report"]
+
+#: The pictures :func:`volume_report` may draw, in its order (``deformed`` where it has a
+#: deformed volume); ``save`` writes each as ``NAME.png``.
+VOLUME_PICTURES = (
+    "input_handles",
+    "deformed",
+    "error_field",
+    "error_field_colorbar",
+    "jacobian_det",
+    "jacobian_det_colorbar",
+    "folds",
+)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

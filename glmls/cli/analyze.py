@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..analysis.reporting import report
+from ..analysis.reporting import picture_names, report
 from ..analysis.triangles import ANGLE_MEASURES
 from .analyze_mesh import is_mesh_input, run_mesh
 from .analyze_volume import is_volume_input, run_volume
@@ -74,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
         args, reference, "the source handles (the reference points without --reference)"
     )
     check_picture(image, name)
+    keep_inputs(args, report_paths(args.out, picture_names()))  # before any work
     ticker = Ticker("analyze", quiet=args.quiet)
     with make_mls(handles, config, image.shape) as m, ticker as tick, reported_warnings("analyze"):
         try:
@@ -91,7 +92,6 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as error:
             raise UsageError(str(error)) from None
     result.summary["input"] = name
-    keep_inputs(args, report_paths(args.out, result.images))
     paths = result.save(args.out)
     for path in paths:
         print(path)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.volume_reporting import volume_report
+from ..analysis.volume_reporting import VOLUME_PICTURES, volume_report
 from ..core.config import MLSConfig
 from ..files.parsing import csv_rows, fail, json_list, load_json, number, table
 from ..files.volumes import is_volume_file, read_volume
@@ -125,6 +125,7 @@ def run_volume(args: argparse.Namespace) -> int:
         say(args, f"glmls analyze: warning: {args.input}: {message}")
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")
+    keep_inputs(args, report_paths(args.out, VOLUME_PICTURES))  # before any work
     ticker = Ticker("analyze", quiet=args.quiet)
     m = _deformation(src, dst, config, volume.shape[:3], spacing)
     with m, ticker as tick, reported_warnings("analyze"):
@@ -146,7 +147,6 @@ def run_volume(args: argparse.Namespace) -> int:
         except (TypeError, ValueError) as error:
             raise UsageError(str(error)) from None
     result.summary["input"] = str(args.input)
-    keep_inputs(args, report_paths(args.out, result.images))
     for path in result.save(args.out):
         print(path)
     summary = result.summary

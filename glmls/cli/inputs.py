@@ -9,7 +9,7 @@ import contextlib
 import glob
 import sys
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -347,8 +347,9 @@ def keep_inputs(args: argparse.Namespace, outputs: list[Path]) -> None:
     refuse_overwriting(outputs, read)
 
 
-def report_paths(folder: str | Path, images: dict) -> list[Path]:
-    """The files a report's ``save(folder)`` writes: ``report.json`` and its pictures."""
+def report_paths(folder: str | Path, images: Iterable[str]) -> list[Path]:
+    """The files a report's ``save(folder)`` writes: ``report.json`` and its pictures
+    (``images``: their names, or a report's dict of them)."""
     folder = Path(folder)
     return [folder / "report.json", *(folder / f"{name}.png" for name in images)]
 

@@ -423,6 +423,16 @@ def parse_background(text: str) -> float | tuple[float, ...]:
         ) from None
     if not 1 <= len(values) <= 4:
         raise argparse.ArgumentTypeError(f"expected 1 to 4 values, got {len(values)}")
+    for part, value in zip(text.split(","), values, strict=True):
+        try:
+            exact = int(part)
+        except ValueError:
+            continue  # not an integer: 0.5, 1e3, nan
+        if exact != value:  # an integer beyond 2**53: float64 rounds it
+            raise argparse.ArgumentTypeError(
+                f"{part.strip()} is not exact as a number (it would be {value:.0f}); a "
+                "background is exact within +-2**53"
+            )
     return values[0] if len(values) == 1 else values
 
 

@@ -9,7 +9,7 @@ import json
 from pathlib import Path
 
 from ..analysis.jobs import DistributedUnavailableError
-from ..analysis.reporting import report
+from ..analysis.reporting import picture_names, report
 from ..analysis.triangles import ANGLE_MEASURES
 from ..analysis.tuning import MEASURES, label, search_space, tune
 from ..analysis.tuning_trials import MAGNITUDES
@@ -161,7 +161,8 @@ def run(args: argparse.Namespace) -> int:
     check_picture(image, name)  # the winner's report pictures it, after the tuning
     written = ["ranking.json", "ranking.csv"]
     written += ["construction.json", "construction.csv"] if args.construction else []
-    keep_inputs(args, [Path(args.out) / name for name in written])
+    outputs = [Path(args.out) / name for name in written]
+    keep_inputs(args, outputs + report_paths(Path(args.out) / "winner", picture_names()))
     shape = image.shape[:2]
     try:
         configs = (  # None: the default search space
@@ -221,7 +222,6 @@ def run(args: argparse.Namespace) -> int:
             image, m, reference, grid=args.analysis_grid, angle=args.angle, cmap=args.cmap
         )
     winner.summary["input"] = name
-    keep_inputs(args, report_paths(out / "winner", winner.images))
     winner.save(out / "winner")
     say(args, f"tune: best by {result.rank_by}: {best['label']}; wrote {out}")
     if args.construction:

@@ -55,8 +55,10 @@ def warped_as(data: np.ndarray, name: object = "volume") -> np.ndarray:
 def check_file_background(background: float | tuple[float, ...], dtype: np.dtype, name: object):
     """``ValueError`` naming ``name`` where ``background`` (one value or one per channel) is
     not a value of a volume of ``dtype`` warped as float32 and written back (:func:`in_dtype`):
-    outside an integer dtype's range or NaN there, outside 0..1 for bool, a finite value
-    beyond float32's range (or a float16's) for a float dtype."""
+    outside an integer dtype's range or NaN there, an integer float32 would round (beyond
+    +-2**24, such as 2**24 + 1: the warp would write another; the dtype's largest value is
+    kept), outside 0..1 for bool, a
+    finite value beyond float32's range (or a float16's) for a float dtype."""
     values = background if isinstance(background, tuple) else (background,)
     dtype = np.dtype(dtype)
     if dtype == np.bool_:
@@ -75,6 +77,16 @@ def check_file_background(background: float | tuple[float, ...], dtype: np.dtype
         raise ValueError(
             f"{name}: background {background!r} is outside {low:g}..{high:g} of {dtype}"
         )
+    for value in values:
+        # what the warp writes (float32, then back in the dtype) against the value itself
+        written = in_dtype(np.array([value], np.float32), dtype)[0]
+        wanted = in_dtype(np.array([value], np.float64), dtype)[0]
+        if written != wanted:
+            raise ValueError(
+                f"{name}: background {background!r}: float32 (the GPU's) would round "
+                f"{wanted} to {written}; an integer background is exact within +-2**24 "
+                "(16777216)"
+            )
 
 
 def in_dtype(warped: np.ndarray, dtype: np.dtype) -> np.ndarray:

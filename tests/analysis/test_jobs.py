@@ -3,7 +3,10 @@ local Dask cluster give the same results, in order; a worker's error reaches the
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
+import subprocess
 import sys
 import threading
 import time
@@ -164,3 +167,47 @@ def test_the_items_running_when_one_fails_are_reported(scheduler):
             on_result=lambda i, r: seen.append((i, r)),
         )
     assert seen == [(1, 1)]
+
+
+@pytest.mark.parametrize("scheduler", ["none", "local"])
+def test_ctrl_c_ends_the_run_and_its_workers(tmp_path, scheduler):
+    """Ctrl-C in a terminal reaches the whole process group, the workers too: the run ends
+    at once (it does not wait for items whose workers are gone) and leaves no process."""
+    if scheduler == "local":
+        pytest.importorskip("distributed")
+    script = Path(__file__).with_name("interrupted_jobs.py")
+    root = Path(__file__).resolve().parents[2]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root), str(script.parent)]))
+    child = subprocess.Popen(
+        [sys.executable, str(script), str(tmp_path), scheduler],
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        start_new_session=True,  # a process group of its own, as a terminal's command
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while len(list(tmp_path.glob("started_*"))) < 2 and time.monotonic() < deadline:
+            assert child.poll() is None, child.stderr.read()
+            time.sleep(0.1)
+        os.killpg(child.pid, signal.SIGINT)
+        _, err = child.communicate(timeout=25)  # the items would run 30 s
+        left = _group_alive(child.pid, wait=20)
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(child.pid, signal.SIGKILL)
+    assert child.returncode == 130, err
+    assert not left, "a worker process outlived the run"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["started_0", "started_1"]
+
+
+def _group_alive(group: int, wait: float) -> bool:
+    """Whether a process of ``group`` is still running after ``wait`` seconds at most."""
+    deadline = time.monotonic() + wait
+    while time.monotonic() < deadline:
+        try:
+            os.killpg(group, 0)
+        except ProcessLookupError:
+            return False
+        time.sleep(0.1)
+    return True

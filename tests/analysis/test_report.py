@@ -13,6 +13,7 @@ from scipy.spatial import Delaunay
 
 import glmls
 from glmls import reference
+from glmls.analysis.reporting import picture_names
 
 SRC = [[10.0, 10.0], [50.0, 12.0], [30.0, 40.0], [12.0, 44.0]]
 DST = [[14.0, 8.0], [50.0, 12.0], [33.0, 36.0], [12.0, 44.0]]
@@ -98,6 +99,7 @@ def test_summary_and_pictures(gl, rng, tmp_path):
         "construction_errors_colorbar",
     }
     assert set(result.images) == expected
+    assert list(result.images) == picture_names()  # what the command line checks first
     assert summary["analysis"]["angle"] == "paper"
     assert summary["construction"]["count"] + summary["construction"]["nan_count"] == len(REFERENCE)
     for name, picture in result.images.items():

@@ -20,6 +20,7 @@ from glmls.analysis import (
     volume_report,
 )
 from glmls.analysis.canvas import HANDLE_SOURCE_COLOR
+from glmls.analysis.volume_reporting import VOLUME_PICTURES
 
 SHAPE = (10, 12, 14)
 SRC = np.array([[2.0, 2, 2], [11, 2, 2], [2, 9, 2], [2, 2, 7], [11, 9, 7], [4, 6, 4], [9, 6, 4]])
@@ -68,6 +69,7 @@ def test_a_given_deformed_volume_is_drawn_and_reference_points_used(gl):
     found = volume_report(volume(), m, points, grid=3, deformed=volume()[:, :, ::-1])
     assert found.summary["deformed"] is True and "deformed" in found.images
     assert found.images["deformed"].shape == found.images["input_handles"].shape
+    assert list(found.images) == list(VOLUME_PICTURES)  # what the command line checks first
     assert found.summary["analysis"]["reference_points"] == "given"
     assert found.tetrahedra is not None and len(found.tetrahedra.points) == 5
     assert found.summary["jacobians"]["folds"] == 0

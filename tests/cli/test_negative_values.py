@@ -38,6 +38,7 @@ def test_a_negative_spacing_is_the_spacing_check_s_error(capsys, tmp_path, comma
         ("--spacing", "-inf,1,1", "spacing must be positive and finite"),
         ("--spacing", "-1,a,1", "expected DZ,DY,DX numbers, got '-1,a,1'"),
         ("--background", "-1,x", "comma-separated numbers per channel, got '-1,x'"),
+        ("--background", "0,-9007199254740993", "it would be -9007199254740992"),  # -(2**53 + 1)
     ],
 )
 def test_every_negative_value_reaches_its_check(capsys, option, value, message):

@@ -67,3 +67,44 @@ def test_tune_keeps_an_input_named_like_an_output(out, capsys, source, name):
     err = capsys.readouterr().err
     assert f"{out / name}: the output is the --reference file" in err, err
     assert (out / name).read_bytes() == before
+
+
+def _not_run(*args, **kwargs):
+    raise AssertionError("the work ran before the outputs were checked")
+
+
+def test_analyze_refuses_a_picture_name_before_the_analysis(out, gl, capsys, monkeypatch):
+    monkeypatch.setattr("glmls.cli.analyze.report", _not_run)
+    photo = _move(out, "photo.png", "triangle_angle.png")
+    args = ["analyze", photo, "--handles", str(out.parent / "h.json"), "--out", str(out)]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.splitlines()[-1].startswith(f"glmls analyze: {photo}: the output is the input"), err
+    assert sorted(p.name for p in out.iterdir()) == ["triangle_angle.png"]
+
+
+def test_tune_refuses_a_winner_picture_name_before_the_tune(out, capsys, monkeypatch):
+    monkeypatch.setattr("glmls.cli.tune.tune", _not_run)
+    (out / "winner").mkdir()
+    photo = shutil.move(out.parent / "photo.png", out / "winner" / "deformed.png")
+    handles, reference = str(out.parent / "h.json"), str(out.parent / "r.json")
+    args = ["tune", str(photo), "--handles", handles, "--reference", reference, "--out", str(out)]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.splitlines()[-1].startswith(f"glmls tune: {photo}: the output is the input"), err
+    assert sorted(p.name for p in out.iterdir()) == ["winner"]  # no ranking written
+
+
+def test_analyze_volume_refuses_a_picture_name_before_the_analysis(out, capsys, monkeypatch):
+    monkeypatch.setattr("glmls.cli.analyze_volume.volume_report", _not_run)
+    np.save(out.parent / "v.npy", np.zeros((6, 7, 8), np.uint8))
+    src = [[1, 1, 1], [6, 1, 1], [1, 5, 1], [1, 1, 4]]
+    (out.parent / "h3.json").write_text(json.dumps({"src": src, "dst": src}))
+    reference = out / "folds.png"  # a CSV of reference points, named like a picture
+    reference.write_text("x,y,z\n" + "".join(f"{x},{y},{z}\n" for x, y, z in src))
+    args = ["analyze", str(out.parent / "v.npy"), "--handles", str(out.parent / "h3.json"),
+            "--reference", str(reference), "--out", str(out)]  # fmt: skip
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert f"{reference}: the output is the --reference file" in err, err
+    assert sorted(p.name for p in out.iterdir()) == ["folds.png"]

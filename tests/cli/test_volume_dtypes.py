@@ -100,11 +100,17 @@ def test_values_float32_would_change_are_refused_in_one_line(tmp_path, volume, n
 
 @pytest.mark.parametrize(
     ("dtype", "background"),
-    [("int16", "nan"), ("int16", "40000"), ("bool", "2"), ("float16", "1e5")],
+    [
+        ("int16", "nan"),
+        ("int16", "40000"),
+        ("bool", "2"),
+        ("float16", "1e5"),
+        ("int32", "16777217"),
+    ],
 )
 def test_a_background_the_volume_s_dtype_cannot_hold_is_refused(tmp_path, dtype, background):
-    """The volume is warped as float32, which holds these: they were written back as 0, as
-    32767, as True and as inf."""
+    """The volume is warped as float32: these would be written back as 0, as 32767, as
+    True, as inf and as 16777216."""
     np.save(tmp_path / "v.npy", np.ones((4, 5, 6), dtype))
     (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": DST}))
     result = run_glmls(

@@ -289,6 +289,8 @@ def test_floats_beyond_float32_are_refused_and_infinities_kept(dtype):
         (2.0, np.bool_, r"outside 0\.\.1 of bool"),
         (1e5, np.float16, r"beyond the range of float16"),
         (1e39, np.float64, r"beyond the range of float64 \(±3\.403e\+38\)"),
+        (2.0**24 + 1, np.int32, r"float32 \(the GPU's\) would round 16777217 to 16777216"),
+        ((0.0, -(2.0**31) + 1), np.int64, r"would round -2147483647 to -2147483648"),
     ],
 )
 def test_a_background_the_file_s_dtype_cannot_hold_is_refused(background, dtype, message):
@@ -298,7 +300,17 @@ def test_a_background_the_file_s_dtype_cannot_hold_is_refused(background, dtype,
 
 @pytest.mark.parametrize(
     ("background", "dtype"),
-    [(-32768.0, np.int16), ((0.0, 1.0), np.bool_), (np.inf, np.float16), (np.nan, np.float64)],
+    [
+        (-32768.0, np.int16),
+        ((0.0, 1.0), np.bool_),
+        (np.inf, np.float16),
+        (np.nan, np.float64),
+        (2.0**24, np.int32),
+        (2.0**24 + 2, np.int32),  # float32 holds it
+        (-(2.0**31), np.int32),
+        (2.0**31 - 1, np.int32),  # float32 rounds it up, and the write clips it back
+        (2.0**32 - 1, np.uint32),
+    ],
 )
 def test_a_background_the_file_s_dtype_holds_is_taken(background, dtype):
     check_file_background(background, np.dtype(dtype), "v.npy")
