@@ -489,8 +489,28 @@ class GLContext:
         obj : object
             Has a ``release()`` method that frees its GL objects on this context.
         """
+        if self.released:  # its GL objects went with the context
+            return
         self._orphans.append(obj)  # a list's append is atomic: no lock, which a finalizer
         # could otherwise wait on in the thread that holds it
+
+    def release_when_dropped(self, owner: object, obj: Releasable) -> None:
+        """Release ``obj`` (``owner``'s GL objects on this context) at this context's next use
+        once the garbage collector takes ``owner`` (:meth:`release_later`).
+
+        For objects that hold GL objects and may be let go without their ``release()``: a
+        released ``obj`` must ignore a second ``release()``. ``obj`` must not refer to
+        ``owner``, which it would keep alive.
+
+        Parameters
+        ----------
+        owner : object
+            The object whose collection releases ``obj`` (weakly referenced).
+        obj : object
+            Has a ``release()`` method that frees its GL objects on this context.
+        """
+        finalizer = weakref.finalize(owner, self.release_later, obj)
+        finalizer.atexit = False  # at exit the process's GL goes as a whole
 
     def _release_orphans(self) -> None:
         while self._orphans:

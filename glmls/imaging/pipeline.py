@@ -102,10 +102,11 @@ class WarpPipeline:
 
     One per GL context serves every :class:`~glmls.MLS` on it, the command line and a window
     alike: use the context's shared one, :meth:`of`. A pipeline of one's own (other
-    ``options``, e.g. in tests) is released with :meth:`release`. Textures and framebuffers
-    are kept for the last size of each role and replaced when the size changes; buffers only
-    grow (up to ``options.band_bytes``). Compiled programs belong to the
-    :class:`~glmls.gl.GLContext` and are shared.
+    ``options``, e.g. in tests) is released with :meth:`release`; one let go unreleased is
+    released by its context at its next use, as an MLS is. Textures and framebuffers are kept
+    for the last size of each role and replaced when the size changes; buffers only grow (up
+    to ``options.band_bytes``). Compiled programs belong to the :class:`~glmls.gl.GLContext`
+    and are shared.
 
     Parameters
     ----------
@@ -140,6 +141,7 @@ class WarpPipeline:
         self._gl = get_context(ctx)
         self.options = options if options is not None else PipelineOptions()
         self._resources = Resources(self._gl, "this warp pipeline")
+        self._gl.release_when_dropped(self, self._resources)  # one let go unreleased
         self._bands = MeshBands(self._resources, self.options)
         self.cells = CellScan(self._gl, self._resources, self.options, self._bands)
         self.raster = MeshRaster(self._gl, self._resources, self._bands)

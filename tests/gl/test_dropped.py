@@ -1,14 +1,18 @@
-"""An MLS dropped without release() (as scikit-image's transforms are used: made and let go in
-a loop) gives its GPU buffers back: its context releases them at its next use, in the thread
-that uses it, not in the garbage collector, which may run inside a GL call."""
+"""An MLS, a warp pipeline or a canvas dropped without release() (as scikit-image's transforms
+are used: made and let go in a loop) gives its GPU objects back: its context releases them at
+its next use, in the thread that uses it, not in the garbage collector, which may run inside a
+GL call."""
 
 from __future__ import annotations
 
 import gc
 
+import moderngl
 import numpy as np
 
 import glmls
+from glmls.analysis import Canvas
+from glmls.imaging.source import prepare_image
 
 SRC = np.array([[5.0, 5.0], [40.0, 8.0], [20.0, 30.0], [10.0, 12.0]])
 
@@ -51,3 +55,49 @@ def test_a_dropped_3d_mls_is_released_too(gl):
     with glmls.MLS(src, src, ctx=gl) as other:
         other(src)
     assert kernel.released
+
+
+def test_a_dropped_warp_pipeline_is_released_at_the_contexts_next_use(gl):
+    pipe = glmls.gl.WarpPipeline(gl)
+    image = np.arange(48, dtype=np.uint8).reshape(6, 8)
+    with glmls.MLS(SRC, SRC + 1.0, ctx=gl) as m:
+        pipe.warp(m, image)
+    texture = pipe.upload(prepare_image(image, pipe.max_image_size, normalized=True))
+    del pipe
+    gc.collect()
+    assert not _released(texture)  # not in the collector
+    with glmls.MLS(SRC, SRC, ctx=gl) as m:
+        m(SRC)
+    assert _released(texture)
+
+
+def test_a_dropped_canvas_is_released_at_the_contexts_next_use(gl, monkeypatch):
+    made = []
+
+    def recorded(make):
+        def wrapper(*args, **kwargs):
+            made.append(make(*args, **kwargs))
+            return made[-1]
+
+        return wrapper
+
+    for name in ("framebuffer", "renderbuffer"):
+        monkeypatch.setattr(gl.mgl, name, recorded(getattr(gl.mgl, name)))
+    canvas = Canvas((12, 16), ctx=gl).disks([[8, 6]], color=(255, 0, 0), radius=3)
+    assert canvas.read()[6, 8].tolist() == [255, 0, 0]
+    kept = Canvas((12, 16), ctx=gl)
+    monkeypatch.undo()
+    mine = made[: len(made) // 2]
+    assert mine
+    del canvas
+    gc.collect()
+    assert not any(_released(obj) for obj in mine)  # not in the collector
+    with glmls.MLS(SRC, SRC, ctx=gl) as m:
+        m(SRC)
+    assert all(_released(obj) for obj in mine)
+    assert kept.read().shape == (12, 16, 3)  # the kept canvas keeps its own
+    kept.release()
+
+
+def _released(obj: object) -> bool:
+    return isinstance(obj.mglo, moderngl.InvalidObject)  # type: ignore[attr-defined]
