@@ -236,6 +236,9 @@ class GLContext:
         self.shaders = shaders if shaders is not None else library()
         self.max_programs = max_programs
         self.pid = os.getpid()
+        #: For one that create_headless() made: hands its moderngl context, once collected
+        #: unreleased, to the next create_headless() (_free_dropped).
+        self._when_dropped: weakref.finalize | None = None
         self._programs: OrderedDict[tuple, moderngl.ComputeShader] = OrderedDict()
         self._render_programs: dict[tuple, moderngl.Program] = {}
         self._shared: dict[Hashable, Releasable] = {}
@@ -494,7 +497,7 @@ class GLContext:
         self._orphans.append(obj)  # a list's append is atomic: no lock, which a finalizer
         # could otherwise wait on in the thread that holds it
 
-    def release_when_dropped(self, owner: object, obj: Releasable) -> None:
+    def release_when_dropped(self, owner: object, obj: Releasable) -> weakref.finalize:
         """Release ``obj`` (``owner``'s GL objects on this context) at this context's next use
         once the garbage collector takes ``owner`` (:meth:`release_later`).
 
@@ -502,15 +505,25 @@ class GLContext:
         released ``obj`` must ignore a second ``release()``. ``obj`` must not refer to
         ``owner``, which it would keep alive.
 
+        The finalizer keeps this context alive as long as ``owner`` is: an object that the
+        context itself holds (:meth:`shared`) must be released with the context instead
+        (``detach()`` the finalizer returned).
+
         Parameters
         ----------
         owner : object
             The object whose collection releases ``obj`` (weakly referenced).
         obj : object
             Has a ``release()`` method that frees its GL objects on this context.
+
+        Returns
+        -------
+        weakref.finalize
+            The finalizer.
         """
         finalizer = weakref.finalize(owner, self.release_later, obj)
         finalizer.atexit = False  # at exit the process's GL goes as a whole
+        return finalizer
 
     def _release_orphans(self) -> None:
         while self._orphans:
@@ -556,6 +569,8 @@ class GLContext:
         references are dropped."""
         if self.released:
             return
+        if self._when_dropped is not None:
+            self._when_dropped.detach()
         with self._lock:
             if self.usable:
                 with self.use():
@@ -602,6 +617,24 @@ _default: GLContext | None = None
 _wrappers: dict[int, GLContext] = {}
 #: Every live GLContext, whose locks a forked child makes anew (see _after_fork_in_child).
 _every: weakref.WeakSet[GLContext] = weakref.WeakSet()
+
+
+#: (process id, moderngl context) of the contexts made by create_headless() that the garbage
+#: collector took unreleased: freed by the next create_headless() (_free_dropped), not in the
+#: collector, which may run anywhere.
+_dropped: list[tuple[int, moderngl.Context]] = []
+
+
+def _free_dropped() -> None:
+    """Free the moderngl contexts of the dropped ones (:data:`_dropped`): no thread has them
+    current (a binding, make_current() or the thread state would have kept them), and
+    destroying an EGL context frees every object made on it."""
+    while _dropped:
+        pid, mgl = _dropped.pop()
+        adopted = _wrappers.get(id(mgl))  # handed to get_context() as well: still in use
+        if pid == os.getpid() and (adopted is None or adopted.mgl is not mgl):
+            with contextlib.suppress(Exception):  # a leftover must not fail the user's call
+                mgl.release()
 
 
 def forked_from_gl() -> bool:
@@ -661,6 +694,7 @@ def create_headless(
     >>> context.release()
     """
     _check_process()
+    _free_dropped()
     previous = _thread.current
     try:
         mgl = moderngl.create_context(standalone=True, backend="egl", require=REQUIRED_GL)
@@ -669,6 +703,8 @@ def create_headless(
     _gl_pids.add(os.getpid())
     try:
         context = GLContext(mgl, owned=True, shaders=shaders, max_programs=max_programs)
+        context._when_dropped = weakref.finalize(context, _dropped.append, (os.getpid(), mgl))
+        context._when_dropped.atexit = False  # at exit the process's GL goes as a whole
     finally:
         # creation made it current here: bind again what glmls had bound before
         if previous is not None and previous.alive and not previous.released:
@@ -763,9 +799,12 @@ def _after_fork_in_child() -> None:
     _wrappers = {}
     _registry_lock = threading.RLock()
     _thread.current = None
+    _dropped.clear()  # the parent's
     for context in list(_every):
         context._lock = threading.RLock()
         context._held_by = None  # no thread of the parent's exists here
+        if context._when_dropped is not None:
+            context._when_dropped.detach()
 
 
 os.register_at_fork(after_in_child=_after_fork_in_child)

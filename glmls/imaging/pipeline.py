@@ -141,7 +141,8 @@ class WarpPipeline:
         self._gl = get_context(ctx)
         self.options = options if options is not None else PipelineOptions()
         self._resources = Resources(self._gl, "this warp pipeline")
-        self._gl.release_when_dropped(self, self._resources)  # one let go unreleased
+        #: Gives the objects of a pipeline let go unreleased back to the context.
+        self._when_dropped = self._gl.release_when_dropped(self, self._resources)
         self._bands = MeshBands(self._resources, self.options)
         self.cells = CellScan(self._gl, self._resources, self.options, self._bands)
         self.raster = MeshRaster(self._gl, self._resources, self._bands)
@@ -166,7 +167,13 @@ class WarpPipeline:
             Made on first use, released with the context.
         """
         gl = get_context(ctx)
-        return gl.shared(WarpPipeline, lambda: cls(gl))
+
+        def make() -> WarpPipeline:
+            pipeline = cls(gl)
+            pipeline._when_dropped.detach()  # the context's own, released with it
+            return pipeline
+
+        return gl.shared(WarpPipeline, make)
 
     @property
     def ctx(self) -> GLContext:
