@@ -18,6 +18,7 @@ from ..errors import ReleasedError
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import set_uniforms
+from ..gl.dropped import release_when_dropped
 from .colormaps import NAN_COLOR, as_color, color_limits, colormap
 from .shapes import arrow_triangles, disk_triangles, segment_triangles
 
@@ -34,7 +35,7 @@ EDGE_COLOR = (255, 255, 0)
 class _CanvasObjects:
     """A canvas's framebuffers and renderbuffers, freed by its :meth:`Canvas.release`, or by
     its context at its next use once the canvas is let go unreleased
-    (:meth:`~glmls.gl.context.GLContext.release_when_dropped`)."""
+    (:func:`~glmls.gl.dropped.release_when_dropped`)."""
 
     def __init__(self, gl: GLContext, previous: moderngl.Framebuffer) -> None:
         self.gl = gl
@@ -183,7 +184,7 @@ class Canvas:
         previous = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
         self._owned = _CanvasObjects(self._gl, previous)
         self._objects = self._owned.objects
-        self._gl.release_when_dropped(self, self._owned)  # a canvas let go unreleased
+        release_when_dropped(self._gl, self, self._owned)  # a canvas let go unreleased
         size = (width, height)
         # Colour only (2-D layers need no depth); moderngl's simple_framebuffer would add a
         # multisampled depth buffer, which some drivers refuse.

@@ -41,7 +41,7 @@ from typing import Protocol, TypeVar
 import moderngl
 
 from ..errors import ContextError, GLUnavailableError, ReleasedError
-from . import bindings, exiting
+from . import bindings, dropped, exiting
 from .shaders import ComposedSource, ShaderCompileError, ShaderLibrary, dump, library
 from .signals import signals_held
 from .unavailable import FIX, FORKED, explain
@@ -236,9 +236,7 @@ class GLContext:
         self.shaders = shaders if shaders is not None else library()
         self.max_programs = max_programs
         self.pid = os.getpid()
-        #: For one that create_headless() made: hands its moderngl context, once collected
-        #: unreleased, to the next create_headless() (_free_dropped).
-        self._when_dropped: weakref.finalize | None = None
+        self._when_dropped: weakref.finalize | None = None  # dropped.free_when_dropped
         self._programs: OrderedDict[tuple, moderngl.ComputeShader] = OrderedDict()
         self._render_programs: dict[tuple, moderngl.Program] = {}
         self._shared: dict[Hashable, Releasable] = {}
@@ -497,34 +495,6 @@ class GLContext:
         self._orphans.append(obj)  # a list's append is atomic: no lock, which a finalizer
         # could otherwise wait on in the thread that holds it
 
-    def release_when_dropped(self, owner: object, obj: Releasable) -> weakref.finalize:
-        """Release ``obj`` (``owner``'s GL objects on this context) at this context's next use
-        once the garbage collector takes ``owner`` (:meth:`release_later`).
-
-        For objects that hold GL objects and may be let go without their ``release()``: a
-        released ``obj`` must ignore a second ``release()``. ``obj`` must not refer to
-        ``owner``, which it would keep alive.
-
-        The finalizer keeps this context alive as long as ``owner`` is: an object that the
-        context itself holds (:meth:`shared`) must be released with the context instead
-        (``detach()`` the finalizer returned).
-
-        Parameters
-        ----------
-        owner : object
-            The object whose collection releases ``obj`` (weakly referenced).
-        obj : object
-            Has a ``release()`` method that frees its GL objects on this context.
-
-        Returns
-        -------
-        weakref.finalize
-            The finalizer.
-        """
-        finalizer = weakref.finalize(owner, self.release_later, obj)
-        finalizer.atexit = False  # at exit the process's GL goes as a whole
-        return finalizer
-
     def _release_orphans(self) -> None:
         while self._orphans:
             obj = self._orphans.pop()
@@ -619,24 +589,6 @@ _wrappers: dict[int, GLContext] = {}
 _every: weakref.WeakSet[GLContext] = weakref.WeakSet()
 
 
-#: (process id, moderngl context) of the contexts made by create_headless() that the garbage
-#: collector took unreleased: freed by the next create_headless() (_free_dropped), not in the
-#: collector, which may run anywhere.
-_dropped: list[tuple[int, moderngl.Context]] = []
-
-
-def _free_dropped() -> None:
-    """Free the moderngl contexts of the dropped ones (:data:`_dropped`): no thread has them
-    current (a binding, make_current() or the thread state would have kept them), and
-    destroying an EGL context frees every object made on it."""
-    while _dropped:
-        pid, mgl = _dropped.pop()
-        adopted = _wrappers.get(id(mgl))  # handed to get_context() as well: still in use
-        if pid == os.getpid() and (adopted is None or adopted.mgl is not mgl):
-            with contextlib.suppress(Exception):  # a leftover must not fail the user's call
-                mgl.release()
-
-
 def forked_from_gl() -> bool:
     """Whether this process was forked from one in which glmls made or adopted a GL context
     (where GL cannot be used; :func:`glmls.gl.helper.call` does GL work in a clean helper)."""
@@ -694,7 +646,7 @@ def create_headless(
     >>> context.release()
     """
     _check_process()
-    _free_dropped()
+    dropped.free_dropped(_adopted)
     previous = _thread.current
     try:
         mgl = moderngl.create_context(standalone=True, backend="egl", require=REQUIRED_GL)
@@ -703,8 +655,7 @@ def create_headless(
     _gl_pids.add(os.getpid())
     try:
         context = GLContext(mgl, owned=True, shaders=shaders, max_programs=max_programs)
-        context._when_dropped = weakref.finalize(context, _dropped.append, (os.getpid(), mgl))
-        context._when_dropped.atexit = False  # at exit the process's GL goes as a whole
+        context._when_dropped = dropped.free_when_dropped(context, mgl)
     finally:
         # creation made it current here: bind again what glmls had bound before
         if previous is not None and previous.alive and not previous.released:
@@ -769,6 +720,12 @@ def get_context(ctx: moderngl.Context | GLContext | None = None) -> GLContext:
         return wrapper
 
 
+def _adopted(mgl: moderngl.Context) -> bool:
+    """Whether ``mgl`` was handed to :func:`get_context` too (and is in use there)."""
+    wrapper = _wrappers.get(id(mgl))
+    return wrapper is not None and wrapper.mgl is mgl
+
+
 def check_ctx(ctx: object) -> None:
     """``TypeError`` unless ``ctx`` is None, a moderngl context or a :class:`GLContext` (the
     ``ctx`` that :func:`get_context` takes), checked without making or touching a context."""
@@ -799,12 +756,9 @@ def _after_fork_in_child() -> None:
     _wrappers = {}
     _registry_lock = threading.RLock()
     _thread.current = None
-    _dropped.clear()  # the parent's
     for context in list(_every):
         context._lock = threading.RLock()
         context._held_by = None  # no thread of the parent's exists here
-        if context._when_dropped is not None:
-            context._when_dropped.detach()
 
 
 os.register_at_fork(after_in_child=_after_fork_in_child)

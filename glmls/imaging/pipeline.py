@@ -33,6 +33,7 @@ from ..engine.kernel import MLSKernel
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import set_uniforms
+from ..gl.dropped import release_when_dropped
 from ..gl.resources import Resources, can_fill, keep_framebuffer
 from .adaptive import ROOT_STEP, AdaptiveScan
 from .bands import MeshBands
@@ -142,7 +143,7 @@ class WarpPipeline:
         self.options = options if options is not None else PipelineOptions()
         self._resources = Resources(self._gl, "this warp pipeline")
         #: Gives the objects of a pipeline let go unreleased back to the context.
-        self._when_dropped = self._gl.release_when_dropped(self, self._resources)
+        self._when_dropped = release_when_dropped(self._gl, self, self._resources)
         self._bands = MeshBands(self._resources, self.options)
         self.cells = CellScan(self._gl, self._resources, self.options, self._bands)
         self.raster = MeshRaster(self._gl, self._resources, self._bands)
