@@ -18,6 +18,7 @@ from ..errors import ReleasedError
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import set_uniforms
+from ..gl.dropped import release_when_dropped
 from .colormaps import NAN_COLOR, as_color, color_limits, colormap
 from .shapes import arrow_triangles, disk_triangles, segment_triangles
 
@@ -29,6 +30,34 @@ _FULLSCREEN = "common/fullscreen.vert.glsl"
 HANDLE_SOURCE_COLOR = (30, 144, 255)
 HANDLE_TARGET_COLOR = (255, 200, 0)
 EDGE_COLOR = (255, 255, 0)
+
+
+class _CanvasObjects:
+    """A canvas's framebuffers and renderbuffers, freed by its :meth:`Canvas.release`, or by
+    its context at its next use once the canvas is let go unreleased
+    (:func:`~glmls.gl.dropped.release_when_dropped`)."""
+
+    def __init__(self, gl: GLContext, previous: moderngl.Framebuffer) -> None:
+        self.gl = gl
+        self.previous = previous  # bound again if one of ours is bound
+        self.objects: list = []
+        self.released = False
+
+    def release(self) -> None:
+        if self.released:
+            return
+        if self.gl.usable:
+            with self.gl.use():
+                if self.gl.mgl.fbo in self.objects:
+                    previous = self.previous
+                    if isinstance(previous.mglo, moderngl.InvalidObject):
+                        # another canvas's, released since: the default framebuffer
+                        previous = self.gl.mgl.detect_framebuffer(0)
+                    previous.use()
+                for obj in reversed(self.objects):
+                    obj.release()
+        self.objects.clear()
+        self.released = True
 
 
 def as_rgb8(image: object, name: str = "image") -> np.ndarray:
@@ -149,11 +178,13 @@ class Canvas:
         if max(height, width) > limit:
             raise ValueError(f"shape {self.shape} exceeds the GL size limit {limit}")
         self._samples = min(int(samples), mgl.max_samples) if samples > 1 else 0
-        self._objects: list = []
         # Bound again on release: moderngl rebinds "the current framebuffer" after creating
         # one, and a released one would be a GL error (and a window wants its own back).
         # A headless context has none bound yet: then framebuffer 0.
-        self._previous = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
+        previous = mgl.fbo if mgl.fbo is not None else mgl.detect_framebuffer(0)
+        self._owned = _CanvasObjects(self._gl, previous)
+        self._objects = self._owned.objects
+        release_when_dropped(self._gl, self, self._owned)  # a canvas let go unreleased
         size = (width, height)
         # Colour only (2-D layers need no depth); moderngl's simple_framebuffer would add a
         # multisampled depth buffer, which some drivers refuse.
@@ -464,13 +495,7 @@ class Canvas:
         """Free the canvas's GL objects (only the references where its context is gone)."""
         if self._released:
             return
-        if self._gl.usable:
-            with self._gl.use():
-                if self._gl.mgl.fbo in (self._fbo, self._resolved):
-                    self._previous.use()
-                for obj in reversed(self._objects):
-                    obj.release()
-        self._objects.clear()
+        self._owned.release()
         self._released = True
 
     def __enter__(self) -> Canvas:

@@ -41,7 +41,7 @@ from typing import Protocol, TypeVar
 import moderngl
 
 from ..errors import ContextError, GLUnavailableError, ReleasedError
-from . import bindings, exiting
+from . import bindings, dropped, exiting
 from .shaders import ComposedSource, ShaderCompileError, ShaderLibrary, dump, library
 from .signals import signals_held
 from .unavailable import FIX, FORKED, explain
@@ -236,6 +236,7 @@ class GLContext:
         self.shaders = shaders if shaders is not None else library()
         self.max_programs = max_programs
         self.pid = os.getpid()
+        self._when_dropped: weakref.finalize | None = None  # dropped.free_when_dropped
         self._programs: OrderedDict[tuple, moderngl.ComputeShader] = OrderedDict()
         self._render_programs: dict[tuple, moderngl.Program] = {}
         self._shared: dict[Hashable, Releasable] = {}
@@ -489,6 +490,8 @@ class GLContext:
         obj : object
             Has a ``release()`` method that frees its GL objects on this context.
         """
+        if self.released:  # its GL objects went with the context
+            return
         self._orphans.append(obj)  # a list's append is atomic: no lock, which a finalizer
         # could otherwise wait on in the thread that holds it
 
@@ -536,6 +539,8 @@ class GLContext:
         references are dropped."""
         if self.released:
             return
+        if self._when_dropped is not None:
+            self._when_dropped.detach()
         with self._lock:
             if self.usable:
                 with self.use():
@@ -641,6 +646,7 @@ def create_headless(
     >>> context.release()
     """
     _check_process()
+    dropped.free_dropped(_adopted)
     previous = _thread.current
     try:
         mgl = moderngl.create_context(standalone=True, backend="egl", require=REQUIRED_GL)
@@ -649,6 +655,7 @@ def create_headless(
     _gl_pids.add(os.getpid())
     try:
         context = GLContext(mgl, owned=True, shaders=shaders, max_programs=max_programs)
+        context._when_dropped = dropped.free_when_dropped(context, mgl)
     finally:
         # creation made it current here: bind again what glmls had bound before
         if previous is not None and previous.alive and not previous.released:
@@ -711,6 +718,12 @@ def get_context(ctx: moderngl.Context | GLContext | None = None) -> GLContext:
             wrapper = _wrappers[id(ctx)] = GLContext(ctx, owned=False)
             _gl_pids.add(os.getpid())
         return wrapper
+
+
+def _adopted(mgl: moderngl.Context) -> bool:
+    """Whether ``mgl`` was handed to :func:`get_context` too (and is in use there)."""
+    wrapper = _wrappers.get(id(mgl))
+    return wrapper is not None and wrapper.mgl is mgl
 
 
 def check_ctx(ctx: object) -> None:

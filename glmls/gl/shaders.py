@@ -284,9 +284,13 @@ def dump(stages: Mapping[str, ComposedSource], folder: str) -> None:
     """Write each stage's source to ``folder`` as ``ENTRY.HASH.SUFFIX`` (the entry file's
     path with ``_`` for ``/``, a hash of the text, the stage: ``comp``, ``vert``, ``frag``,
     ``geom``), and beside it ``ENTRY.HASH.SUFFIX.json``: the entry, each line's origin and the
-    program's stage files; a source already there is not written again.
-    :class:`~glmls.gl.GLContext` calls it for every program it compiles when
+    program's stage files; a source already there is not written again. Each file is written
+    whole or not at all (:func:`~glmls.files.atomic_write`): a process stopped while it
+    writes, or another writing the same program, leaves no partial source that later runs
+    would keep. :class:`~glmls.gl.GLContext` calls it for every program it compiles when
     ``GLMLS_DUMP_SHADERS`` names a folder."""
+    from ..files.atomic import atomic_write  # only here: the debugging dump writes files
+
     os.makedirs(folder, exist_ok=True)
     names = {}
     for stage, source in stages.items():
@@ -297,10 +301,10 @@ def dump(stages: Mapping[str, ComposedSource], folder: str) -> None:
         path = os.path.join(folder, names[stage])
         if not os.path.exists(path):
             about = {"entry": source.entry, "origins": source.origins, "program": [*names.values()]}
-            with open(path + ".json", "w", encoding="utf-8") as file:
-                json.dump(about, file)
-            with open(path, "w", encoding="utf-8") as file:
-                file.write(source.text)
+            with atomic_write(path + ".json") as temporary:  # before the source it describes
+                temporary.write_text(json.dumps(about), encoding="utf-8")
+            with atomic_write(path) as temporary:
+                temporary.write_text(source.text, encoding="utf-8")
 
 
 @functools.cache

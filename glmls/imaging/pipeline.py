@@ -34,6 +34,7 @@ from ..engine.kernel import MLSKernel
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import set_uniforms
+from ..gl.dropped import release_when_dropped
 from ..gl.resources import Resources, can_fill, keep_framebuffer
 from .adaptive import ROOT_STEP, AdaptiveScan
 from .bands import MeshBands
@@ -103,10 +104,11 @@ class WarpPipeline:
 
     One per GL context serves every :class:`~glmls.MLS` on it, the command line and a window
     alike: use the context's shared one, :meth:`of`. A pipeline of one's own (other
-    ``options``, e.g. in tests) is released with :meth:`release`. Textures and framebuffers
-    are kept for the last size of each role and replaced when the size changes; buffers only
-    grow (up to ``options.band_bytes``). Compiled programs belong to the
-    :class:`~glmls.gl.GLContext` and are shared.
+    ``options``, e.g. in tests) is released with :meth:`release`; one let go unreleased is
+    released by its context at its next use, as an MLS is. Textures and framebuffers are kept
+    for the last size of each role and replaced when the size changes; buffers only grow (up
+    to ``options.band_bytes``). Compiled programs belong to the :class:`~glmls.gl.GLContext`
+    and are shared.
 
     Parameters
     ----------
@@ -141,6 +143,8 @@ class WarpPipeline:
         self._gl = get_context(ctx)
         self.options = options if options is not None else PipelineOptions()
         self._resources = Resources(self._gl, "this warp pipeline")
+        #: Gives the objects of a pipeline let go unreleased back to the context.
+        self._when_dropped = release_when_dropped(self._gl, self, self._resources)
         self._bands = MeshBands(self._resources, self.options)
         self.cells = CellScan(self._gl, self._resources, self.options, self._bands)
         self.raster = MeshRaster(self._gl, self._resources, self._bands)
@@ -165,7 +169,13 @@ class WarpPipeline:
             Made on first use, released with the context.
         """
         gl = get_context(ctx)
-        return gl.shared(WarpPipeline, lambda: cls(gl))
+
+        def make() -> WarpPipeline:
+            pipeline = cls(gl)
+            pipeline._when_dropped.detach()  # the context's own, released with it
+            return pipeline
+
+        return gl.shared(WarpPipeline, make)
 
     @property
     def ctx(self) -> GLContext:

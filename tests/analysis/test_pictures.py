@@ -36,6 +36,17 @@ def test_image_round_trip_is_exact(gl, rng):
         assert (canvas.image(grey).read() == as_rgb8(grey)).all()
 
 
+def test_canvases_released_in_any_order(gl, rng):
+    image = rng.integers(0, 256, (6, 5, 3), dtype=np.uint8)
+    first, second = Canvas((6, 5), ctx=gl), Canvas((6, 5), ctx=gl)
+    first.image(image)
+    first.release()  # the one the second came after
+    assert np.array_equal(second.image(image).read(), image)
+    second.release()
+    with Canvas((6, 5), ctx=gl) as third:  # and the context draws on
+        assert np.array_equal(third.image(image).read(), image)
+
+
 def test_geometry_lands_on_its_pixels(gl):
     with Canvas((40, 60), samples=0, ctx=gl) as canvas:
         # upper-left triangle: rows near 0, columns near 0

@@ -3,6 +3,9 @@ identifiers too), compile errors naming file and line, programs compiled once.""
 
 from __future__ import annotations
 
+import builtins
+import errno
+import io
 import json
 import shutil
 import subprocess
@@ -15,7 +18,7 @@ import pytest
 
 from glmls.gl import bindings
 from glmls.gl.context import create_headless
-from glmls.gl.shaders import ShaderCompileError, ShaderLibrary, define_value, library
+from glmls.gl.shaders import ShaderCompileError, ShaderLibrary, define_value, dump, library
 
 COMPUTE_MAIN = """\
 layout(local_size_x = 1) in;
@@ -271,6 +274,44 @@ def test_compiled_sources_are_dumped_where_the_environment_says(gl, shader_dir, 
     for line, (file, number) in zip(text, about_of(folder, names[0])["origins"], strict=True):
         if file != "<defines>":
             assert line == (shader_dir / file).read_text().splitlines()[number - 1]
+
+
+def test_a_dump_stopped_midway_leaves_no_partial_source(shader_dir, monkeypatch):
+    """A source whose write failed (a full disk, a process stopped) is not left half written
+    under its name, where every later dump would keep it."""
+    stages = {"compute_shader": ShaderLibrary(shader_dir).compose("main.comp.glsl", {"COUNT": 1})}
+    folder = shader_dir / "dumped"
+    real_open = io.open
+
+    class HalfWritten:
+        def __init__(self, file):
+            self.file = file
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.file.close()
+
+        def write(self, text):
+            self.file.write(text[: len(text) // 2])
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    def full_disk(file, mode="r", *args, **kwargs):
+        opened = real_open(file, mode, *args, **kwargs)
+        if "w" in mode and not str(file).endswith(".json"):
+            return HalfWritten(opened)
+        return opened
+
+    monkeypatch.setattr(builtins, "open", full_disk)
+    monkeypatch.setattr(io, "open", full_disk)
+    with pytest.raises(OSError):
+        dump(stages, str(folder))
+    monkeypatch.undo()
+    dump(stages, str(folder))  # the next run writes it whole
+    sources = [p for p in folder.iterdir() if p.suffix == ".comp"]
+    assert [p.read_text() for p in sources] == [stages["compute_shader"].text]
+    assert all(about_of(folder, p.name)["entry"] == "main.comp.glsl" for p in sources)
 
 
 def about_of(folder, name):
