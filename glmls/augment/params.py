@@ -11,14 +11,28 @@ import numpy as np
 
 from ..batch.inputs import check_points, item_array
 from ..batch.run import check_flags
-from ..core.config import MLSConfig, counted
+from ..core.config import MLSConfig, check_flag, counted
 from ..engine.kernel import check_bins
 from ..engine.storage import check_storage
 from ..gl.context import check_ctx
 from ..imaging.options import FIELDS, WarpOptions
 from ..mls import MLS_KEYWORDS
+from .labels import check_positive
 
-__all__ = ["check_params", "check_warp_options", "jsonable", "param_points"]
+__all__ = [
+    "LABEL_OPTIONS",
+    "check_label_options",
+    "check_params",
+    "check_warp_options",
+    "jsonable",
+    "label_options_of",
+    "param_points",
+]
+
+#: The options of :class:`glmls.augment.Augment` that shape the labels, each draw's record of
+#: them (``label_options``): the step of a box's outline, the polygons' densifying step, and
+#: whether the moved polygons are clipped to the canvas.
+LABEL_OPTIONS = ("box_step", "densify", "clip_polygons")
 
 
 #: The keywords of :func:`glmls.warp_batch` that ``warp_options`` cannot hold, each with the
@@ -73,7 +87,43 @@ def jsonable(value: object) -> object:
     return value
 
 
-#: What each draw of ``params`` holds for :meth:`Augment.replay`.
+def check_label_options(options: Mapping[str, object]) -> dict[str, object]:
+    """``options``' entries of :data:`LABEL_OPTIONS` checked, as floats and a bool:
+    ``box_step`` a finite number > 0, ``densify`` one or None, ``clip_polygons`` True or
+    False; a ``TypeError`` (a value of another type) or ``ValueError`` naming the entry."""
+    checked: dict[str, object] = {}
+    if "box_step" in options:
+        checked["box_step"] = check_positive("box_step", options["box_step"])
+    if "densify" in options:
+        densify = options["densify"]
+        checked["densify"] = None if densify is None else check_positive("densify", densify)
+    if "clip_polygons" in options:
+        checked["clip_polygons"] = check_flag("clip_polygons", options["clip_polygons"])
+    return checked
+
+
+def label_options_of(draw: Mapping, defaults: Mapping[str, object]) -> dict[str, object]:
+    """The label options a draw was made with: its ``label_options``, checked (by
+    :func:`check_params`), over ``defaults`` (the replaying Augment's) for an entry it lacks
+    (a record made without them)."""
+    recorded = draw.get("label_options")
+    return {**defaults, **check_label_options(recorded if isinstance(recorded, Mapping) else {})}
+
+
+def _check_recorded_labels(entry: object, name: str) -> None:
+    if not isinstance(entry, Mapping):
+        raise TypeError(f"{name} must be a dict, got {entry!r}")
+    for key in entry:
+        if key not in LABEL_OPTIONS:
+            raise TypeError(f"{name} has no keyword {key}; it holds {', '.join(LABEL_OPTIONS)}")
+    try:
+        check_label_options(entry)
+    except (TypeError, ValueError) as error:
+        raise type(error)(f"{name}: {error}") from None
+
+
+#: What each draw of ``params`` holds for :meth:`Augment.replay` (``label_options`` too,
+#: where it was recorded).
 _PARAM_KEYS = ("shape", "src", "dst", "options")
 
 
@@ -103,6 +153,8 @@ def check_params(params: object, count: int) -> list[Mapping]:
         if not isinstance(draw["options"], Mapping):
             raise TypeError(f"params[{i}]['options'] must be a dict, got {draw['options']!r}")
         check_warp_options(draw["options"], f"params[{i}]['options']")
+        if "label_options" in draw:
+            _check_recorded_labels(draw["label_options"], f"params[{i}]['label_options']")
     return list(params)
 
 
