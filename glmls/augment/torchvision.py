@@ -23,8 +23,10 @@ detached (no gradient flows back through the deformation, where torchvision's ow
 transforms keep autograd's graph); the deformation runs on glmls's OpenGL context, so a CUDA
 tensor goes through the host's memory.
 
-A batch is an image tensor with a leading dimension, (N, C, H, W): each sample draws its own
-deformation (where torchvision's own transforms draw once for the whole batch). The inputs of a
+A batch is an image tensor with leading dimensions, (N, C, H, W) or (N, ..., C, H, W) (a plain
+tensor or an ``Image``; torchvision's own transforms take (..., C, H, W)): each sample draws its
+own deformation (where torchvision's own transforms draw once for the whole batch), the
+dimensions between N and C of a sample (a clip's frames) moving by its one draw. The inputs of a
 call have one size (H, W), the ``canvas_size`` of boxes and keypoints too, as torchvision
 requires, and are single images or one batch, else ``ValueError``; so is an unrotated box whose
 maximum lies below its minimum (boxes of another format than their label, which the deformation
@@ -107,17 +109,20 @@ def _is_label(value: object) -> bool:
 
 
 def _size(value: object) -> tuple[int, int, int | None]:
-    """(H, W, N): N the batch size of a 4-D image tensor, None for one image."""
+    """(H, W, N): N the batch size of an image tensor of 4 dimensions or more (its first),
+    None for one image (H, W) or (C, H, W), or a Video (one clip, its frames alike)."""
     if isinstance(value, PIL.Image.Image):
         return value.height, value.width, None
-    tensor = value  # type: ignore[assignment]
-    if isinstance(tensor, tv_tensors.Video) and tensor.ndim >= 4:  # one clip, its frames alike
-        return tensor.shape[-2], tensor.shape[-1], None
-    if tensor.ndim == 4:  # type: ignore[attr-defined]
-        return tensor.shape[-2], tensor.shape[-1], tensor.shape[0]  # type: ignore[attr-defined]
-    if tensor.ndim in (2, 3):  # type: ignore[attr-defined]
-        return tensor.shape[-2], tensor.shape[-1], None  # type: ignore[attr-defined]
-    raise ValueError(f"expected an image (C, H, W) or a batch (N, C, H, W), got {tensor.shape}")  # type: ignore[attr-defined]
+    tensor: torch.Tensor = value  # type: ignore[assignment]
+    if tensor.ndim < 2:  # as torchvision refuses it
+        raise ValueError(
+            f"an image tensor has at least two dimensions, (H, W), (C, H, W) or "
+            f"(N, ..., C, H, W); got shape {tuple(tensor.shape)}"
+        )
+    height, width = tensor.shape[-2:]
+    if isinstance(tensor, tv_tensors.Video) or tensor.ndim <= 3:
+        return height, width, None
+    return height, width, tensor.shape[0]  # (N, ..., C, H, W): N samples
 
 
 def _shown(size: tuple[int, int, int | None]) -> tuple[int, ...]:
