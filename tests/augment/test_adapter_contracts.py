@@ -203,7 +203,7 @@ def test_torchvision_integer_boxes_go_through_float_as_torchvisions_own(gl, fmt,
         (lambda d: d.pop("shape"), ValueError, r"params\[0\] has no 'shape'"),
         (
             lambda d: d.__setitem__("shape", [24.0, 32.0]),
-            ValueError,
+            TypeError,
             r"params\[0\]\['shape'\] must be \[H, W\], integers >= 1",
         ),
         (lambda d: d.__setitem__("options", None), TypeError, r"params\[0\]\['options'\]"),

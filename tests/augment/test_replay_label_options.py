@@ -92,6 +92,11 @@ def test_the_adapters_boxes_follow_the_recorded_box_step(recorded):
             r"params\[0\]\['label_options'\]: box_step must be a finite number > 0, got -1",
         ),
         (
+            {"box_step": "2"},
+            TypeError,
+            r"params\[0\]\['label_options'\]: box_step must be a finite number > 0, got '2'",
+        ),
+        (
             {"densify": float("nan")},
             ValueError,
             r"params\[0\]\['label_options'\]: densify must be a finite number > 0, got nan",
