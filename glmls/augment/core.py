@@ -275,7 +275,7 @@ class Augment:
             {"box_step": box_step, "densify": densify, "clip_polygons": clip_polygons}
         )
         if warp_options is not None and not isinstance(warp_options, Mapping):
-            raise TypeError(f"warp_options must be a mapping, got {type(warp_options)}")
+            raise TypeError(f"warp_options must be a mapping or None, got {warp_options!r}")
         given = dict(warp_options or {})
         check_warp_options(given)
         self.preset = preset_from(preset, preset_options)

@@ -91,6 +91,7 @@ from torchvision.transforms.v2 import functional as F  # noqa: E402
 
 from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks  # noqa: E402
 from .labels import canvas_shape  # noqa: E402
+from .presets import preset_from  # noqa: E402
 from .tensors import to_numpy  # noqa: E402
 
 __all__ = ["MLSTransform", "check_import_order"]
@@ -185,7 +186,9 @@ class MLSTransform(v2.Transform):
     Raises
     ------
     ValueError, TypeError
-        As :class:`glmls.augment.Augment`.
+        As :class:`glmls.augment.Augment`; a ``TypeError`` for an option the preset does not
+        take (``seed``: torch's random numbers draw; ``densify``, ``clip_polygons``:
+        torchvision has no polygons).
 
     Examples
     --------
@@ -209,8 +212,10 @@ class MLSTransform(v2.Transform):
         **preset_options: Any,
     ) -> None:
         super().__init__()
+        # the preset takes the options: Augment's own (seed, densify, clip_polygons) are not
+        # this transform's (torch's random numbers draw; torchvision has no polygons)
         self.augment = Augment(
-            preset, warp_options=warp_options, box_step=box_step, **preset_options
+            preset_from(preset, preset_options), warp_options=warp_options, box_step=box_step
         )
         self.preset = preset
         self.last_params: list[dict] = []

@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-from ..core.config import check_flag, check_integer
+from ..core.config import check_flag, check_integer, counted
 from ..core.handleset import HandleSet
 from ..gl import helper
 from ..gl.context import forked_from_gl
@@ -200,10 +200,15 @@ def _check_segments(segments: dict, batch: BatchInput, transform: object) -> lis
     for name, value in segments.items():
         if value is None:
             continue
-        if isinstance(value, np.ndarray) and value.ndim == 4:
+        what = f"{name} must be a sequence of one value per image ({count})"
+        if isinstance(value, np.ndarray):
+            if value.ndim != 4:  # one image's (S, 2, 2) segments, say
+                raise ValueError(f"{what}, got an array of shape {value.shape}")
             value = list(value)
-        if not isinstance(value, (list, tuple)) or len(value) != count:
-            raise ValueError(f"{name} must be a sequence of one value per image ({count})")
+        if not isinstance(value, (list, tuple)):
+            raise TypeError(f"{what}, got {value!r}")
+        if len(value) != count:
+            raise ValueError(f"{what}, got {counted(len(value), 'value')}")
         for i, item in enumerate(value):
             if item is not None:
                 per_image[i][name] = item
