@@ -91,7 +91,7 @@ def test_tune_names_handles_that_are_none(gl):
 @pytest.mark.parametrize(
     "limit, error, text",
     [("a", TypeError, "max_pixels must be an integer"), (True, TypeError, "got True"),
-     (1.5, TypeError, "got 1.5"), (0, ValueError, "max_pixels must be >= 1, got 0"),
+     (1.5, TypeError, "got 1.5"), (0, ValueError, "max_pixels must be an integer >= 1, got 0"),
      (-5, ValueError, "got -5")],
 )  # fmt: skip
 def test_imread_names_a_bad_max_pixels_not_the_file(tmp_path, image, limit, error, text):

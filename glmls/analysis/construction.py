@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.config import check_choice, check_integer, check_real
 from ..core.handles import as_points
 from ..imaging.source import BORDERS, check_image
 from .field import image_deformation
@@ -204,21 +205,20 @@ def _is_numbers(value: object) -> bool:
     return array.dtype.kind in "iuf"
 
 
-def check_radius(radius: object) -> int:
-    """``radius`` as an int; ``ValueError`` unless it is an integer >= 0."""
-    if isinstance(radius, bool) or not isinstance(radius, (int, np.integer)) or radius < 0:
-        raise ValueError(f"radius must be an integer >= 0 (output pixels), got {radius!r}")
-    return int(radius)
+def check_radius(radius: object, name: str = "radius") -> int:
+    """``radius`` as an int, an integer >= 0 (glmls's integer rule,
+    :func:`glmls.core.config.check_integer`): ``TypeError`` naming ``name`` and the value for
+    another type (a float, a bool, None), ``ValueError`` for a negative one."""
+    return check_integer(name, radius, 0, what="an integer >= 0 (output pixels)")
 
 
 def _options(radius: object, alignment: object, border: object, snap: object) -> None:
     check_radius(radius)
-    if alignment not in ALIGNMENTS:
-        raise ValueError(f"unknown alignment {alignment!r}; choose one of {', '.join(ALIGNMENTS)}")
-    if not isinstance(border, str) or border not in BORDERS:
-        raise ValueError(f"unknown border {border!r}; choose one of {', '.join(BORDERS)}")
-    if isinstance(snap, bool) or not isinstance(snap, (int, float)) or not 0 <= snap < 0.5:
-        raise ValueError(f"snap must be a number in [0, 0.5) (pixels), got {snap!r}")
+    check_choice("alignment", alignment, ALIGNMENTS)
+    check_choice("border", border, BORDERS)
+    what = "a number in [0, 0.5) (pixels)"
+    if not 0 <= check_real("snap", snap, what=what) < 0.5:
+        raise ValueError(f"snap must be {what}, got {snap!r}")
 
 
 def _evaluate(f: Callable[[np.ndarray], object], points: np.ndarray, name: str) -> np.ndarray:
@@ -356,7 +356,9 @@ def construction_errors(
     Raises
     ------
     TypeError
-        For unsupported or mismatched dtypes, or an ``m`` that is not callable.
+        For unsupported or mismatched dtypes, an ``m`` that is not callable, or an option of
+        the wrong type (a float ``radius``, a string ``snap``, an ``alignment`` or
+        ``border`` that is no string), naming the value.
     ValueError
         For bad shapes, channel counts, NaN or infinite points or pixels, and bad options,
         naming the value.

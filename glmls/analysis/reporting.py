@@ -329,7 +329,7 @@ def report(
         border=border,
     )
     if construction:
-        check_radius(construction_radius)
+        check_radius(construction_radius, "construction_radius")
     clock = StageClock(on_stage)
 
     clock.begin("error field")

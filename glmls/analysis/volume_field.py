@@ -291,13 +291,13 @@ def volume_error_field(
     Raises
     ------
     ValueError
-        For a shape that is not (D, H, W) with D, H, W >= 1, a grid that is not an integer
-        from 1 on, handles that are not (N, 3), ``m.matrices`` returning values that are not
-        finite, or a ``spacing`` of another length than 3, with a value that is not a finite
-        number > 0, or other than ``m``'s.
+        For a shape that is not (D, H, W) with D, H, W >= 1, a grid out of range, handles
+        that are not (N, 3), ``m.matrices`` returning values that are not finite, or a
+        ``spacing`` of another length than 3, with a value that is not a finite number > 0,
+        or other than ``m``'s.
     TypeError
-        For a shape that is not integers, or a ``spacing`` that is not a sequence of real
-        numbers.
+        For a shape or a grid that is not integers (2.0 is none), or a ``spacing`` that is
+        not a sequence of real numbers.
 
     See Also
     --------

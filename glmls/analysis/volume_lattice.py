@@ -13,6 +13,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from ..core.config import check_integer
 from ..core.handles3 import as_volume_shape as core_volume_shape
 from ..core.handles3 import as_volume_spacing, chosen_spacing
 from ..core.mesh import MAX_GRID
@@ -56,14 +57,10 @@ def as_volume_shape(shape: object) -> tuple[int, int, int]:
 
 
 def check_grid3(grid: object, name: str = "grid") -> int:
-    """``grid`` as an int from 1 to MAX_GRID (a lattice step in voxels)."""
-    if (
-        isinstance(grid, bool)
-        or not isinstance(grid, (int, np.integer))
-        or not 1 <= grid <= MAX_GRID
-    ):
-        raise ValueError(f"{name} must be an integer from 1 to {MAX_GRID} (voxels), got {grid!r}")
-    return int(grid)
+    """``grid`` as an int from 1 to MAX_GRID (a lattice step in voxels): ``TypeError``
+    naming ``name`` and the value for another type (a float such as 2.0, a bool, None),
+    ``ValueError`` for an integer out of range."""
+    return check_integer(name, grid, 1, MAX_GRID, what=f"an integer from 1 to {MAX_GRID} (voxels)")
 
 
 def spacing_scale(spacing: object) -> np.ndarray:

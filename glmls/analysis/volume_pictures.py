@@ -18,12 +18,14 @@ a mask: any voxel along z).
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Sequence
 
 import moderngl
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
+from ..core.config import check_choice, check_integer, check_real, is_integer
 from ..gl.context import GLContext
 from .colormaps import apply_colormap, color_limits
 from .pictures import render_handles
@@ -43,20 +45,27 @@ LABEL_SIZE = 12
 
 
 def check_slices(shape: Sequence[int], slices: object) -> tuple[int, int, int]:
-    """(z, y, x) voxel indices of the three slices; the centre of the volume when None."""
+    """(z, y, x) voxel indices of the three slices; the centre of the volume when None.
+    Indices that are not integers (glmls's integer rule: 2.0 is none) or slices that are no
+    sequence are a ``TypeError``, indices outside the volume or not three a ``ValueError``."""
     dims = as_volume_shape(shape)
     if slices is None:
         return dims[0] // 2, dims[1] // 2, dims[2] // 2
+    message = f"slices must be (z, y, x) voxel indices within {dims}, got {slices!r}"
+    if isinstance(slices, (str, bytes)):
+        raise TypeError(message)
     try:
         index = tuple(slices)  # type: ignore[arg-type]
     except TypeError:
-        raise ValueError(f"slices must be (z, y, x) voxel indices, got {slices!r}") from None
-    if len(index) != 3 or not all(
-        isinstance(i, (int, np.integer)) and not isinstance(i, bool) and 0 <= i < n
-        for i, n in zip(index, dims, strict=True)
-    ):
-        raise ValueError(f"slices must be (z, y, x) voxel indices within {dims}, got {slices!r}")
-    return int(index[0]), int(index[1]), int(index[2])
+        raise TypeError(message) from None
+    if len(index) != 3:
+        raise ValueError(message)
+    if not all(is_integer(i) for i in index):
+        raise TypeError(message)
+    z, y, x = (operator.index(i) for i in index)
+    if not (0 <= z < dims[0] and 0 <= y < dims[1] and 0 <= x < dims[2]):
+        raise ValueError(message)
+    return z, y, x
 
 
 def _grey(values: np.ndarray, vmin: float | None, vmax: float | None) -> np.ndarray:
@@ -138,6 +147,9 @@ def render_volume_slices(
     ValueError
         For a volume that is not (D, H, W) or (D, H, W, 3) finite values, or bad handles,
         slices, ``near``, mask, limits, scale or projection.
+    TypeError
+        For slices, a scale, a ``near`` or a projection of the wrong type (a float index or
+        scale, a string ``near``, a projection that is no string), naming it.
 
     Examples
     --------
@@ -157,16 +169,14 @@ def render_volume_slices(
         raise ValueError(f"volume must be real numbers (RGB: uint8), got dtype {array.dtype}")
     if array.dtype.kind == "f" and not np.isfinite(array).all():
         raise ValueError("volume holds NaN or infinite values")
-    if near is not None and (
-        isinstance(near, (bool, np.bool_))
-        or not isinstance(near, (int, float, np.integer, np.floating))
-        or not (math.isfinite(near) and near >= 0)
-    ):
-        raise ValueError(f"near must be a finite number >= 0 (voxels), got {near!r}")
+    if near is not None:
+        what = "a finite number >= 0 (voxels)"
+        distance = check_real("near", near, what=what)
+        if not (math.isfinite(distance) and distance >= 0):
+            raise ValueError(f"near must be {what}, got {near!r}")
     dims = array.shape[:3]
     at = check_slices(dims, slices)
-    if projection not in ("max", "min"):
-        raise ValueError(f"projection must be 'max' or 'min', got {projection!r}")
+    check_choice("projection", projection, ("max", "min"))
     views = _views(array, at, lambda a: getattr(a, projection)(axis=0))
     if rgb_volume:
         pictures = [np.ascontiguousarray(v) for v in views]
@@ -193,8 +203,8 @@ def render_volume_slices(
             )
     if scale is None:
         scale = max(1, -(-MIN_VIEW // min(dims)))
-    elif isinstance(scale, bool) or not isinstance(scale, (int, np.integer)) or scale < 1:
-        raise ValueError(f"scale must be an integer from 1, got {scale!r}")
+    else:
+        scale = check_integer("scale", scale, 1)
     pictures = [p.repeat(scale, axis=0).repeat(scale, axis=1) for p in pictures]
     if src is not None or dst is not None:
         p, q = as_points3(src, "src"), as_points3(dst, "dst")

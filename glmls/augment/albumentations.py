@@ -22,9 +22,11 @@ from typing import Any
 import albumentations as A
 import numpy as np
 
+from ..core.config import check_real
 from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks
 from .labels import canvas_shape
 from .params import check_params
+from .presets import preset_from
 
 __all__ = ["MLSDeform"]
 
@@ -49,8 +51,9 @@ class MLSDeform(A.DualTransform):
     ------
     ValueError, TypeError
         As :class:`glmls.augment.Augment`; a ``TypeError`` for ``preset_options`` or
-        ``warp_options`` that are not mappings, a ``ValueError`` for a ``p`` outside [0, 1]
-        (albumentations' own check).
+        ``warp_options`` that are not mappings, ``preset_options`` that the preset does not
+        take (``seed``: the transform's random generator draws), or a ``p`` that is not a
+        real number (a bool, a string), a ``ValueError`` for a ``p`` outside [0, 1].
 
     Examples
     --------
@@ -76,6 +79,10 @@ class MLSDeform(A.DualTransform):
         box_step: float = 2.0,
         p: float = 1.0,
     ) -> None:
+        # p as glmls takes a real option (albumentations' own check would take True, "0.5")
+        p = check_real("p", p, what="a probability from 0 to 1")
+        if not 0 <= p <= 1:
+            raise ValueError(f"p must be a probability from 0 to 1, got {p!r}")
         super().__init__(p=p)
         for name, value in (("preset_options", preset_options), ("warp_options", warp_options)):
             if value is not None and not isinstance(value, Mapping):
@@ -83,10 +90,11 @@ class MLSDeform(A.DualTransform):
         self.preset = preset
         self.preset_options = dict(preset_options or {})
         self.warp_options = None if warp_options is None else dict(warp_options)
-        self.box_step = box_step
+        # the preset takes preset_options: Augment's own keywords (seed, densify...) are none
         self.augment = Augment(
-            preset, warp_options=warp_options, box_step=box_step, **self.preset_options
+            preset_from(preset, self.preset_options), warp_options=warp_options, box_step=box_step
         )
+        self.box_step = self.augment.box_step
 
     def get_transform_init_args_names(self) -> tuple[str, ...]:
         """The arguments that rebuild the transform (albumentations' serialisation).

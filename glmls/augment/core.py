@@ -12,12 +12,20 @@ import numpy as np
 
 from ..batch import BatchResult, warp_batch
 from ..batch.inputs import check_points, item_array
-from ..core.config import check_flag, check_integer, check_seed, counted
+from ..core.config import check_integer, check_seed, counted
 from ..core.handles import COORDINATE_LIMIT
 from ..core.mesh import as_shape
 from . import labels as lab
 from . import tensors
-from .params import check_params, check_warp_options, jsonable, param_points
+from .params import (
+    LABEL_OPTIONS,
+    check_label_options,
+    check_params,
+    check_warp_options,
+    jsonable,
+    label_options_of,
+    param_points,
+)
 from .presets import mesh_step, preset_from
 
 __all__ = ["DEFAULT_WARP_OPTIONS", "Augment", "AugmentResult"]
@@ -45,8 +53,9 @@ class AugmentResult(BatchResult):
     images, keypoints, keypoints_valid, masks, maps, valid, params : object
         As :class:`glmls.BatchResult`; ``params`` holds one dict per sample: ``preset``,
         ``config`` (the preset's options), ``seed``, ``index``, ``shape`` (H, W), ``src`` and
-        ``dst`` (the handles, lists of [x, y]) and ``options`` (the warp keywords, but a
-        ``ctx``, which replay takes from the Augment).
+        ``dst`` (the handles, lists of [x, y]), ``options`` (the warp keywords, but a
+        ``ctx``, which replay takes from the Augment) and ``label_options`` (``box_step``,
+        ``densify`` and ``clip_polygons``, which shaped the boxes and polygons).
     boxes : numpy.ndarray or list of numpy.ndarray or None
         (N, B, 4) or per image (B_i, 4) boxes ``(x_min, y_min, x_max, y_max)`` around the
         moved outlines, clipped to the canvas.
@@ -262,8 +271,8 @@ class Augment:
     TypeError
         For an unknown option, a ``warp_options`` keyword that :func:`glmls.warp_batch`
         does not take (or ``keypoints``, ``masks``: the call's own; ``src_segments``,
-        ``dst_segments``: the preset draws the handles) or a ``clip_polygons``
-        that is not a bool.
+        ``dst_segments``: the preset draws the handles), a ``clip_polygons`` that is not a
+        bool, or a ``box_step`` or ``densify`` that is not a real number.
 
     Examples
     --------
@@ -276,7 +285,7 @@ class Augment:
     >>> bool((part.images == whole.images[2:4]).all())
     True
     >>> sorted(whole.params[0])
-    ['config', 'dst', 'index', 'options', 'preset', 'seed', 'shape', 'src']
+    ['config', 'dst', 'index', 'label_options', 'options', 'preset', 'seed', 'shape', 'src']
     >>> Augment("wave")
     Traceback (most recent call last):
     ...
@@ -295,11 +304,11 @@ class Augment:
         **preset_options: object,
     ) -> None:
         seed = check_seed(seed)
-        self.box_step = lab.check_positive("box_step", box_step)
-        self.densify = None if densify is None else lab.check_positive("densify", densify)
-        clip_polygons = check_flag("clip_polygons", clip_polygons)
+        labels = check_label_options(
+            {"box_step": box_step, "densify": densify, "clip_polygons": clip_polygons}
+        )
         if warp_options is not None and not isinstance(warp_options, Mapping):
-            raise TypeError(f"warp_options must be a mapping, got {type(warp_options)}")
+            raise TypeError(f"warp_options must be a mapping or None, got {warp_options!r}")
         given = dict(warp_options or {})
         check_warp_options(given)
         self.preset = preset_from(preset, preset_options)
@@ -308,7 +317,27 @@ class Augment:
         chosen = {**({} if packed is None else dataclasses.asdict(packed)), **given}
         self.warp_options = {**DEFAULT_WARP_OPTIONS, **mesh_step(self.preset, chosen), **chosen}
         check_warp_options(self.warp_options)  # what the options make together
-        self.clip_polygons = clip_polygons
+        self.box_step: float = labels["box_step"]  # type: ignore[assignment]
+        self.densify: float | None = labels["densify"]  # type: ignore[assignment]
+        self.clip_polygons: bool = labels["clip_polygons"]  # type: ignore[assignment]
+
+    @property
+    def label_options(self) -> dict[str, object]:
+        """``box_step``, ``densify`` and ``clip_polygons``: what shapes the labels, recorded
+        in each draw (its ``label_options``).
+
+        Returns
+        -------
+        dict
+            The three options, JSON-able.
+
+        Examples
+        --------
+        >>> from glmls.augment import Augment
+        >>> Augment("grid", box_step=4).label_options
+        {'box_step': 4.0, 'densify': None, 'clip_polygons': True}
+        """
+        return {name: getattr(self, name) for name in LABEL_OPTIONS}
 
     def __repr__(self) -> str:
         return f"Augment({self.preset!r}, seed={self.seed})"
@@ -383,6 +412,7 @@ class Augment:
                     "options": jsonable(
                         {k: v for k, v in self.warp_options.items() if k not in _UNRECORDED}
                     ),
+                    "label_options": self.label_options,
                 }
             )
         return params
@@ -467,7 +497,10 @@ class Augment:
         images : array_like or sequence of array_like
             As for :meth:`__call__`, one per params.
         params : sequence of mapping
-            The ``params`` of an earlier result (as they are, or through JSON).
+            The ``params`` of an earlier result (as they are, or through JSON). Boxes and
+            polygons move with each draw's ``label_options`` (``box_step``, ``densify``,
+            ``clip_polygons``), whatever this Augment's; a record without them (or without
+            one of them) takes this Augment's.
         keypoints, masks, boxes, polygons : optional
             As for :meth:`__call__`.
 
@@ -480,7 +513,8 @@ class Augment:
         ------
         ValueError, TypeError
             For params of another count, a draw without its ``shape``, ``src``, ``dst`` or
-            ``options``, or of an image of another shape, naming the index.
+            ``options``, a bad entry (``params[1]['label_options']: box_step must be a finite
+            number > 0, got -1``), or of an image of another shape, naming the index.
 
         Examples
         --------
@@ -517,49 +551,51 @@ class Augment:
             raise ValueError("params with different warp options cannot be replayed together")
         grid = _mesh_grid(options)
         meshes = [None if grid is None else (grid, tuple(p["shape"])) for p in params]
-        points, parts = self._points(count, marks, box_list, polygon_list, meshes)
+        labels = [label_options_of(p, self.label_options) for p in params]
+        points, parts = self._points(marks, box_list, polygon_list, meshes, labels)
         options |= {k: v for k, v in self.warp_options.items() if k in _UNRECORDED}
         src, dst = param_points(params, "src"), param_points(params, "dst")
         result = warp_batch(images, src, dst, keypoints=points, masks=masks, **options)
         if not isinstance(result, BatchResult):
             result = BatchResult(images=result)
-        return self._assemble(result, params, parts, stacked_marks, stacked_boxes)
+        return self._assemble(result, params, parts, stacked_marks, stacked_boxes, labels)
 
-    def _points(self, count, marks, box_list, polygon_list, meshes):
+    @staticmethod
+    def _points(marks, box_list, polygon_list, meshes, labels):
         """Every image's points to move: its keypoints, box outlines (with the crossings of
-        ``meshes[i]``, the image's ``quads`` mesh where it has one) and polygons, one after
-        another; ``parts`` records where each kind lies."""
+        ``meshes[i]``, the image's ``quads`` mesh where it has one; ``box_step`` of
+        ``labels[i]``, its draw's label options) and polygons (densified as they say), one
+        after another; ``parts`` records where each kind lies."""
         if marks is None and box_list is None and polygon_list is None:
             return None, None
         points, parts = [], []
-        for i in range(count):
+        for i, chosen in enumerate(labels):
+            step, densify = chosen["box_step"], chosen["densify"]
             pieces, part = [], {}
             if marks is not None:
                 pieces.append(marks[i])
                 part["keypoints"] = len(marks[i])
             if box_list is not None:
                 try:
-                    outline, counts = lab.box_outlines(box_list[i], self.box_step, mesh=meshes[i])
+                    outline, counts = lab.box_outlines(box_list[i], step, mesh=meshes[i])
                 except ValueError as error:
-                    raise ValueError(
-                        f"boxes[{i}] with box_step={self.box_step:g}: {error}"
-                    ) from None
+                    raise ValueError(f"boxes[{i}] with box_step={step:g}: {error}") from None
                 pieces.append(outline)
                 part["boxes"] = counts
             if polygon_list is not None:
                 try:
-                    dense = [lab.densify_polygon(poly, self.densify) for poly in polygon_list[i]]
+                    dense = [lab.densify_polygon(poly, densify) for poly in polygon_list[i]]
                 except ValueError as error:
-                    raise ValueError(
-                        f"polygons[{i}] with densify={self.densify:g}: {error}"
-                    ) from None
+                    given = "" if densify is None else f" with densify={densify:g}"
+                    raise ValueError(f"polygons[{i}]{given}: {error}") from None
                 pieces += dense
                 part["polygons"] = [len(poly) for poly in dense]
             points.append(np.concatenate(pieces) if pieces else np.zeros((0, 2)))
             parts.append(part)
         return points, parts
 
-    def _assemble(self, result, params, parts, stacked_marks, stacked_boxes):
+    @staticmethod
+    def _assemble(result, params, parts, stacked_marks, stacked_boxes, labels):
         fields = {}
         if parts is not None:
             moved_all = result.keypoints
@@ -586,7 +622,9 @@ class Augment:
                     for n in part["polygons"]:
                         poly = moved[start : start + n]
                         one.append(
-                            lab.clip_polygon(poly, out_shapes[i]) if self.clip_polygons else poly
+                            lab.clip_polygon(poly, out_shapes[i])
+                            if labels[i]["clip_polygons"]
+                            else poly
                         )
                         start += n
                     pls.append(one)
@@ -641,7 +679,7 @@ def replay_boxes(
     outlines = [
         lab.box_outlines(
             np.asarray(b, np.float64),
-            augment.box_step,
+            label_options_of(p, augment.label_options)["box_step"],
             mesh=None if grid is None else (grid, tuple(p["shape"])),
         )
         for b, p in zip(boxes, params, strict=True)

@@ -17,7 +17,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..batch.inputs import item_array
-from ..core.config import counted
+from ..core.config import check_real, counted
 from ..core.handles import COORDINATE_LIMIT
 from ..imaging.options import FIELDS, WarpOptions
 
@@ -188,12 +188,13 @@ def canvas_shape(draw: Mapping) -> tuple[int, int]:
 
 
 def check_positive(name: str, value: object) -> float:
-    """``value`` as a float, a finite number > 0 (numpy's numbers too, not a bool);
-    ``ValueError`` naming ``name`` otherwise."""
-    number = isinstance(value, (int, float, np.integer, np.floating))
-    if not number or isinstance(value, (bool, np.bool_)) or not math.isfinite(value) or value <= 0:
+    """``value`` as a float, a finite number > 0 (numpy's numbers and 0-d arrays too): a
+    ``TypeError`` naming ``name`` and the value for one that is no real number (a bool, a
+    string, None, a complex), a ``ValueError`` for one that is not finite or not > 0."""
+    number = check_real(name, value, what="a finite number > 0")
+    if not math.isfinite(number) or number <= 0:
         raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return float(value)
+    return number
 
 
 def _samples(length: float, step: float) -> int:

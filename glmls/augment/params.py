@@ -5,20 +5,35 @@ entry: ``params[2]['dst']``), before any GPU work."""
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from ..batch.inputs import check_points, item_array
 from ..batch.run import check_flags
-from ..core.config import MLSConfig, counted
+from ..core.config import MLSConfig, check_flag, counted, is_integer
 from ..engine.kernel import check_bins
 from ..engine.storage import check_storage
 from ..gl.context import check_ctx
 from ..imaging.options import FIELDS, WarpOptions
 from ..mls import MLS_KEYWORDS
+from .labels import check_positive
 
-__all__ = ["check_params", "check_warp_options", "jsonable", "param_points"]
+__all__ = [
+    "LABEL_OPTIONS",
+    "check_label_options",
+    "check_params",
+    "check_warp_options",
+    "jsonable",
+    "label_options_of",
+    "param_points",
+]
+
+#: The options of :class:`glmls.augment.Augment` that shape the labels, each draw's record of
+#: them (``label_options``): the step of a box's outline, the polygons' densifying step, and
+#: whether the moved polygons are clipped to the canvas.
+LABEL_OPTIONS = ("box_step", "densify", "clip_polygons")
 
 
 #: The keywords of :func:`glmls.warp_batch` that ``warp_options`` cannot hold, each with the
@@ -63,9 +78,12 @@ def check_warp_options(options: Mapping[str, object], what: str = "warp_options"
 
 def jsonable(value: object) -> object:
     """``value`` with numpy scalars and arrays, tuples and mappings made the lists, numbers
-    and dicts that JSON writes (and reads back equal)."""
+    and dicts that JSON writes (and reads back equal); a 0-d array (an option such as
+    ``rows=np.array(3)``) is its number."""
     if isinstance(value, Mapping):
         return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        return value.item()
     if isinstance(value, (list, tuple, np.ndarray)):
         return [jsonable(v) for v in value]
     if isinstance(value, np.generic):
@@ -73,7 +91,43 @@ def jsonable(value: object) -> object:
     return value
 
 
-#: What each draw of ``params`` holds for :meth:`Augment.replay`.
+def check_label_options(options: Mapping[str, object]) -> dict[str, object]:
+    """``options``' entries of :data:`LABEL_OPTIONS` checked, as floats and a bool:
+    ``box_step`` a finite number > 0, ``densify`` one or None, ``clip_polygons`` True or
+    False; a ``TypeError`` (a value of another type) or ``ValueError`` naming the entry."""
+    checked: dict[str, object] = {}
+    if "box_step" in options:
+        checked["box_step"] = check_positive("box_step", options["box_step"])
+    if "densify" in options:
+        densify = options["densify"]
+        checked["densify"] = None if densify is None else check_positive("densify", densify)
+    if "clip_polygons" in options:
+        checked["clip_polygons"] = check_flag("clip_polygons", options["clip_polygons"])
+    return checked
+
+
+def label_options_of(draw: Mapping, defaults: Mapping[str, object]) -> dict[str, object]:
+    """The label options a draw was made with: its ``label_options``, checked (by
+    :func:`check_params`), over ``defaults`` (the replaying Augment's) for an entry it lacks
+    (a record made without them)."""
+    recorded = draw.get("label_options")
+    return {**defaults, **check_label_options(recorded if isinstance(recorded, Mapping) else {})}
+
+
+def _check_recorded_labels(entry: object, name: str) -> None:
+    if not isinstance(entry, Mapping):
+        raise TypeError(f"{name} must be a dict, got {entry!r}")
+    for key in entry:
+        if key not in LABEL_OPTIONS:
+            raise TypeError(f"{name} has no keyword {key}; it holds {', '.join(LABEL_OPTIONS)}")
+    try:
+        check_label_options(entry)
+    except (TypeError, ValueError) as error:
+        raise type(error)(f"{name}: {error}") from None
+
+
+#: What each draw of ``params`` holds for :meth:`Augment.replay` (``label_options`` too,
+#: where it was recorded).
 _PARAM_KEYS = ("shape", "src", "dst", "options")
 
 
@@ -92,18 +146,28 @@ def check_params(params: object, count: int) -> list[Mapping]:
         missing = [key for key in _PARAM_KEYS if key not in draw]
         if missing:
             raise ValueError(f"params[{i}] has no {', '.join(map(repr, missing))}")
-        shape = draw["shape"]
-        if (
-            not (isinstance(shape, Sequence) and len(shape) == 2)
-            or isinstance(shape, str)
-            or not all(isinstance(n, (int, np.integer)) and not isinstance(n, bool) for n in shape)
-            or min(shape) < 1
-        ):
-            raise ValueError(f"params[{i}]['shape'] must be [H, W], integers >= 1, got {shape!r}")
+        _check_shape(draw["shape"], f"params[{i}]['shape']")
         if not isinstance(draw["options"], Mapping):
             raise TypeError(f"params[{i}]['options'] must be a dict, got {draw['options']!r}")
         check_warp_options(draw["options"], f"params[{i}]['options']")
+        if "label_options" in draw:
+            _check_recorded_labels(draw["label_options"], f"params[{i}]['label_options']")
     return list(params)
+
+
+def _check_shape(shape: object, name: str) -> None:
+    """A draw's ``shape``, [H, W] integers >= 1 (glmls's integer rule: 16.0 is none): a
+    ``TypeError`` for a value of another type (a string, entries that are no integers), a
+    ``ValueError`` for another length or a side below 1."""
+    message = f"{name} must be [H, W], integers >= 1, got {shape!r}"
+    if isinstance(shape, (str, bytes)) or not isinstance(shape, (Sequence, np.ndarray)):
+        raise TypeError(message)
+    if len(shape) != 2:
+        raise ValueError(message)
+    if not all(is_integer(n) for n in shape):
+        raise TypeError(message)
+    if min(operator.index(n) for n in shape) < 1:
+        raise ValueError(message)
 
 
 def param_points(params: Sequence[Mapping], key: str) -> list[np.ndarray]:

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.config import check_integer
+from ..core.config import check_choice, check_flag, check_integer, check_real
 
 __all__ = [
     "PRESETS",
@@ -38,16 +38,19 @@ def _check_count(name: str, value: object, low: int) -> None:
 
 
 def _check_length(name: str, value: object, *, optional: bool = False) -> None:
+    """A magnitude: ``TypeError`` naming ``name`` and the value for one that is no real
+    number (a bool, a string, None where it is not ``optional``), ``ValueError`` for one that
+    is not finite or negative."""
     if optional and value is None:
         return
-    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
-    if not ok or not math.isfinite(float(value)) or float(value) < 0:  # type: ignore[arg-type]
-        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    what = "a finite number >= 0"
+    number = check_real(name, value, what=what)
+    if not math.isfinite(number) or number < 0:
+        raise ValueError(f"{name} must be {what}, got {value!r}")
 
 
 def _check_units(units: object) -> None:
-    if units not in UNITS:
-        raise ValueError(f"units must be one of {', '.join(UNITS)}, got {units!r}")
+    check_choice("units", units, UNITS)
 
 
 def _edges(shape: tuple[int, int]) -> tuple[float, float, float, float]:
@@ -97,6 +100,8 @@ class GridPreset:
     ------
     ValueError
         For a value out of range, naming it.
+    TypeError
+        For a value of the wrong type (a float count, a bool or string magnitude), naming it.
 
     Examples
     --------
@@ -227,6 +232,8 @@ class TextDistortPreset(_TextPreset):
     ------
     ValueError
         For a value out of range, naming it.
+    TypeError
+        For a value of the wrong type (a float count, a bool or string magnitude), naming it.
 
     Examples
     --------
@@ -271,6 +278,8 @@ class TextStretchPreset(_TextPreset):
     ------
     ValueError
         For a value out of range, naming it.
+    TypeError
+        For a value of the wrong type (a float count, a bool or string magnitude), naming it.
 
     Examples
     --------
@@ -316,6 +325,8 @@ class TextPerspectivePreset(_TextPreset):
     ------
     ValueError
         For a value out of range, naming it.
+    TypeError
+        For a value of the wrong type (a float count, a bool or string magnitude), naming it.
 
     Examples
     --------
@@ -366,6 +377,8 @@ class LandmarksPreset:
     ------
     ValueError
         For a value out of range, naming it.
+    TypeError
+        For a value of the wrong type (a float count, a bool or string magnitude), naming it.
 
     Examples
     --------
@@ -388,8 +401,7 @@ class LandmarksPreset:
     def __post_init__(self) -> None:
         _check_length("displacement", self.displacement)
         _check_units(self.units)
-        if not isinstance(self.pin_corners, (bool, np.bool_)):
-            raise ValueError(f"pin_corners must be True or False, got {self.pin_corners!r}")
+        check_flag("pin_corners", self.pin_corners)
 
     def draw(self, rng: np.random.Generator, shape: tuple[int, int], landmarks=None):
         """One sample's handles.

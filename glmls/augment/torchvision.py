@@ -23,8 +23,10 @@ detached (no gradient flows back through the deformation, where torchvision's ow
 transforms keep autograd's graph); the deformation runs on glmls's OpenGL context, so a CUDA
 tensor goes through the host's memory.
 
-A batch is an image tensor with a leading dimension, (N, C, H, W): each sample draws its own
-deformation (where torchvision's own transforms draw once for the whole batch). The inputs of a
+A batch is an image tensor with leading dimensions, (N, C, H, W) or (N, ..., C, H, W) (a plain
+tensor or an ``Image``; torchvision's own transforms take (..., C, H, W)): each sample draws its
+own deformation (where torchvision's own transforms draw once for the whole batch), the
+dimensions between N and C of a sample (a clip's frames) moving by its one draw. The inputs of a
 call have one size (H, W), the ``canvas_size`` of boxes and keypoints too, as torchvision
 requires, and are single images or one batch, else ``ValueError``; so is an unrotated box whose
 maximum lies below its minimum (boxes of another format than their label, which the deformation
@@ -89,6 +91,7 @@ from torchvision.transforms.v2 import functional as F  # noqa: E402
 
 from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks  # noqa: E402
 from .labels import canvas_shape  # noqa: E402
+from .presets import preset_from  # noqa: E402
 from .tensors import to_numpy  # noqa: E402
 
 __all__ = ["MLSTransform", "check_import_order"]
@@ -107,17 +110,20 @@ def _is_label(value: object) -> bool:
 
 
 def _size(value: object) -> tuple[int, int, int | None]:
-    """(H, W, N): N the batch size of a 4-D image tensor, None for one image."""
+    """(H, W, N): N the batch size of an image tensor of 4 dimensions or more (its first),
+    None for one image (H, W) or (C, H, W), or a Video (one clip, its frames alike)."""
     if isinstance(value, PIL.Image.Image):
         return value.height, value.width, None
-    tensor = value  # type: ignore[assignment]
-    if isinstance(tensor, tv_tensors.Video) and tensor.ndim >= 4:  # one clip, its frames alike
-        return tensor.shape[-2], tensor.shape[-1], None
-    if tensor.ndim == 4:  # type: ignore[attr-defined]
-        return tensor.shape[-2], tensor.shape[-1], tensor.shape[0]  # type: ignore[attr-defined]
-    if tensor.ndim in (2, 3):  # type: ignore[attr-defined]
-        return tensor.shape[-2], tensor.shape[-1], None  # type: ignore[attr-defined]
-    raise ValueError(f"expected an image (C, H, W) or a batch (N, C, H, W), got {tensor.shape}")  # type: ignore[attr-defined]
+    tensor: torch.Tensor = value  # type: ignore[assignment]
+    if tensor.ndim < 2:  # as torchvision refuses it
+        raise ValueError(
+            f"an image tensor has at least two dimensions, (H, W), (C, H, W) or "
+            f"(N, ..., C, H, W); got shape {tuple(tensor.shape)}"
+        )
+    height, width = tensor.shape[-2:]
+    if isinstance(tensor, tv_tensors.Video) or tensor.ndim <= 3:
+        return height, width, None
+    return height, width, tensor.shape[0]  # (N, ..., C, H, W): N samples
 
 
 def _shown(size: tuple[int, int, int | None]) -> tuple[int, ...]:
@@ -180,7 +186,9 @@ class MLSTransform(v2.Transform):
     Raises
     ------
     ValueError, TypeError
-        As :class:`glmls.augment.Augment`.
+        As :class:`glmls.augment.Augment`; a ``TypeError`` for an option the preset does not
+        take (``seed``: torch's random numbers draw; ``densify``, ``clip_polygons``:
+        torchvision has no polygons).
 
     Examples
     --------
@@ -204,8 +212,10 @@ class MLSTransform(v2.Transform):
         **preset_options: Any,
     ) -> None:
         super().__init__()
+        # the preset takes the options: Augment's own (seed, densify, clip_polygons) are not
+        # this transform's (torch's random numbers draw; torchvision has no polygons)
         self.augment = Augment(
-            preset, warp_options=warp_options, box_step=box_step, **preset_options
+            preset_from(preset, preset_options), warp_options=warp_options, box_step=box_step
         )
         self.preset = preset
         self.last_params: list[dict] = []

@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 
+from ..core.config import check_flag, check_integer, counted
 from ..core.handleset import HandleSet
 from ..gl import helper
 from ..gl.context import forked_from_gl
@@ -109,7 +110,7 @@ def warp_batch(
     ...
     ValueError: dst[1] has shape (1, 3); expected (K, 2)
     """
-    check_flags(return_maps, max_batch_bytes)
+    max_batch_bytes = check_flags(return_maps, max_batch_bytes)
     masks, binary = _bytes_of_bool_masks(masks)
     if options.get("ctx") is None and forked_from_gl():  # GL would hang here: a clean helper
         keywords = {"keypoints": keypoints, "masks": masks, "return_maps": return_maps}
@@ -168,21 +169,13 @@ def _bool_masks_back(result: object, binary: list[bool] | None) -> object:
     return dataclasses.replace(result, masks=out)
 
 
-def check_flags(return_maps: object, max_batch_bytes: object) -> None:
+def check_flags(return_maps: object, max_batch_bytes: object) -> int | None:
     """:func:`warp_batch`'s ``return_maps`` and ``max_batch_bytes``, checked (``TypeError``,
     ``ValueError`` naming the value)."""
-    if not isinstance(return_maps, (bool, np.bool_)):
-        raise TypeError(f"return_maps must be True or False, got {return_maps!r}")
+    check_flag("return_maps", return_maps)
     if max_batch_bytes is None:
-        return
-    if isinstance(max_batch_bytes, (bool, np.bool_)) or not isinstance(
-        max_batch_bytes, (int, np.integer)
-    ):
-        raise TypeError(f"max_batch_bytes must be an integer >= 1 or None, got {max_batch_bytes!r}")
-    if max_batch_bytes < 1:
-        raise ValueError(
-            f"max_batch_bytes must be an integer >= 1 or None, got {max_batch_bytes!r}"
-        )
+        return None
+    return check_integer("max_batch_bytes", max_batch_bytes, 1, what="an integer >= 1 or None")
 
 
 def _split_options(options: dict) -> tuple[WarpOptions, dict, dict]:
@@ -207,10 +200,15 @@ def _check_segments(segments: dict, batch: BatchInput, transform: object) -> lis
     for name, value in segments.items():
         if value is None:
             continue
-        if isinstance(value, np.ndarray) and value.ndim == 4:
+        what = f"{name} must be a sequence of one value per image ({count})"
+        if isinstance(value, np.ndarray):
+            if value.ndim != 4:  # one image's (S, 2, 2) segments, say
+                raise ValueError(f"{what}, got an array of shape {value.shape}")
             value = list(value)
-        if not isinstance(value, (list, tuple)) or len(value) != count:
-            raise ValueError(f"{name} must be a sequence of one value per image ({count})")
+        if not isinstance(value, (list, tuple)):
+            raise TypeError(f"{what}, got {value!r}")
+        if len(value) != count:
+            raise ValueError(f"{what}, got {counted(len(value), 'value')}")
         for i, item in enumerate(value):
             if item is not None:
                 per_image[i][name] = item

@@ -32,6 +32,7 @@ import numpy as np
 import tifffile
 from PIL import Image, ImageOps, UnidentifiedImageError
 
+from ..core.config import check_integer
 from ..errors import ImageWarning
 from .atomic import atomic_write
 from .profiles import profile_problem, with_png_profile
@@ -95,12 +96,11 @@ def _refuse(path: Path, pixels: str, max_pixels: int) -> NoReturn:
     )
 
 
-def _check_max_pixels(max_pixels: object) -> None:
-    """Before any file is read: a bad limit would else surface as a corrupt file."""
-    if isinstance(max_pixels, bool) or not isinstance(max_pixels, (int, np.integer)):
-        raise TypeError(f"max_pixels must be an integer, got {max_pixels!r}")
-    if max_pixels < 1:
-        raise ValueError(f"max_pixels must be >= 1, got {max_pixels}")
+def _check_max_pixels(max_pixels: object) -> int:
+    """Before any file is read: a bad limit would else surface as a corrupt file (glmls's
+    integer rule: a float, a bool or a string is a ``TypeError``, a count below 1 a
+    ``ValueError``)."""
+    return check_integer("max_pixels", max_pixels, 1)
 
 
 def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> np.ndarray:
@@ -155,7 +155,7 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     >>> image.shape, image.dtype.name, image[2].tolist()
     ((3, 4), 'uint16', [40000, 45000, 50000, 55000])
     """
-    _check_max_pixels(max_pixels)
+    max_pixels = _check_max_pixels(max_pixels)
     path = Path(path)
     try:
         with open(path, "rb") as file:

@@ -175,7 +175,7 @@ def test_the_mls_of_crossing_handles_folds_where_the_cell_by_cell_computation_do
 def test_bad_arguments_raise():
     with pytest.raises(ValueError, match="D, H, W"):
         cell_jacobians(lambda v: v, (4, 4))
-    with pytest.raises(ValueError, match="grid"):
+    with pytest.raises(TypeError, match="grid"):
         cell_jacobians(lambda v: v, (4, 4, 4), grid=1.5)
     with pytest.raises(ValueError, match="values per point"):
         cell_jacobians(lambda v: v[:, :2], (2, 2, 2))

@@ -185,8 +185,10 @@ def test_bad_arguments():
         tuning.tune((30, 40), SRC, DST, REFERENCE, trials=0)
     with pytest.raises(ValueError, match="angle must be"):
         tuning.tune((30, 40), SRC, DST, REFERENCE, angle="cosine")
-    for seed in (-1, 1.5, "0", True):
-        with pytest.raises(ValueError, match="seed must be"):
+    with pytest.raises(ValueError, match="seed must be an integer >= 0, got -1"):
+        tuning.tune((30, 40), SRC, DST, REFERENCE, seed=-1)
+    for seed in (1.5, "0", True):
+        with pytest.raises(TypeError, match="seed must be an integer >= 0, got "):
             tuning.tune((30, 40), SRC, DST, REFERENCE, seed=seed)
     with pytest.raises(ValueError, match="magnitudes"):
         tuning.tune((30, 40), SRC, DST, REFERENCE, magnitudes=[2.0])

@@ -103,6 +103,41 @@ def test_torchvision_a_video_is_one_sample(gl, rng):
     assert len(transform.last_params) == 4 and not torch.equal(batch[0], batch[1])
 
 
+@pytest.mark.parametrize("kind", ["tensor", "image"])
+def test_torchvision_images_with_more_leading_dimensions(gl, rng, kind):
+    """torchvision's geometric transforms take plain tensors and Images (..., C, H, W) with
+    any number of leading dimensions (v2.RandomAffine, v2.ElasticTransform keep the shape):
+    so does MLSTransform, the first dimension the batch (a draw per sample) and the ones
+    after it a sample's (its frames moved by its one draw, as a Video's)."""
+    clip = torch.from_numpy(rng.integers(0, 255, (3, 24, 32), dtype=np.uint8))
+    data = torch.stack([clip.expand(2, 3, 24, 32)] * 3)  # (N=3, T=2, C, H, W)
+    given = data if kind == "tensor" else tv_tensors.Image(data)
+    mask = tv_tensors.Mask(torch.ones(3, 24, 32, dtype=torch.uint8))  # the batch's
+    for theirs in (v2.RandomAffine(degrees=10), v2.ElasticTransform(alpha=50.0)):
+        assert theirs(given).shape == given.shape
+    transform = MLSTransform("grid", displacement=0.08)
+    torch.manual_seed(0)
+    out, out_mask = transform(given, mask)
+    assert type(out) is type(given) and out.shape == given.shape and out.dtype == given.dtype
+    assert out_mask.shape == mask.shape and len(transform.last_params) == 3
+    for k, draw in enumerate(transform.last_params):
+        expected = transform.augment.replay(clip.permute(1, 2, 0).numpy()[None], [draw])
+        for frame in out[k]:
+            np.testing.assert_array_equal(frame.permute(1, 2, 0).numpy(), expected.images[0])
+    assert not torch.equal(out[0], out[1])
+    deeper = MLSTransform("grid")(data[None])  # (1, N, T, C, H, W): one sample
+    assert deeper.shape == (1, *data.shape)
+
+
+def test_torchvision_a_tensor_of_one_dimension_is_refused():
+    """torchvision refuses an image tensor of fewer than two dimensions; so does MLSTransform,
+    naming the shapes it takes."""
+    with pytest.raises(TypeError, match="at least two dimensions"):
+        v2.RandomAffine(degrees=10)(torch.zeros(8))
+    with pytest.raises(ValueError, match=r"at least two dimensions.*got shape \(8,\)"):
+        MLSTransform("grid")(torch.zeros(8))
+
+
 @pytest.mark.parametrize("shape", [(5, 16, 20), (2, 6, 16, 20)])
 def test_torchvision_images_of_any_number_of_channels(gl, rng, shape):
     image = tv_tensors.Image(torch.from_numpy(rng.random(shape, dtype=np.float32)))
@@ -168,7 +203,7 @@ def test_torchvision_integer_boxes_go_through_float_as_torchvisions_own(gl, fmt,
         (lambda d: d.pop("shape"), ValueError, r"params\[0\] has no 'shape'"),
         (
             lambda d: d.__setitem__("shape", [24.0, 32.0]),
-            ValueError,
+            TypeError,
             r"params\[0\]\['shape'\] must be \[H, W\], integers >= 1",
         ),
         (lambda d: d.__setitem__("options", None), TypeError, r"params\[0\]\['options'\]"),

@@ -323,11 +323,19 @@ def test_albumentations_serialisation_and_seeds(gl):
     assert (t.box_step, t.p) == (1.5, 0.9)
 
 
-@pytest.mark.parametrize("p", [-0.1, 1.5, None, float("nan")])
+@pytest.mark.parametrize("p", [-0.1, 1.5, float("nan")])
 def test_albumentations_p_out_of_range_is_refused(p):
-    """albumentations' own check of p (its InitSchema) refuses one outside [0, 1]."""
-    with pytest.raises(ValueError, match=r"(?s)\bp\b.*input_value"):
+    with pytest.raises(ValueError, match=rf"^p must be a probability from 0 to 1, got {p}$"):
         MLSDeform(p=p)
+
+
+@pytest.mark.parametrize("p", [None, True, "0.5", 1j])
+def test_albumentations_p_of_the_wrong_type_is_refused(p):
+    """A p that is no real number is refused as glmls refuses one (albumentations' own
+    check would take True and "0.5" as numbers)."""
+    with pytest.raises(TypeError, match=r"^p must be a probability from 0 to 1, got "):
+        MLSDeform(p=p)
+    assert MLSDeform(p=np.array(0.5)).p == 0.5
 
 
 @pytest.mark.parametrize("name", ["preset_options", "warp_options"])

@@ -40,7 +40,7 @@ def test_a_magnitude_beyond_the_coordinate_limit_names_the_option(gl, preset, op
         ({"warp_options": {"grid": 0}}, ValueError, "grid must be an integer from 1"),
         ({"warp_options": {"method": "swirl"}}, ValueError, "unknown method 'swirl'"),
         ({"clip_polygons": "no"}, TypeError, "clip_polygons must be True or False, got 'no'"),
-        ({"box_step": True}, ValueError, "box_step must be a finite number > 0, got True"),
+        ({"box_step": True}, TypeError, "box_step must be a finite number > 0, got True"),
         (["grid"], TypeError, r"preset must be a name .* or a preset object, got list"),
     ],
 )

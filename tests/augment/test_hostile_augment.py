@@ -60,7 +60,7 @@ def _edited(params, edit):
         ),
         (
             lambda p: p[0].__setitem__("shape", [16.0, 20.0]),
-            ValueError,
+            TypeError,
             r"params\[0\]\['shape'\] must be \[H, W\], integers >= 1, got \[16.0, 20.0\]",
         ),
         (
