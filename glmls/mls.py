@@ -29,6 +29,7 @@ from .engine.error_field import error_at
 from .engine.error_field import error_field as evaluate_error_field
 from .engine.kernel import DEFAULT_STORAGE, MLSKernel
 from .engine.passes import evaluate_lattice, evaluate_points
+from .errors import ReleasedError
 from .forking import ForkSafe, forwarded, in_helper, on_gpu
 from .gl import helper
 from .gl.context import GLContext, forked_from_gl, get_context
@@ -952,6 +953,8 @@ class MLS(ForkSafe):
         return self._dropped if self._kernel is None else self._kernel.released
 
     def __enter__(self) -> MLS:
+        if self.released:  # as a closed file refuses a with block
+            raise ReleasedError("this MLS has been released; create a new one")
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -116,6 +116,8 @@ def test_release_twice_is_harmless_and_use_after_release_is_clear(gl):
         m([[1.0, 1.0]])
     with pytest.raises(glmls.ReleasedError):
         m.mesh((4, 4))
+    with pytest.raises(glmls.ReleasedError, match="released"), m:
+        pass
 
 
 def test_handles_are_read_only_copies(gl):
