@@ -34,8 +34,11 @@ __all__ = ["check_slices", "render_volume_slices"]
 #: The tint of masked voxels (RGB 0-255) and its opacity.
 MASK_COLOR = (230, 30, 30)
 MASK_OPACITY = 0.65
-#: The picture's smallest side per view, in pixels, when ``scale`` is None.
+#: The picture's smallest side per view, in pixels, when ``scale`` is None ...
 MIN_VIEW = 192
+#: ... as long as no view's side passes this many pixels (a volume one voxel thick keeps
+#: pictures of its other sides at a few voxels' size).
+MAX_VIEW = 1024
 #: Grey between the views.
 GAP = 6
 #: The labels' font size; views less than 4 labels high go without one.
@@ -121,7 +124,8 @@ def render_volume_slices(
         uint8 volume 0 and 255 by default.
     scale : int, optional
         Picture pixels per voxel (nearest neighbour); by default the smallest that makes
-        each view's smaller side at least 192 pixels.
+        each view's smaller side at least 192 pixels, but no larger than keeps each view's
+        sides within 1024 pixels (1 for a volume with a side over 1024 voxels).
     projection : {"max", "min"}, optional
         The fourth view: the maximum of the volume along z, or the minimum (for a field
         whose low values matter, as det J).
@@ -192,7 +196,7 @@ def render_volume_slices(
                 np.uint8
             )
     if scale is None:
-        scale = max(1, -(-MIN_VIEW // min(dims)))
+        scale = max(1, min(-(-MIN_VIEW // min(dims)), MAX_VIEW // max(dims)))
     elif isinstance(scale, bool) or not isinstance(scale, (int, np.integer)) or scale < 1:
         raise ValueError(f"scale must be an integer from 1, got {scale!r}")
     pictures = [p.repeat(scale, axis=0).repeat(scale, axis=1) for p in pictures]

@@ -123,6 +123,18 @@ def test_the_slice_layout():
     assert_array_equal(scaled[: 3 * 5 : 3, : 3 * 6 : 3, 0], values[1])
 
 
+def test_a_volume_one_voxel_thick_is_drawn_at_a_size_that_fits_its_other_sides():
+    values = (np.arange(12 * 16).reshape(1, 12, 16) % 251).astype(np.uint8)
+    picture = render_volume_slices(values)
+    gap = 6
+    # the thin side alone would ask for 192 pixels a voxel: views of 12 x 192 by 16 x 192
+    assert max(picture.shape[:2]) <= 2 * 1024 + gap
+    scale = (picture.shape[1] - gap) // (2 * 16)
+    assert scale * 16 <= 1024 and scale * 12 >= 192
+    assert_array_equal(picture[: 12 * scale : scale, : 16 * scale : scale, 0], values[0])
+    assert_array_equal(picture[: 12 * scale : scale, 16 * scale + gap, 0], values[0, :, 8])
+
+
 def test_a_field_is_coloured_and_a_mask_tinted():
     field = np.zeros((4, 5, 6))
     field[2, 1, 1] = 1.0
