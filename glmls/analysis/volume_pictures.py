@@ -66,6 +66,8 @@ def _grey(values: np.ndarray, vmin: float | None, vmax: float | None) -> np.ndar
     if values.dtype == np.uint8 and vmin is None and vmax is None:
         return values
     lo, hi = color_limits(values, vmin=vmin, vmax=vmax)
+    if hi <= lo:  # one value (a constant volume): the scale from 0 to it, not all black
+        lo, hi = min(lo, 0.0), max(hi, 0.0)
     span = hi - lo if hi > lo else 1.0
     return np.round(np.clip((values - lo) / span, 0, 1) * 255).astype(np.uint8)
 
@@ -100,7 +102,8 @@ def render_volume_slices(
     """Three orthogonal slices and the maximum-intensity projection of a volume, in one picture.
 
     Layout in :mod:`glmls.analysis.volume_pictures`. A grey volume is drawn from ``vmin``
-    (black) to ``vmax`` (white), an RGB volume as it is, and with ``cmap`` a field (an error)
+    (black) to ``vmax`` (white) (where they are equal, as for a constant volume, from 0 to
+    that value: a constant positive volume is white), an RGB volume as it is, and with ``cmap`` a field (an error)
     through that colour map, its limits from the whole volume.
 
     Parameters

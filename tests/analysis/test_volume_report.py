@@ -135,6 +135,19 @@ def test_a_volume_one_voxel_thick_is_drawn_at_a_size_that_fits_its_other_sides()
     assert_array_equal(picture[: 12 * scale : scale, 16 * scale + gap, 0], values[0, :, 8])
 
 
+def test_a_constant_volume_is_drawn_from_0_to_its_value_not_black():
+    values = np.full((4, 5, 6), 700, np.uint16)
+    picture = render_volume_slices(values, scale=1)
+    assert (picture[:5, :6] == 255).all()  # the z slice
+    assert (picture[5 + 6 :, 6 + 6 :] == 255).all()  # the projection
+    # a deformed volume drawn at the input's limits: its background (0) black beside it
+    lower = values.copy()
+    lower[0] = 0
+    drawn = render_volume_slices(lower, vmin=700.0, vmax=700.0, slices=(2, 2, 2), scale=1)
+    assert (drawn[5 + 6, :6] == 0).all() and (drawn[5 + 6 + 1, :6] == 255).all()
+    assert (render_volume_slices(np.zeros((4, 5, 6)), scale=1)[:5, :6] == 0).all()
+
+
 def test_a_field_is_coloured_and_a_mask_tinted():
     field = np.zeros((4, 5, 6))
     field[2, 1, 1] = 1.0
