@@ -34,6 +34,9 @@ __all__ = ["check_slices", "render_volume_slices"]
 #: The tint of masked voxels (RGB 0-255) and its opacity.
 MASK_COLOR = (230, 30, 30)
 MASK_OPACITY = 0.65
+#: The colour of NaN voxels of a grey volume (in no grey scale); a field's NaN take its
+#: colour map's (:data:`glmls.analysis.colormaps.NAN_COLOR`).
+NAN_VOXEL_COLOR = (40, 90, 160)
 #: The picture's smallest side per view, in pixels, when ``scale`` is None ...
 MIN_VIEW = 192
 #: ... as long as no view's side passes this many pixels (a volume one voxel thick keeps
@@ -69,7 +72,8 @@ def _grey(values: np.ndarray, vmin: float | None, vmax: float | None) -> np.ndar
     if hi <= lo:  # one value (a constant volume): the scale from 0 to it, not all black
         lo, hi = min(lo, 0.0), max(hi, 0.0)
     span = hi - lo if hi > lo else 1.0
-    return np.round(np.clip((values - lo) / span, 0, 1) * 255).astype(np.uint8)
+    t = np.nan_to_num(np.clip((values - lo) / span, 0, 1), nan=0.0)  # NaN: coloured later
+    return np.round(t * 255).astype(np.uint8)
 
 
 def _views(array: np.ndarray, at: tuple[int, int, int], project) -> list[np.ndarray]:
@@ -103,8 +107,11 @@ def render_volume_slices(
 
     Layout in :mod:`glmls.analysis.volume_pictures`. A grey volume is drawn from ``vmin``
     (black) to ``vmax`` (white) (where they are equal, as for a constant volume, from 0 to
-    that value: a constant positive volume is white), an RGB volume as it is, and with ``cmap`` a field (an error)
-    through that colour map, its limits from the whole volume.
+    that value: a constant positive volume is white), an RGB volume as it is,
+    and with ``cmap`` a field (an error) through that colour map, its limits from the whole
+    volume. Of a float volume, infinite voxels take the ends of the scale, NaN voxels
+    :data:`NAN_VOXEL_COLOR` (a field's the colour map's NaN colour), and the limits and
+    projection are those of the other voxels.
 
     Parameters
     ----------
@@ -143,7 +150,7 @@ def render_volume_slices(
     Raises
     ------
     ValueError
-        For a volume that is not (D, H, W) or (D, H, W, 3) finite values, or bad handles,
+        For a volume that is not (D, H, W) or (D, H, W, 3) real values, or bad handles,
         slices, ``near``, mask, limits, scale or projection.
 
     Examples
@@ -162,8 +169,6 @@ def render_volume_slices(
         raise ValueError(f"volume must be (D, H, W) or (D, H, W, 3), got shape {array.shape}")
     if array.dtype.kind not in "iuf" or (rgb_volume and array.dtype != np.uint8):
         raise ValueError(f"volume must be real numbers (RGB: uint8), got dtype {array.dtype}")
-    if array.dtype.kind == "f" and not np.isfinite(array).all():
-        raise ValueError("volume holds NaN or infinite values")
     if near is not None and (
         isinstance(near, (bool, np.bool_))
         or not isinstance(near, (int, float, np.integer, np.floating))
@@ -174,7 +179,10 @@ def render_volume_slices(
     at = check_slices(dims, slices)
     if projection not in ("max", "min"):
         raise ValueError(f"projection must be 'max' or 'min', got {projection!r}")
-    views = _views(array, at, lambda a: getattr(a, projection)(axis=0))
+    # NaN voxels (outside a scan's field of view) left out of the projection where a column
+    # has others
+    extreme = np.fmax if projection == "max" else np.fmin
+    views = _views(array, at, lambda a: extreme.reduce(a, axis=0))
     if rgb_volume:
         pictures = [np.ascontiguousarray(v) for v in views]
     else:
@@ -189,6 +197,8 @@ def render_volume_slices(
                 else color_limits(values, vmin=vmin, vmax=vmax, percentile=percentile)
             )
             pictures = [np.repeat(_grey(v, lo, hi)[..., None], 3, axis=2) for v in views]
+            for picture, view in zip(pictures, views, strict=True):
+                picture[np.isnan(view)] = NAN_VOXEL_COLOR
     if mask is not None:
         folds = np.asarray(mask, dtype=bool)
         if folds.shape != dims:
