@@ -36,8 +36,14 @@ __all__ = ["check_slices", "render_volume_slices"]
 #: The tint of masked voxels (RGB 0-255) and its opacity.
 MASK_COLOR = (230, 30, 30)
 MASK_OPACITY = 0.65
-#: The picture's smallest side per view, in pixels, when ``scale`` is None.
+#: The colour of NaN voxels of a grey volume (in no grey scale); a field's NaN take its
+#: colour map's (:data:`glmls.analysis.colormaps.NAN_COLOR`).
+NAN_VOXEL_COLOR = (40, 90, 160)
+#: The picture's smallest side per view, in pixels, when ``scale`` is None ...
 MIN_VIEW = 192
+#: ... as long as no view's side passes this many pixels (a volume one voxel thick keeps
+#: pictures of its other sides at a few voxels' size).
+MAX_VIEW = 1024
 #: Grey between the views.
 GAP = 6
 #: The labels' font size; views less than 4 labels high go without one.
@@ -72,8 +78,11 @@ def _grey(values: np.ndarray, vmin: float | None, vmax: float | None) -> np.ndar
     if values.dtype == np.uint8 and vmin is None and vmax is None:
         return values
     lo, hi = color_limits(values, vmin=vmin, vmax=vmax)
+    if hi <= lo:  # one value (a constant volume): the scale from 0 to it, not all black
+        lo, hi = min(lo, 0.0), max(hi, 0.0)
     span = hi - lo if hi > lo else 1.0
-    return np.round(np.clip((values - lo) / span, 0, 1) * 255).astype(np.uint8)
+    t = np.nan_to_num(np.clip((values - lo) / span, 0, 1), nan=0.0)  # NaN: coloured later
+    return np.round(t * 255).astype(np.uint8)
 
 
 def _views(array: np.ndarray, at: tuple[int, int, int], project) -> list[np.ndarray]:
@@ -106,8 +115,12 @@ def render_volume_slices(
     """Three orthogonal slices and the maximum-intensity projection of a volume, in one picture.
 
     Layout in :mod:`glmls.analysis.volume_pictures`. A grey volume is drawn from ``vmin``
-    (black) to ``vmax`` (white), an RGB volume as it is, and with ``cmap`` a field (an error)
-    through that colour map, its limits from the whole volume.
+    (black) to ``vmax`` (white) (where they are equal, as for a constant volume, from 0 to
+    that value: a constant positive volume is white), an RGB volume as it is,
+    and with ``cmap`` a field (an error) through that colour map, its limits from the whole
+    volume. Of a float volume, infinite voxels take the ends of the scale, NaN voxels
+    :data:`NAN_VOXEL_COLOR` (a field's the colour map's NaN colour), and the limits and
+    projection are those of the other voxels.
 
     Parameters
     ----------
@@ -130,7 +143,8 @@ def render_volume_slices(
         uint8 volume 0 and 255 by default.
     scale : int, optional
         Picture pixels per voxel (nearest neighbour); by default the smallest that makes
-        each view's smaller side at least 192 pixels.
+        each view's smaller side at least 192 pixels, but no larger than keeps each view's
+        sides within 1024 pixels (1 for a volume with a side over 1024 voxels).
     projection : {"max", "min"}, optional
         The fourth view: the maximum of the volume along z, or the minimum (for a field
         whose low values matter, as det J).
@@ -145,7 +159,7 @@ def render_volume_slices(
     Raises
     ------
     ValueError
-        For a volume that is not (D, H, W) or (D, H, W, 3) finite values, or bad handles,
+        For a volume that is not (D, H, W) or (D, H, W, 3) real values, or bad handles,
         slices, ``near``, mask, limits, scale or projection.
     TypeError
         For slices, a scale, a ``near`` or a projection of the wrong type (a float index or
@@ -167,8 +181,6 @@ def render_volume_slices(
         raise ValueError(f"volume must be (D, H, W) or (D, H, W, 3), got shape {array.shape}")
     if array.dtype.kind not in "iuf" or (rgb_volume and array.dtype != np.uint8):
         raise ValueError(f"volume must be real numbers (RGB: uint8), got dtype {array.dtype}")
-    if array.dtype.kind == "f" and not np.isfinite(array).all():
-        raise ValueError("volume holds NaN or infinite values")
     if near is not None:
         what = "a finite number >= 0 (voxels)"
         distance = check_real("near", near, what=what)
@@ -177,7 +189,10 @@ def render_volume_slices(
     dims = array.shape[:3]
     at = check_slices(dims, slices)
     check_choice("projection", projection, ("max", "min"))
-    views = _views(array, at, lambda a: getattr(a, projection)(axis=0))
+    # NaN voxels (outside a scan's field of view) left out of the projection where a column
+    # has others
+    extreme = np.fmax if projection == "max" else np.fmin
+    views = _views(array, at, lambda a: extreme.reduce(a, axis=0))
     if rgb_volume:
         pictures = [np.ascontiguousarray(v) for v in views]
     else:
@@ -192,6 +207,8 @@ def render_volume_slices(
                 else color_limits(values, vmin=vmin, vmax=vmax, percentile=percentile)
             )
             pictures = [np.repeat(_grey(v, lo, hi)[..., None], 3, axis=2) for v in views]
+            for picture, view in zip(pictures, views, strict=True):
+                picture[np.isnan(view)] = NAN_VOXEL_COLOR
     if mask is not None:
         folds = np.asarray(mask, dtype=bool)
         if folds.shape != dims:
@@ -202,7 +219,7 @@ def render_volume_slices(
                 np.uint8
             )
     if scale is None:
-        scale = max(1, -(-MIN_VIEW // min(dims)))
+        scale = max(1, min(-(-MIN_VIEW // min(dims)), MAX_VIEW // max(dims)))
     else:
         scale = check_integer("scale", scale, 1)
     pictures = [p.repeat(scale, axis=0).repeat(scale, axis=1) for p in pictures]

@@ -71,8 +71,8 @@ class VolumeReport(SavedReport):
     >>> dst = src + [1.0, 0, 0]
     >>> m = glmls.analysis.ReferenceDeformation(src, dst)
     >>> found = glmls.analysis.volume_report(volume, m, grid=3)
-    >>> found.summary["volume"], found.summary["jacobians"]["folds"]
-    ({'depth': 12, 'height': 12, 'width': 12, 'channels': 1}, 0)
+    >>> found.summary["volume"]["depth"], found.summary["jacobians"]["folds"]
+    (12, 0)
     >>> found.to_json().splitlines()[:2]
     ['{', '  "volume": {']
     """
@@ -99,9 +99,9 @@ def _check_volume(volume: object, name: str) -> np.ndarray:
         raise ValueError(f"{name} must be (D, H, W) or (D, H, W, C), got shape {array.shape}")
     if array.dtype.kind not in "biuf":
         raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
-    if array.dtype.kind == "f" and not np.isfinite(array).all():
-        raise ValueError(f"{name} holds NaN or infinite values")
-    # the pictures draw numbers and the GPU warps no bool: a mask is its 0/1 in float32, as
+    # NaN and infinite voxels of a float volume (outside a scan's field of view) are kept: the
+    # analyses do not read the voxels, the pictures draw them apart, and the warp keeps them.
+    # The pictures draw numbers and the GPU warps no bool: a mask is its 0/1 in float32, as
     # the other dtypes the GPU does not take are warped
     return array.astype(np.float32) if array.dtype.kind == "b" else array
 
@@ -124,7 +124,7 @@ def _distinct(points: np.ndarray) -> np.ndarray:
 def _grey_limits(array: np.ndarray) -> tuple[float | None, float | None]:
     if array.ndim == 4 or array.dtype == np.uint8:
         return None, None
-    return float(array.min()), float(array.max())
+    return colormaps.color_limits(array)  # of the finite voxels
 
 
 def volume_report(
@@ -163,7 +163,9 @@ def volume_report(
     Parameters
     ----------
     volume : array_like
-        (D, H, W) or (D, H, W, C) real values (a bool mask as 0 and 1).
+        (D, H, W) or (D, H, W, C) real values (a bool mask as 0 and 1); NaN and infinite
+        voxels (not all of them) are counted in the summary's ``volume`` and drawn apart
+        (:func:`render_volume_slices`).
     m : glmls.MLS or ReferenceDeformation
         The deformation, of (N, 3) handles ``m.src`` -> ``m.dst``.
     reference_points : array_like, optional
@@ -216,9 +218,10 @@ def volume_report(
     Raises
     ------
     ValueError
-        For a bad volume, grid, slices, angle measure, ``min_quality``, ``eps``, ``near``,
-        reference points or tetrahedra, or a ``spacing`` of another length than 3, with a
-        value that is not a finite number > 0, or other than ``m.spacing``.
+        For a bad volume (or one of no finite voxel), grid, slices, angle measure,
+        ``min_quality``, ``eps``, ``near``, reference points or tetrahedra, or a ``spacing``
+        of another length than 3, with a value that is not a finite number > 0, or other
+        than ``m.spacing``.
     TypeError
         For a ``warp`` that is not a bool.
     TypeError
@@ -240,6 +243,8 @@ def volume_report(
     ((12, 12, 12), True)
     """
     array = _check_volume(volume, "volume")
+    if array.dtype.kind == "f" and not np.isfinite(array).any():
+        raise ValueError("volume holds no finite value: every voxel is NaN or infinite")
     dims = array.shape[:3]
     step = check_grid3(grid)
     cell_step = step if jacobian_grid is None else check_grid3(jacobian_grid, "jacobian_grid")
@@ -338,6 +343,8 @@ def volume_report(
             "height": dims[1],
             "width": dims[2],
             "channels": 1 if array.ndim == 3 else array.shape[3],
+            "nan_voxels": int(np.isnan(array).sum()) if array.dtype.kind == "f" else 0,
+            "infinite_voxels": int(np.isinf(array).sum()) if array.dtype.kind == "f" else 0,
         },
         "configuration": (dataclasses.asdict(config) if dataclasses.is_dataclass(config) else {})
         | {

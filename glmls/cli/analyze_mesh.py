@@ -8,7 +8,9 @@ written as ``report.json`` and the deformed mesh ``deformed.ply``.
   (:func:`glmls.analysis.tetrahedron_errors`; the reference points of ``--reference``, else
   the distinct source handles);
 - ``jacobians``: det J and the ratio of J's largest to smallest singular value at every
-  vertex, and the vertices and faces that fold (:meth:`glmls.MLS.deform`).
+  vertex, and the vertices and faces that fold (:meth:`glmls.MLS.deform`), with the count
+  of the input's faces of zero area (``degenerate_faces``: a repeated vertex, three
+  vertices on a line), which have no orientation to keep and count among the folded faces.
 """
 
 from __future__ import annotations
@@ -73,6 +75,15 @@ def _ratios(jacobian: np.ndarray) -> np.ndarray:
         return np.where(singular[:, 2] > 0, singular[:, 0] / singular[:, 2], np.nan)
 
 
+def _degenerate_faces(vertices: np.ndarray, faces: np.ndarray) -> int:
+    """The number of faces of zero area (exactly, in float64) among ``faces`` (F, 3)."""
+    if len(faces) == 0:
+        return 0
+    corners = np.asarray(vertices, dtype=np.float64)[np.asarray(faces)]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    return int((~normal.any(axis=1)).sum())
+
+
 def run_mesh(args: argparse.Namespace) -> int:
     """``glmls analyze MESH --handles H3 --out DIR``."""
     if args.handles is None:
@@ -105,6 +116,7 @@ def run_mesh(args: argparse.Namespace) -> int:
                 raise UsageError(f"{args.reference}: {error}") from None
             found = {"skipped": f"the source handles as reference points: {error}"}
     vertex_folds, face_folds = int(deformed.vertex_folds.sum()), int(deformed.face_folds.sum())
+    degenerate = _degenerate_faces(mesh.vertices, mesh.faces)
     summary = {
         "mesh": {"vertices": len(mesh.vertices), "faces": len(mesh.faces)},
         "configuration": dataclasses.asdict(config)
@@ -121,6 +133,7 @@ def run_mesh(args: argparse.Namespace) -> int:
             "ratio": error_stats(_ratios(deformed.jacobian)),
             "vertex_folds": vertex_folds,
             "face_folds": face_folds,
+            "degenerate_faces": degenerate,
         },
         "input": str(args.input),
     }
@@ -150,6 +163,7 @@ def run_mesh(args: argparse.Namespace) -> int:
     say(
         args,
         f"analyze: det J median {figure(det['median'])}, min {figure(det['min'])}; folded: "
-        f"{vertex_folds} vertices, {face_folds} faces",
+        f"{vertex_folds} vertices, {face_folds} faces"
+        + (f" ({degenerate} of zero area in the input)" if degenerate else ""),
     )
     return 0

@@ -20,6 +20,7 @@ from glmls.analysis import (
     volume_report,
 )
 from glmls.analysis.canvas import HANDLE_SOURCE_COLOR
+from glmls.analysis.volume_pictures import NAN_VOXEL_COLOR
 from glmls.analysis.volume_reporting import VOLUME_PICTURES
 
 SHAPE = (10, 12, 14)
@@ -49,7 +50,14 @@ def test_the_report_holds_the_analyses_and_their_statistics(gl, tmp_path):
     assert_array_equal(found.jacobians.mask, cells.mask)
     tetrahedra = tetrahedron_errors(m, SRC)  # the handles as reference points
     assert summary["tetrahedra"] == tetrahedra.stats()
-    assert summary["volume"] == {"depth": 10, "height": 12, "width": 14, "channels": 1}
+    assert summary["volume"] == {
+        "depth": 10,
+        "height": 12,
+        "width": 14,
+        "channels": 1,
+        "nan_voxels": 0,
+        "infinite_voxels": 0,
+    }
     assert summary["analysis"]["grid"] == 2 and summary["analysis"]["jacobian_grid"] == 1
     assert summary["analysis"]["slices"] == {"z": 5, "y": 6, "x": 7}
     assert summary["configuration"]["transform"] == "affine"
@@ -75,6 +83,30 @@ def test_a_given_deformed_volume_is_drawn_and_reference_points_used(gl):
     assert found.summary["jacobians"]["folds"] == 0
 
 
+def test_nan_and_infinite_voxels_are_counted_and_drawn_apart(gl):
+    finite = volume().astype(np.float32)
+    values = finite.copy()
+    values[5, 1, 12] = values[0, 0, 0] = np.nan  # outside a scan's field of view
+    values[5, 10, 1] = np.inf
+    values[:, 11, 13] = np.nan  # a whole column along z: NaN on the projection too
+    m = crossing()
+    found = volume_report(values, m, grid=3)
+    assert found.summary["volume"]["nan_voxels"] == 12
+    assert found.summary["volume"]["infinite_voxels"] == 1
+    assert_array_equal(found.field, volume_error_field(m, SHAPE, grid=3))  # not the voxels'
+    picture = found.images["input_handles"]  # 20 pixels a voxel, the z slice at z = 5
+    at = lambda x, y: picture[20 * y + 10, 20 * x + 10].tolist()  # noqa: E731
+    assert at(12, 1) == at(13, 11) == list(NAN_VOXEL_COLOR)
+    assert at(1, 10) == [255, 255, 255]
+    lo, hi = float(np.nanmin(finite)), float(np.nanmax(finite))  # the finite voxels' scale
+    grey = round((float(values[5, 3, 3]) - lo) / (hi - lo) * 255)
+    assert at(3, 3) == [grey] * 3
+    projection = picture[20 * 12 + 6 :, 20 * 14 + 6 :]
+    assert projection[20 * 11 + 10, 20 * 13 + 10].tolist() == list(NAN_VOXEL_COLOR)
+    top = np.fmax.reduce(values, axis=0)[1, 6]  # the finite voxels' maximum along z
+    assert projection[30, 130].tolist() == [round((float(top) - lo) / (hi - lo) * 255)] * 3
+
+
 def test_coplanar_handles_leave_the_tetrahedra_out_but_given_points_must_form_them(gl):
     flat = SRC.copy()
     flat[:, 2] = 3.0
@@ -90,7 +122,7 @@ def test_coplanar_handles_leave_the_tetrahedra_out_but_given_points_must_form_th
     [
         ({"volume": np.zeros((4, 4))}, ValueError, "D, H, W"),
         ({"volume": np.zeros((4, 4, 4), complex)}, TypeError, "real numbers"),
-        ({"volume": np.full((4, 4, 4), np.nan)}, ValueError, "NaN"),
+        ({"volume": np.full((4, 4, 4), np.nan)}, ValueError, "no finite value"),
         ({"grid": 0}, ValueError, "grid"),
         ({"jacobian_grid": -1}, ValueError, "jacobian_grid"),
         ({"angle": "radians"}, ValueError, "angle"),
@@ -121,6 +153,31 @@ def test_the_slice_layout():
     scaled = render_volume_slices(values, slices=(1, 2, 3), scale=3)
     assert scaled.shape == (3 * 10 + gap, 3 * 12 + gap, 3)
     assert_array_equal(scaled[: 3 * 5 : 3, : 3 * 6 : 3, 0], values[1])
+
+
+def test_a_volume_one_voxel_thick_is_drawn_at_a_size_that_fits_its_other_sides():
+    values = (np.arange(12 * 16).reshape(1, 12, 16) % 251).astype(np.uint8)
+    picture = render_volume_slices(values)
+    gap = 6
+    # the thin side alone would ask for 192 pixels a voxel: views of 12 x 192 by 16 x 192
+    assert max(picture.shape[:2]) <= 2 * 1024 + gap
+    scale = (picture.shape[1] - gap) // (2 * 16)
+    assert scale * 16 <= 1024 and scale * 12 >= 192
+    assert_array_equal(picture[: 12 * scale : scale, : 16 * scale : scale, 0], values[0])
+    assert_array_equal(picture[: 12 * scale : scale, 16 * scale + gap, 0], values[0, :, 8])
+
+
+def test_a_constant_volume_is_drawn_from_0_to_its_value_not_black():
+    values = np.full((4, 5, 6), 700, np.uint16)
+    picture = render_volume_slices(values, scale=1)
+    assert (picture[:5, :6] == 255).all()  # the z slice
+    assert (picture[5 + 6 :, 6 + 6 :] == 255).all()  # the projection
+    # a deformed volume drawn at the input's limits: its background (0) black beside it
+    lower = values.copy()
+    lower[0] = 0
+    drawn = render_volume_slices(lower, vmin=700.0, vmax=700.0, slices=(2, 2, 2), scale=1)
+    assert (drawn[5 + 6, :6] == 0).all() and (drawn[5 + 6 + 1, :6] == 255).all()
+    assert (render_volume_slices(np.zeros((4, 5, 6)), scale=1)[:5, :6] == 0).all()
 
 
 def test_a_field_is_coloured_and_a_mask_tinted():

@@ -50,10 +50,28 @@ def test_analyze_a_mesh_reports_at_its_vertices(inputs, capsys):
     assert_allclose(summary["tetrahedra"]["angle"]["mean"], tetrahedra["angle"]["mean"], atol=1e-3)
     jacobians = summary["jacobians"]
     assert jacobians["vertex_folds"] == jacobians["face_folds"] == 0
+    assert jacobians["degenerate_faces"] == 0
     assert jacobians["det"]["min"] > 0 and jacobians["ratio"]["min"] >= 1.0
     deformed = glmls.read_mesh(inputs / "rep" / "deformed.ply")
     assert_array_equal(deformed.faces, sphere.faces)
     assert_allclose(deformed.vertices, m(sphere.vertices), atol=1e-3)
+
+
+def test_faces_of_zero_area_in_the_input_are_counted_apart_from_the_map_folds(inputs, capsys):
+    sphere = glmls.data.sphere()
+    count = len(sphere.vertices)
+    midpoint = (sphere.vertices[0] + sphere.vertices[1]) / 2
+    vertices = np.vstack([sphere.vertices, sphere.vertices[0], midpoint])
+    # a repeated index, a vertex repeated at another index, three vertices on a line
+    extra = [[0, 0, 1], [0, count, 1], [0, 1, count + 1]]
+    glmls.write_mesh(inputs / "degenerate.ply", vertices, faces=np.vstack([sphere.faces, extra]))
+    argv = ["analyze", "degenerate.ply", "--handles", "h3.json", "--transform", "similarity"]
+    assert main([*argv, "--out", "rep"]) == 0
+    err = capsys.readouterr().err
+    jacobians = json.loads((inputs / "rep" / "report.json").read_text())["jacobians"]
+    assert jacobians["vertex_folds"] == 0 and jacobians["degenerate_faces"] == 3
+    assert jacobians["face_folds"] == 3  # the map folds none: only the input's flat faces
+    assert "folded: 0 vertices, 3 faces (3 of zero area in the input)" in err
 
 
 def test_analyze_a_point_cloud_and_a_folding_map(inputs, capsys):

@@ -46,7 +46,14 @@ def test_analyze_a_volume_writes_the_report_and_pictures(inputs):
     assert "voxel^2" in result.stderr  # no spacing: the handles are in voxels
     summary = json.loads((inputs / "rep" / "report.json").read_text())
     assert summary["input"] == "v.npy"
-    assert summary["volume"] == {"depth": 10, "height": 12, "width": 14, "channels": 1}
+    assert summary["volume"] == {
+        "depth": 10,
+        "height": 12,
+        "width": 14,
+        "channels": 1,
+        "nan_voxels": 0,
+        "infinite_voxels": 0,
+    }
     assert summary["configuration"]["src"] == np.array(SRC, float).tolist()
     m = ReferenceDeformation(SRC, DST, transform="affine", shape=SHAPE)
     field = volume_error_field(m, SHAPE, grid=2)

@@ -11,6 +11,7 @@ import pytest
 
 import glmls
 from glmls import analysis
+from glmls.analysis.volume_pictures import NAN_VOXEL_COLOR
 from glmls.errors import InputFileError
 
 SRC = np.array([[0.0, 0, 0], [7, 0, 0], [0, 7, 0], [0, 0, 7], [7, 7, 7]])
@@ -202,11 +203,13 @@ def test_volume_report_refuses_bad_options_even_where_the_handles_form_no_tetrah
             analysis.volume_report(np.zeros((4, 6, 7), np.uint8), m, **options)
 
 
-def test_volume_slices_of_nan_are_refused():
+def test_volume_slices_draw_nan_voxels_apart_and_infinite_ones_at_the_ends():
     volume = np.zeros((3, 4, 5), np.float32)
     volume[1, 2, 3] = np.nan
-    with pytest.raises(ValueError, match="volume holds NaN or infinite values"):
-        analysis.render_volume_slices(volume)
+    volume[1, 0, 0], volume[1, 0, 1], volume[1, 0, 2] = np.inf, -np.inf, 2.0
+    picture = analysis.render_volume_slices(volume, slices=(1, 0, 0), scale=1)
+    assert picture[2, 3].tolist() == list(NAN_VOXEL_COLOR)
+    assert picture[0, :3].tolist() == [[255] * 3, [0] * 3, [255] * 3]  # 0 to 2, the finite
 
 
 @pytest.mark.parametrize(
