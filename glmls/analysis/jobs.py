@@ -230,7 +230,9 @@ def _run_dask(function, items: list, jobs: int, scheduler: str, finished) -> Non
             n_workers=jobs,
             threads_per_worker=1,  # one GL context, one item at a time per worker
             processes=True,
-            dashboard_address=None,
+            # any free port: the default 8787 may be taken (another cluster, another
+            # program), and Dask then warns that it moved
+            dashboard_address=":0",
             # a failing item is raised here, with its index: the workers' log of it is noise
             silence_logs=logging.CRITICAL,
         )

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import socket
 import signal
 import subprocess
 import sys
@@ -141,6 +142,20 @@ def test_a_local_dask_cluster_of_two_workers():
         np.testing.assert_array_equal(a, b)
     with pytest.raises(ValueError, match=r"^item 2: bad item 2$"):
         run_jobs(fail_on_two, range(4), jobs=2, scheduler="local")
+
+
+def test_a_local_cluster_needs_no_particular_port():
+    """Dask's dashboard port (8787) taken by another program: the local cluster starts on
+    a free one without a warning (warnings are errors in the tests)."""
+    pytest.importorskip("distributed")
+    with socket.socket() as taken:
+        try:
+            taken.bind(("", 8787))
+        except OSError:
+            pass  # taken already: the case itself
+        else:
+            taken.listen()
+        assert len(run_jobs(evaluate, ITEMS[:2], jobs=1, scheduler="local")) == 2
 
 
 @pytest.mark.parametrize("scheduler", [None, "local"])
