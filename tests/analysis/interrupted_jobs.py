@@ -12,7 +12,7 @@ from pathlib import Path
 def slow(item: tuple[str, int]) -> int:
     folder, index = item
     (Path(folder) / f"started_{index}").touch()
-    time.sleep(30)
+    time.sleep(150)  # far longer than the test waits for the run to end
     return index
 
 
