@@ -25,7 +25,8 @@ nearest, and the nearest apart from its place, are certain.
 Segment handles go into every bin their reach touches (the bins within ``reach`` of the
 segment, plus a bin's half-diagonal): a point visits the segments listed in its own bin only,
 each once. The grid then covers the segments' reach too, so that a point beyond it is out of
-every segment's reach.
+every segment's reach. The gaussian's cut is relative to the nearest handles: where it reaches
+farther than the bins list segments for (far from every handle), a point visits every segment.
 """
 
 from __future__ import annotations

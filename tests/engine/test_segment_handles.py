@@ -355,3 +355,21 @@ def test_repr_counts_segments(rng):
     a, b = random_segments(rng, 3)
     with glmls.MLS(NONE, NONE, src_segments=a, dst_segments=b) as m:
         assert "3 segments" in repr(m)
+
+
+@pytest.mark.parametrize("transform", ["similarity", "rigid"])
+def test_the_bins_keep_a_gaussian_s_far_tail_beyond_every_segment_s_reach(transform):
+    """The bins list a segment where the gaussian's cut is measured from the point itself;
+    farther from every handle the cut is relative to the nearest, and there the segments,
+    however far, decide f: through the bins as over every handle and in float64."""
+    a = np.array([[[100.0, 100.0], [300.0, 120.0]], [[120.0, 400.0], [320.0, 380.0]]])
+    b = a + np.array([[[6.0, -4.0]], [[-5.0, 7.0]]])
+    options = {"weight": "gaussian", "radius": 8.0, "transform": transform, "shape": (512, 512)}
+    far = np.array([[200.0, 250.0], [480.0, 40.0], [20.0, 480.0], [500.0, 500.0]])
+    with glmls.MLS(NONE, NONE, src_segments=a, dst_segments=b, bins=True, **options) as m:
+        reach = m.kernel.bins.reach * m.kernel.scaling.scale
+        assert np.sqrt(segment_feet(a, far)[2].min()) > 2.0 * reach  # beyond every list
+        binned = m(far)
+    f_ref = reference.mls(NONE, NONE, far, src_segments=a, dst_segments=b, **options)[0]
+    assert np.abs(f_ref - far).max() > 3.0  # the tail moves
+    assert_allclose(binned, f_ref, atol=1e-2)

@@ -10,7 +10,8 @@
 //   MLS_GAUSSIAN_TOLERANCE  that cut's tolerance, glmls.core.weights.GAUSSIAN_TOLERANCE
 //   MLS_SEGMENTS        0 or 1: there are segment handles too (mls/segments.glsl); with
 //                       MLS_BINS a point visits the segments listed in its own bin, which
-//                       lists every segment whose reach touches the bin
+//                       lists every segment whose reach touches the bin (the gaussian's
+//                       cut reaching farther, far from every handle: every segment)
 #include "mls/core.glsl"
 #if MLS_SEGMENTS
 #include "mls/segments.glsl"
@@ -171,6 +172,22 @@ void mls_accumulate_segments(inout MLSAccum a) {
         mls_accumulate_segment(a, mls_segment(mls_segment_at(i)));
     }
 }
+
+#if MLS_BINS && MLS_REACH_GAUSSIAN
+// Every segment, listed in v's bin or not: where the gaussian's cut, relative to the nearest
+// handles, reaches farther than the bins list segments for (mls_eval).
+void mls_nearest_every_segment(inout MLSNearest near, vec2 v) {
+    for (int s = 0; s < u_segment_count; ++s) {
+        mls_nearest_add_segment(near, mls_segment(s), v);
+    }
+}
+
+void mls_accumulate_every_segment(inout MLSAccum a) {
+    for (int s = 0; s < u_segment_count; ++s) {
+        mls_accumulate_segment(a, mls_segment(s));
+    }
+}
+#endif
 #endif
 
 // The plain evaluation's nearest pass (every handle, in storage order) tracks only the
@@ -296,10 +313,30 @@ MLSResult mls_eval(vec2 v) {
     float g = mls_gaussian_offset(a.m, near.d2next);
     float cut = u_bin_cut - log(mls_weight_bound(a, g, lo1, hi1));
     r = sqrt(g + cut * u_radius * u_radius);
+#if MLS_SEGMENTS
+    // A bin lists the segments within u_bin_reach of it. Where the cut reaches farther (far
+    // from every handle: the cut is relative to the nearest ones), segments it does not
+    // list count, and may be the nearest: every segment, the nearest and the cut again.
+    // Within u_bin_reach the listed ones hold the nearest two, the unlisted being farther.
+    bool every_segment = r > u_bin_reach;
+    if (every_segment) {
+        mls_nearest_every_segment(near, v);   // the listed ones seen twice change no minimum
+        a = mls_begin(v, near);
+        g = mls_gaussian_offset(a.m, near.d2next);
+        cut = u_bin_cut - log(mls_weight_bound(a, g, lo1, hi1));
+        r = sqrt(g + cut * u_radius * u_radius);
+    }
+#endif
 #endif
     // Pass 2 over the disc of radius r, row by row (or over every handle, which adds
     // only weights that are zero or within the cut's tolerance).
-#if MLS_SEGMENTS
+#if MLS_SEGMENTS && MLS_REACH_GAUSSIAN
+    if (every_segment) {
+        mls_accumulate_every_segment(a);
+    } else {
+        mls_accumulate_segments(a);
+    }
+#elif MLS_SEGMENTS
     mls_accumulate_segments(a);
 #endif
     mls_bin_range(v, r, lo, hi);
