@@ -4,6 +4,7 @@ cluster); each item leaves ``started_N`` in FOLDER as it starts. Ctrl-C exits 13
 
 from __future__ import annotations
 
+import signal
 import sys
 import time
 from pathlib import Path
@@ -17,6 +18,9 @@ def slow(item: tuple[str, int]) -> int:
 
 
 if __name__ == "__main__":
+    # as a terminal's foreground command: a shell's background job (a test run started with
+    # `&`, under nohup) passes SIGINT on ignored, and Python then leaves it ignored
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     from glmls.analysis.jobs import run_jobs
 
     folder, scheduler = sys.argv[1], sys.argv[2]
