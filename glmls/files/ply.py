@@ -236,6 +236,11 @@ def read_ply(content: bytes) -> tuple[np.ndarray, np.ndarray]:
             f"{len(words) - position} values after the rows the header counts "
             f"({', '.join(f'{e.rows} {e.name}' for e in elements)}): a count too small?"
         )
+    if order != "" and content[position:].strip():  # a trailing newline is written by some tools
+        raise ValueError(
+            f"{len(content) - position} bytes after the rows the header counts "
+            f"({', '.join(f'{e.rows} {e.name}' for e in elements)}): a count too small?"
+        )
     vertex = found.get("vertex", {})
     if not all(axis in vertex for axis in "xyz"):
         raise ValueError("no vertex element with x, y and z")

@@ -264,3 +264,14 @@ def test_an_ascii_ply_of_more_rows_than_its_header_counts_is_refused(tmp_path):
         read_mesh(path)
     path.write_bytes(path.read_bytes().replace(b"vertex 2", b"vertex 3") + b"\n \n")
     assert read_mesh(path).vertices.tolist()[2] == [5.0, 5.0, 5.0]
+
+
+def test_a_binary_ply_of_more_rows_than_its_header_counts_is_refused(tmp_path):
+    """As in ASCII: bytes past the counted rows are rows the header left out, not padding."""
+    path = tmp_path / "more.ply"
+    whole = _ply([[0, 1, 2], [0, 2, 3, 4]], binary=True)
+    path.write_bytes(whole + bytes(13))
+    with pytest.raises(InputFileError, match=r"more\.ply: .*13 bytes after the rows .*face"):
+        read_mesh(path)
+    path.write_bytes(whole + b"\n")  # a trailing newline, as some writers leave, is read
+    assert read_mesh(path).faces.tolist() == [[0, 1, 2], [0, 2, 3], [0, 3, 4]]
