@@ -49,12 +49,18 @@ def segment_config(config: MLSConfig) -> MLSConfig:
 def as_segments(segments: object, name: str) -> np.ndarray:
     """``segments`` as a C-contiguous float64 (S, 2, 2) array; ``ValueError``/``TypeError``
     naming ``name`` if it is not one (wrong shape, not numbers, NaN or inf)."""
-    array = np.asarray(segments)
+    try:
+        array = np.asarray(segments)
+    except ValueError:  # ragged: segments of different lengths or ends of other sizes
+        raise ValueError(
+            f"{name} must have shape (S, 2, 2): S segments of two (x, y) ends, "
+            f"got rows of different lengths"
+        ) from None
     if array.dtype == object or not (
         np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating)
     ):
         raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
-    if array.size == 0 and array.ndim >= 1 and array.shape[0] == 0:
+    if array.shape in ((0,), (0, 2, 2)):  # [] is no segments
         return np.zeros((0, 2, 2))
     if array.ndim != 3 or array.shape[1:] != (2, 2):
         raise ValueError(

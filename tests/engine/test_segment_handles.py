@@ -320,6 +320,8 @@ def test_warp_with_segments_keeps_a_straight_edge_straight(rng):
             "same segment",
         ),
         ([[[0, 0], [5e6, 5]]], [[[0, 0], [5, 5]]], "within"),
+        ([[[0, 0], [5, 5]], [[1, 1]]], [[[0, 0], [5, 5]], [[1, 1]]], r"src_segments .*lengths"),
+        (np.zeros((0, 5)), np.zeros((0, 5)), r"src_segments must have shape \(S, 2, 2\)"),
     ],
 )
 def test_bad_segments_raise_value_errors_naming_them(src_segments, dst_segments, message):
