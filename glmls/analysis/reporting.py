@@ -444,7 +444,7 @@ def report(
             "triangle_limits": [t_lo, t_hi],
         },
         "timings_s": clock.timings,
-        "error_field": error_stats(field),
+        "error_field": error_stats(field) | {"unit": "px^2"},
         "triangles": triangles.stats(),
         "foldovers": {"grid": options.grid, "cells": folds},
         **({} if built is None else {"construction": built.stats()}),

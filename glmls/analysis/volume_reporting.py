@@ -368,7 +368,8 @@ def volume_report(
             "det_limits": [d_lo, d_hi],
         },
         "timings_s": clock.timings,
-        "error_field": error_stats(field),
+        # E_MLS is a squared distance in the handles' units: voxels where a voxel is 1 x 1 x 1
+        "error_field": error_stats(field) | {"unit": "voxel^2" if voxels else "(handle units)^2"},
         "tetrahedra": found.stats() if found is not None else {"skipped": skipped},
         "jacobians": cells.stats(),
         "deformed": warped is not None,

@@ -125,7 +125,7 @@ def run_mesh(args: argparse.Namespace) -> int:
             "angle": args.angle,
             "reference_points": "handles" if reference is None else "given",
         },
-        "error_field": error_stats(field),
+        "error_field": error_stats(field) | {"unit": "(handle units)^2"},
         "tetrahedra": found,
         "jacobians": {
             "vertices": len(mesh.vertices),
@@ -149,7 +149,8 @@ def run_mesh(args: argparse.Namespace) -> int:
         args,
         f"analyze: E_MLS at {len(mesh.vertices)} vertices median "
         f"{figure(field_stats['median'])}, trimmed mean {figure(field_stats['trimmed_mean'])}, "
-        f"mean {figure(field_stats['mean'])} (std {figure(field_stats['std'])})",
+        f"mean {figure(field_stats['mean'])} (std {figure(field_stats['std'])}) "
+        f"{field_stats['unit']}",
     )
     if "angle" in found:
         say(

@@ -151,8 +151,7 @@ def run_volume(args: argparse.Namespace) -> int:
         print(path)
     summary = result.summary
     field, cells, tetrahedra = summary["error_field"], summary["jacobians"], summary["tetrahedra"]
-    # E_MLS is a squared distance in the handles' units: voxels only where a voxel is 1 x 1 x 1
-    unit = "voxel^2" if spacing is None or set(spacing) == {1.0} else "(handle units)^2"
+    unit = field["unit"]
     say(
         args,
         f"analyze: E_MLS median {figure(field['median'])} {unit}, trimmed mean "

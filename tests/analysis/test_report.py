@@ -61,7 +61,7 @@ def test_summary_and_pictures(gl, rng, tmp_path):
     pixels = np.stack(np.meshgrid(np.arange(60.0), np.arange(48.0)), -1).reshape(-1, 2)
     field = formula_field(pixels, shape)
     stats = summary["error_field"]
-    assert stats["count"] == 48 * 60 and stats["nan_count"] == 0
+    assert stats["count"] == 48 * 60 and stats["nan_count"] == 0 and stats["unit"] == "px^2"
     for key, value in (("mean", field.mean()), ("std", field.std()), ("max", field.max())):
         assert stats[key] == pytest.approx(value, rel=1e-4), key
     assert stats["min"] == pytest.approx(field.min(), rel=1e-3, abs=1e-4)

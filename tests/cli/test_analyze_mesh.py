@@ -45,6 +45,7 @@ def test_analyze_a_mesh_reports_at_its_vertices(inputs, capsys):
     field = error_stats(fit_residuals(m.src, m.dst, matrix, translation))
     for key in ("mean", "median", "trimmed_mean", "max"):
         assert_allclose(summary["error_field"][key], field[key], rtol=1e-3)
+    assert summary["error_field"]["unit"] == "(handle units)^2"
     tetrahedra = tetrahedron_errors(m, REFERENCE).stats()
     assert summary["tetrahedra"]["tetrahedra"] == tetrahedra["tetrahedra"]
     assert_allclose(summary["tetrahedra"]["angle"]["mean"], tetrahedra["angle"]["mean"], atol=1e-3)

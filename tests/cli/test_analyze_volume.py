@@ -159,6 +159,7 @@ def test_the_spacing_of_the_file_or_the_option_is_glmls_warps(inputs):
             assert_allclose(summary["error_field"][key], expected[key], rtol=2e-3)
         # E_MLS in the handles' units, not voxels, said so on stderr
         assert "(handle units)^2" in result.stderr and "voxel^2" not in result.stderr
+        assert summary["error_field"]["unit"] == "(handle units)^2"
     for name, points in (("moving.pts", SRC), ("fixed.pts", DST)):  # voxel indices
         write_elastix_points(inputs / name, "index", points)
     result = analyze("v.tif", *handles, "--out", "indices", cwd=inputs)
