@@ -110,6 +110,7 @@ def render_volume_slices(
     percentile: float | None = None,
     scale: int | None = None,
     projection: str = "max",
+    spacing: object = None,
     ctx: moderngl.Context | GLContext | None = None,
 ) -> np.ndarray:
     """Three orthogonal slices and the maximum-intensity projection of a volume, in one picture.
@@ -148,6 +149,12 @@ def render_volume_slices(
     projection : {"max", "min"}, optional
         The fourth view: the maximum of the volume along z, or the minimum (for a field
         whose low values matter, as det J).
+    spacing : tuple of float, optional
+        (dz, dy, dx), the voxels' size: each axis is drawn in proportion to it, so that the
+        views keep the volume's true shape (an axis of the smallest spacing takes ``scale``
+        pixels a voxel, a coarser one proportionally more, as long as no view passes 1024
+        pixels a side where it fits at one pixel a voxel). Handles stay in voxels (x, y, z)
+        as given. None: cubic voxels.
     ctx : moderngl.Context or GLContext, optional
         The context to draw the handles with (default: glmls's shared headless one).
 
@@ -187,6 +194,7 @@ def render_volume_slices(
         if not (math.isfinite(distance) and distance >= 0):
             raise ValueError(f"near must be {what}, got {near!r}")
     dims = array.shape[:3]
+    stretch = _stretch(spacing)
     at = check_slices(dims, slices)
     check_choice("projection", projection, ("max", "min"))
     # NaN voxels (outside a scan's field of view) left out of the projection where a column
@@ -218,11 +226,20 @@ def render_volume_slices(
             picture[hit] = np.round((1 - MASK_OPACITY) * picture[hit] + MASK_OPACITY * tint).astype(
                 np.uint8
             )
+    extents = [n * k for n, k in zip(dims, stretch, strict=True)]  # in the finest voxels
     if scale is None:
-        scale = max(1, min(-(-MIN_VIEW // min(dims)), MAX_VIEW // max(dims)))
+        scale = max(1, min(math.ceil(MIN_VIEW / min(extents)), int(MAX_VIEW // max(extents))))
     else:
         scale = check_integer("scale", scale, 1)
-    pictures = [p.repeat(scale, axis=0).repeat(scale, axis=1) for p in pictures]
+    # picture pixels along z, y, x: a coarse axis in proportion, within 1024 where it fits
+    sizes = [
+        max(n * scale, min(round(e * scale), max(MAX_VIEW, n * scale)))
+        for n, e in zip(dims, extents, strict=True)
+    ]
+    picks = [np.arange(size) * n // size for n, size in zip(dims, sizes, strict=True)]
+    axes = [(1, 2), (1, 0), (0, 2), (1, 2)]  # each view's rows and columns: z = 0, y = 1, x = 2
+    pictures = [p[np.ix_(picks[r], picks[c])] for p, (r, c) in zip(pictures, axes, strict=True)]
+    factor = np.array([sizes[2] / dims[2], sizes[1] / dims[1], sizes[0] / dims[0]])  # x, y, z
     if src is not None or dst is not None:
         p, q = as_points3(src, "src"), as_points3(dst, "dst")
         if p.shape != q.shape:
@@ -236,11 +253,29 @@ def render_volume_slices(
                 c, s = axis[view], position[view]
                 keep = (np.abs(p[:, c] - s) <= reach) | (np.abs(q[:, c] - s) <= reach)
             if keep.any():
-                a = (_view_points(p[keep], view) + 0.5) * scale - 0.5
-                b = (_view_points(q[keep], view) + 0.5) * scale - 0.5
+                a = _view_points((p[keep] + 0.5) * factor, view) - 0.5
+                b = _view_points((q[keep] + 0.5) * factor, view) - 0.5
                 pictures[view] = render_handles(pictures[view], a, b, ctx=ctx)
     names = [f"z = {at[0]}", f"x = {at[2]}", f"y = {at[1]}", f"{projection} along z"]
-    return _montage(pictures, dims, scale, names)
+    return _montage(pictures, sizes, names)
+
+
+def _stretch(spacing: object) -> tuple[float, float, float]:
+    """(dz, dy, dx) over the smallest of them; ``ValueError``/``TypeError`` naming
+    ``spacing`` unless it is three finite positive numbers."""
+    if spacing is None:
+        return 1.0, 1.0, 1.0
+    message = f"spacing must be three finite positive numbers (dz, dy, dx), got {spacing!r}"
+    if isinstance(spacing, (str, bytes)):
+        raise TypeError(message)
+    try:
+        values = [check_real("spacing", v) for v in spacing]  # type: ignore[union-attr]
+    except TypeError:
+        raise TypeError(message) from None
+    if len(values) != 3 or not all(math.isfinite(v) and v > 0 for v in values):
+        raise ValueError(message)
+    least = min(values)
+    return values[0] / least, values[1] / least, values[2] / least
 
 
 def _label(picture: np.ndarray, text: str) -> np.ndarray:
@@ -257,10 +292,8 @@ def _label(picture: np.ndarray, text: str) -> np.ndarray:
     return np.asarray(image)
 
 
-def _montage(
-    pictures: list[np.ndarray], dims: tuple[int, ...], scale: int, names: list[str]
-) -> np.ndarray:
-    depth, height, width = (n * scale for n in dims)
+def _montage(pictures: list[np.ndarray], sizes: list[int], names: list[str]) -> np.ndarray:
+    depth, height, width = sizes
     rows = (height, max(depth, height))
     columns = (width, max(depth, width))
     out = np.full((rows[0] + GAP + rows[1], columns[0] + GAP + columns[1], 3), 128, np.uint8)

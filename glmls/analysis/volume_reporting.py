@@ -201,10 +201,10 @@ def volume_report(
     spacing : (float, float, float), optional
         (dz, dy, dx) of the voxels, the handles and reference points in its units, as
         :meth:`glmls.MLS.warp` takes it: voxel (k, j, i) is the point (i dx, j dy, k dz).
-        The error field (then in square handle units) and J are evaluated there, and the
-        volume warped with it (default: ``m.spacing``, that of
-        ``glmls.MLS(..., spacing=...)``, else 1 each, the handles in voxels; another than
-        ``m.spacing`` is a ValueError).
+        The error field (then in square handle units) and J are evaluated there, the
+        volume warped with it and the pictures drawn in its proportions (default:
+        ``m.spacing``, that of ``glmls.MLS(..., spacing=...)``, else 1 each, the handles in
+        voxels; another than ``m.spacing`` is a ValueError).
     out_dir : str or pathlib.Path, optional
         Also write ``report.json`` and the PNGs there (:meth:`VolumeReport.save`).
     on_stage : callable, optional
@@ -310,7 +310,7 @@ def volume_report(
     clock.begin("pictures")
     shown = _shown(array)
     lo, hi = _grey_limits(shown)
-    view = {"slices": at, "near": near}
+    view = {"slices": at, "near": near, "spacing": tuple(scale[::-1].tolist())}  # true shape
     drawn = {"src": src / scale, "dst": dst / scale}  # the handles in voxels
     voxels = bool((scale == 1.0).all())  # E_MLS in square voxels, else square handle units
     images = {"input_handles": render_volume_slices(shown, vmin=lo, vmax=hi, **drawn, **view)}

@@ -167,6 +167,32 @@ def test_a_volume_one_voxel_thick_is_drawn_at_a_size_that_fits_its_other_sides()
     assert_array_equal(picture[: 12 * scale : scale, 16 * scale + gap, 0], values[0, :, 8])
 
 
+def test_anisotropic_voxels_are_drawn_in_their_proportions(gl):
+    """Slices 3 units apart along z and 1 along y and x: the views across z are 3 times as
+    long there, each voxel where the cubic picture put it, and handles (in voxels) on them."""
+    values = (np.arange(4 * 5 * 6).reshape(4, 5, 6) * 2).astype(np.uint8)
+    picture = render_volume_slices(values, slices=(1, 2, 3), scale=2, spacing=(3.0, 1.0, 1.0))
+    gap = 6
+    # z slice (10, 12) | x slice (10, 24) / y slice (24, 12) | projection (10, 12)
+    assert picture.shape == (10 + gap + 24, 12 + gap + 24, 3)
+    assert_array_equal(picture[:10:2, :12:2, 0], values[1])
+    assert_array_equal(picture[:10:2, 12 + gap : 12 + gap + 24 : 6, 0], values[:, :, 3].T)
+    assert_array_equal(picture[10 + gap : 10 + gap + 24 : 6, :12:2, 0], values[:, 2])
+    cubic = render_volume_slices(values, slices=(1, 2, 3), scale=2, spacing=(2.5, 2.5, 2.5))
+    assert_array_equal(cubic, render_volume_slices(values, slices=(1, 2, 3), scale=2))
+    # a handle at z = 3 sits on the y slice 3 x 6 + 2.5 picture rows down, column 2 x 2 + 0.5
+    src = np.array([[2.0, 2, 3]])
+    drawn = render_volume_slices(
+        np.zeros((4, 5, 6), np.uint8), src=src, dst=src, slices=(3, 2, 3), scale=2,
+        spacing=(3, 1, 1),
+    )  # fmt: skip
+    assert drawn[10 + gap + 20, 4, :].tolist() == list(HANDLE_SOURCE_COLOR)
+    with pytest.raises(ValueError, match="spacing must be three"):
+        render_volume_slices(values, spacing=(1.0, 0.0, 1.0))
+    with pytest.raises(TypeError, match="spacing must be three"):
+        render_volume_slices(values, spacing=(1.0, "1", 1.0))
+
+
 def test_a_constant_volume_is_drawn_from_0_to_its_value_not_black():
     values = np.full((4, 5, 6), 700, np.uint16)
     picture = render_volume_slices(values, scale=1)
