@@ -388,6 +388,8 @@ def test_keypoint_sets_given_as_empty_lists(gl, rng):
         ({"images": np.zeros((3, 4, 4, 5), np.uint8)}, ValueError, r"images\[0\] has shape"),
         ({"keypoints": np.zeros((3, 2, 3))}, ValueError, r"keypoints\[0\] has shape \(2, 3\)"),
         ({"keypoints": [np.zeros((1, 2))] * 2}, ValueError, "keypoints holds 2 point sets"),
+        ({"keypoints": [np.zeros((1, 2))]}, ValueError, "keypoints holds 1 point set for 3"),
+        ({"masks": np.zeros((1, 4, 4), np.uint8)}, ValueError, "masks holds 1 mask for 3 images"),
         (
             {"keypoints": [[[1.0, 2.0]], [[1e30, 2.0]], [[1.0, 2.0]]]},
             ValueError,
