@@ -194,13 +194,17 @@ def check_batch(
     if keypoints is not None:
         points, stacked_points = _point_items(keypoints, "keypoints", rows="P")
         if len(points) != count:
-            raise ValueError(f"keypoints holds {len(points)} point sets for {count} images")
+            raise ValueError(
+                f"keypoints holds {counted(len(points), 'point set')} for {counted(count, 'image')}"
+            )
         stacked_points = stacked_points or len({len(a) for a in points}) == 1
     mask_list, mask_array = None, None
     if masks is not None:
         mask_list, one = _items(masks, "masks", (2,))
         if len(mask_list) != count:
-            raise ValueError(f"masks holds {len(mask_list)} masks for {count} images")
+            raise ValueError(
+                f"masks holds {counted(len(mask_list), 'mask')} for {counted(count, 'image')}"
+            )
         if one and stacked and not count:  # an empty batch's masks, as a batch of one's
             _mask(_empty_item(masks), "each mask", np.shape(images)[1:3])
         elif one and array is not None and count and masks.dtype in (np.uint8, np.uint16):  # type: ignore[union-attr]

@@ -108,10 +108,10 @@ class BatchLattices:
     @staticmethod
     def takes(config: MLSConfig, counts: list[int], storage: str, bins: bool | None) -> bool:
         """Whether :meth:`evaluate` gives these images what their own kernels give: point
-        handles only (checked by the caller) and no spatial bins (never asked for, never
-        chosen for these counts)."""
-        del storage  # every storage reads the same values in the same order
-        if bins:
+        handles only (checked by the caller), handles in a buffer (a texture's fetch compiles
+        to other arithmetic: f differs in its last bits) and no spatial bins (never asked
+        for, never chosen for these counts)."""
+        if bins or storage == "texture":
             return False
         return not config.uses_radius or bins is False or max(counts) < AUTO_MIN_HANDLES
 

@@ -103,6 +103,18 @@ def test_mls_options_and_segments(gl, rng):
         )
 
 
+@pytest.mark.parametrize("storage", ["ssbo", "ubo", "texture"])
+@pytest.mark.parametrize("method", ["quads", "backward"])
+def test_every_handle_storage_as_one_warp_takes_it(gl, rng, storage, method):
+    """Each storage's shader rounds f in its own way (a texture's fetch compiles to other
+    arithmetic than a buffer's read): the batch's f is each image's own, storage included."""
+    batch = images(rng, count=8, channels=4, dtype=np.uint16)
+    src, dst = handles(rng, count=8, k=5)
+    options = {"method": method, "interpolation": "linear", "storage": storage}
+    out = glmls.warp_batch(batch, src, dst, **options)
+    np.testing.assert_array_equal(out, singles(batch, src, dst, **options))
+
+
 @pytest.mark.parametrize("method", ["quads", "backward"])
 def test_no_point_handles_as_one_warp_takes_them(gl, rng, method):
     """An image without point handles, as :func:`glmls.warp` takes it: the identity, or its
@@ -376,6 +388,8 @@ def test_keypoint_sets_given_as_empty_lists(gl, rng):
         ({"images": np.zeros((3, 4, 4, 5), np.uint8)}, ValueError, r"images\[0\] has shape"),
         ({"keypoints": np.zeros((3, 2, 3))}, ValueError, r"keypoints\[0\] has shape \(2, 3\)"),
         ({"keypoints": [np.zeros((1, 2))] * 2}, ValueError, "keypoints holds 2 point sets"),
+        ({"keypoints": [np.zeros((1, 2))]}, ValueError, "keypoints holds 1 point set for 3"),
+        ({"masks": np.zeros((1, 4, 4), np.uint8)}, ValueError, "masks holds 1 mask for 3 images"),
         (
             {"keypoints": [[[1.0, 2.0]], [[1e30, 2.0]], [[1.0, 2.0]]]},
             ValueError,
