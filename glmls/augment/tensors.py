@@ -105,7 +105,7 @@ def from_numpy(array: object, like: object) -> object:
     Parameters
     ----------
     array : numpy.ndarray or list or None
-        The values.
+        The values (for a list ``like``, a list, or one array of the items stacked).
     like : torch.Tensor or list of torch.Tensor
         The tensor whose dtype and device to take (for a list, one per item or one for all).
 
@@ -122,6 +122,8 @@ def from_numpy(array: object, like: object) -> object:
     """
     if array is None:
         return None
+    if isinstance(like, (list, tuple)) and not isinstance(array, list):
+        array = list(array)  # a list's items stacked (masks of one shape): one tensor each
     if isinstance(array, list):
         likes = like if isinstance(like, (list, tuple)) else [like] * len(array)
         return [from_numpy(a, one) for a, one in zip(array, likes, strict=True)]

@@ -7,21 +7,21 @@ Mesa's llvmpipe (a machine without a GPU driver): torchvision loads triton, whos
 crashes a process that already holds Mesa's; this module raises ``ImportError`` saying so
 rather than let the process crash (:func:`check_import_order`).
 
-``MLSTransform`` follows torchvision's contract: ``make_params`` draws once per call from
-torch's random numbers (``torch.manual_seed`` makes it repeat: the transform has no seed of its
-own), every input of a call moves by that one draw (two images of one sample, an image and its
-depth map, as many masks, keypoints and boxes as the sample has), plain tensors are taken as
-torchvision takes them (the first one is the image where there is no ``tv_tensors.Image``,
-``Video`` or PIL image, the others pass through untouched), and ``transform`` deforms each input
-by type: ``tv_tensors.Image`` (and a plain tensor taken as the image; any number of channels), a
-PIL image (in its mode; a palette image's indices and a bilevel image's pixels with nearest
-sampling), ``Video`` (its frames all by one draw, as torchvision's own transforms move them),
-``Mask`` (nearest, never a mixed label), ``KeyPoints`` and ``BoundingBoxes`` (an unrotated box
-becomes the box around its densely sampled, moved outline, a rotated one's corners move; clamped
-to the canvas as their ``clamping_mode`` says). Tensors stay of their dtype and on their device,
-detached (no gradient flows back through the deformation, where torchvision's own geometric
-transforms keep autograd's graph); the deformation runs on glmls's OpenGL context, so a CUDA
-tensor goes through the host's memory.
+``MLSTransform`` follows torchvision's contract: ``make_params`` draws once per call from torch's
+random numbers (``torch.manual_seed`` makes it repeat: the transform has no seed of its own), every
+input of a call moves by that one draw (two images of one sample, an image and its depth map, as
+many masks, keypoints and boxes as the sample has), plain tensors are taken as torchvision takes
+them (the first one is the image where there is no ``tv_tensors.Image``, ``Video`` or PIL image, the
+others pass through untouched), and ``transform`` deforms each input by type: ``tv_tensors.Image``
+(and a plain tensor taken as the image; any number of channels; integers of any dtype rounded back
+to it, as torchvision rounds them, bool with nearest sampling), a PIL image (in its mode; a palette
+image's indices and a bilevel image's pixels with nearest sampling), ``Video`` (its frames all by
+one draw, as torchvision's own transforms move them), ``Mask`` (nearest, never a mixed label),
+``KeyPoints`` and ``BoundingBoxes`` (an unrotated box becomes the box around its densely sampled,
+moved outline, a rotated one's corners move; clamped to the canvas as their ``clamping_mode`` says).
+Tensors stay of their dtype and on their device, detached (no gradient flows back through the
+deformation, where torchvision's own geometric transforms keep autograd's graph); the deformation
+runs on glmls's OpenGL context, so a CUDA tensor goes through the host's memory.
 
 A batch is an image tensor with leading dimensions, (N, C, H, W) or (N, ..., C, H, W) (a plain
 tensor or an ``Image``; torchvision's own transforms take (..., C, H, W)): each sample draws its
@@ -147,6 +147,34 @@ def _check_extents(boxes: tv_tensors.BoundingBoxes, xyxy: np.ndarray) -> None:
             f"BoundingBoxes[{j}] {boxes[j].tolist()} in {boxes.format.name} has a negative "
             "width or height: boxes in another format than the one they are labelled with?"
         )
+
+
+def _nearest(samples: list[dict]) -> list[dict]:
+    """The draws with nearest sampling (labels, a bilevel image's pixels)."""
+    return [{**s, "options": {**s["options"], "interpolation": "nearest"}} for s in samples]
+
+
+def _warpable(array: np.ndarray) -> np.ndarray:
+    """An image as glmls warps it: bool as uint8, integers other than uint8 and uint16
+    (int8 to int64, uint32, uint64: torchvision's transforms take them all) as float64."""
+    if array.dtype.kind == "b":
+        return array.astype(np.uint8)
+    if array.dtype.kind == "i" or (array.dtype.kind == "u" and array.dtype.itemsize > 2):
+        return array.astype(np.float64)
+    return array
+
+
+def _of_dtype(out: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """A warped image back in its dtype: integers rounded and clipped to their range, as
+    torchvision's own transforms round the integer images they interpolate."""
+    if out.dtype == dtype:
+        return out
+    if dtype.kind == "b":
+        return out != 0
+    info = np.iinfo(dtype)
+    high = float(info.max)
+    high = high if int(high) <= info.max else np.nextafter(high, 0.0)  # int64's 2**63 - 1
+    return np.clip(np.rint(out), info.min, high).astype(dtype)
 
 
 def _batch_first(label: torch.Tensor, count: int) -> bool:
@@ -393,15 +421,11 @@ class MLSTransform(v2.Transform):
         pixels with nearest sampling, the palette kept; 32-bit integers through float64)."""
         array = np.asarray(image)
         if image.mode in ("P", "PA", "1"):  # indices, or a bilevel image's bools: labels
-            nearest = {"interpolation": "nearest"}
-            samples = [{**s, "options": {**s["options"], **nearest}} for s in samples]
-        values = array.astype(np.float64) if array.dtype == np.int32 else array
-        values = values.astype(np.uint8) if image.mode == "1" else values
-        out = np.asarray(self.augment.replay([values], samples).images[0])
+            samples = _nearest(samples)
+        out = np.asarray(self.augment.replay([_warpable(array)], samples).images[0])
+        out = _of_dtype(out, array.dtype)
         if image.mode == "1":
-            return PIL.Image.fromarray(out.astype(bool))
-        if out.dtype != array.dtype:
-            out = np.clip(np.rint(out), -(2**31), 2**31 - 1).astype(array.dtype)
+            return PIL.Image.fromarray(out)
         size = (out.shape[1], out.shape[0])  # (W, H) of the output's canvas
         result = PIL.Image.frombytes(image.mode, size, np.ascontiguousarray(out).tobytes())
         if image.mode in ("P", "PA"):
@@ -413,7 +437,10 @@ class MLSTransform(v2.Transform):
         frames = images.reshape(-1, channels, *images.shape[-2:])  # a video's frames, one draw
         draws = [s for s in samples for _ in range(len(frames) // len(samples))]
         array = np.moveaxis(to_numpy(frames), 1, -1)
-        out = replay_images(self.augment, np.ascontiguousarray(array), draws)
+        if array.dtype.kind == "b":  # a bilevel image, as PIL's mode "1"
+            draws = _nearest(draws)
+        out = replay_images(self.augment, np.ascontiguousarray(_warpable(array)), draws)
+        out = _of_dtype(out, array.dtype)
         tensor = torch.from_numpy(np.ascontiguousarray(np.moveaxis(out, -1, 1)))
         tensor = tensor.reshape(*images.shape[:-2], *tensor.shape[-2:])
         tensor = tensor.to(device=images.device, dtype=images.dtype)

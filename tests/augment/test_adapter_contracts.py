@@ -292,6 +292,23 @@ def test_augment_a_list_of_tensors_in_torchs_layout(gl, rng):
     assert all(torch.equal(a, b) for a, b in zip(again.images, out.images, strict=True))
 
 
+@pytest.mark.parametrize("container", [list, tuple])
+def test_augment_masks_as_a_list_of_tensors_of_one_shape(gl, rng, container):
+    """Each image's mask tensor in a list (or tuple), all of one shape and dtype: back as a
+    list of tensors, each the numpy call's mask, of its dtype."""
+    from glmls.augment import Augment
+
+    images = torch.from_numpy(rng.integers(0, 255, (2, 3, 16, 24), dtype=np.uint8))
+    labels = rng.integers(0, 4, (2, 16, 24)).astype(np.uint8)
+    aug = Augment("grid", seed=4)
+    out = aug(images, masks=container(torch.from_numpy(m) for m in labels))
+    plain = aug(np.moveaxis(images.numpy(), 1, -1), masks=list(labels))
+    assert isinstance(out.masks, list) and len(out.masks) == 2
+    for got, expected in zip(out.masks, plain.masks, strict=True):
+        assert isinstance(got, torch.Tensor) and got.dtype == torch.uint8
+        np.testing.assert_array_equal(got.numpy(), expected)
+
+
 @pytest.mark.parametrize("dtype", ["float16", "bfloat16"])
 def test_torchvision_half_precision_inputs(gl, rng, dtype):
     half = getattr(torch, dtype)

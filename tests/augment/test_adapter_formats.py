@@ -554,6 +554,34 @@ def test_torchvision_masks_and_images_keep_their_types(gl, dtype):
     np.testing.assert_array_equal(out_mask.numpy() != 0, out_image.numpy()[0] > 0.5)
 
 
+@pytest.mark.parametrize("dtype", ["int8", "int16", "int32", "int64", "uint32"])
+def test_torchvision_integer_images_of_every_dtype(gl, dtype):
+    """torchvision's transforms take integer images of any dtype and round what they
+    interpolate: an image of int8 ... uint32 comes back of its dtype, its float64 warp
+    rounded."""
+    values = object_image() * 100 - (50 if dtype.startswith("int") else 0)
+    image = tv_tensors.Image(image_tensor(values).to(getattr(torch, dtype)))
+    torch.manual_seed(4)
+    out = MLSTransform("grid", **GRID)(image)
+    torch.manual_seed(4)
+    exact = MLSTransform("grid", **GRID)(tv_tensors.Image(image_tensor(values).double()))
+    assert isinstance(out, tv_tensors.Image) and out.dtype == image.dtype
+    np.testing.assert_array_equal(out.numpy(), np.rint(exact.numpy()))
+
+
+def test_torchvision_a_bool_image_moves_as_a_bilevel_one(gl):
+    """A bool image tensor (torchvision's transforms keep its dtype) moves as PIL's mode "1":
+    its pixels with nearest sampling."""
+    mask = object_image() > 0
+    torch.manual_seed(7)
+    out = MLSTransform("grid", **GRID)(tv_tensors.Image(image_tensor(mask)))
+    torch.manual_seed(7)
+    bilevel = MLSTransform("grid", **GRID)(PIL.Image.fromarray(mask))
+    assert isinstance(out, tv_tensors.Image) and out.dtype == torch.bool
+    np.testing.assert_array_equal(out.numpy()[0], np.asarray(bilevel))
+    assert out.any() and not out.all()
+
+
 def test_torchvision_masks_with_large_labels(gl):
     """Instance ids beyond 2**24 in an int64 Mask come back bit for bit."""
     ids = (object_image() > 0).astype(np.int64) * (2**40 + 1)
