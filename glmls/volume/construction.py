@@ -52,6 +52,9 @@ __all__ = ["VolumeWarper", "make_volume_frame"]
 COORD_BYTES = 16
 #: Bytes of one voxel's slope (the guess's tetrahedron's inverse Jacobian, 3 vec4).
 SLOPE_BYTES = 48
+#: Bytes of one voxel in the backward method's largest slab buffer (each buffer is within
+#: the GL limit of a storage buffer, and ``slab_bytes``, on its own).
+BACKWARD_BYTES = max(COORD_BYTES, SLOPE_BYTES)
 _NO_KEY = 0xFFFFFFFF
 
 
@@ -125,7 +128,7 @@ class VolumeWarper:
         frame = make_volume_frame(options, source.shape)
         background = volume_background(options.background, source)
         backward = options.method == "backward"
-        per_voxel = COORD_BYTES + SLOPE_BYTES if backward else KEY_BYTES
+        per_voxel = BACKWARD_BYTES if backward else KEY_BYTES
         # the GL limits on the output's slices first: an output_shape beyond them is a
         # ValueError, not the allocation of its array
         planned = list(self.slabs(frame, max(per_voxel, source.voxel_bytes), slabs.slab_bytes))
@@ -183,7 +186,7 @@ class VolumeWarper:
         self._resources.check_alive()
         slabs = slabs if slabs is not None else SlabOptions()
         frame = make_volume_frame(options, shape)
-        planned = list(self.slabs(frame, COORD_BYTES + SLOPE_BYTES, slabs.slab_bytes))
+        planned = list(self.slabs(frame, BACKWARD_BYTES, slabs.slab_bytes))
         check_memory(frame.shape, 16 + 12 + 4 + 1)  # points, the result's, residual, covered
         points = np.empty((*frame.shape, 4), np.float32)
         bands = self._bands(

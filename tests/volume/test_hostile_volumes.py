@@ -246,3 +246,32 @@ def test_bounds_and_coordinate_map_take_a_volume_s_shape_with_its_channels(mls3)
         mls3.bounds(channels)
     with pytest.raises(ValueError, match=r"\(D, H, W\) integers, got \(6, 7, 8, 5\)"):
         mls3.bounds((6, 7, 8, 5))
+
+
+def test_a_backward_slice_whose_largest_buffer_fits_the_gl_limit_is_warped(
+    mls3, volume, monkeypatch
+):
+    """The GL limit bounds each storage buffer: an output slice of the backward method is
+    refused only where its largest buffer (the slopes, 48 bytes a voxel) exceeds it, not
+    where its buffers' sum does (as 1500 x 1500 slices did under llvmpipe's 128 MiB)."""
+    canvas = {"output_shape": (3, 20, 20), "origin": (-6.0, -6.0, 1.0)}
+    expected = mls3.warp(volume, method="backward", **canvas)
+    points, _, covered = mls3.coordinate_map(volume.shape, **canvas)
+    limits = type(mls3.kernel.gl).limits.fget
+    slice_bytes = 20 * 20 * 48
+
+    def limited(gl):
+        return limits(gl) | {"max_ssbo_size": slice_bytes}
+
+    monkeypatch.setattr(type(mls3.kernel.gl), "limits", property(limited))
+    np.testing.assert_array_equal(mls3.warp(volume, method="backward", **canvas), expected)
+    limited_points, _, limited_covered = mls3.coordinate_map(volume.shape, **canvas)
+    np.testing.assert_array_equal(limited_points, points)
+    np.testing.assert_array_equal(limited_covered, covered)
+    monkeypatch.setattr(
+        type(mls3.kernel.gl),
+        "limits",
+        property(lambda gl: limited(gl) | {"max_ssbo_size": slice_bytes - 1}),
+    )
+    with pytest.raises(ValueError, match=f"needs {slice_bytes} bytes, more than a GL storage"):
+        mls3.warp(volume, method="backward", **canvas)
