@@ -107,11 +107,11 @@ def test_imread_names_a_bad_max_pixels_not_the_file(tmp_path, image, limit, erro
 
 @pytest.mark.parametrize(
     "values, error, text",
-    [((0, 0, np.nan, 1), ValueError, "x1 must be finite"),
-     ((0, np.inf, 1, 1), ValueError, "y0 must be finite"),
-     (("a", 0, 1, 1), TypeError, "x0 must be a real number, got 'a'"),
-     ((0, 0, 1, True), TypeError, "y1 must be a real number, got True"),
-     ((0, 0, None, 1), TypeError, "x1 must be a real number, got None")],
+    [((0, 0, np.nan, 1), ValueError, "x1 must be a finite number"),
+     ((0, np.inf, 1, 1), ValueError, "y0 must be a finite number"),
+     (("a", 0, 1, 1), TypeError, "x0 must be a finite number, got 'a'"),
+     ((0, 0, 1, True), TypeError, "y1 must be a finite number, got True"),
+     ((0, 0, None, 1), TypeError, "x1 must be a finite number, got None")],
 )  # fmt: skip
 def test_bounds_names_a_value_that_is_not_a_finite_number(values, error, text):
     with pytest.raises(error, match=text):

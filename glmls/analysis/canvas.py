@@ -12,7 +12,8 @@ from collections.abc import Sequence
 import moderngl
 import numpy as np
 
-from ..core.handles import as_points
+from ..core.config import check_real
+from ..core.handles import COORDINATE_LIMIT, as_points
 from ..core.mesh import as_shape
 from ..errors import ReleasedError
 from ..gl import bindings
@@ -22,7 +23,14 @@ from ..gl.dropped import release_when_dropped
 from .colormaps import NAN_COLOR, as_color, color_limits, colormap
 from .shapes import arrow_triangles, disk_triangles, segment_triangles
 
-__all__ = ["EDGE_COLOR", "HANDLE_SOURCE_COLOR", "HANDLE_TARGET_COLOR", "Canvas", "as_rgb8"]
+__all__ = [
+    "EDGE_COLOR",
+    "HANDLE_SOURCE_COLOR",
+    "HANDLE_TARGET_COLOR",
+    "Canvas",
+    "as_rgb8",
+    "check_size",
+]
 
 _FULLSCREEN = "common/fullscreen.vert.glsl"
 
@@ -83,17 +91,21 @@ def as_rgb8(image: object, name: str = "image") -> np.ndarray:
     return np.ascontiguousarray(np.broadcast_to(rgb, (*rgb.shape[:2], 3)))
 
 
-def _rgba(color: object, opacity: float, name: str) -> tuple[float, float, float, float]:
-    if not 0.0 <= float(opacity) <= 1.0:
-        raise ValueError(f"opacity must be in [0, 1], got {opacity!r}")
+def _opacity(opacity: object) -> float:
+    return check_real("opacity", opacity, low=0, high=1)
+
+
+def _rgba(color: object, opacity: object, name: str) -> tuple[float, float, float, float]:
+    alpha = _opacity(opacity)
     r, g, b = as_color(color, name)
-    return (r / 255, g / 255, b / 255, float(opacity))
+    return (r / 255, g / 255, b / 255, alpha)
 
 
-def _positive(name: str, value: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
-        raise ValueError(f"{name} must be a positive number, got {value!r}")
-    return float(value)
+def check_size(name: str, value: object) -> float:
+    """A drawn size in pixels (a width, a radius, an arrow head): a real option
+    (:func:`~glmls.core.config.check_real`) > 0 and within the coordinate range."""
+    what = f"a finite number of pixels > 0 and <= {COORDINATE_LIMIT:g}"
+    return check_real(name, value, low=0, high=COORDINATE_LIMIT, low_open=True, what=what)
 
 
 def _ends(a: object, b: object, names: tuple[str, str]) -> tuple[np.ndarray, np.ndarray]:
@@ -305,7 +317,7 @@ class Canvas:
                 "u_table_size": len(table),
                 "u_limits": (lo, hi),
                 "u_nan_color": _rgba(nan_color, 1.0, "nan_color"),
-                "u_opacity": float(opacity),
+                "u_opacity": _opacity(opacity),
             }
             set_uniforms(program, uniforms)
             self._fullscreen(program)
@@ -339,7 +351,7 @@ class Canvas:
             rgb = np.broadcast_to(rgb, (len(tris), 3))
         if rgb.shape != (len(tris), 3) or rgb.min(initial=0) < 0 or rgb.max(initial=0) > 255:
             raise ValueError(f"colors must be (r, g, b) or ({len(tris)}, 3) in 0-255")
-        rgba = np.concatenate([rgb / 255, np.full((len(tris), 1), float(opacity))], axis=1)
+        rgba = np.concatenate([rgb / 255, np.full((len(tris), 1), _opacity(opacity))], axis=1)
         self._draw(tris.reshape(-1, 2), np.repeat(rgba, 3, axis=0))
         return self
 
@@ -375,7 +387,7 @@ class Canvas:
             This canvas.
         """
         a, b = _ends(a, b, ("a", "b"))
-        self._solid(segment_triangles(a, b, _positive("width", width)), color, opacity, "color")
+        self._solid(segment_triangles(a, b, check_size("width", width)), color, opacity, "color")
         return self
 
     def disks(
@@ -405,7 +417,7 @@ class Canvas:
             This canvas.
         """
         centres = as_points(centres, "centres")
-        triangles = disk_triangles(centres, _positive("radius", radius))
+        triangles = disk_triangles(centres, check_size("radius", radius))
         self._solid(triangles, color, opacity, "color")
         return self
 
@@ -440,7 +452,7 @@ class Canvas:
             This canvas.
         """
         src, dst = _ends(src, dst, ("src", "dst"))
-        triangles = arrow_triangles(src, dst, _positive("width", width), _positive("head", head))
+        triangles = arrow_triangles(src, dst, check_size("width", width), check_size("head", head))
         self._solid(triangles, color, opacity, "color")
         return self
 

@@ -13,6 +13,8 @@ from collections.abc import Sequence
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
+from ..core.config import check_real
+
 #: Colour of undefined (NaN) values: mid grey, absent from both default maps.
 NAN_COLOR = (128, 128, 128)
 #: The paper's default extremes: white for the minimum, red for the maximum (Fig. 6).
@@ -140,6 +142,12 @@ def colormap(cmap: object = "viridis") -> np.ndarray:
     return np.round(table).astype(np.uint8)
 
 
+def check_percentile(name: str, value: object) -> float:
+    """A percentile option as a float: a real number (:func:`~glmls.core.config.check_real`)
+    in (0, 100]; ``TypeError`` naming ``name`` for another type, ``ValueError`` else."""
+    return check_real(name, value, low=0, high=100, low_open=True)
+
+
 def color_limits(
     values: object,
     *,
@@ -168,6 +176,9 @@ def color_limits(
     ------
     ValueError
         For a percentile out of (0, 100], or limits that are not finite or with vmin > vmax.
+    TypeError
+        For a ``vmin``, ``vmax`` or ``percentile`` that is no real number
+        (:func:`glmls.core.config.check_real`: a bool, a string, a complex), named.
 
     Examples
     --------
@@ -182,15 +193,17 @@ def color_limits(
     array = np.asarray(values, dtype=np.float64)
     finite = array[np.isfinite(array)]
     if percentile is not None:
-        if isinstance(percentile, bool) or not 0 < float(percentile) <= 100:
-            raise ValueError(f"percentile must be in (0, 100], got {percentile!r}")
-    lo = float(vmin) if vmin is not None else (float(finite.min()) if finite.size else 0.0)
+        percentile = check_percentile("percentile", percentile)
+    if vmin is not None:
+        lo = check_real("vmin", vmin)
+    else:
+        lo = float(finite.min()) if finite.size else 0.0
     if vmax is not None:
-        hi = float(vmax)
+        hi = check_real("vmax", vmax)
     elif not finite.size:
         hi = lo + 1.0
     elif percentile is not None:
-        hi = float(np.percentile(finite, float(percentile)))
+        hi = float(np.percentile(finite, percentile))
     else:
         hi = float(finite.max())
     if not (np.isfinite(lo) and np.isfinite(hi)) or hi < lo:

@@ -216,9 +216,9 @@ def _options(radius: object, alignment: object, border: object, snap: object) ->
     check_radius(radius)
     check_choice("alignment", alignment, ALIGNMENTS)
     check_choice("border", border, BORDERS)
-    what = "a number in [0, 0.5) (pixels)"
-    if not 0 <= check_real("snap", snap, what=what) < 0.5:
-        raise ValueError(f"snap must be {what}, got {snap!r}")
+    check_real(
+        "snap", snap, low=0, high=0.5, high_open=True, what="a finite number in [0, 0.5) (pixels)"
+    )
 
 
 def _evaluate(f: Callable[[np.ndarray], object], points: np.ndarray, name: str) -> np.ndarray:

@@ -15,7 +15,14 @@ from ..core.handles import as_points
 from ..core.segments import validate_segments
 from ..gl.context import GLContext
 from ..gl.helper import when_forked
-from .canvas import EDGE_COLOR, HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR, Canvas, as_rgb8
+from .canvas import (
+    EDGE_COLOR,
+    HANDLE_SOURCE_COLOR,
+    HANDLE_TARGET_COLOR,
+    Canvas,
+    as_rgb8,
+    check_size,
+)
 from .colormaps import NAN_COLOR, apply_colormap
 from .construction import ConstructionErrors
 from .shapes import disk_triangles
@@ -464,6 +471,9 @@ def render_construction_errors(
         For ``errors`` that are not a :class:`ConstructionErrors`.
     ValueError
         For a radius that is not positive, a bad origin, image, colour map or limits.
+    TypeError
+        Also for a ``radius``, ``vmin``, ``vmax`` or ``percentile`` that is no real number
+        (:func:`glmls.core.config.check_real`).
 
     Examples
     --------
@@ -476,9 +486,7 @@ def render_construction_errors(
     """
     if not isinstance(errors, ConstructionErrors):
         raise TypeError(f"errors must be a ConstructionErrors, got {type(errors).__name__}")
-    size = float(max(4, errors.radius + 1)) if radius is None else float(radius)
-    if not size > 0 or not np.isfinite(size):
-        raise ValueError(f"radius must be a positive number, got {radius!r}")
+    size = float(max(4, errors.radius + 1)) if radius is None else check_size("radius", radius)
     if origin is None:
         origin = errors.origin if deformed else (0.0, 0.0)
     colors = apply_colormap(

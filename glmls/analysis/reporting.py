@@ -35,7 +35,7 @@ from .pictures import (
     render_triangulation,
 )
 from .stats import error_stats
-from .triangles import triangle_errors
+from .triangles import check_eps, triangle_errors
 
 if TYPE_CHECKING:
     from ..mls import MLS
@@ -330,6 +330,11 @@ def report(
     )
     if construction:
         check_radius(construction_radius, "construction_radius")
+    eps = check_eps(eps)
+    if percentile is not None:
+        percentile = colormaps.check_percentile("percentile", percentile)
+    if triangle_percentile is not None:
+        triangle_percentile = colormaps.check_percentile("triangle_percentile", triangle_percentile)
     clock = StageClock(on_stage)
 
     clock.begin("error field")

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.config import check_real
 from .stats import error_stats
 from .triangles import check_angle_measure, check_eps, deformed_points, qhull_simplices
 from .volume_field import precision
@@ -288,13 +289,12 @@ def _user_tetrahedra(tetrahedra: object, count: int) -> np.ndarray:
 
 def check_tetrahedron_options(min_quality: object, angle: object, eps: object) -> str:
     """The options of :func:`tetrahedron_errors`, checked: the angle measure it names;
-    ``ValueError`` for ``min_quality`` out of [0, 1), an unknown ``angle`` or ``eps`` <= 0."""
+    ``ValueError`` for ``min_quality`` out of [0, 1), an unknown ``angle`` or ``eps`` <= 0,
+    ``TypeError`` for a ``min_quality`` or ``eps`` that is no real number
+    (:func:`~glmls.core.config.check_real`)."""
     measure = check_angle_measure(angle)
     check_eps(eps)
-    if isinstance(min_quality, bool) or not isinstance(min_quality, (int, float)):
-        raise ValueError(f"min_quality must be a number in [0, 1), got {min_quality!r}")
-    if not 0 <= min_quality < 1:
-        raise ValueError(f"min_quality must be in [0, 1), got {min_quality!r}")
+    check_real("min_quality", min_quality, low=0, high=1, high_open=True)
     return measure
 
 

@@ -17,12 +17,12 @@ Two angular measures (:data:`ANGLE_MEASURES`):
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.config import check_real
 from ..core.handles import check_reference_points
 from .stats import error_stats
 
@@ -175,15 +175,10 @@ def check_angle_measure(angle: object) -> str:
 
 
 def check_eps(eps: object) -> float:
-    """``eps`` if it is a finite positive number (eq. (11)'s epsilon), else ``ValueError``
-    (an infinite eps makes every corner inf / inf = NaN)."""
-    if (
-        isinstance(eps, bool)
-        or not isinstance(eps, (int, float))
-        or not (eps > 0 and math.isfinite(eps))
-    ):
-        raise ValueError(f"eps must be a finite positive number, got {eps!r}")
-    return eps
+    """``eps`` as a float, a finite positive number (eq. (11)'s epsilon; an infinite eps makes
+    every corner inf / inf = NaN): a real option (:func:`~glmls.core.config.check_real`),
+    ``TypeError`` for another type, ``ValueError`` for a value <= 0 or not finite."""
+    return check_real("eps", eps, low=0, low_open=True, what="a finite positive number")
 
 
 def deformed_points(m: Callable[[np.ndarray], np.ndarray], r: np.ndarray) -> np.ndarray:
@@ -285,7 +280,7 @@ def triangle_errors(
     [0.0, 0.0]
     """
     measure = check_angle_measure(angle)
-    check_eps(eps)
+    eps = check_eps(eps)
     r, simplices = delaunay(reference_points)
     deformed = deformed_points(m, r)
     distance, errors, flipped = triangle_errors_from_points(

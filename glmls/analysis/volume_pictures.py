@@ -17,7 +17,6 @@ a mask: any voxel along z).
 
 from __future__ import annotations
 
-import math
 import operator
 from collections.abc import Sequence
 
@@ -189,10 +188,7 @@ def render_volume_slices(
     if array.dtype.kind not in "iuf" or (rgb_volume and array.dtype != np.uint8):
         raise ValueError(f"volume must be real numbers (RGB: uint8), got dtype {array.dtype}")
     if near is not None:
-        what = "a finite number >= 0 (voxels)"
-        distance = check_real("near", near, what=what)
-        if not (math.isfinite(distance) and distance >= 0):
-            raise ValueError(f"near must be {what}, got {near!r}")
+        check_real("near", near, low=0, what="a finite number >= 0 (voxels)")
     dims = array.shape[:3]
     stretch = _stretch(spacing)
     at = check_slices(dims, slices)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.config import MLSConfig
+from ..core.config import MLSConfig, check_real
 from ..core.handles3 import volume_diagonal
 from ..files.volumes import Volume
 from ..forking import renderer
@@ -250,6 +250,11 @@ def volume_report(
     cell_step = step if jacobian_grid is None else check_grid3(jacobian_grid, "jacobian_grid")
     # checked now: a bad option must not pass for source handles that form no tetrahedron
     check_tetrahedron_options(min_quality, angle, eps)
+    eps, min_quality = float(eps), float(min_quality)  # numbers now, as the summary holds them
+    if percentile is not None:
+        percentile = colormaps.check_percentile("percentile", percentile)
+    if near is not None:
+        near = check_real("near", near, low=0, what="a finite number >= 0 (voxels)")
     if not isinstance(warp, (bool, np.bool_)):
         raise TypeError(f"warp must be True or False, got {warp!r}")
     at = check_slices(dims, slices)

@@ -80,9 +80,7 @@ class MLSDeform(A.DualTransform):
         p: float = 1.0,
     ) -> None:
         # p as glmls takes a real option (albumentations' own check would take True, "0.5")
-        p = check_real("p", p, what="a probability from 0 to 1")
-        if not 0 <= p <= 1:
-            raise ValueError(f"p must be a probability from 0 to 1, got {p!r}")
+        p = check_real("p", p, low=0, high=1, what="a probability from 0 to 1")
         super().__init__(p=p)
         for name, value in (("preset_options", preset_options), ("warp_options", warp_options)):
             if value is not None and not isinstance(value, Mapping):

@@ -191,10 +191,7 @@ def check_positive(name: str, value: object) -> float:
     """``value`` as a float, a finite number > 0 (numpy's numbers and 0-d arrays too): a
     ``TypeError`` naming ``name`` and the value for one that is no real number (a bool, a
     string, None, a complex), a ``ValueError`` for one that is not finite or not > 0."""
-    number = check_real(name, value, what="a finite number > 0")
-    if not math.isfinite(number) or number <= 0:
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return number
+    return check_real(name, value, low=0, low_open=True)
 
 
 def _samples(length: float, step: float) -> int:

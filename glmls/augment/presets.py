@@ -13,7 +13,6 @@ for perspective.
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,20 +32,19 @@ __all__ = [
 UNITS = ("fraction", "pixels")
 
 
-def _check_count(name: str, value: object, low: int) -> None:
-    check_integer(name, value, low)
+def _check_count(preset: object, name: str, low: int) -> None:
+    """``preset``'s ``name``, an integer >= ``low``, stored as an int."""
+    object.__setattr__(preset, name, check_integer(name, getattr(preset, name), low))
 
 
-def _check_length(name: str, value: object, *, optional: bool = False) -> None:
-    """A magnitude: ``TypeError`` naming ``name`` and the value for one that is no real
-    number (a bool, a string, None where it is not ``optional``), ``ValueError`` for one that
-    is not finite or negative."""
-    if optional and value is None:
-        return
-    what = "a finite number >= 0"
-    number = check_real(name, value, what=what)
-    if not math.isfinite(number) or number < 0:
-        raise ValueError(f"{name} must be {what}, got {value!r}")
+def _check_length(preset: object, name: str, *, optional: bool = False) -> None:
+    """``preset``'s ``name``, a magnitude (a real option,
+    :func:`~glmls.core.config.check_real`), stored as a float: ``TypeError`` naming ``name``
+    and the value for one that is no real number (a bool, a string, None where it is not
+    ``optional``), ``ValueError`` for one that is not finite or negative."""
+    value = getattr(preset, name)
+    if not (optional and value is None):
+        object.__setattr__(preset, name, check_real(name, value, low=0))
 
 
 def _check_units(units: object) -> None:
@@ -121,9 +119,9 @@ class GridPreset:
     units: str = "fraction"
 
     def __post_init__(self) -> None:
-        _check_count("rows", self.rows, 2)
-        _check_count("cols", self.cols, 2)
-        _check_length("displacement", self.displacement)
+        _check_count(self, "rows", 2)
+        _check_count(self, "cols", 2)
+        _check_length(self, "displacement")
         _check_units(self.units)
 
     def draw(self, rng: np.random.Generator, shape: tuple[int, int], landmarks=None):
@@ -172,8 +170,8 @@ class _TextPreset:
     warp_grid = 2
 
     def __post_init__(self) -> None:
-        _check_count("segments", self.segments, 1)
-        _check_length("radius", self.radius, optional=True)
+        _check_count(self, "segments", 1)
+        _check_length(self, "radius", optional=True)
 
     def _default_radius(self, shape: tuple[int, int]) -> float:
         raise NotImplementedError
@@ -399,9 +397,9 @@ class LandmarksPreset:
     pin_corners: bool = True
 
     def __post_init__(self) -> None:
-        _check_length("displacement", self.displacement)
+        _check_length(self, "displacement")
         _check_units(self.units)
-        check_flag("pin_corners", self.pin_corners)
+        object.__setattr__(self, "pin_corners", check_flag("pin_corners", self.pin_corners))
 
     def draw(self, rng: np.random.Generator, shape: tuple[int, int], landmarks=None):
         """One sample's handles.

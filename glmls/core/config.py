@@ -55,15 +55,6 @@ def check_choice(name: str, value: object, choices: tuple[str, ...], where: str 
     return str(value)
 
 
-def _real(name: str, value: object) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} must be a real number, got {value!r}")
-    number = float(value)
-    if not math.isfinite(number):
-        raise ValueError(f"{name} must be finite, got {number}")
-    return number
-
-
 def check_flag(name: str, value: object) -> bool:
     """``value`` as a bool if it is one (numpy's too); ``TypeError`` naming ``name`` else
     (1, "yes" and None are not flags)."""
@@ -106,15 +97,62 @@ def check_integer(
     return number
 
 
-def check_real(name: str, value: object, *, what: str = "a real number") -> float:
-    """``value`` as a float if it is a real number (numpy's too, a 0-d array; not a bool):
-    ``TypeError`` naming ``name`` and the value otherwise (a string, None, a complex). The
-    range is the caller's to check (``ValueError``)."""
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        value = value[()]
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} must be {what}, got {value!r}")
-    return float(value)  # type: ignore[arg-type]
+def check_real(
+    name: str,
+    value: object,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = False,
+    high_open: bool = False,
+    finite: bool = True,
+    what: str | None = None,
+) -> float:
+    """``value`` as a float: the one rule of glmls's real-valued options.
+
+    A real number is a Python ``int`` or ``float``, a numpy integer or floating scalar, or a
+    0-d array (or tensor) of one, taken as its number. A bool (numpy's too), a string, None,
+    a complex, and an array of another shape (``np.array([0.5])``) are a ``TypeError`` naming
+    ``name``, the value and its type. A value that is not finite (NaN, ±inf; allowed where
+    ``finite`` is False, as for a fill value) or out of range is a ``ValueError`` naming
+    ``name`` and the value. The range runs from ``low`` to ``high`` (None: unbounded), a bound
+    excluded where ``low_open`` or ``high_open`` is set. ``what`` is what the messages say the
+    option must be (by default "a finite number" and the range). -0.0 is returned as 0.0.
+    """
+    if what is None:
+        what = _real_what(low, high, low_open, high_open, finite)
+    number = value
+    if getattr(number, "ndim", None) == 0 and hasattr(number, "item"):
+        number = number.item()  # type: ignore[union-attr]  # a numpy scalar or 0-d array
+    if isinstance(number, (bool, np.bool_)) or not isinstance(number, numbers.Real):
+        raise TypeError(f"{name} must be {what}, got {value!r} ({type(value).__name__})")
+    try:
+        result = float(number) + 0.0  # type: ignore[arg-type]
+    except OverflowError:  # an int beyond float64
+        raise ValueError(f"{name} must be {what}, got {value!r}") from None
+    if finite and not math.isfinite(result):
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+    below = low is not None and (result <= low if low_open else result < low)
+    above = high is not None and (result >= high if high_open else result > high)
+    if below or above:
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+    return result
+
+
+def _real_what(
+    low: float | None, high: float | None, low_open: bool, high_open: bool, finite: bool
+) -> str:
+    """What :func:`check_real`'s messages say a value must be, by default."""
+    noun = "a finite number" if finite else "a number"
+    if low is not None and high is not None:
+        if not (low_open or high_open):
+            return f"{noun} from {low:g} to {high:g}"
+        return f"{noun} in {'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
+    if low is not None:
+        return f"{noun} {'>' if low_open else '>='} {low:g}"
+    if high is not None:
+        return f"{noun} {'<' if high_open else '<='} {high:g}"
+    return noun
 
 
 def counted(count: int, noun: str, plural: str | None = None) -> str:
@@ -220,23 +258,16 @@ class MLSConfig:
         # numpy's str_ and bool_ are stored as str and bool (equal, hashed alike, printed plainly)
         object.__setattr__(self, "transform", check_choice("transform", self.transform, TRANSFORMS))
         object.__setattr__(self, "weight", check_choice("weight", self.weight, tuple(REGISTRY)))
-        alpha = _real("alpha", self.alpha)
-        if alpha <= 0:
-            raise ValueError(f"alpha must be > 0, got {alpha}")
+        alpha = check_real("alpha", self.alpha, low=0, low_open=True)
         if alpha > MAX_ALPHA:
             raise ValueError(
                 f"alpha must be <= {MAX_ALPHA:g} (beyond, d^(2 alpha) of distances within the "
                 f"coordinate range leaves float64; typical values are 1 and 2), got {alpha}"
             )
-        s = _real("s", self.s)
-        if s < 0:
-            raise ValueError(f"s must be >= 0, got {s}")
         object.__setattr__(self, "alpha", alpha)
-        object.__setattr__(self, "s", s)
+        object.__setattr__(self, "s", check_real("s", self.s, low=0))
         if self.radius is not None:
-            radius = _real("radius", self.radius)
-            if radius <= 0:
-                raise ValueError(f"radius must be > 0, got {radius}")
+            radius = check_real("radius", self.radius, low=0, low_open=True)
             object.__setattr__(self, "radius", radius)
         object.__setattr__(self, "interpolating", check_flag("interpolating", self.interpolating))
 

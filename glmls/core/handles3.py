@@ -13,7 +13,7 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from .config import is_integer
+from .config import check_real, is_integer
 from .handles import COORDINATE_LIMIT, Scaling, check_one_target
 
 __all__ = [
@@ -117,7 +117,8 @@ def as_volume_spacing(spacing: object, name: str = "spacing") -> tuple[float, fl
     ----------
     spacing : sequence of 3 real numbers
         (dz, dy, dx), ordered as a volume's (D, H, W): a tuple, list or numpy array of
-        Python or numpy numbers. One number is no spacing here (the command line's
+        real numbers (:func:`~glmls.core.config.check_real`: Python or numpy numbers, 0-d
+        arrays). One number is no spacing here (the command line's
         ``--spacing D`` reads one number as (D, D, D) itself).
     name : str, default "spacing"
         What the messages call it.
@@ -153,18 +154,24 @@ def as_volume_spacing(spacing: object, name: str = "spacing") -> tuple[float, fl
     except TypeError:  # a 0-d array
         raise TypeError(f"{what}, got {spacing!r}") from None
     for v in values:
-        real = isinstance(v, (int, float, np.integer, np.floating))
-        if not real or isinstance(v, (bool, np.bool_)):
-            raise TypeError(f"{what}, got {spacing!r} ({v!r} is not a number)")
+        try:
+            check_real(name, v, finite=False)
+        except TypeError:
+            raise TypeError(
+                f"{what}, got {spacing!r} ({v!r} is not a number: a {type(v).__name__})"
+            ) from None
     if len(values) != 3:
         raise ValueError(
             f"{name} must be three numbers (dz, dy, dx) like the volume's (D, H, W), "
             f"got {len(values)}: {spacing!r}"
         )
-    steps = (float(values[0]), float(values[1]), float(values[2]))
-    if not all(math.isfinite(v) and v > 0 for v in steps):
-        raise ValueError(f"{name} must be positive and finite (dz, dy, dx), got {_shown(spacing)}")
-    return steps
+    try:
+        steps = tuple(check_real(name, v, low=0, low_open=True) for v in values)
+    except ValueError:
+        raise ValueError(
+            f"{name} must be positive and finite (dz, dy, dx), got {_shown(spacing)}"
+        ) from None
+    return steps  # type: ignore[return-value]
 
 
 def _shown(spacing: object) -> str:

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.config import check_real
 from ..errors import InputFileError
 from .atomic import atomic_write
 
@@ -90,9 +91,7 @@ class NiftiHeader:
         if size > 80:
             raise ValueError(f"descrip holds at most 80 characters, got {size}")
         if self.time_step is not None:
-            if not np.isfinite(float(self.time_step)):
-                raise ValueError(f"time_step must be finite, got {self.time_step}")
-            object.__setattr__(self, "time_step", float(self.time_step))
+            object.__setattr__(self, "time_step", check_real("time_step", self.time_step))
         if self.qform is not None:
             matrix = np.asarray(self.qform, dtype=np.float64)
             if matrix.shape != (4, 4) or not np.isfinite(matrix).all():

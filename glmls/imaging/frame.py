@@ -12,7 +12,6 @@
 from __future__ import annotations
 
 import math
-import numbers
 import operator
 import warnings
 from collections.abc import Callable, Iterable
@@ -39,6 +38,7 @@ __all__ = [
     "encloses_all",
     "make_frame",
     "margin_shortfall",
+    "real_values",
     "search_margins",
 ]
 
@@ -116,15 +116,28 @@ def check_origin(origin: object) -> tuple[float, float] | None:
     values = list(origin)  # type: ignore[call-overload]
     if len(values) != 2:
         raise ValueError(message)
-    try:
-        point = tuple(check_real("origin", v) for v in values)
-    except TypeError:
-        raise TypeError(message) from None
-    if not all(math.isfinite(v) and abs(v) <= COORDINATE_LIMIT for v in point):
-        raise ValueError(
-            f"origin must be finite and within ±{COORDINATE_LIMIT:.0e} px, got {origin!r}"
-        )
+    within = f"finite and within ±{COORDINATE_LIMIT:.0e} px"
+    point = real_values("origin", values, repr(origin), "(x0, y0) real numbers", within)
     return point  # type: ignore[return-value]
+
+
+def real_values(name: str, values: list, shown: str, kind: str, within: str) -> tuple[float, ...]:
+    """``values``, the entries of the tuple option ``name`` (``shown`` as the messages show
+    it), as floats within the coordinate range (:func:`~glmls.core.config.check_real`):
+    ``TypeError`` saying ``name`` must be ``kind``, and the entry's type, for one that is no
+    real number; ``ValueError`` saying it must be ``within`` for one not finite or beyond."""
+    limit = COORDINATE_LIMIT
+    point = []
+    for value in values:
+        try:
+            point.append(check_real(name, value, low=-limit, high=limit))
+        except TypeError:
+            raise TypeError(
+                f"{name} must be {kind}, got {shown} ({value!r} is a {type(value).__name__})"
+            ) from None
+        except ValueError:
+            raise ValueError(f"{name} must be {within}, got {shown}") from None
+    return tuple(point)
 
 
 def make_frame(
@@ -174,7 +187,7 @@ class Bounds:
     Raises
     ------
     TypeError
-        For a value that is not a real number.
+        For a value that is not a real number (:func:`~glmls.core.config.check_real`).
     ValueError
         For a value that is not finite.
 
@@ -195,11 +208,8 @@ class Bounds:
 
     def __post_init__(self) -> None:
         for name in ("x0", "y0", "x1", "y1"):
-            value = getattr(self, name)
-            if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-                raise TypeError(f"Bounds {name} must be a real number, got {value!r}")
-            if not math.isfinite(value):
-                raise ValueError(f"Bounds {name} must be finite, got {value!r}")
+            value = check_real(f"Bounds {name}", getattr(self, name))
+            object.__setattr__(self, name, value)
 
     @property
     def origin(self) -> tuple[float, float]:

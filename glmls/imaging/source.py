@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.config import check_choice, counted
+from ..core.config import check_choice, check_real, counted
 from ..core.mesh import check_grid
 
 __all__ = [
@@ -139,30 +139,31 @@ def as_float32(array: np.ndarray, name: str = "image") -> np.ndarray:
         ) from None
 
 
-def _is_real(value: object) -> bool:
-    return not isinstance(value, (bool, np.bool_)) and isinstance(
-        value, (int, float, np.integer, np.floating)
-    )
+def _background_value(value: object, background: object) -> float:
+    """One value of ``background`` as a float (:func:`~glmls.core.config.check_real`, NaN
+    and ±inf allowed: a fill value): ``TypeError`` naming the whole ``background`` else."""
+    try:
+        return check_real("background", value, finite=False)
+    except TypeError:
+        raise TypeError(
+            f"background values must be real numbers, got {background!r} ({type(value).__name__})"
+        ) from None
 
 
 def check_background(background: object) -> float | tuple[float, ...]:
     """``background`` as a float, or a tuple of 1 to 4 floats (one per channel):
-    ``TypeError`` unless its values are real numbers, ``ValueError`` for another count (the
+    ``TypeError`` unless its values are real numbers (:func:`~glmls.core.config.check_real`;
+    NaN and ±inf are values a float image can hold), ``ValueError`` for another count (the
     image's channels decide which counts fit: :func:`background_color`)."""
     values = np.asarray(background, dtype=object)
     if values.ndim == 0:
         # a 0-d array or tensor, as its number (as a 1-value one is)
-        scalar = background.item() if getattr(background, "ndim", None) == 0 else background  # type: ignore[union-attr]
-        if not _is_real(scalar):
-            raise TypeError(f"background values must be real numbers, got {background!r}")
-        return float(scalar)  # type: ignore[arg-type]
+        return _background_value(background, background)
     if values.ndim != 1 or not 1 <= len(values) <= 4:
         raise ValueError(
             f"background must be a scalar or 1 to 4 values (one per channel), got {background!r}"
         )
-    if not all(_is_real(value) for value in values):
-        raise TypeError(f"background values must be real numbers, got {background!r}")
-    return tuple(float(value) for value in values)
+    return tuple(_background_value(value, background) for value in values)
 
 
 def background_color(background: object, image: SourceImage) -> tuple[float, float, float, float]:
@@ -185,9 +186,7 @@ def background_color(background: object, image: SourceImage) -> tuple[float, flo
         )
     out = []
     for value in values:
-        if not _is_real(value):
-            raise TypeError(f"background values must be real numbers, got {background!r}")
-        out.append(float(value))
+        out.append(_background_value(value, background))
     if np.issubdtype(image.dtype, np.integer):
         top = np.iinfo(image.dtype).max
         if not all(0 <= v <= top for v in out):

@@ -4,17 +4,17 @@ construction cuts a volume into slabs (:class:`SlabOptions`)."""
 from __future__ import annotations
 
 import dataclasses
-import math
 import operator
 from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.config import check_choice, check_integer, check_real, is_integer
+from ..core.config import check_choice, check_integer, is_integer
 from ..core.handles import COORDINATE_LIMIT
 from ..core.handles3 import as_volume_spacing
 from ..core.mesh import check_grid
+from ..imaging.frame import real_values
 from ..imaging.options import Default
 from ..imaging.source import BORDERS, INTERPOLATIONS, check_background
 
@@ -79,15 +79,8 @@ def check_volume_origin(origin: object) -> tuple[float, float, float] | None:
     if origin is None:
         return None
     values = _triple(origin, "origin", "(x0, y0, z0) real numbers")
-    try:
-        point = tuple(check_real("origin", v) for v in values)
-    except TypeError:
-        raise TypeError(f"origin must be (x0, y0, z0) real numbers, got {origin!r}") from None
-    if not all(math.isfinite(v) and abs(v) <= COORDINATE_LIMIT for v in point):
-        raise ValueError(
-            f"origin must be finite and within ±{COORDINATE_LIMIT:.0e}, got {origin!r}"
-        )
-    return point  # type: ignore[return-value]
+    within = f"finite and within ±{COORDINATE_LIMIT:.0e}"
+    return real_values("origin", values, repr(origin), "(x0, y0, z0) real numbers", within)  # type: ignore[return-value]
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -45,9 +45,11 @@ def test_limits_and_percentile(rng):
     assert robust == np.percentile(values[~np.isnan(values)], 95)
     assert glmls.analysis.color_limits(values, vmin=0, vmax=3) == (0.0, 3.0)
     assert glmls.analysis.color_limits([np.nan]) == (0.0, 1.0)
-    for bad in (0, 101, True):
+    for bad in (0, 101, np.nan):
         with pytest.raises(ValueError, match="percentile"):
             glmls.analysis.color_limits(values, percentile=bad)
+    with pytest.raises(TypeError, match="percentile"):
+        glmls.analysis.color_limits(values, percentile=True)
     with pytest.raises(ValueError, match="vmin <= vmax"):
         glmls.analysis.color_limits(values, vmin=5, vmax=1)
 

@@ -41,7 +41,7 @@ def test_config_specs():
         ("rigid:cubic", "unknown weight 'cubic'"),
         ("rigid:idw:beta=2", "name alpha, s, radius, interpolating, got 'beta=2'"),
         ("rigid:idw:alpha=x", "alpha must be a number"),
-        ("rigid:idw:alpha=-1", "alpha must be > 0"),
+        ("rigid:idw:alpha=-1", "alpha must be a finite number > 0"),
         ("rigid:idw:alpha=1,alpha=2", "alpha given twice, as 1 and as 2"),
         ("rigid:idw:alpha=1,alpha=1", "alpha given twice"),
     ]:

@@ -276,7 +276,7 @@ def test_the_tolerance_key_cycles_the_adaptive_mesh():
     assert adaptive.mesh_options == {"tolerance": 0.05} and adaptive.adaptive == 0.05
     splat = Settings(method="splat", tolerance=0.05)  # the other constructions ignore it
     assert splat.adaptive is None and splat.mesh_options == {"grid": 4}
-    with pytest.raises(ValueError, match="tolerance must be finite and > 0"):
+    with pytest.raises(ValueError, match="tolerance must be a number of pixels, finite and > 0"):
         Settings(tolerance=-1.0)
     with pytest.raises(TypeError, match="tolerance must be a number"):
         Settings(tolerance="0.05")  # type: ignore[arg-type]

@@ -18,7 +18,7 @@ from glmls.augment import Augment
         ({"method": "nope"}, ValueError, "warp_options: unknown method 'nope'"),
         ({"transform": "rigidd"}, ValueError, "warp_options: unknown transform 'rigidd'"),
         ({"grid": 0}, ValueError, "warp_options: grid must be an integer"),
-        ({"weight": "gaussian", "radius": -1}, ValueError, "warp_options: radius must be > 0"),
+        ({"weight": "gaussian", "radius": -1}, ValueError, "warp_options: radius must be a finite"),
         ({"keypoints": 1}, TypeError, "warp_options cannot hold keypoints: give them to the call"),
         (
             {"src_segments": [[[0, 0], [4, 0]]]},

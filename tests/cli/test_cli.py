@@ -146,7 +146,7 @@ def test_tune_warns_of_a_configuration_parameter_its_weight_does_not_use(inputs)
         ({"bad.csv": "src_x,src_y,dst_x,dst_y\n1,2,3,4\n1,2\n"}, [], "line 3: expected 4"),
         ({"bad.json": '{"src": [[1, 1], [1, 1]], "dst": [[2, 2], [3, 3]]}'}, [], "same point"),
         ({}, ["--transform", "projective"], "invalid choice"),
-        ({}, ["--alpha", "-1"], "alpha must be > 0"),
+        ({}, ["--alpha", "-1"], "alpha must be a finite number > 0"),
         ({}, ["--grid", "0"], "expected an integer >= 1"),
     ],
 )

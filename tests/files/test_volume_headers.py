@@ -114,7 +114,8 @@ def test_other_formats_carry_no_header(tmp_path):
         ({"xyzt_units": 256}, ValueError, r"xyzt_units must be in 0\.\.255"),
         ({"descrip": "x" * 81}, ValueError, "at most 80 characters"),
         ({"descrip": "\u2192"}, ValueError, "Latin-1"),
-        ({"time_step": float("nan")}, ValueError, "time_step must be finite"),
+        ({"time_step": float("nan")}, ValueError, "time_step must be a finite number"),
+        ({"time_step": "0.5"}, TypeError, "time_step must be a finite number"),
     ],
 )
 def test_nifti_header_is_checked(fields, error, message):

@@ -620,7 +620,7 @@ def test_the_mesh_and_error_field_take_the_tolerance(gl, rng):
         for both in (m.mesh, m.error_field):
             with pytest.raises(ValueError, match="grid and tolerance exclude each other"):
                 both(SHAPE, grid=4, tolerance=0.05)
-        with pytest.raises(ValueError, match="tolerance must be finite"):
+        with pytest.raises(ValueError, match="tolerance must be a number of pixels, finite"):
             m.error_field(SHAPE, tolerance=0.0)
         config = m.config
     assert isinstance(mesh, glmls.imaging.adaptive.AdaptiveMesh)

@@ -186,7 +186,7 @@ def test_a_mesh_s_vertices_must_be_real_numbers(tmp_path, vertices, error, messa
     ("options", "error", "message"),
     [
         ({"eps": 0}, ValueError, "eps must be a finite positive number, got 0"),
-        ({"min_quality": 1}, ValueError, r"min_quality must be in \[0, 1\), got 1"),
+        ({"min_quality": 1}, ValueError, r"min_quality must be a finite number in \[0, 1\), got 1"),
         ({"warp": "no"}, TypeError, "warp must be True or False, got 'no'"),
         ({"near": -1}, ValueError, r"near must be a finite number >= 0 \(voxels\), got -1"),
         ({"near": float("nan")}, ValueError, "near must be a finite number >= 0"),

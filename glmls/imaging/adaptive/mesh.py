@@ -42,12 +42,12 @@ everywhere in glmls.
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from ...core.config import check_real
 from ...core.mesh import MeshLattice
 from .fans import fan_vertices, fans
 from .patch import (
@@ -149,15 +149,11 @@ _RIGHT, _BOTTOM, _LEFT, _TOP = (slice(4 * k, 4 * k + 4) for k in range(4))
 
 
 def check_tolerance(tolerance: object) -> float:
-    """``tolerance`` (pixels) as a float: ``TypeError`` if it is not a real number,
+    """``tolerance`` (pixels) as a float, a real option
+    (:func:`~glmls.core.config.check_real`): ``TypeError`` if it is not a real number,
     ``ValueError`` unless it is finite and at least :data:`MIN_TOLERANCE`."""
-    if isinstance(tolerance, (bool, np.bool_)) or not isinstance(
-        tolerance, (int, float, np.integer, np.floating)
-    ):
-        raise TypeError(f"tolerance must be a number of pixels > 0, got {tolerance!r}")
-    value = float(tolerance)
-    if not math.isfinite(value) or value <= 0.0:
-        raise ValueError(f"tolerance must be finite and > 0 (pixels), got {tolerance!r}")
+    what = "a number of pixels, finite and > 0"
+    value = check_real("tolerance", tolerance, low=0, low_open=True, what=what)
     if value < MIN_TOLERANCE:
         raise ValueError(
             f"tolerance must be at least {MIN_TOLERANCE} px (f is float32 on the GPU: finer "
