@@ -17,6 +17,7 @@ a mask: any voxel along z).
 
 from __future__ import annotations
 
+import math
 import operator
 from collections.abc import Sequence
 
@@ -265,11 +266,13 @@ def _stretch(spacing: object) -> tuple[float, float, float]:
     if isinstance(spacing, (str, bytes)):
         raise TypeError(message)
     try:
-        values = [check_real("spacing", v) for v in spacing]  # type: ignore[union-attr]
+        values = list(spacing)  # type: ignore[call-overload]
     except TypeError:
         raise TypeError(message) from None
-    if len(values) != 3 or not all(math.isfinite(v) and v > 0 for v in values):
+    if len(values) != 3:
         raise ValueError(message)
+    what = "three finite positive numbers (dz, dy, dx)"
+    values = [check_real("spacing", v, low=0, low_open=True, what=what) for v in values]
     least = min(values)
     return values[0] / least, values[1] / least, values[2] / least
 
