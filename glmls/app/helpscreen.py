@@ -81,11 +81,13 @@ COLUMN_GAP = 3
 LINE_CHARS = 38
 
 
-def help_blocks() -> list[list[str]]:
+def help_blocks(
+    groups: Sequence[tuple[str, Sequence[tuple[str, str, tuple[str, ...]]]]] = HELP,
+) -> list[list[str]]:
     """The help as blocks of lines: a title, then its entries, labels aligned per block, long
-    ones wrapped under their text."""
-    blocks = []
-    for title, entries in HELP:
+    ones wrapped under their text; ``groups`` as :data:`HELP` (the image window's)."""
+    blocks: list[list[str]] = []
+    for title, entries in groups:
         width = max(len(label) for label, _, _ in entries)
         lines = [title]
         for label, text, _ in entries:

@@ -118,16 +118,22 @@ def help_lines() -> list[str]:
     return [line for k, block in enumerate(help_blocks()) for line in ([""] if k else []) + block]
 
 
-def place_help(atlas: GlyphAtlas, readout_width: float, framebuffer: tuple[int, int]) -> HelpLayout:
-    """Where the help goes: beside the readout (right of ``readout_width`` framebuffer
-    pixels) at the readout's text size or smaller, else over the whole window."""
+def place_help(
+    atlas: GlyphAtlas,
+    readout_width: float,
+    framebuffer: tuple[int, int],
+    blocks: list[list[str]] | None = None,
+) -> HelpLayout:
+    """Where the help (``blocks`` of lines, default the image window's) goes: beside the
+    readout (right of ``readout_width`` framebuffer pixels) at the readout's text size or
+    smaller, else over the whole window."""
     fb_w, fb_h = framebuffer
     margin = atlas.line_height / 2
     beside = (readout_width + margin, margin, fb_w - readout_width - 2 * margin, fb_h - 2 * margin)
     whole = (margin, margin, fb_w - 2 * margin, fb_h - 2 * margin)
     smallest = max(8, round(HELP_MIN_SHARE * atlas.size))
     sizes = list(range(atlas.size, smallest - 1, -1)) or [atlas.size]
-    return help_layout([beside, whole], sizes, glyph_atlas)
+    return help_layout([beside, whole], sizes, glyph_atlas, blocks)
 
 
 def readout_quads(
@@ -159,13 +165,15 @@ def text_quads(
     help_visible: bool,
     panel: int,
     framebuffer: tuple[int, int],
+    blocks: list[list[str]] | None = None,
 ) -> TextGroups:
     """Glyph quads of the readout (top left, on a dark panel) and, if shown, the help
-    (:func:`place_help`), grouped by text size."""
+    (:func:`place_help`; ``blocks`` of lines, default the image window's), grouped by text
+    size."""
     size, readout_parts, width = readout_quads(atlas, lines, framebuffer[1])
     groups: TextGroups = [(size, readout_parts)]
     if help_visible:
-        placed = place_help(atlas, max(width, panel), framebuffer)
+        placed = place_help(atlas, max(width, panel), framebuffer, blocks)
         help_atlas = glyph_atlas(placed.size)
         x, y, w, h = placed.box
         parts = [help_atlas.rectangle(x, y, w, h, (0.05, 0.05, 0.08, 0.92))]

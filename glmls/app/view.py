@@ -55,12 +55,12 @@ def display_image(image: np.ndarray) -> np.ndarray:
     if array.dtype in (np.uint8, np.uint16):
         values = array.astype(np.float32) / float(np.iinfo(array.dtype).max)
     elif np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating):
-        values = array.astype(np.float32)
+        values = array.astype(np.float64)  # float32 would overflow: 1e300s, -3e38..3e38
         finite = values[np.isfinite(values)]  # a NaN (a depth map's hole) makes no range
         low, high = float(finite.min(initial=0.0)), float(finite.max(initial=1.0))
         if low < 0.0 or high > 1.0:  # e.g. 0..255 or -1..1: its range, not all white
             values = (values - low) / (high - low)
-        values = np.clip(np.nan_to_num(values, nan=0.0), 0.0, 1.0)
+        values = np.clip(np.nan_to_num(values, nan=0.0), 0.0, 1.0).astype(np.float32)
     else:
         raise TypeError(f"image dtype must be integer or float, got {array.dtype}")
     colour = values[..., :3] if values.shape[2] >= 3 else np.repeat(values[..., :1], 3, axis=2)

@@ -69,13 +69,19 @@ def display_volume(volume: np.ndarray) -> np.ndarray:
         raise ValueError(f"a volume must be D x H x W or D x H x W x C, got {array.shape}")
     if array.dtype == np.uint8:
         return np.ascontiguousarray(array)
-    values = array.astype(np.float32)
-    finite = values[np.isfinite(values)]  # NaN (masked voxels) would make every percentile NaN
-    low, high = np.percentile(finite, [0.5, 99.5]) if finite.size else (0.0, 1.0)
+    # float32 where it holds the values; float64 (and int32, int64) keep their range and
+    # precision (1e300s, or 1000 + 1e-4 steps, would be infinities or one value in float32)
+    work = np.float32 if np.can_cast(array.dtype, np.float32) else np.float64
+    finite = array[np.isfinite(array)]  # NaN (masked voxels) would make every percentile NaN
+    low, high = np.percentile(finite.astype(work), [0.5, 99.5]) if finite.size else (0.0, 1.0)
+    low, high = float(low), float(high)
     if high <= low:  # (nearly) constant: as an image, within [0, 1] or stretched to reach it
-        low, high = min(0.0, float(low)), max(1.0, float(high))
-    shown = np.clip(np.nan_to_num((values - low) / float(high - low), nan=0.0), 0, 1)
-    return np.round(shown * 255).astype(np.uint8)
+        low, high = min(0.0, low), max(1.0, high)
+    shown = np.empty(array.shape, np.uint8)
+    for z, slab in enumerate(array):  # a slab at a time: no float copy of the whole volume
+        values = (slab.astype(np.float64) - low) / (high - low)
+        shown[z] = np.round(np.clip(np.nan_to_num(values, nan=0.0), 0, 1) * 255)
+    return shown
 
 
 def _plane(view: int, shape: tuple[int, int, int], point, scale) -> tuple[tuple, tuple]:

@@ -13,7 +13,8 @@ import numpy as np
 from ..analysis.canvas import HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR
 from ..analysis.shapes import arrow_triangles, disk_triangles
 from ..gl.context import GLContext
-from .hud import MIN_WINDOW_HEIGHT, readout_quads
+from .helpscreen import help_blocks
+from .hud import MIN_WINDOW_HEIGHT, text_quads
 from .layout import Layout, layout
 from .overlays import GeometryDrawer, PictureDrawer, read_screen
 from .text import GlyphAtlas, TextRenderer, glyph_atlas
@@ -22,6 +23,7 @@ from .volume_controller import AXES, VOLUME_BINDINGS, VolumeController
 __all__ = [
     "MARGIN",
     "VolumeView",
+    "help_groups",
     "help_text",
     "montage_layout",
     "scene_geometry",
@@ -126,14 +128,43 @@ def scene_geometry(c: VolumeController, scale: float) -> tuple[np.ndarray, np.nd
     return np.concatenate(triangles), np.concatenate(lines)
 
 
+#: The help's groups of keys: a title and the actions of :data:`VOLUME_BINDINGS` it lists.
+KEY_GROUPS = (
+    ("MLS", ("help", "transform", "weight", "raise", "lower", "method", "grid_finer",
+             "grid_coarser", "border")),
+    ("Overlays", ("overlay_error", "overlay_folds", "handles")),
+    ("Views", ("view_axial", "view_coronal", "view_sagittal", "view_next")),
+    ("Slice point", ("slice_up", "slice_down", "slice_up8", "slice_down8", "centre")),
+    ("Edit", ("reset", "restore", "undo", "redo")),
+    ("Files", ("save_volume", "save_handles", "save_screenshot", "load_handles", "quit")),
+)  # fmt: skip
+#: Shorter key names for the help's labels.
+SHORT_KEYS = {"Ctrl+Shift+": "^S-", "Ctrl+": "^", "Backspace": "Bksp", "Escape": "Esc",
+              "PageUp": "PgUp", "PageDown": "PgDn"}  # fmt: skip
+
+
+def _label(keys: tuple[str, ...]) -> str:
+    label = " ".join(keys)
+    for name, short in SHORT_KEYS.items():
+        label = label.replace(name, short)
+    return label
+
+
+def help_groups() -> list[tuple[str, tuple[tuple[str, str, tuple[str, ...]], ...]]]:
+    """The help's groups, as :data:`~glmls.app.helpscreen.HELP` has them: the mouse, then
+    every key binding in :data:`KEY_GROUPS`."""
+    bindings = {action: (keys, what) for keys, action, what in VOLUME_BINDINGS}
+    groups = [("Mouse", tuple((action, what, ()) for action, what in MOUSE_HELP))]
+    for title, actions in KEY_GROUPS:
+        entries = tuple((_label(bindings[a][0]), bindings[a][1], (a,)) for a in actions)
+        groups.append((title, entries))
+    return groups
+
+
 def help_text() -> list[str]:
-    """The help screen's lines: the mouse, then every key binding."""
-    keys = [" ".join(k) for k, _, _ in VOLUME_BINDINGS]
-    width = max(len(label) for label in [*keys, *(a for a, _ in MOUSE_HELP)]) + 2
-    lines = ["Mouse"] + [f"  {a:<{width}}{b}" for a, b in MOUSE_HELP] + ["", "Keys"]
-    for label, (_, _, what) in zip(keys, VOLUME_BINDINGS, strict=True):
-        lines.append(f"  {label:<{width}}{what}")
-    return lines
+    """The help screen's lines, in order (blocks separated by a blank line)."""
+    blocks = help_blocks(help_groups())
+    return [line for k, block in enumerate(blocks) for line in ([""] if k else []) + block]
 
 
 class VolumeView:
@@ -222,23 +253,10 @@ def text_groups(
     atlas: GlyphAtlas, lines: Sequence[str], *, help_visible: bool, framebuffer: tuple[int, int]
 ) -> list[tuple[int, list[np.ndarray]]]:
     """Glyph quads of the readout (top left, on a dark panel, smaller where it would not fit
-    the height, :func:`~glmls.app.hud.readout_quads`) and, if shown, the help beside it (at
-    a smaller size where it would not fit, down to 8 pixels), by text size."""
-    pad = atlas.cell[1] // 2
-    size, parts, width = readout_quads(atlas, lines, framebuffer[1])
-    groups = [(size, parts)]
-    if help_visible:
-        text = help_text()
-        size = atlas.size
-        while size > 8 and len(text) * glyph_atlas(size).line_height > framebuffer[1] - 2 * pad:
-            size -= 1
-        small = glyph_atlas(size)
-        box_w = max(small.width(line) for line in text) + 2 * pad
-        box_h = len(text) * small.line_height + 2 * pad
-        x = min(width + pad, max(framebuffer[0] - box_w, 0))
-        parts = [
-            small.rectangle(x, 0, box_w, box_h, (0.05, 0.05, 0.08, 0.92)),
-            small.quads("\n".join(text), x + pad, pad, (1.0, 0.92, 0.6, 1.0)),
-        ]
-        groups.append((size, parts))
-    return groups
+    the height, :func:`~glmls.app.hud.readout_quads`) and, if shown, the help laid out as
+    the image window's (:func:`~glmls.app.hud.place_help`): beside the readout in one to
+    three columns, at its text size or smaller, else over the whole window."""
+    blocks = help_blocks(help_groups())
+    return text_quads(
+        atlas, lines, help_visible=help_visible, panel=0, framebuffer=framebuffer, blocks=blocks
+    )

@@ -28,7 +28,8 @@ from glmls.app.hud import PANEL_CHARS, help_lines, place_help, readout, text_qua
 from glmls.app.text import glyph_atlas
 from glmls.app.view import TEXT_SIZE
 from glmls.app.volume_controller import VOLUME_BINDINGS
-from glmls.app.volume_view import text_groups
+from glmls.app.volume_view import help_groups, help_text, text_groups
+from glmls.app.volume_window import VolumeApp
 from glmls.core.weights import WEIGHTS
 from glmls.imaging.source import BORDERS
 
@@ -119,6 +120,27 @@ def test_what_a_key_did_stays_in_view_below_a_long_readout(volume):
     assert high[1] <= DEFAULT_WINDOW[1]  # the last line too
     assert len(parts[1]) // 6 == sum(len(line.replace(" ", "")) for line in lines)
     assert boxes(help_parts)[0][0] >= high[0]  # the help still beside it
+
+
+def test_the_volume_help_covers_every_binding():
+    listed = [a for _, entries in help_groups() for _, _, actions in entries for a in actions]
+    assert sorted(listed) == sorted(action for _, action, _ in VOLUME_BINDINGS)
+
+
+@pytest.mark.parametrize("framebuffer", [(936, 560), (640, 360)])
+def test_the_volume_help_is_shown_whole(framebuffer):
+    # one column of 41 lines: at 640 x 360 its last 14 keys (edits and files) fell below
+    # the window, and it covered the readout at any size (936 x 560: the phantom's default)
+    atlas = glyph_atlas(TEXT_SIZE)
+    lines = VolumeApp(glmls.data.phantom(), *glmls.data.phantom_handles()).readout()
+    groups = text_groups(atlas, lines, help_visible=True, framebuffer=framebuffer)
+    (_, readout_parts), (help_size, help_parts) = groups
+    help_low, help_high = boxes(help_parts)
+    assert (help_low >= 0).all() and (help_high <= framebuffer).all()  # nothing cut off
+    glyphs = sum(len(p) for p in help_parts[1:]) // 6
+    assert glyphs == sum(len(line.replace(" ", "")) for line in help_text())  # every line
+    if framebuffer[0] > 900:
+        assert help_low[0] >= boxes(readout_parts)[1][0] and help_size >= 10  # beside it
 
 
 def test_the_help_takes_the_whole_window_only_where_nothing_else_fits():

@@ -162,6 +162,19 @@ def test_float_images_outside_0_1_are_shown_from_their_minimum_to_their_maximum(
     assert (display_image(np.full((2, 2), 7.0)) == 1.0).all()  # one value: no range
 
 
+@pytest.mark.parametrize(
+    "values",
+    [
+        np.linspace(-3e38, 3e38, 6, dtype=np.float32),  # its span overflowed float32: top white
+        np.linspace(-2e300, 2e300, 6),  # beyond float32: every pixel an infinity, white
+    ],
+)
+def test_float_images_of_any_range_are_shown_as_a_ramp(values):
+    shown = display_image(values.reshape(2, 3))
+    assert shown.dtype == np.float32
+    assert shown[..., 0].ravel().tolist() == pytest.approx([0, 0.2, 0.4, 0.6, 0.8, 1], abs=1e-6)
+
+
 @pytest.mark.parametrize("dtype", [np.int16, np.int32, np.int64, np.uint32, np.int8])
 def test_other_integer_images_are_shown_from_their_range(dtype):
     # divided by their dtype's maximum, int32 labels 0..5 showed black (5 / 2^31) and an int16

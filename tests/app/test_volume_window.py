@@ -242,6 +242,23 @@ def test_a_volume_with_nan_voxels_is_shown_from_its_finite_values():
 
 
 @pytest.mark.parametrize(
+    "volume",
+    [
+        np.linspace(1e300, 2e300, 24),  # beyond float32: every voxel an infinity, white
+        np.linspace(1e-300, 2e-300, 24),  # below it: every voxel 0, black
+        1000.0 + np.linspace(0.0, 1e-4, 24),  # finer than float32's steps there: 3 greys
+        np.linspace(-3e38, 3e38, 24, dtype=np.float32),
+        np.linspace(0, 2**40, 24).astype(np.int64) + 2**60,  # a narrow band, far from 0
+    ],
+)
+def test_a_volume_of_any_range_is_shown_as_a_ramp(volume):
+    ramp = display_volume(np.linspace(0.0, 1.0, 24).reshape(2, 3, 4))
+    grey = display_volume(volume.reshape(2, 3, 4))
+    assert grey.dtype == np.uint8
+    np.testing.assert_allclose(grey.astype(int), ramp.astype(int), atol=1)
+
+
+@pytest.mark.parametrize(
     ("volume", "shown"),
     [
         (np.full((2, 3, 4), 7.0, np.float32), 255),  # was black: its percentiles are equal
