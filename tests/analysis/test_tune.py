@@ -183,8 +183,10 @@ def test_bad_arguments():
         tuning.tune((30, 40), SRC, DST, REFERENCE, rank_by="speed")
     with pytest.raises(ValueError, match="trials must be"):
         tuning.tune((30, 40), SRC, DST, REFERENCE, trials=0)
-    with pytest.raises(ValueError, match="angle must be"):
+    with pytest.raises(ValueError, match="unknown angle 'cosine'"):
         tuning.tune((30, 40), SRC, DST, REFERENCE, angle="cosine")
+    with pytest.raises(TypeError, match="angle must be a string, one of degrees, paper; got 1"):
+        tuning.tune((30, 40), SRC, DST, REFERENCE, angle=1)
     with pytest.raises(ValueError, match="seed must be an integer >= 0, got -1"):
         tuning.tune((30, 40), SRC, DST, REFERENCE, seed=-1)
     for seed in (1.5, "0", True):
