@@ -418,7 +418,9 @@ class MLS3(MLS):
         Parameters
         ----------
         volume : array_like
-            A (D, H, W) or (D, H, W, C) volume of uint8, uint16 or float32.
+            A (D, H, W) or (D, H, W, C) volume of uint8, uint16 or float32; a 3-d array is
+            (D, H, W) whatever its sizes (an RGB image (H, W, 3) is a volume 3 voxels wide:
+            a 2D image takes an MLS of (N, 2) handles).
         **options
             :class:`glmls.volume.VolumeOptions`' fields: ``method`` (``"quads"``, the
             tetrahedra of the deformed lattice, or ``"backward"``), ``interpolation``,

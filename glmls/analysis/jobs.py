@@ -32,6 +32,8 @@ import multiprocessing
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from ..core.config import check_integer
+
 __all__ = ["DistributedUnavailableError", "check_jobs", "check_scheduler", "run_jobs"]
 
 INSTALL = "pip install 'glmls[distributed]'"
@@ -42,12 +44,9 @@ class DistributedUnavailableError(ImportError):
 
 
 def check_jobs(jobs: object) -> int:
-    """``jobs`` as an int >= 1; ``TypeError``/``ValueError`` naming the value otherwise."""
-    if isinstance(jobs, bool) or not isinstance(jobs, int):
-        raise TypeError(f"jobs must be an integer >= 1, got {jobs!r}")
-    if jobs < 1:
-        raise ValueError(f"jobs must be an integer >= 1, got {jobs!r}")
-    return jobs
+    """``jobs`` as an int >= 1 (:func:`~glmls.core.config.check_integer`: numpy's integers
+    too); ``TypeError``/``ValueError`` naming the value otherwise."""
+    return check_integer("jobs", jobs, 1)
 
 
 def check_scheduler(scheduler: object) -> str | None:

@@ -12,6 +12,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from PIL import Image
 
+from ..core.config import check_choice
+from ..core.mesh import check_grid
 from ..files.atomic import atomic_write
 from ..forking import renderer
 from ..imaging.frame import Frame
@@ -35,7 +37,7 @@ from .pictures import (
     render_triangulation,
 )
 from .stats import error_stats
-from .triangles import check_eps, triangle_errors
+from .triangles import check_angle_measure, check_eps, triangle_errors
 
 if TYPE_CHECKING:
     from ..mls import MLS
@@ -297,7 +299,8 @@ def report(
         For an unknown ``triangle_error``, warp option or angle measure, bad reference
         points, radius or image; checked before the long stages where possible.
     TypeError
-        For an image of an unsupported dtype, or an ``m`` that is not an MLS.
+        For an image of an unsupported dtype, an ``m`` that is not an MLS, or an option of
+        the wrong type (a float ``grid``, a ``triangle_error`` or ``angle`` that is no string).
 
     Examples
     --------
@@ -318,8 +321,7 @@ def report(
     shape = rgb.shape[:2]
     for method_of_m in ("error_field", "mesh", "warp", "bounds"):
         check_deformation(m, method_of_m)
-    if triangle_error not in ("angle", "distance"):
-        raise ValueError(f"triangle_error must be 'angle' or 'distance', got {triangle_error!r}")
+    triangle_error = check_choice("triangle_error", triangle_error, ("angle", "distance"))
     options = WarpOptions.of(  # checked before the long stages
         warp_options,
         method=method,
@@ -330,7 +332,8 @@ def report(
     )
     if construction:
         check_radius(construction_radius, "construction_radius")
-    eps = check_eps(eps)
+    # plain numbers and names now, as the summary holds them (a numpy integer is no JSON)
+    grid, angle, eps = check_grid(grid), check_angle_measure(angle), check_eps(eps)
     if percentile is not None:
         percentile = colormaps.check_percentile("percentile", percentile)
     if triangle_percentile is not None:

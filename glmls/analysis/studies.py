@@ -34,12 +34,12 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from ..core.config import MLSConfig, check_seed, image_diagonal
+from ..core.config import MLSConfig, check_integer, check_seed, image_diagonal
 from ..core.handles import check_reference_points
 from ..data.manifest import StudyItem
 from ..files.atomic import atomic_write
 from .colormaps import VIRIDIS
-from .jobs import run_jobs
+from .jobs import check_jobs, run_jobs
 from .tuning import MISS_LIMIT, TuneResult, label, parse_config, search_space, tune
 
 __all__ = ["StudyResult", "StudyTask", "render_heatmap", "study", "study_label", "tune_item"]
@@ -264,11 +264,12 @@ def study(
     Raises
     ------
     ValueError
-        For no items, repeated names, bad trials or seed, no configurations, or an item whose
-        handles or points cannot be tuned (naming the item).
+        For no items, repeated names, trials, seed or jobs out of range, no configurations, or
+        an item whose handles or points cannot be tuned (naming the item).
     TypeError
-        For items that are not :class:`~glmls.data.StudyItem` values, or configurations
-        that are neither :class:`~glmls.MLSConfig` values nor specs.
+        For items that are not :class:`~glmls.data.StudyItem` values, configurations that
+        are neither :class:`~glmls.MLSConfig` values nor specs, or trials, seed or jobs that
+        are not integers.
 
     Examples
     --------
@@ -303,11 +304,9 @@ def study(
     if len(set(names)) != len(names):
         repeated = sorted({n for n in names if names.count(n) > 1})
         raise ValueError(f"item names must differ; repeated: {', '.join(repeated)}")
-    if trials is not None and (
-        isinstance(trials, bool) or not isinstance(trials, int) or trials < 1
-    ):
-        raise ValueError(f"trials must be an integer >= 1, got {trials!r}")
-    seed = check_seed(seed)
+    if trials is not None:
+        trials = check_integer("trials", trials, 1)
+    seed, jobs = check_seed(seed), check_jobs(jobs)
     for index, item in enumerate(items):  # before any tune: not after hours of the others
         try:
             check_reference_points(item.reference)

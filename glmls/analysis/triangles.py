@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.config import check_real
+from ..core.config import check_choice, check_real
 from ..core.handles import check_reference_points
 from .stats import error_stats
 
@@ -166,12 +166,10 @@ def _corner_cosines(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def check_angle_measure(angle: object) -> str:
-    """``angle`` if it names one of :data:`ANGLE_MEASURES`, else ``ValueError``."""
-    if not isinstance(angle, str) or angle not in ANGLE_MEASURES:
-        raise ValueError(
-            f"angle must be one of {', '.join(map(repr, ANGLE_MEASURES))}, got {angle!r}"
-        )
-    return angle
+    """``angle`` if it names one of :data:`ANGLE_MEASURES`: ``TypeError`` for a value that is
+    no string (None, a number), ``ValueError`` for another string
+    (:func:`~glmls.core.config.check_choice`)."""
+    return check_choice("angle", angle, ANGLE_MEASURES)
 
 
 def check_eps(eps: object) -> float:

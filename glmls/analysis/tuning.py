@@ -33,9 +33,17 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from ..core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig, check_seed, image_diagonal
+from ..core.config import (
+    RADIUS_WEIGHTS,
+    TRANSFORMS,
+    WEIGHTS,
+    MLSConfig,
+    check_integer,
+    check_seed,
+    image_diagonal,
+)
 from ..core.handleset import HandleSet
-from ..core.mesh import as_shape
+from ..core.mesh import as_shape, check_grid
 from ..errors import DegenerateHandlesError
 from ..gl.context import GLContext
 from .jobs import run_jobs
@@ -398,11 +406,12 @@ def tune(
     Raises
     ------
     ValueError
-        For a bad shape, handles (or none at all), reference points, trials, seed (not an
-        integer >= 0), grid, magnitudes, angle or ``rank_by``, no configurations, or none
-        that can be built for these handles.
+        For a bad shape, handles (or none at all), reference points, trials (< 1), seed
+        (< 0), grid (out of range), magnitudes, angle or ``rank_by``, no configurations, or
+        none that can be built for these handles.
     TypeError
-        For configurations that are not :class:`~glmls.MLSConfig` values.
+        For configurations that are not :class:`~glmls.MLSConfig` values, trials, seed or
+        grid that are not integers (2.0 is none), or an angle that is no string.
 
     See Also
     --------
@@ -425,10 +434,7 @@ def tune(
     if rank_by not in MEASURES:
         raise ValueError(f"unknown measure {rank_by!r}; choose one of {', '.join(MEASURES)}")
     angle = check_angle_measure(angle)
-    if isinstance(trials, bool) or not isinstance(trials, int) or trials < 1:
-        raise ValueError(f"trials must be an integer >= 1, got {trials!r}")
-    if isinstance(grid, bool) or not isinstance(grid, int) or grid < 1:
-        raise ValueError(f"grid must be an integer >= 1, got {grid!r}")
+    trials, grid = check_integer("trials", trials, 1), check_grid(grid)
     seed = check_seed(seed)
     magnitudes = _check_magnitudes(magnitudes)
     configs = list(configs) if configs is not None else search_space(shape)

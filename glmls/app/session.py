@@ -130,9 +130,13 @@ class Session:
         joined = Bounds(
             min(b.x0, -0.5), min(b.y0, -0.5), max(b.x1, width - 0.5), max(b.y1, height - 0.5)
         )
-        if max(joined.output_shape) > limit:  # f blows the image up past the GL limit
+        try:
+            frame = joined.frame
+        except ValueError:  # f blows the image up past the coordinate range
             return Frame(self.shape)
-        return joined.frame
+        if max(frame.shape) > limit:  # or past the GL limit
+            return Frame(self.shape)
+        return frame
 
     def analyse(self, scale: float) -> Analysis:
         """The analysis overlays that are on, for the view's ``scale`` (framebuffer pixels

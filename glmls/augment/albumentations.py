@@ -22,6 +22,7 @@ from typing import Any
 import albumentations as A
 import numpy as np
 
+from ..batch.inputs import check_coordinates, check_points
 from ..core.config import check_real
 from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks
 from .labels import canvas_shape
@@ -265,7 +266,9 @@ class MLSDeform(A.DualTransform):
         # a NaN keypoint (a missing one) stays NaN, as albumentations' affine transforms
         # carry it; the deformation moves the others
         missing = np.isnan(points).any(axis=1)
-        points = np.where(missing[:, None], 0.0, points)
+        # checked here, as rows of this image's keypoints (replay_labels's messages would
+        # name the image's place in a batch of one)
+        points = check_points(np.where(missing[:, None], 0.0, points), "keypoints", rows="K")
         moved = np.asarray(replay_labels(self.augment, [mls], keypoints=[points]).keypoints[0])
         out[:, :2] = np.where(missing[:, None], np.nan, moved)
         return out
@@ -303,6 +306,7 @@ class MLSDeform(A.DualTransform):
         height, width = check_params([mls], 1)[0]["shape"]
         scale = np.array([width, height, width, height], np.float64)
         boxes = np.asarray(bboxes[:, :4], np.float64) * scale - 0.5  # pixel centres at integers
+        boxes = check_coordinates(boxes, "bboxes")  # rows of this image's boxes
         moved = replay_boxes(self.augment, [mls], [boxes])[0]
         out = np.array(bboxes, np.float64, copy=True)
         height, width = canvas_shape(mls)  # fractions of the output's size (output_shape)

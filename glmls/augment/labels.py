@@ -16,9 +16,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..batch.inputs import item_array
+from ..batch.inputs import check_coordinates, item_array
 from ..core.config import check_real, counted
-from ..core.handles import COORDINATE_LIMIT
 from ..imaging.options import FIELDS, WarpOptions
 
 __all__ = [
@@ -47,15 +46,7 @@ def _finite(array: np.ndarray, name: str, columns: int, rows: str = "B") -> np.n
         raise TypeError(f"{name} has dtype {array.dtype}; expected real numbers")
     if array.ndim != 2 or array.shape[1] != columns:
         raise ValueError(f"{name} has shape {array.shape}; expected ({rows}, {columns})")
-    array = np.asarray(array, np.float64)
-    if not np.isfinite(array).all():
-        raise ValueError(f"{name} holds values that are not finite (NaN or inf)")
-    if array.size and np.abs(array).max() > COORDINATE_LIMIT:
-        raise ValueError(
-            f"{name} must lie within ±{COORDINATE_LIMIT:g} px of the origin in x and y; "
-            f"it reaches {np.abs(array).max():g}"
-        )
-    return array
+    return check_coordinates(np.asarray(array, np.float64), name)
 
 
 def _per_image(value: object, name: str, count: int) -> tuple[list, bool]:

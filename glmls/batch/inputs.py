@@ -91,7 +91,7 @@ def check_points(array: np.ndarray, name: str, *, rows: str) -> np.ndarray:
     be given as ``[]``): the check of every handle set and keypoint set of a batch (and of
     :class:`glmls.augment.Augment`'s keypoints and recorded handles). ``TypeError`` for
     values that are not real numbers, ``ValueError`` for another shape, a value that is not
-    finite or one beyond the limit, each naming ``name``."""
+    finite or one beyond the limit, each naming ``name`` and the first such row."""
     if array.dtype == object or not (
         np.issubdtype(array.dtype, np.number) and not np.issubdtype(array.dtype, np.complexfloating)
     ):
@@ -100,16 +100,26 @@ def check_points(array: np.ndarray, name: str, *, rows: str) -> np.ndarray:
         array = array.reshape(0, 2)
     if array.ndim != 2 or array.shape[1] != 2:
         raise ValueError(f"{name} has shape {array.shape}; expected ({rows}, 2)")
-    points = np.asarray(array, dtype=np.float64)
-    if not np.isfinite(points).all():
-        raise ValueError(f"{name} holds values that are not finite (NaN or inf)")
-    if len(points) and np.abs(points).max() > COORDINATE_LIMIT:
+    return check_coordinates(np.asarray(array, dtype=np.float64), name)
+
+
+def check_coordinates(rows: np.ndarray, name: str) -> np.ndarray:
+    """``rows``, a 2-d float64 array of coordinates (points, or boxes' corners), if every
+    value is finite and within the coordinate limit; ``ValueError`` naming ``name`` and the
+    first row that is not."""
+    finite = np.isfinite(rows).all(axis=1)
+    if not finite.all():
+        row = int(np.argmin(finite))
+        raise ValueError(f"{name} holds values that are not finite (NaN or inf): row {row}")
+    reach = np.abs(rows).max(axis=1, initial=0.0)
+    if len(rows) and reach.max() > COORDINATE_LIMIT:
         # as for one warp: float32 on the GPU keeps ~1e-7 of the coordinates' extent
+        row = int(np.argmax(reach))
         raise ValueError(
             f"{name} must lie within ±{COORDINATE_LIMIT:g} px of the origin in x and y; "
-            f"it reaches {np.abs(points).max():g}"
+            f"row {row} reaches {reach[row]:g}"
         )
-    return points
+    return rows
 
 
 def _mask(array: np.ndarray, name: str, shape: tuple[int, int]) -> np.ndarray:

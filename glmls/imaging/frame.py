@@ -189,7 +189,8 @@ class Bounds:
     TypeError
         For a value that is not a real number (:func:`~glmls.core.config.check_real`).
     ValueError
-        For a value that is not finite.
+        For a value that is not finite; from :attr:`output_shape` and :attr:`frame`, for a
+        canvas beyond the coordinate range (a side over 1e6 pixels).
 
     Examples
     --------
@@ -221,11 +222,20 @@ class Bounds:
 
     @property
     def output_shape(self) -> tuple[int, int]:
-        """(H, W) of the pixels the box touches, at least 1 x 1."""
+        """(H, W) of the pixels the box touches, at least 1 x 1; ``ValueError`` where no warp
+        can take that canvas: a side or its origin beyond the coordinate range
+        (:data:`~glmls.core.handles.COORDINATE_LIMIT`, the limit of an image's sides and of
+        ``origin``; a device's GL limit on a side is far below it)."""
         ox, oy = self.origin
-        width = math.ceil(self.x1 - 0.5 - FIT_SLACK) - int(ox) + 1
-        height = math.ceil(self.y1 - 0.5 - FIT_SLACK) - int(oy) + 1
-        return max(1, height), max(1, width)
+        width = max(1, math.ceil(self.x1 - 0.5 - FIT_SLACK) - int(ox) + 1)
+        height = max(1, math.ceil(self.y1 - 0.5 - FIT_SLACK) - int(oy) + 1)
+        limit = COORDINATE_LIMIT
+        if max(width, height) > limit or max(abs(ox), abs(oy)) > limit:
+            raise ValueError(
+                f"{self!r} is beyond glmls's coordinate range: its canvas would have a side "
+                f"over {limit:.0e} px or an origin beyond ±{limit:.0e} px, which no warp takes"
+            )
+        return height, width
 
     @property
     def frame(self) -> Frame:

@@ -107,6 +107,7 @@ def test_bad_jobs_and_schedulers():
     for jobs in (1.5, "2", True, None):
         with pytest.raises(TypeError, match=f"got {jobs!r}"):
             run_jobs(fail_on_two, [1], jobs=jobs)
+    assert run_jobs(abs, [-1], jobs=np.int64(1)) == run_jobs(abs, [-1], jobs=np.array(1)) == [1]
     with pytest.raises(ValueError, match="scheduler must be 'local' or"):
         run_jobs(fail_on_two, [1], scheduler=" ")
     with pytest.raises(TypeError, match="function must be callable"):

@@ -131,6 +131,37 @@ def test_bad_arguments(gl):
             glmls.analysis.report(np.zeros((8, 8)), m, REFERENCE[:2])
 
 
+def test_numpy_options_give_a_summary_json_can_write(gl, tmp_path):
+    image = np.zeros((24, 32), np.uint8)
+    with glmls.MLS(SRC, DST, ctx=gl) as m:
+        for grid in (np.int64(2), np.array(2)):
+            result = glmls.analysis.report(
+                image,
+                m,
+                REFERENCE,
+                grid=grid,
+                angle=np.str_("paper"),
+                eps=np.float32(1e-6),
+                percentile=np.array(90.0),
+                triangle_percentile=np.float64(95),
+                mesh_grid=np.int32(8),
+                warp_grid=np.int64(2),
+                construction_radius=np.int64(2),
+                triangle_error=np.str_("distance"),
+                out_dir=tmp_path,
+            )
+            analysis = json.loads((tmp_path / "report.json").read_text())["analysis"]
+            assert analysis["grid"] == 2 and type(result.summary["analysis"]["grid"]) is int
+            assert analysis["angle"] == "paper" and analysis["triangle_error"] == "distance"
+
+
+def test_option_types(gl):
+    with glmls.MLS(SRC, DST, ctx=gl) as m:
+        for keywords in ({"grid": 2.0}, {"angle": None}, {"triangle_error": 1}):
+            with pytest.raises(TypeError, match=f"{next(iter(keywords))} must be"):
+                glmls.analysis.report(np.zeros((8, 8)), m, REFERENCE, **keywords)
+
+
 def test_demo_writes_the_figures(gl, tmp_path, monkeypatch):
     argv = ["paper_figures_6_7.py", "--out", str(tmp_path), "--grid", "8"]
     monkeypatch.setattr(sys, "argv", argv)

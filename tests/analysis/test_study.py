@@ -127,6 +127,16 @@ def test_bad_arguments(gl):
         studies.study(twice, configs=["rigid:idw"], trials=1)
     with pytest.raises(ValueError, match="trials must be an integer >= 1, got 0"):
         studies.study(items(), trials=0)
+    with pytest.raises(TypeError, match=r"trials must be an integer >= 1, got 1\.0"):
+        studies.study(items(), trials=1.0)
+
+
+def test_numpy_integers_give_a_summary_json_can_write(gl):
+    found = studies.study(
+        items()[:1], configs=["rigid:idw"], trials=np.int64(1), seed=np.array(0), jobs=np.int64(1)
+    )
+    summary = json.loads(json.dumps(found.summary()))
+    assert summary["settings"]["trials"] == 1 and summary["timings"]["jobs"] == 1
     with pytest.raises(TypeError, match="expected MLSConfig or spec strings"):
         studies.study(items(), configs=[3])
     with pytest.raises(TypeError, match="items must be StudyItems"):

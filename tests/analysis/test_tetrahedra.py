@@ -173,7 +173,7 @@ def test_delaunay_slivers_of_random_points_are_below_the_threshold():
         (CORNER, {"tetrahedra": [[0, 1, 2, 4]]}, "index the 4"),
         (CORNER, {"tetrahedra": [[0, 1, 2, 2]]}, "repeats a vertex"),
         (CORNER, {"tetrahedra": [[0, 1, 2]]}, r"\(T, 4\)"),
-        (CORNER, {"angle": "radians"}, "angle must be one of"),
+        (CORNER, {"angle": "radians"}, "unknown angle 'radians'"),
         (CORNER, {"eps": 0}, "eps"),
         (CORNER, {"min_quality": 1.0}, "min_quality"),
     ],
@@ -181,6 +181,12 @@ def test_delaunay_slivers_of_random_points_are_below_the_threshold():
 def test_bad_arguments_raise(points, options, message):
     with pytest.raises(ValueError, match=message):
         tetrahedron_errors(lambda r: r, points, **options)
+
+
+def test_an_angle_measure_of_another_type_is_a_type_error():
+    for angle in (None, 1):
+        with pytest.raises(TypeError, match=f"angle must be a string, .*; got {angle}"):
+            tetrahedron_errors(lambda r: r, CORNER, angle=angle)
 
 
 def test_a_bad_map_raises():

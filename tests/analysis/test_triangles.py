@@ -206,6 +206,8 @@ def test_degrees_are_comparable_across_angles():
 
 def test_bad_angle_measure():
     r = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
-    for angle in ("cosine", None, 1):
-        with pytest.raises(ValueError, match="angle must be one of"):
+    with pytest.raises(ValueError, match="unknown angle 'cosine'"):
+        glmls.analysis.triangle_errors(lambda v: v, r, angle="cosine")
+    for angle in (None, 1, b"paper"):
+        with pytest.raises(TypeError, match="angle must be a string"):
             glmls.analysis.triangle_errors(lambda v: v, r, angle=angle)

@@ -183,8 +183,13 @@ def test_bad_arguments():
         tuning.tune((30, 40), SRC, DST, REFERENCE, rank_by="speed")
     with pytest.raises(ValueError, match="trials must be"):
         tuning.tune((30, 40), SRC, DST, REFERENCE, trials=0)
-    with pytest.raises(ValueError, match="angle must be"):
+    for keywords in ({"trials": 1.0}, {"trials": True}, {"grid": 2.0}, {"grid": None}):
+        with pytest.raises(TypeError, match=f"{next(iter(keywords))} must be an integer"):
+            tuning.tune((30, 40), SRC, DST, REFERENCE, **keywords)
+    with pytest.raises(ValueError, match="unknown angle 'cosine'"):
         tuning.tune((30, 40), SRC, DST, REFERENCE, angle="cosine")
+    with pytest.raises(TypeError, match="angle must be a string, one of degrees, paper; got 1"):
+        tuning.tune((30, 40), SRC, DST, REFERENCE, angle=1)
     with pytest.raises(ValueError, match="seed must be an integer >= 0, got -1"):
         tuning.tune((30, 40), SRC, DST, REFERENCE, seed=-1)
     for seed in (1.5, "0", True):
@@ -207,6 +212,15 @@ def test_bad_arguments():
         tuning.tune((30, 40), SRC, DST, REFERENCE, configs=["rigid:idw"])
     with pytest.raises(ValueError, match="at least 3"):
         tuning.tune((30, 40), SRC, DST, REFERENCE[:2])
+
+
+def test_numpy_integers_are_integers(gl):
+    configs = [glmls.MLSConfig(transform="rigid")]
+    found = tuning.tune(
+        (30, 40), SRC, DST, REFERENCE, trials=np.int64(1), grid=np.array(2), configs=configs
+    )
+    assert type(found.settings["trials"]) is type(found.settings["grid"]) is int
+    json.dumps(found.settings)
 
 
 def test_a_configuration_given_twice_is_ranked_once(gl):

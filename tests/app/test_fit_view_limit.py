@@ -10,6 +10,7 @@ import pytest
 from glmls.app.controller import Controller, Settings
 from glmls.app.layout import layout
 from glmls.app.session import Session
+from glmls.core.config import MLSConfig
 from glmls.imaging.pipeline import WarpPipeline
 
 
@@ -29,6 +30,23 @@ def test_the_fit_view_takes_a_canvas_exactly_at_the_limit(gl, shift, fits):
             assert session.canvas.origin == (0.0, 0.0)
         else:  # f blows the image up past the GL limit: the input's frame
             assert session.canvas.shape == shape
+    finally:
+        if session.mls is not None:
+            session.mls.release()
+
+
+def test_the_fit_view_of_an_image_blown_past_the_coordinate_range_is_the_input(gl):
+    """An affine map that takes 1 px to 1e6 px: its canvas is no warp's."""
+    shape = (32, 32)
+    src = np.array([[10.0, 10.0], [11.0, 10.0], [10.0, 11.0]])
+    dst = np.array([[0.0, 0.0], [1e6, 0.0], [0.0, 1e6]])
+    settings = Settings(config=MLSConfig(transform="affine"), fit=True)
+    c = Controller(src, dst, shape, settings=settings)
+    session = Session(gl, c, shape)
+    try:
+        session.sync()
+        assert session.mls is not None
+        assert session.canvas.shape == shape and session.canvas.origin == (0.0, 0.0)
     finally:
         if session.mls is not None:
             session.mls.release()

@@ -123,6 +123,21 @@ def test_albumentations_landmarks_and_text_presets(gl, sample):
         assert A.Compose([MLSDeform(name)], seed=0)(image=image)["image"].shape == image.shape
 
 
+def test_albumentations_names_the_row_of_a_keypoint_or_box_that_is_not_finite(gl):
+    t = MLSDeform(preset_options={"displacement": 0})
+    t.set_random_seed(0)
+    draw = t.get_params_dependent_on_data({"shape": (16, 16)}, {})
+    points = np.array([[4.0, 5.0, 0, 1], [1, 1, 0, 1], [2, 2, 0, 1], [np.inf, 3, 0, 1]])
+    with pytest.raises(ValueError, match=r"^keypoints holds .* not finite .*: row 3$"):
+        t.apply_to_keypoints(points, **draw)
+    points[3, 0] = 1e300
+    with pytest.raises(ValueError, match=r"^keypoints must lie within .*; row 3 reaches 1e\+300$"):
+        t.apply_to_keypoints(points, **draw)
+    boxes = np.array([[0.1, 0.2, 0.5, 0.6]] * 2 + [[0.1, 0.2, np.inf, 0.6]])
+    with pytest.raises(ValueError, match=r"^bboxes holds .* not finite .*: row 2$"):
+        t.apply_to_bboxes(boxes, **draw)
+
+
 def test_torchvision_batch_draws_per_sample(gl, rng):
     images = torch.from_numpy(rng.integers(0, 255, (3, 3, 24, 40), dtype=np.uint8))
     masks = torch.zeros(3, 24, 40, dtype=torch.int64)

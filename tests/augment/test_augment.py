@@ -207,7 +207,9 @@ def test_bad_input_names_the_item(gl, images):
         aug([images[0], np.zeros((0, 5), np.uint8)])
     points = np.ones((5, 2, 2))
     points[3, 1, 0] = np.nan
-    with pytest.raises(ValueError, match=r"keypoints\[3\] holds values that are not finite"):
+    with pytest.raises(
+        ValueError, match=r"keypoints\[3\] holds values that are not finite .*: row 1$"
+    ):
         aug(images, keypoints=points)
     with pytest.raises(ValueError, match=r"keypoints\[0\] has shape \(3,\)"):
         aug(images[:1], keypoints=[np.ones(3)])

@@ -135,6 +135,23 @@ def test_bounds_canvas_rounding():
     assert wide.origin == (-1.0, 0.0) and wide.output_shape == (2, 6)
 
 
+def test_a_canvas_beyond_the_coordinate_range_is_refused():
+    widest = Bounds(-0.5, -0.5, 1e6 - 0.5, 1.5)  # pixels 0 .. 999999: sides up to 1e6
+    assert widest.output_shape == (2, 1_000_000)
+    assert Bounds(999999.4, 0, 999999.45, 1).output_shape == (2, 1)
+    for box in (
+        (0, 0, 1e308, 10),
+        (-1e308, -1e308, 1e308, 1e308),
+        (-0.5, -0.5, 1e6 + 0.5, 1.5),  # one pixel wider
+        (1e6 + 0.6, 0, 1e6 + 0.7, 1),  # one pixel, beyond the origin's range
+    ):
+        b = Bounds(*box)
+        with pytest.raises(ValueError, match=r"Bounds\(x0=.* beyond glmls's coordinate range"):
+            _ = b.output_shape
+        with pytest.raises(ValueError, match="coordinate range"):
+            _ = b.frame
+
+
 def test_coordinate_map_on_a_canvas(gl):
     shape = (30, 40)
     p, q = push_out(shape)
