@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 set -uo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/.." || exit 1
 
 out=${OUT:-bench-out}
 mkdir -p "$out"
@@ -38,7 +38,11 @@ fi
 # pytest-xdist, where installed, runs the GL tests in parallel processes (one context each);
 # -v names each failure as it happens, and SIGINT at the limit still prints the summary
 parallel=()
-if "$PYTHON" -c 'import xdist' 2>/dev/null; then parallel=(-n 14); fi
+if "$PYTHON" -c 'import xdist' 2>/dev/null; then
+    parallel=(-n 14)
+else
+    echo "== tests: in one process (no pytest-xdist: pip install pytest-xdist)" >&2
+fi
 # GLMLS_DUMP_SHADERS: the tests' composed shaders, for the reference compiler below
 rm -rf "$out/shaders"
 step tests 240 env GLMLS_DUMP_SHADERS="$out/shaders" timeout -s INT 230 "$PYTHON" -m pytest -v -rfE --durations=20 --maxfail=30 \
@@ -56,14 +60,20 @@ step profile-stages 30 "$PYTHON" benchmarks/profile_stages.py --size 1024 --hand
 step adaptive-stages-W1 20 "$PYTHON" benchmarks/adaptive_stages.py --workload W1 --tolerance 0.05
 step adaptive-stages-W2 20 "$PYTHON" benchmarks/adaptive_stages.py --workload W2 --tolerance 0.05
 step volume-bench 60 "$PYTHON" benchmarks/volume_bench.py --size 256 --repeat 3 --memory 512 --skip-peers
-# where the time of a volume warp, a batch and a mesh deformation goes (GPU per shader, host)
+# where the time of a volume warp, a batch and a mesh deformation goes (GPU per shader, host);
+# a workload that fails does not stop the others, and the last line names it
 stages() {
+    local failed=()
     for workload in "volume --method quads" "volume --method backward" "batch --n 1024" \
         "batch --n 256 --keypoints" "mesh"; do
         echo "== gl_stages.py $workload"
         # shellcheck disable=SC2086
-        "$PYTHON" benchmarks/gl_stages.py $workload --top 12 || return 1
+        "$PYTHON" benchmarks/gl_stages.py $workload --top 12 || failed+=("$workload")
     done
+    if ((${#failed[@]})); then
+        printf 'gl_stages.py failed: %s\n' "${failed[@]}"
+        return 1
+    fi
 }
 export -f stages
 export PYTHON

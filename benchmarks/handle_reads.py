@@ -94,7 +94,9 @@ def main() -> None:
     n = args.handles
     if n % 64 or not 64 <= n <= 1024:
         parser.error("--handles must be a multiple of 64 from 64 to 1024")
-    ctx = glmls.gl.get_context().mgl
+    gl = glmls.gl.get_context()
+    gl.make_current()  # raw moderngl calls below: glmls binds its context only in its calls
+    ctx = gl.mgl
     handles = np.random.default_rng(0).random((n, 4), dtype=np.float32)
     groups = (args.points + 63) // 64
     buffers = [ctx.buffer(handles.tobytes()), ctx.buffer(reserve=groups * 64 * 8)]
@@ -124,6 +126,7 @@ def main() -> None:
         program.release()
     for obj in (*buffers, texture):
         obj.release()
+    gl.unbind()
 
 
 if __name__ == "__main__":

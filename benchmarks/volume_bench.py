@@ -24,12 +24,14 @@ resident memory (``ru_maxrss``, the volume included) is its own:
   8 (the memory is that of the volume, the output and the slabs; the step keeps the run
   short on a CPU renderer).
 
-Prints one line per measurement: tool, seconds, peak MiB.
+Prints one line per measurement: tool, seconds, peak MiB; a peer that is not installed is
+skipped with a line that says so. Exits 1 when a measurement fails.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import resource
 import statistics
@@ -115,11 +117,11 @@ def child(tool: str, args, **override) -> dict:
         command += [f"--{name}", str(settings[name])]
     result = subprocess.run(command, capture_output=True, text=True, check=False)
     if result.returncode:
-        return {"error": result.stderr.strip().splitlines()[-1:]}
+        return {"error": (result.stderr.strip().splitlines() or ["no output"])[-1]}
     return json.loads(result.stdout.strip().splitlines()[-1])
 
 
-def main() -> None:
+def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--handles", type=int, default=64)
@@ -131,27 +133,38 @@ def main() -> None:
     parser.add_argument("--method", default="quads", help=argparse.SUPPRESS)
     parser.add_argument("--dtype", default="uint8", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    for name in ("size", "repeat"):
+        if getattr(args, name) < 1:
+            parser.error(f"--{name} must be at least 1, got {getattr(args, name)}")
     if args.child:
         run = {"glmls": run_glmls, "scipy": run_scipy, "molesq": run_molesq}[args.child]
         print(json.dumps(run(args)))
-        return
+        return 0
     print(f"{args.size}^3 uint8, {args.handles} handles, rigid idw, grid {args.grid}")
     rows = [
         ("glmls quads", child("glmls", args, method="quads")),
         ("glmls backward", child("glmls", args, method="backward")),
     ]
     if not args.skip_peers:
-        rows += [("scipy tps (scaled)", child("scipy", args))]
-        rows += [("molesq affine (scaled)", child("molesq", args))]
+        for name, tool in (("scipy tps (scaled)", "scipy"), ("molesq affine (scaled)", "molesq")):
+            if importlib.util.find_spec(tool) is None:
+                rows += [(name, {"skipped": f"{tool} is not installed"})]
+            else:
+                rows += [(name, child(tool, args))]
     if args.memory:
         big = {"size": args.memory, "grid": 8, "dtype": "uint16", "repeat": 1}
         rows += [(f"glmls quads {args.memory}^3 uint16", child("glmls", args, **big))]
+    failed = 0
     for name, result in rows:
-        if "error" in result:
+        if "skipped" in result:
+            print(f"{name:32s} skipped: {result['skipped']}")
+        elif "error" in result:
             print(f"{name:32s} failed: {result['error']}")
+            failed += 1
         else:
             print(f"{name:32s} {result['seconds']:9.3f} s {result['peak_mib']:9.0f} MiB peak")
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -44,6 +44,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--window-size", default="1000x560")
     parser.add_argument("--json", help="write the result here")
     args = parser.parse_args(argv)
+    for name, least in (("frames", 1), ("warmup", 0), ("steps", 1)):
+        if getattr(args, name) < least:
+            parser.error(f"--{name} must be >= {least}, got {getattr(args, name)}")
     volume = phantom()
     src, dst = phantom_handles()
     width, height = (int(v) for v in args.window_size.split("x"))

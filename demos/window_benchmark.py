@@ -76,6 +76,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--window-size", default="840x512")
     parser.add_argument("--json", help="write the result here")
     args = parser.parse_args(argv)
+    for name, least in (("frames", 1), ("warmup", 0)):
+        if getattr(args, name) < least:
+            parser.error(f"--{name} must be >= {least}, got {getattr(args, name)}")
+    if not 0 <= args.construction < len(CONSTRUCTIONS):
+        parser.error(
+            f"--construction must be 0 to {len(CONSTRUCTIONS) - 1}, got {args.construction}"
+        )
     image = astronaut()
     src, dst = astronaut_handles()
     src = np.concatenate([src, EXTRA]).astype(float)

@@ -86,6 +86,21 @@ WORKLOADS = {
 }
 
 
+def bad_case(case: str) -> str | None:
+    """Why ``case`` is not ``WORKLOAD:OPTION=NUMBER`` with a known workload, or None."""
+    workload, _, option = case.partition(":")
+    key, _, value = option.partition("=")
+    if workload not in WORKLOADS:
+        return f"the workload is one of {', '.join(WORKLOADS)}"
+    if not key or not value:
+        return "expected WORKLOAD:OPTION=VALUE"
+    try:
+        float(value) if key == "tolerance" else int(value)
+    except ValueError:
+        return f"{key} takes {'a number' if key == 'tolerance' else 'an integer'}"
+    return None
+
+
 def make_step(tree: str, case: str, warmup: float = 0.5, package: types.ModuleType | None = None):
     """In this process: ``case``'s step (one call: one warp, or one frame) on the glmls of
     ``tree`` (``package``: that tree already imported, see :func:`load_tree`), after untimed
@@ -343,8 +358,16 @@ def main() -> None:
         return
     if not args.trees or not args.cases:
         parser.error("--trees and --cases are required")
+    if args.rounds < 1 or args.repeat < 1:
+        parser.error(f"--rounds and --repeat must be >= 1, got {args.rounds}, {args.repeat}")
+    if any("=" not in item for item in args.trees.split(",")):
+        parser.error(f"--trees is NAME=PATH,..., got {args.trees!r}")
     trees = dict(item.split("=", 1) for item in args.trees.split(","))
     cases = args.cases.split(",")
+    for case in cases:
+        why = bad_case(case)
+        if why:
+            parser.error(f"--cases: {case!r}: {why}")
     if args.ratios and not (args.paired or args.together):
         parser.error("--ratios pairs calls: it needs --paired or --together")
     if args.paired and args.together:

@@ -120,3 +120,21 @@ def test_ab_trees_paired_survives_a_worker_that_dies(tmp_path):
     lines = run.stdout.splitlines()
     assert lines[1].startswith("W3:grid=8 | ") and lines[1].endswith(" | -")
     assert lines[2] == "W3:grid=8|bad/W3:grid=8|good: -"
+
+
+@pytest.mark.parametrize(
+    ("arguments", "message"),
+    [
+        (("--cases", "W9:grid=8"), "the workload is one of W1, W2, W3"),
+        (("--cases", "W3:grid"), "expected WORKLOAD:OPTION=VALUE"),
+        (("--cases", "W3:grid=8.5"), "grid takes an integer"),
+        (("--cases", "W3:tolerance=small"), "tolerance takes a number"),
+        (("--cases", "W3:grid=8", "--repeat", "0"), "--rounds and --repeat must be >= 1"),
+        (("--cases", "W3:grid=8", "--rounds", "0"), "--rounds and --repeat must be >= 1"),
+    ],
+)
+def test_ab_trees_refuses_a_case_or_count_it_cannot_time(arguments, message):
+    """A malformed case, an unknown workload or no calls to time: a usage error (exit 2)
+    before any tree runs, not a table of "-" or a crash part way."""
+    run = run_script("ab_trees.py", "--trees", "a=.", *arguments, timeout=60, returncode=2)
+    assert message in run.stderr

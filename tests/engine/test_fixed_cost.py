@@ -84,3 +84,38 @@ def test_guarantee_reports_each_case_and_the_worst_per_weight():
     assert 0 < float(summary.split()[-1]) <= 1.0
     inset, at_tests = (float(case.split()[k].strip(",")) for k in (-6, -1))
     assert 0.5 < inset <= at_tests and inset < 1.25
+
+
+def test_volume_bench_prints_each_measurement():
+    """benchmarks/volume_bench.py, small: both methods, the peers (a line that says a peer is
+    not installed where it is not) and the memory case, each with its seconds and peak."""
+    run = run_script(
+        "volume_bench.py", "--size", "16", "--handles", "4", "--grid", "4", "--memory", "16"
+    )
+    rows = {line[:32].strip(): line[32:].split() for line in run.stdout.splitlines()[1:]}
+    assert list(rows) == [
+        "glmls quads",
+        "glmls backward",
+        "scipy tps (scaled)",
+        "molesq affine (scaled)",
+        "glmls quads 16^3 uint16",
+    ]
+    for name, words in rows.items():
+        if words[0] == "skipped:":
+            assert name.endswith("(scaled)") and words[-2:] == ["not", "installed"]
+        else:
+            assert words[1:] == ["s", words[2], "MiB", "peak"] and float(words[0]) > 0
+
+
+def test_volume_bench_exits_1_when_a_measurement_fails():
+    run = run_script("volume_bench.py", "--size", "16", "--grid", "0", "--skip-peers", returncode=1)
+    assert run.stdout.count("failed: ValueError: grid") == 2
+
+
+def test_handle_reads_times_each_storage():
+    """benchmarks/handle_reads.py, small: nanoseconds per handle and point for each place the
+    handles can live (raw moderngl calls on glmls's context)."""
+    run = run_script("handle_reads.py", "--points", "1024", "--handles", "64")
+    names = [line[:20].strip() for line in run.stdout.splitlines()]
+    assert {"storage buffer", "uniform block", "texture", "shared tile"} <= set(names)
+    assert all(float(line.split()[-6]) > 0 for line in run.stdout.splitlines())
