@@ -50,6 +50,9 @@ trace(A)))^2, so well-spread sources get the exact closed forms:
   the data's own rotation where the sources spread, and a smooth blend between (an
   antiparallel a B, a half turn, has no continuous choice: any perpendicular axis); three
   or more coplanar sources need nothing: the reflection fix acts on B's null direction;
+- collinear targets (B of rank 1, however the sources spread): the rotation about the
+  targets' line is free; the same rule adds c' |B| R0', c' and R0' those of B B^T (its
+  middle eigenvalue against its trace, and its principal axis a' to the direction of a' B);
 - coplanar sources (affine): (A + g(A))^-1 (B + g(A) M_sim), a ridge toward the similarity
   solution M_sim in the directions where A is (nearly) singular; exact for a global
   similarity, and on a plane the in-plane part is the 2D affine solution (a global affine
@@ -732,13 +735,19 @@ def _least_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _rotation3(big_a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The proper rotation R maximising trace(R^T B') (Kabsch with row vectors,
-    sum w |p^ R - q^|^2 least), B' = B + c |B| R0 with R0 the least rotation taking A's
-    principal axis to its image under B, and c the ridge's share for A's middle eigenvalue:
-    0 unless the sources are near one line (where the rotation about it is free)."""
+    sum w |p^ R - q^|^2 least), B' = B + c |B| R0 + c' |B| R0' with R0 the least rotation
+    taking A's principal axis to its image under B, and c the ridge's share for A's middle
+    eigenvalue: 0 unless the sources are near one line (where the rotation about it is
+    free); R0' and c' likewise of B B^T, whose middle eigenvalue (B's middle singular value
+    squared) is small where the targets are near one line, the sources spread or not (B of
+    rank 1 leaves the rotation about the targets' line free)."""
     _, share, axis = _ridge(big_a)
     r0 = _least_rotation(axis, np.einsum("ki,kij->kj", axis, b))
-    gamma = share * np.linalg.norm(b, axis=(-2, -1))
-    shifted = b + gamma[:, None, None] * r0
+    _, shares_b, vectors_b = _ridge_matrix(b @ np.swapaxes(b, -1, -2))
+    axis_b = vectors_b[:, :, 2]
+    r0_b = _least_rotation(axis_b, np.einsum("ki,kij->kj", axis_b, b))
+    norm = np.linalg.norm(b, axis=(-2, -1))
+    shifted = b + (share * norm)[:, None, None] * r0 + (shares_b[:, 1] * norm)[:, None, None] * r0_b
     u, _, vt = np.linalg.svd(shifted)
     d = np.sign(np.linalg.det(u @ vt))
     d = np.where(d == 0, 1.0, d)

@@ -151,6 +151,20 @@ def test_no_jumps_near_degenerate_sets(rng, transform, case):
     assert fine < 0.3 * coarse or coarse < 1e-9
 
 
+@pytest.mark.parametrize("transform", ["rigid", "similarity"])
+def test_collinear_targets_are_continuous(rng, transform):
+    """Sources spread in 3D, targets on one line: B has rank 1 and leaves the rotation about
+    the targets' line free. The rule of the collinear sources, on B B^T, decides it, so f
+    has no jumps."""
+    p = rng.uniform(0, 100, (10, 3))
+    direction = np.array([0.6, 0.8, 0.0])
+    q = p.mean(0) + np.outer((p - p.mean(0)) @ [1 / 3, 2 / 3, 2 / 3], direction)
+    start, end = p[0] - 10.0, p[3] + 10.0
+    coarse = _max_step(p, q, MLSConfig(transform=transform), start, end, 2001)
+    fine = _max_step(p, q, MLSConfig(transform=transform), start, end, 20001)
+    assert fine < 0.3 * coarse
+
+
 @pytest.mark.parametrize("weight", ["idw", "gaussian", "cressman"])
 @pytest.mark.parametrize("transform", glmls.TRANSFORMS)
 def test_the_plane_z_0_gives_the_2d_reference(rng, transform, weight):

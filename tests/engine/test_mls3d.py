@@ -145,6 +145,25 @@ def test_continuous_between_neighbouring_points(gl, transform, name):
 
 
 @pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+@pytest.mark.parametrize("count", [3, 10])
+def test_collinear_targets_as_the_reference(gl, transform, count):
+    """Targets on one line from spread sources (B of rank 1): the rotation about that line is
+    free, and the GPU fixes it by the reference's rule, continuously along a line of points."""
+    rng = np.random.default_rng(21)
+    src = rng.uniform(0, 100, (count, 3))
+    centre = src.mean(0)
+    dst = centre + np.outer((src - centre) @ [1 / 3, 2 / 3, 2 / 3], [0.6, 0.8, 0.0])
+    t = np.linspace(-0.5, 1.5, 2001)[:, None]
+    points = src[0] * (1 - t) + src[-1] * t + [0.0, 0.0, 3.0]
+    with glmls.MLS(src, dst, transform=transform) as m:
+        f = m(points)
+    f_ref, _, _ = reference.mls(src, dst, points, transform=transform)
+    assert np.abs(f - f_ref).max() < RIDGE_TOLERANCE
+    jumps = np.linalg.norm(np.diff(f, axis=0), axis=1)
+    assert jumps.max() < 10 * np.linalg.norm(points[1] - points[0])
+
+
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
 def test_plane_z0_equals_2d(gl, transform):
     rng = np.random.default_rng(9)
     src = rng.uniform(0, 200, (10, 2))

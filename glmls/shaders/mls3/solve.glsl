@@ -6,7 +6,8 @@
 //   rigid: the rotation R maximising trace(R^T B') (Horn's quaternion: the eigenvector of the
 //          largest eigenvalue of a symmetric 4 x 4 matrix, by cyclic Jacobi sweeps), where
 //          B' = B + c |B| R0 adds the least rotation R0 of A's principal axis where the
-//          sources are near one line (c, the ridge's share of A's middle eigenvalue);
+//          sources are near one line (c, the ridge's share of A's middle eigenvalue), and
+//          c' |B| R0' likewise of B B^T where the targets are near one line;
 //   similarity: R times Umeyama's scale trace(R^T B) / trace(A);
 //   affine: (A + g(A))^-1 (B + g(A) M_sim), g(A) the ridge of A's small eigenvalues
 //          (A's eigenvalues and vectors by cyclic Jacobi sweeps).
@@ -271,11 +272,29 @@ mat3 mls3_solve(vec3 a, vec3 o, mat3 D, float spread) {
         float normB = sqrt(dot(B[0], B[0]) + dot(B[1], B[1]) + dot(B[2], B[2]));
         S2 += (share_mid * normB) * mls3_least_rotation(axis, axis * B);
     }
+    // targets near one line (B near rank 1, the sources spread or not): the rotation about
+    // their line is free; the same rule with B B^T's middle eigenvalue and principal axis
+    // (its invariants say first whether that eigenvalue is below 1e-3 of its trace)
+    mat3 BBt = B * transpose(B);
+    vec3 bd = vec3(BBt[0][0], BBt[1][1], BBt[2][2]);
+    vec3 bo = vec3(BBt[1][0], BBt[2][0], BBt[2][1]);
+    float btr = bd.x + bd.y + bd.z;
+    float bc2 = bd.x * bd.y + bd.x * bd.z + bd.y * bd.z - dot(bo, bo);
+    bool ridge_b = btr > 0.0 && !(bc2 > 2.0 * MLS3_DEGENERATE_SHARE * btr * btr);
+    if (ridge_b) {
+        vec3 eb, u0, u1, u2;
+        mls3_eigen3(bd / btr, bo / btr, eb, u0, u1, u2);
+        float bmax = max(eb.x, max(eb.y, eb.z));
+        float bmid = eb.x + eb.y + eb.z - bmax - min(eb.x, min(eb.y, eb.z));
+        vec3 axis_b = eb.x == bmax ? u0 : (eb.y == bmax ? u1 : u2);
+        float share_b = mls3_share(vec3(bmid), max(eb.x + eb.y + eb.z, 0.0)).x;
+        S2 += (share_b * sqrt(btr)) * mls3_least_rotation(axis_b, axis_b * B);
+    }
     mat3 NR;
     // A proper rotation is B's orthogonal polar factor where det B > 0 (no reflection to
     // fix): by Newton's iteration where B is comfortably nonsingular, else Horn's quaternion.
     float nb2 = dot(B[0], B[0]) + dot(B[1], B[1]) + dot(B[2], B[2]);
-    if (!ridge && determinant(B) > MLS3_POLAR_DET * nb2 * sqrt(nb2)) {
+    if (!ridge && !ridge_b && determinant(B) > MLS3_POLAR_DET * nb2 * sqrt(nb2)) {
         NR = mls3_polar(B) - mat3(1.0);
     } else {
         NR = mls3_quaternion_minus_identity(mls3_horn(a, o, S2));
