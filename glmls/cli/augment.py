@@ -47,6 +47,10 @@ from .options import (
     positive_int,
 )
 
+#: The most images one run writes (inputs times --n): each is named and checked for a
+#: clash before any work, and listed in labels.json.
+MAX_OUTPUTS = 1_000_000
+
 HELP = "random MLS deformations of images, with their labels (data augmentation)"
 EXAMPLES = """
 examples:
@@ -440,6 +444,11 @@ def run(args: argparse.Namespace) -> int:
     fault = below_a_file(folder, itself=False)
     if fault is not None:
         raise UsageError(fault)
+    if len(files) * args.n > MAX_OUTPUTS:  # every name is listed and checked before work
+        raise UsageError(
+            f"--n {args.n} on {len(files)} input(s) would write {len(files) * args.n:,} "
+            f"images; at most {MAX_OUTPUTS:,} a run: split the inputs or --n"
+        )
     _check_replaceable(folder, files, args.n, args.labels)
     made = [p for p in (folder, *folder.parents) if not p.exists()]  # the deepest first
     try:

@@ -84,6 +84,7 @@ def test_augment_with_jobs_gives_the_same(inputs):
     [
         (["--preset", "wave"], "invalid choice: 'wave'"),
         (["--seed", "-1"], "seed must be an integer >= 0, got -1"),
+        (["--n", "500001"], "would write 1,000,002 images; at most 1,000,000 a run"),
         (
             ["--preset", "text-stretch", "--rows", "3"],
             "--rows: not an option of --preset text-stretch; it takes --segments, --radius",
