@@ -7,8 +7,8 @@ with sample index ``i * N + k`` for the i-th input (sorted by name), so that the
 gives the same images whatever ``--jobs``; and ``OUT/labels.json``: per output image its moved
 keypoints and boxes (where labels were given) with their validity, and its draw (``params``:
 the handles and options that :meth:`glmls.augment.Augment.replay` takes). Everything is
-written under temporary names and renamed at the end: a failed run leaves no output (and
-removes the folders it made).
+written under temporary names and renamed at the end: a failed or stopped run leaves no
+output (and removes the folders it made); Ctrl-C waits for the final renames.
 
 The labels file (``--labels``) is a JSON object keyed by input file name:
 ``{"photo.png": {"keypoints": [[x, y], ...], "boxes": [[x_min, y_min, x_max, y_max], ...]}}``
@@ -18,11 +18,15 @@ in pixels (x, y) = (column, row), pixel centres at integers; either key may be l
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import json
 import os
+import signal
 import sys
 import tempfile
+import threading
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +46,10 @@ from .options import (
     positive_float,
     positive_int,
 )
+
+#: The most images one run writes (inputs times --n): each is named and checked for a
+#: clash before any work, and listed in labels.json.
+MAX_OUTPUTS = 1_000_000
 
 HELP = "random MLS deformations of images, with their labels (data augmentation)"
 EXAMPLES = """
@@ -251,7 +259,9 @@ def read_labels(path: str, files: list[Path]) -> dict[str, dict]:
     be read)."""
     text = read_text(Path(path))  # a byte order mark read as the handle files read it
     try:
-        data = json.loads(text)
+        data = json.loads(text, object_pairs_hook=_unique_keys)
+    except UsageError as error:
+        raise UsageError(f"{path}: {error}") from None
     except ValueError as error:  # JSON's faults, and an integer of more than 4300 digits
         raise UsageError(f"{path}: not a JSON labels file: {error}") from None
     except RecursionError:
@@ -284,6 +294,17 @@ def read_labels(path: str, files: list[Path]) -> dict[str, dict]:
     return data
 
 
+def _unique_keys(pairs: list[tuple[str, object]]) -> dict:
+    """A JSON object whose keys differ: of a key given twice, which entry was meant is not
+    known (``json`` would keep the last without a word)."""
+    data = dict(pairs)
+    if len(data) != len(pairs):
+        seen: set[str] = set()
+        twice = next(key for key, _ in pairs if key in seen or seen.add(key))
+        raise UsageError(f"the key {json.dumps(twice)} twice in one object")
+    return data
+
+
 def _numbers(value: object) -> bool:
     """Whether a JSON value is a number or (nested) lists of numbers, not booleans."""
     if isinstance(value, list):
@@ -291,11 +312,12 @@ def _numbers(value: object) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
-def _remove_temporaries(tasks: list[AugmentTask]) -> None:
+def _remove_temporaries(tasks: list[AugmentTask], folder: Path) -> None:
     """Remove the temporary files of every output of ``tasks`` (:func:`augment_file`'s
-    ``.NAME.*`` beside each output), whoever wrote them: with ``--jobs``, the workers still
-    running when another input failed finish and write theirs, unreported."""
-    remove_leftovers([target for task in tasks for target in _names(task)])
+    ``.NAME.*`` beside each output) and of ``folder``'s labels file, whoever wrote them:
+    with ``--jobs``, the workers still running when another input failed finish and write
+    theirs, unreported."""
+    remove_leftovers([folder / LABELS_NAME, *(t for task in tasks for t in _names(task))])
 
 
 def _preset_options(args: argparse.Namespace) -> dict:
@@ -340,17 +362,40 @@ def _check_replaceable(folder: Path, files: list[Path], count: int, labels: str 
 
 
 def _rename_all(written: list[tuple[str, str]]) -> None:
-    """Rename every temporary file onto its final name (with the user's umask); where one
-    rename fails, the temporary files not renamed yet are removed and an ``OSError`` names
-    the output."""
-    for k, (temporary, final) in enumerate(written):
-        try:
-            os.chmod(temporary, 0o666 & ~umask())
-            os.replace(temporary, final)
-        except OSError as error:
-            for name, _ in written[k:]:
-                Path(name).unlink(missing_ok=True)
-            raise OSError(f"{final}: cannot write: {error.strerror or error}") from None
+    """Rename every temporary file onto its final name (with the user's umask), Ctrl-C and
+    SIGTERM held back until the last one (then raised): a set renamed in part would pass for
+    a whole one. Where one rename fails, the outputs renamed before it and the temporary
+    files not renamed yet are removed and an ``OSError`` names the output."""
+    with _signals_held():
+        for k, (temporary, final) in enumerate(written):
+            try:
+                os.chmod(temporary, 0o666 & ~umask())
+                os.replace(temporary, final)
+            except OSError as error:
+                for _, renamed in written[:k]:
+                    Path(renamed).unlink(missing_ok=True)
+                for name, _ in written[k:]:
+                    Path(name).unlink(missing_ok=True)
+                raise OSError(f"{final}: cannot write: {error.strerror or error}") from None
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """SIGINT and SIGTERM recorded, not acted on, in the block, then raised again with the
+    handlers they had (in the main thread, where Python runs signal handlers)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    numbers = (signal.SIGINT, signal.SIGTERM)
+    previous = {n: signal.signal(n, lambda number, _: caught.append(number)) for n in numbers}
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():  # None: set in C, not restorable
+            signal.signal(number, signal.SIG_DFL if handler is None else handler)
+        for number in dict.fromkeys(caught):
+            signal.raise_signal(number)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -399,6 +444,11 @@ def run(args: argparse.Namespace) -> int:
     fault = below_a_file(folder, itself=False)
     if fault is not None:
         raise UsageError(fault)
+    if len(files) * args.n > MAX_OUTPUTS:  # every name is listed and checked before work
+        raise UsageError(
+            f"--n {args.n} on {len(files)} input(s) would write {len(files) * args.n:,} "
+            f"images; at most {MAX_OUTPUTS:,} a run: split the inputs or --n"
+        )
     _check_replaceable(folder, files, args.n, args.labels)
     made = [p for p in (folder, *folder.parents) if not p.exists()]  # the deepest first
     try:
@@ -434,13 +484,18 @@ def run(args: argparse.Namespace) -> int:
         for outcome in outcomes:  # in the order of the inputs, however the work was shared
             entries.update(outcome.labels)
         fd, name = tempfile.mkstemp(prefix=f".{LABELS_NAME}.", suffix=".json", dir=folder)
-        with os.fdopen(fd, "w", encoding="utf-8") as stream:
-            json.dump(entries, stream, indent=1)
         written.append((name, str(folder / LABELS_NAME)))
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as stream:
+                json.dump(entries, stream, indent=1)
+        except OSError as error:  # a full disk
+            raise OSError(
+                f"{folder / LABELS_NAME}: cannot write: {error.strerror or error}"
+            ) from None
     except BaseException:
         for temporary, _ in written:
             Path(temporary).unlink(missing_ok=True)
-        _remove_temporaries(tasks)  # of workers that finished after the failure
+        _remove_temporaries(tasks, folder)  # of workers that finished after the failure
         for made_folder in made:  # the folders this run made, were they left empty
             try:
                 made_folder.rmdir()

@@ -5,6 +5,8 @@ failed run leaves no output behind."""
 from __future__ import annotations
 
 import json
+import os
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -82,6 +84,7 @@ def test_augment_with_jobs_gives_the_same(inputs):
     [
         (["--preset", "wave"], "invalid choice: 'wave'"),
         (["--seed", "-1"], "seed must be an integer >= 0, got -1"),
+        (["--n", "500001"], "would write 1,000,002 images; at most 1,000,000 a run"),
         (
             ["--preset", "text-stretch", "--rows", "3"],
             "--rows: not an option of --preset text-stretch; it takes --segments, --radius",
@@ -306,3 +309,81 @@ def test_a_labels_file_json_cannot_hold_is_one_line(inputs, capsys, text, fault)
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and fault in err and labels.name in err, err
     assert not (inputs / "out").exists()
+
+
+def test_a_labels_file_with_a_key_twice_is_refused(tmp_path):
+    """json keeps the last of two entries of one name without a word: which was meant is
+    not known."""
+    from glmls.cli.augment import read_labels
+    from glmls.cli.options import UsageError
+
+    labels = tmp_path / "labels.json"
+    labels.write_text('{"a.png": {"keypoints": [[1, 2]]}, "a.png": {"keypoints": [[3, 4]]}}')
+    with pytest.raises(UsageError, match=r'labels\.json: the key "a\.png" twice in one object'):
+        read_labels(str(labels), [tmp_path / "a.png"])
+    labels.write_text('{"a.png": {"keypoints": [[1, 2]], "keypoints": [[3, 4]]}}')
+    with pytest.raises(UsageError, match='the key "keypoints" twice'):
+        read_labels(str(labels), [tmp_path / "a.png"])
+
+
+def test_a_labels_json_that_cannot_be_written_leaves_nothing(inputs, gl, capsys, monkeypatch):
+    """A full disk while labels.json is written: its temporary file goes too, and the
+    message names it."""
+    from glmls.cli.main import main
+
+    def full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(json, "dump", full)
+    assert main(["augment", str(inputs / "in"), str(inputs / "out"), "--n", "1"]) == 1
+    err = capsys.readouterr().err
+    assert "labels.json: cannot write: No space left on device" in err, err
+    assert not (inputs / "out").exists()
+
+
+def test_a_rename_that_fails_midway_takes_back_the_renamed_outputs(inputs, gl, monkeypatch):
+    from glmls.cli import augment as command
+    from glmls.cli.main import main
+
+    real = os.replace
+    calls = []
+
+    def fails_third(source, target):
+        calls.append(target)
+        if len(calls) == 3:
+            raise OSError(5, "Input/output error")
+        real(source, target)
+
+    monkeypatch.setattr(command.os, "replace", fails_third)
+    (inputs / "out").mkdir()
+    assert main(["augment", str(inputs / "in"), str(inputs / "out"), "--n", "2"]) == 1
+    assert len(calls) == 3 and not any((inputs / "out").iterdir())
+
+
+@pytest.mark.parametrize("number", [signal.SIGINT, signal.SIGTERM])
+def test_ctrl_c_during_the_renames_waits_for_the_whole_set(tmp_path, number):
+    """Ctrl-C between two renames would leave part of the set: it is raised once all are
+    in place."""
+    from glmls.cli.augment import _rename_all
+
+    written = []
+    for k in range(3):
+        temporary = tmp_path / f".a_{k}.png.tmp"
+        temporary.write_bytes(b"x")
+        written.append((str(temporary), str(tmp_path / f"a_{k}.png")))
+    real = os.replace
+    handled = []
+
+    def stop(*_):
+        handled.append(1)
+        raise KeyboardInterrupt
+
+    stopped = signal.signal(number, stop)
+    try:
+        with pytest.MonkeyPatch.context() as patch, pytest.raises(KeyboardInterrupt):
+            patch.setattr(os, "replace", lambda a, b: signal.raise_signal(number) or real(a, b))
+            _rename_all(written)
+    finally:
+        signal.signal(number, stopped)
+    assert handled == [1]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_0.png", "a_1.png", "a_2.png"]
