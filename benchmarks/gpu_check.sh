@@ -9,10 +9,20 @@ if [ -z "${PYTHON:-}" ]; then
 fi
 export PYTHONPATH="$PWD${PYTHONPATH:+:$PYTHONPATH}"
 failed=()
+# The whole run's time: a borrowed machine runs one command for at most 600 s, so each step
+# gets at most what is left of this, and the steps past it are named as not run.
+budget=${GPU_CHECK_BUDGET:-480}
 
 step() {
     local name=$1 limit=$2
     shift 2
+    local left=$((budget - SECONDS))
+    if ((left < 10)); then
+        echo "== $name: not run (the ${budget} s budget is spent)" >&2
+        failed+=("$name")
+        return
+    fi
+    ((limit > left)) && limit=$left
     echo "== $name (at most ${limit} s)" >&2
     local start=$SECONDS
     if timeout "$limit" "$@" >"$out/$name.txt" 2>&1; then
