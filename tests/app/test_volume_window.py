@@ -145,6 +145,18 @@ def test_fractions_of_a_wheel_notch_add_up():
     assert c.point == (12, 10, 15)
 
 
+def test_fractions_of_a_wheel_notch_stay_with_their_view():
+    c = make()
+    sagittal = c.grid.offset(2)
+    c.feed(Scroll(5, 5, 0.75))  # over the axial view: z waits for a quarter notch
+    c.feed(Scroll(sagittal[0] + 5, 5, 0.5))  # half a notch over the sagittal view
+    assert c.point == (12, 10, 8)  # x does not take the axial view's three quarters
+    c.feed(Scroll(sagittal[0] + 5, 5, 0.5))
+    assert c.point == (13, 10, 8)
+    c.feed(Scroll(5, 5, 0.25))  # back over the axial view: its fraction is gone
+    assert c.point == (13, 10, 8)
+
+
 def test_the_slice_point_moves_along_the_active_normal_and_stays_inside():
     c = make()
     assert c.point == (12, 10, 8)
