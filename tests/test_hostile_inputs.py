@@ -118,6 +118,17 @@ def test_bounds_names_a_value_that_is_not_a_finite_number(values, error, text):
         glmls.Bounds(*values)
 
 
+@pytest.mark.parametrize(
+    "values, text",
+    [((5, 0, 1, 3), r"Bounds x1 must be >= x0 .*got x0=5\.0, x1=1\.0"),
+     ((0, 2.5, 1, -2.5), r"Bounds y1 must be >= y0 .*got y0=2\.5, y1=-2\.5")],
+)  # fmt: skip
+def test_an_inverted_bounds_is_a_value_error_naming_the_values(values, text):
+    with pytest.raises(ValueError, match=text):
+        glmls.Bounds(*values)
+    assert glmls.Bounds(1.5, 2, 1.5, 2).output_shape == (1, 1)  # a single point
+
+
 def test_bounds_of_numpy_numbers():
     assert glmls.Bounds(np.float32(-0.5), np.int64(-1), 5.5, np.float64(3.5)).output_shape == (
         5,

@@ -51,10 +51,15 @@ def check_jobs(jobs: object) -> int:
 
 def check_scheduler(scheduler: object) -> str | None:
     """``None``, ``"local"`` or a scheduler's address; for the two last, Dask must be
-    installed (:class:`DistributedUnavailableError` saying how otherwise)."""
+    installed (:class:`DistributedUnavailableError` saying how otherwise); ``TypeError``
+    for a value that is no string, ``ValueError`` for a blank one, both naming it."""
     if scheduler is None:
         return None
-    if not isinstance(scheduler, str) or not scheduler.strip():
+    if not isinstance(scheduler, str):
+        raise TypeError(
+            f"scheduler must be a string, 'local' or a Dask scheduler's address, got {scheduler!r}"
+        )
+    if not scheduler.strip():
         raise ValueError(
             f"scheduler must be 'local' or a Dask scheduler's address, got {scheduler!r}"
         )
@@ -106,7 +111,8 @@ def run_jobs(
     Raises
     ------
     TypeError
-        For ``jobs`` that is not an integer, or a ``function`` that is not callable.
+        For ``jobs`` that is not an integer, a scheduler that is no string, or a
+        ``function`` that is not callable.
     ValueError
         For ``jobs`` < 1 or a blank scheduler.
     DistributedUnavailableError

@@ -84,6 +84,8 @@ def _configs_for(shape: tuple[int, int], configs: Sequence[MLSConfig | str] | No
     to a fraction of one image's diagonal); the tune meets each once."""
     if configs is None:
         made = search_space(shape)
+    elif isinstance(configs, str):
+        raise TypeError(f"configs must be a sequence of MLSConfig or spec strings, got {configs!r}")
     else:
         made = []
         for config in configs:
@@ -268,8 +270,9 @@ def study(
         an item whose handles or points cannot be tuned (naming the item).
     TypeError
         For items that are not :class:`~glmls.data.StudyItem` values, configurations that
-        are neither :class:`~glmls.MLSConfig` values nor specs, or trials, seed or jobs that
-        are not integers.
+        are neither :class:`~glmls.MLSConfig` values nor specs (or one bare spec string
+        instead of a sequence), trials, seed or jobs that are not integers, or a scheduler
+        that is no string.
 
     Examples
     --------

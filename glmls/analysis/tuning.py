@@ -38,7 +38,9 @@ from ..core.config import (
     TRANSFORMS,
     WEIGHTS,
     MLSConfig,
+    check_choice,
     check_integer,
+    check_real,
     check_seed,
     image_diagonal,
 )
@@ -46,7 +48,7 @@ from ..core.handleset import HandleSet
 from ..core.mesh import as_shape, check_grid
 from ..errors import DegenerateHandlesError
 from ..gl.context import GLContext
-from .jobs import run_jobs
+from .jobs import check_jobs, check_scheduler, run_jobs
 from .triangles import check_angle_measure, check_reference_points
 from .tuning_trials import MAGNITUDES, known_deformations, measure_config, random_edits
 
@@ -325,15 +327,33 @@ def _run_job(job: _Job, ctx: GLContext | None = None) -> list[dict] | str:
 
 
 def _check_magnitudes(magnitudes: object) -> tuple[float, ...]:
+    """``magnitudes`` as a non-empty tuple of fractions in [0, 1], each one by
+    :func:`~glmls.core.config.check_real`: ``TypeError`` for a value that is no sequence of
+    real numbers (a string, None, a bool or a complex in it), ``ValueError`` for an empty
+    one or a fraction that is NaN, infinite or outside [0, 1]; both name the value."""
+    message = f"magnitudes must be a sequence of numbers, got {magnitudes!r}"
+    if isinstance(magnitudes, (str, bytes)):
+        raise TypeError(message)
     try:
-        values = tuple(float(m) for m in magnitudes)  # type: ignore[attr-defined]
-    except (TypeError, ValueError):
-        raise ValueError(f"magnitudes must be numbers, got {magnitudes!r}") from None
-    if not values or not all(math.isfinite(v) and 0 <= v <= 1 for v in values):
-        raise ValueError(
-            f"magnitudes must be fractions of the diagonal in [0, 1], got {magnitudes!r}"
-        )
-    return values
+        given = list(magnitudes)  # type: ignore[call-overload]
+    except TypeError:  # None, a number, a 0-d array
+        raise TypeError(message) from None
+    values = []
+    for value in given:
+        try:
+            values.append(check_real("magnitudes", value, low=0.0, high=1.0))
+        except TypeError:
+            raise TypeError(
+                f"magnitudes must be real numbers, got {magnitudes!r} ({value!r} is a "
+                f"{type(value).__name__})"
+            ) from None
+        except ValueError:
+            raise ValueError(
+                f"magnitudes must be fractions of the diagonal in [0, 1], got {magnitudes!r}"
+            ) from None
+    if not values:
+        raise ValueError(f"magnitudes must hold at least one fraction, got {magnitudes!r}")
+    return tuple(values)
 
 
 def tune(
@@ -407,11 +427,13 @@ def tune(
     ------
     ValueError
         For a bad shape, handles (or none at all), reference points, trials (< 1), seed
-        (< 0), grid (out of range), magnitudes, angle or ``rank_by``, no configurations, or
-        none that can be built for these handles.
+        (< 0), grid (out of range), jobs (< 1), magnitudes (none, or one that is not a
+        finite fraction in [0, 1]), an unknown angle or ``rank_by``, a blank scheduler, no
+        configurations, or none that can be built for these handles.
     TypeError
-        For configurations that are not :class:`~glmls.MLSConfig` values, trials, seed or
-        grid that are not integers (2.0 is none), or an angle that is no string.
+        For configurations that are not :class:`~glmls.MLSConfig` values, trials, seed,
+        grid or jobs that are not integers (2.0 is none), magnitudes that are not real
+        numbers (a bool is none), or an angle, ``rank_by`` or scheduler that is no string.
 
     See Also
     --------
@@ -431,11 +453,10 @@ def tune(
     (1.4, [])
     """
     shape = as_shape(shape)
-    if rank_by not in MEASURES:
-        raise ValueError(f"unknown measure {rank_by!r}; choose one of {', '.join(MEASURES)}")
+    rank_by = check_choice("rank_by", rank_by, MEASURES)
     angle = check_angle_measure(angle)
     trials, grid = check_integer("trials", trials, 1), check_grid(grid)
-    seed = check_seed(seed)
+    seed, jobs, scheduler = check_seed(seed), check_jobs(jobs), check_scheduler(scheduler)
     magnitudes = _check_magnitudes(magnitudes)
     configs = list(configs) if configs is not None else search_space(shape)
     if not configs:

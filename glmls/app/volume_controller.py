@@ -371,6 +371,7 @@ class VolumeController(Controls):
         self._redo: list[tuple[np.ndarray, np.ndarray]] = []
         self._drag: tuple[int, int, tuple[np.ndarray, np.ndarray]] | None = None
         self._wheel = 0.0  # wheel notches not yet taken (fractions of one)
+        self._wheel_view = 0  # the view they were turned over
 
     # -- state --------------------------------------------------------------------------------
 
@@ -447,7 +448,10 @@ class VolumeController(Controls):
         found = self.grid.locate(event.x, event.y)
         if found is None:
             return
-        # a touchpad's fractions of a notch add up to whole slices; the rest waits
+        # a touchpad's fractions of a notch add up to whole slices; the rest waits, for the
+        # view it was turned over only (another view's normal is another axis)
+        if found[0] != self._wheel_view:
+            self._wheel, self._wheel_view = 0.0, found[0]
         self._wheel += min(max(event.dy, -1e6), 1e6)
         steps = int(self._wheel)
         self._wheel -= steps

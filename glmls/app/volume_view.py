@@ -14,20 +14,24 @@ from ..analysis.canvas import HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR
 from ..analysis.shapes import arrow_triangles, disk_triangles
 from ..gl.context import GLContext
 from .helpscreen import help_blocks
-from .hud import MIN_WINDOW_HEIGHT, text_quads
+from .hud import HELP_MIN_SHARE, MIN_WINDOW_HEIGHT, TextGroups, text_quads
 from .layout import Layout, layout
 from .overlays import GeometryDrawer, PictureDrawer, read_screen
 from .text import GlyphAtlas, TextRenderer, glyph_atlas
-from .volume_controller import AXES, VOLUME_BINDINGS, VolumeController
+from .volume_controller import AXES, VIEWS, VOLUME_BINDINGS, VolumeController
 
 __all__ = [
     "MARGIN",
     "VolumeView",
+    "frame_lines",
+    "handle_triangles",
     "help_groups",
     "help_text",
+    "label_quads",
     "montage_layout",
     "scene_geometry",
     "text_groups",
+    "view_labels",
     "view_viewport",
     "window_size",
 ]
@@ -36,6 +40,9 @@ BACKGROUND = (0.13, 0.13, 0.14)
 CROSSHAIR_RGBA = (0.2, 0.9, 1.0, 0.5)
 ACTIVE_RGBA = (1.0, 0.85, 0.2, 1.0)
 FRAME_RGBA = (0.5, 0.5, 0.55, 1.0)
+LABEL_RGBA = (0.9, 0.9, 0.9, 1.0)
+#: Framebuffer pixels of a view label's dark box on each side of its text.
+LABEL_PAD = 3
 #: The mouse's part of the help (the keys come from :data:`VOLUME_BINDINGS`).
 MOUSE_HELP = (
     ("click", "active view; slice point there"),
@@ -100,13 +107,11 @@ def _box(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
     return np.stack([corners, np.roll(corners, -1, axis=0)], axis=1).reshape(-1, 2)
 
 
-def scene_geometry(c: VolumeController, scale: float) -> tuple[np.ndarray, np.ndarray]:
-    """(triangles, lines): vertex rows x, y, r, g, b, a in montage pixels. Lines: each
-    view's frame (the active one highlighted) and the crosshairs of the other two planes;
-    triangles: the handles within :attr:`~VolumeController.near` voxels of each plane, an
-    arrow from p to q, a disk at each (drawn at their physical in-plane positions)."""
-    grid, unit = c.grid, 1.0 / scale
-    lines, triangles = [], [np.zeros((0, 6), np.float32)]
+def frame_lines(c: VolumeController) -> np.ndarray:
+    """Line vertex rows x, y, r, g, b, a in montage pixels: each view's frame (the active
+    one highlighted, in the margin round the view) and the crosshairs of the other two planes
+    (within the view)."""
+    grid, lines = c.grid, []
     for view in range(3):
         (ox, oy), (columns, rows) = grid.offset(view), grid.size(view)
         box = _box(ox - 0.5, oy - 0.5, ox + columns - 0.5, oy + rows - 0.5)
@@ -115,17 +120,84 @@ def scene_geometry(c: VolumeController, scale: float) -> tuple[np.ndarray, np.nd
         bottom, end = oy + rows - 0.5, ox + columns - 0.5
         cross = np.array([[u, oy - 0.5], [u, bottom], [ox - 0.5, v], [end, v]])
         lines.append(_coloured(cross, CROSSHAIR_RGBA))
-        shown = c.near_plane(view) if c.show_handles else np.zeros(0, int)
-        if len(shown):
-            p, q = grid.to_montage(view, c.src[shown]), grid.to_montage(view, c.dst[shown])
-            target = _rgba(HANDLE_TARGET_COLOR)
-            triangles += [
-                _coloured(arrow_triangles(p, q, 1.5 * unit, 7.0 * unit), target),
-                _coloured(disk_triangles(p, 3.0 * unit), _rgba(HANDLE_SOURCE_COLOR)),
-                _coloured(disk_triangles(q, 5.0 * unit), (0.0, 0.0, 0.0, 0.8)),
-                _coloured(disk_triangles(q, 3.8 * unit), target),
+    return np.concatenate(lines)
+
+
+def handle_triangles(c: VolumeController, scale: float, view: int) -> np.ndarray:
+    """Triangle vertex rows x, y, r, g, b, a in montage pixels of the handles within
+    :attr:`~VolumeController.near` voxels of ``view``'s plane: an arrow from p to q, a disk
+    at each, at their physical in-plane positions, wherever those are (a handle outside the
+    volume lies outside the view: :meth:`VolumeView.draw` cuts each view's to its own
+    rectangle)."""
+    grid, unit = c.grid, 1.0 / scale
+    shown = c.near_plane(view) if c.show_handles else np.zeros(0, int)
+    if not len(shown):
+        return np.zeros((0, 6), np.float32)
+    p, q = grid.to_montage(view, c.src[shown]), grid.to_montage(view, c.dst[shown])
+    target = _rgba(HANDLE_TARGET_COLOR)
+    return np.concatenate(
+        [
+            _coloured(arrow_triangles(p, q, 1.5 * unit, 7.0 * unit), target),
+            _coloured(disk_triangles(p, 3.0 * unit), _rgba(HANDLE_SOURCE_COLOR)),
+            _coloured(disk_triangles(q, 5.0 * unit), (0.0, 0.0, 0.0, 0.8)),
+            _coloured(disk_triangles(q, 3.8 * unit), target),
+        ]
+    )
+
+
+def scene_geometry(c: VolumeController, scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """(triangles, lines): :func:`handle_triangles` of the three views and
+    :func:`frame_lines`, vertex rows x, y, r, g, b, a in montage pixels."""
+    triangles = [handle_triangles(c, scale, view) for view in range(3)]
+    return np.concatenate(triangles), frame_lines(c)
+
+
+def view_labels(
+    layout: Layout, c: VolumeController, atlas: GlyphAtlas
+) -> list[tuple[int, str, GlyphAtlas, tuple[int, int]]]:
+    """(view, text, atlas, its top left corner in framebuffer pixels, y down: the view's) of
+    each view's label that fits inside the view with its box:
+    its name and plane (``axial z = 12``) at ``atlas``'s size or smaller (down to
+    :data:`~glmls.app.hud.HELP_MIN_SHARE` of it, 8 pixels at least), else the plane alone
+    (``z = 12``, ``z=12``) as large as it fits; a view too small for any (one voxel thin)
+    has none."""
+    smallest = min(atlas.size, max(8, round(HELP_MIN_SHARE * atlas.size)))
+    sizes = range(atlas.size, smallest - 1, -1)
+    labels = []
+    for view in range(3):
+        left, bottom, width, height = view_viewport(layout, c.grid, view)
+        corner = (left, layout.framebuffer[1] - bottom - height)
+        normal = "xyz"[AXES[view][2]]
+        at = c.point[AXES[view][2]]
+        full, short = f"{VIEWS[view]} {normal} = {at}", (f"{normal} = {at}", f"{normal}={at}")
+        atlases = [atlas if size == atlas.size else glyph_atlas(size) for size in sizes]
+        # the whole label at any size first; the plane alone as large as it fits
+        candidates = [(full, a) for a in atlases] + [(t, a) for a in atlases for t in short]
+        fitting = (
+            (text, sized)
+            for text, sized in candidates
+            if sized.width(text) + 2 * LABEL_PAD <= width and sized.line_height <= height
+        )
+        found = next(fitting, None)
+        if found is not None:
+            labels.append((view, *found, corner))
+    return labels
+
+
+def label_quads(layout: Layout, c: VolumeController, atlas: GlyphAtlas) -> TextGroups:
+    """Glyph quads of :func:`view_labels` at each view's top left corner, on a dark box,
+    the active view's in its frame's colour; grouped by text size."""
+    groups: dict[int, list[np.ndarray]] = {}
+    for view, text, sized, (x, y) in view_labels(layout, c, atlas):
+        colour = ACTIVE_RGBA if view == c.active else LABEL_RGBA
+        box = sized.width(text) + 2 * LABEL_PAD
+        groups.setdefault(sized.size, []).extend(
+            [
+                sized.rectangle(x, y, box, sized.line_height, (0, 0, 0, 0.6)),
+                sized.quads(text, x + LABEL_PAD, y, colour),
             ]
-    return np.concatenate(triangles), np.concatenate(lines)
+        )
+    return list(groups.items())
 
 
 #: The help's groups of keys: a title and the actions of :data:`VOLUME_BINDINGS` it lists.
@@ -229,9 +301,13 @@ class VolumeView:
                     self.overlays[view].draw(opacity=1.0, linear=False)
             screen.viewport = layout.viewport
             self.geometry.frame = layout.frame  # the montage and its margin
-            triangles, lines = scene_geometry(c, layout.scale)
-            self.geometry.draw(lines, moderngl.LINES)
-            self.geometry.draw(triangles)
+            self.geometry.draw(frame_lines(c), moderngl.LINES)
+            try:  # each view's handles cut to its rectangle, not drawn over the others
+                for view in range(3):
+                    screen.scissor = view_viewport(layout, self.grid, view)
+                    self.geometry.draw(handle_triangles(c, layout.scale, view))
+            finally:
+                screen.scissor = None
             screen.viewport = (0, 0, width, height)
             for size, parts in text:
                 self.text_renderer(size).draw(parts, (width, height))

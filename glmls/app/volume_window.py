@@ -22,7 +22,7 @@ from .glfw_window import NoDisplayError
 from .hud import PANEL_CHARS, frame_rate, wrap
 from .volume_controller import AXES, VIEWS, VolumeController, VolumeSettings
 from .volume_session import VolumeSession, display_volume
-from .volume_view import VolumeView, montage_layout, text_groups, window_size
+from .volume_view import VolumeView, label_quads, montage_layout, text_groups, window_size
 from .window_loop import WindowLoop
 
 __all__ = ["NoDisplayError", "VolumeApp"]
@@ -270,8 +270,8 @@ class VolumeApp(WindowLoop):
             help_visible=c.help_visible,
             framebuffer=window.framebuffer_size,
         )
-        # the labels under the help, at their own size (the readout may be smaller)
-        groups.insert(1, (text.size, self._labels(text)))
+        # the labels under the help, at their own sizes (the readout may be smaller)
+        groups[1:1] = label_quads(self.layout, c, text)
         self.view.draw(
             self.layout,
             c,
@@ -280,21 +280,6 @@ class VolumeApp(WindowLoop):
             groups,
         )
         session.timings["draw"] = time.perf_counter() - start
-
-    def _labels(self, atlas) -> list[np.ndarray]:
-        """Each view's name and plane at its top left corner."""
-        c, parts = self.controller, []
-        for view in range(3):
-            normal = AXES[view][2]
-            ox, oy = c.grid.offset(view)
-            x, y = self.layout.to_framebuffer(ox - 0.5, oy - 0.5)
-            label = f"{VIEWS[view]} {'xyz'[normal]} = {c.point[normal]}"
-            colour = (1.0, 0.85, 0.2, 1.0) if view == c.active else (0.9, 0.9, 0.9, 1.0)
-            parts.append(
-                atlas.rectangle(x, y, atlas.width(label) + 6, atlas.line_height, (0, 0, 0, 0.6))
-            )
-            parts.append(atlas.quads(label, x + 3, y, colour))
-        return parts
 
     def _lay_out(self):
         text = self._text_renderer().atlas

@@ -189,8 +189,9 @@ class Bounds:
     TypeError
         For a value that is not a real number (:func:`~glmls.core.config.check_real`).
     ValueError
-        For a value that is not finite; from :attr:`output_shape` and :attr:`frame`, for a
-        canvas beyond the coordinate range (a side over 1e6 pixels).
+        For a value that is not finite, or an inverted box (``x1 < x0`` or ``y1 < y0``; an
+        empty box, ``x1 == x0``, is a single point); from :attr:`output_shape` and
+        :attr:`frame`, for a canvas beyond the coordinate range (a side over 1e6 pixels).
 
     Examples
     --------
@@ -211,6 +212,12 @@ class Bounds:
         for name in ("x0", "y0", "x1", "y1"):
             value = check_real(f"Bounds {name}", getattr(self, name))
             object.__setattr__(self, name, value)
+        for low, high in (("x0", "x1"), ("y0", "y1")):
+            if getattr(self, high) < getattr(self, low):
+                raise ValueError(
+                    f"Bounds {high} must be >= {low} (a box's largest value is not below its "
+                    f"smallest), got {low}={getattr(self, low)!r}, {high}={getattr(self, high)!r}"
+                )
 
     @property
     def origin(self) -> tuple[float, float]:

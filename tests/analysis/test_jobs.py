@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -110,6 +111,11 @@ def test_bad_jobs_and_schedulers():
     assert run_jobs(abs, [-1], jobs=np.int64(1)) == run_jobs(abs, [-1], jobs=np.array(1)) == [1]
     with pytest.raises(ValueError, match="scheduler must be 'local' or"):
         run_jobs(fail_on_two, [1], scheduler=" ")
+    for scheduler in (3, b"local", ["local"]):
+        with pytest.raises(
+            TypeError, match=rf"scheduler must be a string, .*got {re.escape(repr(scheduler))}"
+        ):
+            run_jobs(fail_on_two, [1], scheduler=scheduler)
     with pytest.raises(TypeError, match="function must be callable"):
         run_jobs(None, [1])
 

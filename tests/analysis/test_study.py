@@ -129,6 +129,10 @@ def test_bad_arguments(gl):
         studies.study(items(), trials=0)
     with pytest.raises(TypeError, match=r"trials must be an integer >= 1, got 1\.0"):
         studies.study(items(), trials=1.0)
+    with pytest.raises(TypeError, match=r"configs must be a sequence of .*, got 'rigid:idw'"):
+        studies.study(items(), configs="rigid:idw", trials=1)  # not read letter by letter
+    with pytest.raises(TypeError, match=r"scheduler must be a string, .*got 3"):
+        studies.study(items(), configs=["rigid:idw"], trials=1, scheduler=3)
 
 
 def test_numpy_integers_give_a_summary_json_can_write(gl):

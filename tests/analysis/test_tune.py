@@ -179,7 +179,7 @@ def test_affine_with_collinear_handles_is_skipped(gl):
 
 
 def test_bad_arguments():
-    with pytest.raises(ValueError, match="unknown measure"):
+    with pytest.raises(ValueError, match="unknown rank_by 'speed'"):
         tuning.tune((30, 40), SRC, DST, REFERENCE, rank_by="speed")
     with pytest.raises(ValueError, match="trials must be"):
         tuning.tune((30, 40), SRC, DST, REFERENCE, trials=0)
@@ -212,6 +212,32 @@ def test_bad_arguments():
         tuning.tune((30, 40), SRC, DST, REFERENCE, configs=["rigid:idw"])
     with pytest.raises(ValueError, match="at least 3"):
         tuning.tune((30, 40), SRC, DST, REFERENCE[:2])
+
+
+@pytest.mark.parametrize(
+    "keywords, error, text",
+    [({"rank_by": 1}, TypeError, "rank_by must be a string, one of rank, .*; got 1"),
+     ({"rank_by": None}, TypeError, "rank_by must be a string, .*; got None"),
+     ({"scheduler": 3}, TypeError, "scheduler must be a string, .*got 3"),
+     ({"scheduler": " "}, ValueError, "scheduler must be 'local' or .*got ' '"),
+     ({"jobs": 1.0}, TypeError, r"jobs must be an integer >= 1, got 1\.0"),
+     ({"jobs": True}, TypeError, "jobs must be an integer >= 1, got True"),
+     ({"magnitudes": [0.1, True]}, TypeError, r"magnitudes must be real .*True is a bool"),
+     ({"magnitudes": ["0.1"]}, TypeError, r"magnitudes must be real .*'0\.1' is a str"),
+     ({"magnitudes": [1j]}, TypeError, "magnitudes must be real .*1j is a complex"),
+     ({"magnitudes": None}, TypeError, "magnitudes must be a sequence of numbers, got None"),
+     ({"magnitudes": "0.1"}, TypeError, "magnitudes must be a sequence of numbers, got '0.1'"),
+     ({"magnitudes": [np.nan]}, ValueError, r"magnitudes must be fractions .*\[0, 1\]"),
+     ({"magnitudes": [-0.1]}, ValueError, r"magnitudes must be fractions .*\[0, 1\]"),
+     ({"magnitudes": []}, ValueError, "magnitudes must hold at least one fraction")],
+)  # fmt: skip
+def test_options_of_a_wrong_type_are_type_errors_and_bad_values_value_errors(keywords, error, text):
+    """One rule (``glmls.core.config``): a choice or a real of the wrong type is a
+    ``TypeError``, an unknown choice or a value out of range a ``ValueError``, before any
+    trial runs."""
+    configs = [glmls.MLSConfig(transform="rigid")]
+    with pytest.raises(error, match=f"^{text}"):
+        tuning.tune((30, 40), SRC, DST, REFERENCE, trials=1, configs=configs, **keywords)
 
 
 def test_numpy_integers_are_integers(gl):

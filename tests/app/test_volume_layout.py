@@ -5,13 +5,20 @@ from __future__ import annotations
 
 import itertools
 
+import numpy as np
 import pytest
 
 from glmls.app.hud import PANEL_CHARS
 from glmls.app.text import GlyphAtlas
 from glmls.app.view import TEXT_SIZE
-from glmls.app.volume_controller import SliceGrid
-from glmls.app.volume_view import montage_layout, view_viewport, window_size
+from glmls.app.volume_controller import AXES, SliceGrid, VolumeController
+from glmls.app.volume_view import (
+    label_quads,
+    montage_layout,
+    view_labels,
+    view_viewport,
+    window_size,
+)
 
 PANELS = (0, 342, 368, 448)  # the panel's widths at text sizes 12, 13 and 16
 SHAPES = ((16, 64, 64), (5, 48, 17), (40, 101, 90), (3, 200, 32), (64, 64, 64))
@@ -88,3 +95,41 @@ def test_the_default_window_of_a_flat_montage_holds_the_readout(shape):
     for view in range(3):  # the views still fit, letterboxed
         x0, y0, w, h = view_viewport(layout, grid, view)
         assert x0 >= panel and y0 >= 0 and x0 + w <= width and y0 + h <= height
+
+
+@pytest.mark.parametrize(
+    ("shape", "spacing"),
+    [((1, 32, 40), (1.0, 1.0, 1.0)), ((30, 48, 6), (1.0, 1.0, 1.0)), ((3, 200, 32), (1.0,) * 3),
+     ((64, 64, 64), (1.0, 1.0, 1.0)), ((16, 64, 64), (0.7, 0.3, 0.3)), ((2, 3, 400), (1.0,) * 3)],
+)  # fmt: skip
+def test_every_view_label_lies_inside_its_view(shape, spacing):
+    # a 1-slice volume's sagittal label ran past the window ("sa"), a thin axial view's over
+    # the sagittal view's
+    grid = SliceGrid(shape, spacing=spacing)
+    c = VolumeController(np.zeros((0, 3)), np.zeros((0, 3)), shape, spacing=spacing)
+    atlas = GlyphAtlas(TEXT_SIZE)
+    panel = round(PANEL_CHARS * atlas.advance["M"]) + 24
+    for size in (window_size(grid, panel), (700, 400), (panel + 200, 150)):
+        layout = montage_layout(size, grid, panel)
+        height = layout.framebuffer[1]
+        boxes = []
+        for view in range(3):
+            x0, y0, w, h = view_viewport(layout, grid, view)
+            boxes.append((x0, height - y0 - h, x0 + w, height - y0))  # y down
+        labelled = {view: text for view, text, _, _ in view_labels(layout, c, atlas)}
+        for _, parts in label_quads(layout, c, atlas):
+            for part in parts:
+                xs, ys = part[:, 0], part[:, 1]
+                inside = [
+                    left <= xs.min()
+                    and xs.max() <= right
+                    and top <= ys.min()
+                    and ys.max() <= bottom
+                    for left, top, right, bottom in boxes
+                ]
+                assert any(inside), (size, part[:, :2].min(0), part[:, :2].max(0), boxes)
+        for view, text in labelled.items():  # the plane, at least
+            normal = AXES[view][2]
+            assert text.replace(" ", "").endswith(f"{'xyz'[normal]}={c.point[normal]}"), text
+        if min(grid.size(0)) >= 40 and min(size) >= 400:  # room for the whole label
+            assert labelled[0] == f"axial z = {c.point[2]}", labelled

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import subprocess
 import sys
@@ -14,6 +15,9 @@ from helpers import child_env
 
 import glmls
 from glmls.app.events import Key, Move, Press, Release, Scroll
+from glmls.app.hud import PANEL_CHARS
+from glmls.app.text import GlyphAtlas
+from glmls.app.view import TEXT_SIZE
 from glmls.app.volume_controller import (
     AXES,
     VOLUME_BINDINGS,
@@ -22,7 +26,7 @@ from glmls.app.volume_controller import (
     VolumeSettings,
 )
 from glmls.app.volume_session import VolumeSession, display_volume
-from glmls.app.volume_view import help_text, scene_geometry
+from glmls.app.volume_view import BACKGROUND, help_text, montage_layout, scene_geometry
 from glmls.app.volume_window import VolumeApp
 
 SHAPE = (16, 20, 24)  # D, H, W
@@ -143,6 +147,18 @@ def test_fractions_of_a_wheel_notch_add_up():
     assert c.point == (12, 10, 8)
     c.feed(Scroll(5, 5, 1e300))  # any finite dy: the last slice
     assert c.point == (12, 10, 15)
+
+
+def test_fractions_of_a_wheel_notch_stay_with_their_view():
+    c = make()
+    sagittal = c.grid.offset(2)
+    c.feed(Scroll(5, 5, 0.75))  # over the axial view: z waits for a quarter notch
+    c.feed(Scroll(sagittal[0] + 5, 5, 0.5))  # half a notch over the sagittal view
+    assert c.point == (12, 10, 8)  # x does not take the axial view's three quarters
+    c.feed(Scroll(sagittal[0] + 5, 5, 0.5))
+    assert c.point == (13, 10, 8)
+    c.feed(Scroll(5, 5, 0.25))  # back over the axial view: its fraction is gone
+    assert c.point == (13, 10, 8)
 
 
 def test_the_slice_point_moves_along_the_active_normal_and_stays_inside():
@@ -380,6 +396,39 @@ def test_the_real_window_replays_a_drag_and_saves(tmp_path):
     assert warped.shape == (64, 64, 64) and warped.dtype == np.uint8
     assert not np.array_equal(warped, glmls.data.phantom())
     assert AXES[0][2] == 2
+
+
+@pytest.mark.skipif(XVFB is None, reason="xvfb-run is not installed")
+def test_handles_and_labels_stay_inside_their_views(tmp_path):
+    """A handle outside the volume (e.g. loaded with a spacing mistake) was drawn over the
+    montage's empty corner, and a thin axial view's label over the sagittal view."""
+    shape = (30, 48, 6)  # axial 6 x 48 at (0, 0), sagittal at (10, 0), coronal at (0, 52)
+    volume = tmp_path / "thin.npy"
+    np.save(volume, np.full(shape, 0.5, np.float32))
+    handles = tmp_path / "h.json"
+    src = np.array([[3.0, 10, 15], [20, 60, 15]])  # the second: beyond x and y, on z = 15
+    glmls.files.write_handles(handles, src, src + [1, 0, 0])
+    shot = tmp_path / "shot.png"
+    done = _demo(str(volume), "--handles", str(handles), "--screenshot", str(shot),
+                 "--window-size", "1000x500", xvfb=True)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    picture = glmls.imread(shot).astype(int)
+    atlas = GlyphAtlas(TEXT_SIZE)
+    grid = SliceGrid(shape)
+    layout = montage_layout((1000, 500), grid, round(PANEL_CHARS * atlas.advance["M"]) + 24)
+
+    def region(x0, y0, x1, y1):  # montage points to framebuffer pixels, inside
+        (left, top), (right, bottom) = layout.to_framebuffer(x0, y0), layout.to_framebuffer(x1, y1)
+        return picture[math.ceil(top) + 1 : int(bottom) - 1, math.ceil(left) + 1 : int(right) - 1]
+
+    background = np.round(np.array(BACKGROUND) * 255)
+    corner = region(10.5, 52.5, 39.5, 81.5)  # no view there
+    gap = region(5.5, -0.5, 9.5, 10)  # between the axial and sagittal views, under the labels
+    for part in (corner, gap):
+        assert part.size and np.abs(part - background).max() <= 1, np.unique(
+            part.reshape(-1, 3), axis=0
+        )
+    assert picture.std() > 10
 
 
 def _demo(*args: str, xvfb: bool = False):
