@@ -220,8 +220,6 @@ class InverseSolver:
                 "u_center": sc.center,
                 "u_scale": sc.scale,
                 "u_tolerance": POINTS_TOLERANCE,
-                "u_accept": NEWTON_ACCEPT,
-                "u_accept_steps": ACCEPT_STEPS,
                 "u_max_step": max(NEWTON_MAX_STEP, 4 * texel / sc.scale),
             },
         )

@@ -2,7 +2,7 @@
 //
 //   WARP_SWAP 0: Newton's method on f (warp/newton.glsl), from the guess in u_map (the
 //                rasterized piecewise linear inverse of the mesh, where it covers u) or from
-//                u itself (warp_solve: damped, and from u too, where that does not converge).
+//                u itself.
 //             1: s = the MLS map built with the handles swapped (q -> p), the shortcut other
 //                MLS tools take: the program evaluates that map's kernel. Residual unknown (-1).
 //   WARP_NEWTON_STEPS  the most Newton steps.
@@ -21,6 +21,8 @@ layout(rgba32f, binding = BIND_INVERSE_MAP) uniform image2D u_map;
 uniform ivec2 u_target_size;   // W, H of the output
 uniform ivec2 u_source_size;   // W, H of the source
 uniform float u_tolerance;     // stop below this residual, pixels
+uniform float u_accept;        // a residual above this (pixels) leaves the pixel uncovered,
+uniform float u_accept_steps;  // ... or above this many float32 steps (warp_accept)
 
 void main() {
     // No early return past the edge (as mls/points.comp.glsl: behind a return llvmpipe
@@ -41,12 +43,10 @@ void main() {
     bool converged = true;
 #else
     vec4 guess = imageLoad(u_map, at);
-    bool guessed = guess.z > 0.5;
+    vec2 s = guess.z > 0.5 ? (guess.xy - u_center) / u_scale : u;
     float residual;
-    bool converged;
-    // steps of at most 0.2 scaled units: a tenth of the image
-    vec2 s = warp_solve(guessed ? (guess.xy - u_center) / u_scale : u, guessed, u,
-                        u_tolerance / u_scale, 0.2, residual, converged);
+    s = warp_newton(s, u, u_tolerance / u_scale, 0.2, residual);   // a tenth of the image
+    bool converged = residual <= warp_accept(u_accept, u_accept_steps, u, s);
     residual *= u_scale;
 #endif
     vec2 sp = s * u_scale + u_center;

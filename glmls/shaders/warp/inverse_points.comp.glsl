@@ -57,12 +57,10 @@ void main() {
     bool guessed = guess.z > 0.5;
     vec2 s = guessed ? (guess.xy - u_center) / u_scale : u;
     float residual;
-    bool converged;
     // Without a guess (u beyond the mesh's reach: where f is close to its far-field affine
     // map) Newton's steps are not bounded: any point it ends at within the tolerance is a
     // preimage.
-    s = warp_solve(s, guessed, u, u_tolerance / u_scale, guessed ? u_max_step : 1e30,
-                   residual, converged);
+    s = warp_newton(s, u, u_tolerance / u_scale, guessed ? u_max_step : 1e30, residual);
     if (i < u_count) {
         inverse_out[i] = vec4(s, residual * u_scale, guessed ? 1.0 : 0.0);
     }
