@@ -31,7 +31,7 @@ from ..files.atomic import atomic_write
 from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import volume_suffix
 from ..mls import MLS
-from .analyze_volume import read_points_3d
+from .analyze_volume import check_reference_3d, read_points_3d
 from .inputs import figure, keep_inputs, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
@@ -101,6 +101,7 @@ def run_mesh(args: argparse.Namespace) -> int:
         raise UsageError(f"{args.input}: {error}") from None
     src, dst = read_3d_handles(args, "mesh")
     reference = read_points_3d(args.reference) if args.reference else None
+    check_reference_3d(args.reference, reference)
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")
     keep_inputs(args, [Path(args.out) / "report.json", Path(args.out) / "deformed.ply"])
