@@ -26,11 +26,12 @@ from ..analysis.stats import error_stats
 from ..analysis.tetrahedra import tetrahedron_errors
 from ..analysis.volume_field import fit_residuals
 from ..core.config import MLSConfig
+from ..core.handles3 import as_points3
 from ..files.atomic import atomic_write
 from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import volume_suffix
 from ..mls import MLS
-from .analyze_volume import read_points_3d
+from .analyze_volume import check_reference_3d, read_points_3d
 from .inputs import figure, keep_inputs, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
@@ -94,8 +95,13 @@ def run_mesh(args: argparse.Namespace) -> int:
     refuse_image_options(args, "mesh")
     config = _check_radius(config_from_args(args))
     mesh = read_mesh(args.input)
+    try:  # vertices beyond the GPU's coordinate range: refused before any work, as by warp
+        as_points3(mesh.vertices, "mesh vertices")
+    except ValueError as error:
+        raise UsageError(f"{args.input}: {error}") from None
     src, dst = read_3d_handles(args, "mesh")
     reference = read_points_3d(args.reference) if args.reference else None
+    check_reference_3d(args.reference, reference)
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")
     keep_inputs(args, [Path(args.out) / "report.json", Path(args.out) / "deformed.ply"])

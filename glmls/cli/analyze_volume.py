@@ -11,8 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..analysis.tetrahedra import delaunay3
 from ..analysis.volume_reporting import VOLUME_PICTURES, volume_report
 from ..core.config import MLSConfig
+from ..core.handles3 import as_points3
 from ..files.parsing import csv_rows, fail, json_list, load_json, number, table
 from ..files.volumes import is_volume_file, read_volume
 from ..mls import MLS
@@ -30,7 +32,7 @@ from .warp3d import (
     world_handles,
 )
 
-__all__ = ["is_volume_input", "read_points_3d", "run_volume"]
+__all__ = ["check_reference_3d", "is_volume_input", "read_points_3d", "run_volume"]
 
 
 def is_volume_input(args: argparse.Namespace) -> bool:
@@ -65,6 +67,18 @@ def read_points_3d(path: str | Path) -> np.ndarray:
     if len(points) == 0:
         raise fail(path, "content", "no points")
     return points
+
+
+def check_reference_3d(path: str | Path, points: np.ndarray | None) -> None:
+    """:class:`UsageError` naming ``path`` for reference points (K, 3) that make no
+    tetrahedra or lie beyond glmls's coordinate range; before any work is started."""
+    if points is None:
+        return
+    try:
+        as_points3(points, "reference_points")  # the range, which delaunay3 does not check
+        delaunay3(points)
+    except ValueError as error:
+        raise UsageError(f"{path}: {error}") from None
 
 
 def _deformation(src: np.ndarray, dst: np.ndarray, config: MLSConfig, shape, spacing) -> MLS:
@@ -121,6 +135,7 @@ def run_volume(args: argparse.Namespace) -> int:
     src, dst = voxel_handles(args, *read_3d_handles(args, "volume"), spacing)
     reference = read_points_3d(args.reference) if args.reference else None
     src, dst, reference = world_handles(args, source, spacing, src, dst, reference)
+    check_reference_3d(args.reference, reference)
     for message in volume_handle_warnings(args, src, volume.shape, spacing, source.affine):
         say(args, f"glmls analyze: warning: {args.input}: {message}")
     if reference is None:

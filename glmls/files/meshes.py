@@ -30,6 +30,7 @@ import numpy as np
 from ..core.summary import fields_repr
 from ..errors import InputFileError
 from .atomic import atomic_write
+from .parsing import not_a_file
 from .ply import read_ply
 
 __all__ = ["MESH_SUFFIXES", "Mesh", "read_mesh", "write_mesh"]
@@ -162,7 +163,7 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
     except ValueError as error:
         raise InputFileError(str(error)) from None
     if not path.is_file():
-        raise InputFileError(f"{path}: no such file")
+        raise InputFileError(f"{path}: {not_a_file(path)}")
     try:
         content = path.read_bytes()
     except OSError as error:

@@ -23,6 +23,7 @@ __all__ = [
     "json_pair",
     "json_points",
     "load_json",
+    "not_a_file",
     "number",
     "read_text",
     "table",
@@ -56,6 +57,16 @@ def number(path: Path, where: str, text: object) -> float:
     if not math.isfinite(value):
         raise fail(path, where, f"expected a finite number, got {brief(text)}")
     return value
+
+
+def not_a_file(path: Path) -> str:
+    """Why ``path``, which is not a regular file, cannot be read as one: "no such file", or
+    what it is (a folder, a device or another kind of entry), for a message naming it."""
+    if path.is_dir():
+        return "a folder, not a file"
+    if path.exists():
+        return "not a regular file (a device, a pipe or a socket)"
+    return "no such file"
 
 
 def read_text(path: Path) -> str:

@@ -50,6 +50,7 @@ from ..core.summary import fields_repr
 from ..errors import InputFileError
 from .atomic import atomic_write
 from .nifti import NiftiHeader, one_line, read_nifti, write_nifti
+from .parsing import not_a_file
 from .tiffs import TIFF_SIGNATURES, quiet_tifffile
 
 __all__ = [
@@ -398,7 +399,7 @@ def read_volume(path: str | os.PathLike) -> Volume:
             f"{', '.join(VOLUME_SUFFIXES)}"
         )
     if not path.is_file():
-        raise InputFileError(f"{path}: no such file")
+        raise InputFileError(f"{path}: {not_a_file(path)}")
     try:
         if suffix == ".npy":
             with path.open("rb") as file:  # else numpy speaks of pickles for any bad header

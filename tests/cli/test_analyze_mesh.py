@@ -27,6 +27,8 @@ def inputs(tmp_path, monkeypatch):
     (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": DST}))
     (tmp_path / "h2.json").write_text(json.dumps({"src": [[1, 2]], "dst": [[2, 3]]}))
     (tmp_path / "r3.json").write_text(json.dumps({"points": REFERENCE}))
+    (tmp_path / "far.json").write_text(json.dumps({"points": [*REFERENCE, [3, 3, 1e30]]}))
+    (tmp_path / "far.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1e30 0\nf 1 2 3\n")
     return tmp_path
 
 
@@ -100,6 +102,11 @@ def test_analyze_a_point_cloud_and_a_folding_map(inputs, capsys):
         (["sphere.obj"], "missing --handles"),
         (["sphere.obj", "--handles", "h3.json", "--weight", "gaussian"], "needs --radius"),
         (["missing.ply", "--handles", "h3.json"], "missing.ply: no such file"),
+        (["far.obj", "--handles", "h3.json"], "far.obj: mesh vertices must lie within"),
+        (
+            ["sphere.obj", "--handles", "h3.json", "--reference", "far.json"],
+            "far.json: reference_points must lie within ±1e+06",
+        ),
     ],
 )
 def test_bad_mesh_inputs_exit_2_with_one_line(inputs, capsys, args, message):

@@ -29,6 +29,9 @@ def inputs(tmp_path):
         json.dumps({"src": [[1, 2], [3, 4]], "dst": [[1, 2], [3, 5]]})
     )
     (tmp_path / "r3.json").write_text(json.dumps({"points": REFERENCE}))
+    flat = [[3, 3, 3], [10, 3, 3], [3, 8, 3], [10, 8, 3]]  # all on the plane z = 3
+    (tmp_path / "flat.json").write_text(json.dumps({"points": flat}))
+    (tmp_path / "far.json").write_text(json.dumps({"points": [*REFERENCE, [3, 3, 1e30]]}))
     return tmp_path
 
 
@@ -95,6 +98,14 @@ def test_analyze_a_volume_writes_the_report_and_pictures(inputs):
         ),
         (["v.npy", "--handles", "h3.json", "--reference", "h2.json"], 'missing the key "points"'),
         (["missing.npy", "--handles", "h3.json"], "no such file"),
+        (
+            ["v.npy", "--handles", "h3.json", "--reference", "flat.json"],
+            "flat.json: reference_points all lie on one plane",
+        ),
+        (
+            ["v.npy", "--handles", "h3.json", "--reference", "far.json"],
+            "far.json: reference_points must lie within ±1e+06",
+        ),
     ],
 )
 def test_bad_volume_inputs_exit_2_with_one_line(inputs, args, message):

@@ -39,3 +39,23 @@ def test_a_handle_file_of_no_handles_is_named_as_such_not_as_2d(files, args):
     lines = result.stderr.strip().splitlines()
     assert lines == ["glmls " + args[0] + ": none.json: content: no handles"], lines
     assert not list((files / "out").iterdir())
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("warp", "folder.nii.gz", "out/o.nii.gz", "--handles", "h3.json"),
+        ("warp", "folder.ply", "out/o.ply", "--handles", "h3.json"),
+        ("analyze", "folder.nii.gz", "--out", "out/a", "--handles", "h3.json"),
+        ("analyze", "folder.ply", "--out", "out/a", "--handles", "h3.json"),
+    ],
+)
+def test_an_input_that_is_a_folder_is_named_a_folder_not_missing(files, args):
+    (files / args[1]).mkdir()
+    src = [[1, 1, 1], [5, 1, 1], [1, 5, 1], [1, 1, 4]]
+    (files / "h3.json").write_text(json.dumps({"src": src, "dst": src}))
+    result = cli(*args, cwd=files)
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert lines == [f"glmls {args[0]}: {args[1]}: a folder, not a file"], lines
+    assert not list((files / "out").iterdir())
