@@ -29,7 +29,8 @@ import contextlib
 import itertools
 import logging
 import multiprocessing
-from collections.abc import Callable, Iterable
+import signal
+from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
 from ..core.config import check_integer
@@ -188,12 +189,19 @@ def _run_processes(function, items: list, jobs: int, finished) -> None:
     context = multiprocessing.get_context("spawn")  # fork would inherit a dead GL driver
     workers = min(jobs, len(items))
     pending = iter(enumerate(items))
-    with concurrent.futures.ProcessPoolExecutor(workers, mp_context=context) as pool:
+    pool = concurrent.futures.ProcessPoolExecutor(
+        workers, mp_context=context, initializer=_ignore_interrupts
+    )
+
+    def submit(item: Any) -> concurrent.futures.Future:
+        # the worker a submission may start is born with Ctrl-C blocked, until it ignores it
+        with _interrupts_blocked():
+            return pool.submit(_interruptible, function, item)
+
+    with pool:
         # One item per worker at a time: the pool hands the items submitted to its workers
         # ahead of time, beyond cancelling, so a stopped run would go on with them.
-        futures = {
-            pool.submit(function, item): index for index, item in itertools.islice(pending, workers)
-        }
+        futures = {submit(item): index for index, item in itertools.islice(pending, workers)}
         try:
             while futures:
                 done, _ = concurrent.futures.wait(
@@ -206,13 +214,52 @@ def _run_processes(function, items: list, jobs: int, finished) -> None:
                         raise _indexed(error, index) from error
                     finished(index, future.result())
                     for next_index, item in itertools.islice(pending, 1):
-                        futures[pool.submit(function, item)] = next_index
+                        futures[submit(item)] = next_index
         except BaseException:
-            # the items not started yet never start; the running ones end, then the
-            # workers exit (leaving the with block waits for them: no process is left)
+            # the items not started yet never start; the running ones end (on Ctrl-C, at
+            # once: their KeyboardInterrupt comes back as their result), then the workers
+            # exit (leaving the with block waits for them: no process is left)
             pool.shutdown(wait=True, cancel_futures=True)
             _report_the_rest(futures, finished)
             raise
+
+
+def _ignore_interrupts() -> None:
+    """A worker's initializer: Ctrl-C (which a terminal sends to every process of the
+    command) is ignored but while an item runs (:func:`_interruptible`). A worker killed by
+    it while it sends a result back would leave a part of the message in the pool's queue,
+    which the pool would then wait to read to the end, for ever; and a worker interrupted
+    while it waits for an item prints a traceback."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):  # blocked since its start (_interrupts_blocked)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+def _interruptible(function: Callable[[Any], Any], item: Any) -> Any:
+    """``function(item)`` in a worker, Ctrl-C raising ``KeyboardInterrupt`` in it: the pool
+    sends it back as the item's result, and the worker goes on to wait, quietly, for the
+    next item or the end."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        return function(item)
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextlib.contextmanager
+def _interrupts_blocked() -> Iterator[None]:
+    """SIGINT blocked in this thread in the block (where the OS has that), so that a worker
+    process started in it inherits it blocked and no Ctrl-C can stop it before its
+    initializer ignores it (a traceback on the terminal). This process still hears of a
+    Ctrl-C: the OS hands it to another thread, or it waits for the end of the block."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _report_the_rest(futures: dict, finished) -> None:

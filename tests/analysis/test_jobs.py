@@ -225,6 +225,44 @@ def test_ctrl_c_ends_the_run_and_its_workers(tmp_path, scheduler):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["started_0", "started_1"]
 
 
+def test_ctrl_c_while_a_worker_sends_its_result(tmp_path):
+    """Ctrl-C reaching a worker as it sends a big result back (its item done), and then
+    waiting for the next item: it goes on quietly, and the run ends at once (a worker killed
+    in the middle of its message would leave the run waiting for the rest of it, for ever,
+    and one waiting for an item would print a traceback). The workers get it first here,
+    many times, so that it lands in the sending whatever the machine's speed."""
+    script = Path(__file__).with_name("interrupted_jobs.py")
+    root = Path(__file__).resolve().parents[2]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root), str(script.parent)]))
+    child = subprocess.Popen(
+        [sys.executable, str(script), str(tmp_path), "big"],
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        start_new_session=True,
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while not list(tmp_path.glob("sending_*")) and time.monotonic() < deadline:
+            assert child.poll() is None, child.stderr.read()
+            time.sleep(0.002)
+        sender = int(next(tmp_path.glob("sending_*")).name.split("_")[1])
+        end = time.monotonic() + 1.5
+        while time.monotonic() < end:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(sender, signal.SIGINT)
+            time.sleep(0.005)
+        os.killpg(child.pid, signal.SIGINT)
+        _, err = child.communicate(timeout=90)
+        left = _group_alive(child.pid, wait=30)
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(child.pid, signal.SIGKILL)
+        child.wait()
+    assert (child.returncode, err) == (130, "interrupted\n")
+    assert not left, "a worker process outlived the run"
+
+
 def _group_alive(group: int, wait: float) -> bool:
     """Whether a process of ``group`` is still running after ``wait`` seconds at most."""
     deadline = time.monotonic() + wait
