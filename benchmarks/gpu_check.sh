@@ -9,7 +9,7 @@ if [ -z "${PYTHON:-}" ]; then
 fi
 export PYTHONPATH="$PWD${PYTHONPATH:+:$PYTHONPATH}"
 failed=()
-# The whole run's time: a borrowed machine runs one command for at most 600 s, so each step
+# The whole run's time: a remote GPU machine may run one command for at most 600 s, so each step
 # gets at most what is left of this, and the steps past it are named as not run.
 budget=${GPU_CHECK_BUDGET:-480}
 
