@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.config import check_real
 from ..imaging.frame import FIT_SLACK
 
 __all__ = ["CornerLattice", "VolumeBounds", "VolumeFrame", "check_memory"]
@@ -91,6 +92,14 @@ class VolumeBounds:
     ((2, 4, 6), (0.0, 0.0, 0.0))
     >>> VolumeBounds(-3.2, 0.5, 0.0, 40.5, 20.9, 2.0).output_shape
     (3, 21, 44)
+
+    Values that are not finite numbers, a spacing that is not three positive ones, or an
+    inverted box (``x1 < x0``) are refused:
+
+    >>> VolumeBounds(5.0, 0.0, 0.0, 1.0, 3.0, 3.0)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: VolumeBounds x1 must be >= x0 (...), got x0=5.0, x1=1.0
     """
 
     x0: float
@@ -100,6 +109,28 @@ class VolumeBounds:
     y1: float
     z1: float
     spacing: tuple[float, float, float] = (1.0, 1.0, 1.0)
+
+    def __post_init__(self) -> None:
+        for name in ("x0", "y0", "z0", "x1", "y1", "z1"):
+            object.__setattr__(self, name, check_real(f"VolumeBounds {name}", getattr(self, name)))
+        what = "three finite numbers > 0 (dz, dy, dx)"
+        try:
+            sizes = tuple(self.spacing)
+        except TypeError:
+            raise TypeError(f"VolumeBounds spacing must be {what}, got {self.spacing!r}") from None
+        if len(sizes) != 3:
+            raise ValueError(f"VolumeBounds spacing must be {what}, got {self.spacing!r}")
+        spacing = tuple(
+            check_real("VolumeBounds spacing", d, low=0, low_open=True, what=what) for d in sizes
+        )
+        object.__setattr__(self, "spacing", spacing)
+        for low, high in (("x0", "x1"), ("y0", "y1"), ("z0", "z1")):
+            if getattr(self, high) < getattr(self, low):
+                raise ValueError(
+                    f"VolumeBounds {high} must be >= {low} (a box's largest value is not below "
+                    f"its smallest), got {low}={getattr(self, low)!r}, "
+                    f"{high}={getattr(self, high)!r}"
+                )
 
     def _axes(self):
         dz, dy, dx = self.spacing

@@ -275,3 +275,24 @@ def test_a_backward_slice_whose_largest_buffer_fits_the_gl_limit_is_warped(
     )
     with pytest.raises(ValueError, match=f"needs {slice_bytes} bytes, more than a GL storage"):
         mls3.warp(volume, method="backward", **canvas)
+
+
+@pytest.mark.parametrize(
+    ("args", "kind", "message"),
+    [
+        ((5.0, 0, 0, 1.0, 3, 3), ValueError, r"x1 must be >= x0 .*got x0=5\.0, x1=1\.0"),
+        ((0, 0, 4.0, 1, 1, 2.0), ValueError, r"z1 must be >= z0"),
+        ((0, 0, 0, 1, 1, np.nan), ValueError, r"VolumeBounds z1 must be a finite number"),
+        ((0, "0", 0, 1, 1, 1), TypeError, r"VolumeBounds y0 must be a finite number"),
+        ((0, 0, 0, 1, 1, 1, (1.0, 0.0, 1.0)), ValueError, r"spacing must be three finite"),
+        ((0, 0, 0, 1, 1, 1, (1.0, 1.0)), ValueError, r"spacing must be three finite"),
+        ((0, 0, 0, 1, 1, 1, 2.0), TypeError, r"spacing must be three finite"),
+    ],
+)
+def test_a_volume_bounds_of_bad_values_is_refused_naming_them(args, kind, message):
+    """As glmls.Bounds: an inverted or non-finite box, or a spacing that is not three positive
+    numbers, would size a canvas of one voxel or none without a word."""
+    with pytest.raises(kind, match=message):
+        glmls.volume.VolumeBounds(*args)
+    box = glmls.volume.VolumeBounds(np.float32(-0.5), 0, 0, np.array(3.5), 1, 1, (2, 1, 1))
+    assert box.x0 == -0.5 and box.x1 == 3.5 and box.spacing == (2.0, 1.0, 1.0)
