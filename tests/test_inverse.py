@@ -280,3 +280,57 @@ def test_a_translation_near_the_coordinate_limit_keeps_every_pixel(gl):
         image[None], src[None], (src + shift)[None], method="backward", ctx=gl, **frame
     )
     assert (batch == 200).all()
+
+
+def _preimages_inside(m: glmls.MLS, u: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Whether each point of ``u`` has a preimage in the image's box by f in float64: the
+    nearest of f's values on a quarter-pixel lattice of sources, refined by Newton."""
+    height, width = shape
+    rows, cols = np.mgrid[-0.5 : height - 0.5 : 0.25, -0.5 : width - 0.5 : 0.25]
+    lattice = np.stack([cols.ravel(), rows.ravel()], -1)
+    f = lambda v: reference.mls(m.src, m.dst, v, m.config, shape=shape)[0]  # noqa: E731
+    values = f(lattice)
+    found = np.zeros(len(u), bool)
+    for k, point in enumerate(u):
+        for start in lattice[np.argsort(np.hypot(*(values - point).T))[:4]]:
+            s = start.copy()
+            for _ in range(30):
+                r = f(s[None])[0] - point
+                h = 1e-5
+                jacobian = np.stack([f((s + d)[None])[0] - r - point for d in np.eye(2) * h]) / h
+                if np.hypot(*r) < 1e-6 or abs(np.linalg.det(jacobian)) < 1e-12:
+                    break
+                s = s - np.linalg.solve(jacobian.T, r)
+            inside = (s >= -0.5).all() and (s <= [width - 0.5, height - 0.5]).all()
+            if np.hypot(*(f(s[None])[0] - point)) < 1e-3 and inside:
+                found[k] = True
+                break
+    return found
+
+
+def test_backward_finds_the_preimages_next_to_a_handle(gl):
+    """A pixel whose preimage lies half a pixel from a handle, where f curves fast: whole
+    Newton steps from the mesh's guess cycle there and the pixel was left to the background.
+    Damped steps, and Newton from the pixel itself, find it: every uncovered pixel of this
+    folding edit has no preimage in the image (float64 search)."""
+    shape = (40, 48)
+    src = np.array([[24.01, 35.27], [8.2, 35.2], [15.41, 16.82], [37.59, 16.32],
+                    [25.63, 2.96], [34.4, 20.84], [16.18, 29.6], [15.04, 17.87]])  # fmt: skip
+    dst = np.array([[24.17, 34.1], [5.07, 34.17], [15.44, 15.71], [42.77, 20.35],
+                    [14.79, -4.59], [33.7, 19.15], [17.03, 30.46], [23.51, 13.42]])  # fmt: skip
+    with glmls.MLS(src, dst, shape=shape, ctx=gl) as m:
+        xy, residual = m.coordinate_map(shape, residual=True)
+        uncovered = ~(residual <= NEWTON_ACCEPT) | np.isnan(xy).any(axis=-1)
+        rows, cols = np.nonzero(uncovered)
+        u = np.stack([cols, rows], -1).astype(float)
+        missed = u[_preimages_inside(m, u, shape)]
+        assert len(missed) == 0, missed
+        s, valid = m.inverse(np.array([[17.0, 15.0]]), return_valid=True)
+        assert valid.all() and back_error(m, s, np.array([[17.0, 15.0]]))[0] < 0.05
+    # the batch's second pass finds them too, each image's by its own handles
+    batch = glmls.warp_batch(
+        np.zeros((2, *shape), np.uint8), [src[::-1] + 1.0, src], [dst[::-1] + 1.0, dst],
+        method="backward", return_maps=True,
+    )  # fmt: skip
+    assert batch.valid[1][15, 17] and not uncovered[batch.valid[1]].any()
+    assert_allclose(batch.maps[1][batch.valid[1]], xy[batch.valid[1]], atol=1e-4)

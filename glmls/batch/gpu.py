@@ -41,7 +41,14 @@ from ..core.mesh import MeshLattice
 from ..engine.passes import POINTS_PER_INVOCATION, evaluate_lattice
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
-from ..gl.dispatch import LOCAL_SIZE, LOCAL_SIZE_2D, ScanPieces, fill_buffer, set_uniforms
+from ..gl.dispatch import (
+    LOCAL_SIZE,
+    LOCAL_SIZE_2D,
+    ScanPieces,
+    SecondPass,
+    fill_buffer,
+    set_uniforms,
+)
 from ..gl.resources import Resources, keep_framebuffer
 from ..gl.tables import TABLE_WIDTH, table_rows
 from ..imaging.frame import Frame
@@ -293,13 +300,25 @@ class BatchQuads:
             "u_accept": NEWTON_ACCEPT,
             "u_accept_steps": ACCEPT_STEPS,
         }
-        for program, rows in lattices.dispatches(
-            gl, self._resources, lattice, "warp/inverse.comp.glsl", defines
-        ):
+        # each part's pixels whose Newton ends above the residual accepted, again by damped
+        # Newton in a second pass over those alone (the same parts, bound alike, in order)
+        second = SecondPass(gl)
+        passes = zip(
+            lattices.dispatches(gl, self._resources, lattice, "warp/inverse.comp.glsl", defines),
+            lattices.dispatches(
+                gl, self._resources, lattice, "warp/inverse.comp.glsl",
+                defines | {"WARP_RESCUE": True},
+            ),
+            strict=True,
+        )  # fmt: skip
+        for (program, rows), (rescue, _) in passes:
             set_uniforms(program, uniforms)
+            second.start(program)
             mgl.memory_barrier()
             coords.bind_to_image(bindings.INVERSE_MAP.index, read=True, write=True)
             program.run(group_x=groups[0], group_y=groups[1], group_z=rows)
+            set_uniforms(rescue, uniforms)
+            second.finish(rescue)
         mgl.memory_barrier()
         linear = options.interpolation == "linear"
         out = self._sample(sources, coords, atlas, frame, background, linear, border, "atlas")

@@ -77,6 +77,7 @@ MESH_FOLDS = Binding("MESH_FOLDS", "storage", 23, "3D meshes: each face's fold f
 BATCH_OUTPUT = Binding("BATCH_OUTPUT", "storage", 25, "batches: the chunk's output bytes, labels")
 BATCH_CHECK = Binding("BATCH_CHECK", "storage", 26, "batches: each image's embedding test")
 BATCH_LISTS = Binding("BATCH_LISTS", "storage", 27, "batches: the images each scan takes")
+RESCUE = Binding("RESCUE", "storage", 28, "backward: pixels Newton left, their dispatch")
 PIECES = Binding("PIECES", "storage", 29, "scans: the dispatch of large primitives' pieces")
 BATCH_POINTS = Binding("BATCH_POINTS", "storage", 30, "batches: each image's points to evaluate")
 # -- uniform blocks ----------------------------------------------------------------------------
@@ -150,6 +151,7 @@ ALL = (
     BATCH_OUTPUT,
     BATCH_CHECK,
     BATCH_LISTS,
+    RESCUE,
     PIECES,
     BATCH_POINTS,
     HANDLES_BLOCK,

@@ -17,7 +17,9 @@ from . import bindings
 __all__ = [
     "LOCAL_SIZE",
     "LOCAL_SIZE_2D",
+    "RESCUE_CAPACITY",
     "ScanPieces",
+    "SecondPass",
     "fill_buffer",
     "run_1d",
     "run_2d",
@@ -202,3 +204,48 @@ class ScanPieces:
 #: before a scan: no work group.
 _PIECES = "scan pieces"
 _NO_PIECES = bytes(16)
+
+
+#: The most items a :class:`SecondPass` lists (8 bytes each: 8 MiB); past it they are
+#: counted, not listed, and keep the first pass's result.
+RESCUE_CAPACITY = 1 << 20
+_RESCUE = "second pass"
+#: Its list's header before a first pass: an indirect dispatch of (0, 1, 1) work groups, and
+#: no item.
+_NO_RESCUE = bytes(4) + (1).to_bytes(4, "little") * 2 + bytes(4)
+
+
+class SecondPass:
+    """A second pass over the few items a first left undone (``warp/inverse.comp.glsl``:
+    the pixels whose Newton ended above the residual accepted), in an indirect dispatch the
+    first sized: the first appends each such item to a list (``BIND_RESCUE``: the dispatch's
+    (x, y, z) work groups, the count, then the items, ``RESCUE_CAPACITY`` at most) and
+    raises x by one work group per ``LOCAL_SIZE`` items; the second runs one invocation per
+    item, none where there is none, and nothing is read back. A branch in the first pass
+    would cost every item on a CPU renderer, which runs a branch's code under its lanes'
+    mask whatever the mask.
+
+    :meth:`start` before the first pass's dispatches, :meth:`finish` with the second's
+    program after them (with its own uniforms set)."""
+
+    def __init__(self, gl) -> None:
+        self._gl = gl
+
+    def _buffer(self) -> moderngl.Buffer:
+        gl = self._gl
+        return gl.shared(_RESCUE, lambda: gl.mgl.buffer(reserve=16 + 8 * RESCUE_CAPACITY))
+
+    def start(self, program: moderngl.ComputeShader) -> None:
+        """Clear the list and bind it for ``program``, the first pass."""
+        buffer = self._buffer()
+        buffer.write(_NO_RESCUE)
+        buffer.bind_to_storage_buffer(bindings.RESCUE.index)
+        set_uniforms(program, {"u_rescue_capacity": RESCUE_CAPACITY})
+
+    def finish(self, program: moderngl.ComputeShader) -> None:
+        """Run ``program``, the second pass, over the listed items."""
+        buffer = self._buffer()
+        buffer.bind_to_storage_buffer(bindings.RESCUE.index)
+        self._gl.mgl.memory_barrier()  # the list and its size, before the dispatch reads them
+        set_uniforms(program, {"u_rescue_capacity": RESCUE_CAPACITY})
+        program.run_indirect(buffer)

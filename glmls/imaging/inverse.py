@@ -21,7 +21,7 @@ from ..core.mesh import MeshLattice
 from ..engine.kernel import MLSKernel
 from ..gl import bindings
 from ..gl.context import GLContext, current
-from ..gl.dispatch import run_1d, run_2d, set_uniforms
+from ..gl.dispatch import SecondPass, run_1d, run_2d, set_uniforms
 from ..gl.resources import Resources
 from .frame import Frame
 from .options import PipelineOptions
@@ -138,10 +138,13 @@ class InverseSolver:
         height, width = lattice.shape
         # first, so that a pass the driver cannot run is refused before the first guess's
         # mesh, which with many handles over a large image takes long on a CPU renderer
-        program = kernel.program(
-            "warp/inverse.comp.glsl",
-            {"WARP_SWAP": swap, "WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": border},
-        )
+        defines = {"WARP_SWAP": swap, "WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": border}
+        program = kernel.program("warp/inverse.comp.glsl", defines)
+        # damped Newton over the pixels where the first pass's ends above the residual
+        # accepted (next to a fold or a handle), in a second pass over those alone
+        rescue = None
+        if not swap:
+            rescue = kernel.program("warp/inverse.comp.glsl", defines | {"WARP_RESCUE": True})
         framebuffer = self._resources.framebuffer("coords", frame.size)
         texture = self._resources.texture("coords", frame.size, 4, "f4")
         if not swap:
@@ -155,23 +158,28 @@ class InverseSolver:
                 self._raster.draw(
                     kernel, None, lattice, frame, linear=False, coords=True, flip_y=False
                 )
-        kernel.bind(program, lattice.shape)
         sc = kernel.scaling
-        set_uniforms(
-            program,
-            {
-                **frame.uniforms(),
-                "u_source_size": (width, height),
-                "u_center": sc.center,
-                "u_scale": sc.scale,
-                "u_tolerance": NEWTON_TOLERANCE,
-                "u_accept": NEWTON_ACCEPT,
-                "u_accept_steps": ACCEPT_STEPS,
-            },
-        )
+        uniforms = {
+            **frame.uniforms(),
+            "u_source_size": (width, height),
+            "u_center": sc.center,
+            "u_scale": sc.scale,
+            "u_tolerance": NEWTON_TOLERANCE,
+            "u_accept": NEWTON_ACCEPT,
+            "u_accept_steps": ACCEPT_STEPS,
+        }
+        second = SecondPass(self._gl)
+        kernel.bind(program, lattice.shape)
+        set_uniforms(program, uniforms)
+        if rescue is not None:
+            second.start(program)
         self._gl.mgl.memory_barrier()
         texture.bind_to_image(bindings.INVERSE_MAP.index, read=True, write=True)
         run_2d(program, frame.size, max_groups=self._gl.limits["max_work_groups_x"])
+        if rescue is not None:
+            kernel.bind(rescue, lattice.shape)
+            set_uniforms(rescue, uniforms)
+            second.finish(rescue)
         self._gl.mgl.memory_barrier()
         return texture
 
@@ -212,17 +220,15 @@ class InverseSolver:
         kernel.bind(program, shape)
         sc = kernel.scaling
         texel = max(frame.size[0] / size[0], frame.size[1] / size[1])  # pixels
-        set_uniforms(
-            program,
-            {
-                **frame.uniforms(),
-                "u_guess_size": size,
-                "u_center": sc.center,
-                "u_scale": sc.scale,
-                "u_tolerance": POINTS_TOLERANCE,
-                "u_max_step": max(NEWTON_MAX_STEP, 4 * texel / sc.scale),
-            },
-        )
+        uniforms = {
+            **frame.uniforms(),
+            "u_guess_size": size,
+            "u_center": sc.center,
+            "u_scale": sc.scale,
+            "u_tolerance": POINTS_TOLERANCE,
+            "u_max_step": max(NEWTON_MAX_STEP, 4 * texel / sc.scale),
+        }
+        set_uniforms(program, uniforms)
         count = len(points)
         source = self._resources.buffer("inverse_points", count * 8)
         source.write(np.ascontiguousarray(sc.to_gpu(points), dtype=np.float32))
@@ -233,4 +239,36 @@ class InverseSolver:
         texture.use(bindings.COORDS.index)
         run_1d(program, count, max_groups=self._gl.limits["max_work_groups_x"])
         self._gl.mgl.memory_barrier()
-        return np.frombuffer(out.read(size=count * 16), np.float32).reshape(count, 4)
+        found = np.frombuffer(out.read(size=count * 16), np.float32).reshape(count, 4).copy()
+        return self._rescue_points(kernel, shape, points, found, uniforms)
+
+    def _rescue_points(
+        self, kernel: MLSKernel, shape, points: np.ndarray, found: np.ndarray, uniforms: dict
+    ) -> np.ndarray:
+        """``found`` (the first dispatch's results) with its points whose residual is above
+        the one accepted solved again by damped Newton, from their point and from u, in a
+        second dispatch over those alone (``WARP_RESCUE``, as the backward method's second
+        pass, with the first's ``uniforms``)."""
+        sc = kernel.scaling
+        with np.errstate(invalid="ignore"):
+            left = ~(found[:, 2] <= accept_residual(sc, points, sc.from_gpu(found[:, :2])))
+        if not left.any():
+            return found
+        index = np.flatnonzero(left)
+        program = kernel.program(
+            "warp/inverse_points.comp.glsl",
+            {"WARP_NEWTON_STEPS": POINTS_NEWTON_STEPS, "WARP_RESCUE": True},
+        )
+        kernel.bind(program, shape)
+        set_uniforms(program, uniforms)
+        source = self._resources.buffer("inverse_points", len(index) * 8)
+        source.write(np.ascontiguousarray(sc.to_gpu(points[index]), dtype=np.float32))
+        out = self._resources.buffer("inverse_out", len(index) * 16)
+        out.write(np.ascontiguousarray(found[index]))
+        self._gl.mgl.memory_barrier()
+        source.bind_to_storage_buffer(bindings.POINTS.index)
+        out.bind_to_storage_buffer(bindings.DEFORMED.index)
+        run_1d(program, len(index), max_groups=self._gl.limits["max_work_groups_x"])
+        self._gl.mgl.memory_barrier()
+        found[index] = np.frombuffer(out.read(size=len(index) * 16), np.float32).reshape(-1, 4)
+        return found

@@ -8,6 +8,14 @@
 //
 // Out, per point: (s.x, s.y) scaled, |f(s) - u| in pixels, and whether a texel gave the
 // guess.
+//
+// WARP_RESCUE 1: the second dispatch, over the points the first left above the residual
+// accepted (listed on the host, which reads the first's results anyway): inverse_out holds
+// the first's results for them, improved in place by damped Newton from the first's point
+// and from u (warp_rescue), as the backward method's second pass.
+#ifndef WARP_RESCUE
+#define WARP_RESCUE 0
+#endif
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "mls/visit.glsl"
@@ -17,7 +25,11 @@ layout(local_size_x = LOCAL_SIZE) in;
 layout(std430, binding = BIND_POINTS) readonly buffer InversePoints {
     vec2 inverse_points[];   // u, scaled
 };
+#if WARP_RESCUE
+layout(std430, binding = BIND_DEFORMED) buffer InverseOut {
+#else
 layout(std430, binding = BIND_DEFORMED) writeonly buffer InverseOut {
+#endif
     vec4 inverse_out[];
 };
 layout(binding = BIND_COORDS) uniform sampler2D u_guess;   // (s.x, s.y pixels, covered, 0)
@@ -29,6 +41,20 @@ uniform int u_offset;
 uniform float u_tolerance;     // stop below this residual, pixels
 uniform float u_max_step;      // the longest Newton step, scaled: longer with coarse texels
 
+#if WARP_RESCUE
+void main() {
+    int i = u_offset + int(gl_GlobalInvocationID.x);
+    int j = min(i, max(u_count - 1, 0));
+    vec2 u = inverse_points[j];
+    vec4 found = inverse_out[j];
+    vec2 s = found.xy;
+    float residual = found.z / u_scale;
+    warp_rescue(u, u_tolerance / u_scale, found.w > 0.5 ? u_max_step : 1e30, s, residual);
+    if (i < u_count) {
+        inverse_out[i] = vec4(s, residual * u_scale, found.w);
+    }
+}
+#else
 void main() {
     // No early return past the end (as mls/points.comp.glsl): those invocations redo the
     // last point, unstored.
@@ -65,3 +91,4 @@ void main() {
         inverse_out[i] = vec4(s, residual * u_scale, guessed ? 1.0 : 0.0);
     }
 }
+#endif

@@ -38,3 +38,64 @@ vec2 warp_newton(vec2 s, vec2 u, float tolerance, float max_step, out float resi
     }
     return s;
 }
+
+// As warp_newton, for a point where it ended above the residual accepted (a dip of
+// |f(s) - u| that is no preimage, next to a fold or a handle, where whole steps cycle): a
+// step that raises the residual is halved, up to WARP_NEWTON_STEPS halvings in all, and
+// taken where none brings it down (Newton may have to climb out of a dip); the Jacobian's
+// difference is a thirty-second of a pixel (f curves fast there; float32's noise is ~1e-3
+// of it, and the steps' directions still hold). Returns the best iterate. Only the second
+// pass runs it (warp/inverse.comp.glsl's WARP_RESCUE, the inverse at points' second
+// dispatch), over the few points the first left.
+vec2 warp_newton_damped(vec2 s, vec2 u, float tolerance, float max_step, out float residual) {
+    float h = 0.03125 / u_scale;
+    vec2 r = mls_eval(s).f - u;
+    residual = length(r);
+    vec2 best = s;
+    float least = residual;
+    int halvings = 0;
+    for (int k = 0; k < WARP_NEWTON_STEPS && residual > tolerance; ++k) {
+        vec2 fs = r + u;
+        vec2 jx = (mls_eval(s + vec2(h, 0.0)).f - fs) / h;   // df/dx
+        vec2 jy = (mls_eval(s + vec2(0.0, h)).f - fs) / h;   // df/dy
+        float det = jx.x * jy.y - jy.x * jx.y;
+        if (!(abs(det) > 1e-12)) {
+            break;
+        }
+        vec2 step = vec2(jy.y * r.x - jy.x * r.y, jx.x * r.y - jx.y * r.x) / det;
+        float len = length(step);
+        step *= len > max_step ? max_step / len : 1.0;
+        vec2 t;
+        vec2 rt;
+        bool whole = true;
+        do {   // the step, then its halves while they raise the residual
+            if (!whole) {
+                step *= 0.5;
+                ++halvings;
+            }
+            whole = false;
+            t = s - step;
+            rt = mls_eval(t).f - u;
+        } while (length(rt) > residual && halvings < WARP_NEWTON_STEPS);
+        s = t;
+        r = rt;
+        residual = length(r);
+        best = residual < least ? s : best;
+        least = min(residual, least);
+    }
+    residual = least;
+    return best;
+}
+
+// The preimage of u from the first pass's point ``s`` (its residual ``residual``, scaled; a
+// NaN counts as none): damped Newton from s, then from u itself, the least residual kept.
+void warp_rescue(vec2 u, float tolerance, float max_step, inout vec2 s, inout float residual) {
+    for (int start = 0; start < 2; ++start) {   // one place runs warp_newton_damped
+        float again;
+        vec2 t = warp_newton_damped(start == 0 ? s : u, u, tolerance, max_step, again);
+        if (!(again >= residual)) {
+            s = t;
+            residual = again;
+        }
+    }
+}
