@@ -47,7 +47,7 @@ def test_skimage_warp_by_the_inverse_is_the_backward_method(gl, photo):
 def test_constant_mode_and_points_without_preimage(gl):
     """A compact-support map that leaves a crescent of the output without preimage: skimage
     gives NaN there, glmls the background. Elsewhere the two agree, but for the image's rim
-    (see the module)."""
+    (see the module) and the crescent's."""
     rng = np.random.default_rng(3)
     image = rng.uniform(0.2, 1.0, (48, 64)).astype(np.float32)
     p, d = np.array([32.0, 24.0]), np.array([-8.0, 0.0])
@@ -65,6 +65,16 @@ def test_constant_mode_and_points_without_preimage(gl):
     inside = np.zeros(image.shape, bool)
     ok = valid & (s >= 1).all(axis=1) & (s[:, 0] <= 62) & (s[:, 1] <= 46)
     inside.ravel()[ok] = True
+    # Next to the crescent f jumps: one handle moves every point its weight reaches the whole
+    # way, however small the weight, and none past the radius. A preimage there is a point
+    # on that edge, within the residual accepted, which the two solvers approach from their
+    # own first guesses: the crescent's rim is left out, as the image's.
+    rim = uncovered.copy()
+    rim[1:] |= uncovered[:-1]
+    rim[:-1] |= uncovered[1:]
+    rim[:, 1:] |= uncovered[:, :-1]
+    rim[:, :-1] |= uncovered[:, 1:]
+    inside &= ~rim
     assert inside.mean() > 0.8
     assert np.abs(theirs - ours)[inside].max() < AGREE
 
