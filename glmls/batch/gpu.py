@@ -303,15 +303,11 @@ class BatchQuads:
         # each part's pixels whose Newton ends above the residual accepted, again by damped
         # Newton in a second pass over those alone (the same parts, bound alike, in order)
         second = SecondPass(gl)
-        passes = zip(
-            lattices.dispatches(gl, self._resources, lattice, "warp/inverse.comp.glsl", defines),
-            lattices.dispatches(
-                gl, self._resources, lattice, "warp/inverse.comp.glsl",
-                defines | {"WARP_RESCUE": True},
-            ),
-            strict=True,
+        passes = lattices.parts(
+            gl, self._resources, lattice, "warp/inverse.comp.glsl",
+            defines, defines | {"WARP_RESCUE": True},
         )  # fmt: skip
-        for (program, rows), (rescue, _) in passes:
+        for (program, rescue), rows in passes:
             set_uniforms(program, uniforms)
             second.start(program)
             mgl.memory_barrier()

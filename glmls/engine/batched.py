@@ -154,6 +154,15 @@ class BatchLattices:
         counts alike) and part of the images whose handles fit in a uniform block (llvmpipe
         reads those faster than a storage buffer; one part for 256 images of 16 handles);
         the caller sets its own uniforms and runs each."""
+        for (program,), rows in self.parts(gl, resources, lattice, entry, defines):
+            yield program, rows
+
+    def parts(
+        self, gl: GLContext, resources: Resources, lattice: MeshLattice, entry: str, *defines
+    ) -> Iterator[tuple[tuple[moderngl.ComputeShader, ...], int]]:
+        """As :meth:`dispatches`, with one program of ``entry`` per mapping of ``defines`` for
+        each part (a pass and its second pass, say), the part's handles and table rows
+        uploaded and bound once for them all."""
         table = self.table(lattice)
         ends = np.cumsum(self.counts)
         capacity = int(gl.mgl.info["GL_MAX_UNIFORM_BLOCK_SIZE"]) // 16
@@ -170,13 +179,14 @@ class BatchLattices:
                     start, rows = k, 0
                 rows += count
             parts.append(chosen[start:])
-            program = gl.compute(
-                entry,
-                config_defines(self.config, unroll=unroll, binned=False, segments=False)
-                | {"MLS_STORAGE": 0, "MLS_BATCH": True, "MLS_UBO_CAPACITY": capacity * block}
-                | dict(defines),
-            )
-            set_uniforms(program, {"u_alpha": self.config.alpha})
+            common = config_defines(self.config, unroll=unroll, binned=False, segments=False) | {
+                "MLS_STORAGE": 0,
+                "MLS_BATCH": True,
+                "MLS_UBO_CAPACITY": capacity * block,
+            }
+            programs = tuple(gl.compute(entry, common | dict(d)) for d in defines)
+            for program in programs:
+                set_uniforms(program, {"u_alpha": self.config.alpha})
             for j, part in enumerate(parts):
                 if part[-1] - part[0] + 1 == len(part):  # consecutive images: one slice
                     packed = self.packed[ends[part[0]] - self.counts[part[0]] : ends[part[-1]]]
@@ -196,7 +206,7 @@ class BatchLattices:
                 else:
                     handles.bind_to_storage_buffer(bindings.HANDLES.index)
                 images.bind_to_storage_buffer(bindings.POINTS.index)
-                yield program, len(rows)
+                yield programs, len(rows)
 
     def evaluate(
         self, gl: GLContext, resources: Resources, lattice: MeshLattice, target, stride: int
