@@ -197,16 +197,7 @@ def test_ctrl_c_ends_the_run_and_its_workers(tmp_path, scheduler):
     at once (it does not wait for items whose workers are gone) and leaves no process."""
     if scheduler == "local":
         pytest.importorskip("distributed")
-    script = Path(__file__).with_name("interrupted_jobs.py")
-    root = Path(__file__).resolve().parents[2]
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root), str(script.parent)]))
-    child = subprocess.Popen(
-        [sys.executable, str(script), str(tmp_path), scheduler],
-        stderr=subprocess.PIPE,
-        text=True,
-        env=env,
-        start_new_session=True,  # a process group of its own, as a terminal's command
-    )
+    child = _interrupted_jobs(tmp_path, scheduler)
     try:
         deadline = time.monotonic() + 120
         while len(list(tmp_path.glob("started_*"))) < 2 and time.monotonic() < deadline:
@@ -231,16 +222,7 @@ def test_ctrl_c_while_a_worker_sends_its_result(tmp_path):
     in the middle of its message would leave the run waiting for the rest of it, for ever,
     and one waiting for an item would print a traceback). The workers get it first here,
     many times, so that it lands in the sending whatever the machine's speed."""
-    script = Path(__file__).with_name("interrupted_jobs.py")
-    root = Path(__file__).resolve().parents[2]
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root), str(script.parent)]))
-    child = subprocess.Popen(
-        [sys.executable, str(script), str(tmp_path), "big"],
-        stderr=subprocess.PIPE,
-        text=True,
-        env=env,
-        start_new_session=True,
-    )
+    child = _interrupted_jobs(tmp_path, "big")
     try:
         deadline = time.monotonic() + 120
         while not list(tmp_path.glob("sending_*")) and time.monotonic() < deadline:
@@ -261,6 +243,21 @@ def test_ctrl_c_while_a_worker_sends_its_result(tmp_path):
         child.wait()
     assert (child.returncode, err) == (130, "interrupted\n")
     assert not left, "a worker process outlived the run"
+
+
+def _interrupted_jobs(folder: Path, mode: str) -> subprocess.Popen:
+    """``interrupted_jobs.py FOLDER MODE`` started in a process group of its own, as a
+    terminal's command, its stderr piped."""
+    script = Path(__file__).with_name("interrupted_jobs.py")
+    root = Path(__file__).resolve().parents[2]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root), str(script.parent)]))
+    return subprocess.Popen(
+        [sys.executable, str(script), str(folder), mode],
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        start_new_session=True,
+    )
 
 
 def _group_alive(group: int, wait: float) -> bool:
