@@ -273,17 +273,28 @@ def tetrahedron_errors_from_points(
 
 
 def _user_tetrahedra(tetrahedra: object, count: int) -> np.ndarray:
+    """The user's tetrahedra (T, 4) as int64 indices into ``count`` points: ``TypeError`` for
+    indices that are not integers, ``ValueError`` naming the first bad row."""
     array = np.asarray(tetrahedra)
-    if array.dtype.kind not in "iu" or array.ndim != 2 or array.shape[1] != 4:
-        raise ValueError(
-            f"tetrahedra must be (T, 4) integer indices, got {array.dtype} {array.shape}"
-        )
+    if array.size and array.dtype.kind not in "iu":
+        raise TypeError(f"tetrahedra must be integer indices, got dtype {array.dtype}")
+    if array.ndim != 2 or array.shape[1] != 4:
+        raise ValueError(f"tetrahedra must be (T, 4) integer indices, got shape {array.shape}")
     if len(array) == 0:
         raise ValueError("tetrahedra: no tetrahedron given")
-    if array.min() < 0 or array.max() >= count:
-        raise ValueError(f"tetrahedra must index the {count} reference points (0 to {count - 1})")
-    if (np.sort(array, axis=1)[:, 1:] == np.sort(array, axis=1)[:, :-1]).any():
-        raise ValueError("tetrahedra: a tetrahedron repeats a vertex")
+    # the range before the cast to int64: a uint64 index of 2**63 must not wrap
+    outside = ((array < 0) | (array >= count)).any(axis=1)
+    if outside.any():
+        row = int(np.argmax(outside))
+        raise ValueError(
+            f"tetrahedra[{row}] is {array[row].tolist()}: the indices must be those of the "
+            f"{count} reference points (0 to {count - 1})"
+        )
+    ordered = np.sort(array, axis=1)
+    repeated = (ordered[:, 1:] == ordered[:, :-1]).any(axis=1)
+    if repeated.any():
+        row = int(np.argmax(repeated))
+        raise ValueError(f"tetrahedra[{row}] is {array[row].tolist()}: it repeats a vertex")
     return np.ascontiguousarray(array, dtype=np.int64)
 
 
@@ -321,8 +332,8 @@ def tetrahedron_errors(
     reference_points : array_like
         The points r, (N, 3) with N >= 4, distinct and not all on one plane.
     tetrahedra : array_like, optional
-        (T, 4) indices into ``reference_points``: the user's own tetrahedra instead of
-        Delaunay's.
+        (T, 4) integer indices into ``reference_points``: the user's own tetrahedra instead of
+        Delaunay's; a row out of range or repeating a vertex is a ``ValueError`` naming it.
     min_quality : float, optional
         The radius ratio 3 r / R in [0, 1) below which a tetrahedron is a sliver (zero
         volume ones always are); 0.1 by default.
@@ -343,6 +354,8 @@ def tetrahedron_errors(
         ``tetrahedra``; every tetrahedron a sliver; an unknown ``angle``; ``eps`` <= 0;
         ``min_quality`` out of [0, 1); ``m`` returning the wrong shape or values that are
         not finite.
+    TypeError
+        For ``tetrahedra`` that are not integers.
 
     See Also
     --------

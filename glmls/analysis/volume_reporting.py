@@ -170,7 +170,8 @@ def volume_report(
         The deformation, of (N, 3) handles ``m.src`` -> ``m.dst``.
     reference_points : array_like, optional
         The points r of the tetrahedra, (N, 3); by default the distinct source handles
-        (the tetrahedra are then left out where they form none).
+        (the tetrahedra are then left out where they form none, unless ``tetrahedra`` is
+        given).
     grid : int, optional
         The error field at every voxel (1), or every ``grid`` voxels, interpolated.
     jacobian_grid : int, optional
@@ -223,10 +224,8 @@ def volume_report(
         of another length than 3, with a value that is not a finite number > 0, or other
         than ``m.spacing``.
     TypeError
-        For a ``warp`` that is not a bool.
-    TypeError
-        For a volume that is not real numbers, or a ``spacing`` that is not a sequence of
-        real numbers.
+        For a ``warp`` that is not a bool, a volume that is not real numbers, ``tetrahedra``
+        that are not integers, or a ``spacing`` that is not a sequence of real numbers.
 
     Examples
     --------
@@ -287,7 +286,7 @@ def volume_report(
             eps=eps,
         )
     except ValueError as error:
-        if reference_points is not None:
+        if reference_points is not None or tetrahedra is not None:  # the user's, not the handles'
             raise
         skipped = f"the source handles as reference points: {error}"
     clock.end("tetrahedron_errors")

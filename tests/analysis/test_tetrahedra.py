@@ -170,8 +170,10 @@ def test_delaunay_slivers_of_random_points_are_below_the_threshold():
         ([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1e300, 0, 0]], {}, r"within 1e-10 .*, 0\."),
         ([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 0, 0]], {}, r"\[4\] repeats"),
         ([[0, 0], [1, 0], [0, 1], [1, 1]], {}, r"\(N, 3\)"),
-        (CORNER, {"tetrahedra": [[0, 1, 2, 4]]}, "index the 4"),
-        (CORNER, {"tetrahedra": [[0, 1, 2, 2]]}, "repeats a vertex"),
+        (CORNER, {"tetrahedra": [[0, 1, 2, 3], [0, 1, 2, 4]]}, r"\[1\] is \[0, 1, 2, 4\].* 4 "),
+        (CORNER, {"tetrahedra": [[0, 1, 2, 3], [-1, 1, 2, 3]]}, r"\[1\] is \[-1, 1, 2, 3\]"),
+        (CORNER, {"tetrahedra": [[0, 1, 2, 3], [0, 1, 2, 2]]}, r"\[1\] .*repeats a vertex"),
+        (CORNER, {"tetrahedra": np.array([[0, 1, 2, 2**63]], np.uint64)}, r"\[0\] is"),
         (CORNER, {"tetrahedra": [[0, 1, 2]]}, r"\(T, 4\)"),
         (CORNER, {"angle": "radians"}, "unknown angle 'radians'"),
         (CORNER, {"eps": 0}, "eps"),
@@ -187,6 +189,12 @@ def test_an_angle_measure_of_another_type_is_a_type_error():
     for angle in (None, 1):
         with pytest.raises(TypeError, match=f"angle must be a string, .*; got {angle}"):
             tetrahedron_errors(lambda r: r, CORNER, angle=angle)
+
+
+def test_tetrahedra_that_are_not_integers_are_a_type_error():
+    for tetrahedra in ([[0.0, 1, 2, 3]], [[True, False, True, False]], [["0", "1", "2", "3"]]):
+        with pytest.raises(TypeError, match="tetrahedra must be integer indices, got dtype"):
+            tetrahedron_errors(lambda r: r, CORNER, tetrahedra=tetrahedra)
 
 
 def test_a_bad_map_raises():

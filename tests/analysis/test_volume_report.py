@@ -117,6 +117,14 @@ def test_coplanar_handles_leave_the_tetrahedra_out_but_given_points_must_form_th
         volume_report(volume(), m, np.unique(flat, axis=0), grid=4)
 
 
+def test_the_users_tetrahedra_over_the_handles_are_checked_not_left_out(gl):
+    m = ReferenceDeformation(SRC, SRC + 1.0, shape=SHAPE)
+    with pytest.raises(ValueError, match=r"tetrahedra\[1\] is \[0, 1, 2, 9\]"):
+        volume_report(volume(), m, grid=4, tetrahedra=[[0, 1, 2, 3], [0, 1, 2, 9]])
+    found = volume_report(volume(), m, grid=4, tetrahedra=[[0, 1, 2, 3]], warp=False)
+    assert found.summary["tetrahedra"]["tetrahedra"] == 1
+
+
 @pytest.mark.parametrize(
     ("kwargs", "error", "message"),
     [
