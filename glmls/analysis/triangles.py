@@ -65,8 +65,9 @@ class TriangleErrors:
         (11): the mean of (|cos a - cos a'| + eps) / (|cos a| + eps). NaN where f collapses
         an edge to a point.
     flipped : numpy.ndarray
-        (T,) bool: whether f reverses the triangle's orientation (a fold-over; the corner
-        angles of a mirrored triangle are the same, so ``angle`` does not show it).
+        (T,) bool: whether f reverses the triangle's orientation or flattens it to zero
+        area (a fold-over; the corner angles of a mirrored triangle are the same, so
+        ``angle`` does not show it).
     eps : float
         The epsilon of eq. (11).
     angle_measure : str
@@ -217,7 +218,8 @@ def triangle_errors_from_points(
         a, b = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
         return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
 
-    flipped = np.sign(signed_area(ref)) * np.sign(signed_area(out)) < 0
+    # a fold: f turns the triangle over or crushes it flat (zero area, no orientation left)
+    flipped = np.sign(signed_area(ref)) * signed_area(out) <= 0
     return distance, angle_error, flipped
 
 

@@ -211,3 +211,14 @@ def test_bad_angle_measure():
     for angle in (None, 1, b"paper"):
         with pytest.raises(TypeError, match="angle must be a string"):
             glmls.analysis.triangle_errors(lambda v: v, r, angle=angle)
+
+
+def test_a_triangle_crushed_to_zero_area_is_a_fold(rng):
+    """All of f(r) on one point, or on one line: no orientation is left, a fold."""
+    r = rng.uniform(0, 100, (12, 2))
+    point = glmls.analysis.triangle_errors(lambda v: np.zeros_like(v) + 30.0, r)
+    assert point.flipped.all()
+    assert point.stats()["flipped"] == len(point.simplices)
+    line = glmls.analysis.triangle_errors(lambda v: v * [1.0, 0.0], r)
+    assert line.flipped.all()
+    assert not glmls.analysis.triangle_errors(lambda v: v * 1e-3, r).flipped.any()
