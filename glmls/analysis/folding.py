@@ -48,18 +48,19 @@ def _cross(o: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 def folded_cells(deformed: np.ndarray) -> np.ndarray:
     """(rows - 1, columns - 1) bool for a deformed mesh (rows, columns, 2): cells of which
-    either drawn triangle, (00, 10, 11) or (00, 11, 01), has negative signed area after
-    deformation (this includes every cell whose deformed quad has negative area)."""
+    either drawn triangle, (00, 10, 11) or (00, 11, 01), has zero or negative signed area
+    after deformation (this includes every cell whose deformed quad has negative area, and
+    every cell that f crushes flat)."""
     a, b = deformed[:-1, :-1], deformed[:-1, 1:]
     c, d = deformed[1:, 1:], deformed[1:, :-1]
-    return (_cross(a, b, c) < 0) | (_cross(a, c, d) < 0)
+    return (_cross(a, b, c) <= 0) | (_cross(a, c, d) <= 0)
 
 
 def foldovers(m: HasMesh, shape: object, grid: int = 1) -> Foldovers:
     """The cells of an image's mesh that fold over under ``m``'s f.
 
-    A cell folds where either of its two drawn triangles has negative signed area after
-    deformation (:func:`folded_cells`). Where cells fold, the deformed image shows the first
+    A cell folds where either of its two drawn triangles has zero or negative signed area
+    after deformation (:func:`folded_cells`). Where cells fold, the deformed image shows the first
     of the overlapping cells in scan order (smaller source row, then column; see
     :meth:`glmls.MLS.warp`).
 

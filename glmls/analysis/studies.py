@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from ..core.config import MLSConfig, check_integer, check_seed, image_diagonal
+from ..core.config import MLSConfig, check_integer, check_seed, check_sequence, image_diagonal
 from ..core.handles import check_reference_points
 from ..data.manifest import StudyItem
 from ..files.atomic import atomic_write
@@ -84,11 +84,9 @@ def _configs_for(shape: tuple[int, int], configs: Sequence[MLSConfig | str] | No
     to a fraction of one image's diagonal); the tune meets each once."""
     if configs is None:
         made = search_space(shape)
-    elif isinstance(configs, str):
-        raise TypeError(f"configs must be a sequence of MLSConfig or spec strings, got {configs!r}")
     else:
         made = []
-        for config in configs:
+        for config in check_sequence("configs", configs, "MLSConfig values or spec strings"):
             if isinstance(config, str):
                 made += parse_config(config, shape)
             elif isinstance(config, MLSConfig):
@@ -297,7 +295,7 @@ def study(
     >>> result.summary()["distinct_winners"]
     1
     """
-    items = list(items)
+    items = check_sequence("items", items, "StudyItems")
     if not items:
         raise ValueError("a study needs at least one item")
     for item in items:

@@ -24,7 +24,9 @@ import numpy as np
 
 from ..core.config import check_choice, check_real
 from ..core.handles import check_reference_points
+from ..mls import MLS
 from .stats import error_stats
+from .volume_lattice import FLAT_ULPS
 
 #: The angular measures of :func:`triangle_errors` (the first is the default).
 ANGLE_MEASURES = ("degrees", "paper")
@@ -65,8 +67,10 @@ class TriangleErrors:
         (11): the mean of (|cos a - cos a'| + eps) / (|cos a| + eps). NaN where f collapses
         an edge to a point.
     flipped : numpy.ndarray
-        (T,) bool: whether f reverses the triangle's orientation (a fold-over; the corner
-        angles of a mirrored triangle are the same, so ``angle`` does not show it).
+        (T,) bool: whether f reverses the triangle's orientation or flattens it to zero
+        area, to within f's rounding (32 times float32's epsilon for a :class:`glmls.MLS`,
+        float64's for another function, of the edges' and f's scale): a fold-over; the
+        corner angles of a mirrored triangle are the same, so ``angle`` does not show it.
     eps : float
         The epsilon of eq. (11).
     angle_measure : str
@@ -197,9 +201,11 @@ def triangle_errors_from_points(
     *,
     eps: float = 1e-6,
     angle: str = "degrees",
+    rounding: float = float(np.finfo(np.float32).eps),
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(distance, angle, flipped) per triangle from r, f(r) and the triangles (eqs. 10, 11);
-    ``angle``: the measure, see :data:`ANGLE_MEASURES`."""
+    ``angle``: the measure, see :data:`ANGLE_MEASURES`; ``rounding``: that of f(r) (float32's
+    for the GPU's), within which f flattens a triangle."""
     measure = check_angle_measure(angle)
     ref = points[simplices]
     out = deformed[simplices]
@@ -217,7 +223,15 @@ def triangle_errors_from_points(
         a, b = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
         return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
 
-    flipped = np.sign(signed_area(ref)) * np.sign(signed_area(out)) < 0
+    # a fold: f turns the triangle over or crushes it flat. Rounding moves each f(r) by about
+    # rounding x (|f(r)| + the stretch x |r|): an image within that of zero area has no
+    # orientation, its sign mere rounding (as the 3D analysis's flattened tetrahedra)
+    area = signed_area(out)
+    a, b = (np.hypot(*(out[:, k] - out[:, 0]).T) for k in (1, 2))
+    stretch = len_out.max(axis=1) / len_ref.min(axis=1)
+    noise = np.abs(out).max(axis=(1, 2)) + stretch * np.abs(ref).max(axis=(1, 2))
+    flat = np.abs(area) <= FLAT_ULPS * rounding * (a * b + noise * (a + b))
+    flipped = (np.sign(signed_area(ref)) * area <= 0) | flat
     return distance, angle_error, flipped
 
 
@@ -281,8 +295,9 @@ def triangle_errors(
     eps = check_eps(eps)
     r, simplices = delaunay(reference_points)
     deformed = deformed_points(m, r)
+    rounding = np.finfo(np.float32 if isinstance(m, MLS) else np.float64).eps  # the GPU's
     distance, errors, flipped = triangle_errors_from_points(
-        r, deformed, simplices, eps=eps, angle=measure
+        r, deformed, simplices, eps=eps, angle=measure, rounding=float(rounding)
     )
     for array in (r, deformed, simplices, distance, errors, flipped):
         array.flags.writeable = False

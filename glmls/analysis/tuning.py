@@ -7,7 +7,8 @@ the paper asks of MLS (section 2); those that do not are **set apart**, with the
 
 - interpolation: every handle within :data:`MISS_LIMIT` (0.5 px) of its target in every
   trial;
-- no fold-overs: no reference, mesh or fan triangle turned over in any trial.
+- no fold-overs: no reference, mesh or fan triangle turned over or crushed to zero area in
+  any trial.
 
 The rest are ranked by several criteria at once (:data:`CRITERIA`): in each trial every
 criterion ranks the configurations (1 = best, ties share the mean rank), and a configuration's
@@ -42,6 +43,7 @@ from ..core.config import (
     check_integer,
     check_real,
     check_seed,
+    check_sequence,
     image_diagonal,
 )
 from ..core.handleset import HandleSet
@@ -102,10 +104,13 @@ def search_space(
     (idw alpha 1 and 2; radius a quarter, half and all of the image diagonal). Weights that
     are finite at d = 0 (cressman, gaussian, linear) do not reach their targets: they enter
     through their ``interpolating=True`` variant, which does. ``ValueError`` for an empty
-    or a bare-string list of names, or an unknown name."""
+    list of names or an unknown name; ``TypeError`` for a bare name (``"rigid"``, not
+    ``["rigid"]``), another value that is no sequence, or a name that is no string."""
+    transforms = check_sequence("transforms", transforms, "transform names")
+    weights = check_sequence("weights", weights, "weight names")
     for name, values in (("transforms", transforms), ("weights", weights)):
-        if isinstance(values, str) or not len(values):
-            raise ValueError(f"{name} must be a non-empty sequence of names, got {values!r}")
+        if not values:
+            raise ValueError(f"{name} must hold at least one name, got {values!r}")
     diagonal = image_diagonal(as_shape(shape))
     configs = []
     for transform in transforms:
@@ -458,7 +463,9 @@ def tune(
     trials, grid = check_integer("trials", trials, 1), check_grid(grid)
     seed, jobs, scheduler = check_seed(seed), check_jobs(jobs), check_scheduler(scheduler)
     magnitudes = _check_magnitudes(magnitudes)
-    configs = list(configs) if configs is not None else search_space(shape)
+    if configs is None:
+        configs = search_space(shape)
+    configs = check_sequence("configs", configs, "MLSConfig values")
     if not configs:
         raise ValueError("no configurations to compare")
     for config in configs:

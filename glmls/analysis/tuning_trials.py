@@ -27,7 +27,8 @@ Measures of one trial (:func:`measure_trial`):
 - ``mls``: the mean of E_MLS (eq. 7, px²); ``distance``: the mean of eq. (10);
 - ``handle_miss`` / ``handle_miss_max``: mean and largest |f(p_i) - q_i| (px) over the
   handle vertices;
-- ``folds``: reference triangles, mesh triangles and fan triangles that f turns over.
+- ``folds``: reference triangles, mesh triangles and fan triangles that f turns over or
+  crushes to zero area.
 """
 
 from __future__ import annotations

@@ -21,6 +21,7 @@ __all__ = [
     "check_integer",
     "check_real",
     "check_seed",
+    "check_sequence",
     "config_or_options",
     "counted",
     "image_diagonal",
@@ -165,6 +166,19 @@ def check_seed(seed: object) -> int:
     """``seed`` if it is an integer >= 0 (a random draw's seed): ``TypeError`` naming it for
     another type (True is no seed), ``ValueError`` for a negative one."""
     return check_integer("seed", seed, 0)
+
+
+def check_sequence(name: str, value: object, what: str) -> list:
+    """``value``'s items as a list: ``TypeError`` naming ``name`` for a string or bytes (which
+    would be read one character at a time) or a value that is no sequence (None, a number,
+    one item alone); ``what`` says what the items are."""
+    message = f"{name} must be a sequence of {what}, got {value!r}"
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{message}; for one, write [{value!r}]")
+    try:
+        return list(value)  # type: ignore[call-overload]
+    except TypeError:
+        raise TypeError(message) from None
 
 
 def config_or_options(config: MLSConfig | None, options: dict[str, object]) -> MLSConfig:

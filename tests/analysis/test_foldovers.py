@@ -41,3 +41,23 @@ def test_folded_cells_of_a_turned_quad():
     dented = square.copy()
     dented[1, 1] = [-0.5, 0.5]  # triangle (00, 11, 01) turns over, (00, 10, 11) does not
     assert folded_cells(dented).all()
+
+
+def test_a_cell_crushed_flat_folds():
+    """A cell whose corners all land on one point, or one line, has no orientation left."""
+    square = np.array([[[0.0, 0.0], [1.0, 0.0]], [[0.0, 1.0], [1.0, 1.0]]])
+    assert folded_cells(np.zeros_like(square) + 5.0).all()
+    assert folded_cells(square * [1.0, 0.0]).all()
+    assert not folded_cells(square * 1e-3).any()
+
+
+def test_tune_sets_apart_a_configuration_that_crushes_the_image(gl):
+    """Every handle dragged onto one point: an affine fit crushes every triangle to a point,
+    which folds."""
+    src = np.array([[10, 10], [50, 10], [50, 50], [10, 50], [30, 30.0]])
+    dst = np.tile([[30.0, 30.0]], (5, 1))
+    reference = np.array([[15, 15], [45, 15], [45, 45], [15, 45], [30, 20.0]])
+    configs = [glmls.MLSConfig(transform="affine")]
+    found = glmls.analysis.tune((64, 64), src, dst, reference, trials=1, configs=configs, ctx=gl)
+    assert found.rows[0]["folds_mean"] > 0
+    assert not found.rows[0]["admissible"]

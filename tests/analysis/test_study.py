@@ -10,7 +10,7 @@ from scipy.stats import kendalltau
 
 from glmls.analysis import studies
 from glmls.analysis.tuning import label, parse_config, search_space
-from glmls.core.config import image_diagonal
+from glmls.core.config import MLSConfig, image_diagonal
 from glmls.core.handleset import HandleSet
 from glmls.data import StudyItem, read_manifest
 from glmls.errors import InputFileError
@@ -145,6 +145,11 @@ def test_numpy_integers_give_a_summary_json_can_write(gl):
         studies.study(items(), configs=[3])
     with pytest.raises(TypeError, match="items must be StudyItems"):
         studies.study(["x"])
+    for bad in (None, items()[0]):  # one item alone, not in a list
+        with pytest.raises(TypeError, match=r"^items must be a sequence of StudyItems, got "):
+            studies.study(bad)
+    with pytest.raises(TypeError, match=r"^configs must be a sequence of .*, got MLSConfig\("):
+        studies.study(items(), configs=MLSConfig(transform="rigid"), trials=1)
     flat = StudyItem("flat", (32, 40), items()[0].handles, np.array([[1, 1], [5, 5], [9, 9.0]]))
     done = []
     with pytest.raises(ValueError, match=r"^item 1: flat: reference_points all lie on one"):

@@ -211,3 +211,26 @@ def test_bad_angle_measure():
     for angle in (None, 1, b"paper"):
         with pytest.raises(TypeError, match="angle must be a string"):
             glmls.analysis.triangle_errors(lambda v: v, r, angle=angle)
+
+
+def test_a_triangle_crushed_to_zero_area_is_a_fold(rng):
+    """All of f(r) on one point, or on one line: no orientation is left, a fold."""
+    r = rng.uniform(0, 100, (12, 2))
+    point = glmls.analysis.triangle_errors(lambda v: np.zeros_like(v) + 30.0, r)
+    assert point.flipped.all()
+    assert point.stats()["flipped"] == len(point.simplices)
+    line = glmls.analysis.triangle_errors(lambda v: v * [1.0, 0.0], r)
+    assert line.flipped.all()
+    assert not glmls.analysis.triangle_errors(lambda v: v * 1e-3, r).flipped.any()
+
+
+def test_a_triangle_flattened_to_float32_rounding_is_a_fold(gl):
+    """Every handle dragged onto one point: the GPU's f(r) lie within float32 rounding of
+    it, their tiny triangles' orientation mere rounding, and every one is a fold."""
+    src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+    points = [[8, 8], [24, 8], [8, 24], [24, 24], [16, 16]]
+    with glmls.MLS(src, np.tile([[16.0, 16.0]], (4, 1)), transform="affine", ctx=gl) as m:
+        errors = glmls.analysis.triangle_errors(m, points)
+        assert errors.flipped.all()
+        with glmls.MLS(src, src * 0.01 + 8.0, transform="affine", ctx=gl) as small:
+            assert not glmls.analysis.triangle_errors(small, points).flipped.any()

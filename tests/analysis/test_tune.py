@@ -201,10 +201,10 @@ def test_bad_arguments():
         tuning.tune(
             (30, 40), SRC, DST, REFERENCE, jobs=0, configs=tuning.search_space((30, 40))[:1]
         )
-    for bad in ([], (), "rigid"):
-        with pytest.raises(ValueError, match="transforms must be"):
+    for bad in ([], ()):
+        with pytest.raises(ValueError, match="transforms must hold at least one name"):
             tuning.search_space((30, 40), transforms=bad)
-        with pytest.raises(ValueError, match="weights must be"):
+        with pytest.raises(ValueError, match="weights must hold at least one name"):
             tuning.search_space((30, 40), weights=bad)
     with pytest.raises(ValueError, match="unknown weight 'idww'"):
         tuning.search_space((30, 40), weights=["idw", "idww"])
@@ -238,6 +238,32 @@ def test_options_of_a_wrong_type_are_type_errors_and_bad_values_value_errors(key
     configs = [glmls.MLSConfig(transform="rigid")]
     with pytest.raises(error, match=f"^{text}"):
         tuning.tune((30, 40), SRC, DST, REFERENCE, trials=1, configs=configs, **keywords)
+
+
+@pytest.mark.parametrize(
+    "name, value, text",
+    [("transforms", "rigid", r"transform names, got 'rigid'; for one, write \['rigid'\]"),
+     ("weights", "idw", r"weight names, got 'idw'; for one, write \['idw'\]"),
+     ("transforms", b"rigid", "transform names, got b'rigid'"),
+     ("transforms", None, "transform names, got None"),
+     ("weights", 3, "weight names, got 3")],
+)  # fmt: skip
+def test_search_space_names_are_a_sequence_never_read_letter_by_letter(name, value, text):
+    with pytest.raises(TypeError, match=f"^{name} must be a sequence of {text}"):
+        tuning.search_space((30, 40), **{name: value})
+    if isinstance(value, str):  # the one-name list the message offers
+        assert tuning.search_space((30, 40), **{name: [value]})
+
+
+@pytest.mark.parametrize(
+    "configs, text",
+    [("rigid:idw", r"got 'rigid:idw'; for one, write \['rigid:idw'\]"),
+     (MLSConfig(transform="rigid"), r"got MLSConfig\(transform='rigid'"),
+     (3, "got 3")],
+)  # fmt: skip
+def test_tune_configs_are_a_sequence(configs, text):
+    with pytest.raises(TypeError, match=f"^configs must be a sequence of MLSConfig values, {text}"):
+        tuning.tune((30, 40), SRC, DST, REFERENCE, trials=1, configs=configs)
 
 
 def test_numpy_integers_are_integers(gl):
