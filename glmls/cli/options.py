@@ -143,7 +143,10 @@ def _int_at_least(text: str, low: int) -> int:
 
 def folder_path(text: str) -> Path:
     """An output folder: one that exists or can be made, not a file (nor below one), so that
-    a run does not do all its work before it finds that it cannot write."""
+    a run does not do all its work before it finds that it cannot write; nor empty, which
+    ``Path`` would take for the working folder."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("empty: give the folder to write into (. for this one)")
     fault = below_a_file(Path(text), itself=True)
     if fault is not None:
         raise argparse.ArgumentTypeError(fault)
