@@ -156,11 +156,13 @@ class AugmentTask:
 
 @dataclasses.dataclass(frozen=True)
 class AugmentOutcome:
-    """The temporary files written (temporary, final) and the labels entries, or an error."""
+    """The temporary files written (temporary, final) and the labels entries, or an error
+    and whether it is a failure to write (exit status 1) rather than a mistake (2)."""
 
     written: tuple[tuple[str, str], ...] = ()
     labels: dict = dataclasses.field(default_factory=dict)
     error: str | None = None
+    unwritten: bool = False
 
 
 def _names(task: AugmentTask) -> list[Path]:
@@ -247,7 +249,7 @@ def augment_file(task: AugmentTask) -> AugmentOutcome:
         for name, _ in written:
             Path(name).unlink(missing_ok=True)
         if isinstance(error, (UsageError, OSError)):
-            return AugmentOutcome(error=str(error))
+            return AugmentOutcome(error=str(error), unwritten=isinstance(error, OSError))
         raise
     return AugmentOutcome(tuple(written), entries)
 
@@ -439,7 +441,7 @@ def run(args: argparse.Namespace) -> int:
     def finished(index: int, outcome: AugmentOutcome) -> None:
         written.extend(outcome.written)
         if outcome.error is not None:
-            raise UsageError(outcome.error)
+            raise (OSError if outcome.unwritten else UsageError)(outcome.error)
 
     try:
         outcomes = run_jobs(augment_file, tasks, jobs=jobs, scheduler=scheduler, on_result=finished)

@@ -443,3 +443,18 @@ def test_clearing_up_after_a_failure_lists_each_folder_once(tmp_path, monkeypatc
     remove_leftovers(outputs)
     assert len(listings) == 1
     assert _names_in(tmp_path) == sorted([p.name for p in outputs[:5]] + kept)
+
+
+def test_an_image_that_cannot_be_written_is_exit_status_1(inputs, gl, capsys, monkeypatch):
+    """A full disk while an image is written is a failure to write, exit status 1 as for
+    labels.json and for ``glmls warp``, not a mistake in the command line (2)."""
+    from glmls.cli.main import main
+
+    def full(self, data):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(Path, "write_bytes", full)
+    assert main(["augment", str(inputs / "in"), str(inputs / "out"), "--n", "1"]) == 1
+    err = capsys.readouterr().err
+    assert "a_000.png: cannot write: No space left on device" in err, err
+    assert not (inputs / "out").exists()
