@@ -8,7 +8,9 @@ gives the same images whatever ``--jobs``; and ``OUT/labels.json``: per output i
 keypoints and boxes (where labels were given) with their validity, and its draw (``params``:
 the handles and options that :meth:`glmls.augment.Augment.replay` takes). Everything is
 written under temporary names and renamed at the end: a failed or stopped run leaves no
-output (and removes the folders it made); Ctrl-C waits for the final renames.
+output (and removes the folders it made); Ctrl-C waits for the final renames. A run into a
+folder that holds an earlier run's set replaces it: the images that the earlier
+``labels.json`` names and this run does not write are removed once the new set is in place.
 
 The labels file (``--labels``) is a JSON object keyed by input file name:
 ``{"photo.png": {"keypoints": [[x, y], ...], "boxes": [[x_min, y_min, x_max, y_max], ...]}}``
@@ -18,25 +20,22 @@ in pixels (x, y) = (column, row), pixel centres at integers; either key may be l
 from __future__ import annotations
 
 import argparse
-import contextlib
 import dataclasses
 import json
 import os
-import signal
 import sys
 import tempfile
-import threading
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
 from ..analysis.jobs import check_jobs, check_scheduler, run_jobs
 from ..augment import PRESETS, Augment
-from ..files.atomic import remove_leftovers, umask
+from ..files.atomic import remove_leftovers
 from ..files.images import WRITABLE, check_writable, image_bytes
 from ..files.parsing import read_text
 from ..imaging.source import BORDERS, INTERPOLATIONS, check_image
+from .augment_outputs import former_outputs, remove_former, rename_all
 from .inputs import image_inputs, kept_profile, read_image, say
 from .options import (
     UsageError,
@@ -157,11 +156,13 @@ class AugmentTask:
 
 @dataclasses.dataclass(frozen=True)
 class AugmentOutcome:
-    """The temporary files written (temporary, final) and the labels entries, or an error."""
+    """The temporary files written (temporary, final) and the labels entries, or an error
+    and whether it is a failure to write (exit status 1) rather than a mistake (2)."""
 
     written: tuple[tuple[str, str], ...] = ()
     labels: dict = dataclasses.field(default_factory=dict)
     error: str | None = None
+    unwritten: bool = False
 
 
 def _names(task: AugmentTask) -> list[Path]:
@@ -248,7 +249,7 @@ def augment_file(task: AugmentTask) -> AugmentOutcome:
         for name, _ in written:
             Path(name).unlink(missing_ok=True)
         if isinstance(error, (UsageError, OSError)):
-            return AugmentOutcome(error=str(error))
+            return AugmentOutcome(error=str(error), unwritten=isinstance(error, OSError))
         raise
     return AugmentOutcome(tuple(written), entries)
 
@@ -361,43 +362,6 @@ def _check_replaceable(folder: Path, files: list[Path], count: int, labels: str 
             )
 
 
-def _rename_all(written: list[tuple[str, str]]) -> None:
-    """Rename every temporary file onto its final name (with the user's umask), Ctrl-C and
-    SIGTERM held back until the last one (then raised): a set renamed in part would pass for
-    a whole one. Where one rename fails, the outputs renamed before it and the temporary
-    files not renamed yet are removed and an ``OSError`` names the output."""
-    with _signals_held():
-        for k, (temporary, final) in enumerate(written):
-            try:
-                os.chmod(temporary, 0o666 & ~umask())
-                os.replace(temporary, final)
-            except OSError as error:
-                for _, renamed in written[:k]:
-                    Path(renamed).unlink(missing_ok=True)
-                for name, _ in written[k:]:
-                    Path(name).unlink(missing_ok=True)
-                raise OSError(f"{final}: cannot write: {error.strerror or error}") from None
-
-
-@contextlib.contextmanager
-def _signals_held() -> Iterator[None]:
-    """SIGINT and SIGTERM recorded, not acted on, in the block, then raised again with the
-    handlers they had (in the main thread, where Python runs signal handlers)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught: list[int] = []
-    numbers = (signal.SIGINT, signal.SIGTERM)
-    previous = {n: signal.signal(n, lambda number, _: caught.append(number)) for n in numbers}
-    try:
-        yield
-    finally:
-        for number, handler in previous.items():  # None: set in C, not restorable
-            signal.signal(number, signal.SIG_DFL if handler is None else handler)
-        for number in dict.fromkeys(caught):
-            signal.raise_signal(number)
-
-
 def run(args: argparse.Namespace) -> int:
     try:
         jobs, scheduler = check_jobs(args.jobs), check_scheduler(args.scheduler)
@@ -477,7 +441,7 @@ def run(args: argparse.Namespace) -> int:
     def finished(index: int, outcome: AugmentOutcome) -> None:
         written.extend(outcome.written)
         if outcome.error is not None:
-            raise UsageError(outcome.error)
+            raise (OSError if outcome.unwritten else UsageError)(outcome.error)
 
     try:
         outcomes = run_jobs(augment_file, tasks, jobs=jobs, scheduler=scheduler, on_result=finished)
@@ -502,7 +466,10 @@ def run(args: argparse.Namespace) -> int:
             except OSError:
                 break
         raise
-    _rename_all(written)
+    read = files + ([Path(args.labels)] if args.labels else [])
+    stale = former_outputs(folder, LABELS_NAME, {Path(f).name for _, f in written}, read)
+    rename_all(written)
+    remove_former(args, stale, LABELS_NAME)
     for outcome in outcomes:  # the images, in the order of the inputs
         for _, final in outcome.written:
             print(final, flush=True)

@@ -143,7 +143,10 @@ def _int_at_least(text: str, low: int) -> int:
 
 def folder_path(text: str) -> Path:
     """An output folder: one that exists or can be made, not a file (nor below one), so that
-    a run does not do all its work before it finds that it cannot write."""
+    a run does not do all its work before it finds that it cannot write; nor empty, which
+    ``Path`` would take for the working folder."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("empty: give the folder to write into (. for this one)")
     fault = below_a_file(Path(text), itself=True)
     if fault is not None:
         raise argparse.ArgumentTypeError(fault)
@@ -165,8 +168,13 @@ def below_a_file(path: Path, *, itself: bool) -> str | None:
 
 def refuse_overwriting(outputs: Sequence[Path], inputs: dict[Path, str]) -> None:
     """:class:`UsageError` for an output that is one of ``inputs`` (a path and what it is:
-    "an input image", "the --handles file"), which writing it would destroy; checked before
-    any work, by the file itself (a link or another spelling of its name is the same file)."""
+    "an input image", "the --handles file"), which writing it would destroy, checked by the
+    file itself (a link or another spelling of its name is the same file); or that exists
+    and is no file (a folder), which the output could not replace. Checked before any work,
+    so that a run does not find it only when it writes."""
+    for output in outputs:
+        if output.exists() and not output.is_file():
+            raise UsageError(f"{output}: an output's name, but it exists and is not a file")
     read = {}
     for path, what in inputs.items():
         identity = _file_identity(path)

@@ -231,6 +231,8 @@ def _warp_file(task: WarpTask) -> WarpOutcome:
 
 
 def run(args: argparse.Namespace) -> int:
+    if not args.output.strip():  # Path("") is the working folder: not what "" says
+        raise UsageError("OUT is empty: give the file or folder to write into (. for this one)")
     kind = input_kind(args.input)
     if kind != "image":
         return run_3d(args, kind)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import glob
 import os
 import tempfile
 import threading
@@ -109,11 +108,29 @@ def remove_leftovers(paths: Iterable[str | os.PathLike], made: Iterable[Path] = 
     process stopped while it wrote one leaves it), then the folders of ``made`` (the
     deepest first, from :func:`missing_folders`) that are left empty. Outputs written
     whole stay, and so do other files."""
+    names: dict[Path, set[str]] = {}  # each folder listed once, however many paths it holds
     for path in map(Path, paths):
-        if path.parent.is_dir():  # mkstemp's names: 8 random characters between the two
-            pattern = f".{glob.escape(path.name)}.{'?' * 8}{glob.escape(path.suffix)}"
-            for temporary in path.parent.glob(pattern):
-                temporary.unlink(missing_ok=True)
+        names.setdefault(path.parent, set()).add(path.name)
+    for folder, wanted in names.items():
+        try:
+            entries = [entry.name for entry in os.scandir(folder)]
+        except OSError:  # no folder (or not one): nothing was written there
+            continue
+        for entry in entries:
+            if _is_temporary(entry, wanted):
+                (folder / entry).unlink(missing_ok=True)
     for folder in made:
         with contextlib.suppress(OSError):  # not empty (or gone): it stays
             folder.rmdir()
+
+
+def _is_temporary(entry: str, names: set[str]) -> bool:
+    """Whether ``entry`` is the temporary file of one of ``names``: ``.NAME.XXXXXXXX.SUFFIX``,
+    mkstemp's 8 random characters between NAME and NAME's suffix."""
+    if not entry.startswith("."):
+        return False
+    for cut in range(2, len(entry) - 7):  # where the 8 characters begin, after NAME's dot
+        name = entry[1 : cut - 1]
+        if entry[cut - 1] == "." and name in names and entry[cut + 8 :] == Path(name).suffix:
+            return True
+    return False

@@ -364,7 +364,7 @@ def test_a_rename_that_fails_midway_takes_back_the_renamed_outputs(inputs, gl, m
 def test_ctrl_c_during_the_renames_waits_for_the_whole_set(tmp_path, number):
     """Ctrl-C between two renames would leave part of the set: it is raised once all are
     in place."""
-    from glmls.cli.augment import _rename_all
+    from glmls.cli.augment_outputs import rename_all
 
     written = []
     for k in range(3):
@@ -382,8 +382,79 @@ def test_ctrl_c_during_the_renames_waits_for_the_whole_set(tmp_path, number):
     try:
         with pytest.MonkeyPatch.context() as patch, pytest.raises(KeyboardInterrupt):
             patch.setattr(os, "replace", lambda a, b: signal.raise_signal(number) or real(a, b))
-            _rename_all(written)
+            rename_all(written)
     finally:
         signal.signal(number, stopped)
     assert handled == [1]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a_0.png", "a_1.png", "a_2.png"]
+
+
+def _names_in(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir())
+
+
+def test_a_second_run_replaces_the_first_runs_set(inputs):
+    """--n 4 then --n 2 into one OUT: the first run's images past the second's are removed,
+    so that OUT holds one run's images, those its labels.json names, and the files that no
+    run wrote stay."""
+    first = glmls_cli("augment", "in", "out", "--n", "4", cwd=inputs)
+    assert first.returncode == 0, first.stderr
+    (inputs / "out" / "notes.txt").write_text("mine")
+    (inputs / "out" / "z_000.png").write_bytes((inputs / "in" / "a.png").read_bytes())
+    second = glmls_cli("augment", "in/a.png", "out", "--n", "2", cwd=inputs)
+    assert second.returncode == 0, second.stderr
+    assert "removed 6 images of an earlier run" in second.stderr, second.stderr
+    labels = json.loads((inputs / "out" / "labels.json").read_text())
+    assert sorted(labels) == ["a_000.png", "a_001.png"]
+    assert _names_in(inputs / "out") == [*sorted(labels), "labels.json", "notes.txt", "z_000.png"]
+    again = glmls_cli("augment", "in/a.png", "out", "--n", "2", "--quiet", cwd=inputs)
+    assert again.returncode == 0 and again.stderr == "", again.stderr
+
+
+def test_a_second_run_keeps_the_files_it_reads_and_a_labels_json_of_its_own(inputs):
+    """The earlier run's images that this run reads stay; a labels.json that glmls did not
+    write (no source and params per entry) names nothing to remove."""
+    out = inputs / "out"
+    assert glmls_cli("augment", "in/a.png", "out", "--n", "3", cwd=inputs).returncode == 0
+    result = glmls_cli("augment", "out/a_00[01].png", "out", "--n", "1", cwd=inputs)
+    assert result.returncode == 0, result.stderr
+    assert _names_in(out) == ["a_000.png", "a_000_000.png", "a_001.png", "a_001_000.png",
+                              "labels.json"]  # fmt: skip
+    (out / "labels.json").write_text(json.dumps({"a_000.png": {"keypoints": []}}))
+    result = glmls_cli("augment", "in/b.png", "out", "--n", "1", cwd=inputs)
+    assert result.returncode == 0, result.stderr
+    assert "a_000.png" in _names_in(out) and "b_000.png" in _names_in(out)
+
+
+def test_clearing_up_after_a_failure_lists_each_folder_once(tmp_path, monkeypatch):
+    """The temporary files of thousands of outputs in one folder are found by one listing
+    of it, not one per output (which took minutes for --n 20000)."""
+    from glmls.files.atomic import remove_leftovers
+
+    outputs = [tmp_path / f"a_{k:04d}.png" for k in range(300)]
+    for path in outputs[:5]:
+        path.write_bytes(b"whole")
+        (tmp_path / f".{path.name}.k3j_x0ab.png").write_bytes(b"half")
+    kept = [".a_0000.png.swp", ".a_0001.png.k3j_x0a.png", ".b.png.k3j_x0ab.png", "c.png"]
+    for name in kept:
+        (tmp_path / name).write_bytes(b"not a temporary of the outputs")
+    real, listings = os.scandir, []
+    monkeypatch.setattr(os, "scandir", lambda *a: listings.append(a) or real(*a))
+    remove_leftovers(outputs)
+    assert len(listings) == 1
+    assert _names_in(tmp_path) == sorted([p.name for p in outputs[:5]] + kept)
+
+
+def test_an_image_that_cannot_be_written_is_exit_status_1(inputs, gl, capsys, monkeypatch):
+    """A full disk while an image is written is a failure to write, exit status 1 as for
+    labels.json and for ``glmls warp``, not a mistake in the command line (2)."""
+    from glmls.cli.main import main
+
+    def full(self, data):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(Path, "write_bytes", full)
+    assert main(["augment", str(inputs / "in"), str(inputs / "out"), "--n", "1"]) == 1
+    err = capsys.readouterr().err
+    assert "a_000.png: cannot write: No space left on device" in err, err
+    assert not (inputs / "out").exists()

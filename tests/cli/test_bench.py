@@ -160,3 +160,15 @@ def test_a_stopped_run_leaves_no_empty_out_folder(tmp_path, monkeypatch, existin
         bench.run(parse("--quick", "--tools", "glmls", "--out", str(out)))
     assert out.exists() == existing
     assert (tmp_path / "runs").exists() == existing
+
+
+def test_a_folder_in_the_place_of_an_output_is_refused_before_the_runs(
+    tmp_path, capsys, monkeypatch
+):
+    monkeypatch.setattr(bench, "_spawn", lambda *a: pytest.fail("no case may run"))
+    (tmp_path / "bench.png").mkdir()
+    assert bench.run(parse("--quick", "--tools", "glmls", "--out", str(tmp_path))) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"glmls bench: {tmp_path / 'bench.png'}: an output's name, but it exists and is not a file"
+    ]

@@ -108,3 +108,18 @@ def test_analyze_volume_refuses_a_picture_name_before_the_analysis(out, capsys, 
     err = capsys.readouterr().err
     assert f"{reference}: the output is the --reference file" in err, err
     assert sorted(p.name for p in out.iterdir()) == ["folds.png"]
+
+
+@pytest.mark.parametrize("name", ["report.json", "deformed.png", "error_field_colorbar.png"])
+def test_analyze_refuses_a_folder_named_like_an_output_before_the_analysis(
+    out, gl, capsys, monkeypatch, name
+):
+    monkeypatch.setattr("glmls.cli.analyze.report", _not_run)
+    (out / name).mkdir()
+    args = ["analyze", str(out.parent / "photo.png"), "--handles", str(out.parent / "h.json"),
+            "--out", str(out), "--quiet"]  # fmt: skip
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    expected = f"{out / name}: an output's name, but it exists and is not a file"
+    assert err == f"glmls analyze: {expected}\n"
+    assert sorted(p.name for p in out.iterdir()) == [name]

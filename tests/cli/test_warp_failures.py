@@ -76,3 +76,67 @@ def test_with_jobs_a_stopped_batch_prints_every_image_it_wrote(inputs):
     written = sorted(p.name for p in (inputs / "out").iterdir())
     assert sorted(Path(line).name for line in result.stdout.splitlines()) == written
     assert "b.png" not in written
+
+
+def _not_run(*args, **kwargs):
+    raise AssertionError("the work ran before the outputs were checked")
+
+
+@pytest.mark.parametrize(
+    ("args", "folder"),
+    [
+        (["in", "out", "--jobs", "2"], "out/b.png"),  # a batch: one output of many
+        (["in/a.png", "out"], "out/a.png"),  # one image into an existing folder
+        (["in/a.png", "out/x.png/"], "out/x.png/a.png"),
+    ],
+)
+def test_an_output_name_taken_by_a_folder_is_refused_before_any_work(
+    inputs, capsys, monkeypatch, args, folder
+):
+    """A folder where an output goes cannot be replaced: one line and exit status 2 before
+    any image is warped, not exit status 1 after the work with the other images written."""
+    monkeypatch.setattr(command, "run_jobs", _not_run)
+    (inputs / folder).mkdir(parents=True)
+    assert main(["warp", *args, "--handles", "h.json"]) == 2
+    err = capsys.readouterr().err
+    assert err == f"glmls warp: {folder}: an output's name, but it exists and is not a file\n"
+    assert [p for p in (inputs / "out").rglob("*") if p.is_file()] == []
+
+
+def test_a_volume_output_name_taken_by_a_folder_is_refused_before_the_warp(
+    inputs, capsys, monkeypatch
+):
+    monkeypatch.setattr("glmls.cli.warp3d.read_3d_handles", _not_run)
+    np.save(inputs / "v.npy", np.zeros((6, 7, 8), np.float32))
+    (inputs / "out" / "v.npy").mkdir(parents=True)
+    assert main(["warp", "v.npy", "out", "--handles", "h.json"]) == 2
+    err = capsys.readouterr().err
+    assert err == "glmls warp: out/v.npy: an output's name, but it exists and is not a file\n"
+
+
+@pytest.mark.parametrize("source", ["in/a.png", "in", "v.npy"])
+@pytest.mark.parametrize("out", ["", " "])
+def test_an_empty_out_is_refused_not_taken_for_the_working_folder(
+    inputs, capsys, monkeypatch, source, out
+):
+    """``Path("")`` is the working folder: an empty OUT (a shell variable left unset) wrote
+    there, as ``glmls augment`` refuses it."""
+    monkeypatch.setattr(command, "run_jobs", _not_run)
+    monkeypatch.setattr("glmls.cli.warp3d.read_3d_handles", _not_run)
+    np.save(inputs / "v.npy", np.zeros((6, 7, 8), np.float32))
+    before = sorted(p.name for p in inputs.iterdir())
+    assert main(["warp", source, out, "--handles", "h.json"]) == 2
+    err = capsys.readouterr().err
+    assert (
+        err == "glmls warp: OUT is empty: give the file or folder to write into (. for this one)\n"
+    )
+    assert sorted(p.name for p in inputs.iterdir()) == before
+
+
+def test_an_empty_out_folder_option_is_refused(inputs, capsys):
+    with pytest.raises(SystemExit) as stop:  # argparse's: one line, exit status 2
+        main(["analyze", "in/a.png", "--handles", "h.json", "--out", ""])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "argument --out: empty: give the folder to write into (. for this one)" in err, err
+    assert sorted(p.name for p in inputs.iterdir()) == ["h.json", "in"]

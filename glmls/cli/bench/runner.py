@@ -28,7 +28,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ...core.config import TRANSFORMS
-from ..options import folder_path
+from ..options import folder_path, refuse_overwriting
 from .cases import (
     GRIDLESS_TOOLS,
     MLS_TOOLS,
@@ -417,6 +417,10 @@ def run(args: argparse.Namespace) -> int:
         if "glmls" not in tools:
             raise UsageError("glmls must be among --tools: ratios are against it")
         cases = plan(settings, tools)
+        try:  # a folder in the place of an output: found before the runs, not after
+            refuse_overwriting([args.out / "bench.csv", args.out / "bench.png"], {})
+        except ValueError as error:
+            raise UsageError(str(error)) from None
         made = [f for f in (args.out, *args.out.parents) if not f.exists()]
         args.out.mkdir(parents=True, exist_ok=True)  # an unwritable --out fails before the runs
         try:
