@@ -31,6 +31,7 @@ import logging
 import multiprocessing
 import signal
 from collections.abc import Callable, Iterable, Iterator
+from multiprocessing import resource_tracker
 from typing import Any
 
 from ..core.config import check_integer
@@ -224,26 +225,39 @@ def _run_processes(function, items: list, jobs: int, finished) -> None:
             raise
 
 
+#: In a worker: whether Ctrl-C came while no item ran (:func:`_ignore_interrupts`).
+_interrupted = False
+
+
 def _ignore_interrupts() -> None:
     """A worker's initializer: Ctrl-C (which a terminal sends to every process of the
-    command) is ignored but while an item runs (:func:`_interruptible`). A worker killed by
-    it while it sends a result back would leave a part of the message in the pool's queue,
-    which the pool would then wait to read to the end, for ever; and a worker interrupted
-    while it waits for an item prints a traceback."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    command) raises nothing but while an item runs (:func:`_interruptible`); out of one it is
+    noted, and the next item is interrupted as it starts (a Ctrl-C that came as the worker
+    started would else let it run its whole item). A worker killed by it while it sends a
+    result back would leave a part of the message in the pool's queue, which the pool would
+    then wait to read to the end, for ever; and a worker interrupted while it waits for an
+    item prints a traceback."""
+    signal.signal(signal.SIGINT, _note_interrupt)
     if hasattr(signal, "pthread_sigmask"):  # blocked since its start (_interrupts_blocked)
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
+def _note_interrupt(signum: int, frame: object) -> None:
+    global _interrupted
+    _interrupted = True
+
+
 def _interruptible(function: Callable[[Any], Any], item: Any) -> Any:
-    """``function(item)`` in a worker, Ctrl-C raising ``KeyboardInterrupt`` in it: the pool
-    sends it back as the item's result, and the worker goes on to wait, quietly, for the
-    next item or the end."""
+    """``function(item)`` in a worker, Ctrl-C raising ``KeyboardInterrupt`` in it (or before
+    it, for a Ctrl-C noted since the worker started): the pool sends it back as the item's
+    result, and the worker goes on to wait, quietly, for the next item or the end."""
     signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
+        if _interrupted:
+            raise KeyboardInterrupt
         return function(item)
     finally:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGINT, _note_interrupt)
 
 
 @contextlib.contextmanager
@@ -255,6 +269,9 @@ def _interrupts_blocked() -> Iterator[None]:
     if not hasattr(signal, "pthread_sigmask"):
         yield
         return
+    # the first process started starts multiprocessing's resource tracker, which unblocks
+    # SIGINT in the thread that starts it: started beforehand, it leaves the mask alone
+    resource_tracker.ensure_running()
     previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         yield
@@ -276,37 +293,44 @@ def _report_the_rest(futures: dict, finished) -> None:
 def _run_dask(function, items: list, jobs: int, scheduler: str, finished) -> None:
     from distributed import Client, LocalCluster
 
-    cluster = None
-    if scheduler == "local":
-        cluster = LocalCluster(
-            n_workers=jobs,
-            threads_per_worker=1,  # one GL context, one item at a time per worker
-            processes=True,
-            # any free port: the default 8787 may be taken (another cluster, another
-            # program), and Dask then warns that it moved
-            dashboard_address=":0",
-            # a failing item is raised here, with its index: the workers' log of it is noise
-            silence_logs=logging.CRITICAL,
-        )
-        client = Client(cluster)
-    else:
-        try:
-            client = Client(scheduler)
-        except OSError as error:
-            raise OSError(f"cannot reach the Dask scheduler at {scheduler}: {error}") from None
+    cluster = client = None
     try:
-        _run_on(client, function, items, finished)
+        if scheduler == "local":
+            # its threads and worker processes are born with Ctrl-C blocked, for good: a
+            # terminal's Ctrl-C reaches the whole process group, and a worker interrupted as
+            # it starts prints tracebacks and holds up the end; this process stops them
+            with _interrupts_blocked():
+                cluster = LocalCluster(
+                    n_workers=jobs,
+                    threads_per_worker=1,  # one GL context, one item at a time per worker
+                    processes=True,
+                    # any free port: the default 8787 may be taken (another cluster, another
+                    # program), and Dask then warns that it moved
+                    dashboard_address=":0",
+                    # a failing item is raised here, with its index: the workers' log of it
+                    # is noise
+                    silence_logs=logging.CRITICAL,
+                )
+            client = Client(cluster)
+        else:
+            try:
+                client = Client(scheduler)
+            except OSError as error:
+                raise OSError(f"cannot reach the Dask scheduler at {scheduler}: {error}") from None
+        _run_on(client, function, items, finished, local=cluster is not None)
     finally:
-        client.close()
+        if client is not None:
+            client.close()
         if cluster is not None:
             cluster.close()
 
 
-def _run_on(client, function, items: list, finished) -> None:
+def _run_on(client, function, items: list, finished, *, local: bool) -> None:
     """The items on ``client``'s cluster, as many at a time as its workers have threads (at
     least one; counted again as items end, workers may join): like the worker processes, a
     failed or interrupted run starts none of the rest, lets the running ones end and reports
-    those that ended well."""
+    those that ended well. A ``local`` cluster interrupted (Ctrl-C, SIGTERM) is closed at
+    once instead: its workers do not hear Ctrl-C, and closing it ends their items."""
     from distributed import as_completed
 
     pending = iter(enumerate(items))
@@ -330,17 +354,17 @@ def _run_on(client, function, items: list, finished) -> None:
                 raise _indexed(error, index) from error
             finished(index, future.result())
             submit()
-    except BaseException:
+    except BaseException as error:
         futures = {future: index for index, future in running.values()}
-        _let_end(client, list(futures))
+        if isinstance(error, Exception) or not local:
+            _let_end(client, list(futures))
         _report_the_rest(futures, finished)
         raise
 
 
 def _let_end(client, futures: list) -> None:
-    """Wait for ``futures`` to end while the cluster has a worker to run them: Ctrl-C in a
-    terminal reaches a local cluster's workers too, and a future whose worker is gone would
-    never end."""
+    """Wait for ``futures`` to end while the cluster has a worker to run them: a future whose
+    worker is gone would never end."""
     from distributed import wait
 
     while futures:

@@ -245,6 +245,43 @@ def test_ctrl_c_while_a_worker_sends_its_result(tmp_path):
     assert not left, "a worker process outlived the run"
 
 
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+@pytest.mark.parametrize("scheduler", ["none", "local"])
+def test_ctrl_c_as_the_workers_start(tmp_path, scheduler):
+    """Ctrl-C as the workers' interpreters start (a Dask cluster's start takes seconds):
+    they do not hear it, so no traceback, and the run ends with its one line and no process
+    left."""
+    if scheduler == "local":
+        pytest.importorskip("distributed")
+    child = _interrupted_jobs(tmp_path, scheduler)
+    try:
+        deadline = time.monotonic() + 120
+        while not _workers_of(child.pid) and time.monotonic() < deadline:
+            assert child.poll() is None, child.stderr.read()
+            time.sleep(0.002)
+        os.killpg(child.pid, signal.SIGINT)
+        _, err = child.communicate(timeout=90)
+        left = _group_alive(child.pid, wait=30)
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(child.pid, signal.SIGKILL)
+        child.wait()
+    assert (child.returncode, err) == (130, "interrupted\n")
+    assert not left, "a worker process outlived the run"
+
+
+def _workers_of(group: int) -> list[int]:
+    """The worker processes (started by multiprocessing's ``spawn``) of process ``group``."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        with contextlib.suppress(OSError):
+            fields = stat.read_text().rpartition(")")[2].split()
+            command = stat.with_name("cmdline").read_bytes()
+            if int(fields[2]) == group and b"spawn_main" in command:
+                found.append(int(stat.parent.name))
+    return found
+
+
 def _interrupted_jobs(folder: Path, mode: str) -> subprocess.Popen:
     """``interrupted_jobs.py FOLDER MODE`` started in a process group of its own, as a
     terminal's command, its stderr piped."""
