@@ -226,12 +226,27 @@ class SecondPass:
     mask whatever the mask.
 
     :meth:`start` before the first pass's dispatches, :meth:`finish` with the second's
-    program after them (with its own uniforms set)."""
+    program after them (with its own uniforms set).
 
-    def __init__(self, gl) -> None:
+    ``buffer``: the list's own buffer, for a first pass that lists more than
+    ``RESCUE_CAPACITY`` items or larger ones (``volume/newton.comp.glsl``: every voxel of a
+    slab may need the second pass), ``capacity`` items; by default one of this context's,
+    shared. The programs get ``u_rescue_capacity`` and ``u_max_groups`` (the most work groups
+    of a dispatch: a second pass past it walks its items with that stride)."""
+
+    def __init__(
+        self, gl, buffer: moderngl.Buffer | None = None, capacity: int = RESCUE_CAPACITY
+    ) -> None:
         self._gl = gl
+        self._own = buffer
+        self._uniforms = {
+            "u_rescue_capacity": capacity,
+            "u_max_groups": gl.limits["max_work_groups_x"],
+        }
 
     def _buffer(self) -> moderngl.Buffer:
+        if self._own is not None:
+            return self._own
         gl = self._gl
         return gl.shared(_RESCUE, lambda: gl.mgl.buffer(reserve=16 + 8 * RESCUE_CAPACITY))
 
@@ -240,12 +255,12 @@ class SecondPass:
         buffer = self._buffer()
         buffer.write(_NO_RESCUE)
         buffer.bind_to_storage_buffer(bindings.RESCUE.index)
-        set_uniforms(program, {"u_rescue_capacity": RESCUE_CAPACITY})
+        set_uniforms(program, self._uniforms)
 
     def finish(self, program: moderngl.ComputeShader) -> None:
         """Run ``program``, the second pass, over the listed items."""
         buffer = self._buffer()
         buffer.bind_to_storage_buffer(bindings.RESCUE.index)
         self._gl.mgl.memory_barrier()  # the list and its size, before the dispatch reads them
-        set_uniforms(program, {"u_rescue_capacity": RESCUE_CAPACITY})
+        set_uniforms(program, self._uniforms)
         program.run_indirect(buffer)

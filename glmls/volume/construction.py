@@ -42,6 +42,7 @@ from .bands import (
 )
 from .fields import Field
 from .frame import CornerLattice, VolumeFrame, check_memory
+from .kernel_field import pending_bytes
 from .options import SlabOptions, VolumeOptions
 from .source import SourceVolume, prepare_volume, volume_background
 from .texture import SourceTexture, border_slices
@@ -349,6 +350,7 @@ class VolumeWarper:
             shape,
             constant=options.border == "constant",
             first=slab.first,
+            pending=self._resources.buffer("volume_pending", pending_bytes(slab.voxels)),
         )
         self._gl.mgl.memory_barrier()
         return coords

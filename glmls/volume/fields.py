@@ -57,12 +57,15 @@ class Field(Protocol):
         *,
         constant: bool,
         first: int = 0,
+        pending: moderngl.Buffer | None = None,
     ) -> None:
         """Newton's method from the first guesses in ``coords`` (x, y, z, w per voxel of a
         slab of ``size`` (W, H, slices) whose voxel (i, j, k) shows ``origin`` + (i, j,
         ``first`` + k), source voxels; w < 0: no guess), written back as (s, w): w the
         residual |f(s) - u| (voxels) where found (inside a volume of ``shape`` with
-        ``constant``), else -1 - residual."""
+        ``constant``), else -1 - residual. ``pending``: scratch room for the voxels left to
+        a second pass (:func:`~glmls.volume.kernel_field.pending_bytes`), where the field
+        uses one."""
         ...
 
 
@@ -119,6 +122,7 @@ class ReferenceField:
         *,
         constant: bool,
         first: int = 0,
+        pending: moderngl.Buffer | None = None,
     ) -> None:
         """Newton's method in float64 (:func:`newton_inverse`) from the first guesses in
         ``coords`` ((x, y, z, w) per voxel of a slab of ``size`` (W, H, slices) whose voxel

@@ -12,11 +12,11 @@ from ..core.handles3 import volume_extent
 from ..engine.kernel3 import MLSKernel3
 from ..engine.passes3 import evaluate_points3
 from ..gl import bindings
-from ..gl.dispatch import run_1d, set_uniforms
+from ..gl.dispatch import SecondPass, run_1d, set_uniforms
 from .fields import NEWTON_ACCEPT, NEWTON_TOLERANCE
 from .frame import CornerLattice
 
-__all__ = ["NEWTON_STEPS", "NEWTON_TOLERANCE", "KernelField"]
+__all__ = ["NEWTON_STEPS", "NEWTON_TOLERANCE", "KernelField", "pending_bytes"]
 
 #: Newton on f stops below :data:`~glmls.volume.fields.NEWTON_TOLERANCE` or after this many
 #: steps (and as many halvings of a step that raised the residual, in all); a voxel whose
@@ -77,32 +77,57 @@ class KernelField:
         *,
         constant: bool,
         first: int = 0,
+        pending: moderngl.Buffer | None = None,
     ) -> None:
         """Newton's method on the GPU from the first guesses in ``coords`` (see
         ``volume/newton.comp.glsl``) for a slab of ``size`` (W, H, slices) whose voxel
         (i, j, k) shows ``origin`` + (i, j, ``first`` + k) (source voxels), of a volume of
-        ``shape``."""
+        ``shape``: a first pass evaluates f once per voxel and lists those not yet within the
+        tolerance in ``pending`` (at least :func:`pending_bytes` of the slab's voxels; None:
+        one made here), which a second pass finishes."""
         kernel = self.kernel
-        defines = {"WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": 0 if constant else 1}
-        program = kernel.program("volume/newton.comp.glsl", defines)
         width, height, depth = size
-        with kernel.gl.use():
-            kernel.bind(program, self.shape)
-            set_uniforms(
-                program,
-                self._uniforms()
-                | {
-                    "u_slab_size": size,
-                    "u_frame_origin": origin,
-                    "u_slab_first": first,
-                    "u_volume_size": shape[::-1],
-                    "u_tolerance": NEWTON_TOLERANCE,
-                    "u_accept": NEWTON_ACCEPT,
-                    "u_max_step": NEWTON_MAX_STEP * max(shape),
-                },
+        count = width * height * depth
+        defines = {"WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": 0 if constant else 1}
+        first_pass = kernel.program("volume/newton.comp.glsl", defines | {"VOLUME_NEWTON_FIRST": 1})
+        second_pass = kernel.program("volume/newton.comp.glsl", defines)
+        own = pending is None
+        if own:
+            pending = kernel.gl.mgl.buffer(reserve=pending_bytes(count))
+        elif pending.size < pending_bytes(count):
+            raise ValueError(
+                f"the pending list holds {pending.size} bytes, not {pending_bytes(count)}"
             )
-            coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
-            kernel.gl.mgl.memory_barrier()
-            groups = kernel.gl.limits["max_work_groups_x"]
-            run_1d(program, width * height * depth, max_groups=groups)
-            kernel.gl.mgl.memory_barrier()
+        uniforms = self._uniforms() | {
+            "u_slab_size": size,
+            "u_frame_origin": origin,
+            "u_slab_first": first,
+            "u_volume_size": shape[::-1],
+            "u_tolerance": NEWTON_TOLERANCE,
+            "u_accept": NEWTON_ACCEPT,
+            "u_max_step": NEWTON_MAX_STEP * max(shape),
+        }
+        try:
+            with kernel.gl.use():
+                second = SecondPass(kernel.gl, pending, count)
+                for program in (first_pass, second_pass):
+                    kernel.bind(program, self.shape)
+                    set_uniforms(program, uniforms)
+                coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
+                kernel.gl.mgl.memory_barrier()
+                second.start(first_pass)
+                groups = kernel.gl.limits["max_work_groups_x"]
+                run_1d(first_pass, count, max_groups=groups)
+                kernel.bind(second_pass, self.shape)
+                coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
+                second.finish(second_pass)
+                kernel.gl.mgl.memory_barrier()
+        finally:
+            if own:
+                pending.release()
+
+
+def pending_bytes(voxels: int) -> int:
+    """Bytes of the list of :meth:`KernelField.refine` for a slab of ``voxels``: a 16-byte
+    header and 16 bytes a voxel (each may need the second pass)."""
+    return 16 + 16 * voxels

@@ -1,16 +1,27 @@
 // The backward method: for each output voxel u of the slab, the source point s with
 // f(s) = u by Newton's method on f (source voxels), from the first guess in the coordinates
 // buffer ((x, y, z, w), w >= 0: the cells' piecewise linear inverse covers u) or from u
-// itself (and from u where the guess's ends above u_accept). Each step takes one evaluation of f and a slope, the inverse Jacobian: from a guess
-// first its tetrahedron's (the slopes buffer: the piecewise linear inverse's), else, and
-// wherever the residual falls by less than half in a step, f's own by forward differences
-// (a quarter voxel: the MLS Jacobian is not M), kept while it converges fast;
-// at most WARP_NEWTON_STEPS steps, each at most u_max_step voxels; a step that raises the
-// residual (f curves within it, and Newton would cycle between two points) is halved, up to
-// WARP_NEWTON_STEPS halvings in all; stops below u_tolerance or where the Jacobian is
-// singular (a fold's edge), keeping the best point. Out: (s, w), w = the residual
-// |f(s) - u| (voxels) where it is at most u_accept and (constant border) s is inside the
-// volume, else -1 - residual.
+// itself (and from u where the guess's ends above u_accept). Each step takes one evaluation
+// of f and a slope, the inverse Jacobian: from a guess first its tetrahedron's (the slopes
+// buffer: the piecewise linear inverse's), else, and wherever the residual falls by less
+// than half in a step, f's own by forward differences (a quarter voxel: the MLS Jacobian is
+// not M), kept while it converges fast; at most WARP_NEWTON_STEPS steps, each at most
+// u_max_step voxels; a step that raises the residual (f curves within it, and Newton would
+// cycle between two points) is halved, up to WARP_NEWTON_STEPS halvings in all; stops below
+// u_tolerance or where the Jacobian is singular (a fold's edge), keeping the best point.
+// Out: (s, w), w = the residual |f(s) - u| (voxels) where it is at most u_accept and
+// (constant border) s is inside the volume, else -1 - residual.
+//
+// Two passes (glmls.gl.dispatch.SecondPass): VOLUME_NEWTON_FIRST evaluates f once per voxel,
+// at its start, and stores the voxels already within u_tolerance there; it lists the others
+// (BIND_RESCUE) with that evaluation, and the second pass, one invocation per listed voxel,
+// resumes Newton from it. A voxel's iterates are those of one pass doing it all, but the
+// voxels that need more steps than their neighbours run them together: a GPU's warp (and a
+// CPU renderer's vector) runs until its slowest lane is done.
+#ifndef VOLUME_NEWTON_FIRST
+#define VOLUME_NEWTON_FIRST 0
+#endif
+
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "volume/field.glsl"
@@ -21,6 +32,15 @@ layout(std430, binding = BIND_VOLUME_COORDS) buffer VolumeCoords {
 layout(std430, binding = BIND_VOLUME_SLOPES) readonly buffer VolumeSlopes {
     vec4 volume_slopes[];
 };
+// The voxels the first pass leaves, for the second.
+layout(std430, binding = BIND_RESCUE) buffer VolumePending {
+    uint volume_pending_groups;   // the second pass's indirect dispatch: x work groups,
+    uint volume_pending_y;        // y and z 1
+    uint volume_pending_z;
+    uint volume_pending_count;    // voxels listed
+    uvec4 volume_pending[];       // (voxel | VOLUME_FROM_U, f at its start)
+};
+const uint VOLUME_FROM_U = 0x80000000u;   // no guess: Newton starts at u
 
 uniform int u_offset;        // first item of this dispatch
 uniform int u_count;         // voxels of the slab
@@ -31,102 +51,119 @@ uniform ivec3 u_volume_size; // W, H, D of the source
 uniform float u_tolerance;
 uniform float u_accept;
 uniform float u_max_step;
+uniform uint u_max_groups;   // the most work groups of the second pass's dispatch
 
-// Newton from s (a guess of the cells' inverse with its slope where guided, else u itself
-// and f's own Jacobians); leaves s at the point it ends at and returns its residual.
-float volume_newton(inout vec3 s, vec3 u, bool guided, mat3 slope) {
-    // f's Jacobian by forward differences of a quarter voxel (the MLS Jacobian is not M)
-    const float h = 0.25;
-    mat3 jacobian = mat3(0.0);
-    vec3 fs = vec3(0.0);
-    vec3 r = vec3(0.0);
-    float residual = 0.0;
-    float last = 1e30;    // the residual at the point the last step started from
-    vec3 start = s;       // that point
-    bool fresh = false;   // slope is f's inverse Jacobian at an iterate
-    int steps = 0;
-    int halvings = 0;
-    int probe = 0;        // 0: f at the iterate s; 1, 2, 3: at s + h along x, y, z
-    // One place evaluates f, the iterate's or a probe's: f is most of the shader's code, and
-    // one copy of it (not four) keeps the program small enough for a GPU's registers.
-    for (int n = 0; n < 5 * WARP_NEWTON_STEPS + 1; ++n) {
-        vec3 axis = vec3(equal(ivec3(probe - 1), ivec3(0, 1, 2)));
-        vec3 fx = volume_f(s + h * axis);
-        if (probe == 0) {
-            fs = fx;
-            r = fs - u;
-            residual = length(r);
-            if (residual <= u_tolerance) {
-                break;
-            }
-            if (residual > last && halvings < WARP_NEWTON_STEPS) {
-                s = 0.5 * (start + s);   // the step overshot: half of it
-                ++halvings;
-                continue;
-            }
-            if (steps == WARP_NEWTON_STEPS) {
-                break;
-            }
-            if (!guided || (residual > 0.5 * last && !fresh)) {
-                // no guess, or the slope converges slowly: f's Jacobian here instead
-                probe = 1;
-                continue;
-            }
-            fresh = false;
-        } else {
-            jacobian[probe - 1] = (fx - fs) / h;
-            if (probe < 3) {
-                ++probe;
-                continue;
-            }
-            probe = 0;
-            if (!(abs(determinant(jacobian)) > 1e-9)) {
-                break;   // singular (a fold's edge): keep the best point so far
-            }
-            slope = inverse(jacobian);
-            guided = true;
-            fresh = true;
-        }
-        last = residual;
-        start = s;
-        vec3 step = slope * r;
-        float len = length(step);
-        s -= len > u_max_step ? step * (u_max_step / len) : step;
-        ++steps;
-    }
-    if (residual > last) {   // the last step's halvings did not bring it back down
-        s = start;
-        residual = last;
-    }
-    return residual;
+// f's Jacobian by forward differences of a quarter voxel (the MLS Jacobian is not M)
+const float VOLUME_NEWTON_H = 0.25;
+
+struct VolumeNewton {
+    vec3 s;           // the iterate
+    vec3 start;       // the point the last step started from
+    vec3 fs;          // f(s)
+    vec3 r;           // f(s) - u
+    mat3 slope;       // the inverse Jacobian the steps take
+    mat3 jacobian;    // f's own, being measured
+    float residual;   // |f(s) - u|
+    float last;       // the residual at start
+    bool guided;      // slope is set
+    bool fresh;       // slope is f's inverse Jacobian at an iterate
+    int steps;
+    int halvings;
+    int probe;        // the next evaluation: 0 f at s; 1, 2, 3 at s + h along x, y, z
+};
+
+VolumeNewton volume_newton_begin(vec3 s, bool guided, mat3 slope) {
+    VolumeNewton n;
+    n.s = s;
+    n.start = s;
+    n.fs = vec3(0.0);
+    n.r = vec3(0.0);
+    n.slope = slope;
+    n.jacobian = mat3(0.0);
+    n.residual = 0.0;
+    n.last = 1e30;
+    n.guided = guided;
+    n.fresh = false;
+    n.steps = 0;
+    n.halvings = 0;
+    n.probe = 0;
+    return n;
 }
 
-void main() {
-    int item = u_offset + int(gl_GlobalInvocationID.x);
-    bool store = item < u_count;
-    int i = min(item, u_count - 1);
-    ivec3 p = ivec3(i % u_slab_size.x, (i / u_slab_size.x) % u_slab_size.y,
-                    i / (u_slab_size.x * u_slab_size.y));
-    vec3 u = u_frame_origin + vec3(p + ivec3(0, 0, u_slab_first));
-    vec4 guess = volume_coords[i];
-    bool guided = guess.w >= 0.0;
-    mat3 slope = mat3(volume_slopes[3 * i].xyz, volume_slopes[3 * i + 1].xyz,
-                      volume_slopes[3 * i + 2].xyz);
-    vec3 s = u;
-    float residual = 1e30;
-    // from the guess; where it leads off (next to a fold, the cells' inverse may be another
-    // sheet's), again from u itself with f's own Jacobians, keeping the better end. One call
-    // in a loop, not two calls: one copy of f in the program.
-    for (int attempt = 0; attempt < 2; ++attempt) {
-        bool from_guess = attempt == 0 && guided;
-        vec3 t = from_guess ? guess.xyz : u;
-        float got = volume_newton(t, u, from_guess, slope);
-        s = got < residual ? t : s;
-        residual = min(got, residual);
-        if (residual <= u_accept || !guided) {
-            break;
+// where the next evaluation of f is
+vec3 volume_newton_point(VolumeNewton n) {
+    return n.s + VOLUME_NEWTON_H * vec3(equal(ivec3(n.probe - 1), ivec3(0, 1, 2)));
+}
+
+// Takes fx = f(volume_newton_point(n)); true where Newton ends.
+bool volume_newton_take(inout VolumeNewton n, vec3 fx, vec3 u) {
+    if (n.probe == 0) {
+        n.fs = fx;
+        n.r = fx - u;
+        n.residual = length(n.r);
+        if (n.residual <= u_tolerance) {
+            return true;
         }
+        if (n.residual > n.last && n.halvings < WARP_NEWTON_STEPS) {
+            n.s = 0.5 * (n.start + n.s);   // the step overshot: half of it
+            ++n.halvings;
+            return false;
+        }
+        if (n.steps == WARP_NEWTON_STEPS) {
+            return true;
+        }
+        if (!n.guided || (n.residual > 0.5 * n.last && !n.fresh)) {
+            // no guess, or the slope converges slowly: f's Jacobian here instead
+            n.probe = 1;
+            return false;
+        }
+        n.fresh = false;
+    } else {
+        n.jacobian[n.probe - 1] = (fx - n.fs) / VOLUME_NEWTON_H;
+        if (n.probe < 3) {
+            ++n.probe;
+            return false;
+        }
+        n.probe = 0;
+        if (!(abs(determinant(n.jacobian)) > 1e-9)) {
+            return true;   // singular (a fold's edge): keep the best point so far
+        }
+        n.slope = inverse(n.jacobian);
+        n.guided = true;
+        n.fresh = true;
     }
+    n.last = n.residual;
+    n.start = n.s;
+    vec3 step = n.slope * n.r;
+    float len = length(step);
+    n.s -= len > u_max_step ? step * (u_max_step / len) : step;
+    ++n.steps;
+    return false;
+}
+
+// Where the last step's halvings did not bring the residual back down, the point before.
+void volume_newton_end(inout VolumeNewton n) {
+    if (n.residual > n.last) {
+        n.s = n.start;
+        n.residual = n.last;
+    }
+}
+
+ivec3 volume_voxel(int i) {
+    return ivec3(i % u_slab_size.x, (i / u_slab_size.x) % u_slab_size.y,
+                 i / (u_slab_size.x * u_slab_size.y));
+}
+
+vec3 volume_target(int i) {
+    return u_frame_origin + vec3(volume_voxel(i) + ivec3(0, 0, u_slab_first));
+}
+
+mat3 volume_slope(int i) {
+    return mat3(volume_slopes[3 * i].xyz, volume_slopes[3 * i + 1].xyz,
+                volume_slopes[3 * i + 2].xyz);
+}
+
+void volume_store(int i, vec3 s, float residual) {
     bool found = residual <= u_accept;
 #if WARP_BORDER == 0
     // in the volume's closed box, within Newton's tolerance: a preimage on its face (a
@@ -134,7 +171,75 @@ void main() {
     found = found && all(greaterThanEqual(s, vec3(-0.5 - u_tolerance))) &&
             all(lessThanEqual(s, vec3(u_volume_size) - 0.5 + u_tolerance));
 #endif
-    if (store) {
-        volume_coords[i] = vec4(s, found ? residual : -1.0 - min(residual, 1e30));
+    volume_coords[i] = vec4(s, found ? residual : -1.0 - min(residual, 1e30));
+}
+
+#if VOLUME_NEWTON_FIRST
+void main() {
+    // No early return past the end (mls/points.comp.glsl: behind a return llvmpipe reads
+    // every handle lane by lane): those invocations redo the last voxel, unstored.
+    int item = u_offset + int(gl_GlobalInvocationID.x);
+    int i = min(item, u_count - 1);
+    vec3 u = volume_target(i);
+    vec4 guess = volume_coords[i];
+    bool guided = guess.w >= 0.0;
+    // (the slope is read by the second pass: a step taken here is not kept)
+    VolumeNewton n = volume_newton_begin(guided ? guess.xyz : u, guided, mat3(1.0));
+    vec3 fs = volume_f(n.s);
+    bool done = volume_newton_take(n, fs, u);
+    if (item < u_count) {
+        if (done) {
+            volume_store(i, n.s, n.residual);
+        } else {
+            uint k = atomicAdd(volume_pending_count, 1u);
+            volume_pending[k] = uvec4(uint(i) | (guided ? 0u : VOLUME_FROM_U), floatBitsToUint(fs));
+            if (k % uint(LOCAL_SIZE) == 0u) {
+                // one work group per LOCAL_SIZE voxels, at most u_max_groups: each add is
+                // followed by its own min, so the last operation leaves the count within it
+                atomicAdd(volume_pending_groups, 1u);
+                atomicMin(volume_pending_groups, u_max_groups);
+            }
+        }
     }
 }
+#else
+void main() {
+    uint stride = gl_NumWorkGroups.x * uint(LOCAL_SIZE);
+    uint total = volume_pending_count;
+    // every listed voxel, however many the dispatch's work groups (at most u_max_groups)
+    for (uint k = gl_GlobalInvocationID.x; k < total; k += stride) {
+        uvec4 entry = volume_pending[k];
+        int i = int(entry.x & ~VOLUME_FROM_U);
+        vec3 u = volume_target(i);
+        vec4 guess = volume_coords[i];
+        bool guided = (entry.x & VOLUME_FROM_U) == 0u;
+        mat3 slope = volume_slope(i);
+        vec3 s = u;
+        float residual = 1e30;
+        // from the guess (resumed after the first pass's evaluation); where it leads off
+        // (next to a fold, the cells' inverse may be another sheet's), again from u itself
+        // with f's own Jacobians, keeping the better end. One evaluation of f in a loop:
+        // one copy of f in the program.
+        for (int attempt = 0; attempt < 2; ++attempt) {
+            bool from_guess = attempt == 0 && guided;
+            VolumeNewton n = volume_newton_begin(from_guess ? guess.xyz : u, from_guess, slope);
+            bool done = false;
+            if (attempt == 0) {
+                done = volume_newton_take(n, uintBitsToFloat(entry.yzw), u);
+            }
+            // the evaluations one pass doing it all allows, less the first pass's
+            int evaluations = 5 * WARP_NEWTON_STEPS + (attempt == 0 ? 0 : 1);
+            for (int e = 0; e < evaluations && !done; ++e) {
+                done = volume_newton_take(n, volume_f(volume_newton_point(n)), u);
+            }
+            volume_newton_end(n);
+            s = n.residual < residual ? n.s : s;
+            residual = min(n.residual, residual);
+            if (residual <= u_accept || !guided) {
+                break;
+            }
+        }
+        volume_store(i, s, residual);
+    }
+}
+#endif
