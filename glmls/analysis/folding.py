@@ -10,7 +10,9 @@ from typing import NamedTuple, Protocol
 import numpy as np
 
 from ..core.mesh import MeshLattice
+from ..mls import MLS
 from .field import check_deformation
+from .volume_lattice import FLAT_ULPS
 
 __all__ = ["Foldovers", "folded_cells", "foldovers"]
 
@@ -46,14 +48,29 @@ def _cross(o: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     )
 
 
-def folded_cells(deformed: np.ndarray) -> np.ndarray:
+def folded_cells(
+    deformed: np.ndarray, *, rounding: float = float(np.finfo(np.float32).eps)
+) -> np.ndarray:
     """(rows - 1, columns - 1) bool for a deformed mesh (rows, columns, 2): cells of which
     either drawn triangle, (00, 10, 11) or (00, 11, 01), has zero or negative signed area
     after deformation (this includes every cell whose deformed quad has negative area, and
-    every cell that f crushes flat)."""
+    every cell that f crushes flat). ``rounding``: that of the mesh's points (float32's for
+    a :class:`glmls.MLS`'s mesh): a triangle whose area is within :data:`FLAT_ULPS` times
+    that rounding's effect of zero is flat (its sign is rounding, not orientation), as in
+    the reference triangles' analysis (:func:`glmls.analysis.triangle_errors`)."""
     a, b = deformed[:-1, :-1], deformed[:-1, 1:]
     c, d = deformed[1:, 1:], deformed[1:, :-1]
-    return (_cross(a, b, c) <= 0) | (_cross(a, c, d) <= 0)
+    # each point may be off by rounding x its magnitude (f's scale over the mesh)
+    noise = float(np.abs(deformed).max()) if deformed.size else 0.0
+
+    def folds(o: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        area = _cross(o, x, y)
+        p = np.hypot(*np.moveaxis(x - o, -1, 0))
+        q = np.hypot(*np.moveaxis(y - o, -1, 0))
+        flat = np.abs(area) <= FLAT_ULPS * rounding * (p * q + noise * (p + q))
+        return (area <= 0) | flat
+
+    return folds(a, b, c) | folds(a, c, d)
 
 
 def foldovers(m: HasMesh, shape: object, grid: int = 1) -> Foldovers:
@@ -101,5 +118,6 @@ def foldovers(m: HasMesh, shape: object, grid: int = 1) -> Foldovers:
     check_deformation(m, "mesh")
     lattice = MeshLattice.corners(shape, grid)  # validates shape and grid
     _, deformed = m.mesh(lattice.shape, grid=lattice.grid)
-    folded = folded_cells(deformed)
+    rounding = np.finfo(np.float32 if isinstance(m, MLS) else np.float64).eps  # the GPU's
+    folded = folded_cells(deformed, rounding=float(rounding))
     return Foldovers(int(folded.sum()), lattice.cell_mask(folded))

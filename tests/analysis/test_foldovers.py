@@ -51,6 +51,22 @@ def test_a_cell_crushed_flat_folds():
     assert not folded_cells(square * 1e-3).any()
 
 
+def test_a_mesh_crushed_to_float32_rounding_folds_everywhere(gl):
+    """Every handle sent to one point: the GPU's mesh lands within float32's rounding of it,
+    and the cells' signs are rounding, not orientation: all of them fold, as the reference
+    triangles of the same map are flipped (glmls.analysis.triangle_errors)."""
+    src = np.array([[4, 4], [28, 4], [28, 28], [4, 28.0]])
+    dst = np.tile([[16.0, 16.0]], (4, 1))
+    with glmls.MLS(src, dst, transform="affine", ctx=gl) as m:
+        folds = glmls.analysis.foldovers(m, (32, 32))
+        _, deformed = m.mesh((32, 32), grid=1)
+    assert np.abs(deformed - 16.0).max() < 1e-5  # crushed, up to rounding
+    assert folds.count == 32 * 32
+    # an exact float64 mesh a thousandth of the size keeps its orientation
+    square = np.stack(np.meshgrid(np.arange(33.0), np.arange(33.0)), -1)
+    assert not folded_cells(16.0 + 1e-3 * square, rounding=float(np.finfo(np.float64).eps)).any()
+
+
 def test_tune_sets_apart_a_configuration_that_crushes_the_image(gl):
     """Every handle dragged onto one point: an affine fit crushes every triangle to a point,
     which folds."""
