@@ -19,7 +19,9 @@ failure is raised. Each worker (each thread of a Dask worker) is handed one item
 so that a failed or interrupted run starts no more items. An exception raised by
 ``function`` reaches the caller with the failing item's index in its message (``item 3:
 ...``), of the same type where it can be rebuilt from a message; the items not yet started
-are cancelled and the workers shut down.
+are cancelled and the workers shut down. A stop that reaches the caller alone (Ctrl-C, or an
+exception that is no ``Exception``, as a SIGTERM handler raises) stops the workers' running
+items too, at once.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ import contextlib
 import itertools
 import logging
 import multiprocessing
+import os
 import signal
 from collections.abc import Callable, Iterable, Iterator
 from multiprocessing import resource_tracker
@@ -193,11 +196,15 @@ def _run_processes(function, items: list, jobs: int, finished) -> None:
     pool = concurrent.futures.ProcessPoolExecutor(
         workers, mp_context=context, initializer=_ignore_interrupts
     )
+    started: set = set()  # the pool's worker processes (a submission may start one)
 
     def submit(item: Any) -> concurrent.futures.Future:
+        before = set(multiprocessing.active_children())
         # the worker a submission may start is born with Ctrl-C blocked, until it ignores it
         with _interrupts_blocked():
-            return pool.submit(_interruptible, function, item)
+            future = pool.submit(_interruptible, function, item)
+        started.update(set(multiprocessing.active_children()) - before)
+        return future
 
     with pool:
         # One item per worker at a time: the pool hands the items submitted to its workers
@@ -216,13 +223,29 @@ def _run_processes(function, items: list, jobs: int, finished) -> None:
                     finished(index, future.result())
                     for next_index, item in itertools.islice(pending, 1):
                         futures[submit(item)] = next_index
-        except BaseException:
+        except BaseException as error:
             # the items not started yet never start; the running ones end (on Ctrl-C, at
             # once: their KeyboardInterrupt comes back as their result), then the workers
             # exit (leaving the with block waits for them: no process is left)
+            if not isinstance(error, Exception):
+                _interrupt(started)
             pool.shutdown(wait=True, cancel_futures=True)
             _report_the_rest(futures, finished)
             raise
+
+
+def _interrupt(processes: set) -> None:
+    """Ctrl-C sent to the worker ``processes`` still running, so that their items end now: a
+    stop that reached this process alone (SIGTERM from a job scheduler or a container, which
+    the command line turns into an exception, or a signal sent to its process only) would
+    else wait for the running items to end. One that reached the workers too (a terminal's
+    Ctrl-C) makes this a second Ctrl-C, which a worker out of an item notes and no more."""
+    if not hasattr(signal, "pthread_sigmask"):  # no POSIX signals: os.kill would kill
+        return
+    for process in processes:
+        if process.is_alive():
+            with contextlib.suppress(OSError):
+                os.kill(process.pid, signal.SIGINT)
 
 
 #: In a worker: whether Ctrl-C came while no item ran (:func:`_ignore_interrupts`).

@@ -1,6 +1,7 @@
 """``python interrupted_jobs.py FOLDER SCHEDULER``: run_jobs over items that take long, on
 two workers (``SCHEDULER``: ``none`` for worker processes, or ``local`` for a local Dask
-cluster); each item leaves ``started_N`` in FOLDER as it starts. Ctrl-C exits 130.
+cluster); each item leaves ``started_N`` in FOLDER as it starts. Ctrl-C exits 130; SIGTERM
+raises an exception, as the command line does, and exits 143.
 ``SCHEDULER`` ``big``: worker processes, item 0 ends at once with a big result, which
 leaves ``sending_PID`` (its worker's) in FOLDER as it is being sent back."""
 
@@ -35,10 +36,19 @@ def big_or_slow(item: tuple[str, int]) -> object:
     return Big() if index == 0 else slow(item)
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread."""
+
+
+def terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
 if __name__ == "__main__":
     # as a terminal's foreground command: a shell's background job (a test run started with
     # `&`, under nohup) passes SIGINT on ignored, and Python then leaves it ignored
     signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, terminate)
     from glmls.analysis.jobs import run_jobs
 
     folder, scheduler = sys.argv[1], sys.argv[2]
@@ -51,3 +61,6 @@ if __name__ == "__main__":
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         sys.exit(130)
+    except Terminated:
+        print("terminated", file=sys.stderr)
+        sys.exit(143)

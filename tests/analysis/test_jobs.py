@@ -216,6 +216,35 @@ def test_ctrl_c_ends_the_run_and_its_workers(tmp_path, scheduler):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["started_0", "started_1"]
 
 
+@pytest.mark.parametrize("scheduler", ["none", "local"])
+@pytest.mark.parametrize("whom", ["parent", "group"])
+def test_sigterm_ends_the_run_and_its_workers(tmp_path, scheduler, whom):
+    """SIGTERM to the caller alone (a container's stop, ``kill PID``), which turns it into an
+    exception as the command line does, or to its whole process group: the running items end
+    at once (they would run 150 s), the run ends with its one line, and no process is left."""
+    if scheduler == "local":
+        pytest.importorskip("distributed")
+    child = _interrupted_jobs(tmp_path, scheduler)
+    try:
+        deadline = time.monotonic() + 120
+        while len(list(tmp_path.glob("started_*"))) < 2 and time.monotonic() < deadline:
+            assert child.poll() is None, child.stderr.read()
+            time.sleep(0.1)
+        if whom == "parent":
+            os.kill(child.pid, signal.SIGTERM)
+        else:
+            os.killpg(child.pid, signal.SIGTERM)
+        _, err = child.communicate(timeout=90)
+        left = _group_alive(child.pid, wait=30)
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(child.pid, signal.SIGKILL)
+        child.wait()
+    assert (child.returncode, err) == (143, "terminated\n")
+    assert not left, "a worker process outlived the run"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["started_0", "started_1"]
+
+
 def test_ctrl_c_while_a_worker_sends_its_result(tmp_path):
     """Ctrl-C reaching a worker as it sends a big result back (its item done), and then
     waiting for the next item: it goes on quietly, and the run ends at once (a worker killed
