@@ -9,7 +9,10 @@
 //   WARP_RESCUE 1: the second pass (glmls.gl.dispatch.SecondPass): one invocation per pixel
 //                the first listed, where Newton ended above the residual accepted: damped
 //                Newton from the first's point and from u (warp_rescue), the least residual
-//                kept. Only those pixels pay for it.
+//                kept, then, where that gives no preimage inside the source, from the points
+//                of the neighbours the first pass covered. The first also lists the pixels
+//                whose preimage lies outside the source by at most Newton's longest step
+//                (next to a fold u has several). Only those pixels pay for it.
 //
 // u_map (rgba32f), per pixel: in (x, y, covered, 0) of the guess, pixels; out (s.x, s.y,
 // |f(s) - u| in pixels, covered), covered = converged and s inside the source image.
@@ -48,19 +51,39 @@ layout(std430, binding = BIND_RESCUE) buffer WarpRescue {
 uniform uint u_rescue_capacity;
 #endif
 
-// Store s (scaled) and its residual (pixels) for the pixel at ``at`` of u_map.
-void warp_store(ivec2 at, vec2 s, float residual, bool converged) {
+// Whether s (scaled) counts as inside the source, grown by ``margin`` pixels: in its box with
+// the constant border, where a point outside shows the background; anywhere with the other
+// borders, which sample there.
+bool warp_inside(vec2 s, float margin) {
     vec2 sp = s * u_scale + u_center;
 #if WARP_BORDER == 0
-    bool inside = all(greaterThanEqual(sp, vec2(-0.5))) &&
-                  all(lessThanEqual(sp, vec2(u_source_size) - 0.5));
+    return all(greaterThanEqual(sp, vec2(-0.5 - margin))) &&
+           all(lessThanEqual(sp, vec2(u_source_size) - 0.5 + margin));
 #else
-    bool inside = true;   // sampled by the border rule
+    return true;
 #endif
-    imageStore(u_map, at, vec4(sp, residual, (converged && inside) ? 1.0 : 0.0));
+}
+
+// Store s (scaled), its residual (pixels) and ``covered`` (1: the first pass's; the second
+// stores WARP_RESCUED) for the pixel at ``at`` of u_map.
+void warp_store(ivec2 at, vec2 s, float residual, float covered) {
+    imageStore(u_map, at, vec4(s * u_scale + u_center, residual, covered));
 }
 
 #if WARP_RESCUE
+// What the second pass stores as covered: above a half (covered) but not 1, so that the
+// neighbours it starts from are those the first pass covered, whichever order it runs in.
+const float WARP_RESCUED = 0.75;
+
+// The neighbours whose points are starts: the 3 x 3 ring, then the 5 x 5.
+const ivec2 WARP_NEIGHBOURS[24] = ivec2[](
+    ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1),
+    ivec2(1, 1), ivec2(-1, 1), ivec2(1, -1), ivec2(-1, -1),
+    ivec2(2, 0), ivec2(-2, 0), ivec2(0, 2), ivec2(0, -2),
+    ivec2(2, 1), ivec2(-2, 1), ivec2(2, -1), ivec2(-2, -1),
+    ivec2(1, 2), ivec2(-1, 2), ivec2(1, -2), ivec2(-1, -2),
+    ivec2(2, 2), ivec2(-2, 2), ivec2(2, -2), ivec2(-2, -2));
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= min(warp_rescue_count, u_rescue_capacity)) {
@@ -78,9 +101,32 @@ void main() {
     vec4 found = imageLoad(u_map, at);   // the first pass's point and residual, pixels
     vec2 s = (found.xy - u_center) / u_scale;
     float residual = found.z / u_scale;
-    warp_rescue(u, u_tolerance / u_scale, 0.2, s, residual);
-    bool converged = residual <= warp_accept(u_accept, u_accept_steps, u, s);
-    warp_store(at, s, residual * u_scale, converged);
+    float tolerance = u_tolerance / u_scale;
+    if (!(residual <= warp_accept(u_accept, u_accept_steps, u, s))) {
+        warp_rescue(u, tolerance, 0.2, s, residual);
+    }
+    bool done = residual <= warp_accept(u_accept, u_accept_steps, u, s) && warp_inside(s, 0.0);
+    // Else (next to a fold f has several preimages of u, and Newton may end at one outside
+    // the source, or at none) damped Newton from the points of the neighbours the first pass
+    // covered, the nearest first, until one ends at a preimage inside the source.
+    for (int k = 0; k < 24 && !done; ++k) {
+        ivec2 q = p + WARP_NEIGHBOURS[k];
+        if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, u_target_size))) {
+            continue;
+        }
+        vec4 near = imageLoad(u_map, at + WARP_NEIGHBOURS[k]);
+        if (near.w != 1.0) {
+            continue;
+        }
+        float again;
+        vec2 t = warp_newton_damped((near.xy - u_center) / u_scale, u, tolerance, 0.2, again);
+        if (again <= warp_accept(u_accept, u_accept_steps, u, t) && warp_inside(t, 0.0)) {
+            s = t;
+            residual = again;
+            done = true;
+        }
+    }
+    warp_store(at, s, residual * u_scale, done ? WARP_RESCUED : 0.0);
 }
 #else
 void main() {
@@ -99,14 +145,17 @@ void main() {
 #if WARP_SWAP
     vec2 s = mls_eval(u).f;
     float residual = -1.0;
-    bool converged = true;
+    bool covered = warp_inside(s, 0.0);
 #else
     vec4 guess = imageLoad(u_map, at);
     vec2 s = guess.z > 0.5 ? (guess.xy - u_center) / u_scale : u;
     float residual;
     s = warp_newton(s, u, u_tolerance / u_scale, 0.2, residual);   // a tenth of the image
     bool converged = residual <= warp_accept(u_accept, u_accept_steps, u, s);
-    if (store && !converged) {   // listed for the second pass
+    bool covered = converged && warp_inside(s, 0.0);
+    // listed for the second pass: no preimage found, or one outside the source by at most
+    // Newton's longest step, where another may lie inside (next to a fold)
+    if (store && !covered && (!converged || warp_inside(s, 0.2 * u_scale))) {
         uint i = atomicAdd(warp_rescue_count, 1u);
         if (i < u_rescue_capacity) {
             warp_rescue_items[i] = uvec2(uint(at.x) | (gl_WorkGroupID.z << 16u), uint(at.y));
@@ -118,7 +167,7 @@ void main() {
     residual *= u_scale;
 #endif
     if (store) {
-        warp_store(at, s, residual, converged);
+        warp_store(at, s, residual, covered ? 1.0 : 0.0);
     }
 }
 #endif
