@@ -334,3 +334,34 @@ def test_backward_finds_the_preimages_next_to_a_handle(gl):
     )  # fmt: skip
     assert batch.valid[1][15, 17] and not uncovered[batch.valid[1]].any()
     assert_allclose(batch.maps[1][batch.valid[1]], xy[batch.valid[1]], atol=1e-4)
+
+
+def test_backward_finds_a_preimage_inside_where_newton_leaves_the_image(gl):
+    """Next to a fold u has several preimages, and Newton from the mesh's guess (or from u)
+    may end at one outside the image (the constant border shows the background there) while
+    another lies inside: the second pass tries the points of the covered neighbours too. Every
+    blank pixel of this folding edit has no preimage in the image (float64 search), every
+    covered pixel shows a true preimage inside it, and the batch agrees."""
+    shape = (40, 48)
+    src = np.array([[17.73, 4.05], [29.52, 3.63], [4.94, 4.8], [13.69, 22.17],
+                    [36.63, 11.35], [14.18, 30.86], [34.08, 6.44], [36.67, 31.09]])  # fmt: skip
+    dst = np.array([[22.83, 3.8], [33.4, 16.43], [-13.31, 6.89], [4.89, 26.91],
+                    [26.13, 7.39], [15.8, 35.77], [34.67, 0.1], [32.25, 38.17]])  # fmt: skip
+    image = np.full(shape, 200, np.uint8)
+    with glmls.MLS(src, dst, shape=shape, ctx=gl) as m:
+        out = m.warp(image, method="backward")
+        xy = m.coordinate_map(shape)
+        blank = out == 0
+        rows, cols = np.nonzero(blank)
+        u = np.stack([cols, rows], -1).astype(float)
+        missed = u[_preimages_inside(m, u, shape)]
+        assert len(missed) == 0, missed
+        rows, cols = np.nonzero(~blank)
+        s = xy[~blank].astype(float)
+        assert back_error(m, s, np.stack([cols, rows], -1).astype(float)).max() < NEWTON_ACCEPT
+        assert ((s >= -0.5) & (s <= [shape[1] - 0.5, shape[0] - 0.5])).all()
+    batch = glmls.warp_batch(
+        image[None], src[None], dst[None], method="backward", return_maps=True, ctx=gl
+    )
+    assert_array_equal(batch.images[0] == 0, blank)
+    assert_allclose(batch.maps[0][~blank], xy[~blank], atol=1e-4)

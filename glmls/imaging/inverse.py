@@ -134,14 +134,21 @@ class InverseSolver:
         and its margin past the image for a border mode). ``swap``: ``kernel`` is the
         swapped-handles map, evaluated once per pixel (residual -1). ``border`` 0
         (constant): pixels whose source point lies outside the image are not covered; other
-        modes keep them. Leaves the texture's framebuffer bound."""
+        modes keep them. A second pass takes the pixels whose Newton ended above the residual
+        accepted, and (constant border) those whose point lies just outside the image: by at
+        most Newton's longest step where the mesh covered the pixel, else a few pixels. It
+        runs damped Newton from the first's point and the pixel where Newton did not
+        converge, then from the covered neighbours' points (for a point outside, only those
+        far from it, which show another sheet of a fold). Leaves the texture's framebuffer
+        bound."""
         height, width = lattice.shape
         # first, so that a pass the driver cannot run is refused before the first guess's
         # mesh, which with many handles over a large image takes long on a CPU renderer
         defines = {"WARP_SWAP": swap, "WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": border}
         program = kernel.program("warp/inverse.comp.glsl", defines)
         # damped Newton over the pixels where the first pass's ends above the residual
-        # accepted (next to a fold or a handle), in a second pass over those alone
+        # accepted (next to a fold or a handle), or just outside the image (a fold may give
+        # another preimage inside), in a second pass over those alone
         rescue = None
         if not swap:
             rescue = kernel.program("warp/inverse.comp.glsl", defines | {"WARP_RESCUE": True})

@@ -9,7 +9,11 @@
 //   WARP_RESCUE 1: the second pass (glmls.gl.dispatch.SecondPass): one invocation per pixel
 //                the first listed, where Newton ended above the residual accepted: damped
 //                Newton from the first's point and from u (warp_rescue), the least residual
-//                kept. Only those pixels pay for it.
+//                kept, then, where that gives no preimage inside the source, from the points
+//                of the neighbours the first pass covered. The first also lists the pixels
+//                whose preimage lies just outside the source (next to a fold u has several),
+//                where Newton runs only from the neighbours whose points show another sheet
+//                of f. Only those pixels pay for it.
 //
 // u_map (rgba32f), per pixel: in (x, y, covered, 0) of the guess, pixels; out (s.x, s.y,
 // |f(s) - u| in pixels, covered), covered = converged and s inside the source image.
@@ -48,19 +52,48 @@ layout(std430, binding = BIND_RESCUE) buffer WarpRescue {
 uniform uint u_rescue_capacity;
 #endif
 
-// Store s (scaled) and its residual (pixels) for the pixel at ``at`` of u_map.
-void warp_store(ivec2 at, vec2 s, float residual, bool converged) {
+// Whether s (scaled) counts as inside the source, grown by ``margin`` pixels: in its box with
+// the constant border, where a point outside shows the background; anywhere with the other
+// borders, which sample there.
+bool warp_inside(vec2 s, float margin) {
     vec2 sp = s * u_scale + u_center;
 #if WARP_BORDER == 0
-    bool inside = all(greaterThanEqual(sp, vec2(-0.5))) &&
-                  all(lessThanEqual(sp, vec2(u_source_size) - 0.5));
+    return all(greaterThanEqual(sp, vec2(-0.5 - margin))) &&
+           all(lessThanEqual(sp, vec2(u_source_size) - 0.5 + margin));
 #else
-    bool inside = true;   // sampled by the border rule
+    return true;
 #endif
-    imageStore(u_map, at, vec4(sp, residual, (converged && inside) ? 1.0 : 0.0));
+}
+
+// How far outside the source (pixels) a converged point whose Newton started at u may lie
+// and be listed (a shrink lists no wide band around its image).
+const float WARP_FOLD_REACH = 8.0;
+
+// Store s (scaled), its residual (pixels) and ``covered`` (1: the first pass's; the second
+// stores WARP_RESCUED) for the pixel at ``at`` of u_map.
+void warp_store(ivec2 at, vec2 s, float residual, float covered) {
+    imageStore(u_map, at, vec4(s * u_scale + u_center, residual, covered));
 }
 
 #if WARP_RESCUE
+// What the second pass stores as covered: above a half (covered) but not 1, so that the
+// neighbours it starts from are those the first pass covered, whichever order it runs in.
+const float WARP_RESCUED = 0.75;
+
+// The neighbours whose points are starts: the 3 x 3 ring, then the 5 x 5.
+const ivec2 WARP_NEIGHBOURS[24] = ivec2[](
+    ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1),
+    ivec2(1, 1), ivec2(-1, 1), ivec2(1, -1), ivec2(-1, -1),
+    ivec2(2, 0), ivec2(-2, 0), ivec2(0, 2), ivec2(0, -2),
+    ivec2(2, 1), ivec2(-2, 1), ivec2(2, -1), ivec2(-2, -1),
+    ivec2(1, 2), ivec2(-1, 2), ivec2(1, -2), ivec2(-1, -2),
+    ivec2(2, 2), ivec2(-2, 2), ivec2(2, -2), ivec2(-2, -2));
+
+// A neighbour's point farther from the pixel's than this many times their spacing, plus a
+// pixel, shows another sheet of f (a fold): where f does not fold, it is the inverse's
+// Lipschitz bound, and a shrink by more than it costs only Newton from the neighbours.
+const float WARP_SHEET = 4.0;
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= min(warp_rescue_count, u_rescue_capacity)) {
@@ -78,9 +111,51 @@ void main() {
     vec4 found = imageLoad(u_map, at);   // the first pass's point and residual, pixels
     vec2 s = (found.xy - u_center) / u_scale;
     float residual = found.z / u_scale;
-    warp_rescue(u, u_tolerance / u_scale, 0.2, s, residual);
+    float tolerance = u_tolerance / u_scale;
+    // Converged (then outside the source): Newton found a preimage, and only a neighbour
+    // whose point shows another sheet of f is a start; else the first's point and u are,
+    // then every covered neighbour.
     bool converged = residual <= warp_accept(u_accept, u_accept_steps, u, s);
-    warp_store(at, s, residual * u_scale, converged);
+    vec2 first = found.xy;
+    bool done = false;
+    int next = converged ? 0 : -2;   // the next start: -2 s, -1 u, k >= 0 neighbour k
+    // One loop and one warp_newton_damped: a CPU renderer runs a loop's body at least once
+    // and a branch's code whatever its lanes' mask, so each listed pixel pays for one.
+    for (;;) {
+        vec2 start = next == -2 ? s : u;
+        bool have = next < 0;
+        for (; !have && !done && next < 24; ++next) {   // the next neighbour that is a start
+            ivec2 q = p + WARP_NEIGHBOURS[next];
+            if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, u_target_size))) {
+                continue;
+            }
+            vec4 near = imageLoad(u_map, at + WARP_NEIGHBOURS[next]);
+            float apart = length(vec2(WARP_NEIGHBOURS[next]));
+            // where f does not fold, neighbours' preimages lie within a few of their spacing
+            have = near.w == 1.0 &&
+                   (!converged || distance(near.xy, first) > WARP_SHEET * apart + 1.0);
+            start = (near.xy - u_center) / u_scale;
+        }
+        if (done || !have) {
+            break;
+        }
+        float again;
+        vec2 t = warp_newton_damped(start, u, tolerance, 0.2, again);
+        if (next < 0) {   // from s or u: the least residual kept (warp_rescue)
+            if (!(again >= residual)) {
+                s = t;
+                residual = again;
+            }
+            ++next;
+            done = residual <= warp_accept(u_accept, u_accept_steps, u, s) &&
+                   warp_inside(s, 0.0);
+        } else if (again <= warp_accept(u_accept, u_accept_steps, u, t) && warp_inside(t, 0.0)) {
+            s = t;
+            residual = again;
+            done = true;
+        }
+    }
+    warp_store(at, s, residual * u_scale, done ? WARP_RESCUED : 0.0);
 }
 #else
 void main() {
@@ -99,14 +174,20 @@ void main() {
 #if WARP_SWAP
     vec2 s = mls_eval(u).f;
     float residual = -1.0;
-    bool converged = true;
+    bool covered = warp_inside(s, 0.0);
 #else
     vec4 guess = imageLoad(u_map, at);
     vec2 s = guess.z > 0.5 ? (guess.xy - u_center) / u_scale : u;
     float residual;
     s = warp_newton(s, u, u_tolerance / u_scale, 0.2, residual);   // a tenth of the image
     bool converged = residual <= warp_accept(u_accept, u_accept_steps, u, s);
-    if (store && !converged) {   // listed for the second pass
+    bool covered = converged && warp_inside(s, 0.0);
+    // listed for the second pass: no preimage found, or one outside the source where
+    // another may lie inside (next to a fold): by at most Newton's longest step where the
+    // mesh covered u (its guess was inside), else by at most WARP_FOLD_REACH pixels (u lies
+    // outside the mesh's image, so next to a fold's edge, both preimages next to the fold)
+    bool near = guess.z > 0.5 || warp_inside(s, WARP_FOLD_REACH);
+    if (store && !covered && (!converged || (near && warp_inside(s, 0.2 * u_scale)))) {
         uint i = atomicAdd(warp_rescue_count, 1u);
         if (i < u_rescue_capacity) {
             warp_rescue_items[i] = uvec2(uint(at.x) | (gl_WorkGroupID.z << 16u), uint(at.y));
@@ -118,7 +199,7 @@ void main() {
     residual *= u_scale;
 #endif
     if (store) {
-        warp_store(at, s, residual, converged);
+        warp_store(at, s, residual, covered ? 1.0 : 0.0);
     }
 }
 #endif
