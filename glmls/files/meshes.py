@@ -179,6 +179,8 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
         raise InputFileError(f"{path}: not a readable {suffix} mesh: {error}") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.vertices) == 0:
         raise InputFileError(f"{path}: no mesh vertices in it")
+    if not np.isfinite(loaded.vertices).all():  # before the merge, which casts them to int
+        raise InputFileError(f"{path}: vertices must be finite")
     loaded.merge_vertices(merge_tex=True, merge_norm=True)  # STL: each triangle's own corners
     try:
         return Mesh(np.asarray(loaded.vertices), np.asarray(loaded.faces).reshape(-1, 3))
@@ -194,7 +196,7 @@ def _read_obj(path: Path, content: bytes) -> Mesh:
     split vertices too. Only the positions (the first three numbers of a ``v`` line) and the
     vertex indices of an ``f`` line (``i``, ``i/t``, ``i//n``, ``i/t/n``; negative: from the
     last vertex so far) are geometry, so those are all that is read."""
-    text = content.decode("utf-8", errors="replace").replace("\\\r\n", " ").replace("\\\n", " ")
+    text = content.decode("utf-8-sig", errors="replace").replace("\\\r\n", " ").replace("\\\n", " ")
     vertices: list[list[str]] = []
     faces: list[tuple[int, int, int]] = []
     for number, line in enumerate(text.splitlines(), start=1):

@@ -275,3 +275,25 @@ def test_a_binary_ply_of_more_rows_than_its_header_counts_is_refused(tmp_path):
         read_mesh(path)
     path.write_bytes(whole + b"\n")  # a trailing newline, as some writers leave, is read
     assert read_mesh(path).faces.tolist() == [[0, 1, 2], [0, 2, 3], [0, 3, 4]]
+
+
+def test_obj_with_a_utf8_byte_order_mark_keeps_its_first_vertex(tmp_path):
+    """Windows editors start a UTF-8 file with a byte order mark: the first line is still a
+    vertex, and every index still names the vertex it names without one."""
+    path = tmp_path / "bom.obj"
+    path.write_bytes("\ufeffv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 2 3 4\n".encode())
+    mesh = read_mesh(path)
+    assert mesh.vertices.tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
+    assert mesh.faces.tolist() == [[0, 1, 2], [1, 2, 3]]
+
+
+def test_stl_of_a_nan_corner_is_named_without_a_numpy_warning(tmp_path):
+    """A corner that is not a number is the file's fault, said in one line: no warning of
+    trimesh's merging of the corners first (an error under ``-W error``)."""
+    path = tmp_path / "nan.stl"
+    path.write_text(
+        "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 nan\nvertex 1 0 0\n"
+        "vertex 0 1 0\nendloop\nendfacet\nendsolid s\n"
+    )
+    with pytest.raises(InputFileError, match=r"nan\.stl: vertices must be finite"):
+        read_mesh(path)
