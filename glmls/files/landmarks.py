@@ -388,6 +388,8 @@ def write_handle_set(path: str | os.PathLike, handles: HandleSet) -> None:
     ------
     TypeError
         When ``handles`` is not a :class:`glmls.HandleSet`.
+    ValueError
+        For a ``.pts`` path: an elastix point file holds one side's points only.
     OSError
         When the file cannot be written (the message names ``path``).
 
@@ -405,7 +407,7 @@ def write_handle_set(path: str | os.PathLike, handles: HandleSet) -> None:
     """
     if not isinstance(handles, HandleSet):
         raise TypeError(f"handles must be a HandleSet, got {type(handles).__name__}")
-    path = Path(path)
+    path = _handle_file(path)
     if path.suffix.lower() == ".json":
         text = json_text(handles)
     elif handles.segments:
@@ -446,7 +448,8 @@ def write_handles(
     Raises
     ------
     ValueError, TypeError
-        For handles that :class:`glmls.MLS` would refuse, and segments beside 3D points.
+        For handles that :class:`glmls.MLS` would refuse, segments beside 3D points, and a
+        ``.pts`` path (an elastix point file holds one side's points only).
     OSError
         When the file cannot be written (the message names ``path``).
 
@@ -461,12 +464,25 @@ def write_handles(
     >>> read_handles(path)[1].tolist()
     [[2.0, 2.0, 3.0]]
     """
+    path = _handle_file(path)
     if np.ndim(src) == 2 and np.shape(src)[1] == 3:
         if src_segments is not None or dst_segments is not None:
             raise ValueError("segment handles are 2D; 3D handles are points only")
         _write_3d(Path(path), *_check_3d(src, dst))
         return
     write_handle_set(path, HandleSet.validate(src, dst, src_segments, dst_segments))
+
+
+def _handle_file(path: str | os.PathLike) -> Path:
+    """``path`` as a Path; ``ValueError`` for an elastix ``.pts``, which holds the points of
+    one side only (a table written there would read back as no elastix point file)."""
+    path = Path(path)
+    if path.suffix.lower() == ".pts":
+        raise ValueError(
+            f"{path}: an elastix point file (.pts) holds the points of one side only; write "
+            "the handles as .json or .csv"
+        )
+    return path
 
 
 def _check_3d(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:

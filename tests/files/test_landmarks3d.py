@@ -11,8 +11,9 @@ import pytest
 from helpers import assert_bad_handle_file, write_text
 from numpy.testing import assert_allclose
 
+from glmls.core.handleset import HandleSet
 from glmls.errors import InputFileError
-from glmls.files import read_handle_set, read_handles, write_handles
+from glmls.files import read_handle_set, read_handles, write_handle_set, write_handles
 from glmls.files.landmarks import elastix_indices
 
 SRC = np.array([[1.0, 2.0, 3.0], [4.5, 5.0, 6.0], [7.0, 8.0, 9.25]])
@@ -131,6 +132,20 @@ def test_write_3d_refuses_bad_handles(tmp_path):
         write_handles(tmp_path / "h.json", SRC, DST[:2])
     with pytest.raises(ValueError, match="finite"):
         write_handles(tmp_path / "h.json", SRC, DST * np.nan)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_no_handles_are_written_to_an_elastix_point_file(tmp_path):
+    """A ``.pts`` file holds one side's points in elastix's layout: a table written there
+    would not read back, neither alone nor as a pair."""
+    handles = HandleSet.validate([[0.0, 0.0]], [[1.0, 0.0]])
+    for write in (
+        lambda path: write_handles(path, SRC, DST),
+        lambda path: write_handles(path, SRC[:, :2], DST[:, :2]),
+        lambda path: write_handle_set(path, handles),
+    ):
+        with pytest.raises(ValueError, match=r"h\.PTS: an elastix point file \(\.pts\) holds"):
+            write(tmp_path / "h.PTS")
     assert list(tmp_path.iterdir()) == []
 
 
