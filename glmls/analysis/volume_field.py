@@ -160,6 +160,13 @@ class ReferenceDeformation:
         -------
         numpy.ndarray
             f(points), (K, 3) float64.
+
+        Examples
+        --------
+        >>> src = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]]
+        >>> m = glmls.analysis.ReferenceDeformation(src, np.add(src, [1, 2, 3]))
+        >>> m([4, 5, 6]).round(9).tolist()
+        [[5.0, 7.0, 9.0]]
         """
         return self._blocks(points)[0]
 
