@@ -89,7 +89,7 @@ def main() -> None:
         middle = time.perf_counter()
         splat = m.warp(image, method="splat", background=255)
         end = time.perf_counter()
-        folds = glmls.analysis.foldovers(m, image.shape, args.grid)
+        folds = glmls.analysis.foldovers(m, image.shape, grid=args.grid)
     print(
         f"quads {1e3 * (middle - start):.0f} ms, splat {1e3 * (end - middle):.0f} ms, "
         f"{folds.count} folded cells"

@@ -457,6 +457,14 @@ class MLS(ForkSafe):
             For points that are not real numbers.
         glmls.ReleasedError
             After :meth:`release`.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import glmls
+        >>> with glmls.MLS([[0, 0], [9, 0], [0, 9]], [[1, 2], [10, 2], [1, 11]]) as m:
+        ...     print(np.round(m([[4, 5], [0, 0]]), 3).tolist(), m([4, 5]).shape)
+        [[5.0, 7.0], [1.0, 2.0]] (1, 2)
         """
         f, _ = evaluate_points(self._kernel, _points(points), with_matrix=False)
         return f

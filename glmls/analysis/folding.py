@@ -73,7 +73,7 @@ def folded_cells(
     return folds(a, b, c) | folds(a, c, d)
 
 
-def foldovers(m: HasMesh, shape: object, grid: int = 1) -> Foldovers:
+def foldovers(m: HasMesh, shape: object, *, grid: int = 1) -> Foldovers:
     """The cells of an image's mesh that fold over under ``m``'s f.
 
     A cell folds where either of its two drawn triangles has zero or negative signed area

@@ -17,6 +17,7 @@ import numpy as np
 
 from .. import reference
 from ..core.config import MLSConfig, config_or_options
+from ..core.handles import point_rows
 from ..core.handles3 import as_volume_spacing, volume_extent
 from ..engine.kernel3 import MLSKernel3
 from ..engine.passes3 import evaluate_points3
@@ -132,7 +133,7 @@ class ReferenceDeformation:
         self.src, self.dst = p, q
 
     def _blocks(self, points: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        v = as_points3(points)
+        v = as_points3(point_rows(points, 3))
         f, m, t = np.empty((len(v), 3)), np.empty((len(v), 3, 3)), np.empty((len(v), 3))
         step = max(1, CHUNK // (8 * len(self.src)))
         for start in range(0, len(v), step):
@@ -153,12 +154,19 @@ class ReferenceDeformation:
         Parameters
         ----------
         points : array_like
-            (K, 3) points.
+            (K, 3) points; one (3,) point gives a (1, 3) row, as :class:`glmls.MLS` does.
 
         Returns
         -------
         numpy.ndarray
             f(points), (K, 3) float64.
+
+        Examples
+        --------
+        >>> src = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]]
+        >>> m = glmls.analysis.ReferenceDeformation(src, np.add(src, [1, 2, 3]))
+        >>> m([4, 5, 6]).round(9).tolist()
+        [[5.0, 7.0, 9.0]]
         """
         return self._blocks(points)[0]
 
@@ -168,7 +176,7 @@ class ReferenceDeformation:
         Parameters
         ----------
         points : array_like
-            (K, 3) points.
+            (K, 3) points, or one (3,) point.
 
         Returns
         -------

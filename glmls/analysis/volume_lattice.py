@@ -98,6 +98,8 @@ def as_points3(points: object, name: str = "points") -> np.ndarray:
     if array.dtype.kind not in "iuf":
         raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
     if array.ndim != 2 or array.shape[1] != 3:
+        if array.size == 0 and (array.ndim == 1 or array.shape == (0, 0)):  # [] is no points
+            return np.zeros((0, 3))
         raise ValueError(f"{name} must have shape (N, 3) as (x, y, z) rows, got {array.shape}")
     array = np.ascontiguousarray(array, dtype=np.float64)
     if not np.isfinite(array).all():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from helpers import cross, reference_mesh
 from numpy.testing import assert_array_equal
 
@@ -17,7 +18,7 @@ def test_foldovers_match_the_reference_mesh(gl):
     q[2] = [30, 16]
     with glmls.MLS(p, q, ctx=gl) as m:
         for grid in (1, 3):
-            folds = glmls.analysis.foldovers(m, shape, grid)
+            folds = glmls.analysis.foldovers(m, shape, grid=grid)
             f = reference_mesh(m, shape, grid)
             a, b, c, d = f[:-1, :-1], f[:-1, 1:], f[1:, 1:], f[1:, :-1]
             ref = (cross(b - a, c - a) < 0) | (cross(c - a, d - a) < 0)
@@ -30,6 +31,15 @@ def test_foldovers_match_the_reference_mesh(gl):
             assert_array_equal(folds.mask, expected)
     with glmls.MLS(p, p, ctx=gl) as identity:
         assert glmls.analysis.foldovers(identity, shape).count == 0
+
+
+def test_the_grid_is_keyword_only(gl):
+    """As ``m.mesh``, ``m.bounds`` and ``glmls.analysis.error_field`` take it."""
+    src = np.array([[2.0, 2.0], [13.0, 2.0], [2.0, 13.0]])
+    with glmls.MLS(src, src + 1.0, ctx=gl) as m:
+        assert glmls.analysis.foldovers(m, (16, 16), grid=4).count == 0
+        with pytest.raises(TypeError, match="positional"):
+            glmls.analysis.foldovers(m, (16, 16), 4)  # type: ignore[misc]
 
 
 def test_folded_cells_of_a_turned_quad():

@@ -90,6 +90,19 @@ def test_the_reference_deformation_is_the_reference():
         assert same is m
 
 
+def test_the_reference_deformation_takes_points_as_an_mls_does(gl):
+    """One (3,) point is a (1, 3) row, no points a (0, 3) array, as a 3D MLS takes them."""
+    m = ReferenceDeformation(SRC, DST, transform="affine")
+    with glmls.MLS(SRC, DST, transform="affine", ctx=gl) as ours:
+        for points in ([4, 5, 6], np.array([4.0, 5.0, 6.0], np.float32), np.zeros((0, 3)), []):
+            assert m(points).shape == ours(points).shape
+            assert_allclose(m(points), ours(points), atol=1e-4)
+            M, T = m.matrices(points)
+            assert M.shape == ours.matrices(points)[0].shape and T.shape == m(points).shape
+    with pytest.raises(ValueError, match=r"\(N, 3\)"):
+        m([4, 5])
+
+
 @pytest.mark.parametrize(
     ("src", "dst", "message"),
     [

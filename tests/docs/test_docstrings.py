@@ -188,6 +188,31 @@ def test_public_members_are_documented(cls):
     assert not problems, "\n".join(problems)
 
 
+_CALLABLES = [
+    (name, cls)
+    for name, cls in _CLASSES
+    if inspect.isfunction(call := inspect.getattr_static(cls, "__call__", None))
+    and (call.__module__ or "").startswith("glmls")
+]
+
+
+@pytest.mark.parametrize("cls", _params(_CALLABLES))
+def test_the_call_of_a_transform_is_documented_with_examples(cls):
+    """``m(points)`` is the heart of a transform's protocol: its docstring has Parameters,
+    Returns and Examples, as the public functions' have (the members above are not asked
+    for Examples; names that start with an underscore are not looked at)."""
+    doc = FunctionDoc(cls.__call__, doc=inspect.getdoc(cls.__call__))
+    missing = [section for section in ("Parameters", "Returns") if not doc[section]]
+    if ">>>" not in "\n".join(doc["Examples"]):
+        missing.append("Examples")
+    assert not missing, missing
+
+
+def test_the_transforms_are_among_the_callables():
+    names = {name for name, _ in _CALLABLES}
+    assert {"glmls.MLS", "glmls.InverseMLS", "glmls.analysis.ReferenceDeformation"} <= names
+
+
 @pytest.mark.parametrize("obj", _params(PUBLIC))
 def test_examples_run(obj):
     finder = doctest.DocTestFinder(exclude_empty=True)

@@ -70,7 +70,7 @@ def test_many_folds_give_the_keyed_picture(gl, pipeline, seed, grid):
     p, q = random_folds(shape, seed, move=0.25)
     img = coordinates_uint8(shape)
     with glmls.MLS(p, q, ctx=gl) as m:
-        assert glmls.analysis.foldovers(m, shape, grid).count > 0
+        assert glmls.analysis.foldovers(m, shape, grid=grid).count > 0
         fast, keyed, scan = fast_and_keyed(pipeline, m, img, grid=grid, background=255)
     assert scan.embedding_counts()[0] > 0
     assert_array_equal(fast, keyed)
@@ -119,7 +119,7 @@ def test_a_large_image_with_random_handles_redraws_a_small_part(gl, pipeline):
     img = rng.integers(0, 256, (size, size, 3), dtype=np.uint8)
     for grid in (1, 4):
         with glmls.MLS(p, q, transform="rigid", ctx=gl) as m:
-            assert glmls.analysis.foldovers(m, (size, size), grid).count > 0
+            assert glmls.analysis.foldovers(m, (size, size), grid=grid).count > 0
             fast, keyed, scan = fast_and_keyed(pipeline, m, img, grid=grid)
         assert scan.embedding_counts()[1] == 1
         assert 0 < scan.redrawn_cells() < 0.2 * cells_of((size, size), grid)
@@ -145,7 +145,7 @@ def test_fold_free_maps_redraw_nothing(gl, pipeline):
     p, q = random_folds(shape, 0, move=0.01)
     img = coordinates_uint8(shape)
     with glmls.MLS(p, q, ctx=gl) as m:
-        assert glmls.analysis.foldovers(m, shape, 2).count == 0
+        assert glmls.analysis.foldovers(m, shape, grid=2).count == 0
         fast, keyed, scan = fast_and_keyed(pipeline, m, img, grid=2, background=255)
     assert scan.embedding_counts() == (0, 1)
     assert scan.redrawn_cells() == 0

@@ -40,7 +40,7 @@ def test_fused_quads_match_the_resolve_draw_on_folds(gl, grid):
     coords8 = coords16.astype(np.uint8)  # x, y < 256
     pipe = glmls.gl.WarpPipeline.of(gl)
     with glmls.MLS(p, q, ctx=gl) as m:
-        assert glmls.analysis.foldovers(m, shape, grid).count > 0
+        assert glmls.analysis.foldovers(m, shape, grid=grid).count > 0
         fused = m.warp(coords8, grid=grid, background=255)
         assert pipe.cells.last_path in ("fused", "fused fast")
         drawn = m.warp(coords16, grid=grid, background=SENTINEL)
@@ -149,7 +149,7 @@ def test_fast_quads_equal_the_keyed_pass_where_the_mesh_embeds(gl, rng, pipeline
     for transform in ("affine", "similarity", "rigid"):
         p, q = smooth_handles(shape, rng)
         with glmls.MLS(p, q, transform=transform, ctx=gl) as m:
-            assert glmls.analysis.foldovers(m, shape, grid).count == 0
+            assert glmls.analysis.foldovers(m, shape, grid=grid).count == 0
             fast, keyed, counts = warp_both_ways(gl, pipeline, m, img, grid=grid, background=255)
         assert counts == (0, 1), "the mesh was not recognised as an embedding"
         assert_array_equal(fast, keyed)
