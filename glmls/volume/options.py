@@ -223,7 +223,8 @@ class SlabOptions:
     ----------
     slab_bytes : int, default 2**26
         The output slab's largest buffer (4 bytes a voxel for the keys; the backward
-        method's largest is its slopes, 48 bytes a voxel, beside 16 for its source points).
+        method's largest is its slopes, 48 bytes a voxel, beside 16 for its source points
+        and 16 for the list of the voxels its Newton's second pass finishes).
     band_bytes : int, default 2**28
         The deformed lattice's buffer (12 bytes a lattice point; the backward method at grid
         2 and above adds f's inverse Jacobians, 48 bytes a point, and holds at least four
