@@ -264,7 +264,7 @@ def tetrahedron_errors_from_points(
         errors = np.abs(a_ref - a_out)
     # rounding moves each f(r) by about rounding x (|f(r)| + the stretch x |r|): an image
     # within that of zero volume is flattened, its orientation's sign mere rounding
-    stretch = len_out.max(axis=1) / len_ref.min(axis=1)
+    stretch = (len_out / len_ref).max(axis=1)  # f's, edge by edge: not the shape's aspect
     noise = np.abs(out).max(axis=(1, 2)) + stretch * np.abs(ref).max(axis=(1, 2))
     flat = flat_triples(tuple(out[:, k] - out[:, 0] for k in (1, 2, 3)), rounding, noise)
     turned = np.sign(_signed_volumes(ref)) * np.sign(_signed_volumes(out)) < 0

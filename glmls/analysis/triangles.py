@@ -228,7 +228,7 @@ def triangle_errors_from_points(
     # orientation, its sign mere rounding (as the 3D analysis's flattened tetrahedra)
     area = signed_area(out)
     a, b = (np.hypot(*(out[:, k] - out[:, 0]).T) for k in (1, 2))
-    stretch = len_out.max(axis=1) / len_ref.min(axis=1)
+    stretch = (len_out / len_ref).max(axis=1)  # f's, edge by edge: not the shape's aspect
     noise = np.abs(out).max(axis=(1, 2)) + stretch * np.abs(ref).max(axis=(1, 2))
     flat = np.abs(area) <= FLAT_ULPS * rounding * (a * b + noise * (a + b))
     flipped = (np.sign(signed_area(ref)) * area <= 0) | flat

@@ -234,3 +234,15 @@ def test_a_triangle_flattened_to_float32_rounding_is_a_fold(gl):
         assert errors.flipped.all()
         with glmls.MLS(src, src * 0.01 + 8.0, transform="affine", ctx=gl) as small:
             assert not glmls.analysis.triangle_errors(small, points).flipped.any()
+
+
+def test_a_thin_triangle_kept_whole_is_no_fold(gl):
+    """A thin reference triangle (0.2 px high, 60 px long, at x ~ 500) that f leaves as it is:
+    its orientation is thousands of float32 steps clear of rounding, and f does not stretch
+    it, so it is no fold (its own aspect ratio is no stretch of f)."""
+    points = [[505.57, 323.97], [444.77, 323.21], [444.86, 323.01], [388.85, 276.41]]
+    src = np.array([[0.0, 0.0], [511.0, 0.0], [0.0, 511.0], [511.0, 511.0]])
+    with glmls.MLS(src, src, transform="affine", ctx=gl) as m:
+        errors = glmls.analysis.triangle_errors(m, points)
+    assert len(errors.simplices) == 3  # two of them thin
+    assert not errors.flipped.any()
