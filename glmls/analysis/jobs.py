@@ -33,12 +33,12 @@ import logging
 import multiprocessing
 import os
 import signal
-import threading
 from collections.abc import Callable, Iterable, Iterator
 from multiprocessing import resource_tracker
 from typing import Any
 
 from ..core.config import check_integer
+from ..gl.signals import signals_held
 
 __all__ = ["DistributedUnavailableError", "check_jobs", "check_scheduler", "run_jobs"]
 
@@ -298,34 +298,14 @@ def _interrupts_blocked() -> Iterator[None]:
     resource_tracker.ensure_running()
     previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
-        with _handlers_deferred():
+        # Python's handlers wait for the block's end: a Ctrl-C that another thread receives
+        # still runs its handler in this (main) thread, and raised while a worker process
+        # starts it cut the start short (the worker, left without what it was to read,
+        # printed a traceback)
+        with signals_held():
             yield
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
-
-
-@contextlib.contextmanager
-def _handlers_deferred() -> Iterator[None]:
-    """In the main thread: Python's handlers of SIGINT and SIGTERM run after the block, not
-    in it. A Ctrl-C that another thread receives still runs its handler in the main thread,
-    and one raised while a worker process starts cut the start short: the half-started
-    worker, left without what it was to read, printed a traceback."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    came: list[int] = []
-    handlers = {}
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        handler = signal.getsignal(signum)
-        if handler is not None:  # None: not installed from Python, left alone
-            handlers[signum] = signal.signal(signum, lambda number, frame: came.append(number))
-    try:
-        yield
-    finally:
-        for signum, handler in handlers.items():
-            signal.signal(signum, handler)
-        for signum in dict.fromkeys(came):
-            signal.raise_signal(signum)
 
 
 def _report_the_rest(futures: dict, finished) -> None:

@@ -469,7 +469,7 @@ def run(args: argparse.Namespace) -> int:
     read = files + ([Path(args.labels)] if args.labels else [])
     stale = former_outputs(folder, LABELS_NAME, {Path(f).name for _, f in written}, read)
     rename_all(written)
-    remove_former(args, stale, LABELS_NAME)
+    remove_former(args, stale, LABELS_NAME, [Path(f) for _, f in written] + read)
     for outcome in outcomes:  # the images, in the order of the inputs
         for _, final in outcome.written:
             print(final, flush=True)

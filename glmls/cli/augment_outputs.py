@@ -5,20 +5,17 @@ folder never mixes the images of two runs."""
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import os
-import signal
 import sys
-import threading
-from collections.abc import Iterator
 from pathlib import Path
 
 from ..files.atomic import umask
 from ..files.images import WRITABLE
+from ..gl.signals import signals_held
 from .inputs import say
 
-__all__ = ["former_outputs", "remove_former", "rename_all", "signals_held"]
+__all__ = ["former_outputs", "remove_former", "rename_all"]
 
 
 def former_outputs(
@@ -53,12 +50,36 @@ def former_outputs(
     return stale
 
 
-def remove_former(args: argparse.Namespace, stale: list[Path], labels_name: str) -> None:
+def _identities(paths: list[Path]) -> set[tuple[int, int]]:
+    """(device, inode) of those of ``paths`` that exist: the files themselves, whatever names
+    lead to them (on a case-insensitive file system ``A.png`` is ``a.png``)."""
+    found = set()
+    for path in paths:
+        try:
+            status = path.stat()
+        except OSError:
+            continue
+        found.add((status.st_dev, status.st_ino))
+    return found
+
+
+def remove_former(
+    args: argparse.Namespace, stale: list[Path], labels_name: str, kept: list[Path] = ()
+) -> None:
     """Remove the images of an earlier run that this one's set replaces, saying how many;
-    one that cannot be removed is named on stderr."""
+    one that cannot be removed is named on stderr. A name that leads to one of ``kept`` (the
+    files this run wrote and read) stays: on a case-insensitive file system an earlier run's
+    ``A_000.png`` is this run's ``a_000.png``."""
     removed = 0
+    keep = _identities(list(kept))
     with signals_held():
         for path in stale:
+            try:
+                status = path.stat()
+            except OSError:
+                continue
+            if (status.st_dev, status.st_ino) in keep:
+                continue
             try:
                 path.unlink()
                 removed += 1
@@ -94,22 +115,3 @@ def rename_all(written: list[tuple[str, str]]) -> None:
                 for name, _ in written[k:]:
                     Path(name).unlink(missing_ok=True)
                 raise OSError(f"{final}: cannot write: {error.strerror or error}") from None
-
-
-@contextlib.contextmanager
-def signals_held() -> Iterator[None]:
-    """SIGINT and SIGTERM recorded, not acted on, in the block, then raised again with the
-    handlers they had (in the main thread, where Python runs signal handlers)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught: list[int] = []
-    numbers = (signal.SIGINT, signal.SIGTERM)
-    previous = {n: signal.signal(n, lambda number, _: caught.append(number)) for n in numbers}
-    try:
-        yield
-    finally:
-        for number, handler in previous.items():  # None: set in C, not restorable
-            signal.signal(number, signal.SIG_DFL if handler is None else handler)
-        for number in dict.fromkeys(caught):
-            signal.raise_signal(number)

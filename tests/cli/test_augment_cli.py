@@ -426,6 +426,25 @@ def test_a_second_run_keeps_the_files_it_reads_and_a_labels_json_of_its_own(inpu
     assert "a_000.png" in _names_in(out) and "b_000.png" in _names_in(out)
 
 
+def test_an_earlier_runs_name_for_a_file_this_run_wrote_stays(tmp_path):
+    """Two names of one file (on a case-insensitive file system an earlier run's A_000.png
+    is this run's a_000.png; a hard link here): the earlier run's name is not removed, as
+    that would remove this run's image."""
+    import argparse
+
+    from glmls.cli.augment_outputs import remove_former
+
+    written = tmp_path / "a_000.png"
+    written.write_bytes(b"new image")
+    alias = tmp_path / "A_000.png"
+    os.link(written, alias)
+    other = tmp_path / "a_001.png"
+    other.write_bytes(b"earlier image")
+    remove_former(argparse.Namespace(quiet=True), [alias, other], "labels.json", [written])
+    assert alias.exists() and written.read_bytes() == b"new image"
+    assert not other.exists()
+
+
 def test_clearing_up_after_a_failure_lists_each_folder_once(tmp_path, monkeypatch):
     """The temporary files of thousands of outputs in one folder are found by one listing
     of it, not one per output (which took minutes for --n 20000)."""
