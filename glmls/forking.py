@@ -72,19 +72,49 @@ class ForkSafe:
     # the inverse's first guess and a forked process's f, but not this process's f.
     @property
     def config(self) -> MLSConfig:
-        """The :class:`~glmls.MLSConfig` f was made with (read-only)."""
+        """The :class:`~glmls.MLSConfig` f was made with (read-only).
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0]], [[1, 0]], transform="similarity") as m:
+        ...     print(m.config.transform, m.config.weight)
+        similarity idw
+        """
         return self._config  # type: ignore[attr-defined]
 
     @property
     def shape(self) -> tuple[int, ...] | None:
-        """(H, W) of the image (a volume's (D, H, W)) given when it was made, or None
-        (read-only)."""
+        """(H, W) of the image (a volume's (D, H, W)) given when it was made, or None.
+
+        Read-only.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0]], [[1, 0]], shape=(32, 48)) as m:
+        ...     print(m.shape)
+        (32, 48)
+        >>> with glmls.MLS([[0, 0]], [[1, 0]]) as m:
+        ...     print(m.shape)
+        None
+        """
         return self._shape  # type: ignore[attr-defined]
 
     @property
     def spacing(self) -> tuple[float, float, float] | None:
-        """3D: (dz, dy, dx) of the volume's voxels given when it was made, or None
-        (read-only)."""
+        """3D: (dz, dy, dx) of the volume's voxels given when it was made, or None.
+
+        Read-only; always None in 2D.
+
+        Examples
+        --------
+        >>> src = [[0, 0, 0], [4, 0, 0]]
+        >>> with glmls.MLS(src, src, shape=(8, 8, 8), spacing=(2.0, 1.0, 1.0)) as m:
+        ...     print(m.spacing)
+        (2.0, 1.0, 1.0)
+        >>> with glmls.MLS([[0, 0]], [[1, 0]]) as m:
+        ...     print(m.spacing)
+        None
+        """
         return self._spacing  # type: ignore[attr-defined]
 
     def _release_when_dropped(self, kernel: Any) -> None:

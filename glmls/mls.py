@@ -305,51 +305,109 @@ class MLS(ForkSafe):
 
     @property
     def src(self) -> np.ndarray:
-        """Source handles p, (N, 2) float64, read-only."""
+        """Source handles p, (N, 2) float64, read-only.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0], [4, 0]], [[1, 0], [5, 0]]) as m:
+        ...     print(m.src.tolist(), m.src.flags.writeable)
+        [[0.0, 0.0], [4.0, 0.0]] False
+        """
         return self._handles.src
 
     @property
     def dst(self) -> np.ndarray:
-        """Target handles q, (N, 2) float64, read-only."""
+        """Target handles q, (N, 2) float64, read-only.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0], [4, 0]], [[1, 0], [5, 0]]) as m:
+        ...     print(m.dst.tolist(), m.dst.dtype)
+        [[1.0, 0.0], [5.0, 0.0]] float64
+        """
         return self._handles.dst
 
     @property
     def src_segments(self) -> np.ndarray:
-        """Source segment handles, (S, 2, 2) float64, read-only."""
+        """Source segment handles, (S, 2, 2) float64, read-only.
+
+        Examples
+        --------
+        >>> segment = [[[0, 0], [8, 0]]]
+        >>> with glmls.MLS([], [], src_segments=segment, dst_segments=segment) as m:
+        ...     print(m.src_segments.shape, m.src.shape)
+        (1, 2, 2) (0, 2)
+        """
         return self._handles.src_segments
 
     @property
     def dst_segments(self) -> np.ndarray:
-        """Target segment handles, (S, 2, 2) float64, read-only."""
+        """Target segment handles, (S, 2, 2) float64, read-only.
+
+        Examples
+        --------
+        >>> src_segments, dst_segments = [[[0, 0], [8, 0]]], [[[0, 1], [8, 1]]]
+        >>> with glmls.MLS([], [], src_segments=src_segments, dst_segments=dst_segments) as m:
+        ...     print(m.dst_segments.tolist())
+        [[[0.0, 1.0], [8.0, 1.0]]]
+        """
         return self._handles.dst_segments
 
     @property
     def handles(self) -> HandleSet:
-        """Every handle, points and segments (read-only arrays)."""
+        """Every handle, points and segments (read-only arrays).
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0], [4, 0]], [[1, 0], [5, 0]]) as m:
+        ...     print(m.handles.points, m.handles.segments, len(m.handles))
+        2 0 2
+        """
         return self._handles
 
     @property
     def ctx(self) -> GLContext:
-        """The :class:`~glmls.gl.GLContext` this MLS renders with."""
+        """The :class:`~glmls.gl.GLContext` this MLS renders with.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0]], [[1, 0]]) as m:
+        ...     print(m.ctx is glmls.gl.get_context(), m.ctx.alive)
+        True True
+        """
         return self._here(self._gl)
 
     @property
     def kernel(self) -> MLSKernel:
-        """The handles on the GPU and the defines and uniforms of the passes over f."""
+        """The handles on the GPU and the shaders' defines and uniforms (for GL passes)."""
         return self._here(self._kernel)
 
     @property
     def scaling(self) -> Scaling:
-        """The GPU's coordinates: (pixel - center) / scale."""
+        """The GPU's coordinates: (pixel - center) / scale.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0], [8, 4]], [[0, 0], [8, 4]]) as m:
+        ...     print(m.scaling)
+        Scaling(center=(4.0, 2.0), scale=4.0)
+        """
         return self.kernel.scaling
 
     @property
     def storage(self) -> str:
-        """The handle storage in use (``"auto"`` resolved for this many handles)."""
+        """The handle storage in use (``"auto"`` resolved for this many handles).
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0]], [[1, 0]]) as m:
+        ...     print(m.storage)
+        ubo
+        """
         return self.kernel.storage
 
     def defines(self) -> dict[str, object]:
-        """The ``#define`` values of the MLS shaders for this configuration (the kernel's).
+        """The ``#define`` values of the MLS shaders for this configuration (for GL passes).
 
         Returns
         -------
@@ -359,7 +417,7 @@ class MLS(ForkSafe):
         return self.kernel.defines()
 
     def uniforms(self, shape: tuple[int, int] | None = None) -> dict[str, float | bool]:
-        """The MLS uniforms for an image of ``shape``, in scaled units (the kernel's).
+        """The MLS uniforms for an image of ``shape``, in scaled units (for GL passes).
 
         Parameters
         ----------
@@ -411,7 +469,7 @@ class MLS(ForkSafe):
             self._store(handles)
 
     def swapped_kernel(self) -> MLSKernel:
-        """The kernel of the MLS map with p and q swapped (``backward-swap``).
+        """The kernel of the MLS map with p and q swapped (``backward-swap``; for GL passes).
 
         Returns
         -------
@@ -493,8 +551,9 @@ class MLS(ForkSafe):
         return InverseMLS(self)
 
     def residuals(self, src: object, dst: object) -> np.ndarray:
-        """The distance between f at ``src`` and ``dst``, per point (scikit-image's
-        ``residuals``).
+        """The distance between f at ``src`` and ``dst``, per point.
+
+        The ``residuals`` of scikit-image's transforms.
 
         Parameters
         ----------
@@ -947,7 +1006,18 @@ class MLS(ForkSafe):
     def release(self) -> None:
         """Free this object's GPU buffers.
 
-        Safe to call twice; later use raises :class:`glmls.ReleasedError`.
+        Safe to call twice; later use raises :class:`glmls.ReleasedError`. Leaving a ``with``
+        block calls it.
+
+        Examples
+        --------
+        >>> m = glmls.MLS([[0, 0]], [[1, 0]])
+        >>> m.release()
+        >>> m.release()  # a second time does nothing
+        >>> m([[0, 0]])
+        Traceback (most recent call last):
+            ...
+        glmls.errors.ReleasedError: ...
         """
         self._dropped = True  # made in a forked process: the helper has the GPU side
         if self._kernel is None or self._kernel.released:
@@ -957,7 +1027,16 @@ class MLS(ForkSafe):
 
     @property
     def released(self) -> bool:
-        """Whether :meth:`release` has freed the GPU buffers."""
+        """Whether :meth:`release` has freed the GPU buffers.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0]], [[1, 0]]) as m:
+        ...     print(m.released)
+        False
+        >>> m.released
+        True
+        """
         return self._dropped if self._kernel is None else self._kernel.released
 
     def __enter__(self) -> MLS:
@@ -1081,12 +1160,26 @@ class InverseMLS:
 
     @property
     def grid(self) -> int:
-        """The first guess's mesh step, pixels (read-only)."""
+        """The first guess's mesh step, pixels (read-only).
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0]], [[1, 0]]) as m:
+        ...     print(m.inverse.grid, glmls.InverseMLS(m, grid=4).grid)
+        1 4
+        """
         return self._grid
 
     @property
     def inverse(self) -> MLS:
-        """The forward map f: the :class:`MLS` this is the inverse of."""
+        """The forward map f: the :class:`MLS` this is the inverse of.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0]], [[1, 0]]) as m:
+        ...     print(m.inverse.inverse is m)
+        True
+        """
         return self._forward
 
     def __call__(

@@ -10,6 +10,7 @@ slice), voxel centres at integer coordinates; f(v) = v M + T with row vectors.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import NoReturn
 
 import numpy as np
 
@@ -173,42 +174,88 @@ class MLS3(MLS):
 
     @property
     def src(self) -> np.ndarray:
-        """Source handles p, (N, 3) float64, read-only."""
+        """Source handles p, (N, 3) float64, read-only.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0, 0], [4, 0, 0]], [[1, 0, 0], [5, 0, 0]]) as m:
+        ...     print(m.src.tolist(), m.src.flags.writeable)
+        [[0.0, 0.0, 0.0], [4.0, 0.0, 0.0]] False
+        """
         return self._p
 
     @property
     def dst(self) -> np.ndarray:
-        """Target handles q, (N, 3) float64, read-only."""
+        """Target handles q, (N, 3) float64, read-only.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0, 0], [4, 0, 0]], [[1, 0, 0], [5, 0, 0]]) as m:
+        ...     print(m.dst.tolist())
+        [[1.0, 0.0, 0.0], [5.0, 0.0, 0.0]]
+        """
         return self._q
 
     @property
     def src_segments(self) -> np.ndarray:
-        """No segments in 3D: (0, 2, 3)."""
+        """No segments in 3D: (0, 2, 3).
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0, 0]], [[1, 0, 0]]) as m:
+        ...     print(m.src_segments.shape)
+        (0, 2, 3)
+        """
         return np.zeros((0, 2, 3))
 
     @property
     def dst_segments(self) -> np.ndarray:
-        """No segments in 3D: (0, 2, 3)."""
+        """No segments in 3D: (0, 2, 3).
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0, 0]], [[1, 0, 0]]) as m:
+        ...     print(m.dst_segments.shape)
+        (0, 2, 3)
+        """
         return np.zeros((0, 2, 3))
 
     @property
     def handles(self):
-        """2D only (a :class:`~glmls.HandleSet` holds 2D handles): ValueError."""
+        """2D only (a :class:`~glmls.HandleSet` holds 2D handles): ValueError.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0, 0]], [[1, 0, 0]]) as m:
+        ...     m.handles
+        Traceback (most recent call last):
+            ...
+        ValueError: ...
+        """
         raise _two_d_only("MLS.handles")
 
     @property
     def kernel(self) -> MLSKernel3:  # type: ignore[override]
-        """The handles on the GPU and the defines and uniforms of the passes over f
-        (``#include "mls3/core.glsl"``: :meth:`MLSKernel3.program`, :meth:`MLSKernel3.bind`)."""
+        """The handles on the GPU and the shaders' defines and uniforms (for GL passes).
+
+        ``#include "mls3/core.glsl"``: :meth:`MLSKernel3.program`, :meth:`MLSKernel3.bind`.
+        """
         return self._here(self._kernel)  # type: ignore[return-value]
 
     @property
     def scaling(self) -> Scaling:
-        """The GPU's coordinates: (voxel - center) / scale."""
+        """The GPU's coordinates: (voxel - center) / scale.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0, 0], [8, 4, 2]], [[0, 0, 0], [8, 4, 2]]) as m:
+        ...     print(m.scaling)
+        Scaling(center=(4.0, 2.0, 1.0), scale=4.0)
+        """
         return self.kernel.scaling
 
     def uniforms(self, shape: Sequence[int] | None = None) -> dict[str, object]:  # type: ignore[override]
-        """The uniforms of ``mls3/core.glsl`` for a volume of ``shape``, scaled units.
+        """The uniforms of ``mls3/core.glsl`` for a volume of ``shape`` (for GL passes).
 
         Parameters
         ----------
@@ -253,7 +300,15 @@ class MLS3(MLS):
             self._store3(p, q)
 
     def swapped_kernel(self) -> MLSKernel3:  # type: ignore[override]
-        """The kernel of the MLS with p and q swapped: an approximate inverse of f."""
+        """The kernel of the MLS with p and q swapped (for GL passes).
+
+        An approximate inverse of f.
+
+        Returns
+        -------
+        MLSKernel3
+            Made on first use, kept until the handles change.
+        """
         self.kernel.check_alive()
         if self._swapped is None:
             swapped = MLSKernel3(
@@ -295,7 +350,14 @@ class MLS3(MLS):
 
     @property
     def inverse(self) -> InverseMLS3:
-        """f's inverse as a transform (an :class:`InverseMLS3`), solved on the GPU."""
+        """f's inverse as a transform (an :class:`InverseMLS3`), solved on the GPU.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0, 0]], [[1, 2, 3]]) as m:  # a translation
+        ...     print(np.round(m.inverse([[1, 2, 3]]), 3).tolist())
+        [[0.0, 0.0, 0.0]]
+        """
         self._check_alive()
         return InverseMLS3(self)
 
@@ -386,8 +448,9 @@ class MLS3(MLS):
 
     @on_gpu
     def deform(self, mesh: object) -> DeformedMesh:
-        """A triangle mesh or point cloud deformed by f on the GPU: see
-        :meth:`glmls.MLS.deform`.
+        """A triangle mesh or point cloud deformed by f on the GPU.
+
+        As :meth:`glmls.MLS.deform`.
 
         Parameters
         ----------
@@ -517,23 +580,39 @@ class MLS3(MLS):
         """
         return volume_coordinate_map(self, shape, **options)
 
-    def mesh(self, shape, *, grid=1, tolerance=None):  # type: ignore[override]
+    def mesh(self, shape, *, grid=1, tolerance=None) -> NoReturn:  # type: ignore[override]
         """2D only: ValueError (see :meth:`deform` for 3D meshes).
 
         Parameters
         ----------
         shape, grid, tolerance
             As :meth:`MLS.mesh`'s.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0, 0]], [[1, 0, 0]]) as m:
+        ...     m.mesh((8, 8))
+        Traceback (most recent call last):
+            ...
+        ValueError: ...
         """
         raise _two_d_only("MLS.mesh (an image's mesh)")
 
-    def error_field(self, shape, *, grid=1, tolerance=None):  # type: ignore[override]
+    def error_field(self, shape, *, grid=1, tolerance=None) -> NoReturn:  # type: ignore[override]
         """2D only: ValueError.
 
         Parameters
         ----------
         shape, grid, tolerance
             As :meth:`MLS.error_field`'s.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0, 0]], [[1, 0, 0]]) as m:
+        ...     m.error_field((8, 8))
+        Traceback (most recent call last):
+            ...
+        ValueError: ...
         """
         raise _two_d_only("MLS.error_field")
 
@@ -632,6 +711,12 @@ class InverseMLS3(InverseMLS):
         -------
         numpy.ndarray
             (K,) float64; NaN where ``src`` has no preimage.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0, 0]], [[1, 2, 3]]) as m:  # a translation
+        ...     print(np.round(m.inverse.residuals([[1, 2, 3]], [[0, 0, 1]]), 3).tolist())
+        [1.0]
         """
         source, target = _rows(src, "src"), _rows(dst, "dst")
         if len(source) != len(target):

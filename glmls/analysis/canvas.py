@@ -248,6 +248,15 @@ class Canvas:
         -------
         Canvas
             This canvas.
+
+        Examples
+        --------
+        >>> image = np.zeros((4, 6, 3), np.uint8)
+        >>> image[:, 3:] = (200, 100, 50)
+        >>> with glmls.analysis.Canvas((4, 6)) as canvas:
+        ...     picture = canvas.image(image).read()
+        >>> picture[2, 4].tolist(), picture[2, 0].tolist()
+        ([200, 100, 50], [0, 0, 0])
         """
         rgb = as_rgb8(image)
         if rgb.shape[:2] != self.shape:
@@ -294,6 +303,15 @@ class Canvas:
         -------
         lo, hi : float
             The colour limits used.
+
+        Examples
+        --------
+        >>> values = np.tile(np.arange(6.0), (4, 1))
+        >>> with glmls.analysis.Canvas((4, 6)) as canvas:
+        ...     limits = canvas.field(values, cmap=[[0, 0, 0], [255, 255, 255]])
+        ...     picture = canvas.read()
+        >>> limits, picture[0, 0].tolist(), picture[0, 5].tolist()
+        ((0.0, 5.0), [0, 0, 0], [255, 255, 255])
         """
         array = np.asarray(values, dtype=np.float64)
         if array.shape != self.shape:
@@ -342,6 +360,13 @@ class Canvas:
         -------
         Canvas
             This canvas.
+
+        Examples
+        --------
+        >>> with glmls.analysis.Canvas((8, 8)) as canvas:
+        ...     picture = canvas.triangles([[[0, 0], [8, 0], [0, 8]]], (255, 0, 0)).read()
+        >>> picture[1, 1].tolist(), picture[7, 7].tolist()  # inside, outside
+        ([255, 0, 0], [0, 0, 0])
         """
         tris = np.asarray(vertices, dtype=np.float64)
         if tris.ndim != 3 or tris.shape[1:] != (3, 2):
@@ -385,6 +410,13 @@ class Canvas:
         -------
         Canvas
             This canvas.
+
+        Examples
+        --------
+        >>> with glmls.analysis.Canvas((8, 8)) as canvas:
+        ...     picture = canvas.lines([[0, 4]], [[7, 4]], color=(0, 255, 0), width=2).read()
+        >>> picture[4, 3].tolist(), picture[0, 3].tolist()
+        ([0, 255, 0], [0, 0, 0])
         """
         a, b = _ends(a, b, ("a", "b"))
         self._solid(segment_triangles(a, b, check_size("width", width)), color, opacity, "color")
@@ -415,6 +447,13 @@ class Canvas:
         -------
         Canvas
             This canvas.
+
+        Examples
+        --------
+        >>> with glmls.analysis.Canvas((9, 9)) as canvas:
+        ...     picture = canvas.disks([[4, 4]], color=(0, 0, 255), radius=2).read()
+        >>> picture[4, 4].tolist(), picture[0, 0].tolist()
+        ([0, 0, 255], [0, 0, 0])
         """
         centres = as_points(centres, "centres")
         triangles = disk_triangles(centres, check_size("radius", radius))
@@ -450,6 +489,13 @@ class Canvas:
         -------
         Canvas
             This canvas.
+
+        Examples
+        --------
+        >>> with glmls.analysis.Canvas((9, 16)) as canvas:
+        ...     picture = canvas.arrows([[1, 4]], [[14, 4]], color=(255, 255, 0), head=4).read()
+        >>> picture[4, 6].tolist(), picture[0, 6].tolist()  # on the shaft, off it
+        ([255, 255, 0], [0, 0, 0])
         """
         src, dst = _ends(src, dst, ("src", "dst"))
         triangles = arrow_triangles(src, dst, check_size("width", width), check_size("head", head))
@@ -494,6 +540,13 @@ class Canvas:
         ------
         ReleasedError
             Once the canvas is released.
+
+        Examples
+        --------
+        >>> with glmls.analysis.Canvas((2, 3), background=(10, 20, 30)) as canvas:
+        ...     picture = canvas.read()
+        >>> picture.shape, picture.dtype.name, picture[0, 0].tolist()
+        ((2, 3, 3), 'uint8', [10, 20, 30])
         """
         if self._released:
             raise ReleasedError("this Canvas has been released")
@@ -504,7 +557,18 @@ class Canvas:
         return np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3).copy()
 
     def release(self) -> None:
-        """Free the canvas's GL objects (only the references where its context is gone)."""
+        """Free the canvas's GL objects (only the references where its context is gone).
+
+        Examples
+        --------
+        >>> canvas = glmls.analysis.Canvas((2, 3))
+        >>> canvas.release()
+        >>> canvas.release()  # a second time does nothing
+        >>> canvas.read()
+        Traceback (most recent call last):
+            ...
+        glmls.errors.ReleasedError: this Canvas has been released
+        """
         if self._released:
             return
         self._owned.release()

@@ -126,7 +126,17 @@ class ConstructionErrors:
 
     @property
     def units(self) -> str:
-        """What ``values`` measure, in words."""
+        """What ``values`` measure, in words.
+
+        Examples
+        --------
+        >>> image = np.arange(256, dtype=np.uint8).reshape(16, 16)
+        >>> points = [[8, 8], [4, 4]]
+        >>> with glmls.MLS([[2, 2], [13, 2], [2, 13]], [[3, 2], [14, 2], [3, 13]]) as m:
+        ...     errors = glmls.analysis.construction_errors(image, m.warp(image), m, points)
+        >>> errors.units
+        'RMS colour difference, intensity / 255 (0-1)'
+        """
         return f"RMS colour difference, intensity / {self.scale:g} (0-1)"
 
     def stats(self) -> dict[str, object]:
@@ -137,6 +147,16 @@ class ConstructionErrors:
         dict
             :func:`glmls.analysis.error_stats` of ``values`` (eqs. 8, 9), the undefined
             points counted in ``nan_count``.
+
+        Examples
+        --------
+        >>> image = np.arange(256, dtype=np.uint8).reshape(16, 16)
+        >>> points = [[8, 8], [4, 4]]
+        >>> with glmls.MLS([[2, 2], [13, 2], [2, 13]], [[3, 2], [14, 2], [3, 13]]) as m:
+        ...     errors = glmls.analysis.construction_errors(image, m.warp(image), m, points)
+        >>> stats = errors.stats()
+        >>> stats["count"], stats["nan_count"], stats["max"]  # a whole-pixel shift: exact
+        (2, 0, 0.0)
         """
         return error_stats(self.values)
 
@@ -148,6 +168,16 @@ class ConstructionErrors:
         dict
             ``points``, ``radius``, ``window`` (2 radius + 1), ``alignment``, ``border``,
             ``origin`` and ``units``.
+
+        Examples
+        --------
+        >>> image = np.arange(256, dtype=np.uint8).reshape(16, 16)
+        >>> points = [[8, 8], [4, 4]]
+        >>> with glmls.MLS([[2, 2], [13, 2], [2, 13]], [[3, 2], [14, 2], [3, 13]]) as m:
+        ...     errors = glmls.analysis.construction_errors(image, m.warp(image), m, points)
+        >>> settings = errors.settings()
+        >>> settings["points"], settings["window"]
+        (2, 5)
         """
         return {
             "points": len(self.values),

@@ -111,7 +111,17 @@ class CellJacobians:
 
     @property
     def count(self) -> int:
-        """The number of folded cells."""
+        """The number of folded cells.
+
+        Examples
+        --------
+        >>> mirror = np.diag([-1.0, 1.0, 1.0])
+        >>> cells = glmls.analysis.cell_jacobians(lambda v: v @ mirror, (4, 4, 4), grid=2)
+        >>> cells.count  # a mirror folds every cell
+        8
+        >>> glmls.analysis.cell_jacobians(lambda v: v * 2.0, (4, 4, 4), grid=2).count
+        0
+        """
         return int(self.folded.sum())
 
     def stats(self) -> dict[str, object]:
@@ -122,6 +132,14 @@ class CellJacobians:
         dict
             ``grid``, ``cells``, ``folds`` (folded cells), ``folded_voxels``, and the
             :func:`error_stats` of ``det``, ``ratio`` and ``min_det``.
+
+        Examples
+        --------
+        >>> mirror = np.diag([-1.0, 1.0, 1.0])
+        >>> cells = glmls.analysis.cell_jacobians(lambda v: v @ mirror, (4, 4, 4), grid=2)
+        >>> stats = cells.stats()
+        >>> stats["cells"], stats["folds"], stats["folded_voxels"], stats["det"]["max"]
+        (8, 8, 64, -1.0)
         """
         return {
             "grid": self.grid,

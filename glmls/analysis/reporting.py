@@ -84,6 +84,20 @@ class SavedReport:
         -------
         str
             The JSON text.
+
+        Examples
+        --------
+        >>> y, x = np.mgrid[0:32, 0:32]
+        >>> image = (127 + 60 * np.sin(x / 3.0) + 60 * np.cos(y / 4.0)).astype(np.uint8)
+        >>> src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+        >>> points = [[8, 8], [24, 8], [8, 24], [24, 24], [16, 16]]
+        >>> with glmls.MLS(src, src + [1.0, 0.0]) as m:
+        ...     found = glmls.analysis.report(image, m, points, mesh_grid=8)
+        >>> import json
+        >>> json.loads(found.to_json())["image"]
+        {'height': 32, 'width': 32}
+        >>> found.to_json(indent=None).startswith('{"image": {"height": 32, "width": 32}')
+        True
         """
         return json.dumps(self.summary, **({"indent": 2} | options))  # type: ignore[arg-type]
 
@@ -101,6 +115,19 @@ class SavedReport:
         -------
         list of pathlib.Path
             The paths written, ``report.json`` first.
+
+        Examples
+        --------
+        >>> y, x = np.mgrid[0:32, 0:32]
+        >>> image = (127 + 60 * np.sin(x / 3.0) + 60 * np.cos(y / 4.0)).astype(np.uint8)
+        >>> src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+        >>> points = [[8, 8], [24, 8], [8, 24], [24, 24], [16, 16]]
+        >>> with glmls.MLS(src, src + [1.0, 0.0]) as m:
+        ...     found = glmls.analysis.report(image, m, points, mesh_grid=8)
+        >>> import pathlib, tempfile
+        >>> paths = found.save(pathlib.Path(tempfile.mkdtemp()) / "report")
+        >>> [path.name for path in paths][:3]
+        ['report.json', 'input_handles.png', 'deformed.png']
         """
         out = Path(folder)
         paths = [out / "report.json"]

@@ -156,6 +156,19 @@ class StudyResult:
             configuration could not be built for the image's handles); ``tied_rank`` is
             the rank shared by the configurations the tune cannot tell apart (the same
             score), which the rank agreement uses.
+
+        Examples
+        --------
+        >>> src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+        >>> pulled = src.copy()
+        >>> pulled[3] = [24.0, 24.0]
+        >>> points = np.array([[8.0, 8.0], [24.0, 8.0], [8.0, 24.0], [24.0, 24.0], [16.0, 16.0]])
+        >>> handles = glmls.HandleSet.validate(src, pulled)
+        >>> items = [glmls.data.StudyItem("pulled", (32, 32), handles, points)]
+        >>> configs = ["rigid:idw", "affine:idw:alpha=1"]
+        >>> result = glmls.analysis.study(items, configs=configs, trials=1)
+        >>> [(row["label"], row["mean_rank"]) for row in result.table()]
+        [('affine idw a=1', 1.0), ('rigid idw a=1', 2.0), ('rigid idw a=2', 3.0)]
         """
         return _table(self)
 
@@ -169,6 +182,20 @@ class StudyResult:
             ``distinct_winners``, ``winner_counts``, ``one_configuration_wins_everywhere``,
             ``best_overall``, ``rank_agreement`` (Kendall's tau per pair of images, and
             Kendall's W), ``answer`` (in words), ``skipped``, ``settings``, ``timings``.
+
+        Examples
+        --------
+        >>> src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+        >>> pulled = src.copy()
+        >>> pulled[3] = [24.0, 24.0]
+        >>> points = np.array([[8.0, 8.0], [24.0, 8.0], [8.0, 24.0], [24.0, 24.0], [16.0, 16.0]])
+        >>> handles = glmls.HandleSet.validate(src, pulled)
+        >>> items = [glmls.data.StudyItem("pulled", (32, 32), handles, points)]
+        >>> configs = ["rigid:idw", "affine:idw:alpha=1"]
+        >>> result = glmls.analysis.study(items, configs=configs, trials=1)
+        >>> summary = result.summary()
+        >>> summary["images"], summary["winners"]["pulled"]["label"]
+        (['pulled'], 'affine idw a=1')
         """
         return _summary(self, self.table())
 
@@ -179,6 +206,20 @@ class StudyResult:
         -------
         numpy.ndarray
             (H, W, 3) uint8 (:func:`render_heatmap`).
+
+        Examples
+        --------
+        >>> src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+        >>> pulled = src.copy()
+        >>> pulled[3] = [24.0, 24.0]
+        >>> points = np.array([[8.0, 8.0], [24.0, 8.0], [8.0, 24.0], [24.0, 24.0], [16.0, 16.0]])
+        >>> handles = glmls.HandleSet.validate(src, pulled)
+        >>> items = [glmls.data.StudyItem("pulled", (32, 32), handles, points)]
+        >>> configs = ["rigid:idw", "affine:idw:alpha=1"]
+        >>> result = glmls.analysis.study(items, configs=configs, trials=1)
+        >>> picture = result.heatmap()
+        >>> picture.ndim, picture.shape[2], picture.dtype.name
+        (3, 3, 'uint8')
         """
         return render_heatmap(self.table(), self.names, title=self.summary()["answer"])
 
@@ -197,6 +238,23 @@ class StudyResult:
         -------
         dict
             The summary (:meth:`summary`).
+
+        Examples
+        --------
+        >>> src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+        >>> pulled = src.copy()
+        >>> pulled[3] = [24.0, 24.0]
+        >>> points = np.array([[8.0, 8.0], [24.0, 8.0], [8.0, 24.0], [24.0, 24.0], [16.0, 16.0]])
+        >>> handles = glmls.HandleSet.validate(src, pulled)
+        >>> items = [glmls.data.StudyItem("pulled", (32, 32), handles, points)]
+        >>> configs = ["rigid:idw", "affine:idw:alpha=1"]
+        >>> result = glmls.analysis.study(items, configs=configs, trials=1)
+        >>> import pathlib, tempfile
+        >>> folder = pathlib.Path(tempfile.mkdtemp()) / "study"
+        >>> result.save(folder)["images"]
+        ['pulled']
+        >>> sorted(path.name for path in folder.iterdir())
+        ['heatmap.png', 'pulled', 'summary.json', 'table.csv', 'table.json']
         """
         out = Path(out_dir)
         rows = self.table()

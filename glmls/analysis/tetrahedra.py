@@ -119,6 +119,13 @@ class TetrahedronErrors:
             ``tetrahedra`` (T, those measured), ``slivers`` (how many left out),
             ``min_quality``, ``angle_measure``, ``inverted`` (how many), and the
             :func:`error_stats` of ``distance``, ``angle`` and ``quality``.
+
+        Examples
+        --------
+        >>> corners = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10], [10, 10, 10]]
+        >>> stats = glmls.analysis.tetrahedron_errors(lambda r: r * 2.0, corners).stats()
+        >>> stats["tetrahedra"], stats["inverted"], stats["angle"]["max"]
+        (3, 0, 0.0)
         """
         return {
             "tetrahedra": len(self.simplices),

@@ -104,6 +104,13 @@ class TriangleErrors:
         dict
             ``triangles`` (T), ``angle_measure``, ``flipped`` (how many), and the
             :func:`error_stats` of ``distance`` and of ``angle``.
+
+        Examples
+        --------
+        >>> square = [[0, 0], [10, 0], [0, 10], [10, 10]]
+        >>> stats = glmls.analysis.triangle_errors(lambda r: r * 2.0, square).stats()
+        >>> stats["triangles"], stats["flipped"], stats["angle"]["max"], stats["distance"]["count"]
+        (2, 0, 0.0, 2)
         """
         return {
             "triangles": len(self.simplices),

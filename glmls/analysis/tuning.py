@@ -230,7 +230,21 @@ class TuneResult:
 
     @property
     def best(self) -> MLSConfig:
-        """The first row's configuration."""
+        """The first row's configuration, as an :class:`~glmls.MLSConfig`.
+
+        Examples
+        --------
+        >>> src = np.array([[4.0, 4.0], [27.0, 4.0], [4.0, 27.0], [27.0, 27.0]])
+        >>> dst = src.copy()
+        >>> dst[3] = [24.0, 24.0]
+        >>> configs = [glmls.MLSConfig(transform="rigid"), glmls.MLSConfig(transform="affine")]
+        >>> result = glmls.analysis.tune((32, 32), src, dst, [[8, 8], [24, 8], [16, 20]],
+        ...                              trials=1, configs=configs)
+        >>> result.rows[0]["label"], result.best.transform, result.best.weight
+        ('affine idw a=1', 'affine', 'idw')
+        >>> result.best == glmls.MLSConfig(**result.rows[0]["config"])
+        True
+        """
         return MLSConfig(**self.rows[0]["config"])
 
 

@@ -184,12 +184,30 @@ class ReferenceDeformation:
             (K, 3, 3) float64.
         T : numpy.ndarray
             (K, 3) float64.
+
+        Examples
+        --------
+        >>> src = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]]
+        >>> m = glmls.analysis.ReferenceDeformation(src, np.multiply(src, 2.0), transform="affine")
+        >>> M, T = m.matrices([[1, 2, 3]])
+        >>> M.round(9).tolist(), T.round(9).tolist()
+        ([[[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0]]], [[0.0, 0.0, 0.0]])
+        >>> m.matrices([1, 2, 3])[0].shape  # one point
+        (1, 3, 3)
         """
         _, m, t = self._blocks(points)
         return m, t
 
     def release(self) -> None:
-        """Nothing to free (for symmetry with :meth:`glmls.MLS.release`)."""
+        """Nothing to free (for symmetry with :meth:`glmls.MLS.release`).
+
+        Examples
+        --------
+        >>> m = glmls.analysis.ReferenceDeformation([[0, 0, 0]], [[1, 0, 0]])
+        >>> m.release()
+        >>> m([[0, 0, 0]]).tolist()  # still usable: nothing lives on the GPU
+        [[1.0, 0.0, 0.0]]
+        """
 
     def __enter__(self) -> ReferenceDeformation:
         return self

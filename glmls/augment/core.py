@@ -323,8 +323,9 @@ class Augment:
 
     @property
     def label_options(self) -> dict[str, object]:
-        """``box_step``, ``densify`` and ``clip_polygons``: what shapes the labels, recorded
-        in each draw (its ``label_options``).
+        """``box_step``, ``densify`` and ``clip_polygons``: what shapes the labels.
+
+        Recorded in each draw (its ``label_options``).
 
         Returns
         -------

@@ -287,17 +287,40 @@ class MLSConfig:
 
     @property
     def weight_entry(self) -> Weight:
-        """The weight's entry in :data:`glmls.core.weights.REGISTRY`."""
+        """The weight's entry in :data:`glmls.core.weights.REGISTRY`.
+
+        Examples
+        --------
+        >>> entry = glmls.MLSConfig(weight="idw").weight_entry
+        >>> entry.name, entry.formula, entry.needs_radius
+        ('idw', '1 / (s + d^(2 alpha))', False)
+        """
         return REGISTRY[self.weight]
 
     @property
     def uses_radius(self) -> bool:
-        """Whether the weight needs an influence radius (all but ``idw``)."""
+        """Whether the weight needs an influence radius (all but ``idw``).
+
+        Examples
+        --------
+        >>> glmls.MLSConfig(weight="idw").uses_radius
+        False
+        >>> glmls.MLSConfig(weight="gaussian").uses_radius
+        True
+        """
         return self.weight_entry.needs_radius
 
     @property
     def infinite_at_zero(self) -> bool:
-        """Whether w(0) is infinite, so that MLS interpolates the handles exactly."""
+        """Whether w(0) is infinite, so that MLS interpolates the handles exactly.
+
+        Examples
+        --------
+        >>> glmls.MLSConfig().infinite_at_zero  # idw's s > 0 keeps w(0) finite
+        False
+        >>> glmls.MLSConfig(interpolating=True).infinite_at_zero
+        True
+        """
         return self.interpolating or self.weight_entry.infinite_at_zero(self)
 
     def resolve_radius(self, shape: tuple[int, int] | None) -> float | None:
@@ -317,6 +340,15 @@ class MLSConfig:
         ------
         ValueError
             When a radius weight has neither a radius nor a shape.
+
+        Examples
+        --------
+        >>> glmls.MLSConfig(weight="gaussian").resolve_radius((30, 40))  # the diagonal
+        50.0
+        >>> glmls.MLSConfig(weight="gaussian", radius=12.0).resolve_radius((30, 40))
+        12.0
+        >>> print(glmls.MLSConfig(weight="idw").resolve_radius((30, 40)))
+        None
         """
         if not self.uses_radius:
             return self.radius

@@ -95,6 +95,16 @@ class HandleSet:
             point handles, a point handle on a segment, segments sharing a point).
         TypeError
             For arrays that are not numeric.
+
+        Examples
+        --------
+        >>> handles = glmls.HandleSet.validate([[0, 0], [4, 0]], [[1, 0], [5, 0]])
+        >>> handles.src.tolist(), handles.segments
+        ([[0.0, 0.0], [4.0, 0.0]], 0)
+        >>> glmls.HandleSet.validate([[0, 0]], [[1, 0], [2, 0]])
+        Traceback (most recent call last):
+            ...
+        ValueError: ...
         """
         p, q = validate_handles(src, dst)
         a, b = validate_segments(src_segments, dst_segments)
@@ -103,12 +113,24 @@ class HandleSet:
 
     @property
     def points(self) -> int:
-        """The number of point handles, N."""
+        """The number of point handles, N.
+
+        Examples
+        --------
+        >>> glmls.HandleSet.validate([[0, 0], [4, 0]], [[1, 0], [5, 0]]).points
+        2
+        """
         return len(self.src)
 
     @property
     def segments(self) -> int:
-        """The number of segment handles, S."""
+        """The number of segment handles, S.
+
+        Examples
+        --------
+        >>> glmls.HandleSet.validate([], [], [[[0, 0], [8, 0]]], [[[0, 1], [8, 1]]]).segments
+        1
+        """
         return len(self.src_segments)
 
     def __len__(self) -> int:
@@ -116,11 +138,37 @@ class HandleSet:
         return self.points + self.segments
 
     def source_points(self) -> np.ndarray:
-        """Every source point and segment end, (N + 2 S, 2)."""
+        """Every source point and segment end, (N + 2 S, 2).
+
+        Returns
+        -------
+        numpy.ndarray
+            The point handles' rows, then each segment's two ends.
+
+        Examples
+        --------
+        >>> segment, moved = [[[0, 0], [8, 0]]], [[[0, 1], [8, 1]]]
+        >>> handles = glmls.HandleSet.validate([[5, 5]], [[6, 5]], segment, moved)
+        >>> handles.source_points().tolist()
+        [[5.0, 5.0], [0.0, 0.0], [8.0, 0.0]]
+        """
         return np.concatenate([self.src, self.src_segments.reshape(-1, 2)])
 
     def target_points(self) -> np.ndarray:
-        """Every target point and segment end, (N + 2 S, 2)."""
+        """Every target point and segment end, (N + 2 S, 2).
+
+        Returns
+        -------
+        numpy.ndarray
+            The point handles' rows, then each segment's two ends.
+
+        Examples
+        --------
+        >>> segment, moved = [[[0, 0], [8, 0]]], [[[0, 1], [8, 1]]]
+        >>> handles = glmls.HandleSet.validate([[5, 5]], [[6, 5]], segment, moved)
+        >>> handles.target_points().tolist()
+        [[6.0, 5.0], [0.0, 1.0], [8.0, 1.0]]
+        """
         return np.concatenate([self.dst, self.dst_segments.reshape(-1, 2)])
 
     def gpu_scaling(self, shape: tuple[int, int] | None) -> Scaling:
@@ -160,7 +208,19 @@ class HandleSet:
         return scaling
 
     def swapped(self) -> HandleSet:
-        """Sources and targets exchanged (the map the other way)."""
+        """Sources and targets exchanged (the map the other way).
+
+        Returns
+        -------
+        HandleSet
+            ``src`` and ``dst`` (and the segments) trade places.
+
+        Examples
+        --------
+        >>> handles = glmls.HandleSet.validate([[0, 0]], [[1, 2]]).swapped()
+        >>> handles.src.tolist(), handles.dst.tolist()
+        ([[1.0, 2.0]], [[0.0, 0.0]])
+        """
         return HandleSet(self.dst, self.src, self.dst_segments, self.src_segments)
 
     def check_affine(self) -> None:
@@ -173,6 +233,15 @@ class HandleSet:
         ------
         DegenerateHandlesError
             When every source handle lies on one line.
+
+        Examples
+        --------
+        >>> triangle, line = [[0, 0], [4, 0], [0, 4]], [[0, 0], [4, 0], [8, 0]]
+        >>> glmls.HandleSet.validate(triangle, triangle).check_affine()  # spans the plane
+        >>> glmls.HandleSet.validate(line, line).check_affine()
+        Traceback (most recent call last):
+            ...
+        glmls.errors.DegenerateHandlesError: affine MLS needs ...
         """
         if self.segments == 0:
             check_affine_handles(self.src)

@@ -79,7 +79,15 @@ class DeformedMesh:
 
     @property
     def folded(self) -> bool:
-        """Whether any vertex or face folds."""
+        """Whether any vertex or face folds.
+
+        Examples
+        --------
+        >>> vertices = np.array([[0, 0, 0], [4, 0, 0], [0, 4, 0]], float)
+        >>> with glmls.MLS([[0, 0, 0]], [[0, 0, 1]]) as m:  # a translation along z
+        ...     print(m.deform((vertices, np.array([[0, 1, 2]]))).folded)
+        False
+        """
         return bool(self.vertex_folds.any() or self.face_folds.any())
 
     def __repr__(self) -> str:

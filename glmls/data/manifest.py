@@ -96,6 +96,17 @@ class StudyItem:
         ------
         ValueError
             When the item has no image file.
+
+        Examples
+        --------
+        >>> item = glmls.data.study_set()[0]
+        >>> item.image().shape[:2] == item.shape
+        True
+        >>> handles = glmls.HandleSet.validate([[0, 0]], [[1, 0]])
+        >>> glmls.data.StudyItem("drawn", (8, 8), handles, np.zeros((3, 2))).image()
+        Traceback (most recent call last):
+            ...
+        ValueError: drawn: no image file
         """
         if self.image_path is None:
             raise ValueError(f"{self.name}: no image file")

@@ -212,7 +212,13 @@ class Volume:
 
     @property
     def shape(self) -> tuple[int, ...]:
-        """The data's shape, (D, H, W) or (D, H, W, C)."""
+        """The data's shape, (D, H, W) or (D, H, W, C).
+
+        Examples
+        --------
+        >>> glmls.Volume(np.zeros((4, 5, 6, 3), np.uint8)).shape
+        (4, 5, 6, 3)
+        """
         return self.data.shape
 
     def __repr__(self) -> str:

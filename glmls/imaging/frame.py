@@ -221,7 +221,13 @@ class Bounds:
 
     @property
     def origin(self) -> tuple[float, float]:
-        """(x0, y0) of the first pixel the box touches (whole pixels)."""
+        """(x0, y0) of the first pixel the box touches (whole pixels).
+
+        Examples
+        --------
+        >>> glmls.Bounds(-3.2, 0.5, 40.5, 20.9).origin
+        (-3.0, 1.0)
+        """
         return (
             float(math.floor(self.x0 + 0.5 + FIT_SLACK)),
             float(math.floor(self.y0 + 0.5 + FIT_SLACK)),
@@ -229,10 +235,21 @@ class Bounds:
 
     @property
     def output_shape(self) -> tuple[int, int]:
-        """(H, W) of the pixels the box touches, at least 1 x 1; ``ValueError`` where no warp
-        can take that canvas: a side or its origin beyond the coordinate range
-        (:data:`~glmls.core.handles.COORDINATE_LIMIT`, the limit of an image's sides and of
-        ``origin``; a device's GL limit on a side is far below it)."""
+        """(H, W) of the pixels the box touches, at least 1 x 1.
+
+        ``ValueError`` where no warp can take that canvas: a side or its origin beyond the
+        coordinate range (:data:`~glmls.core.handles.COORDINATE_LIMIT`, the limit of an
+        image's sides and of ``origin``; a device's GL limit on a side is far below it).
+
+        Examples
+        --------
+        >>> glmls.Bounds(-0.5, -0.5, 5.5, 3.5).output_shape  # the identity on a 4 x 6 image
+        (4, 6)
+        >>> glmls.Bounds(0.0, 0.0, 1e12, 1.0).output_shape
+        Traceback (most recent call last):
+            ...
+        ValueError: ...
+        """
         ox, oy = self.origin
         width = max(1, math.ceil(self.x1 - 0.5 - FIT_SLACK) - int(ox) + 1)
         height = max(1, math.ceil(self.y1 - 0.5 - FIT_SLACK) - int(oy) + 1)
@@ -246,7 +263,14 @@ class Bounds:
 
     @property
     def frame(self) -> Frame:
-        """The canvas of :attr:`output_shape` and :attr:`origin` as a :class:`Frame`."""
+        """The canvas of :attr:`output_shape` and :attr:`origin` as a :class:`Frame`.
+
+        Examples
+        --------
+        >>> frame = glmls.Bounds(-3.2, 0.5, 40.5, 20.9).frame
+        >>> frame.shape, frame.origin
+        ((21, 44), (-3.0, 1.0))
+        """
         return Frame(self.output_shape, self.origin)
 
 

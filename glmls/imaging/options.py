@@ -123,8 +123,9 @@ class WarpOptions:
 
     @classmethod
     def of(cls, options: WarpOptions | None = None, **keywords: object) -> WarpOptions:
-        """``options`` (None: the defaults) with the ``keywords`` the caller gave replacing
-        its fields; a keyword left at its :class:`Default` keeps the field.
+        """``options`` (None: the defaults) with the caller's ``keywords`` replacing fields.
+
+        A keyword left at its :class:`Default` keeps the field.
 
         Parameters
         ----------

@@ -138,13 +138,29 @@ class VolumeBounds:
 
     @property
     def origin(self) -> tuple[float, float, float]:
-        """(x0, y0, z0) of the first voxel the box touches (whole voxels)."""
+        """(x0, y0, z0) of the first voxel the box touches (whole voxels).
+
+        Examples
+        --------
+        >>> from glmls.volume import VolumeBounds
+        >>> VolumeBounds(-3.2, 0.5, 0.0, 40.5, 20.9, 2.0).origin
+        (-3.0, 1.0, 0.0)
+        """
         x, y, z = (float(math.floor(lo / d + 0.5 + FIT_SLACK)) * d for lo, _, d in self._axes())
         return x, y, z
 
     @property
     def output_shape(self) -> tuple[int, int, int]:
-        """(D, H, W) of the voxels the box touches, at least 1 each."""
+        """(D, H, W) of the voxels the box touches, at least 1 each.
+
+        Examples
+        --------
+        >>> from glmls.volume import VolumeBounds
+        >>> VolumeBounds(-0.5, -0.5, -0.5, 5.5, 3.5, 1.5).output_shape
+        (2, 4, 6)
+        >>> VolumeBounds(2.0, 2.0, 2.0, 2.0, 2.0, 2.0).output_shape  # a point: one voxel
+        (1, 1, 1)
+        """
         sizes = []
         for lo, hi, d in self._axes():
             first = math.floor(lo / d + 0.5 + FIT_SLACK)

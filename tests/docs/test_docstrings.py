@@ -13,6 +13,7 @@ from __future__ import annotations
 import doctest
 import inspect
 import io
+import typing
 
 import numpy as np
 import pytest
@@ -93,8 +94,9 @@ def _names(section) -> set[str]:
 
 
 def _returns_none(func) -> bool:
+    """Whether ``func`` returns nothing: annotated ``None``, or ``NoReturn`` (it always raises)."""
     annotation = inspect.signature(func).return_annotation
-    return annotation in (None, "None")
+    return annotation in (None, "None", "NoReturn", typing.NoReturn)
 
 
 def _public_members(cls) -> list[tuple[str, object]]:
@@ -213,10 +215,106 @@ def test_the_transforms_are_among_the_callables():
     assert {"glmls.MLS", "glmls.InverseMLS", "glmls.analysis.ReferenceDeformation"} <= names
 
 
-@pytest.mark.parametrize("obj", _params(PUBLIC))
-def test_examples_run(obj):
+#: The modules whose classes' public methods and properties each carry their own Examples:
+#: all of :data:`MODULES` but :mod:`glmls.gl` (the GL plumbing itself) and :mod:`glmls.app`
+#: (the interactive window, exercised by its own tests).
+MEMBER_EXAMPLE_MODULES = [module for module in MODULES if module not in (glmls.gl, glmls.app)]
+#: Members of those classes that are GL plumbing, for the passes of :mod:`glmls.gl`: they need
+#: no Examples, but their summary says what they are for.
+GL_PLUMBING = {"defines", "kernel", "swapped_kernel", "uniforms"}
+
+
+def _member_example_classes() -> list[tuple[str, type]]:
+    owners = {id(obj) for module in MEMBER_EXAMPLE_MODULES for obj in vars(module).values()}
+    return [
+        (name, cls)
+        for name, cls in _CLASSES
+        if id(cls) in owners and not _is_exception(cls) and name.split(".")[1] not in ("gl", "app")
+    ]
+
+
+_MEMBER_CLASSES = _member_example_classes()
+
+
+def _target(raw) -> object:
+    return raw.fget if isinstance(raw, property) else raw
+
+
+@pytest.mark.parametrize("cls", _params(_MEMBER_CLASSES))
+def test_public_members_have_examples(cls):
+    """Every public method and property of a user-facing class has a one-line summary,
+    Returns where it returns a value, and Examples (the GL plumbing: a summary that says so)."""
+    problems = []
+    for name, raw in _public_members(cls):
+        target = _target(raw)
+        doc = FunctionDoc(target, doc=inspect.getdoc(target) or "")
+        summary = " ".join(doc["Summary"])
+        if len(doc["Summary"]) != 1:
+            problems.append(f"{name}: the summary is not one line")
+        if name in GL_PLUMBING:
+            if "for GL passes" not in summary:
+                problems.append(f"{name}: GL plumbing whose summary does not say 'for GL passes'")
+            continue
+        if ">>>" not in "\n".join(doc["Examples"]):
+            problems.append(f"{name}: no Examples with >>>")
+        if not isinstance(raw, property) and not _returns_none(target) and not doc["Returns"]:
+            problems.append(f"{name}: no Returns section")
+    assert not problems, "\n".join(problems)
+
+
+def test_the_member_rule_covers_the_classes_a_user_meets_first():
+    names = {name for name, _ in _MEMBER_CLASSES}
+    expected = {
+        "glmls.MLS",
+        "glmls.InverseMLS",
+        "glmls.HandleSet",
+        "glmls.MLSConfig",
+        "glmls.WarpOptions",
+        "glmls.BatchResult",
+        "glmls.augment.Augment",
+        "glmls.augment.AugmentResult",
+        "glmls.volume.VolumeBounds",
+        "glmls.analysis.Canvas",
+        "glmls.mls3.MLS3",
+    }
+    assert expected <= names, expected - names
+    assert not any(name.startswith(("glmls.gl.", "glmls.app.")) for name in names)
+
+
+def _inherited_members() -> list[tuple[str, object]]:
+    """Members that the public classes inherit from a base that is not public itself
+    (``MLS.config`` is ``ForkSafe.config``): :func:`test_examples_run` does not reach them."""
+    public = {id(cls) for _, cls in _CLASSES}
+    found, seen = [], set()
+    for _, cls in _MEMBER_CLASSES:
+        for _, raw in _public_members(cls):
+            target = _target(raw)
+            owner = next(
+                (
+                    base
+                    for base in cls.__mro__
+                    if target.__name__ in vars(base)
+                    and _target(vars(base)[target.__name__]) is target
+                ),
+                cls,
+            )
+            if id(owner) in public or id(target) in seen:
+                continue
+            seen.add(id(target))
+            found.append((f"{target.__module__}.{target.__qualname__}", target))
+    return found
+
+
+_INHERITED = _inherited_members()
+
+
+def test_inherited_members_are_found():
+    names = {name for name, _ in _INHERITED}
+    assert {"glmls.forking.ForkSafe.config", "glmls.forking.ForkSafe.shape"} <= names
+
+
+def _run_examples(obj, name: str) -> None:
     finder = doctest.DocTestFinder(exclude_empty=True)
-    name = f"{obj.__module__}.{obj.__qualname__}"
     found = finder.find(obj, name=name, globs={"np": np, "glmls": glmls})
     tests = [test for test in found if test.examples]
     assert tests, "no doctest examples"
@@ -226,3 +324,13 @@ def test_examples_run(obj):
         runner.run(test, out=out.write)
     results = runner.summarize(verbose=False)
     assert results.failed == 0, out.getvalue()
+
+
+@pytest.mark.parametrize("member", _params(_INHERITED))
+def test_inherited_member_examples_run(member):
+    _run_examples(member, f"{member.__module__}.{member.__qualname__}")
+
+
+@pytest.mark.parametrize("obj", _params(PUBLIC))
+def test_examples_run(obj):
+    _run_examples(obj, f"{obj.__module__}.{obj.__qualname__}")
