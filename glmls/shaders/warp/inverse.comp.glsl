@@ -94,6 +94,33 @@ const ivec2 WARP_NEIGHBOURS[24] = ivec2[](
 // Lipschitz bound, and a shrink by more than it costs only Newton from the neighbours.
 const float WARP_SHEET = 4.0;
 
+// How many neighbours' points may be starts within a CPU renderer's cap on an invocation's
+// loop iterations (llvmpipe: 65,535 over all loops, 4 SCAN_PIECE_PIXELS; it then ends the
+// loops as if done, counting for all the lanes of a vector together, so that a pixel's result
+// would depend on its lane mates): each start's damped Newton evaluates f at most
+// 1 + 4 WARP_NEWTON_STEPS times, each evaluation walking the handles up to three times
+// (the nearest, the snapped point's normalisation, the moments), sixteen handles a loop
+// iteration (one with bins or segments, as a bound). Half the cap goes to the neighbours.
+// Without a cap, all 24.
+int warp_neighbour_starts() {
+#if SCAN_PIECE_PIXELS == 0
+    return 24;
+#else
+#if MLS_UNROLL
+    int per_walk = 2;
+#elif MLS_BINS
+    int per_walk = mls_handle_count() + 2;
+#else
+    int per_walk = (mls_handle_count() + 15) / 16 + 2;
+#endif
+#if MLS_SEGMENTS
+    per_walk += u_segment_count + 1;
+#endif
+    int per_start = (1 + 4 * WARP_NEWTON_STEPS) * 3 * per_walk;
+    return clamp((2 * SCAN_PIECE_PIXELS) / per_start - 2, 0, 24);
+#endif
+}
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= min(warp_rescue_count, u_rescue_capacity)) {
@@ -119,12 +146,13 @@ void main() {
     vec2 first = found.xy;
     bool done = false;
     int next = converged ? 0 : -2;   // the next start: -2 s, -1 u, k >= 0 neighbour k
+    int neighbours = warp_neighbour_starts();
     // One loop and one warp_newton_damped: a CPU renderer runs a loop's body at least once
     // and a branch's code whatever its lanes' mask, so each listed pixel pays for one.
     for (;;) {
         vec2 start = next == -2 ? s : u;
         bool have = next < 0;
-        for (; !have && !done && next < 24; ++next) {   // the next neighbour that is a start
+        for (; !have && !done && next < neighbours; ++next) {   // the next neighbour start
             ivec2 q = p + WARP_NEIGHBOURS[next];
             if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, u_target_size))) {
                 continue;
