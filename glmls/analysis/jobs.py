@@ -348,10 +348,33 @@ def _run_dask(function, items: list, jobs: int, scheduler: str, finished) -> Non
                 raise OSError(f"cannot reach the Dask scheduler at {scheduler}: {error}") from None
         _run_on(client, function, items, finished, local=cluster is not None)
     finally:
-        if client is not None:
-            client.close()
-        if cluster is not None:
-            cluster.close()
+        # closing a local cluster whose workers are stopping logs their closed connections
+        # (INFO, with tracebacks) as it puts its loggers' levels back: not this run's news
+        with _dask_logs_below_error_dropped() if cluster is not None else contextlib.nullcontext():
+            if client is not None:
+                client.close()
+            if cluster is not None:
+                cluster.close()
+
+
+class _BelowError(logging.Filter):
+    def filter(self, record: logging.LogRecord) -> bool:
+        return record.levelno >= logging.ERROR
+
+
+@contextlib.contextmanager
+def _dask_logs_below_error_dropped() -> Iterator[None]:
+    """Dask's log records below ERROR dropped by the handlers of its ``distributed`` logger
+    (where its records go) in the block, whatever levels Dask sets meanwhile."""
+    handlers = list(logging.getLogger("distributed").handlers)
+    quiet = _BelowError()
+    for handler in handlers:
+        handler.addFilter(quiet)
+    try:
+        yield
+    finally:
+        for handler in handlers:
+            handler.removeFilter(quiet)
 
 
 def _run_on(client, function, items: list, finished, *, local: bool) -> None:

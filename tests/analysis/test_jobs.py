@@ -336,3 +336,33 @@ def _group_alive(group: int, wait: float) -> bool:
             return False
         time.sleep(0.1)
     return True
+
+
+def test_a_closing_local_cluster_logs_nothing_below_error():
+    """Closing a local cluster whose workers are stopping makes Dask log their closed
+    connections (INFO, with tracebacks) on stderr, under the run's own last line; those
+    records are dropped while it closes, whatever levels Dask sets meanwhile."""
+    import logging
+
+    from glmls.analysis import jobs
+
+    seen: list[str] = []
+
+    class Collect(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            seen.append(record.getMessage())
+
+    logger = logging.getLogger("distributed")
+    handler = Collect()
+    logger.addHandler(handler)
+    level = logger.level
+    logger.setLevel(logging.INFO)
+    try:
+        with jobs._dask_logs_below_error_dropped():
+            logging.getLogger("distributed.batched").info("Batched Comm Closed")
+            logging.getLogger("distributed.batched").error("a real failure")
+        logging.getLogger("distributed.batched").info("after")
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+    assert seen == ["a real failure", "after"]
