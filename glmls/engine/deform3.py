@@ -19,9 +19,9 @@ import numpy as np
 
 from ..core.mesh3 import DeformedMesh
 from ..gl import bindings
-from ..gl.dispatch import run_1d, set_uniforms
+from ..gl.dispatch import run_1d
 from .kernel3 import MLSKernel3
-from .passes3 import jacobian_uniforms, points3_program
+from .passes3 import run_points3
 
 __all__ = ["MESH_FOLDS_PASS", "MESH_NORMALS_PASS", "RECORD", "deform_mesh3"]
 
@@ -85,12 +85,9 @@ def deform_mesh3(
         elif face_count:
             source = "faces"
             _face_normals(kernel, count, face_count, groups)
-        program = points3_program(kernel, lattice=False, output="mesh", normals=source)
-        kernel.bind(program, shape)
         records = scratch.buffer("records3", count * RECORD * 4)
         records.bind_to_storage_buffer(bindings.DEFORMED.index)
-        set_uniforms(program, jacobian_uniforms(kernel))
-        run_1d(program, count, max_groups=groups)
+        run_points3(kernel, count, output="mesh", normals=source, shape=shape, max_groups=groups)
         gl.mgl.memory_barrier()
         folds = np.zeros(-(-face_count // FACES_PER_INVOCATION) * FACES_PER_INVOCATION, np.uint8)
         if face_count:

@@ -12,7 +12,7 @@ import moderngl
 import numpy as np
 
 from ..gl import bindings
-from ..gl.dispatch import run_1d, set_uniforms
+from ..gl.dispatch import SecondPass, run_1d, set_uniforms
 from .kernel3 import MLSKernel3
 
 __all__ = [
@@ -29,6 +29,7 @@ __all__ = [
     "jacobian_uniforms",
     "length_unit",
     "points3_program",
+    "run_points3",
 ]
 
 POINTS3_PASS = "mls3/points.comp.glsl"
@@ -56,11 +57,17 @@ MESH_NORMALS = ("none", "given", "faces")
 
 
 def points3_program(
-    kernel: MLSKernel3, *, lattice: bool, output: str = "f", normals: str = "none"
+    kernel: MLSKernel3,
+    *,
+    lattice: bool,
+    output: str = "f",
+    normals: str = "none",
+    stage: int = 0,
 ) -> moderngl.ComputeShader:
     """The compiled 3D points pass: on a lattice (``lattice``) or a list; ``output`` one of
     ``"f"``, ``"matrix"`` (f and M), ``"jacobian"`` (f and J), ``"mesh"`` (a mesh's vertex
-    records, with ``normals`` one of :data:`MESH_NORMALS`)."""
+    records, with ``normals`` one of :data:`MESH_NORMALS`). ``stage``: of the two that write
+    J (:func:`run_points3`), 1 or 2; 0 for one pass."""
     if output not in PROGRAM_OUTPUTS:
         raise ValueError(f"unknown output {output!r}; choose one of {', '.join(PROGRAM_OUTPUTS)}")
     if normals not in MESH_NORMALS:
@@ -72,8 +79,45 @@ def points3_program(
         "MLS3_WRITE_JACOBIAN": output in ("jacobian", "mesh"),
         "MLS3_MESH": mesh,
         "MLS3_MESH_NORMALS": MESH_NORMALS.index(normals) if mesh else 0,
+        "MLS3_JACOBIAN_STAGE": stage,
     }
     return kernel.program(POINTS3_PASS, defines)
+
+
+def run_points3(
+    kernel: MLSKernel3,
+    count: int,
+    *,
+    output: str,
+    normals: str = "none",
+    shape: tuple[int, int, int] | None = None,
+    max_groups: int,
+) -> None:
+    """Run the points pass of ``output`` over the ``count`` points bound (and its outputs
+    bound). Where it writes J, in two stages: the first lists the points whose J needs the
+    full evaluations of f at its six probes (next to a handle, where the probes' moments
+    leave the solve's plain branch: ``mls3_eval_jacobian``), the second computes those again
+    with them, one invocation per listed point; so the other points do not wait for them (a
+    GPU's warp, and a CPU renderer's vector whatever its lanes' mask, runs a branch for all
+    its lanes where one takes it)."""
+    stages = (1, 2) if output in ("jacobian", "mesh") else (0,)
+    programs = [
+        points3_program(kernel, lattice=False, output=output, normals=normals, stage=stage)
+        for stage in stages
+    ]
+    for program in programs:
+        kernel.bind(program, shape)
+        set_uniforms(program, jacobian_uniforms(kernel))
+    if len(programs) == 1:
+        run_1d(programs[0], count, max_groups=max_groups)
+        return
+    later = kernel.scratch.buffer("jacobian_later3", 16 + 4 * count)
+    second = SecondPass(kernel.gl, later, count)
+    second.start(programs[0])
+    run_1d(programs[0], count, max_groups=max_groups)
+    kernel.bind(programs[1], shape)
+    set_uniforms(programs[1], {"u_count": count})
+    second.finish(programs[1])
 
 
 def length_unit(kernel: MLSKernel3) -> float:
@@ -126,19 +170,16 @@ def evaluate_points3(
         kernel.check_alive()
         return np.zeros((0, 3)), (None if output == "f" else np.zeros((0, 3, 3)))
     with kernel.gl.use():
-        program = points3_program(kernel, lattice=False, output=output)
         scratch = kernel.scratch
         source = scratch.buffer("points3", count * 12)
         source.write(np.ascontiguousarray(kernel.scaling.to_gpu(points)))
         source.bind_to_storage_buffer(bindings.POINTS.index)
-        kernel.bind(program, shape)
         f_out = scratch.buffer("f3", count * 12)
         f_out.bind_to_storage_buffer(bindings.DEFORMED.index)
         if output != "f":
             scratch.buffer("M3", count * 36).bind_to_storage_buffer(bindings.MATRICES.index)
-        set_uniforms(program, jacobian_uniforms(kernel))
         groups = max_groups if max_groups is not None else kernel.gl.limits["max_work_groups_x"]
-        run_1d(program, count, max_groups=groups)
+        run_points3(kernel, count, output=output, shape=shape, max_groups=groups)
         kernel.gl.mgl.memory_barrier()
         d = np.frombuffer(f_out.read(size=count * 12), np.float32).reshape(count, 3)
         # f = v + (f - v): v keeps its float64 digits, and f is v itself where d is 0

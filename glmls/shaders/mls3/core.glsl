@@ -482,6 +482,14 @@ void mls3_probe_axis(inout mat3 sums, inout bool together, inout MLS3Probes s, M
     mls3_stencil_add(sums, k + 1, ddown);
 }
 
+// MLS3_JACOBIAN_LATER: where J needs mls3_jacobian's six evaluations of f, J is left I and
+// mls3_jacobian_later set, for the caller's second pass over those points alone (a GPU's
+// warp, and a CPU renderer's vector whatever its lanes' mask, would run them for all).
+#ifndef MLS3_JACOBIAN_LATER
+#define MLS3_JACOBIAN_LATER 0
+#endif
+bool mls3_jacobian_later = false;
+
 MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
     int n = u_mls3_count;
     float d2min = 3.0e38;
@@ -515,7 +523,12 @@ MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
     } else if (together) {
         J = mls3_stencil_jacobian(v, h, sums);
     } else {
+#if MLS3_JACOBIAN_LATER
+        J = mat3(1.0);
+        mls3_jacobian_later = true;
+#else
         J = mls3_jacobian(v, h);
+#endif
     }
     return r;
 }

@@ -11,7 +11,16 @@
 //     mesh vertex instead (mls3/mesh.glsl): f - v, J, the deformed unit normal n cof(J)
 //     sign(det J) of the vertex's normal (MLS3_MESH_NORMALS: 0 none, 1 the mesh's own, 3
 //     floats per vertex, 2 the fixed-point sums of mls3/mesh_normals.comp.glsl), det J.
-// J: mls3_eval_jacobian (mls3/core.glsl), f and J sharing the passes over the handles.
+// J: mls3_eval_jacobian (mls3/core.glsl), f and J sharing the passes over the handles, in two
+// passes (glmls.gl.dispatch.SecondPass): MLS3_JACOBIAN_STAGE 1 lists the points whose J needs
+// mls3_jacobian's full evaluations (MLS3_JACOBIAN_LATER), stage 2 computes those points again
+// with them, one invocation per listed point; 0 does it all in one pass.
+#ifndef MLS3_JACOBIAN_STAGE
+#define MLS3_JACOBIAN_STAGE 0
+#endif
+#if MLS3_JACOBIAN_STAGE == 1
+#define MLS3_JACOBIAN_LATER 1
+#endif
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "mls3/core.glsl"
@@ -106,18 +115,40 @@ void mls3_store_record(int i, vec3 d, mat3 J) {
 }
 #endif
 
-void main() {
-    // No early return for the items past the end: they evaluate the last point and store
-    // nothing (see mls/points.comp.glsl: uniform handle loads need every lane active).
-    int i = u_offset + int(gl_GlobalInvocationID.x);
-    vec3 v = mls3_item_point(min(i, max(u_count - 1, 0)));
+#if MLS3_JACOBIAN_STAGE
+// The points whose J the first stage left to the second.
+layout(std430, binding = BIND_RESCUE) buffer MLS3Later {
+    uint mls3_later_groups;   // the second stage's indirect dispatch: x work groups,
+    uint mls3_later_y;        // y and z 1
+    uint mls3_later_z;
+    uint mls3_later_count;    // points listed
+    uint mls3_later[];
+};
+uniform uint u_max_groups;    // the most work groups of the second stage's dispatch
+#endif
+
+// f (and J) at item i of this run, stored where ``store``.
+void mls3_item(int i, bool store) {
+    vec3 v = mls3_item_point(i);
 #if MLS3_WRITE_JACOBIAN
     mat3 J;
     MLS3Result r = mls3_eval_jacobian(v, mls3_jacobian_step(v), J);
 #else
     MLS3Result r = mls3_eval(v);
 #endif
-    if (i < u_count) {
+#if MLS3_JACOBIAN_STAGE == 1
+    if (store && mls3_jacobian_later) {
+        uint k = atomicAdd(mls3_later_count, 1u);
+        mls3_later[k] = uint(i);
+        if (k % uint(LOCAL_SIZE) == 0u) {
+            // one work group per LOCAL_SIZE points, at most u_max_groups (each add is
+            // followed by its own min: the last operation leaves the count within it)
+            atomicAdd(mls3_later_groups, 1u);
+            atomicMin(mls3_later_groups, u_max_groups);
+        }
+    }
+#endif
+    if (store) {
 #if MLS3_MESH
         mls3_store_record(i, r.d, J);
 #else
@@ -137,3 +168,20 @@ void main() {
 #endif
     }
 }
+
+#if MLS3_JACOBIAN_STAGE == 2
+void main() {
+    // every listed point, however many the dispatch's work groups (at most u_max_groups)
+    uint stride = gl_NumWorkGroups.x * uint(LOCAL_SIZE);
+    for (uint k = gl_GlobalInvocationID.x; k < mls3_later_count; k += stride) {
+        mls3_item(int(mls3_later[k]), true);
+    }
+}
+#else
+void main() {
+    // No early return for the items past the end: they evaluate the last point and store
+    // nothing (see mls/points.comp.glsl: uniform handle loads need every lane active).
+    int i = u_offset + int(gl_GlobalInvocationID.x);
+    mls3_item(min(i, max(u_count - 1, 0)), i < u_count);
+}
+#endif
