@@ -106,7 +106,7 @@ class VolumeOptions:
         The lattice step in voxels. For ``"backward"`` it is only the first guess's, which
         moves the result within Newton's tolerance alone; a coarser one costs fewer
         evaluations of f (2 took a third of 1's time for a 256^3 volume on a CPU renderer:
-        docs/volumes.md, Speed).
+        :doc:`/volumes`, Speed).
     border : {"constant", "edge", "symmetric", "reflect", "wrap"}, default "constant"
         What lies beyond the source volume (:data:`glmls.BORDERS`, numpy.pad's meanings).
     background : float or tuple of float, default 0.0
