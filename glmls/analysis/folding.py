@@ -12,7 +12,7 @@ import numpy as np
 from ..core.mesh import MeshLattice
 from ..mls import MLS
 from .field import check_deformation
-from .volume_lattice import FLAT_ULPS
+from .volume_lattice import flat_areas
 
 __all__ = ["Foldovers", "folded_cells", "foldovers"]
 
@@ -67,8 +67,7 @@ def folded_cells(
         area = _cross(o, x, y)
         p = np.hypot(*np.moveaxis(x - o, -1, 0))
         q = np.hypot(*np.moveaxis(y - o, -1, 0))
-        flat = np.abs(area) <= FLAT_ULPS * rounding * (p * q + noise * (p + q))
-        return (area <= 0) | flat
+        return (area <= 0) | flat_areas(area, p, q, rounding, noise)
 
     return folds(a, b, c) | folds(a, c, d)
 

@@ -26,7 +26,7 @@ from ..core.config import check_choice, check_real
 from ..core.handles import check_reference_points
 from ..mls import MLS
 from .stats import error_stats
-from .volume_lattice import FLAT_ULPS
+from .volume_lattice import flat_areas
 
 #: The angular measures of :func:`triangle_errors` (the first is the default).
 ANGLE_MEASURES = ("degrees", "paper")
@@ -237,7 +237,7 @@ def triangle_errors_from_points(
     a, b = (np.hypot(*(out[:, k] - out[:, 0]).T) for k in (1, 2))
     stretch = (len_out / len_ref).max(axis=1)  # f's, edge by edge: not the shape's aspect
     noise = np.abs(out).max(axis=(1, 2)) + stretch * np.abs(ref).max(axis=(1, 2))
-    flat = np.abs(area) <= FLAT_ULPS * rounding * (a * b + noise * (a + b))
+    flat = flat_areas(area, a, b, rounding, noise)
     flipped = (np.sign(signed_area(ref)) * area <= 0) | flat
     return distance, angle_error, flipped
 

@@ -27,6 +27,7 @@ __all__ = [
     "check_three_d",
     "deformation_spacing",
     "evaluate",
+    "flat_areas",
     "flat_triples",
     "interpolate_axis",
     "lattice_points",
@@ -106,6 +107,16 @@ def as_points3(points: object, name: str = "points") -> np.ndarray:
         row = int(np.argmax(~np.isfinite(array).all(axis=1)))
         raise ValueError(f"{name} must be finite; row {row} is {array[row].tolist()}")
     return array
+
+
+def flat_areas(
+    area: np.ndarray, a: np.ndarray, b: np.ndarray, precision: float, noise: float | np.ndarray
+) -> np.ndarray:
+    """Whether the signed areas ``area`` (the cross products of two edges of lengths ``a``
+    and ``b``) are 0 within rounding: at most :data:`FLAT_ULPS` times the rounding
+    ``precision`` of a b, plus the change an error of ``precision`` x ``noise`` (the scale
+    of f at the edges' ends) in each edge makes; :func:`flat_triples` in the plane."""
+    return np.abs(area) <= FLAT_ULPS * precision * (a * b + noise * (a + b))
 
 
 def flat_triples(edges: Sequence[np.ndarray], precision: float, noise: np.ndarray) -> np.ndarray:
