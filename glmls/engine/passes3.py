@@ -115,8 +115,6 @@ def run_points3(
     second = SecondPass(kernel.gl, later, count)
     second.start(programs[0])
     run_1d(programs[0], count, max_groups=max_groups)
-    kernel.bind(programs[1], shape)
-    set_uniforms(programs[1], {"u_count": count})
     second.finish(programs[1])
 
 

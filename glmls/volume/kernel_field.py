@@ -118,8 +118,6 @@ class KernelField:
                 second.start(first_pass)
                 groups = kernel.gl.limits["max_work_groups_x"]
                 run_1d(first_pass, count, max_groups=groups)
-                kernel.bind(second_pass, self.shape)
-                coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
                 second.finish(second_pass)
                 kernel.gl.mgl.memory_barrier()
         finally:
