@@ -220,8 +220,9 @@ class SecondPass:
     the pixels whose Newton ended above the residual accepted, or, with the constant border,
     at a point just outside the image, where a fold may give another preimage inside), in an
     indirect dispatch the first sized: the first appends each such item to a list
-    (``BIND_RESCUE``: the dispatch's (x, y, z) work groups, the count, then the items,
-    ``RESCUE_CAPACITY`` at most) and raises x by one work group per ``LOCAL_SIZE`` items;
+    (``common/second_pass.glsl``, ``BIND_RESCUE``: the dispatch's (x, y, z) work groups, the
+    count, then the items, ``RESCUE_CAPACITY`` at most) and raises x by one work group per
+    ``LOCAL_SIZE`` items;
     the second runs one invocation per item, none where there is none, and nothing is read
     back. A branch in the first pass would cost every item on a CPU renderer, which runs a
     branch's code under its lanes' mask whatever the mask.

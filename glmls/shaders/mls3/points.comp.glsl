@@ -117,14 +117,8 @@ void mls3_store_record(int i, vec3 d, mat3 J) {
 
 #if MLS3_JACOBIAN_STAGE
 // The points whose J the first stage left to the second.
-layout(std430, binding = BIND_RESCUE) buffer MLS3Later {
-    uint mls3_later_groups;   // the second stage's indirect dispatch: x work groups,
-    uint mls3_later_y;        // y and z 1
-    uint mls3_later_z;
-    uint mls3_later_count;    // points listed
-    uint mls3_later[];
-};
-uniform uint u_max_groups;    // the most work groups of the second stage's dispatch
+#define SECOND_PASS_ITEM uint
+#include "common/second_pass.glsl"
 #endif
 
 // f (and J) at item i of this run, stored where ``store``.
@@ -138,14 +132,7 @@ void mls3_item(int i, bool store) {
 #endif
 #if MLS3_JACOBIAN_STAGE == 1
     if (store && mls3_jacobian_later) {
-        uint k = atomicAdd(mls3_later_count, 1u);
-        mls3_later[k] = uint(i);
-        if (k % uint(LOCAL_SIZE) == 0u) {
-            // one work group per LOCAL_SIZE points, at most u_max_groups (each add is
-            // followed by its own min: the last operation leaves the count within it)
-            atomicAdd(mls3_later_groups, 1u);
-            atomicMin(mls3_later_groups, u_max_groups);
-        }
+        second_pass_items[second_pass_slot()] = uint(i);   // room for every point
     }
 #endif
     if (store) {
@@ -172,9 +159,8 @@ void mls3_item(int i, bool store) {
 #if MLS3_JACOBIAN_STAGE == 2
 void main() {
     // every listed point, however many the dispatch's work groups (at most u_max_groups)
-    uint stride = gl_NumWorkGroups.x * uint(LOCAL_SIZE);
-    for (uint k = gl_GlobalInvocationID.x; k < mls3_later_count; k += stride) {
-        mls3_item(int(mls3_later[k]), true);
+    for (uint k = gl_GlobalInvocationID.x; k < second_pass_listed(); k += second_pass_stride()) {
+        mls3_item(int(second_pass_items[k]), true);
     }
 }
 #else

@@ -32,14 +32,9 @@ layout(std430, binding = BIND_VOLUME_COORDS) buffer VolumeCoords {
 layout(std430, binding = BIND_VOLUME_SLOPES) readonly buffer VolumeSlopes {
     vec4 volume_slopes[];
 };
-// The voxels the first pass leaves, for the second.
-layout(std430, binding = BIND_RESCUE) buffer VolumePending {
-    uint volume_pending_groups;   // the second pass's indirect dispatch: x work groups,
-    uint volume_pending_y;        // y and z 1
-    uint volume_pending_z;
-    uint volume_pending_count;    // voxels listed
-    uvec4 volume_pending[];       // (voxel | VOLUME_FROM_U, f at its start)
-};
+// The voxels the first pass leaves for the second: (voxel | VOLUME_FROM_U, f at its start).
+#define SECOND_PASS_ITEM uvec4
+#include "common/second_pass.glsl"
 const uint VOLUME_FROM_U = 0x80000000u;   // no guess: Newton starts at u
 
 uniform int u_offset;        // first item of this dispatch
@@ -51,7 +46,6 @@ uniform ivec3 u_volume_size; // W, H, D of the source
 uniform float u_tolerance;
 uniform float u_accept;
 uniform float u_max_step;
-uniform uint u_max_groups;   // the most work groups of the second pass's dispatch
 
 // f's Jacobian by forward differences of a quarter voxel (the MLS Jacobian is not M)
 const float VOLUME_NEWTON_H = 0.25;
@@ -191,24 +185,17 @@ void main() {
         if (done) {
             volume_store(i, n.s, n.residual);
         } else {
-            uint k = atomicAdd(volume_pending_count, 1u);
-            volume_pending[k] = uvec4(uint(i) | (guided ? 0u : VOLUME_FROM_U), floatBitsToUint(fs));
-            if (k % uint(LOCAL_SIZE) == 0u) {
-                // one work group per LOCAL_SIZE voxels, at most u_max_groups: each add is
-                // followed by its own min, so the last operation leaves the count within it
-                atomicAdd(volume_pending_groups, 1u);
-                atomicMin(volume_pending_groups, u_max_groups);
-            }
+            // every voxel has room (the list's capacity is the slab's voxels)
+            second_pass_items[second_pass_slot()] =
+                uvec4(uint(i) | (guided ? 0u : VOLUME_FROM_U), floatBitsToUint(fs));
         }
     }
 }
 #else
 void main() {
-    uint stride = gl_NumWorkGroups.x * uint(LOCAL_SIZE);
-    uint total = volume_pending_count;
     // every listed voxel, however many the dispatch's work groups (at most u_max_groups)
-    for (uint k = gl_GlobalInvocationID.x; k < total; k += stride) {
-        uvec4 entry = volume_pending[k];
+    for (uint k = gl_GlobalInvocationID.x; k < second_pass_listed(); k += second_pass_stride()) {
+        uvec4 entry = second_pass_items[k];
         int i = int(entry.x & ~VOLUME_FROM_U);
         vec3 u = volume_target(i);
         vec4 guess = volume_coords[i];

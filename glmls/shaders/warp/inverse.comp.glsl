@@ -41,15 +41,9 @@ uniform float u_accept;        // a residual above this (pixels) leaves the pixe
 uniform float u_accept_steps;  // ... or above this many float32 steps (warp_accept)
 
 #if !WARP_SWAP
-// The pixels the first pass leaves above the residual accepted, for the second.
-layout(std430, binding = BIND_RESCUE) buffer WarpRescue {
-    uint warp_rescue_groups;     // the second pass's indirect dispatch: x work groups,
-    uint warp_rescue_y;          // y and z 1
-    uint warp_rescue_z;
-    uint warp_rescue_count;      // pixels met (those past u_rescue_capacity are not listed)
-    uvec2 warp_rescue_items[];   // (x | work group z << 16, y) of u_map
-};
-uniform uint u_rescue_capacity;
+// The pixels the first pass leaves for the second: (x | work group z << 16, y) of u_map.
+#define SECOND_PASS_ITEM uvec2
+#include "common/second_pass.glsl"
 #endif
 
 // Whether s (scaled) counts as inside the source, grown by ``margin`` pixels: in its box with
@@ -123,10 +117,10 @@ int warp_neighbour_starts() {
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
-    if (i >= min(warp_rescue_count, u_rescue_capacity)) {
+    if (i >= second_pass_listed()) {
         return;
     }
-    uvec2 item = warp_rescue_items[i];
+    uvec2 item = second_pass_items[i];
     ivec2 at = ivec2(item.x & 0xFFFFu, item.y);
 #if MLS_BATCH
     mls_batch_begin(int(item.x >> 16u));
@@ -216,12 +210,9 @@ void main() {
     // outside the mesh's image, so next to a fold's edge, both preimages next to the fold)
     bool near = guess.z > 0.5 || warp_inside(s, WARP_FOLD_REACH);
     if (store && !covered && (!converged || (near && warp_inside(s, 0.2 * u_scale)))) {
-        uint i = atomicAdd(warp_rescue_count, 1u);
-        if (i < u_rescue_capacity) {
-            warp_rescue_items[i] = uvec2(uint(at.x) | (gl_WorkGroupID.z << 16u), uint(at.y));
-            if (i % uint(LOCAL_SIZE) == 0u) {
-                atomicAdd(warp_rescue_groups, 1u);
-            }
+        int k = second_pass_slot();
+        if (k >= 0) {
+            second_pass_items[k] = uvec2(uint(at.x) | (gl_WorkGroupID.z << 16u), uint(at.y));
         }
     }
     residual *= u_scale;

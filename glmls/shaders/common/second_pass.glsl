@@ -1,0 +1,40 @@
+// The list of a second pass over the few items a first pass left (glmls.gl.dispatch.
+// SecondPass, binding BIND_RESCUE): the second pass's indirect dispatch size, the count, then
+// the items, SECOND_PASS_ITEM each (defined before this file: uint, uvec2, uvec4, ...).
+//
+//   int second_pass_slot()     the first pass: room for one more item, its index, or -1
+//                              past u_rescue_capacity (counted, not listed)
+//   uint second_pass_listed()  the second pass: how many items the list holds
+//   uint second_pass_stride()  the second pass: from one of an invocation's items to its next,
+//                              where the list holds more than the dispatch's invocations
+layout(std430, binding = BIND_RESCUE) buffer SecondPassList {
+    uint second_pass_groups;   // the second pass's indirect dispatch: x work groups,
+    uint second_pass_y;        // y and z 1
+    uint second_pass_z;
+    uint second_pass_count;    // items met
+    SECOND_PASS_ITEM second_pass_items[];
+};
+uniform uint u_rescue_capacity;   // the most items listed
+uniform uint u_max_groups;        // the most work groups of the second pass's dispatch
+
+int second_pass_slot() {
+    uint k = atomicAdd(second_pass_count, 1u);
+    if (k >= u_rescue_capacity) {
+        return -1;
+    }
+    if (k % uint(LOCAL_SIZE) == 0u) {
+        // one work group per LOCAL_SIZE items, at most u_max_groups: each add is followed by
+        // its own min, so the last operation leaves the count within it
+        atomicAdd(second_pass_groups, 1u);
+        atomicMin(second_pass_groups, u_max_groups);
+    }
+    return int(k);
+}
+
+uint second_pass_listed() {
+    return min(second_pass_count, u_rescue_capacity);
+}
+
+uint second_pass_stride() {
+    return gl_NumWorkGroups.x * uint(LOCAL_SIZE);
+}
