@@ -66,8 +66,8 @@ def points3_program(
 ) -> moderngl.ComputeShader:
     """The compiled 3D points pass: on a lattice (``lattice``) or a list; ``output`` one of
     ``"f"``, ``"matrix"`` (f and M), ``"jacobian"`` (f and J), ``"mesh"`` (a mesh's vertex
-    records, with ``normals`` one of :data:`MESH_NORMALS`). ``stage``: of the two that write
-    J (:func:`run_points3`), 1 or 2; 0 for one pass."""
+    records, with ``normals`` one of :data:`MESH_NORMALS`). ``stage``: of the two passes of
+    :func:`run_points3`, 1 or 2; 0 for one pass."""
     if output not in PROGRAM_OUTPUTS:
         raise ValueError(f"unknown output {output!r}; choose one of {', '.join(PROGRAM_OUTPUTS)}")
     if normals not in MESH_NORMALS:
@@ -79,7 +79,7 @@ def points3_program(
         "MLS3_WRITE_JACOBIAN": output in ("jacobian", "mesh"),
         "MLS3_MESH": mesh,
         "MLS3_MESH_NORMALS": MESH_NORMALS.index(normals) if mesh else 0,
-        "MLS3_JACOBIAN_STAGE": stage,
+        "MLS3_STAGE": stage,
     }
     return kernel.program(POINTS3_PASS, defines)
 
@@ -94,28 +94,25 @@ def run_points3(
     max_groups: int,
 ) -> None:
     """Run the points pass of ``output`` over the ``count`` points bound (and its outputs
-    bound). Where it writes J, in two stages: the first lists the points whose J needs the
-    full evaluations of f at its six probes (next to a handle, where the probes' moments
-    leave the solve's plain branch: ``mls3_eval_jacobian``), the second computes those again
-    with them, one invocation per listed point; so the other points do not wait for them (a
-    GPU's warp, and a CPU renderer's vector whatever its lanes' mask, runs a branch for all
-    its lanes where one takes it)."""
-    stages = (1, 2) if output in ("jacobian", "mesh") else (0,)
-    programs = [
+    bound), in two stages: the first takes only the solve's plain branch (and, where it
+    writes J, J's shared passes over the handles) and lists the points that need more (the
+    solve's branches for degenerate moments; J's full evaluations of f at its six probes next
+    to a handle, where the probes' moments leave the plain branch: ``mls3_eval_jacobian``),
+    the second computes those again with everything, one invocation per listed point. So
+    the other points do not wait for them: a GPU's warp, and a CPU renderer's vector
+    whatever its lanes' mask, runs a branch for all its lanes where one takes it."""
+    first, second_program = (
         points3_program(kernel, lattice=False, output=output, normals=normals, stage=stage)
-        for stage in stages
-    ]
-    for program in programs:
+        for stage in (1, 2)
+    )
+    for program in (first, second_program):
         kernel.bind(program, shape)
         set_uniforms(program, jacobian_uniforms(kernel))
-    if len(programs) == 1:
-        run_1d(programs[0], count, max_groups=max_groups)
-        return
-    later = kernel.scratch.buffer("jacobian_later3", 16 + 4 * count)
+    later = kernel.scratch.buffer("points_later3", 16 + 4 * count)
     second = SecondPass(kernel.gl, later, count)
-    second.start(programs[0])
-    run_1d(programs[0], count, max_groups=max_groups)
-    second.finish(programs[1])
+    second.start(first)
+    run_1d(first, count, max_groups=max_groups)
+    second.finish(second_program)
 
 
 def length_unit(kernel: MLSKernel3) -> float:

@@ -60,12 +60,23 @@ class KernelField:
         nx, ny, _ = lattice.dims
         count = nx * ny * layers
         kernel = self.kernel
-        program = kernel.program("volume/lattice.comp.glsl")
+        # two stages: the second computes the points whose solve needs more than its plain
+        # branch (volume/lattice.comp.glsl)
+        first_pass, second_pass = (
+            kernel.program("volume/lattice.comp.glsl", {"VOLUME_LATTICE_STAGE": stage})
+            for stage in (1, 2)
+        )
+        uniforms = lattice.uniforms() | self._uniforms() | {"u_first_layer": first}
         with kernel.gl.use():
-            kernel.bind(program, self.shape)
-            set_uniforms(program, lattice.uniforms() | self._uniforms() | {"u_first_layer": first})
+            later = kernel.scratch.buffer("lattice_later3", 16 + 4 * count)
+            second = SecondPass(kernel.gl, later, count)
+            for program in (first_pass, second_pass):
+                kernel.bind(program, self.shape)
+                set_uniforms(program, uniforms)
             target.bind_to_storage_buffer(bindings.VOLUME_LATTICE.index)
-            run_1d(program, count, max_groups=kernel.gl.limits["max_work_groups_x"])
+            second.start(first_pass)
+            run_1d(first_pass, count, max_groups=kernel.gl.limits["max_work_groups_x"])
+            second.finish(second_pass)
             kernel.gl.mgl.memory_barrier()
 
     def refine(

@@ -365,7 +365,9 @@ void mls3_moments(MLS3Accum b, out vec3 a, out vec3 o, out mat3 D, out vec3 pst,
     D *= inv;
 }
 
-MLS3Centre mls3_centre(MLS3Accum b) {
+// (U: B's polar factor where mls3_solve took it for the same moments, mls3_solve_polar; the
+// plain branch here lies within that one)
+MLS3Centre mls3_centre(MLS3Accum b, mat3 U) {
     vec3 a, o, pst, est;
     mat3 D;
     mls3_moments(b, a, o, D, pst, est);
@@ -384,7 +386,7 @@ MLS3Centre mls3_centre(MLS3Accum b) {
 #else
     float nb2 = dot(c.B[0], c.B[0]) + dot(c.B[1], c.B[1]) + dot(c.B[2], c.B[2]);
     c.plain = c.plain && determinant(c.B) > 2.0 * MLS3_POLAR_DET * nb2 * sqrt(nb2);
-    c.U = mls3_polar(c.B);
+    c.U = U;
     mat3 H = transpose(c.U) * c.B;
     H = 0.5 * (H + transpose(H));
     c.G = inverse((H[0][0] + H[1][1] + H[2][2]) * mat3(1.0) - H);
@@ -508,7 +510,7 @@ MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
     // the factor from the centre's weights (offset a.g) to the probes' (s.m), the same for
     // every handle unless the gaussian's cap (mls/weights.glsl) bounds the nearest's
     float lambda = mls_weight(a.m, s.m, s.inv_m, s.sigma) / mls_weight(a.m, a.g, a.inv_m, a.sigma);
-    MLS3Centre c = mls3_centre(a);
+    MLS3Centre c = mls3_centre(a, mls3_solve_polar);
     bool uncapped = mls_radius_ratio(a.g - a.m) < MLS_GAUSSIAN_CAP;
     bool together = !a.hit && c.plain && s.m > u_hit2 && lambda > 1e-30 && lambda < 1e30;
     together = together && uncapped;

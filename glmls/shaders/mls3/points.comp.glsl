@@ -11,15 +11,20 @@
 //     mesh vertex instead (mls3/mesh.glsl): f - v, J, the deformed unit normal n cof(J)
 //     sign(det J) of the vertex's normal (MLS3_MESH_NORMALS: 0 none, 1 the mesh's own, 3
 //     floats per vertex, 2 the fixed-point sums of mls3/mesh_normals.comp.glsl), det J.
-// J: mls3_eval_jacobian (mls3/core.glsl), f and J sharing the passes over the handles, in two
-// passes (glmls.gl.dispatch.SecondPass): MLS3_JACOBIAN_STAGE 1 lists the points whose J needs
-// mls3_jacobian's full evaluations (MLS3_JACOBIAN_LATER), stage 2 computes those points again
-// with them, one invocation per listed point; 0 does it all in one pass.
-#ifndef MLS3_JACOBIAN_STAGE
-#define MLS3_JACOBIAN_STAGE 0
+// J: mls3_eval_jacobian (mls3/core.glsl), f and J sharing the passes over the handles.
+// MLS3_STAGE 1 and 2 are two passes (glmls.gl.dispatch.SecondPass): the first takes only the
+// solve's plain branch (MLS3_SOLVE_LATER) and J's shared passes (MLS3_JACOBIAN_LATER) and
+// lists the points that need more, the solve's other branches or mls3_jacobian's full
+// evaluations; the second computes those points again with everything, one invocation per
+// listed point. 0 does it all in one pass.
+#ifndef MLS3_STAGE
+#define MLS3_STAGE 0
 #endif
-#if MLS3_JACOBIAN_STAGE == 1
+#if MLS3_STAGE == 1
 #define MLS3_JACOBIAN_LATER 1
+#ifndef MLS3_SOLVE_LATER
+#define MLS3_SOLVE_LATER 1
+#endif
 #endif
 layout(local_size_x = LOCAL_SIZE) in;
 
@@ -115,8 +120,8 @@ void mls3_store_record(int i, vec3 d, mat3 J) {
 }
 #endif
 
-#if MLS3_JACOBIAN_STAGE
-// The points whose J the first stage left to the second.
+#if MLS3_STAGE
+// The points the first stage left to the second.
 #define SECOND_PASS_ITEM uint
 #include "common/second_pass.glsl"
 #endif
@@ -130,8 +135,8 @@ void mls3_item(int i, bool store) {
 #else
     MLS3Result r = mls3_eval(v);
 #endif
-#if MLS3_JACOBIAN_STAGE == 1
-    if (store && mls3_jacobian_later) {
+#if MLS3_STAGE == 1
+    if (store && (mls3_jacobian_later || mls3_solve_later)) {
         second_pass_items[second_pass_slot()] = uint(i);   // room for every point
     }
 #endif
@@ -156,7 +161,7 @@ void mls3_item(int i, bool store) {
     }
 }
 
-#if MLS3_JACOBIAN_STAGE == 2
+#if MLS3_STAGE == 2
 void main() {
     // every listed point, however many the dispatch's work groups (at most u_max_groups)
     for (uint k = gl_GlobalInvocationID.x; k < second_pass_listed(); k += second_pass_stride()) {

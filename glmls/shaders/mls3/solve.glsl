@@ -16,7 +16,18 @@
 // GLSL M[j][i], so outerProduct(P, E) is sum P^T E and matrix products agree. Everything is
 // returned as N = M - I, exactly 0 where the displacements in reach are all equal (D = 0).
 //
-// Defines: MLS_TRANSFORM (0 affine, 1 similarity, 2 rigid).
+// Defines: MLS_TRANSFORM (0 affine, 1 similarity, 2 rigid); MLS3_SOLVE_LATER 1: only the
+// plain branch (Cholesky for affine, B's polar factor for the rotations), the others leaving
+// N = 0 and mls3_solve_later set, for the caller's second pass over those points alone (a
+// GPU's warp, and a CPU renderer's vector whatever its lanes' mask, runs a branch for all its
+// lanes where one takes it; the rare branches are most of the solve's code).
+#ifndef MLS3_SOLVE_LATER
+#define MLS3_SOLVE_LATER 0
+#endif
+bool mls3_solve_later = false;
+// The rotations' last solve: B's orthogonal polar factor where it took that branch, else I
+// (mls3_eval_jacobian's short solves of the probes start from it).
+mat3 mls3_solve_polar = mat3(1.0);
 
 // glmls.reference.DEGENERATE_SHARE
 const float MLS3_DEGENERATE_SHARE = 1e-3;
@@ -248,10 +259,30 @@ mat3 mls3_solve(vec3 a, vec3 o, mat3 D, float spread) {
         }
     }
     bool ridge = true;
+#if MLS3_SOLVE_LATER
+    mls3_solve_later = true;
+    return mat3(0.0);
+#endif
 #else
     // the middle eigenvalue above 1e-3 trace(A): no ridge on the rotation
     bool ridge = !(c2 > 2.0 * MLS3_DEGENERATE_SHARE * tr * tr);
 #endif
+#if MLS3_SOLVE_LATER && MLS_TRANSFORM != 0
+    mat3 B = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z)) + D;
+    mat3 BBt = B * transpose(B);
+    vec3 bd = vec3(BBt[0][0], BBt[1][1], BBt[2][2]);
+    vec3 bo = vec3(BBt[1][0], BBt[2][0], BBt[2][1]);
+    float btr = bd.x + bd.y + bd.z;
+    float bc2 = bd.x * bd.y + bd.x * bd.z + bd.y * bd.z - dot(bo, bo);
+    bool ridge_b = btr > 0.0 && !(bc2 > 2.0 * MLS3_DEGENERATE_SHARE * btr * btr);
+    float nb2 = dot(B[0], B[0]) + dot(B[1], B[1]) + dot(B[2], B[2]);
+    if (ridge || ridge_b || !(determinant(B) > MLS3_POLAR_DET * nb2 * sqrt(nb2))) {
+        mls3_solve_later = true;
+        return mat3(0.0);
+    }
+    mls3_solve_polar = mls3_polar(B);
+    mat3 NR = mls3_solve_polar - mat3(1.0);
+#else
     mat3 A = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z));
     mat3 B = A + D;
     vec3 e = vec3(0.0), v0 = vec3(1.0, 0.0, 0.0), v1 = vec3(0.0, 1.0, 0.0);
@@ -295,10 +326,12 @@ mat3 mls3_solve(vec3 a, vec3 o, mat3 D, float spread) {
     // fix): by Newton's iteration where B is comfortably nonsingular, else Horn's quaternion.
     float nb2 = dot(B[0], B[0]) + dot(B[1], B[1]) + dot(B[2], B[2]);
     if (!ridge && !ridge_b && determinant(B) > MLS3_POLAR_DET * nb2 * sqrt(nb2)) {
-        NR = mls3_polar(B) - mat3(1.0);
+        mls3_solve_polar = mls3_polar(B);
+        NR = mls3_solve_polar - mat3(1.0);
     } else {
         NR = mls3_quaternion_minus_identity(mls3_horn(a, o, S2));
     }
+#endif
     // trace(R^T B) - trace(A) = trace(D) + <R - I, B>, without cancellation
     float gain = D[0][0] + D[1][1] + D[2][2]
                + dot(NR[0], B[0]) + dot(NR[1], B[1]) + dot(NR[2], B[2]);

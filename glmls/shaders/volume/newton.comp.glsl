@@ -17,9 +17,14 @@
 // (BIND_RESCUE) with that evaluation, and the second pass, one invocation per listed voxel,
 // resumes Newton from it. A voxel's iterates are those of one pass doing it all, but the
 // voxels that need more steps than their neighbours run them together: a GPU's warp (and a
-// CPU renderer's vector) runs until its slowest lane is done.
+// CPU renderer's vector) runs until its slowest lane is done. The first pass's f takes only
+// the solve's plain branch (mls3/solve.glsl, MLS3_SOLVE_LATER): a voxel whose start needs
+// another is listed without its evaluation, and the second pass makes it.
 #ifndef VOLUME_NEWTON_FIRST
 #define VOLUME_NEWTON_FIRST 0
+#endif
+#if VOLUME_NEWTON_FIRST && !defined(MLS3_SOLVE_LATER)
+#define MLS3_SOLVE_LATER 1
 #endif
 
 layout(local_size_x = LOCAL_SIZE) in;
@@ -32,10 +37,12 @@ layout(std430, binding = BIND_VOLUME_COORDS) buffer VolumeCoords {
 layout(std430, binding = BIND_VOLUME_SLOPES) readonly buffer VolumeSlopes {
     vec4 volume_slopes[];
 };
-// The voxels the first pass leaves for the second: (voxel | VOLUME_FROM_U, f at its start).
+// The voxels the first pass leaves for the second: (voxel | VOLUME_FROM_U, f at its start, or
+// VOLUME_UNEVALUATED where the first pass did not evaluate it).
 #define SECOND_PASS_ITEM uvec4
 #include "common/second_pass.glsl"
-const uint VOLUME_FROM_U = 0x80000000u;   // no guess: Newton starts at u
+const uint VOLUME_FROM_U = 0x80000000u;        // no guess: Newton starts at u
+const uint VOLUME_UNEVALUATED = 0x7fc00000u;   // a NaN's bits, never f's
 
 uniform int u_offset;        // first item of this dispatch
 uniform int u_count;         // voxels of the slab
@@ -180,14 +187,16 @@ void main() {
     // (the slope is read by the second pass: a step taken here is not kept)
     VolumeNewton n = volume_newton_begin(guided ? guess.xyz : u, guided, mat3(1.0));
     vec3 fs = volume_f(n.s);
-    bool done = volume_newton_take(n, fs, u);
+    bool later = mls3_solve_later;
+    bool done = !later && volume_newton_take(n, fs, u);
     if (item < u_count) {
         if (done) {
             volume_store(i, n.s, n.residual);
         } else {
             // every voxel has room (the list's capacity is the slab's voxels)
             second_pass_items[second_pass_slot()] =
-                uvec4(uint(i) | (guided ? 0u : VOLUME_FROM_U), floatBitsToUint(fs));
+                uvec4(uint(i) | (guided ? 0u : VOLUME_FROM_U),
+                      later ? uvec3(VOLUME_UNEVALUATED) : floatBitsToUint(fs));
         }
     }
 }
@@ -211,11 +220,12 @@ void main() {
             bool from_guess = attempt == 0 && guided;
             VolumeNewton n = volume_newton_begin(from_guess ? guess.xyz : u, from_guess, slope);
             bool done = false;
-            if (attempt == 0) {
+            bool taken = attempt == 0 && entry.y != VOLUME_UNEVALUATED;
+            if (taken) {
                 done = volume_newton_take(n, uintBitsToFloat(entry.yzw), u);
             }
             // the evaluations one pass doing it all allows, less the first pass's
-            int evaluations = 5 * WARP_NEWTON_STEPS + (attempt == 0 ? 0 : 1);
+            int evaluations = 5 * WARP_NEWTON_STEPS + (taken ? 0 : 1);
             for (int e = 0; e < evaluations && !done; ++e) {
                 done = volume_newton_take(n, volume_f(volume_newton_point(n)), u);
             }
