@@ -180,10 +180,10 @@ def figure(value: float | None) -> str:
     return "n/a" if value is None else f"{value:.4g}"
 
 
-def one_cell_warning(grid: int, shape: tuple[int, ...]) -> str | None:
+def one_cell_warning(grid: int | None, shape: tuple[int, ...]) -> str | None:
     """The warning for a ``--grid`` not smaller than the image (H, W) or volume (D, H, W) of
-    ``shape``: its mesh is one cell; None where the grid is finer (or 1)."""
-    if not (grid > 1 and grid >= max(shape)):
+    ``shape``: its mesh is one cell; None where the grid is finer (or 1, or not given)."""
+    if grid is None or not (grid > 1 and grid >= max(shape)):
         return None
     if len(shape) == 2:
         height, width = shape

@@ -298,12 +298,13 @@ def parse_config_specs(
 
 
 def add_warp_options(
-    parser: argparse.ArgumentParser, *, grid: int = 1, windows: bool = False
+    parser: argparse.ArgumentParser, *, grid: int | None = None, windows: bool = False
 ) -> None:
-    """--method, --interpolation, --grid (default ``grid``), --tolerance, --border and
-    --fit. ``windows``: --interpolation and --border default to None, the default of the
-    window that opens (an image's: nearest, constant; a volume's: linear, edge), so that
-    a value given is told from one left out."""
+    """--method, --interpolation, --grid (default ``grid``; None: the warp's own, 1 for an
+    image, for a volume 1 or 2 by its method), --tolerance, --border and --fit.
+    ``windows``: --interpolation and --border default to None, the default of the window
+    that opens (an image's: nearest, constant; a volume's: linear, edge), so that a value
+    given is told from one left out."""
     group = parser.add_argument_group("image construction")
     group.add_argument(
         "--method",
@@ -321,7 +322,13 @@ def add_warp_options(
         help="nearest: one source pixel's value (no new colours); linear: bilinear"
         + (" (default: nearest for an image, linear for a volume)" if windows else ""),
     )
-    group.add_argument("--grid", type=positive_int, default=grid, help="mesh step in pixels")
+    group.add_argument(
+        "--grid",
+        type=positive_int,
+        default=grid,
+        help="mesh step in pixels (voxels)"
+        + ("" if grid is not None else " (default: 1; a volume's backward method: 2)"),
+    )
     group.add_argument(
         "--tolerance",
         type=positive_float,
@@ -352,6 +359,8 @@ def warp_options_from_args(args: argparse.Namespace) -> WarpOptions:
     ``--background`` where the command has it); :class:`UsageError` if they do not go
     together (e.g. ``--tolerance`` with ``--grid 4``)."""
     values = {name: getattr(args, name) for name in WARP_ARGUMENTS}
+    if values["grid"] is None:
+        del values["grid"]  # WarpOptions' own
     if getattr(args, "background", None) is not None:
         values["background"] = args.background
     try:

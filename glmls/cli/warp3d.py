@@ -346,7 +346,7 @@ def _refuse_other_options(args: argparse.Namespace, kind: str) -> None:
             ("--method", args.method, "quads"),
             ("--interpolation", args.interpolation, "nearest"),
             ("--border", args.border, "constant"),
-            ("--grid", args.grid, 1),
+            ("--grid", args.grid, None),
         )
         if value != default
     ]

@@ -136,8 +136,9 @@ def volume_coordinate_map(
     shape : tuple of int
         (D, H, W) of the source volume, or its (D, H, W, C) with channels.
     options : VolumeOptions or None
-        Its ``grid``, ``border``, ``output_shape``, ``origin`` and ``spacing`` apply (the
-        spacing as :func:`warp_volume`'s); its other fields are not used.
+        Its ``grid`` (None: 2, the backward method's), ``border``, ``output_shape``,
+        ``origin`` and ``spacing`` apply (the spacing as :func:`warp_volume`'s); its other
+        fields are not used.
     **keywords
         Fields of :class:`VolumeOptions` replacing those of ``options``: ``grid``,
         ``border``, ``output_shape``, ``origin``, ``spacing``, and ``method`` if it is
@@ -174,7 +175,8 @@ def volume_coordinate_map(
     >>> m.release()
     """
     kernel = _kernel(mls)
-    options = _options(mls, options, _map_keywords(keywords))
+    # the backward method's map, with that method's grid where none is given
+    options = _options(mls, options, _map_keywords(keywords) | {"method": "backward"})
     size = volume_shape(shape)
     _check_newton(kernel)
     field = KernelField(kernel, options.spacing, size)

@@ -102,11 +102,12 @@ class VolumeOptions:
         second order by f's inverse Jacobians at the lattice points).
     interpolation : {"nearest", "linear"}, default "nearest"
         One source voxel's value, or trilinear interpolation (float32).
-    grid : int, default 1
-        The lattice step in voxels. For ``"backward"`` it is only the first guess's, which
-        moves the result within Newton's tolerance alone; a coarser one costs fewer
-        evaluations of f (2 took a third of 1's time for a 256^3 volume on a CPU renderer:
-        :doc:`/volumes`, Speed).
+    grid : int or None, default None
+        The lattice step in voxels; None: 1 for ``"quads"``, 2 for ``"backward"``
+        (:attr:`lattice_step`). For ``"backward"`` it is only the first guess's, which moves
+        the result within Newton's tolerance alone (but where f folds, the guess decides
+        which of a voxel's preimages Newton finds); 2 costs fewer evaluations of f than 1 (a
+        quarter of its time for a 256^3 volume on a CPU renderer: :doc:`/volumes`, Speed).
     border : {"constant", "edge", "symmetric", "reflect", "wrap"}, default "constant"
         What lies beyond the source volume (:data:`glmls.BORDERS`, numpy.pad's meanings).
     background : float or tuple of float, default 0.0
@@ -133,6 +134,8 @@ class VolumeOptions:
     >>> from glmls.volume import VolumeOptions
     >>> VolumeOptions(method="backward", output_shape=[4, 5, 6]).output_shape
     (4, 5, 6)
+    >>> VolumeOptions(method="backward").lattice_step
+    2
     >>> VolumeOptions(method="splat")
     Traceback (most recent call last):
     ...
@@ -141,7 +144,7 @@ class VolumeOptions:
 
     method: str = "quads"
     interpolation: str = "nearest"
-    grid: int = 1
+    grid: int | None = None
     border: str = "constant"
     background: float | tuple[float, ...] = 0.0
     output_shape: tuple[int, int, int] | None = None
@@ -156,7 +159,7 @@ class VolumeOptions:
         ):
             check_choice(name, value, choices, " for a volume" if name == "method" else "")
         checked = {
-            "grid": check_grid(self.grid, "voxels"),
+            "grid": None if self.grid is None else check_grid(self.grid, "voxels"),
             "background": check_background(self.background),
             "output_shape": check_volume_shape(self.output_shape),
             "origin": check_volume_origin(self.origin),
@@ -164,6 +167,26 @@ class VolumeOptions:
         }
         for name, value in checked.items():
             object.__setattr__(self, name, value)
+
+    @property
+    def lattice_step(self) -> int:
+        """The lattice step the method takes, voxels: ``grid``, or 1 or 2 by the method.
+
+        Where ``grid`` is None: 1 for ``"quads"`` (the construction's own lattice) and 2 for
+        ``"backward"`` (only the first guess's: from 2 it is corrected to second order, and
+        its lattice costs an eighth of 1's evaluations of f).
+
+        Examples
+        --------
+        >>> from glmls.volume import VolumeOptions
+        >>> VolumeOptions().lattice_step, VolumeOptions(method="backward").lattice_step
+        (1, 2)
+        >>> VolumeOptions(method="backward", grid=1).lattice_step
+        1
+        """
+        if self.grid is not None:
+            return self.grid
+        return 2 if self.method == "backward" else 1
 
     @classmethod
     def of(cls, options: VolumeOptions | None = None, **keywords: object) -> VolumeOptions:

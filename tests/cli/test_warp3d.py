@@ -399,6 +399,27 @@ def test_an_output_below_a_file_is_refused_before_the_warp(files, capsys, name):
     assert err.count("\n") == 1 and "h3.json is a file, not a folder" in err
 
 
+def test_the_grid_goes_to_the_warp_only_where_given(files, stand_in):
+    """Left out, the volume's own default (1 for quads, 2 for the backward method's first
+    guess); given, as given; a 2D image keeps grid 1."""
+    assert main(["warp", "v.nii.gz", "o.nii.gz", "--handles", "h3.json"]) == 0
+    assert _last(stand_in.calls, "warp")[2]["grid"] is None
+    argv = ["warp", "v.nii.gz", "o.nii.gz", "--handles", "h3.json", "--method", "backward"]
+    assert main([*argv, "--grid", "1"]) == 0
+    assert _last(stand_in.calls, "warp")[2]["grid"] == 1
+    from glmls.cli.options import add_warp_options, warp_options_from_args
+
+    parser = argparse.ArgumentParser()
+    add_warp_options(parser)
+    assert warp_options_from_args(parser.parse_args([])).grid == 1
+    assert warp_options_from_args(parser.parse_args(["--grid", "4"])).grid == 4
+
+
+def test_a_grid_on_a_mesh_is_refused_even_at_1(files, stand_in, capsys):
+    assert main(["warp", "sphere.ply", "o.ply", "--handles", "h3.json", "--grid", "1"]) == 2
+    assert "--grid" in capsys.readouterr().err
+
+
 def test_a_grid_not_smaller_than_the_volume_is_warned_about(files, stand_in, capsys):
     assert main(["warp", "v.nii.gz", "o.nii.gz", "--handles", "h3.json", "--grid", "10"]) == 0
     assert "--grid 10 is not smaller than the 10 x 9 x 8 volume" in capsys.readouterr().err
