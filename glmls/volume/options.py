@@ -107,7 +107,7 @@ class VolumeOptions:
         (:attr:`lattice_step`). For ``"backward"`` it is only the first guess's, which moves
         the result within Newton's tolerance alone (but where f folds, the guess decides
         which of a voxel's preimages Newton finds); 2 costs fewer evaluations of f than 1 (a
-        quarter of its time for a 256^3 volume on a CPU renderer: :doc:`/volumes`, Speed).
+        third of its time for a 256^3 volume on a CPU renderer: :doc:`/volumes`, Speed).
     border : {"constant", "edge", "symmetric", "reflect", "wrap"}, default "constant"
         What lies beyond the source volume (:data:`glmls.BORDERS`, numpy.pad's meanings).
     background : float or tuple of float, default 0.0

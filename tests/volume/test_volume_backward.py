@@ -178,7 +178,7 @@ def test_the_first_guess_is_second_order(kernel3, monkeypatch, grid, ratio):
 
 
 def test_the_backward_method_takes_grid_2_unless_told(gl, rng):
-    """A backward warp given no grid takes the first guess's lattice of step 2 (a quarter of
+    """A backward warp given no grid takes the first guess's lattice of step 2 (a third of
     grid 1's time on a CPU renderer, the same result within Newton's tolerance); quads keep
     step 1, and a grid given wins."""
     from glmls.volume import VolumeOptions
