@@ -224,11 +224,10 @@ class VolumeWarper:
     def _bands(
         self, field, shape, frame, options, slabs, *, survey=True, backward=False
     ) -> LatticeBands:
-        lattice = CornerLattice(shape, options.lattice_step)
+        step = options.lattice_step
+        lattice = CornerLattice(shape, step)
         if options.border != "constant":
-            lattice = CornerLattice(
-                shape, options.lattice_step, border_margin3(field, lattice, frame)
-            )
+            lattice = CornerLattice(shape, step, border_margin3(field, lattice, frame))
         nx, ny, nz = lattice.dims
         band_bytes = min(slabs.band_bytes, self._gl.limits["max_ssbo_size"])
         jacobians = None
