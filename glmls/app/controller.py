@@ -200,32 +200,104 @@ class Controller(Controls):
 
     @property
     def handles(self) -> Handles:
-        """The current handles and reference points (replaced, never changed, by edits)."""
+        """The current handles and reference points (replaced, never changed, by edits).
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Key
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64), reference=[[30.0, 30]])
+        >>> before = c.handles
+        >>> before.dst.tolist(), before.reference.tolist()
+        ([[12.0, 10.0]], [[30.0, 30.0]])
+        >>> _ = c.feed(Key("r"))  # every target back to its source: a new state
+        >>> c.handles.dst.tolist(), before.dst.tolist()
+        ([[10.0, 10.0]], [[12.0, 10.0]])
+        """
         return self.editor.state
 
     @property
     def src(self) -> np.ndarray:
-        """The point handles' sources p, (N, 2)."""
+        """The point handles' sources p, (N, 2).
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Press, Release
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64))
+        >>> for event in (Press(40.0, 20.0), Release(40.0, 20.0)):  # a click adds p = q
+        ...     _ = c.feed(event)
+        >>> c.src.tolist()
+        [[10.0, 10.0], [40.0, 20.0]]
+        """
         return self.editor.state.src
 
     @property
     def dst(self) -> np.ndarray:
-        """The point handles' targets q, (N, 2)."""
+        """The point handles' targets q, (N, 2).
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Move, Press, Release
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64))
+        >>> for event in (Press(12.0, 10.0), Move(20.0, 15.0), Release(20.0, 15.0)):
+        ...     _ = c.feed(event)  # drag q_0
+        >>> c.dst.tolist(), c.src.tolist()
+        ([[20.0, 15.0]], [[10.0, 10.0]])
+        """
         return self.editor.state.dst
 
     @property
     def src_segments(self) -> np.ndarray:
-        """The segment handles' sources, (S, 2, 2)."""
+        """The segment handles' sources, (S, 2, 2).
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Key, Move, Press, Release
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64))
+        >>> c.src_segments.shape
+        (0, 2, 2)
+        >>> _ = c.feed(Key("d"))  # segment mode: a drag on empty space draws one
+        >>> for event in (Press(30.0, 20.0), Move(50.0, 40.0), Release(50.0, 40.0)):
+        ...     _ = c.feed(event)
+        >>> c.src_segments.tolist()
+        [[[30.0, 20.0], [50.0, 40.0]]]
+        """
         return self.editor.state.src_segments
 
     @property
     def dst_segments(self) -> np.ndarray:
-        """The segment handles' targets, (S, 2, 2)."""
+        """The segment handles' targets, (S, 2, 2).
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Key, Move, Press, Release
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64))
+        >>> c.dst_segments.shape
+        (0, 2, 2)
+        >>> _ = c.feed(Key("d"))  # segment mode: a drag on empty space draws one
+        >>> for event in (Press(30.0, 20.0), Move(50.0, 40.0), Release(50.0, 40.0)):
+        ...     _ = c.feed(event)
+        >>> c.dst_segments.tolist()
+        [[[30.0, 20.0], [50.0, 40.0]]]
+        """
         return self.editor.state.dst_segments
 
     @property
     def reference(self) -> np.ndarray:
-        """The reference points, (M, 2); set it to replace them (not undoable)."""
+        """The reference points, (M, 2); set it to replace them (one edit, undoable).
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Key
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64))
+        >>> c.reference.shape
+        (0, 2)
+        >>> c.reference = [[30.0, 30.0], [40.0, 20.0]]
+        >>> c.reference.tolist(), c.undo_depth
+        ([[30.0, 30.0], [40.0, 20.0]], 1)
+        >>> _ = c.feed(Key("u"))
+        >>> c.reference.shape, c.dst.tolist()
+        ((0, 2), [[12.0, 10.0]])
+        """
         return self.editor.state.reference
 
     @reference.setter
@@ -235,43 +307,150 @@ class Controller(Controls):
 
     @property
     def drawing(self) -> np.ndarray | None:
-        """The segment being drawn (2, 2), if any: it becomes a handle on release."""
+        """The segment being drawn (2, 2), if any: it becomes a handle on release.
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Key, Move, Press, Release
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64))
+        >>> _ = c.feed(Key("d"))  # segment mode
+        >>> for event in (Press(30.0, 20.0), Move(50.0, 40.0)):
+        ...     _ = c.feed(event)
+        >>> c.drawing.tolist()
+        [[30.0, 20.0], [50.0, 40.0]]
+        >>> _ = c.feed(Release(50.0, 40.0))
+        >>> c.drawing is None, len(c.src_segments)
+        (True, 1)
+        """
         return self.editor.drawing
 
     @property
     def revision(self) -> int:
-        """Grows whenever the handles or the settings change (the window then re-uploads
-        the handles)."""
+        """A count that grows whenever the handles or the settings change.
+
+        The window uploads the handles again when it does.
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Key, Move, Press, Release
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64))
+        >>> start = c.revision
+        >>> _ = c.feed(Key("t"))  # the next transform
+        >>> c.revision - start
+        1
+        >>> for event in (Press(12.0, 10.0), Move(20.0, 15.0), Release(20.0, 15.0)):
+        ...     _ = c.feed(event)
+        >>> c.revision > start + 1
+        True
+        """
         return self.editor.revision + self._settings_revision
 
     @property
     def reference_revision(self) -> int:
-        """Grows whenever the reference points change."""
+        """A count that grows whenever the reference points change.
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Key
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64))
+        >>> start = c.reference_revision
+        >>> _ = c.feed(Key("t"))  # the settings: not the reference points
+        >>> c.reference_revision == start
+        True
+        >>> c.reference = [[30.0, 30.0]]
+        >>> c.reference_revision > start
+        True
+        """
         return self.editor.reference_revision
 
     @property
     def reference_mode(self) -> bool:
-        """Whether a left click adds or moves a reference point (``p``)."""
+        """Whether a left click adds or moves a reference point (``p``).
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Key, Press, Release
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64))
+        >>> _ = c.feed(Key("p"))
+        >>> c.reference_mode, c.mode
+        (True, 'reference')
+        >>> for event in (Press(30.0, 30.0), Release(30.0, 30.0)):
+        ...     _ = c.feed(event)
+        >>> c.reference.tolist(), len(c.src)
+        ([[30.0, 30.0]], 1)
+        """
         return self.mode == "reference"
 
     @property
     def segment_mode(self) -> bool:
-        """Whether a drag on empty space draws a segment handle (``d``)."""
+        """Whether a drag on empty space draws a segment handle (``d``).
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Key
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64))
+        >>> c.segment_mode
+        False
+        >>> _ = c.feed(Key("d"))
+        >>> c.segment_mode, c.mode
+        (True, 'segments')
+        >>> _ = c.feed(Key("d"))  # off again
+        >>> c.segment_mode
+        False
+        """
         return self.mode == "segments"
 
     @property
     def dragging(self) -> bool:
-        """Whether a button is down on something (a handle, a drawing, a pan)."""
+        """Whether a button is down on something (a handle, a drawing, a pan).
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Press, Release
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64))
+        >>> _ = c.feed(Press(12.0, 10.0))  # on q_0
+        >>> c.dragging
+        True
+        >>> _ = c.feed(Release(12.0, 10.0))
+        >>> c.dragging
+        False
+        """
         return self.editor.dragging or self._pan_anchor is not None
 
     @property
     def undo_depth(self) -> int:
-        """How many handle edits ``u`` can undo."""
+        """How many handle edits ``u`` can undo.
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Key
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64))
+        >>> c.undo_depth
+        0
+        >>> _ = c.feed(Key("r"))  # reset: one edit
+        >>> c.undo_depth
+        1
+        >>> _ = c.feed(Key("u"))
+        >>> c.undo_depth, c.dst.tolist()
+        (0, [[12.0, 10.0]])
+        """
         return self.editor.undo_depth
 
     @property
     def redo_depth(self) -> int:
-        """How many undone edits ``U`` can redo."""
+        """How many undone edits ``U`` can redo.
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Key
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64))
+        >>> _ = c.feed(Key("r")), c.feed(Key("u"))  # reset, then undo it
+        >>> c.redo_depth, c.dst.tolist()
+        (1, [[12.0, 10.0]])
+        >>> _ = c.feed(Key("U"))
+        >>> c.redo_depth, c.dst.tolist()
+        (0, [[10.0, 10.0]])
+        """
         return self.editor.redo_depth
 
     def set_handles(
@@ -285,6 +464,17 @@ class Controller(Controls):
             The point handles (N, 2).
         src_segments, dst_segments : array_like, optional
             The segment handles (S, 2, 2); ``None``: none.
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Key
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64), reference=[[30.0, 30]])
+        >>> c.set_handles([[5.0, 5], [50, 50]], [[6.0, 5], [48, 50]])
+        >>> c.dst.tolist(), c.reference.tolist()
+        ([[6.0, 5.0], [48.0, 50.0]], [[30.0, 30.0]])
+        >>> _ = c.feed(Key("u"))  # undone as one edit
+        >>> c.dst.tolist()
+        [[12.0, 10.0]]
         """
         reference = self.editor.state.reference
         self.editor.replace(Handles.of(src, dst, src_segments, dst_segments, reference))

@@ -105,6 +105,17 @@ class Controls:
             For a press of an unknown button.
         TypeError
             For something that is not an event.
+
+        Examples
+        --------
+        >>> from glmls.app import Controller, Key, Press, Release, VolumeController
+        >>> c = Controller([[10.0, 10]], [[12.0, 10]], (64, 64))
+        >>> c.feed(Press(40.0, 20.0)), c.feed(Release(40.0, 20.0)), len(c.src)  # a new handle
+        ([], [], 2)
+        >>> c.feed(Key("s")), c.feed(Key("q"))
+        (['save_image'], ['quit'])
+        >>> VolumeController([[2.0, 2, 5]], [[2.0, 2, 5]], (10, 12, 12)).feed(Key("s"))
+        ['save_volume']
         """
         if isinstance(event, Press):
             if event.button not in BUTTONS:

@@ -428,6 +428,15 @@ class Recorder:
         ----------
         event : Press, Move, Release, Scroll or Key
             The event fed.
+
+        Examples
+        --------
+        >>> from glmls.app import Key, Move, Recorder
+        >>> recorder = Recorder()
+        >>> recorder.record(Move(3.0, 4.0))
+        >>> recorder.record(Key("t"))
+        >>> recorder.events
+        [Move(x=3.0, y=4.0), Key(key='t')]
         """
         self.events.append(event)
 
@@ -438,5 +447,17 @@ class Recorder:
         ----------
         path : str or os.PathLike
             The JSON file to write.
+
+        Examples
+        --------
+        >>> import pathlib, tempfile
+        >>> from glmls.app import Key, Recorder, Wait, read_events
+        >>> recorder = Recorder()
+        >>> recorder.record(Key("g"))
+        >>> recorder.record(Wait(5))
+        >>> path = pathlib.Path(tempfile.mkdtemp()) / "replay.json"
+        >>> recorder.save(path)
+        >>> read_events(path) == recorder.events
+        True
         """
         write_events(path, self.events)

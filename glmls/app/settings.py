@@ -125,20 +125,59 @@ class Settings:
 
     @property
     def adaptive(self) -> float | None:
-        """The tolerance the image is drawn with: ``tolerance`` for quads, else None."""
+        """The tolerance the image is drawn with: ``tolerance`` for quads, else None.
+
+        Examples
+        --------
+        >>> from glmls.app import Settings
+        >>> Settings(tolerance=0.25).adaptive
+        0.25
+        >>> print(Settings(method="splat", tolerance=0.25).adaptive)  # splat ignores it
+        None
+        """
         return self.tolerance if self.method == "quads" else None
 
     @property
     def mesh_options(self) -> dict[str, object]:
-        """The mesh the construction, the mesh overlay and the error overlay use:
-        ``{"grid": grid}``, or ``{"tolerance": t}`` on the adaptive mesh (quads)."""
+        """The mesh that the construction and the mesh and error overlays use.
+
+        ``{"grid": grid}``, or ``{"tolerance": t}`` on the adaptive mesh (quads).
+
+        Examples
+        --------
+        >>> from glmls.app import Settings
+        >>> Settings(grid=8).mesh_options
+        {'grid': 8}
+        >>> Settings(grid=8).next_tolerance().mesh_options  # the adaptive mesh
+        {'tolerance': 0.25}
+        """
         tolerance = self.adaptive
         return {"grid": self.grid} if tolerance is None else {"tolerance": tolerance}
 
     def warp_options(self, **changes: object) -> WarpOptions:
-        """The image construction as the pipeline takes it: method, interpolation, border and
-        :attr:`mesh_options`, with ``changes`` (other fields of
-        :class:`~glmls.WarpOptions`, e.g. the canvas) on top."""
+        """The image construction as the pipeline takes it, a :class:`~glmls.WarpOptions`.
+
+        Its method, interpolation, border and :attr:`mesh_options` are the settings', with
+        ``changes`` on top.
+
+        Parameters
+        ----------
+        **changes : object
+            Other fields of :class:`~glmls.WarpOptions`, e.g. the canvas (``output_shape``,
+            ``origin``).
+
+        Returns
+        -------
+        glmls.WarpOptions
+            The options for :func:`glmls.warp` and the other image functions.
+
+        Examples
+        --------
+        >>> from glmls.app import Settings
+        >>> options = Settings(method="splat", grid=8).warp_options(output_shape=(40, 60))
+        >>> options.method, options.grid, options.output_shape
+        ('splat', 8, (40, 60))
+        """
         values = {"method": self.method, "interpolation": self.interpolation}
         values |= {"border": self.border, **self.mesh_options, **changes}
         return WarpOptions(**values)  # type: ignore[arg-type]
@@ -155,6 +194,15 @@ class Settings:
         -------
         str
             What the readout shows.
+
+        Examples
+        --------
+        >>> from glmls.app import Settings
+        >>> Settings().parameter((300, 400))  # idw by default
+        'alpha 1'
+        >>> gaussian = Settings(config=glmls.MLSConfig(weight="gaussian"))
+        >>> gaussian.parameter((300, 400))  # the default radius: the image's diagonal
+        'R 500 px'
         """
         config = self.config
         if config.uses_radius:
@@ -179,6 +227,16 @@ class Settings:
         -------
         Settings
             The changed copy.
+
+        Examples
+        --------
+        >>> from glmls.app import Settings
+        >>> s = Settings()  # idw, alpha 1
+        >>> s.stepped((300, 400), up=True).config.alpha
+        1.25
+        >>> gaussian = Settings(config=glmls.MLSConfig(weight="gaussian", radius=100.0))
+        >>> gaussian.stepped((300, 400), up=False).config.radius
+        80.0
         """
         config = self.config
         if config.uses_radius:
@@ -191,14 +249,49 @@ class Settings:
         return replace(self, config=replace(config, alpha=alpha))
 
     def next_construction(self) -> Settings:
-        """The next of :data:`CONSTRUCTIONS` (the first if the current one is none of them)."""
+        """The next of :data:`CONSTRUCTIONS` (the first if the current one is none of them).
+
+        Returns
+        -------
+        Settings
+            The changed copy (``c``).
+
+        Examples
+        --------
+        >>> from glmls.app import Settings
+        >>> s = Settings()
+        >>> for _ in range(4):
+        ...     s = s.next_construction()
+        ...     print(s.method, s.interpolation)
+        quads linear
+        splat nearest
+        backward linear
+        quads nearest
+        """
         pair = (self.method, self.interpolation)
         index = CONSTRUCTIONS.index(pair) if pair in CONSTRUCTIONS else -1
         method, interpolation = CONSTRUCTIONS[(index + 1) % len(CONSTRUCTIONS)]
         return replace(self, method=method, interpolation=interpolation)
 
     def next_tolerance(self) -> Settings:
-        """The next of :data:`TOLERANCES` (the first if the current one is none of them)."""
+        """The next of :data:`TOLERANCES` (the first if the current one is none of them).
+
+        Returns
+        -------
+        Settings
+            The changed copy (``T``).
+
+        Examples
+        --------
+        >>> from glmls.app import Settings
+        >>> s = Settings()
+        >>> print(s.tolerance)  # the regular grid
+        None
+        >>> s.next_tolerance().tolerance, s.next_tolerance().next_tolerance().tolerance
+        (0.25, 0.05)
+        >>> print(Settings(tolerance=0.05).next_tolerance().tolerance)  # back to the grid
+        None
+        """
         index = TOLERANCES.index(self.tolerance) if self.tolerance in TOLERANCES else -1
         return replace(self, tolerance=TOLERANCES[(index + 1) % len(TOLERANCES)])
 
@@ -217,6 +310,16 @@ class Settings:
         -------
         Settings
             The changed copy.
+
+        Examples
+        --------
+        >>> from glmls.app import Settings
+        >>> Settings(grid=4).next_grid(-1).grid, Settings(grid=4).next_grid(+2).grid
+        (2, 16)
+        >>> Settings(grid=1).next_grid(-1).grid  # the finest already
+        1
+        >>> Settings(grid=3).next_grid(-1).grid, Settings(grid=3).next_grid(+1).grid
+        (2, 4)
         """
         if self.grid in GRIDS:
             index = GRIDS.index(self.grid) + step

@@ -377,22 +377,62 @@ class VolumeController(Controls):
 
     @property
     def centre(self) -> tuple[int, int, int]:
-        """The volume's central voxel (x, y, z)."""
+        """The volume's central voxel (x, y, z), where the slice point starts (``0``).
+
+        Examples
+        --------
+        >>> from glmls.app import Key, VolumeController
+        >>> c = VolumeController([[2.0, 2, 5]], [[2.0, 2, 5]], (10, 12, 16))  # (D, H, W)
+        >>> c.centre
+        (8, 6, 5)
+        >>> _ = c.feed(Key("Up")), c.feed(Key("Up"))  # the slice point along z
+        >>> c.point
+        (8, 6, 7)
+        >>> _ = c.feed(Key("0"))
+        >>> c.point
+        (8, 6, 5)
+        """
         return tuple(self.grid.extent(axis) // 2 for axis in range(3))  # type: ignore[return-value]
 
     @property
     def dragging(self) -> bool:
-        """Whether a handle's target is being dragged."""
+        """Whether a handle's target is being dragged.
+
+        Examples
+        --------
+        >>> from glmls.app import Press, Release, VolumeController
+        >>> c = VolumeController([[2.0, 2, 5]], [[2.0, 2, 5]], (10, 12, 12))
+        >>> _ = c.feed(Press(2.0, 2.0))  # on q_0 in the axial view
+        >>> c.dragging
+        True
+        >>> _ = c.feed(Release(2.0, 2.0))
+        >>> c.dragging
+        False
+        """
         return self._drag is not None
 
     @property
     def undo_depth(self) -> int:
-        """How many handle edits ``u`` can undo."""
+        """How many handle edits ``u`` can undo.
+
+        Examples
+        --------
+        >>> from glmls.app import Key, Move, Press, Release, VolumeController
+        >>> c = VolumeController([[2.0, 2, 5]], [[2.0, 2, 5]], (10, 12, 12))
+        >>> for event in (Press(2.0, 2.0), Move(4.0, 3.0), Release(4.0, 3.0)):
+        ...     _ = c.feed(event)  # drag q_0: one edit
+        >>> c.undo_depth, c.dst.tolist()
+        (1, [[4.0, 3.0, 5.0]])
+        >>> _ = c.feed(Key("u"))
+        >>> c.undo_depth, c.dst.tolist()
+        (0, [[2.0, 2.0, 5.0]])
+        """
         return len(self._undo)
 
     def near_plane(self, view: int) -> np.ndarray:
-        """Indices of the handles whose source or target lies within :attr:`near` voxels of
-        ``view``'s plane.
+        """Indices of the handles within :attr:`near` voxels of ``view``'s plane.
+
+        A handle is near when its source or its target is.
 
         Parameters
         ----------
@@ -403,6 +443,18 @@ class VolumeController(Controls):
         -------
         numpy.ndarray
             The indices, ascending.
+
+        Examples
+        --------
+        >>> from glmls.app import Key, VolumeController
+        >>> src = [[2.0, 2, 5], [8, 8, 0]]
+        >>> c = VolumeController(src, src, (10, 12, 12))  # the slice point at z = 5
+        >>> c.near_plane(0).tolist()  # the axial view
+        [0]
+        >>> for _ in range(3):
+        ...     _ = c.feed(Key("Down"))  # the slice point to z = 2
+        >>> c.near_plane(0).tolist()
+        [0, 1]
         """
         normal = AXES[view][2]
         at, step = self.point[normal], self.grid.scale[normal]
@@ -420,6 +472,17 @@ class VolumeController(Controls):
         ----------
         src, dst : array_like
             The handles (N, 3) (x, y, z) in handle units.
+
+        Examples
+        --------
+        >>> from glmls.app import Key, VolumeController
+        >>> c = VolumeController([[2.0, 2, 5]], [[2.0, 2, 5]], (10, 12, 12))
+        >>> c.set_handles([[2.0, 2, 5], [8, 8, 5]], [[3.0, 2, 5], [8, 9, 5]])
+        >>> c.dst.tolist()
+        [[3.0, 2.0, 5.0], [8.0, 9.0, 5.0]]
+        >>> _ = c.feed(Key("u"))  # undone as one edit
+        >>> c.dst.tolist()
+        [[2.0, 2.0, 5.0]]
         """
         p, q = _handles3(src, dst)
         self._release()
@@ -552,14 +615,43 @@ class VolumeController(Controls):
 
     @property
     def radius(self) -> float:
-        """The weight's radius R in handle units: the configured one, else the volume's
-        diagonal."""
+        """The weight's radius R in handle units (by default the volume's diagonal).
+
+        Examples
+        --------
+        >>> from glmls.app import Key, VolumeController, VolumeSettings
+        >>> src, shape = [[2.0, 2, 5]], (10, 12, 12)
+        >>> round(VolumeController(src, src, shape).radius, 2)  # the diagonal, unset
+        19.7
+        >>> config = glmls.MLSConfig(weight="gaussian", radius=20.0)
+        >>> c = VolumeController(src, src, shape, settings=VolumeSettings(config=config))
+        >>> c.radius
+        20.0
+        >>> _ = c.feed(Key("+"))  # times 1.25
+        >>> c.radius
+        25.0
+        """
         radius = self.settings.config.radius
         return float(radius) if radius is not None else self.grid.diagonal
 
     def parameter(self) -> str:
-        """The weight's parameter as text, e.g. ``alpha 1.25``, ``R 111 vox`` (handle units
-        are voxels) or ``R 55.5``."""
+        """The weight's parameter as text, as the readout shows it.
+
+        Returns
+        -------
+        str
+            E.g. ``alpha 1.25``, ``R 111 vox`` (handle units are voxels) or ``R 55.5``.
+
+        Examples
+        --------
+        >>> from glmls.app import Key, VolumeController
+        >>> c = VolumeController([[2.0, 2, 5]], [[2.0, 2, 5]], (10, 12, 12))
+        >>> c.parameter()  # idw
+        'alpha 1'
+        >>> _ = c.feed(Key("w"))  # the next weight: one with a radius
+        >>> c.parameter()
+        'R 20 vox'
+        """
         config = self.settings.config
         if not config.uses_radius:
             return f"alpha {config.alpha:g}"

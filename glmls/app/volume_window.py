@@ -199,7 +199,25 @@ class VolumeApp(WindowLoop):
     # -- frames -----------------------------------------------------------------------------
 
     def readout(self) -> list[str]:
-        """The lines of the on-screen readout."""
+        """The lines of the on-screen readout.
+
+        Returns
+        -------
+        list of str
+            The lines, top first; before the window opens, those of the state alone.
+
+        Examples
+        --------
+        >>> from glmls.app import Key, VolumeApp
+        >>> app = VolumeApp(np.zeros((8, 10, 12)), [[2.0, 2, 2]], [[3.0, 2, 2]], name="cube")
+        >>> app.readout()[0]
+        'glmls  cube  12x10x8'
+        >>> [line for line in app.readout() if line.startswith("point")]
+        ['point      x 6  y 5  z 4   (click)']
+        >>> app.feed(Key("Up"))  # the slice point one voxel along z
+        >>> [line for line in app.readout() if line.startswith("point")]
+        ['point      x 6  y 5  z 5   (click)']
+        """
         c, s = self.controller, self.controller.settings
         fps, frame_ms = frame_rate(self.frame_times)
         ms = {k: 1000 * v for k, v in self.timings.items()}
@@ -255,7 +273,28 @@ class VolumeApp(WindowLoop):
         )
 
     def render(self) -> None:
-        """Draw one frame into the window's back buffer."""
+        """Draw one frame into the window's back buffer.
+
+        :meth:`run` opens the window and calls it once a frame; ``on_frame`` sees each frame
+        drawn, before it is shown.
+
+        Examples
+        --------
+        >>> from glmls.app import Key, VolumeApp
+        >>> volume = np.zeros((8, 10, 12))
+        >>> app = VolumeApp(volume, [[2.0, 2, 2]], [[3.0, 2, 2]], window_size=(400, 300))
+        >>> app.window is None  # nothing to draw into before run
+        True
+
+        With a display (so these lines are not run here), the frames drawn and seen:
+
+        >>> shots = []
+        >>> def keep(window):
+        ...     shots.append(window.screenshot())
+        >>> app.run(events=[Key("e")], frames=2, on_frame=keep)  # doctest: +SKIP
+        >>> len(shots), app.frames, shots[-1].shape  # doctest: +SKIP
+        (2, 2, (300, 400, 3))
+        """
         window = self.window
         assert window is not None, "open the window with run() first"
         text = self._lay_out()

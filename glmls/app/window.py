@@ -190,7 +190,25 @@ class App(WindowLoop):
     # -- frames -----------------------------------------------------------------------------
 
     def readout(self) -> list[str]:
-        """The lines of the on-screen readout."""
+        """The lines of the on-screen readout.
+
+        Returns
+        -------
+        list of str
+            The lines, top first; before the window opens, those of the state alone.
+
+        Examples
+        --------
+        >>> from glmls.app import App, Key
+        >>> app = App(np.zeros((32, 48)), [[10.0, 10]], [[12.0, 10]], name="square")
+        >>> app.readout()[0]
+        'glmls  square  48x32'
+        >>> [line for line in app.readout() if line.startswith("transform")]
+        ['transform  rigid   (t)']
+        >>> app.feed(Key("t"))
+        >>> [line for line in app.readout() if line.startswith("transform")]
+        ['transform  similarity   (t)']
+        """
         return readout(
             name=self.name,
             shape=self.shape,
@@ -220,7 +238,27 @@ class App(WindowLoop):
         )
 
     def render(self) -> None:
-        """Draw one frame into the window's back buffer."""
+        """Draw one frame into the window's back buffer.
+
+        :meth:`run` opens the window and calls it once a frame; ``on_frame`` sees each frame
+        drawn, before it is shown.
+
+        Examples
+        --------
+        >>> from glmls.app import App, Key
+        >>> app = App(np.zeros((32, 48)), [[10.0, 10]], [[12.0, 10]], window_size=(400, 300))
+        >>> app.window is None  # nothing to draw into before run
+        True
+
+        With a display (so these lines are not run here), the frames drawn and seen:
+
+        >>> shots = []
+        >>> def keep(window):
+        ...     shots.append(window.screenshot())
+        >>> app.run(events=[Key("m")], frames=2, on_frame=keep)  # doctest: +SKIP
+        >>> len(shots), app.frames, shots[-1].shape  # doctest: +SKIP
+        (2, 2, (300, 400, 3))
+        """
         window = self.window
         assert window is not None, "open the window with run() first"
         framebuffer = window.framebuffer_size

@@ -110,6 +110,16 @@ class WindowLoop:
         ----------
         event : Press, Move, Release, Scroll or Key
             The event, at image pixels (montage pixels in the volume window).
+
+        Examples
+        --------
+        >>> import pathlib, tempfile
+        >>> from glmls.app import App, Key, read_events
+        >>> path = pathlib.Path(tempfile.mkdtemp()) / "keys.json"
+        >>> app = App(np.zeros((32, 48)), [[10.0, 10]], [[12.0, 10]], record=path)
+        >>> app.feed(Key("t"))
+        >>> app.controller.settings.config.transform, app.recorder.events
+        ('similarity', [Key(key='t')])
         """
         if self.recorder is not None:
             self.recorder.record(event)
@@ -138,6 +148,16 @@ class WindowLoop:
         ----------
         text : str
             The message.
+
+        Examples
+        --------
+        >>> from glmls.app import App
+        >>> app = App(np.zeros((32, 48)), [[10.0, 10]], [[12.0, 10]])
+        >>> "hello" in app.readout()
+        False
+        >>> app.say("hello")
+        >>> "hello" in app.readout()
+        True
         """
         self._messages.append((time.perf_counter(), text))
         del self._messages[:-4]
@@ -220,6 +240,22 @@ class WindowLoop:
         glmls.app.glfw_window.NoDisplayError
             (a ``RuntimeError``) where no window can be opened: no display, no glfw, or no
             OpenGL 4.3 core context on it.
+
+        Examples
+        --------
+        >>> from glmls.app import App, Key
+        >>> app = App(np.zeros((32, 48)), [[10.0, 10]], [[12.0, 10]])
+        >>> app.frames, app.window is None
+        (0, True)
+
+        With a display (so these lines are not run here): three frames, the key ``t`` fed
+        before the first, and the window closed after the last:
+
+        >>> app.run(events=[Key("t")], frames=3)  # doctest: +SKIP
+        >>> app.frames, app.window is None  # doctest: +SKIP
+        (3, True)
+        >>> app.controller.settings.config.transform  # doctest: +SKIP
+        'similarity'
         """
         scripted = frames is not None
         self._open(vsync=not scripted)
@@ -272,7 +308,26 @@ class WindowLoop:
         raise NotImplementedError
 
     def close(self) -> None:
-        """Release every GL object, glmls's programs for this context, and the window."""
+        """Release every GL object, glmls's programs for this context, and the window.
+
+        :meth:`run` closes the window however it ends; closing one not open does nothing.
+
+        Examples
+        --------
+        >>> from glmls.app import App, Key
+        >>> app = App(np.zeros((32, 48)), [[10.0, 10]], [[12.0, 10]])
+        >>> app.close()  # not open: nothing to release
+        >>> app.window is None
+        True
+
+        With a display (so these lines are not run here): the run closed the window, and
+        closing it again does nothing:
+
+        >>> app.run(frames=1)  # doctest: +SKIP
+        >>> app.close()  # doctest: +SKIP
+        >>> app.frames, app.window is None  # doctest: +SKIP
+        (1, True)
+        """
         if self.window is None:
             return
         self.session.release()
@@ -282,7 +337,24 @@ class WindowLoop:
         self.window = None
 
     def screenshot(self) -> np.ndarray:
-        """What the window shows (the back buffer just drawn), (H, W, 3) uint8, top row first."""
+        """What the window shows (the back buffer just drawn), top row first.
+
+        Returns
+        -------
+        numpy.ndarray
+            (H, W, 3) uint8, H and W the framebuffer's.
+
+        Examples
+        --------
+        With a display (so these lines are not run here), the last frame of a run:
+
+        >>> from glmls.app import App
+        >>> app = App(np.zeros((32, 48)), [[10.0, 10]], [[12.0, 10]], window_size=(400, 300))
+        >>> shots = []
+        >>> app.run(frames=1, on_frame=lambda a: shots.append(a.screenshot()))  # doctest: +SKIP
+        >>> shots[0].shape, shots[0].dtype  # doctest: +SKIP
+        ((300, 400, 3), dtype('uint8'))
+        """
         return self.view.screenshot(self.window.framebuffer_size)  # type: ignore[union-attr]
 
     def _save_screenshot(self, path: Path, *, quiet: bool) -> None:
