@@ -280,6 +280,8 @@ class WindowLoop:
                 if not scripted and idle:
                     continue
                 self._frame(on_frame)
+                if self.window is not window:
+                    break  # on_frame closed it: nothing left to swap
                 last = scripted and self.frames >= frames  # type: ignore[operator]
                 if last and screenshot is not None:
                     self._want_screenshot = Path(screenshot)

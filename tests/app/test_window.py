@@ -298,3 +298,27 @@ def test_windows_opened_one_after_another_keep_the_display(tmp_path):
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
     assert result.stdout.split() == ["True"]
+
+
+CLOSED_IN_A_FRAME = """
+import numpy as np
+from glmls.app.window import App
+
+none = np.zeros((0, 2))
+app = App(np.zeros((8, 8), np.uint8), none, none)
+app.run(frames=5, on_frame=lambda a: a.close())
+print(app.frames, app.window is None)
+"""
+
+
+@needs_xvfb
+def test_a_window_closed_by_on_frame_ends_the_run(tmp_path):
+    # the run swapped the closed window's buffers: an X error (GLXBadDrawable) killed it
+    script = tmp_path / "closed.py"
+    script.write_text(CLOSED_IN_A_FRAME)
+    result = subprocess.run(
+        [XVFB, "-a", sys.executable, str(script)],
+        capture_output=True, text=True, env=_env(), timeout=120,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["1", "True"]
