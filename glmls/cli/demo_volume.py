@@ -16,6 +16,7 @@ given in its voxels, are scaled by ``--spacing``.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from pathlib import Path
 
@@ -74,8 +75,8 @@ def volume_inputs(
             src, dst = src * scale, dst * scale
     else:
         volume, name = read_volume(args.image), args.image.name.split(".")[0]
-        if args.spacing is not None:
-            volume = Volume(volume.data, spacing=args.spacing, affine=volume.affine)
+        if args.spacing is not None:  # the file's affine and header fields kept, for s
+            volume = dataclasses.replace(volume, spacing=args.spacing)
         src = dst = np.zeros((0, 3))
     if args.handles is not None:  # an elastix pair of voxel indices: times the spacing
         if handle_dimension(args.handles, dst=args.targets) == 2:  # as glmls warp says it

@@ -139,3 +139,19 @@ def test_demo_help_gives_the_window_size_default_and_range():
     assert "default: fitted" in action.help and "64 to 16384" in action.help
     with pytest.raises(SystemExit):
         build_parser().parse_args(["demo", "--window-size", "32x600"])
+
+
+def test_demo_spacing_keeps_a_nifti_files_header_fields(tmp_path):
+    """``--spacing`` changes only the spacing: the window's save writes the file's affine,
+    codes (an MNI volume stays one) and time step back, as ``glmls warp`` does."""
+    path = tmp_path / "mni.nii.gz"
+    header = glmls.files.NiftiHeader(sform_code=4, qform_code=4, xyzt_units=10, time_step=2.5)
+    affine = np.diag([-2.0, 2.0, 2.0, 1.0])
+    volume = glmls.Volume(np.zeros((4, 8, 8, 2), np.int16), affine=affine, nifti=header)
+    glmls.write_volume(path, volume)
+    args = build_parser().parse_args(["demo", str(path), "--spacing", "1,1,1"])
+    given, _, _, _ = volume_inputs(args)
+    assert given.spacing == (1.0, 1.0, 1.0)
+    assert given.nifti == glmls.read_volume(path).nifti
+    assert given.nifti.sform_code == 4 and given.nifti.time_step == 2.5
+    assert_allclose(given.affine, affine)
