@@ -237,7 +237,7 @@ def volume_handle_warnings(args: argparse.Namespace, src, shape, spacing, affine
     points = np.asarray(src, dtype=np.float64)
     scale = np.ones(3) if spacing is None else np.array(spacing[::-1], dtype=np.float64)
     inside = _inside(points, shape, scale)
-    sheared = _shear_warning(args, affine)
+    sheared = _shear_warning(args, affine) + _stretch_warning(args, affine, spacing)
     if not len(points) or inside.mean() >= 0.5:
         return sheared
     depth, height, width = shape[:3]
@@ -286,6 +286,25 @@ def _shear_warning(args: argparse.Namespace, affine) -> list[str]:
         "degrees off square): the warp works in (i dx, j dy, k dz), the world sheared, where "
         "distances differ from the world's and a rigid or similarity fit is rigid in that "
         "frame, not in the world"
+    ]
+
+
+def _stretch_warning(args: argparse.Namespace, affine, spacing) -> list[str]:
+    """With ``--world``, the warning for a spacing (``--spacing``) out of proportion with the
+    affine's voxel sizes (the lengths of its columns): the warp's frame is then the world
+    stretched more along some axes than others, as a sheared one (a spacing in proportion,
+    in other units, only scales it)."""
+    if not getattr(args, "world", False) or affine is None or spacing is None:
+        return []
+    sizes = np.linalg.norm(np.asarray(affine, dtype=np.float64)[:3, :3], axis=0)[::-1]
+    ratios = np.asarray(spacing, dtype=np.float64) / sizes
+    if ratios.max() <= ratios.min() * (1 + 1e-4):
+        return []
+    return [
+        f"--world: the spacing (dz, dy, dx) = {spacing_text(spacing)} is out of proportion "
+        f"with the affine's voxel sizes {spacing_text(sizes)}: the warp works in "
+        "(i dx, j dy, k dz), the world stretched unevenly, where distances differ from the "
+        "world's and a rigid or similarity fit is rigid in that frame, not in the world"
     ]
 
 

@@ -146,7 +146,32 @@ def test_world_handles_of_a_sheared_affine_are_warned_of():
     assert volume_handle_warnings(args, src, SHAPE, (2.0, 0.8, 0.5), _affine()) == []
     sheared = _affine()
     sheared[:3, 1] += 0.3 * sheared[:3, 0]  # column j leans towards column i
-    [message] = volume_handle_warnings(args, src, SHAPE, (2.0, 0.8, 0.5), sheared)
+    spacing = tuple(np.linalg.norm(sheared[:3, :3], axis=0)[::-1])  # the file's, as read
+    [message] = volume_handle_warnings(args, src, SHAPE, spacing, sheared)
     assert "sheared" in message and "rigid" in message, message
     args.world = False  # handles in the frame itself: nothing to warn of
-    assert volume_handle_warnings(args, src, SHAPE, (2.0, 0.8, 0.5), sheared) == []
+    assert volume_handle_warnings(args, src, SHAPE, spacing, sheared) == []
+
+
+def test_world_handles_with_a_spacing_out_of_proportion_are_warned_of(nifti, gl, capsys):
+    """--spacing other than the affine's voxel sizes (not merely in other units) stretches
+    the frame unevenly against the world: a rigid motion of the world is no rigid motion
+    there, and --world says so, once; a spacing in proportion only scales the frame."""
+    from types import SimpleNamespace
+
+    from glmls.cli.warp3d import volume_handle_warnings
+
+    args = SimpleNamespace(handles="h.json", targets=None, world=True)
+    src = np.array([[1.0, 1.0, 1.0], [3.0, 4.0, 2.0]])
+    for spacing in ((2.0, 0.8, 0.5), (20.0, 8.0, 5.0)):  # the file's, in mm and in 0.1 mm
+        assert volume_handle_warnings(args, src, SHAPE, spacing, _affine()) == []
+    [message] = volume_handle_warnings(args, src, SHAPE, (1.0, 1.0, 1.0), _affine())
+    assert "(1.0, 1.0, 1.0) is out of proportion" in message and "rigid" in message, message
+    args.world = False
+    assert volume_handle_warnings(args, src, SHAPE, (1.0, 1.0, 1.0), _affine()) == []
+    argv = ["warp", "v.nii.gz", "o.nii.gz", "--handles", "world.json", "--world"]
+    assert main([*argv, "--spacing", "1"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("out of proportion") == 1, err
+    assert main([*argv, "--spacing", "20,8,5"]) == 0
+    assert "warning" not in capsys.readouterr().err
