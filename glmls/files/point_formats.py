@@ -227,11 +227,12 @@ def _elastix_points(path: Path) -> tuple[np.ndarray, list[str]]:
     points, where = [], []
     for line, fields in body:
         if len(fields) != ndim or ndim not in (2, 3):
-            raise fail(
-                path,
-                f"line {line}",
-                f"expected 2 or 3 coordinates like the first point, got {len(fields)}",
+            expected = (
+                f"{ndim} coordinates, as the first point"
+                if ndim in (2, 3)
+                else "2 or 3 coordinates"
             )
+            raise fail(path, f"line {line}", f"expected {expected}, got {len(fields)}")
         points.append([number(path, f"line {line}", text) for text in fields])
         where.append(f"line {line}")
     return np.array(points, dtype=np.float64), where

@@ -212,7 +212,9 @@ def test_malformed_3d_files(tmp_path, name, text, message):
         ("index\n1 2\n1 2 3\n", "line 2: expected the number of points"),
         ("index\n2\n1 2 3\n", "content: 1 points, but line 2 says 2"),
         ("index\n0\n", "line 2: expected a count >= 1"),
-        ("index\n2\n1 2 3\n4 5\n", "line 4: expected 2 or 3 coordinates like the first"),
+        ("index\n2\n1 2 3\n4 5\n", "line 4: expected 3 coordinates, as the first point, got 2"),
+        ("index\n2\n1 2\n4 5 6\n", "line 4: expected 2 coordinates, as the first point, got 3"),
+        ("index\n1\n1 2 3 4\n", "line 3: expected 2 or 3 coordinates, got 4"),
         ("point\n1\n1 x 3\n", "line 3: expected a number, got 'x'"),
     ],
 )
