@@ -140,6 +140,7 @@ def read_nifti(path: Path) -> tuple[np.ndarray, np.ndarray, NiftiHeader]:
         )
     volume = np.ascontiguousarray(np.swapaxes(data, 0, 2))  # (x, y, z[, C]) -> (z, y, x[, C])
     affine = np.asarray(image.affine, dtype=np.float64)
+    _check_affine(path, header, affine)
     step = float(header["pixdim"][4])
     fields = NiftiHeader(
         sform_code=int(header["sform_code"]),
@@ -181,6 +182,27 @@ def _check_nifti_size(path: Path, proxy: object) -> None:
             f"{path}: not a readable NIfTI file: its header's {shape} voxels of "
             f"{proxy.dtype} need {needed} bytes, {holds} (truncated, or a damaged header)"
         )
+
+
+def _check_affine(path: Path, header: object, affine: np.ndarray) -> None:
+    """``InputFileError`` naming the header's field for an affine that is not finite, has a
+    voxel axis of length 0 (no voxel size) or is singular (no world place of the voxels,
+    and no affine :func:`write_nifti` writes back)."""
+    if int(header["sform_code"]) > 0:
+        field = "sform (srow_x, srow_y, srow_z)"
+    else:
+        field = (
+            "qform (quatern_*, qoffset_*, pixdim)" if int(header["qform_code"]) > 0 else "pixdim"
+        )
+    if not np.isfinite(affine).all():
+        fault = "holds a value that is not finite"
+    elif not (np.linalg.norm(affine[:3, :3], axis=0) > 0).all():
+        fault = "gives a voxel axis of length 0"
+    elif not abs(np.linalg.det(affine[:3, :3])) > 0:  # as write_nifti's check
+        fault = "is singular (its voxel axes lie in one plane)"
+    else:
+        return
+    raise InputFileError(f"{path}: not a readable NIfTI file: the affine of its {field} {fault}")
 
 
 def _own_qform(header: object, affine: np.ndarray) -> tuple | None:

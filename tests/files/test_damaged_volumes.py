@@ -62,3 +62,36 @@ def test_an_intact_file_still_reads(tmp_path):
     for name in ("v.nii", "v.nii.gz"):
         write_volume(tmp_path / name, data)
         np.testing.assert_array_equal(read_volume(tmp_path / name).data, data)
+
+
+def _sform(affine: np.ndarray, *, qform: bool) -> bytes:
+    """An int16 NIfTI-1 file whose sform (code 1) is ``affine``, beside a valid qform or none."""
+    header = nib.Nifti1Header()
+    header.set_data_dtype(np.int16)
+    header.set_data_shape((5, 4, 3))
+    header.set_qform(np.diag([2.0, 2.0, 2.0, 1.0]), code=1 if qform else 0)
+    header["srow_x"], header["srow_y"], header["srow_z"] = affine[:3]
+    header["sform_code"] = 1
+    return nib.Nifti1Image(np.zeros((5, 4, 3), np.int16), None, header=header).to_bytes()
+
+
+@pytest.mark.parametrize("qform", [False, True])
+@pytest.mark.parametrize(
+    ("column", "message"),
+    [
+        ([np.nan, 0.0, 0.0], "holds a value that is not finite"),
+        ([0.0, 0.0, 0.0], "gives a voxel axis of length 0"),
+        ([1.0, 0.0, 0.0], r"is singular \(its voxel axes lie in one plane\)"),  # that of i
+    ],
+)
+def test_an_affine_of_no_world_place_is_refused_naming_its_field(tmp_path, qform, column, message):
+    """An sform that is not finite, has an axis of length 0 or is singular is refused on
+    one line naming the field, not as a spacing nobody gave, nor after a warp whose output
+    could not be written with it."""
+    affine = np.eye(4)
+    affine[:3, 2] = column
+    path = tmp_path / "bad.nii"
+    path.write_bytes(_sform(affine, qform=qform))
+    expected = rf"bad\.nii: not a readable NIfTI file: the affine of its sform .* {message}$"
+    with pytest.raises(InputFileError, match=expected):
+        read_volume(path)
