@@ -57,18 +57,22 @@ DEFAULT_STORAGE = "auto"
 
 
 def weight_uniforms(
-    config: MLSConfig, scale: float, radius: float | None
+    config: MLSConfig, scale: float, radius: float | None, *, extent: float = 1.0
 ) -> dict[str, float | bool]:
     """The uniforms of ``glmls/shaders/mls/weighting.glsl`` (the weights, in any dimension) for
     ``config`` in coordinates scaled by ``scale``, with influence radius ``radius`` (pixels or
-    voxels; None without one). ``u_tiny_s`` (no uniform): idw's s is so small that float32
-    makes its weight infinite at d = 0, so points on a handle snap."""
+    voxels; None without one); ``extent``: how far apart the handles are, in scaled units
+    (half their box's largest side; 1, the scaled box, by default). ``u_tiny_s`` (no
+    uniform): idw's s is so small that float32 makes its weight infinite at d = 0, so points
+    on a handle snap."""
     alpha = config.alpha
     log2_s = math.log2(config.s) - 2 * alpha * math.log2(scale) if config.s > 0 else -1e30
     # A snapped point leaves out the other handles, whose weights relative to the snapped
-    # one's are (h / d)^(2 alpha) at the snapping distance h: with a small alpha they are not
-    # negligible at h = 1e-3 px (0.25 for alpha = 0.1), so h shrinks until they are.
-    hit2 = max(min((SNAP_DISTANCE / scale) ** 2, SNAP_SHARE ** (1 / alpha)), SNAP_FLOOR2)
+    # one's are (h / d)^(2 alpha) at the snapping distance h, d ~ the handles' extent: with a
+    # small alpha, or handles less than a few units apart, they are not negligible at
+    # h = 1e-3 px (0.25 for alpha = 0.1), so h shrinks until they are.
+    share2 = SNAP_SHARE ** (1 / alpha) * min(extent, 1.0) ** 2
+    hit2 = max(min((SNAP_DISTANCE / scale) ** 2, share2), SNAP_FLOOR2)
     # idw with a tiny s is infinite at d = 0 for float32: snap there too.
     tiny_s = config.weight_entry.uses_s and log2_s - alpha * math.log2(hit2) < math.log2(1e-6)
     return {

@@ -154,7 +154,9 @@ class MLSKernel3:
         """The uniforms of ``glmls/shaders/mls3/core.glsl`` for a volume of ``shape`` (the
         kernel's own when None), in scaled units."""
         scaling = self.scaling
-        weighting = weight_uniforms(self.config, scaling.scale, self.radius(shape))
+        weighting = weight_uniforms(
+            self.config, scaling.scale, self.radius(shape), extent=self.extent / scaling.scale
+        )
         weighting.pop("u_tiny_s")
         return weighting | {
             "u_mls3_count": self._count,

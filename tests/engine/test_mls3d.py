@@ -296,3 +296,20 @@ def test_the_inverse_finds_a_preimage_of_every_image(gl, transform):
         s, valid = m.inverse(y, return_valid=True)
         assert valid.all(), np.flatnonzero(~valid)
         assert np.abs(m(s) - y).max() < 0.05  # the acceptance; most within 1e-4
+
+
+@pytest.mark.parametrize("size", [1e-3, 1e-6])
+def test_handles_a_few_thousandths_apart_with_s_0(gl, size):
+    """Handles in a box of ``size`` units (a mesh in metres, s=0): a point near a handle
+    snaps to it only where the other handles' share of the weights is below float32's
+    rounding, so f, J and the deformed mesh follow the float64 f, as for handles in voxels."""
+    rng = np.random.default_rng(12)
+    src = rng.uniform(0, size, (10, 3))
+    dst = src + rng.normal(0, 0.05 * size, src.shape)
+    points = rng.uniform(0, size, (300, 3))
+    expected = reference.mls(src, dst, points, s=0)[0]
+    with glmls.MLS(src, dst, s=0) as m:
+        f = m(points)
+        out = m.deform((points, rng.integers(0, len(points), (200, 3))))
+    assert np.abs(f - expected).max() < 1e-6 * size
+    assert np.abs(out.vertices - expected).max() < 1e-6 * size
