@@ -118,6 +118,15 @@ class BatchLattices:
     def __len__(self) -> int:
         return len(self.scales)
 
+    def extents(self) -> np.ndarray:
+        """(N,) float64: each image's :func:`~glmls.engine.kernel.handle_extent` (scaled), the
+        value its own kernel computes from the same rows."""
+        starts = np.cumsum(self.counts) - self.counts
+        lo = np.minimum.reduceat(self.packed, starts, axis=0).astype(np.float64)
+        hi = np.maximum.reduceat(self.packed, starts, axis=0).astype(np.float64)
+        sides = np.maximum(hi[:, :2], hi[:, 2:]) - np.minimum(lo[:, :2], lo[:, 2:])
+        return sides.max(axis=1) / 2
+
     def table(self, lattice: MeshLattice) -> np.ndarray:
         """(N, 16) float32: each image's row of the image table of ``mls/batch.glsl`` (its
         last four values int32) for passes over ``lattice``'s image."""
@@ -132,10 +141,12 @@ class BatchLattices:
             table[:, k] = (value - self.centers[:, axis]) / self.scales  # lattice.uniforms
         table[:, 4] = lattice.grid / self.scales
         radius = self.config.resolve_radius(self.shape)
-        distinct, inverse = np.unique(self.scales, return_inverse=True)  # often one scale
+        pairs = np.stack([self.scales, self.extents()], axis=1)
+        distinct, inverse = np.unique(pairs, axis=0, return_inverse=True)  # often one scale
+        inverse = inverse.reshape(-1)
         weights = np.empty((len(distinct), 4), np.float64)
-        for k, scale in enumerate(distinct.tolist()):
-            values = weight_uniforms(self.config, scale, radius)
+        for k, (scale, extent) in enumerate(distinct.tolist()):
+            values = weight_uniforms(self.config, scale, radius, extent=extent)
             weights[k] = values["u_log2_s"], values["u_radius"], values["u_hit2"], values["u_snap"]
         table[:, 5:8] = weights[inverse, :3]
         snap = weights[inverse, 3] != 0

@@ -38,6 +38,7 @@ __all__ = [
     "check_bins",
     "check_loop_budget",
     "config_defines",
+    "handle_extent",
     "weight_uniforms",
 ]
 
@@ -54,6 +55,18 @@ SNAP_FLOOR2 = 1e-36
 #: storage buffer (:doc:`/handles`: the uniform block is the fastest on llvmpipe wherever it
 #: fits; only the storage buffer and the texture take tens of thousands).
 DEFAULT_STORAGE = "auto"
+
+
+def handle_extent(rows: np.ndarray) -> float:
+    """Half the largest side of the box around the points of ``rows`` ((N, 2k) float32 rows of
+    k points each, scaled coordinates: packed handles p and q, segment end points); 1 without
+    any. The same float32 rows give the same value wherever they are reduced (one MLS, one
+    image of a batch)."""
+    points = np.asarray(rows).reshape(-1, 2)
+    if len(points) == 0:
+        return 1.0
+    sides = points.max(axis=0).astype(np.float64) - points.min(axis=0).astype(np.float64)
+    return float(sides.max()) / 2
 
 
 def weight_uniforms(
@@ -187,6 +200,7 @@ class MLSKernel:
         self._bins: BinBuffer | None = None
         self._packed = np.zeros((0, 4), np.float32)
         self._segments = np.zeros((0, 4), np.float32)  # two rows per segment: (a, b), (c, d)
+        self._extent = 1.0  # handle_extent of the rows above
         #: Scratch buffers of the passes (points in, f and M out, error fields).
         self.scratch = Resources(gl, "this MLS")
         self._memo: dict[tuple, object] = {}
@@ -234,6 +248,7 @@ class MLSKernel:
                 self._storage.release()
             self._storage = storage
         self._packed, self._segments, self.scaling = packed, segments, scaling
+        self._extent = handle_extent(np.concatenate([packed, segments]))
         self._memo.clear()
         self._write(radius, binned)
 
@@ -345,7 +360,7 @@ class MLSKernel:
         c = self.config
         scale = self.scaling.scale
         radius = c.resolve_radius(shape if shape is not None else self.shape)
-        weighting = weight_uniforms(c, scale, radius)
+        weighting = weight_uniforms(c, scale, radius, extent=self._extent)
         segments = segment_config(c)  # the weight of segment handles
         return weighting | {
             "u_snap_segments": segments.infinite_at_zero or weighting["u_tiny_s"],

@@ -183,3 +183,37 @@ def test_an_interpolating_gaussian_of_a_small_radius_stays_finite(gl, transform,
         f = m(v)
         big_m, t = m.matrices(v)
     assert np.isfinite(f).all() and np.isfinite(big_m).all() and np.isfinite(t).all()
+
+
+@pytest.mark.parametrize("transform", ["affine", "similarity", "rigid"])
+@pytest.mark.parametrize("size", [1e-2, 1e-4, 1e-6])
+def test_handles_a_few_thousandths_apart_with_s_0(gl, transform, size):
+    """Handles in a box of ``size`` units (points in metres, s=0): a point near a handle snaps
+    to it only where the other handles' share of the weights is below float32's rounding, so
+    f follows the float64 f as it does for handles in pixels (f is scale-invariant with s=0),
+    for the alphas below 1 too."""
+    rng = np.random.default_rng(5)
+    src = rng.uniform(0, size, (8, 2))
+    dst = src + rng.normal(0, 0.05 * size, src.shape)
+    points = rng.uniform(0, size, (500, 2))
+    for alpha in (1.0, 0.5):
+        options = {"transform": transform, "s": 0, "alpha": alpha}
+        expected = reference.mls(src, dst, points, **options)[0]
+        with glmls.MLS(src, dst, ctx=gl, **options) as m:
+            f = m(points)
+        assert np.abs(f - expected).max() < 2e-6 * size, (alpha, np.abs(f - expected).max())
+
+
+def test_segments_a_few_thousandths_apart_with_s_0(gl):
+    """The same for segment handles: their end points set the extent too."""
+    rng = np.random.default_rng(6)
+    size = 1e-5
+    src_segments = rng.uniform(0, size, (3, 2, 2))
+    dst_segments = src_segments + rng.normal(0, 0.05 * size, src_segments.shape)
+    points = rng.uniform(0, size, (300, 2))
+    empty = np.zeros((0, 2))
+    handles = {"src_segments": src_segments, "dst_segments": dst_segments}
+    expected = reference.mls(empty, empty, points, s=0, **handles)[0]
+    with glmls.MLS(empty, empty, ctx=gl, s=0, **handles) as m:
+        f = m(points)
+    assert np.abs(f - expected).max() < 2e-5 * size
