@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.config import counted
 from ..core.handles import COORDINATE_LIMIT
 from ..errors import InputFileError
 from .handle_formats import HandleRows
@@ -130,8 +131,9 @@ def bigwarp_json(path: Path, data: dict) -> tuple[int, HandleRows]:
         raise fail(
             path,
             prefix.rstrip(".") or "top level",
-            f"{len(lists[0])} moving points, {len(lists[1])} fixed points and "
-            f"{len(lists[2])} active flags",
+            f"{counted(len(lists[0]), 'moving point')}, "
+            f"{counted(len(lists[1]), 'fixed point')} and "
+            f"{counted(len(lists[2]), 'active flag')}",
         )
     handles = HandleRows()
     for index, (moving, fixed, active) in enumerate(zip(*lists, strict=True)):
@@ -222,7 +224,11 @@ def _elastix_points(path: Path) -> tuple[np.ndarray, list[str]]:
         raise fail(path, f"line {lines[1][0]}", f"expected a count >= 1, got {lines[1][1][0]}")
     body = lines[2:]
     if len(body) != count:
-        raise fail(path, "content", f"{len(body)} points, but line {lines[1][0]} says {int(count)}")
+        raise fail(
+            path,
+            "content",
+            f"{counted(len(body), 'point')}, but line {lines[1][0]} says {int(count)}",
+        )
     ndim = len(body[0][1])
     points, where = [], []
     for line, fields in body:
@@ -269,8 +275,8 @@ def elastix_pair(path: Path, dst_path: Path) -> tuple[int, HandleRows]:
         raise fail(
             dst_path,
             "content",
-            f"{len(dst)} points of {dst.shape[1]} coordinates, but the sources {path} has "
-            f"{len(src)} of {src.shape[1]}",
+            f"{counted(len(dst), 'point')} of {dst.shape[1]} coordinates, but the sources "
+            f"{path} has {len(src)} of {src.shape[1]}",
         )
     handles = HandleRows()
     for k in range(len(src)):

@@ -196,7 +196,7 @@ def test_no_handles_are_written_to_an_elastix_point_file(tmp_path):
             "b.json",
             '{"type": "BigWarpLandmarks", "numDimensions": 3, "movingPoints": [[1, 2, 3]], '
             '"fixedPoints": [], "active": [true]}',
-            "1 moving points, 0 fixed points and 1 active flags",
+            "1 moving point, 0 fixed points and 1 active flag",
         ),
     ],
 )
@@ -210,7 +210,7 @@ def test_malformed_3d_files(tmp_path, name, text, message):
         ("", "content: expected 'index' or 'point'"),
         ("points\n1\n1 2 3\n", "line 1: expected 'index' or 'point'"),
         ("index\n1 2\n1 2 3\n", "line 2: expected the number of points"),
-        ("index\n2\n1 2 3\n", "content: 1 points, but line 2 says 2"),
+        ("index\n2\n1 2 3\n", "content: 1 point, but line 2 says 2"),
         ("index\n0\n", "line 2: expected a count >= 1"),
         ("index\n2\n1 2 3\n4 5\n", "line 4: expected 3 coordinates, as the first point, got 2"),
         ("index\n2\n1 2\n4 5 6\n", "line 4: expected 2 coordinates, as the first point, got 3"),
