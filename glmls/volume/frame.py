@@ -173,8 +173,11 @@ class VolumeBounds:
 class CornerLattice:
     """The corners of the voxel cubes of a volume of ``shape`` (D, H, W), every ``grid``
     voxels, ``margin`` voxels (a multiple of ``grid``) past every side: point (a, b, c) is
-    at (x, y, z) = (-margin - 1/2 + grid (a, b, c)), each clamped to the last corner
-    ``size + margin - 1/2``. Cells are numbered in scan order of the source,
+    at (x, y, z) = (-margin - 1/2 + grid (a, b, c)). Without a margin (the ``constant``
+    border's lattice) each coordinate is clamped to the volume's last corner ``size - 1/2``
+    (the last step shorter where ``grid`` does not divide ``size``); with one the lattice is
+    regular to its last point, so that a point, and the cells, do not depend on the margin
+    (which grows with the output canvas). Cells are numbered in scan order of the source,
     ((z cell) ny + y cell) nx + x cell."""
 
     shape: tuple[int, int, int]
@@ -212,9 +215,13 @@ class CornerLattice:
 
     @property
     def last(self) -> tuple[float, float, float]:
-        """The last point's (x, y, z), voxels: every coordinate is clamped to it."""
+        """The last point's (x, y, z), voxels: every coordinate is clamped to it (the
+        volume's last corner without a margin, the regular lattice's last point with one)."""
         d, h, w = self.shape
-        return w + self.margin - 0.5, h + self.margin - 0.5, d + self.margin - 0.5
+        if self.margin == 0:
+            return w - 0.5, h - 0.5, d - 0.5
+        x, y, z = (self.first + self.grid * (n - 1) for n in self.dims)
+        return x, y, z
 
     def axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """x, y and z of the points along each axis, voxels."""

@@ -192,3 +192,38 @@ def test_survey_box_is_f_over_the_lattice(kernel3, rng, monkeypatch, band_layers
     f = field.evaluate(points)
     np.testing.assert_allclose(box[:3], f.min(axis=0), atol=1e-4)
     np.testing.assert_allclose(box[3:], f.max(axis=0), atol=1e-4)
+
+
+def test_border_lattice_is_regular_whatever_its_margin():
+    """With a margin (every border but ``constant``) the lattice's points are -1/2 + k grid
+    on each axis up to its last, whatever the margin: none is clamped to the margin's end
+    where ``grid`` does not divide the side."""
+    for margin in (5, 10, 20):
+        lattice = CornerLattice((11, 13, 14), 5, margin)
+        for axis in lattice.axes():
+            np.testing.assert_array_equal(np.diff(axis), 5.0)
+            assert axis[0] == -margin - 0.5
+    constant = CornerLattice((11, 13, 14), 5)
+    assert constant.axes()[0][-1] == 13.5  # the volume's last corner, a shorter step
+
+
+@pytest.mark.parametrize("border", ["edge", "symmetric", "reflect", "wrap"])
+def test_border_cells_do_not_depend_on_the_canvas(kernel3, rng, border):
+    """The cells of a border mode's extended lattice are those of one regular lattice: a
+    canvas that overhangs the volume (so a wider margin) shows the volume's voxels as the
+    volume's own canvas does, also where their preimages lie past the far faces and ``grid``
+    (5) does not divide the sides (f shrinks the volume about its centre, so the voxels on
+    its faces show points past them, and bends it, so that cells matter)."""
+    shape = (11, 13, 14)
+    volume = rng.uniform(0, 255, shape).astype(np.float32)
+    src, _ = box_handles(shape, rng, count=10)
+    centre = (np.array(shape[::-1]) - 1) / 2
+    dst = centre + 0.75 * (src - centre) + rng.uniform(-1.0, 1.0, src.shape)
+    m = kernel3(src, dst, shape, transform="affine")
+    options = {"method": "quads", "interpolation": "linear", "border": border, "grid": 5}
+    own = warp_volume(m, volume, **options)
+    d, h, w = shape
+    wide = warp_volume(
+        m, volume, output_shape=(d + 8, h + 8, w + 8), origin=(-4.0, -4.0, -4.0), **options
+    )
+    np.testing.assert_allclose(wide[4 : 4 + d, 4 : 4 + h, 4 : 4 + w], own, atol=2e-3)
