@@ -3,7 +3,7 @@
 Two kinds, both for an image of ``shape`` (H, W) with pixel centres at integer coordinates:
 
 - ``corners`` (step ``grid``): the pixel-square corners x = -0.5, -0.5 + grid, ..., up to
-  W - 0.5 (the last step may be shorter), likewise in y. The quads of the paper's forward
+  W - 0.5 (the last step may be shorter; with a margin, regular to its end), likewise in y. The quads of the paper's forward
   method are its cells; the error field at ``grid`` > 1 is evaluated there.
 - ``centres``: the pixel centres x = 0 .. W - 1, y = 0 .. H - 1 (the simple forward method
   and the error field at ``grid`` = 1).
@@ -107,7 +107,16 @@ class MeshLattice:
 
     @property
     def padded_shape(self) -> tuple[int, int]:
-        """(H, W) of the lattice's pixel domain: the image and its margin."""
+        """(H, W) of the lattice's pixel domain: the image and its margin (corners: up to the
+        regular lattice's last point, less than ``grid`` further on the far sides)."""
+        height, width = self._margined
+        if self.margin and self.kind == "corners":
+            nx, ny = self.dims
+            return (ny - 1) * self.grid, (nx - 1) * self.grid
+        return height, width
+
+    @property
+    def _margined(self) -> tuple[int, int]:
         height, width = self.shape
         return height + 2 * self.margin, width + 2 * self.margin
 
@@ -119,7 +128,7 @@ class MeshLattice:
     @property
     def dims(self) -> tuple[int, int]:
         """(points per row, rows)."""
-        height, width = self.padded_shape
+        height, width = self._margined
         if self.kind == "centres":
             return width, height
         return math.ceil(width / self.grid) + 1, math.ceil(height / self.grid) + 1
@@ -143,8 +152,15 @@ class MeshLattice:
 
     @property
     def last(self) -> tuple[float, float]:
-        """The last point of the last row, image pixels: every coordinate is clamped to it."""
+        """The last point of the last row, image pixels: every coordinate is clamped to it.
+        Without a margin, the image's last corner (the last step may be shorter); with one,
+        the regular lattice's last point, at or past the margin's end, so that the cells over
+        the image are the same whatever the margin (which grows with the canvas)."""
         height, width = self.shape
+        if self.margin and self.kind == "corners":
+            nx, ny = self.dims
+            first = self.origin[0]
+            return first + (nx - 1) * self.grid, first + (ny - 1) * self.grid
         end = self.margin - (1.0 if self.kind == "centres" else 0.5)
         return width + end, height + end
 

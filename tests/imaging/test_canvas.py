@@ -217,14 +217,17 @@ def test_canvas_accepts_numpy_values():
 
 def test_lattice_margin():
     lattice = MeshLattice.corners((10, 7), 3, margin=6)
-    assert lattice.padded_shape == (22, 19) and lattice.offset == (-6, -6)
-    assert lattice.origin == (-6.5, -6.5) and lattice.last == (12.5, 15.5)
+    # with a margin the lattice is regular to its end, past the margin's (12.5, 15.5): its
+    # pixel domain reaches there too
+    assert lattice.padded_shape == (24, 21) and lattice.offset == (-6, -6)
+    assert lattice.origin == (-6.5, -6.5) and lattice.last == (14.5, 17.5)
     assert lattice.dims == (8, 9)
     xs, ys = lattice.axes
-    np.testing.assert_array_equal(xs, [-6.5, -3.5, -0.5, 2.5, 5.5, 8.5, 11.5, 12.5])
+    np.testing.assert_array_equal(xs, [-6.5, -3.5, -0.5, 2.5, 5.5, 8.5, 11.5, 14.5])
+    assert MeshLattice.corners((10, 7), 3).last == (6.5, 9.5)  # no margin: the image's corner
     assert lattice.pixel_uniforms() == {
         "u_grid": 3,
-        "u_lattice_size": (19, 22),
+        "u_lattice_size": (21, 24),
         "u_lattice_offset": (-6, -6),
     }
     ring = lattice.boundary()
@@ -252,3 +255,28 @@ def test_bounds_refuse_shapes_past_the_gl_limit(gl):
             m.bounds((limit + 1, 4))
         with pytest.raises(ValueError, match="shape"):
             m.bounds((0, 4))
+
+
+@pytest.mark.parametrize("border", ["edge", "symmetric", "reflect", "wrap"])
+@pytest.mark.parametrize("batched", [False, True])
+def test_border_cells_do_not_depend_on_the_canvas(gl, border, batched):
+    """The quads' mesh past the image (a margin that grows with the canvas's overhang) is the
+    same regular lattice whatever its margin, so a wider canvas cropped back to the image's
+    frame shows what the image's own frame shows, where the grid does not divide its sides."""
+    rng = np.random.default_rng(0)
+    height, width = 23, 27
+    image = rng.uniform(0, 255, (height, width)).astype(np.float32)
+    src = np.array([[0.0, 0], [width - 1, 0], [0, height - 1], [width - 1, height - 1], [10, 8]])
+    centre = np.array([(width - 1) / 2, (height - 1) / 2])
+    dst = centre + 0.75 * (src - centre) + rng.uniform(-1, 1, src.shape)
+    options = {"transform": "affine", "method": "quads", "interpolation": "linear"}
+    options |= {"border": border, "grid": 5, "ctx": gl}
+    wide = {"output_shape": (height + 16, width + 16), "origin": (-8.0, -8.0)}
+    if batched:
+        own = glmls.warp_batch([image], [src], [dst], **options)[0]
+        crop = glmls.warp_batch([image], [src], [dst], **options, **wide)[0]
+    else:
+        own = glmls.warp(image, src, dst, **options)
+        crop = glmls.warp(image, src, dst, **options, **wide)
+    crop = crop[8 : 8 + height, 8 : 8 + width]
+    assert np.abs(own - crop).max() < 0.01  # float32 rounding of the cells' own points
