@@ -35,7 +35,7 @@ from .gl import helper
 from .gl.context import GLContext, forked_from_gl, get_context
 from .imaging.adaptive import AdaptiveMesh, check_adaptive, interpolate
 from .imaging.frame import Bounds
-from .imaging.inverse import accept_residual
+from .imaging.inverse import accept_residual, length_unit
 from .imaging.options import FIELDS, WarpOptions, default
 from .imaging.pipeline import GUESS_MESH_POINTS, WarpPipeline
 from .volume.options import VOLUME_WARP_KEYWORDS
@@ -1074,7 +1074,10 @@ class InverseMLS:
     (:func:`glmls.imaging.frame.border_margin`, within that many mesh points) and drawn over
     a canvas that holds them, then Newton's method on f, stopping below 1e-4 px. f is the MLS's
     own, as ``m(points)`` evaluates it, so ``m(inv(u))`` is u within about 1e-3 px (float32
-    on the GPU).
+    on the GPU). A pixel here is the handles' unit, or less where the box of the handles
+    (and of the MLS's ``shape``) is smaller than 32 units
+    (:func:`glmls.imaging.inverse.length_unit`), so that handles in metres get the inverse
+    that the same handles in millimetres do.
 
     Which points have a preimage: u has one where Newton ends with |f(s) - u| <= 0.05 px
     (or 4 float32 steps of the coordinates where that is more, far from the image and the
@@ -1234,7 +1237,7 @@ class InverseMLS:
         m.config.resolve_radius(m.shape)  # f needs a radius, as m(points) does
         shape, grid = self._guess_mesh()
         s, residual = pipeline.inverse_points(m, points, shape, grid=grid)
-        valid = residual <= accept_residual(m.scaling, points, s)  # False where NaN
+        valid = residual <= accept_residual(m.scaling, points, s, unit=length_unit(m.kernel))
         s[~valid] = np.nan
         return s, valid
 

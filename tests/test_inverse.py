@@ -217,6 +217,30 @@ def test_the_mask_is_the_residual_threshold(gl):
         assert m.residuals(s[:1], u[:1])[0] <= NEWTON_ACCEPT
 
 
+@pytest.mark.parametrize("unit", [1e-2, 1e-5])
+def test_handles_in_a_small_box_get_the_inverse_of_millimetres(gl, unit, rng):
+    """Handles in metres (no shape): Newton's step and tolerances shrink with their box, so
+    that the inverse is the one the same handles in millimetres get, to float32's precision
+    of the box (a quarter-unit step and 1e-4 unit tolerance solved a box 8e-4 wide only to
+    ~6% of its side), and a point of the crescent without a preimage stays invalid (0.05
+    units accepted anything near the box)."""
+    u = rng.uniform(5, 75, (40, 2))
+    with glmls.MLS(SRC, DST, s=0.0, ctx=gl) as m:  # s = 0: the same map in any unit
+        millimetres = m.inverse(u)
+    side = 80 * unit
+    with glmls.MLS(SRC * unit, DST * unit, s=0.0, ctx=gl) as m:
+        s, valid = m.inverse(u * unit, return_valid=True)
+        assert valid.all()
+        assert np.abs(s / unit - millimetres).max() < 1e-3
+        assert back_error(m, s, u * unit).max() < 1e-5 * side
+    src, dst = np.array([[40.0, 30.0]]) * unit, np.array([[30.0, 30.0]]) * unit
+    with glmls.MLS(src, dst, weight="cressman", radius=20 * unit, ctx=gl) as m:
+        u = np.array([[30.0, 30.0], [55, 30]]) * unit  # the second in the crescent
+        s, valid = m.inverse(u, return_valid=True)
+        assert valid.tolist() == [True, False]
+        assert_allclose(s[0], src[0], atol=1e-5 * 20 * unit)
+
+
 def test_residuals(gl, rng):
     src = rng.uniform(0, 60, (30, 2))
     dst = src + rng.normal(0, 2, src.shape)

@@ -297,6 +297,7 @@ class BatchQuads:
             **frame.uniforms(),
             "u_source_size": (width, height),
             "u_tolerance": NEWTON_TOLERANCE,
+            "u_newton_unit": 1.0,  # the images' pixels
             "u_accept": NEWTON_ACCEPT,
             "u_accept_steps": ACCEPT_STEPS,
         }

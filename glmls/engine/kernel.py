@@ -328,6 +328,12 @@ class MLSKernel:
         return self.scaling.from_gpu(rows).reshape(-1, 2, 2)
 
     @property
+    def extent(self) -> float:
+        """Half the largest side of the box of the handles (points and segment end points, as
+        the GPU has them), pixels; the scale without any."""
+        return self._extent * self.scaling.scale
+
+    @property
     def segments(self) -> int:
         """Segment handles."""
         return len(self._segments) // 2

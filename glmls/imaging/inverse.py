@@ -19,6 +19,7 @@ import numpy as np
 from ..core.handles import Scaling
 from ..core.mesh import MeshLattice
 from ..engine.kernel import MLSKernel
+from ..engine.passes3 import STEP_BOX
 from ..gl import bindings
 from ..gl.context import GLContext, current
 from ..gl.dispatch import SecondPass, run_1d, run_2d, set_uniforms
@@ -41,6 +42,7 @@ __all__ = [
     "InverseSolver",
     "accept_residual",
     "guess_size",
+    "length_unit",
 ]
 
 #: Newton on f stops below this residual |f(s) - u| (pixels) ...
@@ -61,14 +63,25 @@ def accept_residual(
 ) -> np.ndarray:
     """(K,) the residual |f(s) - u| (pixels) up to which s counts as a preimage of the
     points ``u``, (K, D) pixels: :data:`NEWTON_ACCEPT` times ``unit`` (the length of a
-    pixel, less for 3D handles in a small box), or :data:`ACCEPT_STEPS` float32 steps of the
-    larger scaled coordinate of u and s, times the scale, where more."""
+    pixel, less for handles in a small box: :func:`length_unit`), or :data:`ACCEPT_STEPS`
+    float32 steps of the larger scaled coordinate of u and s, times the scale, where more."""
     center = np.asarray(scaling.center, np.float64)
     with np.errstate(invalid="ignore"):
         far = np.maximum(np.abs(u - center).max(axis=1), np.abs(s - center).max(axis=1))
     far = np.nan_to_num(far / scaling.scale, nan=0.0)
     steps = ACCEPT_STEPS * float(np.finfo(np.float32).eps) * np.maximum(far, 1.0)
     return np.maximum(NEWTON_ACCEPT * unit, steps * scaling.scale)
+
+
+def length_unit(kernel: MLSKernel) -> float:
+    """The length, pixels, of which the inverse at points takes its difference step and
+    tolerances as fixed shares: 1, or less where the box of the handles (and of the MLS's
+    image) has a half side below :data:`~glmls.engine.passes3.STEP_BOX`, as in 3D
+    (:func:`glmls.engine.passes3.length_unit`): handles in metres get the inverse that the
+    same handles in millimetres do."""
+    scale = kernel.scaling.scale
+    half = max(kernel.extent, scale / 2 if scale > 1 else 0.0)  # scale: the image's box too
+    return min(1.0, half / STEP_BOX) if half > 0 else 1.0
 
 
 #: f's inverse at a list of points stops below this residual instead (pixels): a list is
@@ -172,6 +185,7 @@ class InverseSolver:
             "u_center": sc.center,
             "u_scale": sc.scale,
             "u_tolerance": NEWTON_TOLERANCE,
+            "u_newton_unit": 1.0,  # an image's pixels
             "u_accept": NEWTON_ACCEPT,
             "u_accept_steps": ACCEPT_STEPS,
         }
@@ -206,7 +220,9 @@ class InverseSolver:
         ``lattice`` gave the first guess (0: Newton started at u). The guess is drawn over
         ``frame`` in :func:`guess_size` texels (``limit``: the GL limit of a side); f is that
         of an image of ``shape`` (None: the kernel's own), as :meth:`glmls.MLS.__call__`'s.
-        Leaves the guess's framebuffer bound."""
+        Newton's difference step and tolerances are shares of :func:`length_unit`. Leaves
+        the guess's framebuffer bound."""
+        unit = length_unit(kernel)
         size = guess_size(frame, len(points), limit)
         program = kernel.program(  # first, as in solve
             "warp/inverse_points.comp.glsl", {"WARP_NEWTON_STEPS": POINTS_NEWTON_STEPS}
@@ -232,7 +248,8 @@ class InverseSolver:
             "u_guess_size": size,
             "u_center": sc.center,
             "u_scale": sc.scale,
-            "u_tolerance": POINTS_TOLERANCE,
+            "u_tolerance": POINTS_TOLERANCE * unit,
+            "u_newton_unit": unit,
             "u_max_step": max(NEWTON_MAX_STEP, 4 * texel / sc.scale),
         }
         set_uniforms(program, uniforms)
@@ -258,7 +275,10 @@ class InverseSolver:
         pass, with the first's ``uniforms``)."""
         sc = kernel.scaling
         with np.errstate(invalid="ignore"):
-            left = ~(found[:, 2] <= accept_residual(sc, points, sc.from_gpu(found[:, :2])))
+            accept = accept_residual(
+                sc, points, sc.from_gpu(found[:, :2]), unit=uniforms["u_newton_unit"]
+            )
+            left = ~(found[:, 2] <= accept)
         if not left.any():
             return found
         index = np.flatnonzero(left)

@@ -3,6 +3,12 @@
 // with v). Needs mls/visit.glsl (mls_eval), u_scale (warp/frame.glsl) and WARP_NEWTON_STEPS,
 // the most steps.
 
+// The length (pixels) of which the differences' steps are the fixed shares: 1 for an image's
+// pixels, less for f's inverse at points with handles in a small box
+// (glmls.imaging.inverse.length_unit), so that handles in metres get the inverse that the
+// same handles in millimetres do.
+uniform float u_newton_unit;
+
 // The residual (scaled) up to which s counts as a preimage of u (scaled): ``accept`` (pixels),
 // or ``steps`` float32 steps of the larger coordinate of u and s where that is more: far from
 // the scaling's centre float32 cannot tell f(s) from u to a twentieth of a pixel
@@ -17,7 +23,7 @@ float warp_accept(float accept, float steps, vec2 u, vec2 s) {
 // |f(s) - u|, scaled. A step goes at most ``max_step`` (scaled): far from the solution,
 // Newton's step may overshoot.
 vec2 warp_newton(vec2 s, vec2 u, float tolerance, float max_step, out float residual) {
-    float h = 0.25 / u_scale;   // a quarter pixel: float32 noise in f is ~1e-4 of it
+    float h = 0.25 * u_newton_unit / u_scale;   // a quarter pixel: float32 noise in f ~1e-4 of it
     residual = 0.0;
     for (int k = 0; ; ++k) {
         vec2 r = mls_eval(s).f - u;
@@ -48,7 +54,7 @@ vec2 warp_newton(vec2 s, vec2 u, float tolerance, float max_step, out float resi
 // pass runs it (warp/inverse.comp.glsl's WARP_RESCUE, the inverse at points' second
 // dispatch), over the few points the first left.
 vec2 warp_newton_damped(vec2 s, vec2 u, float tolerance, float max_step, out float residual) {
-    float h = 0.03125 / u_scale;
+    float h = 0.03125 * u_newton_unit / u_scale;
     vec2 r = mls_eval(s).f - u;
     residual = length(r);
     vec2 best = s;
