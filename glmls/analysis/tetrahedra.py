@@ -282,7 +282,12 @@ def tetrahedron_errors_from_points(
 def _user_tetrahedra(tetrahedra: object, count: int) -> np.ndarray:
     """The user's tetrahedra (T, 4) as int64 indices into ``count`` points: ``TypeError`` for
     indices that are not integers, ``ValueError`` naming the first bad row."""
-    array = np.asarray(tetrahedra)
+    try:
+        array = np.asarray(tetrahedra)
+    except ValueError:  # ragged rows: numpy's message would not say which argument
+        raise ValueError(
+            "tetrahedra must be (T, 4) integer indices; got rows of different lengths"
+        ) from None
     if array.size and array.dtype.kind not in "iu":
         raise TypeError(f"tetrahedra must be integer indices, got dtype {array.dtype}")
     if array.ndim != 2 or array.shape[1] != 4:
@@ -392,9 +397,17 @@ def tetrahedron_errors(
     quality = tetrahedron_quality(r[simplices])
     sliver = (quality < min_quality) | (quality == 0)
     if sliver.all():
+        flat = np.flatnonzero(quality == 0)
         raise ValueError(
             f"every one of the {len(simplices)} tetrahedra is a sliver (radius ratio below "
             f"{min_quality}): spread the reference points, or lower min_quality"
+            + (
+                f"; {len(flat)} of them of zero volume, which no min_quality keeps (the "
+                f"first: tetrahedra[{flat[0]}] = {simplices[flat[0]].tolist()}, its 4 points "
+                "on one plane)"
+                if len(flat)
+                else ""
+            )
         )
     deformed = deformed_points(m, r)
     kept = simplices[~sliver]

@@ -94,8 +94,14 @@ def check_three_d(m: object) -> None:
 
 
 def as_points3(points: object, name: str = "points") -> np.ndarray:
-    """``points`` as a C-contiguous float64 (N, 3) array of finite (x, y, z) rows."""
-    array = np.asarray(points)
+    """``points`` as a C-contiguous float64 (N, 3) array of finite (x, y, z) rows;
+    ``ValueError`` naming ``name`` for rows of different lengths, as for another shape."""
+    try:
+        array = np.asarray(points)
+    except ValueError:  # ragged rows: numpy's message would not say which argument
+        raise ValueError(
+            f"{name} must have shape (N, 3) as (x, y, z) rows; got rows of different lengths"
+        ) from None
     if array.dtype.kind not in "iuf":
         raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
     if array.ndim != 2 or array.shape[1] != 3:

@@ -121,6 +121,13 @@ def _distinct(points: np.ndarray) -> np.ndarray:
     return points[np.sort(first)]
 
 
+def _default_points(src: np.ndarray, tetrahedra: object) -> np.ndarray:
+    """The reference points where none are given: the handles ``m.src`` as they are, which
+    the user's ``tetrahedra`` index, else their distinct rows (Delaunay takes no point
+    twice)."""
+    return src if tetrahedra is not None else _distinct(src)
+
+
 def _grey_limits(array: np.ndarray) -> tuple[float | None, float | None]:
     if array.ndim == 4 or array.dtype == np.uint8:
         return None, None
@@ -170,14 +177,15 @@ def volume_report(
         The deformation, of (N, 3) handles ``m.src`` -> ``m.dst``.
     reference_points : array_like, optional
         The points r of the tetrahedra, (N, 3); by default the distinct source handles
-        (the tetrahedra are then left out where they form none, unless ``tetrahedra`` is
-        given).
+        (the tetrahedra are then left out where they form none), or, with ``tetrahedra``,
+        the source handles ``m.src`` as they are, repeated ones included.
     grid : int, optional
         The error field at every voxel (1), or every ``grid`` voxels, interpolated.
     jacobian_grid : int, optional
         The step of the cells of det J and of the folds (default: ``grid``).
     tetrahedra : array_like, optional
-        (T, 4) indices into the reference points: the user's tetrahedra instead of Delaunay's.
+        (T, 4) indices into the reference points (into ``m.src`` where none are given): the
+        user's tetrahedra instead of Delaunay's.
     min_quality : float, optional
         The radius ratio below which a tetrahedron is a sliver (:func:`tetrahedron_errors`).
     angle : {"degrees", "paper"}, optional
@@ -279,7 +287,7 @@ def volume_report(
     try:
         found = tetrahedron_errors(
             measured,
-            _distinct(src) if reference_points is None else reference_points,
+            _default_points(src, tetrahedra) if reference_points is None else reference_points,
             tetrahedra=tetrahedra,
             min_quality=min_quality,
             angle=angle,

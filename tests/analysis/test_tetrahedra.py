@@ -191,6 +191,25 @@ def test_an_angle_measure_of_another_type_is_a_type_error():
             tetrahedron_errors(lambda r: r, CORNER, angle=angle)
 
 
+def test_ragged_rows_are_a_value_error_naming_the_argument():
+    with pytest.raises(ValueError, match=r"tetrahedra must be \(T, 4\).*rows of different"):
+        tetrahedron_errors(lambda r: r, CORNER, tetrahedra=[[0, 1, 2, 3], [0, 1]])
+    ragged = [[0, 0, 0], [1, 0, 0], [0, 1], [0, 0, 1]]
+    with pytest.raises(ValueError, match=r"reference_points must .*rows of different"):
+        tetrahedron_errors(lambda r: r, ragged)
+    with pytest.raises(ValueError, match=r"src must .*rows of different"):
+        ReferenceDeformation(ragged, CORNER)
+
+
+def test_tetrahedra_of_zero_volume_are_named_where_every_one_is_a_sliver():
+    points = np.array([[0.0, 0, 0], [10, 0, 0], [0, 10, 0], [10, 10, 0], [10, 10, 0.01]])
+    flat = r"zero volume, which no min_quality keeps .*tetrahedra\[1\] = \[0, 1, 2, 3\]"
+    with pytest.raises(ValueError, match=flat):
+        tetrahedron_errors(lambda r: r, points, tetrahedra=[[0, 1, 2, 4], [0, 1, 2, 3]])
+    with pytest.raises(ValueError, match=r"lower min_quality$"):  # a sliver, none flat
+        tetrahedron_errors(lambda r: r, points, tetrahedra=[[0, 1, 2, 4]])
+
+
 def test_tetrahedra_that_are_not_integers_are_a_type_error():
     for tetrahedra in ([[0.0, 1, 2, 3]], [[True, False, True, False]], [["0", "1", "2", "3"]]):
         with pytest.raises(TypeError, match="tetrahedra must be integer indices, got dtype"):

@@ -125,6 +125,15 @@ def test_the_users_tetrahedra_over_the_handles_are_checked_not_left_out(gl):
     assert found.summary["tetrahedra"]["tetrahedra"] == 1
 
 
+def test_the_users_tetrahedra_index_the_handles_as_they_are_repeats_included(gl):
+    src = np.concatenate([SRC[:1], SRC])  # the first handle twice
+    m = ReferenceDeformation(src, src + [1.0, 0, 0], shape=SHAPE)
+    found = volume_report(volume(), m, grid=4, tetrahedra=[[1, 2, 3, 4], [4, 5, 6, 7]], warp=False)
+    assert_array_equal(found.tetrahedra.points, src)
+    kept = found.tetrahedra.simplices
+    assert_array_equal(found.tetrahedra.points[kept], src[[[1, 2, 3, 4], [4, 5, 6, 7]]])
+
+
 @pytest.mark.parametrize(
     ("kwargs", "error", "message"),
     [
