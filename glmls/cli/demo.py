@@ -90,6 +90,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--targets", type=Path, metavar="DST", help=TARGETS_HELP)
     parser.add_argument(
+        "--world",
+        action="store_true",
+        help="a NIfTI volume's handles are world coordinates of its affine, as for glmls warp",
+    )
+    parser.add_argument(
         "--spacing",
         type=parse_spacing,
         metavar="DZ,DY,DX",

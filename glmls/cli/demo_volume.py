@@ -10,7 +10,8 @@ The voxel spacing is ``glmls warp``'s: ``--spacing DZ,DY,DX``, else the file's (
 affine, an ImageJ stack's spacing), else 1; the handles are in its units (voxel (i, j, k) at
 (i dx, j dy, k dz)), the views show the physical aspect and ``s`` saves the deformed volume
 in the input's format with its spacing (and a NIfTI's affine). The phantom's own handles,
-given in its voxels, are scaled by ``--spacing``.
+given in its voxels, are scaled by ``--spacing``. With ``--world`` (a NIfTI volume) the
+handles are world coordinates of its affine, as for ``glmls warp``.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from ..errors import InputFileError
 from ..files.landmarks import handle_dimension, read_handles
 from ..files.volumes import Volume, is_volume_file, read_volume, volume_suffix
 from .demo_window import fail, replay_events, run_window, start_settings, window_options
-from .warp3d import image_options_given, volume_handle_warnings, voxel_handles
+from .warp3d import image_options_given, volume_handle_warnings, voxel_handles, world_handles
 
 __all__ = ["run_volume", "volume_inputs"]
 
@@ -62,10 +63,11 @@ def volume_inputs(
 
     wanted = args.volume or (args.image is not None and _is_volume(args.image))
     if not wanted and not (args.image is None and _three_d_handles(args.handles, args.targets)):
-        if args.spacing is not None:
-            raise ValueError(
-                f"--spacing: for volumes, not for images ({args.image or 'the photograph'})"
-            )
+        for given, option in ((args.spacing is not None, "--spacing"), (args.world, "--world")):
+            if given:
+                raise ValueError(
+                    f"{option}: for volumes, not for images ({args.image or 'the photograph'})"
+                )
         return None
     if args.image is None:
         volume, name = Volume(data.phantom(), spacing=args.spacing), "phantom"
@@ -86,6 +88,14 @@ def volume_inputs(
             )
         src, dst = read_handles(args.handles, dst=args.targets, ndim=3)
         src, dst = voxel_handles(args, src, dst, volume.spacing)
+        if args.world and args.image is None:
+            raise ValueError(
+                "--world: the phantom has no affine to map world coordinates by (only NIfTI "
+                "volumes, .nii and .nii.gz, have one)"
+            )
+        src, dst = world_handles(args, volume, volume.spacing, src, dst, source=args.image)
+    elif args.world:
+        raise ValueError("--world: says how to read --handles, which are not given")
     return volume, name, src, dst
 
 
@@ -133,7 +143,8 @@ def run_volume(args: argparse.Namespace, inputs: tuple) -> int:
         )
     except (ValueError, TypeError) as error:
         return fail(2, str(error))
-    if args.handles is not None:  # as glmls warp says it; no affine: no --world hint here
-        for message in volume_handle_warnings(args, src, volume.shape, volume.spacing, None):
+    if args.handles is not None:  # as glmls warp says it
+        messages = volume_handle_warnings(args, src, volume.shape, volume.spacing, volume.affine)
+        for message in messages:
             print(f"glmls demo: warning: {args.image or name}: {message}", file=sys.stderr)
     return run_window(app, args, events)

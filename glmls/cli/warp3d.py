@@ -176,12 +176,13 @@ def read_3d_handles(args: argparse.Namespace, kind: str) -> tuple[np.ndarray, np
     return read_handles(args.handles, dst=args.targets, ndim=3)
 
 
-def check_world(args: argparse.Namespace) -> None:
-    """``--world`` only with a NIfTI volume (the file whose affine defines the world), and
-    not with an elastix pair of voxel indices; :class:`UsageError` otherwise."""
+def check_world(args: argparse.Namespace, source: Path | None = None) -> None:
+    """``--world`` only with a NIfTI volume (the file whose affine defines the world:
+    ``source``, else ``IN``), and not with an elastix pair of voxel indices;
+    :class:`UsageError` otherwise."""
     if not getattr(args, "world", False):
         return
-    name = args.input or "the example"
+    name = source or args.input or "the example"
     if volume_suffix(name) not in (".nii", ".nii.gz"):
         raise UsageError(
             f"--world: {name} has no affine to map world coordinates by (only NIfTI volumes, "
@@ -197,17 +198,21 @@ def check_world(args: argparse.Namespace) -> None:
         )
 
 
-def world_handles(args: argparse.Namespace, volume: Volume, spacing, src, dst, *points):
+def world_handles(
+    args: argparse.Namespace, volume: Volume, spacing, src, dst, *points, source=None
+):
     """The handles ``src``, ``dst`` and other ``points`` (each (N, 3), or None) as they are,
     or with ``--world`` mapped from world coordinates through the inverse of the volume's
     affine to (i dx, j dy, k dz) of ``spacing`` (:func:`glmls.files.world_to_volume`): RAS+
     (nibabel's), except the handles of an elastix pair of ``point`` files, which are ITK's
-    physical points, LPS (x and y negated)."""
+    physical points, LPS (x and y negated). ``source``: the volume's file (``IN`` by
+    default)."""
     if not getattr(args, "world", False):
         return (src, dst, *points)
-    check_world(args)
+    source = source or args.input
+    check_world(args, source)
     if volume.affine is None:  # a NIfTI file always has one: checked all the same
-        raise UsageError(f"--world: {args.input} has no affine")
+        raise UsageError(f"--world: {source} has no affine")
     lps = elastix_physical(args.handles, dst=args.targets)
     try:
         return tuple(
@@ -218,7 +223,7 @@ def world_handles(args: argparse.Namespace, volume: Volume, spacing, src, dst, *
             for p in points
         )
     except ValueError as error:
-        raise UsageError(f"--world: {args.input}: {error}") from None
+        raise UsageError(f"--world: {source}: {error}") from None
 
 
 def _inside(points: np.ndarray, shape, scale: np.ndarray) -> np.ndarray:

@@ -175,3 +175,43 @@ def test_world_handles_with_a_spacing_out_of_proportion_are_warned_of(nifti, gl,
     assert err.count("out of proportion") == 1, err
     assert main([*argv, "--spacing", "20,8,5"]) == 0
     assert "warning" not in capsys.readouterr().err
+
+
+def test_demo_takes_world_handles_as_warp_does(nifti, capsys):
+    """``glmls demo VOLUME --world``: the window's handles are the world handles mapped as
+    ``glmls warp --world`` maps them (checked without opening the window); refused without
+    an affine, without handles, and for images."""
+    from glmls.cli.demo_volume import volume_inputs
+    from glmls.cli.main import build_parser
+
+    parse = build_parser().parse_args
+    _, _, src, dst = volume_inputs(parse(["demo", "v.nii.gz", "--handles", "world.json", "--world"]))
+    units = json.loads((nifti / "units.json").read_text())
+    assert_allclose(src, units["src"], atol=1e-9)
+    assert_allclose(dst, units["dst"], atol=1e-9)
+    np.save(nifti / "v.npy", np.zeros(SHAPE, np.float32))
+    glmls.imwrite(nifti / "i.png", np.zeros((8, 8), np.uint8))
+    (nifti / "h2.json").write_text(json.dumps({"src": [[1, 1]], "dst": [[2, 1]]}))
+    for argv, words in (
+        (["demo", "v.npy", "--handles", "units.json", "--world"], "affine"),
+        (["demo", "--handles", "units.json", "--world"], "affine"),
+        (["demo", "v.nii.gz", "--world"], "--handles"),
+        (["demo", "i.png", "--handles", "h2.json", "--world"], "not for images"),
+    ):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert "--world" in err and words in err and err.count("\n") == 1, err
+
+
+def test_demo_hints_at_world_for_world_handles_given_without_it(nifti, capsys, monkeypatch):
+    """World handles given to the volume window without ``--world`` get ``glmls warp``'s
+    hint (the window opens all the same)."""
+    from glmls.cli import demo_volume
+
+    monkeypatch.setattr(demo_volume, "run_window", lambda app, args, events: 0)
+    monkeypatch.setattr("glmls.app.volume_window.VolumeApp", lambda *a, **k: None)
+    (nifti / "far.json").write_text(
+        json.dumps({"src": _to_world(np.full((4, 3), 2.0)).tolist(), "dst": [[0, 0, 0]] * 4})
+    )
+    assert main(["demo", "v.nii.gz", "--handles", "far.json"]) == 0
+    assert "add --world" in capsys.readouterr().err
