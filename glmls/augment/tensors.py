@@ -5,7 +5,10 @@ tensor is recognised only where torch is already imported (``sys.modules``). Int
 Images are taken in torch's layout, (N, C, H, W) or (N, H, W), or as a list of (C, H, W) or
 (H, W) tensors (a ragged batch), and come back in it, of their dtype and on their device
 (contiguous, whatever their memory format or strides); half-precision tensors (float16,
-bfloat16) go through float32. The results are new tensors, detached: no gradient flows back
+bfloat16) go through float32. Keypoints, boxes and polygons come back of their dtype where it is a
+floating-point one, and as float64 where they came as integers (the moved points lie between
+pixel centres: an integer dtype would cut them to whole pixels). The results are new tensors,
+detached: no gradient flows back
 through the deformation. The deformation itself runs on glmls's OpenGL context, so a CUDA tensor
 goes through the host's memory (``.cpu()``, then ``.to(device)``): one copy each way per batch.
 """
@@ -99,7 +102,7 @@ def to_numpy(value: object) -> object:
     return value
 
 
-def from_numpy(array: object, like: object) -> object:
+def from_numpy(array: object, like: object, *, points: bool = False) -> object:
     """``array`` as a tensor of ``like``'s dtype and device (lists item by item).
 
     Parameters
@@ -108,6 +111,9 @@ def from_numpy(array: object, like: object) -> object:
         The values (for a list ``like``, a list, or one array of the items stacked).
     like : torch.Tensor or list of torch.Tensor
         The tensor whose dtype and device to take (for a list, one per item or one for all).
+    points : bool, default False
+        Coordinates (keypoints, boxes, polygons): where ``like`` is of an integer or bool
+        dtype, the tensor is float64 (as the values are), not cut to whole pixels.
 
     Returns
     -------
@@ -116,9 +122,13 @@ def from_numpy(array: object, like: object) -> object:
 
     Examples
     --------
+    >>> import numpy as np
+    >>> import torch
     >>> from glmls.augment.tensors import from_numpy
     >>> from_numpy(None, None) is None
     True
+    >>> from_numpy(np.array([2.75]), torch.tensor([3]), points=True)
+    tensor([2.7500], dtype=torch.float64)
     """
     if array is None:
         return None
@@ -126,10 +136,13 @@ def from_numpy(array: object, like: object) -> object:
         array = list(array)  # a list's items stacked (masks of one shape): one tensor each
     if isinstance(array, list):
         likes = like if isinstance(like, (list, tuple)) else [like] * len(array)
-        return [from_numpy(a, one) for a, one in zip(array, likes, strict=True)]
+        return [from_numpy(a, one, points=points) for a, one in zip(array, likes, strict=True)]
     torch = sys.modules["torch"]
     tensor = torch.from_numpy(np.ascontiguousarray(array))
-    return tensor.to(device=like.device, dtype=like.dtype)  # type: ignore[attr-defined]
+    dtype = like.dtype  # type: ignore[attr-defined]
+    if points and not (dtype.is_floating_point or dtype.is_complex):
+        dtype = torch.float64  # moved points lie between pixel centres: no integer cut
+    return tensor.to(device=like.device, dtype=dtype)  # type: ignore[attr-defined]
 
 
 def _check_rank(images) -> None:
@@ -192,7 +205,7 @@ def _polygons_back(moved: list | None, polygons: object) -> list | None:
     if moved is None or not isinstance(polygons, (list, tuple)):
         return moved
     return [
-        from_numpy(list(out), list(given)) if is_tensors(given) else out
+        from_numpy(list(out), list(given), points=True) if is_tensors(given) else out
         for out, given in zip(moved, polygons, strict=True)
     ]
 
@@ -202,12 +215,12 @@ def _back(result, images, keypoints, masks, boxes, moved_channels: bool, polygon
     if getattr(result, "polygons", None) is not None:
         changes["polygons"] = _polygons_back(result.polygons, polygons)
     if is_tensors(keypoints) and result.keypoints is not None:
-        changes["keypoints"] = from_numpy(result.keypoints, keypoints)
+        changes["keypoints"] = from_numpy(result.keypoints, keypoints, points=True)
         changes["keypoints_valid"] = _flags(result.keypoints_valid, keypoints)
     if is_tensors(masks) and result.masks is not None:
         changes["masks"] = from_numpy(result.masks, masks)
     if is_tensors(boxes) and result.boxes is not None:
-        changes["boxes"] = from_numpy(result.boxes, boxes)
+        changes["boxes"] = from_numpy(result.boxes, boxes, points=True)
         changes["boxes_valid"] = _flags(result.boxes_valid, boxes)
     return dataclasses.replace(result, **changes)
 

@@ -646,6 +646,30 @@ def test_augment_tensors_in_any_memory_layout(gl, rng):
     assert isinstance(moved, tv_tensors.Image) and not moved.requires_grad
 
 
+def test_augment_integer_label_tensors_come_back_as_the_numpy_call_moves_them(gl):
+    """Keypoints, boxes and polygons given as integer tensors (annotations at whole pixels)
+    come back float64, equal to the numpy call's: cast back to their integer dtype they
+    would be cut to whole pixels, a box's clipped edge at -0.5 to 0."""
+    aug = Augment("grid", seed=1, **GRID)
+    images = np.zeros((2, H, W, 3), np.uint8)
+    points = np.array([[[20, 15], [41, 30]], [[12, 33], [W - 1, H - 1]]])
+    boxes = np.array([[[18, 12, 45, 31]], [[0, 0, W - 1, H - 1]]])
+    square = np.array([[18, 12], [45, 12], [45, 31], [18, 31]])
+    expected = aug(images, keypoints=points, boxes=boxes, polygons=[[square]] * 2)
+    out = aug(
+        torch.from_numpy(images).permute(0, 3, 1, 2),
+        keypoints=torch.from_numpy(points),
+        boxes=torch.from_numpy(boxes.astype(np.int32)),
+        polygons=[[torch.from_numpy(square)]] * 2,
+    )
+    assert out.keypoints.dtype == out.boxes.dtype == out.polygons[0][0].dtype == torch.float64
+    np.testing.assert_array_equal(out.keypoints.numpy(), expected.keypoints)
+    np.testing.assert_array_equal(out.keypoints_valid.numpy(), expected.keypoints_valid)
+    np.testing.assert_array_equal(out.boxes.numpy(), expected.boxes)
+    np.testing.assert_array_equal(out.polygons[1][0].numpy(), expected.polygons[1][0])
+    assert out.boxes[1, 0, 0] == -0.5  # the image's edge, past the last pixel centre
+
+
 def test_augment_tensors_of_the_wrong_rank_name_torchs_layout():
     aug = Augment("grid", seed=1)
     for shape in [(8,), (2, 2, 3, 8, 8)]:
