@@ -404,3 +404,21 @@ def test_backward_with_many_handles_gives_the_same_pixels_every_time(gl):
         first = m.warp(image, method="backward", grid=2)
         for _ in range(3):
             np.testing.assert_array_equal(m.warp(image, method="backward", grid=2), first)
+
+
+@pytest.mark.parametrize("shape", [None, (10, 12)])
+def test_where_f_is_the_identity_the_inverse_is_the_point_itself(gl, shape):
+    """Where f leaves u in place (handles that stay, or u beyond every handle's reach), the
+    inverse at points returns u exactly: the guess's float32 noise would move a point on the
+    canvas's edge (a keypoint at x = -0.5) off it. Elsewhere it is Newton's point."""
+    src = np.array([[1.0, 1.0], [8.0, 2.0], [3.0, 7.0]])
+    points = np.array([[-0.5, 3.0], [3.0, -0.5], [-0.5, -0.5], [11.5, 9.5], [1e3, -2e3]])
+    with glmls.MLS(src, src, shape=shape, ctx=gl) as m:
+        s, valid = m.inverse(points, return_valid=True)
+    assert valid.all() and np.array_equal(s, points)
+    far = np.array([[40.0, 40.0], [-30.0, 55.5], [2.0, 2.0]])  # the last within the reach
+    with glmls.MLS(src, src + 1.0, weight="cressman", radius=6.0, shape=shape, ctx=gl) as m:
+        s, valid = m.inverse(far, return_valid=True)
+        moved = m(s[2:])
+    assert valid.all() and np.array_equal(s[:2], far[:2])
+    assert not np.array_equal(s[2], far[2]) and np.abs(moved - far[2:]).max() < 1e-3

@@ -3,8 +3,9 @@
 Two kinds, both for an image of ``shape`` (H, W) with pixel centres at integer coordinates:
 
 - ``corners`` (step ``grid``): the pixel-square corners x = -0.5, -0.5 + grid, ..., up to
-  W - 0.5 (the last step may be shorter; with a margin, regular to its end), likewise in y. The quads of the paper's forward
-  method are its cells; the error field at ``grid`` > 1 is evaluated there.
+  W - 0.5 (the last step may be shorter; with a margin, regular to its end), likewise in
+  y. The quads of the paper's forward method are its cells; the error field at ``grid`` > 1
+  is evaluated there.
 - ``centres``: the pixel centres x = 0 .. W - 1, y = 0 .. H - 1 (the simple forward method
   and the error field at ``grid`` = 1).
 

@@ -33,6 +33,7 @@ __all__ = [
     "ACCEPT_STEPS",
     "GUESS_MAX_TEXELS",
     "GUESS_TEXELS",
+    "IDENTITY_FOUND",
     "NEWTON_ACCEPT",
     "NEWTON_MAX_STEP",
     "NEWTON_STEPS",
@@ -83,6 +84,10 @@ def length_unit(kernel: MLSKernel) -> float:
     half = max(kernel.extent, scale / 2 if scale > 1 else 0.0)  # scale: the image's box too
     return min(1.0, half / STEP_BOX) if half > 0 else 1.0
 
+
+#: The flag (the fourth value of a point's result) of a point u where f is the identity, whose
+#: preimage is u itself (``warp/inverse_points.comp.glsl``).
+IDENTITY_FOUND = 2.0
 
 #: f's inverse at a list of points stops below this residual instead (pixels): a list is
 #: short next to an image's pixels, and its points are read back as numbers. Where float32

@@ -46,7 +46,7 @@ from .frame import (
     deformed_bounds,
     make_frame,
 )
-from .inverse import InverseSolver
+from .inverse import IDENTITY_FOUND, InverseSolver
 from .options import PipelineOptions, WarpOptions
 from .paper import PaperQuads
 from .quads import CellScan
@@ -466,7 +466,10 @@ class WarpPipeline:
                 shape=kernel.shape,
                 limit=self.max_image_size,
             )
-        return kernel.scaling.from_gpu(out[:, :2]), out[:, 2].astype(np.float64)
+        found = kernel.scaling.from_gpu(out[:, :2])
+        identity = out[:, 3] == IDENTITY_FOUND  # f leaves u in place: u exactly
+        found[identity] = points[identity]
+        return found, out[:, 2].astype(np.float64)
 
     @current
     def bounds(self, mls: Deformation, shape: object, *, grid: int = 1) -> Bounds:

@@ -185,7 +185,8 @@ def test_demo_takes_world_handles_as_warp_does(nifti, capsys):
     from glmls.cli.main import build_parser
 
     parse = build_parser().parse_args
-    _, _, src, dst = volume_inputs(parse(["demo", "v.nii.gz", "--handles", "world.json", "--world"]))
+    argv = ["demo", "v.nii.gz", "--handles", "world.json", "--world"]
+    _, _, src, dst = volume_inputs(parse(argv))
     units = json.loads((nifti / "units.json").read_text())
     assert_allclose(src, units["src"], atol=1e-9)
     assert_allclose(dst, units["dst"], atol=1e-9)

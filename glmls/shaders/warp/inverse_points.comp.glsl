@@ -6,8 +6,9 @@
 // to it, else u itself. Newton's steps may be as long as a few texels (u_max_step), so that
 // the first step goes from a texel's centre to u.
 //
-// Out, per point: (s.x, s.y) scaled, |f(s) - u| in pixels, and whether a texel gave the
-// guess.
+// Out, per point: (s.x, s.y) scaled, |f(s) - u| in pixels, and 1 where a texel gave the
+// guess, 2 where f is the identity at u and s = u (the host returns its own u there, which
+// the scaled coordinates would round).
 //
 // WARP_RESCUE 1: the second dispatch, over the points the first left above the residual
 // accepted (listed on the host, which reads the first's results anyway): inverse_out holds
@@ -87,8 +88,15 @@ void main() {
     // map) Newton's steps are not bounded: any point it ends at within the tolerance is a
     // preimage.
     s = warp_newton(s, u, u_tolerance / u_scale, guessed ? u_max_step : 1e30, residual);
+    // Where f leaves u in place (every handle in reach stays: f - v exactly 0), u is its
+    // preimage exactly, where the guess's texels carry float32 noise that could move a point
+    // on the canvas's edge off it; tested only where Newton ended within its tolerance of u.
+    bool identity = length(s - u) * u_scale <= u_tolerance &&
+                    all(equal(mls_eval(u).d, vec2(0.0)));
+    s = identity ? u : s;
+    residual = identity ? 0.0 : residual;
     if (i < u_count) {
-        inverse_out[i] = vec4(s, residual * u_scale, guessed ? 1.0 : 0.0);
+        inverse_out[i] = vec4(s, residual * u_scale, identity ? 2.0 : (guessed ? 1.0 : 0.0));
     }
 }
 #endif
