@@ -24,6 +24,7 @@ from ..core.handles import as_points
 from ..imaging.source import BORDERS, check_image
 from .field import image_deformation
 from .stats import error_stats
+from .volume_lattice import real_values
 
 __all__ = [
     "ALIGNMENTS",
@@ -252,7 +253,7 @@ def _options(radius: object, alignment: object, border: object, snap: object) ->
 
 
 def _evaluate(f: Callable[[np.ndarray], object], points: np.ndarray, name: str) -> np.ndarray:
-    values = np.array(f(points), dtype=np.float64)
+    values = real_values(f(points), f"{name}(points)")
     if values.shape != points.shape:
         raise ValueError(f"{name}(points) returned shape {values.shape}, expected {points.shape}")
     return values
@@ -273,8 +274,8 @@ def local_maps(
                 f"alignment='matrix' needs an m with matrices(points), got {type(m).__name__}"
             )
         big_m, t = m.matrices(points)  # type: ignore[attr-defined]
-        big_m = np.array(big_m, dtype=np.float64)
-        t = np.array(t, dtype=np.float64)
+        big_m = real_values(big_m, "m.matrices")
+        t = real_values(t, "m.matrices")
         if big_m.shape != (len(points), 2, 2) or t.shape != points.shape:
             raise ValueError(f"m.matrices returned shapes {big_m.shape} and {t.shape}")
         return np.einsum("ki,kij->kj", points, big_m) + t, big_m
@@ -386,9 +387,10 @@ def construction_errors(
     Raises
     ------
     TypeError
-        For unsupported or mismatched dtypes, an ``m`` that is not callable, or an option of
-        the wrong type (a float ``radius``, a string ``snap``, an ``alignment`` or
-        ``border`` that is no string), naming the value.
+        For unsupported or mismatched dtypes, an ``m`` that is not callable or returns values
+        that are not real numbers (complex, bool), or an option of the wrong type (a float
+        ``radius``, a string ``snap``, an ``alignment`` or ``border`` that is no string),
+        naming the value.
     ValueError
         For bad shapes, channel counts, NaN or infinite points or pixels, and bad options,
         naming the value.

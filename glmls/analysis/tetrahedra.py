@@ -367,7 +367,8 @@ def tetrahedron_errors(
         ``min_quality`` out of [0, 1); ``m`` returning the wrong shape or values that are
         not finite.
     TypeError
-        For ``tetrahedra`` that are not integers.
+        For ``tetrahedra`` that are not integers, or an ``m`` that is not callable or returns
+        values that are not real numbers (complex, bool).
 
     See Also
     --------

@@ -26,7 +26,7 @@ from ..core.config import check_choice, check_real
 from ..core.handles import check_reference_points
 from ..mls import MLS
 from .stats import error_stats
-from .volume_lattice import flat_areas
+from .volume_lattice import flat_areas, real_values
 
 #: The angular measures of :func:`triangle_errors` (the first is the default).
 ANGLE_MEASURES = ("degrees", "paper")
@@ -191,9 +191,12 @@ def check_eps(eps: object) -> float:
 
 
 def deformed_points(m: Callable[[np.ndarray], np.ndarray], r: np.ndarray) -> np.ndarray:
-    """f(r) = ``m(r)`` as a new float64 array (the caller may freeze it); ``ValueError`` for
-    another shape than r's or points that are not finite."""
-    deformed = np.array(m(r), dtype=np.float64)  # a copy: the caller freezes it
+    """f(r) = ``m(r)`` as a new float64 array (the caller may freeze it); ``TypeError`` for an
+    ``m`` that is not callable or values that are not real numbers (complex, bool),
+    ``ValueError`` for another shape than r's or points that are not finite."""
+    if not callable(m):
+        raise TypeError(f"m must be a glmls.MLS or a function of points, got {type(m).__name__}")
+    deformed = real_values(m(r), "m(points)")  # a copy: the caller freezes it
     if deformed.shape != r.shape:
         raise ValueError(f"m(points) returned shape {deformed.shape}, expected {r.shape}")
     if not np.isfinite(deformed).all():
@@ -280,6 +283,9 @@ def triangle_errors(
         For fewer than 3 points, NaN, duplicates or points all on one line; an unknown
         ``angle``; ``eps`` <= 0 or infinite; ``m`` returning the wrong shape or points that are not
         finite.
+    TypeError
+        For an ``m`` that is not callable or that returns values that are not real numbers
+        (complex, bool).
 
     See Also
     --------

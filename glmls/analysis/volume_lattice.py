@@ -31,6 +31,7 @@ __all__ = [
     "flat_triples",
     "interpolate_axis",
     "lattice_points",
+    "real_values",
     "spacing_scale",
 ]
 
@@ -154,6 +155,25 @@ def lattice_points(z: np.ndarray, y: np.ndarray, x: np.ndarray) -> np.ndarray:
     return np.stack([xx.ravel(), yy.ravel(), zz.ravel()], axis=1)
 
 
+def real_values(values: object, what: str) -> np.ndarray:
+    """``values`` (what ``what`` returned) as a new float64 array; ``TypeError`` naming
+    ``what`` for values that are not real numbers (complex, bool, strings, None): casting
+    them would drop an imaginary part or read True as 1 without a word."""
+    try:
+        array = np.asarray(values)
+    except ValueError:  # ragged rows
+        raise ValueError(f"{what} returned rows of different lengths") from None
+    if array.dtype.kind not in "iuf":
+        try:  # an object array of plain numbers is numbers
+            array = np.asarray(array, dtype=np.float64) if array.dtype.kind == "O" else None
+        except (TypeError, ValueError):
+            array = None
+        if array is None:
+            kind = np.asarray(values).dtype
+            raise TypeError(f"{what} returned {kind} values, expected real numbers")
+    return np.array(array, dtype=np.float64)
+
+
 def evaluate(
     function: Callable[[np.ndarray], np.ndarray], points: np.ndarray, width: int
 ) -> np.ndarray:
@@ -162,7 +182,7 @@ def evaluate(
     out = np.empty((len(points), width))
     for start in range(0, len(points), CHUNK):
         block = points[start : start + CHUNK]
-        values = np.asarray(function(block), dtype=np.float64).reshape(len(block), -1)
+        values = real_values(function(block), "m").reshape(len(block), -1)
         if values.shape[1] != width:
             raise ValueError(f"m returned {values.shape[1]} values per point, expected {width}")
         out[start : start + len(block)] = values

@@ -282,6 +282,8 @@ def bad_cases(image):
         ((image, image, ident, [["a", "b"]]), {}, TypeError, "points must be real"),
         ((image, image, "f", ok), {}, TypeError, "m must be"),
         ((image, image, wrong_shape, ok), {}, ValueError, "returned shape"),
+        ((image, image, lambda v: v + 0j, ok), {}, TypeError, "complex128 values"),
+        ((image, image, lambda v: v > 0, ok), {}, TypeError, "bool values"),
         ((image, image, ident, ok), {"radius": -1}, ValueError, "radius"),
         ((image, image, ident, ok), {"radius": 1.5}, TypeError, "radius"),
         ((image, image, ident, ok), {"radius": True}, TypeError, "radius"),

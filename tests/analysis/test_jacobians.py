@@ -181,6 +181,8 @@ def test_bad_arguments_raise():
         cell_jacobians(lambda v: v[:, :2], (2, 2, 2))
     with pytest.raises(ValueError, match="NaN"):
         cell_jacobians(lambda v: v * np.nan, (2, 2, 2))
+    with pytest.raises(TypeError, match="complex128 values, expected real numbers"):
+        cell_jacobians(lambda v: v + 0j, (2, 2, 2))
 
 
 def test_slabs_of_cells_give_the_same_cells(monkeypatch):

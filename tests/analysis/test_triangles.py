@@ -132,6 +132,19 @@ def test_bad_eps_and_bad_mapping():
         glmls.analysis.triangle_errors(lambda v: v[:2], r)
 
 
+def test_a_mapping_of_other_than_real_numbers_is_named():
+    # complex points were cast to their real part and scored as exact, bool ones as 0 and 1
+    r = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
+    for wrong in (lambda v: v + 0j, lambda v: v > 0, lambda v: v.astype(str)):
+        with pytest.raises(TypeError, match=r"m\(points\) returned .* expected real numbers"):
+            glmls.analysis.triangle_errors(wrong, r)
+    with pytest.raises(TypeError, match=r"m must be a glmls\.MLS or a function of points, got int"):
+        glmls.analysis.triangle_errors(3, r)
+    # plain numbers in a list or an object array stay welcome
+    assert glmls.analysis.triangle_errors(lambda v: v.tolist(), r).angle.tolist() == [0.0]
+    assert glmls.analysis.triangle_errors(lambda v: v.astype(object), r).angle.tolist() == [0.0]
+
+
 def test_results_are_read_only(rng):
     errors = glmls.analysis.triangle_errors(lambda v: 2 * v, rng.uniform(0, 9, (6, 2)))
     with pytest.raises(ValueError, match="read-only"):
