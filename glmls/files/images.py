@@ -3,8 +3,8 @@
 - PNG: Pillow, except 16-bit colour and grey-with-alpha PNGs (Pillow reduces them to 8 bits),
   which imagecodecs (libpng) decodes and encodes; the orientation of an ``eXIf`` chunk applied.
 - TIFF: tifffile (16-bit colour, float32, float64 as they are); the orientation tag applied;
-  palette, CMYK, min-is-white and 1-bit TIFFs converted to the colours shown, as Pillow
-  converts them.
+  palette, CMYK, YCbCr, min-is-white and 1-bit TIFFs converted to the colours shown, as Pillow
+  converts them; CIE L*a*b* and LogLuv TIFFs refused.
 - Everything else Pillow reads: JPEG, BMP, WebP, GIF, ...; the EXIF orientation is applied, and
   an animated image gives its first frame with an :class:`~glmls.errors.ImageWarning`.
 
@@ -81,7 +81,12 @@ _CORRUPT = (
 _pillow_lock = threading.Lock()
 _pillow_saved: int | None = None  # Pillow's own limit while a read has set ours
 #: TIFF photometric interpretations whose stored values are not the colours shown.
-_MINISWHITE, _PALETTE, _CMYK = 0, 3, 5
+_MINISWHITE, _RGB, _PALETTE, _CMYK, _YCBCR = 0, 2, 3, 5, 6
+#: CIE L*a*b* (8 bits, ICC, ITU) and LogL, LogLuv: encodings glmls does not convert.
+_UNCONVERTED = {8: "CIE L*a*b*", 9: "ICC L*a*b*", 10: "ITU L*a*b*", 32844: "LogL", 32845: "LogLuv"}
+#: TIFF compressions by JPEG (old and new), whose decoder turns YCbCr into RGB.
+_JPEG = (6, 7)
+_SEPARATE = 2  # TIFF planar configuration: each sample a plane of its own
 
 
 def _too_large(path: Path, width: int, height: int, max_pixels: int) -> None:
@@ -251,12 +256,15 @@ def _read_tiff(path: Path, max_pixels: int) -> np.ndarray:
             )
         array = page.asarray()
         photometric, colormap = int(page.photometric), page.colormap
+        planar = int(page.planarconfig) == _SEPARATE
+        if photometric == _YCBCR and int(page.compression) in _JPEG:
+            photometric = _RGB  # the JPEG decoder gives RGB
         orientation = page.tags.get("Orientation")
         code = int(orientation.value) if orientation is not None else 1
     if array.ndim not in (2, 3) or not array.size:
         raise ValueError(f"{path}: not an image: its first page is of shape {array.shape}")
-    if array.ndim == 3 and array.shape[0] in (3, 4) and array.shape[2] not in (1, 2, 3, 4):
-        array = np.moveaxis(array, 0, -1)  # planar storage
+    if array.ndim == 3 and planar:
+        array = np.moveaxis(array, 0, -1)  # planar storage: samples first
     return _orient(np.ascontiguousarray(_as_shown(path, array, photometric, colormap)), code)
 
 
@@ -264,7 +272,13 @@ def _as_shown(
     path: Path, array: np.ndarray, photometric: int, colormap: np.ndarray | None
 ) -> np.ndarray:
     """A TIFF's stored numbers as the colours they show, as Pillow converts them: palette
-    indices through the colormap, CMYK inks to RGB, min-is-white inverted, 1-bit to RGB."""
+    indices through the colormap, CMYK inks to RGB, YCbCr to RGB, min-is-white inverted, 1-bit
+    to RGB; a CIE L*a*b* or LogLuv TIFF is refused."""
+    if photometric in _UNCONVERTED:
+        raise ValueError(
+            f"{path}: a TIFF of {_UNCONVERTED[photometric]} colours; glmls reads grey, RGB, "
+            "palette, CMYK and YCbCr TIFFs: convert it to RGB"
+        )
     if array.dtype == bool:
         white = array != (photometric == _MINISWHITE)
         return np.repeat((white * np.uint8(255))[..., None], 3, axis=2)
@@ -281,6 +295,13 @@ def _as_shown(
                 "8-bit CMYK: convert it to RGB"
             )
         return np.asarray(Image.fromarray(array, "CMYK").convert("RGB"))
+    if photometric == _YCBCR:
+        if array.dtype != np.uint8 or array.ndim != 3 or array.shape[2] != 3:
+            raise ValueError(
+                f"{path}: a YCbCr TIFF of {array.dtype.name} x {array.shape[-1]}; glmls reads "
+                "8-bit YCbCr: convert it to RGB"
+            )
+        return np.asarray(Image.fromarray(array, "YCbCr").convert("RGB"))
     return array
 
 
