@@ -5,6 +5,7 @@
 - TIFF: tifffile (16-bit colour, float32, float64 as they are); the orientation tag applied;
   palette, CMYK, YCbCr, min-is-white and 1-bit TIFFs converted to the colours shown, as Pillow
   converts them; CIE L*a*b* and LogLuv TIFFs refused.
+- 16-bit colour PPM: read here (Pillow reduces it to 8 bits), as uint16.
 - Everything else Pillow reads: JPEG, BMP, WebP, GIF, ...; the EXIF orientation is applied, and
   an animated image gives its first frame with an :class:`~glmls.errors.ImageWarning`.
 
@@ -35,6 +36,7 @@ from PIL import Image, ImageOps, UnidentifiedImageError
 from ..core.config import check_integer
 from ..errors import ImageWarning
 from .atomic import atomic_write
+from .netpbm import is_ppm16, ppm16
 from .profiles import profile_problem, with_png_profile
 from .tiffs import TIFF_SIGNATURES, quiet_tifffile
 
@@ -128,7 +130,7 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     Returns
     -------
     numpy.ndarray
-        H x W (grey) or H x W x C; uint8, uint16 (16-bit PNG and TIFF), float32 or float64
+        H x W (grey) or H x W x C; uint8, uint16 (16-bit PNG, TIFF, PPM), float32 or float64
         (TIFF); a TIFF of another dtype (int8, int16, int32, uint32, float16, ...) as it is
         stored, which :func:`glmls.warp` takes converted (to float32, say).
 
@@ -170,6 +172,8 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     try:
         if head.startswith(_PNG) and len(head) >= 26 and head[24] == 16:
             return _read_png16(path, head, max_pixels)
+        if head.startswith(b"P6") and (header := is_ppm16(_head(path, 4096))):
+            return _read_ppm16(path, header, max_pixels)
         if head[:4] in TIFF_SIGNATURES:
             return _read_tiff(path, max_pixels)
         return _read_pillow(path, max_pixels)
@@ -193,6 +197,19 @@ def _read_png16(path: Path, head: bytes, max_pixels: int) -> np.ndarray:
     if frames > 1:  # libpng decodes the default image: an APNG's first frame
         warnings.warn(f"{path}: {frames} frames; reading the first", ImageWarning, stacklevel=4)
     return _orient(array, orientation)
+
+
+def _head(path: Path, size: int) -> bytes:
+    with open(path, "rb") as file:
+        return file.read(size)
+
+
+def _read_ppm16(path: Path, header: tuple[int, int, int, int], max_pixels: int) -> np.ndarray:
+    _too_large(path, header[0], header[1], max_pixels)
+    try:
+        return ppm16(path.read_bytes(), header)
+    except ValueError as error:
+        raise ValueError(f"{path}: corrupt or truncated 16-bit PPM ({error})") from None
 
 
 def _png_chunks(data: bytes) -> tuple[int, int]:

@@ -300,3 +300,27 @@ def test_lab_tiffs_are_refused(tmp_path, rng):
     Image.fromarray(rgb).convert("LAB").save(tmp_path / "lab.tif")
     with pytest.raises(ValueError, match=r"lab.tif: a TIFF of CIE L\*a\*b\* colours"):
         glmls.imread(tmp_path / "lab.tif")
+
+
+@pytest.mark.parametrize("maxval", [65535, 4095])
+def test_16_bit_colour_ppm_keeps_its_depth(tmp_path, rng, maxval):
+    """A 16-bit P6 PPM reads as uint16 (Pillow reduces it to 8 bits), scaled to 0..65535 as
+    Pillow scales a 16-bit grey P5 of the same maximum value; a truncated one is refused."""
+    stored = rng.integers(0, maxval + 1, (5, 7), dtype=np.uint16)
+    samples = np.repeat(stored[..., None], 3, axis=2).astype(">u2").tobytes()
+    header = f"P6\n# made by a test\n7 5\n{maxval}\n".encode()
+    (tmp_path / "c.ppm").write_bytes(header + samples)
+    (tmp_path / "g.pgm").write_bytes(
+        f"P5\n7 5\n{maxval}\n".encode() + stored.astype(">u2").tobytes()
+    )
+    read = glmls.imread(tmp_path / "c.ppm")
+    assert read.dtype == np.uint16
+    with Image.open(tmp_path / "g.pgm") as grey:
+        expected = np.asarray(grey).astype(np.uint16)
+    for channel in range(3):
+        assert_array_equal(read[..., channel], expected)
+    (tmp_path / "t.ppm").write_bytes(header + samples[:-4])
+    with pytest.raises(ValueError, match=r"t.ppm: corrupt or truncated 16-bit PPM"):
+        glmls.imread(tmp_path / "t.ppm")
+    with pytest.raises(ValueError, match=r"c.ppm: 7 x 5 = 35 pixels exceeds the limit of 34"):
+        glmls.imread(tmp_path / "c.ppm", max_pixels=34)
