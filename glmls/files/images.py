@@ -172,7 +172,7 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     try:
         if head.startswith(_PNG) and len(head) >= 26 and head[24] == 16:
             return _read_png16(path, head, max_pixels)
-        if head.startswith(b"P6") and (header := is_ppm16(_head(path, 4096))):
+        if head[:2] in (b"P3", b"P6") and (header := is_ppm16(_head(path, 4096))):
             return _read_ppm16(path, header, max_pixels)
         if head[:4] in TIFF_SIGNATURES:
             return _read_tiff(path, max_pixels)

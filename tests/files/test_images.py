@@ -324,3 +324,15 @@ def test_16_bit_colour_ppm_keeps_its_depth(tmp_path, rng, maxval):
         glmls.imread(tmp_path / "t.ppm")
     with pytest.raises(ValueError, match=r"c.ppm: 7 x 5 = 35 pixels exceeds the limit of 34"):
         glmls.imread(tmp_path / "c.ppm", max_pixels=34)
+
+
+def test_16_bit_text_ppm_keeps_its_depth(tmp_path):
+    (tmp_path / "a.ppm").write_text(
+        "P3\n# text\n2 1\n65535\n1000 2000 3000 # a\n40000 50000 60000\n"
+    )
+    read = glmls.imread(tmp_path / "a.ppm")
+    assert read.dtype == np.uint16
+    assert read.tolist() == [[[1000, 2000, 3000], [40000, 50000, 60000]]]
+    (tmp_path / "b.ppm").write_text("P3\n2 1\n65535\n1 2 3 4 5 99999999999999999999999999\n")
+    with pytest.raises(ValueError, match=r"b.ppm: corrupt or truncated 16-bit PPM \(a sample"):
+        glmls.imread(tmp_path / "b.ppm")
