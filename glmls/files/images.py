@@ -3,8 +3,9 @@
 - PNG: Pillow, except 16-bit colour and grey-with-alpha PNGs (Pillow reduces them to 8 bits),
   which imagecodecs (libpng) decodes and encodes; the orientation of an ``eXIf`` chunk applied.
 - TIFF: tifffile (16-bit colour, float32, float64 as they are); the orientation tag applied;
-  palette, CMYK, min-is-white and 1-bit TIFFs converted to the colours shown, as Pillow
-  converts them.
+  palette, CMYK, YCbCr, min-is-white and 1-bit TIFFs converted to the colours shown, as Pillow
+  converts them; CIE L*a*b* and LogLuv TIFFs refused.
+- 16-bit colour PPM: read here (Pillow reduces it to 8 bits), as uint16.
 - Everything else Pillow reads: JPEG, BMP, WebP, GIF, ...; the EXIF orientation is applied, and
   an animated image gives its first frame with an :class:`~glmls.errors.ImageWarning`.
 
@@ -35,6 +36,7 @@ from PIL import Image, ImageOps, UnidentifiedImageError
 from ..core.config import check_integer
 from ..errors import ImageWarning
 from .atomic import atomic_write
+from .netpbm import is_ppm16, ppm16
 from .profiles import profile_problem, with_png_profile
 from .tiffs import TIFF_SIGNATURES, quiet_tifffile
 
@@ -81,7 +83,12 @@ _CORRUPT = (
 _pillow_lock = threading.Lock()
 _pillow_saved: int | None = None  # Pillow's own limit while a read has set ours
 #: TIFF photometric interpretations whose stored values are not the colours shown.
-_MINISWHITE, _PALETTE, _CMYK = 0, 3, 5
+_MINISWHITE, _RGB, _PALETTE, _CMYK, _YCBCR = 0, 2, 3, 5, 6
+#: CIE L*a*b* (8 bits, ICC, ITU) and LogL, LogLuv: encodings glmls does not convert.
+_UNCONVERTED = {8: "CIE L*a*b*", 9: "ICC L*a*b*", 10: "ITU L*a*b*", 32844: "LogL", 32845: "LogLuv"}
+#: TIFF compressions by JPEG (old and new), whose decoder turns YCbCr into RGB.
+_JPEG = (6, 7)
+_SEPARATE = 2  # TIFF planar configuration: each sample a plane of its own
 
 
 def _too_large(path: Path, width: int, height: int, max_pixels: int) -> None:
@@ -123,7 +130,7 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     Returns
     -------
     numpy.ndarray
-        H x W (grey) or H x W x C; uint8, uint16 (16-bit PNG and TIFF), float32 or float64
+        H x W (grey) or H x W x C; uint8, uint16 (16-bit PNG, TIFF, PPM), float32 or float64
         (TIFF); a TIFF of another dtype (int8, int16, int32, uint32, float16, ...) as it is
         stored, which :func:`glmls.warp` takes converted (to float32, say).
 
@@ -165,6 +172,8 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     try:
         if head.startswith(_PNG) and len(head) >= 26 and head[24] == 16:
             return _read_png16(path, head, max_pixels)
+        if head[:2] in (b"P3", b"P6") and (header := is_ppm16(_head(path, 4096))):
+            return _read_ppm16(path, header, max_pixels)
         if head[:4] in TIFF_SIGNATURES:
             return _read_tiff(path, max_pixels)
         return _read_pillow(path, max_pixels)
@@ -188,6 +197,19 @@ def _read_png16(path: Path, head: bytes, max_pixels: int) -> np.ndarray:
     if frames > 1:  # libpng decodes the default image: an APNG's first frame
         warnings.warn(f"{path}: {frames} frames; reading the first", ImageWarning, stacklevel=4)
     return _orient(array, orientation)
+
+
+def _head(path: Path, size: int) -> bytes:
+    with open(path, "rb") as file:
+        return file.read(size)
+
+
+def _read_ppm16(path: Path, header: tuple[int, int, int, int], max_pixels: int) -> np.ndarray:
+    _too_large(path, header[0], header[1], max_pixels)
+    try:
+        return ppm16(path.read_bytes(), header)
+    except ValueError as error:
+        raise ValueError(f"{path}: corrupt or truncated 16-bit PPM ({error})") from None
 
 
 def _png_chunks(data: bytes) -> tuple[int, int]:
@@ -251,12 +273,15 @@ def _read_tiff(path: Path, max_pixels: int) -> np.ndarray:
             )
         array = page.asarray()
         photometric, colormap = int(page.photometric), page.colormap
+        planar = int(page.planarconfig) == _SEPARATE
+        if photometric == _YCBCR and int(page.compression) in _JPEG:
+            photometric = _RGB  # the JPEG decoder gives RGB
         orientation = page.tags.get("Orientation")
         code = int(orientation.value) if orientation is not None else 1
     if array.ndim not in (2, 3) or not array.size:
         raise ValueError(f"{path}: not an image: its first page is of shape {array.shape}")
-    if array.ndim == 3 and array.shape[0] in (3, 4) and array.shape[2] not in (1, 2, 3, 4):
-        array = np.moveaxis(array, 0, -1)  # planar storage
+    if array.ndim == 3 and planar:
+        array = np.moveaxis(array, 0, -1)  # planar storage: samples first
     return _orient(np.ascontiguousarray(_as_shown(path, array, photometric, colormap)), code)
 
 
@@ -264,7 +289,13 @@ def _as_shown(
     path: Path, array: np.ndarray, photometric: int, colormap: np.ndarray | None
 ) -> np.ndarray:
     """A TIFF's stored numbers as the colours they show, as Pillow converts them: palette
-    indices through the colormap, CMYK inks to RGB, min-is-white inverted, 1-bit to RGB."""
+    indices through the colormap, CMYK inks to RGB, YCbCr to RGB, min-is-white inverted, 1-bit
+    to RGB; a CIE L*a*b* or LogLuv TIFF is refused."""
+    if photometric in _UNCONVERTED:
+        raise ValueError(
+            f"{path}: a TIFF of {_UNCONVERTED[photometric]} colours; glmls reads grey, RGB, "
+            "palette, CMYK and YCbCr TIFFs: convert it to RGB"
+        )
     if array.dtype == bool:
         white = array != (photometric == _MINISWHITE)
         return np.repeat((white * np.uint8(255))[..., None], 3, axis=2)
@@ -281,6 +312,13 @@ def _as_shown(
                 "8-bit CMYK: convert it to RGB"
             )
         return np.asarray(Image.fromarray(array, "CMYK").convert("RGB"))
+    if photometric == _YCBCR:
+        if array.dtype != np.uint8 or array.ndim != 3 or array.shape[2] != 3:
+            raise ValueError(
+                f"{path}: a YCbCr TIFF of {array.dtype.name} x {array.shape[-1]}; glmls reads "
+                "8-bit YCbCr: convert it to RGB"
+            )
+        return np.asarray(Image.fromarray(array, "YCbCr").convert("RGB"))
     return array
 
 

@@ -260,3 +260,79 @@ def test_16_bit_palette_and_cmyk_tiffs(tmp_path):
     tifffile.imwrite(tmp_path / "c.tif", np.zeros((3, 4, 4), np.uint16), photometric="separated")
     with pytest.raises(ValueError, match=r"c.tif: a CMYK TIFF of uint16 x 4; glmls reads 8-bit"):
         glmls.imread(tmp_path / "c.tif")
+
+
+@pytest.mark.parametrize("channels", [3, 4])
+@pytest.mark.parametrize("shape", [(2, 3), (4, 4), (3, 2), (6, 9)])
+def test_planar_tiffs_read_as_h_w_c_at_every_size(tmp_path, rng, shape, channels):
+    """A TIFF of separate planes reads H x W x C by its planar configuration, also where its
+    width is 4 or less (the planes' (C, H, W) looks like an image of C rows then)."""
+    image = rng.integers(0, 256, (*shape, channels), dtype=np.uint8)
+    extra = ["unassalpha"] if channels == 4 else None
+    planes = np.moveaxis(image, -1, 0)
+    tifffile.imwrite(
+        tmp_path / "planar.tif",
+        planes,
+        photometric="rgb",
+        planarconfig="separate",
+        extrasamples=extra,
+    )
+    assert_array_equal(glmls.imread(tmp_path / "planar.tif"), image)
+
+
+def test_ycbcr_tiffs_read_as_the_colours_shown(tmp_path, rng):
+    """A YCbCr TIFF reads as Pillow shows it (RGB), not as its stored luma and chroma; one
+    compressed by JPEG, which its decoder gives as RGB already, is not converted twice."""
+    rgb = rng.integers(0, 256, (6, 9, 3), dtype=np.uint8)
+    Image.fromarray(rgb).convert("YCbCr").save(tmp_path / "ycc.tif")
+    with Image.open(tmp_path / "ycc.tif") as shown:
+        assert_array_equal(glmls.imread(tmp_path / "ycc.tif"), np.asarray(shown.convert("RGB")))
+    stored = np.zeros((16, 16, 3), np.uint8)
+    stored[:8], stored[8:] = [77, 255, 26], [20, 180, 60]
+    tifffile.imwrite(tmp_path / "jpeg.tif", stored, photometric="ycbcr", compression="jpeg")
+    with Image.open(tmp_path / "jpeg.tif") as shown:
+        expected = np.asarray(shown.convert("RGB")).astype(int)
+    assert np.abs(glmls.imread(tmp_path / "jpeg.tif").astype(int) - expected).max() <= 2
+
+
+def test_lab_tiffs_are_refused(tmp_path, rng):
+    rgb = rng.integers(0, 256, (4, 5, 3), dtype=np.uint8)
+    Image.fromarray(rgb).convert("LAB").save(tmp_path / "lab.tif")
+    with pytest.raises(ValueError, match=r"lab.tif: a TIFF of CIE L\*a\*b\* colours"):
+        glmls.imread(tmp_path / "lab.tif")
+
+
+@pytest.mark.parametrize("maxval", [65535, 4095])
+def test_16_bit_colour_ppm_keeps_its_depth(tmp_path, rng, maxval):
+    """A 16-bit P6 PPM reads as uint16 (Pillow reduces it to 8 bits), scaled to 0..65535 as
+    Pillow scales a 16-bit grey P5 of the same maximum value; a truncated one is refused."""
+    stored = rng.integers(0, maxval + 1, (5, 7), dtype=np.uint16)
+    samples = np.repeat(stored[..., None], 3, axis=2).astype(">u2").tobytes()
+    header = f"P6\n# made by a test\n7 5\n{maxval}\n".encode()
+    (tmp_path / "c.ppm").write_bytes(header + samples)
+    (tmp_path / "g.pgm").write_bytes(
+        f"P5\n7 5\n{maxval}\n".encode() + stored.astype(">u2").tobytes()
+    )
+    read = glmls.imread(tmp_path / "c.ppm")
+    assert read.dtype == np.uint16
+    with Image.open(tmp_path / "g.pgm") as grey:
+        expected = np.asarray(grey).astype(np.uint16)
+    for channel in range(3):
+        assert_array_equal(read[..., channel], expected)
+    (tmp_path / "t.ppm").write_bytes(header + samples[:-4])
+    with pytest.raises(ValueError, match=r"t.ppm: corrupt or truncated 16-bit PPM"):
+        glmls.imread(tmp_path / "t.ppm")
+    with pytest.raises(ValueError, match=r"c.ppm: 7 x 5 = 35 pixels exceeds the limit of 34"):
+        glmls.imread(tmp_path / "c.ppm", max_pixels=34)
+
+
+def test_16_bit_text_ppm_keeps_its_depth(tmp_path):
+    (tmp_path / "a.ppm").write_text(
+        "P3\n# text\n2 1\n65535\n1000 2000 3000 # a\n40000 50000 60000\n"
+    )
+    read = glmls.imread(tmp_path / "a.ppm")
+    assert read.dtype == np.uint16
+    assert read.tolist() == [[[1000, 2000, 3000], [40000, 50000, 60000]]]
+    (tmp_path / "b.ppm").write_text("P3\n2 1\n65535\n1 2 3 4 5 99999999999999999999999999\n")
+    with pytest.raises(ValueError, match=r"b.ppm: corrupt or truncated 16-bit PPM \(a sample"):
+        glmls.imread(tmp_path / "b.ppm")
