@@ -1,6 +1,7 @@
 """What the TIFF readers (:mod:`.images`, :mod:`.volumes`, :mod:`.profiles`) share: the
 files' first four bytes, and tifffile's log records held back while a file is read, since
-glmls reports a corrupt file itself, in one line."""
+glmls reports a corrupt file itself, in one line; and the checks of a TIFF stack's pages
+that :mod:`.volumes` reads as slices."""
 
 from __future__ import annotations
 
@@ -10,11 +11,28 @@ import os
 import threading
 from collections.abc import Iterator
 
-__all__ = ["TIFF_SIGNATURES", "quiet_tifffile"]
+__all__ = ["TIFF_SIGNATURES", "check_stack", "quiet_tifffile"]
 
 #: The first four bytes of a TIFF (little- and big-endian) or BigTIFF file.
 TIFF_SIGNATURES = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
 
+#: TIFF photometric interpretations a stack's numbers are read in as stored: min-is-white,
+#: min-is-black, RGB and palette (its indices).
+_AS_STORED = {0, 1, 2, 3}
+#: The others by name, for the message that refuses them.
+_PHOTOMETRIC_NAMES = {
+    4: "transparency mask",
+    5: "CMYK",
+    6: "YCbCr",
+    8: "CIE L*a*b*",
+    9: "ICC L*a*b*",
+    10: "ITU L*a*b*",
+    32803: "colour filter array",
+    32844: "LogL",
+    32845: "LogLuv",
+    34892: "linear raw",
+}
+_JPEG = (6, 7)  # TIFF compressions by JPEG (old and new), whose decoder turns YCbCr into RGB
 _lock = threading.Lock()
 _depth = 0
 _level = logging.NOTSET
@@ -48,6 +66,44 @@ def quiet_tifffile() -> Iterator[None]:
             _depth -= 1
             if _depth == 0:
                 logger.setLevel(_level)
+
+
+def check_stack(path: object, tiff: object, series: object) -> None:
+    """``ValueError`` naming ``path`` and the page where a TIFF stack's ``series`` (tifffile's
+    first, read as slices) is not the file's stack: a file without axes metadata (tifffile's
+    ``generic`` series) with a page of another shape, dtype or kind outside the series (not a
+    reduced-resolution page, a thumbnail), which tifffile leaves to a series of its own, so
+    that the first would lack a slice; or pages whose numbers are not grey, RGB or palette
+    indices (YCbCr other than JPEG's, CMYK, CIE Lab, LogLuv, ...), which reading them as
+    stored would give as if they were."""
+    if getattr(series, "kind", "") == "generic":
+        inside = {page.index for page in series.pages}
+        first = series.pages[0]
+        for index, page in enumerate(tiff.pages):
+            if index in inside or getattr(page, "is_reduced", False):
+                continue
+            raise ValueError(
+                f"{path}: page {index} of the TIFF stack is {_page_kind(page)}, page "
+                f"{first.index} is {_page_kind(first)}: a stack's pages are slices of one "
+                "shape, dtype and kind"
+            )
+    page = series.keyframe
+    photometric = int(page.photometric)
+    if photometric == 6 and int(page.compression) in _JPEG:
+        return  # tifffile's JPEG decoder gives RGB
+    if photometric not in _AS_STORED:
+        name = _PHOTOMETRIC_NAMES.get(photometric, "photometric interpretation")
+        raise ValueError(
+            f"{path}: a TIFF stack of {name} colours (photometric {photometric}); glmls reads "
+            "grey, RGB and palette (its indices) stacks: convert it to RGB or grey"
+        )
+
+
+def _page_kind(page: object) -> str:
+    """A page's shape, dtype and photometric interpretation, in words."""
+    shape = " x ".join(str(n) for n in page.shape)
+    photometric = getattr(page.photometric, "name", str(page.photometric)).lower()
+    return f"{shape} {page.dtype} ({photometric})"
 
 
 def _after_fork_in_child() -> None:

@@ -28,10 +28,15 @@ axes, as :meth:`glmls.MLS.warp` takes it) and the affine, where the file says th
 
 A TIFF is a volume when it holds more than one page (a stack); one page is an image
 (:func:`glmls.imread`). The pages are slices where the file's axes (ImageJ's or OME's
-metadata, as tifffile reads them) have a Z axis, or where no metadata names them; a stack
-of the channels or time points of one 2D image (axes ``CYX``, ``TYX``, ``TCYX``) is
-refused, not read as slices. Every fault of a file is an :class:`~glmls.errors.InputFileError`
-naming it.
+metadata, as tifffile reads them) have a Z axis, or where no metadata names them; channels
+are an axis C or S beside it (``ZCYX``, ``CZYX``, ``ZYXS``). A stack of the channels or time
+points of one 2D image (axes ``CYX``, ``TYX``, ``TCYX``) is refused, not read as slices, and
+so is a time series of volumes (``TZYX``, ``TZCYX``), a file without axes metadata whose
+pages are not all of one shape, dtype and kind (a reduced-resolution page, a thumbnail,
+aside), and a stack of YCbCr (other than JPEG's, which reads as RGB), CMYK or CIE Lab
+colours. The numbers are read as stored: a palette stack's indices, a min-is-white stack's
+values (not inverted, as :func:`glmls.imread` shows an image). Every fault of a file is an
+:class:`~glmls.errors.InputFileError` naming it.
 """
 
 from __future__ import annotations
@@ -51,7 +56,7 @@ from ..errors import InputFileError
 from .atomic import atomic_write
 from .nifti import NiftiHeader, one_line, read_nifti, write_nifti
 from .parsing import not_a_file
-from .tiffs import TIFF_SIGNATURES, quiet_tifffile
+from .tiffs import TIFF_SIGNATURES, check_stack, quiet_tifffile
 
 __all__ = [
     "VOLUME_SUFFIXES",
@@ -439,11 +444,23 @@ def _read_tiff(path: Path) -> Volume:
                 f"{path}: a TIFF of one page is an image (glmls.imread), not a volume"
             )
         series = tiff.series[0]
+        try:
+            check_stack(path, tiff, series)
+        except ValueError as error:
+            raise InputFileError(str(error)) from None
         data, axes = series.asarray(), series.axes
         spacing = _tiff_spacing(tiff) or _ome_spacing(tiff)
     _check_axes(path, axes, data.shape)
+    if "T" in axes:  # a time series of volumes: its time points are no slices nor channels
+        raise InputFileError(
+            f"{path}: a TIFF of axes {axes} {data.shape}, {data.shape[axes.index('T')]} time "
+            "points of a volume; glmls reads one volume (axes ZYX, with C or S for channels): "
+            "save each time point as a stack of its own"
+        )
     if data.ndim == 4 and axes[1] in "CS":  # an ImageJ hyperstack (Z, C, Y, X), or planes
         data = np.moveaxis(data, 1, -1)
+    elif data.ndim == 4 and axes[0] in "CS" and axes[1] == "Z":  # OME's XYZCT order: (C, Z, Y, X)
+        data = np.moveaxis(data, 0, -1)
     elif data.ndim == 4 and axes[-1] not in "SC":
         raise InputFileError(f"{path}: a TIFF of axes {axes} {data.shape}: expected a stack")
     if data.ndim not in (3, 4):

@@ -1,0 +1,102 @@
+"""TIFF stacks whose pages are not all slices of one kind, and stacks of colours that are
+not grey or RGB: refused, not read as a stack that lacks a slice or as RGB."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import tifffile
+
+from glmls.errors import InputFileError
+from glmls.files import read_volume
+
+_SLICES = np.arange(4 * 6 * 7, dtype=np.uint16).reshape(4, 6, 7)
+
+
+def _pages(path, pages, **options):
+    with tifffile.TiffWriter(path) as tiff:
+        for page in pages:
+            tiff.write(page, metadata=None, **options)
+
+
+@pytest.mark.parametrize(
+    ("odd", "words"),
+    [
+        (_SLICES[2, :5], "page 2 of the TIFF stack is 5 x 7 uint16"),
+        (_SLICES[2].astype(np.float32), "page 2 of the TIFF stack is 6 x 7 float32"),
+        (np.stack([_SLICES[2]] * 3, axis=-1), "page 2 of the TIFF stack is 6 x 7 x 3 uint16"),
+    ],
+)
+def test_a_page_unlike_the_others_is_refused_not_dropped(tmp_path, odd, words):
+    path = tmp_path / "stack.tif"
+    photometric = "rgb" if odd.ndim == 3 else "minisblack"
+    with tifffile.TiffWriter(path) as tiff:
+        for index in range(4):
+            page = odd if index == 2 else _SLICES[index]
+            tiff.write(page, metadata=None, photometric=photometric if index == 2 else None)
+    with pytest.raises(InputFileError, match=words):
+        read_volume(path)
+
+
+def test_a_min_is_white_page_among_min_is_black_ones_is_refused(tmp_path):
+    path = tmp_path / "stack.tif"
+    with tifffile.TiffWriter(path) as tiff:
+        for index in range(4):
+            white = index == 3
+            tiff.write(_SLICES[index], metadata=None, photometric="miniswhite" if white else None)
+    with pytest.raises(InputFileError, match=r"page 3 .*\(miniswhite\)"):
+        read_volume(path)
+
+
+def test_a_thumbnail_page_is_not_a_slice(tmp_path):
+    path = tmp_path / "stack.tif"
+    with tifffile.TiffWriter(path) as tiff:
+        for index in range(4):
+            tiff.write(_SLICES[index], metadata=None)
+        tiff.write(_SLICES[0, ::2, ::2], metadata=None, subfiletype=1)
+    np.testing.assert_array_equal(read_volume(path).data, _SLICES)
+
+
+@pytest.mark.parametrize(
+    ("photometric", "name"),
+    [("ycbcr", "YCbCr"), ("cielab", "CIE L\\*a\\*b\\*"), ("separated", "CMYK")],
+)
+def test_a_stack_of_colours_other_than_rgb_is_refused(tmp_path, photometric, name):
+    samples = 4 if photometric == "separated" else 3
+    pages = np.random.default_rng(0).integers(0, 255, (3, 6, 8, samples), dtype=np.uint8)
+    options = {"subsampling": (1, 1)} if photometric == "ycbcr" else {}
+    _pages(tmp_path / "colours.tif", pages, photometric=photometric, **options)
+    with pytest.raises(InputFileError, match=f"{name} colours"):
+        read_volume(tmp_path / "colours.tif")
+
+
+def test_a_jpeg_ycbcr_stack_reads_as_rgb(tmp_path):
+    pages = np.zeros((3, 16, 16, 3), np.uint8)
+    pages[..., 0] = 200  # red: far from its YCbCr numbers (76, 85, 255)
+    _pages(tmp_path / "jpeg.tif", pages, photometric="rgb", compression="jpeg")
+    with tifffile.TiffFile(tmp_path / "jpeg.tif") as tiff:
+        assert tiff.pages[0].photometric == tifffile.PHOTOMETRIC.YCBCR  # as JPEG stores it
+    data = read_volume(tmp_path / "jpeg.tif").data
+    assert data.shape == (3, 16, 16, 3)
+    np.testing.assert_allclose(data.mean(axis=(0, 1, 2)), [200, 0, 0], atol=4)
+
+
+@pytest.mark.parametrize(
+    ("axes", "shape"),
+    [("TZYX", (3, 4, 6, 7)), ("TZCYX", (3, 4, 2, 6, 7)), ("ZTYX", (4, 3, 6, 7))],
+)
+def test_a_time_series_of_volumes_is_refused_naming_its_time_points(tmp_path, axes, shape):
+    data = np.arange(np.prod(shape), dtype=np.uint16).reshape(shape)
+    path = tmp_path / "series.ome.tif"
+    tifffile.imwrite(path, data, metadata={"axes": axes})
+    with pytest.raises(InputFileError, match=f"axes {axes} .*3 time points of a volume"):
+        read_volume(path)
+
+
+def test_ome_channels_before_slices_read_as_channels(tmp_path):
+    data = np.arange(2 * 4 * 6 * 7, dtype=np.uint16).reshape(2, 4, 6, 7)  # (C, Z, Y, X)
+    path = tmp_path / "czyx.ome.tif"
+    tifffile.imwrite(path, data, metadata={"axes": "CZYX", "PhysicalSizeZ": 2.0})
+    volume = read_volume(path)
+    np.testing.assert_array_equal(volume.data, np.moveaxis(data, 0, -1))
+    assert volume.spacing == (2.0, 1.0, 1.0)
