@@ -659,20 +659,24 @@ def _write_tiff(path: Path, volume: Volume) -> None:
     """An ImageJ stack for ImageJ's dtypes (Fiji opens it with its calibration): one channel
     (Z, Y, X), 3 channels of uint8 an RGB stack, other channels a hyperstack (Z, C, Y, X);
     other dtypes a plain TIFF of D pages, channels as samples (bool's as planes: tifffile
-    reads 1-bit samples side by side wrongly); one channel (D, H, W, 1) a stack (D, H, W)."""
+    reads 1-bit samples side by side wrongly); one channel (D, H, W, 1) a stack (D, H, W).
+    The data goes to tifffile with its samples axis S, 1 where there is none (ImageJ's), or
+    a page at a time (plain stacks): else tifffile takes a width of 1 for that axis and
+    writes one page, or a hyperstack's pages of another shape."""
     data = np.ascontiguousarray(volume.data)
     if data.ndim == 4 and data.shape[3] == 1:  # as a stack: the hyperstack needs C > 1
         data = data[..., 0]
     channels = 1 if data.ndim == 3 else data.shape[3]
     options: dict = {}
     if data.dtype.name in _IMAGEJ_DTYPES:
-        metadata: dict = {"axes": "ZYX"}
+        metadata: dict = {"axes": "ZYXS"}
         if channels == 3 and data.dtype == np.uint8:
             options["photometric"] = "rgb"
-            metadata["axes"] = "ZYXS"
         elif channels > 1:
-            data = np.ascontiguousarray(np.moveaxis(data, 3, 1))
-            metadata["axes"] = "ZCYX"
+            data = np.ascontiguousarray(np.moveaxis(data, 3, 1))[..., np.newaxis]
+            metadata["axes"] = "ZCYXS"
+        else:
+            data = data[..., np.newaxis]
         if volume.spacing is not None:
             dz, dy, dx = volume.spacing
             options["resolution"] = (1 / dx, 1 / dy)
@@ -687,6 +691,14 @@ def _write_tiff(path: Path, volume: Volume) -> None:
         if channels in (2, 4):
             options["extrasamples"] = ["unassalpha"]
     else:
-        options["photometric"] = "minisblack"
+        with atomic_write(path) as tmp, tifffile.TiffWriter(tmp, bigtiff=_big(data)) as tiff:
+            for page in data:
+                tiff.write(page, photometric="minisblack", metadata=None)
+        return
     with atomic_write(path) as tmp:
         tifffile.imwrite(tmp, data, **options)
+
+
+def _big(data: np.ndarray) -> bool:
+    """Whether a TIFF of ``data`` needs BigTIFF's 64-bit offsets (as tifffile.imwrite says)."""
+    return data.nbytes > 2**32 - 2**25

@@ -1,5 +1,6 @@
 """TIFF stacks whose pages are not all slices of one kind, and stacks of colours that are
-not grey or RGB: refused, not read as a stack that lacks a slice or as RGB."""
+not grey or RGB: refused, not read as a stack that lacks a slice or as RGB. Stacks of slices
+one voxel wide: written as slices."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import tifffile
 
 from glmls.errors import InputFileError
 from glmls.files import read_volume
+from glmls.files.volumes import write_volume
 
 _SLICES = np.arange(4 * 6 * 7, dtype=np.uint16).reshape(4, 6, 7)
 
@@ -100,3 +102,18 @@ def test_ome_channels_before_slices_read_as_channels(tmp_path):
     volume = read_volume(path)
     np.testing.assert_array_equal(volume.data, np.moveaxis(data, 0, -1))
     assert volume.spacing == (2.0, 1.0, 1.0)
+
+
+@pytest.mark.parametrize("dtype", ["uint16", "float32", "float64", "bool"])
+@pytest.mark.parametrize(
+    "shape", [(3, 4, 1), (2, 1, 1), (3, 1, 4), (2, 1, 1, 2), (2, 3, 1, 2), (3, 2, 1, 5)]
+)
+def test_slices_one_voxel_wide_are_written_as_slices(tmp_path, shape, dtype):
+    data = (np.arange(np.prod(shape)).reshape(shape) % 7).astype(dtype)
+    write_volume(tmp_path / "thin.tif", data, spacing=(2.0, 1.0, 0.5))
+    back = read_volume(tmp_path / "thin.tif")
+    assert back.data.shape == shape
+    assert back.data.dtype == data.dtype
+    np.testing.assert_array_equal(back.data, data)
+    if dtype in ("uint16", "float32"):  # ImageJ's: the spacing goes with it
+        assert back.spacing == (2.0, 1.0, 0.5)
