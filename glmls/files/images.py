@@ -84,6 +84,8 @@ _pillow_lock = threading.Lock()
 _pillow_saved: int | None = None  # Pillow's own limit while a read has set ours
 #: TIFF photometric interpretations whose stored values are not the colours shown.
 _MINISWHITE, _RGB, _PALETTE, _CMYK, _YCBCR = 0, 2, 3, 5, 6
+#: The TIFF colour types Pillow converts to RGB: its mode and their samples a pixel.
+_PILLOW_COLOURS = {_CMYK: ("CMYK", 4), _YCBCR: ("YCbCr", 3)}
 #: CIE L*a*b* (8 bits, ICC, ITU) and LogL, LogLuv: encodings glmls does not convert.
 _UNCONVERTED = {8: "CIE L*a*b*", 9: "ICC L*a*b*", 10: "ITU L*a*b*", 32844: "LogL", 32845: "LogLuv"}
 #: TIFF compressions by JPEG (old and new), whose decoder turns YCbCr into RGB.
@@ -305,20 +307,14 @@ def _as_shown(
         return np.moveaxis(colormap, 0, -1)[array]
     if photometric == _MINISWHITE and array.dtype.kind == "u":
         return np.iinfo(array.dtype).max - array
-    if photometric == _CMYK:
-        if array.dtype != np.uint8 or array.ndim != 3 or array.shape[2] != 4:
+    if photometric in _PILLOW_COLOURS:
+        mode, samples = _PILLOW_COLOURS[photometric]
+        if array.dtype != np.uint8 or array.ndim != 3 or array.shape[2] != samples:
             raise ValueError(
-                f"{path}: a CMYK TIFF of {array.dtype.name} x {array.shape[-1]}; glmls reads "
-                "8-bit CMYK: convert it to RGB"
+                f"{path}: a {mode} TIFF of {array.dtype.name} x {array.shape[-1]}; glmls reads "
+                f"8-bit {mode}: convert it to RGB"
             )
-        return np.asarray(Image.fromarray(array, "CMYK").convert("RGB"))
-    if photometric == _YCBCR:
-        if array.dtype != np.uint8 or array.ndim != 3 or array.shape[2] != 3:
-            raise ValueError(
-                f"{path}: a YCbCr TIFF of {array.dtype.name} x {array.shape[-1]}; glmls reads "
-                "8-bit YCbCr: convert it to RGB"
-            )
-        return np.asarray(Image.fromarray(array, "YCbCr").convert("RGB"))
+        return np.asarray(Image.fromarray(array, mode).convert("RGB"))
     return array
 
 

@@ -217,6 +217,17 @@ vec3 mls3_cholesky_apply(vec3 l0, vec3 l1, vec3 l2, vec3 d) {
     return vec3(x0, x1, x2);
 }
 
+// Targets near one line: whether B B^T's middle eigenvalue is below 1e-3 of its trace (its
+// invariants say so), with B B^T's diagonal bd, off-diagonal bo = (01, 02, 12) and trace btr.
+bool mls3_targets_on_a_line(mat3 B, out vec3 bd, out vec3 bo, out float btr) {
+    mat3 BBt = B * transpose(B);
+    bd = vec3(BBt[0][0], BBt[1][1], BBt[2][2]);
+    bo = vec3(BBt[1][0], BBt[2][0], BBt[2][1]);
+    btr = bd.x + bd.y + bd.z;
+    float bc2 = bd.x * bd.y + bd.x * bd.z + bd.y * bd.z - dot(bo, bo);
+    return btr > 0.0 && !(bc2 > 2.0 * MLS3_DEGENERATE_SHARE * btr * btr);
+}
+
 // N = M - I from the symmetric A (diagonal a, off-diagonal o = (01, 02, 12)) and D, about
 // p* and q*; spread = sum w |p - v|^2 over the handles not at the nearest one's place, the
 // yardstick for coincident sources (mls3_add).
@@ -269,12 +280,9 @@ mat3 mls3_solve(vec3 a, vec3 o, mat3 D, float spread) {
 #endif
 #if MLS3_SOLVE_LATER && MLS_TRANSFORM != 0
     mat3 B = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z)) + D;
-    mat3 BBt = B * transpose(B);
-    vec3 bd = vec3(BBt[0][0], BBt[1][1], BBt[2][2]);
-    vec3 bo = vec3(BBt[1][0], BBt[2][0], BBt[2][1]);
-    float btr = bd.x + bd.y + bd.z;
-    float bc2 = bd.x * bd.y + bd.x * bd.z + bd.y * bd.z - dot(bo, bo);
-    bool ridge_b = btr > 0.0 && !(bc2 > 2.0 * MLS3_DEGENERATE_SHARE * btr * btr);
+    vec3 bd, bo;
+    float btr;
+    bool ridge_b = mls3_targets_on_a_line(B, bd, bo, btr);
     float nb2 = dot(B[0], B[0]) + dot(B[1], B[1]) + dot(B[2], B[2]);
     if (ridge || ridge_b || !(determinant(B) > MLS3_POLAR_DET * nb2 * sqrt(nb2))) {
         mls3_solve_later = true;
@@ -305,13 +313,9 @@ mat3 mls3_solve(vec3 a, vec3 o, mat3 D, float spread) {
     }
     // targets near one line (B near rank 1, the sources spread or not): the rotation about
     // their line is free; the same rule with B B^T's middle eigenvalue and principal axis
-    // (its invariants say first whether that eigenvalue is below 1e-3 of its trace)
-    mat3 BBt = B * transpose(B);
-    vec3 bd = vec3(BBt[0][0], BBt[1][1], BBt[2][2]);
-    vec3 bo = vec3(BBt[1][0], BBt[2][0], BBt[2][1]);
-    float btr = bd.x + bd.y + bd.z;
-    float bc2 = bd.x * bd.y + bd.x * bd.z + bd.y * bd.z - dot(bo, bo);
-    bool ridge_b = btr > 0.0 && !(bc2 > 2.0 * MLS3_DEGENERATE_SHARE * btr * btr);
+    vec3 bd, bo;
+    float btr;
+    bool ridge_b = mls3_targets_on_a_line(B, bd, bo, btr);
     if (ridge_b) {
         vec3 eb, u0, u1, u2;
         mls3_eigen3(bd / btr, bo / btr, eb, u0, u1, u2);
