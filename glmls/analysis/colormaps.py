@@ -20,6 +20,19 @@ NAN_COLOR = (128, 128, 128)
 #: The paper's default extremes: white for the minimum, red for the maximum (Fig. 6).
 LOW_COLOR = (255, 255, 255)
 HIGH_COLOR = (220, 0, 0)
+#: The least span of the analysis pictures' colour scales, by quantity: below these, values
+#: differ by float32's rounding of the GPU's f alone (a similarity's angle errors, exact in
+#: mathematics, come out near 1e-6 degrees; a rotation's det J within 1e-6 of 1), and a scale
+#: stretched over that noise would paint an exact deformation as if it had errors. E_MLS in
+#: px^2 (voxel^2), the distance error in px, the angle errors (degrees or eq. 11's ratio),
+#: the construction error (0-1) and det J.
+LEAST_SPANS = {
+    "E_MLS": 1e-6,
+    "distance": 1e-3,
+    "angle": 1e-3,
+    "construction": 1e-3,
+    "det_j": 1e-3,
+}
 
 # viridis by Stéfan van der Walt and Nathaniel J. Smith (CC0), 256 entries as 8-bit RGB,
 # rounded from the float table of matplotlib's _cm_listed.py.
@@ -154,6 +167,7 @@ def color_limits(
     vmin: float | None = None,
     vmax: float | None = None,
     percentile: float | None = None,
+    span: float = 0.0,
 ) -> tuple[float, float]:
     """The limits (lo, hi) of a colour scale for ``values``.
 
@@ -166,6 +180,10 @@ def color_limits(
     percentile : float, optional
         In (0, 100]: that percentile of the values as a robust upper bound (a few huge
         values, e.g. near a handle, then do not wash out the rest).
+    span : float, optional
+        The least ``hi - lo`` (>= 0): limits from the values that lie closer are moved apart,
+        the one given as ``vmin`` or ``vmax`` staying, else both about their middle, so that
+        values equal but for rounding take one colour (:data:`LEAST_SPANS`).
 
     Returns
     -------
@@ -189,6 +207,8 @@ def color_limits(
     (0.0, 1.5)
     >>> glmls.analysis.color_limits(values, vmin=1.0, vmax=2.0)
     (1.0, 2.0)
+    >>> glmls.analysis.color_limits([2e-7, 3e-6], vmin=0.0, span=1e-3)  # rounding noise
+    (0.0, 0.001)
     """
     array = np.asarray(values, dtype=np.float64)
     finite = array[np.isfinite(array)]
@@ -208,7 +228,63 @@ def color_limits(
         hi = float(finite.max())
     if not (np.isfinite(lo) and np.isfinite(hi)) or hi < lo:
         raise ValueError(f"colour limits must be finite with vmin <= vmax, got ({lo}, {hi})")
+    least = check_real("span", span, low=0)
+    if hi - lo < least:
+        if vmax is None and vmin is not None:
+            hi = lo + least
+        elif vmin is None and vmax is not None:
+            lo = hi - least
+        elif vmin is None:
+            middle = 0.5 * (lo + hi)
+            lo, hi = middle - 0.5 * least, middle + 0.5 * least
     return lo, hi
+
+
+def picture_limits(
+    quantity: str, values: object, *, percentile: float | None = None, unit: float = 1.0
+) -> tuple[float, float]:
+    """The colour limits of an analysis picture of ``quantity`` (a key of :data:`LEAST_SPANS`).
+
+    Errors are coloured from 0 (a scale from the smallest error would flatter them all), det J
+    from its smallest value; the scale spans at least the quantity's least span.
+
+    Parameters
+    ----------
+    quantity : str
+        ``"E_MLS"``, ``"distance"``, ``"angle"``, ``"construction"`` or ``"det_j"``.
+    values : array_like
+        The picture's values; NaN and infinite ones are left out.
+    percentile : float, optional
+        A robust upper bound, as :func:`color_limits` takes it.
+    unit : float, optional
+        The length of a pixel (voxel) in the values' units: E_MLS's least span is taken in
+        square units of it, the distance error's in units.
+
+    Returns
+    -------
+    lo, hi : float
+        The limits.
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``quantity``, a bad ``percentile`` or ``unit``.
+
+    Examples
+    --------
+    >>> glmls.analysis.colormaps.picture_limits("angle", [2e-6, 3e-6, 1e-7])
+    (0.0, 0.001)
+    >>> glmls.analysis.colormaps.picture_limits("angle", [0.5, 2.0, 40.0], percentile=50)
+    (0.0, 2.0)
+    >>> glmls.analysis.colormaps.picture_limits("det_j", [0.9999999, 1.0000001])
+    (0.9995, 1.0005)
+    """
+    if quantity not in LEAST_SPANS:
+        raise ValueError(f"quantity must be one of {sorted(LEAST_SPANS)}, got {quantity!r}")
+    length = check_real("unit", unit, low=0, low_open=True)
+    span = LEAST_SPANS[quantity] * {"E_MLS": length**2, "distance": length}.get(quantity, 1.0)
+    lo = None if quantity == "det_j" else 0.0
+    return color_limits(values, vmin=lo, percentile=percentile, span=span)
 
 
 def color_indices(values: object, lo: float, hi: float, n: int) -> np.ndarray:

@@ -420,14 +420,14 @@ def report(
         src_segments=a - origin,
         dst_segments=b - origin,
     )
-    lo, hi = colormaps.color_limits(field, percentile=percentile)
+    lo, hi = colormaps.picture_limits("E_MLS", field, percentile=percentile)
     images["error_field"] = render_field(field, cmap=cmap, vmin=lo, vmax=hi)
     images["error_field_colorbar"] = colormaps.colorbar(
         cmap, lo, hi, length=max(64, shape[0] - 40), label="E_MLS (px^2)"
     )
     images["triangulation"] = render_triangulation(rgb, triangles.points, triangles.simplices)
     values = getattr(triangles, triangle_error)
-    t_lo, t_hi = colormaps.color_limits(values, percentile=triangle_percentile)
+    t_lo, t_hi = colormaps.picture_limits(triangle_error, values, percentile=triangle_percentile)
     images[f"triangle_{triangle_error}"] = render_triangle_errors(
         deformed,
         triangles,
@@ -442,8 +442,7 @@ def report(
         cmap, t_lo, t_hi, length=max(64, shape[0] - 40), label=f"{triangle_error} error"
     )
     if built is not None:
-        # from 0, a perfect construction: a scale from the best point would flatter them all
-        c_lo, c_hi = colormaps.color_limits(built.values, vmin=0.0)
+        c_lo, c_hi = colormaps.picture_limits("construction", built.values)
         images["construction_errors"] = render_construction_errors(
             deformed, built, cmap=cmap, vmin=c_lo, vmax=c_hi
         )

@@ -328,7 +328,8 @@ def volume_report(
     images = {"input_handles": render_volume_slices(shown, vmin=lo, vmax=hi, **drawn, **view)}
     if warped is not None:
         images["deformed"] = render_volume_slices(_shown(warped), vmin=lo, vmax=hi, **drawn, **view)
-    f_lo, f_hi = colormaps.color_limits(field, percentile=percentile)
+    unit = float(scale.min())  # E_MLS in square handle units where those are not voxels
+    f_lo, f_hi = colormaps.picture_limits("E_MLS", field, percentile=percentile, unit=unit)
     images["error_field"] = render_volume_slices(
         field, cmap=cmap, vmin=f_lo, vmax=f_hi, **drawn, **view
     )
@@ -337,7 +338,7 @@ def volume_report(
     )
     index = np.ix_(*(np.arange(n) // cell_step for n in dims))
     det = cells.det[index]
-    d_lo, d_hi = colormaps.color_limits(det)
+    d_lo, d_hi = colormaps.picture_limits("det_j", det)
     images["jacobian_det"] = render_volume_slices(
         det, cmap=cmap, vmin=d_lo, vmax=d_hi, projection="min", **view
     )

@@ -13,7 +13,7 @@ import moderngl
 import numpy as np
 
 from ..analysis.canvas import HANDLE_SOURCE_COLOR, HANDLE_TARGET_COLOR
-from ..analysis.colormaps import apply_colormap, color_limits
+from ..analysis.colormaps import apply_colormap, picture_limits
 from ..analysis.shapes import arrow_triangles, disk_triangles, segment_triangles
 from ..gl import bindings
 from ..gl.context import GLContext
@@ -155,9 +155,10 @@ def triangle_geometry(
     deformed_points: np.ndarray, simplices: np.ndarray, values: np.ndarray, *, percentile=99.0
 ) -> tuple[np.ndarray, np.ndarray, tuple[float, float]]:
     """(filled triangles, edge segments, colour limits) of the deformed reference triangles,
-    each filled with its value's colour on the paper's white-to-red map (grey for NaN)."""
+    each filled with its value's colour on the paper's white-to-red map (grey for NaN), the
+    angle errors in degrees from 0."""
     finite = values[np.isfinite(values)]
-    limits = color_limits(finite, percentile=percentile) if finite.size else (0.0, 1.0)
+    limits = picture_limits("angle", finite, percentile=percentile)
     colors = apply_colormap(values, cmap="linear", vmin=limits[0], vmax=limits[1]) / 255.0
     rgba = np.concatenate([colors, np.full((len(colors), 1), 0.6)], axis=1)
     corners = deformed_points[simplices].reshape(-1, 2)

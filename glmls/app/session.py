@@ -11,7 +11,7 @@ from dataclasses import dataclass, field, replace
 import moderngl
 import numpy as np
 
-from ..analysis.colormaps import apply_colormap, format_number
+from ..analysis.colormaps import apply_colormap, format_number, picture_limits
 from ..analysis.folding import folded_cells
 from ..analysis.stats import error_stats
 from ..analysis.triangles import triangle_errors
@@ -177,7 +177,8 @@ class Session:
                 c.message = self.adaptive_failed(settings, error)
                 values = m.error_field(self.shape, grid=grid)
             stats = error_stats(values)
-            result.field_colours = apply_colormap(values, cmap="linear", percentile=99.0)
+            low, high = picture_limits("E_MLS", values, percentile=99.0)
+            result.field_colours = apply_colormap(values, cmap="linear", vmin=low, vmax=high)
             within = " ".join(f"{100 * w:.0f}%" for w in stats["within"] or [])  # type: ignore[union-attr]
             result.lines += [
                 f"E_MLS px^2: mean {number(stats['mean'])} std {number(stats['std'])}",

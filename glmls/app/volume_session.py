@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from ..analysis.colormaps import apply_colormap, color_limits, format_number
+from ..analysis.colormaps import apply_colormap, format_number, picture_limits
 from ..analysis.jacobians import cell_jacobians
 from ..analysis.stats import error_stats
 from ..analysis.volume_field import volume_error_field
@@ -161,7 +161,7 @@ class VolumeSession:
     def field(self) -> np.ndarray | None:
         """The overlay's field over the whole volume, (D, H, W) uint8, or None without one:
         the error field E_MLS (:func:`~glmls.analysis.volume_error_field`, 0 to 255 from
-        its minimum to its 99th percentile) or the voxels of the folded cells
+        0 to its 99th percentile) or the voxels of the folded cells
         (:func:`~glmls.analysis.cell_jacobians`, 255), on the lattice of the slices' grid
         (every :data:`FIELD_GRID` voxels at least) for the current handles."""
         c = self.controller
@@ -176,7 +176,8 @@ class VolumeSession:
         start = time.perf_counter()
         if c.overlay == "error":
             values = volume_error_field(self.mls, self.shape, grid=grid)
-            low, high = color_limits(values, percentile=99.0)
+            unit = 1.0 if c.grid.isotropic else float(min(c.grid.spacing))
+            low, high = picture_limits("E_MLS", values, percentile=99.0, unit=unit)
             span = high - low if high > low else 1.0
             field = np.round(np.clip((values - low) / span, 0.0, 1.0) * 255).astype(np.uint8)
             stats = error_stats(values)
