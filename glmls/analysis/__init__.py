@@ -15,7 +15,15 @@
 """
 
 from .canvas import Canvas
-from .colormaps import VIRIDIS, apply_colormap, color_limits, colorbar, linear_colormap
+from .colormaps import (
+    LEAST_SPANS,
+    VIRIDIS,
+    apply_colormap,
+    color_limits,
+    colorbar,
+    linear_colormap,
+    picture_limits,
+)
 from .construction import ConstructionErrors, construction_errors
 from .construction_ranking import rank_constructions
 from .field import error_field
@@ -48,6 +56,7 @@ from .volume_reporting import VolumeReport, volume_report
 
 __all__ = [
     "ANGLE_MEASURES",
+    "LEAST_SPANS",
     "SLIVER_QUALITY",
     "VIRIDIS",
     "AnalysisReport",
@@ -71,6 +80,7 @@ __all__ = [
     "error_stats",
     "foldovers",
     "linear_colormap",
+    "picture_limits",
     "rank_constructions",
     "render_construction_errors",
     "render_field",

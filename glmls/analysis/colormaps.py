@@ -9,6 +9,7 @@ the same tables and rule; :func:`apply_colormap` is its CPU counterpart.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from types import MappingProxyType
 
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
@@ -26,13 +27,9 @@ HIGH_COLOR = (220, 0, 0)
 #: stretched over that noise would paint an exact deformation as if it had errors. E_MLS in
 #: px^2 (voxel^2), the distance error in px, the angle errors (degrees or eq. 11's ratio),
 #: the construction error (0-1) and det J.
-LEAST_SPANS = {
-    "E_MLS": 1e-6,
-    "distance": 1e-3,
-    "angle": 1e-3,
-    "construction": 1e-3,
-    "det_j": 1e-3,
-}
+LEAST_SPANS = MappingProxyType(
+    {"E_MLS": 1e-6, "distance": 1e-3, "angle": 1e-3, "construction": 1e-3, "det_j": 1e-3}
+)
 
 # viridis by Stéfan van der Walt and Nathaniel J. Smith (CC0), 256 entries as 8-bit RGB,
 # rounded from the float table of matplotlib's _cm_listed.py.
@@ -272,11 +269,11 @@ def picture_limits(
 
     Examples
     --------
-    >>> glmls.analysis.colormaps.picture_limits("angle", [2e-6, 3e-6, 1e-7])
+    >>> glmls.analysis.picture_limits("angle", [2e-6, 3e-6, 1e-7])
     (0.0, 0.001)
-    >>> glmls.analysis.colormaps.picture_limits("angle", [0.5, 2.0, 40.0], percentile=50)
+    >>> glmls.analysis.picture_limits("angle", [0.5, 2.0, 40.0], percentile=50)
     (0.0, 2.0)
-    >>> glmls.analysis.colormaps.picture_limits("det_j", [0.9999999, 1.0000001])
+    >>> glmls.analysis.picture_limits("det_j", [0.9999999, 1.0000001])
     (0.9995, 1.0005)
     """
     if quantity not in LEAST_SPANS:
