@@ -237,6 +237,10 @@ def _affine_spacing(affine: np.ndarray) -> tuple[float, float, float]:
     return (float(lengths[2]), float(lengths[1]), float(lengths[0]))
 
 
+#: The least ratio of an affine's smallest singular value to its largest that world
+#: coordinates are mapped by: one voxel size a millionth of another (or voxel axes as
+#: nearly in one plane) makes the world a sheet, its inverse and the warp's frame noise.
+_NEARLY_SINGULAR = 1e-6
 #: ITK's LPS world from NIfTI's RAS+ one and back: x and y negated.
 _LPS = np.array([-1.0, -1.0, 1.0])
 
@@ -251,8 +255,17 @@ def _world_frame(points: object, affine: object, spacing: object) -> tuple:
     matrix = np.asarray(affine, dtype=np.float64)
     if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
         raise ValueError(f"affine must be a finite 4 x 4 matrix, got shape {matrix.shape}")
-    if abs(np.linalg.det(matrix[:3, :3])) < 1e-12 * max(1.0, np.abs(matrix[:3, :3]).max()) ** 3:
-        raise ValueError("affine is singular: it maps no world point back to one voxel")
+    # relative to its largest, so that a NIfTI of micrometre voxels in metres (1e-6 a side)
+    # passes and a voxel axis of 1e-9 beside ones of 1 (a flat world) does not
+    sizes = np.linalg.svd(matrix[:3, :3], compute_uv=False)
+    if not sizes[2] > _NEARLY_SINGULAR * sizes[0]:
+        rows = "; ".join(" ".join(f"{value:.6g}" for value in row) for row in matrix[:3])
+        raise ValueError(
+            f"affine is singular or nearly so: its 3 x 3 part's singular values are "
+            f"{sizes[0]:.3g} to {sizes[2]:.3g}, a ratio under {_NEARLY_SINGULAR:g}, so that it "
+            "maps no world point back to one voxel (a voxel size of 0 or nearly, or voxel "
+            f"axes in one plane): rows [{rows}]"
+        )
     steps = _affine_spacing(matrix) if spacing is None else as_volume_spacing(spacing)
     return values, matrix, np.linalg.inv(matrix), np.array(steps[::-1])
 
@@ -294,9 +307,10 @@ def world_to_volume(
     Raises
     ------
     ValueError
-        For points that are not (N, 3) finite numbers, an affine that is not a finite,
-        invertible 4 x 4 matrix, or a spacing of another length than 3 or with a value that
-        is not a finite number > 0.
+        For points that are not (N, 3) finite numbers, an affine that is not a finite 4 x 4
+        matrix or is singular or nearly so (its 3 x 3 part's smallest singular value under
+        1e-6 of its largest: a voxel size of 0, or a millionth of another), or a spacing of
+        another length than 3 or with a value that is not a finite number > 0.
     TypeError
         For a spacing that is not a sequence of real numbers (a number, a string).
 
