@@ -35,7 +35,10 @@ so is a time series of volumes (``TZYX``, ``TZCYX``), a file without axes metada
 pages are not all of one shape, dtype and kind (a reduced-resolution page, a thumbnail,
 aside), and a stack of YCbCr (other than JPEG's, which reads as RGB), CMYK or CIE Lab
 colours. The numbers are read as stored: a palette stack's indices, a min-is-white stack's
-values (not inverted, as :func:`glmls.imread` shows an image). Every fault of a file is an
+values (not inverted, as :func:`glmls.imread` shows an image). The pages' orientation (TIFF
+tag 274) is applied to every slice as :func:`glmls.imread` applies it to an image (the X and
+Y resolutions swapped where it turns the slices a quarter); pages of different orientations
+are refused. Every fault of a file is an
 :class:`~glmls.errors.InputFileError` naming it.
 """
 
@@ -56,7 +59,14 @@ from ..errors import InputFileError
 from .atomic import atomic_write
 from .nifti import NiftiHeader, one_line, read_nifti, write_nifti
 from .parsing import not_a_file
-from .tiffs import TIFF_SIGNATURES, check_stack, quiet_tifffile
+from .tiffs import (
+    TIFF_SIGNATURES,
+    check_stack,
+    orient,
+    quiet_tifffile,
+    stack_orientation,
+    transposes,
+)
 
 __all__ = [
     "VOLUME_SUFFIXES",
@@ -460,6 +470,7 @@ def _read_tiff(path: Path) -> Volume:
         series = tiff.series[0]
         try:
             check_stack(path, tiff, series)
+            orientation = stack_orientation(path, tiff, series)
         except ValueError as error:
             raise InputFileError(str(error)) from None
         data, axes = series.asarray(), series.axes
@@ -481,7 +492,9 @@ def _read_tiff(path: Path) -> Volume:
         raise InputFileError(
             f"{path}: a TIFF of axes {axes} {data.shape}: expected a stack of pages of one size"
         )
-    return Volume(np.ascontiguousarray(data), spacing=spacing)
+    if transposes(orientation) and spacing is not None:  # the resolutions are the stored axes'
+        spacing = (spacing[0], spacing[2], spacing[1])
+    return Volume(np.ascontiguousarray(orient(data, orientation, axes=(1, 2))), spacing=spacing)
 
 
 #: What the first axis of a TIFF's series without a Z axis holds (tifffile's axis letters).
