@@ -13,7 +13,9 @@ is time): written so, and read from it or from RGB records. A time series (i, j,
 read as T channels, one a time point, and written back as it was read: 4D, with its time
 step (:class:`NiftiHeader`). A volume read from a NIfTI file keeps the header fields that
 say what its numbers mean (:class:`NiftiHeader`: the sform and qform codes, the units, the
-description), and :func:`write_volume` writes them back.
+description), and :func:`write_volume` writes them back; its other fields (``dim_info``, the
+intent, the slice timing, ``cal_min``/``cal_max``, ``toffset``, ``aux_file``) are not
+carried, and are written as nibabel's defaults.
 
 :class:`Volume` holds the data, the voxel spacing (dz, dy, dx) (in the order of the array's
 axes, as :meth:`glmls.MLS.warp` takes it) and the affine, where the file says them:
