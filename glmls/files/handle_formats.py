@@ -17,7 +17,7 @@ from ..core.handles import COORDINATE_LIMIT
 from ..core.handleset import HandleSet
 from ..core.segments import polyline_segments
 from ..errors import InputFileError
-from .parsing import Row, brief, fail, json_list, json_pair, json_points, number
+from .parsing import Row, brief, fail, field_number, json_list, json_pair, json_points
 
 __all__ = [
     "KINDS",
@@ -317,7 +317,7 @@ def kind_table(path: Path, table: list[Row]) -> HandleRows:
                 f"line {line}",
                 f"unknown kind {brief(row[0])}: expected point, segment or polyline",
             )
-        values = [number(path, f"line {line}", text) for text in row[2:]]
+        values = [field_number(path, f"line {line}", text) for text in row[2:]]
         if kind == "point":
             rows.add_point(values[:2], values[2:], f"line {line}")
             current = None

@@ -38,7 +38,7 @@ from ..errors import ImageWarning
 from .atomic import atomic_write
 from .netpbm import is_ppm16, ppm16
 from .profiles import profile_problem, with_png_profile
-from .tiffs import TIFF_SIGNATURES, quiet_tifffile
+from .tiffs import TIFF_SIGNATURES, orient, quiet_tifffile
 
 __all__ = [
     "DEFAULT_MAX_PIXELS",
@@ -198,7 +198,7 @@ def _read_png16(path: Path, head: bytes, max_pixels: int) -> np.ndarray:
     orientation, frames = _png_chunks(data)
     if frames > 1:  # libpng decodes the default image: an APNG's first frame
         warnings.warn(f"{path}: {frames} frames; reading the first", ImageWarning, stacklevel=4)
-    return _orient(array, orientation)
+    return orient(array, orientation)
 
 
 def _head(path: Path, size: int) -> bytes:
@@ -284,7 +284,7 @@ def _read_tiff(path: Path, max_pixels: int) -> np.ndarray:
         raise ValueError(f"{path}: not an image: its first page is of shape {array.shape}")
     if array.ndim == 3 and planar:
         array = np.moveaxis(array, 0, -1)  # planar storage: samples first
-    return _orient(np.ascontiguousarray(_as_shown(path, array, photometric, colormap)), code)
+    return orient(np.ascontiguousarray(_as_shown(path, array, photometric, colormap)), code)
 
 
 def _as_shown(
@@ -316,24 +316,6 @@ def _as_shown(
             )
         return np.asarray(Image.fromarray(array, mode).convert("RGB"))
     return array
-
-
-def _orient(array: np.ndarray, code: int) -> np.ndarray:
-    """Apply an EXIF/TIFF orientation (1 = as stored, 2-8 = flips and quarter turns)."""
-    flip, turns, transpose = {
-        2: (True, 0, False),
-        3: (False, 2, False),
-        4: (True, 2, False),
-        5: (False, 0, True),
-        6: (False, 3, False),
-        7: (True, 3, False),
-        8: (False, 1, False),
-    }.get(code, (False, 0, False))
-    if transpose:
-        return np.ascontiguousarray(np.swapaxes(array, 0, 1))
-    if flip:
-        array = array[:, ::-1]
-    return np.ascontiguousarray(np.rot90(array, turns)) if turns else array
 
 
 @contextlib.contextmanager

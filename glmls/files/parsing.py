@@ -8,6 +8,7 @@ import csv
 import io
 import json
 import math
+import re
 import stat
 from pathlib import Path
 
@@ -19,6 +20,7 @@ __all__ = [
     "brief",
     "csv_rows",
     "fail",
+    "field_number",
     "json_list",
     "json_pair",
     "json_points",
@@ -44,19 +46,39 @@ def brief(value: object, limit: int = 60) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def number(path: Path, where: str, text: object) -> float:
-    """A finite float from a JSON number or a CSV field."""
-    if isinstance(text, bool) or not isinstance(text, (int, float, str)):
+def number(path: Path, where: str, value: object) -> float:
+    """A finite float from a JSON number; a string (``"12.5"``) or a boolean (``true``, which
+    Python takes for 1) is refused, as a number in quotes is text to every other JSON reader."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise fail(path, where, f"expected a number, got {brief(value)}")
+    return _finite(path, where, value)
+
+
+#: A number in a text field: ASCII digits with an optional sign, point and exponent, or
+#: nan/inf (refused as not finite); not the rest of what Python's float() takes, digit
+#: separators ("1_000", which it reads as 1000) and other scripts' digits, that a CSV
+#: writer does not mean as numbers.
+_DECIMAL = re.compile(
+    r"[+-]?(?:\d+\.?\d*|\.\d+)(?:e[+-]?\d+)?|[+-]?(?:nan|inf|infinity)", re.IGNORECASE | re.ASCII
+)
+
+
+def field_number(path: Path, where: str, text: str) -> float:
+    """A finite float from a field of a text file (a CSV cell, a word of an elastix point
+    file): a decimal number, as :data:`_DECIMAL` reads it."""
+    if not isinstance(text, str) or _DECIMAL.fullmatch(text) is None:
         raise fail(path, where, f"expected a number, got {brief(text)}")
+    return _finite(path, where, text)
+
+
+def _finite(path: Path, where: str, value: int | float | str) -> float:
     try:
-        value = float(text)
-    except ValueError:
-        raise fail(path, where, f"expected a number, got {brief(text)}") from None
+        result = float(value)
     except OverflowError:  # a JSON integer beyond float's range
-        raise fail(path, where, f"expected a finite number, got {brief(text)}") from None
-    if not math.isfinite(value):
-        raise fail(path, where, f"expected a finite number, got {brief(text)}")
-    return value
+        raise fail(path, where, f"expected a finite number, got {brief(value)}") from None
+    if not math.isfinite(result):  # nan, inf, or digits beyond float's range ("1e999")
+        raise fail(path, where, f"expected a finite number, got {brief(value)}")
+    return result
 
 
 def not_a_file(path: Path) -> str:
@@ -156,5 +178,5 @@ def table(path: Path, rows: list[Row], columns: int) -> np.ndarray:
     for line, row in rows:
         if len(row) != columns:
             raise fail(path, f"line {line}", f"expected {columns} columns, got {len(row)}")
-        values.append([number(path, f"line {line}", text) for text in row])
+        values.append([field_number(path, f"line {line}", text) for text in row])
     return np.array(values, dtype=np.float64).reshape(-1, columns)

@@ -16,7 +16,7 @@ from ..core.config import counted
 from ..core.handles import COORDINATE_LIMIT
 from ..errors import InputFileError
 from .handle_formats import HandleRows
-from .parsing import Row, brief, fail, json_list, number, read_text
+from .parsing import Row, brief, fail, field_number, json_list, number, read_text
 
 __all__ = [
     "HANDLE_HEADER_3D",
@@ -91,7 +91,7 @@ def bigwarp_csv(path: Path, rows: list[Row]) -> tuple[int, HandleRows]:
             raise fail(path, where, f"expected true/false, got {brief(row[1])}")
         if active == "false":
             continue  # unpaired landmarks are inactive, their missing points infinite
-        values = [number(path, where, text) for text in row[start:]]
+        values = [field_number(path, where, text) for text in row[start:]]
         handles.add_point(values[:ndim], values[ndim:], where)
     if not handles.src:
         raise fail(path, "content", "no active BigWarp landmarks")
@@ -194,7 +194,7 @@ def table_3d(path: Path, rows: list[Row]) -> HandleRows:
     for line, row in rows:
         if len(row) != 6:
             raise fail(path, f"line {line}", f"expected 6 columns, got {len(row)}")
-        values = [number(path, f"line {line}", text) for text in row]
+        values = [field_number(path, f"line {line}", text) for text in row]
         handles.add_point(values[:3], values[3:], f"line {line}")
     return handles
 
@@ -219,7 +219,7 @@ def _elastix_points(path: Path) -> tuple[np.ndarray, list[str]]:
     if len(lines) < 2 or len(lines[1][1]) != 1:
         where = f"line {lines[1][0]}" if len(lines) > 1 else "content"
         raise fail(path, where, "expected the number of points, alone on its line")
-    count = number(path, f"line {lines[1][0]}", lines[1][1][0])
+    count = field_number(path, f"line {lines[1][0]}", lines[1][1][0])
     if count != math.floor(count) or count < 1:
         raise fail(path, f"line {lines[1][0]}", f"expected a count >= 1, got {lines[1][1][0]}")
     body = lines[2:]
@@ -239,7 +239,7 @@ def _elastix_points(path: Path) -> tuple[np.ndarray, list[str]]:
                 else "2 or 3 coordinates"
             )
             raise fail(path, f"line {line}", f"expected {expected}, got {len(fields)}")
-        points.append([number(path, f"line {line}", text) for text in fields])
+        points.append([field_number(path, f"line {line}", text) for text in fields])
         where.append(f"line {line}")
     return np.array(points, dtype=np.float64), where
 

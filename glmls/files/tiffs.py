@@ -1,7 +1,8 @@
 """What the TIFF readers (:mod:`.images`, :mod:`.volumes`, :mod:`.profiles`) share: the
 files' first four bytes, and tifffile's log records held back while a file is read, since
-glmls reports a corrupt file itself, in one line; and the checks of a TIFF stack's pages
-that :mod:`.volumes` reads as slices."""
+glmls reports a corrupt file itself, in one line; the checks of a TIFF stack's pages
+that :mod:`.volumes` reads as slices; and the TIFF (EXIF) orientation, applied to an image
+and to a stack's slices."""
 
 from __future__ import annotations
 
@@ -11,7 +12,16 @@ import os
 import threading
 from collections.abc import Iterator
 
-__all__ = ["TIFF_SIGNATURES", "check_stack", "quiet_tifffile"]
+import numpy as np
+
+__all__ = [
+    "TIFF_SIGNATURES",
+    "check_stack",
+    "orient",
+    "quiet_tifffile",
+    "stack_orientation",
+    "transposes",
+]
 
 #: The first four bytes of a TIFF (little- and big-endian) or BigTIFF file.
 TIFF_SIGNATURES = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
@@ -97,6 +107,65 @@ def check_stack(path: object, tiff: object, series: object) -> None:
             f"{path}: a TIFF stack of {name} colours (photometric {photometric}); glmls reads "
             "grey, RGB and palette (its indices) stacks: convert it to RGB or grey"
         )
+
+
+#: TIFF/EXIF orientation -> (mirror the columns, quarter turns counter-clockwise, transpose):
+#: what shows the stored rows and columns as a viewer does (1 and unknown codes: as stored).
+_ORIENTATIONS = {
+    2: (True, 0, False),
+    3: (False, 2, False),
+    4: (True, 2, False),
+    5: (False, 0, True),
+    6: (False, 3, False),
+    7: (True, 3, False),
+    8: (False, 1, False),
+}
+
+
+def orient(array: np.ndarray, code: int, *, axes: tuple[int, int] = (0, 1)) -> np.ndarray:
+    """``array`` with an EXIF/TIFF orientation ``code`` applied (1 = as stored, 2-8 = flips
+    and quarter turns, as ``PIL.ImageOps.exif_transpose`` applies them), its rows and
+    columns the ``axes`` (a stack's slices: ``(1, 2)``).
+
+    Examples
+    --------
+    >>> orient(np.arange(6).reshape(2, 3), 6).tolist()  # stored on its side: turned upright
+    [[3, 0], [4, 1], [5, 2]]
+    """
+    flip, turns, transpose = _ORIENTATIONS.get(code, (False, 0, False))
+    if transpose:
+        return np.ascontiguousarray(np.swapaxes(array, *axes))
+    if flip:
+        array = np.flip(array, axes[1])
+    return np.ascontiguousarray(np.rot90(array, turns, axes=axes)) if turns else array
+
+
+def transposes(code: int) -> bool:
+    """Whether orientation ``code`` puts the stored rows as columns (5 to 8): the pixel
+    width and height swap."""
+    _, turns, transpose = _ORIENTATIONS.get(code, (False, 0, False))
+    return transpose or turns % 2 == 1
+
+
+def stack_orientation(path: object, tiff: object, series: object) -> int:
+    """The orientation (TIFF tag 274, 1 where a page has none) of the pages of a stack's
+    ``series``; ``ValueError`` naming ``path`` and two pages where they differ (a stack
+    whose slices are stored turned differently is no volume)."""
+    codes: dict[int, int] = {}
+    for page in series.pages:
+        if page is None:
+            continue
+        full = page if hasattr(page, "tags") else tiff.pages.get(page.index, aspage=True)
+        tag = full.tags.get(274)
+        codes.setdefault(int(tag.value) if tag is not None else 1, full.index)
+        if len(codes) > 1:
+            (first, at), (other, where) = codes.items()
+            raise ValueError(
+                f"{path}: page {where} of the TIFF stack has orientation {other} (TIFF tag "
+                f"274), page {at} has {first}: a stack's slices are stored one way; write "
+                "them with one orientation"
+            )
+    return next(iter(codes), 1)
 
 
 def _page_kind(page: object) -> str:

@@ -13,7 +13,9 @@ is time): written so, and read from it or from RGB records. A time series (i, j,
 read as T channels, one a time point, and written back as it was read: 4D, with its time
 step (:class:`NiftiHeader`). A volume read from a NIfTI file keeps the header fields that
 say what its numbers mean (:class:`NiftiHeader`: the sform and qform codes, the units, the
-description), and :func:`write_volume` writes them back.
+description), and :func:`write_volume` writes them back; its other fields (``dim_info``, the
+intent, the slice timing, ``cal_min``/``cal_max``, ``toffset``, ``aux_file``) are not
+carried, and are written as nibabel's defaults.
 
 :class:`Volume` holds the data, the voxel spacing (dz, dy, dx) (in the order of the array's
 axes, as :meth:`glmls.MLS.warp` takes it) and the affine, where the file says them:
@@ -35,7 +37,10 @@ so is a time series of volumes (``TZYX``, ``TZCYX``), a file without axes metada
 pages are not all of one shape, dtype and kind (a reduced-resolution page, a thumbnail,
 aside), and a stack of YCbCr (other than JPEG's, which reads as RGB), CMYK or CIE Lab
 colours. The numbers are read as stored: a palette stack's indices, a min-is-white stack's
-values (not inverted, as :func:`glmls.imread` shows an image). Every fault of a file is an
+values (not inverted, as :func:`glmls.imread` shows an image). The pages' orientation (TIFF
+tag 274) is applied to every slice as :func:`glmls.imread` applies it to an image (the X and
+Y resolutions swapped where it turns the slices a quarter); pages of different orientations
+are refused. Every fault of a file is an
 :class:`~glmls.errors.InputFileError` naming it.
 """
 
@@ -56,7 +61,14 @@ from ..errors import InputFileError
 from .atomic import atomic_write
 from .nifti import NiftiHeader, one_line, read_nifti, write_nifti
 from .parsing import not_a_file
-from .tiffs import TIFF_SIGNATURES, check_stack, quiet_tifffile
+from .tiffs import (
+    TIFF_SIGNATURES,
+    check_stack,
+    orient,
+    quiet_tifffile,
+    stack_orientation,
+    transposes,
+)
 
 __all__ = [
     "VOLUME_SUFFIXES",
@@ -237,6 +249,10 @@ def _affine_spacing(affine: np.ndarray) -> tuple[float, float, float]:
     return (float(lengths[2]), float(lengths[1]), float(lengths[0]))
 
 
+#: The least ratio of an affine's smallest singular value to its largest that world
+#: coordinates are mapped by: one voxel size a millionth of another (or voxel axes as
+#: nearly in one plane) makes the world a sheet, its inverse and the warp's frame noise.
+_NEARLY_SINGULAR = 1e-6
 #: ITK's LPS world from NIfTI's RAS+ one and back: x and y negated.
 _LPS = np.array([-1.0, -1.0, 1.0])
 
@@ -251,8 +267,17 @@ def _world_frame(points: object, affine: object, spacing: object) -> tuple:
     matrix = np.asarray(affine, dtype=np.float64)
     if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
         raise ValueError(f"affine must be a finite 4 x 4 matrix, got shape {matrix.shape}")
-    if abs(np.linalg.det(matrix[:3, :3])) < 1e-12 * max(1.0, np.abs(matrix[:3, :3]).max()) ** 3:
-        raise ValueError("affine is singular: it maps no world point back to one voxel")
+    # relative to its largest, so that a NIfTI of micrometre voxels in metres (1e-6 a side)
+    # passes and a voxel axis of 1e-9 beside ones of 1 (a flat world) does not
+    sizes = np.linalg.svd(matrix[:3, :3], compute_uv=False)
+    if not sizes[2] > _NEARLY_SINGULAR * sizes[0]:
+        rows = "; ".join(" ".join(f"{value:.6g}" for value in row) for row in matrix[:3])
+        raise ValueError(
+            f"affine is singular or nearly so: its 3 x 3 part's singular values are "
+            f"{sizes[0]:.3g} to {sizes[2]:.3g}, a ratio under {_NEARLY_SINGULAR:g}, so that it "
+            "maps no world point back to one voxel (a voxel size of 0 or nearly, or voxel "
+            f"axes in one plane): rows [{rows}]"
+        )
     steps = _affine_spacing(matrix) if spacing is None else as_volume_spacing(spacing)
     return values, matrix, np.linalg.inv(matrix), np.array(steps[::-1])
 
@@ -294,9 +319,10 @@ def world_to_volume(
     Raises
     ------
     ValueError
-        For points that are not (N, 3) finite numbers, an affine that is not a finite,
-        invertible 4 x 4 matrix, or a spacing of another length than 3 or with a value that
-        is not a finite number > 0.
+        For points that are not (N, 3) finite numbers, an affine that is not a finite 4 x 4
+        matrix or is singular or nearly so (its 3 x 3 part's smallest singular value under
+        1e-6 of its largest: a voxel size of 0, or a millionth of another), or a spacing of
+        another length than 3 or with a value that is not a finite number > 0.
     TypeError
         For a spacing that is not a sequence of real numbers (a number, a string).
 
@@ -446,6 +472,7 @@ def _read_tiff(path: Path) -> Volume:
         series = tiff.series[0]
         try:
             check_stack(path, tiff, series)
+            orientation = stack_orientation(path, tiff, series)
         except ValueError as error:
             raise InputFileError(str(error)) from None
         data, axes = series.asarray(), series.axes
@@ -467,7 +494,9 @@ def _read_tiff(path: Path) -> Volume:
         raise InputFileError(
             f"{path}: a TIFF of axes {axes} {data.shape}: expected a stack of pages of one size"
         )
-    return Volume(np.ascontiguousarray(data), spacing=spacing)
+    if transposes(orientation) and spacing is not None:  # the resolutions are the stored axes'
+        spacing = (spacing[0], spacing[2], spacing[1])
+    return Volume(np.ascontiguousarray(orient(data, orientation, axes=(1, 2))), spacing=spacing)
 
 
 #: What the first axis of a TIFF's series without a Z axis holds (tifffile's axis letters).

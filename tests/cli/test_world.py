@@ -65,6 +65,49 @@ def test_world_to_volume_refuses_bad_input(points, affine, message):
         world_to_volume(points, affine)
 
 
+@pytest.mark.parametrize(
+    "columns",
+    [
+        np.diag([1.0, 1.0, 1e-9]),  # a voxel size a billionth of the others
+        np.diag([0.8, 1e-7, 0.8]),
+        np.array([[1.0, 1.0, 0.0], [0.0, 1e-8, 0.0], [0.0, 0.0, 2.0]]),  # axes i, j as one
+    ],
+)
+def test_a_nearly_singular_affine_is_refused_naming_it(columns):
+    affine = np.eye(4)
+    affine[:3, :3] = columns
+    for function in (world_to_volume, volume_to_world):
+        with pytest.raises(
+            ValueError, match=r"affine is singular or nearly so: .* rows \[[^\]]+\]$"
+        ):
+            function(np.ones((2, 3)), affine)
+
+
+@pytest.mark.parametrize("size", [1e-4, 1e-6])
+def test_an_affine_of_small_voxels_is_no_singular_one(size):
+    """Micrometre voxels in metres: every voxel size small, their ratios 1."""
+    affine = _affine()
+    affine[:3] *= size
+    points = np.random.default_rng(5).uniform(0, 5, (9, 3))
+    world = (points / STEPS) @ affine[:3, :3].T + affine[:3, 3]
+    spacing = np.linalg.norm(affine[:3, :3], axis=0)[::-1]
+    assert_allclose(world_to_volume(world, affine), points * size, rtol=1e-9)
+    assert_allclose(volume_to_world(points * size, affine, spacing=spacing), world, rtol=1e-9)
+
+
+def test_warp_refuses_world_handles_of_a_nearly_singular_affine(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    flat = np.diag([1.0, 1.0, 1e-9, 1.0])
+    glmls.write_volume(tmp_path / "flat.nii", np.ones(SHAPE, np.float32), affine=flat)
+    points = [[1.0, 1.0, 1e-9], [5.0, 1.0, 2e-9], [1.0, 6.0, 3e-9], [4.0, 4.0, 4e-9]]
+    moved = [[x + 0.5, y, z] for x, y, z in points]
+    (tmp_path / "h.json").write_text(json.dumps({"src": points, "dst": moved}))
+    assert main(["warp", "flat.nii", "out.nii", "--handles", "h.json", "--world"]) == 2
+    err = capsys.readouterr().err
+    assert "flat.nii: affine is singular or nearly so" in err and err.count("\n") == 1, err
+    assert not (tmp_path / "out.nii").exists()
+
+
 @pytest.fixture
 def nifti(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)

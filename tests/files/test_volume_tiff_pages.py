@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import tifffile
+from PIL import Image, ImageOps
 
 from glmls.errors import InputFileError
 from glmls.files import read_volume
@@ -117,3 +118,55 @@ def test_slices_one_voxel_wide_are_written_as_slices(tmp_path, shape, dtype):
     np.testing.assert_array_equal(back.data, data)
     if dtype in ("uint16", "float32"):  # ImageJ's: the spacing goes with it
         assert back.spacing == (2.0, 1.0, 0.5)
+
+
+def _turned(page: np.ndarray, code: int) -> np.ndarray:
+    """Pillow's view of a page stored with EXIF/TIFF orientation ``code``."""
+    image = Image.fromarray(page)
+    image.getexif()[0x0112] = code
+    return np.asarray(ImageOps.exif_transpose(image))
+
+
+@pytest.mark.parametrize("channels", [0, 3])
+@pytest.mark.parametrize("code", range(1, 9))
+def test_the_orientation_of_the_pages_turns_every_slice_as_an_image(tmp_path, code, channels):
+    rng = np.random.default_rng(code)
+    shape = (4, 6, 7, channels) if channels else (4, 6, 7)
+    slices = rng.integers(0, 256, shape, dtype=np.uint8)
+    path = tmp_path / "stack.tif"
+    _pages(
+        path,
+        slices,
+        photometric="rgb" if channels else None,
+        extratags=[(274, "H", 1, code, False)],
+    )
+    expected = np.stack([_turned(page, code) for page in slices])
+    read = read_volume(path).data
+    np.testing.assert_array_equal(read, expected)
+    assert read.shape[1:3] == (shape[2], shape[1]) if code >= 5 else shape[1:3]
+
+
+def test_a_turned_imagej_stack_swaps_its_pixel_width_and_height(tmp_path):
+    path = tmp_path / "stack.tif"
+    slices = _SLICES.astype(np.uint16)
+    options = {
+        "resolution": (1 / 0.5, 1 / 0.25),
+        "metadata": {"axes": "ZYX", "spacing": 2.0, "unit": "um"},
+    }
+    tifffile.imwrite(path, slices, imagej=True, extratags=[(274, "H", 1, 8, False)], **options)
+    volume = read_volume(path)
+    np.testing.assert_array_equal(volume.data, np.rot90(slices, 1, axes=(1, 2)))
+    assert volume.spacing == pytest.approx((2.0, 0.5, 0.25))  # (dz, dy, dx) of the slices shown
+
+
+def test_pages_of_different_orientations_are_refused(tmp_path):
+    path = tmp_path / "stack.tif"
+    with tifffile.TiffWriter(path) as tiff:
+        for index, page in enumerate(_SLICES):
+            tiff.write(
+                page, metadata=None, extratags=[(274, "H", 1, 3 if index == 2 else 1, False)]
+            )
+    with pytest.raises(
+        InputFileError, match=r"page 2 of the TIFF stack has orientation 3 .* page 0 has 1"
+    ):
+        read_volume(path)
