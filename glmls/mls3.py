@@ -14,6 +14,7 @@ from typing import NoReturn
 
 import numpy as np
 
+from .core.config import check_flag
 from .core.handles import COORDINATE_LIMIT, Scaling, check_gpu_distinct, point_rows
 from .core.handles3 import (
     as_points3,
@@ -679,6 +680,13 @@ class InverseMLS3(InverseMLS):
             (K, 3) float64 source points s, NaN rows where u has none; with
             ``return_valid`` also the (K,) bool mask of the rows that have one.
 
+        Raises
+        ------
+        TypeError
+            For points that are not real numbers, or a ``return_valid`` that is not a bool.
+        ValueError
+            For points that are not (K, 3) finite coordinates.
+
         Examples
         --------
         >>> import glmls
@@ -686,6 +694,7 @@ class InverseMLS3(InverseMLS):
         ...     print(m.inverse([[5, 1, 1]]).round(3).tolist())
         [[3.0, 1.0, 1.0]]
         """
+        return_valid = check_flag("return_valid", return_valid)
         s, valid = self._solve(_rows(points))
         return (s, valid) if return_valid else s
 

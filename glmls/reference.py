@@ -75,6 +75,7 @@ from .core.handles3 import (
     as_points3,
     as_volume_shape,
     as_volume_spacing,
+    no_radius3,
     planar_spacing,
     validate_handles3,
     volume_diagonal,
@@ -679,10 +680,11 @@ def _mls3_checked(src, dst, points, config, shape, spacing, src_segments, dst_se
     v = as_points3(point_rows(points, 3))
     shape = None if shape is None else as_volume_shape(shape)
     steps = None if spacing is None else as_volume_spacing(spacing)
-    if config.uses_radius and config.radius is None and shape is not None:
-        radius: float | None = volume_diagonal(shape, steps)
-    else:
-        radius = config.resolve_radius(shape)
+    radius = config.radius
+    if config.uses_radius and radius is None:
+        if shape is None:
+            raise no_radius3(config.weight)
+        radius = volume_diagonal(shape, steps)
     return _mls3(p, q, v, config, radius)
 
 

@@ -23,6 +23,7 @@ __all__ = [
     "chosen_spacing",
     "dimension_of",
     "fit_scaling3",
+    "no_radius3",
     "planar_spacing",
     "spacing_conflict",
     "validate_handles3",
@@ -194,6 +195,15 @@ def volume_diagonal(shape: Sequence[float], spacing: Sequence[float] | None = No
     """Length of the diagonal of a D x H x W volume: in voxels, or with ``spacing`` (dz, dy,
     dx) in the handles' units, that of (D dz, H dy, W dx)."""
     return math.sqrt(sum(e * e for e in volume_extent(shape, spacing)))
+
+
+def no_radius3(weight: str) -> ValueError:
+    """The error of a radius weight given neither ``radius`` nor a volume ``shape``, with
+    (N, 3) handles."""
+    return ValueError(
+        f"weight {weight!r} needs an influence radius: pass radius=R (in the handles' units: "
+        "voxels, or a mesh's coordinates), or shape=(D, H, W) to use the volume diagonal"
+    )
 
 
 def planar_spacing(spacing: object) -> None:

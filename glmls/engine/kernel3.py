@@ -18,7 +18,7 @@ import numpy as np
 
 from ..core.config import MLSConfig, transform_code
 from ..core.handles import Scaling
-from ..core.handles3 import volume_diagonal
+from ..core.handles3 import no_radius3, volume_diagonal
 from ..core.weights import GAUSSIAN_CAP, GAUSSIAN_TOLERANCE
 from ..errors import ReleasedError
 from ..gl.context import GLContext
@@ -123,11 +123,7 @@ class MLSKernel3:
             return config.radius
         shape = shape if shape is not None else self.shape
         if shape is None:
-            raise ValueError(
-                f"weight {config.weight!r} needs an influence radius: pass radius=R (in "
-                "the handles' units: voxels, or a mesh's coordinates), or shape=(D, H, W) to use "
-                "the volume diagonal"
-            )
+            raise no_radius3(config.weight)
         return volume_diagonal(shape)
 
     def defines(self) -> dict[str, object]:

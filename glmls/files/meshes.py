@@ -87,8 +87,11 @@ class Mesh:
             raise ValueError("vertices must be finite")
         if faces.size == 0:
             faces = faces.reshape(0, 3)
+        # infinities equal their rounding but index nothing: refused with NaN and fractions
         if not np.issubdtype(faces.dtype, np.integer) and not (
-            np.issubdtype(faces.dtype, np.floating) and (faces == np.round(faces)).all()
+            np.issubdtype(faces.dtype, np.floating)
+            and np.isfinite(faces).all()
+            and (faces == np.round(faces)).all()
         ):
             raise TypeError(f"faces must be integer vertex indices, got dtype {faces.dtype}")
         if faces.ndim != 2 or faces.shape[1] != 3:

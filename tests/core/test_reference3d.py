@@ -234,6 +234,15 @@ def test_a_volume_shape_gives_its_diagonal_as_radius(rng):
     assert_allclose(by_shape, by_radius, atol=1e-12)
 
 
+@pytest.mark.parametrize("weight", ["gaussian", "linear"])
+def test_a_radius_weight_without_radius_or_shape_asks_for_a_volume_s(rng, weight):
+    p = _handle_sets(rng)["general"]
+    message = r"pass radius=R \(in the handles' units.*or shape=\(D, H, W\)"
+    for evaluate in (reference.mls, reference.mls_error):
+        with pytest.raises(ValueError, match=message):
+            evaluate(p, p + 1.0, p[:2], weight=weight)
+
+
 @pytest.mark.parametrize(
     ("src", "dst", "points", "match"),
     [

@@ -104,6 +104,22 @@ def test_a_mesh_face_index_beyond_int64_is_named_as_given():
         glmls.Mesh(vertices, faces)
 
 
+@pytest.mark.parametrize("index", [np.inf, -np.inf, np.nan, 1.5])
+def test_a_float_mesh_face_that_is_no_whole_finite_number_is_no_index(index):
+    vertices = [[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    with pytest.raises(TypeError, match="faces must be integer vertex indices, got dtype float64"):
+        glmls.Mesh(vertices, [[0.0, 1.0, index]])
+
+
+@pytest.mark.parametrize("flag", [1, "yes", None])
+def test_the_3d_inverse_names_a_return_valid_that_is_not_a_bool(mls3, flag):
+    with pytest.raises(TypeError, match=f"return_valid must be True or False, got {flag!r}"):
+        mls3.inverse(DST, return_valid=flag)
+    s, valid = mls3.inverse(DST, return_valid=np.True_)
+    assert s.shape == (5, 3) and valid.all()
+    np.testing.assert_allclose(s, SRC, atol=1e-3)
+
+
 @pytest.mark.parametrize("method", ["quads", "backward"])
 @pytest.mark.parametrize("value", [1e300, -1e39])
 def test_float64_values_beyond_float32_are_refused_not_made_inf(mls3, method, value):
