@@ -38,6 +38,14 @@ class BatchInput:
         return len(self.images)
 
 
+#: What the errors of a batch's images and points say where they look like a volume's: a batch
+#: is of 2D images.
+VOLUMES_HINT = (
+    " (a batch holds 2D images; a volume is warped by glmls.MLS(src, dst).warp(volume), one "
+    "at a time)"
+)
+
+
 def item_array(value: object, name: str) -> np.ndarray:
     """One item of a batch (an image, a handle or keypoint set, a mask) as an array;
     ``ValueError`` naming ``name`` (``src[1]``) where its rows have different lengths, which
@@ -74,7 +82,10 @@ def _image(array: np.ndarray, name: str) -> np.ndarray:
         names = ", ".join(np.dtype(d).name for d in DTYPES)
         raise TypeError(f"{name} has dtype {array.dtype}; expected one of {names}")
     if array.ndim not in (2, 3) or (array.ndim == 3 and not 1 <= array.shape[2] <= 4):
-        raise ValueError(f"{name} has shape {array.shape}; expected (H, W) or (H, W, C), C 1..4")
+        hint = VOLUMES_HINT if array.ndim == 3 else ""  # (D, H, W)
+        raise ValueError(
+            f"{name} has shape {array.shape}; expected (H, W) or (H, W, C), C 1..4{hint}"
+        )
     if array.size == 0:
         raise ValueError(f"{name} is empty: shape {array.shape}")
     return array
@@ -99,7 +110,8 @@ def check_points(array: np.ndarray, name: str, *, rows: str) -> np.ndarray:
     if array.size == 0 and array.ndim <= 2:  # [] or np.zeros((0, 2)): no points
         array = array.reshape(0, 2)
     if array.ndim != 2 or array.shape[1] != 2:
-        raise ValueError(f"{name} has shape {array.shape}; expected ({rows}, 2)")
+        hint = VOLUMES_HINT if array.ndim == 2 and array.shape[1] == 3 else ""
+        raise ValueError(f"{name} has shape {array.shape}; expected ({rows}, 2){hint}")
     return check_coordinates(np.asarray(array, dtype=np.float64), name)
 
 

@@ -386,6 +386,16 @@ def test_keypoint_sets_given_as_empty_lists(gl, rng):
         ),
         ({"images": [np.zeros((4, 4), np.int8)] * 3}, TypeError, r"images\[0\] has dtype int8"),
         ({"images": np.zeros((3, 4, 4, 5), np.uint8)}, ValueError, r"images\[0\] has shape"),
+        (  # volumes, with 3D handles: said to be warped one at a time
+            {"images": np.zeros((3, 4, 4, 6), np.uint8), "src": np.zeros((3, 4, 3))},
+            ValueError,
+            r"images\[0\] has shape \(4, 4, 6\).*a volume is warped by glmls\.MLS",
+        ),
+        (
+            {"src": np.zeros((3, 4, 3))},
+            ValueError,
+            r"src\[0\] has shape \(4, 3\); expected \(K, 2\) \(a batch holds 2D images",
+        ),
         ({"keypoints": np.zeros((3, 2, 3))}, ValueError, r"keypoints\[0\] has shape \(2, 3\)"),
         ({"keypoints": [np.zeros((1, 2))] * 2}, ValueError, "keypoints holds 2 point sets"),
         ({"keypoints": [np.zeros((1, 2))]}, ValueError, "keypoints holds 1 point set for 3"),
