@@ -5,8 +5,9 @@ A :class:`Mesh` is its vertices (V, 3) float64, (x, y, z) in the coordinates of 
 that deform it, and its triangles (F, 3) of vertex indices. Reading keeps the file's
 vertices in their order (none merged, none dropped) and its faces in their order, except
 STL's: an STL file stores each triangle's three corners, so the corners at the same place
-are merged into one vertex. An OBJ file is read by glmls itself, its ``v`` and ``f`` lines
-(objects, groups and materials do not split or reorder it). Faces of more than three
+are merged into one vertex. An OBJ file is read by glmls itself, its ``v`` and ``f`` (or
+``fo``) lines, a ``#`` comment ending any line (objects, groups and materials do not split or
+reorder it). Faces of more than three
 vertices are split into triangles (a fan from their first vertex, in the face's place among
 the faces, in OBJ and PLY alike); a face of fewer than three is refused. Only the geometry
 is read and written: vertex colours, normals and texture coordinates are not kept. A point
@@ -203,9 +204,9 @@ def _read_obj(path: Path, content: bytes) -> Mesh:
     vertices: list[list[str]] = []
     faces: list[tuple[int, int, int]] = []
     for number, line in enumerate(text.splitlines(), start=1):
-        fields = line.split()
-        if not fields or fields[0] not in ("v", "f"):
-            continue  # comments, normals, texture coordinates, groups, materials, lines
+        fields = line.split("#", 1)[0].split()  # a comment may end a line, after its data
+        if not fields or fields[0] not in ("v", "f", "fo"):  # fo: an old name of f
+            continue  # normals, texture coordinates, groups, materials, lines
         if fields[0] == "v":
             if len(fields) < 4:
                 raise InputFileError(f"{path}: line {number}: a vertex of fewer than 3 numbers")
@@ -249,7 +250,8 @@ def _obj_index(path: Path, number: int, field: str, count: int) -> int:
         index = int(field.split("/", 1)[0])
     except ValueError:
         raise InputFileError(f"{path}: line {number}: {field!r} is no vertex index") from None
-    if index == 0 or index < -count:  # a positive index may name a vertex read later
+    # a positive index may name a vertex read later; beyond 2**62 none (nor int64) holds it
+    if index == 0 or index < -count or index > 2**62:
         raise InputFileError(
             f"{path}: line {number}: vertex {index} of a face, with {count} vertices before it"
         )
