@@ -382,3 +382,16 @@ def test_obj_comments_after_data_and_old_fo_faces_are_read(tmp_path):
     mesh = read_mesh(path)
     assert mesh.vertices.tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
     assert mesh.faces.tolist() == [[0, 1, 2], [0, 2, 3]]
+
+
+@pytest.mark.parametrize("radius", [1e-8, 1.0, 1e11])
+def test_stl_merges_the_corners_at_any_scale_in_the_order_they_come(tmp_path, radius):
+    """Corners of the same coordinates are one vertex, and no others: a sphere of 10 nm in
+    metres keeps its 162 vertices. The vertices come in the order of their first corner."""
+    mesh = glmls.data.sphere()
+    vertices = (mesh.vertices - 32) / 20 * radius
+    write_mesh(tmp_path / "m.stl", vertices, faces=mesh.faces)
+    back = read_mesh(tmp_path / "m.stl")
+    first = list(dict.fromkeys(mesh.faces.ravel().tolist()))  # the vertices as corners name them
+    assert_array_equal(back.vertices, vertices[first].astype(np.float32))
+    assert_array_equal(np.array(first)[back.faces], mesh.faces)
