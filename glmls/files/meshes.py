@@ -5,8 +5,10 @@ A :class:`Mesh` is its vertices (V, 3) float64, (x, y, z) in the coordinates of 
 that deform it, and its triangles (F, 3) of vertex indices. Reading keeps the file's
 vertices in their order (none merged, none dropped) and its faces in their order, except
 STL's: an STL file stores each triangle's three corners, so the corners at the same place
-are merged into one vertex. An OBJ file is read by glmls itself, its ``v`` and ``f`` lines
-(objects, groups and materials do not split or reorder it). Faces of more than three
+(equal coordinates, at any scale) are merged into one vertex, in the order of their first
+corner. An OBJ file is read by glmls itself, its ``v`` and ``f`` (or
+``fo``) lines, a ``#`` comment ending any line (objects, groups and materials do not split or
+reorder it). Faces of more than three
 vertices are split into triangles (a fan from their first vertex, in the face's place among
 the faces, in OBJ and PLY alike); a face of fewer than three is refused. Only the geometry
 is read and written: vertex colours, normals and texture coordinates are not kept. A point
@@ -182,13 +184,26 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
         raise InputFileError(f"{path}: not a readable {suffix} mesh: {error}") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.vertices) == 0:
         raise InputFileError(f"{path}: no mesh vertices in it")
-    if not np.isfinite(loaded.vertices).all():  # before the merge, which casts them to int
+    if not np.isfinite(loaded.vertices).all():
         raise InputFileError(f"{path}: vertices must be finite")
-    loaded.merge_vertices(merge_tex=True, merge_norm=True)  # STL: each triangle's own corners
+    corners = np.asarray(loaded.vertices, dtype=np.float64)[np.asarray(loaded.faces)]
     try:
-        return Mesh(np.asarray(loaded.vertices), np.asarray(loaded.faces).reshape(-1, 3))
+        return Mesh(*_merge_corners(corners.reshape(-1, 3)))
     except (TypeError, ValueError) as error:
         raise InputFileError(f"{path}: {error}") from None
+
+
+def _merge_corners(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, faces) of an STL's triangle corners (3F, 3): corners of equal coordinates
+    one vertex, the vertices in the order of their first corner. Equal exactly, at any scale:
+    trimesh's merge rounds to 1e-8, which joins the vertices of a mesh of that size (in
+    metres) and overflows int64 beyond 1e11."""
+    places = corners + 0.0  # -0.0 and 0.0 are one place
+    _, first, inverse = np.unique(places, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return places[first[order]], rank[inverse.reshape(-1)].reshape(-1, 3)
 
 
 def _read_obj(path: Path, content: bytes) -> Mesh:
@@ -203,9 +218,9 @@ def _read_obj(path: Path, content: bytes) -> Mesh:
     vertices: list[list[str]] = []
     faces: list[tuple[int, int, int]] = []
     for number, line in enumerate(text.splitlines(), start=1):
-        fields = line.split()
-        if not fields or fields[0] not in ("v", "f"):
-            continue  # comments, normals, texture coordinates, groups, materials, lines
+        fields = line.split("#", 1)[0].split()  # a comment may end a line, after its data
+        if not fields or fields[0] not in ("v", "f", "fo"):  # fo: an old name of f
+            continue  # normals, texture coordinates, groups, materials, lines
         if fields[0] == "v":
             if len(fields) < 4:
                 raise InputFileError(f"{path}: line {number}: a vertex of fewer than 3 numbers")
@@ -249,7 +264,8 @@ def _obj_index(path: Path, number: int, field: str, count: int) -> int:
         index = int(field.split("/", 1)[0])
     except ValueError:
         raise InputFileError(f"{path}: line {number}: {field!r} is no vertex index") from None
-    if index == 0 or index < -count:  # a positive index may name a vertex read later
+    # a positive index may name a vertex read later; beyond 2**62 none (nor int64) holds it
+    if index == 0 or index < -count or index > 2**62:
         raise InputFileError(
             f"{path}: line {number}: vertex {index} of a face, with {count} vertices before it"
         )

@@ -7,12 +7,15 @@ each element in turn. glmls reads every element so as to find the vertices (``x`
 ``face``); the rest is geometry glmls does not keep (colours, normals, edges, materials).
 A face of more than three vertices is a fan from its first vertex, in its place among the
 faces; a face of fewer is refused, and so is an ASCII file of more values than the header's
-counts of rows take. Faults are ``ValueError``s that say where, which
+counts of rows take, a face element whose list of vertex indices is not found (none, or
+several lists of other names) and faces in another element (``tristrips``): faces not read
+are never dropped silently. Faults are ``ValueError``s that say where, which
 :func:`glmls.files.meshes.read_mesh` reports naming the file.
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -64,9 +67,11 @@ def _scalar(word: str) -> str:
 
 def _header(content: bytes) -> tuple[str, list[_Element], int]:
     """(the byte order code, or "" for ASCII; the elements; where the rows begin)."""
-    end = content.find(b"end_header")
-    if not content.startswith(b"ply") or end < 0:
+    # the line end_header itself: a comment may name it before
+    found = re.search(rb"^end_header[ \t]*\r?$", content, re.MULTILINE)
+    if not content.startswith(b"ply") or found is None:
         raise ValueError("no PLY header (ply ... end_header)")
+    end = found.start()
     start = content.find(b"\n", end)
     if start < 0:
         raise ValueError("nothing after the header")
@@ -197,6 +202,20 @@ def _ascii_fixed(words: list[bytes], at: int, element: _Element) -> tuple[list, 
     return values, at + element.rows * width
 
 
+def _indices(values: np.ndarray, where: str) -> np.ndarray:
+    """``values`` as int64 vertex indices; ``ValueError`` (``where`` before it) for one that is
+    not a whole number, or too large for int64, which the cast would turn into another index
+    silently."""
+    if values.dtype.kind != "f":
+        return values.astype(np.int64)
+    if (values != np.round(values)).any():  # NaN too
+        raise ValueError(f"{where}vertex indices that are not whole numbers")
+    huge = np.abs(values) >= 2.0**62  # infinities too
+    if huge.any():
+        raise ValueError(f"{where}vertex index {values[huge][0]:g}, beyond any vertex")
+    return values.astype(np.int64)
+
+
 def fan_triangles(polygons: list) -> np.ndarray:
     """(F, 3) int64 triangles of polygons (vertex index sequences), each polygon a fan from
     its first vertex in its place; ``ValueError`` naming a face of fewer than 3 vertices."""
@@ -205,12 +224,33 @@ def fan_triangles(polygons: list) -> np.ndarray:
         corners = np.asarray(polygon).ravel()
         if len(corners) < 3:
             raise ValueError(f"face {index}: a face of {len(corners)} vertices, not a polygon")
-        if (corners != np.round(corners)).any():
-            raise ValueError(f"face {index}: vertex indices that are not whole numbers")
-        corners = corners.astype(np.int64)
+        corners = _indices(corners, f"face {index}: ")
         for k in range(1, len(corners) - 1):
             triangles.append((corners[0], corners[k], corners[k + 1]))
     return np.array(triangles, dtype=np.int64).reshape(-1, 3)
+
+
+def _face_list(elements: list[_Element], face: dict[str, object]) -> str | None:
+    """The name of the face element's list of vertex indices; None for a file of no faces.
+    ``ValueError`` for faces that are there but not found, which would be dropped silently:
+    a face element of rows but no such list, or faces in another element (``tristrips``)."""
+    faces = [e for e in elements if e.name == "face"]
+    lists = [p.name for e in faces for p in e.properties if p.count]
+    name = next((n for n in _FACE_LISTS if n in face), lists[0] if len(lists) == 1 else None)
+    if name is None and sum(e.rows for e in faces):
+        names = ", ".join(p.name for e in faces for p in e.properties) or "none"
+        raise ValueError(
+            f"element 'face': no list {' or '.join(_FACE_LISTS)} of vertex indices among its "
+            f"properties ({names})"
+        )
+    for element in elements:
+        if name is None and element.rows and element.name != "vertex":
+            if any(p.count and p.name in _FACE_LISTS for p in element.properties):
+                raise ValueError(
+                    f"element {element.name!r}: faces glmls does not read (it reads the "
+                    "triangles and polygons of element 'face')"
+                )
+    return name
 
 
 def read_ply(content: bytes) -> tuple[np.ndarray, np.ndarray]:
@@ -246,16 +286,13 @@ def read_ply(content: bytes) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError("no vertex element with x, y and z")
     vertices = np.stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"], axis=1)
     face = found.get("face", {})
-    lists = [p.name for e in elements if e.name == "face" for p in e.properties if p.count]
-    name = next((n for n in _FACE_LISTS if n in face), lists[0] if len(lists) == 1 else None)
+    name = _face_list(elements, face)
     if name is None:
         return vertices, np.zeros((0, 3), np.int64)
     polygons = face[name]
     if isinstance(polygons, np.ndarray) and polygons.ndim == 2 and polygons.shape[1] >= 3:
         # polygons of one size: their fans at once, each in its face's place
-        if (polygons != np.round(polygons)).any():
-            raise ValueError("face vertex indices that are not whole numbers")
-        corners = polygons.astype(np.int64)
+        corners = _indices(polygons, "face ")
         steps = np.arange(1, corners.shape[1] - 1)
         fans = np.stack(
             [np.repeat(corners[:, :1], len(steps), 1), corners[:, steps], corners[:, steps + 1]],

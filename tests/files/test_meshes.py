@@ -297,3 +297,101 @@ def test_stl_of_a_nan_corner_is_named_without_a_numpy_warning(tmp_path):
     )
     with pytest.raises(InputFileError, match=r"nan\.stl: vertices must be finite"):
         read_mesh(path)
+
+
+_TRIANGLE_PLY = (
+    "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+    "property float z\nelement {element} 1\n{properties}end_header\n0 0 0\n1 0 0\n0 1 0\n{row}\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("element", "properties", "row", "message"),
+    [
+        (
+            "face",
+            "property list uchar int vertex_ids\nproperty list uchar float texcoord\n",
+            "3 0 1 2 6 0 0 1 0 0 1",
+            r"element 'face': no list vertex_indices or vertex_index .*\(vertex_ids, texcoord\)",
+        ),
+        ("face", "property int flags\n", "5", r"element 'face': no list .*\(flags\)"),
+        (
+            "tristrips",
+            "property list int int vertex_indices\n",
+            "3 0 1 2",
+            r"element 'tristrips': faces glmls does not read",
+        ),
+    ],
+)
+def test_a_ply_whose_faces_are_not_found_is_refused(tmp_path, element, properties, row, message):
+    """Faces in the file that glmls cannot tell apart are refused, not dropped: the file is
+    not read as a point cloud."""
+    path = tmp_path / "lost.ply"
+    path.write_text(_TRIANGLE_PLY.format(element=element, properties=properties, row=row))
+    with pytest.raises(InputFileError, match=r"lost\.ply: not a readable \.ply mesh: " + message):
+        read_mesh(path)
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_a_ply_comment_naming_end_header_is_no_end_of_the_header(tmp_path, binary):
+    path = tmp_path / "comment.ply"
+    content = _ply([[0, 1, 2], [0, 2, 3, 4]], binary=binary)
+    path.write_bytes(content.replace(b"1.0\n", b"1.0\ncomment written up to end_header\n", 1))
+    assert read_mesh(path).faces.tolist() == [[0, 1, 2], [0, 2, 3], [0, 3, 4]]
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "message"),
+    [
+        ("big.obj", _FIVE + "f 1 2 99999999999999999999999\n", "line 6: vertex 99999999999999"),
+        (
+            "big.ply",
+            _TRIANGLE_PLY.format(
+                element="face",
+                properties=("property list uchar int vertex_indices\n"),
+                row="3 0 1 1e20",
+            ),
+            "index 1e+20",
+        ),
+        (
+            "inf.ply",
+            _TRIANGLE_PLY.format(
+                element="face",
+                properties=("property list uchar int vertex_indices\n"),
+                row="4 0 1 2 inf",
+            ),
+            "vertex index inf, beyond any vertex",
+        ),
+    ],
+)
+def test_face_indices_beyond_int64_are_named(tmp_path, name, content, message):
+    """An index no int64 holds is the file's fault, named, not cast to another index (with a
+    warning) or left to an OverflowError."""
+    path = tmp_path / name
+    path.write_text(content)
+    with pytest.raises(InputFileError) as info:
+        read_mesh(path)
+    assert str(info.value).startswith(f"{path}: ") and message in str(info.value)
+
+
+def test_obj_comments_after_data_and_old_fo_faces_are_read(tmp_path):
+    path = tmp_path / "c.obj"
+    path.write_text(
+        "v 0 0 0 # origin\nv 1 0 0\nv 0 1 0#x\nv 0 0 1\nf 1 2 3 # base\nfo 1 3 4\n# f 2 3 4\n"
+    )
+    mesh = read_mesh(path)
+    assert mesh.vertices.tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
+    assert mesh.faces.tolist() == [[0, 1, 2], [0, 2, 3]]
+
+
+@pytest.mark.parametrize("radius", [1e-8, 1.0, 1e11])
+def test_stl_merges_the_corners_at_any_scale_in_the_order_they_come(tmp_path, radius):
+    """Corners of the same coordinates are one vertex, and no others: a sphere of 10 nm in
+    metres keeps its 162 vertices. The vertices come in the order of their first corner."""
+    mesh = glmls.data.sphere()
+    vertices = (mesh.vertices - 32) / 20 * radius
+    write_mesh(tmp_path / "m.stl", vertices, faces=mesh.faces)
+    back = read_mesh(tmp_path / "m.stl")
+    first = list(dict.fromkeys(mesh.faces.ravel().tolist()))  # the vertices as corners name them
+    assert_array_equal(back.vertices, vertices[first].astype(np.float32))
+    assert_array_equal(np.array(first)[back.faces], mesh.faces)
