@@ -38,8 +38,8 @@ class BatchInput:
         return len(self.images)
 
 
-#: What the errors of a batch's images and points say where they look like a volume's: a batch
-#: is of 2D images.
+#: What the error of a batch's image says where it looks like a volume (D, H, W): a batch is
+#: of 2D images.
 VOLUMES_HINT = (
     " (a batch holds 2D images; a volume is warped by glmls.MLS(src, dst).warp(volume), one "
     "at a time)"
@@ -110,8 +110,7 @@ def check_points(array: np.ndarray, name: str, *, rows: str) -> np.ndarray:
     if array.size == 0 and array.ndim <= 2:  # [] or np.zeros((0, 2)): no points
         array = array.reshape(0, 2)
     if array.ndim != 2 or array.shape[1] != 2:
-        hint = VOLUMES_HINT if array.ndim == 2 and array.shape[1] == 3 else ""
-        raise ValueError(f"{name} has shape {array.shape}; expected ({rows}, 2){hint}")
+        raise ValueError(f"{name} has shape {array.shape}; expected ({rows}, 2)")
     return check_coordinates(np.asarray(array, dtype=np.float64), name)
 
 

@@ -391,11 +391,6 @@ def test_keypoint_sets_given_as_empty_lists(gl, rng):
             ValueError,
             r"images\[0\] has shape \(4, 4, 6\).*a volume is warped by glmls\.MLS",
         ),
-        (
-            {"src": np.zeros((3, 4, 3))},
-            ValueError,
-            r"src\[0\] has shape \(4, 3\); expected \(K, 2\) \(a batch holds 2D images",
-        ),
         ({"keypoints": np.zeros((3, 2, 3))}, ValueError, r"keypoints\[0\] has shape \(2, 3\)"),
         ({"keypoints": [np.zeros((1, 2))] * 2}, ValueError, "keypoints holds 2 point sets"),
         ({"keypoints": [np.zeros((1, 2))]}, ValueError, "keypoints holds 1 point set for 3"),
