@@ -21,9 +21,21 @@ __all__ = ["NiftiHeader", "one_line", "read_nifti", "write_nifti"]
 _NIFTI_AS = {"bool": np.uint8, "float16": np.float32}
 
 
+#: Intents whose values are components in the space's frame (vectors, displacements,
+#: matrices, quaternions, points, FSL's warp fields and their spline or DCT coefficients): a
+#: warp moves the voxels but neither turns nor recomputes those components, so the intent
+#: would no longer describe the warped values; read as no intent.
+_SPATIAL_INTENTS = frozenset(
+    (1004, 1005, 1006, 1007, 1008, 1009, 1010, 2006, 2007, 2008, 2009, 2016, 2017)
+)
+
+
 @dataclasses.dataclass(frozen=True)
 class NiftiHeader:
     """The fields of a NIfTI header that a volume read from it carries, to be written back.
+
+    They are those that stay true of the volume warped in space; ``dim_info`` and the slice
+    timing, which the warp's moved slices no longer follow, are not among them.
 
     Parameters
     ----------
@@ -46,15 +58,38 @@ class NiftiHeader:
         qform and an sform (codes > 0) and they differ (the sform, the volume's affine, maps
         to another world, an atlas's, than the qform's scanner): written back as the
         qform, beside the affine as the sform. None where the affine is both.
+    intent_code : int, default 0
+        What the values are (NIfTI's ``NIFTI_INTENT_*`` codes: 3 a t statistic, 5 a z
+        score, 22 a p value, 1002 labels, ...); 0 for none. A volume of channels with no
+        intent is written with intent 1007, ``vector``. Reading leaves out the intents of
+        components in the space's frame, which a warp moves without turning them (1004 to
+        1010: matrices, displacements, vectors, points, quaternions; FSL's warp fields and
+        their coefficients, 2006 to 2009, 2016, 2017): such a volume is read with none.
+    intent_params : tuple of 3 float, default (0.0, 0.0, 0.0)
+        The intent's parameters ``intent_p1``..``intent_p3`` (a t statistic's degrees of
+        freedom, an F statistic's two).
+    intent_name : str, default ""
+        The intent's name (``intent_name``), at most 16 characters (of Latin-1).
+    cal_min, cal_max : float, default 0.0
+        The display range of the values (both 0 where the file gives none). Nearest and
+        trilinear sampling give values within the input's range, so the range stays true
+        of a warped volume (but for the background where it lies outside).
+    aux_file : str, default ""
+        The name of an auxiliary file (a colour table), at most 24 characters (of Latin-1).
+    toffset : float, default 0.0
+        The time of the first time point (``toffset``, in the time unit).
 
     Raises
     ------
     ValueError
-        For a code outside 0..32767, a units byte outside 0..255, a description longer than
-        80 characters or not Latin-1, a time step that is not finite, or a qform that is not
-        a finite 4 x 4 matrix.
+        For a code or intent code outside 0..32767, a units byte outside 0..255, a
+        description, intent name or auxiliary file name longer than its field or not
+        Latin-1, a time step, intent parameter, display bound or time offset that is not
+        finite, a ``cal_min`` above ``cal_max``, intent parameters that are not 3, or a
+        qform that is not a finite 4 x 4 matrix.
     TypeError
-        For a code or units value that is not an integer.
+        For a code or units value that is not an integer, a text that is not a ``str``, or a
+        number that is not a real one.
 
     See Also
     --------
@@ -67,6 +102,12 @@ class NiftiHeader:
     >>> volume = glmls.Volume(np.zeros((4, 5, 6), np.int16), affine=np.eye(4), nifti=header)
     >>> volume.nifti.sform_code
     4
+
+    A t statistic of 12 degrees of freedom, shown from -5 to 5:
+
+    >>> tmap = NiftiHeader(intent_code=3, intent_params=(12, 0, 0), cal_min=-5, cal_max=5)
+    >>> tmap.intent_params, tmap.cal_max
+    ((12.0, 0.0, 0.0), 5.0)
     """
 
     sform_code: int = 1
@@ -75,21 +116,41 @@ class NiftiHeader:
     descrip: str = ""
     time_step: float | None = None
     qform: tuple | None = None
+    intent_code: int = 0
+    intent_params: tuple = (0.0, 0.0, 0.0)
+    intent_name: str = ""
+    cal_min: float = 0.0
+    cal_max: float = 0.0
+    aux_file: str = ""
+    toffset: float = 0.0
 
     def __post_init__(self) -> None:
-        for name, top in (("sform_code", 32767), ("qform_code", 32767), ("xyzt_units", 255)):
+        integers = (
+            ("sform_code", 32767),
+            ("qform_code", 32767),
+            ("xyzt_units", 255),
+            ("intent_code", 32767),
+        )
+        for name, top in integers:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | np.integer):
                 raise TypeError(f"{name} must be an integer, got {value!r}")
             if not 0 <= value <= top:
                 raise ValueError(f"{name} must be in 0..{top}, got {value}")
             object.__setattr__(self, name, int(value))
-        try:
-            size = len(str(self.descrip).encode("latin-1"))
-        except UnicodeEncodeError:
-            raise ValueError("descrip must be Latin-1 text") from None
-        if size > 80:
-            raise ValueError(f"descrip holds at most 80 characters, got {size}")
+        for name, size in (("descrip", 80), ("intent_name", 16), ("aux_file", 24)):
+            _check_text(name, getattr(self, name), size)
+        for name in ("cal_min", "cal_max", "toffset"):
+            object.__setattr__(self, name, check_real(name, getattr(self, name)))
+        if self.cal_min > self.cal_max:
+            raise ValueError(f"cal_min {self.cal_min} is above cal_max {self.cal_max}")
+        params = self.intent_params
+        if isinstance(params, str) or not isinstance(params, tuple | list | np.ndarray):
+            raise TypeError(f"intent_params must be 3 real numbers, got {params!r}")
+        if len(params) != 3:
+            raise ValueError(f"intent_params must be 3 real numbers, got {len(params)}")
+        params = tuple(check_real(f"intent_p{i + 1}", p) for i, p in enumerate(params))
+        object.__setattr__(self, "intent_params", params)
         if self.time_step is not None:
             object.__setattr__(self, "time_step", check_real("time_step", self.time_step))
         if self.qform is not None:
@@ -97,6 +158,19 @@ class NiftiHeader:
             if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
                 raise ValueError(f"qform must be a finite 4 x 4 matrix, got {matrix.shape}")
             object.__setattr__(self, "qform", tuple(tuple(row) for row in matrix.tolist()))
+
+
+def _check_text(name: str, value: object, size: int) -> None:
+    """``TypeError`` for a text field that is not a ``str``, ``ValueError`` for one that is
+    not Latin-1 or longer than the header's ``size`` bytes."""
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be a str, got {type(value).__name__}")
+    try:
+        length = len(value.encode("latin-1"))
+    except UnicodeEncodeError:
+        raise ValueError(f"{name} must be Latin-1 text, got {value!r}") from None
+    if length > size:
+        raise ValueError(f"{name} holds at most {size} characters, got {length}")
 
 
 def _nibabel():
@@ -146,11 +220,45 @@ def read_nifti(path: Path) -> tuple[np.ndarray, np.ndarray, NiftiHeader]:
         sform_code=int(header["sform_code"]),
         qform_code=int(header["qform_code"]),
         xyzt_units=int(header["xyzt_units"]),
-        descrip=bytes(header["descrip"]).split(b"\0", 1)[0].decode("latin-1"),
+        descrip=_text(header["descrip"]),
         time_step=(step if np.isfinite(step) else 0.0) if time else None,
         qform=_own_qform(header, affine),
+        **_kept_fields(header),
     )
     return volume, affine, fields
+
+
+def _text(field: object) -> str:
+    """A header's text field: its bytes up to the first NUL, as Latin-1."""
+    return bytes(field).split(b"\0", 1)[0].decode("latin-1")
+
+
+def _finite(value: object) -> float:
+    """A header's float field, 0 where it is not finite (no number to keep)."""
+    number = float(value)
+    return number if np.isfinite(number) else 0.0
+
+
+def _kept_fields(header: object) -> dict:
+    """The intent, display range, auxiliary file and time offset of ``header``, as
+    :class:`NiftiHeader` takes them; an intent of components in the space's frame, a
+    negative code or parameters that are not finite read as no intent, a display range
+    that is not finite or reversed as none. ``dim_info`` and the slice timing are left
+    out: a warp moves the slices, so the acquisition's slice axis and order no longer
+    describe the output's."""
+    fields: dict = {"aux_file": _text(header["aux_file"]), "toffset": _finite(header["toffset"])}
+    code = int(header["intent_code"])
+    params = [float(header[f"intent_p{i}"]) for i in (1, 2, 3)]
+    if 0 < code and code not in _SPATIAL_INTENTS and np.isfinite(params).all():
+        fields.update(
+            intent_code=code,
+            intent_params=tuple(params),
+            intent_name=_text(header["intent_name"]),
+        )
+    low, high = float(header["cal_min"]), float(header["cal_max"])
+    if np.isfinite([low, high]).all() and low <= high:
+        fields.update(cal_min=low, cal_max=high)
+    return fields
 
 
 #: The most bytes a gzip file's one byte of deflate data expands to (deflate's limit, 1032:1).
@@ -241,7 +349,12 @@ def write_nifti(
         header.set_data_shape(data.shape)
     except (nib.spatialimages.HeaderDataError, ValueError) as error:
         raise ValueError(f"{path}: NIfTI cannot hold this volume: {error}") from None
-    if data.ndim == 5:
+    if fields.intent_code:
+        header["intent_code"] = fields.intent_code  # a number: nibabel's table lacks some
+        for i, value in enumerate(fields.intent_params, 1):
+            header[f"intent_p{i}"] = value
+        header["intent_name"] = fields.intent_name.encode("latin-1")
+    elif data.ndim == 5:
         header.set_intent("vector")
     if time:
         header["pixdim"][4] = fields.time_step
@@ -260,6 +373,9 @@ def write_nifti(
     header["qform_code"] = fields.qform_code if held else 0
     header["xyzt_units"] = fields.xyzt_units
     header["descrip"] = fields.descrip.encode("latin-1")
+    header["aux_file"] = fields.aux_file.encode("latin-1")
+    header["cal_min"], header["cal_max"] = fields.cal_min, fields.cal_max
+    header["toffset"] = fields.toffset
     # no affine given to nibabel: with one, it would rewrite the codes where they are 0
     image = nib.Nifti1Image(data, None, header=header, dtype=data.dtype)
     content = image.to_bytes()

@@ -12,10 +12,12 @@ dimension, the 5th ((i, j, k, 1, C), intent ``vector``, as ITK writes vector ima
 is time): written so, and read from it or from RGB records. A time series (i, j, k, T) is
 read as T channels, one a time point, and written back as it was read: 4D, with its time
 step (:class:`NiftiHeader`). A volume read from a NIfTI file keeps the header fields that
-say what its numbers mean (:class:`NiftiHeader`: the sform and qform codes, the units, the
-description), and :func:`write_volume` writes them back; its other fields (``dim_info``, the
-intent, the slice timing, ``cal_min``/``cal_max``, ``toffset``, ``aux_file``) are not
-carried, and are written as nibabel's defaults.
+say what its numbers mean and stay true of it warped in space (:class:`NiftiHeader`: the
+sform and qform codes, the units, the description, the intent, ``cal_min``/``cal_max``,
+``aux_file``, ``toffset``), and :func:`write_volume` writes them back; the intents of
+components in the space's frame (vectors, displacements, matrices), which a warp does not
+turn, ``dim_info`` and the slice timing (the warp moves the slices) are not carried, and are
+written as nibabel's defaults.
 
 :class:`Volume` holds the data, the voxel spacing (dz, dy, dx) (in the order of the array's
 axes, as :meth:`glmls.MLS.warp` takes it) and the affine, where the file says them:
@@ -174,9 +176,10 @@ class Volume:
         The NIfTI affine, (4, 4) float64: it maps the points (x, y, z, 1) of the volume to
         world coordinates; None for the other formats.
     nifti : NiftiHeader or None
-        The NIfTI file's codes, units, description and time step, which
-        :func:`write_volume` writes back to a NIfTI file; None for the other formats (a
-        NIfTI file written gets codes 1, scanner, and no units).
+        The NIfTI file's codes, units, description, time step, intent, display range,
+        auxiliary file and time offset, which :func:`write_volume` writes back to a NIfTI
+        file; None for the other formats (a NIfTI file written gets codes 1, scanner, no
+        units and no intent).
 
     Raises
     ------
@@ -604,10 +607,12 @@ def write_volume(
         qform where a qform holds it (a sheared affine's qform is left unset, code 0, so
         that no tool reads another geometry from it), with the codes of the volume's
         :class:`NiftiHeader` (1, scanner, where it has none or ``affine`` is given). The
-        header's units and description are written too, and a time series (its
-        ``time_step`` not None) is written 4D (i, j, k, T) with that step, as it was read;
-        other channels are the vector dimension (i, j, k, 1, C). Given with another format:
-        refused (a :class:`Volume`'s own affine and header are left out of other formats).
+        header's units, description, intent, display range, auxiliary file and time offset
+        are written too, and a time series (its ``time_step`` not None) is written 4D
+        (i, j, k, T) with that step, as it was read; other channels are the vector
+        dimension (i, j, k, 1, C), intent ``vector`` where the header gives none. Given
+        with another format: refused (a :class:`Volume`'s own affine and header are left
+        out of other formats).
     spacing : sequence of float, optional
         The voxel size (dz, dy, dx); default the volume's. NIfTI: used where no affine is
         given; TIFF: written as an ImageJ stack's spacing and X/Y resolutions (uint8,

@@ -442,6 +442,41 @@ def test_a_nifti_output_keeps_the_inputs_codes_units_and_description(files, stan
     assert header.get_xyzt_units() == ("mm", "sec") and header["descrip"] == b"an atlas"
 
 
+def test_a_warped_t_map_keeps_its_intent_and_display_range(files):
+    """End to end on the GPU, trilinear: a t statistic stays one of 12 degrees of freedom,
+    and its values stay within the input's, so within its display range."""
+    import nibabel as nib
+
+    values = np.linspace(-4.5, 5.5, 10 * 9 * 8, dtype=np.float32).reshape(10, 9, 8)
+    image = nib.Nifti1Image(values, AFFINE)
+    image.header.set_intent("t test", (12.0,), name="t-map")
+    image.header["cal_min"], image.header["cal_max"] = -4.5, 5.5
+    image.header["aux_file"] = b"hot.lut"
+    nib.save(image, "tmap.nii.gz")
+    argv = ["warp", "tmap.nii.gz", "out.nii.gz", "--handles", "h3.json", "--quiet"]
+    assert main([*argv, "--interpolation", "linear"]) == 0
+    out = nib.load("out.nii.gz")
+    assert out.header.get_intent() == ("t test", (12.0,), "t-map")
+    assert (float(out.header["cal_min"]), float(out.header["cal_max"])) == (-4.5, 5.5)
+    assert out.header["aux_file"] == b"hot.lut"
+    warped = np.asanyarray(out.dataobj)
+    assert not np.array_equal(warped, values)
+    assert warped.min() >= -4.5 - 1e-6 and warped.max() <= 5.5 + 1e-6
+
+
+def test_a_warped_displacement_field_is_written_as_plain_vectors(files, stand_in):
+    """Its components are moved, not turned: no longer the field's displacements."""
+    import nibabel as nib
+
+    image = nib.Nifti1Image(np.zeros((10, 9, 8, 1, 3), np.float32), AFFINE)
+    image.header.set_intent("displacement vector", name="warp")
+    nib.save(image, "field.nii.gz")
+    assert main(["warp", "field.nii.gz", "out.nii.gz", "--handles", "h3.json", "--quiet"]) == 0
+    header = nib.load("out.nii.gz").header
+    assert header["dim"][:6].tolist() == [5, 10, 9, 8, 1, 3]
+    assert header.get_intent() == ("vector", (), "")
+
+
 def test_a_time_series_is_warped_and_written_back_4d(files, stand_in):
     import nibabel as nib
 

@@ -208,3 +208,115 @@ def test_a_qform_must_be_a_finite_4_by_4_matrix():
         NiftiHeader(qform=np.eye(3))
     with pytest.raises(ValueError, match="qform must be a finite"):
         NiftiHeader(qform=np.full((4, 4), np.nan))
+
+
+def _tmap(path, data=None):
+    """A t statistic of 12 degrees of freedom with a display range, an auxiliary file, a
+    time offset, and the acquisition's frequency, phase and slice axes and slice timing."""
+    data = np.linspace(-4.5, 5.5, 60, dtype=np.float32).reshape(5, 4, 3) if data is None else data
+    image = nib.Nifti1Image(data, AFFINE)
+    image.set_sform(AFFINE, code=1)
+    image.set_qform(AFFINE, code=1)
+    header = image.header
+    header.set_intent("t test", (12.0,), name="t-map")
+    header["cal_min"], header["cal_max"] = -6.0, 6.0
+    header["aux_file"] = b"hot.lut"
+    header["toffset"] = 1.25
+    header.set_dim_info(freq=0, phase=1, slice=2)
+    header["slice_code"], header["slice_start"], header["slice_end"] = 3, 0, 2
+    header["slice_duration"] = 0.5
+    nib.save(image, path)
+
+
+@pytest.mark.parametrize("suffix", [".nii", ".nii.gz"])
+def test_the_intent_display_range_aux_file_and_time_offset_are_written_back(tmp_path, suffix):
+    """Kept: what stays true of the values moved in space. Dropped: the slice axis and the
+    slice timing, which a warp's moved slices no longer follow."""
+    _tmap(tmp_path / f"in{suffix}")
+    volume = read_volume(tmp_path / f"in{suffix}")
+    kept = NiftiHeader(
+        intent_code=3,
+        intent_params=(12.0, 0.0, 0.0),
+        intent_name="t-map",
+        cal_min=-6.0,
+        cal_max=6.0,
+        aux_file="hot.lut",
+        toffset=1.25,
+    )
+    assert volume.nifti == kept
+    write_volume(tmp_path / f"out{suffix}", volume)
+    header = nib.load(tmp_path / f"out{suffix}").header
+    assert header.get_intent() == ("t test", (12.0,), "t-map")
+    assert (float(header["cal_min"]), float(header["cal_max"])) == (-6.0, 6.0)
+    assert header["aux_file"] == b"hot.lut" and float(header["toffset"]) == 1.25
+    assert header.get_dim_info() == (None, None, None)
+    assert int(header["slice_code"]) == int(header["slice_end"]) == 0
+    assert float(header["slice_duration"]) == 0.0
+    assert read_volume(tmp_path / f"out{suffix}").nifti == kept
+
+
+def test_a_statistic_of_channels_keeps_its_intent_over_vector(tmp_path):
+    """Channels are the 5th dimension, written with intent vector where the volume has no
+    intent of its own; one it has (z scores of two contrasts) is written instead."""
+    header = NiftiHeader(intent_code=5, intent_name="z")
+    write_volume(tmp_path / "z.nii", Volume(np.zeros((3, 4, 5, 2), np.float32), nifti=header))
+    written = nib.load(tmp_path / "z.nii").header
+    assert written["dim"][:6].tolist() == [5, 5, 4, 3, 1, 2]
+    assert written.get_intent() == ("z score", (), "z")
+
+
+@pytest.mark.parametrize(
+    ("shape", "intent", "written"),
+    [
+        ((5, 4, 3, 1, 3), "displacement vector", "vector"),  # the channels' own intent
+        ((5, 4, 3, 1, 3), "vector", "vector"),
+        ((5, 4, 3, 1, 6), "symmetric matrix", "vector"),
+        ((5, 4, 3), "vector", "none"),
+    ],
+)
+def test_an_intent_of_components_in_space_is_not_carried(tmp_path, shape, intent, written):
+    """A warp moves a vector's or a matrix's voxels without turning its components, so the
+    intent would no longer describe them: read as none, with its parameters and name."""
+    image = nib.Nifti1Image(np.ones(shape, np.float32), AFFINE)
+    image.header.set_intent(intent, name="field")
+    image.header["cal_min"], image.header["cal_max"] = -1.0, 1.0
+    nib.save(image, tmp_path / "field.nii")
+    volume = read_volume(tmp_path / "field.nii")
+    assert (volume.nifti.intent_code, volume.nifti.intent_name) == (0, "")
+    assert (volume.nifti.cal_min, volume.nifti.cal_max) == (-1.0, 1.0)
+    write_volume(tmp_path / "out.nii", volume)
+    assert nib.load(tmp_path / "out.nii").header.get_intent() == (written, (), "")
+
+
+def test_a_header_whose_intent_or_display_range_cannot_hold_reads_as_none(tmp_path):
+    """A parameter that is not a number, or a display range upside down, means nothing a
+    later tool could use: read as none rather than refused."""
+    image = nib.Nifti1Image(np.zeros((5, 4, 3), np.int16), AFFINE)
+    image.set_sform(AFFINE, code=1)
+    image.set_qform(AFFINE, code=1)
+    image.header["intent_code"], image.header["intent_p1"] = 3, np.nan
+    image.header["cal_min"], image.header["cal_max"] = 5.0, -5.0
+    image.header["toffset"] = np.inf
+    nib.save(image, tmp_path / "odd.nii")
+    assert read_volume(tmp_path / "odd.nii").nifti == NiftiHeader()
+
+
+@pytest.mark.parametrize(
+    ("fields", "error", "message"),
+    [
+        ({"intent_code": 40000}, ValueError, r"intent_code must be in 0\.\.32767, got 40000"),
+        ({"intent_code": 3.0}, TypeError, r"intent_code must be an integer, got 3\.0"),
+        ({"intent_params": (12.0,)}, ValueError, "intent_params must be 3 real numbers, got 1"),
+        ({"intent_params": 12.0}, TypeError, "intent_params must be 3 real numbers, got 12"),
+        ({"intent_params": (1, np.inf, 0)}, ValueError, "intent_p2 must be a finite number"),
+        ({"intent_name": "x" * 17}, ValueError, "intent_name holds at most 16 characters"),
+        ({"aux_file": "x" * 25}, ValueError, "aux_file holds at most 24 characters, got 25"),
+        ({"aux_file": b"hot.lut"}, TypeError, "aux_file must be a str, got bytes"),
+        ({"cal_min": 2.0, "cal_max": 1.0}, ValueError, "cal_min 2.0 is above cal_max 1.0"),
+        ({"cal_max": float("nan")}, ValueError, "cal_max must be a finite number"),
+        ({"toffset": "1"}, TypeError, "toffset must be a finite number"),
+    ],
+)
+def test_the_kept_fields_are_checked(fields, error, message):
+    with pytest.raises(error, match=message):
+        NiftiHeader(**fields)
