@@ -266,6 +266,8 @@ def picture_limits(
     ------
     ValueError
         For an unknown ``quantity``, a bad ``percentile`` or ``unit``.
+    TypeError
+        For a ``percentile`` or ``unit`` that is no real number, named.
 
     Examples
     --------
