@@ -198,20 +198,24 @@ def _run_processes(function, items: list, jobs: int, finished) -> None:
         workers, mp_context=context, initializer=_ignore_interrupts
     )
     started: set = set()  # the pool's worker processes (a submission may start one)
+    futures: dict = {}  # future: its item's index
 
-    def submit(item: Any) -> concurrent.futures.Future:
-        before = set(multiprocessing.active_children())
-        # the worker a submission may start is born with Ctrl-C blocked, until it ignores it
+    def submit(index: int, item: Any) -> None:
+        # the worker a submission may start is born with Ctrl-C blocked, until it ignores it;
+        # a Ctrl-C meanwhile is raised at the block's end, once the worker and the item are
+        # known here: else the stop could not reach a worker started after the terminal's
+        # Ctrl-C, which would run its whole item
         with _interrupts_blocked():
-            future = pool.submit(_interruptible, function, item)
-        started.update(set(multiprocessing.active_children()) - before)
-        return future
+            before = set(multiprocessing.active_children())
+            futures[pool.submit(_interruptible, function, item)] = index
+            started.update(set(multiprocessing.active_children()) - before)
 
     with pool:
-        # One item per worker at a time: the pool hands the items submitted to its workers
-        # ahead of time, beyond cancelling, so a stopped run would go on with them.
-        futures = {submit(item): index for index, item in itertools.islice(pending, workers)}
         try:
+            # One item per worker at a time: the pool hands the items submitted to its
+            # workers ahead of time, beyond cancelling, so a stopped run would go on with them.
+            for index, item in itertools.islice(pending, workers):
+                submit(index, item)
             while futures:
                 done, _ = concurrent.futures.wait(
                     futures, return_when=concurrent.futures.FIRST_COMPLETED
@@ -223,7 +227,7 @@ def _run_processes(function, items: list, jobs: int, finished) -> None:
                         raise _indexed(error, index) from error
                     finished(index, future.result())
                     for next_index, item in itertools.islice(pending, 1):
-                        futures[submit(item)] = next_index
+                        submit(next_index, item)
         except BaseException as error:
             # the items not started yet never start; the running ones end (on Ctrl-C, at
             # once: their KeyboardInterrupt comes back as their result), then the workers

@@ -3,10 +3,14 @@ two workers (``SCHEDULER``: ``none`` for worker processes, or ``local`` for a lo
 cluster); each item leaves ``started_N`` in FOLDER as it starts. Ctrl-C exits 130; SIGTERM
 raises an exception, as the command line does, and exits 143.
 ``SCHEDULER`` ``big``: worker processes, item 0 ends at once with a big result, which
-leaves ``sending_PID`` (its worker's) in FOLDER as it is being sent back."""
+leaves ``sending_PID`` (its worker's) in FOLDER as it is being sent back.
+``SCHEDULER`` ``before_worker_N``: worker processes, and Ctrl-C reaches the whole process
+group (sent by this process, as a terminal sends it) just before worker N (1 or 2) starts."""
 
 from __future__ import annotations
 
+import itertools
+import multiprocessing.context
 import os
 import signal
 import sys
@@ -40,6 +44,20 @@ class Terminated(BaseException):
     """SIGTERM, raised in the main thread."""
 
 
+def ctrl_c_before_worker(number: int) -> None:
+    """Ctrl-C to this process group as the ``number``-th worker process is about to start: the
+    processes born before hear it, that worker does not."""
+    start = multiprocessing.context.SpawnProcess.start
+    starts = itertools.count(1)
+
+    def start_after_ctrl_c(process: multiprocessing.context.SpawnProcess) -> None:
+        if next(starts) == number:
+            os.killpg(0, signal.SIGINT)
+        start(process)
+
+    multiprocessing.context.SpawnProcess.start = start_after_ctrl_c
+
+
 def terminate(signum: int, frame: object) -> None:
     raise Terminated
 
@@ -52,6 +70,9 @@ if __name__ == "__main__":
     from glmls.analysis.jobs import run_jobs
 
     folder, scheduler = sys.argv[1], sys.argv[2]
+    if scheduler.startswith("before_worker_"):
+        ctrl_c_before_worker(int(scheduler.rpartition("_")[2]))
+        scheduler = "none"
     items = [(folder, index) for index in range(2 if scheduler == "big" else 4)]
     function = big_or_slow if scheduler == "big" else slow
     try:

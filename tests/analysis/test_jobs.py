@@ -12,6 +12,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -199,18 +200,12 @@ def test_ctrl_c_ends_the_run_and_its_workers(tmp_path, scheduler):
         pytest.importorskip("distributed")
     child = _interrupted_jobs(tmp_path, scheduler)
     try:
-        deadline = time.monotonic() + 120
-        while len(list(tmp_path.glob("started_*"))) < 2 and time.monotonic() < deadline:
-            assert child.poll() is None, child.stderr.read()
-            time.sleep(0.1)
+        _wait_until(child, lambda: len(list(tmp_path.glob("started_*"))) >= 2, "two items to start")
         os.killpg(child.pid, signal.SIGINT)
-        # the items would run 150 s: a run that waited for them would time out here, with
-        # room for a machine under load to start and end processes
-        _, err = child.communicate(timeout=90)
+        err = _ended(child, tmp_path)
         left = _group_alive(child.pid, wait=30)
     finally:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(child.pid, signal.SIGKILL)
+        _kill(child)
     assert child.returncode == 130, err
     assert not left, "a worker process outlived the run"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["started_0", "started_1"]
@@ -226,20 +221,15 @@ def test_sigterm_ends_the_run_and_its_workers(tmp_path, scheduler, whom):
         pytest.importorskip("distributed")
     child = _interrupted_jobs(tmp_path, scheduler)
     try:
-        deadline = time.monotonic() + 120
-        while len(list(tmp_path.glob("started_*"))) < 2 and time.monotonic() < deadline:
-            assert child.poll() is None, child.stderr.read()
-            time.sleep(0.1)
+        _wait_until(child, lambda: len(list(tmp_path.glob("started_*"))) >= 2, "two items to start")
         if whom == "parent":
             os.kill(child.pid, signal.SIGTERM)
         else:
             os.killpg(child.pid, signal.SIGTERM)
-        _, err = child.communicate(timeout=90)
+        err = _ended(child, tmp_path)
         left = _group_alive(child.pid, wait=30)
     finally:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(child.pid, signal.SIGKILL)
-        child.wait()
+        _kill(child)
     assert (child.returncode, err) == (143, "terminated\n")
     assert not left, "a worker process outlived the run"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["started_0", "started_1"]
@@ -253,10 +243,12 @@ def test_ctrl_c_while_a_worker_sends_its_result(tmp_path):
     many times, so that it lands in the sending whatever the machine's speed."""
     child = _interrupted_jobs(tmp_path, "big")
     try:
-        deadline = time.monotonic() + 120
-        while not list(tmp_path.glob("sending_*")) and time.monotonic() < deadline:
-            assert child.poll() is None, child.stderr.read()
-            time.sleep(0.002)
+        _wait_until(
+            child,
+            lambda: list(tmp_path.glob("sending_*")),
+            "a worker to send its result",
+            pause=0.002,
+        )
         sender = int(next(tmp_path.glob("sending_*")).name.split("_")[1])
         end = time.monotonic() + 1.5
         while time.monotonic() < end:
@@ -264,12 +256,10 @@ def test_ctrl_c_while_a_worker_sends_its_result(tmp_path):
                 os.kill(sender, signal.SIGINT)
             time.sleep(0.005)
         os.killpg(child.pid, signal.SIGINT)
-        _, err = child.communicate(timeout=90)
+        err = _ended(child, tmp_path)
         left = _group_alive(child.pid, wait=30)
     finally:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(child.pid, signal.SIGKILL)
-        child.wait()
+        _kill(child)
     assert (child.returncode, err) == (130, "interrupted\n")
     assert not left, "a worker process outlived the run"
 
@@ -284,17 +274,28 @@ def test_ctrl_c_as_the_workers_start(tmp_path, scheduler):
         pytest.importorskip("distributed")
     child = _interrupted_jobs(tmp_path, scheduler)
     try:
-        deadline = time.monotonic() + 120
-        while not _workers_of(child.pid) and time.monotonic() < deadline:
-            assert child.poll() is None, child.stderr.read()
-            time.sleep(0.002)
+        _wait_until(child, lambda: _workers_of(child.pid), "a worker process to start", pause=0.002)
         os.killpg(child.pid, signal.SIGINT)
-        _, err = child.communicate(timeout=90)
+        err = _ended(child, tmp_path)
         left = _group_alive(child.pid, wait=30)
     finally:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(child.pid, signal.SIGKILL)
-        child.wait()
+        _kill(child)
+    assert (child.returncode, err) == (130, "interrupted\n")
+    assert not left, "a worker process outlived the run"
+
+
+@pytest.mark.parametrize("worker", [1, 2])
+def test_ctrl_c_just_before_a_worker_starts(tmp_path, worker):
+    """Ctrl-C to the whole process group as the first or second worker process is about to
+    start, which is then born after it and does not hear it: the caller stops it all the
+    same, so that the run ends at once (that worker would run its item, 150 s, to the end),
+    with its one line and no process left."""
+    child = _interrupted_jobs(tmp_path, f"before_worker_{worker}")
+    try:
+        err = _ended(child, tmp_path)
+        left = _group_alive(child.pid, wait=30)
+    finally:
+        _kill(child)
     assert (child.returncode, err) == (130, "interrupted\n")
     assert not left, "a worker process outlived the run"
 
@@ -324,6 +325,43 @@ def _interrupted_jobs(folder: Path, mode: str) -> subprocess.Popen:
         env=env,
         start_new_session=True,
     )
+
+
+def _wait_until(
+    child: subprocess.Popen, ready: Callable[[], object], what: str, *, pause: float = 0.1
+) -> None:
+    """Until ``ready()`` is true, 120 s at most: the test fails, with what the run wrote, if
+    the run ends before or still waits for ``what`` then."""
+    deadline = time.monotonic() + 120
+    while not ready():
+        if child.poll() is not None:
+            code = child.returncode
+            pytest.fail(f"the run ended ({code}) as the test waited for {what}: {_kill(child)!r}")
+        if time.monotonic() > deadline:
+            pytest.fail(f"120 s waiting for {what}; the run wrote {_kill(child)!r}")
+        time.sleep(pause)
+
+
+def _ended(child: subprocess.Popen, folder: Path) -> str:
+    """What the run wrote on stderr, once it has ended: 90 s at most, since the items would
+    run 150 s (a run that waited for them fails the test, with room for a machine under load
+    to start and end processes)."""
+    try:
+        return child.communicate(timeout=90)[1]
+    except subprocess.TimeoutExpired:
+        started = sorted(p.name for p in folder.iterdir())
+        pytest.fail(f"the run went on 90 s after it was stopped ({started}): {_kill(child)!r}")
+
+
+def _kill(child: subprocess.Popen) -> str:
+    """What the run wrote on stderr, its whole process group killed: its workers too, which
+    hold the pipe open (reading to its end would wait for them)."""
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(child.pid, signal.SIGKILL)
+    try:
+        return child.communicate(timeout=30)[1]
+    except subprocess.TimeoutExpired:
+        return "(stderr still open 30 s after the process group was killed)"
 
 
 def _group_alive(group: int, wait: float) -> bool:
