@@ -256,7 +256,10 @@ class MLSConfig:
     transform: str = field(default="rigid", metadata={"help": "MLS transform"})
     weight: str = field(default="idw", metadata={"help": "distance weight (paper's Table 1)"})
     alpha: float = field(default=1.0, metadata={"help": "idw power (and interpolating's)"})
-    s: float = field(default=1e-8, metadata={"help": "idw adjusting term"})
+    s: float = field(
+        default=1e-8,
+        metadata={"help": "idw adjusting term, in the handles' units to the power 2 alpha (px^2)"},
+    )
     radius: float | None = field(
         default=None,
         metadata={
