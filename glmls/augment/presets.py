@@ -5,9 +5,13 @@ sample's handles p (``src``) and q (``dst``), (K, 2) float arrays in pixels (x, 
 The text-line presets follow Luo et al., "Learn to Augment: Joint Data Augmentation and
 Network Optimization for Text Recognition" (CVPR 2020): the image is cut into ``segments``
 patches along its width, with 2 (segments + 1) fiducial points on its top and bottom edges,
-and the fiducial points are moved at random within a radius R. The defaults of R are those of
-the authors' toolkit: W / segments / 3 for distortion, 4/5 W / segments for stretching, H / 2
-for perspective.
+and the fiducial points are moved at random within a radius R. Each mode moves them as the
+authors' toolkit does (https://github.com/Canjie-Luo/Text-Image-Augmentation,
+``src/Augment.cpp``), with its defaults of R: W / segments / 3 for distortion,
+4/5 W / segments for stretching, H / 2 for perspective. The offsets are continuous where the
+toolkit's are whole pixels, the points evenly spaced on the image's outer pixel edges, and the
+perspective keeps the points between the corners (the toolkit moves the corners alone):
+:doc:`/augment` says why.
 """
 
 from __future__ import annotations
@@ -310,7 +314,9 @@ class TextPerspectivePreset(_TextPreset):
 
     The top and bottom edges move vertically and independently, each corner by up to
     ``radius`` inwards; the fiducial points between stay on the straight edge between their
-    corners.
+    corners. They keep the moved edges close to straight, which the four corners alone (the
+    authors' toolkit's handles, ``segments=1`` here) do not: the similarity MLS bows an edge
+    between two handles.
 
     Parameters
     ----------
