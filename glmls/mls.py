@@ -637,17 +637,21 @@ class MLS(ForkSafe):
             An object with ``.vertices`` (V, 3) and ``.faces`` (F, 3) integer indices (a
             ``trimesh.Trimesh``; its ``vertex_normals`` are used), a ``(vertices, faces)``
             tuple, or a point cloud (no faces, zero normals): a (V, 3) array of points, or
-            an object with ``.vertices`` alone (a ``trimesh.PointCloud``).
+            an object with ``.vertices`` alone (a ``trimesh.PointCloud``). Vertex colours
+            (a :class:`~glmls.Mesh`'s ``colors``, a trimesh's own vertex colours) go with
+            their vertices.
 
         Returns
         -------
         DeformedMesh
-            The deformed vertices, normals, Jacobians, det J and folds.
+            The deformed vertices, normals, Jacobians, det J and folds, and the input's
+            vertex colours (``colors``, None where it has none).
 
         Raises
         ------
         ValueError
-            On an MLS of 2D handles, or for a malformed mesh (named).
+            On an MLS of 2D handles, or for a malformed mesh (named), or vertex colours that
+            are not (V, 3) or (V, 4) integers 0..255 or floats 0..1.
         TypeError
             For vertices that are not real numbers, or faces that are not integers (a
             float array of faces too: the message names its dtype).

@@ -24,7 +24,7 @@ from .core.handles3 import (
     validate_handles3,
     volume_extent,
 )
-from .core.mesh3 import DeformedMesh, as_mesh
+from .core.mesh3 import DeformedMesh, as_mesh, mesh_colors
 from .engine.deform3 import deform_mesh3
 from .engine.kernel3 import MLSKernel3
 from .engine.passes3 import evaluate_points3, invert_points3, length_unit
@@ -471,7 +471,9 @@ class MLS3(MLS):
         [[2.0, 3.0, 4.0]]
         """
         vertices, faces, normals = as_mesh(mesh)
-        return deform_mesh3(self._kernel, vertices, faces, normals)  # type: ignore[arg-type]
+        colors = mesh_colors(mesh, len(vertices))
+        kernel = self._kernel
+        return deform_mesh3(kernel, vertices, faces, normals, colors=colors)  # type: ignore[arg-type]
 
     # -- volumes and what is 2D only --------------------------------------------------------
 

@@ -30,7 +30,7 @@ from ..core.config import MLSConfig
 from ..core.handles3 import as_volume_spacing
 from ..files.images import DEFAULT_MAX_PIXELS
 from ..files.landmarks import elastix_indices, elastix_physical, handle_dimension, read_handles
-from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
+from ..files.meshes import MESH_SUFFIXES, read_mesh_and_unkept, write_mesh
 from ..files.volume_dtypes import check_file_background, in_dtype, warped_as
 from ..files.volumes import (
     VOLUME_SUFFIXES,
@@ -475,7 +475,7 @@ def _deform_mesh(args, config: MLSConfig, src, dst, target: Path) -> None:
             f"--weight {config.weight} needs --radius R for a mesh (in the units of its "
             "coordinates): a mesh has no image or volume diagonal to default to"
         )
-    mesh = read_mesh(args.input)
+    mesh, unkept = read_mesh_and_unkept(args.input)
     if not len(mesh.faces) and volume_suffix(target) == ".stl":
         raise UsageError(
             f"{target}: {args.input} is a point cloud (no faces); STL holds triangles only: "
@@ -499,4 +499,8 @@ def _deform_mesh(args, config: MLSConfig, src, dst, target: Path) -> None:
             f"glmls warp: warning: {args.input}: {faces} of {len(mesh.faces)} faces fold over "
             "(turned inside out): the deformation is not one-to-one there",
         )
-    write_mesh(target, np.asarray(deformed.vertices), faces=mesh.faces)
+    write_mesh(target, np.asarray(deformed.vertices), faces=mesh.faces, colors=mesh.colors)
+    if mesh.colors is not None and volume_suffix(target) == ".stl":
+        unkept = ("vertex colours", *unkept)
+    if unkept:
+        say(args, f"warp: {target} does not carry the input's {', '.join(unkept)}")

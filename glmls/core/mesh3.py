@@ -22,6 +22,7 @@ from .summary import fields_repr
 
 __all__ = [
     "DeformedMesh",
+    "as_colors",
     "as_mesh",
     "cofactor",
     "deform_mesh",
@@ -29,6 +30,7 @@ __all__ = [
     "determinant",
     "face_folds",
     "face_normals",
+    "mesh_colors",
     "vertex_normals",
 ]
 
@@ -57,6 +59,10 @@ class DeformedMesh:
     face_folds : numpy.ndarray
         (F,) bool: a vertex of the face folds, or the face's orientation flips (see
         :mod:`glmls.core.mesh3`).
+    colors : numpy.ndarray or None
+        (V, 3) or (V, 4) uint8 RGB(A) vertex colours, the input mesh's own (a
+        :class:`glmls.Mesh`'s ``colors``, a ``trimesh.Trimesh``'s vertex colours): a
+        deformation moves a vertex, not its colour. None where the input has none.
 
     Examples
     --------
@@ -76,6 +82,7 @@ class DeformedMesh:
     det_j: np.ndarray
     vertex_folds: np.ndarray
     face_folds: np.ndarray
+    colors: np.ndarray | None = None
 
     @property
     def folded(self) -> bool:
@@ -136,6 +143,48 @@ def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     if f.dtype != np.int64 or f.flags.writeable:
         f = f.astype(np.int64)  # a copy: the caller's array may change (a glmls.Mesh's cannot)
     return v, f, normals
+
+
+def as_colors(colors: object, count: int) -> np.ndarray | None:
+    """``colors`` as read-only (``count``, 3) or (``count``, 4) uint8 RGB(A) rows, or None for
+    None: integers as they are (each in 0..255), floats in 0..1 scaled by 255 and rounded to
+    the nearest integer (an OBJ file's). ``TypeError`` for values that are not real numbers
+    (bools too), ``ValueError`` for another shape or a value out of range, naming it."""
+    if colors is None:
+        return None
+    array = np.asarray(colors)
+    if array.dtype.kind not in "iuf":
+        raise TypeError(f"colors must be integers 0..255 or floats 0..1, got dtype {array.dtype}")
+    if array.ndim != 2 or array.shape[1] not in (3, 4) or len(array) != count:
+        raise ValueError(
+            f"colors must be (V, 3) or (V, 4) RGB(A) rows for the V = {count} vertices, "
+            f"got shape {array.shape}"
+        )
+    floats = array.dtype.kind == "f"
+    bad = ~((array >= 0) & (array <= (1 if floats else 255)))  # NaN too
+    if bad.any():
+        row = int(np.argwhere(bad)[0][0])
+        raise ValueError(
+            f"colors must be {'floats 0..1' if floats else 'integers 0..255'}; "
+            f"row {row} is {array[row].tolist()}"
+        )
+    if floats:
+        array = np.rint(array * 255.0)
+    out = array.astype(np.uint8)  # a copy: the caller's array may change
+    out.flags.writeable = False
+    return out
+
+
+def mesh_colors(mesh: object, count: int) -> np.ndarray | None:
+    """The vertex colours of a mesh given to :func:`as_mesh` (of ``count`` vertices), by
+    :func:`as_colors`: its ``colors`` (a :class:`glmls.Mesh`), or a ``trimesh.Trimesh``'s
+    or ``PointCloud``'s own vertex colours; None for arrays, tuples and meshes without them
+    (trimesh's default grey is no colour of the mesh's)."""
+    colors = getattr(mesh, "colors", None)
+    visual = getattr(mesh, "visual", None)
+    if colors is None and getattr(visual, "kind", None) == "vertex":
+        colors = visual.vertex_colors  # type: ignore[union-attr]
+    return as_colors(colors, count)
 
 
 def _own_normals(normals: object, shape: tuple[int, ...]) -> np.ndarray | None:
@@ -250,11 +299,14 @@ def deform_mesh(
     normals: np.ndarray | None,
     deformed: np.ndarray,
     jacobian: np.ndarray,
+    *,
+    colors: np.ndarray | None = None,
 ) -> DeformedMesh:
     """The :class:`DeformedMesh` of a mesh (:func:`as_mesh`'s ``vertices``, ``faces`` and
     ``normals``, None to take them from the faces) from f at its vertices (``deformed``) and
     the Jacobians there, in float64 on the host: the reference of the GPU's
-    :func:`glmls.engine.deform3.deform_mesh3`."""
+    :func:`glmls.engine.deform3.deform_mesh3`. ``colors``: the vertices' own
+    (:func:`mesh_colors`), carried as they are."""
     before = face_normals(vertices, faces)
     if normals is None:
         normals = vertex_normals(vertices, faces, before) if len(faces) else vertices * 0.0
@@ -269,4 +321,5 @@ def deform_mesh(
         det_j=det,
         vertex_folds=folds,
         face_folds=face_folds(before, deformed, faces, cof, folds),
+        colors=colors,
     )

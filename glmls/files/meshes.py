@@ -1,23 +1,24 @@
-"""Reading and writing triangle meshes: STL through trimesh, PLY and OBJ read by glmls itself
-(PLY written by trimesh).
+"""Reading and writing triangle meshes: PLY (:mod:`glmls.files.ply`) and OBJ
+(:mod:`glmls.files.obj`) read and written by glmls itself, STL through trimesh.
 
 A :class:`Mesh` is its vertices (V, 3) float64, (x, y, z) in the coordinates of the handles
-that deform it, and its triangles (F, 3) of vertex indices. Reading keeps the file's
-vertices in their order (none merged, none dropped) and its faces in their order, except
-STL's: an STL file stores each triangle's three corners, so the corners at the same place
-(equal coordinates, at any scale) are merged into one vertex, in the order of their first
-corner. An OBJ file is read by glmls itself, its ``v`` and ``f`` (or
-``fo``) lines, a ``#`` comment ending any line (objects, groups and materials do not split or
-reorder it). Faces of more than three
-vertices are split into triangles (a fan from their first vertex, in the face's place among
-the faces, in OBJ and PLY alike); a face of fewer than three is refused. Only the geometry
-is read and written: vertex colours, normals and texture coordinates are not kept. A point
-cloud is a mesh of no faces: PLY and OBJ hold one (STL holds triangles only, and refuses
-it).
+that deform it, its triangles (F, 3) of vertex indices and, where the file has them, its
+vertices' colours (V, 3) or (V, 4) uint8 RGB(A). Reading keeps the file's vertices in their
+order (none merged, none dropped; their colours with them) and its faces in their order,
+except STL's: an STL file stores each triangle's three corners, so the corners at the same
+place (equal coordinates, at any scale) are merged into one vertex, in the order of their
+first corner (STL has no standard vertex colours). Faces of more than three vertices are
+split into triangles (a fan from their first vertex, in the face's place among the faces, in
+OBJ and PLY alike); a face of fewer than three is refused. What else a file holds (normals,
+texture coordinates, face colours, materials, other properties) is not kept:
+:func:`read_mesh_and_unkept` names it. A point cloud is a mesh of no faces: PLY and OBJ hold
+one (STL holds triangles only, and refuses it).
 
 Written, by the suffix: PLY (binary) and STL (binary) hold float32 coordinates, as those
-formats usually do; OBJ (text) holds them exactly (each float64's shortest repr). Every fault of
-a file is an :class:`~glmls.errors.InputFileError` naming it.
+formats usually do; OBJ (text) holds them exactly (each float64's shortest repr). PLY and OBJ
+hold the vertex colours exactly (PLY as uchar ``red``, ``green``, ``blue`` and ``alpha``;
+OBJ as ``v x y z r g b [a]``, 0..1); STL does not hold them. Every fault of a file is an
+:class:`~glmls.errors.InputFileError` naming it.
 """
 
 from __future__ import annotations
@@ -29,13 +30,15 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.mesh3 import as_colors
 from ..core.summary import fields_repr
 from ..errors import InputFileError
 from .atomic import atomic_write
+from .obj import obj_text, read_obj
 from .parsing import not_a_file
-from .ply import read_ply
+from .ply import MeshContent, ply_bytes, read_ply
 
-__all__ = ["MESH_SUFFIXES", "Mesh", "read_mesh", "write_mesh"]
+__all__ = ["MESH_SUFFIXES", "Mesh", "read_mesh", "read_mesh_and_unkept", "write_mesh"]
 
 #: The suffixes of the mesh formats.
 MESH_SUFFIXES = (".ply", ".obj", ".stl")
@@ -43,7 +46,7 @@ MESH_SUFFIXES = (".ply", ".obj", ".stl")
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
 class Mesh:
-    """A triangle mesh: vertices and faces, read-only copies.
+    """A triangle mesh: vertices, faces and vertex colours, read-only copies.
 
     Parameters
     ----------
@@ -51,15 +54,19 @@ class Mesh:
         (V, 3) (x, y, z) rows, finite; kept as float64.
     faces : array_like
         (F, 3) vertex indices of the triangles, each in [0, V); kept as int64.
+    colors : array_like, optional
+        (V, 3) RGB or (V, 4) RGBA rows, one per vertex, kept as uint8: integers 0..255 as
+        they are, floats 0..1 (an OBJ file's) scaled by 255 and rounded to the nearest
+        integer. None (the default): no colours.
 
     Raises
     ------
     ValueError
-        For vertices that are not (V, 3) finite numbers (V >= 1), or faces that are not
-        (F, 3) indices of them.
+        For vertices that are not (V, 3) finite numbers (V >= 1), faces that are not
+        (F, 3) indices of them, or colors that are not (V, 3) or (V, 4) values in range.
     TypeError
-        For vertices that are not real numbers (complex, strings, bools, objects), or faces
-        that are not integers.
+        For vertices that are not real numbers (complex, strings, bools, objects), faces
+        that are not integers, or colors that are not real numbers (bools too).
 
     See Also
     --------
@@ -70,10 +77,13 @@ class Mesh:
     >>> mesh = glmls.Mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
     >>> mesh.vertices.shape, mesh.faces.tolist()
     ((3, 3), [[0, 1, 2]])
+    >>> glmls.Mesh(mesh.vertices, mesh.faces, colors=[[1.0, 0, 0]] * 3).colors[0].tolist()
+    [255, 0, 0]
     """
 
     vertices: np.ndarray
     faces: np.ndarray
+    colors: np.ndarray | None = dataclasses.field(default=None, kw_only=True)
 
     def __post_init__(self) -> None:
         try:
@@ -107,6 +117,7 @@ class Mesh:
         faces.flags.writeable = False
         object.__setattr__(self, "vertices", vertices)
         object.__setattr__(self, "faces", faces)
+        object.__setattr__(self, "colors", as_colors(self.colors, len(vertices)))
 
     def __repr__(self) -> str:
         """The arrays' shapes and dtypes, not their values."""
@@ -139,15 +150,20 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
     Returns
     -------
     Mesh
-        The vertices in the file's order (STL's shared corners merged) and the triangles
-        (none for a point cloud): the geometry only, a file's vertex colours, normals and
-        texture coordinates are not kept (``glmls.MLS.deform`` carries normals of its own).
+        The vertices in the file's order (STL's shared corners merged), the triangles (none
+        for a point cloud) and the vertex colours: a PLY file's ``red``, ``green``, ``blue``
+        (and ``alpha``) vertex properties (uchar as they are, floats 0..1 scaled by 255 and
+        rounded), an OBJ file's ``v x y z r g b`` (0..1, likewise); None for a file without
+        them and for STL. Not kept: normals (``glmls.MLS.deform`` carries normals of its
+        own), texture coordinates (PLY, OBJ ``vt``), face colours, materials, groups and
+        other PLY properties and elements; :func:`read_mesh_and_unkept` names those a file
+        has.
 
     Raises
     ------
     InputFileError
         Naming the file: missing, unreadable, an unknown suffix, not a mesh of that format,
-        no vertices, or coordinates that are not finite.
+        no vertices, coordinates that are not finite or colours out of range.
 
     See Also
     --------
@@ -159,8 +175,41 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "sphere.obj"
     >>> glmls.write_mesh(path, glmls.data.sphere())
     >>> mesh = glmls.read_mesh(path)
-    >>> mesh.vertices.shape, mesh.faces.shape
-    ((162, 3), (320, 3))
+    >>> mesh.vertices.shape, mesh.faces.shape, mesh.colors
+    ((162, 3), (320, 3), None)
+    """
+    return read_mesh_and_unkept(path)[0]
+
+
+def read_mesh_and_unkept(path: str | os.PathLike) -> tuple[Mesh, tuple[str, ...]]:
+    """:func:`read_mesh`, and the names of what the file holds that the mesh does not keep.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+
+    Returns
+    -------
+    mesh : Mesh
+        As :func:`read_mesh`.
+    unkept : tuple of str
+        Such as ``"normals"``, ``"texture coordinates"``, ``"face colours"``,
+        ``"materials"``, ``"vertex properties quality"``: empty where the mesh holds all of
+        the file.
+
+    Raises
+    ------
+    InputFileError
+        As :func:`read_mesh`.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "tri.obj"
+    >>> _ = path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n")
+    >>> glmls.files.meshes.read_mesh_and_unkept(path)[1]
+    ('normals',)
     """
     path = Path(path)
     try:
@@ -173,24 +222,39 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
         content = path.read_bytes()
     except OSError as error:
         raise InputFileError(f"{path}: cannot read: {error.strerror or error}") from None
-    if suffix == ".obj":
-        return _read_obj(path, content)
-    if suffix == ".ply":
-        return _read_ply(path, content)
+    if suffix == ".stl":
+        read = _read_stl(path, content)
+    else:
+        try:
+            read = read_obj(content) if suffix == ".obj" else read_ply(content)
+        except ValueError as error:
+            where = "" if suffix == ".obj" else "not a readable .ply mesh: "
+            raise InputFileError(f"{path}: {where}{error}") from None
+    if not len(read.vertices):
+        raise InputFileError(f"{path}: no mesh vertices in it")
+    try:
+        return Mesh(read.vertices, read.faces, colors=read.colors), read.unkept
+    except (TypeError, ValueError) as error:
+        raise InputFileError(f"{path}: {error}") from None
+
+
+def _read_stl(path: Path, content: bytes) -> MeshContent:
+    """The merged corners of an STL file (:func:`_merge_corners`), and its per-face attribute
+    bytes named where some are set (some tools keep face colours there)."""
     trimesh = _trimesh()
     try:
-        loaded = _load(trimesh, content, suffix, "mesh")
+        loaded = _load(trimesh, content, ".stl", "mesh")
     except Exception as error:  # trimesh's parsers raise many kinds on a malformed file
-        raise InputFileError(f"{path}: not a readable {suffix} mesh: {error}") from None
+        raise InputFileError(f"{path}: not a readable .stl mesh: {error}") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.vertices) == 0:
         raise InputFileError(f"{path}: no mesh vertices in it")
     if not np.isfinite(loaded.vertices).all():
         raise InputFileError(f"{path}: vertices must be finite")
     corners = np.asarray(loaded.vertices, dtype=np.float64)[np.asarray(loaded.faces)]
-    try:
-        return Mesh(*_merge_corners(corners.reshape(-1, 3)))
-    except (TypeError, ValueError) as error:
-        raise InputFileError(f"{path}: {error}") from None
+    vertices, faces = _merge_corners(corners.reshape(-1, 3))
+    attributes = getattr(loaded, "face_attributes", {}).get("stl")
+    set_ = attributes is not None and np.asarray(attributes).any()
+    return MeshContent(vertices, faces, None, ("face attributes (colours)",) if set_ else ())
 
 
 def _merge_corners(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -206,87 +270,15 @@ def _merge_corners(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return places[first[order]], rank[inverse.reshape(-1)].reshape(-1, 3)
 
 
-def _read_obj(path: Path, content: bytes) -> Mesh:
-    """The mesh of an OBJ file's ``v`` and ``f`` lines, in the file's order.
-
-    trimesh splits an OBJ by material (``usemtl``) and joins the parts again, which
-    duplicates the shared vertices and reorders the faces; its texture coordinates and normals
-    split vertices too. Only the positions (the first three numbers of a ``v`` line) and the
-    vertex indices of an ``f`` line (``i``, ``i/t``, ``i//n``, ``i/t/n``; negative: from the
-    last vertex so far) are geometry, so those are all that is read."""
-    text = content.decode("utf-8-sig", errors="replace").replace("\\\r\n", " ").replace("\\\n", " ")
-    vertices: list[list[str]] = []
-    faces: list[tuple[int, int, int]] = []
-    for number, line in enumerate(text.splitlines(), start=1):
-        fields = line.split("#", 1)[0].split()  # a comment may end a line, after its data
-        if not fields or fields[0] not in ("v", "f", "fo"):  # fo: an old name of f
-            continue  # normals, texture coordinates, groups, materials, lines
-        if fields[0] == "v":
-            if len(fields) < 4:
-                raise InputFileError(f"{path}: line {number}: a vertex of fewer than 3 numbers")
-            vertices.append(fields[1:4])
-            continue
-        corners = [_obj_index(path, number, field, len(vertices)) for field in fields[1:]]
-        if len(corners) < 3:
-            raise InputFileError(f"{path}: line {number}: a face of fewer than 3 vertices")
-        faces += [(corners[0], corners[i], corners[i + 1]) for i in range(1, len(corners) - 1)]
-    if not vertices:
-        raise InputFileError(f"{path}: no mesh vertices in it")
-    try:
-        coordinates = np.array(vertices, dtype=np.float64)
-    except ValueError as error:
-        raise InputFileError(f"{path}: not a readable .obj mesh: {error}") from None
-    try:
-        return Mesh(coordinates, np.array(faces, dtype=np.int64).reshape(-1, 3))
-    except (TypeError, ValueError) as error:
-        raise InputFileError(f"{path}: {error}") from None
-
-
-def _read_ply(path: Path, content: bytes) -> Mesh:
-    """The mesh of a PLY file, in the file's order (:mod:`glmls.files.ply`: trimesh reorders
-    the faces of a mix of triangles and polygons, and refuses them in a binary file)."""
-    try:
-        vertices, faces = read_ply(content)
-    except ValueError as error:
-        raise InputFileError(f"{path}: not a readable .ply mesh: {error}") from None
-    if not len(vertices):
-        raise InputFileError(f"{path}: no mesh vertices in it")
-    try:
-        return Mesh(vertices, faces)
-    except (TypeError, ValueError) as error:
-        raise InputFileError(f"{path}: {error}") from None
-
-
-def _obj_index(path: Path, number: int, field: str, count: int) -> int:
-    """The 0-based vertex index of a face's corner ``field`` on line ``number``; ``count``
-    vertices are before it, from which a negative index counts back."""
-    try:
-        index = int(field.split("/", 1)[0])
-    except ValueError:
-        raise InputFileError(f"{path}: line {number}: {field!r} is no vertex index") from None
-    # a positive index may name a vertex read later; beyond 2**62 none (nor int64) holds it
-    if index == 0 or index < -count or index > 2**62:
-        raise InputFileError(
-            f"{path}: line {number}: vertex {index} of a face, with {count} vertices before it"
-        )
-    return index - 1 if index > 0 else count + index
-
-
 def _load(trimesh, content: bytes, suffix: str, force: str | None):
     return trimesh.load(
         io.BytesIO(content), file_type=suffix[1:], force=force, process=False, maintain_order=True
     )
 
 
-def _obj_text(mesh: Mesh) -> str:
-    """The OBJ text of ``mesh``: each coordinate as Python's shortest repr that reads back to
-    the same float64 (any magnitude), faces 1-based."""
-    lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in mesh.vertices.tolist()]
-    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in mesh.faces.tolist()]
-    return "\n".join(lines) + "\n"
-
-
-def write_mesh(path: str | os.PathLike, mesh: object, *, faces: object = None) -> None:
+def write_mesh(
+    path: str | os.PathLike, mesh: object, *, faces: object = None, colors: object = None
+) -> None:
     """Write a triangle mesh to a PLY, OBJ or STL file, whole or not at all.
 
     Parameters
@@ -300,15 +292,21 @@ def write_mesh(path: str | os.PathLike, mesh: object, *, faces: object = None) -
     faces : array_like, optional
         The triangles (F, 3); default ``mesh.faces``. None of them (F = 0): a point cloud,
         which PLY and OBJ hold and STL does not.
+    colors : array_like, optional
+        The vertex colours (V, 3) or (V, 4), as :class:`Mesh` takes them; default
+        ``mesh.colors`` where it has them. PLY holds them as uchar ``red``, ``green``,
+        ``blue`` (and ``alpha``), OBJ as ``v x y z r g b`` (and ``a``) in 0..1 to 6 digits,
+        which read back to the same bytes; STL does not hold them (they are not written).
 
     Raises
     ------
     ValueError
         Before writing anything, for an unknown suffix or a bad mesh (no faces where
-        neither ``mesh`` nor ``faces`` gives them), or a point cloud to STL.
+        neither ``mesh`` nor ``faces`` gives them, colours of another shape or out of range),
+        or a point cloud to STL.
     TypeError
-        Before writing anything, for vertices that are not real numbers or faces that are
-        not integers.
+        Before writing anything, for vertices or colours that are not real numbers or faces
+        that are not integers.
     OSError
         Naming ``path``, for a file that cannot be written.
 
@@ -320,9 +318,11 @@ def write_mesh(path: str | os.PathLike, mesh: object, *, faces: object = None) -
     --------
     >>> import pathlib, tempfile
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "triangle.ply"
-    >>> glmls.write_mesh(path, [[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces=[[0, 1, 2]])
-    >>> glmls.read_mesh(path).faces.tolist()
-    [[0, 1, 2]]
+    >>> red = [[255, 0, 0]] * 3
+    >>> glmls.write_mesh(path, [[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces=[[0, 1, 2]], colors=red)
+    >>> back = glmls.read_mesh(path)
+    >>> back.faces.tolist(), back.colors.tolist()
+    ([[0, 1, 2]], [[255, 0, 0], [255, 0, 0], [255, 0, 0]])
     """
     path = Path(path)
     suffix = _suffix(path)
@@ -331,21 +331,20 @@ def write_mesh(path: str | os.PathLike, mesh: object, *, faces: object = None) -
         faces = getattr(mesh, "faces", None)
         if faces is None:
             raise ValueError(f"{path}: no faces: give faces= (F, 3) with vertices")
-    checked = Mesh(vertices, faces)
-    trimesh = _trimesh()
-    if not len(checked.faces):
-        if suffix == ".stl":
-            raise ValueError(
-                f"{path}: an STL file holds triangles only; write a point cloud (no faces) "
-                "as .ply or .obj"
-            )
-        shape = trimesh.PointCloud(checked.vertices)
-    else:
-        shape = trimesh.Trimesh(checked.vertices, checked.faces, process=False)
+    if colors is None:
+        colors = getattr(mesh, "colors", None)
+    checked = Mesh(vertices, faces, colors=colors)
     if suffix == ".obj":
-        data = _obj_text(checked).encode("utf-8")
+        data = obj_text(checked.vertices, checked.faces, checked.colors).encode("utf-8")
+    elif suffix == ".ply":
+        data = ply_bytes(checked.vertices, checked.faces, checked.colors)
+    elif not len(checked.faces):
+        raise ValueError(
+            f"{path}: an STL file holds triangles only; write a point cloud (no faces) "
+            "as .ply or .obj"
+        )
     else:
-        content = shape.export(file_type=suffix[1:])
-        data = content.encode("utf-8") if isinstance(content, str) else content
+        shape = _trimesh().Trimesh(checked.vertices, checked.faces, process=False)
+        data = shape.export(file_type="stl")
     with atomic_write(path) as tmp:
         tmp.write_bytes(data)

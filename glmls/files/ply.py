@@ -1,26 +1,31 @@
-"""Reading PLY meshes: the vertices' x, y, z and the faces, in the file's order.
+"""Reading and writing PLY meshes: the vertices' x, y, z, their colours and the faces, in
+the file's order.
 
 A PLY file (ASCII, or binary of either byte order) is a header of elements, each a count of
 rows of properties (scalars, or lists with a count before their items), then the rows of
 each element in turn. glmls reads every element so as to find the vertices (``x``, ``y``,
-``z`` of ``vertex``) and the faces (the list ``vertex_indices`` or ``vertex_index`` of
-``face``); the rest is geometry glmls does not keep (colours, normals, edges, materials).
-A face of more than three vertices is a fan from its first vertex, in its place among the
-faces; a face of fewer is refused, and so is an ASCII file of more values than the header's
-counts of rows take, a face element whose list of vertex indices is not found (none, or
-several lists of other names) and faces in another element (``tristrips``): faces not read
-are never dropped silently. Faults are ``ValueError``s that say where, which
-:func:`glmls.files.meshes.read_mesh` reports naming the file.
+``z`` of ``vertex``), their colours (``red``, ``green``, ``blue`` and ``alpha`` if there:
+uchar as they are, other integers 0..255 too, floats 0..1 scaled by 255 and rounded) and the
+faces (the list ``vertex_indices`` or ``vertex_index`` of ``face``); the rest (normals,
+texture coordinates, face colours, other properties and elements) glmls does not keep, and
+names. A face of more than three vertices is a fan from its first vertex, in its place among
+the faces; a face of fewer is refused, and so is an ASCII file of more values than the
+header's counts of rows take, a face element whose list of vertex indices is not found
+(none, or several lists of other names), faces in another element (``tristrips``) and a
+colour out of its range: faces not read are never dropped silently. Faults are
+``ValueError``s that say where, which :func:`glmls.files.meshes.read_mesh` reports naming
+the file.
 """
 
 from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["fan_triangles", "read_ply"]
+__all__ = ["MeshContent", "fan_triangles", "ply_bytes", "read_ply"]
 
 #: PLY's scalar types and their NumPy codes (without the byte order).
 _TYPES = {
@@ -43,6 +48,19 @@ _TYPES = {
 }
 _ORDERS = {"ascii": "", "binary_little_endian": "<", "binary_big_endian": ">"}
 _FACE_LISTS = ("vertex_indices", "vertex_index")
+_COLORS = ("red", "green", "blue", "alpha")
+_NORMALS = ("nx", "ny", "nz", "normal_x", "normal_y", "normal_z")
+_TEXTURE = ("s", "t", "u", "v", "texture_u", "texture_v", "texture_s", "texture_t", "texcoord")
+
+
+class MeshContent(NamedTuple):
+    """What a reader of a mesh format reads: the parts a :class:`~glmls.Mesh` holds and the names
+    of those of the file it does not."""
+
+    vertices: np.ndarray  # (V, 3) float64
+    faces: np.ndarray  # (F, 3) int64
+    colors: np.ndarray | None  # (V, 3) or (V, 4) uint8
+    unkept: tuple[str, ...]  # what else the file holds, for a message
 
 
 @dataclass
@@ -253,9 +271,10 @@ def _face_list(elements: list[_Element], face: dict[str, object]) -> str | None:
     return name
 
 
-def read_ply(content: bytes) -> tuple[np.ndarray, np.ndarray]:
-    """(vertices (V, 3) float64, faces (F, 3) int64) of a PLY file's bytes; ``ValueError``
-    for a file that is not one, or whose vertices have no x, y and z."""
+def read_ply(content: bytes) -> MeshContent:
+    """The vertices (V, 3) float64, faces (F, 3) int64, vertex colours and what else there is
+    of a PLY file's bytes; ``ValueError`` for a file that is not one, or whose vertices have no
+    x, y and z."""
     order, elements, at = _header(content)
     words = content[at:].split() if order == "" else []
     position = 0 if order == "" else at
@@ -285,10 +304,12 @@ def read_ply(content: bytes) -> tuple[np.ndarray, np.ndarray]:
     if not all(axis in vertex for axis in "xyz"):
         raise ValueError("no vertex element with x, y and z")
     vertices = np.stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"], axis=1)
+    colors, channels = _vertex_colors(elements, vertex)
     face = found.get("face", {})
     name = _face_list(elements, face)
+    unkept = _unkept(elements, {"x", "y", "z", *channels}, name)
     if name is None:
-        return vertices, np.zeros((0, 3), np.int64)
+        return MeshContent(vertices, np.zeros((0, 3), np.int64), colors, unkept)
     polygons = face[name]
     if isinstance(polygons, np.ndarray) and polygons.ndim == 2 and polygons.shape[1] >= 3:
         # polygons of one size: their fans at once, each in its face's place
@@ -298,5 +319,90 @@ def read_ply(content: bytes) -> tuple[np.ndarray, np.ndarray]:
             [np.repeat(corners[:, :1], len(steps), 1), corners[:, steps], corners[:, steps + 1]],
             axis=-1,
         )
-        return vertices, fans.reshape(-1, 3)
-    return vertices, fan_triangles(list(polygons))
+        return MeshContent(vertices, fans.reshape(-1, 3), colors, unkept)
+    return MeshContent(vertices, fan_triangles(list(polygons)), colors, unkept)
+
+
+def _vertex_colors(
+    elements: list[_Element], vertex: dict[str, object]
+) -> tuple[np.ndarray | None, tuple[str, ...]]:
+    """(the (V, 3) or (V, 4) uint8 colours of the vertices, or None; the properties they are
+    of). Scalars ``red``, ``green`` and ``blue`` (and ``alpha``) each: a uchar as it is,
+    another integer in 0..255 too, a float in 0..1 times 255, rounded; ``ValueError`` naming
+    the first vertex of another value (an ASCII file holds any number for any type)."""
+    element = [e for e in elements if e.name == "vertex"][-1]  # that of ``vertex``
+    kinds = {p.name: p.kind for p in element.properties if p.count is None}
+    names = tuple(n for n in _COLORS if n in kinds)
+    if names[:3] != _COLORS[:3]:
+        return None, ()
+    channels = []
+    for name in names:
+        values = np.asarray(vertex[name], dtype=np.float64)
+        if kinds[name][0] == "f":
+            bad, span, values = ~((values >= 0) & (values <= 1)), "0..1", values * 255.0
+        else:
+            bad = ~((values >= 0) & (values <= 255) & (values == np.round(values)))
+            span = "0..255"
+        if bad.any():
+            row = int(np.argmax(bad))
+            given = np.asarray(vertex[name], dtype=np.float64)[row]
+            raise ValueError(f"vertex {row}: {name} {given:g}, not a colour in {span}")
+        channels.append(np.rint(values).astype(np.uint8))
+    return np.stack(channels, axis=1), names
+
+
+def _unkept(elements: list[_Element], kept: set[str], face_list: str | None) -> tuple[str, ...]:
+    """What of the file a mesh of vertices, their colours (the vertex properties ``kept``)
+    and triangles does not hold: normals, texture coordinates, face colours, other properties
+    and elements (those of rows)."""
+    notes: dict[str, None] = {}  # in order, once each
+    others: dict[str, list[str]] = {"vertex": [], "face": []}
+    elsewhere = []
+    for element in elements:
+        if element.name not in others:
+            if element.rows:
+                elsewhere.append(element.name)
+            continue
+        if not element.rows:
+            continue
+        for p in element.properties:
+            if p.name in kept or p.name == face_list:
+                continue
+            if p.name in _NORMALS:
+                notes["normals"] = None
+            elif p.name in _TEXTURE:
+                notes["texture coordinates"] = None
+            elif element.name == "face" and p.name in _COLORS:
+                notes["face colours"] = None
+            else:
+                others[element.name].append(p.name)
+    for name, names in others.items():
+        if names:
+            notes[f"{name} properties {', '.join(names)}"] = None
+    if elsewhere:
+        notes[f"elements {', '.join(elsewhere)}"] = None
+    return tuple(notes)
+
+
+def ply_bytes(vertices: np.ndarray, faces: np.ndarray, colors: np.ndarray | None) -> bytes:
+    """A binary PLY file of float32 vertices, their uchar colours (``red``, ``green``,
+    ``blue``, and ``alpha`` for four channels) and triangles (a ``face`` element only where
+    there are some: a point cloud has none)."""
+    fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
+    if colors is not None:
+        fields += [(name, "u1") for name in _COLORS[: colors.shape[1]]]
+    rows = np.empty(len(vertices), np.dtype(fields))
+    for axis, name in enumerate("xyz"):
+        rows[name] = vertices[:, axis]
+    if colors is not None:
+        for channel in range(colors.shape[1]):
+            rows[_COLORS[channel]] = colors[:, channel]
+    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(vertices)}"]
+    header += [f"property {'float' if kind == '<f4' else 'uchar'} {n}" for n, kind in fields]
+    body = [rows.tobytes()]
+    if len(faces):
+        header += [f"element face {len(faces)}", "property list uchar int vertex_indices"]
+        triangles = np.empty(len(faces), np.dtype([("n", "u1"), ("i", "<i4", (3,))]))
+        triangles["n"], triangles["i"] = 3, faces
+        body.append(triangles.tobytes())
+    return ("\n".join([*header, "end_header"]) + "\n").encode("ascii") + b"".join(body)

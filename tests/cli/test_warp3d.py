@@ -554,3 +554,38 @@ def test_3d_handles_on_a_tiff_of_one_page_say_why_it_is_an_image(files, capsys):
     assert err.count("\n") == 1 and "a TIFF of one page is an image" in err and ".npy" in err
     assert main(["warp", "a.png", "o.png", "--handles", "h3.json"]) == 2
     assert "TIFF" not in capsys.readouterr().err
+
+
+def test_mesh_colours_are_carried_and_what_is_not_is_one_line(files, stand_in, capsys):
+    sphere = glmls.data.sphere()
+    colors = np.random.default_rng(3).integers(0, 256, (len(sphere.vertices), 3), np.uint8)
+    glmls.write_mesh(files / "col.ply", glmls.Mesh(sphere.vertices, sphere.faces, colors=colors))
+    for out in ("out.ply", "out.obj"):
+        assert main(["warp", "col.ply", out, "--handles", "h3.json"]) == 0
+        assert "does not carry" not in capsys.readouterr().err
+        assert_array_equal(glmls.read_mesh(files / out).colors, colors)
+    assert main(["warp", "col.ply", "out.stl", "--handles", "h3.json"]) == 0
+    lines = capsys.readouterr().err.splitlines()
+    assert [x for x in lines if "carry" in x] == [
+        "warp: out.stl does not carry the input's vertex colours"
+    ]
+    # texture coordinates: a PLY's s and t beside x, y, z and the colours
+    text = ["ply", "format ascii 1.0", f"element vertex {len(sphere.vertices)}"]
+    text += [f"property float {n}" for n in ("x", "y", "z", "s", "t")]
+    text += [f"property uchar {n}" for n in ("red", "green", "blue")]
+    text += [f"element face {len(sphere.faces)}", "property list uchar int vertex_indices"]
+    text += ["end_header"]
+    text += [
+        " ".join(map(str, [*v, 0.5, 0.5, *c]))
+        for v, c in zip(sphere.vertices.tolist(), colors.tolist(), strict=True)
+    ]
+    text += [" ".join(map(str, [3, *f])) for f in sphere.faces.tolist()]
+    (files / "tex.ply").write_text("\n".join(text) + "\n")
+    assert main(["warp", "tex.ply", "t.ply", "--handles", "h3.json"]) == 0
+    lines = capsys.readouterr().err.splitlines()
+    assert [x for x in lines if "carry" in x] == [
+        "warp: t.ply does not carry the input's texture coordinates"
+    ]
+    assert_array_equal(glmls.read_mesh(files / "t.ply").colors, colors)
+    assert main(["warp", "tex.ply", "t.stl", "--handles", "h3.json", "--quiet"]) == 0
+    assert capsys.readouterr().err == ""

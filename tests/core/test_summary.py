@@ -25,7 +25,9 @@ def test_describe_names_shapes_lengths_and_short_values():
 def test_deformed_mesh_mesh_and_volume_print_their_shapes():
     vertices = np.array([[0, 0, 0], [4, 0, 0], [0, 4, 0]], float)
     mesh = glmls.Mesh(vertices, [[0, 1, 2]])
-    assert repr(mesh) == "Mesh(vertices=array((3, 3), float64), faces=array((1, 3), int64))"
+    assert repr(mesh) == (
+        "Mesh(vertices=array((3, 3), float64), faces=array((1, 3), int64), colors=None)"
+    )
     deformed = glmls.DeformedMesh(
         vertices, np.array([[0, 1, 2]]), vertices, np.zeros((3, 3, 3)), np.ones(3),
         np.zeros(3, bool), np.zeros(1, bool),

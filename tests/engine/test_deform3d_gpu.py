@@ -194,3 +194,24 @@ def test_derivatives_and_inverse_do_not_depend_on_the_handles_unit(gl):
         assert np.abs(other_j - jacobian).max() < 1e-3, unit
         assert np.abs(other.det_j - out.det_j).max() < 1e-3, unit
         assert np.abs(other.normals - out.normals).max() < 1e-3, unit
+
+
+def test_vertex_colours_go_with_their_vertices(gl, rng):
+    import trimesh
+
+    vertices, faces = _random_mesh(rng, 500, 800)
+    colors = rng.integers(0, 256, (len(vertices), 4), dtype=np.uint8)
+    cloud = glmls.Mesh(vertices, np.zeros((0, 3), np.int64), colors=colors)
+    src, dst = _handles(rng, 6.0)
+    with glmls.MLS(src, dst, transform="similarity") as m:
+        plain = m.deform((vertices, faces))
+        rgb = m.deform(glmls.Mesh(vertices, faces, colors=colors[:, :3]))
+        own = m.deform(trimesh.Trimesh(vertices, faces, vertex_colors=colors, process=False))
+        grey = m.deform(trimesh.Trimesh(vertices, faces, process=False))  # trimesh's default
+        points = m.deform(cloud)
+    assert plain.colors is None and grey.colors is None
+    for out, given in ((rgb, colors[:, :3]), (own, colors), (points, colors)):
+        assert out.colors.dtype == np.uint8 and (out.colors == given).all()
+        assert np.abs(out.vertices - plain.vertices).max() == 0  # nothing else changes
+    ref = mesh3.deform_mesh(vertices, faces, None, rgb.vertices, rgb.jacobian, colors=rgb.colors)
+    assert ref.colors is rgb.colors
