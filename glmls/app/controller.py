@@ -591,6 +591,7 @@ class Controller(Controls):
         self._mode("reference")
 
     def _do_reset(self) -> None:
+        self._release()  # a drag under way ends first, as its own edit (a drawn segment kept)
         s = self.editor.state
         if not (np.array_equal(s.dst, s.src) and np.array_equal(s.dst_segments, s.src_segments)):
             self.set_handles(s.src, s.src, s.src_segments, s.src_segments)

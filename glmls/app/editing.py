@@ -212,12 +212,20 @@ class Editor:
         height, width = self.shape
         return np.array([min(max(x, -0.5), width - 0.5), min(max(y, -0.5), height - 0.5)])
 
+    def near_image(self, x: float, y: float, margin: float) -> bool:
+        """Whether (x, y) lies on the image or within ``margin`` of its border: a click
+        further off (on the readout beside it, a letterbox margin) adds nothing."""
+        height, width = self.shape
+        low = -0.5 - margin
+        return low <= x <= width - 0.5 + margin and low <= y <= height - 0.5 + margin
+
     # -- the mouse ----------------------------------------------------------------------------
 
     def press(self, x: float, y: float, *, source: bool, segments: bool, radius: float) -> None:
         """The left button at (x, y): grab the target (``source``: the source) point, segment
         end or segment there; on empty space add a point handle (p = q, pulled while the
-        button is down) or, with ``segments``, start drawing a segment handle."""
+        button is down) or, with ``segments``, start drawing a segment handle; off the image
+        (further than ``radius`` from it) nothing."""
         self.release()  # a press while dragging (a lost release) ends the old drag
         s, start = self.state, np.array([x, y], float)
         points, lines = (s.src, s.src_segments) if source else (s.dst, s.dst_segments)
@@ -225,6 +233,8 @@ class Editor:
         side = "source" if source else "target"
         if hit is not None:
             self._drag = _Drag(hit[0], side, hit[1], hit[2], start, s)
+        elif not self.near_image(x, y, radius):
+            return
         elif segments:
             end = self.clamp(x, y)
             self.drawing = np.stack([end, end])
@@ -236,10 +246,13 @@ class Editor:
             self._drag = _Drag("point", "target", len(s.src), 0, start, s, changed=True)
 
     def press_reference(self, x: float, y: float, *, radius: float) -> None:
-        """The left button in reference mode: grab a reference point, or add one."""
+        """The left button in reference mode: grab a reference point, or add one (on the
+        image, or within ``radius`` of it)."""
         self.release()
         s = self.state
         index = pick(s.reference, x, y, radius)
+        if index is None and not self.near_image(x, y, radius):
+            return
         if index is None:
             added = np.concatenate([s.reference, [self.clamp(x, y)]])
             self._set(self._changed(reference=added))

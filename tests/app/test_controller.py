@@ -92,6 +92,42 @@ def test_drags_stay_on_the_image():
     np.testing.assert_array_equal(c.dst[0], [-0.5, 59.5])
 
 
+@pytest.mark.parametrize("mode", ["points", "segments", "reference"])
+def test_a_click_beside_the_image_adds_nothing(mode):
+    """A click on the readout panel (how a window is focused) reaches the controller as an
+    image point far left of the image: no handle, segment or reference point is added, as
+    it was at the border; within the pick radius of the border one still is, clamped."""
+    from glmls.app.layout import layout
+
+    c = make(mode=mode)
+    lay = layout((800, 300), c.shape, 376)
+    x, y = lay.to_image(100.0, 150.0)  # on the panel
+    assert x < -c.pick_radius
+    before = c.handles
+    drag(c, (x, y), (x + 40.0, y))
+    drag(c, (40.0, 75.0), (60.0, 75.0))  # below the image, past the radius
+    assert c.handles.same_handles(before) and len(c.reference) == 0
+    assert c.undo_depth == 0
+    drag(c, (-3.0, 20.0), (-3.0, 40.0))  # within 5 px of the border: on it
+    added = {"points": c.src[3:], "segments": c.src_segments, "reference": c.reference}
+    start = [-0.5, 40.0] if mode == "reference" else [-0.5, 20.0]  # p stays, r is dragged
+    assert added[mode].reshape(-1, 2)[0].tolist() == start
+
+
+def test_reset_while_drawing_a_segment_keeps_it():
+    c = make()
+    c.feed(Key("d"))
+    c.feed(Press(20.0, 50.0))
+    c.feed(Move(60.0, 50.0))
+    c.feed(Key("r"))  # the drawing ends first, as its own edit
+    np.testing.assert_array_equal(c.src_segments, [[[20.0, 50.0], [60.0, 50.0]]])
+    np.testing.assert_array_equal(c.dst_segments, c.src_segments)
+    np.testing.assert_array_equal(c.dst, SRC)
+    c.feed(Key("u"))  # the reset
+    np.testing.assert_array_equal(c.dst, SRC + [2.0, 0.0])
+    assert len(c.src_segments) == 1
+
+
 def test_undo_reverts_each_edit_in_turn():
     c = make()
     start = (c.src.copy(), c.dst.copy())
