@@ -15,7 +15,13 @@ from typing import NoReturn
 import numpy as np
 
 from .core.config import check_flag
-from .core.handles import COORDINATE_LIMIT, Scaling, check_gpu_distinct, point_rows
+from .core.handles import (
+    COORDINATE_LIMIT,
+    Scaling,
+    check_gpu_distinct,
+    check_gpu_spread,
+    point_rows,
+)
 from .core.handles3 import (
     as_points3,
     as_volume_shape,
@@ -156,6 +162,8 @@ class MLS3(MLS):
     def _store3(self, p: np.ndarray, q: np.ndarray) -> None:
         if not forked_from_gl():  # there the helper's MLS takes them
             scaling = fit_scaling3(p, q, self.shape, self.spacing)  # type: ignore[arg-type]
+            if len(p):
+                check_gpu_spread(float(np.ptp(p, axis=0).max()), scaling.scale)
             check_gpu_distinct(p, q, scaling.to_gpu(p), lambda: scaling.to_gpu(q), scaling.scale)
             self._kernel.upload(p, q, scaling)  # type: ignore[call-arg, arg-type]
         p.setflags(write=False)

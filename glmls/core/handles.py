@@ -188,6 +188,25 @@ def check_gpu_distinct(
     )
 
 
+#: The least spread of distinct source handles the GPU takes, as a share of its scale (the
+#: box of the handles and the image, at least 1 unit: :class:`Scaling`): below it their
+#: squared distances in float32 fall under the weights' smallest normal numbers, and f came
+#: out wrong by a good share of the spread, or NaN.
+MIN_GPU_SPREAD = 1e-12
+
+
+def check_gpu_spread(spread: float, scale: float, name: str = "the source handles") -> None:
+    """``ValueError`` where distinct source handles spread over ``spread`` units (the largest
+    side of their box) lie closer than float32 on the GPU resolves at ``scale``
+    (:data:`MIN_GPU_SPREAD`); 0 (one source point) passes."""
+    if 0.0 < spread < MIN_GPU_SPREAD * scale:
+        raise ValueError(
+            f"{name} span {spread:.3g} units, below the {MIN_GPU_SPREAD * scale:.3g} that "
+            "float32 on the GPU resolves at this scale (1e-12 of the box of the handles and "
+            "the image, at least 1 unit): give the coordinates in a smaller unit"
+        )
+
+
 def validate_handles(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
     """Check source points p and target points q; return them as float64 (N, 2) arrays.
 

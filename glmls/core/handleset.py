@@ -11,7 +11,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DegenerateHandlesError
-from .handles import Scaling, check_affine_handles, check_gpu_distinct, validate_handles
+from .handles import (
+    Scaling,
+    check_affine_handles,
+    check_gpu_distinct,
+    check_gpu_spread,
+    point_bounds,
+    validate_handles,
+)
 from .segments import check_on_segments, validate_segments
 
 __all__ = ["HANDLE_KINDS", "HandleSet"]
@@ -192,7 +199,9 @@ class HandleSet:
         ------
         ValueError
             For two source points float32 cannot tell apart at that scale, with different
-            targets (:func:`~glmls.core.handles.check_gpu_distinct`).
+            targets (:func:`~glmls.core.handles.check_gpu_distinct`), or source handles that
+            spread over less than 1e-12 of the scale
+            (:func:`~glmls.core.handles.check_gpu_spread`).
 
         Examples
         --------
@@ -200,7 +209,11 @@ class HandleSet:
         >>> handles.gpu_scaling((60, 120)).center
         (59.5, 29.5)
         """
-        scaling = Scaling.fit(self.source_points(), self.target_points(), shape)
+        sources = self.source_points()
+        scaling = Scaling.fit(sources, self.target_points(), shape)
+        if len(sources):
+            lo, hi = point_bounds(sources)
+            check_gpu_spread(float((hi - lo).max()), scaling.scale)
         dst = self.dst
         check_gpu_distinct(
             self.src, dst, scaling.to_gpu(self.src), lambda: scaling.to_gpu(dst), scaling.scale

@@ -18,7 +18,13 @@ import moderngl
 import numpy as np
 
 from ..core.config import MLSConfig
-from ..core.handles import Scaling, check_affine_handles, check_gpu_distinct
+from ..core.handles import (
+    MIN_GPU_SPREAD,
+    Scaling,
+    check_affine_handles,
+    check_gpu_distinct,
+    check_gpu_spread,
+)
 from ..core.mesh import MeshLattice
 from ..gl import bindings
 from ..gl.context import GLContext
@@ -86,6 +92,16 @@ class BatchLattices:
         for k, column in enumerate((both[0][:, 0], both[0][:, 1], both[1][:, 0], both[1][:, 1])):
             packed[:, k] = (column - center[:, k % 2]) / scale  # Scaling.to_gpu, column by column
         self.packed = packed
+        starts = np.cumsum(self.counts) - self.counts
+        spreads = (
+            np.maximum.reduceat(both[0], starts, axis=0)
+            - np.minimum.reduceat(both[0], starts, axis=0)
+        ).max(axis=1)
+        for i in np.flatnonzero((spreads > 0) & (spreads < MIN_GPU_SPREAD * self.scales)):
+            try:
+                check_gpu_spread(float(spreads[i]), float(self.scales[i]))
+            except ValueError as error:
+                raise ValueError(f"images[{i}]: {error}") from None
         self._check_distinct(src, dst)
 
     def _check_distinct(self, src: list[np.ndarray], dst: list[np.ndarray]) -> None:

@@ -217,3 +217,35 @@ def test_segments_a_few_thousandths_apart_with_s_0(gl):
     with glmls.MLS(empty, empty, ctx=gl, s=0, **handles) as m:
         f = m(points)
     assert np.abs(f - expected).max() < 2e-5 * size
+
+
+@pytest.mark.parametrize("dimension", [2, 3])
+def test_handles_spread_below_what_float32_resolves_are_refused(gl, dimension):
+    """Source handles spread over 1e-14 or 1e-20 units (their box and the scale, at least 1
+    unit): float32's squared distances fell under the weights' smallest normal numbers and f
+    came out wrong by 1-40 % of the spread (NaN for affine idw in 3D); now a ValueError. At
+    1e-12 units f is still the float64 reference's, and one source point (spread 0) passes."""
+    rng = np.random.default_rng(3)
+    src = rng.uniform(0, 10, (6, dimension))
+    dst = src + rng.normal(0, 0.5, src.shape)
+    for k in (1e-14, 1e-20):
+        with pytest.raises(ValueError, match=r"the source handles span .* float32 on the GPU"):
+            glmls.MLS(src * k, dst * k, s=0, ctx=gl)
+    points = rng.uniform(0, 10, (20, dimension))
+    for transform in ("affine", "rigid"):
+        with glmls.MLS(src * 1e-12, dst * 1e-12, transform=transform, s=0, ctx=gl) as m:
+            found = m(points * 1e-12)
+        expected = reference.mls(
+            src * 1e-12, dst * 1e-12, points * 1e-12, transform=transform, s=0
+        )[0]
+        assert np.abs(found - expected).max() < 1e-5 * 10e-12
+    with glmls.MLS(src[:1] * 1e-20, dst[:1] * 1e-20, ctx=gl) as m:  # a translation
+        assert np.allclose(m(points * 1e-20), points * 1e-20 + (dst[0] - src[0]) * 1e-20)
+
+
+def test_a_batch_names_the_image_whose_handles_float32_cannot_resolve(gl):
+    rng = np.random.default_rng(4)
+    src = rng.uniform(0, 6, (3, 5, 2))
+    src[1] *= 1e-15
+    with pytest.raises(ValueError, match=r"images\[1\]: the source handles span"):
+        glmls.warp_batch(np.zeros((3, 1, 1), np.uint8), src, src, ctx=gl)
