@@ -152,10 +152,11 @@ class StudyResult:
         -------
         list of dict
             ``label``, ``mean_rank``, ``wins``, ``ranked_on`` and ``images``: name ->
-            {rank, tied_rank, score, admissible, handle_miss, config} (absent where the
-            configuration could not be built for the image's handles); ``tied_rank`` is
+            {rank, tied_rank, winner, score, admissible, handle_miss, config} (absent where
+            the configuration could not be built for the image's handles); ``tied_rank`` is
             the rank shared by the configurations the tune cannot tell apart (the same
-            score), which the rank agreement uses.
+            score), which the rank agreement uses; ``winner`` whether the configuration is
+            first there or ties with the first, and ``wins`` on how many images it is.
 
         Examples
         --------
@@ -465,17 +466,26 @@ def _table(result: StudyResult) -> list[dict]:
                 "handle_miss": _number(row.get("handle_miss_mean")),
                 "config": row["config"],
             }
+    # a configuration the tune cannot tell from the first one wins too: the tune's order
+    # of a tie is by name, which says nothing of the image
+    first = {
+        name: min(c["tied_rank"] for e in entries.values() for n, c in e["images"].items()
+                  if n == name)
+        for name in result.names
+    }  # fmt: skip
     rows = []
     for (_, suffix), entry in entries.items():
         owners = [i for i, n in enumerate(result.names) if n in entry["images"]]
         configs = [MLSConfig(**entry["images"][result.names[i]]["config"]) for i in owners]
         base = study_label(configs, [result.diagonals[i] for i in owners])
         ranks = [cell["rank"] for cell in entry["images"].values()]
+        for name, cell in entry["images"].items():
+            cell["winner"] = cell["tied_rank"] == first[name]
         rows.append(
             {
                 "label": base + suffix,
                 "mean_rank": float(np.mean(ranks)),
-                "wins": sum(rank == 1 for rank in ranks),
+                "wins": sum(cell["winner"] for cell in entry["images"].values()),
                 "ranked_on": len(ranks),
                 "images": {n: entry["images"][n] for n in result.names if n in entry["images"]},
             }
@@ -574,14 +584,17 @@ def _kendall_w(rows: list[dict], names: list[str]) -> float | None:
 def _summary(result: StudyResult, rows: list[dict]) -> dict:
     winners = {}
     for name in result.names:
-        ranked = [r for r in rows if name in r["images"]]
-        best = min(ranked, key=lambda r: r["images"][name]["rank"])
+        tied = [r for r in rows if name in r["images"] and r["images"][name]["winner"]]
+        # of those tied for first, the one that wins on the most images: a tie broken by
+        # name must not make a winner "distinct" where another wins as well
+        best = min(tied, key=lambda r: (-r["wins"], r["images"][name]["rank"]))
         cell = best["images"][name]
         winners[name] = {
             "label": best["label"],
             "config": cell["config"],
             "score": cell["score"],
             "admissible": cell["admissible"],  # None from a tune that does not say
+            "tied_with": [r["label"] for r in tied if r is not best],
         }
     counts: dict[str, int] = {}
     for winner in winners.values():
@@ -650,10 +663,10 @@ def render_heatmap(rows: list[dict], names: list[str], *, title: str = "") -> np
     """Configurations (rows, by mean rank, best on top) x images (columns) and their mean
     rank, each cell coloured by the configuration's rank on that image (viridis: yellow is
     rank 1, dark violet the last) and numbered, with ``*`` where the tune set it apart (not
-    admissible); each image's winner boxed in red; grey where the configuration could not be
-    built. An (H, W, 3) uint8 picture."""
+    admissible); each image's winner (and those tied with it) boxed in red; grey where the
+    configuration could not be built. An (H, W, 3) uint8 picture."""
     notes = (
-        "rank on each image (yellow: 1, the best); red box: the image's winner",
+        "rank on each image (yellow: 1, the best); red box: the image's winner or a tie",
         "*: set apart by the tune (misses its targets or folds); rows by mean rank",
     )
     font = ImageFont.load_default(size=12)
@@ -690,7 +703,7 @@ def render_heatmap(rows: list[dict], names: list[str], *, title: str = "") -> np
             draw.rectangle(box, fill=colour)
             ink = "black" if t > 0.45 else "white"
             draw.text((x + cell_w / 2, y + cell_h / 2), text, fill=ink, font=font, anchor="mm")
-            if column != "mean" and rank == 1:
+            if column != "mean" and row["images"][column].get("winner", rank == 1):
                 draw.rectangle([x, y, x + cell_w - 1, y + cell_h - 1], outline=(230, 0, 0), width=2)
     for k, note in enumerate(notes):
         draw.text((8, top + cell_h * len(rows) + 8 + 15 * k), note, fill=(60, 60, 60), font=font)

@@ -171,7 +171,10 @@ def parse_config(spec: str, shape: Sequence[int]) -> list[MLSConfig]:
                 options[name] = float(value)
             except ValueError:
                 raise ValueError(f"configuration {spec!r}: {name} must be a number") from None
-    return [MLSConfig(transform=t, weight=w, **options) for t in transforms for w in weights]
+    try:
+        return [MLSConfig(transform=t, weight=w, **options) for t in transforms for w in weights]
+    except ValueError as error:  # an unknown name or a value out of range: say which spec
+        raise ValueError(f"configuration {spec!r}: {error}") from None
 
 
 def label(config: MLSConfig) -> str:

@@ -101,7 +101,9 @@ def run(args: argparse.Namespace) -> int:
     summary = result.save(Path(args.out))
     width = max(len(name) for name in summary["images"])
     for name, winner in summary["winners"].items():
-        print(f"{name.ljust(width)}  {winner['label']}")
+        tied = len(winner["tied_with"])
+        note = f" (tied with {tied} other{'s' * (tied != 1)})" if tied else ""
+        print(f"{name.ljust(width)}  {winner['label']}{note}")
     print(summary["answer"])
     seconds = summary["timings"]["total_s"]
     say(args, f"study: {seconds:.1f} s; wrote {args.out}")

@@ -296,6 +296,33 @@ def test_configurations_a_tune_cannot_tell_apart_share_their_rank(gl):
     assert [r["images"]["one"]["tied_rank"] for r in found.table()] == [2.0, 2.0, 2.0]
 
 
+def test_a_configuration_tied_for_first_wins_there_too(gl):
+    """Where the tune cannot tell the configurations apart (one handle: the same
+    translation), its order of them is by name: the winner elsewhere ties for first there,
+    so one configuration wins everywhere, not as many as the names make."""
+    one = HandleSet.validate(SRC[:1], SRC[:1] + [3.0, 2.0])
+    found = studies.study(
+        [items()[0], StudyItem("one", (32, 40), one, REFERENCE)],
+        configs=["rigid:idw", "similarity:idw:alpha=1"], trials=2,
+    )  # fmt: skip
+    rows = found.table()
+    best_small = min(rows, key=lambda r: r["images"]["small"]["rank"])
+    first_by_name = min(rows, key=lambda r: r["images"]["one"]["rank"])
+    assert first_by_name is not best_small  # the tie broken by name picks another
+    summary = found.summary()
+    assert summary["winners"]["small"]["label"] == best_small["label"]
+    assert summary["winners"]["one"]["label"] == best_small["label"]
+    assert summary["distinct_winners"] == 1
+    assert summary["one_configuration_wins_everywhere"]
+    assert summary["answer"].startswith("1 distinct winner over 2 images")
+    others = {r["label"] for r in rows} - {best_small["label"]}
+    assert set(summary["winners"]["one"]["tied_with"]) == others
+    assert summary["winners"]["small"]["tied_with"] == []
+    assert [r["images"]["one"]["winner"] for r in rows] == [True, True, True]
+    assert [r["images"]["small"]["winner"] for r in rows] == [r is best_small for r in rows]
+    assert best_small["wins"] == 2
+
+
 def test_a_study_of_one_image_does_not_answer_the_question(gl):
     """One image has one winner: that it wins everywhere says nothing, and that no
     configuration does is false; the answer says that one image cannot tell."""

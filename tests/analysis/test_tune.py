@@ -47,6 +47,16 @@ def test_config_specs():
     ]:
         with pytest.raises(ValueError, match=message):
             tuning.parse_config(spec, (30, 40))
+    # the values MLSConfig refuses name the spec too, as the others do
+    for spec, message in [
+        ("rigid:idw:alpha=-1", "configuration 'rigid:idw:alpha=-1': alpha must be a finite"),
+        ("*:gaussian:radius=0", "configuration '\\*:gaussian:radius=0': radius must be a"),
+        ("rigid:idw:s=-1", "configuration 'rigid:idw:s=-1': s must be a finite number >= 0"),
+        ("cubic:idw:alpha=1", "configuration 'cubic:idw:alpha=1': unknown transform 'cubic'"),
+        ("rigid:cubic:alpha=1", "configuration 'rigid:cubic:alpha=1': unknown weight 'cubic'"),
+    ]:
+        with pytest.raises(ValueError, match=message):
+            tuning.parse_config(spec, (30, 40))
 
 
 def test_random_edits_are_user_like():

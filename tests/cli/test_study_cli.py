@@ -47,6 +47,22 @@ def test_study_writes_the_summary_table_and_heatmap(inputs):
         assert (out / name).is_file(), name
 
 
+def test_study_says_where_a_winner_ties_with_others(inputs):
+    """One handle makes every configuration the same translation: the image's winner ties
+    with the others, and stdout says so."""
+    (inputs / "one.json").write_text(json.dumps({"src": [[8, 8]], "dst": [[11, 10]]}))
+    items = [{"name": "one", "image": "a.png", "handles": "one.json", "reference": "r.json"}]
+    (inputs / "one_set.json").write_text(json.dumps({"items": items}))
+    result = glmls_cli(
+        "study", "one_set.json", "--out", "st", "--configs", "rigid:idw", "--trials", "1",
+        cwd=inputs,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    winner = json.loads((inputs / "st" / "summary.json").read_text())["winners"]["one"]
+    assert winner["tied_with"] == ["rigid idw a=2"]
+    assert f"one  {winner['label']} (tied with 1 other)" in result.stdout.splitlines()
+
+
 def test_study_of_the_bundled_set(tmp_path):
     code = main(["--quiet", "study", "--out", str(tmp_path), "--configs", "rigid:idw:alpha=1",
                  "similarity:idw:alpha=1", "--trials", "1"])  # fmt: skip
