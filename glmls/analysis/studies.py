@@ -40,7 +40,7 @@ from ..data.manifest import StudyItem
 from ..files.atomic import atomic_write
 from .colormaps import VIRIDIS
 from .jobs import check_jobs, run_jobs
-from .tuning import MISS_LIMIT, TuneResult, label, parse_config, search_space, tune
+from .tuning import TuneResult, label, parse_config, search_space, tune
 
 __all__ = ["StudyResult", "StudyTask", "render_heatmap", "study", "study_label", "tune_item"]
 
@@ -499,16 +499,9 @@ def _tied_ranks(tuned: TuneResult) -> list[float]:
     apart: the same group (admissible, folding, missing) and the same score. The tune
     orders those by name, which says nothing of the image (one handle: every configuration
     is the same translation)."""
-    key = "score" if tuned.rank_by == "rank" else f"{tuned.rank_by}_mean"
-
-    def standing(row: dict) -> tuple:
-        missing = row.get("handle_miss_max", 0.0) > MISS_LIMIT
-        score = row.get("score", row.get("combined"))
-        return (row.get("admissible"), missing, row.get(key, score), score)
-
     ranks: list[float] = []
     start = 0
-    for _, group in itertools.groupby(tuned.rows, key=standing):
+    for _, group in itertools.groupby(tuned.rows, key=tuned.standing):
         size = len(list(group))
         ranks += [start + (size + 1) / 2] * size
         start += size

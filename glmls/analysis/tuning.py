@@ -250,6 +250,55 @@ class TuneResult:
         """
         return MLSConfig(**self.rows[0]["config"])
 
+    def standing(self, row: dict) -> tuple:
+        """What orders ``row`` among the rows; the tune orders rows of one standing by label.
+
+        Rows of equal standing it cannot tell apart (one handle: every configuration is the
+        same translation).
+
+        Parameters
+        ----------
+        row : dict
+            One of :attr:`rows`.
+
+        Returns
+        -------
+        tuple
+            Its group (admissible, and whether it misses its targets), its value of
+            :attr:`rank_by` and its score.
+
+        Examples
+        --------
+        >>> configs = [glmls.MLSConfig(transform=t) for t in ("rigid", "similarity")]
+        >>> result = glmls.analysis.tune((32, 32), [[8.0, 8.0]], [[10.0, 9.0]],
+        ...                              [[4, 4], [28, 4], [16, 28]], trials=1, configs=configs)
+        >>> result.standing(result.rows[0]) == result.standing(result.rows[1])
+        True
+        """
+        key = "score" if self.rank_by == "rank" else f"{self.rank_by}_mean"
+        missing = row.get("handle_miss_max", 0.0) > MISS_LIMIT
+        score = row.get("score", row.get("combined"))
+        return (row.get("admissible"), missing, row.get(key, score), score)
+
+    @property
+    def tied_with_best(self) -> list[str]:
+        """The labels of the rows tied with the first, put after it by label only.
+
+        Ties are rows of the first's :meth:`standing`.
+
+        Examples
+        --------
+        >>> configs = [glmls.MLSConfig(transform=t) for t in ("rigid", "similarity")]
+        >>> result = glmls.analysis.tune((32, 32), [[8.0, 8.0]], [[10.0, 9.0]],
+        ...                              [[4, 4], [28, 4], [16, 28]], trials=1, configs=configs)
+        >>> result.rows[0]["label"], result.tied_with_best
+        ('rigid idw a=1', ['similarity idw a=1'])
+        """
+        if not self.rows:
+            return []
+        first = self.standing(self.rows[0])
+        return [row["label"] for row in self.rows[1:] if self.standing(row) == first]
+
 
 def _summarise(config: MLSConfig, trials: list[dict[str, float]]) -> dict:
     row: dict = {"config": dataclasses.asdict(config), "label": label(config)}

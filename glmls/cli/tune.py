@@ -223,7 +223,9 @@ def run(args: argparse.Namespace) -> int:
         )
     winner.summary["input"] = name
     winner.save(out / "winner")
-    say(args, f"tune: best by {result.rank_by}: {best['label']}; wrote {out}")
+    tied = result.tied_with_best
+    note = f" (tied with {', '.join(tied)}: first by name)" if tied else ""
+    say(args, f"tune: best by {result.rank_by}: {best['label']}{note}; wrote {out}")
     if args.construction:
         return run_construction(args, image, handles, reference, name, result.best)
     return 0

@@ -322,3 +322,19 @@ def test_an_option_the_weight_does_not_use_is_warned_about(inputs, gl):
         "--interpolating", cwd=inputs,
     )  # fmt: skip
     assert result.returncode == 0 and "warning" not in result.stderr, result.stderr
+
+
+def test_tune_says_which_configurations_tie_with_the_best(inputs):
+    """One handle: every configuration is the same translation, and the tune, which orders
+    them by name, says the best ties with the others instead of naming it alone."""
+    (inputs / "one.json").write_text(json.dumps({"src": [[20.0, 20.0]], "dst": [[23.0, 21.0]]}))
+    result = glmls_cli(
+        "tune", "a.png", "--handles", "one.json", "--reference", "r.json", "--out", "t",
+        "--trials", "1", "--configs", "rigid:idw", "similarity:idw",
+        cwd=inputs,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert (
+        "tune: best by rank: rigid idw a=1 (tied with rigid idw a=2, similarity idw a=1, "
+        "similarity idw a=2: first by name)"
+    ) in result.stderr
