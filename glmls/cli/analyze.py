@@ -22,6 +22,7 @@ from .inputs import (
     reported_warnings,
     say,
     warn_about_handles,
+    warn_about_reference,
 )
 from .options import (
     UsageError,
@@ -69,6 +70,8 @@ def run(args: argparse.Namespace) -> int:
     warp_options = warp_options_from_args(args)
     image, handles, reference, name = example_or_files(args, need_reference=False)
     warn_about_handles(args, handles, image.shape)
+    if reference is not None:  # the handles' own warnings cover them where they stand in
+        warn_about_reference(args, reference, image.shape)
     reference = reference_or_handles(args, reference, handles)
     check_reference(
         args, reference, "the source handles (the reference points without --reference)"

@@ -49,6 +49,7 @@ __all__ = [
     "reference_or_handles",
     "say",
     "warn_about_handles",
+    "warn_about_reference",
     "write_image",
 ]
 
@@ -208,6 +209,13 @@ def warn_about_handles(args: argparse.Namespace, handles: HandleSet, shape) -> N
     if getattr(args, "tolerance", None) is None and one_cell is not None:
         messages.append(one_cell)
     for message in messages:
+        say(args, f"glmls {args.command}: warning: {message}")
+
+
+def warn_about_reference(args: argparse.Namespace, reference: np.ndarray, shape) -> None:
+    """Warnings on stderr (not errors) for reference points that look like another convention
+    than the image's pixels, as :func:`warn_about_handles` gives for the handles."""
+    for message in handle_warnings(reference, shape[:2], reference=True):
         say(args, f"glmls {args.command}: warning: {message}")
 
 

@@ -402,19 +402,26 @@ def fit_background(background: float | tuple[float, ...], channels: int):
 
 
 def handle_warnings(
-    src: np.ndarray, shape: tuple[int, int], *, segment_ends: bool = False
+    src: np.ndarray,
+    shape: tuple[int, int],
+    *,
+    segment_ends: bool = False,
+    reference: bool = False,
 ) -> list[str]:
     """Warnings for handles that look like another convention than pixels (x, y) = (column,
     row) on an image of ``shape``: all within [0, 1] x [0, 1] (normalised coordinates), or
     mostly outside the image (perhaps (row, column)). ``src``: the source points, with the
-    ends of the source segments where ``segment_ends``."""
+    ends of the source segments where ``segment_ends``; the reference points where
+    ``reference``."""
     height, width = shape
     if len(src) == 0:
         return []
     noun = "handle points and segment ends" if segment_ends else "handles"
+    every = "every handle point and segment end" if segment_ends else "every handle"
+    if reference:
+        noun, every = "reference points", "every reference point"
     x, y = src[:, 0], src[:, 1]
     if max(height, width) > 4 and (src >= 0).all() and (src <= 1).all():
-        every = "every handle point and segment end" if segment_ends else "every handle"
         return [
             f"{every} lies within [0, 1] x [0, 1] of a {width} x {height} image: "
             "normalised coordinates? glmls takes pixels, (x, y) = (column, row)"

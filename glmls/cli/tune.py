@@ -25,6 +25,7 @@ from .inputs import (
     report_paths,
     say,
     warn_about_handles,
+    warn_about_reference,
 )
 from .options import (
     UsageError,
@@ -157,6 +158,7 @@ def run(args: argparse.Namespace) -> int:
     check_construction_options(args)
     image, handles, reference, name = example_or_files(args, need_reference=True)
     warn_about_handles(args, handles, image.shape)
+    warn_about_reference(args, reference, image.shape)
     check_reference(args, reference, "the example's reference points")
     check_picture(image, name)  # the winner's report pictures it, after the tuning
     written = ["ranking.json", "ranking.csv"]

@@ -219,3 +219,28 @@ def test_a_volume_given_to_an_images_only_command_is_named_a_volume(inputs, caps
         "demo take volumes)"
     ]
     assert not (inputs / "out").exists()
+
+
+@pytest.mark.parametrize("command", ["analyze", "tune"])
+def test_reference_points_off_the_image_or_normalised_get_the_handles_warning(
+    inputs, capsys, command
+):
+    """Reference points mostly outside the image (a row/column mix-up, another image's) or
+    all within [0, 1] are measured as given, with a warning as the handles get one."""
+    far = {"points": [[300.0, 10.0], [310.0, 20.0], [305.0, 30.0], [10.0, 10.0]]}
+    unit = {"points": [[0.1, 0.1], [0.5, 0.2], [0.3, 0.9]]}
+    expected = {
+        "far.json": "3 of 4 reference points lie outside the 40 x 32 image",
+        "unit.json": "every reference point lies within [0, 1] x [0, 1] of a 40 x 32 image",
+    }
+    extra = ("--trials", "1", "--configs", "rigid:idw:alpha=1") if command == "tune" else ()
+    for name, points in (("far.json", far), ("unit.json", unit)):
+        (inputs / name).write_text(json.dumps(points))
+        code = main(
+            (command, "a.png", "--handles", "h.json", "--reference", name, "--out", "o", *extra)
+        )
+        assert code == 0
+        warnings = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
+        assert warnings and warnings[0].startswith(f"glmls {command}: warning: {expected[name]}"), (
+            warnings
+        )
