@@ -242,8 +242,11 @@ def picture_limits(
 ) -> tuple[float, float]:
     """The colour limits of an analysis picture of ``quantity`` (a key of :data:`LEAST_SPANS`).
 
-    Errors are coloured from 0 (a scale from the smallest error would flatter them all), det J
-    from its smallest value; the scale spans at least the quantity's least span.
+    The scale runs from the smallest value (white at the minimum, as the paper's figures
+    colour their error fields) to the largest (or ``percentile``), and spans at least the
+    quantity's least span: above the smallest value for the errors, about the middle for det
+    J. The construction errors start at 0, a perfect construction (a scale from the best
+    point would flatter them all).
 
     Parameters
     ----------
@@ -271,10 +274,12 @@ def picture_limits(
 
     Examples
     --------
-    >>> glmls.analysis.picture_limits("angle", [2e-6, 3e-6, 1e-7])
+    >>> glmls.analysis.picture_limits("angle", [2e-6, 3e-6, 0.0])  # rounding: one colour
     (0.0, 0.001)
     >>> glmls.analysis.picture_limits("angle", [0.5, 2.0, 40.0], percentile=50)
-    (0.0, 2.0)
+    (0.5, 2.0)
+    >>> glmls.analysis.picture_limits("construction", [0.2, 0.4])
+    (0.0, 0.4)
     >>> glmls.analysis.picture_limits("det_j", [0.9999999, 1.0000001])
     (0.9995, 1.0005)
     """
@@ -282,7 +287,14 @@ def picture_limits(
         raise ValueError(f"quantity must be one of {sorted(LEAST_SPANS)}, got {quantity!r}")
     length = check_real("unit", unit, low=0, low_open=True)
     span = LEAST_SPANS[quantity] * {"E_MLS": length**2, "distance": length}.get(quantity, 1.0)
-    lo = None if quantity == "det_j" else 0.0
+    if quantity == "construction":
+        lo: float | None = 0.0
+    elif quantity == "det_j":
+        lo = None
+    else:  # the least error, where the span starts
+        array = np.asarray(values, dtype=np.float64)
+        finite = array[np.isfinite(array)]
+        lo = float(finite.min()) if finite.size else 0.0
     return color_limits(values, vmin=lo, percentile=percentile, span=span)
 
 

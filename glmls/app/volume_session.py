@@ -161,7 +161,7 @@ class VolumeSession:
     def field(self) -> np.ndarray | None:
         """The overlay's field over the whole volume, (D, H, W) uint8, or None without one:
         the error field E_MLS (:func:`~glmls.analysis.volume_error_field`, 0 to 255 from
-        0 to its 99th percentile) or the voxels of the folded cells
+        its minimum to its 99th percentile) or the voxels of the folded cells
         (:func:`~glmls.analysis.cell_jacobians`, 255), on the lattice of the slices' grid
         (every :data:`FIELD_GRID` voxels at least) for the current handles."""
         c = self.controller

@@ -1,5 +1,5 @@
-"""The colour scales of the analysis pictures: errors from 0, and a least span, so that a
-deformation exact but for rounding is pictured in one colour."""
+"""The colour scales of the analysis pictures: a least span, so that a deformation exact but
+for rounding is pictured in one colour."""
 
 from __future__ import annotations
 
@@ -48,13 +48,16 @@ def test_a_bad_span_is_named(span, error):
 
 def test_picture_limits_by_quantity():
     tiny = [1e-9, 2e-9]
-    assert colormaps.picture_limits("E_MLS", tiny) == (0.0, 1e-6)
-    assert colormaps.picture_limits("E_MLS", tiny, unit=0.5) == (0.0, 0.25e-6)  # unit^2
-    assert colormaps.picture_limits("distance", tiny, unit=0.5) == (0.0, 0.5e-3)
-    assert colormaps.picture_limits("angle", tiny) == (0.0, 1e-3)
-    assert colormaps.picture_limits("construction", [0.2, 0.4]) == (0.0, 0.4)
-    lo, hi = colormaps.picture_limits("det_j", [0.5, 2.0])
-    assert (lo, hi) == (0.5, 2.0)  # det J from its least value, not 0
+    close = pytest.approx
+    assert colormaps.picture_limits("E_MLS", tiny) == close((1e-9, 1e-9 + 1e-6), abs=1e-18)
+    assert colormaps.picture_limits("E_MLS", tiny, unit=0.5) == close((1e-9, 1e-9 + 0.25e-6))
+    assert colormaps.picture_limits("distance", tiny, unit=0.5) == close((1e-9, 1e-9 + 0.5e-3))
+    assert colormaps.picture_limits("angle", tiny) == close((1e-9, 1e-9 + 1e-3))
+    # wide enough: the least error (white at the minimum, as the paper's figures) to the most
+    assert colormaps.picture_limits("angle", [0.5, 2.0, 40.0]) == (0.5, 40.0)
+    assert colormaps.picture_limits("construction", [0.2, 0.4]) == (0.0, 0.4)  # from 0
+    assert colormaps.picture_limits("det_j", [0.5, 2.0]) == (0.5, 2.0)
+    assert colormaps.picture_limits("det_j", [1.0, 1.0]) == close((0.9995, 1.0005))
     with pytest.raises(ValueError, match="quantity"):
         colormaps.picture_limits("E", tiny)
     with pytest.raises(ValueError, match="unit"):
@@ -65,8 +68,8 @@ def test_picture_limits_by_quantity():
 
 def test_a_rotation_reports_no_colour_for_its_rounding(gl, rng):
     """A rigid rotation keeps every angle: its reference triangles' angle errors are float32
-    rounding (about 1e-6 degrees), and the report's scales start at 0 and reach the least
-    spans, so every triangle takes the colour of 0, as does the error field."""
+    rounding (about 1e-6 degrees), and the report's scales reach the least spans above the
+    least values, so every triangle takes the bottom colour, as does the error field."""
     shape = (64, 80)
     src = rng.uniform(8, 56, (8, 2)) * [1.2, 1.0]
     reference = rng.uniform(4, 60, (12, 2)) * [1.2, 1.0]
@@ -77,10 +80,13 @@ def test_a_rotation_reports_no_colour_for_its_rounding(gl, rng):
     angles = found.triangles.angle
     assert 0.0 < np.nanmax(angles) < 1e-3  # rounding, not exactly 0
     analysis = found.summary["analysis"]
-    assert analysis["triangle_limits"] == [0.0, 1e-3]
-    assert analysis["error_field_limits"] == [0.0, 1e-6]
-    assert found.summary["error_field"]["max"] < 1e-6
-    expected = colormaps.colorbar("viridis", 0.0, 1e-3, length=64, label="angle error")
+    least = float(np.nanmin(angles))
+    assert analysis["triangle_limits"] == pytest.approx([least, least + 1e-3])
+    lo, hi = analysis["error_field_limits"]
+    assert lo == found.summary["error_field"]["min"] and hi == pytest.approx(lo + 1e-6)
+    assert found.summary["error_field"]["max"] < lo + 1e-6
+    t_lo, t_hi = analysis["triangle_limits"]
+    expected = colormaps.colorbar("viridis", t_lo, t_hi, length=64, label="angle error")
     assert_array_equal(found.images["triangle_angle_colorbar"], expected)
 
 
@@ -98,4 +104,5 @@ def test_a_rotated_volume_pictures_det_j_as_one(gl):
     assert hi - lo == pytest.approx(1e-3)
     expected = colormaps.colorbar("viridis", lo, hi, length=256, label="det J")
     assert_array_equal(found.images["jacobian_det_colorbar"], expected)
-    assert found.summary["analysis"]["error_field_limits"] == [0.0, 1e-6]
+    lo, hi = found.summary["analysis"]["error_field_limits"]
+    assert hi - lo == pytest.approx(1e-6)
