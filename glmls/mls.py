@@ -639,22 +639,26 @@ class MLS(ForkSafe):
             tuple, or a point cloud (no faces, zero normals): a (V, 3) array of points, or
             an object with ``.vertices`` alone (a ``trimesh.PointCloud``). Vertex colours
             (a :class:`~glmls.Mesh`'s ``colors``, a trimesh's own vertex colours) go with
-            their vertices.
+            their vertices, and texture coordinates (a :class:`~glmls.Mesh`'s ``uv`` and
+            ``face_uv``, a trimesh's ``visual.uv``) with their faces' corners.
 
         Returns
         -------
         DeformedMesh
             The deformed vertices, normals, Jacobians, det J and folds, and the input's
-            vertex colours (``colors``, None where it has none).
+            vertex colours (``colors``) and texture coordinates (``uv``, ``face_uv``), each
+            None where it has none.
 
         Raises
         ------
         ValueError
             On an MLS of 2D handles, or for a malformed mesh (named), or vertex colours that
-            are not (V, 3) or (V, 4) integers 0..255 or floats 0..1.
+            are not (V, 3) or (V, 4) integers 0..255 or floats 0..1, or texture coordinates
+            that are not (T, 2) finite with (F, 3) indices into them.
         TypeError
             For vertices that are not real numbers, or faces that are not integers (a
-            float array of faces too: the message names its dtype).
+            float array of faces too: the message names its dtype), or texture coordinates
+            that are not real numbers.
 
         Examples
         --------

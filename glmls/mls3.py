@@ -30,7 +30,7 @@ from .core.handles3 import (
     validate_handles3,
     volume_extent,
 )
-from .core.mesh3 import DeformedMesh, as_mesh, mesh_colors
+from .core.mesh3 import DeformedMesh, as_mesh, mesh_colors, mesh_uv
 from .engine.deform3 import deform_mesh3
 from .engine.kernel3 import MLSKernel3
 from .engine.passes3 import evaluate_points3, invert_points3, length_unit
@@ -480,8 +480,11 @@ class MLS3(MLS):
         """
         vertices, faces, normals = as_mesh(mesh)
         colors = mesh_colors(mesh, len(vertices))
+        uv, face_uv = mesh_uv(mesh, faces)
         kernel = self._kernel
-        return deform_mesh3(kernel, vertices, faces, normals, colors=colors)  # type: ignore[arg-type]
+        return deform_mesh3(  # type: ignore[arg-type]
+            kernel, vertices, faces, normals, colors=colors, uv=uv, face_uv=face_uv
+        )
 
     # -- volumes and what is 2D only --------------------------------------------------------
 

@@ -147,7 +147,14 @@ def run_mesh(args: argparse.Namespace) -> int:
     paths = [out / "report.json", out / "deformed.ply"]
     with atomic_write(paths[0]) as tmp:
         tmp.write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
-    write_mesh(paths[1], deformed.vertices, faces=mesh.faces, colors=mesh.colors)
+    write_mesh(
+        paths[1],
+        deformed.vertices,
+        faces=mesh.faces,
+        colors=mesh.colors,
+        uv=mesh.uv,
+        face_uv=mesh.face_uv,
+    )
     for path in paths:
         print(path)
     field_stats, det = summary["error_field"], summary["jacobians"]["det"]

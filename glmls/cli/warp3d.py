@@ -30,7 +30,7 @@ from ..core.config import MLSConfig
 from ..core.handles3 import as_volume_spacing
 from ..files.images import DEFAULT_MAX_PIXELS
 from ..files.landmarks import elastix_indices, elastix_physical, handle_dimension, read_handles
-from ..files.meshes import MESH_SUFFIXES, read_mesh_and_unkept, write_mesh
+from ..files.meshes import MESH_SUFFIXES, read_mesh_and_unkept, unwritten, write_mesh
 from ..files.volume_dtypes import check_file_background, in_dtype, warped_as
 from ..files.volumes import (
     VOLUME_SUFFIXES,
@@ -499,8 +499,14 @@ def _deform_mesh(args, config: MLSConfig, src, dst, target: Path) -> None:
             f"glmls warp: warning: {args.input}: {faces} of {len(mesh.faces)} faces fold over "
             "(turned inside out): the deformation is not one-to-one there",
         )
-    write_mesh(target, np.asarray(deformed.vertices), faces=mesh.faces, colors=mesh.colors)
-    if mesh.colors is not None and volume_suffix(target) == ".stl":
-        unkept = ("vertex colours", *unkept)
+    write_mesh(
+        target,
+        np.asarray(deformed.vertices),
+        faces=mesh.faces,
+        colors=mesh.colors,
+        uv=mesh.uv,
+        face_uv=mesh.face_uv,
+    )
+    unkept = (*unwritten(target, mesh), *unkept)
     if unkept:
         say(args, f"warp: {target} does not carry the input's {', '.join(unkept)}")

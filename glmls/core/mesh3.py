@@ -24,6 +24,7 @@ __all__ = [
     "DeformedMesh",
     "as_colors",
     "as_mesh",
+    "as_uv",
     "cofactor",
     "deform_mesh",
     "deformed_normals",
@@ -31,6 +32,7 @@ __all__ = [
     "face_folds",
     "face_normals",
     "mesh_colors",
+    "mesh_uv",
     "vertex_normals",
 ]
 
@@ -63,6 +65,14 @@ class DeformedMesh:
         (V, 3) or (V, 4) uint8 RGB(A) vertex colours, the input mesh's own (a
         :class:`glmls.Mesh`'s ``colors``, a ``trimesh.Trimesh``'s vertex colours): a
         deformation moves a vertex, not its colour. None where the input has none.
+    uv : numpy.ndarray or None
+        (T, 2) float64 texture coordinates (u, v), the input mesh's own (a
+        :class:`glmls.Mesh`'s ``uv``, a ``trimesh.Trimesh``'s ``visual.uv``): a deformation
+        moves the surface, and the texture with it, so its coordinates on the surface stay.
+        None where the input has none.
+    face_uv : numpy.ndarray or None
+        (F, 3) int64 indices into ``uv`` of each face's corners (a vertex may have a
+        texture coordinate per face, at a seam); None with ``uv``.
 
     Examples
     --------
@@ -83,6 +93,8 @@ class DeformedMesh:
     vertex_folds: np.ndarray
     face_folds: np.ndarray
     colors: np.ndarray | None = None
+    uv: np.ndarray | None = None
+    face_uv: np.ndarray | None = None
 
     @property
     def folded(self) -> bool:
@@ -185,6 +197,73 @@ def mesh_colors(mesh: object, count: int) -> np.ndarray | None:
     if colors is None and getattr(visual, "kind", None) == "vertex":
         colors = visual.vertex_colors  # type: ignore[union-attr]
     return as_colors(colors, count)
+
+
+def as_uv(
+    uv: object, face_uv: object, face_count: int
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """``uv`` and ``face_uv`` as read-only (T, 2) float64 texture coordinates and (F, 3) int64
+    indices into them of the ``face_count`` faces' corners, or (None, None) for both None.
+    ``ValueError`` for one given without the other, another shape, a coordinate that is not
+    finite or an index out of 0..T-1; ``TypeError`` for coordinates that are not real
+    numbers (bools too) or indices that are not integers (whole floats are taken), naming
+    them."""
+    if uv is None and face_uv is None:
+        return None, None
+    if uv is None or face_uv is None:
+        given, missing = ("uv", "face_uv") if face_uv is None else ("face_uv", "uv")
+        raise ValueError(f"{given} is given without {missing}: texture coordinates need both")
+    coordinates, indices = np.asarray(uv), np.asarray(face_uv)
+    if coordinates.dtype.kind not in "iuf":
+        raise TypeError(f"uv must be real numbers, got dtype {coordinates.dtype}")
+    if coordinates.size == 0:
+        coordinates = coordinates.reshape(0, 2)
+    if coordinates.ndim != 2 or coordinates.shape[1] != 2:
+        raise ValueError(f"uv must be (T, 2) rows (u, v), got shape {coordinates.shape}")
+    coordinates = coordinates.astype(np.float64)  # a copy: the caller's array may change
+    finite = np.isfinite(coordinates).all(axis=1)
+    if not finite.all():
+        row = int(np.argmin(finite))
+        raise ValueError(f"uv must be finite; row {row} is {coordinates[row].tolist()}")
+    if indices.size == 0:
+        indices = indices.reshape(0, 3)
+    # infinities equal their rounding but index nothing: refused with NaN and fractions
+    if not np.issubdtype(indices.dtype, np.integer) and not (
+        np.issubdtype(indices.dtype, np.floating)
+        and np.isfinite(indices).all()
+        and (indices == np.round(indices)).all()
+    ):
+        raise TypeError(f"face_uv must be integer indices into uv, got dtype {indices.dtype}")
+    if indices.ndim != 2 or indices.shape != (face_count, 3):
+        raise ValueError(
+            f"face_uv must be (F, 3) indices into uv for the F = {face_count} faces, "
+            f"got shape {indices.shape}"
+        )
+    # the range before the cast to int64: a uint64 index of 2**63 must not wrap
+    if len(indices) and (indices.min() < 0 or indices.max() >= len(coordinates)):
+        low, high = int(indices.min()), int(indices.max())
+        raise ValueError(
+            f"face_uv index uv 0..{len(coordinates) - 1}, got {low}..{high}"
+            if len(coordinates)
+            else f"face_uv index uv, which is empty, got {low}..{high}"
+        )
+    indices = indices.astype(np.int64)
+    coordinates.flags.writeable = False
+    indices.flags.writeable = False
+    return coordinates, indices
+
+
+def mesh_uv(mesh: object, faces: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The texture coordinates of a mesh given to :func:`as_mesh` (of ``faces``), by
+    :func:`as_uv`: its ``uv`` and ``face_uv`` (a :class:`glmls.Mesh`), or a
+    ``trimesh.Trimesh``'s own ``visual.uv`` (one per vertex: ``face_uv`` is the faces);
+    (None, None) for arrays, tuples and meshes without them."""
+    uv, face_uv = getattr(mesh, "uv", None), getattr(mesh, "face_uv", None)
+    visual = getattr(mesh, "visual", None)
+    if uv is None and face_uv is None and getattr(visual, "kind", None) == "texture":
+        uv = getattr(visual, "uv", None)
+        face_uv = None if uv is None else faces
+    return as_uv(uv, face_uv, len(faces))
 
 
 def _own_normals(normals: object, shape: tuple[int, ...]) -> np.ndarray | None:
@@ -301,12 +380,15 @@ def deform_mesh(
     jacobian: np.ndarray,
     *,
     colors: np.ndarray | None = None,
+    uv: np.ndarray | None = None,
+    face_uv: np.ndarray | None = None,
 ) -> DeformedMesh:
     """The :class:`DeformedMesh` of a mesh (:func:`as_mesh`'s ``vertices``, ``faces`` and
     ``normals``, None to take them from the faces) from f at its vertices (``deformed``) and
     the Jacobians there, in float64 on the host: the reference of the GPU's
     :func:`glmls.engine.deform3.deform_mesh3`. ``colors``: the vertices' own
-    (:func:`mesh_colors`), carried as they are."""
+    (:func:`mesh_colors`), ``uv`` and ``face_uv`` its texture coordinates (:func:`mesh_uv`),
+    carried as they are."""
     before = face_normals(vertices, faces)
     if normals is None:
         normals = vertex_normals(vertices, faces, before) if len(faces) else vertices * 0.0
@@ -322,4 +404,6 @@ def deform_mesh(
         vertex_folds=folds,
         face_folds=face_folds(before, deformed, faces, cof, folds),
         colors=colors,
+        uv=uv,
+        face_uv=face_uv,
     )

@@ -44,6 +44,8 @@ def deform_mesh3(
     shape: tuple[int, int, int] | None = None,
     max_groups: int | None = None,
     colors: np.ndarray | None = None,
+    uv: np.ndarray | None = None,
+    face_uv: np.ndarray | None = None,
 ) -> DeformedMesh:
     """The :class:`~glmls.core.mesh3.DeformedMesh` of a mesh by ``kernel``'s f, on the GPU.
 
@@ -52,7 +54,9 @@ def deform_mesh3(
     :func:`glmls.core.mesh3.as_mesh` returns them. ``shape``: the volume whose diagonal is the
     default radius (None: the kernel's own); ``max_groups`` work groups per dispatch (the GL
     limit by default). J, det J and the normals are float32 on the GPU, returned as float64.
-    ``colors``: the vertices' own (:func:`glmls.core.mesh3.mesh_colors`), carried as they are.
+    ``colors``: the vertices' own (:func:`glmls.core.mesh3.mesh_colors`), ``uv`` and
+    ``face_uv`` the mesh's texture coordinates (:func:`glmls.core.mesh3.mesh_uv`), carried as
+    they are.
     """
     count, face_count = len(vertices), len(faces)
     if count == 0:
@@ -67,6 +71,8 @@ def deform_mesh3(
             vertex_folds=np.zeros(0, bool),
             face_folds=np.zeros(face_count, bool),
             colors=colors,
+            uv=uv,
+            face_uv=face_uv,
         )
     gl = kernel.gl
     groups = max_groups if max_groups is not None else gl.limits["max_work_groups_x"]
@@ -112,6 +118,8 @@ def deform_mesh3(
         vertex_folds=det <= 0,
         face_folds=folds[:face_count].view(bool),
         colors=colors,
+        uv=uv,
+        face_uv=face_uv,
     )
 
 

@@ -3,21 +3,26 @@
 
 A :class:`Mesh` is its vertices (V, 3) float64, (x, y, z) in the coordinates of the handles
 that deform it, its triangles (F, 3) of vertex indices and, where the file has them, its
-vertices' colours (V, 3) or (V, 4) uint8 RGB(A). Reading keeps the file's vertices in their
-order (none merged, none dropped; their colours with them) and its faces in their order,
+vertices' colours (V, 3) or (V, 4) uint8 RGB(A) and its texture coordinates (T, 2) float64
+with the (F, 3) indices of each face's corners into them. Reading keeps the file's vertices
+in their order (none merged, none dropped; their colours with them) and its faces in their
+order,
 except STL's: an STL file stores each triangle's three corners, so the corners at the same
 place (equal coordinates, at any scale) are merged into one vertex, in the order of their
 first corner (STL has no standard vertex colours). Faces of more than three vertices are
 split into triangles (a fan from their first vertex, in the face's place among the faces, in
 OBJ and PLY alike); a face of fewer than three is refused. What else a file holds (normals,
-texture coordinates, face colours, materials, other properties) is not kept:
+face colours, materials, other properties) is not kept:
 :func:`read_mesh_and_unkept` names it. A point cloud is a mesh of no faces: PLY and OBJ hold
 one (STL holds triangles only, and refuses it).
 
 Written, by the suffix: PLY (binary) and STL (binary) hold float32 coordinates, as those
 formats usually do; OBJ (text) holds them exactly (each float64's shortest repr). PLY and OBJ
 hold the vertex colours exactly (PLY as uchar ``red``, ``green``, ``blue`` and ``alpha``;
-OBJ as ``v x y z r g b [a]``, 0..1); STL does not hold them. Every fault of a file is an
+OBJ as ``v x y z r g b [a]``, 0..1); STL does not hold them. OBJ holds the texture
+coordinates exactly (``vt u v``, ``f v/vt``); PLY holds one per vertex (float32 ``s``,
+``t``), and so none of a mesh with seams (a vertex of several); STL holds none
+(:func:`unwritten` names what a format drops). Every fault of a file is an
 :class:`~glmls.errors.InputFileError` naming it.
 """
 
@@ -30,15 +35,23 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.mesh3 import as_colors
+from ..core.mesh3 import as_colors, as_uv
 from ..core.summary import fields_repr
 from ..errors import InputFileError
 from .atomic import atomic_write
 from .obj import obj_text, read_obj
 from .parsing import not_a_file
-from .ply import MeshContent, ply_bytes, read_ply
+from .ply import MeshContent, read_ply
+from .ply_write import ply_bytes, vertex_uv
 
-__all__ = ["MESH_SUFFIXES", "Mesh", "read_mesh", "read_mesh_and_unkept", "write_mesh"]
+__all__ = [
+    "MESH_SUFFIXES",
+    "Mesh",
+    "read_mesh",
+    "read_mesh_and_unkept",
+    "unwritten",
+    "write_mesh",
+]
 
 #: The suffixes of the mesh formats.
 MESH_SUFFIXES = (".ply", ".obj", ".stl")
@@ -46,7 +59,7 @@ MESH_SUFFIXES = (".ply", ".obj", ".stl")
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
 class Mesh:
-    """A triangle mesh: vertices, faces and vertex colours, read-only copies.
+    """A triangle mesh: vertices, faces, vertex colours, texture coordinates; read-only copies.
 
     Parameters
     ----------
@@ -58,15 +71,26 @@ class Mesh:
         (V, 3) RGB or (V, 4) RGBA rows, one per vertex, kept as uint8: integers 0..255 as
         they are, floats 0..1 (an OBJ file's) scaled by 255 and rounded to the nearest
         integer. None (the default): no colours.
+    uv : array_like, optional
+        (T, 2) texture coordinates (u, v), finite; kept as float64. None (the default): no
+        texture coordinates. Given with ``face_uv``.
+    face_uv : array_like, optional
+        (F, 3) indices into ``uv`` of each face's corners, in [0, T), kept as int64: a
+        vertex may have a coordinate in each of its faces (at a seam of the texture), as in
+        an OBJ file (``f v/vt``); ``face_uv=faces`` for one per vertex. None (the default)
+        with ``uv``.
 
     Raises
     ------
     ValueError
         For vertices that are not (V, 3) finite numbers (V >= 1), faces that are not
-        (F, 3) indices of them, or colors that are not (V, 3) or (V, 4) values in range.
+        (F, 3) indices of them, colors that are not (V, 3) or (V, 4) values in range, uv
+        that are not (T, 2) finite numbers, face_uv that are not (F, 3) indices of them, or
+        one of uv and face_uv without the other.
     TypeError
         For vertices that are not real numbers (complex, strings, bools, objects), faces
-        that are not integers, or colors that are not real numbers (bools too).
+        that are not integers, colors or uv that are not real numbers (bools too), or
+        face_uv that are not integers.
 
     See Also
     --------
@@ -79,11 +103,25 @@ class Mesh:
     ((3, 3), [[0, 1, 2]])
     >>> glmls.Mesh(mesh.vertices, mesh.faces, colors=[[1.0, 0, 0]] * 3).colors[0].tolist()
     [255, 0, 0]
+
+    Two triangles that share vertices 1 and 2 and a texture seam there (vertex 2 has the
+    texture coordinate 2 in the first face and 3 in the second):
+
+    >>> square = glmls.Mesh(
+    ...     [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]],
+    ...     [[0, 1, 2], [1, 3, 2]],
+    ...     uv=[[0, 0], [0.5, 0], [0, 0.5], [1, 0.5], [1, 1]],
+    ...     face_uv=[[0, 1, 2], [1, 4, 3]],
+    ... )
+    >>> square.uv[square.face_uv[:, 2]].tolist()  # the third corners: vertex 2 both times
+    [[0.0, 0.5], [1.0, 0.5]]
     """
 
     vertices: np.ndarray
     faces: np.ndarray
     colors: np.ndarray | None = dataclasses.field(default=None, kw_only=True)
+    uv: np.ndarray | None = dataclasses.field(default=None, kw_only=True)
+    face_uv: np.ndarray | None = dataclasses.field(default=None, kw_only=True)
 
     def __post_init__(self) -> None:
         try:
@@ -118,6 +156,9 @@ class Mesh:
         object.__setattr__(self, "vertices", vertices)
         object.__setattr__(self, "faces", faces)
         object.__setattr__(self, "colors", as_colors(self.colors, len(vertices)))
+        uv, face_uv = as_uv(self.uv, self.face_uv, len(faces))
+        object.__setattr__(self, "uv", uv)
+        object.__setattr__(self, "face_uv", face_uv)
 
     def __repr__(self) -> str:
         """The arrays' shapes and dtypes, not their values."""
@@ -154,16 +195,22 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
         for a point cloud) and the vertex colours: a PLY file's ``red``, ``green``, ``blue``
         (and ``alpha``) vertex properties (uchar as they are, floats 0..1 scaled by 255 and
         rounded), an OBJ file's ``v x y z r g b`` (0..1, likewise); None for a file without
-        them and for STL. Not kept: normals (``glmls.MLS.deform`` carries normals of its
-        own), texture coordinates (PLY, OBJ ``vt``), face colours, materials, groups and
-        other PLY properties and elements; :func:`read_mesh_and_unkept` names those a file
-        has.
+        them and for STL. The texture coordinates: an OBJ file's ``vt u v`` lines and the
+        ``vt`` indices of its faces' corners (``f v/vt``, ``f v/vt/vn``), where every face
+        has them (none kept where some faces have them and others not; a face with them on
+        some corners only is refused), a PLY file's vertex properties ``s``, ``t`` (or
+        ``u``, ``v``, ``texture_u``, ``texture_v``), one per vertex (``face_uv`` is the
+        faces); None for a file without them and for STL. Not kept: normals
+        (``glmls.MLS.deform`` carries normals of its own), a 3D texture's ``w``, face
+        colours, materials (``mtllib``, ``usemtl``), groups and other PLY properties and
+        elements; :func:`read_mesh_and_unkept` names those a file has.
 
     Raises
     ------
     InputFileError
         Naming the file: missing, unreadable, an unknown suffix, not a mesh of that format,
-        no vertices, coordinates that are not finite or colours out of range.
+        no vertices, coordinates that are not finite, colours out of range or texture
+        indices that name no texture coordinate or are on some corners of a face only.
 
     See Also
     --------
@@ -194,9 +241,9 @@ def read_mesh_and_unkept(path: str | os.PathLike) -> tuple[Mesh, tuple[str, ...]
     mesh : Mesh
         As :func:`read_mesh`.
     unkept : tuple of str
-        Such as ``"normals"``, ``"texture coordinates"``, ``"face colours"``,
-        ``"materials"``, ``"vertex properties quality"``: empty where the mesh holds all of
-        the file.
+        Such as ``"normals"``, ``"texture coordinates (not on every face)"``, ``"face
+        colours"``, ``"materials"``, ``"vertex properties quality"``: empty where the mesh
+        holds all of the file.
 
     Raises
     ------
@@ -233,7 +280,8 @@ def read_mesh_and_unkept(path: str | os.PathLike) -> tuple[Mesh, tuple[str, ...]
     if not len(read.vertices):
         raise InputFileError(f"{path}: no mesh vertices in it")
     try:
-        return Mesh(read.vertices, read.faces, colors=read.colors), read.unkept
+        mesh = Mesh(read.vertices, read.faces, colors=read.colors, uv=read.uv, face_uv=read.face_uv)
+        return mesh, read.unkept
     except (TypeError, ValueError) as error:
         raise InputFileError(f"{path}: {error}") from None
 
@@ -277,7 +325,13 @@ def _load(trimesh, content: bytes, suffix: str, force: str | None):
 
 
 def write_mesh(
-    path: str | os.PathLike, mesh: object, *, faces: object = None, colors: object = None
+    path: str | os.PathLike,
+    mesh: object,
+    *,
+    faces: object = None,
+    colors: object = None,
+    uv: object = None,
+    face_uv: object = None,
 ) -> None:
     """Write a triangle mesh to a PLY, OBJ or STL file, whole or not at all.
 
@@ -297,16 +351,25 @@ def write_mesh(
         ``mesh.colors`` where it has them. PLY holds them as uchar ``red``, ``green``,
         ``blue`` (and ``alpha``), OBJ as ``v x y z r g b`` (and ``a``) in 0..1 to 6 digits,
         which read back to the same bytes; STL does not hold them (they are not written).
+    uv, face_uv : array_like, optional
+        The texture coordinates (T, 2) and the indices (F, 3) of the faces' corners into
+        them, as :class:`Mesh` takes them; default ``mesh.uv`` and ``mesh.face_uv`` where it
+        has them (and neither is given). OBJ holds them exactly (``vt u v`` with each
+        float64's shortest repr, ``f a/ta b/tb c/tc``); PLY holds one per vertex, as float32
+        ``s`` and ``t`` (a vertex of no face gets 0, 0), and so none of a mesh with seams (a
+        vertex with different coordinates in its faces), which is written without them;
+        STL holds none. :func:`unwritten` names what a file drops.
 
     Raises
     ------
     ValueError
         Before writing anything, for an unknown suffix or a bad mesh (no faces where
-        neither ``mesh`` nor ``faces`` gives them, colours of another shape or out of range),
-        or a point cloud to STL.
+        neither ``mesh`` nor ``faces`` gives them, colours of another shape or out of range,
+        texture coordinates that are not (T, 2) finite with (F, 3) indices into them), or a
+        point cloud to STL.
     TypeError
-        Before writing anything, for vertices or colours that are not real numbers or faces
-        that are not integers.
+        Before writing anything, for vertices, colours or texture coordinates that are not
+        real numbers or faces or their texture indices that are not integers.
     OSError
         Naming ``path``, for a file that cannot be written.
 
@@ -323,6 +386,15 @@ def write_mesh(
     >>> back = glmls.read_mesh(path)
     >>> back.faces.tolist(), back.colors.tolist()
     ([[0, 1, 2]], [[255, 0, 0], [255, 0, 0], [255, 0, 0]])
+
+    An OBJ file holds texture coordinates per face corner, exactly:
+
+    >>> path = path.with_suffix(".obj")
+    >>> uv, face_uv = [[0.1, 0.2], [0.9, 0.2], [0.1, 0.8]], [[2, 1, 0]]
+    >>> glmls.write_mesh(path, back, uv=uv, face_uv=face_uv)
+    >>> back = glmls.read_mesh(path)
+    >>> back.uv.tolist() == uv, back.face_uv.tolist()
+    (True, [[2, 1, 0]])
     """
     path = Path(path)
     suffix = _suffix(path)
@@ -333,11 +405,17 @@ def write_mesh(
             raise ValueError(f"{path}: no faces: give faces= (F, 3) with vertices")
     if colors is None:
         colors = getattr(mesh, "colors", None)
-    checked = Mesh(vertices, faces, colors=colors)
+    if uv is None and face_uv is None:
+        uv, face_uv = getattr(mesh, "uv", None), getattr(mesh, "face_uv", None)
+    checked = Mesh(vertices, faces, colors=colors, uv=uv, face_uv=face_uv)
     if suffix == ".obj":
-        data = obj_text(checked.vertices, checked.faces, checked.colors).encode("utf-8")
+        text = obj_text(
+            checked.vertices, checked.faces, checked.colors, checked.uv, checked.face_uv
+        )
+        data = text.encode("utf-8")
     elif suffix == ".ply":
-        data = ply_bytes(checked.vertices, checked.faces, checked.colors)
+        per_vertex = vertex_uv(len(checked.vertices), checked.faces, checked.uv, checked.face_uv)
+        data = ply_bytes(checked.vertices, checked.faces, checked.colors, per_vertex)
     elif not len(checked.faces):
         raise ValueError(
             f"{path}: an STL file holds triangles only; write a point cloud (no faces) "
@@ -348,3 +426,49 @@ def write_mesh(
         data = shape.export(file_type="stl")
     with atomic_write(path) as tmp:
         tmp.write_bytes(data)
+
+
+def unwritten(path: str | os.PathLike, mesh: Mesh) -> tuple[str, ...]:
+    """What of ``mesh`` a file of ``path``'s format does not hold, which :func:`write_mesh`
+    drops.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its suffix (``.ply``, ``.obj``, ``.stl``) chooses the format.
+    mesh : Mesh
+        The mesh to write.
+
+    Returns
+    -------
+    tuple of str
+        ``"vertex colours"`` and ``"texture coordinates"`` for STL (where the mesh has
+        them), ``"texture coordinates (...)"`` for PLY where a vertex has several (a seam):
+        empty where the file holds all of the mesh, as OBJ does.
+
+    Raises
+    ------
+    ValueError
+        For an unknown suffix.
+
+    Examples
+    --------
+    >>> mesh = glmls.Mesh(
+    ...     [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], uv=[[0, 0], [1, 0], [0, 1]],
+    ...     face_uv=[[0, 1, 2]],
+    ... )
+    >>> glmls.files.meshes.unwritten("out.ply", mesh), glmls.files.meshes.unwritten("out.stl", mesh)
+    ((), ('texture coordinates',))
+    """
+    suffix = _suffix(Path(path))
+    names = []
+    if suffix == ".stl" and mesh.colors is not None:
+        names.append("vertex colours")
+    if mesh.uv is not None and suffix == ".stl":
+        names.append("texture coordinates")
+    elif suffix == ".ply" and mesh.uv is not None:
+        if vertex_uv(len(mesh.vertices), mesh.faces, mesh.uv, mesh.face_uv) is None:
+            names.append(
+                "texture coordinates (a vertex has several, at seams: PLY holds one per vertex)"
+            )
+    return tuple(names)

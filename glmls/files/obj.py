@@ -1,14 +1,20 @@
-"""Reading and writing OBJ meshes: the ``v`` and ``f`` lines, in the file's order.
+"""Reading and writing OBJ meshes: the ``v``, ``vt`` and ``f`` lines, in the file's order.
 
 trimesh splits an OBJ by material (``usemtl``) and joins the parts again, which duplicates
 the shared vertices and reorders the faces; its texture coordinates and normals split
 vertices too. glmls reads the positions (the first three numbers of a ``v`` line), the
 common extension of vertex colours after them (``v x y z r g b``, or ``r g b a``: floats in
-0..1, scaled by 255 and rounded; whole numbers 0..255 where one exceeds 1) and the vertex
-indices of an ``f`` (or ``fo``) line (``i``, ``i/t``, ``i//n``, ``i/t/n``; negative: from
-the last vertex so far), a ``#`` comment ending any line. The rest (texture coordinates,
-normals, materials, groups, lines) it does not keep, and names. Faults are ``ValueError``s
-that say the line, which :func:`glmls.files.meshes.read_mesh` reports naming the file.
+0..1, scaled by 255 and rounded; whole numbers 0..255 where one exceeds 1), the texture
+coordinates (``vt u v``; ``v`` is 0 where it is missing, a third number ``w`` of a 3D
+texture is not kept) and the vertex and texture indices of an ``f`` (or ``fo``) line
+(``i``, ``i/t``, ``i//n``, ``i/t/n``; negative: from the last vertex, or texture
+coordinate, so far), a ``#`` comment ending any line. A face's texture coordinates are
+those of its corners, which may differ from its vertices' indices (a vertex on a seam has
+one in each face). A face with texture indices on some of its corners and not others is
+refused; where some faces have them and others not, none are kept (and that is named). The
+rest (normals, materials, groups, lines) it does not keep, and names. Faults are
+``ValueError``s that say the line, which :func:`glmls.files.meshes.read_mesh` reports
+naming the file.
 """
 
 from __future__ import annotations
@@ -21,7 +27,6 @@ __all__ = ["obj_text", "read_obj"]
 
 #: The statements glmls does not keep, and how a message names them.
 _UNKEPT = {
-    "vt": "texture coordinates",
     "vn": "normals",
     "mtllib": "materials",
     "usemtl": "materials",
@@ -37,14 +42,18 @@ _UNKEPT = {
 
 
 def read_obj(content: bytes) -> MeshContent:
-    """The vertices, faces, vertex colours and what else there is of an OBJ file's bytes;
-    ``ValueError`` saying the line of a vertex of fewer than 3 numbers, a face of fewer than
-    3 vertices, a vertex index that is not one or names no vertex, or a colour out of
+    """The vertices, faces, vertex colours, texture coordinates and what else there is of an
+    OBJ file's bytes; ``ValueError`` saying the line of a vertex of fewer than 3 numbers, a
+    face of fewer than 3 vertices, an index that is not one or names no vertex (or texture
+    coordinate), a face with texture indices on some corners only, or a colour out of
     range."""
     text = content.decode("utf-8-sig", errors="replace").replace("\\\r\n", " ").replace("\\\n", " ")
     rows: list[list[str]] = []
     places: list[int] = []
+    textures: list[tuple[int, list[str]]] = []  # (line, the numbers) of each vt
     faces: list[tuple[int, int, int]] = []
+    corners_uv: list[tuple[int, int, int] | None] = []  # each triangle's, or None
+    face_lines: list[int] = []  # each triangle's line
     unkept: dict[str, None] = {}  # in order, once each
     for number, line in enumerate(text.splitlines(), start=1):
         fields = line.split("#", 1)[0].split()  # a comment may end a line, after its data
@@ -55,11 +64,19 @@ def read_obj(content: bytes) -> MeshContent:
                 raise ValueError(f"line {number}: a vertex of fewer than 3 numbers")
             rows.append(fields[1:])
             places.append(number)
+        elif fields[0] == "vt":
+            if len(fields) < 2:
+                raise ValueError(f"line {number}: a texture coordinate of no numbers")
+            textures.append((number, fields[1:]))
         elif fields[0] in ("f", "fo"):  # fo: an old name of f
             corners = [_obj_index(number, field, len(rows)) for field in fields[1:]]
             if len(corners) < 3:
                 raise ValueError(f"line {number}: a face of fewer than 3 vertices")
-            faces += [(corners[0], corners[i], corners[i + 1]) for i in range(1, len(corners) - 1)]
+            fan = range(1, len(corners) - 1)
+            faces += [(corners[0], corners[i], corners[i + 1]) for i in fan]
+            at = _texture_indices(number, fields[1:], len(textures))
+            corners_uv += [None if at is None else (at[0], at[i], at[i + 1]) for i in fan]
+            face_lines += [number] * len(fan)
         elif fields[0] in _UNKEPT and fields[1:] not in (["off"], ["0"]):  # s off: none
             unkept[_UNKEPT[fields[0]]] = None
     try:
@@ -68,7 +85,66 @@ def read_obj(content: bytes) -> MeshContent:
         raise ValueError(f"not a readable .obj mesh: {error}") from None
     colors = _colors(rows, places, unkept)
     triangles = np.array(faces, dtype=np.int64).reshape(-1, 3)
-    return MeshContent(vertices, triangles, colors, tuple(unkept))
+    uv, face_uv = _texture(textures, corners_uv, face_lines, unkept)
+    return MeshContent(vertices, triangles, colors, tuple(unkept), uv, face_uv)
+
+
+def _texture_indices(number: int, fields: list[str], count: int) -> list[int] | None:
+    """The 0-based texture indices of a face's corners ``fields`` on line ``number`` (``count``
+    texture coordinates before it), or None for a face of none; ``ValueError`` for a face of
+    some."""
+    parts = [field.split("/") for field in fields]
+    given = [len(part) > 1 and part[1] != "" for part in parts]
+    if not any(given):
+        return None
+    if not all(given):
+        raise ValueError(
+            f"line {number}: a face with texture coordinates on some corners and not others"
+        )
+    return [_index(number, part[1], count, "texture coordinate") for part in parts]
+
+
+def _texture(
+    textures: list[tuple[int, list[str]]],
+    corners: list[tuple[int, int, int] | None],
+    lines: list[int],
+    unkept: dict[str, None],
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(the (T, 2) texture coordinates of the ``vt`` lines, the (F, 3) indices of the
+    triangles' corners into them) where every triangle (of the file's ``lines``) has them;
+    else (None, None), and the ``vt`` lines named in ``unkept`` where there are some.
+    ``ValueError`` saying the line of a coordinate that is not a finite number or of a face
+    that names one beyond the last."""
+    given = [at is not None for at in corners]
+    if not any(given):
+        if textures:
+            unkept["texture coordinates"] = None
+        return None, None
+    if not all(given):
+        unkept["texture coordinates (not on every face)"] = None
+        return None, None
+    face_uv = np.array(corners, dtype=np.int64)
+    beyond = (face_uv >= len(textures)).any(axis=1)
+    if beyond.any():  # a positive index may name a vt read later, or none
+        row = int(np.argmax(beyond))
+        raise ValueError(
+            f"line {lines[row]}: texture coordinate {int(face_uv[row].max()) + 1} of a face, "
+            f"with {len(textures)} in the file"
+        )
+    uv = np.zeros((len(textures), 2))
+    for row, (number, values) in enumerate(textures):
+        try:
+            numbers = [float(v) for v in values[:3]]
+        except ValueError:
+            numbers = [np.nan]
+        if not np.isfinite(numbers).all():
+            raise ValueError(
+                f"line {number}: texture coordinate {' '.join(values)!r}, not finite numbers"
+            )
+        uv[row, : min(len(numbers), 2)] = numbers[:2]  # a missing v is 0
+        if len(numbers) > 2 and numbers[2] != 0:
+            unkept["3D texture coordinates (w)"] = None
+    return uv, face_uv
 
 
 def _colors(rows: list[list[str]], places: list[int], unkept: dict[str, None]) -> np.ndarray | None:
@@ -101,23 +177,37 @@ def _colors(rows: list[list[str]], places: list[int], unkept: dict[str, None]) -
 def _obj_index(number: int, field: str, count: int) -> int:
     """The 0-based vertex index of a face's corner ``field`` on line ``number``; ``count``
     vertices are before it, from which a negative index counts back."""
+    return _index(number, field.split("/", 1)[0], count, "vertex")
+
+
+def _index(number: int, field: str, count: int, what: str) -> int:
+    """The 0-based index ``field`` of a ``what`` on line ``number``; ``count`` are before it,
+    from which a negative index counts back."""
     try:
-        index = int(field.split("/", 1)[0])
+        index = int(field)
     except ValueError:
-        raise ValueError(f"line {number}: {field!r} is no vertex index") from None
-    # a positive index may name a vertex read later; beyond 2**62 none (nor int64) holds it
+        raise ValueError(f"line {number}: {field!r} is no {what} index") from None
+    # a positive index may name one read later; beyond 2**62 none (nor int64) holds it
     if index == 0 or index < -count or index > 2**62:
+        plural = "vertices" if what == "vertex" else f"{what}s"
         raise ValueError(
-            f"line {number}: vertex {index} of a face, with {count} vertices before it"
+            f"line {number}: {what} {index} of a face, with {count} {plural} before it"
         )
     return index - 1 if index > 0 else count + index
 
 
-def obj_text(vertices: np.ndarray, faces: np.ndarray, colors: np.ndarray | None) -> str:
+def obj_text(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    colors: np.ndarray | None,
+    uv: np.ndarray | None = None,
+    face_uv: np.ndarray | None = None,
+) -> str:
     """The OBJ text of a mesh: each coordinate as Python's shortest repr that reads back to
     the same float64 (any magnitude), the colours after it as c / 255 to 6 significant digits
     (which read back to the same byte: they are 1/255 apart) with alpha the 7th number of
-    four channels, faces 1-based."""
+    four channels, the texture coordinates ``uv`` as ``vt u v`` (shortest reprs too), faces
+    1-based (``f a/ta b/tb c/tc`` with ``face_uv``)."""
     if colors is None:
         lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in vertices.tolist()]
     else:
@@ -125,5 +215,12 @@ def obj_text(vertices: np.ndarray, faces: np.ndarray, colors: np.ndarray | None)
             f"v {x!r} {y!r} {z!r} " + " ".join(f"{c / 255:.6g}" for c in rgba)
             for (x, y, z), rgba in zip(vertices.tolist(), colors.tolist(), strict=True)
         ]
-    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces.tolist()]
+    if uv is None or face_uv is None:
+        lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces.tolist()]
+    else:
+        lines += [f"vt {u!r} {v!r}" for u, v in uv.tolist()]
+        lines += [
+            f"f {a + 1}/{ta + 1} {b + 1}/{tb + 1} {c + 1}/{tc + 1}"
+            for (a, b, c), (ta, tb, tc) in zip(faces.tolist(), face_uv.tolist(), strict=True)
+        ]
     return "\n".join(lines) + "\n"

@@ -1,13 +1,15 @@
-"""Reading and writing PLY meshes: the vertices' x, y, z, their colours and the faces, in
-the file's order.
+"""Reading PLY meshes: the vertices' x, y, z, their colours and texture coordinates and the
+faces, in the file's order (:mod:`glmls.files.ply_write` writes them).
 
 A PLY file (ASCII, or binary of either byte order) is a header of elements, each a count of
 rows of properties (scalars, or lists with a count before their items), then the rows of
 each element in turn. glmls reads every element so as to find the vertices (``x``, ``y``,
 ``z`` of ``vertex``), their colours (``red``, ``green``, ``blue`` and ``alpha`` if there:
-uchar as they are, other integers 0..255 too, floats 0..1 scaled by 255 and rounded) and the
-faces (the list ``vertex_indices`` or ``vertex_index`` of ``face``); the rest (normals,
-texture coordinates, face colours, other properties and elements) glmls does not keep, and
+uchar as they are, other integers 0..255 too, floats 0..1 scaled by 255 and rounded), their
+texture coordinates (the first pair of ``s``, ``t``; ``u``, ``v``; ``texture_u``,
+``texture_v``; ``texture_s``, ``texture_t``: one per vertex) and the faces (the list
+``vertex_indices`` or ``vertex_index`` of ``face``); the rest (normals, a face's own
+``texcoord`` list, face colours, other properties and elements) glmls does not keep, and
 names. A face of more than three vertices is a fan from its first vertex, in its place among
 the faces; a face of fewer is refused, and so is an ASCII file of more values than the
 header's counts of rows take, a face element whose list of vertex indices is not found
@@ -25,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["MeshContent", "fan_triangles", "ply_bytes", "read_ply"]
+__all__ = ["COLORS", "MeshContent", "fan_triangles", "read_ply"]
 
 #: PLY's scalar types and their NumPy codes (without the byte order).
 _TYPES = {
@@ -48,9 +50,12 @@ _TYPES = {
 }
 _ORDERS = {"ascii": "", "binary_little_endian": "<", "binary_big_endian": ">"}
 _FACE_LISTS = ("vertex_indices", "vertex_index")
-_COLORS = ("red", "green", "blue", "alpha")
+#: The vertex colour properties, in the order of their channels.
+COLORS = ("red", "green", "blue", "alpha")
 _NORMALS = ("nx", "ny", "nz", "normal_x", "normal_y", "normal_z")
-_TEXTURE = ("s", "t", "u", "v", "texture_u", "texture_v", "texture_s", "texture_t", "texcoord")
+#: The pairs of vertex properties that hold a texture coordinate (u, v), the first found read.
+_UV_PAIRS = (("s", "t"), ("u", "v"), ("texture_u", "texture_v"), ("texture_s", "texture_t"))
+_TEXTURE = (*(name for pair in _UV_PAIRS for name in pair), "texcoord")
 
 
 class MeshContent(NamedTuple):
@@ -61,6 +66,8 @@ class MeshContent(NamedTuple):
     faces: np.ndarray  # (F, 3) int64
     colors: np.ndarray | None  # (V, 3) or (V, 4) uint8
     unkept: tuple[str, ...]  # what else the file holds, for a message
+    uv: np.ndarray | None = None  # (T, 2) float64 texture coordinates
+    face_uv: np.ndarray | None = None  # (F, 3) int64 indices into uv of the faces' corners
 
 
 @dataclass
@@ -305,12 +312,17 @@ def read_ply(content: bytes) -> MeshContent:
         raise ValueError("no vertex element with x, y and z")
     vertices = np.stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"], axis=1)
     colors, channels = _vertex_colors(elements, vertex)
+    uv, uv_names = _vertex_uv(elements, vertex)
     face = found.get("face", {})
     name = _face_list(elements, face)
-    unkept = _unkept(elements, {"x", "y", "z", *channels}, name)
-    if name is None:
-        return MeshContent(vertices, np.zeros((0, 3), np.int64), colors, unkept)
-    polygons = face[name]
+    unkept = _unkept(elements, {"x", "y", "z", *channels, *uv_names}, name)
+    faces = np.zeros((0, 3), np.int64) if name is None else _triangles(face[name])
+    # a coordinate per vertex: each corner's is its vertex's
+    return MeshContent(vertices, faces, colors, unkept, uv, None if uv is None else faces)
+
+
+def _triangles(polygons: object) -> np.ndarray:
+    """(F, 3) int64 fans of the face element's lists of vertex indices."""
     if isinstance(polygons, np.ndarray) and polygons.ndim == 2 and polygons.shape[1] >= 3:
         # polygons of one size: their fans at once, each in its face's place
         corners = _indices(polygons, "face ")
@@ -319,8 +331,30 @@ def read_ply(content: bytes) -> MeshContent:
             [np.repeat(corners[:, :1], len(steps), 1), corners[:, steps], corners[:, steps + 1]],
             axis=-1,
         )
-        return MeshContent(vertices, fans.reshape(-1, 3), colors, unkept)
-    return MeshContent(vertices, fan_triangles(list(polygons)), colors, unkept)
+        return fans.reshape(-1, 3)
+    return fan_triangles(list(polygons))  # type: ignore[call-overload]
+
+
+def _vertex_uv(
+    elements: list[_Element], vertex: dict[str, object]
+) -> tuple[np.ndarray | None, tuple[str, ...]]:
+    """(the (V, 2) float64 texture coordinates of the vertices, or None; the properties they
+    are of): the first pair of :data:`_UV_PAIRS` that are both scalars of the vertex element;
+    ``ValueError`` naming the first vertex of one that is not finite."""
+    element = [e for e in elements if e.name == "vertex"][-1]
+    scalars = {p.name for p in element.properties if p.count is None}
+    pair = next((pair for pair in _UV_PAIRS if set(pair) <= scalars), None)
+    if pair is None:
+        return None, ()
+    uv = np.stack([np.asarray(vertex[name], dtype=np.float64) for name in pair], axis=1)
+    finite = np.isfinite(uv).all(axis=1)
+    if not finite.all():
+        row = int(np.argmin(finite))
+        raise ValueError(
+            f"vertex {row}: texture coordinate {pair[0]}, {pair[1]} = "
+            f"{uv[row].tolist()}, not finite"
+        )
+    return uv.reshape(-1, 2), pair
 
 
 def _vertex_colors(
@@ -332,8 +366,8 @@ def _vertex_colors(
     the first vertex of another value (an ASCII file holds any number for any type)."""
     element = [e for e in elements if e.name == "vertex"][-1]  # that of ``vertex``
     kinds = {p.name: p.kind for p in element.properties if p.count is None}
-    names = tuple(n for n in _COLORS if n in kinds)
-    if names[:3] != _COLORS[:3]:
+    names = tuple(n for n in COLORS if n in kinds)
+    if names[:3] != COLORS[:3]:
         return None, ()
     channels = []
     for name in names:
@@ -352,9 +386,10 @@ def _vertex_colors(
 
 
 def _unkept(elements: list[_Element], kept: set[str], face_list: str | None) -> tuple[str, ...]:
-    """What of the file a mesh of vertices, their colours (the vertex properties ``kept``)
-    and triangles does not hold: normals, texture coordinates, face colours, other properties
-    and elements (those of rows)."""
+    """What of the file a mesh of vertices, their colours and texture coordinates (the vertex
+    properties ``kept``) and triangles does not hold: normals, texture coordinates not read
+    (a face's ``texcoord``, a lone ``u``), face colours, other properties and elements (those
+    of rows)."""
     notes: dict[str, None] = {}  # in order, once each
     others: dict[str, list[str]] = {"vertex": [], "face": []}
     elsewhere = []
@@ -372,7 +407,7 @@ def _unkept(elements: list[_Element], kept: set[str], face_list: str | None) -> 
                 notes["normals"] = None
             elif p.name in _TEXTURE:
                 notes["texture coordinates"] = None
-            elif element.name == "face" and p.name in _COLORS:
+            elif element.name == "face" and p.name in COLORS:
                 notes["face colours"] = None
             else:
                 others[element.name].append(p.name)
@@ -382,27 +417,3 @@ def _unkept(elements: list[_Element], kept: set[str], face_list: str | None) -> 
     if elsewhere:
         notes[f"elements {', '.join(elsewhere)}"] = None
     return tuple(notes)
-
-
-def ply_bytes(vertices: np.ndarray, faces: np.ndarray, colors: np.ndarray | None) -> bytes:
-    """A binary PLY file of float32 vertices, their uchar colours (``red``, ``green``,
-    ``blue``, and ``alpha`` for four channels) and triangles (a ``face`` element only where
-    there are some: a point cloud has none)."""
-    fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
-    if colors is not None:
-        fields += [(name, "u1") for name in _COLORS[: colors.shape[1]]]
-    rows = np.empty(len(vertices), np.dtype(fields))
-    for axis, name in enumerate("xyz"):
-        rows[name] = vertices[:, axis]
-    if colors is not None:
-        for channel in range(colors.shape[1]):
-            rows[_COLORS[channel]] = colors[:, channel]
-    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(vertices)}"]
-    header += [f"property {'float' if kind == '<f4' else 'uchar'} {n}" for n, kind in fields]
-    body = [rows.tobytes()]
-    if len(faces):
-        header += [f"element face {len(faces)}", "property list uchar int vertex_indices"]
-        triangles = np.empty(len(faces), np.dtype([("n", "u1"), ("i", "<i4", (3,))]))
-        triangles["n"], triangles["i"] = 3, faces
-        body.append(triangles.tobytes())
-    return ("\n".join([*header, "end_header"]) + "\n").encode("ascii") + b"".join(body)

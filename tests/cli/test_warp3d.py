@@ -582,10 +582,40 @@ def test_mesh_colours_are_carried_and_what_is_not_is_one_line(files, stand_in, c
     text += [" ".join(map(str, [3, *f])) for f in sphere.faces.tolist()]
     (files / "tex.ply").write_text("\n".join(text) + "\n")
     assert main(["warp", "tex.ply", "t.ply", "--handles", "h3.json"]) == 0
+    assert "carry" not in capsys.readouterr().err
+    assert_array_equal(glmls.read_mesh(files / "t.ply").colors, colors)
+    assert_array_equal(glmls.read_mesh(files / "t.ply").uv, np.full((len(colors), 2), 0.5))
+    assert main(["warp", "tex.ply", "t.stl", "--handles", "h3.json"]) == 0
     lines = capsys.readouterr().err.splitlines()
     assert [x for x in lines if "carry" in x] == [
-        "warp: t.ply does not carry the input's texture coordinates"
+        "warp: t.stl does not carry the input's vertex colours, texture coordinates"
     ]
-    assert_array_equal(glmls.read_mesh(files / "t.ply").colors, colors)
     assert main(["warp", "tex.ply", "t.stl", "--handles", "h3.json", "--quiet"]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_mesh_texture_coordinates_are_carried_by_obj_and_named_where_not(files, stand_in, capsys):
+    """An OBJ of texture coordinates per face corner, with a seam (vertex 2 has vt 2 in one
+    face and vt 4 in the other) and materials: OBJ carries the coordinates exactly, PLY
+    cannot (one per vertex) and STL holds none; each says so in its one line."""
+    (files / "tex.obj").write_text(
+        "mtllib tex.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+        "vt 0.1 0.2\nvt 0.30000000000000004 0.2\nvt 0.1 0.7\nvt 0.9 0.6\nvt 1 1\n"
+        "usemtl skin\nf 1/1 2/2 3/3\nf 2/4/1 4/-1/1 3/3/1\nvn 0 0 1\n"
+    )
+    mesh = glmls.read_mesh(files / "tex.obj")
+    for out, carried in (
+        ("out.obj", ""),
+        ("out.ply", "texture coordinates (a vertex has several, at seams: PLY holds one "
+         "per vertex), "),
+        ("out.stl", "texture coordinates, "),
+    ):  # fmt: skip
+        assert main(["warp", "tex.obj", out, "--handles", "h3.json"]) == 0
+        lines = [x for x in capsys.readouterr().err.splitlines() if "carry" in x]
+        assert lines == [f"warp: {out} does not carry the input's {carried}materials, normals"]
+    back = glmls.read_mesh(files / "out.obj")
+    assert_array_equal(back.uv, mesh.uv)
+    assert_array_equal(back.face_uv, [[0, 1, 2], [3, 4, 2]])
+    src, dst = glmls.data.phantom_handles()
+    assert_allclose(back.vertices, mesh.vertices + (dst - src).mean(axis=0), rtol=0, atol=1e-12)
+    assert glmls.read_mesh(files / "out.ply").uv is None

@@ -215,3 +215,24 @@ def test_vertex_colours_go_with_their_vertices(gl, rng):
         assert np.abs(out.vertices - plain.vertices).max() == 0  # nothing else changes
     ref = mesh3.deform_mesh(vertices, faces, None, rgb.vertices, rgb.jacobian, colors=rgb.colors)
     assert ref.colors is rgb.colors
+
+
+def test_texture_coordinates_go_with_their_face_corners(gl, rng):
+    vertices, faces = _random_mesh(rng, 500, 800)
+    uv = rng.uniform(-1, 2, (3 * len(faces) // 2, 2))
+    face_uv = rng.integers(0, len(uv), faces.shape)
+    src, dst = _handles(rng, 6.0)
+    with glmls.MLS(src, dst, transform="similarity") as m:
+        plain = m.deform((vertices, faces))
+        out = m.deform(glmls.Mesh(vertices, faces, uv=uv, face_uv=face_uv))
+        direct = deform_mesh3(m.kernel, vertices, faces, None, uv=out.uv, face_uv=out.face_uv)
+    assert plain.uv is None and plain.face_uv is None
+    assert out.uv.dtype == np.float64 and out.face_uv.dtype == np.int64
+    assert (out.uv == uv).all() and (out.face_uv == face_uv).all()
+    assert np.abs(out.vertices - plain.vertices).max() == 0  # nothing else changes
+    assert direct.uv is out.uv and direct.face_uv is out.face_uv
+    ref = mesh3.deform_mesh(
+        vertices, faces, None, out.vertices, out.jacobian, uv=out.uv, face_uv=out.face_uv
+    )
+    assert ref.uv is out.uv and ref.face_uv is out.face_uv
+    _compare(out, vertices, faces)

@@ -216,9 +216,9 @@ def test_what_a_ply_holds_beyond_the_mesh_is_named(tmp_path):
         )
         mesh, unkept = read_mesh_and_unkept(tmp_path / "m.ply")
         assert mesh.colors is None and mesh.faces.tolist() == [[0, 1, 2]]
+        assert mesh.uv.tolist() == [[0, 0], [0, 0], [1, 1]]  # s, t: kept
         assert unkept == (
             "normals",
-            "texture coordinates",
             "face colours",
             "vertex properties quality, red, green",
             "elements edge",
@@ -234,10 +234,10 @@ def test_what_an_obj_holds_beyond_the_mesh_is_named(tmp_path):
     )
     mesh, unkept = read_mesh_and_unkept(tmp_path / "m.obj")
     assert mesh.faces.tolist() == [[0, 1, 2]]
+    assert mesh.uv.tolist() == [[0, 0]] and mesh.face_uv.tolist() == [[0, 0, 0]]  # kept
     assert unkept == (
         "materials",
         "object and group names",
-        "texture coordinates",
         "normals",
         "lines",
     )
