@@ -254,7 +254,7 @@ def read_mesh_and_unkept(path: str | os.PathLike) -> tuple[Mesh, tuple[str, ...]
     --------
     >>> import pathlib, tempfile
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "tri.obj"
-    >>> _ = path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n")
+    >>> _ = path.write_text("v 0 0 0\\nv 1 0 0\\nv 0 1 0\\nvn 0 0 1\\nf 1//1 2//1 3//1\\n")
     >>> glmls.files.meshes.read_mesh_and_unkept(path)[1]
     ('normals',)
     """
