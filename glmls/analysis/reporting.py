@@ -308,7 +308,7 @@ def report(
         ``summary["construction"]``, its settings and colour limits in
         ``summary["analysis"]["construction"]``.
     construction_radius : int, optional
-        Its windows' half-size: 2 ``construction_radius`` + 1 output pixels.
+        Its windows' half-size: windows of (2 ``construction_radius`` + 1)² output pixels.
     out_dir : str or pathlib.Path, optional
         Also write ``report.json`` and the PNGs there (:meth:`AnalysisReport.save`).
     on_stage : callable, optional

@@ -66,7 +66,7 @@ class NiftiHeader:
         1010: matrices, displacements, vectors, points, quaternions; FSL's warp fields and
         their coefficients, 2006 to 2009, 2016, 2017): such a volume is read with none.
     intent_params : tuple of 3 float, default (0.0, 0.0, 0.0)
-        The intent's parameters ``intent_p1``..``intent_p3`` (a t statistic's degrees of
+        The intent's parameters ``intent_p1`` to ``intent_p3`` (a t statistic's degrees of
         freedom, an F statistic's two).
     intent_name : str, default ""
         The intent's name (``intent_name``), at most 16 characters (of Latin-1).

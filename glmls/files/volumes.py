@@ -406,8 +406,8 @@ def read_volume(path: str | os.PathLike) -> Volume:
     -------
     Volume
         ``data`` (D, H, W) or (D, H, W, C) in the file's dtype (a NIfTI with a scale factor
-        gives floats), with the spacing and affine the file gives (see :mod:`the module
-        <glmls.files.volumes>`).
+        gives floats), with the spacing and affine the file gives (:class:`Volume`; what each format
+        gives: :doc:`/cli`).
 
     Raises
     ------
