@@ -34,6 +34,7 @@ __all__ = [
     "mesh_colors",
     "mesh_uv",
     "vertex_normals",
+    "whole_indices",
 ]
 
 
@@ -157,6 +158,19 @@ def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     return v, f, normals
 
 
+def whole_indices(indices: np.ndarray) -> bool:
+    """Whether ``indices`` are integers, or floats that are whole numbers (as a file's
+    columns of doubles may hold them): not NaN, fractions or infinities, which equal their
+    rounding but index nothing."""
+    if np.issubdtype(indices.dtype, np.integer):
+        return True
+    return bool(
+        np.issubdtype(indices.dtype, np.floating)
+        and np.isfinite(indices).all()
+        and (indices == np.round(indices)).all()
+    )
+
+
 def as_colors(colors: object, count: int) -> np.ndarray | None:
     """``colors`` as read-only (``count``, 3) or (``count``, 4) uint8 RGB(A) rows, or None for
     None: integers as they are (each in 0..255), floats in 0..1 scaled by 255 and rounded to
@@ -227,12 +241,7 @@ def as_uv(
         raise ValueError(f"uv must be finite; row {row} is {coordinates[row].tolist()}")
     if indices.size == 0:
         indices = indices.reshape(0, 3)
-    # infinities equal their rounding but index nothing: refused with NaN and fractions
-    if not np.issubdtype(indices.dtype, np.integer) and not (
-        np.issubdtype(indices.dtype, np.floating)
-        and np.isfinite(indices).all()
-        and (indices == np.round(indices)).all()
-    ):
+    if not whole_indices(indices):
         raise TypeError(f"face_uv must be integer indices into uv, got dtype {indices.dtype}")
     if indices.ndim != 2 or indices.shape != (face_count, 3):
         raise ValueError(

@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.mesh3 import as_colors, as_uv
+from ..core.mesh3 import as_colors, as_uv, whole_indices
 from ..core.summary import fields_repr
 from ..errors import InputFileError
 from .atomic import atomic_write
@@ -137,12 +137,7 @@ class Mesh:
             raise ValueError("vertices must be finite")
         if faces.size == 0:
             faces = faces.reshape(0, 3)
-        # infinities equal their rounding but index nothing: refused with NaN and fractions
-        if not np.issubdtype(faces.dtype, np.integer) and not (
-            np.issubdtype(faces.dtype, np.floating)
-            and np.isfinite(faces).all()
-            and (faces == np.round(faces)).all()
-        ):
+        if not whole_indices(faces):
             raise TypeError(f"faces must be integer vertex indices, got dtype {faces.dtype}")
         if faces.ndim != 2 or faces.shape[1] != 3:
             raise ValueError(f"faces must be (F, 3) triangles, got shape {faces.shape}")
