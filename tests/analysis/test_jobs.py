@@ -202,12 +202,10 @@ def test_ctrl_c_ends_the_run_and_its_workers(tmp_path, scheduler):
     try:
         _wait_until(child, lambda: len(list(tmp_path.glob("started_*"))) >= 2, "two items to start")
         os.killpg(child.pid, signal.SIGINT)
-        err = _ended(child, tmp_path)
-        left = _group_alive(child.pid, wait=30)
+        err = _ended_alone(child, tmp_path)
     finally:
         _kill(child)
     assert child.returncode == 130, err
-    assert not left, "a worker process outlived the run"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["started_0", "started_1"]
 
 
@@ -226,12 +224,10 @@ def test_sigterm_ends_the_run_and_its_workers(tmp_path, scheduler, whom):
             os.kill(child.pid, signal.SIGTERM)
         else:
             os.killpg(child.pid, signal.SIGTERM)
-        err = _ended(child, tmp_path)
-        left = _group_alive(child.pid, wait=30)
+        err = _ended_alone(child, tmp_path)
     finally:
         _kill(child)
     assert (child.returncode, err) == (143, "terminated\n")
-    assert not left, "a worker process outlived the run"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["started_0", "started_1"]
 
 
@@ -256,12 +252,10 @@ def test_ctrl_c_while_a_worker_sends_its_result(tmp_path):
                 os.kill(sender, signal.SIGINT)
             time.sleep(0.005)
         os.killpg(child.pid, signal.SIGINT)
-        err = _ended(child, tmp_path)
-        left = _group_alive(child.pid, wait=30)
+        err = _ended_alone(child, tmp_path)
     finally:
         _kill(child)
     assert (child.returncode, err) == (130, "interrupted\n")
-    assert not left, "a worker process outlived the run"
 
 
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
@@ -276,12 +270,10 @@ def test_ctrl_c_as_the_workers_start(tmp_path, scheduler):
     try:
         _wait_until(child, lambda: _workers_of(child.pid), "a worker process to start", pause=0.002)
         os.killpg(child.pid, signal.SIGINT)
-        err = _ended(child, tmp_path)
-        left = _group_alive(child.pid, wait=30)
+        err = _ended_alone(child, tmp_path)
     finally:
         _kill(child)
     assert (child.returncode, err) == (130, "interrupted\n")
-    assert not left, "a worker process outlived the run"
 
 
 @pytest.mark.parametrize("worker", [1, 2])
@@ -292,12 +284,10 @@ def test_ctrl_c_just_before_a_worker_starts(tmp_path, worker):
     with its one line and no process left."""
     child = _interrupted_jobs(tmp_path, f"before_worker_{worker}")
     try:
-        err = _ended(child, tmp_path)
-        left = _group_alive(child.pid, wait=30)
+        err = _ended_alone(child, tmp_path)
     finally:
         _kill(child)
     assert (child.returncode, err) == (130, "interrupted\n")
-    assert not left, "a worker process outlived the run"
 
 
 def _workers_of(group: int) -> list[int]:
@@ -351,6 +341,13 @@ def _ended(child: subprocess.Popen, folder: Path) -> str:
     except subprocess.TimeoutExpired:
         started = sorted(p.name for p in folder.iterdir())
         pytest.fail(f"the run went on 90 s after it was stopped ({started}): {_kill(child)!r}")
+
+
+def _ended_alone(child: subprocess.Popen, folder: Path) -> str:
+    """:func:`_ended`'s stderr, once no process of the run's group is left (30 s at most)."""
+    err = _ended(child, folder)
+    assert not _group_alive(child.pid, wait=30), "a worker process outlived the run"
+    return err
 
 
 def _kill(child: subprocess.Popen) -> str:

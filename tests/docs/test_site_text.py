@@ -19,31 +19,29 @@ def prose(path: Path) -> str:
     return _FENCE.sub("", path.read_text(encoding="utf-8"))
 
 
+def matches(pattern: str) -> list[str]:
+    """Each match of ``pattern`` in the guides' prose, as "page: match"."""
+    return [
+        f"{path.name}: {m.group(0)}" for path in GUIDES for m in re.finditer(pattern, prose(path))
+    ]
+
+
 def test_links_between_guides_name_the_page_not_its_file():
     # `[warp.md](warp.md)` shows the reader a file name where the other links say what the
     # page is about
-    found = [
-        f"{path.name}: {m.group(0)}"
-        for path in GUIDES
-        for m in re.finditer(r"\[[\w-]+\.md(#[\w-]+)?\]\([^)]*\)", prose(path))
-    ]
+    found = matches(r"\[[\w-]+\.md(#[\w-]+)?\]\([^)]*\)")
     assert found == [], "\n".join(found)
 
 
 def test_guides_link_to_guides_instead_of_naming_their_paths():
     # `docs/performance.md` as text is a path in the repository, not a page of the site
-    found = [
-        f"{path.name}: {m.group(0)}"
-        for path in GUIDES
-        for m in re.finditer(r"(?<![(/\w])docs/[\w-]+\.md", prose(path))
-    ]
+    found = matches(r"(?<![(/\w])docs/[\w-]+\.md")
     assert found == [], "\n".join(found)
 
 
 def test_guides_do_not_send_the_reader_to_passages_of_the_readme():
     # the site does not include the README: "the README says how ..." leads nowhere there
-    pattern = re.compile(r"the README says|README's table|caveat of the README")
-    found = [f"{path.name}: {m.group(0)}" for path in GUIDES for m in pattern.finditer(prose(path))]
+    found = matches(r"the README says|README's table|caveat of the README")
     assert found == [], "\n".join(found)
 
 
