@@ -180,10 +180,11 @@ class LatticeBands:
         #: z layers of points held either side of a band's own (for the inverse Jacobians)
         self.halo = 0 if jacobians is None else 1
         self.cell_layers = band_layers(lattice, band_bytes, jacobians=jacobians is not None)
-        if 6 * lattice.cell_count >= 0xFFFFFFFF:  # keys: 6 per cell, in 32 bits
+        if 6 * lattice.key_count >= 0xFFFFFFFF:  # keys: 6 per cell, in 32 bits
+            limit = 715_827_882 // (lattice.key_count // lattice.cell_count)
             raise ValueError(
                 f"a lattice of {lattice.cell_count} cells is more than the construction "
-                f"numbers (715,827,882); use a coarser grid"
+                f"numbers ({limit:,}); use a coarser grid"
             )
         self.cells = nz - 1
         self.loaded: tuple[int, int] | None = None

@@ -224,10 +224,7 @@ class VolumeWarper:
     def _bands(
         self, field, shape, frame, options, slabs, *, survey=True, backward=False
     ) -> LatticeBands:
-        step = options.lattice_step
-        lattice = CornerLattice(shape, step)
-        if options.border != "constant":
-            lattice = CornerLattice(shape, step, border_margin3(field, lattice, frame))
+        lattice = _lattice(field, shape, frame, options, backward=backward)
         nx, ny, nz = lattice.dims
         band_bytes = min(slabs.band_bytes, self._gl.limits["max_ssbo_size"])
         jacobians = None
@@ -381,6 +378,21 @@ class VolumeWarper:
         raw = np.frombuffer(pack.read(size=nbytes), dtype=source.data.dtype)
         values = raw.reshape(slab.depth, slab.height, slab.width, source.target_components)
         region[...] = values[..., : source.channels]
+
+
+def _lattice(field, shape, frame, options: VolumeOptions, *, backward: bool) -> CornerLattice:
+    """The lattice of the cells: past the volume as far as f moves its faces with a border
+    mode other than ``constant``, and for the backward method's guesses with ``constant``:
+    there the margin's cells give a first guess to the voxels that no cell of the volume
+    covers (where f moves the volume's faces inward; Newton from the voxel itself took ~5
+    evaluations of f each, most of the second pass), ranked after the volume's cells so that
+    they never choose which preimage of a fold over the volume's face Newton finds."""
+    step = options.lattice_step
+    lattice = CornerLattice(shape, step)
+    if options.border == "constant" and not backward:
+        return lattice
+    margin = border_margin3(field, lattice, frame)
+    return CornerLattice(shape, step, margin, box_first=options.border == "constant")
 
 
 def _hold_band(source: SourceTexture, lattice, first: int, layers: int, border: int) -> int:

@@ -178,11 +178,16 @@ class CornerLattice:
     (the last step shorter where ``grid`` does not divide ``size``); with one the lattice is
     regular to its last point, so that a point, and the cells, do not depend on the margin
     (which grows with the output canvas). Cells are numbered in scan order of the source,
-    ((z cell) ny + y cell) nx + x cell."""
+    ((z cell) ny + y cell) nx + x cell. ``box_first``: a cell's key ranks the cells that hold
+    none of the volume's voxels (those of the margin) after every cell that holds some, so
+    that where both cover a voxel the volume's cell is the first (the backward method's
+    guesses with the ``constant`` border: the margin only guides Newton where no cell of the
+    volume reaches)."""
 
     shape: tuple[int, int, int]
     grid: int = 1
     margin: int = 0
+    box_first: bool = False
 
     @property
     def sizes(self) -> tuple[int, int, int]:
@@ -245,4 +250,20 @@ class CornerLattice:
             "u_lattice_last": self.last,
             "u_lattice_grid": self.grid,
             "u_lattice_margin": self.margin,
+            "u_lattice_box_first": self.box_first,
+            "u_lattice_box_low": self.box_cells[0],
+            "u_lattice_box_high": self.box_cells[1],
         }
+
+    @property
+    def box_cells(self) -> tuple[tuple[int, int, int], tuple[int, int, int]]:
+        """The cells (x, y, z) that hold voxels of the volume: from the first to before the
+        second (the others lie in the margin)."""
+        low = self.margin // self.grid
+        high = tuple(low + math.ceil(n / self.grid) for n in self.shape[::-1])
+        return (low, low, low), high  # type: ignore[return-value]
+
+    @property
+    def key_count(self) -> int:
+        """Cell keys the lattice numbers (``box_first`` ranks the margin's after the rest)."""
+        return self.cell_count * (2 if self.box_first else 1)

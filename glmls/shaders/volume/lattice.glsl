@@ -11,6 +11,11 @@ uniform vec3 u_lattice_last;    // the last point's (x, y, z): coordinates are c
 uniform int u_lattice_grid;
 uniform int u_lattice_margin;
 uniform int u_band_first;       // the first z layer of points held in the buffer
+// the cells holding voxels of the volume, u_lattice_box_low .. u_lattice_box_high - 1; with
+// u_lattice_box_first the others (the margin's) rank after all of them
+uniform bool u_lattice_box_first;
+uniform ivec3 u_lattice_box_low;
+uniform ivec3 u_lattice_box_high;
 
 #if VOLUME_LATTICE_WRITE
 layout(std430, binding = BIND_VOLUME_LATTICE) writeonly buffer VolumeLattice {
@@ -35,17 +40,33 @@ vec3 volume_deformed(ivec3 a) {
 }
 #endif
 
-// Cells in scan order of the source: key = (z ny + y) nx + x over the cells.
-ivec3 volume_cell_of(uint key) {
+// Cells in scan order of the source: index = (z ny + y) nx + x over the cells.
+ivec3 volume_cell_of(uint index) {
     uint nx = uint(u_lattice_dims.x - 1);
     uint ny = uint(u_lattice_dims.y - 1);
-    return ivec3(int(key % nx), int((key / nx) % ny), int(key / (nx * ny)));
+    return ivec3(int(index % nx), int((index / nx) % ny), int(index / (nx * ny)));
 }
 
+uint volume_cell_total() {
+    ivec3 cells = u_lattice_dims - 1;
+    return uint(cells.x) * uint(cells.y) * uint(cells.z);
+}
+
+// A cell's rank among the cells covering a voxel (the least wins): its index, plus every
+// cell's count where u_lattice_box_first ranks it after the volume's cells
 uint volume_key_of(ivec3 cell) {
     uint nx = uint(u_lattice_dims.x - 1);
     uint ny = uint(u_lattice_dims.y - 1);
-    return (uint(cell.z) * ny + uint(cell.y)) * nx + uint(cell.x);
+    uint index = (uint(cell.z) * ny + uint(cell.y)) * nx + uint(cell.x);
+    bool margin = any(lessThan(cell, u_lattice_box_low)) ||
+                  any(greaterThanEqual(cell, u_lattice_box_high));
+    return index + (u_lattice_box_first && margin ? volume_cell_total() : 0u);
+}
+
+// The index of a cell of rank ``key``.
+uint volume_index_of(uint key) {
+    uint total = volume_cell_total();
+    return key >= total ? key - total : key;
 }
 
 // Corner c (bits: 1 x, 2 y, 4 z) of a cell.

@@ -1,10 +1,11 @@
 // The cells method, first pass: every cell of a band of the lattice (one invocation each)
 // finds the output voxel centres inside each of its 6 deformed tetrahedra, within the output
 // slab (along each row of the tetrahedron's bounding box, the interval where its 4
-// barycentric coordinates, affine in x, are all >= -VOLUME_INSIDE_EPS), and keeps its key (6 times its index in scan order of the source, plus
-// the tetrahedron's) in each voxel it contains by atomicMin: once every band has run, a voxel
-// holds the FIRST cell (smallest (z, y, x)) that covers it, and its first tetrahedron that
-// does, whatever the order the cells ran in.
+// barycentric coordinates, affine in x, are all >= -VOLUME_INSIDE_EPS), and keeps its key (6
+// times its rank, volume_key_of, plus the tetrahedron's) in each voxel it contains by
+// atomicMin: once every band has run, a voxel holds the FIRST cell (smallest (z, y, x), the
+// margin's after the volume's where u_lattice_box_first) that covers it, and its first
+// tetrahedron that does, whatever the order the cells ran in.
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "volume/lattice.glsl"

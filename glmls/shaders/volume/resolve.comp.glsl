@@ -87,7 +87,7 @@ void main() {
         }
         return;
     }
-    uint cell_key = key / 6u;
+    uint cell_key = volume_index_of(key / 6u);
     if (cell_key < u_key_first || cell_key >= u_key_end) {
         return;
     }
