@@ -106,7 +106,8 @@ def deform_mesh3(
             run_1d(folds_program, face_count, max_groups=groups, per_invocation=4)
             gl.mgl.memory_barrier()
             flags.read_into(folds, size=folds.nbytes)
-        out = np.empty((count, RECORD), np.float32)
+        # (copied out below: the arrays returned are new, the records' host copy is not)
+        out = scratch.staging("records3", (count, RECORD), np.float32)
         records.read_into(out, size=out.nbytes)
     det = out[:, 15]
     return DeformedMesh(

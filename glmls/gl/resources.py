@@ -37,6 +37,7 @@ class Resources:
         #: framebuffers over several of the textures: role -> (their roles, framebuffer)
         self._attached: dict[str, tuple[tuple[str, ...], moderngl.Framebuffer]] = {}
         self._vaos: dict[tuple, moderngl.VertexArray] = {}
+        self._staging: dict[str, np.ndarray] = {}
         self._released = False
         #: The owner's read-only arrays for compute shaders (:mod:`.tables`).
         self.tables = Tables(gl)
@@ -73,6 +74,19 @@ class Resources:
         if old is not None and keep > 0:
             self._gl.mgl.copy_buffer(new, old, size=min(keep, old.size))
         return self._replace_buffer(name, None, lambda: new)
+
+    def staging(self, name: str, shape: tuple[int, ...], dtype: object) -> np.ndarray:
+        """A host array of ``shape`` and ``dtype`` for a read-back that does not leave the
+        owner (the caller copies out what it returns), kept between calls and grown as
+        needed: a new array of many megabytes costs the kernel's zeroing of its fresh pages,
+        more than the read-back that fills it (~1-2 ms a megabyte on a virtual machine)."""
+        self.check_alive()
+        dtype = np.dtype(dtype)
+        nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+        held = self._staging.get(name)
+        if held is None or held.nbytes < nbytes:
+            held = self._staging[name] = np.empty(nbytes, np.uint8)
+        return held[:nbytes].view(dtype).reshape(shape)
 
     def cached(self, name: str) -> moderngl.Buffer:
         """The buffer last made under ``name`` (``KeyError`` if none)."""
@@ -222,6 +236,7 @@ class Resources:
         self._attached.clear()
         self._vaos.clear()
         self._buffers.clear()
+        self._staging.clear()
         self._released = True
 
 

@@ -236,3 +236,25 @@ def test_texture_coordinates_go_with_their_face_corners(gl, rng):
     )
     assert ref.uv is out.uv and ref.face_uv is out.face_uv
     _compare(out, vertices, faces)
+
+
+def test_a_deformation_owns_its_arrays(gl):
+    """The read-back goes through a host array the MLS keeps between calls: what a call
+    returns is its own, unchanged by the next call (of another mesh, larger or smaller), and
+    shares no memory with it."""
+    rng = np.random.default_rng(3)
+    src, dst = _handles(rng, 4.0)
+    small = _random_mesh(rng, 500, 900)
+    large = _random_mesh(rng, 4000, 7000)
+    with glmls.MLS(src, dst) as m:
+        first = m.deform(small)
+        kept = {name: getattr(first, name).copy() for name in ("vertices", "normals", "jacobian")}
+        kept["det_j"] = first.det_j.copy()
+        second = m.deform(large)
+        third = m.deform((large[0] + 1.0, large[1]))
+        for name, values in kept.items():
+            np.testing.assert_array_equal(getattr(first, name), values)
+            assert not np.shares_memory(getattr(first, name), getattr(second, name))
+            assert not np.shares_memory(getattr(second, name), getattr(third, name))
+        assert not np.array_equal(second.vertices, third.vertices)
+        assert gl.mgl.error == "GL_NO_ERROR"

@@ -1,4 +1,5 @@
-"""Resources.fill: every texel of a texture set to a colour, as a framebuffer clear."""
+"""Resources.fill: every texel of a texture set to a colour, as a framebuffer clear; and
+Resources.staging, the host arrays of read-backs."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_array_equal
 
+import glmls
 from glmls.gl import resources as resources_module
 from glmls.gl.resources import Resources
 
@@ -109,3 +111,20 @@ def test_a_framebuffer_over_several_textures_is_made_again_with_them(gl, resourc
     resources.release()
     assert type(again.mglo).__name__ == "InvalidObject"
     assert gl.mgl.error == "GL_NO_ERROR"
+
+
+def test_staging_arrays_are_kept_grown_and_dropped(gl):
+    """``Resources.staging``: one host array per name, its memory reused by later calls of
+    that size or less, grown past it, and dropped with the owner."""
+    owner = Resources(gl, "a test cache")
+    first = owner.staging("records", (100, 16), np.float32)
+    assert first.shape == (100, 16) and first.dtype == np.float32 and first.flags.c_contiguous
+    again = owner.staging("records", (50, 4), np.float64)
+    assert again.shape == (50, 4) and np.shares_memory(first, again)
+    other = owner.staging("other", (10,), np.uint8)
+    assert not np.shares_memory(first, other)
+    grown = owner.staging("records", (200, 16), np.float32)
+    assert grown.shape == (200, 16) and not np.shares_memory(first, grown)
+    owner.release()
+    with pytest.raises(glmls.ReleasedError, match="a test cache"):
+        owner.staging("records", (1,), np.float32)
