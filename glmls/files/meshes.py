@@ -24,6 +24,11 @@ coordinates exactly (``vt u v``, ``f v/vt``); PLY holds one per vertex (float32 
 ``t``), and so none of a mesh with seams (a vertex of several); STL holds none
 (:func:`unwritten` names what a format drops). Every fault of a file is an
 :class:`~glmls.errors.InputFileError` naming it.
+
+The numbers of a text file (OBJ, ASCII PLY, ASCII STL) are decimal numbers of ASCII digits
+with an optional sign, point and exponent (``-0.5``, ``1e-3``, ``1E+02``), indices and PLY
+integers plain integers (``+7``, ``-1``): what else Python reads as a number (``1_0``, other
+scripts' digits) is refused, naming the line (PLY: the element, row and property).
 """
 
 from __future__ import annotations
@@ -40,7 +45,7 @@ from ..core.summary import fields_repr
 from ..errors import InputFileError
 from .atomic import atomic_write
 from .obj import obj_text, read_obj
-from .parsing import not_a_file
+from .parsing import brief, is_number, not_a_file
 from .ply import MeshContent, read_ply
 from .ply_write import ply_bytes, vertex_uv
 
@@ -286,6 +291,7 @@ def _read_stl(path: Path, content: bytes) -> MeshContent:
     bytes named where some are set (some tools keep face colours there)."""
     trimesh = _trimesh()
     try:
+        _check_stl_text(content)
         loaded = _load(trimesh, content, ".stl", "mesh")
     except Exception as error:  # trimesh's parsers raise many kinds on a malformed file
         raise InputFileError(f"{path}: not a readable .stl mesh: {error}") from None
@@ -298,6 +304,29 @@ def _read_stl(path: Path, content: bytes) -> MeshContent:
     attributes = getattr(loaded, "face_attributes", {}).get("stl")
     set_ = attributes is not None and np.asarray(attributes).any()
     return MeshContent(vertices, faces, None, ("face attributes (colours)",) if set_ else ())
+
+
+def _check_stl_text(content: bytes) -> None:
+    """``ValueError`` naming the line of an ASCII STL file's ``vertex x y z`` or ``facet
+    normal x y z`` whose numbers are not three decimal numbers
+    (:func:`glmls.files.parsing.is_number`); nothing for a binary file (whose header counts
+    its 50-byte triangles), which trimesh tells apart the same way."""
+    if len(content) >= 84 and 84 + 50 * int.from_bytes(content[80:84], "little") == len(content):
+        return
+    text = content.decode("utf-8", errors="replace")
+    for number, line in enumerate(text.splitlines(), start=1):
+        words = line.split()
+        keyword = [word.lower() for word in words[:2]]
+        skip = 1 if keyword[:1] == ["vertex"] else 2 if keyword == ["facet", "normal"] else 0
+        if not skip:
+            continue
+        numbers = words[skip:]
+        if len(numbers) != 3 or not all(map(is_number, numbers)):
+            what = f"{' '.join(keyword[:skip])} {brief(' '.join(numbers))}"
+            raise ValueError(f"line {number}: {what}, not 3 numbers")
+        # a normal of nan (a degenerate facet's, as some tools write it) is not kept
+        if skip == 1 and not np.isfinite([float(word) for word in numbers]).all():
+            raise ValueError(f"line {number}: vertex {brief(' '.join(numbers))}, not finite")
 
 
 def _merge_corners(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -15,12 +15,20 @@ refused; where some faces have them and others not, none are kept (and that is n
 rest (normals, materials, groups, lines) it does not keep, and names. Faults are
 ``ValueError``s that say the line, which :func:`glmls.files.meshes.read_mesh` reports
 naming the file.
+
+The words of a line are separated by whitespace (spaces, tabs). A coordinate, texture
+coordinate or colour is a decimal number of ASCII digits with an optional sign, point and
+exponent (``-0.5``, ``.5``, ``1e-3``, ``1E+02``, ``-0``); an index is ASCII digits with an
+optional sign (``7``, ``+7``, ``-1``). What else Python reads as a number (``1_0``, which
+it takes for 10, other scripts' digits, ``0x10``) is refused, naming the line, and so is a
+coordinate, texture coordinate or colour of ``nan`` or ``inf``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .parsing import brief, first_not_number, is_number
 from .ply import MeshContent
 
 __all__ = ["obj_text", "read_obj"]
@@ -79,10 +87,11 @@ def read_obj(content: bytes) -> MeshContent:
             face_lines += [number] * len(fan)
         elif fields[0] in _UNKEPT and fields[1:] not in (["off"], ["0"]):  # s off: none
             unkept[_UNKEPT[fields[0]]] = None
-    try:
-        vertices = np.array([row[:3] for row in rows], dtype=np.float64).reshape(-1, 3)
-    except ValueError as error:
-        raise ValueError(f"not a readable .obj mesh: {error}") from None
+    vertices = _numbers([row[:3] for row in rows], places, "vertex coordinate")
+    finite = np.isfinite(vertices).all(axis=1)
+    if not finite.all():
+        row = int(np.argmin(finite))
+        raise ValueError(f"line {places[row]}: vertex {' '.join(rows[row][:3])!r}, not finite")
     colors = _colors(rows, places, unkept)
     triangles = np.array(faces, dtype=np.int64).reshape(-1, 3)
     uv, face_uv = _texture(textures, corners_uv, face_lines, unkept)
@@ -133,10 +142,7 @@ def _texture(
         )
     uv = np.zeros((len(textures), 2))
     for row, (number, values) in enumerate(textures):
-        try:
-            numbers = [float(v) for v in values[:3]]
-        except ValueError:
-            numbers = [np.nan]
+        numbers = [float(v) if is_number(v) else np.nan for v in values[:3]]
         if not np.isfinite(numbers).all():
             raise ValueError(
                 f"line {number}: texture coordinate {' '.join(values)!r}, not finite numbers"
@@ -157,10 +163,7 @@ def _colors(rows: list[list[str]], places: list[int], unkept: dict[str, None]) -
     if widths not in ({6}, {7}):
         unkept["vertex colours (not on every vertex alike)"] = None
         return None
-    try:
-        values = np.array([row[3:] for row in rows], dtype=np.float64)
-    except ValueError as error:
-        raise ValueError(f"not a readable .obj mesh: {error}") from None
+    values = _numbers([row[3:] for row in rows], places, "vertex colour")
     # whole numbers 0..255 with one above 1: bytes, as some tools write them
     whole = bool((values == np.round(values)).all() and (values > 1).any())
     high = 255.0 if whole else 1.0
@@ -174,6 +177,17 @@ def _colors(rows: list[list[str]], places: list[int], unkept: dict[str, None]) -
     return np.rint(values * (255.0 / high)).astype(np.uint8)
 
 
+def _numbers(rows: list[list[str]], places: list[int], what: str) -> np.ndarray:
+    """The ``rows`` (of equal lengths; on the file's lines ``places``) as float64;
+    ``ValueError`` saying the line of a word that is not a decimal number."""
+    width = len(rows[0]) if rows else 0
+    words = [word for row in rows for word in row]
+    bad = first_not_number(words)
+    if bad is not None:
+        raise ValueError(f"line {places[bad // width]}: {what} {brief(words[bad])}, not a number")
+    return np.array(words, dtype=np.float64).reshape(-1, width if rows else 3)
+
+
 def _obj_index(number: int, field: str, count: int) -> int:
     """The 0-based vertex index of a face's corner ``field`` on line ``number``; ``count``
     vertices are before it, from which a negative index counts back."""
@@ -183,10 +197,9 @@ def _obj_index(number: int, field: str, count: int) -> int:
 def _index(number: int, field: str, count: int, what: str) -> int:
     """The 0-based index ``field`` of a ``what`` on line ``number``; ``count`` are before it,
     from which a negative index counts back."""
-    try:
-        index = int(field)
-    except ValueError:
-        raise ValueError(f"line {number}: {field!r} is no {what} index") from None
+    if not is_number(field, integer=True):
+        raise ValueError(f"line {number}: {brief(field)} is no {what} index")
+    index = int(field)
     # a positive index may name one read later; beyond 2**62 none (nor int64) holds it
     if index == 0 or index < -count or index > 2**62:
         plural = "vertices" if what == "vertex" else f"{what}s"

@@ -10,6 +10,7 @@ import json
 import math
 import re
 import stat
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,8 @@ __all__ = [
     "csv_rows",
     "fail",
     "field_number",
+    "first_not_number",
+    "is_number",
     "json_list",
     "json_pair",
     "json_points",
@@ -63,10 +66,45 @@ _DECIMAL = re.compile(
 )
 
 
+#: A whole number in a text field (an OBJ index, a PLY integer property): ASCII digits with an
+#: optional sign; not a point or an exponent, nor what else Python's int() takes ("1_0",
+#: " 7 ", other scripts' digits).
+_INTEGER = re.compile(r"[+-]?\d+", re.ASCII)
+
+#: The patterns by (bytes, integer): for text, and for bytes (a PLY body) from the same source.
+_PATTERNS = {
+    (False, False): _DECIMAL,
+    (False, True): _INTEGER,
+    (True, False): re.compile(_DECIMAL.pattern.encode("ascii"), _DECIMAL.flags),
+    (True, True): re.compile(_INTEGER.pattern.encode("ascii"), _INTEGER.flags),
+}
+
+
+def is_number(word: str | bytes, *, integer: bool = False) -> bool:
+    """Whether ``word`` is a decimal number as :data:`_DECIMAL` reads it (``nan`` and ``inf``
+    among them, which a reader refuses where a value must be finite), or with ``integer`` a
+    whole number as :data:`_INTEGER` reads it."""
+    return _PATTERNS[isinstance(word, bytes), integer].fullmatch(word) is not None
+
+
+def first_not_number(
+    words: Sequence[str] | Sequence[bytes], *, integer: bool = False
+) -> int | None:
+    """The index of the first of ``words`` that is not a number as :func:`is_number` reads
+    it; None where every one is (or there are none)."""
+    if not len(words):
+        return None
+    matches = list(map(_PATTERNS[isinstance(words[0], bytes), integer].fullmatch, words))
+    try:
+        return matches.index(None)
+    except ValueError:
+        return None
+
+
 def field_number(path: Path, where: str, text: str) -> float:
     """A finite float from a field of a text file (a CSV cell, a word of an elastix point
     file): a decimal number, as :data:`_DECIMAL` reads it."""
-    if not isinstance(text, str) or _DECIMAL.fullmatch(text) is None:
+    if not isinstance(text, str) or not is_number(text):
         raise fail(path, where, f"expected a number, got {brief(text)}")
     return _finite(path, where, text)
 

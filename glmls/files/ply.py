@@ -17,6 +17,15 @@ header's counts of rows take, a face element whose list of vertex indices is not
 colour out of its range: faces not read are never dropped silently. Faults are
 ``ValueError``s that say where, which :func:`glmls.files.meshes.read_mesh` reports naming
 the file.
+
+An ASCII body is words separated by whitespace (spaces, tabs, line ends). A value of a
+``float`` or ``double`` property is a decimal number of ASCII digits with an optional sign,
+point and exponent (``-0.5``, ``.5``, ``1e-3``, ``1E+02``, ``nan`` and ``inf`` too, refused
+where a value must be finite); a value of an integer property (``uchar``, ``int`` and the
+rest, a list's count too) is a plain decimal integer, ASCII digits with an optional sign
+(``7``, ``+7``, ``-1``; a count not negative), not ``7.0`` or ``1e2``. What else Python reads
+as a number (``1_0``, which it takes for 10, other scripts' digits) is refused, naming the
+element, the row and the property.
 """
 
 from __future__ import annotations
@@ -26,6 +35,8 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
+
+from .parsing import brief, first_not_number, is_number
 
 __all__ = ["COLORS", "MeshContent", "fan_triangles", "read_ply"]
 
@@ -107,7 +118,9 @@ def _header(content: bytes) -> tuple[str, list[_Element], int]:
             continue
         if words[0] == "format" and len(words) == 3 and words[1] in _ORDERS:
             order = _ORDERS[words[1]]
-        elif words[0] == "element" and len(words) == 3 and words[2].isdigit():
+        elif (
+            words[0] == "element" and len(words) == 3 and words[2].isascii() and words[2].isdigit()
+        ):
             elements.append(_Element(words[1], int(words[2])))
         elif words[0] == "property" and elements and len(words) == 5 and words[1] == "list":
             elements[-1].properties.append(
@@ -175,26 +188,33 @@ def _binary_loop(content: bytes, at: int, element: _Element, order: str) -> tupl
 
 
 def _ascii_rows(words: list[bytes], at: int, element: _Element) -> tuple[list, int]:
-    """As :func:`_binary_rows`, from the whitespace-separated words of an ASCII body."""
+    """As :func:`_binary_rows`, from the whitespace-separated words of an ASCII body;
+    ``ValueError`` naming the row and property of a word that is not a number of its type."""
     width = len(element.properties)
     if element.rows and all(p.count is None for p in element.properties):
         block = words[at : at + element.rows * width]
         if len(block) < element.rows * width:
             raise ValueError(f"the rows of {element.name!r} end early")
+        _check_columns(
+            block, [(f"property {p.name!r}", _integer(p.kind)) for p in element.properties]
+        )
         table = np.array(block, dtype=np.float64).reshape(element.rows, width)
         return list(table.T), at + element.rows * width
     fixed = _ascii_fixed(words, at, element)
     if fixed is not None:
         return fixed
     values: list[list] = [[] for _ in element.properties]
-    for _ in range(element.rows):
+    for row in range(element.rows):
         for index, p in enumerate(element.properties):
             if p.count is None:
+                _check_columns([words[at]], [(f"property {p.name!r}", _integer(p.kind))], row)
                 values[index].append(float(words[at]))
                 at += 1
                 continue
-            length = int(words[at])
-            values[index].append(np.array(words[at + 1 : at + 1 + length], dtype=np.float64))
+            length = _count(words[at], row, p)
+            items = words[at + 1 : at + 1 + length]
+            _check_columns(items, [(f"list {p.name!r}", _integer(p.kind))] * len(items), row)
+            values[index].append(np.array(items, dtype=np.float64))
             at += 1 + length
     if at > len(words):
         raise ValueError(f"the rows of {element.name!r} end early")
@@ -205,17 +225,26 @@ def _ascii_fixed(words: list[bytes], at: int, element: _Element) -> tuple[list, 
     """:func:`_ascii_rows` at once where every row is as long as the first (its lists of
     the same lengths, as a mesh of triangles alone has them); None where they are not."""
     spans, start = [], at
+    columns: list[tuple[str, bool]] = []  # each column's (name, integer type)
     for p in element.properties:  # the first row's columns: (count column or None, width)
         if start >= len(words):
             return None
-        length = 0 if p.count is None else int(words[start])
+        length = 0 if p.count is None else _count(words[start], 0, p)
         spans.append((length, start - at))
         start += 1 if p.count is None else 1 + length
+        if p.count is None:
+            columns.append((f"property {p.name!r}", _integer(p.kind)))
+        else:
+            columns += [(f"the count of list {p.name!r}", True)]
+            columns += [(f"list {p.name!r}", _integer(p.kind))] * length
     width = start - at
     block = words[at : at + element.rows * width]
     if element.rows == 0 or len(block) < element.rows * width:
         return None
-    table = np.array(block, dtype=np.float64).reshape(element.rows, width)
+    try:
+        table = np.array(block, dtype=np.float64).reshape(element.rows, width)
+    except ValueError:  # rows of other lengths, or a word that is no number: named row by row
+        return None
     values: list = []
     for p, (length, column) in zip(element.properties, spans, strict=True):
         if p.count is None:
@@ -224,7 +253,43 @@ def _ascii_fixed(words: list[bytes], at: int, element: _Element) -> tuple[list, 
         if (table[:, column] != length).any():
             return None
         values.append(table[:, column + 1 : column + 1 + length])
+    _check_columns(block, columns)  # the rows line up: each word is of its column
     return values, at + element.rows * width
+
+
+def _integer(kind: str) -> bool:
+    """Whether the NumPy code ``kind`` is of an integer type (its words plain integers)."""
+    return kind[0] in "iu"
+
+
+def _word(word: bytes) -> str:
+    return brief(word.decode("utf-8", "backslashreplace"))
+
+
+def _count(word: bytes, row: int, p: _Property) -> int:
+    """The count of items of the list ``p`` in ``row``: a whole number, not negative."""
+    if not is_number(word, integer=True) or int(word) < 0:
+        raise ValueError(f"row {row}, the count of list {p.name!r}: {_word(word)}, not a count")
+    return int(word)
+
+
+def _check_columns(block: list[bytes], columns: list[tuple[str, bool]], first: int = 0) -> None:
+    """``ValueError`` naming the row (``first`` the first) and column of the first word of
+    ``block``, rows of one word per column (name, integer type), that is not a decimal number
+    (:func:`glmls.files.parsing.is_number`), or not an integer in an integer column."""
+    width = len(columns)
+    faults = []
+    for column, (_, integer) in enumerate(columns):
+        row = first_not_number(block[column::width], integer=integer)
+        if row is not None:
+            faults.append((row, column))
+    if faults:
+        row, column = min(faults)
+        name, integer = columns[column]
+        kind = "an integer" if integer else "a number"
+        raise ValueError(
+            f"row {first + row}, {name}: {_word(block[row * width + column])}, not {kind}"
+        )
 
 
 def _indices(values: np.ndarray, where: str) -> np.ndarray:

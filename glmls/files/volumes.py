@@ -407,7 +407,12 @@ def read_volume(path: str | os.PathLike) -> Volume:
     Volume
         ``data`` (D, H, W) or (D, H, W, C) in the file's dtype (a NIfTI with a scale factor
         gives floats), with the spacing and affine the file gives (:class:`Volume`; what each format
-        gives: :doc:`/cli`).
+        gives: :doc:`/cli`). A ``.npy`` array in C order is a read-only map of the file
+        (``numpy.memmap``): it is read as it is used (a warp reads it slab by slab), and
+        writing into it raises ``ValueError``: ``np.array(volume.data)`` is a copy to change.
+        :func:`write_volume` (and ``glmls warp``) may write over the file, as they replace it
+        whole; a tool that rewrites the file in place while the map is in use (``np.save``
+        to its path) cuts the data from under it.
 
     Raises
     ------
@@ -448,7 +453,7 @@ def read_volume(path: str | os.PathLike) -> Volume:
             flat = flat_npy(path)
             if flat is not None:
                 raise InputFileError(flat)
-            volume = Volume(np.load(path, allow_pickle=False))
+            volume = Volume(_load_npy(path))
         elif suffix in (".tif", ".tiff"):
             with quiet_tifffile():
                 volume = _read_tiff(path)
@@ -462,6 +467,20 @@ def read_volume(path: str | os.PathLike) -> Volume:
             raise InputFileError(f"{path}: {error}") from None
         raise InputFileError(f"{path}: not a readable {suffix} volume: {one_line(error)}") from None
     return volume
+
+
+def _load_npy(path: Path) -> np.ndarray:
+    """The array of a ``.npy`` file, mapped read-only where it is in C order: a warp uploads
+    it slab by slab, and a volume of gigabytes is not read whole before. A Fortran-order
+    array is read whole (the warp makes a C-order copy of it anyway, which would read a map
+    out of order)."""
+    try:
+        mapped = np.load(path, mmap_mode="r", allow_pickle=False)
+    except ValueError:  # an object array, a file shorter than its header says: named below
+        mapped = None
+    if mapped is None or not mapped.flags.c_contiguous:
+        return np.load(path, allow_pickle=False)
+    return mapped
 
 
 def _read_tiff(path: Path) -> Volume:

@@ -181,8 +181,8 @@ def test_obj_negative_indices_polygons_and_extra_vertex_values(tmp_path):
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 x 3\n", "line 4: 'x' is no vertex index"),
         ("v 0 0 0\nv 1 0 0\nf 1 2\n", "line 3: a face of fewer than 3 vertices"),
         ("v 0 0\n", "line 1: a vertex of fewer than 3 numbers"),
-        ("v 0 0 nan\n", "vertices must be finite"),
-        ("v 0 0 zero\n", "not a readable .obj mesh"),
+        ("v 0 0 nan\n", "line 1: vertex '0 0 nan', not finite"),
+        ("v 0 0 zero\n", "line 1: vertex coordinate 'zero', not a number"),
     ],
 )
 def test_bad_obj_lines_are_named(tmp_path, content, message):
@@ -295,7 +295,7 @@ def test_stl_of_a_nan_corner_is_named_without_a_numpy_warning(tmp_path):
         "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 nan\nvertex 1 0 0\n"
         "vertex 0 1 0\nendloop\nendfacet\nendsolid s\n"
     )
-    with pytest.raises(InputFileError, match=r"nan\.stl: vertices must be finite"):
+    with pytest.raises(InputFileError, match=r"nan\.stl: .*line 4: vertex '0 0 nan', not finite"):
         read_mesh(path)
 
 
@@ -348,7 +348,7 @@ def test_a_ply_comment_naming_end_header_is_no_end_of_the_header(tmp_path, binar
             "big.ply",
             _TRIANGLE_PLY.format(
                 element="face",
-                properties=("property list uchar int vertex_indices\n"),
+                properties=("property list uchar float vertex_indices\n"),
                 row="3 0 1 1e20",
             ),
             "index 1e+20",
@@ -357,7 +357,7 @@ def test_a_ply_comment_naming_end_header_is_no_end_of_the_header(tmp_path, binar
             "inf.ply",
             _TRIANGLE_PLY.format(
                 element="face",
-                properties=("property list uchar int vertex_indices\n"),
+                properties=("property list uchar float vertex_indices\n"),
                 row="4 0 1 2 inf",
             ),
             "vertex index inf, beyond any vertex",
