@@ -635,9 +635,11 @@ class MLS(ForkSafe):
         ----------
         mesh : object
             An object with ``.vertices`` (V, 3) and ``.faces`` (F, 3) integer indices (a
-            ``trimesh.Trimesh``; its ``vertex_normals`` are used), a ``(vertices, faces)``
-            tuple, or a point cloud (no faces, zero normals): a (V, 3) array of points, or
-            an object with ``.vertices`` alone (a ``trimesh.PointCloud``). Vertex colours
+            ``trimesh.Trimesh``, whose ``vertex_normals`` are used; a :class:`~glmls.Mesh`,
+            whose ``normals`` are used where it has them, else its faces'), a ``(vertices,
+            faces)`` tuple, or a point cloud (no faces, zero normals unless a
+            :class:`~glmls.Mesh` gives them): a (V, 3) array of points, or an object with
+            ``.vertices`` alone (a ``trimesh.PointCloud``). Vertex colours
             (a :class:`~glmls.Mesh`'s ``colors``, a trimesh's own vertex colours) go with
             their vertices, and texture coordinates (a :class:`~glmls.Mesh`'s ``uv`` and
             ``face_uv``, a trimesh's ``visual.uv``) with their faces' corners.
@@ -645,9 +647,9 @@ class MLS(ForkSafe):
         Returns
         -------
         DeformedMesh
-            The deformed vertices, normals, Jacobians, det J and folds, and the input's
-            vertex colours (``colors``) and texture coordinates (``uv``, ``face_uv``), each
-            None where it has none.
+            The deformed vertices, normals (``own_normals`` where they carry the input's
+            own), Jacobians, det J and folds, and the input's vertex colours (``colors``) and
+            texture coordinates (``uv``, ``face_uv``), each None where it has none.
 
         Raises
         ------

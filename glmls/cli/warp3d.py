@@ -499,6 +499,8 @@ def _deform_mesh(args, config: MLSConfig, src, dst, target: Path) -> None:
             f"glmls warp: warning: {args.input}: {faces} of {len(mesh.faces)} faces fold over "
             "(turned inside out): the deformation is not one-to-one there",
         )
+    # the carried normals where the input had its own: a file gains none it did not have
+    normals = None if mesh.normals is None else getattr(deformed, "normals", None)
     write_mesh(
         target,
         np.asarray(deformed.vertices),
@@ -506,6 +508,7 @@ def _deform_mesh(args, config: MLSConfig, src, dst, target: Path) -> None:
         colors=mesh.colors,
         uv=mesh.uv,
         face_uv=mesh.face_uv,
+        normals=normals,
     )
     unkept = (*unwritten(target, mesh), *unkept)
     if unkept:

@@ -24,6 +24,7 @@ __all__ = [
     "DeformedMesh",
     "as_colors",
     "as_mesh",
+    "as_normals",
     "as_uv",
     "cofactor",
     "deform_mesh",
@@ -50,8 +51,10 @@ class DeformedMesh:
         (F, 3) int64 vertex indices, as given ((0, 3) for a point cloud).
     normals : numpy.ndarray
         (V, 3) float64 unit vertex normals: the original ones (area-weighted face normals, or
-        the mesh's own ``vertex_normals``) carried by the inverse transpose of J, n J^-T;
-        zeros where a vertex has none (a point cloud, an unused vertex) or J is singular.
+        the mesh's own: a :class:`glmls.Mesh`'s ``normals``, a ``trimesh.Trimesh``'s
+        ``vertex_normals``) carried by the inverse transpose of J, n J^-T; zeros where a
+        vertex has none (a point cloud without normals of its own, an unused vertex, a zero
+        normal) or J is singular.
     jacobian : numpy.ndarray
         (V, 3, 3) float64 J = df/dv at each vertex, row vectors: J[k, r, c] = d f_c / d v_r
         (float32 values from the GPU, as are ``normals`` and ``det_j``).
@@ -74,6 +77,11 @@ class DeformedMesh:
     face_uv : numpy.ndarray or None
         (F, 3) int64 indices into ``uv`` of each face's corners (a vertex may have a
         texture coordinate per face, at a seam); None with ``uv``.
+    own_normals : bool
+        Whether ``normals`` carry the input mesh's own normals (a :class:`glmls.Mesh`'s
+        ``normals``, a ``trimesh.Trimesh``'s ``vertex_normals``) rather than those of its
+        faces: :func:`glmls.write_mesh` writes ``normals`` only then, so that a file gains no
+        normals its input did not have (a file's normals make a viewer shade it smooth).
 
     Examples
     --------
@@ -96,6 +104,7 @@ class DeformedMesh:
     colors: np.ndarray | None = None
     uv: np.ndarray | None = None
     face_uv: np.ndarray | None = None
+    own_normals: bool = False
 
     @property
     def folded(self) -> bool:
@@ -117,18 +126,21 @@ class DeformedMesh:
 
 def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """(vertices (V, 3) float64, faces (F, 3) int64, the mesh's own vertex normals or None)
-    of ``mesh``: an object with ``.vertices`` and ``.faces`` (a ``trimesh.Trimesh``), a
-    ``(vertices, faces)`` tuple, an object with ``.vertices`` alone (a
+    of ``mesh``: an object with ``.vertices`` and ``.faces`` (a ``trimesh.Trimesh``, a
+    :class:`glmls.Mesh`), a ``(vertices, faces)`` tuple, an object with ``.vertices`` alone (a
     ``trimesh.PointCloud``) or a (V, 3) array of points (no faces).
     ``ValueError``/``TypeError`` for anything else, or faces naming missing vertices;
     ``TypeError`` naming the dtype for faces that are not integers (floats included). The
-    mesh's own ``vertex_normals`` are used where they are (V, 3) (else the faces' are): real
-    numbers (``TypeError``), finite (``ValueError``), each row scaled to at most 1 (only
-    their directions count)."""
+    mesh's own ``vertex_normals`` (a trimesh's) or ``normals`` (a :class:`glmls.Mesh`'s, a
+    :class:`DeformedMesh`'s of ``own_normals``) are used where they are (V, 3) (else the
+    faces' are): real numbers (``TypeError``), finite (``ValueError``), each row scaled to at
+    most 1 (only their directions count)."""
     normals = None
     if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
         vertices, faces = mesh.vertices, mesh.faces  # type: ignore[attr-defined]
         normals = getattr(mesh, "vertex_normals", None)
+        if normals is None and getattr(mesh, "own_normals", True):
+            normals = getattr(mesh, "normals", None)
     elif isinstance(mesh, tuple) and len(mesh) == 2:
         vertices, faces = mesh
     elif hasattr(mesh, "vertices"):  # vertices alone (a trimesh.PointCloud): a point cloud
@@ -197,6 +209,35 @@ def as_colors(colors: object, count: int) -> np.ndarray | None:
     if floats:
         array = np.rint(array * 255.0)
     out = array.astype(np.uint8)  # a copy: the caller's array may change
+    out.flags.writeable = False
+    return out
+
+
+def as_normals(normals: object, count: int) -> np.ndarray | None:
+    """``normals`` as read-only (``count``, 3) float64 vertex normals, as given (not scaled
+    to unit length; zero rows too), or None for None. ``TypeError`` for values that are not
+    real numbers (bools, strings, complex too), ``ValueError`` for another shape or a value
+    that is not finite, naming it."""
+    if normals is None:
+        return None
+    try:
+        array = np.asarray(normals)
+    except ValueError:  # ragged rows
+        raise ValueError(
+            f"normals must be (V, 3) rows (x, y, z) for the V = {count} vertices"
+        ) from None
+    if array.dtype.kind not in "iuf":
+        raise TypeError(f"normals must be real numbers, got dtype {array.dtype}")
+    if array.shape != (count, 3):
+        raise ValueError(
+            f"normals must be (V, 3) rows (x, y, z) for the V = {count} vertices, "
+            f"got shape {array.shape}"
+        )
+    out = array.astype(np.float64)  # a copy: the caller's array may change
+    finite = np.isfinite(out).all(axis=1)
+    if not finite.all():
+        row = int(np.argmin(finite))
+        raise ValueError(f"normals must be finite; row {row} is {out[row].tolist()}")
     out.flags.writeable = False
     return out
 
@@ -397,8 +438,9 @@ def deform_mesh(
     the Jacobians there, in float64 on the host: the reference of the GPU's
     :func:`glmls.engine.deform3.deform_mesh3`. ``colors``: the vertices' own
     (:func:`mesh_colors`), ``uv`` and ``face_uv`` its texture coordinates (:func:`mesh_uv`),
-    carried as they are."""
+    carried as they are; ``own_normals`` where ``normals`` are given."""
     before = face_normals(vertices, faces)
+    own = normals is not None
     if normals is None:
         normals = vertex_normals(vertices, faces, before) if len(faces) else vertices * 0.0
     cof = cofactor(jacobian)
@@ -415,4 +457,5 @@ def deform_mesh(
         colors=colors,
         uv=uv,
         face_uv=face_uv,
+        own_normals=own,
     )

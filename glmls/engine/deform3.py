@@ -56,7 +56,7 @@ def deform_mesh3(
     limit by default). J, det J and the normals are float32 on the GPU, returned as float64.
     ``colors``: the vertices' own (:func:`glmls.core.mesh3.mesh_colors`), ``uv`` and
     ``face_uv`` the mesh's texture coordinates (:func:`glmls.core.mesh3.mesh_uv`), carried as
-    they are.
+    they are; ``own_normals`` where ``normals`` are given.
     """
     count, face_count = len(vertices), len(faces)
     if count == 0:
@@ -73,6 +73,7 @@ def deform_mesh3(
             colors=colors,
             uv=uv,
             face_uv=face_uv,
+            own_normals=normals is not None,
         )
     gl = kernel.gl
     groups = max_groups if max_groups is not None else gl.limits["max_work_groups_x"]
@@ -121,6 +122,7 @@ def deform_mesh3(
         colors=colors,
         uv=uv,
         face_uv=face_uv,
+        own_normals=normals is not None,
     )
 
 

@@ -3,27 +3,29 @@
 
 A :class:`Mesh` is its vertices (V, 3) float64, (x, y, z) in the coordinates of the handles
 that deform it, its triangles (F, 3) of vertex indices and, where the file has them, its
-vertices' colours (V, 3) or (V, 4) uint8 RGB(A) and its texture coordinates (T, 2) float64
-with the (F, 3) indices of each face's corners into them. Reading keeps the file's vertices
-in their order (none merged, none dropped; their colours with them) and its faces in their
-order,
+vertices' colours (V, 3) or (V, 4) uint8 RGB(A), its texture coordinates (T, 2) float64
+with the (F, 3) indices of each face's corners into them and its vertex normals (V, 3)
+float64. Reading keeps the file's vertices in their order (none merged, none dropped; their
+colours and normals with them) and its faces in their order,
 except STL's: an STL file stores each triangle's three corners, so the corners at the same
 place (equal coordinates, at any scale) are merged into one vertex, in the order of their
 first corner (STL has no standard vertex colours). Faces of more than three vertices are
 split into triangles (a fan from their first vertex, in the face's place among the faces, in
-OBJ and PLY alike); a face of fewer than three is refused. What else a file holds (normals,
-face colours, materials, other properties) is not kept:
+OBJ and PLY alike); a face of fewer than three is refused. What else a file holds (an OBJ's
+normals where a vertex has several (hard edges), STL's facet normals, face colours,
+materials, other properties) is not kept:
 :func:`read_mesh_and_unkept` names it. A point cloud is a mesh of no faces: PLY and OBJ hold
 one (STL holds triangles only, and refuses it).
 
 Written, by the suffix: PLY (binary) and STL (binary) hold float32 coordinates, as those
-formats usually do; OBJ (text) holds them exactly (each float64's shortest repr). PLY and OBJ
-hold the vertex colours exactly (PLY as uchar ``red``, ``green``, ``blue`` and ``alpha``;
-OBJ as ``v x y z r g b [a]``, 0..1); STL does not hold them. OBJ holds the texture
-coordinates exactly (``vt u v``, ``f v/vt``); PLY holds one per vertex (float32 ``s``,
-``t``), and so none of a mesh with seams (a vertex of several); STL holds none
-(:func:`unwritten` names what a format drops). Every fault of a file is an
-:class:`~glmls.errors.InputFileError` naming it.
+formats usually do; OBJ (text) holds them exactly (each float64's shortest repr). PLY and
+OBJ hold the vertex colours exactly (PLY as uchar ``red``, ``green``, ``blue`` and
+``alpha``; OBJ as ``v x y z r g b [a]``, 0..1); STL does not hold them. OBJ holds the
+texture coordinates exactly (``vt u v``, ``f v/vt``); PLY holds one per vertex (float32
+``s``, ``t``), and so none of a mesh with seams (a vertex of several); STL holds none. PLY
+holds the vertex normals as float32 ``nx``, ``ny``, ``nz``, OBJ exactly (``vn x y z``, one
+per vertex, ``f v//vn``); STL holds none (:func:`unwritten` names what a format drops).
+Every fault of a file is an :class:`~glmls.errors.InputFileError` naming it.
 
 The numbers of a text file (OBJ, ASCII PLY, ASCII STL) are decimal numbers of ASCII digits
 with an optional sign, point and exponent (``-0.5``, ``1e-3``, ``1E+02``), indices and PLY
@@ -40,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.mesh3 import as_colors, as_uv, whole_indices
+from ..core.mesh3 import as_colors, as_normals, as_uv, whole_indices
 from ..core.summary import fields_repr
 from ..errors import InputFileError
 from .atomic import atomic_write
@@ -60,11 +62,12 @@ __all__ = [
 
 #: The suffixes of the mesh formats.
 MESH_SUFFIXES = (".ply", ".obj", ".stl")
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
 class Mesh:
-    """A triangle mesh: vertices, faces, vertex colours, texture coordinates; read-only copies.
+    """A triangle mesh: vertices, faces, colours, texture coordinates, normals; read-only.
 
     Parameters
     ----------
@@ -84,18 +87,24 @@ class Mesh:
         vertex may have a coordinate in each of its faces (at a seam of the texture), as in
         an OBJ file (``f v/vt``); ``face_uv=faces`` for one per vertex. None (the default)
         with ``uv``.
+    normals : array_like, optional
+        (V, 3) vertex normals (x, y, z), one per vertex, finite; kept as float64, as given
+        (not scaled to unit length: a zero row is a vertex of no normal).
+        :meth:`glmls.MLS.deform` carries them; None (the default): none, and a deformation
+        carries the faces' own.
 
     Raises
     ------
     ValueError
         For vertices that are not (V, 3) finite numbers (V >= 1), faces that are not
         (F, 3) indices of them, colors that are not (V, 3) or (V, 4) values in range, uv
-        that are not (T, 2) finite numbers, face_uv that are not (F, 3) indices of them, or
-        one of uv and face_uv without the other.
+        that are not (T, 2) finite numbers, face_uv that are not (F, 3) indices of them,
+        one of uv and face_uv without the other, or normals that are not (V, 3) finite
+        numbers.
     TypeError
         For vertices that are not real numbers (complex, strings, bools, objects), faces
-        that are not integers, colors or uv that are not real numbers (bools too), or
-        face_uv that are not integers.
+        that are not integers, colors, uv or normals that are not real numbers (bools too),
+        or face_uv that are not integers.
 
     See Also
     --------
@@ -120,6 +129,12 @@ class Mesh:
     ... )
     >>> square.uv[square.face_uv[:, 2]].tolist()  # the third corners: vertex 2 both times
     [[0.0, 0.5], [1.0, 0.5]]
+
+    Vertex normals, one per vertex, kept as given:
+
+    >>> up = glmls.Mesh(mesh.vertices, mesh.faces, normals=[[0, 0, 2]] * 3)
+    >>> up.normals.dtype.name, up.normals[0].tolist()
+    ('float64', [0.0, 0.0, 2.0])
     """
 
     vertices: np.ndarray
@@ -127,6 +142,7 @@ class Mesh:
     colors: np.ndarray | None = dataclasses.field(default=None, kw_only=True)
     uv: np.ndarray | None = dataclasses.field(default=None, kw_only=True)
     face_uv: np.ndarray | None = dataclasses.field(default=None, kw_only=True)
+    normals: np.ndarray | None = dataclasses.field(default=None, kw_only=True)
 
     def __post_init__(self) -> None:
         try:
@@ -159,6 +175,7 @@ class Mesh:
         uv, face_uv = as_uv(self.uv, self.face_uv, len(faces))
         object.__setattr__(self, "uv", uv)
         object.__setattr__(self, "face_uv", face_uv)
+        object.__setattr__(self, "normals", as_normals(self.normals, len(vertices)))
 
     def __repr__(self) -> str:
         """The arrays' shapes and dtypes, not their values."""
@@ -200,17 +217,26 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
         has them (none kept where some faces have them and others not; a face with them on
         some corners only is refused), a PLY file's vertex properties ``s``, ``t`` (or
         ``u``, ``v``, ``texture_u``, ``texture_v``), one per vertex (``face_uv`` is the
-        faces); None for a file without them and for STL. Not kept: normals
-        (``glmls.MLS.deform`` carries normals of its own), a 3D texture's ``w``, face
-        colours, materials (``mtllib``, ``usemtl``), groups and other PLY properties and
-        elements; :func:`read_mesh_and_unkept` names those a file has.
+        faces); None for a file without them and for STL. The vertex normals, as they are:
+        a PLY file's vertex properties ``nx``, ``ny``, ``nz`` (or ``normal_x``,
+        ``normal_y``, ``normal_z``), an OBJ file's ``vn`` lines where every corner of a
+        vertex names the same one (``f v//vn``, ``f v/vt/vn``; or equal ones) and every
+        corner names one (a vertex of no face: 0, or the ``vn`` of its own index where the
+        file has one per vertex, as a point cloud's); None for a file without them, for
+        STL (its facet normals are the faces') and for an OBJ whose normals are not one per
+        vertex (a hard edge: a vertex with different ones in its faces). Not kept: such
+        normals, a 3D texture's ``w``, face colours, materials (``mtllib``, ``usemtl``),
+        groups and other PLY properties and elements; :func:`read_mesh_and_unkept` names
+        those a file has.
 
     Raises
     ------
     InputFileError
         Naming the file: missing, unreadable, an unknown suffix, not a mesh of that format,
-        no vertices, coordinates that are not finite, colours out of range or texture
-        indices that name no texture coordinate or are on some corners of a face only.
+        no vertices, coordinates that are not finite, colours out of range, texture
+        indices that name no texture coordinate or are on some corners of a face only, or
+        normals that are not 3 finite numbers (an OBJ's ``vn``, a PLY's ``nx``, ``ny``,
+        ``nz``) or indices that name no normal.
 
     See Also
     --------
@@ -241,9 +267,9 @@ def read_mesh_and_unkept(path: str | os.PathLike) -> tuple[Mesh, tuple[str, ...]
     mesh : Mesh
         As :func:`read_mesh`.
     unkept : tuple of str
-        Such as ``"normals"``, ``"texture coordinates (not on every face)"``, ``"face
-        colours"``, ``"materials"``, ``"vertex properties quality"``: empty where the mesh
-        holds all of the file.
+        Such as ``"normals (a vertex has several: hard edges)"``, ``"texture coordinates
+        (not on every face)"``, ``"face colours"``, ``"materials"``, ``"vertex properties
+        quality"``: empty where the mesh holds all of the file.
 
     Raises
     ------
@@ -254,9 +280,9 @@ def read_mesh_and_unkept(path: str | os.PathLike) -> tuple[Mesh, tuple[str, ...]
     --------
     >>> import pathlib, tempfile
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "tri.obj"
-    >>> _ = path.write_text("v 0 0 0\\nv 1 0 0\\nv 0 1 0\\nvn 0 0 1\\nf 1//1 2//1 3//1\\n")
+    >>> _ = path.write_text("v 0 0 0\\nv 1 0 0\\nv 0 1 0\\nvn 0 0 1\\nf 1//1 2 3//1\\n")
     >>> glmls.files.meshes.read_mesh_and_unkept(path)[1]
-    ('normals',)
+    ('normals (not on every face)',)
     """
     path = Path(path)
     try:
@@ -280,7 +306,14 @@ def read_mesh_and_unkept(path: str | os.PathLike) -> tuple[Mesh, tuple[str, ...]
     if not len(read.vertices):
         raise InputFileError(f"{path}: no mesh vertices in it")
     try:
-        mesh = Mesh(read.vertices, read.faces, colors=read.colors, uv=read.uv, face_uv=read.face_uv)
+        mesh = Mesh(
+            read.vertices,
+            read.faces,
+            colors=read.colors,
+            uv=read.uv,
+            face_uv=read.face_uv,
+            normals=read.normals,
+        )
         return mesh, read.unkept
     except (TypeError, ValueError) as error:
         raise InputFileError(f"{path}: {error}") from None
@@ -356,6 +389,7 @@ def write_mesh(
     colors: object = None,
     uv: object = None,
     face_uv: object = None,
+    normals: object = None,
 ) -> None:
     """Write a triangle mesh to a PLY, OBJ or STL file, whole or not at all.
 
@@ -365,8 +399,8 @@ def write_mesh(
         The file; its suffix (``.ply``, ``.obj``, ``.stl``) chooses the format.
     mesh : Mesh or object or array_like
         A :class:`Mesh`, any object with ``vertices`` (and ``faces``, unless ``faces`` is
-        given), such as the deformed mesh of :meth:`glmls.MLS.deform`, or the vertices
-        (V, 3) themselves.
+        given), such as the deformed mesh of :meth:`glmls.MLS.deform`
+        (:class:`~glmls.DeformedMesh`), or the vertices (V, 3) themselves.
     faces : array_like, optional
         The triangles (F, 3); default ``mesh.faces``. None of them (F = 0): a point cloud,
         which PLY and OBJ hold and STL does not.
@@ -383,17 +417,26 @@ def write_mesh(
         ``s`` and ``t`` (a vertex of no face gets 0, 0), and so none of a mesh with seams (a
         vertex with different coordinates in its faces), which is written without them;
         STL holds none. :func:`unwritten` names what a file drops.
+    normals : array_like, optional
+        The vertex normals (V, 3), as :class:`Mesh` takes them; default ``mesh.normals``
+        where it has them: a :class:`Mesh`'s, and a :class:`~glmls.DeformedMesh`'s where
+        they carry its input's own (``own_normals``: the input had normals, which the
+        deformation turned), not where they are its faces' (a file gains no normals its
+        input did not have). PLY holds them as float32 ``nx``, ``ny``, ``nz``, OBJ exactly
+        (``vn x y z`` with each float64's shortest repr, one per vertex, named by the
+        faces' corners: ``f a//a b//b c//c``, ``f a/ta/a b/tb/b c/tc/c``); STL holds none.
 
     Raises
     ------
     ValueError
         Before writing anything, for an unknown suffix or a bad mesh (no faces where
         neither ``mesh`` nor ``faces`` gives them, colours of another shape or out of range,
-        texture coordinates that are not (T, 2) finite with (F, 3) indices into them), or a
-        point cloud to STL.
+        texture coordinates that are not (T, 2) finite with (F, 3) indices into them,
+        normals that are not (V, 3) finite, or beyond float32's range for PLY), or a point
+        cloud to STL.
     TypeError
-        Before writing anything, for vertices, colours or texture coordinates that are not
-        real numbers or faces or their texture indices that are not integers.
+        Before writing anything, for vertices, colours, texture coordinates or normals that
+        are not real numbers or faces or their texture indices that are not integers.
     OSError
         Naming ``path``, for a file that cannot be written.
 
@@ -419,6 +462,12 @@ def write_mesh(
     >>> back = glmls.read_mesh(path)
     >>> back.uv.tolist() == uv, back.face_uv.tolist()
     (True, [[2, 1, 0]])
+
+    And vertex normals, one per vertex:
+
+    >>> glmls.write_mesh(path, back, normals=[[0, 0, 1], [0, 0.6, 0.8], [0.6, 0, 0.8]])
+    >>> glmls.read_mesh(path).normals.tolist()
+    [[0.0, 0.0, 1.0], [0.0, 0.6, 0.8], [0.6, 0.0, 0.8]]
     """
     path = Path(path)
     suffix = _suffix(path)
@@ -431,15 +480,26 @@ def write_mesh(
         colors = getattr(mesh, "colors", None)
     if uv is None and face_uv is None:
         uv, face_uv = getattr(mesh, "uv", None), getattr(mesh, "face_uv", None)
-    checked = Mesh(vertices, faces, colors=colors, uv=uv, face_uv=face_uv)
+    if normals is None and getattr(mesh, "own_normals", True):  # not a DeformedMesh's faces'
+        normals = getattr(mesh, "normals", None)
+    checked = Mesh(vertices, faces, colors=colors, uv=uv, face_uv=face_uv, normals=normals)
     if suffix == ".obj":
         text = obj_text(
-            checked.vertices, checked.faces, checked.colors, checked.uv, checked.face_uv
+            checked.vertices,
+            checked.faces,
+            checked.colors,
+            checked.uv,
+            checked.face_uv,
+            checked.normals,
         )
         data = text.encode("utf-8")
     elif suffix == ".ply":
         per_vertex = vertex_uv(len(checked.vertices), checked.faces, checked.uv, checked.face_uv)
-        data = ply_bytes(checked.vertices, checked.faces, checked.colors, per_vertex)
+        if checked.normals is not None and (np.abs(checked.normals) > _FLOAT32_MAX).any():
+            raise ValueError(f"{path}: normals beyond float32's range, which PLY holds")
+        data = ply_bytes(
+            checked.vertices, checked.faces, checked.colors, per_vertex, checked.normals
+        )
     elif not len(checked.faces):
         raise ValueError(
             f"{path}: an STL file holds triangles only; write a point cloud (no faces) "
@@ -466,9 +526,9 @@ def unwritten(path: str | os.PathLike, mesh: Mesh) -> tuple[str, ...]:
     Returns
     -------
     tuple of str
-        ``"vertex colours"`` and ``"texture coordinates"`` for STL (where the mesh has
-        them), ``"texture coordinates (...)"`` for PLY where a vertex has several (a seam):
-        empty where the file holds all of the mesh, as OBJ does.
+        ``"vertex colours"``, ``"texture coordinates"`` and ``"normals"`` for STL (where the
+        mesh has them), ``"texture coordinates (...)"`` for PLY where a vertex has several
+        (a seam): empty where the file holds all of the mesh, as OBJ does.
 
     Raises
     ------
@@ -495,4 +555,6 @@ def unwritten(path: str | os.PathLike, mesh: Mesh) -> tuple[str, ...]:
             names.append(
                 "texture coordinates (a vertex has several, at seams: PLY holds one per vertex)"
             )
+    if suffix == ".stl" and mesh.normals is not None:
+        names.append("normals")
     return tuple(names)

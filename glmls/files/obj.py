@@ -1,4 +1,5 @@
-"""Reading and writing OBJ meshes: the ``v``, ``vt`` and ``f`` lines, in the file's order.
+"""Reading and writing OBJ meshes: the ``v``, ``vt``, ``vn`` and ``f`` lines, in the file's
+order.
 
 trimesh splits an OBJ by material (``usemtl``) and joins the parts again, which duplicates
 the shared vertices and reorders the faces; its texture coordinates and normals split
@@ -6,15 +7,17 @@ vertices too. glmls reads the positions (the first three numbers of a ``v`` line
 common extension of vertex colours after them (``v x y z r g b``, or ``r g b a``: floats in
 0..1, scaled by 255 and rounded; whole numbers 0..255 where one exceeds 1), the texture
 coordinates (``vt u v``; ``v`` is 0 where it is missing, a third number ``w`` of a 3D
-texture is not kept) and the vertex and texture indices of an ``f`` (or ``fo``) line
-(``i``, ``i/t``, ``i//n``, ``i/t/n``; negative: from the last vertex, or texture
-coordinate, so far), a ``#`` comment ending any line. A face's texture coordinates are
-those of its corners, which may differ from its vertices' indices (a vertex on a seam has
-one in each face). A face with texture indices on some of its corners and not others is
-refused; where some faces have them and others not, none are kept (and that is named). The
-rest (normals, materials, groups, lines) it does not keep, and names. Faults are
-``ValueError``s that say the line, which :func:`glmls.files.meshes.read_mesh` reports
-naming the file.
+texture is not kept), the normals (``vn x y z``, as they are) and the vertex, texture and
+normal indices of an ``f`` (or ``fo``) line (``i``, ``i/t``, ``i//n``, ``i/t/n``; negative:
+from the last vertex, texture coordinate or normal so far), a ``#`` comment ending any line.
+A face's texture coordinates are those of its corners, which may differ from its vertices'
+indices (a vertex on a seam has one in each face). A face with texture indices on some of
+its corners and not others is refused; where some faces have them and others not, none are
+kept (and that is named). A mesh holds one normal per vertex: the normals are kept where
+every corner of a vertex names the same one (or equal ones), not where a corner names none
+or a vertex has different ones in its faces (a hard edge), which is named. The rest
+(materials, groups, lines) it does not keep, and names. Faults are ``ValueError``s that
+say the line, which :func:`glmls.files.meshes.read_mesh` reports naming the file.
 
 The words of a line are separated by whitespace (spaces, tabs). A coordinate, texture
 coordinate or colour is a decimal number of ASCII digits with an optional sign, point and
@@ -35,7 +38,6 @@ __all__ = ["obj_text", "read_obj"]
 
 #: The statements glmls does not keep, and how a message names them.
 _UNKEPT = {
-    "vn": "normals",
     "mtllib": "materials",
     "usemtl": "materials",
     "g": "object and group names",
@@ -59,8 +61,10 @@ def read_obj(content: bytes) -> MeshContent:
     rows: list[list[str]] = []
     places: list[int] = []
     textures: list[tuple[int, list[str]]] = []  # (line, the numbers) of each vt
+    normals: list[tuple[int, list[str]]] = []  # (line, the numbers) of each vn
     faces: list[tuple[int, int, int]] = []
     corners_uv: list[tuple[int, int, int] | None] = []  # each triangle's, or None
+    corners_n: list[tuple[int | None, ...]] = []  # each triangle's vn indices (None: none)
     face_lines: list[int] = []  # each triangle's line
     unkept: dict[str, None] = {}  # in order, once each
     for number, line in enumerate(text.splitlines(), start=1):
@@ -76,6 +80,8 @@ def read_obj(content: bytes) -> MeshContent:
             if len(fields) < 2:
                 raise ValueError(f"line {number}: a texture coordinate of no numbers")
             textures.append((number, fields[1:]))
+        elif fields[0] == "vn":
+            normals.append((number, fields[1:]))
         elif fields[0] in ("f", "fo"):  # fo: an old name of f
             corners = [_obj_index(number, field, len(rows)) for field in fields[1:]]
             if len(corners) < 3:
@@ -84,6 +90,8 @@ def read_obj(content: bytes) -> MeshContent:
             faces += [(corners[0], corners[i], corners[i + 1]) for i in fan]
             at = _texture_indices(number, fields[1:], len(textures))
             corners_uv += [None if at is None else (at[0], at[i], at[i + 1]) for i in fan]
+            n = _normal_indices(number, fields[1:], len(normals))
+            corners_n += [(n[0], n[i], n[i + 1]) for i in fan]
             face_lines += [number] * len(fan)
         elif fields[0] in _UNKEPT and fields[1:] not in (["off"], ["0"]):  # s off: none
             unkept[_UNKEPT[fields[0]]] = None
@@ -95,7 +103,69 @@ def read_obj(content: bytes) -> MeshContent:
     colors = _colors(rows, places, unkept)
     triangles = np.array(faces, dtype=np.int64).reshape(-1, 3)
     uv, face_uv = _texture(textures, corners_uv, face_lines, unkept)
-    return MeshContent(vertices, triangles, colors, tuple(unkept), uv, face_uv)
+    kept = _normals(normals, len(vertices), triangles, corners_n, face_lines, unkept)
+    return MeshContent(vertices, triangles, colors, tuple(unkept), uv, face_uv, kept)
+
+
+def _normal_indices(number: int, fields: list[str], count: int) -> list[int | None]:
+    """The 0-based normal indices of a face's corners ``fields`` on line ``number`` (``count``
+    normals before it), None for a corner of none (``i``, ``i/t``)."""
+    parts = [field.split("/") for field in fields]
+    return [
+        _index(number, part[2], count, "normal") if len(part) > 2 and part[2] else None
+        for part in parts
+    ]
+
+
+def _normals(
+    normals: list[tuple[int, list[str]]],
+    count: int,
+    faces: np.ndarray,
+    corners: list[tuple[int | None, ...]],
+    lines: list[int],
+    unkept: dict[str, None],
+) -> np.ndarray | None:
+    """The (``count``, 3) vertex normals of the ``vn`` lines, one per vertex, where every
+    corner of the triangles ``faces`` (of the file's ``lines``) names one and all the
+    corners of a vertex name the same (the same ``vn``, or equal values); a vertex of no
+    face gets the ``vn`` of its own index where the file has one per vertex and every corner
+    names that of its vertex (as glmls writes them, and a point cloud's), else 0. Else None,
+    and why named in ``unkept``: ``vn`` lines no face names, corners without one, or a
+    vertex with different ones in its faces (a hard edge). ``ValueError`` saying the line of
+    a normal that is not 3 finite numbers or of a face that names one beyond the last."""
+    if not normals:
+        return None
+    named = [[k is not None for k in corner] for corner in corners]
+    if not any(map(any, named)) and (len(faces) or len(normals) != count):
+        unkept["normals"] = None  # no face names them, nor are they one per point
+        return None
+    if not all(map(all, named)):
+        unkept["normals (not on every face)"] = None
+        return None
+    indices = np.array(corners, dtype=np.int64).reshape(-1, 3)
+    beyond = (indices >= len(normals)).any(axis=1)
+    if beyond.any():  # a positive index may name a vn read later, or none
+        row = int(np.argmax(beyond))
+        raise ValueError(
+            f"line {lines[row]}: normal {int(indices[row].max()) + 1} of a face, "
+            f"with {len(normals)} in the file"
+        )
+    values = np.zeros((len(normals), 3))
+    for row, (number, given) in enumerate(normals):
+        # decimal numbers as every other line's (not Python's "1_0" or other scripts' digits)
+        numbers = [float(v) for v in given] if first_not_number(given) is None else []
+        if len(numbers) != 3 or not np.isfinite(numbers).all():
+            raise ValueError(f"line {number}: normal {' '.join(given)!r}, not 3 finite numbers")
+        values[row] = numbers
+    if len(values) == count and (indices == faces).all():
+        return values  # one per vertex, in order: those of vertices of no face too
+    out = np.zeros((count, 3))
+    at = values[indices.ravel()]
+    out[faces.ravel()] = at  # one of each vertex's corners; then every one checked against it
+    if (out[faces.ravel()] == at).all():
+        return out
+    unkept["normals (a vertex has several: hard edges)"] = None
+    return None
 
 
 def _texture_indices(number: int, fields: list[str], count: int) -> list[int] | None:
@@ -215,12 +285,15 @@ def obj_text(
     colors: np.ndarray | None,
     uv: np.ndarray | None = None,
     face_uv: np.ndarray | None = None,
+    normals: np.ndarray | None = None,
 ) -> str:
     """The OBJ text of a mesh: each coordinate as Python's shortest repr that reads back to
     the same float64 (any magnitude), the colours after it as c / 255 to 6 significant digits
     (which read back to the same byte: they are 1/255 apart) with alpha the 7th number of
-    four channels, the texture coordinates ``uv`` as ``vt u v`` (shortest reprs too), faces
-    1-based (``f a/ta b/tb c/tc`` with ``face_uv``)."""
+    four channels, the texture coordinates ``uv`` as ``vt u v`` and the vertex ``normals`` as
+    ``vn x y z`` (shortest reprs too, one per vertex: the vertex's own index), faces 1-based
+    (``f a/ta b/tb c/tc`` with ``face_uv``, ``f a//a b//b c//c`` with normals,
+    ``f a/ta/a b/tb/b c/tc/c`` with both)."""
     if colors is None:
         lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in vertices.tolist()]
     else:
@@ -228,12 +301,17 @@ def obj_text(
             f"v {x!r} {y!r} {z!r} " + " ".join(f"{c / 255:.6g}" for c in rgba)
             for (x, y, z), rgba in zip(vertices.tolist(), colors.tolist(), strict=True)
         ]
-    if uv is None or face_uv is None:
-        lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces.tolist()]
-    else:
+    if uv is not None and face_uv is not None:
         lines += [f"vt {u!r} {v!r}" for u, v in uv.tolist()]
-        lines += [
-            f"f {a + 1}/{ta + 1} {b + 1}/{tb + 1} {c + 1}/{tc + 1}"
-            for (a, b, c), (ta, tb, tc) in zip(faces.tolist(), face_uv.tolist(), strict=True)
-        ]
+    if normals is not None:
+        lines += [f"vn {x!r} {y!r} {z!r}" for x, y, z in normals.tolist()]
+    at = (faces + 1).tolist()  # 1-based; a vertex's normal is the vn of its own index
+    if uv is None or face_uv is None:
+        form = "f {0} {1} {2}" if normals is None else "f {0}//{0} {1}//{1} {2}//{2}"
+        lines += [form.format(*f) for f in at]
+    else:
+        form = "f {0}/{3} {1}/{4} {2}/{5}"
+        if normals is not None:
+            form = "f {0}/{3}/{0} {1}/{4}/{1} {2}/{5}/{2}"
+        lines += [form.format(*f, *t) for f, t in zip(at, (face_uv + 1).tolist(), strict=True)]
     return "\n".join(lines) + "\n"

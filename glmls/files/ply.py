@@ -1,5 +1,5 @@
-"""Reading PLY meshes: the vertices' x, y, z, their colours and texture coordinates and the
-faces, in the file's order (:mod:`glmls.files.ply_write` writes them).
+"""Reading PLY meshes: the vertices' x, y, z, their colours, texture coordinates and normals
+and the faces, in the file's order (:mod:`glmls.files.ply_write` writes them).
 
 A PLY file (ASCII, or binary of either byte order) is a header of elements, each a count of
 rows of properties (scalars, or lists with a count before their items), then the rows of
@@ -7,16 +7,17 @@ each element in turn. glmls reads every element so as to find the vertices (``x`
 ``z`` of ``vertex``), their colours (``red``, ``green``, ``blue`` and ``alpha`` if there:
 uchar as they are, other integers 0..255 too, floats 0..1 scaled by 255 and rounded), their
 texture coordinates (the first pair of ``s``, ``t``; ``u``, ``v``; ``texture_u``,
-``texture_v``; ``texture_s``, ``texture_t``: one per vertex) and the faces (the list
-``vertex_indices`` or ``vertex_index`` of ``face``); the rest (normals, a face's own
-``texcoord`` list, face colours, other properties and elements) glmls does not keep, and
-names. A face of more than three vertices is a fan from its first vertex, in its place among
-the faces; a face of fewer is refused, and so is an ASCII file of more values than the
-header's counts of rows take, a face element whose list of vertex indices is not found
-(none, or several lists of other names), faces in another element (``tristrips``) and a
-colour out of its range: faces not read are never dropped silently. Faults are
-``ValueError``s that say where, which :func:`glmls.files.meshes.read_mesh` reports naming
-the file.
+``texture_v``; ``texture_s``, ``texture_t``: one per vertex), their normals (``nx``, ``ny``,
+``nz``, or ``normal_x``, ``normal_y``, ``normal_z``: as they are, not scaled to unit length)
+and the faces (the list ``vertex_indices`` or ``vertex_index`` of ``face``); the rest (a
+face's own ``texcoord`` list, face colours and normals, vertex normals of some axes only,
+other properties and elements) glmls does not keep, and names. A face of more than three
+vertices is a fan from its first vertex, in its place among the faces; a face of fewer is
+refused, and so is an ASCII file of more values than the header's counts of rows take, a
+face element whose list of vertex indices is not found (none, or several lists of other
+names), faces in another element (``tristrips``) and a colour out of its range: faces not
+read are never dropped silently. Faults are ``ValueError``s that say where, which
+:func:`glmls.files.meshes.read_mesh` reports naming the file.
 
 An ASCII body is words separated by whitespace (spaces, tabs, line ends). A value of a
 ``float`` or ``double`` property is a decimal number of ASCII digits with an optional sign,
@@ -63,7 +64,9 @@ _ORDERS = {"ascii": "", "binary_little_endian": "<", "binary_big_endian": ">"}
 _FACE_LISTS = ("vertex_indices", "vertex_index")
 #: The vertex colour properties, in the order of their channels.
 COLORS = ("red", "green", "blue", "alpha")
-_NORMALS = ("nx", "ny", "nz", "normal_x", "normal_y", "normal_z")
+#: The triples of vertex properties that hold a normal (x, y, z), the first found read.
+_NORMAL_TRIPLES = (("nx", "ny", "nz"), ("normal_x", "normal_y", "normal_z"))
+_NORMALS = tuple(name for triple in _NORMAL_TRIPLES for name in triple)
 #: The pairs of vertex properties that hold a texture coordinate (u, v), the first found read.
 _UV_PAIRS = (("s", "t"), ("u", "v"), ("texture_u", "texture_v"), ("texture_s", "texture_t"))
 _TEXTURE = (*(name for pair in _UV_PAIRS for name in pair), "texcoord")
@@ -79,6 +82,7 @@ class MeshContent(NamedTuple):
     unkept: tuple[str, ...]  # what else the file holds, for a message
     uv: np.ndarray | None = None  # (T, 2) float64 texture coordinates
     face_uv: np.ndarray | None = None  # (F, 3) int64 indices into uv of the faces' corners
+    normals: np.ndarray | None = None  # (V, 3) float64 vertex normals, one per vertex
 
 
 @dataclass
@@ -378,12 +382,14 @@ def read_ply(content: bytes) -> MeshContent:
     vertices = np.stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"], axis=1)
     colors, channels = _vertex_colors(elements, vertex)
     uv, uv_names = _vertex_uv(elements, vertex)
+    normals, normal_names = _vertex_normals(elements, vertex)
     face = found.get("face", {})
     name = _face_list(elements, face)
-    unkept = _unkept(elements, {"x", "y", "z", *channels, *uv_names}, name)
+    unkept = _unkept(elements, {"x", "y", "z", *channels, *uv_names, *normal_names}, name)
     faces = np.zeros((0, 3), np.int64) if name is None else _triangles(face[name])
     # a coordinate per vertex: each corner's is its vertex's
-    return MeshContent(vertices, faces, colors, unkept, uv, None if uv is None else faces)
+    face_uv = None if uv is None else faces
+    return MeshContent(vertices, faces, colors, unkept, uv, face_uv, normals)
 
 
 def _triangles(polygons: object) -> np.ndarray:
@@ -422,6 +428,27 @@ def _vertex_uv(
     return uv.reshape(-1, 2), pair
 
 
+def _vertex_normals(
+    elements: list[_Element], vertex: dict[str, object]
+) -> tuple[np.ndarray | None, tuple[str, ...]]:
+    """(the (V, 3) float64 normals of the vertices, or None; the properties they are of): the
+    first triple of :data:`_NORMAL_TRIPLES` that are all scalars of the vertex element;
+    ``ValueError`` naming the first vertex of one that is not finite."""
+    element = [e for e in elements if e.name == "vertex"][-1]
+    scalars = {p.name for p in element.properties if p.count is None}
+    triple = next((triple for triple in _NORMAL_TRIPLES if set(triple) <= scalars), None)
+    if triple is None:
+        return None, ()
+    normals = np.stack([np.asarray(vertex[name], dtype=np.float64) for name in triple], axis=1)
+    finite = np.isfinite(normals).all(axis=1)
+    if not finite.all():
+        row = int(np.argmin(finite))
+        raise ValueError(
+            f"vertex {row}: normal {', '.join(triple)} = {normals[row].tolist()}, not finite"
+        )
+    return normals.reshape(-1, 3), triple
+
+
 def _vertex_colors(
     elements: list[_Element], vertex: dict[str, object]
 ) -> tuple[np.ndarray | None, tuple[str, ...]]:
@@ -451,10 +478,10 @@ def _vertex_colors(
 
 
 def _unkept(elements: list[_Element], kept: set[str], face_list: str | None) -> tuple[str, ...]:
-    """What of the file a mesh of vertices, their colours and texture coordinates (the vertex
-    properties ``kept``) and triangles does not hold: normals, texture coordinates not read
-    (a face's ``texcoord``, a lone ``u``), face colours, other properties and elements (those
-    of rows)."""
+    """What of the file a mesh of vertices, their colours, texture coordinates and normals
+    (the vertex properties ``kept``) and triangles does not hold: normals not read (a face's,
+    a lone ``nx``), texture coordinates not read (a face's ``texcoord``, a lone ``u``), face
+    colours, other properties and elements (those of rows)."""
     notes: dict[str, None] = {}  # in order, once each
     others: dict[str, list[str]] = {"vertex": [], "face": []}
     elsewhere = []
@@ -469,7 +496,7 @@ def _unkept(elements: list[_Element], kept: set[str], face_list: str | None) -> 
             if p.name in kept or p.name == face_list:
                 continue
             if p.name in _NORMALS:
-                notes["normals"] = None
+                notes["face normals" if element.name == "face" else "normals"] = None
             elif p.name in _TEXTURE:
                 notes["texture coordinates"] = None
             elif element.name == "face" and p.name in COLORS:

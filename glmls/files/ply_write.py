@@ -1,5 +1,6 @@
-"""Writing PLY meshes: binary little-endian, float32 vertices with their uchar colours and
-float32 texture coordinates (``s``, ``t``), int32 triangles.
+"""Writing PLY meshes: binary little-endian, float32 vertices with their uchar colours,
+float32 texture coordinates (``s``, ``t``) and float32 normals (``nx``, ``ny``, ``nz``), int32
+triangles.
 
 PLY holds one texture coordinate per vertex. A mesh whose faces give a vertex several (a
 seam, as an OBJ file holds it: ``f v/vt``) has none that PLY can hold: it is written without
@@ -34,16 +35,20 @@ def ply_bytes(
     faces: np.ndarray,
     colors: np.ndarray | None,
     uv: np.ndarray | None = None,
+    normals: np.ndarray | None = None,
 ) -> bytes:
     """A binary PLY file of float32 vertices, their uchar colours (``red``, ``green``,
     ``blue``, and ``alpha`` for four channels), their float32 texture coordinates ``uv``
-    ((V, 2), as ``s`` and ``t``: :func:`vertex_uv`) and triangles (a ``face`` element only
-    where there are some: a point cloud has none)."""
+    ((V, 2), as ``s`` and ``t``: :func:`vertex_uv`), their float32 ``normals`` ((V, 3), as
+    ``nx``, ``ny``, ``nz``) and triangles (a ``face`` element only where there are some: a
+    point cloud has none)."""
     fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
     if colors is not None:
         fields += [(name, "u1") for name in COLORS[: colors.shape[1]]]
     if uv is not None:
         fields += [("s", "<f4"), ("t", "<f4")]
+    if normals is not None:
+        fields += [(name, "<f4") for name in ("nx", "ny", "nz")]
     rows = np.empty(len(vertices), np.dtype(fields))
     for axis, name in enumerate("xyz"):
         rows[name] = vertices[:, axis]
@@ -52,6 +57,8 @@ def ply_bytes(
             rows[COLORS[channel]] = colors[:, channel]
     if uv is not None:
         rows["s"], rows["t"] = uv[:, 0], uv[:, 1]
+    if normals is not None:
+        rows["nx"], rows["ny"], rows["nz"] = normals.T
     header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(vertices)}"]
     header += [f"property {'float' if kind == '<f4' else 'uchar'} {n}" for n, kind in fields]
     body = [rows.tobytes()]

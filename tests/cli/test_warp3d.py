@@ -612,10 +612,52 @@ def test_mesh_texture_coordinates_are_carried_by_obj_and_named_where_not(files, 
     ):  # fmt: skip
         assert main(["warp", "tex.obj", out, "--handles", "h3.json"]) == 0
         lines = [x for x in capsys.readouterr().err.splitlines() if "carry" in x]
-        assert lines == [f"warp: {out} does not carry the input's {carried}materials, normals"]
+        assert lines == [
+            f"warp: {out} does not carry the input's {carried}materials, "
+            "normals (not on every face)"
+        ]
     back = glmls.read_mesh(files / "out.obj")
     assert_array_equal(back.uv, mesh.uv)
     assert_array_equal(back.face_uv, [[0, 1, 2], [3, 4, 2]])
     src, dst = glmls.data.phantom_handles()
     assert_allclose(back.vertices, mesh.vertices + (dst - src).mean(axis=0), rtol=0, atol=1e-12)
     assert glmls.read_mesh(files / "out.ply").uv is None
+
+
+def test_mesh_normals_turn_with_a_rigid_warp_and_stl_says_it_drops_them(tmp_path, capsys):
+    """A mesh of normals of its own (not its faces': random directions, one zero), moved by
+    handles that a rotation and a translation take to their targets: the rigid MLS is that
+    motion, and the written normals are the input's turned by it (unit), within 1e-4; PLY
+    and OBJ carry them, STL names them as what it does not carry."""
+    rng = np.random.default_rng(7)
+    sphere = glmls.data.sphere()
+    normals = rng.normal(0, 1, sphere.vertices.shape) * rng.uniform(0.5, 3, (162, 1))
+    normals[5] = 0.0
+    angle = 0.7
+    turn = np.array(
+        [[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]]
+    )
+    src = sphere.vertices[::8]
+    dst = src @ turn.T + [3.0, -2.0, 1.5]
+    (tmp_path / "h.json").write_text(json.dumps({"src": src.tolist(), "dst": dst.tolist()}))
+    glmls.write_mesh(
+        tmp_path / "in.obj", glmls.Mesh(sphere.vertices, sphere.faces, normals=normals)
+    )
+    expected = normals @ turn.T / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
+    for out in ("out.obj", "out.ply"):
+        argv = ["warp", str(tmp_path / "in.obj"), str(tmp_path / out), "--handles"]
+        assert main([*argv, str(tmp_path / "h.json"), "--transform", "rigid"]) == 0
+        assert "carry" not in capsys.readouterr().err
+        written = glmls.read_mesh(tmp_path / out)
+        assert_allclose(written.vertices, sphere.vertices @ turn.T + [3, -2, 1.5], atol=1e-4)
+        assert np.abs(written.normals - expected).max() < 1e-4
+        assert (written.normals[5] == 0).all()
+    argv = ["warp", str(tmp_path / "in.obj"), str(tmp_path / "out.stl"), "--handles"]
+    assert main([*argv, str(tmp_path / "h.json")]) == 0
+    lines = [x for x in capsys.readouterr().err.splitlines() if "carry" in x]
+    assert lines == [f"warp: {tmp_path / 'out.stl'} does not carry the input's normals"]
+    # an input without normals of its own gains none
+    glmls.write_mesh(tmp_path / "plain.obj", sphere)
+    argv = ["warp", str(tmp_path / "plain.obj"), str(tmp_path / "plain.ply"), "--handles"]
+    assert main([*argv, str(tmp_path / "h.json")]) == 0
+    assert glmls.read_mesh(tmp_path / "plain.ply").normals is None

@@ -27,7 +27,7 @@ def test_deformed_mesh_mesh_and_volume_print_their_shapes():
     mesh = glmls.Mesh(vertices, [[0, 1, 2]])
     assert repr(mesh) == (
         "Mesh(vertices=array((3, 3), float64), faces=array((1, 3), int64), colors=None, "
-        "uv=None, face_uv=None)"
+        "uv=None, face_uv=None, normals=None)"
     )
     deformed = glmls.DeformedMesh(
         vertices, np.array([[0, 1, 2]]), vertices, np.zeros((3, 3, 3)), np.ones(3),

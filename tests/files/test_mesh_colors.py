@@ -217,8 +217,8 @@ def test_what_a_ply_holds_beyond_the_mesh_is_named(tmp_path):
         mesh, unkept = read_mesh_and_unkept(tmp_path / "m.ply")
         assert mesh.colors is None and mesh.faces.tolist() == [[0, 1, 2]]
         assert mesh.uv.tolist() == [[0, 0], [0, 0], [1, 1]]  # s, t: kept
+        assert mesh.normals.tolist() == [[0, 0, 0], [0, 0, 0], [1, 1, 1]]  # nx, ny, nz: kept
         assert unkept == (
-            "normals",
             "face colours",
             "vertex properties quality, red, green",
             "elements edge",
@@ -235,10 +235,10 @@ def test_what_an_obj_holds_beyond_the_mesh_is_named(tmp_path):
     mesh, unkept = read_mesh_and_unkept(tmp_path / "m.obj")
     assert mesh.faces.tolist() == [[0, 1, 2]]
     assert mesh.uv.tolist() == [[0, 0]] and mesh.face_uv.tolist() == [[0, 0, 0]]  # kept
+    assert mesh.normals.tolist() == [[0, 0, 1]] * 3  # kept: one per vertex
     assert unkept == (
         "materials",
         "object and group names",
-        "normals",
         "lines",
     )
 

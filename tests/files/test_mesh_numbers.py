@@ -44,6 +44,18 @@ def _refused(path, content: str, message: str) -> None:
             "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/\u0663\n",
             "line 7: '\u0663' is no texture coordinate index",
         ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 1_0 0 1\nf 1//1 2//1 3//1\n",
+            "line 4: normal '1_0 0 1', not 3 finite numbers",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn \uff10 0 1\nf 1//1 2//1 3//1\n",
+            "line 4: normal '\uff10 0 1', not 3 finite numbers",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1_0\n",
+            "line 5: '1_0' is no normal index",
+        ),
     ],
 )
 def test_obj_numbers_python_reads_but_the_format_does_not_are_named(tmp_path, content, message):
