@@ -407,12 +407,12 @@ def read_volume(path: str | os.PathLike) -> Volume:
     Volume
         ``data`` (D, H, W) or (D, H, W, C) in the file's dtype (a NIfTI with a scale factor
         gives floats), with the spacing and affine the file gives (:class:`Volume`; what each format
-        gives: :doc:`/cli`). A ``.npy`` array in C order is a read-only map of the file
-        (``numpy.memmap``): it is read as it is used (a warp reads it slab by slab), and
-        writing into it raises ``ValueError``: ``np.array(volume.data)`` is a copy to change.
-        :func:`write_volume` (and ``glmls warp``) may write over the file, as they replace it
-        whole; a tool that rewrites the file in place while the map is in use (``np.save``
-        to its path) cuts the data from under it.
+        gives: :doc:`/cli`). A ``.npy`` array in C order is a copy-on-write map of the file
+        (``numpy.memmap``, ``mode="c"``): it is read as it is used (a warp reads it slab by
+        slab), and it can be changed as an array read whole can, in memory only (the file
+        keeps its values). :func:`write_volume` (and ``glmls warp``) may write over the file,
+        as they replace it whole; a tool that rewrites the file in place while the map is in
+        use (``np.save`` to its path) cuts the data from under it.
 
     Raises
     ------
@@ -470,12 +470,14 @@ def read_volume(path: str | os.PathLike) -> Volume:
 
 
 def _load_npy(path: Path) -> np.ndarray:
-    """The array of a ``.npy`` file, mapped read-only where it is in C order: a warp uploads
-    it slab by slab, and a volume of gigabytes is not read whole before. A Fortran-order
+    """The array of a ``.npy`` file, mapped where it is in C order: a warp uploads it slab by
+    slab, and a volume of gigabytes is not read whole before. Copy-on-write, so that the array
+    can be changed as one read whole (a page changed becomes the process's own; the file
+    never changes). A Fortran-order
     array is read whole (the warp makes a C-order copy of it anyway, which would read a map
     out of order)."""
     try:
-        mapped = np.load(path, mmap_mode="r", allow_pickle=False)
+        mapped = np.load(path, mmap_mode="c", allow_pickle=False)
     except ValueError:  # an object array, a file shorter than its header says: named below
         mapped = None
     if mapped is None or not mapped.flags.c_contiguous:

@@ -1,6 +1,7 @@
-"""``glmls.read_volume`` of a ``.npy`` file: a read-only map of the file where the array is
-in C order (a warp uploads it slab by slab), read whole where it is in Fortran order; the
-file is never written through the map, and writing over the file replaces it whole."""
+"""``glmls.read_volume`` of a ``.npy`` file: a copy-on-write map of the file where the array
+is in C order (a warp uploads it slab by slab; the array can be changed as one read whole,
+and a change never reaches the file), read whole where it is in Fortran order; writing over
+the file replaces it whole."""
 
 from __future__ import annotations
 
@@ -28,17 +29,21 @@ def ramp() -> np.ndarray:
     return (np.arange(5 * 6 * 7, dtype=np.float32) * np.float32(0.25) - 3).reshape(5, 6, 7)
 
 
-def test_a_c_order_npy_is_a_read_only_map_of_its_file(tmp_path, ramp):
+def test_a_c_order_npy_is_a_copy_on_write_map_of_its_file(tmp_path, ramp):
     path = tmp_path / "v.npy"
     np.save(path, ramp)
     before = path.read_bytes()
     volume = glmls.read_volume(path)
     assert _mapped(volume.data)
     np.testing.assert_array_equal(volume.data, ramp)
-    assert volume.data.dtype == ramp.dtype and not volume.data.flags.writeable
-    with pytest.raises(ValueError, match="read-only"):
-        volume.data[0, 0, 0] = 99
+    assert volume.data.dtype == ramp.dtype and volume.data.flags.writeable
+    # changed as an array read whole would be: in memory, never in the file
+    volume.data[0, 0, 0] = 99
+    volume.data[-1] *= 2
+    assert volume.data[0, 0, 0] == 99
+    np.testing.assert_array_equal(volume.data[-1], 2 * ramp[-1])
     assert path.read_bytes() == before
+    np.testing.assert_array_equal(glmls.read_volume(path).data, ramp)
 
 
 def test_a_fortran_order_npy_is_read_whole(tmp_path, ramp):
