@@ -12,6 +12,7 @@ import numpy as np
 from ..gl import bindings
 from ..gl.context import GLContext
 from ..gl.dispatch import LOCAL_SIZE, run_1d, run_groups, set_uniforms
+from ..gl.resources import Resources
 from .fields import Field
 from .frame import CornerLattice, VolumeFrame
 
@@ -157,7 +158,16 @@ class LatticeBands:
     own points is computed from its neighbours' f into the texture
     (``volume/jacobians.comp.glsl``): the same values whatever the bands, since every
     point's neighbours are held with it. ``band_bytes`` then bounds the buffer and the
-    texture together."""
+    texture together.
+
+    ``spares`` (a :class:`~glmls.gl.resources.Resources`, ``buffer``'s name there and a
+    count ``kept``): up to ``kept`` bands are held at once, in ``buffer`` and buffers of its
+    size named after it (``name.1``, ``name.2``, ...), the least recently loaded
+    given up first, so that a slab's passes (the scan over every band, then the resolve
+    over them again) evaluate each band once where the lattice takes a few buffers (the
+    device's storage buffers are smaller than the lattice: 128 MiB on llvmpipe). The
+    jacobians' texture holds one band: computed again when another band is taken up.
+    :attr:`buffer` is the band last loaded's."""
 
     def __init__(
         self,
@@ -169,6 +179,7 @@ class LatticeBands:
         gl: GLContext,
         survey_out: moderngl.Buffer | None = None,
         jacobians: moderngl.Texture3D | None = None,
+        spares: tuple[Resources, str, int] | None = None,
     ) -> None:
         nz = lattice.dims[2]
         self.field = field
@@ -177,6 +188,11 @@ class LatticeBands:
         self.jacobians = jacobians
         self.lattice = lattice
         self.buffer = buffer
+        self._spares = spares
+        self._kept = max(1, spares[2]) if spares is not None else 1
+        #: the bands held, the last loaded last: (first cell layer, layers, first layer of
+        #: points, buffer)
+        self._held: list[tuple[int, int, int, moderngl.Buffer]] = []
         #: z layers of points held either side of a band's own (for the inverse Jacobians)
         self.halo = 0 if jacobians is None else 1
         self.cell_layers = band_layers(lattice, band_bytes, jacobians=jacobians is not None)
@@ -245,14 +261,33 @@ class LatticeBands:
         return [(f, min(step, self.cells - f)) for f in range(0, self.cells, step)]
 
     def load(self, first: int, layers: int) -> None:
-        """Make the buffer hold cell layers ``first`` .. ``first + layers - 1``."""
+        """Make :attr:`buffer` hold cell layers ``first`` .. ``first + layers - 1``."""
         if self.loaded is not None:
             held_first, held_layers = self.loaded
             if held_first <= first and first + layers <= held_first + held_layers:
                 return
+        for index, (band, count, low, buffer) in enumerate(self._held):
+            if band <= first and first + layers <= band + count:  # held in another buffer
+                self._held.append(self._held.pop(index))
+                self._take(band, count, low, buffer)
+                return
         low = max(0, first - self.halo)
         high = min(self.cells, first + layers + self.halo)  # the last layer of points held
-        self.field.fill(self.lattice, low, high - low + 1, self.buffer)
+        if not self._held:
+            buffer = self.buffer
+        elif len(self._held) < self._kept and self._spares is not None:
+            resources, name, _ = self._spares
+            buffer = resources.buffer(f"{name}.{len(self._held)}", self._held[0][3].size)
+        else:
+            buffer = self._held.pop(0)[3]  # the least recently loaded band's
+        self.field.fill(self.lattice, low, high - low + 1, buffer)
+        self._held.append((first, layers, low, buffer))
+        self._take(first, layers, low, buffer)
+
+    def _take(self, first: int, layers: int, low: int, buffer: moderngl.Buffer) -> None:
+        """Make the band of cell layers ``first`` (``layers``), held from layer of points
+        ``low`` in ``buffer``, the current one."""
+        self.buffer = buffer
         self.loaded = (first, layers)
         self._held_first = low
         if self.jacobians is not None:

@@ -236,11 +236,14 @@ class VolumeWarper:
         held = band_layers(lattice, band_bytes, jacobians=jacobians is not None)
         held = min(nz, held + (1 if jacobians is None else 3))
         buffer = self._resources.buffer("volume_lattice", nx * ny * held * POINT_BYTES)
-        out = None
-        if survey:  # per piece of a z layer of points, its box (6 floats), a band at a time
-            out = self._resources.buffer("volume_survey", held * survey_pieces(nx, ny) * 24)
+        boxes = held * survey_pieces(nx, ny) * 24  # per piece of a z layer, its box, a band
+        out = self._resources.buffer("volume_survey", boxes) if survey else None
         return LatticeBands(
-            field, lattice, buffer, band_bytes, gl=self._gl, survey_out=out, jacobians=jacobians
+            *(field, lattice, buffer, band_bytes),
+            gl=self._gl,
+            survey_out=out,
+            jacobians=jacobians,
+            spares=(self._resources, "volume_lattice", slabs.band_bytes // band_bytes),
         )
 
     def _jacobians(

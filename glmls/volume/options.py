@@ -254,9 +254,10 @@ class SlabOptions:
     band_bytes : int, default 2**28
         The deformed lattice's buffer (12 bytes a lattice point; the backward method at grid
         2 and above adds f's inverse Jacobians, 48 bytes a point, and holds at least four
-        layers of points); the GL limit of a storage buffer caps the buffer (128 MiB on
-        llvmpipe). The default holds the whole lattice of a 256^3 volume at grid 1 (204 MB),
-        evaluated once.
+        layers of points), in buffers of at most the GL limit of a storage buffer (128 MiB
+        on llvmpipe): as many bands as it holds are kept at once, each evaluated once for
+        a slab's passes. The default holds the whole lattice of a 256^3 volume at grid 1
+        (204 MB; two buffers on llvmpipe).
     texture_bytes : int, default 2**30
         The source volume's texture: a larger volume is held a range of slices at a time,
         those each slab (and each band of the lattice) samples.
