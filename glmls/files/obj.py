@@ -33,6 +33,7 @@ import numpy as np
 
 from .parsing import brief, first_not_number, is_number
 from .ply import MeshContent
+from .ply_write import per_vertex
 
 __all__ = ["obj_text", "read_obj"]
 
@@ -143,13 +144,7 @@ def _normals(
         unkept["normals (not on every face)"] = None
         return None
     indices = np.array(corners, dtype=np.int64).reshape(-1, 3)
-    beyond = (indices >= len(normals)).any(axis=1)
-    if beyond.any():  # a positive index may name a vn read later, or none
-        row = int(np.argmax(beyond))
-        raise ValueError(
-            f"line {lines[row]}: normal {int(indices[row].max()) + 1} of a face, "
-            f"with {len(normals)} in the file"
-        )
+    _check_named(indices, len(normals), lines, "normal")
     values = np.zeros((len(normals), 3))
     for row, (number, given) in enumerate(normals):
         # decimal numbers as every other line's (not Python's "1_0" or other scripts' digits)
@@ -159,13 +154,23 @@ def _normals(
         values[row] = numbers
     if len(values) == count and (indices == faces).all():
         return values  # one per vertex, in order: those of vertices of no face too
-    out = np.zeros((count, 3))
-    at = values[indices.ravel()]
-    out[faces.ravel()] = at  # one of each vertex's corners; then every one checked against it
-    if (out[faces.ravel()] == at).all():
-        return out
-    unkept["normals (a vertex has several: hard edges)"] = None
-    return None
+    out = per_vertex(count, faces, values, indices)
+    if out is None:
+        unkept["normals (a vertex has several: hard edges)"] = None
+    return out
+
+
+def _check_named(indices: np.ndarray, count: int, lines: list[int], what: str) -> None:
+    """``ValueError`` saying the line (of the file's ``lines``, one per row of ``indices``)
+    of the first face whose (F, 3) 0-based ``indices`` name a ``what`` past the ``count`` in
+    the file: a positive index may name one read later, or none."""
+    beyond = (indices >= count).any(axis=1)
+    if beyond.any():
+        row = int(np.argmax(beyond))
+        raise ValueError(
+            f"line {lines[row]}: {what} {int(indices[row].max()) + 1} of a face, "
+            f"with {count} in the file"
+        )
 
 
 def _texture_indices(number: int, fields: list[str], count: int) -> list[int] | None:
@@ -203,13 +208,7 @@ def _texture(
         unkept["texture coordinates (not on every face)"] = None
         return None, None
     face_uv = np.array(corners, dtype=np.int64)
-    beyond = (face_uv >= len(textures)).any(axis=1)
-    if beyond.any():  # a positive index may name a vt read later, or none
-        row = int(np.argmax(beyond))
-        raise ValueError(
-            f"line {lines[row]}: texture coordinate {int(face_uv[row].max()) + 1} of a face, "
-            f"with {len(textures)} in the file"
-        )
+    _check_named(face_uv, len(textures), lines, "texture coordinate")
     uv = np.zeros((len(textures), 2))
     for row, (number, values) in enumerate(textures):
         numbers = [float(v) if is_number(v) else np.nan for v in values[:3]]

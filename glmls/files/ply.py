@@ -381,8 +381,8 @@ def read_ply(content: bytes) -> MeshContent:
         raise ValueError("no vertex element with x, y and z")
     vertices = np.stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"], axis=1)
     colors, channels = _vertex_colors(elements, vertex)
-    uv, uv_names = _vertex_uv(elements, vertex)
-    normals, normal_names = _vertex_normals(elements, vertex)
+    uv, uv_names = _vertex_scalars(elements, vertex, _UV_PAIRS, "texture coordinate")
+    normals, normal_names = _vertex_scalars(elements, vertex, _NORMAL_TRIPLES, "normal")
     face = found.get("face", {})
     name = _face_list(elements, face)
     unkept = _unkept(elements, {"x", "y", "z", *channels, *uv_names, *normal_names}, name)
@@ -406,47 +406,28 @@ def _triangles(polygons: object) -> np.ndarray:
     return fan_triangles(list(polygons))  # type: ignore[call-overload]
 
 
-def _vertex_uv(
-    elements: list[_Element], vertex: dict[str, object]
+def _vertex_scalars(
+    elements: list[_Element],
+    vertex: dict[str, object],
+    groups: tuple[tuple[str, ...], ...],
+    what: str,
 ) -> tuple[np.ndarray | None, tuple[str, ...]]:
-    """(the (V, 2) float64 texture coordinates of the vertices, or None; the properties they
-    are of): the first pair of :data:`_UV_PAIRS` that are both scalars of the vertex element;
-    ``ValueError`` naming the first vertex of one that is not finite."""
+    """(the (V, K) float64 values of the first of ``groups`` (K property names each) that
+    are all scalars of the vertex element, or None; those names); ``ValueError`` naming the
+    first vertex of a value that is not finite (as a ``what``)."""
     element = [e for e in elements if e.name == "vertex"][-1]
     scalars = {p.name for p in element.properties if p.count is None}
-    pair = next((pair for pair in _UV_PAIRS if set(pair) <= scalars), None)
-    if pair is None:
+    names = next((group for group in groups if set(group) <= scalars), None)
+    if names is None:
         return None, ()
-    uv = np.stack([np.asarray(vertex[name], dtype=np.float64) for name in pair], axis=1)
-    finite = np.isfinite(uv).all(axis=1)
+    values = np.stack([np.asarray(vertex[name], dtype=np.float64) for name in names], axis=1)
+    finite = np.isfinite(values).all(axis=1)
     if not finite.all():
         row = int(np.argmin(finite))
         raise ValueError(
-            f"vertex {row}: texture coordinate {pair[0]}, {pair[1]} = "
-            f"{uv[row].tolist()}, not finite"
+            f"vertex {row}: {what} {', '.join(names)} = {values[row].tolist()}, not finite"
         )
-    return uv.reshape(-1, 2), pair
-
-
-def _vertex_normals(
-    elements: list[_Element], vertex: dict[str, object]
-) -> tuple[np.ndarray | None, tuple[str, ...]]:
-    """(the (V, 3) float64 normals of the vertices, or None; the properties they are of): the
-    first triple of :data:`_NORMAL_TRIPLES` that are all scalars of the vertex element;
-    ``ValueError`` naming the first vertex of one that is not finite."""
-    element = [e for e in elements if e.name == "vertex"][-1]
-    scalars = {p.name for p in element.properties if p.count is None}
-    triple = next((triple for triple in _NORMAL_TRIPLES if set(triple) <= scalars), None)
-    if triple is None:
-        return None, ()
-    normals = np.stack([np.asarray(vertex[name], dtype=np.float64) for name in triple], axis=1)
-    finite = np.isfinite(normals).all(axis=1)
-    if not finite.all():
-        row = int(np.argmin(finite))
-        raise ValueError(
-            f"vertex {row}: normal {', '.join(triple)} = {normals[row].tolist()}, not finite"
-        )
-    return normals.reshape(-1, 3), triple
+    return values.reshape(-1, len(names)), names
 
 
 def _vertex_colors(

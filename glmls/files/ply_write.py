@@ -13,7 +13,7 @@ import numpy as np
 
 from .ply import COLORS
 
-__all__ = ["ply_bytes", "vertex_uv"]
+__all__ = ["per_vertex", "ply_bytes", "vertex_uv"]
 
 
 def vertex_uv(
@@ -24,10 +24,20 @@ def vertex_uv(
     no face; None where a vertex has several (a seam) or there are none."""
     if uv is None or face_uv is None:
         return None
-    corners, at = faces.ravel(), uv[face_uv.ravel()]
-    out = np.zeros((count, 2))
-    out[corners] = at  # one of each vertex's corners; then every one checked against it
-    return out if (out[corners] == at).all() else None
+    return per_vertex(count, faces, uv, face_uv)
+
+
+def per_vertex(
+    count: int, faces: np.ndarray, values: np.ndarray, corners: np.ndarray
+) -> np.ndarray | None:
+    """The (``count``, K) values of the vertices, from (N, K) ``values`` and the (F, 3)
+    indices ``corners`` into them of each face's corners, where every corner of a vertex has
+    the same one (equal values: the indices may differ); zeros for a vertex of no face; None
+    where a vertex has several."""
+    vertices, at = faces.ravel(), values[corners.ravel()]
+    out = np.zeros((count, values.shape[1]))
+    out[vertices] = at  # one of each vertex's corners; then every one checked against it
+    return out if (out[vertices] == at).all() else None
 
 
 def ply_bytes(
