@@ -5,8 +5,12 @@ are described in :mod:`glmls.files.volumes`."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import gzip
+import logging
+import threading
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -179,6 +183,61 @@ def _nibabel():
     return nibabel
 
 
+_quiet_lock = threading.Lock()
+_quiet_depth = 0
+
+
+@contextlib.contextmanager
+def _quiet_nibabel(nib: object) -> Iterator[None]:
+    """Within the block, nibabel's header repairs (``pixdim[1,2,3] should be non-zero;
+    setting 0 dims to 1``), which it logs to stderr, are dropped; its logger is as it was
+    after the last of nested or concurrent blocks. Not nibabel's own
+    ``LoggingOutputSuppressor``: it loses the logger's handlers, after which Python's
+    last-resort handler prints the repairs all the same."""
+    global _quiet_depth
+    logger: logging.Logger = nib.imageglobals.logger
+    with _quiet_lock:
+        if _quiet_depth == 0:
+            logger.disabled = True
+        _quiet_depth += 1
+    try:
+        yield
+    finally:
+        with _quiet_lock:
+            _quiet_depth -= 1
+            if _quiet_depth == 0:
+                logger.disabled = False
+
+
+#: The first bytes of a gzip stream.
+_GZIP_MAGIC = b"\x1f\x8b"
+#: The first 4 bytes of a NIfTI-1 or NIfTI-2 file (its header's size, 348 or 540), in
+#: either byte order.
+_NIFTI_STARTS = tuple(size.to_bytes(4, order) for size in (348, 540) for order in ("little", "big"))
+
+
+def _check_compression(path: Path) -> None:
+    """``InputFileError`` for a file whose name says the other of gzipped and plain NIfTI
+    (nibabel goes by the name, and its message for a gzip stream named ``.nii`` does not say
+    why)."""
+    try:
+        with path.open("rb") as file:
+            start = file.read(4)
+    except OSError:
+        return  # nibabel's own error names it
+    named = path.name.lower().endswith(".gz")
+    if start[:2] == _GZIP_MAGIC and not named:
+        raise InputFileError(
+            f"{path}: a gzip-compressed file named {path.suffix}: name it .nii.gz, or "
+            "decompress it (gunzip)"
+        )
+    if named and start in _NIFTI_STARTS:
+        raise InputFileError(
+            f"{path}: not gzip-compressed, though named .gz: name it .nii (a NIfTI file), or "
+            "compress it (gzip)"
+        )
+
+
 def read_nifti(path: Path) -> tuple[np.ndarray, np.ndarray, NiftiHeader]:
     """(data (z, y, x[, C]), the affine (4, 4) float64, the header's fields) of a NIfTI
     file; ``InputFileError`` naming it where it is not one glmls reads."""
@@ -188,8 +247,9 @@ def read_nifti(path: Path) -> tuple[np.ndarray, np.ndarray, NiftiHeader]:
         nib.spatialimages.HeaderDataError,
         nib.spatialimages.HeaderTypeError,
     )
+    _check_compression(path)
     try:
-        with nib.imageglobals.LoggingOutputSuppressor():  # its repairs, logged to stderr
+        with _quiet_nibabel(nib):  # its repairs, logged to stderr
             image = nib.load(path)
     except refused as error:  # no NIfTI, or a header of a dimension or dtype NIfTI has not
         raise InputFileError(f"{path}: not a NIfTI file: {one_line(error)}") from None

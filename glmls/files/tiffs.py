@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import struct
 import threading
 from collections.abc import Iterator
 
@@ -16,6 +17,7 @@ import numpy as np
 
 __all__ = [
     "TIFF_SIGNATURES",
+    "broken_chain",
     "check_stack",
     "orient",
     "quiet_tifffile",
@@ -76,6 +78,43 @@ def quiet_tifffile() -> Iterator[None]:
             _depth -= 1
             if _depth == 0:
                 logger.setLevel(_level)
+
+
+def broken_chain(tiff: object) -> str | None:
+    """Why the chain of a TIFF's pages (each page's tags, then the offset of the next page's,
+    0 after the last) breaks off, in words: a page whose tags run past the file's end, or
+    that links to a next page past it or back to one before it, as in a stack cut short by
+    a copy; None for a chain that ends as TIFF's do. tifffile gives the pages before the
+    break as the whole file (a stack cut short as a shorter stack, or as one image), or
+    takes bytes of a cut page for the link to another."""
+    if not len(tiff.pages):
+        return None
+    fmt, handle = tiff.tiff, tiff.filehandle
+    size, offset, index, seen = handle.size, tiff.pages[0].offset, 0, {}
+    while True:
+        seen[offset] = index
+        handle.seek(offset)
+        count = handle.read(fmt.tagnosize)
+        end = offset + fmt.tagnosize + fmt.offsetsize
+        if len(count) == fmt.tagnosize:
+            end += struct.unpack(fmt.tagnoformat, count)[0] * fmt.tagsize
+        if len(count) < fmt.tagnosize or end > size:
+            return (
+                f"cut short or damaged: the tags of page {index} run past the file's end "
+                f"({size} bytes)"
+            )
+        handle.seek(end - fmt.offsetsize)
+        following = struct.unpack(fmt.offsetformat, handle.read(fmt.offsetsize))[0]
+        if following == 0:
+            return None
+        if following >= size:
+            return (
+                f"cut short or damaged: page {index} links to a next page at byte "
+                f"{following}, past the file's end ({size} bytes)"
+            )
+        if following in seen:
+            return f"damaged: page {index} links back to page {seen[following]}, a loop"
+        offset, index = following, index + 1
 
 
 def check_stack(path: object, tiff: object, series: object) -> None:

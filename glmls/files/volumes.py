@@ -65,6 +65,7 @@ from .nifti import NiftiHeader, one_line, read_nifti, write_nifti
 from .parsing import not_a_file
 from .tiffs import (
     TIFF_SIGNATURES,
+    broken_chain,
     check_stack,
     orient,
     quiet_tifffile,
@@ -132,9 +133,10 @@ def is_volume_file(path: str | os.PathLike) -> bool:
     file is opened to count them; a TIFF that does not exist yet is not a volume, nor a
     ``.tif`` file of another format by its first bytes, such as a PNG; an image
     with a thumbnail or a pyramid of smaller pages is an image). ``InputFileError`` for an
-    existing TIFF file of no readable page, or of pages that are the channels or time
-    points of one 2D image (axes ``CYX``, ``TYX``: neither a volume nor an image glmls
-    reads whole)."""
+    existing ``.tif`` file that is empty, a TIFF file of no readable page or whose chain of
+    pages breaks off (cut short: its pages before the break are not the file's), or of
+    pages that are the channels or time points of one 2D image (axes ``CYX``, ``TYX``:
+    neither a volume nor an image glmls reads whole)."""
     suffix = volume_suffix(path)
     if suffix in (".nii", ".nii.gz", ".npy"):
         return True
@@ -142,18 +144,24 @@ def is_volume_file(path: str | os.PathLike) -> bool:
         return False
     try:  # by content: a PNG or JPEG named .tif is an image, as imread reads it
         with open(path, "rb") as file:
-            if file.read(4) not in TIFF_SIGNATURES:
-                return False
+            start = file.read(4)
     except OSError:
-        pass  # unreadable: tifffile's error below names it
+        start = TIFF_SIGNATURES[0]  # unreadable: tifffile's error below names it
+    if not start:  # neither: its handles would be refused for a volume's or an image's
+        raise InputFileError(f"{path}: an empty file (0 bytes), not a TIFF file")
+    if start not in TIFF_SIGNATURES:
+        return False
     try:
         with quiet_tifffile(), tifffile.TiffFile(path) as tiff:
             pages = len(tiff.pages)
+            broken = broken_chain(tiff)
             stacked = len(tiff.series[0].pages) if pages and tiff.series else pages
             series = tiff.series[0] if stacked > 1 else None
             axes, shape = (series.axes, series.shape) if series is not None else ("", ())
     except (tifffile.TiffFileError, *_CORRUPT) as error:
         raise InputFileError(f"{path}: not a readable TIFF file: {error}") from None
+    if broken is not None:
+        raise InputFileError(f"{path}: not a readable TIFF file: {broken}")
     if pages == 0:
         raise InputFileError(f"{path}: not a readable TIFF file: no page")
     if stacked > 1:
@@ -489,6 +497,9 @@ def _read_tiff(path: Path) -> Volume:
     with tifffile.TiffFile(path) as tiff:
         if len(tiff.pages) == 0:
             raise InputFileError(f"{path}: not a readable {path.suffix.lower()} volume: no pages")
+        broken = broken_chain(tiff)
+        if broken is not None:
+            raise InputFileError(f"{path}: not a readable {path.suffix.lower()} volume: {broken}")
         if len(tiff.pages) == 1:
             raise InputFileError(
                 f"{path}: a TIFF of one page is an image (glmls.imread), not a volume"
@@ -497,6 +508,10 @@ def _read_tiff(path: Path) -> Volume:
         try:
             check_stack(path, tiff, series)
             orientation = stack_orientation(path, tiff, series)
+        except tifffile.TiffFileError as error:  # a page's tags (a ValueError too)
+            raise InputFileError(
+                f"{path}: not a readable {path.suffix.lower()} volume: {error}"
+            ) from None
         except ValueError as error:
             raise InputFileError(str(error)) from None
         data, axes = series.asarray(), series.axes
