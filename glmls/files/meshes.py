@@ -323,6 +323,9 @@ def _read_stl(path: Path, content: bytes) -> MeshContent:
     """The merged corners of an STL file (:func:`_merge_corners`), and its per-face attribute
     bytes named where some are set (some tools keep face colours there)."""
     trimesh = _trimesh()
+    fault = _binary_stl_fault(content)
+    if fault is not None:
+        raise InputFileError(f"{path}: not a readable .stl mesh: {fault}")
     try:
         _check_stl_text(content)
         loaded = _load(trimesh, content, ".stl", "mesh")
@@ -339,17 +342,44 @@ def _read_stl(path: Path, content: bytes) -> MeshContent:
     return MeshContent(vertices, faces, None, ("face attributes (colours)",) if set_ else ())
 
 
+def _binary_stl_fault(content: bytes) -> str | None:
+    """What is wrong with a binary STL file (a NUL byte after its 80-byte header, in the
+    first 4 KiB: no text holds one, and the count's high bytes, most float32s and the
+    triangles' 2-byte attributes are 0) whose size is not the 84 + 50 N bytes of the N
+    triangles its header counts: cut short, or bytes after them; None for any other file.
+    trimesh reads such a file as ASCII, finding no triangles in it."""
+    if len(content) < 84 or b"\0" not in content[80:4096]:
+        return None
+    count = int.from_bytes(content[80:84], "little")
+    expected = 84 + 50 * count
+    if expected == len(content):
+        return None
+    counted = f"a binary STL whose header counts {count} triangles ({expected} bytes)"
+    if len(content) < expected:
+        return f"{counted}, but the file has {len(content)} bytes: cut short"
+    return (
+        f"{counted}, but the file has {len(content) - expected} bytes after them (a "
+        "wrong count in the header?)"
+    )
+
+
 def _check_stl_text(content: bytes) -> None:
     """``ValueError`` naming the line of an ASCII STL file's ``vertex x y z`` or ``facet
     normal x y z`` whose numbers are not three decimal numbers
-    (:func:`glmls.files.parsing.is_number`); nothing for a binary file (whose header counts
-    its 50-byte triangles), which trimesh tells apart the same way."""
+    (:func:`glmls.files.parsing.is_number`), or of its last ``solid`` without its
+    ``endsolid`` (cut short: trimesh reads the solids before it as the whole file, or none);
+    nothing for a binary file (whose header counts its 50-byte triangles), which trimesh
+    tells apart the same way."""
     if len(content) >= 84 and 84 + 50 * int.from_bytes(content[80:84], "little") == len(content):
         return
     text = content.decode("utf-8", errors="replace")
+    opened = None  # the line of the solid not yet ended
     for number, line in enumerate(text.splitlines(), start=1):
         words = line.split()
         keyword = [word.lower() for word in words[:2]]
+        if keyword[:1] in (["solid"], ["endsolid"]):
+            opened = number if keyword[0] == "solid" else None
+            continue
         skip = 1 if keyword[:1] == ["vertex"] else 2 if keyword == ["facet", "normal"] else 0
         if not skip:
             continue
@@ -360,6 +390,8 @@ def _check_stl_text(content: bytes) -> None:
         # a normal of nan (a degenerate facet's, as some tools write it) is not kept
         if skip == 1 and not np.isfinite([float(word) for word in numbers]).all():
             raise ValueError(f"line {number}: vertex {brief(' '.join(numbers))}, not finite")
+    if opened is not None:
+        raise ValueError(f"line {opened}: a solid without its endsolid line: cut short")
 
 
 def _merge_corners(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
