@@ -24,6 +24,7 @@ import numpy as np
 from ..core.config import check_choice, check_flag, check_integer, check_real
 
 __all__ = [
+    "MAX_HANDLES",
     "PRESETS",
     "GridPreset",
     "LandmarksPreset",
@@ -35,10 +36,25 @@ __all__ = [
 
 UNITS = ("fraction", "pixels")
 
+#: The most handles a ``grid`` or text preset draws per image (``rows * cols``,
+#: ``2 (segments + 1)``): 2**20, a 1024 x 1024 grid. Its points cost 16 bytes each several
+#: times over as they are drawn, and a count in the billions would exhaust the memory before
+#: :func:`glmls.warp_batch` could refuse it.
+MAX_HANDLES = 1 << 20
+
 
 def _check_count(preset: object, name: str, low: int) -> None:
     """``preset``'s ``name``, an integer >= ``low``, stored as an int."""
     object.__setattr__(preset, name, check_integer(name, getattr(preset, name), low))
+
+
+def _check_handles(count: int, spelled: str) -> None:
+    """``ValueError`` for a preset whose ``count`` handles (``spelled`` out from its options)
+    exceed :data:`MAX_HANDLES`."""
+    if count > MAX_HANDLES:
+        raise ValueError(
+            f"{spelled} = {count:,} handles per image; at most {MAX_HANDLES:,}: use fewer"
+        )
 
 
 def _check_length(preset: object, name: str, *, optional: bool = False) -> None:
@@ -91,7 +107,7 @@ class GridPreset:
     Parameters
     ----------
     rows, cols : int, default 4
-        The grid's size (>= 2 each).
+        The grid's size (>= 2 each; ``rows * cols`` at most :data:`MAX_HANDLES`, 2**20).
     displacement : float, default 0.03
         The largest offset per axis: a fraction of the image's width (x) and height (y)
         with ``units="fraction"``, pixels with ``units="pixels"``.
@@ -125,6 +141,7 @@ class GridPreset:
     def __post_init__(self) -> None:
         _check_count(self, "rows", 2)
         _check_count(self, "cols", 2)
+        _check_handles(self.rows * self.cols, f"rows * cols = {self.rows} * {self.cols}")
         _check_length(self, "displacement")
         _check_units(self.units)
 
@@ -175,6 +192,7 @@ class _TextPreset:
 
     def __post_init__(self) -> None:
         _check_count(self, "segments", 1)
+        _check_handles(2 * (self.segments + 1), f"2 (segments + 1) = 2 ({self.segments} + 1)")
         _check_length(self, "radius", optional=True)
 
     def _default_radius(self, shape: tuple[int, int]) -> float:
@@ -226,7 +244,8 @@ class TextDistortPreset(_TextPreset):
     Parameters
     ----------
     segments : int, default 4
-        The patches along the width (2 (segments + 1) fiducial points).
+        The patches along the width (2 (segments + 1) fiducial points, at most
+        :data:`MAX_HANDLES`).
     radius : float or None, default None
         R in pixels; None: W / segments / 3.
 
@@ -272,7 +291,8 @@ class TextStretchPreset(_TextPreset):
     Parameters
     ----------
     segments : int, default 4
-        The patches along the width (2 (segments + 1) fiducial points).
+        The patches along the width (2 (segments + 1) fiducial points, at most
+        :data:`MAX_HANDLES`).
     radius : float or None, default None
         R in pixels; None: 4/5 W / segments.
 
@@ -321,7 +341,8 @@ class TextPerspectivePreset(_TextPreset):
     Parameters
     ----------
     segments : int, default 4
-        The patches along the width (2 (segments + 1) fiducial points).
+        The patches along the width (2 (segments + 1) fiducial points, at most
+        :data:`MAX_HANDLES`).
     radius : float or None, default None
         R in pixels; None: H / 2.
 
