@@ -16,6 +16,7 @@ torch tensors too, in torch's layout, of their dtype and on their device (:doc:`
 from .core import DEFAULT_WARP_OPTIONS, Augment, AugmentResult
 from .labels import box_outlines, boxes_from_outlines, clip_polygon, densify_polygon
 from .presets import (
+    MAX_HANDLES,
     PRESETS,
     GridPreset,
     LandmarksPreset,
@@ -26,6 +27,7 @@ from .presets import (
 
 __all__ = [
     "DEFAULT_WARP_OPTIONS",
+    "MAX_HANDLES",
     "PRESETS",
     "Augment",
     "AugmentResult",

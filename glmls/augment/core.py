@@ -83,16 +83,18 @@ class AugmentResult(BatchResult):
 _UNRECORDED = ("ctx",)
 
 
-def _check_reach(preset: object, dst: np.ndarray, index: int) -> None:
-    """A draw whose handles leave the coordinate range (the GPU's float32 keeps ~1e-7 of
-    it) names the preset's magnitude that sent them there."""
-    reach = float(np.abs(dst).max()) if np.size(dst) else 0.0
+def _check_reach(preset: object, reach: float, index: int) -> None:
+    """A preset whose draws can take handles out of the coordinate range (the GPU's float32
+    keeps ~1e-7 of it) names the magnitude that would send them there. ``reach`` is the
+    preset's bound for the image, not one draw's extent: whether an image is refused does
+    not hang on its random numbers (a run over a data set does not stop at one unlucky
+    sample)."""
     if reach <= COORDINATE_LIMIT:
         return
     names = [f for f in ("displacement", "radius", "units") if hasattr(preset, f)]
     given = ", ".join(f"{f}={getattr(preset, f)!r}" for f in names)
     raise ValueError(
-        f"images[{index}]: the {preset.name} preset's {given} moves handles to "  # type: ignore[attr-defined]
+        f"images[{index}]: the {preset.name} preset's {given} can move handles to "  # type: ignore[attr-defined]
         f"{reach:g} px, beyond ±{COORDINATE_LIMIT:g} px: use a smaller magnitude"
     )
 
@@ -400,7 +402,7 @@ class Augment:
                 src, dst = self.preset.draw(rng, tuple(shape), marks)
             except ValueError as error:
                 raise ValueError(f"images[{i}]: {error}") from None
-            _check_reach(self.preset, dst, i)
+            _check_reach(self.preset, self.preset.reach(tuple(shape), marks), i)
             params.append(
                 {
                     "preset": self.preset.name,

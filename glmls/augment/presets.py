@@ -24,6 +24,7 @@ import numpy as np
 from ..core.config import check_choice, check_flag, check_integer, check_real
 
 __all__ = [
+    "MAX_HANDLES",
     "PRESETS",
     "GridPreset",
     "LandmarksPreset",
@@ -35,10 +36,25 @@ __all__ = [
 
 UNITS = ("fraction", "pixels")
 
+#: The most handles a ``grid`` or text preset draws per image (``rows * cols``,
+#: ``2 (segments + 1)``): 2**20, a 1024 x 1024 grid. Its points cost 16 bytes each several
+#: times over as they are drawn, and a count in the billions would exhaust the memory before
+#: :func:`glmls.warp_batch` could refuse it.
+MAX_HANDLES = 1 << 20
+
 
 def _check_count(preset: object, name: str, low: int) -> None:
     """``preset``'s ``name``, an integer >= ``low``, stored as an int."""
     object.__setattr__(preset, name, check_integer(name, getattr(preset, name), low))
+
+
+def _check_handles(count: int, spelled: str) -> None:
+    """``ValueError`` for a preset whose ``count`` handles (``spelled`` out from its options)
+    exceed :data:`MAX_HANDLES`."""
+    if count > MAX_HANDLES:
+        raise ValueError(
+            f"{spelled} = {count:,} handles per image; at most {MAX_HANDLES:,}: use fewer"
+        )
 
 
 def _check_length(preset: object, name: str, *, optional: bool = False) -> None:
@@ -70,8 +86,13 @@ def _fiducials(shape: tuple[int, int], segments: int) -> tuple[np.ndarray, np.nd
 def _jitter(rng, size, shape: tuple[int, int], displacement: float, units: str) -> np.ndarray:
     """Random offsets within +-``displacement`` per axis, in pixels or fractions of the
     image's (W, H)."""
+    return rng.uniform(-1.0, 1.0, size=size) * _largest_offset(shape, displacement, units)
+
+
+def _largest_offset(shape: tuple[int, int], displacement: float, units: str) -> np.ndarray:
+    """The largest offset (x, y) of :func:`_jitter`, in pixels."""
     scale = np.array([shape[1], shape[0]], np.float64) if units == "fraction" else 1.0
-    return rng.uniform(-1.0, 1.0, size=size) * displacement * scale
+    return displacement * scale * np.ones(2)
 
 
 def _pairs(xs_top, ys_top, xs_bottom, ys_bottom) -> np.ndarray:
@@ -91,7 +112,7 @@ class GridPreset:
     Parameters
     ----------
     rows, cols : int, default 4
-        The grid's size (>= 2 each).
+        The grid's size (>= 2 each; ``rows * cols`` at most :data:`MAX_HANDLES`, 2**20).
     displacement : float, default 0.03
         The largest offset per axis: a fraction of the image's width (x) and height (y)
         with ``units="fraction"``, pixels with ``units="pixels"``.
@@ -125,6 +146,7 @@ class GridPreset:
     def __post_init__(self) -> None:
         _check_count(self, "rows", 2)
         _check_count(self, "cols", 2)
+        _check_handles(self.rows * self.cols, f"rows * cols = {self.rows} * {self.cols}")
         _check_length(self, "displacement")
         _check_units(self.units)
 
@@ -160,6 +182,30 @@ class GridPreset:
         src = np.stack([xs.ravel(), ys.ravel()], axis=1)
         return src, src + _jitter(rng, src.shape, shape, self.displacement, self.units)
 
+    def reach(self, shape: tuple[int, int], landmarks=None) -> float:
+        """The largest ``|x|`` or ``|y|`` that a draw can give a handle (a bound).
+
+        Parameters
+        ----------
+        shape : (int, int)
+            The image's (H, W).
+        landmarks : None
+            Not used.
+
+        Returns
+        -------
+        float
+            Pixels: the image's far edge plus the largest offset, per axis.
+
+        Examples
+        --------
+        >>> from glmls.augment import GridPreset
+        >>> GridPreset(displacement=3, units="pixels").reach((8, 20))
+        22.5
+        """
+        dx, dy = _largest_offset(shape, self.displacement, self.units)
+        return float(max(shape[1] - 0.5 + dx, shape[0] - 0.5 + dy))
+
 
 @dataclass(frozen=True, kw_only=True)
 class _TextPreset:
@@ -175,6 +221,7 @@ class _TextPreset:
 
     def __post_init__(self) -> None:
         _check_count(self, "segments", 1)
+        _check_handles(2 * (self.segments + 1), f"2 (segments + 1) = 2 ({self.segments} + 1)")
         _check_length(self, "radius", optional=True)
 
     def _default_radius(self, shape: tuple[int, int]) -> float:
@@ -215,6 +262,30 @@ class _TextPreset:
         src = _pairs(xs, np.full(count, top), xs, np.full(count, bottom))
         return src, self._move(rng, xs, top, bottom, radius, src)
 
+    def reach(self, shape: tuple[int, int], landmarks=None) -> float:
+        """The largest ``|x|`` or ``|y|`` that a draw can give a handle (a bound).
+
+        Parameters
+        ----------
+        shape : (int, int)
+            The image's (H, W).
+        landmarks : None
+            Not used.
+
+        Returns
+        -------
+        float
+            Pixels: the image's far edge plus the radius R (no point moves further).
+
+        Examples
+        --------
+        >>> from glmls.augment import TextDistortPreset
+        >>> TextDistortPreset(radius=4).reach((32, 120))
+        123.5
+        """
+        radius = self._default_radius(shape) if self.radius is None else float(self.radius)
+        return float(max(shape) - 0.5 + radius)
+
 
 @dataclass(frozen=True, kw_only=True)
 class TextDistortPreset(_TextPreset):
@@ -226,7 +297,8 @@ class TextDistortPreset(_TextPreset):
     Parameters
     ----------
     segments : int, default 4
-        The patches along the width (2 (segments + 1) fiducial points).
+        The patches along the width (2 (segments + 1) fiducial points, at most
+        :data:`MAX_HANDLES`).
     radius : float or None, default None
         R in pixels; None: W / segments / 3.
 
@@ -248,6 +320,7 @@ class TextDistortPreset(_TextPreset):
 
     name = "text-distort"
     draw = _TextPreset.draw  # listed among this preset's own methods
+    reach = _TextPreset.reach
 
     def _default_radius(self, shape: tuple[int, int]) -> float:
         return shape[1] / self.segments / 3
@@ -272,7 +345,8 @@ class TextStretchPreset(_TextPreset):
     Parameters
     ----------
     segments : int, default 4
-        The patches along the width (2 (segments + 1) fiducial points).
+        The patches along the width (2 (segments + 1) fiducial points, at most
+        :data:`MAX_HANDLES`).
     radius : float or None, default None
         R in pixels; None: 4/5 W / segments.
 
@@ -297,6 +371,7 @@ class TextStretchPreset(_TextPreset):
 
     name = "text-stretch"
     draw = _TextPreset.draw  # listed among this preset's own methods
+    reach = _TextPreset.reach
 
     def _default_radius(self, shape: tuple[int, int]) -> float:
         return shape[1] * 4 / 5 / self.segments
@@ -321,7 +396,8 @@ class TextPerspectivePreset(_TextPreset):
     Parameters
     ----------
     segments : int, default 4
-        The patches along the width (2 (segments + 1) fiducial points).
+        The patches along the width (2 (segments + 1) fiducial points, at most
+        :data:`MAX_HANDLES`).
     radius : float or None, default None
         R in pixels; None: H / 2.
 
@@ -346,6 +422,7 @@ class TextPerspectivePreset(_TextPreset):
 
     name = "text-perspective"
     draw = _TextPreset.draw  # listed among this preset's own methods
+    reach = _TextPreset.reach
 
     def _default_radius(self, shape: tuple[int, int]) -> float:
         return shape[0] / 2
@@ -453,6 +530,33 @@ class LandmarksPreset:
             dst = np.where(pinned[:, None], points, dst)  # a landmark on a corner stays
             src, dst = np.concatenate([src, corners]), np.concatenate([dst, corners])
         return src, dst
+
+    def reach(self, shape: tuple[int, int], landmarks=None) -> float:
+        """The largest ``|x|`` or ``|y|`` that a draw can give a handle (a bound).
+
+        Parameters
+        ----------
+        shape : (int, int)
+            The image's (H, W).
+        landmarks : array_like or None
+            The image's (P, 2) landmarks.
+
+        Returns
+        -------
+        float
+            Pixels: the farthest landmark (or pinned corner) plus the largest offset.
+
+        Examples
+        --------
+        >>> from glmls.augment import LandmarksPreset
+        >>> LandmarksPreset(displacement=2, units="pixels").reach((8, 8), [[30.0, 4.0]])
+        32.0
+        """
+        points = np.zeros((0, 2)) if landmarks is None else np.asarray(landmarks, np.float64)
+        far = float(np.abs(points).max(initial=0.0))
+        if self.pin_corners:
+            far = max(far, shape[0] - 0.5, shape[1] - 0.5)
+        return far + float(_largest_offset(shape, self.displacement, self.units).max())
 
 
 #: The presets by name.

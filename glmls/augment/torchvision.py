@@ -338,9 +338,10 @@ class MLSTransform(v2.Transform):
             elif len(rest) == 1 and ours:
                 raise _batch_label_error(rest[0], count)
             elif rest:
+                # torchvision's boxes are (B, 4): no batch dimension to offer
+                other = "or ones with the batch as their first dimension" if ours else "in order"
                 raise ValueError(
-                    f"{len(rest)} {kind.__name__} for {count} samples: give one per sample, "
-                    "or ones with the batch as their first dimension"
+                    f"{len(rest)} {kind.__name__} for {count} samples: give one per sample, {other}"
                 )
         shapes = [(height, width)] * count
         landmarks = None

@@ -31,6 +31,7 @@ import numpy as np
 
 from ..analysis.jobs import check_jobs, check_scheduler, run_jobs
 from ..augment import PRESETS, Augment
+from ..core.handles import COORDINATE_LIMIT
 from ..files.atomic import remove_leftovers
 from ..files.images import WRITABLE, check_writable, image_bytes
 from ..files.parsing import read_text
@@ -291,8 +292,31 @@ def read_labels(path: str, files: list[Path]) -> dict[str, dict]:
                 )
             if not np.isfinite(array).all():
                 raise UsageError(f"{path}: {name!r} {key} holds values that are not finite")
+            _check_label_rows(array, f"{path}: {name!r} {key}", boxes=key == "boxes")
             entry[key] = array.tolist()
     return data
+
+
+def _check_label_rows(array: np.ndarray, name: str, *, boxes: bool) -> None:
+    """:class:`UsageError` naming the first row of a labels entry that lies beyond the
+    coordinate range, or a box whose maximum lies below its minimum: checked as the file is
+    read, in its own terms (:class:`Augment` would name the row by its place in a batch of
+    copies, after the work on the inputs before it)."""
+    reach = np.abs(array).max(axis=1, initial=0.0)
+    if len(array) and reach.max() > COORDINATE_LIMIT:
+        row = int(np.argmax(reach))
+        raise UsageError(
+            f"{name}[{row}] {array[row].tolist()} lies beyond ±{COORDINATE_LIMIT:g} px of "
+            "the origin"
+        )
+    if boxes:
+        wrong = np.flatnonzero((array[:, 2] < array[:, 0]) | (array[:, 3] < array[:, 1]))
+        if len(wrong):
+            row = int(wrong[0])
+            raise UsageError(
+                f"{name}[{row}] {array[row].tolist()} has x_max < x_min or y_max < y_min "
+                "(boxes are [x_min, y_min, x_max, y_max])"
+            )
 
 
 def _unique_keys(pairs: list[tuple[str, object]]) -> dict:
