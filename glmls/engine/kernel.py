@@ -27,7 +27,14 @@ from ..gl.context import GLContext
 from ..gl.dispatch import set_uniforms
 from ..gl.resources import Resources
 from .bins import BinBuffer, HandleBins, worth_binning
-from .storage import HandleStorage, check_storage, make_storage, resolve_storage, unroll_slots
+from .storage import (
+    HandleStorage,
+    capacity_advice,
+    check_storage,
+    make_storage,
+    resolve_storage,
+    unroll_slots,
+)
 
 __all__ = [
     "CAPPED_NEWTON_HANDLES",
@@ -241,7 +248,7 @@ class MLSKernel:
             )
             raise ValueError(
                 f"{what} exceed the {name} handle storage's capacity of {capacity} rows on "
-                "this GL driver; use storage='ssbo'"
+                f"this GL driver; {capacity_advice(self.gl.mgl, name, rows)}"
             )
         if storage is not self._storage:
             if self._storage is not None:

@@ -78,11 +78,31 @@ def _rows(
     return data, offset, len(points), len(segment_rows) // 2
 
 
-def _check_capacity(name: str, count: int, capacity: int) -> None:
+def capacities(ctx: moderngl.Context) -> dict[str, int]:
+    """The rows each of :data:`STORAGES` holds on ``ctx``'s driver."""
+    info = ctx.info
+    return {
+        "ssbo": int(info["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"]) // 16,
+        "ubo": int(info["GL_MAX_UNIFORM_BLOCK_SIZE"]) // 16,
+        "texture": int(info["GL_MAX_TEXTURE_SIZE"]) ** 2,
+    }
+
+
+def capacity_advice(ctx: moderngl.Context, name: str, rows: int) -> str:
+    """What to do where ``rows`` exceed storage ``name``'s capacity: the storage that holds
+    them on this driver, else fewer handles."""
+    held = capacities(ctx)
+    roomy = [other for other in STORAGES if other != name and held[other] >= rows]
+    if roomy:
+        return f"use storage={max(roomy, key=held.__getitem__)!r}"
+    return f"use fewer handles (every storage holds at most {max(held.values())} rows here)"
+
+
+def _check_capacity(ctx: moderngl.Context, name: str, count: int, capacity: int) -> None:
     if count > capacity:
         raise ValueError(
             f"{count} handles exceed the {name} handle storage's capacity of {capacity} on this "
-            "GL driver; use storage='ssbo'"
+            f"GL driver; {capacity_advice(ctx, name, count)}"
         )
 
 
@@ -121,7 +141,7 @@ class _BufferStorage:
 
     def _fill(self, packed: np.ndarray, segments: np.ndarray | None, reserve: int | None) -> None:
         rows, offset, count, segment_count = _rows(packed, segments, pad=True)
-        _check_capacity(self.name, len(rows), self.capacity)
+        _check_capacity(self._ctx, self.name, len(rows), self.capacity)
         data = rows.tobytes()
         self._write(data, reserve if reserve is not None else len(data))
         self.count, self.segments, self.segment_offset = count, segment_count, offset
@@ -144,7 +164,7 @@ class SSBOHandleStorage(_BufferStorage):
 
     @property
     def capacity(self) -> int:
-        return int(self._ctx.info["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"]) // 16
+        return capacities(self._ctx)["ssbo"]
 
     def upload(self, packed: np.ndarray, segments: np.ndarray | None = None) -> None:
         self._fill(packed, segments, None)
@@ -163,7 +183,7 @@ class UBOHandleStorage(_BufferStorage):
 
     @property
     def capacity(self) -> int:
-        return int(self._ctx.info["GL_MAX_UNIFORM_BLOCK_SIZE"]) // 16
+        return capacities(self._ctx)["ubo"]
 
     @property
     def defines(self) -> Mapping[str, int | bool]:
@@ -198,11 +218,11 @@ class TextureHandleStorage:
 
     @property
     def capacity(self) -> int:
-        return int(self._ctx.info["GL_MAX_TEXTURE_SIZE"]) ** 2
+        return capacities(self._ctx)["texture"]
 
     def upload(self, packed: np.ndarray, segments: np.ndarray | None = None) -> None:
         handles, offset, count, segment_count = _rows(packed, segments, pad=False)
-        _check_capacity("texture", len(handles), self.capacity)
+        _check_capacity(self._ctx, "texture", len(handles), self.capacity)
         side = int(self._ctx.info["GL_MAX_TEXTURE_SIZE"])
         width = max(1, min(len(handles), side))
         rows = max(1, -(-len(handles) // width))

@@ -10,7 +10,14 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 import glmls
 from glmls import reference
-from glmls.engine.storage import STORAGES, UBOHandleStorage, make_storage, unroll_slots
+from glmls.engine.storage import (
+    STORAGES,
+    UBOHandleStorage,
+    capacities,
+    capacity_advice,
+    make_storage,
+    unroll_slots,
+)
 
 SHAPE = (256, 256)
 
@@ -70,6 +77,28 @@ def test_bad_storage_and_capacity(gl):
     ):
         glmls.MLS(p, p, ctx=gl, storage="ubo")
     ubo.release()
+
+
+def test_capacity_advice_names_a_storage_that_holds_them(gl):
+    """Past one storage's capacity the message offers the storage that holds the handles on
+    this driver (the roomiest), not the one that failed; past every storage, fewer handles."""
+    held = capacities(gl.mgl)
+    for name in STORAGES:
+        advice = capacity_advice(gl.mgl, name, held[name] + 1)
+        roomy = [other for other in STORAGES if other != name and held[other] > held[name]]
+        if roomy:
+            assert advice == f"use storage={max(roomy, key=held.__getitem__)!r}"
+        else:
+            assert advice.startswith("use fewer handles")
+    assert capacity_advice(gl.mgl, "ssbo", max(held.values()) + 1).startswith(
+        "use fewer handles (every storage holds at most"
+    )
+    ubo = UBOHandleStorage(gl.mgl)
+    too_many = ubo.capacity + 1
+    ubo.release()
+    p = np.stack([np.arange(too_many), np.zeros(too_many)], -1).astype(float)
+    with pytest.raises(ValueError, match=r"use storage='(ssbo|texture)'"):
+        glmls.MLS(p, p, ctx=gl, storage="ubo")
 
 
 def test_capacities_meet_the_gl_guarantees(gl):
