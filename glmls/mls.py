@@ -156,7 +156,10 @@ class MLS(ForkSafe):
     TypeError
         For handles that are not real numbers, or a ``ctx`` of another type.
     glmls.DegenerateHandlesError
-        For an affine MLS whose source handles do not span the plane (3 points on a line).
+        For an affine MLS whose (N, 2) source handles do not span the plane (3 points on
+        a line). (N, 3) handles that do not span space are not refused: a ridge toward
+        the similarity solution decides what they leave free
+        (:doc:`the mathematics </mathematics>`).
     glmls.GLUnavailableError
         Where no OpenGL 4.3 context can be made.
 

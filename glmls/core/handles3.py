@@ -34,7 +34,8 @@ __all__ = [
 
 def dimension_of(src: object) -> int:
     """3 where ``src`` has shape (N, 3), else 2 (the 2D validation then speaks);
-    ``ValueError`` for (N, C) rows of another width C, which neither takes."""
+    ``ValueError`` for (N, C) rows of another width C, which neither takes, and for one
+    (x, y, z) handle given as a (3,) array (handles are rows: ``[[x, y, z]]``)."""
     try:
         shape = np.shape(src)
     except ValueError:  # ragged rows: the 2D validation names them
@@ -42,6 +43,10 @@ def dimension_of(src: object) -> int:
     if len(shape) == 2 and shape[0] and shape[1] not in (2, 3):
         raise ValueError(
             f"src must have shape (N, 2) as (x, y) rows or (N, 3) as (x, y, z) rows, got {shape}"
+        )
+    if shape == (3,):  # else the 2D validation would ask for (N, 2) rows
+        raise ValueError(
+            "src must have shape (N, 3) as (x, y, z) rows, got (3,): one handle is [[x, y, z]]"
         )
     return 3 if len(shape) == 2 and shape[1] == 3 else 2
 
