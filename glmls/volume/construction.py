@@ -12,10 +12,11 @@ deformed lattice is held band by band of z layers (:class:`LatticeBands`); then
   method on f refines them (the field's :meth:`refine`), and ``volume/sample.comp.glsl``
   samples the source there.
 
-The source volume is one texture where it fits, else the range of slices each band or slab
-samples (:mod:`.texture`). Every pass computes each voxel from the same inputs whatever the
-slab, band and range of slices it falls in (keys are global cell numbers): the slabbed result
-equals the one-piece result exactly.
+The source volume is one texture where it fits, else the slices each piece of a band
+(``quads``) or each sampling pass over a range of the slices a slab's points read
+(``backward``) samples (:mod:`.texture`). Every pass computes each voxel from the same
+inputs whatever the slab, band and slices it falls in (keys are global cell numbers): the
+slabbed result equals the one-piece result exactly.
 """
 
 from __future__ import annotations
