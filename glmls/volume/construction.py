@@ -12,10 +12,11 @@ deformed lattice is held band by band of z layers (:class:`LatticeBands`); then
   method on f refines them (the field's :meth:`refine`), and ``volume/sample.comp.glsl``
   samples the source there.
 
-The source volume is one texture where it fits, else the range of slices each band or slab
-samples (:mod:`.texture`). Every pass computes each voxel from the same inputs whatever the
-slab, band and range of slices it falls in (keys are global cell numbers): the slabbed result
-equals the one-piece result exactly.
+The source volume is one texture where it fits, else the slices each piece of a band
+(``quads``) or each sampling pass over a range of the slices a slab's points read
+(``backward``) samples (:mod:`.texture`). Every pass computes each voxel from the same
+inputs whatever the slab, band and slices it falls in (keys are global cell numbers): the
+slabbed result equals the one-piece result exactly.
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ from .frame import CornerLattice, VolumeFrame, check_memory
 from .kernel_field import pending_bytes
 from .options import SlabOptions, VolumeOptions
 from .source import SourceVolume, prepare_volume, volume_background
-from .texture import SourceTexture, border_slices
+from .texture import SourceTexture, border_runs, runs_size
 
 __all__ = ["VolumeWarper", "make_volume_frame"]
 
@@ -158,13 +159,9 @@ class VolumeWarper:
                 target.bind_to_image(bindings.VOLUME_TARGET.index, read=False, write=True)
                 if backward:
                     coords = self._solve(field, bands, frame, slab, options, source.shape)
-                    first = _hold_sampled(texture, coords, slab, options.border)
                     program = self._gl.compute("volume/sample.comp.glsl", defines)
-                    coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
-                    held = {"u_slab_size": slab.size, "u_source_first": first}
-                    set_uniforms(program, uniforms | held)
-                    self._gl.mgl.memory_barrier()
-                    run_1d(program, slab.voxels, max_groups=self._max_groups)
+                    set_uniforms(program, uniforms | {"u_slab_size": slab.size})
+                    _sample(program, texture, coords, slab, options, self._max_groups)
                 else:
                     self._cells(bands, frame, slab, defines, uniforms, source=texture)
                 self._gl.mgl.memory_barrier()
@@ -308,13 +305,15 @@ class VolumeWarper:
             defines | {"VOLUME_COORDS": coords, "VOLUME_HERMITE": hermite},
         )
         set_uniforms(program, common | uniforms)
-        # the last band rastered is still held: resolved first
-        for index, (first, layers) in enumerate(wanted[::-1] or [(0, 0)]):
-            if layers:
-                bands.load(first, layers)
+        # the last band rastered is still held: resolved first; over a source held a few
+        # slices at a time, in pieces of a band whose cells' slices one texture holds
+        pieces = _band_pieces(wanted[::-1] or [(0, 0)], lattice, source)
+        for index, ((whole_first, whole_layers), (first, layers)) in enumerate(pieces):
+            if whole_layers:
+                bands.load(whole_first, whole_layers)
             if source is not None:
                 held = _hold_band(source, lattice, first, layers, defines["WARP_BORDER"])
-                set_uniforms(program, {"u_source_first": held})
+                set_uniforms(program, {"u_source_runs": held})
             bands.buffer.bind_to_storage_buffer(bindings.VOLUME_LATTICE.index)
             keys.bind_to_storage_buffer(bindings.VOLUME_KEYS.index)
             if hermite:
@@ -398,29 +397,105 @@ def _lattice(field, shape, frame, options: VolumeOptions, *, backward: bool) -> 
     return CornerLattice(shape, step, margin, box_first=options.border == "constant")
 
 
-def _hold_band(source: SourceTexture, lattice, first: int, layers: int, border: int) -> int:
+def _sample(program, texture: SourceTexture, coords, slab: Slab, options, groups: int) -> None:
+    """The backward method's sampling pass over ``slab`` (``program``, its other uniforms
+    set), once per :func:`_sample_passes`."""
+    gl = texture.gl
+    for index, (slices, runs) in enumerate(_sample_passes(texture, coords, slab, options)):
+        held = texture.hold(runs)
+        coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
+        uniforms = {"u_source_runs": held, "u_slices": slices, "u_write_uncovered": index == 0}
+        set_uniforms(program, uniforms)
+        gl.mgl.memory_barrier()
+        run_1d(program, slab.voxels, max_groups=groups)
+
+
+def _band_pieces(
+    bands: list[tuple[int, int]], lattice: CornerLattice, source: SourceTexture | None
+) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+    """Each of ``bands`` (first cell layer, layers) with its pieces, those whose cells sample
+    no more source slices than one texture holds (``grid`` a layer and one more either side,
+    for trilinear interpolation): (band, piece) pairs, the band itself its one piece where
+    the whole source is held."""
+    if source is None or source.whole:
+        return [(band, band) for band in bands]
+    step = (source.max_slices - 2) // lattice.grid
+    if step < 1:
+        raise ValueError(
+            f"a layer of cells of grid {lattice.grid} samples {lattice.grid + 2} source slices, "
+            f"more than one texture holds ({source.max_slices}); give a larger texture_bytes "
+            "(SlabOptions)"
+        )
+    return [
+        ((first, layers), (f, min(step, first + layers - f)))
+        for first, layers in bands
+        for f in range(first, first + max(layers, 1), step)
+    ]
+
+
+def _hold_band(source: SourceTexture, lattice, first: int, layers: int, border: int):
     """Hold the source slices that cell layers ``first`` .. ``first + layers - 1`` sample
-    (their voxels, one more each side for trilinear, by the border rule)."""
+    (their voxels, one more each side for trilinear, by the border rule); returns
+    ``u_source_runs``."""
     depth = source.source.shape[0]
     if source.whole or layers == 0:
-        return source.hold(0, depth - 1 if source.whole else 0)
+        return source.hold([(0, depth - 1 if source.whole else 0)])
     low = first * lattice.grid - lattice.margin - 1
     high = (first + layers) * lattice.grid - lattice.margin
-    return source.hold(*border_slices(low, high, depth, BORDERS[border]))
+    return source.hold(border_runs(low, high, depth, BORDERS[border]))
 
 
-def _hold_sampled(source: SourceTexture, coords, slab: Slab, border: str) -> int:
-    """Hold the source slices that the points in ``coords`` (a slab's, read back) sample."""
+#: The bounds of the first slices the sampling shader computes (volume_first_slice).
+_SLICE_LIMIT = 1 << 30
+
+
+def _sample_passes(
+    source: SourceTexture, coords, slab: Slab, options: VolumeOptions
+) -> list[tuple[tuple[int, int], list[tuple[int, int]]]]:
+    """The backward method's sampling passes over ``slab``: per pass, the range of first
+    slices (``volume_first_slice``) of the voxels it samples and the source slices it holds
+    (runs, :func:`~.texture.border_runs`). One pass holding the volume where it fits; else
+    the first slices of the points in ``coords`` (read back) are cut into runs whose slices
+    one texture holds, and the ranges tile every integer, so that each voxel is sampled in
+    exactly one pass. A slice computed here from the float32 point may differ by one from
+    the shader's (its snap to voxel centres), which each pass's range and slices allow for:
+    pass k takes [start_k - 1, start_(k+1) - 2] and holds [start_k - 1, end_k + 2]."""
     depth = source.source.shape[0]
+    every = (-_SLICE_LIMIT, _SLICE_LIMIT)
     if source.whole:
-        return source.hold(0, depth - 1)
+        return [(every, [(0, depth - 1)])]
     raw = np.frombuffer(coords.read(size=slab.voxels * COORD_BYTES), np.float32)
     points = raw.reshape(-1, 4)
     z = points[points[:, 3] >= 0, 2]
-    if len(z) == 0:
-        return source.hold(0, 0)
-    low, high = int(np.floor(z.min())), int(np.floor(z.max())) + 1
-    return source.hold(*border_slices(low, high, depth, border))
+    if options.interpolation != "linear":
+        z = z + np.float32(0.5)
+    found = np.unique(np.clip(np.floor(z), -_SLICE_LIMIT, _SLICE_LIMIT).astype(np.int64))
+    if len(found) == 0:
+        return [(every, [(0, 0)])]
+
+    def runs(start: int, end: int) -> list[tuple[int, int]]:
+        return border_runs(start - 1, end + 2, depth, options.border)
+
+    if runs_size(runs(int(found[0]), int(found[0]))) > source.max_slices:
+        raise ValueError(
+            f"a voxel samples up to 4 source slices about its point, more than one texture "
+            f"holds ({source.max_slices}); give a larger texture_bytes (SlabOptions)"
+        )
+    groups: list[tuple[int, int]] = []
+    start = end = int(found[0])
+    for value in found[1:].tolist():
+        if runs_size(runs(start, value)) <= source.max_slices:
+            end = value
+            continue
+        groups.append((start, end))
+        start = end = value
+    groups.append((start, end))
+    passes = []
+    for index, (start, end) in enumerate(groups):
+        low = -_SLICE_LIMIT if index == 0 else start - 1
+        high = _SLICE_LIMIT if index == len(groups) - 1 else groups[index + 1][0] - 2
+        passes.append(((low, high), runs(start, end)))
+    return passes
 
 
 def _value_max(source: SourceVolume) -> float:

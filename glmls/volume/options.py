@@ -259,8 +259,9 @@ class SlabOptions:
         a slab's passes. The default holds the whole lattice of a 256^3 volume at grid 1
         (204 MB; two buffers on llvmpipe).
     texture_bytes : int, default 2**30
-        The source volume's texture: a larger volume is held a range of slices at a time,
-        those each slab (and each band of the lattice) samples.
+        The source volume's texture: a larger volume is held a few slices at a time (at
+        least 4, and ``grid`` + 2 for ``"quads"``), those that each piece of a band of the
+        lattice, or each sampling pass over a slab, reads.
 
     Examples
     --------

@@ -1,5 +1,8 @@
 // The backward method's last pass: every output voxel of the slab samples the source at the
-// point in the coordinates buffer ((x, y, z, w): w >= 0 covered), or gets the background.
+// point in the coordinates buffer ((x, y, z, w): w >= 0 covered), or gets the background. Over
+// a source held a few slices at a time, one pass per range of the slices the voxels read
+// first (volume_first_slice): a voxel is sampled in the pass whose range holds its slice,
+// and an uncovered one in the pass told to write those.
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "volume/sample.glsl"
@@ -13,6 +16,8 @@ uniform int u_offset;        // first item of this dispatch
 uniform int u_count;         // voxels of the slab
 uniform ivec3 u_slab_size;   // W, H and slices of the output slab
 uniform vec4 u_background;
+uniform ivec2 u_slices;      // the range of first slices this pass samples
+uniform bool u_write_uncovered;
 
 void main() {
     int i = u_offset + int(gl_GlobalInvocationID.x);
@@ -22,5 +27,14 @@ void main() {
     ivec3 p = ivec3(i % u_slab_size.x, (i / u_slab_size.x) % u_slab_size.y,
                     i / (u_slab_size.x * u_slab_size.y));
     vec4 c = volume_coords[i];
-    volume_store(p, c.w >= 0.0 ? volume_sample(c.xyz) : u_background);
+    if (c.w < 0.0) {
+        if (u_write_uncovered) {
+            volume_store(p, u_background);
+        }
+        return;
+    }
+    int first = volume_first_slice(c.xyz);
+    if (first >= u_slices.x && first <= u_slices.y) {
+        volume_store(p, volume_sample(c.xyz));
+    }
 }

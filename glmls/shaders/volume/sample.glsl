@@ -13,11 +13,16 @@ layout(binding = BIND_VOLUME_SOURCE) uniform usampler3D u_volume;
 layout(binding = BIND_VOLUME_SOURCE) uniform sampler3D u_volume;
 #endif
 uniform ivec3 u_source_size;   // W, H, D of the source
-uniform int u_source_first;    // the source slice at the texture's layer 0
+// the source slices the texture holds, one run after the other from its layer 0: slices x to
+// y, then z to w (empty, z > w, where one run is held; two where wrap joins the last slice to
+// the first, glmls.volume.texture.border_runs)
+uniform ivec4 u_source_runs;
 
 vec4 volume_texel(ivec3 p) {
-    ivec3 q = ivec3(border_index(p.x, u_source_size.x), border_index(p.y, u_source_size.y),
-                    border_index(p.z, u_source_size.z) - u_source_first);
+    int z = border_index(p.z, u_source_size.z);
+    int layer = z <= u_source_runs.y ? z - u_source_runs.x
+                                     : u_source_runs.y - u_source_runs.x + 1 + z - u_source_runs.z;
+    ivec3 q = ivec3(border_index(p.x, u_source_size.x), border_index(p.y, u_source_size.y), layer);
     return vec4(texelFetch(u_volume, q, 0));
 }
 
@@ -34,10 +39,27 @@ vec4 volume_mix(vec4 a, vec4 b, float t) {
     return t == 0.0 ? a : sample_blend(a, b, t);
 }
 
+// s on the voxel centre planes it is within VOLUME_SNAP of
+vec3 volume_snapped(vec3 s) {
+    vec3 centre = floor(s + 0.5);
+    return mix(s, centre, lessThanEqual(abs(s - centre), VOLUME_SNAP * max(abs(centre), vec3(8.0))));
+}
+
+// The first source slice (before the border rule) that volume_sample(s) reads: the passes
+// over a sliced source each take the voxels of a range of these
+// (glmls.volume.construction), clamped to +-2^30 so that any float has an int
+int volume_first_slice(vec3 s) {
+#if WARP_LINEAR
+    float z = floor(volume_snapped(s).z);
+#else
+    float z = floor(s.z + 0.5);
+#endif
+    return int(clamp(z, -1073741824.0, 1073741824.0));
+}
+
 vec4 volume_sample(vec3 s) {
 #if WARP_LINEAR
-    vec3 centre = floor(s + 0.5);
-    s = mix(s, centre, lessThanEqual(abs(s - centre), VOLUME_SNAP * max(abs(centre), vec3(8.0))));
+    s = volume_snapped(s);
     vec3 corner = floor(s);
     vec3 t = s - corner;
     ivec3 p = ivec3(corner);
