@@ -21,15 +21,18 @@ from ..imaging.source import SourceImage, background_color, prepare_image
 from ..mls import MLS
 from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size, fits
 from .inputs import BatchInput
-from .labels import embedded, mesh_keypoints, on_canvas
+from .labels import embedded, mesh_keypoints, on_canvas, visible
 from .margins import batch_margins, warn_short
 from .single import (
     ImageLabels,
     SingleWarper,
     beyond_mesh,
+    in_domain,
     mask_form,
     mask_options,
     packable,
+    probe_points,
+    probed,
     restore_mask,
 )
 from .texels import chunk_size as texel_chunk_size
@@ -83,8 +86,8 @@ class _GPURun:
         self.warper = SingleWarper.of(mls_options.get("ctx"))
         self.config = _batch_config(batch, mls_options)
         self.backward = options.method == "backward"
-        if self.backward and (self.config is None or batch.keypoints is not None):
-            return  # f at the keypoints, bins, segments: each image's own MLS
+        if self.backward and self.config is None:
+            return  # bins, segments: each image's own MLS
         if self.backward:
             _check_newton_budget(self.quads.ctx, batch)
         if options.border != "constant" and self.config is None:
@@ -358,8 +361,16 @@ def _finish(quads, batch, chunk, lattices, options, frame, lattice, maps, out, m
     keypoints moved (``folded``: the meshes not shown to be embeddings where known) and its
     maps."""
     keypoints = batch.keypoints
-    moved_all = valid_all = None
-    if keypoints is not None:  # every keypoint of the chunk at once, the meshes read once
+    moved_all = valid_all = coords_all = covered_all = None
+    backward = options.method == "backward"
+    if backward and (maps or keypoints is not None):  # the maps the chunk sampled at
+        coords_all, covered_all = quads.backward_coords(len(chunk), frame)
+    if backward and keypoints is not None:
+        shown = (coords_all, covered_all)
+        moved_all, valid_all = _backward_keypoints(
+            quads, lattices, batch, chunk, (frame, options.border), shown
+        )
+    elif keypoints is not None:  # every keypoint of the chunk at once, the meshes read once
         vertices = quads.vertices(lattices, lattice)
         if folded is None:
             folded = ~embedded(vertices[np.arange(len(chunk))])
@@ -380,17 +391,40 @@ def _finish(quads, batch, chunk, lattices, options, frame, lattice, maps, out, m
         starts = [0, *ends[:-1]]
         moved_all = [moved_all[a:b] for a, b in zip(starts, ends, strict=True)]
         valid_all = [valid_all[a:b] for a, b in zip(starts, ends, strict=True)]
-    coords_all = covered_all = None
-    if maps:  # the quads' source points, from the chunk's meshes still on the GPU
-        if options.method == "backward":
-            coords_all, covered_all = quads.backward_coords(len(chunk), frame)
-        else:
-            coords_all, covered_all = quads.coords(len(chunk), lattice, frame)
+    if maps and not backward:  # the quads' source points, from the chunk's meshes on the GPU
+        coords_all, covered_all = quads.coords(len(chunk), lattice, frame)
     results = []
     for k in range(len(chunk)):
-        coords = None if coords_all is None else coords_all[k]
-        covered = None if covered_all is None else covered_all[k]
+        coords = None if coords_all is None or not maps else coords_all[k]
+        covered = None if covered_all is None or not maps else covered_all[k]
         moved = None if moved_all is None else moved_all[k]
         valid = None if valid_all is None else valid_all[k]
         results.append(ImageLabels(out[k], masks[k], moved, valid, coords, covered))
     return results
+
+
+def _backward_keypoints(quads, lattices, batch, chunk, canvas, shown):
+    """The ``backward`` chunk's keypoints moved by f, as the single path moves them (f and
+    its Jacobian at every image's probes in one pass of the chunk's handles), each valid
+    where it lands on the canvas, in the image's domain and shown by the chunk's maps
+    ``shown`` ((N, H, W, 2) source points, (N, H, W) covered) at its nearest pixel: two
+    lists of the images' (P_i, 2) points and (P_i,) flags. ``canvas``: the frame and the
+    border rule."""
+    frame, border = canvas
+    points = [batch.keypoints[i] for i in chunk]
+    shape = batch.images[chunk[0]].shape[:2]
+    probes = [probe_points(p) for p in points]
+    values = lattices.evaluate_points(quads.ctx, quads.resources, probes, shape)
+    origin = np.asarray(frame.origin)
+    moved, valid = [], []
+    for k, p in enumerate(points):
+        if not len(p):
+            moved.append(np.zeros((0, 2)))
+            valid.append(np.zeros(0, bool))
+            continue
+        out, jacobian = probed(values[k])
+        out = out - origin
+        inside = in_domain(p, shape, border)
+        moved.append(out)
+        valid.append(visible(p, out, jacobian, shown[0][k], shown[1][k], inside))
+    return moved, valid
