@@ -40,6 +40,8 @@ from .texels import takes, warp_texels
 
 __all__ = ["warp_chunks"]
 
+#: The most bytes of points one pass of f at a chunk's keypoints takes (:func:`_f_at`).
+_SLICE_BYTES = 8 << 20
 #: The keywords of :func:`glmls.warp_batch` that make its :class:`~glmls.MLSConfig`.
 _CONFIG_KEYS = ("transform", "weight", "alpha", "s", "radius", "interpolating")
 
@@ -414,7 +416,12 @@ def _backward_keypoints(quads, lattices, batch, chunk, canvas, shown):
     points = [batch.keypoints[i] for i in chunk]
     shape = batch.images[chunk[0]].shape[:2]
     probes = [probe_points(p) for p in points]
-    values = lattices.evaluate_points(quads.ctx, quads.resources, probes, shape)
+
+    def chosen(images: list[int]) -> BatchLattices:
+        src, dst = [batch.src[chunk[k]] for k in images], [batch.dst[chunk[k]] for k in images]
+        return BatchLattices(lattices.config, src, dst, shape)
+
+    values = _f_at(quads, lattices, probes, chosen)
     origin = np.asarray(frame.origin)
     moved, valid = [], []
     for k, p in enumerate(points):
@@ -428,3 +435,25 @@ def _backward_keypoints(quads, lattices, batch, chunk, canvas, shown):
         moved.append(out)
         valid.append(visible(p, out, jacobian, shown[0][k], shown[1][k], inside))
     return moved, valid
+
+
+def _f_at(quads, lattices, points: list[np.ndarray], chosen) -> list[np.ndarray]:
+    """f of each image of ``lattices`` at its ``points`` ((P_i, 2) each), in passes over
+    slices of the images' points. A pass pads each image's slice to the longest, so the
+    images whose points have run out leave the later passes (``chosen(images)``: the
+    lattices of those images of the chunk alone, each image's f the same): one image with
+    many points makes no other image's work or buffer as long. Slices of an even length
+    keep the single evaluation's pairs of points per invocation."""
+    sizes = [len(p) for p in points]
+    most = max(sizes)
+    step = max(2, min(most, _SLICE_BYTES // (8 * len(points))) // 2 * 2)
+    values = [np.empty((size, 2)) for size in sizes]
+    shape = lattices.shape
+    for start in range(0, most, step):
+        busy = [k for k, size in enumerate(sizes) if size > start]
+        part = lattices if len(busy) == len(points) else chosen(busy)
+        slices = [points[k][start : start + step] for k in busy]
+        done = part.evaluate_points(quads.ctx, quads.resources, slices, shape)
+        for k, found in zip(busy, done, strict=True):
+            values[k][start : start + len(found)] = found
+    return values

@@ -108,3 +108,30 @@ def test_backward_keypoints_equal_the_float64_f(gl, rng, border):
         inside = np.all((p >= -0.5) & (p <= (width - 0.5, height - 0.5)), axis=1)
         allowed = on & (inside if border == "constant" else True)
         assert not np.any(result.keypoints_valid[i] & ~allowed)  # never valid off the canvas
+
+
+def test_one_image_with_many_keypoints_pads_no_other(gl, rng, monkeypatch):
+    """f at the keypoints runs in slices of every image's points; the images whose points
+    have run out leave the later passes, and the result is the single path's."""
+    import glmls.batch.chunks
+    from glmls.engine.batched import BatchLattices
+
+    images, src, dst, _, _ = batch(rng, 4)
+    points = [rng.uniform(0, 19, (k, 2)) for k in (1, 301, 0, 7)]
+    passes = []
+    evaluate = BatchLattices.evaluate_points
+
+    def counted(self, gl, resources, slices, shape):
+        passes.append([len(s) for s in slices])
+        return evaluate(self, gl, resources, slices, shape)
+
+    monkeypatch.setattr(BatchLattices, "evaluate_points", counted)
+    monkeypatch.setattr(glmls.batch.chunks, "_SLICE_BYTES", 8 * 4 * 100)  # 100 points each
+    result = warped(images, src, dst, keypoints=points)
+    # the probes: five points a keypoint
+    assert passes == [[5, 100, 35]] + [[100]] * 14 + [[5]]  # image 2 has none
+    monkeypatch.setattr(glmls.batch.run, "batchable", lambda chosen: False)
+    alone = warped(images, src, dst, keypoints=points)
+    for name in ("keypoints", "keypoints_valid"):
+        for got, want in zip(getattr(result, name), getattr(alone, name), strict=True):
+            np.testing.assert_array_equal(got, want)
