@@ -131,6 +131,8 @@ class _GPURun:
     def _part(self, part: list[int], mesh, frame, source, direct) -> None:
         """The images ``part`` of one group on one ``mesh`` lattice, chunk by chunk."""
         batch, quads, budget = self.batch, self.quads, self.budget
+        if self.backward:  # an image of its own MLS takes the single path, not its chunk
+            part = [i for i in part if not self.own[i]]
         size = chunk_size(quads.ctx, source, frame, mesh, budget, backward=self.backward)
         if direct is not None and not self.maps and (batch.masks is None or direct.packed):
             size = texel_chunk_size(
@@ -138,8 +140,6 @@ class _GPURun:
             )
         for start in range(0, len(part), size):
             chunk = part[start : start + size]
-            if self.backward and any(self.own[i] for i in chunk):
-                continue
             done = self._chunk(chunk, mesh, frame, source, direct, start)
             if done is None:  # the keys do not fit: the single path takes the chunk
                 if direct is not None:

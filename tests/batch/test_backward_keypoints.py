@@ -135,3 +135,36 @@ def test_one_image_with_many_keypoints_pads_no_other(gl, rng, monkeypatch):
     for name in ("keypoints", "keypoints_valid"):
         for got, want in zip(getattr(result, name), getattr(alone, name), strict=True):
             np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("border", ["constant", "edge"])
+def test_images_of_their_own_mls_leave_the_others_batched(gl, rng, monkeypatch, border):
+    """An image without point handles or with segment handles takes the single path alone:
+    the other images of its chunk stay batched, every image equal to its single warp."""
+    images, src, dst, masks, points = batch(rng, 5)
+    src, dst = list(src), list(dst)
+    src[2] = dst[2] = np.zeros((0, 2))
+    segments = [None, None, None, np.array([[[3.0, 3.0], [15.0, 12.0]]]), None]
+    moved = [None if s is None else s + 0.75 for s in segments]
+    labels = {"keypoints": points, "masks": masks, "return_maps": True, "border": border}
+    labels |= {"src_segments": segments, "dst_segments": moved, "grid": 2}
+    single = []
+    warp_one = SingleWarper.warp_one
+    monkeypatch.setattr(
+        SingleWarper,
+        "warp_one",
+        lambda self, *a, **k: single.append(k["index"]) or warp_one(self, *a, **k),
+    )
+    result = warped(images, src, dst, **labels)
+    assert single == [2, 3]
+    monkeypatch.setattr(glmls.batch.run, "batchable", lambda chosen: False)
+    alone = warped(images, src, dst, **labels)
+    for name in FIELDS:
+        for got, want in zip(getattr(result, name), getattr(alone, name), strict=True):
+            np.testing.assert_array_equal(got, want, err_msg=name)
+    for i in range(5):
+        own = {} if segments[i] is None else {"src_segments": segments[i]}
+        own |= {} if moved[i] is None else {"dst_segments": moved[i]}
+        options = {"method": "backward", "grid": 2, "border": border, **own}
+        want = glmls.warp(images[i], src[i], dst[i], **options)
+        np.testing.assert_array_equal(result.images[i], want)
