@@ -21,15 +21,18 @@ from ..imaging.source import SourceImage, background_color, prepare_image
 from ..mls import MLS
 from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size, fits
 from .inputs import BatchInput
-from .labels import embedded, mesh_keypoints, on_canvas
+from .labels import embedded, mesh_keypoints, on_canvas, visible
 from .margins import batch_margins, warn_short
 from .single import (
     ImageLabels,
     SingleWarper,
     beyond_mesh,
+    in_domain,
     mask_form,
     mask_options,
     packable,
+    probe_points,
+    probed,
     restore_mask,
 )
 from .texels import chunk_size as texel_chunk_size
@@ -37,6 +40,8 @@ from .texels import takes, warp_texels
 
 __all__ = ["warp_chunks"]
 
+#: The most bytes of points one pass of f at a chunk's keypoints takes (:func:`_f_at`).
+_SLICE_BYTES = 8 << 20
 #: The keywords of :func:`glmls.warp_batch` that make its :class:`~glmls.MLSConfig`.
 _CONFIG_KEYS = ("transform", "weight", "alpha", "s", "radius", "interpolating")
 
@@ -83,8 +88,8 @@ class _GPURun:
         self.warper = SingleWarper.of(mls_options.get("ctx"))
         self.config = _batch_config(batch, mls_options)
         self.backward = options.method == "backward"
-        if self.backward and (self.config is None or batch.keypoints is not None):
-            return  # f at the keypoints, bins, segments: each image's own MLS
+        if self.backward and self.config is None:
+            return  # bins, segments: each image's own MLS
         if self.backward:
             _check_newton_budget(self.quads.ctx, batch)
         if options.border != "constant" and self.config is None:
@@ -126,6 +131,8 @@ class _GPURun:
     def _part(self, part: list[int], mesh, frame, source, direct) -> None:
         """The images ``part`` of one group on one ``mesh`` lattice, chunk by chunk."""
         batch, quads, budget = self.batch, self.quads, self.budget
+        if self.backward:  # an image of its own MLS takes the single path, not its chunk
+            part = [i for i in part if not self.own[i]]
         size = chunk_size(quads.ctx, source, frame, mesh, budget, backward=self.backward)
         if direct is not None and not self.maps and (batch.masks is None or direct.packed):
             size = texel_chunk_size(
@@ -133,8 +140,6 @@ class _GPURun:
             )
         for start in range(0, len(part), size):
             chunk = part[start : start + size]
-            if self.backward and any(self.own[i] for i in chunk):
-                continue
             done = self._chunk(chunk, mesh, frame, source, direct, start)
             if done is None:  # the keys do not fit: the single path takes the chunk
                 if direct is not None:
@@ -358,8 +363,16 @@ def _finish(quads, batch, chunk, lattices, options, frame, lattice, maps, out, m
     keypoints moved (``folded``: the meshes not shown to be embeddings where known) and its
     maps."""
     keypoints = batch.keypoints
-    moved_all = valid_all = None
-    if keypoints is not None:  # every keypoint of the chunk at once, the meshes read once
+    moved_all = valid_all = coords_all = covered_all = None
+    backward = options.method == "backward"
+    if backward and (maps or keypoints is not None):  # the maps the chunk sampled at
+        coords_all, covered_all = quads.backward_coords(len(chunk), frame)
+    if backward and keypoints is not None:
+        shown = (coords_all, covered_all)
+        moved_all, valid_all = _backward_keypoints(
+            quads, lattices, batch, chunk, (frame, options.border), shown
+        )
+    elif keypoints is not None:  # every keypoint of the chunk at once, the meshes read once
         vertices = quads.vertices(lattices, lattice)
         if folded is None:
             folded = ~embedded(vertices[np.arange(len(chunk))])
@@ -380,17 +393,67 @@ def _finish(quads, batch, chunk, lattices, options, frame, lattice, maps, out, m
         starts = [0, *ends[:-1]]
         moved_all = [moved_all[a:b] for a, b in zip(starts, ends, strict=True)]
         valid_all = [valid_all[a:b] for a, b in zip(starts, ends, strict=True)]
-    coords_all = covered_all = None
-    if maps:  # the quads' source points, from the chunk's meshes still on the GPU
-        if options.method == "backward":
-            coords_all, covered_all = quads.backward_coords(len(chunk), frame)
-        else:
-            coords_all, covered_all = quads.coords(len(chunk), lattice, frame)
+    if maps and not backward:  # the quads' source points, from the chunk's meshes on the GPU
+        coords_all, covered_all = quads.coords(len(chunk), lattice, frame)
     results = []
     for k in range(len(chunk)):
-        coords = None if coords_all is None else coords_all[k]
-        covered = None if covered_all is None else covered_all[k]
+        coords = None if coords_all is None or not maps else coords_all[k]
+        covered = None if covered_all is None or not maps else covered_all[k]
         moved = None if moved_all is None else moved_all[k]
         valid = None if valid_all is None else valid_all[k]
         results.append(ImageLabels(out[k], masks[k], moved, valid, coords, covered))
     return results
+
+
+def _backward_keypoints(quads, lattices, batch, chunk, canvas, shown):
+    """The ``backward`` chunk's keypoints moved by f, as the single path moves them (f and
+    its Jacobian at every image's probes in one pass of the chunk's handles), each valid
+    where it lands on the canvas, in the image's domain and shown by the chunk's maps
+    ``shown`` ((N, H, W, 2) source points, (N, H, W) covered) at its nearest pixel: two
+    lists of the images' (P_i, 2) points and (P_i,) flags. ``canvas``: the frame and the
+    border rule."""
+    frame, border = canvas
+    points = [batch.keypoints[i] for i in chunk]
+    shape = batch.images[chunk[0]].shape[:2]
+    probes = [probe_points(p) for p in points]
+
+    def chosen(images: list[int]) -> BatchLattices:
+        src, dst = [batch.src[chunk[k]] for k in images], [batch.dst[chunk[k]] for k in images]
+        return BatchLattices(lattices.config, src, dst, shape)
+
+    values = _f_at(quads, lattices, probes, chosen)
+    origin = np.asarray(frame.origin)
+    moved, valid = [], []
+    for k, p in enumerate(points):
+        if not len(p):
+            moved.append(np.zeros((0, 2)))
+            valid.append(np.zeros(0, bool))
+            continue
+        out, jacobian = probed(values[k])
+        out = out - origin
+        inside = in_domain(p, shape, border)
+        moved.append(out)
+        valid.append(visible(p, out, jacobian, shown[0][k], shown[1][k], inside))
+    return moved, valid
+
+
+def _f_at(quads, lattices, points: list[np.ndarray], chosen) -> list[np.ndarray]:
+    """f of each image of ``lattices`` at its ``points`` ((P_i, 2) each), in passes over
+    slices of the images' points. A pass pads each image's slice to the longest, so the
+    images whose points have run out leave the later passes (``chosen(images)``: the
+    lattices of those images of the chunk alone, each image's f the same): one image with
+    many points makes no other image's work or buffer as long. Slices of an even length
+    keep the single evaluation's pairs of points per invocation."""
+    sizes = [len(p) for p in points]
+    most = max(sizes)
+    step = max(2, min(most, _SLICE_BYTES // (8 * len(points))) // 2 * 2)
+    values = [np.empty((size, 2)) for size in sizes]
+    shape = lattices.shape
+    for start in range(0, most, step):
+        busy = [k for k, size in enumerate(sizes) if size > start]
+        part = lattices if len(busy) == len(points) else chosen(busy)
+        slices = [points[k][start : start + step] for k in busy]
+        done = part.evaluate_points(quads.ctx, quads.resources, slices, shape)
+        for k, found in zip(busy, done, strict=True):
+            values[k][start : start + len(found)] = found
+    return values

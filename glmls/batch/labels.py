@@ -202,26 +202,14 @@ def _covered_earlier(
     strictly inside (either orientation: folded triangles are drawn too). Every mesh's points
     at once: against the boxes of its rows of cells, then of the cells of the rows whose box
     holds the point, then the triangles of the cells whose box does."""
-    meshes = len(chosen)
     columns = vertices.shape[2] - 1
     # each row of cells' box: of its two rows of vertices
     reduces = (np.minimum, np.minimum, np.maximum, np.maximum)
     extents = zip(_row_extents(vertices, chosen), reduces, strict=True)
     boxes = [reduce(line[:, :-1], line[:, 1:]) for line, reduce in extents]
-    # the points as (M, width) slots of their meshes (NaN where a mesh has fewer)
-    counts = np.bincount(which, minlength=meshes)
-    order = np.argsort(which, kind="stable")
-    slot = np.empty(len(points), np.int64)
-    slot[order] = np.arange(len(points)) - np.repeat(np.cumsum(counts) - counts, counts)
-    grid = np.full((2, meshes, int(counts.max())), np.nan)
-    grid[:, which, slot] = points.T
-    index = np.zeros(grid.shape[1:], np.int64)
-    index[which, slot] = np.arange(len(points))
-    lx, ly, hx, hy = boxes
-    qx, qy = grid[0][..., None], grid[1][..., None]
-    near = (lx[:, None] <= qx) & (qx <= hx[:, None]) & (ly[:, None] <= qy) & (qy <= hy[:, None])
-    mesh, column, row = np.nonzero(near)  # (mesh, slot, row of cells): the row's box holds it
-    qx, qy = grid[0][mesh, column][:, None], grid[1][mesh, column][:, None]
+    index, row = _near_rows(boxes, which, points)
+    mesh = which[index]
+    qx, qy = points[index, :1], points[index, 1:]
     image = chosen[mesh]
     top, bottom = vertices[image, row], vertices[image, row + 1]  # (T, columns + 1, 2)
     corners = [top[:, :-1], top[:, 1:], bottom[:, 1:], bottom[:, :-1]]  # 00, 10, 11, 01
@@ -233,7 +221,7 @@ def _covered_earlier(
         for reduce, k in ((np.minimum, 0), (np.minimum, 1), (np.maximum, 0), (np.maximum, 1))
     )  # (T, columns): the boxes of that row's cells
     pair, cell = np.nonzero((lx <= qx) & (qx <= hx) & (ly <= qy) & (qy <= hy))
-    point = index[mesh[pair], column[pair]]
+    point = index[pair]
     hidden = np.zeros(len(points), bool)
     if not len(pair):
         return hidden
@@ -250,6 +238,30 @@ def _covered_earlier(
             strictly &= _cross(v - u, q - u) * sign > tiny
         hidden[point[strictly]] = True
     return hidden
+
+
+#: Values (points times rows of cells) that :func:`_near_rows` compares in one block.
+_NEAR_BLOCK = 1 << 20
+
+
+def _near_rows(boxes: list[np.ndarray], which: np.ndarray, points: np.ndarray):
+    """The pairs (point, row of cells) whose row's box (``boxes``: least x, least y,
+    greatest x, greatest y of each mesh's rows, four (M, rows) arrays) holds the point, each
+    point against its own mesh ``which``: two (T,) index arrays. In blocks of points, so that
+    neither many points nor many meshes make a large array (no mesh is padded to the most
+    points of any)."""
+    rows = boxes[0].shape[1]
+    block = max(1, _NEAR_BLOCK // max(rows, 1))
+    found = []
+    for start in range(0, len(points), block):
+        mine = which[start : start + block]
+        lx, ly, hx, hy = (box[mine] for box in boxes)  # (B, rows)
+        qx, qy = points[start : start + block, :1], points[start : start + block, 1:]
+        index, row = np.nonzero((lx <= qx) & (qx <= hx) & (ly <= qy) & (qy <= hy))
+        found.append((index + start, row))
+    if not found:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return np.concatenate([f[0] for f in found]), np.concatenate([f[1] for f in found])
 
 
 def _row_extents(vertices, chosen: np.ndarray) -> list[np.ndarray]:

@@ -18,7 +18,17 @@ from ..imaging.pipeline import WarpPipeline
 from ..mls import MLS
 from .labels import mesh_corners, mesh_keypoints, mesh_map, on_canvas, visible
 
-__all__ = ["ImageLabels", "SingleWarper", "beyond_mesh", "mask_form", "restore_mask"]
+__all__ = [
+    "PROBE_STEP",
+    "ImageLabels",
+    "SingleWarper",
+    "beyond_mesh",
+    "in_domain",
+    "mask_form",
+    "probe_points",
+    "probed",
+    "restore_mask",
+]
 
 
 class ImageLabels(NamedTuple):
@@ -216,11 +226,7 @@ class SingleWarper:
         values, jacobian = _probed(mls, points)
         if options.method == "backward-swap":
             values, jacobian = _swapped_preimages(mls, points, values, jacobian)
-        inside = np.ones(count, bool)
-        if options.border == "constant":
-            height, width = shape
-            inside = np.all((points >= -0.5) & (points <= (width - 0.5, height - 0.5)), axis=1)
-        return values, jacobian, inside
+        return values, jacobian, in_domain(points, shape, options.border)
 
     @current
     def source_points(
@@ -262,19 +268,42 @@ class SingleWarper:
         return values[..., :2].copy(), values[..., 2] > 0.5
 
 
-def _probed(mls: MLS, points: np.ndarray, step: float = 0.125) -> tuple[np.ndarray, np.ndarray]:
-    """``mls`` at ``points`` (P, 2) and its Jacobians (P, 2, 2) (rows: d/dx, d/dy) by
-    central differences of ``step`` pixels: next to a fold, where f curves within a pixel,
-    a forward difference of half a pixel can point the wrong way (float32's noise in f,
-    ~1e-5 px, is ~1e-4 of the quarter pixel between the probes)."""
-    count = len(points)
-    probes = np.concatenate(
+#: Pixels between a keypoint and the probes of its Jacobian's central differences: next to a
+#: fold, where f curves within a pixel, a forward difference of half a pixel can point the
+#: wrong way (float32's noise in f, ~1e-5 px, is ~1e-4 of the quarter pixel between them).
+PROBE_STEP = 0.125
+
+
+def probe_points(points: np.ndarray) -> np.ndarray:
+    """(5P, 2): ``points`` (P, 2), then each moved by :data:`PROBE_STEP` along +x, -x, +y
+    and -y, the points at which :func:`probed` takes f."""
+    step = PROBE_STEP
+    return np.concatenate(
         [points, points + (step, 0.0), points - (step, 0.0), points + (0.0, step),
          points - (0.0, step)]
     )  # fmt: skip
-    values = mls(probes).reshape(5, count, 2)
-    jacobian = np.stack([values[1] - values[2], values[3] - values[4]], axis=1) / (2 * step)
-    return values[0], jacobian
+
+
+def probed(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """f at P points (P, 2) and its Jacobians (P, 2, 2) (rows: d/dx, d/dy) by central
+    differences, from ``values``, f at their :func:`probe_points` (5P, 2)."""
+    values = values.reshape(5, -1, 2)
+    jacobian = np.stack([values[1] - values[2], values[3] - values[4]], axis=1)
+    return values[0], jacobian / (2 * PROBE_STEP)
+
+
+def in_domain(points: np.ndarray, shape: tuple[int, int], border: str) -> np.ndarray:
+    """(P,) bool: the source ``points`` that a backward method draws from: within the image
+    of ``shape`` (H, W) with the ``constant`` border, anywhere with the others."""
+    if border != "constant":
+        return np.ones(len(points), bool)
+    height, width = shape
+    return np.all((points >= -0.5) & (points <= (width - 0.5, height - 0.5)), axis=1)
+
+
+def _probed(mls: MLS, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``mls`` at ``points`` (P, 2) and its Jacobians (P, 2, 2) (:func:`probed`)."""
+    return probed(mls(probe_points(points)))
 
 
 def _swapped_preimages(

@@ -1,0 +1,73 @@
+"""The fold test of a chunk's ``quads`` keypoints with keypoint counts that differ widely
+between images: each image's flags are those of its mesh tested alone, in blocks of any
+size, and one image's many keypoints make no work or memory for the other meshes."""
+
+from __future__ import annotations
+
+import tracemalloc
+
+import numpy as np
+import pytest
+
+import glmls
+import glmls.batch.labels
+from glmls.batch.labels import mesh_keypoints
+from glmls.core.mesh import MeshLattice
+
+SHAPE = (28, 36)
+
+
+def folded_meshes(count: int, grid: int = 1) -> tuple[MeshLattice, np.ndarray]:
+    """The lattice and ``count`` deformed meshes (count, rows, columns, 2), each folding
+    by its own amount: two handles pass each other."""
+    height, width = SHAPE
+    lattice = MeshLattice.corners(SHAPE, grid)
+    points = lattice.points()
+    src = np.array([[4.0, 4.0], [width - 5, 4], [4, height - 5], [width - 5, height - 5]])
+    src = np.r_[src, [[width / 2 - 4, height / 2]], [[width / 2 + 4, height / 2]]]
+    meshes = []
+    for k in range(count):
+        dst = src.copy()
+        dst[4, 0], dst[5, 0] = width / 2 + 3 + k % 7, width / 2 - 3 - k % 5
+        with glmls.MLS(src, dst, shape=SHAPE) as m:
+            meshes.append(m(points.reshape(-1, 2)).reshape(points.shape))
+    return lattice, np.stack(meshes)
+
+
+@pytest.mark.parametrize("block", [None, 1, 50])
+def test_each_image_keeps_the_flags_of_its_mesh_alone(gl, rng, monkeypatch, block):
+    lattice, meshes = folded_meshes(6, grid=2)
+    sizes = [0, 500, 3, 1, 0, 40]
+    points = [rng.uniform(-1, 36, (k, 2)) for k in sizes]
+    alone = [mesh_keypoints(lattice, mesh, p, None) for mesh, p in zip(meshes, points, strict=True)]
+    if block is not None:
+        monkeypatch.setattr(glmls.batch.labels, "_NEAR_BLOCK", block)
+    images = np.repeat(np.arange(len(sizes)), sizes)
+    moved, valid = mesh_keypoints(lattice, meshes, np.concatenate(points), None, images)
+    ends = np.cumsum(sizes)
+    for (want_moved, want_valid), end, size in zip(alone, ends, sizes, strict=True):
+        np.testing.assert_array_equal(moved[end - size : end], want_moved)
+        np.testing.assert_array_equal(valid[end - size : end], want_valid)
+    assert not valid.all()  # the folds hide some
+
+
+def _peak(function) -> int:
+    tracemalloc.start()
+    try:
+        function()
+        return tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+def test_many_keypoints_on_one_image_cost_the_others_nothing(gl, rng):
+    """64 folded meshes, one with 20,000 keypoints and the others with one: the test takes
+    about the memory of that mesh's alone, not 64 meshes' worth of its points."""
+    lattice, meshes = folded_meshes(64)
+    many = rng.uniform(0, 35, (20_000, 2))
+    few = rng.uniform(0, 27, (63, 2))
+    points = np.concatenate([many, few])
+    images = np.r_[np.zeros(len(many), np.int64), np.arange(1, 64)]
+    alone = _peak(lambda: mesh_keypoints(lattice, meshes[:1], many, None))
+    together = _peak(lambda: mesh_keypoints(lattice, meshes, points, None, images))
+    assert together < 1.25 * alone, (together, alone)
