@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 
 import moderngl
 import numpy as np
-from glsl_usage import END, Access, preprocess, usage
+from glsl_usage import END, Access, preprocess, units, usage
 
 from glmls.gl import bindings
 from glmls.gl.shaders import ShaderLibrary
@@ -48,6 +48,7 @@ __all__ = ["BITS", "Hazard", "Tracer", "tracing"]
 
 _WHOLE = ((0, END),)
 #: moderngl's own read-backs, for the contents before and after a command.
+_ORIGINAL_WRITE = moderngl.Buffer.write
 _ORIGINAL_READS = {
     kind: kind.read
     for kind in (moderngl.Buffer, moderngl.Texture, moderngl.Texture3D, moderngl.TextureArray)
@@ -71,6 +72,7 @@ ALL_BITS = 0xFFFFFFFF
 
 _PACKAGE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "glmls")
 _TEXTURES = (moderngl.Texture, moderngl.Texture3D, moderngl.TextureArray, moderngl.TextureCube)
+_IMAGE_UNITS = 8  # GL 4.3's least GL_MAX_IMAGE_UNITS
 _IMAGE_TYPES = range(0x904C, 0x906D)  # GL_IMAGE_1D .. GL_UNSIGNED_INT_IMAGE_2D_MULTISAMPLE_ARRAY
 _SAMPLER_TYPES = (
     set(range(0x8B5D, 0x8B65))  # GL_SAMPLER_1D .. GL_SAMPLER_2D_RECT_SHADOW
@@ -123,11 +125,13 @@ def _splitter():
     return None
 
 
-def _where() -> str:
+def _where(helpers: bool = False) -> str:
     """Where glmls issued the command: its innermost frame past the dispatch helpers
-    (``glmls/gl/dispatch.py``), file:line (function)."""
+    (``glmls/gl/dispatch.py``; in them too with ``helpers``), file:line (function)."""
     for frame in reversed(traceback.extract_stack()[:-2]):
-        if frame.filename.startswith(_PACKAGE) and not frame.filename.endswith("dispatch.py"):
+        if frame.filename.startswith(_PACKAGE) and (
+            helpers or not frame.filename.endswith("dispatch.py")
+        ):
             path = os.path.relpath(frame.filename, os.path.dirname(_PACKAGE))
             return f"{path}:{frame.lineno} ({frame.name})"
     return "outside glmls"
@@ -156,6 +160,7 @@ class _Program:
         # a program compiled before the tracer: every resource read and stored, whole
         everything = Access(_WHOLE, _WHOLE)
         found = usage(source) if source is not None else {}
+        bound = units(source) if source is not None else {}
         words = None if source is None else set(re.findall(r"\w+", preprocess(source)[0]))
         info = cls(program.__dict__.get("_barrier_trace_entry") or f"program {program.glo}")
         for name, member in program._members.items():
@@ -168,11 +173,15 @@ class _Program:
                     info.uniform.add(member.binding)
             elif isinstance(member, moderngl.Uniform) and member.gl_type in _IMAGE_TYPES:
                 access = found.get(name.split("[")[0], everything)
-                if access.reads or access.stores:
-                    info.images[member.value] = access
+                unit = bound.get(name.split("[")[0])
+                if unit is None:  # no source, or no binding in it: every unit
+                    for unit in range(_IMAGE_UNITS):
+                        info.images[unit] = access
+                elif access.reads or access.stores:
+                    info.images[unit] = access
             elif isinstance(member, moderngl.Uniform) and member.gl_type in _SAMPLER_TYPES:
                 if words is None or name.split("[")[0] in words:
-                    info.samplers.add(member.value)
+                    info.samplers.add(bound.get(name.split("[")[0], member.value))
         program.__dict__["_barrier_trace"] = info
         return info
 
@@ -238,7 +247,9 @@ class _State:
 class Tracer:
     """The hazards met while installed (:func:`tracing`), in order."""
 
-    def __init__(self) -> None:
+    def __init__(self, ignore: tuple[str, ...] = ()) -> None:
+        #: barriers left out of the model: those issued at these "glmls/path.py:line"
+        self.ignore = set(ignore)
         self.hazards: list[Hazard] = []
         self.commands = 0
         self._states: dict[int, _State] = {}
@@ -279,6 +290,38 @@ class Tracer:
         except moderngl.Error:
             return None
         return np.frombuffer(data, np.uint8)
+
+    def _poison(self, state: _State, key, ranges, read: bool):
+        """Before a command that may store to ``ranges`` of a resource: (its contents,
+        what they are made for the command). Where the command does not read the buffer,
+        those ranges are changed first (each byte's bits flipped by 0xA5), so that stores of
+        the values already there show too; a texture is taken as stored whole."""
+        obj = state.objects[key]
+        if not isinstance(obj, moderngl.Buffer):
+            return None, None
+        held = self._contents(state, key)
+        if held is None or read:
+            return held, held
+        poisoned = held.copy()
+        poisoned[_mask(len(held), ranges)] ^= 0xA5
+        _ORIGINAL_WRITE(obj, poisoned.tobytes())
+        return held, poisoned
+
+    def _changes(self, state: _State, key, held, poisoned) -> np.ndarray | None:
+        """The bytes of a resource the command stored to (whole words; a texture: one
+        byte, True); a poisoned buffer gets its other bytes back."""
+        obj = state.objects[key]
+        if not isinstance(obj, moderngl.Buffer):
+            return np.ones(1, bool)
+        after = self._contents(state, key)
+        if held is None or after is None:
+            return np.ones(obj.size, bool)
+        pad = -len(after) % 4
+        differ = np.concatenate([after != poisoned, np.zeros(pad, bool)])
+        changed = np.repeat(differ.reshape(-1, 4).any(axis=1), 4)[: len(after)]
+        if poisoned is not held:
+            _ORIGINAL_WRITE(obj, np.where(changed, after, held).tobytes())
+        return changed if changed.any() else None
 
     # -- the model -----------------------------------------------------------------------------
 
@@ -348,21 +391,19 @@ class Tracer:
                     self._flag(
                         "draw after store", state, key, "framebuffer", entry.command, command
                     )
-        before = {key: self._contents(state, key) for key, access, _ in uses if access.stores}
+        stored: dict[tuple[str, int], list] = {}
+        read = {key for key, access, _ in uses if access.reads}
+        for key, access, _ in uses:
+            if access.stores:
+                stored.setdefault(key, []).extend(access.stores)
+        before = {
+            key: self._poison(state, key, ranges, key in read) for key, ranges in stored.items()
+        }
 
         def ran() -> None:
+            changes = {key: self._changes(state, key, *held) for key, held in before.items()}
             for key, access, _ in uses:
-                changed = None
-                if key in before:
-                    after = self._contents(state, key)
-                    if before[key] is None or after is None:
-                        changed = _mask(self._size(state, key), access.stores)
-                    elif self._size(state, key) == 1:
-                        changed = np.array([not np.array_equal(before[key], after)])
-                    else:
-                        changed = before[key] != after
-                    if not changed.any():
-                        changed = None
+                changed = changes.get(key) if access.stores else None
                 if changed is not None:
                     for entry in state.entries.get(key, ()):
                         if _same(entry.identity, identity) or entry.bits:
@@ -596,7 +637,8 @@ class Tracer:
         self._before(moderngl.Context, "copy_framebuffer", copy_framebuffer)
 
         def barrier(ctx, barriers=ALL_BITS, by_region=False):
-            tracer.barrier(ctx, barriers)
+            if not tracer.ignore or _where(helpers=True).split(" ")[0] not in tracer.ignore:
+                tracer.barrier(ctx, barriers)
 
         self._before(moderngl.Context, "memory_barrier", barrier)
 
@@ -684,9 +726,10 @@ class Tracer:
 
 
 @contextlib.contextmanager
-def tracing() -> Iterator[Tracer]:
-    """A :class:`Tracer` installed on moderngl's classes for the ``with`` block."""
-    tracer = Tracer()
+def tracing(ignore: tuple[str, ...] = ()) -> Iterator[Tracer]:
+    """A :class:`Tracer` installed on moderngl's classes for the ``with`` block; ``ignore``:
+    barrier calls it leaves out, "glmls/path.py:line" (is each needed?)."""
+    tracer = Tracer(ignore)
     tracer.install()
     try:
         yield tracer

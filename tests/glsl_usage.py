@@ -18,7 +18,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-__all__ = ["END", "Access", "preprocess", "usage"]
+__all__ = ["END", "Access", "preprocess", "units", "usage"]
 
 #: The end of a range that runs to the end of the resource.
 END = 1 << 62
@@ -31,8 +31,9 @@ _COMMENTS = re.compile(r"//[^\n]*|/\*.*?\*/", re.S)
 _BLOCK = re.compile(r"layout\s*\([^)]*\)\s*((?:\w+\s+)*?)buffer\s+(\w+)\s*\{([^}]*)\}\s*(\w*)")
 _UNIFORM_BLOCK = re.compile(r"layout\s*\([^)]*\)\s*uniform\s+(\w+)\s*\{([^}]*)\}\s*(\w*)")
 _IMAGE = re.compile(
-    r"layout\s*\([^)]*\)\s*((?:\w+\s+)*?)uniform\s+((?:\w+\s+)*?)\w*image\w+\s+(\w+)"
+    r"layout\s*\(([^)]*)\)\s*((?:\w+\s+)*?)uniform\s+((?:\w+\s+)*?)\w*image\w+\s+(\w+)"
 )
+_SAMPLER = re.compile(r"layout\s*\(([^)]*)\)\s*uniform\s+(?:\w+\s+)*?\w*sampler\w*\s+(\w+)")
 _FUNCTION = re.compile(r"\b(\w+)\s+(\w+)\s*\(([^()]*)\)\s*\{")
 _STORING = re.compile(r"\b(atomic\w+|imageStore|imageAtomic\w+)\s*\(\s*(\w+)")
 _ATOMIC = re.compile(r"\b(?:atomic\w+|imageAtomic\w+)\s*\(\s*(\w+)")
@@ -292,8 +293,8 @@ def usage(source: str) -> dict[str, Access]:
         )
         result[match.group(1)] = Access(_WHOLE if names & words else ())
     for match in _IMAGE.finditer(text):
-        qualifiers = set((match.group(1) + " " + match.group(2)).split())
-        name = match.group(3)
+        qualifiers = set((match.group(2) + " " + match.group(3)).split())
+        name = match.group(4)
         if name not in words:
             result[name] = Access()
             continue
@@ -304,3 +305,19 @@ def usage(source: str) -> dict[str, Access]:
             _WHOLE if _atomic_uses(code, name, atomic_params) == uses else (),
         )
     return result
+
+
+def units(source: str) -> dict[str, int]:
+    """The unit of each image and sampler uniform of GLSL ``source`` (by name), from its
+    layout's ``binding`` (GL's uniform query does not give an image's everywhere)."""
+    text, macros, _ = preprocess(source)
+    found = {}
+    for match in (*_IMAGE.finditer(text), *_SAMPLER.finditer(text)):
+        binding = re.search(r"\bbinding\s*=\s*(\w+)", match.group(1))
+        if binding is not None:
+            value = binding.group(1)
+            for _ in range(8):
+                value = macros.get(value, value)
+            if value.isdigit():
+                found[match.group(match.lastindex)] = int(value)
+    return found

@@ -6,6 +6,11 @@ none of these shows in a result here; on a GPU they race.
     python tools/barrier_survey.py              # every workload, its hazards
     python tools/barrier_survey.py warp volume  # the workloads whose names contain these
     python tools/barrier_survey.py --pieces     # with llvmpipe's pieces of large primitives
+    python tools/barrier_survey.py --drop glmls/volume/bands.py:285   # without a barrier
+
+``--drop FILE:LINE`` (repeatable) leaves the barriers issued at that line out of the
+tracer's model (GL still gets them): the hazards then met are those it orders, none where
+another barrier orders the same or the workloads do not reach it.
 
 By default the context walks no primitive in pieces (``GLContext.piece_pixels`` 0), as on a
 GPU: the commands are those a GPU driver gets (the pieces' dispatches, llvmpipe's only, come
@@ -29,6 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 from barrier_trace import tracing
 
 import glmls
+from glmls.imaging.options import PipelineOptions
 from glmls.volume import SlabOptions
 
 
@@ -54,6 +60,27 @@ def warps(ctx, rng):
             m.warp(image, grid=4, interpolation="linear")
             m.warp(image.astype(np.float32), method="backward", interpolation="linear")
             m.warp(image[..., 0], tolerance=0.05, interpolation="linear")
+
+
+def banded_warps(ctx, rng):
+    """Image warps whose mesh is evaluated in bands of a few rows (small ``band_bytes``), on
+    the compute passes and on the GL rasterizer's."""
+    image = _image(rng)
+    src, dst = _handles(rng, image.shape[:2], spread=12.0)
+    pipes = [
+        glmls.gl.WarpPipeline(ctx, options=PipelineOptions(band_bytes=2048, **extra))
+        for extra in ({}, {"compute_quads": False})
+    ]
+    try:
+        with glmls.MLS(src, dst, ctx=ctx) as m:
+            for pipe in pipes:
+                for method in glmls.METHODS:
+                    for interpolation in glmls.INTERPOLATIONS:
+                        pipe.warp(m, image, method=method, interpolation=interpolation)
+                pipe.warp(m, image, tolerance=0.05)
+    finally:
+        for pipe in pipes:
+            pipe.release()
 
 
 def mls_points(ctx, rng):
@@ -214,6 +241,7 @@ def window(ctx, rng) -> int:
 
 WORKLOADS = {
     "warp": warps,
+    "banded": banded_warps,
     "mls_points": mls_points,
     "handles": handles_and_storages,
     "batch": batch,
@@ -226,6 +254,8 @@ WORKLOADS = {
 def main(argv: list[str]) -> int:
     pieces = "--pieces" in argv
     argv = [a for a in argv if a != "--pieces"]
+    dropped = tuple(argv[k + 1] for k, a in enumerate(argv) if a == "--drop")
+    argv = [a for k, a in enumerate(argv) if a != "--drop" and (k == 0 or argv[k - 1] != "--drop")]
     chosen = [name for name in WORKLOADS if not argv or any(a in name for a in argv)]
     ctx = glmls.gl.create_headless()
     if not pieces:
@@ -235,7 +265,7 @@ def main(argv: list[str]) -> int:
         for name in chosen:
             rng = np.random.default_rng(7)
             started = time.perf_counter()
-            with tracing() as tracer:
+            with tracing(dropped) as tracer:
                 try:
                     met += WORKLOADS[name](ctx, rng) or 0
                 except Exception as error:  # the survey goes on: say what failed

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from barrier_trace import tracing
-from glsl_usage import END, Access, usage
+from glsl_usage import END, Access, units, usage
 
 import glmls
 from glmls.gl import bindings
@@ -57,6 +57,15 @@ def test_a_sources_reads_and_stores():
     assert found["Unused"] == Access()  # named only by a function main never calls
     assert found["Branch"] == Access(((0, 4),), (), ())  # the store is in a group left out
     assert found["target"] == Access((), ((0, END),), ())
+
+
+def test_units_from_the_layouts():
+    source = SOURCE.replace(
+        "#define FLAG 1", "#define FLAG 1\n#define BIND_T 6\n#define UNIT BIND_T"
+    )
+    source = source.replace("binding = 0) writeonly", "binding = UNIT) writeonly")
+    source += "layout(binding = 3) uniform sampler2D table;\n"
+    assert units(source) == {"target": 6, "table": 3}
 
 
 def test_stores_through_parameters_and_increments():
@@ -132,6 +141,35 @@ def test_each_kind_of_hazard_and_a_barrier(own):
             assert np.frombuffer(out.read(), np.uint32)[0] == 5
         finally:
             store.release(), read.release(), data.release(), out.release()
+
+
+IMAGE_STORE = """#version 430
+layout(local_size_x = 1) in;
+layout(rgba8, binding = 5) writeonly uniform image2D target;
+void main() { imageStore(target, ivec2(0), vec4(1.0)); }
+"""
+
+
+def test_an_image_store_then_a_read_back(own):
+    with own, tracing() as tracer:
+        mgl = own.mgl
+        program, texture = mgl.compute_shader(IMAGE_STORE), mgl.texture((2, 2), 4)
+        try:
+            texture.bind_to_image(5, read=False, write=True)
+            program.run()
+            texture.read()
+            assert [(h.kind, h.how) for h in tracer.hazards] == [
+                ("read after store", "texture_update")
+            ]
+            tracer.hazards.clear()
+            program.run()  # stores where the last still may
+            assert [h.kind for h in tracer.hazards] == ["store after access"]
+            tracer.hazards.clear()
+            mgl.memory_barrier()
+            assert texture.read()[:4] == bytes([255] * 4)
+            assert tracer.hazards == []
+        finally:
+            program.release(), texture.release()
 
 
 # -- workloads ---------------------------------------------------------------------------------
