@@ -280,6 +280,9 @@ class LatticeBands:
             buffer = resources.buffer(f"{name}.{len(self._held)}", self._held[0][3].size)
         else:
             buffer = self._held.pop(0)[3]  # the least recently loaded band's
+        # the passes over the band the buffer held before (a slab's scan or resolve) may
+        # still read it: a GPU overlaps them with the evaluation that overwrites it
+        self.gl.mgl.memory_barrier()
         self.field.fill(self.lattice, low, high - low + 1, buffer)
         self._held.append((first, layers, low, buffer))
         self._take(first, layers, low, buffer)
