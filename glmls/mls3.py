@@ -42,6 +42,11 @@ from .volume import volume_bounds, volume_coordinate_map, warp_volume
 
 __all__ = ["MLS3", "InverseMLS3"]
 
+#: Points a side of the lattice whose images give the inverse its last starts.
+LATTICE_SIDE = 24
+#: The lattice points (those with images nearest u) Newton starts from again.
+LATTICE_STARTS = 4
+
 
 def _two_d_only(what: str) -> ValueError:
     return ValueError(f"{what} is 2D only: this MLS has (N, 3) handles")
@@ -650,7 +655,9 @@ class InverseMLS3(InverseMLS):
 
     ``inv(points)`` solves f(s) = u at (K, 3) points on the GPU by Newton's method (J by
     central differences, stopping below 1e-4 voxel), from the MLS with p and q swapped at u,
-    then from u itself. A row is NaN where Newton does not end within 0.05 voxel of u (no
+    then from u itself, and where neither reaches u (next to a fold both may lie in the
+    basin of no preimage) from the four points of a lattice around u whose images lie
+    nearest it. A row is NaN where Newton does not end within 0.05 voxel of u (no
     preimage, or none found); a voxel is the handles' unit, or less where their box is
     smaller than 32 units (``glmls.engine.passes3.length_unit``); ``return_valid=True``
     also returns the mask of the rows that have one. Where f folds, u has several preimages
@@ -718,8 +725,47 @@ class InverseMLS3(InverseMLS):
         s, residual = invert_points3(m.kernel, points, guess)  # type: ignore[arg-type]
         unit = length_unit(m.kernel)  # type: ignore[arg-type]
         valid = residual <= accept_residual(m.scaling, points, s, unit=unit)
+        if not valid.all():
+            missed = np.flatnonzero(~valid)
+            s[missed], residual[missed] = self._from_lattice(points[missed], s[missed])
+            valid[missed] = residual[missed] <= accept_residual(
+                m.scaling, points[missed], s[missed], unit=unit
+            )
         s[~valid] = np.nan
         return s, valid
+
+    def _from_lattice(self, u: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Newton again for the points u that neither start reached, from the points of a
+        lattice whose images lie nearest u (next to a fold the swapped MLS and u itself can
+        both lie in the basin of no preimage): the best ends and their residuals.
+
+        The lattice spans u and the first attempt's ends, widened by the handles' largest
+        move (a preimage lies about that far from u), LATTICE_SIDE points a side."""
+        from scipy.spatial import cKDTree
+
+        m = self._forward
+        reach = float(np.linalg.norm(m.dst - m.src, axis=1).max(initial=0.0)) + 1.0
+        known = np.concatenate([u, s[np.isfinite(s).all(axis=1)]])
+        lo, hi = known.min(axis=0) - reach, known.max(axis=0) + reach
+        axes = [np.linspace(lo[k], hi[k], LATTICE_SIDE) for k in range(3)]
+        lattice = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        images, _ = evaluate_points3(m.kernel, lattice)  # type: ignore[arg-type]
+        kept = np.isfinite(images).all(axis=1)
+        lattice, images = lattice[kept], images[kept]
+        starts = min(LATTICE_STARTS, len(lattice))
+        if starts == 0:
+            return s, np.full(len(u), np.inf)
+        _, nearest = cKDTree(images).query(u, k=starts)
+        nearest = nearest.reshape(len(u), starts)
+        ends, residuals = invert_points3(
+            m.kernel,  # type: ignore[arg-type]
+            np.repeat(u, starts, axis=0),
+            lattice[nearest.reshape(-1)],
+        )
+        residuals = residuals.reshape(len(u), starts)
+        best = np.argmin(np.where(np.isfinite(residuals), residuals, np.inf), axis=1)
+        rows = np.arange(len(u))
+        return ends.reshape(len(u), starts, 3)[rows, best], residuals[rows, best]
 
     def residuals(self, src: object, dst: object) -> np.ndarray:
         """|f^-1(src) - dst| per point, voxels.

@@ -298,6 +298,25 @@ def test_the_inverse_finds_a_preimage_of_every_image(gl, transform):
         assert np.abs(m(s) - y).max() < 0.05  # the acceptance; most within 1e-4
 
 
+def test_the_inverse_starts_from_a_lattice_where_both_starts_miss(gl):
+    """Next to a fold, the swapped MLS and u itself may both lie in the basin of no preimage:
+    for these two points Newton from either ended 1-4 voxels from u (NaN rows); the starts
+    from the lattice whose images lie nearest u find x itself."""
+    rng = np.random.default_rng(10)
+    shape = (16, 20, 24)
+    for amp in (1.0, 3.0):  # the draws of the second, folding, set
+        src = rng.uniform(0, 1, (12, 3)) * [23, 19, 15]
+        dst = src + rng.normal(0, amp, src.shape)
+        rng.uniform(size=(3000, 3))  # (the points this set was first tried at)
+    x = np.array([[10.508, 16.436, 5.717], [13.021, 15.541, 4.983]])
+    y = reference.mls(src, dst, x, shape=shape)[0]  # f(x) in float64
+    with glmls.MLS(src, dst, shape=shape) as m:
+        s, valid = m.inverse(y, return_valid=True)
+        assert valid.all()
+        assert np.abs(m(s) - y).max() < 0.05
+        assert np.abs(s - x).max() < 0.01  # the preimage found is x's
+
+
 @pytest.mark.parametrize("size", [1e-3, 1e-6])
 def test_handles_a_few_thousandths_apart_with_s_0(gl, size):
     """Handles in a box of ``size`` units (a mesh in metres, s=0): a point near a handle
