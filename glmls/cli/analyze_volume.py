@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.tetrahedra import delaunay3
+from ..analysis.tetrahedra import SLIVER_QUALITY, delaunay3, tetrahedron_quality
 from ..analysis.volume_reporting import VOLUME_PICTURES, volume_report
 from ..core.config import MLSConfig
 from ..core.handles3 import as_points3
@@ -71,14 +71,25 @@ def read_points_3d(path: str | Path) -> np.ndarray:
 
 def check_reference_3d(path: str | Path, points: np.ndarray | None) -> None:
     """:class:`UsageError` naming ``path`` for reference points (K, 3) that make no
-    tetrahedra or lie beyond glmls's coordinate range; before any work is started."""
+    tetrahedra (too few, repeated, on one plane, or every Delaunay tetrahedron a sliver,
+    which the analysis leaves out) or lie beyond glmls's coordinate range; before any work
+    is started."""
     if points is None:
         return
     try:
         as_points3(points, "reference_points")  # the range, which delaunay3 does not check
-        delaunay3(points)
+        r, simplices = delaunay3(points)
     except ValueError as error:
         raise UsageError(f"{path}: {error}") from None
+    quality = tetrahedron_quality(r[simplices])
+    if not (quality >= SLIVER_QUALITY).any():  # the command line has no min_quality to lower
+        count = len(simplices)
+        raise UsageError(
+            f"{path}: no tetrahedron to measure: the {count} Delaunay "
+            f"{'tetrahedron is a sliver' if count == 1 else 'tetrahedra are all slivers'} "
+            f"(radius ratio 3 r / R at most {float(quality.max()):.3g}, below "
+            f"{SLIVER_QUALITY}: the points lie near a plane); spread the reference points"
+        )
 
 
 def _deformation(src: np.ndarray, dst: np.ndarray, config: MLSConfig, shape, spacing) -> MLS:
@@ -131,6 +142,8 @@ def run_volume(args: argparse.Namespace) -> int:
     time = source.nifti is not None and source.nifti.time_step is not None
     # as glmls warp does: a mask as float32
     volume = warpable(source.data, args.input, time=time)
+    if volume.dtype.kind == "f" and not np.isfinite(volume).any():  # before any work
+        raise UsageError(f"{args.input}: no finite voxel: every voxel is NaN or infinite")
     spacing = args.spacing or source.spacing
     src, dst = voxel_handles(args, *read_3d_handles(args, "volume"), spacing)
     reference = read_points_3d(args.reference) if args.reference else None
