@@ -271,9 +271,59 @@ def volume_deformation(m: Deformation3D, shape: Sequence[int], spacing: object) 
     return m
 
 
+#: Up to this many handles E_MLS is summed handle by handle (as fast as the moments).
+FEW_HANDLES = 6
+#: Where the moments' sum of E_MLS is below this share of the size of its terms, the
+#: cancellation between them may show, and E_MLS is summed handle by handle instead.
+CANCELLATION = 1e-8
+
+
 def fit_residuals(src: np.ndarray, dst: np.ndarray, m: np.ndarray, t: np.ndarray) -> np.ndarray:
     """E_MLS = sum_i |p_i M + T - q_i|^2 for each (M, T) of (K, 3, 3), (K, 3): (K,); 0 each
-    without handles."""
+    without handles.
+
+    From the handles' moments about their centroid c (a = p - c, b = q - c,
+    T' = T + c M - c): E = tr(M^T A M) + 2 (S_a M) . T' - 2 tr(M^T B) + N |T'|^2
+    - 2 T' . S_b + S_bb, O(K) instead of O(K N) (a 256^3 volume of 64 handles in seconds
+    rather than minutes). The rows where these terms cancel to below :data:`CANCELLATION`
+    of their size (a fit that meets the handles, E near 0) are summed handle by handle,
+    so such an E keeps full precision (0 where the fit is exact)."""
+    src, dst = np.asarray(src, np.float64), np.asarray(dst, np.float64)
+    m, t = np.asarray(m, np.float64), np.asarray(t, np.float64)
+    count = len(src)
+    if count == 0:
+        return np.zeros(len(m))
+    if count <= FEW_HANDLES:
+        return _summed(src, dst, m, t)
+    centre = np.concatenate([src, dst]).mean(axis=0)
+    a, b = src - centre, dst - centre
+    moments_aa, moments_ab = a.T @ a, a.T @ b
+    sum_a, sum_b, sum_bb = a.sum(axis=0), b.sum(axis=0), float((b * b).sum())
+    out = np.empty(len(m))
+    step = max(1, CHUNK // 16)
+    for start in range(0, len(m), step):
+        mk = m[start : start + step]
+        tk = t[start : start + step] + centre @ mk - centre  # T'
+        quadratic = (np.einsum("jl,klm->kjm", moments_aa, mk) * mk).sum(axis=(1, 2))
+        offsets = count * (tk * tk).sum(axis=1)
+        value = (
+            quadratic
+            + 2 * ((sum_a @ mk) * tk).sum(axis=1)
+            - 2 * (mk * moments_ab).sum(axis=(1, 2))
+            + offsets
+            - 2 * (tk @ sum_b)
+            + sum_bb
+        )
+        size = quadratic + offsets + sum_bb
+        close = np.flatnonzero(value <= CANCELLATION * size)
+        if len(close):
+            value[close] = _summed(src, dst, mk[close], t[start : start + step][close])
+        out[start : start + step] = value
+    return out
+
+
+def _summed(src: np.ndarray, dst: np.ndarray, m: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """E_MLS handle by handle, for the rows where the moments' sum cancels."""
     out = np.empty(len(m))
     step = max(1, CHUNK // (4 * max(1, len(src))))
     for start in range(0, len(m), step):

@@ -11,6 +11,7 @@ from scipy import stats as scipy_stats
 import glmls
 from glmls import reference
 from glmls.analysis import ReferenceDeformation, error_stats, volume_error_field
+from glmls.analysis.volume_field import fit_residuals
 
 SRC = np.array([[2.0, 2, 1], [12, 3, 2], [3, 10, 1], [2, 2, 8], [11, 10, 7], [7, 6, 4]])
 DST = SRC + np.array([[0.0, 0, 0], [1, 0, 0], [0, -1, 0], [0, 0, 1], [-1, 1, 0], [2, 1, -1]])
@@ -176,7 +177,7 @@ def test_spacing_puts_the_voxels_at_physical_points():
     bend = lambda v: v + [[0.01, 0.0, 0.0]] * v[:, :1] ** 2  # noqa: E731  (x + x^2 / 100, y, z)
     cells = glmls.analysis.cell_jacobians(bend, shape, spacing=spacing)
     # cell i spans x = (i -+ 1/2) 2: dx'/dx = 1 + (x0 + x1) / 100 = 1 + 0.04 i
-    np.testing.assert_allclose(cells.det[1, 2], 1 + 0.04 * np.arange(5), atol=1e-12)
+    assert_allclose(cells.det[1, 2], 1 + 0.04 * np.arange(5), atol=1e-12)
     src = np.array([[2.0, 2, 2], [13, 2, 2], [2, 13, 2], [2, 2, 13], [13, 13, 13]])
     dst = src.copy()
     dst[4] = [10.0, 10, 10]
@@ -185,7 +186,7 @@ def test_spacing_puts_the_voxels_at_physical_points():
     z, y, x = np.mgrid[0:3, 0:4, 0:5]
     points = np.stack([x.ravel() * 2.0, y.ravel() * 1.0, z.ravel() * 1.5], axis=1)
     exact = glmls.reference.mls_error(src, dst, points).reshape(shape)
-    np.testing.assert_allclose(field, exact, rtol=1e-9)
+    assert_allclose(field, exact, rtol=1e-9)
     with pytest.raises(ValueError, match="spacing"):
         glmls.analysis.volume_error_field(m, shape, spacing=(1.0, 0.0, 1.0))
 
@@ -202,3 +203,33 @@ def test_a_2d_deformation_is_named_by_every_volume_analysis(gl):
         ):
             with pytest.raises(ValueError, match=r"m is a 2D deformation \(src of shape \(3, 2\)"):
                 analyse()
+
+
+def _summed_by_handle(src, dst, matrix, translation):
+    """eq. (7) as written: the fit at each point applied to every handle, float64."""
+    fitted = np.einsum("nd,kde->kne", src, matrix) + translation[:, None, :]
+    return ((fitted - dst) ** 2).sum(axis=(1, 2))
+
+
+@pytest.mark.parametrize("count", [1, 6, 7, 64])
+def test_fit_residuals_from_moments_equal_the_sum_over_handles(count):
+    """E_MLS from the handles' moments (O(1) a point) equals the sum handle by handle to
+    float64's rounding, far from the origin too; exact fits (E = 0, a rigid map that meets
+    every handle) stay exactly 0, not the rounding of terms that cancel."""
+    rng = np.random.default_rng(count)
+    for offset in (0.0, 1e5):
+        src = rng.uniform(0, 256, (count, 3)) + offset
+        dst = src + rng.normal(0, 5, src.shape)
+        matrix = np.eye(3) + rng.normal(0, 0.05, (500, 3, 3))
+        translation = rng.normal(0, 5, (500, 3))
+        expected = _summed_by_handle(src, dst, matrix, translation)
+        assert_allclose(fit_residuals(src, dst, matrix, translation), expected, rtol=1e-9, atol=0)
+    rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    src = rng.uniform(0, 256, (count, 3)) + 1e4
+    dst = src @ rotation + [3.0, -4.0, 5.0]
+    matrix = np.repeat(rotation[None], 4, axis=0)
+    translation = np.repeat([[3.0, -4.0, 5.0]], 4, axis=0)
+    exact = fit_residuals(src, dst, matrix, translation)
+    np.testing.assert_array_equal(exact, _summed_by_handle(src, dst, matrix, translation))
+    identity = fit_residuals(src, src, np.repeat(np.eye(3)[None], 3, axis=0), np.zeros((3, 3)))
+    assert (identity == 0).all()
