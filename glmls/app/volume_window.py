@@ -324,7 +324,8 @@ class VolumeApp(WindowLoop):
         self.view.draw(
             self.layout,
             c,
-            ((session.revision, c.point, session.mls is None), slices),
+            # a view shown undeformed (the warp refused it) is another picture of one plane
+            ((session.revision, c.point, session.mls is None, *session.slice_errors), slices),
             ((session.revision, c.point, c.overlay), overlays),
             groups,
         )

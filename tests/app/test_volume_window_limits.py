@@ -154,3 +154,49 @@ def test_the_readout_says_why_the_slices_are_undeformed_and_what_a_key_is_for(tm
     text = " ".join(" ".join(result["lines"][-1]).split())  # wrapped lines joined
     assert "use a coarser grid" in text and "(those slices shown undeformed)" in text
     assert "m: for images, not volumes" in text
+
+
+FLAKY = """
+import json
+import numpy as np
+import glmls
+from glmls.app.events import Key, Wait
+from glmls.app.volume_session import VolumeSession
+from glmls.app.volume_view import view_viewport
+from glmls.app.volume_window import VolumeApp
+
+made = VolumeSession._slice
+
+def refused_with_a_field(self, view, field, *, deform=True):
+    if field is not None and deform:  # the two-channel warp refused, the one-channel not
+        raise ValueError("refused with the overlay's channel")
+    return made(self, view, field, deform=deform)
+
+VolumeSession._slice = refused_with_a_field
+src, dst = glmls.data.phantom_handles()
+app = VolumeApp(glmls.data.phantom(), src, dst + [[6.0, 6.0, 0.0]], window_size=(900, 600))
+shots = []
+
+def keep(a):
+    x, y, w, h = view_viewport(a.layout, a.controller.grid, 0)  # the axial view
+    top = a.window.framebuffer_size[1] - y - h
+    shots.append((a.screenshot()[top : top + h, x : x + w], a.session.slice_error))
+
+app.run(events=[Wait(2), Key("e"), Wait(2)], frames=5, on_frame=keep)
+(before, error_before), (after, error_after) = shots[1], shots[-1]
+print(json.dumps([float(np.abs(before.astype(int) - after).mean()), error_before, error_after]))
+"""
+
+
+@pytest.mark.skipif(XVFB is None, reason="xvfb-run is not installed")
+def test_a_view_shown_undeformed_is_drawn_undeformed(tmp_path):
+    """The pictures were uploaded when f or the slice point changed: a view the warp refused
+    only once the overlay's channel rode along kept showing its deformed picture."""
+    script = tmp_path / "flaky.py"
+    script.write_text(FLAKY)
+    command = [XVFB, "-a", sys.executable, str(script)]
+    done = subprocess.run(command, capture_output=True, text=True, env=child_env(), timeout=300)
+    assert done.returncode == 0, done.stderr
+    changed, error_before, error_after = json.loads(done.stdout.splitlines()[-1])
+    assert error_before == "" and error_after == "refused with the overlay's channel"
+    assert changed > 1.0  # the undeformed plane, not the deformed picture of before
