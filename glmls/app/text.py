@@ -1,6 +1,7 @@
 """On-screen text: a glyph atlas made with Pillow at start-up, drawn as textured quads.
 
-:class:`GlyphAtlas` (no GL) rasterises printable ASCII once into a grey image and lays text
+:class:`GlyphAtlas` (no GL) rasterises printable ASCII (and the few other characters of
+glmls's messages) once into a grey image and lays text
 out as quads; :class:`TextRenderer` uploads the atlas and draws the quads in one call per
 frame. Positions are framebuffer pixels from the top left.
 """
@@ -23,7 +24,11 @@ from .vertices import StreamingVertices
 __all__ = ["GlyphAtlas", "TextRenderer", "glyph_atlas"]
 
 FONTS = ("DejaVuSansMono.ttf", "LiberationMono-Regular.ttf", "DejaVuSans.ttf")
-_CHARS = [chr(c) for c in range(32, 127)]
+#: Printable ASCII, and the other characters that glmls's messages use (a range's ±, units'
+#: powers, µm, the multiplication sign), which the readout shows as said: not as "?".
+_CHARS = [chr(c) for c in range(32, 127)] + list(
+    "\u00b1\u00b2\u00b3\u00b9\u207b\u00b5\u03bc\u03a3\u00d7\u00b0\u2264\u2265\u00f7\u2014\u2026\u00e9\u00c5"
+)  # ± ² ³ ¹ ⁻ µ μ Σ, times, ° ≤ ≥ ÷, dash, ellipsis, é Å
 _SOLID = "\x7f"  # a fully covered cell, for panels and bars
 _COLUMNS = 16
 
@@ -39,7 +44,9 @@ def load_font(size: int) -> ImageFont.FreeTypeFont | ImageFont.ImageFont:
 
 
 class GlyphAtlas:
-    """Printable ASCII in cells of ``cell`` = (width, height) pixels of a grey image.
+    """Printable ASCII and the other characters of glmls's messages (``±``, ``²``, ``µ``,
+    ...) in cells of ``cell`` = (width, height) pixels of a grey image; any other character
+    is drawn as ``?``.
 
     ``image`` (H, W) uint8 holds coverage; each glyph is drawn at its cell's top left with
     its ascender there, so a line of text is ``line_height`` pixels tall.

@@ -18,11 +18,13 @@ import numpy as np
 from ..core.config import MLSConfig
 from ..core.handles3 import as_volume_spacing
 from ..imaging.source import BORDERS, INTERPOLATIONS
+from .controller import BINDINGS as IMAGE_BINDINGS
 from .controls import Controls, window_bindings
 from .events import Press, Scroll
 from .settings import ALPHA_RANGE, ALPHA_STEP, RADIUS_FACTOR, bounded_step, cycle
 
 __all__ = [
+    "IMAGE_ONLY_KEYS",
     "VIEWS",
     "VOLUME_BINDINGS",
     "VOLUME_COMMANDS",
@@ -71,6 +73,11 @@ VOLUME_BINDINGS: tuple[tuple[tuple[str, ...], str, str], ...] = window_bindings(
     ),
 )
 _ACTIONS = {key: action for keys, action, _ in VOLUME_BINDINGS for key in keys}
+#: The image window's keys that have no action here, and what they do there: pressed in the
+#: volume window, the readout says so.
+IMAGE_ONLY_KEYS = {
+    key: what for keys, _, what in IMAGE_BINDINGS for key in keys if key not in _ACTIONS
+}
 
 
 @dataclass(frozen=True)
@@ -587,6 +594,8 @@ class VolumeController(Controls):
     def _key(self, key: str) -> list[str]:
         action = _ACTIONS.get(key)
         if action is None:
+            if key in IMAGE_ONLY_KEYS:
+                self.message = f"{key}: for images, not volumes ({IMAGE_ONLY_KEYS[key]})"
             return []
         if action in VOLUME_COMMANDS:
             return [action]

@@ -24,7 +24,14 @@ from ..gl.context import GLContext
 from ..mls import MLS
 from .volume_controller import AXES, VolumeController
 
-__all__ = ["ERROR_ALPHA", "FIELD_GRID", "FOLD_RGBA", "VolumeSession", "display_volume"]
+__all__ = [
+    "ERROR_ALPHA",
+    "FIELD_GRID",
+    "FOLD_RGBA",
+    "VolumeSession",
+    "check_fits",
+    "display_volume",
+]
 
 #: The error field's opacity (0-255) from its lowest to its highest colour, and the folds'
 #: colour (RGBA, 0-255), over the slices.
@@ -84,6 +91,47 @@ def display_volume(volume: np.ndarray) -> np.ndarray:
     return shown
 
 
+def check_fits(gl: GLContext, shape: tuple[int, int, int]) -> None:
+    """Refuse a volume of ``shape`` (D, H, W) that the window on ``gl`` cannot show: its
+    slices (H x W) past the GL 3D texture limit, which no warp takes, or a side past the 2D
+    texture limit, which no view's picture holds.
+
+    Parameters
+    ----------
+    gl : glmls.gl.GLContext
+        The window's context.
+    shape : tuple of int
+        (D, H, W) of the volume.
+
+    Raises
+    ------
+    ValueError
+        Naming the volume's size and the limit it passes.
+
+    Examples
+    --------
+    >>> check_fits(glmls.gl.get_context(), (64, 64, 64))  # fits: nothing said
+    >>> check_fits(glmls.gl.get_context(), (1, 100_000, 8))
+    Traceback (most recent call last):
+    ...
+    ValueError: a volume of 8 x 100000 x 1 voxels (x, y, z): ...
+    """
+    depth, height, width = shape
+    size = f"a volume of {width} x {height} x {depth} voxels (x, y, z)"
+    side = int(gl.mgl.info["GL_MAX_3D_TEXTURE_SIZE"])
+    if max(height, width) > side:
+        raise ValueError(
+            f"{size}: the window deforms slices of at most {side} x {side} voxels (x, y) on "
+            "this device; crop or downsample it"
+        )
+    flat = gl.limits["max_texture_size"]
+    if max(shape) > flat:
+        raise ValueError(
+            f"{size}: the window shows at most {flat} voxels a side on this device; crop or "
+            "downsample it"
+        )
+
+
 def _plane(view: int, shape: tuple[int, int, int], point, scale) -> tuple[tuple, tuple]:
     """(output_shape, origin) of the one-voxel-thick canvas of ``view``'s plane, the origin
     in handle units (``scale``: handle units per voxel along x, y, z)."""
@@ -117,6 +165,9 @@ class VolumeSession:
         self.revision = -1
         #: Why the last change of handles failed ("" if not): the last valid f stays.
         self.error = ""
+        #: Per view, why its slice could not be deformed ("" if it was): it shows the volume
+        #: as it is until f, the overlay or its plane changes.
+        self.slice_errors = ["", "", ""]
         self.timings: dict[str, float] = {}
         #: The readout's lines of the overlay shown.
         self.lines: list[str] = []
@@ -209,17 +260,33 @@ class VolumeSession:
             normal = AXES[view][2]
             key = (self.revision, c.point[normal], self.mls is None, self._field[0], field is None)
             if self._slices[view][0] != key:
-                self._slices[view] = (key, self._slice(view, field))
+                self._slices[view] = (key, self._deformed(view, field))
                 made = True
         if made:  # the readout keeps the last slices' time
             self.timings["slices"] = time.perf_counter() - start
         return [picture[..., 0] for _, picture in self._slices]
 
-    def _slice(self, view: int, field: np.ndarray | None) -> np.ndarray:
+    @property
+    def slice_error(self) -> str:
+        """Why a view shows its slice undeformed although f is valid ("" if none does)."""
+        return next((error for error in self.slice_errors if error), "")
+
+    def _deformed(self, view: int, field: np.ndarray | None) -> np.ndarray:
+        """:meth:`_slice`, or the plane undeformed where the warp refuses it (a lattice
+        past the GL limits): the window stays, and :attr:`slice_error` says why."""
+        try:
+            picture = self._slice(view, field)
+        except ValueError as error:
+            self.slice_errors[view] = str(error)
+            return self._slice(view, None, deform=False)
+        self.slice_errors[view] = ""
+        return picture
+
+    def _slice(self, view: int, field: np.ndarray | None, *, deform: bool = True) -> np.ndarray:
         """(rows, columns, channels): the picture, then the field if given."""
         c, s = self.controller, self.controller.settings
         volume = self.volume if field is None else np.stack([self.volume, field], axis=3)
-        if self.mls is None:
+        if self.mls is None or not deform:
             index = [slice(None)] * 3
             normal = AXES[view][2]
             index[2 - normal] = slice(c.point[normal], c.point[normal] + 1)

@@ -21,7 +21,7 @@ from ..files.volumes import VOLUME_SUFFIXES, Volume, write_volume
 from .glfw_window import NoDisplayError
 from .hud import PANEL_CHARS, frame_rate, wrap
 from .volume_controller import AXES, VIEWS, VolumeController, VolumeSettings
-from .volume_session import VolumeSession, display_volume
+from .volume_session import VolumeSession, check_fits, display_volume
 from .volume_view import VolumeView, label_quads, montage_layout, text_groups, window_size
 from .window_loop import WindowLoop
 
@@ -149,6 +149,13 @@ class VolumeApp(WindowLoop):
         panel = PANEL_CHARS * 8 + 24
         size = self.window_size or window_size(self.controller.grid, panel)
         self._open_window(size, vsync=vsync)
+        try:
+            check_fits(self.gl, self.display.shape)
+        except ValueError:  # refused before a frame, not at the first drag
+            self.gl.release()
+            self.window.close()
+            self.window = None
+            raise
         self.session = VolumeSession(self.gl, self.controller, self.display)
         self.view = VolumeView(self.gl, self.controller)
         self._listen()
@@ -246,6 +253,9 @@ class VolumeApp(WindowLoop):
             # with no valid f yet (opened without handles) the slices show the volume itself
             kept = "the last valid f" if self.session.mls is not None else "the volume as it is"
             lines += wrap(f"! {self.session.error}", PANEL_CHARS) + [f"  ({kept})"]
+        if self.window is not None and self.session.slice_error:
+            lines += wrap(f"! {self.session.slice_error}", PANEL_CHARS)
+            lines += ["  (those slices shown undeformed)"]
         lines += self.session.lines if self.window is not None else []
         lines += ["", "F1 or ?: help"]
         for message in self._shown_messages():
@@ -314,7 +324,8 @@ class VolumeApp(WindowLoop):
         self.view.draw(
             self.layout,
             c,
-            ((session.revision, c.point, session.mls is None), slices),
+            # a view shown undeformed (the warp refused it) is another picture of one plane
+            ((session.revision, c.point, session.mls is None, *session.slice_errors), slices),
             ((session.revision, c.point, c.overlay), overlays),
             groups,
         )

@@ -467,7 +467,7 @@ def test_the_readout_says_what_the_slices_show_after_an_error():
     app = VolumeApp(volume, empty, empty)
     app.window = object()  # the readout's error lines are the open window's
     app.session = types.SimpleNamespace(error="no handles: shift + click in a view adds one",
-                                        mls=None, lines=[])  # fmt: skip
+                                        mls=None, lines=[], slice_error="")  # fmt: skip
     assert "  (the volume as it is)" in app.readout()
     app.session.mls = object()
     assert "  (the last valid f)" in app.readout()
