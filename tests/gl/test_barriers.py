@@ -143,10 +143,10 @@ def test_each_kind_of_hazard_and_a_barrier(own):
             store.release(), read.release(), data.release(), out.release()
 
 
-IMAGE_STORE = """#version 430
+IMAGE_STORE = f"""#version 430
 layout(local_size_x = 1) in;
-layout(rgba8, binding = 5) writeonly uniform image2D target;
-void main() { imageStore(target, ivec2(0), vec4(1.0)); }
+layout(rgba8, binding = {bindings.TEXEL_TARGET.index}) writeonly uniform image2D target;
+void main() {{ imageStore(target, ivec2(0), vec4(1.0)); }}
 """
 
 
@@ -155,7 +155,7 @@ def test_an_image_store_then_a_read_back(own):
         mgl = own.mgl
         program, texture = mgl.compute_shader(IMAGE_STORE), mgl.texture((2, 2), 4)
         try:
-            texture.bind_to_image(5, read=False, write=True)
+            texture.bind_to_image(bindings.TEXEL_TARGET.index, read=False, write=True)
             program.run()
             texture.read()
             assert [(h.kind, h.how) for h in tracer.hazards] == [
