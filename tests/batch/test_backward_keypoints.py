@@ -44,6 +44,19 @@ def warped(images, src, dst, **options):
     return glmls.warp_batch(images, src, dst, method="backward", **options)
 
 
+def single_warps(monkeypatch) -> list:
+    """The indices of the images that ``SingleWarper.warp_one`` warps one by one from now on
+    (the list fills as it is called)."""
+    single = []
+    warp_one = SingleWarper.warp_one
+    monkeypatch.setattr(
+        SingleWarper,
+        "warp_one",
+        lambda self, *a, **k: single.append(k["index"]) or warp_one(self, *a, **k),
+    )
+    return single
+
+
 @pytest.mark.parametrize(
     "options",
     [
@@ -57,13 +70,7 @@ def warped(images, src, dst, **options):
 def test_backward_keypoints_run_batched_as_the_single_path(gl, rng, monkeypatch, options, maps):
     images, src, dst, masks, points = batch(rng)
     labels = {"keypoints": points, "masks": masks, "return_maps": maps}
-    single = []
-    warp_one = SingleWarper.warp_one
-    monkeypatch.setattr(
-        SingleWarper,
-        "warp_one",
-        lambda self, *a, **k: single.append(k["index"]) or warp_one(self, *a, **k),
-    )
+    single = single_warps(monkeypatch)
     calls = []
     backward = BatchQuads.backward
 
@@ -148,13 +155,7 @@ def test_images_of_their_own_mls_leave_the_others_batched(gl, rng, monkeypatch, 
     moved = [None if s is None else s + 0.75 for s in segments]
     labels = {"keypoints": points, "masks": masks, "return_maps": True, "border": border}
     labels |= {"src_segments": segments, "dst_segments": moved, "grid": 2}
-    single = []
-    warp_one = SingleWarper.warp_one
-    monkeypatch.setattr(
-        SingleWarper,
-        "warp_one",
-        lambda self, *a, **k: single.append(k["index"]) or warp_one(self, *a, **k),
-    )
+    single = single_warps(monkeypatch)
     result = warped(images, src, dst, **labels)
     assert single == [2, 3]
     monkeypatch.setattr(glmls.batch.run, "batchable", lambda chosen: False)
