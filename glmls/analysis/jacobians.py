@@ -10,7 +10,8 @@ evaluated at the corners. Per cell:
   M^T for an affine f(v) = v M + T (J is the column-vector Jacobian; det J = det M).
 - ``det``: det J, 1 for the identity (a volume ratio); ``ratio``: the ratio of J's largest
   to its smallest singular value, 1 for any similarity (how anisotropic the cell's
-  stretch is).
+  stretch is), both in closed form (:mod:`glmls.analysis.singular3`: float64 rounding, not
+  a LAPACK call per cell).
 - ``min_det``: the smallest det J of the six tetrahedra of the cell's Kuhn decomposition
   (each a path 000 -> 100 -> 110 -> 111 through the cube's corners, one per order of the
   axes, all sharing the diagonal 000-111), where the piecewise linear interpolation of f at
@@ -35,6 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .singular3 import cross3, determinant, dot3, singular_extremes
 from .stats import error_stats
 from .volume_field import Deformation3D, precision, volume_deformation
 from .volume_lattice import (
@@ -44,15 +46,14 @@ from .volume_lattice import (
     check_grid3,
     deformation_spacing,
     evaluate,
-    flat_triples,
     lattice_points,
     spacing_scale,
 )
 
 __all__ = ["CellJacobians", "cell_jacobians"]
 
-#: Corner points per slab of cells (f, J and the SVD of a slab stay within ~1 GB).
-SLAB_POINTS = 1 << 21
+#: Corner points per slab of cells: f at them and their (x, y, z) take some 40 MB.
+SLAB_POINTS = 1 << 19
 
 #: (permutation of the axes (x, y, z) = (0, 1, 2), its sign) for the six Kuhn tetrahedra.
 KUHN = tuple(
@@ -152,9 +153,15 @@ class CellJacobians:
         }
 
 
-def _triple(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """a . (b x c) over the last axis."""
-    return (a * np.cross(b, c)).sum(-1)
+#: Cells per block of :func:`cell_quantities` (whole z layers, else rows of one layer, at
+#: least one row): its hundred-odd float64 temporaries of 128 kB each stay in a core's
+#: cache, which makes the numpy passes over them about twice as fast as blocks 4x larger.
+BLOCK_CELLS = 1 << 14
+
+
+def _components(f: np.ndarray) -> list[np.ndarray]:
+    """The x, y and z of f (..., 3) as three contiguous arrays."""
+    return [np.ascontiguousarray(f[..., i]) for i in range(3)]
 
 
 def _corner_max(values: np.ndarray) -> np.ndarray:
@@ -166,48 +173,104 @@ def _corner_max(values: np.ndarray) -> np.ndarray:
     return out
 
 
+def _edges(f: list[np.ndarray]) -> list[list[np.ndarray]]:
+    """The differences of f (x, y, z components, (cz + 1, cy + 1, cx + 1) each) along x, y
+    and z: ``edges[axis][component]``, one longer than the cells along the other axes."""
+    return [
+        [c[:, :, 1:] - c[:, :, :-1] for c in f],
+        [c[:, 1:] - c[:, :-1] for c in f],
+        [c[1:] - c[:-1] for c in f],
+    ]
+
+
+def _edge(edges: list[list[np.ndarray]], axis: int, at: Sequence[int]) -> list[np.ndarray]:
+    """The cells' edges along ``axis`` from the corner offset ``at`` (x, y, z) of 0 or 1,
+    as contiguous arrays (``at[axis]`` is 0: an edge array holds as many along its axis)."""
+    cz, cy, cx = edges[2][0].shape[0], edges[1][0].shape[1], edges[0][0].shape[2]
+    dx, dy, dz = at
+    return [np.ascontiguousarray(e[dz : dz + cz, dy : dy + cy, dx : dx + cx]) for e in edges[axis]]
+
+
+def _kuhn_min(
+    edges: list[list[np.ndarray]], volume: np.ndarray, rounding: float, noise: np.ndarray
+) -> np.ndarray:
+    """The smallest det J of each cell's six Kuhn tetrahedra, 0 for one flat to rounding
+    (:func:`~glmls.analysis.volume_lattice.flat_triples`' test, edge by edge)."""
+    lengths: dict[tuple[int, int, int, int], np.ndarray] = {}
+    path_edges: dict[tuple[int, int, int, int], list[np.ndarray]] = {}
+    low = np.full(noise.shape, np.inf)
+    for order, sign in KUHN:
+        at = [0, 0, 0]
+        path = []
+        for axis in order:
+            key = (axis, *at)
+            if key not in path_edges:
+                e = path_edges[key] = _edge(edges, axis, at)
+                lengths[key] = np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+            path.append(key)
+            at[axis] += 1
+        a, b, c = (path_edges[key] for key in path)
+        la, lb, lc = (lengths[key] for key in path)
+        triple = dot3(a, cross3(b, c))
+        tolerance = FLAT_ULPS * rounding * (la * lb * lc + noise * (la * lb + lb * lc + la * lc))
+        value = np.where(np.abs(triple) <= tolerance, 0.0, sign * triple) / volume
+        np.minimum(low, value, out=low)
+    return low
+
+
+def _block_quantities(
+    f: np.ndarray, axes: Sequence[np.ndarray], rounding: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`cell_quantities` of one block of cells."""
+    x, y, z = axes
+    hx, hy, hz = np.diff(x), np.diff(y), np.diff(z)
+    hx3, hy3, hz3 = hx[None, None, :], hy[None, :, None], hz[:, None, None]
+    comps = _components(f)
+    edges = _edges(comps)
+    ex, ey, ez = edges
+    # column a of J: the mean of the cell's four edges along axis a over its side
+    jx = [(e[:-1, :-1] + e[1:, :-1] + e[:-1, 1:] + e[1:, 1:]) / (4 * hx3) for e in ex]
+    jy = [(e[:-1, :, :-1] + e[1:, :, :-1] + e[:-1, :, 1:] + e[1:, :, 1:]) / (4 * hy3) for e in ey]
+    jz = [(e[:, :-1, :-1] + e[:, 1:, :-1] + e[:, :-1, 1:] + e[:, 1:, 1:]) / (4 * hz3) for e in ez]
+    jacobian = [[jx[row], jy[row], jz[row]] for row in range(3)]
+    det = determinant(jacobian)
+    s1, s3 = singular_extremes(jacobian)
+    # rounding moves f by about rounding x (|f| + |J| |v|) at each corner, and so J by that
+    # over a side: a smallest singular value within it is 0, whatever its sign in det J
+    rx, ry, rz = (np.maximum(np.abs(a[:-1]), np.abs(a[1:])) for a in (x, y, z))
+    reach = np.maximum(np.maximum(rz[:, None, None], ry[:, None]), rx)  # |v| at the corners
+    side = np.minimum(np.minimum(hz3, hy3), hx3)
+    scale = np.maximum(np.maximum(np.abs(comps[0]), np.abs(comps[1])), np.abs(comps[2]))
+    noise = _corner_max(scale) + s1 * reach
+    flat = s3 <= FLAT_ULPS * rounding * (s1 + noise / side)
+    det[flat] = 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(flat, np.nan, s1 / s3)
+    min_det = _kuhn_min(edges, hx3 * hy3 * hz3, rounding, noise)
+    return det, ratio, min_det
+
+
 def cell_quantities(
     corners: np.ndarray, axes: Sequence[np.ndarray], rounding: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(det, ratio, min_det) per cell from f at the corners (cz + 1, cy + 1, cx + 1, 3), the
-    corners' coordinates along (x, y, z) and the rounding of f (``precision``)."""
+    corners' coordinates along (x, y, z) and the rounding of f (``precision``).
+
+    The cells go in blocks of z layers, or of rows of a layer (:data:`BLOCK_CELLS`): every
+    quantity is a cell's own, so the blocks give the same bits as one pass, in bounded
+    memory."""
     x, y, z = (np.asarray(a, dtype=np.float64) for a in axes)
-    hx, hy, hz = np.diff(x), np.diff(y), np.diff(z)
-    f = corners
-    hx3, hy3, hz3 = hx[None, None, :, None], hy[None, :, None, None], hz[:, None, None, None]
-    # edges along x of every cell (4 per cell), likewise y and z
-    ex = f[:, :, 1:] - f[:, :, :-1]  # (cz+1, cy+1, cx, 3)
-    ey = f[:, 1:] - f[:, :-1]  # (cz+1, cy, cx+1, 3)
-    ez = f[1:] - f[:-1]  # (cz, cy+1, cx+1, 3)
-    jx = (ex[:-1, :-1] + ex[1:, :-1] + ex[:-1, 1:] + ex[1:, 1:]) / (4 * hx3)
-    jy = (ey[:-1, :, :-1] + ey[1:, :, :-1] + ey[:-1, :, 1:] + ey[1:, :, 1:]) / (4 * hy3)
-    jz = (ez[:, :-1, :-1] + ez[:, 1:, :-1] + ez[:, :-1, 1:] + ez[:, 1:, 1:]) / (4 * hz3)
-    jacobian = np.stack([jx, jy, jz], axis=-1)  # column a: df/dv_a
-    det = np.linalg.det(jacobian)
-    singular = np.linalg.svd(jacobian, compute_uv=False)
-    # rounding moves f by about rounding x (|f| + |J| |v|) at each corner, and so J by that
-    # over a side: a smallest singular value within it is 0, whatever its sign in det J
-    zz, yy, xx = np.meshgrid(np.abs(z), np.abs(y), np.abs(x), indexing="ij")
-    reach = _corner_max(np.maximum(np.maximum(zz, yy), xx))
-    side = np.minimum(np.minimum(hz3[..., 0], hy3[..., 0]), hx3[..., 0])
-    noise = _corner_max(np.abs(f).max(axis=-1)) + singular[..., 0] * reach
-    flat = singular[..., 2] <= FLAT_ULPS * rounding * (singular[..., 0] + noise / side)
-    det[flat] = 0.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(flat, np.nan, singular[..., 0] / singular[..., 2])
-    volume = hx3[..., 0] * hy3[..., 0] * hz3[..., 0]
-    cz, cy, cx = det.shape
-    min_det = np.full(det.shape, np.inf)
-    for order, sign in KUHN:
-        at = np.zeros(3, int)  # the path's corner offset along (x, y, z)
-        edges = []
-        for axis in order:
-            start = f[at[2] : at[2] + cz, at[1] : at[1] + cy, at[0] : at[0] + cx]
-            at[axis] += 1
-            end = f[at[2] : at[2] + cz, at[1] : at[1] + cy, at[0] : at[0] + cx]
-            edges.append(end - start)
-        value = np.where(flat_triples(edges, rounding, noise), 0.0, sign * _triple(*edges))
-        np.minimum(min_det, value / volume, out=min_det)
+    cells = (len(z) - 1, len(y) - 1, len(x) - 1)
+    det, ratio, min_det = np.empty(cells), np.empty(cells), np.empty(cells)
+    layers = max(1, BLOCK_CELLS // (cells[1] * cells[2]))
+    rows = cells[1] if layers > 1 else max(1, BLOCK_CELLS // cells[2])
+    for k in range(0, cells[0], layers):
+        for j in range(0, cells[1], rows):
+            block = (slice(k, min(k + layers, cells[0])), slice(j, min(j + rows, cells[1])))
+            ends = tuple(slice(b.start, b.stop + 1) for b in block)  # the blocks' corners
+            det[block], ratio[block], min_det[block] = _block_quantities(
+                corners[ends], (x, y[ends[1]], z[ends[0]]), rounding
+            )
     return det, ratio, min_det
 
 

@@ -198,3 +198,74 @@ def test_slabs_of_cells_give_the_same_cells(monkeypatch):
     sliced = cell_jacobians(m, (7, 9, 10), grid=2)
     for name in ("det", "ratio", "min_det", "folded", "mask"):
         assert_array_equal(getattr(sliced, name), getattr(whole, name), err_msg=name)
+
+
+def svd_cells(f, shape):
+    """det and the singular value ratio per cell by numpy's det and SVD of each J (the
+    flat rule left out: a map far from flat)."""
+    corners = [np.arange(n + 1) - 0.5 for n in shape]
+    z, y, x = corners
+    zz, yy, xx = np.meshgrid(z, y, x, indexing="ij")
+    values = f(np.stack([xx.ravel(), yy.ravel(), zz.ravel()], axis=1))
+    values = values.reshape(*zz.shape, 3)
+    columns = []
+    for axis in (2, 1, 0):  # x, y, z: the mean of the four edges along the axis
+        edges = np.diff(values, axis=axis)
+        for other in {0, 1, 2} - {axis}:
+            edges = (
+                edges.take(range(edges.shape[other] - 1), other)
+                + edges.take(range(1, edges.shape[other]), other)
+            ) / 2
+        columns.append(edges)
+    jacobian = np.stack(columns, axis=-1)
+    singular = np.linalg.svd(jacobian, compute_uv=False)
+    return np.linalg.det(jacobian), singular[..., 0] / singular[..., 2]
+
+
+def test_det_and_ratio_agree_with_numpys_det_and_svd_per_cell():
+    src = np.random.default_rng(3).uniform(0, [11, 9, 7], (12, 3))
+    dst = src + np.random.default_rng(4).normal(0, 1.5, src.shape)
+    shape = (7, 9, 11)
+    m = ReferenceDeformation(src, dst, transform="rigid", shape=shape)
+    cells = cell_jacobians(m, shape)
+    det, ratio = svd_cells(m, shape)
+    # J is well conditioned here (ratio < 1e3): both within 1e-12 of numpy's
+    assert ratio.max() < 1e3 and 0 < cells.count < cells.det.size
+    assert_allclose(cells.det, det, rtol=1e-12, atol=1e-12 * np.abs(det).max())
+    assert_allclose(cells.ratio, ratio, rtol=1e-12)
+
+
+@pytest.mark.parametrize(("block", "slab"), [(1, 1), (7, 50), (40, 10**9), (10**9, 10**9)])
+def test_blocks_of_cells_give_the_same_bits(monkeypatch, block, slab):
+    # blocks of one cell row, of rows that do not divide a layer, of layers, and one block
+    from glmls.analysis import jacobians
+
+    src = np.random.default_rng(5).uniform(0, [10, 9, 8], (9, 3))
+    dst = src + np.random.default_rng(6).normal(0, 2.0, src.shape)
+    m = ReferenceDeformation(src, dst, transform="similarity", shape=(8, 9, 10))
+    whole = cell_jacobians(m, (8, 9, 10))
+    monkeypatch.setattr(jacobians, "BLOCK_CELLS", block)
+    monkeypatch.setattr(jacobians, "SLAB_POINTS", slab)
+    parts = cell_jacobians(m, (8, 9, 10))
+    assert 0 < whole.count < whole.det.size
+    for name in ("det", "ratio", "min_det", "folded", "mask"):
+        assert_array_equal(getattr(parts, name), getattr(whole, name), err_msg=name)
+
+
+def test_memory_stays_near_the_size_of_the_results():
+    import tracemalloc
+
+    def f(v):
+        return v * [1.0, 1.1, 0.9] + 0.01 * v[:, [1, 2, 0]] ** 2
+
+    cell_jacobians(f, (4, 4, 4))  # imports and caches before the count
+    tracemalloc.start()
+    try:
+        cells = cell_jacobians(f, (64, 64, 64))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    results = sum(a.nbytes for a in (cells.det, cells.ratio, cells.min_det, cells.mask))
+    # the results take 6.5 MB; J, its singular values and the Kuhn tetrahedra of all
+    # 262144 cells at once would take some 130 MB more
+    assert peak - results < 48 * 2**20
