@@ -269,3 +269,19 @@ def test_memory_stays_near_the_size_of_the_results():
     # the results take 6.5 MB; J, its singular values and the Kuhn tetrahedra of all
     # 262144 cells at once would take some 130 MB more
     assert peak - results < 48 * 2**20
+
+
+@pytest.mark.parametrize("scale", [1e-30, 1e30])
+def test_scaled_maps_keep_their_cells_and_flattenings(scale):
+    rotation = np.array([[0.6, 0.8, 0.0], [-0.8, 0.6, 0.0], [0.0, 0.0, 1.0]])
+    for f in (lambda v: v @ rotation * scale, lambda v: v * scale):
+        cells = cell_jacobians(f, (4, 5, 6))
+        assert cells.count == 0
+        assert_allclose(cells.det, scale**3, rtol=1e-14)
+        assert_allclose(cells.ratio, 1.0, rtol=4e-15)
+    for f in (
+        lambda v: onto_plane(v) * scale,
+        lambda v: np.outer(v @ [1.0, 2.0, 3.0], [0.3, 0.5, 0.7]) * scale,
+    ):
+        cells = cell_jacobians(f, (4, 5, 6))
+        assert cells.folded.all() and (cells.det == 0).all() and np.isnan(cells.ratio).all()
