@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .singular3 import cross3, determinant, dot3, singular_extremes
+from .singular3 import cross3, det_and_extremes, dot3
 from .stats import error_stats
 from .volume_field import Deformation3D, precision, volume_deformation
 from .volume_lattice import (
@@ -233,8 +233,7 @@ def _block_quantities(
     jy = [(e[:-1, :, :-1] + e[1:, :, :-1] + e[:-1, :, 1:] + e[1:, :, 1:]) / (4 * hy3) for e in ey]
     jz = [(e[:, :-1, :-1] + e[:, 1:, :-1] + e[:, :-1, 1:] + e[:, 1:, 1:]) / (4 * hz3) for e in ez]
     jacobian = [[jx[row], jy[row], jz[row]] for row in range(3)]
-    det = determinant(jacobian)
-    s1, s3 = singular_extremes(jacobian)
+    det, s1, s3 = det_and_extremes(jacobian)
     # rounding moves f by about rounding x (|f| + |J| |v|) at each corner, and so J by that
     # over a side: a smallest singular value within it is 0, whatever its sign in det J
     rx, ry, rz = (np.maximum(np.abs(a[:-1]), np.abs(a[1:])) for a in (x, y, z))

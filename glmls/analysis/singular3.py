@@ -31,7 +31,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["cross3", "determinant", "dot3", "singular_extremes"]
+__all__ = ["cross3", "det_and_extremes", "determinant", "dot3", "singular_extremes"]
 
 Matrix = Sequence[Sequence[np.ndarray]]
 
@@ -139,11 +139,56 @@ def singular_extremes(j: Matrix) -> tuple[np.ndarray, np.ndarray]:
     >>> s1.tolist(), s3.tolist()
     ([3.0], [0.5])
     """
+    k, exponent = _scaled(j)
+    s1, s3 = _extremes(k)
+    return np.ldexp(s1, exponent), np.ldexp(s3, exponent)
+
+
+def det_and_extremes(j: Matrix) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """det J and the largest and the smallest singular value of the 3 x 3 matrices
+    ``j[row][column]``, from one scaling of J.
+
+    Parameters
+    ----------
+    j : 3 x 3 nested sequence of numpy.ndarray
+        Same-shape float64 arrays of finite entries, one matrix per element.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray, numpy.ndarray)
+        det J (:func:`determinant`'s bits, but ±inf where it overflows float64 and 0
+        where it underflows, never NaN), s1 and s3 (:func:`singular_extremes`).
+
+    Examples
+    --------
+    >>> from glmls.analysis.singular3 import det_and_extremes
+    >>> j = np.diag([3.0, -2.0, 0.5]) * 2.0**700  # det J = -3 x 2^2100 overflows
+    >>> det, s1, s3 = det_and_extremes([[np.array([e]) for e in row] for row in j])
+    >>> det.tolist(), (s1 / 2.0**700).tolist(), (s3 / 2.0**700).tolist()
+    ([-inf], [3.0], [0.5])
+    """
+    k, exponent = _scaled(j)
+    s1, s3 = _extremes(k)
+    with np.errstate(over="ignore", invalid="ignore"):
+        det = determinant(j)
+        wide = ~np.isfinite(det)  # a cofactor overflowed: inf - inf, or inf for -inf
+        if wide.any():  # the same cofactors of the scaled J, which cannot overflow
+            scaled = determinant([[entry[wide] for entry in row] for row in k])
+            det[wide] = np.ldexp(scaled, 3 * exponent[wide])
+    return det, np.ldexp(s1, exponent), np.ldexp(s3, exponent)
+
+
+def _scaled(j: Matrix) -> tuple[list[list[np.ndarray]], np.ndarray]:
+    """(J / 2^e, e) with J / 2^e's largest entry in [0.5, 1) (0 for J = 0): exact."""
     big = np.abs(j[0][0])
     for row, col in np.ndindex(3, 3):
         np.maximum(big, np.abs(j[row][col]), out=big)
     exponent = np.frexp(big)[1]
-    k = [[np.ldexp(j[row][col], -exponent) for col in range(3)] for row in range(3)]
+    return [[np.ldexp(j[row][col], -exponent) for col in range(3)] for row in range(3)], exponent
+
+
+def _extremes(k: Matrix) -> tuple[np.ndarray, np.ndarray]:
+    """s1 and s3 of the scaled K (:func:`_scaled`)."""
     columns = [[k[row][col] for row in range(3)] for col in range(3)]
     a = {f"{p}{q}": dot3(columns[p], columns[q]) for p in range(3) for q in range(p, 3)}
     lam, largest = _isolated_eigenvalue(a)
@@ -164,4 +209,4 @@ def singular_extremes(j: Matrix) -> tuple[np.ndarray, np.ndarray]:
     with np.errstate(divide="ignore", invalid="ignore"):
         s3 = np.where(s2 > 0, volume / (s1 * s2), 0.0)
     np.minimum(s3, s2, out=s3)
-    return np.ldexp(s1, exponent), np.ldexp(s3, exponent)
+    return s1, s3

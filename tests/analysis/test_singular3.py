@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_array_equal
 
-from glmls.analysis.singular3 import determinant, singular_extremes
+from glmls.analysis.singular3 import det_and_extremes, determinant, singular_extremes
 from glmls.analysis.volume_lattice import FLAT_ULPS
 
 EPS = np.finfo(np.float64).eps
@@ -142,3 +142,17 @@ def test_a_condition_beyond_float64_gives_zero_not_nan():
     # s3 / s1 = 1e-300: J^T J's smallest eigenvalue underflows; J is flat by any rule
     s1, s3 = extremes(np.diag([1e150, 1.0, 1e-150])[None])
     assert s1.tolist() == [1e150] and 0 <= s3[0] <= 1e-150
+
+
+def test_det_from_the_scaled_matrix_has_the_bits_of_the_direct_one_and_no_nan():
+    matrices = RNG.normal(size=(N, 3, 3)) * 10.0 ** RNG.integers(-90, 90, (N, 1, 1))
+    entries = [[matrices[:, a, b] for b in range(3)] for a in range(3)]
+    det, s1, s3 = det_and_extremes(entries)
+    assert_array_equal(det, determinant(entries))
+    assert_array_equal(s1, singular_extremes(entries)[0])
+    assert_array_equal(s3, singular_extremes(entries)[1])
+    # J of 1e200: det J overflows to its signed infinity (cofactors would give inf - inf)
+    huge = RNG.normal(size=(100, 3, 3)) * 1e200
+    det, s1, _ = det_and_extremes([[huge[:, a, b] for b in range(3)] for a in range(3)])
+    assert_array_equal(det, np.sign(np.linalg.det(huge / 1e200)) * np.inf)
+    assert np.all(np.abs(s1 / 1e200 - np.linalg.svd(huge / 1e200, compute_uv=False)[:, 0]) < 1e-14)
