@@ -1,9 +1,8 @@
 """How the volume construction holds its work: output slabs, and f on the lattice band by band
-of z layers (:class:`LatticeBands`); and the lattice's margin for the border modes."""
+of z layers (:class:`LatticeBands`); and the lattice's margins for the border modes."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import moderngl
@@ -14,7 +13,7 @@ from ..gl.context import GLContext
 from ..gl.dispatch import LOCAL_SIZE, run_1d, run_groups, set_uniforms
 from ..gl.resources import Resources
 from .fields import Field
-from .frame import CornerLattice, VolumeFrame
+from .frame import CornerLattice, Margins, VolumeFrame
 
 __all__ = [
     "JACOBIAN_BYTES",
@@ -56,35 +55,76 @@ class Slab:
         return self.width, self.height, self.depth
 
 
-def border_margin3(field: Field, lattice: CornerLattice, frame: VolumeFrame) -> int:
-    """The margin (voxels, a multiple of the grid) that ``lattice`` needs past the volume so
-    that its deformed image reaches past every voxel of ``frame``: the largest displacement
-    on the lattice's faces (sampled, at most 33 x 33 points a face) plus the frame's
-    overhang past the volume plus one voxel, at most that overhang plus twice the volume's
-    largest side."""
+def border_margin3(field: Field, lattice: CornerLattice, frame: VolumeFrame) -> Margins:
+    """The margins (voxels, multiples of the grid) that ``lattice`` needs past each side of
+    the volume so that its deformed image reaches past every voxel of ``frame``: per side,
+    how far f moves the lattice's face on that side inward (the displacement's component
+    along the face's inward normal, largest of at most 33 x 33 points sampled on the face),
+    plus how far the frame reaches past that side, plus one voxel; none where f moves the
+    face outward by more than that. Each margin is at most the frame's reach past its side
+    plus twice the volume's largest side.
+
+    The faces are first the volume's, then those of the lattice with the margins found so
+    far, until every face is moved inward by no more than its margin allows (f past the
+    volume is not f on its faces: where f shrinks the volume, a face further out is moved
+    further in). Each round goes to where the need, growing with the margin at the rate
+    the last two rounds show, meets the margin, not only to the last round's need: a
+    shrinking by half doubles the margin that its faces ask for at first."""
     grid = lattice.grid
     d, h, w = lattice.shape
+    size = np.array([w, h, d], dtype=float)
     low = np.array(frame.origin_voxels)
     high = low + np.array(frame.shape[::-1]) - 1
-    size = np.array([w, h, d], dtype=float)
-    overhang = float(max(0.0, np.max(-0.5 - low), np.max(high - size + 0.5)))
+    # how far the frame's voxel centres reach past each side: (axis, low / high)
+    overhang = np.stack([np.maximum(0.0, -0.5 - low), np.maximum(0.0, high - size + 0.5)], 1)
+    limit = overhang + 2 * max(w, h, d)
+    margins = np.zeros((3, 2))
+    last = None
+    for _ in range(_MARGIN_ROUNDS):
+        box = np.stack([-0.5 - margins[:, 0], size - 0.5 + margins[:, 1]], axis=1)
+        need = np.minimum(np.maximum(_inward_reach(field, box) + overhang + 1, 0.0), limit)
+        if np.all(need <= margins):
+            break
+        goal = need
+        if last is not None:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                rate = np.where(margins > last[0], (need - last[1]) / (margins - last[0]), 0.0)
+            rate = np.clip(np.nan_to_num(rate), 0.0, 0.9)
+            goal = np.minimum(np.maximum(need, margins + (need - margins) / (1 - rate)), limit)
+        last = (margins, need)
+        margins = np.maximum(margins, grid * np.ceil(goal / grid))
+    return tuple((int(a), int(b)) for a, b in margins)  # type: ignore[return-value]
+
+
+#: Rounds of :func:`border_margin3` at most.
+_MARGIN_ROUNDS = 8
+
+
+def _inward_reach(field: Field, box: np.ndarray) -> np.ndarray:
+    """(3, 2): per axis and end (low, high), the largest component of f's displacement
+    along the inward normal of ``box``'s face there (``box``: (3, 2) low and high per axis,
+    voxels), at most 33 x 33 points sampled a face (one evaluation of f for all six); 0
+    where one is not a number."""
+    axes = [np.linspace(lo, hi, min(33, int(hi - lo) + 1)) for lo, hi in box]
     faces = []
-    axes = [np.linspace(-0.5, n - 0.5, min(33, n + 1)) for n in (w, h, d)]
     for axis in range(3):
         others = [a for a in range(3) if a != axis]
         grid_a, grid_b = np.meshgrid(axes[others[0]], axes[others[1]], indexing="ij")
-        for end in (-0.5, size[axis] - 0.5):
+        for end in (0, 1):
             face = np.empty((grid_a.size, 3))
-            face[:, axis] = end
+            face[:, axis] = box[axis, end]
             face[:, others[0]] = grid_a.ravel()
             face[:, others[1]] = grid_b.ravel()
             faces.append(face)
-    points = np.concatenate(faces)
-    moved = field.evaluate(points) - points
-    reach = float(np.max(np.abs(moved))) if np.all(np.isfinite(moved)) else 0.0
-    limit = overhang + 2 * max(w, h, d)
-    margin = min(reach + overhang + 1, limit)
-    return int(grid * max(1, math.ceil(margin / grid)))
+    moved = field.evaluate(np.concatenate(faces)) - np.concatenate(faces)
+    reach = np.zeros((3, 2))
+    start = 0
+    for index, face in enumerate(faces):
+        axis, end = divmod(index, 2)
+        inward = (1.0 - 2.0 * end) * moved[start : start + len(face), axis]
+        start += len(face)
+        reach[axis, end] = float(np.max(inward)) if np.all(np.isfinite(inward)) else 0.0
+    return reach
 
 
 #: Lattice points of a z layer that one work group of ``volume/survey.comp.glsl`` reduces,

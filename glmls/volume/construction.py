@@ -383,18 +383,24 @@ class VolumeWarper:
 
 
 def _lattice(field, shape, frame, options: VolumeOptions, *, backward: bool) -> CornerLattice:
-    """The lattice of the cells: past the volume as far as f moves its faces with a border
-    mode other than ``constant``, and for the backward method's guesses with ``constant``:
-    there the margin's cells give a first guess to the voxels that no cell of the volume
-    covers (where f moves the volume's faces inward; Newton from the voxel itself took ~5
-    evaluations of f each, most of the second pass), ranked after the volume's cells so that
-    they never choose which preimage of a fold over the volume's face Newton finds."""
+    """The lattice of the cells: past each face of the volume as far as f moves it inward
+    (and the frame reaches past it) with a border mode other than ``constant``, and for the
+    backward method's guesses with ``constant``: there the margins' cells give a first
+    guess to the voxels that no cell of the volume covers (where f moves the volume's faces
+    inward; Newton from the voxel itself took ~5 evaluations of f each, most of the second
+    pass), ranked after the volume's cells so that they never choose which preimage of a
+    fold over the volume's face Newton finds. The backward method's lattice has one more
+    layer of points on every side: f's inverse Jacobians at the points of the cells that
+    give guesses are then central differences (the same whatever the margins), as
+    everywhere inside the volume."""
     step = options.lattice_step
     lattice = CornerLattice(shape, step)
     if options.border == "constant" and not backward:
         return lattice
-    margin = border_margin3(field, lattice, frame)
-    return CornerLattice(shape, step, margin, box_first=options.border == "constant")
+    margins = border_margin3(field, lattice, frame)
+    if backward:
+        margins = tuple((low + step, high + step) for low, high in margins)
+    return CornerLattice(shape, step, margins, box_first=options.border == "constant", regular=True)
 
 
 def _sample(program, texture: SourceTexture, coords, slab: Slab, options, groups: int) -> None:
@@ -440,8 +446,9 @@ def _hold_band(source: SourceTexture, lattice, first: int, layers: int, border: 
     depth = source.source.shape[0]
     if source.whole or layers == 0:
         return source.hold([(0, depth - 1 if source.whole else 0)])
-    low = first * lattice.grid - lattice.margin - 1
-    high = (first + layers) * lattice.grid - lattice.margin
+    margin = lattice.low_margin[2]
+    low = first * lattice.grid - margin - 1
+    high = (first + layers) * lattice.grid - margin
     return source.hold(border_runs(low, high, depth, BORDERS[border]))
 
 

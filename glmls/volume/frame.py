@@ -5,8 +5,8 @@
   (dz, dy, dx)). Inside the construction every position is in source voxels: point
   (x, y, z) in handle units is (x / dx, y / dy, z / dz) there.
 - :class:`VolumeBounds`: the bounding box of a deformed volume and the canvas showing it.
-- :class:`CornerLattice`: the voxel-corner lattice, step ``grid`` voxels, ``margin`` voxels
-  past every side, and its cells in scan order.
+- :class:`CornerLattice`: the voxel-corner lattice, step ``grid`` voxels, with margins past
+  the volume's sides (each its own), and its cells in scan order.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import numpy as np
 from ..core.config import check_real
 from ..imaging.frame import FIT_SLACK
 
-__all__ = ["CornerLattice", "VolumeBounds", "VolumeFrame", "check_memory"]
+__all__ = ["CornerLattice", "Margins", "VolumeBounds", "VolumeFrame", "check_memory"]
 
 
 def check_memory(shape: tuple[int, ...], voxel_bytes: int) -> None:
@@ -169,32 +169,94 @@ class VolumeBounds:
         return depth, h, w
 
 
+#: A lattice's margins past the volume, voxels: ((x low, x high), (y low, y high), (z low,
+#: z high)).
+Margins = tuple[tuple[int, int], tuple[int, int], tuple[int, int]]
+
+
+def _margins(margin: object, grid: int) -> Margins:
+    """``margin`` (one count for every side, or a (low, high) pair per axis x, y, z) as
+    :data:`Margins`, each a multiple of ``grid`` >= 0."""
+    what = (
+        f"an int >= 0 or three (low, high) pairs (x, y, z) of ints >= 0, multiples of the "
+        f"grid ({grid})"
+    )
+    if isinstance(margin, (str, bytes)):
+        raise TypeError(f"CornerLattice margin must be {what}, got {margin!r}")
+    try:
+        pairs = ((margin, margin),) * 3 if isinstance(margin, (int, np.integer)) else tuple(margin)
+        pairs = tuple(tuple(pair) for pair in pairs)
+    except TypeError:
+        raise TypeError(f"CornerLattice margin must be {what}, got {margin!r}") from None
+    if len(pairs) != 3 or any(len(pair) != 2 for pair in pairs):
+        raise ValueError(f"CornerLattice margin must be {what}, got {margin!r}")
+    for value in (v for pair in pairs for v in pair):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise TypeError(f"CornerLattice margin must be {what}, got {margin!r}")
+        if value < 0 or value % grid:
+            raise ValueError(f"CornerLattice margin must be {what}, got {margin!r}")
+    return tuple((int(a), int(b)) for a, b in pairs)  # type: ignore[return-value]
+
+
 @dataclass(frozen=True)
 class CornerLattice:
     """The corners of the voxel cubes of a volume of ``shape`` (D, H, W), every ``grid``
-    voxels, ``margin`` voxels (a multiple of ``grid``) past every side: point (a, b, c) is
-    at (x, y, z) = (-margin - 1/2 + grid (a, b, c)). Without a margin (the ``constant``
-    border's lattice) each coordinate is clamped to the volume's last corner ``size - 1/2``
-    (the last step shorter where ``grid`` does not divide ``size``); with one the lattice is
-    regular to its last point, so that a point, and the cells, do not depend on the margin
-    (which grows with the output canvas). Cells are numbered in scan order of the source,
-    ((z cell) ny + y cell) nx + x cell. ``box_first``: a cell's key ranks the cells that hold
-    none of the volume's voxels (those of the margin) after every cell that holds some, so
-    that where both cover a voxel the volume's cell is the first (the backward method's
-    guesses with the ``constant`` border: the margin only guides Newton where no cell of the
-    volume reaches)."""
+    voxels, with margins (voxels, multiples of ``grid``) past the volume's sides: ``margin``
+    is one count for every side or a (low, high) pair per axis x, y, z (:attr:`margins`).
+    Point (a, b, c) is at (x, y, z) = (-low - 1/2 + grid (a, b, c)), ``low`` each axis's
+    low margin. ``regular`` (None: where any side has a margin): the lattice is regular to
+    its last point, so that a point, and the cells, do not depend on the margins (which
+    grow with the output canvas and with how far f moves each face); else (the
+    ``constant`` border's lattice) each coordinate is clamped to the volume's last corner
+    ``size - 1/2`` (the last step shorter where ``grid`` does not divide ``size``). Cells
+    are numbered in scan order of the source, ((z cell) ny + y cell) nx + x cell: the
+    order of any two cells is the same whatever the margins. ``box_first``: a cell's key
+    ranks the cells that hold none of the volume's voxels (those of the margins) after
+    every cell that holds some, so that where both cover a voxel the volume's cell is the
+    first (the backward method's guesses with the ``constant`` border: the margins only
+    guide Newton where no cell of the volume reaches)."""
 
     shape: tuple[int, int, int]
     grid: int = 1
-    margin: int = 0
+    margin: int | Margins = 0
     box_first: bool = False
+    regular: bool | None = None
+
+    def __post_init__(self) -> None:
+        margins = _margins(self.margin, self.grid)
+        object.__setattr__(self, "margin", margins)
+        any_margin = any(v for pair in margins for v in pair)
+        regular = any_margin if self.regular is None else bool(self.regular)
+        if any_margin and not regular:
+            raise ValueError(
+                f"CornerLattice with margins {margins} must be regular (its last point "
+                "past the volume is not clamped), got regular=False"
+            )
+        object.__setattr__(self, "regular", regular)
+
+    @property
+    def margins(self) -> Margins:
+        """((x low, x high), (y low, y high), (z low, z high)), voxels."""
+        return self.margin  # type: ignore[return-value]
+
+    @property
+    def low_margin(self) -> tuple[int, int, int]:
+        """The margins before the volume along x, y, z, voxels."""
+        x, y, z = (low for low, _ in self.margins)
+        return x, y, z
+
+    @property
+    def high_margin(self) -> tuple[int, int, int]:
+        """The margins past the volume's far sides along x, y, z, voxels."""
+        x, y, z = (high for _, high in self.margins)
+        return x, y, z
 
     @property
     def sizes(self) -> tuple[int, int, int]:
-        """(W, H, D) with the margin."""
+        """(W, H, D) with the margins."""
         d, h, w = self.shape
-        m = 2 * self.margin
-        return w + m, h + m, d + m
+        x, y, z = (n + low + high for n, (low, high) in zip((w, h, d), self.margins, strict=True))
+        return x, y, z
 
     @property
     def dims(self) -> tuple[int, int, int]:
@@ -214,25 +276,29 @@ class CornerLattice:
         return x * y * z
 
     @property
-    def first(self) -> float:
-        """The first point's coordinate on every axis, voxels."""
-        return -self.margin - 0.5
+    def first(self) -> tuple[float, float, float]:
+        """The first point's (x, y, z), voxels."""
+        x, y, z = (-low - 0.5 for low in self.low_margin)
+        return x, y, z
 
     @property
     def last(self) -> tuple[float, float, float]:
         """The last point's (x, y, z), voxels: every coordinate is clamped to it (the
-        volume's last corner without a margin, the regular lattice's last point with one)."""
+        volume's last corner where not :attr:`regular`, the regular lattice's last point
+        where it is)."""
         d, h, w = self.shape
-        if self.margin == 0:
+        if not self.regular:
             return w - 0.5, h - 0.5, d - 0.5
-        x, y, z = (self.first + self.grid * (n - 1) for n in self.dims)
+        x, y, z = (
+            first + self.grid * (n - 1) for first, n in zip(self.first, self.dims, strict=True)
+        )
         return x, y, z
 
     def axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """x, y and z of the points along each axis, voxels."""
         return tuple(  # type: ignore[return-value]
-            np.minimum(self.first + self.grid * np.arange(n), last)
-            for n, last in zip(self.dims, self.last, strict=True)
+            np.minimum(first + self.grid * np.arange(n), last)
+            for first, n, last in zip(self.first, self.dims, self.last, strict=True)
         )
 
     def layer_points(self, first: int, layers: int) -> np.ndarray:
@@ -249,7 +315,8 @@ class CornerLattice:
             "u_lattice_first": self.first,
             "u_lattice_last": self.last,
             "u_lattice_grid": self.grid,
-            "u_lattice_margin": self.margin,
+            "u_lattice_margin_low": self.low_margin,
+            "u_lattice_margin_high": self.high_margin,
             "u_lattice_box_first": self.box_first,
             "u_lattice_box_low": self.box_cells[0],
             "u_lattice_box_high": self.box_cells[1],
@@ -258,12 +325,14 @@ class CornerLattice:
     @property
     def box_cells(self) -> tuple[tuple[int, int, int], tuple[int, int, int]]:
         """The cells (x, y, z) that hold voxels of the volume: from the first to before the
-        second (the others lie in the margin)."""
-        low = self.margin // self.grid
-        high = tuple(low + math.ceil(n / self.grid) for n in self.shape[::-1])
-        return (low, low, low), high  # type: ignore[return-value]
+        second (the others lie in the margins)."""
+        low = tuple(m // self.grid for m in self.low_margin)
+        high = tuple(
+            first + math.ceil(n / self.grid) for first, n in zip(low, self.shape[::-1], strict=True)
+        )
+        return low, high  # type: ignore[return-value]
 
     @property
     def key_count(self) -> int:
-        """Cell keys the lattice numbers (``box_first`` ranks the margin's after the rest)."""
+        """Cell keys the lattice numbers (``box_first`` ranks the margins' after the rest)."""
         return self.cell_count * (2 if self.box_first else 1)

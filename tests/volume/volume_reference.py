@@ -102,10 +102,10 @@ def cells(field, shape, grid, out_shape, origin=(0.0, 0.0, 0.0), margin=0):
                     k = (cz * (ny - 1) + cy) * (nx - 1) + cx
                     key[vox[:, 2], vox[:, 1], vox[:, 0]] = k
                     source[vox[:, 2], vox[:, 1], vox[:, 0]] = point
-                    low = cell * grid - margin
+                    low = cell * grid - np.asarray(lattice.low_margin)
                     nearest_lo[vox[:, 2], vox[:, 1], vox[:, 0]] = low
                     nearest_hi[vox[:, 2], vox[:, 1], vox[:, 0]] = np.minimum(
-                        low + grid - 1, size + margin - 1
+                        low + grid - 1, size + np.asarray(lattice.high_margin) - 1
                     )
     return key, source, nearest_lo, nearest_hi
 
