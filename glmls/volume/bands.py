@@ -19,11 +19,13 @@ __all__ = [
     "JACOBIAN_BYTES",
     "KEY_BYTES",
     "POINT_BYTES",
+    "REACH_SAMPLES",
     "SURVEY_PIECE",
     "LatticeBands",
     "Slab",
     "band_layers",
     "border_margin3",
+    "displacement_reach",
     "jacobian_band",
     "survey_pieces",
 ]
@@ -89,8 +91,11 @@ def border_margin3(field: Field, lattice: CornerLattice, frame: VolumeFrame) -> 
         if last is not None:
             with np.errstate(divide="ignore", invalid="ignore"):
                 rate = np.where(margins > last[0], (need - last[1]) / (margins - last[0]), 0.0)
-            rate = np.clip(np.nan_to_num(rate), 0.0, 0.9)
-            goal = np.minimum(np.maximum(need, margins + (need - margins) / (1 - rate)), limit)
+            rate = np.clip(np.nan_to_num(rate), 0.0, 1.0)
+            # a need that grows (nearly) as fast as the margin (f shrinks the volume to
+            # almost a point) is met at no margin short of the limit
+            ahead = np.where(rate < 0.95, (need - margins) / np.maximum(1 - rate, 0.05), limit)
+            goal = np.minimum(np.maximum(need, margins + ahead), limit)
         last = (margins, need)
         margins = np.maximum(margins, grid * np.ceil(goal / grid))
     return tuple((int(a), int(b)) for a, b in margins)  # type: ignore[return-value]
@@ -124,6 +129,35 @@ def _inward_reach(field: Field, box: np.ndarray) -> np.ndarray:
         inward = (1.0 - 2.0 * end) * moved[start : start + len(face), axis]
         start += len(face)
         reach[axis, end] = float(np.max(inward)) if np.all(np.isfinite(inward)) else 0.0
+    return reach
+
+
+#: Points an axis at most at which :func:`displacement_reach` samples f.
+REACH_SAMPLES = 17
+
+
+def displacement_reach(field: Field, lattice: CornerLattice) -> np.ndarray | None:
+    """(x, y, z): how far f moves a point of ``lattice``'s box (its margins included) along
+    each axis at most, voxels: the largest component of f's displacement at up to
+    :data:`REACH_SAMPLES` points an axis over the box, plus, for what lies between them,
+    its largest change between neighbouring samples along each of the three axes (twice
+    what f changes by from a point to its nearest sample where it changes linearly between
+    samples: the other half for a peak between them). None where f is not a number at one
+    of them."""
+    first, last = np.array(lattice.first), np.array(lattice.last)
+    axes = [
+        np.linspace(a, b, min(REACH_SAMPLES, n))
+        for a, b, n in zip(first, last, lattice.dims, strict=True)
+    ]
+    z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+    points = np.stack([x, y, z], axis=-1)
+    moved = field.evaluate(points.reshape(-1, 3)).reshape(points.shape) - points
+    if not np.all(np.isfinite(moved)):
+        return None
+    reach = np.abs(moved).max(axis=(0, 1, 2))
+    for axis in range(3):  # (z, y, x) of the samples
+        if moved.shape[axis] > 1:
+            reach = reach + np.abs(np.diff(moved, axis=axis)).max(axis=(0, 1, 2))
     return reach
 
 

@@ -221,6 +221,7 @@ class CornerLattice:
     margin: int | Margins = 0
     box_first: bool = False
     regular: bool | None = None
+    crop: tuple[tuple[int, int], tuple[int, int], tuple[int, int]] | None = None
 
     def __post_init__(self) -> None:
         margins = _margins(self.margin, self.grid)
@@ -233,6 +234,17 @@ class CornerLattice:
                 "past the volume is not clamped), got regular=False"
             )
         object.__setattr__(self, "regular", regular)
+        if self.crop is not None:
+            crop = tuple((int(a), int(b)) for a, b in self.crop)
+            full = self._full_dims
+            if len(crop) != 3 or any(
+                not 0 <= a < b <= n - 1 for (a, b), n in zip(crop, full, strict=True)
+            ):
+                raise ValueError(
+                    f"CornerLattice crop must be three (first, end) cell ranges within the "
+                    f"lattice's {tuple(n - 1 for n in full)} cells, got {self.crop!r}"
+                )
+            object.__setattr__(self, "crop", crop)
 
     @property
     def margins(self) -> Margins:
@@ -259,9 +271,24 @@ class CornerLattice:
         return x, y, z
 
     @property
-    def dims(self) -> tuple[int, int, int]:
-        """Points along x, y, z."""
+    def _full_dims(self) -> tuple[int, int, int]:
         x, y, z = (math.ceil(n / self.grid) + 1 for n in self.sizes)
+        return x, y, z
+
+    @property
+    def _crop_first(self) -> tuple[int, int, int]:
+        """The first cell of the crop along x, y, z (0 without one)."""
+        if self.crop is None:
+            return 0, 0, 0
+        x, y, z = (a for a, _ in self.crop)
+        return x, y, z
+
+    @property
+    def dims(self) -> tuple[int, int, int]:
+        """Points along x, y, z (of the crop where there is one)."""
+        if self.crop is None:
+            return self._full_dims
+        x, y, z = (b - a + 1 for a, b in self.crop)
         return x, y, z
 
     @property
@@ -278,21 +305,61 @@ class CornerLattice:
     @property
     def first(self) -> tuple[float, float, float]:
         """The first point's (x, y, z), voxels."""
-        x, y, z = (-low - 0.5 for low in self.low_margin)
+        x, y, z = (
+            -low - 0.5 + self.grid * c
+            for low, c in zip(self.low_margin, self._crop_first, strict=True)
+        )
         return x, y, z
 
     @property
     def last(self) -> tuple[float, float, float]:
-        """The last point's (x, y, z), voxels: every coordinate is clamped to it (the
-        volume's last corner where not :attr:`regular`, the regular lattice's last point
-        where it is)."""
+        """The last point's (x, y, z) of the whole lattice (the crop's or not), voxels: every
+        coordinate is clamped to it (the volume's last corner where not :attr:`regular`, the
+        regular lattice's last point where it is)."""
         d, h, w = self.shape
         if not self.regular:
             return w - 0.5, h - 0.5, d - 0.5
         x, y, z = (
-            first + self.grid * (n - 1) for first, n in zip(self.first, self.dims, strict=True)
+            -low - 0.5 + self.grid * (n - 1)
+            for low, n in zip(self.low_margin, self._full_dims, strict=True)
         )
         return x, y, z
+
+    @property
+    def voxel_first(self) -> tuple[int, int, int]:
+        """The first voxel (x, y, z) of the first cell: cell c holds voxels ``voxel_first +
+        grid c`` on (those of the margins past the volume's first)."""
+        x, y, z = (
+            self.grid * c - low for low, c in zip(self.low_margin, self._crop_first, strict=True)
+        )
+        return x, y, z
+
+    @property
+    def voxel_end(self) -> tuple[int, int, int]:
+        """The voxel (x, y, z) after the last that a cell holds (the margins' past the
+        volume's last)."""
+        d, h, w = self.shape
+        x, y, z = (n + high for n, high in zip((w, h, d), self.high_margin, strict=True))
+        return x, y, z
+
+    def cropped(self, low: np.ndarray, high: np.ndarray, pad: int = 0) -> CornerLattice:
+        """This lattice cut to the cells that hold a source point in the box from ``low``
+        to ``high`` ((x, y, z), voxels) and ``pad`` cells more on every side, within the
+        lattice (one cell at least): the same points and cells, in the same scan order."""
+        full = self._full_dims
+        ends = []
+        for axis in range(3):
+            start = -self.low_margin[axis] - 0.5
+            cells = full[axis] - 1
+            a = math.floor((float(low[axis]) - start) / self.grid) - pad
+            b = math.ceil((float(high[axis]) - start) / self.grid) + pad
+            a = min(max(a, 0), cells - 1)
+            ends.append((a, min(max(b, a + 1), cells)))
+        if all(e == (0, n - 1) for e, n in zip(ends, full, strict=True)):
+            return self
+        return CornerLattice(
+            self.shape, self.grid, self.margins, self.box_first, self.regular, tuple(ends)
+        )
 
     def axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """x, y and z of the points along each axis, voxels."""
@@ -315,8 +382,8 @@ class CornerLattice:
             "u_lattice_first": self.first,
             "u_lattice_last": self.last,
             "u_lattice_grid": self.grid,
-            "u_lattice_margin_low": self.low_margin,
-            "u_lattice_margin_high": self.high_margin,
+            "u_lattice_voxel_first": self.voxel_first,
+            "u_lattice_voxel_end": self.voxel_end,
             "u_lattice_box_first": self.box_first,
             "u_lattice_box_low": self.box_cells[0],
             "u_lattice_box_high": self.box_cells[1],
@@ -326,7 +393,9 @@ class CornerLattice:
     def box_cells(self) -> tuple[tuple[int, int, int], tuple[int, int, int]]:
         """The cells (x, y, z) that hold voxels of the volume: from the first to before the
         second (the others lie in the margins)."""
-        low = tuple(m // self.grid for m in self.low_margin)
+        low = tuple(
+            m // self.grid - c for m, c in zip(self.low_margin, self._crop_first, strict=True)
+        )
         high = tuple(
             first + math.ceil(n / self.grid) for first, n in zip(low, self.shape[::-1], strict=True)
         )

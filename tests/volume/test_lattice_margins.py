@@ -160,3 +160,67 @@ def test_a_side_short_of_its_margin_leaves_voxels_empty(kernel3, monkeypatch):
     cut = warp_volume(m, volume, options)
     assert not np.any(full == 0.0)
     assert np.all(cut[:, :, :4] == 0.0) and np.array_equal(cut[:, :, 6:], full[:, :, 6:])
+
+
+def _dragged(shape, rng, drag):
+    """Handles at the volume's corners and inside, one of those inside moved by ``drag``."""
+    src, _ = box_handles(shape, rng, count=12)
+    dst = src.copy()
+    dst[9] += np.asarray(drag, float)
+    return src, dst
+
+
+@pytest.mark.parametrize(("method", "grid"), [("quads", 1), ("backward", 2)])
+@pytest.mark.parametrize("border", ["constant", "edge"])
+def test_a_slice_takes_the_cells_about_its_plane(kernel3, monkeypatch, method, grid, border):
+    """A canvas one voxel thick (a slice, as the volume window's views) takes only the
+    lattice's cells within f's reach of its plane: the slice of the whole lattice, voxel
+    for voxel, along each axis, with a handle dragged 20 voxels in the plane."""
+    shape = (20, 72, 80)
+    rng = np.random.default_rng(3)
+    volume = rng.uniform(0, 255, shape).astype(np.float32)
+    src, dst = _dragged(shape, rng, (20.0, -12.0, 0.0))
+    m = kernel3(src, dst, shape, transform="rigid", weight="idw")
+    d, h, w = shape
+    planes = [
+        ((1, h, w), (0.0, 0.0, 9.0)),
+        ((d, 1, w), (0.0, 40.0, 0.0)),
+        ((d, h, 1), (30.0, 0.0, 0.0)),
+    ]
+    lattices = []
+    spy = construction._lattice
+
+    def keep(*args, **kwargs):
+        lattices.append(spy(*args, **kwargs))
+        return lattices[-1]
+
+    monkeypatch.setattr(construction, "_lattice", keep)
+    monkeypatch.setattr(construction, "REACH_SAMPLES", 9)  # cut lattices of 8 x 9^3 points on
+    cut = []
+    for size, origin in planes:
+        options = VolumeOptions(
+            method=method,
+            border=border,
+            interpolation="linear",
+            grid=grid,
+            output_shape=size,
+            origin=origin,
+        )
+        cut.append(warp_volume(m, volume, options))
+    monkeypatch.setattr(construction, "_cropped", lambda field, lattice, frame, pad: lattice)
+    for (size, origin), sliced in zip(planes, cut, strict=True):
+        options = VolumeOptions(
+            method=method,
+            border=border,
+            interpolation="linear",
+            grid=grid,
+            output_shape=size,
+            origin=origin,
+        )
+        np.testing.assert_array_equal(sliced, warp_volume(m, volume, options))
+    for short, whole in zip(lattices[:3], lattices[3:], strict=True):
+        assert short.cell_count < whole.cell_count, (short.cells, whole.cells)
+    assert lattices[0].cell_count < 0.6 * lattices[3].cell_count  # f hardly moves z
+    assert np.mean(np.concatenate([c.ravel() for c in cut]) == 0.0) < (
+        0.2 if border == "constant" else 1e-9
+    )

@@ -9,9 +9,10 @@ uniform ivec3 u_lattice_dims;   // points along x, y, z
 uniform vec3 u_lattice_first;   // the first point's (x, y, z)
 uniform vec3 u_lattice_last;    // the last point's (x, y, z): coordinates are clamped to it
 uniform int u_lattice_grid;
-// voxels of margin before the volume and past its far sides, along x, y, z
-uniform ivec3 u_lattice_margin_low;
-uniform ivec3 u_lattice_margin_high;
+// the first voxel of cell 0 (negative: in the margin before the volume), and the voxel past
+// the last that a cell holds (the margin's past the volume's end), x, y, z
+uniform ivec3 u_lattice_voxel_first;
+uniform ivec3 u_lattice_voxel_end;
 uniform int u_band_first;       // the first z layer of points held in the buffer
 // the cells holding voxels of the volume, u_lattice_box_low .. u_lattice_box_high - 1; with
 // u_lattice_box_first the others (the margin's) rank after all of them
