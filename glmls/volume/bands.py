@@ -59,32 +59,36 @@ class Slab:
 
 def border_margin3(field: Field, lattice: CornerLattice, frame: VolumeFrame) -> Margins:
     """The margins (voxels, multiples of the grid) that ``lattice`` needs past each side of
-    the volume so that its deformed image reaches past every voxel of ``frame``: per side,
-    how far f moves the lattice's face on that side inward (the displacement's component
-    along the face's inward normal, largest of at most 33 x 33 points sampled on the face),
-    plus how far the frame reaches past that side, plus one voxel; none where f moves the
-    face outward by more than that. Each margin is at most the frame's reach past its side
-    plus twice the volume's largest side.
+    the volume so that its deformed image reaches past every voxel of ``frame``: the image
+    of the lattice's boundary keeps out of the frame's box grown by a voxel. Per side, of
+    the points sampled on the lattice's face there (at most 33 x 33) whose images lie in
+    that box across the face, the one f takes furthest into it along the face's normal
+    says how much further out the face must lie; a face whose image keeps out of the box
+    needs no margin. Each margin is at most the frame's reach past its side plus twice the
+    volume's largest side.
 
     The faces are first the volume's, then those of the lattice with the margins found so
-    far, until every face is moved inward by no more than its margin allows (f past the
-    volume is not f on its faces: where f shrinks the volume, a face further out is moved
-    further in). Each round goes to where the need, growing with the margin at the rate
-    the last two rounds show, meets the margin, not only to the last round's need: a
-    shrinking by half doubles the margin that its faces ask for at first."""
+    far, until each holds (f past the volume is not f on its faces: where f shrinks the
+    volume, a face further out is moved further in). Each round goes to where the need,
+    growing with the margin at the rate the last two rounds show, meets the margin, not
+    only to the last round's need: a shrinking by half doubles the margin that its faces
+    ask for at first."""
     grid = lattice.grid
     d, h, w = lattice.shape
     size = np.array([w, h, d], dtype=float)
     low = np.array(frame.origin_voxels)
     high = low + np.array(frame.shape[::-1]) - 1
-    # how far the frame's voxel centres reach past each side: (axis, low / high)
+    # the frame's voxel cubes grown by a voxel, (axis, low / high)
+    grown = np.stack([low - 1.5, high + 1.5], axis=1)
+    # how far the frame's voxel centres reach past each side
     overhang = np.stack([np.maximum(0.0, -0.5 - low), np.maximum(0.0, high - size + 0.5)], 1)
     limit = overhang + 2 * max(w, h, d)
     margins = np.zeros((3, 2))
     last = None
     for _ in range(_MARGIN_ROUNDS):
         box = np.stack([-0.5 - margins[:, 0], size - 0.5 + margins[:, 1]], axis=1)
-        need = np.minimum(np.maximum(_inward_reach(field, box) + overhang + 1, 0.0), limit)
+        further = _need(field, box, grown, overhang + 1 - margins)
+        need = np.minimum(np.maximum(further + margins, 0.0), limit)
         if np.all(need <= margins):
             break
         goal = need
@@ -105,11 +109,12 @@ def border_margin3(field: Field, lattice: CornerLattice, frame: VolumeFrame) -> 
 _MARGIN_ROUNDS = 8
 
 
-def _inward_reach(field: Field, box: np.ndarray) -> np.ndarray:
-    """(3, 2): per axis and end (low, high), the largest component of f's displacement
-    along the inward normal of ``box``'s face there (``box``: (3, 2) low and high per axis,
-    voxels), at most 33 x 33 points sampled a face (one evaluation of f for all six); 0
-    where one is not a number."""
+def _need(field: Field, box: np.ndarray, grown: np.ndarray, unmoved: np.ndarray) -> np.ndarray:
+    """(3, 2): per axis and end (low, high), how much further out ``box``'s face there must
+    lie (voxels; <= 0 or -inf: none) so that the images of its points (at most 33 x 33
+    sampled, one evaluation of f for all six faces) that lie in ``grown`` across the face
+    keep out of it along the face's normal; ``unmoved`` where f is not a number at one of
+    the face's points (as though f did not move it)."""
     axes = [np.linspace(lo, hi, min(33, int(hi - lo) + 1)) for lo, hi in box]
     faces = []
     for axis in range(3):
@@ -121,15 +126,24 @@ def _inward_reach(field: Field, box: np.ndarray) -> np.ndarray:
             face[:, others[0]] = grid_a.ravel()
             face[:, others[1]] = grid_b.ravel()
             faces.append(face)
-    moved = field.evaluate(np.concatenate(faces)) - np.concatenate(faces)
-    reach = np.zeros((3, 2))
+    images = field.evaluate(np.concatenate(faces))
+    need = np.full((3, 2), -np.inf)
     start = 0
     for index, face in enumerate(faces):
         axis, end = divmod(index, 2)
-        inward = (1.0 - 2.0 * end) * moved[start : start + len(face), axis]
+        image = images[start : start + len(face)]
         start += len(face)
-        reach[axis, end] = float(np.max(inward)) if np.all(np.isfinite(inward)) else 0.0
-    return reach
+        if not np.all(np.isfinite(image)):
+            need[axis, end] = unmoved[axis, end]
+            continue
+        across = [a for a in range(3) if a != axis]
+        lateral = image[:, across]
+        inside = np.all((lateral >= grown[across, 0]) & (lateral <= grown[across, 1]), axis=1)
+        if np.any(inside):
+            normal = image[inside, axis]
+            into = normal - grown[axis, 0] if end == 0 else grown[axis, 1] - normal
+            need[axis, end] = float(np.max(into))
+    return need
 
 
 #: Points an axis at most at which :func:`displacement_reach` samples f.

@@ -214,7 +214,10 @@ class CornerLattice:
     ranks the cells that hold none of the volume's voxels (those of the margins) after
     every cell that holds some, so that where both cover a voxel the volume's cell is the
     first (the backward method's guesses with the ``constant`` border: the margins only
-    guide Newton where no cell of the volume reaches)."""
+    start Newton where no cell of the volume reaches). ``crop`` (cells (first, end) along
+    x, y, z of the lattice so made, :meth:`cropped`): only those cells and their points,
+    numbered in the same scan order (the cells f can take into a canvas that shows part of
+    the volume)."""
 
     shape: tuple[int, int, int]
     grid: int = 1
