@@ -1,7 +1,8 @@
-"""The lattice's margins past the volume are per side: each as far as f moves that face
-inward (plus the canvas's reach past it and a voxel), none past a face f moves outward far
-enough. The result is the one of a lattice with one wide margin on every side, voxel for
-voxel, for every border mode and both methods."""
+"""The lattice's margins past the volume are per side: each as far as f moves that face into
+the canvas (plus a voxel), none past a face f moves out of it. The result is the one of a
+lattice with one wide margin on every side, voxel for voxel, for every border mode and both
+methods; and a canvas that shows part of the volume takes only the cells f can take into
+it, with the whole lattice's result."""
 
 from __future__ import annotations
 
