@@ -156,8 +156,10 @@ def displacement_reach(field: Field, lattice: CornerLattice) -> np.ndarray | Non
     :data:`REACH_SAMPLES` points an axis over the box, plus, for what lies between them,
     its largest change between neighbouring samples along each of the three axes (twice
     what f changes by from a point to its nearest sample where it changes linearly between
-    samples: the other half for a peak between them). None where f is not a number at one
-    of them."""
+    samples: the other half for a peak between them), and at least its displacement at the
+    handles' sources in the box (where a handle moved far among others that hold, f's
+    displacement peaks within a few voxels of it, which the samples may straddle). None
+    where f is not a number at one of them."""
     first, last = np.array(lattice.first), np.array(lattice.last)
     axes = [
         np.linspace(a, b, min(REACH_SAMPLES, n))
@@ -172,6 +174,13 @@ def displacement_reach(field: Field, lattice: CornerLattice) -> np.ndarray | Non
     for axis in range(3):  # (z, y, x) of the samples
         if moved.shape[axis] > 1:
             reach = reach + np.abs(np.diff(moved, axis=axis)).max(axis=(0, 1, 2))
+    sources = np.asarray(field.sources, dtype=np.float64).reshape(-1, 3)
+    sources = sources[np.all((sources >= first) & (sources <= last), axis=1)]
+    if len(sources):
+        at = field.evaluate(sources) - sources
+        if not np.all(np.isfinite(at)):
+            return None
+        reach = np.maximum(reach, np.abs(at).max(axis=0))
     return reach
 
 
