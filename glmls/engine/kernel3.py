@@ -66,6 +66,7 @@ class MLSKernel3:
         self._storage: HandleStorage | None = None
         self._rows = np.zeros((0, 4), np.float32)
         self._count = 0
+        self.sources = np.zeros((0, 3))
         #: Scratch buffers of the passes (points in, f, M or J out).
         self.scratch = Resources(gl, "this MLS")
         self._released = False
@@ -98,6 +99,8 @@ class MLSKernel3:
                 self._storage = storage
             storage.upload(rows)
         self._rows, self._count, self.scaling = rows, count, scaling
+        #: The handles' sources p, (N, 3) float64 in their units.
+        self.sources = np.array(src, dtype=np.float64).reshape(-1, 3)
         both = np.concatenate([src, dst]) if count else np.zeros((1, 3))
         #: half the largest side of the handles' box, in their units
         self.extent = float((both.max(axis=0) - both.min(axis=0)).max()) / 2

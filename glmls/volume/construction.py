@@ -34,10 +34,12 @@ from ..imaging.source import BORDERS
 from .bands import (
     KEY_BYTES,
     POINT_BYTES,
+    REACH_SAMPLES,
     LatticeBands,
     Slab,
     band_layers,
     border_margin3,
+    displacement_reach,
     jacobian_band,
     survey_pieces,
 )
@@ -383,18 +385,47 @@ class VolumeWarper:
 
 
 def _lattice(field, shape, frame, options: VolumeOptions, *, backward: bool) -> CornerLattice:
-    """The lattice of the cells: past the volume as far as f moves its faces with a border
-    mode other than ``constant``, and for the backward method's guesses with ``constant``:
-    there the margin's cells give a first guess to the voxels that no cell of the volume
-    covers (where f moves the volume's faces inward; Newton from the voxel itself took ~5
-    evaluations of f each, most of the second pass), ranked after the volume's cells so that
-    they never choose which preimage of a fold over the volume's face Newton finds."""
+    """The lattice of the cells: past each face of the volume as far as f moves it inward
+    (and the frame reaches past it) with a border mode other than ``constant``, and for the
+    backward method's guesses with ``constant``: there the margins' cells give a first
+    guess to the voxels that no cell of the volume covers (where f moves the volume's faces
+    inward; Newton from the voxel itself took ~5 evaluations of f each, most of the second
+    pass), ranked after the volume's cells so that they never choose which preimage of a
+    fold over the volume's face Newton finds. The backward method's lattice has one more
+    layer of points on every side: f's inverse Jacobians at the points of the cells that
+    give guesses are then central differences (the same whatever the margins), as
+    everywhere inside the volume. Then cut to the cells that f can take into the frame
+    (:func:`_cropped`)."""
     step = options.lattice_step
     lattice = CornerLattice(shape, step)
-    if options.border == "constant" and not backward:
+    if options.border != "constant" or backward:
+        margins = border_margin3(field, lattice, frame)
+        if backward:
+            margins = tuple((low + step, high + step) for low, high in margins)
+        lattice = CornerLattice(
+            shape, step, margins, box_first=options.border == "constant", regular=True
+        )
+    return _cropped(field, lattice, frame, pad=1 if backward else 0)
+
+
+def _cropped(field, lattice: CornerLattice, frame: VolumeFrame, *, pad: int) -> CornerLattice:
+    """``lattice`` cut to the cells that hold a source point that f can take into
+    ``frame``: those within f's largest displacement along each axis
+    (:func:`~.bands.displacement_reach`) and a voxel of the frame's voxels, and ``pad``
+    cells more a side (the backward method's inverse Jacobians at the points of those
+    cells are then central differences, as in the whole lattice). The cells left out
+    cover no voxel of the frame: the result is the whole lattice's. A slice of the volume
+    (the volume window's views) takes a slab of the lattice about its plane. Not sampled
+    where the lattice has fewer than 8 times the samples' points."""
+    nx, ny, nz = lattice.dims
+    if nx * ny * nz < 8 * REACH_SAMPLES**3:
         return lattice
-    margin = border_margin3(field, lattice, frame)
-    return CornerLattice(shape, step, margin, box_first=options.border == "constant")
+    reach = displacement_reach(field, lattice)
+    if reach is None:
+        return lattice
+    low = np.array(frame.origin_voxels)
+    high = low + np.array(frame.shape[::-1]) - 1
+    return lattice.cropped(low - reach - 1, high + reach + 1, pad)
 
 
 def _sample(program, texture: SourceTexture, coords, slab: Slab, options, groups: int) -> None:
@@ -440,8 +471,9 @@ def _hold_band(source: SourceTexture, lattice, first: int, layers: int, border: 
     depth = source.source.shape[0]
     if source.whole or layers == 0:
         return source.hold([(0, depth - 1 if source.whole else 0)])
-    low = first * lattice.grid - lattice.margin - 1
-    high = (first + layers) * lattice.grid - lattice.margin
+    offset = lattice.voxel_first[2]
+    low = first * lattice.grid + offset - 1
+    high = (first + layers) * lattice.grid + offset
     return source.hold(border_runs(low, high, depth, BORDERS[border]))
 
 

@@ -35,6 +35,8 @@ class Field(Protocol):
 
     #: (dx, dy, dz): handle units per source voxel.
     scale: np.ndarray
+    #: The handles' sources p in source voxels, (N, 3): where f's displacement peaks.
+    sources: np.ndarray
 
     def evaluate(self, points: np.ndarray) -> np.ndarray:
         """f at ``points`` ((K, 3) float64 source voxels), (K, 3) float64 source voxels."""
@@ -94,6 +96,7 @@ class ReferenceField:
         dz, dy, dx = spacing
         self.scale = np.array([dx, dy, dz], dtype=np.float64)
         self.shape = shape
+        self.sources = self.src / self.scale
 
     def evaluate(self, points: np.ndarray) -> np.ndarray:
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)

@@ -5,8 +5,8 @@
   (dz, dy, dx)). Inside the construction every position is in source voxels: point
   (x, y, z) in handle units is (x / dx, y / dy, z / dz) there.
 - :class:`VolumeBounds`: the bounding box of a deformed volume and the canvas showing it.
-- :class:`CornerLattice`: the voxel-corner lattice, step ``grid`` voxels, ``margin`` voxels
-  past every side, and its cells in scan order.
+- :class:`CornerLattice`: the voxel-corner lattice, step ``grid`` voxels, with margins past
+  the volume's sides (each its own), and its cells in scan order.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import numpy as np
 from ..core.config import check_real
 from ..imaging.frame import FIT_SLACK
 
-__all__ = ["CornerLattice", "VolumeBounds", "VolumeFrame", "check_memory"]
+__all__ = ["CornerLattice", "Margins", "VolumeBounds", "VolumeFrame", "check_memory"]
 
 
 def check_memory(shape: tuple[int, ...], voxel_bytes: int) -> None:
@@ -169,37 +169,129 @@ class VolumeBounds:
         return depth, h, w
 
 
+#: A lattice's margins past the volume, voxels: ((x low, x high), (y low, y high), (z low,
+#: z high)).
+Margins = tuple[tuple[int, int], tuple[int, int], tuple[int, int]]
+
+
+def _margins(margin: object, grid: int) -> Margins:
+    """``margin`` (one count for every side, or a (low, high) pair per axis x, y, z) as
+    :data:`Margins`, each a multiple of ``grid`` >= 0."""
+    what = (
+        f"an int >= 0 or three (low, high) pairs (x, y, z) of ints >= 0, multiples of the "
+        f"grid ({grid})"
+    )
+    if isinstance(margin, (str, bytes)):
+        raise TypeError(f"CornerLattice margin must be {what}, got {margin!r}")
+    try:
+        pairs = ((margin, margin),) * 3 if isinstance(margin, (int, np.integer)) else tuple(margin)
+        pairs = tuple(tuple(pair) for pair in pairs)
+    except TypeError:
+        raise TypeError(f"CornerLattice margin must be {what}, got {margin!r}") from None
+    if len(pairs) != 3 or any(len(pair) != 2 for pair in pairs):
+        raise ValueError(f"CornerLattice margin must be {what}, got {margin!r}")
+    for value in (v for pair in pairs for v in pair):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise TypeError(f"CornerLattice margin must be {what}, got {margin!r}")
+        if value < 0 or value % grid:
+            raise ValueError(f"CornerLattice margin must be {what}, got {margin!r}")
+    return tuple((int(a), int(b)) for a, b in pairs)  # type: ignore[return-value]
+
+
 @dataclass(frozen=True)
 class CornerLattice:
     """The corners of the voxel cubes of a volume of ``shape`` (D, H, W), every ``grid``
-    voxels, ``margin`` voxels (a multiple of ``grid``) past every side: point (a, b, c) is
-    at (x, y, z) = (-margin - 1/2 + grid (a, b, c)). Without a margin (the ``constant``
-    border's lattice) each coordinate is clamped to the volume's last corner ``size - 1/2``
-    (the last step shorter where ``grid`` does not divide ``size``); with one the lattice is
-    regular to its last point, so that a point, and the cells, do not depend on the margin
-    (which grows with the output canvas). Cells are numbered in scan order of the source,
-    ((z cell) ny + y cell) nx + x cell. ``box_first``: a cell's key ranks the cells that hold
-    none of the volume's voxels (those of the margin) after every cell that holds some, so
-    that where both cover a voxel the volume's cell is the first (the backward method's
-    guesses with the ``constant`` border: the margin only guides Newton where no cell of the
-    volume reaches)."""
+    voxels, with margins (voxels, multiples of ``grid``) past the volume's sides: ``margin``
+    is one count for every side or a (low, high) pair per axis x, y, z (:attr:`margins`).
+    Point (a, b, c) is at (x, y, z) = (-low - 1/2 + grid (a, b, c)), ``low`` each axis's
+    low margin. ``regular`` (None: where any side has a margin): the lattice is regular to
+    its last point, so that a point, and the cells, do not depend on the margins (which
+    grow with the output canvas and with how far f moves each face); else (the
+    ``constant`` border's lattice) each coordinate is clamped to the volume's last corner
+    ``size - 1/2`` (the last step shorter where ``grid`` does not divide ``size``). Cells
+    are numbered in scan order of the source, ((z cell) ny + y cell) nx + x cell: the
+    order of any two cells is the same whatever the margins. ``box_first``: a cell's key
+    ranks the cells that hold none of the volume's voxels (those of the margins) after
+    every cell that holds some, so that where both cover a voxel the volume's cell is the
+    first (the backward method's guesses with the ``constant`` border: the margins only
+    start Newton where no cell of the volume reaches). ``crop`` (cells (first, end) along
+    x, y, z of the lattice so made, :meth:`cropped`): only those cells and their points,
+    numbered in the same scan order (the cells f can take into a canvas that shows part of
+    the volume)."""
 
     shape: tuple[int, int, int]
     grid: int = 1
-    margin: int = 0
+    margin: int | Margins = 0
     box_first: bool = False
+    regular: bool | None = None
+    crop: tuple[tuple[int, int], tuple[int, int], tuple[int, int]] | None = None
+
+    def __post_init__(self) -> None:
+        margins = _margins(self.margin, self.grid)
+        object.__setattr__(self, "margin", margins)
+        any_margin = any(v for pair in margins for v in pair)
+        regular = any_margin if self.regular is None else bool(self.regular)
+        if any_margin and not regular:
+            raise ValueError(
+                f"CornerLattice with margins {margins} must be regular (its last point "
+                "past the volume is not clamped), got regular=False"
+            )
+        object.__setattr__(self, "regular", regular)
+        if self.crop is not None:
+            crop = tuple((int(a), int(b)) for a, b in self.crop)
+            full = self._full_dims
+            if len(crop) != 3 or any(
+                not 0 <= a < b <= n - 1 for (a, b), n in zip(crop, full, strict=True)
+            ):
+                raise ValueError(
+                    f"CornerLattice crop must be three (first, end) cell ranges within the "
+                    f"lattice's {tuple(n - 1 for n in full)} cells, got {self.crop!r}"
+                )
+            object.__setattr__(self, "crop", crop)
+
+    @property
+    def margins(self) -> Margins:
+        """((x low, x high), (y low, y high), (z low, z high)), voxels."""
+        return self.margin  # type: ignore[return-value]
+
+    @property
+    def low_margin(self) -> tuple[int, int, int]:
+        """The margins before the volume along x, y, z, voxels."""
+        x, y, z = (low for low, _ in self.margins)
+        return x, y, z
+
+    @property
+    def high_margin(self) -> tuple[int, int, int]:
+        """The margins past the volume's far sides along x, y, z, voxels."""
+        x, y, z = (high for _, high in self.margins)
+        return x, y, z
 
     @property
     def sizes(self) -> tuple[int, int, int]:
-        """(W, H, D) with the margin."""
+        """(W, H, D) with the margins."""
         d, h, w = self.shape
-        m = 2 * self.margin
-        return w + m, h + m, d + m
+        x, y, z = (n + low + high for n, (low, high) in zip((w, h, d), self.margins, strict=True))
+        return x, y, z
+
+    @property
+    def _full_dims(self) -> tuple[int, int, int]:
+        x, y, z = (math.ceil(n / self.grid) + 1 for n in self.sizes)
+        return x, y, z
+
+    @property
+    def _crop_first(self) -> tuple[int, int, int]:
+        """The first cell of the crop along x, y, z (0 without one)."""
+        if self.crop is None:
+            return 0, 0, 0
+        x, y, z = (a for a, _ in self.crop)
+        return x, y, z
 
     @property
     def dims(self) -> tuple[int, int, int]:
-        """Points along x, y, z."""
-        x, y, z = (math.ceil(n / self.grid) + 1 for n in self.sizes)
+        """Points along x, y, z (of the crop where there is one)."""
+        if self.crop is None:
+            return self._full_dims
+        x, y, z = (b - a + 1 for a, b in self.crop)
         return x, y, z
 
     @property
@@ -214,25 +306,69 @@ class CornerLattice:
         return x * y * z
 
     @property
-    def first(self) -> float:
-        """The first point's coordinate on every axis, voxels."""
-        return -self.margin - 0.5
+    def first(self) -> tuple[float, float, float]:
+        """The first point's (x, y, z), voxels."""
+        x, y, z = (
+            -low - 0.5 + self.grid * c
+            for low, c in zip(self.low_margin, self._crop_first, strict=True)
+        )
+        return x, y, z
 
     @property
     def last(self) -> tuple[float, float, float]:
-        """The last point's (x, y, z), voxels: every coordinate is clamped to it (the
-        volume's last corner without a margin, the regular lattice's last point with one)."""
+        """The last point's (x, y, z) of the whole lattice (the crop's or not), voxels: every
+        coordinate is clamped to it (the volume's last corner where not :attr:`regular`, the
+        regular lattice's last point where it is)."""
         d, h, w = self.shape
-        if self.margin == 0:
+        if not self.regular:
             return w - 0.5, h - 0.5, d - 0.5
-        x, y, z = (self.first + self.grid * (n - 1) for n in self.dims)
+        x, y, z = (
+            -low - 0.5 + self.grid * (n - 1)
+            for low, n in zip(self.low_margin, self._full_dims, strict=True)
+        )
         return x, y, z
+
+    @property
+    def voxel_first(self) -> tuple[int, int, int]:
+        """The first voxel (x, y, z) of the first cell: cell c holds voxels ``voxel_first +
+        grid c`` on (those of the margins past the volume's first)."""
+        x, y, z = (
+            self.grid * c - low for low, c in zip(self.low_margin, self._crop_first, strict=True)
+        )
+        return x, y, z
+
+    @property
+    def voxel_end(self) -> tuple[int, int, int]:
+        """The voxel (x, y, z) after the last that a cell holds (the margins' past the
+        volume's last)."""
+        d, h, w = self.shape
+        x, y, z = (n + high for n, high in zip((w, h, d), self.high_margin, strict=True))
+        return x, y, z
+
+    def cropped(self, low: np.ndarray, high: np.ndarray, pad: int = 0) -> CornerLattice:
+        """This lattice cut to the cells that hold a source point in the box from ``low``
+        to ``high`` ((x, y, z), voxels) and ``pad`` cells more on every side, within the
+        lattice (one cell at least): the same points and cells, in the same scan order."""
+        full = self._full_dims
+        ends = []
+        for axis in range(3):
+            start = -self.low_margin[axis] - 0.5
+            cells = full[axis] - 1
+            a = math.floor((float(low[axis]) - start) / self.grid) - pad
+            b = math.ceil((float(high[axis]) - start) / self.grid) + pad
+            a = min(max(a, 0), cells - 1)
+            ends.append((a, min(max(b, a + 1), cells)))
+        if all(e == (0, n - 1) for e, n in zip(ends, full, strict=True)):
+            return self
+        return CornerLattice(
+            self.shape, self.grid, self.margins, self.box_first, self.regular, tuple(ends)
+        )
 
     def axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """x, y and z of the points along each axis, voxels."""
         return tuple(  # type: ignore[return-value]
-            np.minimum(self.first + self.grid * np.arange(n), last)
-            for n, last in zip(self.dims, self.last, strict=True)
+            np.minimum(first + self.grid * np.arange(n), last)
+            for first, n, last in zip(self.first, self.dims, self.last, strict=True)
         )
 
     def layer_points(self, first: int, layers: int) -> np.ndarray:
@@ -249,7 +385,8 @@ class CornerLattice:
             "u_lattice_first": self.first,
             "u_lattice_last": self.last,
             "u_lattice_grid": self.grid,
-            "u_lattice_margin": self.margin,
+            "u_lattice_voxel_first": self.voxel_first,
+            "u_lattice_voxel_end": self.voxel_end,
             "u_lattice_box_first": self.box_first,
             "u_lattice_box_low": self.box_cells[0],
             "u_lattice_box_high": self.box_cells[1],
@@ -258,12 +395,16 @@ class CornerLattice:
     @property
     def box_cells(self) -> tuple[tuple[int, int, int], tuple[int, int, int]]:
         """The cells (x, y, z) that hold voxels of the volume: from the first to before the
-        second (the others lie in the margin)."""
-        low = self.margin // self.grid
-        high = tuple(low + math.ceil(n / self.grid) for n in self.shape[::-1])
-        return (low, low, low), high  # type: ignore[return-value]
+        second (the others lie in the margins)."""
+        low = tuple(
+            m // self.grid - c for m, c in zip(self.low_margin, self._crop_first, strict=True)
+        )
+        high = tuple(
+            first + math.ceil(n / self.grid) for first, n in zip(low, self.shape[::-1], strict=True)
+        )
+        return low, high  # type: ignore[return-value]
 
     @property
     def key_count(self) -> int:
-        """Cell keys the lattice numbers (``box_first`` ranks the margin's after the rest)."""
+        """Cell keys the lattice numbers (``box_first`` ranks the margins' after the rest)."""
         return self.cell_count * (2 if self.box_first else 1)

@@ -46,6 +46,11 @@ class KernelField:
         #: the handles' units (the kernel's passes take it as a shape, and only for that).
         self.shape = None if shape is None else volume_extent(shape, spacing)
 
+    @property
+    def sources(self) -> np.ndarray:
+        """The handles' sources p in source voxels, (N, 3)."""
+        return self.kernel.sources / self.scale
+
     def _uniforms(self) -> dict[str, object]:
         return {"u_volume_scale": tuple(float(c) for c in self.scale)}
 

@@ -19,11 +19,16 @@ from glmls.app.volume_controller import IMAGE_ONLY_KEYS, VolumeController, Volum
 from glmls.app.volume_session import VolumeSession, check_fits
 
 XVFB = shutil.which("xvfb-run")
-#: A flat volume and one handle whose target lies 400 voxels off: at grid 1 the lattice that
-#: the cells of the edge border need (the volume and a margin of 400 voxels all round) holds
-#: 1000 x 1000 x 808 cells, past the construction's numbers; at grid 4 it is warped.
+#: A flat volume and four handles whose targets shrink it (similarity) a hundredfold about
+#: its centre: every face of the lattice that the cells of the edge border need is pulled
+#: inward as far as it lies out, so the margins reach their limit, 400 voxels a side; at
+#: grid 1 the lattice holds 1000 x 1000 x 808 cells, past the construction's numbers; at
+#: grid 4 it is warped.
 FLAT = (8, 200, 200)
-FAR_SRC, FAR_DST = [[5.0, 5.0, 4.0]], [[5.0, 405.0, 4.0]]
+FAR_SRC = [[5.0, 5.0, 1.0], [195.0, 5.0, 1.0], [5.0, 195.0, 6.0], [195.0, 195.0, 6.0]]
+FAR_DST = (
+    np.array([100.0, 100.0, 3.5]) + 0.01 * (np.array(FAR_SRC) - [100.0, 100.0, 3.5])
+).tolist()
 
 
 def test_keys_of_the_image_window_say_they_are_for_images():
@@ -50,7 +55,8 @@ def test_a_slice_the_warp_refuses_is_shown_undeformed_and_said(gl):
     """The warp's ValueError left the frame: the window closed on a drag (exit status 2)."""
     rng = np.random.default_rng(3)
     volume = rng.integers(0, 256, FLAT, dtype=np.uint8)
-    c = VolumeController(FAR_SRC, FAR_DST, FLAT, settings=VolumeSettings(grid=1))
+    settings = VolumeSettings(config=glmls.MLSConfig(transform="similarity"), grid=1)
+    c = VolumeController(FAR_SRC, FAR_DST, FLAT, settings=settings)
     s = VolumeSession(gl, c, volume)
     try:
         s.sync()
@@ -64,12 +70,12 @@ def test_a_slice_the_warp_refuses_is_shown_undeformed_and_said(gl):
         assert s.overlays() is None  # no deformed slice to lay the error field on
         c.feed(Key("e"))
         # a target back near its source: the slices are deformed again, error gone
-        dst = [[5.0, 8.0, 4.0]]
+        dst = (np.array(FAR_SRC) + [[0.0, 3.0, 0.0], [0, 0, 0], [0, 0, 0], [0, 0, 0]]).tolist()
         c.set_handles(FAR_SRC, dst)
         s.sync()
         shown = s.slices()
         assert s.slice_errors == ["", "", ""] and s.slice_error == ""
-        with glmls.MLS(FAR_SRC, dst, shape=FLAT, ctx=gl) as m:
+        with glmls.MLS(FAR_SRC, dst, transform="similarity", shape=FLAT, ctx=gl) as m:
             whole = m.warp(volume, interpolation="linear", grid=1, border="edge")
         for picture, plane in zip(shown, _planes(whole, c.point), strict=True):
             np.testing.assert_array_equal(picture, plane)  # as glmls warps the volume
@@ -125,10 +131,12 @@ import numpy as np
 from glmls.app.events import Key, Wait
 from glmls.app.volume_controller import VolumeSettings
 from glmls.app.volume_window import VolumeApp
+import glmls
 
 src, dst = json.loads(sys.argv[1])
 app = VolumeApp(np.full((8, 200, 200), 90, np.uint8), src, dst,
-                settings=VolumeSettings(grid=1), window_size=(900, 600))
+                settings=VolumeSettings(config=glmls.MLSConfig(transform="similarity"), grid=1),
+                window_size=(900, 600))
 lines = []
 errors = []
 

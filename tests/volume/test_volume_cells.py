@@ -203,6 +203,10 @@ def test_border_lattice_is_regular_whatever_its_margin():
         for axis in lattice.axes():
             np.testing.assert_array_equal(np.diff(axis), 5.0)
             assert axis[0] == -margin - 0.5
+    sides = CornerLattice((11, 13, 14), 5, ((0, 5), (10, 0), (5, 20)))
+    for axis, low in zip(sides.axes(), (0, 10, 5), strict=True):
+        np.testing.assert_array_equal(np.diff(axis), 5.0)
+        assert axis[0] == -low - 0.5
     constant = CornerLattice((11, 13, 14), 5)
     assert constant.axes()[0][-1] == 13.5  # the volume's last corner, a shorter step
 

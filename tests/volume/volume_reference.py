@@ -68,7 +68,6 @@ def cells(field, shape, grid, out_shape, origin=(0.0, 0.0, 0.0), margin=0):
     nearest_lo = np.zeros((*out_shape, 3), np.int64)
     nearest_hi = np.zeros((*out_shape, 3), np.int64)
     top = np.array([width, height, depth]) - 1
-    size = np.array(shape[::-1])
     for cz in range(nz - 1):
         for cy in range(ny - 1):
             for cx in range(nx - 1):
@@ -102,10 +101,10 @@ def cells(field, shape, grid, out_shape, origin=(0.0, 0.0, 0.0), margin=0):
                     k = (cz * (ny - 1) + cy) * (nx - 1) + cx
                     key[vox[:, 2], vox[:, 1], vox[:, 0]] = k
                     source[vox[:, 2], vox[:, 1], vox[:, 0]] = point
-                    low = cell * grid - margin
+                    low = cell * grid + np.asarray(lattice.voxel_first)
                     nearest_lo[vox[:, 2], vox[:, 1], vox[:, 0]] = low
                     nearest_hi[vox[:, 2], vox[:, 1], vox[:, 0]] = np.minimum(
-                        low + grid - 1, size + margin - 1
+                        low + grid - 1, np.asarray(lattice.voxel_end) - 1
                     )
     return key, source, nearest_lo, nearest_hi
 

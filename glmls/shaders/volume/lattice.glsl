@@ -6,10 +6,13 @@
 #endif
 
 uniform ivec3 u_lattice_dims;   // points along x, y, z
-uniform float u_lattice_first;  // the first point's coordinate on every axis
+uniform vec3 u_lattice_first;   // the first point's (x, y, z)
 uniform vec3 u_lattice_last;    // the last point's (x, y, z): coordinates are clamped to it
 uniform int u_lattice_grid;
-uniform int u_lattice_margin;
+// the first voxel of cell 0 (negative: in the margin before the volume), and the voxel past
+// the last that a cell holds (the margin's past the volume's end), x, y, z
+uniform ivec3 u_lattice_voxel_first;
+uniform ivec3 u_lattice_voxel_end;
 uniform int u_band_first;       // the first z layer of points held in the buffer
 // the cells holding voxels of the volume, u_lattice_box_low .. u_lattice_box_high - 1; with
 // u_lattice_box_first the others (the margin's) rank after all of them
@@ -29,7 +32,7 @@ layout(std430, binding = BIND_VOLUME_LATTICE) readonly buffer VolumeLattice {
 
 // Lattice point a (x, y, z indices), source voxels.
 vec3 volume_lattice_point(ivec3 a) {
-    return min(vec3(u_lattice_first) + float(u_lattice_grid) * vec3(a), u_lattice_last);
+    return min(u_lattice_first + float(u_lattice_grid) * vec3(a), u_lattice_last);
 }
 
 #if !VOLUME_LATTICE_WRITE

@@ -118,8 +118,8 @@ void main() {
              coords.y * (volume_lattice_point(c) - s0) +
              coords.z * (volume_lattice_point(d) - s0);
     // nearest keeps to the cell's own voxels (its voxel centres, margin included)
-    ivec3 lo = cell * u_lattice_grid - u_lattice_margin;
-    ivec3 hi = min(lo + u_lattice_grid - 1, u_volume_size + u_lattice_margin - 1);
+    ivec3 lo = cell * u_lattice_grid + u_lattice_voxel_first;
+    ivec3 hi = min(lo + u_lattice_grid - 1, u_lattice_voxel_end - 1);
 #if VOLUME_COORDS
     mat3 slope;
     bool linear = true;
