@@ -12,9 +12,10 @@ and the weights are smooth (idw, gaussian). The weights that reach 0 at d = R (c
 shepard, linear) leave some points 3 handles in reach: J's median within 1e-4, its largest
 error within 0.15 (shepard's f is a cone at a handle, which a stencil next to it straddles:
 not tested there). Where fewer than four handles are in reach, a ridge of 1e-3 of the
-moments fixes what they leave free and float32's rounding of the moments moves f by up to
-~3e-4 of the distance to p* (test_mls3d's RIDGE_TOLERANCE of 0.1 voxel), which the
-0.1-voxel stencil turns into errors of J up to ~1."""
+moments fixes what they leave free; f there comes from float64 moments and solves, and J is
+within the same 1e-3 (float32's rounding of the moments, divided by the ridge, would move f
+by up to ~3e-4 of the distance to p*, which the 0.1-voxel stencil would turn into errors of J
+up to ~1)."""
 
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ TOLERANCE = 1e-3
 BOUNDED_MEDIAN, BOUNDED_MAX = 1e-4, 0.15
 #: The ridge's sets (two, three, collinear handles; coplanar ones for affine): J's median
 #: and largest error (see the module's docstring).
-RIDGE_MEDIAN, RIDGE_MAX = 0.3, 1.5
+RIDGE_MEDIAN, RIDGE_MAX = 1e-3, 1e-3
 
 
 def _reference_jacobian(src, dst, points, **options):

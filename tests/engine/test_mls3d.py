@@ -17,10 +17,14 @@ from glmls.engine.passes3 import evaluate_lattice3, evaluate_points3
 
 SHAPE = (256, 256, 256)
 #: Where fewer than 4 handles in general position are in reach (two, three, collinear), a
-#: ridge of 1e-3 of the moments fixes what they leave free, and float32's rounding of the
-#: moments moves the result by up to ~3e-4 of the distance to p* (docs/mathematics.md, "The
-#: 3D solve on the GPU").
-RIDGE_TOLERANCE = 0.1
+#: ridge of 1e-3 of the moments fixes what they leave free and divides their rounding by
+#: 1e-3: those points sum their moments and solve in float64 (docs/mathematics.md, "The 3D
+#: solve on the GPU"), as close to the reference as the others.
+RIDGE_TOLERANCE = 1e-3
+#: Points with few handles in reach that spread just enough for the plain branch (every
+#: eigenvalue of A above 1e-3 of its trace, four handles near a plane) are solved in float32,
+#: A's condition up to 1e3 magnifying the moments' rounding.
+NEAR_RIDGE_TOLERANCE = 1e-2
 
 
 @pytest.fixture(scope="module")
@@ -62,8 +66,8 @@ def test_parameters(gl, handles, options):
     src, dst, points = handles
     for transform in ("affine", "rigid"):
         f_err, _ = _compare(src, dst, points, MLSConfig(transform=transform, **options))
-        # within a small radius some points see only 2 to 4 handles: the ridge's tolerance
-        assert f_err < (RIDGE_TOLERANCE if "radius" in options else 1e-3), transform
+        # within a small radius some points see only 2 to 4 handles
+        assert f_err < (NEAR_RIDGE_TOLERANCE if "radius" in options else 1e-3), transform
 
 
 def test_many_handles_storages(gl):

@@ -148,10 +148,10 @@ void mls3_add(inout MLS3Accum a, float w, vec3 P, vec3 E, float d2) {
     mls_yardstick_add(a.yard, P != vec3(0.0), w, d2);
 }
 
-void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
-    vec3 p = mls3_p(i);
+// The weight of handle i at p (its squared distance to v in d2)
+float mls3_weight_at(MLS3Accum a, vec3 p, bool use, out float d2) {
     vec3 dp = p - a.v;
-    float d2 = dot(dp, dp);
+    d2 = dot(dp, dp);
     // an empty slot, and the snapped handle (and duplicates of it: their weight is
     // infinite and their p^ zero), get no weight
 #if MLS_WEIGHT_NEXT
@@ -159,9 +159,83 @@ void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
 #else
     float seen = d2;
 #endif
-    float w = (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(seen, a.g, a.inv_m, a.sigma);
+    return (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(seen, a.g, a.inv_m, a.sigma);
+}
+
+void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
+    vec3 p = mls3_p(i);
+    float d2;
+    float w = mls3_weight_at(a, p, use, d2);
     mls3_add(a, w, p - a.op, mls3_e(i) - a.oe, d2);
 }
+
+#if !MLS3_SOLVE_LATER
+#include "mls3/solve_full.glsl"
+
+// The moments of mls3_add in float64, for the points that mls3_solve leaves (mls3/solve_full.glsl
+// says why): the same float32 weights, and the handles' differences, exact in float64.
+struct MLS3Sums64 {
+    double W;
+    dvec3 P;
+    dvec3 E;
+    dvec3 Ad;
+    dvec3 Ao;
+    dmat3 D;
+};
+
+void mls3_accumulate_full(inout MLS3Sums64 s, MLS3Accum a, int i, bool use) {
+    vec3 p = mls3_p(i);
+    float d2;
+    double w = double(mls3_weight_at(a, p, use, d2));
+    dvec3 P = dvec3(p) - dvec3(a.op);
+    dvec3 E = dvec3(mls3_e(i)) - dvec3(a.oe);
+    dvec3 wP = w * P;
+    s.W += w;
+    s.P += wP;
+    s.E += w * E;
+    s.Ad += wP * P;
+    s.Ao += wP.xxy * P.yzz;
+    s.D += outerProduct(wP, E);
+}
+#define MLS3_ACC_FULL(i, use) mls3_accumulate_full(s, a, i, use);
+
+// f at a point that mls3_solve left: its moments summed again in float64 and every rule of
+// the solve (mls3_solve_full)
+MLS3Result mls3_finish_full(MLS3Accum a) {
+    int n = u_mls3_count;
+    MLS3Sums64 s;
+    s.W = 0.0lf;
+    s.P = dvec3(0.0lf);
+    s.E = dvec3(0.0lf);
+    s.Ad = dvec3(0.0lf);
+    s.Ao = dvec3(0.0lf);
+    s.D = dmat3(0.0lf);
+    // A loop whatever MLS3_UNROLL (only the points the solve left run it), of four handles
+    // an iteration: sixteen (MLS_BLOCKS) take llvmpipe seconds more to compile in float64,
+    // at every evaluation of f a program inlines, and four keep llvmpipe's cap on an
+    // invocation's loop iterations (mls/handles.glsl) at 262,140 handles an evaluation.
+    for (int mls_block = 0; mls_block < n; mls_block += 4) {
+        MLS_BLOCK4(MLS3_ACC_FULL, mls_block, n)
+    }
+    dvec3 pst = dvec3(a.op);
+    dvec3 est = dvec3(a.oe);
+    if (!a.hit) {
+        dvec3 dp = s.P / s.W;
+        dvec3 de = s.E / s.W;
+        pst += dp;
+        est += de;
+        s.Ad -= s.P * dp;
+        s.Ao -= s.P.xxy * dp.yzz;
+        s.D -= outerProduct(s.P, de);
+    }
+    dmat3 N = mls3_solve_full(s.Ad, s.Ao, s.D, double(mls_yardstick(a.yard)));
+    MLS3Result r;
+    r.d = vec3(est + (dvec3(a.v) - pst) * N);
+    r.f = a.v + r.d;
+    r.M = mat3(N + dmat3(1.0lf));
+    return r;
+}
+#endif
 
 MLS3Result mls3_identity(vec3 v) {
     MLS3Result r;
@@ -189,6 +263,12 @@ MLS3Result mls3_finish(MLS3Accum a) {
     }
     // snapped: p* = p_o and q* = q_o exactly, and the moments about them are the sums
     mat3 N = mls3_solve(a.Ad, a.Ao, a.D, mls_yardstick(a.yard));
+#if !MLS3_SOLVE_LATER
+    if (mls3_solve_later) {
+        mls3_solve_later = false;
+        return mls3_finish_full(a);
+    }
+#endif
     MLS3Result r;
     // f(v) = q* + (v - p*) M = v + e* + (v - p*) N
     r.d = est + (a.v - pst) * N;
