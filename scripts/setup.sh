@@ -10,7 +10,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 PYTHON=${PYTHON:-python3}
-packages=(libegl1 libegl-mesa0 libgl1-mesa-dri xvfb xauth)
+# glslang-tools: the Khronos reference compiler, which the tests run over the shaders (it is
+# stricter than Mesa's, as GPU vendors' compilers are)
+packages=(libegl1 libegl-mesa0 libgl1-mesa-dri xvfb xauth glslang-tools)
 if ! "$PYTHON" -c "import ensurepip, venv" >/dev/null 2>&1; then
     packages+=(python3-venv)
 fi
