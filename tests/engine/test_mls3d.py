@@ -21,10 +21,10 @@ SHAPE = (256, 256, 256)
 #: 1e-3: those points sum their moments and solve in float64 (docs/mathematics.md, "The 3D
 #: solve on the GPU"), as close to the reference as the others.
 RIDGE_TOLERANCE = 1e-3
-#: Points with few handles in reach that spread just enough for the plain branch (every
-#: eigenvalue of A above 1e-3 of its trace, four handles near a plane) are solved in float32,
-#: A's condition up to 1e3 magnifying the moments' rounding.
-NEAR_RIDGE_TOLERANCE = 1e-2
+#: Points with few handles in reach: affine solves them in float32 only where every
+#: eigenvalue of A is above 1e-2 of its trace (A's condition up to 100 magnifying the
+#: moments' rounding), and the radius weights' float32 rounding near d = R weighs more there.
+NEAR_RIDGE_TOLERANCE = 2e-3
 
 
 @pytest.fixture(scope="module")

@@ -458,13 +458,14 @@ MLS3Centre mls3_centre(MLS3Accum b, mat3 U) {
               + o.y * (o.x * o.z - a.y * o.y);
     mat3 A = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z));
     c.B = A + D;
-    c.plain = b.W > 0.0 && c2 > 4.0 * MLS3_DEGENERATE_SHARE * tr * tr;
 #if MLS_TRANSFORM == 0
-    c.plain = c.plain && det > 2.0 * MLS3_DEGENERATE_SHARE * c2 * tr;
+    c.plain = b.W > 0.0 && c2 > 4.0 * MLS3_PLAIN_AFFINE * tr * tr;
+    c.plain = c.plain && det > 2.0 * MLS3_PLAIN_AFFINE * c2 * tr;
     c.U = mat3(1.0);
     c.G = mat3(1.0);
 #else
     float nb2 = dot(c.B[0], c.B[0]) + dot(c.B[1], c.B[1]) + dot(c.B[2], c.B[2]);
+    c.plain = b.W > 0.0 && c2 > 4.0 * MLS3_DEGENERATE_SHARE * tr * tr;
     c.plain = c.plain && determinant(c.B) > 2.0 * MLS3_POLAR_DET * nb2 * sqrt(nb2);
     c.U = U;
     mat3 H = transpose(c.U) * c.B;
@@ -490,12 +491,12 @@ void mls3_check_probe(inout bool plain, MLS3Accum b, vec3 d, float Wmean) {
     plain = plain && mismatch < 1e-3;
     float tr = a.x + a.y + a.z;
     float c2 = a.x * a.y + a.x * a.z + a.y * a.z - dot(o, o);
-    bool ok = c2 > 2.0 * MLS3_DEGENERATE_SHARE * tr * tr;
 #if MLS_TRANSFORM == 0
     float det = a.x * (a.y * a.z - o.z * o.z) - o.x * (o.x * a.z - o.z * o.y)
               + o.y * (o.x * o.z - a.y * o.y);
-    ok = ok && det > MLS3_DEGENERATE_SHARE * c2 * tr;
+    bool ok = c2 > 2.0 * MLS3_PLAIN_AFFINE * tr * tr && det > MLS3_PLAIN_AFFINE * c2 * tr;
 #else
+    bool ok = c2 > 2.0 * MLS3_DEGENERATE_SHARE * tr * tr;
     mat3 A = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z));
     mat3 B = A + D;
     float nb2 = dot(B[0], B[0]) + dot(B[1], B[1]) + dot(B[2], B[2]);

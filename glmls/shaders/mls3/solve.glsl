@@ -30,6 +30,11 @@ mat3 mls3_solve_polar = mat3(1.0);
 
 // glmls.reference.DEGENERATE_SHARE
 const float MLS3_DEGENERATE_SHARE = 1e-3;
+// affine's plain branch: every eigenvalue of A above this share of its trace. A's condition
+// (up to 1 / share) magnifies the float32 moments' rounding in A^-1 D: at 1e-3, the ridge's
+// onset, that moved f by up to 1e-2 voxel 100 voxels from p*; the float64 solve takes the
+// points below 1e-2 (few: where three or four handles near a plane are all in reach).
+const float MLS3_PLAIN_AFFINE = 1e-2;
 // Newton's iteration for the orthogonal polar factor of B (det B > 0): X <- (g X + X^-T / g)
 // / 2 with Higham's scaling g = (|X^-1| / |X|)^(1/2) (Frobenius norms), quadratic from the
 // start; stops once a step changes X by less than float32 resolves.
@@ -111,10 +116,9 @@ mat3 mls3_solve(vec3 a, vec3 o, mat3 D, float spread) {
     float det = a.x * (a.y * a.z - o.z * o.z) - o.x * (o.x * a.z - o.z * o.y)
               + o.y * (o.x * o.z - a.y * o.y);
     // (c2 bounds e_mid away from 0 first, so that rounding cannot pass det / c2 off as e_min)
-    bool spread3 = c2 > 2.0 * MLS3_DEGENERATE_SHARE * tr * tr;
 #if MLS_TRANSFORM == 0
-    if (spread3 && det > MLS3_DEGENERATE_SHARE * c2 * tr) {
-        // every eigenvalue above 1e-3 trace(A): no ridge, N = A^-1 D
+    if (c2 > 2.0 * MLS3_PLAIN_AFFINE * tr * tr && det > MLS3_PLAIN_AFFINE * c2 * tr) {
+        // every eigenvalue above 1e-2 trace(A): no ridge, N = A^-1 D
         vec3 l0 = vec3(sqrt(a.x), o.x, o.y);
         l0.yz /= l0.x;
         float l11 = sqrt(a.y - l0.y * l0.y);
@@ -129,6 +133,7 @@ mat3 mls3_solve(vec3 a, vec3 o, mat3 D, float spread) {
 #else
     // the middle eigenvalue above 1e-3 trace(A) (no ridge on the rotation), the targets not
     // near one line, and B comfortably nonsingular with det B > 0: B's polar factor
+    bool spread3 = c2 > 2.0 * MLS3_DEGENERATE_SHARE * tr * tr;
     mat3 B = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z)) + D;
     float nb2 = dot(B[0], B[0]) + dot(B[1], B[1]) + dot(B[2], B[2]);
     if (spread3 && !mls3_targets_on_a_line(B)
