@@ -95,6 +95,24 @@ def _uniform(monkeypatch, extra):
     monkeypatch.setattr(construction, "border_margin3", wide)
 
 
+def _kept_lattices(monkeypatch):
+    """The lattices the construction makes from now on, in a list it fills."""
+    lattices = []
+    made = construction._lattice
+
+    def keep(*args, **kwargs):
+        lattices.append(made(*args, **kwargs))
+        return lattices[-1]
+
+    monkeypatch.setattr(construction, "_lattice", keep)
+    return lattices
+
+
+def _uncut(monkeypatch):
+    """Make the construction take its whole lattice, whatever the canvas."""
+    monkeypatch.setattr(construction, "_cropped", lambda field, lattice, frame, pad: lattice)
+
+
 CASES = {
     # shifted along x, squeezed along y, bent inside
     "shift": ((5.5, 0.0, 0.0), 3.0, (0.0, 2.0, 1.0)),
@@ -124,14 +142,7 @@ def test_per_side_margins_give_the_wide_margin_result(
     if canvas == "wider":  # past the low x and high z faces
         frame = {"output_shape": (d + 3, h, w + 4), "origin": (-4.0, 0.0, 0.0)}
     options = VolumeOptions(method=method, border=border, interpolation="linear", grid=2, **frame)
-    lattices = []
-    spy = construction._lattice
-
-    def keep(*args, **kwargs):
-        lattices.append(spy(*args, **kwargs))
-        return lattices[-1]
-
-    monkeypatch.setattr(construction, "_lattice", keep)
+    lattices = _kept_lattices(monkeypatch)
     sides = warp_volume(m, volume, options)
     _uniform(monkeypatch, 4)
     wide = warp_volume(m, volume, options)
@@ -188,18 +199,10 @@ def test_a_slice_takes_the_cells_about_its_plane(kernel3, monkeypatch, method, g
         ((d, 1, w), (0.0, 40.0, 0.0)),
         ((d, h, 1), (30.0, 0.0, 0.0)),
     ]
-    lattices = []
-    spy = construction._lattice
-
-    def keep(*args, **kwargs):
-        lattices.append(spy(*args, **kwargs))
-        return lattices[-1]
-
-    monkeypatch.setattr(construction, "_lattice", keep)
+    lattices = _kept_lattices(monkeypatch)
     monkeypatch.setattr(construction, "REACH_SAMPLES", 9)  # cut lattices of 8 x 9^3 points on
-    cut = []
-    for size, origin in planes:
-        options = VolumeOptions(
+    slices = [
+        VolumeOptions(
             method=method,
             border=border,
             interpolation="linear",
@@ -207,17 +210,11 @@ def test_a_slice_takes_the_cells_about_its_plane(kernel3, monkeypatch, method, g
             output_shape=size,
             origin=origin,
         )
-        cut.append(warp_volume(m, volume, options))
-    monkeypatch.setattr(construction, "_cropped", lambda field, lattice, frame, pad: lattice)
-    for (size, origin), sliced in zip(planes, cut, strict=True):
-        options = VolumeOptions(
-            method=method,
-            border=border,
-            interpolation="linear",
-            grid=grid,
-            output_shape=size,
-            origin=origin,
-        )
+        for size, origin in planes
+    ]
+    cut = [warp_volume(m, volume, options) for options in slices]
+    _uncut(monkeypatch)
+    for options, sliced in zip(slices, cut, strict=True):
         np.testing.assert_array_equal(sliced, warp_volume(m, volume, options))
     for short, whole in zip(lattices[:3], lattices[3:], strict=True):
         assert short.cell_count < whole.cell_count, (short.cells, whole.cells)
@@ -249,5 +246,5 @@ def test_a_narrow_bump_between_the_samples_keeps_its_cells(kernel3, monkeypatch,
     monkeypatch.setattr(construction, "REACH_SAMPLES", 6)
     monkeypatch.setattr(bands, "REACH_SAMPLES", 6)
     sliced = warp_volume(m, volume, options)
-    monkeypatch.setattr(construction, "_cropped", lambda field, lattice, frame, pad: lattice)
+    _uncut(monkeypatch)
     np.testing.assert_array_equal(sliced, warp_volume(m, volume, options))
