@@ -167,20 +167,21 @@ def displacement_reach(field: Field, lattice: CornerLattice) -> np.ndarray | Non
     ]
     z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
     points = np.stack([x, y, z], axis=-1)
-    moved = field.evaluate(points.reshape(-1, 3)).reshape(points.shape) - points
-    if not np.all(np.isfinite(moved)):
+    sources = np.asarray(field.sources, dtype=np.float64).reshape(-1, 3)
+    sources = sources[np.all((sources >= first) & (sources <= last), axis=1)]
+    # one evaluation of f for the samples and the sources
+    every = np.concatenate([points.reshape(-1, 3), sources])
+    moved_every = field.evaluate(every) - every
+    if not np.all(np.isfinite(moved_every)):
         return None
+    samples = len(every) - len(sources)
+    moved = moved_every[:samples].reshape(points.shape)
     reach = np.abs(moved).max(axis=(0, 1, 2))
     for axis in range(3):  # (z, y, x) of the samples
         if moved.shape[axis] > 1:
             reach = reach + np.abs(np.diff(moved, axis=axis)).max(axis=(0, 1, 2))
-    sources = np.asarray(field.sources, dtype=np.float64).reshape(-1, 3)
-    sources = sources[np.all((sources >= first) & (sources <= last), axis=1)]
     if len(sources):
-        at = field.evaluate(sources) - sources
-        if not np.all(np.isfinite(at)):
-            return None
-        reach = np.maximum(reach, np.abs(at).max(axis=0))
+        reach = np.maximum(reach, np.abs(moved_every[samples:]).max(axis=0))
     return reach
 
 
