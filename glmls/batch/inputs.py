@@ -91,12 +91,6 @@ def _image(array: np.ndarray, name: str) -> np.ndarray:
     return array
 
 
-def _empty_item(batch: object) -> np.ndarray:
-    """An item of an empty (0, ...) batch array: its dtype and shape, no memory."""
-    array = np.asarray(batch)
-    return np.broadcast_to(np.zeros((), array.dtype), array.shape[1:])
-
-
 def check_points(array: np.ndarray, name: str, *, rows: str) -> np.ndarray:
     """``array`` as (``rows``, 2) finite float64 points within the coordinate limit (none may
     be given as ``[]``): the check of every handle set and keypoint set of a batch (and of
@@ -189,11 +183,11 @@ def check_batch(
         images = native_order(images)
     image_list, stacked = _items(images, "images", (2, 3))
     count = len(image_list)
-    array = images if stacked and count else None
+    if not count:
+        raise ValueError(f"images is an empty batch (shape {np.shape(images)}): nothing to warp")
+    array = images if stacked else None
     if array is not None:  # one shape and dtype: the first image's check is every image's
         _image(image_list[0], "images[0]")
-    elif stacked:  # an empty array: its images' dtype and shape, as a batch of one has them
-        _image(_empty_item(images), "each image")
     else:
         image_list = [_image(a, f"images[{i}]") for i, a in enumerate(image_list)]
     if not stacked and image_list:
@@ -226,9 +220,7 @@ def check_batch(
             raise ValueError(
                 f"masks holds {counted(len(mask_list), 'mask')} for {counted(count, 'image')}"
             )
-        if one and stacked and not count:  # an empty batch's masks, as a batch of one's
-            _mask(_empty_item(masks), "each mask", np.shape(images)[1:3])
-        elif one and array is not None and count and masks.dtype in (np.uint8, np.uint16):  # type: ignore[union-attr]
+        if one and array is not None and masks.dtype in (np.uint8, np.uint16):  # type: ignore[union-attr]
             _mask(mask_list[0], "masks[0]", image_list[0].shape[:2])
             mask_array = masks
         else:
@@ -240,11 +232,9 @@ def check_batch(
     )
 
 
-def stack_or_list(arrays: list[np.ndarray], stacked: bool, empty: np.ndarray | None = None):
+def stack_or_list(arrays: list[np.ndarray], stacked: bool):
     """``arrays`` stacked along a new first axis where ``stacked`` and they share one shape
-    and dtype, else the list; ``empty`` is what an empty batch gives."""
-    if not arrays:
-        return empty if empty is not None else []
+    and dtype, else the list."""
     first = arrays[0]
     if stacked and all(a.shape == first.shape and a.dtype == first.dtype for a in arrays):
         return np.stack(arrays)

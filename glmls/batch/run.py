@@ -84,16 +84,14 @@ def warp_batch(
         Without labels or maps, the warped images: an array (N, H, W[, C]) of the input's
         dtype and channels where all images share one shape and dtype, else a list in input
         order. With ``keypoints``, ``masks`` or ``return_maps``, a :class:`glmls.BatchResult`
-        of the images and what was asked for (keypoints in output pixel coordinates). An
-        empty (0, H, W[, C]) array gives an empty array of the output shape, an empty
-        sequence an empty list.
+        of the images and what was asked for (keypoints in output pixel coordinates).
 
     Raises
     ------
     ValueError, TypeError
-        For an item of a bad shape, dtype or count, or not finite, naming it (``src[3] has
-        shape (5, 3); expected (K, 2)``), for a ``return_maps`` that is not a
-        bool or a ``max_batch_bytes`` below 1, and as :func:`glmls.warp`.
+        For an empty batch, for an item of a bad shape, dtype or count, or not finite,
+        naming it (``src[3] has shape (5, 3); expected (K, 2)``), for a ``return_maps``
+        that is not a bool or a ``max_batch_bytes`` below 1, and as :func:`glmls.warp`.
 
     Examples
     --------
@@ -141,7 +139,7 @@ def warp_batch(
         )
         for i, image in enumerate(batch.images)
     ]
-    result = _assemble(batch, results, chosen, images, return_maps, (keypoints, masks), whole)
+    result = _assemble(batch, results, return_maps, whole)
     return _bool_masks_back(result, binary)
 
 
@@ -227,51 +225,32 @@ def _check_segments(segments: dict, batch: BatchInput, transform: object) -> lis
 def _assemble(
     batch: BatchInput,
     results: list[ImageLabels],
-    options: WarpOptions,
-    images: object,
     maps: bool,
-    inputs: tuple[object, object],
     whole: dict[str, np.ndarray],
 ):
-    """The output of :func:`warp_batch`: stacked where the inputs were, the empty batch's
-    arrays of the right shapes (``inputs``: the keypoints and masks as given; ``whole``: the
-    arrays of every image's pixels or masks where the batched path wrote them, of which the
-    results are views)."""
-    keypoints, masks = inputs
-    empty = None
-    if isinstance(images, np.ndarray) and len(batch) == 0:
-        shape = tuple(options.output_shape or images.shape[1:3])
-        empty = np.empty((0, *shape, *images.shape[3:]), images.dtype)
+    """The output of :func:`warp_batch`: stacked where the inputs were (``whole``: the arrays
+    of every image's pixels or masks where the batched path wrote them, of which the results
+    are views)."""
     if batch.stacked and "images" in whole:
         out = whole["images"]
     else:
-        out = stack_or_list([r.image for r in results], batch.stacked, empty)
+        out = stack_or_list([r.image for r in results], batch.stacked)
     if batch.keypoints is None and batch.masks is None and not maps:
         return out
 
-    def field(name: str, stacked: bool, empty_shape: tuple, dtype: object):
-        values = [getattr(r, name) for r in results]
-        if values:
-            return stack_or_list(values, stacked)
-        return [] if empty is None else np.empty((0, *empty_shape), dtype)
+    def field(name: str, stacked: bool):
+        return stack_or_list([getattr(r, name) for r in results], stacked)
 
-    canvas = () if empty is None else empty.shape[1:3]
-    points = np.shape(keypoints)[1:2] if isinstance(keypoints, np.ndarray) else (0,)
-    mask_dtype = masks.dtype if isinstance(masks, np.ndarray) else np.uint8
     given = batch.keypoints is not None
     return BatchResult(
         images=out,
-        keypoints=field("keypoints", batch.stacked_points, (*points, 2), np.float64)
-        if given
-        else None,
-        keypoints_valid=field("keypoints_valid", batch.stacked_points, points, bool)
-        if given
-        else None,
+        keypoints=field("keypoints", batch.stacked_points) if given else None,
+        keypoints_valid=field("keypoints_valid", batch.stacked_points) if given else None,
         masks=whole["masks"]
         if batch.stacked and "masks" in whole
-        else field("mask", batch.stacked, canvas, mask_dtype)
+        else field("mask", batch.stacked)
         if batch.masks is not None
         else None,
-        maps=field("map", batch.stacked, (*canvas, 2), np.float32) if maps else None,
-        valid=field("valid", batch.stacked, canvas, bool) if maps else None,
+        maps=field("map", batch.stacked) if maps else None,
+        valid=field("valid", batch.stacked) if maps else None,
     )

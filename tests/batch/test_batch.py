@@ -144,27 +144,22 @@ def test_no_point_handles_as_one_warp_takes_them(gl, rng, method):
     np.testing.assert_array_equal(same, batch)
 
 
-def test_empty_batch(gl):
-    out = glmls.warp_batch(
-        np.zeros((0, 5, 6, 3), np.uint8), np.zeros((0, 3, 2)), np.zeros((0, 3, 2))
-    )
-    assert out.shape == (0, 5, 6, 3) and out.dtype == np.uint8
-    assert glmls.warp_batch([], [], []) == []
+@pytest.mark.parametrize(
+    ("images", "labels"),
+    [
+        (np.zeros((0, 5, 6, 3), np.uint8), {}),
+        ([], {}),
+        (np.zeros((0, 5, 6), np.uint16), {"keypoints": np.zeros((0, 4, 2)), "return_maps": True}),
+        ([], {"keypoints": [], "masks": []}),
+        (np.zeros((0, 8, 8), np.int64), {}),
+    ],
+)
+def test_an_empty_batch_is_refused(images, labels):
+    """A batch of no image is bad input: a ValueError that says so, whatever the empty
+    array's dtype or the labels asked for."""
     none = np.zeros((0, 3, 2))
-    result = glmls.warp_batch(
-        np.zeros((0, 5, 6), np.uint16),
-        none,
-        none,
-        keypoints=np.zeros((0, 4, 2)),
-        masks=np.zeros((0, 5, 6), np.int32),
-        return_maps=True,
-        output_shape=(7, 8),
-    )
-    assert result.images.shape == (0, 7, 8) and result.images.dtype == np.uint16
-    assert result.keypoints.shape == (0, 4, 2) and result.keypoints_valid.shape == (0, 4)
-    assert result.masks.shape == (0, 7, 8) and result.masks.dtype == np.int32
-    assert result.maps.shape == (0, 7, 8, 2) and result.valid.shape == (0, 7, 8)
-    assert glmls.warp_batch([], [], [], keypoints=[]).keypoints == []
+    with pytest.raises(ValueError, match=r"^images is an empty batch \(shape \(0"):
+        glmls.warp_batch(images, none, none, **labels)
 
 
 def test_masks_keep_their_labels(gl, rng):

@@ -85,25 +85,6 @@ def test_a_ragged_item_is_named(item):
         glmls.warp_batch(images, src, dst, **inputs)
 
 
-@pytest.mark.parametrize(
-    ("images", "masks", "error", "text"),
-    [
-        (np.zeros((0, 8, 8), np.int64), None, TypeError, "each image has dtype int64"),
-        (np.zeros((0, 8, 8), bool), None, TypeError, "each image has dtype bool"),
-        (np.zeros((0, 8, 8, 5), np.uint8), None, ValueError, r"shape \(8, 8, 5\)"),
-        (np.zeros((0, 0, 8), np.uint8), None, ValueError, "each image is empty"),
-        (np.zeros((0, 8, 8), np.uint8), np.zeros((0, 8, 8), np.float32), TypeError, "float32"),
-        (np.zeros((0, 8, 8), np.uint8), np.zeros((0, 8, 9), np.uint8), ValueError, r"\(8, 9\)"),
-    ],
-)
-def test_an_empty_batch_array_is_checked_as_a_batch_of_one(images, masks, error, text):
-    """An empty (0, ...) array of images (or masks) that no batch of one would take is refused
-    as that batch is, not given back as an empty array of its dtype."""
-    none = np.zeros((0, 1, 2))
-    with pytest.raises(error, match=text):
-        glmls.warp_batch(images, none, none, masks=masks)
-
-
 @pytest.mark.parametrize("method", ["quads", "backward", "splat"])
 def test_a_background_that_does_not_fit_an_image_names_it(gl, method):
     """In a list of images of different channels or dtypes, a background that fits some of
