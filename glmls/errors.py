@@ -70,6 +70,23 @@ class ContextError(RuntimeError):
     """
 
 
+class DtypeError(TypeError, ValueError):
+    """An array of a dtype that glmls does not take for it; the message names the array.
+
+    Both a ``TypeError``, as numpy and scikit-image report a wrong dtype, and a ``ValueError``,
+    as glmls reports every other bad input (a wrong shape, a value that is not finite), so
+    that either ``except`` clause catches it.
+
+    Examples
+    --------
+    >>> try:
+    ...     glmls.warp_batch(np.zeros((2, 8, 8), np.int64), [[[1.0, 1.0]]] * 2, [[[2.0, 2.0]]] * 2)
+    ... except ValueError as error:
+    ...     print(isinstance(error, TypeError), error)
+    True images[0] has dtype int64; expected one of uint8, uint16, float32, float64
+    """
+
+
 class InputFileError(ValueError):
     """A malformed input file; the message names the file, the line or entry, and the fault.
 

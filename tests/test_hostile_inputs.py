@@ -208,3 +208,38 @@ def test_an_mls_settings_are_read_only(gl):
         assert m3.shape == (4, 5, 6) and inverse.grid == 1
         assert_array_equal(m(REF), before)
         assert "alpha=1.0" in repr(m)
+
+
+# -- a wrong dtype is both a TypeError and a ValueError -----------------------------------
+
+_BATCH = np.zeros((2, 6, 8), np.uint8)
+_HANDLES = np.stack([SRC, SRC])
+
+
+@pytest.mark.parametrize(
+    ("call", "name"),
+    [
+        (lambda: glmls.warp(np.zeros((6, 8), np.int64), SRC, DST), "image"),
+        (lambda: glmls.warp(np.zeros((6, 8), np.uint8), SRC.astype(bool), DST), "src"),
+        (lambda: glmls.warp_batch(_BATCH.astype(np.int32), _HANDLES, _HANDLES), r"images\[0\]"),
+        (lambda: glmls.warp_batch(_BATCH, [SRC, [["a", "b"]] * 4], _HANDLES), r"src\[1\]"),
+        (
+            lambda: glmls.warp_batch(_BATCH, _HANDLES, _HANDLES, masks=_BATCH.astype(np.float32)),
+            r"masks\[0\]",
+        ),
+        (
+            lambda: glmls.warp_batch(
+                _BATCH, _HANDLES, _HANDLES, keypoints=np.ones((2, 1, 2), bool)
+            ),
+            r"keypoints\[0\]",
+        ),
+        (lambda: glmls.augment.Augment("grid")(_BATCH.astype(complex)), r"images\[0\]"),
+        (lambda: glmls.MLS(np.zeros((4, 3), bool), np.zeros((4, 3))), "src"),
+    ],
+)
+def test_a_wrong_dtype_is_a_value_error_and_a_type_error(gl, call, name):
+    """Bad input is a ValueError, as glmls's other checks give; a wrong dtype is a TypeError
+    too, as numpy and scikit-image report one: ``glmls.DtypeError`` is both, naming the item."""
+    with pytest.raises(glmls.DtypeError, match=rf"^{name} (has|must|dtype)") as caught:
+        call()
+    assert isinstance(caught.value, ValueError) and isinstance(caught.value, TypeError)

@@ -15,7 +15,7 @@ import numpy as np
 from ..core.config import check_real
 from ..core.handles import COORDINATE_LIMIT, as_points
 from ..core.mesh import as_shape
-from ..errors import ReleasedError
+from ..errors import DtypeError, ReleasedError
 from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import set_uniforms
@@ -87,7 +87,9 @@ def as_rgb8(image: object, name: str = "image") -> np.ndarray:
             raise ValueError(f"{name} holds NaN or infinite values")
         rgb = np.round(np.clip(colour, 0.0, 1.0) * 255).astype(np.uint8)
     else:
-        raise TypeError(f"{name} must be uint8, uint16 or float in [0, 1], got dtype {array.dtype}")
+        raise DtypeError(
+            f"{name} must be uint8, uint16 or float in [0, 1], got dtype {array.dtype}"
+        )
     return np.ascontiguousarray(np.broadcast_to(rgb, (*rgb.shape[:2], 3)))
 
 

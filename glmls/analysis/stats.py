@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import DtypeError
+
 __all__ = ["TRIM", "error_stats"]
 
 #: The share of values cut from each end for ``trimmed_mean``.
@@ -54,7 +56,7 @@ def error_stats(values: object) -> dict[str, float | int | list[float] | None]:
     """
     array = np.asarray(values)
     if not (np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)):
-        raise TypeError(f"values must be real numbers, got dtype {array.dtype}")
+        raise DtypeError(f"values must be real numbers, got dtype {array.dtype}")
     array = array.astype(np.float64, copy=False).ravel()
     nan = np.isnan(array)
     if np.isinf(array).any():

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.config import check_real
+from ..errors import DtypeError
 from .stats import error_stats
 from .triangles import check_angle_measure, check_eps, deformed_points, qhull_simplices
 from .volume_field import precision
@@ -289,7 +290,7 @@ def _user_tetrahedra(tetrahedra: object, count: int) -> np.ndarray:
             "tetrahedra must be (T, 4) integer indices; got rows of different lengths"
         ) from None
     if array.size and array.dtype.kind not in "iu":
-        raise TypeError(f"tetrahedra must be integer indices, got dtype {array.dtype}")
+        raise DtypeError(f"tetrahedra must be integer indices, got dtype {array.dtype}")
     if array.ndim != 2 or array.shape[1] != 4:
         raise ValueError(f"tetrahedra must be (T, 4) integer indices, got shape {array.shape}")
     if len(array) == 0:

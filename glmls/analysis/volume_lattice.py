@@ -17,6 +17,7 @@ from ..core.config import check_integer
 from ..core.handles3 import as_volume_shape as core_volume_shape
 from ..core.handles3 import as_volume_spacing, chosen_spacing
 from ..core.mesh import MAX_GRID
+from ..errors import DtypeError
 
 __all__ = [
     "as_points3",
@@ -104,7 +105,7 @@ def as_points3(points: object, name: str = "points") -> np.ndarray:
             f"{name} must have shape (N, 3) as (x, y, z) rows; got rows of different lengths"
         ) from None
     if array.dtype.kind not in "iuf":
-        raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
+        raise DtypeError(f"{name} must be real numbers, got dtype {array.dtype}")
     if array.ndim != 2 or array.shape[1] != 3:
         if array.size == 0 and (array.ndim == 1 or array.shape == (0, 0)):  # [] is no points
             return np.zeros((0, 3))

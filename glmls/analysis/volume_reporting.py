@@ -10,6 +10,7 @@ import numpy as np
 
 from ..core.config import MLSConfig, check_real
 from ..core.handles3 import volume_diagonal
+from ..errors import DtypeError
 from ..files.volumes import Volume
 from ..forking import renderer
 from . import colormaps
@@ -98,7 +99,7 @@ def _check_volume(volume: object, name: str) -> np.ndarray:
     if array.ndim not in (3, 4) or 0 in array.shape or (array.ndim == 4 and array.shape[3] > 4):
         raise ValueError(f"{name} must be (D, H, W) or (D, H, W, C), got shape {array.shape}")
     if array.dtype.kind not in "biuf":
-        raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
+        raise DtypeError(f"{name} must be real numbers, got dtype {array.dtype}")
     # NaN and infinite voxels of a float volume (outside a scan's field of view) are kept: the
     # analyses do not read the voxels, the pictures draw them apart, and the warp keeps them.
     # The pictures draw numbers and the GPU warps no bool: a mask is its 0/1 in float32, as

@@ -8,6 +8,7 @@ from collections.abc import Callable
 
 import moderngl
 
+from ..gl.llvm import load_llvm_users_first
 from .events import Event, Key, Move, Press, Release, Scroll
 
 __all__ = ["NO_DISPLAY_HINT", "GlfwWindow", "NoDisplayError"]
@@ -43,6 +44,7 @@ class GlfwWindow:
         except ImportError as error:  # the glfw shared library is missing
             raise NoDisplayError(NO_DISPLAY_HINT.format(why=f"glfw: {error}")) from None
         self.glfw = glfw
+        load_llvm_users_first()  # before the driver's LLVM, as for a headless context
         self._errors: list[str] = []
         glfw.set_error_callback(lambda code, text: self._errors.append(_text(text)))
         if not glfw.init():

@@ -10,6 +10,7 @@ import moderngl
 import numpy as np
 
 from ..analysis.canvas import as_rgb8
+from ..errors import DtypeError
 from ..gl.context import GLContext
 from ..imaging.pipeline import WarpPipeline
 from ..imaging.source import prepare_image, texture_data, texture_form
@@ -62,7 +63,7 @@ def display_image(image: np.ndarray) -> np.ndarray:
             values = (values - low) / (high - low)
         values = np.clip(np.nan_to_num(values, nan=0.0), 0.0, 1.0).astype(np.float32)
     else:
-        raise TypeError(f"image dtype must be integer or float, got {array.dtype}")
+        raise DtypeError(f"image dtype must be integer or float, got {array.dtype}")
     colour = values[..., :3] if values.shape[2] >= 3 else np.repeat(values[..., :1], 3, axis=2)
     return np.ascontiguousarray(colour)
 

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..batch.inputs import check_coordinates, item_array
 from ..core.config import check_real, counted
+from ..errors import DtypeError
 from ..imaging.options import FIELDS, WarpOptions
 
 __all__ = [
@@ -43,7 +44,7 @@ def _finite(array: np.ndarray, name: str, columns: int, rows: str = "B") -> np.n
     :data:`~glmls.core.handles.COORDINATE_LIMIT`, as the points they become must be."""
     real = np.issubdtype(array.dtype, np.number) and array.dtype.kind != "c"
     if array.dtype == object or not real:  # complex would lose its imaginary part
-        raise TypeError(f"{name} has dtype {array.dtype}; expected real numbers")
+        raise DtypeError(f"{name} has dtype {array.dtype}; expected real numbers")
     if array.ndim != 2 or array.shape[1] != columns:
         raise ValueError(f"{name} has shape {array.shape}; expected ({rows}, {columns})")
     return check_coordinates(np.asarray(array, np.float64), name)

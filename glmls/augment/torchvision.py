@@ -2,10 +2,11 @@
 ``pip install 'glmls[torch]'`` (torchvision 0.23 and newer, for ``tv_tensors.KeyPoints``).
 
 This module imports torch and torchvision; :mod:`glmls.augment` does not import this module.
-Import it (or torchvision) before glmls makes its first OpenGL context where that context is
-Mesa's llvmpipe (a machine without a GPU driver): torchvision loads triton, whose LLVM
-crashes a process that already holds Mesa's; this module raises ``ImportError`` saying so
-rather than let the process crash (:func:`check_import_order`).
+It can be imported before or after glmls's first warp: torchvision loads triton, whose LLVM
+crashes a process that already holds Mesa's (the llvmpipe OpenGL driver of a machine
+without a GPU driver), and glmls loads triton's library before it makes a GL context. Where
+another library's GL context loaded Mesa's LLVM first, this module raises ``ImportError``
+saying so rather than let the process crash (:func:`check_import_order`).
 
 ``MLSTransform`` follows torchvision's contract: ``make_params`` draws once per call from torch's
 random numbers (``torch.manual_seed`` makes it repeat: the transform has no seed of its own), every
@@ -41,42 +42,37 @@ than N. The draws of the last call are in ``last_params``
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
+
+from ..gl.llvm import triton_would_crash
 
 
 def check_import_order() -> None:
     """``ImportError`` where importing torchvision now would crash the process.
 
     torchvision imports triton (through ``torch._dynamo``), which carries an LLVM of its own;
-    loaded into a process where Mesa's LLVM is already loaded (the llvmpipe OpenGL driver,
-    after glmls made its first GL context on a machine without a GPU driver), its start-up
-    ends in a segmentation fault. Loaded first, both work.
+    loaded into a process where Mesa's LLVM is already loaded (the llvmpipe OpenGL driver on
+    a machine without a GPU driver), its start-up ends in a segmentation fault. Loaded first,
+    both work, and glmls loads triton's library before it makes a GL context
+    (:mod:`glmls.gl.llvm`); this error is left for a process in which something else loaded
+    Mesa's LLVM first (a GL context that another library made).
 
     Raises
     ------
     ImportError
-        Where triton is installed but not imported and an LLVM library is loaded.
+        Where triton is installed, its library not loaded, and another LLVM library is.
 
     Examples
     --------
     >>> from glmls.augment.torchvision import check_import_order
     >>> check_import_order()  # triton is loaded by now, or no LLVM is
     """
-    if "triton" in sys.modules or importlib.util.find_spec("triton") is None:
-        return
-    try:
-        maps = Path("/proc/self/maps").read_text(encoding="utf-8", errors="replace")
-    except OSError:
-        return
-    if "libLLVM" in maps:
+    if triton_would_crash():
         raise ImportError(
             "torchvision loads triton, whose LLVM crashes a process in which Mesa's LLVM "
-            "(the llvmpipe OpenGL driver glmls is using) is already loaded: import torchvision "
-            "(or glmls.augment.torchvision) before glmls makes its first OpenGL context"
+            "(the llvmpipe OpenGL driver) is already loaded: import torchvision (or "
+            "glmls.augment.torchvision) before the process makes its first OpenGL context"
         )
 
 

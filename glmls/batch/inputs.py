@@ -10,6 +10,7 @@ import numpy as np
 
 from ..core.config import counted
 from ..core.handles import COORDINATE_LIMIT, validate_handles
+from ..errors import DtypeError
 from ..imaging.source import DTYPES, native_order
 
 __all__ = ["BatchInput", "check_batch", "check_points", "item_array", "stack_or_list"]
@@ -80,7 +81,7 @@ def _image(array: np.ndarray, name: str) -> np.ndarray:
     array = native_order(array)  # big-endian images are their values, as for one warp
     if array.dtype not in DTYPES:
         names = ", ".join(np.dtype(d).name for d in DTYPES)
-        raise TypeError(f"{name} has dtype {array.dtype}; expected one of {names}")
+        raise DtypeError(f"{name} has dtype {array.dtype}; expected one of {names}")
     if array.ndim not in (2, 3) or (array.ndim == 3 and not 1 <= array.shape[2] <= 4):
         hint = VOLUMES_HINT if array.ndim == 3 else ""  # (D, H, W)
         raise ValueError(
@@ -100,7 +101,7 @@ def check_points(array: np.ndarray, name: str, *, rows: str) -> np.ndarray:
     if array.dtype == object or not (
         np.issubdtype(array.dtype, np.number) and not np.issubdtype(array.dtype, np.complexfloating)
     ):
-        raise TypeError(f"{name} has dtype {array.dtype}; expected real numbers")
+        raise DtypeError(f"{name} has dtype {array.dtype}; expected real numbers")
     if array.size == 0 and array.ndim <= 2:  # [] or np.zeros((0, 2)): no points
         array = array.reshape(0, 2)
     if array.ndim != 2 or array.shape[1] != 2:
@@ -129,7 +130,7 @@ def check_coordinates(rows: np.ndarray, name: str) -> np.ndarray:
 
 def _mask(array: np.ndarray, name: str, shape: tuple[int, int]) -> np.ndarray:
     if array.dtype == bool or not np.issubdtype(array.dtype, np.integer):
-        raise TypeError(f"{name} has dtype {array.dtype}; expected an integer or bool dtype")
+        raise DtypeError(f"{name} has dtype {array.dtype}; expected an integer or bool dtype")
     if array.shape != shape:
         raise ValueError(f"{name} has shape {array.shape}; expected its image's {shape}")
     if array.dtype not in (np.uint8, np.uint16) and array.size:

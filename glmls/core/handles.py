@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import DegenerateHandlesError
+from ..errors import DegenerateHandlesError, DtypeError
 
 #: Handles and points must lie within this many pixels of the origin in x and y: the GPU
 #: works in float32 on coordinates scaled to the handles' and image's extent, which keeps
@@ -55,7 +55,7 @@ def as_points(points: object, name: str = "points") -> np.ndarray:
     except ValueError:  # ragged rows
         raise ValueError(f"{name} must have shape (N, 2) as (x, y) rows, got {points!r}") from None
     if array.dtype.kind not in "iuf":  # integers and reals (np.issubdtype: ~4x the time)
-        raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
+        raise DtypeError(f"{name} must be real numbers, got dtype {array.dtype}")
     if array.ndim != 2 or array.shape[1] != 2:
         # [] is no points; (0, 3) rows, even none, are the points of another dimension
         if array.size == 0 and (array.ndim == 1 or array.shape == (0, 0)):

@@ -13,6 +13,7 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
+from ..errors import DtypeError
 from .config import check_real, is_integer
 from .handles import COORDINATE_LIMIT, Scaling, check_one_target
 
@@ -61,7 +62,7 @@ def as_points3(points: object, name: str = "points") -> np.ndarray:
             f"{name} must have shape (N, 3) as (x, y, z) rows; got rows of different lengths"
         ) from None
     if array.dtype.kind not in "iuf":
-        raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
+        raise DtypeError(f"{name} must be real numbers, got dtype {array.dtype}")
     if array.ndim != 2 or array.shape[1] != 3:
         # [] is no points; (0, 2) rows, even none, are the points of another dimension
         if array.size == 0 and (array.ndim == 1 or array.shape == (0, 0)):

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import DtypeError
 from .handles3 import as_points3
 from .summary import fields_repr
 
@@ -192,7 +193,7 @@ def as_colors(colors: object, count: int) -> np.ndarray | None:
         return None
     array = np.asarray(colors)
     if array.dtype.kind not in "iuf":
-        raise TypeError(f"colors must be integers 0..255 or floats 0..1, got dtype {array.dtype}")
+        raise DtypeError(f"colors must be integers 0..255 or floats 0..1, got dtype {array.dtype}")
     if array.ndim != 2 or array.shape[1] not in (3, 4) or len(array) != count:
         raise ValueError(
             f"colors must be (V, 3) or (V, 4) RGB(A) rows for the V = {count} vertices, "
@@ -227,7 +228,7 @@ def as_normals(normals: object, count: int) -> np.ndarray | None:
             f"normals must be (V, 3) rows (x, y, z) for the V = {count} vertices"
         ) from None
     if array.dtype.kind not in "iuf":
-        raise TypeError(f"normals must be real numbers, got dtype {array.dtype}")
+        raise DtypeError(f"normals must be real numbers, got dtype {array.dtype}")
     if array.shape != (count, 3):
         raise ValueError(
             f"normals must be (V, 3) rows (x, y, z) for the V = {count} vertices, "
@@ -270,7 +271,7 @@ def as_uv(
         raise ValueError(f"{given} is given without {missing}: texture coordinates need both")
     coordinates, indices = np.asarray(uv), np.asarray(face_uv)
     if coordinates.dtype.kind not in "iuf":
-        raise TypeError(f"uv must be real numbers, got dtype {coordinates.dtype}")
+        raise DtypeError(f"uv must be real numbers, got dtype {coordinates.dtype}")
     if coordinates.size == 0:
         coordinates = coordinates.reshape(0, 2)
     if coordinates.ndim != 2 or coordinates.shape[1] != 2:
@@ -283,7 +284,7 @@ def as_uv(
     if indices.size == 0:
         indices = indices.reshape(0, 3)
     if not whole_indices(indices):
-        raise TypeError(f"face_uv must be integer indices into uv, got dtype {indices.dtype}")
+        raise DtypeError(f"face_uv must be integer indices into uv, got dtype {indices.dtype}")
     if indices.ndim != 2 or indices.shape != (face_count, 3):
         raise ValueError(
             f"face_uv must be (F, 3) indices into uv for the F = {face_count} faces, "
@@ -324,7 +325,7 @@ def _own_normals(normals: object, shape: tuple[int, ...]) -> np.ndarray | None:
     if array.shape != shape:
         return None
     if array.dtype.kind not in "iuf":
-        raise TypeError(f"mesh vertex_normals must be real numbers, got dtype {array.dtype}")
+        raise DtypeError(f"mesh vertex_normals must be real numbers, got dtype {array.dtype}")
     array = array.astype(np.float64)
     finite = np.isfinite(array).all(axis=1)
     if not finite.all():

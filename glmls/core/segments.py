@@ -18,6 +18,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..errors import DtypeError
 from .config import MLSConfig
 from .handles import as_points, check_coordinates
 
@@ -59,7 +60,7 @@ def as_segments(segments: object, name: str) -> np.ndarray:
     if array.dtype == object or not (
         np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating)
     ):
-        raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
+        raise DtypeError(f"{name} must be real numbers, got dtype {array.dtype}")
     if array.shape in ((0,), (0, 2, 2)):  # [] is no segments
         return np.zeros((0, 2, 2))
     if array.ndim != 3 or array.shape[1:] != (2, 2):

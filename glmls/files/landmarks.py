@@ -81,7 +81,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.handleset import HandleSet
-from ..errors import InputFileError
+from ..errors import DtypeError, InputFileError
 from .atomic import atomic_write
 from .handle_formats import (
     KIND_HEADER,
@@ -490,7 +490,7 @@ def _check_3d(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
     for name, value in (("src", src), ("dst", dst)):
         array = np.asarray(value)
         if not np.issubdtype(array.dtype, np.number) or array.dtype == np.bool_:
-            raise TypeError(f"{name} must be numbers, got dtype {array.dtype}")
+            raise DtypeError(f"{name} must be numbers, got dtype {array.dtype}")
         array = array.astype(np.float64)
         if array.ndim != 2 or array.shape[1] != 3 or not len(array):
             raise ValueError(f"{name} must be (N, 3) with N >= 1, got shape {array.shape}")

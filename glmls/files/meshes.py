@@ -44,7 +44,7 @@ import numpy as np
 
 from ..core.mesh3 import as_colors, as_normals, as_uv, whole_indices
 from ..core.summary import fields_repr
-from ..errors import InputFileError
+from ..errors import DtypeError, InputFileError
 from .atomic import atomic_write
 from .obj import obj_text, read_obj
 from .parsing import brief, is_number, not_a_file
@@ -150,7 +150,7 @@ class Mesh:
         except ValueError:  # ragged rows
             raise ValueError("vertices and faces must be rows of 3 numbers each") from None
         if given.dtype.kind not in "iuf":  # complex would lose its imaginary part silently
-            raise TypeError(f"vertices must be real numbers, got dtype {given.dtype}")
+            raise DtypeError(f"vertices must be real numbers, got dtype {given.dtype}")
         vertices = np.array(given, dtype=np.float64)
         if vertices.ndim != 2 or vertices.shape[1] != 3 or not len(vertices):
             raise ValueError(f"vertices must be (V, 3) with V >= 1, got shape {vertices.shape}")
@@ -159,7 +159,7 @@ class Mesh:
         if faces.size == 0:
             faces = faces.reshape(0, 3)
         if not whole_indices(faces):
-            raise TypeError(f"faces must be integer vertex indices, got dtype {faces.dtype}")
+            raise DtypeError(f"faces must be integer vertex indices, got dtype {faces.dtype}")
         if faces.ndim != 2 or faces.shape[1] != 3:
             raise ValueError(f"faces must be (F, 3) triangles, got shape {faces.shape}")
         # the range before the cast to int64: a uint64 index of 2**63 must not wrap

@@ -41,7 +41,7 @@ from typing import Protocol, TypeVar
 import moderngl
 
 from ..errors import ContextError, GLUnavailableError, ReleasedError
-from . import bindings, dropped, exiting
+from . import bindings, dropped, exiting, llvm
 from .shaders import ComposedSource, ShaderCompileError, ShaderLibrary, dump, library
 from .signals import signals_held
 from .unavailable import FIX, FORKED, explain
@@ -648,6 +648,7 @@ def create_headless(
     _check_process()
     dropped.free_dropped(_adopted)
     previous = _thread.current
+    llvm.load_llvm_users_first()
     try:
         mgl = moderngl.create_context(standalone=True, backend="egl", require=REQUIRED_GL)
     except Exception as error:  # glcontext raises bare Exception

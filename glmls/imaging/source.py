@@ -15,6 +15,7 @@ import numpy as np
 
 from ..core.config import check_choice, check_real, counted
 from ..core.mesh import check_grid
+from ..errors import DtypeError
 
 __all__ = [
     "BORDERS",
@@ -95,7 +96,7 @@ def check_image(image: object, name: str = "image") -> np.ndarray:
         hint = ""
         if not isinstance(image, np.ndarray) and np.issubdtype(array.dtype, np.integer):
             hint = f" (Python ints become int64 in numpy: pass np.asarray({name}, np.uint8))"
-        raise TypeError(f"{name} dtype must be one of {names}; got {array.dtype}{hint}")
+        raise DtypeError(f"{name} dtype must be one of {names}; got {array.dtype}{hint}")
     if array.ndim not in (2, 3) or (array.ndim == 3 and not 1 <= array.shape[2] <= 4):
         hint = "; volumes (D x H x W) are warped by a 3D MLS, (N, 3) handles"
         raise ValueError(

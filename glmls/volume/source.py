@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import DtypeError
 from ..files.volumes import Volume
 from ..imaging.source import FLOAT32_MAX, as_float32
 
@@ -57,7 +58,7 @@ def check_volume(volume: object, name: str = "volume") -> np.ndarray:
                 f" (warp {name}.astype(np.float32), which holds every value up to 2**24 "
                 "exactly, and round the result back to your dtype, as glmls warp does)"
             )
-        raise TypeError(f"{name} dtype must be one of {names}; got {array.dtype}{hint}")
+        raise DtypeError(f"{name} dtype must be one of {names}; got {array.dtype}{hint}")
     if array.ndim == 2:
         raise ValueError(
             f"{name} of shape {array.shape} is a 2D image; a 3D MLS ((N, 3) handles) "
