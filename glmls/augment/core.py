@@ -158,7 +158,14 @@ def _index_list(indices: object, count: int) -> list[int]:
     return checked
 
 
+def _object_list(value: object) -> bool:
+    """Whether ``value`` is a 1-D object array (of arrays of different sizes): a sequence."""
+    return isinstance(value, np.ndarray) and value.dtype == object and value.ndim == 1
+
+
 def _images(images: object) -> list[np.ndarray]:
+    if _object_list(images):
+        images = list(images)  # type: ignore[arg-type]
     if isinstance(images, np.ndarray):
         if images.ndim not in (3, 4):
             raise ValueError(
@@ -190,8 +197,8 @@ def _keypoint_list(keypoints: object, count: int) -> tuple[list[np.ndarray] | No
                 f"shape {keypoints.shape}"
             )
         items, stacked = list(keypoints), True
-    elif isinstance(keypoints, (list, tuple)):
-        items = [item_array(k, f"keypoints[{i}]") for i, k in enumerate(keypoints)]
+    elif isinstance(keypoints, (list, tuple)) or _object_list(keypoints):
+        items = [item_array(k, f"keypoints[{i}]") for i, k in enumerate(keypoints)]  # type: ignore[arg-type]
         stacked = False
     else:
         raise TypeError(f"keypoints must be an array or a sequence, got {type(keypoints)}")

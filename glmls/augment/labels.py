@@ -58,8 +58,8 @@ def _per_image(value: object, name: str, count: int) -> tuple[list, bool]:
                 f"{value.shape}"
             )
         items, stacked = list(value), True
-    elif isinstance(value, (list, tuple)):
-        items, stacked = list(value), False
+    elif isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 1):
+        items, stacked = list(value), False  # a 1-D object array: a sequence of arrays
     else:
         raise TypeError(f"{name} must be an array or a sequence, got {type(value).__name__}")
     if len(items) != count:

@@ -62,6 +62,8 @@ def item_array(value: object, name: str) -> np.ndarray:
 def _items(value: object, name: str, item_ndims: tuple[int, ...]) -> tuple[list, bool]:
     """``value`` as a list of per-image arrays: an array whose first axis is the batch, or a
     sequence; the flag says it was one array."""
+    if isinstance(value, np.ndarray) and value.dtype == object and value.ndim == 1:
+        value = list(value)  # a 1-D array of arrays (ragged ones): a sequence of them
     if isinstance(value, np.ndarray):
         if value.ndim - 1 not in item_ndims:
             wanted = " or ".join(f"{d + 1}" for d in item_ndims)

@@ -103,3 +103,40 @@ def test_a_background_that_does_not_fit_an_image_names_it(gl, method):
     wide = [rgb.astype(np.uint16), rgb, rgb]
     with pytest.raises(ValueError, match=r"^images\[1\]: background 300.0 is outside 0..255"):
         glmls.warp_batch(wide, handles, handles + 1, background=300, method=method, ctx=gl)
+
+
+def _objects(*items: np.ndarray) -> np.ndarray:
+    out = np.empty(len(items), object)
+    for i, item in enumerate(items):
+        out[i] = item
+    return out
+
+
+def test_a_one_dimensional_object_array_is_a_sequence(gl):
+    """A 1-D object array of arrays of different shapes (what ``np.array(items,
+    dtype=object)`` makes of ragged items) is taken as the sequence of its items, for images,
+    handles and keypoints alike, in warp_batch and Augment."""
+    images = [np.arange(120, dtype=np.uint8).reshape(10, 12), np.ones((8, 9), np.uint8)]
+    src = [np.array([[1.0, 1.0], [5.0, 5.0]]), np.array([[2.0, 2.0]])]
+    dst = [s + 0.5 for s in src]
+    points = [np.array([[3.0, 4.0]]), np.zeros((0, 2))]
+    given = glmls.warp_batch(images, src, dst, keypoints=points)
+    objects = glmls.warp_batch(
+        _objects(*images), _objects(*src), _objects(*dst), keypoints=_objects(*points)
+    )
+    for a, b in zip(given.images, objects.images, strict=True):
+        np.testing.assert_array_equal(a, b)
+    for a, b in zip(given.keypoints, objects.keypoints, strict=True):
+        np.testing.assert_array_equal(a, b)
+    aug = glmls.augment.Augment("grid", seed=3)
+    plain = aug(
+        images, keypoints=points, boxes=[np.array([[1.0, 1.0, 6.0, 6.0]]), np.zeros((0, 4))]
+    )
+    packed = aug(
+        _objects(*images),
+        keypoints=_objects(*points),
+        boxes=_objects(np.array([[1.0, 1.0, 6.0, 6.0]]), np.zeros((0, 4))),
+    )
+    for a, b in zip(plain.images, packed.images, strict=True):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(plain.boxes[0], packed.boxes[0])
