@@ -31,9 +31,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.config import check_real
+from ..core.handles3 import as_points3 as points_in_range
 from ..errors import DtypeError
 from .stats import error_stats
-from .triangles import check_angle_measure, check_eps, deformed_points, qhull_simplices
+from .triangles import (
+    check_angle_measure,
+    check_eps,
+    deformed_points,
+    qhull_simplices,
+    unit_scaled,
+)
 from .volume_field import precision
 from .volume_lattice import as_points3, check_three_d, flat_triples
 
@@ -157,7 +164,8 @@ def tetrahedron_quality(corners: object) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        (T,) in [0, 1]; 0 for a tetrahedron of zero volume.
+        (T,) in [0, 1]; 0 for a tetrahedron of zero volume. Scale-invariant: a tetrahedron
+        1e-150 across has the quality of its copy 1 across.
 
     Raises
     ------
@@ -176,13 +184,17 @@ def tetrahedron_quality(corners: object) -> np.ndarray:
     t = np.asarray(corners, dtype=np.float64)
     if t.ndim != 3 or t.shape[1:] != (4, 3):
         raise ValueError(f"corners must be (T, 4, 3), got {t.shape}")
-    u, v, w = (t[:, k] - t[:, 0] for k in (1, 2, 3))
+    # each tetrahedron times the power of two that brings its edges to [0.5, 1): exact,
+    # and the ratio's products of up to 7 lengths neither underflow (a tiny tetrahedron
+    # would read as flat) nor overflow
+    edges = t[:, 1:] - t[:, :1]
+    exponent = np.frexp(np.abs(edges).max(axis=(1, 2), initial=0.0))[1]
+    u, v, w = np.moveaxis(np.ldexp(edges, -exponent[:, None, None]), 1, 0)
     volume6 = np.abs((u * np.cross(v, w)).sum(-1))
     lengths = [(e * e).sum(-1)[:, None] for e in (u, v, w)]
     centre = lengths[0] * np.cross(v, w) + lengths[1] * np.cross(w, u) + lengths[2] * np.cross(u, v)
-    area = sum(
-        0.5 * np.linalg.norm(np.cross(t[:, b] - t[:, a], t[:, c] - t[:, a]), axis=-1)
-        for a, b, c in FACES
+    area = 0.5 * sum(
+        np.linalg.norm(np.cross(a, b), axis=-1) for a, b in ((u, v), (u, w), (v, w), (v - u, w - u))
     )
     # r = 3 V / area = 6V / (2 area), R = |centre| / (2 (6V)): 3 r / R = 3 (6V)^2 / (area |centre|)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -210,7 +222,8 @@ def delaunay3(points: object) -> tuple[np.ndarray, np.ndarray]:
     Raises
     ------
     ValueError
-        For fewer than 4 points, NaN, duplicates or points all on one plane.
+        For fewer than 4 points, NaN, duplicates, points all on one plane or beyond
+        :data:`~glmls.core.handles.COORDINATE_LIMIT` (before Qhull, which may crash on them).
 
     Examples
     --------
@@ -233,7 +246,8 @@ def delaunay3(points: object) -> tuple[np.ndarray, np.ndarray]:
             "singular values of the centred points are "
             f"{', '.join(f'{v:.3g}' for v in singular)}): no tetrahedron can be formed"
         )
-    return r, qhull_simplices(r, "tetrahedra")
+    # Qhull may crash the interpreter on points far beyond glmls's coordinate range
+    return points_in_range(r, "reference_points"), qhull_simplices(r, "tetrahedra")
 
 
 def _face_angles(corners: np.ndarray) -> np.ndarray:
@@ -363,10 +377,10 @@ def tetrahedron_errors(
     Raises
     ------
     ValueError
-        For fewer than 4 points, NaN, duplicates or points all on one plane; bad
-        ``tetrahedra``; every tetrahedron a sliver; an unknown ``angle``; ``eps`` <= 0;
-        ``min_quality`` out of [0, 1); ``m`` returning the wrong shape or values that are
-        not finite.
+        For fewer than 4 points, NaN, duplicates, points all on one plane or beyond
+        :data:`~glmls.core.handles.COORDINATE_LIMIT`; bad ``tetrahedra``; every tetrahedron
+        a sliver; an unknown ``angle``; ``eps`` <= 0; ``min_quality`` out of [0, 1); ``m``
+        returning the wrong shape or values that are not finite.
     TypeError
         For ``tetrahedra`` that are not integers, or an ``m`` that is not callable or returns
         values that are not real numbers (complex, bool).
@@ -394,7 +408,7 @@ def tetrahedron_errors(
     if tetrahedra is None:
         r, simplices = delaunay3(reference_points)
     else:
-        r = as_points3(reference_points, "reference_points")
+        r = points_in_range(reference_points, "reference_points")
         simplices = _user_tetrahedra(tetrahedra, len(r))
     quality = tetrahedron_quality(r[simplices])
     sliver = (quality < min_quality) | (quality == 0)
@@ -414,7 +428,7 @@ def tetrahedron_errors(
     deformed = deformed_points(m, r)
     kept = simplices[~sliver]
     distance, errors, inverted = tetrahedron_errors_from_points(
-        r, deformed, kept, angle=measure, eps=eps, rounding=precision(m)
+        *unit_scaled(r, deformed), kept, angle=measure, eps=eps, rounding=precision(m)
     )
     quality, slivers = quality[~sliver], simplices[sliver]
     for array in (r, deformed, kept, distance, errors, inverted, quality, slivers):

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.config import check_choice, check_real
-from ..core.handles import check_reference_points
+from ..core.handles import check_coordinates, check_reference_points
 from ..mls import MLS
 from .stats import error_stats
 from .volume_lattice import flat_areas, real_values
@@ -42,6 +42,7 @@ __all__ = [
     "qhull_simplices",
     "triangle_errors",
     "triangle_errors_from_points",
+    "unit_scaled",
 ]
 
 
@@ -125,10 +126,21 @@ def delaunay(points: object) -> tuple[np.ndarray, np.ndarray]:
     """(points (N, 2) float64, simplices (T, 3) int) of the Delaunay triangulation.
 
     Unlike a bare ``scipy.spatial.Delaunay``, points that Qhull would silently leave out
-    (near-duplicates, in ``coplanar``) raise ``ValueError``.
+    (near-duplicates, in ``coplanar``) raise ``ValueError``, as do points beyond
+    :data:`~glmls.core.handles.COORDINATE_LIMIT`.
     """
-    r = check_reference_points(points)
+    r = check_coordinates(check_reference_points(points), "reference_points")
     return r, qhull_simplices(r, "triangulation")
+
+
+def unit_scaled(r: np.ndarray, *others: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``r`` and ``others`` times the one power of two that brings r's largest coordinate
+    into [0.5, 1): exact, so the shapes and their errors stay the same, while the products
+    of 4 to 7 lengths that areas, volumes and radius ratios take stay clear of float64's
+    underflow for points spread over as little as 1e-150."""
+    top = float(np.abs(r).max()) if r.size else 0.0
+    exponent = int(np.frexp(top)[1]) if np.isfinite(top) and top > 0 else 0
+    return tuple(np.ldexp(a, -exponent) for a in (r, *others))
 
 
 def qhull_simplices(r: np.ndarray, name: str) -> np.ndarray:
@@ -137,7 +149,7 @@ def qhull_simplices(r: np.ndarray, name: str) -> np.ndarray:
     from scipy.spatial import Delaunay, QhullError  # here: a slow import most calls never need
 
     try:
-        tri = Delaunay(r)
+        tri = Delaunay(unit_scaled(r)[0])  # Qhull's lifted squares underflow below ~1e-160
     except QhullError as error:
         raise ValueError(f"reference_points cannot be triangulated: {error}") from None
     if len(tri.coplanar):
@@ -310,7 +322,7 @@ def triangle_errors(
     deformed = deformed_points(m, r)
     rounding = np.finfo(np.float32 if isinstance(m, MLS) else np.float64).eps  # the GPU's
     distance, errors, flipped = triangle_errors_from_points(
-        r, deformed, simplices, eps=eps, angle=measure, rounding=float(rounding)
+        *unit_scaled(r, deformed), simplices, eps=eps, angle=measure, rounding=float(rounding)
     )
     for array in (r, deformed, simplices, distance, errors, flipped):
         array.flags.writeable = False

@@ -27,6 +27,7 @@ from .volume_lattice import (
     as_volume_shape,
     axis_centres,
     check_grid3,
+    check_handles3,
     check_three_d,
     deformation_spacing,
     interpolate_axis,
@@ -372,8 +373,10 @@ def volume_error_field(
         ``spacing`` of another length than 3, with a value that is not a finite number > 0,
         or other than ``m``'s.
     TypeError
-        For a shape or a grid that is not integers (2.0 is none), or a ``spacing`` that is
-        not a sequence of real numbers.
+        For an ``m`` without the handles ``m.src``, ``m.dst`` and the fits ``m.matrices`` (a
+        plain function of points: eq. 7 measures the fits against the handles), a shape or
+        a grid that is not integers (2.0 is none), or a ``spacing`` that is not a sequence
+        of real numbers.
 
     See Also
     --------
@@ -393,6 +396,7 @@ def volume_error_field(
     >>> bool(np.isclose(field[12, 4, 8], exact[0]))
     True
     """
+    check_handles3(m)
     depth, height, width = as_volume_shape(shape)
     step = check_grid3(grid)
     steps = deformation_spacing(m, spacing)

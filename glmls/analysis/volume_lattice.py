@@ -25,6 +25,7 @@ __all__ = [
     "axis_centres",
     "axis_corners",
     "check_grid3",
+    "check_handles3",
     "check_three_d",
     "deformation_spacing",
     "evaluate",
@@ -92,6 +93,25 @@ def check_three_d(m: object) -> None:
         raise ValueError(
             f"m is a 2D deformation (src of shape {np.shape(src)}); the volume analyses take "
             "one of (N, 3) handles"
+        )
+
+
+def check_handles3(m: object) -> None:
+    """``TypeError`` naming ``m`` unless it has what the error field (eq. 7) needs and a
+    function of points alone has not: the handles ``m.src``, ``m.dst`` and the affine fits
+    ``m.matrices(points)``; before anything of it is called. ``ValueError`` for 2D handles
+    (:func:`check_three_d`)."""
+    check_three_d(m)
+    missing = [name for name in ("src", "dst") if getattr(m, name, None) is None]
+    if not callable(getattr(m, "matrices", None)):
+        missing.append("matrices")
+    if missing:
+        raise TypeError(
+            "m must be a glmls.MLS of (N, 3) handles or a glmls.analysis.ReferenceDeformation "
+            "(anything with the handles m.src, m.dst and the fits m.matrices(points)): the "
+            f"MLS error (eq. 7) is the fits' misses of the handles; got {type(m).__name__}, "
+            f"without {', '.join(missing)} (cell_jacobians and tetrahedron_errors take any "
+            "function of points)"
         )
 
 

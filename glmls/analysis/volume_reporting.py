@@ -13,6 +13,7 @@ from ..core.handles3 import volume_diagonal
 from ..errors import DtypeError
 from ..files.volumes import Volume
 from ..forking import renderer
+from ..volume.options import VolumeOptions
 from . import colormaps
 from .jacobians import CellJacobians, cell_jacobians
 from .reporting import SavedReport, StageClock, cmap_name
@@ -24,7 +25,13 @@ from .tetrahedra import (
     tetrahedron_errors,
 )
 from .volume_field import Deformation3D, volume_deformation, volume_error_field
-from .volume_lattice import as_points3, check_grid3, deformation_spacing, spacing_scale
+from .volume_lattice import (
+    as_points3,
+    check_grid3,
+    check_handles3,
+    deformation_spacing,
+    spacing_scale,
+)
 from .volume_pictures import check_slices, render_volume_slices
 
 __all__ = ["VOLUME_PICTURES", "VolumeReport", "volume_report"]
@@ -51,7 +58,8 @@ class VolumeReport(SavedReport):
     summary : dict
         JSON-ready: the volume's size, the configuration and handles, the analysis
         settings, timings in seconds, the statistics of the error field, the tetrahedra and
-        the cells' Jacobians (with the fold count).
+        the cells' Jacobians (with the fold count), and under ``warp`` the options that
+        made the deformed volume (None where they are unknown or there is none).
     images : dict of str to numpy.ndarray
         Picture name -> (h, w, 3) uint8 picture (:func:`render_volume_slices`).
     field : numpy.ndarray
@@ -152,6 +160,7 @@ def volume_report(
     near: float | None = None,
     deformed: object = None,
     warp: bool = True,
+    warp_options: VolumeOptions | None = None,
     spacing: object = None,
     out_dir: str | Path | None = None,
     on_stage: Callable[[str], None] | None = None,
@@ -208,6 +217,12 @@ def volume_report(
         ...) warped as float32; else none.
     warp : bool, optional
         Whether to warp the volume with ``m.warp`` when no ``deformed`` is given.
+    warp_options : glmls.volume.VolumeOptions, optional
+        How the deformed volume is made: the options ``m.warp(volume)`` takes (default
+        ``VolumeOptions()``: quads, nearest, grid 1, constant border), or, with ``deformed``,
+        those it was made with; the summary's ``warp`` records them (null for a ``deformed``
+        given without them). Its ``spacing`` is ``spacing``'s, its frame the volume's:
+        another ``spacing``, ``output_shape`` or ``origin`` is a ValueError.
     spacing : (float, float, float), optional
         (dz, dy, dx) of the voxels, the handles and reference points in its units, as
         :meth:`glmls.MLS.warp` takes it: voxel (k, j, i) is the point (i dx, j dy, k dz).
@@ -229,12 +244,16 @@ def volume_report(
     ------
     ValueError
         For a bad volume (or one of no finite voxel), grid, slices, angle measure,
-        ``min_quality``, ``eps``, ``near``, reference points or tetrahedra, or a ``spacing``
-        of another length than 3, with a value that is not a finite number > 0, or other
-        than ``m.spacing``.
+        ``min_quality``, ``eps``, ``near``, reference points or tetrahedra, ``warp_options``
+        that would not make the volume's frame, or a ``spacing`` of another length than 3,
+        with a value that is not a finite number > 0, or other than ``m.spacing``.
     TypeError
-        For a ``warp`` that is not a bool, a volume that is not real numbers, ``tetrahedra``
-        that are not integers, or a ``spacing`` that is not a sequence of real numbers.
+        For an ``m`` without the handles ``m.src``, ``m.dst`` and the fits ``m.matrices``
+        (a plain function of points, which :func:`cell_jacobians` and
+        :func:`tetrahedron_errors` take), a ``warp`` that is not a bool, ``warp_options``
+        that are no :class:`~glmls.volume.VolumeOptions`, a volume that is not real numbers,
+        ``tetrahedra`` that are not integers, or a ``spacing`` that is not a sequence of real
+        numbers.
 
     Examples
     --------
@@ -250,6 +269,7 @@ def volume_report(
     >>> found.field.shape, found.summary["tetrahedra"]["tetrahedra"] > 0
     ((12, 12, 12), True)
     """
+    check_handles3(m)  # the error field's need, before any work
     array = _check_volume(volume, "volume")
     if array.dtype.kind == "f" and not np.isfinite(array).any():
         raise ValueError("volume holds no finite value: every voxel is NaN or infinite")
@@ -275,6 +295,7 @@ def volume_report(
     src, dst = as_points3(m.src, "m.src"), as_points3(m.dst, "m.dst")
     spacing = deformation_spacing(m, spacing)
     scale = spacing_scale(spacing)
+    made = _check_warp_options(warp_options, dims, scale)
     measured = volume_deformation(m, dims, spacing)  # f as m.warp(volume) has it
     clock = StageClock(on_stage)
 
@@ -310,7 +331,15 @@ def volume_report(
     elif warp and callable(getattr(m, "warp", None)):
         clock.begin("warp")
         try:
-            options = {} if spacing is None else {"spacing": tuple(scale[::-1])}
+            # only the options that differ from the defaults: any m.warp(volume) takes none
+            plain = VolumeOptions()
+            options = {
+                f.name: getattr(made, f.name)
+                for f in dataclasses.fields(made)
+                if f.name != "spacing" and getattr(made, f.name) != getattr(plain, f.name)
+            }
+            if spacing is not None:
+                options["spacing"] = tuple(scale[::-1])
             # int16, int64 ... warped as float32 (what the GPU warps: uint8, uint16, float32
             # and float64; a bool mask is float32 since _check_volume)
             takes = array.dtype in (np.uint8, np.uint16, np.float32, np.float64)
@@ -387,6 +416,12 @@ def volume_report(
         "tetrahedra": found.stats() if found is not None else {"skipped": skipped},
         "jacobians": cells.stats(),
         "deformed": warped is not None,
+        # how deformed.png was made: unknown for a deformed volume given without its options
+        "warp": (
+            None
+            if warped is None or (given is not None and warp_options is None)
+            else _warp_settings(made, dims, scale)
+        ),
     }
     gl_renderer = renderer(m)
     if gl_renderer is not None:
@@ -395,6 +430,48 @@ def volume_report(
     if out_dir is not None:
         result.save(out_dir)
     return result
+
+
+def _check_warp_options(
+    options: object, dims: tuple[int, int, int], scale: np.ndarray
+) -> VolumeOptions:
+    """``options`` (None: the defaults) if they make a volume in the analysed volume's frame
+    and spacing, where the pictures show it: ``ValueError`` naming the field that does not,
+    ``TypeError`` for another type than :class:`VolumeOptions`."""
+    if options is not None and not isinstance(options, VolumeOptions):
+        raise TypeError(
+            f"warp_options must be a glmls.volume.VolumeOptions, got {type(options).__name__}"
+        )
+    options = VolumeOptions() if options is None else options
+    steps = tuple(scale[::-1].tolist())
+    for name, value, frame in (
+        ("output_shape", options.output_shape, tuple(dims)),
+        ("origin", options.origin, (0.0, 0.0, 0.0)),
+        ("spacing", options.spacing, steps),
+    ):
+        if value is not None and tuple(value) != frame:
+            raise ValueError(
+                f"warp_options.{name} is {tuple(value)}; the report's deformed volume is drawn "
+                f"in the volume's frame, {name} {frame} (or None)"
+            )
+    return options
+
+
+def _warp_settings(
+    options: VolumeOptions, dims: tuple[int, int, int], scale: np.ndarray
+) -> dict[str, object]:
+    """The summary's ``warp``: every option that shaped the deformed volume, as used."""
+    background = options.background
+    return {
+        "method": options.method,
+        "interpolation": options.interpolation,
+        "grid": options.lattice_step,
+        "border": options.border,
+        "background": list(background) if isinstance(background, tuple) else background,
+        "output_shape": list(dims),
+        "origin": [0.0, 0.0, 0.0],
+        "spacing": scale[::-1].tolist(),
+    }
 
 
 def _radius_used(config: object, dims: tuple[int, int, int], spacing: object) -> float | None:

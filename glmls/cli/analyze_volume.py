@@ -77,7 +77,9 @@ def check_reference_3d(path: str | Path, points: np.ndarray | None) -> None:
     if points is None:
         return
     try:
-        as_points3(points, "reference_points")  # the range, which delaunay3 does not check
+        # the range first: delaunay3 tests it after the plane, and one far point makes the
+        # others look flat
+        as_points3(points, "reference_points")
         r, simplices = delaunay3(points)
     except ValueError as error:
         raise UsageError(f"{path}: {error}") from None
@@ -102,16 +104,18 @@ def _deformation(src: np.ndarray, dst: np.ndarray, config: MLSConfig, shape, spa
         raise UsageError(f"handles: {error}") from None
 
 
-def _warped(m: object, volume: np.ndarray, args: argparse.Namespace, spacing) -> np.ndarray | None:
+def _warped(
+    m: object, volume: np.ndarray, args: argparse.Namespace, made: VolumeOptions, spacing
+) -> np.ndarray | None:
     warp = getattr(m, "warp", None)
     if not callable(warp):
         say(args, "analyze: no deformed volume: this deformation cannot warp volumes")
         return None
-    options = {
-        "method": args.method,
-        "interpolation": args.interpolation,
-        "border": args.border,
-        "grid": args.grid,
+    options: dict[str, object] = {
+        "method": made.method,
+        "interpolation": made.interpolation,
+        "border": made.border,
+        "grid": made.grid,
     }
     if spacing is not None:
         options["spacing"] = spacing
@@ -130,7 +134,7 @@ def run_volume(args: argparse.Namespace) -> int:
     refuse_image_options(args, "volume")
     config = config_from_args(args)
     try:  # the warp's options, before any work: a volume takes fewer methods than an image
-        VolumeOptions(
+        made = VolumeOptions(
             method=args.method,
             interpolation=args.interpolation,
             border=args.border,
@@ -159,7 +163,7 @@ def run_volume(args: argparse.Namespace) -> int:
     with m, ticker as tick, reported_warnings("analyze"):
         try:
             tick.stage("warp")
-            deformed = _warped(m, volume, args, spacing)
+            deformed = _warped(m, volume, args, made, spacing)
             result = volume_report(
                 volume,
                 m,
@@ -169,6 +173,7 @@ def run_volume(args: argparse.Namespace) -> int:
                 cmap=args.cmap,
                 deformed=deformed,
                 warp=False,
+                warp_options=made,  # for report.json's "warp": how deformed.png was made
                 spacing=spacing,
                 on_stage=tick.stage,
             )

@@ -3,6 +3,9 @@ out and counted, against hand-computed cases and the float64 reference."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
@@ -227,3 +230,39 @@ def test_the_arrays_are_read_only():
     found = tetrahedron_errors(lambda r: r, CUBE)
     for array in (found.points, found.simplices, found.angle, found.inverted, found.slivers):
         assert not array.flags.writeable
+
+
+def test_points_beyond_the_coordinate_range_are_refused_before_qhull():
+    """Qhull crashes the interpreter on some such points: a child process shows it."""
+    script = (
+        "import numpy as np, glmls\n"
+        "r = np.random.default_rng(0).random((8, 3)) * 100\n"
+        "for points, options in ((r * 1e150, {}), (r * 1e150, {'tetrahedra': [[0, 1, 2, 3]]}),\n"
+        "                        (np.vstack([r[:7], [[np.inf, 0, 0]]]), {})):\n"
+        "    try:\n"
+        "        glmls.analysis.tetrahedron_errors(lambda p: p * 2, points, **options)\n"
+        "    except ValueError as error:\n"
+        "        print(str(error).split(';')[0])\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == [
+        "reference_points must lie within ±1e+06 voxels of the origin (float32 on the GPU "
+        "keeps ~1e-7 of the coordinates' extent)",
+    ] * 2 + ["reference_points must be finite"]
+
+
+@pytest.mark.parametrize("scale", [1e-150, 1e-300])
+def test_tiny_points_are_measured_as_their_copy_at_unit_scale(scale):
+    """Their volumes underflow float64: a shape 1e-150 across is not on one plane."""
+    points = np.random.default_rng(0).random((8, 3)) * 100
+    unit = tetrahedron_errors(lambda r: r * 2.0, points)
+    tiny = tetrahedron_errors(lambda r: r * 2.0, points * scale)
+    assert_array_equal(tiny.simplices, unit.simplices)
+    assert_allclose(tiny.quality, unit.quality, rtol=1e-12)
+    assert_allclose(tiny.distance, 1.0, rtol=1e-12)
+    assert not tiny.angle.any() and not tiny.inverted.any()
+    corners = points[unit.simplices]
+    assert_allclose(tetrahedron_quality(corners * scale), tetrahedron_quality(corners), 1e-12)

@@ -259,3 +259,21 @@ def test_a_thin_triangle_kept_whole_is_no_fold(gl):
         errors = glmls.analysis.triangle_errors(m, points)
     assert len(errors.simplices) == 3  # two of them thin
     assert not errors.flipped.any()
+
+
+def test_points_beyond_the_coordinate_range_are_refused_before_qhull():
+    points = np.random.default_rng(0).random((8, 2)) * 100
+    for scale in (1e150, 1e7):
+        with pytest.raises(ValueError, match=r"reference_points must lie within ±1e\+06 px"):
+            glmls.analysis.triangle_errors(lambda v: v * 2.0, points * scale)
+
+
+@pytest.mark.parametrize("scale", [1e-160, 1e-200])
+def test_tiny_points_are_measured_as_their_copy_at_unit_scale(scale):
+    """Their squares underflow float64: Qhull's lifted points and the corner angles."""
+    points = np.random.default_rng(0).random((8, 2)) * 100
+    unit = glmls.analysis.triangle_errors(lambda v: v * 2.0, points)
+    tiny = glmls.analysis.triangle_errors(lambda v: v * 2.0, points * scale)
+    np.testing.assert_array_equal(tiny.simplices, unit.simplices)
+    assert_allclose(tiny.distance, 1.0, rtol=1e-12)
+    assert not tiny.angle.any() and not tiny.flipped.any()

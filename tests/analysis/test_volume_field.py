@@ -233,3 +233,19 @@ def test_fit_residuals_from_moments_equal_the_sum_over_handles(count):
     np.testing.assert_array_equal(exact, _summed_by_handle(src, dst, matrix, translation))
     identity = fit_residuals(src, src, np.repeat(np.eye(3)[None], 3, axis=0), np.zeros((3, 3)))
     assert (identity == 0).all()
+
+
+def test_a_plain_function_is_a_type_error_saying_what_the_field_needs():
+    """eq. 7 measures the fits m.matrices against the handles m.src, m.dst."""
+    needs = r"m must be a glmls.MLS of \(N, 3\) handles or a glmls.analysis.ReferenceDeformation"
+    with pytest.raises(TypeError, match=needs + r".*got function, without src, dst, matrices"):
+        volume_error_field(lambda p: p, (3, 3, 3))
+
+    class Handles:
+        src = dst = SRC
+
+        def __call__(self, points):
+            return points
+
+    with pytest.raises(TypeError, match=r"got Handles, without matrices \("):
+        volume_error_field(Handles(), (3, 3, 3))

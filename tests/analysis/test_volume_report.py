@@ -22,6 +22,7 @@ from glmls.analysis import (
 from glmls.analysis.canvas import HANDLE_SOURCE_COLOR
 from glmls.analysis.volume_pictures import NAN_VOXEL_COLOR
 from glmls.analysis.volume_reporting import VOLUME_PICTURES
+from glmls.volume import VolumeOptions
 
 SHAPE = (10, 12, 14)
 SRC = np.array([[2.0, 2, 2], [11, 2, 2], [2, 9, 2], [2, 2, 7], [11, 9, 7], [4, 6, 4], [9, 6, 4]])
@@ -146,6 +147,14 @@ def test_the_users_tetrahedra_index_the_handles_as_they_are_repeats_included(gl)
         ({"slices": (1, 2)}, ValueError, "slices"),
         ({"slices": (10, 0, 0)}, ValueError, "slices"),
         ({"deformed": np.zeros((3, 3, 3), np.uint8)}, ValueError, r"deformed has shape \(3, 3"),
+        ({"warp_options": {"method": "backward"}}, TypeError, "warp_options must be a glmls"),
+        (
+            {"warp_options": VolumeOptions(output_shape=(4, 4, 4))},
+            ValueError,
+            r"warp_options.output_shape is \(4, 4, 4\); .* output_shape \(10, 12, 14\)",
+        ),
+        ({"warp_options": VolumeOptions(origin=(1, 0, 0))}, ValueError, "warp_options.origin"),
+        ({"warp_options": VolumeOptions(spacing=(2, 1, 1))}, ValueError, "warp_options.spacing"),
     ],
 )
 def test_bad_arguments_raise_before_the_work(kwargs, error, message):
@@ -346,3 +355,52 @@ def test_a_bool_mask_is_analysed_and_warped_as_its_0_and_1_in_float32(gl):
     assert_array_equal(found.deformed, numbers.deformed)
     for name, picture in numbers.images.items():
         assert_array_equal(found.images[name], picture, err_msg=name)
+
+
+def test_a_plain_function_is_a_type_error_saying_what_the_report_needs():
+    with pytest.raises(TypeError, match=r"m must be a glmls.MLS .*got function, without src"):
+        volume_report(volume(), lambda p: p)
+
+
+class Warping:
+    """The crossing deformation, its warp recording the options it is called with."""
+
+    def __init__(self):
+        self.inner, self.calls = crossing(), []
+        self.src, self.dst, self.matrices = self.inner.src, self.inner.dst, self.inner.matrices
+
+    def __call__(self, points):
+        return self.inner(points)
+
+    def warp(self, volume, **options):
+        self.calls.append(options)
+        return volume[:, :, ::-1]
+
+
+def test_the_summary_says_how_the_deformed_volume_was_made():
+    m = Warping()
+    found = volume_report(volume(), m, grid=3)
+    assert m.calls == [{}]  # the defaults: any warp(volume) takes them
+    assert found.summary["warp"] == {
+        "method": "quads",
+        "interpolation": "nearest",
+        "grid": 1,
+        "border": "constant",
+        "background": 0.0,
+        "output_shape": [10, 12, 14],
+        "origin": [0.0, 0.0, 0.0],
+        "spacing": [1.0, 1.0, 1.0],
+    }
+    options = VolumeOptions(method="backward", interpolation="linear", border="wrap")
+    found = volume_report(volume(), m, grid=3, warp_options=options, spacing=(2, 1, 1))
+    assert m.calls[-1] == {
+        "method": "backward", "interpolation": "linear", "border": "wrap", "spacing": (2, 1, 1)
+    }  # fmt: skip
+    warp = json.loads(found.to_json())["warp"]
+    assert (warp["method"], warp["interpolation"], warp["border"]) == ("backward", "linear", "wrap")
+    assert warp["grid"] == 2 and warp["spacing"] == [2.0, 1.0, 1.0]  # backward's own step
+    given = volume()[:, ::-1]
+    assert volume_report(volume(), m, grid=3, deformed=given).summary["warp"] is None
+    recorded = volume_report(volume(), m, grid=3, deformed=given, warp_options=options)
+    assert recorded.summary["warp"]["method"] == "backward"
+    assert volume_report(volume(), crossing(), grid=3).summary["warp"] is None  # none made

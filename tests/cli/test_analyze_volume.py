@@ -202,6 +202,17 @@ def test_the_deformed_volume_is_built_with_the_construction_options(inputs, monk
     assert calls[-1] == {
         "method": "backward", "interpolation": "linear", "border": "edge", "grid": 2
     }  # fmt: skip
+    # report.json says how deformed.png was made
+    assert json.loads((inputs / "rep" / "report.json").read_text())["warp"] == {
+        "method": "backward",
+        "interpolation": "linear",
+        "grid": 2,
+        "border": "edge",
+        "background": 0.0,
+        "output_shape": list(SHAPE),
+        "origin": [0.0, 0.0, 0.0],
+        "spacing": [1.0, 1.0, 1.0],
+    }
     assert main([*argv, "--method", "splat"]) == 2  # refused before any work, as by warp
     assert "unknown method 'splat' for a volume" in capsys.readouterr().err
 
