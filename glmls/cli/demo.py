@@ -100,7 +100,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="DZ,DY,DX",
         help="a volume's voxel size along z, y and x, or one number for all three, as for "
         "glmls warp: the handles' units and the views' aspect (default: the file's: a NIfTI's "
-        "affine, an ImageJ or OME TIFF stack's spacing; else 1)",
+        "affine, a TIFF stack's spacing (ImageJ's, OME's or glmls's); else 1)",
     )
     parser.add_argument(
         "--reference",

@@ -1,13 +1,13 @@
 """``glmls demo`` on a volume: the volume window (three orthogonal slices, 3D handles).
 
 The volume window opens for ``glmls demo VOLUME`` (NIfTI ``.nii``/``.nii.gz``, a TIFF stack,
-or a ``.npy`` array of 4 dimensions or of 3 whose last is over 4), for ``glmls demo
+or a ``.npy`` array: a volume, as for ``glmls warp`` and ``glmls analyze``), for ``glmls demo
 --volume [VOLUME]`` (without a file: the bundled phantom and its handles), and for ``glmls
 demo --handles H3D`` with a file of 3D handles and no image (the phantom, those handles).
 An elastix pair is ``--handles MOVING.pts --targets FIXED.pts``, as for ``glmls warp``.
 
 The voxel spacing is ``glmls warp``'s: ``--spacing DZ,DY,DX``, else the file's (a NIfTI's
-affine, an ImageJ stack's spacing), else 1; the handles are in its units (voxel (i, j, k) at
+affine, a TIFF stack's spacing), else 1; the handles are in its units (voxel (i, j, k) at
 (i dx, j dy, k dz)), the views show the physical aspect and ``s`` saves the deformed volume
 in the input's format with its spacing (and a NIfTI's affine). The phantom's own handles,
 given in its voxels, are scaled by ``--spacing``. With ``--world`` (a NIfTI volume) the
@@ -32,16 +32,6 @@ from .warp3d import image_options_given, volume_handle_warnings, voxel_handles, 
 __all__ = ["run_volume", "volume_inputs"]
 
 
-def _is_volume(path: Path) -> bool:
-    if volume_suffix(path) != ".npy":
-        return is_volume_file(path)
-    try:
-        array = np.load(path, mmap_mode="r", allow_pickle=False)
-    except (OSError, ValueError):
-        return False  # the image reader says what is wrong with it
-    return array.ndim == 4 or (array.ndim == 3 and array.shape[2] > 4)
-
-
 def _three_d_handles(path: Path | None, targets: Path | None) -> bool:
     if path is None:
         return False
@@ -61,7 +51,9 @@ def volume_inputs(
     for ``--spacing`` with a 2D image."""
     from .. import data
 
-    wanted = args.volume or (args.image is not None and _is_volume(args.image))
+    # as glmls warp and analyze decide, so that the image reader, which refuses what this
+    # takes for a volume, never sees one
+    wanted = args.volume or (args.image is not None and is_volume_file(args.image))
     if not wanted and not (args.image is None and _three_d_handles(args.handles, args.targets)):
         for given, option in ((args.spacing is not None, "--spacing"), (args.world, "--world")):
             if given:

@@ -107,9 +107,9 @@ def read_image(
         if flat is not None:
             raise UsageError(flat) from None
         if Path(path).suffix.lower() in (".npy", ".nii", ".gz") and is_volume_file(path):
-            raise UsageError(  # not "not an image format": the command takes images only
-                f"{path}: a volume; this command takes 2D images (warp, analyze and demo "
-                "take volumes)"
+            raise UsageError(  # not "not an image format": the command takes images only here
+                f"{path}: a volume; 2D images only here: warp, analyze and demo take a volume "
+                "named on its own, with 3D handles"
             ) from None
         raise UsageError(str(error)) from None
     except OSError as error:

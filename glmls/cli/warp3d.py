@@ -3,7 +3,7 @@ format of its suffix.
 
 - A volume (NIfTI, a TIFF of more than one page, ``.npy``) is warped by
   :meth:`glmls.MLS.warp` with the voxel spacing of ``--spacing``, else of the file (a NIfTI's
-  affine, an ImageJ stack's spacing); the output keeps the input's dtype (integers rounded
+  affine, a TIFF stack's spacing); the output keeps the input's dtype (integers rounded
   and clipped) and, written as NIfTI, the input's affine. The MLS is made with the volume's
   ``shape`` and ``spacing``, so a radius weight without ``--radius`` takes the volume's
   diagonal in the handles' units (those of the spacing); an elastix pair
@@ -127,7 +127,8 @@ def add_3d_options(parser: argparse.ArgumentParser) -> None:
         type=parse_spacing,
         metavar="DZ,DY,DX",
         help="a volume's voxel size along z, y and x, or one number for all three (default: "
-        "the file's: a NIfTI's affine, an ImageJ or OME TIFF stack's spacing; else 1)",
+        "the file's: a NIfTI's affine, a TIFF stack's spacing (ImageJ's, OME's or glmls's); "
+        "else 1)",
     )
 
 

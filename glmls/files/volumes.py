@@ -25,9 +25,10 @@ axes, as :meth:`glmls.MLS.warp` takes it) and the affine, where the file says th
 - NIfTI: the affine; the spacing is the length of its columns (k, j, i); the header fields
   :class:`NiftiHeader` holds;
 - TIFF: the spacing of a calibrated ImageJ stack (its ``spacing``, 1 where ImageJ leaves
-  it out, and X/Y resolutions, which :func:`write_volume` writes) or of an OME-TIFF (its
-  ``PhysicalSizeZ``, ``Y``, ``X``, in micrometres where their units differ), else none; no
-  affine;
+  it out, and X/Y resolutions, which :func:`write_volume` writes), of an OME-TIFF (its
+  ``PhysicalSizeZ``, ``Y``, ``X``, in micrometres where their units differ), or the
+  ``"spacing": [dz, dy, dx]`` of the JSON description of the first page (which
+  :func:`write_volume` writes for the dtypes ImageJ does not hold), else none; no affine;
 - ``.npy``: the array only.
 
 A TIFF is a volume when it holds more than one page (a stack); one page is an image
@@ -49,6 +50,7 @@ are refused. Every fault of a file is an
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import struct
 import zlib
@@ -59,10 +61,11 @@ import tifffile
 
 from ..core.handles3 import as_volume_spacing
 from ..core.summary import fields_repr
-from ..errors import InputFileError
+from ..errors import DtypeError, InputFileError
 from .atomic import atomic_write
 from .nifti import NiftiHeader, one_line, read_nifti, write_nifti
 from .parsing import not_a_file
+from .tiff_spacing import MOST_PER_UNIT, SPACING_KEY, fits_resolutions, stack_spacing
 from .tiffs import (
     TIFF_SIGNATURES,
     broken_chain,
@@ -89,7 +92,7 @@ __all__ = [
 #: The suffixes of the volume formats; a ``.tif``/``.tiff`` is a volume when it has more than
 #: one page (:func:`is_volume_file`).
 VOLUME_SUFFIXES = (".nii", ".nii.gz", ".tif", ".tiff", ".npy")
-#: The dtypes an ImageJ TIFF holds (it keeps the spacing); others are written as plain TIFF.
+#: The dtypes an ImageJ TIFF holds; others are written as plain TIFF (with a JSON description).
 _IMAGEJ_DTYPES = ("uint8", "uint16", "int16", "float32")
 _CORRUPT = (
     OSError,
@@ -515,7 +518,7 @@ def _read_tiff(path: Path) -> Volume:
         except ValueError as error:
             raise InputFileError(str(error)) from None
         data, axes = series.asarray(), series.axes
-        spacing = _tiff_spacing(tiff) or _ome_spacing(tiff)
+        spacing = stack_spacing(tiff)
     _check_axes(path, axes, data.shape)
     if "T" in axes:  # a time series of volumes: its time points are no slices nor channels
         raise InputFileError(
@@ -555,71 +558,6 @@ def _check_axes(path: Path, axes: str, shape: tuple[int, ...]) -> None:
     )
 
 
-def _tiff_spacing(tiff: tifffile.TiffFile) -> tuple[float, float, float] | None:
-    """(dz, dy, dx) of a calibrated ImageJ stack, None for others.
-
-    ImageJ (Fiji) writes a calibrated stack's unit (``unit=``), the pixel size as the X/Y
-    resolutions, and ``spacing=`` (the voxel depth) only where that depth is neither 0 nor 1:
-    a stack of 0.25 x 0.25 x 1 um voxels has no ``spacing``, and its depth is 1."""
-    metadata = tiff.imagej_metadata or {}
-    unit = str(metadata.get("unit", "pixel")).lower()
-    if "spacing" not in metadata and unit in ("pixel", "pixels", ""):
-        return None  # not calibrated
-    tags = tiff.pages[0].tags
-    try:
-        dz = float(metadata.get("spacing", 1.0))
-        dx = _resolution(tags["XResolution"].value) if "XResolution" in tags else 1.0
-        dy = _resolution(tags["YResolution"].value) if "YResolution" in tags else 1.0
-        return as_volume_spacing((dz, dy, dx))
-    except (TypeError, ValueError, ZeroDivisionError):
-        return None
-
-
-#: OME's length units in micrometres, to put the axes of an OME-TIFF in one unit.
-_OME_MICROMETRES = {
-    "pm": 1e-6,
-    "Å": 1e-4,
-    "nm": 1e-3,
-    "µm": 1.0,
-    "μm": 1.0,
-    "um": 1.0,
-    "mm": 1e3,
-    "cm": 1e4,
-    "m": 1e6,
-}
-
-
-def _ome_spacing(tiff: tifffile.TiffFile) -> tuple[float, float, float] | None:
-    """(dz, dy, dx) of an OME-TIFF's first image: its ``PhysicalSizeZ``, ``Y`` and ``X`` (1
-    where one is missing; None where all are), in their unit (OME's default, um), or in
-    micrometres where the axes' units differ."""
-    if not tiff.is_ome or not tiff.ome_metadata:
-        return None
-    import xml.etree.ElementTree as ElementTree
-
-    try:
-        root = ElementTree.fromstring(tiff.ome_metadata)
-    except ElementTree.ParseError:
-        return None
-    pixels = next((e for e in root.iter() if e.tag.rsplit("}", 1)[-1] == "Pixels"), None)
-    if pixels is None or not any(f"PhysicalSize{a}" in pixels.attrib for a in "XYZ"):
-        return None
-    units = [pixels.get(f"PhysicalSize{a}Unit", "µm") for a in "ZYX"]
-    try:
-        steps = [float(pixels.get(f"PhysicalSize{a}", 1.0)) for a in "ZYX"]
-        if len(set(units)) > 1:
-            steps = [step * _OME_MICROMETRES[unit] for step, unit in zip(steps, units, strict=True)]
-        return as_volume_spacing(steps)
-    except (KeyError, TypeError, ValueError):
-        return None
-
-
-def _resolution(value: tuple[int, int]) -> float:
-    """The pixel size of a TIFF resolution (pixels per unit, a fraction)."""
-    numerator, denominator = value
-    return denominator / numerator
-
-
 def write_volume(
     path: str | os.PathLike,
     volume: object,
@@ -653,20 +591,24 @@ def write_volume(
         The voxel size (dz, dy, dx); default the volume's. NIfTI: used where no affine is
         given; TIFF: written as an ImageJ stack's spacing and X/Y resolutions (uint8,
         uint16, int16 and float32 data: a stack, an RGB stack for 3 channels of uint8, a
-        hyperstack (Z, C, Y, X) for other channels, as Fiji opens them; other dtypes are
-        written as a plain TIFF, without it). NIfTI lacks bool and float16: they are written
-        as uint8 and float32. ``.npy`` holds none.
+        hyperstack (Z, C, Y, X) for other channels, as Fiji opens them), or for other dtypes
+        (a plain TIFF) as X/Y resolutions (where 32-bit fractions hold them) and
+        ``{"spacing": [dz, dy, dx]}`` in the JSON description of the first page; every dtype
+        reads back with it. NIfTI lacks bool and
+        float16: they are written as uint8 and float32. ``.npy`` holds none.
 
     Raises
     ------
     ValueError
         Before writing anything: an unknown suffix, a wrong shape, an affine with another
         format than NIfTI, a bad affine, a volume of one slice as TIFF (a TIFF of one page
-        is an image), or a spacing of another length than 3 or with a value that is not a
-        finite number > 0.
+        is an image), a spacing of another length than 3 or with a value that is not a
+        finite number > 0, or, for an ImageJ TIFF stack, a pixel width or height whose X/Y
+        resolution is no 32-bit fraction (under about 2.3e-10 or over 4.3e9).
     TypeError
-        Before writing anything: data that is not real numbers (complex, objects), or a
-        spacing that is not a sequence of real numbers.
+        Before writing anything: data that is not real numbers (complex, objects), numbers
+        of more than 64 bits (``numpy.longdouble``) as TIFF (a :class:`~glmls.DtypeError`,
+        a ``ValueError`` too), or a spacing that is not a sequence of real numbers.
     OSError
         Naming ``path``, for a file that cannot be written.
 
@@ -682,6 +624,10 @@ def write_volume(
     >>> volume = glmls.read_volume(path)
     >>> volume.shape, volume.data.dtype.name, volume.spacing
     ((3, 4, 5), 'float32', (2.0, 0.5, 0.5))
+    >>> glmls.write_volume(path, glmls.Volume(np.ones((3, 4, 5)), spacing=(2.0, 1.0, 0.5)))
+    >>> volume = glmls.read_volume(path)
+    >>> volume.data.dtype.name, volume.spacing
+    ('float64', (2.0, 1.0, 0.5))
     """
     path = Path(path)
     suffix = volume_suffix(path)
@@ -712,6 +658,11 @@ def write_volume(
             f"{path}: a volume of one slice would be a TIFF of one page, which reads back as "
             "an image; write it as .nii, .nii.gz or .npy"
         )
+    if suffix in (".tif", ".tiff") and checked.data.dtype.itemsize > 8:  # tifffile asserts
+        raise DtypeError(
+            f"{path}: TIFF holds numbers of up to 64 bits, got dtype {checked.data.dtype}: "
+            "convert it (to float64) or write it as .npy"
+        )
     if suffix == ".npy":
         with atomic_write(path) as tmp, open(tmp, "wb") as file:
             np.save(file, np.ascontiguousarray(checked.data), allow_pickle=False)
@@ -732,13 +683,25 @@ def _write_tiff(path: Path, volume: Volume) -> None:
     reads 1-bit samples side by side wrongly); one channel (D, H, W, 1) a stack (D, H, W).
     The data goes to tifffile with its samples axis S, 1 where there is none (ImageJ's), or
     a page at a time (plain stacks): else tifffile takes a width of 1 for that axis and
-    writes one page, or a hyperstack's pages of another shape."""
+    writes one page, or a hyperstack's pages of another shape. The spacing is the X/Y
+    resolutions of every page, and the voxel depth ImageJ's ``spacing``, or for other dtypes
+    (which ImageJ's metadata does not hold) the whole spacing in the JSON description of the
+    first page (:func:`~glmls.files.tiff_spacing.stack_spacing`)."""
     data = np.ascontiguousarray(volume.data)
     if data.ndim == 4 and data.shape[3] == 1:  # as a stack: the hyperstack needs C > 1
         data = data[..., 0]
     channels = 1 if data.ndim == 3 else data.shape[3]
     options: dict = {}
+    if volume.spacing is not None and fits_resolutions(volume.spacing):
+        _, dy, dx = volume.spacing
+        options["resolution"] = (1 / dx, 1 / dy)
     if data.dtype.name in _IMAGEJ_DTYPES:
+        if volume.spacing is not None and "resolution" not in options:
+            raise ValueError(
+                f"{path}: spacing {volume.spacing}: an ImageJ TIFF stack holds a pixel width and "
+                f"height of {1 / MOST_PER_UNIT:.3g} to {MOST_PER_UNIT:.3g} (X/Y resolutions, "
+                "32-bit fractions); write it as .nii, .nii.gz, or with other units"
+            )
         metadata: dict = {"axes": "ZYXS"}
         if channels == 3 and data.dtype == np.uint8:
             options["photometric"] = "rgb"
@@ -748,25 +711,40 @@ def _write_tiff(path: Path, volume: Volume) -> None:
         else:
             data = data[..., np.newaxis]
         if volume.spacing is not None:
-            dz, dy, dx = volume.spacing
-            options["resolution"] = (1 / dx, 1 / dy)
-            metadata["spacing"] = dz
+            metadata["spacing"] = volume.spacing[0]
         options.update(imagej=True, metadata=metadata)
-    elif channels > 1 and data.dtype == np.bool_:
-        data = np.ascontiguousarray(np.moveaxis(data, 3, 1))  # (Z, S, Y, X): planes
-        options.update(photometric="minisblack", planarconfig="separate")
-    elif channels > 1:
-        options["photometric"] = "rgb" if channels in (3, 4) else "minisblack"
-        options["planarconfig"] = "contig"
-        if channels in (2, 4):
-            options["extrasamples"] = ["unassalpha"]
     else:
-        with atomic_write(path) as tmp, tifffile.TiffWriter(tmp, bigtiff=_big(data)) as tiff:
-            for page in data:
-                tiff.write(page, photometric="minisblack", metadata=None)
-        return
+        spacing = {} if volume.spacing is None else {SPACING_KEY: list(volume.spacing)}
+        if channels == 1:
+            _write_pages(path, data, spacing, options.get("resolution"))
+            return
+        options["metadata"] = spacing  # beside the shape in tifffile's JSON description
+        if data.dtype == np.bool_:
+            data = np.ascontiguousarray(np.moveaxis(data, 3, 1))  # (Z, S, Y, X): planes
+            options.update(photometric="minisblack", planarconfig="separate")
+        else:
+            options["photometric"] = "rgb" if channels in (3, 4) else "minisblack"
+            options["planarconfig"] = "contig"
+            if channels in (2, 4):
+                options["extrasamples"] = ["unassalpha"]
     with atomic_write(path) as tmp:
         tifffile.imwrite(tmp, data, **options)
+
+
+def _write_pages(path: Path, data: np.ndarray, spacing: dict, resolution: tuple | None) -> None:
+    """A plain stack (D, H, W), a page at a time; the spacing a JSON description of the first
+    page without tifffile's ``shape``: tifffile reads a shaped series of pages written one
+    by one as if its data were contiguous, which it is not."""
+    description = json.dumps(spacing) if spacing else None
+    with atomic_write(path) as tmp, tifffile.TiffWriter(tmp, bigtiff=_big(data)) as tiff:
+        for index, page in enumerate(data):
+            tiff.write(
+                page,
+                photometric="minisblack",
+                metadata=None,
+                description=description if index == 0 else None,
+                resolution=resolution,
+            )
 
 
 def _big(data: np.ndarray) -> bool:

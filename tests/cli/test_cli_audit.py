@@ -215,8 +215,8 @@ def test_a_volume_given_to_an_images_only_command_is_named_a_volume(inputs, caps
     assert main(argv) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert lines == [
-        f"glmls {argv[0]}: v.npy: a volume; this command takes 2D images (warp, analyze and "
-        "demo take volumes)"
+        f"glmls {argv[0]}: v.npy: a volume; 2D images only here: warp, analyze and demo take a "
+        "volume named on its own, with 3D handles"
     ]
     assert not (inputs / "out").exists()
 
