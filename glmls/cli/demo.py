@@ -74,7 +74,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
         nargs="?",
         type=Path,
         help="image to deform (default: the bundled photograph with its handles), or a "
-        "volume (.nii, .nii.gz, TIFF stack, .npy of D x H x W): the volume window",
+        "volume (.nii, .nii.gz, TIFF stack, any .npy: D x H x W or D x H x W x C): the volume "
+        "window",
     )
     parser.add_argument(
         "--volume",
