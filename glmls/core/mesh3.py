@@ -252,6 +252,8 @@ def mesh_colors(mesh: object, count: int) -> np.ndarray | None:
     visual = getattr(mesh, "visual", None)
     if colors is None and getattr(visual, "kind", None) == "vertex":
         colors = visual.vertex_colors  # type: ignore[union-attr]
+    if colors is not None and np.size(colors) == 0:  # a trimesh.PointCloud without colours
+        colors = None
     return as_colors(colors, count)
 
 

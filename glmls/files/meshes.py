@@ -429,10 +429,11 @@ def write_mesh(
     ----------
     path : str or os.PathLike
         The file; its suffix (``.ply``, ``.obj``, ``.stl``) chooses the format.
-    mesh : Mesh or object or array_like
+    mesh : Mesh or object or tuple or array_like
         A :class:`Mesh`, any object with ``vertices`` (and ``faces``, unless ``faces`` is
         given), such as the deformed mesh of :meth:`glmls.MLS.deform`
-        (:class:`~glmls.DeformedMesh`), or the vertices (V, 3) themselves.
+        (:class:`~glmls.DeformedMesh`), a ``(vertices, faces)`` tuple, as
+        :meth:`glmls.MLS.deform` takes one, or the vertices (V, 3) themselves.
     faces : array_like, optional
         The triangles (F, 3); default ``mesh.faces``. None of them (F = 0): a point cloud,
         which PLY and OBJ hold and STL does not.
@@ -503,6 +504,8 @@ def write_mesh(
     """
     path = Path(path)
     suffix = _suffix(path)
+    if isinstance(mesh, tuple) and len(mesh) == 2 and faces is None:
+        mesh, faces = mesh  # (vertices, faces), as MLS.deform takes a mesh
     vertices = getattr(mesh, "vertices", mesh)
     if faces is None:
         faces = getattr(mesh, "faces", None)

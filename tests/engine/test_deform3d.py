@@ -64,6 +64,18 @@ def test_trimesh_and_point_clouds(gl):
     assert not out.folded
     assert cloud.faces.shape == (0, 3) and cloud.face_folds.shape == (0,)
     assert (cloud.normals == 0).all() and np.abs(cloud.vertices - out.vertices).max() == 0
+    with glmls.MLS(src, src + rng.normal(0, 2, src.shape)) as m:  # without colours: no colours
+        points = m.deform(trimesh.PointCloud(np.asarray(mesh.vertices)))
+        assert points.colors is None and np.abs(points.vertices - m(mesh.vertices)).max() == 0
+
+
+def test_write_mesh_takes_the_tuple_that_deform_takes(tmp_path):
+    vertices = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    faces = np.array([[0, 1, 2], [0, 1, 3]])
+    glmls.write_mesh(tmp_path / "m.ply", (vertices, faces))
+    back = glmls.read_mesh(tmp_path / "m.ply")
+    np.testing.assert_array_equal(back.vertices, vertices)
+    np.testing.assert_array_equal(back.faces, faces)
 
 
 def test_face_flip_without_vertex_folds():
