@@ -13,6 +13,7 @@ from ..gl.context import forked_from_gl
 from ..imaging.options import FIELDS, WarpOptions
 from ..mls import MLS, MLS_KEYWORDS
 from .chunks import warp_chunks
+from .footprints import footprint_radius, seen_whole, with_footprints
 from .gpu import batchable
 from .inputs import BatchInput, check_batch, item_array, stack_or_list
 from .result import BatchResult
@@ -116,8 +117,13 @@ def warp_batch(
         result = helper.call(__name__, "warp_batch", (images, src, dst), keywords | options)
         return _bool_masks_back(result, binary)
     chosen, mls_options, segments = _split_options(options)
-    batch = check_batch(images, src, dst, keypoints, masks)
-    segments = _check_segments(segments, batch, mls_options.get("transform"))
+    given = check_batch(images, src, dst, keypoints, masks)
+    segments = _check_segments(segments, given, mls_options.get("transform"))
+    batch = given
+    if given.keypoints is not None:  # each with its footprint's edge: see footprints.py
+        radius = footprint_radius(chosen.interpolation)
+        rings = [with_footprints(p, radius) for p in given.keypoints]
+        batch = dataclasses.replace(given, keypoints=rings)
     warper = SingleWarper.of(mls_options.get("ctx"))
     done: list = [None] * len(batch)
     whole: dict = {}
@@ -139,8 +145,28 @@ def warp_batch(
         )
         for i, image in enumerate(batch.images)
     ]
-    result = _assemble(batch, results, return_maps, whole)
+    if batch.keypoints is not None:
+        results = [
+            _seen_whole(r, p, image, chosen.method)
+            for r, p, image in zip(results, batch.keypoints, batch.images, strict=True)
+        ]
+    result = _assemble(given, results, return_maps, whole)
     return _bool_masks_back(result, binary)
+
+
+def _seen_whole(
+    result: ImageLabels, points: np.ndarray, image: np.ndarray, method: str
+) -> ImageLabels:
+    """One image's keypoints and their validity from those of their footprints' points."""
+    moved, valid = seen_whole(
+        points,
+        result.keypoints,
+        result.keypoints_valid,
+        image.shape[:2],
+        result.image.shape[:2],
+        hidden=method not in ("splat", "paper-quads"),
+    )
+    return result._replace(keypoints=moved, keypoints_valid=valid)
 
 
 def _bytes_of_bool_masks(masks: object) -> tuple[object, list[bool] | None]:

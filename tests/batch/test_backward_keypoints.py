@@ -124,7 +124,7 @@ def test_one_image_with_many_keypoints_pads_no_other(gl, rng, monkeypatch):
     from glmls.engine.batched import BatchLattices
 
     images, src, dst, _, _ = batch(rng, 4)
-    points = [rng.uniform(0, 19, (k, 2)) for k in (1, 301, 0, 7)]
+    points = [rng.uniform(0, 19, (k, 2)) for k in (1, 31, 0, 7)]
     passes = []
     evaluate = BatchLattices.evaluate_points
 
@@ -135,8 +135,9 @@ def test_one_image_with_many_keypoints_pads_no_other(gl, rng, monkeypatch):
     monkeypatch.setattr(BatchLattices, "evaluate_points", counted)
     monkeypatch.setattr(glmls.batch.chunks, "_SLICE_BYTES", 8 * 4 * 100)  # 100 points each
     result = warped(images, src, dst, keypoints=points)
-    # the probes: five points a keypoint
-    assert passes == [[5, 100, 35]] + [[100]] * 14 + [[5]]  # image 2 has none
+    # the probes: five points for each keypoint and each of its footprint's eight edge
+    # points, so 45, 1395, 0 and 315 points; image 2 has none
+    assert passes == [[45, 100, 100]] + [[100, 100]] * 2 + [[100, 15]] + [[100]] * 9 + [[95]]
     monkeypatch.setattr(glmls.batch.run, "batchable", lambda chosen: False)
     alone = warped(images, src, dst, keypoints=points)
     for name in ("keypoints", "keypoints_valid"):

@@ -119,12 +119,28 @@ def folding_handles(shape):
     return src, dst
 
 
+def next_to_unshown(points, unshown, missed, shape, reach) -> np.ndarray:
+    """Whether each of the keypoints ``missed`` (indices into ``points``) that its own pixel
+    shows has, within ``reach`` (its footprint: the sampling's reach) on each axis, a point
+    inside the image that lands on the canvas and that its pixel does not show: a fold
+    hides part of its footprint, so it is not valid though it is shown itself."""
+    height, width = shape
+    hidden = points[unshown]
+    hidden = hidden[np.all((hidden >= -0.5) & (hidden < (width - 0.5, height - 0.5)), axis=1)]
+    if not len(missed):
+        return np.zeros(0, bool)
+    if not len(hidden):
+        return np.zeros(len(missed), bool)
+    gap = np.abs(points[missed][:, None, :] - hidden[None]).max(axis=2).min(axis=1)
+    return gap <= reach + 1e-9
+
+
 @pytest.mark.parametrize("grid", [1, 4])
 def test_backward_keypoints_shown_by_their_pixel_are_valid(gl, grid):
     """Where f folds, ``backward`` shows at each output pixel the layer its Newton search
     finds, often not the one the regular mesh's scan order would show: a keypoint whose
     nearest output pixel shows its own source point (within 0.25 px) is valid, whatever
-    the mesh says."""
+    the mesh says, unless the fold hides part of its footprint."""
     shape = (28, 36)
     height, width = shape
     src, dst = folding_handles(shape)
@@ -149,7 +165,8 @@ def test_backward_keypoints_shown_by_their_pixel_are_valid(gl, grid):
     near = covered & (np.abs(shown - points[on]).max(axis=1) <= 0.25)
     assert near.sum() > len(points) // 8
     missed = np.flatnonzero(on)[near & ~valid[on]]
-    assert not len(missed), (points[missed[:5]], moved[missed[:5]])
+    cut = next_to_unshown(points, np.flatnonzero(on)[~near], missed, shape, 1.0)
+    assert cut.all(), (points[missed[~cut][:5]], moved[missed[~cut][:5]])
 
 
 @pytest.mark.parametrize("method", ["quads", "backward", "backward-swap"])
@@ -185,7 +202,8 @@ def test_forward_keypoints_shown_by_their_pixel_are_valid(gl, method, border):
     """``splat`` and ``paper-quads`` push the source pixels forward: where f folds, the
     pixel they draw is the one their pass leaves there, not always the layer f's inverse
     finds. A keypoint whose nearest output pixel shows its own source pixel (an image of
-    the pixels' numbers, warped alike, says which) is valid."""
+    the pixels' numbers, warped alike, says which) is valid, unless the fold hides part of
+    its footprint."""
     shape = (28, 36)
     height, width = shape
     src, dst = folding_handles(shape)
@@ -209,4 +227,5 @@ def test_forward_keypoints_shown_by_their_pixel_are_valid(gl, method, border):
     own = (number >= 0) & (np.abs(shown - points[on]).max(axis=1) <= 0.5)
     assert own.sum() > len(points) // 4
     missed = np.flatnonzero(on)[own & ~valid[on]]
-    assert not len(missed), (len(missed), points[missed[:5]], moved[missed[:5]])
+    cut = next_to_unshown(points, np.flatnonzero(on)[~own], missed, shape, 0.5)
+    assert cut.all(), (points[missed[~cut][:5]], moved[missed[~cut][:5]])

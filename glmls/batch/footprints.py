@@ -1,0 +1,79 @@
+"""A keypoint next to a fold is valid only where its pixel's footprint is seen whole.
+
+A keypoint stands for the source pixel at it: the output pixels that show that pixel are
+those whose source points fall in its footprint (the source points that the sampling
+weighs: within half a pixel on each axis for nearest sampling, within one pixel, the
+bilinear tent, for linear sampling). Where the map folds, the layer that wins an output
+pixel can hide part of a footprint while the keypoint itself stays shown: the pixel then
+appears cut off, its visible part's centre a pixel or more from the keypoint. So each
+keypoint is moved and tested with the eight points of its footprint's edge (corners and
+edge midpoints), and is valid only where none of them that lands on the canvas, inside the
+image, is hidden, and where the footprint's image turns over in part (f folds inside it).
+Off the canvas and outside the image, a footprint point says nothing of folds: the
+keypoint's own test decides there.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .labels import on_canvas
+
+__all__ = ["RING", "footprint_radius", "seen_whole", "turned", "with_footprints"]
+
+#: The unit ring of a footprint's edge: its corners and edge midpoints, the centre first.
+RING = np.array([[x, y] for y in (0.0, -1.0, 1.0) for x in (0.0, -1.0, 1.0)])
+
+#: Just inside the edge, where the sampling still weighs the pixel.
+_INSIDE = 0.99
+
+
+def footprint_radius(interpolation: str) -> float:
+    """How far from a source pixel's centre, on each axis, its footprint reaches."""
+    return _INSIDE * (1.0 if interpolation == "linear" else 0.5)
+
+
+def with_footprints(points: np.ndarray, radius: float) -> np.ndarray:
+    """(P * 9, 2): each of the (P, 2) ``points`` followed by its footprint's edge points."""
+    return (points[:, None, :] + radius * RING).reshape(-1, 2)
+
+
+def seen_whole(
+    points: np.ndarray,
+    moved: np.ndarray,
+    valid: np.ndarray,
+    source: tuple[int, int],
+    canvas: tuple[int, int],
+    *,
+    hidden: bool = True,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The keypoints' (P, 2) output points and (P,) validity from ``moved`` and ``valid`` of
+    :func:`with_footprints`' ``points`` (P * 9): a keypoint's own, cleared where its
+    footprint's image turns over in part (:func:`turned`) and, with ``hidden``, where a
+    footprint point on the ``canvas`` (H, W) and inside the ``source`` image (H, W) is not
+    valid. ``hidden=False`` for the methods that push pixels forward (``splat``,
+    ``paper-quads``), whose nearest output pixel shows a neighbouring source pixel for a few
+    percent of the pixels: there the footprint's edge says nothing of folds."""
+    count = len(points) // len(RING)
+    at = points.reshape(count, len(RING), 2)
+    out = moved.reshape(count, len(RING), 2)
+    ok = valid.reshape(count, len(RING))
+    height, width = source
+    inside = np.all((at >= -0.5) & (at < (width - 0.5, height - 0.5)), axis=2)
+    landed = on_canvas(out.reshape(-1, 2), canvas).reshape(count, len(RING))
+    cut = (inside & landed & ~ok)[:, 1:].any(axis=1) if hidden else False
+    return out[:, 0].copy(), ok[:, 0] & ~cut & ~turned(out)
+
+
+#: The footprint's edge points in turn around its centre: the fan of eight triangles.
+_AROUND = np.array([2, 8, 6, 7, 1, 4, 3, 5, 2])
+
+
+def turned(out: np.ndarray) -> np.ndarray:
+    """(P,) bool: the footprints whose image, (P, 9, 2) as :func:`with_footprints` orders
+    their points, turns over in part: a triangle of the fan about the centre whose image has
+    the other orientation, or none (f folds inside the footprint)."""
+    centre = out[:, :1]
+    a, b = out[:, _AROUND[:-1]] - centre, out[:, _AROUND[1:]] - centre
+    area = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return (area <= 0).any(axis=1)
