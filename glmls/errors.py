@@ -107,7 +107,9 @@ class BorderWarning(UserWarning):
     """A border mode could not fill the whole output canvas.
 
     The canvas lies farther past the image than the forward methods' mesh may reach (or f
-    shrinks the plane that much); the pixels beyond keep the background.
+    shrinks the plane that much); the pixels beyond keep the background. A volume warp
+    (either method) warns alike where its lattice of cells, at its largest, does not cover
+    the canvas.
 
     Examples
     --------

@@ -519,6 +519,12 @@ class MLS3(MLS):
         ValueError
             For a volume or an option that is not valid (named).
 
+        Warns
+        -----
+        glmls.BorderWarning
+            Where a border mode other than ``constant`` cannot fill the whole canvas (the
+            lattice of cells at its largest does not cover it).
+
         Examples
         --------
         >>> import numpy as np

@@ -89,6 +89,13 @@ def warp_volume(
         For a bad dtype, a keyword that is no option, ``slabs`` that is no
         :class:`SlabOptions`, or a ``spacing`` that is not a sequence of real numbers.
 
+    Warns
+    -----
+    glmls.BorderWarning
+        Where, with a border mode other than ``constant``, the lattice of cells extended as
+        far as it may go (16.7 million points) still leaves canvas voxels uncovered: those
+        keep the background.
+
     Examples
     --------
     >>> import numpy as np

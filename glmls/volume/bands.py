@@ -1,5 +1,6 @@
 """How the volume construction holds its work: output slabs, and f on the lattice band by band
-of z layers (:class:`LatticeBands`); and the lattice's margins for the border modes."""
+of z layers (:class:`LatticeBands`) (the lattice's margins for the border modes:
+:mod:`.margins`)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from ..gl.context import GLContext
 from ..gl.dispatch import LOCAL_SIZE, run_1d, run_groups, set_uniforms
 from ..gl.resources import Resources
 from .fields import Field
-from .frame import CornerLattice, Margins, VolumeFrame
+from .frame import CornerLattice
 
 __all__ = [
     "JACOBIAN_BYTES",
@@ -24,7 +25,6 @@ __all__ = [
     "LatticeBands",
     "Slab",
     "band_layers",
-    "border_margin3",
     "displacement_reach",
     "jacobian_band",
     "survey_pieces",
@@ -55,95 +55,6 @@ class Slab:
     @property
     def size(self) -> tuple[int, int, int]:
         return self.width, self.height, self.depth
-
-
-def border_margin3(field: Field, lattice: CornerLattice, frame: VolumeFrame) -> Margins:
-    """The margins (voxels, multiples of the grid) that ``lattice`` needs past each side of
-    the volume so that its deformed image reaches past every voxel of ``frame``: the image
-    of the lattice's boundary keeps out of the frame's box grown by a voxel. Per side, of
-    the points sampled on the lattice's face there (at most 33 x 33) whose images lie in
-    that box across the face, the one f takes furthest into it along the face's normal
-    says how much further out the face must lie; a face whose image keeps out of the box
-    needs no margin. Each margin is at most the frame's reach past its side plus twice the
-    volume's largest side.
-
-    The faces are first the volume's, then those of the lattice with the margins found so
-    far, until each holds (f past the volume is not f on its faces: where f shrinks the
-    volume, a face further out is moved further in). Each round goes to where the need,
-    growing with the margin at the rate the last two rounds show, meets the margin, not
-    only to the last round's need: a shrinking by half doubles the margin that its faces
-    ask for at first."""
-    grid = lattice.grid
-    d, h, w = lattice.shape
-    size = np.array([w, h, d], dtype=float)
-    low = np.array(frame.origin_voxels)
-    high = low + np.array(frame.shape[::-1]) - 1
-    # the frame's voxel cubes grown by a voxel, (axis, low / high)
-    grown = np.stack([low - 1.5, high + 1.5], axis=1)
-    # how far the frame's voxel centres reach past each side
-    overhang = np.stack([np.maximum(0.0, -0.5 - low), np.maximum(0.0, high - size + 0.5)], 1)
-    limit = overhang + 2 * max(w, h, d)
-    margins = np.zeros((3, 2))
-    last = None
-    for _ in range(_MARGIN_ROUNDS):
-        box = np.stack([-0.5 - margins[:, 0], size - 0.5 + margins[:, 1]], axis=1)
-        further = _need(field, box, grown, overhang + 1 - margins)
-        need = np.minimum(np.maximum(further + margins, 0.0), limit)
-        if np.all(need <= margins):
-            break
-        goal = need
-        if last is not None:
-            with np.errstate(divide="ignore", invalid="ignore"):
-                rate = np.where(margins > last[0], (need - last[1]) / (margins - last[0]), 0.0)
-            rate = np.clip(np.nan_to_num(rate), 0.0, 1.0)
-            # a need that grows (nearly) as fast as the margin (f shrinks the volume to
-            # almost a point) is met at no margin short of the limit
-            ahead = np.where(rate < 0.95, (need - margins) / np.maximum(1 - rate, 0.05), limit)
-            goal = np.minimum(np.maximum(need, margins + ahead), limit)
-        last = (margins, need)
-        margins = np.maximum(margins, grid * np.ceil(goal / grid))
-    return tuple((int(a), int(b)) for a, b in margins)  # type: ignore[return-value]
-
-
-#: Rounds of :func:`border_margin3` at most.
-_MARGIN_ROUNDS = 8
-
-
-def _need(field: Field, box: np.ndarray, grown: np.ndarray, unmoved: np.ndarray) -> np.ndarray:
-    """(3, 2): per axis and end (low, high), how much further out ``box``'s face there must
-    lie (voxels; <= 0 or -inf: none) so that the images of its points (at most 33 x 33
-    sampled, one evaluation of f for all six faces) that lie in ``grown`` across the face
-    keep out of it along the face's normal; ``unmoved`` where f is not a number at one of
-    the face's points (as though f did not move it)."""
-    axes = [np.linspace(lo, hi, min(33, int(hi - lo) + 1)) for lo, hi in box]
-    faces = []
-    for axis in range(3):
-        others = [a for a in range(3) if a != axis]
-        grid_a, grid_b = np.meshgrid(axes[others[0]], axes[others[1]], indexing="ij")
-        for end in (0, 1):
-            face = np.empty((grid_a.size, 3))
-            face[:, axis] = box[axis, end]
-            face[:, others[0]] = grid_a.ravel()
-            face[:, others[1]] = grid_b.ravel()
-            faces.append(face)
-    images = field.evaluate(np.concatenate(faces))
-    need = np.full((3, 2), -np.inf)
-    start = 0
-    for index, face in enumerate(faces):
-        axis, end = divmod(index, 2)
-        image = images[start : start + len(face)]
-        start += len(face)
-        if not np.all(np.isfinite(image)):
-            need[axis, end] = unmoved[axis, end]
-            continue
-        across = [a for a in range(3) if a != axis]
-        lateral = image[:, across]
-        inside = np.all((lateral >= grown[across, 0]) & (lateral <= grown[across, 1]), axis=1)
-        if np.any(inside):
-            normal = image[inside, axis]
-            into = normal - grown[axis, 0] if end == 0 else grown[axis, 1] - normal
-            need[axis, end] = float(np.max(into))
-    return need
 
 
 #: Points an axis at most at which :func:`displacement_reach` samples f.

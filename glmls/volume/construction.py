@@ -38,7 +38,6 @@ from .bands import (
     LatticeBands,
     Slab,
     band_layers,
-    border_margin3,
     displacement_reach,
     jacobian_band,
     survey_pieces,
@@ -46,6 +45,7 @@ from .bands import (
 from .fields import Field
 from .frame import CornerLattice, VolumeFrame, check_memory
 from .kernel_field import pending_bytes
+from .margins import border_margin3
 from .options import SlabOptions, VolumeOptions
 from .source import SourceVolume, prepare_volume, volume_background
 from .texture import SourceTexture, border_runs, runs_size
@@ -399,7 +399,7 @@ def _lattice(field, shape, frame, options: VolumeOptions, *, backward: bool) -> 
     step = options.lattice_step
     lattice = CornerLattice(shape, step)
     if options.border != "constant" or backward:
-        margins = border_margin3(field, lattice, frame)
+        margins = border_margin3(field, lattice, frame, cover=options.border != "constant")
         if backward:
             margins = tuple((low + step, high + step) for low, high in margins)
         lattice = CornerLattice(

@@ -12,9 +12,9 @@ from conftest import box_handles
 
 from glmls.core.config import MLSConfig
 from glmls.volume import VolumeOptions, bands, construction, warp_volume
-from glmls.volume.bands import border_margin3
 from glmls.volume.fields import ReferenceField
 from glmls.volume.frame import CornerLattice, VolumeFrame
+from glmls.volume.margins import border_margin3
 
 SHAPE = (10, 12, 14)
 
@@ -88,8 +88,8 @@ def _uniform(monkeypatch, extra):
     per-side ones plus ``extra`` voxels."""
     made = construction.border_margin3
 
-    def wide(field, lattice, frame):
-        margin = max(max(pair) for pair in made(field, lattice, frame)) + extra
+    def wide(field, lattice, frame, **options):
+        margin = max(max(pair) for pair in made(field, lattice, frame, **options)) + extra
         return ((margin, margin),) * 3
 
     monkeypatch.setattr(construction, "border_margin3", wide)
@@ -163,8 +163,8 @@ def test_a_side_short_of_its_margin_leaves_voxels_empty(kernel3, monkeypatch):
     options = VolumeOptions(border="edge", interpolation="linear", grid=2)
     made = construction.border_margin3
 
-    def short(field, lattice, frame):
-        (_, x_high), y, z = made(field, lattice, frame)
+    def short(field, lattice, frame, **options):
+        (_, x_high), y, z = made(field, lattice, frame, **options)
         return (0, x_high), y, z
 
     full = warp_volume(m, volume, options)

@@ -1,0 +1,296 @@
+"""The lattice's margins past the volume for the border modes (:func:`border_margin3`): how
+far past each side of the volume the cells must reach so that their deformed image covers
+every voxel of the output canvas."""
+
+from __future__ import annotations
+
+import inspect
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import BorderWarning
+from .fields import Field
+from .frame import CornerLattice, Margins, VolumeFrame
+
+__all__ = ["MARGIN_POINTS3", "border_margin3", "margin_shortfall3", "search_margins3"]
+
+#: The most points of the extended lattice, unless the volume and the canvas together have
+#: more voxels (then twice theirs, in lattice points): the search of a border mode's margins
+#: stops there.
+MARGIN_POINTS3 = 1 << 24
+#: Rounds of the search at most: where the lattice only gives the backward method's first
+#: guesses (``constant``), and where it must cover the canvas (the other border modes).
+_GUESS_ROUNDS = 8
+_COVER_ROUNDS = 16
+#: Points a side at most at which a face of the lattice is sampled.
+_FACE_SAMPLES = 33
+
+_PACKAGE = str(Path(__file__).resolve().parents[1])
+
+
+def border_margin3(
+    field: Field, lattice: CornerLattice, frame: VolumeFrame, *, cover: bool = False
+) -> Margins:
+    """The margins (voxels, multiples of the grid) that ``lattice`` needs past each side of
+    the volume so that its deformed image reaches past every voxel of ``frame``
+    (:func:`search_margins3`). With ``cover`` (a border mode other than ``constant``: the
+    cells must cover the canvas), a :class:`~glmls.errors.BorderWarning` where the largest
+    lattice allowed does not."""
+    margins, covered = search_margins3(field, lattice, frame, cover=cover)
+    if cover and not covered:
+        warnings.warn(margin_shortfall3(margins), BorderWarning, stacklevel=_caller_level())
+    return margins
+
+
+def margin_shortfall3(margins: Margins) -> str:
+    """The :class:`~glmls.errors.BorderWarning` of a lattice whose ``margins`` still leave
+    part of the canvas uncovered."""
+    most = max(max(pair) for pair in margins)
+    return (
+        f"the lattice reaches {most} voxels past the volume, the most for this volume and "
+        "canvas, and f's image of it does not cover the whole canvas: voxels beyond keep the "
+        "background"
+    )
+
+
+def search_margins3(
+    field: Field, lattice: CornerLattice, frame: VolumeFrame, *, cover: bool = False
+) -> tuple[Margins, bool]:
+    """The margins of :func:`border_margin3`, and whether the image of the lattice so
+    extended covers the canvas.
+
+    The image of the lattice's boundary must keep out of the frame's box grown by a voxel.
+    Per side, of the points sampled on the lattice's face there (at most 33 x 33) whose
+    images lie in that box across the face, the one f takes furthest into it along the
+    face's normal says how much further out the face must lie; a face whose image keeps out
+    of the box needs no margin. The faces are first the volume's, then those of the lattice
+    with the margins found so far, until each holds (f past the volume is not f on its
+    faces: where f shrinks the volume, a face further out is moved further in). Each round
+    goes to where the need, growing with the margin at the rate the last two rounds show,
+    meets the margin, not only to the last round's need: a shrinking by half doubles the
+    margin that its faces ask for at first.
+
+    Without ``cover`` (the backward method's guesses with ``constant``) each margin is at
+    most the frame's reach past its side plus twice the volume's largest side. With it, the
+    lattice may have up to :data:`MARGIN_POINTS3` points (or twice the volume's and the
+    canvas's voxels); and the sampled image of the lattice's boundary must also wind around
+    the box (its solid angle seen from the box's centre): where every face holds but the
+    box lies outside the deformed lattice (f moves the volume off the canvas sideways), the
+    margins grow to the preimage of the box under the affine map that fits f on the faces
+    best (else double), and the search goes on. Where the box is out of the image of the
+    boundary and inside it, the margins are found even if a face does not hold along its
+    normal (a map that mirrors the volume)."""
+    grid = lattice.grid
+    d, h, w = lattice.shape
+    size = np.array([w, h, d], dtype=float)
+    low = np.array(frame.origin_voxels)
+    high = low + np.array(frame.shape[::-1]) - 1
+    # the frame's voxel cubes grown by a voxel, (axis, low / high)
+    grown = np.stack([low - 1.5, high + 1.5], axis=1)
+    centre = grown.mean(axis=1)
+    # how far the frame's voxel centres reach past each side
+    overhang = np.stack([np.maximum(0.0, -0.5 - low), np.maximum(0.0, high - size + 0.5)], 1)
+    budget = max(MARGIN_POINTS3, 2 * (d * h * w + frame.voxels) // grid**3)
+    margins = np.zeros((3, 2))
+    last = None
+    for _ in range(_COVER_ROUNDS if cover else _GUESS_ROUNDS):
+        box = np.stack([-0.5 - margins[:, 0], size - 0.5 + margins[:, 1]], axis=1)
+        faces = _faces(box)
+        images = field.evaluate(np.concatenate([points for *_, points in faces]))
+        further, clear = _need(faces, images, grown, overhang + 1 - margins)
+        winding = _winding(faces, images, centre) if cover else None
+        if clear and winding is not None and abs(winding) > 0.5:
+            return _as_margins(margins), True
+        if cover:
+            limit = _side_limits(size, margins, grid, budget)
+        else:
+            limit = overhang + 2 * max(w, h, d)
+        need = np.minimum(np.maximum(further + margins, 0.0), limit)
+        if np.all(need <= margins):
+            if not cover or winding is None:
+                return _as_margins(margins), True
+            if np.any(further > 0):  # a face short of where it must lie, at the limit
+                return _as_margins(margins), False
+            # every face holds, yet the box lies outside the deformed lattice
+            goal = _preimage_need(faces, images, grown, size)
+            if goal is None or np.all(goal <= margins):
+                goal = 2 * margins + grid
+            goal = np.minimum(goal, limit)
+            last = None
+        else:
+            goal = need
+            if last is not None:
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    rate = np.where(margins > last[0], (need - last[1]) / (margins - last[0]), 0.0)
+                rate = np.clip(np.nan_to_num(rate), 0.0, 1.0)
+                # a need that grows (nearly) as fast as the margin (f shrinks the volume to
+                # almost a point) is met at no margin short of the limit
+                ahead = np.where(rate < 0.95, (need - margins) / np.maximum(1 - rate, 0.05), limit)
+                goal = np.minimum(np.maximum(need, margins + ahead), limit)
+            last = (margins, need)
+        grown_margins = np.maximum(margins, grid * np.ceil(goal / grid))
+        if cover:
+            grown_margins = _within(margins, grown_margins, size, grid, budget)
+            if np.all(grown_margins <= margins):
+                return _as_margins(margins), False
+        margins = grown_margins
+    return _as_margins(margins), not cover
+
+
+def _as_margins(margins: np.ndarray) -> Margins:
+    return tuple((int(a), int(b)) for a, b in margins)  # type: ignore[return-value]
+
+
+def _points(size: np.ndarray, margins: np.ndarray, grid: int) -> float:
+    """The points of a lattice of step ``grid`` over ``size`` (x, y, z) with ``margins``."""
+    return float(np.prod(np.ceil((size + margins.sum(axis=1)) / grid) + 1))
+
+
+def _side_limits(size: np.ndarray, margins: np.ndarray, grid: int, budget: int) -> np.ndarray:
+    """(3, 2): per side, the margin there that keeps the lattice within ``budget`` points
+    with the other margins as they are."""
+    extent = size + margins.sum(axis=1)
+    points = np.ceil(extent / grid) + 1
+    limits = np.empty((3, 2))
+    for axis in range(3):
+        across = float(np.prod(np.delete(points, axis)))
+        free = (max(budget // across, 2) - 1) * grid - extent[axis]
+        limits[axis] = margins[axis] + max(free, 0.0)
+    return limits
+
+
+def _within(
+    margins: np.ndarray, goal: np.ndarray, size: np.ndarray, grid: int, budget: int
+) -> np.ndarray:
+    """``goal`` (margins, multiples of the grid, at least ``margins``), or where its lattice
+    has more than ``budget`` points the largest share of the way from ``margins`` to it
+    that has not (the same share on every side)."""
+    if _points(size, goal, grid) <= budget:
+        return goal
+
+    def part(share: float) -> np.ndarray:
+        return margins + grid * np.floor(share * (goal - margins) / grid)
+
+    low, high = 0.0, 1.0
+    for _ in range(40):
+        middle = (low + high) / 2
+        low, high = (middle, high) if _points(size, part(middle), grid) <= budget else (low, middle)
+    return part(low)
+
+
+def _faces(box: np.ndarray) -> list[tuple[int, int, int, int, np.ndarray]]:
+    """The six faces of ``box`` ((axis, low / high)), each (axis, end, na, nb, points): the
+    (na, nb) points sampled on it along the other two axes in order, (na nb, 3). The faces
+    share their edges' points, so that their images close up."""
+    axes = [np.linspace(lo, hi, min(_FACE_SAMPLES, int(hi - lo) + 1)) for lo, hi in box]
+    faces = []
+    for axis in range(3):
+        others = [a for a in range(3) if a != axis]
+        grid_a, grid_b = np.meshgrid(axes[others[0]], axes[others[1]], indexing="ij")
+        for end in (0, 1):
+            face = np.empty((grid_a.size, 3))
+            face[:, axis] = box[axis, end]
+            face[:, others[0]] = grid_a.ravel()
+            face[:, others[1]] = grid_b.ravel()
+            faces.append((axis, end, *grid_a.shape, face))
+    return faces
+
+
+def _need(
+    faces: list, images: np.ndarray, grown: np.ndarray, unmoved: np.ndarray
+) -> tuple[np.ndarray, bool]:
+    """(3, 2): per axis and end (low, high), how much further out the face there must lie
+    (voxels; <= 0 or -inf: none) so that the images of its points that lie in ``grown``
+    across the face keep out of it along the face's normal; ``unmoved`` where f is not a
+    number at one of the face's points (as though f did not move it). And whether no image
+    lies in ``grown`` at all."""
+    need = np.full((3, 2), -np.inf)
+    clear = True
+    start = 0
+    for axis, end, *_, face in faces:
+        image = images[start : start + len(face)]
+        start += len(face)
+        if not np.all(np.isfinite(image)):
+            need[axis, end] = unmoved[axis, end]
+            clear = False
+            continue
+        across = [a for a in range(3) if a != axis]
+        lateral = image[:, across]
+        inside = np.all((lateral >= grown[across, 0]) & (lateral <= grown[across, 1]), axis=1)
+        if np.any(inside):
+            normal = image[inside, axis]
+            into = normal - grown[axis, 0] if end == 0 else grown[axis, 1] - normal
+            need[axis, end] = float(np.max(into))
+            clear = clear and not np.any((normal > grown[axis, 0]) & (normal < grown[axis, 1]))
+    return need, clear
+
+
+#: Per axis, the sign of the normal of a face's triangles (p00, p10, p11) along it: the
+#: cross product of the face's two axes in order ((y, z), (x, z), (x, y)).
+_TURN = (1.0, -1.0, 1.0)
+
+
+def _winding(faces: list, images: np.ndarray, centre: np.ndarray) -> float | None:
+    """How many times the image of the faces (triangulated between their samples, turned
+    outward) winds around ``centre``: the sum of its triangles' solid angles over 4 pi
+    (Van Oosterom and Strackee). None where f is not a number at one of the points."""
+    if not np.all(np.isfinite(images)):
+        return None
+    total = 0.0
+    start = 0
+    for axis, end, na, nb, face in faces:
+        q = images[start : start + len(face)].reshape(na, nb, 3) - centre
+        start += len(face)
+        if na < 2 or nb < 2:
+            continue
+        p00, p10, p11, p01 = q[:-1, :-1], q[1:, :-1], q[1:, 1:], q[:-1, 1:]
+        angle = _solid_angles(p00, p10, p11) + _solid_angles(p00, p11, p01)
+        total += _TURN[axis] * (1.0 if end else -1.0) * float(angle.sum())
+    return total / (4 * math.pi)
+
+
+def _solid_angles(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """The signed solid angles of the triangles (a, b, c) (..., 3) seen from the origin."""
+    la, lb, lc = (np.linalg.norm(v, axis=-1) for v in (a, b, c))
+    triple = np.einsum("...i,...i", a, np.cross(b, c))
+    dots = (
+        la * lb * lc
+        + np.einsum("...i,...i", a, b) * lc
+        + np.einsum("...i,...i", a, c) * lb
+        + np.einsum("...i,...i", b, c) * la
+    )
+    return 2 * np.arctan2(triple, dots)
+
+
+def _preimage_need(
+    faces: list, images: np.ndarray, grown: np.ndarray, size: np.ndarray
+) -> np.ndarray | None:
+    """(3, 2): the margins that take in the preimage of ``grown``'s corners (and a voxel)
+    under the affine map that fits f at the faces' points best (least squares); None where
+    that map is singular."""
+    points = np.concatenate([face for *_, face in faces])
+    lhs = np.concatenate([points, np.ones((len(points), 1))], axis=1)
+    fit, *_ = np.linalg.lstsq(lhs, images, rcond=None)
+    matrix, offset = fit[:3], fit[3]
+    if not np.all(np.isfinite(fit)) or np.linalg.cond(matrix) > 1e12:
+        return None
+    corners = np.array([[grown[a, (c >> a) & 1] for a in range(3)] for c in range(8)])
+    preimage = np.linalg.solve(matrix.T, (corners - offset).T).T
+    low = -0.5 - preimage.min(axis=0) + 1
+    high = preimage.max(axis=0) - (size - 0.5) + 1
+    return np.maximum(np.stack([low, high], axis=1), 0.0)
+
+
+def _caller_level() -> int:
+    """The ``stacklevel`` of :func:`warnings.warn` in :func:`border_margin3` that names the
+    first caller outside glmls (the warp's, whichever entry point it took)."""
+    here = inspect.currentframe()
+    frame = here.f_back.f_back if here is not None and here.f_back is not None else None
+    level = 2  # border_margin3's caller
+    while frame is not None and frame.f_code.co_filename.startswith(_PACKAGE):
+        frame = frame.f_back
+        level += 1
+    return level
