@@ -13,7 +13,7 @@ from ..gl.context import forked_from_gl
 from ..imaging.options import FIELDS, WarpOptions
 from ..mls import MLS, MLS_KEYWORDS
 from .chunks import warp_chunks
-from .footprints import footprint_radius, seen_whole, with_footprints
+from .footprints import RING, footprint_radius, seen_whole, with_footprints
 from .gpu import batchable
 from .inputs import BatchInput, check_batch, item_array, stack_or_list
 from .result import BatchResult
@@ -146,27 +146,32 @@ def warp_batch(
         for i, image in enumerate(batch.images)
     ]
     if batch.keypoints is not None:
-        results = [
-            _seen_whole(r, p, image, chosen.method)
-            for r, p, image in zip(results, batch.keypoints, batch.images, strict=True)
-        ]
+        results = _seen_whole(results, batch, chosen.method)
     result = _assemble(given, results, return_maps, whole)
     return _bool_masks_back(result, binary)
 
 
-def _seen_whole(
-    result: ImageLabels, points: np.ndarray, image: np.ndarray, method: str
-) -> ImageLabels:
-    """One image's keypoints and their validity from those of their footprints' points."""
-    moved, valid = seen_whole(
-        points,
-        result.keypoints,
-        result.keypoints_valid,
-        image.shape[:2],
-        result.image.shape[:2],
-        hidden=method not in ("splat", "paper-quads"),
-    )
-    return result._replace(keypoints=moved, keypoints_valid=valid)
+def _seen_whole(results: list[ImageLabels], batch: BatchInput, method: str) -> list:
+    """The images' keypoints and their validity from those of their footprints' points
+    (``batch.keypoints``), in one pass for the images of one size and canvas."""
+    groups: dict[tuple, list[int]] = {}
+    for i, (r, image) in enumerate(zip(results, batch.images, strict=True)):
+        groups.setdefault((image.shape[:2], r.image.shape[:2]), []).append(i)
+    out = list(results)
+    for (source, canvas), members in groups.items():
+        sizes = [len(batch.keypoints[i]) // len(RING) for i in members]  # type: ignore[index]
+        moved, valid = seen_whole(
+            np.concatenate([batch.keypoints[i] for i in members]),  # type: ignore[index]
+            np.concatenate([results[i].keypoints for i in members]),
+            np.concatenate([results[i].keypoints_valid for i in members]),
+            source,
+            canvas,
+            hidden=method not in ("splat", "paper-quads"),
+        )
+        starts = np.cumsum([0, *sizes])
+        for i, a, b in zip(members, starts[:-1], starts[1:], strict=True):
+            out[i] = results[i]._replace(keypoints=moved[a:b], keypoints_valid=valid[a:b])
+    return out
 
 
 def _bytes_of_bool_masks(masks: object) -> tuple[object, list[bool] | None]:
