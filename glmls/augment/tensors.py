@@ -150,11 +150,16 @@ def _check_rank(images) -> None:
     (the numpy path's message would name numpy's)."""
     if isinstance(images, (list, tuple)):
         for i, image in enumerate(images):
-            if image.ndim not in (2, 3):
+            if image.ndim not in (2, 3) or (image.ndim == 3 and not 1 <= image.shape[0] <= 4):
                 raise ValueError(
                     f"images[{i}] is a tensor of shape {tuple(image.shape)}; expected (C, H, W) "
-                    "or (H, W)"
+                    "with C 1..4, or (H, W)"
                 )
+    elif images.ndim == 4 and not 1 <= images.shape[1] <= 4:  # (N, H, W, C) given, say
+        raise ValueError(
+            f"images is a tensor of shape {tuple(images.shape)}; expected a batch (N, C, H, W) "
+            "with C 1..4 channels first, as torch orders them"
+        )
     elif images.ndim not in (3, 4):
         raise ValueError(
             f"images is a tensor of shape {tuple(images.shape)}; expected a batch (N, C, H, W) "

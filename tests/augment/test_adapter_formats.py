@@ -679,6 +679,11 @@ def test_augment_tensors_of_the_wrong_rank_name_torchs_layout():
             aug(torch.zeros(shape))
     with pytest.raises(ValueError, match=r"images\[1\] is a tensor of shape \(8,\)"):
         aug([torch.zeros(3, 8, 8), torch.zeros(8)])
+    for shape in [(2, 5, 16, 20), (2, 16, 20, 3)]:  # channels last, or more than four
+        with pytest.raises(ValueError, match=re.escape(f"shape {shape}; expected a batch (N, C")):
+            aug(torch.zeros(shape, dtype=torch.uint8))
+    with pytest.raises(ValueError, match=r"images\[0\] is a tensor of shape \(16, 20, 3\)"):
+        aug([torch.zeros(16, 20, 3, dtype=torch.uint8)])
 
 
 #: A canvas 8 px larger on every side: ``output_shape`` and ``origin`` among the warp options.
