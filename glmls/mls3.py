@@ -74,7 +74,10 @@ class MLS3(MLS):
         method takes it (``m(points)``, :meth:`matrices`, :meth:`jacobian`, :meth:`deform`,
         :attr:`inverse`, :meth:`residuals`); a volume warp (or ``bounds``,
         ``coordinate_map``) and the 3D analyses of a volume take that volume's, the same for
-        a volume of ``shape``.
+        a volume of ``shape``. As in 2D, a radius weight needs neither ``radius`` nor
+        ``shape`` to be made: without both, :meth:`warp` (``bounds``, ``coordinate_map``,
+        the analyses of a volume) takes each volume's diagonal, and the methods of points,
+        which have no volume, raise ValueError asking for one.
     spacing : (float, float, float) or None, default None
         (dz, dy, dx) of the volume's voxels in the handles' units, ordered as ``shape``:
         voxel (k, j, i) is the point (i dx, j dy, k dz). The volume warps, ``bounds``,
@@ -92,9 +95,8 @@ class MLS3(MLS):
     Raises
     ------
     ValueError
-        For malformed handles, segments, ``bins=True``, a bad ``shape``, a ``spacing`` that
-        is not three finite numbers > 0, or a radius weight with neither ``radius`` nor
-        ``shape``.
+        For malformed handles, segments, ``bins=True``, a bad ``shape``, or a ``spacing``
+        that is not three finite numbers > 0.
     TypeError
         For a ``spacing`` that is not real numbers.
 
@@ -122,6 +124,18 @@ class MLS3(MLS):
     34.641016
     >>> m.warp(volume).shape  # with the MLS's spacing
     (10, 20, 40)
+    >>> m.release()
+
+    Without ``radius`` or ``shape`` a radius weight takes the diagonal of each volume warped,
+    as a 2D MLS takes each image's; f at points then has no volume to take one from.
+
+    >>> m = glmls.MLS(mm, moved, weight="gaussian", spacing=(2.0, 1.0, 0.5))
+    >>> m.warp(volume).shape  # the radius: this volume's diagonal, 34.64 mm
+    (10, 20, 40)
+    >>> m(mm)
+    Traceback (most recent call last):
+        ...
+    ValueError: weight 'gaussian' needs an influence radius: ...
     >>> m.release()
     """
 
@@ -157,7 +171,6 @@ class MLS3(MLS):
         self._gl = get_context(ctx)
         self._kernel = MLSKernel3(self._gl, config, shape=self._extent, storage=storage)  # type: ignore[assignment]
         self._release_when_dropped(self._kernel)
-        self._kernel.radius()  # type: ignore[call-arg]  # a radius weight needs one
         try:
             self._store3(p, q)
         except ValueError:
@@ -663,11 +676,16 @@ class InverseMLS3(InverseMLS):
     central differences, stopping below 1e-4 voxel), from the MLS with p and q swapped at u,
     then from u itself, and where neither reaches u (next to a fold both may lie in the
     basin of no preimage) from the four points of a lattice around u whose images lie
-    nearest it. A row is NaN where Newton does not end within 0.05 voxel of u (no
-    preimage, or none found); a voxel is the handles' unit, or less where their box is
-    smaller than 32 units (``glmls.engine.passes3.length_unit``); ``return_valid=True``
-    also returns the mask of the rows that have one. Where f folds, u has several preimages
-    and one of them is found.
+    nearest it. Far from the handles, where f tends to the fit of them all and the swapped
+    MLS misses the preimage by a share of the distance, Newton's steps grow with the
+    distance from the handles' box (``glmls.engine.passes3.NEWTON_FAR3``): points across
+    glmls's coordinate range find theirs. A row is NaN where Newton does not end within
+    0.05 voxel of u (no preimage, or none found), or, far out where that is more, within 4
+    float32 steps of the larger coordinate of u and s (as in 2D:
+    ``glmls.imaging.inverse.accept_residual``); a voxel is the handles' unit, or less where
+    their box is smaller than 32 units (``glmls.engine.passes3.length_unit``).
+    ``return_valid=True`` also returns the mask of the rows that have one. Where f folds, u
+    has several preimages and one of them is found.
 
     Parameters
     ----------

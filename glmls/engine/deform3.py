@@ -75,6 +75,7 @@ def deform_mesh3(
             face_uv=face_uv,
             own_normals=normals is not None,
         )
+    kernel.radius(shape)  # a radius weight without one is refused before any GPU work
     gl = kernel.gl
     groups = max_groups if max_groups is not None else gl.limits["max_work_groups_x"]
     scratch = kernel.scratch

@@ -164,6 +164,7 @@ def evaluate_points3(
     if count == 0:
         kernel.check_alive()
         return np.zeros((0, 3)), (None if output == "f" else np.zeros((0, 3, 3)))
+    kernel.radius(shape)  # a radius weight without one is refused before any GPU work
     with kernel.gl.use():
         scratch = kernel.scratch
         source = scratch.buffer("points3", count * 12)
@@ -237,8 +238,14 @@ INVERSE3_PASS = "mls3/inverse.comp.glsl"
 NEWTON_STEPS3 = 24
 #: Newton stops below this residual |f(s) - u| (voxels).
 NEWTON_TOLERANCE3 = 1e-4
-#: A step moves s by at most this share of the scaled extent (the handles' and volume's box).
+#: A step moves s by at most this share of the scaled extent (the handles' and volume's box) ...
 NEWTON_MAX_STEP3 = 0.25
+#: ... times |s| / NEWTON_FAR3 where s's largest scaled coordinate |s| is beyond NEWTON_FAR3
+#: (the box spans at most 1 each way about its centre): far out f tends to the fit of all
+#: the handles, its curvature falls as 1 / |s|, and the start (the swapped MLS, whose fit of
+#: q to p is not the inverse of that of p to q but for a rigid one) misses by a share of |s|
+#: that fixed steps could not cover in NEWTON_STEPS3.
+NEWTON_FAR3 = 4.0
 
 
 def invert_points3(
@@ -256,6 +263,7 @@ def invert_points3(
     if count == 0:
         kernel.check_alive()
         return np.zeros((0, 3)), np.zeros(0)
+    kernel.radius(shape)  # as evaluate_points3
     scaling = kernel.scaling
     with kernel.gl.use():
         program = kernel.program(INVERSE3_PASS)
@@ -273,6 +281,7 @@ def invert_points3(
                 **jacobian_uniforms(kernel),
                 "u_tolerance": NEWTON_TOLERANCE3 * length_unit(kernel) / scaling.scale,
                 "u_max_step": NEWTON_MAX_STEP3,
+                "u_far": NEWTON_FAR3,
                 "u_steps": NEWTON_STEPS3,
             },
         )

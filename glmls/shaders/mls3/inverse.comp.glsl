@@ -1,8 +1,8 @@
 // f's inverse at a list of points u (scaled): Newton's method on f(s) = u from a first guess
 // s0 (the caller's: the MLS with p and q swapped, at u), then, where that does not converge,
 // from u itself. Each step s -= (f(s) - u) J^-1, J = df/dv by central differences (row
-// vectors), its length capped at u_max_step and halved where it raises the residual; it
-// stops below u_tolerance. Writes s (scaled)
+// vectors), its length capped at u_max_step (u_max_step |s| / u_far beyond u_far) and
+// halved where it raises the residual; it stops below u_tolerance. Writes s (scaled)
 // and |f(s) - u| (scaled), 4 floats per point.
 layout(local_size_x = LOCAL_SIZE) in;
 
@@ -20,6 +20,7 @@ uniform int u_offset;
 uniform float u_tolerance;
 uniform float u_max_step;
 uniform int u_steps;
+uniform float u_far;        // scaled |s| past which the cap grows with it
 
 vec3 mls3_residual(vec3 s, vec3 u) {
     return (s - u) + mls3_eval(s).d;
@@ -39,8 +40,12 @@ float mls3_newton(inout vec3 s, vec3 u) {
         mat3 J = mls3_jacobian(s, mls3_jacobian_step(s));
         float det = determinant(J);
         vec3 move = abs(det) > 1e-12 ? r * inverse(J) : r;
+        // far out f tends to the fit of all the handles and its curvature falls as 1 / |s|:
+        // the cap grows with |s| past u_far (glmls.engine.passes3.NEWTON_FAR3)
+        vec3 a = abs(s);
+        float cap = u_max_step * max(1.0, max(a.x, max(a.y, a.z)) / u_far);
         float len = length(move);
-        move *= len > u_max_step ? u_max_step / len : 1.0;
+        move *= len > cap ? cap / len : 1.0;
         // the step, then its halves while they raise the residual: one place evaluates f
         vec3 t;
         vec3 rt;
