@@ -20,15 +20,33 @@ from glmls.app.volume_session import VolumeSession, check_fits
 
 XVFB = shutil.which("xvfb-run")
 #: A flat volume and four handles whose targets shrink it (similarity) a hundredfold about
-#: its centre: every face of the lattice that the cells of the edge border need is pulled
-#: inward as far as it lies out, so the margins reach their limit, 400 voxels a side; at
-#: grid 1 the lattice holds 1000 x 1000 x 808 cells, past the construction's numbers; at
-#: grid 4 it is warped.
+#: its centre. The warp of such a map stands for one that the construction refuses (a
+#: lattice past the GL limits): :data:`REFUSED` makes the slices' warp raise for it.
 FLAT = (8, 200, 200)
 FAR_SRC = [[5.0, 5.0, 1.0], [195.0, 5.0, 1.0], [5.0, 195.0, 6.0], [195.0, 195.0, 6.0]]
 FAR_DST = (
     np.array([100.0, 100.0, 3.5]) + 0.01 * (np.array(FAR_SRC) - [100.0, 100.0, 3.5])
 ).tolist()
+
+
+REFUSAL = "the lattice holds too many cells for one warp: use a coarser grid"
+
+#: Installs, in a child process, a slices' warp that refuses the far targets as the
+#: construction refuses a lattice past its numbers (a ValueError), and warps all others.
+REFUSED = f"""
+import numpy as np
+from glmls.app.volume_session import VolumeSession
+
+made = VolumeSession._slice
+far = np.array({FAR_DST!r})
+
+def refused_when_far(self, view, field, *, deform=True):
+    if deform and np.allclose(np.asarray(self.controller.dst, float), far):
+        raise ValueError({REFUSAL!r})
+    return made(self, view, field, deform=deform)
+
+VolumeSession._slice = refused_when_far
+"""
 
 
 def test_keys_of_the_image_window_say_they_are_for_images():
@@ -51,8 +69,16 @@ def _planes(volume: np.ndarray, point) -> list[np.ndarray]:
     return [volume[z], volume[:, y], volume[:, :, x].T]
 
 
-def test_a_slice_the_warp_refuses_is_shown_undeformed_and_said(gl):
+def test_a_slice_the_warp_refuses_is_shown_undeformed_and_said(gl, monkeypatch):
     """The warp's ValueError left the frame: the window closed on a drag (exit status 2)."""
+    made = VolumeSession._slice
+
+    def refused_when_far(self, view, field, *, deform=True):
+        if deform and np.allclose(np.asarray(self.controller.dst, float), FAR_DST):
+            raise ValueError(REFUSAL)
+        return made(self, view, field, deform=deform)
+
+    monkeypatch.setattr(VolumeSession, "_slice", refused_when_far)
     rng = np.random.default_rng(3)
     volume = rng.integers(0, 256, FLAT, dtype=np.uint8)
     settings = VolumeSettings(config=glmls.MLSConfig(transform="similarity"), grid=1)
@@ -125,7 +151,9 @@ def test_the_window_stays_open_where_the_warp_refuses_a_slice(tmp_path):
     assert glmls.imread(shot).std() > 10
 
 
-READOUT = """
+READOUT = (
+    REFUSED
+    + """
 import json, sys
 import numpy as np
 from glmls.app.events import Key, Wait
@@ -148,6 +176,7 @@ def keep(a):
 app.run(events=[Wait(1), Key("m"), Wait(1)], frames=4, on_frame=keep)
 print(json.dumps({"lines": lines, "errors": errors}))
 """
+)
 
 
 @pytest.mark.skipif(XVFB is None, reason="xvfb-run is not installed")
