@@ -170,7 +170,8 @@ def _seen_whole(results: list[ImageLabels], batch: BatchInput, method: str) -> l
         )
         starts = np.cumsum([0, *sizes])
         for i, a, b in zip(members, starts[:-1], starts[1:], strict=True):
-            out[i] = results[i]._replace(keypoints=moved[a:b], keypoints_valid=valid[a:b])
+            r = results[i]
+            out[i] = ImageLabels(r.image, r.mask, moved[a:b], valid[a:b], r.map, r.valid)
     return out
 
 
