@@ -58,8 +58,7 @@ def seen_whole(
     at = points.reshape(count, len(RING), 2)
     out = moved.reshape(count, len(RING), 2)
     ok = valid.reshape(count, len(RING))
-    height, width = source
-    inside = np.all((at >= -0.5) & (at < (width - 0.5, height - 0.5)), axis=2)
+    inside = on_canvas(at.reshape(-1, 2), source).reshape(count, len(RING))  # same bounds
     landed = on_canvas(out.reshape(-1, 2), canvas).reshape(count, len(RING))
     cut = (inside & landed & ~ok)[:, 1:].any(axis=1) if hidden else False
     return out[:, 0].copy(), ok[:, 0] & ~cut & ~turned(out)

@@ -229,13 +229,16 @@ def test_augment_takes_and_gives_torch_tensors(gl, rng):
     assert torch.equal(again.images, out.images)
 
 
-def _run_child(code: str, cwd) -> subprocess.CompletedProcess:
+def _run_child(code: str, cwd) -> str:
+    """The stdout of ``code`` run in a fresh process, which must exit with status 0."""
     if importlib.util.find_spec("triton") is None:
         pytest.skip("triton is not installed: no two LLVMs to clash")
     pytest.importorskip("torchvision")
-    return subprocess.run(
+    done = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=cwd
     )
+    assert done.returncode == 0, done.stderr[-2000:]
+    return done.stdout
 
 
 def test_torchvision_imports_after_glmls_first_warp(tmp_path):
@@ -253,9 +256,7 @@ def test_torchvision_imports_after_glmls_first_warp(tmp_path):
         "again = glmls.warp(image, [[1, 1]], [[2, 2]])\n"
         "print(tuple(out.shape), again.shape)\n"
     )
-    done = _run_child(code, tmp_path)
-    assert done.returncode == 0, done.stderr[-2000:]
-    assert "(1, 16, 16) (8, 8)" in done.stdout
+    assert "(1, 16, 16) (8, 8)" in _run_child(code, tmp_path)
 
 
 def test_another_librarys_gl_context_first_is_an_import_error(tmp_path):
@@ -272,6 +273,5 @@ def test_another_librarys_gl_context_first_is_an_import_error(tmp_path):
         "    print(error); sys.exit(0)\n"
         "sys.exit(3)\n"
     )
-    done = _run_child(code, tmp_path)
-    assert done.returncode == 0, done.stderr[-2000:]
-    assert "no clash here" in done.stdout or "before the process makes its first" in done.stdout
+    out = _run_child(code, tmp_path)
+    assert "no clash here" in out or "before the process makes its first" in out
