@@ -25,7 +25,8 @@ image (all its threads; steadier than wall time where other jobs share the machi
 Peak memory: ``warp_batch`` of the largest batch at 224 x 224 with labels, measured alone in a
 fresh process (its ``VmHWM``, the whole footprint: Python, numpy, the GL driver, the batch's
 input and output arrays). The threads: the CPU count, OpenCV's and torch's thread counts
-and llvmpipe's ``LP_NUM_THREADS`` when set. ``--quick`` runs glmls alone at one batch of 64,
+and llvmpipe's ``LP_NUM_THREADS`` when set (``--peer-threads N`` caps OpenCV's and torch's
+at N, as for a data loader's worker). ``--quick`` runs glmls alone at one batch of 64,
 once (``benchmarks/gpu_check.sh``).
 """
 
@@ -207,6 +208,23 @@ def threads() -> dict[str, object]:
     return found
 
 
+def limit_peer_threads(count: int) -> None:
+    """Cap OpenCV's and torch's thread pools (albumentations runs on OpenCV) at ``count``;
+    llvmpipe, which renders glmls's passes, keeps its own threads."""
+    try:
+        import cv2
+
+        cv2.setNumThreads(count)
+    except ImportError:
+        pass
+    try:
+        import torch
+
+        torch.set_num_threads(count)
+    except ImportError:
+        pass
+
+
 def peak_memory(count: int) -> float:
     """MiB: the peak resident memory (``VmHWM``) of a fresh process that runs one labelled
     ``warp_batch`` of ``count`` (``ru_maxrss`` would count the parent's memory at the fork)."""
@@ -240,8 +258,15 @@ def main(argv: list[str] | None = None) -> int:
         default=KEYPOINTS,
         help="keypoints per image (the peers' time grows with them: compare at yours)",
     )
+    parser.add_argument(
+        "--peer-threads",
+        type=int,
+        help="threads OpenCV and torch may use for the peers (default: their own choice)",
+    )
     parser.add_argument("--json", help="also write the results to this file")
     args = parser.parse_args(argv)
+    if args.peer_threads is not None:
+        limit_peer_threads(args.peer_threads)
     batches, repeat = ([64], 1) if args.quick else (args.batches, args.repeat)
     rows = []
     for name in args.workloads:
