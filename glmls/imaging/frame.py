@@ -351,12 +351,14 @@ def border_margin(
     Derived from the deformation: 0 where the image's own deformed border already encloses
     the frame; else, starting from the border's largest displacement plus the frame's
     overhang past the image, doubled until the deformed border encloses the frame (f is
-    evaluated on the border only). The search stops at the overhang plus twice the image's
-    larger side, and where the extended mesh would have more than :data:`MARGIN_POINTS`
-    points (or twice the image's and the canvas's pixels together); if the border then still
-    does not enclose the canvas (a canvas far from the image, or a map that shrinks the plane
-    that much) the rest keeps the background, with a :class:`~glmls.errors.BorderWarning`
-    where ``warn`` (the backward methods, which only start Newton there, do not warn).
+    evaluated on the border only). The search stops where the extended mesh would have more
+    than :data:`MARGIN_POINTS` points (or twice the image's and the canvas's pixels
+    together), and as soon as the deformed border's box, growing with the margin twice as
+    fast as it grew so far, could not reach the canvas's box within that budget (a canvas far
+    from the image, a map that collapses the plane); a border whose box then misses the
+    canvas altogether gets no margin. Where the border does not enclose the canvas, the
+    pixels beyond keep the background, with a :class:`~glmls.errors.BorderWarning` where
+    ``warn`` (the backward methods, which only start Newton there, do not warn).
     ``max_points``: that budget of mesh points instead (at grid 1), for a frame that is not
     drawn pixel by pixel (the first guess of f's inverse at scattered points).
 
@@ -419,17 +421,19 @@ def search_margins(
     inside = encloses_all(deformed, low, high)
     budget = max(MARGIN_POINTS, 2 * (height * width + frame.pixels))
     points = (budget if max_points is None else max_points) * grid * grid
-    reach = max(grid, _margin_within(height, width, points) // grid * grid)
-    limit = min(MAX_MARGIN, _round_up(overhang + 2 * max(height, width), grid), reach)
+    reach = min(MAX_MARGIN, max(grid, _margin_within(height, width, points) // grid * grid))
     margins = [0] * count
     finite = np.isfinite(deformed).all(axis=(1, 2))
     moved = np.abs(deformed - ring).max(axis=(1, 2), initial=0.0)
+    # each map's last evaluated margin and its deformed border's box: how fast the box grows
+    # with the margin tells whether the budget's reach could ever enclose the frame
+    seen = [(0, *_box(deformed[k])) for k in range(count)]
     for k in range(count):
         if inside[k]:
             found[k] = (0, True)
         else:
             step = float(moved[k]) if finite[k] else 0.0
-            margins[k] = min(limit, _round_up(step + overhang + 1, grid))
+            margins[k] = min(reach, _round_up(step + overhang + 1, grid))
     rings: dict[int, np.ndarray] = {}
     while True:
         active = [k for k in range(count) if found[k] is None]
@@ -448,10 +452,66 @@ def search_margins(
             alike = [k for k in active if evaluated[k] == margin]
             inside = encloses_all(np.stack([values[k] for k in alike]), low, high)  # type: ignore[misc]
             for k, covered in zip(alike, inside.tolist(), strict=True):
-                if covered or margin >= limit:
-                    found[k] = (margin, covered)
+                value = values[k]
+                assert value is not None
+                box = _box(value)
+                if covered:
+                    found[k] = (margin, True)
+                elif margin >= reach or not _gains(seen[k], (margin, *box), reach, low, high):
+                    # a border whose box misses the frame covers none of it: no margin then
+                    found[k] = (margin if _meets(box, low, high) else 0, False)
                 else:
-                    margins[k] = min(limit, 2 * margin)
+                    seen[k] = (margin, *box)
+                    margins[k] = min(reach, 2 * margin)
+
+
+def _box(ring: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The (low, high) corners of a deformed border's points; non-finite points stand
+    nowhere (an empty box)."""
+    finite = np.isfinite(ring).all(axis=1)
+    if not finite.any():
+        return np.full(2, np.inf), np.full(2, -np.inf)
+    kept = ring[finite]
+    return kept.min(axis=0), kept.max(axis=0)
+
+
+def _meets(box: tuple[np.ndarray, np.ndarray], low: np.ndarray, high: np.ndarray) -> bool:
+    return bool((box[0] <= high).all() and (box[1] >= low).all())
+
+
+#: How far (pixels per pixel of margin) a deformed border's box must move out for the margin
+#: search to count it as grown: float32's noise in f moves the border of a map that
+#: collapses the plane, and a map that shrinks the plane a thousandfold is one.
+BOX_GROWTH = 1e-3
+
+
+def _gains(before: tuple, now: tuple, reach: int, low: np.ndarray, high: np.ndarray) -> bool:
+    """Whether a larger margin may cover more of the frame (box ``low``, ``high``), judged by
+    the deformed border's box, grown from ``before`` to ``now`` ((margin, low, high) each):
+    it holds the frame and still grows, or its part in the frame grew, or, still outside the
+    frame, growing on twice as fast as it did up to ``reach`` it would meet it. A map that
+    collapses the plane (a box that stopped growing) or a canvas far from anything the
+    budget's mesh could reach ends the search."""
+    (m0, low0, high0), (m1, low1, high1) = before, now
+    if not (np.isfinite(low1).all() and np.isfinite(high1).all()):
+        return False
+    if not (np.isfinite(low0).all() and np.isfinite(high0).all()) or m1 <= m0:
+        return True
+    least = BOX_GROWTH * (m1 - m0)
+    if not ((low0 - low1 > least).any() or (high1 - high0 > least).any()):
+        return False
+    if (low1 <= low).all() and (high1 >= high).all():
+        return True  # the box holds the frame: the border's shape decides
+    if _meets((low1, high1), low, high):
+        in0 = np.maximum(low0, low), np.minimum(high0, high)
+        in1 = np.maximum(low1, low), np.minimum(high1, high)
+        if not _meets((low0, high0), low, high):
+            return True
+        return bool((in0[0] - in1[0] > least).any() or (in1[1] - in0[1] > least).any())
+    rest = 2.0 * (reach - m1) / (m1 - m0)
+    out_low = low1 - (low0 - low1).clip(0.0) * rest
+    out_high = high1 + (high1 - high0).clip(0.0) * rest
+    return _meets((out_low, out_high), low, high)
 
 
 def _margin_within(height: int, width: int, pixels: int) -> int:

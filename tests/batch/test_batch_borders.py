@@ -124,9 +124,9 @@ def test_margins_are_the_single_warps(gl, rng):
 
 
 def test_a_canvas_the_mesh_cannot_cover_warns_naming_the_image(gl, rng, monkeypatch):
-    """A map that shrinks the plane and a canvas 100 px off the image: the largest margin
-    leaves part of it uncovered, a BorderWarning names each image, and the pixels equal the
-    single warps'."""
+    """A map that shrinks the plane and a canvas 100,000 px off the image: no margin within
+    the budget covers it, a BorderWarning names each image, and the pixels equal the single
+    warps'."""
     batch, src, dst = draw(rng, 3)
     dst = [p * 0.3 + 3.0 for p in src]
     options = {
@@ -134,7 +134,7 @@ def test_a_canvas_the_mesh_cannot_cover_warns_naming_the_image(gl, rng, monkeypa
         "transform": "similarity",
         "grid": 4,
         "output_shape": (10, 10),
-        "origin": (-100.0, 0.0),
+        "origin": (-1e5, 0.0),
     }
     calls = counting(monkeypatch)
     with warnings.catch_warnings(record=True) as caught:

@@ -307,3 +307,45 @@ def test_the_margin_is_searched_once_per_upload(gl, monkeypatch):
         for _ in range(2):
             with pytest.warns(glmls.BorderWarning, match="does not cover the whole canvas"):
                 m.warp(image, border="edge", **far)
+
+
+@pytest.mark.parametrize("method", ["quads", "backward"])
+@pytest.mark.parametrize("mode", ["edge", "wrap", "reflect"])
+@pytest.mark.parametrize("move", ["shift", "shrink"])
+def test_far_maps_fill_the_canvas_by_the_rule(gl, method, mode, move):
+    """A translation by six image widths and a tenfold shrink: the mesh reaches as far as
+    the border's move asks (within the budget), so every pixel follows the border rule,
+    as scipy.ndimage samples the source at f's exact inverse (nearest)."""
+    shape = (40, 50)
+    image = textured(shape, channels=1)[..., 0]
+    src = np.array([[5.0, 5.0], [45.0, 5.0], [5.0, 35.0], [45.0, 35.0]])
+    centre = np.array([24.3, 19.6])  # no pixel's preimage on a half-integer (a tie)
+    if move == "shift":
+        dst = src + [300.0, -7.0]
+    else:
+        dst = centre + (src - centre) * 0.1
+    with glmls.MLS(src, dst, transform="affine") as m:
+        out = m.warp(image, method=method, border=mode)
+    rows, cols = np.mgrid[0 : shape[0], 0 : shape[1]].astype(np.float64)
+    if move == "shift":
+        x, y = cols - 300.0, rows + 7.0
+    else:
+        x, y = centre[0] + (cols - centre[0]) * 10.0, centre[1] + (rows - centre[1]) * 10.0
+    want = ndimage.map_coordinates(image, [y, x], order=0, mode=SCIPY_MODES[mode])
+    np.testing.assert_array_equal(out, want)
+
+
+def test_the_margin_search_stops_where_no_margin_helps(gl):
+    """A map that collapses the plane to a point and a canvas 10^6 px off the image: the
+    search ends after a step or two instead of growing the mesh to its budget (millions of
+    points), and says so."""
+    shape = (64, 64)
+    lattice = MeshLattice.corners(shape, 1)
+    src = np.array([[5.0, 5.0], [58.0, 5.0], [5.0, 58.0], [58.0, 58.0]])
+    with glmls.MLS(src, np.full_like(src, 30.0), transform="affine") as collapse:
+        with pytest.warns(glmls.BorderWarning, match="does not cover"):
+            assert border_margin(collapse.kernel, lattice, Frame(shape)) <= 64
+    with glmls.MLS(src, src + 1.0, transform="affine") as moved:
+        far = Frame((10, 10), (-1e6, 0.0))
+        with pytest.warns(glmls.BorderWarning, match="reaches 0 px"):
+            assert border_margin(moved.kernel, lattice, far) == 0
