@@ -41,7 +41,8 @@ class BatchResult:
         f's inverse there, whose nearest source pixel is not always the one that their
         forward pass drew.
     valid : numpy.ndarray or list of numpy.ndarray or None
-        (N, H, W) bool: the output pixels that some source pixel covers (with ``maps``).
+        (N, H, W) bool: the output pixels that some source pixel covers (with ``maps``);
+        not those that show a border mode's copies past the source image.
     params : object or None
         Per-sample parameters that a caller attaches (e.g. the random draws of an
         augmentation); :func:`glmls.warp_batch` leaves it None.

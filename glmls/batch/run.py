@@ -16,6 +16,7 @@ from .chunks import warp_chunks
 from .footprints import RING, footprint_radius, seen_whole, with_footprints
 from .gpu import batchable
 from .inputs import BatchInput, check_batch, item_array, stack_or_list
+from .labels import on_canvas
 from .result import BatchResult
 from .single import ImageLabels, SingleWarper
 
@@ -147,6 +148,9 @@ def warp_batch(
     ]
     if batch.keypoints is not None:
         results = _seen_whole(results, batch, chosen.method)
+    if return_maps and chosen.border != "constant":
+        shapes = [image.shape[:2] for image in batch.images]
+        results = [_on_source(r, shape) for r, shape in zip(results, shapes, strict=True)]
     result = _assemble(given, results, return_maps, whole)
     return _bool_masks_back(result, binary)
 
@@ -173,6 +177,22 @@ def _seen_whole(results: list[ImageLabels], batch: BatchInput, method: str) -> l
             r = results[i]
             out[i] = ImageLabels(r.image, r.mask, moved[a:b], valid[a:b], r.map, r.valid)
     return out
+
+
+def _on_source(result: ImageLabels, shape: tuple[int, int]) -> ImageLabels:
+    """``result`` with ``valid`` kept to the pixels whose source point lies on the source
+    image of ``shape``: a border mode's copies beyond the image show no source pixel there."""
+    if result.map is None or result.valid is None:
+        return result
+    inside = on_canvas(result.map.reshape(-1, 2), shape).reshape(result.valid.shape)
+    return ImageLabels(
+        result.image,
+        result.mask,
+        result.keypoints,
+        result.keypoints_valid,
+        result.map,
+        result.valid & inside,
+    )
 
 
 def _bytes_of_bool_masks(masks: object) -> tuple[object, list[bool] | None]:

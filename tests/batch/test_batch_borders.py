@@ -300,3 +300,21 @@ def test_images_whose_margin_searches_double_past_each_other(gl, method):
     out = glmls.warp_batch(images, src, dst, **options)
     for k in range(2):
         assert_array_equal(out[k], glmls.warp(images[k], src[k], dst[k], **options))
+
+
+@pytest.mark.parametrize("method", ["quads", "backward", "splat"])
+@pytest.mark.parametrize("border", BORDERS)
+def test_valid_pixels_show_the_source_not_its_border_copies(gl, method, border):
+    """With a border mode the pixels whose source point lies beyond the image show the
+    border rule's copies: shown, but not covered by a source pixel, so not valid; the valid
+    pixels are those whose map lies on the image and that some source pixel covers."""
+    image = np.full((1, 20, 30), 9, np.uint8)
+    src = np.array([[[2.0, 2.0], [27.0, 2.0], [2.0, 17.0], [27.0, 17.0]]])
+    dst = src + [8.0, 0.0]  # a translation: columns 0..7 show copies of the border
+    got = glmls.warp_batch(image, src, dst, return_maps=True, method=method, border=border)
+    assert (got.images[0] == 9).all()  # every pixel shown
+    want = np.zeros((20, 30), bool)
+    want[:, 8:] = True
+    assert_array_equal(got.valid[0], want)
+    with_constant = glmls.warp_batch(image, src, dst, return_maps=True, method=method)
+    assert_array_equal(with_constant.valid[0], want)
