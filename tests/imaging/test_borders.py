@@ -349,3 +349,20 @@ def test_the_margin_search_stops_where_no_margin_helps(gl):
         far = Frame((10, 10), (-1e6, 0.0))
         with pytest.warns(glmls.BorderWarning, match="reaches 0 px"):
             assert border_margin(moved.kernel, lattice, far) == 0
+
+
+def test_backward_beyond_the_mesh_reach_follows_the_rule(gl):
+    """A similarity that shrinks a 512 x 512 image tenfold: the preimages of the canvas's
+    outer pixels lie beyond the mesh that the budget allows, so Newton starts from the
+    pixels themselves and must step as far as it asks; every pixel follows the border rule
+    (scipy.ndimage at the exact inverse, nearest)."""
+    n = 512
+    image = np.random.default_rng(1).integers(1, 255, (n, n), dtype=np.uint8)
+    centre = np.array([255.3, 255.6])
+    src = np.array([[100.0, 100.0], [400.0, 100.0], [100.0, 400.0], [400.0, 400.0]])
+    with glmls.MLS(src, centre + (src - centre) * 0.1, transform="similarity") as m:
+        out = m.warp(image, method="backward", border="edge")
+    rows, cols = np.mgrid[0:n, 0:n].astype(np.float64)
+    at = [centre[1] + (rows - centre[1]) * 10.0, centre[0] + (cols - centre[0]) * 10.0]
+    want = ndimage.map_coordinates(image, at, order=0, mode="nearest")
+    np.testing.assert_array_equal(out, want)

@@ -201,7 +201,11 @@ void main() {
     vec4 guess = imageLoad(u_map, at);
     vec2 s = guess.z > 0.5 ? (guess.xy - u_center) / u_scale : u;
     float residual;
-    s = warp_newton(s, u, u_tolerance / u_scale, 0.2, residual);   // a tenth of the image
+    // steps of at most a tenth of the image from the mesh's guess; from u itself (beyond the
+    // mesh's reach, where f is close to its far-field fit) as long as Newton asks: a map that
+    // shrinks the plane tenfold puts u's preimage ten times as far out
+    float max_step = guess.z > 0.5 ? 0.2 : 1e30;
+    s = warp_newton(s, u, u_tolerance / u_scale, max_step, residual);
     bool converged = residual <= warp_accept(u_accept, u_accept_steps, u, s);
     bool covered = converged && warp_inside(s, 0.0);
     // listed for the second pass: no preimage found, or one outside the source where
