@@ -26,6 +26,7 @@ from .core.handles3 import (
     as_points3,
     as_volume_shape,
     as_volume_spacing,
+    fit_offset3,
     fit_scaling3,
     validate_handles3,
     volume_extent,
@@ -179,11 +180,19 @@ class MLS3(MLS):
 
     def _store3(self, p: np.ndarray, q: np.ndarray) -> None:
         if not forked_from_gl():  # there the helper's MLS takes them
-            scaling = fit_scaling3(p, q, self.shape, self.spacing)  # type: ignore[arg-type]
+            # far targets' common translation stays out of float32 (fit_offset3); not for a
+            # weight of bounded reach, whose f is the identity, not v + t, beyond the handles
+            offset = (
+                np.zeros(3)
+                if self.config.weight_entry.support == "radius"
+                else fit_offset3(p, q, self.shape, self.spacing)  # type: ignore[arg-type]
+            )
+            near = q - offset
+            scaling = fit_scaling3(p, near, self.shape, self.spacing)  # type: ignore[arg-type]
             if len(p):
                 check_gpu_spread(float(np.ptp(p, axis=0).max()), scaling.scale)
-            check_gpu_distinct(p, q, scaling.to_gpu(p), lambda: scaling.to_gpu(q), scaling.scale)
-            self._kernel.upload(p, q, scaling)  # type: ignore[call-arg, arg-type]
+            check_gpu_distinct(p, q, scaling.to_gpu(p), lambda: scaling.to_gpu(near), scaling.scale)
+            self._kernel.upload(p, q, scaling, offset)  # type: ignore[call-arg, arg-type]
         p.setflags(write=False)
         q.setflags(write=False)
         self._p, self._q = p, q
@@ -344,7 +353,13 @@ class MLS3(MLS):
                 shape=self._extent,  # type: ignore[arg-type]
                 storage=self._storage_name,
             )
-            swapped.upload(self._q, self._p, self.scaling)
+            # q -> p in the frame of q - t: the forward kernel's, moved by its offset t
+            offset = self.kernel.offset
+            scaling = self.scaling
+            if offset.any():
+                center = tuple(float(c) for c in np.add(scaling.center, offset))
+                scaling = Scaling(center, scaling.scale)  # type: ignore[arg-type]
+            swapped.upload(self._q, self._p, scaling, -offset)
             self._owns(swapped)
             self._swapped = swapped  # type: ignore[assignment]
         return self._swapped  # type: ignore[return-value]
@@ -748,12 +763,13 @@ class InverseMLS3(InverseMLS):
         guess, _ = evaluate_points3(m.swapped_kernel(), points)  # type: ignore[arg-type]
         s, residual = invert_points3(m.kernel, points, guess)  # type: ignore[arg-type]
         unit = length_unit(m.kernel)  # type: ignore[arg-type]
-        valid = residual <= accept_residual(m.scaling, points, s, unit=unit)
+        targets = points - m.kernel.offset  # u in the GPU's frame of the targets
+        valid = residual <= accept_residual(m.scaling, targets, s, unit=unit)
         if not valid.all():
             missed = np.flatnonzero(~valid)
             s[missed], residual[missed] = self._from_lattice(points[missed], s[missed])
             valid[missed] = residual[missed] <= accept_residual(
-                m.scaling, points[missed], s[missed], unit=unit
+                m.scaling, targets[missed], s[missed], unit=unit
             )
         s[~valid] = np.nan
         return s, valid

@@ -38,7 +38,7 @@ import numpy as np
 
 from .singular3 import cross3, det_and_extremes, dot3
 from .stats import error_stats
-from .volume_field import Deformation3D, precision, volume_deformation
+from .volume_field import Deformation3D, precision, target_offset, volume_deformation
 from .volume_lattice import (
     FLAT_ULPS,
     as_volume_shape,
@@ -339,11 +339,16 @@ def cell_jacobians(
     z, y, x = (axis_corners(n, step) * d for n, d in zip(dims, (dz, dy, dx), strict=True))
     cells = (len(z) - 1, len(y) - 1, len(x) - 1)
     det, ratio, min_det = np.empty(cells), np.empty(cells), np.empty(cells)
+    # f less the GPU's offset of far targets (exact: the offset is whole units): its
+    # rounding, and so the flatness tolerance, is that of the map near its sources
+    offset = target_offset(m)
     # slabs of cells along z, each with its two planes of corners: bounded memory
     slab = max(1, SLAB_POINTS // (len(y) * len(x)))
     for start in range(0, cells[0], slab):
         planes = z[start : start + slab + 1]
         values = evaluate(m, lattice_points(planes, y, x), 3)
+        if offset.any():
+            values -= offset
         values = values.reshape(len(planes), len(y), len(x), 3)
         part = slice(start, start + len(planes) - 1)
         det[part], ratio[part], min_det[part] = cell_quantities(

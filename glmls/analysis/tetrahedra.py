@@ -41,7 +41,7 @@ from .triangles import (
     qhull_simplices,
     unit_scaled,
 )
-from .volume_field import precision
+from .volume_field import precision, target_offset
 from .volume_lattice import as_points3, check_three_d, flat_triples
 
 __all__ = [
@@ -427,8 +427,14 @@ def tetrahedron_errors(
         )
     deformed = deformed_points(m, r)
     kept = simplices[~sliver]
+    # the errors do not change with a translation of f(r); less the GPU's offset of far
+    # targets, f(r) has the rounding of a map near its sources, which the flatness counts
     distance, errors, inverted = tetrahedron_errors_from_points(
-        *unit_scaled(r, deformed), kept, angle=measure, eps=eps, rounding=precision(m)
+        *unit_scaled(r, deformed - target_offset(m)),
+        kept,
+        angle=measure,
+        eps=eps,
+        rounding=precision(m),
     )
     quality, slivers = quality[~sliver], simplices[sliver]
     for array in (r, deformed, kept, distance, errors, inverted, quality, slivers):

@@ -40,6 +40,7 @@ __all__ = [
     "KernelDeformation",
     "ReferenceDeformation",
     "precision",
+    "target_offset",
     "volume_deformation",
     "volume_error_field",
 ]
@@ -244,6 +245,18 @@ def precision(m: object) -> float:
     other functions."""
     gpu = isinstance(m, KernelDeformation) or isinstance(getattr(m, "kernel", None), MLSKernel3)
     return float(np.finfo(np.float32 if gpu else np.float64).eps)
+
+
+def target_offset(m: object) -> np.ndarray:
+    """(3,) float64: the translation of the targets that the GPU kernel of a
+    :class:`glmls.MLS` computes f without, adding it back in float64
+    (:attr:`~glmls.engine.kernel3.MLSKernel3.offset`, for targets far from their sources):
+    f - offset has the float32 rounding of a map near its sources, which the analyses'
+    flatness tolerances count. Zeros for the float64 reference and other functions."""
+    kernel = m._kernel if isinstance(m, KernelDeformation) else getattr(m, "kernel", None)
+    if isinstance(kernel, MLSKernel3):
+        return np.array(kernel.offset, dtype=np.float64)
+    return np.zeros(3)
 
 
 def volume_deformation(m: Deformation3D, shape: Sequence[int], spacing: object) -> Deformation3D:

@@ -23,6 +23,7 @@ __all__ = [
     "as_volume_spacing",
     "chosen_spacing",
     "dimension_of",
+    "fit_offset3",
     "fit_scaling3",
     "no_radius3",
     "planar_spacing",
@@ -274,3 +275,34 @@ def fit_scaling3(
     # a power of 2: displacements q - p of a few voxels scale exactly (translations stay exact)
     scale = 2.0 ** math.ceil(math.log2(max(float((hi - lo).max()) / 2, 1.0)))
     return Scaling(tuple(float(c) for c in center), scale)  # type: ignore[arg-type]
+
+
+#: The target offset of :func:`fit_offset3` is taken where it makes the GPU's scale at least
+#: this many times finer: for a map whose targets lie far from its sources, not for the
+#: displacements of a few voxels of a usual warp (whose float32 results then stay bit for bit).
+OFFSET_GAIN = 4.0
+
+
+def fit_offset3(
+    src: np.ndarray,
+    dst: np.ndarray,
+    shape: tuple[int, int, int] | None = None,
+    spacing: tuple[float, float, float] | None = None,
+) -> np.ndarray:
+    """The translation t (3,) float64, whole handle units, that the GPU takes off the targets
+    (it holds q - t, :func:`fit_scaling3` fits the box of p, q - t and the volume, and t is
+    added back to f in float64). MLS is translation-equivariant where f is a fit of the
+    handles (targets q + t give f + t exactly; a weight of bounded reach leaves the identity
+    beyond them, and the caller gives it no offset), so targets far from their sources (say
+    1e5 units off) keep float32's precision of the sources' box instead of that of the whole
+    span. t is the rounded difference of the centres of the targets' and the sources' boxes
+    where that makes the scale at least :data:`OFFSET_GAIN` times finer, else 0."""
+    if len(src) == 0:
+        return np.zeros(3)
+    centre = (src.min(axis=0) + src.max(axis=0)) / 2
+    offset = np.round((dst.min(axis=0) + dst.max(axis=0)) / 2 - centre)
+    if not offset.any():
+        return np.zeros(3)
+    whole = fit_scaling3(src, dst, shape, spacing).scale
+    moved = fit_scaling3(src, dst - offset, shape, spacing).scale
+    return offset if moved * OFFSET_GAIN <= whole else np.zeros(3)

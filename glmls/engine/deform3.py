@@ -112,8 +112,11 @@ def deform_mesh3(
         out = scratch.staging("records3", (count, RECORD), np.float32)
         records.read_into(out, size=out.nbytes)
     det = out[:, 15]
+    deformed = vertices + out[:, 0:3] * kernel.scaling.scale
+    if kernel.offset.any():  # the targets' offset, in float64 (MLSKernel3.offset)
+        deformed += kernel.offset
     return DeformedMesh(
-        vertices=vertices + out[:, 0:3] * kernel.scaling.scale,
+        vertices=deformed,
         faces=faces,
         normals=out[:, 12:15].astype(np.float64),
         jacobian=out[:, 3:12].astype(np.float64).reshape(count, 3, 3),

@@ -61,6 +61,9 @@ class MLSKernel3:
         self.config = config
         self.shape = shape
         self.scaling = Scaling((0.0, 0.0, 0.0), 1.0)  # type: ignore[arg-type]
+        #: t (3,) float64, handle units: the GPU holds the targets q - t
+        #: (:func:`~glmls.core.handles3.fit_offset3`), f read back gets t added in float64.
+        self.offset = np.zeros(3)
         self.extent = 0.0
         self._storage_request = storage
         self._storage: HandleStorage | None = None
@@ -71,15 +74,25 @@ class MLSKernel3:
         self.scratch = Resources(gl, "this MLS")
         self._released = False
 
-    def upload(self, src: np.ndarray, dst: np.ndarray, scaling: Scaling) -> None:
+    def upload(
+        self,
+        src: np.ndarray,
+        dst: np.ndarray,
+        scaling: Scaling,
+        offset: np.ndarray | None = None,
+    ) -> None:
         """Put validated (N, 3) handles ``src`` -> ``dst`` on the GPU in the coordinates of
-        ``scaling``. On error (too many handles for the storage) nothing changes."""
+        ``scaling``, the targets less ``offset`` (3,) (None: 0), which every f read back
+        and every f in voxels of the shaders gets added. On error (too many handles for the
+        storage) nothing changes."""
         self.check_alive()
+        shift = np.zeros(3) if offset is None else np.asarray(offset, np.float64).reshape(3)
         count = len(src)
         slots = unroll_slots3(count)
         rows = np.zeros((2 * max(count, slots, 1), 4), np.float32)
         rows[0 : 2 * count : 2, :3] = scaling.to_gpu(src)
-        rows[1 : 2 * count : 2, :3] = (dst - src) / scaling.scale  # e = q - p, 0 if q = p
+        # e = q - t - p, 0 if q - t = p
+        rows[1 : 2 * count : 2, :3] = ((dst - shift) - src) / scaling.scale
         with self.gl.use():
             name = resolve_storage(self._storage_request, self.gl.mgl, len(rows))
             storage = self._storage
@@ -98,10 +111,10 @@ class MLSKernel3:
                     self._storage.release()
                 self._storage = storage
             storage.upload(rows)
-        self._rows, self._count, self.scaling = rows, count, scaling
+        self._rows, self._count, self.scaling, self.offset = rows, count, scaling, shift
         #: The handles' sources p, (N, 3) float64 in their units.
         self.sources = np.array(src, dtype=np.float64).reshape(-1, 3)
-        both = np.concatenate([src, dst]) if count else np.zeros((1, 3))
+        both = np.concatenate([src, dst - shift]) if count else np.zeros((1, 3))
         #: half the largest side of the handles' box, in their units
         self.extent = float((both.max(axis=0) - both.min(axis=0)).max()) / 2
 
@@ -161,6 +174,7 @@ class MLSKernel3:
             "u_mls3_count": self._count,
             "u_mls3_center": tuple(float(c) for c in scaling.center),
             "u_mls3_scale": float(scaling.scale),
+            "u_mls3_offset": tuple(float(c) for c in self.offset),
         }
 
     def program(

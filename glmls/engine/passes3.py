@@ -153,7 +153,8 @@ def evaluate_points3(
     shape: tuple[int, int, int] | None = None,
     max_groups: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
-    """f at ``points`` ((K, 3) float64 voxels) as (K, 3) float64, with M (``output=
+    """f at ``points`` ((K, 3) float64 voxels) as (K, 3) float64 (the kernel's
+    :attr:`~glmls.engine.kernel3.MLSKernel3.offset` added in float64), with M (``output=
     "matrix"``) or the Jacobian J = df/dv (``"jacobian"``, central differences of
     :data:`JACOBIAN_STEP` voxels, J[r, c] = d f_c / d v_r) as (K, 3, 3) float64, else None.
     ``shape``: the volume whose diagonal is the default radius (None: the kernel's own).
@@ -178,8 +179,11 @@ def evaluate_points3(
         run_points3(kernel, count, output=output, shape=shape, max_groups=groups)
         kernel.gl.mgl.memory_barrier()
         d = np.frombuffer(f_out.read(size=count * 12), np.float32).reshape(count, 3)
-        # f = v + (f - v): v keeps its float64 digits, and f is v itself where d is 0
+        # f = v + (f - v): v keeps its float64 digits, and f is v itself where d is 0; the
+        # targets' offset is added in float64 (MLSKernel3.offset)
         f = points + d.astype(np.float64) * kernel.scaling.scale
+        if kernel.offset.any():
+            f += kernel.offset
         if output == "f":
             return f, None
         m = np.frombuffer(scratch.cached("M3").read(size=count * 36), np.float32)
@@ -268,7 +272,9 @@ def invert_points3(
     with kernel.gl.use():
         program = kernel.program(INVERSE3_PASS)
         scratch = kernel.scratch
-        data = np.concatenate([scaling.to_gpu(points), scaling.to_gpu(guess)], axis=1)
+        # the GPU's f is that of the targets less the kernel's offset: so are the u it meets
+        targets = points - kernel.offset if kernel.offset.any() else points
+        data = np.concatenate([scaling.to_gpu(targets), scaling.to_gpu(guess)], axis=1)
         source = scratch.buffer("inverse3", count * 24)
         source.write(np.ascontiguousarray(data, dtype=np.float32))
         source.bind_to_storage_buffer(bindings.POINTS.index)

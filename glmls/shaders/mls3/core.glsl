@@ -17,7 +17,10 @@
 // vectors, the paper's convention): the mathematical M[i][j] is the GLSL M[j][i].
 //
 // Handles: two rows of the handle storage (mls/handles.glsl) each, (p, 0) then (e, 0) with
-// e = q - p, scaled; u_mls3_count of them. Defines (MLSKernel3.defines): those of
+// e = q - t - p, scaled; u_mls3_count of them. t = u_mls3_offset (voxels, MLSKernel3.offset)
+// takes far targets' common translation out of float32: f and d here are those of the
+// targets q - t, and f in voxels is v + d * scale + t (exact for MLS, which moves with its
+// targets). Defines (MLSKernel3.defines): those of
 // mls/weighting.glsl, MLS_TRANSFORM, MLS_STORAGE (and its own), MLS3_UNROLL (0, 16 or 64:
 // at most that many handles, read at constant indices, the slots past u_mls3_count zeros).
 
@@ -28,6 +31,7 @@
 uniform int u_mls3_count;        // handles
 uniform vec3 u_mls3_center;      // scaled = (voxel - center) / scale
 uniform float u_mls3_scale;
+uniform vec3 u_mls3_offset;      // voxels: f = v + d * scale + offset
 
 struct MLS3Result {
     vec3 f;   // f(v), scaled
@@ -628,5 +632,5 @@ void mls3(vec3 v, out mat3 M, out vec3 T) {
 
 // f in voxels: v + (f - v), so that the identity returns v itself
 vec3 mls3_f_voxels(vec3 voxel) {
-    return voxel + mls3_eval(mls3_to_scaled(voxel)).d * u_mls3_scale;
+    return voxel + (mls3_eval(mls3_to_scaled(voxel)).d * u_mls3_scale + u_mls3_offset);
 }

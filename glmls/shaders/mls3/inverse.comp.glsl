@@ -1,9 +1,9 @@
-// f's inverse at a list of points u (scaled): Newton's method on f(s) = u from a first guess
-// s0 (the caller's: the MLS with p and q swapped, at u), then, where that does not converge,
-// from u itself. Each step s -= (f(s) - u) J^-1, J = df/dv by central differences (row
-// vectors), its length capped at u_max_step (u_max_step |s| / u_far beyond u_far) and
-// halved where it raises the residual; it stops below u_tolerance. Writes s (scaled)
-// and |f(s) - u| (scaled), 4 floats per point.
+// f's inverse at a list of points u (scaled, less u_mls3_offset as f here): Newton's method
+// on f(s) = u from a first guess s0 (the caller's: the MLS with p and q swapped, at u), then,
+// where that does not converge, from u itself. Each step s -= (f(s) - u) J^-1, J = df/dv by
+// central differences (row vectors), its length capped at u_max_step (u_max_step |s| / u_far
+// beyond u_far) and halved where it raises the residual; it stops below u_tolerance. Writes
+// s (scaled) and |f(s) - u| (scaled), 4 floats per point.
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "mls3/core.glsl"

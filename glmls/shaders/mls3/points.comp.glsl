@@ -2,7 +2,8 @@
 // lattice: point (i, j, k) is u_lattice3_origin + (i, j, k) * u_lattice3_step (scaled), item
 // index i + nx (j + ny k), and this run writes items u_first .. u_first + u_count - 1 from
 // output index 0. Outputs, tightly packed float32 (std430 float arrays):
-//   a list: f(v) - v (scaled; the caller adds v in float64), 3 floats per point;
+//   a list: f(v) - v (scaled, of the targets less u_mls3_offset; the caller adds v and the
+//     offset in float64), 3 floats per point;
 //   a lattice: f(v) in voxels, 3 floats per point;
 //   MLS3_WRITE_MATRIX: M row by row (the mathematical M[i][j] at 9 i + 3 r + c), 9 floats;
 //   MLS3_WRITE_JACOBIAN: J = df/dv by central differences of step mls3_jacobian_step(v) (scaled),
@@ -145,7 +146,7 @@ void mls3_item(int i, bool store) {
         mls3_store_record(i, r.d, J);
 #else
 #if MLS3_LATTICE
-        vec3 f = v * u_mls3_scale + u_mls3_center + r.d * u_mls3_scale;
+        vec3 f = v * u_mls3_scale + u_mls3_center + (r.d * u_mls3_scale + u_mls3_offset);
 #else
         vec3 f = r.d;
 #endif
