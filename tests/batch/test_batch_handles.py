@@ -98,8 +98,9 @@ def test_quads_keypoints_beyond_the_mesh_move_by_f(gl, grid, border, chunks):
 @pytest.mark.parametrize("border", ["constant", "edge"])
 def test_valid_pixels_are_the_pixels_the_method_draws(gl, method, border):
     """``valid`` holds where some source pixel covers the output pixel in the method's own
-    image (not the border rule's copies past the image): splat's holes (stretched, a forward splat leaves gaps) and paper-quads' are not
-    valid, though f's inverse is found there."""
+    image (not the border rule's copies past the image): splat's holes (stretched, a
+    forward splat leaves gaps) and paper-quads' are not valid, though f's inverse is found
+    there."""
     rng = np.random.default_rng(3)
     images = rng.uniform(0.1, 1, (2, 30, 40)).astype(np.float32)
     src = rng.uniform(3, 27, (2, 8, 2))
