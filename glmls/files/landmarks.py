@@ -80,8 +80,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.config import check_integer
+from ..core.handles3 import validate_handles3
 from ..core.handleset import HandleSet
-from ..errors import DtypeError, InputFileError
+from ..errors import InputFileError
 from .atomic import atomic_write
 from .handle_formats import (
     KIND_HEADER,
@@ -296,6 +298,8 @@ def read_handles(
     glmls.InputFileError
         For a file that is missing or malformed, of another dimension than ``ndim``, or
         holding segments or polylines.
+    TypeError, ValueError
+        For an ``ndim`` that is not an integer (a bool, a string) or not 2 or 3.
 
     Examples
     --------
@@ -310,6 +314,8 @@ def read_handles(
     >>> read_handles(folder / "bigwarp.csv")[1].tolist()  # the fixed points: the targets
     [[11.0, 12.0, 5.0]]
     """
+    if ndim is not None:  # before the file: the error is the caller's, not the file's
+        ndim = check_integer("ndim", ndim, 2, 3, what="2, 3 or None")
     path = Path(path)
     found, rows = _handle_rows(path, dst)
     if not rows.src and not rows.src_segments:
@@ -486,22 +492,13 @@ def _handle_file(path: str | os.PathLike) -> Path:
 
 
 def _check_3d(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
-    sides = []
-    for name, value in (("src", src), ("dst", dst)):
-        array = np.asarray(value)
-        if not np.issubdtype(array.dtype, np.number) or array.dtype == np.bool_:
-            raise DtypeError(f"{name} must be numbers, got dtype {array.dtype}")
-        array = array.astype(np.float64)
-        if array.ndim != 2 or array.shape[1] != 3 or not len(array):
-            raise ValueError(f"{name} must be (N, 3) with N >= 1, got shape {array.shape}")
-        if not np.isfinite(array).all():
-            raise ValueError(f"{name} must be finite")
-        sides.append(array)
-    if len(sides[0]) != len(sides[1]):
-        raise ValueError(
-            f"src and dst must have the same length, got {len(sides[0])} and {len(sides[1])}"
-        )
-    return sides[0], sides[1]
+    """3D handles as :class:`glmls.MLS` checks them (real numbers, finite, within the
+    coordinate range, no source point with two targets), and at least one: what
+    :func:`read_handles` reads back."""
+    p, q = validate_handles3(src, dst)
+    if not len(p):
+        raise ValueError(f"src must be (N, 3) with N >= 1, got shape {p.shape}")
+    return p, q
 
 
 def _write_3d(path: Path, src: np.ndarray, dst: np.ndarray) -> None:
