@@ -81,6 +81,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.config import check_integer
+from ..core.handles import COORDINATE_LIMIT
 from ..core.handles3 import validate_handles3
 from ..core.handleset import HandleSet
 from ..errors import InputFileError
@@ -350,7 +351,8 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
     Raises
     ------
     glmls.InputFileError
-        For a missing or malformed file, or one of no points.
+        For a missing or malformed file, one of no points, or a point beyond the ±1e6 px
+        coordinate range (which glmls's other point files refuse too).
 
     Examples
     --------
@@ -364,6 +366,7 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
     path = Path(path)
     if path.suffix.lower() == ".json":
         points = np.array(json_points(path, load_json(path), "points"), dtype=np.float64)
+        where = [f'"points"[{k}]' for k in range(len(points))]
     else:
         rows = csv_rows(path)
         if not rows:
@@ -372,9 +375,20 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
         if [h.lower() for h in header] != POINT_HEADER:
             raise fail(path, f"line {line}", f"expected the header x,y, got {','.join(header)}")
         points = table(path, rows[1:], 2)
+        where = [f"line {number}" for number, _ in rows[1:]]
     if len(points) == 0:
         raise fail(path, "content", "no points")
-    return points.reshape(-1, 2)
+    points = points.reshape(-1, 2)
+    beyond = np.abs(points).max(axis=1) > COORDINATE_LIMIT  # as the handles of a file
+    if beyond.any():
+        k = int(np.argmax(beyond))
+        raise fail(
+            path,
+            where[k],
+            f"{points[k].tolist()} lies beyond ±{COORDINATE_LIMIT:.0e} px of the origin "
+            "(glmls's coordinate range)",
+        )
+    return points
 
 
 def write_handle_set(path: str | os.PathLike, handles: HandleSet) -> None:
