@@ -16,7 +16,6 @@ import numpy as np
 
 from .core.config import check_flag
 from .core.handles import (
-    COORDINATE_LIMIT,
     Scaling,
     check_gpu_distinct,
     check_gpu_spread,
@@ -26,6 +25,7 @@ from .core.handles3 import (
     as_points3,
     as_volume_shape,
     as_volume_spacing,
+    checked_extent,
     fit_offset3,
     fit_scaling3,
     validate_handles3,
@@ -154,12 +154,8 @@ class MLS3(MLS):
         self._config = config
         self._shape = None if shape is None else as_volume_shape(shape)
         self._spacing = None if spacing is None else as_volume_spacing(spacing)
-        extent = self._extent  # it spans f's float32 scaling, as an image's does in 2D
-        if extent is not None and max(extent) > COORDINATE_LIMIT:
-            raise ValueError(
-                f"shape {self._shape} with spacing {self._spacing} has an extent {extent} "
-                f"beyond glmls's coordinate range, {COORDINATE_LIMIT:.0e} in the handles' units"
-            )
+        if self._shape is not None:
+            checked_extent(self._shape, self._spacing)
         p, q = validate_handles3(src, dst)
         self._storage_name = storage
         self._options = {"storage": storage, "bins": None}

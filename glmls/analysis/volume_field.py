@@ -18,7 +18,7 @@ import numpy as np
 from .. import reference
 from ..core.config import MLSConfig, config_or_options
 from ..core.handles import point_rows
-from ..core.handles3 import as_volume_spacing, volume_extent
+from ..core.handles3 import as_volume_spacing, checked_extent, volume_extent
 from ..engine.kernel3 import MLSKernel3
 from ..engine.passes3 import evaluate_points3
 from .volume_lattice import (
@@ -266,14 +266,15 @@ def volume_deformation(m: Deformation3D, shape: Sequence[int], spacing: object) 
     (an MLS made without ``spacing`` leaves each warp, and so each analysis, its own). ``m``
     itself where that changes nothing (another weight, an explicit radius, the volume ``m``
     was made for) or where ``m`` is neither a :class:`ReferenceDeformation` nor a
-    :class:`glmls.MLS`."""
+    :class:`glmls.MLS`. ``ValueError`` for a volume whose extent in the handles' units
+    passes the coordinate range, as its warp refuses it."""
     check_three_d(m)
+    dims = as_volume_shape(shape)
+    steps = None if spacing is None else as_volume_spacing(spacing)
+    extent = checked_extent(dims, steps, name="volume")  # as the volume's warp refuses it
     config = getattr(m, "config", None)
     if not isinstance(config, MLSConfig) or not config.uses_radius or config.radius is not None:
         return m
-    dims = as_volume_shape(shape)
-    steps = None if spacing is None else as_volume_spacing(spacing)
-    extent = volume_extent(dims, steps)
     own = getattr(m, "shape", None)
     if own is not None and volume_extent(own, getattr(m, "spacing", None)) == extent:
         return m

@@ -205,7 +205,7 @@ class MLSDeform(A.DualTransform):
         Parameters
         ----------
         mask : numpy.ndarray
-            (H, W) or (H, W, C) labels (integers, bool or floating point).
+            (H, W) or (H, W, C) labels (integers, bool or floating point; C may be 0).
         mls : dict
             The draw.
         **params
@@ -228,6 +228,8 @@ class MLSDeform(A.DualTransform):
         [3]
         """
         layers = mask[..., None] if mask.ndim == 2 else mask
+        if layers.shape[2] == 0:  # no layers (no instances): none on the output's canvas
+            return np.zeros((*canvas_shape(mls), 0), mask.dtype)
         out = replay_masks(self.augment, [mls] * layers.shape[2], np.moveaxis(layers, 2, 0))
         out = np.moveaxis(out, 0, 2)
         return out[..., 0] if mask.ndim == 2 else out

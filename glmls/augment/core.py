@@ -143,6 +143,10 @@ def _index_list(indices: object, count: int) -> list[int]:
         values = indices
     else:
         array = np.asarray(indices)
+        if array.dtype == object and array.ndim == 0:  # a generator, a set: one object
+            raise TypeError(
+                f"indices must be a sequence of N integers, got {type(indices).__name__}"
+            )
         if array.ndim != 1:  # a scalar, or a table that reshape would flatten silently
             raise ValueError(f"indices must be a sequence of N integers, got shape {array.shape}")
         values = list(array)
@@ -363,8 +367,8 @@ class Augment:
 
         Parameters
         ----------
-        shapes : sequence of (int, int)
-            Each image's (H, W).
+        shapes : sequence of (int, int) or numpy.ndarray
+            Each image's (H, W); an (N, 2) integer array is read row by row.
         indices : sequence of int or None, default None
             Each sample's index (>= 0); None: 0 .. N - 1.
         landmarks : sequence of array_like or None, default None
@@ -381,7 +385,7 @@ class Augment:
             For indices of the wrong count or value, a shape that is not (H, W) integers
             >= 1 (or an image's (H, W, C)), or missing landmarks.
         TypeError
-            For ``shapes`` that is no sequence.
+            For ``shapes`` or ``indices`` that is no sequence (a generator).
 
         Examples
         --------
@@ -392,6 +396,8 @@ class Augment:
         >>> first[1] == again[0], len(first[0]["src"])
         (True, 4)
         """
+        if isinstance(shapes, np.ndarray) and shapes.ndim == 2:  # rows (H, W) or (H, W, C)
+            shapes = [tuple(row) for row in shapes]
         if isinstance(shapes, (str, bytes)) or not isinstance(shapes, Sequence):
             raise TypeError(f"shapes must be a sequence of (H, W), got {type(shapes).__name__}")
         index_list = _index_list(indices, len(shapes))
@@ -454,7 +460,7 @@ class Augment:
         boxes : array_like or sequence of array_like, optional
             (N, B, 4) or per image (B_i, 4) boxes ``(x_min, y_min, x_max, y_max)``.
         polygons : sequence, optional
-            Per image, a sequence of (V, 2) polygons.
+            Per image, a sequence of (V, 2) polygons (or a (P, V, 2) array of them).
         indices : sequence of int, optional
             Each sample's index (>= 0); None: 0 .. N - 1.
 

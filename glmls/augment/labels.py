@@ -123,7 +123,8 @@ def check_polygons(polygons: object, count: int) -> list[list[np.ndarray]]:
     Parameters
     ----------
     polygons : sequence
-        N sequences (one per image) of (V, 2) vertex arrays.
+        N sequences (one per image) of (V, 2) vertex arrays; an image's polygons of one
+        size may come as one (P, V, 2) array, and those of a batch as an (N, P, V, 2) array.
     count : int
         N, the number of images.
 
@@ -144,16 +145,20 @@ def check_polygons(polygons: object, count: int) -> list[list[np.ndarray]]:
     >>> len(check_polygons([[[[0, 0], [4, 0], [4, 4]]]], 1)[0])
     1
     """
-    if not isinstance(polygons, (list, tuple)):
-        raise TypeError(f"polygons must be a sequence, got {type(polygons).__name__}")
-    if len(polygons) != count:
+    items = _polygon_list(polygons, 4)
+    if items is None:
+        raise TypeError(f"polygons must be a sequence, got {_kind(polygons)}")
+    if len(items) != count:
         raise ValueError(
-            f"polygons holds {counted(len(polygons), 'item')} for {counted(count, 'image')}"
+            f"polygons holds {counted(len(items), 'item')} for {counted(count, 'image')}"
         )
     checked = []
-    for i, shapes in enumerate(polygons):
-        if not isinstance(shapes, (list, tuple)):
-            raise TypeError(f"polygons[{i}] must be a sequence of (V, 2) arrays")
+    for i, given in enumerate(items):
+        shapes = _polygon_list(given, 3)
+        if shapes is None:
+            raise TypeError(
+                f"polygons[{i}] must be a sequence of (V, 2) arrays, got {_kind(given)}"
+            )
         one = []
         for j, polygon in enumerate(shapes):
             name = f"polygons[{i}][{j}]"
@@ -163,6 +168,27 @@ def check_polygons(polygons: object, count: int) -> list[list[np.ndarray]]:
             one.append(array)
         checked.append(one)
     return checked
+
+
+def _polygon_list(value: object, ndim: int) -> list | None:
+    """``value``'s items where it is a list or a tuple of them, an array of ``ndim``
+    dimensions (a (P, V, 2) array of one image's polygons of one size: ``ndim`` 3) or a 1-D
+    object array of them; None where it is none of these."""
+    if isinstance(value, (list, tuple)):
+        return list(value)
+    if isinstance(value, np.ndarray) and (
+        (value.ndim == ndim and value.dtype != object)
+        or (value.ndim == 1 and value.dtype == object)
+    ):
+        return list(value)
+    return None
+
+
+def _kind(value: object) -> str:
+    """What an error says ``value`` is: its type, and an array's shape."""
+    if isinstance(value, np.ndarray):
+        return f"an array of shape {value.shape}"
+    return type(value).__name__
 
 
 def warp_options_of(options: Mapping[str, object]) -> WarpOptions:

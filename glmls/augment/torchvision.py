@@ -193,6 +193,13 @@ def _batch_label_error(label: torch.Tensor, count: int) -> ValueError:
     )
 
 
+def _empty(tensor: torch.Tensor, canvas: tuple[int, int]) -> torch.Tensor:
+    """An empty ``tensor`` (no channels, no instance masks) on the output's ``canvas``, of
+    its dtype and device."""
+    shape = (*tensor.shape[:-2], *canvas)
+    return torch.zeros(shape, dtype=tensor.dtype, device=tensor.device)
+
+
 class MLSTransform(v2.Transform):
     """A random MLS deformation as a torchvision v2 transform.
 
@@ -431,6 +438,13 @@ class MLSTransform(v2.Transform):
 
     def _images(self, images: torch.Tensor, samples: list[dict]) -> torch.Tensor:
         channels = 1 if images.ndim == 2 else images.shape[-3]
+        if channels == 0:  # no channels: nothing to warp, empty on the output's canvas
+            out = _empty(images, canvas_shape(samples[0]))
+            return (
+                tv_tensors.wrap(out, like=images)
+                if isinstance(images, tv_tensors.TVTensor)
+                else out
+            )
         frames = images.reshape(-1, channels, *images.shape[-2:])  # a video's frames, one draw
         draws = [s for s in samples for _ in range(len(frames) // len(samples))]
         array = np.moveaxis(to_numpy(frames), 1, -1)
@@ -450,6 +464,8 @@ class MLSTransform(v2.Transform):
     def _masks(self, masks: torch.Tensor, samples: list[dict]) -> torch.Tensor:
         count = len(samples)
         height, width = masks.shape[-2:]
+        if masks.numel() == 0:  # (0, H, W): a sample without instances
+            return _empty(masks, canvas_shape(samples[0]))
         array = to_numpy(masks).reshape(count, -1, height, width)
         layers = array.shape[1]
         draws = [s for s in samples for _ in range(layers)]

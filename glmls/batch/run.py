@@ -198,7 +198,7 @@ def _on_source(result: ImageLabels, shape: tuple[int, int]) -> ImageLabels:
 def _bytes_of_bool_masks(masks: object) -> tuple[object, list[bool] | None]:
     """Bool masks as uint8 views (labels 0 and 1), and per mask whether it was bool (None
     where none was)."""
-    if isinstance(masks, np.ndarray) and masks.dtype == bool:
+    if isinstance(masks, np.ndarray) and masks.dtype == bool and masks.ndim:
         return masks.view(np.uint8), [True] * len(masks)
     if isinstance(masks, (list, tuple)):
         arrays = [item_array(m, f"masks[{i}]") for i, m in enumerate(masks)]

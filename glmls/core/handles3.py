@@ -198,6 +198,22 @@ def volume_extent(
     return tuple(float(n) * float(d) for n, d in zip(shape, steps, strict=True))  # type: ignore[return-value]
 
 
+def checked_extent(
+    shape: Sequence[int], spacing: Sequence[float] | None = None, *, name: str = "shape"
+) -> tuple[float, float, float]:
+    """:func:`volume_extent` of ``shape`` and ``spacing``, if it lies within the coordinate
+    range; ``ValueError`` naming ``name``, the shape and the spacing if not: the volume's
+    voxels are f's points, and its extent enters f's float32 scaling, as an image's does in
+    2D (f drifts by tenths of a voxel beyond it)."""
+    extent = volume_extent(shape, spacing)
+    if max(extent) > COORDINATE_LIMIT:
+        raise ValueError(
+            f"{name} {tuple(shape)} with spacing {spacing} has an extent {extent} beyond "
+            f"glmls's coordinate range, {COORDINATE_LIMIT:.0e} in the handles' units"
+        )
+    return extent
+
+
 def volume_diagonal(shape: Sequence[float], spacing: Sequence[float] | None = None) -> float:
     """Length of the diagonal of a D x H x W volume: in voxels, or with ``spacing`` (dz, dy,
     dx) in the handles' units, that of (D dz, H dy, W dx)."""

@@ -80,8 +80,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.config import check_integer
+from ..core.handles import COORDINATE_LIMIT
+from ..core.handles3 import validate_handles3
 from ..core.handleset import HandleSet
-from ..errors import DtypeError, InputFileError
+from ..errors import InputFileError
 from .atomic import atomic_write
 from .handle_formats import (
     KIND_HEADER,
@@ -296,6 +299,8 @@ def read_handles(
     glmls.InputFileError
         For a file that is missing or malformed, of another dimension than ``ndim``, or
         holding segments or polylines.
+    TypeError, ValueError
+        For an ``ndim`` that is not an integer (a bool, a string) or not 2 or 3.
 
     Examples
     --------
@@ -310,6 +315,8 @@ def read_handles(
     >>> read_handles(folder / "bigwarp.csv")[1].tolist()  # the fixed points: the targets
     [[11.0, 12.0, 5.0]]
     """
+    if ndim is not None:  # before the file: the error is the caller's, not the file's
+        ndim = check_integer("ndim", ndim, 2, 3, what="2, 3 or None")
     path = Path(path)
     found, rows = _handle_rows(path, dst)
     if not rows.src and not rows.src_segments:
@@ -344,7 +351,8 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
     Raises
     ------
     glmls.InputFileError
-        For a missing or malformed file, or one of no points.
+        For a missing or malformed file, one of no points, or a point beyond the ±1e6 px
+        coordinate range (which glmls's other point files refuse too).
 
     Examples
     --------
@@ -358,6 +366,7 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
     path = Path(path)
     if path.suffix.lower() == ".json":
         points = np.array(json_points(path, load_json(path), "points"), dtype=np.float64)
+        where = [f'"points"[{k}]' for k in range(len(points))]
     else:
         rows = csv_rows(path)
         if not rows:
@@ -366,9 +375,20 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
         if [h.lower() for h in header] != POINT_HEADER:
             raise fail(path, f"line {line}", f"expected the header x,y, got {','.join(header)}")
         points = table(path, rows[1:], 2)
+        where = [f"line {number}" for number, _ in rows[1:]]
     if len(points) == 0:
         raise fail(path, "content", "no points")
-    return points.reshape(-1, 2)
+    points = points.reshape(-1, 2)
+    beyond = np.abs(points).max(axis=1) > COORDINATE_LIMIT  # as the handles of a file
+    if beyond.any():
+        k = int(np.argmax(beyond))
+        raise fail(
+            path,
+            where[k],
+            f"{points[k].tolist()} lies beyond ±{COORDINATE_LIMIT:.0e} px of the origin "
+            "(glmls's coordinate range)",
+        )
+    return points
 
 
 def write_handle_set(path: str | os.PathLike, handles: HandleSet) -> None:
@@ -486,22 +506,13 @@ def _handle_file(path: str | os.PathLike) -> Path:
 
 
 def _check_3d(src: object, dst: object) -> tuple[np.ndarray, np.ndarray]:
-    sides = []
-    for name, value in (("src", src), ("dst", dst)):
-        array = np.asarray(value)
-        if not np.issubdtype(array.dtype, np.number) or array.dtype == np.bool_:
-            raise DtypeError(f"{name} must be numbers, got dtype {array.dtype}")
-        array = array.astype(np.float64)
-        if array.ndim != 2 or array.shape[1] != 3 or not len(array):
-            raise ValueError(f"{name} must be (N, 3) with N >= 1, got shape {array.shape}")
-        if not np.isfinite(array).all():
-            raise ValueError(f"{name} must be finite")
-        sides.append(array)
-    if len(sides[0]) != len(sides[1]):
-        raise ValueError(
-            f"src and dst must have the same length, got {len(sides[0])} and {len(sides[1])}"
-        )
-    return sides[0], sides[1]
+    """3D handles as :class:`glmls.MLS` checks them (real numbers, finite, within the
+    coordinate range, no source point with two targets), and at least one: what
+    :func:`read_handles` reads back."""
+    p, q = validate_handles3(src, dst)
+    if not len(p):
+        raise ValueError(f"src must be (N, 3) with N >= 1, got shape {p.shape}")
+    return p, q
 
 
 def _write_3d(path: Path, src: np.ndarray, dst: np.ndarray) -> None:

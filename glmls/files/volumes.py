@@ -59,6 +59,7 @@ from pathlib import Path
 import numpy as np
 import tifffile
 
+from ..core.config import check_flag
 from ..core.handles3 import as_volume_spacing
 from ..core.summary import fields_repr
 from ..errors import DtypeError, InputFileError
@@ -199,9 +200,9 @@ class Volume:
         matrix, or a spacing of another length than 3 or with a value that is not finite
         and > 0.
     TypeError
-        For data that is not real numbers (complex, objects, strings), a spacing that is
-        not a sequence of real numbers (a number, a string), or a ``nifti`` that is not a
-        :class:`NiftiHeader`.
+        For data or an affine that is not real numbers (complex, objects, strings; a bool
+        affine), a spacing that is not a sequence of real numbers (a number, a string), or
+        a ``nifti`` that is not a :class:`NiftiHeader`.
 
     See Also
     --------
@@ -233,7 +234,7 @@ class Volume:
         if self.spacing is not None:
             object.__setattr__(self, "spacing", as_volume_spacing(self.spacing))
         if self.affine is not None:
-            affine = np.array(self.affine, dtype=np.float64)
+            affine = _real(self.affine, "affine")
             if affine.shape != (4, 4) or not np.isfinite(affine).all():
                 raise ValueError(f"affine must be a finite 4 x 4 matrix, got {affine.shape}")
             affine.flags.writeable = False
@@ -271,14 +272,24 @@ _NEARLY_SINGULAR = 1e-6
 _LPS = np.array([-1.0, -1.0, 1.0])
 
 
+def _real(value: object, name: str) -> np.ndarray:
+    """``value`` as a float64 array if it holds real numbers (integers or floats);
+    ``DtypeError`` naming ``name`` for complex numbers (whose imaginary part a cast would
+    drop), bools, objects or strings."""
+    array = np.asarray(value)
+    if array.dtype.kind not in "iuf":
+        raise DtypeError(f"{name} must be real numbers, got dtype {array.dtype}")
+    return array.astype(np.float64)
+
+
 def _world_frame(points: object, affine: object, spacing: object) -> tuple:
     """(points (N, 3) float64, the affine (4, 4), its inverse, the scale (dx, dy, dz))."""
-    values = np.asarray(points, dtype=np.float64)
+    values = _real(points, "points")
     if values.ndim != 2 or values.shape[1] != 3:
         raise ValueError(f"points must be (N, 3) coordinates (x, y, z), got shape {values.shape}")
     if not np.isfinite(values).all():
         raise ValueError("points must be finite")
-    matrix = np.asarray(affine, dtype=np.float64)
+    matrix = _real(affine, "affine")
     if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
         raise ValueError(f"affine must be a finite 4 x 4 matrix, got shape {matrix.shape}")
     # relative to its largest, so that a NIfTI of micrometre voxels in metres (1e-6 a side)
@@ -338,7 +349,9 @@ def world_to_volume(
         1e-6 of its largest: a voxel size of 0, or a millionth of another), or a spacing of
         another length than 3 or with a value that is not a finite number > 0.
     TypeError
-        For a spacing that is not a sequence of real numbers (a number, a string).
+        For points or an affine that are not real numbers (complex, bool), a spacing that
+        is not a sequence of real numbers (a number, a string), or an ``lps`` that is not
+        a bool.
 
     See Also
     --------
@@ -355,6 +368,7 @@ def world_to_volume(
     >>> world_to_volume([[9.0, -21.0, 9.0]], affine, lps=True).tolist()  # the same, LPS
     [[1.0, 1.0, 4.0]]
     """
+    lps = check_flag("lps", lps)
     values, _, inverse, scale = _world_frame(points, affine, spacing)
     if lps:
         values = values * _LPS
@@ -388,7 +402,7 @@ def volume_to_world(
 
     Raises
     ------
-    ValueError
+    ValueError, TypeError
         As :func:`world_to_volume`.
 
     Examples
@@ -400,6 +414,7 @@ def volume_to_world(
     >>> volume_to_world([[1.0, 1.0, 4.0]], affine).tolist()
     [[-9.0, 21.0, 9.0]]
     """
+    lps = check_flag("lps", lps)
     values, matrix, _, scale = _world_frame(points, affine, spacing)
     world = (values / scale) @ matrix[:3, :3].T + matrix[:3, 3]
     return world * _LPS if lps else world

@@ -22,6 +22,10 @@ __all__ = ["volume_bounds", "volume_coordinate_map", "warp_volume"]
 
 def _kernel(mls: object) -> MLSKernel3:
     kernel = mls if isinstance(mls, MLSKernel3) else getattr(mls, "kernel", None)
+    if kernel is None:  # no MLS at all (a 2D one has a kernel, of the other kind)
+        raise TypeError(
+            f"mls must be a glmls.MLS of (N, 3) handles or its kernel, got {type(mls).__name__}"
+        )
     if not isinstance(kernel, MLSKernel3):
         raise ValueError(
             "volumes are warped by a 3D MLS ((N, 3) handles); this one has 2D handles, "
@@ -83,11 +87,13 @@ def warp_volume(
     Raises
     ------
     ValueError
-        For a 2D image or a 2D MLS, a bad option, a ``spacing`` other than the MLS's, or a
-        volume beyond the GL 3D texture limit (2048 voxels a side at least).
+        For a 2D image or a 2D MLS, a bad option, a ``spacing`` other than the MLS's, a
+        volume beyond the GL 3D texture limit (2048 voxels a side at least), or one whose
+        extent in the handles' units (D dz, H dy, W dx) passes the coordinate range (1e6).
     TypeError
-        For a bad dtype, a keyword that is no option, ``slabs`` that is no
-        :class:`SlabOptions`, or a ``spacing`` that is not a sequence of real numbers.
+        For an ``mls`` that is no MLS, a bad dtype, a keyword that is no option, ``slabs``
+        that is no :class:`SlabOptions`, or a ``spacing`` that is not a sequence of real
+        numbers.
 
     Warns
     -----
@@ -164,10 +170,12 @@ def volume_coordinate_map(
     Raises
     ------
     ValueError
-        For a 2D MLS, a bad ``shape`` or option, or a ``spacing`` other than the MLS's.
+        For a 2D MLS, a bad ``shape`` or option, a ``spacing`` other than the MLS's, or a
+        volume whose extent in the handles' units passes the coordinate range (1e6).
     TypeError
-        For a keyword that is no option or that the map does not use (``interpolation``,
-        ``background``), or a ``spacing`` that is not a sequence of real numbers.
+        For an ``mls`` that is no MLS, a keyword that is no option or that the map does not
+        use (``interpolation``, ``background``), or a ``spacing`` that is not a sequence of
+        real numbers.
 
     Examples
     --------
@@ -236,9 +244,11 @@ def volume_bounds(
     ------
     ValueError
         For a 2D MLS, a bad ``shape`` or ``grid``, a ``spacing`` of another length than 3 or
-        with a value that is not a finite number > 0, or one other than the MLS's.
+        with a value that is not a finite number > 0, or one other than the MLS's, or a
+        volume whose extent in the handles' units passes the coordinate range (1e6).
     TypeError
-        For a ``spacing`` that is not a sequence of real numbers.
+        For an ``mls`` that is no MLS, or a ``spacing`` that is not a sequence of real
+        numbers.
 
     Examples
     --------

@@ -8,7 +8,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ..core.handles3 import volume_extent
+from ..core.handles3 import checked_extent
 from ..engine.kernel3 import MLSKernel3
 from ..engine.passes3 import evaluate_points3
 from ..gl import bindings
@@ -31,7 +31,8 @@ class KernelField:
     """The :class:`~glmls.volume.fields.Field` of an :class:`~glmls.engine.kernel3.MLSKernel3`
     for voxels of ``spacing`` (dz, dy, dx); ``shape`` (D, H, W), the volume whose diagonal is
     the default radius of a radius weight (None: the kernel's own), measured in the handles'
-    units as the points are: the diagonal of (D dz, H dy, W dx)."""
+    units as the points are: the diagonal of (D dz, H dy, W dx); ``ValueError`` where that
+    extent passes the coordinate range."""
 
     def __init__(
         self,
@@ -44,7 +45,7 @@ class KernelField:
         self.scale = np.array([dx, dy, dz], dtype=np.float64)
         #: What the kernel takes the default radius's diagonal of: the volume's extent in
         #: the handles' units (the kernel's passes take it as a shape, and only for that).
-        self.shape = None if shape is None else volume_extent(shape, spacing)
+        self.shape = None if shape is None else checked_extent(shape, spacing, name="volume")
 
     @property
     def sources(self) -> np.ndarray:

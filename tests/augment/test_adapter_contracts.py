@@ -458,3 +458,36 @@ def test_augment_polygons_of_tensors_come_back_as_tensors(gl):
         for tensor, array, one in zip(got, expected, inputs, strict=True):
             assert isinstance(tensor, torch.Tensor) and tensor.dtype == one.dtype
             np.testing.assert_allclose(tensor.numpy(), array, rtol=0, atol=1e-5)
+
+
+@pytest.mark.parametrize("output_shape", [None, (20, 30)])
+def test_torchvision_a_sample_without_instances_keeps_its_empty_masks(gl, output_shape):
+    """A detection sample without objects has a Mask (0, H, W) (a batch's (N, 0, H, W)), as
+    v2.RandomRotation gives it back: empty on the output's canvas, of its dtype; so too an
+    image of no channels."""
+    options = None if output_shape is None else {"output_shape": output_shape}
+    canvas = output_shape or (16, 24)
+    transform = MLSTransform(warp_options=options)
+    image = tv_tensors.Image(torch.randint(0, 255, (3, 16, 24), dtype=torch.uint8))
+    out, masks = transform(image, tv_tensors.Mask(torch.zeros(0, 16, 24, dtype=torch.bool)))
+    assert isinstance(masks, tv_tensors.Mask) and masks.shape == (0, *canvas)
+    assert masks.dtype == torch.bool and out.shape == (3, *canvas)
+    batch = torch.zeros(2, 3, 16, 24)
+    _, masks = transform(batch, tv_tensors.Mask(torch.zeros(2, 0, 16, 24, dtype=torch.uint8)))
+    assert isinstance(masks, tv_tensors.Mask) and masks.shape == (2, 0, *canvas)
+    bare = transform(tv_tensors.Image(torch.zeros(0, 16, 24)))
+    assert isinstance(bare, tv_tensors.Image) and bare.shape == (0, *canvas)
+
+
+@pytest.mark.parametrize("output_shape", [None, (20, 30)])
+def test_albumentations_a_mask_of_no_layers_stays_empty(gl, rng, output_shape):
+    """A (H, W, 0) mask (no instances) comes back (H', W', 0) of its dtype, the image
+    deformed as without it."""
+    options = None if output_shape is None else {"output_shape": output_shape}
+    canvas = output_shape or (16, 24)
+    image = rng.integers(0, 255, (16, 24, 3), dtype=np.uint8)
+    compose = A.Compose([MLSDeform(warp_options=options)], seed=3)
+    out = compose(image=image, mask=np.zeros((16, 24, 0), np.uint16))
+    assert out["mask"].shape == (*canvas, 0) and out["mask"].dtype == np.uint16
+    alone = A.Compose([MLSDeform(warp_options=options)], seed=3)(image=image)
+    np.testing.assert_array_equal(out["image"], alone["image"])

@@ -201,3 +201,49 @@ def test_draw_checks_its_landmarks(landmarks, message):
 def test_indices_of_another_shape_are_refused(indices):
     with pytest.raises(ValueError, match="indices must be a sequence of N integers"):
         Augment("grid").draw([(8, 8), (8, 8)], indices=indices)
+
+
+@pytest.mark.parametrize("indices", [(i for i in range(2)), iter([0, 1]), {0, 1}])
+def test_indices_that_are_no_sequence_are_a_type_error_naming_them(indices):
+    """A generator (or a set, of no order) is named as what it is, not as an array of
+    shape (), which numpy would make of it."""
+    name = type(indices).__name__
+    with pytest.raises(TypeError, match=rf"indices must be a sequence of N integers, got {name}"):
+        Augment("grid").draw([(8, 8), (8, 8)], indices=indices)
+
+
+def test_draw_takes_the_shapes_as_an_array_of_rows():
+    aug = Augment("grid", rows=2, cols=2)
+    assert aug.draw(np.array([[8, 9], [6, 7]])) == aug.draw([(8, 9), (6, 7)])
+    assert aug.draw(np.array([[8, 9, 3]])) == aug.draw([(8, 9)])
+
+
+def test_polygons_of_one_size_as_arrays_move_as_the_sequences_do(gl):
+    """An image's polygons of one size as one (P, V, 2) array, and a batch's as an (N, P,
+    V, 2) array, give the polygons their lists of (V, 2) arrays give."""
+    rng = np.random.default_rng(1)
+    polygons = rng.uniform(1, 14, (2, 3, 4, 2))  # 2 images, 3 quadrilaterals each
+    aug = Augment("grid", seed=4)
+    lists = aug(IMAGES, polygons=[list(polygons[0]), list(polygons[1])])
+    for form in ([polygons[0], polygons[1]], polygons):
+        out = aug(IMAGES, polygons=form)
+        for moved, expected in zip(out.polygons, lists.polygons, strict=True):
+            for a, b in zip(moved, expected, strict=True):
+                np.testing.assert_array_equal(a, b)
+    assert [len(p) for p in lists.polygons] == [3, 3]
+
+
+@pytest.mark.parametrize(
+    ("polygons", "message"),
+    [
+        ([np.zeros((4, 2)), []], r"polygons\[0\] must be .* got an array of shape \(4, 2\)"),
+        ([{"a": 1}, []], r"polygons\[0\] must be .* got dict"),
+        (np.zeros((2, 4, 2)), r"polygons must be a sequence, got an array of shape \(2, 4, 2\)"),
+        (np.zeros((2, 1, 1, 4, 2)), r"polygons must be a sequence, got an array of shape"),
+    ],
+)
+def test_polygons_of_another_nesting_are_named(polygons, message):
+    """One (V, 2) polygon where an image's sequence of them is expected is not read as V
+    polygons of one vertex pair each: it is named, with what it is."""
+    with pytest.raises(TypeError, match=message):
+        Augment("grid")(IMAGES, polygons=polygons)

@@ -140,3 +140,11 @@ def test_a_one_dimensional_object_array_is_a_sequence(gl):
     for a, b in zip(plain.images, packed.images, strict=True):
         np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(plain.boxes[0], packed.boxes[0])
+
+
+@pytest.mark.parametrize("masks", [np.array(True), np.array(False), np.array(3, np.uint8)])
+def test_a_mask_array_without_a_batch_axis_is_named(batch, masks):
+    """A 0-d mask array, bool or not, is refused naming ``masks`` and its shape."""
+    images, src, dst = batch
+    with pytest.raises(ValueError, match=r"^masks must be an array of 3 dimensions .*shape \(\)"):
+        glmls.warp_batch(images, src, dst, masks=masks)

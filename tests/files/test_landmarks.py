@@ -111,6 +111,8 @@ def test_an_endless_device_given_as_a_file():
         ("r.csv", "x,y\n1\n", "line 2: expected 2 columns, got 1"),
         ("r.csv", "a,b\n1,2\n", "expected the header x,y"),
         ("r.json", '{"points": []}', "no points"),
+        ("r.json", '{"points": [[1, 2], [1e30, 4]]}', r'"points"[1]: [1e\+30, 4.0] lies beyond'),
+        ("r.csv", "x,y\n1,2\n\n3,-2e6\n", r"line 4: [3.0, -2000000.0] lies beyond ±1e\+06 px"),
     ],
 )
 def test_malformed_point_files(tmp_path, name, text, message):

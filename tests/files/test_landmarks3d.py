@@ -239,3 +239,44 @@ def test_an_empty_json_is_no_handles_whatever_the_dimension(tmp_path, ndim):
     path.write_text('{"src": [], "dst": []}')
     with pytest.raises(InputFileError, match=r"empty.json: content: no handles$"):
         read_handles(path, ndim=ndim)
+
+
+@pytest.mark.parametrize(
+    ("src", "dst", "error", "message"),
+    [
+        (SRC.astype(np.complex128), DST, TypeError, r"src must be real numbers"),
+        (SRC * 1e30, DST, ValueError, r"src must lie within ±1e\+06"),
+        ([[1, 2, 3], [1, 2, 3]], [[0, 0, 0], [1, 1, 1]], ValueError, r"same point"),
+        (np.zeros((0, 3)), np.zeros((0, 3)), ValueError, r"N >= 1"),
+    ],
+)
+@pytest.mark.parametrize("name", ["h.json", "h.csv"])
+def test_write_3d_refuses_handles_that_would_not_read_back(
+    tmp_path, src, dst, error, message, name
+):
+    """write_handles writes only what read_handles reads back, as glmls.MLS checks it: no
+    imaginary part dropped, no value beyond the coordinate range, no source point with two
+    targets; no file is left."""
+    with pytest.raises(error, match=message):
+        write_handles(tmp_path / name, src, dst)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_write_3d_takes_any_layout_and_byte_order(tmp_path):
+    given = np.asfortranarray(SRC.astype(">f8")), DST[::-1][::-1].astype(">f4")
+    write_handles(tmp_path / "h.csv", *given)
+    src, dst = read_handles(tmp_path / "h.csv")
+    np.testing.assert_array_equal(src, SRC)
+    np.testing.assert_array_equal(dst, DST.astype(np.float32))
+
+
+@pytest.mark.parametrize(
+    ("ndim", "error"), [(True, TypeError), ("3", TypeError), (3.0, TypeError), (4, ValueError)]
+)
+def test_an_ndim_that_is_not_2_or_3_is_named_before_the_file_is_read(tmp_path, ndim, error):
+    """Not read as the file's fault ("where TrueD handles of True coordinates are
+    expected"): the file need not exist."""
+    with pytest.raises(error, match=rf"^ndim must be 2, 3 or None, got {ndim!r}$"):
+        read_handles(tmp_path / "missing.json", ndim=ndim)
+    write_handles(tmp_path / "h.json", SRC, DST)
+    assert read_handles(tmp_path / "h.json", ndim=np.int64(3))[0].shape == SRC.shape

@@ -314,3 +314,38 @@ def test_a_background_the_file_s_dtype_cannot_hold_is_refused(background, dtype,
 )
 def test_a_background_the_file_s_dtype_holds_is_taken(background, dtype):
     check_file_background(background, np.dtype(dtype), "v.npy")
+
+
+@pytest.mark.parametrize("dtype", [np.complex128, bool, object])
+def test_an_affine_of_no_real_numbers_is_refused_not_cast(dtype):
+    """A complex affine would lose its imaginary part in a cast to float64, a bool one
+    would be a 0/1 matrix by accident."""
+    with pytest.raises(
+        TypeError, match=rf"affine must be real numbers, got dtype {np.dtype(dtype)}"
+    ):
+        Volume(np.zeros((2, 3, 4), np.uint8), affine=np.eye(4).astype(dtype))
+
+
+def test_world_points_and_affines_of_any_layout_and_byte_order_map_alike():
+    points = np.array([[1.0, 2.0, 3.0], [4.0, -5.0, 6.5]])
+    expected = glmls.files.world_to_volume(points, AFFINE)
+    given = np.asfortranarray(points.astype(">f8")), AFFINE[::-1][::-1].astype(">f4").tolist()
+    assert_allclose(glmls.files.world_to_volume(*given), expected, rtol=0, atol=1e-9)
+    back = glmls.files.volume_to_world(expected.astype(">f8"), np.asfortranarray(AFFINE))
+    assert_allclose(back, points, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("convert", [glmls.files.world_to_volume, glmls.files.volume_to_world])
+@pytest.mark.parametrize(
+    ("points", "affine", "lps", "message"),
+    [
+        ([[1 + 1j, 2, 3]], AFFINE, False, r"points must be real numbers, got dtype complex128"),
+        ([[True, False, True]], AFFINE, False, r"points must be real numbers, got dtype bool"),
+        ([[1.0, 2, 3]], AFFINE.astype(complex), False, r"affine must be real numbers"),
+        ([[1.0, 2, 3]], AFFINE, 1, r"lps must be True or False, got 1"),
+        ([[1.0, 2, 3]], AFFINE, "yes", r"lps must be True or False, got 'yes'"),
+    ],
+)
+def test_world_conversions_refuse_what_a_cast_would_change(convert, points, affine, lps, message):
+    with pytest.raises(TypeError, match=message):
+        convert(np.array(points), affine, lps=lps)

@@ -312,3 +312,65 @@ def test_a_volume_bounds_of_bad_values_is_refused_naming_them(args, kind, messag
         glmls.volume.VolumeBounds(*args)
     box = glmls.volume.VolumeBounds(np.float32(-0.5), 0, 0, np.array(3.5), 1, 1, (2, 1, 1))
     assert box.x0 == -0.5 and box.x1 == 3.5 and box.spacing == (2.0, 1.0, 1.0)
+
+
+ROTATED = np.array([[1.0, 2, 1], [8, 1, 2], [2, 8, 3], [7, 7, 8], [4, 5, 6], [1, 6, 7]])
+
+
+def _turned(points: np.ndarray, angle: float = 0.05) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    middle = points.mean(axis=0)
+    return (points - middle) @ np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]]) + middle
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda m, v, sp: m.warp(v, spacing=sp),
+        lambda m, v, sp: m.warp(v, spacing=sp, method="backward"),
+        lambda m, v, sp: m.coordinate_map(v.shape, spacing=sp),
+        lambda m, v, sp: m.bounds(v.shape, spacing=sp),
+        lambda m, v, sp: analysis.volume_error_field(m, v.shape, spacing=sp),
+        lambda m, v, sp: analysis.cell_jacobians(m, v.shape, spacing=sp),
+    ],
+    ids=["quads", "backward", "coordinate_map", "bounds", "error_field", "jacobians"],
+)
+@pytest.mark.parametrize("weight", ["idw", "gaussian"])
+def test_a_volume_beyond_the_coordinate_range_is_refused_at_warp_time(gl, volume, call, weight):
+    """As glmls.MLS(shape=, spacing=) refuses it: an MLS made without a shape warps each
+    volume of its own extent, whose voxels are f's points; 1e6 units and more of them (a
+    spacing of 1e7 over 8 voxels) drifted by 0.18 voxel from the float64 reference."""
+    with glmls.MLS(ROTATED, _turned(ROTATED), weight=weight, ctx=gl) as m:
+        with pytest.raises(ValueError, match=r"volume \(6, 7, 8\) with spacing .*extent.*1e\+06"):
+            call(m, volume, (1.0, 1.0, 1e7))
+
+
+def test_a_volume_at_the_coordinate_range_is_warped_next_to_the_reference(gl):
+    """The limit itself: a volume of 1e6 units (10 voxels of 1e5 along z) maps each output
+    voxel to a source point whose float64 f lies within 0.05 voxel of it."""
+    spacing = (1e5, 1.0, 1.0)
+    with glmls.MLS(ROTATED, _turned(ROTATED), weight="gaussian", spacing=spacing, ctx=gl) as m:
+        points, _, covered = m.coordinate_map((10, 10, 10))
+        scale = np.array(spacing[::-1])
+        z, y, x = np.nonzero(covered)
+        f, _, _ = glmls.reference.mls(
+            ROTATED,
+            _turned(ROTATED),
+            points[covered],
+            m.config,
+            shape=(10, 10, 10),
+            spacing=spacing,
+        )
+    assert covered.mean() > 0.9
+    assert np.abs(f / scale - np.stack([x, y, z], axis=1)).max() < 0.05
+
+
+@pytest.mark.parametrize("mls", ["m", None, np.zeros((4, 3))])
+@pytest.mark.parametrize(
+    "call",
+    [glmls.volume.warp_volume, glmls.volume.volume_bounds, glmls.volume.volume_coordinate_map],
+)
+def test_the_volume_functions_name_an_mls_that_is_none(volume, mls, call):
+    """Not "this one has 2D handles", which a 2D MLS is told."""
+    with pytest.raises(TypeError, match=rf"mls must be a glmls\.MLS .* got {type(mls).__name__}"):
+        call(mls, volume if call is glmls.volume.warp_volume else volume.shape)
