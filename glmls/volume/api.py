@@ -83,8 +83,10 @@ def warp_volume(
     Raises
     ------
     ValueError
-        For a 2D image or a 2D MLS, a bad option, a ``spacing`` other than the MLS's, or a
-        volume beyond the GL 3D texture limit (2048 voxels a side at least).
+        For a 2D image or a 2D MLS, a bad option, a ``spacing`` other than the MLS's, or an
+        output beyond this machine's memory. Volumes and outputs beyond the GL 3D texture
+        limit (2048 voxels a side at least) or a storage buffer are built in pieces
+        (:class:`SlabOptions`), to the same voxels.
     TypeError
         For a bad dtype, a keyword that is no option, ``slabs`` that is no
         :class:`SlabOptions`, or a ``spacing`` that is not a sequence of real numbers.
