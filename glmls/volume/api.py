@@ -87,9 +87,11 @@ def warp_volume(
     Raises
     ------
     ValueError
-        For a 2D image or a 2D MLS, a bad option, a ``spacing`` other than the MLS's, a
-        volume beyond the GL 3D texture limit (2048 voxels a side at least), or one whose
-        extent in the handles' units (D dz, H dy, W dx) passes the coordinate range (1e6).
+        For a 2D image or a 2D MLS, a bad option, a ``spacing`` other than the MLS's, an
+        output beyond this machine's memory, or a volume whose extent in the handles' units
+        (D dz, H dy, W dx) passes the coordinate range (1e6). Volumes and outputs beyond
+        the GL 3D texture limit (2048 voxels a side at least) or a storage buffer are built
+        in pieces (:class:`SlabOptions`), to the same voxels.
     TypeError
         For an ``mls`` that is no MLS, a bad dtype, a keyword that is no option, ``slabs``
         that is no :class:`SlabOptions`, or a ``spacing`` that is not a sequence of real

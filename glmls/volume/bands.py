@@ -41,12 +41,21 @@ JACOBIAN_BYTES = 48
 
 @dataclass(frozen=True)
 class Slab:
-    """Output slices ``first`` .. ``first + depth - 1`` of a frame of (W, H) voxels a slice."""
+    """Output slices ``first`` .. ``first + depth - 1`` of a frame, ``width`` x ``height``
+    voxels of each from column ``column`` and row ``row`` (0 and the whole slice where the
+    slices fit a texture and a storage buffer)."""
 
     first: int
     depth: int
     width: int
     height: int
+    column: int = 0
+    row: int = 0
+
+    @property
+    def corner(self) -> tuple[int, int, int]:
+        """The slab's first output voxel (x, y, z)."""
+        return self.column, self.row, self.first
 
     @property
     def voxels(self) -> int:

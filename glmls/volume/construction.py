@@ -1,8 +1,9 @@
 """The GPU passes that build a deformed volume, slab by slab of output slices.
 
 One :class:`VolumeWarper` per GL context (:meth:`VolumeWarper.of`). For each slab of output
-slices (:meth:`VolumeWarper.slabs`: its buffers within :class:`~.options.SlabOptions`), the
-deformed lattice is held band by band of z layers (:class:`LatticeBands`); then
+slices (:meth:`VolumeWarper.slabs`: its buffers within :class:`~.options.SlabOptions`, and a
+box of columns and rows of them where whole slices exceed a texture's side or a storage
+buffer), the deformed lattice is held band by band of z layers (:class:`LatticeBands`); then
 
 - ``quads`` (the cells method): ``volume/raster.comp.glsl`` keeps, per output voxel, the
   first cell in scan order of the source whose deformed tetrahedra contain it (atomicMin of
@@ -12,11 +13,12 @@ deformed lattice is held band by band of z layers (:class:`LatticeBands`); then
   method on f refines them (the field's :meth:`refine`), and ``volume/sample.comp.glsl``
   samples the source there.
 
-The source volume is one texture where it fits, else the slices each piece of a band
-(``quads``) or each sampling pass over a range of the slices a slab's points read
-(``backward``) samples (:mod:`.texture`). Every pass computes each voxel from the same
-inputs whatever the slab, band and slices it falls in (keys are global cell numbers): the
-slabbed result equals the one-piece result exactly.
+The source volume is one texture where it fits, else the box of voxels that each piece of a
+band (``quads``: a box of its cells) or each sampling pass over a box of the voxels a slab's
+points read first (``backward``) samples (:mod:`.texture`). Every pass computes each voxel
+from the same inputs whatever the slab, band and piece of the source it falls in (keys are
+global cell numbers, places are taken from the output's origin): the slabbed result equals
+the one-piece result exactly.
 """
 
 from __future__ import annotations
@@ -47,8 +49,16 @@ from .frame import CornerLattice, VolumeFrame, check_memory
 from .kernel_field import pending_bytes
 from .margins import border_margin3
 from .options import SlabOptions, VolumeOptions
+from .pieces import (
+    band_pieces,
+    hold_cells,
+    plan_slabs,
+    sample_passes,
+    slab_region,
+    used_pieces,
+)
 from .source import SourceVolume, prepare_volume, volume_background
-from .texture import SourceTexture, border_runs, runs_size
+from .texture import SourceTexture
 
 __all__ = ["VolumeWarper", "make_volume_frame"]
 
@@ -83,37 +93,26 @@ class VolumeWarper:
 
     def release(self) -> None:
         """Free the cached GL objects. Idempotent."""
-        for name in ("_target_texture", "_jacobian_texture"):
-            cached = getattr(self, name, None)
-            if cached is not None and self._gl.usable:
-                with self._gl.use():
-                    cached[1].release()
-            setattr(self, name, None)
+        cached = getattr(self, "_jacobian_texture", None)
+        if cached is not None and self._gl.usable:
+            with self._gl.use():
+                cached[1].release()
+        self._jacobian_texture = None
+        targets = getattr(self, "_target_textures", None) or {}
+        if targets and self._gl.usable:
+            with self._gl.use():
+                for texture in targets.values():
+                    texture.release()
+        self._target_textures = None
         self._resources.release()
 
     # -- planning -------------------------------------------------------------------------
 
-    def slabs(self, frame: VolumeFrame, voxel_bytes: int, slab_bytes: int) -> Iterator[Slab]:
-        """The slabs of ``frame``: as many slices as keep ``voxel_bytes`` a voxel within
-        ``slab_bytes`` and the GL limits (storage buffer, 3D texture side)."""
-        depth_all, height, width = frame.shape
-        limits = self._gl.mgl.info
-        side = int(limits["GL_MAX_3D_TEXTURE_SIZE"])
-        if max(width, height) > side:
-            raise ValueError(
-                f"output slices of {height} x {width} voxels exceed the GL 3D texture size "
-                f"limit of {side} voxels per side on this device"
-            )
-        budget = min(slab_bytes, self._gl.limits["max_ssbo_size"])
-        per_slice = width * height * voxel_bytes
-        if per_slice > self._gl.limits["max_ssbo_size"]:
-            raise ValueError(
-                f"one output slice of {height} x {width} voxels needs {per_slice} bytes, more "
-                "than a GL storage buffer holds on this device"
-            )
-        depth = max(1, min(depth_all, side, budget // per_slice))
-        for first in range(0, depth_all, depth):
-            yield Slab(first, min(depth, depth_all - first), width, height)
+    def slabs(
+        self, frame: VolumeFrame, voxel_bytes: int, slab_bytes: int, side: int | None = None
+    ) -> Iterator[Slab]:
+        """The slabs of ``frame`` (:func:`~.pieces.plan_slabs` on this context)."""
+        return plan_slabs(self._gl, frame, voxel_bytes, slab_bytes, side)
 
     # -- the construction -----------------------------------------------------------------
 
@@ -133,12 +132,13 @@ class VolumeWarper:
         background = volume_background(options.background, source)
         backward = options.method == "backward"
         per_voxel = BACKWARD_BYTES if backward else KEY_BYTES
-        # the GL limits on the output's slices first: an output_shape beyond them is a
-        # ValueError, not the allocation of its array
-        planned = list(self.slabs(frame, max(per_voxel, source.voxel_bytes), slabs.slab_bytes))
+        # an output_shape beyond this machine's memory is a ValueError before its slabs are
+        # listed or its array allocated
         check_memory(frame.shape, source.channels * np.dtype(source.dtype).itemsize)
+        voxel_bytes = max(per_voxel, source.voxel_bytes)
+        planned = list(self.slabs(frame, voxel_bytes, slabs.slab_bytes, slabs.texture_side))
         out = source.empty_output(frame.shape)
-        texture = SourceTexture(self._gl, source, slabs.texture_bytes)
+        texture = SourceTexture(self._gl, source, slabs.texture_bytes, slabs.texture_side)
         try:
             survey = len(planned) > 1
             bands = self._bands(
@@ -151,6 +151,7 @@ class VolumeWarper:
                     "WARP_BORDER": BORDERS.index(options.border),
                     "VOLUME_INTEGER": source.integer,
                     "VOLUME_IMAGE_FORMAT": source.image_format,
+                    "VOLUME_SOURCE_TILES": not texture.planar,
                 }
                 uniforms = {
                     "u_source_size": source.shape[::-1],
@@ -186,8 +187,8 @@ class VolumeWarper:
         self._resources.check_alive()
         slabs = slabs if slabs is not None else SlabOptions()
         frame = make_volume_frame(options, shape)
-        planned = list(self.slabs(frame, BACKWARD_BYTES, slabs.slab_bytes))
         check_memory(frame.shape, 16 + 12 + 4 + 1)  # points, the result's, residual, covered
+        planned = list(self.slabs(frame, BACKWARD_BYTES, slabs.slab_bytes, slabs.texture_side))
         points = np.empty((*frame.shape, 4), np.float32)
         bands = self._bands(
             field, shape, frame, options, slabs, survey=len(planned) > 1, backward=True
@@ -195,7 +196,7 @@ class VolumeWarper:
         for slab in planned:
             coords = self._solve(field, bands, frame, slab, options, shape)
             raw = coords.read(size=slab.voxels * COORD_BYTES)
-            points[slab.first : slab.first + slab.depth] = np.frombuffer(raw, np.float32).reshape(
+            points[slab_region(slab)] = np.frombuffer(raw, np.float32).reshape(
                 slab.depth, slab.height, slab.width, 4
             )
         w = points[..., 3]
@@ -287,7 +288,7 @@ class VolumeWarper:
         common = lattice.uniforms() | {
             "u_slab_size": slab.size,
             "u_frame_origin": (ox, oy, oz),
-            "u_slab_first": slab.first,
+            "u_slab_first": slab.corner,
         }
         raster = self._gl.compute("volume/raster.comp.glsl")
         wanted = bands.bands_for(origin[2] - 1.0, origin[2] + slab.depth)
@@ -307,15 +308,20 @@ class VolumeWarper:
             defines | {"VOLUME_COORDS": coords, "VOLUME_HERMITE": hermite},
         )
         set_uniforms(program, common | uniforms)
-        # the last band rastered is still held: resolved first; over a source held a few
-        # slices at a time, in pieces of a band whose cells' slices one texture holds
-        pieces = _band_pieces(wanted[::-1] or [(0, 0)], lattice, source)
-        for index, ((whole_first, whole_layers), (first, layers)) in enumerate(pieces):
+        # the last band rastered is still held: resolved first; over a source held in
+        # pieces, in boxes of a band's cells whose voxels one texture holds
+        pieces = band_pieces(wanted[::-1] or [(0, 0)], lattice, source)
+        if source is not None and not source.whole:  # only those that hold a voxel's cell
+            self._gl.mgl.memory_barrier()
+            raw = np.frombuffer(keys.read(size=slab.voxels * KEY_BYTES), np.uint32)
+            pieces = used_pieces(pieces, lattice, raw[raw != _NO_KEY] // 6)
+        for index, ((whole_first, whole_layers), (first, layers), rows) in enumerate(pieces):
             if whole_layers:
                 bands.load(whole_first, whole_layers)
             if source is not None:
-                held = _hold_band(source, lattice, first, layers, defines["WARP_BORDER"])
-                set_uniforms(program, {"u_source_runs": held})
+                border = BORDERS[defines["WARP_BORDER"]]
+                held = hold_cells(source, lattice, (first, layers), rows, border)
+                set_uniforms(program, held | {"u_cell_rows": rows})
             bands.buffer.bind_to_storage_buffer(bindings.VOLUME_LATTICE.index)
             keys.bind_to_storage_buffer(bindings.VOLUME_KEYS.index)
             if hermite:
@@ -351,21 +357,26 @@ class VolumeWarper:
             (ox, oy, oz),
             shape,
             constant=options.border == "constant",
-            first=slab.first,
+            first=slab.corner,
             pending=self._resources.buffer("volume_pending", pending_bytes(slab.voxels)),
         )
         self._gl.mgl.memory_barrier()
         return coords
 
     def _target(self, slab: Slab, source: SourceVolume) -> moderngl.Texture3D:
+        """The slab texture of ``slab``'s size: the last few sizes are kept, as boxes of
+        columns and rows take up to four (the last column's and row's narrower)."""
         key = (slab.size, source.target_components, source.texture_dtype)
-        cached = getattr(self, "_target_texture", None)
-        if cached is not None and cached[0] == key:
-            return cached[1]
-        if cached is not None:
-            cached[1].release()
+        kept = getattr(self, "_target_textures", None)
+        if kept is None:
+            kept = self._target_textures = {}
+        if key in kept:
+            return kept[key]
+        if len(kept) >= _TARGETS_KEPT:
+            oldest = next(iter(kept))
+            kept.pop(oldest).release()
         texture = self._gl.mgl.texture3d(slab.size, key[1], dtype=key[2])
-        self._target_texture = (key, texture)
+        kept[key] = texture
         return texture
 
     def _read(self, target, slab: Slab, source: SourceVolume, out: np.ndarray) -> None:
@@ -375,13 +386,19 @@ class VolumeWarper:
         nbytes = slab.voxels * source.voxel_bytes
         pack = self._resources.buffer("volume_readback", nbytes)
         target.read_into(pack, alignment=1)
-        region = out[slab.first : slab.first + slab.depth]
-        if source.target_components == source.channels and out.dtype == source.data.dtype:
+        region = out[slab_region(slab)]
+        whole_slices = slab.width == out.shape[2] and slab.height == out.shape[1]
+        same = source.target_components == source.channels and out.dtype == source.data.dtype
+        if same and whole_slices:
             pack.read_into(region, size=nbytes)
             return
         raw = np.frombuffer(pack.read(size=nbytes), dtype=source.data.dtype)
         values = raw.reshape(slab.depth, slab.height, slab.width, source.target_components)
         region[...] = values[..., : source.channels]
+
+
+#: Slab textures kept between slabs (boxes of columns and rows take up to four sizes).
+_TARGETS_KEPT = 4
 
 
 def _lattice(field, shape, frame, options: VolumeOptions, *, backward: bool) -> CornerLattice:
@@ -430,104 +447,19 @@ def _cropped(field, lattice: CornerLattice, frame: VolumeFrame, *, pad: int) -> 
 
 def _sample(program, texture: SourceTexture, coords, slab: Slab, options, groups: int) -> None:
     """The backward method's sampling pass over ``slab`` (``program``, its other uniforms
-    set), once per :func:`_sample_passes`."""
+    set), once per :func:`sample_passes`."""
     gl = texture.gl
-    for index, (slices, runs) in enumerate(_sample_passes(texture, coords, slab, options)):
-        held = texture.hold(runs)
+    points = np.zeros((0, 4), np.float32)
+    if not texture.whole:
+        raw = coords.read(size=slab.voxels * COORD_BYTES)
+        points = np.frombuffer(raw, np.float32).reshape(-1, 4)
+    for index, (low, high, box) in enumerate(sample_passes(texture, points, options)):
+        held = texture.hold(box)
         coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
-        uniforms = {"u_source_runs": held, "u_slices": slices, "u_write_uncovered": index == 0}
-        set_uniforms(program, uniforms)
+        uniforms = {"u_first_low": low, "u_first_high": high, "u_write_uncovered": index == 0}
+        set_uniforms(program, held | uniforms)
         gl.mgl.memory_barrier()
         run_1d(program, slab.voxels, max_groups=groups)
-
-
-def _band_pieces(
-    bands: list[tuple[int, int]], lattice: CornerLattice, source: SourceTexture | None
-) -> list[tuple[tuple[int, int], tuple[int, int]]]:
-    """Each of ``bands`` (first cell layer, layers) with its pieces, those whose cells sample
-    no more source slices than one texture holds (``grid`` a layer and one more either side,
-    for trilinear interpolation): (band, piece) pairs, the band itself its one piece where
-    the whole source is held."""
-    if source is None or source.whole:
-        return [(band, band) for band in bands]
-    step = (source.max_slices - 2) // lattice.grid
-    if step < 1:
-        raise ValueError(
-            f"a layer of cells of grid {lattice.grid} samples {lattice.grid + 2} source slices, "
-            f"more than one texture holds ({source.max_slices}); give a larger texture_bytes "
-            "(SlabOptions)"
-        )
-    return [
-        ((first, layers), (f, min(step, first + layers - f)))
-        for first, layers in bands
-        for f in range(first, first + max(layers, 1), step)
-    ]
-
-
-def _hold_band(source: SourceTexture, lattice, first: int, layers: int, border: int):
-    """Hold the source slices that cell layers ``first`` .. ``first + layers - 1`` sample
-    (their voxels, one more each side for trilinear, by the border rule); returns
-    ``u_source_runs``."""
-    depth = source.source.shape[0]
-    if source.whole or layers == 0:
-        return source.hold([(0, depth - 1 if source.whole else 0)])
-    offset = lattice.voxel_first[2]
-    low = first * lattice.grid + offset - 1
-    high = (first + layers) * lattice.grid + offset
-    return source.hold(border_runs(low, high, depth, BORDERS[border]))
-
-
-#: The bounds of the first slices the sampling shader computes (volume_first_slice).
-_SLICE_LIMIT = 1 << 30
-
-
-def _sample_passes(
-    source: SourceTexture, coords, slab: Slab, options: VolumeOptions
-) -> list[tuple[tuple[int, int], list[tuple[int, int]]]]:
-    """The backward method's sampling passes over ``slab``: per pass, the range of first
-    slices (``volume_first_slice``) of the voxels it samples and the source slices it holds
-    (runs, :func:`~.texture.border_runs`). One pass holding the volume where it fits; else
-    the first slices of the points in ``coords`` (read back) are cut into runs whose slices
-    one texture holds, and the ranges tile every integer, so that each voxel is sampled in
-    exactly one pass. A slice computed here from the float32 point may differ by one from
-    the shader's (its snap to voxel centres), which each pass's range and slices allow for:
-    pass k takes [start_k - 1, start_(k+1) - 2] and holds [start_k - 1, end_k + 2]."""
-    depth = source.source.shape[0]
-    every = (-_SLICE_LIMIT, _SLICE_LIMIT)
-    if source.whole:
-        return [(every, [(0, depth - 1)])]
-    raw = np.frombuffer(coords.read(size=slab.voxels * COORD_BYTES), np.float32)
-    points = raw.reshape(-1, 4)
-    z = points[points[:, 3] >= 0, 2]
-    if options.interpolation != "linear":
-        z = z + np.float32(0.5)
-    found = np.unique(np.clip(np.floor(z), -_SLICE_LIMIT, _SLICE_LIMIT).astype(np.int64))
-    if len(found) == 0:
-        return [(every, [(0, 0)])]
-
-    def runs(start: int, end: int) -> list[tuple[int, int]]:
-        return border_runs(start - 1, end + 2, depth, options.border)
-
-    if runs_size(runs(int(found[0]), int(found[0]))) > source.max_slices:
-        raise ValueError(
-            f"a voxel samples up to 4 source slices about its point, more than one texture "
-            f"holds ({source.max_slices}); give a larger texture_bytes (SlabOptions)"
-        )
-    groups: list[tuple[int, int]] = []
-    start = end = int(found[0])
-    for value in found[1:].tolist():
-        if runs_size(runs(start, value)) <= source.max_slices:
-            end = value
-            continue
-        groups.append((start, end))
-        start = end = value
-    groups.append((start, end))
-    passes = []
-    for index, (start, end) in enumerate(groups):
-        low = -_SLICE_LIMIT if index == 0 else start - 1
-        high = _SLICE_LIMIT if index == len(groups) - 1 else groups[index + 1][0] - 2
-        passes.append(((low, high), runs(start, end)))
-    return passes
 
 
 def _value_max(source: SourceVolume) -> float:

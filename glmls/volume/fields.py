@@ -20,7 +20,14 @@ from .. import reference
 from ..core.config import MLSConfig
 from .frame import CornerLattice
 
-__all__ = ["NEWTON_ACCEPT", "NEWTON_TOLERANCE", "Field", "ReferenceField", "newton_inverse"]
+__all__ = [
+    "NEWTON_ACCEPT",
+    "NEWTON_TOLERANCE",
+    "Field",
+    "ReferenceField",
+    "newton_inverse",
+    "slab_corner",
+]
 
 #: A voxel whose Newton residual |f(s) - u| stays above this (voxels) is left uncovered.
 NEWTON_ACCEPT = 0.05
@@ -58,12 +65,13 @@ class Field(Protocol):
         shape: tuple[int, int, int],
         *,
         constant: bool,
-        first: int = 0,
+        first: int | tuple[int, int, int] = 0,
         pending: moderngl.Buffer | None = None,
     ) -> None:
         """Newton's method from the first guesses in ``coords`` (x, y, z, w per voxel of a
         slab of ``size`` (W, H, slices) whose voxel (i, j, k) shows ``origin`` + (i, j,
-        ``first`` + k), source voxels; w < 0: no guess), written back as (s, w): w the
+        ``first`` + k), source voxels, or + (i, j, k) + ``first`` where ``first`` is the
+        slab's first voxel (x, y, z); w < 0: no guess), written back as (s, w): w the
         residual |f(s) - u| (voxels) where found (inside a volume of ``shape`` with
         ``constant``), else -1 - residual. ``pending``: scratch room for the voxels left to
         a second pass (:func:`~glmls.volume.kernel_field.pending_bytes`), where the field
@@ -124,18 +132,20 @@ class ReferenceField:
         shape: tuple[int, int, int],
         *,
         constant: bool,
-        first: int = 0,
+        first: int | tuple[int, int, int] = 0,
         pending: moderngl.Buffer | None = None,
     ) -> None:
         """Newton's method in float64 (:func:`newton_inverse`) from the first guesses in
         ``coords`` ((x, y, z, w) per voxel of a slab of ``size`` (W, H, slices) whose voxel
-        (i, j, k) shows ``origin`` + (i, j, ``first`` + k), source voxels; w < 0: no guess,
-        start at the voxel), written back as the construction's backward pass does."""
+        (i, j, k) shows ``origin`` + (i, j, ``first`` + k), source voxels, or + (i, j, k) +
+        ``first``, the slab's first voxel (x, y, z); w < 0: no guess, start at the voxel),
+        written back as the construction's backward pass does."""
         width, height, depth = size
         count = width * height * depth
         raw = np.frombuffer(coords.read(size=count * 16), np.float32).reshape(count, 4)
         k, j, i = np.meshgrid(np.arange(depth), np.arange(height), np.arange(width), indexing="ij")
-        u = np.stack([i, j, k + first], axis=-1).reshape(-1, 3) + np.asarray(origin)
+        u = np.stack([i, j, k], axis=-1).reshape(-1, 3) + slab_corner(first)
+        u = u + np.asarray(origin)
         guess = np.where(raw[:, 3:4] >= 0, raw[:, :3].astype(np.float64), u)
         s, residual = newton_inverse(self, u, guess)
         found = residual <= NEWTON_ACCEPT
@@ -145,6 +155,15 @@ class ReferenceField:
         w = np.where(found, residual, -1.0 - np.minimum(residual, 1e30))
         out = np.concatenate([s, w[:, None]], axis=1).astype(np.float32)
         coords.write(np.ascontiguousarray(out))
+
+
+def slab_corner(first: int | tuple[int, int, int]) -> tuple[int, int, int]:
+    """A slab's first output voxel (x, y, z): ``first`` itself, or (0, 0, ``first``) for
+    the first slice of a slab of whole slices."""
+    if isinstance(first, tuple):
+        x, y, z = first
+        return int(x), int(y), int(z)
+    return 0, 0, int(first)
 
 
 def newton_inverse(

@@ -13,7 +13,7 @@ from ..engine.kernel3 import MLSKernel3
 from ..engine.passes3 import evaluate_points3
 from ..gl import bindings
 from ..gl.dispatch import SecondPass, run_1d, set_uniforms
-from .fields import NEWTON_ACCEPT, NEWTON_TOLERANCE
+from .fields import NEWTON_ACCEPT, NEWTON_TOLERANCE, slab_corner
 from .frame import CornerLattice
 
 __all__ = ["NEWTON_STEPS", "NEWTON_TOLERANCE", "KernelField", "pending_bytes"]
@@ -93,12 +93,13 @@ class KernelField:
         shape: tuple[int, int, int],
         *,
         constant: bool,
-        first: int = 0,
+        first: int | tuple[int, int, int] = 0,
         pending: moderngl.Buffer | None = None,
     ) -> None:
         """Newton's method on the GPU from the first guesses in ``coords`` (see
         ``volume/newton.comp.glsl``) for a slab of ``size`` (W, H, slices) whose voxel
-        (i, j, k) shows ``origin`` + (i, j, ``first`` + k) (source voxels), of a volume of
+        (i, j, k) shows ``origin`` + (i, j, ``first`` + k), or + (i, j, k) + ``first`` given
+        as the slab's first voxel (x, y, z) (source voxels), of a volume of
         ``shape``: a first pass evaluates f once per voxel and lists those not yet within the
         tolerance in ``pending`` (at least :func:`pending_bytes` of the slab's voxels; None:
         one made here), which a second pass finishes."""
@@ -118,7 +119,7 @@ class KernelField:
         uniforms = self._uniforms() | {
             "u_slab_size": size,
             "u_frame_origin": origin,
-            "u_slab_first": first,
+            "u_slab_first": slab_corner(first),
             "u_volume_size": shape[::-1],
             "u_tolerance": NEWTON_TOLERANCE,
             "u_accept": NEWTON_ACCEPT,

@@ -242,8 +242,8 @@ class SlabOptions:
     """How the volume construction cuts its work into slabs and bands.
 
     The most bytes of one output slab's buffers (keys or coordinates, and the slab texture)
-    and of one band of the deformed lattice. Smaller values give more slabs and bands, the
-    same result.
+    and of one band of the deformed lattice, and the source's texture's bytes and side.
+    Smaller values give more slabs, bands and pieces of the source, the same result.
 
     Parameters
     ----------
@@ -262,6 +262,13 @@ class SlabOptions:
         The source volume's texture: a larger volume is held a few slices at a time (at
         least 4, and ``grid`` + 2 for ``"quads"``), those that each piece of a band of the
         lattice, or each sampling pass over a slab, reads.
+    texture_side : int, default 2**20
+        The most voxels along each side of the source's texture and of an output slab's
+        texture, taken with the GL limit (``GL_MAX_3D_TEXTURE_SIZE``, 2048 on llvmpipe and at
+        least 2048 by GL 4.3): the smaller holds. Slices wider or taller than it are held and
+        built in boxes of at most that many columns and rows (at least 4, and ``grid`` + 2
+        for ``"quads"``). The default leaves the GL limit alone; a small value cuts small
+        volumes as the GL limit cuts large ones.
 
     Examples
     --------
@@ -273,7 +280,11 @@ class SlabOptions:
     slab_bytes: int = 1 << 26
     band_bytes: int = 1 << 28
     texture_bytes: int = 1 << 30
+    texture_side: int = 1 << 20
 
     def __post_init__(self) -> None:
         for name in ("slab_bytes", "band_bytes", "texture_bytes"):
             object.__setattr__(self, name, check_integer(name, getattr(self, name), 64))
+        object.__setattr__(
+            self, "texture_side", check_integer("texture_side", self.texture_side, 4)
+        )

@@ -48,7 +48,7 @@ uniform int u_offset;        // first item of this dispatch
 uniform int u_count;         // voxels of the slab
 uniform ivec3 u_slab_size;   // W, H and slices of the output slab
 uniform vec3 u_frame_origin; // source voxels that the output's voxel (0, 0, 0) shows
-uniform int u_slab_first;    // the slab's first output slice
+uniform ivec3 u_slab_first;  // the slab's first output voxel (x, y, z)
 uniform ivec3 u_volume_size; // W, H, D of the source
 uniform float u_tolerance;
 uniform float u_accept;
@@ -156,7 +156,7 @@ ivec3 volume_voxel(int i) {
 }
 
 vec3 volume_target(int i) {
-    return u_frame_origin + vec3(volume_voxel(i) + ivec3(0, 0, u_slab_first));
+    return u_frame_origin + vec3(volume_voxel(i) + u_slab_first);
 }
 
 mat3 volume_slope(int i) {

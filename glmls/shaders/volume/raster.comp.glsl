@@ -25,11 +25,12 @@ uniform int u_offset;       // first item of this dispatch
 uniform int u_count;        // cells of the band
 uniform int u_cell_first;   // the band's first layer of cells
 uniform ivec3 u_slab_size;  // W, H and slices of the output slab
-// source voxels that the output's voxel (0, 0, 0) shows, and the slab's first output slice:
+// source voxels that the output's voxel (0, 0, 0) shows, and the slab's first output voxel
+// (x, y, z; a box of the output where its slices exceed a texture or a storage buffer):
 // every place is taken relative to the output's origin, not the slab's, so that a voxel's
 // float32 arithmetic is the same whatever slab it falls in
 uniform vec3 u_frame_origin;
-uniform int u_slab_first;
+uniform ivec3 u_slab_first;
 
 void main() {
     int item = u_offset + int(gl_GlobalInvocationID.x);
@@ -50,7 +51,7 @@ void main() {
     if (any(isnan(low)) || any(isnan(high)) || any(isinf(low)) || any(isinf(high))) {
         return;
     }
-    ivec3 first = ivec3(0, 0, u_slab_first);
+    ivec3 first = u_slab_first;
     ivec3 last = first + u_slab_size - 1;
     if (any(greaterThan(low, vec3(last) + 0.5)) || any(lessThan(high, vec3(first) - 0.5))) {
         return;
@@ -119,7 +120,7 @@ void main() {
                 float span = float(hi.x - lo.x);
                 int x0 = lo.x + int(ceil(clamp(from, 0.0, span + 1.0))) - 1;
                 int x1 = lo.x + int(floor(clamp(to, -1.0, span))) + 1;
-                int row = ((z - u_slab_first) * u_slab_size.y + y) * u_slab_size.x;
+                int row = ((z - first.z) * u_slab_size.y + y - first.y) * u_slab_size.x - first.x;
                 int x_end = min(min(x1, hi.x), piece_last.x);
                 for (int x = max(max(x0, lo.x), piece_first.x); x <= x_end; ++x) {
                     float dx = float(x - lo.x);

@@ -15,6 +15,10 @@
 // Voxels no cell covers get the background (-1 in the coordinates), in the pass told to.
 layout(local_size_x = LOCAL_SIZE) in;
 
+#ifndef VOLUME_SOURCE_TILES
+#define VOLUME_SOURCE_TILES 0
+#endif
+
 #include "volume/lattice.glsl"
 #include "volume/tetra.glsl"
 
@@ -57,9 +61,14 @@ uniform int u_offset;        // first item of this dispatch
 uniform int u_count;         // voxels of the slab
 uniform ivec3 u_slab_size;   // W, H and slices of the output slab
 uniform vec3 u_frame_origin; // source voxels that the output's voxel (0, 0, 0) shows
-uniform int u_slab_first;    // the slab's first output slice
+uniform ivec3 u_slab_first;  // the slab's first output voxel (x, y, z)
 uniform uint u_key_first;    // the band's cells: keys u_key_first .. u_key_end - 1
 uniform uint u_key_end;
+#if VOLUME_SOURCE_TILES
+// and of those, the cells x .. y - 1 of a row and z .. w - 1 of a layer: a piece whose voxels
+// one texture holds, where the source's slices exceed one
+uniform ivec4 u_cell_rows;
+#endif
 uniform bool u_write_uncovered;
 uniform ivec3 u_volume_size; // W, H, D of the source volume
 
@@ -92,6 +101,12 @@ void main() {
         return;
     }
     ivec3 cell = volume_cell_of(cell_key);
+#if VOLUME_SOURCE_TILES
+    if (cell.x < u_cell_rows.x || cell.x >= u_cell_rows.y || cell.y < u_cell_rows.z ||
+        cell.y >= u_cell_rows.w) {
+        return;
+    }
+#endif
     int best = int(key % 6u);
     ivec3 b = volume_corner(cell, VOLUME_TETRA[2 * best]);
     ivec3 c = volume_corner(cell, VOLUME_TETRA[2 * best + 1]);
@@ -110,7 +125,7 @@ void main() {
 #endif
     vec3 coords;
     // as the raster pass: corners and voxel relative to the output's origin
-    vec3 u = vec3(p + ivec3(0, 0, u_slab_first));
+    vec3 u = vec3(p + u_slab_first);
     volume_barycentric(y0 - u_frame_origin, yb - u_frame_origin, yc - u_frame_origin,
                        yd - u_frame_origin, u, coords);
     vec3 s0 = volume_lattice_point(cell);

@@ -1,8 +1,8 @@
 // The backward method's last pass: every output voxel of the slab samples the source at the
 // point in the coordinates buffer ((x, y, z, w): w >= 0 covered), or gets the background. Over
-// a source held a few slices at a time, one pass per range of the slices the voxels read
-// first (volume_first_slice): a voxel is sampled in the pass whose range holds its slice,
-// and an uncovered one in the pass told to write those.
+// a source held in pieces, one pass per box of the voxels the points read first
+// (volume_first_voxel): a voxel is sampled in the pass whose box holds its first voxel, and
+// an uncovered one in the pass told to write those.
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "volume/sample.glsl"
@@ -16,7 +16,8 @@ uniform int u_offset;        // first item of this dispatch
 uniform int u_count;         // voxels of the slab
 uniform ivec3 u_slab_size;   // W, H and slices of the output slab
 uniform vec4 u_background;
-uniform ivec2 u_slices;      // the range of first slices this pass samples
+uniform ivec3 u_first_low;   // the box of first voxels this pass samples
+uniform ivec3 u_first_high;
 uniform bool u_write_uncovered;
 
 void main() {
@@ -33,8 +34,8 @@ void main() {
         }
         return;
     }
-    int first = volume_first_slice(c.xyz);
-    if (first >= u_slices.x && first <= u_slices.y) {
+    ivec3 first = volume_first_voxel(c.xyz);
+    if (all(greaterThanEqual(first, u_first_low)) && all(lessThanEqual(first, u_first_high))) {
         volume_store(p, volume_sample(c.xyz));
     }
 }

@@ -4,8 +4,15 @@
 //                  centres, in float32.
 //   WARP_BORDER    the rule outside the volume (common/border.glsl; constant clamps).
 //   VOLUME_INTEGER the source is an integer texture (uint8, uint16).
+//   VOLUME_SOURCE_TILES 1: the texture holds a box of the source, runs of its columns and
+//                  rows as of its slices (u_source_columns, u_source_rows), where its
+//                  slices exceed one texture; 0: whole slices.
 #include "common/blend.glsl"
 #include "common/border.glsl"
+
+#ifndef VOLUME_SOURCE_TILES
+#define VOLUME_SOURCE_TILES 0
+#endif
 
 #if VOLUME_INTEGER
 layout(binding = BIND_VOLUME_SOURCE) uniform usampler3D u_volume;
@@ -17,12 +24,24 @@ uniform ivec3 u_source_size;   // W, H, D of the source
 // y, then z to w (empty, z > w, where one run is held; two where wrap joins the last slice to
 // the first, glmls.volume.texture.border_runs)
 uniform ivec4 u_source_runs;
+#if VOLUME_SOURCE_TILES
+uniform ivec4 u_source_columns;  // the columns held, as the slices
+uniform ivec4 u_source_rows;     // the rows held, as the slices
+#endif
+
+// the texel of index i (within the volume) of an axis whose indices ``runs`` holds
+int volume_held(int i, ivec4 runs) {
+    return i <= runs.y ? i - runs.x : runs.y - runs.x + 1 + i - runs.z;
+}
 
 vec4 volume_texel(ivec3 p) {
     int z = border_index(p.z, u_source_size.z);
-    int layer = z <= u_source_runs.y ? z - u_source_runs.x
-                                     : u_source_runs.y - u_source_runs.x + 1 + z - u_source_runs.z;
-    ivec3 q = ivec3(border_index(p.x, u_source_size.x), border_index(p.y, u_source_size.y), layer);
+    ivec3 q = ivec3(border_index(p.x, u_source_size.x), border_index(p.y, u_source_size.y),
+                    volume_held(z, u_source_runs));
+#if VOLUME_SOURCE_TILES
+    q.x = volume_held(q.x, u_source_columns);
+    q.y = volume_held(q.y, u_source_rows);
+#endif
     return vec4(texelFetch(u_volume, q, 0));
 }
 
@@ -45,16 +64,16 @@ vec3 volume_snapped(vec3 s) {
     return mix(s, centre, lessThanEqual(abs(s - centre), VOLUME_SNAP * max(abs(centre), vec3(8.0))));
 }
 
-// The first source slice (before the border rule) that volume_sample(s) reads: the passes
-// over a sliced source each take the voxels of a range of these
+// The first source voxel (x, y, z, before the border rule) that volume_sample(s) reads: the
+// passes over a source held in pieces each take the voxels of a box of these
 // (glmls.volume.construction), clamped to +-2^30 so that any float has an int
-int volume_first_slice(vec3 s) {
+ivec3 volume_first_voxel(vec3 s) {
 #if WARP_LINEAR
-    float z = floor(volume_snapped(s).z);
+    vec3 first = floor(volume_snapped(s));
 #else
-    float z = floor(s.z + 0.5);
+    vec3 first = floor(s + 0.5);
 #endif
-    return int(clamp(z, -1073741824.0, 1073741824.0));
+    return ivec3(clamp(first, vec3(-1073741824.0), vec3(1073741824.0)));
 }
 
 vec4 volume_sample(vec3 s) {
