@@ -93,8 +93,9 @@ def display_volume(volume: np.ndarray) -> np.ndarray:
 
 def check_fits(gl: GLContext, shape: tuple[int, int, int]) -> None:
     """Refuse a volume of ``shape`` (D, H, W) that the window on ``gl`` cannot show: its
-    slices (H x W) past the GL 3D texture limit, which no warp takes, or a side past the 2D
-    texture limit, which no view's picture holds.
+    slices (H x W) past the GL 3D texture limit (:func:`glmls.volume.warp_volume` builds
+    those in boxes, a pass each, too slow for slices that follow a drag live), or a side past
+    the 2D texture limit, which no view's picture holds.
 
     Parameters
     ----------
