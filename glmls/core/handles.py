@@ -247,12 +247,23 @@ class Scaling:
     center: tuple[float, float]
     scale: float
 
-    def to_gpu(self, points: np.ndarray) -> np.ndarray:
+    def to_gpu(self, points: np.ndarray, *, out: np.ndarray | None = None) -> np.ndarray:
+        """``points`` (N, D) scaled, float32: into ``out`` where given (a float32 (N, D)
+        array or view, such as the first columns of wider rows), which is returned."""
         points = np.asarray(points, dtype=np.float64)
         if points.ndim != 2 or points.shape[1] != len(self.center):
-            return ((points - np.asarray(self.center)) / self.scale).astype(np.float32)
+            scaled = ((points - np.asarray(self.center)) / self.scale).astype(np.float32)
+            if out is None:
+                return scaled
+            out[...] = scaled
+            return out
         # column by column: numpy broadcasts (N, 2) against (2,) ~3x slower
-        out = np.empty(points.shape, np.float32)
+        if out is None:
+            out = np.empty(points.shape, np.float32)
+        elif out.shape != points.shape or out.dtype != np.float32:
+            raise ValueError(
+                f"out must be float32 of shape {points.shape}, got {out.dtype} {out.shape}"
+            )
         for axis, center in enumerate(self.center):
             out[:, axis] = (points[:, axis] - center) / self.scale
         return out

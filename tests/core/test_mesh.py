@@ -108,3 +108,16 @@ def test_shape_of_integral_numbers_is_kept():
     assert as_shape((np.int64(3), np.uint8(4))) == (3, 4)
     assert as_shape((np.array(3), 4)) == (3, 4)
     assert as_shape((3, 4, 3)) == (3, 4)
+
+
+def test_scaling_into_the_first_columns_of_wider_rows():
+    """``to_gpu(out=...)`` writes the scaled points into a view (a vec4 per vertex for the
+    GPU), the same values as a new array; another shape or dtype is refused, named."""
+    scaling = Scaling((10.0, 20.0, 30.0), 4.0)
+    points = np.array([[10.0, 20.0, 30.0], [14.0, 12.0, 31.0]])
+    wide = np.full((2, 4), 7.0, np.float32)
+    assert scaling.to_gpu(points, out=wide[:, :3]) is not None
+    assert np.array_equal(wide[:, :3], scaling.to_gpu(points))
+    assert (wide[:, 3] == 7.0).all()
+    with pytest.raises(ValueError, match="float32 of shape"):
+        scaling.to_gpu(points, out=np.zeros((2, 3)))

@@ -165,6 +165,46 @@ def test_repeatable_and_split_into_dispatches(gl, rng):
             assert np.array_equal(getattr(out, name), getattr(whole, name)), name
 
 
+def test_each_face_is_read_by_two_passes(gl, rng, monkeypatch):
+    """Normals from the faces: one pass over the faces for the sums' scales, one for the
+    folds and the sums together; the given normals take the folds' pass alone."""
+    from glmls.engine import deform3
+
+    vertices, faces = _random_mesh(rng, 500, 999)
+    src, dst = _handles(rng, 5.0)
+    passes = []
+    run_1d = deform3.run_1d
+
+    def counted(program, count, **options):
+        passes.append(count)
+        run_1d(program, count, **options)
+
+    monkeypatch.setattr(deform3, "run_1d", counted)
+    with glmls.MLS(src, dst) as m:
+        out = m.deform((vertices, faces))
+        assert passes.count(len(faces)) == 2
+        passes.clear()
+        m.deform(glmls.Mesh(vertices, faces, normals=out.normals))
+        assert passes.count(len(faces)) == 1
+    _compare(out, vertices, faces)
+
+
+def test_a_smaller_mesh_after_a_larger_one(gl, rng):
+    """The passes read faces 4 at a time: a face count that is not a multiple of 4, in
+    buffers a larger mesh used before, gives what a fresh MLS gives."""
+    src, dst = _handles(rng, 5.0)
+    large = _random_mesh(rng, 1500, 4000)
+    small = _random_mesh(rng, 700, 1001)
+    with glmls.MLS(src, dst) as m:
+        m.deform(large)
+        after = m.deform(small)
+    with glmls.MLS(src, dst) as m:
+        fresh = m.deform(small)
+    for name in ("vertices", "normals", "jacobian", "det_j", "face_folds"):
+        assert np.array_equal(getattr(after, name), getattr(fresh, name)), name
+    _compare(after, *small)
+
+
 def test_derivatives_and_inverse_do_not_depend_on_the_handles_unit(gl):
     """The same handles, mesh and points in millimetres, metres and micrometres (times 1,
     1e-3 and 1e3): J, det J, the normals and the inverse are the same to float32's

@@ -207,9 +207,11 @@ def compile_every_entry(gl):
     for stage in range(3):
         gl.compute("warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage})
     gl.compute("adaptive/scan.comp.glsl")  # the adaptive mesh (tolerance=)
-    for stage in range(2):  # a 3D mesh's normal sums, then its folds
-        gl.compute("mls3/mesh_normals.comp.glsl", {"MESH3_NORMALS_STAGE": stage})
-    gl.compute("mls3/mesh_folds.comp.glsl")
+    # a 3D mesh's normal scales, its folds (with the normal sums or without), its normals
+    gl.compute("mls3/mesh_scales.comp.glsl")
+    for sums in (0, 1):
+        gl.compute("mls3/mesh_folds.comp.glsl", {"MESH3_NORMAL_SUMS": sums})
+    gl.compute("mls3/mesh_normals.comp.glsl")
     for border in range(5):
         for linear, coords in ((0, 0), (1, 0), (0, 1)):
             fill = {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords, "WARP_BORDER": border}

@@ -1,62 +1,79 @@
-// The folded faces of a deformed mesh (glmls.core.mesh3.face_folds): a face folds where one
-// of its vertices does (det J <= 0), or where its deformed normal points against its
-// original normal carried by the sum of its vertices' cofactor matrices, n (C_a + C_b + C_c).
-// Reads the vertices (scaled, 3 floats each) and their records (mls3/points.comp.glsl,
-// MLS3_MESH); each invocation writes 4 faces' flags (0 or 1), one byte each, in one uint.
+// The pass over a deformed mesh's faces (glmls.core.mesh3.face_folds), MESH3_FACES faces per
+// invocation, each face's vertices and records (mls3/points.comp.glsl, MLS3_MESH) read once:
+//   the fold flags: a face folds where one of its vertices does (det J <= 0), or where its
+//     deformed normal points against its original normal carried by the sum of its
+//     vertices' cofactor matrices, n (C_a + C_b + C_c); one byte each (0 or 1), the
+//     invocation's 4 in one uint;
+//   MESH3_NORMAL_SUMS: the face's normal added at each corner in fixed point of the scale
+//     the records hold (mls3/mesh.glsl; atomicAdd of ints: core GL has no float atomics,
+//     and integer sums do not depend on the order).
 layout(local_size_x = LOCAL_SIZE) in;
 
+#define MESH3_FACE_PASS
 #include "mls3/mesh.glsl"
 
-layout(std430, binding = BIND_POINTS) readonly buffer Mesh3Vertices {
-    float mesh3_vertices[];
-};
+#ifndef MESH3_NORMAL_SUMS
+#define MESH3_NORMAL_SUMS 0
+#endif
+
 layout(std430, binding = BIND_DEFORMED) readonly buffer Mesh3Records {
-    float mesh3_records[];
+    vec4 mesh3_records[];
 };
 layout(std430, binding = BIND_MESH_FOLDS) writeonly buffer Mesh3Folds {
     uint mesh3_folds[];
 };
-uniform int u_count;     // faces
-uniform int u_offset;    // first face of this dispatch
+#if MESH3_NORMAL_SUMS
+layout(std430, binding = BIND_MESH_NORMALS) buffer Mesh3Sums {
+    int mesh3_sums[];
+};
+#endif
 
-vec3 mesh3_vertex(int k) {
-    return vec3(mesh3_vertices[3 * k], mesh3_vertices[3 * k + 1], mesh3_vertices[3 * k + 2]);
-}
-
-// 3 floats of vertex k's record from ``at``
-vec3 mesh3_record(int k, int at) {
-    int i = MESH3_RECORD * k + at;
-    return vec3(mesh3_records[i], mesh3_records[i + 1], mesh3_records[i + 2]);
-}
-
-bool mesh3_folds_at(int face) {
-    ivec3 corners = mesh3_face(face);
+bool mesh3_face(ivec3 corners) {
     vec3 v[3];
     vec3 f[3];
+    vec2 scales[3];
     mat3 cofactors = mat3(0.0);
     bool folded = false;
     for (int c = 0; c < 3; ++c) {
         int k = corners[c];
-        v[c] = mesh3_vertex(k);
-        f[c] = v[c] + mesh3_record(k, 0);
-        cofactors += mesh3_cofactor(mat3(mesh3_record(k, 3), mesh3_record(k, 6),
-                                         mesh3_record(k, 9)));
-        folded = folded || mesh3_records[MESH3_RECORD * k + 15] <= 0.0;
+        int at = 4 * k;
+        vec4 r0 = mesh3_records[at], r1 = mesh3_records[at + 1];
+        vec4 r2 = mesh3_records[at + 2], r3 = mesh3_records[at + 3];
+        v[c] = mesh3_vertices[k].xyz;
+        f[c] = v[c] + r0.xyz;
+        cofactors += mesh3_cofactor(mesh3_rows(r0, r1, r2));
+        folded = folded || r3.w <= 0.0;
+        scales[c] = r3.xy;
     }
     vec3 before = cross(v[1] - v[0], v[2] - v[0]);
     vec3 after = cross(f[1] - f[0], f[2] - f[0]);
+#if MESH3_NORMAL_SUMS
+    for (int c = 0; c < 3; ++c) {
+        float largest = scales[c].x;
+        if (largest > 0.0) {
+            // |before / largest| <= 1: the sum of the vertex's faces stays within 2^30
+            ivec3 q = ivec3(round(before / largest * (1073741824.0 / scales[c].y)));
+            int at = MESH3_SUMS * corners[c] + MESH3_SUM_AT;
+            atomicAdd(mesh3_sums[at], q.x);
+            atomicAdd(mesh3_sums[at + 1], q.y);
+            atomicAdd(mesh3_sums[at + 2], q.z);
+        }
+    }
+#endif
     // before (C_a + C_b + C_c): the columns of ``cofactors`` are the matrices' rows
     return folded || dot(after, cofactors * before) <= 0.0;
 }
 
 void main() {
-    int first = u_offset + 4 * int(gl_GlobalInvocationID.x);
+    int first = u_offset + MESH3_FACES * int(gl_GlobalInvocationID.x);
     if (first >= u_count) {
         return;
     }
+    ivec3 faces[MESH3_FACES];
+    mesh3_faces_from(first, faces);
     uint flags = 0u;
-    for (int q = 0; q < 4; ++q) {
-        if (first + q < u_count && mesh3_folds_at(first + q)) {
+    for (int q = 0; q < MESH3_FACES; ++q) {
+        if (first + q < u_count && mesh3_face(faces[q])) {
             flags |= 1u << (8 * q);
         }
     }

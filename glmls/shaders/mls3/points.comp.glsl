@@ -8,10 +8,12 @@
 //   MLS3_WRITE_MATRIX: M row by row (the mathematical M[i][j] at 9 i + 3 r + c), 9 floats;
 //   MLS3_WRITE_JACOBIAN: J = df/dv by central differences of step mls3_jacobian_step(v) (scaled),
 //     J[r][c] = d f_c / d v_r (row vectors: df = dv J), 9 floats;
-//   MLS3_MESH (a list, with MLS3_WRITE_JACOBIAN): one record of MESH3_RECORD floats per
-//     mesh vertex instead (mls3/mesh.glsl): f - v, J, the deformed unit normal n cof(J)
-//     sign(det J) of the vertex's normal (MLS3_MESH_NORMALS: 0 none, 1 the mesh's own, 3
-//     floats per vertex, 2 the fixed-point sums of mls3/mesh_normals.comp.glsl), det J.
+//   MLS3_MESH (a list of vertices, a vec4 each, with MLS3_WRITE_JACOBIAN): one record of
+//     MESH3_RECORD floats per mesh vertex instead (mls3/mesh.glsl): f - v, J, the deformed
+//     unit normal n cof(J) sign(det J) of the vertex's normal (MLS3_MESH_NORMALS: 0 none,
+//     1 the mesh's own, 3 floats per vertex; 2 from the faces: the scale of the vertex's
+//     normal sum, mls3/mesh_scales.comp.glsl's, for mls3/mesh_folds.comp.glsl, the normal
+//     left to mls3/mesh_normals.comp.glsl), det J.
 // J: mls3_eval_jacobian (mls3/core.glsl), f and J sharing the passes over the handles.
 // MLS3_STAGE 1 and 2 are two passes (glmls.gl.dispatch.SecondPass): the first takes only the
 // solve's plain branch (MLS3_SOLVE_LATER) and J's shared passes (MLS3_JACOBIAN_LATER) and
@@ -38,6 +40,10 @@ uniform vec3 u_lattice3_origin;
 uniform vec3 u_lattice3_step;
 uniform ivec3 u_lattice3_dims;
 uniform int u_first;
+#elif MLS3_MESH
+layout(std430, binding = BIND_POINTS) readonly buffer MLS3Vertices {
+    vec4 mls3_vertices[];
+};
 #else
 layout(std430, binding = BIND_POINTS) readonly buffer MLS3Points {
     float mls3_points[];
@@ -46,9 +52,15 @@ layout(std430, binding = BIND_POINTS) readonly buffer MLS3Points {
 uniform int u_count;     // items of this run
 uniform int u_offset;    // first index of this dispatch (dispatches are capped in size)
 
+#if MLS3_MESH
+layout(std430, binding = BIND_DEFORMED) writeonly buffer MLS3OutRecords {
+    vec4 mls3_out_records[];
+};
+#else
 layout(std430, binding = BIND_DEFORMED) writeonly buffer MLS3OutF {
     float mls3_out_f[];
 };
+#endif
 #if (MLS3_WRITE_MATRIX || MLS3_WRITE_JACOBIAN) && !MLS3_MESH
 layout(std430, binding = BIND_MATRICES) writeonly buffer MLS3OutM {
     float mls3_out_m[];
@@ -60,7 +72,7 @@ layout(std430, binding = BIND_MESH_NORMALS) readonly buffer MLS3Normals {
 };
 #elif MLS3_MESH && MLS3_MESH_NORMALS == 2
 layout(std430, binding = BIND_MESH_NORMALS) readonly buffer MLS3NormalSums {
-    int mls3_normal_sums[];
+    ivec4 mls3_normal_sums[];
 };
 #endif
 
@@ -70,6 +82,8 @@ vec3 mls3_item_point(int i) {
     int nx = u_lattice3_dims.x, ny = u_lattice3_dims.y;
     ivec3 ijk = ivec3(index % nx, (index / nx) % ny, index / (nx * ny));
     return u_lattice3_origin + vec3(ijk) * u_lattice3_step;
+#elif MLS3_MESH
+    return mls3_vertices[i].xyz;
 #else
     return vec3(mls3_points[3 * i], mls3_points[3 * i + 1], mls3_points[3 * i + 2]);
 #endif
@@ -90,34 +104,29 @@ void mls3_store_matrix(int i, mat3 M) {
 vec3 mls3_vertex_normal(int i) {
 #if MLS3_MESH_NORMALS == 1
     return vec3(mls3_normals[3 * i], mls3_normals[3 * i + 1], mls3_normals[3 * i + 2]);
-#elif MLS3_MESH_NORMALS == 2
-    int at = MESH3_SUMS * i + 2;
-    return vec3(ivec3(mls3_normal_sums[at], mls3_normal_sums[at + 1], mls3_normal_sums[at + 2]));
 #else
     return vec3(0.0);
 #endif
 }
 
 void mls3_store_record(int i, vec3 d, mat3 J) {
-    int at = MESH3_RECORD * i;
-    mls3_out_f[at] = d.x;
-    mls3_out_f[at + 1] = d.y;
-    mls3_out_f[at + 2] = d.z;
     // the rows of J (the GLSL J's columns are the mathematical J's columns)
     mat3 rows = transpose(J);
-    for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) {
-            mls3_out_f[at + 3 + 3 * r + c] = rows[r][c];
-        }
-    }
     mat3 cof = mesh3_cofactor(rows);
     float det = dot(rows[0], cof[0]);
+#if MLS3_MESH_NORMALS == 2
+    // the scale of the normal sum, for the faces pass; the normals pass writes the normal
+    ivec4 scale = mls3_normal_sums[MESH3_SUMS / 4 * i];
+    vec4 last = vec4(intBitsToFloat(scale.x), float(scale.y), 0.0, det);
+#else
     vec3 n = mesh3_unit(mls3_vertex_normal(i));
-    vec3 carried = mesh3_unit((cof * n) * sign(det));   // n cof(J): sum_r n_r cof's row r
-    mls3_out_f[at + 12] = carried.x;
-    mls3_out_f[at + 13] = carried.y;
-    mls3_out_f[at + 14] = carried.z;
-    mls3_out_f[at + 15] = det;
+    vec4 last = vec4(mesh3_unit((cof * n) * sign(det)), det);   // n cof(J): sum_r n_r cof's row r
+#endif
+    int at = 4 * i;
+    mls3_out_records[at] = vec4(d, rows[0].x);
+    mls3_out_records[at + 1] = vec4(rows[0].yz, rows[1].xy);
+    mls3_out_records[at + 2] = vec4(rows[1].z, rows[2]);
+    mls3_out_records[at + 3] = last;
 }
 #endif
 
