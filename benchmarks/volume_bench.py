@@ -1,7 +1,7 @@
 """Volume warping: glmls's two methods end to end, beside scipy's thin-plate spline and
 molesq's N-D affine MLS, with the peak memory of each.
 
-``python benchmarks/volume_bench.py [--size 256] [--handles 64] [--grid 1] [--memory 512]
+``python benchmarks/volume_bench.py [--size 256] [--handles 64] [--grid G] [--memory 512]
 [--skip-peers]``
 
 The workload: a ``--size``^3 uint8 volume of noise, ``--handles`` handles at uniform random
@@ -9,9 +9,10 @@ points, each moved by a normal displacement of size / 40 voxels (seed 0), MLS ri
 weights (alpha 1). Each measurement runs in a child process of its own, so that its peak
 resident memory (``ru_maxrss``, the volume included) is its own:
 
-- ``glmls quads``: ``warp_volume`` with the cells method (nearest, lattice step ``--grid``);
+- ``glmls quads``: ``warp_volume`` with the cells method (nearest, lattice step ``--grid``,
+  else the method's default, 1);
 - ``glmls backward``: ``warp_volume`` with the backward method (trilinear, first guess from
-  the cells at step ``--grid``);
+  the cells at step ``--grid``, else the method's default, 2);
   both timed end to end (numpy in, numpy out) after a warm-up call on a 16^3 volume that
   compiles the programs; the median of ``--repeat`` calls;
 - ``scipy tps``: ``scipy.interpolate.RBFInterpolator`` (thin-plate spline, every handle,
@@ -118,7 +119,8 @@ def child(tool: str, args, **override) -> dict:
     command = [sys.executable, __file__, "--child", tool]
     settings = vars(args) | override
     for name in ("size", "handles", "grid", "repeat", "method", "dtype"):
-        command += [f"--{name}", str(settings[name])]
+        if settings[name] is not None:
+            command += [f"--{name}", str(settings[name])]
     result = subprocess.run(command, capture_output=True, text=True, check=False)
     if result.returncode:
         return {"error": (result.stderr.strip().splitlines() or ["no output"])[-1]}
@@ -129,7 +131,9 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--handles", type=int, default=64)
-    parser.add_argument("--grid", type=int, default=1)
+    parser.add_argument(
+        "--grid", type=int, default=None, help="lattice step (default: each method's own)"
+    )
     parser.add_argument("--repeat", type=int, default=1)
     parser.add_argument("--memory", type=int, default=0, help="N: peak memory at N^3 uint16")
     parser.add_argument("--skip-peers", action="store_true")
@@ -144,7 +148,8 @@ def main() -> int:
         run = {"glmls": run_glmls, "scipy": run_scipy, "molesq": run_molesq}[args.child]
         print(json.dumps(run(args)))
         return 0
-    print(f"{args.size}^3 uint8, {args.handles} handles, rigid idw, grid {args.grid}")
+    steps = "each method's default" if args.grid is None else args.grid
+    print(f"{args.size}^3 uint8, {args.handles} handles, rigid idw, grid {steps}")
     rows = [
         ("glmls quads", child("glmls", args, method="quads")),
         ("glmls backward", child("glmls", args, method="backward")),
