@@ -263,7 +263,9 @@ class MLSDeform(A.DualTransform):
         """
         if len(keypoints) == 0:
             return keypoints
-        out = np.array(keypoints, copy=True)
+        # moved points are fractions of pixels: integer keypoints come back as float64
+        floating = np.issubdtype(np.asarray(keypoints).dtype, np.floating)
+        out = np.array(keypoints, dtype=None if floating else np.float64, copy=True)
         points = np.asarray(keypoints[:, :2], np.float64)
         # a NaN keypoint (a missing one) stays NaN, as albumentations' affine transforms
         # carry it; the deformation moves the others
@@ -313,4 +315,6 @@ class MLSDeform(A.DualTransform):
         out = np.array(bboxes, np.float64, copy=True)
         height, width = canvas_shape(mls)  # fractions of the output's size (output_shape)
         out[:, :4] = (np.asarray(moved) + 0.5) / np.array([width, height, width, height])
-        return out.astype(bboxes.dtype)
+        # normalised boxes are fractions: an integer dtype would truncate them to 0 or 1
+        floating = np.issubdtype(np.asarray(bboxes).dtype, np.floating)
+        return out.astype(bboxes.dtype) if floating else out

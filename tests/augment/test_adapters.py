@@ -275,3 +275,21 @@ def test_another_librarys_gl_context_first_is_an_import_error(tmp_path):
     )
     out = _run_child(code, tmp_path)
     assert "no clash here" in out or "before the process makes its first" in out
+
+
+def test_albumentations_integer_keypoints_and_boxes_come_back_as_floats(gl):
+    """Called directly with integer arrays, the moved keypoints and the normalised boxes keep
+    their fractions (float64), equal to the float input's; float input keeps its dtype."""
+    t = MLSDeform(preset_options={"displacement": 0.1})
+    t.set_random_seed(0)
+    draw = t.get_params_dependent_on_data({"shape": (16, 16)}, {})
+    points = np.array([[4, 5, 0, 1], [9, 2, 0, 1]])
+    moved = t.apply_to_keypoints(points, **draw)
+    assert moved.dtype == np.float64
+    np.testing.assert_array_equal(moved, t.apply_to_keypoints(points.astype(float), **draw))
+    assert not np.array_equal(moved[:, :2], np.round(moved[:, :2]))  # fractions kept
+    assert t.apply_to_keypoints(points.astype(np.float32), **draw).dtype == np.float32
+    boxes = np.array([[0, 0, 1, 1]])
+    out = t.apply_to_bboxes(boxes, **draw)
+    assert out.dtype == np.float64
+    np.testing.assert_array_equal(out, t.apply_to_bboxes(boxes.astype(float), **draw))
