@@ -11,7 +11,7 @@ import numpy as np
 
 from ..core.mesh import MeshLattice
 from ..mls import MLS
-from .field import check_deformation
+from .field import check_deformation, near_targets
 from .volume_lattice import flat_areas
 
 __all__ = ["Foldovers", "folded_cells", "foldovers"]
@@ -116,7 +116,10 @@ def foldovers(m: HasMesh, shape: object, *, grid: int = 1) -> Foldovers:
     """
     check_deformation(m, "mesh")
     lattice = MeshLattice.corners(shape, grid)  # validates shape and grid
-    _, deformed = m.mesh(lattice.shape, grid=lattice.grid)
+    # far targets: the folds of f - t (a whole-pixel t; the same cells, as f - t turns the
+    # same triangles), whose float32 rounding is that of a map near its sources
+    with near_targets(m) as (near, _):
+        _, deformed = near.mesh(lattice.shape, grid=lattice.grid)  # type: ignore[attr-defined]
     rounding = np.finfo(np.float32 if isinstance(m, MLS) else np.float64).eps  # the GPU's
     folded = folded_cells(deformed, rounding=float(rounding))
     return Foldovers(int(folded.sum()), lattice.cell_mask(folded))

@@ -26,7 +26,7 @@ from .construction import (
     check_radius,
     construction_errors,
 )
-from .field import check_deformation, image_deformation
+from .field import check_deformation, error_field, image_deformation
 from .folding import foldovers
 from .pictures import (
     render_construction_errors,
@@ -368,7 +368,7 @@ def report(
     clock = StageClock(on_stage)
 
     clock.begin("error field")
-    field = m.error_field(shape, grid=grid)
+    field = error_field(m, shape, grid=grid)  # far targets in float32 of near ones
     clock.end("error_field")
 
     clock.begin("triangles")

@@ -286,6 +286,34 @@ class Scaling:
         return cls((float(center[0]), float(center[1])), scale)
 
 
+#: A target offset (:func:`fit_offset`, :func:`~glmls.core.handles3.fit_offset3`) is taken
+#: where it makes the GPU's scale at least this many times finer: for a map whose targets lie
+#: far from its sources, not for the displacements of a usual warp.
+OFFSET_GAIN = 4.0
+
+
+def fit_offset(
+    src: np.ndarray, dst: np.ndarray, shape: tuple[int, int] | None = None
+) -> np.ndarray:
+    """The translation t (2,) float64, whole pixels, to take off the targets ``dst`` ((N, 2)
+    points, segment ends included) of sources ``src`` so that the GPU evaluates f - t with
+    float32's precision of the sources' box rather than that of the whole span. MLS is
+    translation-equivariant where every weight is positive (targets q + t give f + t
+    exactly; a weight of bounded reach leaves the identity beyond the handles instead). t is
+    the rounded difference of the centres of the targets' and the sources' boxes where that
+    makes :meth:`Scaling.fit`'s scale at least :data:`OFFSET_GAIN` times finer, else 0."""
+    if len(src) == 0:
+        return np.zeros(2)
+    low, high = point_bounds(src)
+    target_low, target_high = point_bounds(dst)
+    offset = np.round((target_low + target_high) / 2 - (low + high) / 2)
+    if not offset.any():
+        return np.zeros(2)
+    whole = Scaling.fit(src, dst, shape).scale
+    moved = Scaling.fit(src, dst - offset, shape).scale
+    return offset if moved * OFFSET_GAIN <= whole else np.zeros(2)
+
+
 def pack_handles(src: np.ndarray, dst: np.ndarray, scaling: Scaling) -> np.ndarray:
     """(N, 4) float32 rows (p.x, p.y, q.x, q.y) in scaled coordinates."""
     return np.concatenate([scaling.to_gpu(src), scaling.to_gpu(dst)], axis=1)

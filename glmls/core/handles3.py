@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import DtypeError
 from .config import check_real, is_integer
-from .handles import COORDINATE_LIMIT, Scaling, check_one_target
+from .handles import COORDINATE_LIMIT, OFFSET_GAIN, Scaling, check_one_target
 
 __all__ = [
     "as_points3",
@@ -291,12 +291,6 @@ def fit_scaling3(
     # a power of 2: displacements q - p of a few voxels scale exactly (translations stay exact)
     scale = 2.0 ** math.ceil(math.log2(max(float((hi - lo).max()) / 2, 1.0)))
     return Scaling(tuple(float(c) for c in center), scale)  # type: ignore[arg-type]
-
-
-#: The target offset of :func:`fit_offset3` is taken where it makes the GPU's scale at least
-#: this many times finer: for a map whose targets lie far from its sources, not for the
-#: displacements of a few voxels of a usual warp (whose float32 results then stay bit for bit).
-OFFSET_GAIN = 4.0
 
 
 def fit_offset3(
