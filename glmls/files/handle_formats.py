@@ -24,6 +24,7 @@ __all__ = [
     "KIND_HEADER",
     "HandleRows",
     "chains",
+    "check_range",
     "handle_set",
     "json_handles",
     "json_text",
@@ -76,7 +77,10 @@ class HandleRows:
 # -- checks -------------------------------------------------------------------------------
 
 
-def _check_range(path: Path, values: np.ndarray, where: list[str]) -> None:
+def check_range(path: Path, values: np.ndarray, where: list[str], unit: str = " px") -> None:
+    """Refuse the first of ``values`` (a point, or a segment's two, per row) that lies beyond
+    glmls's coordinate range, naming its place ``where[row]`` in the file at ``path``;
+    ``unit``: the coordinates' (" px" in 2D, none for 3D handles in their own units)."""
     if len(values):
         beyond = np.abs(values.reshape(len(values), -1)).max(axis=1) > COORDINATE_LIMIT
         if beyond.any():
@@ -84,8 +88,8 @@ def _check_range(path: Path, values: np.ndarray, where: list[str]) -> None:
             raise fail(
                 path,
                 where[row],
-                f"{values[row].tolist()} lies beyond ±{COORDINATE_LIMIT:.0e} px of the origin "
-                "(glmls's coordinate range)",
+                f"{values[row].tolist()} lies beyond ±{COORDINATE_LIMIT:.0e}{unit} of the "
+                "origin (glmls's coordinate range)",
             )
 
 
@@ -124,7 +128,7 @@ def handle_set(path: Path, rows: HandleRows) -> HandleSet:
         (a, rows.src_segment_where),
         (b, rows.dst_segment_where),
     ):
-        _check_range(path, values, where)
+        check_range(path, values, where)
     zero = (a[:, 0] == a[:, 1]).all(axis=1)
     if zero.any():
         row = int(np.argmax(zero))

@@ -81,7 +81,6 @@ from pathlib import Path
 import numpy as np
 
 from ..core.config import check_integer
-from ..core.handles import COORDINATE_LIMIT
 from ..core.handles3 import validate_handles3
 from ..core.handleset import HandleSet
 from ..errors import InputFileError
@@ -89,6 +88,7 @@ from .atomic import atomic_write
 from .handle_formats import (
     KIND_HEADER,
     HandleRows,
+    check_range,
     handle_set,
     json_handles,
     json_text,
@@ -379,15 +379,7 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
     if len(points) == 0:
         raise fail(path, "content", "no points")
     points = points.reshape(-1, 2)
-    beyond = np.abs(points).max(axis=1) > COORDINATE_LIMIT  # as the handles of a file
-    if beyond.any():
-        k = int(np.argmax(beyond))
-        raise fail(
-            path,
-            where[k],
-            f"{points[k].tolist()} lies beyond ±{COORDINATE_LIMIT:.0e} px of the origin "
-            "(glmls's coordinate range)",
-        )
+    check_range(path, points, where)  # as the handles of a file
     return points
 
 

@@ -13,9 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from ..core.config import counted
-from ..core.handles import COORDINATE_LIMIT
 from ..errors import InputFileError
-from .handle_formats import HandleRows
+from .handle_formats import HandleRows, check_range
 from .parsing import Row, brief, fail, field_number, json_list, number, read_text
 
 __all__ = [
@@ -297,15 +296,7 @@ def points_3d(path: Path, rows: HandleRows) -> tuple[np.ndarray, np.ndarray]:
     src = np.array(rows.src, dtype=np.float64).reshape(-1, 3)
     dst = np.array(rows.dst, dtype=np.float64).reshape(-1, 3)
     for values, where in ((src, rows.src_where), (dst, rows.dst_where)):
-        beyond = np.abs(values).max(axis=1) > COORDINATE_LIMIT
-        if beyond.any():
-            k = int(np.argmax(beyond))
-            raise fail(
-                path,
-                where[k],
-                f"{values[k].tolist()} lies beyond ±{COORDINATE_LIMIT:.0e} of the origin "
-                "(glmls's coordinate range)",
-            )
+        check_range(path, values, where, unit="")  # 3D handles in their own units
     order = np.lexsort(src.T[::-1])
     same = (src[order][1:] == src[order][:-1]).all(axis=1)
     differ = (dst[order][1:] != dst[order][:-1]).any(axis=1)

@@ -61,8 +61,6 @@ def test_far_targets_fold_as_near_ones(gl):
 
 def test_far_targets_error_field(gl):
     src, dst = _handles()
-    with glmls.MLS(src, dst, ctx=gl) as near:
-        expected = error_field(near, SHAPE)
     with glmls.MLS(src, dst + FAR, ctx=gl) as m:
         for grid in (1, 4):
             field = error_field(m, SHAPE, grid=grid)
