@@ -286,32 +286,40 @@ class Scaling:
         return cls((float(center[0]), float(center[1])), scale)
 
 
-#: A target offset (:func:`fit_offset`, :func:`~glmls.core.handles3.fit_offset3`) is taken
+#: A target offset (:func:`target_offset`) is taken
 #: where it makes the GPU's scale at least this many times finer: for a map whose targets lie
 #: far from its sources, not for the displacements of a usual warp.
 OFFSET_GAIN = 4.0
 
 
+def target_offset(
+    src: np.ndarray, dst: np.ndarray, scale_of: Callable[[np.ndarray], float]
+) -> np.ndarray:
+    """The translation t ((D,) float64, whole units) to take off the targets ``dst`` ((N, D)
+    points, segment ends included) of sources ``src`` so that the GPU evaluates f - t with
+    float32's precision of the sources' box rather than that of the whole span: MLS is
+    translation-equivariant where every weight is positive (targets q + t give f + t
+    exactly; a weight of bounded reach leaves the identity beyond the handles instead, and
+    the caller gives it no offset). t is the rounded difference of the centres of the
+    targets' and the sources' boxes where that makes the GPU's scale (``scale_of(targets)``,
+    the scaling fitted to ``src`` and those targets) at least :data:`OFFSET_GAIN` times
+    finer, else 0."""
+    zero = np.zeros(src.shape[1])
+    if len(src) == 0:
+        return zero
+    centre = (src.min(axis=0) + src.max(axis=0)) / 2
+    offset = np.round((dst.min(axis=0) + dst.max(axis=0)) / 2 - centre)
+    if not offset.any():
+        return zero
+    return offset if scale_of(dst - offset) * OFFSET_GAIN <= scale_of(dst) else zero
+
+
 def fit_offset(
     src: np.ndarray, dst: np.ndarray, shape: tuple[int, int] | None = None
 ) -> np.ndarray:
-    """The translation t (2,) float64, whole pixels, to take off the targets ``dst`` ((N, 2)
-    points, segment ends included) of sources ``src`` so that the GPU evaluates f - t with
-    float32's precision of the sources' box rather than that of the whole span. MLS is
-    translation-equivariant where every weight is positive (targets q + t give f + t
-    exactly; a weight of bounded reach leaves the identity beyond the handles instead). t is
-    the rounded difference of the centres of the targets' and the sources' boxes where that
-    makes :meth:`Scaling.fit`'s scale at least :data:`OFFSET_GAIN` times finer, else 0."""
-    if len(src) == 0:
-        return np.zeros(2)
-    low, high = point_bounds(src)
-    target_low, target_high = point_bounds(dst)
-    offset = np.round((target_low + target_high) / 2 - (low + high) / 2)
-    if not offset.any():
-        return np.zeros(2)
-    whole = Scaling.fit(src, dst, shape).scale
-    moved = Scaling.fit(src, dst - offset, shape).scale
-    return offset if moved * OFFSET_GAIN <= whole else np.zeros(2)
+    """:func:`target_offset` (2,) of 2D handles, whole pixels, for :meth:`Scaling.fit`'s
+    scale of ``src``, the targets and the image of ``shape``."""
+    return target_offset(src, dst, lambda q: Scaling.fit(src, q, shape).scale)
 
 
 def pack_handles(src: np.ndarray, dst: np.ndarray, scaling: Scaling) -> np.ndarray:

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import DtypeError
 from .config import check_real, is_integer
-from .handles import COORDINATE_LIMIT, OFFSET_GAIN, Scaling, check_one_target
+from .handles import COORDINATE_LIMIT, Scaling, check_one_target, target_offset
 
 __all__ = [
     "as_points3",
@@ -299,20 +299,8 @@ def fit_offset3(
     shape: tuple[int, int, int] | None = None,
     spacing: tuple[float, float, float] | None = None,
 ) -> np.ndarray:
-    """The translation t (3,) float64, whole handle units, that the GPU takes off the targets
-    (it holds q - t, :func:`fit_scaling3` fits the box of p, q - t and the volume, and t is
-    added back to f in float64). MLS is translation-equivariant where f is a fit of the
-    handles (targets q + t give f + t exactly; a weight of bounded reach leaves the identity
-    beyond them, and the caller gives it no offset), so targets far from their sources (say
-    1e5 units off) keep float32's precision of the sources' box instead of that of the whole
-    span. t is the rounded difference of the centres of the targets' and the sources' boxes
-    where that makes the scale at least :data:`OFFSET_GAIN` times finer, else 0."""
-    if len(src) == 0:
-        return np.zeros(3)
-    centre = (src.min(axis=0) + src.max(axis=0)) / 2
-    offset = np.round((dst.min(axis=0) + dst.max(axis=0)) / 2 - centre)
-    if not offset.any():
-        return np.zeros(3)
-    whole = fit_scaling3(src, dst, shape, spacing).scale
-    moved = fit_scaling3(src, dst - offset, shape, spacing).scale
-    return offset if moved * OFFSET_GAIN <= whole else np.zeros(3)
+    """:func:`~glmls.core.handles.target_offset` (3,) of 3D handles, whole handle units,
+    for :func:`fit_scaling3`'s scale of ``src``, the targets and the volume: the GPU holds
+    q - t and t is added back to f in float64, so targets far from their sources (say 1e5
+    units off) keep float32's precision of the sources' box."""
+    return target_offset(src, dst, lambda q: fit_scaling3(src, q, shape, spacing).scale)
