@@ -471,8 +471,7 @@ def _box(ring: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     finite = np.isfinite(ring).all(axis=1)
     if not finite.any():
         return np.full(2, np.inf), np.full(2, -np.inf)
-    kept = ring[finite]
-    return kept.min(axis=0), kept.max(axis=0)
+    return point_bounds(ring[finite])
 
 
 def _meets(box: tuple[np.ndarray, np.ndarray], low: np.ndarray, high: np.ndarray) -> bool:
