@@ -14,6 +14,7 @@ from ..imaging.options import FIELDS, WarpOptions
 from ..mls import MLS, MLS_KEYWORDS
 from .chunks import warp_chunks
 from .footprints import RING, footprint_radius, seen_whole, with_footprints
+from .forward import forward_batchable, warp_forward
 from .gpu import batchable
 from .inputs import BatchInput, check_batch, item_array, stack_or_list
 from .labels import on_canvas
@@ -42,10 +43,12 @@ def warp_batch(
     the regular mesh run batched on the GPU: per chunk of images of one shape (and, with a
     border mode, of one mesh margin), f on every
     image's mesh in one pass, one scan of every mesh (and for ``backward`` one Newton pass
-    over every pixel), one fill and one read-back; the other methods and cases take the
-    single pipeline image by image (:doc:`/batch`). In a process forked from one in which
-    glmls used GL (a data loader's worker), it runs in a helper process started fresh, with
-    the same result (see :mod:`glmls.gl.context`).
+    over every pixel), one fill and one read-back; ``splat`` likewise, f at every image's
+    pixel centres in one pass, one instanced draw of every image's points and one
+    read-back (its maps and keypoints each image's own, as the single path finds them);
+    the other methods and cases take the single pipeline image by image (:doc:`/batch`).
+    In a process forked from one in which glmls used GL (a data loader's worker), it runs in
+    a helper process started fresh, with the same result (see :mod:`glmls.gl.context`).
 
     Parameters
     ----------
@@ -130,6 +133,10 @@ def warp_batch(
     whole: dict = {}
     if batchable(chosen) and len(batch):
         done, whole = warp_chunks(
+            batch, chosen, mls_options, segments, maps=return_maps, max_bytes=max_batch_bytes
+        )
+    elif forward_batchable(chosen) and len(batch):  # splat: the batched forward path
+        done = warp_forward(
             batch, chosen, mls_options, segments, maps=return_maps, max_bytes=max_batch_bytes
         )
     results = [

@@ -1,0 +1,358 @@
+"""The GPU path of a batch for ``splat``: the pixel centres of many images of one shape
+pushed forward in one submission per chunk.
+
+Per chunk of images (:func:`~glmls.batch.gpu.chunk_size`):
+
+1. f at every image's pixel centres (the lattice of the single warp: past the image by its
+   mesh's margin with a border mode) in one dispatch
+   (:class:`~glmls.engine.batched.BatchLattices`; :class:`~glmls.batch.gpu.KernelLattices`
+   for segments and bins) into the mesh table;
+2. ONE instanced draw of points (``batch/splat.vert.glsl``, an instance per image) into an
+   atlas of the output canvases stacked top to bottom: each point rounded to its pixel
+   centre and the points in reverse scan order, as the single draw (:mod:`glmls.imaging.raster`)
+   places them, so that where f folds the first source pixel in scan order shows; the
+   masks (nearest) and, for keypoints and maps, the numbers of the source pixels drawn into
+   more attachments of the same draw;
+3. ONE read-back of the atlas.
+
+Each image equals its :func:`glmls.warp`, bit for bit. The maps (f's inverse, by Newton's
+method) and the keypoints (moved by f) are each image's own, as the single path finds them
+(:class:`~glmls.batch.single.SingleWarper`), with the pixels drawn taken from the batch.
+With a border mode the images of a chunk share one margin (:mod:`glmls.batch.margins`);
+images with segment handles or without handles then take the single path.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from contextlib import ExitStack
+
+import moderngl
+import numpy as np
+
+from ..core.config import MLSConfig
+from ..core.mesh import MeshLattice
+from ..engine.batched import BatchLattices
+from ..engine.kernel import DEFAULT_STORAGE
+from ..engine.storage import check_storage
+from ..gl import bindings
+from ..gl.context import GLContext, current, get_context
+from ..gl.dispatch import set_uniforms
+from ..gl.resources import Resources, keep_framebuffer
+from ..gl.tables import TABLE_WIDTH, table_rows
+from ..imaging.frame import Frame, make_frame
+from ..imaging.options import WarpOptions
+from ..imaging.readback import read_rgba8
+from ..imaging.source import BORDERS, SourceImage, background_color, prepare_image
+from ..mls import MLS
+from .fill import SourceArrays
+from .gpu import CHUNK_BYTES, KernelLattices, chunk_size, fits, mesh_stride
+from .inputs import BatchInput
+from .margins import batch_margins, warn_short
+from .single import ImageLabels, SingleWarper, mask_form, restore_mask
+
+__all__ = ["BatchSplat", "forward_batchable", "warp_forward"]
+
+#: The keywords of :func:`glmls.warp_batch` that make its :class:`~glmls.MLSConfig`.
+_CONFIG_KEYS = ("transform", "weight", "alpha", "s", "radius", "interpolating")
+
+
+def forward_batchable(options: WarpOptions) -> bool:
+    """Does a batch of these options take the batched forward path (``splat``)?"""
+    return options.method == "splat"
+
+
+def warp_forward(
+    batch: BatchInput,
+    options: WarpOptions,
+    mls_options: dict,
+    segments: list[dict],
+    *,
+    maps: bool,
+    max_bytes: int | None,
+) -> list[ImageLabels | None]:
+    """Each image's :class:`ImageLabels` from the batched ``splat`` (None for an image it
+    leaves to the single path: a mesh beyond one dispatch, or with a border mode an image
+    of its own MLS)."""
+    run = _SplatRun(batch, options, mls_options, segments, maps, max_bytes or CHUNK_BYTES)
+    return run.results
+
+
+class BatchSplat:
+    """The batched splat of a context (see the module docstring); one per context,
+    :meth:`of`."""
+
+    def __init__(self, gl: GLContext) -> None:
+        self._gl = gl
+        self._resources = Resources(gl, "the batch splat")
+        self._sources = SourceArrays(gl)
+
+    @classmethod
+    def of(cls, ctx: moderngl.Context | GLContext | None = None) -> BatchSplat:
+        """The one of ``ctx`` (default: glmls's headless context), made on first use."""
+        gl = get_context(ctx)
+        return gl.shared(BatchSplat, lambda: cls(gl))
+
+    @property
+    def ctx(self) -> GLContext:
+        """The context it renders with."""
+        return self._gl
+
+    def release(self) -> None:
+        """Free the GL objects."""
+        self._sources.release()
+        self._resources.release()
+
+    def _meshes(self, lattices, lattice: MeshLattice) -> None:
+        """f of every image of ``lattices`` at ``lattice``'s points into the mesh table that
+        ``batch/mesh.glsl`` reads, the images' scalings into theirs; both bound."""
+        gl, resources = self._gl, self._resources
+        stride = mesh_stride(lattice)
+        vertices = len(lattices) * stride // 8
+        mesh = resources.buffer("mesh", table_rows(vertices) * TABLE_WIDTH * 8)
+        lattices.evaluate(gl, resources, lattice, mesh, stride)
+        scaling = np.zeros((len(lattices), 4), np.float32)
+        scaling[:, :2] = lattices.centers
+        scaling[:, 2] = lattices.scales
+        gl.mgl.memory_barrier()  # the lattice passes' stores before the copy
+        resources.tables.copy("batch mesh", mesh, (0, vertices), 2, bindings.BATCH_MESH.index)
+        resources.tables.write("batch scaling", scaling, bindings.BATCH_SCALING.index)
+
+    @current
+    def warp(
+        self,
+        lattices,
+        sources: list[SourceImage],
+        options: WarpOptions,
+        frame: Frame,
+        background: tuple[float, float, float, float],
+        lattice: MeshLattice,
+        labels: tuple[list[SourceImage], tuple[float, float, float, float]] | None = None,
+        *,
+        drawn: bool = False,
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """The chunk's images splatted on ``lattice`` (the pixel centres, past the images by
+        the margin of a border mode): (N, H, W, C) in the sources' dtype, the label images
+        (``labels``: the chunk's and their background) warped nearest alike or None, and
+        where ``drawn`` the (N, H, W, 2) float32 numbers + 1 of the image pixels drawn (0
+        where none is) or None."""
+        gl, mgl, resources = self._gl, self._gl.mgl, self._resources
+        count = len(sources)
+        source = sources[0]
+        height, width = source.shape
+        self._meshes(lattices, lattice)
+        atlas = (frame.size[0], frame.size[1] * count)
+        roles = ["splat atlas"]
+        target = resources.framebuffer("splat atlas", atlas, "f1" if source.normalized else "f4")
+        resources.fill(target.color_attachments[0], background)
+        label_sources = None
+        if labels is not None:
+            label_sources, zero = labels
+            dtype = "f1" if label_sources[0].normalized else "f4"
+            fb = resources.framebuffer("splat labels", atlas, dtype)
+            resources.fill(fb.color_attachments[0], zero)
+            roles.append("splat labels")
+        if drawn:
+            fb = resources.framebuffer("splat drawn", atlas, "f4")
+            resources.fill(fb.color_attachments[0], (0.0, 0.0, 0.0, 0.0))
+            roles.append("splat drawn")
+        both = resources.attached("splat targets", tuple(roles)) if len(roles) > 1 else target
+        linear = options.interpolation == "linear"
+        border = BORDERS.index(options.border)
+        defines = {
+            "WARP_LINEAR": linear,
+            "WARP_BORDER": border,
+            "BATCH_SPLAT_LABELS": labels is not None,
+            "BATCH_SPLAT_DRAWN": drawn,
+        }
+        program = gl.program("batch/splat.vert.glsl", "batch/splat.frag.glsl", defines)
+        set_uniforms(
+            program,
+            {
+                **lattice.pixel_uniforms(),
+                "u_target_size": frame.size,
+                "u_origin": frame.origin,
+                "u_source_size": (width, height),
+                "u_mesh_dims": lattice.dims,
+                "u_mesh_stride": mesh_stride(lattice) // 8,
+                "u_images": count,
+            },
+        )
+        self._sources.bind(sources, label_sources, linear)
+        with keep_framebuffer(mgl):
+            both.use()
+            both.viewport = (0, 0, *atlas)
+            mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+            mgl.point_size = 1.0
+            vao = resources.vertex_array(program)
+            vao.render(moderngl.POINTS, vertices=lattice.count, instances=count)
+        out = _read(mgl, target, atlas, source, count, frame)
+        warped = None
+        if label_sources is not None:
+            fb = resources.framebuffer("splat labels", atlas, dtype)
+            warped = _read(mgl, fb, atlas, label_sources[0], count, frame)
+        numbers = None
+        if drawn:
+            fb = resources.framebuffer("splat drawn", atlas, "f4")
+            values = _read_float(mgl, fb, atlas)
+            numbers = values.reshape(count, *frame.shape, 4)[..., :2]
+        return out, warped, numbers
+
+
+def _read_float(mgl, framebuffer, atlas) -> np.ndarray:
+    values = np.empty((atlas[1], atlas[0], 4), np.float32)
+    with keep_framebuffer(mgl):
+        framebuffer.use()
+        framebuffer.read_into(values, (0, 0, *atlas), 4, dtype="f4")
+    return values
+
+
+def _read(mgl, framebuffer, atlas, source: SourceImage, count: int, frame: Frame):
+    """The atlas read back as (N, H, W, C) in the sources' dtype."""
+    if source.normalized:
+        with keep_framebuffer(mgl):
+            framebuffer.use()
+            values = read_rgba8(framebuffer, atlas, source.channels)
+    else:
+        values = _read_float(mgl, framebuffer, atlas)[..., : source.channels]
+    return source.restore(values.reshape(count, *frame.shape, -1))
+
+
+def _groups(batch: BatchInput) -> dict[tuple, list[int]]:
+    """Image indices by what a chunk shares: shape, dtype and the masks' dtype."""
+    groups: dict[tuple, list[int]] = defaultdict(list)
+    for i, image in enumerate(batch.images):
+        mask = None if batch.masks is None else batch.masks[i]
+        key = (image.shape, image.dtype.str, None if mask is None else mask.dtype.str)
+        groups[key].append(i)
+    return groups
+
+
+def _config(batch: BatchInput, mls_options: dict) -> MLSConfig | None:
+    """The configuration of every image where one :class:`BatchLattices` evaluation takes
+    the batch's handles, else None (each image's own MLS)."""
+    config = MLSConfig(**{k: v for k, v in mls_options.items() if k in _CONFIG_KEYS})
+    storage = mls_options.get("storage", DEFAULT_STORAGE)
+    check_storage(storage)
+    counts = [len(p) for p in batch.src]
+    if not BatchLattices.takes(config, counts, storage, mls_options.get("bins")):
+        return None
+    return config
+
+
+def _named(call, index: int, *args, **keywords):
+    """``call(*args, **keywords)``, its ``ValueError`` naming the batch's image ``index``."""
+    try:
+        return call(*args, **keywords)
+    except ValueError as error:
+        raise ValueError(f"images[{index}]: {error}") from None
+
+
+class _SplatRun:
+    """One :func:`warp_forward`: the batch's groups of one shape, each group's parts of one
+    lattice (one margin past the images, with a border mode), each part's chunks."""
+
+    def __init__(self, batch, options, mls_options, segments, maps, budget) -> None:
+        self.batch, self.options, self.maps, self.budget = batch, options, maps, budget
+        self.mls_options, self.segments = mls_options, segments
+        self.results: list[ImageLabels | None] = [None] * len(batch)
+        self.splat = BatchSplat.of(mls_options.get("ctx"))
+        self.warper = SingleWarper.of(mls_options.get("ctx"))
+        self.config = _config(batch, mls_options)
+        # segment handles, or no point handle at all: the image's own MLS, as one warp does
+        self.own = [bool(segments[i]) or not len(batch.src[i]) for i in range(len(batch))]
+        if options.border != "constant" and self.config is None:
+            return  # each image's own kernel finds its mesh's margin
+        for indices in _groups(batch).values():
+            self._group(indices)
+
+    def _group(self, indices: list[int]) -> None:
+        batch, options = self.batch, self.options
+        limit = self.warper.pipeline.max_image_size
+        source = _named(prepare_image, indices[0], batch.images[indices[0]], limit, normalized=True)
+        frame = make_frame(options.output_shape, options.origin, source.shape, limit)
+        parts, short = [(0, indices)], {}
+        if options.border != "constant":  # the images by their meshes' margins
+            corners = MeshLattice.corners(source.shape, 1)
+            taken = [i for i in indices if not self.own[i]]
+            gl = self.splat.ctx
+            found, short = batch_margins(gl, self.config, batch, taken, corners, frame)
+            parts = sorted(found.items())
+        for margin, part in parts:
+            lattice = MeshLattice.centres(source.shape, margin=margin)
+            if fits(self.splat.ctx, source.shape, frame, lattice):
+                self._part(part, lattice, frame, source)
+        warn_short(short, self.results, stacklevel=5)  # warp_batch's caller
+
+    def _part(self, part: list[int], lattice: MeshLattice, frame: Frame, source) -> None:
+        gl = self.splat.ctx
+        size = chunk_size(gl, source, frame, lattice, self.budget)
+        size = min(size, gl.limits["max_viewport"] // frame.shape[0])
+        for start in range(0, len(part), size):
+            chunk = part[start : start + size]
+            for i, labels in zip(chunk, self._chunk(chunk, lattice, frame), strict=True):
+                self.results[i] = labels
+
+    def _chunk(self, chunk: list[int], lattice: MeshLattice, frame: Frame) -> list[ImageLabels]:
+        batch, options = self.batch, self.options
+        shape = lattice.shape
+        with ExitStack() as stack:
+            if self.config is not None and not any(self.own[i] for i in chunk):
+                src, dst = [batch.src[i] for i in chunk], [batch.dst[i] for i in chunk]
+                lattices = BatchLattices(self.config, src, dst, shape)
+            else:  # each image's own MLS
+                mlss = [stack.enter_context(self._mls(i, shape)) for i in chunk]
+                lattices = KernelLattices([m.kernel for m in mlss])
+            limit = self.warper.pipeline.max_image_size
+            sources = [
+                _named(prepare_image, i, batch.images[i], limit, normalized=True) for i in chunk
+            ]
+            background = _named(background_color, chunk[0], options.background, sources[0])
+            labels = None
+            if batch.masks is not None:
+                masks = [batch.masks[i] for i in chunk]
+                label_sources = [prepare_image(mask_form(m), limit, normalized=True) for m in masks]
+                labels = (label_sources, background_color(0.0, label_sources[0]))
+            more = self.maps or batch.keypoints is not None
+            with self.splat.ctx.use():
+                args = (lattices, sources, options, frame, background, lattice, labels)
+                out, warped, numbers = self.splat.warp(*args, drawn=more)
+        results = []
+        for k, i in enumerate(chunk):
+            mask = None
+            if warped is not None:
+                mask = restore_mask(warped[k], batch.masks[i].dtype)  # type: ignore[index]
+            if not more:
+                results.append(ImageLabels(out[k], mask))
+                continue
+            results.append(self._labels(i, out[k], mask, numbers[k], frame))  # type: ignore[index]
+        return results
+
+    def _mls(self, i: int, shape: tuple[int, int]) -> MLS:
+        batch = self.batch
+        return MLS(batch.src[i], batch.dst[i], shape=shape, **self.segments[i], **self.mls_options)
+
+    def _labels(self, i, image, mask, numbers, frame) -> ImageLabels:
+        """Image ``i``'s keypoints and maps, as the single path finds them (f's inverse and
+        f at the keypoints, by the image's own MLS), ``numbers`` the batch's numbers + 1 of
+        the image pixels drawn."""
+        batch, options = self.batch, self.options
+        shape = batch.images[i].shape[:2]
+        with self._mls(i, shape) as mls:
+            coords, covered = self.warper.source_points(mls, shape, options, frame)
+            pixels = numbers.astype(np.float64) - 1.0
+            filled = numbers[..., 0] > 0.5
+            covered = covered & filled
+            if options.border != "constant":  # beyond the image a drawn pixel is the border
+                # rule's copy, of another number: f's inverse there
+                height, width = shape
+                edge = (coords < 0.5) | (coords > (width - 1.5, height - 1.5))
+                pixels = np.where(edge.any(axis=-1)[..., None], coords, pixels)
+            moved = valid = None
+            points = None if batch.keypoints is None else batch.keypoints[i]
+            if points is not None:
+                shown = (pixels, filled)
+                moved, valid = self.warper.keypoints(mls, shape, options, frame, points, shown)
+        if not self.maps:
+            coords = covered = None
+        return ImageLabels(image, mask, moved, valid, coords, covered)

@@ -1,0 +1,198 @@
+"""``splat`` runs on the batched GPU path (one lattice pass, one instanced draw of every
+image's points, one read-back per chunk): images, masks, maps and keypoints equal to one
+:func:`glmls.warp` per image, bit for bit, and the images to a float64 numpy splat."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import glmls
+from glmls import reference
+from glmls.batch.single import SingleWarper
+
+SHAPE = (21, 26)
+FIELDS = ("images", "keypoints", "keypoints_valid", "masks", "maps", "valid")
+
+
+@pytest.fixture
+def no_single(monkeypatch):
+    """The single path refused: the batched path must take every image."""
+
+    def refuse(self, *args, **keywords):
+        raise AssertionError(f"images[{keywords['index']}] took the single path")
+
+    monkeypatch.setattr(SingleWarper, "warp_one", refuse)
+
+
+def handles(rng, count, sizes=None, shape=SHAPE):
+    """Per image, handles over the image moved a few pixels (ragged where ``sizes``)."""
+    height, width = shape
+    sizes = sizes or [6] * count
+    src = [rng.uniform((1, 1), (width - 2, height - 2), (k, 2)) for k in sizes]
+    dst = [p + rng.normal(0, 2.5, p.shape) for p in src]
+    return src, dst
+
+
+def images_of(rng, count, dtype, channels, shape=SHAPE):
+    size = (count, *shape) if channels == 1 else (count, *shape, channels)
+    if dtype == np.float32:
+        return rng.uniform(-1, 2, size).astype(np.float32)
+    return rng.integers(0, np.iinfo(dtype).max, size, dtype=dtype)
+
+
+def singles(images, src, dst, **options):
+    return [
+        glmls.warp(image, p, q, **options) for image, p, q in zip(images, src, dst, strict=True)
+    ]
+
+
+@pytest.mark.parametrize("interpolation", ["nearest", "linear"])
+@pytest.mark.parametrize(
+    ("dtype", "channels"), [(np.uint8, 3), (np.uint8, 1), (np.uint16, 4), (np.float32, 1)]
+)
+def test_images_equal_single_warps(no_single, interpolation, dtype, channels):
+    rng = np.random.default_rng(1)
+    images = images_of(rng, 4, dtype, channels)
+    src, dst = handles(rng, 4, [3, 7, 5, 12])  # ragged handle counts
+    options = {"method": "splat", "interpolation": interpolation}
+    out = glmls.warp_batch(images, src, dst, **options)
+    expected = singles(images, src, dst, **options)
+    assert out.dtype == images.dtype and out.shape == images.shape
+    for k, one in enumerate(expected):
+        np.testing.assert_array_equal(out[k], one, err_msg=f"image {k}")
+
+
+@pytest.mark.parametrize("border", ["constant", "edge", "symmetric", "reflect", "wrap"])
+def test_canvas_and_borders_equal_single_warps(no_single, border):
+    rng = np.random.default_rng(2)
+    images = images_of(rng, 3, np.uint8, 3)
+    src, dst = handles(rng, 3)
+    dst[1] = dst[1] * 0.8 + 3  # shrinks: the border shows on the canvas
+    options = {
+        "method": "splat",
+        "border": border,
+        "output_shape": (25, 30),
+        "origin": (-2.0, -3.0),
+        "background": (10, 200, 30),
+    }
+    out = glmls.warp_batch(images, src, dst, **options)
+    assert out.shape == (3, 25, 30, 3)
+    for k, one in enumerate(singles(images, src, dst, **options)):
+        np.testing.assert_array_equal(out[k], one, err_msg=f"image {k}")
+
+
+def test_list_of_shapes_and_segments_equal_single_warps(no_single):
+    """Images of two shapes, one with segment handles (its own MLS), one without handles."""
+    rng = np.random.default_rng(3)
+    images = [images_of(rng, 1, np.uint8, 3, shape)[0] for shape in (SHAPE, (16, 19), SHAPE)]
+    src = [rng.uniform(2, 14, (5, 2)), rng.uniform(2, 14, (4, 2)), np.zeros((0, 2))]
+    dst = [p + rng.normal(0, 2, p.shape) for p in src]
+    segments = [None, None, [[[2.0, 2.0], [12.0, 9.0]]]]
+    moved = [None, None, [[[3.0, 2.0], [13.0, 11.0]]]]
+    out = glmls.warp_batch(
+        images, src, dst, method="splat", src_segments=segments, dst_segments=moved
+    )
+    for k, image in enumerate(images):
+        kw = {"src_segments": segments[k], "dst_segments": moved[k]} if segments[k] else {}
+        one = glmls.warp(image, src[k], dst[k], method="splat", **kw)
+        np.testing.assert_array_equal(out[k], one, err_msg=f"image {k}")
+
+
+def single_labels(images, src, dst, masks, points, **options):
+    """Each image's labels by ``warp_batch`` of that image alone (the single path)."""
+    return [
+        glmls.warp_batch(
+            images[k : k + 1], src[k : k + 1], dst[k : k + 1], masks=masks[k : k + 1],
+            keypoints=[points[k]], return_maps=True, max_batch_bytes=1, **options,
+        )
+        for k in range(len(images))
+    ]  # fmt: skip
+
+
+@pytest.mark.parametrize("border", ["constant", "reflect"])
+def test_masks_maps_keypoints_equal_single_path(monkeypatch, border):
+    rng = np.random.default_rng(4)
+    height, width = SHAPE
+    images = images_of(rng, 4, np.uint8, 3)
+    src, dst = handles(rng, 4)
+    src, dst = np.stack(src), np.stack(dst)
+    dst[2, :3] = dst[2, 3:]  # three handles onto three others: f folds
+    masks = rng.integers(0, 5, (4, *SHAPE)).astype(np.uint16)
+    points = [rng.uniform((-2, -2), (width + 2, height + 2), (k, 2)) for k in (0, 9, 20, 4)]
+    options = {"method": "splat", "interpolation": "linear", "border": border}
+    got = glmls.warp_batch(
+        images, src, dst, masks=masks, keypoints=points, return_maps=True, **options
+    )
+    # the single path, image by image: every warp_one call counted
+    calls = []
+    warp_one = SingleWarper.warp_one
+    monkeypatch.setattr(
+        SingleWarper,
+        "warp_one",
+        lambda self, *a, **k: calls.append(k["index"]) or warp_one(self, *a, **k),
+    )
+    monkeypatch.setattr("glmls.batch.run.forward_batchable", lambda options: False)
+    expected = single_labels(images, src, dst, masks, points, **options)
+    assert calls == [0, 0, 0, 0]
+    for k, one in enumerate(expected):
+        for field in FIELDS:
+            a, b = getattr(got, field)[k], getattr(one, field)[0]
+            np.testing.assert_array_equal(a, b, err_msg=f"image {k}: {field}")
+    assert got.masks.dtype == np.uint16
+    assert all(v.any() and not v.all() for v in got.valid)  # holes and pixels shown
+
+
+def test_bool_masks_and_keypoints_alone(no_single):
+    rng = np.random.default_rng(5)
+    images = images_of(rng, 3, np.float32, 1)
+    src, dst = handles(rng, 3)
+    masks = rng.random((3, *SHAPE)) < 0.5
+    points = rng.uniform(0, 20, (3, 6, 2))
+    got = glmls.warp_batch(images, src, dst, masks=masks, keypoints=points, method="splat")
+    assert got.masks.dtype == bool and got.maps is None
+    for k in range(3):
+        mask = glmls.warp(masks[k].astype(np.uint8), src[k], dst[k], method="splat")
+        np.testing.assert_array_equal(got.masks[k], mask.astype(bool))
+        assert got.keypoints[k].shape == (6, 2)
+
+
+def numpy_splat(image, src, dst):
+    """A float64 splat: each pixel centre moved by f, rounded to its pixel, the first pixel
+    in scan order shown where several land on one."""
+    height, width = image.shape[:2]
+    rows, columns = np.mgrid[:height, :width]
+    centres = np.stack([columns.ravel(), rows.ravel()], axis=1).astype(np.float64)
+    moved = reference.mls(src, dst, centres)[0]
+    target = np.floor(moved + 0.5).astype(np.int64)
+    inside = np.all((target >= 0) & (target < (width, height)), axis=1)
+    out = np.zeros_like(image)
+    shown = np.zeros((height, width), bool)
+    for n in np.flatnonzero(inside)[::-1]:  # the first in scan order written last
+        x, y = target[n]
+        out[y, x] = image.reshape(-1, *image.shape[2:])[n]
+        shown[y, x] = True
+    return out, shown
+
+
+def test_images_near_a_float64_splat(no_single):
+    """Tolerance: f in float32 moves a point within ~1e-4 px of a pixel edge to the other
+    pixel; at most 1% of the pixels may differ from the float64 splat."""
+    rng = np.random.default_rng(6)
+    images = images_of(rng, 3, np.uint8, 3)
+    src, dst = handles(rng, 3)
+    out = glmls.warp_batch(images, src, dst, method="splat")
+    for k in range(3):
+        expected, _ = numpy_splat(images[k], src[k], dst[k])
+        differ = np.any(out[k] != expected, axis=-1).mean()
+        assert differ <= 0.01, f"image {k}: {differ:.2%} of the pixels differ"
+
+
+def test_chunks_equal_one_chunk(no_single):
+    """A budget of one image a chunk gives what one chunk gives."""
+    rng = np.random.default_rng(7)
+    images = images_of(rng, 5, np.uint8, 4)
+    src, dst = handles(rng, 5)
+    whole = glmls.warp_batch(images, src, dst, method="splat")
+    chunked = glmls.warp_batch(images, src, dst, method="splat", max_batch_bytes=1)
+    np.testing.assert_array_equal(whole, chunked)
