@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections import defaultdict
 from contextlib import ExitStack
+from functools import partial
 
 import numpy as np
 
@@ -35,6 +36,7 @@ from .single import (
     probed,
     restore_mask,
 )
+from .swap import swapped_keypoints, swapped_lattices, warp_swapped
 from .texels import chunk_size as texel_chunk_size
 from .texels import takes, warp_texels
 
@@ -87,7 +89,9 @@ class _GPURun:
         self.quads = BatchQuads.of(mls_options.get("ctx"))
         self.warper = SingleWarper.of(mls_options.get("ctx"))
         self.config = _batch_config(batch, mls_options)
-        self.backward = options.method == "backward"
+        self.backward = options.method in ("backward", "backward-swap")
+        # backward-swap: the swapped map at every pixel, no mesh (glmls.batch.swap)
+        self.swap = options.method == "backward-swap"
         if self.backward and self.config is None:
             return  # bins, segments: each image's own MLS
         if self.backward:
@@ -108,7 +112,7 @@ class _GPURun:
         frame = make_frame(options.output_shape, options.origin, source.shape, limit)
         lattice = MeshLattice.corners(source.shape, options.grid)
         parts, short = [(lattice, indices)], {}
-        if options.border != "constant":  # the images by their meshes' margins
+        if options.border != "constant" and not self.swap:  # by their meshes' margins
             taken = [i for i in indices if not self.own[i]]
             found, short = batch_margins(quads.ctx, self.config, batch, taken, lattice, frame)
             parts = [(lattice.with_margin(m), part) for m, part in sorted(found.items())]
@@ -158,7 +162,12 @@ class _GPURun:
         with ExitStack() as stack:
             if self.config is not None and not any(self.own[i] for i in chunk):
                 src, dst = [batch.src[i] for i in chunk], [batch.dst[i] for i in chunk]
-                lattices = BatchLattices(self.config, src, dst, source.shape)
+                if self.swap:
+                    lattices = swapped_lattices(self.config, src, dst, source.shape)
+                    if lattices is None:
+                        return None  # a q the batched checks refuse: the single path
+                else:
+                    lattices = BatchLattices(self.config, src, dst, source.shape)
             else:  # each image's own MLS
                 mlss = [
                     stack.enter_context(
@@ -176,6 +185,8 @@ class _GPURun:
             with self.quads.ctx.use():  # the chunk's passes, its meshes kept, in one hold
                 args = (self.quads, self.warper, batch, chunk, lattices, self.options, frame)
                 args += (lattice, self.maps)
+                if self.swap:
+                    return _chunk(*args, swap=(self.warper, self.mls_options))
                 if direct is not None:
                     return direct.chunk(start, *args)
                 return _chunk(*args)
@@ -325,7 +336,7 @@ def _background(options: WarpOptions, source: SourceImage, index: int) -> tuple:
         raise ValueError(f"images[{index}]: {error}") from None
 
 
-def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps):
+def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps, swap=None):
     limit = warper.pipeline.max_image_size
     images = [batch.images[i] for i in chunk]
     masks = None if batch.masks is None else [batch.masks[i] for i in chunk]
@@ -339,6 +350,8 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
     background = _background(options, sources[0], chunk[0])
     warped_masks: list = [None] * len(chunk)
     warp = quads.backward if options.method == "backward" else quads.warp
+    if swap is not None:
+        warp = partial(warp_swapped, quads)
     if masks is not None and not packed:  # the labels from the images' scan (or maps)
         label_sources = [prepare_image(mask_form(m), limit, normalized=True) for m in masks]
         both = (label_sources, background_color(0.0, label_sources[0]))
@@ -355,19 +368,27 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps)
         warped_masks = list(restore_mask(out[..., -1], masks[0].dtype))  # type: ignore[index]
         out = _drop_last(out, batch.images[chunk[0]].ndim == 2)
     labels = (lattice, maps, out, warped_masks, None)
-    return _finish(quads, batch, chunk, lattices, options, frame, *labels)
+    return _finish(quads, batch, chunk, lattices, options, frame, *labels, swap)
 
 
-def _finish(quads, batch, chunk, lattices, options, frame, lattice, maps, out, masks, folded):
+def _finish(
+    quads, batch, chunk, lattices, options, frame, lattice, maps, out, masks, folded, swap=None
+):
     """The chunk's :class:`ImageLabels`: its warped images ``out`` and ``masks``, its
     keypoints moved (``folded``: the meshes not shown to be embeddings where known) and its
-    maps."""
+    maps (``swap``: ``backward-swap``'s single warper and MLS keywords, which move its
+    keypoints image by image)."""
     keypoints = batch.keypoints
     moved_all = valid_all = coords_all = covered_all = None
-    backward = options.method == "backward"
+    backward = options.method in ("backward", "backward-swap")
     if backward and (maps or keypoints is not None):  # the maps the chunk sampled at
         coords_all, covered_all = quads.backward_coords(len(chunk), frame)
-    if backward and keypoints is not None:
+    if swap is not None and keypoints is not None:
+        shown = (coords_all, covered_all)
+        warper, mls_options = swap
+        canvas = (frame, options)
+        moved_all, valid_all = swapped_keypoints(warper, batch, chunk, mls_options, canvas, shown)
+    elif backward and keypoints is not None:
         shown = (coords_all, covered_all)
         moved_all, valid_all = _backward_keypoints(
             quads, lattices, batch, chunk, (frame, options.border), shown

@@ -1,5 +1,5 @@
-"""The GPU path of a batch: the ``quads`` or ``backward`` of many images of one shape in one
-submission.
+"""The GPU path of a batch: the ``quads``, ``backward`` or ``backward-swap`` of many images of
+one shape in one submission.
 
 Per chunk of images (:func:`chunk_size`):
 
@@ -28,7 +28,9 @@ colours written in the scan, the atlas packed into the caller's layout on the GP
 The arithmetic is the single warp's (the same edge functions, keys, barycentrics, Newton
 steps and sampling), so each image equals its :func:`glmls.warp`, bit for bit. This path
 takes ``quads`` and ``backward`` on the regular mesh with any border (a chunk's images
-share the margin of their meshes past the image, :mod:`glmls.batch.margins`); the other
+share the margin of their meshes past the image, :mod:`glmls.batch.margins`), and
+``backward-swap`` (:mod:`glmls.batch.swap`: no mesh, ONE dispatch of the swapped-handles
+map over the atlas of maps, then :meth:`BatchQuads.sample` and one read-back); the other
 methods and cases take the single pipeline per image (:mod:`glmls.batch.single`).
 """
 
@@ -80,9 +82,9 @@ MESH_ALIGN = 256
 
 
 def batchable(options: WarpOptions) -> bool:
-    """Does a batch of these options take the batched GPU path (``quads`` or ``backward``, on
-    the regular mesh)?"""
-    return options.method in ("quads", "backward") and options.tolerance is None
+    """Does a batch of these options take the batched GPU path (``quads``, ``backward`` or
+    ``backward-swap``, on the regular mesh)?"""
+    return options.method in ("quads", "backward", "backward-swap") and options.tolerance is None
 
 
 def mesh_stride(lattice: MeshLattice) -> int:
@@ -318,16 +320,16 @@ class BatchQuads:
             second.finish(rescue)
         mgl.memory_barrier()
         linear = options.interpolation == "linear"
-        out = self._sample(sources, coords, atlas, frame, background, linear, border, "atlas")
+        out = self.sample(sources, coords, atlas, frame, background, linear, border, "atlas")
         if labels is None:
             return out
         label_sources, zero = labels
-        warped = self._sample(
+        warped = self.sample(
             label_sources, coords, atlas, frame, zero, False, border, "labels atlas"
         )
         return out, warped
 
-    def _sample(self, sources, coords, atlas, frame, background, linear, border, name):
+    def sample(self, sources, coords, atlas, frame, background, linear, border, name):
         """``sources`` sampled at the backward maps ``coords`` into the atlas framebuffer
         ``name`` (``background`` where no map point is), read back (batch/backward.frag.glsl)."""
         source = sources[0]

@@ -39,14 +39,16 @@ def warp_batch(
 ) -> np.ndarray | list[np.ndarray] | BatchResult:
     """Deform a batch of images, each by the MLS map of its own handles, with its labels.
 
-    Equal to one :func:`glmls.warp` per image, bit for bit. ``quads`` and ``backward`` on
-    the regular mesh run batched on the GPU: per chunk of images of one shape (and, with a
-    border mode, of one mesh margin), f on every
+    Equal to one :func:`glmls.warp` per image, bit for bit. ``quads``, ``backward`` and
+    ``backward-swap`` on the regular mesh run batched on the GPU: per chunk of images of one
+    shape (and, with a border mode, of one mesh margin), f on every
     image's mesh in one pass, one scan of every mesh (and for ``backward`` one Newton pass
-    over every pixel), one fill and one read-back; ``splat`` likewise, f at every image's
+    over every pixel), one fill and one read-back; ``backward-swap`` evaluates every image's
+    swapped-handles map at every output pixel in one pass, samples in one draw and reads
+    back once (its keypoints move image by image); ``splat`` likewise, f at every image's
     pixel centres in one pass, one instanced draw of every image's points and one
-    read-back (its maps and keypoints each image's own, as the single path finds them);
-    the other methods and cases take the single pipeline image by image (:doc:`/batch`).
+    read-back (its maps and keypoints each image's own, as the single path finds them).
+    The other methods and cases take the single pipeline image by image (:doc:`/batch`).
     In a process forked from one in which glmls used GL (a data loader's worker), it runs in
     a helper process started fresh, with the same result (see :mod:`glmls.gl.context`).
 

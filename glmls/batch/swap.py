@@ -1,0 +1,114 @@
+"""``backward-swap`` of a chunk of images in one submission: the swapped-handles map s (the
+MLS map with p and q exchanged) at every output pixel of every image in ONE dispatch of
+``warp/inverse.comp.glsl`` (``WARP_SWAP`` with ``MLS_BATCH``) into the atlas of maps, ONE
+draw of ``batch/backward.frag.glsl`` sampling the sources there (a second for the masks),
+ONE read-back. As the single path, no mesh and no Newton: each image equals its
+:func:`glmls.warp`, bit for bit. Keypoints move per image, by s's inverse, as the single
+path moves them (:meth:`~glmls.batch.single.SingleWarper.move`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.config import MLSConfig
+from ..engine.batched import BatchLattices
+from ..gl import bindings
+from ..gl.dispatch import LOCAL_SIZE_2D, set_uniforms
+from ..imaging.frame import Frame
+from ..imaging.inverse import NEWTON_STEPS
+from ..imaging.options import WarpOptions
+from ..imaging.source import BORDERS, SourceImage
+from ..mls import MLS
+from .gpu import BatchQuads
+from .inputs import BatchInput
+from .labels import visible
+from .single import SingleWarper
+
+__all__ = ["swapped_keypoints", "swapped_lattices", "warp_swapped"]
+
+
+def swapped_lattices(
+    config: MLSConfig, src: list[np.ndarray], dst: list[np.ndarray], shape: tuple[int, int]
+) -> BatchLattices | None:
+    """The images' swapped handles (q as the sources, p as the targets) for one batched
+    evaluation, or None where its checks refuse one image's q (float32 merging two of them,
+    an affine fit they do not span), which the single path's swapped kernel does not check:
+    that image's chunk then takes the single path, as its own warp runs it. The scaling of
+    each image is its :class:`~glmls.MLS`'s (the box of p, q and the image, the same either
+    way round), the one :meth:`glmls.MLS.swapped_kernel` evaluates in."""
+    try:
+        return BatchLattices(config, dst, src, shape)
+    except ValueError:
+        return None
+
+
+def warp_swapped(
+    quads: BatchQuads,
+    lattices: BatchLattices,
+    sources: list[SourceImage],
+    options: WarpOptions,
+    frame: Frame,
+    background: tuple[float, float, float, float],
+    lattice,
+    labels: tuple[list[SourceImage], tuple[float, float, float, float]] | None = None,
+):
+    """The chunk's images warped by ``backward-swap`` (``lattices``: their
+    :func:`swapped_lattices`; ``lattice``: the images' mesh, whose points the pass does not
+    read; ``labels``: the chunk's label images and their background, sampled nearest at the
+    same maps), as :meth:`BatchQuads.backward` returns. The maps stay in the ``coords`` atlas
+    (:meth:`BatchQuads.backward_coords`)."""
+    gl = quads.ctx
+    mgl = gl.mgl
+    height, width = sources[0].shape
+    out_w, out_h = frame.size
+    atlas = (out_w, out_h * len(sources))
+    border = BORDERS.index(options.border)
+    with gl.use():
+        # every texel of the atlas is stored by the pass: no fill first
+        coords = quads.resources.framebuffer("coords", atlas, "f4").color_attachments[0]
+        defines = {"WARP_SWAP": True, "WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": border}
+        uniforms = {**frame.uniforms(), "u_source_size": (width, height)}
+        groups = [-(-n // LOCAL_SIZE_2D) for n in frame.size]
+        parts = lattices.parts(gl, quads.resources, lattice, "warp/inverse.comp.glsl", defines)
+        for (program,), rows in parts:
+            set_uniforms(program, uniforms)
+            mgl.memory_barrier()
+            coords.bind_to_image(bindings.INVERSE_MAP.index, read=True, write=True)
+            program.run(group_x=groups[0], group_y=groups[1], group_z=rows)
+        mgl.memory_barrier()
+        linear = options.interpolation == "linear"
+        out = quads.sample(sources, coords, atlas, frame, background, linear, border, "atlas")
+        if labels is None:
+            return out
+        label_sources, zero = labels
+        masks = quads.sample(
+            label_sources, coords, atlas, frame, zero, False, border, "labels atlas"
+        )
+        return out, masks
+
+
+def swapped_keypoints(
+    warper: SingleWarper,
+    batch: BatchInput,
+    chunk: list[int],
+    mls_options: dict,
+    canvas: tuple[Frame, WarpOptions],
+    shown: tuple[np.ndarray, np.ndarray],
+) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The ``backward-swap`` chunk's keypoints moved by s's inverse, image by image as the
+    single path moves them (each image's own :class:`~glmls.MLS` of ``mls_options``), each
+    valid where the chunk's maps ``shown`` ((N, H, W, 2) source points, (N, H, W) covered)
+    show it: two lists of the images' (P_i, 2) points and (P_i,) flags. ``canvas``: the
+    frame and the options."""
+    frame, options = canvas
+    shape = batch.images[chunk[0]].shape[:2]
+    origin = np.asarray(frame.origin)
+    moved, valid = [], []
+    for k, i in enumerate(chunk):
+        points = batch.keypoints[i]  # type: ignore[index]
+        with MLS(batch.src[i], batch.dst[i], shape=shape, **mls_options) as mls:
+            out, jacobian, inside = warper.move(mls, shape, options, frame, points)
+        out = out - origin
+        moved.append(out)
+        valid.append(visible(points, out, jacobian, shown[0][k], shown[1][k], inside))
+    return moved, valid
