@@ -2,7 +2,7 @@
 augmentation libraries' random deformations, on the data of model training.
 
 ``python benchmarks/batch_bench.py [--quick] [--batches 64 256] [--repeat 3] [--keypoints 20]
-[--json out.json]``
+[--method quads] [--json out.json]``
 
 Workloads (uint8, a random handle move per image):
 
@@ -11,8 +11,8 @@ Workloads (uint8, a random handle move per image):
   bottom) moved by N(0, 2 px), the thin-plate-spline rectification setting.
 
 For each workload and batch size: ``glmls.warp`` per image, ``glmls.warp_batch`` (``quads``,
-grid 4, nearest) without labels, and with ``--keypoints`` (20) keypoints and a uint8 mask
-per image, and
+grid 4, nearest; ``--method`` another construction for both) without labels, and with
+``--keypoints`` (20) keypoints and a uint8 mask per image, and
 ``glmls.augment.Augment`` with its defaults (``grid`` at 224 x 224, ``text-distort`` on text
 crops: its own random handles, bilinear, the ``edge`` border) with the same labels; then,
 where importable, the peers with keypoints and a mask per image (albumentations 2
@@ -72,11 +72,13 @@ def workload(
     return {"images": images, "src": src, "dst": dst, "keypoints": points, "masks": masks}
 
 
-def glmls_cases(data: dict[str, np.ndarray]) -> dict[str, Callable[[], object]]:
+def glmls_cases(
+    data: dict[str, np.ndarray], method: str = "quads"
+) -> dict[str, Callable[[], object]]:
     from glmls.augment import Augment
 
     images, src, dst = data["images"], data["src"], data["dst"]
-    options = {"grid": 4}
+    options = {"grid": 4, "method": method}
     # the augmentation users call: its own random handles, bilinear, the edge border
     augment = Augment("grid" if images.shape[1] == 224 else "text-distort", seed=0)
     return {
@@ -263,6 +265,12 @@ def main(argv: list[str] | None = None) -> int:
         type=int,
         help="threads OpenCV and torch may use for the peers (default: their own choice)",
     )
+    parser.add_argument(
+        "--method",
+        default="quads",
+        choices=glmls.METHODS,
+        help="the construction of glmls's warp and warp_batch cases",
+    )
     parser.add_argument("--json", help="also write the results to this file")
     args = parser.parse_args(argv)
     if args.peer_threads is not None:
@@ -272,7 +280,7 @@ def main(argv: list[str] | None = None) -> int:
     for name in args.workloads:
         for count in batches:
             data = workload(name, count, keypoints=args.keypoints)
-            for label, run in glmls_cases(data).items():
+            for label, run in glmls_cases(data, args.method).items():
                 value, cpu = measure(run, count, repeat)
                 rows.append(
                     {
@@ -303,6 +311,7 @@ def main(argv: list[str] | None = None) -> int:
         "renderer": glmls.gl.get_context().mgl.info["GL_RENDERER"],
         "threads": threads(),
         "keypoints": args.keypoints,
+        "method": args.method,
         "results": rows,
     }
     if not args.quick:
