@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.box_growth import box_gains, boxes_meet
 from ..core.config import check_real, is_integer
 from ..core.handles import COORDINATE_LIMIT, point_bounds
 from ..core.mesh import MAX_MARGIN, MeshLattice, as_shape
@@ -457,9 +458,9 @@ def search_margins(
                 box = _box(value)
                 if covered:
                     found[k] = (margin, True)
-                elif margin >= reach or not _gains(seen[k], (margin, *box), reach, low, high):
+                elif margin >= reach or not box_gains(seen[k], (margin, *box), reach, low, high):
                     # a border whose box misses the frame covers none of it: no margin then
-                    found[k] = (margin if _meets(box, low, high) else 0, False)
+                    found[k] = (margin if boxes_meet(box, low, high) else 0, False)
                 else:
                     seen[k] = (margin, *box)
                     margins[k] = min(reach, 2 * margin)
@@ -472,45 +473,6 @@ def _box(ring: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if not finite.any():
         return np.full(2, np.inf), np.full(2, -np.inf)
     return point_bounds(ring[finite])
-
-
-def _meets(box: tuple[np.ndarray, np.ndarray], low: np.ndarray, high: np.ndarray) -> bool:
-    return bool((box[0] <= high).all() and (box[1] >= low).all())
-
-
-#: How far (pixels per pixel of margin) a deformed border's box must move out for the margin
-#: search to count it as grown: float32's noise in f moves the border of a map that
-#: collapses the plane, and a map that shrinks the plane a thousandfold is one.
-BOX_GROWTH = 1e-3
-
-
-def _gains(before: tuple, now: tuple, reach: int, low: np.ndarray, high: np.ndarray) -> bool:
-    """Whether a larger margin may cover more of the frame (box ``low``, ``high``), judged by
-    the deformed border's box, grown from ``before`` to ``now`` ((margin, low, high) each):
-    it holds the frame and still grows, or its part in the frame grew, or, still outside the
-    frame, growing on twice as fast as it did up to ``reach`` it would meet it. A map that
-    collapses the plane (a box that stopped growing) or a canvas far from anything the
-    budget's mesh could reach ends the search."""
-    (m0, low0, high0), (m1, low1, high1) = before, now
-    if not (np.isfinite(low1).all() and np.isfinite(high1).all()):
-        return False
-    if not (np.isfinite(low0).all() and np.isfinite(high0).all()) or m1 <= m0:
-        return True
-    least = BOX_GROWTH * (m1 - m0)
-    if not ((low0 - low1 > least).any() or (high1 - high0 > least).any()):
-        return False
-    if (low1 <= low).all() and (high1 >= high).all():
-        return True  # the box holds the frame: the border's shape decides
-    if _meets((low1, high1), low, high):
-        in0 = np.maximum(low0, low), np.minimum(high0, high)
-        in1 = np.maximum(low1, low), np.minimum(high1, high)
-        if not _meets((low0, high0), low, high):
-            return True
-        return bool((in0[0] - in1[0] > least).any() or (in1[1] - in0[1] > least).any())
-    rest = 2.0 * (reach - m1) / (m1 - m0)
-    out_low = low1 - (low0 - low1).clip(0.0) * rest
-    out_high = high1 + (high1 - high0).clip(0.0) * rest
-    return _meets((out_low, out_high), low, high)
 
 
 def _margin_within(height: int, width: int, pixels: int) -> int:

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.box_growth import Box, box_gains, boxes_meet
 from ..errors import BorderWarning
 from .fields import Field
 from .frame import CornerLattice, Margins, VolumeFrame
@@ -50,9 +51,9 @@ def margin_shortfall3(margins: Margins) -> str:
     part of the canvas uncovered."""
     most = max(max(pair) for pair in margins)
     return (
-        f"the lattice reaches {most} voxels past the volume, the most for this volume and "
-        "canvas, and f's image of it does not cover the whole canvas: voxels beyond keep the "
-        "background"
+        f"the lattice reaches {most} voxels past the volume, and f's image of it does not "
+        "cover the whole canvas, nor would a larger lattice's up to the most for this volume "
+        "and canvas: voxels beyond keep the background"
     )
 
 
@@ -82,7 +83,15 @@ def search_margins3(
     margins grow to the preimage of the box under the affine map that fits f on the faces
     best (else double), and the search goes on. Where the box is out of the image of the
     boundary and inside it, the margins are found even if a face does not hold along its
-    normal (a map that mirrors the volume)."""
+    normal (a map that mirrors the volume).
+
+    With ``cover`` the search also ends, the canvas uncovered, as soon as no larger margins
+    could help (:func:`~glmls.core.box_growth.box_gains`, the rule of the image's mesh),
+    judged over rounds that grew every side's margin, per voxel of the least: the box of the
+    deformed faces stopped growing with the margins (a map that collapses the volume: all
+    handles' targets at one point), or, outside the canvas, growing on twice as fast as it
+    did up to the most any side may reach it would not meet the canvas. The margins are then
+    the last round's, or none where that box misses the canvas."""
     grid = lattice.grid
     d, h, w = lattice.shape
     size = np.array([w, h, d], dtype=float)
@@ -96,6 +105,12 @@ def search_margins3(
     budget = max(MARGIN_POINTS3, 2 * (d * h * w + frame.voxels) // grid**3)
     margins = np.zeros((3, 2))
     last = None
+    # the last round's least margin and the box of its deformed faces: how fast the box
+    # grows with the margins tells whether the budget's lattice could ever cover the canvas.
+    # By the least margin, a round that left some side's margin as it was decides nothing
+    # (the box need not move along that side's axis), and growth counts per voxel that
+    # every side grew
+    seen: Box | None = None
     for _ in range(_COVER_ROUNDS if cover else _GUESS_ROUNDS):
         box = np.stack([-0.5 - margins[:, 0], size - 0.5 + margins[:, 1]], axis=1)
         faces = _faces(box)
@@ -106,6 +121,12 @@ def search_margins3(
             return _as_margins(margins), True
         if cover:
             limit = _side_limits(size, margins, grid, budget)
+            now = (float(margins.min()), *_box(images))
+            if seen is not None and not box_gains(seen, now, float(limit.max()), low, high):
+                # a box that misses the canvas covers none of it: no margins then
+                met = boxes_meet((now[1], now[2]), low, high)
+                return _as_margins(margins if met else np.zeros((3, 2))), False
+            seen = now
         else:
             limit = overhang + 2 * max(w, h, d)
         need = np.minimum(np.maximum(further + margins, 0.0), limit)
@@ -138,6 +159,15 @@ def search_margins3(
                 return _as_margins(margins), False
         margins = grown_margins
     return _as_margins(margins), not cover
+
+
+def _box(images: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The (low, high) corners (x, y, z) of the finite ``images``; empty (low above high)
+    where none is."""
+    finite = images[np.isfinite(images).all(axis=1)]
+    if len(finite) == 0:
+        return np.full(3, np.inf), np.full(3, -np.inf)
+    return finite.min(axis=0), finite.max(axis=0)
 
 
 def _as_margins(margins: np.ndarray) -> Margins:
