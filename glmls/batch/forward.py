@@ -1,18 +1,20 @@
-"""The GPU path of a batch for ``splat``: the pixel centres of many images of one shape
-pushed forward in one submission per chunk.
+"""The GPU path of a batch for the forward methods, ``splat`` and ``paper-quads``: the pixel
+centres of many images of one shape pushed forward in one submission per chunk.
 
 Per chunk of images (:func:`~glmls.batch.gpu.chunk_size`):
 
 1. f at every image's pixel centres (the lattice of the single warp: past the image by its
-   mesh's margin with a border mode) in one dispatch
+   mesh's margin with a border mode, for ``paper-quads`` one pixel more) in one dispatch
    (:class:`~glmls.engine.batched.BatchLattices`; :class:`~glmls.batch.gpu.KernelLattices`
    for segments and bins) into the mesh table;
-2. ONE instanced draw of points (``batch/splat.vert.glsl``, an instance per image) into an
-   atlas of the output canvases stacked top to bottom: each point rounded to its pixel
-   centre and the points in reverse scan order, as the single draw (:mod:`glmls.imaging.raster`)
-   places them, so that where f folds the first source pixel in scan order shows; the
-   masks (nearest) and, for keypoints and maps, the numbers of the source pixels drawn into
-   more attachments of the same draw;
+2. ``splat``: ONE instanced draw of points (``batch/splat.vert.glsl``, an instance per
+   image) into an atlas of the output canvases stacked top to bottom: each point rounded to
+   its pixel centre and the points in reverse scan order, as the single draw
+   (:mod:`glmls.imaging.raster`) places them, so that where f folds the first source pixel
+   in scan order shows; ``paper-quads`` (:mod:`.paper`): ONE scan of every image's squares
+   (and, linear, one of their source points) and ONE draw from its keys; the masks
+   (nearest) and, for keypoints and maps, the numbers of the source pixels drawn into more
+   attachments of the same draw (:class:`~glmls.batch.canvases.ForwardTargets`);
 3. ONE read-back of the atlas.
 
 Each image equals its :func:`glmls.warp`, bit for bit. The maps (f's inverse, by Newton's
@@ -35,20 +37,19 @@ from ..core.mesh import MeshLattice
 from ..engine.batched import BatchLattices
 from ..engine.kernel import DEFAULT_STORAGE
 from ..engine.storage import check_storage
-from ..gl import bindings
 from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import set_uniforms
 from ..gl.resources import Resources, keep_framebuffer
-from ..gl.tables import TABLE_WIDTH, table_rows
 from ..imaging.frame import Frame, make_frame
 from ..imaging.options import WarpOptions
-from ..imaging.readback import read_rgba8
 from ..imaging.source import BORDERS, SourceImage, background_color, prepare_image
 from ..mls import MLS
+from .canvases import ForwardTargets, upload_meshes
 from .fill import SourceArrays
 from .gpu import CHUNK_BYTES, KernelLattices, chunk_size, fits, mesh_stride
 from .inputs import BatchInput
 from .margins import batch_margins, warn_short
+from .paper import BatchPaper, chunk_squares, paper_lattice
 from .single import ImageLabels, SingleWarper, mask_form, restore_mask
 
 __all__ = ["BatchSplat", "forward_batchable", "warp_forward"]
@@ -56,10 +57,14 @@ __all__ = ["BatchSplat", "forward_batchable", "warp_forward"]
 #: The keywords of :func:`glmls.warp_batch` that make its :class:`~glmls.MLSConfig`.
 _CONFIG_KEYS = ("transform", "weight", "alpha", "s", "radius", "interpolating")
 
+#: The methods of the batched forward path.
+FORWARD_METHODS = ("splat", "paper-quads")
+
 
 def forward_batchable(options: WarpOptions) -> bool:
-    """Does a batch of these options take the batched forward path (``splat``)?"""
-    return options.method == "splat"
+    """Does a batch of these options take the batched forward path (``splat``,
+    ``paper-quads``)?"""
+    return options.method in FORWARD_METHODS
 
 
 def warp_forward(
@@ -71,10 +76,10 @@ def warp_forward(
     maps: bool,
     max_bytes: int | None,
 ) -> list[ImageLabels | None]:
-    """Each image's :class:`ImageLabels` from the batched ``splat`` (None for an image it
-    leaves to the single path: a mesh beyond one dispatch, or with a border mode an image
-    of its own MLS)."""
-    run = _SplatRun(batch, options, mls_options, segments, maps, max_bytes or CHUNK_BYTES)
+    """Each image's :class:`ImageLabels` from the batched ``splat`` or ``paper-quads``
+    (None for an image it leaves to the single path: a mesh beyond one dispatch, a lattice
+    that the single warp refuses, or with a border mode an image of its own MLS)."""
+    run = _ForwardRun(batch, options, mls_options, segments, maps, max_bytes or CHUNK_BYTES)
     return run.results
 
 
@@ -103,21 +108,6 @@ class BatchSplat:
         self._sources.release()
         self._resources.release()
 
-    def _meshes(self, lattices, lattice: MeshLattice) -> None:
-        """f of every image of ``lattices`` at ``lattice``'s points into the mesh table that
-        ``batch/mesh.glsl`` reads, the images' scalings into theirs; both bound."""
-        gl, resources = self._gl, self._resources
-        stride = mesh_stride(lattice)
-        vertices = len(lattices) * stride // 8
-        mesh = resources.buffer("mesh", table_rows(vertices) * TABLE_WIDTH * 8)
-        lattices.evaluate(gl, resources, lattice, mesh, stride)
-        scaling = np.zeros((len(lattices), 4), np.float32)
-        scaling[:, :2] = lattices.centers
-        scaling[:, 2] = lattices.scales
-        gl.mgl.memory_barrier()  # the lattice passes' stores before the copy
-        resources.tables.copy("batch mesh", mesh, (0, vertices), 2, bindings.BATCH_MESH.index)
-        resources.tables.write("batch scaling", scaling, bindings.BATCH_SCALING.index)
-
     @current
     def warp(
         self,
@@ -138,30 +128,14 @@ class BatchSplat:
         where none is) or None."""
         gl, mgl, resources = self._gl, self._gl.mgl, self._resources
         count = len(sources)
-        source = sources[0]
-        height, width = source.shape
-        self._meshes(lattices, lattice)
-        atlas = (frame.size[0], frame.size[1] * count)
-        roles = ["splat atlas"]
-        target = resources.framebuffer("splat atlas", atlas, "f1" if source.normalized else "f4")
-        resources.fill(target.color_attachments[0], background)
-        label_sources = None
-        if labels is not None:
-            label_sources, zero = labels
-            dtype = "f1" if label_sources[0].normalized else "f4"
-            fb = resources.framebuffer("splat labels", atlas, dtype)
-            resources.fill(fb.color_attachments[0], zero)
-            roles.append("splat labels")
-        if drawn:
-            fb = resources.framebuffer("splat drawn", atlas, "f4")
-            resources.fill(fb.color_attachments[0], (0.0, 0.0, 0.0, 0.0))
-            roles.append("splat drawn")
-        both = resources.attached("splat targets", tuple(roles)) if len(roles) > 1 else target
-        linear = options.interpolation == "linear"
-        border = BORDERS.index(options.border)
+        height, width = sources[0].shape
+        upload_meshes(gl, resources, lattices, lattice)
+        targets = ForwardTargets(
+            resources, count, frame, sources[0], background, labels, drawn=drawn
+        )
         defines = {
-            "WARP_LINEAR": linear,
-            "WARP_BORDER": border,
+            "WARP_LINEAR": options.interpolation == "linear",
+            "WARP_BORDER": BORDERS.index(options.border),
             "BATCH_SPLAT_LABELS": labels is not None,
             "BATCH_SPLAT_DRAWN": drawn,
         }
@@ -178,44 +152,16 @@ class BatchSplat:
                 "u_images": count,
             },
         )
-        self._sources.bind(sources, label_sources, linear)
+        self._sources.bind(sources, targets.label_sources, defines["WARP_LINEAR"])
         with keep_framebuffer(mgl):
-            both.use()
-            both.viewport = (0, 0, *atlas)
+            framebuffer = targets.framebuffer
+            framebuffer.use()
+            framebuffer.viewport = (0, 0, *targets.size)
             mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
             mgl.point_size = 1.0
             vao = resources.vertex_array(program)
             vao.render(moderngl.POINTS, vertices=lattice.count, instances=count)
-        out = _read(mgl, target, atlas, source, count, frame)
-        warped = None
-        if label_sources is not None:
-            fb = resources.framebuffer("splat labels", atlas, dtype)
-            warped = _read(mgl, fb, atlas, label_sources[0], count, frame)
-        numbers = None
-        if drawn:
-            fb = resources.framebuffer("splat drawn", atlas, "f4")
-            values = _read_float(mgl, fb, atlas)
-            numbers = values.reshape(count, *frame.shape, 4)[..., :2]
-        return out, warped, numbers
-
-
-def _read_float(mgl, framebuffer, atlas) -> np.ndarray:
-    values = np.empty((atlas[1], atlas[0], 4), np.float32)
-    with keep_framebuffer(mgl):
-        framebuffer.use()
-        framebuffer.read_into(values, (0, 0, *atlas), 4, dtype="f4")
-    return values
-
-
-def _read(mgl, framebuffer, atlas, source: SourceImage, count: int, frame: Frame):
-    """The atlas read back as (N, H, W, C) in the sources' dtype."""
-    if source.normalized:
-        with keep_framebuffer(mgl):
-            framebuffer.use()
-            values = read_rgba8(framebuffer, atlas, source.channels)
-    else:
-        values = _read_float(mgl, framebuffer, atlas)[..., : source.channels]
-    return source.restore(values.reshape(count, *frame.shape, -1))
+        return targets.read(mgl)
 
 
 def _groups(batch: BatchInput) -> dict[tuple, list[int]]:
@@ -248,7 +194,7 @@ def _named(call, index: int, *args, **keywords):
         raise ValueError(f"images[{index}]: {error}") from None
 
 
-class _SplatRun:
+class _ForwardRun:
     """One :func:`warp_forward`: the batch's groups of one shape, each group's parts of one
     lattice (one margin past the images, with a border mode), each part's chunks."""
 
@@ -256,7 +202,8 @@ class _SplatRun:
         self.batch, self.options, self.maps, self.budget = batch, options, maps, budget
         self.mls_options, self.segments = mls_options, segments
         self.results: list[ImageLabels | None] = [None] * len(batch)
-        self.splat = BatchSplat.of(mls_options.get("ctx"))
+        self.paper = options.method == "paper-quads"
+        self.drawer = (BatchPaper if self.paper else BatchSplat).of(mls_options.get("ctx"))
         self.warper = SingleWarper.of(mls_options.get("ctx"))
         self.config = _config(batch, mls_options)
         # segment handles, or no point handle at all: the image's own MLS, as one warp does
@@ -275,19 +222,31 @@ class _SplatRun:
         if options.border != "constant":  # the images by their meshes' margins
             corners = MeshLattice.corners(source.shape, 1)
             taken = [i for i in indices if not self.own[i]]
-            gl = self.splat.ctx
+            gl = self.drawer.ctx
             found, short = batch_margins(gl, self.config, batch, taken, corners, frame)
             parts = sorted(found.items())
         for margin, part in parts:
-            lattice = MeshLattice.centres(source.shape, margin=margin)
-            if fits(self.splat.ctx, source.shape, frame, lattice):
+            lattice = self._lattice(source.shape, margin)
+            if lattice is not None and fits(self.drawer.ctx, source.shape, frame, lattice):
                 self._part(part, lattice, frame, source)
         warn_short(short, self.results, stacklevel=5)  # warp_batch's caller
 
+    def _lattice(self, shape: tuple[int, int], margin: int) -> MeshLattice | None:
+        """The single warp's lattice of pixel centres for images of ``shape`` whose corner
+        mesh reaches ``margin`` past them (None: one the single path refuses, naming the
+        image)."""
+        if self.paper:
+            return paper_lattice(shape, margin, self.options.border)
+        return MeshLattice.centres(shape, margin=margin)
+
     def _part(self, part: list[int], lattice: MeshLattice, frame: Frame, source) -> None:
-        gl = self.splat.ctx
-        size = chunk_size(gl, source, frame, lattice, self.budget)
+        gl = self.drawer.ctx
+        # a linear paper-quads: an atlas of source points (RGBA32F) besides the keys
+        points = self.paper and self.options.interpolation == "linear"
+        size = chunk_size(gl, source, frame, lattice, self.budget, backward=points)
         size = min(size, gl.limits["max_viewport"] // frame.shape[0])
+        if self.paper:
+            size = min(size, chunk_squares(lattice))
         for start in range(0, len(part), size):
             chunk = part[start : start + size]
             for i, labels in zip(chunk, self._chunk(chunk, lattice, frame), strict=True):
@@ -314,9 +273,9 @@ class _SplatRun:
                 label_sources = [prepare_image(mask_form(m), limit, normalized=True) for m in masks]
                 labels = (label_sources, background_color(0.0, label_sources[0]))
             more = self.maps or batch.keypoints is not None
-            with self.splat.ctx.use():
+            with self.drawer.ctx.use():
                 args = (lattices, sources, options, frame, background, lattice, labels)
-                out, warped, numbers = self.splat.warp(*args, drawn=more)
+                out, warped, numbers = self.drawer.warp(*args, drawn=more)
         results = []
         for k, i in enumerate(chunk):
             mask = None

@@ -47,8 +47,10 @@ def warp_batch(
     swapped-handles map at every output pixel in one pass, samples in one draw and reads
     back once (its keypoints move image by image); ``splat`` likewise, f at every image's
     pixel centres in one pass, one instanced draw of every image's points and one
-    read-back (its maps and keypoints each image's own, as the single path finds them).
-    The other methods and cases take the single pipeline image by image (:doc:`/batch`).
+    read-back, and ``paper-quads`` with one scan of every image's squares of pixel centres
+    and one draw from its keys (their maps and keypoints each image's own, as the single
+    path finds them). The other cases take the single pipeline image by image
+    (:doc:`/batch`).
     In a process forked from one in which glmls used GL (a data loader's worker), it runs in
     a helper process started fresh, with the same result (see :mod:`glmls.gl.context`).
 
@@ -137,7 +139,7 @@ def warp_batch(
         done, whole = warp_chunks(
             batch, chosen, mls_options, segments, maps=return_maps, max_bytes=max_batch_bytes
         )
-    elif forward_batchable(chosen) and len(batch):  # splat: the batched forward path
+    elif forward_batchable(chosen) and len(batch):  # splat, paper-quads: batched forward
         done = warp_forward(
             batch, chosen, mls_options, segments, maps=return_maps, max_bytes=max_batch_bytes
         )

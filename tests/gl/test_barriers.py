@@ -208,11 +208,12 @@ def test_batches(own):
     keypoints = rng.uniform(0, 32, (3, 5, 2))
     masks = (rng.random(images.shape[:3]) > 0.5).astype(np.uint8)
     with tracing() as tracer:
-        for method in ("quads", "backward"):
+        for method in ("quads", "backward", "splat", "paper-quads"):
             glmls.warp_batch(
                 images, src, dst, keypoints=keypoints, masks=masks, method=method,
                 interpolation="linear", ctx=own,
             )  # fmt: skip
+        glmls.warp_batch(images, src, dst, method="paper-quads", border="reflect", ctx=own)
     _checked(tracer)
 
 
