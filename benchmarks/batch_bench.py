@@ -11,8 +11,8 @@ Workloads (uint8, a random handle move per image):
   bottom) moved by N(0, 2 px), the thin-plate-spline rectification setting.
 
 For each workload and batch size: ``glmls.warp`` per image, ``glmls.warp_batch`` (``quads``,
-grid 4, nearest; ``--method`` another construction for both) without labels, and with
-``--keypoints`` (20) keypoints and a uint8 mask per image, and
+grid 4, nearest; ``--method`` another construction for both, ``paper-quads`` at grid 1)
+without labels, and with ``--keypoints`` (20) keypoints and a uint8 mask per image, and
 ``glmls.augment.Augment`` with its defaults (``grid`` at 224 x 224, ``text-distort`` on text
 crops: its own random handles, bilinear, the ``edge`` border) with the same labels; then,
 where importable, the peers with keypoints and a mask per image (albumentations 2
@@ -78,7 +78,8 @@ def glmls_cases(
     from glmls.augment import Augment
 
     images, src, dst = data["images"], data["src"], data["dst"]
-    options = {"grid": 4, "method": method}
+    # paper-quads fills squares of adjacent pixel centres: its only step is 1
+    options = {"grid": 1 if method == "paper-quads" else 4, "method": method}
     # the augmentation users call: its own random handles, bilinear, the edge border
     augment = Augment("grid" if images.shape[1] == 224 else "text-distort", seed=0)
     return {
