@@ -10,11 +10,9 @@ from functools import partial
 
 import numpy as np
 
-from ..core.config import MLSConfig
 from ..core.mesh import MeshLattice
 from ..engine.batched import BatchLattices
-from ..engine.kernel import DEFAULT_STORAGE, check_loop_budget
-from ..engine.storage import check_storage
+from ..engine.kernel import check_loop_budget
 from ..imaging.frame import make_frame
 from ..imaging.options import WarpOptions
 from ..imaging.readback import add_channel, drop_channels
@@ -22,18 +20,16 @@ from ..imaging.source import SourceImage, background_color, prepare_image
 from ..mls import MLS
 from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size, fits
 from .inputs import BatchInput
-from .labels import embedded, mesh_keypoints, on_canvas, visible
+from .labels import embedded, mesh_keypoints, on_canvas
 from .margins import batch_margins, warn_short
+from .probes import batch_config, keypoints_by_f
 from .single import (
     ImageLabels,
     SingleWarper,
     beyond_mesh,
-    in_domain,
     mask_form,
     mask_options,
     packable,
-    probe_points,
-    probed,
     restore_mask,
 )
 from .swap import swapped_keypoints, swapped_lattices, warp_swapped
@@ -41,11 +37,6 @@ from .texels import chunk_size as texel_chunk_size
 from .texels import takes, warp_texels
 
 __all__ = ["warp_chunks"]
-
-#: The most bytes of points one pass of f at a chunk's keypoints takes (:func:`_f_at`).
-_SLICE_BYTES = 8 << 20
-#: The keywords of :func:`glmls.warp_batch` that make its :class:`~glmls.MLSConfig`.
-_CONFIG_KEYS = ("transform", "weight", "alpha", "s", "radius", "interpolating")
 
 
 def _groups(batch: BatchInput) -> dict[tuple, list[int]]:
@@ -88,7 +79,7 @@ class _GPURun:
         self.whole: dict[str, np.ndarray] = {}
         self.quads = BatchQuads.of(mls_options.get("ctx"))
         self.warper = SingleWarper.of(mls_options.get("ctx"))
-        self.config = _batch_config(batch, mls_options)
+        self.config = batch_config(batch, mls_options)
         self.backward = options.method in ("backward", "backward-swap")
         # backward-swap: the swapped map at every pixel, no mesh (glmls.batch.swap)
         self.swap = options.method == "backward-swap"
@@ -291,20 +282,6 @@ def _check_newton_budget(gl, batch: BatchInput) -> None:
             raise ValueError(f"images[{i}]: {error}") from None
 
 
-def _batch_config(batch: BatchInput, mls_options: dict) -> MLSConfig | None:
-    """The configuration of every image where one :class:`BatchLattices` evaluation takes
-    the batch's handles (no spatial bins), else None (each image's own MLS)."""
-    keys = {k: v for k, v in mls_options.items() if k in _CONFIG_KEYS}
-    config = MLSConfig(**keys)
-    counts = [len(p) for p in batch.src]
-    storage = mls_options.get("storage", DEFAULT_STORAGE)
-    check_storage(storage)
-    bins = mls_options.get("bins")
-    if not BatchLattices.takes(config, counts, storage, bins):
-        return None
-    return config
-
-
 def _drop_last(rgba: np.ndarray, squeeze: bool) -> np.ndarray:
     """The warped images without the mask that rode as their last channel."""
     if squeeze:
@@ -390,8 +367,8 @@ def _finish(
         moved_all, valid_all = swapped_keypoints(warper, batch, chunk, mls_options, canvas, shown)
     elif backward and keypoints is not None:
         shown = (coords_all, covered_all)
-        moved_all, valid_all = _backward_keypoints(
-            quads, lattices, batch, chunk, (frame, options.border), shown
+        moved_all, valid_all = keypoints_by_f(
+            quads.ctx, quads.resources, lattices, batch, chunk, (frame, options.border), shown
         )
     elif keypoints is not None:  # every keypoint of the chunk at once, the meshes read once
         vertices = quads.vertices(lattices, lattice)
@@ -424,57 +401,3 @@ def _finish(
         valid = None if valid_all is None else valid_all[k]
         results.append(ImageLabels(out[k], masks[k], moved, valid, coords, covered))
     return results
-
-
-def _backward_keypoints(quads, lattices, batch, chunk, canvas, shown):
-    """The ``backward`` chunk's keypoints moved by f, as the single path moves them (f and
-    its Jacobian at every image's probes in one pass of the chunk's handles), each valid
-    where it lands on the canvas, in the image's domain and shown by the chunk's maps
-    ``shown`` ((N, H, W, 2) source points, (N, H, W) covered) at its nearest pixel: two
-    lists of the images' (P_i, 2) points and (P_i,) flags. ``canvas``: the frame and the
-    border rule."""
-    frame, border = canvas
-    points = [batch.keypoints[i] for i in chunk]
-    shape = batch.images[chunk[0]].shape[:2]
-    probes = [probe_points(p) for p in points]
-
-    def chosen(images: list[int]) -> BatchLattices:
-        src, dst = [batch.src[chunk[k]] for k in images], [batch.dst[chunk[k]] for k in images]
-        return BatchLattices(lattices.config, src, dst, shape)
-
-    values = _f_at(quads, lattices, probes, chosen)
-    origin = np.asarray(frame.origin)
-    moved, valid = [], []
-    for k, p in enumerate(points):
-        if not len(p):
-            moved.append(np.zeros((0, 2)))
-            valid.append(np.zeros(0, bool))
-            continue
-        out, jacobian = probed(values[k])
-        out = out - origin
-        inside = in_domain(p, shape, border)
-        moved.append(out)
-        valid.append(visible(p, out, jacobian, shown[0][k], shown[1][k], inside))
-    return moved, valid
-
-
-def _f_at(quads, lattices, points: list[np.ndarray], chosen) -> list[np.ndarray]:
-    """f of each image of ``lattices`` at its ``points`` ((P_i, 2) each), in passes over
-    slices of the images' points. A pass pads each image's slice to the longest, so the
-    images whose points have run out leave the later passes (``chosen(images)``: the
-    lattices of those images of the chunk alone, each image's f the same): one image with
-    many points makes no other image's work or buffer as long. Slices of an even length
-    keep the single evaluation's pairs of points per invocation."""
-    sizes = [len(p) for p in points]
-    most = max(sizes)
-    step = max(2, min(most, _SLICE_BYTES // (8 * len(points))) // 2 * 2)
-    values = [np.empty((size, 2)) for size in sizes]
-    shape = lattices.shape
-    for start in range(0, most, step):
-        busy = [k for k, size in enumerate(sizes) if size > start]
-        part = lattices if len(busy) == len(points) else chosen(busy)
-        slices = [points[k][start : start + step] for k in busy]
-        done = part.evaluate_points(quads.ctx, quads.resources, slices, shape)
-        for k, found in zip(busy, done, strict=True):
-            values[k][start : start + len(found)] = found
-    return values

@@ -17,9 +17,11 @@ Per chunk of images (:func:`~glmls.batch.gpu.chunk_size`):
    attachments of the same draw (:class:`~glmls.batch.canvases.ForwardTargets`);
 3. ONE read-back of the atlas.
 
-Each image equals its :func:`glmls.warp`, bit for bit. The maps (f's inverse, by Newton's
-method) and the keypoints (moved by f) are each image's own, as the single path finds them
-(:class:`~glmls.batch.single.SingleWarper`), with the pixels drawn taken from the batch.
+Each image equals its :func:`glmls.warp`, bit for bit. The keypoints are moved by f at
+their probes, every image's in one pass (:func:`~glmls.batch.probes.keypoints_by_f`), and
+tested against the pixels drawn; the maps (f's inverse, by Newton's method), and the
+keypoints with them or with a border mode, are each image's own, as the single path finds
+them (:class:`~glmls.batch.single.SingleWarper`), with the pixels drawn taken from the batch.
 With a border mode the images of a chunk share one margin (:mod:`glmls.batch.margins`);
 images with segment handles or without handles then take the single path.
 """
@@ -32,11 +34,8 @@ from contextlib import ExitStack
 import moderngl
 import numpy as np
 
-from ..core.config import MLSConfig
 from ..core.mesh import MeshLattice
 from ..engine.batched import BatchLattices
-from ..engine.kernel import DEFAULT_STORAGE
-from ..engine.storage import check_storage
 from ..gl.context import GLContext, current, get_context
 from ..gl.dispatch import set_uniforms
 from ..gl.resources import Resources, keep_framebuffer
@@ -50,6 +49,7 @@ from .gpu import CHUNK_BYTES, KernelLattices, chunk_size, fits, mesh_stride
 from .inputs import BatchInput
 from .margins import batch_margins, warn_short
 from .paper import BatchPaper, chunk_squares, paper_lattice
+from .probes import batch_config, keypoints_by_f
 from .single import ImageLabels, SingleWarper, mask_form, restore_mask
 
 __all__ = ["BatchSplat", "forward_batchable", "warp_forward"]
@@ -102,6 +102,11 @@ class BatchSplat:
     def ctx(self) -> GLContext:
         """The context it renders with."""
         return self._gl
+
+    @property
+    def resources(self) -> Resources:
+        """Its GL objects (passes of f at points take their buffers from them)."""
+        return self._resources
 
     def release(self) -> None:
         """Free the GL objects."""
@@ -174,18 +179,6 @@ def _groups(batch: BatchInput) -> dict[tuple, list[int]]:
     return groups
 
 
-def _config(batch: BatchInput, mls_options: dict) -> MLSConfig | None:
-    """The configuration of every image where one :class:`BatchLattices` evaluation takes
-    the batch's handles, else None (each image's own MLS)."""
-    config = MLSConfig(**{k: v for k, v in mls_options.items() if k in _CONFIG_KEYS})
-    storage = mls_options.get("storage", DEFAULT_STORAGE)
-    check_storage(storage)
-    counts = [len(p) for p in batch.src]
-    if not BatchLattices.takes(config, counts, storage, mls_options.get("bins")):
-        return None
-    return config
-
-
 def _named(call, index: int, *args, **keywords):
     """``call(*args, **keywords)``, its ``ValueError`` naming the batch's image ``index``."""
     try:
@@ -205,7 +198,7 @@ class _ForwardRun:
         self.paper = options.method == "paper-quads"
         self.drawer = (BatchPaper if self.paper else BatchSplat).of(mls_options.get("ctx"))
         self.warper = SingleWarper.of(mls_options.get("ctx"))
-        self.config = _config(batch, mls_options)
+        self.config = batch_config(batch, mls_options)
         # segment handles, or no point handle at all: the image's own MLS, as one warp does
         self.own = [bool(segments[i]) or not len(batch.src[i]) for i in range(len(batch))]
         if options.border != "constant" and self.config is None:
@@ -273,18 +266,39 @@ class _ForwardRun:
                 label_sources = [prepare_image(mask_form(m), limit, normalized=True) for m in masks]
                 labels = (label_sources, background_color(0.0, label_sources[0]))
             more = self.maps or batch.keypoints is not None
+            moved = valid = None
             with self.drawer.ctx.use():
                 args = (lattices, sources, options, frame, background, lattice, labels)
                 out, warped, numbers = self.drawer.warp(*args, drawn=more)
+                if (
+                    batch.keypoints is not None
+                    and not self.maps
+                    and options.border == "constant"
+                    and isinstance(lattices, BatchLattices)
+                ):  # every image's keypoints by f at their probes in one pass
+                    shown = (numbers - 1.0, numbers[..., 0] > 0.5)  # type: ignore[index]
+                    moved, valid = keypoints_by_f(
+                        self.drawer.ctx,
+                        self.drawer.resources,
+                        lattices,
+                        batch,
+                        chunk,
+                        (frame, options.border),
+                        shown,
+                        drawn=True,
+                    )
         results = []
         for k, i in enumerate(chunk):
             mask = None
             if warped is not None:
                 mask = restore_mask(warped[k], batch.masks[i].dtype)  # type: ignore[index]
-            if not more:
+            if moved is not None and valid is not None:
+                results.append(ImageLabels(out[k], mask, moved[k], valid[k]))
+            elif more:
+                labels = self._labels(i, out[k], mask, numbers[k], frame)  # type: ignore[index]
+                results.append(labels)
+            else:
                 results.append(ImageLabels(out[k], mask))
-                continue
-            results.append(self._labels(i, out[k], mask, numbers[k], frame))  # type: ignore[index]
         return results
 
     def _mls(self, i: int, shape: tuple[int, int]) -> MLS:
@@ -298,10 +312,14 @@ class _ForwardRun:
         batch, options = self.batch, self.options
         shape = batch.images[i].shape[:2]
         with self._mls(i, shape) as mls:
-            coords, covered = self.warper.source_points(mls, shape, options, frame)
             pixels = numbers.astype(np.float64) - 1.0
             filled = numbers[..., 0] > 0.5
-            covered = covered & filled
+            coords = covered = None
+            # f's inverse at every pixel (Newton's method) for the maps and a border mode's
+            # copies; keypoints on the constant border need only the pixels drawn
+            if self.maps or options.border != "constant":
+                coords, covered = self.warper.source_points(mls, shape, options, frame)
+                covered = covered & filled
             if options.border != "constant":  # beyond the image a drawn pixel is the border
                 # rule's copy, of another number: f's inverse there
                 height, width = shape

@@ -87,6 +87,11 @@ class BatchPaper:
         """The context it renders with."""
         return self._gl
 
+    @property
+    def resources(self) -> Resources:
+        """Its GL objects (passes of f at points take their buffers from them)."""
+        return self._resources
+
     def release(self) -> None:
         """Free the GL objects."""
         self._sources.release()

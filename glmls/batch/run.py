@@ -48,9 +48,9 @@ def warp_batch(
     back once (its keypoints move image by image); ``splat`` likewise, f at every image's
     pixel centres in one pass, one instanced draw of every image's points and one
     read-back, and ``paper-quads`` with one scan of every image's squares of pixel centres
-    and one draw from its keys (their maps and keypoints each image's own, as the single
-    path finds them). The other cases take the single pipeline image by image
-    (:doc:`/batch`).
+    and one draw from its keys (their keypoints moved by f in one pass of the chunk, their
+    maps each image's own, as the single path finds them). The other cases take the single
+    pipeline image by image (:doc:`/batch`).
     In a process forked from one in which glmls used GL (a data loader's worker), it runs in
     a helper process started fresh, with the same result (see :mod:`glmls.gl.context`).
 

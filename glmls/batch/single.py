@@ -162,11 +162,16 @@ class SingleWarper:
             coords = covered = moved = valid = None
             shown = None  # the source points the picture shows, to test keypoints against
             if maps or (points is not None and not by_mesh(options)):
-                coords, covered = self.source_points(mls, shape, options, frame)
-                shown = coords, covered
-                if options.method in FORWARD:  # what the fill drew, not f's inverse found
+                forward = options.method in FORWARD
+                # f's inverse at every pixel (Newton's method): the maps, what the backward
+                # methods show, and a border mode's copies; a forward method's keypoints on
+                # the constant border need only the pixels it drew
+                if maps or not forward or options.border != "constant":
+                    coords, covered = self.source_points(mls, shape, options, frame)
+                    shown = coords, covered
+                if forward:  # what the fill drew, not f's inverse found
                     pixels, filled = drawn(mls, shape, options)
-                    covered = covered & filled
+                    covered = None if covered is None else covered & filled
                     if options.border != "constant":  # beyond the image a drawn pixel is
                         # the border rule's copy, of another number: f's inverse there
                         height, width = shape

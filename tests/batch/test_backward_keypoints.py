@@ -133,7 +133,7 @@ def test_one_image_with_many_keypoints_pads_no_other(gl, rng, monkeypatch):
         return evaluate(self, gl, resources, slices, shape)
 
     monkeypatch.setattr(BatchLattices, "evaluate_points", counted)
-    monkeypatch.setattr(glmls.batch.chunks, "_SLICE_BYTES", 8 * 4 * 100)  # 100 points each
+    monkeypatch.setattr(glmls.batch.probes, "SLICE_BYTES", 8 * 4 * 100)  # 100 points each
     result = warped(images, src, dst, keypoints=points)
     # the probes: five points for each keypoint and each of its footprint's eight edge
     # points, so 45, 1395, 0 and 315 points; image 2 has none

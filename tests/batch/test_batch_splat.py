@@ -196,3 +196,34 @@ def test_chunks_equal_one_chunk(no_single):
     whole = glmls.warp_batch(images, src, dst, method="splat")
     chunked = glmls.warp_batch(images, src, dst, method="splat", max_batch_bytes=1)
     np.testing.assert_array_equal(whole, chunked)
+
+
+@pytest.mark.parametrize("method", ["splat", "paper-quads"])
+def test_keypoints_without_maps_in_one_pass_equal_single_path(monkeypatch, method):
+    """Keypoints without the maps, on the constant border: every image's moved by f at its
+    probes in one pass of the chunk and tested against the pixels the batch drew (no f's
+    inverse per image), equal to the single path's, where f folds too."""
+    rng = np.random.default_rng(7)
+    height, width = SHAPE
+    images = images_of(rng, 4, np.uint8, 3)
+    src, dst = handles(rng, 4, [6, 9, 6, 4])
+    dst[1][:3] = dst[1][3:6]  # three handles onto three others: f folds
+    points = [rng.uniform((-2, -2), (width + 2, height + 2), (k, 2)) for k in (5, 30, 0, 12)]
+    inverses = []
+    source_points = SingleWarper.source_points
+    monkeypatch.setattr(
+        SingleWarper,
+        "source_points",
+        lambda self, *a, **k: inverses.append(1) or source_points(self, *a, **k),
+    )
+    got = glmls.warp_batch(images, src, dst, keypoints=points, method=method)
+    assert not inverses  # no Newton over every pixel for the keypoints
+    monkeypatch.setattr("glmls.batch.run.forward_batchable", lambda options: False)
+    for k in range(4):
+        one = glmls.warp_batch(
+            images[k : k + 1], [src[k]], [dst[k]], keypoints=[points[k]], method=method
+        )
+        np.testing.assert_array_equal(got.keypoints[k], one.keypoints[0], err_msg=f"{k}")
+        np.testing.assert_array_equal(got.keypoints_valid[k], one.keypoints_valid[0])
+    valid = np.concatenate(got.keypoints_valid)
+    assert valid.any() and not valid.all()

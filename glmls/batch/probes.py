@@ -1,0 +1,93 @@
+"""What the batched paths share to move a chunk's keypoints by f itself (``backward``,
+``splat``, ``paper-quads``): the configuration that one
+:class:`~glmls.engine.batched.BatchLattices` evaluation serves, f at every image's points in
+passes over slices of them, and the keypoints moved by f at their probes and tested against
+what the chunk shows, as the single path (:class:`~glmls.batch.single.SingleWarper`) moves
+and tests them."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.config import MLSConfig
+from ..engine.batched import BatchLattices
+from ..engine.kernel import DEFAULT_STORAGE
+from ..engine.storage import check_storage
+from .inputs import BatchInput
+from .labels import visible
+from .single import in_domain, probe_points, probed
+
+__all__ = ["CONFIG_KEYS", "SLICE_BYTES", "batch_config", "f_at", "keypoints_by_f"]
+
+#: The most bytes of points one pass of f at a chunk's keypoints takes (:func:`f_at`).
+SLICE_BYTES = 8 << 20
+#: The keywords of :func:`glmls.warp_batch` that make its :class:`~glmls.MLSConfig`.
+CONFIG_KEYS = ("transform", "weight", "alpha", "s", "radius", "interpolating")
+
+
+def batch_config(batch: BatchInput, mls_options: dict) -> MLSConfig | None:
+    """The configuration of every image where one :class:`BatchLattices` evaluation takes
+    the batch's handles (no spatial bins, handles in a storage buffer), else None (each
+    image's own MLS)."""
+    config = MLSConfig(**{k: v for k, v in mls_options.items() if k in CONFIG_KEYS})
+    storage = mls_options.get("storage", DEFAULT_STORAGE)
+    check_storage(storage)
+    counts = [len(p) for p in batch.src]
+    if not BatchLattices.takes(config, counts, storage, mls_options.get("bins")):
+        return None
+    return config
+
+
+def f_at(gl, resources, lattices, points: list[np.ndarray], chosen) -> list[np.ndarray]:
+    """f of each image of ``lattices`` at its ``points`` ((P_i, 2) each), in passes over
+    slices of the images' points. A pass pads each image's slice to the longest, so the
+    images whose points have run out leave the later passes (``chosen(images)``: the
+    lattices of those images of the chunk alone, each image's f the same): one image with
+    many points makes no other image's work or buffer as long. Slices of an even length
+    keep the single evaluation's pairs of points per invocation."""
+    sizes = [len(p) for p in points]
+    most = max(sizes)
+    step = max(2, min(most, SLICE_BYTES // (8 * len(points))) // 2 * 2)
+    values = [np.empty((size, 2)) for size in sizes]
+    shape = lattices.shape
+    for start in range(0, most, step):
+        busy = [k for k, size in enumerate(sizes) if size > start]
+        part = lattices if len(busy) == len(points) else chosen(busy)
+        slices = [points[k][start : start + step] for k in busy]
+        done = part.evaluate_points(gl, resources, slices, shape)
+        for k, found in zip(busy, done, strict=True):
+            values[k][start : start + len(found)] = found
+    return values
+
+
+def keypoints_by_f(gl, resources, lattices, batch, chunk, canvas, shown, *, drawn=False):
+    """The chunk's keypoints moved by f, as the single path moves them (f and its Jacobian
+    at every image's probes in one pass of the chunk's handles, ``lattices``), each valid
+    where it lands on the canvas, in the image's domain and shown at its nearest pixel:
+    two lists of the images' (P_i, 2) points and (P_i,) flags. ``shown``: per image of the
+    chunk, the source points its output pixels show ((N, H, W, 2)) and where they show one
+    ((N, H, W) bool): the backward maps, or with ``drawn`` (the forward methods) the source
+    pixels the fill drew. ``canvas``: the frame and the border rule."""
+    frame, border = canvas
+    points = [batch.keypoints[i] for i in chunk]
+    shape = batch.images[chunk[0]].shape[:2]
+    probes = [probe_points(p) for p in points]
+
+    def chosen(images: list[int]) -> BatchLattices:
+        src, dst = [batch.src[chunk[k]] for k in images], [batch.dst[chunk[k]] for k in images]
+        return BatchLattices(lattices.config, src, dst, shape)
+
+    values = f_at(gl, resources, lattices, probes, chosen)
+    origin = np.asarray(frame.origin)
+    moved, valid = [], []
+    for k, p in enumerate(points):
+        if not len(p):
+            moved.append(np.zeros((0, 2)))
+            valid.append(np.zeros(0, bool))
+            continue
+        out, jacobian = probed(values[k])
+        out = out - origin
+        inside = in_domain(p, shape, border)
+        moved.append(out)
+        valid.append(visible(p, out, jacobian, shown[0][k], shown[1][k], inside, drawn=drawn))
+    return moved, valid
