@@ -1,40 +1,19 @@
 """What the batched forward methods share (``splat``, :mod:`.forward`; ``paper-quads``,
-:mod:`.paper`): a chunk's meshes in the tables that ``batch/mesh.glsl`` reads, and the
-atlases of its output canvases (stacked top to bottom) that one draw fills, the images, the
-label images and the numbers of the source pixels drawn, and their read-back."""
+:mod:`.paper`): the atlases of a chunk's output canvases (stacked top to bottom) that one
+draw fills, the images, the label images and the numbers of the source pixels drawn, and
+their read-back."""
 
 from __future__ import annotations
 
 import moderngl
 import numpy as np
 
-from ..core.mesh import MeshLattice
-from ..gl import bindings
-from ..gl.context import GLContext
 from ..gl.resources import Resources, keep_framebuffer
-from ..gl.tables import TABLE_WIDTH, table_rows
 from ..imaging.frame import Frame
 from ..imaging.readback import read_rgba8
 from ..imaging.source import SourceImage
-from .gpu import mesh_stride
 
-__all__ = ["ForwardTargets", "upload_meshes"]
-
-
-def upload_meshes(gl: GLContext, resources: Resources, lattices, lattice: MeshLattice) -> None:
-    """f of every image of ``lattices`` (a :class:`~glmls.engine.batched.BatchLattices` or
-    :class:`~glmls.batch.gpu.KernelLattices`) at ``lattice``'s points into the mesh table
-    that ``batch/mesh.glsl`` reads, the images' scalings into theirs; both bound."""
-    stride = mesh_stride(lattice)
-    vertices = len(lattices) * stride // 8
-    mesh = resources.buffer("mesh", table_rows(vertices) * TABLE_WIDTH * 8)
-    lattices.evaluate(gl, resources, lattice, mesh, stride)
-    scaling = np.zeros((len(lattices), 4), np.float32)
-    scaling[:, :2] = lattices.centers
-    scaling[:, 2] = lattices.scales
-    gl.mgl.memory_barrier()  # the lattice passes' stores before the copy
-    resources.tables.copy("batch mesh", mesh, (0, vertices), 2, bindings.BATCH_MESH.index)
-    resources.tables.write("batch scaling", scaling, bindings.BATCH_SCALING.index)
+__all__ = ["ForwardTargets"]
 
 
 class ForwardTargets:

@@ -36,16 +36,16 @@ import numpy as np
 
 from ..core.mesh import MeshLattice
 from ..engine.batched import BatchLattices
-from ..gl.context import GLContext, current, get_context
+from ..gl.context import current
 from ..gl.dispatch import set_uniforms
-from ..gl.resources import Resources, keep_framebuffer
+from ..gl.resources import keep_framebuffer
 from ..imaging.frame import Frame, make_frame
 from ..imaging.options import WarpOptions
 from ..imaging.source import BORDERS, SourceImage, background_color, prepare_image
 from ..mls import MLS
-from .canvases import ForwardTargets, upload_meshes
-from .fill import SourceArrays
-from .gpu import CHUNK_BYTES, KernelLattices, chunk_size, fits, mesh_stride
+from .canvases import ForwardTargets
+from .drawer import BatchDrawer, mesh_stride, upload_meshes
+from .gpu import CHUNK_BYTES, KernelLattices, chunk_size, fits
 from .inputs import BatchInput
 from .margins import batch_margins, warn_short
 from .paper import BatchPaper, chunk_squares, paper_lattice
@@ -83,35 +83,11 @@ def warp_forward(
     return run.results
 
 
-class BatchSplat:
+class BatchSplat(BatchDrawer):
     """The batched splat of a context (see the module docstring); one per context,
     :meth:`of`."""
 
-    def __init__(self, gl: GLContext) -> None:
-        self._gl = gl
-        self._resources = Resources(gl, "the batch splat")
-        self._sources = SourceArrays(gl)
-
-    @classmethod
-    def of(cls, ctx: moderngl.Context | GLContext | None = None) -> BatchSplat:
-        """The one of ``ctx`` (default: glmls's headless context), made on first use."""
-        gl = get_context(ctx)
-        return gl.shared(BatchSplat, lambda: cls(gl))
-
-    @property
-    def ctx(self) -> GLContext:
-        """The context it renders with."""
-        return self._gl
-
-    @property
-    def resources(self) -> Resources:
-        """Its GL objects (passes of f at points take their buffers from them)."""
-        return self._resources
-
-    def release(self) -> None:
-        """Free the GL objects."""
-        self._sources.release()
-        self._resources.release()
+    label = "the batch splat"
 
     @current
     def warp(

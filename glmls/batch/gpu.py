@@ -42,7 +42,7 @@ import numpy as np
 from ..core.mesh import MeshLattice
 from ..engine.passes import POINTS_PER_INVOCATION, evaluate_lattice
 from ..gl import bindings
-from ..gl.context import GLContext, current, get_context
+from ..gl.context import GLContext, current
 from ..gl.dispatch import (
     LOCAL_SIZE,
     LOCAL_SIZE_2D,
@@ -51,15 +51,16 @@ from ..gl.dispatch import (
     fill_buffer,
     set_uniforms,
 )
-from ..gl.resources import Resources, keep_framebuffer
-from ..gl.tables import TABLE_WIDTH, table_rows
+from ..gl.resources import keep_framebuffer
+from ..gl.tables import TABLE_WIDTH
 from ..imaging.frame import Frame
 from ..imaging.inverse import ACCEPT_STEPS, NEWTON_ACCEPT, NEWTON_STEPS, NEWTON_TOLERANCE
 from ..imaging.options import WarpOptions
 from ..imaging.quads import key_layout
 from ..imaging.readback import read_rgba8
 from ..imaging.source import BORDERS, SourceImage, texture_form
-from .fill import SourceArrays, embedding_flags, runs, scan
+from .drawer import BatchDrawer, mesh_stride, upload_meshes
+from .fill import embedding_flags, runs, scan
 from .labels import MeshVertices
 
 __all__ = [
@@ -70,26 +71,17 @@ __all__ = [
     "chunk_size",
     "fits",
     "mesh_capacity",
-    "mesh_stride",
 ]
 
 #: The most GPU memory one chunk of a batch takes (sources, atlas, keys, meshes), bytes: a
 #: batch of 10,000 images runs chunk by chunk, never all on the GPU at once.
 CHUNK_BYTES = 256 << 20
-#: Bytes between two images' meshes in the mesh buffer are a multiple of this (at least the
-#: GL storage buffer offset alignment of any driver).
-MESH_ALIGN = 256
 
 
 def batchable(options: WarpOptions) -> bool:
     """Does a batch of these options take the batched GPU path (``quads``, ``backward`` or
     ``backward-swap``, on the regular mesh)?"""
     return options.method in ("quads", "backward", "backward-swap") and options.tolerance is None
-
-
-def mesh_stride(lattice: MeshLattice) -> int:
-    """Bytes from one image's mesh to the next in the mesh buffer."""
-    return -(-lattice.count * 8 // MESH_ALIGN) * MESH_ALIGN
 
 
 def chunk_size(
@@ -185,9 +177,11 @@ class KernelLattices:
             evaluate_lattice(kernel, lattice, target, offset=k * stride)
 
 
-class BatchQuads:
+class BatchQuads(BatchDrawer):
     """The batched quads of a context (see the module docstring); one per context,
     :meth:`of`."""
+
+    label = "the batch quads"
 
     #: Nearest 8-bit chunks write the colours in the scan (fix-ups where triangles overlap,
     #: :mod:`glmls.batch.texels`) instead of a fill draw from the keys; tests take both ways.
@@ -195,27 +189,6 @@ class BatchQuads:
     #: Bilinear chunks: the meshes shown to be embeddings are coloured by the scan, without
     #: keys (``BATCH_CELLS_LINEAR``), the others by the fill draw; tests take both ways.
     fused_linear: bool = True
-
-    def __init__(self, gl: GLContext) -> None:
-        self._gl = gl
-        self._resources = Resources(gl, "the batch quads")
-        self._sources = SourceArrays(gl)
-
-    @classmethod
-    def of(cls, ctx: moderngl.Context | GLContext | None = None) -> BatchQuads:
-        """The one of ``ctx`` (default: glmls's headless context), made on first use."""
-        gl = get_context(ctx)
-        return gl.shared(BatchQuads, lambda: cls(gl))
-
-    @property
-    def ctx(self) -> GLContext:
-        """The context it renders with."""
-        return self._gl
-
-    def release(self) -> None:
-        """Free the GL objects."""
-        self._sources.release()
-        self._resources.release()
 
     @current
     def coords(
@@ -408,30 +381,12 @@ class BatchQuads:
                 framebuffer.viewport = (0, first * rows, atlas[0], (end - first) * rows)
                 self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
 
-    @property
-    def resources(self) -> Resources:
-        """Its GL objects (the mesh buffer of the last chunk among them)."""
-        return self._resources
-
     @current
     def meshes(self, lattices, lattice: MeshLattice) -> moderngl.Buffer:
-        """f of every image of ``lattices`` at the points of ``lattice``, image k's from byte
-        ``k * mesh_stride(lattice)`` of the mesh buffer (returned: :meth:`vertices` reads it
-        back), copied into the mesh table that ``batch/mesh.glsl`` reads, with the images'
-        scalings in a table of their own; both bound."""
-        gl, resources = self._gl, self._resources
-        stride = mesh_stride(lattice)
-        vertices = len(lattices) * stride // 8
-        # whole rows of the table: its copy reads them
-        mesh = resources.buffer("mesh", table_rows(vertices) * TABLE_WIDTH * 8)
-        lattices.evaluate(gl, resources, lattice, mesh, stride)
-        scaling = np.zeros((len(lattices), 4), np.float32)
-        scaling[:, :2] = lattices.centers
-        scaling[:, 2] = lattices.scales
-        gl.mgl.memory_barrier()  # the lattice passes' stores before the copy
-        resources.tables.copy("batch mesh", mesh, (0, vertices), 2, bindings.BATCH_MESH.index)
-        resources.tables.write("batch scaling", scaling, bindings.BATCH_SCALING.index)
-        return mesh
+        """f of every image of ``lattices`` at the points of ``lattice`` into the mesh buffer
+        (returned: :meth:`vertices` reads it back) and the tables the scans read
+        (:func:`~glmls.batch.drawer.upload_meshes`)."""
+        return upload_meshes(self._gl, self._resources, lattices, lattice)
 
     @current
     def vertices(self, lattices, lattice: MeshLattice) -> MeshVertices:

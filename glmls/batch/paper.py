@@ -5,7 +5,7 @@ Per chunk of images:
 
 1. f at every image's pixel centres (the lattice of the single warp: past the image by its
    mesh's margin and one pixel more with a border mode) in one dispatch into the mesh table
-   (:func:`~glmls.batch.canvases.upload_meshes`);
+   (:func:`~glmls.batch.drawer.upload_meshes`);
 2. ONE dispatch of ``batch/paper_quads.comp.glsl`` scans every square of every image, an
    invocation per square, with the single scan's arithmetic (``warp/paper_scan.glsl``):
    per pixel of the atlas of the output canvases the key of the first square in scan order
@@ -29,16 +29,15 @@ import numpy as np
 from ..core.mesh import MeshLattice
 from ..core.paper_quads import EDGE_TOLERANCE
 from ..gl import bindings
-from ..gl.context import GLContext, current, get_context
+from ..gl.context import current
 from ..gl.dispatch import ScanPieces, fill_buffer, set_uniforms
-from ..gl.resources import Resources, keep_framebuffer
+from ..gl.resources import keep_framebuffer
 from ..imaging.frame import Frame
 from ..imaging.options import WarpOptions
 from ..imaging.paper import MAX_SQUARES
 from ..imaging.source import BORDERS, SourceImage
-from .canvases import ForwardTargets, upload_meshes
-from .fill import SourceArrays
-from .gpu import mesh_stride
+from .canvases import ForwardTargets
+from .drawer import BatchDrawer, mesh_stride, upload_meshes
 
 __all__ = ["MAX_ITEMS", "BatchPaper", "chunk_squares", "paper_lattice"]
 
@@ -67,35 +66,11 @@ def chunk_squares(lattice: MeshLattice) -> int:
     return max(1, MAX_ITEMS // ((columns - 1) * (rows - 1)))
 
 
-class BatchPaper:
+class BatchPaper(BatchDrawer):
     """The batched ``paper-quads`` of a context (see the module docstring); one per
     context, :meth:`of`."""
 
-    def __init__(self, gl: GLContext) -> None:
-        self._gl = gl
-        self._resources = Resources(gl, "the batch paper-quads")
-        self._sources = SourceArrays(gl)
-
-    @classmethod
-    def of(cls, ctx: moderngl.Context | GLContext | None = None) -> BatchPaper:
-        """The one of ``ctx`` (default: glmls's headless context), made on first use."""
-        gl = get_context(ctx)
-        return gl.shared(BatchPaper, lambda: cls(gl))
-
-    @property
-    def ctx(self) -> GLContext:
-        """The context it renders with."""
-        return self._gl
-
-    @property
-    def resources(self) -> Resources:
-        """Its GL objects (passes of f at points take their buffers from them)."""
-        return self._resources
-
-    def release(self) -> None:
-        """Free the GL objects."""
-        self._sources.release()
-        self._resources.release()
+    label = "the batch paper-quads"
 
     @current
     def warp(

@@ -31,8 +31,9 @@ from ..gl.tables import TABLE_WIDTH, table_rows
 from ..imaging.frame import Frame
 from ..imaging.options import PipelineOptions, WarpOptions
 from ..imaging.quads import key_layout
+from .drawer import mesh_stride
 from .fill import check_embeddings
-from .gpu import BatchQuads, mesh_capacity, mesh_stride
+from .gpu import BatchQuads, mesh_capacity
 
 __all__ = ["FAST_PASS", "chunk_size", "takes", "warp_texels"]
 
