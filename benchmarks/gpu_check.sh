@@ -66,6 +66,9 @@ else
 fi
 step bench 75 "$PYTHON" benchmarks/run_bench.py --quick --tools glmls --tolerances 0.05 --out "$out/bench"
 step batch-bench 45 "$PYTHON" benchmarks/batch_bench.py --quick
+# the other constructions' batched paths (a loop of warp against warp_batch, 64 images)
+step batch-bench-backward 20 "$PYTHON" benchmarks/batch_bench.py --quick --method backward
+step batch-bench-splat 20 "$PYTHON" benchmarks/batch_bench.py --quick --method splat
 step profile-stages 30 "$PYTHON" benchmarks/profile_stages.py --size 1024 --handles 64
 step adaptive-stages-W1 20 "$PYTHON" benchmarks/adaptive_stages.py --workload W1 --tolerance 0.05
 step adaptive-stages-W2 20 "$PYTHON" benchmarks/adaptive_stages.py --workload W2 --tolerance 0.05
