@@ -128,3 +128,42 @@ def test_2d_handles_in_a_wrong_shape_keep_the_2d_message():
         glmls.MLS(np.zeros((1, 4, 2)), np.zeros((1, 4, 2)))
     with pytest.raises(ValueError, match=r"src must have shape \(N, 2\) as \(x, y\) rows"):
         glmls.MLS([[0, 0], [1, 1, 1]], [[0, 0], [1, 1, 1]])
+
+
+# -- NIfTI affines the header's float32 cannot hold ---------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        # 1e-50 is 0 in float32: the file's affine had a voxel axis of length 0
+        ({"spacing": (1e-50, 1.0, 1.0)}, r"in float32, in which its voxel axes .* length 0"),
+        ({"affine": np.diag([1.0, 1.0, 1e-50, 1.0])}, r"in float32, in which its voxel axes"),
+        # 1e39 is inf in float32: the file's affine was not finite
+        ({"spacing": (1e39, 1.0, 1.0)}, r"beyond float32's range .* its largest is 1e\+39"),
+        (
+            {"affine": np.array([[1, 0, 0, 1e39], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])},
+            r"beyond float32's range",
+        ),
+        # NIfTI holds the 3 x 4 above the last row: this one was dropped, another affine
+        (
+            {"affine": np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0.5, 0, 0, 1.0]])},
+            r"last row must be \(0, 0, 0, 1\), as NIfTI holds it; got \[0\.5, 0\.0, 0\.0, 1\.0\]",
+        ),
+    ],
+)
+@pytest.mark.parametrize("suffix", [".nii", ".nii.gz"])
+def test_an_affine_nifti_cannot_hold_is_refused_before_writing(tmp_path, options, message, suffix):
+    path = tmp_path / f"v{suffix}"
+    with pytest.raises(ValueError, match=rf"^{tmp_path}/v\.nii(\.gz)?: .*{message}"):
+        glmls.write_volume(path, VOLUME, **options)
+    assert not path.exists()
+
+
+@pytest.mark.parametrize("size", [1e-40, 3e38])
+def test_voxel_sizes_float32_holds_are_written_and_read_back(tmp_path, size):
+    # a subnormal float32 and one next to its largest: written, read back as float32 has them
+    glmls.write_volume(tmp_path / "v.nii", VOLUME, spacing=(size, 1.0, 1.0))
+    back = glmls.read_volume(tmp_path / "v.nii")
+    assert back.spacing == (float(np.float32(size)), 1.0, 1.0)
+    np.testing.assert_array_equal(back.data, VOLUME)

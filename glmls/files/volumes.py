@@ -618,7 +618,9 @@ def write_volume(
     ------
     ValueError
         Before writing anything: an unknown suffix, a wrong shape, an affine with another
-        format than NIfTI, a bad affine, a volume of one slice as TIFF (a TIFF of one page
+        format than NIfTI, a bad affine (singular, a last row other than (0, 0, 0, 1), or,
+        from it or the spacing, values beyond float32's range, in which NIfTI holds them, or
+        voxel sizes float32 makes 0), a volume of one slice as TIFF (a TIFF of one page
         is an image), a spacing of another length than 3 or with a value that is not a
         finite number > 0, or, for an ImageJ TIFF stack, a pixel width or height whose X/Y
         resolution is no 32-bit fraction (under about 2.3e-10 or over 4.3e9).
