@@ -167,3 +167,15 @@ def test_voxel_sizes_float32_holds_are_written_and_read_back(tmp_path, size):
     back = glmls.read_volume(tmp_path / "v.nii")
     assert back.spacing == (float(np.float32(size)), 1.0, 1.0)
     np.testing.assert_array_equal(back.data, VOLUME)
+
+
+# -- a volume's shape of None -------------------------------------------------------------
+
+
+@pytest.mark.parametrize("method", ["bounds", "coordinate_map"])
+def test_a_shape_of_none_is_named(gl, method):
+    # None passed the shape check (None is "no output_shape" there) and failed inside
+    with glmls.MLS([[0.0, 0, 0]], [[1.0, 0, 0]]) as m:
+        with pytest.raises(TypeError, match=r"^shape must be \(D, H, W\) integers, got None$"):
+            getattr(m, method)(None)
+        assert getattr(m, method)((2, 3, 4)) is not None
