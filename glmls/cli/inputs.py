@@ -19,6 +19,7 @@ from ..analysis.canvas import as_rgb8
 from ..analysis.triangles import check_reference_points
 from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
+from ..core.mesh import MAX_GRID
 from ..errors import BorderWarning, ImageWarning, InputFileError
 from ..files.images import DEFAULT_MAX_PIXELS, imread, imwrite
 from ..files.landmarks import handle_dimension, read_handle_set, read_points
@@ -183,8 +184,9 @@ def figure(value: float | None) -> str:
 
 def one_cell_warning(grid: int | None, shape: tuple[int, ...]) -> str | None:
     """The warning for a ``--grid`` not smaller than the image (H, W) or volume (D, H, W) of
-    ``shape``: its mesh is one cell; None where the grid is finer (or 1, or not given)."""
-    if grid is None or not (grid > 1 and grid >= max(shape)):
+    ``shape``: its mesh is one cell; None where the grid is finer (or 1, or not given), or
+    beyond the largest grid (the warp refuses it, in the one line of an error)."""
+    if grid is None or not (1 < grid <= MAX_GRID and grid >= max(shape)):
         return None
     if len(shape) == 2:
         height, width = shape

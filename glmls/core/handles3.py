@@ -36,12 +36,17 @@ __all__ = [
 
 def dimension_of(src: object) -> int:
     """3 where ``src`` has shape (N, 3), else 2 (the 2D validation then speaks);
-    ``ValueError`` for (N, C) rows of another width C, which neither takes, and for one
-    (x, y, z) handle given as a (3,) array (handles are rows: ``[[x, y, z]]``)."""
+    ``ValueError`` for (N, C) rows of another width C, which neither takes, for (x, y, z)
+    rows in more than two axes (a batch's (1, N, 3)), and for one (x, y, z) handle given as a
+    (3,) array (handles are rows: ``[[x, y, z]]``). Ragged rows are 3D where the first row
+    has three values, so that the 3D validation names them."""
     try:
         shape = np.shape(src)
-    except ValueError:  # ragged rows: the 2D validation names them
-        return 2
+    except ValueError:  # ragged rows: named by the validation of the first row's width
+        first = next(iter(src), None)  # type: ignore[call-overload]
+        return 3 if isinstance(first, (list, tuple, np.ndarray)) and len(first) == 3 else 2
+    if len(shape) > 2 and shape[-1] == 3:  # rows of (x, y, z) in too many axes
+        raise ValueError(f"src must have shape (N, 3) as (x, y, z) rows, got {shape}")
     if len(shape) == 2 and shape[0] and shape[1] not in (2, 3):
         raise ValueError(
             f"src must have shape (N, 2) as (x, y) rows or (N, 3) as (x, y, z) rows, got {shape}"

@@ -95,7 +95,7 @@ from .handle_formats import (
     kind_csv_text,
     kind_table,
 )
-from .parsing import Row, csv_rows, fail, json_points, load_json, table
+from .parsing import Row, as_path, csv_rows, fail, json_points, load_json, table
 from .point_formats import (
     HANDLE_HEADER_3D,
     axes,
@@ -170,6 +170,7 @@ def _json_handles(path: Path) -> tuple[int, HandleRows]:
 
 def _handle_rows(path: Path, dst: str | os.PathLike | None) -> tuple[int, HandleRows]:
     """The dimension and the handles of a file (or of an elastix pair)."""
+    dst = None if dst is None else as_path(dst, "dst")
     suffix = path.suffix.lower()
     if suffix == ".pts":
         if dst is None:
@@ -223,9 +224,10 @@ def handle_dimension(path: str | os.PathLike, *, dst: str | os.PathLike | None =
     """The dimension of the handles in a file (or an elastix pair, ``dst`` the targets'),
     2 or 3; ``InputFileError`` for a file that cannot be read as far as that, or that holds
     no handles (of no dimension: a volume's warp would call them 2D)."""
-    found, rows = _handle_rows(Path(path), dst)
+    path = as_path(path)
+    found, rows = _handle_rows(path, dst)
     if not rows.src and not rows.src_segments:
-        raise fail(Path(path), "content", "no handles")
+        raise fail(path, "content", "no handles")
     return found
 
 
@@ -260,7 +262,7 @@ def read_handle_set(path: str | os.PathLike, *, dst: str | os.PathLike | None = 
     >>> handles.points, handles.segments, handles.dst_segments.tolist()
     (1, 1, [[[0.0, 1.0], [1.0, 9.0]]])
     """
-    path = Path(path)
+    path = as_path(path)
     ndim, rows = _handle_rows(path, dst)
     _expect(path, ndim, 2, ": read_handles reads 3D point handles")
     return handle_set(path, rows)
@@ -300,7 +302,8 @@ def read_handles(
         For a file that is missing or malformed, of another dimension than ``ndim``, or
         holding segments or polylines.
     TypeError, ValueError
-        For an ``ndim`` that is not an integer (a bool, a string) or not 2 or 3.
+        For an ``ndim`` that is not an integer (a bool, a string) or not 2 or 3, and
+        (``TypeError``) a ``path`` or ``dst`` that is no path (None, a number).
 
     Examples
     --------
@@ -317,7 +320,7 @@ def read_handles(
     """
     if ndim is not None:  # before the file: the error is the caller's, not the file's
         ndim = check_integer("ndim", ndim, 2, 3, what="2, 3 or None")
-    path = Path(path)
+    path = as_path(path)
     found, rows = _handle_rows(path, dst)
     if not rows.src and not rows.src_segments:
         raise fail(path, "content", "no handles")  # of no dimension: none to compare
@@ -363,7 +366,7 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
     >>> read_points(path).tolist()
     [[10.0, 20.0], [30.0, 40.0]]
     """
-    path = Path(path)
+    path = as_path(path)
     if path.suffix.lower() == ".json":
         points = np.array(json_points(path, load_json(path), "points"), dtype=np.float64)
         where = [f'"points"[{k}]' for k in range(len(points))]
@@ -488,7 +491,7 @@ def write_handles(
 def _handle_file(path: str | os.PathLike) -> Path:
     """``path`` as a Path; ``ValueError`` for an elastix ``.pts``, which holds the points of
     one side only (a table written there would read back as no elastix point file)."""
-    path = Path(path)
+    path = as_path(path)
     if path.suffix.lower() == ".pts":
         raise ValueError(
             f"{path}: an elastix point file (.pts) holds the points of one side only; write "

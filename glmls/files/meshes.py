@@ -47,7 +47,7 @@ from ..core.summary import fields_repr
 from ..errors import DtypeError, InputFileError
 from .atomic import atomic_write
 from .obj import obj_text, read_obj
-from .parsing import brief, is_number, not_a_file
+from .parsing import as_path, brief, is_number, not_a_file
 from .ply import MeshContent, read_ply
 from .ply_write import ply_bytes, vertex_uv
 
@@ -237,6 +237,8 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
         indices that name no texture coordinate or are on some corners of a face only, or
         normals that are not 3 finite numbers (an OBJ's ``vn``, a PLY's ``nx``, ``ny``,
         ``nz``) or indices that name no normal.
+    TypeError
+        For a ``path`` that is no path (None, a number).
 
     See Also
     --------
@@ -284,7 +286,7 @@ def read_mesh_and_unkept(path: str | os.PathLike) -> tuple[Mesh, tuple[str, ...]
     >>> glmls.files.meshes.read_mesh_and_unkept(path)[1]
     ('normals (not on every face)',)
     """
-    path = Path(path)
+    path = as_path(path)
     try:
         suffix = _suffix(path)
     except ValueError as error:
@@ -366,20 +368,28 @@ def _binary_stl_fault(content: bytes) -> str | None:
 def _check_stl_text(content: bytes) -> None:
     """``ValueError`` naming the line of an ASCII STL file's ``vertex x y z`` or ``facet
     normal x y z`` whose numbers are not three decimal numbers
-    (:func:`glmls.files.parsing.is_number`), or of its last ``solid`` without its
-    ``endsolid`` (cut short: trimesh reads the solids before it as the whole file, or none);
-    nothing for a binary file (whose header counts its 50-byte triangles), which trimesh
-    tells apart the same way."""
+    (:func:`glmls.files.parsing.is_number`), of a facet's ``outer loop`` of other than 3
+    vertices, or of its last ``solid`` without its ``endsolid`` (cut short: trimesh reads
+    the solids before it as the whole file, or none); nothing for a binary file (whose
+    header counts its 50-byte triangles), which trimesh tells apart the same way."""
     if len(content) >= 84 and 84 + 50 * int.from_bytes(content[80:84], "little") == len(content):
         return
     text = content.decode("utf-8", errors="replace")
     opened = None  # the line of the solid not yet ended
+    loop, corners = None, 0  # the line of the facet's loop not yet ended, its vertices so far
     for number, line in enumerate(text.splitlines(), start=1):
         words = line.split()
         keyword = [word.lower() for word in words[:2]]
         if keyword[:1] in (["solid"], ["endsolid"]):
             opened = number if keyword[0] == "solid" else None
             continue
+        if keyword == ["outer", "loop"]:
+            loop, corners = number, 0
+        elif keyword[:1] == ["endloop"] and loop is not None:
+            if corners != 3:  # an STL facet is a triangle (trimesh failed to reshape others)
+                raise ValueError(f"line {loop}: a facet of {corners} vertices, not a triangle")
+            loop = None
+        corners += keyword[:1] == ["vertex"]
         skip = 1 if keyword[:1] == ["vertex"] else 2 if keyword == ["facet", "normal"] else 0
         if not skip:
             continue
@@ -465,11 +475,13 @@ def write_mesh(
         Before writing anything, for an unknown suffix or a bad mesh (no faces where
         neither ``mesh`` nor ``faces`` gives them, colours of another shape or out of range,
         texture coordinates that are not (T, 2) finite with (F, 3) indices into them,
-        normals that are not (V, 3) finite, or beyond float32's range for PLY), or a point
-        cloud to STL.
+        normals that are not (V, 3) finite; vertices, normals or texture coordinates beyond
+        float32's range for PLY, vertices beyond it for STL: the float32 these formats hold
+        would make them infinite), or a point cloud to STL.
     TypeError
         Before writing anything, for vertices, colours, texture coordinates or normals that
-        are not real numbers or faces or their texture indices that are not integers.
+        are not real numbers or faces or their texture indices that are not integers, or a
+        ``path`` that is no path.
     OSError
         Naming ``path``, for a file that cannot be written.
 
@@ -502,7 +514,7 @@ def write_mesh(
     >>> glmls.read_mesh(path).normals.tolist()
     [[0.0, 0.0, 1.0], [0.0, 0.6, 0.8], [0.6, 0.0, 0.8]]
     """
-    path = Path(path)
+    path = as_path(path)
     suffix = _suffix(path)
     if isinstance(mesh, tuple) and len(mesh) == 2 and faces is None:
         mesh, faces = mesh  # (vertices, faces), as MLS.deform takes a mesh
@@ -530,8 +542,9 @@ def write_mesh(
         data = text.encode("utf-8")
     elif suffix == ".ply":
         per_vertex = vertex_uv(len(checked.vertices), checked.faces, checked.uv, checked.face_uv)
-        if checked.normals is not None and (np.abs(checked.normals) > _FLOAT32_MAX).any():
-            raise ValueError(f"{path}: normals beyond float32's range, which PLY holds")
+        for name, values in (("vertices", checked.vertices), ("normals", checked.normals)):
+            _check_float32(path, name, values, "PLY")
+        _check_float32(path, "texture coordinates", per_vertex, "PLY")
         data = ply_bytes(
             checked.vertices, checked.faces, checked.colors, per_vertex, checked.normals
         )
@@ -541,10 +554,22 @@ def write_mesh(
             "as .ply or .obj"
         )
     else:
+        _check_float32(path, "vertices", checked.vertices, "STL")
         shape = _trimesh().Trimesh(checked.vertices, checked.faces, process=False)
         data = shape.export(file_type="stl")
     with atomic_write(path) as tmp:
         tmp.write_bytes(data)
+
+
+def _check_float32(path: Path, name: str, values: np.ndarray | None, format_: str) -> None:
+    """``ValueError`` for ``values`` beyond float32's range, which a ``format_`` file holds
+    them in: written, they would read back infinite (and a reader refuses them)."""
+    if values is not None and (np.abs(values) > _FLOAT32_MAX).any():
+        row = int(np.argwhere(np.abs(values) > _FLOAT32_MAX)[0][0])
+        raise ValueError(
+            f"{path}: {name} beyond float32's range (±3.4e38), which {format_} holds; "
+            f"row {row} is {values[row].tolist()}"
+        )
 
 
 def unwritten(path: str | os.PathLike, mesh: Mesh) -> tuple[str, ...]:

@@ -23,6 +23,8 @@ __all__ = ["NiftiHeader", "one_line", "read_nifti", "write_nifti"]
 
 #: dtypes NIfTI lacks, written as the nearest it has: masks as uint8, half floats as float32.
 _NIFTI_AS = {"bool": np.uint8, "float16": np.float32}
+#: The largest float32, the type of the NIfTI header's affine.
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 #: Intents whose values are components in the space's frame (vectors, displacements,
@@ -385,6 +387,31 @@ def _own_qform(header: object, affine: np.ndarray) -> tuple | None:
     return tuple(tuple(row) for row in qform.tolist())
 
 
+def _check_written_affine(path: Path, affine: np.ndarray) -> None:
+    """``ValueError`` naming ``path`` for an affine NIfTI cannot hold: a last row other than
+    (0, 0, 0, 1) (the header holds the 3 x 4 rows above it), values beyond float32's range, or
+    voxel axes that float32, the header's numbers, makes of length 0 or in one plane: such a
+    file would hold another affine than the one given, or one :func:`read_nifti` refuses."""
+    affine = np.asarray(affine, dtype=np.float64)
+    if not np.array_equal(affine[3], [0.0, 0.0, 0.0, 1.0]):
+        raise ValueError(
+            f"{path}: an affine's last row must be (0, 0, 0, 1), as NIfTI holds it; got "
+            f"{affine[3].tolist()}"
+        )
+    if (np.abs(affine) > _FLOAT32_MAX).any():
+        raise ValueError(
+            f"{path}: the affine holds values beyond float32's range (±3.4e38), in which "
+            f"NIfTI holds it; its largest is {float(np.abs(affine).max()):g}"
+        )
+    held = affine[:3, :3].astype(np.float32).astype(np.float64)
+    if not (np.linalg.norm(held, axis=0) > 0).all() or not abs(np.linalg.det(held)) > 0:
+        sizes = [float(size) for size in np.linalg.norm(affine[:3, :3], axis=0)]
+        raise ValueError(
+            f"{path}: NIfTI holds the affine in float32, in which its voxel axes (voxel sizes "
+            f"(dx, dy, dz) = {sizes}) have length 0 or lie in one plane"
+        )
+
+
 def write_nifti(
     path: Path,
     volume: np.ndarray,
@@ -396,6 +423,7 @@ def write_nifti(
     """Write the checked ``volume`` (z, y, x[, C]) with its affine and header fields (codes 1
     and no units where None), whole or not at all; ``ValueError`` naming ``path`` for a
     volume NIfTI cannot hold."""
+    _check_written_affine(path, affine)
     nib = _nibabel()
     data = np.ascontiguousarray(np.swapaxes(volume, 0, 2))  # (z, y, x) -> (x, y, z)
     data = data.astype(_NIFTI_AS.get(data.dtype.name, data.dtype), copy=False)

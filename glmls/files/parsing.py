@@ -8,6 +8,7 @@ import csv
 import io
 import json
 import math
+import os
 import re
 import stat
 from collections.abc import Sequence
@@ -18,6 +19,7 @@ import numpy as np
 from ..errors import InputFileError
 
 __all__ = [
+    "as_path",
     "brief",
     "csv_rows",
     "fail",
@@ -117,6 +119,19 @@ def _finite(path: Path, where: str, value: int | float | str) -> float:
     if not math.isfinite(result):  # nan, inf, or digits beyond float's range ("1e999")
         raise fail(path, where, f"expected a finite number, got {brief(value)}")
     return result
+
+
+def as_path(path: object, name: str = "path") -> Path:
+    """``path`` (a str, bytes or an os.PathLike of either) as a :class:`~pathlib.Path`;
+    ``TypeError`` naming it for anything else (None, a number, an array given in its
+    place)."""
+    try:
+        return Path(os.fsdecode(os.fspath(path)))  # type: ignore[arg-type]
+    except TypeError:
+        given = " ".join(brief(path).split())  # an array's repr spans lines
+        raise TypeError(
+            f"{name} must be a file path (str or os.PathLike), got {given} ({type(path).__name__})"
+        ) from None
 
 
 def not_a_file(path: Path) -> str:

@@ -122,7 +122,9 @@ def check_stack(path: object, tiff: object, series: object) -> None:
     first, read as slices) is not the file's stack: a file without axes metadata (tifffile's
     ``generic`` series) with a page of another shape, dtype or kind outside the series (not a
     reduced-resolution page, a thumbnail), which tifffile leaves to a series of its own, so
-    that the first would lack a slice; or pages whose numbers are not grey, RGB or palette
+    that the first would lack a slice; a file of several series (images or stacks, as
+    tifffile writes each ``write``) beyond reduced-resolution ones, whose first alone would
+    be read; or pages whose numbers are not grey, RGB or palette
     indices (YCbCr other than JPEG's, CMYK, CIE Lab, LogLuv, ...), which reading them as
     stored would give as if they were."""
     if getattr(series, "kind", "") == "generic":
@@ -135,6 +137,18 @@ def check_stack(path: object, tiff: object, series: object) -> None:
                 f"{path}: page {index} of the TIFF stack is {_page_kind(page)}, page "
                 f"{first.index} is {_page_kind(first)}: a stack's pages are slices of one "
                 "shape, dtype and kind"
+            )
+    for other in tiff.series[1:]:
+        pages = [page for page in other.pages if page is not None]
+        if pages and not all(getattr(page, "is_reduced", False) for page in pages):
+            # a second image or stack (tifffile writes each write() as a series of its own):
+            # read as the first alone, the file would lose its other pages unsaid
+            shapes = ", ".join(f"{tuple(one.shape)} {one.axes}" for one in tiff.series[:3])
+            more = ", ..." if len(tiff.series) > 3 else ""
+            raise ValueError(
+                f"{path}: a TIFF of {len(tiff.series)} images or stacks ({shapes}{more}; page "
+                f"{pages[0].index} is outside the first): glmls reads one stack a file; save "
+                "each volume to a file of its own"
             )
     page = series.keyframe
     photometric = int(page.photometric)

@@ -65,7 +65,7 @@ from ..core.summary import fields_repr
 from ..errors import DtypeError, InputFileError
 from .atomic import atomic_write
 from .nifti import NiftiHeader, one_line, read_nifti, write_nifti
-from .parsing import not_a_file
+from .parsing import as_path, not_a_file
 from .tiff_spacing import MOST_PER_UNIT, SPACING_KEY, fits_resolutions, stack_spacing
 from .tiffs import (
     TIFF_SIGNATURES,
@@ -445,6 +445,8 @@ def read_volume(path: str | os.PathLike) -> Volume:
     InputFileError
         Naming the file: missing, unreadable, corrupt, an unknown suffix, or not a volume
         (a 2D array, a TIFF of one page).
+    TypeError
+        For a ``path`` that is no path (None, a number).
 
     See Also
     --------
@@ -462,7 +464,7 @@ def read_volume(path: str | os.PathLike) -> Volume:
     >>> volume.affine.diagonal().tolist()  # (dx, dy, dz, 1): x first, as NIfTI has it
     [0.5, 1.0, 3.0, 1.0]
     """
-    path = Path(path)
+    path = as_path(path)
     suffix = volume_suffix(path)
     if suffix not in VOLUME_SUFFIXES:
         raise InputFileError(
@@ -616,14 +618,17 @@ def write_volume(
     ------
     ValueError
         Before writing anything: an unknown suffix, a wrong shape, an affine with another
-        format than NIfTI, a bad affine, a volume of one slice as TIFF (a TIFF of one page
+        format than NIfTI, a bad affine (singular, a last row other than (0, 0, 0, 1), or,
+        from it or the spacing, values beyond float32's range, in which NIfTI holds them, or
+        voxel sizes float32 makes 0), a volume of one slice as TIFF (a TIFF of one page
         is an image), a spacing of another length than 3 or with a value that is not a
         finite number > 0, or, for an ImageJ TIFF stack, a pixel width or height whose X/Y
         resolution is no 32-bit fraction (under about 2.3e-10 or over 4.3e9).
     TypeError
         Before writing anything: data that is not real numbers (complex, objects), numbers
         of more than 64 bits (``numpy.longdouble``) as TIFF (a :class:`~glmls.DtypeError`,
-        a ``ValueError`` too), or a spacing that is not a sequence of real numbers.
+        a ``ValueError`` too), a spacing that is not a sequence of real numbers, or a
+        ``path`` that is no path (the volume given in its place).
     OSError
         Naming ``path``, for a file that cannot be written.
 
@@ -644,7 +649,7 @@ def write_volume(
     >>> volume.data.dtype.name, volume.spacing
     ('float64', (2.0, 1.0, 0.5))
     """
-    path = Path(path)
+    path = as_path(path)
     suffix = volume_suffix(path)
     if suffix not in VOLUME_SUFFIXES:
         raise ValueError(

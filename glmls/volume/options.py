@@ -45,7 +45,10 @@ def _triple(value: object, name: str, what: str) -> tuple:
 
 def volume_shape(shape: object) -> tuple[int, int, int]:
     """The (D, H, W) of ``shape``: (D, H, W), or a volume's (D, H, W, C) with 1 to 4
-    channels, as ``volume.shape`` gives it (:func:`check_volume_shape`'s errors)."""
+    channels, as ``volume.shape`` gives it (:func:`check_volume_shape`'s errors; None, which
+    a volume's shape never is, a ``TypeError`` too)."""
+    if shape is None:
+        raise TypeError("shape must be (D, H, W) integers, got None")
     if isinstance(shape, (tuple, list)) and len(shape) == 4 and shape[3] in (1, 2, 3, 4):
         shape = shape[:3]
     return check_volume_shape(shape, "shape")  # type: ignore[return-value]

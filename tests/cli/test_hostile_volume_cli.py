@@ -59,3 +59,20 @@ def test_an_input_that_is_a_folder_is_named_a_folder_not_missing(files, args):
     lines = result.stderr.strip().splitlines()
     assert lines == [f"glmls {args[0]}: {args[1]}: a folder, not a file"], lines
     assert not list((files / "out").iterdir())
+
+
+@pytest.mark.parametrize("command", ["warp", "analyze"])
+@pytest.mark.parametrize("grid", ["1048577", "99999999999"])
+def test_a_grid_beyond_the_largest_is_one_line_not_a_warning_before_it(files, command, grid):
+    # a grid not smaller than the volume warns that its lattice is one cell; beyond the
+    # largest grid the warp refuses it, and that refusal is the only line
+    src = [[1, 1, 1], [6, 1, 1], [1, 5, 1], [1, 1, 4]]
+    (files / "h3.json").write_text(json.dumps({"src": src, "dst": src}))
+    out = ["out/o.npy"] if command == "warp" else ["--out", "out/a"]
+    result = cli(command, "v.npy", *out, "--handles", "h3.json", "--grid", grid, cwd=files)
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert lines == [
+        f"glmls {command}: v.npy: grid must be an integer from 1 to 1048576 (voxels), got {grid}"
+    ], lines
+    assert not list((files / "out").iterdir())

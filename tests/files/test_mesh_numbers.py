@@ -121,6 +121,15 @@ _STL = (
             _STL.format(a="0 0 0", b="1 0 0").replace("normal 0 0 1", "normal 0 0 1_0"),
             "line 2: facet normal '0 0 1_0', not 3 numbers",
         ),
+        # a facet of 2 or 4 corners: named, not a failure to reshape trimesh's corners
+        (
+            _STL.format(a="0 0 0", b="1 0 0").replace("vertex 0 1 0\n", ""),
+            "line 3: a facet of 2 vertices, not a triangle",
+        ),
+        (
+            _STL.format(a="0 0 0", b="1 0 0").replace("endloop", "vertex 1 1 0\nendloop"),
+            "line 3: a facet of 4 vertices, not a triangle",
+        ),
     ],
 )
 def test_ascii_stl_numbers_are_named(tmp_path, content, message):

@@ -169,3 +169,28 @@ def test_pages_of_different_orientations_are_refused(tmp_path):
         InputFileError, match=r"page 2 of the TIFF stack has orientation 3 .* page 0 has 1"
     ):
         read_volume(path)
+
+
+@pytest.mark.parametrize(
+    ("second", "words"),
+    [
+        # two volumes of one shape: the second was dropped, read as the first alone
+        (_SLICES + 1000, r"2 images or stacks \(\(4, 6, 7\) QYX, \(4, 6, 7\) QYX; page 4 "),
+        (_SLICES[0, :3], r"2 images or stacks \(\(4, 6, 7\) QYX, \(3, 7\) YX; page 4 "),
+    ],
+)
+def test_a_tiff_of_several_stacks_is_refused_not_read_as_its_first(tmp_path, second, words):
+    path = tmp_path / "two.tif"
+    with tifffile.TiffWriter(path) as tiff:  # shaped: each write a series of its own
+        tiff.write(_SLICES, photometric="minisblack")
+        tiff.write(second, photometric="minisblack")
+    with pytest.raises(InputFileError, match=rf"two\.tif: a TIFF of {words}.*file of its own"):
+        read_volume(path)
+
+
+def test_a_tiff_of_one_stack_and_its_thumbnail_reads_as_the_stack(tmp_path):
+    path = tmp_path / "thumb.tif"
+    with tifffile.TiffWriter(path) as tiff:
+        tiff.write(_SLICES, photometric="minisblack")
+        tiff.write(_SLICES[0, ::2, ::2], subfiletype=1)
+    np.testing.assert_array_equal(read_volume(path).data, _SLICES)

@@ -1,0 +1,181 @@
+"""Hostile input to the public 3D surface (meshes, volumes and their files, handle files):
+each gets a ValueError/TypeError naming the bad value, or a documented result; never an
+error from deep inside, a file that reads back wrong, or two lines where the command line
+promises one."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import glmls
+
+TRIANGLE = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+
+
+# -- mesh files: float32 formats ----------------------------------------------------------
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".stl"])
+@pytest.mark.parametrize("value", [1e39, -1e300])
+def test_vertices_beyond_float32_are_refused_before_a_float32_file_is_written(
+    tmp_path, suffix, value
+):
+    # PLY and STL hold float32: such a vertex was written as inf, a file read_mesh refuses
+    vertices = TRIANGLE.copy()
+    vertices[2, 1] = value
+    path = tmp_path / f"big{suffix}"
+    with pytest.raises(ValueError, match=r"big\.(ply|stl): vertices beyond float32's range.*row 2"):
+        glmls.write_mesh(path, vertices, faces=[[0, 1, 2]])
+    assert not path.exists()
+    # float32's largest value itself is written, and read back as it is
+    vertices[2, 1] = np.sign(value) * float(np.finfo(np.float32).max)
+    glmls.write_mesh(path, vertices, faces=[[0, 1, 2]])
+    back = glmls.read_mesh(path)
+    np.testing.assert_array_equal(np.sort(back.vertices, axis=0), np.sort(vertices, axis=0))
+
+
+def test_obj_holds_vertices_beyond_float32_exactly(tmp_path):
+    vertices = TRIANGLE.copy()
+    vertices[2, 1] = 1e300
+    glmls.write_mesh(tmp_path / "big.obj", vertices, faces=[[0, 1, 2]])
+    np.testing.assert_array_equal(glmls.read_mesh(tmp_path / "big.obj").vertices, vertices)
+
+
+def test_texture_coordinates_beyond_float32_are_refused_for_ply(tmp_path):
+    uv = [[0.0, 0.0], [1.0, 0.0], [0.0, 1e39]]
+    with pytest.raises(ValueError, match=r"texture coordinates beyond float32's range.*row 2"):
+        glmls.write_mesh(
+            tmp_path / "uv.ply", TRIANGLE, faces=[[0, 1, 2]], uv=uv, face_uv=[[0, 1, 2]]
+        )
+    assert not (tmp_path / "uv.ply").exists()
+
+
+# -- file functions given no path ---------------------------------------------------------
+
+VOLUME = np.zeros((2, 3, 4), np.uint8)
+HANDLES3 = [[1.0, 2.0, 3.0]]
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda path: glmls.read_volume(path),
+        lambda path: glmls.write_volume(path, VOLUME),
+        lambda path: glmls.read_mesh(path),
+        lambda path: glmls.write_mesh(path, TRIANGLE, faces=[[0, 1, 2]]),
+        lambda path: glmls.files.read_handles(path),
+        lambda path: glmls.files.read_handle_set(path),
+        lambda path: glmls.files.read_points(path),
+        lambda path: glmls.files.write_handles(path, HANDLES3, HANDLES3),
+    ],
+    ids=[
+        "read_volume",
+        "write_volume",
+        "read_mesh",
+        "write_mesh",
+        "read_handles",
+        "read_handle_set",
+        "read_points",
+        "write_handles",
+    ],
+)
+@pytest.mark.parametrize("path", [None, 3.5, VOLUME], ids=["None", "float", "array"])
+def test_a_path_that_is_no_path_is_a_type_error_naming_it(call, path):
+    # an array in the path's place: write_volume(volume, path), its arguments swapped
+    name = type(path).__name__
+    with pytest.raises(
+        TypeError, match=rf"^path must be a file path \(str or os\.PathLike\), got .*\({name}\)$"
+    ):
+        call(path)
+
+
+def test_a_targets_file_that_is_no_path_is_a_type_error_naming_it(tmp_path):
+    (tmp_path / "moving.pts").write_text("point\n1\n1 2 3\n")
+    with pytest.raises(TypeError, match=r"^dst must be a file path .*got 7 \(int\)$"):
+        glmls.files.read_handles(tmp_path / "moving.pts", dst=7)
+
+
+@pytest.mark.parametrize("kind", [str, bytes])
+def test_paths_of_str_and_bytes_are_read(tmp_path, kind):
+    path = tmp_path / "v.npy"
+    np.save(path, VOLUME)
+    name = str(path) if kind is str else bytes(path)
+    np.testing.assert_array_equal(glmls.read_volume(name).data, VOLUME)
+
+
+# -- handles of three coordinates in the wrong arrangement -------------------------------
+
+
+@pytest.mark.parametrize(
+    ("src", "message"),
+    [
+        # a batch's (1, N, 3): was asked for (N, 2) rows, as if 2D
+        (np.zeros((1, 4, 3)), r"src must have shape \(N, 3\) as \(x, y, z\) rows, got \(1, 4, 3\)"),
+        # ragged rows of (x, y, z): was asked for (N, 2) rows too
+        ([[0, 0, 0], [1, 1]], r"src must have shape \(N, 3\) .*rows of different lengths"),
+    ],
+)
+def test_3d_handles_in_a_wrong_shape_are_named_as_3d(src, message):
+    with pytest.raises(ValueError, match=message):
+        glmls.MLS(src, src)
+    with pytest.raises(ValueError, match=message):
+        glmls.warp(VOLUME, src, src)
+
+
+def test_2d_handles_in_a_wrong_shape_keep_the_2d_message():
+    with pytest.raises(ValueError, match=r"src must have shape \(N, 2\) as \(x, y\) rows"):
+        glmls.MLS(np.zeros((1, 4, 2)), np.zeros((1, 4, 2)))
+    with pytest.raises(ValueError, match=r"src must have shape \(N, 2\) as \(x, y\) rows"):
+        glmls.MLS([[0, 0], [1, 1, 1]], [[0, 0], [1, 1, 1]])
+
+
+# -- NIfTI affines the header's float32 cannot hold ---------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        # 1e-50 is 0 in float32: the file's affine had a voxel axis of length 0
+        ({"spacing": (1e-50, 1.0, 1.0)}, r"in float32, in which its voxel axes .* length 0"),
+        ({"affine": np.diag([1.0, 1.0, 1e-50, 1.0])}, r"in float32, in which its voxel axes"),
+        # 1e39 is inf in float32: the file's affine was not finite
+        ({"spacing": (1e39, 1.0, 1.0)}, r"beyond float32's range .* its largest is 1e\+39"),
+        (
+            {"affine": np.array([[1, 0, 0, 1e39], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])},
+            r"beyond float32's range",
+        ),
+        # NIfTI holds the 3 x 4 above the last row: this one was dropped, another affine
+        (
+            {"affine": np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0.5, 0, 0, 1.0]])},
+            r"last row must be \(0, 0, 0, 1\), as NIfTI holds it; got \[0\.5, 0\.0, 0\.0, 1\.0\]",
+        ),
+    ],
+)
+@pytest.mark.parametrize("suffix", [".nii", ".nii.gz"])
+def test_an_affine_nifti_cannot_hold_is_refused_before_writing(tmp_path, options, message, suffix):
+    path = tmp_path / f"v{suffix}"
+    with pytest.raises(ValueError, match=rf"^{tmp_path}/v\.nii(\.gz)?: .*{message}"):
+        glmls.write_volume(path, VOLUME, **options)
+    assert not path.exists()
+
+
+@pytest.mark.parametrize("size", [1e-40, 3e38])
+def test_voxel_sizes_float32_holds_are_written_and_read_back(tmp_path, size):
+    # a subnormal float32 and one next to its largest: written, read back as float32 has them
+    glmls.write_volume(tmp_path / "v.nii", VOLUME, spacing=(size, 1.0, 1.0))
+    back = glmls.read_volume(tmp_path / "v.nii")
+    assert back.spacing == (float(np.float32(size)), 1.0, 1.0)
+    np.testing.assert_array_equal(back.data, VOLUME)
+
+
+# -- a volume's shape of None -------------------------------------------------------------
+
+
+@pytest.mark.parametrize("method", ["bounds", "coordinate_map"])
+def test_a_shape_of_none_is_named(gl, method):
+    # None passed the shape check (None is "no output_shape" there) and failed inside
+    with glmls.MLS([[0.0, 0, 0]], [[1.0, 0, 0]]) as m:
+        with pytest.raises(TypeError, match=r"^shape must be \(D, H, W\) integers, got None$"):
+            getattr(m, method)(None)
+        assert getattr(m, method)((2, 3, 4)) is not None
