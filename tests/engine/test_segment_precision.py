@@ -176,6 +176,26 @@ def test_alpha_10_next_to_a_segment_is_finite(gl, transform, s):
     assert_allclose(f, f_ref, atol=1e-3)
 
 
+@pytest.mark.parametrize("alpha", [2.0, 5.0])
+@pytest.mark.parametrize("transform", ["rigid", "similarity", "affine"])
+def test_m_on_a_segment_of_a_steep_interpolating_idw(gl, transform, alpha):
+    """On a segment and within the snapping distance of it, idw made interpolating weighs
+    1 / d^(4 alpha): the segment's weight is bounded at 2^100 of the normalisation, so that
+    its second moment stays finite and decides M, the segment's own turn and stretch, as in
+    the reference (not the identity of an overflowed sum)."""
+    a, b = SEGMENTS_SRC[:, 0], SEGMENTS_SRC[:, 1]
+    normal = (b - a)[:, ::-1] * [-1, 1] / np.linalg.norm(b - a, axis=1)[:, None]
+    v = np.concatenate([0.5 * (a + b), 0.8 * a + 0.2 * b + 3e-4 * normal, a + 1e-4 * normal])
+    turned = SEGMENTS_DST + np.stack([np.zeros_like(a), 3.0 * normal], axis=1)
+    f, f_ref, M, M_ref = gpu_and_reference(
+        POINTS_P, POINTS_Q, SEGMENTS_SRC, turned, v, transform=transform, alpha=alpha,
+        interpolating=True, shape=(100, 100),
+    )  # fmt: skip
+    assert np.abs(M_ref - np.eye(2)).max(axis=(1, 2)).min() > 0.01  # I would fail below
+    assert_allclose(f, f_ref, atol=1e-4)
+    assert_allclose(M, M_ref, atol=1e-3)
+
+
 FAR = np.array([[5.0, 95.0], [95, 5], [50, 50], [95, 95], [3, 3], [50, 60]])
 
 
