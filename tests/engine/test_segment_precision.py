@@ -196,6 +196,41 @@ def test_m_on_a_segment_of_a_steep_interpolating_idw(gl, transform, alpha):
     assert_allclose(M, M_ref, atol=1e-3)
 
 
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"weight": "idw", "alpha": 0.1, "s": 0.0},
+        {"weight": "idw", "alpha": 0.2, "s": 0.0},
+        {"weight": "cressman", "alpha": 0.2, "radius": 80.0, "interpolating": True},
+    ],
+    ids=lambda options: f"{options['weight']}-{options['alpha']}",
+)
+def test_a_weight_integrable_along_a_segment_does_not_snap_to_it(gl, options):
+    """Infinite at d = 0 but slower than 1 / d, the weight's integral along a segment is
+    finite on it: f is continuous across the segment and passes beside its target (px away
+    here), on it as next to it, in the reference and on the GPU alike."""
+    a, b = SEGMENTS_SRC[:, 0], SEGMENTS_SRC[:, 1]
+    normal = (b - a)[:, ::-1] * [-1, 1] / np.linalg.norm(b - a, axis=1)[:, None]
+    on = np.concatenate([0.5 * (a + b), 0.7 * a + 0.3 * b])
+    turned = SEGMENTS_DST + np.stack(
+        [np.zeros_like(a), 4.0 * np.c_[normal[:, 1], -normal[:, 0]]], 1
+    )
+    f, f_ref, M, M_ref = gpu_and_reference(
+        POINTS_P, POINTS_Q, SEGMENTS_SRC, turned, on, shape=(100, 100), **options
+    )
+    beside, _, _ = reference.mls(
+        POINTS_P, POINTS_Q, on + 1e-6 * np.tile(normal, (2, 1)), shape=(100, 100),
+        src_segments=SEGMENTS_SRC, dst_segments=turned, **options,
+    )  # fmt: skip
+    targets = np.concatenate(
+        [0.5 * (turned[:, 0] + turned[:, 1]), 0.7 * turned[:, 0] + 0.3 * turned[:, 1]]
+    )
+    assert np.linalg.norm(f_ref - targets, axis=1).min() > 0.1  # not snapped
+    assert_allclose(f_ref, beside, atol=1e-3)  # continuous
+    assert_allclose(f, f_ref, atol=1e-3)
+    assert_allclose(M, M_ref, atol=1e-3)
+
+
 FAR = np.array([[5.0, 95.0], [95, 5], [50, 50], [95, 95], [3, 3], [50, 60]])
 
 
