@@ -113,8 +113,10 @@ class MLS(ForkSafe):
         ``src_segments[s, 0]`` to ``src_segments[s, 1]`` and goes to ``dst_segments[s, 0]``-
         ``dst_segments[s, 1]`` (:func:`glmls.polyline_segments` turns polylines into
         segments). Each weighs its points per unit of length, so a segment split in two is
-        the same handle; with a weight infinite at d = 0, f maps every point of a source
-        segment onto its target segment.
+        the same handle; with a weight that grows at least like 1 / d at d = 0 (idw with
+        s = 0 and alpha >= 1/2, shepard, a weight made interpolating with alpha >= 1/2),
+        f maps every point of a source segment onto its target segment
+        (:func:`glmls.core.segments.segments_interpolate`).
     transform : {"rigid", "similarity", "affine"}, default "rigid"
         The transform fitted at each point (:data:`glmls.TRANSFORMS`).
     weight : str, default "idw"

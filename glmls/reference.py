@@ -21,9 +21,11 @@ Degenerate cases follow the same rules as the shader (``glmls/shaders/mls/core.g
 
 Segment handles (the segments of a :class:`glmls.HandleSet`) add the integrals of the same
 moments along each segment, per unit length, computed by an accurate quadrature
-(:func:`segment_moments`). A point on a segment whose weight is infinite there maps to the
-segment's target at the same parameter, and M is the limit, about that point (the segment
-adds only its second moment).
+(:func:`segment_moments`). A point on a segment whose weight's integral is infinite there
+(:func:`glmls.core.segments.segments_interpolate`) maps to the segment's target at the same
+parameter, and M is the limit, about that point (the segment adds only its second moment);
+with a weight that grows more slowly than 1 / d the integral is finite and f continuous
+across the segment.
 
 In three dimensions (:func:`mls` with (N, 3) handles and (K, 3) points, (x, y, z) = (column,
 row, slice); point handles only) the moments are A = sum w p^T p^ and B = sum w p^T q^ (3 x 3,
@@ -82,7 +84,13 @@ from .core.handles3 import (
 )
 from .core.handleset import HandleSet
 from .core.mesh import as_shape
-from .core.segments import REFERENCE_NODES, REFERENCE_PANELS, segment_config, sinh_nodes
+from .core.segments import (
+    REFERENCE_NODES,
+    REFERENCE_PANELS,
+    segment_config,
+    segments_interpolate,
+    sinh_nodes,
+)
 from .core.weights import nearest_apart
 
 __all__ = [
@@ -190,7 +198,8 @@ def _positive_det(lhs: np.ndarray) -> np.ndarray:
     return np.linalg.det(lhs / scale) > 0
 
 
-#: A point nearer than this (pixels) to a segment whose weight is infinite there is on it.
+#: A point nearer than this (pixels) to a segment whose weight's integral is infinite there is
+#: on it.
 ON_SEGMENT = 1e-9
 
 
@@ -456,7 +465,7 @@ def mls(
 
     # v on a handle whose weight is infinite there: on a point (w = inf) or a segment
     on_point = np.isinf(w)
-    on_segment = (seg["dist2"] <= ON_SEGMENT**2) & segment_config(config).infinite_at_zero
+    on_segment = (seg["dist2"] <= ON_SEGMENT**2) & segments_interpolate(config)
     hit = on_point.any(axis=1) | on_segment.any(axis=1)
     w = np.where(on_point, 0.0, w)  # the hit handle's p^ is 0: it drops out of the moments
     # a hit segment adds only its second moment about the foot (J0 and J1 are infinite or

@@ -29,6 +29,7 @@ __all__ = [
     "polyline_segments",
     "segment_config",
     "segment_feet",
+    "segments_interpolate",
     "validate_segments",
 ]
 
@@ -45,6 +46,24 @@ def segment_config(config: MLSConfig) -> MLSConfig:
     if config.weight_entry.uses_s and 0.0 < config.s < SEGMENT_S_FLOOR:
         return replace(config, s=0.0)
     return config
+
+
+def segments_interpolate(config: MLSConfig) -> bool:
+    """Whether f maps every point of a source segment onto its target, f(p(t)) = q(t): where
+    the weight of segment handles (:func:`segment_config`) grows at least like 1 / d at
+    d = 0, so that its integral along the segment is infinite on it. A weight infinite at
+    d = 0 that grows more slowly (idw with alpha < 1/2 and s = 0, a weight made interpolating
+    with alpha < 1/2, idw made interpolating with alpha < 1/4) has a finite integral there:
+    f is continuous across the segment and passes beside its target.
+
+    Examples
+    --------
+    >>> segments_interpolate(MLSConfig(s=0.0)), segments_interpolate(MLSConfig(alpha=0.3, s=0.0))
+    (True, False)
+    """
+    c = segment_config(config)
+    pole = c.weight_entry.pole(c) + (2.0 * c.alpha if c.interpolating else 0.0)
+    return pole >= 1.0
 
 
 def as_segments(segments: object, name: str) -> np.ndarray:

@@ -52,6 +52,9 @@ class Weight:
     - ``support``: one of :data:`SUPPORTS`;
     - ``infinite_at_zero``: whether w(0) is infinite for these parameters, so that MLS
       interpolates the handles exactly (f(p_i) = q_i);
+    - ``pole``: the power p of w ~ 1 / d^p at d = 0 for these parameters (0 where w(0) is
+      finite): a segment handle's weight, integrated along it, is infinite on it only where
+      p >= 1 (:func:`glmls.core.segments.segments_interpolate`);
     - ``uses_s``: the shaders compute idw's scaled s per point (``MLS_WEIGHT_USES_S``);
     - ``reference``: the float64 formula, w for squared distances ``d2`` (K, N) with +inf
       where infinite, a common factor per row allowed (MLS ignores it);
@@ -69,6 +72,7 @@ class Weight:
     infinite_at_zero: Callable[[WeightParameters], bool]
     reference: Callable[[np.ndarray, WeightParameters, float | None], np.ndarray]
     uses_s: bool = False
+    pole: Callable[[WeightParameters], float] = lambda params: 0.0
     segment_closed_form: Callable[[WeightParameters], bool] = lambda params: False
 
     def __post_init__(self) -> None:
@@ -183,6 +187,7 @@ REGISTRY: dict[str, Weight] = {
             infinite_at_zero=lambda params: params.s == 0.0,
             reference=_idw,
             uses_s=True,
+            pole=lambda params: 2.0 * params.alpha if params.s == 0.0 else 0.0,
             segment_closed_form=lambda params: params.alpha == 1.0,
         ),
         Weight(
@@ -200,6 +205,7 @@ REGISTRY: dict[str, Weight] = {
             support="radius",
             infinite_at_zero=lambda params: True,
             reference=_shepard,
+            pole=lambda params: 1.0,
         ),
         Weight(
             "gaussian",

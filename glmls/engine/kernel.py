@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 
 import moderngl
 import numpy as np
@@ -20,7 +21,7 @@ import numpy as np
 from ..core.config import MLSConfig, image_diagonal, transform_code
 from ..core.handles import Scaling, pack_handles
 from ..core.handleset import HandleSet
-from ..core.segments import segment_config
+from ..core.segments import segment_config, segments_interpolate
 from ..core.weights import GAUSSIAN_CAP, GAUSSIAN_TOLERANCE, RADIUS_WEIGHTS, SUPPORTS
 from ..errors import ReleasedError
 from ..gl.context import GLContext
@@ -376,7 +377,10 @@ class MLSKernel:
         weighting = weight_uniforms(c, scale, radius, extent=self._extent)
         segments = segment_config(c)  # the weight of segment handles
         return weighting | {
-            "u_snap_segments": segments.infinite_at_zero or weighting["u_tiny_s"],
+            # idw's s so small that float32 makes it infinite at d = 0: as s = 0
+            "u_snap_segments": segments_interpolate(
+                replace(c, s=0.0) if weighting["u_tiny_s"] else c
+            ),
             "u_segment_sigma": 1.0 if segments is c else 0.0,
             "u_length_unit": scale,
         }

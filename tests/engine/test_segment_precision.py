@@ -176,6 +176,61 @@ def test_alpha_10_next_to_a_segment_is_finite(gl, transform, s):
     assert_allclose(f, f_ref, atol=1e-3)
 
 
+@pytest.mark.parametrize("alpha", [2.0, 5.0])
+@pytest.mark.parametrize("transform", ["rigid", "similarity", "affine"])
+def test_m_on_a_segment_of_a_steep_interpolating_idw(gl, transform, alpha):
+    """On a segment and within the snapping distance of it, idw made interpolating weighs
+    1 / d^(4 alpha): the segment's weight is bounded at 2^100 of the normalisation, so that
+    its second moment stays finite and decides M, the segment's own turn and stretch, as in
+    the reference (not the identity of an overflowed sum)."""
+    a, b = SEGMENTS_SRC[:, 0], SEGMENTS_SRC[:, 1]
+    normal = (b - a)[:, ::-1] * [-1, 1] / np.linalg.norm(b - a, axis=1)[:, None]
+    v = np.concatenate([0.5 * (a + b), 0.8 * a + 0.2 * b + 3e-4 * normal, a + 1e-4 * normal])
+    turned = SEGMENTS_DST + np.stack([np.zeros_like(a), 3.0 * normal], axis=1)
+    f, f_ref, M, M_ref = gpu_and_reference(
+        POINTS_P, POINTS_Q, SEGMENTS_SRC, turned, v, transform=transform, alpha=alpha,
+        interpolating=True, shape=(100, 100),
+    )  # fmt: skip
+    assert np.abs(M_ref - np.eye(2)).max(axis=(1, 2)).min() > 0.01  # I would fail below
+    assert_allclose(f, f_ref, atol=1e-4)
+    assert_allclose(M, M_ref, atol=1e-3)
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"weight": "idw", "alpha": 0.1, "s": 0.0},
+        {"weight": "idw", "alpha": 0.2, "s": 0.0},
+        {"weight": "cressman", "alpha": 0.2, "radius": 80.0, "interpolating": True},
+    ],
+    ids=lambda options: f"{options['weight']}-{options['alpha']}",
+)
+def test_a_weight_integrable_along_a_segment_does_not_snap_to_it(gl, options):
+    """Infinite at d = 0 but slower than 1 / d, the weight's integral along a segment is
+    finite on it: f is continuous across the segment and passes beside its target (px away
+    here), on it as next to it, in the reference and on the GPU alike."""
+    a, b = SEGMENTS_SRC[:, 0], SEGMENTS_SRC[:, 1]
+    normal = (b - a)[:, ::-1] * [-1, 1] / np.linalg.norm(b - a, axis=1)[:, None]
+    on = np.concatenate([0.5 * (a + b), 0.7 * a + 0.3 * b])
+    turned = SEGMENTS_DST + np.stack(
+        [np.zeros_like(a), 4.0 * np.c_[normal[:, 1], -normal[:, 0]]], 1
+    )
+    f, f_ref, M, M_ref = gpu_and_reference(
+        POINTS_P, POINTS_Q, SEGMENTS_SRC, turned, on, shape=(100, 100), **options
+    )
+    beside, _, _ = reference.mls(
+        POINTS_P, POINTS_Q, on + 1e-6 * np.tile(normal, (2, 1)), shape=(100, 100),
+        src_segments=SEGMENTS_SRC, dst_segments=turned, **options,
+    )  # fmt: skip
+    targets = np.concatenate(
+        [0.5 * (turned[:, 0] + turned[:, 1]), 0.7 * turned[:, 0] + 0.3 * turned[:, 1]]
+    )
+    assert np.linalg.norm(f_ref - targets, axis=1).min() > 0.1  # not snapped
+    assert_allclose(f_ref, beside, atol=1e-3)  # continuous
+    assert_allclose(f, f_ref, atol=1e-3)
+    assert_allclose(M, M_ref, atol=1e-3)
+
+
 FAR = np.array([[5.0, 95.0], [95, 5], [50, 50], [95, 95], [3, 3], [50, 60]])
 
 

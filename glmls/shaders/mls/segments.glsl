@@ -28,6 +28,7 @@ uniform float u_length_unit;
 uniform float u_segment_sigma;   // 1, or 0 where idw's s is negligible (glmls.core.segments)
 
 const float MLS_PANEL_WIDTH = 1.5;
+const float MLS_SEGMENT_WEIGHT_CAP = 1.2676506e30;   // 2^100: sums of a few stay finite
 const int MLS_MAX_PANELS = 24;
 // e^-80 of the nearest handle's weight: in a gaussian's far tail the handles apart from the
 // nearest decide M however small their weights (mls/weights.glsl), so a segment there counts
@@ -227,7 +228,9 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
     // normalisation by s, mls_normalisation): the least squared distance a weight sees,
     // where (d2 / m)^alpha is 2^-100, keeps it finite (an overflow made f NaN within
     // ~0.005 px of a segment at alpha 10). The point handles weigh 2^-90 of it and less
-    // there, as they are negligible against the segment's true weight.
+    // there, as they are negligible against the segment's true weight. A weight made
+    // interpolating divides by (d2 / m)^alpha once more (idw's would reach 2^200, beyond
+    // float32, and the snapped segment's J2 with it): the weight itself is bounded at 2^100.
     float near2 = a.m * exp2(-100.0 / u_alpha);
     float t0 = mls_asinh((x0 - xs) / c);
     float t1 = mls_asinh((x1 - xs) / c);
@@ -242,7 +245,8 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
             float e = exp(mid + half_width * node);
             float dx = c * 0.5 * (e - 1.0 / e);   // c sinh(t), and c cosh(t) below
             float x = xs + dx;
-            float w = mls_weight(max(view.h2 + x * x, near2), a.g, a.inv_m, sigma) * gw * c * 0.5
+            float w = min(mls_weight(max(view.h2 + x * x, near2), a.g, a.inv_m, sigma),
+                          MLS_SEGMENT_WEIGHT_CAP) * gw * c * 0.5
                     * (e + 1.0 / e);
             float y = (xs - view.xc) + dx;   // not x - xc: xs may be far from the foot
             J += w * vec3(1.0, y, y * y);
