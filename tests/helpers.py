@@ -274,3 +274,31 @@ def context_with_shaders(root: Path, shaders: dict[str, str], *, package: tuple[
         (root / name).parent.mkdir(parents=True, exist_ok=True)
         (root / name).write_text(source)
     return create_headless(shaders=ShaderLibrary(root))
+
+
+def moved_handles(rng, count, sizes=None, *, shape):
+    """Per image of ``shape`` (H, W), handles over the image moved a few pixels: ``count``
+    lists of 6 (or ``sizes``: ragged counts) source and target points."""
+    height, width = shape
+    sizes = sizes or [6] * count
+    src = [rng.uniform((1, 1), (width - 2, height - 2), (k, 2)) for k in sizes]
+    dst = [p + rng.normal(0, 2.5, p.shape) for p in src]
+    return src, dst
+
+
+def random_images(rng, count, dtype, channels, *, shape):
+    """``count`` random images of ``shape`` (H, W) and ``channels`` (1: H x W): float32 in
+    [-1, 2), integers over their dtype's range."""
+    size = (count, *shape) if channels == 1 else (count, *shape, channels)
+    if dtype == np.float32:
+        return rng.uniform(-1, 2, size).astype(np.float32)
+    return rng.integers(0, np.iinfo(dtype).max, size, dtype=dtype)
+
+
+def single_warps(images, src, dst, **options):
+    """One :func:`glmls.warp` per image, as a list."""
+    import glmls
+
+    return [
+        glmls.warp(image, p, q, **options) for image, p, q in zip(images, src, dst, strict=True)
+    ]

@@ -5,10 +5,20 @@ pseudo-code (:func:`glmls.core.paper_quads.paper_quads`)."""
 
 from __future__ import annotations
 
+from functools import partial
+
 import moderngl
 import numpy as np
 import pytest
-from helpers import SENTINEL, coordinate_image, folded_case, folding_handles
+from helpers import (
+    SENTINEL,
+    coordinate_image,
+    folded_case,
+    folding_handles,
+    moved_handles,
+    random_images,
+    single_warps,
+)
 
 import glmls
 from glmls import reference
@@ -22,36 +32,9 @@ FIELDS = ("images", "keypoints", "keypoints_valid", "masks", "maps", "valid")
 PAPER = {"method": "paper-quads"}
 
 
-@pytest.fixture
-def no_single(monkeypatch):
-    """The single path refused: the batched path must take every image."""
-
-    def refuse(self, *args, **keywords):
-        raise AssertionError(f"images[{keywords['index']}] took the single path")
-
-    monkeypatch.setattr(SingleWarper, "warp_one", refuse)
-
-
-def handles(rng, count, sizes=None, shape=SHAPE):
-    """Per image, handles over the image moved a few pixels (ragged where ``sizes``)."""
-    height, width = shape
-    sizes = sizes or [6] * count
-    src = [rng.uniform((1, 1), (width - 2, height - 2), (k, 2)) for k in sizes]
-    dst = [p + rng.normal(0, 2.5, p.shape) for p in src]
-    return src, dst
-
-
-def images_of(rng, count, dtype, channels, shape=SHAPE):
-    size = (count, *shape) if channels == 1 else (count, *shape, channels)
-    if dtype == np.float32:
-        return rng.uniform(-1, 2, size).astype(np.float32)
-    return rng.integers(0, np.iinfo(dtype).max, size, dtype=dtype)
-
-
-def singles(images, src, dst, **options):
-    return [
-        glmls.warp(image, p, q, **options) for image, p, q in zip(images, src, dst, strict=True)
-    ]
+handles = partial(moved_handles, shape=SHAPE)
+images_of = partial(random_images, shape=SHAPE)
+singles = single_warps
 
 
 def assert_singles(out, images, src, dst, **options):
@@ -99,7 +82,7 @@ def test_canvas_and_borders_equal_single_warps(no_single, border, interpolation)
 def test_list_of_shapes_and_segments_equal_single_warps(no_single):
     """Images of two shapes, one with segment handles (its own MLS), one without handles."""
     rng = np.random.default_rng(3)
-    images = [images_of(rng, 1, np.uint8, 3, shape)[0] for shape in (SHAPE, (16, 19), SHAPE)]
+    images = [images_of(rng, 1, np.uint8, 3, shape=shape)[0] for shape in (SHAPE, (16, 19), SHAPE)]
     src = [rng.uniform(2, 14, (5, 2)), rng.uniform(2, 14, (4, 2)), np.zeros((0, 2))]
     dst = [p + rng.normal(0, 2, p.shape) for p in src]
     segments = [None, None, [[[2.0, 2.0], [12.0, 9.0]]]]
