@@ -292,17 +292,25 @@ class BatchQuads(BatchDrawer):
             set_uniforms(rescue, uniforms)
             second.finish(rescue)
         mgl.memory_barrier()
+        return self.sample_maps(sources, coords, atlas, frame, options, background, labels)
+
+    def sample_maps(self, sources, coords, atlas, frame, options, background, labels):
+        """The chunk's ``sources`` sampled at its backward maps ``coords`` (by ``options``'
+        interpolation and border), read back, and with ``labels`` (the label images and
+        their background) those sampled nearest at the same maps: as :meth:`backward`
+        returns."""
         linear = options.interpolation == "linear"
-        out = self.sample(sources, coords, atlas, frame, background, linear, border, "atlas")
+        border = BORDERS.index(options.border)
+        out = self._sample(sources, coords, atlas, frame, background, linear, border, "atlas")
         if labels is None:
             return out
         label_sources, zero = labels
-        warped = self.sample(
+        warped = self._sample(
             label_sources, coords, atlas, frame, zero, False, border, "labels atlas"
         )
         return out, warped
 
-    def sample(self, sources, coords, atlas, frame, background, linear, border, name):
+    def _sample(self, sources, coords, atlas, frame, background, linear, border, name):
         """``sources`` sampled at the backward maps ``coords`` into the atlas framebuffer
         ``name`` (``background`` where no map point is), read back (batch/backward.frag.glsl)."""
         source = sources[0]

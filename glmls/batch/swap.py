@@ -76,15 +76,7 @@ def warp_swapped(
             coords.bind_to_image(bindings.INVERSE_MAP.index, read=True, write=True)
             program.run(group_x=groups[0], group_y=groups[1], group_z=rows)
         mgl.memory_barrier()
-        linear = options.interpolation == "linear"
-        out = quads.sample(sources, coords, atlas, frame, background, linear, border, "atlas")
-        if labels is None:
-            return out
-        label_sources, zero = labels
-        masks = quads.sample(
-            label_sources, coords, atlas, frame, zero, False, border, "labels atlas"
-        )
-        return out, masks
+        return quads.sample_maps(sources, coords, atlas, frame, options, background, labels)
 
 
 def swapped_keypoints(
