@@ -30,8 +30,9 @@ steps and sampling), so each image equals its :func:`glmls.warp`, bit for bit. T
 takes ``quads`` and ``backward`` on the regular mesh with any border (a chunk's images
 share the margin of their meshes past the image, :mod:`glmls.batch.margins`), and
 ``backward-swap`` (:mod:`glmls.batch.swap`: no mesh, ONE dispatch of the swapped-handles
-map over the atlas of maps, then :meth:`BatchQuads.sample` and one read-back); the other
-methods and cases take the single pipeline per image (:mod:`glmls.batch.single`).
+map over the atlas of maps, then :meth:`BatchQuads.sample_maps` and one read-back).
+``splat`` and ``paper-quads`` take :mod:`glmls.batch.forward`; the adaptive mesh and the
+other cases take the single pipeline per image (:mod:`glmls.batch.single`).
 """
 
 from __future__ import annotations
