@@ -117,8 +117,8 @@ class BatchSplat(BatchDrawer):
         defines = {
             "WARP_LINEAR": options.interpolation == "linear",
             "WARP_BORDER": BORDERS.index(options.border),
-            "BATCH_SPLAT_LABELS": labels is not None,
-            "BATCH_SPLAT_DRAWN": drawn,
+            "BATCH_FORWARD_LABELS": labels is not None,
+            "BATCH_FORWARD_DRAWN": drawn,
         }
         program = gl.program("batch/splat.vert.glsl", "batch/splat.frag.glsl", defines)
         set_uniforms(

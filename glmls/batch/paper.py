@@ -130,8 +130,8 @@ class BatchPaper(BatchDrawer):
         defines = {
             "WARP_LINEAR": linear,
             "WARP_BORDER": BORDERS.index(options.border),
-            "BATCH_PAPER_LABELS": labels is not None,
-            "BATCH_PAPER_DRAWN": drawn,
+            "BATCH_FORWARD_LABELS": labels is not None,
+            "BATCH_FORWARD_DRAWN": drawn,
         }
         program = gl.program("common/fullscreen.vert.glsl", "batch/paper_quads.frag.glsl", defines)
         set_uniforms(program, values)
