@@ -4,7 +4,6 @@ each chunk's images, masks and keypoints in one submission and one read-back."""
 
 from __future__ import annotations
 
-from collections import defaultdict
 from contextlib import ExitStack
 from functools import partial
 
@@ -37,18 +36,6 @@ from .texels import chunk_size as texel_chunk_size
 from .texels import takes, warp_texels
 
 __all__ = ["warp_chunks"]
-
-
-def _groups(batch: BatchInput) -> dict[tuple, list[int]]:
-    """Image indices by what a chunk shares: shape, dtype, and how its mask travels."""
-    if batch.array is not None and (batch.masks is None or batch.mask_array is not None):
-        return {(): list(range(len(batch)))}  # one array of images (and one of masks)
-    groups: dict[tuple, list[int]] = defaultdict(list)
-    for i, image in enumerate(batch.images):
-        mask = None if batch.masks is None else batch.masks[i]
-        key = (image.shape, image.dtype.str, None if mask is None else mask.dtype.str)
-        groups[key].append(i)
-    return groups
 
 
 def warp_chunks(
@@ -91,8 +78,8 @@ class _GPURun:
             return  # each image's own kernel finds its mesh's margin
         # segment handles, or no point handle at all: the image's own MLS, as one warp does
         self.own = [bool(segments[i]) or not len(batch.src[i]) for i in range(len(batch))]
-        groups = _groups(batch)
-        for indices in groups.values():
+        groups = batch.groups()
+        for indices in groups:
             self._group(indices, alone=len(groups) == 1)
 
     def _group(self, indices: list[int], *, alone: bool) -> None:

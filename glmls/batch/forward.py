@@ -28,7 +28,6 @@ images with segment handles or without handles then take the single path.
 
 from __future__ import annotations
 
-from collections import defaultdict
 from contextlib import ExitStack
 
 import moderngl
@@ -145,16 +144,6 @@ class BatchSplat(BatchDrawer):
         return targets.read(mgl)
 
 
-def _groups(batch: BatchInput) -> dict[tuple, list[int]]:
-    """Image indices by what a chunk shares: shape, dtype and the masks' dtype."""
-    groups: dict[tuple, list[int]] = defaultdict(list)
-    for i, image in enumerate(batch.images):
-        mask = None if batch.masks is None else batch.masks[i]
-        key = (image.shape, image.dtype.str, None if mask is None else mask.dtype.str)
-        groups[key].append(i)
-    return groups
-
-
 def _named(call, index: int, *args, **keywords):
     """``call(*args, **keywords)``, its ``ValueError`` naming the batch's image ``index``."""
     try:
@@ -179,7 +168,7 @@ class _ForwardRun:
         self.own = [bool(segments[i]) or not len(batch.src[i]) for i in range(len(batch))]
         if options.border != "constant" and self.config is None:
             return  # each image's own kernel finds its mesh's margin
-        for indices in _groups(batch).values():
+        for indices in batch.groups():
             self._group(indices)
 
     def _group(self, indices: list[int]) -> None:

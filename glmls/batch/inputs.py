@@ -38,6 +38,18 @@ class BatchInput:
     def __len__(self) -> int:
         return len(self.images)
 
+    def groups(self) -> list[list[int]]:
+        """The image indices by what one chunk shares: shape, dtype, and the masks' dtype
+        (one group where the images, and the masks, came as one array each)."""
+        if self.array is not None and (self.masks is None or self.mask_array is not None):
+            return [list(range(len(self)))]
+        groups: dict[tuple, list[int]] = {}
+        for i, image in enumerate(self.images):
+            mask = None if self.masks is None else self.masks[i]
+            key = (image.shape, image.dtype.str, None if mask is None else mask.dtype.str)
+            groups.setdefault(key, []).append(i)
+        return list(groups.values())
+
 
 #: What the error of a batch's image says where it looks like a volume (D, H, W): a batch is
 #: of 2D images.
