@@ -302,3 +302,32 @@ def single_warps(images, src, dst, **options):
     return [
         glmls.warp(image, p, q, **options) for image, p, q in zip(images, src, dst, strict=True)
     ]
+
+
+BATCH_FIELDS = ("images", "keypoints", "keypoints_valid", "masks", "maps", "valid")
+
+
+def assert_batch_equals_single_path(monkeypatch, got, images, src, dst, masks, points, **options):
+    """Every field of ``got`` (a :class:`glmls.BatchResult` with masks, keypoints and maps)
+    equal to what ``warp_batch`` gives each image alone through the single path (the forward
+    methods' batched path refused; each image's ``warp_one`` called once)."""
+    import glmls
+    from glmls.batch.single import SingleWarper
+
+    calls = []
+    warp_one = SingleWarper.warp_one
+    monkeypatch.setattr(
+        SingleWarper,
+        "warp_one",
+        lambda self, *a, **k: calls.append(k["index"]) or warp_one(self, *a, **k),
+    )
+    monkeypatch.setattr("glmls.batch.run.forward_batchable", lambda options: False)
+    for k in range(len(images)):
+        one = glmls.warp_batch(
+            images[k : k + 1], src[k : k + 1], dst[k : k + 1], masks=masks[k : k + 1],
+            keypoints=[points[k]], return_maps=True, max_batch_bytes=1, **options,
+        )  # fmt: skip
+        for field in BATCH_FIELDS:
+            a, b = getattr(got, field)[k], getattr(one, field)[0]
+            np.testing.assert_array_equal(a, b, err_msg=f"image {k}: {field}")
+    assert calls == [0] * len(images)

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from helpers import (
     SENTINEL,
+    assert_batch_equals_single_path,
     coordinate_image,
     folded_case,
     folding_handles,
@@ -22,13 +23,11 @@ from helpers import (
 
 import glmls
 from glmls import reference
-from glmls.batch.single import SingleWarper
 from glmls.core.mesh import MeshLattice
 from glmls.core.paper_quads import paper_quads
 from glmls.gl.context import GLContext
 
 SHAPE = (21, 26)
-FIELDS = ("images", "keypoints", "keypoints_valid", "masks", "maps", "valid")
 PAPER = {"method": "paper-quads"}
 
 
@@ -94,17 +93,6 @@ def test_list_of_shapes_and_segments_equal_single_warps(no_single):
         np.testing.assert_array_equal(out[k], one, err_msg=f"image {k}")
 
 
-def single_labels(images, src, dst, masks, points, **options):
-    """Each image's labels by ``warp_batch`` of that image alone (the single path)."""
-    return [
-        glmls.warp_batch(
-            images[k : k + 1], src[k : k + 1], dst[k : k + 1], masks=masks[k : k + 1],
-            keypoints=[points[k]], return_maps=True, max_batch_bytes=1, **options,
-        )
-        for k in range(len(images))
-    ]  # fmt: skip
-
-
 @pytest.mark.parametrize(
     ("border", "interpolation", "mask_dtype"),
     [
@@ -126,21 +114,7 @@ def test_masks_maps_keypoints_equal_single_path(monkeypatch, border, interpolati
     got = glmls.warp_batch(
         images, src, dst, masks=masks, keypoints=points, return_maps=True, **options
     )
-    # the single path, image by image: every warp_one call counted
-    calls = []
-    warp_one = SingleWarper.warp_one
-    monkeypatch.setattr(
-        SingleWarper,
-        "warp_one",
-        lambda self, *a, **k: calls.append(k["index"]) or warp_one(self, *a, **k),
-    )
-    monkeypatch.setattr("glmls.batch.run.forward_batchable", lambda options: False)
-    expected = single_labels(images, src, dst, masks, points, **options)
-    assert calls == [0, 0, 0, 0]
-    for k, one in enumerate(expected):
-        for field in FIELDS:
-            a, b = getattr(got, field)[k], getattr(one, field)[0]
-            np.testing.assert_array_equal(a, b, err_msg=f"image {k}: {field}")
+    assert_batch_equals_single_path(monkeypatch, got, images, src, dst, masks, points, **options)
     assert got.masks.dtype == mask_dtype
     assert all(v.any() and not v.all() for v in got.valid)  # pixels shown, and not all
     assert any(v.any() and not v.all() for v in got.keypoints_valid)

@@ -8,14 +8,13 @@ from functools import partial
 
 import numpy as np
 import pytest
-from helpers import moved_handles, random_images, single_warps
+from helpers import assert_batch_equals_single_path, moved_handles, random_images, single_warps
 
 import glmls
 from glmls import reference
 from glmls.batch.single import SingleWarper
 
 SHAPE = (21, 26)
-FIELDS = ("images", "keypoints", "keypoints_valid", "masks", "maps", "valid")
 
 
 handles = partial(moved_handles, shape=SHAPE)
@@ -75,17 +74,6 @@ def test_list_of_shapes_and_segments_equal_single_warps(no_single):
         np.testing.assert_array_equal(out[k], one, err_msg=f"image {k}")
 
 
-def single_labels(images, src, dst, masks, points, **options):
-    """Each image's labels by ``warp_batch`` of that image alone (the single path)."""
-    return [
-        glmls.warp_batch(
-            images[k : k + 1], src[k : k + 1], dst[k : k + 1], masks=masks[k : k + 1],
-            keypoints=[points[k]], return_maps=True, max_batch_bytes=1, **options,
-        )
-        for k in range(len(images))
-    ]  # fmt: skip
-
-
 @pytest.mark.parametrize("border", ["constant", "reflect"])
 def test_masks_maps_keypoints_equal_single_path(monkeypatch, border):
     rng = np.random.default_rng(4)
@@ -100,21 +88,7 @@ def test_masks_maps_keypoints_equal_single_path(monkeypatch, border):
     got = glmls.warp_batch(
         images, src, dst, masks=masks, keypoints=points, return_maps=True, **options
     )
-    # the single path, image by image: every warp_one call counted
-    calls = []
-    warp_one = SingleWarper.warp_one
-    monkeypatch.setattr(
-        SingleWarper,
-        "warp_one",
-        lambda self, *a, **k: calls.append(k["index"]) or warp_one(self, *a, **k),
-    )
-    monkeypatch.setattr("glmls.batch.run.forward_batchable", lambda options: False)
-    expected = single_labels(images, src, dst, masks, points, **options)
-    assert calls == [0, 0, 0, 0]
-    for k, one in enumerate(expected):
-        for field in FIELDS:
-            a, b = getattr(got, field)[k], getattr(one, field)[0]
-            np.testing.assert_array_equal(a, b, err_msg=f"image {k}: {field}")
+    assert_batch_equals_single_path(monkeypatch, got, images, src, dst, masks, points, **options)
     assert got.masks.dtype == np.uint16
     assert all(v.any() and not v.all() for v in got.valid)  # holes and pixels shown
 
