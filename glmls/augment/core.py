@@ -563,8 +563,14 @@ class Augment:
             box_list, stacked_boxes = lab.check_boxes(boxes, count)
         polygon_list = None if polygons is None else lab.check_polygons(polygons, count)
         options = dict(params[0]["options"])
-        if any(dict(p["options"]) != options for p in params):
-            raise ValueError("params with different warp options cannot be replayed together")
+        for i, p in enumerate(params):
+            if dict(p["options"]) != options:  # one warp_batch call: one set of options
+                other = dict(p["options"])
+                names = sorted(k for k in {*options, *other} if options.get(k) != other.get(k))
+                raise ValueError(
+                    f"params[{i}]['options'] differ from params[0]'s in {', '.join(names)}: "
+                    "replay draws of different warp options in separate calls"
+                )
         grid = _mesh_grid(options)
         meshes = [None if grid is None else (grid, tuple(p["shape"])) for p in params]
         labels = [label_options_of(p, self.label_options) for p in params]

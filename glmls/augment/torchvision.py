@@ -32,7 +32,7 @@ call have one size (H, W), the ``canvas_size`` of boxes and keypoints too, as to
 requires, and are single images or one batch, else ``ValueError``; so is an unrotated box whose
 maximum lies below its minimum (boxes of another format than their label, which the deformation
 would make into plausible boxes). A batch's masks are (N, H, W) or (N, K, H, W) and its
-keypoints (N, P, 2) (the first dimension the batch; any number of them), or one
+keypoints (N, ..., 2) (the first dimension the batch; any number of them), or one
 ``Mask``/``KeyPoints``/``BoundingBoxes`` per sample in order (bounding boxes are two-dimensional
 in torchvision: one instance per sample). A label's shape decides which: one whose first
 dimension is N is the batch's, so a sample's own masks are (H, W), or (K, H, W) with K other
@@ -175,18 +175,20 @@ def _of_dtype(out: np.ndarray, dtype: np.dtype) -> np.ndarray:
 
 def _batch_first(label: torch.Tensor, count: int) -> bool:
     """Whether a Mask or KeyPoints is the batch's own, the batch its first dimension:
-    (N, H, W) or (N, K, H, W) masks, (N, P, 2) keypoints. Such a shape is read so, as
-    torchvision reads a label's leading dimensions: a sample's own masks are (H, W), or
-    (K, H, W) with K other than N."""
-    dims = (3, 4) if isinstance(label, tv_tensors.Mask) else (3,)
-    return label.ndim in dims and label.shape[0] == count
+    (N, H, W) or (N, K, H, W) masks, (N, ..., 2) keypoints (KeyPoints take any leading
+    dimensions: (N, P, 2), or (N, A, B, 2) for A skeletons of B points). Such a shape is
+    read so, as torchvision reads a label's leading dimensions: a sample's own masks are
+    (H, W), or (K, H, W) with K other than N."""
+    if isinstance(label, tv_tensors.Mask):
+        return label.ndim in (3, 4) and label.shape[0] == count
+    return label.ndim >= 3 and label.shape[0] == count
 
 
 def _batch_label_error(label: torch.Tensor, count: int) -> ValueError:
     """The error for a batch's one Mask or KeyPoints whose first dimension is not the
     batch's (it would split or merge the samples' labels)."""
     mask = isinstance(label, tv_tensors.Mask)
-    expected = f"({count}, H, W) or ({count}, K, H, W)" if mask else f"({count}, P, 2)"
+    expected = f"({count}, H, W) or ({count}, K, H, W)" if mask else f"({count}, ..., 2)"
     return ValueError(
         f"a {type(label).__name__} of shape {tuple(label.shape)} for a batch of {count} "
         f"images: expected {expected}, the batch first, or one per sample"
