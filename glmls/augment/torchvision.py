@@ -36,8 +36,8 @@ keypoints (N, ..., 2) (the first dimension the batch; any number of them), or on
 ``Mask``/``KeyPoints``/``BoundingBoxes`` per sample in order (bounding boxes are two-dimensional
 in torchvision: one instance per sample). A label's shape decides which: one whose first
 dimension is N is the batch's, so a sample's own masks are (H, W), or (K, H, W) with K other
-than N. The draws of the last call are in ``last_params``
-(JSON-able dicts, see :class:`glmls.augment.AugmentResult`).
+than N, and its own keypoints (P, 2), or (A, ..., 2) with A other than N. The draws of the
+last call are in ``last_params`` (JSON-able dicts, see :class:`glmls.augment.AugmentResult`).
 """
 
 from __future__ import annotations
