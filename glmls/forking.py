@@ -1,7 +1,7 @@
 """An MLS in a process forked from one that used GL (a data loader's worker), where GL would
 hang (:mod:`glmls.gl.context`): its GPU work runs in the process's helper process
 (:mod:`glmls.gl.helper`) on an MLS made there from the same handles and settings
-(:func:`glmls.served.serve_forked`), whether the MLS was made before the fork or after it.
+(``glmls.served.serve_forked``), whether the MLS was made before the fork or after it.
 
 :func:`on_gpu` and :func:`forwarded` decorate the MLS methods that use the GPU;
 :class:`ForkSafe` is the MLS's side of it: its state for the helper, its liveness, its GL

@@ -224,12 +224,14 @@ class HandleSet:
     def near_targets(
         self, shape: tuple[int, int] | None, *, bounded: bool = False
     ) -> tuple[HandleSet, np.ndarray]:
-        """These handles with their targets (segment ends too) moved back by a whole-pixel
-        translation t, and t ((2,) float64): the handles the GPU holds, whose f - t float32
-        keeps to the precision of the sources' box where the targets lie far from them
-        (:func:`~glmls.core.handles.fit_offset`). MLS moves with its targets wherever
-        every weight is positive, so f = (f - t) + t; a weight of bounded reach
-        (``bounded``), whose f is the identity beyond the handles, gets t = 0.
+        """These handles with their targets moved back near the sources, and the translation.
+
+        The targets (segment ends too) less a whole-pixel translation t ((2,) float64): the
+        handles the GPU holds, whose f - t float32 keeps to the precision of the sources' box
+        where the targets lie far from them (:func:`~glmls.core.handles.fit_offset`). MLS
+        moves with its targets wherever every weight is positive, so f = (f - t) + t; a
+        weight of bounded reach (``bounded``), whose f is the identity beyond the handles,
+        gets t = 0.
 
         Parameters
         ----------

@@ -3,7 +3,7 @@ moves with its targets where every weight is positive (f + t exactly), so f, M a
 inverse, the meshes and the images over a canvas placed on the far targets are those of the
 map near its sources, translated by t. The GPU holds the targets less a whole-pixel
 translation (:meth:`glmls.HandleSet.near_targets`) and adds it back in float64; without
-that, float32 over the whole span kept ~1e-2 px of f.
+that, float32 over the whole span would keep ~1e-2 px of f.
 
 Tolerances: the near map's own against the float64 reference (~1e-5 px in f, ~5e-7 in M),
 with room: f within 1e-4 px, M within 1e-5, T within 1e-3 (T = f - v M, v up to 200 px);
