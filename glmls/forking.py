@@ -1,7 +1,7 @@
 """An MLS in a process forked from one that used GL (a data loader's worker), where GL would
 hang (:mod:`glmls.gl.context`): its GPU work runs in the process's helper process
 (:mod:`glmls.gl.helper`) on an MLS made there from the same handles and settings
-(``glmls.mls.serve_forked``), whether the MLS was made before the fork or after it.
+(``glmls.served.serve_forked``), whether the MLS was made before the fork or after it.
 
 :func:`on_gpu` and :func:`forwarded` decorate the MLS methods that use the GPU;
 :class:`ForkSafe` is the MLS's side of it: its state for the helper, its liveness, its GL
@@ -25,7 +25,7 @@ from .gl.context import current, forked_from_gl, get_context
 __all__ = ["ForkSafe", "forwarded", "in_helper", "on_gpu", "remade", "renderer"]
 
 _R = TypeVar("_R")
-_SERVER = "glmls.mls"  # serve_forked: makes and keeps the helper's MLS objects
+_SERVER = "glmls.served"  # serve_forked: makes and keeps the helper's MLS objects
 
 
 def forwarded(method: Callable[..., _R]) -> Callable[..., _R]:
@@ -138,7 +138,7 @@ class ForkSafe:
         self._owned.append(kernel)
 
     def _forked_state(self) -> tuple:
-        """What ``glmls.mls.serve_forked`` makes the helper's MLS from."""
+        """What ``glmls.served.serve_forked`` makes the helper's MLS from."""
         m: Any = self
         segments = (m.src_segments, m.dst_segments) if len(m.src_segments) else (None, None)
         o = self._options  # type: ignore[attr-defined]

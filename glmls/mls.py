@@ -9,10 +9,8 @@ An :class:`MLS` follows scikit-image's transform protocol: ``m(points)`` is f,
 
 from __future__ import annotations
 
-import collections
 import inspect
 import math
-import pickle
 from collections.abc import Sequence
 from typing import ClassVar
 
@@ -28,7 +26,7 @@ from .core.mesh3 import DeformedMesh
 from .engine.error_field import error_at
 from .engine.error_field import error_field as evaluate_error_field
 from .engine.kernel import DEFAULT_STORAGE, MLSKernel
-from .engine.passes import evaluate_lattice, evaluate_points
+from .engine.passes import deformed_lattice, evaluate_points
 from .errors import ReleasedError
 from .forking import ForkSafe, forwarded, in_helper, on_gpu
 from .gl import helper
@@ -41,45 +39,6 @@ from .imaging.pipeline import GUESS_MESH_POINTS, WarpPipeline
 from .volume.options import VOLUME_WARP_KEYWORDS
 
 __all__ = ["MLS", "InverseMLS", "warp"]
-
-#: The helper process's MLS objects, by the pickled state they were made from (newest last).
-_SERVED: collections.OrderedDict[bytes, MLS] = collections.OrderedDict()
-_SERVED_KEPT = 4
-
-
-def made_from(state: tuple, ctx: moderngl.Context | GLContext | None = None) -> MLS:
-    """A new MLS on ``ctx`` from the handles and settings of ``state``
-    (:meth:`MLS._forked_state`): the helper's, an unpickled or a copied one."""
-    src, dst, src_segments, dst_segments, config, shape, spacing, storage, bins = state
-    return MLS.from_config(
-        src,
-        dst,
-        config,
-        src_segments=src_segments,
-        dst_segments=dst_segments,
-        shape=shape,
-        spacing=spacing,
-        ctx=ctx,
-        storage=storage,
-        bins=bins,
-    )
-
-
-def serve_forked(state: tuple, name: str | None, grid: int | None, args: tuple, kwargs: dict):
-    """In the helper process of a forked process: ``name`` of the MLS made from ``state``
-    (:meth:`MLS._forked_state`; kept for the next calls), or of its inverse of ``grid``;
-    nothing but the making when ``name`` is None."""
-    key = pickle.dumps(state, pickle.HIGHEST_PROTOCOL)
-    m = _SERVED.pop(key, None)
-    if m is None:
-        m = made_from(state)
-    _SERVED[key] = m
-    while len(_SERVED) > _SERVED_KEPT:
-        _SERVED.popitem(last=False)[1].release()
-    if name is None:
-        return None
-    target = m if grid is None else type(m.inverse)(m, grid=grid)
-    return getattr(target, name)(*args, **kwargs)
 
 
 class MLS(ForkSafe):
@@ -297,8 +256,10 @@ class MLS(ForkSafe):
     def _store(self, handles: HandleSet) -> None:
         """The one way handles get in: the kernel's upload (none in a process forked from one
         that used GL: the helper's MLS takes them), then the read-only copies."""
-        if not forked_from_gl():
-            self._kernel.upload(handles, handles.gpu_scaling(self.shape))
+        if not forked_from_gl():  # far targets' common translation stays out of float32
+            bounded = self.config.weight_entry.support == "radius"
+            near, offset = handles.near_targets(self.shape, bounded=bounded)
+            self._kernel.upload(near, near.gpu_scaling(self.shape), offset)
         self._handles = handles
         self._drop_swapped()
 
@@ -489,8 +450,7 @@ class MLS(ForkSafe):
         """
         self.kernel.check_alive()
         if self._swapped is None:
-            swapped = MLSKernel(self._gl, self.config, **self._options)  # type: ignore[arg-type]
-            swapped.upload(self._handles.swapped(), self.scaling)
+            swapped = self._kernel.swapped()
             self._owns(swapped)
             self._swapped = swapped
         return self._swapped
@@ -510,7 +470,9 @@ class MLS(ForkSafe):
         Returns
         -------
         numpy.ndarray
-            (K, 2) float64 f(points) (float32 on the GPU: ~1e-7 of the coordinates' extent).
+            (K, 2) float64 f(points) (float32 on the GPU: ~1e-7 of the coordinates' extent;
+            targets far from their sources count as moved back near them, the translation
+            added in float64: :doc:`the mathematics </mathematics>`).
 
         Raises
         ------
@@ -728,11 +690,7 @@ class MLS(ForkSafe):
             return self._pipeline().adaptive.mesh(self._kernel, as_shape(shape), value)  # type: ignore[arg-type]
         lattice = MeshLattice.corners(shape, grid)
         vertices = lattice.points()
-        buffer = self._kernel.scratch.buffer("mesh", lattice.count * 8)
-        count = evaluate_lattice(self._kernel, lattice, buffer)
-        self._gl.mgl.memory_barrier()
-        out = np.frombuffer(buffer.read(size=count * 8), np.float32).reshape(-1, 2)
-        return vertices, self.scaling.from_gpu(out).reshape(vertices.shape)
+        return vertices, deformed_lattice(self._kernel, lattice).reshape(vertices.shape)
 
     @on_gpu
     def error_field(
@@ -1106,7 +1064,8 @@ class InverseMLS:
     folds, u has several preimages; the one of the first mesh cell in the source's scan
     order is found (as :meth:`MLS.warp` shows it), at the first guess's resolution (which
     depends on how far the points spread). Far from the image the accuracy follows
-    float32: ~1e-7 of the coordinates.
+    float32: ~1e-7 of the coordinates (points near targets far from their sources are solved
+    as the map moved back near them: as near ones).
 
     ``skimage.transform.warp(image, m.inverse)`` resamples an image by f: what
     ``m.warp(image, method="backward", interpolation="linear")`` draws, with skimage's
@@ -1252,7 +1211,8 @@ class InverseMLS:
         m.config.resolve_radius(m.shape)  # f needs a radius, as m(points) does
         shape, grid = self._guess_mesh()
         s, residual = pipeline.inverse_points(m, points, shape, grid=grid)
-        valid = residual <= accept_residual(m.scaling, points, s, unit=length_unit(m.kernel))
+        targets = points - m.kernel.offset  # u as the GPU has it
+        valid = residual <= accept_residual(m.scaling, targets, s, unit=length_unit(m.kernel))
         s[~valid] = np.nan
         return s, valid
 

@@ -17,7 +17,7 @@ LAYERS = (
     ("glmls.gl",),
     ("glmls.engine",),
     ("glmls.imaging", "glmls.volume"),
-    ("glmls.mls", "glmls.mls3", "glmls.forking"),
+    ("glmls.mls", "glmls.mls3", "glmls.forking", "glmls.served"),
     ("glmls.batch",),
     ("glmls.analysis", "glmls.augment"),
     ("glmls.app",),

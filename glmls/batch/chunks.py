@@ -21,7 +21,7 @@ from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size, fits
 from .inputs import BatchInput
 from .labels import embedded, mesh_keypoints, on_canvas
 from .margins import batch_margins, warn_short
-from .probes import batch_config, keypoints_by_f
+from .probes import batch_config, far_targets, keypoints_by_f
 from .single import (
     ImageLabels,
     SingleWarper,
@@ -78,9 +78,10 @@ class _GPURun:
             return  # each image's own kernel finds its mesh's margin
         # segment handles, or no point handle at all: the image's own MLS, as one warp does
         self.own = [bool(segments[i]) or not len(batch.src[i]) for i in range(len(batch))]
-        groups = batch.groups()
+        far = far_targets(batch, mls_options, segments)  # the single path
+        groups = [kept for kept in ([i for i in g if not far[i]] for g in batch.groups()) if kept]
         for indices in groups:
-            self._group(indices, alone=len(groups) == 1)
+            self._group(indices, alone=len(groups) == 1 and not any(far))
 
     def _group(self, indices: list[int], *, alone: bool) -> None:
         batch, options, quads = self.batch, self.options, self.quads

@@ -48,7 +48,7 @@ from .gpu import CHUNK_BYTES, KernelLattices, chunk_size, fits
 from .inputs import BatchInput
 from .margins import batch_margins, warn_short
 from .paper import BatchPaper, chunk_squares, paper_lattice
-from .probes import batch_config, keypoints_by_f
+from .probes import batch_config, far_targets, keypoints_by_f
 from .single import ImageLabels, SingleWarper, mask_form, restore_mask
 
 __all__ = ["BatchSplat", "forward_batchable", "warp_forward"]
@@ -168,8 +168,10 @@ class _ForwardRun:
         self.own = [bool(segments[i]) or not len(batch.src[i]) for i in range(len(batch))]
         if options.border != "constant" and self.config is None:
             return  # each image's own kernel finds its mesh's margin
+        far = far_targets(batch, mls_options, segments)  # the single path
         for indices in batch.groups():
-            self._group(indices)
+            if kept := [i for i in indices if not far[i]]:
+                self._group(kept)
 
     def _group(self, indices: list[int]) -> None:
         batch, options = self.batch, self.options

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.config import MLSConfig
+from ..core.handleset import HandleSet
 from ..engine.batched import BatchLattices
 from ..engine.kernel import DEFAULT_STORAGE
 from ..engine.storage import check_storage
@@ -17,7 +18,7 @@ from .inputs import BatchInput
 from .labels import visible
 from .single import in_domain, probe_points, probed
 
-__all__ = ["CONFIG_KEYS", "SLICE_BYTES", "batch_config", "f_at", "keypoints_by_f"]
+__all__ = ["CONFIG_KEYS", "SLICE_BYTES", "batch_config", "f_at", "far_targets", "keypoints_by_f"]
 
 #: The most bytes of points one pass of f at a chunk's keypoints takes (:func:`f_at`).
 SLICE_BYTES = 8 << 20
@@ -36,6 +37,24 @@ def batch_config(batch: BatchInput, mls_options: dict) -> MLSConfig | None:
     if not BatchLattices.takes(config, counts, storage, mls_options.get("bins")):
         return None
     return config
+
+
+def far_targets(batch: BatchInput, mls_options: dict, segments: list[dict]) -> list[bool]:
+    """Which images' own MLS holds its targets moved back by a translation on the GPU
+    (:meth:`~glmls.core.handleset.HandleSet.near_targets`: targets far from their sources):
+    the batched passes share no such frame, so these take the single path, and each equals
+    its own warp bit for bit."""
+    config = MLSConfig(**{k: v for k, v in mls_options.items() if k in CONFIG_KEYS})
+    if config.weight_entry.support == "radius":
+        return [False] * len(batch)
+    return [
+        bool(
+            HandleSet.validate(batch.src[i], batch.dst[i], **segments[i])
+            .near_targets(image.shape[:2])[1]
+            .any()
+        )
+        for i, image in enumerate(batch.images)
+    ]
 
 
 def f_at(gl, resources, lattices, points: list[np.ndarray], chosen) -> list[np.ndarray]:

@@ -16,6 +16,7 @@ from .handles import (
     check_affine_handles,
     check_gpu_distinct,
     check_gpu_spread,
+    fit_offset,
     point_bounds,
     validate_handles,
 )
@@ -219,6 +220,47 @@ class HandleSet:
             self.src, dst, scaling.to_gpu(self.src), lambda: scaling.to_gpu(dst), scaling.scale
         )
         return scaling
+
+    def near_targets(
+        self, shape: tuple[int, int] | None, *, bounded: bool = False
+    ) -> tuple[HandleSet, np.ndarray]:
+        """These handles with their targets moved back near the sources, and the translation.
+
+        The targets (segment ends too) less a whole-pixel translation t ((2,) float64): the
+        handles the GPU holds, whose f - t float32 keeps to the precision of the sources' box
+        where the targets lie far from them (:func:`~glmls.core.handles.fit_offset`). MLS
+        moves with its targets wherever every weight is positive, so f = (f - t) + t; a
+        weight of bounded reach (``bounded``), whose f is the identity beyond the handles,
+        gets t = 0.
+
+        Parameters
+        ----------
+        shape : tuple of int or None
+            (H, W) of the image, whose box the GPU's scale takes in as well.
+        bounded : bool, default False
+            The weight reaches only so far (``support`` ``"radius"``).
+
+        Returns
+        -------
+        (HandleSet, numpy.ndarray)
+            The handles (these where t = 0) and t.
+
+        Examples
+        --------
+        >>> handles = glmls.HandleSet.validate([[0, 0], [8, 0]], [[1e5, 0], [1e5 + 8, 1]])
+        >>> near, t = handles.near_targets(None)
+        >>> t.tolist(), near.dst.tolist()
+        ([100000.0, 0.0], [[0.0, 0.0], [8.0, 1.0]])
+        >>> handles.near_targets(None, bounded=True)[1].tolist()
+        [0.0, 0.0]
+        """
+        offset = np.zeros(2)
+        if not bounded:
+            offset = fit_offset(self.source_points(), self.target_points(), shape)
+        if not offset.any():
+            return self, offset
+        moved = (_frozen(self.dst - offset), _frozen(self.dst_segments - offset))
+        return HandleSet(self.src, moved[0], self.src_segments, moved[1]), offset
 
     def swapped(self) -> HandleSet:
         """Sources and targets exchanged (the map the other way).

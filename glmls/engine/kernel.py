@@ -202,6 +202,12 @@ class MLSKernel:
         self.config = config
         self.shape = shape
         self.scaling = Scaling((0.0, 0.0), 1.0)
+        #: t (2,) float64, pixels: the GPU's coordinates of the deformed plane (f's values,
+        #: the points whose preimage is sought, the output canvas) are the true ones less t
+        #: (:meth:`HandleSet.near_targets <glmls.core.handleset.HandleSet.near_targets>`).
+        self.offset = np.zeros(2)
+        #: The handles as the GPU holds them (targets less :attr:`offset`).
+        self.handles = HandleSet.validate(np.zeros((0, 2)), np.zeros((0, 2)))
         self._storage_request = storage
         self._bins_request = bins
         self._storage: HandleStorage | None = None
@@ -216,12 +222,16 @@ class MLSKernel:
 
     # -- the one upload path ------------------------------------------------------------
 
-    def upload(self, handles: HandleSet, scaling: Scaling) -> None:
+    def upload(
+        self, handles: HandleSet, scaling: Scaling, offset: np.ndarray | None = None
+    ) -> None:
         """Put validated ``handles`` (points and segments) on the GPU in the coordinates of
         ``scaling``: the storage for their rows (``auto`` chooses again; a segment takes two
-        rows), in bins where they are used. On error (too many handles for the storage)
-        nothing changes."""
+        rows), in bins where they are used. ``offset``: the :attr:`offset` (None: 0) that
+        their targets are already moved back by. On error (too many handles for the
+        storage) nothing changes."""
         self.check_alive()
+        shift = np.zeros(2) if offset is None else np.array(offset, np.float64).reshape(2)
         segments = np.concatenate(
             [handles.src_segments.reshape(-1, 4), handles.dst_segments.reshape(-1, 4)], axis=1
         ).reshape(-1, 2, 2)
@@ -231,6 +241,28 @@ class MLSKernel:
                 scaling.to_gpu(segments.reshape(-1, 2)).reshape(-1, 4),
                 scaling,
             )
+        self.handles, self.offset = handles, shift
+
+    def swapped(self) -> MLSKernel:
+        """A new kernel of the map with sources and targets exchanged (``backward-swap``),
+        on this kernel's configuration, scaling and :attr:`offset`: its handles are this
+        one's q - t -> p, so that it takes points of the deformed plane less t, as the
+        canvas's uniforms give them (MLS is invariant under a common translation of its
+        sources and the point)."""
+        kernel = MLSKernel(
+            self.gl,
+            self.config,
+            shape=self.shape,
+            storage=self._storage_request,
+            bins=self._bins_request,
+        )
+        kernel.upload(self.handles.swapped(), self.scaling, self.offset)
+        return kernel
+
+    def deformed(self, scaled: np.ndarray) -> np.ndarray:
+        """Points of the deformed plane read back from the GPU (f's values, scaled; (K, 2)
+        float32) in pixels, float64: the :attr:`offset` added back."""
+        return self.scaling.from_gpu(scaled) + self.offset
 
     def _upload(self, packed: np.ndarray, segments: np.ndarray, scaling: Scaling) -> None:
         rows = len(packed) + len(segments)

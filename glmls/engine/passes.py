@@ -18,6 +18,7 @@ from .kernel import MLSKernel
 __all__ = [
     "POINTS_PASS",
     "POINTS_PER_INVOCATION",
+    "deformed_lattice",
     "evaluate_lattice",
     "evaluate_points",
     "lattice_bands",
@@ -89,8 +90,9 @@ def _evaluate_points(kernel, points, with_matrix, shape, max_groups, keep):
     run_1d(program, count, max_groups=max_groups, per_invocation=POINTS_PER_INVOCATION)
     kernel.gl.mgl.memory_barrier()  # the shader's writes before the read
     d = np.frombuffer(f_out.read(size=count * 8, offset=at), np.float32).reshape(count, 2)
-    # f = v + (f - v): v keeps its float64 digits, and f is v itself where d is exactly 0
-    f = points + d.astype(np.float64) * kernel.scaling.scale
+    # f = v + (f - v) + t: v keeps its float64 digits, f is v + t where d is exactly 0, and
+    # the targets' offset t (MLSKernel.offset) joins in float64
+    f = points + d.astype(np.float64) * kernel.scaling.scale + kernel.offset
     if not with_matrix:
         return f, None
     m = np.frombuffer(scratch.cached("M").read(size=count * 16), np.float32)
@@ -124,6 +126,15 @@ def evaluate_lattice(
             per_invocation=POINTS_PER_INVOCATION,
         )
     return nx * rows
+
+
+def deformed_lattice(kernel: MLSKernel, lattice: MeshLattice) -> np.ndarray:
+    """f at every point of ``lattice``, read back: (K, 2) float64 pixels in the lattice's
+    row-major order (the radius that of the lattice's image)."""
+    buffer = kernel.scratch.buffer("mesh", lattice.count * 8)
+    count = evaluate_lattice(kernel, lattice, buffer)
+    kernel.gl.mgl.memory_barrier()
+    return kernel.deformed(np.frombuffer(buffer.read(size=count * 8), np.float32).reshape(-1, 2))
 
 
 def lattice_bands(

@@ -69,9 +69,21 @@ class Frame:
     def pixels(self) -> int:
         return self.shape[0] * self.shape[1]
 
-    def uniforms(self) -> dict[str, object]:
-        """Those of ``glmls/shaders/warp/frame.glsl`` and the target's size."""
-        return {"u_target_size": self.size, "u_origin": self.origin}
+    def uniforms(self, kernel: MLSKernel | None = None) -> dict[str, object]:
+        """Those of ``glmls/shaders/warp/frame.glsl`` and the target's size, for the passes
+        over ``kernel``'s f: the origin in the GPU's coordinates of the deformed plane, less
+        the kernel's :attr:`~glmls.engine.kernel.MLSKernel.offset` (in float64, before
+        float32 takes it: a canvas over targets far from their sources keeps the precision
+        of f near them)."""
+        frame = self if kernel is None else self.moved(-kernel.offset)
+        return {"u_target_size": self.size, "u_origin": frame.origin}
+
+    def moved(self, shift: np.ndarray) -> Frame:
+        """This canvas over the deformed plane moved by ``shift`` ((2,) pixels)."""
+        if not np.any(shift):
+            return self
+        x, y = np.add(self.origin, shift).tolist()
+        return Frame(self.shape, (x, y))
 
     def centre_box(self, pad: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """(low, high) corners of the box of the output pixel centres, in the deformed
@@ -284,7 +296,7 @@ def deformed_bounds(bands: Iterable[np.ndarray], kernel: MLSKernel) -> Bounds:
         if len(points):
             lo, hi = point_bounds(points)
             low, high = np.minimum(low, lo), np.maximum(high, hi)
-    (x0, y0), (x1, y1) = kernel.scaling.from_gpu(np.stack([low, high]))
+    (x0, y0), (x1, y1) = kernel.deformed(np.stack([low, high]))
     return Bounds(float(x0), float(y0), float(x1), float(y1))
 
 
@@ -390,12 +402,17 @@ def _search_margin(
     """:func:`border_margin`'s search: the margin, and whether f's image of its border
     encloses the frame."""
 
+    # in the GPU's frame of the deformed plane (MLSKernel.offset): a canvas over targets far
+    # from their sources lies over the image there, as the same map's near its sources
+    offset = kernel.offset
+
     def evaluate(rings: list[np.ndarray | None]) -> list[np.ndarray | None]:
         ring = rings[0]
         assert ring is not None
-        return [evaluate_points(kernel, ring, with_matrix=False, shape=lattice.shape)[0]]
+        f, _ = evaluate_points(kernel, ring, with_matrix=False, shape=lattice.shape)
+        return [f - offset]
 
-    return search_margins(evaluate, 1, lattice, frame, max_points)[0]
+    return search_margins(evaluate, 1, lattice, frame.moved(-offset), max_points)[0]
 
 
 def search_margins(

@@ -185,7 +185,7 @@ class InverseSolver:
                 )
         sc = kernel.scaling
         uniforms = {
-            **frame.uniforms(),
+            **frame.uniforms(kernel),
             "u_source_size": (width, height),
             "u_center": sc.center,
             "u_scale": sc.scale,
@@ -249,7 +249,7 @@ class InverseSolver:
         sc = kernel.scaling
         texel = max(frame.size[0] / size[0], frame.size[1] / size[1])  # pixels
         uniforms = {
-            **frame.uniforms(),
+            **frame.uniforms(kernel),
             "u_guess_size": size,
             "u_center": sc.center,
             "u_scale": sc.scale,
@@ -260,6 +260,7 @@ class InverseSolver:
         set_uniforms(program, uniforms)
         count = len(points)
         source = self._resources.buffer("inverse_points", count * 8)
+        points = points - kernel.offset  # u as the GPU has it: the canvas's frame too
         source.write(np.ascontiguousarray(sc.to_gpu(points), dtype=np.float32))
         out = self._resources.buffer("inverse_out", count * 16)
         self._gl.mgl.memory_barrier()

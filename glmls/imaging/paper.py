@@ -78,7 +78,7 @@ class PaperQuads:
         values = {
             "u_center": sc.center,
             "u_scale": sc.scale,
-            **frame.uniforms(),
+            **frame.uniforms(kernel),
             "u_source_size": (width, height),
             **lattice.pixel_uniforms(),
             "u_squares_x": columns - 1,

@@ -468,7 +468,7 @@ class WarpPipeline:
             )
         found = kernel.scaling.from_gpu(out[:, :2])
         identity = out[:, 3] == IDENTITY_FOUND  # f leaves u in place: u exactly
-        found[identity] = points[identity]
+        found[identity] = points[identity] - kernel.offset
         return found, out[:, 2].astype(np.float64)
 
     @current

@@ -131,7 +131,7 @@ class CellScan:
         values = {
             "u_center": sc.center,
             "u_scale": sc.scale,
-            **frame.uniforms(),
+            **frame.uniforms(kernel),
             "u_source_size": (width, height),
             **lattice.pixel_uniforms(),
             "u_sub_bits": sub_bits,

@@ -69,7 +69,7 @@ class MeshRaster:
         values = {
             "u_center": sc.center,
             "u_scale": sc.scale,
-            **frame.uniforms(),
+            **frame.uniforms(kernel),
             "u_flip_y": flip_y,
             "u_source_size": (width, height),
             **lattice.pixel_uniforms(),
