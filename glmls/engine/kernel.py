@@ -129,23 +129,24 @@ def segment_hit2(config: MLSConfig, scale: float, extent: float) -> float:
     handles ``extent`` apart (scaled, :func:`handle_extent`).
 
     With w ~ 1 / d^p (p > 1), a segment h from v weighs J0 >= 2^(-p/2) h^(1-p) (its
-    integral over an arc h long) and a handle D away 1 / D^p: their share (h / D)^(p-1) /
-    (2^(-p/2) D) is below float32's 2^-24 (:data:`SNAP_SHARE`) within the distance returned
-    (D the extent in pixels), at most :data:`SNAP_DISTANCE`. With p = 1 (shepard, idw with
+    integral over an arc h long; segments are longer than that) and a handle D away
+    1 / D^p: their share (h / D)^(p-1) / (2^(-p/2) D) is below float32's 2^-24
+    (:data:`SNAP_SHARE`) within the distance returned (D the extent in pixels), at most
+    :data:`SNAP_DISTANCE`. With p = 1 (shepard, idw with
     alpha = 1/2) J0 grows only like 2 log(L / h), and no distance makes the others
     negligible: f approaches the target like 1 / log(1 / h), and only points within
     :data:`SNAP_RESOLUTION` of the extent (at most 1), float32's resolution of the scaled
     coordinates of handles that far apart, snap.
     """
     pole = segment_pole(config)
+    d_px = min(extent, 1.0) * scale
     h = 0.0
-    if pole > 1.0:
-        d_px = min(extent, 1.0) * scale
+    if pole > 1.0 and d_px > 0.0:  # extent 0: one handle, staying where it is
         log_h = (math.log(SNAP_SHARE) - 0.5 * pole * math.log(2.0) + pole * math.log(d_px)) / (
             pole - 1.0
         )
         h = min(math.exp(min(log_h, 700.0)), SNAP_DISTANCE) / scale
-    return max(h, SNAP_RESOLUTION * min(extent, 1.0)) ** 2
+    return max(max(h, SNAP_RESOLUTION * min(extent, 1.0)) ** 2, SNAP_FLOOR2)
 
 
 def config_defines(

@@ -22,14 +22,14 @@ import pytest
 
 import glmls
 from glmls import reference
-from glmls.engine.kernel import SNAP_RESOLUTION
+from glmls.engine.kernel import SNAP_DISTANCE, SNAP_RESOLUTION, segment_hit2
 
 H, W = 100, 120
 SIZE = max(H, W)
-SRC_SEGMENTS = np.array([[[30.0, 40.0], [80.0, 52.0]], [[35.0, 60.0], [75.0, 66.0]]])
+SRC_SEGMENTS = np.array([[[30.0, 40.0], [80.0, 52.0]], [[35.0, 52.0], [75.0, 58.0]]])
 DST_SEGMENTS = SRC_SEGMENTS + np.array(
     [[[2.0, -3.0], [-1.0, 4.0]], [[-3.0, 2.0], [1.0, -2.0]]]
-)  # the second segment is 10 px from the first, its target moves otherwise
+)  # the second segment is 7-10 px from the first, its target moves otherwise
 A, B = SRC_SEGMENTS[0]
 U = (B - A) / np.linalg.norm(B - A)
 N = np.array([-U[1], U[0]])
@@ -98,3 +98,17 @@ def test_gpu_follows_the_reference_next_to_a_handle(gl, options, transform):
         f"{f[worst].tolist()}, reference {f_ref[worst].tolist()}, {error[worst]:.2e} px apart "
         f"(float32's resolution moves the reference by {spread[worst]:.2e} px)"
     )
+
+
+def test_segment_snapping_distance_follows_the_pole():
+    """p = 1: float32's resolution only; p = 2: where a handle the extent away weighs 2^-24
+    of the segment; steeper: 1e-3 px; one handle that stays (extent 0): finite, positive."""
+    scale, extent = 60.0, 0.8
+    shepard = glmls.MLSConfig(weight="shepard", radius=200.0)
+    assert segment_hit2(shepard, scale, extent) == (SNAP_RESOLUTION * extent) ** 2
+    d_px = extent * scale
+    expected = 2.0**-24 * 2.0**-1 * d_px**2 / scale  # (2^-24 2^(-p/2) D^p)^(1 / (p - 1))
+    assert np.isclose(segment_hit2(glmls.MLSConfig(s=0.0), scale, extent), expected**2)
+    steep = glmls.MLSConfig(weight="shepard", radius=200.0, interpolating=True)
+    assert segment_hit2(steep, scale, extent) == (SNAP_DISTANCE / scale) ** 2
+    assert 0.0 < segment_hit2(glmls.MLSConfig(), scale, 0.0) < 1e-30
