@@ -88,6 +88,7 @@ from .core.segments import (
     REFERENCE_NODES,
     REFERENCE_PANELS,
     segment_config,
+    segment_pole,
     segments_interpolate,
     sinh_nodes,
 )
@@ -96,6 +97,7 @@ from .core.weights import nearest_apart
 __all__ = [
     "DEGENERATE_SHARE",
     "ON_SEGMENT",
+    "ON_SEGMENT_RESOLUTION",
     "mls",
     "mls_error",
     "segment_geometry",
@@ -199,8 +201,28 @@ def _positive_det(lhs: np.ndarray) -> np.ndarray:
 
 
 #: A point nearer than this (pixels) to a segment whose weight's integral is infinite there is
-#: on it.
+#: on it, where the weight grows like 1 / d^p with p >= 2: the segment weighs ~h^(1-p) at h,
+#: the others' share at most ~1e-9 of theirs at 1 px.
 ON_SEGMENT = 1e-9
+#: With 1 <= p < 2 (shepard, idw with alpha < 1) the segment weighs only ~h^(1-p), or
+#: 2 log(L / h) at p = 1, and f approaches the target as slowly (0.04 px off at 1e-8 px of a
+#: segment next to a handle 4 px away): such a point is on the segment only within float64's
+#: resolution, this share of its distance to the segment's far end.
+ON_SEGMENT_RESOLUTION = 1e-14
+
+
+def _on_segment(config: MLSConfig, geometry: dict[str, np.ndarray]) -> np.ndarray:
+    """(K, S): whether a point is on a segment handle (maps to its target): within
+    :data:`ON_SEGMENT` or :data:`ON_SEGMENT_RESOLUTION` of it, after the pole of the
+    weight; never where the weight's integral along the segment is finite on it
+    (:func:`glmls.core.segments.segments_interpolate`)."""
+    dist2 = geometry["dist2"]
+    if not segments_interpolate(config):
+        return np.zeros(dist2.shape, dtype=bool)
+    if segment_pole(config) >= 2.0:
+        return dist2 <= ON_SEGMENT**2
+    far = np.maximum(np.maximum(np.abs(geometry["x0"]), np.abs(geometry["x1"])), 1.0)
+    return dist2 <= (ON_SEGMENT_RESOLUTION * far) ** 2
 
 
 def segment_geometry(handles: HandleSet, v: np.ndarray) -> dict[str, np.ndarray]:
@@ -325,7 +347,7 @@ def segment_moments(
         x0, x1 = np.clip(x0, -reach, reach), np.clip(x1, -reach, reach)
         width = np.minimum(width, radius)  # type: ignore[call-overload]
     scale = np.maximum(np.abs(x0), np.abs(x1))
-    c = np.maximum(width, 1e-12 * np.maximum(scale, 1.0))
+    c = np.maximum(width, ON_SEGMENT_RESOLUTION * np.maximum(scale, 1.0))
     x, wq = sinh_nodes(x0, x1, c, REFERENCE_PANELS, REFERENCE_NODES)
     k, s, n = x.shape
     d2 = (h2[..., None] + x * x).reshape(k, s * n)
@@ -465,7 +487,7 @@ def mls(
 
     # v on a handle whose weight is infinite there: on a point (w = inf) or a segment
     on_point = np.isinf(w)
-    on_segment = (seg["dist2"] <= ON_SEGMENT**2) & segments_interpolate(config)
+    on_segment = _on_segment(config, seg)
     hit = on_point.any(axis=1) | on_segment.any(axis=1)
     w = np.where(on_point, 0.0, w)  # the hit handle's p^ is 0: it drops out of the moments
     # a hit segment adds only its second moment about the foot (J0 and J1 are infinite or

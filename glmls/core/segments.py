@@ -29,6 +29,7 @@ __all__ = [
     "polyline_segments",
     "segment_config",
     "segment_feet",
+    "segment_pole",
     "segments_interpolate",
     "validate_segments",
 ]
@@ -61,9 +62,22 @@ def segments_interpolate(config: MLSConfig) -> bool:
     >>> segments_interpolate(MLSConfig(s=0.0)), segments_interpolate(MLSConfig(alpha=0.3, s=0.0))
     (True, False)
     """
+    return segment_pole(config) >= 1.0
+
+
+def segment_pole(config: MLSConfig) -> float:
+    """The power p of the weight w ~ 1 / d^p at d = 0 that segment handles take
+    (:func:`segment_config`), times 1 / d^(2 alpha) more where interpolating; 0 where w(0)
+    is finite. Integrated along a segment h away, w gives ~h^(1-p) (p > 1), ~2 log(1 / h)
+    (p = 1) or a finite value (p < 1).
+
+    Examples
+    --------
+    >>> segment_pole(MLSConfig()), segment_pole(MLSConfig(weight="shepard", radius=50.0))
+    (2.0, 1.0)
+    """
     c = segment_config(config)
-    pole = c.weight_entry.pole(c) + (2.0 * c.alpha if c.interpolating else 0.0)
-    return pole >= 1.0
+    return c.weight_entry.pole(c) + (2.0 * c.alpha if c.interpolating else 0.0)
 
 
 def as_segments(segments: object, name: str) -> np.ndarray:

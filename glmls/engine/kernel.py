@@ -21,7 +21,7 @@ import numpy as np
 from ..core.config import MLSConfig, image_diagonal, transform_code
 from ..core.handles import Scaling, pack_handles
 from ..core.handleset import HandleSet
-from ..core.segments import segment_config, segments_interpolate
+from ..core.segments import segment_config, segment_pole, segments_interpolate
 from ..core.weights import GAUSSIAN_CAP, GAUSSIAN_TOLERANCE, RADIUS_WEIGHTS, SUPPORTS
 from ..errors import ReleasedError
 from ..gl.context import GLContext
@@ -42,11 +42,14 @@ __all__ = [
     "DEFAULT_STORAGE",
     "NEWTON_PASSES",
     "SNAP_DISTANCE",
+    "SNAP_RESOLUTION",
     "MLSKernel",
     "check_bins",
     "check_loop_budget",
     "config_defines",
     "handle_extent",
+    "point_pole",
+    "segment_hit2",
     "weight_uniforms",
 ]
 
@@ -59,6 +62,9 @@ SNAP_SHARE = 2.0**-24
 #: The smallest squared snapping distance (scaled): a float32 normal number, so that 1 / m of
 #: the weights' normalisation stays finite.
 SNAP_FLOOR2 = 1e-36
+#: float32's resolution of the scaled coordinates (|x| <= ~1: spacing 2^-24 .. 2^-23), a
+#: few spacings: nearer to a segment, float32's distance to it is its rounding.
+SNAP_RESOLUTION = 2.0**-22
 #: Handle storage unless told otherwise: the uniform block where the handles fit, else the
 #: storage buffer (:doc:`/handles`: the uniform block is the fastest on llvmpipe wherever it
 #: fits; only the storage buffer and the texture take tens of thousands).
@@ -89,10 +95,12 @@ def weight_uniforms(
     alpha = config.alpha
     log2_s = math.log2(config.s) - 2 * alpha * math.log2(scale) if config.s > 0 else -1e30
     # A snapped point leaves out the other handles, whose weights relative to the snapped
-    # one's are (h / d)^(2 alpha) at the snapping distance h, d ~ the handles' extent: with a
-    # small alpha, or handles less than a few units apart, they are not negligible at
-    # h = 1e-3 px (0.25 for alpha = 0.1), so h shrinks until they are.
-    share2 = SNAP_SHARE ** (1 / alpha) * min(extent, 1.0) ** 2
+    # one's are (h / d)^p at the snapping distance h, d ~ the handles' extent, p the pole of
+    # the weight (w ~ 1 / d^p: 2 alpha for idw, 1 for shepard, 2 alpha more interpolating):
+    # with a shallow pole, or handles less than a few units apart, they are not negligible at
+    # h = 1e-3 px (0.25 for alpha = 0.1, 1e-4 for shepard), so h shrinks until they are.
+    pole = point_pole(config)
+    share2 = SNAP_SHARE ** (2 / pole if pole > 0 else 1 / alpha) * min(extent, 1.0) ** 2
     hit2 = max(min((SNAP_DISTANCE / scale) ** 2, share2), SNAP_FLOOR2)
     # idw with a tiny s is infinite at d = 0 for float32: snap there too.
     tiny_s = config.weight_entry.uses_s and log2_s - alpha * math.log2(hit2) < math.log2(1e-6)
@@ -104,6 +112,41 @@ def weight_uniforms(
         "u_snap": config.infinite_at_zero or tiny_s,
         "u_tiny_s": tiny_s,
     }
+
+
+def point_pole(config: MLSConfig) -> float:
+    """The power p of a point handle's weight w ~ 1 / d^p at d = 0 where it snaps: idw's with
+    s = 0 (float32 snaps a tiny s too), times 1 / d^(2 alpha) more where interpolating."""
+    entry = config.weight_entry
+    snapping = replace(config, s=0.0) if entry.uses_s else config
+    return entry.pole(snapping) + (2.0 * config.alpha if config.interpolating else 0.0)
+
+
+def segment_hit2(config: MLSConfig, scale: float, extent: float) -> float:
+    """The squared snapping distance (scaled) of segment handles whose weight, integrated
+    along the segment, is infinite on it (``config`` as segments take it,
+    :func:`~glmls.core.segments.segment_config`), in coordinates scaled by ``scale``, with the
+    handles ``extent`` apart (scaled, :func:`handle_extent`).
+
+    With w ~ 1 / d^p (p > 1), a segment h from v weighs J0 >= 2^(-p/2) h^(1-p) (its
+    integral over an arc h long; segments are longer than that) and a handle D away
+    1 / D^p: their share (h / D)^(p-1) / (2^(-p/2) D) is below float32's 2^-24
+    (:data:`SNAP_SHARE`) within the distance returned (D the extent in pixels), at most
+    :data:`SNAP_DISTANCE`. With p = 1 (shepard, idw with
+    alpha = 1/2) J0 grows only like 2 log(L / h), and no distance makes the others
+    negligible: f approaches the target like 1 / log(1 / h), and only points within
+    :data:`SNAP_RESOLUTION` of the extent (at most 1), float32's resolution of the scaled
+    coordinates of handles that far apart, snap.
+    """
+    pole = segment_pole(config)
+    d_px = min(extent, 1.0) * scale
+    h = 0.0
+    if pole > 1.0 and d_px > 0.0:  # extent 0: one handle, staying where it is
+        log_h = (math.log(SNAP_SHARE) - 0.5 * pole * math.log(2.0) + pole * math.log(d_px)) / (
+            pole - 1.0
+        )
+        h = min(math.exp(min(log_h, 700.0)), SNAP_DISTANCE) / scale
+    return max(max(h, SNAP_RESOLUTION * min(extent, 1.0)) ** 2, SNAP_FLOOR2)
 
 
 def config_defines(
@@ -408,11 +451,11 @@ class MLSKernel:
         radius = c.resolve_radius(shape if shape is not None else self.shape)
         weighting = weight_uniforms(c, scale, radius, extent=self._extent)
         segments = segment_config(c)  # the weight of segment handles
+        # idw's s so small that float32 makes it infinite at d = 0: as s = 0
+        snapping = replace(c, s=0.0) if weighting["u_tiny_s"] else c
         return weighting | {
-            # idw's s so small that float32 makes it infinite at d = 0: as s = 0
-            "u_snap_segments": segments_interpolate(
-                replace(c, s=0.0) if weighting["u_tiny_s"] else c
-            ),
+            "u_snap_segments": segments_interpolate(snapping),
+            "u_hit2_segments": segment_hit2(snapping, scale, self._extent),
             "u_segment_sigma": 1.0 if segments is c else 0.0,
             "u_length_unit": scale,
         }

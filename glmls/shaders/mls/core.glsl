@@ -30,6 +30,11 @@
 // the ridge toward the similarity solution (affine)
 #define MLS_DEGENERATE_SHARE 1e-3
 uniform bool u_snap_segments;   // the same as u_snap for segment handles (glmls.core.segments)
+#if MLS_SEGMENTS
+// the same as u_hit2 for segment handles, after the pole of their weight
+// (glmls.engine.kernel.segment_hit2)
+uniform float u_hit2_segments;
+#endif
 
 struct MLSResult {
     vec2 f;   // f(v), scaled coordinates
@@ -105,6 +110,26 @@ struct MLSNearest {
 #endif
 };
 
+// The squared snapping distance of the nearest handle n.h: a point's, or a segment's.
+float mls_hit2(MLSNearest n) {
+#if MLS_SEGMENTS
+    return n.segment ? u_hit2_segments : u_hit2;
+#else
+    return u_hit2;
+#endif
+}
+
+// Whether v snaps to its nearest handle: its weight is infinite there and v within its
+// snapping distance.
+bool mls_snaps(MLSNearest n) {
+#if MLS_SEGMENTS
+    bool snaps = n.segment ? u_snap_segments : u_snap;
+#else
+    bool snaps = u_snap;
+#endif
+    return snaps && n.d2min <= mls_hit2(n);
+}
+
 MLSNearest mls_nearest_begin() {
     MLSNearest n;
     n.d2min = 3.0e38;
@@ -166,17 +191,12 @@ struct MLSAccum {
 MLSAccum mls_begin(vec2 v, MLSNearest n) {
     MLSAccum a;
     a.v = v;
-#if MLS_SEGMENTS
-    bool snaps = n.segment ? u_snap_segments : u_snap;
-#else
-    bool snaps = u_snap;
-#endif
-    a.hit = snaps && n.d2min <= u_hit2;
+    a.hit = mls_snaps(n);
     a.o = n.h;
     // every handle within the snapping distance (v on a lone segment): no far one to scale
     // the weights by, and m = 3e38 overflowed the segment's J2 (NaN f); 1, the scaled unit
     float far = n.d2far < 1e30 ? n.d2far : 1.0;
-    a.m = mls_normalisation(a.hit ? far : max(n.d2min, u_hit2));
+    a.m = mls_normalisation(a.hit ? far : max(n.d2min, mls_hit2(n)));
     a.inv_m = 1.0 / a.m;
     a.sigma = mls_sigma(a.m);
 #if MLS_WEIGHT_NEXT

@@ -93,7 +93,7 @@ void mls_nearest_add_segment(inout MLSNearest n, MLSSegment seg, vec2 v) {
     n.segment = nearer ? true : n.segment;
     mls_nearest_next(n, d2);
     n.d2min = min(n.d2min, d2);
-    n.d2far = min(n.d2far, d2 > u_hit2 ? d2 : 3.0e38);
+    n.d2far = min(n.d2far, d2 > u_hit2_segments ? d2 : 3.0e38);
 }
 
 float mls_log1p(float y) {
@@ -207,9 +207,9 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
 #endif
     // the peak's width: h, or R where the weight is narrower than that (a gaussian far away)
 #if MLS_SEGMENT_SUPPORT == 0
-    float c = max(view.h, sqrt(u_hit2));
+    float c = max(view.h, sqrt(u_hit2_segments));
 #else
-    float c = max(min(view.h, u_radius), sqrt(u_hit2));
+    float c = max(min(view.h, u_radius), sqrt(u_hit2_segments));
 #endif
 #if MLS_SEGMENT_SUPPORT == 2
     // a segment beyond the foot: the gaussian falls from its near end xs within
@@ -217,7 +217,8 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
     // it, where 8 nodes of a panel about the foot gave p* 0.1 px off): x = xs + c sinh(t)
     // about the near end, of that width
     float xs = clamp(0.0, x0, x1);
-    c = xs != 0.0 ? max(min(c, u_radius * u_radius / (2.0 * abs(xs))), sqrt(u_hit2)) : c;
+    c = xs != 0.0 ? max(min(c, u_radius * u_radius / (2.0 * abs(xs))), sqrt(u_hit2_segments))
+                  : c;
 #else
     const float xs = 0.0;
 #endif
@@ -264,7 +265,7 @@ void mls_accumulate_segment(inout MLSAccum a, MLSSegment seg) {
     MLSSegmentView view = mls_segment_view(seg, a.v);
     vec3 J = mls_segment_integrals(a, view);
     float d2 = view.h2 + view.xc * view.xc;
-    bool snapped = u_snap_segments && d2 <= u_hit2;
+    bool snapped = u_snap_segments && d2 <= u_hit2_segments;
     float J0 = snapped ? 0.0 : J.x;
     float J1 = snapped ? 0.0 : J.y;
     float J2 = J.z;

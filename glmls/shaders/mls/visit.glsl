@@ -71,7 +71,7 @@ bool mls_nearest_certain(MLSNearest near, float side, ivec2 lo, ivec2 hi) {
     if (all(equal(lo, ivec2(0))) && all(equal(hi, u_bin_dims - 1))) {
         return true;
     }
-    bool snapped = u_snap && near.d2min <= u_hit2;
+    bool snapped = mls_snaps(near);
     float side2 = side * side;
     bool certain = near.d2min <= side2 && (!snapped || near.d2far <= side2);
 #if MLS_REACH_GAUSSIAN
@@ -249,7 +249,7 @@ MLSNearest mls_nearest_found(float d2min, float d2next, int nearest, vec2 v, int
 #if MLS_SEGMENTS
     mls_nearest_segments(near, v);
 #endif
-    if (near.d2min <= u_hit2) {
+    if (mls_snaps(near)) {
         // A loop even where the other passes are unrolled: llvmpipe runs a branch's body
         // under a mask whether or not a lane takes it, but leaves a loop as soon as no
         // lane is in it, and lanes rarely snap (64 unrolled slots here cost ~5 % of the
