@@ -77,6 +77,13 @@ def handle_extent(rows: np.ndarray) -> float:
     return float(sides.max()) / 2
 
 
+def _pole_order(config: MLSConfig) -> float:
+    """The least order k of the weight's pole at d = 0 (w ~ d^-k), for the snapping
+    distance: 2 alpha unless the weight's own pole is of lower order (shepard's 1 / d)."""
+    pole = config.weight_entry.pole(config) + (2.0 * config.alpha if config.interpolating else 0.0)
+    return min(2.0 * config.alpha, pole) if pole > 0 else 2.0 * config.alpha
+
+
 def weight_uniforms(
     config: MLSConfig, scale: float, radius: float | None, *, extent: float = 1.0
 ) -> dict[str, float | bool]:
@@ -89,10 +96,13 @@ def weight_uniforms(
     alpha = config.alpha
     log2_s = math.log2(config.s) - 2 * alpha * math.log2(scale) if config.s > 0 else -1e30
     # A snapped point leaves out the other handles, whose weights relative to the snapped
-    # one's are (h / d)^(2 alpha) at the snapping distance h, d ~ the handles' extent: with a
-    # small alpha, or handles less than a few units apart, they are not negligible at
-    # h = 1e-3 px (0.25 for alpha = 0.1), so h shrinks until they are.
-    share2 = SNAP_SHARE ** (1 / alpha) * min(extent, 1.0) ** 2
+    # one's are (h / d)^k at the snapping distance h, d ~ the handles' extent, k the order of
+    # the weight's pole (2 alpha for idw; 1 for shepard, whatever alpha): with a small k, or
+    # handles less than a few units apart, they are not negligible at h = 1e-3 px (0.25 for
+    # alpha = 0.1; shepard's 1e-3 / d per handle moves f by ~1e-3 px), so h shrinks until
+    # they are.
+    order = _pole_order(config)
+    share2 = SNAP_SHARE ** (2 / order) * min(extent, 1.0) ** 2
     hit2 = max(min((SNAP_DISTANCE / scale) ** 2, share2), SNAP_FLOOR2)
     # idw with a tiny s is infinite at d = 0 for float32: snap there too.
     tiny_s = config.weight_entry.uses_s and log2_s - alpha * math.log2(hit2) < math.log2(1e-6)
