@@ -51,7 +51,7 @@ __all__ = [
 ]
 
 #: Points closer than this (pixels) to a handle whose weight is infinite there map to q_i
-#: (closer still for alpha below ~1, see :func:`weight_uniforms`).
+#: (closer still for alpha below ~1 and for shepard, see :func:`weight_uniforms`).
 SNAP_DISTANCE = 1e-3
 #: The largest relative weight that snapping may leave out: (h / d)^(2 alpha) for the snapping
 #: distance h and handles d ~ the scaled extent (1) away, float32's unit roundoff.
