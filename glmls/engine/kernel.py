@@ -77,20 +77,29 @@ def handle_extent(rows: np.ndarray) -> float:
     return float(sides.max()) / 2
 
 
-def _pole_order(config: MLSConfig) -> float:
+def _pole_order(config: MLSConfig, segments: bool) -> float:
     """The least order k of the weight's pole at d = 0 (w ~ d^-k), for the snapping
-    distance: 2 alpha unless the weight's own pole is of lower order (shepard's 1 / d)."""
+    distance: 2 alpha unless the weight's own pole is of lower order (shepard's 1 / d). With
+    segment handles 2 alpha: integrated along a segment, shepard's weight grows only like
+    log(1 / d), so slowly that float32's rounding of a point on the segment (~1e-5 px)
+    would move f by ~0.1 px off its target were it not snapped."""
     pole = config.weight_entry.pole(config) + (2.0 * config.alpha if config.interpolating else 0.0)
-    return min(2.0 * config.alpha, pole) if pole > 0 else 2.0 * config.alpha
+    return min(2.0 * config.alpha, pole) if pole > 0 and not segments else 2.0 * config.alpha
 
 
 def weight_uniforms(
-    config: MLSConfig, scale: float, radius: float | None, *, extent: float = 1.0
+    config: MLSConfig,
+    scale: float,
+    radius: float | None,
+    *,
+    extent: float = 1.0,
+    segments: bool = False,
 ) -> dict[str, float | bool]:
     """The uniforms of ``glmls/shaders/mls/weighting.glsl`` (the weights, in any dimension) for
     ``config`` in coordinates scaled by ``scale``, with influence radius ``radius`` (pixels or
     voxels; None without one); ``extent``: how far apart the handles are, in scaled units
-    (half their box's largest side; 1, the scaled box, by default). ``u_tiny_s`` (no
+    (half their box's largest side; 1, the scaled box, by default); ``segments``: the
+    handles include segments (their snapping distance, :func:`_pole_order`). ``u_tiny_s`` (no
     uniform): idw's s is so small that float32 makes its weight infinite at d = 0, so points
     on a handle snap."""
     alpha = config.alpha
@@ -101,7 +110,7 @@ def weight_uniforms(
     # handles less than a few units apart, they are not negligible at h = 1e-3 px (0.25 for
     # alpha = 0.1; shepard's 1e-3 / d per handle moves f by ~1e-3 px), so h shrinks until
     # they are.
-    order = _pole_order(config)
+    order = _pole_order(config, segments)
     share2 = SNAP_SHARE ** (2 / order) * min(extent, 1.0) ** 2
     hit2 = max(min((SNAP_DISTANCE / scale) ** 2, share2), SNAP_FLOOR2)
     # idw with a tiny s is infinite at d = 0 for float32: snap there too.
@@ -416,7 +425,9 @@ class MLSKernel:
         c = self.config
         scale = self.scaling.scale
         radius = c.resolve_radius(shape if shape is not None else self.shape)
-        weighting = weight_uniforms(c, scale, radius, extent=self._extent)
+        weighting = weight_uniforms(
+            c, scale, radius, extent=self._extent, segments=self.segments > 0
+        )
         segments = segment_config(c)  # the weight of segment handles
         return weighting | {
             # idw's s so small that float32 makes it infinite at d = 0: as s = 0
