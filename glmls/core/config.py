@@ -326,6 +326,19 @@ class MLSConfig:
         """
         return self.interpolating or self.weight_entry.infinite_at_zero(self)
 
+    @property
+    def pole(self) -> float:
+        """The power p of the weight's pole at d = 0, w ~ 1 / d^p (0 where w(0) is finite).
+
+        The registry's ``pole``, times 1 / d^(2 alpha) more where interpolating.
+
+        Examples
+        --------
+        >>> glmls.MLSConfig(s=0.0).pole, glmls.MLSConfig(interpolating=True).pole
+        (2.0, 2.0)
+        """
+        return self.weight_entry.pole(self) + (2.0 * self.alpha if self.interpolating else 0.0)
+
     def resolve_radius(self, shape: tuple[int, int] | None) -> float | None:
         """R in pixels: the given radius, else the diagonal of an image of ``shape``.
 

@@ -76,8 +76,7 @@ def segment_pole(config: MLSConfig) -> float:
     >>> segment_pole(MLSConfig()), segment_pole(MLSConfig(weight="shepard", radius=50.0))
     (2.0, 1.0)
     """
-    c = segment_config(config)
-    return c.weight_entry.pole(c) + (2.0 * c.alpha if c.interpolating else 0.0)
+    return segment_config(config).pole
 
 
 def as_segments(segments: object, name: str) -> np.ndarray:

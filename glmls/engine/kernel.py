@@ -117,9 +117,7 @@ def weight_uniforms(
 def point_pole(config: MLSConfig) -> float:
     """The power p of a point handle's weight w ~ 1 / d^p at d = 0 where it snaps: idw's with
     s = 0 (float32 snaps a tiny s too), times 1 / d^(2 alpha) more where interpolating."""
-    entry = config.weight_entry
-    snapping = replace(config, s=0.0) if entry.uses_s else config
-    return entry.pole(snapping) + (2.0 * config.alpha if config.interpolating else 0.0)
+    return (replace(config, s=0.0) if config.weight_entry.uses_s else config).pole
 
 
 def segment_hit2(config: MLSConfig, scale: float, extent: float) -> float:
