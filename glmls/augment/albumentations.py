@@ -22,7 +22,7 @@ from typing import Any
 import albumentations as A
 import numpy as np
 
-from ..batch.inputs import check_coordinates, check_points
+from ..batch.inputs import check_batch_image, check_coordinates, check_points
 from ..core.config import check_real
 from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks
 from .labels import canvas_shape
@@ -197,6 +197,7 @@ class MLSDeform(A.DualTransform):
         >>> t.apply(image, **draw).shape
         (16, 16)
         """
+        _check_image(img, "image")  # as albumentations names it, not as a batch's item
         return replay_images(self.augment, img[None], [mls])[0]
 
     def apply_to_mask(self, mask: np.ndarray, mls: dict, **params: Any) -> np.ndarray:
@@ -318,3 +319,14 @@ class MLSDeform(A.DualTransform):
         # normalised boxes are fractions: an integer dtype would truncate them to 0 or 1
         floating = np.issubdtype(np.asarray(bboxes).dtype, np.floating)
         return out.astype(bboxes.dtype) if floating else out
+
+
+def _check_image(image: np.ndarray, name: str) -> None:
+    """``ValueError``/``TypeError`` naming ``name`` for an image the batch would refuse (more
+    than 4 channels go through in groups of 4: the first group stands for them)."""
+    array = np.asarray(image)
+    if array.ndim == 3 and array.shape[2] == 0:
+        raise ValueError(f"{name} has shape {array.shape}: no channels")
+    check_batch_image(array[..., :4] if array.ndim == 3 else array, name)
+    if array.dtype.kind == "f" and not np.isfinite(array).all():
+        raise ValueError(f"{name} holds values that are not finite (NaN or inf)")

@@ -494,7 +494,11 @@ def clip_polygon(polygon: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """A polygon clipped to the canvas (Sutherland and Hodgman's algorithm).
 
     The canvas of ``shape`` spans [-0.5, W - 0.5] x [-0.5, H - 0.5]; the result is (0, 2)
-    where nothing of the polygon is on it.
+    where nothing of the polygon is on it, and where what is left of a polygon that encloses
+    an area encloses none (it touches the canvas only along a side or at a corner). No
+    vertex is the same as the one before it (to 1e-9 of the coordinates).
+    A concave polygon that the canvas cuts into several pieces stays one polygon, the
+    pieces joined along the canvas's side.
 
     Parameters
     ----------
@@ -542,4 +546,38 @@ def clip_polygon(polygon: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
             if inside_now:
                 kept.append(current)
         points = kept
-    return np.array(points, np.float64).reshape(-1, 2)
+    return _without_slivers(np.array(points, np.float64).reshape(-1, 2), polygon)
+
+
+def _twice_area(points: np.ndarray) -> float:
+    x, y = points[:, 0], points[:, 1]
+    return float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def _without_slivers(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    """The clipped ``points`` of ``polygon`` without a vertex equal (to 1e-9 of the
+    coordinates) to the one before it (the clipper repeats a vertex on a clipping line), and
+    (0, 2) where they enclose no area but ``polygon`` did: a polygon that touches the canvas
+    only along its side or at a corner is not on it (a polyline given as one stays)."""
+    if len(points) == 0:
+        return points
+    # the crossings of one edge, computed from its two ends, may differ in the last bit
+    close = 1e-9 * max(1.0, float(np.abs(points).max()))
+    repeated = np.all(np.abs(points - np.roll(points, 1, axis=0)) <= close, axis=1)
+    kept = points[~repeated] if not repeated.all() else points[:1]
+    # an area within rounding of the coordinates' squares is none
+    flat = 1e-12 * max(1.0, float(np.abs(points).max())) ** 2
+    if abs(_twice_area(kept)) <= flat and _twice_area(polygon) != 0.0:
+        return points[:0]
+    return kept
+    # the crossings of one edge, computed from its two ends, may differ in the last bit
+    close = 1e-9 * max(1.0, float(np.abs(points).max()))
+    repeated = np.all(np.abs(points - np.roll(points, 1, axis=0)) <= close, axis=1)
+    if repeated.all():  # one point, however often
+        return points[:0]
+    points = points[~repeated]
+    x, y = points[:, 0], points[:, 1]
+    twice_area = np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))
+    if len(points) < 3 or twice_area == 0.0:
+        return points[:0]
+    return points

@@ -13,7 +13,14 @@ from ..core.handles import COORDINATE_LIMIT, validate_handles
 from ..errors import DtypeError
 from ..imaging.source import DTYPES, native_order
 
-__all__ = ["BatchInput", "check_batch", "check_points", "item_array", "stack_or_list"]
+__all__ = [
+    "BatchInput",
+    "check_batch",
+    "check_batch_image",
+    "check_points",
+    "item_array",
+    "stack_or_list",
+]
 
 
 @dataclass(frozen=True)
@@ -91,7 +98,9 @@ def _items(value: object, name: str, item_ndims: tuple[int, ...]) -> tuple[list,
     return [item_array(item, f"{name}[{i}]") for i, item in enumerate(value)], False
 
 
-def _image(array: np.ndarray, name: str) -> np.ndarray:
+def check_batch_image(array: np.ndarray, name: str) -> np.ndarray:
+    """One image of a batch, (H, W) or (H, W, C) with C in 1..4, of a dtype glmls takes and
+    not empty, in native byte order; ``DtypeError``/``ValueError`` naming it ``name``."""
     array = native_order(array)  # big-endian images are their values, as for one warp
     if array.dtype not in DTYPES:
         names = ", ".join(np.dtype(d).name for d in DTYPES)
@@ -202,9 +211,9 @@ def check_batch(
         raise ValueError(f"images is an empty batch (shape {np.shape(images)}): nothing to warp")
     array = images if stacked else None
     if array is not None:  # one shape and dtype: the first image's check is every image's
-        _image(image_list[0], "images[0]")
+        check_batch_image(image_list[0], "images[0]")
     else:
-        image_list = [_image(a, f"images[{i}]") for i, a in enumerate(image_list)]
+        image_list = [check_batch_image(a, f"images[{i}]") for i, a in enumerate(image_list)]
     if not stacked and image_list:
         first = image_list[0]
         stacked = all(a.shape == first.shape and a.dtype == first.dtype for a in image_list)
