@@ -10,12 +10,11 @@ from typing import Protocol
 import numpy as np
 
 from ..core.config import MLSConfig
-from ..core.handles import fit_offset
 from ..core.mesh import as_shape
 from ..gl.context import forked_from_gl
 from ..mls import MLS
 
-__all__ = ["check_deformation", "error_field", "image_deformation", "near_targets"]
+__all__ = ["check_deformation", "error_field", "image_deformation", "target_offset"]
 
 
 class HasErrorField(Protocol):
@@ -88,10 +87,7 @@ def error_field(
     (16, 16)
     """
     check_deformation(m, "error_field")
-    # far targets: the field of f - t (the residuals move with the targets: the same field),
-    # in float32 of a map near its sources
-    with near_targets(m) as (near, _):
-        return near.error_field(shape, grid=grid, tolerance=tolerance)  # type: ignore[attr-defined]
+    return m.error_field(shape, grid=grid, tolerance=tolerance)
 
 
 @contextlib.contextmanager
@@ -122,33 +118,13 @@ def image_deformation(m: object, shape: Sequence[int]) -> Iterator[object]:
         yield warped
 
 
-@contextlib.contextmanager
-def near_targets(m: object) -> Iterator[tuple[object, np.ndarray]]:
-    """``m`` with its targets moved back by a whole-pixel translation t, and t ((2,)
-    float64): for a 2D :class:`glmls.MLS` whose targets lie far from their sources (say every
-    q = p + (1e5, -7e4)), a new MLS of q - t for the duration of the block, whose f - t the
-    GPU evaluates with float32's precision of the sources' box
-    (:func:`~glmls.core.handles.fit_offset`); MLS moves with its targets, so f = (f - t) + t
-    exactly. ``m`` itself and t = 0 otherwise: for other functions, near targets, weights of
-    bounded reach (whose f is the identity beyond the handles, not v + t), 3D handles (whose
-    kernel takes such an offset itself) and in a process forked from one that used GL."""
-    config = getattr(m, "config", None)
-    offset = np.zeros(2)
-    if (
-        isinstance(m, MLS)
-        and isinstance(config, MLSConfig)
-        and m.dimension == 2
-        and config.weight_entry.support == "everywhere"
-        and not forked_from_gl()
-    ):
-        ends = [m.dst, m.dst_segments.reshape(-1, 2)]
-        starts = [m.src, m.src_segments.reshape(-1, 2)]
-        offset = fit_offset(np.concatenate(starts), np.concatenate(ends), m.shape)
-    if not offset.any():
-        yield m, offset
-        return
-    segments = {"src_segments": m.src_segments, "dst_segments": m.dst_segments - offset}
-    with MLS.from_config(
-        m.src, m.dst - offset, config, shape=m.shape, ctx=m.ctx, **segments
-    ) as near:
-        yield near, offset
+def target_offset(m: object) -> np.ndarray:
+    """(2,) float64: the whole-pixel translation of the targets that the GPU kernel of a 2D
+    :class:`glmls.MLS` computes f without, adding it back in float64
+    (:attr:`~glmls.engine.kernel.MLSKernel.offset`, for targets far from their sources): f -
+    offset has the float32 rounding of a map near its sources, which the analyses' flatness
+    tolerances count. Zeros for other functions, 3D handles and in a process forked from one
+    that used GL (whose kernel lives in a helper process)."""
+    if isinstance(m, MLS) and m.dimension == 2 and not forked_from_gl():
+        return np.array(m.kernel.offset, dtype=np.float64)
+    return np.zeros(2)

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..core.mesh import MeshLattice
 from ..mls import MLS
-from .field import check_deformation, near_targets
+from .field import check_deformation, target_offset
 from .volume_lattice import flat_areas
 
 __all__ = ["Foldovers", "folded_cells", "foldovers"]
@@ -118,8 +118,7 @@ def foldovers(m: HasMesh, shape: object, *, grid: int = 1) -> Foldovers:
     lattice = MeshLattice.corners(shape, grid)  # validates shape and grid
     # far targets: the folds of f - t (a whole-pixel t; the same cells, as f - t turns the
     # same triangles), whose float32 rounding is that of a map near its sources
-    with near_targets(m) as (near, _):
-        _, deformed = near.mesh(lattice.shape, grid=lattice.grid)  # type: ignore[attr-defined]
+    _, deformed = m.mesh(lattice.shape, grid=lattice.grid)
     rounding = np.finfo(np.float32 if isinstance(m, MLS) else np.float64).eps  # the GPU's
-    folded = folded_cells(deformed, rounding=float(rounding))
+    folded = folded_cells(deformed - target_offset(m), rounding=float(rounding))
     return Foldovers(int(folded.sum()), lattice.cell_mask(folded))

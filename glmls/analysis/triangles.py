@@ -25,7 +25,7 @@ import numpy as np
 from ..core.config import check_choice, check_real
 from ..core.handles import check_coordinates, check_reference_points
 from ..mls import MLS
-from .field import near_targets
+from .field import target_offset
 from .stats import error_stats
 from .volume_lattice import flat_areas, real_values
 
@@ -320,11 +320,10 @@ def triangle_errors(
     measure = check_angle_measure(angle)
     eps = check_eps(eps)
     r, simplices = delaunay(reference_points)
+    deformed = deformed_points(m, r)
     # far targets: the errors of f - t (a whole-pixel t; translations change none of them),
     # whose float32 rounding, which the flatness counts, is that of a map near its sources
-    with near_targets(m) as (near, offset):
-        near_deformed = deformed_points(near, r)  # type: ignore[arg-type]
-    deformed = near_deformed + offset
+    near_deformed = deformed - target_offset(m)
     rounding = np.finfo(np.float32 if isinstance(m, MLS) else np.float64).eps  # the GPU's
     distance, errors, flipped = triangle_errors_from_points(
         *unit_scaled(r, near_deformed),
