@@ -1,15 +1,18 @@
 """glmls: image deformation by Moving Least Squares on the GPU, with error analysis.
 
-Conventions: points are ``(x, y)`` = (column, row) float arrays of shape (N, 2); pixel centres
-sit at integer coordinates; f(v) = v M + T with row vectors.
+Conventions: points are ``(x, y)`` = (column, row) float arrays of shape (N, 2) (in 3D
+``(x, y, z)`` = (column, row, slice), (N, 3)); pixel (voxel) centres sit at integer
+coordinates; f(v) = v M + T with row vectors.
 
 The top level holds what a user calls: :class:`MLS` (and its :class:`InverseMLS`) and
 :func:`warp` (and :func:`warp_batch`), their configuration and :class:`WarpOptions`, the
 handle types, image, volume and mesh files, the bundled data, the exceptions and the names of
 the choices. The numerical analysis lives in :mod:`glmls.analysis`, random deformations for
-data augmentation in :mod:`glmls.augment`, the OpenGL plumbing (contexts, the
-warp pipeline) in :mod:`glmls.gl`, the float64 reference of the mathematics in
-:mod:`glmls.reference`.
+data augmentation in :mod:`glmls.augment`, the OpenGL plumbing (contexts, the warp pipeline)
+in :mod:`glmls.gl`, the float64 reference of the mathematics in :mod:`glmls.reference`, the
+volume warps and their options in :mod:`glmls.volume`, handle files and the other file
+formats in :mod:`glmls.files`, the bundled examples in :mod:`glmls.data` and the real-time
+windows in :mod:`glmls.app`.
 """
 
 from . import (
