@@ -352,7 +352,12 @@ def _finish(
         shown = (coords_all, covered_all)
         warper, mls_options = swap
         canvas = (frame, options)
-        moved_all, valid_all = swapped_keypoints(warper, batch, chunk, mls_options, canvas, shown)
+        passes = (
+            (quads.ctx, quads.resources, lattices) if isinstance(lattices, BatchLattices) else None
+        )
+        moved_all, valid_all = swapped_keypoints(
+            warper, batch, chunk, mls_options, canvas, shown, passes
+        )
     elif backward and keypoints is not None:
         shown = (coords_all, covered_all)
         moved_all, valid_all = keypoints_by_f(

@@ -3,8 +3,9 @@ MLS map with p and q exchanged) at every output pixel of every image in ONE disp
 ``warp/inverse.comp.glsl`` (``WARP_SWAP`` with ``MLS_BATCH``) into the atlas of maps, ONE
 draw of ``batch/backward.frag.glsl`` sampling the sources there (a second for the masks),
 ONE read-back. As the single path, no mesh and no Newton: each image equals its
-:func:`glmls.warp`, bit for bit. Keypoints move per image, by s's inverse, as the single
-path moves them (:meth:`~glmls.batch.single.SingleWarper.move`)."""
+:func:`glmls.warp`, bit for bit. Keypoints move by s's inverse, as the single path moves
+them (:meth:`~glmls.batch.single.SingleWarper.move`), for every image of the chunk in a few
+dispatches (:mod:`glmls.batch.preimages`; the images it leaves, image by image)."""
 
 from __future__ import annotations
 
@@ -21,8 +22,9 @@ from ..imaging.source import BORDERS, SourceImage
 from ..mls import MLS
 from .gpu import BatchQuads
 from .inputs import BatchInput
-from .labels import visible
-from .single import SingleWarper
+from .labels import on_canvas, visible
+from .preimages import lone_images, swapped_preimages
+from .single import SingleWarper, in_domain
 
 __all__ = ["swapped_keypoints", "swapped_lattices", "warp_swapped"]
 
@@ -86,21 +88,87 @@ def swapped_keypoints(
     mls_options: dict,
     canvas: tuple[Frame, WarpOptions],
     shown: tuple[np.ndarray, np.ndarray],
+    passes: tuple | None = None,
 ) -> tuple[list[np.ndarray], list[np.ndarray]]:
-    """The ``backward-swap`` chunk's keypoints moved by s's inverse, image by image as the
-    single path moves them (each image's own :class:`~glmls.MLS` of ``mls_options``), each
-    valid where the chunk's maps ``shown`` ((N, H, W, 2) source points, (N, H, W) covered)
-    show it: two lists of the images' (P_i, 2) points and (P_i,) flags. ``canvas``: the
-    frame and the options."""
+    """The ``backward-swap`` chunk's keypoints moved by s's inverse, as the single path moves
+    them, each valid where the chunk's maps ``shown`` ((N, H, W, 2) source points, (N, H, W)
+    covered) show it: two lists of the images' (P_i, 2) points and (P_i,) flags. ``canvas``:
+    the frame and the options. ``passes``: the context, its resources and the chunk's
+    :func:`swapped_lattices`, which move every image's keypoints in a few dispatches
+    (:func:`~glmls.batch.preimages.swapped_preimages`); the images that it leaves (a fold of
+    s, a compact weight, far targets; or every image, without ``passes``) move image by
+    image, each by its own :class:`~glmls.MLS` of ``mls_options``."""
     frame, options = canvas
     shape = batch.images[chunk[0]].shape[:2]
     origin = np.asarray(frame.origin)
-    moved, valid = [], []
+    points = [batch.keypoints[i] for i in chunk]  # type: ignore[index]
+    found = _batched(batch, chunk, mls_options, shape, points, passes)
+    moved, jacobians, insides = [], [], []
     for k, i in enumerate(chunk):
-        points = batch.keypoints[i]  # type: ignore[index]
-        with MLS(batch.src[i], batch.dst[i], shape=shape, **mls_options) as mls:
-            out, jacobian, inside = warper.move(mls, shape, options, frame, points)
-        out = out - origin
-        moved.append(out)
-        valid.append(visible(points, out, jacobian, shown[0][k], shown[1][k], inside))
-    return moved, valid
+        if found[k] is None:
+            with MLS(batch.src[i], batch.dst[i], shape=shape, **mls_options) as mls:
+                out, jacobian, inside = warper.move(mls, shape, options, frame, points[k])
+        else:
+            out, jacobian = found[k]  # type: ignore[misc]
+            inside = in_domain(points[k], shape, options.border)
+        moved.append(out - origin)
+        jacobians.append(jacobian)
+        insides.append(inside)
+    return moved, _visible(points, moved, jacobians, shown, insides)
+
+
+def _visible(points, moved, jacobians, shown, insides) -> list[np.ndarray]:
+    """:func:`~glmls.batch.labels.visible` of each image of the chunk (``shown``: its maps,
+    (N, H, W, 2) and (N, H, W)), in one call over the maps stacked as one tall canvas: each
+    image's points on its own canvas (the rest are not visible) moved down to its maps."""
+    sizes = [len(p) for p in points]
+    if not sum(sizes):
+        return [np.zeros(0, bool) for _ in sizes]
+    count, height, width = shown[1].shape
+    out = np.concatenate(moved)
+    inside = np.concatenate(insides) & on_canvas(out, (height, width))
+    shift = np.zeros_like(out)
+    shift[:, 1] = np.repeat(np.arange(count) * height, sizes)
+    coords = shown[0].reshape(count * height, width, 2)
+    covered = shown[1].reshape(count * height, width)
+    jacobian = np.concatenate(jacobians)
+    ok = visible(np.concatenate(points), out + shift, jacobian, coords, covered, inside)
+    return np.split(ok, np.cumsum(sizes)[:-1])
+
+
+def _batched(batch, chunk, mls_options, shape, points, passes) -> list:
+    """:func:`~glmls.batch.preimages.swapped_preimages` of the chunk, None for each image it
+    leaves to the single path (all, without ``passes`` or where the images' own handles
+    fail :class:`BatchLattices`'s checks)."""
+    alone: list = [None] * len(chunk)
+    if passes is None or not any(len(p) for p in points):
+        return alone
+    gl, resources, lattices = passes
+    src, dst = [batch.src[i] for i in chunk], [batch.dst[i] for i in chunk]
+    config = lattices.config
+    lone = lone_images(config, src, dst, shape)
+    if lone.all():
+        return alone
+    try:
+        forward = BatchLattices(config, src, dst, shape)
+    except ValueError:  # a p the checks refuse: its chunk's keypoints move as one warp's
+        return alone
+    taken = np.flatnonzero(~lone).tolist()
+
+    def chosen(images: list[int], swapped: bool) -> BatchLattices:
+        ps, qs = [src[taken[k]] for k in images], [dst[taken[k]] for k in images]
+        return (
+            BatchLattices(config, qs, ps, shape)
+            if swapped
+            else BatchLattices(config, ps, qs, shape)
+        )
+
+    if len(taken) < len(chunk):
+        lattices, forward = (
+            chosen(list(range(len(taken))), True),
+            chosen(list(range(len(taken))), False),
+        )
+    found = swapped_preimages(gl, resources, lattices, forward, [points[k] for k in taken], chosen)
+    for k, result in zip(taken, found, strict=True):
+        alone[k] = result
+    return alone

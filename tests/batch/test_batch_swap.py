@@ -1,7 +1,8 @@
 """``backward-swap`` runs on the batched GPU path: the swapped-handles map of every image of a
 chunk in one dispatch, one draw sampling the sources, one read-back; images, masks and maps
 equal to one :func:`glmls.warp` (and :meth:`glmls.MLS.coordinate_map`) per image, bit for
-bit, and keypoints to the single path's."""
+bit, and keypoints to the single path's within float32's rounding and Newton's stopping
+(tests/batch/test_swap_keypoints.py)."""
 
 from __future__ import annotations
 
@@ -21,6 +22,8 @@ SHAPE = (20, 24)
 COUNTS = (3, 6, 4, 17, 6)  # ragged: two unrollings of the handle loop
 N = len(COUNTS)
 FIELDS = ("images", "masks", "maps", "valid", "keypoints", "keypoints_valid")
+#: Pixels: a batch's swap keypoints against one warp's (float32 rounding, Newton's stopping).
+KEYPOINT_ATOL = 1e-3
 
 
 def handles(rng, counts=COUNTS, spread=2.0):
@@ -125,7 +128,10 @@ def test_backward_swap_runs_batched_as_single_warps(
         assert len(got_all) == len(want_all)
         for got, want in zip(got_all, want_all, strict=True):
             assert got.dtype == want.dtype, name
-            np.testing.assert_array_equal(got, want, err_msg=name)
+            if name == "keypoints":  # Newton on s stops elsewhere within its 1e-4 px
+                np.testing.assert_allclose(got, want, rtol=0, atol=KEYPOINT_ATOL, err_msg=name)
+            else:
+                np.testing.assert_array_equal(got, want, err_msg=name)
     assert [len(k) for k in result.keypoints] == [len(p) for p in points]
 
 

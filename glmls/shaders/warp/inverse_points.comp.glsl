@@ -14,18 +14,38 @@
 // accepted (listed on the host, which reads the first's results anyway): inverse_out holds
 // the first's results for them, improved in place by damped Newton from the first's point
 // and from u (warp_rescue), as the backward method's second pass.
+//
+// MLS_BATCH 1 (mls/batch.glsl): many images' points in one dispatch, work group row y on
+// one image (its handles, scaling and weights from the image table), its points and results
+// from image * u_batch_stride on. No guess texture: each point brings its first guess (the
+// host's, scaled) and its image's length unit (u_newton_unit), and u_tolerance is a share
+// of that unit.
 #ifndef WARP_RESCUE
 #define WARP_RESCUE 0
 #endif
 layout(local_size_x = LOCAL_SIZE) in;
 
+#include "mls/batch.glsl"
+#if MLS_BATCH
+#define WARP_UNIT_VARIES 1
+#endif
 #include "mls/visit.glsl"
 #include "warp/frame.glsl"
 #include "warp/newton.glsl"
 
+#if MLS_BATCH  // the image table takes BIND_POINTS
+struct InversePoint {
+    vec4 point;   // u, the first guess: scaled
+    vec4 unit;    // the image's length unit (glmls.imaging.inverse.length_unit), 0, 0, 0
+};
+layout(std430, binding = BIND_BATCH_POINTS) readonly buffer InversePoints {
+    InversePoint inverse_points[];
+};
+#else
 layout(std430, binding = BIND_POINTS) readonly buffer InversePoints {
     vec2 inverse_points[];   // u, scaled
 };
+#endif
 #if WARP_RESCUE
 layout(std430, binding = BIND_DEFORMED) buffer InverseOut {
 #else
@@ -33,7 +53,9 @@ layout(std430, binding = BIND_DEFORMED) writeonly buffer InverseOut {
 #endif
     vec4 inverse_out[];
 };
+#if !MLS_BATCH
 layout(binding = BIND_COORDS) uniform sampler2D u_guess;   // (s.x, s.y pixels, covered, 0)
+#endif
 
 uniform ivec2 u_target_size;   // W, H of the canvas, pixels
 uniform ivec2 u_guess_size;    // W, H of u_guess, texels
@@ -42,25 +64,62 @@ uniform int u_offset;
 uniform float u_tolerance;     // stop below this residual, pixels
 uniform float u_max_step;      // the longest Newton step, scaled: longer with coarse texels
 
+#if MLS_BATCH
+int inverse_base;   // the work group's image's first item
+
+// Take the work group's image: its row of the image table, its items' place and length unit.
+void inverse_begin() {
+    mls_batch_begin(int(gl_WorkGroupID.y));
+    inverse_base = mls_batch_image_index * u_batch_stride;
+    u_newton_unit = inverse_points[inverse_base].unit.x;
+}
+
+vec2 inverse_point(int j) {
+    return inverse_points[inverse_base + j].point.xy;
+}
+#else
+const int inverse_base = 0;
+
+void inverse_begin() {
+}
+
+vec2 inverse_point(int j) {
+    return inverse_points[j];
+}
+#endif
+
 #if WARP_RESCUE
 void main() {
+    inverse_begin();
     int i = u_offset + int(gl_GlobalInvocationID.x);
     int j = min(i, max(u_count - 1, 0));
-    vec2 u = inverse_points[j];
-    vec4 found = inverse_out[j];
+    vec2 u = inverse_point(j);
+    vec4 found = inverse_out[inverse_base + j];
     vec2 s = found.xy;
     float residual = found.z / u_scale;
-    warp_rescue(u, u_tolerance / u_scale, found.w > 0.5 ? u_max_step : 1e30, s, residual);
+#if MLS_BATCH
+    float tolerance = u_tolerance * u_newton_unit;
+#else
+    float tolerance = u_tolerance;
+#endif
+    warp_rescue(u, tolerance / u_scale, found.w > 0.5 ? u_max_step : 1e30, s, residual);
     if (i < u_count) {
-        inverse_out[i] = vec4(s, residual * u_scale, found.w);
+        inverse_out[inverse_base + i] = vec4(s, residual * u_scale, found.w);
     }
 }
 #else
 void main() {
     // No early return past the end (as mls/points.comp.glsl): those invocations redo the
     // last point, unstored.
+    inverse_begin();
     int i = u_offset + int(gl_GlobalInvocationID.x);
-    vec2 u = inverse_points[min(i, max(u_count - 1, 0))];
+    int j = min(i, max(u_count - 1, 0));
+    vec2 u = inverse_point(j);
+#if MLS_BATCH
+    vec4 guess = vec4(inverse_points[inverse_base + j].point.zw, 1.0, 0.0);
+    float tolerance = u_tolerance * u_newton_unit;
+#else
+    float tolerance = u_tolerance;
     vec2 at = (warp_output_point(u) + 0.5) * vec2(u_guess_size) / vec2(u_target_size);
     ivec2 texel = clamp(ivec2(floor(at)), ivec2(0), u_guess_size - 1);
     vec4 guess = texelFetch(u_guess, texel, 0);
@@ -81,22 +140,24 @@ void main() {
             }
         }
     }
+#endif
     bool guessed = guess.z > 0.5;
-    vec2 s = guessed ? (guess.xy - u_center) / u_scale : u;
+    vec2 s = guessed ? (MLS_BATCH != 0 ? guess.xy : (guess.xy - u_center) / u_scale) : u;
     float residual;
     // Without a guess (u beyond the mesh's reach: where f is close to its far-field affine
     // map) Newton's steps are not bounded: any point it ends at within the tolerance is a
     // preimage.
-    s = warp_newton(s, u, u_tolerance / u_scale, guessed ? u_max_step : 1e30, residual);
+    s = warp_newton(s, u, tolerance / u_scale, guessed ? u_max_step : 1e30, residual);
     // Where f leaves u in place (every handle in reach stays: f - v exactly 0), u is its
     // preimage exactly, where the guess's texels carry float32 noise that could move a point
     // on the canvas's edge off it; tested only where Newton ended within its tolerance of u.
-    bool identity = length(s - u) * u_scale <= u_tolerance &&
+    bool identity = length(s - u) * u_scale <= tolerance &&
                     all(equal(mls_eval(u).d, vec2(0.0)));
     s = identity ? u : s;
     residual = identity ? 0.0 : residual;
     if (i < u_count) {
-        inverse_out[i] = vec4(s, residual * u_scale, identity ? 2.0 : (guessed ? 1.0 : 0.0));
+        inverse_out[inverse_base + i] =
+            vec4(s, residual * u_scale, identity ? 2.0 : (guessed ? 1.0 : 0.0));
     }
 }
 #endif

@@ -6,8 +6,16 @@
 // The length (pixels) of which the differences' steps are the fixed shares: 1 for an image's
 // pixels, less for f's inverse at points with handles in a small box
 // (glmls.imaging.inverse.length_unit), so that handles in metres get the inverse that the
-// same handles in millimetres do.
+// same handles in millimetres do. WARP_UNIT_VARIES 1: a pass over many images sets it per
+// image (a global, not a uniform).
+#ifndef WARP_UNIT_VARIES
+#define WARP_UNIT_VARIES 0
+#endif
+#if WARP_UNIT_VARIES
+float u_newton_unit = 1.0;   // the pass sets it before any Newton step
+#else
 uniform float u_newton_unit;
+#endif
 
 // The residual (scaled) up to which s counts as a preimage of u (scaled): ``accept`` (pixels),
 // or ``steps`` float32 steps of the larger coordinate of u and s where that is more: far from
