@@ -12,6 +12,7 @@ import pytest
 
 import glmls
 import glmls.batch.run
+import glmls.batch.swap
 from glmls import reference
 from glmls.batch import preimages
 from glmls.batch.single import SingleWarper
@@ -260,3 +261,18 @@ def test_points_newton_leaves_take_the_second_dispatch(gl, rng, monkeypatch):
     got = swap(batch, src, dst, keypoints=points)
     assert dispatches == [False, True] and moves == []
     assert_close(got, single(monkeypatch, batch, src, dst, keypoints=points))
+
+
+def test_images_left_alone_leave_the_others_batched(gl, rng, monkeypatch):
+    """Where some images of a chunk move their keypoints image by image (here: as if their
+    swapped handles needed the far-target translation), those equal the single path's bit
+    for bit and the others take the passes of the remaining images alone."""
+    batch = images(rng, np.uint8, 5)
+    src, dst = handles(rng, 5)
+    points = keypoints(rng, 5)
+    lone = np.array([True, False, False, True, False])
+    monkeypatch.setattr(glmls.batch.swap, "lone_images", lambda *args: lone)
+    moves = alone_moves(monkeypatch)
+    got = swap(batch, src, dst, keypoints=points)
+    assert moves == [9 * len(points[i]) for i in np.flatnonzero(lone)]
+    assert_close(got, single(monkeypatch, batch, src, dst, keypoints=points), exact=(0, 3))
