@@ -16,6 +16,7 @@ import glmls.batch.swap
 from glmls import reference
 from glmls.batch import preimages
 from glmls.batch.single import SingleWarper
+from glmls.imaging.inverse import length_unit
 from glmls.mls import InverseMLS
 
 SHAPE = (40, 56)
@@ -276,3 +277,31 @@ def test_images_left_alone_leave_the_others_batched(gl, rng, monkeypatch):
     got = swap(batch, src, dst, keypoints=points)
     assert moves == [9 * len(points[i]) for i in np.flatnonzero(lone)]
     assert_close(got, single(monkeypatch, batch, src, dst, keypoints=points), exact=(0, 3))
+
+
+def test_small_images_take_their_length_unit(gl, rng, monkeypatch):
+    """Images whose box is under 32 px: Newton's steps and tolerance are shares of a length
+    unit below a pixel (:func:`glmls.imaging.inverse.length_unit`), each image its own."""
+    shape = (10, 14)
+    count = 4
+    batch = rng.integers(0, 255, (count, *shape), dtype=np.uint8)
+    corners = np.array([[2.0, 2.0], [11.0, 2.0], [2.0, 7.0], [11.0, 7.0]])
+    src = [corners[: 3 + k % 2] + rng.uniform(-0.5, 0.5, (3 + k % 2, 2)) for k in range(count)]
+    dst = [p + rng.normal(0, 0.3, p.shape) for p in src]
+    points = [rng.uniform((-1, -1), (14, 10), (k, 2)) for k in (3, 6, 2, 5)]
+    units = []
+    found = preimages._units
+
+    def seen(lattices):
+        values = found(lattices)
+        units.append(values)
+        return values
+
+    monkeypatch.setattr(preimages, "_units", seen)
+    moves = alone_moves(monkeypatch)
+    got = swap(batch, src, dst, keypoints=points)
+    assert moves == [] and (units[0] < 1).all()
+    for i in range(count):  # the unit of the swapped MLS's own inverse
+        with glmls.MLS(dst[i], src[i], shape=shape) as swapped:
+            assert units[0][i] == pytest.approx(length_unit(swapped.kernel), rel=1e-12)
+    assert_close(got, single(monkeypatch, batch, src, dst, keypoints=points))
