@@ -176,12 +176,13 @@ class MLS3(MLS):
 
     def _store3(self, p: np.ndarray, q: np.ndarray) -> None:
         if not forked_from_gl():  # there the helper's MLS takes them
-            # far targets' common translation stays out of float32 (fit_offset3); not for a
-            # weight of bounded reach, whose f is the identity, not v + t, beyond the handles
-            offset = (
-                np.zeros(3)
-                if self.config.weight_entry.support == "radius"
-                else fit_offset3(p, q, self.shape, self.spacing)  # type: ignore[arg-type]
+            # far targets' common translation stays out of float32
+            offset = fit_offset3(
+                p,
+                q,
+                self.shape,  # type: ignore[arg-type]
+                self.spacing,  # type: ignore[arg-type]
+                bounded=self.config.weight_entry.support == "radius",
             )
             near = q - offset
             scaling = fit_scaling3(p, near, self.shape, self.spacing)  # type: ignore[arg-type]

@@ -10,6 +10,7 @@ from typing import Protocol
 import numpy as np
 
 from ..core.config import MLSConfig
+from ..core.handleset import HandleSet
 from ..core.mesh import as_shape
 from ..gl.context import forked_from_gl
 from ..mls import MLS
@@ -123,8 +124,13 @@ def target_offset(m: object) -> np.ndarray:
     :class:`glmls.MLS` computes f without, adding it back in float64
     (:attr:`~glmls.engine.kernel.MLSKernel.offset`, for targets far from their sources): f -
     offset has the float32 rounding of a map near its sources, which the analyses' flatness
-    tolerances count. Zeros for other functions, 3D handles and in a process forked from one
-    that used GL (whose kernel lives in a helper process)."""
-    if isinstance(m, MLS) and m.dimension == 2 and not forked_from_gl():
+    tolerances count. Zeros for other functions and 3D handles. In a process forked from one
+    that used GL, whose kernel lives in a helper process, the same rule on the same handles
+    (:meth:`~glmls.core.handleset.HandleSet.near_targets`)."""
+    if not isinstance(m, MLS) or m.dimension != 2:
+        return np.zeros(2)
+    if not forked_from_gl():
         return np.array(m.kernel.offset, dtype=np.float64)
-    return np.zeros(2)
+    handles = HandleSet.validate(m.src, m.dst, m.src_segments, m.dst_segments)
+    bounded = m.config.weight_entry.support == "radius"
+    return np.array(handles.near_targets(m.shape, bounded=bounded)[1], dtype=np.float64)

@@ -18,9 +18,11 @@ import numpy as np
 from .. import reference
 from ..core.config import MLSConfig, config_or_options
 from ..core.handles import point_rows
-from ..core.handles3 import as_volume_spacing, checked_extent, volume_extent
+from ..core.handles3 import as_volume_spacing, checked_extent, fit_offset3, volume_extent
 from ..engine.kernel3 import MLSKernel3
 from ..engine.passes3 import evaluate_points3
+from ..gl.context import forked_from_gl
+from ..mls import MLS
 from .volume_lattice import (
     CHUNK,
     as_points3,
@@ -243,7 +245,7 @@ def precision(m: object) -> float:
     """The rounding of f as ``m`` computes it: float32's epsilon for the GPU kernel of a
     :class:`glmls.MLS` (its displacements are float32), float64's for the reference and
     other functions."""
-    gpu = isinstance(m, KernelDeformation) or isinstance(getattr(m, "kernel", None), MLSKernel3)
+    gpu = isinstance(m, KernelDeformation) or (isinstance(m, MLS) and m.dimension == 3)
     return float(np.finfo(np.float32 if gpu else np.float64).eps)
 
 
@@ -252,11 +254,17 @@ def target_offset(m: object) -> np.ndarray:
     :class:`glmls.MLS` computes f without, adding it back in float64
     (:attr:`~glmls.engine.kernel3.MLSKernel3.offset`, for targets far from their sources):
     f - offset has the float32 rounding of a map near its sources, which the analyses'
-    flatness tolerances count. Zeros for the float64 reference and other functions."""
-    kernel = m._kernel if isinstance(m, KernelDeformation) else getattr(m, "kernel", None)
-    if isinstance(kernel, MLSKernel3):
-        return np.array(kernel.offset, dtype=np.float64)
-    return np.zeros(3)
+    flatness tolerances count. Zeros for the float64 reference and other functions. In a
+    process forked from one that used GL, whose kernel lives in a helper process, the same
+    rule on the same handles (:func:`~glmls.core.handles3.fit_offset3`)."""
+    if isinstance(m, KernelDeformation):
+        return np.array(m._kernel.offset, dtype=np.float64)
+    if not isinstance(m, MLS) or m.dimension != 3:
+        return np.zeros(3)
+    if not forked_from_gl():
+        return np.array(m.kernel.offset, dtype=np.float64)
+    bounded = m.config.weight_entry.support == "radius"
+    return fit_offset3(m.src, m.dst, m.shape, m.spacing, bounded=bounded)
 
 
 def volume_deformation(m: Deformation3D, shape: Sequence[int], spacing: object) -> Deformation3D:
@@ -280,10 +288,11 @@ def volume_deformation(m: Deformation3D, shape: Sequence[int], spacing: object) 
         return m
     if isinstance(m, ReferenceDeformation):
         return ReferenceDeformation(m.src, m.dst, config, shape=dims, spacing=steps)
-    kernel = getattr(m, "kernel", None)
-    if isinstance(kernel, MLSKernel3):
-        return KernelDeformation(m, kernel, extent)
-    return m
+    if not isinstance(m, MLS):
+        return m
+    if forked_from_gl():  # the kernel lives in the helper process: an MLS for the volume
+        return MLS.from_config(m.src, m.dst, config, shape=dims, spacing=steps)
+    return KernelDeformation(m, m.kernel, extent)
 
 
 #: Up to this many handles E_MLS is summed handle by handle (as fast as the moments).

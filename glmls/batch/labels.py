@@ -22,6 +22,7 @@ __all__ = [
     "mesh_map",
     "on_canvas",
     "visible",
+    "visible_chunk",
 ]
 
 
@@ -92,8 +93,45 @@ def visible(
     centre should show (else another part of the image folds over it). ``drawn``: ``coords``
     are the source pixels (centres) that a forward fill drew, not the source points of the
     output pixels' centres: the test allows the half pixel's diagonal more, through the
-    local map."""
-    height, width = covered.shape
+    local map. One image's :func:`visible_chunk`."""
+    images = np.zeros(len(points), np.int64)
+    return visible_chunk(
+        points, images, out, jacobian, coords[None], covered[None], inside, drawn=drawn
+    )
+
+
+#: The least ratio of a Jacobian's singular values, and the range of its singular values,
+#: where :func:`visible_chunk` inverts it in closed form: both that and the SVD behind
+#: ``np.linalg.pinv`` then lie within about 1e-9 of the inverse (relative to its norm), and
+#: the pseudo-inverse is the inverse (it drops singular values below 1e-15 of the largest).
+_CONDITION = 1e-6
+_RANGE = (1e-100, 1e100)
+#: Relative and absolute (per unit of the inverse's norm) margins of the closed form's
+#: distances and thresholds about which :func:`visible_chunk` takes the pseudo-inverse too:
+#: far above both computations' rounding, so that each flag is the pseudo-inverse's.
+_MARGIN = (1e-8, 1e-6)
+
+
+def visible_chunk(
+    points: np.ndarray,
+    images: np.ndarray,
+    out: np.ndarray,
+    jacobian: np.ndarray,
+    coords: np.ndarray,
+    covered: np.ndarray,
+    inside: np.ndarray,
+    *,
+    drawn: bool = False,
+) -> np.ndarray:
+    """:func:`visible` for the keypoints of a chunk of images at once: ``points``, ``out``
+    (P, 2), ``jacobian`` (P, 2, 2) and ``inside`` (P,) of every image, ``images`` (P,) the
+    image of each, ``coords`` (N, H, W, 2) and ``covered`` (N, H, W) the images' canvases.
+    The local map's inverse is the Jacobian's pseudo-inverse (``np.linalg.pinv``): in
+    closed form where the Jacobian is well conditioned, by the pseudo-inverse itself where
+    it is nearly singular or where a distance lies within rounding of its threshold, so
+    every flag is the pseudo-inverse's. A Jacobian with a NaN or infinite entry, or one the
+    SVD does not resolve, shows nothing."""
+    height, width = covered.shape[1:]
     pixel = np.rint(out)
     on = inside & on_canvas(out, (height, width))
     ok = np.zeros(len(points), bool)
@@ -102,17 +140,62 @@ def visible(
     idx = np.flatnonzero(on)
     col = pixel[idx, 0].astype(np.int64).clip(0, width - 1)
     row = pixel[idx, 1].astype(np.int64).clip(0, height - 1)
-    shown = coords[row, col].astype(np.float64)
+    image = images[idx]
+    keep = covered[image, row, col]  # an uncovered pixel shows no keypoint
+    idx, col, row, image = idx[keep], col[keep], row[keep], image[keep]
+    if not len(idx):
+        return ok
+    shown = coords[image, row, col].astype(np.float64)
     step = pixel[idx] - out[idx]
+    (a, b), (c, d) = jacobian[idx, 0].T, jacobian[idx, 1].T
     with np.errstate(all="ignore"):
-        inverse = np.linalg.pinv(jacobian[idx])  # (k, 2, 2): rows d/du
-    expected = points[idx] + np.einsum("ki,kij->kj", step, inverse)
-    reach = np.linalg.norm(step, axis=1) * np.linalg.norm(inverse, ord=2, axis=(1, 2))
-    spread = np.linalg.norm(inverse, ord=2, axis=(1, 2))
-    slack = SLACK + (np.sqrt(0.5) * np.maximum(spread, 1.0) if drawn else 0.0)
-    near = np.linalg.norm(shown - expected, axis=1) <= slack + 0.5 * reach
-    ok[idx] = covered[row, col] & near
+        # J's singular values in closed form: half the sum and difference of two lengths
+        largest = 0.5 * (
+            np.sqrt((a + d) ** 2 + (b - c) ** 2) + np.sqrt((a - d) ** 2 + (b + c) ** 2)
+        )
+        det = a * d - b * c
+        least = np.abs(det) / largest
+        regular = (least > _CONDITION * largest) & (least > _RANGE[0]) & (largest < _RANGE[1])
+        sx, sy = step.T
+        expected = points[idx] + np.stack([sx * d - sy * c, a * sy - b * sx], axis=1) / det[:, None]
+        spread = 1.0 / least  # the inverse's 2-norm
+        length = np.sqrt(sx * sx + sy * sy)
+        slack = SLACK + (np.sqrt(0.5) * np.maximum(spread, 1.0) if drawn else 0.0)
+        threshold = slack + 0.5 * length * spread
+        gap = shown - expected
+        distance = np.sqrt(gap[:, 0] ** 2 + gap[:, 1] ** 2)
+        scale = 1.0 + np.abs(shown).max(axis=1) + np.abs(points[idx]).max(axis=1)
+        margin = _MARGIN[0] * (scale + threshold) + _MARGIN[1] * spread * (1.0 + length)
+        sure = regular & (np.abs(distance - threshold) > margin)
+    ok[idx[sure]] = distance[sure] <= threshold[sure]
+    rest = np.flatnonzero(~sure & np.isfinite(jacobian[idx]).all(axis=(1, 2)))
+    if len(rest):
+        near = _near_by_pinv(points[idx[rest]], jacobian[idx[rest]], step[rest], shown[rest], drawn)
+        ok[idx[rest]] = near
     return ok
+
+
+def _near_by_pinv(
+    points: np.ndarray, jacobian: np.ndarray, step: np.ndarray, shown: np.ndarray, drawn: bool
+) -> np.ndarray:
+    """:func:`visible_chunk`'s test of the source points ``shown`` at the pixels ``step``
+    from where the keypoints land, through ``np.linalg.pinv`` of their finite
+    ``jacobian``: (k,) bool, False where the SVD does not resolve the Jacobian."""
+    with np.errstate(all="ignore"):
+        try:
+            inverse = np.linalg.pinv(jacobian)  # (k, 2, 2): rows d/du
+            spread = np.linalg.norm(inverse, ord=2, axis=(1, 2))
+        except np.linalg.LinAlgError:  # e.g. subnormal entries: the others one by one
+            if len(jacobian) == 1:
+                return np.zeros(1, bool)
+            arrays = (points, jacobian, step, shown)
+            return np.concatenate(
+                [_near_by_pinv(*(x[k : k + 1] for x in arrays), drawn) for k in range(len(points))]
+            )
+        expected = points + np.einsum("ki,kij->kj", step, inverse)
+        reach = np.linalg.norm(step, axis=1) * spread
+        slack = SLACK + (np.sqrt(0.5) * np.maximum(spread, 1.0) if drawn else 0.0)
+        return np.linalg.norm(shown - expected, axis=1) <= slack + 0.5 * reach
 
 
 def mesh_keypoints(

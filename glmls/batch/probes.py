@@ -15,7 +15,7 @@ from ..engine.batched import BatchLattices
 from ..engine.kernel import DEFAULT_STORAGE
 from ..engine.storage import check_storage
 from .inputs import BatchInput
-from .labels import visible
+from .labels import visible_chunk
 from .single import in_domain, probe_points, probed
 
 __all__ = ["CONFIG_KEYS", "SLICE_BYTES", "batch_config", "f_at", "far_targets", "keypoints_by_f"]
@@ -97,16 +97,17 @@ def keypoints_by_f(gl, resources, lattices, batch, chunk, canvas, shown, *, draw
         return BatchLattices(lattices.config, src, dst, shape)
 
     values = f_at(gl, resources, lattices, probes, chosen)
-    origin = np.asarray(frame.origin)
-    moved, valid = [], []
-    for k, p in enumerate(points):
-        if not len(p):
-            moved.append(np.zeros((0, 2)))
-            valid.append(np.zeros(0, bool))
-            continue
-        out, jacobian = probed(values[k])
-        out = out - origin
-        inside = in_domain(p, shape, border)
-        moved.append(out)
-        valid.append(visible(p, out, jacobian, shown[0][k], shown[1][k], inside, drawn=drawn))
-    return moved, valid
+    sizes = [len(p) for p in points]
+    # the chunk's keypoints as one list: f at each one's five probes, (5, P, 2)
+    every = np.concatenate(
+        [v.reshape(5, size, 2) for v, size in zip(values, sizes, strict=True)], axis=1
+    )
+    out, jacobian = probed(every.reshape(-1, 2))
+    out = out - np.asarray(frame.origin)
+    source = np.concatenate(points).reshape(-1, 2)
+    images = np.repeat(np.arange(len(points)), sizes)
+    inside = in_domain(source, shape, border)
+    coords, covered = shown
+    valid = visible_chunk(source, images, out, jacobian, coords, covered, inside, drawn=drawn)
+    ends = np.cumsum(sizes)[:-1]
+    return np.split(out, ends), np.split(valid, ends)

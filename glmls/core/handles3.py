@@ -303,9 +303,14 @@ def fit_offset3(
     dst: np.ndarray,
     shape: tuple[int, int, int] | None = None,
     spacing: tuple[float, float, float] | None = None,
+    *,
+    bounded: bool = False,
 ) -> np.ndarray:
     """:func:`~glmls.core.handles.target_offset` (3,) of 3D handles, whole handle units,
     for :func:`fit_scaling3`'s scale of ``src``, the targets and the volume: the GPU holds
     q - t and t is added back to f in float64, so targets far from their sources (say 1e5
-    units off) keep float32's precision of the sources' box."""
+    units off) keep float32's precision of the sources' box. Zeros for a weight of bounded
+    reach (``bounded``), whose f is the identity beyond the handles, not v + t."""
+    if bounded:
+        return np.zeros(3)
     return target_offset(src, dst, lambda q: fit_scaling3(src, q, shape, spacing).scale)

@@ -497,3 +497,88 @@ def test_forkserver_workers_of_a_script_that_uses_gl_at_import(tmp_path):
         tmp_path,
         timeout=180,
     )
+
+
+def test_far_target_analyses_in_a_child_forked_after_the_parent_used_gl(tmp_path):
+    """The analyses of an MLS whose targets lie far from its sources judge flatness by f
+    less the targets' translation, which the helper process's kernel takes off: a forked
+    child finds the parent's folds, flipped triangles and error field (equal, the error
+    field within 1e-5 of its largest value)."""
+    run_script(
+        """
+        from glmls.analysis import error_field, foldovers, triangle_errors
+        rng = np.random.default_rng(0)
+        src = rng.uniform(4, 60, (12, 2))
+        dst = src + rng.normal(0, 4, src.shape)
+        dst[0], dst[1] = src[1], src[0]
+        far = dst + [1e5, -7e4]
+        ref = np.array([[8.0, 8.0], [56.0, 10.0], [30.0, 54.0], [20.0, 30.0], [44.0, 40.0]])
+
+        def analyses():
+            with glmls.MLS(src, far) as m:
+                folds = foldovers(m, (64, 64), grid=1).mask
+                field = error_field(m, (64, 64))
+                flipped = triangle_errors(m, ref).flipped
+            return folds, field, flipped
+
+        expected = analyses()
+        assert 0 < expected[0].sum() < expected[0].size
+        found = in_child(analyses, timeout=240)
+        assert np.array_equal(found[0], expected[0]), (found[0].sum(), expected[0].sum())
+        scale = np.abs(expected[1]).max()
+        assert np.abs(found[1] - expected[1]).max() <= 1e-5 * scale
+        assert np.array_equal(found[2], expected[2])
+        """,
+        tmp_path,
+        timeout=300,
+    )
+
+
+def test_3d_analyses_in_a_child_forked_after_the_parent_used_gl(tmp_path):
+    """The 3D analyses of a GPU MLS (cell Jacobians, tetrahedra, the error field) run in a
+    forked child through the helper process: near and far targets, and a radius weight
+    without a radius (whose analyses take the volume's diagonal), give the parent's
+    results (the fold maps and inverted flags equal; det J, distance errors and the error
+    field within 1e-4 of their largest value: the child's MLS for the volume may scale
+    the handles otherwise)."""
+    run_script(
+        """
+        from glmls.analysis import cell_jacobians, tetrahedron_errors
+        rng = np.random.default_rng(1)
+        p = rng.uniform(1, 14, (10, 3))
+        q = p + rng.normal(0, 1.5, p.shape)
+        q[0], q[1] = p[1], p[0]  # some cells fold
+        r = rng.uniform(0, 15, (24, 3))
+        gaussian = {"weight": "gaussian", "shape": (9, 10, 11)}
+        cases = [(q, {}), (q + [1e5, -7e4, 3e4], {}), (q, gaussian)]
+
+        def analyses():
+            found = []
+            for targets, options in cases:
+                with glmls.MLS(p, targets, **options) as m:
+                    cells = cell_jacobians(m, (12, 14, 16))
+                    tetra = tetrahedron_errors(m, r)
+                    field = glmls.analysis.volume_error_field(m, (12, 14, 16))
+                found.append((cells.folded, cells.det, tetra.inverted, tetra.distance, field))
+            return found
+
+        expected = analyses()
+        assert any(0 < e[0].sum() < e[0].size for e in expected)
+
+        def compared():  # in the child, which has the parent's results (a pipe holds little)
+            misses = []
+            for found, wanted in zip(analyses(), expected):
+                misses.append(not np.array_equal(found[0], wanted[0]))
+                misses.append(not np.array_equal(found[2], wanted[2]))
+                for k in (1, 3, 4):
+                    scale = max(np.abs(wanted[k]).max(), 1e-12)
+                    misses.append(float(np.abs(found[k] - wanted[k]).max() / scale))
+            return misses
+
+        misses = in_child(compared, timeout=240)
+        assert not any(misses[0::5]) and not any(misses[1::5]), misses
+        assert max(m for i, m in enumerate(misses) if i % 5 > 1) <= 1e-4, misses
+        """,
+        tmp_path,
+        timeout=300,
+    )
