@@ -22,7 +22,7 @@ from ..imaging.source import BORDERS, SourceImage
 from ..mls import MLS
 from .gpu import BatchQuads
 from .inputs import BatchInput
-from .labels import on_canvas, visible
+from .labels import visible_chunk
 from .preimages import lone_images, swapped_preimages
 from .single import SingleWarper, in_domain
 
@@ -92,8 +92,9 @@ def swapped_keypoints(
 ) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """The ``backward-swap`` chunk's keypoints moved by s's inverse, as the single path moves
     them, each valid where the chunk's maps ``shown`` ((N, H, W, 2) source points, (N, H, W)
-    covered) show it: two lists of the images' (P_i, 2) points and (P_i,) flags. ``canvas``:
-    the frame and the options. ``passes``: the context, its resources and the chunk's
+    covered) show it (:func:`~glmls.batch.labels.visible_chunk`, the chunk at once): two
+    lists of the images' (P_i, 2) points and (P_i,) flags. ``canvas``: the frame and the
+    options. ``passes``: the context, its resources and the chunk's
     :func:`swapped_lattices`, which move every image's keypoints in a few dispatches
     (:func:`~glmls.batch.preimages.swapped_preimages`); the images that it leaves (a fold of
     s, a compact weight, far targets; or every image, without ``passes``) move image by
@@ -114,26 +115,12 @@ def swapped_keypoints(
         moved.append(out - origin)
         jacobians.append(jacobian)
         insides.append(inside)
-    return moved, _visible(points, moved, jacobians, shown, insides)
-
-
-def _visible(points, moved, jacobians, shown, insides) -> list[np.ndarray]:
-    """:func:`~glmls.batch.labels.visible` of each image of the chunk (``shown``: its maps,
-    (N, H, W, 2) and (N, H, W)), in one call over the maps stacked as one tall canvas: each
-    image's points on its own canvas (the rest are not visible) moved down to its maps."""
     sizes = [len(p) for p in points]
-    if not sum(sizes):
-        return [np.zeros(0, bool) for _ in sizes]
-    count, height, width = shown[1].shape
-    out = np.concatenate(moved)
-    inside = np.concatenate(insides) & on_canvas(out, (height, width))
-    shift = np.zeros_like(out)
-    shift[:, 1] = np.repeat(np.arange(count) * height, sizes)
-    coords = shown[0].reshape(count * height, width, 2)
-    covered = shown[1].reshape(count * height, width)
-    jacobian = np.concatenate(jacobians)
-    ok = visible(np.concatenate(points), out + shift, jacobian, coords, covered, inside)
-    return np.split(ok, np.cumsum(sizes)[:-1])
+    images = np.repeat(np.arange(len(chunk)), sizes)
+    every = (np.concatenate(points).reshape(-1, 2), images, np.concatenate(moved).reshape(-1, 2))
+    jacobian = np.concatenate(jacobians).reshape(-1, 2, 2)
+    valid = visible_chunk(*every, jacobian, *shown, np.concatenate(insides))
+    return moved, np.split(valid, np.cumsum(sizes)[:-1])
 
 
 def _batched(batch, chunk, mls_options, shape, points, passes) -> list:
