@@ -32,8 +32,9 @@ void main() {
         return;
     }
     int at = 4 * k;
+    vec4 r1 = TABLE_FETCH(mesh3_records, at + 1), r2 = TABLE_FETCH(mesh3_records, at + 2);
     vec4 r3 = TABLE_FETCH(mesh3_records, at + 3);
-    mat3 rows = mesh3_rows(TABLE_FETCH(mesh3_records, at + 1), TABLE_FETCH(mesh3_records, at + 2), r3);
+    mat3 rows = mesh3_rows(r1, r2, r3);
 #if MESH3_GIVEN_NORMALS
     vec3 n = vec3(mesh3_normals[3 * k], mesh3_normals[3 * k + 1], mesh3_normals[3 * k + 2]);
 #else
