@@ -8,7 +8,9 @@ transfers, and the host's own time.
 
 Each compute dispatch is followed by ``ctx.finish()`` and timed, and so is each buffer and
 texture read and write, so the GPU stages do not overlap as they do in a normal run: the sum
-is at least the normal run's time (also printed, measured first without the finishes). The
+is at least the normal run's time (also printed, measured first without the finishes). Each
+stage's CPU time (the process's, all its threads: on llvmpipe the GPU's work) is printed
+beside its wall time: on a shared host it changes less with the other processes' load. The
 rest is the host's (Python, numpy, driver calls): the top host functions by own time follow
 (cProfile). Workloads: 64 handles (16 for a batch), rigid idw (seed 0); the volume as in
 ``volume_bench.py``, the batch as in ``batch_bench.py`` (224 x 224 RGB, grid 4; the handles
@@ -41,6 +43,8 @@ from glmls.gl.context import GLContext
 _names: dict[int, str] = {}
 _totals: collections.Counter = collections.Counter()
 _counts: collections.Counter = collections.Counter()
+#: The process's CPU time (all its threads: llvmpipe's too) per stage.
+_cpu: collections.Counter = collections.Counter()
 
 
 def _instrument() -> None:
@@ -57,11 +61,12 @@ def _instrument() -> None:
         def run(self, *args, **kwargs):
             ctx = self.ctx
             ctx.finish()
-            start = time.perf_counter()
+            start, cpu = time.perf_counter(), time.process_time()
             result = method(self, *args, **kwargs)
             ctx.finish()
             name = label(self)
             _totals[name] += time.perf_counter() - start
+            _cpu[name] += time.process_time() - cpu
             _counts[name] += 1
             return result
 
@@ -185,17 +190,23 @@ def main() -> None:
     step()  # compiles nothing new; warms the wrappers
     _totals.clear()
     _counts.clear()
+    _cpu.clear()
     profile = cProfile.Profile()
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     profile.enable()
     step()
     profile.disable()
-    staged = time.perf_counter() - start
+    staged, staged_cpu = time.perf_counter() - start, time.process_time() - cpu
     print(f"{args.workload}: {vars(args)}")
-    print(f"normal run {normal * 1e3:9.1f} ms; a finish after each stage {staged * 1e3:9.1f} ms")
+    print(
+        f"normal run {normal * 1e3:9.1f} ms; a finish after each stage {staged * 1e3:9.1f} ms "
+        f"({staged_cpu * 1e3:.1f} ms CPU)"
+    )
+    print("       wall        CPU  calls  stage")
     for name, total in _totals.most_common():
-        print(f"  {total * 1e3:9.1f} ms  {_counts[name]:5d}x  {name}")
-    print(f"  {(staged - sum(_totals.values())) * 1e3:9.1f} ms         host (the rest)")
+        print(f"  {total * 1e3:9.1f} {_cpu[name] * 1e3:9.1f} ms  {_counts[name]:5d}x  {name}")
+    rest, rest_cpu = staged - sum(_totals.values()), staged_cpu - sum(_cpu.values())
+    print(f"  {rest * 1e3:9.1f} {rest_cpu * 1e3:9.1f} ms         host (the rest)")
     text = io.StringIO()
     pstats.Stats(profile, stream=text).sort_stats("tottime").print_stats(args.top)
     print("\n".join(line for line in text.getvalue().splitlines() if line.strip())[-4000:])

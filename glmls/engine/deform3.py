@@ -1,20 +1,27 @@
 """A triangle mesh deformed by the 3D f on the GPU (``glmls/shaders/mls3/``): f, J, det J,
 the deformed normals and the folds, read back in two pieces.
 
-The passes, all on buffers that stay on the GPU until the end:
+The passes, all on buffers and tables (:mod:`glmls.gl.tables`) that stay on the GPU until
+the end:
 
 1. (a mesh with faces and without normals of its own) ``mls3/mesh_scales.comp.glsl`` per
    face: at each vertex, the scale of the sum of its faces' normals (their largest
    component, and how many they are);
-2. ``mls3/points.comp.glsl`` (``MLS3_MESH``) per vertex: f and J by central differences, det J
-   and the normal carried by cof(J) (or, for normals from the faces, the scale of step 1),
-   into one record of 16 floats per vertex;
-3. ``mls3/mesh_folds.comp.glsl`` per face, each face's vertices and records read once: the
-   fold flags, one byte per face, and (normals from the faces) the area-weighted normals
-   summed at the vertices in fixed point (exact integer sums, so the result does not depend
-   on the order the GPU adds in);
-4. (normals from the faces) ``mls3/mesh_normals.comp.glsl`` per vertex: the sums carried by
-   cof(J), into the records.
+2. ``mls3/points.comp.glsl`` (``MLS3_MESH``) per vertex: f and J by central differences and
+   det J into one record of 16 floats per vertex, with the normal carried by cof(J) (a
+   mesh without faces) or the vertex itself (a mesh with faces: the passes over faces read
+   a corner's vertex and record as one record); copied into a table;
+3. ``mls3/mesh_folds.comp.glsl`` per face, each face's records fetched once from their
+   table: the fold flags, one byte per face, and (normals from the faces) the area-weighted
+   normals summed at the vertices in fixed point (exact integer sums, so the result does
+   not depend on the order the GPU adds in);
+4. (a mesh with faces) ``mls3/mesh_normals.comp.glsl`` per vertex: the sums (or the
+   mesh's own normals) carried by cof(J), into the records over the vertices.
+
+The passes over faces read the vertices, faces and records at random: from tables, whose
+texel fetches llvmpipe gathers for all lanes at once where it loads a storage buffer lane by
+lane and component by component. A mesh is as large as its tables allow: 4 texels per vertex
+in rows of :data:`~glmls.gl.tables.TABLE_WIDTH`, ``max_texture_size`` rows.
 
 The float64 reference of the same quantities is :func:`glmls.core.mesh3.deform_mesh`.
 """
@@ -26,6 +33,7 @@ import numpy as np
 from ..core.mesh3 import DeformedMesh
 from ..gl import bindings
 from ..gl.dispatch import fill_buffer, run_1d
+from ..gl.tables import TABLE_WIDTH, table_rows
 from .kernel3 import MLSKernel3
 from .passes3 import run_points3
 
@@ -40,13 +48,16 @@ __all__ = [
 MESH_SCALES_PASS = "mls3/mesh_scales.comp.glsl"
 MESH_FOLDS_PASS = "mls3/mesh_folds.comp.glsl"
 MESH_NORMALS_PASS = "mls3/mesh_normals.comp.glsl"
-#: Floats per vertex record (``MESH3_RECORD``): f - v, J row by row, the normal, det J.
+#: Floats per vertex record (``MESH3_RECORD``): the normal (first the vertex, in a mesh with
+#: faces), f - v, J row by row, det J.
 RECORD = 16
 #: Ints per vertex of the normal sums (``MESH3_SUMS``): the scale, then the sum.
 SUMS = 8
-#: Faces per invocation of the passes over faces (``MESH3_FACES``: 3 ivec4 of indices read,
+#: Faces per invocation of the passes over faces (``MESH3_FACES``: 3 uvec4 of indices read,
 #: a byte each of fold flags, one uint, written).
 FACES_PER_INVOCATION = 4
+#: The tables (glmls.gl.tables) of the vertices, the faces and the records.
+VERTICES_TABLE, FACES_TABLE, RECORDS_TABLE = "mesh3 vertices", "mesh3 faces", "mesh3 records"
 
 
 def deform_mesh3(
@@ -91,61 +102,64 @@ def deform_mesh3(
         )
     kernel.radius(shape)  # a radius weight without one is refused before any GPU work
     gl = kernel.gl
+    whole = -(-face_count // FACES_PER_INVOCATION) * FACES_PER_INVOCATION
+    _check_tables(gl.limits["max_texture_size"], count, whole)
     groups = max_groups if max_groups is not None else gl.limits["max_work_groups_x"]
     scratch = kernel.scratch
+    tables = scratch.tables
     with gl.use():
-        # a vec4 per vertex: one load where a face reads its corner
+        # a vec4 per vertex: one fetch each
         padded = scratch.staging("vertices3", (count, 4), np.float32)
         kernel.scaling.to_gpu(vertices, out=padded[:, :3])
         padded[:, 3] = 0.0
-        points = scratch.buffer("points3", padded.nbytes)
-        points.write(padded)
-        points.bind_to_storage_buffer(bindings.POINTS.index)
-        whole = -(-face_count // FACES_PER_INVOCATION) * FACES_PER_INVOCATION
+        tables.write(VERTICES_TABLE, padded, bindings.MESH_VERTICES.index)
         if face_count:
-            # room for whole 4s of faces: the passes read 4 at a time
-            indices = scratch.buffer("faces3", whole * 12)
-            indices.write(np.ascontiguousarray(faces, dtype=np.int32))
-            indices.bind_to_storage_buffer(bindings.MESH_FACES.index)
-        source = "none"
+            # whole 4s of faces: the passes read 4 at a time, as 3 uvec4
+            indices = scratch.staging("faces3", (whole, 3), np.int32)
+            indices[:face_count] = faces
+            indices[face_count:] = 0
+            words = indices.view(np.uint32).reshape(-1, 4)
+            tables.write(FACES_TABLE, words, bindings.MESH_FACES.index)
         if normals is not None:
-            source = "given"
             given = scratch.buffer("normals3", count * 12)
             given.write(np.ascontiguousarray(normals, dtype=np.float32))
             given.bind_to_storage_buffer(bindings.MESH_NORMALS.index)
         elif face_count:
-            source = "faces"
             _normal_scales(kernel, count, face_count, groups)
-        records = scratch.buffer("records3", count * RECORD * 4)
+        # whole rows: the records' table is copied from this buffer
+        items = RECORD // 4 * count
+        records = scratch.buffer("records3", table_rows(items) * TABLE_WIDTH * 16)
         records.bind_to_storage_buffer(bindings.DEFORMED.index)
+        source = "later" if face_count else "none" if normals is None else "given"
         run_points3(kernel, count, output="mesh", normals=source, shape=shape, max_groups=groups)
         gl.mgl.memory_barrier()
         folds = np.zeros(whole, np.uint8)
         if face_count:
+            tables.copy(RECORDS_TABLE, records, (0, items), 4, bindings.MESH_RECORDS.index)
             flags = scratch.buffer("folds3", folds.nbytes)
             flags.bind_to_storage_buffer(bindings.MESH_FOLDS.index)
-            sums = {"MESH3_NORMAL_SUMS": source == "faces"}
+            sums = {"MESH3_NORMAL_SUMS": normals is None}
             folds_program = gl.compute(MESH_FOLDS_PASS, sums)
             run_1d(
                 folds_program, face_count, max_groups=groups, per_invocation=FACES_PER_INVOCATION
             )
             gl.mgl.memory_barrier()
-            if source == "faces":
-                run_1d(gl.compute(MESH_NORMALS_PASS), count, max_groups=groups)
-                gl.mgl.memory_barrier()
+            own = {"MESH3_GIVEN_NORMALS": normals is not None}
+            run_1d(gl.compute(MESH_NORMALS_PASS, own), count, max_groups=groups)
+            gl.mgl.memory_barrier()
             flags.read_into(folds, size=folds.nbytes)
         # (copied out below: the arrays returned are new, the records' host copy is not)
         out = scratch.staging("records3", (count, RECORD), np.float32)
         records.read_into(out, size=out.nbytes)
     det = out[:, 15]
-    deformed = vertices + out[:, 0:3] * kernel.scaling.scale
+    deformed = vertices + out[:, 3:6] * kernel.scaling.scale
     if kernel.offset.any():  # the targets' offset, in float64 (MLSKernel3.offset)
         deformed += kernel.offset
     return DeformedMesh(
         vertices=deformed,
         faces=faces,
-        normals=out[:, 12:15].astype(np.float64),
-        jacobian=out[:, 3:12].astype(np.float64).reshape(count, 3, 3),
+        normals=out[:, 0:3].astype(np.float64),
+        jacobian=out[:, 6:15].astype(np.float64).reshape(count, 3, 3),
         det_j=det.astype(np.float64),
         vertex_folds=det <= 0,
         face_folds=folds[:face_count].view(bool),
@@ -154,6 +168,20 @@ def deform_mesh3(
         face_uv=face_uv,
         own_normals=normals is not None,
     )
+
+
+def _check_tables(limit: int, count: int, faces: int) -> None:
+    """``ValueError`` where a mesh of ``count`` vertices and ``faces`` faces (a whole number
+    of 4) does not fit tables of ``limit`` rows: its records, 4 texels per vertex (where it
+    has faces), its faces, 3 texels per 4, and its vertices, one each."""
+    room = TABLE_WIDTH * limit
+    per_vertex = RECORD // 4 if faces else 1
+    if per_vertex * count > room or faces // 4 * 3 > room:
+        raise ValueError(
+            f"a mesh of {count:,} vertices and {faces:,} faces does not fit this GL's tables "
+            f"({limit} rows of {TABLE_WIDTH} texels: at most {room // per_vertex:,} vertices "
+            f"and {room // 3 * 4:,} faces)"
+        )
 
 
 def _normal_scales(kernel: MLSKernel3, count: int, face_count: int, groups: int) -> None:

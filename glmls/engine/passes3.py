@@ -51,9 +51,10 @@ OUTPUTS = ("f", "matrix", "jacobian")
 #: A points pass's outputs: :data:`OUTPUTS`, or a mesh's vertex records (f, J, the deformed
 #: normal and det J; :mod:`glmls.engine.deform3`).
 PROGRAM_OUTPUTS = (*OUTPUTS, "mesh")
-#: Where the mesh pass takes vertex normals from: none, the mesh's own, or the sums of the
-#: faces' normals (``MLS3_MESH_NORMALS`` 0, 1, 2).
-MESH_NORMALS = ("none", "given", "faces")
+#: Where the mesh pass takes vertex normals from: none, the mesh's own, or later (a mesh with
+#: faces: the records keep the vertex for the passes over faces, and the normals pass of
+#: :mod:`glmls.engine.deform3` writes the normal over it; ``MLS3_MESH_NORMALS`` 0, 1, 2).
+MESH_NORMALS = ("none", "given", "later")
 
 
 def points3_program(

@@ -71,7 +71,6 @@ VOLUME_COORDS = Binding("VOLUME_COORDS", "storage", 16, "volumes: each voxel's s
 VOLUME_SLOPES = Binding("VOLUME_SLOPES", "storage", 17, "volumes: d source / d output per voxel")
 FILL = Binding("FILL", "storage", 19, "a buffer being filled with one word (fill_buffer)")
 VOLUME_SURVEY = Binding("VOLUME_SURVEY", "storage", 20, "volumes: the box of f over each z layer")
-MESH_FACES = Binding("MESH_FACES", "storage", 21, "3D meshes: the faces' vertex indices")
 MESH_NORMALS = Binding("MESH_NORMALS", "storage", 22, "3D meshes: vertex normals or their sums")
 MESH_FOLDS = Binding("MESH_FOLDS", "storage", 23, "3D meshes: each face's fold flag, a byte")
 BATCH_OUTPUT = Binding("BATCH_OUTPUT", "storage", 25, "batches: the chunk's output bytes, labels")
@@ -99,6 +98,10 @@ LABEL_SOURCES = Binding("LABEL_SOURCES", "texture", 17, "batches: the label imag
 VOLUME_JACOBIANS = Binding(
     "VOLUME_JACOBIANS", "texture", 18, "volumes: f's inverse Jacobian and f at a band's points"
 )
+# 3D meshes' tables (glmls.gl.tables), read by the passes over faces at random
+MESH_VERTICES = Binding("MESH_VERTICES", "texture", 19, "3D meshes: the vertices (scaled)")
+MESH_FACES = Binding("MESH_FACES", "texture", 20, "3D meshes: the faces' vertex indices")
+MESH_RECORDS = Binding("MESH_RECORDS", "texture", 21, "3D meshes: the vertices' records")
 # the adaptive mesh's tables (glmls.gl.tables): read item by item, fetched as texels
 ADAPTIVE_VERTICES = Binding("ADAPTIVE_VERTICES", "texture", 9, "adaptive: (output, source) points")
 ADAPTIVE_TRIANGLES = Binding("ADAPTIVE_TRIANGLES", "texture", 10, "adaptive: vertex ids, leaf")
@@ -145,7 +148,6 @@ ALL = (
     VOLUME_SLOPES,
     FILL,
     VOLUME_SURVEY,
-    MESH_FACES,
     MESH_NORMALS,
     MESH_FOLDS,
     BATCH_OUTPUT,
@@ -169,6 +171,9 @@ ALL = (
     BATCH_SCALING,
     LABEL_SOURCES,
     VOLUME_JACOBIANS,
+    MESH_VERTICES,
+    MESH_FACES,
+    MESH_RECORDS,
     ADAPTIVE_VERTICES,
     ADAPTIVE_TRIANGLES,
     ADAPTIVE_LEAVES,

@@ -13,6 +13,7 @@ det J against the product of J's row lengths)."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import glmls
 from glmls.core import mesh3
@@ -298,3 +299,40 @@ def test_a_deformation_owns_its_arrays(gl):
             assert not np.shares_memory(getattr(second, name), getattr(third, name))
         assert not np.array_equal(second.vertices, third.vertices)
         assert gl.mgl.error == "GL_NO_ERROR"
+
+
+def test_tables_of_several_rows(gl, rng):
+    """The passes over faces fetch vertices, faces and records from tables of TABLE_WIDTH
+    texels a row: a mesh whose every table spans rows, its last row partly filled."""
+    from glmls.gl.tables import TABLE_WIDTH
+
+    vertices, faces = _random_mesh(rng, TABLE_WIDTH + 808, 11001)
+    src, dst = _handles(rng, 5.0)
+    with glmls.MLS(src, dst) as m:
+        out = m.deform((vertices, faces))
+        own = m.deform(glmls.Mesh(vertices, faces, normals=out.normals))
+    assert len(faces) * 3 // 4 > TABLE_WIDTH  # the faces' table: 3 texels per 4 faces
+    _compare(out, vertices, faces)
+    _compare(own, vertices, faces, out.normals)
+
+
+def test_a_mesh_larger_than_its_tables_is_refused(gl, rng, monkeypatch):
+    """A mesh needs 4 texels per vertex (1 without faces) in tables of max_texture_size
+    rows: past them, a ValueError before any GPU work; a point cloud of as many vertices
+    fits."""
+    from glmls.gl.context import GLContext
+    from glmls.gl.tables import TABLE_WIDTH
+
+    limits = GLContext.limits
+    one_row = property(lambda self: {**limits.fget(self), "max_texture_size": 1})
+    vertices, faces = _random_mesh(rng, TABLE_WIDTH // 4 + 1, 100)
+    src, dst = _handles(rng, 5.0)
+    with glmls.MLS(src, dst) as m:
+        whole = m.deform(vertices)
+        monkeypatch.setattr(GLContext, "limits", one_row)
+        with pytest.raises(ValueError, match="does not fit this GL's tables"):
+            m.deform((vertices, faces))
+        cloud = m.deform(vertices)
+        small = m.deform((vertices[: TABLE_WIDTH // 4], faces % (TABLE_WIDTH // 4)))
+    assert np.array_equal(cloud.vertices, whole.vertices)
+    _compare(small, vertices[: TABLE_WIDTH // 4], faces % (TABLE_WIDTH // 4))

@@ -24,8 +24,8 @@ void main() {
             break;
         }
         ivec3 corners = faces[q];
-        vec3 a = mesh3_vertices[corners.x].xyz;
-        vec3 n = cross(mesh3_vertices[corners.y].xyz - a, mesh3_vertices[corners.z].xyz - a);
+        vec3 a = mesh3_vertex(corners.x);
+        vec3 n = cross(mesh3_vertex(corners.y) - a, mesh3_vertex(corners.z) - a);
         int largest = floatBitsToInt(max(max(abs(n.x), abs(n.y)), abs(n.z)));
         for (int c = 0; c < 3; ++c) {
             int at = MESH3_SUMS * corners[c];

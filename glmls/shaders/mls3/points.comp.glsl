@@ -8,12 +8,11 @@
 //   MLS3_WRITE_MATRIX: M row by row (the mathematical M[i][j] at 9 i + 3 r + c), 9 floats;
 //   MLS3_WRITE_JACOBIAN: J = df/dv by central differences of step mls3_jacobian_step(v) (scaled),
 //     J[r][c] = d f_c / d v_r (row vectors: df = dv J), 9 floats;
-//   MLS3_MESH (a list of vertices, a vec4 each, with MLS3_WRITE_JACOBIAN): one record of
-//     MESH3_RECORD floats per mesh vertex instead (mls3/mesh.glsl): f - v, J, the deformed
+//   MLS3_MESH (a mesh's vertices, mls3/mesh.glsl's table, with MLS3_WRITE_JACOBIAN): one
+//     record of MESH3_RECORD floats per mesh vertex instead (mls3/mesh.glsl): the deformed
 //     unit normal n cof(J) sign(det J) of the vertex's normal (MLS3_MESH_NORMALS: 0 none,
-//     1 the mesh's own, 3 floats per vertex; 2 from the faces: the scale of the vertex's
-//     normal sum, mls3/mesh_scales.comp.glsl's, for mls3/mesh_folds.comp.glsl, the normal
-//     left to mls3/mesh_normals.comp.glsl), det J.
+//     1 the mesh's own, 3 floats per vertex; 2 later: the vertex, for the passes over
+//     faces, mls3/mesh_normals.comp.glsl writing the normal over it), f - v, J, det J.
 // J: mls3_eval_jacobian (mls3/core.glsl), f and J sharing the passes over the handles.
 // MLS3_STAGE 1 and 2 are two passes (glmls.gl.dispatch.SecondPass): the first takes only the
 // solve's plain branch (MLS3_SOLVE_LATER) and J's shared passes (MLS3_JACOBIAN_LATER) and
@@ -41,9 +40,7 @@ uniform vec3 u_lattice3_step;
 uniform ivec3 u_lattice3_dims;
 uniform int u_first;
 #elif MLS3_MESH
-layout(std430, binding = BIND_POINTS) readonly buffer MLS3Vertices {
-    vec4 mls3_vertices[];
-};
+// the vertices: mls3/mesh.glsl's table
 #else
 layout(std430, binding = BIND_POINTS) readonly buffer MLS3Points {
     float mls3_points[];
@@ -70,10 +67,6 @@ layout(std430, binding = BIND_MATRICES) writeonly buffer MLS3OutM {
 layout(std430, binding = BIND_MESH_NORMALS) readonly buffer MLS3Normals {
     float mls3_normals[];
 };
-#elif MLS3_MESH && MLS3_MESH_NORMALS == 2
-layout(std430, binding = BIND_MESH_NORMALS) readonly buffer MLS3NormalSums {
-    ivec4 mls3_normal_sums[];
-};
 #endif
 
 vec3 mls3_item_point(int i) {
@@ -83,7 +76,7 @@ vec3 mls3_item_point(int i) {
     ivec3 ijk = ivec3(index % nx, (index / nx) % ny, index / (nx * ny));
     return u_lattice3_origin + vec3(ijk) * u_lattice3_step;
 #elif MLS3_MESH
-    return mls3_vertices[i].xyz;
+    return mesh3_vertex(i);
 #else
     return vec3(mls3_points[3 * i], mls3_points[3 * i + 1], mls3_points[3 * i + 2]);
 #endif
@@ -109,24 +102,21 @@ vec3 mls3_vertex_normal(int i) {
 #endif
 }
 
-void mls3_store_record(int i, vec3 d, mat3 J) {
+void mls3_store_record(int i, vec3 v, vec3 d, mat3 J) {
     // the rows of J (the GLSL J's columns are the mathematical J's columns)
     mat3 rows = transpose(J);
     mat3 cof = mesh3_cofactor(rows);
     float det = dot(rows[0], cof[0]);
 #if MLS3_MESH_NORMALS == 2
-    // the scale of the normal sum, for the faces pass; the normals pass writes the normal
-    ivec4 scale = mls3_normal_sums[MESH3_SUMS / 4 * i];
-    vec4 last = vec4(intBitsToFloat(scale.x), float(scale.y), 0.0, det);
+    vec3 first = v;
 #else
-    vec3 n = mesh3_unit(mls3_vertex_normal(i));
-    vec4 last = vec4(mesh3_unit((cof * n) * sign(det)), det);   // n cof(J): sum_r n_r cof's row r
+    vec3 first = mesh3_carried(cof, det, mls3_vertex_normal(i));
 #endif
     int at = 4 * i;
-    mls3_out_records[at] = vec4(d, rows[0].x);
-    mls3_out_records[at + 1] = vec4(rows[0].yz, rows[1].xy);
-    mls3_out_records[at + 2] = vec4(rows[1].z, rows[2]);
-    mls3_out_records[at + 3] = last;
+    mls3_out_records[at] = vec4(first, d.x);
+    mls3_out_records[at + 1] = vec4(d.yz, rows[0].xy);
+    mls3_out_records[at + 2] = vec4(rows[0].z, rows[1]);
+    mls3_out_records[at + 3] = vec4(rows[2], det);
 }
 #endif
 
@@ -152,7 +142,7 @@ void mls3_item(int i, bool store) {
 #endif
     if (store) {
 #if MLS3_MESH
-        mls3_store_record(i, r.d, J);
+        mls3_store_record(i, v, r.d, J);
 #else
 #if MLS3_LATTICE
         vec3 f = v * u_mls3_scale + u_mls3_center + (r.d * u_mls3_scale + u_mls3_offset);
