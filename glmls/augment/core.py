@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..batch import BatchResult, warp_batch
-from ..batch.inputs import check_points, item_array
+from ..batch.inputs import check_point_sets, check_points, item_array
 from ..core.config import check_integer, check_seed, counted
 from ..core.handles import COORDINATE_LIMIT
 from ..core.mesh import as_shape
@@ -210,8 +210,7 @@ def _keypoint_list(keypoints: object, count: int) -> tuple[list[np.ndarray] | No
         raise ValueError(
             f"keypoints holds {counted(len(items), 'point set')} for {counted(count, 'image')}"
         )
-    checked = [check_points(item, f"keypoints[{i}]", rows="P") for i, item in enumerate(items)]
-    return checked, stacked
+    return check_point_sets(items, lambda i: f"keypoints[{i}]", rows="P"), stacked
 
 
 def _landmark_list(landmarks: object, count: int) -> list[np.ndarray]:
