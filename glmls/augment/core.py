@@ -83,6 +83,16 @@ class AugmentResult(BatchResult):
 _UNRECORDED = ("ctx",)
 
 
+def _as_lists(drawn: list[tuple[np.ndarray, np.ndarray]]) -> list[tuple[list, list]]:
+    """Each sample's (src, dst) as lists (``tolist``): where every sample drew as many
+    handles, of all at once."""
+    if len({(p.shape, q.shape) for p, q in drawn}) != 1:
+        return [(p.tolist(), q.tolist()) for p, q in drawn]
+    sources = np.stack([p for p, _ in drawn]).tolist()
+    targets = np.stack([q for _, q in drawn]).tolist()
+    return list(zip(sources, targets, strict=True))
+
+
 def _check_reach(preset: object, reach: float, index: int) -> None:
     """A preset whose draws can take handles out of the coordinate range (the GPU's float32
     keeps ~1e-7 of it) names the magnitude that would send them there. ``reach`` is the
@@ -403,33 +413,44 @@ class Augment:
         if landmarks is not None:
             landmarks = _landmark_list(landmarks, len(shapes))
         params = []
+        # what every sample records alike, made JSON-able once (each sample its own copy)
+        config = jsonable(dataclasses.asdict(self.preset))
+        options = jsonable({k: v for k, v in self.warp_options.items() if k not in _UNRECORDED})
+        reaches: dict[tuple[int, int], float] = {}  # without landmarks, by the image's shape
+        drawn: list[tuple[np.ndarray, np.ndarray]] = []
         for i, (given, index) in enumerate(zip(shapes, index_list, strict=True)):
             try:
-                shape = as_shape(given)
+                shape = tuple(as_shape(given))
             except (TypeError, ValueError) as error:
                 raise type(error)(f"shapes[{i}]: {error}") from None
             rng = sample_rng(self.seed, index)
             marks = None if landmarks is None else landmarks[i]
             try:
-                src, dst = self.preset.draw(rng, tuple(shape), marks)
+                src, dst = self.preset.draw(rng, shape, marks)
             except ValueError as error:
                 raise ValueError(f"images[{i}]: {error}") from None
-            _check_reach(self.preset, self.preset.reach(tuple(shape), marks), i)
+            reach = reaches.get(shape) if marks is None else None
+            if reach is None:
+                reach = self.preset.reach(shape, marks)
+                if marks is None:
+                    reaches[shape] = reach
+            _check_reach(self.preset, reach, i)
+            drawn.append((np.asarray(src, np.float64), np.asarray(dst, np.float64)))
             params.append(
                 {
                     "preset": self.preset.name,
-                    "config": jsonable(dataclasses.asdict(self.preset)),
+                    "config": jsonable(config),
                     "seed": self.seed,
                     "index": index,
                     "shape": [int(shape[0]), int(shape[1])],
-                    "src": np.asarray(src, np.float64).tolist(),
-                    "dst": np.asarray(dst, np.float64).tolist(),
-                    "options": jsonable(
-                        {k: v for k, v in self.warp_options.items() if k not in _UNRECORDED}
-                    ),
+                    "src": None,  # below, of every sample at once
+                    "dst": None,
+                    "options": jsonable(options),
                     "label_options": self.label_options,
                 }
             )
+        for draw, (src, dst) in zip(params, _as_lists(drawn), strict=True):
+            draw["src"], draw["dst"] = src, dst
         return params
 
     def __call__(
