@@ -69,6 +69,8 @@ step batch-bench 45 "$PYTHON" benchmarks/batch_bench.py --quick
 # the other constructions' batched paths (a loop of warp against warp_batch, 64 images)
 step batch-bench-backward 20 "$PYTHON" benchmarks/batch_bench.py --quick --method backward
 step batch-bench-splat 20 "$PYTHON" benchmarks/batch_bench.py --quick --method splat
+# the host's share per image (tiny images, large batches): the 0.05 ms an image of 20,000 a second
+step batch-host 45 "$PYTHON" benchmarks/batch_host.py --n 1024 --repeat 3
 step profile-stages 30 "$PYTHON" benchmarks/profile_stages.py --size 1024 --handles 64
 step adaptive-stages-W1 20 "$PYTHON" benchmarks/adaptive_stages.py --workload W1 --tolerance 0.05
 step adaptive-stages-W2 20 "$PYTHON" benchmarks/adaptive_stages.py --workload W2 --tolerance 0.05

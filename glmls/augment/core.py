@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..batch import BatchResult, warp_batch
-from ..batch.inputs import check_points, item_array
+from ..batch.inputs import check_point_sets, check_points, item_array
 from ..core.config import check_integer, check_seed, counted
 from ..core.handles import COORDINATE_LIMIT
 from ..core.mesh import as_shape
@@ -81,6 +81,16 @@ class AugmentResult(BatchResult):
 #: The ``warp_options`` that say where to render, not what: kept out of the params (JSON),
 #: added again on replay.
 _UNRECORDED = ("ctx",)
+
+
+def _as_lists(drawn: list[tuple[np.ndarray, np.ndarray]]) -> list[tuple[list, list]]:
+    """Each sample's (src, dst) as lists (``tolist``): where every sample drew as many
+    handles, of all at once."""
+    if len({(p.shape, q.shape) for p, q in drawn}) != 1:
+        return [(p.tolist(), q.tolist()) for p, q in drawn]
+    sources = np.stack([p for p, _ in drawn]).tolist()
+    targets = np.stack([q for _, q in drawn]).tolist()
+    return list(zip(sources, targets, strict=True))
 
 
 def _check_reach(preset: object, reach: float, index: int) -> None:
@@ -210,8 +220,7 @@ def _keypoint_list(keypoints: object, count: int) -> tuple[list[np.ndarray] | No
         raise ValueError(
             f"keypoints holds {counted(len(items), 'point set')} for {counted(count, 'image')}"
         )
-    checked = [check_points(item, f"keypoints[{i}]", rows="P") for i, item in enumerate(items)]
-    return checked, stacked
+    return check_point_sets(items, lambda i: f"keypoints[{i}]", rows="P"), stacked
 
 
 def _landmark_list(landmarks: object, count: int) -> list[np.ndarray]:
@@ -404,33 +413,44 @@ class Augment:
         if landmarks is not None:
             landmarks = _landmark_list(landmarks, len(shapes))
         params = []
+        # what every sample records alike, made JSON-able once (each sample its own copy)
+        config = jsonable(dataclasses.asdict(self.preset))
+        options = jsonable({k: v for k, v in self.warp_options.items() if k not in _UNRECORDED})
+        reaches: dict[tuple[int, int], float] = {}  # without landmarks, by the image's shape
+        drawn: list[tuple[np.ndarray, np.ndarray]] = []
         for i, (given, index) in enumerate(zip(shapes, index_list, strict=True)):
             try:
-                shape = as_shape(given)
+                shape = tuple(as_shape(given))
             except (TypeError, ValueError) as error:
                 raise type(error)(f"shapes[{i}]: {error}") from None
             rng = sample_rng(self.seed, index)
             marks = None if landmarks is None else landmarks[i]
             try:
-                src, dst = self.preset.draw(rng, tuple(shape), marks)
+                src, dst = self.preset.draw(rng, shape, marks)
             except ValueError as error:
                 raise ValueError(f"images[{i}]: {error}") from None
-            _check_reach(self.preset, self.preset.reach(tuple(shape), marks), i)
+            reach = reaches.get(shape) if marks is None else None
+            if reach is None:
+                reach = self.preset.reach(shape, marks)
+                if marks is None:
+                    reaches[shape] = reach
+            _check_reach(self.preset, reach, i)
+            drawn.append((np.asarray(src, np.float64), np.asarray(dst, np.float64)))
             params.append(
                 {
                     "preset": self.preset.name,
-                    "config": jsonable(dataclasses.asdict(self.preset)),
+                    "config": jsonable(config),
                     "seed": self.seed,
                     "index": index,
                     "shape": [int(shape[0]), int(shape[1])],
-                    "src": np.asarray(src, np.float64).tolist(),
-                    "dst": np.asarray(dst, np.float64).tolist(),
-                    "options": jsonable(
-                        {k: v for k, v in self.warp_options.items() if k not in _UNRECORDED}
-                    ),
+                    "src": None,  # below, of every sample at once
+                    "dst": None,
+                    "options": jsonable(options),
                     "label_options": self.label_options,
                 }
             )
+        for draw, (src, dst) in zip(params, _as_lists(drawn), strict=True):
+            draw["src"], draw["dst"] = src, dst
         return params
 
     def __call__(

@@ -10,7 +10,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ..batch.inputs import check_points, item_array
+from ..batch.inputs import check_point_sets, item_array
 from ..batch.run import check_flags
 from ..core.config import MLSConfig, check_flag, counted, is_integer
 from ..engine.kernel import check_bins
@@ -140,6 +140,7 @@ def check_params(params: object, count: int) -> list[Mapping]:
         raise ValueError(
             f"params holds {counted(len(params), 'draw')} for {counted(count, 'image')}"
         )
+    checked: set[str] = set()  # the options already checked, by their repr (types in it)
     for i, draw in enumerate(params):
         if not isinstance(draw, Mapping):
             raise TypeError(f"params[{i}] must be a dict, got {type(draw).__name__}")
@@ -147,9 +148,14 @@ def check_params(params: object, count: int) -> list[Mapping]:
         if missing:
             raise ValueError(f"params[{i}] has no {', '.join(map(repr, missing))}")
         _check_shape(draw["shape"], f"params[{i}]['shape']")
-        if not isinstance(draw["options"], Mapping):
-            raise TypeError(f"params[{i}]['options'] must be a dict, got {draw['options']!r}")
-        check_warp_options(draw["options"], f"params[{i}]['options']")
+        options = draw["options"]
+        if not isinstance(options, Mapping):
+            raise TypeError(f"params[{i}]['options'] must be a dict, got {options!r}")
+        # one Augment's draws share their options: each distinct set is checked once
+        seen = repr(sorted(options.items(), key=lambda item: str(item[0])))
+        if seen not in checked:
+            check_warp_options(options, f"params[{i}]['options']")
+            checked.add(seen)
         if "label_options" in draw:
             _check_recorded_labels(draw["label_options"], f"params[{i}]['label_options']")
     return list(params)
@@ -173,8 +179,5 @@ def _check_shape(shape: object, name: str) -> None:
 def param_points(params: Sequence[Mapping], key: str) -> list[np.ndarray]:
     """Each draw's ``key`` ("src" or "dst") as (K, 2) float64 points, checked as
     :func:`glmls.warp_batch` checks handles, the error naming ``params[i]['src']``."""
-    points = []
-    for i, draw in enumerate(params):
-        name = f"params[{i}][{key!r}]"
-        points.append(check_points(item_array(draw[key], name), name, rows="K"))
-    return points
+    items = [item_array(draw[key], f"params[{i}][{key!r}]") for i, draw in enumerate(params)]
+    return check_point_sets(items, lambda i: f"params[{i}][{key!r}]", rows="K")

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -81,6 +82,16 @@ def _fiducials(shape: tuple[int, int], segments: int) -> tuple[np.ndarray, np.nd
     """The x of the segments + 1 fiducial columns and the (top, bottom) edges' y."""
     left, top, right, bottom = _edges(shape)
     return np.linspace(left, right, segments + 1), np.array([top, bottom])
+
+
+@lru_cache(maxsize=16)  # a batch's images share a few shapes: each sample draws its copy
+def _grid(shape: tuple[int, int], rows: int, cols: int) -> np.ndarray:
+    """(rows * cols, 2): the grid of handles spread evenly over the image, edges included."""
+    left, top, right, bottom = _edges(shape)
+    xs, ys = np.meshgrid(np.linspace(left, right, cols), np.linspace(top, bottom, rows))
+    grid = np.stack([xs.ravel(), ys.ravel()], axis=1)
+    grid.flags.writeable = False
+    return grid
 
 
 def _jitter(rng, size, shape: tuple[int, int], displacement: float, units: str) -> np.ndarray:
@@ -175,11 +186,7 @@ class GridPreset:
         >>> bool((src == dst).all()), src[0].tolist(), src[-1].tolist()
         (True, [-0.5, -0.5], [7.5, 7.5])
         """
-        left, top, right, bottom = _edges(shape)
-        xs, ys = np.meshgrid(
-            np.linspace(left, right, self.cols), np.linspace(top, bottom, self.rows)
-        )
-        src = np.stack([xs.ravel(), ys.ravel()], axis=1)
+        src = _grid(tuple(shape), self.rows, self.cols).copy()
         return src, src + _jitter(rng, src.shape, shape, self.displacement, self.units)
 
     def reach(self, shape: tuple[int, int], landmarks=None) -> float:

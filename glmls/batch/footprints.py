@@ -19,7 +19,7 @@ import numpy as np
 
 from .labels import on_canvas
 
-__all__ = ["RING", "footprint_radius", "seen_whole", "turned", "with_footprints"]
+__all__ = ["RING", "footprint_radius", "footprint_sets", "seen_whole", "turned", "with_footprints"]
 
 #: The unit ring of a footprint's edge: its corners and edge midpoints, the centre first.
 RING = np.array([[x, y] for y in (0.0, -1.0, 1.0) for x in (0.0, -1.0, 1.0)])
@@ -36,6 +36,15 @@ def footprint_radius(interpolation: str) -> float:
 def with_footprints(points: np.ndarray, radius: float) -> np.ndarray:
     """(P * 9, 2): each of the (P, 2) ``points`` followed by its footprint's edge points."""
     return (points[:, None, :] + radius * RING).reshape(-1, 2)
+
+
+def footprint_sets(sets: list[np.ndarray], radius: float) -> list[np.ndarray]:
+    """:func:`with_footprints` of each image's (P_i, 2) point set: for sets of one size, of
+    all at once (the same sums)."""
+    if len({len(p) for p in sets}) != 1:
+        return [with_footprints(p, radius) for p in sets]
+    every = np.stack(sets)
+    return list((every[:, :, None, :] + radius * RING).reshape(len(sets), -1, 2))
 
 
 def seen_whole(

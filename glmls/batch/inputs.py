@@ -3,13 +3,13 @@ handles, keypoints and masks, each error naming the item's index (``src[3]``).""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..core.config import counted
-from ..core.handles import COORDINATE_LIMIT, validate_handles
+from ..core.handles import COORDINATE_LIMIT, same_source_sets, validate_handles
 from ..errors import DtypeError
 from ..imaging.source import DTYPES, native_order
 
@@ -17,6 +17,7 @@ __all__ = [
     "BatchInput",
     "check_batch",
     "check_batch_image",
+    "check_point_sets",
     "check_points",
     "item_array",
     "stack_or_list",
@@ -168,28 +169,57 @@ def _mask(array: np.ndarray, name: str, shape: tuple[int, int]) -> np.ndarray:
 
 def _point_items(value: object, name: str, *, rows: str) -> tuple[list[np.ndarray], bool]:
     """Per-image (P, 2) float64 point sets of ``value`` (:func:`_items`), each checked by
-    :func:`check_points`: an (N, P, 2) array of real numbers all at once (the error, if any,
-    naming the first bad item as the item's own check would)."""
+    :func:`check_points`: an (N, P, 2) array of real numbers, or a sequence of arrays of one
+    shape and dtype, all at once (:func:`check_point_sets`)."""
     if not isinstance(value, np.ndarray) or value.ndim != 3 or len(value) == 0:
         items, stacked = _items(value, name, (2,))
-        return [check_points(a, f"{name}[{i}]", rows=rows) for i, a in enumerate(items)], stacked
-    check_points(value[0], f"{name}[0]", rows=rows)  # dtype and shape, alike for every item
+        return check_point_sets(items, lambda i: f"{name}[{i}]", rows=rows), stacked
+    return _checked_stack(value, lambda i: f"{name}[{i}]", rows=rows), True
+
+
+def check_point_sets(
+    items: Sequence[np.ndarray], name_of: Callable[[int], str], *, rows: str
+) -> list[np.ndarray]:
+    """Each of ``items`` checked by :func:`check_points` (``name_of(i)``: item i's name in
+    an error), as (P, 2) float64 points: where they are arrays of one (P, 2) shape and one
+    dtype, all at once, the error (if any) naming the first bad item as its own check would."""
+    first = items[0] if len(items) else None
+    alike = (
+        isinstance(first, np.ndarray)
+        and first.ndim == 2
+        and first.size > 0
+        and all(
+            isinstance(a, np.ndarray) and a.shape == first.shape and a.dtype == first.dtype
+            for a in items
+        )
+    )
+    if not alike:
+        return [check_points(a, name_of(i), rows=rows) for i, a in enumerate(items)]
+    return _checked_stack(np.stack(items), name_of, rows=rows)  # type: ignore[arg-type]
+
+
+def _checked_stack(
+    value: np.ndarray, name_of: Callable[[int], str], *, rows: str
+) -> list[np.ndarray]:
+    """The items of an (N, P, 2) array of real numbers (N >= 1) checked by
+    :func:`check_points` in one pass: float64 views of one array."""
+    check_points(value[0], name_of(0), rows=rows)  # dtype and shape, alike for every item
     points = np.asarray(value, dtype=np.float64)
     finite = np.isfinite(points).all(axis=(1, 2))
     limit = points.size and np.abs(points).max() > COORDINATE_LIMIT
     if not finite.all() or limit:
         for i, item in enumerate(points):  # the first bad item names itself
-            check_points(item, f"{name}[{i}]", rows=rows)
-    return list(points), True
+            check_points(item, name_of(i), rows=rows)
+    return list(points)
 
 
 def _check_targets(src: list[np.ndarray], dst: list[np.ndarray]) -> None:
     """No image has a source point with two different targets (its MLS refuses it, as
-    :func:`glmls.warp` does): the error names the image. Only the images with two equal
-    source x are checked in full, found for handle sets of one size in one sort."""
+    :func:`glmls.warp` does): the error names the image. Handle sets of one size are
+    tested in one sort (:func:`~glmls.core.handles.same_source_sets`), and only an image
+    that fails is checked again for its message."""
     if len({len(p) for p in src}) == 1 and len(src[0]) > 1:
-        xs = np.sort(np.stack(src)[..., 0], axis=1)
-        suspects = np.flatnonzero((xs[:, 1:] == xs[:, :-1]).any(axis=1)).tolist()
+        suspects = np.flatnonzero(same_source_sets(np.stack(src), np.stack(dst))).tolist()
     else:
         suspects = [i for i, p in enumerate(src) if len(p) > 1]
     for i in suspects:

@@ -198,6 +198,10 @@ def _near_by_pinv(
         return np.linalg.norm(shown - expected, axis=1) <= slack + 0.5 * reach
 
 
+#: A cell's corners (row and column steps) in the order :func:`mesh_map` takes them.
+_ROWS, _COLUMNS = np.array([0, 0, 1, 1]), np.array([0, 1, 0, 1])
+
+
 def mesh_keypoints(
     lattice: MeshLattice,
     vertices: np.ndarray,
@@ -225,9 +229,9 @@ def mesh_keypoints(
     origin = np.asarray(lattice.origin, np.float64)
     index = np.rint((corners[:, 0] - origin) / lattice.grid).astype(np.int64)  # (col, row)
     col, row = index[:, 0], index[:, 1]
-    deformed = np.empty((count, 4, 2))
-    for k, (dr, dc) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
-        deformed[:, k] = vertices[image, row + dr, col + dc]
+    # the cells' four corners (00, 10, 01, 11) in one gather: (P, 4, 2)
+    corner = vertices[image[:, None], row[:, None] + _ROWS, col[:, None] + _COLUMNS]
+    deformed = np.asarray(corner, dtype=np.float64)
     out, _ = mesh_map(corners, deformed, points)
     if moved is not None:
         out = moved

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.config import MLSConfig
+from ..core.handles import OFFSET_GAIN
 from ..core.handleset import HandleSet
 from ..engine.batched import BatchLattices
 from ..engine.kernel import DEFAULT_STORAGE
@@ -47,14 +48,41 @@ def far_targets(batch: BatchInput, mls_options: dict, segments: list[dict]) -> l
     config = MLSConfig(**{k: v for k, v in mls_options.items() if k in CONFIG_KEYS})
     if config.weight_entry.support == "radius":
         return [False] * len(batch)
-    return [
-        bool(
-            HandleSet.validate(batch.src[i], batch.dst[i], **segments[i])
-            .near_targets(image.shape[:2])[1]
-            .any()
-        )
-        for i, image in enumerate(batch.images)
-    ]
+    far = [False] * len(batch)
+    alike: dict[tuple, list[int]] = {}  # point handles only, by their count and image shape
+    for i, image in enumerate(batch.images):
+        if segments[i]:
+            handles = HandleSet.validate(batch.src[i], batch.dst[i], **segments[i])
+            far[i] = bool(handles.near_targets(image.shape[:2])[1].any())
+        elif len(batch.src[i]):  # no handle: no offset
+            alike.setdefault((len(batch.src[i]), image.shape[:2]), []).append(i)
+    for (_, shape), members in alike.items():
+        src = np.stack([batch.src[i] for i in members])
+        dst = np.stack([batch.dst[i] for i in members])
+        for i, offset in zip(members, _offsets(src, dst, shape), strict=True):
+            far[i] = bool(offset)
+    return far
+
+
+def _offsets(src: np.ndarray, dst: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """(N,) bool: the handle sets (N, K, 2) (K >= 1) whose
+    :func:`~glmls.core.handles.fit_offset` on an image of ``shape`` is not zero, for all
+    at once with its float64 operations (minima, maxima, halves, rounding: the same
+    values)."""
+    centre = (src.min(axis=1) + src.max(axis=1)) / 2
+    offset = np.round((dst.min(axis=1) + dst.max(axis=1)) / 2 - centre)  # (N, 2)
+    moved = offset.any(axis=1)
+    if not moved.any():
+        return moved
+    height, width = shape
+    corner = np.array([width - 0.5, height - 0.5])
+
+    def scales(q: np.ndarray) -> np.ndarray:  # Scaling.fit(src, q, shape).scale, per set
+        lo = np.minimum(np.minimum(src.min(axis=1), q.min(axis=1)), -0.5)
+        hi = np.maximum(np.maximum(src.max(axis=1), q.max(axis=1)), corner)
+        return np.maximum((hi - lo).max(axis=1) / 2, 1.0)
+
+    return moved & (scales(dst - offset[:, None]) * OFFSET_GAIN <= scales(dst))
 
 
 def f_at(gl, resources, lattices, points: list[np.ndarray], chosen) -> list[np.ndarray]:
@@ -90,7 +118,10 @@ def keypoints_by_f(gl, resources, lattices, batch, chunk, canvas, shown, *, draw
     frame, border = canvas
     points = [batch.keypoints[i] for i in chunk]
     shape = batch.images[chunk[0]].shape[:2]
-    probes = [probe_points(p) for p in points]
+    if len({len(p) for p in points}) == 1:  # (P, N, 2): every image's probes at once
+        probes = list(probe_points(np.stack(points, axis=1)).transpose(1, 0, 2))
+    else:
+        probes = [probe_points(p) for p in points]
 
     def chosen(images: list[int]) -> BatchLattices:
         src, dst = [batch.src[chunk[k]] for k in images], [batch.dst[chunk[k]] for k in images]

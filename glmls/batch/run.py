@@ -13,7 +13,7 @@ from ..gl.context import forked_from_gl
 from ..imaging.options import FIELDS, WarpOptions
 from ..mls import MLS, MLS_KEYWORDS
 from .chunks import warp_chunks
-from .footprints import RING, footprint_radius, seen_whole, with_footprints
+from .footprints import RING, footprint_radius, footprint_sets, seen_whole
 from .forward import forward_batchable, warp_forward
 from .gpu import batchable
 from .inputs import BatchInput, check_batch, item_array, stack_or_list
@@ -130,7 +130,7 @@ def warp_batch(
     batch = given
     if given.keypoints is not None:  # each with its footprint's edge: see footprints.py
         radius = footprint_radius(chosen.interpolation)
-        rings = [with_footprints(p, radius) for p in given.keypoints]
+        rings = footprint_sets(given.keypoints, radius)
         batch = dataclasses.replace(given, keypoints=rings)
     warper = SingleWarper.of(mls_options.get("ctx"))
     done: list = [None] * len(batch)

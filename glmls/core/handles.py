@@ -135,6 +135,20 @@ def same_source_pair(p: np.ndarray, q: np.ndarray) -> tuple[int, int] | None:
     return i, j
 
 
+def same_source_sets(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(N,) bool: the handle sets of stacked (N, K, D) sources ``p`` and targets ``q`` that
+    hold one source point with two different targets (:func:`same_source_pair` not None),
+    for all sets in one sort along their handles."""
+    if p.shape[1] < 2:
+        return np.zeros(len(p), bool)
+    order = np.lexsort(tuple(p[..., d] for d in range(p.shape[2] - 1, -1, -1)), axis=-1)
+    ps = np.take_along_axis(p, order[..., None], axis=1)
+    qs = np.take_along_axis(q, order[..., None], axis=1)
+    # equal sources lie next to each other: a run with two targets has two neighbours differ
+    same_p = (ps[:, 1:] == ps[:, :-1]).all(axis=2)
+    return (same_p & (qs[:, 1:] != qs[:, :-1]).any(axis=2)).any(axis=1)
+
+
 def check_one_target(p: np.ndarray, q: np.ndarray) -> None:
     """``ValueError`` naming the first two handles (N, D) with one source point and different
     targets (f cannot take two values there); exact duplicate pairs pass."""

@@ -24,6 +24,7 @@ from ..core.handles import (
     check_affine_handles,
     check_gpu_distinct,
     check_gpu_spread,
+    same_source_sets,
 )
 from ..core.mesh import MeshLattice
 from ..gl import bindings
@@ -31,7 +32,7 @@ from ..gl.context import GLContext
 from ..gl.dispatch import LOCAL_SIZE, set_uniforms
 from ..gl.resources import Resources
 from .bins import AUTO_MIN_HANDLES
-from .kernel import config_defines, weight_uniforms
+from .kernel import config_defines, weight_rows
 from .passes import POINTS_PASS, POINTS_PER_INVOCATION
 from .storage import unroll_slots
 
@@ -106,11 +107,13 @@ class BatchLattices:
 
     def _check_distinct(self, src: list[np.ndarray], dst: list[np.ndarray]) -> None:
         """:func:`~glmls.core.handles.check_gpu_distinct` of every image, the error naming
-        the image; only images with two equal scaled source x are checked in full."""
-        xs = self.packed[:, 0]
+        the image; for handle counts alike, only the images whose scaled sources hold one
+        point with two scaled targets (one sort of all, :func:`same_source_sets`) are
+        checked again for the message."""
         if len(set(self.counts.tolist())) == 1:
-            rows = np.sort(xs.reshape(len(self.counts), -1), axis=1)
-            suspects = np.flatnonzero((rows[:, 1:] == rows[:, :-1]).any(axis=1)).tolist()
+            rows = self.packed.reshape(len(self.counts), -1, 4)
+            merged = same_source_sets(rows[..., :2], rows[..., 2:])
+            suspects = np.flatnonzero(merged).tolist()
         else:
             suspects = range(len(self.counts))
         starts = np.cumsum(self.counts) - self.counts
@@ -160,10 +163,8 @@ class BatchLattices:
         pairs = np.stack([self.scales, self.extents()], axis=1)
         distinct, inverse = np.unique(pairs, axis=0, return_inverse=True)  # often one scale
         inverse = inverse.reshape(-1)
-        weights = np.empty((len(distinct), 4), np.float64)
-        for k, (scale, extent) in enumerate(distinct.tolist()):
-            values = weight_uniforms(self.config, scale, radius, extent=extent)
-            weights[k] = values["u_log2_s"], values["u_radius"], values["u_hit2"], values["u_snap"]
+        rows = weight_rows(self.config, distinct.tolist(), radius)
+        weights = np.array([row[:4] for row in rows], np.float64).reshape(len(distinct), 4)
         table[:, 5:8] = weights[inverse, :3]
         snap = weights[inverse, 3] != 0
         table[:, 8:10] = self.centers
@@ -268,7 +269,15 @@ class BatchLattices:
         sizes = np.array([len(p) for p in points])
         stride = max(2, int(sizes.max()) + int(sizes.max()) % 2)  # pairs never span images
         scaled = np.zeros((count, stride, 2), np.float32)
-        for k, p in enumerate(points):
+        alike = int(sizes.min()) if len(set(sizes.tolist())) == 1 else 0
+        if alike:  # every image's points at once, with Scaling.to_gpu's float64 operations
+            every = np.stack(points)
+            for axis in (0, 1):
+                scaled[:, :alike, axis] = (
+                    every[..., axis] - self.centers[:, axis, None]
+                ) / self.scales[:, None]
+            scaled[:, alike:] = scaled[:, alike - 1 : alike]  # the padding: the last point
+        for k, p in enumerate([] if alike else points):
             if len(p):  # the padding repeats the last point
                 scaling = Scaling(tuple(self.centers[k].tolist()), float(self.scales[k]))
                 scaled[k, : len(p)] = scaling.to_gpu(p)
@@ -293,6 +302,9 @@ class BatchLattices:
             gl.mgl.memory_barrier()
             d = np.frombuffer(target.read(size=scaled.nbytes), np.float32).reshape(scaled.shape)
         # f = v + (f - v), as evaluate_points sums it
+        if alike:
+            moved = every + d[:, :alike].astype(np.float64) * self.scales[:, None, None]
+            return list(moved)
         return [
             p + d[k, : len(p)].astype(np.float64) * self.scales[k] for k, p in enumerate(points)
         ]

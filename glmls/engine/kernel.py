@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import replace
+from functools import lru_cache
 
 import moderngl
 import numpy as np
@@ -50,6 +51,7 @@ __all__ = [
     "handle_extent",
     "point_pole",
     "segment_hit2",
+    "weight_rows",
     "weight_uniforms",
 ]
 
@@ -92,28 +94,46 @@ def weight_uniforms(
     (half their box's largest side; 1, the scaled box, by default). ``u_tiny_s`` (no
     uniform): idw's s is so small that float32 makes its weight infinite at d = 0, so points
     on a handle snap."""
+    ((log2_s, scaled_radius, hit2, snap, tiny_s),) = weight_rows(config, [(scale, extent)], radius)
+    return {
+        "u_alpha": config.alpha,
+        "u_log2_s": log2_s,
+        "u_radius": scaled_radius,
+        "u_hit2": hit2,
+        "u_snap": snap,
+        "u_tiny_s": tiny_s,
+    }
+
+
+def weight_rows(
+    config: MLSConfig, pairs: list[tuple[float, float]], radius: float | None
+) -> list[tuple[float, float, float, bool, bool]]:
+    """For each (scale, extent) of ``pairs``, :func:`weight_uniforms`' ``u_log2_s``,
+    ``u_radius``, ``u_hit2``, ``u_snap`` and ``u_tiny_s``: what depends on ``config`` alone
+    found once (a batch's images each have their own scale)."""
     alpha = config.alpha
-    log2_s = math.log2(config.s) - 2 * alpha * math.log2(scale) if config.s > 0 else -1e30
+    twice = 2 * alpha
+    log2_s0 = math.log2(config.s) if config.s > 0 else None
     # A snapped point leaves out the other handles, whose weights relative to the snapped
     # one's are (h / d)^p at the snapping distance h, d ~ the handles' extent, p the pole of
     # the weight (w ~ 1 / d^p: 2 alpha for idw, 1 for shepard, 2 alpha more interpolating):
     # with a shallow pole, or handles less than a few units apart, they are not negligible at
     # h = 1e-3 px (0.25 for alpha = 0.1, 1e-4 for shepard), so h shrinks until they are.
     pole = point_pole(config)
-    share2 = SNAP_SHARE ** (2 / pole if pole > 0 else 1 / alpha) * min(extent, 1.0) ** 2
-    hit2 = max(min((SNAP_DISTANCE / scale) ** 2, share2), SNAP_FLOOR2)
+    share = SNAP_SHARE ** (2 / pole if pole > 0 else 1 / alpha)
     # idw with a tiny s is infinite at d = 0 for float32: snap there too.
-    tiny_s = config.weight_entry.uses_s and log2_s - alpha * math.log2(hit2) < math.log2(1e-6)
-    return {
-        "u_alpha": alpha,
-        "u_log2_s": max(log2_s, -1e30),
-        "u_radius": (radius or 1.0) / scale,
-        "u_hit2": hit2,
-        "u_snap": config.infinite_at_zero or tiny_s,
-        "u_tiny_s": tiny_s,
-    }
+    uses_s, infinite, least = config.weight_entry.uses_s, config.infinite_at_zero, math.log2(1e-6)
+    rows = []
+    for scale, extent in pairs:
+        log2_s = log2_s0 - twice * math.log2(scale) if log2_s0 is not None else -1e30
+        share2 = share * min(extent, 1.0) ** 2
+        hit2 = max(min((SNAP_DISTANCE / scale) ** 2, share2), SNAP_FLOOR2)
+        tiny_s = uses_s and log2_s - alpha * math.log2(hit2) < least
+        rows.append((max(log2_s, -1e30), (radius or 1.0) / scale, hit2, infinite or tiny_s, tiny_s))
+    return rows
 
 
+@lru_cache(maxsize=64)  # a batch asks once per image; a config's replace() costs ~40 us
 def point_pole(config: MLSConfig) -> float:
     """The power p of a point handle's weight w ~ 1 / d^p at d = 0 where it snaps: idw's with
     s = 0 (float32 snaps a tiny s too), times 1 / d^(2 alpha) more where interpolating."""

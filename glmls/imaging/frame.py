@@ -445,7 +445,8 @@ def search_margins(
     moved = np.abs(deformed - ring).max(axis=(1, 2), initial=0.0)
     # each map's last evaluated margin and its deformed border's box: how fast the box grows
     # with the margin tells whether the budget's reach could ever enclose the frame
-    seen = [(0, *_box(deformed[k])) for k in range(count)]
+    lows, highs = _boxes(deformed)
+    seen = [(0, lows[k], highs[k]) for k in range(count)]
     for k in range(count):
         if inside[k]:
             found[k] = (0, True)
@@ -468,11 +469,11 @@ def search_margins(
         evaluated = list(margins)
         for margin in sorted({evaluated[k] for k in active}):
             alike = [k for k in active if evaluated[k] == margin]
-            inside = encloses_all(np.stack([values[k] for k in alike]), low, high)  # type: ignore[misc]
-            for k, covered in zip(alike, inside.tolist(), strict=True):
-                value = values[k]
-                assert value is not None
-                box = _box(value)
+            stacked = np.stack([values[k] for k in alike])  # type: ignore[misc]
+            inside = encloses_all(stacked, low, high)
+            lows, highs = _boxes(stacked)
+            for j, (k, covered) in enumerate(zip(alike, inside.tolist(), strict=True)):
+                box = (lows[j], highs[j])
                 if covered:
                     found[k] = (margin, True)
                 elif margin >= reach or not box_gains(seen[k], (margin, *box), reach, low, high):
@@ -483,13 +484,14 @@ def search_margins(
                     margins[k] = min(reach, 2 * margin)
 
 
-def _box(ring: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The (low, high) corners of a deformed border's points; non-finite points stand
-    nowhere (an empty box)."""
-    finite = np.isfinite(ring).all(axis=1)
-    if not finite.any():
-        return np.full(2, np.inf), np.full(2, -np.inf)
-    return point_bounds(ring[finite])
+def _boxes(rings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The (low, high) corners of each deformed border's points (``rings``: (N, K, 2)), two
+    (N, 2) arrays; non-finite points stand nowhere (a border of none: an empty box, low
+    inf and high -inf)."""
+    finite = np.isfinite(rings).all(axis=2, keepdims=True)
+    lows = np.where(finite, rings, np.inf).min(axis=1, initial=np.inf)
+    highs = np.where(finite, rings, -np.inf).max(axis=1, initial=-np.inf)
+    return lows, highs
 
 
 def _margin_within(height: int, width: int, pixels: int) -> int:
