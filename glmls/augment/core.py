@@ -22,6 +22,7 @@ from .params import (
     check_label_options,
     check_params,
     check_warp_options,
+    differing_options,
     jsonable,
     label_options_of,
     param_points,
@@ -584,9 +585,8 @@ class Augment:
         polygon_list = None if polygons is None else lab.check_polygons(polygons, count)
         options = dict(params[0]["options"])
         for i, p in enumerate(params):
-            if dict(p["options"]) != options:  # one warp_batch call: one set of options
-                other = dict(p["options"])
-                names = sorted(k for k in {*options, *other} if options.get(k) != other.get(k))
+            names = differing_options(options, dict(p["options"]))
+            if names:  # one warp_batch call: one set of options
                 raise ValueError(
                     f"params[{i}]['options'] differ from params[0]'s in {', '.join(names)}: "
                     "replay draws of different warp options in separate calls"

@@ -5,6 +5,7 @@ entry: ``params[2]['dst']``), before any GPU work."""
 
 from __future__ import annotations
 
+import json
 import operator
 from collections.abc import Mapping, Sequence
 
@@ -25,6 +26,7 @@ __all__ = [
     "check_label_options",
     "check_params",
     "check_warp_options",
+    "differing_options",
     "jsonable",
     "label_options_of",
     "param_points",
@@ -140,7 +142,7 @@ def check_params(params: object, count: int) -> list[Mapping]:
         raise ValueError(
             f"params holds {counted(len(params), 'draw')} for {counted(count, 'image')}"
         )
-    checked: set[str] = set()  # the options already checked, by their repr (types in it)
+    checked: set[str] = set()  # the options already checked, as JSON
     for i, draw in enumerate(params):
         if not isinstance(draw, Mapping):
             raise TypeError(f"params[{i}] must be a dict, got {type(draw).__name__}")
@@ -151,14 +153,61 @@ def check_params(params: object, count: int) -> list[Mapping]:
         options = draw["options"]
         if not isinstance(options, Mapping):
             raise TypeError(f"params[{i}]['options'] must be a dict, got {options!r}")
-        # one Augment's draws share their options: each distinct set is checked once
-        seen = repr(sorted(options.items(), key=lambda item: str(item[0])))
-        if seen not in checked:
+        # one Augment's draws share their options (as JSON): each such set is checked once
+        seen = _json_key(options)
+        if seen is None or seen not in checked:
             check_warp_options(options, f"params[{i}]['options']")
-            checked.add(seen)
+            if seen is not None:
+                checked.add(seen)
         if "label_options" in draw:
             _check_recorded_labels(draw["label_options"], f"params[{i}]['label_options']")
     return list(params)
+
+
+def _same_value(a: object, b: object) -> bool:
+    """Whether two recorded option values are equal: arrays and lists element by element,
+    NaN equal to NaN."""
+    if isinstance(a, (np.ndarray, list, tuple)) and isinstance(b, (np.ndarray, list, tuple)):
+        try:
+            x, y = np.asarray(a), np.asarray(b)
+        except ValueError:  # ragged: as Python compares them
+            return a == b
+        try:
+            return bool(np.array_equal(x, y, equal_nan=True))
+        except TypeError:  # not numbers: NaN cannot occur
+            return bool(np.array_equal(x, y))
+    try:
+        return bool(a == b) or (a != a and b != b)  # NaN
+    except (TypeError, ValueError):  # values whose == is no truth value
+        return a is b
+
+
+def differing_options(options: Mapping, other: Mapping) -> list[str]:
+    """The names of the options whose values differ between two draws' records, sorted
+    (arrays and lists compared element by element, NaN equal to NaN)."""
+    missing = object()
+    keys = {*options, *other}
+    return sorted(
+        (str(k) for k in keys if not _same_value(options.get(k, missing), other.get(k, missing))),
+    )
+
+
+def _json_key(options: Mapping) -> str | None:
+    """``options`` as JSON text with the types it keeps (a tuple and a list apart), or None
+    where they hold anything else (an array, an object, whose text may not tell two apart)."""
+
+    def plain(value: object) -> object:
+        if value is None or type(value) in (bool, int, float, str):
+            return [type(value).__name__, value]
+        if type(value) in (list, tuple):
+            return [type(value).__name__, [plain(v) for v in value]]  # type: ignore[attr-defined]
+        raise TypeError(type(value).__name__)
+
+    try:
+        items = sorted((str(k), type(k).__name__, plain(v)) for k, v in options.items())
+        return json.dumps(items, allow_nan=True)
+    except TypeError:
+        return None
 
 
 def _check_shape(shape: object, name: str) -> None:

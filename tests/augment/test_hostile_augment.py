@@ -68,6 +68,21 @@ def _edited(params, edit):
             ValueError,
             r"params\[0\]\['options'\]: unknown method 'swirl'",
         ),
+        (  # the draws' options are checked once per set: a later set of its own is checked
+            lambda p: p[1]["options"].__setitem__("grid", 0),
+            ValueError,
+            r"params\[1\]\['options'\]",
+        ),
+        (  # a list where a number goes: not the first draw's options, though alike as text
+            lambda p: p[1]["options"].__setitem__("grid", [p[0]["options"]["grid"]]),
+            TypeError,
+            r"params\[1\]\['options'\]",
+        ),
+        (
+            lambda p: p[1]["options"].__setitem__("background", np.full(3, np.nan)),
+            ValueError,
+            r"params\[1\]\['options'\]",
+        ),
     ],
 )
 def test_replay_of_edited_params_names_the_bad_entry(recorded, edit, error, message):
@@ -247,3 +262,22 @@ def test_polygons_of_another_nesting_are_named(polygons, message):
     polygons of one vertex pair each: it is named, with what it is."""
     with pytest.raises(TypeError, match=message):
         Augment("grid")(IMAGES, polygons=polygons)
+
+
+def test_replay_takes_options_edited_to_arrays_alike_in_every_draw(gl):
+    """Draws whose options hold equal arrays (not JSON lists) are one set of options: the
+    replay is that of the lists; NaN in both is equal too, and refused as a background."""
+    aug = Augment("grid", seed=3)
+    images = np.random.default_rng(0).integers(0, 255, (3, 16, 20, 3), dtype=np.uint8)
+    listed = json.loads(json.dumps(aug(images).params))
+    for draw in listed:
+        draw["options"]["background"] = [1, 2, 3]
+    as_lists = aug.replay(images, listed).images
+    edited = copy.deepcopy(listed)
+    for draw in edited:
+        draw["options"]["background"] = np.array([1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(aug.replay(images, edited).images, as_lists)
+    for draw in edited:
+        draw["options"]["background"] = np.full(3, np.nan)
+    with pytest.raises(ValueError, match="background"):
+        aug.replay(images, edited)
