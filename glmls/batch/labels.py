@@ -160,8 +160,7 @@ def visible_chunk(
         expected = points[idx] + np.stack([sx * d - sy * c, a * sy - b * sx], axis=1) / det[:, None]
         spread = 1.0 / least  # the inverse's 2-norm
         length = np.sqrt(sx * sx + sy * sy)
-        slack = SLACK + (np.sqrt(0.5) * np.maximum(spread, 1.0) if drawn else 0.0)
-        threshold = slack + 0.5 * length * spread
+        threshold = _threshold(spread, length, drawn)
         gap = shown - expected
         distance = np.sqrt(gap[:, 0] ** 2 + gap[:, 1] ** 2)
         scale = 1.0 + np.abs(shown).max(axis=1) + np.abs(points[idx]).max(axis=1)
@@ -173,6 +172,15 @@ def visible_chunk(
         near = _near_by_pinv(points[idx[rest]], jacobian[idx[rest]], step[rest], shown[rest], drawn)
         ok[idx[rest]] = near
     return ok
+
+
+def _threshold(spread: np.ndarray, length: np.ndarray, drawn: bool) -> np.ndarray:
+    """How far the shown source point may lie from the expected one: :data:`SLACK` (and,
+    ``drawn``, the half pixel's diagonal through the local map), plus half the local map's
+    change over the ``length`` of the step to the nearest pixel; ``spread`` the local
+    inverse's 2-norm."""
+    slack = SLACK + (np.sqrt(0.5) * np.maximum(spread, 1.0) if drawn else 0.0)
+    return slack + 0.5 * (length * spread)
 
 
 def _near_by_pinv(
@@ -193,9 +201,8 @@ def _near_by_pinv(
                 [_near_by_pinv(*(x[k : k + 1] for x in arrays), drawn) for k in range(len(points))]
             )
         expected = points + np.einsum("ki,kij->kj", step, inverse)
-        reach = np.linalg.norm(step, axis=1) * spread
-        slack = SLACK + (np.sqrt(0.5) * np.maximum(spread, 1.0) if drawn else 0.0)
-        return np.linalg.norm(shown - expected, axis=1) <= slack + 0.5 * reach
+        threshold = _threshold(spread, np.linalg.norm(step, axis=1), drawn)
+        return np.linalg.norm(shown - expected, axis=1) <= threshold
 
 
 #: A cell's corners (row and column steps) in the order :func:`mesh_map` takes them.
