@@ -37,6 +37,12 @@ def mesh_corners(lattice: MeshLattice, points: np.ndarray) -> tuple[np.ndarray, 
     """For (P, 2) source ``points``: the (P, 4, 2) corners 00, 10, 01, 11 of the lattice cell
     holding each (the last cell of a row or column where past it) and a (P,) bool, inside the
     lattice's domain."""
+    _, corners, inside = _cells(lattice, points)
+    return corners, inside
+
+
+def _cells(lattice: MeshLattice, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`mesh_corners` with the (P, 2) (column, row) index of each point's cell first."""
     origin = np.asarray(lattice.origin, np.float64)
     last = np.asarray(lattice.last, np.float64)
     cells = np.asarray(lattice.cells, np.int64)  # (columns, rows)
@@ -44,11 +50,13 @@ def mesh_corners(lattice: MeshLattice, points: np.ndarray) -> tuple[np.ndarray, 
     index = np.clip(np.floor((points - origin) / grid).astype(np.int64), 0, cells - 1)
     low = np.minimum(origin + index * grid, last)
     high = np.minimum(origin + (index + 1) * grid, last)
-    corners = np.stack(
-        [low, np.c_[high[:, 0], low[:, 1]], np.c_[low[:, 0], high[:, 1]], high], axis=1
-    )
+    corners = np.empty((len(points), 4, 2))
+    corners[:, 0] = low
+    corners[:, 1, 0], corners[:, 1, 1] = high[:, 0], low[:, 1]
+    corners[:, 2, 0], corners[:, 2, 1] = low[:, 0], high[:, 1]
+    corners[:, 3] = high
     inside = np.all((points >= origin) & (points <= last), axis=1)
-    return corners, inside
+    return index, corners, inside
 
 
 def mesh_map(
@@ -57,6 +65,14 @@ def mesh_map(
     """The mesh's map at ``points``: (P, 2) output points and the (P, 2, 2) Jacobians (rows:
     d/dx, d/dy) of the triangle each lies in. ``corners``: (P, 4, 2) source corners 00, 10, 01,
     11 (:func:`mesh_corners`), ``deformed``: their images under f."""
+    out, ex, ey, size, _ = _triangle_map(corners, deformed, points)
+    jacobian = np.stack([ex / size[:, :1], ey / size[:, 1:]], axis=1)
+    return out, jacobian
+
+
+def _triangle_map(corners: np.ndarray, deformed: np.ndarray, points: np.ndarray):
+    """:func:`mesh_map`'s output points, the triangles' edges per unit of the cell's (u, v),
+    the cells' sizes and (P,) bool, the point in the upper triangle (00, 11, 01)."""
     low, high = corners[:, 0], corners[:, 3]
     size = np.maximum(high - low, 1e-12)
     u, v = ((points - low) / size).T
@@ -65,8 +81,7 @@ def mesh_map(
     ex = np.where(lower[:, None], d10 - d00, d11 - d01)  # per unit u
     ey = np.where(lower[:, None], d11 - d10, d01 - d00)  # per unit v
     out = d00 + u[:, None] * ex + v[:, None] * ey
-    jacobian = np.stack([ex / size[:, :1], ey / size[:, 1:]], axis=1)
-    return out, jacobian
+    return out, ex, ey, size, u < v
 
 
 #: A keypoint shows where the source point of the output pixel nearest it is within this
@@ -231,28 +246,33 @@ def mesh_keypoints(
     if vertices.ndim == 3:
         vertices = vertices[None]
     image = np.zeros(count, np.int64) if images is None else images
-    corners, inside = mesh_corners(lattice, points)
-    columns, _ = lattice.cells
-    origin = np.asarray(lattice.origin, np.float64)
-    index = np.rint((corners[:, 0] - origin) / lattice.grid).astype(np.int64)  # (col, row)
+    index, corners, inside = _cells(lattice, points)
     col, row = index[:, 0], index[:, 1]
-    # the cells' four corners (00, 10, 01, 11) in one gather: (P, 4, 2)
-    corner = vertices[image[:, None], row[:, None] + _ROWS, col[:, None] + _COLUMNS]
-    deformed = np.asarray(corner, dtype=np.float64)
-    out, _ = mesh_map(corners, deformed, points)
+    deformed = _cell_vertices(vertices, image, row, col)
+    out, _, _, _, upper = _triangle_map(corners, deformed, points)
     if moved is not None:
         out = moved
-    low, high = corners[:, 0], corners[:, 3]
-    u, v = ((points - low) / np.maximum(high - low, 1e-12)).T
-    own = (row * columns + col) * 2 + (u < v)
+    own = (row * (vertices.shape[2] - 1) + col) * 2 + upper
     hidden = np.zeros(count, bool)
-    folded = ~embedded(vertices) if folded is None else folded
+    folded = ~embedded(vertices) if folded is None else np.asarray(folded, bool)
     meshes = np.flatnonzero(folded)  # an embedding hides no point: only the others are tested
-    tested = np.flatnonzero(np.isin(image, meshes))
+    tested = np.flatnonzero(folded[image])
     if len(tested):
-        which = np.searchsorted(meshes, image[tested])
+        which = (np.cumsum(folded) - 1)[image[tested]]  # the place of each in ``meshes``
         hidden[tested] = _covered_earlier(vertices, meshes, which, out[tested], own[tested])
     return out, inside & ~hidden
+
+
+def _cell_vertices(vertices, image: np.ndarray, row: np.ndarray, col: np.ndarray) -> np.ndarray:
+    """(P, 4, 2) float64: the deformed corners 00, 10, 01, 11 of cell (``row``, ``col``) of
+    mesh ``image`` (``vertices``: (N, rows, columns, 2), an array or :class:`MeshVertices`),
+    gathered by one flat index."""
+    _, rows, columns, _ = vertices.shape
+    flat = (image * rows + row) * columns + col
+    at = flat[:, None] + _ROWS * columns + _COLUMNS
+    if isinstance(vertices, MeshVertices):
+        return vertices.flat_points(at, image)
+    return np.asarray(vertices, np.float64).reshape(-1, 2)[at]
 
 
 #: Least area (px^2) of a triangle, and turn of a boundary edge about the centre, that
@@ -407,6 +427,13 @@ class MeshVertices:
                 extreme = reduce(scaled[..., axis], axis=2).astype(np.float64)  # (M, rows)
                 out.append(extreme * scale + centre[:, axis, None])
         return out
+
+    def flat_points(self, at: np.ndarray, images: np.ndarray) -> np.ndarray:
+        """The vertices at flat indices ``at`` (P, k) into (N * rows * columns) of the
+        meshes ``images`` (P,) that hold them: (P, k, 2), converted as :meth:`__getitem__`
+        converts them."""
+        scaled = self._scaled.reshape(-1, 2)[at].astype(np.float64)
+        return scaled * self._scales[images][:, None, None] + self._centers[images][:, None]
 
     def __getitem__(self, key):
         image = key[0] if isinstance(key, tuple) else key
