@@ -5,6 +5,7 @@ batch with :func:`glmls.warp_batch` and moves its labels along."""
 from __future__ import annotations
 
 import dataclasses
+import inspect
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -364,7 +365,13 @@ class Augment:
         return {name: getattr(self, name) for name in LABEL_OPTIONS}
 
     def __repr__(self) -> str:
-        return f"Augment({self.preset!r}, seed={self.seed})"
+        # the keywords that differ from their defaults too: the repr makes this Augment again
+        base = {**DEFAULT_WARP_OPTIONS, **mesh_step(self.preset, self.warp_options)}
+        warp = {k: self.warp_options[k] for k in differing_options(self.warp_options, base)}
+        given = inspect.signature(Augment.__init__).parameters
+        labels = {k: v for k, v in self.label_options.items() if v != given[k].default}
+        keywords = {"seed": self.seed, **({"warp_options": warp} if warp else {}), **labels}
+        return f"Augment({self.preset!r}, {', '.join(f'{k}={v!r}' for k, v in keywords.items())})"
 
     def draw(
         self,

@@ -12,6 +12,7 @@ canvas, and a box is valid where what is left has a positive width and height.
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Mapping
 
 import numpy as np
@@ -48,6 +49,35 @@ def _finite(array: np.ndarray, name: str, columns: int, rows: str = "B") -> np.n
     if array.ndim != 2 or array.shape[1] != columns:
         raise ValueError(f"{name} has shape {array.shape}; expected ({rows}, {columns})")
     return check_coordinates(np.asarray(array, np.float64), name)
+
+
+def _real_array(value: object, name: str, columns: int, rows: str) -> np.ndarray:
+    """``value`` as a (``rows``, ``columns``) float64 array for the public label helpers,
+    which take coordinates of any size: a ``DtypeError`` naming ``name`` for values that are
+    no real numbers, a ``ValueError`` for another shape or a value that is not finite."""
+    array = np.asarray(value)
+    real = np.issubdtype(array.dtype, np.number) and array.dtype.kind != "c"
+    if array.dtype == object or not real:  # complex would lose its imaginary part
+        raise DtypeError(f"{name} has dtype {array.dtype}; expected real numbers")
+    if array.size == 0 and array.ndim <= 2:  # [] or np.zeros((0, 2)): none
+        array = array.reshape(0, columns)
+    if array.ndim != 2 or array.shape[1] != columns:
+        raise ValueError(f"{name} has shape {array.shape}; expected ({rows}, {columns})")
+    array = np.asarray(array, np.float64)
+    if not np.isfinite(array).all():
+        raise ValueError(f"{name} holds values that are not finite (NaN or inf)")
+    return array
+
+
+def _canvas(shape: object) -> tuple[int, int]:
+    """``shape`` as the canvas (H, W), two integers >= 0; a ``ValueError`` naming it else."""
+    try:
+        height, width = (operator.index(side) for side in shape)  # type: ignore[union-attr]
+    except (TypeError, ValueError):
+        raise ValueError(f"shape must be (H, W), two integers >= 0, got {shape!r}") from None
+    if height < 0 or width < 0:
+        raise ValueError(f"shape must be (H, W), two integers >= 0, got {shape!r}")
+    return height, width
 
 
 def _per_image(value: object, name: str, count: int) -> tuple[list, bool]:
@@ -240,7 +270,7 @@ def box_outlines(
     Parameters
     ----------
     boxes : numpy.ndarray
-        (B, 4) boxes ``(x_min, y_min, x_max, y_max)``.
+        (B, 4) boxes ``(x_min, y_min, x_max, y_max)``, or one box as a (4,) row.
     step : float
         The largest distance between two outline points, in pixels (> 0).
     mesh : (int, (int, int)) or None, default None
@@ -256,8 +286,12 @@ def box_outlines(
     Raises
     ------
     ValueError
-        For a ``step`` that is not a finite number > 0, a box that is not finite, or a side
-        that would take more than ``MAX_EDGE_POINTS`` (2**22) points.
+        For a ``step`` that is not a finite number > 0, boxes of another shape, a box that
+        is not finite, or a side that would take more than ``MAX_EDGE_POINTS`` (2**22)
+        points.
+    TypeError
+        For boxes that are not real numbers (a :class:`glmls.DtypeError`), or a ``step``
+        that is not a number.
 
     Examples
     --------
@@ -271,7 +305,9 @@ def box_outlines(
     [[0.0, 0.0], [1.5, 0.0], [2.0, 0.0], [3.5, 0.0]]
     """
     check_positive("step", step)
-    boxes = np.asarray(boxes, np.float64).reshape(-1, 4)
+    given = np.asarray(boxes)
+    # one box may come as a (4,) row; a (2, 2) array is no box
+    boxes = _real_array(given[None] if given.ndim == 1 and given.size else given, "boxes", 4, "B")
     x0, y0, x1, y1 = boxes.T
     corners = np.stack([np.c_[x0, y0], np.c_[x1, y0], np.c_[x1, y1], np.c_[x0, y1]], axis=1)
     starts = corners.reshape(-1, 2)  # (4 B, 2): the sides, box by box, a -> b
@@ -420,7 +456,8 @@ def boxes_from_outlines(
     Raises
     ------
     ValueError
-        Where the counts do not add up to the points.
+        Where the counts are not integers >= 1 (a box of no points has no extent) or do not
+        add up to the points, or for a ``shape`` that is not two integers >= 0.
 
     Examples
     --------
@@ -433,9 +470,16 @@ def boxes_from_outlines(
     >>> boxes_from_outlines(moved, np.array([3, 2]), (8, 8), clip=False)[0][1].tolist()
     [30.0, 30.0, 40.0, 31.0]
     """
+    moved = np.asarray(moved, np.float64).reshape(-1, 2)
+    counts = np.asarray(counts)
+    if counts.ndim != 1 or not (counts.dtype.kind in "iu" or counts.size == 0):
+        raise ValueError(f"counts must be a 1-D array of integers, got {counts!r}")
+    if counts.size and counts.min() < 1:  # a box of no points has no extent
+        k = int(np.argmin(counts))
+        raise ValueError(f"counts[{k}] is {int(counts[k])}: each box needs at least 1 point")
     if int(np.sum(counts)) != len(moved):
         raise ValueError(f"the counts add up to {int(np.sum(counts))} points, not {len(moved)}")
-    height, width = shape
+    height, width = _canvas(shape)
     boxes = np.zeros((len(counts), 4))
     starts = (np.cumsum(counts) - counts).astype(np.int64)
     for k, (start, n) in enumerate(zip(starts, counts, strict=True)):
@@ -467,8 +511,11 @@ def densify_polygon(polygon: np.ndarray, step: float | None) -> np.ndarray:
     Raises
     ------
     ValueError
-        For a ``step`` that is not None or a finite number > 0, a vertex that is not finite,
-        or an edge that would take more than ``MAX_EDGE_POINTS`` (2**22) points.
+        For a ``step`` that is not None or a finite number > 0, a polygon that is not
+        (V, 2), a vertex that is not finite, or an edge that would take more than
+        ``MAX_EDGE_POINTS`` (2**22) points.
+    TypeError
+        For vertices that are not real numbers (a :class:`glmls.DtypeError`).
 
     Examples
     --------
@@ -480,6 +527,7 @@ def densify_polygon(polygon: np.ndarray, step: float | None) -> np.ndarray:
     if step is None:
         return polygon
     check_positive("step", step)
+    polygon = _real_array(polygon, "polygon", 2, "V")
     if len(polygon) < 2:
         return polygon
     nxt = np.roll(polygon, -1, axis=0)
@@ -515,7 +563,10 @@ def clip_polygon(polygon: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     Raises
     ------
     ValueError
-        For a polygon that is not (V, 2) or not finite.
+        For a polygon that is not (V, 2) or not finite, or a ``shape`` that is not two
+        integers >= 0.
+    TypeError
+        For vertices that are not real numbers (a :class:`glmls.DtypeError`).
 
     Examples
     --------
@@ -524,12 +575,8 @@ def clip_polygon(polygon: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     >>> clip_polygon(np.array([[-4.0, 0.0], [4.0, 0.0], [4.0, 2.0]]), (8, 8)).tolist()
     [[-0.5, 0.875], [-0.5, 0.0], [4.0, 0.0], [4.0, 2.0]]
     """
-    polygon = np.asarray(polygon, np.float64)
-    if polygon.ndim != 2 or polygon.shape[1] != 2:
-        raise ValueError(f"polygon has shape {polygon.shape}; expected (V, 2)")
-    if not np.isfinite(polygon).all():
-        raise ValueError("polygon holds values that are not finite (NaN or inf)")
-    height, width = shape
+    polygon = _real_array(polygon, "polygon", 2, "V")
+    height, width = _canvas(shape)
     planes = ((0, -0.5, 1.0), (1, -0.5, 1.0), (0, width - 0.5, -1.0), (1, height - 0.5, -1.0))
     points = [tuple(p) for p in np.asarray(polygon, np.float64)]
     for axis, edge, sign in planes:
@@ -541,8 +588,13 @@ def clip_polygon(polygon: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
             inside_now = sign * (current[axis] - edge) >= 0
             inside_before = sign * (previous[axis] - edge) >= 0
             if inside_now != inside_before:
-                t = (edge - previous[axis]) / (current[axis] - previous[axis])
-                kept.append(tuple(p + t * (c - p) for p, c in zip(previous, current, strict=True)))
+                # from the end on the canvas: from a far one (1e300 px) the crossing would be
+                # that far end's rounding error, nowhere near the canvas
+                inner, outer = (current, previous) if inside_now else (previous, current)
+                t = (edge - inner[axis]) / (outer[axis] - inner[axis])
+                crossing = [a + t * (b - a) for a, b in zip(inner, outer, strict=True)]
+                crossing[axis] = edge
+                kept.append(tuple(crossing))
             if inside_now:
                 kept.append(current)
         points = kept
@@ -570,14 +622,3 @@ def _without_slivers(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
     if abs(_twice_area(kept)) <= flat and _twice_area(polygon) != 0.0:
         return points[:0]
     return kept
-    # the crossings of one edge, computed from its two ends, may differ in the last bit
-    close = 1e-9 * max(1.0, float(np.abs(points).max()))
-    repeated = np.all(np.abs(points - np.roll(points, 1, axis=0)) <= close, axis=1)
-    if repeated.all():  # one point, however often
-        return points[:0]
-    points = points[~repeated]
-    x, y = points[:, 0], points[:, 1]
-    twice_area = np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))
-    if len(points) < 3 or twice_area == 0.0:
-        return points[:0]
-    return points

@@ -176,6 +176,29 @@ def test_preset_objects_and_their_options():
 
 
 @pytest.mark.parametrize(
+    "keywords",
+    [
+        {},
+        {"seed": 5, "box_step": 3.0, "warp_options": {"border": "reflect"}},
+        {"densify": 2.0, "clip_polygons": False, "warp_options": {"method": "backward"}},
+        {"warp_options": {"grid": 1, "transform": "rigid"}},
+        {"warp_options": {"tolerance": 0.2}},
+    ],
+)
+def test_the_repr_makes_the_same_augment_again(keywords):
+    """Every keyword that differs from its default is in the repr (a log of the run shows
+    the border, the method and the label options that shaped the samples), and the repr
+    evaluates to an Augment of the same options."""
+    aug = Augment("grid", rows=3, **keywords)
+    again = eval(repr(aug), {"Augment": Augment, "GridPreset": GridPreset})
+    assert again.preset == aug.preset and again.seed == aug.seed
+    assert again.warp_options == aug.warp_options
+    assert again.label_options == aug.label_options
+    for name, value in keywords.get("warp_options", {}).items():
+        assert f"{name!r}: {value!r}" in repr(aug)
+
+
+@pytest.mark.parametrize(
     ("make", "message"),
     [
         (lambda: Augment("wave"), "unknown preset 'wave'; expected one of grid, text-distort"),

@@ -9,7 +9,13 @@ import json
 import numpy as np
 import pytest
 
-from glmls.augment import Augment, box_outlines, clip_polygon, densify_polygon
+from glmls.augment import (
+    Augment,
+    box_outlines,
+    boxes_from_outlines,
+    clip_polygon,
+    densify_polygon,
+)
 
 IMAGES = np.random.default_rng(0).integers(0, 255, (2, 16, 20), dtype=np.uint8)
 
@@ -154,10 +160,68 @@ def test_a_step_that_would_take_billions_of_points_is_refused(options, labels, m
 def test_the_label_helpers_refuse_coordinates_that_are_not_finite():
     with pytest.raises(ValueError, match="polygon holds values that are not finite"):
         clip_polygon(np.array([[1.0, 1.0], [np.nan, 1.0], [5.0, 8.0]]), (20, 24))
-    with pytest.raises(ValueError, match="coordinates must be finite"):
+    with pytest.raises(ValueError, match="boxes holds values that are not finite"):
         box_outlines(np.array([[0.0, 0.0, np.inf, 4.0]]), 2.0)
     with pytest.raises(ValueError, match="use a larger step"):
         densify_polygon(np.array([[0.0, 0.0], [9.0, 0.0], [5.0, 8.0]]), 1e-12)
+    with pytest.raises(ValueError, match="polygon holds values that are not finite"):
+        densify_polygon(np.array([[np.nan, 0.0]]), 1.0)  # one vertex: no edge to measure
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "message"),
+    [
+        (lambda: densify_polygon(np.zeros((3, 3)), 1.0), ValueError, r"polygon has shape \(3, 3\)"),
+        (lambda: densify_polygon(np.ones((3, 2), complex), 1.0), TypeError, "dtype complex128"),
+        (lambda: clip_polygon(np.ones((3, 2), complex), (8, 8)), TypeError, "dtype complex128"),
+        (lambda: clip_polygon(np.zeros((3, 2)), (8,)), ValueError, r"shape must be \(H, W\)"),
+        (lambda: clip_polygon(np.zeros((3, 2)), (8, -1)), ValueError, "two integers >= 0"),
+        (lambda: clip_polygon(np.zeros((3, 2)), (8.5, 8)), ValueError, "two integers >= 0"),
+        # a (2, 2) array holds two points, not one box; a (3,) row is no box either
+        (lambda: box_outlines(np.zeros((2, 2)), 1.0), ValueError, r"boxes has shape \(2, 2\)"),
+        (lambda: box_outlines([0.0, 0.0, 4.0], 1.0), ValueError, r"boxes has shape \(1, 3\)"),
+        (lambda: box_outlines(np.ones((1, 4), bool), 1.0), TypeError, "dtype bool"),
+        (
+            lambda: boxes_from_outlines(np.zeros((2, 2)), np.array([0, 2]), (8, 8)),
+            ValueError,
+            r"counts\[0\] is 0: each box needs at least 1 point",
+        ),
+        (
+            lambda: boxes_from_outlines(np.zeros((2, 2)), np.array([1.0, 1.0]), (8, 8)),
+            ValueError,
+            "counts must be a 1-D array of integers",
+        ),
+        (
+            lambda: boxes_from_outlines(np.zeros((1, 2)), np.array([1]), (8,)),
+            ValueError,
+            r"shape must be \(H, W\)",
+        ),
+    ],
+)
+def test_the_label_helpers_name_a_bad_argument(call, error, message):
+    with pytest.raises(error, match=message):
+        call()
+
+
+def test_the_label_helpers_take_one_box_as_a_row_and_no_box_as_an_empty_list():
+    points, counts = box_outlines([0.0, 0.0, 4.0, 2.0], 2.0)
+    assert counts.tolist() == [6] and points[:3].tolist() == [[0, 0], [2, 0], [4, 0]]
+    points, counts = box_outlines([], 2.0)
+    assert points.shape == (0, 2) and counts.shape == (0,)
+    assert densify_polygon([], 1.0).shape == (0, 2)
+
+
+def test_a_polygon_is_clipped_where_a_far_vertex_lies_beyond_float_rounding():
+    """The crossing of an edge with the canvas's side is computed from its end on the
+    canvas: from the far end it would be that end's rounding error (1e300 * 2**-53 ~
+    1e284), and the crossing of x = 7.5 with the edge (1e300, 0) - (3, 3) would land at
+    x = 0."""
+    # the edge meets x = 7.5 at y = 3 (1e300 - 7.5) / (1e300 - 3), 3 in float64
+    triangle = np.array([[0.0, 0.0], [1e300, 0.0], [3.0, 3.0]])
+    clipped = clip_polygon(triangle, (8, 8))
+    np.testing.assert_allclose(
+        clipped, [[0.0, 0.0], [7.5, 0.0], [7.5, 3.0], [3.0, 3.0]], atol=1e-12
+    )
 
 
 RAGGED = [[1.0, 2.0], [3.0]]
