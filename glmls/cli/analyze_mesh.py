@@ -154,6 +154,9 @@ def run_mesh(args: argparse.Namespace) -> int:
         colors=mesh.colors,
         uv=mesh.uv,
         face_uv=mesh.face_uv,
+        # the input's own normals carried by J^-T, as glmls warp writes them: a shaded mesh
+        # keeps its shading, and a file gains no normals its input did not have
+        normals=None if mesh.normals is None else deformed.normals,
     )
     for path in paths:
         print(path)

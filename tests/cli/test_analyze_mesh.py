@@ -91,6 +91,35 @@ def test_analyze_a_point_cloud_and_a_folding_map(inputs, capsys):
     capsys.readouterr()
 
 
+def test_deformed_mesh_keeps_the_inputs_normals_turned_by_j_inverse_transpose(inputs, capsys):
+    """deformed.ply carries the input's own normals as n J^-T (unit), J the float64
+    reference's central differences, as ``glmls warp`` writes them; a mesh without normals
+    gains none."""
+    sphere = glmls.data.sphere()
+    radial = sphere.vertices - sphere.vertices.mean(axis=0)
+    normals = radial / np.linalg.norm(radial, axis=1, keepdims=True)
+    glmls.write_mesh(
+        inputs / "shaded.ply", glmls.Mesh(sphere.vertices, sphere.faces, normals=normals)
+    )
+    argv = ["analyze", "shaded.ply", "--handles", "h3.json", "--transform", "affine"]
+    assert main([*argv, "--out", "rep"]) == 0
+    written = glmls.read_mesh(inputs / "rep" / "deformed.ply").normals
+    m = ReferenceDeformation(SRC, DST, transform="affine")
+    step = 1e-3
+    columns = [
+        (m(sphere.vertices + step * axis) - m(sphere.vertices - step * axis)) / (2 * step)
+        for axis in np.eye(3)
+    ]
+    jacobian = np.stack(columns, axis=1)  # J[k, r, c] = d f_c / d v_r
+    turned = np.einsum("kc,krc->kr", normals, np.linalg.inv(jacobian))  # n J^-T, row vectors
+    turned /= np.linalg.norm(turned, axis=1, keepdims=True)
+    assert written is not None
+    assert_allclose(written, turned, atol=1e-3)  # the GPU's J in float32, PLY's float32
+    assert main(["analyze", "sphere.obj", "--handles", "h3.json", "--out", "plain"]) == 0
+    assert glmls.read_mesh(inputs / "plain" / "deformed.ply").normals is None
+    capsys.readouterr()
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [
