@@ -120,6 +120,27 @@ def test_deformed_mesh_keeps_the_inputs_normals_turned_by_j_inverse_transpose(in
     capsys.readouterr()
 
 
+def test_a_map_that_flattens_the_mesh_folds_every_vertex(inputs, capsys):
+    """Targets on the plane z = 32 (affine): J is singular at every vertex (the float64
+    reference's J has rank 2), so every vertex and face folds and no ratio is defined,
+    rather than float32's rounding of det J deciding a random half."""
+    flat = np.array(SRC, float)
+    flat[:, 2] = 32.0
+    (inputs / "flat.json").write_text(json.dumps({"src": SRC, "dst": flat.tolist()}))
+    vertices = glmls.data.sphere().vertices
+    m = ReferenceDeformation(SRC, flat, transform="affine")
+    columns = [(m(vertices + 1e-3 * e) - m(vertices - 1e-3 * e)) / 2e-3 for e in np.eye(3)]
+    singular = np.linalg.svd(np.stack(columns, axis=1), compute_uv=False)
+    assert (singular[:, 2] < 1e-8 * singular[:, 0]).all()
+    argv = ["analyze", "sphere.obj", "--handles", "flat.json", "--transform", "affine"]
+    assert main([*argv, "--out", "flat"]) == 0
+    jacobians = json.loads((inputs / "flat" / "report.json").read_text())["jacobians"]
+    assert jacobians["vertex_folds"] == 162 and jacobians["face_folds"] == 320
+    assert jacobians["det"]["max"] == 0.0
+    assert jacobians["ratio"]["count"] == 0 and jacobians["ratio"]["nan_count"] == 162
+    capsys.readouterr()
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [
