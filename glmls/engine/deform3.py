@@ -59,7 +59,7 @@ FACES_PER_INVOCATION = 4
 #: J counts as singular (det J = 0, a fold) where det J is within this many of float32's
 #: roundings of J's central differences (eps32 x the coordinates' scale over the step) times
 #: the norm of J's cofactor matrix: J's smallest singular value within them of 0.
-FLAT_ROUNDINGS = 2.0
+FLAT_ROUNDINGS = 4.0
 #: The tables (glmls.gl.tables) of the vertices, the faces and the records.
 VERTICES_TABLE, FACES_TABLE, RECORDS_TABLE = "mesh3 vertices", "mesh3 faces", "mesh3 records"
 
