@@ -68,12 +68,12 @@ def _distinct(points: np.ndarray) -> np.ndarray:
     return points[np.sort(first)]
 
 
-def _ratios(jacobian: np.ndarray) -> np.ndarray:
+def _ratios(jacobian: np.ndarray, det: np.ndarray) -> np.ndarray:
     """The largest over the smallest singular value of each J (K, 3, 3); NaN where J is
-    singular."""
+    singular (to float32's rounding: ``det`` 0, as :meth:`glmls.MLS.deform` gives it)."""
     singular = np.linalg.svd(jacobian, compute_uv=False)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(singular[:, 2] > 0, singular[:, 0] / singular[:, 2], np.nan)
+        return np.where((singular[:, 2] > 0) & (det != 0), singular[:, 0] / singular[:, 2], np.nan)
 
 
 def _degenerate_faces(vertices: np.ndarray, faces: np.ndarray) -> int:
@@ -136,7 +136,7 @@ def run_mesh(args: argparse.Namespace) -> int:
         "jacobians": {
             "vertices": len(mesh.vertices),
             "det": error_stats(deformed.det_j),
-            "ratio": error_stats(_ratios(deformed.jacobian)),
+            "ratio": error_stats(_ratios(deformed.jacobian, deformed.det_j)),
             "vertex_folds": vertex_folds,
             "face_folds": face_folds,
             "degenerate_faces": degenerate,
@@ -154,6 +154,9 @@ def run_mesh(args: argparse.Namespace) -> int:
         colors=mesh.colors,
         uv=mesh.uv,
         face_uv=mesh.face_uv,
+        # the input's own normals carried by J^-T, as glmls warp writes them: a shaded mesh
+        # keeps its shading, and a file gains no normals its input did not have
+        normals=None if mesh.normals is None else deformed.normals,
     )
     for path in paths:
         print(path)

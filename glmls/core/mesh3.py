@@ -60,7 +60,8 @@ class DeformedMesh:
         (V, 3, 3) float64 J = df/dv at each vertex, row vectors: J[k, r, c] = d f_c / d v_r
         (float32 values from the GPU, as are ``normals`` and ``det_j``).
     det_j : numpy.ndarray
-        (V,) float64 det J: the local change of volume.
+        (V,) float64 det J: the local change of volume; 0 from the GPU where J is singular
+        to float32's rounding (f flattens the mesh there), which folds.
     vertex_folds : numpy.ndarray
         (V,) bool: det J <= 0.
     face_folds : numpy.ndarray

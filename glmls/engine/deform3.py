@@ -30,12 +30,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.mesh3 import DeformedMesh
+from ..core.mesh3 import DeformedMesh, cofactor
 from ..gl import bindings
 from ..gl.dispatch import fill_buffer, run_1d
 from ..gl.tables import TABLE_WIDTH, table_rows
 from .kernel3 import MLSKernel3
-from .passes3 import run_points3
+from .passes3 import jacobian_steps, jacobian_uniforms, run_points3
 
 __all__ = [
     "MESH_FOLDS_PASS",
@@ -56,6 +56,10 @@ SUMS = 8
 #: Faces per invocation of the passes over faces (``MESH3_FACES``: 3 uvec4 of indices read,
 #: a byte each of fold flags, one uint, written).
 FACES_PER_INVOCATION = 4
+#: J counts as singular (det J = 0, a fold) where det J is within this many of float32's
+#: roundings of J's central differences (eps32 x the coordinates' scale over the step) times
+#: the norm of J's cofactor matrix: J's smallest singular value within them of 0.
+FLAT_ROUNDINGS = 4.0
 #: The tables (glmls.gl.tables) of the vertices, the faces and the records.
 VERTICES_TABLE, FACES_TABLE, RECORDS_TABLE = "mesh3 vertices", "mesh3 faces", "mesh3 records"
 
@@ -151,23 +155,46 @@ def deform_mesh3(
         # (copied out below: the arrays returned are new, the records' host copy is not)
         out = scratch.staging("records3", (count, RECORD), np.float32)
         records.read_into(out, size=out.nbytes)
-    det = out[:, 15]
+    jacobian = out[:, 6:15].astype(np.float64).reshape(count, 3, 3)
+    det = _flat_to_zero(kernel, vertices, jacobian, out[:, 15].astype(np.float64))
     deformed = vertices + out[:, 3:6] * kernel.scaling.scale
     if kernel.offset.any():  # the targets' offset, in float64 (MLSKernel3.offset)
         deformed += kernel.offset
+    vertex_folds = det <= 0
+    face_folds = folds[:face_count].view(bool)
+    if face_count:  # a face folds where one of its vertices does (flat ones included)
+        face_folds = face_folds | vertex_folds[faces].any(axis=1)
     return DeformedMesh(
         vertices=deformed,
         faces=faces,
         normals=out[:, 0:3].astype(np.float64),
-        jacobian=out[:, 6:15].astype(np.float64).reshape(count, 3, 3),
-        det_j=det.astype(np.float64),
-        vertex_folds=det <= 0,
-        face_folds=folds[:face_count].view(bool),
+        jacobian=jacobian,
+        det_j=det,
+        vertex_folds=vertex_folds,
+        face_folds=face_folds,
         colors=colors,
         uv=uv,
         face_uv=face_uv,
         own_normals=normals is not None,
     )
+
+
+def _flat_to_zero(
+    kernel: MLSKernel3, vertices: np.ndarray, jacobian: np.ndarray, det: np.ndarray
+) -> np.ndarray:
+    """``det`` (V,) with 0 where J is singular to float32's rounding: where f flattens the
+    mesh (targets on a plane, say) the GPU's det J is that rounding, of either sign, and
+    would fold a random half of the vertices. J's central differences over a step h carry
+    about eps32 x scale x max(box, |v|) / h of rounding (scaled coordinates, the box's half
+    side and v's largest: their float32 spacing; h of :func:`jacobian_steps`); det J
+    within :data:`FLAT_ROUNDINGS` of them times |cof J| (s1 s2 and more) puts J's smallest
+    singular value within them of 0."""
+    scaling = kernel.scaling
+    box = jacobian_uniforms(kernel)["u_jacobian_box"]
+    reach = np.maximum(box, np.abs(scaling.to_gpu(vertices)).max(axis=1))
+    rounding = np.finfo(np.float32).eps * scaling.scale * reach / jacobian_steps(kernel, vertices)
+    size = np.linalg.norm(cofactor(jacobian).reshape(len(det), 9), axis=1)
+    return np.where(np.abs(det) <= FLAT_ROUNDINGS * rounding * size, 0.0, det)
 
 
 def _check_tables(limit: int, count: int, faces: int) -> None:

@@ -91,6 +91,56 @@ def test_analyze_a_point_cloud_and_a_folding_map(inputs, capsys):
     capsys.readouterr()
 
 
+def test_deformed_mesh_keeps_the_inputs_normals_turned_by_j_inverse_transpose(inputs, capsys):
+    """deformed.ply carries the input's own normals as n J^-T (unit), J the float64
+    reference's central differences, as ``glmls warp`` writes them; a mesh without normals
+    gains none."""
+    sphere = glmls.data.sphere()
+    radial = sphere.vertices - sphere.vertices.mean(axis=0)
+    normals = radial / np.linalg.norm(radial, axis=1, keepdims=True)
+    glmls.write_mesh(
+        inputs / "shaded.ply", glmls.Mesh(sphere.vertices, sphere.faces, normals=normals)
+    )
+    argv = ["analyze", "shaded.ply", "--handles", "h3.json", "--transform", "affine"]
+    assert main([*argv, "--out", "rep"]) == 0
+    written = glmls.read_mesh(inputs / "rep" / "deformed.ply").normals
+    m = ReferenceDeformation(SRC, DST, transform="affine")
+    step = 1e-3
+    columns = [
+        (m(sphere.vertices + step * axis) - m(sphere.vertices - step * axis)) / (2 * step)
+        for axis in np.eye(3)
+    ]
+    jacobian = np.stack(columns, axis=1)  # J[k, r, c] = d f_c / d v_r
+    turned = np.einsum("kc,krc->kr", normals, np.linalg.inv(jacobian))  # n J^-T, row vectors
+    turned /= np.linalg.norm(turned, axis=1, keepdims=True)
+    assert written is not None
+    assert_allclose(written, turned, atol=1e-3)  # the GPU's J in float32, PLY's float32
+    assert main(["analyze", "sphere.obj", "--handles", "h3.json", "--out", "plain"]) == 0
+    assert glmls.read_mesh(inputs / "plain" / "deformed.ply").normals is None
+    capsys.readouterr()
+
+
+def test_a_map_that_flattens_the_mesh_folds_every_vertex(inputs, capsys):
+    """Targets on the plane z = 32 (affine): J is singular at every vertex (the float64
+    reference's J has rank 2), so every vertex and face folds and no ratio is defined,
+    rather than float32's rounding of det J deciding a random half."""
+    flat = np.array(SRC, float)
+    flat[:, 2] = 32.0
+    (inputs / "flat.json").write_text(json.dumps({"src": SRC, "dst": flat.tolist()}))
+    vertices = glmls.data.sphere().vertices
+    m = ReferenceDeformation(SRC, flat, transform="affine")
+    columns = [(m(vertices + 1e-3 * e) - m(vertices - 1e-3 * e)) / 2e-3 for e in np.eye(3)]
+    singular = np.linalg.svd(np.stack(columns, axis=1), compute_uv=False)
+    assert (singular[:, 2] < 1e-8 * singular[:, 0]).all()
+    argv = ["analyze", "sphere.obj", "--handles", "flat.json", "--transform", "affine"]
+    assert main([*argv, "--out", "flat"]) == 0
+    jacobians = json.loads((inputs / "flat" / "report.json").read_text())["jacobians"]
+    assert jacobians["vertex_folds"] == 162 and jacobians["face_folds"] == 320
+    assert jacobians["det"]["max"] == 0.0
+    assert jacobians["ratio"]["count"] == 0 and jacobians["ratio"]["nan_count"] == 162
+    capsys.readouterr()
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [
