@@ -114,6 +114,26 @@ def test_the_identity_copies_every_dtype_bit_for_bit(gl, method, interpolation, 
                 assert np.array_equal(out, image), (image.dtype, np.abs(out - image).max())
 
 
+@pytest.mark.parametrize("method", ["backward", "backward-swap"])
+def test_the_backward_identity_copies_a_float_image_whatever_its_size(gl, method):
+    """The engine's frame is scaled by half the image's box (11.5 px for 17 x 23, no power of
+    two): the backward map keeps each pixel's own point where f leaves it in place, so linear
+    sampling of a float image lands on the pixel centres exactly, and the map and the inverse
+    are the pixel grid itself."""
+    shape = (17, 23)
+    image = (np.random.default_rng(6).standard_normal((*shape, 2)) * 1e3).astype(np.float32)
+    yy, xx = np.mgrid[0 : shape[0], 0 : shape[1]]
+    centres = np.stack([xx, yy], axis=-1).astype(np.float64)
+    for handles in (np.zeros((0, 2)), P[:3] * 0.7):
+        with glmls.MLS(handles, handles.copy(), shape=shape) as m:
+            for border in ("constant", "edge", "wrap"):
+                out = m.warp(image, method=method, interpolation="linear", border=border)
+                assert np.array_equal(out, image), (border, np.abs(out - image).max())
+            xy = m.coordinate_map(shape, method=method)
+            assert np.array_equal(xy, centres.astype(np.float32))
+            assert np.array_equal(m.inverse(centres.reshape(-1, 2)), centres.reshape(-1, 2))
+
+
 def test_the_identity_with_paper_quads(gl):
     """paper-quads copies exactly when nearest; its linear blend (weights from the inverse of
     each square's bilinear map, in float32) keeps the values within a few float32 ulps."""

@@ -64,9 +64,14 @@ bool warp_inside(vec2 s, float margin) {
 const float WARP_FOLD_REACH = 8.0;
 
 // Store s (scaled), its residual (pixels) and ``covered`` (1: the first pass's; the second
-// stores WARP_RESCUED) for the pixel at ``at`` of u_map.
-void warp_store(ivec2 at, vec2 s, float residual, float covered) {
-    imageStore(u_map, at, vec4(s * u_scale + u_center, residual, covered));
+// stores WARP_RESCUED) for output pixel p at ``at`` of u_map. s goes back to pixels as the
+// pixel's own point plus Newton's step s - u (u: p's point, scaled): where s stays at u (the
+// identity, handles that all keep their place) the stored point is p's point exactly, as
+// f(v) = v + (f(v) - v) keeps v, so that the backward methods copy a float image bit for bit;
+// s * u_scale + u_center would round p's point by an ulp where u_scale is no power of two.
+void warp_store(ivec2 at, ivec2 p, vec2 s, vec2 u, float residual, float covered) {
+    vec2 pixel = (vec2(p) + u_origin) + (s - u) * u_scale;
+    imageStore(u_map, at, vec4(pixel, residual, covered));
 }
 
 #if WARP_RESCUE
@@ -177,7 +182,7 @@ void main() {
             done = true;
         }
     }
-    warp_store(at, s, residual * u_scale, done ? WARP_RESCUED : 0.0);
+    warp_store(at, p, s, u, residual * u_scale, done ? WARP_RESCUED : 0.0);
 }
 #else
 void main() {
@@ -222,7 +227,7 @@ void main() {
     residual *= u_scale;
 #endif
     if (store) {
-        warp_store(at, s, residual, covered ? 1.0 : 0.0);
+        warp_store(at, p, s, u, residual, covered ? 1.0 : 0.0);
     }
 }
 #endif
