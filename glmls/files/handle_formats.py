@@ -220,7 +220,8 @@ def json_handles(path: Path, data: dict) -> HandleRows:
     rows = HandleRows()
     kinds = "segments" in data or "polylines" in data
     if not kinds or "src" in data or "dst" in data:
-        src, dst = json_points(path, data, "src"), json_points(path, data, "dst")
+        src = json_points(path, data, "src", or_3d=True)
+        dst = json_points(path, data, "dst", or_3d=True)
         if len(src) != len(dst):
             raise fail(path, '"src"/"dst"', f"{len(src)} sources but {len(dst)} targets")
         for index, (p, q) in enumerate(zip(src, dst, strict=True)):

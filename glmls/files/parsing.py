@@ -201,19 +201,23 @@ def json_list(path: Path, where: str, value: object, what: str) -> list:
     return value
 
 
-def json_pair(path: Path, where: str, value: object) -> list[float]:
-    """An ``[x, y]`` pair of finite numbers."""
+def json_pair(path: Path, where: str, value: object, *, or_3d: bool = False) -> list[float]:
+    """An ``[x, y]`` pair of finite numbers (``or_3d``: the message names the 3D form too,
+    for the handles' lists, which hold [x, y, z] points in a 3D file)."""
     if not isinstance(value, list) or len(value) != 2:
-        raise fail(path, where, f"expected an [x, y] pair, got {brief(value)}")
+        form = "an [x, y] pair (or [x, y, z] points in every row)" if or_3d else "an [x, y] pair"
+        raise fail(path, where, f"expected {form}, got {brief(value)}")
     return [number(path, where, v) for v in value]
 
 
-def json_points(path: Path, data: dict, key: str) -> list[list[float]]:
-    """The ``[x, y]`` pairs under the top-level ``key``."""
+def json_points(path: Path, data: dict, key: str, *, or_3d: bool = False) -> list[list[float]]:
+    """The ``[x, y]`` pairs under the top-level ``key`` (``or_3d``: :func:`json_pair`'s)."""
     if key not in data:
         raise fail(path, "top level", f'missing the key "{key}"')
     rows = json_list(path, f'"{key}"', data[key], "[x, y] pairs")
-    return [json_pair(path, f'"{key}"[{index}]', row) for index, row in enumerate(rows)]
+    return [
+        json_pair(path, f'"{key}"[{index}]', row, or_3d=or_3d) for index, row in enumerate(rows)
+    ]
 
 
 def csv_rows(path: Path) -> list[Row]:

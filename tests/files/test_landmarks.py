@@ -52,6 +52,12 @@ def test_reference_points(tmp_path):
         ),
         ("h.json", '{"src": [[1, NaN]], "dst": [[1, 2]]}', '"src"[0]: expected a finite number'),
         ("h.json", '{"src": [[1]], "dst": [[1, 2]]}', '"src"[0]: expected an [x, y] pair'),
+        (
+            "h.json",
+            '{"src": [[1, 2, 3, 4]], "dst": [[1, 2, 3, 4]]}',
+            '"src"[0]: expected an [x, y] pair (or [x, y, z] points in every row), '
+            "got [1, 2, 3, 4]",
+        ),
         ("h.json", '{"src": [[1, 2, 3]], "dst": [[1, 2]]}', '"dst"[0]: expected an (x, y, z)'),
         ("h.json", '{"src": [], "dst": []}', "content: no handles"),
         ("h.json", '{"src": [[1, 2]], "dst": [[1, 2], [3, 4]]}', "1 sources but 2 targets"),
