@@ -130,7 +130,8 @@ def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """(vertices (V, 3) float64, faces (F, 3) int64, the mesh's own vertex normals or None)
     of ``mesh``: an object with ``.vertices`` and ``.faces`` (a ``trimesh.Trimesh``, a
     :class:`glmls.Mesh`), a ``(vertices, faces)`` tuple, an object with ``.vertices`` alone (a
-    ``trimesh.PointCloud``) or a (V, 3) array of points (no faces).
+    ``trimesh.PointCloud``, or one whose ``faces`` are None) or a (V, 3) array of points
+    (no faces).
     ``ValueError``/``TypeError`` for anything else, or faces naming missing vertices;
     ``TypeError`` naming the dtype for faces that are not integers (floats included). The
     mesh's own ``vertex_normals`` (a trimesh's) or ``normals`` (a :class:`glmls.Mesh`'s, a
@@ -149,6 +150,8 @@ def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         vertices, faces = mesh.vertices, np.zeros((0, 3), np.int64)  # type: ignore[attr-defined]
     else:
         vertices, faces = mesh, np.zeros((0, 3), np.int64)
+    if faces is None:  # an object whose faces are unset: its vertices, a point cloud
+        faces = np.zeros((0, 3), np.int64)
     v = as_points3(vertices, "mesh vertices")
     f = np.asarray(faces)
     if f.size == 0:
