@@ -280,3 +280,23 @@ def test_border_cells_do_not_depend_on_the_canvas(gl, border, batched):
         crop = glmls.warp(image, src, dst, **options, **wide)
     crop = crop[8 : 8 + height, 8 : 8 + width]
     assert np.abs(own - crop).max() < 0.01  # float32 rounding of the cells' own points
+
+
+@pytest.mark.parametrize("method", sorted(glmls.METHODS))
+def test_two_canvases_show_the_same_pixels_where_they_overlap(gl, method):
+    """A canvas over part of another shows its pixels: bit for bit with nearest sampling;
+    with linear sampling to float32's rounding of the source points, which each canvas
+    places relative to its own origin (a level of a 16-bit image, 1e-5 of a float one)."""
+    rng = np.random.default_rng(5)
+    image = rng.integers(0, 60000, (40, 50), dtype=np.uint16)
+    floats = rng.uniform(0.0, 1.0, (40, 50)).astype(np.float32)
+    p = rng.uniform(0, 40, (7, 2))
+    q = p + rng.normal(0.0, 2.0, (7, 2))
+    with glmls.MLS(p, q) as m:
+        for source, linear_tolerance in ((image, 1), (floats, 1e-5)):
+            for interpolation, tolerance in (("nearest", 0), ("linear", linear_tolerance)):
+                options = {"method": method, "interpolation": interpolation, "border": "reflect"}
+                whole = m.warp(source, output_shape=(60, 70), origin=(-5, -5), **options)
+                part = m.warp(source, output_shape=(20, 30), origin=(7, 3), **options)
+                gap = np.abs(whole[8:28, 12:42].astype(np.float64) - part)
+                assert gap.max() <= tolerance, (interpolation, source.dtype, gap.max())

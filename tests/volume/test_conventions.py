@@ -130,3 +130,21 @@ def test_a_canvas_origin_is_a_shift_of_the_affine(gl):
     world_out = (affine @ shift) @ [0.0, 0.0, 0.0, 1.0]
     world_in = affine @ [2.0, 1.0, 0.0, 1.0]
     np.testing.assert_allclose(world_out, world_in)
+
+
+@pytest.mark.parametrize("method", ["quads", "backward"])
+def test_two_canvases_show_the_same_voxels_where_they_overlap(gl, method):
+    """A canvas over part of another shows its voxels: bit for bit with nearest sampling,
+    with linear sampling to float32's rounding of the source points (a level of a 16-bit
+    volume), as in 2D."""
+    rng = np.random.default_rng(5)
+    volume = rng.integers(0, 60000, (12, 14, 16), dtype=np.uint16)
+    src = rng.uniform(0, 12, (7, 3))
+    dst = src + rng.normal(0.0, 1.0, (7, 3))
+    with glmls.MLS(src, dst) as m:
+        for interpolation, tolerance in (("nearest", 0), ("linear", 1)):
+            options = {"method": method, "interpolation": interpolation, "border": "edge"}
+            whole = m.warp(volume, output_shape=(16, 18, 20), origin=(-2, -2, -2), **options)
+            part = m.warp(volume, output_shape=(6, 7, 8), origin=(3, 1, 2), **options)
+            gap = np.abs(whole[4:10, 3:10, 5:13].astype(np.int64) - part)
+            assert gap.max() <= tolerance, (interpolation, gap.max())
