@@ -40,30 +40,31 @@ __all__ = [
 MAX_EDGE_POINTS = 1 << 22
 
 
-def _finite(array: np.ndarray, name: str, columns: int, rows: str = "B") -> np.ndarray:
-    """``array`` as (``rows``, ``columns``) finite float64 coordinates within
-    :data:`~glmls.core.handles.COORDINATE_LIMIT`, as the points they become must be."""
+def _real_rows(array: np.ndarray, name: str, columns: int, rows: str) -> np.ndarray:
+    """``array`` as (``rows``, ``columns``) float64: a ``DtypeError`` naming ``name`` for
+    values that are no real numbers, a ``ValueError`` for another shape."""
     real = np.issubdtype(array.dtype, np.number) and array.dtype.kind != "c"
     if array.dtype == object or not real:  # complex would lose its imaginary part
         raise DtypeError(f"{name} has dtype {array.dtype}; expected real numbers")
     if array.ndim != 2 or array.shape[1] != columns:
         raise ValueError(f"{name} has shape {array.shape}; expected ({rows}, {columns})")
-    return check_coordinates(np.asarray(array, np.float64), name)
+    return np.asarray(array, np.float64)
+
+
+def _finite(array: np.ndarray, name: str, columns: int, rows: str = "B") -> np.ndarray:
+    """``array`` as (``rows``, ``columns``) finite float64 coordinates within
+    :data:`~glmls.core.handles.COORDINATE_LIMIT`, as the points they become must be."""
+    return check_coordinates(_real_rows(array, name, columns, rows), name)
 
 
 def _real_array(value: object, name: str, columns: int, rows: str) -> np.ndarray:
     """``value`` as a (``rows``, ``columns``) float64 array for the public label helpers,
-    which take coordinates of any size: a ``DtypeError`` naming ``name`` for values that are
-    no real numbers, a ``ValueError`` for another shape or a value that is not finite."""
+    which take coordinates of any size: :func:`_real_rows`' errors, and a ``ValueError`` for
+    a value that is not finite."""
     array = np.asarray(value)
-    real = np.issubdtype(array.dtype, np.number) and array.dtype.kind != "c"
-    if array.dtype == object or not real:  # complex would lose its imaginary part
-        raise DtypeError(f"{name} has dtype {array.dtype}; expected real numbers")
     if array.size == 0 and array.ndim <= 2:  # [] or np.zeros((0, 2)): none
         array = array.reshape(0, columns)
-    if array.ndim != 2 or array.shape[1] != columns:
-        raise ValueError(f"{name} has shape {array.shape}; expected ({rows}, {columns})")
-    array = np.asarray(array, np.float64)
+    array = _real_rows(array, name, columns, rows)
     if not np.isfinite(array).all():
         raise ValueError(f"{name} holds values that are not finite (NaN or inf)")
     return array
@@ -578,7 +579,7 @@ def clip_polygon(polygon: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     polygon = _real_array(polygon, "polygon", 2, "V")
     height, width = _canvas(shape)
     planes = ((0, -0.5, 1.0), (1, -0.5, 1.0), (0, width - 0.5, -1.0), (1, height - 0.5, -1.0))
-    points = [tuple(p) for p in np.asarray(polygon, np.float64)]
+    points = [tuple(p) for p in polygon]
     for axis, edge, sign in planes:
         if not points:
             break
