@@ -425,11 +425,17 @@ def flat_to_zero(det: np.ndarray, jacobian: np.ndarray, rounding: float | np.nda
     # roundings of either side
     rows = jacobian.reshape(len(det), 9)
     bound = 0.578 * np.einsum("ij,ij->i", rows, rows)
-    near = np.flatnonzero(np.abs(det) <= FLAT_ROUNDINGS * rounding * bound)
+    near = np.abs(det) <= FLAT_ROUNDINGS * rounding * bound
+    count = int(np.count_nonzero(near))
+    if 2 * count > len(det):  # most of them (a flat map): every vertex, without the gathers
+        size = np.linalg.norm(cofactor(jacobian).reshape(len(det), 9), axis=1)
+        det[np.abs(det) <= FLAT_ROUNDINGS * rounding * size] = 0.0
+        return det
+    (which,) = np.nonzero(near)
     if np.ndim(rounding):
-        rounding = rounding[near]  # type: ignore[index]
-    size = np.linalg.norm(cofactor(jacobian[near]).reshape(len(near), 9), axis=1)
-    det[near[np.abs(det[near]) <= FLAT_ROUNDINGS * rounding * size]] = 0.0
+        rounding = rounding[which]  # type: ignore[index]
+    size = np.linalg.norm(cofactor(jacobian[which]).reshape(count, 9), axis=1)
+    det[which[np.abs(det[which]) <= FLAT_ROUNDINGS * rounding * size]] = 0.0
     return det
 
 

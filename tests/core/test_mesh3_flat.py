@@ -27,13 +27,15 @@ def _rotation(rng, count):
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
-def test_the_rule_equals_the_plain_test_bit_for_bit(rng, dtype):
-    """Random J, half of them of rank 2 to float32's rounding, and det J set at the rule's
-    threshold and one rounding either side of it; -0.0, NaN and infinities too. The
-    roundings are float32 per vertex (the GPU's), or float64 ones."""
+@pytest.mark.parametrize("share", [0.1, 0.8])
+def test_the_rule_equals_the_plain_test_bit_for_bit(rng, dtype, share):
+    """Random J, ``share`` of them of rank 2 to float32's rounding (the rule takes |cof J|
+    at the few vertices its bound leaves open, or at every vertex where they are most), and
+    det J set at the rule's threshold and one rounding either side of it; -0.0, NaN and
+    infinities too. The roundings are float32 per vertex (the GPU's), or float64 ones."""
     count = 20000
     j = rng.normal(size=(count, 3, 3)) * np.exp(rng.uniform(-5, 5, (count, 1, 1)))
-    flat = rng.random(count) < 0.5
+    flat = rng.random(count) < share
     mix = rng.normal(size=(flat.sum(), 2, 1))
     j[flat, 2] = mix[:, 0] * j[flat, 0] + mix[:, 1] * j[flat, 1]
     j = j.astype(np.float32).astype(np.float64)
@@ -53,7 +55,7 @@ def test_the_rule_equals_the_plain_test_bit_for_bit(rng, dtype):
         scalar = mesh3.flat_to_zero(det.copy(), j, 1e-9)
         scalar_expected = _plain(det.copy(), j, 1e-9)
     assert got.tobytes() == expected.tobytes()
-    assert 0.2 * count < (got == 0).sum() < 0.9 * count  # both sides of the rule are met
+    assert 0.1 * count < (got == 0).sum() < 0.95 * count  # both sides of the rule are met
     assert scalar.tobytes() == scalar_expected.tobytes()
 
 
