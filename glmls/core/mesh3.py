@@ -4,12 +4,14 @@ the GPU computes for it (:mod:`glmls.engine.deform3`): the vertex normals, the c
 the deformed normals and the folds.
 
 A map folds a vertex where its Jacobian J = df/dv has det J <= 0 (f turns the volume inside
-out there, or flattens it). A face is folded when one of its vertices is, or when its
-orientation flips: its deformed normal points against its original normal carried by f
-(n C, C the sum of its vertices' cofactor matrices cof(J) = det(J) J^-T: a face's normal
-goes to n cof(J) under a linear map J; for a map that does not fold, the two agree for every
-face small against the deformation's scale). A face of zero area folds by this rule (its
-normal is zero)."""
+out there, or flattens it), det J counting as 0 where J is singular to its rounding
+(:func:`flat_to_zero`: a map that flattens the mesh leaves det J at that rounding, of either
+sign, and folds every vertex rather than a random half of them). A face is folded when one
+of its vertices is, or when its orientation flips: its deformed normal points against its
+original normal carried by f (n C, C the sum of its vertices' cofactor matrices cof(J) =
+det(J) J^-T: a face's normal goes to n cof(J) under a linear map J; for a map that does not
+fold, the two agree for every face small against the deformation's scale). A face of zero
+area folds by this rule (its normal is zero)."""
 
 from __future__ import annotations
 
@@ -22,6 +24,7 @@ from .handles3 import as_points3
 from .summary import fields_repr
 
 __all__ = [
+    "FLAT_ROUNDINGS",
     "DeformedMesh",
     "as_colors",
     "as_mesh",
@@ -31,13 +34,20 @@ __all__ = [
     "deform_mesh",
     "deformed_normals",
     "determinant",
+    "difference_rounding",
     "face_folds",
     "face_normals",
+    "flat_to_zero",
     "mesh_colors",
     "mesh_uv",
     "vertex_normals",
     "whole_indices",
 ]
+
+#: J counts as singular (det J = 0, a fold) where det J is within this many of the roundings
+#: of J's entries times the norm of J's cofactor matrix: J's smallest singular value within
+#: them of 0 (:func:`flat_to_zero`).
+FLAT_ROUNDINGS = 4.0
 
 
 @dataclass(frozen=True, repr=False)
@@ -60,8 +70,9 @@ class DeformedMesh:
         (V, 3, 3) float64 J = df/dv at each vertex, row vectors: J[k, r, c] = d f_c / d v_r
         (float32 values from the GPU, as are ``normals`` and ``det_j``).
     det_j : numpy.ndarray
-        (V,) float64 det J: the local change of volume; 0 from the GPU where J is singular
-        to float32's rounding (f flattens the mesh there), which folds.
+        (V,) float64 det J: the local change of volume; 0 where J is singular to its
+        rounding (f flattens the mesh there: float32's from the GPU, float64's in the
+        reference :func:`deform_mesh`; :func:`flat_to_zero`), which folds.
     vertex_folds : numpy.ndarray
         (V,) bool: det J <= 0.
     face_folds : numpy.ndarray
@@ -392,6 +403,62 @@ def determinant(j: np.ndarray, cof: np.ndarray) -> np.ndarray:
     return (j[:, 0] * cof[:, 0]).sum(axis=1)
 
 
+def flat_to_zero(det: np.ndarray, jacobian: np.ndarray, rounding: float | np.ndarray) -> np.ndarray:
+    """``det`` (V,), det J of the (V, 3, 3) ``jacobian``, in place and returned, with 0 where
+    J is singular to ``rounding`` (a number or (V,): the rounding of J's entries): where
+    |det J| <= :data:`FLAT_ROUNDINGS` x ``rounding`` x |cof J| (Frobenius norm, s1 s2 and
+    more for J's singular values s1 >= s2 >= s3), which puts s3 within
+    :data:`FLAT_ROUNDINGS` roundings of 0. A map that flattens space (targets on a plane)
+    leaves det J at its rounding, of either sign; so it folds everywhere.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.core.mesh3 import flat_to_zero
+    >>> j = np.array([np.diag([1.0, 1.0, 1e-15]), np.diag([1.0, 1.0, 1e-3])])
+    >>> flat_to_zero(np.array([1e-15, 1e-3]), j, 1e-12).tolist()
+    [0.0, 0.001]
+    """
+    # |cof J| <= |J|^2 / sqrt(3) (s1 s2 + s2 s3 + s1 s3 against (s1^2 + s2^2 + s3^2)^2 / 3):
+    # a det J clear of that bound is kept, and |cof J| (9 cross products, most of the rule's
+    # time) is taken only for the others; 0.578 > 1 / sqrt(3) by 1e-3, far more than the
+    # roundings of either side
+    rows = jacobian.reshape(len(det), 9)
+    bound = 0.578 * np.einsum("ij,ij->i", rows, rows)
+    near = np.abs(det) <= FLAT_ROUNDINGS * rounding * bound
+    count = int(np.count_nonzero(near))
+    if 2 * count > len(det):  # most of them (a flat map): every vertex, without the gathers
+        size = np.linalg.norm(cofactor(jacobian).reshape(len(det), 9), axis=1)
+        det[np.abs(det) <= FLAT_ROUNDINGS * rounding * size] = 0.0
+        return det
+    (which,) = np.nonzero(near)
+    if np.ndim(rounding):
+        rounding = rounding[which]  # type: ignore[index]
+    size = np.linalg.norm(cofactor(jacobian[which]).reshape(count, 9), axis=1)
+    det[which[np.abs(det[which]) <= FLAT_ROUNDINGS * rounding * size]] = 0.0
+    return det
+
+
+def difference_rounding(
+    points: np.ndarray, deformed: np.ndarray, step: float | np.ndarray
+) -> np.ndarray:
+    """(V,) float64's rounding of J by central differences of a float64 f over ``step`` (a
+    number or (V,), handle units) at ``points`` (V, 3) where f is ``deformed`` (V, 3): eps64
+    x the largest |coordinate| of v and f(v) over the step (the differences subtract f's
+    values, each rounded to float64 at the size of its coordinates).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.core.mesh3 import difference_rounding
+    >>> v = np.array([[100.0, 0.0, 0.0]])
+    >>> float(difference_rounding(v, v * 2, 1e-3)[0] / np.finfo(float).eps)
+    200000.0
+    """
+    reach = np.maximum(np.abs(points).max(axis=1), np.abs(deformed).max(axis=1))
+    return np.finfo(np.float64).eps * reach / step
+
+
 def _carry(normals: np.ndarray, matrices: np.ndarray) -> np.ndarray:
     """Row-wise n @ C for (K, 3) n and (K, 3, 3) C."""
     return (
@@ -436,6 +503,7 @@ def deform_mesh(
     deformed: np.ndarray,
     jacobian: np.ndarray,
     *,
+    step: float | np.ndarray | None = None,
     colors: np.ndarray | None = None,
     uv: np.ndarray | None = None,
     face_uv: np.ndarray | None = None,
@@ -445,13 +513,37 @@ def deform_mesh(
     the Jacobians there, in float64 on the host: the reference of the GPU's
     :func:`glmls.engine.deform3.deform_mesh3`. ``colors``: the vertices' own
     (:func:`mesh_colors`), ``uv`` and ``face_uv`` its texture coordinates (:func:`mesh_uv`),
-    carried as they are; ``own_normals`` where ``normals`` are given."""
+    carried as they are; ``own_normals`` where ``normals`` are given.
+
+    det J is 0 where J is singular to float64's rounding (:func:`flat_to_zero`, the GPU's
+    rule in float64 terms), which folds: ``step`` (a number or (V,), handle units) where
+    ``jacobian`` is float64 central differences of f over that step, whose rounding is then
+    :func:`difference_rounding`'s; None for a J good to float64's rounding of its own
+    entries (eps64 x its largest |J_rc|). The normals are 0 where det J is.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.core.mesh3 import deform_mesh
+    >>> vertices = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    >>> c, s = np.cos(0.3), np.sin(0.3)
+    >>> flat = np.array([[c, s, 0.0], [-s, c, 0], [0, 0, 0]]) @ np.diag([1.0, 1, 0])
+    >>> j = np.repeat(flat[None], 3, axis=0)  # f flattens space onto z = 0, turned
+    >>> out = deform_mesh(vertices, np.array([[0, 1, 2]]), None, vertices @ flat, j)
+    >>> out.det_j.tolist(), out.face_folds.tolist()
+    ([0.0, 0.0, 0.0], [True])
+    """
     before = face_normals(vertices, faces)
     own = normals is not None
     if normals is None:
         normals = vertex_normals(vertices, faces, before) if len(faces) else vertices * 0.0
     cof = cofactor(jacobian)
     det = determinant(jacobian, cof)
+    if step is None:
+        rounding = np.finfo(np.float64).eps * np.abs(jacobian).max(axis=(1, 2))
+    else:
+        rounding = difference_rounding(vertices, deformed, step)
+    det = flat_to_zero(det, jacobian, rounding)
     folds = det <= 0
     return DeformedMesh(
         vertices=deformed,

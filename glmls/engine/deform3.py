@@ -30,12 +30,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.mesh3 import DeformedMesh, cofactor
+from ..core.mesh3 import DeformedMesh, flat_to_zero
 from ..gl import bindings
 from ..gl.dispatch import fill_buffer, run_1d
 from ..gl.tables import TABLE_WIDTH, table_rows
 from .kernel3 import MLSKernel3
-from .passes3 import jacobian_steps, jacobian_uniforms, run_points3
+from .passes3 import jacobian_steps, jacobian_uniforms, largest_coordinates, run_points3
 
 __all__ = [
     "MESH_FOLDS_PASS",
@@ -56,10 +56,6 @@ SUMS = 8
 #: Faces per invocation of the passes over faces (``MESH3_FACES``: 3 uvec4 of indices read,
 #: a byte each of fold flags, one uint, written).
 FACES_PER_INVOCATION = 4
-#: J counts as singular (det J = 0, a fold) where det J is within this many of float32's
-#: roundings of J's central differences (eps32 x the coordinates' scale over the step) times
-#: the norm of J's cofactor matrix: J's smallest singular value within them of 0.
-FLAT_ROUNDINGS = 4.0
 #: The tables (glmls.gl.tables) of the vertices, the faces and the records.
 VERTICES_TABLE, FACES_TABLE, RECORDS_TABLE = "mesh3 vertices", "mesh3 faces", "mesh3 records"
 
@@ -156,7 +152,8 @@ def deform_mesh3(
         out = scratch.staging("records3", (count, RECORD), np.float32)
         records.read_into(out, size=out.nbytes)
     jacobian = out[:, 6:15].astype(np.float64).reshape(count, 3, 3)
-    det = _flat_to_zero(kernel, vertices, jacobian, out[:, 15].astype(np.float64))
+    # the vertices as the upload scaled them (padded's first columns)
+    det = _flat_to_zero(kernel, padded[:, :3], jacobian, out[:, 15].astype(np.float64))
     deformed = vertices + out[:, 3:6] * kernel.scaling.scale
     if kernel.offset.any():  # the targets' offset, in float64 (MLSKernel3.offset)
         deformed += kernel.offset
@@ -180,21 +177,22 @@ def deform_mesh3(
 
 
 def _flat_to_zero(
-    kernel: MLSKernel3, vertices: np.ndarray, jacobian: np.ndarray, det: np.ndarray
+    kernel: MLSKernel3, scaled: np.ndarray, jacobian: np.ndarray, det: np.ndarray
 ) -> np.ndarray:
-    """``det`` (V,) with 0 where J is singular to float32's rounding: where f flattens the
-    mesh (targets on a plane, say) the GPU's det J is that rounding, of either sign, and
-    would fold a random half of the vertices. J's central differences over a step h carry
-    about eps32 x scale x max(box, |v|) / h of rounding (scaled coordinates, the box's half
-    side and v's largest: their float32 spacing; h of :func:`jacobian_steps`); det J
-    within :data:`FLAT_ROUNDINGS` of them times |cof J| (s1 s2 and more) puts J's smallest
-    singular value within them of 0."""
+    """``det`` (V,), in place, with 0 where J is singular to float32's rounding
+    (:func:`~glmls.core.mesh3.flat_to_zero`): where f flattens the mesh (targets on a
+    plane, say) the GPU's det J is that rounding, of either sign, and would fold a random
+    half of the vertices. J's central differences over a step h carry about eps32 x scale
+    x max(box, |v|) / h of rounding (``scaled`` (V, 3) the vertices as the GPU read them, v
+    their largest coordinate; the box's half side: their float32 spacing; h of
+    :func:`jacobian_steps`)."""
     scaling = kernel.scaling
     box = jacobian_uniforms(kernel)["u_jacobian_box"]
-    reach = np.maximum(box, np.abs(scaling.to_gpu(vertices)).max(axis=1))
-    rounding = np.finfo(np.float32).eps * scaling.scale * reach / jacobian_steps(kernel, vertices)
-    size = np.linalg.norm(cofactor(jacobian).reshape(len(det), 9), axis=1)
-    return np.where(np.abs(det) <= FLAT_ROUNDINGS * rounding * size, 0.0, det)
+    largest = largest_coordinates(scaled)
+    reach = np.maximum(box, largest)
+    steps = jacobian_steps(kernel, scaled, largest=largest)
+    rounding = np.finfo(np.float32).eps * scaling.scale * reach / steps
+    return flat_to_zero(det, jacobian, rounding)
 
 
 def _check_tables(limit: int, count: int, faces: int) -> None:
