@@ -108,6 +108,16 @@ def test_spacing_option_wins_and_other_formats(files, stand_in, capsys):
     capsys.readouterr()
 
 
+def test_one_channel_volume_keeps_its_axis_through_tiff(files, stand_in, capsys):
+    volume = np.arange(4 * 5 * 6, dtype=np.uint16).reshape(4, 5, 6, 1)
+    np.save(files / "one.npy", volume)
+    assert main(["warp", "one.npy", "one.tif", "--handles", "h3.json"]) == 0
+    assert glmls.read_volume(files / "one.tif").shape == (4, 5, 6, 1)
+    assert main(["warp", "one.tif", "back.npy", "--handles", "h3.json"]) == 0
+    assert_array_equal(np.load(files / "back.npy"), volume + 2)
+    capsys.readouterr()
+
+
 def test_stderr_gives_the_spacing_as_the_file_was_written(files, stand_in, capsys):
     """A NIfTI header holds its affine in float32: a voxel of 0.8 reads back as
     0.800000011920929, which stderr does not show."""
