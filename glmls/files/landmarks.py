@@ -358,8 +358,9 @@ def read_handles(
 
 
 def read_points(path: str | os.PathLike) -> np.ndarray:
-    """Reference points from JSON ``{"points": [[x, y], ...]}`` or a CSV with header ``x,y``
-    (its columns in any order, beside others).
+    """Reference points from JSON ``{"points": [[x, y], ...]}`` or a CSV with header ``x,y``.
+
+    The CSV's columns are read by name: in any order, beside columns of other names.
 
     Parameters
     ----------
