@@ -75,13 +75,16 @@ def is_tensors(value: object) -> bool:
     return isinstance(value, (list, tuple)) and bool(value) and all(is_tensor(v) for v in value)
 
 
-def _holds(value: object, depth: int) -> bool:
-    """Whether ``value`` is a tensor, or a list or tuple holding one within ``depth`` levels."""
-    if is_tensor(value):
+def _holds(value: object, tensor: type, depth: int) -> bool:
+    """Whether ``value`` is a ``tensor``, or a list or tuple holding one within ``depth``
+    levels."""
+    if isinstance(value, tensor):
         return True
-    return (
-        depth > 0 and isinstance(value, (list, tuple)) and any(_holds(v, depth - 1) for v in value)
-    )
+    if depth == 0 or not isinstance(value, (list, tuple)):
+        return False
+    if depth == 1:  # torch.Tensor's isinstance (its metaclass's) is the slower: arrays first
+        return any(not isinstance(item, np.ndarray) and isinstance(item, tensor) for item in value)
+    return any(_holds(item, tensor, depth - 1) for item in value)
 
 
 def any_tensors(
@@ -114,10 +117,13 @@ def any_tensors(
     >>> any_tensors(np.zeros((1, 4, 4)), None, None, None, [[np.zeros((3, 2))]], None)
     False
     """
-    if "torch" not in sys.modules:
+    torch = sys.modules.get("torch")
+    if torch is None:
         return False
     flat = (images, keypoints, masks, boxes, indices)
-    return any(_holds(value, 1) for value in flat) or _holds(polygons, 2)
+    return any(_holds(value, torch.Tensor, 1) for value in flat) or _holds(
+        polygons, torch.Tensor, 2
+    )
 
 
 def to_numpy(value: object) -> object:
