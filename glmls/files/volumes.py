@@ -36,8 +36,9 @@ A TIFF is a volume when it holds more than one page (a stack); one page is an im
 metadata, as tifffile reads them) have a Z axis, or where no metadata names them; channels
 are an axis C or S beside it (``ZCYX``, ``CZYX``, ``ZYXS``), or, for a stack of one channel
 (D, H, W, 1) as :func:`write_volume` writes it, ``channel_axis=true`` in its ImageJ
-description or the JSON description of its first page (a stack without it reads as
-(D, H, W)). A stack of the channels or time
+description or the JSON description of its first page, or the shape (D, H, W, 1) of
+tifffile's JSON description (``tifffile.imwrite`` of such an array, ``photometric=
+"minisblack"``); a stack without either reads as (D, H, W). A stack of the channels or time
 points of one 2D image (axes ``CYX``, ``TYX``, ``TCYX``) is refused, not read as slices, and
 so is a time series of volumes (``TZYX``, ``TZCYX``), a file without axes metadata whose
 pages are not all of one shape, dtype and kind (a reduced-resolution page, a thumbnail,
@@ -558,6 +559,8 @@ def _read_tiff(path: Path) -> Volume:
         data = np.moveaxis(data, 1, -1)
     elif data.ndim == 4 and axes[0] in "CS" and axes[1] == "Z":  # OME's XYZCT order: (C, Z, Y, X)
         data = np.moveaxis(data, 0, -1)
+    elif data.ndim == 4 and axes == "QYXQ" and data.shape[3] == 1:
+        pass  # tifffile's shaped description of a (D, H, W, 1) array, as imwrite writes it
     elif data.ndim == 4 and axes[-1] not in "SC":
         raise InputFileError(f"{path}: a TIFF of axes {axes} {data.shape}: expected a stack")
     if data.ndim not in (3, 4):

@@ -61,3 +61,11 @@ def test_a_stack_of_separate_planes_reads_as_channels(tmp_path):
     planes = np.moveaxis(data, 3, 1)
     tifffile.imwrite(tmp_path / "planar.tif", planes, photometric="rgb", planarconfig="separate")
     np.testing.assert_array_equal(read_volume(tmp_path / "planar.tif").data, data)
+
+
+def test_tifffiles_shaped_stack_of_one_channel_reads_back_4d(tmp_path):
+    data = np.arange(60, dtype=np.uint16).reshape(3, 4, 5, 1)
+    tifffile.imwrite(tmp_path / "shaped.tif", data, photometric="minisblack")
+    back = read_volume(tmp_path / "shaped.tif").data
+    assert back.shape == (3, 4, 5, 1)
+    np.testing.assert_array_equal(back, data)
