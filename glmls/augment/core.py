@@ -389,7 +389,8 @@ class Augment:
         indices : sequence of int or None, default None
             Each sample's index (>= 0); None: 0 .. N - 1.
         landmarks : sequence of array_like or None, default None
-            Each image's (P, 2) landmarks (the ``landmarks`` preset's handles).
+            Each image's (P, 2) landmarks (the ``landmarks`` preset's handles): arrays, or
+            torch tensors (an (N, P, 2) one, or a list of them).
 
         Returns
         -------
@@ -418,8 +419,8 @@ class Augment:
         if isinstance(shapes, (str, bytes)) or not isinstance(shapes, Sequence):
             raise TypeError(f"shapes must be a sequence of (H, W), got {type(shapes).__name__}")
         index_list = _index_list(indices, len(shapes))
-        if landmarks is not None:
-            landmarks = _landmark_list(landmarks, len(shapes))
+        if landmarks is not None:  # torch tensors too, as __call__'s keypoints
+            landmarks = _landmark_list(tensors.to_numpy(landmarks), len(shapes))
         params = []
         # what every sample records alike, made JSON-able once (each sample its own copy)
         config = jsonable(dataclasses.asdict(self.preset))
@@ -495,7 +496,12 @@ class Augment:
         Returns
         -------
         AugmentResult
-            The images, the labels given, and ``params``.
+            The images, the labels given, and ``params``. Each comes back in the kind it
+            came in, whatever the others': a label given as a torch tensor (or a list of
+            them, per image; an image's polygons as a list of them) as a tensor of its
+            device, and of its dtype where that is a floating-point one (float64 for
+            integer points, as the moved points lie between pixel centres), with numpy
+            images too; a label given as numpy (or lists) as numpy, with tensor images too.
 
         Raises
         ------
@@ -512,7 +518,7 @@ class Augment:
         >>> out.boxes[0].shape, out.boxes[1].shape, out.boxes_valid[0].tolist()
         ((1, 4), (0, 4), [True])
         """
-        if tensors.is_tensors(images):
+        if tensors.any_tensors(images, keypoints, masks, boxes, polygons, indices):
             return tensors.call_on_tensors(self, images, keypoints, masks, boxes, polygons, indices)
         items = _images(images)
         marks, _ = _keypoint_list(keypoints, len(items))
@@ -572,7 +578,7 @@ class Augment:
         >>> bool((aug.replay(images, params).images == first.images).all())
         True
         """
-        if tensors.is_tensors(images):
+        if tensors.any_tensors(images, keypoints, masks, boxes, polygons, None):
             return tensors.replay_on_tensors(
                 self, images, params, keypoints, masks, boxes, polygons
             )

@@ -5,12 +5,16 @@ tensor is recognised only where torch is already imported (``sys.modules``). Int
 Images are taken in torch's layout, (N, C, H, W) or (N, H, W), or as a list of (C, H, W) or
 (H, W) tensors (a ragged batch), and come back in it, of their dtype and on their device
 (contiguous, whatever their memory format or strides); half-precision tensors (float16,
-bfloat16) go through float32. Keypoints, boxes and polygons come back of their dtype where it is a
-floating-point one, and as float64 where they came as integers (the moved points lie between
-pixel centres: an integer dtype would cut them to whole pixels). The results are new tensors,
-detached: no gradient flows back
-through the deformation. The deformation itself runs on glmls's OpenGL context, so a CUDA tensor
-goes through the host's memory (``.cpu()``, then ``.to(device)``): one copy each way per batch.
+bfloat16) go through float32. Each argument comes back in the kind it came in, whatever the
+others': numpy images with tensor keypoints give numpy images and tensor keypoints, tensor
+images with numpy masks tensor images and numpy masks. A label is a tensor where it came as
+one, or as a list or tuple of them (per image; polygons: an image's list of them), else
+numpy. Keypoints, boxes and polygons come back of their dtype where it is a floating-point
+one, and as float64 where they came as integers (the moved points lie between pixel centres:
+an integer dtype would cut them to whole pixels). The results are new tensors, detached: no
+gradient flows back through the deformation. The deformation itself runs on glmls's OpenGL
+context, so a CUDA tensor goes through the host's memory (``.cpu()``, then ``.to(device)``):
+one copy each way per batch.
 """
 
 from __future__ import annotations
@@ -20,7 +24,7 @@ import sys
 
 import numpy as np
 
-__all__ = ["from_numpy", "is_tensor", "is_tensors", "to_numpy"]
+__all__ = ["any_tensors", "from_numpy", "is_tensor", "is_tensors", "to_numpy"]
 
 
 def is_tensor(value: object) -> bool:
@@ -69,6 +73,57 @@ def is_tensors(value: object) -> bool:
     if is_tensor(value):
         return True
     return isinstance(value, (list, tuple)) and bool(value) and all(is_tensor(v) for v in value)
+
+
+def _holds(value: object, tensor: type, depth: int) -> bool:
+    """Whether ``value`` is a ``tensor``, or a list or tuple holding one within ``depth``
+    levels."""
+    if isinstance(value, tensor):
+        return True
+    if depth == 0 or not isinstance(value, (list, tuple)):
+        return False
+    if depth == 1:  # torch.Tensor's isinstance (its metaclass's) is the slower: arrays first
+        return any(not isinstance(item, np.ndarray) and isinstance(item, tensor) for item in value)
+    return any(_holds(item, tensor, depth - 1) for item in value)
+
+
+def any_tensors(
+    images: object,
+    keypoints: object,
+    masks: object,
+    boxes: object,
+    polygons: object,
+    indices: object,
+) -> bool:
+    """Whether a call's arguments hold a torch tensor where :class:`~glmls.augment.Augment`
+    takes one: an argument that is one or a list or tuple of them, or for ``polygons`` an
+    image's list of them; such a call goes through the tensors' path, which turns them into
+    numpy arrays and each result back into the kind of its argument.
+
+    Parameters
+    ----------
+    images, keypoints, masks, boxes, polygons, indices : object
+        The arguments of :meth:`~glmls.augment.Augment.__call__`.
+
+    Returns
+    -------
+    bool
+        True where one of them holds a tensor.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.augment.tensors import any_tensors
+    >>> any_tensors(np.zeros((1, 4, 4)), None, None, None, [[np.zeros((3, 2))]], None)
+    False
+    """
+    torch = sys.modules.get("torch")
+    if torch is None:
+        return False
+    flat = (images, keypoints, masks, boxes, indices)
+    return any(_holds(value, torch.Tensor, 1) for value in flat) or _holds(
+        polygons, torch.Tensor, 2
+    )
 
 
 def to_numpy(value: object) -> object:
@@ -199,15 +254,21 @@ def _flags(valid, like):
 
 
 def _polygons_in(polygons: object) -> object:
-    """Per image, its polygons as numpy arrays where they came as tensors."""
+    """Per image, its polygons as numpy arrays where they came as tensors (all of them, or a
+    (P, V, 2) tensor; a list with some tensors as a list of arrays)."""
+    if is_tensor(polygons):
+        return to_numpy(polygons)
     if not isinstance(polygons, (list, tuple)):
         return polygons
-    return [to_numpy(list(shapes)) if is_tensors(shapes) else shapes for shapes in polygons]
+    return [
+        to_numpy(list(shapes)) if isinstance(shapes, (list, tuple)) else to_numpy(shapes)
+        for shapes in polygons
+    ]
 
 
 def _polygons_back(moved: list | None, polygons: object) -> list | None:
     """The moved polygons as tensors where the image's came as tensors (each like its own)."""
-    if moved is None or not isinstance(polygons, (list, tuple)):
+    if moved is None or not (isinstance(polygons, (list, tuple)) or is_tensor(polygons)):
         return moved
     return [
         from_numpy(list(out), list(given), points=True) if is_tensors(given) else out
@@ -215,8 +276,18 @@ def _polygons_back(moved: list | None, polygons: object) -> list | None:
     ]
 
 
+def _images_in(images) -> tuple[object, bool]:
+    """The images as numpy arrays, channels last where they came as a torch batch (and whether
+    its channels moved); numpy images (a list with some tensors: arrays) as they are."""
+    if is_tensors(images):
+        return _channels_last(images)
+    return to_numpy(images), False
+
+
 def _back(result, images, keypoints, masks, boxes, moved_channels: bool, polygons=None):
-    changes = {"images": _images_back(result.images, images, moved_channels)}
+    changes = {}
+    if is_tensors(images):
+        changes["images"] = _images_back(result.images, images, moved_channels)
     if getattr(result, "polygons", None) is not None:
         changes["polygons"] = _polygons_back(result.polygons, polygons)
     if is_tensors(keypoints) and result.keypoints is not None:
@@ -231,8 +302,9 @@ def _back(result, images, keypoints, masks, boxes, moved_channels: bool, polygon
 
 
 def call_on_tensors(aug, images, keypoints, masks, boxes, polygons, indices):
-    """``aug(images, ...)`` for torch tensors: the numpy call, its results as tensors."""
-    array, moved = _channels_last(images)
+    """``aug(images, ...)`` where an argument holds torch tensors (:func:`any_tensors`): the
+    numpy call, each result as its argument came (a tensor's as a tensor)."""
+    array, moved = _images_in(images)
     result = aug(
         array,
         keypoints=to_numpy(keypoints),
@@ -245,8 +317,8 @@ def call_on_tensors(aug, images, keypoints, masks, boxes, polygons, indices):
 
 
 def replay_on_tensors(aug, images, params, keypoints, masks, boxes, polygons):
-    """``aug.replay(images, params, ...)`` for torch tensors."""
-    array, moved = _channels_last(images)
+    """``aug.replay(images, params, ...)`` where an argument holds torch tensors."""
+    array, moved = _images_in(images)
     result = aug.replay(
         array,
         params,

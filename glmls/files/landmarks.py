@@ -17,7 +17,10 @@ has K >= 2 vertices in the source and the same K in the target. ``"segments"`` a
 (``"description"``) are ignored. The segments are read in order: ``"segments"``, then each
 polyline's.
 
-**CSV** (any other suffix but ``.pts``), one of these tables:
+**CSV** (any other suffix but ``.pts``), one of these tables, its columns read by the names
+in its header (case aside): in any order, beside columns of other names (a landmark's
+``name``), which are ignored; a header that lacks a column of its table, or names one twice,
+is refused, naming the column:
 
 - the header ``src_x,src_y,dst_x,dst_y``: a point a row;
 - the header ``kind,id,src_x,src_y,dst_x,dst_y``: each row a point (``kind`` ``point``, its
@@ -52,7 +55,8 @@ volume's spacing, as glmls's are; glmls's 2D handles are pixels, so those of a c
 
 **3D point handles** (x, y, z) = (column, row, slice) of a volume (D, H, W), or a mesh's
 coordinates: JSON ``{"src": [[x, y, z], ...], "dst": [[x, y, z], ...]}``, CSV with the
-header ``src_x,src_y,src_z,dst_x,dst_y,dst_z``, BigWarp's 3D landmarks, or a pair of
+header ``src_x,src_y,src_z,dst_x,dst_y,dst_z`` (read by name, as the 2D tables: a header of
+``src_z`` or ``dst_z`` is 3D), BigWarp's 3D landmarks, or a pair of
 **elastix point files** (``.pts``): ``index`` (voxel indices) or ``point`` (physical
 coordinates, taken as they are; for a NIfTI volume ITK's LPS world coordinates, which
 :func:`glmls.files.world_to_volume` maps with ``lps=True``, :func:`elastix_physical`) on the
@@ -69,7 +73,8 @@ naming the file and the place: ``h.json: "segments"."src"[3]: expected two [x, y
 that differ, coordinates beyond ±1e6 px and one source point or segment given two targets,
 and handles of another dimension than the one expected (``ndim=`` of :func:`read_handles`).
 
-Reference points: JSON ``{"points": [[x, y], ...]}`` or CSV with the header ``x,y``.
+Reference points: JSON ``{"points": [[x, y], ...]}`` or CSV with the header ``x,y`` (read
+by name, as the handles' tables).
 """
 
 from __future__ import annotations
@@ -95,7 +100,7 @@ from .handle_formats import (
     kind_csv_text,
     kind_table,
 )
-from .parsing import Row, as_path, csv_rows, fail, json_points, load_json, table
+from .parsing import Row, as_path, by_name, csv_rows, fail, json_points, load_json, table
 from .point_formats import (
     HANDLE_HEADER_3D,
     axes,
@@ -137,6 +142,10 @@ def _point_table(path: Path, rows: list[Row]) -> HandleRows:
     return handles
 
 
+#: The z columns, which make a table of points 3D, and have no place in a table of kinds.
+_Z_COLUMNS = ("src_z", "dst_z")
+
+
 def _csv_handles(path: Path) -> tuple[int, HandleRows]:
     rows = csv_rows(path)
     if not rows:
@@ -144,18 +153,28 @@ def _csv_handles(path: Path) -> tuple[int, HandleRows]:
     if is_bigwarp_csv(rows):
         return bigwarp_csv(path, rows)
     line, header = rows[0]
-    names = [h.lower() for h in header]
-    if names == HANDLE_HEADER:
-        return 2, _point_table(path, rows[1:])
-    if names == HANDLE_HEADER_3D:
-        return 3, table_3d(path, rows[1:])
-    if names == KIND_HEADER:
-        return 2, kind_table(path, rows[1:])
+    names = {h.lower() for h in header}
+    z = [name for name in _Z_COLUMNS if name in names]
+    if "kind" in names and z:
+        raise fail(
+            path,
+            f"line {line}",
+            f"the header has the column {z[0]} and kind: segments and polylines are 2D "
+            f"handles only (the header {','.join(KIND_HEADER)}); 3D point handles take the "
+            f"header {','.join(HANDLE_HEADER_3D)}",
+        )
+    if "kind" in names:
+        return 2, kind_table(path, by_name(path, rows, KIND_HEADER))
+    if z:
+        return 3, table_3d(path, by_name(path, rows, HANDLE_HEADER_3D))
+    if names & set(HANDLE_HEADER):
+        return 2, _point_table(path, by_name(path, rows, HANDLE_HEADER))
     raise fail(
         path,
         f"line {line}",
         f"expected the header {','.join(HANDLE_HEADER)}, {','.join(HANDLE_HEADER_3D)} or "
-        f"{','.join(KIND_HEADER)} (or a BigWarp landmark file), got {','.join(header)}",
+        f"{','.join(KIND_HEADER)} (its columns in any order, others ignored; or a BigWarp "
+        f"landmark file), got {','.join(header)}",
     )
 
 
@@ -341,6 +360,8 @@ def read_handles(
 def read_points(path: str | os.PathLike) -> np.ndarray:
     """Reference points from JSON ``{"points": [[x, y], ...]}`` or a CSV with header ``x,y``.
 
+    The CSV's columns are read by name: in any order, beside columns of other names.
+
     Parameters
     ----------
     path : str or os.PathLike
@@ -374,11 +395,9 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
         rows = csv_rows(path)
         if not rows:
             raise fail(path, "content", "no points")
-        line, header = rows[0]
-        if [h.lower() for h in header] != POINT_HEADER:
-            raise fail(path, f"line {line}", f"expected the header x,y, got {','.join(header)}")
-        points = table(path, rows[1:], 2)
-        where = [f"line {number}" for number, _ in rows[1:]]
+        picked = by_name(path, rows, POINT_HEADER)
+        points = table(path, picked, 2)
+        where = [f"line {number}" for number, _ in picked]
     if len(points) == 0:
         raise fail(path, "content", "no points")
     points = points.reshape(-1, 2)

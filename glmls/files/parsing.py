@@ -21,6 +21,7 @@ from ..errors import InputFileError
 __all__ = [
     "as_path",
     "brief",
+    "by_name",
     "csv_rows",
     "fail",
     "field_number",
@@ -227,6 +228,45 @@ def csv_rows(path: Path) -> list[Row]:
         return [(reader.line_num, [f.strip() for f in row]) for row in reader if any(row)]
     except csv.Error as error:  # e.g. a field over csv's limit of 131,072 characters
         raise fail(path, f"line {reader.line_num}", f"not a CSV table: {error}") from None
+
+
+def by_name(path: Path, rows: list[Row], needed: Sequence[str]) -> list[Row]:
+    """The rows after the header ``rows[0]``, each the fields of the ``needed`` columns in
+    that order: the header names them (case aside) in any order, beside columns of other
+    names, which are left out (a landmark's ``name``). ``InputFileError`` naming the column
+    a header lacks or names twice, or a row of another number of fields than the header."""
+    line, header = rows[0]
+    names = [name.lower() for name in header]
+    expected = f"expected the header {','.join(needed)} (its columns in any order, others ignored)"
+    lacking = [name for name in needed if name not in names]
+    if lacking:
+        what = "column" if len(lacking) == 1 else "columns"
+        raise fail(
+            path,
+            f"line {line}",
+            f"the header lacks the {what} {', '.join(lacking)}: {expected}, got "
+            f"{brief(','.join(header), 200)}",
+        )
+    for name in needed:
+        where = [str(index) for index, other in enumerate(names, start=1) if other == name]
+        if len(where) > 1:
+            raise fail(
+                path,
+                f"line {line}",
+                f"the header names the column {name} {_times(len(where))} (columns "
+                f"{', '.join(where)}): {expected}",
+            )
+    columns = [names.index(name) for name in needed]
+    picked = []
+    for number_, row in rows[1:]:
+        if len(row) != len(header):
+            raise fail(path, f"line {number_}", f"expected {len(header)} columns, got {len(row)}")
+        picked.append((number_, [row[index] for index in columns]))
+    return picked
+
+
+def _times(count: int) -> str:
+    return "twice" if count == 2 else f"{count} times"
 
 
 def table(path: Path, rows: list[Row], columns: int) -> np.ndarray:

@@ -1,7 +1,9 @@
 """The voxel spacing (dz, dy, dx) of a TIFF stack, as :mod:`.volumes` reads and writes it: a
 calibrated ImageJ stack's (its ``spacing`` and X/Y resolutions), an OME-TIFF's
 (``PhysicalSizeZ``, ``Y``, ``X``), or the ``"spacing"`` of the JSON description that
-:func:`~glmls.files.volumes.write_volume` writes for the dtypes ImageJ does not hold."""
+:func:`~glmls.files.volumes.write_volume` writes for the dtypes ImageJ does not hold; and the
+mark that :func:`~glmls.files.volumes.write_volume` leaves on a stack of one channel,
+(D, H, W, 1), whose channel axis a TIFF's pages (one sample each) do not hold."""
 
 from __future__ import annotations
 
@@ -11,11 +13,22 @@ import tifffile
 
 from ..core.handles3 import as_volume_spacing
 
-__all__ = ["MOST_PER_UNIT", "SPACING_KEY", "fits_resolutions", "stack_spacing"]
+__all__ = [
+    "CHANNEL_KEY",
+    "MOST_PER_UNIT",
+    "SPACING_KEY",
+    "fits_resolutions",
+    "one_channel",
+    "stack_spacing",
+]
 
 #: The key of the spacing [dz, dy, dx] in the JSON description of the first page of a stack
 #: of a dtype ImageJ does not hold.
 SPACING_KEY = "spacing"
+#: The key, true, in an ImageJ description (``channel_axis=true``) or in the JSON description
+#: of the first page, of a stack that is a volume of one channel (D, H, W, 1): its pages are
+#: those of the stack (D, H, W), as other programs open it, and glmls reads the axis back.
+CHANNEL_KEY = "channel_axis"
 #: The largest numerator or denominator of a TIFF resolution (an unsigned 32-bit fraction).
 MOST_PER_UNIT = 2**32 - 1
 
@@ -30,6 +43,28 @@ def stack_spacing(tiff: tifffile.TiffFile) -> tuple[float, float, float] | None:
     """(dz, dy, dx) of a TIFF stack: ImageJ's, else OME's, else the JSON description's; None
     where the file says none."""
     return _tiff_spacing(tiff) or _ome_spacing(tiff) or _json_spacing(tiff)
+
+
+def one_channel(tiff: tifffile.TiffFile) -> bool:
+    """Whether a TIFF stack says it is a volume of one channel (D, H, W, 1): ``CHANNEL_KEY``
+    true in its ImageJ description, or in the JSON description of its first page."""
+    metadata = tiff.imagej_metadata
+    if metadata is None:
+        metadata = _json_description(tiff)
+    return metadata.get(CHANNEL_KEY) is True
+
+
+def _json_description(tiff: tifffile.TiffFile) -> dict:
+    """The JSON object of the description of a stack's first page; empty for another
+    description (none, ImageJ's, OME's XML, text)."""
+    description = tiff.pages[0].description
+    if not description.startswith("{"):
+        return {}
+    try:
+        value = json.loads(description)
+    except (RecursionError, ValueError):  # not one of glmls's
+        return {}
+    return value if isinstance(value, dict) else {}
 
 
 def _tiff_spacing(tiff: tifffile.TiffFile) -> tuple[float, float, float] | None:
@@ -95,15 +130,12 @@ def _json_spacing(tiff: tifffile.TiffFile) -> tuple[float, float, float] | None:
     """(dz, dy, dx) of a stack written in a dtype ImageJ does not hold: the ``"spacing"``
     list of the JSON description of its first page (tifffile's shaped one, for channels);
     None for another description or a value that is no spacing."""
-    description = tiff.pages[0].description
-    if not description.startswith("{"):
-        return None
+    spacing = _json_description(tiff).get(SPACING_KEY)
+    if not isinstance(spacing, list) or len(spacing) != 3:
+        return None  # none, or another program's metadata of that name
     try:
-        spacing = json.loads(description).get(SPACING_KEY)
-        if not isinstance(spacing, list) or len(spacing) != 3:
-            return None  # another program's metadata of that name
         return as_volume_spacing(spacing)
-    except (AttributeError, RecursionError, TypeError, ValueError):  # not one of glmls's
+    except (TypeError, ValueError):  # not one of glmls's
         return None
 
 

@@ -34,7 +34,11 @@ axes, as :meth:`glmls.MLS.warp` takes it) and the affine, where the file says th
 A TIFF is a volume when it holds more than one page (a stack); one page is an image
 (:func:`glmls.imread`). The pages are slices where the file's axes (ImageJ's or OME's
 metadata, as tifffile reads them) have a Z axis, or where no metadata names them; channels
-are an axis C or S beside it (``ZCYX``, ``CZYX``, ``ZYXS``). A stack of the channels or time
+are an axis C or S beside it (``ZCYX``, ``CZYX``, ``ZYXS``), or, for a stack of one channel
+(D, H, W, 1) as :func:`write_volume` writes it, ``channel_axis=true`` in its ImageJ
+description or the JSON description of its first page, or the shape (D, H, W, 1) of
+tifffile's JSON description (``tifffile.imwrite`` of such an array, ``photometric=
+"minisblack"``); a stack without either reads as (D, H, W). A stack of the channels or time
 points of one 2D image (axes ``CYX``, ``TYX``, ``TCYX``) is refused, not read as slices, and
 so is a time series of volumes (``TZYX``, ``TZCYX``), a file without axes metadata whose
 pages are not all of one shape, dtype and kind (a reduced-resolution page, a thumbnail,
@@ -66,7 +70,14 @@ from ..errors import DtypeError, InputFileError
 from .atomic import atomic_write
 from .nifti import NiftiHeader, one_line, read_nifti, write_nifti
 from .parsing import as_path, not_a_file
-from .tiff_spacing import MOST_PER_UNIT, SPACING_KEY, fits_resolutions, stack_spacing
+from .tiff_spacing import (
+    CHANNEL_KEY,
+    MOST_PER_UNIT,
+    SPACING_KEY,
+    fits_resolutions,
+    one_channel,
+    stack_spacing,
+)
 from .tiffs import (
     TIFF_SIGNATURES,
     broken_chain,
@@ -536,6 +547,7 @@ def _read_tiff(path: Path) -> Volume:
             raise InputFileError(str(error)) from None
         data, axes = series.asarray(), series.axes
         spacing = stack_spacing(tiff)
+        channel = data.ndim == 3 and one_channel(tiff)
     _check_axes(path, axes, data.shape)
     if "T" in axes:  # a time series of volumes: its time points are no slices nor channels
         raise InputFileError(
@@ -547,12 +559,16 @@ def _read_tiff(path: Path) -> Volume:
         data = np.moveaxis(data, 1, -1)
     elif data.ndim == 4 and axes[0] in "CS" and axes[1] == "Z":  # OME's XYZCT order: (C, Z, Y, X)
         data = np.moveaxis(data, 0, -1)
+    elif data.ndim == 4 and axes == "QYXQ" and data.shape[3] == 1:
+        pass  # tifffile's shaped description of a (D, H, W, 1) array, as imwrite writes it
     elif data.ndim == 4 and axes[-1] not in "SC":
         raise InputFileError(f"{path}: a TIFF of axes {axes} {data.shape}: expected a stack")
     if data.ndim not in (3, 4):
         raise InputFileError(
             f"{path}: a TIFF of axes {axes} {data.shape}: expected a stack of pages of one size"
         )
+    if channel:  # written from (D, H, W, 1): the pages hold one sample, not the axis
+        data = data[..., np.newaxis]
     if transposes(orientation) and spacing is not None:  # the resolutions are the stored axes'
         spacing = (spacing[0], spacing[2], spacing[1])
     return Volume(np.ascontiguousarray(orient(data, orientation, axes=(1, 2))), spacing=spacing)
@@ -588,7 +604,8 @@ def write_volume(
     ----------
     path : str or os.PathLike
         ``.nii``, ``.nii.gz``, ``.tif``/``.tiff`` (a stack of D pages; a volume of one
-        channel, (D, H, W, 1), is written as the stack (D, H, W) and reads back so) or
+        channel, (D, H, W, 1), is written as the stack (D, H, W) with ``channel_axis=true``
+        in its description, and reads back (D, H, W, 1), as from ``.npy`` and NIfTI) or
         ``.npy``.
     volume : Volume or array_like
         (D, H, W) or (D, H, W, C); a :class:`Volume` brings its spacing and affine.
@@ -700,7 +717,9 @@ def _write_tiff(path: Path, volume: Volume) -> None:
     """An ImageJ stack for ImageJ's dtypes (Fiji opens it with its calibration): one channel
     (Z, Y, X), 3 channels of uint8 an RGB stack, other channels a hyperstack (Z, C, Y, X);
     other dtypes a plain TIFF of D pages, channels as samples (bool's as planes: tifffile
-    reads 1-bit samples side by side wrongly); one channel (D, H, W, 1) a stack (D, H, W).
+    reads 1-bit samples side by side wrongly); one channel (D, H, W, 1) a stack (D, H, W),
+    which other programs open as one, marked ``channel_axis=true`` (ImageJ's description, or
+    the JSON description of the first page) for :func:`read_volume` to give it back 4D.
     The data goes to tifffile with its samples axis S, 1 where there is none (ImageJ's), or
     a page at a time (plain stacks): else tifffile takes a width of 1 for that axis and
     writes one page, or a hyperstack's pages of another shape. The spacing is the X/Y
@@ -708,7 +727,8 @@ def _write_tiff(path: Path, volume: Volume) -> None:
     (which ImageJ's metadata does not hold) the whole spacing in the JSON description of the
     first page (:func:`~glmls.files.tiff_spacing.stack_spacing`)."""
     data = np.ascontiguousarray(volume.data)
-    if data.ndim == 4 and data.shape[3] == 1:  # as a stack: the hyperstack needs C > 1
+    channel = data.ndim == 4 and data.shape[3] == 1
+    if channel:  # as a stack, marked (the hyperstack needs C > 1; a page has no such axis)
         data = data[..., 0]
     channels = 1 if data.ndim == 3 else data.shape[3]
     options: dict = {}
@@ -732,13 +752,16 @@ def _write_tiff(path: Path, volume: Volume) -> None:
             data = data[..., np.newaxis]
         if volume.spacing is not None:
             metadata["spacing"] = volume.spacing[0]
+        if channel:
+            metadata[CHANNEL_KEY] = True  # the description's line channel_axis=true
         options.update(imagej=True, metadata=metadata)
     else:
-        spacing = {} if volume.spacing is None else {SPACING_KEY: list(volume.spacing)}
+        described: dict = {} if volume.spacing is None else {SPACING_KEY: list(volume.spacing)}
         if channels == 1:
-            _write_pages(path, data, spacing, options.get("resolution"))
+            described.update({CHANNEL_KEY: True} if channel else {})
+            _write_pages(path, data, described, options.get("resolution"))
             return
-        options["metadata"] = spacing  # beside the shape in tifffile's JSON description
+        options["metadata"] = described  # beside the shape in tifffile's JSON description
         if data.dtype == np.bool_:
             data = np.ascontiguousarray(np.moveaxis(data, 3, 1))  # (Z, S, Y, X): planes
             options.update(photometric="minisblack", planarconfig="separate")
@@ -751,11 +774,11 @@ def _write_tiff(path: Path, volume: Volume) -> None:
         tifffile.imwrite(tmp, data, **options)
 
 
-def _write_pages(path: Path, data: np.ndarray, spacing: dict, resolution: tuple | None) -> None:
-    """A plain stack (D, H, W), a page at a time; the spacing a JSON description of the first
-    page without tifffile's ``shape``: tifffile reads a shaped series of pages written one
-    by one as if its data were contiguous, which it is not."""
-    description = json.dumps(spacing) if spacing else None
+def _write_pages(path: Path, data: np.ndarray, described: dict, resolution: tuple | None) -> None:
+    """A plain stack (D, H, W), a page at a time; the spacing and the channel mark a JSON
+    description of the first page without tifffile's ``shape``: tifffile reads a shaped
+    series of pages written one by one as if its data were contiguous, which it is not."""
+    description = json.dumps(described) if described else None
     with atomic_write(path) as tmp, tifffile.TiffWriter(tmp, bigtiff=_big(data)) as tiff:
         for index, page in enumerate(data):
             tiff.write(

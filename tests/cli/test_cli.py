@@ -142,7 +142,11 @@ def test_tune_warns_of_a_configuration_parameter_its_weight_does_not_use(inputs)
         ({"bad.json": '{"src": [[1, "x"]], "dst": [[1, 2]]}'}, [], "expected a number"),
         ({"bad.json": '{"src": [[1, NaN]], "dst": [[1, 2]]}'}, [], "expected a finite number"),
         ({"bad.json": '{"src": [], "dst": []}'}, [], "no handles"),
-        ({"bad.csv": "src_x,src_y,dst_x\n1,2,3\n"}, [], "bad.csv: line 1: expected the header"),
+        (
+            {"bad.csv": "src_x,src_y,dst_x\n1,2,3\n"},
+            [],
+            "bad.csv: line 1: the header lacks the column dst_y",
+        ),
         ({"bad.csv": "src_x,src_y,dst_x,dst_y\n1,2,3,4\n1,2\n"}, [], "line 3: expected 4"),
         ({"bad.json": '{"src": [[1, 1], [1, 1]], "dst": [[2, 2], [3, 3]]}'}, [], "same point"),
         ({}, ["--transform", "projective"], "invalid choice"),

@@ -108,6 +108,16 @@ def test_spacing_option_wins_and_other_formats(files, stand_in, capsys):
     capsys.readouterr()
 
 
+def test_one_channel_volume_keeps_its_axis_through_tiff(files, stand_in, capsys):
+    volume = np.arange(4 * 5 * 6, dtype=np.uint16).reshape(4, 5, 6, 1)
+    np.save(files / "one.npy", volume)
+    assert main(["warp", "one.npy", "one.tif", "--handles", "h3.json"]) == 0
+    assert glmls.read_volume(files / "one.tif").shape == (4, 5, 6, 1)
+    assert main(["warp", "one.tif", "back.npy", "--handles", "h3.json"]) == 0
+    assert_array_equal(np.load(files / "back.npy"), volume + 2)
+    capsys.readouterr()
+
+
 def test_stderr_gives_the_spacing_as_the_file_was_written(files, stand_in, capsys):
     """A NIfTI header holds its affine in float32: a voxel of 0.8 reads back as
     0.800000011920929, which stderr does not show."""
@@ -661,3 +671,21 @@ def test_mesh_normals_turn_with_a_rigid_warp_and_stl_says_it_drops_them(tmp_path
     argv = ["warp", str(tmp_path / "plain.obj"), str(tmp_path / "plain.ply"), "--handles"]
     assert main([*argv, str(tmp_path / "h.json")]) == 0
     assert glmls.read_mesh(tmp_path / "plain.ply").normals is None
+
+
+def test_a_3d_csv_is_read_by_its_header_and_a_lacking_column_is_one_line(files, stand_in, capsys):
+    src, dst = glmls.data.phantom_handles()
+    rows = ["name,dst_x,dst_y,dst_z,src_x,src_y,src_z"]
+    for k, (p, q) in enumerate(zip(src.tolist(), dst.tolist(), strict=True)):
+        rows.append(f"P{k},{','.join(map(repr, [*q, *p]))}")
+    Path("h3.csv").write_text("\n".join(rows) + "\n")
+    assert main(["warp", "v.nii.gz", "by_name.nii.gz", "--handles", "h3.csv", "--quiet"]) == 0
+    assert main(["warp", "v.nii.gz", "by_json.nii.gz", "--handles", "h3.json", "--quiet"]) == 0
+    assert [c[1] for c in stand_in.calls if c[0] == "MLS"] == [(len(src), 3)] * 2
+    by_name, by_json = (glmls.read_volume(f"by_{k}.nii.gz").data for k in ("name", "json"))
+    assert_array_equal(by_name, by_json)
+    capsys.readouterr()
+    Path("h3.csv").write_text("src_x,src_y,src_z,dst_x,dst_y\n1,2,3,4,5\n")
+    assert main(["warp", "v.nii.gz", "o.nii.gz", "--handles", "h3.csv"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "h3.csv: line 1: the header lacks the column dst_z" in err

@@ -216,6 +216,9 @@ MALFORMED = [
      "line 2 and line 3 are the same point [1.0, 1.0] with different targets"),
     ("h.csv", "kind,id,src_x,src_y,dst_x,dst_y\n", "content: no handles"),
     ("h.csv", "kind,src_x,src_y,dst_x,dst_y\n",
+     "line 1: the header lacks the column id: expected the header kind,id,src_x,src_y,dst_x,"
+     "dst_y (its columns in any order, others ignored)"),
+    ("h.csv", "id,x,y\n",
      "line 1: expected the header src_x,src_y,dst_x,dst_y, src_x,src_y,src_z,dst_x,dst_y,dst_z "
      "or kind,id,src_x,src_y,dst_x,dst_y"),
     # points: new checks on the old forms

@@ -74,7 +74,8 @@ def test_reference_points(tmp_path):
         ),
         ("h.json", "", "content: an empty file"),
         ("h.json", " \n", "content: an empty file"),
-        ("h.csv", "src_x,src_y,dst_x\n1,2,3\n", "line 1: expected the header"),
+        ("h.csv", "src_x,src_y,dst_x\n1,2,3\n", "line 1: the header lacks the column dst_y"),
+        ("h.csv", "a,b\n1,2\n", "line 1: expected the header src_x,src_y,dst_x,dst_y"),
         ("h.csv", "src_x,src_y,dst_x,dst_y\n1,2,3,4\n5,6,7\n", "line 3: expected 4 columns, got 3"),
         ("h.csv", "src_x,src_y,dst_x,dst_y\n1,2,x,4\n", "line 2: expected a number, got 'x'"),
         ("h.csv", "src_x,src_y,dst_x,dst_y\n1,2,nan,4\n", "line 2: expected a finite number"),
@@ -135,3 +136,9 @@ def test_atomic_write_leaves_nothing_on_failure(tmp_path):
     with atomic_write(target) as tmp:
         tmp.write_text("whole")
     assert target.read_text() == "whole" and len(list(tmp_path.iterdir())) == 1
+
+
+@pytest.mark.parametrize("text", ["y,x\n20,10\n40,30\n", "name,x,note,y\na,10,b,20\nc,30,d,40\n"])
+def test_point_csv_columns_are_read_by_name(tmp_path, text):
+    path = write_text(tmp_path, "r.csv", text)
+    assert read_points(path).tolist() == [[10.0, 20.0], [30.0, 40.0]]

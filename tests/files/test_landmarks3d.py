@@ -280,3 +280,75 @@ def test_an_ndim_that_is_not_2_or_3_is_named_before_the_file_is_read(tmp_path, n
         read_handles(tmp_path / "missing.json", ndim=ndim)
     write_handles(tmp_path / "h.json", SRC, DST)
     assert read_handles(tmp_path / "h.json", ndim=np.int64(3))[0].shape == SRC.shape
+
+
+def _table(header, src, dst):
+    """A CSV of ``header``'s columns: src_*, dst_* from the points, others a text."""
+    points = {"src": src, "dst": dst}
+    lines = [",".join(header)]
+    for k in range(len(src)):
+        fields = []
+        for name in header:
+            side, _, axis = name.lower().partition("_")
+            if side in points and axis in "xyz" and axis:
+                fields.append(repr(float(points[side][k]["xyz".index(axis)])))
+            else:
+                fields.append(f'"note {k}, of {name}"')
+        lines.append(",".join(fields))
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize(
+    "header",
+    [
+        ["dst_x", "dst_y", "dst_z", "src_x", "src_y", "src_z"],
+        ["name", "src_x", "src_y", "src_z", "dst_x", "dst_y", "dst_z"],
+        ["src_z", "DST_X", "name", "src_y", "dst_z", "Src_X", "dst_y", "weight"],
+    ],
+)
+def test_3d_csv_columns_are_read_by_name(tmp_path, header):
+    path = write_text(tmp_path, "h.csv", _table(header, SRC, DST))
+    src, dst = read_handles(path, ndim=3)
+    assert_allclose(src, SRC, rtol=0, atol=0)
+    assert_allclose(dst, DST, rtol=0, atol=0)
+
+
+@pytest.mark.parametrize(
+    "header",
+    [
+        ["dst_x", "dst_y", "src_x", "src_y"],
+        ["name", "src_x", "src_y", "dst_x", "dst_y"],
+        ["dst_y", "note", "src_y", "src_x", "dst_x"],
+    ],
+)
+def test_2d_csv_columns_are_read_by_name(tmp_path, header):
+    path = write_text(tmp_path, "h.csv", _table(header, SRC[:, :2], DST[:, :2]))
+    src, dst = read_handles(path, ndim=2)
+    assert_allclose(src, SRC[:, :2], rtol=0, atol=0)
+    assert_allclose(dst, DST[:, :2], rtol=0, atol=0)
+
+
+@pytest.mark.parametrize(
+    ("header", "message"),
+    [
+        ("src_x,src_y,src_z,dst_x,dst_y,name", "line 1: the header lacks the column dst_z: "),
+        ("dst_z,name,src_z", "line 1: the header lacks the columns src_x, src_y, dst_x, dst_y: "),
+        ("src_x,src_y,dst_x,dst_y,src_z,dst_z,src_y", "the header names the column src_y twice"),
+        ("src_x,src_y,dst_x,name", "line 1: the header lacks the column dst_y: "),
+        ("dst_x,src_x,src_y,dst_y,DST_X", "the header names the column dst_x twice (columns 1, 5)"),
+        ("kind,id,src_x,src_y,dst_x,dst_y,src_z", "the header has the column src_z and kind"),
+    ],
+)
+def test_a_header_that_lacks_or_repeats_a_column_is_named(tmp_path, header, message):
+    path = write_text(
+        tmp_path, "h.csv", header + "\n" + ",".join(["1"] * header.count(",")) + ",1\n"
+    )
+    with pytest.raises(InputFileError) as info:
+        read_handles(path)
+    assert message in str(info.value)
+    assert "\n" not in str(info.value)
+
+
+def test_a_row_of_another_width_than_the_header_is_named(tmp_path):
+    path = write_text(tmp_path, "h.csv", "name,src_x,src_y,src_z,dst_x,dst_y,dst_z\n1,2,3,4,5,6\n")
+    assert_bad_handle_file(path, "line 2: expected 7 columns, got 6")
