@@ -17,8 +17,7 @@ ROOT = Path(__file__).resolve().parent.parent.parent
 DOCUMENTS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 _BLOCK = re.compile(r"^```python\n(.*?)^```", re.DOTALL | re.MULTILINE)
 #: torch's and torchvision's imports, which a page shows where it uses them; run as one
-#: program, they go first, before glmls's first GL context, as docs/augment.md says a program
-#: must import them where GL is Mesa's llvmpipe
+#: program, they go first, as the top of a program of one's own would hold them
 _TORCH_IMPORT = re.compile(r"^(?:import|from) (?:torch|torchvision)\b.*$", re.MULTILINE)
 
 
