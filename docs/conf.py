@@ -132,6 +132,8 @@ sphinx_gallery_conf = {
     "remove_config_comments": True,
     "within_subsection_order": "FileNameSortKey",
     "show_memory": False,
+    # the timing pages load jQuery and DataTables from CDNs: the site would not be offline
+    "write_computation_times": False,
     "plot_gallery": "True",
     "abort_on_example_error": False,
 }

@@ -39,7 +39,7 @@ class DegenerateHandlesError(ValueError):
 
 
 class ReleasedError(RuntimeError):
-    """A GPU object was used after :meth:`release`, or after its GL context was released.
+    """A GPU object was used after :meth:`~glmls.MLS.release`, or after its GL context was released.
 
     Examples
     --------

@@ -137,7 +137,7 @@ class MLS(ForkSafe):
     [0, 0, 1, 2, 3, 4]
     """
 
-    #: The dimension of the handles; :data:`kinds` maps each other dimension to the subclass
+    #: The dimension of the handles; ``kinds`` maps each other dimension to the subclass
     #: that ``MLS(...)`` makes for its handles (``glmls.mls3`` registers 3).
     dimension = 2
     kinds: ClassVar[dict[int, type[MLS]]] = {}
@@ -1114,7 +1114,7 @@ class InverseMLS:
     ([[30.0, 30.0], [nan, nan], [70.0, 30.0]], [True, False, True])
     """
 
-    #: The dimension of the MLS it inverts; :data:`kinds` maps each other dimension to the
+    #: The dimension of the MLS it inverts; ``kinds`` maps each other dimension to the
     #: subclass that ``InverseMLS(m)`` makes for it (``glmls.mls3`` registers 3).
     dimension = 2
     kinds: ClassVar[dict[int, type[InverseMLS]]] = {}

@@ -308,7 +308,7 @@ class MLS3(MLS):
     def set_handles(
         self, src: object, dst: object, *, src_segments: object = None, dst_segments: object = None
     ) -> None:
-        """Replace the (N, 3) handles, keeping the configuration (as :meth:`MLS.set_handles`).
+        """Replace the (N, 3) handles, keeping the configuration (as :meth:`glmls.MLS.set_handles`).
 
         Parameters
         ----------
@@ -636,7 +636,7 @@ class MLS3(MLS):
         Parameters
         ----------
         shape, grid, tolerance
-            As :meth:`MLS.mesh`'s.
+            As :meth:`glmls.MLS.mesh`'s.
 
         Examples
         --------
@@ -654,7 +654,7 @@ class MLS3(MLS):
         Parameters
         ----------
         shape, grid, tolerance
-            As :meth:`MLS.error_field`'s.
+            As :meth:`glmls.MLS.error_field`'s.
 
         Examples
         --------

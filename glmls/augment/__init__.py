@@ -6,11 +6,12 @@ deformations (distortion, stretching, perspective) or each image's landmarks mov
 masks, bounding boxes and polygons go through the same map that placed the pixels.
 
 The adapters for other libraries are modules of their own, imported only when used:
-:mod:`glmls.augment.albumentations` (an albumentations ``DualTransform``, ``pip install
-'glmls[albumentations]'``) and :mod:`glmls.augment.torchvision` (a torchvision v2
-``Transform``, ``pip install 'glmls[torch]'``). :class:`Augment` itself takes and gives
-torch tensors too, in torch's layout, of their dtype and on their device (:doc:`the guide
-</augment>`, "torch tensors, torchvision and albumentations").
+``glmls.augment.albumentations`` (:class:`~glmls.augment.albumentations.MLSDeform`, an
+albumentations ``DualTransform``, ``pip install 'glmls[albumentations]'``) and
+``glmls.augment.torchvision`` (:class:`~glmls.augment.torchvision.MLSTransform`, a
+torchvision v2 ``Transform``, ``pip install 'glmls[torch]'``). :class:`Augment` itself
+takes and gives torch tensors too, in torch's layout, of their dtype and on their device
+(:doc:`the guide </augment>`, "torch tensors, torchvision and albumentations").
 """
 
 from .core import DEFAULT_WARP_OPTIONS, Augment, AugmentResult

@@ -324,7 +324,7 @@ def world_to_volume(
     """World coordinates of a NIfTI file's affine to the frame of glmls's 3D warps.
 
     The affine maps a voxel's indices (i, j, k, 1) = (x, y, z, 1), glmls's point of the
-    voxel ``volume.data[k, j, i]`` (:func:`read_volume` transposes NIfTI's (i, j, k) array
+    voxel ``volume.data[k, j, i]`` (:func:`glmls.read_volume` transposes NIfTI's (i, j, k) array
     to (z, y, x)), to world (scanner) coordinates, those nibabel's ``img.affine`` gives
     (NIfTI's RAS+: x to the right, y to the front, z up). This is its inverse, times the
     spacing: the point (i dx, j dy, k dz), in the units in which :meth:`glmls.MLS.warp` with
@@ -340,10 +340,10 @@ def world_to_volume(
     points : array_like
         (N, 3) world coordinates (x, y, z).
     affine : array_like
-        The 4 x 4 affine (:attr:`Volume.affine`).
+        The 4 x 4 affine (a :class:`glmls.Volume`'s ``affine``).
     spacing : (float, float, float), optional
         (dz, dy, dx) of the warp; default the affine's (the lengths of its columns, as
-        :func:`read_volume` gives :attr:`Volume.spacing`).
+        :func:`glmls.read_volume` gives a :class:`glmls.Volume`'s ``spacing``).
     lps : bool, default False
         The points are in ITK's LPS world (x to the left, y to the back), not RAS+.
 
@@ -400,7 +400,7 @@ def volume_to_world(
     points : array_like
         (N, 3) points (i dx, j dy, k dz) in the units of ``spacing``.
     affine : array_like
-        The 4 x 4 affine (:attr:`Volume.affine`).
+        The 4 x 4 affine (a :class:`glmls.Volume`'s ``affine``).
     spacing : (float, float, float), optional
         (dz, dy, dx); default the affine's.
     lps : bool, default False
@@ -719,7 +719,7 @@ def _write_tiff(path: Path, volume: Volume) -> None:
     other dtypes a plain TIFF of D pages, channels as samples (bool's as planes: tifffile
     reads 1-bit samples side by side wrongly); one channel (D, H, W, 1) a stack (D, H, W),
     which other programs open as one, marked ``channel_axis=true`` (ImageJ's description, or
-    the JSON description of the first page) for :func:`read_volume` to give it back 4D.
+    the JSON description of the first page) for :func:`glmls.read_volume` to give it back 4D.
     The data goes to tifffile with its samples axis S, 1 where there is none (ImageJ's), or
     a page at a time (plain stacks): else tifffile takes a width of 1 for that axis and
     writes one page, or a hyperstack's pages of another shape. The spacing is the X/Y
