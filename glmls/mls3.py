@@ -682,7 +682,7 @@ class MLS3(MLS):
 
 
 class InverseMLS3(InverseMLS):
-    """The inverse of a 3D MLS map f, as :attr:`MLS.inverse` returns it.
+    """The inverse of a 3D MLS map f, as :attr:`glmls.MLS.inverse` returns it.
 
     ``inv(points)`` solves f(s) = u at (K, 3) points on the GPU by Newton's method (J by
     central differences, stopping below 1e-4 voxel), from the MLS with p and q swapped at u,

@@ -23,7 +23,7 @@ written as nibabel's defaults.
 axes, as :meth:`glmls.MLS.warp` takes it) and the affine, where the file says them:
 
 - NIfTI: the affine; the spacing is the length of its columns (k, j, i); the header fields
-  :class:`NiftiHeader` holds;
+  :class:`~glmls.files.NiftiHeader` holds;
 - TIFF: the spacing of a calibrated ImageJ stack (its ``spacing``, 1 where ImageJ leaves
   it out, and X/Y resolutions, which :func:`write_volume` writes), of an OME-TIFF (its
   ``PhysicalSizeZ``, ``Y``, ``X``, in micrometres where their units differ), or the
@@ -213,7 +213,7 @@ class Volume:
     TypeError
         For data or an affine that is not real numbers (complex, objects, strings; a bool
         affine), a spacing that is not a sequence of real numbers (a number, a string), or
-        a ``nifti`` that is not a :class:`NiftiHeader`.
+        a ``nifti`` that is not a :class:`~glmls.files.NiftiHeader`.
 
     See Also
     --------
@@ -614,9 +614,9 @@ def write_volume(
         diagonal one of the spacing, else the identity. Written as the sform, and as the
         qform where a qform holds it (a sheared affine's qform is left unset, code 0, so
         that no tool reads another geometry from it), with the codes of the volume's
-        :class:`NiftiHeader` (1, scanner, where it has none or ``affine`` is given). The
-        header's units, description, intent, display range, auxiliary file and time offset
-        are written too, and a time series (its ``time_step`` not None) is written 4D
+        :class:`~glmls.files.NiftiHeader` (1, scanner, where it has none or ``affine`` is
+        given). The header's units, description, intent, display range, auxiliary file and
+        time offset are written too, and a time series (its ``time_step`` not None) is written 4D
         (i, j, k, T) with that step, as it was read; other channels are the vector
         dimension (i, j, k, 1, C), intent ``vector`` where the header gives none. Given
         with another format: refused (a :class:`Volume`'s own affine and header are left
