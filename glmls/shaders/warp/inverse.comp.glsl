@@ -8,12 +8,14 @@
 //   WARP_NEWTON_STEPS  the most Newton steps.
 //   WARP_RESCUE 1: the second pass (glmls.gl.dispatch.SecondPass): one invocation per pixel
 //                the first listed, where Newton ended above the residual accepted: damped
-//                Newton from the first's point and from u (warp_rescue), the least residual
-//                kept, then, where that gives no preimage inside the source, from the points
-//                of the neighbours the first pass covered. The first also lists the pixels
-//                whose preimage lies just outside the source (next to a fold u has several),
-//                where Newton runs only from the neighbours whose points show another sheet
-//                of f. Only those pixels pay for it.
+//                Newton from the first's point and from u (as warp_rescue), the least
+//                residual kept, then, where that gives no preimage inside the source, from
+//                the points of the neighbours the first pass covered. The first also lists
+//                the pixels whose preimage lies just outside the source (next to a fold u has
+//                several), where Newton runs only from the neighbours whose points show
+//                another sheet of f. Only those pixels pay for it. All the starts run in one
+//                flat loop of at most warp_evaluations evaluations of f, so that a pixel's
+//                result does not depend on the pixels the list puts next to it.
 //
 // u_map (rgba32f), per pixel: in (x, y, covered, 0) of the guess, pixels; out (s.x, s.y,
 // |f(s) - u| in pixels, covered), covered = converged and s inside the source image.
@@ -93,31 +95,21 @@ const ivec2 WARP_NEIGHBOURS[24] = ivec2[](
 // Lipschitz bound, and a shrink by more than it costs only Newton from the neighbours.
 const float WARP_SHEET = 4.0;
 
-// How many neighbours' points may be starts within a CPU renderer's cap on an invocation's
-// loop iterations (llvmpipe: 65,535 over all loops, 4 SCAN_PIECE_PIXELS; it then ends the
-// loops as if done, counting for all the lanes of a vector together, so that a pixel's result
-// would depend on its lane mates): each start's damped Newton evaluates f at most
-// 1 + 4 WARP_NEWTON_STEPS times, each evaluation walking the handles up to three times
-// (the nearest, the snapped point's normalisation, the moments), sixteen handles a loop
-// iteration (one with bins or segments, as a bound). Half the cap goes to the neighbours.
-// Without a cap, all 24.
-int warp_neighbour_starts() {
-#if SCAN_PIECE_PIXELS == 0
-    return 24;
-#else
-#if MLS_UNROLL
-    int per_walk = 2;
-#elif MLS_BINS
-    int per_walk = mls_handle_count() + 2;
-#else
-    int per_walk = (mls_handle_count() + 15) / 16 + 2;
-#endif
-#if MLS_SEGMENTS
-    per_walk += u_segment_count + 1;
-#endif
-    int per_start = (1 + 4 * WARP_NEWTON_STEPS) * 3 * per_walk;
-    return clamp((2 * SCAN_PIECE_PIXELS) / per_start - 2, 0, 24);
-#endif
+// The start after ``current`` (-2: the first pass's point s, -1: u, k >= 0: neighbour k's
+// point; ``starts``: the neighbours left, a bit each), into ``current`` and ``start``
+// (scaled); false where none is left.
+bool warp_next_start(inout int current, inout uint starts, vec2 s, vec2 u, ivec2 at,
+                     out vec2 start) {
+    if (current < -1) {   // -2 -> -1 (u)
+        current = -1;
+        start = u;
+        return true;
+    }
+    current = findLSB(starts);
+    starts &= starts - 1u;
+    vec4 near = imageLoad(u_map, at + WARP_NEIGHBOURS[max(current, 0)]);
+    start = (near.xy - u_center) / u_scale;
+    return current >= 0;
 }
 
 void main() {
@@ -140,46 +132,50 @@ void main() {
     float tolerance = u_tolerance / u_scale;
     // Converged (then outside the source): Newton found a preimage, and only a neighbour
     // whose point shows another sheet of f is a start; else the first's point and u are,
-    // then every covered neighbour.
+    // then every covered neighbour. The first pass's covered pixels are the only ones read:
+    // this pass writes none of them.
     bool converged = residual <= warp_accept(u_accept, u_accept_steps, u, s);
-    vec2 first = found.xy;
+    uint starts = 0u;
+    for (int k = 0; k < 24; ++k) {
+        ivec2 q = p + WARP_NEIGHBOURS[k];
+        bool inside = all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, u_target_size));
+        vec4 near = imageLoad(u_map, inside ? at + WARP_NEIGHBOURS[k] : at);
+        float apart = length(vec2(WARP_NEIGHBOURS[k]));
+        // where f does not fold, neighbours' preimages lie within a few of their spacing
+        bool sheet = !converged || distance(near.xy, found.xy) > WARP_SHEET * apart + 1.0;
+        starts |= inside && near.w == 1.0 && sheet ? 1u << uint(k) : 0u;
+    }
+    int current = -2;   // the start running: s first, or the first neighbour's point
+    vec2 start = s;
+    bool running = true;
+    if (converged) {
+        current = -1;
+        running = warp_next_start(current, starts, s, u, at, start);
+    }
     bool done = false;
-    int next = converged ? 0 : -2;   // the next start: -2 s, -1 u, k >= 0 neighbour k
-    int neighbours = warp_neighbour_starts();
-    // One loop and one warp_newton_damped: a CPU renderer runs a loop's body at least once
-    // and a branch's code whatever its lanes' mask, so each listed pixel pays for one.
-    for (;;) {
-        vec2 start = next == -2 ? s : u;
-        bool have = next < 0;
-        for (; !have && !done && next < neighbours; ++next) {   // the next neighbour start
-            ivec2 q = p + WARP_NEIGHBOURS[next];
-            if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, u_target_size))) {
-                continue;
+    float h = warp_damped_h();
+    WarpDamped d = warp_damped_begin(start);
+    // One flat loop, one evaluation of f an iteration, at most warp_evaluations: on a CPU
+    // renderer the loop runs as long as its slowest lane, and each lane's count bounds it.
+    int budget = warp_evaluations((2 + 24) * WARP_DAMPED_EVALUATIONS);
+    for (int e = 0; running && e < budget; ++e) {
+        warp_damped_take(d, mls_eval(warp_damped_point(d, h)).f, u, h, tolerance, 0.2);
+        if (d.phase == WARP_DAMPED_DONE || e + 1 == budget) {
+            if (current < 0) {   // from s or u: the least residual kept (warp_rescue)
+                if (!(d.least >= residual)) {
+                    s = d.best;
+                    residual = d.least;
+                }
+                done = residual <= warp_accept(u_accept, u_accept_steps, u, s) &&
+                       warp_inside(s, 0.0);
+            } else if (d.least <= warp_accept(u_accept, u_accept_steps, u, d.best) &&
+                       warp_inside(d.best, 0.0)) {
+                s = d.best;
+                residual = d.least;
+                done = true;
             }
-            vec4 near = imageLoad(u_map, at + WARP_NEIGHBOURS[next]);
-            float apart = length(vec2(WARP_NEIGHBOURS[next]));
-            // where f does not fold, neighbours' preimages lie within a few of their spacing
-            have = near.w == 1.0 &&
-                   (!converged || distance(near.xy, first) > WARP_SHEET * apart + 1.0);
-            start = (near.xy - u_center) / u_scale;
-        }
-        if (done || !have) {
-            break;
-        }
-        float again;
-        vec2 t = warp_newton_damped(start, u, tolerance, 0.2, again);
-        if (next < 0) {   // from s or u: the least residual kept (warp_rescue)
-            if (!(again >= residual)) {
-                s = t;
-                residual = again;
-            }
-            ++next;
-            done = residual <= warp_accept(u_accept, u_accept_steps, u, s) &&
-                   warp_inside(s, 0.0);
-        } else if (again <= warp_accept(u_accept, u_accept_steps, u, t) && warp_inside(t, 0.0)) {
-            s = t;
-            residual = again;
-            done = true;
+            running = !done && warp_next_start(current, starts, s, u, at, start);
+            d = warp_damped_begin(start);
         }
     }
     warp_store(at, p, s, u, residual * u_scale, done ? WARP_RESCUED : 0.0);

@@ -26,17 +26,48 @@ float warp_accept(float accept, float steps, vec2 u, vec2 s) {
     return max(accept / u_scale, steps * 1.1920929e-7 * far);
 }
 
+// The most evaluations of f one start of damped Newton makes: f at the start, three a step
+// (two differences and the step), and the halvings.
+const int WARP_DAMPED_EVALUATIONS = 1 + 4 * WARP_NEWTON_STEPS;
+
+// How many evaluations of f an invocation of a Newton pass may make, at most ``most``: all of
+// them on a GPU; within a CPU renderer's cap on an invocation's loop iterations (llvmpipe:
+// 65,535 over all loops, 4 SCAN_PIECE_PIXELS; it then ends the loops as if done, counting
+// for all the lanes of a vector together, so that a pixel's result would depend on its lane
+// mates, and f would leave handles out) as many as fit with one more (an identity check
+// after), 1,024 iterations left to the loops around: an evaluation walks the handles up to
+// three times (the nearest, the snapped point's normalisation, the moments), sixteen handles
+// a loop iteration, one a segment, and is one iteration of the Newton loop. With bins a walk
+// visits only the handles of the bins near the point, a count not known here: all.
+int warp_evaluations(int most) {
+#if SCAN_PIECE_PIXELS == 0 || MLS_BINS
+    return most;
+#else
+#if MLS_UNROLL
+    int per_walk = 2;   // unrolled: only the snapped point's normalisation loops
+#else
+    int per_walk = (mls_handle_count() + 15) / 16 + 2;
+#endif
+#if MLS_SEGMENTS
+    per_walk += u_segment_count + 1;
+#endif
+    return clamp((4 * SCAN_PIECE_PIXELS - 1024) / (3 * per_walk + 1) - 1, 1, most);
+#endif
+}
+
 // The last iterate from ``s``: stops once |f(s) - u| <= tolerance (scaled), after
-// WARP_NEWTON_STEPS steps, or where f is singular (a fold's edge); ``residual`` is its
+// WARP_NEWTON_STEPS steps (fewer where warp_evaluations allows fewer), or where f is singular (a fold's edge); ``residual`` is its
 // |f(s) - u|, scaled. A step goes at most ``max_step`` (scaled): far from the solution,
 // Newton's step may overshoot.
 vec2 warp_newton(vec2 s, vec2 u, float tolerance, float max_step, out float residual) {
     float h = 0.25 * u_newton_unit / u_scale;   // a quarter pixel: float32 noise in f ~1e-4 of it
+    // three evaluations a step (f and its two differences), and one for the last f
+    int steps = (warp_evaluations(1 + 3 * WARP_NEWTON_STEPS) - 1) / 3;
     residual = 0.0;
     for (int k = 0; ; ++k) {
         vec2 r = mls_eval(s).f - u;
         residual = length(r);
-        if (residual <= tolerance || k == WARP_NEWTON_STEPS) {
+        if (residual <= tolerance || k >= steps) {
             break;
         }
         vec2 fs = r + u;
@@ -53,63 +84,128 @@ vec2 warp_newton(vec2 s, vec2 u, float tolerance, float max_step, out float resi
     return s;
 }
 
-// As warp_newton, for a point where it ended above the residual accepted (a dip of
-// |f(s) - u| that is no preimage, next to a fold or a handle, where whole steps cycle): a
-// step that raises the residual is halved, up to WARP_NEWTON_STEPS halvings in all, and
-// taken where none brings it down (Newton may have to climb out of a dip); the Jacobian's
-// difference is a thirty-second of a pixel (f curves fast there; float32's noise is ~1e-3
-// of it, and the steps' directions still hold). Returns the best iterate. Only the second
-// pass runs it (warp/inverse.comp.glsl's WARP_RESCUE, the inverse at points' second
+// Damped Newton, as warp_newton, for a point where it ended above the residual accepted (a
+// dip of |f(s) - u| that is no preimage, next to a fold or a handle, where whole steps
+// cycle): a step that raises the residual is halved, up to WARP_NEWTON_STEPS halvings in all,
+// and taken where none brings it down (Newton may have to climb out of a dip); the Jacobian's
+// difference is a thirty-second of a pixel (f curves fast there; float32's noise is ~1e-3 of
+// it, and the steps' directions still hold). The best iterate is kept. Only the second
+// passes run it (warp/inverse.comp.glsl's WARP_RESCUE, the inverse at points' second
 // dispatch), over the few points the first left.
-vec2 warp_newton_damped(vec2 s, vec2 u, float tolerance, float max_step, out float residual) {
-    float h = 0.03125 * u_newton_unit / u_scale;
-    vec2 r = mls_eval(s).f - u;
-    residual = length(r);
-    vec2 best = s;
-    float least = residual;
-    int halvings = 0;
-    for (int k = 0; k < WARP_NEWTON_STEPS && residual > tolerance; ++k) {
-        vec2 fs = r + u;
-        vec2 jx = (mls_eval(s + vec2(h, 0.0)).f - fs) / h;   // df/dx
-        vec2 jy = (mls_eval(s + vec2(0.0, h)).f - fs) / h;   // df/dy
+//
+// It runs as a machine that takes one evaluation of f at a time (warp_damped_point, then
+// warp_damped_take), so that the caller's one flat loop makes one evaluation an iteration
+// over all its starts: a CPU renderer runs a loop for as long as its slowest lane, and nested
+// loops (the halvings inside the steps inside the starts) would add up the slowest lane of
+// each, where one loop costs only the slowest lane's own count (warp_evaluations).
+const int WARP_DAMPED_START = 0;   // next: f at the start
+const int WARP_DAMPED_DX = 1;      // next: f a difference along x from s
+const int WARP_DAMPED_DY = 2;      // next: f a difference along y from s
+const int WARP_DAMPED_TRY = 3;     // next: f at s - step
+const int WARP_DAMPED_DONE = 4;    // converged, out of steps, or f singular at s
+
+struct WarpDamped {
+    vec2 s;          // the iterate
+    vec2 r;          // f(s) - u
+    float residual;  // |r|
+    vec2 best;       // the iterate of the least residual so far
+    float least;
+    vec2 jx;         // df/dx, between the two differences
+    vec2 step;       // the step tried, halved while it raises the residual
+    int phase;       // WARP_DAMPED_*
+    int steps;       // the steps taken
+    int halvings;
+};
+
+// Damped Newton from ``start``: its first evaluation is f at start.
+WarpDamped warp_damped_begin(vec2 start) {
+    WarpDamped d;
+    d.s = start;
+    d.r = vec2(0.0);
+    d.residual = 0.0;
+    d.best = start;
+    d.least = 0.0;
+    d.jx = vec2(0.0);
+    d.step = vec2(0.0);
+    d.phase = WARP_DAMPED_START;
+    d.steps = 0;
+    d.halvings = 0;
+    return d;
+}
+
+// The differences' step (scaled): a thirty-second of the length unit.
+float warp_damped_h() {
+    return 0.03125 * u_newton_unit / u_scale;
+}
+
+// Where d needs f next.
+vec2 warp_damped_point(WarpDamped d, float h) {
+    return d.phase == WARP_DAMPED_DX   ? d.s + vec2(h, 0.0)
+         : d.phase == WARP_DAMPED_DY   ? d.s + vec2(0.0, h)
+         : d.phase == WARP_DAMPED_TRY  ? d.s - d.step
+                                       : d.s;
+}
+
+// d advanced by ``f``, f at warp_damped_point(d, h); never left at WARP_DAMPED_START, so that
+// best and least hold a result after the first call.
+void warp_damped_take(inout WarpDamped d, vec2 f, vec2 u, float h, float tolerance,
+                      float max_step) {
+    if (d.phase == WARP_DAMPED_START) {
+        d.r = f - u;
+        d.residual = length(d.r);
+        d.best = d.s;
+        d.least = d.residual;
+        d.phase = d.residual > tolerance && WARP_NEWTON_STEPS > 0 ? WARP_DAMPED_DX
+                                                                  : WARP_DAMPED_DONE;
+    } else if (d.phase == WARP_DAMPED_DX) {
+        d.jx = (f - (d.r + u)) / h;   // df/dx
+        d.phase = WARP_DAMPED_DY;
+    } else if (d.phase == WARP_DAMPED_DY) {
+        vec2 jx = d.jx;
+        vec2 jy = (f - (d.r + u)) / h;   // df/dy
         float det = jx.x * jy.y - jy.x * jx.y;
-        if (!(abs(det) > 1e-12)) {
-            break;
-        }
-        vec2 step = vec2(jy.y * r.x - jy.x * r.y, jx.x * r.y - jx.y * r.x) / det;
+        vec2 step = vec2(jy.y * d.r.x - jy.x * d.r.y, jx.x * d.r.y - jx.y * d.r.x) / det;
         float len = length(step);
-        step *= len > max_step ? max_step / len : 1.0;
-        vec2 t;
-        vec2 rt;
-        bool whole = true;
-        do {   // the step, then its halves while they raise the residual
-            if (!whole) {
-                step *= 0.5;
-                ++halvings;
-            }
-            whole = false;
-            t = s - step;
-            rt = mls_eval(t).f - u;
-        } while (length(rt) > residual && halvings < WARP_NEWTON_STEPS);
-        s = t;
-        r = rt;
-        residual = length(r);
-        best = residual < least ? s : best;
-        least = min(residual, least);
+        d.step = step * (len > max_step ? max_step / len : 1.0);
+        // f singular here (a fold's edge): the best point so far stays
+        d.phase = abs(det) > 1e-12 ? WARP_DAMPED_TRY : WARP_DAMPED_DONE;
+    } else if (d.phase == WARP_DAMPED_TRY) {
+        vec2 rt = f - u;
+        if (length(rt) > d.residual && d.halvings < WARP_NEWTON_STEPS) {
+            d.step *= 0.5;
+            ++d.halvings;
+        } else {
+            d.s -= d.step;
+            d.r = rt;
+            d.residual = length(rt);
+            d.best = d.residual < d.least ? d.s : d.best;
+            d.least = min(d.residual, d.least);
+            ++d.steps;
+            d.phase = d.steps < WARP_NEWTON_STEPS && d.residual > tolerance ? WARP_DAMPED_DX
+                                                                            : WARP_DAMPED_DONE;
+        }
     }
-    residual = least;
-    return best;
 }
 
 // The preimage of u from the first pass's point ``s`` (its residual ``residual``, scaled; a
-// NaN counts as none): damped Newton from s, then from u itself, the least residual kept.
+// NaN counts as none): damped Newton from s, then from u itself, the least residual kept, in
+// one flat loop (warp_damped_take).
 void warp_rescue(vec2 u, float tolerance, float max_step, inout vec2 s, inout float residual) {
-    for (int start = 0; start < 2; ++start) {   // one place runs warp_newton_damped
-        float again;
-        vec2 t = warp_newton_damped(start == 0 ? s : u, u, tolerance, max_step, again);
-        if (!(again >= residual)) {
-            s = t;
-            residual = again;
+    float h = warp_damped_h();
+    WarpDamped d = warp_damped_begin(s);
+    bool from_u = false;
+    bool running = true;
+    int budget = warp_evaluations(2 * WARP_DAMPED_EVALUATIONS);
+    for (int e = 0; running && e < budget; ++e) {
+        warp_damped_take(d, mls_eval(warp_damped_point(d, h)).f, u, h, tolerance, max_step);
+        if (d.phase == WARP_DAMPED_DONE || e + 1 == budget) {
+            if (!(d.least >= residual)) {
+                s = d.best;
+                residual = d.least;
+            }
+            running = !from_u;
+            from_u = true;
+            d = warp_damped_begin(u);
         }
     }
 }
