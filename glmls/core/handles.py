@@ -250,12 +250,26 @@ def check_affine_handles(src: np.ndarray) -> None:
         )
 
 
+def box_scales(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The GPU's scale of each box ``lo`` .. ``hi`` ((..., D) corners): the least power of 2
+    at least half the box's longest side, and at least 1.
+
+    A power of 2 scales exactly: a pixel's coordinate goes to the GPU and back unchanged,
+    so an identity map or a whole-pixel shift keeps every pixel's own point, and a
+    displacement ``q - p`` of a few pixels scales without rounding.
+    """
+    half = np.maximum((np.asarray(hi) - np.asarray(lo)).max(axis=-1) / 2, 1.0)
+    mantissa, exponent = np.frexp(half)  # half = mantissa * 2**exponent, mantissa in [0.5, 1)
+    return np.ldexp(1.0, exponent - (mantissa == 0.5))
+
+
 @dataclass(frozen=True)
 class Scaling:
     """Maps pixel coordinates to the GPU's scaled ones: ``(x - center) / scale``.
 
     Centring and scaling keep float32 coordinates near [-1, 1], where their spacing is ~1e-7
-    of the image size, instead of ~1e-4 px at x ~ 1000.
+    of the image size, instead of ~1e-4 px at x ~ 1000; the scale is a power of 2
+    (:func:`box_scales`).
     """
 
     center: tuple[float, float]
@@ -296,8 +310,7 @@ class Scaling:
             return cls((0.0, 0.0), 1.0)
         lo, hi = point_bounds(pts)
         center = (lo + hi) / 2
-        scale = max(float((hi - lo).max()) / 2, 1.0)
-        return cls((float(center[0]), float(center[1])), scale)
+        return cls((float(center[0]), float(center[1])), float(box_scales(lo, hi)))
 
 
 #: A target offset (:func:`target_offset`) is taken

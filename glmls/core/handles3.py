@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import DtypeError
 from .config import check_real, is_integer
-from .handles import COORDINATE_LIMIT, Scaling, check_one_target, target_offset
+from .handles import COORDINATE_LIMIT, Scaling, box_scales, check_one_target, target_offset
 
 __all__ = [
     "as_points3",
@@ -293,9 +293,7 @@ def fit_scaling3(
         return Scaling((0.0, 0.0, 0.0), 1.0)  # type: ignore[arg-type]
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     center = (lo + hi) / 2
-    # a power of 2: displacements q - p of a few voxels scale exactly (translations stay exact)
-    scale = 2.0 ** math.ceil(math.log2(max(float((hi - lo).max()) / 2, 1.0)))
-    return Scaling(tuple(float(c) for c in center), scale)  # type: ignore[arg-type]
+    return Scaling(tuple(float(c) for c in center), float(box_scales(lo, hi)))  # type: ignore[arg-type]
 
 
 def fit_offset3(

@@ -21,6 +21,7 @@ from ..core.config import MLSConfig
 from ..core.handles import (
     MIN_GPU_SPREAD,
     Scaling,
+    box_scales,
     check_affine_handles,
     check_gpu_distinct,
     check_gpu_spread,
@@ -84,7 +85,7 @@ class BatchLattices:
         #: (N, 2) float64: each image's scaling centre (Scaling.center).
         self.centers = (lo + hi) / 2
         #: (N,) float64: each image's scale (Scaling.scale).
-        self.scales = np.maximum((hi - lo).max(axis=1) / 2, 1.0)
+        self.scales = box_scales(lo, hi)
         self.counts = np.array([len(p) for p in src])
         rows = np.repeat(np.arange(len(src)), self.counts)
         center, scale = self.centers[rows], self.scales[rows]

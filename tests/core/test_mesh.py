@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from glmls.core.handles import Scaling
+from glmls.core.handles import Scaling, box_scales
+from glmls.core.handles3 import fit_scaling3
 from glmls.core.mesh import MeshLattice, as_shape
 
 
@@ -121,3 +122,20 @@ def test_scaling_into_the_first_columns_of_wider_rows():
     assert (wide[:, 3] == 7.0).all()
     with pytest.raises(ValueError, match="float32 of shape"):
         scaling.to_gpu(points, out=np.zeros((2, 3)))
+
+
+@pytest.mark.parametrize("half", [0.1, 1.0, 1.5, 5.5, 112.0, 128.0, 129.0, 1e6, 2.0**40 + 1])
+def test_the_scale_is_the_least_power_of_two_covering_the_box(half):
+    """2D and 3D scalings take powers of two, which scale pixel coordinates exactly."""
+    lo, hi = np.array([[3.0, -1.0]]), np.array([[3.0 + 2 * half, 0.0]])
+    scale = float(box_scales(lo, hi)[0])
+    assert scale == 2.0 ** round(np.log2(scale))
+    assert scale >= max(half, 1.0) and (scale == 1.0 or scale / 2 < half)
+    fitted = Scaling.fit(np.concatenate([lo, hi]), np.concatenate([lo, hi]))
+    assert fitted.scale == scale
+    shape = (100, 37)
+    assert Scaling.fit(np.zeros((0, 2)), np.zeros((0, 2)), shape).scale == 64.0
+    assert fit_scaling3(np.zeros((0, 3)), np.zeros((0, 3)), (5, 100, 37)).scale == 64.0
+    pixels = np.arange(-3.0, 40.0)[:, None].repeat(2, axis=1)
+    gpu = Scaling.fit(pixels, pixels, shape)
+    assert np.array_equal(gpu.from_gpu(gpu.to_gpu(pixels)), pixels)

@@ -56,14 +56,16 @@ def test_interpolates_handles_within_a_millipixel(gl, rng, transform, options):
         assert_allclose(m(p), q, rtol=0, atol=1e-3)
 
 
-@pytest.mark.parametrize(("alpha", "tolerance"), [(0.1, 0.1), (0.5, 1e-3)])
+@pytest.mark.parametrize(("alpha", "tolerance"), [(0.1, None), (0.5, 1e-3)])
 @pytest.mark.parametrize("weight", ["idw", "gaussian"])
 def test_small_alpha_next_to_a_handle_is_not_snapped(gl, rng, weight, alpha, tolerance):
     """Within 1e-3 px of a handle, 1 / d^(2 alpha) with a small alpha is far from dominating
     the other handles' weights (0.25 of them for alpha = 0.1): f there is not yet q_i (22 px
     from it here for alpha = 0.1, 0.003 px for 0.5), and snapping to q_i missed the reference
     by as much. For alpha = 0.1, f ~ q_i + O(d^0.2) is so steep there that float32's rounding
-    of v itself moves it by ~0.06 px (docs/mathematics.md, "Precision")."""
+    of v itself moves it by up to ~2 px (docs/mathematics.md, "Precision"): the GPU's f is the
+    reference's at the points as the GPU holds them (v and p rounded to float32 in its
+    frame), within 1e-4 px."""
     p, q = random_handles(rng, 30)
     v = p[:10] + rng.uniform(-7e-4, 7e-4, (10, 2))
     options = {"weight": weight, "alpha": alpha, "s": 0.0, "interpolating": weight != "idw"}
@@ -71,8 +73,13 @@ def test_small_alpha_next_to_a_handle_is_not_snapped(gl, rng, weight, alpha, tol
         with glmls.MLS(p, q, transform=transform, radius=1e4, ctx=gl, **options) as m:
             f = m(v)
             assert_allclose(m(p), q, rtol=0, atol=1e-3)  # on the handles: still q_i
-        f_ref, _, _ = reference.mls(p, q, v, m.config)
-        assert_allclose(f, f_ref, rtol=0, atol=tolerance)
+            scaling = m.scaling
+        held = [scaling.from_gpu(scaling.to_gpu(a)) for a in (p, v)]
+        f_held, _, _ = reference.mls(held[0], q, held[1], m.config)
+        assert_allclose(f, f_held, rtol=0, atol=1e-4)
+        if tolerance is not None:
+            f_ref, _, _ = reference.mls(p, q, v, m.config)
+            assert_allclose(f, f_ref, rtol=0, atol=tolerance)
 
 
 @pytest.mark.parametrize("s", [1e12, 1e30])

@@ -55,9 +55,10 @@ def test_set_handles_that_change_the_radius_equal_a_fresh_mls(gl, rng, weight):
     v = rng.uniform(0, 1500, (3000, 2))
     options = {"weight": weight, "radius": 20.0, "ctx": gl, "bins": True}
     with glmls.MLS(p1, q1, **options) as m:
-        reach = m.kernel.bins.reach
+        reach, scale = m.kernel.bins.reach, m.scaling.scale
         m.set_handles(p2, q2)
-        assert m.kernel.bins.reach == pytest.approx(reach / 3, rel=1e-6)
+        assert m.scaling.scale > scale
+        assert m.kernel.bins.reach == pytest.approx(reach * scale / m.scaling.scale, rel=1e-6)
         moved = m(v)
     expected, _ = fresh(p2, q2, v, **options)
     assert_allclose(moved, expected, rtol=0, atol=1e-3)
