@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.config import MLSConfig
-from ..core.handles import OFFSET_GAIN, box_scales
+from ..core.handles import OFFSET_GAIN, fit_boxes
 from ..core.handleset import HandleSet
 from ..engine.batched import BatchLattices
 from ..engine.kernel import DEFAULT_STORAGE
@@ -80,7 +80,7 @@ def _offsets(src: np.ndarray, dst: np.ndarray, shape: tuple[int, int]) -> np.nda
     def scales(q: np.ndarray) -> np.ndarray:  # Scaling.fit(src, q, shape).scale, per set
         lo = np.minimum(np.minimum(src.min(axis=1), q.min(axis=1)), -0.5)
         hi = np.maximum(np.maximum(src.max(axis=1), q.max(axis=1)), corner)
-        return box_scales(lo, hi)
+        return fit_boxes(lo, hi)[1]
 
     return moved & (scales(dst - offset[:, None]) * OFFSET_GAIN <= scales(dst))
 

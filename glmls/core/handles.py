@@ -250,17 +250,21 @@ def check_affine_handles(src: np.ndarray) -> None:
         )
 
 
-def box_scales(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """The GPU's scale of each box ``lo`` .. ``hi`` ((..., D) corners): the least power of 2
-    at least half the box's longest side, and at least 1.
+def fit_boxes(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The GPU's centre ((..., D)) and scale ((...,)) of each box ``lo`` .. ``hi`` ((..., D)
+    corners): the centre on a multiple of 1/2 nearest the box's, the scale the least power
+    of 2 (at least 1) that keeps the box within ``center ± scale``.
 
-    A power of 2 scales exactly: a pixel's coordinate goes to the GPU and back unchanged,
-    so an identity map or a whole-pixel shift keeps every pixel's own point, and a
-    displacement ``q - p`` of a few pixels scales without rounding.
+    Pixel centres (integers) less such a centre are multiples of 1/2, which float32 holds,
+    and a power of 2 scales them exactly: they go to the GPU and back unchanged, so an
+    identity map or a whole-pixel shift keeps every pixel's own point, and a displacement
+    ``q - p`` of a few pixels scales without rounding.
     """
-    half = np.maximum((np.asarray(hi) - np.asarray(lo)).max(axis=-1) / 2, 1.0)
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    center = np.round(lo + hi) / 2
+    half = np.maximum(np.maximum(hi - center, center - lo).max(axis=-1), 1.0)
     mantissa, exponent = np.frexp(half)  # half = mantissa * 2**exponent, mantissa in [0.5, 1)
-    return np.ldexp(1.0, exponent - (mantissa == 0.5))
+    return center, np.ldexp(1.0, exponent - (mantissa == 0.5))
 
 
 @dataclass(frozen=True)
@@ -269,7 +273,7 @@ class Scaling:
 
     Centring and scaling keep float32 coordinates near [-1, 1], where their spacing is ~1e-7
     of the image size, instead of ~1e-4 px at x ~ 1000; the scale is a power of 2
-    (:func:`box_scales`).
+    (:func:`fit_boxes`).
     """
 
     center: tuple[float, float]
@@ -308,9 +312,8 @@ class Scaling:
         pts = np.concatenate(boxes)
         if len(pts) == 0:
             return cls((0.0, 0.0), 1.0)
-        lo, hi = point_bounds(pts)
-        center = (lo + hi) / 2
-        return cls((float(center[0]), float(center[1])), float(box_scales(lo, hi)))
+        center, scale = fit_boxes(*point_bounds(pts))
+        return cls((float(center[0]), float(center[1])), float(scale))
 
 
 #: A target offset (:func:`target_offset`) is taken

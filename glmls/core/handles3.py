@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import DtypeError
 from .config import check_real, is_integer
-from .handles import COORDINATE_LIMIT, Scaling, box_scales, check_one_target, target_offset
+from .handles import COORDINATE_LIMIT, Scaling, check_one_target, fit_boxes, target_offset
 
 __all__ = [
     "as_points3",
@@ -291,9 +291,8 @@ def fit_scaling3(
     pts = np.concatenate(boxes)
     if len(pts) == 0:
         return Scaling((0.0, 0.0, 0.0), 1.0)  # type: ignore[arg-type]
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    center = (lo + hi) / 2
-    return Scaling(tuple(float(c) for c in center), float(box_scales(lo, hi)))  # type: ignore[arg-type]
+    center, scale = fit_boxes(pts.min(axis=0), pts.max(axis=0))
+    return Scaling(tuple(float(c) for c in center), float(scale))  # type: ignore[arg-type]
 
 
 def fit_offset3(

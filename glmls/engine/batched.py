@@ -21,10 +21,10 @@ from ..core.config import MLSConfig
 from ..core.handles import (
     MIN_GPU_SPREAD,
     Scaling,
-    box_scales,
     check_affine_handles,
     check_gpu_distinct,
     check_gpu_spread,
+    fit_boxes,
     same_source_sets,
 )
 from ..core.mesh import MeshLattice
@@ -82,10 +82,9 @@ class BatchLattices:
         self.config = config
         self.shape = tuple(shape)
         lo, hi = _bounds(src, dst, self.shape)
-        #: (N, 2) float64: each image's scaling centre (Scaling.center).
-        self.centers = (lo + hi) / 2
-        #: (N,) float64: each image's scale (Scaling.scale).
-        self.scales = box_scales(lo, hi)
+        #: (N, 2) float64 and (N,) float64: each image's scaling centre and scale
+        #: (Scaling.center, Scaling.scale).
+        self.centers, self.scales = fit_boxes(lo, hi)
         self.counts = np.array([len(p) for p in src])
         rows = np.repeat(np.arange(len(src)), self.counts)
         center, scale = self.centers[rows], self.scales[rows]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from glmls.core.handles import Scaling, box_scales
+from glmls.core.handles import Scaling, fit_boxes
 from glmls.core.handles3 import fit_scaling3
 from glmls.core.mesh import MeshLattice, as_shape
 
@@ -125,17 +125,28 @@ def test_scaling_into_the_first_columns_of_wider_rows():
 
 
 @pytest.mark.parametrize("half", [0.1, 1.0, 1.5, 5.5, 112.0, 128.0, 129.0, 1e6, 2.0**40 + 1])
-def test_the_scale_is_the_least_power_of_two_covering_the_box(half):
-    """2D and 3D scalings take powers of two, which scale pixel coordinates exactly."""
-    lo, hi = np.array([[3.0, -1.0]]), np.array([[3.0 + 2 * half, 0.0]])
-    scale = float(box_scales(lo, hi)[0])
-    assert scale == 2.0 ** round(np.log2(scale))
-    assert scale >= max(half, 1.0) and (scale == 1.0 or scale / 2 < half)
+@pytest.mark.parametrize("low", [3.0, -0.5, 0.3, -1e7 - 0.1])
+def test_the_gpu_box_is_centred_on_halves_and_scaled_by_a_power_of_two(half, low):
+    """2D and 3D scalings centre on a multiple of 1/2 and scale by the least power of two
+    that holds the box, so pixel coordinates go to the GPU's frame and back exactly."""
+    lo, hi = np.array([[low, -1.0]]), np.array([[low + 2 * half, 0.0]])
+    center, scale = (a[0] for a in fit_boxes(lo, hi))
+    assert np.array_equal(2 * center, np.round(2 * center))
+    assert abs(center[0] - (lo[0, 0] + hi[0, 0]) / 2) <= 0.25
+    assert scale == 2.0 ** round(np.log2(scale)) and scale >= 1.0
+    reach = max(np.abs(lo - center).max(), np.abs(hi - center).max())
+    assert scale >= reach and (scale == 1.0 or scale / 2 < reach)
     fitted = Scaling.fit(np.concatenate([lo, hi]), np.concatenate([lo, hi]))
-    assert fitted.scale == scale
+    assert fitted == Scaling(tuple(center.tolist()), scale)
+
+
+def test_pixel_coordinates_go_to_the_gpu_and_back_unchanged():
     shape = (100, 37)
-    assert Scaling.fit(np.zeros((0, 2)), np.zeros((0, 2)), shape).scale == 64.0
-    assert fit_scaling3(np.zeros((0, 3)), np.zeros((0, 3)), (5, 100, 37)).scale == 64.0
-    pixels = np.arange(-3.0, 40.0)[:, None].repeat(2, axis=1)
-    gpu = Scaling.fit(pixels, pixels, shape)
+    assert Scaling.fit(np.zeros((0, 2)), np.zeros((0, 2)), shape) == Scaling((18.0, 49.5), 64.0)
+    scaling3 = fit_scaling3(np.zeros((0, 3)), np.zeros((0, 3)), (5, 100, 37))
+    assert scaling3 == Scaling((18.0, 49.5, 2.0), 64.0)
+    handles = np.array([[-3.3, 7.1], [50.2, 1e3 / 3]])
+    gpu = Scaling.fit(handles, handles + 0.7, shape)
+    pixels = np.stack(np.meshgrid(np.arange(-9.0, 60.0), np.arange(-5.0, 340.0)), -1)
+    pixels = pixels.reshape(-1, 2)
     assert np.array_equal(gpu.from_gpu(gpu.to_gpu(pixels)), pixels)

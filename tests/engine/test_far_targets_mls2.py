@@ -7,8 +7,8 @@ that, float32 over the whole span would keep ~1e-2 px of f.
 
 Tolerances: the near map's own against the float64 reference (~1e-5 px in f, ~5e-7 in M;
 at the worst of 2000 points, next to a handle with idw alpha = 2, up to 7e-5 px and 3e-5 in
-M over random handle sets), with room: f within 1e-4 px, M within 5e-5, T within 1e-3
-(T = f - v M, v up to 200 px);
+M over random handle sets), with room: f within 1e-4 px, M within 5e-5, T within 1e-2
+(T = f - v M, v up to 200 px: M's error times 200);
 the inverse within 1e-3 px of the near map's and its round trip within 1e-3 px (as
 documented for :class:`glmls.InverseMLS`); images over the far canvas bit-equal to the near
 map's where t is the GPU's translation, coordinate maps within 2e-3 px otherwise."""
@@ -60,7 +60,7 @@ def test_far_targets_give_f_and_matrices_of_the_reference(gl, transform, weight,
             residuals = m.residuals(v, f_ref)
         assert np.abs(f - f_ref).max() <= 1e-4
         assert np.abs(big_m - m_ref).max() <= 5e-5
-        assert np.abs(t - t_ref).max() <= 1e-3
+        assert np.abs(t - t_ref).max() <= 1e-2
         assert residuals.max() <= 1e-4
 
 
