@@ -360,9 +360,10 @@ def world_to_volume(
     ------
     ValueError
         For points that are not (N, 3) finite numbers, an affine that is not a finite 4 x 4
-        matrix, whose last row is not (0, 0, 0, 1), or that is singular or nearly so (its 3 x 3 part's smallest singular value under
-        1e-6 of its largest: a voxel size of 0, or a millionth of another), or a spacing of
-        another length than 3 or with a value that is not a finite number > 0.
+        matrix, whose last row is not (0, 0, 0, 1), or that is singular or nearly so (its
+        3 x 3 part's smallest singular value under 1e-6 of its largest: a voxel size of 0,
+        or a millionth of another), or a spacing of another length than 3 or with a value
+        that is not a finite number > 0.
     TypeError
         For points or an affine that are not real numbers (complex, bool), a spacing that
         is not a sequence of real numbers (a number, a string), or an ``lps`` that is not
