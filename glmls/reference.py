@@ -71,7 +71,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .core.config import MLSConfig, config_or_options
+from .core.config import MLSConfig, check_real, config_or_options
 from .core.handles import as_points, check_coordinates, point_rows
 from .core.handles3 import (
     as_points3,
@@ -93,6 +93,7 @@ from .core.segments import (
     sinh_nodes,
 )
 from .core.weights import nearest_apart
+from .errors import DtypeError
 
 __all__ = [
     "DEGENERATE_SHARE",
@@ -133,7 +134,11 @@ def weights(d2: np.ndarray, config: MLSConfig, radius: float | None) -> np.ndarr
     Raises
     ------
     TypeError
-        When ``radius`` is None for a weight that needs one.
+        When ``radius`` is None for a weight that needs one or no real number, ``config``
+        is no :class:`~glmls.MLSConfig`, or ``d2`` holds no real numbers.
+    ValueError
+        For ``d2`` that is not (K, N) or holds a NaN or a negative value, or a ``radius``
+        that is not a finite number > 0.
 
     See Also
     --------
@@ -149,11 +154,22 @@ def weights(d2: np.ndarray, config: MLSConfig, radius: float | None) -> np.ndarr
     >>> w.round(3).tolist(), (w / w[:, :1]).round(3).tolist()
     ([[1.284, 1.0, 0.472]], [[1.0, 0.779, 0.368]])
     """
+    if not isinstance(config, MLSConfig):
+        raise TypeError(f"config must be an MLSConfig, got {type(config).__name__}")
     if radius is None and config.uses_radius:
         raise TypeError(
             f"radius must be a number in pixels for weight {config.weight!r} "
             "(config.resolve_radius(shape) gives the default), got None"
         )
+    if radius is not None:
+        radius = check_real("radius", radius, low=0, low_open=True)
+    d2 = np.asarray(d2)
+    if d2.dtype.kind not in "iuf":
+        raise DtypeError(f"d2 must be real numbers, got dtype {d2.dtype}")
+    if d2.ndim != 2:  # the Gaussian's factor is per point: a row each
+        raise ValueError(f"d2 must be (K, N) squared distances, got shape {d2.shape}")
+    if not (d2 >= 0).all():  # NaN too: each made a weight of NaN, a negative one of -1/d
+        raise ValueError("d2 must be squared distances, >= 0 and not NaN")
     with np.errstate(divide="ignore", invalid="ignore"):
         w = config.weight_entry.reference(d2, config, radius)
         if config.interpolating:
