@@ -1291,7 +1291,7 @@ GUESS_MESH_LIMIT = 16385 * 16385
 def _check_guess_mesh(shape: tuple[int, int], grid: int) -> None:
     """``ValueError`` where the mesh of ``shape`` at ``grid`` holds more than
     :data:`GUESS_MESH_LIMIT` points, naming the least grid within it: (10**6, 10**6) at grid
-    1 was a trillion points evaluated band by band, for hours."""
+    1 would be a trillion points, evaluated band by band for hours."""
 
     def count(step: int) -> int:
         return (math.ceil(shape[0] / step) + 1) * (math.ceil(shape[1] / step) + 1)

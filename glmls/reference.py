@@ -168,7 +168,7 @@ def weights(d2: np.ndarray, config: MLSConfig, radius: float | None) -> np.ndarr
         raise DtypeError(f"d2 must be real numbers, got dtype {d2.dtype}")
     if d2.ndim != 2:  # the Gaussian's factor is per point: a row each
         raise ValueError(f"d2 must be (K, N) squared distances, got shape {d2.shape}")
-    if not (d2 >= 0).all():  # NaN too: each made a weight of NaN, a negative one of -1/d
+    if not (d2 >= 0).all():  # NaN too: it would make a NaN weight, a negative d2 a negative one
         raise ValueError("d2 must be squared distances, >= 0 and not NaN")
     with np.errstate(divide="ignore", invalid="ignore"):
         w = config.weight_entry.reference(d2, config, radius)

@@ -184,7 +184,7 @@ def tetrahedron_quality(corners: object) -> np.ndarray:
     t = np.asarray(corners, dtype=np.float64)
     if t.ndim != 3 or t.shape[1:] != (4, 3):
         raise ValueError(f"corners must be (T, 4, 3), got {t.shape}")
-    if not np.isfinite(t).all():  # NaN corners came out as quality 0, a flat tetrahedron
+    if not np.isfinite(t).all():  # a NaN corner would rate 0, as a flat tetrahedron
         bad = int(np.argmin(np.isfinite(t).all(axis=(1, 2))))
         raise ValueError(f"corners must be finite; tetrahedron {bad} is {t[bad].tolist()}")
     # each tetrahedron times the power of two that brings its edges to [0.5, 1): exact,

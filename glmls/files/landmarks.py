@@ -444,8 +444,8 @@ def write_handle_set(path: str | os.PathLike, handles: HandleSet) -> None:
     """
     if not isinstance(handles, HandleSet):
         raise TypeError(f"handles must be a HandleSet, got {type(handles).__name__}")
-    # HandleSet's constructor keeps what it is given: a NaN was written, which the file's
-    # reader then refused, and a string was an AttributeError
+    # HandleSet's constructor keeps what it is given: checked as validate checks, so that
+    # the file reads back (its reader refuses a NaN)
     _write_set(
         path,
         HandleSet.validate(handles.src, handles.dst, handles.src_segments, handles.dst_segments),
