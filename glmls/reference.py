@@ -92,8 +92,7 @@ from .core.segments import (
     segments_interpolate,
     sinh_nodes,
 )
-from .core.weights import nearest_apart
-from .errors import DtypeError
+from .core.weights import nearest_apart, squared_distances
 
 __all__ = [
     "DEGENERATE_SHARE",
@@ -161,15 +160,8 @@ def weights(d2: np.ndarray, config: MLSConfig, radius: float | None) -> np.ndarr
             f"radius must be a number in pixels for weight {config.weight!r} "
             "(config.resolve_radius(shape) gives the default), got None"
         )
-    if radius is not None:
-        radius = check_real("radius", radius, low=0, low_open=True)
-    d2 = np.asarray(d2)
-    if d2.dtype.kind not in "iuf":
-        raise DtypeError(f"d2 must be real numbers, got dtype {d2.dtype}")
-    if d2.ndim != 2:  # the Gaussian's factor is per point: a row each
-        raise ValueError(f"d2 must be (K, N) squared distances, got shape {d2.shape}")
-    if not (d2 >= 0).all():  # NaN too: it would make a NaN weight, a negative d2 a negative one
-        raise ValueError("d2 must be squared distances, >= 0 and not NaN")
+    radius = None if radius is None else check_real("radius", radius, low=0, low_open=True)
+    d2 = squared_distances(d2)
     with np.errstate(divide="ignore", invalid="ignore"):
         w = config.weight_entry.reference(d2, config, radius)
         if config.interpolating:
