@@ -1182,7 +1182,9 @@ class InverseMLS:
         ------
         ValueError
             For points of another shape, non-finite or beyond ±1e6 px, or a radius weight
-            without radius or shape (as ``m(points)``).
+            without radius or shape (as ``m(points)``); for an MLS ``shape`` whose mesh at
+            :attr:`grid` has more points than a 16384 x 16384 image's (the message names the
+            grid that has fewer).
         TypeError
             For points that are not real numbers, or a ``return_valid`` that is not a bool.
         glmls.ReleasedError
@@ -1224,6 +1226,7 @@ class InverseMLS:
         (handles far from the origin span an image of up to 1e12 pixels)."""
         m = self._forward
         if m.shape is not None:
+            _check_guess_mesh(m.shape, self.grid)
             return m.shape, self.grid
         points = m._handles.source_points()
         if not len(points):
@@ -1278,6 +1281,30 @@ for _kind in (MLS, InverseMLS):
         parameters=list(inspect.signature(_kind.__init__).parameters.values())[1:],
         return_annotation=inspect.Signature.empty,
     )
+
+
+#: The most points of the first guess's mesh of an MLS's ``shape``: the corners of the
+#: largest image glmls warps (16384 x 16384 at grid 1, the GL texture limit of most GPUs).
+GUESS_MESH_LIMIT = 16385 * 16385
+
+
+def _check_guess_mesh(shape: tuple[int, int], grid: int) -> None:
+    """``ValueError`` where the mesh of ``shape`` at ``grid`` holds more than
+    :data:`GUESS_MESH_LIMIT` points, naming the least grid within it: (10**6, 10**6) at grid
+    1 would be a trillion points, evaluated band by band for hours."""
+
+    def count(step: int) -> int:
+        return (math.ceil(shape[0] / step) + 1) * (math.ceil(shape[1] / step) + 1)
+
+    if count(grid) > GUESS_MESH_LIMIT:
+        least = max(grid, math.ceil(math.sqrt(shape[0] * shape[1] / GUESS_MESH_LIMIT)))
+        while count(least) > GUESS_MESH_LIMIT:
+            least += 1
+        raise ValueError(
+            f"f's inverse starts from the mesh of the MLS's shape {shape} at grid {grid}: "
+            f"{count(grid):,} points, more than {GUESS_MESH_LIMIT:,} (those of a 16384 x 16384 "
+            f"image); use glmls.InverseMLS(m, grid={least}) or coarser"
+        )
 
 
 def _points(points: object, name: str = "points") -> np.ndarray:

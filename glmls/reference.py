@@ -71,7 +71,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .core.config import MLSConfig, config_or_options
+from .core.config import MLSConfig, check_real, config_or_options
 from .core.handles import as_points, check_coordinates, point_rows
 from .core.handles3 import (
     as_points3,
@@ -92,7 +92,7 @@ from .core.segments import (
     segments_interpolate,
     sinh_nodes,
 )
-from .core.weights import nearest_apart
+from .core.weights import nearest_apart, squared_distances
 
 __all__ = [
     "DEGENERATE_SHARE",
@@ -133,7 +133,11 @@ def weights(d2: np.ndarray, config: MLSConfig, radius: float | None) -> np.ndarr
     Raises
     ------
     TypeError
-        When ``radius`` is None for a weight that needs one.
+        When ``radius`` is None for a weight that needs one or no real number, ``config``
+        is no :class:`~glmls.MLSConfig`, or ``d2`` holds no real numbers.
+    ValueError
+        For ``d2`` that is not (K, N) or holds a NaN or a negative value, or a ``radius``
+        that is not a finite number > 0.
 
     See Also
     --------
@@ -149,11 +153,15 @@ def weights(d2: np.ndarray, config: MLSConfig, radius: float | None) -> np.ndarr
     >>> w.round(3).tolist(), (w / w[:, :1]).round(3).tolist()
     ([[1.284, 1.0, 0.472]], [[1.0, 0.779, 0.368]])
     """
+    if not isinstance(config, MLSConfig):
+        raise TypeError(f"config must be an MLSConfig, got {type(config).__name__}")
     if radius is None and config.uses_radius:
         raise TypeError(
             f"radius must be a number in pixels for weight {config.weight!r} "
             "(config.resolve_radius(shape) gives the default), got None"
         )
+    radius = None if radius is None else check_real("radius", radius, low=0, low_open=True)
+    d2 = squared_distances(d2)
     with np.errstate(divide="ignore", invalid="ignore"):
         w = config.weight_entry.reference(d2, config, radius)
         if config.interpolating:

@@ -68,6 +68,10 @@ HANDLES3 = [[1.0, 2.0, 3.0]]
         lambda path: glmls.files.read_handle_set(path),
         lambda path: glmls.files.read_points(path),
         lambda path: glmls.files.write_handles(path, HANDLES3, HANDLES3),
+        lambda path: glmls.imread(path),
+        lambda path: glmls.imwrite(path, VOLUME[0]),
+        lambda path: glmls.files.read_icc_profile(path),
+        lambda path: glmls.files.atomic_write(path).__enter__(),
     ],
     ids=[
         "read_volume",
@@ -78,6 +82,10 @@ HANDLES3 = [[1.0, 2.0, 3.0]]
         "read_handle_set",
         "read_points",
         "write_handles",
+        "imread",
+        "imwrite",
+        "read_icc_profile",
+        "atomic_write",
     ],
 )
 @pytest.mark.parametrize("path", [None, 3.5, VOLUME], ids=["None", "float", "array"])
@@ -102,6 +110,20 @@ def test_paths_of_str_and_bytes_are_read(tmp_path, kind):
     np.save(path, VOLUME)
     name = str(path) if kind is str else bytes(path)
     np.testing.assert_array_equal(glmls.read_volume(name).data, VOLUME)
+
+
+@pytest.mark.parametrize("kind", [str, bytes])
+def test_images_take_paths_of_str_and_bytes(tmp_path, kind):
+    path = tmp_path / "grey.png"
+    name = str(path) if kind is str else bytes(path)
+    glmls.imwrite(name, VOLUME[1] + 7)
+    np.testing.assert_array_equal(glmls.imread(name), VOLUME[1] + 7)
+    assert glmls.files.read_icc_profile(name) is None
+
+
+def test_a_folder_is_no_image_to_read_a_profile_from(tmp_path):
+    with pytest.raises(ValueError, match=r": a folder, not an image file$"):
+        glmls.files.read_icc_profile(tmp_path)
 
 
 # -- handles of three coordinates in the wrong arrangement -------------------------------

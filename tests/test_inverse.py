@@ -3,6 +3,8 @@ solved on the GPU, checked against the float64 reference (glmls.reference)."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
@@ -183,6 +185,20 @@ def test_without_shape_handles_far_from_the_origin_keep_the_guess_small(gl, monk
         s, valid = m.inverse(u, return_valid=True)
         assert valid.all() and meshes
         assert_allclose(m(s), u, atol=0.5)
+
+
+@pytest.mark.parametrize(("shape", "least"), [((10**6, 10**6), 62), ((16385, 16384), 2)])
+def test_a_shape_whose_guess_mesh_would_not_finish_names_the_grid_that_would(gl, shape, least):
+    """An MLS of shape (10**6, 10**6) started from a mesh of 1e12 points, evaluated band
+    by band: it did not finish. The largest image glmls warps, 16384 x 16384, still does."""
+    with glmls.MLS(SRC, DST, shape=shape, ctx=gl) as m:
+        message = (
+            rf"shape {re.escape(str(shape))} at grid 1: .* use glmls\.InverseMLS\(m, grid={least}\)"
+        )
+        with pytest.raises(ValueError, match=message):
+            m.inverse(SRC)
+        with pytest.raises(ValueError, match=message):
+            m.inverse.residuals(SRC, DST)
 
 
 def test_inverse_mls_checks_its_arguments(gl):

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import moderngl
 import numpy as np
 
-from ..core.config import check_real
+from ..core.config import check_integer, check_real
 from ..core.handles import COORDINATE_LIMIT, as_points
 from ..core.mesh import as_shape
 from ..errors import DtypeError, ReleasedError
@@ -135,7 +135,8 @@ class Canvas:
     background : sequence of float, optional
         The (r, g, b) colour, 0-255, it starts with.
     samples : int, optional
-        Multisampling (antialiased edges) when the driver offers it; 0 for none.
+        Multisampling (antialiased edges) when the driver offers it: the largest power of
+        two up to it and the driver's limit; 0 or 1 for none.
     ctx : moderngl.Context or GLContext, optional
         The context to draw with (default: glmls's shared headless one).
 
@@ -147,7 +148,10 @@ class Canvas:
     Raises
     ------
     ValueError
-        For a shape that is not (H, W) with H, W >= 1, or larger than the GL texture limit.
+        For a shape that is not (H, W) with H, W >= 1, or larger than the GL texture limit;
+        for ``samples`` below 0.
+    TypeError
+        For ``samples`` that is not an integer (a float, a bool, a string).
 
     See Also
     --------
@@ -177,6 +181,7 @@ class Canvas:
         ctx: moderngl.Context | GLContext | None = None,
     ) -> None:
         self.shape = as_shape(shape)
+        samples = check_integer("samples", samples, low=0)
         self._gl = get_context(ctx)
         with self._gl.use():
             self._setup(background, samples)
@@ -191,7 +196,9 @@ class Canvas:
         )
         if max(height, width) > limit:
             raise ValueError(f"shape {self.shape} exceeds the GL size limit {limit}")
-        self._samples = min(int(samples), mgl.max_samples) if samples > 1 else 0
+        # moderngl takes powers of two up to the driver's limit (3 is its error)
+        most = min(samples, mgl.max_samples)
+        self._samples = 1 << (most.bit_length() - 1) if most > 1 else 0
         # Bound again on release: moderngl rebinds "the current framebuffer" after creating
         # one, and a released one would be a GL error (and a window wants its own back).
         # A headless context has none bound yet: then framebuffer 0.

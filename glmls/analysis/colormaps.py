@@ -14,7 +14,8 @@ from types import MappingProxyType
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from ..core.config import check_real
+from ..core.config import check_integer, check_real
+from ..errors import DtypeError
 
 #: Colour of undefined (NaN) values: mid grey, absent from both default maps.
 NAN_COLOR = (128, 128, 128)
@@ -158,6 +159,16 @@ def check_percentile(name: str, value: object) -> float:
     return check_real(name, value, low=0, high=100, low_open=True)
 
 
+def real_values(values: object, name: str = "values") -> np.ndarray:
+    """``values`` as float64 (bools as 0 and 1); ``DtypeError`` naming ``name`` for values
+    that are not real numbers, where a cast would drop an imaginary part, read None as NaN
+    or fail on a string without naming the argument."""
+    array = np.asarray(values)
+    if array.dtype.kind not in "biuf":
+        raise DtypeError(f"{name} must be real numbers, got dtype {array.dtype}")
+    return array.astype(np.float64, copy=False)
+
+
 def color_limits(
     values: object,
     *,
@@ -193,7 +204,8 @@ def color_limits(
         For a percentile out of (0, 100], or limits that are not finite or with vmin > vmax.
     TypeError
         For a ``vmin``, ``vmax`` or ``percentile`` that is no real number
-        (:func:`glmls.core.config.check_real`: a bool, a string, a complex), named.
+        (:func:`glmls.core.config.check_real`: a bool, a string, a complex), named; for
+        ``values`` that are not real numbers or bools (complex, strings, objects, None).
 
     Examples
     --------
@@ -207,7 +219,7 @@ def color_limits(
     >>> glmls.analysis.color_limits([2e-7, 3e-6], vmin=0.0, span=1e-3)  # rounding noise
     (0.0, 0.001)
     """
-    array = np.asarray(values, dtype=np.float64)
+    array = real_values(values)
     finite = array[np.isfinite(array)]
     if percentile is not None:
         percentile = check_percentile("percentile", percentile)
@@ -344,7 +356,8 @@ def apply_colormap(
     ValueError
         For an unknown colour map, a bad table or colour, or bad limits.
     TypeError
-        For a ``nan_color`` that is not a sequence.
+        For a ``nan_color`` that is not a sequence, or ``values`` that are not real numbers
+        or bools (complex, strings, objects, None).
 
     See Also
     --------
@@ -420,8 +433,11 @@ def colorbar(
     Raises
     ------
     ValueError
-        For limits that are not finite or with lo > hi, too few ticks, too small a bar, or a
-        bad colour map or colour.
+        For limits that are not finite or with lo > hi, too few ticks, too small a bar, a
+        ``font_size`` below 1, or a bad colour map or colour.
+    TypeError
+        For limits that are no real numbers, or a ``length``, ``thickness``, ``ticks`` or
+        ``font_size`` that is not an integer.
 
     Examples
     --------
@@ -432,12 +448,14 @@ def colorbar(
     ([253, 231, 37], [68, 1, 84])
     """
     table = colormap(cmap)
+    lo = check_real("lo", lo, finite=False)
+    hi = check_real("hi", hi, finite=False)
     if not (np.isfinite(lo) and np.isfinite(hi)) or hi < lo:
         raise ValueError(f"colour bar limits must be finite with lo <= hi, got ({lo}, {hi})")
-    if isinstance(ticks, bool) or not isinstance(ticks, int) or ticks < 2:
-        raise ValueError(f"ticks must be an integer >= 2, got {ticks!r}")
-    if length < 16 or thickness < 2:
-        raise ValueError(f"length must be >= 16 and thickness >= 2, got {length}, {thickness}")
+    ticks = check_integer("ticks", ticks, low=2)
+    length = check_integer("length", length, low=16)
+    thickness = check_integer("thickness", thickness, low=2)
+    font_size = check_integer("font_size", font_size, low=1)  # Pillow refuses 0 unnamed
     font = ImageFont.load_default(size=font_size)
     values = np.linspace(lo, hi, ticks)
     labels = [format_number(float(v)) for v in values]

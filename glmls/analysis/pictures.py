@@ -23,7 +23,7 @@ from .canvas import (
     as_rgb8,
     check_size,
 )
-from .colormaps import NAN_COLOR, apply_colormap
+from .colormaps import NAN_COLOR, apply_colormap, real_values
 from .construction import ConstructionErrors
 from .shapes import disk_triangles
 from .triangles import TriangleErrors
@@ -82,7 +82,7 @@ def render_field(
     >>> picture.shape, picture[0, 0].tolist(), picture[1, 1].tolist(), picture[7, 7].tolist()
     ((8, 8, 3), [128, 128, 128], [68, 1, 84], [253, 231, 37])
     """
-    array = np.asarray(values, dtype=np.float64)
+    array = real_values(values)
     if array.ndim != 2:
         raise ValueError(f"values must be an (H, W) array, got shape {array.shape}")
     with Canvas(array.shape, samples=0, ctx=ctx) as canvas:
@@ -397,9 +397,11 @@ def render_mesh(
     ([255, 255, 255], [0, 0, 0])
     """
     rgb = as_rgb8(image)
-    grid = np.asarray(deformed, dtype=np.float64)
+    grid = real_values(deformed, "deformed")
     if grid.ndim != 3 or grid.shape[2] != 2 or min(grid.shape[:2]) < 2:
         raise ValueError(f"deformed must be a (rows, columns, 2) mesh, got {grid.shape}")
+    # checked here, where the lines' ends (a, b) would name themselves in the message
+    as_points(grid.reshape(-1, 2), "deformed (its vertices row by row)")
     grid = grid - _origin(origin)
     a = np.concatenate([grid[:, :-1].reshape(-1, 2), grid[:-1, :].reshape(-1, 2)])
     b = np.concatenate([grid[:, 1:].reshape(-1, 2), grid[1:, :].reshape(-1, 2)])

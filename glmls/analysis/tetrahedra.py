@@ -170,7 +170,7 @@ def tetrahedron_quality(corners: object) -> np.ndarray:
     Raises
     ------
     ValueError
-        For corners that are not (T, 4, 3).
+        For corners that are not (T, 4, 3) finite numbers.
 
     Examples
     --------
@@ -184,6 +184,9 @@ def tetrahedron_quality(corners: object) -> np.ndarray:
     t = np.asarray(corners, dtype=np.float64)
     if t.ndim != 3 or t.shape[1:] != (4, 3):
         raise ValueError(f"corners must be (T, 4, 3), got {t.shape}")
+    if not np.isfinite(t).all():  # a NaN corner would rate 0, as a flat tetrahedron
+        bad = int(np.argmin(np.isfinite(t).all(axis=(1, 2))))
+        raise ValueError(f"corners must be finite; tetrahedron {bad} is {t[bad].tolist()}")
     # each tetrahedron times the power of two that brings its edges to [0.5, 1): exact,
     # and the ratio's products of up to 7 lengths neither underflow (a tiny tetrahedron
     # would read as flat) nor overflow

@@ -16,6 +16,7 @@ from ..batch.run import check_flags
 from ..core.config import MLSConfig, check_flag, counted, is_integer
 from ..engine.kernel import check_bins
 from ..engine.storage import check_storage
+from ..errors import DtypeError
 from ..gl.context import check_ctx
 from ..imaging.options import FIELDS, WarpOptions
 from ..mls import MLS_KEYWORDS
@@ -228,5 +229,21 @@ def _check_shape(shape: object, name: str) -> None:
 def param_points(params: Sequence[Mapping], key: str) -> list[np.ndarray]:
     """Each draw's ``key`` ("src" or "dst") as (K, 2) float64 points, checked as
     :func:`glmls.warp_batch` checks handles, the error naming ``params[i]['src']``."""
+    for i, draw in enumerate(params):
+        _refuse_bools(draw[key], f"params[{i}][{key!r}]")
     items = [item_array(draw[key], f"params[{i}][{key!r}]") for i, draw in enumerate(params)]
     return check_point_sets(items, lambda i: f"params[{i}][{key!r}]", rows="K")
+
+
+def _refuse_bools(points: object, name: str) -> None:
+    """``DtypeError`` naming ``name`` and the row where a recorded point set, as lists, holds
+    a bool (JSON's ``true``): numpy makes a list of bools and floats float, 1.0 where a
+    coordinate was meant, as the handle files' reader refuses it."""
+    if not isinstance(points, (list, tuple)):
+        return  # an array: its dtype says bool, and check_point_sets refuses it
+    for row, values in enumerate(points):
+        if isinstance(values, (bool, np.bool_)) or (
+            isinstance(values, (list, tuple))
+            and any(isinstance(v, (bool, np.bool_)) for v in values)
+        ):
+            raise DtypeError(f"{name} row {row} holds a bool, {values!r}; expected real numbers")

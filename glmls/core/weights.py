@@ -20,6 +20,8 @@ from typing import Protocol
 
 import numpy as np
 
+from ..errors import DtypeError
+
 #: Where a weight reaches: every handle (no spatial bins), exactly 0 from d = R on
 #: ("radius"), or never 0 but cut where its tail is negligible ("gaussian": against the
 #: nearest handles apart from the nearest one's place, whose moments about it decide M).
@@ -102,6 +104,20 @@ class Weight:
 def gaussian_cut(count: int) -> float:
     """ln(N / tau) for N = ``count`` handles: the gaussian cut's exponent (see bins)."""
     return math.log(max(count, 1) / GAUSSIAN_TOLERANCE)
+
+
+def squared_distances(d2: object) -> np.ndarray:
+    """``d2`` as a (K, N) array of squared distances; ``DtypeError`` for values that are not
+    real numbers, ``ValueError`` for another shape, a NaN or a negative value (a weight of
+    NaN, or a negative weight: idw's 1 / d2)."""
+    array = np.asarray(d2)
+    if array.dtype.kind not in "iuf":
+        raise DtypeError(f"d2 must be real numbers, got dtype {array.dtype}")
+    if array.ndim != 2:  # the Gaussian's factor is per point: a row each
+        raise ValueError(f"d2 must be (K, N) squared distances, got shape {array.shape}")
+    if not (array >= 0).all():  # NaN fails the comparison too
+        raise ValueError("d2 must be squared distances, >= 0 and not NaN")
+    return array
 
 
 def nearest_apart(d2: np.ndarray) -> np.ndarray:

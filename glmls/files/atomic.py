@@ -9,6 +9,8 @@ import threading
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
+from .parsing import as_path
+
 __all__ = ["atomic_write", "missing_folders", "remove_leftovers", "umask"]
 
 _umask_lock = threading.Lock()
@@ -72,7 +74,7 @@ def atomic_write(path: str | os.PathLike) -> Iterator[Path]:
     >>> path.read_text(), sorted(p.name for p in path.parent.iterdir())
     ('x,y\\n1,2\\n', ['table.csv'])
     """
-    path = Path(path)
+    path = as_path(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)

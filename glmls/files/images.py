@@ -37,6 +37,7 @@ from ..core.config import check_integer
 from ..errors import ImageWarning
 from .atomic import atomic_write
 from .netpbm import is_ppm16, ppm16
+from .parsing import as_path
 from .profiles import profile_problem, with_png_profile
 from .tiffs import TIFF_SIGNATURES, orient, quiet_tifffile
 
@@ -144,7 +145,8 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
         Naming the file, for a corrupt or unsupported one, a folder, or one of more than
         ``max_pixels``; for ``max_pixels`` below 1.
     TypeError
-        For ``max_pixels`` that is not an integer.
+        For ``max_pixels`` that is not an integer, or a ``path`` that is not a file path
+        (None, a number).
 
     Warns
     -----
@@ -165,7 +167,7 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     ((3, 4), 'uint16', [40000, 45000, 50000, 55000])
     """
     max_pixels = _check_max_pixels(max_pixels)
-    path = Path(path)
+    path = as_path(path)
     try:
         with open(path, "rb") as file:
             head = file.read(32)
@@ -455,6 +457,8 @@ def imwrite(path: str | os.PathLike, image: object, *, icc_profile: bytes | None
         dtype or alpha (or a grey image: WebP), an empty image or a wrong shape, or an
         ``icc_profile`` that is not an ICC profile, does not fit the image's channels or that
         the format cannot hold.
+    TypeError
+        For a ``path`` that is not a file path (None, a number).
     OSError
         ``PATH: cannot write: ...``, for a failed write (a full disk, no permission): the
         file is written whole or not at all.
@@ -475,6 +479,7 @@ def imwrite(path: str | os.PathLike, image: object, *, icc_profile: bytes | None
         ...
     ValueError: ...depth.jpg: .jpg cannot hold float32 images; write it as .tif or .tiff
     """
+    path = as_path(path)
     data = image_bytes(path, image, icc_profile=icc_profile)
     # a checked write of bytes encoded in memory: Pillow's encoders write to the file
     # descriptor and pass over a short write (a full disk), leaving a truncated file
@@ -487,6 +492,7 @@ def image_bytes(
 ) -> bytes:
     """The file :func:`imwrite` writes, as bytes: for a writer of its own (a temporary name
     that it renames), checked as :func:`imwrite` checks (``ValueError``)."""
+    path = as_path(path)
     array = np.asarray(image)
     if array.ndim == 3 and array.shape[2] == 1:
         array = array[..., 0]

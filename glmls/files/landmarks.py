@@ -421,9 +421,12 @@ def write_handle_set(path: str | os.PathLike, handles: HandleSet) -> None:
     Raises
     ------
     TypeError
-        When ``handles`` is not a :class:`glmls.HandleSet`.
+        When ``handles`` is not a :class:`glmls.HandleSet`, or holds arrays that are no real
+        numbers (one made by its constructor, which keeps what it is given).
     ValueError
-        For a ``.pts`` path: an elastix point file holds one side's points only.
+        For a ``.pts`` path: an elastix point file holds one side's points only; for
+        handles that :meth:`glmls.HandleSet.validate` refuses (a value that is not finite, a
+        source point with two targets, ...) or none at all: no file is written.
     OSError
         When the file cannot be written (the message names ``path``).
 
@@ -441,7 +444,20 @@ def write_handle_set(path: str | os.PathLike, handles: HandleSet) -> None:
     """
     if not isinstance(handles, HandleSet):
         raise TypeError(f"handles must be a HandleSet, got {type(handles).__name__}")
+    # HandleSet's constructor keeps what it is given: checked as validate checks, so that
+    # the file reads back (its reader refuses a NaN)
+    _write_set(
+        path,
+        HandleSet.validate(handles.src, handles.dst, handles.src_segments, handles.dst_segments),
+    )
+
+
+def _write_set(path: str | os.PathLike, handles: HandleSet) -> None:
+    """Write ``handles``, checked by :meth:`HandleSet.validate`, as :func:`write_handle_set`
+    says."""
     path = _handle_file(path)
+    if not len(handles):  # its reader refuses a file of none: it would not read back
+        raise ValueError(f"{path}: no handles to write; a handle file holds one at least")
     if path.suffix.lower() == ".json":
         text = json_text(handles)
     elif handles.segments:
@@ -504,7 +520,7 @@ def write_handles(
             raise ValueError("segment handles are 2D; 3D handles are points only")
         _write_3d(Path(path), *_check_3d(src, dst))
         return
-    write_handle_set(path, HandleSet.validate(src, dst, src_segments, dst_segments))
+    _write_set(path, HandleSet.validate(src, dst, src_segments, dst_segments))
 
 
 def _handle_file(path: str | os.PathLike) -> Path:

@@ -18,6 +18,7 @@ from pathlib import Path
 import tifffile
 from PIL import Image
 
+from .parsing import as_path
 from .tiffs import TIFF_SIGNATURES, quiet_tifffile
 
 __all__ = ["HOLD_PROFILES", "profile_problem", "read_icc_profile", "with_png_profile"]
@@ -48,6 +49,10 @@ def read_icc_profile(path: str | os.PathLike) -> bytes | None:
     ------
     FileNotFoundError, PermissionError
         For a missing or unreadable file.
+    ValueError
+        For a folder.
+    TypeError
+        For a ``path`` that is not a file path (None, a number).
 
     Examples
     --------
@@ -59,9 +64,12 @@ def read_icc_profile(path: str | os.PathLike) -> bytes | None:
     >>> glmls.files.read_icc_profile(path) == srgb
     True
     """
-    path = Path(path)
-    with open(path, "rb") as file:
-        head = file.read(4)
+    path = as_path(path)
+    try:
+        with open(path, "rb") as file:
+            head = file.read(4)
+    except IsADirectoryError:
+        raise ValueError(f"{path}: a folder, not an image file") from None
     try:
         if head in TIFF_SIGNATURES:
             with quiet_tifffile(), tifffile.TiffFile(path) as tiff:

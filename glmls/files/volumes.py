@@ -303,6 +303,10 @@ def _world_frame(points: object, affine: object, spacing: object) -> tuple:
     matrix = _real(affine, "affine")
     if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
         raise ValueError(f"affine must be a finite 4 x 4 matrix, got shape {matrix.shape}")
+    if not np.array_equal(matrix[3], [0.0, 0.0, 0.0, 1.0]):
+        # the conversions read the 3 x 4 above it: such a matrix would map as if it were
+        # (0, 0, 0, 1), as a NIfTI file written from it would hold it (write_volume refuses)
+        raise ValueError(f"affine's last row must be (0, 0, 0, 1), got {matrix[3].tolist()}")
     # relative to its largest, so that a NIfTI of micrometre voxels in metres (1e-6 a side)
     # passes and a voxel axis of 1e-9 beside ones of 1 (a flat world) does not
     sizes = np.linalg.svd(matrix[:3, :3], compute_uv=False)
@@ -356,9 +360,10 @@ def world_to_volume(
     ------
     ValueError
         For points that are not (N, 3) finite numbers, an affine that is not a finite 4 x 4
-        matrix or is singular or nearly so (its 3 x 3 part's smallest singular value under
-        1e-6 of its largest: a voxel size of 0, or a millionth of another), or a spacing of
-        another length than 3 or with a value that is not a finite number > 0.
+        matrix, whose last row is not (0, 0, 0, 1), or that is singular or nearly so (its
+        3 x 3 part's smallest singular value under 1e-6 of its largest: a voxel size of 0,
+        or a millionth of another), or a spacing of another length than 3 or with a value
+        that is not a finite number > 0.
     TypeError
         For points or an affine that are not real numbers (complex, bool), a spacing that
         is not a sequence of real numbers (a number, a string), or an ``lps`` that is not

@@ -54,6 +54,24 @@ def test_limits_and_percentile(rng):
         glmls.analysis.color_limits(values, vmin=5, vmax=1)
 
 
+@pytest.mark.parametrize(
+    "values",
+    [None, [None, 1.0], ["1", "2"], [1.0 + 2.0j, 3.0]],
+    ids=["None", "None in a list", "strings", "complex"],
+)
+@pytest.mark.parametrize("call", [glmls.analysis.color_limits, glmls.analysis.apply_colormap])
+def test_values_that_are_no_real_numbers_are_a_dtype_error_naming_them(call, values):
+    """None was NaN (grey, limits 0 and 1), a complex value its real part, a string a
+    ValueError from float() that named no argument."""
+    with pytest.raises(glmls.DtypeError, match=r"^values must be real numbers, got dtype "):
+        call(values)
+
+
+def test_bools_are_coloured_as_0_and_1():
+    out = glmls.analysis.apply_colormap([True, False], cmap=[(0, 0, 0), (255, 255, 255)])
+    assert out.tolist() == [[255, 255, 255], [0, 0, 0]]
+
+
 def test_apply_colormap_rule_and_nan():
     values = np.array([[0.0, 0.5, 1.0], [2.0, -1.0, np.nan]])
     table = glmls.analysis.linear_colormap((0, 0, 0), (255, 255, 255), n=3)
@@ -81,6 +99,23 @@ def test_colorbar_has_the_colours_and_numbers():
         glmls.analysis.colorbar("viridis", 0, 1, ticks=1)
     with pytest.raises(ValueError, match="limits"):
         glmls.analysis.colorbar("viridis", 1, 0)
+
+
+@pytest.mark.parametrize(
+    ("options", "error", "message"),
+    [
+        ({"font_size": 0}, ValueError, r"font_size must be an integer >= 1, got 0"),  # Pillow's
+        ({"font_size": 12.5}, TypeError, r"font_size must be an integer >= 1, got 12\.5"),
+        ({"length": "64"}, TypeError, r"length must be an integer >= 16, got '64'"),
+        ({"thickness": True}, TypeError, r"thickness must be an integer >= 2, got True"),
+        ({"ticks": 2.0}, TypeError, r"ticks must be an integer >= 2, got 2\.0"),
+        ({"lo": "0"}, TypeError, r"lo must be a number, got '0' \(str\)"),
+    ],
+)
+def test_colorbar_names_an_option_that_is_no_number_it_takes(options, error, message):
+    arguments = {"cmap": "viridis", "lo": 0.0, "hi": 1.0, **options}
+    with pytest.raises(error, match=rf"^{message}$"):
+        glmls.analysis.colorbar(**arguments)
 
 
 @pytest.mark.parametrize(

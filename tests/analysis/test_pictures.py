@@ -126,6 +126,42 @@ def test_bad_input(gl):
         glmls.analysis.render_triangle_errors(np.zeros((4, 4)), errors, which="area", ctx=gl)
 
 
+@pytest.mark.parametrize("samples", [3, 5, 1000])
+def test_a_sample_count_moderngl_refuses_is_taken_down_to_one_it_takes(gl, samples):
+    """3 was moderngl's 'the number of samples is invalid' (it takes powers of two)."""
+    below = 1 << (samples.bit_length() - 1)
+    pictures = []
+    for count in (samples, below):
+        with Canvas((8, 8), samples=count, ctx=gl) as canvas:
+            pictures.append(canvas.disks([[3.5, 4.0]], color=(255, 0, 0), radius=2.5).read())
+    np.testing.assert_array_equal(pictures[0], pictures[1])
+    assert pictures[0][4, 3].tolist() == [255, 0, 0]
+
+
+@pytest.mark.parametrize(
+    ("samples", "error"),
+    [(-1, ValueError), (2.5, TypeError), (True, TypeError), ("4", TypeError), (None, TypeError)],
+)
+def test_a_sample_count_that_is_no_count_is_named(gl, samples, error):
+    with pytest.raises(error, match=rf"^samples must be an integer >= 0, got {samples!r}$"):
+        Canvas((4, 4), samples=samples, ctx=gl)
+
+
+def test_a_mesh_picture_names_the_mesh_not_its_lines(gl):
+    """A NaN vertex was named "a", the lines' first ends drawn from it."""
+    mesh = np.zeros((3, 3, 2))
+    mesh[1, 2] = np.nan
+    with pytest.raises(ValueError, match=r"^deformed \(its vertices row by row\) must be finite"):
+        glmls.analysis.render_mesh(np.zeros((4, 4), np.uint8), mesh, ctx=gl)
+    with pytest.raises(glmls.DtypeError, match=r"^deformed must be real numbers"):
+        glmls.analysis.render_mesh(np.zeros((4, 4), np.uint8), mesh.astype(complex), ctx=gl)
+
+
+def test_a_field_of_complex_values_is_refused_not_cast(gl):
+    with pytest.raises(glmls.DtypeError, match=r"^values must be real numbers, got dtype complex"):
+        glmls.analysis.render_field(np.full((4, 4), 1 + 1j), ctx=gl)
+
+
 def test_triangle_errors_made_by_hand_are_checked(gl):
     errors = glmls.analysis.triangle_errors(lambda v: 1.1 * v, [[0, 0], [3, 0], [0, 3], [3, 3]])
     image = np.zeros((4, 4))

@@ -133,6 +133,15 @@ def test_quality_is_the_radius_ratio():
         tetrahedron_quality(np.zeros((2, 3, 3)))
 
 
+@pytest.mark.parametrize("value", [np.nan, np.inf])
+def test_quality_of_corners_that_are_not_finite_is_refused_not_0(value):
+    """A NaN corner gave quality 0, as a flat tetrahedron's."""
+    corners = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]] * 2)
+    corners[1, 2, 0] = value
+    with pytest.raises(ValueError, match=r"^corners must be finite; tetrahedron 1 is "):
+        tetrahedron_quality(corners)
+
+
 def test_slivers_are_left_out_and_counted():
     # a fine tetrahedron, a flat one (zero volume), and a sliver (4 points of a square, one
     # lifted by 0.01: every face fine, the volume almost nothing)

@@ -54,6 +54,11 @@ def _edited(params, edit):
             ValueError,
             r"params\[0\]\['dst'\] is ragged \(rows of different lengths\)",
         ),
+        (  # JSON's true among the numbers: numpy's cast made it 1.0, a coordinate
+            lambda p: p[1]["dst"][3].__setitem__(0, True),
+            TypeError,
+            r"params\[1\]\['dst'\] row 3 holds a bool, \[True, .*\]; expected real numbers",
+        ),
         (
             lambda p: p[0].__setitem__("src", [[1.0, 2.0, 3.0]]),
             ValueError,

@@ -76,6 +76,26 @@ def test_reference_weights_name_a_missing_radius(name):
         reference.weights(np.array([[1.0, 4.0]]), config, None)
 
 
+@pytest.mark.parametrize(
+    ("d2", "config", "radius", "error", "message"),
+    [
+        # NaN came back as a weight of NaN, -1 as the weight -1 (idw's 1 / d^2)
+        ([[np.nan, 1.0]], MLSConfig(), None, ValueError, r"d2 must be squared distances, >= 0"),
+        ([[-1.0, 1.0]], MLSConfig(), None, ValueError, r"d2 must be squared distances, >= 0"),
+        ([[1.0 + 0j]], MLSConfig(), None, TypeError, r"d2 must be real numbers, got dtype complex"),
+        # the Gaussian's factor per point took axis 1: numpy's AxisError
+        ([1.0, 4.0], MLSConfig(weight="gaussian"), 4.0, ValueError, r"d2 must be \(K, N\)"),
+        # an AttributeError on the string
+        ([[1.0]], "idw", None, TypeError, r"config must be an MLSConfig, got str"),
+        ([[1.0]], MLSConfig(weight="gaussian"), np.nan, ValueError, r"radius must be a finite"),
+        ([[1.0]], MLSConfig(weight="linear"), "4", TypeError, r"radius must be"),
+    ],
+)
+def test_reference_weights_name_what_is_no_weight_input(d2, config, radius, error, message):
+    with pytest.raises(error, match=message):
+        reference.weights(np.array(d2), config, radius)
+
+
 def test_every_entry_has_one_glsl_function_and_no_other():
     text = (SHADERS / "mls" / "weights.glsl").read_text()
     assert sorted(re.findall(SIGNATURE, text)) == sorted(REGISTRY)

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from glmls import data
+from glmls.data.synthetic import MAX_SUBDIVISIONS, icosphere
 
 
 def test_bundled_example_data():
@@ -31,3 +33,19 @@ def test_bundled_3d_examples():
     assert np.allclose(centre, 32.0) and np.allclose(np.linalg.norm(mesh.vertices - 32, axis=1), 20)
     src, dst = data.sphere_handles()
     assert src.shape == dst.shape == (7, 3)
+
+
+@pytest.mark.parametrize(
+    ("subdivisions", "error"),
+    [(-1, ValueError), (MAX_SUBDIVISIONS + 1, ValueError), (1.5, TypeError), (True, TypeError)],
+)
+def test_icosphere_names_a_count_of_subdivisions_it_does_not_make(subdivisions, error):
+    """-1 was the icosahedron, True one subdivision, 100 filled the memory (4^100 faces)."""
+    with pytest.raises(error, match=r"^subdivisions must be an integer from 0 to 8, got "):
+        icosphere(subdivisions)
+
+
+def test_icosphere_counts():
+    for n in (0, 1, 2):
+        vertices, faces = icosphere(n)
+        assert (len(vertices), len(faces)) == (10 * 4**n + 2, 20 * 4**n)

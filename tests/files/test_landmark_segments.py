@@ -124,6 +124,37 @@ def test_write_handles_takes_segments_and_refuses_bad_handles(tmp_path):
     assert not (tmp_path / "x.json").exists()
 
 
+@pytest.mark.parametrize(
+    ("handles", "error", "message"),
+    [
+        # HandleSet's constructor keeps what it is given: the NaN was written, and the file
+        # was one read_handle_set refuses
+        (
+            HandleSet(np.array([[np.nan, 0.0]]), np.zeros((1, 2)), *np.zeros((2, 0, 2, 2))),
+            ValueError,
+            r"src must be finite; row 0",
+        ),
+        (HandleSet("a", "b", "c", "d"), TypeError, r"src must be real numbers"),  # AttributeError
+        # none at all: written, and refused on reading as "no handles"
+        (
+            HandleSet.validate(np.zeros((0, 2)), np.zeros((0, 2))),
+            ValueError,
+            r"no handles to write",
+        ),
+    ],
+    ids=["NaN", "strings", "none"],
+)
+@pytest.mark.parametrize("name", ["h.json", "h.csv"])
+def test_write_handle_set_writes_no_file_that_would_not_read_back(
+    tmp_path, handles, error, message, name
+):
+    with pytest.raises(error, match=message):
+        write_handle_set(tmp_path / name, handles)
+    with pytest.raises(ValueError, match=r"no handles to write; a handle file holds one at least"):
+        write_handles(tmp_path / name, [], [])
+    assert not (tmp_path / name).exists()
+
+
 def test_read_handles_is_for_points_only(tmp_path):
     path = write_text(tmp_path, "h.json", json.dumps(JSON))
     with pytest.raises(InputFileError, match=r"3 segment handles .* read it with read_handle_set"):

@@ -4,6 +4,7 @@ trips of every dtype, and bad files named."""
 from __future__ import annotations
 
 import gzip
+import re
 import warnings
 
 import nibabel as nib
@@ -333,6 +334,17 @@ def test_world_points_and_affines_of_any_layout_and_byte_order_map_alike():
     assert_allclose(glmls.files.world_to_volume(*given), expected, rtol=0, atol=1e-9)
     back = glmls.files.volume_to_world(expected.astype(">f8"), np.asfortranarray(AFFINE))
     assert_allclose(back, points, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("convert", [glmls.files.world_to_volume, glmls.files.volume_to_world])
+@pytest.mark.parametrize("row", [[0.0, 0.0, 0.0, 2.0], [0.5, 0.0, 0.0, 1.0]])
+def test_world_conversions_refuse_an_affine_of_another_last_row(convert, row):
+    """A projective last row was read as (0, 0, 0, 1): the points came back as if it were."""
+    affine = AFFINE.copy()
+    affine[3] = row
+    message = rf"affine's last row must be \(0, 0, 0, 1\), got {re.escape(str(row))}$"
+    with pytest.raises(ValueError, match=message):
+        convert(np.array([[1.0, 2.0, 3.0]]), affine)
 
 
 @pytest.mark.parametrize("convert", [glmls.files.world_to_volume, glmls.files.volume_to_world])
