@@ -1081,7 +1081,9 @@ class InverseMLS:
         The deformation f.
     grid : int, default 1
         The first guess's mesh step, pixels (coarser is faster for large images and few
-        points, and may find another preimage where f folds).
+        points, and may find another preimage where f folds); coarser where the mesh of
+        the MLS's ``shape`` would hold more points than a 4096 x 4096 image's at ``grid``
+        (the guess is drawn into at most that many texels).
 
     Raises
     ------
@@ -1182,9 +1184,7 @@ class InverseMLS:
         ------
         ValueError
             For points of another shape, non-finite or beyond ±1e6 px, or a radius weight
-            without radius or shape (as ``m(points)``); for an MLS ``shape`` whose mesh at
-            :attr:`grid` has more points than a 16384 x 16384 image's (the message names the
-            grid that has fewer).
+            without radius or shape (as ``m(points)``).
         TypeError
             For points that are not real numbers, or a ``return_valid`` that is not a bool.
         glmls.ReleasedError
@@ -1220,14 +1220,14 @@ class InverseMLS:
 
     def _guess_mesh(self) -> tuple[tuple[int, int], int]:
         """(H, W) of the image whose mesh gives the first guess, and that mesh's step: the
-        MLS's ``shape`` at :attr:`grid`; without one, the smallest image (pixel (0, 0) at the
+        MLS's ``shape`` at :attr:`grid`, or the least step within :data:`GUESS_MESH_LIMIT`
+        points; without one, the smallest image (pixel (0, 0) at the
         origin) that holds the source handles, at least 1 x 1, at :attr:`grid` or the step
         that keeps its mesh within :data:`~glmls.imaging.pipeline.GUESS_MESH_POINTS` points
         (handles far from the origin span an image of up to 1e12 pixels)."""
         m = self._forward
         if m.shape is not None:
-            _check_guess_mesh(m.shape, self.grid)
-            return m.shape, self.grid
+            return m.shape, _guess_grid(m.shape, self.grid)
         points = m._handles.source_points()
         if not len(points):
             return (1, 1), self.grid
@@ -1283,28 +1283,24 @@ for _kind in (MLS, InverseMLS):
     )
 
 
-#: The most points of the first guess's mesh of an MLS's ``shape``: the corners of the
-#: largest image glmls warps (16384 x 16384 at grid 1, the GL texture limit of most GPUs).
-GUESS_MESH_LIMIT = 16385 * 16385
+#: The most points of the first guess's mesh of an MLS's ``shape``: the corners of a 4096 x
+#: 4096 image, as many as the texels the guess is drawn into at most
+#: (:data:`glmls.imaging.inverse.GUESS_MAX_TEXELS`), so that a finer mesh would add nothing.
+GUESS_MESH_LIMIT = 4097 * 4097
 
 
-def _check_guess_mesh(shape: tuple[int, int], grid: int) -> None:
-    """``ValueError`` where the mesh of ``shape`` at ``grid`` holds more than
-    :data:`GUESS_MESH_LIMIT` points, naming the least grid within it: (10**6, 10**6) at grid
-    1 would be a trillion points, evaluated band by band for hours."""
+def _guess_grid(shape: tuple[int, int], grid: int) -> int:
+    """The least mesh step from ``grid`` on whose mesh of ``shape`` holds at most
+    :data:`GUESS_MESH_LIMIT` points: a shape of (10**6, 10**6) at grid 1 is a trillion points,
+    evaluated band by band for hours, where a first guess needs far fewer."""
 
     def count(step: int) -> int:
         return (math.ceil(shape[0] / step) + 1) * (math.ceil(shape[1] / step) + 1)
 
-    if count(grid) > GUESS_MESH_LIMIT:
-        least = max(grid, math.ceil(math.sqrt(shape[0] * shape[1] / GUESS_MESH_LIMIT)))
-        while count(least) > GUESS_MESH_LIMIT:
-            least += 1
-        raise ValueError(
-            f"f's inverse starts from the mesh of the MLS's shape {shape} at grid {grid}: "
-            f"{count(grid):,} points, more than {GUESS_MESH_LIMIT:,} (those of a 16384 x 16384 "
-            f"image); use glmls.InverseMLS(m, grid={least}) or coarser"
-        )
+    step = max(grid, math.ceil(math.sqrt(shape[0] * shape[1] / GUESS_MESH_LIMIT)))
+    while count(step) > GUESS_MESH_LIMIT:
+        step += 1
+    return step
 
 
 def _points(points: object, name: str = "points") -> np.ndarray:
