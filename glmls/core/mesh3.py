@@ -80,7 +80,9 @@ class DeformedMesh:
     det_j : numpy.ndarray
         (V,) float64 det J: the local change of volume; 0 where J is singular to its
         rounding (f flattens the mesh there: float32's from the GPU, float64's in the
-        reference :func:`deform_mesh`; :func:`flat_to_zero`), which folds.
+        reference :func:`deform_mesh`; :func:`flat_to_zero`), and where f maps J's probes
+        into one plane (an affine map onto :func:`coplanar` targets, its solve the plain
+        A^-1 B at each of them), which folds.
     vertex_folds : numpy.ndarray
         (V,) bool: det J <= 0.
     face_folds : numpy.ndarray
