@@ -84,6 +84,7 @@ from .core.handles3 import (
 )
 from .core.handleset import HandleSet
 from .core.mesh import as_shape
+from .core.ridges import DEGENERATE_SHARE, ridge3, ridge_matrix, rotation3
 from .core.segments import (
     REFERENCE_NODES,
     REFERENCE_PANELS,
@@ -100,6 +101,7 @@ __all__ = [
     "ON_SEGMENT_RESOLUTION",
     "mls",
     "mls_error",
+    "plain_affine",
     "segment_geometry",
     "segment_moments",
     "weights",
@@ -192,7 +194,7 @@ def _solve(a11, a12, a22, b, transform):
     # (A + g(A))^-1 (B + g(A) M_sim): the ridge toward the similarity solution where A's
     # small eigenvalue is below DEGENERATE_SHARE of its trace, as 3D (_solve3)
     big_a = np.stack([np.stack([a11, a12], -1), np.stack([a12, a22], -1)], -2)
-    ridge, _, _ = _ridge_matrix(big_a)
+    ridge, _, _ = ridge_matrix(big_a)
     lhs = big_a + ridge
     regular = _positive_det(lhs)
     lhs[~regular] = np.eye(2)
@@ -471,7 +473,9 @@ def mls(
     """
     config = config_or_options(config, options)
     if _dimension(src, dst, points) == 3:
-        return _mls3_checked(src, dst, points, config, shape, spacing, src_segments, dst_segments)
+        return _mls3_checked(src, dst, points, config, shape, spacing, src_segments, dst_segments)[
+            :3
+        ]
     planar_spacing(spacing)
     handles = HandleSet.validate(src, dst, src_segments, dst_segments)
     v = check_coordinates(as_points(point_rows(points, 2)), "points")
@@ -658,7 +662,7 @@ def mls_error(
     """
     config = config_or_options(config, options)
     if _dimension(src, dst, points) == 3:
-        _, big_m, t = _mls3_checked(
+        _, big_m, t, _ = _mls3_checked(
             src, dst, points, config, shape, spacing, src_segments, dst_segments
         )
         p, q = np.asarray(src, dtype=np.float64), np.asarray(dst, dtype=np.float64)
@@ -686,9 +690,65 @@ def mls_error(
 # ---------------------------------------------------------------------------------------------
 # Three dimensions: point handles only, the same weights (they depend on d^2 alone).
 
-#: Below this share of trace(A) an eigenvalue of the moment matrix A is near-degenerate, and
-#: the 3D solutions add a ridge in its direction (see the module docstring).
-DEGENERATE_SHARE = 1e-3
+
+def plain_affine(
+    src: object,
+    dst: object,
+    points: object,
+    config: MLSConfig | None = None,
+    *,
+    shape: tuple[int, int, int] | None = None,
+    spacing: tuple[float, float, float] | None = None,
+    **options: object,
+) -> np.ndarray:
+    """Where the 3D affine MLS solves for M by the plain A^-1 B, in float64.
+
+    The plain solve: a handle in reach, the sources in reach not coincident, and every
+    eigenvalue of A = sum w p^T p^ at least :data:`DEGENERATE_SHARE` of its trace (no
+    ridge). With every target on one plane of normal n
+    (:func:`glmls.core.mesh3.coplanar`), B n = 0 there, so M n = 0: f maps the point into
+    that plane, and a Jacobian by differences of such points is singular
+    (:func:`glmls.core.mesh3.deform_mesh`'s ``flat``).
+
+    Parameters
+    ----------
+    src, dst : array_like
+        Point handles p_i -> q_i, (N, 3) (x, y, z) rows.
+    points : array_like
+        The evaluated points v, (K, 3); one point as a (3,) array is a (1, 3) row.
+    config : MLSConfig, optional
+        The transform and weight; built from ``options`` when None.
+    shape : tuple of int, optional
+        (D, H, W) of a volume whose diagonal is the default radius of the radius weights.
+    spacing : (float, float, float), optional
+        (dz, dy, dx) of the volume's voxels in the handles' units, as :func:`mls`'s.
+    **options
+        :class:`glmls.MLSConfig`'s fields, when ``config`` is None.
+
+    Returns
+    -------
+    numpy.ndarray
+        (K,) bool; False everywhere for the rigid and similarity transforms.
+
+    Raises
+    ------
+    ValueError
+        For 2D handles or points, and as :func:`mls` does.
+    TypeError
+        As :func:`mls` does.
+
+    Examples
+    --------
+    >>> src = np.array([[0.0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]])
+    >>> glmls.reference.plain_affine(src, src * [1, 1, 0], [[2.0, 2, 2]], transform="affine")
+    array([ True])
+    >>> glmls.reference.plain_affine(src[:3], src[:3], [[2.0, 2, 2]], transform="affine")
+    array([False])
+    """
+    config = config_or_options(config, options)
+    if _dimension(src, dst, points) != 3:
+        raise ValueError("plain_affine takes (N, 3) handles and (K, 3) points")
+    return _mls3_checked(src, dst, points, config, shape, spacing, None, None)[3]
 
 
 def _dimension(src: object, dst: object, points: object) -> int:
@@ -727,104 +787,37 @@ def _mls3_checked(src, dst, points, config, shape, spacing, src_segments, dst_se
     return _mls3(p, q, v, config, radius)
 
 
-def _ridge_matrix(big_a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """g(A) (K, n, n) for A (K, n, n), n = 2 or 3: the spectral function of A that is 0
-    unless an eigenvalue e of A is below DEGENERATE_SHARE of trace(A), where it grows
-    smoothly to DEGENERATE_SHARE trace(A) at e = 0; with each eigenvalue's share (K, n) and
-    A's eigenvectors (K, n, n), columns in ascending order of their eigenvalues."""
-    e, vectors = np.linalg.eigh(big_a)
-    trace = np.maximum(e.sum(-1), 0.0)[:, None]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x = np.where(trace > 0, np.maximum(e, 0.0) / trace, 1.0)
-    share = DEGENERATE_SHARE * np.maximum(0.0, 1.0 - x / DEGENERATE_SHARE) ** 2
-    ridge = np.einsum("kin,kn,kjn->kij", vectors, share * trace, vectors)
-    return ridge, share, vectors
-
-
-def _ridge(big_a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The near-degenerate directions of A (K, 3, 3), per point: g(A) (_ridge_matrix), the
-    ridge's share for A's middle eigenvalue (K,), above 0 only where the sources are near
-    one line, and A's unit principal axis (K, 3)."""
-    ridge, share, vectors = _ridge_matrix(big_a)
-    return ridge, share[:, 1], vectors[:, :, 2]
-
-
-def _least_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(K, 3, 3): the rotation of least angle with a R parallel to b (row vectors), for unit
-    ``a`` and any ``b``; I where b is 0. Antiparallel a and b: a half turn about an axis
-    perpendicular to a (any such axis is as good: the one choice that cannot be continuous),
-    a x e_i for the i of the smallest |a_i| + (0, 1e-3, 2e-3)_i: the first of tied |a_i|
-    (a along a coordinate axis or a diagonal), whatever rounding does to a (float32's on the
-    GPU)."""
-    norm = np.linalg.norm(b, axis=-1, keepdims=True)
-    bh = np.where(norm > 0, b / np.where(norm > 0, norm, 1.0), a)
-    n = np.cross(a, bh)  # sin(angle) times the unit axis
-    c = (a * bh).sum(-1)
-    anti = c < -1.0 + 1e-12
-    cross = np.zeros(a.shape + (3,))  # [n]x, so that [n]x u = n x u (column vectors)
-    cross[:, 0, 1], cross[:, 0, 2], cross[:, 1, 2] = -n[:, 2], n[:, 1], -n[:, 0]
-    cross[:, 1, 0], cross[:, 2, 0], cross[:, 2, 1] = n[:, 2], -n[:, 1], n[:, 0]
-    factor = 1.0 / np.where(anti, 1.0, 1.0 + c)
-    # Rodrigues for column vectors, R_c a = b^; row vectors take its transpose
-    rc = np.eye(3) + cross + (cross @ cross) * factor[:, None, None]
-    helper = np.eye(3)[np.argmin(np.abs(a) + [0.0, 1e-3, 2e-3], axis=-1)]
-    perp = np.cross(a, helper)
-    perp /= np.linalg.norm(perp, axis=-1, keepdims=True)
-    half = 2.0 * np.einsum("ki,kj->kij", perp, perp) - np.eye(3)  # a half turn about perp
-    return np.where(anti[:, None, None], half, np.swapaxes(rc, -1, -2))
-
-
-def _rotation3(big_a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The proper rotation R maximising trace(R^T B') (Kabsch with row vectors,
-    sum w |p^ R - q^|^2 least), B' = B + c |B| R0 + c' |B| R0' with R0 the least rotation
-    taking A's principal axis to its image under B, and c the ridge's share for A's middle
-    eigenvalue: 0 unless the sources are near one line (where the rotation about it is
-    free); R0' and c' likewise of B B^T, whose middle eigenvalue (B's middle singular value
-    squared) is small where the targets are near one line, the sources spread or not (B of
-    rank 1 leaves the rotation about the targets' line free)."""
-    _, share, axis = _ridge(big_a)
-    r0 = _least_rotation(axis, np.einsum("ki,kij->kj", axis, b))
-    _, shares_b, vectors_b = _ridge_matrix(b @ np.swapaxes(b, -1, -2))
-    axis_b = vectors_b[:, :, 2]
-    r0_b = _least_rotation(axis_b, np.einsum("ki,kij->kj", axis_b, b))
-    norm = np.linalg.norm(b, axis=(-2, -1))
-    shifted = b + (share * norm)[:, None, None] * r0 + (shares_b[:, 1] * norm)[:, None, None] * r0_b
-    u, _, vt = np.linalg.svd(shifted)
-    d = np.sign(np.linalg.det(u @ vt))
-    d = np.where(d == 0, 1.0, d)
-    u[:, :, 2] *= d[:, None]
-    return u @ vt
-
-
-def _solve3(big_a: np.ndarray, b: np.ndarray, transform: str) -> np.ndarray:
-    """M (K, 3, 3) from A = sum w p^T p^ and B = sum w p^T q^ (p^, q^ row vectors)."""
-    rot = _rotation3(big_a, b)
+def _solve3(big_a: np.ndarray, b: np.ndarray, transform: str) -> tuple[np.ndarray, np.ndarray]:
+    """M (K, 3, 3) from A = sum w p^T p^ and B = sum w p^T q^ (p^, q^ row vectors), and
+    where M is affine's plain A^-1 B, without a ridge (K,)."""
+    rot = rotation3(big_a, b)
     mu = np.trace(big_a, axis1=-2, axis2=-1)
     along = np.einsum("kij,kij->k", rot, b)  # trace(R^T B): the fit's sum w p^ R q^T
     if transform == "rigid":
         collapsed = ~(along > 1e-6 * mu)  # as 2D: all targets in reach at one point
         rot[collapsed] = np.eye(3)
-        return rot
+        return rot, np.zeros(len(b), bool)
     with np.errstate(divide="ignore", invalid="ignore"):
         sim = rot * np.where(mu > 0, along / mu, 0.0)[:, None, None]  # Umeyama's scale
     if transform == "similarity":
-        return sim
+        return sim, np.zeros(len(b), bool)
     # affine: (A + g(A))^-1 (B + g(A) M_sim), the ridge g(A) toward the similarity solution
-    ridge, _, _ = _ridge(big_a)
+    ridge, _, _ = ridge3(big_a)
     lhs = big_a + ridge
     ok = _positive_det(lhs)
     lhs[~ok] = np.eye(3)
     m = np.linalg.solve(lhs, b + ridge @ sim)
-    return np.where(ok[:, None, None], m, sim)
+    return np.where(ok[:, None, None], m, sim), ok & ~ridge.any(axis=(1, 2))
 
 
 def _mls3(p, q, v, config: MLSConfig, radius: float | None):
-    """:func:`mls` for (N, 3) point handles and (K, 3) points."""
+    """:func:`mls` for (N, 3) point handles and (K, 3) points, and :func:`plain_affine`."""
     k = len(v)
     f = v.copy()
     big_m = np.broadcast_to(np.eye(3), (k, 3, 3)).copy()
+    plain = np.zeros(k, bool)
     if len(p) == 0 or k == 0:
-        return f, big_m, f - np.einsum("ki,kij->kj", v, big_m)
+        return f, big_m, f - np.einsum("ki,kij->kj", v, big_m), plain
     rows = np.arange(k)
     d2 = ((p[None] - v[:, None]) ** 2).sum(-1)
     w = weights(d2, config, radius)
@@ -859,10 +852,10 @@ def _mls3(p, q, v, config: MLSConfig, radius: float | None):
     coincident = ~(np.trace(big_a, axis1=-2, axis2=-1) > 1e-13 * yardstick)
     live = reached & ~coincident
     if live.any():
-        big_m[live] = _solve3(big_a[live], b[live], config.transform)
+        big_m[live], plain[live] = _solve3(big_a[live], b[live], config.transform)
     # f(v) = q* + (v - p*) M, with p* - v = (p_o - v) + (p* - p_o)
     pst += p[nearest] - v
     qst += q[nearest] - v
     f = v + qst - np.einsum("ki,kij->kj", pst, big_m)
     f[~reached] = v[~reached]
-    return f, big_m, f - np.einsum("ki,kij->kj", v, big_m)
+    return f, big_m, f - np.einsum("ki,kij->kj", v, big_m), plain

@@ -24,6 +24,7 @@ from .handles3 import as_points3
 from .summary import fields_repr
 
 __all__ = [
+    "COPLANAR_ROUNDINGS",
     "FLAT_ROUNDINGS",
     "DeformedMesh",
     "as_colors",
@@ -31,6 +32,7 @@ __all__ = [
     "as_normals",
     "as_uv",
     "cofactor",
+    "coplanar",
     "deform_mesh",
     "deformed_normals",
     "determinant",
@@ -48,6 +50,12 @@ __all__ = [
 #: of J's entries times the norm of J's cofactor matrix: J's smallest singular value within
 #: them of 0 (:func:`flat_to_zero`).
 FLAT_ROUNDINGS = 4.0
+#: Targets are on one plane (:func:`coplanar`) where the smallest singular value of the
+#: centred targets is within this many float64 roundings of their size (eps64 x the
+#: Frobenius norm of the targets as given: each coordinate is rounded at its own size, so a
+#: far offset rounds more). Targets put on a plane by float64 arithmetic (projected onto
+#: it, or a plane's points turned and moved) come within 8 of them at most.
+COPLANAR_ROUNDINGS = 32.0
 
 
 @dataclass(frozen=True, repr=False)
@@ -72,7 +80,9 @@ class DeformedMesh:
     det_j : numpy.ndarray
         (V,) float64 det J: the local change of volume; 0 where J is singular to its
         rounding (f flattens the mesh there: float32's from the GPU, float64's in the
-        reference :func:`deform_mesh`; :func:`flat_to_zero`), which folds.
+        reference :func:`deform_mesh`; :func:`flat_to_zero`), and where f maps J's probes
+        into one plane (an affine map onto :func:`coplanar` targets, its solve the plain
+        A^-1 B at each of them), which folds.
     vertex_folds : numpy.ndarray
         (V,) bool: det J <= 0.
     face_folds : numpy.ndarray
@@ -403,6 +413,30 @@ def determinant(j: np.ndarray, cof: np.ndarray) -> np.ndarray:
     return (j[:, 0] * cof[:, 0]).sum(axis=1)
 
 
+def coplanar(targets: np.ndarray) -> bool:
+    """Whether the (N, 3) float64 ``targets`` lie on one plane, to float64's rounding: the
+    smallest singular value of the targets less their mean is at most
+    :data:`COPLANAR_ROUNDINGS` x eps64 x the targets' Frobenius norm (scale-invariant; three
+    targets or fewer, or ones on a line or at one point, always are). An affine MLS onto
+    such targets maps every point where its solve is the plain A^-1 B into that plane: B's
+    centred targets have no component along its normal n, so M n = 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from glmls.core.mesh3 import coplanar
+    >>> turn = np.array([[0.6, 0.0, 0.8], [0.0, 1.0, 0.0], [-0.8, 0.0, 0.6]])
+    >>> q = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]]) @ turn + 5.0
+    >>> coplanar(q), coplanar(q + [[0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 1e-6]])
+    (True, False)
+    """
+    if len(targets) < 4:
+        return True
+    spread = np.linalg.svd(targets - targets.mean(axis=0), compute_uv=False)
+    size = np.sqrt(np.einsum("ij,ij->", targets, targets))
+    return bool(spread[2] <= COPLANAR_ROUNDINGS * np.finfo(np.float64).eps * size)
+
+
 def flat_to_zero(det: np.ndarray, jacobian: np.ndarray, rounding: float | np.ndarray) -> np.ndarray:
     """``det`` (V,), det J of the (V, 3, 3) ``jacobian``, in place and returned, with 0 where
     J is singular to ``rounding`` (a number or (V,): the rounding of J's entries): where
@@ -507,6 +541,7 @@ def deform_mesh(
     colors: np.ndarray | None = None,
     uv: np.ndarray | None = None,
     face_uv: np.ndarray | None = None,
+    flat: np.ndarray | None = None,
 ) -> DeformedMesh:
     """The :class:`DeformedMesh` of a mesh (:func:`as_mesh`'s ``vertices``, ``faces`` and
     ``normals``, None to take them from the faces) from f at its vertices (``deformed``) and
@@ -520,6 +555,11 @@ def deform_mesh(
     ``jacobian`` is float64 central differences of f over that step, whose rounding is then
     :func:`difference_rounding`'s; None for a J good to float64's rounding of its own
     entries (eps64 x its largest |J_rc|). The normals are 0 where det J is.
+
+    ``flat``: (V,) bool, the vertices where f is known to map J's probes into one plane (an
+    affine MLS onto :func:`coplanar` targets, whose solve is the plain A^-1 B at each of
+    them: :func:`glmls.reference.plain_affine`), or None: det J is 0 there, however far
+    its rounding leaves it from 0.
 
     Examples
     --------
@@ -544,6 +584,8 @@ def deform_mesh(
     else:
         rounding = difference_rounding(vertices, deformed, step)
     det = flat_to_zero(det, jacobian, rounding)
+    if flat is not None:
+        det[flat] = 0.0
     folds = det <= 0
     return DeformedMesh(
         vertices=deformed,

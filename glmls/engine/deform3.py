@@ -10,7 +10,10 @@ the end:
 2. ``mls3/points.comp.glsl`` (``MLS3_MESH``) per vertex: f and J by central differences and
    det J into one record of 16 floats per vertex, with the normal carried by cof(J) (a
    mesh without faces) or the vertex itself (a mesh with faces: the passes over faces read
-   a corner's vertex and record as one record); copied into a table;
+   a corner's vertex and record as one record); copied into a table; and (an affine map
+   onto coplanar targets, ``MLSKernel3.flat``) a flag per vertex where J took affine's plain
+   solve at each of its probes: f maps them into the targets' plane, so J is singular
+   exactly, and det J is 0 there, whatever float32's rounding left of it;
 3. ``mls3/mesh_folds.comp.glsl`` per face, each face's records fetched once from their
    table: the fold flags, one byte per face, and (normals from the faces) the area-weighted
    normals summed at the vertices in fixed point (exact integer sums, so the result does
@@ -131,7 +134,18 @@ def deform_mesh3(
         records = scratch.buffer("records3", table_rows(items) * TABLE_WIDTH * 16)
         records.bind_to_storage_buffer(bindings.DEFORMED.index)
         source = "later" if face_count else "none" if normals is None else "given"
-        run_points3(kernel, count, output="mesh", normals=source, shape=shape, max_groups=groups)
+        if kernel.flat:
+            flat_flags = scratch.buffer("flat3", count * 4)
+            flat_flags.bind_to_storage_buffer(bindings.MESH_FLAT.index)
+        run_points3(
+            kernel,
+            count,
+            output="mesh",
+            normals=source,
+            shape=shape,
+            max_groups=groups,
+            flat=kernel.flat,
+        )
         gl.mgl.memory_barrier()
         folds = np.zeros(whole, np.uint8)
         if face_count:
@@ -151,9 +165,13 @@ def deform_mesh3(
         # (copied out below: the arrays returned are new, the records' host copy is not)
         out = scratch.staging("records3", (count, RECORD), np.float32)
         records.read_into(out, size=out.nbytes)
+        if kernel.flat:
+            plain = np.frombuffer(flat_flags.read(size=count * 4), np.uint32) != 0
     jacobian = out[:, 6:15].astype(np.float64).reshape(count, 3, 3)
     # the vertices as the upload scaled them (padded's first columns)
     det = _flat_to_zero(kernel, padded[:, :3], jacobian, out[:, 15].astype(np.float64))
+    if kernel.flat:  # f maps J's probes into the targets' plane: J is singular
+        det[plain] = 0.0
     deformed = vertices + out[:, 3:6] * kernel.scaling.scale
     if kernel.offset.any():  # the targets' offset, in float64 (MLSKernel3.offset)
         deformed += kernel.offset

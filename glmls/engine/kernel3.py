@@ -19,6 +19,7 @@ import numpy as np
 from ..core.config import MLSConfig, transform_code
 from ..core.handles import Scaling
 from ..core.handles3 import no_radius3, volume_diagonal
+from ..core.mesh3 import coplanar
 from ..core.weights import GAUSSIAN_CAP, GAUSSIAN_TOLERANCE
 from ..errors import ReleasedError
 from ..gl.context import GLContext
@@ -70,6 +71,7 @@ class MLSKernel3:
         self._rows = np.zeros((0, 4), np.float32)
         self._count = 0
         self.sources = np.zeros((0, 3))
+        self.flat = False
         #: Scratch buffers of the passes (points in, f, M or J out).
         self.scratch = Resources(gl, "this MLS")
         self._released = False
@@ -114,6 +116,11 @@ class MLSKernel3:
         self._rows, self._count, self.scaling, self.offset = rows, count, scaling, shift
         #: The handles' sources p, (N, 3) float64 in their units.
         self.sources = np.array(src, dtype=np.float64).reshape(-1, 3)
+        #: Whether f maps into one plane wherever its solve is affine's plain A^-1 B: the
+        #: transform is affine and the targets are :func:`~glmls.core.mesh3.coplanar`.
+        self.flat = self.config.transform == "affine" and coplanar(
+            np.asarray(dst, dtype=np.float64).reshape(-1, 3)
+        )
         both = np.concatenate([src, dst - shift]) if count else np.zeros((1, 3))
         #: half the largest side of the handles' box, in their units
         self.extent = float((both.max(axis=0) - both.min(axis=0)).max()) / 2

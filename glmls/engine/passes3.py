@@ -65,11 +65,13 @@ def points3_program(
     output: str = "f",
     normals: str = "none",
     stage: int = 0,
+    flat: bool = False,
 ) -> moderngl.ComputeShader:
     """The compiled 3D points pass: on a lattice (``lattice``) or a list; ``output`` one of
     ``"f"``, ``"matrix"`` (f and M), ``"jacobian"`` (f and J), ``"mesh"`` (a mesh's vertex
-    records, with ``normals`` one of :data:`MESH_NORMALS`). ``stage``: of the two passes of
-    :func:`run_points3`, 1 or 2; 0 for one pass."""
+    records, with ``normals`` one of :data:`MESH_NORMALS`, and with ``flat`` a flag per
+    vertex, ``MLS3_MESH_FLAT``: where J took affine's plain solve at each of its probes).
+    ``stage``: of the two passes of :func:`run_points3`, 1 or 2; 0 for one pass."""
     if output not in PROGRAM_OUTPUTS:
         raise ValueError(f"unknown output {output!r}; choose one of {', '.join(PROGRAM_OUTPUTS)}")
     if normals not in MESH_NORMALS:
@@ -81,6 +83,7 @@ def points3_program(
         "MLS3_WRITE_JACOBIAN": output in ("jacobian", "mesh"),
         "MLS3_MESH": mesh,
         "MLS3_MESH_NORMALS": MESH_NORMALS.index(normals) if mesh else 0,
+        "MLS3_MESH_FLAT": mesh and flat,
         "MLS3_STAGE": stage,
     }
     return kernel.program(POINTS3_PASS, defines)
@@ -94,6 +97,7 @@ def run_points3(
     normals: str = "none",
     shape: tuple[int, int, int] | None = None,
     max_groups: int,
+    flat: bool = False,
 ) -> None:
     """Run the points pass of ``output`` over the ``count`` points bound (and its outputs
     bound), in two stages: the first takes only the solve's plain branch (and, where it
@@ -102,9 +106,12 @@ def run_points3(
     to a handle, where the probes' moments leave the plain branch: ``mls3_eval_jacobian``),
     the second computes those again with everything, one invocation per listed point. So
     the other points do not wait for them: a GPU's warp, and a CPU renderer's vector
-    whatever its lanes' mask, runs a branch for all its lanes where one takes it."""
+    whatever its lanes' mask, runs a branch for all its lanes where one takes it. ``flat``:
+    as :func:`points3_program`'s."""
     first, second_program = (
-        points3_program(kernel, lattice=False, output=output, normals=normals, stage=stage)
+        points3_program(
+            kernel, lattice=False, output=output, normals=normals, stage=stage, flat=flat
+        )
         for stage in (1, 2)
     )
     for program in (first, second_program):

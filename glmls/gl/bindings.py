@@ -73,6 +73,7 @@ FILL = Binding("FILL", "storage", 19, "a buffer being filled with one word (fill
 VOLUME_SURVEY = Binding("VOLUME_SURVEY", "storage", 20, "volumes: the box of f over each z layer")
 MESH_NORMALS = Binding("MESH_NORMALS", "storage", 22, "3D meshes: vertex normals or their sums")
 MESH_FOLDS = Binding("MESH_FOLDS", "storage", 23, "3D meshes: each face's fold flag, a byte")
+MESH_FLAT = Binding("MESH_FLAT", "storage", 24, "3D meshes: where J took the plain affine solve")
 BATCH_OUTPUT = Binding("BATCH_OUTPUT", "storage", 25, "batches: the chunk's output bytes, labels")
 BATCH_CHECK = Binding("BATCH_CHECK", "storage", 26, "batches: each image's embedding test")
 BATCH_LISTS = Binding("BATCH_LISTS", "storage", 27, "batches: the images each scan takes")
@@ -150,6 +151,7 @@ ALL = (
     VOLUME_SURVEY,
     MESH_NORMALS,
     MESH_FOLDS,
+    MESH_FLAT,
     BATCH_OUTPUT,
     BATCH_CHECK,
     BATCH_LISTS,

@@ -3,13 +3,18 @@ is within FLAT_ROUNDINGS roundings of J's entries times |cof J|, bit for bit the
 of every vertex (the rule takes |cof J| only where a cheaper bound leaves the answer open),
 and the float64 reference deform_mesh folds a map that flattens space everywhere, whatever
 float64's rounding leaves of det J's sign, while a thin map well above that rounding keeps
-its det J and does not fold."""
+its det J and does not fold. The exact rule: targets coplanar to float64's rounding
+(mesh3.coplanar, at every scale; not one off the plane by 1e-9 of their spread) and the
+affine solve the plain A^-1 B at each of J's probes (glmls.reference.plain_affine: not for
+similarity or rigid, a ridge, or the identity out of a compact weight's reach) give det J =
+0 (deform_mesh's ``flat``)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from glmls import reference
 from glmls.core import mesh3
 
 EPS64 = np.finfo(np.float64).eps
@@ -109,3 +114,103 @@ def test_central_differences_take_the_rounding_of_their_step(rng):
     rounding = mesh3.difference_rounding(vertices, f(vertices), h)
     reach = np.maximum(np.abs(vertices).max(axis=1), np.abs(f(vertices)).max(axis=1))
     assert np.array_equal(rounding, EPS64 * reach / h)
+
+
+def _tilted_plane(rng, size, count=10):
+    """``count`` random handles in a box of side 64 size, their targets projected onto a
+    random plane through (30, 30, 30) size, and its unit normal."""
+    src = rng.uniform(0, 64, (count, 3)) * size
+    normal = rng.normal(size=3)
+    normal /= np.linalg.norm(normal)
+    return src, src - np.outer(src @ normal - 30.0 * size, normal), normal
+
+
+@pytest.mark.parametrize("size", [1.0, 100.0, 1e4])
+def test_coplanar_targets_to_float64s_rounding(rng, size):
+    """Targets projected onto a random plane, or a plane's points turned and moved far off
+    the origin, are coplanar, at every scale; one of them off the plane by 1e-3 or 1e-9 of
+    their spread is not; three targets always are."""
+    for _ in range(200):
+        count = int(rng.integers(4, 200))
+        src, dst, _ = _tilted_plane(rng, size, count)
+        turn, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        plane = np.c_[rng.uniform(0, 64, (count, 2)) * size, np.zeros(count)]
+        moved = plane @ turn + rng.normal(0, 1e3 * size, 3)
+        assert mesh3.coplanar(dst) and mesh3.coplanar(moved)
+        for share in (1e-3, 1e-9):
+            off = moved.copy()
+            spread = np.linalg.norm(moved - moved.mean(axis=0), axis=1).max()
+            off[rng.integers(count)] += share * spread * turn[2]
+            assert not mesh3.coplanar(off)
+        assert mesh3.coplanar(src[:3])
+
+
+def _probes_plain(src, dst, vertices, h, **options):
+    """Where the float64 solve is affine's plain A^-1 B at each of J's six probes."""
+    plain = np.ones(len(vertices), bool)
+    for e in np.eye(3):
+        for sign in (1.0, -1.0):
+            plain &= reference.plain_affine(src, dst, vertices + sign * h * e, **options)
+    return plain
+
+
+def _differences(src, dst, vertices, h, **options):
+    """f and J by float64 central differences of glmls.reference.mls over h."""
+    f = reference.mls(src, dst, vertices, **options)[0]
+    columns = [
+        reference.mls(src, dst, vertices + h * e, **options)[0]
+        - reference.mls(src, dst, vertices - h * e, **options)[0]
+        for e in np.eye(3)
+    ]
+    return f, np.stack(columns, axis=1) / (2 * h)
+
+
+@pytest.mark.parametrize("size", [1.0, 100.0, 1e4])
+def test_the_reference_folds_an_affine_map_onto_a_tilted_plane_everywhere(rng, size):
+    """Random planes turned off the axes: the affine solve is the plain A^-1 B at every probe
+    of every vertex (points in a box half as large again as the handles'), so ``flat``
+    zeroes det J everywhere and every vertex and face folds, where float64's J, taken as
+    good to its own entries' rounding, leaves det J of either sign at some."""
+    vertices = rng.uniform(-16, 80, (300, 3)) * size
+    faces = rng.integers(0, len(vertices), (600, 3))
+    h = 1e-3 * size
+    missed = 0
+    for _ in range(4):
+        src, dst, _ = _tilted_plane(rng, size)
+        f, jacobian = _differences(src, dst, vertices, h, transform="affine")
+        flat = _probes_plain(src, dst, vertices, h, transform="affine")
+        assert mesh3.coplanar(dst) and flat.all()
+        out = mesh3.deform_mesh(vertices, faces, None, f, jacobian, flat=flat)
+        assert (out.det_j == 0).all() and out.vertex_folds.all() and out.face_folds.all()
+        assert (out.normals == 0).all()
+        missed += (mesh3.deform_mesh(vertices, faces, None, f, jacobian).det_j != 0).sum()
+    assert missed > 0  # the rounding rule alone would keep det J at some vertices
+
+
+@pytest.mark.parametrize("size", [1.0, 100.0, 1e4])
+def test_the_plain_affine_solve_alone_is_flat(rng, size):
+    """Similarity and rigid never take it; three handles take a ridge; a compact weight
+    (cressman) leaves the identity out of every handle's reach (J = I, det J = 1); targets
+    off the plane by 1e-3 of their spread are not coplanar, and their map keeps det J
+    clear of 0 at most vertices."""
+    src, dst, normal = _tilted_plane(rng, size)
+    vertices = rng.uniform(-40, 96, (400, 3)) * size
+    for transform in ("similarity", "rigid"):
+        assert not reference.plain_affine(src, dst, vertices, transform=transform).any()
+    assert not reference.plain_affine(src[:3], dst[:3], vertices, transform="affine").any()
+    reach = {"transform": "affine", "weight": "cressman", "radius": 20.0 * size}
+    plain = reference.plain_affine(src, dst, vertices, **reach)
+    f, big_m, _ = reference.mls(src, dst, vertices, **reach)
+    alone = (np.linalg.norm(vertices[:, None] - src[None], axis=2) > 20.0 * size).all(axis=1)
+    assert alone.mean() > 0.3 and not plain[alone].any()
+    assert (f[alone] == vertices[alone]).all() and (big_m[alone] == np.eye(3)).all()
+    off = dst.copy()
+    off[3] += 1e-3 * np.linalg.norm(dst - dst.mean(axis=0), axis=1).max() * normal
+    assert not mesh3.coplanar(off)
+    h = 1e-3 * size
+    f, jacobian = _differences(src, off, vertices, h, transform="affine")
+    flat = mesh3.coplanar(off) & _probes_plain(src, off, vertices, h, transform="affine")
+    out = mesh3.deform_mesh(
+        vertices, np.zeros((0, 3), np.int64), None, f, jacobian, step=h, flat=flat
+    )
+    assert (out.det_j != 0).mean() > 0.9 and not out.vertex_folds.all()

@@ -250,6 +250,7 @@ MLS3Result mls3_identity(vec3 v) {
 }
 
 MLS3Result mls3_finish(MLS3Accum a) {
+    mls3_solve_plain = false;
     if (!a.hit && !(a.W > 0.0)) {
         return mls3_identity(a.v);   // no handle reaches v (or there are none)
     }
@@ -347,12 +348,21 @@ mat3 mls3_stencil_jacobian(vec3 v, float h, mat3 sums) {
     return transpose(rows);
 }
 
+// Whether the last J (mls3_jacobian, mls3_eval_jacobian) took affine's plain solve at each
+// of its six probes (mls3_solve_plain): with every target on one plane, f maps each probe
+// into it, and J's rows, differences of those images, lie in it; so J is singular, exactly
+// but for float32's rounding.
+bool mls3_jacobian_plain = false;
+
 // J = df/dv at v by central differences of step h (scaled; 6 evaluations of f, one site).
 mat3 mls3_jacobian(vec3 v, float h) {
     mat3 sums = mat3(0.0);
+    bool plain = true;
     for (int k = 1; k <= 6; ++k) {
         mls3_stencil_add(sums, k, mls3_eval(mls3_stencil_point(v, k, h)).d);
+        plain = plain && mls3_solve_plain;
     }
+    mls3_jacobian_plain = plain;
     return mls3_stencil_jacobian(v, h, sums);
 }
 
@@ -605,6 +615,8 @@ MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
     mls3_probe_axis(sums, together, s, a, zero, c, lambda, v, h, 0);
     mls3_probe_axis(sums, together, s, a, zero, c, lambda, v, h, 1);
     mls3_probe_axis(sums, together, s, a, zero, c, lambda, v, h, 2);
+    // together: each probe's short solve is affine's Cholesky (mls3_check_probe)
+    mls3_jacobian_plain = together && MLS_TRANSFORM == 0;
     if (alone) {
         J = mat3(1.0);
     } else if (together) {

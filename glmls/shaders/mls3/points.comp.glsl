@@ -13,6 +13,9 @@
 //     unit normal n cof(J) sign(det J) of the vertex's normal (MLS3_MESH_NORMALS: 0 none,
 //     1 the mesh's own, 3 floats per vertex; 2 later: the vertex, for the passes over
 //     faces, mls3/mesh_normals.comp.glsl writing the normal over it), f - v, J, det J.
+//   MLS3_MESH_FLAT (a mesh, affine with every target on one plane): one uint per vertex, 1
+//     where J took affine's plain solve at each of its probes (mls3_jacobian_plain: f maps
+//     them into the plane, and det J is 0 but for float32's rounding), else 0.
 // J: mls3_eval_jacobian (mls3/core.glsl), f and J sharing the passes over the handles.
 // MLS3_STAGE 1 and 2 are two passes (glmls.gl.dispatch.SecondPass): the first takes only the
 // solve's plain branch (MLS3_SOLVE_LATER) and J's shared passes (MLS3_JACOBIAN_LATER) and
@@ -61,6 +64,14 @@ layout(std430, binding = BIND_DEFORMED) writeonly buffer MLS3OutF {
 #if (MLS3_WRITE_MATRIX || MLS3_WRITE_JACOBIAN) && !MLS3_MESH
 layout(std430, binding = BIND_MATRICES) writeonly buffer MLS3OutM {
     float mls3_out_m[];
+};
+#endif
+#ifndef MLS3_MESH_FLAT
+#define MLS3_MESH_FLAT 0
+#endif
+#if MLS3_MESH && MLS3_MESH_FLAT
+layout(std430, binding = BIND_MESH_FLAT) writeonly buffer MLS3OutFlat {
+    uint mls3_out_flat[];
 };
 #endif
 #if MLS3_MESH && MLS3_MESH_NORMALS == 1
@@ -117,6 +128,9 @@ void mls3_store_record(int i, vec3 v, vec3 d, mat3 J) {
     mls3_out_records[at + 1] = vec4(d.yz, rows[0].xy);
     mls3_out_records[at + 2] = vec4(rows[0].z, rows[1]);
     mls3_out_records[at + 3] = vec4(rows[2], det);
+#if MLS3_MESH_FLAT
+    mls3_out_flat[i] = mls3_jacobian_plain ? 1u : 0u;
+#endif
 }
 #endif
 

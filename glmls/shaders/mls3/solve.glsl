@@ -24,6 +24,11 @@
 #define MLS3_SOLVE_LATER 0
 #endif
 bool mls3_solve_later = false;
+// Whether the last solve was affine's plain N = A^-1 D (Cholesky here, or mls3_solve_full
+// without a ridge), M = A^-1 B: with every target on one plane (normal n), B n = 0, so M n = 0
+// and f maps into that plane (mls3/core.glsl's mls3_jacobian_plain); false for every other
+// branch (a ridge, a translation, the identity).
+bool mls3_solve_plain = false;
 // The rotations' last solve: B's orthogonal polar factor where it took that branch, else I
 // (mls3_eval_jacobian's short solves of the probes start from it).
 mat3 mls3_solve_polar = mat3(1.0);
@@ -125,6 +130,7 @@ mat3 mls3_solve(vec3 a, vec3 o, mat3 D, float spread) {
         vec3 l1 = vec3(0.0, l11, (o.z - l0.z * l0.y) / l11);
         vec3 l2 = vec3(0.0, 0.0, sqrt(a.z - l0.z * l0.z - l1.z * l1.z));
         if (l2.z > 0.0 && l11 > 0.0) {
+            mls3_solve_plain = true;
             return mat3(mls3_cholesky_apply(l0, l1, l2, D[0]),
                         mls3_cholesky_apply(l0, l1, l2, D[1]),
                         mls3_cholesky_apply(l0, l1, l2, D[2]));

@@ -1,6 +1,6 @@
 // The 3D solve's every branch in float64 (mls3/solve.glsl has the plain one in float32): the
-// degenerate handle sets' rules of glmls.reference (_solve3, _ridge, _least_rotation,
-// _rotation3) and Horn's rotation where B is near singular or reflects.
+// degenerate handle sets' rules of glmls.reference (and glmls.core.ridges: ridge3,
+// least_rotation, rotation3) and Horn's rotation where B is near singular or reflects.
 //
 // Why float64: a ridge of 1e-3 trace(A) decides what the handles leave free, so it divides
 // the rounding of the moments by 1e-3. In float32 that rounding (6e-8 of each sum, different
@@ -142,7 +142,7 @@ dmat3 mls3_full_quaternion_minus_identity(dvec4 q) {
 
 // The rotation (row vectors) of least angle with a R parallel to b, for unit a and any b;
 // I where b is 0; a half turn about an axis perpendicular to a where b is antiparallel to a
-// (glmls.reference._least_rotation).
+// (glmls.core.ridges.least_rotation).
 dmat3 mls3_full_least_rotation(dvec3 a, dvec3 b) {
     double norm = length(b);
     dvec3 bh = norm > 0.0lf ? b / norm : a;
@@ -160,7 +160,7 @@ dmat3 mls3_full_least_rotation(dvec3 a, dvec3 b) {
     return c < -1.0lf + 1e-6lf ? half_turn : r;
 }
 
-// The ridge share of eigenvalues e of A against trace(A) (glmls.reference._ridge).
+// The ridge share of eigenvalues e of A against trace(A) (glmls.core.ridges.ridge_matrix).
 dvec3 mls3_full_share(dvec3 e, double trace) {
     dvec3 x = trace > 0.0lf ? max(e, dvec3(0.0lf)) / trace : dvec3(1.0lf);
     dvec3 r = max(dvec3(0.0lf), dvec3(1.0lf) - x / MLS3_FULL_SHARE);
@@ -250,6 +250,8 @@ dmat3 mls3_solve_full(dvec3 a, dvec3 o, dmat3 D, double spread) {
     dmat3 V = dmat3(v0, v1, v2);
     dvec3 il = 1.0lf / lambda;
     dmat3 scaled = dmat3(il.x * v0, il.y * v1, il.z * v2);   // V diag(1 / lambda)
+    // no ridge: N = A^-1 D, the plain solve (mls3_solve_plain)
+    mls3_solve_plain = share == dvec3(0.0lf);
     return scaled * (transpose(V) * (D + G * Nsim));
 #endif
 #endif
