@@ -8,7 +8,9 @@ by tens of degrees.
 
 Tolerances (of the near map's GPU against the reference, ~1e-6 voxel in f and ~1e-4 in J,
 with room): f within 1e-4 voxels, J within 1e-3, det J within 1e-3 of it, the deformed unit
-normals within 0.1 degree, folds equal."""
+normals within 0.2 degree (J's error divided by its smallest singular value: up to 0.11
+degree over 40 random sets of handles, at a folded vertex where that value is 0.08), folds
+equal."""
 
 from __future__ import annotations
 
@@ -66,8 +68,9 @@ def test_far_targets_f_and_jacobian_match_the_reference(gl, shape):
     assert np.abs(jacobian - _reference_jacobian(reference, v)).max() <= 1e-3
 
 
-def test_far_targets_deform_a_mesh_as_near_ones(gl):
-    src, dst = _handles()
+@pytest.mark.parametrize("seed", [5, 20, 28])
+def test_far_targets_deform_a_mesh_as_near_ones(gl, seed):
+    src, dst = _handles(seed)
     vertices, faces = _sphere()
     for target in (dst, dst + FAR):
         reference = ReferenceDeformation(src, target)
@@ -79,7 +82,7 @@ def test_far_targets_deform_a_mesh_as_near_ones(gl):
         assert np.abs(out.jacobian - jacobian).max() <= 1e-3
         assert np.abs(out.det_j - expected.det_j).max() <= 1e-3
         cosine = np.clip((out.normals * expected.normals).sum(axis=1), -1.0, 1.0)
-        assert np.degrees(np.arccos(cosine)).max() <= 0.1
+        assert np.degrees(np.arccos(cosine)).max() <= 0.2
         assert (out.vertex_folds == expected.vertex_folds).all()
         assert (out.face_folds == expected.face_folds).all()
 

@@ -6,9 +6,12 @@ translation (:meth:`glmls.HandleSet.near_targets`) and adds it back in float64; 
 that, float32 over the whole span would keep ~1e-2 px of f.
 
 Tolerances: the near map's own against the float64 reference (~1e-5 px in f, ~5e-7 in M;
-at the worst of 2000 points, next to a handle with idw alpha = 2, up to 7e-5 px and 3e-5 in
-M over random handle sets), with room: f within 1e-4 px, M within 5e-5, T within 1e-2
-(T = f - v M, v up to 200 px: M's error times 200);
+at the worst of 2000 points over 40 random sets of 16 handles: similarity and rigid up to
+7e-5 px and 1e-5 in M, next to a handle with idw alpha = 2; affine up to 2.7e-4 px and
+8.3e-5 in M, where a point has two handles in reach or lies 40 px past the others, A's small
+eigenvalue a few 1e-3 of its trace magnifying float32's rounding), with room: f within
+1e-4 px, M within 5e-5 (affine: 5e-4 px and 2e-4), T within 1e-2 (affine: 4e-2; T = f - v M,
+v up to 200 px: M's error times 200);
 the inverse within 1e-3 px of the near map's and its round trip within 1e-3 px (as
 documented for :class:`glmls.InverseMLS`); images over the far canvas bit-equal to the near
 map's where t is the GPU's translation, coordinate maps within 2e-3 px otherwise."""
@@ -47,10 +50,20 @@ def test_the_unbounded_weights_are_those_of_the_registry():
     }
 
 
+#: (f px, M, T px) of the near map against the reference, per transform.
+NEAR_TOLERANCE = {
+    "rigid": (1e-4, 5e-5, 1e-2),
+    "similarity": (1e-4, 5e-5, 1e-2),
+    "affine": (5e-4, 2e-4, 4e-2),
+}
+
+
+@pytest.mark.parametrize("seed", [0, 22, 35])
 @pytest.mark.parametrize("transform", ["rigid", "similarity", "affine"])
 @pytest.mark.parametrize(("weight", "settings"), UNBOUNDED)
-def test_far_targets_give_f_and_matrices_of_the_reference(gl, transform, weight, settings):
-    src, dst, v = _handles()
+def test_far_targets_give_f_and_matrices_of_the_reference(gl, transform, weight, settings, seed):
+    src, dst, v = _handles(seed)
+    f_tol, m_tol, t_tol = NEAR_TOLERANCE[transform]
     options = {"transform": transform, "weight": weight, **settings}
     for target in (dst, dst + FAR):  # the near map's tolerance holds for the far one too
         f_ref, m_ref, t_ref = reference.mls(src, target, v, **options)
@@ -58,10 +71,10 @@ def test_far_targets_give_f_and_matrices_of_the_reference(gl, transform, weight,
             f = m(v)
             big_m, t = m.matrices(v)
             residuals = m.residuals(v, f_ref)
-        assert np.abs(f - f_ref).max() <= 1e-4
-        assert np.abs(big_m - m_ref).max() <= 5e-5
-        assert np.abs(t - t_ref).max() <= 1e-2
-        assert residuals.max() <= 1e-4
+        assert np.abs(f - f_ref).max() <= f_tol
+        assert np.abs(big_m - m_ref).max() <= m_tol
+        assert np.abs(t - t_ref).max() <= t_tol
+        assert residuals.max() <= f_tol
 
 
 @pytest.mark.parametrize("transform", ["rigid", "similarity", "affine"])
