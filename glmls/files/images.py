@@ -37,7 +37,7 @@ from ..core.config import check_integer
 from ..errors import ImageWarning
 from .atomic import atomic_write
 from .netpbm import is_ppm16, ppm16
-from .parsing import as_path
+from .parsing import as_path, read_head
 from .profiles import profile_problem, with_png_profile
 from .tiffs import TIFF_SIGNATURES, orient, quiet_tifffile
 
@@ -168,15 +168,11 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     """
     max_pixels = _check_max_pixels(max_pixels)
     path = as_path(path)
-    try:
-        with open(path, "rb") as file:
-            head = file.read(32)
-    except IsADirectoryError:
-        raise ValueError(f"{path}: a folder, not an image file") from None
+    head = read_head(path, 32)
     try:
         if head.startswith(_PNG) and len(head) >= 26 and head[24] == 16:
             return _read_png16(path, head, max_pixels)
-        if head[:2] in (b"P3", b"P6") and (header := is_ppm16(_head(path, 4096))):
+        if head[:2] in (b"P3", b"P6") and (header := is_ppm16(read_head(path, 4096))):
             return _read_ppm16(path, header, max_pixels)
         if head[:4] in TIFF_SIGNATURES:
             return _read_tiff(path, max_pixels)
@@ -201,11 +197,6 @@ def _read_png16(path: Path, head: bytes, max_pixels: int) -> np.ndarray:
     if frames > 1:  # libpng decodes the default image: an APNG's first frame
         warnings.warn(f"{path}: {frames} frames; reading the first", ImageWarning, stacklevel=4)
     return orient(array, orientation)
-
-
-def _head(path: Path, size: int) -> bytes:
-    with open(path, "rb") as file:
-        return file.read(size)
 
 
 def _read_ppm16(path: Path, header: tuple[int, int, int, int], max_pixels: int) -> np.ndarray:

@@ -33,6 +33,7 @@ __all__ = [
     "load_json",
     "not_a_file",
     "number",
+    "read_head",
     "read_text",
     "table",
 ]
@@ -143,6 +144,17 @@ def not_a_file(path: Path) -> str:
     if path.exists():
         return "not a regular file (a device, a pipe or a socket)"
     return "no such file"
+
+
+def read_head(path: Path, size: int) -> bytes:
+    """The first ``size`` bytes of the image file ``path`` (fewer where it is shorter), which
+    say its format; ``ValueError`` naming a folder, whose ``open`` error would name no image
+    (missing and unreadable files raise ``open``'s own errors, which name the path)."""
+    try:
+        with open(path, "rb") as file:
+            return file.read(size)
+    except IsADirectoryError:
+        raise ValueError(f"{path}: a folder, not an image file") from None
 
 
 def read_text(path: Path) -> str:

@@ -18,7 +18,7 @@ from pathlib import Path
 import tifffile
 from PIL import Image
 
-from .parsing import as_path
+from .parsing import as_path, read_head
 from .tiffs import TIFF_SIGNATURES, quiet_tifffile
 
 __all__ = ["HOLD_PROFILES", "profile_problem", "read_icc_profile", "with_png_profile"]
@@ -65,11 +65,7 @@ def read_icc_profile(path: str | os.PathLike) -> bytes | None:
     True
     """
     path = as_path(path)
-    try:
-        with open(path, "rb") as file:
-            head = file.read(4)
-    except IsADirectoryError:
-        raise ValueError(f"{path}: a folder, not an image file") from None
+    head = read_head(path, 4)
     try:
         if head in TIFF_SIGNATURES:
             with quiet_tifffile(), tifffile.TiffFile(path) as tiff:
