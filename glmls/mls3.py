@@ -45,8 +45,18 @@ __all__ = ["MLS3", "InverseMLS3"]
 
 #: Points a side of the lattice whose images give the inverse its last starts.
 LATTICE_SIDE = 24
+#: Points a side of the lattice of one point outside the handles' box.
+LOCAL_LATTICE_SIDE = 12
+#: Points outside the handles' box restarted together (their lattices' images in memory).
+LOCAL_LATTICE_CHUNK = 2048
 #: The lattice points (those with images nearest u) Newton starts from again.
 LATTICE_STARTS = 4
+
+
+def _lattice(lo: np.ndarray, hi: np.ndarray, side: int) -> np.ndarray:
+    """(side**3, 3) points evenly spaced over the box from ``lo`` to ``hi``."""
+    axes = [np.linspace(lo[k], hi[k], side) for k in range(3)]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
 
 
 def _two_d_only(what: str) -> ValueError:
@@ -271,7 +281,7 @@ class MLS3(MLS):
     def kernel(self) -> MLSKernel3:  # type: ignore[override]
         """The handles on the GPU and the shaders' defines and uniforms (for GL passes).
 
-        ``#include "mls3/core.glsl"``: :meth:`MLSKernel3.program`, :meth:`MLSKernel3.bind`.
+        ``#include "mls3/core.glsl"``: ``MLSKernel3.program``, ``MLSKernel3.bind``.
         """
         return self._here(self._kernel)  # type: ignore[return-value]
 
@@ -776,28 +786,62 @@ class InverseMLS3(InverseMLS):
         lattice whose images lie nearest u (next to a fold the swapped MLS and u itself can
         both lie in the basin of no preimage): the best ends and their residuals.
 
-        The lattice spans u and the first attempt's ends, widened by the handles' largest
-        move (a preimage lies about that far from u), LATTICE_SIDE points a side."""
-        from scipy.spatial import cKDTree
-
+        A point's lattice depends on that point and f alone, never on the other points of
+        the call, so that its answer does not either: for u within the handles' box (sources
+        and targets, widened by the handles' largest move, about as far as a preimage lies
+        from u) the lattice of that box, LATTICE_SIDE points a side; for u outside it, its
+        own lattice spanning u and its first attempt's end, widened likewise,
+        LOCAL_LATTICE_SIDE points a side."""
         m = self._forward
         reach = float(np.linalg.norm(m.dst - m.src, axis=1).max(initial=0.0)) + 1.0
-        known = np.concatenate([u, s[np.isfinite(s).all(axis=1)]])
-        lo, hi = known.min(axis=0) - reach, known.max(axis=0) + reach
-        axes = [np.linspace(lo[k], hi[k], LATTICE_SIDE) for k in range(3)]
-        lattice = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-        images, _ = evaluate_points3(m.kernel, lattice)  # type: ignore[arg-type]
-        kept = np.isfinite(images).all(axis=1)
-        lattice, images = lattice[kept], images[kept]
-        starts = min(LATTICE_STARTS, len(lattice))
-        if starts == 0:
-            return s, np.full(len(u), np.inf)
-        _, nearest = cKDTree(images).query(u, k=starts)
-        nearest = nearest.reshape(len(u), starts)
+        handles = np.concatenate([m.src, m.dst])
+        lo, hi = handles.min(axis=0) - reach, handles.max(axis=0) + reach
+        inside = ((u >= lo) & (u <= hi)).all(axis=1)
+        ends, residuals = s.copy(), np.full(len(u), np.inf)
+        if inside.any():
+            rows = np.flatnonzero(inside)
+            lattice = _lattice(lo, hi, LATTICE_SIDE)
+            ends[rows], residuals[rows] = self._restart(u[rows], lattice[None])
+        outside = np.flatnonzero(~inside)
+        for first_row in range(0, len(outside), LOCAL_LATTICE_CHUNK):
+            rows = outside[first_row : first_row + LOCAL_LATTICE_CHUNK]
+            # each row's own box: u and its first end, where finite
+            first = np.where(np.isfinite(s[rows]).all(axis=1)[:, None], s[rows], u[rows])
+            low = np.minimum(u[rows], first) - reach
+            high = np.maximum(u[rows], first) + reach
+            lattices = np.stack(
+                [_lattice(a, b, LOCAL_LATTICE_SIDE) for a, b in zip(low, high, strict=True)]
+            )
+            ends[rows], residuals[rows] = self._restart(u[rows], lattices)
+        return ends, residuals
+
+    def _restart(self, u: np.ndarray, lattices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Newton from the LATTICE_STARTS points whose images lie nearest each u of its
+        lattice (``lattices`` (1, P, 3), one for all, or (len(u), P, 3), one each): the best
+        end of each u and its residual (inf where its lattice has no finite image)."""
+        m = self._forward
+        images, _ = evaluate_points3(m.kernel, lattices.reshape(-1, 3))  # type: ignore[arg-type]
+        images = images.reshape(lattices.shape)
+        starts = min(LATTICE_STARTS, lattices.shape[1])
+        # the squared distances of each u's lattice images to u, NaN images never nearest
+        far = ((images - u[:, None]) ** 2).sum(axis=2) if len(lattices) > 1 else None
+        if far is None:
+            from scipy.spatial import cKDTree
+
+            kept = np.flatnonzero(np.isfinite(images[0]).all(axis=1))
+            if len(kept) == 0:
+                return np.full((len(u), 3), np.nan), np.full(len(u), np.inf)
+            starts = min(starts, len(kept))
+            _, nearest = cKDTree(images[0, kept]).query(u, k=starts)
+            chosen = lattices[0, kept[nearest.reshape(len(u), starts)]]
+        else:
+            far = np.where(np.isfinite(far), far, np.inf)
+            nearest = np.argsort(far, axis=1, kind="stable")[:, :starts]
+            chosen = np.take_along_axis(lattices, nearest[..., None], axis=1)
         ends, residuals = invert_points3(
             m.kernel,  # type: ignore[arg-type]
             np.repeat(u, starts, axis=0),
-            lattice[nearest.reshape(-1)],
+            chosen.reshape(-1, 3),
         )
         residuals = residuals.reshape(len(u), starts)
         best = np.argmin(np.where(np.isfinite(residuals), residuals, np.inf), axis=1)
