@@ -75,7 +75,7 @@ class MLS(ForkSafe):
         the same handle; with a weight that grows at least like 1 / d at d = 0 (idw with
         s = 0 and alpha >= 1/2, shepard, a weight made interpolating with alpha >= 1/2),
         f maps every point of a source segment onto its target segment
-        (:func:`glmls.core.segments.segments_interpolate`).
+        (``glmls.core.segments.segments_interpolate``).
     transform : {"rigid", "similarity", "affine"}, default "rigid"
         The transform fitted at each point (:data:`glmls.TRANSFORMS`).
     weight : str, default "idw"
@@ -103,10 +103,10 @@ class MLS(ForkSafe):
     storage : {"auto", "ssbo", "ubo", "texture"}, default "auto"
         Where the handles live on the GPU: ``auto`` takes ``ubo`` where they fit, else
         ``texture`` for handles in spatial bins and ``ssbo`` for the others
-        (:mod:`glmls.engine.storage`).
+        (``glmls.engine.storage``).
     bins : bool or None, default None
         Sort the handles into a spatial grid so that each point visits only those in reach
-        (radius weights, :mod:`glmls.engine.bins`): None where it pays, True always, False
+        (radius weights, ``glmls.engine.bins``): None where it pays, True always, False
         never.
 
     Raises
@@ -667,7 +667,7 @@ class MLS(ForkSafe):
         -------
         (vertices, deformed) or AdaptiveMesh
             Each (rows, columns, 2) float64; with ``tolerance`` an
-            :class:`~glmls.imaging.adaptive.AdaptiveMesh` (vertices, f at them, triangles,
+            ``AdaptiveMesh`` (vertices, f at them, triangles,
             leaves).
 
         Raises
@@ -798,7 +798,7 @@ class MLS(ForkSafe):
             mirrored about it (``a b c | b a``), ``"wrap"`` the image repeated. The backward
             methods sample by that rule; the forward methods extend the mesh past the image
             as far as the canvas needs (derived from f, see
-            :func:`glmls.imaging.frame.border_margin`), so no canvas pixel keeps the
+            ``glmls.imaging.frame.border_margin``), so no canvas pixel keeps the
             background.
         output_shape : (int, int) or None, default None
             (H, W) of the output canvas (None: the input's). What f moves off the canvas is
@@ -1042,19 +1042,19 @@ class InverseMLS:
     ``backward`` method solves each output pixel: a first guess from the rasterized inverse
     of the deformed mesh of the MLS's image (its ``shape``; without one, the smallest image
     from pixel (0, 0) that holds the source handles, its mesh coarser than ``grid`` where it
-    would have more than :data:`glmls.imaging.pipeline.GUESS_MESH_POINTS` points), extended
+    would have more than ``glmls.imaging.pipeline.GUESS_MESH_POINTS`` points), extended
     past the image until its deformed border encloses the points
-    (:func:`glmls.imaging.frame.border_margin`, within that many mesh points) and drawn over
+    (``glmls.imaging.frame.border_margin``, within that many mesh points) and drawn over
     a canvas that holds them, then Newton's method on f, stopping below 1e-4 px. f is the MLS's
     own, as ``m(points)`` evaluates it, so ``m(inv(u))`` is u within about 1e-3 px (float32
     on the GPU). A pixel here is the handles' unit, or less where the box of the handles
     (and of the MLS's ``shape``) is smaller than 32 units
-    (:func:`glmls.imaging.inverse.length_unit`), so that handles in metres get the inverse
+    (``glmls.imaging.inverse.length_unit``), so that handles in metres get the inverse
     that the same handles in millimetres do.
 
     Which points have a preimage: u has one where Newton ends with |f(s) - u| <= 0.05 px
     (or 4 float32 steps of the coordinates where that is more, far from the image and the
-    handles: :func:`glmls.imaging.inverse.accept_residual`), for s anywhere in the plane
+    handles: ``glmls.imaging.inverse.accept_residual``), for s anywhere in the plane
     (not only inside the image: ``skimage.transform.warp`` then samples outside the image by
     its ``mode``, as glmls's ``border`` does). Elsewhere the
     row is NaN: where f leaves u uncovered (e.g. where a compact-support weight's reach
@@ -1223,7 +1223,7 @@ class InverseMLS:
         MLS's ``shape`` at :attr:`grid`, or the least step within :data:`GUESS_MESH_LIMIT`
         points; without one, the smallest image (pixel (0, 0) at the
         origin) that holds the source handles, at least 1 x 1, at :attr:`grid` or the step
-        that keeps its mesh within :data:`~glmls.imaging.pipeline.GUESS_MESH_POINTS` points
+        that keeps its mesh within ``GUESS_MESH_POINTS`` points
         (handles far from the origin span an image of up to 1e12 pixels)."""
         m = self._forward
         if m.shape is not None:
@@ -1323,7 +1323,7 @@ def warp(image: object, src: object, dst: object, **options: object) -> np.ndarr
     keeps its cached textures for the next call); keep an :class:`MLS` to warp many images
     with the same handles. The default radius is the image diagonal. In a process forked from
     one in which glmls used GL (a data loader's worker), it runs in a helper process started
-    fresh, with the same result (see :mod:`glmls.gl.context`).
+    fresh, with the same result (see ``glmls.gl.context``).
 
     With (N, 3) handles it deforms a volume: ``MLS(src, dst, shape=volume.shape[:3],
     spacing=spacing, ...).warp(volume, **options)`` (:meth:`glmls.mls3.MLS3.warp`).

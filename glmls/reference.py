@@ -22,7 +22,7 @@ Degenerate cases follow the same rules as the shader (``glmls/shaders/mls/core.g
 Segment handles (the segments of a :class:`glmls.HandleSet`) add the integrals of the same
 moments along each segment, per unit length, computed by an accurate quadrature
 (:func:`segment_moments`). A point on a segment whose weight's integral is infinite there
-(:func:`glmls.core.segments.segments_interpolate`) maps to the segment's target at the same
+(``glmls.core.segments.segments_interpolate``) maps to the segment's target at the same
 parameter, and M is the limit, about that point (the segment adds only its second moment);
 with a weight that grows more slowly than 1 / d the integral is finite and f continuous
 across the segment.
@@ -225,7 +225,7 @@ def _on_segment(config: MLSConfig, geometry: dict[str, np.ndarray]) -> np.ndarra
     """(K, S): whether a point is on a segment handle (maps to its target): within
     :data:`ON_SEGMENT` or :data:`ON_SEGMENT_RESOLUTION` of it, after the pole of the
     weight; never where the weight's integral along the segment is finite on it
-    (:func:`glmls.core.segments.segments_interpolate`)."""
+    (``glmls.core.segments.segments_interpolate``)."""
     dist2 = geometry["dist2"]
     if not segments_interpolate(config):
         return np.zeros(dist2.shape, dtype=bool)
@@ -299,7 +299,7 @@ def segment_moments(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The weight's moments along each segment handle, and the point handles' weights.
 
-    Quadrature: :func:`glmls.core.segments.sinh_nodes` over the part of the segment where the
+    Quadrature: ``glmls.core.segments.sinh_nodes`` over the part of the segment where the
     weight is not 0.
 
     Parameters
@@ -706,9 +706,9 @@ def plain_affine(
     The plain solve: a handle in reach, the sources in reach not coincident, and every
     eigenvalue of A = sum w p^T p^ at least :data:`DEGENERATE_SHARE` of its trace (no
     ridge). With every target on one plane of normal n
-    (:func:`glmls.core.mesh3.coplanar`), B n = 0 there, so M n = 0: f maps the point into
+    (``glmls.core.mesh3.coplanar``), B n = 0 there, so M n = 0: f maps the point into
     that plane, and a Jacobian by differences of such points is singular
-    (:func:`glmls.core.mesh3.deform_mesh`'s ``flat``).
+    (``glmls.core.mesh3.deform_mesh``'s ``flat``).
 
     Parameters
     ----------

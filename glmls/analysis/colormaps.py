@@ -154,7 +154,7 @@ def colormap(cmap: object = "viridis") -> np.ndarray:
 
 
 def check_percentile(name: str, value: object) -> float:
-    """A percentile option as a float: a real number (:func:`~glmls.core.config.check_real`)
+    """A percentile option as a float: a real number (``check_real``)
     in (0, 100]; ``TypeError`` naming ``name`` for another type, ``ValueError`` else."""
     return check_real(name, value, low=0, high=100, low_open=True)
 
@@ -204,7 +204,7 @@ def color_limits(
         For a percentile out of (0, 100], or limits that are not finite or with vmin > vmax.
     TypeError
         For a ``vmin``, ``vmax`` or ``percentile`` that is no real number
-        (:func:`glmls.core.config.check_real`: a bool, a string, a complex), named; for
+        (``glmls.core.config.check_real``: a bool, a string, a complex), named; for
         ``values`` that are not real numbers or bools (complex, strings, objects, None).
 
     Examples

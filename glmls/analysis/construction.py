@@ -362,7 +362,7 @@ def construction_errors(
     radius : int, optional
         The window's half-size in output pixels (>= 0).
     alignment : {"jacobian", "matrix"}, optional
-        ``"jacobian"`` J = Df(r), by central differences of ``m`` (:data:`STEP`);
+        ``"jacobian"`` J = Df(r), by central differences of ``m`` (``STEP``);
         ``"matrix"`` J = the MLS's own M(r) (``m.matrices``), the paper's l_r. M(r) is not
         the derivative of f: on an ordinary edit they differ by 0.05-0.35, which misaligns
         the window's corners by up to a pixel and counts the deformation as a construction
@@ -377,7 +377,7 @@ def construction_errors(
         must have the input's shape.
     snap : float, optional
         A preimage this close (pixels, per axis, in [0, 0.5)) to a pixel centre is taken as
-        that centre (:data:`SNAP`).
+        that centre (``SNAP``).
 
     Returns
     -------

@@ -95,8 +95,8 @@ def rank_constructions(
     reference_points : array_like
         The points r, (N, 2).
     methods : sequence, optional
-        Constructions as :func:`parse_construction` reads them (``"method"``,
-        ``"method:interpolation"`` or a pair); default :func:`default_constructions` (a
+        Constructions as ``parse_construction`` reads them (``"method"``,
+        ``"method:interpolation"`` or a pair); default ``default_constructions`` (a
         ``paper-quads`` default that ``m.warp`` refuses is left out; anything else refused
         raises).
     radius : int, optional

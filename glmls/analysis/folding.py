@@ -76,7 +76,7 @@ def foldovers(m: HasMesh, shape: object, *, grid: int = 1) -> Foldovers:
     """The cells of an image's mesh that fold over under ``m``'s f.
 
     A cell folds where either of its two drawn triangles has zero or negative signed area
-    after deformation (:func:`folded_cells`). Where cells fold, the deformed image shows the first
+    after deformation (``folded_cells``). Where cells fold, the deformed image shows the first
     of the overlapping cells in scan order (smaller source row, then column; see
     :meth:`glmls.MLS.warp`).
 

@@ -66,7 +66,7 @@ KUHN = tuple(
 class CellJacobians:
     """The Jacobian of a deformation per cell of a volume's lattice, and its folds.
 
-    Made by :func:`cell_jacobians` (see :mod:`glmls.analysis.jacobians` for the
+    Made by :func:`cell_jacobians` (see ``glmls.analysis.jacobians`` for the
     definitions); the arrays are read-only, the per-cell ones (cz, cy, cx) in the order
     (z, y, x) of the cells.
 
@@ -279,13 +279,13 @@ def cell_jacobians(
     """det J, the singular value ratio of J and the folds of ``m`` per cell of a volume.
 
     f is evaluated at the cell corners every ``grid`` voxels (``m(points)``, in blocks) and
-    differentiated per cell (:mod:`glmls.analysis.jacobians`). A cell folds where det J <= 0
+    differentiated per cell (``glmls.analysis.jacobians``). A cell folds where det J <= 0
     at its centre or on any of its six Kuhn tetrahedra, as the 2D fold-overs test both
     triangles of a cell; a det J within rounding of 0 (f flattens the cell, J singular to
     f's precision: float64, or float32 on the GPU) is 0, a fold, with the ratio NaN. f is
     that of the volume's warp: a radius weight given no radius takes the diagonal of this
     volume in the handles' units (``volume_deformation`` of
-    :mod:`glmls.analysis.volume_field`).
+    ``glmls.analysis.volume_field``).
 
     Parameters
     ----------

@@ -92,7 +92,7 @@ def run_jobs(
     worker processes started with ``spawn`` (a GL driver does not survive ``fork()``), each
     making its own GL context; a ``scheduler``: a Dask cluster (the optional ``distributed``
     extra). ``function``, the items and the results must be picklable (a module-level
-    function) outside this process. See :mod:`glmls.analysis.jobs`.
+    function) outside this process. See ``glmls.analysis.jobs``.
 
     Parameters
     ----------

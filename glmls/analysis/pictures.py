@@ -475,7 +475,7 @@ def render_construction_errors(
         For a radius that is not positive, a bad origin, image, colour map or limits.
     TypeError
         Also for a ``radius``, ``vmin``, ``vmax`` or ``percentile`` that is no real number
-        (:func:`glmls.core.config.check_real`).
+        (``glmls.core.config.check_real``).
 
     Examples
     --------

@@ -78,7 +78,7 @@ class SavedReport:
         Parameters
         ----------
         **options
-            :func:`json.dumps`'s keywords (default ``indent=2``).
+            ``json.dumps``'s keywords (default ``indent=2``).
 
         Returns
         -------

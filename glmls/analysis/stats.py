@@ -31,7 +31,7 @@ def error_stats(values: object) -> dict[str, float | int | list[float] | None]:
     dict
         JSON-ready: ``count`` (the values used), ``nan_count``, ``mean`` (eq. 8), ``std``
         (eq. 9, the population standard deviation), ``median``, ``trimmed_mean`` (the mean of
-        the values left after cutting :data:`TRIM` = 10 % from each end, as
+        the values left after cutting ``TRIM`` = 10 % from each end, as
         ``scipy.stats.trim_mean``), ``min``, ``max``, ``within`` (the shares of values with
         |x - mean| <= 1, 2 and 3 std, in that order, up to float64 rounding: both of
         two values lie at exactly 1 std). With no values left, the statistics

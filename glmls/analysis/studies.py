@@ -206,7 +206,7 @@ class StudyResult:
         Returns
         -------
         numpy.ndarray
-            (H, W, 3) uint8 (:func:`render_heatmap`).
+            (H, W, 3) uint8 (``render_heatmap``).
 
         Examples
         --------
@@ -294,7 +294,7 @@ def study(
     Does one configuration win everywhere? The paper's "further studies": :func:`tune`,
     with the same configurations, trials and seed, runs on each item, one item per job
     (:func:`run_jobs`); the result compares each image's winner and the agreement of the
-    rankings (Kendall's tau and W; see :mod:`glmls.analysis.studies`).
+    rankings (Kendall's tau and W; see ``glmls.analysis.studies``).
 
     Parameters
     ----------
@@ -302,7 +302,7 @@ def study(
         The images, with distinct names (e.g. :func:`glmls.data.study_set`).
     configs : sequence of MLSConfig or str, optional
         Configurations, or specs such as ``"rigid:*"``
-        (:func:`~glmls.analysis.tuning.parse_config`, parsed for each image's shape: a spec
+        (``parse_config``, parsed for each image's shape: a spec
         without a radius sizes it by the image diagonal); None for the default search space.
     trials : int, optional
         The tune's trials per configuration (None: the tune's default).

@@ -65,7 +65,7 @@ EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
 class TetrahedronErrors:
     """Per-tetrahedron errors of a 3D deformation over tetrahedra of reference points.
 
-    Made by :func:`tetrahedron_errors` (definitions in :mod:`glmls.analysis.tetrahedra`);
+    Made by :func:`tetrahedron_errors` (definitions in ``glmls.analysis.tetrahedra``);
     the arrays are read-only.
 
     Attributes
@@ -226,7 +226,7 @@ def delaunay3(points: object) -> tuple[np.ndarray, np.ndarray]:
     ------
     ValueError
         For fewer than 4 points, NaN, duplicates, points all on one plane or beyond
-        :data:`~glmls.core.handles.COORDINATE_LIMIT` (before Qhull, which may crash on them).
+        ``COORDINATE_LIMIT`` (before Qhull, which may crash on them).
 
     Examples
     --------
@@ -368,7 +368,7 @@ def tetrahedron_errors(
         The radius ratio 3 r / R in [0, 1) below which a tetrahedron is a sliver (zero
         volume ones always are); 0.1 by default.
     angle : {"degrees", "paper"}, optional
-        The angular measure (see :mod:`glmls.analysis.tetrahedra`).
+        The angular measure (see ``glmls.analysis.tetrahedra``).
     eps : float, optional
         Eq. (11)'s epsilon (> 0).
 
@@ -381,7 +381,7 @@ def tetrahedron_errors(
     ------
     ValueError
         For fewer than 4 points, NaN, duplicates, points all on one plane or beyond
-        :data:`~glmls.core.handles.COORDINATE_LIMIT`; bad ``tetrahedra``; every tetrahedron
+        ``COORDINATE_LIMIT``; bad ``tetrahedra``; every tetrahedron
         a sliver; an unknown ``angle``; ``eps`` <= 0; ``min_quality`` out of [0, 1); ``m``
         returning the wrong shape or values that are not finite.
     TypeError

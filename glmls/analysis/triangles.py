@@ -281,7 +281,7 @@ def triangle_errors(
     angle : {"degrees", "paper"}, optional
         ``"degrees"``: the mean absolute change of the corner angles in degrees, 0 for any
         similarity; ``"paper"``: eq. (11) as printed, whose denominator |cos a| + eps makes
-        right angles blow up (see :mod:`glmls.analysis.triangles`).
+        right angles blow up (see ``glmls.analysis.triangles``).
     eps : float, optional
         Eq. (11)'s epsilon (finite, > 0).
 

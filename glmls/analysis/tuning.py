@@ -5,12 +5,12 @@ the user's own edit, user-like edits of it (1 to 3 handles dragged by several ma
 others pinned) and known smooth deformations. A configuration must first have the properties
 the paper asks of MLS (section 2); those that do not are **set apart**, with the reason:
 
-- interpolation: every handle within :data:`MISS_LIMIT` (0.5 px) of its target in every
+- interpolation: every handle within ``MISS_LIMIT`` (0.5 px) of its target in every
   trial;
 - no fold-overs: no reference, mesh or fan triangle turned over or crushed to zero area in
   any trial.
 
-The rest are ranked by several criteria at once (:data:`CRITERIA`): in each trial every
+The rest are ranked by several criteria at once (``CRITERIA``): in each trial every
 criterion ranks the configurations (1 = best, ties share the mean rank), and a configuration's
 ``score`` is the weighted mean of its ranks over the criteria and trials. The angular error of
 the reference triangles is the main criterion (weight 0.4), as the paper recommends; the
@@ -132,7 +132,7 @@ def search_space(
 
 def parse_config(spec: str, shape: Sequence[int]) -> list[MLSConfig]:
     """``transform:weight[:name=value,...]``; ``*`` for all transforms or weights; without
-    parameters, the default grid of :func:`search_space`. E.g. ``rigid:idw:alpha=2``,
+    parameters, the default grid of ``search_space``. E.g. ``rigid:idw:alpha=2``,
     ``*:gaussian:radius=300``, ``affine:*``."""
     parts = spec.split(":")
     if len(parts) not in (2, 3):
@@ -259,13 +259,13 @@ class TuneResult:
         Parameters
         ----------
         row : dict
-            One of :attr:`rows`.
+            One of ``rows``.
 
         Returns
         -------
         tuple
             Its group (admissible, and whether it misses its targets), its value of
-            :attr:`rank_by` and its score.
+            ``rank_by`` and its score.
 
         Examples
         --------
@@ -450,9 +450,9 @@ def tune(
     """Choose the configuration automatically (the paper's section 6): rank configurations.
 
     Every configuration meets the same seeded trials: the user's edit, user-like edits of
-    it and known smooth deformations (:mod:`glmls.analysis.tuning`). Those that miss their
-    targets (by more than :data:`MISS_LIMIT`) or fold over are set apart; the rest are
-    ranked by the weighted mean of their ranks over the criteria (:data:`CRITERIA`: the
+    it and known smooth deformations (``glmls.analysis.tuning``). Those that miss their
+    targets (by more than ``MISS_LIMIT``) or fold over are set apart; the rest are
+    ranked by the weighted mean of their ranks over the criteria (``CRITERIA``: the
     angular error of the reference triangles, eq. 11, first) and the trials.
 
     Parameters
@@ -470,7 +470,7 @@ def tune(
     seed : int, optional
         The seed of the edits.
     configs : sequence of MLSConfig, optional
-        The configurations compared (default :func:`search_space`); one given twice is
+        The configurations compared (default ``search_space``); one given twice is
         compared once.
     grid : int, optional
         The error field's mesh step in pixels.
@@ -479,7 +479,7 @@ def tune(
     angle : {"degrees", "paper"}, optional
         The angular measure of :func:`triangle_errors`.
     rank_by : str, optional
-        ``"rank"`` (the weighted rank) or one of :data:`CRITERIA` alone.
+        ``"rank"`` (the weighted rank) or one of ``CRITERIA`` alone.
     jobs : int, optional
         Worker processes sharing the configurations (:func:`run_jobs`).
     scheduler : str, optional

@@ -115,12 +115,12 @@ def render_volume_slices(
 ) -> np.ndarray:
     """Three orthogonal slices and the maximum-intensity projection of a volume, in one picture.
 
-    Layout in :mod:`glmls.analysis.volume_pictures`. A grey volume is drawn from ``vmin``
+    Layout in ``glmls.analysis.volume_pictures``. A grey volume is drawn from ``vmin``
     (black) to ``vmax`` (white) (where they are equal, as for a constant volume, from 0 to
     that value: a constant positive volume is white), an RGB volume as it is,
     and with ``cmap`` a field (an error) through that colour map, its limits from the whole
     volume. Of a float volume, infinite voxels take the ends of the scale, NaN voxels
-    :data:`NAN_VOXEL_COLOR` (a field's the colour map's NaN colour), and the limits and
+    ``NAN_VOXEL_COLOR`` (a field's the colour map's NaN colour), and the limits and
     projection are those of the other voxels.
 
     Parameters

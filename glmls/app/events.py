@@ -58,9 +58,9 @@ class Press:
         The point, in image pixels (x, y) = (column, row) (montage pixels in the volume
         window).
     button : {"left", "right", "middle"}, default "left"
-        The button (:data:`BUTTONS`); a controller refuses another with a ``ValueError``.
+        The button (``BUTTONS``); a controller refuses another with a ``ValueError``.
     mods : frozenset of str, default none
-        The modifier keys held down: any of "shift", "ctrl" and "alt" (:data:`MODIFIERS`).
+        The modifier keys held down: any of "shift", "ctrl" and "alt" (``MODIFIERS``).
 
     See Also
     --------
@@ -266,7 +266,7 @@ def read_events(path: str | os.PathLike) -> list:
     ----------
     path : str or os.PathLike
         A JSON file of ``{"events": [...]}`` or the bare list, each entry an event in the
-        format of :mod:`glmls.app.events` (:doc:`/window` has it in full).
+        format of ``glmls.app.events`` (:doc:`/window` has it in full).
 
     Returns
     -------
@@ -422,7 +422,7 @@ class Recorder:
         self.events: list[Event] = []
 
     def record(self, event: Event) -> None:
-        """Add ``event`` to :attr:`events`.
+        """Add ``event`` to ``events``.
 
         Parameters
         ----------
@@ -441,7 +441,7 @@ class Recorder:
         self.events.append(event)
 
     def save(self, path: str | os.PathLike) -> None:
-        """Write :attr:`events` as a replay file (:func:`write_events`).
+        """Write ``events`` as a replay file (:func:`write_events`).
 
         Parameters
         ----------

@@ -212,8 +212,8 @@ class Settings:
     def stepped(self, shape: tuple[int, int], up: bool) -> Settings:
         """The weight's parameter one step up or down (``+`` and ``-``).
 
-        idw's alpha steps by :data:`ALPHA_STEP` within :data:`ALPHA_RANGE`, another weight's
-        radius is multiplied or divided by :data:`RADIUS_FACTOR` (1 px to 100 image
+        idw's alpha steps by ``ALPHA_STEP`` within ``ALPHA_RANGE``, another weight's
+        radius is multiplied or divided by ``RADIUS_FACTOR`` (1 px to 100 image
         diagonals); a value given beyond those bounds is never stepped the wrong way.
 
         Parameters
@@ -249,7 +249,7 @@ class Settings:
         return replace(self, config=replace(config, alpha=alpha))
 
     def next_construction(self) -> Settings:
-        """The next of :data:`CONSTRUCTIONS` (the first if the current one is none of them).
+        """The next of ``CONSTRUCTIONS`` (the first if the current one is none of them).
 
         Returns
         -------
@@ -274,7 +274,7 @@ class Settings:
         return replace(self, method=method, interpolation=interpolation)
 
     def next_tolerance(self) -> Settings:
-        """The next of :data:`TOLERANCES` (the first if the current one is none of them).
+        """The next of ``TOLERANCES`` (the first if the current one is none of them).
 
         Returns
         -------
@@ -296,7 +296,7 @@ class Settings:
         return replace(self, tolerance=TOLERANCES[(index + 1) % len(TOLERANCES)])
 
     def next_grid(self, step: int) -> Settings:
-        """The grid ``step`` places along :data:`GRIDS` (``g`` and ``G``).
+        """The grid ``step`` places along ``GRIDS`` (``g`` and ``G``).
 
         It stops at the ends; from a grid between them (``--grid 3``) the first step is to
         the next one that way, and past the coarsest (``--grid 64``) ``G`` keeps it.

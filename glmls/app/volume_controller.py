@@ -1,7 +1,7 @@
 """The volume window's interaction logic, free of any window: events in, state and commands out.
 
 The window shows three orthogonal slices through the *slice point* of a D x H x W volume,
-laid out on one canvas, the *montage* (:class:`SliceGrid`): the axial slice (constant z; x
+laid out on one canvas, the *montage* (``SliceGrid``): the axial slice (constant z; x
 to the right, y down) at the top left, the sagittal slice (constant x; z to the right, y
 down) at its right, the coronal slice (constant y; x to the right, z down) under it. Events
 carry montage pixels, as the 2D window's carry image pixels, so that the window's layout,
@@ -277,7 +277,7 @@ class VolumeController(Controls):
 
     It holds the 3D point handles, the slice point, the active view, the overlay and the
     :class:`VolumeSettings` of the volume window, and :meth:`feed` changes them; events
-    carry montage pixels (:class:`~glmls.app.volume_controller.SliceGrid`). What only a
+    carry montage pixels (``SliceGrid``). What only a
     window can do (save or load files, quit) comes back as commands.
 
     ``revision`` grows whenever the handles or the settings change, ``point_revision`` when
@@ -297,7 +297,7 @@ class VolumeController(Controls):
         (D, H, W) of the volume.
     spacing : (float, float, float), optional
         The voxel size (dz, dy, dx); default 1 (handle units are voxels). The views are
-        drawn with the physical aspect (:class:`SliceGrid`).
+        drawn with the physical aspect (``SliceGrid``).
     settings : VolumeSettings, optional
         The MLS configuration and the construction.
     near : float, default 3
@@ -437,7 +437,7 @@ class VolumeController(Controls):
         return len(self._undo)
 
     def near_plane(self, view: int) -> np.ndarray:
-        """Indices of the handles within :attr:`near` voxels of ``view``'s plane.
+        """Indices of the handles within ``near`` voxels of ``view``'s plane.
 
         A handle is near when its source or its target is.
 

@@ -40,7 +40,7 @@ class VolumeApp(WindowLoop):
     Parameters
     ----------
     volume : numpy.ndarray or glmls.Volume
-        (D, H, W) or (D, H, W, C); shown grey (:func:`~glmls.app.volume_session.display_volume`).
+        (D, H, W) or (D, H, W, C); shown grey (``display_volume``).
         A :class:`~glmls.Volume` brings its spacing and affine.
     src, dst : array_like
         The handles (N, 3) (x, y, z) in handle units: voxel (i, j, k) sits at

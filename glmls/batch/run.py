@@ -52,7 +52,7 @@ def warp_batch(
     maps each image's own, as the single path finds them). The other cases take the single
     pipeline image by image (:doc:`/batch`).
     In a process forked from one in which glmls used GL (a data loader's worker), it runs in
-    a helper process started fresh, with the same result (see :mod:`glmls.gl.context`).
+    a helper process started fresh, with the same result (see ``glmls.gl.context``).
 
     Parameters
     ----------

@@ -212,11 +212,11 @@ class MLSConfig:
         The MLS transform of Schaefer et al. (2006): affine (eq. 5), similarity (eq. 6) or
         rigid (the similarity's rotation, normalised).
     weight : {"idw", "cressman", "shepard", "gaussian", "linear"}
-        A name of :data:`glmls.core.weights.REGISTRY`: ``idw`` 1 / (s + d^(2 alpha));
+        A name of ``glmls.core.weights.REGISTRY``: ``idw`` 1 / (s + d^(2 alpha));
         ``cressman`` max(0, (R² - d²) / (R² + d²)); ``shepard`` max(0, (R - d) / (R d));
         ``gaussian`` exp(-d² / R²); ``linear`` max(0, R - d).
     alpha : float
-        The idw power (> 0 and <= :data:`MAX_ALPHA`, 10), also used by ``interpolating``.
+        The idw power (> 0 and <= ``MAX_ALPHA``, 10), also used by ``interpolating``.
     s : float
         idw's adjusting term (>= 0), in pixel units (squared when alpha = 1).
     radius : float or None
@@ -290,7 +290,7 @@ class MLSConfig:
 
     @property
     def weight_entry(self) -> Weight:
-        """The weight's entry in :data:`glmls.core.weights.REGISTRY`.
+        """The weight's entry in ``glmls.core.weights.REGISTRY``.
 
         Examples
         --------

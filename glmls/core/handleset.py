@@ -183,7 +183,7 @@ class HandleSet:
         """The GPU's scaling of these handles with an image of ``shape``.
 
         Coordinates go to the GPU as float32 ``(x - center) / scale`` about the box of the
-        handles and the image (:class:`~glmls.core.handles.Scaling`); two source points
+        handles and the image (``Scaling``); two source points
         that float32 merges there must not have different targets.
 
         Parameters
@@ -200,9 +200,9 @@ class HandleSet:
         ------
         ValueError
             For two source points float32 cannot tell apart at that scale, with different
-            targets (:func:`~glmls.core.handles.check_gpu_distinct`), or source handles that
+            targets (``check_gpu_distinct``), or source handles that
             spread over less than 1e-12 of the scale
-            (:func:`~glmls.core.handles.check_gpu_spread`).
+            (``check_gpu_spread``).
 
         Examples
         --------
@@ -228,7 +228,7 @@ class HandleSet:
 
         The targets (segment ends too) less a whole-pixel translation t ((2,) float64): the
         handles the GPU holds, whose f - t float32 keeps to the precision of the sources' box
-        where the targets lie far from them (:func:`~glmls.core.handles.fit_offset`). MLS
+        where the targets lie far from them (``fit_offset``). MLS
         moves with its targets wherever every weight is positive, so f = (f - t) + t; a
         weight of bounded reach (``bounded``), whose f is the identity beyond the handles,
         gets t = 0.

@@ -5,7 +5,7 @@ the deformed normals and the folds.
 
 A map folds a vertex where its Jacobian J = df/dv has det J <= 0 (f turns the volume inside
 out there, or flattens it), det J counting as 0 where J is singular to its rounding
-(:func:`flat_to_zero`: a map that flattens the mesh leaves det J at that rounding, of either
+(``flat_to_zero``: a map that flattens the mesh leaves det J at that rounding, of either
 sign, and folds every vertex rather than a random half of them). A face is folded when one
 of its vertices is, or when its orientation flips: its deformed normal points against its
 original normal carried by f (n C, C the sum of its vertices' cofactor matrices cof(J) =
@@ -48,9 +48,9 @@ __all__ = [
 
 #: J counts as singular (det J = 0, a fold) where det J is within this many of the roundings
 #: of J's entries times the norm of J's cofactor matrix: J's smallest singular value within
-#: them of 0 (:func:`flat_to_zero`).
+#: them of 0 (``flat_to_zero``).
 FLAT_ROUNDINGS = 4.0
-#: Targets are on one plane (:func:`coplanar`) where the smallest singular value of the
+#: Targets are on one plane (``coplanar``) where the smallest singular value of the
 #: centred targets is within this many float64 roundings of their size (eps64 x the
 #: Frobenius norm of the targets as given: each coordinate is rounded at its own size, so a
 #: far offset rounds more). Targets put on a plane by float64 arithmetic (projected onto
@@ -80,14 +80,14 @@ class DeformedMesh:
     det_j : numpy.ndarray
         (V,) float64 det J: the local change of volume; 0 where J is singular to its
         rounding (f flattens the mesh there: float32's from the GPU, float64's in the
-        reference :func:`deform_mesh`; :func:`flat_to_zero`), and where f maps J's probes
-        into one plane (an affine map onto :func:`coplanar` targets, its solve the plain
+        reference ``deform_mesh``; ``flat_to_zero``), and where f maps J's probes
+        into one plane (an affine map onto ``coplanar`` targets, its solve the plain
         A^-1 B at each of them), which folds.
     vertex_folds : numpy.ndarray
         (V,) bool: det J <= 0.
     face_folds : numpy.ndarray
         (F,) bool: a vertex of the face folds, or the face's orientation flips (see
-        :mod:`glmls.core.mesh3`).
+        ``glmls.core.mesh3``).
     colors : numpy.ndarray or None
         (V, 3) or (V, 4) uint8 RGB(A) vertex colours, the input mesh's own (a
         :class:`glmls.Mesh`'s ``colors``, a ``trimesh.Trimesh``'s vertex colours): a
@@ -550,14 +550,14 @@ def deform_mesh(
     (:func:`mesh_colors`), ``uv`` and ``face_uv`` its texture coordinates (:func:`mesh_uv`),
     carried as they are; ``own_normals`` where ``normals`` are given.
 
-    det J is 0 where J is singular to float64's rounding (:func:`flat_to_zero`, the GPU's
+    det J is 0 where J is singular to float64's rounding (``flat_to_zero``, the GPU's
     rule in float64 terms), which folds: ``step`` (a number or (V,), handle units) where
     ``jacobian`` is float64 central differences of f over that step, whose rounding is then
     :func:`difference_rounding`'s; None for a J good to float64's rounding of its own
     entries (eps64 x its largest |J_rc|). The normals are 0 where det J is.
 
     ``flat``: (V,) bool, the vertices where f is known to map J's probes into one plane (an
-    affine MLS onto :func:`coplanar` targets, whose solve is the plain A^-1 B at each of
+    affine MLS onto ``coplanar`` targets, whose solve is the plain A^-1 B at each of
     them: :func:`glmls.reference.plain_affine`), or None: det J is 0 there, however far
     its rounding leaves it from 0.
 

@@ -125,7 +125,7 @@ def study_manifest() -> Path:
     Returns
     -------
     pathlib.Path
-        ``study.json`` among the package's data (its format: :mod:`glmls.data.manifest`).
+        ``study.json`` among the package's data (its format: ``glmls.data.manifest``).
 
     See Also
     --------

@@ -131,7 +131,7 @@ def read_manifest(path: str | os.PathLike) -> list[StudyItem]:
     """The items of a study manifest, checked.
 
     A manifest is a JSON file ``{"items": [{"name": ..., "image": ..., "handles": ...,
-    "reference": ...}, ...]}`` (see :mod:`glmls.data.manifest`); paths are relative to its
+    "reference": ...}, ...]}`` (see ``glmls.data.manifest``); paths are relative to its
     folder. Only each image's header is read.
 
     Parameters

@@ -423,7 +423,7 @@ def _suffixes(dtype: object, channels: int) -> str:
 def imwrite(path: str | os.PathLike, image: object, *, icc_profile: bytes | None = None) -> None:
     """Write an image to a file whose suffix names its format.
 
-    uint8 to any format of :data:`WRITABLE`, uint16 to PNG or TIFF, float32 and float64 to
+    uint8 to any format of ``WRITABLE``, uint16 to PNG or TIFF, float32 and float64 to
     TIFF; 2 or 4 channels (with alpha) to PNG or TIFF, and 4 to WebP, which holds colour
     images only (3 or 4 channels). PNG, TIFF and BMP are lossless;
     JPEG and WebP are lossy, at Pillow's default quality (75 and 80).

@@ -14,7 +14,7 @@ split into triangles (a fan from their first vertex, in the face's place among t
 OBJ and PLY alike); a face of fewer than three is refused. What else a file holds (an OBJ's
 normals where a vertex has several (hard edges), STL's facet normals, face colours,
 materials, other properties) is not kept:
-:func:`read_mesh_and_unkept` names it. A point cloud is a mesh of no faces: PLY and OBJ hold
+``read_mesh_and_unkept`` names it. A point cloud is a mesh of no faces: PLY and OBJ hold
 one (STL holds triangles only, and refuses it).
 
 Written, by the suffix: PLY (binary) and STL (binary) hold float32 coordinates, as those
@@ -24,7 +24,7 @@ OBJ hold the vertex colours exactly (PLY as uchar ``red``, ``green``, ``blue`` a
 texture coordinates exactly (``vt u v``, ``f v/vt``); PLY holds one per vertex (float32
 ``s``, ``t``), and so none of a mesh with seams (a vertex of several); STL holds none. PLY
 holds the vertex normals as float32 ``nx``, ``ny``, ``nz``, OBJ exactly (``vn x y z``, one
-per vertex, ``f v//vn``); STL holds none (:func:`unwritten` names what a format drops).
+per vertex, ``f v//vn``); STL holds none (``unwritten`` names what a format drops).
 Every fault of a file is an :class:`~glmls.errors.InputFileError` naming it.
 
 The numbers of a text file (OBJ, ASCII PLY, ASCII STL) are decimal numbers of ASCII digits
@@ -226,7 +226,7 @@ def read_mesh(path: str | os.PathLike) -> Mesh:
         STL (its facet normals are the faces') and for an OBJ whose normals are not one per
         vertex (a hard edge: a vertex with different ones in its faces). Not kept: such
         normals, a 3D texture's ``w``, face colours, materials (``mtllib``, ``usemtl``),
-        groups and other PLY properties and elements; :func:`read_mesh_and_unkept` names
+        groups and other PLY properties and elements; ``read_mesh_and_unkept`` names
         those a file has.
 
     Raises
@@ -459,7 +459,7 @@ def write_mesh(
         float64's shortest repr, ``f a/ta b/tb c/tc``); PLY holds one per vertex, as float32
         ``s`` and ``t`` (a vertex of no face gets 0, 0), and so none of a mesh with seams (a
         vertex with different coordinates in its faces), which is written without them;
-        STL holds none. :func:`unwritten` names what a file drops.
+        STL holds none. ``unwritten`` names what a file drops.
     normals : array_like, optional
         The vertex normals (V, 3), as :class:`Mesh` takes them; default ``mesh.normals``
         where it has them: a :class:`Mesh`'s, and a :class:`~glmls.DeformedMesh`'s where

@@ -1,6 +1,6 @@
 """The output canvas and the border modes' reach past the image.
 
-- :class:`Frame`: which part of the deformed plane the output shows: ``shape`` (H, W) output
+- ``Frame``: which part of the deformed plane the output shows: ``shape`` (H, W) output
   pixels, output pixel (column i, row j) showing the point ``origin`` + (i, j). The default
   frame is the source image's own (origin (0, 0), the input's shape).
 - :class:`Bounds` (:func:`deformed_bounds`): the bounding box of the deformed image and the
@@ -136,7 +136,7 @@ def check_origin(origin: object) -> tuple[float, float] | None:
 
 def real_values(name: str, values: list, shown: str, kind: str, within: str) -> tuple[float, ...]:
     """``values``, the entries of the tuple option ``name`` (``shown`` as the messages show
-    it), as floats within the coordinate range (:func:`~glmls.core.config.check_real`):
+    it), as floats within the coordinate range (``check_real``):
     ``TypeError`` saying ``name`` must be ``kind``, and the entry's type, for one that is no
     real number; ``ValueError`` saying it must be ``within`` for one not finite or beyond."""
     limit = COORDINATE_LIMIT
@@ -156,7 +156,7 @@ def real_values(name: str, values: list, shown: str, kind: str, within: str) -> 
 def make_frame(
     output_shape: object, origin: object, image_shape: tuple[int, int], max_size: int
 ) -> Frame:
-    """The :class:`Frame` of ``output_shape`` (H, W; None: ``image_shape``) and ``origin``
+    """The ``Frame`` of ``output_shape`` (H, W; None: ``image_shape``) and ``origin``
     (x0, y0; None: (0, 0)); ``ValueError`` naming a bad value (:func:`check_output_shape`,
     :func:`check_origin`), or a side beyond ``max_size`` (the GL limit)."""
     shape = check_output_shape(output_shape) or image_shape
@@ -170,7 +170,7 @@ def make_frame(
 
 
 def covering_frame(points: np.ndarray) -> Frame:
-    """The :class:`Frame` of whole pixels whose pixel centres' box holds ``points``
+    """The ``Frame`` of whole pixels whose pixel centres' box holds ``points``
     (non-empty (K, 2) float64 pixels): origin the box's floor, one pixel past its ceiling."""
     low, high = point_bounds(points)
     origin = np.floor(low)
@@ -200,7 +200,7 @@ class Bounds:
     Raises
     ------
     TypeError
-        For a value that is not a real number (:func:`~glmls.core.config.check_real`).
+        For a value that is not a real number (``check_real``).
     ValueError
         For a value that is not finite, or an inverted box (``x1 < x0`` or ``y1 < y0``; an
         empty box, ``x1 == x0``, is a single point); from :attr:`output_shape` and
@@ -251,7 +251,7 @@ class Bounds:
         """(H, W) of the pixels the box touches, at least 1 x 1.
 
         ``ValueError`` where no warp can take that canvas: a side or its origin beyond the
-        coordinate range (:data:`~glmls.core.handles.COORDINATE_LIMIT`, the limit of an
+        coordinate range (``COORDINATE_LIMIT``, the limit of an
         image's sides and of ``origin``; a device's GL limit on a side is far below it).
 
         Examples
@@ -276,7 +276,7 @@ class Bounds:
 
     @property
     def frame(self) -> Frame:
-        """The canvas of :attr:`output_shape` and :attr:`origin` as a :class:`Frame`.
+        """The canvas of :attr:`output_shape` and :attr:`origin` as a ``Frame``.
 
         Examples
         --------

@@ -37,7 +37,7 @@ class Default:
 
 
 def default(value: _T) -> _T:
-    """``value`` as a keyword's :class:`Default` (typed as the value, for annotations)."""
+    """``value`` as a keyword's ``Default`` (typed as the value, for annotations)."""
     return cast(_T, Default(value))
 
 
@@ -46,7 +46,7 @@ class WarpOptions:
     """What image a warp builds: the keywords of :meth:`glmls.MLS.warp` as one value.
 
     Validated when made; frozen (hashable, picklable), so one value can travel through a
-    program and be changed with :func:`dataclasses.replace`.
+    program and be changed with ``dataclasses.replace``.
 
     Parameters
     ----------
@@ -125,14 +125,14 @@ class WarpOptions:
     def of(cls, options: WarpOptions | None = None, **keywords: object) -> WarpOptions:
         """``options`` (None: the defaults) with the caller's ``keywords`` replacing fields.
 
-        A keyword left at its :class:`Default` keeps the field.
+        A keyword left at its ``Default`` keeps the field.
 
         Parameters
         ----------
         options : WarpOptions or None
             The starting value.
         **keywords
-            Fields of :class:`WarpOptions`, each a value or a :class:`Default`.
+            Fields of :class:`WarpOptions`, each a value or a ``Default``.
 
         Returns
         -------

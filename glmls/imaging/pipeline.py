@@ -195,8 +195,8 @@ class WarpPipeline:
         Parameters
         ----------
         image : SourceImage
-            An image prepared by :func:`~glmls.imaging.source.prepare_image` (the form of
-            its texture: :func:`~glmls.imaging.source.texture_form`).
+            An image prepared by ``prepare_image`` (the form of
+            its texture: ``texture_form``).
         role : str
             The texture's name; the next upload of that role replaces it.
 
@@ -220,7 +220,7 @@ class WarpPipeline:
         """Set ``framebuffer``'s colour to ``color``, as before :meth:`render`.
 
         An RGBA8 or RGBA32F texture's texels are copied from a buffer of the colour
-        (:meth:`~glmls.gl.resources.Resources.fill`, several times a GL clear's speed on
+        (``fill``, several times a GL clear's speed on
         llvmpipe), any other attachment is cleared by GL.
 
         Parameters
@@ -272,7 +272,7 @@ class WarpPipeline:
             Row 0 at the bottom, as a window's.
         frame : Frame or None
             The output canvas (default: from ``options``, else the source's size and place,
-            see :func:`~glmls.imaging.frame.make_frame`).
+            see ``make_frame``).
         **keywords
             Fields of :class:`~glmls.WarpOptions` replacing those of ``options``.
 
@@ -355,7 +355,7 @@ class WarpPipeline:
 
     def _lattice(self, kernel, shape, grid, border, frame, *, forward=True) -> MeshLattice:
         """The corner lattice of the quads: with a border mode, extended past the image as
-        far as ``frame`` needs (:func:`~glmls.imaging.frame.border_margin`)."""
+        far as ``frame`` needs (``border_margin``)."""
         lattice = MeshLattice.corners(shape, grid)
         if border == 0:
             return lattice
@@ -422,9 +422,9 @@ class WarpPipeline:
 
         The first guess is the rasterized inverse of the mesh of an image of ``shape`` (step
         ``grid``), extended past the image until its deformed border encloses the points
-        (:func:`~glmls.imaging.frame.border_margin`, within :data:`GUESS_MESH_POINTS`),
+        (``border_margin``, within ``GUESS_MESH_POINTS``),
         drawn over a canvas that holds the points
-        (:func:`~glmls.imaging.inverse.guess_size` texels). f is the deformation's own, as
+        (``guess_size`` texels). f is the deformation's own, as
         its ``__call__`` evaluates it.
 
         Parameters
@@ -444,7 +444,7 @@ class WarpPipeline:
             (K, 2) float64, Newton's last iterate (whether or not it converged).
         residual : numpy.ndarray
             (K,) float64 |f(s) - u| in pixels, as the GPU computed it: s is f's inverse at u
-            where it is at most :data:`~glmls.imaging.inverse.NEWTON_ACCEPT`.
+            where it is at most ``NEWTON_ACCEPT``.
         """
         self._resources.check_alive()
         kernel = mls.kernel

@@ -91,7 +91,7 @@ class VolumeOptions:
     """What volume a 3D warp builds: the keywords of :func:`glmls.volume.warp_volume`.
 
     Validated when made; frozen, so one value can be changed with
-    :func:`dataclasses.replace`.
+    ``dataclasses.replace``.
 
     Parameters
     ----------
