@@ -331,3 +331,22 @@ def assert_batch_equals_single_path(monkeypatch, got, images, src, dst, masks, p
             a, b = getattr(got, field)[k], getattr(one, field)[0]
             np.testing.assert_array_equal(a, b, err_msg=f"image {k}: {field}")
     assert calls == [0] * len(images)
+
+
+def tilted_plane(rng, size, count=10):
+    """``count`` random handles in a box of side 64 size, their targets projected onto a
+    random plane through (30, 30, 30) size, and its unit normal."""
+    src = rng.uniform(0, 64, (count, 3)) * size
+    normal = rng.normal(size=3)
+    normal /= np.linalg.norm(normal)
+    return src, src - np.outer(src @ normal - 30.0 * size, normal), normal
+
+
+def probes_plain_affine(src, dst, vertices, h, **options):
+    """Where the float64 solve is affine's plain A^-1 B at each of J's six central-difference
+    probes (vertices +- h along each axis)."""
+    plain = np.ones(len(vertices), bool)
+    for e in np.eye(3):
+        for sign in (1.0, -1.0):
+            plain &= reference.plain_affine(src, dst, vertices + sign * h * e, **options)
+    return plain

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import probes_plain_affine, tilted_plane
 
 from glmls import reference
 from glmls.core import mesh3
@@ -116,15 +117,6 @@ def test_central_differences_take_the_rounding_of_their_step(rng):
     assert np.array_equal(rounding, EPS64 * reach / h)
 
 
-def _tilted_plane(rng, size, count=10):
-    """``count`` random handles in a box of side 64 size, their targets projected onto a
-    random plane through (30, 30, 30) size, and its unit normal."""
-    src = rng.uniform(0, 64, (count, 3)) * size
-    normal = rng.normal(size=3)
-    normal /= np.linalg.norm(normal)
-    return src, src - np.outer(src @ normal - 30.0 * size, normal), normal
-
-
 @pytest.mark.parametrize("size", [1.0, 100.0, 1e4])
 def test_coplanar_targets_to_float64s_rounding(rng, size):
     """Targets projected onto a random plane, or a plane's points turned and moved far off
@@ -132,7 +124,7 @@ def test_coplanar_targets_to_float64s_rounding(rng, size):
     their spread is not; three targets always are."""
     for _ in range(200):
         count = int(rng.integers(4, 200))
-        src, dst, _ = _tilted_plane(rng, size, count)
+        src, dst, _ = tilted_plane(rng, size, count)
         turn, _ = np.linalg.qr(rng.normal(size=(3, 3)))
         plane = np.c_[rng.uniform(0, 64, (count, 2)) * size, np.zeros(count)]
         moved = plane @ turn + rng.normal(0, 1e3 * size, 3)
@@ -143,15 +135,6 @@ def test_coplanar_targets_to_float64s_rounding(rng, size):
             off[rng.integers(count)] += share * spread * turn[2]
             assert not mesh3.coplanar(off)
         assert mesh3.coplanar(src[:3])
-
-
-def _probes_plain(src, dst, vertices, h, **options):
-    """Where the float64 solve is affine's plain A^-1 B at each of J's six probes."""
-    plain = np.ones(len(vertices), bool)
-    for e in np.eye(3):
-        for sign in (1.0, -1.0):
-            plain &= reference.plain_affine(src, dst, vertices + sign * h * e, **options)
-    return plain
 
 
 def _differences(src, dst, vertices, h, **options):
@@ -176,9 +159,9 @@ def test_the_reference_folds_an_affine_map_onto_a_tilted_plane_everywhere(rng, s
     h = 1e-3 * size
     missed = 0
     for _ in range(4):
-        src, dst, _ = _tilted_plane(rng, size)
+        src, dst, _ = tilted_plane(rng, size)
         f, jacobian = _differences(src, dst, vertices, h, transform="affine")
-        flat = _probes_plain(src, dst, vertices, h, transform="affine")
+        flat = probes_plain_affine(src, dst, vertices, h, transform="affine")
         assert mesh3.coplanar(dst) and flat.all()
         out = mesh3.deform_mesh(vertices, faces, None, f, jacobian, flat=flat)
         assert (out.det_j == 0).all() and out.vertex_folds.all() and out.face_folds.all()
@@ -193,7 +176,7 @@ def test_the_plain_affine_solve_alone_is_flat(rng, size):
     (cressman) leaves the identity out of every handle's reach (J = I, det J = 1); targets
     off the plane by 1e-3 of their spread are not coplanar, and their map keeps det J
     clear of 0 at most vertices."""
-    src, dst, normal = _tilted_plane(rng, size)
+    src, dst, normal = tilted_plane(rng, size)
     vertices = rng.uniform(-40, 96, (400, 3)) * size
     for transform in ("similarity", "rigid"):
         assert not reference.plain_affine(src, dst, vertices, transform=transform).any()
@@ -209,7 +192,7 @@ def test_the_plain_affine_solve_alone_is_flat(rng, size):
     assert not mesh3.coplanar(off)
     h = 1e-3 * size
     f, jacobian = _differences(src, off, vertices, h, transform="affine")
-    flat = mesh3.coplanar(off) & _probes_plain(src, off, vertices, h, transform="affine")
+    flat = mesh3.coplanar(off) & probes_plain_affine(src, off, vertices, h, transform="affine")
     out = mesh3.deform_mesh(
         vertices, np.zeros((0, 3), np.int64), None, f, jacobian, step=h, flat=flat
     )

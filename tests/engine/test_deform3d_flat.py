@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import probes_plain_affine, tilted_plane
 
 import glmls
 from glmls import reference
@@ -107,7 +108,7 @@ def _reference(src, dst, vertices, faces, size, options):
     ]
     jacobian = np.stack(columns, axis=1) / (2 * h)
     raw = mesh3.determinant(jacobian, mesh3.cofactor(jacobian))
-    flat = mesh3.coplanar(dst) & _probes_plain(src, dst, vertices, h, **options)
+    flat = mesh3.coplanar(dst) & probes_plain_affine(src, dst, vertices, h, **options)
     return mesh3.deform_mesh(vertices, faces, None, f, jacobian, step=h, flat=flat), raw
 
 
@@ -141,24 +142,6 @@ def test_the_reference_agrees_with_the_gpu(gl, rng, size):
             assert not out.face_folds.any() and not ref.face_folds.any(), name
 
 
-def _tilted_plane(rng, size, count=10):
-    """``count`` random handles in a box of side 64 size and their targets projected onto a
-    random plane through (30, 30, 30) size; the plane's unit normal."""
-    src = rng.uniform(0, 64, (count, 3)) * size
-    normal = rng.normal(size=3)
-    normal /= np.linalg.norm(normal)
-    return src, src - np.outer(src @ normal - 30.0 * size, normal), normal
-
-
-def _probes_plain(src, dst, vertices, h, **options):
-    """Where the float64 affine solve is the plain A^-1 B at each of J's six probes."""
-    plain = np.ones(len(vertices), bool)
-    for e in np.eye(3):
-        for sign in (1.0, -1.0):
-            plain &= reference.plain_affine(src, dst, vertices + sign * h * e, **options)
-    return plain
-
-
 @pytest.mark.parametrize("size", [1.0, 100.0, 1e4])
 def test_an_affine_map_onto_a_tilted_plane_folds_every_vertex(gl, size):
     """Random planes turned off the axes, the sphere (with faces) and points in a box half as
@@ -168,7 +151,7 @@ def test_an_affine_map_onto_a_tilted_plane_folds_every_vertex(gl, size):
     rng = np.random.default_rng(7)
     sphere = glmls.data.sphere()
     for _ in range(6):
-        src, dst, _ = _tilted_plane(rng, size)
+        src, dst, _ = tilted_plane(rng, size)
         points = rng.uniform(-16, 80, (1500, 3)) * size
         with glmls.MLS(src, dst, transform="affine") as m:
             mesh = m.deform((sphere.vertices * size, sphere.faces))
@@ -189,7 +172,7 @@ def test_the_gpus_flat_vertices_are_the_references(gl, monkeypatch, size):
     rng = np.random.default_rng(11)
     reach = 30.0 * size
     options = {"transform": "affine", "weight": "cressman", "radius": reach}
-    src, dst, _ = _tilted_plane(rng, size, 20)
+    src, dst, _ = tilted_plane(rng, size, 20)
     near = src[rng.integers(0, len(src), 3000)] + rng.normal(0, 6.0 * size, (3000, 3))
     far = rng.uniform(-48, 112, (3000, 3)) * size
     points = np.concatenate([near, far])
@@ -206,7 +189,7 @@ def test_the_gpus_flat_vertices_are_the_references(gl, monkeypatch, size):
         steps = jacobian_steps(m.kernel, points)
         ((raw, jacobian),) = calls
         _, ruled = _plain_rule(m.kernel, points, jacobian, raw)
-    plain = _probes_plain(src, dst, points, steps[:, None], **options)
+    plain = probes_plain_affine(src, dst, points, steps[:, None], **options)
     distance = np.linalg.norm(points[:, None] - src[None], axis=2)
     edge = (np.abs(distance - reach) < 2 * steps[:, None]).any(axis=1)
     assert 0.05 < plain[~edge].mean() < 0.95
@@ -233,7 +216,7 @@ def test_the_rule_is_for_affine_maps_onto_coplanar_targets_alone(gl, rng, monkey
         return rule(det, jacobian, rounding)
 
     monkeypatch.setattr(deform3, "flat_to_zero", spy)
-    src, dst, normal = _tilted_plane(rng, size)
+    src, dst, normal = tilted_plane(rng, size)
     off = dst.copy()
     off[3] += 1e-3 * np.linalg.norm(dst - dst.mean(axis=0), axis=1).max() * normal
     for targets, transform in ((dst, "similarity"), (dst, "rigid"), (off, "affine")):
