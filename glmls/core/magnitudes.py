@@ -4,13 +4,13 @@ multiplied by it back (:func:`scaled_up`).
 
 An array whose largest finite magnitude lies within [2**-64, 2**64] reaches the GPU as it is;
 one beyond (1e30, float32's largest 3.4e38, a float64 array's 1e300; 1e-30, subnormals, 1e-300)
-is divided by the multiple of 64 of a power of two nearest to 0 that brings it within
-(:func:`value_exponent`). The GPU's blends, sums and weights then run far from float32's overflow
-and from the subnormals that GPUs flush to zero, and a float64 array beyond float32's range is
-held at all. Warping with nearest or linear sampling is linear in the values, so the result
-is the warp of the array itself: ``warp(2**k * a) == 2**k * warp(a)`` bit for bit. What float32
-cannot hold beside the largest values (those more than 2**190 below them after a division,
-2**254 without) becomes 0, as float32 always makes it.
+is divided by the power of two, of an exponent a multiple of 64, that brings it within
+(1, 2**64] (:func:`value_exponent`). The GPU's blends, sums and weights then run far from
+float32's overflow and from the subnormals that GPUs flush to zero, and a float64 array beyond
+float32's range is held at all. Warping with nearest or linear sampling is linear in the
+values, so the result is the warp of the array itself: ``warp(2**k * a) == 2**k * warp(a)``
+bit for bit. What float32 cannot hold beside the largest values (those more than 2**190 below
+them once divided) becomes 0, as float32 always makes it.
 """
 
 from __future__ import annotations
@@ -30,12 +30,13 @@ _FLOAT32_MAX = float(np.finfo(np.float32).max)
 def value_exponent(array: np.ndarray) -> int:
     """The power of two ``e`` that the float ``array`` is divided by on its way to the GPU: 0
     where its largest finite magnitude lies within [2**-64, 2**64] (or it holds no finite
-    value but 0, or it is no float array), else the multiple of 64 nearest to 0 that brings
-    that magnitude within [2**-64, 2**64].
+    value but 0, or it is no float array), else the multiple of 64 that brings that
+    magnitude within (1, 2**64].
 
-    Bringing the largest value just within, rather than to 1, keeps as many of the smallest
-    values beside it as float32 can hold; a multiple of 64 gives images of like magnitude one
-    exponent (a batch's chunk shares one).
+    Bringing the largest value up to 2**64 rather than to 1 keeps as many of the smallest
+    values beside it as float32 can hold (190 powers of two down to its smallest normal
+    value, 2**-126) and leaves 2**64 above it for the GPU's sums; a multiple of 64 gives
+    images of like magnitude one exponent (a batch's chunk shares one).
     """
     if array.dtype.kind != "f" or array.size == 0:
         return 0
@@ -48,14 +49,13 @@ def value_exponent(array: np.ndarray) -> int:
     if top == 0.0 or 2.0**-SCALE_STEP <= top <= 2.0**SCALE_STEP:
         return 0
     mantissa, exponent = math.frexp(top)  # 2**(exponent - 1) <= top < 2**exponent
-    if exponent > 0:  # the least multiple of 64 that takes top to 2**64 or below
-        ceiling = exponent - 1 if mantissa == 0.5 else exponent  # ceil(log2(top))
-        return SCALE_STEP * -(-(ceiling - SCALE_STEP) // SCALE_STEP)
-    return SCALE_STEP * ((exponent - 1 + SCALE_STEP) // SCALE_STEP)  # to 2**-64 or above
+    ceiling = exponent - 1 if mantissa == 0.5 else exponent  # ceil(log2(top))
+    # the multiple of 64 that takes top within (1, 2**64]
+    return SCALE_STEP * -(-(ceiling - SCALE_STEP) // SCALE_STEP)
 
 
 def scaled_down(array: np.ndarray, exponent: int) -> np.ndarray:
-    """``array`` divided by 2**``exponent`` (:func:`value_exponent`) in its dtype: exact but
+    """``array`` divided by ``2**exponent`` (:func:`value_exponent`) in its dtype: exact but
     for values its dtype then holds as subnormals or 0 (those float32 could not hold beside
     the largest ones either); ``array`` itself for an exponent of 0."""
     if exponent == 0:
@@ -65,8 +65,8 @@ def scaled_down(array: np.ndarray, exponent: int) -> np.ndarray:
 
 
 def scaled_up(out: np.ndarray, exponent: int) -> np.ndarray:
-    """``out``, float values of an array divided by 2**``exponent`` as the GPU gave them
-    back, multiplied by 2**``exponent`` in place: exact, but a finite value that float32's
+    """``out``, float values of an array divided by ``2**exponent`` as the GPU gave them
+    back, multiplied by ``2**exponent`` in place: exact, but a finite value that float32's
     rounding took past the largest of ``out``'s dtype (a blend of values next to it) is that
     largest value, not inf. Returns ``out``."""
     if exponent == 0:
@@ -87,7 +87,7 @@ def scaled_background(
     values: list[float], background: object, dtype: np.dtype, exponent: int
 ) -> list[float]:
     """The float ``values`` of ``background`` (NaN and ±inf kept) for an array of float
-    ``dtype`` divided by 2**``exponent`` (:func:`value_exponent`), as the GPU holds them:
+    ``dtype`` divided by ``2**exponent`` (:func:`value_exponent`), as the GPU holds them:
     ``ValueError`` naming ``background`` where a finite value is beyond ``dtype``'s range (the
     output cannot hold it), or where float32 cannot hold it beside the array's values: beyond
     its range (it would become inf) or, not 0, below it (it would become 0)."""
