@@ -54,14 +54,18 @@ def value_exponent(array: np.ndarray) -> int:
     return SCALE_STEP * -(-(ceiling - SCALE_STEP) // SCALE_STEP)
 
 
-def scaled_down(array: np.ndarray, exponent: int) -> np.ndarray:
-    """``array`` divided by ``2**exponent`` (:func:`value_exponent`) in its dtype: exact but
-    for values its dtype then holds as subnormals or 0 (those float32 could not hold beside
+def scaled_down(array: np.ndarray, exponent: int, dtype: object = None) -> np.ndarray:
+    """``array`` divided by ``2**exponent`` (:func:`value_exponent`), as a new C-contiguous
+    array of ``dtype`` (None: its own), without a copy of ``array``'s dtype on the way (a
+    float64 volume's float32 copy is all that is made): exact but for the rounding to
+    ``dtype`` and values it then holds as subnormals or 0 (those float32 could not hold beside
     the largest ones either); ``array`` itself for an exponent of 0."""
     if exponent == 0:
         return array
+    out = np.empty(array.shape, array.dtype if dtype is None else dtype)
     with np.errstate(under="ignore"):
-        return np.ldexp(array, -exponent)
+        np.ldexp(array, -exponent, out=out, casting="same_kind")
+    return out
 
 
 def scaled_up(out: np.ndarray, exponent: int) -> np.ndarray:

@@ -128,7 +128,7 @@ def prepare_image(image: object, max_size: int, *, normalized: bool = False) -> 
             np.ascontiguousarray(array.reshape(height, width, -1)), array.dtype, squeeze, True
         )
     exponent = value_exponent(array)
-    data = as_float32(scaled_down(array.reshape(height, width, -1), exponent))
+    data = as_float32(scaled_down(array.reshape(height, width, -1), exponent, np.float32))
     return SourceImage(data, array.dtype, squeeze, exponent=exponent)
 
 

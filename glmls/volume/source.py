@@ -144,7 +144,7 @@ def prepare_volume(volume: object) -> SourceVolume:
     data = array[..., None] if squeeze else array
     dtype = np.dtype(array.dtype)
     exponent = value_exponent(data)
-    data = scaled_down(data, exponent)
+    data = scaled_down(data, exponent, np.float32 if dtype.kind == "f" else None)
     if dtype == np.float64:
         return SourceVolume(as_float32(data, "volume"), dtype, squeeze, exponent)
     return SourceVolume(np.ascontiguousarray(data), dtype, squeeze, exponent)
