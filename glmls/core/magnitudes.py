@@ -4,13 +4,12 @@ multiplied by it back (:func:`scaled_up`).
 
 An array whose largest finite magnitude lies within [2**-64, 2**64] reaches the GPU as it is;
 one beyond (1e30, float32's largest 3.4e38, a float64 array's 1e300; 1e-30, subnormals, 1e-300)
-is divided by the power of two, of an exponent a multiple of 64, that brings it within
-(1, 2**64] (:func:`value_exponent`). The GPU's blends, sums and weights then run far from
-float32's overflow and from the subnormals that GPUs flush to zero, and a float64 array beyond
-float32's range is held at all. Warping with nearest or linear sampling is linear in the
-values, so the result is the warp of the array itself: ``warp(2**k * a) == 2**k * warp(a)``
-bit for bit. What float32 cannot hold beside the largest values (those more than 2**190 below
-them once divided) becomes 0, as float32 always makes it.
+is divided by the power of two that brings it within (2**63, 2**64] (:func:`value_exponent`).
+The GPU's blends then run far from float32's overflow and from the subnormals that GPUs flush
+to zero, and a float64 array beyond float32's range is held at all. Warping with nearest or
+linear sampling is linear in the values, so the result is the warp of the array itself:
+``warp(2**k * a) == 2**k * warp(a)`` bit for bit. What float32 cannot hold beside the largest
+values (those more than 2**189 below them once divided) becomes 0, as float32 always makes it.
 """
 
 from __future__ import annotations
@@ -19,24 +18,24 @@ import math
 
 import numpy as np
 
-__all__ = ["SCALE_STEP", "scaled_background", "scaled_down", "scaled_up", "value_exponent"]
+__all__ = ["SCALE_LIMIT", "scaled_background", "scaled_down", "scaled_up", "value_exponent"]
 
-#: Float values whose largest finite magnitude lies within [2**-SCALE_STEP, 2**SCALE_STEP]
-#: reach the GPU as they are; others are divided by 2**e, e a multiple of it.
-SCALE_STEP = 64
+#: Float values whose largest finite magnitude lies within [2**-SCALE_LIMIT, 2**SCALE_LIMIT]
+#: reach the GPU as they are; others are divided by the power of two that brings it within.
+SCALE_LIMIT = 64
 _FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 def value_exponent(array: np.ndarray) -> int:
     """The power of two ``e`` that the float ``array`` is divided by on its way to the GPU: 0
     where its largest finite magnitude lies within [2**-64, 2**64] (or it holds no finite
-    value but 0, or it is no float array), else the multiple of 64 that brings that
-    magnitude within (1, 2**64].
+    value but 0, or it is no float array), else the one that brings that magnitude within
+    (2**63, 2**64].
 
-    Bringing the largest value up to 2**64 rather than to 1 keeps as many of the smallest
-    values beside it as float32 can hold (190 powers of two down to its smallest normal
-    value, 2**-126) and leaves 2**64 above it for the GPU's sums; a multiple of 64 gives
-    images of like magnitude one exponent (a batch's chunk shares one).
+    Bringing the largest value to 2**64 rather than to 1 keeps as many of the smallest values
+    beside it as float32 can hold (189 powers of two down to its smallest normal value,
+    2**-126, whatever the magnitude) and leaves 2**64 above it, so that a blend of values
+    next to it does not round past float32's largest.
     """
     if array.dtype.kind != "f" or array.size == 0:
         return 0
@@ -46,12 +45,11 @@ def value_exponent(array: np.ndarray) -> int:
     else:
         finite = array[np.isfinite(array)]
         top = float(np.abs(finite).max()) if finite.size else 0.0
-    if top == 0.0 or 2.0**-SCALE_STEP <= top <= 2.0**SCALE_STEP:
+    if top == 0.0 or 2.0**-SCALE_LIMIT <= top <= 2.0**SCALE_LIMIT:
         return 0
     mantissa, exponent = math.frexp(top)  # 2**(exponent - 1) <= top < 2**exponent
     ceiling = exponent - 1 if mantissa == 0.5 else exponent  # ceil(log2(top))
-    # the multiple of 64 that takes top within (1, 2**64]
-    return SCALE_STEP * -(-(ceiling - SCALE_STEP) // SCALE_STEP)
+    return ceiling - SCALE_LIMIT  # top within (2**63, 2**64]
 
 
 def scaled_down(array: np.ndarray, exponent: int, dtype: object = None) -> np.ndarray:

@@ -20,37 +20,34 @@ F32_MAX = float(np.finfo(np.float32).max)
         (1.0, 0),
         (2.0**64, 0),
         (2.0**-64, 0),
-        (np.nextafter(2.0**64, math.inf), 64),
-        (1e30, 64),
+        (np.nextafter(2.0**64, math.inf), 1),
+        (1e30, 36),
         (F32_MAX, 64),
         (2.0**128, 64),
-        (np.nextafter(2.0**128, math.inf), 128),
-        (1e300, 960),
+        (np.nextafter(2.0**128, math.inf), 65),
+        (1e300, 933),
         (float(np.finfo(np.float64).max), 960),
         (np.nextafter(2.0**-64, 0.0), -128),
         (2.0**-128, -192),
-        (np.nextafter(2.0**-128, 0.0), -192),
-        (1e-30, -128),
-        (1e-300, -1024),
-        (5e-324, -1088),
+        (1e-30, -163),
+        (1e-300, -1060),
+        (5e-324, -1138),
     ],
 )
-def test_the_exponent_brings_the_largest_magnitude_up_to_2_to_the_64(top, exponent):
+def test_the_exponent_brings_the_largest_magnitude_to_2_to_the_64(top, exponent):
     array = np.array([[0.5 * top, -top], [top / 3, 0.0]])
     assert value_exponent(array) == exponent
-    assert exponent % 64 == 0
-    scaled = abs(math.ldexp(top, -exponent))
+    scaled = math.ldexp(top, -exponent)
     if exponent == 0:
-        assert top == 0.0 or 2.0**-64 <= scaled <= 2.0**64
-    else:  # within (1, 2**64], the most that stays there (the least division)
-        assert 1.0 < scaled <= 2.0**64
-        assert math.ldexp(top, 64 - exponent) > 2.0**64
+        assert top == 0.0 or 2.0**-64 <= top <= 2.0**64
+    else:  # the one power of two that takes it within (2**63, 2**64]
+        assert 2.0**63 < scaled <= 2.0**64
 
 
 def test_nan_and_infinities_do_not_count_and_other_dtypes_are_not_divided():
-    assert value_exponent(np.array([np.nan, -np.inf, 1e300, np.inf])) == 960
+    assert value_exponent(np.array([np.nan, -np.inf, 1e300, np.inf])) == 933
     assert value_exponent(np.array([np.nan, np.inf], np.float32)) == 0
-    assert value_exponent(np.array([1e-300, np.nan])) == -1024
+    assert value_exponent(np.array([1e-300, np.nan])) == -1060
     assert value_exponent(np.array([65535], np.uint16)) == 0
     assert value_exponent(np.zeros((0, 3))) == 0
 
