@@ -46,7 +46,6 @@ INTERPOLATIONS = ("nearest", "linear")
 #: image repeated. A mode's index is its ``WARP_BORDER`` code in the shaders.
 BORDERS = ("constant", "edge", "symmetric", "reflect", "wrap")
 DTYPES = (np.uint8, np.uint16, np.float32, np.float64)
-FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 @dataclass(frozen=True)
