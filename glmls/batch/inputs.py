@@ -10,6 +10,7 @@ import numpy as np
 
 from ..core.config import counted
 from ..core.handles import COORDINATE_LIMIT, same_source_sets, validate_handles
+from ..core.magnitudes import value_exponent
 from ..errors import DtypeError
 from ..imaging.source import DTYPES, native_order
 
@@ -47,14 +48,19 @@ class BatchInput:
         return len(self.images)
 
     def groups(self) -> list[list[int]]:
-        """The image indices by what one chunk shares: shape, dtype, and the masks' dtype
-        (one group where the images, and the masks, came as one array each)."""
+        """The image indices by what one chunk shares: shape, dtype, the masks' dtype and
+        the power of two a float image reaches the GPU divided by (one exponent restores the
+        chunk: :func:`~glmls.core.magnitudes.value_exponent`); one group where the images,
+        and the masks, came as one array each, of one exponent."""
+        exponents = [value_exponent(image) for image in self.images]  # 0 but for floats
         if self.array is not None and (self.masks is None or self.mask_array is not None):
-            return [list(range(len(self)))]
+            if len(set(exponents)) <= 1:
+                return [list(range(len(self)))]
         groups: dict[tuple, list[int]] = {}
         for i, image in enumerate(self.images):
             mask = None if self.masks is None else self.masks[i]
             key = (image.shape, image.dtype.str, None if mask is None else mask.dtype.str)
+            key += (exponents[i],)
             groups.setdefault(key, []).append(i)
         return list(groups.values())
 

@@ -448,6 +448,13 @@ def parse_background(text: str) -> float | tuple[float, ...]:
     if not 1 <= len(values) <= 4:
         raise argparse.ArgumentTypeError(f"expected 1 to 4 values, got {len(values)}")
     for part, value in zip(text.split(","), values, strict=True):
+        mantissa = part.strip().lower().split("e")[0]
+        spelled = any(digit in mantissa for digit in "123456789")  # a number, not 0
+        if (math.isinf(value) and spelled) or (value == 0.0 and spelled):
+            raise argparse.ArgumentTypeError(
+                f"{part.strip()} is outside float64's range (it would be {value:g}); write "
+                "inf or -inf for an infinite background"
+            )
         try:
             exact = int(part)
         except ValueError:

@@ -8,12 +8,15 @@ import math
 
 import numpy as np
 
+from ..core.magnitudes import value_exponent
+
 __all__ = ["WARPED_AS_IS", "check_file_background", "in_dtype", "warped_as"]
 
 #: The dtypes a volume is warped in as it is (``glmls warp``, the volume window's save);
 #: the others are warped as float32 (:func:`warped_as`; integers exact within +-2**24) and
 #: written back in their own dtype (:func:`in_dtype`). float64 is warped as float32 too: the
-#: GPU computes in float32 either way, and the float32 copy holds half the memory.
+#: GPU computes in float32 either way, and the float32 copy holds half the memory; but not
+#: one beyond float32's range, which the warp divides by a power of two on its way there.
 WARPED_AS_IS = ("uint8", "uint16", "float32")
 
 _FLOAT32_MAX = float(np.finfo(np.float32).max)
@@ -22,11 +25,15 @@ _EXACT = 1 << 24  # float32 holds every integer within +-2**24 exactly
 
 def warped_as(data: np.ndarray, name: object = "volume") -> np.ndarray:
     """``data`` (a real-valued volume) in the dtype it is warped in: itself where its dtype
-    is one of :data:`WARPED_AS_IS`, else a float32 copy; ``ValueError`` naming ``name`` where
-    that copy would change a value: a finite float beyond float32's range (it would become
-    inf), or an integer float32 does not hold (some beyond +-2**24, such as 2**24 + 1)."""
+    is one of :data:`WARPED_AS_IS` or where it is float64 of a magnitude the warp divides by
+    a power of two (:func:`~glmls.core.magnitudes.value_exponent`: 1e300, 1e-300), else a
+    float32 copy; ``ValueError`` naming ``name`` where that copy would change a value: a
+    finite float beyond float32's range (it would become inf), or an integer float32 does
+    not hold (some beyond +-2**24, such as 2**24 + 1)."""
     if data.dtype.name in WARPED_AS_IS:
         return data
+    if data.dtype == np.float64 and value_exponent(data) != 0:
+        return data  # the warp divides it by a power of two into float32's range, exactly
     if data.dtype.kind == "f":
         with np.errstate(over="ignore"):
             copy = data.astype(np.float32)
@@ -58,7 +65,8 @@ def check_file_background(background: float | tuple[float, ...], dtype: np.dtype
     outside an integer dtype's range or NaN there, an integer float32 would round (beyond
     +-2**24, such as 2**24 + 1: the warp would write another; the dtype's largest value is
     kept), outside 0..1 for bool, a
-    finite value beyond float32's range (or a float16's) for a float dtype."""
+    finite value beyond float32's range (or a float16's) for a float dtype but float64 (the
+    warp checks a float64 volume's beside its values)."""
     values = background if isinstance(background, tuple) else (background,)
     dtype = np.dtype(dtype)
     if dtype == np.bool_:
@@ -67,7 +75,9 @@ def check_file_background(background: float | tuple[float, ...], dtype: np.dtype
         info = np.iinfo(dtype)
         low, high = float(info.min), float(info.max)
     else:
-        top = min(float(np.finfo(dtype).max), _FLOAT32_MAX)
+        top = float(np.finfo(dtype).max)
+        if dtype != np.float64:  # float64 may be warped as it is (warped_as), the others not
+            top = min(top, _FLOAT32_MAX)
         if any(math.isfinite(v) and abs(v) > top for v in values):
             raise ValueError(
                 f"{name}: background {background!r} is beyond the range of {dtype} (±{top:.4g})"

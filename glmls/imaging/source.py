@@ -3,17 +3,19 @@ of uncovered pixels, and the conversion back to the caller's dtype and shape.
 
 uint8 images stay 8-bit: an RGBA8 texture sampled as value / 255, an RGBA8 target and a uint8
 read-back (:attr:`SourceImage.normalized`); other dtypes go through float32 (raw values).
+Float images of extreme magnitude reach the GPU scaled by a power of two
+(:mod:`glmls.core.magnitudes`).
 """
 
 from __future__ import annotations
 
-import math
 import sys
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..core.config import check_choice, check_real, counted
+from ..core.magnitudes import scaled_background, scaled_down, scaled_up, value_exponent
 from ..core.mesh import check_grid
 from ..errors import DtypeError
 
@@ -44,7 +46,6 @@ INTERPOLATIONS = ("nearest", "linear")
 #: image repeated. A mode's index is its ``WARP_BORDER`` code in the shaders.
 BORDERS = ("constant", "edge", "symmetric", "reflect", "wrap")
 DTYPES = (np.uint8, np.uint16, np.float32, np.float64)
-FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 @dataclass(frozen=True)
@@ -58,6 +59,8 @@ class SourceImage:
     #: 255), drawn into an 8-bit target and read back as uint8 (4x less to convert, upload,
     #: clear and read than float32).
     normalized: bool = False
+    #: ``data`` is the image divided by 2**exponent (:func:`value_exponent`).
+    exponent: int = 0
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -75,7 +78,7 @@ class SourceImage:
         if np.issubdtype(self.dtype, np.integer):
             top = np.iinfo(self.dtype).max
             values = np.clip(np.rint(values), 0, top)
-        out = values.astype(self.dtype)
+        out = scaled_up(values.astype(self.dtype), self.exponent)
         return out[..., 0] if self.squeeze else out
 
 
@@ -123,8 +126,9 @@ def prepare_image(image: object, max_size: int, *, normalized: bool = False) -> 
         return SourceImage(
             np.ascontiguousarray(array.reshape(height, width, -1)), array.dtype, squeeze, True
         )
-    data = as_float32(array.reshape(height, width, -1))
-    return SourceImage(data, array.dtype, squeeze)
+    exponent = value_exponent(array)
+    data = as_float32(scaled_down(array.reshape(height, width, -1), exponent, np.float32))
+    return SourceImage(data, array.dtype, squeeze, exponent=exponent)
 
 
 def as_float32(array: np.ndarray, name: str = "image") -> np.ndarray:
@@ -192,10 +196,8 @@ def background_color(background: object, image: SourceImage) -> tuple[float, flo
         top = np.iinfo(image.dtype).max
         if not all(0 <= v <= top for v in out):
             raise ValueError(f"background {background!r} is outside 0..{top} of {image.dtype}")
-    elif any(math.isfinite(v) and abs(v) > FLOAT32_MAX for v in out):
-        raise ValueError(
-            f"background {background!r} is beyond float32's range (±3.4e38, the GPU's)"
-        )
+    else:
+        out = scaled_background(out, background, image.dtype, image.exponent)
     if image.normalized:
         out = [v / 255.0 for v in out]
     if len(out) < channels:

@@ -4,7 +4,8 @@ format of the output slabs, the background, and the conversion back to the calle
 Every dtype keeps its values exactly: uint8 and uint16 volumes are integer textures (R8UI,
 R16UI, ...), read with ``texelFetch`` (no normalisation, no hardware filtering: trilinear
 interpolation is done in float32 in the shader), float32 volumes are R32F textures; float64
-volumes are computed as float32 and returned as float64.
+volumes are computed as float32 and returned as float64. Float volumes of extreme magnitude
+reach the GPU divided by a power of two, as images do (:mod:`glmls.core.magnitudes`).
 """
 
 from __future__ import annotations
@@ -13,9 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.magnitudes import scaled_background, scaled_down, scaled_up, value_exponent
 from ..errors import DtypeError
 from ..files.volumes import Volume
-from ..imaging.source import FLOAT32_MAX, as_float32
+from ..imaging.source import as_float32
 
 __all__ = [
     "VOLUME_DTYPES",
@@ -81,6 +83,9 @@ class SourceVolume:
     data: np.ndarray
     dtype: np.dtype
     squeeze: bool  # the input was (D, H, W)
+    #: ``data`` is the volume divided by 2**exponent
+    #: (:func:`~glmls.core.magnitudes.value_exponent`).
+    exponent: int = 0
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -123,26 +128,33 @@ class SourceVolume:
         return np.empty(full, self.dtype)
 
     def view(self, out: np.ndarray) -> np.ndarray:
-        """``out`` (D, H, W, C) as the caller's form."""
+        """``out`` (D, H, W, C), of :meth:`empty_output` and filled with the GPU's values, as
+        the caller's form: multiplied back by 2**exponent (in place)."""
+        out = scaled_up(out, self.exponent)
         return out[..., 0] if self.squeeze else out
 
 
 def prepare_volume(volume: object) -> SourceVolume:
     """Validate a volume (:func:`check_volume`) as (D, H, W, C), contiguous, in the dtype of
-    its texture (float64 as float32; the others not copied where already contiguous)."""
+    its texture (float64 as float32; the others not copied where already contiguous), a
+    float volume of extreme magnitude divided by a power of two
+    (:func:`~glmls.core.magnitudes.value_exponent`)."""
     array = check_volume(volume)
     squeeze = array.ndim == 3
     data = array[..., None] if squeeze else array
-    dtype = array.dtype
-    if dtype == np.float64:  # values beyond float32's range are refused, not made inf
-        return SourceVolume(as_float32(data, "volume"), np.dtype(dtype), squeeze)
-    return SourceVolume(np.ascontiguousarray(data), np.dtype(dtype), squeeze)
+    dtype = np.dtype(array.dtype)
+    exponent = value_exponent(data)
+    data = scaled_down(data, exponent, np.float32 if dtype.kind == "f" else None)
+    if dtype == np.float64:
+        return SourceVolume(as_float32(data, "volume"), dtype, squeeze, exponent)
+    return SourceVolume(np.ascontiguousarray(data), dtype, squeeze, exponent)
 
 
 def volume_background(background: object, volume: SourceVolume) -> tuple[float, ...]:
     """The value of uncovered voxels as 4 floats: ``background`` is a scalar (every channel)
-    or one value per channel; ``ValueError`` for another count, a value outside an integer
-    dtype's range, or a finite value beyond float32's (the GPU's: it would become inf)."""
+    or one value per channel, divided as the volume is by 2**exponent; ``ValueError`` for
+    another count, a value outside an integer dtype's range, or a finite one float32 cannot
+    hold beside the volume's values (:func:`~glmls.core.magnitudes.scaled_background`)."""
     channels = volume.channels
     values = np.asarray(background, dtype=np.float64)
     if values.ndim == 0:
@@ -156,9 +168,9 @@ def volume_background(background: object, volume: SourceVolume) -> tuple[float, 
         top = np.iinfo(volume.dtype).max
         if not np.all((values >= 0) & (values <= top)):
             raise ValueError(f"background {background!r} is outside 0..{top} of {volume.dtype}")
-    elif np.any(np.isfinite(values) & (np.abs(values) > FLOAT32_MAX)):
-        raise ValueError(
-            f"background {background!r} is beyond float32's range (±3.4e38, the GPU's)"
+        out = [float(v) for v in values]
+    else:
+        out = scaled_background(
+            [float(v) for v in values], background, volume.dtype, volume.exponent
         )
-    out = [float(v) for v in values]
     return (*out, *[0.0] * (4 - len(out)))

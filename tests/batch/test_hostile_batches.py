@@ -62,12 +62,17 @@ def test_the_same_batch_twice_gives_the_same_result_and_leaves_its_inputs(gl, ba
 
 @pytest.mark.parametrize("method", ["quads", "backward"])
 @pytest.mark.parametrize("stacked", [True, False])
-def test_a_float64_value_beyond_float32_names_its_image(gl, method, stacked):
+def test_a_float64_value_beyond_float32_is_warped_and_a_background_named(gl, method, stacked):
+    """It was refused; its image reaches the GPU divided by a power of two, the others not."""
     images = np.zeros((3, 8, 8))
-    images[2, 3, 3] = 1e300
+    images[:, 3, 3] = 2.0**1000, 1.0, 2.0**-1000  # exact in float32 divided by 2**960
     given = images if stacked else list(images)
-    with pytest.raises(ValueError, match=r"^images\[2\]: image values must lie within float32"):
-        glmls.warp_batch(given, np.zeros((3, 1, 2)), np.ones((3, 1, 2)), method=method, ctx=gl)
+    src, dst = np.zeros((3, 1, 2)), np.ones((3, 1, 2))
+    out = glmls.warp_batch(given, src, dst, method=method, ctx=gl)
+    np.testing.assert_array_equal(np.stack(out)[:, 4, 4], [2.0**1000, 1.0, 2.0**-1000])
+    assert np.count_nonzero(np.stack(out)) == 3
+    with pytest.raises(ValueError, match=r"^images\[0\]: background 0\.5 is beyond float32's"):
+        glmls.warp_batch(given, src, dst, method=method, background=0.5, ctx=gl)
 
 
 @pytest.mark.parametrize("item", ["images", "src", "dst", "keypoints", "masks"])

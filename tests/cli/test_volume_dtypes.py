@@ -81,13 +81,12 @@ def test_a_volume_of_one_slice_is_not_written_as_a_tiff(tmp_path):
     [
         (np.full((4, 5, 6), 2**31 - 1, np.int32), "would round 2147483647"),
         (np.full((4, 5, 6), 2**24 + 1, np.int64), "would round 16777217"),
-        (np.full((4, 5, 6), -1e300), "within float32's range"),
     ],
 )
 @pytest.mark.parametrize("command", ["warp", "analyze"])
 def test_values_float32_would_change_are_refused_in_one_line(tmp_path, volume, named, command):
-    """An int32 volume's largest value was written back as its smallest, 2**24 + 1 as 2**24
-    and -1e300 as -inf: each is refused, naming the file and the value."""
+    """An int32 volume's largest value was written back as its smallest and 2**24 + 1 as
+    2**24: each is refused, naming the file and the value."""
     np.save(tmp_path / "v.npy", volume)
     (tmp_path / "h3.json").write_text(json.dumps({"src": SRC, "dst": SRC}))
     out = ["w.npy"] if command == "warp" else ["--out", "rep"]
