@@ -204,9 +204,9 @@ NEWTON_PASSES = frozenset(
     }
 )
 #: The most handles those passes take where the driver caps an invocation's loop iterations
-#: (:attr:`glmls.gl.GLContext.loop_limit`): at sixteen handles a loop iteration
-#: (mls/handles.glsl), every Newton step taken (24 in 3D, each f and J: five walks) stays
-#: within Mesa's 65,535.
+#: (:attr:`glmls.gl.GLContext.loop_limit`): they make only the evaluations of f that fit
+#: within Mesa's 65,535 (``warp_evaluations``, ``mls3_evaluations``), and at sixteen handles
+#: a loop iteration (mls/handles.glsl) beyond this count too few would fit for Newton's steps.
 CAPPED_NEWTON_HANDLES = 8192
 
 

@@ -274,6 +274,9 @@ NEWTON_MAX_STEP3 = 0.25
 #: q to p is not the inverse of that of p to q but for a rigid one) misses by a share of |s|
 #: that fixed steps could not cover in NEWTON_STEPS3.
 NEWTON_FAR3 = 4.0
+#: The dispatches more a point whose evaluations ran out takes where the driver caps a
+#: shader's loop iterations (:func:`invert_points3`).
+NEWTON_ROUNDS3 = 8
 
 
 def invert_points3(
@@ -286,12 +289,66 @@ def invert_points3(
 ) -> tuple[np.ndarray, np.ndarray]:
     """f's inverse at ``points`` u ((K, 3) float64 voxels) by Newton's method on the GPU from
     ``guess`` (K, 3), then from u where that does not converge: the source points s (K, 3)
-    and the residuals |f(s) - u| (K,), voxels. ``shape`` as :func:`evaluate_points3`."""
+    and the residuals |f(s) - u| (K,), voxels, the better end of each point's starts.
+    ``shape`` as :func:`evaluate_points3`."""
     count = len(points)
     if count == 0:
         kernel.check_alive()
         return np.zeros((0, 3)), np.zeros(0)
     kernel.radius(shape)  # as evaluate_points3
+    s, residual = _start3(kernel, points, guess, shape=shape, max_groups=max_groups)
+    left = np.flatnonzero(residual > NEWTON_TOLERANCE3 * length_unit(kernel))
+    if len(left):
+        ends, again = _start3(
+            kernel, points[left], points[left], shape=shape, max_groups=max_groups
+        )
+        better = again < residual[left]
+        s[left[better]] = ends[better]
+        residual[left[better]] = again[better]
+    return s, residual
+
+
+def _start3(
+    kernel: MLSKernel3,
+    points: np.ndarray,
+    starts: np.ndarray,
+    *,
+    shape: tuple[int, int, int] | None,
+    max_groups: int | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Newton from ``starts``: the best ends and their residuals (voxels).
+
+    Where the driver caps an invocation's loop iterations (llvmpipe), a dispatch makes only
+    the evaluations of f that fit (``mls3_evaluations``, shaders/mls3/newton.glsl); a point
+    whose evaluations ran out before Newton ended resumes from its best point in a dispatch
+    of its own, up to NEWTON_ROUNDS3 more while each brings its residual down, so that every
+    point's rounds depend on that point alone. A GPU's dispatch makes them all."""
+    s, residual, cut = _newton3(kernel, points, starts, shape=shape, max_groups=max_groups)
+    rows = np.flatnonzero(cut)
+    for _ in range(NEWTON_ROUNDS3):
+        if len(rows) == 0:
+            break
+        ends, again, more = _newton3(
+            kernel, points[rows], s[rows], shape=shape, max_groups=max_groups
+        )
+        better = again < residual[rows]
+        s[rows[better]] = ends[better]
+        residual[rows[better]] = again[better]
+        rows = rows[better & more]
+    return s, residual
+
+
+def _newton3(
+    kernel: MLSKernel3,
+    points: np.ndarray,
+    guess: np.ndarray,
+    *,
+    shape: tuple[int, int, int] | None,
+    max_groups: int | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One dispatch of INVERSE3_PASS from ``guess``: the best ends, their residuals (voxels)
+    and where the evaluations ran out before Newton ended."""
+    count = len(points)
     scaling = kernel.scaling
     with kernel.gl.use():
         program = kernel.program(INVERSE3_PASS)
@@ -320,4 +377,5 @@ def invert_points3(
         kernel.gl.mgl.memory_barrier()
         result = np.frombuffer(out.read(size=count * 16), np.float32).reshape(count, 4)
     s = scaling.from_gpu(result[:, :3])
-    return s, result[:, 3].astype(np.float64) * scaling.scale
+    cut = result[:, 3] < 0  # a NaN residual is an end
+    return s, np.abs(result[:, 3]).astype(np.float64) * scaling.scale, cut

@@ -176,6 +176,13 @@ void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
 #if !MLS3_SOLVE_LATER
 #include "mls3/solve_full.glsl"
 
+// The handles of an iteration of the float64 moments' loop: 4 or 16 (mls3_finish_full).
+#ifndef MLS3_FULL_BLOCK
+#define MLS3_FULL_BLOCK 4
+#elif MLS3_FULL_BLOCK != 4 && MLS3_FULL_BLOCK != 16
+#error "MLS3_FULL_BLOCK: 4 or 16"
+#endif
+
 // The moments of mls3_add in float64, for the points that mls3_solve leaves (mls3/solve_full.glsl
 // says why): the same float32 weights, and the handles' differences, exact in float64.
 struct MLS3Sums64 {
@@ -214,13 +221,20 @@ MLS3Result mls3_finish_full(MLS3Accum a) {
     s.Ad = dvec3(0.0lf);
     s.Ao = dvec3(0.0lf);
     s.D = dmat3(0.0lf);
-    // A loop whatever MLS3_UNROLL (only the points the solve left run it), of four handles
-    // an iteration: sixteen (MLS_BLOCKS) take llvmpipe seconds more to compile in float64,
-    // at every evaluation of f a program inlines, and four keep llvmpipe's cap on an
-    // invocation's loop iterations (mls/handles.glsl) at 262,140 handles an evaluation.
+    // A loop whatever MLS3_UNROLL (only the points the solve left run it), of
+    // MLS3_FULL_BLOCK handles an iteration, in the same order either way: four by default,
+    // as sixteen (MLS_BLOCKS) take llvmpipe seconds more to compile in float64 at every
+    // evaluation of f a program inlines; sixteen where a program inlines one evaluation and
+    // makes many (mls3/newton.glsl), so that fewer of llvmpipe's loop iterations go to it.
+#if MLS3_FULL_BLOCK == 16
+    for (int mls_block = 0; mls_block < n; mls_block += 16) {
+        MLS_BLOCK16(MLS3_ACC_FULL, mls_block, n)
+    }
+#else
     for (int mls_block = 0; mls_block < n; mls_block += 4) {
         MLS_BLOCK4(MLS3_ACC_FULL, mls_block, n)
     }
+#endif
     dvec3 pst = dvec3(a.op);
     dvec3 est = dvec3(a.oe);
     if (!a.hit) {

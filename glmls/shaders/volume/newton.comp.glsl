@@ -26,10 +26,15 @@
 #if VOLUME_NEWTON_FIRST && !defined(MLS3_SOLVE_LATER)
 #define MLS3_SOLVE_LATER 1
 #endif
+#if !VOLUME_NEWTON_FIRST
+// one evaluation of f inlined, many made: the float64 moments sixteen handles an iteration
+#define MLS3_FULL_BLOCK 16
+#endif
 
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "volume/field.glsl"
+#include "mls3/newton.glsl"
 
 layout(std430, binding = BIND_VOLUME_COORDS) buffer VolumeCoords {
     vec4 volume_coords[];
@@ -202,8 +207,14 @@ void main() {
 }
 #else
 void main() {
-    // every listed voxel, however many the dispatch's work groups (at most u_max_groups)
-    for (uint k = gl_GlobalInvocationID.x; k < second_pass_listed(); k += second_pass_stride()) {
+    // every listed voxel, however many the dispatch's work groups (at most u_max_groups);
+    // an invocation's evaluations of f shared among the items it takes (mls3/newton.glsl:
+    // on a CPU renderer they fit its cap on loop iterations, whatever the lanes)
+    uint stride = second_pass_stride();
+    int items = int((second_pass_listed() + stride - 1u) / stride);
+    int most = 2 * (5 * WARP_NEWTON_STEPS + 1);
+    int budget = max(mls3_evaluations(most * max(items, 1)) / max(items, 1), 1);
+    for (uint k = gl_GlobalInvocationID.x; k < second_pass_listed(); k += stride) {
         uvec4 entry = second_pass_items[k];
         int i = int(entry.x & ~VOLUME_FROM_U);
         vec3 u = volume_target(i);
@@ -214,26 +225,33 @@ void main() {
         float residual = 1e30;
         // from the guess (resumed after the first pass's evaluation); where it leads off
         // (next to a fold, the cells' inverse may be another sheet's), again from u itself
-        // with f's own Jacobians, keeping the better end. One evaluation of f in a loop:
-        // one copy of f in the program.
-        for (int attempt = 0; attempt < 2; ++attempt) {
-            bool from_guess = attempt == 0 && guided;
-            VolumeNewton n = volume_newton_begin(from_guess ? guess.xyz : u, from_guess, slope);
-            bool done = false;
-            bool taken = attempt == 0 && entry.y != VOLUME_UNEVALUATED;
-            if (taken) {
-                done = volume_newton_take(n, uintBitsToFloat(entry.yzw), u);
-            }
-            // the evaluations one pass doing it all allows, less the first pass's
-            int evaluations = 5 * WARP_NEWTON_STEPS + (taken ? 0 : 1);
-            for (int e = 0; e < evaluations && !done; ++e) {
+        // with f's own Jacobians, keeping the better end: one flat loop of one evaluation of
+        // f an iteration over both starts (one copy of f in the program, and a CPU
+        // renderer's vector runs it as long as its slowest lane's own count).
+        VolumeNewton n = volume_newton_begin(guided ? guess.xyz : u, guided, slope);
+        bool first = true;
+        bool done = false;
+        if (entry.y != VOLUME_UNEVALUATED) {
+            done = volume_newton_take(n, uintBitsToFloat(entry.yzw), u);
+        }
+        // the first start's evaluations one pass doing it all allows, less the first pass's
+        int left = 5 * WARP_NEWTON_STEPS + (entry.y != VOLUME_UNEVALUATED ? 0 : 1);
+        for (int e = 0; e < budget; ++e) {
+            if (!done) {
                 done = volume_newton_take(n, volume_f(volume_newton_point(n)), u);
+                --left;
             }
-            volume_newton_end(n);
-            s = n.residual < residual ? n.s : s;
-            residual = min(n.residual, residual);
-            if (residual <= u_accept || !guided) {
-                break;
+            if (done || left == 0 || e + 1 == budget) {
+                volume_newton_end(n);
+                s = n.residual < residual ? n.s : s;
+                residual = min(n.residual, residual);
+                if (!first || residual <= u_accept || !guided) {
+                    break;
+                }
+                first = false;
+                n = volume_newton_begin(u, false, slope);
+                done = false;
+                left = 5 * WARP_NEWTON_STEPS + 1;
             }
         }
         volume_store(i, s, residual);
