@@ -11,6 +11,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 import glmls
 from glmls import reference
 from glmls.analysis.canvas import as_rgb8
+from glmls.core.config import check_result_bytes
 from glmls.core.mesh import as_shape
 
 SRC = np.array([[0.0, 0], [7, 0], [0, 5], [7, 5]])
@@ -40,6 +41,58 @@ def test_an_mls_of_a_huge_shape_is_refused_not_imprecise(gl):
     with glmls.MLS(SRC, DST, shape=(1_000_000, 5)) as m:  # the limit itself works
         f, _, _ = reference.mls(SRC, DST, REF, m.config, shape=m.shape)
         assert_allclose(m(REF), f, atol=0.1)
+
+
+# -- results beyond the machine's memory ----------------------------------------------------
+
+HUGE = (10**6, 10**6)  # 10**12 pixels: terabytes on any machine
+
+
+def small_memory(monkeypatch, nbytes: int) -> None:
+    """Make this machine's memory ``nbytes`` for the result checks."""
+    monkeypatch.setattr(glmls.core.config, "physical_memory", lambda: nbytes)
+
+
+def test_check_result_bytes_says_both_sizes(monkeypatch):
+    small_memory(monkeypatch, 2**30)
+    check_result_bytes("what", 2**30)  # the memory itself fits
+    text = r"what needs 1,073,741,825 bytes \(1\.0 GiB\), more than .* 1,073,741,824 bytes"
+    with pytest.raises(ValueError, match=text):
+        check_result_bytes("what", 2**30 + 1)
+    monkeypatch.setattr(glmls.core.config, "physical_memory", lambda: None)
+    check_result_bytes("what", 2**80)  # nothing known, nothing checked
+
+
+def test_physical_memory_is_this_machines():
+    memory = glmls.core.config.physical_memory()
+    assert memory is None or memory > 2**26
+
+
+RESULTS = {
+    "mesh": lambda m, shape: m.mesh(shape),
+    "mesh-grid": lambda m, shape: m.mesh(shape, grid=4),
+    "mesh-tolerance": lambda m, shape: m.mesh(shape, tolerance=0.5),
+    "error_field": lambda m, shape: m.error_field(shape),
+    "error_field-grid": lambda m, shape: m.error_field(shape, grid=4),
+    "error_field-tolerance": lambda m, shape: m.error_field(shape, tolerance=0.5),
+    "analysis.error_field": lambda m, shape: glmls.analysis.error_field(m, shape, grid=8),
+    "foldovers": lambda m, shape: glmls.analysis.foldovers(m, shape),
+    "foldovers-grid": lambda m, shape: glmls.analysis.foldovers(m, shape, grid=16),
+}
+
+
+@pytest.mark.parametrize("call", RESULTS.values(), ids=RESULTS.keys())
+def test_a_result_beyond_the_memory_is_refused_up_front(gl, monkeypatch, call):
+    # a terabyte shape was numpy's MemoryError (mesh, foldovers) or an endless GL dispatch
+    # (error_field at grid 4); one beyond a small machine's memory was allocated, and swapped
+    with glmls.MLS(SRC, DST, ctx=gl) as m:
+        with pytest.raises(ValueError, match=r"needs [\d,]+ bytes .* more than this machine's"):
+            call(m, HUGE)
+        small_memory(monkeypatch, 2**20)
+        with pytest.raises(ValueError, match=r"of shape \(2000, 3000\).* more than this"):
+            call(m, (2000, 3000))
+        small_memory(monkeypatch, 2**30)
+        assert call(m, (20, 30)) is not None  # what fits is computed
 
 
 # -- warp_batch takes the images glmls.warp takes ----------------------------------------

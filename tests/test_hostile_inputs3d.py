@@ -201,3 +201,33 @@ def test_a_shape_of_none_is_named(gl, method):
         with pytest.raises(TypeError, match=r"^shape must be \(D, H, W\) integers, got None$"):
             getattr(m, method)(None)
         assert getattr(m, method)((2, 3, 4)) is not None
+
+
+# -- volume results beyond the machine's memory --------------------------------------------
+
+HANDLES3 = np.array([[2.0, 2, 2], [13, 2, 2], [2, 13, 2], [2, 2, 13]])
+VOLUME_RESULTS = {
+    "volume_error_field": glmls.analysis.volume_error_field,
+    "volume_error_field-grid": lambda m, shape: glmls.analysis.volume_error_field(m, shape, grid=4),
+    "cell_jacobians": glmls.analysis.cell_jacobians,
+    "cell_jacobians-grid": lambda m, shape: glmls.analysis.cell_jacobians(m, shape, grid=4),
+}
+
+
+@pytest.mark.parametrize("call", VOLUME_RESULTS.values(), ids=VOLUME_RESULTS.keys())
+@pytest.mark.parametrize("on_gpu", [False, True])
+def test_a_volume_result_beyond_the_memory_is_refused_up_front(request, monkeypatch, call, on_gpu):
+    # (4096,) * 3 was numpy's MemoryError; a volume beyond a small machine's memory was
+    # allocated (overcommitted) and filled: swapping, or the out-of-memory kill
+    if on_gpu:
+        m = glmls.MLS(HANDLES3, HANDLES3 + 1, ctx=request.getfixturevalue("gl"))
+    else:
+        m = glmls.analysis.ReferenceDeformation(HANDLES3, HANDLES3 + 1)
+    with m:
+        for shape in ((4096,) * 3, (10**6, 10**6, 10**6)):
+            with pytest.raises(ValueError, match=r"needs [\d,]+ bytes .* more than this machine"):
+                call(m, shape)
+        monkeypatch.setattr(glmls.core.config, "physical_memory", lambda: 2**16)
+        with pytest.raises(ValueError, match=r"of shape \(40, 50, 60\).* more than this machine"):
+            call(m, (40, 50, 60))
+        assert call(m, (4, 5, 6)) is not None  # what fits is computed
