@@ -231,3 +231,53 @@ def test_a_volume_result_beyond_the_memory_is_refused_up_front(request, monkeypa
         with pytest.raises(ValueError, match=r"of shape \(40, 50, 60\).* more than this machine"):
             call(m, (40, 50, 60))
         assert call(m, (4, 5, 6)) is not None  # what fits is computed
+
+
+# -- mesh faces that name no vertex --------------------------------------------------------
+
+TETRAHEDRON = np.array([[0.0, 0, 0], [4, 0, 0], [0, 4, 0], [0, 0, 4]])
+
+
+@pytest.mark.parametrize(
+    ("faces", "message"),
+    [
+        ([[0, 1, 2], [0, 1, 4]], r"must index vertices 0\.\.3; face 1 is \[0, 1, 4\]$"),
+        (
+            [[0, 1, 2], [0, -1, 3], [5, 1, 2]],
+            r"must index vertices 0\.\.3; face 1 is \[0, -1, 3\] \(2 such faces\)$",
+        ),
+        (
+            np.array([[0, 1, 2**63]], np.uint64),
+            r"must index vertices 0\.\.3; face 0 is \[0, 1, 9223372036854775808\]$",
+        ),
+    ],
+)
+def test_a_face_out_of_range_is_named_by_its_number(gl, faces, message):
+    # the message gave the faces' overall range ("outside 0..3"), not which face was bad
+    with glmls.MLS(HANDLES3, HANDLES3 + 1, ctx=gl) as m:
+        with pytest.raises(ValueError, match=f"^mesh faces {message}"):
+            m.deform((TETRAHEDRON, faces))
+        with pytest.raises(ValueError, match=f"^faces {message}"):
+            m.deform(glmls.Mesh(TETRAHEDRON, faces))
+
+
+@pytest.mark.parametrize(
+    ("faces", "error", "message"),
+    [
+        ([[0, 1, 2], [0, 1]], ValueError, r"\(F, 3\) integer vertex indices: rows of 3$"),
+        ([[0, 1, 2, 3]], ValueError, r"\(F, 3\) integer vertex indices, got shape \(1, 4\)"),
+        ([[0, 1, 2.5]], TypeError, r"integer vertex indices, got dtype float64"),
+    ],
+)
+def test_faces_of_another_arity_or_type_are_named(gl, faces, error, message):
+    # ragged rows were numpy's "setting an array element with a sequence"
+    with glmls.MLS(HANDLES3, HANDLES3 + 1, ctx=gl) as m:
+        with pytest.raises(error, match=f"^mesh faces must be {message}"):
+            m.deform((TETRAHEDRON, faces))
+
+
+def test_a_2d_mls_names_the_handles_whatever_the_faces(gl):
+    src = np.array([[0.0, 0], [5, 0], [0, 5]])
+    with glmls.MLS(src, src + 1, ctx=gl) as m:
+        with pytest.raises(ValueError, match=r"deform needs a 3D MLS"):
+            m.deform((TETRAHEDRON, [[0, 1, 9]]))
