@@ -5,6 +5,8 @@ promises one."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -281,3 +283,58 @@ def test_a_2d_mls_names_the_handles_whatever_the_faces(gl):
     with glmls.MLS(src, src + 1, ctx=gl) as m:
         with pytest.raises(ValueError, match=r"deform needs a 3D MLS"):
             m.deform((TETRAHEDRON, [[0, 1, 9]]))
+
+
+# -- elastix point files that are no file --------------------------------------------------
+
+
+@pytest.fixture
+def pts_files(tmp_path, monkeypatch):
+    """An image, a pair of elastix point files, an empty one and a folder named like one."""
+    monkeypatch.chdir(tmp_path)
+    from PIL import Image
+
+    Image.fromarray(np.zeros((24, 24), np.uint8)).save("image.png")
+    (tmp_path / "src.pts").write_text("point\n3\n2 2\n20 3\n4 20\n")
+    (tmp_path / "dst.pts").write_text("point\n3\n3 2\n20 4\n4 21\n")
+    (tmp_path / "empty.pts").write_text("")
+    (tmp_path / "folder.pts").mkdir()
+    return tmp_path
+
+
+PTS_FAULTS = [
+    ("folder.pts", None, "folder.pts: a folder, not a file"),
+    ("folder.pts", "dst.pts", "folder.pts: a folder, not a file"),
+    ("missing.pts", None, "missing.pts: no such file"),
+    ("missing.pts", "dst.pts", "missing.pts: no such file"),
+    ("src.pts", "missing.pts", "missing.pts: no such file"),
+    ("src.pts", "folder.pts", "folder.pts: a folder, not a file"),
+    ("empty.pts", "dst.pts", "empty.pts: content: expected 'index' or 'point'"),
+    ("src.pts", "empty.pts", "empty.pts: content: expected 'index' or 'point'"),
+    ("src.pts", None, "src.pts: content: an elastix point file holds the sources only"),
+]
+
+
+@pytest.mark.parametrize(("src", "dst", "message"), PTS_FAULTS)
+def test_a_pts_file_that_is_no_file_is_named(pts_files, src, dst, message):
+    # a folder or a missing file given without targets was reported as the missing targets
+    from glmls.files.landmarks import handle_dimension, read_handle_set, read_handles
+
+    for read in (read_handles, read_handle_set, handle_dimension):
+        with pytest.raises(glmls.InputFileError, match=f"^{re.escape(str(pts_files))}/{message}"):
+            read(pts_files / src, dst=None if dst is None else pts_files / dst)
+
+
+@pytest.mark.parametrize(("src", "dst", "message"), PTS_FAULTS)
+@pytest.mark.parametrize("command", ["warp", "analyze"])
+def test_the_command_line_names_a_pts_file_in_one_line(
+    pts_files, capsys, command, src, dst, message
+):
+    from glmls.cli.main import main
+
+    args = ["image.png", "out.png"] if command == "warp" else ["image.png", "--out", "report"]
+    targets = [] if dst is None else ["--targets", dst]
+    assert main([command, *args, "--handles", src, *targets]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"glmls {command}: ") and err.count("\n") == 1 and message in err, err
+    assert not (pts_files / "out.png").exists() and not (pts_files / "report").exists()
