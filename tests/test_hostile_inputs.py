@@ -296,3 +296,61 @@ def test_a_wrong_dtype_is_a_value_error_and_a_type_error(gl, call, name):
     with pytest.raises(glmls.DtypeError, match=rf"^{name} (has|must|dtype)") as caught:
         call()
     assert isinstance(caught.value, ValueError) and isinstance(caught.value, TypeError)
+
+
+# -- NaN and infinite pixels of a float image ---------------------------------------------
+
+FLOAT_IMAGE = np.random.default_rng(5).random((20, 24)).astype(np.float32)
+BAD_PIXEL = (9, 11)
+BENT_SRC = np.array([[3.0, 3], [20, 4], [4, 16], [19, 15], [11, 9]])
+BENT_DST = BENT_SRC + [[0, 0], [0.5, 0.3], [-0.4, 0.2], [0, 0], [0.7, -0.6]]
+
+
+def warped_with(value: float, **options) -> np.ndarray:
+    image = FLOAT_IMAGE.copy()
+    image[BAD_PIXEL] = value
+    return glmls.warp(image, BENT_SRC, BENT_DST, **options)
+
+
+def grown(mask: np.ndarray) -> np.ndarray:
+    """``mask`` and its 8 neighbours: the reach of a bilinear stencil about each pixel."""
+    padded = np.pad(mask, 1)
+    rows, cols = mask.shape
+    return np.any([padded[i : i + rows, j : j + cols] for i in range(3) for j in range(3)], axis=0)
+
+
+@pytest.mark.parametrize("method", ["quads", "splat", "backward", "backward-swap", "paper-quads"])
+@pytest.mark.parametrize("interpolation", ["nearest", "linear"])
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_a_nan_or_infinite_pixel_reaches_only_the_pixels_that_sample_it(
+    gl, method, interpolation, bad
+):
+    options = {"method": method, "interpolation": interpolation, "border": "edge"}
+    out = warped_with(bad, **options)
+    # the pixels that depend on the bad one: those that change with its (finite) value
+    low, high = warped_with(0.0, **options), warped_with(1e6, **options)
+    depends = low != high
+    assert depends.any()
+    spoilt = ~np.isfinite(out)
+    assert spoilt[depends].all()  # each pixel that weighs it is NaN or infinite
+    # no further than its interpolation stencil: the sampled pixel, bilinearly its 2 x 2
+    allowed = depends if interpolation == "nearest" or method == "splat" else grown(depends)
+    assert not (spoilt & ~allowed).any()
+    assert_array_equal(out[~spoilt], low[~spoilt])  # and every other pixel is untouched
+    if interpolation == "nearest" or method == "splat":
+        assert_array_equal(out[depends], bad)  # a copied value stays what it was
+
+
+@pytest.mark.parametrize("method", ["quads", "backward", "paper-quads"])
+def test_the_identity_keeps_a_nan_pixel_and_linear_spreads_it_within_its_stencil(gl, method):
+    image = FLOAT_IMAGE.copy()
+    image[BAD_PIXEL] = np.nan
+    assert_array_equal(glmls.warp(image, BENT_SRC, BENT_SRC, method=method), image)
+    out = glmls.warp(image, BENT_SRC, BENT_SRC, method=method, interpolation="linear")
+    # each pixel is sampled at its own centre: the bad pixel weighs 0 in the blends of the
+    # three pixels whose 2 x 2 stencil holds it, and NaN x 0 is NaN (documented)
+    row, col = BAD_PIXEL
+    stencil = np.zeros(image.shape, bool)
+    stencil[row - 1 : row + 1, col - 1 : col + 1] = True
+    assert np.isnan(out[BAD_PIXEL]) and not np.isnan(out[~stencil]).any()
+    assert_array_equal(out[~stencil], image[~stencil])

@@ -338,3 +338,37 @@ def test_the_command_line_names_a_pts_file_in_one_line(
     err = capsys.readouterr().err
     assert err.startswith(f"glmls {command}: ") and err.count("\n") == 1 and message in err, err
     assert not (pts_files / "out.png").exists() and not (pts_files / "report").exists()
+
+
+# -- NaN and infinite voxels of a float volume ---------------------------------------------
+
+FLOAT_VOLUME = np.random.default_rng(6).random((6, 7, 8)).astype(np.float32)
+BAD_VOXEL = (3, 3, 4)
+VOLUME_SRC = np.array([[0.0, 0, 0], [7, 0, 0], [0, 6, 0], [0, 0, 5], [4, 3, 2]])
+VOLUME_DST = VOLUME_SRC + [[0, 0, 0], [0.3, 0.2, 0], [0, -0.3, 0.2], [0.2, 0, 0], [0.4, -0.3, 0.2]]
+
+
+def volume_with(value: float, dst: np.ndarray, **options) -> np.ndarray:
+    volume = FLOAT_VOLUME.copy()
+    volume[BAD_VOXEL] = value
+    return glmls.warp(volume, VOLUME_SRC, dst, **options)
+
+
+@pytest.mark.parametrize("method", ["backward", "quads"])
+@pytest.mark.parametrize("interpolation", ["nearest", "linear"])
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_a_nan_or_infinite_voxel_reaches_only_the_voxels_that_weigh_it(
+    gl, method, interpolation, bad
+):
+    options = {"method": method, "interpolation": interpolation}
+    volume = FLOAT_VOLUME.copy()
+    volume[BAD_VOXEL] = bad
+    # the identity gives it back bit for bit: a voxel of weight 0 takes no part in a blend
+    np.testing.assert_array_equal(volume_with(bad, VOLUME_SRC, **options), volume)
+    out = volume_with(bad, VOLUME_DST, **options)
+    low, high = volume_with(0.0, VOLUME_DST, **options), volume_with(1e6, VOLUME_DST, **options)
+    depends = low != high
+    spoilt = ~np.isfinite(out)
+    assert depends.any()
+    np.testing.assert_array_equal(spoilt, depends)  # NaN or infinite where it weighs, only
+    np.testing.assert_array_equal(out[~spoilt], low[~spoilt])
