@@ -354,3 +354,31 @@ def test_the_identity_keeps_a_nan_pixel_and_linear_spreads_it_within_its_stencil
     stencil[row - 1 : row + 1, col - 1 : col + 1] = True
     assert np.isnan(out[BAD_PIXEL]) and not np.isnan(out[~stencil]).any()
     assert_array_equal(out[~stencil], image[~stencil])
+
+
+# -- found by feeding hostile values to the public API ------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("n", "error"), [(2**63, ValueError), (10**9, ValueError), (1, ValueError), (2.0, TypeError)]
+)
+def test_linear_colormap_names_an_n_out_of_range(n, error):
+    # 2**63 was numpy's IndexError from linspace; 10**9 a table of 24 GB
+    with pytest.raises(error, match=rf"^n must be an integer from 2 to 65536, got {n!r}$"):
+        glmls.analysis.linear_colormap(n=n)
+    assert glmls.analysis.linear_colormap(n=65536).shape == (65536, 3)
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda values: glmls.analysis.picture_limits("E_MLS", values),
+        lambda values: glmls.analysis.tetrahedron_quality(values.reshape(-1, 4, 3)),
+    ],
+    ids=["picture_limits", "tetrahedron_quality"],
+)
+def test_complex_values_are_refused_not_cast_to_their_real_part(call):
+    # numpy's cast dropped the imaginary part with a ComplexWarning, a silent wrong answer
+    values = np.arange(24.0).reshape(2, 12) + 1j
+    with pytest.raises(glmls.DtypeError, match=r"must be real numbers, got dtype complex128"):
+        call(values)

@@ -35,6 +35,8 @@ LEAST_SPANS = MappingProxyType(
 #: The longest side of a colour bar, pixels: that of the pictures glmls draws on the GPU on
 #: most devices (``GL_MAX_TEXTURE_SIZE``), beside which a bar goes.
 MAX_BAR_SIDE = 16384
+#: The most colours of a table: 256 show every level of 8-bit colour; this is ample.
+MAX_COLORS = 65536
 #: The largest ``font_size`` of a colour bar's digits, pixels.
 MAX_FONT_SIZE = 1024
 
@@ -106,7 +108,7 @@ def linear_colormap(
     low, high : sequence of float, optional
         The (r, g, b) colours, 0-255, of the minimum and the maximum.
     n : int, optional
-        The number of colours (>= 2).
+        The number of colours (2 to 65536).
 
     Returns
     -------
@@ -116,9 +118,9 @@ def linear_colormap(
     Raises
     ------
     ValueError
-        For a colour out of 0-255 or not of 3 values, or n < 2.
+        For a colour out of 0-255 or not of 3 values, or n out of 2..65536.
     TypeError
-        For a colour that is not a sequence.
+        For a colour that is not a sequence, or an n that is not an integer (2.0 too).
 
     See Also
     --------
@@ -132,8 +134,7 @@ def linear_colormap(
     [[0, 0, 0], [255, 255, 255]]
     """
     lo, hi = np.array(as_color(low, "low"), float), np.array(as_color(high, "high"), float)
-    if isinstance(n, bool) or not isinstance(n, int) or n < 2:
-        raise ValueError(f"n must be an integer >= 2, got {n!r}")
+    n = check_integer("n", n, 2, MAX_COLORS)  # numpy's own errors beyond, or an endless table
     t = np.linspace(0.0, 1.0, n)[:, None]
     return np.round(lo + t * (hi - lo)).astype(np.uint8)
 
@@ -310,7 +311,7 @@ def picture_limits(
     elif quantity == "det_j":
         lo = None
     else:  # the least error, where the span starts
-        array = np.asarray(values, dtype=np.float64)
+        array = real_values(values)  # a complex array's imaginary part is not dropped
         finite = array[np.isfinite(array)]
         lo = float(finite.min()) if finite.size else 0.0
     return color_limits(values, vmin=lo, percentile=percentile, span=span)
