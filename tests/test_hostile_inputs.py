@@ -382,3 +382,17 @@ def test_complex_values_are_refused_not_cast_to_their_real_part(call):
     values = np.arange(24.0).reshape(2, 12) + 1j
     with pytest.raises(glmls.DtypeError, match=r"must be real numbers, got dtype complex128"):
         call(values)
+
+
+def test_construction_windows_beyond_the_memory_are_refused_up_front(gl, image, monkeypatch):
+    # radius 10**4 asked numpy for 6 GiB of window offsets, then for the windows' 25 GiB
+    with glmls.MLS(SRC, DST, ctx=gl) as m:
+        out = m.warp(image)
+        for radius in (10**4, 10**6):
+            with pytest.raises(ValueError, match=rf"windows of radius {radius} at 5 points needs"):
+                glmls.analysis.construction_errors(image, out, m, REF, radius=radius)
+        small_memory(monkeypatch, 2**20)
+        with pytest.raises(ValueError, match=r"more than this machine's memory of 1,048,576"):
+            glmls.analysis.construction_errors(image, out, m, REF, radius=30)
+        errors = glmls.analysis.construction_errors(image, out, m, REF, radius=1)
+        assert errors.values.shape == (5,)
