@@ -4,6 +4,8 @@ answer. The images are tiny: GL runs on the CPU in the tests."""
 
 from __future__ import annotations
 
+import tracemalloc
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
@@ -396,3 +398,33 @@ def test_construction_windows_beyond_the_memory_are_refused_up_front(gl, image, 
             glmls.analysis.construction_errors(image, out, m, REF, radius=30)
         errors = glmls.analysis.construction_errors(image, out, m, REF, radius=1)
         assert errors.values.shape == (5,)
+
+
+def folded_keypoints(count: int) -> tuple[np.ndarray, np.ndarray]:
+    """``count`` keypoints of a 32 x 32 image through a grid augmentation that folds."""
+    keypoints = np.random.default_rng(1).random((count, 2)) * 32
+    result = glmls.augment.Augment("grid", displacement=0.6, seed=3)(
+        np.zeros((1, 32, 32), np.uint8), keypoints=[keypoints]
+    )
+    return np.asarray(result.keypoints[0]), np.asarray(result.keypoints_valid[0])
+
+
+def test_many_keypoints_on_a_folded_mesh_take_bounded_memory(gl):
+    # every (keypoint, row of cells) pair was gathered at once: 10**5 keypoints on a 32 x 32
+    # image were numpy's MemoryError under 8 GB, 3 * 10**4 took 2.3 GiB at the peak
+    tracemalloc.start()
+    try:
+        _, visible = folded_keypoints(30_000)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 400 * 2**20, peak
+    assert 0 < visible.sum() < len(visible)  # the fold hides some, not all
+
+
+def test_keypoints_tested_in_blocks_are_those_tested_at_once(gl, monkeypatch):
+    at_once = folded_keypoints(3_000)
+    monkeypatch.setattr(glmls.batch.labels, "COVER_BLOCK", 5_000)  # a few points a block
+    in_blocks = folded_keypoints(3_000)
+    assert_array_equal(in_blocks[0], at_once[0])
+    assert_array_equal(in_blocks[1], at_once[1])
