@@ -690,7 +690,7 @@ class MLS(ForkSafe):
         """
         if tolerance is not None:
             value = check_adaptive("quads", grid, tolerance)
-            roots = _mesh_lattice(shape, ROOT_STEP, ADAPTIVE_ROOT_BYTES)
+            roots = _mesh_lattice(shape, ROOT_STEP, ADAPTIVE_ROOT_BYTES, adaptive=True)
             return self._pipeline().adaptive.mesh(self._kernel, roots.shape, value)  # type: ignore[arg-type]
         lattice = _mesh_lattice(shape, grid, 40)  # vertices, f in float64 and float32
         vertices = lattice.points()
@@ -1299,13 +1299,15 @@ ADAPTIVE_ROOT_BYTES = 16 * 32
 GUESS_MESH_LIMIT = 4097 * 4097
 
 
-def _mesh_lattice(shape: object, grid: object, point_bytes: int) -> MeshLattice:
-    """The corner lattice of ``shape`` at ``grid``, refused where ``point_bytes`` a point
-    exceed the machine's memory (:func:`~glmls.core.config.check_result_bytes`)."""
+def _mesh_lattice(
+    shape: object, grid: object, point_bytes: int, *, adaptive: bool = False
+) -> MeshLattice:
+    """The corner lattice of ``shape`` at ``grid`` (an adaptive mesh's roots), refused where
+    ``point_bytes`` a point exceed the machine's memory
+    (:func:`~glmls.core.config.check_result_bytes`)."""
     lattice = MeshLattice.corners(shape, grid)
-    check_result_bytes(
-        f"mesh of shape {lattice.shape} at grid {lattice.grid}", lattice.count * point_bytes
-    )
+    what = "adaptive mesh" if adaptive else f"mesh at grid {lattice.grid}"
+    check_result_bytes(f"{what} of shape {lattice.shape}", lattice.count * point_bytes)
     return lattice
 
 
@@ -1314,8 +1316,7 @@ def _field_lattice(shape: object, grid: object) -> MeshLattice:
     field exceeds the machine's memory: the float64 field and the GPU's float32 one, and at
     ``grid`` > 1 its float32 lattice."""
     lattice = MeshLattice.corners(shape, grid)
-    height, width = lattice.shape
-    needed = height * width * 12 + (lattice.count * 4 if lattice.grid > 1 else 0)
+    needed = math.prod(lattice.shape) * 12 + (lattice.count * 4 if lattice.grid > 1 else 0)
     check_result_bytes(f"error_field of shape {lattice.shape}", needed)
     return lattice
 
