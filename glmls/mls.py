@@ -17,7 +17,7 @@ from typing import ClassVar
 import moderngl
 import numpy as np
 
-from .core.config import MLSConfig, check_choice, check_flag
+from .core.config import MLSConfig, check_choice, check_flag, check_result_bytes
 from .core.handles import Scaling, as_points, check_coordinates, point_rows
 from .core.handles3 import dimension_of, planar_spacing
 from .core.handleset import HandleSet
@@ -31,7 +31,7 @@ from .errors import ReleasedError
 from .forking import ForkSafe, forwarded, in_helper, on_gpu
 from .gl import helper
 from .gl.context import GLContext, forked_from_gl, get_context
-from .imaging.adaptive import AdaptiveMesh, check_adaptive, interpolate
+from .imaging.adaptive import ROOT_STEP, AdaptiveMesh, check_adaptive, interpolate
 from .imaging.frame import Bounds
 from .imaging.inverse import accept_residual, length_unit
 from .imaging.options import FIELDS, WarpOptions, default
@@ -673,7 +673,10 @@ class MLS(ForkSafe):
         Raises
         ------
         ValueError
-            For a bad ``shape``, ``grid`` or ``tolerance`` (named).
+            For a bad ``shape``, ``grid`` or ``tolerance`` (named), or a mesh whose arrays
+            (40 bytes a vertex: the vertices and f in float64, f in float32 as read back;
+            with ``tolerance`` at least 512 bytes a 32 px root cell) need more than this
+            machine's physical memory (the message says both, in bytes).
         glmls.ReleasedError
             After :meth:`release`.
 
@@ -687,8 +690,9 @@ class MLS(ForkSafe):
         """
         if tolerance is not None:
             value = check_adaptive("quads", grid, tolerance)
-            return self._pipeline().adaptive.mesh(self._kernel, as_shape(shape), value)  # type: ignore[arg-type]
-        lattice = MeshLattice.corners(shape, grid)
+            roots = _mesh_lattice(shape, ROOT_STEP, ADAPTIVE_ROOT_BYTES, adaptive=True)
+            return self._pipeline().adaptive.mesh(self._kernel, roots.shape, value)  # type: ignore[arg-type]
+        lattice = _mesh_lattice(shape, grid, 40)  # vertices, f in float64 and float32
         vertices = lattice.points()
         return vertices, deformed_lattice(self._kernel, lattice).reshape(vertices.shape)
 
@@ -721,8 +725,10 @@ class MLS(ForkSafe):
         Raises
         ------
         ValueError
-            For a bad ``shape``, ``grid`` or ``tolerance`` (named), or a ``grid`` other than
-            1 with a ``tolerance``.
+            For a bad ``shape``, ``grid`` or ``tolerance`` (named), a ``grid`` other than
+            1 with a ``tolerance``, or a field that needs more than this machine's physical
+            memory (12 bytes a pixel: the float64 field and the GPU's float32 one; the
+            message says both, in bytes).
         glmls.ReleasedError
             After :meth:`release`.
 
@@ -734,7 +740,7 @@ class MLS(ForkSafe):
         >>> field.shape, float(field.max()) < 1e-6
         ((4, 6), True)
         """
-        lattice = MeshLattice.corners(shape, grid)  # validates shape and grid
+        lattice = _field_lattice(shape, grid)  # validates shape and grid
         if tolerance is not None:
             mesh = self.mesh(lattice.shape, tolerance=check_adaptive("quads", grid, tolerance))
             values = error_at(self._kernel, mesh.source, lattice.shape)  # type: ignore[union-attr]
@@ -1286,7 +1292,33 @@ for _kind in (MLS, InverseMLS):
 #: The most points of the first guess's mesh of an MLS's ``shape``: the corners of a 4096 x
 #: 4096 image, as many as the texels the guess is drawn into at most
 #: (:data:`glmls.imaging.inverse.GUESS_MAX_TEXELS`), so that a finer mesh would add nothing.
+#: Bytes an adaptive mesh takes at least per root cell: the 4 x 4 vertices of its quarter-step
+#: lattice (evaluated for every root), each with its source and f in float64 (32 bytes).
+ADAPTIVE_ROOT_BYTES = 16 * 32
+
 GUESS_MESH_LIMIT = 4097 * 4097
+
+
+def _mesh_lattice(
+    shape: object, grid: object, point_bytes: int, *, adaptive: bool = False
+) -> MeshLattice:
+    """The corner lattice of ``shape`` at ``grid`` (an adaptive mesh's roots), refused where
+    ``point_bytes`` a point exceed the machine's memory
+    (:func:`~glmls.core.config.check_result_bytes`)."""
+    lattice = MeshLattice.corners(shape, grid)
+    what = "adaptive mesh" if adaptive else f"mesh at grid {lattice.grid}"
+    check_result_bytes(f"{what} of shape {lattice.shape}", lattice.count * point_bytes)
+    return lattice
+
+
+def _field_lattice(shape: object, grid: object) -> MeshLattice:
+    """The corner lattice of an error field of ``shape`` at ``grid``, refused where the
+    field exceeds the machine's memory: the float64 field and the GPU's float32 one, and at
+    ``grid`` > 1 its float32 lattice."""
+    lattice = MeshLattice.corners(shape, grid)
+    needed = math.prod(lattice.shape) * 12 + (lattice.count * 4 if lattice.grid > 1 else 0)
+    check_result_bytes(f"error_field of shape {lattice.shape}", needed)
+    return lattice
 
 
 def _guess_grid(shape: tuple[int, int], grid: int) -> int:

@@ -4,6 +4,8 @@ answer. The images are tiny: GL runs on the CPU in the tests."""
 
 from __future__ import annotations
 
+import tracemalloc
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
@@ -11,6 +13,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 import glmls
 from glmls import reference
 from glmls.analysis.canvas import as_rgb8
+from glmls.core.config import check_result_bytes
 from glmls.core.mesh import as_shape
 
 SRC = np.array([[0.0, 0], [7, 0], [0, 5], [7, 5]])
@@ -40,6 +43,58 @@ def test_an_mls_of_a_huge_shape_is_refused_not_imprecise(gl):
     with glmls.MLS(SRC, DST, shape=(1_000_000, 5)) as m:  # the limit itself works
         f, _, _ = reference.mls(SRC, DST, REF, m.config, shape=m.shape)
         assert_allclose(m(REF), f, atol=0.1)
+
+
+# -- results beyond the machine's memory ----------------------------------------------------
+
+HUGE = (10**6, 10**6)  # 10**12 pixels: terabytes on any machine
+
+
+def small_memory(monkeypatch, nbytes: int) -> None:
+    """Make this machine's memory ``nbytes`` for the result checks."""
+    monkeypatch.setattr(glmls.core.config, "physical_memory", lambda: nbytes)
+
+
+def test_check_result_bytes_says_both_sizes(monkeypatch):
+    small_memory(monkeypatch, 2**30)
+    check_result_bytes("what", 2**30)  # the memory itself fits
+    text = r"what needs 1,073,741,825 bytes \(1\.0 GiB\), more than .* 1,073,741,824 bytes"
+    with pytest.raises(ValueError, match=text):
+        check_result_bytes("what", 2**30 + 1)
+    monkeypatch.setattr(glmls.core.config, "physical_memory", lambda: None)
+    check_result_bytes("what", 2**80)  # nothing known, nothing checked
+
+
+def test_physical_memory_is_this_machines():
+    memory = glmls.core.config.physical_memory()
+    assert memory is None or memory > 2**26
+
+
+RESULTS = {
+    "mesh": lambda m, shape: m.mesh(shape),
+    "mesh-grid": lambda m, shape: m.mesh(shape, grid=4),
+    "mesh-tolerance": lambda m, shape: m.mesh(shape, tolerance=0.5),
+    "error_field": lambda m, shape: m.error_field(shape),
+    "error_field-grid": lambda m, shape: m.error_field(shape, grid=4),
+    "error_field-tolerance": lambda m, shape: m.error_field(shape, tolerance=0.5),
+    "analysis.error_field": lambda m, shape: glmls.analysis.error_field(m, shape, grid=8),
+    "foldovers": lambda m, shape: glmls.analysis.foldovers(m, shape),
+    "foldovers-grid": lambda m, shape: glmls.analysis.foldovers(m, shape, grid=16),
+}
+
+
+@pytest.mark.parametrize("call", RESULTS.values(), ids=RESULTS.keys())
+def test_a_result_beyond_the_memory_is_refused_up_front(gl, monkeypatch, call):
+    # a terabyte shape was numpy's MemoryError (mesh, foldovers) or an endless GL dispatch
+    # (error_field at grid 4); one beyond a small machine's memory was allocated, and swapped
+    with glmls.MLS(SRC, DST, ctx=gl) as m:
+        with pytest.raises(ValueError, match=r"needs [\d,]+ bytes .* more than this machine's"):
+            call(m, HUGE)
+        small_memory(monkeypatch, 2**20)
+        with pytest.raises(ValueError, match=r"of shape \(2000, 3000\).* more than this"):
+            call(m, (2000, 3000))
+        small_memory(monkeypatch, 2**30)
+        assert call(m, (20, 30)) is not None  # what fits is computed
 
 
 # -- warp_batch takes the images glmls.warp takes ----------------------------------------
@@ -243,3 +298,133 @@ def test_a_wrong_dtype_is_a_value_error_and_a_type_error(gl, call, name):
     with pytest.raises(glmls.DtypeError, match=rf"^{name} (has|must|dtype)") as caught:
         call()
     assert isinstance(caught.value, ValueError) and isinstance(caught.value, TypeError)
+
+
+# -- NaN and infinite pixels of a float image ---------------------------------------------
+
+FLOAT_IMAGE = np.random.default_rng(5).random((20, 24)).astype(np.float32)
+BAD_PIXEL = (9, 11)
+BENT_SRC = np.array([[3.0, 3], [20, 4], [4, 16], [19, 15], [11, 9]])
+BENT_DST = BENT_SRC + [[0, 0], [0.5, 0.3], [-0.4, 0.2], [0, 0], [0.7, -0.6]]
+
+
+def warped_with(value: float, **options) -> np.ndarray:
+    image = FLOAT_IMAGE.copy()
+    image[BAD_PIXEL] = value
+    return glmls.warp(image, BENT_SRC, BENT_DST, **options)
+
+
+def grown(mask: np.ndarray) -> np.ndarray:
+    """``mask`` and its 8 neighbours: the reach of a bilinear stencil about each pixel."""
+    padded = np.pad(mask, 1)
+    rows, cols = mask.shape
+    return np.any([padded[i : i + rows, j : j + cols] for i in range(3) for j in range(3)], axis=0)
+
+
+@pytest.mark.parametrize("method", ["quads", "splat", "backward", "backward-swap", "paper-quads"])
+@pytest.mark.parametrize("interpolation", ["nearest", "linear"])
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_a_nan_or_infinite_pixel_reaches_only_the_pixels_that_sample_it(
+    gl, method, interpolation, bad
+):
+    options = {"method": method, "interpolation": interpolation, "border": "edge"}
+    out = warped_with(bad, **options)
+    # the pixels that depend on the bad one: those that change with its (finite) value
+    low, high = warped_with(0.0, **options), warped_with(1e6, **options)
+    depends = low != high
+    assert depends.any()
+    spoilt = ~np.isfinite(out)
+    assert spoilt[depends].all()  # each pixel that weighs it is NaN or infinite
+    # no further than its interpolation stencil: the sampled pixel, bilinearly its 2 x 2
+    allowed = depends if interpolation == "nearest" or method == "splat" else grown(depends)
+    assert not (spoilt & ~allowed).any()
+    assert_array_equal(out[~spoilt], low[~spoilt])  # and every other pixel is untouched
+    if interpolation == "nearest" or method == "splat":
+        assert_array_equal(out[depends], bad)  # a copied value stays what it was
+
+
+@pytest.mark.parametrize("method", ["quads", "backward", "paper-quads"])
+def test_the_identity_keeps_a_nan_pixel_and_linear_spreads_it_within_its_stencil(gl, method):
+    image = FLOAT_IMAGE.copy()
+    image[BAD_PIXEL] = np.nan
+    assert_array_equal(glmls.warp(image, BENT_SRC, BENT_SRC, method=method), image)
+    out = glmls.warp(image, BENT_SRC, BENT_SRC, method=method, interpolation="linear")
+    # each pixel is sampled at its own centre: the bad pixel weighs 0 in the blends of the
+    # three pixels whose 2 x 2 stencil holds it, and NaN x 0 is NaN (documented)
+    row, col = BAD_PIXEL
+    stencil = np.zeros(image.shape, bool)
+    stencil[row - 1 : row + 1, col - 1 : col + 1] = True
+    assert np.isnan(out[BAD_PIXEL]) and not np.isnan(out[~stencil]).any()
+    assert_array_equal(out[~stencil], image[~stencil])
+
+
+# -- found by feeding hostile values to the public API ------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("n", "error"), [(2**63, ValueError), (10**9, ValueError), (1, ValueError), (2.0, TypeError)]
+)
+def test_linear_colormap_names_an_n_out_of_range(n, error):
+    # 2**63 was numpy's IndexError from linspace; 10**9 a table of 24 GB
+    with pytest.raises(error, match=rf"^n must be an integer from 2 to 65536, got {n!r}$"):
+        glmls.analysis.linear_colormap(n=n)
+    assert glmls.analysis.linear_colormap(n=65536).shape == (65536, 3)
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda values: glmls.analysis.picture_limits("E_MLS", values),
+        lambda values: glmls.analysis.tetrahedron_quality(values.reshape(-1, 4, 3)),
+    ],
+    ids=["picture_limits", "tetrahedron_quality"],
+)
+def test_complex_values_are_refused_not_cast_to_their_real_part(call):
+    # numpy's cast dropped the imaginary part with a ComplexWarning, a silent wrong answer
+    values = np.arange(24.0).reshape(2, 12) + 1j
+    with pytest.raises(glmls.DtypeError, match=r"must be real numbers, got dtype complex128"):
+        call(values)
+
+
+def test_construction_windows_beyond_the_memory_are_refused_up_front(gl, image, monkeypatch):
+    # radius 10**4 asked numpy for 6 GiB of window offsets, then for the windows' 25 GiB
+    with glmls.MLS(SRC, DST, ctx=gl) as m:
+        out = m.warp(image)
+        for radius in (10**4, 10**6):
+            with pytest.raises(ValueError, match=rf"windows of radius {radius} at 5 points needs"):
+                glmls.analysis.construction_errors(image, out, m, REF, radius=radius)
+        small_memory(monkeypatch, 2**20)
+        with pytest.raises(ValueError, match=r"more than this machine's memory of 1,048,576"):
+            glmls.analysis.construction_errors(image, out, m, REF, radius=30)
+        errors = glmls.analysis.construction_errors(image, out, m, REF, radius=1)
+        assert errors.values.shape == (5,)
+
+
+def folded_keypoints(count: int) -> tuple[np.ndarray, np.ndarray]:
+    """``count`` keypoints of a 32 x 32 image through a grid augmentation that folds."""
+    keypoints = np.random.default_rng(1).random((count, 2)) * 32
+    result = glmls.augment.Augment("grid", displacement=0.6, seed=3)(
+        np.zeros((1, 32, 32), np.uint8), keypoints=[keypoints]
+    )
+    return np.asarray(result.keypoints[0]), np.asarray(result.keypoints_valid[0])
+
+
+def test_many_keypoints_on_a_folded_mesh_take_bounded_memory(gl):
+    # every (keypoint, row of cells) pair was gathered at once: 10**5 keypoints on a 32 x 32
+    # image were numpy's MemoryError under 8 GB, 3 * 10**4 took 2.3 GiB at the peak
+    tracemalloc.start()
+    try:
+        _, visible = folded_keypoints(30_000)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 400 * 2**20, peak
+    assert 0 < visible.sum() < len(visible)  # the fold hides some, not all
+
+
+def test_keypoints_tested_in_blocks_are_those_tested_at_once(gl, monkeypatch):
+    at_once = folded_keypoints(3_000)
+    monkeypatch.setattr(glmls.batch.labels, "COVER_BLOCK", 5_000)  # a few points a block
+    in_blocks = folded_keypoints(3_000)
+    assert_array_equal(in_blocks[0], at_once[0])
+    assert_array_equal(in_blocks[1], at_once[1])

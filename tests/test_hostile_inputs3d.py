@@ -5,6 +5,8 @@ promises one."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -201,3 +203,172 @@ def test_a_shape_of_none_is_named(gl, method):
         with pytest.raises(TypeError, match=r"^shape must be \(D, H, W\) integers, got None$"):
             getattr(m, method)(None)
         assert getattr(m, method)((2, 3, 4)) is not None
+
+
+# -- volume results beyond the machine's memory --------------------------------------------
+
+HANDLES3 = np.array([[2.0, 2, 2], [13, 2, 2], [2, 13, 2], [2, 2, 13]])
+VOLUME_RESULTS = {
+    "volume_error_field": glmls.analysis.volume_error_field,
+    "volume_error_field-grid": lambda m, shape: glmls.analysis.volume_error_field(m, shape, grid=4),
+    "cell_jacobians": glmls.analysis.cell_jacobians,
+    "cell_jacobians-grid": lambda m, shape: glmls.analysis.cell_jacobians(m, shape, grid=4),
+}
+
+
+@pytest.mark.parametrize("call", VOLUME_RESULTS.values(), ids=VOLUME_RESULTS.keys())
+@pytest.mark.parametrize("on_gpu", [False, True])
+def test_a_volume_result_beyond_the_memory_is_refused_up_front(request, monkeypatch, call, on_gpu):
+    # (4096,) * 3 was numpy's MemoryError; a volume beyond a small machine's memory was
+    # allocated (overcommitted) and filled: swapping, or the out-of-memory kill
+    if on_gpu:
+        m = glmls.MLS(HANDLES3, HANDLES3 + 1, ctx=request.getfixturevalue("gl"))
+    else:
+        m = glmls.analysis.ReferenceDeformation(HANDLES3, HANDLES3 + 1)
+    with m:
+        for shape in ((4096,) * 3, (10**6, 10**6, 10**6)):
+            with pytest.raises(ValueError, match=r"needs [\d,]+ bytes .* more than this machine"):
+                call(m, shape)
+        monkeypatch.setattr(glmls.core.config, "physical_memory", lambda: 2**16)
+        with pytest.raises(ValueError, match=r"of shape \(40, 50, 60\).* more than this machine"):
+            call(m, (40, 50, 60))
+        assert call(m, (4, 5, 6)) is not None  # what fits is computed
+
+
+# -- mesh faces that name no vertex --------------------------------------------------------
+
+TETRAHEDRON = np.array([[0.0, 0, 0], [4, 0, 0], [0, 4, 0], [0, 0, 4]])
+
+
+@pytest.mark.parametrize(
+    ("faces", "message"),
+    [
+        ([[0, 1, 2], [0, 1, 4]], r"must index vertices 0\.\.3; face 1 is \[0, 1, 4\]$"),
+        (
+            [[0, 1, 2], [0, -1, 3], [5, 1, 2]],
+            r"must index vertices 0\.\.3; face 1 is \[0, -1, 3\] \(2 such faces\)$",
+        ),
+        (
+            np.array([[0, 1, 2**63]], np.uint64),
+            r"must index vertices 0\.\.3; face 0 is \[0, 1, 9223372036854775808\]$",
+        ),
+    ],
+)
+def test_a_face_out_of_range_is_named_by_its_number(gl, faces, message):
+    # the message gave the faces' overall range ("outside 0..3"), not which face was bad
+    with glmls.MLS(HANDLES3, HANDLES3 + 1, ctx=gl) as m:
+        with pytest.raises(ValueError, match=f"^mesh faces {message}"):
+            m.deform((TETRAHEDRON, faces))
+        with pytest.raises(ValueError, match=f"^faces {message}"):
+            m.deform(glmls.Mesh(TETRAHEDRON, faces))
+
+
+@pytest.mark.parametrize(
+    ("faces", "error", "message"),
+    [
+        ([[0, 1, 2], [0, 1]], ValueError, r"\(F, 3\) integer vertex indices: rows of 3$"),
+        ([[0, 1, 2, 3]], ValueError, r"\(F, 3\) integer vertex indices, got shape \(1, 4\)"),
+        ([[0, 1, 2.5]], TypeError, r"integer vertex indices, got dtype float64"),
+    ],
+)
+def test_faces_of_another_arity_or_type_are_named(gl, faces, error, message):
+    # ragged rows were numpy's "setting an array element with a sequence"
+    with glmls.MLS(HANDLES3, HANDLES3 + 1, ctx=gl) as m:
+        with pytest.raises(error, match=f"^mesh faces must be {message}"):
+            m.deform((TETRAHEDRON, faces))
+
+
+def test_a_2d_mls_names_the_handles_whatever_the_faces(gl):
+    src = np.array([[0.0, 0], [5, 0], [0, 5]])
+    with glmls.MLS(src, src + 1, ctx=gl) as m:
+        with pytest.raises(ValueError, match=r"deform needs a 3D MLS"):
+            m.deform((TETRAHEDRON, [[0, 1, 9]]))
+
+
+# -- elastix point files that are no file --------------------------------------------------
+
+
+@pytest.fixture
+def pts_files(tmp_path, monkeypatch):
+    """An image, a pair of elastix point files, an empty one and a folder named like one."""
+    monkeypatch.chdir(tmp_path)
+    from PIL import Image
+
+    Image.fromarray(np.zeros((24, 24), np.uint8)).save("image.png")
+    (tmp_path / "src.pts").write_text("point\n3\n2 2\n20 3\n4 20\n")
+    (tmp_path / "dst.pts").write_text("point\n3\n3 2\n20 4\n4 21\n")
+    (tmp_path / "empty.pts").write_text("")
+    (tmp_path / "folder.pts").mkdir()
+    return tmp_path
+
+
+PTS_FAULTS = [
+    ("folder.pts", None, "folder.pts: a folder, not a file"),
+    ("folder.pts", "dst.pts", "folder.pts: a folder, not a file"),
+    ("missing.pts", None, "missing.pts: no such file"),
+    ("missing.pts", "dst.pts", "missing.pts: no such file"),
+    ("src.pts", "missing.pts", "missing.pts: no such file"),
+    ("src.pts", "folder.pts", "folder.pts: a folder, not a file"),
+    ("empty.pts", "dst.pts", "empty.pts: content: expected 'index' or 'point'"),
+    ("src.pts", "empty.pts", "empty.pts: content: expected 'index' or 'point'"),
+    ("src.pts", None, "src.pts: content: an elastix point file holds the sources only"),
+]
+
+
+@pytest.mark.parametrize(("src", "dst", "message"), PTS_FAULTS)
+def test_a_pts_file_that_is_no_file_is_named(pts_files, src, dst, message):
+    # a folder or a missing file given without targets was reported as the missing targets
+    from glmls.files.landmarks import handle_dimension, read_handle_set, read_handles
+
+    for read in (read_handles, read_handle_set, handle_dimension):
+        with pytest.raises(glmls.InputFileError, match=f"^{re.escape(str(pts_files))}/{message}"):
+            read(pts_files / src, dst=None if dst is None else pts_files / dst)
+
+
+@pytest.mark.parametrize(("src", "dst", "message"), PTS_FAULTS)
+@pytest.mark.parametrize("command", ["warp", "analyze"])
+def test_the_command_line_names_a_pts_file_in_one_line(
+    pts_files, capsys, command, src, dst, message
+):
+    from glmls.cli.main import main
+
+    args = ["image.png", "out.png"] if command == "warp" else ["image.png", "--out", "report"]
+    targets = [] if dst is None else ["--targets", dst]
+    assert main([command, *args, "--handles", src, *targets]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"glmls {command}: ") and err.count("\n") == 1 and message in err, err
+    assert not (pts_files / "out.png").exists() and not (pts_files / "report").exists()
+
+
+# -- NaN and infinite voxels of a float volume ---------------------------------------------
+
+FLOAT_VOLUME = np.random.default_rng(6).random((6, 7, 8)).astype(np.float32)
+BAD_VOXEL = (3, 3, 4)
+VOLUME_SRC = np.array([[0.0, 0, 0], [7, 0, 0], [0, 6, 0], [0, 0, 5], [4, 3, 2]])
+VOLUME_DST = VOLUME_SRC + [[0, 0, 0], [0.3, 0.2, 0], [0, -0.3, 0.2], [0.2, 0, 0], [0.4, -0.3, 0.2]]
+
+
+def volume_with(value: float, dst: np.ndarray, **options) -> np.ndarray:
+    volume = FLOAT_VOLUME.copy()
+    volume[BAD_VOXEL] = value
+    return glmls.warp(volume, VOLUME_SRC, dst, **options)
+
+
+@pytest.mark.parametrize("method", ["backward", "quads"])
+@pytest.mark.parametrize("interpolation", ["nearest", "linear"])
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_a_nan_or_infinite_voxel_reaches_only_the_voxels_that_weigh_it(
+    gl, method, interpolation, bad
+):
+    options = {"method": method, "interpolation": interpolation}
+    volume = FLOAT_VOLUME.copy()
+    volume[BAD_VOXEL] = bad
+    # the identity gives it back bit for bit: a voxel of weight 0 takes no part in a blend
+    np.testing.assert_array_equal(volume_with(bad, VOLUME_SRC, **options), volume)
+    out = volume_with(bad, VOLUME_DST, **options)
+    low, high = volume_with(0.0, VOLUME_DST, **options), volume_with(1e6, VOLUME_DST, **options)
+    depends = low != high
+    spoilt = ~np.isfinite(out)
+    assert depends.any()
+    np.testing.assert_array_equal(spoilt, depends)  # NaN or infinite where it weighs, only
+    np.testing.assert_array_equal(out[~spoilt], low[~spoilt])

@@ -32,6 +32,14 @@ LEAST_SPANS = MappingProxyType(
     {"E_MLS": 1e-6, "distance": 1e-3, "angle": 1e-3, "construction": 1e-3, "det_j": 1e-3}
 )
 
+#: The longest side of a colour bar, pixels: that of the pictures glmls draws on the GPU on
+#: most devices (``GL_MAX_TEXTURE_SIZE``), beside which a bar goes.
+MAX_BAR_SIDE = 16384
+#: The most colours of a table: 256 show every level of 8-bit colour; this is ample.
+MAX_COLORS = 65536
+#: The largest ``font_size`` of a colour bar's digits, pixels.
+MAX_FONT_SIZE = 1024
+
 # viridis by Stéfan van der Walt and Nathaniel J. Smith (CC0), 256 entries as 8-bit RGB,
 # rounded from the float table of matplotlib's _cm_listed.py.
 _VIRIDIS_HEX = (
@@ -100,7 +108,7 @@ def linear_colormap(
     low, high : sequence of float, optional
         The (r, g, b) colours, 0-255, of the minimum and the maximum.
     n : int, optional
-        The number of colours (>= 2).
+        The number of colours (2 to 65536).
 
     Returns
     -------
@@ -110,9 +118,9 @@ def linear_colormap(
     Raises
     ------
     ValueError
-        For a colour out of 0-255 or not of 3 values, or n < 2.
+        For a colour out of 0-255 or not of 3 values, or n out of 2..65536.
     TypeError
-        For a colour that is not a sequence.
+        For a colour that is not a sequence, or an n that is not an integer (2.0 too).
 
     See Also
     --------
@@ -126,8 +134,7 @@ def linear_colormap(
     [[0, 0, 0], [255, 255, 255]]
     """
     lo, hi = np.array(as_color(low, "low"), float), np.array(as_color(high, "high"), float)
-    if isinstance(n, bool) or not isinstance(n, int) or n < 2:
-        raise ValueError(f"n must be an integer >= 2, got {n!r}")
+    n = check_integer("n", n, 2, MAX_COLORS)  # numpy's own errors beyond, or an endless table
     t = np.linspace(0.0, 1.0, n)[:, None]
     return np.round(lo + t * (hi - lo)).astype(np.uint8)
 
@@ -304,7 +311,7 @@ def picture_limits(
     elif quantity == "det_j":
         lo = None
     else:  # the least error, where the span starts
-        array = np.asarray(values, dtype=np.float64)
+        array = real_values(values)  # a complex array's imaginary part is not dropped
         finite = array[np.isfinite(array)]
         lo = float(finite.min()) if finite.size else 0.0
     return color_limits(values, vmin=lo, percentile=percentile, span=span)
@@ -412,17 +419,17 @@ def colorbar(
     lo, hi : float
         The values at the bottom and the top.
     length : int, optional
-        The bar's height in pixels (>= 16).
+        The bar's height in pixels (16 to 16384).
     thickness : int, optional
-        The bar's width in pixels (>= 2).
+        The bar's width in pixels (2 to 16384).
     ticks : int, optional
-        Numbered ticks from ``lo`` to ``hi`` (>= 2).
+        Numbered ticks from ``lo`` to ``hi`` (2 to ``length``).
     label : str, optional
         A title above the bar.
     background, text_color : sequence of float, optional
         (r, g, b) colours, 0-255.
     font_size : int, optional
-        The digits' size in pixels.
+        The digits' size in pixels (1 to 1024).
 
     Returns
     -------
@@ -433,8 +440,10 @@ def colorbar(
     Raises
     ------
     ValueError
-        For limits that are not finite or with lo > hi, too few ticks, too small a bar, a
-        ``font_size`` below 1, or a bad colour map or colour.
+        For limits that are not finite or with lo > hi, ``ticks``, ``length``,
+        ``thickness`` or ``font_size`` out of its range (named), a ``label`` or
+        ``thickness`` that makes the picture wider than 16384 pixels (named), or a bad
+        colour map or colour.
     TypeError
         For limits that are no real numbers, or a ``length``, ``thickness``, ``ticks`` or
         ``font_size`` that is not an integer.
@@ -452,10 +461,12 @@ def colorbar(
     hi = check_real("hi", hi, finite=False)
     if not (np.isfinite(lo) and np.isfinite(hi)) or hi < lo:
         raise ValueError(f"colour bar limits must be finite with lo <= hi, got ({lo}, {hi})")
-    ticks = check_integer("ticks", ticks, low=2)
-    length = check_integer("length", length, low=16)
-    thickness = check_integer("thickness", thickness, low=2)
-    font_size = check_integer("font_size", font_size, low=1)  # Pillow refuses 0 unnamed
+    length = check_integer("length", length, 16, MAX_BAR_SIDE)
+    thickness = check_integer("thickness", thickness, 2, MAX_BAR_SIDE)
+    # a tick a row at most: more would overlap, and draw for as long as there are
+    ticks = check_integer("ticks", ticks, 2, length, what=f"an integer from 2 to length ({length})")
+    # Pillow refuses 0 and sizes beyond 65535 unnamed, and draws large ones for seconds
+    font_size = check_integer("font_size", font_size, 1, MAX_FONT_SIZE)
     font = ImageFont.load_default(size=font_size)
     values = np.linspace(lo, hi, ticks)
     labels = [format_number(float(v)) for v in values]
@@ -464,6 +475,12 @@ def colorbar(
     top = margin + (font_size + 4 if label else 0)
     width = max(thickness + 6 + text_width + 4, int(font.getlength(label)) + 4 if label else 0)
     height = top + length + margin
+    if width > MAX_BAR_SIDE:
+        cause = "label" if width > thickness + 6 + text_width + 4 else f"thickness {thickness}"
+        raise ValueError(
+            f"{cause} makes the colour bar {width} pixels wide at font_size {font_size}, "
+            f"more than {MAX_BAR_SIDE}; shorten it, or make the font smaller"
+        )
     image = Image.new("RGB", (width, height), as_color(background, "background"))
     # bar: row 0 of the bar is the maximum
     t = np.linspace(1.0, 0.0, length)

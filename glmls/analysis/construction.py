@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.config import check_choice, check_integer, check_real
+from ..core.config import check_choice, check_integer, check_real, check_result_bytes
 from ..core.handles import as_points
 from ..imaging.source import BORDERS, check_image
 from .field import image_deformation
@@ -393,7 +393,9 @@ def construction_errors(
         naming the value.
     ValueError
         For bad shapes, channel counts, NaN or infinite points or pixels, and bad options,
-        naming the value.
+        naming the value, or windows (``radius``) whose arrays need more than this
+        machine's physical memory (about 100 bytes a window pixel a point; the message
+        says both, in bytes).
 
     See Also
     --------
@@ -428,6 +430,12 @@ def construction_errors(
     scale = _scale(source.dtype)
     k = int(radius)
     n = len(r)
+    channels = source.shape[2] if source.ndim == 3 else 1
+    # each window pixel's indices, preimage and samples (float64 and int64 pairs), per point
+    check_result_bytes(
+        f"construction_errors' windows of radius {k} at {n} points",
+        n * (2 * k + 1) ** 2 * (96 + 16 * channels),
+    )
     if n:
         # f as m.warp(image) evaluates it: a radius weight's default radius is the image's
         with image_deformation(m, source.shape[:2]) as warp:

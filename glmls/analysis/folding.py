@@ -9,6 +9,7 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
+from ..core.config import check_result_bytes
 from ..core.mesh import MeshLattice
 from ..mls import MLS
 from .field import check_deformation, target_offset
@@ -97,8 +98,9 @@ def foldovers(m: HasMesh, shape: object, *, grid: int = 1) -> Foldovers:
     Raises
     ------
     ValueError
-        For a shape that is not (H, W) with H, W >= 1, or a grid that is not an integer from
-        1 on.
+        For a shape that is not (H, W) with H, W >= 1, a grid that is not an integer from
+        1 on, or a mesh and mask that need more than this machine's physical memory (41
+        bytes a mesh vertex and a pixel; the message says both, in bytes).
     TypeError
         For an ``m`` without a ``mesh`` method, or a shape that is not integers.
 
@@ -116,6 +118,12 @@ def foldovers(m: HasMesh, shape: object, *, grid: int = 1) -> Foldovers:
     """
     check_deformation(m, "mesh")
     lattice = MeshLattice.corners(shape, grid)  # validates shape and grid
+    height, width = lattice.shape
+    # the mesh's vertices and f (float64, and f in float32 from the GPU), and the mask
+    check_result_bytes(
+        f"foldovers of shape {lattice.shape} at grid {lattice.grid}",
+        lattice.count * 40 + height * width,
+    )
     # far targets: the folds of f - t (a whole-pixel t; the same cells, as f - t turns the
     # same triangles), whose float32 rounding is that of a map near its sources
     _, deformed = m.mesh(lattice.shape, grid=lattice.grid)

@@ -31,11 +31,13 @@ the rounding (det J = 1e-9 in float64) keep their values.
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.config import check_result_bytes
 from .singular3 import cross3, det_and_extremes, dot3
 from .stats import error_stats
 from .volume_field import Deformation3D, precision, target_offset, volume_deformation
@@ -311,9 +313,10 @@ def cell_jacobians(
     ------
     ValueError
         For a shape that is not (D, H, W) with D, H, W >= 1, a grid that is not an integer
-        from 1 on, ``m`` returning the wrong shape or values that are not finite, or a
-        ``spacing`` of another length than 3, with a value that is not a finite number > 0, or
-        other than ``m``'s.
+        from 1 on, cells that need more than this machine's physical memory (25 bytes a
+        cell and 1 a voxel; the message says both, in bytes), ``m`` returning the wrong
+        shape or values that are not finite, or a ``spacing`` of another length than 3, with
+        a value that is not a finite number > 0, or other than ``m``'s.
     TypeError
         For a shape that is not integers, or a ``spacing`` that is not a sequence of real
         numbers.
@@ -333,6 +336,11 @@ def cell_jacobians(
     """
     dims = as_volume_shape(shape)
     step = check_grid3(grid)
+    # det, ratio and min det (float64) and the folds per cell, and the mask per voxel
+    check_result_bytes(
+        f"cell_jacobians of shape {dims} at grid {step}",
+        math.prod(-(-n // step) for n in dims) * 25 + math.prod(dims),
+    )
     steps = deformation_spacing(m, spacing)
     dx, dy, dz = spacing_scale(steps)
     m = volume_deformation(m, dims, steps)  # f as the volume's warp has it

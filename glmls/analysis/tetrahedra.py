@@ -171,6 +171,8 @@ def tetrahedron_quality(corners: object) -> np.ndarray:
     ------
     ValueError
         For corners that are not (T, 4, 3) finite numbers.
+    glmls.DtypeError
+        For corners that are not real numbers (complex, strings, objects).
 
     Examples
     --------
@@ -181,7 +183,10 @@ def tetrahedron_quality(corners: object) -> np.ndarray:
     >>> bool(glmls.analysis.tetrahedron_quality(flat)[0] < 1e-8)
     True
     """
-    t = np.asarray(corners, dtype=np.float64)
+    given = np.asarray(corners)
+    if given.dtype.kind not in "biuf":  # a cast would drop an imaginary part, or fail unnamed
+        raise DtypeError(f"corners must be real numbers, got dtype {given.dtype}")
+    t = given.astype(np.float64, copy=False)
     if t.ndim != 3 or t.shape[1:] != (4, 3):
         raise ValueError(f"corners must be (T, 4, 3), got {t.shape}")
     if not np.isfinite(t).all():  # a NaN corner would rate 0, as a flat tetrahedron

@@ -16,7 +16,7 @@ from typing import Protocol
 import numpy as np
 
 from .. import reference
-from ..core.config import MLSConfig, config_or_options
+from ..core.config import MLSConfig, check_result_bytes, config_or_options
 from ..core.handles import point_rows
 from ..core.handles3 import as_volume_spacing, checked_extent, fit_offset3, volume_extent
 from ..engine.kernel3 import MLSKernel3
@@ -391,7 +391,9 @@ def volume_error_field(
     Raises
     ------
     ValueError
-        For a shape that is not (D, H, W) with D, H, W >= 1, a grid out of range, handles
+        For a shape that is not (D, H, W) with D, H, W >= 1, a grid out of range, a field
+        that needs more than this machine's physical memory (16 bytes a voxel: the float64
+        field and its interpolation's copy; the message says both, in bytes), handles
         that are not (N, 3), ``m.matrices`` returning values that are not finite, or a
         ``spacing`` of another length than 3, with a value that is not a finite number > 0,
         or other than ``m``'s.
@@ -422,6 +424,10 @@ def volume_error_field(
     check_handles3(m)
     depth, height, width = as_volume_shape(shape)
     step = check_grid3(grid)
+    # the float64 field and the copy that each axis's interpolation makes of it
+    check_result_bytes(
+        f"volume_error_field of shape {(depth, height, width)}", depth * height * width * 16
+    )
     steps = deformation_spacing(m, spacing)
     scale = spacing_scale(steps)
     m = volume_deformation(m, (depth, height, width), steps)  # f as the volume's warp has it

@@ -44,6 +44,9 @@ MIN_VIEW = 192
 #: ... as long as no view's side passes this many pixels (a volume one voxel thick keeps
 #: pictures of its other sides at a few voxels' size).
 MAX_VIEW = 1024
+#: The longest side of a view a given ``scale`` may make, pixels (``GL_MAX_TEXTURE_SIZE``
+#: on most devices, the side of the 2D pictures).
+MAX_PICTURE_SIDE = 16384
 #: Grey between the views.
 GAP = 6
 #: The labels' font size; views less than 4 labels high go without one.
@@ -145,7 +148,8 @@ def render_volume_slices(
     scale : int, optional
         Picture pixels per voxel (nearest neighbour); by default the smallest that makes
         each view's smaller side at least 192 pixels, but no larger than keeps each view's
-        sides within 1024 pixels (1 for a volume with a side over 1024 voxels).
+        sides within 1024 pixels (1 for a volume with a side over 1024 voxels); one that
+        makes a view's side longer than 16384 pixels is a ``ValueError``.
     projection : {"max", "min"}, optional
         The fourth view: the maximum of the volume along z, or the minimum (for a field
         whose low values matter, as det J).
@@ -228,6 +232,11 @@ def render_volume_slices(
         scale = max(1, min(math.ceil(MIN_VIEW / min(extents)), int(MAX_VIEW // max(extents))))
     else:
         scale = check_integer("scale", scale, 1)
+        if max(extents) * scale > MAX_PICTURE_SIDE:  # before the pictures are allocated
+            raise ValueError(
+                f"scale {scale} makes a view {round(max(extents) * scale)} pixels on a side, more "
+                f"than {MAX_PICTURE_SIDE}; give a smaller scale"
+            )
     # picture pixels along z, y, x: a coarse axis in proportion, within 1024 where it fits
     sizes = [
         max(n * scale, min(round(e * scale), max(MAX_VIEW, n * scale)))

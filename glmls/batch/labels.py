@@ -257,9 +257,17 @@ def mesh_keypoints(
     folded = ~embedded(vertices) if folded is None else np.asarray(folded, bool)
     meshes = np.flatnonzero(folded)  # an embedding hides no point: only the others are tested
     tested = np.flatnonzero(folded[image])
-    if len(tested):
-        which = (np.cumsum(folded) - 1)[image[tested]]  # the place of each in ``meshes``
-        hidden[tested] = _covered_earlier(vertices, meshes, which, out[tested], own[tested])
+    which = (np.cumsum(folded) - 1)[image[tested]]  # the place of each in ``meshes``
+    # a point meets at most every row of its mesh, a (columns + 1, 2) array each: blocks of
+    # points bound those arrays whatever the number of keypoints (each point's answer is
+    # its own, so the blocks change none)
+    _, rows, columns, _ = vertices.shape
+    block = max(1, COVER_BLOCK // (rows * columns))
+    for start in range(0, len(tested), block):
+        part = tested[start : start + block]
+        hidden[part] = _covered_earlier(
+            vertices, meshes, which[start : start + block], out[part], own[part]
+        )
     return out, inside & ~hidden
 
 
@@ -353,6 +361,10 @@ def _covered_earlier(
         hidden[point[strictly]] = True
     return hidden
 
+
+#: Vertices (points times the vertices of their rows) that :func:`_covered_earlier` gathers
+#: in one block of :func:`mesh_keypoints`.
+COVER_BLOCK = 1 << 21
 
 #: Values (points times rows of cells) that :func:`_near_rows` compares in one block.
 _NEAR_BLOCK = 1 << 20

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import numbers
 import operator
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -20,12 +21,14 @@ __all__ = [
     "check_flag",
     "check_integer",
     "check_real",
+    "check_result_bytes",
     "check_seed",
     "check_sequence",
     "config_or_options",
     "counted",
     "image_diagonal",
     "is_integer",
+    "physical_memory",
     "transform_code",
 ]
 
@@ -154,6 +157,33 @@ def _real_what(
     if high is not None:
         return f"{noun} {'<' if high_open else '<='} {high:g}"
     return noun
+
+
+def physical_memory() -> int | None:
+    """This machine's physical memory in bytes, or None where the system does not say."""
+    try:
+        pages, page_size = os.sysconf("SC_PHYS_PAGES"), os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):  # no sysconf, or no such name (Windows)
+        return None
+    return pages * page_size if pages > 0 and page_size > 0 else None
+
+
+def check_result_bytes(what: str, nbytes: int) -> None:
+    """``ValueError`` where the arrays of a result (``what``: the call and its shape, for the
+    message) need more than this machine's physical memory, ``nbytes`` in all.
+
+    Checked before anything is allocated or evaluated, so that a huge shape fails at once
+    with the sizes to compare, rather than as numpy's ``MemoryError``, a GL error, or the
+    swapping (or the kernel's out-of-memory kill) of an allocation that the system
+    overcommits. A result that fits may still fail where other processes hold the memory;
+    where the system does not say its memory (:func:`physical_memory` None), nothing is
+    checked."""
+    memory = physical_memory()
+    if memory is not None and nbytes > memory:
+        raise ValueError(
+            f"{what} needs {nbytes:,} bytes ({nbytes / 2**30:,.1f} GiB), more than this "
+            f"machine's memory of {memory:,} bytes ({memory / 2**30:,.1f} GiB)"
+        )
 
 
 def counted(count: int, noun: str, plural: str | None = None) -> str:

@@ -31,6 +31,7 @@ __all__ = [
     "as_mesh",
     "as_normals",
     "as_uv",
+    "check_face_indices",
     "cofactor",
     "coplanar",
     "deform_mesh",
@@ -147,6 +148,25 @@ class DeformedMesh:
         return fields_repr(self)
 
 
+def check_face_indices(name: str, faces: np.ndarray, count: int, into: str = "vertices") -> None:
+    """``ValueError`` naming the first row of ``faces`` (F, 3) integers with an index below 0
+    or from ``count`` on (``into``: what they index, the vertices or uv), that row's number
+    and its indices: a large mesh's bad face is found by its number, not by the faces'
+    overall range."""
+    if not len(faces):
+        return
+    # compared as they are, before any cast to int64: a uint64 index of 2**63 must not wrap
+    bad = ((faces < 0) | (faces >= count)).any(axis=1)
+    if not bad.any():
+        return
+    row = int(np.argmax(bad))
+    where = f"{into} 0..{count - 1}" if count else f"{into}, which is empty"
+    raise ValueError(
+        f"{name} must index {where}; face {row} is {[int(i) for i in faces[row]]}"
+        + (f" ({int(bad.sum())} such faces)" if bad.sum() > 1 else "")
+    )
+
+
 def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """(vertices (V, 3) float64, faces (F, 3) int64, the mesh's own vertex normals or None)
     of ``mesh``: an object with ``.vertices`` and ``.faces`` (a ``trimesh.Trimesh``, a
@@ -174,7 +194,10 @@ def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     if faces is None:  # an object whose faces are unset: its vertices, a point cloud
         faces = np.zeros((0, 3), np.int64)
     v = as_points3(vertices, "mesh vertices")
-    f = np.asarray(faces)
+    try:
+        f = np.asarray(faces)
+    except ValueError:  # numpy's own words for ragged rows
+        raise ValueError("mesh faces must be (F, 3) integer vertex indices: rows of 3") from None
     if f.size == 0:
         f = np.zeros((0, 3), np.int64)
     if f.dtype.kind not in "iu":  # floats too, whole or not: indices are integers
@@ -187,8 +210,7 @@ def as_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
             f"mesh faces must be (F, 3) integer vertex indices, got shape {f.shape} "
             f"(dtype {f.dtype})"
         )
-    if len(f) and (f.min() < 0 or f.max() >= len(v)):
-        raise ValueError(f"mesh faces name vertices outside 0..{len(v) - 1}")
+    check_face_indices("mesh faces", f, len(v))
     if normals is not None:
         normals = _own_normals(normals, v.shape)
     if f.dtype != np.int64 or f.flags.writeable:
@@ -317,14 +339,7 @@ def as_uv(
             f"face_uv must be (F, 3) indices into uv for the F = {face_count} faces, "
             f"got shape {indices.shape}"
         )
-    # the range before the cast to int64: a uint64 index of 2**63 must not wrap
-    if len(indices) and (indices.min() < 0 or indices.max() >= len(coordinates)):
-        low, high = int(indices.min()), int(indices.max())
-        raise ValueError(
-            f"face_uv index uv 0..{len(coordinates) - 1}, got {low}..{high}"
-            if len(coordinates)
-            else f"face_uv index uv, which is empty, got {low}..{high}"
-        )
+    check_face_indices("face_uv", indices, len(coordinates), "uv")
     indices = indices.astype(np.int64)
     coordinates.flags.writeable = False
     indices.flags.writeable = False

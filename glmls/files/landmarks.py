@@ -100,7 +100,17 @@ from .handle_formats import (
     kind_csv_text,
     kind_table,
 )
-from .parsing import Row, as_path, by_name, csv_rows, fail, json_points, load_json, table
+from .parsing import (
+    Row,
+    as_path,
+    by_name,
+    csv_rows,
+    fail,
+    json_points,
+    load_json,
+    not_a_file,
+    table,
+)
 from .point_formats import (
     HANDLE_HEADER_3D,
     axes,
@@ -192,6 +202,8 @@ def _handle_rows(path: Path, dst: str | os.PathLike | None) -> tuple[int, Handle
     dst = None if dst is None else as_path(dst, "dst")
     suffix = path.suffix.lower()
     if suffix == ".pts":
+        if not path.is_file():  # its own fault first: the missing targets would hide it
+            raise InputFileError(f"{path}: {not_a_file(path)}")
         if dst is None:
             raise fail(
                 path,

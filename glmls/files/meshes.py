@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.mesh3 import as_colors, as_normals, as_uv, whole_indices
+from ..core.mesh3 import as_colors, as_normals, as_uv, check_face_indices, whole_indices
 from ..core.summary import fields_repr
 from ..errors import DtypeError, InputFileError
 from .atomic import atomic_write
@@ -162,10 +162,7 @@ class Mesh:
             raise DtypeError(f"faces must be integer vertex indices, got dtype {faces.dtype}")
         if faces.ndim != 2 or faces.shape[1] != 3:
             raise ValueError(f"faces must be (F, 3) triangles, got shape {faces.shape}")
-        # the range before the cast to int64: a uint64 index of 2**63 must not wrap
-        if len(faces) and (faces.min() < 0 or faces.max() >= len(vertices)):
-            low, high = int(faces.min()), int(faces.max())
-            raise ValueError(f"faces index vertices 0..{len(vertices) - 1}, got {low}..{high}")
+        check_face_indices("faces", faces, len(vertices))
         faces = np.array(faces, dtype=np.int64)
         vertices.flags.writeable = False
         faces.flags.writeable = False

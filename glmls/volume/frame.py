@@ -12,12 +12,11 @@
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.config import check_real
+from ..core.config import check_real, check_result_bytes
 from ..imaging.frame import FIT_SLACK
 
 __all__ = ["CornerLattice", "Margins", "VolumeBounds", "VolumeFrame", "check_memory"]
@@ -26,18 +25,8 @@ __all__ = ["CornerLattice", "Margins", "VolumeBounds", "VolumeFrame", "check_mem
 def check_memory(shape: tuple[int, ...], voxel_bytes: int) -> None:
     """``ValueError`` naming ``output_shape`` where the arrays of an output of ``shape``
     (D, H, W), ``voxel_bytes`` a voxel, would not fit in this machine's memory: refused
-    before anything is allocated or evaluated (where the system does not say its memory,
-    nothing is checked)."""
-    needed = math.prod(shape) * voxel_bytes
-    try:
-        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (AttributeError, ValueError, OSError):
-        return
-    if needed > memory:
-        raise ValueError(
-            f"output_shape {tuple(shape)} needs {needed / 2**30:,.1f} GiB, more than this "
-            f"machine's memory ({memory / 2**30:,.1f} GiB)"
-        )
+    before anything is allocated or evaluated (:func:`~glmls.core.config.check_result_bytes`)."""
+    check_result_bytes(f"output_shape {tuple(shape)}", math.prod(shape) * voxel_bytes)
 
 
 @dataclass(frozen=True)

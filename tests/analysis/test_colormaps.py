@@ -104,11 +104,38 @@ def test_colorbar_has_the_colours_and_numbers():
 @pytest.mark.parametrize(
     ("options", "error", "message"),
     [
-        ({"font_size": 0}, ValueError, r"font_size must be an integer >= 1, got 0"),  # Pillow's
-        ({"font_size": 12.5}, TypeError, r"font_size must be an integer >= 1, got 12\.5"),
-        ({"length": "64"}, TypeError, r"length must be an integer >= 16, got '64'"),
-        ({"thickness": True}, TypeError, r"thickness must be an integer >= 2, got True"),
-        ({"ticks": 2.0}, TypeError, r"ticks must be an integer >= 2, got 2\.0"),
+        ({"font_size": 0}, ValueError, r"font_size must be an integer from 1 to 1024, got 0"),
+        ({"font_size": 12.5}, TypeError, r"font_size must be an integer from 1 to 1024, got 12\.5"),
+        ({"length": "64"}, TypeError, r"length must be an integer from 16 to 16384, got '64'"),
+        ({"thickness": True}, TypeError, r"thickness must be an integer from 2 to 16384, got True"),
+        ({"ticks": 2.0}, TypeError, r"ticks must be an integer from 2 to length \(256\), got 2\.0"),
+        # beyond these, Pillow failed unnamed (OSError: invalid pixel size), or the bar was
+        # numpy's MemoryError, or ticks were drawn for minutes
+        (
+            {"font_size": 65536},
+            ValueError,
+            r"font_size must be an integer from 1 to 1024, got 65536",
+        ),
+        (
+            {"length": 10**9},
+            ValueError,
+            r"length must be an integer from 16 to 16384, got 1000000000",
+        ),
+        ({"length": 0}, ValueError, r"length must be an integer from 16 to 16384, got 0"),
+        ({"thickness": -2}, ValueError, r"thickness must be an integer from 2 to 16384, got -2"),
+        ({"thickness": 10**9}, ValueError, r"thickness must be .* 16384, got 1000000000"),
+        (
+            {"ticks": 10**7},
+            ValueError,
+            r"ticks must be an integer from 2 to length \(256\), got 10000000",
+        ),
+        ({"ticks": 65, "length": 64}, ValueError, r"ticks must be .* to length \(64\), got 65"),
+        (
+            {"label": "E" * 10**5},
+            ValueError,
+            r"label makes the colour bar \d+ pixels wide at font_size 12, more than 16384; "
+            r"shorten it, or make the font smaller",
+        ),
         ({"lo": "0"}, TypeError, r"lo must be a number, got '0' \(str\)"),
     ],
 )
@@ -116,6 +143,18 @@ def test_colorbar_names_an_option_that_is_no_number_it_takes(options, error, mes
     arguments = {"cmap": "viridis", "lo": 0.0, "hi": 1.0, **options}
     with pytest.raises(error, match=rf"^{message}$"):
         glmls.analysis.colorbar(**arguments)
+
+
+def test_colorbar_draws_its_largest_options():
+    bar = glmls.analysis.colorbar("viridis", 0, 1, length=16384, thickness=2, ticks=16384)
+    assert bar.shape == (16384 + 24, bar.shape[1], 3)
+    assert bar[12, 0].tolist() == glmls.analysis.VIRIDIS[-1].tolist()
+    bar = glmls.analysis.colorbar("viridis", 0, 1, length=16, thickness=16300, font_size=12)
+    assert bar.shape[1] <= 16384 and bar[12, 16299].tolist() == glmls.analysis.VIRIDIS[-1].tolist()
+    bar = glmls.analysis.colorbar("viridis", 0, 1, length=16, font_size=1024)
+    assert bar.shape[0] == 16 + 2 * 1024
+    with pytest.raises(ValueError, match=r"^thickness 16384 makes the colour bar \d+ pixels wide"):
+        glmls.analysis.colorbar("viridis", 0, 1, thickness=16384, font_size=1024)
 
 
 @pytest.mark.parametrize(

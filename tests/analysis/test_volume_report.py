@@ -265,6 +265,10 @@ def test_bad_pictures_raise():
         render_volume_slices(np.zeros((4, 4, 4)), scale=0)
     with pytest.raises(ValueError, match="projection"):
         render_volume_slices(np.zeros((4, 4, 4)), projection="mean")
+    # a scale beyond the largest picture was numpy's MemoryError (43.7 TiB at 10**6)
+    for scale, side in ((10**6, 4000000), (4097, 16388)):
+        with pytest.raises(ValueError, match=rf"^scale {scale} makes a view {side} pixels on a"):
+            render_volume_slices(np.zeros((4, 4, 4)), scale=scale)
     with pytest.raises(ValueError, match=r"\(N, 3\)"):
         render_volume_slices(np.zeros((4, 4, 4)), src=[[1, 1]], dst=[[1, 1]])
 

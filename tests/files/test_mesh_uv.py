@@ -262,14 +262,34 @@ def test_mesh_uv_kept_as_read_only_copies():
         ([[True, False]], [[0, 0, 0]], TypeError, "uv must be real numbers, got dtype bool"),
         ([[1j, 0]], [[0, 0, 0]], TypeError, "dtype complex128"),
         ([["a", "b"]], [[0, 0, 0]], TypeError, "dtype <U1"),
-        ([[0, 0]], [[0, 0, 1]], ValueError, r"face_uv index uv 0..0, got 0..1"),
-        ([[0, 0]], [[0, -1, 0]], ValueError, r"face_uv index uv 0..0, got -1..0"),
-        (np.zeros((0, 2)), [[0, 0, 0]], ValueError, "index uv, which is empty"),
+        (
+            [[0, 0]],
+            [[0, 0, 1]],
+            ValueError,
+            r"face_uv must index uv 0\.\.0; face 0 is \[0, 0, 1\]$",
+        ),
+        (
+            [[0, 0]],
+            [[0, -1, 0]],
+            ValueError,
+            r"face_uv must index uv 0\.\.0; face 0 is \[0, -1, 0\]$",
+        ),
+        (
+            np.zeros((0, 2)),
+            [[0, 0, 0]],
+            ValueError,
+            r"face_uv must index uv, which is empty; face 0 is \[0, 0, 0\]$",
+        ),
         ([[0, 0]], [[0, 0]], ValueError, r"F = 1 faces, got shape \(1, 2\)"),
         ([[0, 0]], [[0, 0, 0]] * 2, ValueError, r"F = 1 faces, got shape \(2, 3\)"),
         ([[0, 0]], [[0, 0.5, 0]], TypeError, "face_uv must be integer indices into uv"),
         ([[0, 0]], [[0, np.nan, 0]], TypeError, "got dtype float64"),
-        ([[0, 0]], np.array([[0, 2**63, 0]], np.uint64), ValueError, r"got 0..9223372036854775808"),
+        (
+            [[0, 0]],
+            np.array([[0, 2**63, 0]], np.uint64),
+            ValueError,
+            r"face 0 is \[0, 9223372036854775808, 0\]",
+        ),
     ],
 )
 def test_mesh_uv_are_checked(tmp_path, uv, face_uv, error, message):

@@ -64,7 +64,9 @@ def test_quads_are_split_into_triangles(tmp_path):
 def test_mesh_is_checked():
     with pytest.raises(ValueError, match=r"vertices must be \(V, 3\)"):
         Mesh(np.zeros((3, 2)), [[0, 1, 2]])
-    with pytest.raises(ValueError, match=r"faces index vertices 0\.\.2"):
+    with pytest.raises(
+        ValueError, match=r"faces must index vertices 0\.\.2; face 0 is \[0, 1, 3\]$"
+    ):
         Mesh(np.zeros((3, 3)), [[0, 1, 3]])
     with pytest.raises(TypeError, match="integer vertex indices"):
         Mesh(np.zeros((3, 3)), [[0, 1, 1.5]])
@@ -175,7 +177,10 @@ def test_obj_negative_indices_polygons_and_extra_vertex_values(tmp_path):
 @pytest.mark.parametrize(
     ("content", "message"),
     [
-        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "faces index vertices 0..2, got 0..3"),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",
+            "faces must index vertices 0..2; face 0 is [0, 1, 3]",
+        ),
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n", "line 4: vertex 0 of a face"),
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 -2 -1\n", "line 4: vertex -4 of a face"),
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 x 3\n", "line 4: 'x' is no vertex index"),

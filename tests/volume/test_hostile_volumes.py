@@ -97,7 +97,8 @@ def test_a_mesh_face_index_beyond_int64_is_named_as_given():
     vertices = [[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]
     faces = np.array([[0, 1, 2**63]], np.uint64)
     with pytest.raises(
-        ValueError, match=r"faces index vertices 0\.\.2, got 0\.\.9223372036854775808"
+        ValueError,
+        match=r"faces must index vertices 0\.\.2; face 0 is \[0, 1, 9223372036854775808\]",
     ):
         glmls.Mesh(vertices, faces)
 
