@@ -64,7 +64,7 @@ class Weight:
       along a segment handle have the closed form of ``glmls/shaders/mls/segments.glsl``
       (w = 1 / (s + d^2)); else the shaders integrate numerically;
     - ``edge64``: a radius weight whose float64 GLSL function ``mls_weight64_<name>``
-      (:attr:`glsl_function64`) exists: 3D MLS takes it for the handles near d = R, where the
+      (:attr:`glsl_function64`) exists: the GPU takes it for the handles near d = R, where the
       weight is a difference of nearly equal numbers that float32 rounds badly
       (``glmls/shaders/mls/weighting.glsl``); without it those handles keep the float32 one.
 

@@ -93,7 +93,7 @@ float mls_weight(float d2, float m, float inv_m, float sigma) {
     return w;
 }
 
-// The radius weights at the edge of their reach (3D; MLS_WEIGHT_FUNCTION64 is defined for a
+// The radius weights at the edge of their reach (MLS_WEIGHT_FUNCTION64 is defined for a
 // weight with glmls.core.weights.Weight.edge64): near d = R the weight is a difference of
 // nearly equal numbers, 1 - d2 / R^2, where float32's rounding of d2 (~1e-7 R^2) is most of
 // it, and a handle whose weight tends to 0 may decide what the others leave free (f is steep
