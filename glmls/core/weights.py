@@ -62,7 +62,11 @@ class Weight:
       where infinite, a common factor per row allowed (MLS ignores it);
     - ``segment_closed_form``: whether, for these parameters, the integrals of the weight
       along a segment handle have the closed form of ``glmls/shaders/mls/segments.glsl``
-      (w = 1 / (s + d^2)); else the shaders integrate numerically.
+      (w = 1 / (s + d^2)); else the shaders integrate numerically;
+    - ``edge64``: a radius weight whose float64 GLSL function ``mls_weight64_<name>``
+      (:attr:`glsl_function64`) exists: the GPU takes it for the handles near d = R, where the
+      weight is a difference of nearly equal numbers that float32 rounds badly
+      (``glmls/shaders/mls/weighting.glsl``); without it those handles keep the float32 one.
 
     The GLSL function is ``mls_weight_<name>`` (:attr:`glsl_function`).
     """
@@ -76,17 +80,26 @@ class Weight:
     uses_s: bool = False
     pole: Callable[[WeightParameters], float] = lambda params: 0.0
     segment_closed_form: Callable[[WeightParameters], bool] = lambda params: False
+    edge64: bool = False
 
     def __post_init__(self) -> None:
         if self.support not in SUPPORTS:
             raise ValueError(f"support must be one of {', '.join(SUPPORTS)}, got {self.support}")
         if self.needs_radius == (self.support == "everywhere"):
             raise ValueError(f"weight {self.name!r}: a radius and a bounded reach go together")
+        if self.edge64 and self.support != "radius":
+            raise ValueError(f"weight {self.name!r}: edge64 is for radius weights (w = 0 at R)")
 
     @property
     def glsl_function(self) -> str:
         """The GLSL function of ``glmls/shaders/mls/weights.glsl`` that computes it."""
         return f"mls_weight_{self.name}"
+
+    @property
+    def glsl_function64(self) -> str | None:
+        """Its float64 GLSL function near d = R, ``mls_weight64_<name>`` (None without
+        :attr:`edge64`)."""
+        return f"mls_weight64_{self.name}" if self.edge64 else None
 
     def reach(self, radius: float, count: int) -> float | None:
         """How far (in the units of ``radius``) a point looks for handles among ``count``:
@@ -213,6 +226,7 @@ REGISTRY: dict[str, Weight] = {
             support="radius",
             infinite_at_zero=_never,
             reference=_cressman,
+            edge64=True,
         ),
         Weight(
             "shepard",
@@ -221,6 +235,7 @@ REGISTRY: dict[str, Weight] = {
             support="radius",
             infinite_at_zero=lambda params: True,
             reference=_shepard,
+            edge64=True,
             pole=lambda params: 1.0,
         ),
         Weight(
@@ -238,6 +253,7 @@ REGISTRY: dict[str, Weight] = {
             support="radius",
             infinite_at_zero=_never,
             reference=_linear,
+            edge64=True,
         ),
     )
 }

@@ -173,7 +173,7 @@ def config_defines(
     """The ``#define`` values of ``glmls/shaders/mls/`` for ``config`` but the storage's:
     ``unroll`` slots (``MLS_UNROLL``), handles in bins, segment handles present."""
     entry = config.weight_entry
-    return {
+    defines = {
         "MLS_WEIGHT_FUNCTION": entry.glsl_function,
         "MLS_WEIGHT_USES_S": entry.uses_s,
         "MLS_REACH_GAUSSIAN": entry.support == "gaussian",
@@ -191,6 +191,9 @@ def config_defines(
         "MLS_SEGMENT_CLOSED": entry.segment_closed_form(config) and not config.interpolating,
         "MLS_SEGMENT_SUPPORT": SUPPORTS.index(entry.support),
     }
+    if entry.edge64:  # its float64 version for the handles near d = R (mls/weighting.glsl)
+        defines["MLS_WEIGHT_FUNCTION64"] = entry.glsl_function64
+    return defines
 
 
 #: The passes that run Newton's method: each invocation evaluates f (and a Jacobian) up to

@@ -155,7 +155,7 @@ class MLSKernel3:
         entry = config.weight_entry
         storage = self._storage
         unroll = storage is not None and storage.unrolls
-        return {
+        defines = {
             "MLS_WEIGHT_FUNCTION": entry.glsl_function,
             "MLS_WEIGHT_USES_S": entry.uses_s,
             "MLS_GAUSSIAN_TOLERANCE": GAUSSIAN_TOLERANCE,
@@ -168,6 +168,9 @@ class MLSKernel3:
             "MLS_ALPHA_ONE": config.alpha == 1.0,
             "MLS3_UNROLL": unroll_slots3(self._count) if unroll else 0,
         } | dict(storage.defines if storage is not None else {})
+        if entry.edge64:  # its float64 version for the handles near d = R (mls/weighting.glsl)
+            defines["MLS_WEIGHT_FUNCTION64"] = entry.glsl_function64
+        return defines
 
     def uniforms(self, shape: tuple[int, int, int] | None = None) -> dict[str, object]:
         """The uniforms of ``glmls/shaders/mls3/core.glsl`` for a volume of ``shape`` (the

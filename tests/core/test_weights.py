@@ -103,6 +103,34 @@ def test_every_entry_has_one_glsl_function_and_no_other():
         assert entry.glsl_function == f"mls_weight_{entry.name}"
 
 
+def test_every_compact_weight_has_a_float64_glsl_function_near_its_reach():
+    """3D MLS evaluates the radius weights near d = R in float64 (mls/weighting.glsl)."""
+    text = (SHADERS / "mls" / "weights.glsl").read_text()
+    found = re.findall(
+        r"double mls_weight64_(\w+)\(double d2, float m, float inv_m, float sigma\)", text
+    )
+    compact = [name for name, entry in REGISTRY.items() if entry.support == "radius"]
+    assert sorted(found) == sorted(compact)
+    for name in compact:
+        assert REGISTRY[name].glsl_function64 == f"mls_weight64_{name}"
+    assert all(
+        entry.glsl_function64 is None for name, entry in REGISTRY.items() if name not in compact
+    )
+
+
+def test_a_float64_edge_only_for_a_compact_weight():
+    with pytest.raises(ValueError, match="'bump': edge64 is for radius weights"):
+        Weight(
+            "bump",
+            "exp(-d^2 / R^2)",
+            needs_radius=True,
+            support="gaussian",
+            infinite_at_zero=lambda params: False,
+            reference=lambda d2, params, radius: np.exp(-d2),
+            edge64=True,
+        )
+
+
 def test_the_window_and_the_command_line_list_every_weight():
     help_text = next(text for keys, action, text in BINDINGS if action == "weight")
     assert all(name in help_text for name in WEIGHTS)

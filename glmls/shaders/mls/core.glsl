@@ -231,15 +231,24 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
     return a;
 }
 
-// The weight at a.v of a handle at squared distance d2. The snapped handle (and duplicates
+// The weight at a.v of a handle at p, squared distance d2. The snapped handle (and duplicates
 // of it) is left out: its weight is infinite and its p^ zero, see mls_finish.
-float mls_handle_weight(MLSAccum a, float d2) {
+float mls_handle_weight(MLSAccum a, vec2 p, float d2) {
 #if MLS_WEIGHT_NEXT
-    float w = mls_weight(max(d2, a.near2), a.g, a.inv_m, a.sigma);
+    float seen = max(d2, a.near2);
 #else
-    float w = mls_weight(d2, a.g, a.inv_m, a.sigma);
+    float seen = d2;
 #endif
-    return (u_snap && d2 <= u_hit2) ? 0.0 : w;
+    bool none = u_snap && d2 <= u_hit2;
+#ifdef MLS_WEIGHT_FUNCTION64
+    if (!none && mls_at_edge(d2)) {
+        // near d = R: d2 exact in float64 (of float32 p and v), and the weight from it
+        dvec2 dp64 = dvec2(p) - dvec2(a.v);
+        return mls_weight_edge(dot(dp64, dp64), a.g, a.inv_m, a.sigma, seen);
+    }
+#endif
+    float w = mls_weight(seen, a.g, a.inv_m, a.sigma);
+    return none ? 0.0 : w;
 }
 
 // Add second moments (sum w P P^T as (xx, xy, yy), sum w P_i E_j as (11, 12, 21, 22)) to the
@@ -260,7 +269,7 @@ void mls_accumulate(inout MLSAccum a, vec4 h, bool use) {
     vec2 dp = h.xy - a.v;
     float d2 = dot(dp, dp);
     // An empty slot gets no weight (zeros: every term below is then 0).
-    float w = use ? mls_handle_weight(a, d2) : 0.0;
+    float w = use ? mls_handle_weight(a, h.xy, d2) : 0.0;
     // Moments about the nearest handle, not about the origin: the differences of nearby
     // float32 values are exact, the nearest handle (the heaviest) adds nothing to them, and
     // the central moments in mls_finish lose no digits where one handle dominates.

@@ -93,6 +93,33 @@ float mls_weight(float d2, float m, float inv_m, float sigma) {
     return w;
 }
 
+// The radius weights at the edge of their reach (MLS_WEIGHT_FUNCTION64 is defined for a
+// weight with glmls.core.weights.Weight.edge64): near d = R the weight is a difference of
+// nearly equal numbers, 1 - d2 / R^2, where float32's rounding of d2 (~1e-7 R^2) is most of
+// it, and a handle whose weight tends to 0 may decide what the others leave free (f is steep
+// there: docs/mathematics.md). A handle whose float32 d2 lies within MLS_EDGE_BAND R^2 of R^2
+// takes its d2, its reach and its weight in float64 (mls_weight_edge); only those pay.
+#ifdef MLS_WEIGHT_FUNCTION64
+#define MLS_EDGE_BAND 5e-3
+bool mls_at_edge(float d2) {
+    float R2 = u_radius * u_radius;
+    // R2 rounded to 0 or beyond float32's range: no edge for float64 to place better
+    return R2 > 0.0 && R2 < 1e30 && abs(d2 - R2) <= MLS_EDGE_BAND * R2;
+}
+
+// mls_weight of a handle at squared distance d2, exact in float64; seen: the float32 d2 that
+// mls_weight would take (d2, or at least the near2 of mls/core.glsl's mls_begin), for the
+// interpolating factor (d2 / m)^alpha, which float32 keeps to its precision. The weight's
+// own rounding to float32 is then ~6e-8 of it.
+float mls_weight_edge(double d2, float m, float inv_m, float sigma, float seen) {
+    float w = float(MLS_WEIGHT_FUNCTION64(d2, m, inv_m, sigma));
+#if MLS_INTERPOLATING
+    w = w > 0.0 ? w / mls_pow(seen * inv_m) : 0.0;
+#endif
+    return w;
+}
+#endif
+
 // The yardstick of "coincident sources" of one point, 2D and 3D (glmls.reference's
 // _yardstick): sum w |p - v|^2 over the handles not at the nearest one's place. The
 // nearest's own w d2 is left out: next to a handle whose weight is steep (1 / d^(2 alpha),

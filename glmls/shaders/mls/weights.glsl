@@ -12,6 +12,13 @@
 // is R, scaled, which float32 may round to 0 (R far below a pixel) or to inf (R beyond ~1e38):
 // both limits give finite weights (no handle but one on the point reaches it; flat weights).
 
+// The radius weights' formulas in either precision T (float, double): the float32 functions
+// below and their float64 versions mls_weight64_<name> (glmls.core.weights.Weight.edge64, at
+// the end of this file) expand the same text.
+#define MLS_CRESSMAN(T, t) max(T(0.0), (T(1.0) - (t)) / (T(1.0) + (t)))
+#define MLS_SHEPARD(T, d, R, m, d2) ((d) < (R) ? (T(1.0) - (d) / (R)) * sqrt((m) / (d2)) : T(0.0))
+#define MLS_LINEAR(T, t) max(T(0.0), T(1.0) - sqrt(t))
+
 // d2 / R^2, bounded so that (1 - t) / (1 + t) stays finite; 0 on the point itself.
 float mls_radius_ratio(float d2) {
     float R2 = u_radius * u_radius;
@@ -26,13 +33,13 @@ float mls_weight_idw(float d2, float m, float inv_m, float sigma) {
 // max(0, (R^2 - d^2) / (R^2 + d^2)) = max(0, (1 - t) / (1 + t)), t = d^2 / R^2
 float mls_weight_cressman(float d2, float m, float inv_m, float sigma) {
     float t = mls_radius_ratio(d2);
-    return max(0.0, (1.0 - t) / (1.0 + t));
+    return MLS_CRESSMAN(float, t);
 }
 
 // max(0, (R - d) / (R d)), times sqrt(m)
 float mls_weight_shepard(float d2, float m, float inv_m, float sigma) {
     float d = sqrt(d2);
-    return d < u_radius ? (1.0 - d / u_radius) * sqrt(m / d2) : 0.0;
+    return MLS_SHEPARD(float, d, u_radius, m, d2);
 }
 
 // exp(-d^2 / R^2), divided by its value at squared distance m: the nearest handle's, or the
@@ -50,5 +57,29 @@ float mls_weight_gaussian(float d2, float m, float inv_m, float sigma) {
 
 // max(0, R - d), divided by R
 float mls_weight_linear(float d2, float m, float inv_m, float sigma) {
-    return max(0.0, 1.0 - sqrt(mls_radius_ratio(d2)));
+    return MLS_LINEAR(float, mls_radius_ratio(d2));
 }
+
+// The float64 versions, of a squared distance d2 exact in float64 (mls/weighting.glsl,
+// mls_weight_edge): near d = R a radius weight is a difference of nearly equal numbers, and
+// float32's rounding of d2 and of 1 - t is most of the weight there. R is float32's u_radius.
+#ifdef MLS_WEIGHT_FUNCTION64
+double mls_radius_ratio64(double d2) {
+    double R2 = double(u_radius) * double(u_radius);
+    return R2 > 0.0lf ? min(d2 / R2, 1e30lf) : (d2 > 0.0lf ? 1e30lf : 0.0lf);
+}
+
+double mls_weight64_cressman(double d2, float m, float inv_m, float sigma) {
+    double t = mls_radius_ratio64(d2);
+    return MLS_CRESSMAN(double, t);
+}
+
+double mls_weight64_shepard(double d2, float m, float inv_m, float sigma) {
+    double d = sqrt(d2);
+    return MLS_SHEPARD(double, d, double(u_radius), double(m), d2);
+}
+
+double mls_weight64_linear(double d2, float m, float inv_m, float sigma) {
+    return MLS_LINEAR(double, mls_radius_ratio64(d2));
+}
+#endif

@@ -163,7 +163,15 @@ float mls3_weight_at(MLS3Accum a, vec3 p, bool use, out float d2) {
 #else
     float seen = d2;
 #endif
-    return (!use || (u_snap && d2 <= u_hit2)) ? 0.0 : mls_weight(seen, a.g, a.inv_m, a.sigma);
+    bool none = !use || (u_snap && d2 <= u_hit2);
+#ifdef MLS_WEIGHT_FUNCTION64
+    if (!none && mls_at_edge(d2)) {
+        // near d = R: d2 exact in float64 (of float32 p and v), and the weight from it
+        dvec3 dp64 = dvec3(p) - dvec3(a.v);
+        return mls_weight_edge(dot(dp64, dp64), a.g, a.inv_m, a.sigma, seen);
+    }
+#endif
+    return none ? 0.0 : mls_weight(seen, a.g, a.inv_m, a.sigma);
 }
 
 void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
