@@ -69,7 +69,7 @@ def seen_whole(
     ok = valid.reshape(count, len(RING))
     inside = on_canvas(at.reshape(-1, 2), source).reshape(count, len(RING))  # same bounds
     landed = on_canvas(out.reshape(-1, 2), canvas).reshape(count, len(RING))
-    cut = (inside & landed & ~ok)[:, 1:].any(axis=1) if hidden else False
+    cut = (inside & landed & ~ok)[:, 1:].any(axis=1) if hidden else np.zeros(count, bool)
     return out[:, 0].copy(), ok[:, 0] & ~cut & ~turned(out)
 
 

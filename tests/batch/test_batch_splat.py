@@ -177,3 +177,18 @@ def test_keypoints_without_maps_in_one_pass_equal_single_path(monkeypatch, metho
         np.testing.assert_array_equal(got.keypoints_valid[k], one.keypoints_valid[0])
     valid = np.concatenate(got.keypoints_valid)
     assert valid.any() and not valid.all()
+
+
+@pytest.mark.parametrize("method", ["quads", "backward", "splat", "paper-quads"])
+def test_keypoints_valid_is_a_bool_mask_for_every_method(method):
+    """``keypoints_valid`` selects the valid keypoints as a mask: the methods that push pixels
+    forward gave 0/1 integers, which as an index pick keypoints 0 and 1 instead."""
+    rng = np.random.default_rng(6)
+    images = images_of(rng, 2, np.uint8, 1)
+    src, dst = handles(rng, 2)
+    points = rng.uniform(0, 20, (2, 5, 2))
+    got = glmls.warp_batch(images, src, dst, keypoints=points, method=method)
+    for k in range(2):
+        valid = got.keypoints_valid[k]
+        assert valid.dtype == bool and valid.shape == (5,)
+        assert got.keypoints[k][valid].shape == (int(valid.sum()), 2)
