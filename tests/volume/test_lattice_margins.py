@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import box_handles
+from volume_reference import box_handles
 
 from glmls.core.config import MLSConfig
 from glmls.volume import VolumeOptions, bands, construction, warp_volume

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import box_handles
-from volume_reference import inverse, sample
+from volume_reference import box_handles, inverse, sample
 
 import glmls
 from glmls import BORDERS

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import box_handles
-from volume_reference import warp_cells
+from volume_reference import box_handles, warp_cells
 
 from glmls.core.config import MLSConfig
 from glmls.volume import SlabOptions, VolumeOptions, warp_volume

@@ -144,3 +144,13 @@ def inverse(field, shape, out_shape=None, origin=(0.0, 0.0, 0.0), guess=None):
     start = u if guess is None else guess.reshape(-1, 3)
     s, residual = newton_inverse(field, u, start)
     return s.reshape(*out_shape, 3), residual.reshape(out_shape)
+
+
+def box_handles(shape, rng, count=8, spread=1.5):
+    """Handles at the corners of the volume's box (and some inside), moved by up to
+    ``spread`` voxels."""
+    d, h, w = shape
+    corners = np.array([[x, y, z] for z in (0, d - 1) for y in (0, h - 1) for x in (0, w - 1)])
+    extra = rng.uniform([0, 0, 0], [w - 1, h - 1, d - 1], (max(0, count - 8), 3))
+    src = np.concatenate([corners, extra]).astype(np.float64)
+    return src, src + rng.uniform(-spread, spread, src.shape)
