@@ -52,11 +52,6 @@ vec4 volume_texel(ivec3 p) {
 // shift by whole voxels).
 #define VOLUME_SNAP 1e-6
 
-// a blended with b by t; a itself where t is 0, so that a NaN or infinite b of weight 0 does
-// not make the result NaN (0 * inf): a point on a voxel centre's plane takes only its voxels
-vec4 volume_mix(vec4 a, vec4 b, float t) {
-    return t == 0.0 ? a : sample_blend(a, b, t);
-}
 
 // s on the voxel centre planes it is within VOLUME_SNAP of
 vec3 volume_snapped(vec3 s) {
@@ -82,11 +77,11 @@ vec4 volume_sample(vec3 s) {
     vec3 corner = floor(s);
     vec3 t = s - corner;
     ivec3 p = ivec3(corner);
-    vec4 c00 = volume_mix(volume_texel(p), volume_texel(p + ivec3(1, 0, 0)), t.x);
-    vec4 c10 = volume_mix(volume_texel(p + ivec3(0, 1, 0)), volume_texel(p + ivec3(1, 1, 0)), t.x);
-    vec4 c01 = volume_mix(volume_texel(p + ivec3(0, 0, 1)), volume_texel(p + ivec3(1, 0, 1)), t.x);
-    vec4 c11 = volume_mix(volume_texel(p + ivec3(0, 1, 1)), volume_texel(p + ivec3(1, 1, 1)), t.x);
-    return volume_mix(volume_mix(c00, c10, t.y), volume_mix(c01, c11, t.y), t.z);
+    vec4 c00 = sample_blend(volume_texel(p), volume_texel(p + ivec3(1, 0, 0)), t.x);
+    vec4 c10 = sample_blend(volume_texel(p + ivec3(0, 1, 0)), volume_texel(p + ivec3(1, 1, 0)), t.x);
+    vec4 c01 = sample_blend(volume_texel(p + ivec3(0, 0, 1)), volume_texel(p + ivec3(1, 0, 1)), t.x);
+    vec4 c11 = sample_blend(volume_texel(p + ivec3(0, 1, 1)), volume_texel(p + ivec3(1, 1, 1)), t.x);
+    return sample_blend(sample_blend(c00, c10, t.y), sample_blend(c01, c11, t.y), t.z);
 #else
     return volume_texel(ivec3(floor(s + 0.5)));
 #endif
