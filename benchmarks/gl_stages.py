@@ -64,7 +64,7 @@ def _instrument() -> None:
             start, cpu = time.perf_counter(), time.process_time()
             result = method(self, *args, **kwargs)
             ctx.finish()
-            name = label(self)
+            name = label(self, args)
             _totals[name] += time.perf_counter() - start
             _cpu[name] += time.process_time() - cpu
             _counts[name] += 1
@@ -77,19 +77,27 @@ def _instrument() -> None:
             moderngl.ComputeShader,
             method,
             timing(
-                lambda p: "gpu " + _names.get(id(p), "?"), getattr(moderngl.ComputeShader, method)
+                lambda p, _: "gpu " + _names.get(id(p), "?"),
+                getattr(moderngl.ComputeShader, method),
             ),
         )
+
+    def transfer(cls, method):
+        # a write from a buffer is a copy on the GPU side; from host memory, an upload
+        def label(_, args):
+            given = args[0] if args else None
+            return f"{method} {cls.__name__}" + (
+                " from a buffer" if isinstance(given, moderngl.Buffer) else ""
+            )
+
+        return label
+
     for cls in (moderngl.Buffer, moderngl.Texture, moderngl.Texture3D, moderngl.TextureArray):
         for method in ("read", "write", "read_into"):
             if hasattr(cls, method):
-                setattr(
-                    cls,
-                    method,
-                    timing(lambda _, c=cls, m=method: f"{m} {c.__name__}", getattr(cls, method)),
-                )
+                setattr(cls, method, timing(transfer(cls, method), getattr(cls, method)))
     fbo_read = moderngl.Framebuffer.read
-    moderngl.Framebuffer.read = timing(lambda _: "read Framebuffer", fbo_read)
+    moderngl.Framebuffer.read = timing(lambda _, __: "read Framebuffer", fbo_read)
 
 
 def volume_workload(args):
