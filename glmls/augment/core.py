@@ -414,6 +414,16 @@ class Augment:
         >>> first[1] == again[0], len(first[0]["src"])
         (True, 4)
         """
+        return self._draw(shapes, indices, landmarks)[0]
+
+    def _draw(
+        self,
+        shapes: Sequence[tuple[int, int]],
+        indices: Sequence[int] | None,
+        landmarks: Sequence[np.ndarray] | None,
+    ) -> tuple[list[dict], list[tuple[np.ndarray, np.ndarray]]]:
+        """:meth:`draw`'s params, and each sample's (src, dst) as the float64 arrays they
+        record (as lists: the same numbers)."""
         if isinstance(shapes, np.ndarray) and shapes.ndim == 2:  # rows (H, W) or (H, W, C)
             shapes = [tuple(row) for row in shapes]
         if isinstance(shapes, (str, bytes)) or not isinstance(shapes, Sequence):
@@ -460,7 +470,7 @@ class Augment:
             )
         for draw, (src, dst) in zip(params, _as_lists(drawn), strict=True):
             draw["src"], draw["dst"] = src, dst
-        return params
+        return params, drawn
 
     def __call__(
         self,
@@ -525,10 +535,11 @@ class Augment:
         if self.preset.name == "landmarks" and marks is None:
             raise ValueError("the landmarks preset needs each image's landmarks (keypoints)")
         shapes = [image.shape[:2] for image in items]
-        params = self.draw(shapes, indices=indices, landmarks=marks)
-        return self.replay(
-            images, params, keypoints=keypoints, masks=masks, boxes=boxes, polygons=polygons
-        )
+        params, drawn = self._draw(shapes, indices, marks)
+        # the draws' own arrays: what replay reads back from their lists, without its checks
+        src, dst = [p for p, _ in drawn], [q for _, q in drawn]
+        labels = (keypoints, masks, boxes, polygons)
+        return self._warp(images, items, params, src, dst, labels)
 
     def replay(
         self,
@@ -591,6 +602,15 @@ class Augment:
                     f"params[{i}] was drawn for shape {tuple(p['shape'])}, images[{i}] has "
                     f"{image.shape[:2]}"
                 )
+        labels = (keypoints, masks, boxes, polygons)
+        return self._warp(images, items, params, None, None, labels)
+
+    def _warp(self, images, items, params, src, dst, labels) -> AugmentResult:
+        """The checked ``params``' deformation of ``images`` (``items``: as arrays), with
+        ``labels`` (keypoints, masks, boxes, polygons): by the handles ``src`` and ``dst``
+        where given (the draws' own arrays), else the params' (checked)."""
+        keypoints, masks, boxes, polygons = labels
+        count = len(items)
         marks, stacked_marks = _keypoint_list(keypoints, count)
         box_list, stacked_boxes = (None, False)
         if boxes is not None:
@@ -609,7 +629,8 @@ class Augment:
         labels = [label_options_of(p, self.label_options) for p in params]
         points, parts = self._points(marks, box_list, polygon_list, meshes, labels)
         options |= {k: v for k, v in self.warp_options.items() if k in _UNRECORDED}
-        src, dst = param_points(params, "src"), param_points(params, "dst")
+        if src is None:
+            src, dst = param_points(params, "src"), param_points(params, "dst")
         result = warp_batch(images, src, dst, keypoints=points, masks=masks, **options)
         if not isinstance(result, BatchResult):
             result = BatchResult(images=result)
