@@ -132,7 +132,8 @@ class _GPURun:
                 self.results[i] = labels
         if batch.keypoints is not None and not self.backward:
             own_mls = (self.segments, self.mls_options, source.shape)
-            _beyond_mesh_by_f(self.results, part, batch, mesh, frame, own_mls)
+            batched = (self.quads, self.config, self.own)
+            _beyond_mesh_by_f(self.results, part, batch, mesh, frame, own_mls, batched)
 
     def _chunk(self, chunk, lattice, frame, source, direct, start) -> list[ImageLabels] | None:
         """One chunk through the GPU path on ``lattice`` (``direct``: the group's
@@ -171,28 +172,51 @@ class _GPURun:
                 return _chunk(*args)
 
 
-def _beyond_mesh_by_f(results, indices, batch, lattice, frame, own_mls) -> None:
+def _beyond_mesh_by_f(results, indices, batch, lattice, frame, own_mls, batched) -> None:
     """The group's ``quads`` keypoints outside the mesh's domain (outside the image: the
-    past the margin of a border mode) moved by f, as the single path moves them: the
-    image's own MLS (``own_mls``: the per-image segments, the MLS keywords, the shape), made
-    only for the images that have such keypoints."""
+    past the margin of a border mode) moved by f, as the single path moves them: for the
+    images of the batched configuration (``batched``: the quads, the configuration or None,
+    and per image whether it takes its own MLS) all at once, f at each image's own points in
+    one pass (:meth:`~glmls.engine.batched.BatchLattices.evaluate_points`, bit for bit the
+    image's own MLS); for the others the image's own MLS (``own_mls``: the per-image
+    segments, the MLS keywords, the shape), made only for the images that have such
+    keypoints."""
     sets = [batch.keypoints[i] for i in indices]
     beyond = beyond_mesh(lattice, np.concatenate(sets))
     if not beyond.any():
         return
     owner = np.repeat(np.asarray(indices), [len(p) for p in sets])
     segments, mls_options, shape = own_mls
-    for i in np.unique(owner[beyond]).tolist():
+    todo = [
+        i
+        for i in np.unique(owner[beyond]).tolist()
+        if results[i] is not None and results[i].keypoints is not None
+    ]  # the others are left to the single path, which moves them so itself
+    far = {i: beyond_mesh(lattice, batch.keypoints[i]) for i in todo}
+    values: dict[int, np.ndarray] = {}
+    quads, config, own = batched
+    shared = [i for i in todo if not own[i]] if config is not None else []
+    for start in range(0, len(shared), _POINTS_BLOCK):
+        block = shared[start : start + _POINTS_BLOCK]
+        src, dst = [batch.src[i] for i in block], [batch.dst[i] for i in block]
+        points = [batch.keypoints[i][far[i]] for i in block]
+        with quads.ctx.use():
+            lattices = BatchLattices(config, src, dst, shape)
+            found = lattices.evaluate_points(quads.ctx, quads.resources, points, shape)
+        values.update(zip(block, found, strict=True))
+    for i in todo:
+        if i not in values:
+            with MLS(batch.src[i], batch.dst[i], shape=shape, **segments[i], **mls_options) as m:
+                values[i] = m(batch.keypoints[i][far[i]])
+    for i in todo:
         labels = results[i]
-        if labels is None or labels.keypoints is None:
-            continue  # left to the single path, which moves them so itself
-        points = batch.keypoints[i]
-        far = beyond_mesh(lattice, points)
-        with MLS(batch.src[i], batch.dst[i], shape=shape, **segments[i], **mls_options) as mls:
-            values = mls(points[far])
         moved = labels.keypoints.copy()
-        moved[far] = values - np.asarray(frame.origin)
+        moved[far[i]] = values[i] - np.asarray(frame.origin)
         results[i] = ImageLabels(*labels[:2], moved, *labels[3:])
+
+
+#: Images whose keypoints beyond their meshes one pass of f evaluates.
+_POINTS_BLOCK = 1024
 
 
 class _Direct:
@@ -332,7 +356,10 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps,
     if packed:
         warped_masks = list(restore_mask(out[..., -1], masks[0].dtype))  # type: ignore[index]
         out = _drop_last(out, batch.images[chunk[0]].ndim == 2)
-    labels = (lattice, maps, out, warped_masks, None)
+    # the meshes the scan did not show to be embeddings, where it tested them: the keypoints
+    # need no test of their own on the others
+    folded = quads.scan_folded() if warp == quads.warp else None
+    labels = (lattice, maps, out, warped_masks, folded)
     return _finish(quads, batch, chunk, lattices, options, frame, *labels, swap)
 
 

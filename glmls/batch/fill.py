@@ -49,7 +49,8 @@ def embedding_flags(gl: GLContext, resources: Resources, count: int) -> np.ndarr
     gl.mgl.memory_barrier()
     raw = resources.cached("check").read(size=16 * count)
     counts = np.frombuffer(raw, np.uint32).reshape(count, 4)
-    return (counts[:, 0] != 0) | (counts[:, 1] != 0) | (counts[:, 2] != 1)
+    star = (counts[:, 1] == 0) & (counts[:, 2] == 1)
+    return (counts[:, 0] != 0) | ~(star | (counts[:, 3] == 1))
 
 
 def runs(flags: np.ndarray) -> list[tuple[int, int]]:

@@ -190,6 +190,13 @@ class BatchQuads(BatchDrawer):
     #: Bilinear chunks: the meshes shown to be embeddings are coloured by the scan, without
     #: keys (``BATCH_CELLS_LINEAR``), the others by the fill draw; tests take both ways.
     fused_linear: bool = True
+    #: The last :meth:`warp`'s scan's flags where it tested its meshes (:meth:`scan_folded`).
+    _scan_folded: np.ndarray | None = None
+
+    def scan_folded(self) -> np.ndarray | None:
+        """(N,) bool: the meshes of the last :meth:`warp`'s chunk that its scan did not show
+        to be embeddings, where the scan tested them (bilinear, fused); else None."""
+        return self._scan_folded
 
     @current
     def coords(
@@ -441,6 +448,7 @@ class BatchQuads(BatchDrawer):
         bilinear fill of the images takes only the winning triangle from them (the one the
         keys without source pixels pick: those bits rank below the triangle's). Returns
         (images, labels) then."""
+        self._scan_folded = None
         height, width = sources[0].shape
         linear = options.interpolation == "linear"
         nearest_keys = not linear or labels is not None
@@ -483,6 +491,7 @@ class BatchQuads(BatchDrawer):
         keys_form = (nearest_keys, linear, border)  # 2.
         fused = self.fused_linear
         keyed = scan(gl, self._resources, values, lattice, count, keys_form, targets, fused=fused)
+        self._scan_folded = keyed
         mgl.memory_barrier()
         fill = (winner, linear, border)
         if labels is None:

@@ -21,6 +21,7 @@ __all__ = [
     "mesh_keypoints",
     "mesh_map",
     "on_canvas",
+    "simple_rings",
     "visible",
     "visible_chunk",
 ]
@@ -290,9 +291,11 @@ EMBED_MARGIN = 1e-3
 
 def embedded(vertices: np.ndarray) -> np.ndarray:
     """(N,) bool: the deformed meshes (N, rows, columns, 2) that are embeddings, shown by
-    every triangle positive and the boundary turning around the centre vertex, once (a
-    star-shaped simple curve), by :data:`EMBED_MARGIN` at least: no point is then covered
-    twice."""
+    every triangle positive and a simple boundary, by :data:`EMBED_MARGIN` at least: no
+    point is then covered twice (``warp/cells_check.comp.glsl`` says why). The boundary is
+    shown simple by turning around the centre vertex, once (a star-shaped curve), or, where
+    it does not (a long strip bent along its length), edge against edge
+    (:func:`simple_rings`)."""
     a, b = vertices[:, :-1, :-1], vertices[:, :-1, 1:]
     c, d = vertices[:, 1:, 1:], vertices[:, 1:, :-1]
     margin = EMBED_MARGIN
@@ -313,7 +316,67 @@ def embedded(vertices: np.ndarray) -> np.ndarray:
     nxt = np.roll(rel, -1, axis=1)
     turn = _cross(rel, nxt)
     angle = np.arctan2(turn, np.einsum("nmi,nmi->nm", rel, nxt)).sum(axis=1)
-    return ok & (turn > margin).all(axis=1) & (angle < 3 * np.pi)
+    shown = ok & (turn > margin).all(axis=1) & (angle < 3 * np.pi)
+    rest = np.flatnonzero(ok & ~shown)
+    if len(rest):
+        shown[rest] = simple_rings(np.asarray(ring[rest], np.float64))
+    return shown
+
+
+#: The most edges of a boundary that :func:`simple_rings` tests pair by pair (as
+#: ``batch/check.comp.glsl``'s ``BATCH_SIMPLE_EDGES``): 224 at 224 x 224 and grid 4.
+SIMPLE_EDGES = 256
+
+#: Pairs of edges (rings times pairs) that :func:`simple_rings` compares in one block.
+_PAIR_BLOCK = 1 << 20
+
+
+def simple_rings(rings: np.ndarray) -> np.ndarray:
+    """(M,) bool: the closed polygons ``rings`` (M, B, 2) shown to be simple curves: every
+    two edges that share no vertex more than :data:`EMBED_MARGIN` apart (neither crossing
+    nor within that distance), and no edge turning back along the one before it. False
+    beyond :data:`SIMPLE_EDGES` edges (not shown)."""
+    count, edges = rings.shape[:2]
+    if edges > SIMPLE_EDGES or edges < 3:
+        return np.zeros(count, bool)
+    margin = EMBED_MARGIN
+    a, b, p = rings, np.roll(rings, -1, axis=1), np.roll(rings, -2, axis=1)
+    ab, bp = b - a, p - b
+    back = (np.abs(_cross(ab, bp)) <= margin) & (np.einsum("mei,mei->me", ab, bp) <= 0)
+    simple = ~back.any(axis=1)
+    first, second = np.triu_indices(edges, 2)
+    keep = ~((first == 0) & (second == edges - 1))  # those two share vertex 0
+    first, second = first[keep], second[keep]
+    block = max(1, _PAIR_BLOCK // len(first))
+    for start in range(0, count, block):
+        part = slice(start, start + block)
+        e0, e1 = a[part][:, first], b[part][:, first]
+        f0, f1 = a[part][:, second], b[part][:, second]
+        simple[part] &= ~_near(e0, e1, f0, f1, margin).any(axis=1)
+    return simple
+
+
+def _near(a: np.ndarray, b: np.ndarray, p: np.ndarray, q: np.ndarray, margin: float):
+    """Segments ab and pq crossing or within ``margin`` of each other: the distance of two
+    segments that do not cross is the least of their ends' distances to the other."""
+    ab, pq = b - a, q - p
+    sp, sq = _cross(ab, p - a), _cross(ab, q - a)
+    sa, sb = _cross(pq, a - p), _cross(pq, b - p)
+    crossing = (sp * sq < 0) & (sa * sb < 0)
+    closest = np.minimum(
+        np.minimum(_to_segment(p, a, ab), _to_segment(q, a, ab)),
+        np.minimum(_to_segment(a, p, pq), _to_segment(b, p, pq)),
+    )
+    return crossing | ~(closest > margin * margin)  # NaN: near
+
+
+def _to_segment(point: np.ndarray, start: np.ndarray, along: np.ndarray) -> np.ndarray:
+    """Squared distance of ``point`` to the segment from ``start`` by ``along``."""
+    rel = point - start
+    length = np.einsum("...i,...i->...", along, along)
+    t = np.clip(np.einsum("...i,...i->...", rel, along) / np.maximum(length, 1e-300), 0, 1)
+    gap = rel - t[..., None] * along
+    return np.einsum("...i,...i->...", gap, gap)
 
 
 def _covered_earlier(
