@@ -302,10 +302,20 @@ def invert_points3(
         ends, again = _start3(
             kernel, points[left], points[left], shape=shape, max_groups=max_groups
         )
-        better = again < residual[left]
-        s[left[better]] = ends[better]
-        residual[left[better]] = again[better]
+        _keep_better(s, residual, left, ends, again)
     return s, residual
+
+
+def _keep_better(
+    s: np.ndarray, residual: np.ndarray, rows: np.ndarray, ends: np.ndarray, again: np.ndarray
+) -> np.ndarray:
+    """Where the new ends of ``rows`` have smaller residuals (``again``), they replace those
+    rows of ``s`` and ``residual``; returns which of ``rows`` did (a NaN residual never
+    does)."""
+    better = again < residual[rows]
+    s[rows[better]] = ends[better]
+    residual[rows[better]] = again[better]
+    return better
 
 
 def _start3(
@@ -331,9 +341,7 @@ def _start3(
         ends, again, more = _newton3(
             kernel, points[rows], s[rows], shape=shape, max_groups=max_groups
         )
-        better = again < residual[rows]
-        s[rows[better]] = ends[better]
-        residual[rows[better]] = again[better]
+        better = _keep_better(s, residual, rows, ends, again)
         rows = rows[better & more]
     return s, residual
 
