@@ -67,6 +67,8 @@ if [[ " ${failed[*]-} " == *" tests "* ]] && ((${#parallel[@]})); then
         "$PYTHON" -m pytest -v -rfE --last-failed --last-failed-no-failures none \
         -o cache_dir="$out/.pytest_cache" -p no:benchmark "${gl_tests[@]}"
 fi
+# whether the context survives a forked child's exit, by the way the child ends
+step fork-probe 30 "$PYTHON" tools/fork_probe.py --timeout 8
 if command -v glslangValidator >/dev/null; then
     # --driver: the vendor compiler's own warnings too
     step shaders 60 "$PYTHON" tools/check_shaders.py "$out/shaders" --driver
