@@ -82,6 +82,8 @@ def turned(out: np.ndarray) -> np.ndarray:
     their points, turns over in part: a triangle of the fan about the centre whose image has
     the other orientation, or none (f folds inside the footprint)."""
     centre = out[:, :1]
-    a, b = out[:, _AROUND[:-1]] - centre, out[:, _AROUND[1:]] - centre
+    # np.take: numpy's fancy indexing along an inner axis runs several times slower
+    a = np.take(out, _AROUND[:-1], axis=1) - centre
+    b = np.take(out, _AROUND[1:], axis=1) - centre
     area = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
     return (area <= 0).any(axis=1)

@@ -31,33 +31,38 @@ def on_canvas(out: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """(P,) bool: the output points ``out`` (P, 2) on a canvas of ``shape`` (H, W), which
     spans [-0.5, W - 0.5) x [-0.5, H - 0.5): output pixel c covers [c - 0.5, c + 0.5)."""
     height, width = shape
-    return np.all((out >= -0.5) & (out < (width - 0.5, height - 0.5)), axis=1)
+    x, y = out[:, 0], out[:, 1]
+    return (x >= -0.5) & (x < width - 0.5) & (y >= -0.5) & (y < height - 0.5)
 
 
 def mesh_corners(lattice: MeshLattice, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """For (P, 2) source ``points``: the (P, 4, 2) corners 00, 10, 01, 11 of the lattice cell
     holding each (the last cell of a row or column where past it) and a (P,) bool, inside the
     lattice's domain."""
-    _, corners, inside = _cells(lattice, points)
-    return corners, inside
-
-
-def _cells(lattice: MeshLattice, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`mesh_corners` with the (P, 2) (column, row) index of each point's cell first."""
-    origin = np.asarray(lattice.origin, np.float64)
-    last = np.asarray(lattice.last, np.float64)
-    cells = np.asarray(lattice.cells, np.int64)  # (columns, rows)
-    grid = lattice.grid
-    index = np.clip(np.floor((points - origin) / grid).astype(np.int64), 0, cells - 1)
-    low = np.minimum(origin + index * grid, last)
-    high = np.minimum(origin + (index + 1) * grid, last)
+    _, low, high, inside = _cells(lattice, points)
     corners = np.empty((len(points), 4, 2))
     corners[:, 0] = low
     corners[:, 1, 0], corners[:, 1, 1] = high[:, 0], low[:, 1]
     corners[:, 2, 0], corners[:, 2, 1] = low[:, 0], high[:, 1]
     corners[:, 3] = high
-    inside = np.all((points >= origin) & (points <= last), axis=1)
-    return index, corners, inside
+    return corners, inside
+
+
+def _cells(lattice: MeshLattice, points: np.ndarray):
+    """The (P, 2) (column, row) index of the cell holding each of the (P, 2) ``points``, its
+    corners 00 and 11 (P, 2) each, and (P,) bool, inside the lattice's domain
+    (:func:`mesh_corners`)."""
+    origin = np.asarray(lattice.origin, np.float64)
+    last = np.asarray(lattice.last, np.float64)
+    cells = np.asarray(lattice.cells, np.int64)  # (columns, rows)
+    grid = lattice.grid
+    index = np.floor((points - origin) / grid).astype(np.int64)
+    np.clip(index, 0, cells - 1, out=index)
+    low = np.minimum(origin + index * grid, last)
+    high = np.minimum(origin + (index + 1) * grid, last)
+    x, y = points[:, 0], points[:, 1]
+    inside = (x >= origin[0]) & (x <= last[0]) & (y >= origin[1]) & (y <= last[1])
+    return index, low, high, inside
 
 
 def mesh_map(
@@ -66,15 +71,15 @@ def mesh_map(
     """The mesh's map at ``points``: (P, 2) output points and the (P, 2, 2) Jacobians (rows:
     d/dx, d/dy) of the triangle each lies in. ``corners``: (P, 4, 2) source corners 00, 10, 01,
     11 (:func:`mesh_corners`), ``deformed``: their images under f."""
-    out, ex, ey, size, _ = _triangle_map(corners, deformed, points)
+    out, ex, ey, size, _ = _triangle_map(corners[:, 0], corners[:, 3], deformed, points)
     jacobian = np.stack([ex / size[:, :1], ey / size[:, 1:]], axis=1)
     return out, jacobian
 
 
-def _triangle_map(corners: np.ndarray, deformed: np.ndarray, points: np.ndarray):
+def _triangle_map(low: np.ndarray, high: np.ndarray, deformed: np.ndarray, points: np.ndarray):
     """:func:`mesh_map`'s output points, the triangles' edges per unit of the cell's (u, v),
-    the cells' sizes and (P,) bool, the point in the upper triangle (00, 11, 01)."""
-    low, high = corners[:, 0], corners[:, 3]
+    the cells' sizes and (P,) bool, the point in the upper triangle (00, 11, 01); ``low`` and
+    ``high``: the cells' corners 00 and 11."""
     size = np.maximum(high - low, 1e-12)
     u, v = ((points - low) / size).T
     d00, d10, d01, d11 = (deformed[:, k] for k in range(4))
@@ -247,10 +252,10 @@ def mesh_keypoints(
     if vertices.ndim == 3:
         vertices = vertices[None]
     image = np.zeros(count, np.int64) if images is None else images
-    index, corners, inside = _cells(lattice, points)
+    index, low, high, inside = _cells(lattice, points)
     col, row = index[:, 0], index[:, 1]
     deformed = _cell_vertices(vertices, image, row, col)
-    out, _, _, _, upper = _triangle_map(corners, deformed, points)
+    out, _, _, _, upper = _triangle_map(low, high, deformed, points)
     if moved is not None:
         out = moved
     own = (row * (vertices.shape[2] - 1) + col) * 2 + upper
@@ -278,10 +283,10 @@ def _cell_vertices(vertices, image: np.ndarray, row: np.ndarray, col: np.ndarray
     gathered by one flat index."""
     _, rows, columns, _ = vertices.shape
     flat = (image * rows + row) * columns + col
-    at = flat[:, None] + _ROWS * columns + _COLUMNS
+    at = flat[:, None] + (_ROWS * columns + _COLUMNS)
     if isinstance(vertices, MeshVertices):
         return vertices.flat_points(at, image)
-    return np.asarray(vertices, np.float64).reshape(-1, 2)[at]
+    return np.take(np.asarray(vertices, np.float64).reshape(-1, 2), at, axis=0)
 
 
 #: Least area (px^2) of a triangle, and turn of a boundary edge about the centre, that
@@ -350,8 +355,8 @@ def simple_rings(rings: np.ndarray) -> np.ndarray:
     block = max(1, _PAIR_BLOCK // len(first))
     for start in range(0, count, block):
         part = slice(start, start + block)
-        e0, e1 = a[part][:, first], b[part][:, first]
-        f0, f1 = a[part][:, second], b[part][:, second]
+        e0, e1 = np.take(a[part], first, axis=1), np.take(b[part], first, axis=1)
+        f0, f1 = np.take(a[part], second, axis=1), np.take(b[part], second, axis=1)
         simple[part] &= ~_near(e0, e1, f0, f1, margin).any(axis=1)
     return simple
 
@@ -507,8 +512,11 @@ class MeshVertices:
         """The vertices at flat indices ``at`` (P, k) into (N * rows * columns) of the
         meshes ``images`` (P,) that hold them: (P, k, 2), converted as :meth:`__getitem__`
         converts them."""
-        scaled = self._scaled.reshape(-1, 2)[at].astype(np.float64)
-        return scaled * self._scales[images][:, None, None] + self._centers[images][:, None]
+        # np.take: numpy's fancy indexing of rows runs several times slower
+        scaled = np.take(self._scaled.reshape(-1, 2), at, axis=0).astype(np.float64)
+        scaled *= np.take(self._scales, images)[:, None, None]
+        scaled += np.take(self._centers, images, axis=0)[:, None]
+        return scaled
 
     def __getitem__(self, key):
         image = key[0] if isinstance(key, tuple) else key
