@@ -14,14 +14,15 @@ import numpy as np
 from ..batch import BatchResult, warp_batch
 from ..batch.inputs import check_point_sets, check_points, item_array
 from ..core.config import check_integer, check_seed, counted
-from ..core.handles import COORDINATE_LIMIT
 from ..core.mesh import as_shape
 from . import labels as lab
 from . import tensors
 from .params import (
     LABEL_OPTIONS,
+    as_lists,
     check_label_options,
     check_params,
+    check_reach,
     check_warp_options,
     differing_options,
     jsonable,
@@ -83,32 +84,6 @@ class AugmentResult(BatchResult):
 #: The ``warp_options`` that say where to render, not what: kept out of the params (JSON),
 #: added again on replay.
 _UNRECORDED = ("ctx",)
-
-
-def _as_lists(drawn: list[tuple[np.ndarray, np.ndarray]]) -> list[tuple[list, list]]:
-    """Each sample's (src, dst) as lists (``tolist``): where every sample drew as many
-    handles, of all at once."""
-    if len({(p.shape, q.shape) for p, q in drawn}) != 1:
-        return [(p.tolist(), q.tolist()) for p, q in drawn]
-    sources = np.stack([p for p, _ in drawn]).tolist()
-    targets = np.stack([q for _, q in drawn]).tolist()
-    return list(zip(sources, targets, strict=True))
-
-
-def _check_reach(preset: object, reach: float, index: int) -> None:
-    """A preset whose draws can take handles out of the coordinate range (the GPU's float32
-    keeps ~1e-7 of it) names the magnitude that would send them there. ``reach`` is the
-    preset's bound for the image, not one draw's extent: whether an image is refused does
-    not hang on its random numbers (a run over a data set does not stop at one unlucky
-    sample)."""
-    if reach <= COORDINATE_LIMIT:
-        return
-    names = [f for f in ("displacement", "radius", "units") if hasattr(preset, f)]
-    given = ", ".join(f"{f}={getattr(preset, f)!r}" for f in names)
-    raise ValueError(
-        f"images[{index}]: the {preset.name} preset's {given} can move handles to "  # type: ignore[attr-defined]
-        f"{reach:g} px, beyond ±{COORDINATE_LIMIT:g} px: use a smaller magnitude"
-    )
 
 
 def _words(value: int) -> list[int]:
@@ -453,7 +428,7 @@ class Augment:
                 reach = self.preset.reach(shape, marks)
                 if marks is None:
                     reaches[shape] = reach
-            _check_reach(self.preset, reach, i)
+            check_reach(self.preset, reach, i)
             drawn.append((np.asarray(src, np.float64), np.asarray(dst, np.float64)))
             params.append(
                 {
@@ -468,7 +443,7 @@ class Augment:
                     "label_options": self.label_options,
                 }
             )
-        for draw, (src, dst) in zip(params, _as_lists(drawn), strict=True):
+        for draw, (src, dst) in zip(params, as_lists(drawn), strict=True):
             draw["src"], draw["dst"] = src, dst
         return params, drawn
 

@@ -14,6 +14,7 @@ import numpy as np
 from ..batch.inputs import check_point_sets, item_array
 from ..batch.run import check_flags
 from ..core.config import MLSConfig, check_flag, counted, is_integer
+from ..core.handles import COORDINATE_LIMIT
 from ..engine.kernel import check_bins
 from ..engine.storage import check_storage
 from ..errors import DtypeError
@@ -24,8 +25,10 @@ from .labels import check_positive
 
 __all__ = [
     "LABEL_OPTIONS",
+    "as_lists",
     "check_label_options",
     "check_params",
+    "check_reach",
     "check_warp_options",
     "differing_options",
     "jsonable",
@@ -247,3 +250,29 @@ def _refuse_bools(points: object, name: str) -> None:
             and any(isinstance(v, (bool, np.bool_)) for v in values)
         ):
             raise DtypeError(f"{name} row {row} holds a bool, {values!r}; expected real numbers")
+
+
+def as_lists(drawn: list[tuple[np.ndarray, np.ndarray]]) -> list[tuple[list, list]]:
+    """Each sample's (src, dst) as lists (``tolist``): where every sample drew as many
+    handles, of all at once."""
+    if len({(p.shape, q.shape) for p, q in drawn}) != 1:
+        return [(p.tolist(), q.tolist()) for p, q in drawn]
+    sources = np.stack([p for p, _ in drawn]).tolist()
+    targets = np.stack([q for _, q in drawn]).tolist()
+    return list(zip(sources, targets, strict=True))
+
+
+def check_reach(preset: object, reach: float, index: int) -> None:
+    """A preset whose draws can take handles out of the coordinate range (the GPU's float32
+    keeps ~1e-7 of it) names the magnitude that would send them there. ``reach`` is the
+    preset's bound for the image, not one draw's extent: whether an image is refused does
+    not hang on its random numbers (a run over a data set does not stop at one unlucky
+    sample)."""
+    if reach <= COORDINATE_LIMIT:
+        return
+    names = [f for f in ("displacement", "radius", "units") if hasattr(preset, f)]
+    given = ", ".join(f"{f}={getattr(preset, f)!r}" for f in names)
+    raise ValueError(
+        f"images[{index}]: the {preset.name} preset's {given} can move handles to "  # type: ignore[attr-defined]
+        f"{reach:g} px, beyond ±{COORDINATE_LIMIT:g} px: use a smaller magnitude"
+    )
