@@ -96,8 +96,14 @@ def _instrument() -> None:
         for method in ("read", "write", "read_into"):
             if hasattr(cls, method):
                 setattr(cls, method, timing(transfer(cls, method), getattr(cls, method)))
-    fbo_read = moderngl.Framebuffer.read
-    moderngl.Framebuffer.read = timing(lambda _, __: "read Framebuffer", fbo_read)
+    for method in ("read", "read_into"):
+        original = getattr(moderngl.Framebuffer, method)
+        setattr(
+            moderngl.Framebuffer, method, timing(transfer(moderngl.Framebuffer, method), original)
+        )
+    # draws (the fill from the keys, splats): the GPU's time of the rasterizer's passes
+    render = moderngl.VertexArray.render
+    moderngl.VertexArray.render = timing(lambda _, __: "draw VertexArray", render)
 
 
 def volume_workload(args):
