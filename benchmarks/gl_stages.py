@@ -176,7 +176,9 @@ def main() -> None:
     parser.add_argument("--method", default="quads", choices=("quads", "backward"))
     parser.add_argument("--grid", type=int, default=1)
     parser.add_argument("--n", type=int, default=256)
-    parser.add_argument("--keypoints", action="store_true")
+    parser.add_argument(
+        "--keypoints", action="store_true", help="batch: three keypoints and a mask per image"
+    )
     parser.add_argument(
         "--move", type=float, default=None, help="batch: the handles' move, px (size / 40)"
     )
