@@ -25,6 +25,7 @@ from .params import (
     check_reach,
     check_warp_options,
     differing_options,
+    fresh,
     jsonable,
     label_options_of,
     param_points,
@@ -433,13 +434,13 @@ class Augment:
             params.append(
                 {
                     "preset": self.preset.name,
-                    "config": jsonable(config),
+                    "config": fresh(config),
                     "seed": self.seed,
                     "index": index,
                     "shape": [int(shape[0]), int(shape[1])],
                     "src": None,  # below, of every sample at once
                     "dst": None,
-                    "options": jsonable(options),
+                    "options": fresh(options),
                     "label_options": self.label_options,
                 }
             )

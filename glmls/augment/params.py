@@ -31,6 +31,7 @@ __all__ = [
     "check_reach",
     "check_warp_options",
     "differing_options",
+    "fresh",
     "jsonable",
     "label_options_of",
     "param_points",
@@ -90,10 +91,22 @@ def jsonable(value: object) -> object:
         return {str(k): jsonable(v) for k, v in value.items()}
     if isinstance(value, np.ndarray) and value.ndim == 0:
         return value.item()
+    if isinstance(value, np.ndarray) and value.dtype.kind in "biuf":
+        return value.tolist()  # the same nested lists of Python numbers, in one call
     if isinstance(value, (list, tuple, np.ndarray)):
         return [jsonable(v) for v in value]
     if isinstance(value, np.generic):
         return value.item()
+    return value
+
+
+def fresh(value: object) -> object:
+    """A copy of ``value``, made by :func:`jsonable`, whose dicts and lists are new (a
+    sample's record its own) and whose numbers and strings are shared."""
+    if type(value) is dict:
+        return {k: fresh(v) for k, v in value.items()}
+    if type(value) is list:
+        return [fresh(v) for v in value]
     return value
 
 

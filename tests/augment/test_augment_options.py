@@ -157,3 +157,25 @@ def test_indices_may_be_zero_dimensional_arrays_and_tensors(gl, kind):
     np.testing.assert_array_equal(out.images, aug(images, indices=[7, 2]).images)
     with pytest.raises(TypeError, match=r"indices\[0\] must be an integer >= 0"):
         aug(images, indices=[make(1.0), make(2)])
+
+
+def test_each_record_is_its_own_and_holds_python_numbers():
+    """Every sample's record owns its dicts and lists (changing one leaves the others), and
+    numpy values given as options are recorded as the Python numbers and lists JSON holds."""
+    aug = Augment(
+        "grid",
+        rows=np.int64(3),
+        displacement=np.float32(0.25),
+        warp_options={"background": np.array([1.0, 2.0, 3.0]), "alpha": np.float64(1.5)},
+    )
+    first, second = aug.draw([(10, 12), (10, 12)])
+    first["options"]["background"][0] = 9.0
+    first["config"]["rows"] = 7
+    assert second["options"]["background"] == [1.0, 2.0, 3.0]
+    assert second["config"]["rows"] == 3
+    for record in (first, second):
+        assert type(record["config"]["rows"]) is int
+        assert type(record["config"]["displacement"]) is float
+        assert type(record["options"]["alpha"]) is float
+        assert all(type(v) is float for v in second["options"]["background"])
+        assert all(type(v) is float for point in record["src"] for v in point)
