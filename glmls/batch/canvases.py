@@ -37,17 +37,21 @@ class ForwardTargets:
         self.count, self.frame, self.source = count, frame, source
         self.size = atlas = (frame.size[0], frame.size[1] * count)
         self.label_sources = None if labels is None else labels[0]
+        # the atlas in the first rows of a texture kept from a larger chunk; the others of
+        # exactly its size (one framebuffer draws them all)
         roles = ["forward atlas"]
-        self._images = resources.framebuffer(roles[0], atlas, _dtype(source))
-        resources.fill(self._images.color_attachments[0], background)
+        self._images = resources.framebuffer(roles[0], atlas, _dtype(source), tall=True)
+        rows = atlas[1]
+        resources.fill(self._images.color_attachments[0], background, rows=rows)
+        size = self._images.size
         self._labels = self._drawn = None
         if labels is not None:
-            self._labels = resources.framebuffer("forward labels", atlas, _dtype(labels[0][0]))
-            resources.fill(self._labels.color_attachments[0], labels[1])
+            self._labels = resources.framebuffer("forward labels", size, _dtype(labels[0][0]))
+            resources.fill(self._labels.color_attachments[0], labels[1], rows=rows)
             roles.append("forward labels")
         if drawn:
-            self._drawn = resources.framebuffer("forward drawn", atlas, "f4")
-            resources.fill(self._drawn.color_attachments[0], (0.0, 0.0, 0.0, 0.0))
+            self._drawn = resources.framebuffer("forward drawn", size, "f4")
+            resources.fill(self._drawn.color_attachments[0], (0.0,) * 4, rows=rows)
             roles.append("forward drawn")
         self.framebuffer = self._images
         if len(roles) > 1:

@@ -241,8 +241,8 @@ class BatchQuads(BatchDrawer):
         mgl.memory_barrier()
         ScanPieces(gl).run_1d(scan, cells * count, max_groups=gl.limits["max_work_groups_x"])
         mgl.memory_barrier()
-        framebuffer = self._resources.framebuffer("coords", atlas, "f4")
-        self._resources.fill(framebuffer.color_attachments[0], (0.0, 0.0, 0.0, 0.0))
+        framebuffer = self._resources.framebuffer("coords", atlas, "f4", tall=True)
+        self._resources.fill(framebuffer.color_attachments[0], (0.0,) * 4, rows=atlas[1])
         self._resolve(values, atlas, framebuffer, winner, True, 0, coords=True)
         return framebuffer, atlas
 
@@ -345,15 +345,23 @@ class BatchQuads(BatchDrawer):
         W) bool covered, as the single warp's backward map."""
         out_w, out_h = frame.size
         atlas = (out_w, out_h * count)
-        framebuffer = self._resources.framebuffer("coords", atlas, "f4")
+        framebuffer = self._resources.framebuffer("coords", atlas, "f4", tall=True)
         return _read_coords(self._gl.mgl, framebuffer, atlas, count, frame, 3)
 
-    def _atlas(self, name: str, source: SourceImage, atlas, background) -> moderngl.Framebuffer:
+    def _atlas(
+        self, name: str, source: SourceImage, atlas, background, *, like=None
+    ) -> moderngl.Framebuffer:
         """The framebuffer ``name`` of an atlas of ``atlas`` (W, H) texels in ``source``'s
-        form (RGBA8, or RGBA32F for unnormalized values), filled with ``background``."""
+        form (RGBA8, or RGBA32F for unnormalized values) in the first rows of its texture
+        (kept from a larger chunk), those rows filled with ``background``. ``like``: a
+        framebuffer whose texture's size this one's takes exactly (one framebuffer then
+        draws both)."""
         dtype = "f1" if source.normalized else "f4"
-        framebuffer = self._resources.framebuffer(name, atlas, dtype)
-        self._resources.fill(framebuffer.color_attachments[0], background)
+        if like is None:
+            framebuffer = self._resources.framebuffer(name, atlas, dtype, tall=True)
+        else:
+            framebuffer = self._resources.framebuffer(name, like.size, dtype)
+        self._resources.fill(framebuffer.color_attachments[0], background, rows=atlas[1])
         return framebuffer
 
     def _resolve(
@@ -381,9 +389,9 @@ class BatchQuads(BatchDrawer):
         drawn = [(0, count)] if keyed is None else runs(keyed)
         if not drawn:
             return
-        keys = self._resources.texture("winner", atlas, 1, "u4")
+        keys = self._resources.texture("winner", atlas, 1, "u4", tall=True)
         if winner is not None:
-            keys.write(winner)
+            keys.write(winner, viewport=(0, 0, *atlas))
         with keep_framebuffer(mgl):
             framebuffer.use()
             defines = {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords, "WARP_BORDER": border}
@@ -482,7 +490,9 @@ class BatchQuads(BatchDrawer):
         label_sources, label_buffer = None, None
         if labels is not None:
             label_sources, zero = labels
-            label_buffer = self._atlas("labels atlas", label_sources[0], atlas, zero)
+            label_buffer = self._atlas(
+                "labels atlas", label_sources[0], atlas, zero, like=framebuffer
+            )
         winner.bind_to_storage_buffer(bindings.WINNER.index)
         self._sources.bind(sources, label_sources, linear)
         targets = [framebuffer, label_buffer]

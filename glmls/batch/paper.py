@@ -119,13 +119,13 @@ class BatchPaper(BatchDrawer):
         mgl.memory_barrier()
         if linear:  # the source points of the pixels each square won (no fill: the draw
             # reads only the pixels with a key, every one of which the scan writes)
-            coords = resources.texture("coords", atlas, 4, "f4")
+            coords = resources.texture("coords", atlas, 4, "f4", tall=True)
             coords.bind_to_image(bindings.INVERSE_MAP.index, read=False, write=True)
             self._scan(values, items, winner, stage=1)
             mgl.memory_barrier()
             coords.use(bindings.COORDS.index)
-        keys = resources.texture("winner", atlas, 1, "u4")
-        keys.write(winner)  # a copy on the GPU side
+        keys = resources.texture("winner", atlas, 1, "u4", tall=True)
+        keys.write(winner, viewport=(0, 0, *atlas))  # a copy on the GPU side
         keys.use(bindings.WINNER_TEXTURE.index)
         defines = {
             "WARP_LINEAR": linear,

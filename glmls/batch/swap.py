@@ -66,8 +66,9 @@ def warp_swapped(
     atlas = (out_w, out_h * len(sources))
     border = BORDERS.index(options.border)
     with gl.use():
-        # every texel of the atlas is stored by the pass: no fill first
-        coords = quads.resources.framebuffer("coords", atlas, "f4").color_attachments[0]
+        # every texel of the atlas's rows is stored by the pass: no fill first
+        framebuffer = quads.resources.framebuffer("coords", atlas, "f4", tall=True)
+        coords = framebuffer.color_attachments[0]
         defines = {"WARP_SWAP": True, "WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": border}
         uniforms = {**frame.uniforms(), "u_source_size": (width, height)}
         groups = [-(-n // LOCAL_SIZE_2D) for n in frame.size]

@@ -1,6 +1,7 @@
 """Cached GL objects of one owner: buffers that only grow, one texture (and framebuffer) per
-role replaced when its size changes, attribute-less vertex arrays per program, and the
-read-only tables of compute shaders (:mod:`.tables`).
+role replaced when its size changes (or, asked for ``tall``, only when it has too few rows),
+attribute-less vertex arrays per program, and the read-only tables of compute shaders
+(:mod:`.tables`).
 
 Owners (an MLS kernel's scratch buffers, a warp pipeline) keep a :class:`Resources` and call
 :meth:`Resources.release` when they go; nothing else frees these objects.
@@ -111,14 +112,23 @@ class Resources:
         return buffer
 
     def texture(
-        self, role: str, size: tuple[int, int], components: int, dtype: str = "f4"
+        self,
+        role: str,
+        size: tuple[int, int],
+        components: int,
+        dtype: str = "f4",
+        *,
+        tall: bool = False,
     ) -> moderngl.Texture:
         """The texture of ``role``, made again (with its framebuffer) when size, components
-        or dtype change; clamped to its edges."""
+        or dtype change; clamped to its edges. ``tall``: the one kept serves while it has
+        ``size``'s width and at least its rows (an atlas of fewer images than the last; its
+        user draws, fills and reads only its first ``size[1]`` rows), so that chunks of
+        different sizes do not make their textures again each time."""
         self.check_alive()
         key = (tuple(size), components, dtype)
         cached = self._textures.get(role)
-        if cached is not None and cached[0] == key:
+        if cached is not None and (cached[0] == key or (tall and _holds(cached[0], key))):
             return cached[1]
         if cached is not None:
             self._drop_texture(role)
@@ -173,10 +183,12 @@ class Resources:
         for top in range(0, height, step):
             texture.write(source, viewport=(0, top, width, min(step, height - top)))
 
-    def framebuffer(self, role: str, size: tuple[int, int], dtype: str = "f4"):
+    def framebuffer(
+        self, role: str, size: tuple[int, int], dtype: str = "f4", *, tall: bool = False
+    ):
         """A framebuffer around the RGBA texture ``role`` of ``size`` (RGBA32F, or RGBA8 for
-        ``dtype="f1"``)."""
-        texture = self.texture(role, size, 4, dtype)
+        ``dtype="f1"``; ``tall`` as :meth:`texture`'s)."""
+        texture = self.texture(role, size, 4, dtype, tall=tall)
         cached = self._framebuffers.get(role)
         if cached is not None and cached[0] == texture.glo:
             return cached[1]
@@ -262,3 +274,11 @@ def keep_framebuffer(mgl: moderngl.Context) -> Iterator[None]:
         yield
     finally:
         bound.use()
+
+
+def _holds(kept: tuple, asked: tuple) -> bool:
+    """Does a texture of the form ``kept`` (size, components, dtype) hold one of ``asked``
+    in its first rows?"""
+    (width, height), *form = kept
+    (asked_width, asked_height), *asked_form = asked
+    return width == asked_width and height >= asked_height and form == asked_form

@@ -1,4 +1,5 @@
-"""Resources.fill: every texel of a texture set to a colour, as a framebuffer clear; and
+"""Resources.fill: every texel of a texture (or its first rows) set to a colour, as a
+framebuffer clear; the tall textures kept for smaller atlases; and
 Resources.staging, the host arrays of read-backs."""
 
 from __future__ import annotations
@@ -128,3 +129,30 @@ def test_staging_arrays_are_kept_grown_and_dropped(gl):
     owner.release()
     with pytest.raises(glmls.ReleasedError, match="a test cache"):
         owner.staging("records", (1,), np.float32)
+
+
+def test_a_tall_texture_is_kept_while_it_has_rows_enough(gl, resources):
+    """``tall``: the texture kept serves a request of its width and fewer rows (a smaller
+    chunk's atlas in its first rows); more rows, another width, components or dtype, or a
+    request that is not tall make it again, its framebuffer with it."""
+    first = resources.framebuffer("atlas", (6, 40), "f1", tall=True)
+    texture = first.color_attachments[0]
+    assert resources.framebuffer("atlas", (6, 12), "f1", tall=True) is first
+    assert resources.texture("atlas", (6, 40), 4, "f1") is texture  # its very size
+    assert resources.texture("atlas", (6, 41), 4, "f1", tall=True).size == (6, 41)
+    for size, dtype in (((7, 12), "f1"), ((6, 12), "f4")):
+        made = resources.texture("atlas", size, 4, dtype, tall=True)
+        assert made.size == size and made.dtype == dtype
+    resources.texture("atlas", (6, 40), 4, "f4", tall=True)
+    exact = resources.texture("atlas", (6, 12), 4, "f4")
+    assert exact.size == (6, 12)
+    assert gl.mgl.error == "GL_NO_ERROR"
+
+
+def test_fill_of_the_first_rows_leaves_the_others(gl, resources):
+    texture = resources.texture("tall", (5, 9), 4, "f1", tall=True)
+    resources.fill(texture, (1.0, 0.0, 0.0, 1.0))
+    resources.fill(texture, (0.0, 0.0, 1.0, 0.0), rows=4)
+    texels = _read(texture, np.uint8)
+    assert_array_equal(texels[:4], np.broadcast_to([0, 0, 255, 0], (4, 5, 4)))
+    assert_array_equal(texels[4:], np.broadcast_to([255, 0, 0, 255], (5, 5, 4)))
