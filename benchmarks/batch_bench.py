@@ -27,7 +27,7 @@ fresh process (its ``VmHWM``, the whole footprint: Python, numpy, the GL driver,
 input and output arrays). The threads: the CPU count, OpenCV's and torch's thread counts
 and llvmpipe's ``LP_NUM_THREADS`` when set (``--peer-threads N`` caps OpenCV's and torch's
 at N, as for a data loader's worker). ``--quick`` runs glmls alone at one batch of 64,
-once (``benchmarks/gpu_check.sh``).
+the median of three runs (``benchmarks/gpu_check.sh``).
 """
 
 from __future__ import annotations
@@ -247,7 +247,7 @@ def peak_memory(count: int) -> float:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--quick", action="store_true", help="glmls alone, a batch of 64, once")
+    parser.add_argument("--quick", action="store_true", help="glmls alone, a batch of 64, 3 runs")
     parser.add_argument("--no-peers", action="store_true", help="glmls alone (and its memory)")
     parser.add_argument("--batches", type=int, nargs="+", default=[64, 256])
     parser.add_argument("--repeat", type=int, default=3)
@@ -276,7 +276,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.peer_threads is not None:
         limit_peer_threads(args.peer_threads)
-    batches, repeat = ([64], 1) if args.quick else (args.batches, args.repeat)
+    # a GPU's single run varies with its clocks and queue: the median of three
+    batches, repeat = ([64], 3) if args.quick else (args.batches, args.repeat)
     rows = []
     for name in args.workloads:
         for count in batches:
