@@ -4,6 +4,7 @@ transfers, and the host's own time.
 ``python benchmarks/gl_stages.py volume [--size 256] [--method quads|backward] [--grid 1]``
 ``python benchmarks/gl_stages.py batch [--n 256] [--size 224] [--keypoints] [--move 5.6]
 [--one-scan] [--interpolation nearest|linear] [--border constant|edge|reflect|...]``
+``python benchmarks/gl_stages.py augment [--preset grid|text-distort|...] [--n 256] [--keypoints]``
 ``python benchmarks/gl_stages.py mesh [--vertices 1000000] [--surface random|torus]``
 
 Each compute dispatch is followed by ``ctx.finish()`` and timed, and so is each buffer and
@@ -14,7 +15,9 @@ beside its wall time: on a shared host it changes less with the other processes'
 rest is the host's (Python, numpy, driver calls): the top host functions by own time follow
 (cProfile). Workloads: 64 handles (16 for a batch), rigid idw (seed 0); the volume as in
 ``volume_bench.py``, the batch as in ``batch_bench.py`` (224 x 224 RGB, grid 4; the handles
-moved by N(0, ``--move`` px), size / 40 by default), the mesh
+moved by N(0, ``--move`` px), size / 40 by default), the augmentation ``Augment(preset,
+seed=0)`` with its defaults on the batch's images (32 x 128 text crops for the ``text-``
+presets; ``--keypoints``: 20 keypoints and a mask per image, which ``landmarks`` moves), the mesh
 points uniform in a 256^3 box with twice as many faces joining random vertices (``--surface
 random``: every face's corners far apart in memory, the worst case for the passes over faces)
 or a torus in the same box whose vertices and faces follow its n x n lattice (``--surface
@@ -140,6 +143,21 @@ def batch_workload(args):
     return lambda: glmls.warp_batch(images, src, dst, **options, **labels)
 
 
+def augment_workload(args):
+    from glmls.augment import Augment
+
+    rng = np.random.default_rng(0)
+    height, width = (32, 128) if args.preset.startswith("text") else (args.size, args.size)
+    images = rng.integers(0, 255, (args.n, height, width, 3), dtype=np.uint8)
+    labels = {}
+    if args.keypoints or args.preset == "landmarks":
+        labels["keypoints"] = rng.uniform(0, 1, (args.n, 20, 2)) * (width - 1, height - 1)
+        labels["masks"] = rng.integers(0, 4, (args.n, height, width), dtype=np.uint8)
+    augment = Augment(args.preset, seed=0)
+    augment(images[:2], **{k: v[:2] for k, v in labels.items()})
+    return lambda: augment(images, **labels)
+
+
 def torus(n: int) -> tuple[np.ndarray, np.ndarray]:
     """An n x n lattice on a torus in the 256^3 box: vertices in lattice order, two faces per
     cell, outward."""
@@ -171,13 +189,15 @@ def mesh_workload(args):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("workload", choices=("volume", "batch", "mesh"))
+    parser.add_argument("workload", choices=("volume", "batch", "augment", "mesh"))
     parser.add_argument("--size", type=int, default=None)
     parser.add_argument("--method", default="quads", choices=("quads", "backward"))
     parser.add_argument("--grid", type=int, default=1)
     parser.add_argument("--n", type=int, default=256)
     parser.add_argument(
-        "--keypoints", action="store_true", help="batch: three keypoints and a mask per image"
+        "--keypoints",
+        action="store_true",
+        help="batch: three keypoints and a mask per image; augment: 20 and a mask",
     )
     parser.add_argument(
         "--move", type=float, default=None, help="batch: the handles' move, px (size / 40)"
@@ -189,15 +209,25 @@ def main() -> None:
     )
     parser.add_argument("--interpolation", default="nearest", choices=glmls.INTERPOLATIONS)
     parser.add_argument("--border", default="constant", choices=glmls.BORDERS)
+    parser.add_argument(
+        "--preset",
+        default="grid",
+        choices=sorted(glmls.augment.PRESETS),
+        help="augment: the Augment preset (text-*: text crops)",
+    )
     parser.add_argument("--vertices", type=int, default=1_000_000)
     parser.add_argument("--surface", default="random", choices=("random", "torus"))
     parser.add_argument("--top", type=int, default=12)
     args = parser.parse_args()
     if args.size is None:
-        args.size = 224 if args.workload == "batch" else 256
-    step = {"volume": volume_workload, "batch": batch_workload, "mesh": mesh_workload}[
-        args.workload
-    ](args)
+        args.size = 224 if args.workload in ("batch", "augment") else 256
+    workloads = {
+        "volume": volume_workload,
+        "batch": batch_workload,
+        "augment": augment_workload,
+        "mesh": mesh_workload,
+    }
+    step = workloads[args.workload](args)
     step()
     start = time.perf_counter()
     step()

@@ -84,12 +84,13 @@ step batch-host 25 "$PYTHON" benchmarks/batch_host.py --n 1024 --repeat 2 \
 step volume-bench 35 "$PYTHON" benchmarks/volume_bench.py --size 256 --repeat 3 --memory 512 --skip-peers
 step adaptive-stages-W2 10 "$PYTHON" benchmarks/adaptive_stages.py --workload W2 --tolerance 0.05
 # where the time of a batch (nearest on its bytes; bilinear with the edge border, keypoints and
-# masks, as Augment warps) and of a volume warp goes (GPU per shader, host); a workload that
-# fails does not stop the others, and the last line names it
+# masks, as Augment warps), of Augment on text crops (its draws, the edge border's margin
+# search and groups) and of a volume warp goes (GPU per shader, host); a workload that fails
+# does not stop the others, and the last line names it
 stages() {
     local failed=()
     for workload in "batch --n 1024" "batch --n 256 --grid 4 --keypoints --interpolation linear --border edge" \
-        "volume --method backward"; do
+        "augment --preset text-distort --n 256 --keypoints" "volume --method backward"; do
         echo "== gl_stages.py $workload"
         # shellcheck disable=SC2086
         "$PYTHON" benchmarks/gl_stages.py $workload --top 12 || failed+=("$workload")
