@@ -488,9 +488,15 @@ def _boxes(rings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The (low, high) corners of each deformed border's points (``rings``: (N, K, 2)), two
     (N, 2) arrays; non-finite points stand nowhere (a border of none: an empty box, low
     inf and high -inf)."""
-    finite = np.isfinite(rings).all(axis=2, keepdims=True)
-    lows = np.where(finite, rings, np.inf).min(axis=1, initial=np.inf)
-    highs = np.where(finite, rings, -np.inf).max(axis=1, initial=-np.inf)
+    # x and y apart: numpy reduces an (N, K, 2) array over K with an inner loop of 2,
+    # ~20x slower than over the (N, K) components
+    x, y = rings[..., 0], rings[..., 1]
+    finite = np.isfinite(x) & np.isfinite(y)
+    lows = np.empty((len(rings), 2))
+    highs = np.empty((len(rings), 2))
+    for k, values in enumerate((x, y)):
+        lows[:, k] = np.where(finite, values, np.inf).min(axis=1, initial=np.inf)
+        highs[:, k] = np.where(finite, values, -np.inf).max(axis=1, initial=-np.inf)
     return lows, highs
 
 
