@@ -45,8 +45,9 @@ class ImageLabels(NamedTuple):
 def beyond_mesh(lattice: MeshLattice, points: np.ndarray) -> np.ndarray:
     """(P,) bool: the source ``points`` outside the domain of ``lattice``'s cells, where
     ``quads`` keypoints move by f (no cell's map reaches them)."""
-    origin, last = np.asarray(lattice.origin), np.asarray(lattice.last)
-    return ~np.all((points >= origin) & (points <= last), axis=1)
+    (x0, y0), (x1, y1) = lattice.origin, lattice.last
+    x, y = points[:, 0], points[:, 1]  # apart: numpy's reductions over a pair run slowly
+    return ~((x >= x0) & (x <= x1) & (y >= y0) & (y <= y1))
 
 
 def mask_form(mask: np.ndarray) -> np.ndarray:
@@ -303,7 +304,8 @@ def in_domain(points: np.ndarray, shape: tuple[int, int], border: str) -> np.nda
     if border != "constant":
         return np.ones(len(points), bool)
     height, width = shape
-    return np.all((points >= -0.5) & (points <= (width - 0.5, height - 0.5)), axis=1)
+    x, y = points[:, 0], points[:, 1]
+    return (x >= -0.5) & (x <= width - 0.5) & (y >= -0.5) & (y <= height - 0.5)
 
 
 def _probed(mls: MLS, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
