@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.config import MLSConfig
-from ..core.handles import OFFSET_GAIN, fit_boxes
+from ..core.handles import OFFSET_GAIN, fit_boxes, set_bounds
 from ..core.handleset import HandleSet
 from ..engine.batched import BatchLattices
 from ..engine.kernel import DEFAULT_STORAGE
@@ -69,17 +69,20 @@ def _offsets(src: np.ndarray, dst: np.ndarray, shape: tuple[int, int]) -> np.nda
     :func:`~glmls.core.handles.fit_offset` on an image of ``shape`` is not zero, for all
     at once with its float64 operations (minima, maxima, halves, rounding: the same
     values)."""
-    centre = (src.min(axis=1) + src.max(axis=1)) / 2
-    offset = np.round((dst.min(axis=1) + dst.max(axis=1)) / 2 - centre)  # (N, 2)
-    moved = offset.any(axis=1)
+    src_lo, src_hi = set_bounds(src)
+    dst_lo, dst_hi = set_bounds(dst)
+    centre = (src_lo + src_hi) / 2
+    offset = np.round((dst_lo + dst_hi) / 2 - centre)  # (N, 2)
+    moved = (offset[:, 0] != 0) | (offset[:, 1] != 0)
     if not moved.any():
         return moved
     height, width = shape
     corner = np.array([width - 0.5, height - 0.5])
 
     def scales(q: np.ndarray) -> np.ndarray:  # Scaling.fit(src, q, shape).scale, per set
-        lo = np.minimum(np.minimum(src.min(axis=1), q.min(axis=1)), -0.5)
-        hi = np.maximum(np.maximum(src.max(axis=1), q.max(axis=1)), corner)
+        q_lo, q_hi = set_bounds(q)
+        lo = np.minimum(np.minimum(src_lo, q_lo), -0.5)
+        hi = np.maximum(np.maximum(src_hi, q_hi), corner)
         return fit_boxes(lo, hi)[1]
 
     return moved & (scales(dst - offset[:, None]) * OFFSET_GAIN <= scales(dst))

@@ -26,6 +26,7 @@ from ..core.handles import (
     check_gpu_spread,
     fit_boxes,
     same_source_sets,
+    set_bounds,
 )
 from ..core.mesh import MeshLattice
 from ..gl import bindings
@@ -46,9 +47,8 @@ def _bounds(
     """(N, 2) lows and highs of each image's handles p and q and the image's pixel box."""
     height, width = shape
     if len({len(p) for p in src}) == 1:
-        p, q = np.stack(src), np.stack(dst)  # (N, K, 2)
-        lo = np.minimum(p.min(axis=1), q.min(axis=1))
-        hi = np.maximum(p.max(axis=1), q.max(axis=1))
+        (p_lo, p_hi), (q_lo, q_hi) = set_bounds(np.stack(src)), set_bounds(np.stack(dst))
+        lo, hi = np.minimum(p_lo, q_lo), np.maximum(p_hi, q_hi)
     else:
         points = [np.concatenate([p, q]) for p, q in zip(src, dst, strict=True)]
         lo = np.array([p.min(axis=0) for p in points])
