@@ -621,19 +621,18 @@ class Augment:
         if marks is None and box_list is None and polygon_list is None:
             return None, None
         points, parts = [], []
+        if box_list is not None:  # the images of one step and mesh at once
+            steps = [chosen["box_step"] for chosen in labels]
+            outlines = lab.outline_sets(box_list, steps, meshes)
         for i, chosen in enumerate(labels):
-            step, densify = chosen["box_step"], chosen["densify"]
+            densify = chosen["densify"]
             pieces, part = [], {}
             if marks is not None:
                 pieces.append(marks[i])
                 part["keypoints"] = len(marks[i])
             if box_list is not None:
-                try:
-                    outline, counts = lab.box_outlines(box_list[i], step, mesh=meshes[i])
-                except ValueError as error:
-                    raise ValueError(f"boxes[{i}] with box_step={step:g}: {error}") from None
+                outline, part["boxes"] = outlines[i]
                 pieces.append(outline)
-                part["boxes"] = counts
             if polygon_list is not None:
                 try:
                     dense = [lab.densify_polygon(poly, densify) for poly in polygon_list[i]]

@@ -31,6 +31,7 @@ __all__ = [
     "check_positive",
     "clip_polygon",
     "densify_polygon",
+    "outline_sets",
     "warp_options_of",
 ]
 
@@ -330,35 +331,85 @@ def box_outlines(
     points = starts[owner] + t[:, None] * (ends - starts)[owner]
     counts = np.bincount(owner // 4, minlength=len(boxes)).astype(np.int64)
     lines = np.flatnonzero((x1 == x0) | (y1 == y0))
-    if len(lines) or (mesh is not None and len(boxes)):
+    if len(lines):
         pieces = np.split(points, np.cumsum(counts)[:-1])
         for k in lines:  # a line or a point: its samples once each
             pieces[k] = np.unique(pieces[k], axis=0)
-        if mesh is not None:  # where the map folds, a box's inside reaches past its outline
-            pieces = [
-                np.concatenate([piece, _inner_vertices(box, *mesh)])
-                for piece, box in zip(pieces, boxes, strict=True)
-            ]
         counts = np.array([len(piece) for piece in pieces], np.int64)
         points = np.concatenate(pieces)
+    if mesh is not None and len(boxes):  # where the map folds, a box's inside reaches past
+        inner, inner_counts = _inner_vertices(boxes, *mesh)  # its outline: each box's after it
+        box = np.arange(len(boxes))
+        owner = np.concatenate([np.repeat(box, counts), np.repeat(box, inner_counts)])
+        points = np.concatenate([points, inner])[np.argsort(owner, kind="stable")]
+        counts = counts + inner_counts
     return points, counts
 
 
-def _inner_vertices(box: np.ndarray, grid: int, shape: tuple[int, int]) -> np.ndarray:
+def outline_sets(
+    box_sets: list[np.ndarray], steps: list[float], meshes: list
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """:func:`box_outlines` of each image's boxes ``box_sets[i]`` ((B_i, 4), checked), with
+    its ``steps[i]`` and ``meshes[i]``: the images of one step and mesh in one call (each
+    box's outline is its own, so the points are the same), split back per image. A
+    ``ValueError`` names the image (``boxes[i]``) and its step."""
+    out: list = [None] * len(box_sets)
+    groups: dict[tuple, list[int]] = {}
+    for i, key in enumerate(zip(steps, meshes, strict=True)):
+        groups.setdefault(key, []).append(i)
+    for (step, mesh), members in groups.items():
+        try:
+            points, counts = box_outlines(
+                np.concatenate([box_sets[i] for i in members]), step, mesh=mesh
+            )
+        except ValueError:
+            for i in members:  # the first image at fault, named
+                try:
+                    box_outlines(box_sets[i], step, mesh=mesh)
+                except ValueError as error:
+                    raise ValueError(f"boxes[{i}] with box_step={step:g}: {error}") from None
+            raise
+        box_counts = np.split(counts, np.cumsum([len(box_sets[i]) for i in members])[:-1])
+        ends = np.cumsum([int(c.sum()) for c in box_counts])[:-1]
+        for i, piece, part in zip(members, np.split(points, ends), box_counts, strict=True):
+            out[i] = (piece, part)
+    return out
+
+
+def _inner_vertices(
+    boxes: np.ndarray, grid: int, shape: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
     """The vertices of the regular mesh at ``grid`` over an image of ``shape`` that lie
-    strictly inside ``box`` (the image's own vertices, every ``grid`` pixels from -0.5 and
-    its last edge): the mesh's map is linear on each triangle, so the extent of the moved box
-    is that of its moved outline points (:func:`box_outlines`) and these, also where the map
-    folds the box's inside past its outline."""
-    axes = []
-    for low, high, size in ((box[0], box[2], shape[1]), (box[1], box[3], shape[0])):
+    strictly inside each of the (B, 4) ``boxes`` (the image's own vertices, every ``grid``
+    pixels from -0.5 and its last edge), row by row, and how many per box: the mesh's map is
+    linear on each triangle, so the extent of the moved box is that of its moved outline
+    points (:func:`box_outlines`) and these, also where the map folds the box's inside past
+    its outline."""
+    axes = []  # per axis: the values of every box one after another, and their counts
+    for low, high, size in (
+        (boxes[:, 0], boxes[:, 2], shape[1]),
+        (boxes[:, 1], boxes[:, 3], shape[0]),
+    ):
         edge = size - 0.5
-        first = max(math.ceil((low + 0.5) / grid), 0)
-        last = min(math.floor((high + 0.5) / grid), math.ceil(size / grid))
-        values = np.unique(np.append(-0.5 + grid * np.arange(first, last + 1.0), edge))
-        axes.append(values[(values > low) & (values < high) & (values <= edge)])
-    xs, ys = np.meshgrid(*axes)
-    return np.stack([xs.ravel(), ys.ravel()], axis=1)
+        first = np.maximum(np.ceil((low + 0.5) / grid), 0)
+        last = np.minimum(np.floor((high + 0.5) / grid), math.ceil(size / grid))
+        rows, k = _ranges(first, last)
+        values = -0.5 + grid * k.astype(np.float64)
+        # the lines before the last edge, then the edge itself: each box's in increasing order
+        keep = (values > low[rows]) & (values < high[rows]) & (values < edge)
+        at_edge = np.flatnonzero((low < edge) & (edge < high))
+        owner = np.concatenate([rows[keep], at_edge])
+        order = np.argsort(owner, kind="stable")
+        values = np.concatenate([values[keep], np.full(len(at_edge), float(edge))])[order]
+        axes.append((values, np.bincount(owner, minlength=len(boxes))))
+    (xs, nx), (ys, ny) = axes
+    counts = nx * ny
+    box = np.repeat(np.arange(len(boxes)), counts)
+    j = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    column, row = j % nx[box], j // nx[box]  # row-major: y, then x
+    x = xs[np.repeat(np.cumsum(nx) - nx, counts) + column]
+    y = ys[np.repeat(np.cumsum(ny) - ny, counts) + row]
+    return np.stack([x, y], axis=1), counts
 
 
 def _ranges(first: np.ndarray, last: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -482,10 +533,11 @@ def boxes_from_outlines(
         raise ValueError(f"the counts add up to {int(np.sum(counts))} points, not {len(moved)}")
     height, width = _canvas(shape)
     boxes = np.zeros((len(counts), 4))
-    starts = (np.cumsum(counts) - counts).astype(np.int64)
-    for k, (start, n) in enumerate(zip(starts, counts, strict=True)):
-        points = moved[start : start + n]
-        boxes[k] = [*points.min(axis=0), *points.max(axis=0)]
+    if len(counts):  # each box's extremes at once: every box has a point (checked above)
+        starts = (np.cumsum(counts) - counts).astype(np.int64)
+        for axis in (0, 1):
+            boxes[:, axis] = np.minimum.reduceat(moved[:, axis], starts)
+            boxes[:, axis + 2] = np.maximum.reduceat(moved[:, axis], starts)
     if clip:
         low = np.array([-0.5, -0.5, -0.5, -0.5])
         high = np.array([width, height, width, height], np.float64) - 0.5

@@ -108,3 +108,50 @@ def test_a_box_holds_its_object_where_the_map_folds(gl, preset, options, grid, s
         if reach > 0:
             outside.append((i, float(reach)))
     assert not outside, outside
+
+
+def _mesh_vertices_inside(box, grid, shape):
+    """The mesh's vertices strictly inside ``box``, row by row, by brute force."""
+    height, width = shape
+    xs = np.unique(np.append(np.arange(-0.5, width, grid), width - 0.5))
+    ys = np.unique(np.append(np.arange(-0.5, height, grid), height - 0.5))
+    xs = xs[(xs > box[0]) & (xs < box[2])]
+    ys = ys[(ys > box[1]) & (ys < box[3])]
+    return np.array([[x, y] for y in ys for x in xs]).reshape(-1, 2)
+
+
+@pytest.mark.parametrize("grid", [1, 3, 4])
+def test_many_boxes_at_once_equal_each_box_alone(grid):
+    """box_outlines of many boxes (lines, points, boxes past the image and on its mesh lines
+    among them) gives each box the points it gets alone, its mesh vertices last, those
+    inside it and no other; outline_sets splits a batch's boxes back per image and names the
+    image of a box it refuses."""
+    from glmls.augment.labels import outline_sets
+
+    rng = np.random.default_rng(grid)
+    shape = (23, 30)
+    low = np.round(rng.uniform(-6, 34, (80, 2)) * 2) / 2
+    boxes = np.concatenate([low, low + rng.uniform(0, 14, (80, 2))], axis=1)
+    boxes[::9, 2] = boxes[::9, 0]  # lines
+    boxes[::13, 2:] = boxes[::13, :2]  # points
+    points, counts = box_outlines(boxes, 1.5, mesh=(grid, shape))
+    pieces = np.split(points, np.cumsum(counts)[:-1])
+    for box, piece in zip(boxes, pieces, strict=True):
+        alone, _ = box_outlines(box, 1.5, mesh=(grid, shape))
+        np.testing.assert_array_equal(piece, alone)
+        inner = _mesh_vertices_inside(box, grid, shape)
+        np.testing.assert_array_equal(piece[len(piece) - len(inner) :], inner)
+    sets = [boxes[:5], boxes[5:5], boxes[5:40], boxes[40:]]
+    meshes = [(grid, shape), (grid, shape), None, (grid, shape)]
+    for given, mesh, (outline, part) in zip(
+        sets, meshes, outline_sets(sets, [1.5] * 4, meshes), strict=True
+    ):
+        want, want_counts = box_outlines(given, 1.5, mesh=mesh) if len(given) else (None, None)
+        if want is None:
+            assert outline.shape == (0, 2) and part.shape == (0,)
+        else:
+            np.testing.assert_array_equal(outline, want)
+            np.testing.assert_array_equal(part, want_counts)
+    huge = [boxes[:2], np.array([[0.0, 0.0, 1e7, 1.0]])]
+    with pytest.raises(ValueError, match=r"boxes\[1\] with box_step=1: step 1 px puts"):
+        outline_sets(huge, [1.0, 1.0], [None, None])
