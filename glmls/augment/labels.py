@@ -630,6 +630,9 @@ def clip_polygon(polygon: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """
     polygon = _real_array(polygon, "polygon", 2, "V")
     height, width = _canvas(shape)
+    x, y = polygon[:, 0], polygon[:, 1]
+    if ((x >= -0.5) & (x <= width - 0.5) & (y >= -0.5) & (y <= height - 0.5)).all():
+        return _without_slivers(polygon.copy(), polygon)  # every vertex kept, as below
     planes = ((0, -0.5, 1.0), (1, -0.5, 1.0), (0, width - 0.5, -1.0), (1, height - 0.5, -1.0))
     points = [tuple(p) for p in polygon]
     for axis, edge, sign in planes:
@@ -656,7 +659,10 @@ def clip_polygon(polygon: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 
 def _twice_area(points: np.ndarray) -> float:
     x, y = points[:, 0], points[:, 1]
-    return float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+    # each vertex's next: what np.roll(-1) makes, without its overhead on small arrays
+    return float(
+        np.dot(x, np.concatenate((y[1:], y[:1]))) - np.dot(y, np.concatenate((x[1:], x[:1])))
+    )
 
 
 def _without_slivers(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
@@ -667,11 +673,13 @@ def _without_slivers(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
     if len(points) == 0:
         return points
     # the crossings of one edge, computed from its two ends, may differ in the last bit
-    close = 1e-9 * max(1.0, float(np.abs(points).max()))
-    repeated = np.all(np.abs(points - np.roll(points, 1, axis=0)) <= close, axis=1)
+    largest = max(1.0, float(np.abs(points).max()))
+    close = 1e-9 * largest
+    step = np.abs(points - np.concatenate((points[-1:], points[:-1])))  # from the one before
+    repeated = (step[:, 0] <= close) & (step[:, 1] <= close)
     kept = points[~repeated] if not repeated.all() else points[:1]
     # an area within rounding of the coordinates' squares is none
-    flat = 1e-12 * max(1.0, float(np.abs(points).max())) ** 2
+    flat = 1e-12 * largest**2
     if abs(_twice_area(kept)) <= flat and _twice_area(polygon) != 0.0:
         return points[:0]
     return kept
