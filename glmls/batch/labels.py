@@ -71,7 +71,8 @@ def mesh_map(
     """The mesh's map at ``points``: (P, 2) output points and the (P, 2, 2) Jacobians (rows:
     d/dx, d/dy) of the triangle each lies in. ``corners``: (P, 4, 2) source corners 00, 10, 01,
     11 (:func:`mesh_corners`), ``deformed``: their images under f."""
-    out, ex, ey, size, _ = _triangle_map(corners[:, 0], corners[:, 3], deformed, points)
+    by_corner = np.ascontiguousarray(np.asarray(deformed, np.float64).transpose(1, 2, 0))
+    out, ex, ey, size, _ = _triangle_map(corners[:, 0], corners[:, 3], by_corner, points)
     jacobian = np.stack([ex / size[:, :1], ey / size[:, 1:]], axis=1)
     return out, jacobian
 
@@ -79,14 +80,21 @@ def mesh_map(
 def _triangle_map(low: np.ndarray, high: np.ndarray, deformed: np.ndarray, points: np.ndarray):
     """:func:`mesh_map`'s output points, the triangles' edges per unit of the cell's (u, v),
     the cells' sizes and (P,) bool, the point in the upper triangle (00, 11, 01); ``low`` and
-    ``high``: the cells' corners 00 and 11."""
+    ``high``: the cells' corners 00 and 11; ``deformed``: their images, (4, 2, P) (corner,
+    axis, point: each corner's x and y contiguous, as :func:`_cell_vertices` gathers them).
+    Axis by axis on (P,) arrays: numpy runs the (P, 2) arrays of strided views, and masks
+    broadcast over their pairs, with inner loops of two elements, several times slower."""
     size = np.maximum(high - low, 1e-12)
-    u, v = ((points - low) / size).T
-    d00, d10, d01, d11 = (deformed[:, k] for k in range(4))
+    u = (points[:, 0] - low[:, 0]) / size[:, 0]
+    v = (points[:, 1] - low[:, 1]) / size[:, 1]
     lower = u >= v  # triangle 0 (00, 10, 11): below the diagonal in (u, v); else 1 (00, 11, 01)
-    ex = np.where(lower[:, None], d10 - d00, d11 - d01)  # per unit u
-    ey = np.where(lower[:, None], d11 - d10, d01 - d00)  # per unit v
-    out = d00 + u[:, None] * ex + v[:, None] * ey
+    count = len(points)
+    out, ex, ey = np.empty((count, 2)), np.empty((count, 2)), np.empty((count, 2))
+    for axis in (0, 1):
+        d00, d10, d01, d11 = deformed[:, axis]
+        ex[:, axis] = edge_u = np.where(lower, d10 - d00, d11 - d01)  # per unit u
+        ey[:, axis] = edge_v = np.where(lower, d11 - d10, d01 - d00)  # per unit v
+        out[:, axis] = d00 + u * edge_u + v * edge_v
     return out, ex, ey, size, u < v
 
 
@@ -292,15 +300,16 @@ def mesh_keypoints(
 
 
 def _cell_vertices(vertices, image: np.ndarray, row: np.ndarray, col: np.ndarray) -> np.ndarray:
-    """(P, 4, 2) float64: the deformed corners 00, 10, 01, 11 of cell (``row``, ``col``) of
+    """(4, 2, P) float64: the deformed corners 00, 10, 01, 11 of cell (``row``, ``col``) of
     mesh ``image`` (``vertices``: (N, rows, columns, 2), an array or :class:`MeshVertices`),
-    gathered by one flat index."""
+    gathered by one flat index, each corner's x and y a contiguous (P,) array."""
     _, rows, columns, _ = vertices.shape
     flat = (image * rows + row) * columns + col
-    at = flat[:, None] + (_ROWS * columns + _COLUMNS)
+    at = (_ROWS * columns + _COLUMNS)[:, None] + flat  # (4, P)
     if isinstance(vertices, MeshVertices):
         return vertices.flat_points(at, image)
-    return np.take(np.asarray(vertices, np.float64).reshape(-1, 2), at, axis=0)
+    points = np.asarray(vertices, np.float64).reshape(-1, 2)
+    return np.stack([np.take(points[:, axis], at) for axis in (0, 1)], axis=1)
 
 
 #: Least area (px^2) of a triangle, and turn of a boundary edge about the centre, that
@@ -523,14 +532,19 @@ class MeshVertices:
         return out
 
     def flat_points(self, at: np.ndarray, images: np.ndarray) -> np.ndarray:
-        """The vertices at flat indices ``at`` (P, k) into (N * rows * columns) of the
-        meshes ``images`` (P,) that hold them: (P, k, 2), converted as :meth:`__getitem__`
-        converts them."""
-        # np.take: numpy's fancy indexing of rows runs several times slower
-        scaled = np.take(self._scaled.reshape(-1, 2), at, axis=0).astype(np.float64)
-        scaled *= np.take(self._scales, images)[:, None, None]
-        scaled += np.take(self._centers, images, axis=0)[:, None]
-        return scaled
+        """The vertices at flat indices ``at`` (k, P) into (N * rows * columns) of the
+        meshes ``images`` (P,) that hold them: (k, 2, P), x and y apart, converted as
+        :meth:`__getitem__` converts them."""
+        # np.take: numpy's fancy indexing runs several times slower
+        scaled = self._scaled.reshape(-1, 2)
+        scale = np.take(self._scales, images)
+        out = np.empty((len(at), 2, len(images)))
+        for axis in (0, 1):
+            values = np.take(scaled[:, axis], at).astype(np.float64)
+            values *= scale
+            values += np.take(self._centers[:, axis], images)
+            out[:, axis] = values
+        return out
 
     def __getitem__(self, key):
         image = key[0] if isinstance(key, tuple) else key
