@@ -44,7 +44,11 @@ def footprint_sets(sets: list[np.ndarray], radius: float) -> list[np.ndarray]:
     if len({len(p) for p in sets}) != 1:
         return [with_footprints(p, radius) for p in sets]
     every = np.stack(sets)
-    return list((every[:, :, None, :] + radius * RING).reshape(len(sets), -1, 2))
+    ring = radius * RING
+    out = np.empty((*every.shape[:2], len(RING), 2))
+    for axis in (0, 1):  # apart: numpy adds over (..., 2) pairs with inner loops of two
+        out[..., axis] = every[:, :, None, axis] + ring[:, axis]
+    return list(out.reshape(len(sets), -1, 2))
 
 
 def seen_whole(
@@ -81,9 +85,9 @@ def turned(out: np.ndarray) -> np.ndarray:
     """(P,) bool: the footprints whose image, (P, 9, 2) as :func:`with_footprints` orders
     their points, turns over in part: a triangle of the fan about the centre whose image has
     the other orientation, or none (f folds inside the footprint)."""
-    centre = out[:, :1]
-    # np.take: numpy's fancy indexing along an inner axis runs several times slower
-    a = np.take(out, _AROUND[:-1], axis=1) - centre
-    b = np.take(out, _AROUND[1:], axis=1) - centre
-    area = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    # x and y apart, each point's edge points in turn (np.take: numpy's fancy indexing along
+    # an inner axis runs several times slower), relative to the centre
+    x = np.take(out[..., 0], _AROUND, axis=1) - out[:, :1, 0]
+    y = np.take(out[..., 1], _AROUND, axis=1) - out[:, :1, 1]
+    area = x[:, :-1] * y[:, 1:] - y[:, :-1] * x[:, 1:]
     return (area <= 0).any(axis=1)

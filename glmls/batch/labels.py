@@ -52,16 +52,21 @@ def _cells(lattice: MeshLattice, points: np.ndarray):
     """The (P, 2) (column, row) index of the cell holding each of the (P, 2) ``points``, its
     corners 00 and 11 (P, 2) each, and (P,) bool, inside the lattice's domain
     (:func:`mesh_corners`)."""
-    origin = np.asarray(lattice.origin, np.float64)
-    last = np.asarray(lattice.last, np.float64)
-    cells = np.asarray(lattice.cells, np.int64)  # (columns, rows)
     grid = lattice.grid
-    index = np.floor((points - origin) / grid).astype(np.int64)
-    np.clip(index, 0, cells - 1, out=index)
-    low = np.minimum(origin + index * grid, last)
-    high = np.minimum(origin + (index + 1) * grid, last)
-    x, y = points[:, 0], points[:, 1]
-    inside = (x >= origin[0]) & (x <= last[0]) & (y >= origin[1]) & (y <= last[1])
+    count = len(points)
+    index = np.empty((count, 2), np.int64)
+    low, high = np.empty((count, 2)), np.empty((count, 2))
+    inside = np.ones(count, bool)
+    # axis by axis: numpy runs (P, 2) arrays against a pair of bounds with inner loops of two
+    for axis, cells in enumerate(lattice.cells):  # (columns, rows)
+        origin, last = np.float64(lattice.origin[axis]), np.float64(lattice.last[axis])
+        values = points[:, axis]
+        at = np.floor((values - origin) / grid).astype(np.int64)
+        np.clip(at, 0, cells - 1, out=at)
+        index[:, axis] = at
+        low[:, axis] = np.minimum(origin + at * grid, last)
+        high[:, axis] = np.minimum(origin + (at + 1) * grid, last)
+        inside &= (values >= origin) & (values <= last)
     return index, low, high, inside
 
 
