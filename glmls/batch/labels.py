@@ -193,19 +193,24 @@ def visible_chunk(
         det = a * d - b * c
         least = np.abs(det) / largest
         regular = (least > _CONDITION * largest) & (least > _RANGE[0]) & (largest < _RANGE[1])
-        sx, sy = step.T
+        # x and y apart: numpy runs (k, 2) arrays against (k, 1) ones, and reductions over
+        # their pairs, with inner loops of two elements
+        sx, sy = step[:, 0], step[:, 1]
         source = np.take(points, idx, axis=0)
-        expected = source + np.stack([sx * d - sy * c, a * sy - b * sx], axis=1) / det[:, None]
+        shown_x, shown_y = shown[:, 0], shown[:, 1]
+        gap_x = shown_x - (source[:, 0] + (sx * d - sy * c) / det)  # shown - expected
+        gap_y = shown_y - (source[:, 1] + (a * sy - b * sx) / det)
         spread = 1.0 / least  # the inverse's 2-norm
         length = np.sqrt(sx * sx + sy * sy)
         threshold = _threshold(spread, length, drawn)
-        gap = shown - expected
-        distance = np.sqrt(gap[:, 0] ** 2 + gap[:, 1] ** 2)
-        scale = 1.0 + np.abs(shown).max(axis=1) + np.abs(source).max(axis=1)
+        distance = np.sqrt(gap_x**2 + gap_y**2)
+        scale = 1.0 + np.maximum(np.abs(shown_x), np.abs(shown_y))
+        scale += np.maximum(np.abs(source[:, 0]), np.abs(source[:, 1]))
         margin = _MARGIN[0] * (scale + threshold) + _MARGIN[1] * spread * (1.0 + length)
         sure = regular & (np.abs(distance - threshold) > margin)
     ok[idx[sure]] = distance[sure] <= threshold[sure]
-    rest = np.flatnonzero(~sure & np.isfinite(picked).all(axis=(1, 2)))
+    finite = np.isfinite(a) & np.isfinite(b) & np.isfinite(c) & np.isfinite(d)
+    rest = np.flatnonzero(~sure & finite)
     if len(rest):
         near = _near_by_pinv(source[rest], picked[rest], step[rest], shown[rest], drawn)
         ok[idx[rest]] = near
