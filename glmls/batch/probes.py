@@ -137,7 +137,9 @@ def keypoints_by_f(gl, resources, lattices, batch, chunk, canvas, shown, *, draw
         [v.reshape(5, size, 2) for v, size in zip(values, sizes, strict=True)], axis=1
     )
     out, jacobian = probed(every.reshape(-1, 2))
-    out = out - np.asarray(frame.origin)
+    out = out.copy()  # less the frame's origin, x and y apart (numpy's pair loops)
+    out[:, 0] -= frame.origin[0]
+    out[:, 1] -= frame.origin[1]
     source = np.concatenate(points).reshape(-1, 2)
     images = np.repeat(np.arange(len(points)), sizes)
     inside = in_domain(source, shape, border)

@@ -284,10 +284,16 @@ def probe_points(points: np.ndarray) -> np.ndarray:
     """(5P, 2): ``points`` (P, 2), then each moved by :data:`PROBE_STEP` along +x, -x, +y
     and -y, the points at which :func:`probed` takes f."""
     step = PROBE_STEP
-    return np.concatenate(
-        [points, points + (step, 0.0), points - (step, 0.0), points + (0.0, step),
-         points - (0.0, step)]
-    )  # fmt: skip
+    # axis by axis, the very operations of points + (step, 0.0) and so on (numpy adds a pair
+    # to (..., 2) arrays with inner loops of two elements); + 0.0 turns -0.0 into 0.0 there
+    x, y = points[..., 0], points[..., 1]
+    out = np.empty((5, *points.shape))
+    out[0] = points
+    out[1, ..., 0], out[1, ..., 1] = x + step, y + 0.0
+    out[2, ..., 0], out[2, ..., 1] = x - step, y - 0.0
+    out[3, ..., 0], out[3, ..., 1] = x + 0.0, y + step
+    out[4, ..., 0], out[4, ..., 1] = x - 0.0, y - step
+    return out.reshape(-1, *points.shape[1:])
 
 
 def probed(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
