@@ -405,7 +405,8 @@ def _finish(
             which,  # type: ignore[arg-type]
             folded,
         )
-        moved_all = moved_all - np.asarray(frame.origin)
+        moved_all[:, 0] -= frame.origin[0]  # (its own array) x and y apart: numpy takes a
+        moved_all[:, 1] -= frame.origin[1]  # pair off (P, 2) rows with loops of two
         valid_all &= on_canvas(moved_all, frame.shape)
         ends = np.cumsum(sizes).tolist()
         starts = [0, *ends[:-1]]
