@@ -511,7 +511,10 @@ class Augment:
         if self.preset.name == "landmarks" and marks is None:
             raise ValueError("the landmarks preset needs each image's landmarks (keypoints)")
         shapes = [image.shape[:2] for image in items]
-        params, drawn = self._draw(shapes, indices, marks)
+        # only the landmarks preset draws from them (the others' draws and reaches ignore
+        # them, and take each shape's reach once without)
+        landmarks = marks if self.preset.name == "landmarks" else None
+        params, drawn = self._draw(shapes, indices, landmarks)
         # the draws' own arrays: what replay reads back from their lists, without its checks
         src, dst = [p for p, _ in drawn], [q for _, q in drawn]
         labels = (keypoints, masks, boxes, polygons)
