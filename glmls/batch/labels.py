@@ -17,6 +17,7 @@ __all__ = [
     "SLACK",
     "MeshVertices",
     "embedded",
+    "in_lattice",
     "mesh_corners",
     "mesh_keypoints",
     "mesh_map",
@@ -33,6 +34,14 @@ def on_canvas(out: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     height, width = shape
     x, y = out[:, 0], out[:, 1]
     return (x >= -0.5) & (x < width - 0.5) & (y >= -0.5) & (y < height - 0.5)
+
+
+def in_lattice(lattice: MeshLattice, points: np.ndarray) -> np.ndarray:
+    """(P,) bool: the (P, 2) source ``points`` inside the domain of ``lattice``'s cells,
+    edges included (x and y apart: numpy's reductions over a pair run slowly)."""
+    (x0, y0), (x1, y1) = lattice.origin, lattice.last
+    x, y = points[:, 0], points[:, 1]
+    return (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
 
 
 def mesh_corners(lattice: MeshLattice, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -56,7 +65,6 @@ def _cells(lattice: MeshLattice, points: np.ndarray):
     count = len(points)
     index = np.empty((count, 2), np.int64)
     low, high = np.empty((count, 2)), np.empty((count, 2))
-    inside = np.ones(count, bool)
     # axis by axis: numpy runs (P, 2) arrays against a pair of bounds with inner loops of two
     for axis, cells in enumerate(lattice.cells):  # (columns, rows)
         origin, last = np.float64(lattice.origin[axis]), np.float64(lattice.last[axis])
@@ -66,8 +74,7 @@ def _cells(lattice: MeshLattice, points: np.ndarray):
         index[:, axis] = at
         low[:, axis] = np.minimum(origin + at * grid, last)
         high[:, axis] = np.minimum(origin + (at + 1) * grid, last)
-        inside &= (values >= origin) & (values <= last)
-    return index, low, high, inside
+    return index, low, high, in_lattice(lattice, points)
 
 
 def mesh_map(

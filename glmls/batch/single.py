@@ -16,7 +16,7 @@ from ..imaging.frame import Frame, border_margin, make_frame
 from ..imaging.options import WarpOptions
 from ..imaging.pipeline import WarpPipeline
 from ..mls import MLS
-from .labels import mesh_corners, mesh_keypoints, mesh_map, on_canvas, visible
+from .labels import in_lattice, mesh_corners, mesh_keypoints, mesh_map, on_canvas, visible
 
 __all__ = [
     "PROBE_STEP",
@@ -45,9 +45,7 @@ class ImageLabels(NamedTuple):
 def beyond_mesh(lattice: MeshLattice, points: np.ndarray) -> np.ndarray:
     """(P,) bool: the source ``points`` outside the domain of ``lattice``'s cells, where
     ``quads`` keypoints move by f (no cell's map reaches them)."""
-    (x0, y0), (x1, y1) = lattice.origin, lattice.last
-    x, y = points[:, 0], points[:, 1]  # apart: numpy's reductions over a pair run slowly
-    return ~((x >= x0) & (x <= x1) & (y >= y0) & (y <= y1))
+    return ~in_lattice(lattice, points)
 
 
 def mask_form(mask: np.ndarray) -> np.ndarray:
