@@ -155,10 +155,12 @@ def check_face_indices(name: str, faces: np.ndarray, count: int, into: str = "ve
     overall range."""
     if not len(faces):
         return
-    # compared as they are, before any cast to int64: a uint64 index of 2**63 must not wrap
-    bad = ((faces < 0) | (faces >= count)).any(axis=1)
-    if not bad.any():
+    # compared as they are, before any cast to int64: a uint64 index of 2**63 must not wrap;
+    # the extremes first (two reductions over the flat array, where a test per row is ten
+    # times slower), the rows only to name a bad one
+    if faces.min() >= 0 and faces.max() < count:
         return
+    bad = ((faces < 0) | (faces >= count)).any(axis=1)
     row = int(np.argmax(bad))
     where = f"{into} 0..{count - 1}" if count else f"{into}, which is empty"
     raise ValueError(

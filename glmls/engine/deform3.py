@@ -177,8 +177,9 @@ def deform_mesh3(
         deformed += kernel.offset
     vertex_folds = det <= 0
     face_folds = folds[:face_count].view(bool)
-    if face_count:  # a face folds where one of its vertices does (flat ones included)
-        face_folds = face_folds | vertex_folds[faces].any(axis=1)
+    if face_count and vertex_folds.any():  # a face folds where one of its vertices does
+        corners = vertex_folds[faces[:, 0]] | vertex_folds[faces[:, 1]]  # (flat ones too)
+        face_folds = face_folds | corners | vertex_folds[faces[:, 2]]
     return DeformedMesh(
         vertices=deformed,
         faces=faces,
