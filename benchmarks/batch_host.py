@@ -12,7 +12,10 @@ image in ms, after one untimed call (programs compiled, buffers made), and of th
 time: the wall time less the time spent inside moderngl's calls (dispatches, transfers,
 the waits for the GPU; on llvmpipe its passes run there too). At 20,000 images a second the
 host may spend 0.05 ms an image. ``--profile CASE``: that case's top host functions
-(cProfile) too. ``augment-*`` is ``glmls.augment.Augment("grid")`` (its draws included).
+(cProfile) too. ``quads-gG-INTERPOLATION``: ``method="quads"`` at grid G with that
+interpolation; ``backward``: ``method="backward"`` with warp's other defaults (grid 1,
+nearest); ``augment-*`` is ``glmls.augment.Augment("grid")`` (its draws included, its own
+defaults: bilinear, the ``edge`` border, grid 4).
 """
 
 from __future__ import annotations
@@ -36,11 +39,11 @@ from glmls.augment import Augment
 
 #: name -> (warp options, keypoints, masks); "augment" is Augment("grid") instead
 CASES: dict[str, tuple[dict, bool, bool]] = {
-    "quads-g4-linear": ({}, False, False),
-    "quads-g4-linear-kp-mask": ({}, True, True),
-    "quads-g4-nearest": ({"interpolation": "nearest"}, False, False),
-    "quads-g4-nearest-kp-mask": ({"interpolation": "nearest"}, True, True),
-    "quads-g1-linear-kp-mask": ({"grid": 1}, True, True),
+    "quads-g4-linear": ({"grid": 4, "interpolation": "linear"}, False, False),
+    "quads-g4-linear-kp-mask": ({"grid": 4, "interpolation": "linear"}, True, True),
+    "quads-g4-nearest": ({"grid": 4, "interpolation": "nearest"}, False, False),
+    "quads-g4-nearest-kp-mask": ({"grid": 4, "interpolation": "nearest"}, True, True),
+    "quads-g1-linear-kp-mask": ({"grid": 1, "interpolation": "linear"}, True, True),
     "quads-g1-nearest-kp": ({"grid": 1, "interpolation": "nearest"}, True, False),
     "backward": ({"method": "backward"}, False, False),
     "backward-kp-mask": ({"method": "backward"}, True, True),

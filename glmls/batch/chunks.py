@@ -15,7 +15,7 @@ from ..engine.kernel import check_loop_budget
 from ..imaging.frame import make_frame
 from ..imaging.options import WarpOptions
 from ..imaging.readback import add_channel, drop_channels
-from ..imaging.source import SourceImage, background_color, prepare_image
+from ..imaging.source import SourceImage, background_color, prepare_image, prepare_images
 from ..mls import MLS
 from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size, fits
 from .inputs import BatchInput
@@ -182,37 +182,60 @@ def _beyond_mesh_by_f(results, indices, batch, lattice, frame, own_mls, batched)
     segments, the MLS keywords, the shape), made only for the images that have such
     keypoints."""
     sets = [batch.keypoints[i] for i in indices]
-    beyond = beyond_mesh(lattice, np.concatenate(sets))
+    sizes = np.array([len(p) for p in sets])
+    points = np.concatenate(sets)
+    beyond = beyond_mesh(lattice, points)
     if not beyond.any():
         return
-    owner = np.repeat(np.asarray(indices), [len(p) for p in sets])
-    segments, mls_options, shape = own_mls
+    # the images (places in ``indices``) with such keypoints whose labels the group gave;
+    # the others are left to the single path, which moves them so itself
+    owner = np.repeat(np.arange(len(indices)), sizes)
+    hit = np.zeros(len(indices), bool)
+    hit[owner[beyond]] = True
     todo = [
-        i
-        for i in np.unique(owner[beyond]).tolist()
-        if results[i] is not None and results[i].keypoints is not None
-    ]  # the others are left to the single path, which moves them so itself
-    far = {i: beyond_mesh(lattice, batch.keypoints[i]) for i in todo}
-    values: dict[int, np.ndarray] = {}
+        j
+        for j in np.flatnonzero(hit).tolist()
+        if results[indices[j]] is not None and results[indices[j]].keypoints is not None
+    ]
+    if not todo:
+        return
+    chosen = np.zeros(len(indices), bool)
+    chosen[todo] = True
+    taken = beyond & chosen[owner]  # the keypoints to move, image after image
+    counts = np.bincount(owner[taken], minlength=len(indices))[todo]
+    values = np.empty((int(counts.sum()), 2))
+    done = np.zeros(len(todo), bool)
+    segments, mls_options, shape = own_mls
     quads, config, own = batched
-    shared = [i for i in todo if not own[i]] if config is not None else []
+    shared = [n for n, j in enumerate(todo) if not own[indices[j]]] if config is not None else []
+    ends = np.cumsum(counts)
+    far = np.split(points[taken], ends[:-1])
     for start in range(0, len(shared), _POINTS_BLOCK):
         block = shared[start : start + _POINTS_BLOCK]
-        src, dst = [batch.src[i] for i in block], [batch.dst[i] for i in block]
-        points = [batch.keypoints[i][far[i]] for i in block]
+        images = [indices[todo[n]] for n in block]
+        src, dst = [batch.src[i] for i in images], [batch.dst[i] for i in images]
         with quads.ctx.use():
             lattices = BatchLattices(config, src, dst, shape)
-            found = lattices.evaluate_points(quads.ctx, quads.resources, points, shape)
-        values.update(zip(block, found, strict=True))
-    for i in todo:
-        if i not in values:
-            with MLS(batch.src[i], batch.dst[i], shape=shape, **segments[i], **mls_options) as m:
-                values[i] = m(batch.keypoints[i][far[i]])
-    for i in todo:
-        labels = results[i]
-        moved = labels.keypoints.copy()
-        moved[far[i]] = values[i] - np.asarray(frame.origin)
-        results[i] = ImageLabels(*labels[:2], moved, *labels[3:])
+            points_n = [far[n] for n in block]
+            found = lattices.evaluate_points(quads.ctx, quads.resources, points_n, shape)
+        part = np.zeros(len(todo), bool)
+        part[block] = True
+        values[np.repeat(part, counts)] = np.concatenate(found)
+        done |= part
+    for n in np.flatnonzero(~done).tolist():
+        i = indices[todo[n]]
+        with MLS(batch.src[i], batch.dst[i], shape=shape, **segments[i], **mls_options) as m:
+            values[ends[n] - counts[n] : ends[n]] = m(far[n])
+    origin = frame.origin
+    for axis in (0, 1):
+        values[:, axis] -= origin[axis]
+    # every moved image's keypoints at once, then one array each again
+    keypoints = np.concatenate([results[indices[j]].keypoints for j in todo])
+    keypoints[beyond[chosen[owner]]] = values
+    moved = np.split(keypoints, np.cumsum(sizes[todo])[:-1])
+    for j, points_j in zip(todo, moved, strict=True):
+        labels = results[indices[j]]
+        results[indices[j]] = ImageLabels(*labels[:2], points_j, *labels[3:])
 
 
 #: Images whose keypoints beyond their meshes one pass of f evaluates.
@@ -274,7 +297,7 @@ def _warp_masks(quads, warper, batch, chunk, lattices, options, frame, lattice):
     its images (which keeps no keys to share), restored; None where their keys do not fit."""
     limit = warper.pipeline.max_image_size
     masks = [batch.masks[i] for i in chunk]
-    label_sources = [prepare_image(mask_form(m), limit, normalized=True) for m in masks]
+    label_sources = prepare_images([mask_form(m) for m in masks], limit, normalized=True)
     label_options = mask_options(options)
     zero = background_color(0.0, label_sources[0])
     warped = quads.warp(lattices, label_sources, label_options, frame, zero, lattice)
@@ -335,14 +358,15 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps,
         both = np.empty((len(images), *images[0].shape[:2], channels + 1), np.uint8)
         add_channel(np.stack(images), np.stack(masks), both)
         images = list(both)
-    sources = [_prepared(image, limit, i) for image, i in zip(images, chunk, strict=True)]
+    names = [f"images[{i}]" for i in chunk]
+    sources = prepare_images(images, limit, normalized=True, names=names)
     background = _background(options, sources[0], chunk[0])
     warped_masks: list = [None] * len(chunk)
     warp = quads.backward if options.method == "backward" else quads.warp
     if swap is not None:
         warp = partial(warp_swapped, quads)
     if masks is not None and not packed:  # the labels from the images' scan (or maps)
-        label_sources = [prepare_image(mask_form(m), limit, normalized=True) for m in masks]
+        label_sources = prepare_images([mask_form(m) for m in masks], limit, normalized=True)
         both = (label_sources, background_color(0.0, label_sources[0]))
         done = warp(lattices, sources, options, frame, background, lattice, both)
         if done is None:

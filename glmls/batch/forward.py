@@ -40,7 +40,13 @@ from ..gl.dispatch import set_uniforms
 from ..gl.resources import keep_framebuffer
 from ..imaging.frame import Frame, make_frame
 from ..imaging.options import WarpOptions
-from ..imaging.source import BORDERS, SourceImage, background_color, prepare_image
+from ..imaging.source import (
+    BORDERS,
+    SourceImage,
+    background_color,
+    prepare_image,
+    prepare_images,
+)
 from ..mls import MLS
 from .canvases import ForwardTargets
 from .drawer import BatchDrawer, mesh_stride, upload_meshes
@@ -223,14 +229,15 @@ class _ForwardRun:
                 mlss = [stack.enter_context(self._mls(i, shape)) for i in chunk]
                 lattices = KernelLattices([m.kernel for m in mlss])
             limit = self.warper.pipeline.max_image_size
-            sources = [
-                _named(prepare_image, i, batch.images[i], limit, normalized=True) for i in chunk
-            ]
+            images, names = [batch.images[i] for i in chunk], [f"images[{i}]" for i in chunk]
+            sources = prepare_images(images, limit, normalized=True, names=names)
             background = _named(background_color, chunk[0], options.background, sources[0])
             labels = None
             if batch.masks is not None:
                 masks = [batch.masks[i] for i in chunk]
-                label_sources = [prepare_image(mask_form(m), limit, normalized=True) for m in masks]
+                label_sources = prepare_images(
+                    [mask_form(m) for m in masks], limit, normalized=True
+                )
                 labels = (label_sources, background_color(0.0, label_sources[0]))
             more = self.maps or batch.keypoints is not None
             moved = valid = None

@@ -20,7 +20,6 @@ import numpy as np
 from ..core.config import MLSConfig
 from ..core.handles import (
     MIN_GPU_SPREAD,
-    Scaling,
     check_affine_handles,
     check_gpu_distinct,
     check_gpu_spread,
@@ -268,20 +267,28 @@ class BatchLattices:
         count = len(self)
         sizes = np.array([len(p) for p in points])
         stride = max(2, int(sizes.max()) + int(sizes.max()) % 2)  # pairs never span images
-        scaled = np.zeros((count, stride, 2), np.float32)
         alike = int(sizes.min()) if len(set(sizes.tolist())) == 1 else 0
-        if alike:  # every image's points at once, with Scaling.to_gpu's float64 operations
+        # every image's points at once, with Scaling.to_gpu's float64 operations, x and y
+        # apart (numpy runs operations over (P, 2) pairs several times slower)
+        if alike:
             every = np.stack(points)
+            scaled = np.empty((count, stride, 2), np.float32)
             for axis in (0, 1):
                 scaled[:, :alike, axis] = (
                     every[..., axis] - self.centers[:, axis, None]
                 ) / self.scales[:, None]
             scaled[:, alike:] = scaled[:, alike - 1 : alike]  # the padding: the last point
-        for k, p in enumerate([] if alike else points):
-            if len(p):  # the padding repeats the last point
-                scaling = Scaling(tuple(self.centers[k].tolist()), float(self.scales[k]))
-                scaled[k, : len(p)] = scaling.to_gpu(p)
-                scaled[k, len(p) :] = scaled[k, len(p) - 1]
+        else:  # ragged: slot j of image k holds its point min(j, K_k - 1) (0 where K_k = 0)
+            flat = np.concatenate(points).astype(np.float64, copy=False).reshape(-1, 2)
+            owner = np.repeat(np.arange(count), sizes)
+            scales = self.scales[owner]
+            values = np.empty((len(flat) + 1, 2), np.float32)
+            values[-1] = 0.0
+            for axis in (0, 1):
+                values[:-1, axis] = (flat[:, axis] - self.centers[owner, axis]) / scales
+            starts = np.cumsum(sizes) - sizes
+            slot = np.minimum(np.arange(stride), np.maximum(sizes, 1)[:, None] - 1)
+            scaled = values[np.where(sizes[:, None] > 0, starts[:, None] + slot, len(flat))]
         with gl.use():
             source = resources.buffer("batch points", scaled.nbytes)
             source.write(scaled)
@@ -303,8 +310,14 @@ class BatchLattices:
             d = np.frombuffer(target.read(size=scaled.nbytes), np.float32).reshape(scaled.shape)
         # f = v + (f - v), as evaluate_points sums it
         if alike:
-            moved = every + d[:, :alike].astype(np.float64) * self.scales[:, None, None]
+            moved = np.empty(every.shape)
+            for axis in (0, 1):
+                change = d[:, :alike, axis].astype(np.float64) * self.scales[:, None]
+                moved[..., axis] = every[..., axis] + change
             return list(moved)
-        return [
-            p + d[k, : len(p)].astype(np.float64) * self.scales[k] for k, p in enumerate(points)
-        ]
+        at = owner * stride + (np.arange(len(flat)) - np.repeat(starts, sizes))
+        moved = np.empty_like(flat)
+        for axis in (0, 1):
+            change = np.take(d[..., axis], at).astype(np.float64) * scales
+            moved[:, axis] = flat[:, axis] + change
+        return np.split(moved, np.cumsum(sizes)[:-1])

@@ -33,6 +33,7 @@ __all__ = [
     "check_options",
     "native_order",
     "prepare_image",
+    "prepare_images",
     "texture_data",
     "texture_form",
 ]
@@ -129,6 +130,39 @@ def prepare_image(image: object, max_size: int, *, normalized: bool = False) -> 
     exponent = value_exponent(array)
     data = as_float32(scaled_down(array.reshape(height, width, -1), exponent, np.float32))
     return SourceImage(data, array.dtype, squeeze, exponent=exponent)
+
+
+def prepare_images(
+    images: list, max_size: int, *, normalized: bool = False, names: list[str] | None = None
+) -> list[SourceImage]:
+    """:func:`prepare_image` of each of ``images`` (a batch's chunk), a ``ValueError`` about
+    image k prefixed with ``names[k]`` where given. Where the first is uint8 kept as it is
+    (``normalized``) and every other one is a uint8 array of its shape, the others take the
+    first's checks (dtype, shape, size limit) and are wrapped as they are: a chunk of
+    thousands of small images is not checked image by image."""
+
+    def one(k: int) -> SourceImage:
+        try:
+            return prepare_image(images[k], max_size, normalized=normalized)
+        except ValueError as error:
+            if names is None:
+                raise
+            raise ValueError(f"{names[k]}: {error}") from None
+
+    first = one(0)
+    shape = np.shape(images[0])
+    alike = first.normalized and all(
+        isinstance(a, np.ndarray) and a.dtype == np.uint8 and a.shape == shape for a in images[1:]
+    )
+    if not alike:
+        return [first] + [one(k) for k in range(1, len(images))]
+    height, width = first.shape
+    return [first] + [
+        SourceImage(
+            np.ascontiguousarray(a.reshape(height, width, -1)), first.dtype, first.squeeze, True
+        )
+        for a in images[1:]
+    ]
 
 
 def as_float32(array: np.ndarray, name: str = "image") -> np.ndarray:

@@ -94,6 +94,32 @@ def test_quads_keypoints_beyond_the_mesh_move_by_f(gl, grid, border, chunks):
     np.testing.assert_array_equal(single.keypoints, result.keypoints)
 
 
+@pytest.mark.parametrize("interpolation", ["nearest", "linear"])
+def test_ragged_keypoints_beyond_the_mesh_move_as_image_by_image(gl, monkeypatch, interpolation):
+    """Images with no keypoints, with keypoints inside the mesh only, and with some beyond
+    it (or their footprints' edges beyond it, bilinear): each image's flags are those of its
+    own warp, the keypoints beyond the mesh moved by its f bit for bit, those inside by its
+    mesh (f at the vertices in float32: within its rounding)."""
+    rng = np.random.default_rng(8)
+    count = 12
+    images = rng.integers(0, 255, (count, 18, 22, 3), dtype=np.uint8)
+    src = rng.uniform(2, 16, (count, 5, 2))
+    dst = src + rng.normal(0, 2, src.shape)
+    sizes = [0, 3, 7, 1, 0, 12, 2, 5, 9, 4, 6, 1]
+    points = [rng.uniform(-4, 25, (k, 2)) for k in sizes]
+    points[1] = rng.uniform(2, 15, (3, 2))  # inside only
+    options = {"keypoints": points, "interpolation": interpolation, "grid": 2}
+    result = glmls.warp_batch(images, src, dst, **options)
+    monkeypatch.setattr(glmls.batch.run, "batchable", lambda chosen: False)
+    alone = glmls.warp_batch(images, src, dst, **options)
+    for k, p in enumerate(points):
+        np.testing.assert_array_equal(result.keypoints_valid[k], alone.keypoints_valid[k])
+        beyond = (p < -0.5).any(axis=1) | (p[:, 0] > 21.5) | (p[:, 1] > 17.5)
+        np.testing.assert_array_equal(result.keypoints[k][beyond], alone.keypoints[k][beyond])
+        np.testing.assert_allclose(result.keypoints[k], alone.keypoints[k], rtol=0, atol=1e-6)
+    assert 0 < sum(((p < -0.5).any(axis=1) | (p > 17.5).any(axis=1)).sum() for p in points)
+
+
 @pytest.mark.parametrize("method", glmls.METHODS)
 @pytest.mark.parametrize("border", ["constant", "edge"])
 def test_valid_pixels_are_the_pixels_the_method_draws(gl, method, border):

@@ -1,6 +1,6 @@
 """The batch's checks and tables for all images at once equal their image-by-image forms:
 two targets of one source, far targets, point sets' checks, weight uniforms, footprints,
-probes and the margins' search boxes (no GL)."""
+probes, the margins' search boxes and the chunk's prepared sources (no GL)."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from glmls.core.config import MLSConfig
 from glmls.core.handles import COORDINATE_LIMIT, fit_offset, same_source_pair, same_source_sets
 from glmls.engine.kernel import weight_rows, weight_uniforms
 from glmls.imaging.frame import _boxes
+from glmls.imaging.source import prepare_image, prepare_images
 
 
 def test_same_source_sets_is_same_source_pair_per_set():
@@ -91,3 +92,39 @@ def test_boxes_leave_out_points_that_are_not_finite():
     lows, highs = _boxes(rings)
     assert lows.tolist() == [[0.0, -1.0], [np.inf, np.inf]]
     assert highs.tolist() == [[2.0, 1.0], [-np.inf, -np.inf]]
+
+
+def test_prepare_images_is_prepare_image_per_image():
+    """A chunk's sources prepared at once equal prepare_image of each image: uint8 images of
+    one shape wrapped as they are (views and non-contiguous arrays included), other dtypes
+    and shapes image by image; an error names the image."""
+    rng = np.random.default_rng(3)
+    base = rng.integers(0, 256, (6, 9, 7, 3), dtype=np.uint8)
+    gray = rng.integers(0, 256, (4, 5, 8), dtype=np.uint8)
+    floats = rng.normal(0, 1e3, (3, 5, 6)).astype(np.float32)
+    chunks = [
+        list(base),
+        [base[0][:, ::-1], np.asfortranarray(base[1]), base[2]],
+        list(gray),
+        list(floats),
+        [base[0], base[1].astype(np.uint16)],  # a chunk prepare_images does not wrap
+        [gray[0], gray[1][:, :4]],
+    ]
+    for normalized in (True, False):
+        for images in chunks:
+            got = prepare_images(images, 64, normalized=normalized)
+            for g, image in zip(got, images, strict=True):
+                want = prepare_image(image, 64, normalized=normalized)
+                assert g.data.dtype == want.data.dtype and g.data.flags.c_contiguous
+                np.testing.assert_array_equal(g.data, want.data)
+                assert (g.dtype, g.squeeze, g.normalized, g.exponent) == (
+                    want.dtype,
+                    want.squeeze,
+                    want.normalized,
+                    want.exponent,
+                )
+    bad = [floats[0], np.zeros((5, 6, 5), np.float32)]
+    with pytest.raises(ValueError, match=r"^images\[7\]: image must be H x W or H x W x C"):
+        prepare_images(bad, 64, names=["images[6]", "images[7]"])
+    with pytest.raises(ValueError, match=r"^images\[6\]: image 7 pixels wide"):
+        prepare_images([base[0]] * 3, 6, normalized=True, names=["images[6]"] * 3)
