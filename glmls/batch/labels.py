@@ -17,6 +17,7 @@ __all__ = [
     "SLACK",
     "MeshVertices",
     "embedded",
+    "fold_candidates",
     "in_lattice",
     "mesh_corners",
     "mesh_keypoints",
@@ -300,18 +301,23 @@ def mesh_keypoints(
     own = (row * (vertices.shape[2] - 1) + col) * 2 + upper
     hidden = np.zeros(count, bool)
     folded = ~embedded(vertices) if folded is None else np.asarray(folded, bool)
-    meshes = np.flatnonzero(folded)  # an embedding hides no point: only the others are tested
-    tested = np.flatnonzero(folded[image])
-    which = (np.cumsum(folded) - 1)[image[tested]]  # the place of each in ``meshes``
+    tested = np.flatnonzero(folded[image])  # an embedding hides no point
+    if len(tested):  # nor does a fold far from a point
+        tested = tested[fold_candidates(vertices, image[tested], out[tested])]
+    needed = np.zeros(len(folded), bool)
+    needed[image[tested]] = True
+    meshes = np.flatnonzero(needed)
+    which = (np.cumsum(needed) - 1)[image[tested]]  # the place of each in ``meshes``
     # a point meets at most every row of its mesh, a (columns + 1, 2) array each: blocks of
     # points bound those arrays whatever the number of keypoints (each point's answer is
     # its own, so the blocks change none)
     _, rows, columns, _ = vertices.shape
     block = max(1, COVER_BLOCK // (rows * columns))
+    boxes = _row_boxes(vertices, meshes) if len(tested) else []
     for start in range(0, len(tested), block):
         part = tested[start : start + block]
         hidden[part] = _covered_earlier(
-            vertices, meshes, which[start : start + block], out[part], own[part]
+            vertices, meshes, boxes, which[start : start + block], out[part], own[part]
         )
     return out, inside & ~hidden
 
@@ -346,26 +352,92 @@ def embedded(vertices: np.ndarray) -> np.ndarray:
     margin = EMBED_MARGIN
     positive = (_cross(b - a, c - a) > margin) & (_cross(c - a, d - a) > margin)
     ok = positive.reshape(len(vertices), -1).all(axis=1)
-    ring = np.concatenate(
-        [
-            vertices[:, 0, :-1],
-            vertices[:, :-1, -1],
-            vertices[:, -1, :0:-1],
-            vertices[:, :0:-1, 0],
-        ],
-        axis=1,
-    )
+    ring = _boundary(vertices)
+    shown = ok & _star_shaped(vertices, ring)
+    rest = np.flatnonzero(ok & ~shown)
+    if len(rest):
+        shown[rest] = simple_rings(np.asarray(ring[rest], np.float64))
+    return shown
+
+
+def _boundary(vertices: np.ndarray) -> np.ndarray:
+    """(N, B, 2): the boundary vertices of the meshes (N, rows, columns, 2), counter-clockwise
+    in the triangles' sense (00 -> 10 -> 11 -> 01)."""
+    edges = [
+        vertices[:, 0, :-1],
+        vertices[:, :-1, -1],
+        vertices[:, -1, :0:-1],
+        vertices[:, :0:-1, 0],
+    ]
+    return np.concatenate(edges, axis=1)
+
+
+def _star_shaped(vertices: np.ndarray, ring: np.ndarray) -> np.ndarray:
+    """(N,) bool: the meshes' boundaries (``ring``, :func:`_boundary`) shown to be simple
+    curves by turning strictly counter-clockwise about the centre vertex, once."""
     rows, columns = vertices.shape[1:3]
     centre = vertices[:, rows // 2, columns // 2][:, None]
     rel = ring - centre
     nxt = np.roll(rel, -1, axis=1)
     turn = _cross(rel, nxt)
     angle = np.arctan2(turn, np.einsum("nmi,nmi->nm", rel, nxt)).sum(axis=1)
-    shown = ok & (turn > margin).all(axis=1) & (angle < 3 * np.pi)
-    rest = np.flatnonzero(ok & ~shown)
-    if len(rest):
-        shown[rest] = simple_rings(np.asarray(ring[rest], np.float64))
-    return shown
+    return (turn > EMBED_MARGIN).all(axis=1) & (angle < 3 * np.pi)
+
+
+#: Mesh vertices that :func:`fold_candidates` converts and tests in one block.
+_FOLD_BLOCK = 1 << 20
+
+#: Point-box pairs of one mesh past which :func:`fold_candidates` keeps all its points.
+_FOLD_PAIRS = 1 << 22
+
+#: Pixels by which :func:`fold_candidates` widens the boxes of the triangles of a fold: far
+#: above the rounding of a point's place in its own triangle.
+_FOLD_PAD = 1e-6
+
+
+def fold_candidates(vertices, images: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(P,) bool: the output ``points`` (P, 2) of meshes ``images`` (P,) (of ``vertices``,
+    (N, rows, columns, 2), an array or :class:`MeshVertices`) that a triangle of their mesh
+    other than their own may hold: every point of a mesh whose boundary is not shown to be
+    star-shaped, else those within the box of one of its triangles not positive by
+    :data:`EMBED_MARGIN`. Where the boundary is a simple closed curve the triangles that hold
+    a point, counted with the signs of their orientations, add up to the curve's winding
+    number about it, 0 or 1: a point inside two triangles is inside a negative one (or, on
+    an edge, at its border), so the others need no test."""
+    keep = np.ones(len(points), bool)
+    meshes, place = np.unique(images, return_inverse=True)
+    order = np.argsort(place, kind="stable")
+    ends = np.searchsorted(place[order], np.arange(len(meshes)), side="right")
+    starts = np.r_[0, ends[:-1]]
+    _, rows, columns, _ = vertices.shape
+    block = max(1, _FOLD_BLOCK // (rows * columns))
+    for first in range(0, len(meshes), block):
+        v = np.asarray(vertices[meshes[first : first + block]], np.float64)
+        star = _star_shaped(v, _boundary(v))
+        x, y = v[..., 0], v[..., 1]
+        corners = [(x[:, :-1, :-1], y[:, :-1, :-1]), (x[:, :-1, 1:], y[:, :-1, 1:])]
+        corners += [(x[:, 1:, 1:], y[:, 1:, 1:]), (x[:, 1:, :-1], y[:, 1:, :-1])]  # 11, 01
+        triangles = []
+        for p0, p1, p2 in ((0, 1, 2), (0, 2, 3)):
+            (ax, ay), (bx, by), (cx, cy) = corners[p0], corners[p1], corners[p2]
+            low = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax) <= EMBED_MARGIN
+            triangles.append((low, (ax, bx, cx), (ay, by, cy)))
+        for j in np.flatnonzero(star).tolist():
+            mine = order[starts[first + j] : ends[first + j]]
+            lows, highs = [], []
+            for low, xs, ys in triangles:
+                r, c = np.nonzero(low[j])
+                tx = np.stack([t[j, r, c] for t in xs])
+                ty = np.stack([t[j, r, c] for t in ys])
+                lows.append(np.stack([tx.min(axis=0), ty.min(axis=0)], axis=1))
+                highs.append(np.stack([tx.max(axis=0), ty.max(axis=0)], axis=1))
+            lo, hi = np.concatenate(lows) - _FOLD_PAD, np.concatenate(highs) + _FOLD_PAD
+            if len(mine) * len(lo) > _FOLD_PAIRS:
+                continue  # a mesh folded through and through: every point tested
+            px, py = points[mine, :1], points[mine, 1:]
+            near = (lo[:, 0] <= px) & (px <= hi[:, 0]) & (lo[:, 1] <= py) & (py <= hi[:, 1])
+            keep[mine] = near.any(axis=1)
+    return keep
 
 
 #: The most edges of a boundary that :func:`simple_rings` tests pair by pair (as
@@ -424,19 +496,29 @@ def _to_segment(point: np.ndarray, start: np.ndarray, along: np.ndarray) -> np.n
     return np.einsum("...i,...i->...", gap, gap)
 
 
-def _covered_earlier(
-    vertices, chosen: np.ndarray, which: np.ndarray, points: np.ndarray, own: np.ndarray
-) -> np.ndarray:
-    """(P,) bool: a triangle of deformed mesh ``chosen[which]`` (of ``vertices``, (N, rows,
-    columns, 2), an array or :class:`MeshVertices`) before key ``own`` holds the point
-    strictly inside (either orientation: folded triangles are drawn too). Every mesh's points
-    at once: against the boxes of its rows of cells, then of the cells of the rows whose box
-    holds the point, then the triangles of the cells whose box does."""
-    columns = vertices.shape[2] - 1
-    # each row of cells' box: of its two rows of vertices
+def _row_boxes(vertices, chosen: np.ndarray) -> list[np.ndarray]:
+    """The boxes of the rows of cells of the meshes ``chosen`` (each of its two rows of
+    vertices): least x, least y, greatest x, greatest y, four (M, rows - 1) arrays."""
     reduces = (np.minimum, np.minimum, np.maximum, np.maximum)
     extents = zip(_row_extents(vertices, chosen), reduces, strict=True)
-    boxes = [reduce(line[:, :-1], line[:, 1:]) for line, reduce in extents]
+    return [reduce(line[:, :-1], line[:, 1:]) for line, reduce in extents]
+
+
+def _covered_earlier(
+    vertices,
+    chosen: np.ndarray,
+    boxes: list[np.ndarray],
+    which: np.ndarray,
+    points: np.ndarray,
+    own: np.ndarray,
+) -> np.ndarray:
+    """(P,) bool: a triangle of deformed mesh ``chosen[which]`` (of ``vertices``, (N, rows,
+    columns, 2), an array or :class:`MeshVertices`; ``boxes``: :func:`_row_boxes` of
+    ``chosen``) before key ``own`` holds the point strictly inside (either orientation:
+    folded triangles are drawn too). Every mesh's points at once: against the boxes of its
+    rows of cells, then of the cells of the rows whose box holds the point, then the
+    triangles of the cells whose box does."""
+    columns = vertices.shape[2] - 1
     index, row = _near_rows(boxes, which, points)
     mesh = which[index]
     qx, qy = points[index, :1], points[index, 1:]

@@ -71,3 +71,32 @@ def test_many_keypoints_on_one_image_cost_the_others_nothing(gl, rng):
     alone = _peak(lambda: mesh_keypoints(lattice, meshes[:1], many, None))
     together = _peak(lambda: mesh_keypoints(lattice, meshes, points, None, images))
     assert together < 1.25 * alone, (together, alone)
+
+
+@pytest.mark.parametrize("grid", [1, 2, 4])
+def test_points_far_from_a_fold_are_not_tested_and_keep_their_flags(gl, monkeypatch, grid):
+    """Only points in the box of a triangle that is not positive are tested for a triangle
+    before theirs (the others cannot lie in two: the triangles holding a point sum, with
+    their orientations' signs, to the boundary's winding number); a boundary wound twice
+    has every point tested. The flags equal those of testing every point, with many of
+    them hidden, and most points of a folded mesh are spared the test."""
+    rng = np.random.default_rng(grid)
+    lattice, meshes = folded_meshes(8, grid=grid)
+    centre = meshes[7].reshape(-1, 2).mean(axis=0)
+    rel = meshes[7] - centre  # mesh 7 spun twice around its centre: its boundary too
+    angle, radius = 2 * np.arctan2(rel[..., 1], rel[..., 0]), np.hypot(rel[..., 0], rel[..., 1])
+    meshes[7] = centre + np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=-1)
+    points = rng.uniform(-1, 36, (4000, 2))
+    images = rng.integers(0, len(meshes), len(points))
+    moved, valid = mesh_keypoints(lattice, meshes, points, None, images)
+    candidates = glmls.batch.labels.fold_candidates(meshes, images, moved)
+    assert candidates[images == 7].all()
+    assert candidates.mean() < 0.5
+    monkeypatch.setattr(
+        glmls.batch.labels, "fold_candidates", lambda v, i, p: np.ones(len(p), bool)
+    )
+    every, flags = mesh_keypoints(lattice, meshes, points, None, images)
+    np.testing.assert_array_equal(moved, every)
+    np.testing.assert_array_equal(valid, flags)
+    inside = glmls.batch.labels.in_lattice(lattice, points)
+    assert (inside & ~valid).sum() > 50
