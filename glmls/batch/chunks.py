@@ -17,9 +17,10 @@ from ..imaging.options import WarpOptions
 from ..imaging.readback import add_channel, drop_channels
 from ..imaging.source import SourceImage, background_color, prepare_image, prepare_images
 from ..mls import MLS
+from .embedding import embedded
 from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size, fits
 from .inputs import BatchInput
-from .labels import embedded, mesh_keypoints, on_canvas
+from .labels import mesh_keypoints, on_canvas
 from .margins import batch_margins, warn_short
 from .probes import batch_config, far_targets, keypoints_by_f
 from .single import (

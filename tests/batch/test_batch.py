@@ -551,7 +551,8 @@ def test_the_fill_draw_equals_the_fused_scan(gl, rng, monkeypatch, fold):
 
 
 def test_embedded_meshes_skip_the_fold_test_exactly(gl):
-    from glmls.batch.labels import embedded, mesh_keypoints
+    from glmls.batch.embedding import embedded
+    from glmls.batch.labels import mesh_keypoints
     from glmls.core.mesh import MeshLattice
 
     shape = (28, 36)

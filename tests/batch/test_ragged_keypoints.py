@@ -11,6 +11,7 @@ import pytest
 
 import glmls
 import glmls.batch.labels
+from glmls.batch.embedding import fold_candidates
 from glmls.batch.labels import mesh_keypoints
 from glmls.core.mesh import MeshLattice
 
@@ -89,7 +90,7 @@ def test_points_far_from_a_fold_are_not_tested_and_keep_their_flags(gl, monkeypa
     points = rng.uniform(-1, 36, (4000, 2))
     images = rng.integers(0, len(meshes), len(points))
     moved, valid = mesh_keypoints(lattice, meshes, points, None, images)
-    candidates = glmls.batch.labels.fold_candidates(meshes, images, moved)
+    candidates = fold_candidates(meshes, images, moved)
     assert candidates[images == 7].all()
     assert candidates.mean() < 0.5
     monkeypatch.setattr(

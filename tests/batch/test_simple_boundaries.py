@@ -1,6 +1,6 @@
 """Meshes whose boundary is simple but not star-shaped about the centre vertex (a long strip
 bent along its length, as text lines are): embeddings, shown so by a test of the boundary
-edge against edge, on the host (:func:`glmls.batch.labels.embedded`, for the keypoints' fold
+edge against edge, on the host (:func:`glmls.batch.embedding.embedded`, for the keypoints' fold
 test) and on the GPU (``batch/check.comp.glsl``, for the scan without keys), and a strip
 wound more than once around (every triangle positive, the boundary crossing itself) is not.
 Keypoints beyond the meshes move by f of all images at once."""
@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import glmls
-from glmls.batch import chunks, labels
+from glmls.batch import chunks, embedding, labels
+from glmls.batch.embedding import SIMPLE_EDGES, cross, embedded, simple_rings
 from glmls.batch.gpu import BatchQuads
-from glmls.batch.labels import SIMPLE_EDGES, embedded, simple_rings
 from glmls.core.mesh import MeshLattice
 
 HEIGHT, WIDTH = 8, 240
@@ -47,7 +47,6 @@ def _meshes() -> np.ndarray:
 def _triangles_positive(vertices: np.ndarray) -> np.ndarray:
     a, b = vertices[:, :-1, :-1], vertices[:, :-1, 1:]
     c, d = vertices[:, 1:, 1:], vertices[:, 1:, :-1]
-    cross = labels._cross
     return ((cross(b - a, c - a) > 0) & (cross(c - a, d - a) > 0)).all(axis=(1, 2))
 
 
@@ -78,7 +77,7 @@ def test_a_bent_strip_is_an_embedding_and_a_wound_one_is_not(monkeypatch):
     assert _triangles_positive(meshes).all()  # the wound strip folds by its boundary alone
     assert embedded(meshes).tolist() == [True, True, False]
     # the arc is shown by the edges' test: its boundary is not star-shaped about the centre
-    monkeypatch.setattr(labels, "simple_rings", lambda rings: np.zeros(len(rings), bool))
+    monkeypatch.setattr(embedding, "simple_rings", lambda rings: np.zeros(len(rings), bool))
     assert embedded(meshes).tolist() == [True, False, False]
 
 
