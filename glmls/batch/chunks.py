@@ -202,7 +202,8 @@ def _beyond_mesh_by_f(results, indices, batch, lattice, frame, own_mls, batched)
         return
     chosen = np.zeros(len(indices), bool)
     chosen[todo] = True
-    taken = beyond & chosen[owner]  # the keypoints to move, image after image
+    of_todo = chosen[owner]  # the keypoints of those images
+    taken = beyond & of_todo  # the keypoints to move, image after image
     counts = np.bincount(owner[taken], minlength=len(indices))[todo]
     values = np.empty((int(counts.sum()), 2))
     done = np.zeros(len(todo), bool)
@@ -232,7 +233,7 @@ def _beyond_mesh_by_f(results, indices, batch, lattice, frame, own_mls, batched)
         values[:, axis] -= origin[axis]
     # every moved image's keypoints at once, then one array each again
     keypoints = np.concatenate([results[indices[j]].keypoints for j in todo])
-    keypoints[beyond[chosen[owner]]] = values
+    keypoints[beyond[of_todo]] = values
     moved = np.split(keypoints, np.cumsum(sizes[todo])[:-1])
     for j, points_j in zip(todo, moved, strict=True):
         labels = results[indices[j]]

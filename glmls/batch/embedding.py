@@ -17,6 +17,7 @@ __all__ = [
     "fold_candidates",
     "simple_rings",
     "star_shaped",
+    "triangle_areas",
 ]
 
 
@@ -32,10 +33,8 @@ def embedded(vertices: np.ndarray) -> np.ndarray:
     shown simple by turning around the centre vertex, once (a star-shaped curve), or, where
     it does not (a long strip bent along its length), edge against edge
     (:func:`simple_rings`)."""
-    a, b = vertices[:, :-1, :-1], vertices[:, :-1, 1:]
-    c, d = vertices[:, 1:, 1:], vertices[:, 1:, :-1]
-    margin = EMBED_MARGIN
-    positive = (cross(b - a, c - a) > margin) & (cross(c - a, d - a) > margin)
+    lower, upper = triangle_areas(vertices)
+    positive = (lower > EMBED_MARGIN) & (upper > EMBED_MARGIN)
     ok = positive.reshape(len(vertices), -1).all(axis=1)
     ring = boundary(vertices)
     shown = ok & star_shaped(vertices, ring)
@@ -43,6 +42,19 @@ def embedded(vertices: np.ndarray) -> np.ndarray:
     if len(rest):
         shown[rest] = simple_rings(np.asarray(ring[rest], np.float64))
     return shown
+
+
+def triangle_areas(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The doubled signed areas of the cells' triangles (00, 10, 11) and (00, 11, 01) of the
+    meshes (N, rows, columns, 2): two (N, rows - 1, columns - 1) arrays, positive where
+    counter-clockwise (x and y apart: numpy runs operations over (..., 2) pairs with inner
+    loops of two elements)."""
+    x, y = vertices[..., 0], vertices[..., 1]
+    ax, ay, bx, by = x[:, :-1, :-1], y[:, :-1, :-1], x[:, :-1, 1:], y[:, :-1, 1:]
+    cx, cy, dx, dy = x[:, 1:, 1:], y[:, 1:, 1:], x[:, 1:, :-1], y[:, 1:, :-1]
+    lower = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    upper = (cx - ax) * (dy - ay) - (cy - ay) * (dx - ax)
+    return lower, upper
 
 
 def boundary(vertices: np.ndarray) -> np.ndarray:
@@ -91,9 +103,9 @@ def fold_candidates(vertices, images: np.ndarray, points: np.ndarray) -> np.ndar
     an edge, at its border), so the others need no test."""
     keep = np.ones(len(points), bool)
     meshes, place = np.unique(images, return_inverse=True)
-    order = np.argsort(place, kind="stable")
-    ends = np.searchsorted(place[order], np.arange(len(meshes)), side="right")
-    starts = np.r_[0, ends[:-1]]
+    order = np.argsort(place, kind="stable")  # each mesh's points, one run after another
+    ends = np.cumsum(np.bincount(place))
+    starts = ends - np.bincount(place)
     _, rows, columns, _ = vertices.shape
     block = max(1, _FOLD_BLOCK // (rows * columns))
     for first in range(0, len(meshes), block):
@@ -103,10 +115,9 @@ def fold_candidates(vertices, images: np.ndarray, points: np.ndarray) -> np.ndar
         corners = [(x[:, :-1, :-1], y[:, :-1, :-1]), (x[:, :-1, 1:], y[:, :-1, 1:])]
         corners += [(x[:, 1:, 1:], y[:, 1:, 1:]), (x[:, 1:, :-1], y[:, 1:, :-1])]  # 11, 01
         triangles = []
-        for p0, p1, p2 in ((0, 1, 2), (0, 2, 3)):
-            (ax, ay), (bx, by), (cx, cy) = corners[p0], corners[p1], corners[p2]
-            low = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax) <= EMBED_MARGIN
-            triangles.append((low, (ax, bx, cx), (ay, by, cy)))
+        for area, ends_at in zip(triangle_areas(v), ((0, 1, 2), (0, 2, 3)), strict=True):
+            (ax, ay), (bx, by), (cx, cy) = (corners[k] for k in ends_at)
+            triangles.append((area <= EMBED_MARGIN, (ax, bx, cx), (ay, by, cy)))
         for j in np.flatnonzero(star).tolist():
             mine = order[starts[first + j] : ends[first + j]]
             lows, highs = [], []
