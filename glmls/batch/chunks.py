@@ -19,7 +19,7 @@ from ..imaging.source import SourceImage, background_color, prepare_image, prepa
 from ..mls import MLS
 from .embedding import embedded
 from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size, fits
-from .inputs import BatchInput
+from .inputs import BatchInput, naming
 from .labels import mesh_keypoints, on_canvas
 from .margins import batch_margins, warn_short
 from .probes import batch_config, far_targets, keypoints_by_f
@@ -88,7 +88,8 @@ class _GPURun:
         batch, options, quads = self.batch, self.options, self.quads
         first = batch.images[indices[0]]
         limit = self.warper.pipeline.max_image_size
-        source = _prepared(first, limit, indices[0])
+        with naming(indices[0]):
+            source = prepare_image(first, limit, normalized=True)
         frame = make_frame(options.output_shape, options.origin, source.shape, limit)
         lattice = MeshLattice.corners(source.shape, options.grid)
         parts, short = [(lattice, indices)], {}
@@ -256,7 +257,8 @@ class _Direct:
         form = SourceImage(
             np.zeros((1, 1, channels + self.packed), np.uint8), np.dtype(np.uint8), False, True
         )
-        self.background = _background(options, form, indices[0])
+        with naming(indices[0]):
+            self.background = background_color(options.background, form)
         self.out = np.empty((len(indices), *frame.shape, *first.shape[2:]), np.uint8)
         shape = (len(indices), *frame.shape)
         self.labels = np.empty(shape, np.uint8) if self.packed else None
@@ -313,10 +315,8 @@ def _check_newton_budget(gl, batch: BatchInput) -> None:
     not all visit on ``gl``'s driver, as that image's own MLS refuses them: the pass would
     leave handles out of its f without a word."""
     for i, p in enumerate(batch.src):
-        try:
+        with naming(i):
             check_loop_budget(gl, "warp/inverse.comp.glsl", len(p))
-        except ValueError as error:
-            raise ValueError(f"images[{i}]: {error}") from None
 
 
 def _drop_last(rgba: np.ndarray, squeeze: bool) -> np.ndarray:
@@ -331,25 +331,6 @@ def _drop_last(rgba: np.ndarray, squeeze: bool) -> np.ndarray:
     return out
 
 
-def _prepared(image: np.ndarray, limit: int, index: int) -> SourceImage:
-    """:func:`prepare_image` of the batch's image ``index``, its errors (a float64 value
-    beyond float32's range) naming it as ``images[index]``."""
-    try:
-        return prepare_image(image, limit, normalized=True)
-    except ValueError as error:
-        raise ValueError(f"images[{index}]: {error}") from None
-
-
-def _background(options: WarpOptions, source: SourceImage, index: int) -> tuple:
-    """:func:`background_color` of the options for the group or chunk whose first image is the
-    batch's image ``index`` (its dtype and channels are theirs), its errors naming that image
-    as the single path's do."""
-    try:
-        return background_color(options.background, source)
-    except ValueError as error:
-        raise ValueError(f"images[{index}]: {error}") from None
-
-
 def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps, swap=None):
     limit = warper.pipeline.max_image_size
     images = [batch.images[i] for i in chunk]
@@ -362,7 +343,8 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps,
         images = list(both)
     names = [f"images[{i}]" for i in chunk]
     sources = prepare_images(images, limit, normalized=True, names=names)
-    background = _background(options, sources[0], chunk[0])
+    with naming(chunk[0]):
+        background = background_color(options.background, sources[0])
     warped_masks: list = [None] * len(chunk)
     warp = quads.backward if options.method == "backward" else quads.warp
     if swap is not None:

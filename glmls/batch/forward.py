@@ -51,7 +51,7 @@ from ..mls import MLS
 from .canvases import ForwardTargets
 from .drawer import BatchDrawer, mesh_stride, upload_meshes
 from .gpu import CHUNK_BYTES, KernelLattices, chunk_size, fits
-from .inputs import BatchInput
+from .inputs import BatchInput, naming
 from .margins import batch_margins, warn_short
 from .paper import BatchPaper, chunk_squares, paper_lattice
 from .probes import batch_config, far_targets, keypoints_by_f
@@ -150,14 +150,6 @@ class BatchSplat(BatchDrawer):
         return targets.read(mgl)
 
 
-def _named(call, index: int, *args, **keywords):
-    """``call(*args, **keywords)``, its ``ValueError`` naming the batch's image ``index``."""
-    try:
-        return call(*args, **keywords)
-    except ValueError as error:
-        raise ValueError(f"images[{index}]: {error}") from None
-
-
 class _ForwardRun:
     """One :func:`warp_forward`: the batch's groups of one shape, each group's parts of one
     lattice (one margin past the images, with a border mode), each part's chunks."""
@@ -182,7 +174,8 @@ class _ForwardRun:
     def _group(self, indices: list[int]) -> None:
         batch, options = self.batch, self.options
         limit = self.warper.pipeline.max_image_size
-        source = _named(prepare_image, indices[0], batch.images[indices[0]], limit, normalized=True)
+        with naming(indices[0]):
+            source = prepare_image(batch.images[indices[0]], limit, normalized=True)
         frame = make_frame(options.output_shape, options.origin, source.shape, limit)
         parts, short = [(0, indices)], {}
         if options.border != "constant":  # the images by their meshes' margins
@@ -231,7 +224,8 @@ class _ForwardRun:
             limit = self.warper.pipeline.max_image_size
             images, names = [batch.images[i] for i in chunk], [f"images[{i}]" for i in chunk]
             sources = prepare_images(images, limit, normalized=True, names=names)
-            background = _named(background_color, chunk[0], options.background, sources[0])
+            with naming(chunk[0]):
+                background = background_color(options.background, sources[0])
             labels = None
             if batch.masks is not None:
                 masks = [batch.masks[i] for i in chunk]

@@ -3,7 +3,8 @@ handles, keypoints and masks, each error naming the item's index (``src[3]``).""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,6 +22,7 @@ __all__ = [
     "check_point_sets",
     "check_points",
     "item_array",
+    "naming",
     "stack_or_list",
 ]
 
@@ -71,6 +73,16 @@ VOLUMES_HINT = (
     " (a batch holds 2D images; a volume is warped by glmls.MLS(src, dst).warp(volume), one "
     "at a time)"
 )
+
+
+@contextmanager
+def naming(index: int, errors: tuple[type[Exception], ...] = (ValueError,)) -> Iterator[None]:
+    """An error of ``errors`` raised inside, about the batch's image ``index``, raised again
+    with its message prefixed ``images[index]:``, as a batch names its items."""
+    try:
+        yield
+    except errors as error:
+        raise type(error)(f"images[{index}]: {error}") from None
 
 
 def item_array(value: object, name: str) -> np.ndarray:
@@ -229,10 +241,8 @@ def _check_targets(src: list[np.ndarray], dst: list[np.ndarray]) -> None:
     else:
         suspects = [i for i, p in enumerate(src) if len(p) > 1]
     for i in suspects:
-        try:
+        with naming(i):
             validate_handles(src[i], dst[i])
-        except ValueError as error:
-            raise ValueError(f"images[{i}]: {error}") from None
 
 
 def check_batch(

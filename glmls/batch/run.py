@@ -16,7 +16,7 @@ from .chunks import warp_chunks
 from .footprints import RING, footprint_radius, footprint_sets, seen_whole
 from .forward import forward_batchable, warp_forward
 from .gpu import batchable
-from .inputs import BatchInput, check_batch, item_array, stack_or_list
+from .inputs import BatchInput, check_batch, item_array, naming, stack_or_list
 from .labels import on_canvas
 from .result import BatchResult
 from .single import ImageLabels, SingleWarper
@@ -276,12 +276,10 @@ def _check_segments(segments: dict, batch: BatchInput, transform: object) -> lis
     affine = transform == "affine"
     for i, given in enumerate(per_image):
         if given or affine:
-            try:
+            with naming(i, (TypeError, ValueError)):
                 handles = HandleSet.validate(batch.src[i], batch.dst[i], **given)
                 if affine:
                     handles.check_affine()
-            except (TypeError, ValueError) as error:
-                raise type(error)(f"images[{i}]: {error}") from None
     return per_image
 
 
