@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.handles import COORDINATE_LIMIT
 from .labels import on_canvas
 
 __all__ = ["RING", "footprint_radius", "footprint_sets", "seen_whole", "turned", "with_footprints"]
@@ -34,8 +35,10 @@ def footprint_radius(interpolation: str) -> float:
 
 
 def with_footprints(points: np.ndarray, radius: float) -> np.ndarray:
-    """(P * 9, 2): each of the (P, 2) ``points`` followed by its footprint's edge points."""
-    return (points[:, None, :] + radius * RING).reshape(-1, 2)
+    """(P * 9, 2): each of the (P, 2) ``points`` followed by its footprint's edge points,
+    kept within the coordinates the GPU takes (a keypoint that far lies off any canvas)."""
+    out = (points[:, None, :] + radius * RING).reshape(-1, 2)
+    return np.clip(out, -COORDINATE_LIMIT, COORDINATE_LIMIT, out=out)
 
 
 def footprint_sets(sets: list[np.ndarray], radius: float) -> list[np.ndarray]:
@@ -48,6 +51,8 @@ def footprint_sets(sets: list[np.ndarray], radius: float) -> list[np.ndarray]:
     out = np.empty((*every.shape[:2], len(RING), 2))
     for axis in (0, 1):  # apart: numpy adds over (..., 2) pairs with inner loops of two
         out[..., axis] = every[:, :, None, axis] + ring[:, axis]
+    if np.abs(every).max(initial=0.0) > COORDINATE_LIMIT - 1.0:
+        np.clip(out, -COORDINATE_LIMIT, COORDINATE_LIMIT, out=out)
     return list(out.reshape(len(sets), -1, 2))
 
 

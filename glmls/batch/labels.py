@@ -20,6 +20,7 @@ __all__ = [
     "mesh_corners",
     "mesh_keypoints",
     "mesh_map",
+    "nearest_drawn",
     "on_canvas",
     "visible",
     "visible_chunk",
@@ -319,6 +320,95 @@ def mesh_keypoints(
     return out, inside & ~hidden
 
 
+def nearest_drawn(
+    lattice: MeshLattice,
+    vertices,
+    images: np.ndarray,
+    points: np.ndarray,
+    out: np.ndarray,
+    origin: tuple[float, float],
+) -> np.ndarray:
+    """(P,) bool: the fill draws the output pixel nearest each keypoint, a triangle of its
+    deformed mesh holding that pixel's centre. A keypoint inside the mesh's domain can land
+    within half a pixel of the warped image's edge past the last pixel centre drawn: its
+    nearest pixel then shows the background, as with the methods that test the pixel
+    itself. ``points`` (P, 2) source keypoints inside ``lattice``'s domain, ``out`` where
+    :func:`mesh_keypoints` puts them, ``images`` (P,) the mesh of each in ``vertices``
+    (as :func:`mesh_keypoints` takes them), ``origin`` the canvas's: output pixel (i, j)
+    shows the deformed plane's point ``origin`` + (i, j)."""
+    count = len(points)
+    if count == 0:
+        return np.zeros(0, bool)
+    if vertices.ndim == 3:
+        vertices = vertices[None]
+    centre = np.empty((count, 2))
+    for axis in (0, 1):
+        centre[:, axis] = np.rint(out[:, axis] - origin[axis]) + origin[axis]
+    index, low, high, _ = _cells(lattice, points)
+    size = np.maximum(high - low, 1e-12)
+    upper = (points[:, 0] - low[:, 0]) / size[:, 0] < (points[:, 1] - low[:, 1]) / size[:, 1]
+    drawn = _walk(vertices, images, index[:, 1], index[:, 0], upper.astype(np.int64), centre)
+    rest = np.flatnonzero(~drawn)
+    if len(rest):  # any triangle of the mesh: the row boxes, as for hidden points
+        meshes, which = np.unique(images[rest], return_inverse=True)
+        boxes = _row_boxes(vertices, meshes)
+        anywhere = np.full(len(rest), np.iinfo(np.int64).max)
+        block = max(1, COVER_BLOCK // (vertices.shape[1] * vertices.shape[2]))
+        for start in range(0, len(rest), block):
+            part = slice(start, start + block)
+            drawn[rest[part]] = _covered_earlier(
+                vertices, meshes, boxes, which[part], centre[rest[part]], anywhere[part]
+            )
+    return drawn
+
+
+#: A cell's triangles (00, 10, 11) and (00, 11, 01) as corners of :func:`_cell_vertices`.
+_TRIANGLES = ((0, 1, 3), (0, 3, 2))
+#: Across each edge of each triangle (its corners' order): row step, column step and
+#: triangle of the neighbour that shares it.
+_ACROSS = np.array(
+    [[[-1, 0, 1], [0, 1, 1], [0, 0, 1]], [[0, 0, 0], [1, 0, 0], [0, -1, 0]]], np.int64
+)
+#: Triangles :func:`_walk` steps through toward a point before it leaves it to the row boxes.
+_WALK_STEPS = 4
+
+
+def _walk(vertices, images, row, col, triangle, targets) -> np.ndarray:
+    """(P,) bool: found in a triangle of its deformed mesh (edges included), each of the
+    (P, 2) ``targets``, by a walk from triangle ``triangle`` of cell (``row``, ``col``)
+    across the edge it lies furthest beyond, for :data:`_WALK_STEPS` triangles at most;
+    False where the walk leaves the mesh, meets a flat triangle or stops (the row boxes
+    decide there)."""
+    _, rows, columns, _ = vertices.shape
+    found = np.zeros(len(targets), bool)
+    todo = np.arange(len(targets))
+    for _ in range(_WALK_STEPS):
+        corners = _cell_vertices(vertices, images[todo], row, col)
+        ends = np.take(np.array(_TRIANGLES), triangle, axis=0)  # (k, 3)
+        x = [np.take_along_axis(corners[:, 0].T, ends[:, k : k + 1], 1)[:, 0] for k in range(3)]
+        y = [np.take_along_axis(corners[:, 1].T, ends[:, k : k + 1], 1)[:, 0] for k in range(3)]
+        sign = np.sign((x[1] - x[0]) * (y[2] - y[0]) - (y[1] - y[0]) * (x[2] - x[0]))
+        qx, qy = targets[todo, 0], targets[todo, 1]
+        edges = np.stack(
+            [
+                ((x[b] - x[a]) * (qy - y[a]) - (y[b] - y[a]) * (qx - x[a])) * sign
+                for a, b in ((0, 1), (1, 2), (2, 0))
+            ],
+            axis=1,
+        )
+        inside = (sign != 0) & (edges >= 0).all(axis=1)
+        found[todo[inside]] = True
+        beyond = edges.argmin(axis=1)
+        step = _ACROSS[triangle, beyond]  # (k, 3)
+        row, col, triangle = row + step[:, 0], col + step[:, 1], step[:, 2]
+        going = ~inside & (sign != 0) & (row >= 0) & (row < rows - 1)
+        going &= (col >= 0) & (col < columns - 1)
+        todo, row, col, triangle = todo[going], row[going], col[going], triangle[going]
+        if not len(todo):
+            break
+    return found
+
+
 def _cell_vertices(vertices, image: np.ndarray, row: np.ndarray, col: np.ndarray) -> np.ndarray:
     """(4, 2, P) float64: the deformed corners 00, 10, 01, 11 of cell (``row``, ``col``) of
     mesh ``image`` (``vertices``: (N, rows, columns, 2), an array or :class:`MeshVertices`),
@@ -328,8 +418,8 @@ def _cell_vertices(vertices, image: np.ndarray, row: np.ndarray, col: np.ndarray
     at = (_ROWS * columns + _COLUMNS)[:, None] + flat  # (4, P)
     if isinstance(vertices, MeshVertices):
         return vertices.flat_points(at, image)
-    points = np.asarray(vertices, np.float64).reshape(-1, 2)
-    return np.stack([np.take(points[:, axis], at) for axis in (0, 1)], axis=1)
+    flat = np.asarray(vertices, np.float64).reshape(-1)  # x and y interleaved (flat_points)
+    return np.stack([np.take(flat, 2 * at + axis) for axis in (0, 1)], axis=1)
 
 
 def _row_boxes(vertices, chosen: np.ndarray) -> list[np.ndarray]:
@@ -466,12 +556,14 @@ class MeshVertices:
         """The vertices at flat indices ``at`` (k, P) into (N * rows * columns) of the
         meshes ``images`` (P,) that hold them: (k, 2, P), x and y apart, converted as
         :meth:`__getitem__` converts them."""
-        # np.take: numpy's fancy indexing runs several times slower
-        scaled = self._scaled.reshape(-1, 2)
+        # np.take: numpy's fancy indexing runs several times slower; from the flat array
+        # (x and y interleaved), as np.take copies a strided one whole before it gathers
+        scaled = self._scaled.reshape(-1)
+        twice = 2 * at
         scale = np.take(self._scales, images)
         out = np.empty((len(at), 2, len(images)))
         for axis in (0, 1):
-            values = np.take(scaled[:, axis], at).astype(np.float64)
+            values = np.take(scaled, twice + axis).astype(np.float64)
             values *= scale
             values += np.take(self._centers[:, axis], images)
             out[:, axis] = values

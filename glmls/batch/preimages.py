@@ -29,7 +29,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..core.config import MLSConfig
-from ..core.handles import fit_offset
+from ..core.handles import COORDINATE_LIMIT, fit_offset
 from ..core.mesh import MeshLattice
 from ..engine.batched import BatchLattices
 from ..engine.passes3 import STEP_BOX
@@ -224,6 +224,7 @@ def swapped_preimages(
     identity = flat[:, 3] == IDENTITY_FOUND  # s leaves x in place: x exactly
     s[identity] = everything[identity]
     ok = _accepted(lattices, image, everything, flat, units)
+    ok &= (np.abs(s) <= COORDINATE_LIMIT).all(axis=1)  # else past what f takes
     ends = np.cumsum([len(p) for p in own])
     starts = ends - [len(p) for p in own]
     whole = [j for j in range(len(busy)) if ok[starts[j] : ends[j]].all()]

@@ -29,8 +29,9 @@ class BatchResult:
         source point lands on the output canvas.
     keypoints_valid : numpy.ndarray or list of numpy.ndarray or None
         (N, P) bool: the point lands on the canvas, inside the warped image (with the
-        ``constant`` border; with the other borders the image's surroundings count too), and
-        shows there with its pixel's footprint whole (no other part of the image folds over
+        ``constant`` border; with the other borders the image's surroundings count too), the
+        output pixel nearest it shows the image, and the point shows there with its pixel's
+        footprint whole (no other part of the image folds over
         it or over part of that footprint, and f does not fold inside the footprint).
     masks : numpy.ndarray or list of numpy.ndarray or None
         (N, H, W) label images warped with nearest sampling, of the input masks' dtype (0

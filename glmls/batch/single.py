@@ -9,6 +9,7 @@ from typing import NamedTuple
 import moderngl
 import numpy as np
 
+from ..core.handles import COORDINATE_LIMIT
 from ..core.mesh import MeshLattice
 from ..gl.context import GLContext, current, get_context
 from ..gl.resources import Resources, keep_framebuffer
@@ -16,7 +17,16 @@ from ..imaging.frame import Frame, border_margin, make_frame
 from ..imaging.options import WarpOptions
 from ..imaging.pipeline import WarpPipeline
 from ..mls import MLS
-from .labels import in_lattice, mesh_corners, mesh_keypoints, mesh_map, on_canvas, visible
+from .footprints import RING
+from .labels import (
+    in_lattice,
+    mesh_corners,
+    mesh_keypoints,
+    mesh_map,
+    nearest_drawn,
+    on_canvas,
+    visible,
+)
 
 __all__ = [
     "PROBE_STEP",
@@ -195,6 +205,9 @@ class SingleWarper:
         rows, columns = grid.shape[:2]
         vertices = mls(grid.reshape(-1, 2)).reshape(rows, columns, 2)
         moved, valid = mesh_keypoints(lattice, vertices, points, None)
+        own = np.flatnonzero(valid[:: len(RING)]) * len(RING)  # the keypoints, not their rings
+        images = np.zeros(len(own), np.int64)
+        valid[own] = nearest_drawn(lattice, vertices, images, points[own], moved[own], frame.origin)
         beyond = beyond_mesh(lattice, points)
         if beyond.any():  # no cell there: f, not a cell's map drawn out
             moved[beyond] = mls(points[beyond])
@@ -280,13 +293,17 @@ PROBE_STEP = 0.125
 
 def probe_points(points: np.ndarray) -> np.ndarray:
     """(5P, 2): ``points`` (P, 2), then each moved by :data:`PROBE_STEP` along +x, -x, +y
-    and -y, the points at which :func:`probed` takes f."""
+    and -y, the points at which :func:`probed` takes f (about the nearest point within the
+    coordinates the GPU takes, for a point at their limit)."""
     step = PROBE_STEP
+    out = np.empty((5, *points.shape))
+    out[0] = points
+    reach = COORDINATE_LIMIT - step
+    if np.abs(points).max(initial=0.0) > reach:  # the probes about a point just inside
+        points = np.clip(points, -reach, reach)
     # axis by axis, the very operations of points + (step, 0.0) and so on (numpy adds a pair
     # to (..., 2) arrays with inner loops of two elements); + 0.0 turns -0.0 into 0.0 there
     x, y = points[..., 0], points[..., 1]
-    out = np.empty((5, *points.shape))
-    out[0] = points
     out[1, ..., 0], out[1, ..., 1] = x + step, y + 0.0
     out[2, ..., 0], out[2, ..., 1] = x - step, y - 0.0
     out[3, ..., 0], out[3, ..., 1] = x + 0.0, y + step
@@ -335,6 +352,7 @@ def _swapped_preimages(
         storage=mls.storage,
     ) as swapped:
         found, ok = swapped.inverse(points, return_valid=True)
+        ok &= (np.abs(found) <= COORDINATE_LIMIT).all(axis=1)  # else past what f takes
         if not ok.any():
             return values, jacobian
         _, forward = _probed(swapped, found[ok])

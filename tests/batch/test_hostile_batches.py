@@ -153,3 +153,19 @@ def test_a_mask_array_without_a_batch_axis_is_named(batch, masks):
     images, src, dst = batch
     with pytest.raises(ValueError, match=r"^masks must be an array of 3 dimensions .*shape \(\)"):
         glmls.warp_batch(images, src, dst, masks=masks)
+
+
+@pytest.mark.parametrize("method", glmls.METHODS)
+@pytest.mark.parametrize("border", ["constant", "edge"])
+def test_keypoints_at_the_coordinate_limit_are_moved_and_not_valid(gl, method, border):
+    """Keypoints as far as the inputs take them (±1e6 px): each is moved, off the canvas
+    and not valid, by every method and border; the footprint's edge, the probes of f's
+    Jacobian and ``backward-swap``'s preimages, which reach further, do not refuse them."""
+    rng = np.random.default_rng(2)  # moves whose swapped map's preimages, far off, pass it
+    images = np.zeros((2, 20, 24), np.uint8)
+    src = rng.uniform(2, 18, (2, 5, 2))
+    dst = src + rng.normal(0, 3, src.shape)
+    keypoints = np.array([[[1e6, 1e6], [-1e6, 5.0], [999999.8, 3.0]], [[3.0, 3.0]] * 3])
+    result = glmls.warp_batch(images, src, dst, keypoints=keypoints, method=method, border=border)
+    assert np.isfinite(result.keypoints).all()
+    assert result.keypoints_valid.tolist() == [[False] * 3, [True] * 3]

@@ -234,3 +234,56 @@ def test_forward_keypoints_shown_by_their_pixel_are_valid(gl, method, border):
         ring = m(with_footprints(points[missed], footprint_radius("nearest")))
     folds = turned(ring.reshape(len(missed), len(RING), 2))
     assert (cut | folds).all(), (points[missed[~cut][:5]], moved[missed[~cut][:5]])
+
+
+def edge_keypoints(shape: tuple[int, int], rng) -> np.ndarray:
+    """Keypoints along the four sides of an image of ``shape``: on the image's edge, in its
+    outer half pixel, on the outermost pixel centres, and just inside them."""
+    height, width = shape
+    points = []
+    for offset in (-0.5, -0.3, 0.0, 0.3):
+        ys = rng.uniform(-0.5, height - 0.5, 6)
+        xs = rng.uniform(-0.5, width - 0.5, 6)
+        points += [[offset, y] for y in ys] + [[width - 1 - offset, y] for y in ys]
+        points += [[x, offset] for x in xs] + [[x, height - 1 - offset] for x in xs]
+    return np.array(points)
+
+
+@pytest.mark.parametrize("method", glmls.METHODS)
+@pytest.mark.parametrize("interpolation", glmls.INTERPOLATIONS)
+@pytest.mark.parametrize("far", [False, True], ids=["batched", "single"])
+def test_a_valid_keypoint_shows_at_its_nearest_pixel(gl, rng, method, interpolation, far):
+    """A keypoint on the image's edge lands on the warped image's edge, and the pixel
+    nearest it may lie just past the last pixel centre the warp draws: it shows the
+    background there, and the keypoint is not valid, whatever the method. On an image of
+    one value, every valid keypoint's nearest pixel holds that value (``far``: targets
+    moved far off, the canvas with them, which the single path warps image by image)."""
+    shape = (24, 28)
+    count = 8
+    images = np.full((count, *shape), 200, np.uint8)
+    src = rng.uniform(0, 27, (count, 6, 2))
+    dst = src + rng.normal(0, 3.0, src.shape)
+    canvas = {}
+    if far:
+        dst[..., 0] += 1e4
+        canvas = {"output_shape": shape, "origin": (1e4, 0.0)}
+    points = edge_keypoints(shape, rng)
+    grid = 1 if method == "paper-quads" else 4
+    result = glmls.warp_batch(
+        images,
+        src,
+        dst,
+        keypoints=np.repeat(points[None], count, 0),
+        method=method,
+        interpolation=interpolation,
+        grid=grid,
+        **canvas,
+    )
+    pixel = np.rint(result.keypoints).astype(int)
+    on = np.all((pixel >= 0) & (pixel < (shape[1], shape[0])), axis=2)
+    image, point = np.nonzero(on)
+    drawn = result.images[image, pixel[image, point, 1], pixel[image, point, 0]] != 0
+    valid = result.keypoints_valid[image, point]
+    assert (~drawn).sum() >= 10  # the case is met
+    assert not (valid & ~drawn).any(), points[point[valid & ~drawn]][:5]
+    assert valid.sum() > len(valid) // 3  # paper-quads draws none of the outer half pixel
