@@ -599,9 +599,14 @@ class Augment:
         for i, p in enumerate(params):
             names = differing_options(options, dict(p["options"]))
             if names:  # one warp_batch call: one set of options
+                odd, other = i, 0
+                if i == 1 and len(params) > 2:  # params[1] as params[2]: params[0] is odd
+                    if not differing_options(dict(p["options"]), dict(params[2]["options"])):
+                        odd, other = 0, 1
                 raise ValueError(
-                    f"params[{i}]['options'] differ from params[0]'s in {', '.join(names)}: "
-                    "replay draws of different warp options in separate calls"
+                    f"params[{odd}]['options'] differ from params[{other}]'s in "
+                    f"{', '.join(names)}: replay draws of different warp options in separate "
+                    "calls"
                 )
         grid = _mesh_grid(options)
         meshes = [None if grid is None else (grid, tuple(p["shape"])) for p in params]

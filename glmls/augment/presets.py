@@ -78,6 +78,34 @@ def _edges(shape: tuple[int, int]) -> tuple[float, float, float, float]:
     return -0.5, -0.5, width - 0.5, height - 0.5
 
 
+#: Landmarks closer than this many float32 steps of the handles' extent move as one.
+_MERGE_STEPS = 16
+
+
+def _first_near(points: np.ndarray, near: float) -> np.ndarray:
+    """(P,) for each of the (P, 2) ``points`` the first of the points linked to it by
+    steps of at most ``near`` on each axis (itself where none is that near)."""
+    count = len(points)
+    first = np.arange(count)
+    if count < 2:
+        return first
+    xs = np.sort(points[:, 0])
+    if np.diff(xs).min() > near:  # the usual case: no two points that near
+        return first
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(points).query_pairs(near, p=np.inf, output_type="ndarray")
+    if not len(pairs):
+        return first
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(count, count))
+    _, group = connected_components(graph, directed=False)
+    lowest = np.full(group.max() + 1, count)
+    np.minimum.at(lowest, group, first)
+    return lowest[group]
+
+
 def _fiducials(shape: tuple[int, int], segments: int) -> tuple[np.ndarray, np.ndarray]:
     """The x of the segments + 1 fiducial columns and the (top, bottom) edges' y."""
     left, top, right, bottom = _edges(shape)
@@ -447,8 +475,9 @@ class LandmarksPreset:
     """Each image's own landmarks moved at random, the image's corners pinned.
 
     The landmarks are the ``keypoints`` given with the image, each moved by up to
-    +-``displacement`` per axis (equal landmarks, as datasets mark missing ones, by one
-    offset); with ``pin_corners`` the image's four corners are handles that stay, so that
+    +-``displacement`` per axis (equal landmarks, as datasets mark missing ones, and those
+    within 16 float32 steps of the handles' extent, which the GPU would not tell apart, to
+    one target); with ``pin_corners`` the image's four corners are handles that stay, so that
     the frame holds (and a landmark on a corner stays too).
 
     Parameters
@@ -526,14 +555,17 @@ class LandmarksPreset:
         if landmarks is None or (len(points) == 0 and not self.pin_corners):
             raise ValueError("the landmarks preset needs each image's landmarks (keypoints)")
         offsets = _jitter(rng, points.shape, shape, self.displacement, self.units)
-        if len(points) > 1:  # equal landmarks (a dataset's mark of a missing one) move as one
-            _, first, which = np.unique(points, axis=0, return_index=True, return_inverse=True)
-            offsets = offsets[first[which.reshape(-1)]]
-        src, dst = points, points + offsets
+        # equal landmarks (a dataset's mark of a missing one) move as one, and so do those
+        # that float32 on the GPU would not tell apart (a float32 copy of a float64 point)
+        extent = max(shape) + np.abs(points).max(initial=0.0) + np.abs(offsets).max(initial=0.0)
+        near = _MERGE_STEPS * float(np.finfo(np.float32).eps) * extent
+        first = _first_near(points, near)
+        src, dst = points, points[first] + offsets[first]  # one target each: the GPU's too
         if self.pin_corners:
             left, top, right, bottom = _edges(shape)
             corners = np.array([[left, top], [right, top], [left, bottom], [right, bottom]])
-            pinned = (points[:, None] == corners[None]).all(axis=2).any(axis=1)
+            gap = np.abs(points[:, None] - corners[None]).max(axis=2)
+            pinned = (gap <= near).any(axis=1)
             dst = np.where(pinned[:, None], points, dst)  # a landmark on a corner stays
             src, dst = np.concatenate([src, corners]), np.concatenate([dst, corners])
         return src, dst

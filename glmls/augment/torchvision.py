@@ -489,7 +489,11 @@ class MLSTransform(v2.Transform):
 
     def _boxes(self, boxes: tv_tensors.BoundingBoxes, sample: dict) -> torch.Tensor:
         """Unrotated boxes: the box around the moved outline; rotated ones: their corners
-        moved (a quadrilateral, in XYXYXYXY); clamped as their ``clamping_mode`` says."""
+        moved (a quadrilateral, in XYXYXYXY); clamped as their ``clamping_mode`` says. No box
+        (an image without objects; ``torch.tensor([])`` makes shape (1, 0)): the tensor as it
+        is, as torchvision's own transforms pass it."""
+        if boxes.numel() == 0:
+            return boxes.as_subclass(torch.Tensor).clone()
         rotated = tv_tensors.is_rotated_bounding_format(boxes.format)
         middle = (
             tv_tensors.BoundingBoxFormat.XYXYXYXY if rotated else tv_tensors.BoundingBoxFormat.XYXY

@@ -70,8 +70,8 @@ def seen_whole(
     footprint's image turns over in part (:func:`turned`) and, with ``hidden``, where a
     footprint point on the ``canvas`` (H, W) and inside the ``source`` image (H, W) is not
     valid. ``hidden=False`` for the methods that push pixels forward (``splat``,
-    ``paper-quads``), whose nearest output pixel shows a neighbouring source pixel for a few
-    percent of the pixels: there the footprint's edge says nothing of folds."""
+    ``paper-quads``), whose nearest output pixel shows a neighbouring source pixel for some
+    of the pixels: there the footprint's edge says nothing of folds."""
     count = len(points) // len(RING)
     at = points.reshape(count, len(RING), 2)
     out = moved.reshape(count, len(RING), 2)

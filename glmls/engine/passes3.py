@@ -264,8 +264,10 @@ def evaluate_lattice3(
 INVERSE3_PASS = "mls3/inverse.comp.glsl"
 #: Newton's steps on f(s) = u at most, from each of the two starts.
 NEWTON_STEPS3 = 24
-#: Newton stops below this residual |f(s) - u| (voxels).
+#: Newton stops below this residual |f(s) - u| (voxels) ...
 NEWTON_TOLERANCE3 = 1e-4
+#: ... or, where more, this many float32 steps of the scaled coordinates (:func:`_converged`).
+NEWTON_FLOAT_STEPS3 = 4.0
 #: A step moves s by at most this share of the scaled extent (the handles' and volume's box) ...
 NEWTON_MAX_STEP3 = 0.25
 #: ... times |s| / NEWTON_FAR3 where s's largest scaled coordinate |s| is beyond NEWTON_FAR3
@@ -297,13 +299,31 @@ def invert_points3(
         return np.zeros((0, 3)), np.zeros(0)
     kernel.radius(shape)  # as evaluate_points3
     s, residual = _start3(kernel, points, guess, shape=shape, max_groups=max_groups)
-    left = np.flatnonzero(residual > NEWTON_TOLERANCE3 * length_unit(kernel))
+    left = np.flatnonzero(~_converged(kernel, points, s, residual))
     if len(left):
         ends, again = _start3(
             kernel, points[left], points[left], shape=shape, max_groups=max_groups
         )
         _keep_better(s, residual, left, ends, again)
     return s, residual
+
+
+def _converged(
+    kernel: MLSKernel3, points: np.ndarray, s: np.ndarray, residual: np.ndarray
+) -> np.ndarray:
+    """(K,) bool: Newton's end s reached ``points`` u: its residual within
+    NEWTON_TOLERANCE3, or within NEWTON_FLOAT_STEPS3 float32 steps of the larger scaled
+    coordinate of u and s where that is more. Far from the scaling's centre float32 cannot
+    bring f(s) nearer u than that, and a start from u itself, where f is the identity out of
+    the handles' reach, would otherwise replace the preimage found by one far from it."""
+    scaling = kernel.scaling
+    center = np.asarray(scaling.center, np.float64)
+    targets = points - kernel.offset  # u in the GPU's frame of the targets
+    with np.errstate(invalid="ignore"):
+        far = np.maximum(np.abs(targets - center).max(axis=1), np.abs(s - center).max(axis=1))
+    far = np.nan_to_num(far / scaling.scale, nan=0.0)
+    floor = NEWTON_FLOAT_STEPS3 * float(np.finfo(np.float32).eps) * np.maximum(far, 1.0)
+    return residual <= np.maximum(NEWTON_TOLERANCE3 * length_unit(kernel), floor * scaling.scale)
 
 
 def _keep_better(

@@ -130,7 +130,8 @@ def band_layers(lattice: CornerLattice, band_bytes: int, *, jacobians: bool = Fa
     if band_bytes // layer_bytes < 1 + extra:
         raise ValueError(
             f"a layer of {nx} x {ny} lattice points does not fit {1 + extra} times in the "
-            f"lattice buffer of {band_bytes} bytes; use a coarser grid"
+            f"lattice buffer of {band_bytes} bytes (SlabOptions.band_bytes, at most the "
+            "device's storage-buffer size): give a larger band_bytes or a coarser grid"
         )
     return band_bytes // layer_bytes - extra
 

@@ -350,3 +350,41 @@ def test_replay_takes_options_edited_to_arrays_alike_in_every_draw(gl):
         draw["options"]["background"] = np.full(3, np.nan)
     with pytest.raises(ValueError, match="background"):
         aug.replay(images, edited)
+
+
+@pytest.mark.parametrize(
+    "landmarks",
+    [
+        [[100.1, 50.0], [float(np.float32(100.1)), 50.0]],  # a float32 copy of a point
+        [[-0.5 + 1e-7, -0.5], [60.0, 60.0]],  # a hair off a pinned corner
+    ],
+    ids=["float32-copy", "near-corner"],
+)
+def test_landmarks_the_gpu_cannot_tell_apart_move_as_one(gl, landmarks):
+    """Landmarks that float32 on the GPU would merge take one target (a pinned corner's
+    where one lies on it): no refusal of two targets at one point mid-epoch."""
+    from glmls.augment import Augment
+
+    images = np.zeros((1, 128, 128), np.uint8)
+    points = np.array([landmarks])
+    result = Augment("landmarks", seed=0)(images, keypoints=points)
+    moved = result.keypoints[0]
+    if landmarks[0][0] < 0:
+        assert np.abs(moved[0] - [-0.5, -0.5]).max() < 1e-3  # stays with the corner
+    else:
+        assert np.abs(moved[0] - moved[1]).max() < 1e-3
+        assert np.abs(moved[0] - points[0, 0]).max() > 0.01  # moved, as one
+
+
+@pytest.mark.parametrize("edited", [0, 1, 2])
+def test_replay_names_the_record_whose_options_differ(gl, edited):
+    """One call replays one set of options: the record edited apart from the others is
+    the one named, the first one too."""
+    images = np.zeros((3, 16, 20), np.uint8)
+    aug = Augment("grid", seed=3)
+    params = json.loads(json.dumps(aug(images).params))
+    params[edited]["options"]["transform"] = "rigid"
+    other = 1 if edited == 0 else 0
+    expected = rf"params\[{edited}\]\['options'\] differ from params\[{other}\]'s in transform"
+    with pytest.raises(ValueError, match=expected):
+        aug.replay(images, params)

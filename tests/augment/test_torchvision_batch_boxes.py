@@ -45,3 +45,20 @@ def test_one_box_set_per_sample_is_taken(gl):
     out = MLSTransform(displacement=0)(images, *_boxes(4))
     for boxes in out[1:]:
         torch.testing.assert_close(boxes, _boxes(1)[0], atol=1e-6, rtol=0)
+
+
+@pytest.mark.parametrize("empty", [torch.tensor([]), torch.zeros(0, 4)], ids=["(1, 0)", "(0, 4)"])
+def test_an_image_without_boxes_passes_them_as_torchvision_does(gl, empty):
+    """An image without objects: ``BoundingBoxes(torch.tensor([]))`` is (1, 0), which
+    torchvision's transforms pass as it is; alone and as one sample of a batch."""
+    v2 = pytest.importorskip("torchvision.transforms.v2")
+    image = tv_tensors.Image(torch.zeros(3, 32, 48, dtype=torch.uint8))
+    none = tv_tensors.BoundingBoxes(empty, format="XYXY", canvas_size=(32, 48))
+    flipped = v2.RandomHorizontalFlip(1.0)(image, none)[1]
+    out = MLSTransform()(image, none)[1]
+    assert isinstance(out, tv_tensors.BoundingBoxes)
+    assert out.shape == flipped.shape == none.shape
+    batch = tv_tensors.Image(torch.zeros(2, 3, 32, 48, dtype=torch.uint8))
+    moved = MLSTransform(displacement=0)(batch, _boxes(1)[0], none)
+    torch.testing.assert_close(moved[1], _boxes(1)[0], atol=1e-6, rtol=0)
+    assert moved[2].shape == none.shape

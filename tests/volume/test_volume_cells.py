@@ -108,6 +108,10 @@ def test_slabs_are_invisible(kernel3, rng, volume):
             banded = warp_volume(m, volume, options, slabs=SlabOptions(band_bytes=small.band_bytes))
             np.testing.assert_array_equal(whole, banded)  # one slab, every band
 
+    # bands too small for one layer of cells and its neighbours: the option is named
+    with pytest.raises(ValueError, match="give a larger band_bytes or a coarser grid"):
+        warp_volume(m, volume, VolumeOptions(), slabs=SlabOptions(band_bytes=1024))
+
 
 def test_kernel_field_fills_the_lattice_as_the_reference(kernel3, gl, rng, volume):
     src, dst = box_handles(SHAPE, rng, count=10, spread=2.0)
