@@ -21,6 +21,7 @@ from .params import (
     LABEL_OPTIONS,
     as_lists,
     check_label_options,
+    check_one_options,
     check_params,
     check_reach,
     check_warp_options,
@@ -596,18 +597,7 @@ class Augment:
             box_list, stacked_boxes = lab.check_boxes(boxes, count)
         polygon_list = None if polygons is None else lab.check_polygons(polygons, count)
         options = dict(params[0]["options"])
-        for i, p in enumerate(params):
-            names = differing_options(options, dict(p["options"]))
-            if names:  # one warp_batch call: one set of options
-                odd, other = i, 0
-                if i == 1 and len(params) > 2:  # params[1] as params[2]: params[0] is odd
-                    if not differing_options(dict(p["options"]), dict(params[2]["options"])):
-                        odd, other = 0, 1
-                raise ValueError(
-                    f"params[{odd}]['options'] differ from params[{other}]'s in "
-                    f"{', '.join(names)}: replay draws of different warp options in separate "
-                    "calls"
-                )
+        check_one_options(params)  # one warp_batch call: one set of options
         grid = _mesh_grid(options)
         meshes = [None if grid is None else (grid, tuple(p["shape"])) for p in params]
         labels = [label_options_of(p, self.label_options) for p in params]

@@ -27,6 +27,7 @@ __all__ = [
     "LABEL_OPTIONS",
     "as_lists",
     "check_label_options",
+    "check_one_options",
     "check_params",
     "check_reach",
     "check_warp_options",
@@ -207,6 +208,24 @@ def differing_options(options: Mapping, other: Mapping) -> list[str]:
     return sorted(
         (str(k) for k in keys if not _same_value(options.get(k, missing), other.get(k, missing))),
     )
+
+
+def check_one_options(params: list) -> None:
+    """``ValueError`` where the draws' records ``params`` hold different warp options (one
+    replay is one warp): naming the record apart from the others, ``params[0]`` where
+    ``params[1]`` and ``params[2]`` agree against it."""
+    options = dict(params[0]["options"])
+    for i, p in enumerate(params):
+        names = differing_options(options, dict(p["options"]))
+        if names:
+            odd, other = i, 0
+            if i == 1 and len(params) > 2:  # params[1] as params[2]: params[0] is odd
+                if not differing_options(dict(p["options"]), dict(params[2]["options"])):
+                    odd, other = 0, 1
+            raise ValueError(
+                f"params[{odd}]['options'] differ from params[{other}]'s in "
+                f"{', '.join(names)}: replay draws of different warp options in separate calls"
+            )
 
 
 def _json_key(options: Mapping) -> str | None:
