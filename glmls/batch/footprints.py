@@ -8,7 +8,9 @@ pixel can hide part of a footprint while the keypoint itself stays shown: the pi
 appears cut off, its visible part's centre a pixel or more from the keypoint. So each
 keypoint is moved and tested with the eight points of its footprint's edge (corners and
 edge midpoints), and is valid only where none of them that lands on the canvas, inside the
-image, is hidden, and where the footprint's image turns over in part (f folds inside it).
+image, is hidden; not where the footprint's image turns over in part (f folds inside it),
+nor where that image is not centred on the keypoint's (the map bends strongly across the
+pixel).
 Off the canvas and outside the image, a footprint point says nothing of folds: the
 keypoint's own test decides there.
 """
@@ -20,7 +22,16 @@ import numpy as np
 from ..core.handles import COORDINATE_LIMIT
 from .labels import on_canvas
 
-__all__ = ["RING", "footprint_radius", "footprint_sets", "seen_whole", "turned", "with_footprints"]
+__all__ = [
+    "BEND",
+    "RING",
+    "bent",
+    "footprint_radius",
+    "footprint_sets",
+    "seen_whole",
+    "turned",
+    "with_footprints",
+]
 
 #: The unit ring of a footprint's edge: its corners and edge midpoints, the centre first.
 RING = np.array([[x, y] for y in (0.0, -1.0, 1.0) for x in (0.0, -1.0, 1.0)])
@@ -67,7 +78,8 @@ def seen_whole(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The keypoints' (P, 2) output points and (P,) validity from ``moved`` and ``valid`` of
     :func:`with_footprints`' ``points`` (P * 9): a keypoint's own, cleared where its
-    footprint's image turns over in part (:func:`turned`) and, with ``hidden``, where a
+    footprint's image turns over in part (:func:`turned`) or is not centred on the
+    keypoint's (:func:`bent`) and, with ``hidden``, where a
     footprint point on the ``canvas`` (H, W) and inside the ``source`` image (H, W) is not
     valid. ``hidden=False`` for the methods that push pixels forward (``splat``,
     ``paper-quads``), whose nearest output pixel shows a neighbouring source pixel for some
@@ -79,7 +91,24 @@ def seen_whole(
     inside = on_canvas(at.reshape(-1, 2), source).reshape(count, len(RING))  # same bounds
     landed = on_canvas(out.reshape(-1, 2), canvas).reshape(count, len(RING))
     cut = (inside & landed & ~ok)[:, 1:].any(axis=1) if hidden else np.zeros(count, bool)
-    return out[:, 0].copy(), ok[:, 0] & ~cut & ~turned(out)
+    return out[:, 0].copy(), ok[:, 0] & ~cut & ~turned(out) & ~bent(out)
+
+
+#: How far (output pixels) the mean of a footprint's edge points' images may lie from the
+#: keypoint's: under a map that is linear across the pixel they are one point.
+BEND = 0.5
+
+
+def bent(out: np.ndarray) -> np.ndarray:
+    """(P,) bool: the footprints whose image, (P, 9, 2) as :func:`with_footprints` orders
+    their points, is not centred on the keypoint's: the mean of the edge points' images
+    lies more than :data:`BEND` from the keypoint's. Where the map bends that much across
+    one pixel (next to a fold of ``backward-swap``'s map, whose inverse stretches the pixel
+    eightfold there), what shows of the pixel is centred that far off the keypoint."""
+    gap_x = out[:, 1:, 0].mean(axis=1) - out[:, 0, 0]
+    gap_y = out[:, 1:, 1].mean(axis=1) - out[:, 0, 1]
+    with np.errstate(invalid="ignore"):
+        return ~(gap_x * gap_x + gap_y * gap_y <= BEND * BEND)
 
 
 #: The footprint's edge points in turn around its centre: the fan of eight triangles.

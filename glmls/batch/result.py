@@ -31,8 +31,9 @@ class BatchResult:
         (N, P) bool: the point lands on the canvas, inside the warped image (with the
         ``constant`` border; with the other borders the image's surroundings count too), the
         output pixel nearest it shows the image, and the point shows there with its pixel's
-        footprint whole (no other part of the image folds over
-        it or over part of that footprint, and f does not fold inside the footprint).
+        footprint whole (no other part of the image folds over it or over part of that
+        footprint, and the map neither folds inside the footprint nor bends strongly
+        across it).
     masks : numpy.ndarray or list of numpy.ndarray or None
         (N, H, W) label images warped with nearest sampling, of the input masks' dtype (0
         where nothing is shown).
