@@ -535,14 +535,19 @@ class MLS3(MLS):
         Parameters
         ----------
         volume : array_like
-            A (D, H, W) or (D, H, W, C) volume of uint8, uint16 or float32; a 3-d array is
-            (D, H, W) whatever its sizes (an RGB image (H, W, 3) is a volume 3 voxels wide:
-            a 2D image takes an MLS of (N, 2) handles).
+            A (D, H, W) or (D, H, W, C) volume (C in 1..4) of uint8, uint16, float32 or
+            float64 (computed as float32, returned as float64); a 3-d array is (D, H, W)
+            whatever its sizes (an RGB image (H, W, 3) is a volume 3 voxels wide: a 2D image
+            takes an MLS of (N, 2) handles).
         **options
             :class:`glmls.volume.VolumeOptions`' fields: ``method`` (``"quads"``, the
             tetrahedra of the deformed lattice, or ``"backward"``), ``interpolation``,
             ``grid``, ``border``, ``background``, ``output_shape``, ``origin``, ``spacing``
-            (default: the MLS's ``spacing``, else 1 each; another is a ValueError).
+            (default: the MLS's ``spacing``, else 1 each; another is a ValueError); and
+            ``slabs``, a :class:`glmls.volume.SlabOptions` bounding the output slabs and
+            lattice bands (any choice gives the same volume). :meth:`bounds` gives the
+            ``output_shape`` and ``origin`` of the canvas that holds the whole deformed
+            volume.
 
         Returns
         -------

@@ -45,7 +45,9 @@ def warp_batch(
     image's mesh in one pass, one scan of every mesh (and for ``backward`` one Newton pass
     over every pixel), one fill and one read-back; ``backward-swap`` evaluates every image's
     swapped-handles map at every output pixel in one pass, samples in one draw and reads
-    back once (its keypoints move image by image); ``splat`` likewise, f at every image's
+    back once (its keypoints by s's inverse, Newton on s for every image's keypoints in a
+    few dispatches; image by image where s folds or Newton from f leaves a point);
+    ``splat`` likewise, f at every image's
     pixel centres in one pass, one instanced draw of every image's points and one
     read-back, and ``paper-quads`` with one scan of every image's squares of pixel centres
     and one draw from its keys (their keypoints moved by f in one pass of the chunk, their

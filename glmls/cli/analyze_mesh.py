@@ -31,11 +31,11 @@ from ..files.atomic import atomic_write
 from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import volume_suffix
 from ..mls import MLS
-from .analyze_volume import check_reference_3d, read_points_3d
+from .analyze_volume import check_reference_3d, read_points_3d, read_tetrahedra_3d
 from .inputs import figure, keep_inputs, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
-from .warp3d import check_world, read_3d_handles, refuse_image_options
+from .warp3d import check_world, read_3d_handles, refuse_image_options, refuse_sampling_options
 
 __all__ = ["is_mesh_input", "run_mesh"]
 
@@ -93,6 +93,8 @@ def run_mesh(args: argparse.Namespace) -> int:
         raise UsageError(f"--spacing: for volumes, not for a mesh ({args.input})")
     check_world(args)
     refuse_image_options(args, "mesh")
+    pictures = (("--analysis-grid", args.analysis_grid, 1), ("--cmap", args.cmap, "viridis"))
+    refuse_sampling_options(args, pictures)
     config = _check_radius(config_from_args(args))
     mesh = read_mesh(args.input)
     try:  # vertices beyond the GPU's coordinate range: refused before any work, as by warp
@@ -101,7 +103,8 @@ def run_mesh(args: argparse.Namespace) -> int:
         raise UsageError(f"{args.input}: {error}") from None
     src, dst = read_3d_handles(args, "mesh")
     reference = read_points_3d(args.reference) if args.reference else None
-    check_reference_3d(args.reference, reference)
+    tetrahedra = None if reference is None else read_tetrahedra_3d(args.reference, len(reference))
+    check_reference_3d(args.reference, reference, tetrahedra)
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")
     keep_inputs(args, [Path(args.out) / "report.json", Path(args.out) / "deformed.ply"])
@@ -114,9 +117,8 @@ def run_mesh(args: argparse.Namespace) -> int:
         field = fit_residuals(src, dst, matrix, translation)
         tick.stage("tetrahedra")
         try:
-            found = tetrahedron_errors(
-                m, _distinct(src) if reference is None else reference, angle=args.angle
-            ).stats()
+            points = _distinct(src) if reference is None else reference
+            found = tetrahedron_errors(m, points, tetrahedra=tetrahedra, angle=args.angle).stats()
         except ValueError as error:
             if reference is not None:
                 raise UsageError(f"{args.reference}: {error}") from None

@@ -32,7 +32,13 @@ from .warp3d import (
     world_handles,
 )
 
-__all__ = ["check_reference_3d", "is_volume_input", "read_points_3d", "run_volume"]
+__all__ = [
+    "check_reference_3d",
+    "is_volume_input",
+    "read_points_3d",
+    "read_tetrahedra_3d",
+    "run_volume",
+]
 
 
 def is_volume_input(args: argparse.Namespace) -> bool:
@@ -69,7 +75,36 @@ def read_points_3d(path: str | Path) -> np.ndarray:
     return points
 
 
-def check_reference_3d(path: str | Path, points: np.ndarray | None) -> None:
+def read_tetrahedra_3d(path: str | Path, count: int) -> np.ndarray | None:
+    """The user's own reference tetrahedra (T, 4), indices into the ``count`` reference
+    points, from the key ``"tetrahedra"`` of a JSON reference file (None where it has none,
+    or for a CSV: the Delaunay tetrahedra of the points); ``InputFileError`` naming the
+    place of a fault."""
+    path = Path(path)
+    if path.suffix.lower() != ".json":
+        return None
+    data = load_json(path)
+    if "tetrahedra" not in data:
+        return None
+    rows = json_list(path, '"tetrahedra"', data["tetrahedra"], "[i, j, k, l] tetrahedra")
+    values = []
+    for index, row in enumerate(rows):
+        where = f'"tetrahedra"[{index}]'
+        ok = isinstance(row, list) and len(row) == 4
+        if ok and all(type(v) is int and 0 <= v < count for v in row):
+            values.append(row)
+            continue
+        raise fail(
+            path, where, f"expected 4 point indices, integers in 0..{count - 1}, got {row!r}"
+        )
+    if not values:
+        raise fail(path, '"tetrahedra"', "no tetrahedron")
+    return np.array(values, dtype=np.int64)
+
+
+def check_reference_3d(
+    path: str | Path, points: np.ndarray | None, tetrahedra: np.ndarray | None = None
+) -> None:
     """:class:`UsageError` naming ``path`` for reference points (K, 3) that make no
     tetrahedra (too few, repeated, on one plane, or every Delaunay tetrahedron a sliver,
     which the analysis leaves out) or lie beyond glmls's coordinate range; before any work
@@ -80,6 +115,8 @@ def check_reference_3d(path: str | Path, points: np.ndarray | None) -> None:
         # the range first: delaunay3 tests it after the plane, and one far point makes the
         # others look flat
         as_points3(points, "reference_points")
+        if tetrahedra is not None:  # the user's own: the analysis counts their slivers
+            return
         r, simplices = delaunay3(points)
     except ValueError as error:
         raise UsageError(f"{path}: {error}") from None
@@ -151,8 +188,9 @@ def run_volume(args: argparse.Namespace) -> int:
     spacing = args.spacing or source.spacing
     src, dst = voxel_handles(args, *read_3d_handles(args, "volume"), spacing)
     reference = read_points_3d(args.reference) if args.reference else None
+    tetrahedra = None if reference is None else read_tetrahedra_3d(args.reference, len(reference))
     src, dst, reference = world_handles(args, source, spacing, src, dst, reference)
-    check_reference_3d(args.reference, reference)
+    check_reference_3d(args.reference, reference, tetrahedra)
     for message in volume_handle_warnings(args, src, volume.shape, spacing, source.affine):
         say(args, f"glmls analyze: warning: {args.input}: {message}")
     if reference is None:
@@ -168,6 +206,7 @@ def run_volume(args: argparse.Namespace) -> int:
                 volume,
                 m,
                 reference,
+                tetrahedra=tetrahedra,
                 grid=args.analysis_grid,
                 angle=args.angle,
                 cmap=args.cmap,

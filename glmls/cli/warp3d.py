@@ -55,6 +55,7 @@ __all__ = [
     "parse_spacing",
     "read_3d_handles",
     "refuse_image_options",
+    "refuse_sampling_options",
     "run_3d",
     "spacing_text",
     "volume_handle_warnings",
@@ -364,14 +365,23 @@ def _refuse_other_options(args: argparse.Namespace, kind: str) -> None:
         return
     if args.spacing is not None:
         raise UsageError(f"--spacing: for volumes, not for a mesh ({args.input})")
-    sampling = [  # a mesh's vertices are moved by f itself: nothing is sampled
+    refuse_sampling_options(args)
+
+
+def refuse_sampling_options(
+    args: argparse.Namespace, others: tuple[tuple[str, object, object], ...] = ()
+) -> None:
+    """:class:`UsageError` naming the options of sampling a picture given for a mesh, whose
+    vertices f moves itself (``others``: more (option, value, default) of the command)."""
+    sampling = [
         option
         for option, value, default in (
-            ("--background", args.background, 0.0),
+            ("--background", getattr(args, "background", 0.0), 0.0),
             ("--method", args.method, "quads"),
             ("--interpolation", args.interpolation, "nearest"),
             ("--border", args.border, "constant"),
             ("--grid", args.grid, None),
+            *others,
         )
         if value != default
     ]

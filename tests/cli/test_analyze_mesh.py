@@ -29,6 +29,10 @@ def inputs(tmp_path, monkeypatch):
     (tmp_path / "r3.json").write_text(json.dumps({"points": REFERENCE}))
     (tmp_path / "far.json").write_text(json.dumps({"points": [*REFERENCE, [3, 3, 1e30]]}))
     (tmp_path / "far.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1e30 0\nf 1 2 3\n")
+    own = {"points": REFERENCE, "tetrahedra": [[0, 2, 4, 1], [1, 3, 5, 0]]}
+    (tmp_path / "own_tets.json").write_text(json.dumps(own))
+    bad = {"points": REFERENCE, "tetrahedra": [[0, 2, 4, 6]]}
+    (tmp_path / "bad_tets.json").write_text(json.dumps(bad))
     return tmp_path
 
 
@@ -157,6 +161,21 @@ def test_a_map_that_flattens_the_mesh_folds_every_vertex(inputs, capsys):
             ["sphere.obj", "--handles", "h3.json", "--reference", "far.json"],
             "far.json: reference_points must lie within ±1e+06",
         ),
+        *(
+            (["sphere.obj", "--handles", "h3.json", *option], f"{option[0]}: for images and")
+            for option in (
+                ["--method", "backward"],
+                ["--grid", "2"],
+                ["--border", "edge"],
+                ["--interpolation", "linear"],
+                ["--analysis-grid", "4"],
+                ["--cmap", "linear"],
+            )
+        ),
+        (
+            ["sphere.obj", "--handles", "h3.json", "--reference", "bad_tets.json"],
+            'bad_tets.json: "tetrahedra"[0]: expected 4 point indices, integers in 0..5',
+        ),
     ],
 )
 def test_bad_mesh_inputs_exit_2_with_one_line(inputs, capsys, args, message):
@@ -164,3 +183,16 @@ def test_bad_mesh_inputs_exit_2_with_one_line(inputs, capsys, args, message):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err, err
     assert not (inputs / "rep" / "report.json").exists()
+
+
+def test_the_reference_file_may_give_its_own_tetrahedra(inputs, capsys):
+    """``"tetrahedra"`` in the ``--reference`` JSON: those are measured, not the points'
+    Delaunay tetrahedra."""
+    argv = ["analyze", "sphere.obj", "--handles", "h3.json", "--reference", "own_tets.json"]
+    assert main([*argv, "--out", "rep"]) == 0
+    capsys.readouterr()
+    summary = json.loads((inputs / "rep" / "report.json").read_text())
+    m = ReferenceDeformation(SRC, DST)
+    own = tetrahedron_errors(m, REFERENCE, tetrahedra=[[0, 2, 4, 1], [1, 3, 5, 0]]).stats()
+    assert summary["tetrahedra"]["tetrahedra"] == own["tetrahedra"] == 2
+    assert_allclose(summary["tetrahedra"]["distance"]["mean"], own["distance"]["mean"], rtol=1e-4)

@@ -226,3 +226,16 @@ def test_an_elastix_pair_of_2d_points_on_an_image(inputs):
     assert result.returncode == 0, result.stderr
     summary = json.loads((inputs / "rep" / "report.json").read_text())
     assert summary["triangles"]["triangles"] > 0
+
+
+def test_the_reference_file_may_give_its_own_tetrahedra(inputs):
+    """``"tetrahedra"`` in the ``--reference`` JSON: those tetrahedra are measured, not the
+    points' Delaunay tetrahedra (more than one here)."""
+    own = {"points": REFERENCE, "tetrahedra": [[0, 1, 2, 3]]}
+    (inputs / "own.json").write_text(json.dumps(own))
+    result = analyze(
+        "v.npy", "--handles", "h3.json", "--reference", "own.json", "--out", "rep", cwd=inputs
+    )
+    assert result.returncode == 0, result.stderr
+    summary = json.loads((inputs / "rep" / "report.json").read_text())
+    assert summary["tetrahedra"]["tetrahedra"] == 1
