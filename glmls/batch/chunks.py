@@ -21,7 +21,7 @@ from .embedding import embedded
 from .footprints import RING
 from .gpu import CHUNK_BYTES, BatchQuads, KernelLattices, chunk_size, fits
 from .inputs import BatchInput, naming
-from .labels import mesh_keypoints, nearest_drawn, on_canvas
+from .labels import mesh_keypoints, on_canvas
 from .margins import batch_margins, warn_short
 from .probes import batch_config, far_targets, keypoints_by_f
 from .single import (
@@ -406,20 +406,14 @@ def _finish(
         points = [keypoints[i] for i in chunk]
         sizes = [len(p) for p in points]
         which = np.repeat(np.arange(len(chunk)), sizes)
-        every = np.concatenate(points)
         moved_all, valid_all = mesh_keypoints(
             lattice,
             vertices,  # type: ignore[arg-type]
-            every,
+            np.concatenate(points),
             None,
             which,  # type: ignore[arg-type]
             folded,
-        )
-        # the keypoints themselves (each followed by its footprint's edge, RING) that are
-        # valid so far: where their nearest pixel shows nothing, not valid either
-        own = np.flatnonzero(valid_all[:: len(RING)]) * len(RING)
-        valid_all[own] = nearest_drawn(
-            lattice, vertices, which[own], every[own], moved_all[own], frame.origin
+            nearest=(len(RING), frame.origin),  # each keypoint followed by its footprint's edge
         )
         moved_all[:, 0] -= frame.origin[0]  # (its own array) x and y apart: numpy takes a
         moved_all[:, 1] -= frame.origin[1]  # pair off (P, 2) rows with loops of two

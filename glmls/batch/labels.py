@@ -20,7 +20,6 @@ __all__ = [
     "mesh_corners",
     "mesh_keypoints",
     "mesh_map",
-    "nearest_drawn",
     "on_canvas",
     "visible",
     "visible_chunk",
@@ -275,6 +274,7 @@ def mesh_keypoints(
     moved: np.ndarray | None,
     images: np.ndarray | None = None,
     folded: np.ndarray | None = None,
+    nearest: tuple[int, tuple[float, float]] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Keypoints through the deformed meshes of ``lattice`` (``vertices``: f at its points,
     (N, rows, columns, 2), or (rows, columns, 2) for one image): (P, 2) output points (the
@@ -283,7 +283,10 @@ def mesh_keypoints(
     order (cell row, column, then triangle (00, 10, 11) before (00, 11, 01)) than the
     keypoint's own: where cells fold, the first shows (``warp/cells.comp.glsl``). ``images``:
     (P,) the image of each point (default: all of image 0). ``folded``: (N,) bool, the
-    meshes not shown to be embeddings (``~embedded(vertices)``) where the caller has it."""
+    meshes not shown to be embeddings (``~embedded(vertices)``) where the caller has it.
+    ``nearest``: (every, origin): every ``every``-th point (a keypoint, each followed by its
+    footprint's edge) is valid only where the fill draws the output pixel nearest it
+    (:func:`_nearest_drawn`; ``origin``: the canvas's)."""
     count = len(points)
     if count == 0:
         return np.zeros((0, 2)), np.zeros(0, bool)
@@ -317,37 +320,28 @@ def mesh_keypoints(
         hidden[part] = _covered_earlier(
             vertices, meshes, boxes, which[start : start + block], out[part], own[part]
         )
-    return out, inside & ~hidden
+    valid = inside & ~hidden
+    if nearest is not None:
+        every, origin = nearest
+        at = np.flatnonzero(valid[::every]) * every
+        triangle = upper[at].astype(np.int64)
+        valid[at] = _nearest_drawn(vertices, image[at], row[at], col[at], triangle, out[at], origin)
+    return out, valid
 
 
-def nearest_drawn(
-    lattice: MeshLattice,
-    vertices,
-    images: np.ndarray,
-    points: np.ndarray,
-    out: np.ndarray,
-    origin: tuple[float, float],
-) -> np.ndarray:
+def _nearest_drawn(vertices, images, row, col, triangle, out, origin) -> np.ndarray:
     """(P,) bool: the fill draws the output pixel nearest each keypoint, a triangle of its
     deformed mesh holding that pixel's centre. A keypoint inside the mesh's domain can land
     within half a pixel of the warped image's edge past the last pixel centre drawn: its
     nearest pixel then shows the background, as with the methods that test the pixel
-    itself. ``points`` (P, 2) source keypoints inside ``lattice``'s domain, ``out`` where
-    :func:`mesh_keypoints` puts them, ``images`` (P,) the mesh of each in ``vertices``
-    (as :func:`mesh_keypoints` takes them), ``origin`` the canvas's: output pixel (i, j)
-    shows the deformed plane's point ``origin`` + (i, j)."""
-    count = len(points)
-    if count == 0:
-        return np.zeros(0, bool)
-    if vertices.ndim == 3:
-        vertices = vertices[None]
-    centre = np.empty((count, 2))
+    itself. ``vertices`` (N, rows, columns, 2) as :func:`mesh_keypoints` takes them,
+    ``images``, ``row``, ``col`` and ``triangle`` (P,) each keypoint's mesh, cell and
+    triangle there, ``out`` (P, 2) where it lands, ``origin`` the canvas's: output pixel
+    (i, j) shows the deformed plane's point ``origin`` + (i, j)."""
+    centre = np.empty((len(out), 2))
     for axis in (0, 1):
         centre[:, axis] = np.rint(out[:, axis] - origin[axis]) + origin[axis]
-    index, low, high, _ = _cells(lattice, points)
-    size = np.maximum(high - low, 1e-12)
-    upper = (points[:, 0] - low[:, 0]) / size[:, 0] < (points[:, 1] - low[:, 1]) / size[:, 1]
-    drawn = _walk(vertices, images, index[:, 1], index[:, 0], upper.astype(np.int64), centre)
+    drawn = _walk(vertices, images, row, col, triangle, centre)
     rest = np.flatnonzero(~drawn)
     if len(rest):  # any triangle of the mesh: the row boxes, as for hidden points
         meshes, which = np.unique(images[rest], return_inverse=True)
@@ -363,7 +357,7 @@ def nearest_drawn(
 
 
 #: A cell's triangles (00, 10, 11) and (00, 11, 01) as corners of :func:`_cell_vertices`.
-_TRIANGLES = ((0, 1, 3), (0, 3, 2))
+_TRIANGLES = np.array([[0, 1, 3], [0, 3, 2]])
 #: Across each edge of each triangle (its corners' order): row step, column step and
 #: triangle of the neighbour that shares it.
 _ACROSS = np.array(
@@ -383,10 +377,10 @@ def _walk(vertices, images, row, col, triangle, targets) -> np.ndarray:
     found = np.zeros(len(targets), bool)
     todo = np.arange(len(targets))
     for _ in range(_WALK_STEPS):
-        corners = _cell_vertices(vertices, images[todo], row, col)
-        ends = np.take(np.array(_TRIANGLES), triangle, axis=0)  # (k, 3)
-        x = [np.take_along_axis(corners[:, 0].T, ends[:, k : k + 1], 1)[:, 0] for k in range(3)]
-        y = [np.take_along_axis(corners[:, 1].T, ends[:, k : k + 1], 1)[:, 0] for k in range(3)]
+        corners = _cell_vertices(vertices, images[todo], row, col)  # (4, 2, k)
+        ends, lane = _TRIANGLES[triangle], np.arange(len(todo))  # (k, 3) corners
+        x = [corners[ends[:, k], 0, lane] for k in range(3)]
+        y = [corners[ends[:, k], 1, lane] for k in range(3)]
         sign = np.sign((x[1] - x[0]) * (y[2] - y[0]) - (y[1] - y[0]) * (x[2] - x[0]))
         qx, qy = targets[todo, 0], targets[todo, 1]
         edges = np.stack(

@@ -23,7 +23,6 @@ from .labels import (
     mesh_corners,
     mesh_keypoints,
     mesh_map,
-    nearest_drawn,
     on_canvas,
     visible,
 )
@@ -204,10 +203,10 @@ class SingleWarper:
         grid = lattice.points()
         rows, columns = grid.shape[:2]
         vertices = mls(grid.reshape(-1, 2)).reshape(rows, columns, 2)
-        moved, valid = mesh_keypoints(lattice, vertices, points, None)
-        own = np.flatnonzero(valid[:: len(RING)]) * len(RING)  # the keypoints, not their rings
-        images = np.zeros(len(own), np.int64)
-        valid[own] = nearest_drawn(lattice, vertices, images, points[own], moved[own], frame.origin)
+        # each keypoint followed by its footprint's edge (RING)
+        moved, valid = mesh_keypoints(
+            lattice, vertices, points, None, nearest=(len(RING), frame.origin)
+        )
         beyond = beyond_mesh(lattice, points)
         if beyond.any():  # no cell there: f, not a cell's map drawn out
             moved[beyond] = mls(points[beyond])

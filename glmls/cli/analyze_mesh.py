@@ -31,7 +31,7 @@ from ..files.atomic import atomic_write
 from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import volume_suffix
 from ..mls import MLS
-from .analyze_volume import check_reference_3d, read_points_3d, read_tetrahedra_3d
+from .analyze_volume import check_reference_3d, read_reference_3d
 from .inputs import figure, keep_inputs, reported_warnings, say
 from .options import UsageError, config_from_args
 from .progress import Ticker
@@ -102,8 +102,7 @@ def run_mesh(args: argparse.Namespace) -> int:
     except ValueError as error:
         raise UsageError(f"{args.input}: {error}") from None
     src, dst = read_3d_handles(args, "mesh")
-    reference = read_points_3d(args.reference) if args.reference else None
-    tetrahedra = None if reference is None else read_tetrahedra_3d(args.reference, len(reference))
+    reference, tetrahedra = read_reference_3d(args.reference) if args.reference else (None, None)
     check_reference_3d(args.reference, reference, tetrahedra)
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")

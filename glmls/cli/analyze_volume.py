@@ -35,8 +35,7 @@ from .warp3d import (
 __all__ = [
     "check_reference_3d",
     "is_volume_input",
-    "read_points_3d",
-    "read_tetrahedra_3d",
+    "read_reference_3d",
     "run_volume",
 ]
 
@@ -46,10 +45,14 @@ def is_volume_input(args: argparse.Namespace) -> bool:
     return not args.example and args.input is not None and is_volume_file(args.input)
 
 
-def read_points_3d(path: str | Path) -> np.ndarray:
+def read_reference_3d(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
     """Reference points (K, 3) from JSON ``{"points": [[x, y, z], ...]}`` or a CSV with the
-    header ``x,y,z``; ``InputFileError`` naming the place of a fault."""
+    header ``x,y,z``, and the user's own reference tetrahedra (T, 4), indices into them, from
+    the key ``"tetrahedra"`` of a JSON file (None where it has none, or for a CSV: the
+    points' Delaunay tetrahedra are measured); ``InputFileError`` naming the place of a
+    fault."""
     path = Path(path)
+    tetrahedra = None
     if path.suffix.lower() == ".json":
         data = load_json(path)
         if "points" not in data:
@@ -62,6 +65,8 @@ def read_points_3d(path: str | Path) -> np.ndarray:
                 raise fail(path, where, "expected an [x, y, z] point")
             values.append([number(path, where, v) for v in row])
         points = np.array(values, dtype=np.float64).reshape(-1, 3)
+        if "tetrahedra" in data:
+            tetrahedra = _tetrahedra(path, data["tetrahedra"], len(points))
     else:
         rows = csv_rows(path)
         if not rows:
@@ -72,34 +77,24 @@ def read_points_3d(path: str | Path) -> np.ndarray:
         points = table(path, rows[1:], 3)
     if len(points) == 0:
         raise fail(path, "content", "no points")
-    return points
+    return points, tetrahedra
 
 
-def read_tetrahedra_3d(path: str | Path, count: int) -> np.ndarray | None:
-    """The user's own reference tetrahedra (T, 4), indices into the ``count`` reference
-    points, from the key ``"tetrahedra"`` of a JSON reference file (None where it has none,
-    or for a CSV: the Delaunay tetrahedra of the points); ``InputFileError`` naming the
-    place of a fault."""
-    path = Path(path)
-    if path.suffix.lower() != ".json":
-        return None
-    data = load_json(path)
-    if "tetrahedra" not in data:
-        return None
-    rows = json_list(path, '"tetrahedra"', data["tetrahedra"], "[i, j, k, l] tetrahedra")
-    values = []
+def _tetrahedra(path: Path, value: object, count: int) -> np.ndarray:
+    """A reference file's ``"tetrahedra"``: (T, 4) indices into its ``count`` points."""
+    rows = json_list(path, '"tetrahedra"', value, "[i, j, k, l] tetrahedra")
     for index, row in enumerate(rows):
-        where = f'"tetrahedra"[{index}]'
-        ok = isinstance(row, list) and len(row) == 4
-        if ok and all(type(v) is int and 0 <= v < count for v in row):
-            values.append(row)
-            continue
-        raise fail(
-            path, where, f"expected 4 point indices, integers in 0..{count - 1}, got {row!r}"
-        )
-    if not values:
+        if not (isinstance(row, list) and len(row) == 4) or not all(
+            type(v) is int and 0 <= v < count for v in row
+        ):
+            raise fail(
+                path,
+                f'"tetrahedra"[{index}]',
+                f"expected 4 point indices, integers in 0..{count - 1}, got {row!r}",
+            )
+    if not rows:
         raise fail(path, '"tetrahedra"', "no tetrahedron")
-    return np.array(values, dtype=np.int64)
+    return np.array(rows, dtype=np.int64)
 
 
 def check_reference_3d(
@@ -187,8 +182,7 @@ def run_volume(args: argparse.Namespace) -> int:
         raise UsageError(f"{args.input}: no finite voxel: every voxel is NaN or infinite")
     spacing = args.spacing or source.spacing
     src, dst = voxel_handles(args, *read_3d_handles(args, "volume"), spacing)
-    reference = read_points_3d(args.reference) if args.reference else None
-    tetrahedra = None if reference is None else read_tetrahedra_3d(args.reference, len(reference))
+    reference, tetrahedra = read_reference_3d(args.reference) if args.reference else (None, None)
     src, dst, reference = world_handles(args, source, spacing, src, dst, reference)
     check_reference_3d(args.reference, reference, tetrahedra)
     for message in volume_handle_warnings(args, src, volume.shape, spacing, source.affine):

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 import moderngl
 import numpy as np
 
+from ..core.handles import float32_rounding
 from ..gl import bindings
 from ..gl.dispatch import SecondPass, run_1d, set_uniforms
 from .kernel3 import MLSKernel3
@@ -316,14 +317,9 @@ def _converged(
     coordinate of u and s where that is more. Far from the scaling's centre float32 cannot
     bring f(s) nearer u than that, and a start from u itself, where f is the identity out of
     the handles' reach, would otherwise replace the preimage found by one far from it."""
-    scaling = kernel.scaling
-    center = np.asarray(scaling.center, np.float64)
     targets = points - kernel.offset  # u in the GPU's frame of the targets
-    with np.errstate(invalid="ignore"):
-        far = np.maximum(np.abs(targets - center).max(axis=1), np.abs(s - center).max(axis=1))
-    far = np.nan_to_num(far / scaling.scale, nan=0.0)
-    floor = NEWTON_FLOAT_STEPS3 * float(np.finfo(np.float32).eps) * np.maximum(far, 1.0)
-    return residual <= np.maximum(NEWTON_TOLERANCE3 * length_unit(kernel), floor * scaling.scale)
+    floor = float32_rounding(kernel.scaling, targets, s, NEWTON_FLOAT_STEPS3)
+    return residual <= np.maximum(NEWTON_TOLERANCE3 * length_unit(kernel), floor)
 
 
 def _keep_better(

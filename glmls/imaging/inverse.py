@@ -16,7 +16,7 @@ import math
 import moderngl
 import numpy as np
 
-from ..core.handles import Scaling
+from ..core.handles import Scaling, float32_rounding
 from ..core.mesh import MeshLattice
 from ..engine.kernel import MLSKernel
 from ..engine.passes3 import STEP_BOX
@@ -66,12 +66,7 @@ def accept_residual(
     points ``u``, (K, D) pixels: :data:`NEWTON_ACCEPT` times ``unit`` (the length of a
     pixel, less for handles in a small box: :func:`length_unit`), or :data:`ACCEPT_STEPS`
     float32 steps of the larger scaled coordinate of u and s, times the scale, where more."""
-    center = np.asarray(scaling.center, np.float64)
-    with np.errstate(invalid="ignore"):
-        far = np.maximum(np.abs(u - center).max(axis=1), np.abs(s - center).max(axis=1))
-    far = np.nan_to_num(far / scaling.scale, nan=0.0)
-    steps = ACCEPT_STEPS * float(np.finfo(np.float32).eps) * np.maximum(far, 1.0)
-    return np.maximum(NEWTON_ACCEPT * unit, steps * scaling.scale)
+    return np.maximum(NEWTON_ACCEPT * unit, float32_rounding(scaling, u, s, ACCEPT_STEPS))
 
 
 def length_unit(kernel: MLSKernel) -> float:

@@ -9,7 +9,7 @@ import json
 import pytest
 from helpers import write_text
 
-from glmls.cli.analyze_volume import read_points_3d
+from glmls.cli.analyze_volume import read_reference_3d
 from glmls.errors import InputFileError
 from glmls.files import read_handles, read_points
 
@@ -50,7 +50,7 @@ def test_json_numbers_are_read(tmp_path):
 )
 def test_reference_points_in_quotes_are_refused(tmp_path, name, text):
     path = write_text(tmp_path, name, text)
-    reader = read_points_3d if name == "r3.json" else read_points
+    reader = read_reference_3d if name == "r3.json" else read_points
     with pytest.raises(InputFileError, match=rf'{name}: "points"\[1\]: expected a number'):
         reader(path)
 
