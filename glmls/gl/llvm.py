@@ -8,7 +8,7 @@ first, with its symbols kept to itself, triton's library leaves Mesa's alone and
 So before glmls makes a GL context, :func:`load_llvm_users_first` loads triton's library
 where triton is installed and nothing has loaded an LLVM yet: ~0.06 s once per process (the
 library is mapped, not run; importing triton later finds it loaded). The process's resident
-size grows by the pages of the library file that the loader reads (~80 MiB with triton 3),
+size grows by the pages of the library file that the loader reads (about 70 MiB with triton 3),
 which the page cache shares between processes, data loaders' workers included.
 """
 

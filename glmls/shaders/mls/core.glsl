@@ -29,6 +29,10 @@
 // glmls.reference.DEGENERATE_SHARE: below this share of trace A, A's small eigenvalue gets
 // the ridge toward the similarity solution (affine)
 #define MLS_DEGENERATE_SHARE 1e-3
+// Below this share of trace A the float32 moments' rounding, magnified by trace / e2, shows in
+// f: mls_finish asks for the float64 pass (mls/full.glsl) through mls_full_needed
+#define MLS_FULL_SHARE 3e-2
+bool mls_full_needed = false;
 uniform bool u_snap_segments;   // the same as u_snap for segment handles (glmls.core.segments)
 #if MLS_SEGMENTS
 // the same as u_hit2 for segment handles, after the pole of their weight
@@ -292,6 +296,7 @@ void mls_accumulate(inout MLSAccum a, vec4 h, bool use) {
 }
 
 MLSResult mls_finish(MLSAccum a) {
+    mls_full_needed = false;
     vec2 v = a.v;
     bool hit = a.hit;
     if (!hit && !(a.W > 0.0)) {
@@ -339,6 +344,7 @@ MLSResult mls_finish(MLSAccum a) {
     vec4 R = Dn + vec4(G.x * sim.x + G.y * sim.z, G.x * sim.y + G.y * sim.w,
                        G.y * sim.x + G.z * sim.z, G.y * sim.y + G.z * sim.w);
     float detL = L.x * L.z - L.y * L.y;
+    mls_full_needed = mu > 1e-13 * spread && e2 < MLS_FULL_SHARE;
     if (mu > 1e-13 * spread && detL > 0.0) {
         // N = L^-1 R, with L = [[l11, l12], [l12, l22]]
         vec2 r0 = vec2(L.z, -L.y) / detL;

@@ -190,6 +190,10 @@ void mls_accumulate_every_segment(inout MLSAccum a) {
 #endif
 #endif
 
+#if MLS_TRANSFORM == 0
+#include "mls/full.glsl"
+#endif
+
 // The plain evaluation's nearest pass (every handle, in storage order) tracks only the
 // nearest's distance and index, and the handle is read once after it; the nearest beyond the
 // snapping distance is looked for in a second pass only where v snaps, which a work group
@@ -263,7 +267,11 @@ MLSResult mls_end(MLSAccum a) {
 #if MLS_SEGMENTS
     mls_accumulate_segments(a);
 #endif
+#if MLS_TRANSFORM == 0
+    return mls_full_all(a, mls_finish(a), false);
+#else
     return mls_finish(a);
+#endif
 }
 #endif
 
@@ -307,6 +315,7 @@ MLSResult mls_eval(vec2 v) {
     }
     MLSAccum a = mls_begin(v, near);
     float r = u_bin_reach;
+    bool every_segment = false;
 #if MLS_REACH_GAUSSIAN
     // gaussian: weights below tau W1 / N of the nearest apart from the nearest one's place
     // are left out (glmls/engine/bins.py); with no handle apart, those of the nearest
@@ -318,7 +327,7 @@ MLSResult mls_eval(vec2 v) {
     // from every handle: the cut is relative to the nearest ones), segments it does not
     // list count, and may be the nearest: every segment, the nearest and the cut again.
     // Within u_bin_reach the listed ones hold the nearest two, the unlisted being farther.
-    bool every_segment = r > u_bin_reach;
+    every_segment = r > u_bin_reach;
     if (every_segment) {
         mls_nearest_every_segment(near, v);   // the listed ones seen twice change no minimum
         a = mls_begin(v, near);
@@ -342,7 +351,11 @@ MLSResult mls_eval(vec2 v) {
     mls_bin_range(v, r, lo, hi);
     if (hi.y - lo.y >= n) {
         mls_accumulate_all(a);
+#if MLS_TRANSFORM == 0
+        return mls_full_all(a, mls_finish(a), every_segment);
+#else
         return mls_finish(a);
+#endif
     }
     for (int y = lo.y; y <= hi.y; ++y) {
         ivec2 columns = mls_bin_chord(v, r, y, lo, hi);
@@ -351,7 +364,11 @@ MLSResult mls_eval(vec2 v) {
             mls_accumulate(a, mls_handle(i), true);
         }
     }
+#if MLS_TRANSFORM == 0
+    return mls_full_bins(a, mls_finish(a), r, every_segment);
+#else
     return mls_finish(a);
+#endif
 #else
     int n = mls_handle_count();
     float d2min = 3.0e38;
