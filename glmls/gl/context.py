@@ -110,13 +110,20 @@ class _Binding:
         context = self.context
         exiting.halt_if_exiting(holding=_thread.held > 0)  # a daemon thread at exit
         context.check_usable()
-        context._lock.acquire()
-        if context.released:  # released by another thread while this one waited
-            context._lock.release()
-            exiting.halt_if_exiting(holding=_thread.held > 0)
-            context.check_usable()
-        _thread.held += 1
+        lock = context._lock
+        # A signal's handler (Ctrl-C) runs as acquire() returns, in this frame: the lock is
+        # then held with the exception raised. Undone by the lock's own count, else every
+        # other thread would wait on it for ever.
+        before = lock._recursion_count()
+        counted = False
         try:
+            lock.acquire()
+            if context.released:  # released by another thread while this one waited
+                lock.release()
+                exiting.halt_if_exiting(holding=_thread.held > 0)
+                context.check_usable()
+            _thread.held += 1
+            counted = True
             if _thread.current is not context:
                 context._check_thread()
                 self.previous = _thread.current
@@ -125,10 +132,16 @@ class _Binding:
             else:  # bound by another block of this thread meanwhile
                 self.previous = context
         except BaseException:
-            _thread.held -= 1
-            context._lock.release()
+            if counted:
+                _thread.held -= 1
+            if lock._recursion_count() > before:
+                lock.release()
             raise
-        context._release_orphans()
+        try:
+            context._release_orphans()
+        except BaseException:  # an interrupt while freeing them: unbind, let the lock go
+            self.__exit__(None, None, None)
+            raise
         return context
 
     def __exit__(self, *exc: object) -> None:
@@ -498,8 +511,13 @@ class GLContext:
     def _release_orphans(self) -> None:
         while self._orphans:
             obj = self._orphans.pop()
-            with contextlib.suppress(Exception):  # a leftover must not fail the user's call
+            try:
                 obj.release()
+            except Exception:  # a leftover must not fail the user's call
+                pass
+            except BaseException:  # interrupted: freed at a later use (release is idempotent)
+                self._orphans.append(obj)
+                raise
 
     def shared(self, key: Hashable, factory: Callable[[], _T]) -> _T:
         """The object stored under ``key`` for this context, made on first use.
@@ -738,12 +756,17 @@ def release_all() -> None:
     """Release the shared headless context and glmls's objects in every adopted context (of
     this process: a forked child leaves its parent's alone)."""
     global _default
+    # The contexts are released outside the registry's lock: a thread that holds a
+    # context's lock (a daemon thread rendering at exit) may call get_context() before it
+    # lets that lock go, and would wait on the registry for ever while this waited on it.
     with _registry_lock:
         mine = [w for w in _wrappers.values() if w.pid == os.getpid()]
-        for wrapper in [w for w in mine if w is not _default]:
-            wrapper.release()
-        if _default is not None and _default.pid == os.getpid():
-            _default.release()
+        default = _default if _default is not None and _default.pid == os.getpid() else None
+    for wrapper in [w for w in mine if w is not default]:
+        wrapper.release()
+    if default is not None:
+        default.release()
+    with _registry_lock:
         _default = None
         _wrappers.clear()
 

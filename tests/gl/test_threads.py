@@ -4,10 +4,12 @@ cases run in a fresh interpreter with a timeout, so that a hang fails the test."
 
 from __future__ import annotations
 
+import signal
 import subprocess
 import sys
 import textwrap
 import threading
+import time
 from concurrent.futures import ThreadPoolExecutor
 
 import moderngl
@@ -180,6 +182,43 @@ def test_a_daemon_thread_calling_glmls_after_its_exit_functions_waits_quietly(tm
     assert_quiet_run(script, "waiting\n")
 
 
+def test_a_daemon_thread_rendering_in_its_own_block_at_exit_lets_the_process_end(tmp_path):
+    """A daemon thread that holds the shared context (``with context:``) and warps in it
+    while the interpreter exits: glmls's exit function waited for that context's lock
+    while holding the registry's, and the thread's next warp (get_context) for the
+    registry's: the process never ended. It ends now, quietly."""
+    script = tmp_path / "script.py"
+    script.write_text(
+        textwrap.dedent(
+            """
+            import threading, time
+            import numpy as np
+            import glmls
+            rng = np.random.default_rng(0)
+            image = rng.integers(0, 256, (120, 120, 3), dtype=np.uint8)
+            src = rng.uniform(10, 110, (10, 2))
+            dst = src + rng.normal(0, 3, (10, 2))
+            context = glmls.gl.get_context()
+            started = threading.Event()
+
+            def render():
+                while True:
+                    with context:
+                        started.set()
+                        glmls.warp(image, src, dst, method="backward")
+                        glmls.warp(image, src, dst, method="backward")
+
+            threading.Thread(target=render, daemon=True).start()
+            started.wait(60)
+            time.sleep(0.2)
+            print("done", flush=True)
+            """
+        )
+    )
+    for _ in range(3):  # the thread was inside its block at exit in most runs
+        assert_quiet_run(script, "done\n")
+
+
 # -- threads -----------------------------------------------------------------------------------
 
 
@@ -322,3 +361,69 @@ def test_the_program_cache_stays_bounded():
         own.release()
     with pytest.raises(ValueError, match="max_programs must be >= 16"):
         create_headless(max_programs=4)
+
+
+def _wait_for_the_lock(context, seconds=20.0) -> bool:
+    """Whether another thread takes ``context`` within ``seconds``."""
+    taken = threading.Event()
+
+    def take():
+        with context.use():
+            taken.set()
+
+    threading.Thread(target=take, daemon=True).start()
+    return taken.wait(seconds)
+
+
+def test_ctrl_c_while_waiting_for_the_context_lets_it_go():
+    """Ctrl-C while the main thread waits for a context another thread holds: Python runs
+    the handler as the lock's acquire() returns, so the KeyboardInterrupt left the lock held
+    by the main thread (reentrant: it went on working) and every other thread waited on it
+    for ever."""
+    context = create_headless()
+    try:
+        holding, go = threading.Event(), threading.Event()
+
+        def hold():
+            with context.use():
+                holding.set()
+                go.wait(30)
+
+        threading.Thread(target=hold, daemon=True).start()
+        assert holding.wait(30)
+
+        def interrupt():
+            signal.raise_signal(signal.SIGINT)  # noted now, handled in the main thread ...
+            time.sleep(0.2)
+            go.set()  # ... once its acquire() returns
+
+        threading.Timer(0.2, interrupt).start()
+        with pytest.raises(KeyboardInterrupt), context.use():
+            pass
+        assert _wait_for_the_lock(context)
+    finally:
+        context.release()
+
+
+def test_ctrl_c_while_freeing_dropped_objects_lets_the_context_go():
+    """An interrupt while a context frees the objects dropped without release() (at its next
+    use) escaped that use with the lock held and the context bound; the object being freed
+    was lost. Now the use is undone and the object freed at the next one."""
+    context = create_headless()
+    released = []
+
+    class Dropped:
+        def release(self):
+            if not released:
+                released.append("interrupted")
+                raise KeyboardInterrupt
+            released.append("freed")
+
+    try:
+        context.release_later(Dropped())
+        with pytest.raises(KeyboardInterrupt), context.use():
+            pass
+        assert _wait_for_the_lock(context)
+        assert released == ["interrupted", "freed"]  # the other thread's use freed it
+    finally:
+        context.release()
