@@ -42,7 +42,34 @@ from .colormaps import VIRIDIS
 from .jobs import check_jobs, run_jobs
 from .tuning import TuneResult, label, parse_config, search_space, tune
 
-__all__ = ["StudyResult", "StudyTask", "render_heatmap", "study", "study_label", "tune_item"]
+__all__ = [
+    "STUDY_OUTPUTS",
+    "StudyResult",
+    "StudyTask",
+    "check_item_names",
+    "render_heatmap",
+    "study",
+    "study_label",
+    "tune_item",
+]
+
+#: The files :meth:`StudyResult.save` writes beside each image's folder.
+STUDY_OUTPUTS = ("summary.json", "table.json", "table.csv", "heatmap.png")
+
+
+def check_item_names(items: Sequence[StudyItem]) -> None:
+    """``ValueError`` for item names that repeat, or that name one of the study's own
+    files (:data:`STUDY_OUTPUTS`, in any case: an item's folder would take its place)."""
+    names = [item.name for item in items]
+    if len(set(names)) != len(names):
+        repeated = sorted({n for n in names if names.count(n) > 1})
+        raise ValueError(f"item names must differ; repeated: {', '.join(repeated)}")
+    for name in names:
+        if name.lower() in STUDY_OUTPUTS:
+            raise ValueError(
+                f"item name {name!r} is the name of one of the study's own files "
+                f"({', '.join(STUDY_OUTPUTS)}): rename the item"
+            )
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -360,10 +387,8 @@ def study(
     for item in items:
         if not isinstance(item, StudyItem):
             raise TypeError(f"items must be StudyItems (glmls.data), got {item!r}")
+    check_item_names(items)
     names = [item.name for item in items]
-    if len(set(names)) != len(names):
-        repeated = sorted({n for n in names if names.count(n) > 1})
-        raise ValueError(f"item names must differ; repeated: {', '.join(repeated)}")
     if trials is not None:
         trials = check_integer("trials", trials, 1)
     seed, jobs = check_seed(seed), check_jobs(jobs)
@@ -478,7 +503,8 @@ def _table(result: StudyResult) -> list[dict]:
         owners = [i for i, n in enumerate(result.names) if n in entry["images"]]
         configs = [MLSConfig(**entry["images"][result.names[i]]["config"]) for i in owners]
         base = study_label(configs, [result.diagonals[i] for i in owners])
-        ranks = [cell["rank"] for cell in entry["images"].values()]
+        # tied configurations at their shared rank: the order within a tie is by name
+        ranks = [cell["tied_rank"] for cell in entry["images"].values()]
         for name, cell in entry["images"].items():
             cell["winner"] = cell["tied_rank"] == first[name]
         rows.append(

@@ -170,11 +170,18 @@ def refuse_overwriting(outputs: Sequence[Path], inputs: dict[Path, str]) -> None
     """:class:`UsageError` for an output that is one of ``inputs`` (a path and what it is:
     "an input image", "the --handles file"), which writing it would destroy, checked by the
     file itself (a link or another spelling of its name is the same file); or that exists
-    and is no file (a folder), which the output could not replace. Checked before any work,
+    and is no file (a folder), which the output could not replace, or whose folder exists
+    and is no folder (a file), in which it could not be made. Checked before any work,
     so that a run does not find it only when it writes."""
     for output in outputs:
         if output.exists() and not output.is_file():
             raise UsageError(f"{output}: an output's name, but it exists and is not a file")
+        for folder in output.parents:  # a file where a folder of the outputs goes
+            if folder.exists() and not folder.is_dir():
+                raise UsageError(
+                    f"{folder}: the folder of an output ({output.name}), but it exists and "
+                    "is not a folder"
+                )
     read = {}
     for path, what in inputs.items():
         identity = _file_identity(path)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from .. import data
 from ..analysis.jobs import check_jobs, check_scheduler
-from ..analysis.studies import study
+from ..analysis.studies import STUDY_OUTPUTS, check_item_names, study
 from .inputs import say
 from .options import (
     UsageError,
@@ -71,11 +71,15 @@ def run(args: argparse.Namespace) -> int:
         items, source = data.study_set(), "the bundled set"
     else:
         items, source = data.read_manifest(Path(args.manifest)), args.manifest
-    if args.manifest is not None:  # the study's outputs must not replace it
-        out = Path(args.out)
-        written = ["summary.json", "table.json", "table.csv", "heatmap.png"]
-        written += [f"{item.name}/ranking.json" for item in items]
-        refuse_overwriting([out / name for name in written], {Path(args.manifest): "the manifest"})
+    out = Path(args.out)
+    written = [*STUDY_OUTPUTS, *(f"{item.name}/ranking.json" for item in items)]
+    # the study's outputs must not replace the manifest, nor find their places taken
+    read = {} if args.manifest is None else {Path(args.manifest): "the manifest"}
+    try:
+        check_item_names(items)
+    except ValueError as error:
+        raise UsageError(str(error)) from None
+    refuse_overwriting([out / name for name in written], read)
     configs = args.configs
     if configs:
         try:  # a bad spec is a usage error before any work

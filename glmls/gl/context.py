@@ -42,6 +42,7 @@ import moderngl
 
 from ..errors import ContextError, GLUnavailableError, ReleasedError
 from . import bindings, dropped, exiting, llvm
+from .locks import ContextLock, ThreadBindings
 from .shaders import ComposedSource, ShaderCompileError, ShaderLibrary, dump, library
 from .signals import signals_held
 from .unavailable import FIX, FORKED, explain
@@ -58,18 +59,6 @@ class Releasable(Protocol):
 
 
 _T = TypeVar("_T", bound=Releasable)
-
-
-class _ThreadState(threading.local):
-    def __init__(self) -> None:
-        #: The GLContext glmls has bound in this thread (None: none of glmls's).
-        self.current: GLContext | None = None
-        #: Open ``with context:`` blocks of this thread, innermost last.
-        self.blocks: list[contextlib.AbstractContextManager] = []
-        #: The contexts this thread keeps current (make_current()), unbound when it ends.
-        self.unbinders: dict[GLContext, _Unbinder] = {}
-        #: Open bindings of this thread (GLContext.use() blocks), each holding its lock.
-        self.held = 0
 
 
 class _Unbinder:
@@ -94,7 +83,7 @@ class _Unbinder:
             pass
 
 
-_thread = _ThreadState()
+_thread = ThreadBindings()
 
 
 class _Binding:
@@ -111,11 +100,8 @@ class _Binding:
         exiting.halt_if_exiting(holding=_thread.held > 0)  # a daemon thread at exit
         context.check_usable()
         lock = context._lock
-        # A signal's handler (Ctrl-C) runs as acquire() returns, in this frame: the lock is
-        # then held with the exception raised. Undone by the lock's own count, else every
-        # other thread would wait on it for ever.
-        before = lock._recursion_count()
-        counted = False
+        # a signal's handler (Ctrl-C) may raise as acquire() returns: undone by the count
+        before, held = lock.count(), _thread.held
         try:
             lock.acquire()
             if context.released:  # released by another thread while this one waited
@@ -123,7 +109,6 @@ class _Binding:
                 exiting.halt_if_exiting(holding=_thread.held > 0)
                 context.check_usable()
             _thread.held += 1
-            counted = True
             if _thread.current is not context:
                 context._check_thread()
                 self.previous = _thread.current
@@ -132,9 +117,8 @@ class _Binding:
             else:  # bound by another block of this thread meanwhile
                 self.previous = context
         except BaseException:
-            if counted:
-                _thread.held -= 1
-            if lock._recursion_count() > before:
+            _thread.held = held
+            if lock.count() > before:
                 lock.release()
             raise
         try:
@@ -256,7 +240,7 @@ class GLContext:
         #: Objects given back by the garbage collector (release_later), released at the
         #: start of the next use.
         self._orphans: list[Releasable] = []
-        self._lock = threading.RLock()
+        self._lock = ContextLock()
         _every.add(self)
         #: The thread keeping this context current outside glmls's calls, if any: the
         #: adopting thread for a borrowed context, else the caller of make_current().
@@ -756,9 +740,7 @@ def release_all() -> None:
     """Release the shared headless context and glmls's objects in every adopted context (of
     this process: a forked child leaves its parent's alone)."""
     global _default
-    # The contexts are released outside the registry's lock: a thread that holds a
-    # context's lock (a daemon thread rendering at exit) may call get_context() before it
-    # lets that lock go, and would wait on the registry for ever while this waited on it.
+    # outside the registry's lock, which a thread holding a context's lock may wait on
     with _registry_lock:
         mine = [w for w in _wrappers.values() if w.pid == os.getpid()]
         default = _default if _default is not None and _default.pid == os.getpid() else None
@@ -781,7 +763,7 @@ def _after_fork_in_child() -> None:
     _registry_lock = threading.RLock()
     _thread.current = None
     for context in list(_every):
-        context._lock = threading.RLock()
+        context._lock = ContextLock()
         context._held_by = None  # no thread of the parent's exists here
 
 

@@ -331,3 +331,27 @@ def test_a_study_of_one_image_does_not_answer_the_question(gl):
     assert summary["answer"].startswith("1 winner over 1 image: ")
     assert "no configuration wins everywhere" not in summary["answer"]
     assert "one image cannot tell" in summary["answer"]
+
+
+def test_a_tie_broken_by_name_does_not_decide_the_mean_rank(gl):
+    """On an image where the tune cannot tell the configurations apart, the mean rank
+    takes their shared tied rank, not the order by name: the winner elsewhere is best."""
+    one = HandleSet.validate(SRC[:1], SRC[:1] + [3.0, 2.0])
+    found = studies.study(
+        [items()[0], StudyItem("one", (32, 40), one, REFERENCE)],
+        configs=["rigid:idw", "similarity:idw:alpha=1"], trials=2,
+    )  # fmt: skip
+    rows = found.table()
+    for row in rows:
+        cells = row["images"].values()
+        assert row["mean_rank"] == pytest.approx(np.mean([c["tied_rank"] for c in cells]))
+    best_small = min(rows, key=lambda r: r["images"]["small"]["tied_rank"])
+    assert rows[0]["label"] == best_small["label"]
+    assert found.summary()["best_overall"]["label"] == best_small["label"]
+
+
+@pytest.mark.parametrize("name", ["summary.json", "Table.CSV", "heatmap.png"])
+def test_an_item_named_like_a_study_file_is_refused(name):
+    """Its folder would take the place of the study's own file, found only after the work."""
+    with pytest.raises(ValueError, match="one of the study's own files"):
+        studies.study([StudyItem(name, (32, 40), items()[0].handles, REFERENCE)], trials=1)

@@ -193,3 +193,15 @@ def test_study_keeps_a_manifest_named_like_an_output(inputs, capsys, monkeypatch
     assert f"{name}: the output is the manifest" in err, err
     assert manifest.read_text() == text
     assert not (inputs / "heatmap.png").exists()
+
+
+def test_a_file_where_an_items_folder_goes_is_refused_before_the_work(inputs, capsys, monkeypatch):
+    """A file named like an item in --out: its ranking.json could not be written there."""
+    monkeypatch.chdir(inputs)
+    (inputs / "out").mkdir()
+    (inputs / "out" / "a").write_text("mine")
+    args = ("study", "set.json", "--out", "out", "--configs", "rigid:idw", "--trials", "1")
+    assert run_main(*args) == 2
+    err = capsys.readouterr().err
+    assert "out/a: the folder of an output (ranking.json)" in err, err
+    assert sorted(p.name for p in (inputs / "out").iterdir()) == ["a"]
