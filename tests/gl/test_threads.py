@@ -381,6 +381,7 @@ def test_ctrl_c_while_waiting_for_the_context_lets_it_go():
     by the main thread (reentrant: it went on working) and every other thread waited on it
     for ever."""
     context = create_headless()
+    handler = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         holding, go = threading.Event(), threading.Event()
 
@@ -393,6 +394,8 @@ def test_ctrl_c_while_waiting_for_the_context_lets_it_go():
         assert holding.wait(30)
 
         def interrupt():
+            # a thread inherits the signal mask of the thread that made it
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
             signal.raise_signal(signal.SIGINT)  # noted now, handled in the main thread ...
             time.sleep(0.2)
             go.set()  # ... once its acquire() returns
@@ -402,6 +405,7 @@ def test_ctrl_c_while_waiting_for_the_context_lets_it_go():
             pass
         assert _wait_for_the_lock(context)
     finally:
+        signal.signal(signal.SIGINT, handler)
         context.release()
 
 
