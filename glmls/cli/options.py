@@ -177,11 +177,13 @@ def refuse_overwriting(outputs: Sequence[Path], inputs: dict[Path, str]) -> None
         if output.exists() and not output.is_file():
             raise UsageError(f"{output}: an output's name, but it exists and is not a file")
         for folder in output.parents:  # a file where a folder of the outputs goes
-            if folder.exists() and not folder.is_dir():
-                raise UsageError(
-                    f"{folder}: the folder of an output ({output.name}), but it exists and "
-                    "is not a folder"
-                )
+            if folder.exists():
+                if not folder.is_dir():
+                    raise UsageError(
+                        f"{folder}: the folder of an output ({output.name}), but it exists "
+                        "and is not a folder"
+                    )
+                break  # the folders above an existing one are folders
     read = {}
     for path, what in inputs.items():
         identity = _file_identity(path)

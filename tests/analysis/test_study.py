@@ -280,14 +280,18 @@ def test_a_radius_of_the_same_fraction_is_labelled_by_it_whatever_the_rounding()
     assert studies.study_label(configs, diagonals) == "rigid gaussian R=0.5 diag interp"
 
 
+def _with_a_one_handle_image(configs):
+    """The study of ``items()[0]`` and an image with one handle, where every configuration
+    is the same translation (a tie the tune orders by name), two trials."""
+    one = HandleSet.validate(SRC[:1], SRC[:1] + [3.0, 2.0])
+    items_ = [items()[0], StudyItem("one", (32, 40), one, REFERENCE)]
+    return studies.study(items_, configs=configs, trials=2)
+
+
 def test_configurations_a_tune_cannot_tell_apart_share_their_rank(gl):
     """With one handle every configuration is the same translation: the tune's order of
     them is by name only, and says nothing of which suits the image."""
-    one = HandleSet.validate(SRC[:1], SRC[:1] + [3.0, 2.0])
-    found = studies.study(
-        [items()[0], StudyItem("one", (32, 40), one, REFERENCE)],
-        configs=["rigid:idw", "affine:idw:alpha=1"], trials=2,
-    )  # fmt: skip
+    found = _with_a_one_handle_image(["rigid:idw", "affine:idw:alpha=1"])
     scores = {r["images"]["one"]["score"] for r in found.table()}
     assert len(scores) == 1  # a three-way tie
     agreement = found.summary()["rank_agreement"]
@@ -300,11 +304,7 @@ def test_a_configuration_tied_for_first_wins_there_too(gl):
     """Where the tune cannot tell the configurations apart (one handle: the same
     translation), its order of them is by name: the winner elsewhere ties for first there,
     so one configuration wins everywhere, not as many as the names make."""
-    one = HandleSet.validate(SRC[:1], SRC[:1] + [3.0, 2.0])
-    found = studies.study(
-        [items()[0], StudyItem("one", (32, 40), one, REFERENCE)],
-        configs=["rigid:idw", "similarity:idw:alpha=1"], trials=2,
-    )  # fmt: skip
+    found = _with_a_one_handle_image(["rigid:idw", "similarity:idw:alpha=1"])
     rows = found.table()
     best_small = min(rows, key=lambda r: r["images"]["small"]["rank"])
     first_by_name = min(rows, key=lambda r: r["images"]["one"]["rank"])
@@ -336,11 +336,7 @@ def test_a_study_of_one_image_does_not_answer_the_question(gl):
 def test_a_tie_broken_by_name_does_not_decide_the_mean_rank(gl):
     """On an image where the tune cannot tell the configurations apart, the mean rank
     takes their shared tied rank, not the order by name: the winner elsewhere is best."""
-    one = HandleSet.validate(SRC[:1], SRC[:1] + [3.0, 2.0])
-    found = studies.study(
-        [items()[0], StudyItem("one", (32, 40), one, REFERENCE)],
-        configs=["rigid:idw", "similarity:idw:alpha=1"], trials=2,
-    )  # fmt: skip
+    found = _with_a_one_handle_image(["rigid:idw", "similarity:idw:alpha=1"])
     rows = found.table()
     for row in rows:
         cells = row["images"].values()

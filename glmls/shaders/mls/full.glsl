@@ -126,15 +126,9 @@ MLSResult mls_finish64(MLSAccum a, MLSSums64 s) {
     return r;
 }
 
-// r (mls_finish's result for a) again in float64 where mls_finish asked for it, over every
-// handle (the plain path's visit)
-MLSResult mls_full_all(MLSAccum a, MLSResult r, bool every) {
-    bool need = mls_full_needed;
-    int n = mls_handle_count();
-    MLSSums64 s = mls_sums64_begin();
-    for (int mls_block = 0; mls_block < (need ? n : 0); mls_block += 4) {
-        MLS_BLOCK4(MLS_ACC64, mls_block, n)
-    }
+// The points' sums s of their handles, with their segments', solved: r replaced where
+// ``need`` (a loop, see above)
+MLSResult mls_full_end(MLSAccum a, MLSSums64 s, MLSResult r, bool need, bool every) {
     for (int once = 0; once < (need ? 1 : 0); ++once) {
 #if MLS_SEGMENTS
         mls_segments64(s, a, every);
@@ -144,13 +138,23 @@ MLSResult mls_full_all(MLSAccum a, MLSResult r, bool every) {
     return r;
 }
 
-#if MLS_BINS
-// mls_full_all over the handles in the disc of radius ``radius`` about a.v, row by row of
-// bins as mls_eval's second pass visits them
-MLSResult mls_full_bins(MLSAccum a, MLSResult r, float radius, bool every) {
+// r (mls_finish's result for a) again in float64 where mls_finish asked for it, over every
+// handle (the plain path's visit)
+MLSResult mls_full_all(MLSAccum a, MLSResult r, bool every) {
     bool need = mls_full_needed;
-    ivec2 lo, hi;
-    mls_bin_range(a.v, radius, lo, hi);
+    int n = mls_handle_count();
+    MLSSums64 s = mls_sums64_begin();
+    for (int mls_block = 0; mls_block < (need ? n : 0); mls_block += 4) {
+        MLS_BLOCK4(MLS_ACC64, mls_block, n)
+    }
+    return mls_full_end(a, s, r, need, every);
+}
+
+#if MLS_BINS
+// mls_full_all over the handles in the disc of radius ``radius`` about a.v (bins lo..hi,
+// mls_bin_range's), row by row of bins as mls_eval's second pass visits them
+MLSResult mls_full_bins(MLSAccum a, MLSResult r, float radius, ivec2 lo, ivec2 hi, bool every) {
+    bool need = mls_full_needed;
     MLSSums64 s = mls_sums64_begin();
     for (int y = lo.y; y <= (need ? hi.y : lo.y - 1); ++y) {
         ivec2 columns = mls_bin_chord(a.v, radius, y, lo, hi);
@@ -159,12 +163,6 @@ MLSResult mls_full_bins(MLSAccum a, MLSResult r, float radius, bool every) {
             mls_accumulate64(s, a, mls_handle(i), true);
         }
     }
-    for (int once = 0; once < (need ? 1 : 0); ++once) {
-#if MLS_SEGMENTS
-        mls_segments64(s, a, every);
-#endif
-        r = mls_finish64(a, s);
-    }
-    return r;
+    return mls_full_end(a, s, r, need, every);
 }
 #endif

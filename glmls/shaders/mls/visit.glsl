@@ -192,6 +192,10 @@ void mls_accumulate_every_segment(inout MLSAccum a) {
 
 #if MLS_TRANSFORM == 0
 #include "mls/full.glsl"
+#else
+// only affine takes the float64 pass: r as mls_finish gave it
+#define mls_full_all(a, r, every) (r)
+#define mls_full_bins(a, r, radius, lo, hi, every) (r)
 #endif
 
 // The plain evaluation's nearest pass (every handle, in storage order) tracks only the
@@ -267,11 +271,7 @@ MLSResult mls_end(MLSAccum a) {
 #if MLS_SEGMENTS
     mls_accumulate_segments(a);
 #endif
-#if MLS_TRANSFORM == 0
     return mls_full_all(a, mls_finish(a), false);
-#else
-    return mls_finish(a);
-#endif
 }
 #endif
 
@@ -351,11 +351,7 @@ MLSResult mls_eval(vec2 v) {
     mls_bin_range(v, r, lo, hi);
     if (hi.y - lo.y >= n) {
         mls_accumulate_all(a);
-#if MLS_TRANSFORM == 0
         return mls_full_all(a, mls_finish(a), every_segment);
-#else
-        return mls_finish(a);
-#endif
     }
     for (int y = lo.y; y <= hi.y; ++y) {
         ivec2 columns = mls_bin_chord(v, r, y, lo, hi);
@@ -364,11 +360,7 @@ MLSResult mls_eval(vec2 v) {
             mls_accumulate(a, mls_handle(i), true);
         }
     }
-#if MLS_TRANSFORM == 0
-    return mls_full_bins(a, mls_finish(a), r, every_segment);
-#else
-    return mls_finish(a);
-#endif
+    return mls_full_bins(a, mls_finish(a), r, lo, hi, every_segment);
 #else
     int n = mls_handle_count();
     float d2min = 3.0e38;
