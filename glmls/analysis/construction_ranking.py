@@ -19,6 +19,7 @@ __all__ = [
     "construction_label",
     "default_constructions",
     "parse_construction",
+    "parse_constructions",
     "rank_constructions",
 ]
 
@@ -42,18 +43,48 @@ def default_constructions() -> list[tuple[str, str]]:
 
 def parse_construction(spec: object) -> tuple[str, str]:
     """``"method"``, ``"method:interpolation"`` or a (method, interpolation) pair as a
-    validated (method, interpolation); ``ValueError`` naming a bad one."""
+    validated (method, interpolation); ``ValueError`` naming a bad one, an empty
+    interpolation (``"quads:"``) or one given to ``splat``, which ignores it (``"splat"`` and
+    ``"splat:linear"`` would rank one construction twice)."""
     if isinstance(spec, str):
-        method, _, interpolation = spec.partition(":")
+        method, colon, interpolation = spec.partition(":")
+        if colon and not interpolation:
+            raise ValueError(
+                f"an empty interpolation after {method + colon!r}: name one "
+                f"({', '.join(source.INTERPOLATIONS)}) or leave out the ':'"
+            )
         pair = (method, interpolation or "nearest")
+        suffix = interpolation if colon else None
     elif isinstance(spec, Sequence) and len(spec) == 2:
         pair = (spec[0], spec[1])
+        suffix = None if pair[1] == "nearest" else pair[1]
     else:
         raise ValueError(
             f"a construction is 'method', 'method:interpolation' or a pair, got {spec!r}"
         )
     source.check_options(pair[0], pair[1], 1)
+    if pair[0] == "splat" and suffix is not None:
+        raise ValueError(f"splat takes no interpolation, got {suffix!r}: name it 'splat' alone")
     return pair  # type: ignore[return-value]
+
+
+def parse_constructions(specs: Sequence[object]) -> list[tuple[str, str]]:
+    """Each of ``specs`` as :func:`parse_construction` reads it; ``ValueError`` naming one that
+    is the same construction as an earlier one (``"quads"`` is ``"quads:nearest"``), which
+    would be ranked twice."""
+    seen: dict[tuple[str, str], object] = {}
+    for spec in specs:
+        pair = parse_construction(spec)
+        if pair in seen:
+            first = seen[pair]
+            what = (
+                "is named twice"
+                if first == spec
+                else f"is the same construction as {first!r} ({construction_label(*pair)})"
+            )
+            raise ValueError(f"{spec!r} {what}: name each construction once")
+        seen[pair] = spec
+    return list(seen)
 
 
 def construction_label(method: str, interpolation: str) -> str:
@@ -96,7 +127,7 @@ def rank_constructions(
         The points r, (N, 2).
     methods : sequence, optional
         Constructions as ``parse_construction`` reads them (``"method"``,
-        ``"method:interpolation"`` or a pair); default ``default_constructions`` (a
+        ``"method:interpolation"`` or a pair), each once; default ``default_constructions`` (a
         ``paper-quads`` default that ``m.warp`` refuses is left out; anything else refused
         raises).
     radius : int, optional
@@ -124,7 +155,7 @@ def rank_constructions(
     ------
     ValueError
         For bad points, radius, repeat, an empty ``methods``, an unknown construction or
-        option, or one that ``m.warp`` refuses.
+        option, a construction named twice, or one that ``m.warp`` refuses.
 
     See Also
     --------
@@ -151,7 +182,7 @@ def rank_constructions(
     if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
         raise ValueError(f"repeat must be an integer >= 1, got {repeat!r}")
     named = methods is not None
-    pairs = [parse_construction(s) for s in methods] if named else default_constructions()
+    pairs = parse_constructions(methods) if named else default_constructions()
     if named and not pairs:
         raise ValueError("methods is empty: name at least one construction")
     source.check_options(pairs[0][0], pairs[0][1], grid, border)

@@ -40,7 +40,7 @@ from ..data.manifest import StudyItem
 from ..files.atomic import atomic_write
 from .colormaps import VIRIDIS
 from .jobs import check_jobs, run_jobs
-from .tuning import TuneResult, label, parse_config, search_space, tune
+from .tuning import MAX_TRIALS, TuneResult, label, parse_config, search_space, tune
 
 __all__ = [
     "STUDY_OUTPUTS",
@@ -332,7 +332,7 @@ def study(
         (``parse_config``, parsed for each image's shape: a spec
         without a radius sizes it by the image diagonal); None for the default search space.
     trials : int, optional
-        The tune's trials per configuration (None: the tune's default).
+        The tune's trials per configuration, 1 to ``MAX_TRIALS`` (None: the tune's default).
     seed : int, optional
         The seed of the tune's edits.
     jobs : int, optional
@@ -390,7 +390,7 @@ def study(
     check_item_names(items)
     names = [item.name for item in items]
     if trials is not None:
-        trials = check_integer("trials", trials, 1)
+        trials = check_integer("trials", trials, 1, MAX_TRIALS)
     seed, jobs = check_seed(seed), check_jobs(jobs)
     for index, item in enumerate(items):  # before any tune: not after hours of the others
         try:

@@ -56,6 +56,7 @@ from .tuning_trials import MAGNITUDES, known_deformations, measure_config, rando
 
 __all__ = [
     "CRITERIA",
+    "MAX_TRIALS",
     "MEASURES",
     "MISS_LIMIT",
     "TuneResult",
@@ -71,6 +72,10 @@ CRITERIA = {"angle": 0.4, "smoothness": 0.2, "predictive": 0.2, "mls": 0.1, "dis
 MEASURES = ("rank", *CRITERIA)
 #: Largest distance (px) between f(p_i) and q_i for a configuration that interpolates.
 MISS_LIMIT = 0.5
+#: Most trials per configuration: each is a warp and its analysis (~0.08 s on a CPU
+#: renderer), so 1,000 over the default 42 configurations is already an hour, and a mean
+#: rank over that many trials no longer moves; a larger count is a typing slip.
+MAX_TRIALS = 1000
 #: Every statistic measured in a trial (see :mod:`.tune_trials`).
 STATISTICS = (
     "angle",
@@ -466,7 +471,7 @@ def tune(
     src_segments, dst_segments : array_like, optional
         Segment handles, (S, 2, 2) each, as for :class:`~glmls.MLS`.
     trials : int, optional
-        The user's edit and ``trials - 1`` edits of it.
+        The user's edit and ``trials - 1`` edits of it, 1 to ``MAX_TRIALS``.
     seed : int, optional
         The seed of the edits.
     configs : sequence of MLSConfig, optional
@@ -497,7 +502,8 @@ def tune(
     Raises
     ------
     ValueError
-        For a bad shape, handles (or none at all), reference points, trials (< 1), seed
+        For a bad shape, handles (or none at all), reference points, trials (< 1 or more
+        than ``MAX_TRIALS``), seed
         (< 0), grid (out of range), jobs (< 1), magnitudes (none, or one that is not a
         finite fraction in [0, 1]), an unknown angle or ``rank_by``, a blank scheduler, no
         configurations, or none that can be built for these handles.
@@ -526,7 +532,7 @@ def tune(
     shape = as_shape(shape)
     rank_by = check_choice("rank_by", rank_by, MEASURES)
     angle = check_angle_measure(angle)
-    trials, grid = check_integer("trials", trials, 1), check_grid(grid)
+    trials, grid = check_integer("trials", trials, 1, MAX_TRIALS), check_grid(grid)
     seed, jobs, scheduler = check_seed(seed), check_jobs(jobs), check_scheduler(scheduler)
     magnitudes = _check_magnitudes(magnitudes)
     if configs is None:

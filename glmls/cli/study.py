@@ -9,6 +9,7 @@ from pathlib import Path
 from .. import data
 from ..analysis.jobs import check_jobs, check_scheduler
 from ..analysis.studies import STUDY_OUTPUTS, check_item_names, study
+from ..analysis.tuning import MAX_TRIALS
 from .inputs import say
 from .options import (
     UsageError,
@@ -16,10 +17,10 @@ from .options import (
     folder_path,
     nonnegative_int,
     parse_config_specs,
-    positive_int,
     refuse_overwriting,
 )
 from .progress import Progress
+from .tune import trial_count
 
 HELP = "tune every image of a set and compare the winners"
 EXAMPLES = """
@@ -52,9 +53,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--trials",
-        type=positive_int,
+        type=trial_count,
         metavar="N",
-        help="trials (deformations) per configuration and image (default: the tune's)",
+        help=f"trials (deformations) per configuration and image, 1 to {MAX_TRIALS} "
+        "(default: the tune's)",
     )
     parser.add_argument(
         "--seed", type=nonnegative_int, default=0, help="seed of the random deformations (>= 0)"
@@ -73,12 +75,18 @@ def run(args: argparse.Namespace) -> int:
         items, source = data.read_manifest(Path(args.manifest)), args.manifest
     out = Path(args.out)
     written = [*STUDY_OUTPUTS, *(f"{item.name}/ranking.json" for item in items)]
-    # the study's outputs must not replace the manifest, nor find their places taken
-    read = {} if args.manifest is None else {Path(args.manifest): "the manifest"}
     try:
         check_item_names(items)
     except ValueError as error:
         raise UsageError(str(error)) from None
+    # the study's outputs must not replace the manifest or a file it names, nor find their
+    # places taken
+    read = {} if args.manifest is None else {Path(args.manifest): "the manifest"}
+    for item in items:
+        for field in ("image", "handles", "reference"):
+            path = getattr(item, f"{field}_path")
+            if path is not None:
+                read.setdefault(path, f"the {field} file of item {item.name}")
     refuse_overwriting([out / name for name in written], read)
     configs = args.configs
     if configs:

@@ -11,7 +11,7 @@ from pathlib import Path
 from ..analysis.jobs import DistributedUnavailableError
 from ..analysis.reporting import picture_names, report
 from ..analysis.triangles import ANGLE_MEASURES
-from ..analysis.tuning import MEASURES, label, search_space, tune
+from ..analysis.tuning import MAX_TRIALS, MEASURES, label, search_space, tune
 from ..analysis.tuning_trials import MAGNITUDES
 from ..core.config import MLSConfig
 from ..files.atomic import atomic_write
@@ -32,13 +32,14 @@ from .options import (
     add_jobs_options,
     nonnegative_int,
     parse_config_specs,
-    positive_int,
     text_table,
 )
 from .progress import Progress
 from .tune_construction import (
+    OUTPUTS,
     check_construction_options,
     configure_construction,
+    remove_former_construction,
     run_construction,
 )
 
@@ -63,13 +64,25 @@ def _magnitudes(text: str) -> float:
     return value
 
 
+def trial_count(text: str) -> int:
+    """``--trials``: an integer from 1 to :data:`MAX_TRIALS` (a count beyond it would run for
+    hours, a typing slip rather than a wish)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if not 1 <= value <= MAX_TRIALS:
+        raise argparse.ArgumentTypeError(f"expected an integer from 1 to {MAX_TRIALS}, got {value}")
+    return value
+
+
 def configure(parser: argparse.ArgumentParser) -> None:
     add_example_inputs(parser, reference_required=True)
     parser.add_argument(
         "--trials",
-        type=positive_int,
+        type=trial_count,
         default=6,
-        help="trials per configuration: the user's edit, then edits of it",
+        help=f"trials per configuration: the user's edit, then edits of it (1 to {MAX_TRIALS})",
     )
     parser.add_argument(
         "--seed", type=nonnegative_int, default=0, help="seed of the random edits (>= 0)"
@@ -162,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
     check_reference(args, reference, "the example's reference points")
     check_picture(image, name)  # the winner's report pictures it, after the tuning
     written = ["ranking.json", "ranking.csv"]
-    written += ["construction.json", "construction.csv"] if args.construction else []
+    written += list(OUTPUTS) if args.construction else []
     outputs = [Path(args.out) / name for name in written]
     keep_inputs(args, outputs + report_paths(Path(args.out) / "winner", picture_names()))
     shape = image.shape[:2]
@@ -212,6 +225,11 @@ def run(args: argparse.Namespace) -> int:
         tmp.write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
     with atomic_write(out / "ranking.csv") as tmp:
         tmp.write_text(_csv_text(result.rows), encoding="utf-8")
+    inputs = [Path(v) for v in (args.input, args.handles, args.reference) if v is not None]
+    removed = remove_former_construction(args, inputs)
+    if removed and not args.construction:
+        names = " and ".join(path.name for path in removed)
+        say(args, f"tune: removed {names} of an earlier run (no --construction this time)")
     print(ranking_table(result.rows))
     for skip in result.skipped:
         say(args, f"tune: skipped {label(MLSConfig(**skip['config']))}: {skip['reason']}")

@@ -14,7 +14,11 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.construction import DEFAULT_RADIUS
-from ..analysis.construction_ranking import parse_construction, rank_constructions
+from ..analysis.construction_ranking import (
+    parse_construction,
+    parse_constructions,
+    rank_constructions,
+)
 from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
 from ..files.atomic import atomic_write
@@ -22,13 +26,17 @@ from .inputs import make_mls, reference_or_handles, say
 from .options import UsageError, nonnegative_int, text_table
 
 __all__ = [
+    "OUTPUTS",
     "check_construction_options",
     "configure_construction",
     "construction_table",
+    "remove_former_construction",
     "run_construction",
 ]
 
 UNITS = "RMS colour difference per reference point, intensity scaled to 0-1"
+#: The files of the ranking, in ``--out``.
+OUTPUTS = ("construction.json", "construction.csv")
 
 
 def configure_construction(parser: argparse.ArgumentParser) -> None:
@@ -53,7 +61,8 @@ def configure_construction(parser: argparse.ArgumentParser) -> None:
 def check_construction_options(args: argparse.Namespace) -> None:
     """:class:`UsageError`, before any work, for ``--construction-methods`` or
     ``--construction-radius`` without ``--construction`` (they would change nothing), or a
-    construction that is not one (the ranking would otherwise fail after the whole tune)."""
+    construction that is not one or is named twice (the ranking would otherwise fail after
+    the whole tune)."""
     given = [
         option
         for option, value in (
@@ -64,11 +73,16 @@ def check_construction_options(args: argparse.Namespace) -> None:
     ]
     if given and not args.construction:
         raise UsageError(f"{', '.join(given)}: for --construction, which is not given")
-    for spec in args.construction_methods or ():
+    specs = args.construction_methods or ()
+    for spec in specs:
         try:
             parse_construction(spec)
         except (TypeError, ValueError) as error:
             raise UsageError(f"--construction-methods {spec}: {error}") from None
+    try:
+        parse_constructions(specs)
+    except ValueError as error:
+        raise UsageError(f"--construction-methods: {error}") from None
 
 
 _TABLE_COLUMNS = (
@@ -94,18 +108,71 @@ def construction_table(rows: list[dict]) -> str:
     return text_table([head for head, _, _ in _TABLE_COLUMNS], cells)
 
 
+_CSV_KEYS = ("rank", "method", "interpolation", "label", "mean", "median")
 _CSV_STATS = ("std", "min", "max", "count", "nan_count")
+_CSV_HEAD = ",".join([*_CSV_KEYS, *_CSV_STATS, "time_s"])
+#: Larger than any ranking this command writes: a file that size is someone else's.
+_MOST_BYTES = 1 << 20
 
 
 def _csv_text(rows: list[dict]) -> str:
-    keys = ["rank", "method", "interpolation", "label", "mean", "median"]
+    keys = list(_CSV_KEYS)
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow([*keys, *_CSV_STATS, "time_s"])
+    writer.writerow(_CSV_HEAD.split(","))
     for row in rows:
         stats = [row["stats"].get(k) for k in _CSV_STATS]
         writer.writerow([row[k] for k in keys] + stats + [row["time_s"]])
     return buffer.getvalue()
+
+
+def _written_here(path: Path) -> bool:
+    """Whether ``path`` is a file of the construction ranking as :func:`run_construction`
+    writes it (its keys and units, or its CSV header): only those are removed."""
+    try:
+        if not path.is_file() or path.stat().st_size > _MOST_BYTES:
+            return False
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return False
+    if path.suffix == ".csv":
+        return text.partition("\n")[0] == _CSV_HEAD
+    try:
+        document = json.loads(text)
+    except (ValueError, RecursionError):
+        return False
+    keys = {"input", "config", "settings", "units", "ranking"}
+    return isinstance(document, dict) and keys <= document.keys() and document["units"] == UNITS
+
+
+def remove_former_construction(args: argparse.Namespace, inputs: list[Path]) -> list[Path]:
+    """Remove from ``args.out`` the construction ranking of an earlier run (:data:`OUTPUTS`,
+    recognised by their content; never one of ``inputs``): beside this run's ranking it
+    would pass for this run's. A ranking this run writes takes their place later. Returns
+    the files removed; one that cannot be removed is an ``OSError``."""
+    removed = []
+    for name in OUTPUTS:
+        path = Path(args.out) / name
+        if not _written_here(path) or any(_same_file(path, other) for other in inputs):
+            continue
+        try:
+            path.unlink()
+        except FileNotFoundError:
+            continue
+        except OSError as error:
+            raise OSError(
+                f"{path}: an earlier run's, which would pass for this run's, cannot be "
+                f"removed: {error.strerror or error}"
+            ) from None
+        removed.append(path)
+    return removed
+
+
+def _same_file(path: Path, other: Path) -> bool:
+    try:
+        return path.samefile(other)
+    except OSError:
+        return False
 
 
 def run_construction(
@@ -140,9 +207,9 @@ def run_construction(
         "units": UNITS,
         "ranking": rows,
     }
-    with atomic_write(out / "construction.json") as tmp:
+    with atomic_write(out / OUTPUTS[0]) as tmp:
         tmp.write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
-    with atomic_write(out / "construction.csv") as tmp:
+    with atomic_write(out / OUTPUTS[1]) as tmp:
         tmp.write_text(_csv_text(rows), encoding="utf-8")
     print(construction_table(rows))
     if rows:

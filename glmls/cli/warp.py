@@ -248,9 +248,11 @@ def run(args: argparse.Namespace) -> int:
     files, many = image_inputs(args.input)
     outputs = targets(args.output, files, many)
     refuse_overwriting(outputs, inputs_read(args, files))
-    for source, target in zip(files, outputs, strict=True):
-        if target.suffix.lower() != source.suffix.lower() and target.name == written_name(source):
-            say(args, f"glmls warp: {source}: glmls writes no {source.suffix}; written as {target}")
+    renamed = {  # said once written: a file that is no image is skipped instead
+        index
+        for index, (source, target) in enumerate(zip(files, outputs, strict=True))
+        if target.suffix.lower() != source.suffix.lower() and target.name == written_name(source)
+    }
     options = warp_options_from_args(args)
     capture = jobs > 1 or scheduler is not None
     tasks = [
@@ -284,6 +286,13 @@ def run(args: argparse.Namespace) -> int:
                 failed.append(files[index])  # an error: said even with --quiet
                 print(f"glmls warp: skipped {outcome.error}", file=sys.stderr)
             else:
+                if index in renamed:
+                    source = files[index]
+                    say(
+                        args,
+                        f"glmls warp: {source}: glmls writes no {source.suffix}; written as "
+                        f"{outcome.target}",
+                    )
                 print(outcome.target, flush=True)
             bar.advance()
 

@@ -64,6 +64,9 @@ class StudyItem:
         Reference points for the triangle errors, (K, 2) with K >= 3.
     image_path : pathlib.Path or None
         Where the image is (:meth:`image` reads it); None for an item without a file.
+    handles_path, reference_path : pathlib.Path or None
+        The files the handles and the reference points were read from (None where they
+        were given as values): a study keeps its outputs off every file it reads.
 
     See Also
     --------
@@ -83,6 +86,8 @@ class StudyItem:
     handles: HandleSet
     reference: np.ndarray
     image_path: Path | None = None
+    handles_path: Path | None = None
+    reference_path: Path | None = None
 
     def image(self) -> np.ndarray:
         """The image's pixels, read now.
@@ -241,4 +246,6 @@ def _item(manifest: Path, where: str, entry: object) -> StudyItem:
     except ValueError as error:
         raise problem("reference", f"{files['reference']}: {error}") from None
     reference.flags.writeable = False
-    return StudyItem(name, shape, handles, reference, files["image"])
+    return StudyItem(
+        name, shape, handles, reference, files["image"], files["handles"], files["reference"]
+    )

@@ -103,6 +103,7 @@ from .handle_formats import (
 from .parsing import (
     Row,
     as_path,
+    brief,
     by_name,
     csv_rows,
     fail,
@@ -387,7 +388,8 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
     Raises
     ------
     glmls.InputFileError
-        For a missing or malformed file, one of no points, or a point beyond the ±1e6 px
+        For a missing or malformed file, one of no points, 3D points (a JSON point of three
+        numbers, a CSV header with a ``z`` column), or a point beyond the ±1e6 px
         coordinate range (which glmls's other point files refuse too).
 
     Examples
@@ -407,6 +409,14 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
         rows = csv_rows(path)
         if not rows:
             raise fail(path, "content", "no points")
+        line, header = rows[0]
+        if "z" in (name.lower() for name in header):  # by name, z would go unread
+            raise fail(
+                path,
+                f"line {line}",
+                "expected 2D points (the header x,y), got 3D points (the header "
+                f"{brief(','.join(header), 200)})",
+            )
         picked = by_name(path, rows, POINT_HEADER)
         points = table(path, picked, 2)
         where = [f"line {number}" for number, _ in picked]

@@ -9,7 +9,7 @@ import pytest
 from scipy.stats import kendalltau
 
 from glmls.analysis import studies
-from glmls.analysis.tuning import label, parse_config, search_space
+from glmls.analysis.tuning import MAX_TRIALS, label, parse_config, search_space
 from glmls.core.config import MLSConfig, image_diagonal
 from glmls.core.handleset import HandleSet
 from glmls.data import StudyItem, read_manifest
@@ -125,9 +125,11 @@ def test_bad_arguments(gl):
     twice = [items()[0], items()[0]]
     with pytest.raises(ValueError, match="repeated: small"):
         studies.study(twice, configs=["rigid:idw"], trials=1)
-    with pytest.raises(ValueError, match="trials must be an integer >= 1, got 0"):
+    with pytest.raises(ValueError, match="trials must be an integer from 1 to 1000, got 0"):
         studies.study(items(), trials=0)
-    with pytest.raises(TypeError, match=r"trials must be an integer >= 1, got 1\.0"):
+    with pytest.raises(ValueError, match="trials must be an integer from 1 to 1000, got 1001"):
+        studies.study(items(), trials=MAX_TRIALS + 1)  # not hours of work, nor memory, first
+    with pytest.raises(TypeError, match=r"trials must be an integer from 1 to 1000, got 1\.0"):
         studies.study(items(), trials=1.0)
     with pytest.raises(TypeError, match=r"configs must be a sequence of .*, got 'rigid:idw'"):
         studies.study(items(), configs="rigid:idw", trials=1)  # not read letter by letter

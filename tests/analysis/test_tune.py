@@ -293,3 +293,30 @@ def test_a_configuration_given_twice_is_ranked_once(gl):
     )
     once = tuning.tune((32, 40), SRC, DST, REFERENCE, trials=1, configs=configs, ctx=gl)
     assert sorted(r["label"] for r in once.rows) == ["rigid idw a=1", "rigid idw a=2"]
+
+
+@pytest.mark.parametrize("trials", [0, tuning.MAX_TRIALS + 1, 10**9])
+def test_trials_are_bounded_before_any_work(trials, monkeypatch):
+    """A count beyond MAX_TRIALS would run for hours: refused, naming it, before the edits
+    are drawn."""
+
+    def drawn(*args, **kwargs):
+        raise AssertionError("the edits were drawn")
+
+    monkeypatch.setattr(tuning, "random_edits", drawn)
+    text = f"trials must be an integer from 1 to {tuning.MAX_TRIALS}, got {trials}$"
+    with pytest.raises(ValueError, match=text):
+        tuning.tune((30, 40), SRC, DST, REFERENCE, trials=trials)
+
+
+def test_the_largest_trial_count_is_accepted(monkeypatch):
+    counts = []
+
+    def drawn(handles, trials, **kwargs):
+        counts.append(trials)
+        raise RuntimeError("stop here")
+
+    monkeypatch.setattr(tuning, "random_edits", drawn)
+    with pytest.raises(RuntimeError, match="stop here"):
+        tuning.tune((30, 40), SRC, DST, REFERENCE, trials=tuning.MAX_TRIALS)
+    assert counts == [tuning.MAX_TRIALS]

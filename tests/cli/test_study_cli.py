@@ -205,3 +205,63 @@ def test_a_file_where_an_items_folder_goes_is_refused_before_the_work(inputs, ca
     err = capsys.readouterr().err
     assert "out/a: the folder of an output (ranking.json)" in err, err
     assert sorted(p.name for p in (inputs / "out").iterdir()) == ["a"]
+
+
+@pytest.mark.parametrize(
+    ("field", "name"),
+    [
+        ("handles", "summary.json"),
+        ("handles", "a/ranking.json"),
+        ("reference", "table.json"),
+        ("image", "heatmap.png"),
+    ],
+)
+def test_study_keeps_an_items_file_named_like_an_output(inputs, capsys, monkeypatch, field, name):
+    """A handles, reference or image file that a manifest names, in --out under an output's
+    name, is refused before the work, and stays."""
+    monkeypatch.chdir(inputs)
+    source = {"handles": "h.json", "reference": "r.json", "image": "a.png"}[field]
+    target = inputs / "st" / name
+    target.parent.mkdir(parents=True)
+    target.write_bytes((inputs / source).read_bytes())
+    items = [{"name": "a", "image": "a.png", "handles": "h.json", "reference": "r.json"}]
+    items[0][field] = f"st/{name}"
+    (inputs / "in_out.json").write_text(json.dumps({"items": items}))
+    args = ("study", "in_out.json", "--out", "st", "--configs", "rigid:idw", "--trials", "1")
+    assert run_main(*args) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert captured.out == "" and len(lines) == 1, captured
+    assert lines[0] == (
+        f"glmls study: st/{name}: the output is the {field} file of item a, which writing it "
+        "would overwrite: write to another name or folder"
+    )
+    assert target.read_bytes() == (inputs / source).read_bytes()
+    written = [p.relative_to(inputs / "st").as_posix() for p in (inputs / "st").rglob("*")]
+    assert sorted(p for p in written if p != "a") == [name]
+
+
+def test_a_manifest_naming_3d_reference_points_in_a_csv_is_refused(inputs, capsys, monkeypatch):
+    """As a JSON file of 3D points is: a CSV's z column is not dropped without a word."""
+    (inputs / "r3.csv").write_text("x,y,z\n10,10,0\n30,10,1\n20,25,2\n12,22,3\n28,22,4\n")
+    items = [{"name": "a", "image": "a.png", "handles": "h.json", "reference": "r3.csv"}]
+    (inputs / "three.json").write_text(json.dumps({"items": items}))
+    monkeypatch.chdir(inputs)
+    assert run_main("study", "three.json", "--out", "x", "--trials", "1") == 2
+    err = capsys.readouterr().err
+    assert err == (
+        'glmls study: three.json: "items"[0] (a)."reference": r3.csv: line 1: expected 2D '
+        "points (the header x,y), got 3D points (the header 'x,y,z')\n"
+    )
+    assert not (inputs / "x").exists()
+
+
+@pytest.mark.parametrize("trials", ["0", "1001", "1000000000"])
+def test_study_bounds_the_trial_count(inputs, capsys, monkeypatch, trials):
+    monkeypatch.chdir(inputs)
+    assert run_main("study", "set.json", "--out", "x", "--trials", trials) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(
+        f"glmls study: argument --trials: expected an integer from 1 to 1000, got {trials}"
+    ), err
+    assert not (inputs / "x").exists()

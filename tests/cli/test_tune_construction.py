@@ -11,7 +11,13 @@ import numpy as np
 import pytest
 
 import glmls
+from glmls.analysis.construction_ranking import (
+    parse_construction,
+    parse_constructions,
+    rank_constructions,
+)
 from glmls.cli import tune
+from glmls.cli.main import main
 from glmls.cli.options import UsageError
 from glmls.cli.tune_construction import configure_construction, run_construction
 from glmls.core.handleset import HandleSet
@@ -89,3 +95,56 @@ def test_options_sit_beside_tunes_own():
     tune.configure(parser)  # adds the construction options beside its own, no clash
     args = parser.parse_args(["--example", "--out", "x", "--construction-radius", "3"])
     assert args.construction_radius == 3 and args.construction_methods is None
+
+
+@pytest.mark.parametrize(
+    "methods, fault",
+    [
+        (["quads", "quads"], "--construction-methods: 'quads' is named twice"),
+        (
+            ["quads", "backward", "quads:nearest"],
+            "--construction-methods: 'quads:nearest' is the same construction as 'quads' "
+            "(quads nearest): name each construction once",
+        ),
+        (["splat:linear"], "--construction-methods splat:linear: splat takes no interpolation"),
+        (["splat:nearest"], "--construction-methods splat:nearest: splat takes no interpolation"),
+        (["quads:"], "--construction-methods quads:: an empty interpolation after 'quads:'"),
+        (["backward", ":linear"], "--construction-methods :linear: unknown method ''"),
+    ],
+)
+def test_repeated_or_malformed_methods_are_refused_before_any_work(
+    tmp_path, capsys, methods, fault
+):
+    args = ["tune", "--example", "--out", str(tmp_path / "out"), "--trials", "1"]
+    assert main([*args, "--construction", "--construction-methods", *methods]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert captured.out == "" and len(lines) == 1, captured
+    assert lines[0].startswith(f"glmls tune: {fault}"), lines
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_library_refuses_them_too():
+    assert parse_construction("splat") == ("splat", "nearest")
+    assert parse_construction(("splat", "nearest")) == ("splat", "nearest")
+    for spec, message in (
+        ("splat:linear", "splat takes no interpolation, got 'linear'"),
+        (("splat", "linear"), "splat takes no interpolation, got 'linear'"),
+        ("quads:", "an empty interpolation after 'quads:'"),
+    ):
+        with pytest.raises(ValueError, match=message):
+            parse_construction(spec)
+    assert parse_constructions(["quads", "quads:linear", "splat"]) == [
+        ("quads", "nearest"),
+        ("quads", "linear"),
+        ("splat", "nearest"),
+    ]
+    for methods, message in (
+        (["quads", ("quads", "nearest")], r"\('quads', 'nearest'\) is the same construction"),
+        (["backward:linear", "backward:linear"], "'backward:linear' is named twice"),
+    ):
+        with pytest.raises(ValueError, match=message):
+            parse_constructions(methods)
+        # refused before the first warp: no MLS is needed to see it
+        with pytest.raises(ValueError, match=message):
+            rank_constructions(np.zeros((8, 8), np.uint8), None, [[1, 1]], methods=methods)

@@ -111,3 +111,18 @@ def test_a_gif_into_a_folder_is_written_as_a_png(tmp_path, gl):
     result = glmls_cli("warp", "anim.*", "many/", "--handles", "h.json", cwd=tmp_path)
     assert result.returncode == 2 and "have one name" in result.stderr
     assert not (tmp_path / "many").exists()
+
+
+def test_a_file_that_is_no_image_is_said_skipped_not_written_as_a_png(tmp_path, gl):
+    """Into a folder a file of a format glmls does not write would be NAME.png: that is
+    said once written, and a file that turns out to be no image is said skipped only."""
+    rng = np.random.default_rng(8)
+    glmls.imwrite(tmp_path / "wi" / "a.png", rng.integers(0, 256, (16, 20, 3), dtype=np.uint8))
+    (tmp_path / "wi" / "notes.txt").write_text("not an image\n")
+    write_cli_handles(tmp_path)
+    args = ("warp", "wi/*", "wb", "--handles", "h.json", "--keep-going")
+    result = glmls_cli(*args, cwd=tmp_path)
+    assert result.returncode == 1
+    assert "written as" not in result.stderr
+    assert "skipped" in result.stderr and "notes.txt" in result.stderr
+    assert sorted(p.name for p in (tmp_path / "wb").iterdir()) == ["a.png"]

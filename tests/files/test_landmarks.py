@@ -120,6 +120,9 @@ def test_an_endless_device_given_as_a_file():
         ("r.json", '{"points": []}', "no points"),
         ("r.json", '{"points": [[1, 2], [1e30, 4]]}', r'"points"[1]: [1e\+30, 4.0] lies beyond'),
         ("r.csv", "x,y\n1,2\n\n3,-2e6\n", r"line 4: [3.0, -2000000.0] lies beyond ±1e\+06 px"),
+        ("r.json", '{"points": [[1, 2, 3]]}', r'"points"[0]: expected an [x, y] pair'),
+        ("r.csv", "x,y,z\n1,2,3\n", r"line 1: expected 2D points .* \(the header 'x,y,z'\)"),
+        ("r.csv", "Z,name,X,Y\n3,a,1,2\n", r"got 3D points \(the header 'Z,name,X,Y'\)"),
     ],
 )
 def test_malformed_point_files(tmp_path, name, text, message):
