@@ -31,18 +31,20 @@ from .params import (
     label_options_of,
     param_points,
 )
-from .presets import mesh_step, preset_from
+from .presets import preset_defaults, preset_from
 
 __all__ = ["DEFAULT_WARP_OPTIONS", "Augment", "AugmentResult"]
 
 #: The warp keywords an :class:`Augment` uses unless told otherwise: the similarity MLS (as
 #: Luo et al.), bilinear sampling and the image's edge beyond its border (no black slivers
-#: where the frame is pulled in). The ``grid`` of the quads' mesh is the preset's
-#: ``warp_grid``: 4 for ``grid`` and 2 for the text presets (f's evaluations a sixteenth
-#: and a quarter of grid 1's; the pixels and the labels follow that same mesh exactly, which
-#: departs from f by about 0.1 px at most with the presets' default displacements), 1 for
-#: ``landmarks`` (each landmark lands next to its drawn target, a tenth of a pixel away), and
-#: none where a ``tolerance`` (the adaptive mesh) or ``paper-quads`` is asked for (grid 1).
+#: where the frame is pulled in). The preset's own go over these: ``warp_transform`` (affine
+#: for ``text-perspective``, whose trapezoid the similarity MLS folds) and the ``grid`` of
+#: the quads' mesh, ``warp_grid``: 4 for ``grid`` and 2 for the text presets (f's
+#: evaluations a sixteenth and a quarter of grid 1's; the pixels and the labels follow that
+#: mesh exactly, which departs from f by about 0.1 px at most with the presets' default
+#: displacements), 1 for ``landmarks`` (each landmark lands next to its drawn target, a
+#: tenth of a pixel away), and none where a ``tolerance`` (the adaptive mesh) or
+#: ``paper-quads`` is asked for (grid 1).
 DEFAULT_WARP_OPTIONS = {"transform": "similarity", "interpolation": "linear", "border": "edge"}
 
 
@@ -316,7 +318,8 @@ class Augment:
         self.seed = seed
         packed = given.pop("options", None)  # a WarpOptions: its fields, JSON in the params
         chosen = {**({} if packed is None else dataclasses.asdict(packed)), **given}
-        self.warp_options = {**DEFAULT_WARP_OPTIONS, **mesh_step(self.preset, chosen), **chosen}
+        own = preset_defaults(self.preset, chosen)
+        self.warp_options = {**DEFAULT_WARP_OPTIONS, **own, **chosen}
         check_warp_options(self.warp_options)  # what the options make together
         self.box_step: float = labels["box_step"]  # type: ignore[assignment]
         self.densify: float | None = labels["densify"]  # type: ignore[assignment]
@@ -343,7 +346,7 @@ class Augment:
 
     def __repr__(self) -> str:
         # the keywords that differ from their defaults too: the repr makes this Augment again
-        base = {**DEFAULT_WARP_OPTIONS, **mesh_step(self.preset, self.warp_options)}
+        base = {**DEFAULT_WARP_OPTIONS, **preset_defaults(self.preset, self.warp_options)}
         warp = {k: self.warp_options[k] for k in differing_options(self.warp_options, base)}
         given = inspect.signature(Augment.__init__).parameters
         labels = {k: v for k, v in self.label_options.items() if v != given[k].default}

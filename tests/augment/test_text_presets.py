@@ -136,13 +136,24 @@ def test_perspective_moves_each_corner_vertically_inwards_within_r(shape, segmen
         np.testing.assert_allclose(ys, line, rtol=0, atol=1e-9)
 
 
-@pytest.mark.parametrize("name", ["text-distort", "text-stretch", "text-perspective"])
-def test_text_presets_default_to_four_segments_and_a_similarity_mls_of_alpha_one(name):
+@pytest.mark.parametrize(
+    ("name", "transform"),
+    [
+        ("text-distort", "similarity"),
+        ("text-stretch", "similarity"),
+        ("text-perspective", "affine"),
+    ],
+)
+def test_text_presets_default_to_four_segments_and_an_mls_of_alpha_one(name, transform):
     """The toolkit's demo cuts a line into 4 patches; its warp is the similarity MLS with
-    weights 1 / d^2 (idw, alpha 1, glmls's default weight)."""
-    preset = Augment(name).preset
-    assert (preset.segments, preset.radius) == (4, None)
+    weights 1 / d^2 (idw, alpha 1, glmls's default weight); the perspective's trapezoid
+    takes the affine MLS, which the similarity MLS folds."""
+    augment = Augment(name)
+    assert (augment.preset.segments, augment.preset.radius) == (4, None)
     assert DEFAULT_WARP_OPTIONS["transform"] == "similarity"
+    assert augment.warp_options["transform"] == transform
+    assert "warp_options" not in repr(augment)  # the default, not a choice
+    assert Augment(name, warp_options={"transform": "rigid"}).warp_options["transform"] == "rigid"
     assert not {"weight", "alpha"} & set(DEFAULT_WARP_OPTIONS)
     config = glmls.MLSConfig()
     assert (config.weight, config.alpha) == ("idw", 1.0)
@@ -155,3 +166,23 @@ def test_sample_i_draws_from_its_seed_and_index(name):
     for index, p in zip([5, 0, 9], params, strict=True):
         src, dst = aug.preset.draw(np.random.default_rng((3, index)), (24, 96))
         assert p["src"] == src.tolist() and p["dst"] == dst.tolist()
+
+
+def test_the_perspective_keeps_a_trapezoid_unfolded():
+    """200 draws at R = H / 2 on 32 x 128 crops, a lattice of keypoints: with the affine MLS
+    no keypoint on the canvas is hidden by a fold, where the similarity MLS hides some in
+    about half of the draws (mirrored glyphs)."""
+    height, width, count = 32, 128, 200
+    lattice = [[x, y] for x in range(2, width - 2, 3) for y in range(4, height - 4, 2)]
+    keypoints = np.array([lattice] * count, float)
+    images = np.zeros((count, height, width), np.uint8)
+
+    def folded(**options) -> int:
+        out = Augment("text-perspective", seed=0, **options)(images, keypoints=keypoints)
+        k = out.keypoints
+        on = (k[..., 0] >= 0) & (k[..., 0] <= width - 1) & (k[..., 1] >= 0)
+        on &= k[..., 1] <= height - 1
+        return int((on & ~out.keypoints_valid).any(axis=1).sum())
+
+    assert folded() == 0
+    assert folded(warp_options={"transform": "similarity"}) > count // 4
