@@ -37,7 +37,7 @@ from .engine.kernel3 import MLSKernel3
 from .engine.passes3 import evaluate_points3, invert_points3, length_unit
 from .forking import forwarded, on_gpu
 from .gl.context import forked_from_gl, get_context
-from .imaging.inverse import accepted
+from .imaging.inverse import accept_residual
 from .mls import MLS, InverseMLS
 from .volume import volume_bounds, volume_coordinate_map, warp_volume
 
@@ -776,12 +776,12 @@ class InverseMLS3(InverseMLS):
         s, residual = invert_points3(m.kernel, points, guess)  # type: ignore[arg-type]
         unit = length_unit(m.kernel)  # type: ignore[arg-type]
         targets = points - m.kernel.offset  # u in the GPU's frame of the targets
-        valid = accepted(m.scaling, targets, s, residual, unit=unit, f=m)
+        valid = residual <= accept_residual(m.scaling, targets, s, unit=unit)
         if not valid.all():
             missed = np.flatnonzero(~valid)
             s[missed], residual[missed] = self._from_lattice(points[missed], s[missed])
-            valid[missed] = accepted(
-                m.scaling, targets[missed], s[missed], residual[missed], unit=unit, f=m
+            valid[missed] = residual[missed] <= accept_residual(
+                m.scaling, targets[missed], s[missed], unit=unit
             )
         s[~valid] = np.nan
         return s, valid

@@ -329,21 +329,14 @@ class Scaling:
         return cls((float(center[0]), float(center[1])), float(scale))
 
 
-def float32_rounding(
-    scaling, u: np.ndarray, s: np.ndarray, steps: float, stretch: np.ndarray | None = None
-) -> np.ndarray:
+def float32_rounding(scaling, u: np.ndarray, s: np.ndarray, steps: float) -> np.ndarray:
     """(K,) pixels: ``steps`` float32 steps of the larger scaled coordinate of the points
     ``u`` and ``s`` (K, D) (of 1 where both lie nearer the centre; a NaN counts as 0): how
     near float32 on the GPU can bring f(s) to u there. ``scaling``: a :class:`Scaling`, or
-    per point a centre (K, D) and a scale (K,) alike. ``stretch`` (K,): how many times f
-    magnifies lengths at s (1 where none is given, or less), which the rounding of s
-    itself takes into f(s)."""
+    per point a centre (K, D) and a scale (K,) alike."""
     center = np.asarray(scaling.center, np.float64)
     with np.errstate(invalid="ignore"):
-        far_s = np.abs(s - center).max(axis=1)
-        if stretch is not None:
-            far_s = far_s * np.maximum(np.nan_to_num(stretch, nan=1.0), 1.0)
-        far = np.maximum(np.abs(u - center).max(axis=1), far_s)
+        far = np.maximum(np.abs(u - center).max(axis=1), np.abs(s - center).max(axis=1))
     far = np.nan_to_num(far / scaling.scale, nan=0.0)
     return steps * float(np.finfo(np.float32).eps) * np.maximum(far, 1.0) * scaling.scale
 

@@ -12,12 +12,11 @@ kernel.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import moderngl
 import numpy as np
 
-from ..core.handles import COORDINATE_LIMIT, Scaling, float32_rounding
+from ..core.handles import Scaling, float32_rounding
 from ..core.mesh import MeshLattice
 from ..engine.kernel import MLSKernel
 from ..engine.passes3 import STEP_BOX
@@ -43,7 +42,6 @@ __all__ = [
     "POINTS_TOLERANCE",
     "InverseSolver",
     "accept_residual",
-    "accepted",
     "guess_size",
     "length_unit",
 ]
@@ -62,49 +60,13 @@ ACCEPT_STEPS = 4.0
 
 
 def accept_residual(
-    scaling: Scaling,
-    u: np.ndarray,
-    s: np.ndarray,
-    *,
-    unit: float = 1.0,
-    stretch: np.ndarray | None = None,
+    scaling: Scaling, u: np.ndarray, s: np.ndarray, *, unit: float = 1.0
 ) -> np.ndarray:
     """(K,) the residual |f(s) - u| (pixels) up to which s counts as a preimage of the
     points ``u``, (K, D) pixels: :data:`NEWTON_ACCEPT` times ``unit`` (the length of a
     pixel, less for handles in a small box: :func:`length_unit`), or :data:`ACCEPT_STEPS`
-    float32 steps of the larger scaled coordinate of u and s, times the scale, where more;
-    s's coordinate times ``stretch`` ((K,), how many times f magnifies lengths at s, 1 where
-    not given): where f blows a pixel up a thousandfold, s's own rounding moves f(s) by
-    more than :data:`NEWTON_ACCEPT` (``warp/newton.glsl``'s warp_accept alike)."""
-    rounding = float32_rounding(scaling, u, s, ACCEPT_STEPS, stretch)
-    return np.maximum(NEWTON_ACCEPT * unit, rounding)
-
-
-def accepted(
-    scaling: Scaling,
-    u: np.ndarray,
-    s: np.ndarray,
-    residual: np.ndarray,
-    *,
-    unit: float,
-    f: Callable[[np.ndarray], np.ndarray],
-) -> np.ndarray:
-    """(K,) bool: the points s (K, D) whose ``residual`` |f(s) - u| (pixels) lies within
-    :func:`accept_residual`, with f's stretch at s where the residual is above it without:
-    where f magnifies, s's own rounding shows in f(s). ``f`` evaluates f (as the GPU does)
-    at points; the stretch is the longer column of its Jacobian by forward differences of a
-    quarter ``unit`` (not M: a rigid f magnifies with a rotation for M)."""
-    valid = residual <= accept_residual(scaling, u, s, unit=unit)
-    with np.errstate(invalid="ignore"):
-        doubt = ~valid & (np.abs(s) <= COORDINATE_LIMIT - 1).all(axis=1)
-    if doubt.any():
-        at, step = s[doubt], 0.25 * unit
-        probes = f(np.concatenate([at, *(at + axis for axis in np.eye(at.shape[1]) * step)]))
-        values = probes.reshape(-1, *at.shape)
-        stretch = np.linalg.norm(values[1:] - values[0], axis=2).max(axis=0) / step
-        accept = accept_residual(scaling, u[doubt], at, unit=unit, stretch=stretch)
-        valid[doubt] = residual[doubt] <= accept
-    return valid
+    float32 steps of the larger scaled coordinate of u and s, times the scale, where more."""
+    return np.maximum(NEWTON_ACCEPT * unit, float32_rounding(scaling, u, s, ACCEPT_STEPS))
 
 
 def length_unit(kernel: MLSKernel) -> float:

@@ -134,9 +134,7 @@ void main() {
     // whose point shows another sheet of f is a start; else the first's point and u are,
     // then every covered neighbour. The first pass's covered pixels are the only ones read:
     // this pass writes none of them.
-    // (the first pass's stretch is not kept: 1, so that a pixel it took by its stretch
-    // alone, then outside the source, is solved again from every start)
-    bool converged = residual <= warp_accept(u_accept, u_accept_steps, u, s, 1.0);
+    bool converged = residual <= warp_accept(u_accept, u_accept_steps, u, s);
     uint starts = 0u;
     for (int k = 0; k < 24; ++k) {
         ivec2 q = p + WARP_NEIGHBOURS[k];
@@ -168,9 +166,9 @@ void main() {
                     s = d.best;
                     residual = d.least;
                 }
-                done = residual <= warp_accept(u_accept, u_accept_steps, u, s, d.stretch) &&
+                done = residual <= warp_accept(u_accept, u_accept_steps, u, s) &&
                        warp_inside(s, 0.0);
-            } else if (d.least <= warp_accept(u_accept, u_accept_steps, u, d.best, d.stretch) &&
+            } else if (d.least <= warp_accept(u_accept, u_accept_steps, u, d.best) &&
                        warp_inside(d.best, 0.0)) {
                 s = d.best;
                 residual = d.least;
@@ -204,13 +202,12 @@ void main() {
     vec4 guess = imageLoad(u_map, at);
     vec2 s = guess.z > 0.5 ? (guess.xy - u_center) / u_scale : u;
     float residual;
-    float stretch;
     // steps of at most a tenth of the image from the mesh's guess; from u itself (beyond the
     // mesh's reach, where f is close to its far-field fit) as long as Newton asks: a map that
     // shrinks the plane tenfold puts u's preimage ten times as far out
     float max_step = guess.z > 0.5 ? 0.2 : 1e30;
-    s = warp_newton(s, u, u_tolerance / u_scale, max_step, residual, stretch);
-    bool converged = residual <= warp_accept(u_accept, u_accept_steps, u, s, stretch);
+    s = warp_newton(s, u, u_tolerance / u_scale, max_step, residual);
+    bool converged = residual <= warp_accept(u_accept, u_accept_steps, u, s);
     bool covered = converged && warp_inside(s, 0.0);
     // listed for the second pass: no preimage found, or one outside the source where
     // another may lie inside (next to a fold): by at most Newton's longest step where the

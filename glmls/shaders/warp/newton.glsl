@@ -20,18 +20,10 @@ uniform float u_newton_unit;
 // The residual (scaled) up to which s counts as a preimage of u (scaled): ``accept`` (pixels),
 // or ``steps`` float32 steps of the larger coordinate of u and s where that is more: far from
 // the scaling's centre float32 cannot tell f(s) from u to a twentieth of a pixel
-// (glmls.imaging.inverse.accept_residual). ``stretch``: the longer column of f's Jacobian at
-// s (1 where not known), which magnifies s's own rounding: where f blows a source pixel up a
-// thousandfold, a float32 step of s moves f(s) by more than the pixels accepted.
-float warp_accept(float accept, float steps, vec2 u, vec2 s, float stretch) {
-    float far_u = max(1.0, max(abs(u.x), abs(u.y)));
-    float far_s = max(1.0, stretch) * max(abs(s.x), abs(s.y));
-    return max(accept / u_scale, steps * 1.1920929e-7 * max(far_u, far_s));
-}
-
-// The longer column of a Jacobian (df/dx, df/dy): warp_accept's stretch.
-float warp_stretch(vec2 jx, vec2 jy) {
-    return max(length(jx), length(jy));
+// (glmls.imaging.inverse.accept_residual).
+float warp_accept(float accept, float steps, vec2 u, vec2 s) {
+    float far = max(1.0, max(max(abs(u.x), abs(u.y)), max(abs(s.x), abs(s.y))));
+    return max(accept / u_scale, steps * 1.1920929e-7 * far);
 }
 
 // The most evaluations of f one start of damped Newton makes: f at the start, three a step
@@ -65,16 +57,13 @@ int warp_evaluations(int most) {
 
 // The last iterate from ``s``: stops once |f(s) - u| <= tolerance (scaled), after
 // WARP_NEWTON_STEPS steps (fewer where warp_evaluations allows fewer), or where f is singular (a fold's edge); ``residual`` is its
-// |f(s) - u|, scaled, and ``stretch`` warp_stretch of the last step's Jacobian (1 where no
-// step was taken). A step goes at most ``max_step`` (scaled): far from the solution,
+// |f(s) - u|, scaled. A step goes at most ``max_step`` (scaled): far from the solution,
 // Newton's step may overshoot.
-vec2 warp_newton(vec2 s, vec2 u, float tolerance, float max_step, out float residual,
-                 out float stretch) {
+vec2 warp_newton(vec2 s, vec2 u, float tolerance, float max_step, out float residual) {
     float h = 0.25 * u_newton_unit / u_scale;   // a quarter pixel: float32 noise in f ~1e-4 of it
     // three evaluations a step (f and its two differences), and one for the last f
     int steps = (warp_evaluations(1 + 3 * WARP_NEWTON_STEPS) - 1) / 3;
     residual = 0.0;
-    stretch = 1.0;
     for (int k = 0; ; ++k) {
         vec2 r = mls_eval(s).f - u;
         residual = length(r);
@@ -84,7 +73,6 @@ vec2 warp_newton(vec2 s, vec2 u, float tolerance, float max_step, out float resi
         vec2 fs = r + u;
         vec2 jx = (mls_eval(s + vec2(h, 0.0)).f - fs) / h;   // df/dx
         vec2 jy = (mls_eval(s + vec2(0.0, h)).f - fs) / h;   // df/dy
-        stretch = warp_stretch(jx, jy);
         float det = jx.x * jy.y - jy.x * jx.y;
         if (!(abs(det) > 1e-12)) {
             break;   // f is singular here (a fold's edge): keep the best point so far
@@ -123,7 +111,6 @@ struct WarpDamped {
     vec2 best;       // the iterate of the least residual so far
     float least;
     vec2 jx;         // df/dx, between the two differences
-    float stretch;   // warp_stretch of the last Jacobian (1 before the first)
     vec2 step;       // the step tried, halved while it raises the residual
     int phase;       // WARP_DAMPED_*
     int steps;       // the steps taken
@@ -139,7 +126,6 @@ WarpDamped warp_damped_begin(vec2 start) {
     d.best = start;
     d.least = 0.0;
     d.jx = vec2(0.0);
-    d.stretch = 1.0;
     d.step = vec2(0.0);
     d.phase = WARP_DAMPED_START;
     d.steps = 0;
@@ -177,7 +163,6 @@ void warp_damped_take(inout WarpDamped d, vec2 f, vec2 u, float h, float toleran
     } else if (d.phase == WARP_DAMPED_DY) {
         vec2 jx = d.jx;
         vec2 jy = (f - (d.r + u)) / h;   // df/dy
-        d.stretch = warp_stretch(jx, jy);
         float det = jx.x * jy.y - jy.x * jx.y;
         vec2 step = vec2(jy.y * d.r.x - jy.x * d.r.y, jx.x * d.r.y - jx.y * d.r.x) / det;
         float len = length(step);
