@@ -113,8 +113,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     warp.add_argument(
         "--transform",
         choices=("affine", "similarity", "rigid"),
-        default="similarity",
-        help="the MLS transform",
+        default=None,
+        help="the MLS transform (default: the preset's, affine for text-perspective, "
+        "else similarity)",
     )
     warp.add_argument(
         "--interpolation",
@@ -391,11 +392,9 @@ def run(args: argparse.Namespace) -> int:
         jobs, scheduler = check_jobs(args.jobs), check_scheduler(args.scheduler)
     except (ImportError, TypeError, ValueError) as error:
         raise UsageError(str(error)) from None
-    warp_options = {
-        "transform": args.transform,
-        "interpolation": args.interpolation,
-        "border": args.border,
-    }
+    warp_options = {"interpolation": args.interpolation, "border": args.border}
+    if args.transform is not None:  # else the preset's own
+        warp_options["transform"] = args.transform
     try:  # the configuration, checked before any work
         Augment(
             args.preset,

@@ -32,9 +32,11 @@ def inputs(tmp_path):
     return tmp_path
 
 
-def test_augment_writes_what_the_api_gives(inputs, gl):
+@pytest.mark.parametrize("preset", ["text-distort", "text-perspective"])
+def test_augment_writes_what_the_api_gives(inputs, gl, preset):
+    """Each preset's defaults, its transform too (text-perspective: affine)."""
     result = glmls_cli(
-        "augment", "in", "out", "--n", "3", "--preset", "text-distort", "--seed", "5",
+        "augment", "in", "out", "--n", "3", "--preset", preset, "--seed", "5",
         "--labels", "labels.json", cwd=inputs,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
@@ -43,7 +45,7 @@ def test_augment_writes_what_the_api_gives(inputs, gl):
     assert names == sorted([*expected_names, "labels.json"])
     assert result.stdout.split() == [str(Path("out") / n) for n in expected_names]
     labels = json.loads((inputs / "out" / "labels.json").read_text())
-    aug = Augment("text-distort", seed=5)
+    aug = Augment(preset, seed=5)
     image = glmls.imread(inputs / "in" / "a.png")
     api = aug(
         np.stack([image] * 3),
@@ -57,6 +59,7 @@ def test_augment_writes_what_the_api_gives(inputs, gl):
         np.testing.assert_allclose(labels[name]["keypoints"], api.keypoints[k])
         np.testing.assert_allclose(labels[name]["boxes"], api.boxes[k])
         assert labels[name]["params"] == api.params[k]
+        assert labels[name]["params"]["options"]["transform"] == aug.warp_options["transform"]
     grey = glmls.imread(inputs / "in" / "b.png")
     b = aug(grey[None], keypoints=[[[8, 8]]], indices=[4])  # second input: indices 3, 4, 5
     np.testing.assert_array_equal(glmls.imread(inputs / "out" / "b_001.png"), b.images[0])
