@@ -83,8 +83,8 @@ def run(args: argparse.Namespace) -> int:
     # places taken
     read = {} if args.manifest is None else {Path(args.manifest): "the manifest"}
     for item in items:
-        for field in ("image", "handles", "reference"):
-            path = getattr(item, f"{field}_path")
+        files = (item.image_path, item.handles_path, item.reference_path)
+        for field, path in zip(("image", "handles", "reference"), files, strict=True):
             if path is not None:
                 read.setdefault(path, f"the {field} file of item {item.name}")
     refuse_overwriting([out / name for name in written], read)

@@ -110,19 +110,19 @@ def construction_table(rows: list[dict]) -> str:
 
 _CSV_KEYS = ("rank", "method", "interpolation", "label", "mean", "median")
 _CSV_STATS = ("std", "min", "max", "count", "nan_count")
-_CSV_HEAD = ",".join([*_CSV_KEYS, *_CSV_STATS, "time_s"])
+_CSV_COLUMNS = (*_CSV_KEYS, *_CSV_STATS, "time_s")
+_CSV_HEAD = ",".join(_CSV_COLUMNS)
 #: Larger than any ranking this command writes: a file that size is someone else's.
 _MOST_BYTES = 1 << 20
 
 
 def _csv_text(rows: list[dict]) -> str:
-    keys = list(_CSV_KEYS)
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(_CSV_HEAD.split(","))
+    writer.writerow(_CSV_COLUMNS)
     for row in rows:
         stats = [row["stats"].get(k) for k in _CSV_STATS]
-        writer.writerow([row[k] for k in keys] + stats + [row["time_s"]])
+        writer.writerow([row[k] for k in _CSV_KEYS] + stats + [row["time_s"]])
     return buffer.getvalue()
 
 
