@@ -58,6 +58,18 @@ def _check_handles(count: int, spelled: str) -> None:
         )
 
 
+def _check_spacing(name: str, count: int, gaps: int, length: int, axis: str) -> None:
+    """``ValueError`` where ``count`` handles along an image ``length`` pixels long (its
+    ``axis``) leave ``gaps`` gaps narrower than a pixel: finer than the pixels they move,
+    and a cost that grows with their number for nothing (a text crop 128 wide cut into
+    500,000 segments warps for minutes)."""
+    if gaps > length:
+        raise ValueError(
+            f"{name} = {count:,} is more than one per pixel of the image's {axis} "
+            f"({length}): at most {length + count - gaps:,} for this image"
+        )
+
+
 def _check_length(preset: object, name: str, *, optional: bool = False) -> None:
     """``preset``'s ``name``, a magnitude (a real option,
     :func:`~glmls.core.config.check_real`), stored as a float: ``TypeError`` naming ``name``
@@ -151,7 +163,9 @@ class GridPreset:
     Parameters
     ----------
     rows, cols : int, default 4
-        The grid's size (>= 2 each; ``rows * cols`` at most :data:`MAX_HANDLES`, 2**20).
+        The grid's size (>= 2 each; ``rows * cols`` at most :data:`MAX_HANDLES`, 2**20;
+        and at most H + 1 rows and W + 1 columns on an H x W image, handles a pixel apart:
+        a draw on a smaller image raises ``ValueError``).
     displacement : float, default 0.03
         The largest offset per axis: a fraction of the image's width (x) and height (y)
         with ``units="fraction"``, pixels with ``units="pixels"``.
@@ -215,6 +229,8 @@ class GridPreset:
         >>> bool((src == dst).all()), src[0].tolist(), src[-1].tolist()
         (True, [-0.5, -0.5], [7.5, 7.5])
         """
+        _check_spacing("rows", self.rows, self.rows - 1, shape[0], "height")
+        _check_spacing("cols", self.cols, self.cols - 1, shape[1], "width")
         src = _grid(tuple(shape), self.rows, self.cols).copy()
         return src, src + _jitter(rng, src.shape, shape, self.displacement, self.units)
 
@@ -294,6 +310,7 @@ class _TextPreset:
         >>> src.tolist()
         [[-0.5, -0.5], [4.5, -0.5], [9.5, -0.5], [-0.5, 3.5], [4.5, 3.5], [9.5, 3.5]]
         """
+        _check_spacing("segments", self.segments, self.segments, shape[1], "width")
         xs, (top, bottom) = _fiducials(shape, self.segments)
         radius = self._default_radius(shape) if self.radius is None else float(self.radius)
         count = len(xs)
@@ -336,7 +353,8 @@ class TextDistortPreset(_TextPreset):
     ----------
     segments : int, default 4
         The patches along the width (2 (segments + 1) fiducial points, at most
-        :data:`MAX_HANDLES`).
+        :data:`MAX_HANDLES`; and at most W, patches a pixel wide, on an image W wide: a
+        draw on a narrower image raises ``ValueError``).
     radius : float or None, default None
         R in pixels; None: W / segments / 3.
 
@@ -384,7 +402,8 @@ class TextStretchPreset(_TextPreset):
     ----------
     segments : int, default 4
         The patches along the width (2 (segments + 1) fiducial points, at most
-        :data:`MAX_HANDLES`).
+        :data:`MAX_HANDLES`; and at most W, patches a pixel wide, on an image W wide: a
+        draw on a narrower image raises ``ValueError``).
     radius : float or None, default None
         R in pixels; None: 4/5 W / segments.
 
@@ -438,7 +457,8 @@ class TextPerspectivePreset(_TextPreset):
     ----------
     segments : int, default 4
         The patches along the width (2 (segments + 1) fiducial points, at most
-        :data:`MAX_HANDLES`).
+        :data:`MAX_HANDLES`; and at most W, patches a pixel wide, on an image W wide: a
+        draw on a narrower image raises ``ValueError``).
     radius : float or None, default None
         R in pixels; None: H / 2.
 

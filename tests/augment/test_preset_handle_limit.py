@@ -5,8 +5,10 @@ process killed before :func:`glmls.warp_batch` could refuse them)."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from helpers import glmls_cli
+from PIL import Image
 
 from glmls.augment import MAX_HANDLES, Augment, GridPreset, TextDistortPreset
 
@@ -44,5 +46,64 @@ def test_the_command_line_refuses_it_in_one_line(tmp_path):
     )
     assert result.returncode == 2, result.stderr
     assert "900,000,000 handles per image" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    ("preset", "options", "shape", "message"),
+    [
+        (
+            "text-distort",
+            {"segments": 500_000},
+            (32, 128),
+            r"images\[1\]: segments = 500,000 is more than one per pixel of the image's width "
+            r"\(128\): at most 128 for this image",
+        ),
+        (
+            "text-stretch",
+            {"segments": 129},
+            (32, 128),
+            r"images\[1\]: segments = 129 .* at most 128",
+        ),
+        ("text-perspective", {}, (32, 3), r"images\[1\]: segments = 4 .* width \(3\): at most 3"),
+        ("grid", {"rows": 34}, (32, 128), r"images\[1\]: rows = 34 .* height \(32\): at most 33"),
+        (
+            "grid",
+            {"cols": 130},
+            (32, 128),
+            r"images\[1\]: cols = 130 .* width \(128\): at most 129",
+        ),
+    ],
+)
+def test_handles_finer_than_the_pixels_are_refused_naming_the_image(
+    preset, options, shape, message
+):
+    """More handles than pixels along an axis move nothing the pixels show and cost their
+    number: 500,000 segments on a 128-wide crop ran for minutes. Refused at the draw, naming
+    the image (the image before it is wide enough)."""
+    aug = Augment(preset, **options)
+    with pytest.raises(ValueError, match=message):
+        aug.draw([(64, 600_000), shape])
+
+
+@pytest.mark.parametrize(
+    ("preset", "options", "count"),
+    [("text-stretch", {"segments": 128}, 2 * 129), ("grid", {"rows": 33, "cols": 129}, 33 * 129)],
+)
+def test_handles_a_pixel_apart_are_taken(preset, options, count):
+    (params,) = Augment(preset, **options).draw([(32, 128)])
+    assert np.asarray(params["src"]).shape == (count, 2)
+    assert np.isfinite(params["dst"]).all()
+
+
+def test_the_command_line_refuses_handles_finer_than_the_pixels_in_one_line(tmp_path):
+    Image.fromarray(np.zeros((32, 128, 3), np.uint8)).save(tmp_path / "line.png")
+    result = glmls_cli(
+        "augment", "line.png", "out", "--preset", "text-distort", "--segments", "500000",
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert result.returncode == 2, result.stderr
+    assert "segments = 500,000 is more than one per pixel" in result.stderr, result.stderr
     assert len(result.stderr.strip().splitlines()) == 1, result.stderr
     assert not (tmp_path / "out").exists()
