@@ -33,7 +33,7 @@ from .gl import helper
 from .gl.context import GLContext, forked_from_gl, get_context
 from .imaging.adaptive import ROOT_STEP, AdaptiveMesh, check_adaptive, interpolate
 from .imaging.frame import Bounds
-from .imaging.inverse import accept_residual, length_unit
+from .imaging.inverse import accepted, length_unit
 from .imaging.options import FIELDS, WarpOptions, default
 from .imaging.pipeline import GUESS_MESH_POINTS, WarpPipeline
 from .volume.options import VOLUME_WARP_KEYWORDS
@@ -1053,14 +1053,17 @@ class InverseMLS:
     (``glmls.imaging.frame.border_margin``, within that many mesh points) and drawn over
     a canvas that holds them, then Newton's method on f, stopping below 1e-4 px. f is the MLS's
     own, as ``m(points)`` evaluates it, so ``m(inv(u))`` is u within about 1e-3 px (float32
-    on the GPU). A pixel here is the handles' unit, or less where the box of the handles
-    (and of the MLS's ``shape``) is smaller than 32 units
+    on the GPU) where f stretches the plane little; where it magnifies, within float32's
+    rounding of s times the stretch (a thousandfold: a few tenths of a pixel). A pixel
+    here is the handles' unit, or less where the box of the handles (and of the MLS's
+    ``shape``) is smaller than 32 units
     (``glmls.imaging.inverse.length_unit``), so that handles in metres get the inverse
     that the same handles in millimetres do.
 
     Which points have a preimage: u has one where Newton ends with |f(s) - u| <= 0.05 px
     (or 4 float32 steps of the coordinates where that is more, far from the image and the
-    handles: ``glmls.imaging.inverse.accept_residual``), for s anywhere in the plane
+    handles, s's steps times f's stretch there where f magnifies:
+    ``glmls.imaging.inverse.accepted``), for s anywhere in the plane
     (not only inside the image: ``skimage.transform.warp`` then samples outside the image by
     its ``mode``, as glmls's ``border`` does). Elsewhere the
     row is NaN: where f leaves u uncovered (e.g. where a compact-support weight's reach
@@ -1220,7 +1223,7 @@ class InverseMLS:
         shape, grid = self._guess_mesh()
         s, residual = pipeline.inverse_points(m, points, shape, grid=grid)
         targets = points - m.kernel.offset  # u as the GPU has it
-        valid = residual <= accept_residual(m.scaling, targets, s, unit=length_unit(m.kernel))
+        valid = accepted(m.scaling, targets, s, residual, unit=length_unit(m.kernel), f=m)
         s[~valid] = np.nan
         return s, valid
 

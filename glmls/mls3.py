@@ -37,7 +37,7 @@ from .engine.kernel3 import MLSKernel3
 from .engine.passes3 import evaluate_points3, invert_points3, length_unit
 from .forking import forwarded, on_gpu
 from .gl.context import forked_from_gl, get_context
-from .imaging.inverse import accept_residual
+from .imaging.inverse import accepted
 from .mls import MLS, InverseMLS
 from .volume import volume_bounds, volume_coordinate_map, warp_volume
 
@@ -708,9 +708,10 @@ class InverseMLS3(InverseMLS):
     distance from the handles' box (``glmls.engine.passes3.NEWTON_FAR3``): points across
     glmls's coordinate range find theirs. A row is NaN where Newton does not end within
     0.05 voxel of u (no preimage, or none found), or, far out where that is more, within 4
-    float32 steps of the larger coordinate of u and s (as in 2D:
-    ``glmls.imaging.inverse.accept_residual``); a voxel is the handles' unit, or less where
-    their box is smaller than 32 units (``glmls.engine.passes3.length_unit``).
+    float32 steps of the larger coordinate of u and s, s's times f's stretch there where f
+    magnifies (as in 2D: ``glmls.imaging.inverse.accepted``); a voxel is the handles'
+    unit, or less where their box is smaller than 32 units
+    (``glmls.engine.passes3.length_unit``).
     ``return_valid=True`` also returns the mask of the rows that have one. Where f folds, u
     has several preimages and one of them is found.
 
@@ -776,12 +777,12 @@ class InverseMLS3(InverseMLS):
         s, residual = invert_points3(m.kernel, points, guess)  # type: ignore[arg-type]
         unit = length_unit(m.kernel)  # type: ignore[arg-type]
         targets = points - m.kernel.offset  # u in the GPU's frame of the targets
-        valid = residual <= accept_residual(m.scaling, targets, s, unit=unit)
+        valid = accepted(m.scaling, targets, s, residual, unit=unit, f=m)
         if not valid.all():
             missed = np.flatnonzero(~valid)
             s[missed], residual[missed] = self._from_lattice(points[missed], s[missed])
-            valid[missed] = residual[missed] <= accept_residual(
-                m.scaling, targets[missed], s[missed], unit=unit
+            valid[missed] = accepted(
+                m.scaling, targets[missed], s[missed], residual[missed], unit=unit, f=m
             )
         s[~valid] = np.nan
         return s, valid

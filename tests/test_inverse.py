@@ -337,6 +337,54 @@ def test_a_translation_near_the_coordinate_limit_keeps_every_pixel(gl):
     assert (batch == 200).all()
 
 
+@pytest.mark.parametrize("transform", ["affine", "rigid"])
+def test_a_thousandfold_magnification_keeps_every_pixel(gl, transform):
+    """Targets a thousand times as far apart as the sources: a float32 step of a preimage
+    moves f(s) by more than the 0.05 px accepted elsewhere, so the residual accepted grows
+    with f's stretch at s (backward, the batch's backward, the inverse at points). Each
+    preimage is within float32's reach of the float64 one: a few thousandths of a source
+    pixel."""
+    rng = np.random.default_rng(1)
+    src = rng.uniform(0, 63, (8, 2))
+    center = np.array([31.5, 31.5])
+    dst = (src - center) * 1000 + center + rng.normal(0, 3000, (8, 2))
+    frame = {"output_shape": (64, 64), "origin": (0.0, 0.0)}
+    rows, cols = np.mgrid[:64, :64]
+    image = ((cols // 4 + rows // 4) % 2 * 255).astype(np.uint8)
+    u = np.stack([cols, rows], -1).reshape(-1, 2).astype(float)
+    with glmls.MLS(src, dst, transform=transform, ctx=gl) as m:
+        xy = m.coordinate_map((64, 64), **frame).reshape(-1, 2).astype(np.float64)
+        backward = m.warp(image, method="backward", background=7, **frame)
+        quads = m.warp(image, method="quads", background=7, **frame)
+        s, valid = m.inverse(u[::97], return_valid=True)
+        batch = glmls.warp_batch(
+            image[None], src[None], dst[None], transform=transform, method="backward",
+            background=7, ctx=gl, **frame,
+        )  # fmt: skip
+    assert (backward != 7).all()
+    assert (backward == quads).mean() > 0.999  # quads: the mesh's, not f's, at cells' edges
+    assert_array_equal(batch[0], backward)
+    assert valid.all()
+    # |f(s) - u| in float64, over f's stretch (~1,000 here): the error of s, source pixels
+    assert (back_error(m, xy, u) / 1000).max() < 5e-3
+    assert (back_error(m, s, u[::97]) / 1000).max() < 5e-3
+
+
+def test_a_thousandfold_magnification_in_3d_keeps_every_point(gl):
+    """The inverse at points in 3D accepts the residual that f's stretch makes of s's
+    rounding, as in 2D."""
+    rng = np.random.default_rng(1)
+    src = rng.uniform(0, 63, (10, 3))
+    center = np.full(3, 31.5)
+    dst = (src - center) * 1000 + center + rng.normal(0, 3000, (10, 3))
+    u = rng.uniform(20, 40, (20, 3))
+    with glmls.MLS(src, dst, transform="affine", ctx=gl) as m:
+        s, valid = m.inverse(u, return_valid=True)
+    assert valid.all()
+    f = reference.mls(src, dst, s, m.config)[0]
+    assert (np.linalg.norm(f - u, axis=1) / 1000).max() < 5e-3  # s's error, source voxels
+
+
 def _preimages_inside(m: glmls.MLS, u: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """Whether each point of ``u`` has a preimage in the image's box by f in float64: the
     nearest of f's values on a quarter-pixel lattice of sources, refined by Newton."""
@@ -471,3 +519,41 @@ def test_where_f_is_the_identity_the_inverse_is_the_point_itself(gl, shape):
         moved = m(s[2:])
     assert valid.all() and np.array_equal(s[:2], far[:2])
     assert not np.array_equal(s[2], far[2]) and np.abs(moved - far[2:]).max() < 1e-3
+
+
+@pytest.mark.parametrize("shift", [(1000.0, 0.0), (0.0, 1000.0), (-700.0, -700.0)])
+def test_no_point_is_taken_across_a_compact_weights_jump(gl, shift):
+    """Where a compact weight's reach ends, f jumps: a difference across the jump measures
+    the jump, not a stretch of f, and must not widen the residual accepted. Points on a
+    ring about that edge: each one taken has its preimage within the residual accepted by
+    the float64 reference (float32's few thousandths over 0.05 px)."""
+    src = np.array([[2000.0, 0.0], [-2000.0, 0.0]])
+    dst = src + [shift, (0.0, 0.0)]
+    options = {"weight": "cressman", "radius": 100.0}
+    rng = np.random.default_rng(0)
+    angle, radius = rng.uniform(0, 2 * np.pi, 600), 100 + rng.uniform(-6, 6, 600)
+    u = np.c_[2000 + radius * np.cos(angle), radius * np.sin(angle)]
+    with glmls.MLS(src, dst, ctx=gl, **options) as m:
+        s, valid = m.inverse(u, return_valid=True)
+    assert 0 < valid.sum() < len(u)
+    f = reference.mls(src, dst, s[valid], **options)[0]
+    assert np.linalg.norm(f - u[valid], axis=1).max() < NEWTON_ACCEPT + 2e-3
+
+
+@pytest.mark.parametrize(
+    ("move", "origin"), [((-3000, 0), (3820, 2000)), ((0, -1500), (3870, 2080))]
+)
+def test_backward_draws_nothing_inside_a_disc_that_f_leaves_uncovered(gl, move, origin):
+    """One handle moved thousands of pixels with a compact weight: the disc its reach
+    leaves behind has no preimage, and the backward method keeps the background there
+    (differences across the reach's edge are no stretch of f)."""
+    src = np.array([[3900.0, 2048.0]])
+    image = np.full((4096, 4096), 255, np.uint8)
+    frame = {"output_shape": (96, 64), "origin": origin}
+    with glmls.MLS(src, src + move, shape=image.shape, weight="cressman", radius=60.0, ctx=gl) as m:
+        out = m.warp(image, method="backward", **frame)
+    rows, cols = np.mgrid[:96, :64]
+    u = np.stack([cols + origin[0], rows + origin[1]], -1)
+    inside = np.linalg.norm(u - src[0], axis=-1) < 60 - 1.5
+    assert inside.sum() > 1000
+    assert (out[inside] == 0).all()

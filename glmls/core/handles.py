@@ -329,16 +329,24 @@ class Scaling:
         return cls((float(center[0]), float(center[1])), float(scale))
 
 
-def float32_rounding(scaling, u: np.ndarray, s: np.ndarray, steps: float) -> np.ndarray:
+def float32_rounding(
+    scaling, u: np.ndarray, s: np.ndarray, steps: float, stretch: np.ndarray | None = None
+) -> np.ndarray:
     """(K,) pixels: ``steps`` float32 steps of the larger scaled coordinate of the points
     ``u`` and ``s`` (K, D) (of 1 where both lie nearer the centre; a NaN counts as 0): how
     near float32 on the GPU can bring f(s) to u there. ``scaling``: a :class:`Scaling`, or
-    per point a centre (K, D) and a scale (K,) alike."""
+    per point a centre (K, D) and a scale (K,) alike. ``stretch`` (K,): how many times f
+    magnifies lengths at s (1 where not given, or less), which takes s's own steps into
+    f(s)."""
     center = np.asarray(scaling.center, np.float64)
+    scale = np.asarray(scaling.scale, np.float64)
     with np.errstate(invalid="ignore"):
-        far = np.maximum(np.abs(u - center).max(axis=1), np.abs(s - center).max(axis=1))
-    far = np.nan_to_num(far / scaling.scale, nan=0.0)
-    return steps * float(np.finfo(np.float32).eps) * np.maximum(far, 1.0) * scaling.scale
+        far_u = np.nan_to_num(np.abs(u - center).max(axis=1) / scale, nan=0.0)
+        far_s = np.nan_to_num(np.abs(s - center).max(axis=1) / scale, nan=0.0)
+    if stretch is not None:
+        far_s = np.maximum(far_s, 1.0) * np.maximum(stretch, 1.0)
+    far = np.maximum(far_u, far_s)
+    return steps * float(np.finfo(np.float32).eps) * np.maximum(far, 1.0) * scale
 
 
 #: A target offset (:func:`target_offset`) is taken

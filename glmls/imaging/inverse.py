@@ -12,11 +12,12 @@ kernel.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import moderngl
 import numpy as np
 
-from ..core.handles import Scaling, float32_rounding
+from ..core.handles import COORDINATE_LIMIT, Scaling, float32_rounding
 from ..core.mesh import MeshLattice
 from ..engine.kernel import MLSKernel
 from ..engine.passes3 import STEP_BOX
@@ -40,10 +41,13 @@ __all__ = [
     "NEWTON_TOLERANCE",
     "POINTS_NEWTON_STEPS",
     "POINTS_TOLERANCE",
+    "STRETCH_STEP",
     "InverseSolver",
     "accept_residual",
+    "accepted",
     "guess_size",
     "length_unit",
+    "stretch_at",
 ]
 
 #: Newton on f stops below this residual |f(s) - u| (pixels) ...
@@ -60,13 +64,69 @@ ACCEPT_STEPS = 4.0
 
 
 def accept_residual(
-    scaling: Scaling, u: np.ndarray, s: np.ndarray, *, unit: float = 1.0
+    scaling: Scaling,
+    u: np.ndarray,
+    s: np.ndarray,
+    *,
+    unit: float = 1.0,
+    stretch: np.ndarray | None = None,
 ) -> np.ndarray:
     """(K,) the residual |f(s) - u| (pixels) up to which s counts as a preimage of the
     points ``u``, (K, D) pixels: :data:`NEWTON_ACCEPT` times ``unit`` (the length of a
     pixel, less for handles in a small box: :func:`length_unit`), or :data:`ACCEPT_STEPS`
-    float32 steps of the larger scaled coordinate of u and s, times the scale, where more."""
-    return np.maximum(NEWTON_ACCEPT * unit, float32_rounding(scaling, u, s, ACCEPT_STEPS))
+    float32 steps of the larger scaled coordinate of u and s, times the scale, where more;
+    s's steps times ``stretch`` ((K,), how many times f magnifies lengths at s:
+    :func:`stretch_at`), where given: under a thousandfold magnification a float32 step of
+    s moves f(s) by a tenth of a pixel (``warp/newton.glsl``'s warp_accept_at alike)."""
+    rounding = float32_rounding(scaling, u, s, ACCEPT_STEPS, stretch)
+    return np.maximum(NEWTON_ACCEPT * unit, rounding)
+
+
+#: The difference step of :func:`stretch_at`, in length units (``warp/newton.glsl``'s
+#: warp_damped_h).
+STRETCH_STEP = 1 / 32
+
+
+def stretch_at(f: Callable[[np.ndarray], np.ndarray], s: np.ndarray, step: float) -> np.ndarray:
+    """(K,) how many times f magnifies lengths at the points ``s`` (K, D): along each axis
+    the shorter of the forward and the backward difference of ``step``, the longest axis's
+    (``warp/newton.glsl``'s warp_stretch_at). A jump of f next to s (where a compact
+    weight's reach ends) lies on one side of it, where the difference across it measures
+    the jump, not f's stretch. 1 where not finite. ``f`` evaluates f at points."""
+    count, dim = s.shape
+    offsets = np.concatenate([np.zeros((1, dim)), np.eye(dim) * step, np.eye(dim) * -step])
+    probes = f((s[None] + offsets[:, None]).reshape(-1, dim)).reshape(1 + 2 * dim, count, dim)
+    forward = np.linalg.norm(probes[1 : 1 + dim] - probes[0], axis=2)
+    backward = np.linalg.norm(probes[0] - probes[1 + dim :], axis=2)
+    with np.errstate(invalid="ignore"):
+        stretch = np.fmin(forward, backward).max(axis=0) / step
+    return np.where(np.isfinite(stretch), stretch, 1.0)
+
+
+def accepted(
+    scaling: Scaling,
+    u: np.ndarray,
+    s: np.ndarray,
+    residual: np.ndarray,
+    *,
+    unit: float,
+    f: Callable[[np.ndarray], np.ndarray],
+) -> np.ndarray:
+    """(K,) bool: the points s (K, D) whose ``residual`` |f(s) - u| (pixels) at the points
+    ``u`` lies within :func:`accept_residual`, with f's stretch at s (:func:`stretch_at`,
+    steps of :data:`STRETCH_STEP` ``unit``) where the residual is above it without: where
+    f magnifies, s's own float32 rounding shows in f(s). ``f`` evaluates f (as the GPU
+    does) at points."""
+    with np.errstate(invalid="ignore"):
+        valid = residual <= accept_residual(scaling, u, s, unit=unit)
+        doubt = ~valid & np.isfinite(s).all(axis=1) & np.isfinite(residual)
+        doubt &= (np.abs(s) <= COORDINATE_LIMIT - 1).all(axis=1)
+    if doubt.any():
+        at = s[doubt]
+        stretch = stretch_at(f, at, STRETCH_STEP * unit)
+        accept = accept_residual(scaling, u[doubt], at, unit=unit, stretch=stretch)
+        valid[doubt] = residual[doubt] <= accept
+    return valid
 
 
 def length_unit(kernel: MLSKernel) -> float:

@@ -169,8 +169,49 @@ mat3 volume_slope(int i) {
                 volume_slopes[3 * i + 2].xyz);
 }
 
-void volume_store(int i, vec3 s, float residual) {
-    bool found = residual <= u_accept;
+// The largest |coordinate| of v.
+float volume_far(vec3 v) {
+    vec3 a = abs(v);
+    return max(a.x, max(a.y, a.z));
+}
+
+// The residual (voxels) up to which s counts as u's preimage where f magnifies lengths
+// ``stretch`` times at s: VOLUME_ACCEPT_STEPS float32 steps of s (of its coordinates in
+// voxels and in the scaled ones f takes), times the stretch, or of u, where more than
+// u_accept: a thousandfold magnification makes one of s's steps a tenth of a voxel of f(s).
+const float VOLUME_ACCEPT_STEPS = 4.0;
+float volume_accept_at(vec3 u, vec3 s, float stretch) {
+    float scaled = max(1.0, volume_far(mls3_to_scaled(s * u_volume_scale))) * u_mls3_scale /
+                   min(u_volume_scale.x, min(u_volume_scale.y, u_volume_scale.z));
+    float far = max(max(1.0, volume_far(u)), max(scaled, volume_far(s)) * max(stretch, 1.0));
+    return max(u_accept, VOLUME_ACCEPT_STEPS * 1.1920929e-7 * far);
+}
+
+// f's stretch at s, for volume_accept_at: along each axis the shorter of the forward and
+// the backward difference of VOLUME_STRETCH_H, the longest axis's. A jump of f (where a
+// compact weight's reach ends) next to s lies on one side of it, where the difference across
+// it measures the jump, not f's stretch. Its evaluations: f at s, then at s + h and s - h
+// along x, y and z (volume_stretch_point).
+const int VOLUME_STRETCH_EVALUATIONS = 7;
+const float VOLUME_STRETCH_H = 0.03125;   // voxels
+
+vec3 volume_stretch_point(vec3 s, int k) {
+    int axis = (k - 1) / 2;
+    vec3 along = vec3(equal(ivec3(axis), ivec3(0, 1, 2)));
+    return k == 0 ? s : s + (k % 2 == 1 ? VOLUME_STRETCH_H : -VOLUME_STRETCH_H) * along;
+}
+
+// Whether s, ``residual`` = |f(s) - u| (voxels), is worth f's stretch: above u_accept, but
+// within volume_accept_at twice the stretch of ``jacobian`` (f's, as Newton last measured
+// it by forward differences, which a jump inflates; 0 where never), the voxels that f leaves
+// uncovered not among them.
+bool volume_doubt(vec3 u, vec3 s, float residual, mat3 jacobian) {
+    float longest = max(length(jacobian[0]), max(length(jacobian[1]), length(jacobian[2])));
+    return !(residual <= u_accept) && residual <= volume_accept_at(u, s, 2.0 * longest);
+}
+
+void volume_store(int i, vec3 s, float residual, bool accepted) {
+    bool found = accepted;
 #if WARP_BORDER == 0
     // in the volume's closed box, within Newton's tolerance: a preimage on its face (a
     // quarter turn, a scale by 1/2 put some there) is in, whatever side rounding leaves it
@@ -196,7 +237,7 @@ void main() {
     bool done = !later && volume_newton_take(n, fs, u);
     if (item < u_count) {
         if (done) {
-            volume_store(i, n.s, n.residual);
+            volume_store(i, n.s, n.residual, n.residual <= u_accept);
         } else {
             // every voxel has room (the list's capacity is the slab's voxels)
             second_pass_items[second_pass_slot()] =
@@ -212,8 +253,10 @@ void main() {
     // on a CPU renderer they fit its cap on loop iterations, whatever the lanes)
     uint stride = second_pass_stride();
     int items = int((second_pass_listed() + stride - 1u) / stride);
-    int most = 2 * (5 * WARP_NEWTON_STEPS + 1);
-    int budget = max(mls3_evaluations(most * max(items, 1)) / max(items, 1), 1);
+    // (and one measure of f's stretch past them)
+    int most = 2 * (5 * WARP_NEWTON_STEPS + 1) + VOLUME_STRETCH_EVALUATIONS;
+    int budget = mls3_evaluations(most * max(items, 1)) / max(items, 1);
+    budget = max(budget - VOLUME_STRETCH_EVALUATIONS, 1);
     for (uint k = gl_GlobalInvocationID.x; k < second_pass_listed(); k += stride) {
         uvec4 entry = second_pass_items[k];
         int i = int(entry.x & ~VOLUME_FROM_U);
@@ -236,16 +279,42 @@ void main() {
         }
         // the first start's evaluations one pass doing it all allows, less the first pass's
         int left = 5 * WARP_NEWTON_STEPS + (entry.y != VOLUME_UNEVALUATED ? 0 : 1);
-        for (int e = 0; e < budget; ++e) {
+        // then, where the end is in doubt (volume_doubt), f's stretch there, through the
+        // same evaluation of f: probe >= 0 the next of volume_stretch_point
+        int probe = -1;
+        vec3 fs = vec3(0.0);
+        vec3 shorter = vec3(3.0e38);   // per axis, the shorter difference so far
+        for (int e = 0; e < budget + VOLUME_STRETCH_EVALUATIONS; ++e) {
+            bool measuring = probe >= 0;
+            vec3 fx = vec3(0.0);
+            if (measuring || !done) {
+                fx = volume_f(measuring ? volume_stretch_point(s, probe) : volume_newton_point(n));
+            }
+            if (measuring) {
+                if (probe == 0) {
+                    fs = fx;
+                } else {
+                    int axis = (probe - 1) / 2;
+                    shorter[axis] = min(shorter[axis], length(fx - fs));
+                }
+                if (++probe == VOLUME_STRETCH_EVALUATIONS) {
+                    break;
+                }
+                continue;
+            }
             if (!done) {
-                done = volume_newton_take(n, volume_f(volume_newton_point(n)), u);
+                done = volume_newton_take(n, fx, u);
                 --left;
             }
-            if (done || left == 0 || e + 1 == budget) {
+            if (done || left == 0 || e + 1 >= budget) {
                 volume_newton_end(n);
                 s = n.residual < residual ? n.s : s;
                 residual = min(n.residual, residual);
                 if (!first || residual <= u_accept || !guided) {
+                    if (volume_doubt(u, s, residual, n.jacobian)) {
+                        probe = 0;
+                        continue;
+                    }
                     break;
                 }
                 first = false;
@@ -254,7 +323,11 @@ void main() {
                 left = 5 * WARP_NEWTON_STEPS + 1;
             }
         }
-        volume_store(i, s, residual);
+        float stretch = max(shorter.x, max(shorter.y, shorter.z)) / VOLUME_STRETCH_H;
+        bool accepted = residual <= u_accept ||
+                        (probe == VOLUME_STRETCH_EVALUATIONS &&
+                         residual <= volume_accept_at(u, s, stretch < 3.0e38 ? stretch : 1.0));
+        volume_store(i, s, residual, accepted);
     }
 }
 #endif

@@ -202,12 +202,13 @@ void main() {
     vec4 guess = imageLoad(u_map, at);
     vec2 s = guess.z > 0.5 ? (guess.xy - u_center) / u_scale : u;
     float residual;
+    float hint;
     // steps of at most a tenth of the image from the mesh's guess; from u itself (beyond the
     // mesh's reach, where f is close to its far-field fit) as long as Newton asks: a map that
     // shrinks the plane tenfold puts u's preimage ten times as far out
     float max_step = guess.z > 0.5 ? 0.2 : 1e30;
-    s = warp_newton(s, u, u_tolerance / u_scale, max_step, residual);
-    bool converged = residual <= warp_accept(u_accept, u_accept_steps, u, s);
+    s = warp_newton(s, u, u_tolerance / u_scale, max_step, residual, hint);
+    bool converged = warp_accepted(u_accept, u_accept_steps, u, s, residual, hint);
     bool covered = converged && warp_inside(s, 0.0);
     // listed for the second pass: no preimage found, or one outside the source where
     // another may lie inside (next to a fold): by at most Newton's longest step where the

@@ -147,7 +147,8 @@ void main() {
     // Without a guess (u beyond the mesh's reach: where f is close to its far-field affine
     // map) Newton's steps are not bounded: any point it ends at within the tolerance is a
     // preimage.
-    s = warp_newton(s, u, tolerance / u_scale, guessed ? u_max_step : 1e30, residual);
+    float hint;   // the host measures f's stretch at the points it doubts
+    s = warp_newton(s, u, tolerance / u_scale, guessed ? u_max_step : 1e30, residual, hint);
     // Where f leaves u in place (every handle in reach stays: f - v exactly 0), u is its
     // preimage exactly, where the guess's texels carry float32 noise that could move a point
     // on the canvas's edge off it; tested only where Newton ended within its tolerance of u.

@@ -17,13 +17,69 @@ float u_newton_unit = 1.0;   // the pass sets it before any Newton step
 uniform float u_newton_unit;
 #endif
 
+// warp_accept where f magnifies lengths ``stretch`` times at s: s's own float32 steps, times
+// the stretch, are steps of f(s) (a thousandfold magnification makes one a tenth of a pixel).
+float warp_accept_at(float accept, float steps, vec2 u, vec2 s, float stretch) {
+    float far_u = max(1.0, max(abs(u.x), abs(u.y)));
+    float far_s = max(1.0, max(abs(s.x), abs(s.y))) * max(stretch, 1.0);
+    return max(accept / u_scale, steps * 1.1920929e-7 * max(far_u, far_s));
+}
+
 // The residual (scaled) up to which s counts as a preimage of u (scaled): ``accept`` (pixels),
 // or ``steps`` float32 steps of the larger coordinate of u and s where that is more: far from
 // the scaling's centre float32 cannot tell f(s) from u to a twentieth of a pixel
 // (glmls.imaging.inverse.accept_residual).
 float warp_accept(float accept, float steps, vec2 u, vec2 s) {
-    float far = max(1.0, max(max(abs(u.x), abs(u.y)), max(abs(s.x), abs(s.y))));
-    return max(accept / u_scale, steps * 1.1920929e-7 * far);
+    return warp_accept_at(accept, steps, u, s, 1.0);
+}
+
+// The differences' step (scaled): a thirty-second of the length unit.
+float warp_damped_h() {
+    return 0.03125 * u_newton_unit / u_scale;
+}
+
+// The evaluations of f warp_accepted may make.
+const int WARP_ACCEPT_EVALUATIONS = 5;
+
+// Whether s counts as a preimage of u, ``residual`` = |f(s) - u| (scaled): within warp_accept,
+// or, where f magnifies, within warp_accept_at f's stretch at s. ``hint``: the longer column
+// of the last Newton step's Jacobian (forward differences; 1 where none was taken): a
+// residual that twice the hint's stretch would not accept is refused unmeasured, the pixels
+// that f leaves uncovered among them.
+//
+// The stretch: along each axis the shorter of the forward and the backward difference of
+// warp_damped_h, the longer axis's. A jump of f (where a compact weight's reach ends) next to
+// s lies on one side of it, where the difference across it measures the jump, not f's
+// stretch; not finite: 1. Its evaluations run in one loop that a point needing no measure
+// skips: a CPU renderer runs a loop as long as its slowest lane, where it would run a
+// branch's code for every lane whatever its mask.
+bool warp_accepted(float accept, float steps, vec2 u, vec2 s, float residual, float hint) {
+    bool measure = !(residual <= warp_accept(accept, steps, u, s)) &&
+                   residual <= warp_accept_at(accept, steps, u, s, 2.0 * hint);
+    float h = warp_damped_h();
+    vec2 fs = vec2(0.0);
+    vec2 shorter = vec2(3.0e38);   // per axis, the shorter difference so far
+    int count = measure ? WARP_ACCEPT_EVALUATIONS : 0;
+    for (int k = 0; k < count; ++k) {
+        int axis = (k - 1) / 2;   // 0: x, 1: y (k = 0: s itself)
+        vec2 offset = k == 0 ? vec2(0.0) : (k % 2 == 1 ? h : -h) * vec2(axis == 0, axis == 1);
+        vec2 f = mls_eval(s + offset).f;
+        if (k == 0) {
+            fs = f;
+        } else {
+            shorter[axis] = min(shorter[axis], length(f - fs));
+        }
+    }
+    if (!measure) {
+        return residual <= warp_accept(accept, steps, u, s);
+    }
+    float stretch = max(shorter.x, shorter.y) / h;
+    return residual <= warp_accept_at(accept, steps, u, s, stretch < 3.0e38 ? stretch : 1.0);
+}
+
+// The longer column of a Jacobian (df/dx, df/dy): warp_accepted's hint.
+float warp_hint(vec2 jx, vec2 jy) {
+    return max(length(jx), length(jy));
 }
 
 // The most evaluations of f one start of damped Newton makes: f at the start, three a step
@@ -56,14 +112,18 @@ int warp_evaluations(int most) {
 }
 
 // The last iterate from ``s``: stops once |f(s) - u| <= tolerance (scaled), after
-// WARP_NEWTON_STEPS steps (fewer where warp_evaluations allows fewer), or where f is singular (a fold's edge); ``residual`` is its
-// |f(s) - u|, scaled. A step goes at most ``max_step`` (scaled): far from the solution,
-// Newton's step may overshoot.
-vec2 warp_newton(vec2 s, vec2 u, float tolerance, float max_step, out float residual) {
+// WARP_NEWTON_STEPS steps (fewer where warp_evaluations allows fewer), or where f is singular
+// (a fold's edge); ``residual`` is its |f(s) - u|, scaled, ``hint`` warp_accepted's. A step
+// goes at most ``max_step`` (scaled): far from the solution, Newton's step may overshoot.
+vec2 warp_newton(vec2 s, vec2 u, float tolerance, float max_step, out float residual,
+                 out float hint) {
     float h = 0.25 * u_newton_unit / u_scale;   // a quarter pixel: float32 noise in f ~1e-4 of it
-    // three evaluations a step (f and its two differences), and one for the last f
-    int steps = (warp_evaluations(1 + 3 * WARP_NEWTON_STEPS) - 1) / 3;
+    // three evaluations a step (f and its two differences), one for the last f, and
+    // warp_accepted's after
+    int reserved = 1 + WARP_ACCEPT_EVALUATIONS;
+    int steps = (warp_evaluations(reserved + 3 * WARP_NEWTON_STEPS) - reserved) / 3;
     residual = 0.0;
+    hint = 1.0;
     for (int k = 0; ; ++k) {
         vec2 r = mls_eval(s).f - u;
         residual = length(r);
@@ -73,6 +133,7 @@ vec2 warp_newton(vec2 s, vec2 u, float tolerance, float max_step, out float resi
         vec2 fs = r + u;
         vec2 jx = (mls_eval(s + vec2(h, 0.0)).f - fs) / h;   // df/dx
         vec2 jy = (mls_eval(s + vec2(0.0, h)).f - fs) / h;   // df/dy
+        hint = warp_hint(jx, jy);
         float det = jx.x * jy.y - jy.x * jx.y;
         if (!(abs(det) > 1e-12)) {
             break;   // f is singular here (a fold's edge): keep the best point so far
@@ -131,11 +192,6 @@ WarpDamped warp_damped_begin(vec2 start) {
     d.steps = 0;
     d.halvings = 0;
     return d;
-}
-
-// The differences' step (scaled): a thirty-second of the length unit.
-float warp_damped_h() {
-    return 0.03125 * u_newton_unit / u_scale;
 }
 
 // Where d needs f next.
