@@ -929,8 +929,10 @@ class MLS(ForkSafe):
         border rule): ``cv2.remap(image, xy[..., 0], xy[..., 1], cv2.INTER_LINEAR)``, or per
         channel ``skimage.transform.warp(channel, np.stack([xy[..., 1], xy[..., 0]]))``, or
         ``scipy.ndimage.map_coordinates(channel, [xy[..., 1], xy[..., 0]], mode=...)``.
-        Newton stops below 1e-3 px; pixels where it ends above 0.05 px (no inverse found)
-        hold its last iterate. :attr:`inverse` solves at any points instead of a canvas.
+        Newton stops below 1e-3 px; pixels where it ends above 0.05 px (or, where f
+        magnifies, above float32's rounding of the source point times f's stretch: no
+        inverse found) hold its last iterate. :attr:`inverse` solves at any points instead
+        of a canvas.
 
         Parameters
         ----------

@@ -557,3 +557,51 @@ def test_backward_draws_nothing_inside_a_disc_that_f_leaves_uncovered(gl, move, 
     inside = np.linalg.norm(u - src[0], axis=-1) < 60 - 1.5
     assert inside.sum() > 1000
     assert (out[inside] == 0).all()
+
+
+def test_no_point_is_taken_in_a_sliver_between_two_reaches(gl):
+    """Two compact weights' reaches 0.01 px apart, their handles moved apart: a source point
+    in the gap has a jump of f on both sides, within any difference step. The stretch taken
+    there must not be the jump's (its differences do not halve with the step): no point is
+    taken farther from u than the residual accepted, by the float64 reference."""
+    radius, gap, move = 1000.0, 0.01, 1000.0
+    src = np.array([[0.0, 0.0], [2 * radius + gap, 0.0]])
+    dst = src + [[-move, 0.0], [move, 0.0]]
+    options = {"weight": "cressman", "radius": radius}
+    rng = np.random.default_rng(0)
+    u = np.c_[radius + gap / 2 + rng.uniform(-5, 5, 400), rng.uniform(-3, 3, 400)]
+    with glmls.MLS(src, dst, ctx=gl, **options) as m:
+        s, valid = m.inverse(u, return_valid=True)
+    f = reference.mls(src, dst, s[valid], **options)[0]
+    assert np.linalg.norm(f - u[valid], axis=1).max(initial=0.0) < NEWTON_ACCEPT + 2e-3
+
+
+def test_a_steep_but_smooth_edge_keeps_its_preimages(gl):
+    """Where two compact weights' reaches cross, f is continuous but stretches lengths
+    thousands of times within a pixel of the crossing: float32's rounding of s, times that
+    stretch, exceeds 0.05 px. Those pixels are drawn, each s within 1e-3 source px of the
+    float64 preimage (float64 Newton from it)."""
+    radius = 1000.0
+    rng = np.random.default_rng(9)
+    src = np.array([[0.0, 0.0], [radius * rng.uniform(0.3, 1.8), radius * rng.uniform(-0.8, 0.8)]])
+    dst = src + rng.normal(0, 1000.0, (2, 2))
+    options = {"weight": "cressman", "radius": radius}
+    # the crossing of the two reaches' circles below the line of the handles
+    apart = np.linalg.norm(src[1])
+    normal = np.array([-src[1, 1], src[1, 0]]) / apart
+    crossing = src[1] / 2 - np.sqrt(radius**2 - (apart / 2) ** 2) * normal
+    frame = {"output_shape": (32, 32), "origin": tuple(np.floor(crossing) - 16)}
+    with glmls.MLS(src, dst, ctx=gl, **options) as m:
+        xy, residual = m.coordinate_map((64, 64), residual=True, border="edge", **frame)
+        out = m.warp(np.full((64, 64), 255, np.uint8), method="backward", border="edge", **frame)
+    steep = (out != 0) & (residual > 0.06)
+    assert steep.any()
+    rows, cols = np.nonzero(steep)
+    targets = np.c_[cols + frame["origin"][0], rows + frame["origin"][1]]
+    for found, u in zip(xy[steep].astype(np.float64), targets, strict=True):
+        s = found.copy()
+        for _ in range(20):
+            f = reference.mls(src, dst, s + [[0, 0], [1e-6, 0], [0, 1e-6]], **options)[0]
+            s = s - np.linalg.solve(np.stack([f[1] - f[0], f[2] - f[0]], 1) / 1e-6, f[0] - u)
+        assert np.linalg.norm(reference.mls(src, dst, s[None], **options)[0][0] - u) < 1e-6
+        assert np.linalg.norm(s - found) < 1e-3

@@ -89,17 +89,24 @@ STRETCH_STEP = 1 / 32
 
 def stretch_at(f: Callable[[np.ndarray], np.ndarray], s: np.ndarray, step: float) -> np.ndarray:
     """(K,) how many times f magnifies lengths at the points ``s`` (K, D): along each axis
-    the shorter of the forward and the backward difference of ``step``, the longest axis's
-    (``warp/newton.glsl``'s warp_stretch_at). A jump of f next to s (where a compact
-    weight's reach ends) lies on one side of it, where the difference across it measures
-    the jump, not f's stretch. 1 where not finite. ``f`` evaluates f at points."""
+    the shorter of the differences of ``step`` on its two sides, the longest axis's, where
+    f is smooth on every side (else, or not finite, 1; ``warp/newton.glsl``'s
+    warp_accepted). A side is smooth where halving the step halves the difference (within
+    a quarter): a jump of f (where a compact weight's reach ends) within the step does not
+    shrink with it, whether it lies on one side of s or, in a sliver between two reaches'
+    edges, on both. ``f`` evaluates f at points."""
     count, dim = s.shape
-    offsets = np.concatenate([np.zeros((1, dim)), np.eye(dim) * step, np.eye(dim) * -step])
-    probes = f((s[None] + offsets[:, None]).reshape(-1, dim)).reshape(1 + 2 * dim, count, dim)
-    forward = np.linalg.norm(probes[1 : 1 + dim] - probes[0], axis=2)
-    backward = np.linalg.norm(probes[0] - probes[1 + dim :], axis=2)
+    axes = np.eye(dim)
+    # s, then per axis s + step, s + step / 2, s - step, s - step / 2
+    offsets = np.concatenate(
+        [np.zeros((1, dim)), *(axes[a] * [[1.0], [0.5], [-1.0], [-0.5]] * step for a in range(dim))]
+    )
+    probes = f((s[None] + offsets[:, None]).reshape(-1, dim)).reshape(len(offsets), count, dim)
+    moved = np.linalg.norm(probes[1:] - probes[0], axis=2).reshape(dim, 2, 2, count)
+    full, half = moved[:, :, 0], moved[:, :, 1]  # (axis, side, K)
     with np.errstate(invalid="ignore"):
-        stretch = np.fmin(forward, backward).max(axis=0) / step
+        smooth = (np.abs(full - 2 * half) <= 0.25 * full).all(axis=(0, 1))
+        stretch = np.where(smooth, full.min(axis=1).max(axis=0) / step, 1.0)
     return np.where(np.isfinite(stretch), stretch, 1.0)
 
 

@@ -187,18 +187,21 @@ float volume_accept_at(vec3 u, vec3 s, float stretch) {
     return max(u_accept, VOLUME_ACCEPT_STEPS * 1.1920929e-7 * far);
 }
 
-// f's stretch at s, for volume_accept_at: along each axis the shorter of the forward and
-// the backward difference of VOLUME_STRETCH_H, the longest axis's. A jump of f (where a
-// compact weight's reach ends) next to s lies on one side of it, where the difference across
-// it measures the jump, not f's stretch. Its evaluations: f at s, then at s + h and s - h
-// along x, y and z (volume_stretch_point).
-const int VOLUME_STRETCH_EVALUATIONS = 7;
+// f's stretch at s, for volume_accept_at: along each axis the shorter of the differences of
+// VOLUME_STRETCH_H on its two sides, the longest axis's, where f is smooth on every side
+// (else, or not finite, 1). A side is smooth where halving the step halves the difference
+// (within a quarter): a jump of f (where a compact weight's reach ends) within the step does
+// not shrink with it, whether it lies on one side of s or, in a sliver between two reaches'
+// edges, on both. Its evaluations: f at s, then at s + h, s + h / 2, s - h and
+// s - h / 2 along x, y and z (volume_stretch_point).
+const int VOLUME_STRETCH_EVALUATIONS = 13;
 const float VOLUME_STRETCH_H = 0.03125;   // voxels
 
 vec3 volume_stretch_point(vec3 s, int k) {
-    int axis = (k - 1) / 2;
-    vec3 along = vec3(equal(ivec3(axis), ivec3(0, 1, 2)));
-    return k == 0 ? s : s + (k % 2 == 1 ? VOLUME_STRETCH_H : -VOLUME_STRETCH_H) * along;
+    int j = k - 1;
+    vec3 along = vec3(equal(ivec3(j / 4), ivec3(0, 1, 2)));
+    float step = (j % 2 == 1 ? 0.5 : 1.0) * ((j / 2) % 2 == 1 ? -1.0 : 1.0) * VOLUME_STRETCH_H;
+    return k == 0 ? s : s + step * along;
 }
 
 // Whether s, ``residual`` = |f(s) - u| (voxels), is worth f's stretch: above u_accept, but
@@ -253,10 +256,12 @@ void main() {
     // on a CPU renderer they fit its cap on loop iterations, whatever the lanes)
     uint stride = second_pass_stride();
     int items = int((second_pass_listed() + stride - 1u) / stride);
-    // (and one measure of f's stretch past them)
-    int most = 2 * (5 * WARP_NEWTON_STEPS + 1) + VOLUME_STRETCH_EVALUATIONS;
-    int budget = mls3_evaluations(most * max(items, 1)) / max(items, 1);
-    budget = max(budget - VOLUME_STRETCH_EVALUATIONS, 1);
+    int most = 2 * (5 * WARP_NEWTON_STEPS + 1);
+    int budget = max(mls3_evaluations(most * max(items, 1)) / max(items, 1), 1);
+    // a measure of f's stretch past them where the cap leaves room for it
+    int measured = most + VOLUME_STRETCH_EVALUATIONS;
+    int room = mls3_evaluations(measured * max(items, 1)) / max(items, 1) >= measured
+                   ? VOLUME_STRETCH_EVALUATIONS : 0;
     for (uint k = gl_GlobalInvocationID.x; k < second_pass_listed(); k += stride) {
         uvec4 entry = second_pass_items[k];
         int i = int(entry.x & ~VOLUME_FROM_U);
@@ -283,8 +288,10 @@ void main() {
         // same evaluation of f: probe >= 0 the next of volume_stretch_point
         int probe = -1;
         vec3 fs = vec3(0.0);
-        vec3 shorter = vec3(3.0e38);   // per axis, the shorter difference so far
-        for (int e = 0; e < budget + VOLUME_STRETCH_EVALUATIONS; ++e) {
+        float full = 0.0;              // the difference of the whole step on the side measured
+        vec3 least = vec3(3.0e38);     // per axis, the shorter side's difference so far
+        bool halves = true;   // every side halves its difference with the step
+        for (int e = 0; e < budget + room; ++e) {
             bool measuring = probe >= 0;
             vec3 fx = vec3(0.0);
             if (measuring || !done) {
@@ -293,9 +300,12 @@ void main() {
             if (measuring) {
                 if (probe == 0) {
                     fs = fx;
+                } else if (probe % 2 == 1) {
+                    full = length(fx - fs);
+                    int axis = (probe - 1) / 4;
+                    least[axis] = min(least[axis], full);
                 } else {
-                    int axis = (probe - 1) / 2;
-                    shorter[axis] = min(shorter[axis], length(fx - fs));
+                    halves = halves && abs(full - 2.0 * length(fx - fs)) <= 0.25 * full;
                 }
                 if (++probe == VOLUME_STRETCH_EVALUATIONS) {
                     break;
@@ -311,7 +321,7 @@ void main() {
                 s = n.residual < residual ? n.s : s;
                 residual = min(n.residual, residual);
                 if (!first || residual <= u_accept || !guided) {
-                    if (volume_doubt(u, s, residual, n.jacobian)) {
+                    if (room > 0 && volume_doubt(u, s, residual, n.jacobian)) {
                         probe = 0;
                         continue;
                     }
@@ -323,7 +333,7 @@ void main() {
                 left = 5 * WARP_NEWTON_STEPS + 1;
             }
         }
-        float stretch = max(shorter.x, max(shorter.y, shorter.z)) / VOLUME_STRETCH_H;
+        float stretch = halves ? max(least.x, max(least.y, least.z)) / VOLUME_STRETCH_H : 1.0;
         bool accepted = residual <= u_accept ||
                         (probe == VOLUME_STRETCH_EVALUATIONS &&
                          residual <= volume_accept_at(u, s, stretch < 3.0e38 ? stretch : 1.0));

@@ -38,45 +38,6 @@ float warp_damped_h() {
     return 0.03125 * u_newton_unit / u_scale;
 }
 
-// The evaluations of f warp_accepted may make.
-const int WARP_ACCEPT_EVALUATIONS = 5;
-
-// Whether s counts as a preimage of u, ``residual`` = |f(s) - u| (scaled): within warp_accept,
-// or, where f magnifies, within warp_accept_at f's stretch at s. ``hint``: the longer column
-// of the last Newton step's Jacobian (forward differences; 1 where none was taken): a
-// residual that twice the hint's stretch would not accept is refused unmeasured, the pixels
-// that f leaves uncovered among them.
-//
-// The stretch: along each axis the shorter of the forward and the backward difference of
-// warp_damped_h, the longer axis's. A jump of f (where a compact weight's reach ends) next to
-// s lies on one side of it, where the difference across it measures the jump, not f's
-// stretch; not finite: 1. Its evaluations run in one loop that a point needing no measure
-// skips: a CPU renderer runs a loop as long as its slowest lane, where it would run a
-// branch's code for every lane whatever its mask.
-bool warp_accepted(float accept, float steps, vec2 u, vec2 s, float residual, float hint) {
-    bool measure = !(residual <= warp_accept(accept, steps, u, s)) &&
-                   residual <= warp_accept_at(accept, steps, u, s, 2.0 * hint);
-    float h = warp_damped_h();
-    vec2 fs = vec2(0.0);
-    vec2 shorter = vec2(3.0e38);   // per axis, the shorter difference so far
-    int count = measure ? WARP_ACCEPT_EVALUATIONS : 0;
-    for (int k = 0; k < count; ++k) {
-        int axis = (k - 1) / 2;   // 0: x, 1: y (k = 0: s itself)
-        vec2 offset = k == 0 ? vec2(0.0) : (k % 2 == 1 ? h : -h) * vec2(axis == 0, axis == 1);
-        vec2 f = mls_eval(s + offset).f;
-        if (k == 0) {
-            fs = f;
-        } else {
-            shorter[axis] = min(shorter[axis], length(f - fs));
-        }
-    }
-    if (!measure) {
-        return residual <= warp_accept(accept, steps, u, s);
-    }
-    float stretch = max(shorter.x, shorter.y) / h;
-    return residual <= warp_accept_at(accept, steps, u, s, stretch < 3.0e38 ? stretch : 1.0);
-}
-
 // The longer column of a Jacobian (df/dx, df/dy): warp_accepted's hint.
 float warp_hint(vec2 jx, vec2 jy) {
     return max(length(jx), length(jy));
@@ -111,6 +72,63 @@ int warp_evaluations(int most) {
 #endif
 }
 
+// The evaluations of f warp_accepted may make: f at s, then at s + h, s + h / 2, s - h and
+// s - h / 2 along x, then along y (warp_stretch_step).
+const int WARP_ACCEPT_EVALUATIONS = 9;
+
+// The offset from s of warp_accepted's evaluation k > 0 (h: warp_damped_h).
+vec2 warp_stretch_step(int k, float h) {
+    int j = k - 1;
+    int axis = j / 4;
+    float step = (j % 2 == 1 ? 0.5 * h : h) * ((j / 2) % 2 == 1 ? -1.0 : 1.0);
+    return step * vec2(axis == 0, axis == 1);
+}
+
+// Whether s counts as a preimage of u, ``residual`` = |f(s) - u| (scaled): within warp_accept,
+// or, where f magnifies, within warp_accept_at f's stretch at s. ``hint``: the longer column
+// of the last Newton step's Jacobian (forward differences; 1 where none was taken): a
+// residual that twice the hint's stretch would not accept is refused unmeasured, the pixels
+// that f leaves uncovered among them.
+//
+// The stretch: along each axis the shorter of the differences of warp_damped_h on its two
+// sides, the longer axis's, where f is smooth on every side (else, or not finite, 1). A side
+// is smooth where halving the step halves the difference (within a quarter): a jump of f
+// (where a compact weight's reach ends) within the step does not shrink with it, whether it
+// lies on one side of s or, in a sliver between two reaches' edges, on both. Its
+// evaluations run in one loop that a point needing no measure skips (a CPU renderer runs a
+// loop as long as its slowest lane, where it would run a branch's code for every lane
+// whatever its mask), and only where a CPU renderer's cap on an invocation's loop
+// iterations leaves room for them past Newton's (warp_evaluations).
+bool warp_accepted(float accept, float steps, vec2 u, vec2 s, float residual, float hint) {
+    const int most = 1 + 3 * WARP_NEWTON_STEPS + WARP_ACCEPT_EVALUATIONS;
+    bool measure = !(residual <= warp_accept(accept, steps, u, s)) &&
+                   residual <= warp_accept_at(accept, steps, u, s, 2.0 * hint) &&
+                   warp_evaluations(most) == most;
+    float h = warp_damped_h();
+    vec2 fs = vec2(0.0);
+    float full = 0.0;              // the difference of the whole step on the side measured
+    vec2 least = vec2(3.0e38);     // per axis, the shorter side's difference so far
+    bool halves = true;   // every side halves its difference with the step
+    int count = measure ? WARP_ACCEPT_EVALUATIONS : 0;
+    for (int k = 0; k < count; ++k) {
+        vec2 f = mls_eval(k == 0 ? s : s + warp_stretch_step(k, h)).f;
+        if (k == 0) {
+            fs = f;
+        } else if (k % 2 == 1) {
+            full = length(f - fs);
+            int axis = (k - 1) / 4;
+            least[axis] = min(least[axis], full);
+        } else {
+            halves = halves && abs(full - 2.0 * length(f - fs)) <= 0.25 * full;
+        }
+    }
+    if (!measure) {
+        return residual <= warp_accept(accept, steps, u, s);
+    }
+    float stretch = halves ? max(least.x, least.y) / h : 1.0;
+    return residual <= warp_accept_at(accept, steps, u, s, stretch < 3.0e38 ? stretch : 1.0);
+}
+
 // The last iterate from ``s``: stops once |f(s) - u| <= tolerance (scaled), after
 // WARP_NEWTON_STEPS steps (fewer where warp_evaluations allows fewer), or where f is singular
 // (a fold's edge); ``residual`` is its |f(s) - u|, scaled, ``hint`` warp_accepted's. A step
@@ -118,10 +136,8 @@ int warp_evaluations(int most) {
 vec2 warp_newton(vec2 s, vec2 u, float tolerance, float max_step, out float residual,
                  out float hint) {
     float h = 0.25 * u_newton_unit / u_scale;   // a quarter pixel: float32 noise in f ~1e-4 of it
-    // three evaluations a step (f and its two differences), one for the last f, and
-    // warp_accepted's after
-    int reserved = 1 + WARP_ACCEPT_EVALUATIONS;
-    int steps = (warp_evaluations(reserved + 3 * WARP_NEWTON_STEPS) - reserved) / 3;
+    // three evaluations a step (f and its two differences), and one for the last f
+    int steps = (warp_evaluations(1 + 3 * WARP_NEWTON_STEPS) - 1) / 3;
     residual = 0.0;
     hint = 1.0;
     for (int k = 0; ; ++k) {
