@@ -58,15 +58,21 @@ def _check_handles(count: int, spelled: str) -> None:
         )
 
 
+#: Handles along an axis that a preset may draw whatever the image's size (a few handles
+#: cost little even on a tiny image): beyond, at most one per pixel (:func:`_check_spacing`).
+_FEW_HANDLES = 64
+
+
 def _check_spacing(name: str, count: int, gaps: int, length: int, axis: str) -> None:
     """``ValueError`` where ``count`` handles along an image ``length`` pixels long (its
-    ``axis``) leave ``gaps`` gaps narrower than a pixel: finer than the pixels they move,
-    and a cost that grows with their number for nothing (a text crop 128 wide cut into
-    500,000 segments warps for minutes)."""
-    if gaps > length:
+    ``axis``), more than :data:`_FEW_HANDLES`, leave ``gaps`` gaps narrower than a pixel:
+    finer than the pixels they move, and a cost that grows with their number for nothing
+    (a text crop 128 wide cut into 500,000 segments warps for minutes)."""
+    most = max(length + count - gaps, _FEW_HANDLES)
+    if count > most:
         raise ValueError(
             f"{name} = {count:,} is more than one per pixel of the image's {axis} "
-            f"({length}): at most {length + count - gaps:,} for this image"
+            f"({length}): at most {most:,} for this image"
         )
 
 
@@ -164,8 +170,8 @@ class GridPreset:
     ----------
     rows, cols : int, default 4
         The grid's size (>= 2 each; ``rows * cols`` at most :data:`MAX_HANDLES`, 2**20;
-        and at most H + 1 rows and W + 1 columns on an H x W image, handles a pixel apart:
-        a draw on a smaller image raises ``ValueError``).
+        and, beyond 64, at most H + 1 rows and W + 1 columns on an H x W image, handles a
+        pixel apart: a draw on a smaller image raises ``ValueError``).
     displacement : float, default 0.03
         The largest offset per axis: a fraction of the image's width (x) and height (y)
         with ``units="fraction"``, pixels with ``units="pixels"``.
@@ -353,8 +359,8 @@ class TextDistortPreset(_TextPreset):
     ----------
     segments : int, default 4
         The patches along the width (2 (segments + 1) fiducial points, at most
-        :data:`MAX_HANDLES`; and at most W, patches a pixel wide, on an image W wide: a
-        draw on a narrower image raises ``ValueError``).
+        :data:`MAX_HANDLES`; and, beyond 64, at most W, patches a pixel wide, on an image W
+        wide: a draw on a narrower image raises ``ValueError``).
     radius : float or None, default None
         R in pixels; None: W / segments / 3.
 
@@ -402,8 +408,8 @@ class TextStretchPreset(_TextPreset):
     ----------
     segments : int, default 4
         The patches along the width (2 (segments + 1) fiducial points, at most
-        :data:`MAX_HANDLES`; and at most W, patches a pixel wide, on an image W wide: a
-        draw on a narrower image raises ``ValueError``).
+        :data:`MAX_HANDLES`; and, beyond 64, at most W, patches a pixel wide, on an image W
+        wide: a draw on a narrower image raises ``ValueError``).
     radius : float or None, default None
         R in pixels; None: 4/5 W / segments.
 
@@ -457,8 +463,8 @@ class TextPerspectivePreset(_TextPreset):
     ----------
     segments : int, default 4
         The patches along the width (2 (segments + 1) fiducial points, at most
-        :data:`MAX_HANDLES`; and at most W, patches a pixel wide, on an image W wide: a
-        draw on a narrower image raises ``ValueError``).
+        :data:`MAX_HANDLES`; and, beyond 64, at most W, patches a pixel wide, on an image W
+        wide: a draw on a narrower image raises ``ValueError``).
     radius : float or None, default None
         R in pixels; None: H / 2.
 

@@ -66,8 +66,13 @@ def test_the_command_line_refuses_it_in_one_line(tmp_path):
             (32, 128),
             r"images\[1\]: segments = 129 .* at most 128",
         ),
-        ("text-perspective", {}, (32, 3), r"images\[1\]: segments = 4 .* width \(3\): at most 3"),
-        ("grid", {"rows": 34}, (32, 128), r"images\[1\]: rows = 34 .* height \(32\): at most 33"),
+        (
+            "text-perspective",
+            {"segments": 65},
+            (32, 3),
+            r"images\[1\]: segments = 65 .* width \(3\): at most 64",
+        ),
+        ("grid", {"rows": 65}, (32, 128), r"images\[1\]: rows = 65 .* height \(32\): at most 64"),
         (
             "grid",
             {"cols": 130},
@@ -79,20 +84,25 @@ def test_the_command_line_refuses_it_in_one_line(tmp_path):
 def test_handles_finer_than_the_pixels_are_refused_naming_the_image(
     preset, options, shape, message
 ):
-    """More handles than pixels along an axis move nothing the pixels show and cost their
-    number: 500,000 segments on a 128-wide crop ran for minutes. Refused at the draw, naming
-    the image (the image before it is wide enough)."""
+    """More handles than pixels along an axis (beyond 64) move nothing the pixels show and
+    cost their number: 500,000 segments on a 128-wide crop ran for minutes. Refused at the
+    draw, naming the image (the image before it is wide enough)."""
     aug = Augment(preset, **options)
     with pytest.raises(ValueError, match=message):
         aug.draw([(64, 600_000), shape])
 
 
 @pytest.mark.parametrize(
-    ("preset", "options", "count"),
-    [("text-stretch", {"segments": 128}, 2 * 129), ("grid", {"rows": 33, "cols": 129}, 33 * 129)],
+    ("preset", "options", "shape", "count"),
+    [
+        ("text-stretch", {"segments": 128}, (32, 128), 2 * 129),
+        ("grid", {"rows": 64, "cols": 129}, (32, 128), 64 * 129),
+        ("grid", {}, (1, 1), 16),  # a few handles, whatever the image
+        ("text-distort", {"segments": 64}, (2, 2), 2 * 65),
+    ],
 )
-def test_handles_a_pixel_apart_are_taken(preset, options, count):
-    (params,) = Augment(preset, **options).draw([(32, 128)])
+def test_handles_a_pixel_apart_or_a_few_are_taken(preset, options, shape, count):
+    (params,) = Augment(preset, **options).draw([shape])
     assert np.asarray(params["src"]).shape == (count, 2)
     assert np.isfinite(params["dst"]).all()
 
