@@ -90,8 +90,8 @@ STRETCH_STEP = 1 / 32
 def stretch_at(f: Callable[[np.ndarray], np.ndarray], s: np.ndarray, step: float) -> np.ndarray:
     """(K,) how many times f magnifies lengths at the points ``s`` (K, D): along each axis
     the shorter of the differences of ``step`` on its two sides, the longest axis's, where
-    f is smooth on every side (else, or not finite, 1; ``warp/newton.glsl``'s
-    warp_accepted). A side is smooth where halving the step halves the difference (within
+    f is smooth on every side (else, or not finite, 1; the GPU's ``common/stretch.glsl``
+    alike). A side is smooth where halving the step halves the difference (within
     a quarter): a jump of f (where a compact weight's reach ends) within the step does not
     shrink with it, whether it lies on one side of s or, in a sliver between two reaches'
     edges, on both. ``f`` evaluates f at points."""

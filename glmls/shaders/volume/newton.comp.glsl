@@ -35,6 +35,7 @@ layout(local_size_x = LOCAL_SIZE) in;
 
 #include "volume/field.glsl"
 #include "mls3/newton.glsl"
+#include "common/stretch.glsl"
 
 layout(std430, binding = BIND_VOLUME_COORDS) buffer VolumeCoords {
     vec4 volume_coords[];
@@ -187,22 +188,9 @@ float volume_accept_at(vec3 u, vec3 s, float stretch) {
     return max(u_accept, VOLUME_ACCEPT_STEPS * 1.1920929e-7 * far);
 }
 
-// f's stretch at s, for volume_accept_at: along each axis the shorter of the differences of
-// VOLUME_STRETCH_H on its two sides, the longest axis's, where f is smooth on every side
-// (else, or not finite, 1). A side is smooth where halving the step halves the difference
-// (within a quarter): a jump of f (where a compact weight's reach ends) within the step does
-// not shrink with it, whether it lies on one side of s or, in a sliver between two reaches'
-// edges, on both. Its evaluations: f at s, then at s + h, s + h / 2, s - h and
-// s - h / 2 along x, y and z (volume_stretch_point).
-const int VOLUME_STRETCH_EVALUATIONS = 13;
-const float VOLUME_STRETCH_H = 0.03125;   // voxels
-
-vec3 volume_stretch_point(vec3 s, int k) {
-    int j = k - 1;
-    vec3 along = vec3(equal(ivec3(j / 4), ivec3(0, 1, 2)));
-    float step = (j % 2 == 1 ? 0.5 : 1.0) * ((j / 2) % 2 == 1 ? -1.0 : 1.0) * VOLUME_STRETCH_H;
-    return k == 0 ? s : s + step * along;
-}
+// f's stretch at s, for volume_accept_at (common/stretch.glsl): steps of VOLUME_STRETCH_H.
+const int VOLUME_STRETCH_EVALUATIONS = 13;   // stretch_evaluations(3)
+const float VOLUME_STRETCH_H = 0.03125;      // voxels
 
 // Whether s, ``residual`` = |f(s) - u| (voxels), is worth f's stretch: above u_accept, but
 // within volume_accept_at twice the stretch of ``jacobian`` (f's, as Newton last measured
@@ -285,28 +273,18 @@ void main() {
         // the first start's evaluations one pass doing it all allows, less the first pass's
         int left = 5 * WARP_NEWTON_STEPS + (entry.y != VOLUME_UNEVALUATED ? 0 : 1);
         // then, where the end is in doubt (volume_doubt), f's stretch there, through the
-        // same evaluation of f: probe >= 0 the next of volume_stretch_point
+        // same evaluation of f: probe >= 0 the next of stretch_point
         int probe = -1;
-        vec3 fs = vec3(0.0);
-        float full = 0.0;              // the difference of the whole step on the side measured
-        vec3 least = vec3(3.0e38);     // per axis, the shorter side's difference so far
-        bool halves = true;   // every side halves its difference with the step
+        StretchMeasure measure = stretch_begin(3);
         for (int e = 0; e < budget + room; ++e) {
             bool measuring = probe >= 0;
             vec3 fx = vec3(0.0);
             if (measuring || !done) {
-                fx = volume_f(measuring ? volume_stretch_point(s, probe) : volume_newton_point(n));
+                fx = volume_f(measuring ? stretch_point(s, probe, VOLUME_STRETCH_H)
+                                        : volume_newton_point(n));
             }
             if (measuring) {
-                if (probe == 0) {
-                    fs = fx;
-                } else if (probe % 2 == 1) {
-                    full = length(fx - fs);
-                    int axis = (probe - 1) / 4;
-                    least[axis] = min(least[axis], full);
-                } else {
-                    halves = halves && abs(full - 2.0 * length(fx - fs)) <= 0.25 * full;
-                }
+                stretch_take(measure, probe, fx);
                 if (++probe == VOLUME_STRETCH_EVALUATIONS) {
                     break;
                 }
@@ -333,10 +311,9 @@ void main() {
                 left = 5 * WARP_NEWTON_STEPS + 1;
             }
         }
-        float stretch = halves ? max(least.x, max(least.y, least.z)) / VOLUME_STRETCH_H : 1.0;
         bool accepted = residual <= u_accept ||
                         (probe == VOLUME_STRETCH_EVALUATIONS &&
-                         residual <= volume_accept_at(u, s, stretch < 3.0e38 ? stretch : 1.0));
+                         residual <= volume_accept_at(u, s, stretch_of(measure, VOLUME_STRETCH_H)));
         volume_store(i, s, residual, accepted);
     }
 }

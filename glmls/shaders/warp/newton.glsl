@@ -72,61 +72,37 @@ int warp_evaluations(int most) {
 #endif
 }
 
-// The evaluations of f warp_accepted may make: f at s, then at s + h, s + h / 2, s - h and
-// s - h / 2 along x, then along y (warp_stretch_step).
+#include "common/stretch.glsl"
+
+// The evaluations of f warp_accepted may make (common/stretch.glsl's, in 2D).
 const int WARP_ACCEPT_EVALUATIONS = 9;
 
-// The offset from s of warp_accepted's evaluation k > 0 (h: warp_damped_h).
-vec2 warp_stretch_step(int k, float h) {
-    int j = k - 1;
-    int axis = j / 4;
-    float step = (j % 2 == 1 ? 0.5 * h : h) * ((j / 2) % 2 == 1 ? -1.0 : 1.0);
-    return step * vec2(axis == 0, axis == 1);
-}
-
 // Whether s counts as a preimage of u, ``residual`` = |f(s) - u| (scaled): within warp_accept,
-// or, where f magnifies, within warp_accept_at f's stretch at s. ``hint``: the longer column
-// of the last Newton step's Jacobian (forward differences; 1 where none was taken): a
-// residual that twice the hint's stretch would not accept is refused unmeasured, the pixels
-// that f leaves uncovered among them.
-//
-// The stretch: along each axis the shorter of the differences of warp_damped_h on its two
-// sides, the longer axis's, where f is smooth on every side (else, or not finite, 1). A side
-// is smooth where halving the step halves the difference (within a quarter): a jump of f
-// (where a compact weight's reach ends) within the step does not shrink with it, whether it
-// lies on one side of s or, in a sliver between two reaches' edges, on both. Its
-// evaluations run in one loop that a point needing no measure skips (a CPU renderer runs a
-// loop as long as its slowest lane, where it would run a branch's code for every lane
-// whatever its mask), and only where a CPU renderer's cap on an invocation's loop
-// iterations leaves room for them past Newton's (warp_evaluations).
+// or, where f magnifies, within warp_accept_at f's stretch at s (common/stretch.glsl, steps
+// of warp_damped_h). ``hint``: the longer column of the last Newton step's Jacobian (forward
+// differences; 1 where none was taken): a residual that twice the hint's stretch would not
+// accept is refused unmeasured, the pixels that f leaves uncovered among them. The
+// measure's evaluations run in one loop that a point needing no measure skips (a CPU
+// renderer runs a loop as long as its slowest lane, where it would run a branch's code for
+// every lane whatever its mask), and only where a CPU renderer's cap on an invocation's
+// loop iterations leaves room for them past Newton's (warp_evaluations).
 bool warp_accepted(float accept, float steps, vec2 u, vec2 s, float residual, float hint) {
     const int most = 1 + 3 * WARP_NEWTON_STEPS + WARP_ACCEPT_EVALUATIONS;
-    bool measure = !(residual <= warp_accept(accept, steps, u, s)) &&
+    float plain = warp_accept(accept, steps, u, s);
+    bool measure = !(residual <= plain) &&
                    residual <= warp_accept_at(accept, steps, u, s, 2.0 * hint) &&
                    warp_evaluations(most) == most;
     float h = warp_damped_h();
-    vec2 fs = vec2(0.0);
-    float full = 0.0;              // the difference of the whole step on the side measured
-    vec2 least = vec2(3.0e38);     // per axis, the shorter side's difference so far
-    bool halves = true;   // every side halves its difference with the step
+    StretchMeasure m = stretch_begin(2);
     int count = measure ? WARP_ACCEPT_EVALUATIONS : 0;
     for (int k = 0; k < count; ++k) {
-        vec2 f = mls_eval(k == 0 ? s : s + warp_stretch_step(k, h)).f;
-        if (k == 0) {
-            fs = f;
-        } else if (k % 2 == 1) {
-            full = length(f - fs);
-            int axis = (k - 1) / 4;
-            least[axis] = min(least[axis], full);
-        } else {
-            halves = halves && abs(full - 2.0 * length(f - fs)) <= 0.25 * full;
-        }
+        vec2 f = mls_eval(stretch_point(vec3(s, 0.0), k, h).xy).f;
+        stretch_take(m, k, vec3(f, 0.0));
     }
     if (!measure) {
-        return residual <= warp_accept(accept, steps, u, s);
+        return residual <= plain;
     }
-    float stretch = halves ? max(least.x, least.y) / h : 1.0;
-    return residual <= warp_accept_at(accept, steps, u, s, stretch < 3.0e38 ? stretch : 1.0);
+    return residual <= warp_accept_at(accept, steps, u, s, stretch_of(m, h));
 }
 
 // The last iterate from ``s``: stops once |f(s) - u| <= tolerance (scaled), after
