@@ -31,6 +31,7 @@ farther than the bins list segments for (far from every handle), a point visits 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import moderngl
@@ -78,6 +79,13 @@ class HandleBins:
     segment_starts: np.ndarray
     segment_list: np.ndarray
     handles: int
+    #: The most point handles in the bins that a square of half-side max(reach, near)
+    #: around a point meets, and how many bin rows (and columns) such a square spans.
+    window: int = 0
+    span: int = 1
+    #: ... and the same for a square of twice that half-side.
+    wide_window: int = 0
+    wide_span: int = 1
 
     @classmethod
     def build(
@@ -110,6 +118,11 @@ class HandleBins:
         counts = np.bincount(key, minlength=int(dims[0] * dims[1]))
         starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
         segment_starts, segment_list = _segment_lists(segments, lo, size, dims, reach_)
+        span = int(min(np.floor(2.0 * max(reach_, near) / size) + 2, dims.max()))
+        wide = int(min(np.floor(4.0 * max(reach_, near) / size) + 2, dims.max()))
+        window, wide_window = _most_in_windows(
+            counts.reshape(int(dims[1]), int(dims[0])), span, wide
+        )
         return cls(
             order,
             starts,
@@ -121,7 +134,39 @@ class HandleBins:
             segment_starts,
             segment_list,
             len(points) + len(segments),
+            window,
+            span,
+            wide_window,
+            wide,
         )
+
+    def evaluation_loops(self, *, gaussian: bool, full: bool, bound: bool = False) -> int:
+        """The loop iterations of one evaluation of f through these bins (``mls_eval`` of
+        ``glmls/shaders/mls/visit.glsl``) where the handles crowd most: what decides, on a
+        driver that caps an invocation's loop iterations, whether the bins serve
+        (:mod:`glmls.engine.loops`). A walk over the bins of a square costs a row and an
+        empty run per bin row besides its handles, one a loop iteration. A point walks the
+        bins of the square of the reach for the nearest (twice, first in a smaller square)
+        and for the moments (and for affine's float64 moments where ``full``), and lists the
+        segments of its bin twice. The ``gaussian`` walks its cut's weight bound too, and a
+        point whose search for the nearest doubles its square past twice the reach, or whose
+        cut reaches that far, visits every handle instead, sixteen a loop iteration (four in
+        the float64 moments), and every segment. For the gaussian that is an estimate, for a
+        point in the handles' midst: one whose nearest handle lies far from the others
+        doubles its square several times, up to twice the reach; ``bound``: the most,
+        counting those squares' walks."""
+        walk = 2 * self.span + self.window
+        segments = 2 * int(np.diff(self.segment_starts).max()) if len(self.segment_list) else 0
+        if not gaussian:
+            return (3 + full) * walk + segments + 48
+        everything = 2 * (self.handles // 16 + 1) + full * (self.handles // 4 + 1)
+        everything += 2 * len(self.segment_list) + 48
+        loops = (4 + full) * walk + segments + 48
+        if bound:
+            wide = 2 * self.wide_span + self.wide_window
+            doublings = min(40, math.ceil(math.log2(2.0 * self.reach / self.near + 1.0)) + 2)
+            loops = (doublings + 2 + full) * wide + walk + segments + 48
+        return int(max(loops, everything))
 
     def table(self) -> np.ndarray:
         """The int32 table on the GPU: point starts, segment starts, segment list."""
@@ -140,6 +185,24 @@ class HandleBins:
             "u_bin_segment_starts": len(self.starts),
             "u_bin_segment_list": len(self.starts) + len(self.segment_starts),
         }
+
+
+def _most_in_windows(counts: np.ndarray, *spans: int) -> list[int]:
+    """For each span, the most of ``counts`` (bins, rows x columns) in any span x span block
+    of bins (the whole grid where it is smaller)."""
+    total = np.zeros((counts.shape[0] + 1, counts.shape[1] + 1), np.int64)
+    total[1:, 1:] = counts.cumsum(0).cumsum(1)
+    most = []
+    for span in spans:
+        rows, columns = min(span, counts.shape[0]), min(span, counts.shape[1])
+        block = (
+            total[rows:, columns:]
+            - total[:-rows, columns:]
+            - total[rows:, :-columns]
+            + total[:-rows, :-columns]
+        )
+        most.append(int(block.max()))
+    return most
 
 
 def _mean_spacing(points: np.ndarray) -> float:

@@ -29,6 +29,15 @@ from ..gl.context import GLContext
 from ..gl.dispatch import set_uniforms
 from ..gl.resources import Resources
 from .bins import BinBuffer, HandleBins, worth_binning
+from .loops import (
+    CAPPED_NEWTON_HANDLES,
+    NEWTON_PASSES,
+    bins_serve,
+    check_loop_budget,
+    check_plain_loops,
+    newton_visits_all,
+    walks_checked,
+)
 from .storage import (
     HandleStorage,
     capacity_advice,
@@ -196,38 +205,6 @@ def config_defines(
     return defines
 
 
-#: The passes that run Newton's method: each invocation evaluates f (and a Jacobian) up to
-#: tens of times, walking every handle two or three times per evaluation.
-NEWTON_PASSES = frozenset(
-    {
-        "warp/inverse.comp.glsl",
-        "warp/inverse_points.comp.glsl",
-        "mls3/inverse.comp.glsl",
-        "volume/newton.comp.glsl",
-    }
-)
-#: The most handles those passes take where the driver caps an invocation's loop iterations
-#: (:attr:`glmls.gl.GLContext.loop_limit`): they make only the evaluations of f that fit
-#: within Mesa's 65,535 (``warp_evaluations``, ``mls3_evaluations``), and at sixteen handles
-#: a loop iteration (mls/handles.glsl) beyond this count too few would fit for Newton's steps.
-CAPPED_NEWTON_HANDLES = 8192
-
-
-def check_loop_budget(gl: GLContext, entry: str, count: int, *, binned: bool = False) -> None:
-    """``ValueError`` where pass ``entry`` with ``count`` handles (visited all, not through
-    bins) could run more loop iterations than ``gl``'s driver runs in one invocation: it
-    would leave handles out of f without a word."""
-    if gl.loop_limit is None or binned or entry not in NEWTON_PASSES:
-        return
-    if count > CAPPED_NEWTON_HANDLES:
-        raise ValueError(
-            f"{count:,} handles: the inverse of f (Newton's method) takes at most "
-            f"{CAPPED_NEWTON_HANDLES:,} on Mesa's llvmpipe, which stops a shader's loops after "
-            f"{gl.loop_limit:,} iterations (more would leave handles out); use fewer handles "
-            f"or a GPU"
-        )
-
-
 def check_bins(bins: object, config: MLSConfig) -> None:
     """``bins`` as :class:`MLSKernel` takes it for ``config``: ``TypeError`` for a value
     that is not True, False or None, ``ValueError`` for bins with a weight without a radius."""
@@ -331,7 +308,9 @@ class MLSKernel:
     def _upload(self, packed: np.ndarray, segments: np.ndarray, scaling: Scaling) -> None:
         rows = len(packed) + len(segments)
         radius = self._radius(None, scaling.scale)
-        binned = self._use_bins(packed, segments, radius, self._bins_request)
+        wanted = self._use_bins(packed, segments, radius, self._bins_request)
+        bins = self._plan_bins(packed, segments, radius, wanted)
+        binned = bins is not None
         name = resolve_storage(self._storage_request, self.gl.mgl, rows, binned=binned)
         storage = self._storage
         if storage is None or storage.name != name:
@@ -354,7 +333,7 @@ class MLSKernel:
         self._packed, self._segments, self.scaling = packed, segments, scaling
         self._extent = handle_extent(np.concatenate([packed, segments]))
         self._memo.clear()
-        self._write(radius, binned)
+        self._write(radius, bins)
 
     def memo(self, key: tuple, compute: Callable[[], object]) -> object:
         """``compute()``'s value for ``key``, computed once per upload of the handles: for
@@ -377,19 +356,47 @@ class MLSKernel:
         everything = np.concatenate([packed[:, :2], sources]).astype(float)
         return worth_binning(self.config.weight, radius, everything)
 
-    def _write(self, radius: float | None, use_bins: bool) -> None:
-        """Sort the packed handles into bins for ``radius`` (scaled) where ``use_bins``, then
-        write them to the storage."""
+    def _plan_bins(
+        self,
+        packed: np.ndarray,
+        segments: np.ndarray,
+        radius: float | None,
+        use_bins: bool,
+        *,
+        rebuild: bool = False,
+    ) -> HandleBins | None:
+        """The bins of ``packed`` and ``segments`` for ``radius`` (scaled) where ``use_bins``
+        and a driver's cap on loop iterations lets them serve, else None (``rebuild``: the
+        bins of another image's radius for a pass compiled with bins, refused where they
+        could not serve). ``ValueError`` where neither they nor visiting every handle fit
+        in the cap. Changes nothing."""
+        sources = segments[0::2].astype(float).reshape(-1, 2, 2)
+        full = self.config.transform == "affine"  # affine's float64 moments
+        limit = self.gl.loop_limit
+        if use_bins and radius is not None and self.config.uses_radius:
+            count = len(packed) + len(sources)
+            reach = self.config.weight_entry.reach(radius, count)
+            bins = HandleBins.build(packed[:, :2].astype(float), reach, radius, sources)  # type: ignore[arg-type]
+            serve = bins_serve(
+                limit,
+                bins,
+                gaussian=self.config.weight_entry.support == "gaussian",
+                full=full,
+                requested=rebuild or bool(self._bins_request),
+            )
+            if serve:
+                return bins
+        check_plain_loops(limit, len(packed), len(sources), full=full)
+        return None
+
+    def _write(self, radius: float | None, bins: HandleBins | None) -> None:
+        """Write the packed handles to the storage, sorted by ``bins`` (for ``radius``,
+        scaled) where there are bins."""
         packed = self._packed
-        sources = self._segments[0::2].astype(float).reshape(-1, 2, 2)
-        use_bins = use_bins and radius is not None and self.config.uses_radius
         if self._bins is not None:
             self._bins.release()
             self._bins = None
-        if use_bins:
-            count = len(packed) + len(sources)
-            reach = self.config.weight_entry.reach(radius, count)  # type: ignore[arg-type]
-            bins = HandleBins.build(packed[:, :2].astype(float), reach, radius, sources)  # type: ignore[arg-type]
+        if bins is not None:
             packed = packed[bins.order]
             self._bins = BinBuffer(self.gl.mgl, bins, radius=radius)  # type: ignore[arg-type]
         self._storage.upload(packed, self._segments)  # type: ignore[union-attr]
@@ -452,9 +459,23 @@ class MLSKernel:
         """The spatial bins in use, or None."""
         return self._bins.bins if self._bins is not None else None
 
-    def defines(self) -> dict[str, object]:
-        """The ``#define`` values of ``glmls/shaders/mls/`` for this configuration."""
-        binned = self._bins is not None
+    @property
+    def walks_checked(self) -> bool:
+        """Whether the passes that evaluate f check that a driver's cap on loop iterations
+        left each evaluation whole (:func:`glmls.engine.loops.walks_checked`): bins whose
+        walks could exceed it."""
+        bins = self.bins
+        return bins is not None and walks_checked(
+            self.gl.loop_limit,
+            bins,
+            gaussian=self.config.weight_entry.support == "gaussian",
+            full=self.config.transform == "affine",
+        )
+
+    def defines(self, *, binned: bool | None = None) -> dict[str, object]:
+        """The ``#define`` values of ``glmls/shaders/mls/`` for this configuration (``binned``
+        False: visiting every handle, bins or not; None: through the bins there are)."""
+        binned = self._bins is not None if binned is None else binned and self._bins is not None
         storage = self._storage
         unroll = storage is not None and storage.unrolls and not binned
         return config_defines(
@@ -485,9 +506,18 @@ class MLSKernel:
         """The compute program of ``entry`` (a pass including ``mls/visit.glsl``) with this
         kernel's defines and ``defines``."""
         self.check_alive()
-        check_loop_budget(self.gl, entry, self.count, binned=self._bins is not None)
+        bins = self._bins.bins if self._bins is not None else None
+        binned = bins is not None and not newton_visits_all(
+            self.gl.loop_limit,
+            entry,
+            bins,
+            count=self.count,
+            gaussian=self.config.weight_entry.support == "gaussian",
+            full=self.config.transform == "affine",
+        )
+        check_loop_budget(self.gl, entry, self.count, binned=binned)
         with self.gl.use():
-            return self.gl.compute(entry, self.defines() | dict(defines or {}))
+            return self.gl.compute(entry, self.defines(binned=binned) | dict(defines or {}))
 
     def bind(self, program: moderngl.ComputeShader, shape: tuple[int, int] | None = None) -> None:
         """Make ``program`` evaluate this kernel's f for an image of ``shape``: uniforms,
@@ -496,8 +526,9 @@ class MLSKernel:
         with self.gl.use():
             if self._bins is not None:
                 radius = self.radius(shape)
-                if radius != self._bins.radius:
-                    self._write(radius, True)  # another image size: another radius
+                if radius != self._bins.radius:  # another image size: another radius
+                    bins = self._plan_bins(self._packed, self._segments, radius, True, rebuild=True)
+                    self._write(radius, bins)
             set_uniforms(program, self.uniforms(shape))
             self._storage.bind(program)  # type: ignore[union-attr]
             if self._bins is not None:

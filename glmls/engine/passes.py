@@ -90,6 +90,7 @@ def _evaluate_points(kernel, points, with_matrix, shape, max_groups, keep):
     run_1d(program, count, max_groups=max_groups, per_invocation=POINTS_PER_INVOCATION)
     kernel.gl.mgl.memory_barrier()  # the shader's writes before the read
     d = np.frombuffer(f_out.read(size=count * 8, offset=at), np.float32).reshape(count, 2)
+    _check_whole(kernel, d)
     # f = v + (f - v) + t: v keeps its float64 digits, f is v + t where d is exactly 0, and
     # the targets' offset t (MLSKernel.offset) joins in float64
     f = points + d.astype(np.float64) * kernel.scaling.scale + kernel.offset
@@ -97,6 +98,23 @@ def _evaluate_points(kernel, points, with_matrix, shape, max_groups, keep):
         return f, None
     m = np.frombuffer(scratch.cached("M").read(size=count * 16), np.float32)
     return f, m.astype(np.float64).reshape(count, 2, 2)
+
+
+def _check_whole(kernel: MLSKernel, f: np.ndarray) -> None:
+    """``ValueError`` where the points pass marked f NaN (``mls/points.comp.glsl``): on a
+    driver that caps an invocation's loop iterations, the walk through the bins near those
+    points took more than the cap, and f would have left handles out. Checked where the
+    kernel's bins could (:attr:`~glmls.engine.kernel.MLSKernel.walks_checked`)."""
+    if not kernel.walks_checked:
+        return  # every walk fits (glmls.engine.loops)
+    cut = np.isnan(f).any(axis=1)
+    if cut.any():
+        raise ValueError(
+            f"f at {int(cut.sum()):,} of {len(f):,} points walked more handles than Mesa's "
+            f"llvmpipe runs loop iterations in one shader invocation "
+            f"({kernel.gl.loop_limit:,}; f would leave handles out): thousands of handles "
+            f"crowd the spatial bins near them; use bins=False or a GPU"
+        )
 
 
 def evaluate_lattice(
@@ -125,6 +143,10 @@ def evaluate_lattice(
             max_groups=_max_groups(kernel, max_groups),
             per_invocation=POINTS_PER_INVOCATION,
         )
+        if kernel.walks_checked:
+            kernel.gl.mgl.memory_barrier()
+            f = target.read(size=nx * rows * 8, offset=offset)
+            _check_whole(kernel, np.frombuffer(f, np.float32).reshape(-1, 2))
     return nx * rows
 
 

@@ -56,6 +56,16 @@ void mls_store(int i, MLSResult r) {
 #endif
 }
 
+// r, or NaN where a CPU renderer's cap on loop iterations cut a walk short
+// (common/loops.glsl; glmls.engine.loops keeps the handles within it, this marks what
+// escapes it): f then left handles out, and no pass takes it for f.
+MLSResult mls_checked(MLSResult r, bool whole) {
+    vec2 nan = vec2(uintBitsToFloat(0x7fc00000u));
+    r.f = whole ? r.f : nan;
+    r.d = whole ? r.d : nan;
+    return r;
+}
+
 vec2 mls_item_point(int i) {
 #if MLS_LATTICE
     int nx = u_lattice_dims.x;
@@ -80,6 +90,9 @@ void main() {
 #if MLS_POINTS_PER_INVOCATION == 2
     MLSResult r0, r1;
     mls_eval_pair(mls_item_point(min(first, last)), mls_item_point(min(first + 1, last)), r0, r1);
+    bool whole = mls_loops_whole();
+    r0 = mls_checked(r0, whole);
+    r1 = mls_checked(r1, whole);
     if (first < u_count) {
         mls_store(first, r0);
     }
@@ -88,6 +101,7 @@ void main() {
     }
 #else
     MLSResult r = mls_eval(mls_item_point(min(first, last)));
+    r = mls_checked(r, mls_loops_whole());
     if (first < u_count) {
         mls_store(first, r);
     }

@@ -159,22 +159,28 @@ void main() {
     // renderer the loop runs as long as its slowest lane, and each lane's count bounds it.
     int budget = warp_evaluations((2 + 24) * WARP_DAMPED_EVALUATIONS);
     for (int e = 0; running && e < budget; ++e) {
-        warp_damped_take(d, mls_eval(warp_damped_point(d, h)).f, u, h, tolerance, 0.2);
-        if (d.phase == WARP_DAMPED_DONE || e + 1 == budget) {
-            if (current < 0) {   // from s or u: the least residual kept (warp_rescue)
+        vec2 f = mls_eval(warp_damped_point(d, h)).f;
+        // past a CPU renderer's cap f leaves handles out: the iterates before stand
+        bool whole = mls_loops_whole();
+        if (whole) {
+            warp_damped_take(d, f, u, h, tolerance, 0.2);
+        }
+        if (!whole || d.phase == WARP_DAMPED_DONE || e + 1 == budget) {
+            bool taken = d.phase != WARP_DAMPED_START;   // f at the start was whole
+            if (taken && current < 0) {   // from s or u: the least residual kept (warp_rescue)
                 if (!(d.least >= residual)) {
                     s = d.best;
                     residual = d.least;
                 }
                 done = residual <= warp_accept(u_accept, u_accept_steps, u, s) &&
                        warp_inside(s, 0.0);
-            } else if (d.least <= warp_accept(u_accept, u_accept_steps, u, d.best) &&
+            } else if (taken && d.least <= warp_accept(u_accept, u_accept_steps, u, d.best) &&
                        warp_inside(d.best, 0.0)) {
                 s = d.best;
                 residual = d.least;
                 done = true;
             }
-            running = !done && warp_next_start(current, starts, s, u, at, start);
+            running = whole && !done && warp_next_start(current, starts, s, u, at, start);
             d = warp_damped_begin(start);
         }
     }

@@ -153,7 +153,7 @@ void main() {
     // preimage exactly, where the guess's texels carry float32 noise that could move a point
     // on the canvas's edge off it; tested only where Newton ended within its tolerance of u.
     bool identity = length(s - u) * u_scale <= tolerance &&
-                    all(equal(mls_eval(u).d, vec2(0.0)));
+                    all(equal(mls_eval(u).d, vec2(0.0))) && mls_loops_whole();
     s = identity ? u : s;
     residual = identity ? 0.0 : residual;
     if (i < u_count) {

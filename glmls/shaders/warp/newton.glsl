@@ -55,7 +55,8 @@ const int WARP_DAMPED_EVALUATIONS = 1 + 4 * WARP_NEWTON_STEPS;
 // after), 1,024 iterations left to the loops around: an evaluation walks the handles up to
 // three times (the nearest, the snapped point's normalisation, the moments), sixteen handles
 // a loop iteration, one a segment, and is one iteration of the Newton loop. With bins a walk
-// visits only the handles of the bins near the point, a count not known here: all.
+// visits only the handles of the bins near the point, a count not known here: all, each
+// Newton loop keeping only the evaluations the cap left whole (mls_loops_whole).
 int warp_evaluations(int most) {
 #if SCAN_PIECE_PIXELS == 0 || MLS_BINS
     return most;
@@ -99,7 +100,7 @@ bool warp_accepted(float accept, float steps, vec2 u, vec2 s, float residual, fl
         vec2 f = mls_eval(stretch_point(vec3(s, 0.0), k, h).xy).f;
         stretch_take(m, k, vec3(f, 0.0));
     }
-    if (!measure) {
+    if (!measure || !mls_loops_whole()) {   // a capped walk measures no stretch
         return residual <= plain;
     }
     return residual <= warp_accept_at(accept, steps, u, s, stretch_of(m, h));
@@ -116,9 +117,18 @@ vec2 warp_newton(vec2 s, vec2 u, float tolerance, float max_step, out float resi
     int steps = (warp_evaluations(1 + 3 * WARP_NEWTON_STEPS) - 1) / 3;
     residual = 0.0;
     hint = 1.0;
+    vec2 whole_s = s;        // the last iterate whose f a CPU renderer's cap left whole,
+    float whole_r = 3.0e38;  // and its residual (none yet: none accepted)
     for (int k = 0; ; ++k) {
         vec2 r = mls_eval(s).f - u;
         residual = length(r);
+        if (!mls_loops_whole()) {
+            s = whole_s;   // f left handles out: the iterate before, whose f had them all
+            residual = whole_r;
+            break;
+        }
+        whole_s = s;
+        whole_r = residual;
         if (residual <= tolerance || k >= steps) {
             break;
         }
@@ -245,13 +255,18 @@ void warp_rescue(vec2 u, float tolerance, float max_step, inout vec2 s, inout fl
     bool running = true;
     int budget = warp_evaluations(2 * WARP_DAMPED_EVALUATIONS);
     for (int e = 0; running && e < budget; ++e) {
-        warp_damped_take(d, mls_eval(warp_damped_point(d, h)).f, u, h, tolerance, max_step);
-        if (d.phase == WARP_DAMPED_DONE || e + 1 == budget) {
-            if (!(d.least >= residual)) {
+        vec2 f = mls_eval(warp_damped_point(d, h)).f;
+        // past a CPU renderer's cap f leaves handles out: the iterates before stand
+        bool whole = mls_loops_whole();
+        if (whole) {
+            warp_damped_take(d, f, u, h, tolerance, max_step);
+        }
+        if (!whole || d.phase == WARP_DAMPED_DONE || e + 1 == budget) {
+            if (d.phase != WARP_DAMPED_START && !(d.least >= residual)) {
                 s = d.best;
                 residual = d.least;
             }
-            running = !from_u;
+            running = !from_u && whole;
             from_u = true;
             d = warp_damped_begin(u);
         }

@@ -1,0 +1,183 @@
+"""What a driver that caps an invocation's loop iterations lets one evaluation of f walk.
+
+Mesa's llvmpipe stops all the loops of a shader invocation after 65,535 iterations counted over
+all of them (for a vector of lanes together), and goes on as if they had ended: f would leave
+handles out without a word (:attr:`glmls.gl.GLContext.loop_limit`). The passes that evaluate f
+once or twice an invocation (``mls/points.comp.glsl``, ``mls/error_field.comp.glsl``) must fit
+in it whole; the Newton passes make as many evaluations as fit and check, after each, that the
+cap has left every loop whole (``common/loops.glsl``).
+
+An evaluation that visits every handle walks them sixteen a loop iteration
+(:func:`plain_loops`); one through spatial bins walks the handles of the bins near the point,
+one an iteration (:meth:`glmls.engine.bins.HandleBins.evaluation_loops`): fewer where the
+handles spread, more where thousands crowd a few bins. Bins that could exceed the cap give way
+to visiting every handle (or, asked for, are refused), and a Newton pass visits every handle
+where the bins would leave it fewer evaluations. Without a cap (GPU drivers) nothing here
+applies.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..gl.context import GLContext
+from .bins import HandleBins
+
+__all__ = [
+    "CAPPED_NEWTON_HANDLES",
+    "FORWARD_EVALUATIONS",
+    "LOOP_MARGIN",
+    "NEWTON_EVALUATIONS",
+    "NEWTON_PASSES",
+    "bins_serve",
+    "check_loop_budget",
+    "check_plain_loops",
+    "newton_visits_all",
+    "plain_handles_most",
+    "plain_loops",
+    "walks_checked",
+]
+
+#: The most evaluations of f an invocation of a pass that is not Newton's makes (the points
+#: pass evaluates two points an invocation) ...
+FORWARD_EVALUATIONS = 2
+#: ... and the loop iterations left to the loops around them.
+LOOP_MARGIN = 1024
+#: The evaluations of f an invocation of a Newton pass makes at most, its first dispatch at
+#: a list of points: f and its two differences for each of 16 steps, f once more, nine for
+#: the stretch at the last point and the identity's check (``warp/newton.glsl``).
+NEWTON_EVALUATIONS = 1 + 3 * 16 + 9 + 1
+
+
+#: The passes that run Newton's method: each invocation evaluates f (and a Jacobian) up to
+#: tens of times, walking every handle two or three times per evaluation.
+NEWTON_PASSES = frozenset(
+    {
+        "warp/inverse.comp.glsl",
+        "warp/inverse_points.comp.glsl",
+        "mls3/inverse.comp.glsl",
+        "volume/newton.comp.glsl",
+    }
+)
+#: The most handles those passes take where the driver caps an invocation's loop iterations
+#: (:attr:`glmls.gl.GLContext.loop_limit`): they make only the evaluations of f that fit
+#: within Mesa's 65,535 (``warp_evaluations``, ``mls3_evaluations``), and at sixteen handles
+#: a loop iteration (mls/handles.glsl) beyond this count too few would fit for Newton's steps.
+CAPPED_NEWTON_HANDLES = 8192
+
+
+def check_loop_budget(gl: GLContext, entry: str, count: int, *, binned: bool = False) -> None:
+    """``ValueError`` where pass ``entry`` with ``count`` handles, visited all, could run
+    more loop iterations than ``gl``'s driver runs in one invocation: it would leave handles
+    out of f without a word. Through bins (``binned``) the walks' lengths vary with the
+    point: the Newton passes then keep only the evaluations the cap left whole
+    (``common/loops.glsl``)."""
+    if gl.loop_limit is None or binned or entry not in NEWTON_PASSES:
+        return
+    if count > CAPPED_NEWTON_HANDLES:
+        raise ValueError(
+            f"{count:,} handles: the inverse of f (Newton's method) takes at most "
+            f"{CAPPED_NEWTON_HANDLES:,} on Mesa's llvmpipe, which stops a shader's loops after "
+            f"{gl.loop_limit:,} iterations (more would leave handles out); use fewer handles "
+            f"or a GPU"
+        )
+
+
+def plain_loops(count: int, segments: int, *, full: bool) -> int:
+    """The most loop iterations of an invocation's evaluations of f that visit every one of
+    ``count`` point handles (sixteen a loop iteration: ``MLS_BLOCKS`` of
+    ``glmls/shaders/mls/handles.glsl``) and ``segments`` segment handles (one an iteration):
+    the nearest and the moments for both points of a pair, the nearest beyond the snapping
+    distance for each, and (``full``, affine) the float64 moments for each, four handles an
+    iteration."""
+    blocks = math.ceil(count / 16) + 1
+    loops = 4 * blocks + 4 * segments + 16
+    if full:
+        loops += FORWARD_EVALUATIONS * (math.ceil(count / 4) + 1)
+    return loops
+
+
+def plain_handles_most(limit: int | None, *, full: bool = False) -> int | None:
+    """The most point handles that evaluations of f visiting every one take on a driver that
+    caps an invocation's loops at ``limit`` (:func:`plain_loops`; None: no cap, no such
+    count)."""
+    if limit is None:
+        return None
+    low, high = 0, 16 * limit  # plain_loops grows with the count: the last that fits
+    while low < high:
+        middle = (low + high + 1) // 2
+        low, high = (
+            (middle, high) if _fits(limit, plain_loops(middle, 0, full=full)) else (low, middle - 1)
+        )
+    return low
+
+
+def _fits(limit: int, loops: int) -> bool:
+    return loops + LOOP_MARGIN <= limit
+
+
+def bins_serve(
+    limit: int | None,
+    bins: HandleBins,
+    *,
+    gaussian: bool,
+    full: bool,
+    requested: bool,
+) -> bool:
+    """Whether ``bins`` may serve f on a driver that caps an invocation's loops at ``limit``
+    (None: no cap, they always may). Two evaluations through them must fit (else a
+    ``requested`` binning is refused with ``ValueError``, an automatic one gives way to
+    visiting every handle)."""
+    if limit is None:
+        return True
+    loops = bins.evaluation_loops(gaussian=gaussian, full=full)
+    if not _fits(limit, FORWARD_EVALUATIONS * loops):
+        if requested:
+            raise ValueError(
+                f"bins=True: one evaluation of f through the spatial bins may take "
+                f"{loops:,} loop iterations (thousands of handles crowd a few bins), more "
+                f"than Mesa's llvmpipe runs in one shader invocation ({limit:,}; it would "
+                f"leave handles out); use bins=False or a GPU"
+            )
+        return False
+    return True
+
+
+def walks_checked(limit: int | None, bins: HandleBins, *, gaussian: bool, full: bool) -> bool:
+    """Whether the passes that evaluate f through ``bins`` check that a driver's cap on an
+    invocation's loops (``limit``; None: no cap) left each evaluation whole: where the
+    walks' bound exceeds it, not only :func:`bins_serve`'s estimate (a gaussian point whose
+    nearest handle lies far from the others searches squares up to twice the reach)."""
+    if limit is None:
+        return False
+    bound = bins.evaluation_loops(gaussian=gaussian, full=full, bound=True)
+    return not _fits(limit, FORWARD_EVALUATIONS * bound)
+
+
+def newton_visits_all(
+    limit: int | None, entry: str, bins: HandleBins, *, count: int, gaussian: bool, full: bool
+) -> bool:
+    """Whether pass ``entry``, a Newton pass on a driver that caps an invocation's loops at
+    ``limit``, visits every handle rather than walk ``bins``: where, within reach of the
+    handles, :data:`NEWTON_EVALUATIONS` evaluations through the bins would not fit (thousands
+    of handles crowd a few bins, or a gaussian's reach holds hundreds) while visiting every
+    handle leaves the pass its whole budget (at most :data:`CAPPED_NEWTON_HANDLES`). The
+    handles stay sorted by bin: visiting them all, their order does not matter."""
+    if limit is None or entry not in NEWTON_PASSES or count > CAPPED_NEWTON_HANDLES:
+        return False
+    near = bins.evaluation_loops(gaussian=gaussian, full=full)
+    return not _fits(limit, NEWTON_EVALUATIONS * near)
+
+
+def check_plain_loops(limit: int | None, count: int, segments: int, *, full: bool) -> None:
+    """``ValueError`` where evaluations of f that visit every one of ``count`` handles and
+    ``segments`` segments take more loop iterations than a driver capped at ``limit`` runs
+    in one invocation (None: no cap)."""
+    if limit is None or _fits(limit, plain_loops(count, segments, full=full)):
+        return
+    what = f"{count:,} handles" + (f" and {segments:,} segments" if segments else "")
+    raise ValueError(
+        f"{what}: one evaluation of f visiting them all takes more loop iterations than "
+        f"Mesa's llvmpipe runs in one shader invocation ({limit:,}; it would leave handles "
+        f"out); use fewer handles, a weight with a radius (spatial bins), or a GPU"
+    )
