@@ -26,6 +26,7 @@ from ..gl.context import GLContext
 from ..gl.dispatch import set_uniforms
 from ..gl.resources import Resources
 from .kernel import DEFAULT_STORAGE, check_loop_budget, weight_uniforms
+from .loops import check_plain_loops3
 from .storage import HandleStorage, check_storage, make_storage, resolve_storage
 
 __all__ = ["UNROLL_SLOTS3", "MLSKernel3", "unroll_slots3"]
@@ -90,6 +91,7 @@ class MLSKernel3:
         self.check_alive()
         shift = np.zeros(3) if offset is None else np.asarray(offset, np.float64).reshape(3)
         count = len(src)
+        check_plain_loops3(self.gl.loop_limit, count)
         slots = unroll_slots3(count)
         rows = np.zeros((2 * max(count, slots, 1), 4), np.float32)
         rows[0 : 2 * count : 2, :3] = scaling.to_gpu(src)

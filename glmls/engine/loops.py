@@ -32,9 +32,11 @@ __all__ = [
     "bins_serve",
     "check_loop_budget",
     "check_plain_loops",
+    "check_plain_loops3",
     "newton_visits_all",
     "plain_handles_most",
     "plain_loops",
+    "plain_loops3",
     "walks_checked",
 ]
 
@@ -167,6 +169,30 @@ def newton_visits_all(
         return False
     near = bins.evaluation_loops(gaussian=gaussian, full=full)
     return not _fits(limit, NEWTON_EVALUATIONS * near)
+
+
+def plain_loops3(count: int) -> int:
+    """The loop iterations of one evaluation of the 3D f over ``count`` handles where its
+    solve is plain (``mls3_evaluation_iterations`` of ``glmls/shaders/mls3/newton.glsl``):
+    the nearest, a snapped point's nearest beyond the snapping distance and the moments,
+    sixteen handles an iteration, and the polar factor's steps. A point whose weighted
+    handles are degenerate also sums them in float64, four an iteration."""
+    return 3 * (math.ceil(count / 16) + 1) + 10 + 2
+
+
+def check_plain_loops3(limit: int | None, count: int) -> None:
+    """``ValueError`` where one evaluation of the 3D f over ``count`` handles takes more loop
+    iterations than a driver capped at ``limit`` runs in one invocation (None: no cap), even
+    where its solve is plain (:func:`plain_loops3`). The passes at a list of points report
+    the evaluations that the cap cut short otherwise (the float64 solve, the Jacobian's
+    probes; ``mls3/points.comp.glsl``, :mod:`glmls.engine.passes3`)."""
+    if limit is None or _fits(limit, plain_loops3(count)):
+        return
+    raise ValueError(
+        f"{count:,} 3D handles: one evaluation of f visiting them all takes more loop "
+        f"iterations than Mesa's llvmpipe runs in one shader invocation ({limit:,}; it "
+        f"would leave handles out); use fewer handles or a GPU"
+    )
 
 
 def check_plain_loops(limit: int | None, count: int, segments: int, *, full: bool) -> None:

@@ -204,6 +204,14 @@ def evaluate_points3(
         run_points3(kernel, count, output=output, shape=shape, max_groups=groups)
         kernel.gl.mgl.memory_barrier()
         d = np.frombuffer(f_out.read(size=count * 12), np.float32).reshape(count, 3)
+        if kernel.gl.loop_limit is not None and np.isnan(d).any():
+            cut = int(np.isnan(d).any(axis=1).sum())
+            raise ValueError(
+                f"f at {cut:,} of {count:,} points: {kernel.count:,} 3D handles walked more "
+                f"loop iterations than Mesa's llvmpipe runs in one shader invocation "
+                f"({kernel.gl.loop_limit:,}; f would leave handles out); use fewer handles "
+                f"or a GPU"
+            )
         # f = v + (f - v): v keeps its float64 digits, and f is v itself where d is 0; the
         # targets' offset is added in float64 (MLSKernel3.offset)
         f = points + d.astype(np.float64) * kernel.scaling.scale

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import glmls
+from glmls import reference
 from glmls.engine.kernel import CAPPED_NEWTON_HANDLES
 
 
@@ -91,3 +92,37 @@ def test_a_volume_newton_pass_is_refused_before_the_lattice(gl, rng, monkeypatch
             m.warp(np.zeros((4, 5, 6), np.uint8), method="backward")
         with pytest.raises(ValueError, match="the inverse of f"):
             volume_coordinate_map(m, (4, 5, 6))
+
+
+def test_a_3d_jacobian_the_cap_cut_short_is_refused(gl, rng):
+    """120,000 3D handles: f at a point fits in the cap, its Jacobian's six more evaluations
+    do not everywhere; J was up to 2.4 off at 3 of 8 points. Those points are reported."""
+    src = rng.uniform(0, 50, (120_000, 3))
+    dst = src + rng.normal(0, 0.5, src.shape)
+    v = rng.uniform(10, 40, (8, 3))
+    with glmls.MLS(src, dst, ctx=gl) as m:
+        f = m(v)
+        if gl.loop_limit is not None:
+            with pytest.raises(ValueError, match=r"f at \d of 8 points: 120,000 3D handles"):
+                m.jacobian(v)
+            return
+        _, jacobian = m.jacobian(v)
+    h = 0.05
+    expected = np.stack(
+        [
+            (reference.mls(src, dst, v + h * e)[0] - reference.mls(src, dst, v - h * e)[0])
+            / (2 * h)
+            for e in np.eye(3)
+        ],
+        axis=1,
+    )
+    np.testing.assert_allclose(f, reference.mls(src, dst, v)[0], atol=1e-3)
+    np.testing.assert_allclose(jacobian, expected, atol=1e-2)
+
+
+def test_more_3d_handles_than_one_evaluation_may_visit_are_refused(gl, rng):
+    if gl.loop_limit is None:
+        pytest.skip("this driver runs every loop iteration")
+    src = rng.uniform(0, 50, (1_000_000, 3))
+    with pytest.raises(ValueError, match=r"1,000,000 3D handles: one evaluation of f"):
+        glmls.MLS(src, src + 1.0, ctx=gl)

@@ -34,6 +34,7 @@
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "mls3/core.glsl"
+#include "common/loops.glsl"
 #include "mls3/mesh.glsl"
 #include "mls3/jacobian_step.glsl"
 
@@ -149,6 +150,9 @@ void mls3_item(int i, bool store) {
 #else
     MLS3Result r = mls3_eval(v);
 #endif
+    // past a CPU renderer's cap on loop iterations f left handles out: NaN, which the host
+    // reports (glmls.engine.loops)
+    r.d = loops_whole(2 + min(u_mls3_count, 0)) ? r.d : vec3(uintBitsToFloat(0x7fc00000u));
 #if MLS3_STAGE == 1
     if (store && (mls3_jacobian_later || mls3_solve_later)) {
         second_pass_items[second_pass_slot()] = uint(i);   // room for every point
