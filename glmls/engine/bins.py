@@ -31,6 +31,7 @@ farther than the bins list segments for (far from every handle), a point visits 
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -79,13 +80,6 @@ class HandleBins:
     segment_starts: np.ndarray
     segment_list: np.ndarray
     handles: int
-    #: The most point handles in the bins that a square of half-side max(reach, near)
-    #: around a point meets, and how many bin rows (and columns) such a square spans.
-    window: int = 0
-    span: int = 1
-    #: ... and the same for a square of twice that half-side.
-    wide_window: int = 0
-    wide_span: int = 1
 
     @classmethod
     def build(
@@ -118,11 +112,6 @@ class HandleBins:
         counts = np.bincount(key, minlength=int(dims[0] * dims[1]))
         starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
         segment_starts, segment_list = _segment_lists(segments, lo, size, dims, reach_)
-        span = int(min(np.floor(2.0 * max(reach_, near) / size) + 2, dims.max()))
-        wide = int(min(np.floor(4.0 * max(reach_, near) / size) + 2, dims.max()))
-        window, wide_window = _most_in_windows(
-            counts.reshape(int(dims[1]), int(dims[0])), span, wide
-        )
         return cls(
             order,
             starts,
@@ -134,36 +123,45 @@ class HandleBins:
             segment_starts,
             segment_list,
             len(points) + len(segments),
-            window,
-            span,
-            wide_window,
-            wide,
         )
+
+    @functools.cached_property
+    def walks(self) -> tuple[int, int]:
+        """The most loop iterations of one walk over the bins that a square around a point
+        meets, of half-side max(reach, near) and of twice that: a row and an empty run per
+        bin row, and the handles, one an iteration. Computed when first asked (where a
+        driver caps loop iterations: :meth:`evaluation_loops`)."""
+        columns, rows = self.dims
+        counts = np.diff(self.starts).reshape(rows, columns)
+        half = max(self.reach, self.near)
+        spans = [int(min(math.floor(k * half / self.size) + 2, max(self.dims))) for k in (2, 4)]
+        most = _most_in_windows(counts, *spans)
+        return 2 * spans[0] + most[0], 2 * spans[1] + most[1]
 
     def evaluation_loops(self, *, gaussian: bool, full: bool, bound: bool = False) -> int:
         """The loop iterations of one evaluation of f through these bins (``mls_eval`` of
-        ``glmls/shaders/mls/visit.glsl``) where the handles crowd most: what decides, on a
-        driver that caps an invocation's loop iterations, whether the bins serve
-        (:mod:`glmls.engine.loops`). A walk over the bins of a square costs a row and an
-        empty run per bin row besides its handles, one a loop iteration. A point walks the
-        bins of the square of the reach for the nearest (twice, first in a smaller square)
-        and for the moments (and for affine's float64 moments where ``full``), and lists the
-        segments of its bin twice. The ``gaussian`` walks its cut's weight bound too, and a
-        point whose search for the nearest doubles its square past twice the reach, or whose
-        cut reaches that far, visits every handle instead, sixteen a loop iteration (four in
-        the float64 moments), and every segment. For the gaussian that is an estimate, for a
-        point in the handles' midst: one whose nearest handle lies far from the others
-        doubles its square several times, up to twice the reach; ``bound``: the most,
-        counting those squares' walks."""
-        walk = 2 * self.span + self.window
-        segments = 2 * int(np.diff(self.segment_starts).max()) if len(self.segment_list) else 0
+        ``glmls/shaders/mls/visit.glsl``) at the point where the handles crowd most, for one
+        lane (a CPU renderer counts a vector of lanes together: lanes walking apart add up):
+        what decides, on a driver that caps an invocation's loop iterations, whether the bins
+        serve (:mod:`glmls.engine.loops`). A point walks the bins of a square about the
+        nearest handle's spacing, then, where that finds no certain nearest, of half-side up
+        to twice the reach, and of the reach for the moments (and for affine's float64
+        moments where ``full``), and lists the segments of its bin as often. The
+        ``gaussian`` walks its cut's weight bound too, and a point whose search for the
+        nearest doubles its square past twice the reach, or whose cut reaches that far,
+        visits every handle instead, sixteen a loop iteration (four in the float64 moments),
+        and every segment. For the gaussian an estimate, for a point in the handles' midst:
+        one whose nearest handle lies far from the others doubles its square several
+        times; ``bound``: the most, counting those squares' walks."""
+        walk, wide = self.walks
+        segments = int(np.diff(self.segment_starts).max()) if len(self.segment_list) else 0
+        segments *= 3 + full
         if not gaussian:
-            return (3 + full) * walk + segments + 48
+            return (2 + full) * walk + wide + segments + 48
         everything = 2 * (self.handles // 16 + 1) + full * (self.handles // 4 + 1)
-        everything += 2 * len(self.segment_list) + 48
-        loops = (4 + full) * walk + segments + 48
+        everything += (2 + full) * len(self.segment_list) + 48
+        loops = (3 + full) * walk + wide + segments + 48
         if bound:
-            wide = 2 * self.wide_span + self.wide_window
             doublings = min(40, math.ceil(math.log2(2.0 * self.reach / self.near + 1.0)) + 2)
             loops = (doublings + 2 + full) * wide + walk + segments + 48
         return int(max(loops, everything))

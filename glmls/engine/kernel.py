@@ -373,20 +373,31 @@ class MLSKernel:
         sources = segments[0::2].astype(float).reshape(-1, 2, 2)
         full = self.config.transform == "affine"  # affine's float64 moments
         limit = self.gl.loop_limit
-        if use_bins and radius is not None and self.config.uses_radius:
+        tried = use_bins and radius is not None and self.config.uses_radius
+        if tried:
             count = len(packed) + len(sources)
             reach = self.config.weight_entry.reach(radius, count)
             bins = HandleBins.build(packed[:, :2].astype(float), reach, radius, sources)  # type: ignore[arg-type]
+            requested = "bins=True" if self._bins_request else None
+            if rebuild:
+                requested = "the spatial bins of this image size's radius (its diagonal)"
             serve = bins_serve(
                 limit,
                 bins,
                 gaussian=self.config.weight_entry.support == "gaussian",
                 full=full,
-                requested=rebuild or bool(self._bins_request),
+                requested=requested,
             )
             if serve:
                 return bins
-        check_plain_loops(limit, len(packed), len(sources), full=full)
+        check_plain_loops(
+            limit,
+            len(packed),
+            len(sources),
+            full=full,
+            binned=tried,
+            radius=self.config.uses_radius and radius is not None,
+        )
         return None
 
     def _write(self, radius: float | None, bins: HandleBins | None) -> None:
@@ -507,15 +518,16 @@ class MLSKernel:
         kernel's defines and ``defines``."""
         self.check_alive()
         bins = self._bins.bins if self._bins is not None else None
+        gaussian = self.config.weight_entry.support == "gaussian"
+        full = self.config.transform == "affine"
+        limit = self.gl.loop_limit
         binned = bins is not None and not newton_visits_all(
-            self.gl.loop_limit,
-            entry,
-            bins,
-            count=self.count,
-            gaussian=self.config.weight_entry.support == "gaussian",
-            full=self.config.transform == "affine",
+            limit, entry, bins, count=self.count, gaussian=gaussian, full=full
         )
-        check_loop_budget(self.gl, entry, self.count, binned=binned)
+        evaluation = 0
+        if binned and limit is not None:
+            evaluation = bins.evaluation_loops(gaussian=gaussian, full=full)  # type: ignore[union-attr]
+        check_loop_budget(self.gl, entry, self.count, binned=binned, evaluation=evaluation)
         with self.gl.use():
             return self.gl.compute(entry, self.defines(binned=binned) | dict(defines or {}))
 

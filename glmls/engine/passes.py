@@ -14,6 +14,7 @@ from ..core.mesh import MeshLattice
 from ..gl import bindings
 from ..gl.dispatch import run_1d, set_uniforms
 from .kernel import MLSKernel
+from .loops import LANES
 
 __all__ = [
     "POINTS_PASS",
@@ -74,15 +75,40 @@ def evaluate_points(
 
 def _evaluate_points(kernel, points, with_matrix, shape, max_groups, keep):
     count = len(points)
+    f_out, at = (kernel.scratch.buffer("f", count * 8), 0) if keep is None else keep
+    if at % 8 or f_out.size < at + count * 8:
+        raise ValueError(f"keep: {count} points do not fit at byte {at} of {f_out.size}")
+    d, m = _run_points(kernel, points, with_matrix, shape, max_groups, f_out, at)
+    cut = np.flatnonzero(np.isnan(d).any(axis=1)) if kernel.gl.loop_limit is not None else []
+    if len(cut):
+        # past a CPU renderer's cap on an invocation's loops (f NaN): the lanes that it
+        # counts together walked apart; again with each point alone in its vector of lanes
+        alone = LANES * POINTS_PER_INVOCATION
+        again = np.repeat(points[cut], alone, axis=0)
+        scratch = kernel.scratch.buffer("f alone", len(again) * 8)
+        d2, m2 = _run_points(kernel, again, with_matrix, shape, max_groups, scratch, 0)
+        d[cut] = d2[::alone]
+        if m is not None:
+            m[cut] = m2[::alone]  # type: ignore[index]
+        _check_whole(kernel, d)
+        if keep is not None:
+            f_out.write(np.ascontiguousarray(d), offset=at)  # what later passes read
+    # f = v + (f - v) + t: v keeps its float64 digits, f is v + t where d is exactly 0, and
+    # the targets' offset t (MLSKernel.offset) joins in float64
+    f = points + d.astype(np.float64) * kernel.scaling.scale + kernel.offset
+    return f, None if m is None else m.astype(np.float64).reshape(count, 2, 2)
+
+
+def _run_points(kernel, points, with_matrix, shape, max_groups, f_out, at):
+    """The points pass at ``points`` into ``f_out`` from byte ``at``: f - v (K, 2) and M
+    (K, 4) float32 as read back (M None without ``with_matrix``)."""
+    count = len(points)
     program = points_program(kernel, lattice=False, with_matrix=with_matrix)
     scratch = kernel.scratch
     source = scratch.buffer("points", count * 8)
     source.write(np.ascontiguousarray(kernel.scaling.to_gpu(points)))  # no copy into bytes
     source.bind_to_storage_buffer(bindings.POINTS.index)
     kernel.bind(program, shape)
-    f_out, at = (scratch.buffer("f", count * 8), 0) if keep is None else keep
-    if at % 8 or f_out.size < at + count * 8:
-        raise ValueError(f"keep: {count} points do not fit at byte {at} of {f_out.size}")
     f_out.bind_to_storage_buffer(bindings.DEFORMED.index)
     set_uniforms(program, {"u_out_first": at // 8})
     if with_matrix:
@@ -90,30 +116,30 @@ def _evaluate_points(kernel, points, with_matrix, shape, max_groups, keep):
     run_1d(program, count, max_groups=max_groups, per_invocation=POINTS_PER_INVOCATION)
     kernel.gl.mgl.memory_barrier()  # the shader's writes before the read
     d = np.frombuffer(f_out.read(size=count * 8, offset=at), np.float32).reshape(count, 2)
-    _check_whole(kernel, d)
-    # f = v + (f - v) + t: v keeps its float64 digits, f is v + t where d is exactly 0, and
-    # the targets' offset t (MLSKernel.offset) joins in float64
-    f = points + d.astype(np.float64) * kernel.scaling.scale + kernel.offset
     if not with_matrix:
-        return f, None
-    m = np.frombuffer(scratch.cached("M").read(size=count * 16), np.float32)
-    return f, m.astype(np.float64).reshape(count, 2, 2)
+        return d.copy(), None
+    m = np.frombuffer(scratch.cached("M").read(size=count * 16), np.float32).reshape(count, 4)
+    return d.copy(), m.copy()
 
 
 def _check_whole(kernel: MLSKernel, f: np.ndarray) -> None:
     """``ValueError`` where the points pass marked f NaN (``mls/points.comp.glsl``): on a
-    driver that caps an invocation's loop iterations, the walk through the bins near those
-    points took more than the cap, and f would have left handles out. Checked where the
-    kernel's bins could (:attr:`~glmls.engine.kernel.MLSKernel.walks_checked`)."""
-    if not kernel.walks_checked:
-        return  # every walk fits (glmls.engine.loops)
+    driver that caps an invocation's loop iterations, the walks near those points took more
+    than the cap (at a list of points, each alone in its vector of lanes), and f would have
+    left handles out."""
+    if kernel.gl.loop_limit is None:
+        return
     cut = np.isnan(f).any(axis=1)
     if cut.any():
+        crowd = (
+            "thousands of handles crowd the spatial bins near them; use bins=False or a GPU"
+            if kernel.bins is not None
+            else "use fewer handles or a GPU"
+        )
         raise ValueError(
             f"f at {int(cut.sum()):,} of {len(f):,} points walked more handles than Mesa's "
             f"llvmpipe runs loop iterations in one shader invocation "
-            f"({kernel.gl.loop_limit:,}; f would leave handles out): thousands of handles "
-            f"crowd the spatial bins near them; use bins=False or a GPU"
+            f"({kernel.gl.loop_limit:,}; f would leave handles out): {crowd}"
         )
 
 

@@ -297,8 +297,9 @@ class GLContext:
     @property
     def _compute_defines(self) -> dict[str, object]:
         """What every compute program of this context is compiled with besides the library's
-        common defines: ``SCAN_PIECE_PIXELS`` (:attr:`piece_pixels`)."""
-        return {"SCAN_PIECE_PIXELS": self.piece_pixels}
+        common defines: ``SCAN_PIECE_PIXELS`` (:attr:`piece_pixels`) and ``LOOP_CAP`` (1
+        where the driver caps an invocation's loop iterations, :attr:`loop_limit`)."""
+        return {"SCAN_PIECE_PIXELS": self.piece_pixels, "LOOP_CAP": self.loop_limit is not None}
 
     # -- being current ----------------------------------------------------------------------
 

@@ -119,3 +119,87 @@ def test_more_handles_than_one_evaluation_may_visit_are_refused(gl, rng):
         glmls.MLS(src, src + 1.0, ctx=gl)
     with glmls.MLS(src[:200_000], src[:200_000] + 1.0, ctx=gl) as m:
         np.testing.assert_allclose(m([[10.0, 10.0]]), [[11.0, 11.0]], atol=1e-3)
+
+
+def test_points_whose_lanes_walk_apart_are_evaluated_alone(gl):
+    """5,000 handles in one bin, f at a column of points through it: the eight points that
+    llvmpipe runs together walk the crowd at different rows of their squares, and their
+    iterations add up past the cap (16 of 64 were NaN). Those points are evaluated again,
+    each alone in its vector of lanes."""
+    src, dst = far_apart_with_a_crowd(5_000, spacing=0.004)
+    options = {"weight": "cressman", "radius": 50.0}
+    ys = np.linspace(-45, 45, 64)
+    v = np.stack([np.full_like(ys, 100.1), 100.1 + ys], 1)
+    with glmls.MLS(src, dst, **options, ctx=gl) as m:
+        f = m(v)
+    expected, _, _ = reference.mls(src, dst, v, **options)
+    np.testing.assert_allclose(f, expected, atol=1e-3)
+
+
+def test_the_nearest_handles_second_square_counts(gl, rng):
+    """Four crowds of 10,000 handles at the corners of a 36 px square, R = 10 px, the
+    handles' mean spacing just under R: a point at the centre finds no handle in its first
+    square and looks in one of up to twice the reach, which holds all four crowds (a square
+    of the reach holds one). The warp equals the one visiting every handle (1,746 pixels
+    were background)."""
+    centre = np.array([32.0, 32.0])
+    corners = [(-1, -1), (1, -1), (-1, 1), (1, 1)]
+    crowds = [rng.uniform(-0.5, 0.5, (10_000, 2)) + centre + 18.0 * np.array(c) for c in corners]
+    side = 0.95 * 10.0 * np.sqrt(40_000)
+    src = np.concatenate([[centre - side / 2, centre + side / 2], *crowds])
+    dst = src + [2.0, 1.0]
+    options = {"weight": "cressman", "radius": 10.0}
+    image = (np.arange(64 * 64) % 251).astype(np.uint8).reshape(64, 64)
+    v = centre + rng.uniform(-0.8, 0.8, (16, 2))
+    with glmls.MLS(src, dst, **options, ctx=gl) as m:
+        warped = m.warp(image)
+        f = m(v)
+    with glmls.MLS(src, dst, **options, bins=False, ctx=gl) as plain:
+        np.testing.assert_array_equal(warped, plain.warp(image))
+    np.testing.assert_allclose(f, reference.mls(src, dst, v, **options)[0], atol=1e-3)
+
+
+def test_affine_segments_beyond_the_cap_are_refused(gl):
+    """Affine's float64 moments walk the segments once more for each point: 12,000
+    segments take more than the cap (f was NaN)."""
+    if gl.loop_limit is None:
+        pytest.skip("this driver runs every loop iteration")
+    x = np.linspace(0, 1000, 12_001)
+    a = np.stack([np.stack([x[:-1], 0 * x[:-1]], 1), np.stack([x[1:], 0 * x[1:]], 1)], 1)
+    far = np.array([[500.0, 3000.0]])
+    with pytest.raises(ValueError, match=r"1 handle and 12,000 segments: one evaluation"):
+        glmls.MLS(far, far, src_segments=a, dst_segments=a + 5.0, transform="affine", ctx=gl)
+
+
+def test_newton_through_bins_that_fit_no_step_is_refused(gl):
+    """9,000 handles in one bin (more than a Newton pass visits all on llvmpipe): one Newton
+    step, four evaluations of f, exceeds the cap, and no point could be found."""
+    src, dst = far_apart_with_a_crowd(9_000, spacing=0.004)
+    u = np.stack([np.full(8, 130.1), np.linspace(60, 140, 8)], 1)
+    with glmls.MLS(src, dst, weight="cressman", radius=50.0, ctx=gl) as m:
+        if gl.loop_limit is not None:
+            with pytest.raises(ValueError, match=r"9,002 handles crowd the spatial bins: one step"):
+                m.inverse(u)
+            return
+        s, valid = m.inverse(u, return_valid=True)
+    assert valid.all()
+    f, _, _ = reference.mls(src, dst, s, weight="cressman", radius=50.0)
+    assert np.hypot(*(f - u).T).max() <= ACCEPT
+
+
+def test_refusals_name_what_to_change(gl, rng):
+    """The advice never sends the user around in a circle: where visiting every handle
+    cannot serve either, bins=True is told to use fewer handles, and bins=False to try
+    the bins."""
+    if gl.loop_limit is None:
+        pytest.skip("this driver runs every loop iteration")
+    spread = rng.uniform(0, 5000, (258_000, 2))
+    crowd = rng.uniform(100, 100.05, (12_000, 2))
+    src = np.concatenate([spread, crowd])
+    options = {"weight": "cressman", "radius": 5.0, "ctx": gl}
+    with pytest.raises(ValueError, match="use fewer handles or a GPU"):
+        glmls.MLS(src, src + 1.0, bins=True, **options)
+    with pytest.raises(ValueError, match=r"spatial bins \(bins=None\) where they spread"):
+        glmls.MLS(src, src + 1.0, bins=False, **options)
+    with pytest.raises(ValueError, match="nor can the spatial bins"):
+        glmls.MLS(src, src + 1.0, **options)

@@ -291,12 +291,12 @@ MLSResult mls_eval(vec2 v) {
     // beyond R, so if none is there no handle reaches v. The gaussian goes on in squares of
     // twice the side until the nearest, and the nearest apart from its place, are certain.
     // Where a square or the disc spans more bin rows than there are handles (a few handles
-    // far apart), walking its rows costs more than visiting every handle: that is done. So
-    // it is where the square or the disc reaches past twice the bins' reach (a gaussian
-    // point far from every handle, or whose nearest handle is far from the others): walking
-    // the bins, one handle a loop iteration, would visit most handles anyway, and more loop
-    // iterations than a CPU renderer's cap allows (glmls.engine.loops) where there are
-    // thousands of them; every handle, sixteen an iteration, takes at most n / 16.
+    // far apart), walking its rows costs more than visiting every handle: that is done. On
+    // a CPU renderer that caps an invocation's loop iterations (LOOP_CAP, common/loops.glsl)
+    // so it is where the square or the disc reaches past twice the bins' reach (a gaussian
+    // point far from every handle, or whose nearest handle is far from the others): the
+    // bins, one handle a loop iteration, would walk most handles, more iterations than the
+    // cap allows where there are thousands; every handle, sixteen an iteration, takes n / 16.
     int n = mls_handle_count();
     ivec2 lo, hi;
     MLSNearest near = mls_nearest_begin();
@@ -321,7 +321,7 @@ MLSResult mls_eval(vec2 v) {
         side = max(2.0 * side, u_bin_reach);
 #endif
         mls_bin_range(v, side, lo, hi);
-        if (hi.y - lo.y >= n || side > 2.0 * u_bin_reach) {
+        if (hi.y - lo.y >= n || (LOOP_CAP != 0 && side > 2.0 * u_bin_reach)) {
             mls_nearest_all(near, v);
             break;
         }
@@ -363,7 +363,7 @@ MLSResult mls_eval(vec2 v) {
     mls_accumulate_segments(a);
 #endif
     mls_bin_range(v, r, lo, hi);
-    if (hi.y - lo.y >= n || r > 2.0 * u_bin_reach) {
+    if (hi.y - lo.y >= n || (LOOP_CAP != 0 && r > 2.0 * u_bin_reach)) {
         mls_accumulate_all(a);
         return mls_full_all(a, mls_finish(a), every_segment);
     }
