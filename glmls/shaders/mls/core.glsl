@@ -176,6 +176,10 @@ struct MLSAccum {
     float m;        // normalisation distance (see mls_weight)
     float g;        // the weights' offset: m, or for the gaussian the nearest handles' apart
                     // from the nearest one's place (mls_gaussian_offset)
+#if MLS_REACH_GAUSSIAN
+    float g_o;      // g - |v - p_o|^2, p_o = o.xy (mls_handle_weight)
+    vec2 twice_u;   // 2 (v - p_o)
+#endif
     float inv_m;    // 1 / m
     float sigma;    // idw: s / m^alpha
     float W;        // sum w
@@ -226,6 +230,11 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
 #else
     a.g = a.m;
 #endif
+#if MLS_REACH_GAUSSIAN
+    vec2 u = v - a.o.xy;
+    a.g_o = a.g - dot(u, u);
+    a.twice_u = 2.0 * u;
+#endif
     a.W = 0.0;
     a.P = vec2(0.0);
     a.E = vec2(0.0);
@@ -251,7 +260,16 @@ float mls_handle_weight(MLSAccum a, vec2 p, float d2) {
         return mls_weight_edge(dot(dp64, dp64), a.g, a.inv_m, a.sigma, seen);
     }
 #endif
+#if MLS_REACH_GAUSSIAN
+    // d2 - g about the nearest handle o: |p - v|^2 = |P - u|^2 = |u|^2 + P.(P - 2u), with
+    // P = p - p_o and u = v - p_o, so d2 - g = P.(P - 2u) - (g - |u|^2) (mls_weight_excess);
+    // the rounding of u and of g - |u|^2 is the same for every handle (f at a point within
+    // float32's spacing of v, a factor common to the weights)
+    vec2 P = p - a.o.xy;
+    float w = mls_weight_excess(dot(P, P - a.twice_u) - a.g_o, seen, a.inv_m);
+#else
     float w = mls_weight(seen, a.g, a.inv_m, a.sigma);
+#endif
     return none ? 0.0 : w;
 }
 

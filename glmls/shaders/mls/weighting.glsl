@@ -93,6 +93,22 @@ float mls_weight(float d2, float m, float inv_m, float sigma) {
     return w;
 }
 
+#if MLS_REACH_GAUSSIAN
+// The gaussian's weight of a handle whose excess d2 - g over the point's offset g is known
+// apart from its squared distance d2 (mls/core.glsl, mls_handle_weight: far from every
+// handle d2 and g are ~D^2 while the weights that count differ by a few R^2 from g, and their
+// float32 roundings, ~6e-8 D^2 each and different for every handle, would move the weights;
+// the excess taken about the nearest handle is rounded at ~6e-8 D |p - p_o| instead). seen:
+// d2 as mls_weight takes it, for the interpolating factor.
+float mls_weight_excess(float excess, float seen, float inv_m) {
+    float w = mls_gaussian_excess(excess);
+#if MLS_INTERPOLATING
+    w = w > 0.0 ? w / mls_pow(seen * inv_m) : 0.0;
+#endif
+    return w;
+}
+#endif
+
 // The radius weights at the edge of their reach (MLS_WEIGHT_FUNCTION64 is defined for a
 // weight with glmls.core.weights.Weight.edge64): near d = R the weight is a difference of
 // nearly equal numbers, 1 - d2 / R^2, where float32's rounding of d2 (~1e-7 R^2) is most of

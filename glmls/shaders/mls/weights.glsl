@@ -50,9 +50,14 @@ float mls_weight_shepard(float d2, float m, float inv_m, float sigma) {
 #ifndef MLS_GAUSSIAN_CAP
 #define MLS_GAUSSIAN_CAP 60.0   // glmls.core.weights.GAUSSIAN_CAP
 #endif
+// The same from the excess x = d^2 - g alone: mls/core.glsl and mls3/core.glsl compute it
+// more precisely than d^2 itself far from the handles (mls_handle_weight)
+float mls_gaussian_excess(float x) {
+    float t = mls_radius_ratio(abs(x));
+    return exp(x < 0.0 ? min(t, MLS_GAUSSIAN_CAP) : -t);
+}
 float mls_weight_gaussian(float d2, float m, float inv_m, float sigma) {
-    float t = mls_radius_ratio(abs(d2 - m));
-    return exp(d2 < m ? min(t, MLS_GAUSSIAN_CAP) : -t);
+    return mls_gaussian_excess(d2 - m);
 }
 
 // max(0, R - d), divided by R

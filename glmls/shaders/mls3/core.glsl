@@ -65,6 +65,10 @@ struct MLS3Accum {
     vec3 oe;
     float m;        // normalisation distance (mls/weights.glsl)
     float g;        // the weights' offset: m, or the gaussian's (mls_gaussian_offset)
+#if MLS_REACH_GAUSSIAN
+    float g_o;      // g - |v - p_o|^2 (mls3_weight_at)
+    vec3 twice_u;   // 2 (v - p_o)
+#endif
     float inv_m;
     float sigma;
     float W;        // sum w
@@ -129,6 +133,11 @@ MLS3Accum mls3_begin(vec3 v, float d2min, float d2next, int nearest, int n) {
 #else
     a.g = a.m;
 #endif
+#if MLS_REACH_GAUSSIAN
+    vec3 u = v - a.op;
+    a.g_o = a.g - dot(u, u);
+    a.twice_u = 2.0 * u;
+#endif
     a.W = 0.0;
     a.P = vec3(0.0);
     a.E = vec3(0.0);
@@ -171,7 +180,14 @@ float mls3_weight_at(MLS3Accum a, vec3 p, bool use, out float d2) {
         return mls_weight_edge(dot(dp64, dp64), a.g, a.inv_m, a.sigma, seen);
     }
 #endif
-    return none ? 0.0 : mls_weight(seen, a.g, a.inv_m, a.sigma);
+#if MLS_REACH_GAUSSIAN
+    // d2 - g about the nearest handle, as mls/core.glsl's mls_handle_weight takes it
+    vec3 P = p - a.op;
+    float w = mls_weight_excess(dot(P, P - a.twice_u) - a.g_o, seen, a.inv_m);
+#else
+    float w = mls_weight(seen, a.g, a.inv_m, a.sigma);
+#endif
+    return none ? 0.0 : w;
 }
 
 void mls3_accumulate(inout MLS3Accum a, int i, bool use) {
@@ -417,6 +433,11 @@ struct MLS3Probes {
     float Wup;      // sum w(v + h e_a) and sum w(v - h e_a)
     float Wdown;
     MLS3Accum delta;   // Delta_a (its W unused)
+#if MLS_REACH_GAUSSIAN
+    float h;        // the probes' step
+    vec3 twice_u;   // the centre's (MLS3Accum)
+    float g_o;      // ... less g - m_lo: a handle's d2 - m_lo at the centre is P.(P - 2u) - g_o
+#endif
 };
 
 void mls3_probe_accumulate(inout MLS3Probes s, vec3 v, vec3 op, vec3 oe, int i, bool use) {
@@ -428,8 +449,19 @@ void mls3_probe_accumulate(inout MLS3Probes s, vec3 v, vec3 op, vec3 oe, int i, 
     float rest = s.axis == 0 ? sq.y + sq.z : (s.axis == 1 ? sq.x + sq.z : sq.x + sq.y);
     float du = pa - s.up;
     float dd = pa - s.down;
+#if MLS_REACH_GAUSSIAN
+    // d2 - m_lo at each probe from the centre's excess (mls3_weight_at), precise far from
+    // the handles: moving coordinate a by +-h adds h (h -+ 2 (p_a - v_a)) to d2
+    vec3 P = p - op;
+    float excess = dot(P, P - s.twice_u) - s.g_o;
+    float wu = use ? mls_weight_excess(excess + s.h * (s.h - 2.0 * dp[s.axis]), du * du + rest,
+                                       s.inv_m) : 0.0;
+    float wd = use ? mls_weight_excess(excess + s.h * (s.h + 2.0 * dp[s.axis]), dd * dd + rest,
+                                       s.inv_m) : 0.0;
+#else
     float wu = use ? mls_weight(du * du + rest, s.m, s.inv_m, s.sigma) : 0.0;
     float wd = use ? mls_weight(dd * dd + rest, s.m, s.inv_m, s.sigma) : 0.0;
+#endif
     s.Wup += wu;
     s.Wdown += wd;
     mls3_add(s.delta, 0.5 * (wu - wd), p - op, mls3_e(i) - oe, 0.0);
@@ -624,6 +656,11 @@ MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
     s.m = max(reach, 0.0) * max(reach, 0.0);
     s.inv_m = 1.0 / s.m;
     s.sigma = mls_sigma(s.m);
+#if MLS_REACH_GAUSSIAN
+    s.h = h;
+    s.twice_u = a.twice_u;
+    s.g_o = a.g_o - (a.g - s.m);
+#endif
     // the factor from the centre's weights (offset a.g) to the probes' (s.m), the same for
     // every handle unless the gaussian's cap (mls/weights.glsl) bounds the nearest's
     float lambda = mls_weight(a.m, s.m, s.inv_m, s.sigma) / mls_weight(a.m, a.g, a.inv_m, a.sigma);

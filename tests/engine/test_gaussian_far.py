@@ -1,0 +1,71 @@
+"""The gaussian weight far from every handle: f on the GPU against the float64 reference at
+points up to a few hundred R from handles packed in a small box.
+
+There the weights that count are those of the nearest handles, and they differ by a few R^2
+of squared distance out of D^2 ~ 1e4-1e5 R^2. The shaders take each handle's excess over the
+point's offset about the nearest handle (``mls/core.glsl``, ``mls_handle_weight``), rounded
+at ~6e-8 D |p - p_o|, not at ~6e-8 D^2 as the squared distances themselves: without that
+the weights moved by up to ~1e-3 of themselves, f by up to 8 px (affine, R = 16, 80 R out)
+and 0.5 px (rigid). Far out affine MLS is ill-conditioned (the two nearest handles decide
+it): moving v by its own float32 rounding moves the reference's f by up to 0.03 px there.
+
+Tolerances, from the worst over the cases below (measured: affine up to 0.2 px, p99 0.012;
+similarity and rigid up to 0.033 px, p99 8e-4; the points 1 to 375 R from the handles),
+with room: p99 within 5e-3 px (affine 0.05), every point within 0.1 px (affine 1 px).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import glmls
+from glmls import reference
+
+#: (p99, max) of |f - f_ref| in pixels, per transform.
+TOLERANCE = {"affine": (0.05, 1.0), "similarity": (5e-3, 0.1), "rigid": (5e-3, 0.1)}
+
+
+def _case(dim: int, seed: int, extent: float, reach: float, count: int):
+    rng = np.random.default_rng(seed)
+    src = rng.uniform(0, extent, (12 + 4 * (dim - 2), dim))
+    dst = src + rng.normal(0, extent / 20, src.shape)
+    return src, dst, rng.uniform(-reach, reach, (count, dim))
+
+
+def _check(found: np.ndarray, expected: np.ndarray, transform: str) -> None:
+    assert np.isfinite(found).all()
+    error = np.abs(found - expected).max(axis=1)
+    p99, worst = TOLERANCE[transform]
+    assert np.percentile(error, 99) <= p99, np.percentile(error, 99)
+    assert error.max() <= worst, error.max()
+
+
+@pytest.mark.parametrize("transform", ["affine", "similarity", "rigid"])
+@pytest.mark.parametrize("radius", [4.0, 16.0])
+def test_2d_far_tail(transform, radius):
+    src, dst, points = _case(2, int(radius), 100.0, 1500.0, 3000)
+    options = {"transform": transform, "weight": "gaussian", "radius": radius}
+    with glmls.MLS(src, dst, **options) as m:
+        found = m(points)
+    _check(found, reference.mls(src, dst, points, **options)[0], transform)
+
+
+@pytest.mark.parametrize("transform", ["affine", "rigid"])
+def test_2d_far_tail_interpolating(transform):
+    src, dst, points = _case(2, 7, 100.0, 1500.0, 2000)
+    options = {"transform": transform, "weight": "gaussian", "radius": 16.0}
+    options.update(interpolating=True, alpha=1.0)
+    with glmls.MLS(src, dst, **options) as m:
+        found = m(points)
+    _check(found, reference.mls(src, dst, points, **options)[0], transform)
+
+
+@pytest.mark.parametrize("transform", ["affine", "similarity", "rigid"])
+@pytest.mark.parametrize("radius", [4.0, 16.0])
+def test_3d_far_tail(transform, radius):
+    src, dst, points = _case(3, 10 + int(radius), 60.0, 800.0, 2000)
+    options = {"transform": transform, "weight": "gaussian", "radius": radius}
+    with glmls.MLS(src, dst, **options) as m:
+        found = m(points)
+    _check(found, reference.mls(src, dst, points, **options)[0], transform)
