@@ -84,13 +84,19 @@ float mls_gaussian_offset(float m, float d2next) {
     return d2next < 3.0e38 ? max(d2next, m) : m;
 }
 
+// Weight w of a handle at squared distance d2 made interpolating (MLS_INTERPOLATING): divided
+// by (d2 / m)^alpha; 0, not 0/0, out of reach.
+float mls_interpolated(float w, float d2, float inv_m) {
+#if MLS_INTERPOLATING
+    return w > 0.0 ? w / mls_pow(d2 * inv_m) : 0.0;
+#else
+    return w;
+#endif
+}
+
 // Weight of a handle at squared distance d2 (see mls/weights.glsl for m, inv_m and sigma).
 float mls_weight(float d2, float m, float inv_m, float sigma) {
-    float w = MLS_WEIGHT_FUNCTION(d2, m, inv_m, sigma);
-#if MLS_INTERPOLATING
-    w = w > 0.0 ? w / mls_pow(d2 * inv_m) : 0.0;   // 0, not 0/0, out of reach
-#endif
-    return w;
+    return mls_interpolated(MLS_WEIGHT_FUNCTION(d2, m, inv_m, sigma), d2, inv_m);
 }
 
 #if MLS_REACH_GAUSSIAN
@@ -101,11 +107,7 @@ float mls_weight(float d2, float m, float inv_m, float sigma) {
 // the excess taken about the nearest handle is rounded at ~6e-8 D |p - p_o| instead). seen:
 // d2 as mls_weight takes it, for the interpolating factor.
 float mls_weight_excess(float excess, float seen, float inv_m) {
-    float w = mls_gaussian_excess(excess);
-#if MLS_INTERPOLATING
-    w = w > 0.0 ? w / mls_pow(seen * inv_m) : 0.0;
-#endif
-    return w;
+    return mls_interpolated(mls_gaussian_excess(excess), seen, inv_m);
 }
 #endif
 
@@ -128,11 +130,7 @@ bool mls_at_edge(float d2) {
 // interpolating factor (d2 / m)^alpha, which float32 keeps to its precision. The weight's
 // own rounding to float32 is then ~6e-8 of it.
 float mls_weight_edge(double d2, float m, float inv_m, float sigma, float seen) {
-    float w = float(MLS_WEIGHT_FUNCTION64(d2, m, inv_m, sigma));
-#if MLS_INTERPOLATING
-    w = w > 0.0 ? w / mls_pow(seen * inv_m) : 0.0;
-#endif
-    return w;
+    return mls_interpolated(float(MLS_WEIGHT_FUNCTION64(d2, m, inv_m, sigma)), seen, inv_m);
 }
 #endif
 

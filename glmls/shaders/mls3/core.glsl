@@ -449,10 +449,10 @@ void mls3_probe_accumulate(inout MLS3Probes s, vec3 v, vec3 op, vec3 oe, int i, 
     float rest = s.axis == 0 ? sq.y + sq.z : (s.axis == 1 ? sq.x + sq.z : sq.x + sq.y);
     float du = pa - s.up;
     float dd = pa - s.down;
+    vec3 P = p - op;
 #if MLS_REACH_GAUSSIAN
     // d2 - m_lo at each probe from the centre's excess (mls3_weight_at), precise far from
     // the handles: moving coordinate a by +-h adds h (h -+ 2 (p_a - v_a)) to d2
-    vec3 P = p - op;
     float excess = dot(P, P - s.twice_u) - s.g_o;
     float wu = use ? mls_weight_excess(excess + s.h * (s.h - 2.0 * dp[s.axis]), du * du + rest,
                                        s.inv_m) : 0.0;
@@ -464,7 +464,7 @@ void mls3_probe_accumulate(inout MLS3Probes s, vec3 v, vec3 op, vec3 oe, int i, 
 #endif
     s.Wup += wu;
     s.Wdown += wd;
-    mls3_add(s.delta, 0.5 * (wu - wd), p - op, mls3_e(i) - oe, 0.0);
+    mls3_add(s.delta, 0.5 * (wu - wd), P, mls3_e(i) - oe, 0.0);
 }
 
 // The probe v + sign h e_a: lambda M0 + sign Delta_a, W its own.
