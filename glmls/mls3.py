@@ -468,7 +468,12 @@ class MLS3(MLS):
 
     @on_gpu
     def jacobian(self, points: object) -> tuple[np.ndarray, np.ndarray]:
-        """f and its Jacobian J = df/dv, on the GPU by central differences.
+        """f and its Jacobian J = df/dv, on the GPU.
+
+        J is the derivative of the MLS's closed form at each point, to float32's rounding;
+        where the solve takes a ridge (fewer than four handles in general position weigh
+        in: the degenerate sets' rules) or the point snaps to a handle, central differences
+        of f over 0.05 voxel (:doc:`the mathematics </mathematics>`).
 
         Parameters
         ----------

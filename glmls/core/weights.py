@@ -67,6 +67,10 @@ class Weight:
       (:attr:`glsl_function64`) exists: the GPU takes it for the handles near d = R, where the
       weight is a difference of nearly equal numbers that float32 rounds badly
       (``glmls/shaders/mls/weighting.glsl``); without it those handles keep the float32 one.
+    - ``slope``: its slope dw/d(d^2) has the GLSL function ``mls_slope_<name>``
+      (:attr:`glsl_slope`), from which the 3D Jacobian differentiates the moments; without
+      it the shaders differentiate ``mls_weight_<name>`` numerically
+      (``glmls/shaders/mls/weighting.glsl``).
 
     The GLSL function is ``mls_weight_<name>`` (:attr:`glsl_function`).
     """
@@ -81,6 +85,7 @@ class Weight:
     pole: Callable[[WeightParameters], float] = lambda params: 0.0
     segment_closed_form: Callable[[WeightParameters], bool] = lambda params: False
     edge64: bool = False
+    slope: bool = False
 
     def __post_init__(self) -> None:
         if self.support not in SUPPORTS:
@@ -100,6 +105,11 @@ class Weight:
         """Its float64 GLSL function near d = R, ``mls_weight64_<name>`` (None without
         :attr:`edge64`)."""
         return f"mls_weight64_{self.name}" if self.edge64 else None
+
+    @property
+    def glsl_slope(self) -> str | None:
+        """Its slope's GLSL function, ``mls_slope_<name>`` (None without :attr:`slope`)."""
+        return f"mls_slope_{self.name}" if self.slope else None
 
     def reach(self, radius: float, count: int) -> float | None:
         """How far (in the units of ``radius``) a point looks for handles among ``count``:
@@ -218,6 +228,7 @@ REGISTRY: dict[str, Weight] = {
             uses_s=True,
             pole=lambda params: 2.0 * params.alpha if params.s == 0.0 else 0.0,
             segment_closed_form=lambda params: params.alpha == 1.0,
+            slope=True,
         ),
         Weight(
             "cressman",
@@ -227,6 +238,7 @@ REGISTRY: dict[str, Weight] = {
             infinite_at_zero=_never,
             reference=_cressman,
             edge64=True,
+            slope=True,
         ),
         Weight(
             "shepard",
@@ -236,6 +248,7 @@ REGISTRY: dict[str, Weight] = {
             infinite_at_zero=lambda params: True,
             reference=_shepard,
             edge64=True,
+            slope=True,
             pole=lambda params: 1.0,
         ),
         Weight(
@@ -245,6 +258,7 @@ REGISTRY: dict[str, Weight] = {
             support="gaussian",
             infinite_at_zero=_never,
             reference=_gaussian,
+            slope=True,
         ),
         Weight(
             "linear",
@@ -254,6 +268,7 @@ REGISTRY: dict[str, Weight] = {
             infinite_at_zero=_never,
             reference=_linear,
             edge64=True,
+            slope=True,
         ),
     )
 }

@@ -7,13 +7,14 @@ the end:
 1. (a mesh with faces and without normals of its own) ``mls3/mesh_scales.comp.glsl`` per
    face: at each vertex, the scale of the sum of its faces' normals (their largest
    component, and how many they are);
-2. ``mls3/points.comp.glsl`` (``MLS3_MESH``) per vertex: f and J by central differences and
+2. ``mls3/points.comp.glsl`` (``MLS3_MESH``) per vertex: f and J (``mls3_eval_jacobian``) and
    det J into one record of 16 floats per vertex, with the normal carried by cof(J) (a
    mesh without faces) or the vertex itself (a mesh with faces: the passes over faces read
    a corner's vertex and record as one record); copied into a table; and (an affine map
-   onto coplanar targets, ``MLSKernel3.flat``) a flag per vertex where J took affine's plain
-   solve at each of its probes: f maps them into the targets' plane, so J is singular
-   exactly, and det J is 0 there, whatever float32's rounding left of it;
+   onto coplanar targets, ``MLSKernel3.flat``) a flag per vertex where J is the derivative
+   of affine's plain solve (or, by central differences, took it at each of its probes): f
+   maps a neighbourhood (the probes) into the targets' plane, so J is singular exactly,
+   and det J is 0 there, whatever float32's rounding left of it;
 3. ``mls3/mesh_folds.comp.glsl`` per face, each face's records fetched once from their
    table: the fold flags, one byte per face, and (normals from the faces) the area-weighted
    normals summed at the vertices in fixed point (exact integer sums, so the result does
@@ -170,7 +171,7 @@ def deform_mesh3(
     jacobian = out[:, 6:15].astype(np.float64).reshape(count, 3, 3)
     # the vertices as the upload scaled them (padded's first columns)
     det = _flat_to_zero(kernel, padded[:, :3], jacobian, out[:, 15].astype(np.float64))
-    if kernel.flat:  # f maps J's probes into the targets' plane: J is singular
+    if kernel.flat:  # f maps the vertex's neighbourhood into the targets' plane: J is singular
         det[plain] = 0.0
     deformed = vertices + out[:, 3:6] * kernel.scaling.scale
     if kernel.offset.any():  # the targets' offset, in float64 (MLSKernel3.offset)
@@ -204,7 +205,8 @@ def _flat_to_zero(
     half of the vertices. J's central differences over a step h carry about eps32 x scale
     x max(box, |v|) / h of rounding (``scaled`` (V, 3) the vertices as the GPU read them, v
     their largest coordinate; the box's half side: their float32 spacing; h of
-    :func:`jacobian_steps`)."""
+    :func:`jacobian_steps`), the closed form's derivative less: the rule takes that bound
+    at every vertex, whichever J it has."""
     scaling = kernel.scaling
     box = jacobian_uniforms(kernel)["u_jacobian_box"]
     largest = largest_coordinates(scaled)

@@ -172,6 +172,8 @@ class MLSKernel3:
         } | dict(storage.defines if storage is not None else {})
         if entry.edge64:  # its float64 version for the handles near d = R (mls/weighting.glsl)
             defines["MLS_WEIGHT_FUNCTION64"] = entry.glsl_function64
+        if entry.slope:  # dw/d(d2) for the Jacobian (mls3/core.glsl, mls3_eval_jacobian)
+            defines["MLS_SLOPE_FUNCTION"] = entry.glsl_slope
         return defines
 
     def uniforms(self, shape: tuple[int, int, int] | None = None) -> dict[str, object]:

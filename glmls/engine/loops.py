@@ -220,7 +220,7 @@ def check_plain_loops3(limit: int | None, count: int) -> None:
     iterations than a driver capped at ``limit`` runs in one invocation (None: no cap), even
     where its solve is plain (:func:`plain_loops3`). The passes at a list of points report
     the evaluations that the cap cut short otherwise (the float64 solve, the Jacobian's
-    probes; ``mls3/points.comp.glsl``, :mod:`glmls.engine.passes3`)."""
+    passes and differences; ``mls3/points.comp.glsl``, :mod:`glmls.engine.passes3`)."""
     if limit is None or _fits(limit, plain_loops3(count)):
         return
     raise ValueError(

@@ -35,9 +35,11 @@ __all__ = [
 ]
 
 POINTS3_PASS = "mls3/points.comp.glsl"
-#: The central differences' step for J (voxels): small against the handles' spacing (the
-#: error is second order in it), large against float32's spacing of the coordinates
-#: (~1e-7 of the volume's extent; the steps are the ones float32 really took).
+#: The central differences' step (voxels) of J where it is not the closed form's derivative
+#: (near degenerate handle sets, ``mls3_eval_jacobian``) and of the inverse's Newton: small
+#: against the handles' spacing (the error is second order in it), large against float32's
+#: spacing of the coordinates (~1e-7 of the volume's extent; the steps are the ones float32
+#: really took).
 JACOBIAN_STEP = 0.05
 #: The half side of the box of the handles (and volume) from which on J's step and the
 #: inverse's tolerances are JACOBIAN_STEP, NEWTON_TOLERANCE3 and NEWTON_ACCEPT handle units
@@ -71,7 +73,8 @@ def points3_program(
     """The compiled 3D points pass: on a lattice (``lattice``) or a list; ``output`` one of
     ``"f"``, ``"matrix"`` (f and M), ``"jacobian"`` (f and J), ``"mesh"`` (a mesh's vertex
     records, with ``normals`` one of :data:`MESH_NORMALS`, and with ``flat`` a flag per
-    vertex, ``MLS3_MESH_FLAT``: where J took affine's plain solve at each of its probes).
+    vertex, ``MLS3_MESH_FLAT``: where J is the derivative of affine's plain solve, or, by
+    central differences, took that solve at each of its probes).
     ``stage``: of the two passes of :func:`run_points3`, 1 or 2; 0 for one pass."""
     if output not in PROGRAM_OUTPUTS:
         raise ValueError(f"unknown output {output!r}; choose one of {', '.join(PROGRAM_OUTPUTS)}")
@@ -103,8 +106,8 @@ def run_points3(
     """Run the points pass of ``output`` over the ``count`` points bound (and its outputs
     bound), in two stages: the first takes only the solve's plain branch (and, where it
     writes J, J's shared passes over the handles) and lists the points that need more (the
-    solve's branches for degenerate moments; J's full evaluations of f at its six probes next
-    to a handle, where the probes' moments leave the plain branch: ``mls3_eval_jacobian``),
+    solve's branches for degenerate moments; J's central differences, six full evaluations
+    of f, where the solve left its plain branch: ``mls3_eval_jacobian``),
     the second computes those again with everything, one invocation per listed point. So
     the other points do not wait for them: a GPU's warp, and a CPU renderer's vector
     whatever its lanes' mask, runs a branch for all its lanes where one takes it. ``flat``:
@@ -134,7 +137,8 @@ def length_unit(kernel: MLSKernel3) -> float:
 
 
 def jacobian_uniforms(kernel: MLSKernel3) -> dict[str, float]:
-    """The uniforms of J's central differences (scaled units): the step of
+    """The uniforms of J's central differences (where J takes them, and the inverse's
+    Newton; scaled units): the step of
     :func:`length_unit`, and the least step per unit of the larger of the box's half side
     and the point's largest scaled coordinate (``u_jacobian_floor``, ``u_jacobian_box``)."""
     scale = kernel.scaling.scale
@@ -180,8 +184,9 @@ def evaluate_points3(
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """f at ``points`` ((K, 3) float64 voxels) as (K, 3) float64 (the kernel's
     :attr:`~glmls.engine.kernel3.MLSKernel3.offset` added in float64), with M (``output=
-    "matrix"``) or the Jacobian J = df/dv (``"jacobian"``, central differences of
-    :data:`JACOBIAN_STEP` voxels, J[r, c] = d f_c / d v_r) as (K, 3, 3) float64, else None.
+    "matrix"``) or the Jacobian J = df/dv (``"jacobian"``, the derivative of the solve's
+    closed form; central differences of :data:`JACOBIAN_STEP` voxels near degenerate handle
+    sets; J[r, c] = d f_c / d v_r) as (K, 3, 3) float64, else None.
     ``shape``: the volume whose diagonal is the default radius (None: the kernel's own).
     One dispatch per ``max_groups`` work groups (the GL limit by default), one read-back."""
     if output not in OUTPUTS:

@@ -103,6 +103,18 @@ def test_every_entry_has_one_glsl_function_and_no_other():
         assert entry.glsl_function == f"mls_weight_{entry.name}"
 
 
+def test_every_entry_has_its_slope_glsl_function():
+    """The 3D Jacobian differentiates the moments by each weight's slope dw/d(d2)
+    (mls3/core.glsl); every weight of the registry gives its own."""
+    text = (SHADERS / "mls" / "weights.glsl").read_text()
+    found = re.findall(
+        r"float mls_slope_(\w+)\(float d2, float w, float m, float inv_m, float sigma\)", text
+    )
+    assert sorted(found) == sorted(REGISTRY)
+    for name, entry in REGISTRY.items():
+        assert entry.slope and entry.glsl_slope == f"mls_slope_{name}"
+
+
 def test_every_compact_weight_has_a_float64_glsl_function_near_its_reach():
     """3D MLS evaluates the radius weights near d = R in float64 (mls/weighting.glsl)."""
     text = (SHADERS / "mls" / "weights.glsl").read_text()

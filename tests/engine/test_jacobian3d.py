@@ -3,19 +3,24 @@ records) against the float64 reference's central differences: every transform an
 points near (not on) handles, on them and within the snapping distance, and the degenerate
 handle sets; f from the same pass equals the plain evaluation bit for bit.
 
-The GPU takes central differences of step ``JACOBIAN_STEP`` (0.05 voxel) with the probes'
-moments from the centre's passes over the handles (glmls/shaders/mls3/core.glsl,
-``mls3_eval_jacobian``); the reference differences float64 f with a step of 1e-3 voxel.
-Tolerances: 1e-3 where at least four handles in general position are in reach (float32's
-rounding of f, ~1e-5 voxel, over the 0.1-voxel stencil, plus the stencil's O(h^2) error)
-and the weights are smooth (idw, gaussian). The weights that reach 0 at d = R (cressman,
-shepard, linear) leave some points 3 handles in reach: J's median within 1e-4, its largest
-error within 0.15 (shepard's f is a cone at a handle, which a stencil next to it straddles:
-not tested there). Where fewer than four handles are in reach, a ridge of 1e-3 of the
-moments fixes what they leave free; f there comes from float64 moments and solves, and J is
-within the same 1e-3 (float32's rounding of the moments, divided by the ridge, would move f
-by up to ~3e-4 of the distance to p*, which the 0.1-voxel stencil would turn into errors of J
-up to ~1)."""
+Where the solve takes its plain branch the GPU's J is the derivative of its closed form,
+from the moments' derivatives (one pass over the handles per axis, each weight's slope
+dw/d(d^2); glmls/shaders/mls3/core.glsl, ``mls3_eval_jacobian``); elsewhere (the degenerate
+sets' rules, points that snap to a handle) central differences of step ``JACOBIAN_STEP``
+(0.05 voxel). The reference differences float64 f with a step of 1e-3 voxel, and of 1e-5
+voxel where J is compared as the derivative (its own error ~1e-10 there).
+
+Tolerances: 1e-3 where at least four handles in general position are in reach and the
+weights are smooth (idw, gaussian); as the derivative, J's median error 1e-6 of |J| and its
+99th percentile 1e-4 (a central difference over 0.05 voxel errs by ~1e-5 of |J| in the
+median there). The weights that reach 0 at d = R (cressman, shepard, linear) leave some
+points 3 handles in reach: J's median within 1e-4, its largest error within 0.15
+(shepard's f is a cone at a handle, which a stencil next to it straddles: not tested
+there). Where fewer than four handles are in reach, a ridge of 1e-3 of the moments fixes
+what they leave free; f there comes from float64 moments and solves, and J is within the
+same 1e-3 (float32's rounding of the moments, divided by the ridge, would move f by up to
+~3e-4 of the distance to p*, which the 0.1-voxel stencil would turn into errors of J up to
+~1)."""
 
 from __future__ import annotations
 
@@ -131,7 +136,7 @@ def test_degenerate_sets(gl, transform, name):
 
 @pytest.mark.parametrize("transform", glmls.TRANSFORMS)
 def test_a_large_turn(gl, transform):
-    # the probes' rotation is the centre's to first order in B - B0, whatever the centre's
+    # the polar factor's derivative about a turn far from the identity
     rng = np.random.default_rng(6)
     src = rng.uniform(0, SIZE, (16, 3))
     dst = (src - 64.0) @ random_rotation(rng).T * 1.3 + 64.0 + rng.normal(0, 4, src.shape)
@@ -143,10 +148,10 @@ def test_a_large_turn(gl, transform):
 
 @pytest.mark.parametrize("transform", glmls.TRANSFORMS)
 def test_a_cluster_a_few_steps_away(gl, transform):
-    """Handles within 1e-3 voxel of each other, seen from 2 to 4 steps h away (J's step
-    there, ``jacobian_steps``): the probes' moments, the centre's moved by O(h^2), are off
-    by more than the cluster's own spread about p*, so the short solve does not hold there
-    (J was NaN or off by tens) and the full central differences are taken."""
+    """Handles within 1e-3 voxel of each other, seen from 2 to 4 steps h of the central
+    differences away (``jacobian_steps``): within a step the moments move by more than the
+    cluster's own spread about p*, yet J, the derivative of the solve there, is finite and
+    agrees with central differences of the GPU's own f over h."""
     from glmls.engine.passes3 import jacobian_steps
 
     rng = np.random.default_rng(4)
@@ -168,17 +173,19 @@ def test_a_cluster_a_few_steps_away(gl, transform):
 
 
 def test_the_jacobians_second_stage_walks_its_list_with_few_work_groups(gl, monkeypatch):
-    """J where the probes' short solve does not hold (next to a handle) comes from a second
-    stage over those points alone; with two work groups a dispatch it walks its whole list,
-    and every J and mesh record is the same."""
+    """J where it is not the closed form's derivative (at points that snap to a handle)
+    comes from a second stage over those points alone; with two work groups a dispatch it
+    walks its whole list, and every J and mesh record is the same."""
     from glmls.gl.context import GLContext
 
     rng = np.random.default_rng(7)
     src = rng.uniform(0, 40, (12, 3))
     dst = src + rng.normal(0, 3, src.shape)
-    # a few hundred points next to the handles, where J needs f's own evaluations
+    # a few hundred points next to the handles, and as many within the snapping distance,
+    # where J needs f's own evaluations
     near = (src[:, None, :] + rng.normal(0, 0.02, (12, 40, 3))).reshape(-1, 3)
-    points = np.concatenate([rng.uniform(0, 40, (500, 3)), near])
+    snapped = (src[:, None, :] + rng.normal(0, 1e-7, (12, 40, 3))).reshape(-1, 3)
+    points = np.concatenate([rng.uniform(0, 40, (500, 3)), near, snapped])
     faces = rng.integers(0, len(points), (800, 3))
     with glmls.MLS(src, dst, transform="rigid", ctx=gl) as m:
         f, jacobian = m.jacobian(points)
@@ -198,4 +205,75 @@ def test_the_jacobians_second_stage_walks_its_list_with_few_work_groups(gl, monk
 
     h = 1e-3
     numeric = np.stack([(f64(near + h * e) - f64(near - h * e)) / (2 * h) for e in np.eye(3)], 1)
-    np.testing.assert_allclose(jacobian[500:], numeric, atol=2e-2)
+    np.testing.assert_allclose(jacobian[500 : 500 + len(near)], numeric, atol=2e-2)
+
+
+def _derivative(src, dst, points, **options):
+    """d f_c / d v_r by float64 central differences of step 1e-5 voxel: f's derivative to
+    ~1e-10 (f's curvature over the step, float64's rounding over it)."""
+    h = 1e-5
+    rows = [
+        reference.mls(src, dst, points + h * e, **options)[0]
+        - reference.mls(src, dst, points - h * e, **options)[0]
+        for e in np.eye(3)
+    ]
+    return np.stack(rows, axis=1) / (2 * h)
+
+
+DERIVATIVE_OPTIONS = [
+    {"transform": transform} | options
+    for transform in glmls.TRANSFORMS
+    for options in (
+        {},
+        {"alpha": 3.0},
+        {"alpha": 0.7, "s": 0.5},
+        {"interpolating": True},
+        {"weight": "gaussian", "radius": 30.0},
+        {"weight": "cressman", "radius": 60.0},
+        {"weight": "shepard", "radius": 60.0},
+        {"weight": "linear", "radius": 60.0},
+    )
+]
+
+
+@pytest.mark.parametrize(
+    "options", DERIVATIVE_OPTIONS, ids=lambda o: "-".join(map(str, o.values()))
+)
+def test_j_is_the_derivative_of_f(gl, options):
+    """16 handles in a 64^3 box, points in it and 0.3 to 4 voxels from the handles (where
+    the weights bend f most): J against f's derivative, relative to |J| (at least 1)."""
+    rng = np.random.default_rng(21)
+    src = rng.uniform(0, 64, (16, 3))
+    dst = src + rng.normal(0, 4, src.shape)
+    points = np.concatenate([rng.uniform(0, 64, (400, 3)), _near(rng, src, 600, 0.3, 4.0)])
+    if "radius" in options and options.get("weight") != "gaussian":
+        # J jumps where a handle's weight reaches 0 (at d = R)
+        d = np.linalg.norm(points[:, None] - src[None], axis=2)
+        points = points[np.abs(d - options["radius"]).min(axis=1) > 0.01]
+    jacobian = _jacobian(src, dst, points, **options)
+    expected = _derivative(src, dst, points, **options)
+    scale = np.maximum(np.abs(expected).max(axis=(1, 2)), 1.0)
+    error = np.abs(jacobian - expected).max(axis=(1, 2)) / scale
+    assert np.median(error) < 1e-6
+    assert np.percentile(error, 99) < 1e-4 and error.max() < 1e-3
+
+
+def test_a_weight_without_its_slope(gl, monkeypatch):
+    """A registry weight without a GLSL slope (``Weight.slope`` False, as one added by a
+    user): the shaders differentiate its function numerically (a relative step of 2^-8 in
+    d^2), J within 1e-5 of |J| in the median and 1e-4 at most."""
+    import dataclasses
+
+    from glmls.core.weights import REGISTRY
+
+    monkeypatch.setitem(REGISTRY, "idw", dataclasses.replace(REGISTRY["idw"], slope=False))
+    rng = np.random.default_rng(22)
+    src = rng.uniform(0, 64, (16, 3))
+    dst = src + rng.normal(0, 4, src.shape)
+    points = np.concatenate([rng.uniform(0, 64, (300, 3)), _near(rng, src, 300, 0.3, 4.0)])
+    options = {"transform": "affine", "alpha": 1.5}
+    jacobian = _jacobian(src, dst, points, **options)
+    expected = _derivative(src, dst, points, **options)
+    scale = np.maximum(np.abs(expected).max(axis=(1, 2)), 1.0)
+    error = np.abs(jacobian - expected).max(axis=(1, 2)) / scale
+    assert np.median(error) < 1e-5 and error.max() < 1e-4

@@ -99,6 +99,31 @@ float mls_weight(float d2, float m, float inv_m, float sigma) {
     return mls_interpolated(MLS_WEIGHT_FUNCTION(d2, m, inv_m, sigma), d2, inv_m);
 }
 
+// The slope dw/d(d2) of the weight function MLS_SLOPE_FUNCTION (mls/weights.glsl) where the
+// registry gives one; else a central difference of the function over a relative step of d2
+// (a weight added without its slope): 2^-8, where the difference's O(step^2) error and its
+// float32 rounding, ~eps32 / step, are about equal (~1e-5 of the slope).
+#ifndef MLS_SLOPE_FUNCTION
+#define MLS_SLOPE_FUNCTION mls_slope_numeric
+float mls_slope_numeric(float d2, float w, float m, float inv_m, float sigma) {
+    float h = max(d2, 1e-30) * 0.00390625;
+    float up = MLS_WEIGHT_FUNCTION(d2 + h, m, inv_m, sigma);
+    float down = MLS_WEIGHT_FUNCTION(max(d2 - h, 0.0), m, inv_m, sigma);
+    return (up - down) / ((d2 + h) - max(d2 - h, 0.0));
+}
+#endif
+
+// The slope of ``interpolating``'s w / r^alpha (r = d2 / m) from the weight function's value
+// ``raw`` and slope at d2: slope / r^alpha - alpha w / d2 (0 out of reach).
+float mls_interpolated_slope(float raw, float slope, float d2, float inv_m) {
+#if MLS_INTERPOLATING
+    return raw > 0.0 && d2 > 0.0
+        ? slope / mls_pow(d2 * inv_m) - u_alpha * mls_interpolated(raw, d2, inv_m) / d2 : 0.0;
+#else
+    return slope;
+#endif
+}
+
 #if MLS_REACH_GAUSSIAN
 // The gaussian's weight of a handle whose excess d2 - g over the point's offset g is known
 // apart from its squared distance d2 (mls/core.glsl, mls_handle_weight: far from every

@@ -65,6 +65,44 @@ float mls_weight_linear(float d2, float m, float inv_m, float sigma) {
     return MLS_LINEAR(float, mls_radius_ratio(d2));
 }
 
+// The slopes dw/d(d2) of the functions above, mls_slope_<name>(d2, w, m, inv_m, sigma) with
+// w = mls_weight_<name>(d2, m, inv_m, sigma): the 3D Jacobian's derivative of the moments
+// (mls3/core.glsl, mls3_eval_jacobian). A weight of the registry with ``slope=True`` has one
+// (glmls.core.weights.Weight.slope); mls/weighting.glsl differentiates any other numerically.
+float mls_slope_idw(float d2, float w, float m, float inv_m, float sigma) {
+    // d/d(d2) (sigma + 1) / (sigma + r^alpha), r = d2 / m: -w alpha r^alpha / ((sigma + r^alpha) d2)
+    float ra = mls_pow(d2 * inv_m);
+    return d2 > 0.0 ? -w * u_alpha * (ra / (sigma + ra)) / d2 : 0.0;
+}
+
+float mls_slope_cressman(float d2, float w, float m, float inv_m, float sigma) {
+    float R2 = u_radius * u_radius;
+    float t = mls_radius_ratio(d2);
+    return t < 1.0 && R2 > 0.0 ? -2.0 / ((1.0 + t) * (1.0 + t) * R2) : 0.0;
+}
+
+float mls_slope_shepard(float d2, float w, float m, float inv_m, float sigma) {
+    // sqrt(m) (1 / d - 1 / R): -sqrt(m) / (2 d^3)
+    float d = sqrt(d2);
+    return d < u_radius && d > 0.0 ? -0.5 * sqrt(m) / (d2 * d) : 0.0;
+}
+
+// exp(-x / R^2) of the excess x = d2 - g: -w / R^2, 0 where the cap holds it
+float mls_gaussian_excess_slope(float x, float w) {
+    float R2 = u_radius * u_radius;
+    bool capped = x < 0.0 && mls_radius_ratio(-x) >= MLS_GAUSSIAN_CAP;
+    return capped || !(R2 > 0.0) ? 0.0 : -w / R2;
+}
+float mls_slope_gaussian(float d2, float w, float m, float inv_m, float sigma) {
+    return mls_gaussian_excess_slope(d2 - m, w);
+}
+
+float mls_slope_linear(float d2, float w, float m, float inv_m, float sigma) {
+    // 1 - sqrt(t): -1 / (2 sqrt(t) R^2) = -1 / (2 d R)
+    float d = sqrt(d2);
+    return d < u_radius && d > 0.0 ? -0.5 / (d * u_radius) : 0.0;
+}
+
 // The float64 versions, of a squared distance d2 exact in float64 (mls/weighting.glsl,
 // mls_weight_edge): near d = R a radius weight is a difference of nearly equal numbers, and
 // float32's rounding of d2 and of 1 - t is most of the weight there. R is float32's u_radius.

@@ -8,8 +8,9 @@
 //   vec3 mls3_to_scaled(vec3 voxel), vec3 mls3_to_voxels(vec3 scaled)
 //   vec3 mls3_f_voxels(vec3 voxel)          f in voxel coordinates
 //   mat3 mls3_jacobian(vec3 v, float h)     df/dv by central differences of step h (scaled)
-//   MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J)   f, and J from the same
-//                                           differences with one pass over the handles per axis
+//   MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J)   f, and J as the closed
+//                                           form's derivative (one pass over the handles
+//                                           per axis), or mls3_jacobian's differences
 //   mls3_stencil_*                          the same differences, for a pass's own loop
 //
 // Scaled coordinates: (voxel - u_mls3_center) / u_mls3_scale (MLSKernel3.scaling), so that
@@ -289,6 +290,7 @@ MLS3Result mls3_identity(vec3 v) {
 
 MLS3Result mls3_finish(MLS3Accum a) {
     mls3_solve_plain = false;
+    mls3_solve_polar = mat3(0.0);
     if (!a.hit && !(a.W > 0.0)) {
         return mls3_identity(a.v);   // no handle reaches v (or there are none)
     }
@@ -355,7 +357,7 @@ MLS3Result mls3_eval(vec3 v) {
 // k = 1..6 are v + h e_a (k odd) and v - h e_a (k even), a = (k - 1) / 2. Each f - v of
 // k >= 1 is added with mls3_stencil_add, and mls3_stencil_jacobian ends. mls3_jacobian walks
 // k in a loop around one evaluation of f (mls3_eval is most of a program's code: one copy,
-// not six, keeps the program small); mls3_eval_jacobian shares the passes over the handles.
+// not six, keeps the program small); mls3_eval_jacobian falls back to it.
 vec3 mls3_stencil_axis(int k) {
     return k == 0 ? vec3(0.0) : vec3(equal(ivec3((k - 1) / 2), ivec3(0, 1, 2)));
 }
@@ -386,10 +388,11 @@ mat3 mls3_stencil_jacobian(vec3 v, float h, mat3 sums) {
     return transpose(rows);
 }
 
-// Whether the last J (mls3_jacobian, mls3_eval_jacobian) took affine's plain solve at each
-// of its six probes (mls3_solve_plain): with every target on one plane, f maps each probe
-// into it, and J's rows, differences of those images, lie in it; so J is singular, exactly
-// but for float32's rounding.
+// Whether the last J took affine's plain solve (mls3_solve_plain) at each of its six probes
+// (mls3_jacobian) or is its derivative at v (mls3_eval_jacobian): with every target on one
+// plane, f maps each probe, or v's neighbourhood, into it, and J's rows, differences of
+// those images or their derivatives, lie in it; so J is singular, exactly but for float32's
+// rounding.
 bool mls3_jacobian_plain = false;
 
 // J = df/dv at v by central differences of step h (scaled; 6 evaluations of f, one site).
@@ -404,233 +407,192 @@ mat3 mls3_jacobian(vec3 v, float h) {
     return mls3_stencil_jacobian(v, h, sums);
 }
 
-// f and J = df/dv together (the points pass's J): the central differences of mls3_jacobian,
-// with the moments of the probes v +- h e_a from one pass over the handles per axis a instead
-// of a full evaluation of f per probe. Every moment (W, sum w P, sum w E, A, D) is linear in
-// the weights: about the centre's nearest handle o, the probe's are M0 +- Delta_a, M0 the
-// centre's and Delta_a the moments of the half differences (w(v + h e_a) - w(v - h e_a)) / 2
-// (features 1, P, E, P P^T, P^T E, each handle's P and E once for all probes). M0 stands for
-// the probes' mean (M(v + h e_a) + M(v - h e_a)) / 2, which moves J by O(h^2) as the
-// differences themselves do; W itself is summed exactly per probe (o's own weight, the one
-// that varies fastest near o, has P = E = 0 and enters W alone). Each probe then finishes by
-// the short solve below (mls3_probe_d).
-//
-// The probes' weights take one normalisation m_lo = (sqrt(m) - 1.1 h)^2, below every probe's
-// squared distance to any handle (mls/weights.glsl divides a weight by a factor common to
-// all handles: the centre's m would clip gaussian's max(d2 - m, 0) at a probe nearer to a
-// handle than the centre), and M0 is rescaled to it by lambda = w(m; m_lo) / w(m; m). Where
-// a probe may come within the snapping distance of a handle, where no handle reaches the
-// centre (J = I where none reaches any probe), where a probe's W is not positive, or where
-// the centre is not well inside the solve's plain branch, J is mls3_jacobian's own; f is
-// mls3_eval's, bit for bit.
-struct MLS3Probes {
-    int axis;       // a
-    float up;       // v_a + h and v_a - h: the probes' moved coordinate
-    float down;
-    float m;        // the probes' normalisation m_lo
-    float inv_m;
-    float sigma;
-    float Wup;      // sum w(v + h e_a) and sum w(v - h e_a)
-    float Wdown;
-    MLS3Accum delta;   // Delta_a (its W unused)
-#if MLS_REACH_GAUSSIAN
-    float h;        // the probes' step
-    vec3 twice_u;   // the centre's (MLS3Accum)
-    float g_o;      // ... less g - m_lo: a handle's d2 - m_lo at the centre is P.(P - 2u) - g_o
-#endif
-};
-
-void mls3_probe_accumulate(inout MLS3Probes s, vec3 v, vec3 op, vec3 oe, int i, bool use) {
-    vec3 p = mls3_p(i);
-    vec3 dp = p - v;
-    vec3 sq = dp * dp;
-    // a probe's squared distance: the centre's with coordinate a moved
-    float pa = p[s.axis];
-    float rest = s.axis == 0 ? sq.y + sq.z : (s.axis == 1 ? sq.x + sq.z : sq.x + sq.y);
-    float du = pa - s.up;
-    float dd = pa - s.down;
-    vec3 P = p - op;
-#if MLS_REACH_GAUSSIAN
-    // d2 - m_lo at each probe from the centre's excess (mls3_weight_at), precise far from
-    // the handles: moving coordinate a by +-h adds h (h -+ 2 (p_a - v_a)) to d2
-    float excess = dot(P, P - s.twice_u) - s.g_o;
-    float wu = use ? mls_weight_excess(excess + s.h * (s.h - 2.0 * dp[s.axis]), du * du + rest,
-                                       s.inv_m) : 0.0;
-    float wd = use ? mls_weight_excess(excess + s.h * (s.h + 2.0 * dp[s.axis]), dd * dd + rest,
-                                       s.inv_m) : 0.0;
-#else
-    float wu = use ? mls_weight(du * du + rest, s.m, s.inv_m, s.sigma) : 0.0;
-    float wd = use ? mls_weight(dd * dd + rest, s.m, s.inv_m, s.sigma) : 0.0;
-#endif
-    s.Wup += wu;
-    s.Wdown += wd;
-    mls3_add(s.delta, 0.5 * (wu - wd), P, mls3_e(i) - oe, 0.0);
-}
-
-// The probe v + sign h e_a: lambda M0 + sign Delta_a, W its own.
-MLS3Accum mls3_probe(MLS3Accum a, MLS3Accum delta, float W, float lambda, float sign,
-                     vec3 point) {
-    MLS3Accum b = a;
-    b.v = point;
-    b.W = W;
-    b.P = lambda * a.P + sign * delta.P;
-    b.E = lambda * a.E + sign * delta.E;
-    b.Ad = lambda * a.Ad + sign * delta.Ad;
-    b.Ao = lambda * a.Ao + sign * delta.Ao;
-    b.D = lambda * a.D + sign * delta.D;
-    return b;
-}
-
-#define MLS3_PROBE_ACC(i, use) mls3_probe_accumulate(s, v, a.op, a.oe, i, use);
-
-// The probes' short solve. Where the centre's moments are well inside the closed forms'
-// plain branch (every eigenvalue of A above 2e-3 trace A for affine, A^-1 D by Cholesky; the
-// middle one above 2e-3 and det B > 0.02 |B|^3 for the rotations, B's polar factor), so is
-// each probe's, O(h) away: affine solves by Cholesky alone; the rotations take the centre's
-// polar factor U (B = U H) to first order in the probe's B - B0, U (I + [w]x) with
-// (tr(H) I - H) w = axial(U^T dB - dB^T U). The error, O(h^2) and the same at both probes of
-// an axis, leaves their difference O(h^3): J as the differences of the full solves.
+// f and J = df/dv together (the points pass's J), J by differentiating the solve: every
+// moment (W, sum w P, sum w E, A, D, about the centre's nearest handle o) is linear in the
+// weights, so its derivative along axis a is the same sum with each weight w replaced by
+// dw/dv_a = -2 (p_a - v_a) dw/d(d2) (mls3_slope_at: the weight's own slope, exact), one pass
+// over the handles per axis. The centring (p* = p_o + P / W, A - P P^T / W, ...) and the
+// plain branch's solve are then differentiated in closed form (mls3_derivative_row): affine's
+// N = A^-1 D gives dN = A^-1 (dD - dA N); the rotations' polar factor U of B = U H moves by
+// U [w]x with (tr(H) I - H) w = axial(U^T dB - dB^T U), and similarity's scale with
+// <U, dB> and tr(dA). So J carries float32's rounding, not a step's O(h^2) f''' (central
+// differences). A weight's normalisation, common to all handles at v (mls/weights.glsl), is
+// held fixed: MLS ignores a common factor, so its derivative drops out. Where the solve
+// did not take its plain branch (a degenerate set, the ridge's rules: mls3/solve_full.glsl),
+// where v snaps to a handle, where the gaussian's cap
+// holds the nearest weights, or where J would not be finite, J is mls3_jacobian's central
+// differences of step h; f is mls3_eval's, bit for bit.
 struct MLS3Centre {
-    bool plain;   // the centre is in that branch
-    mat3 B;       // its normalised B, polar factor U, and (tr(H) I - H)^-1
+    bool plain;   // well inside the plain branch of mls3_solve
+    float W;
+    vec3 P;       // sum w P (about o)
+    vec3 dp;      // p* - p_o and e* - e_o
+    vec3 de;
+    vec3 pst;     // p*
+    float inv;    // 1 / trace of the centred A: A, D and their derivatives in its units
+    mat3 A;       // the centred moments, normalised
+    mat3 D;
+    mat3 N;       // the solve: f - v = e* + (v - p*) N
+    vec3 l0;      // affine: A's Cholesky factor
+    vec3 l1;
+    vec3 l2;
+    mat3 B;       // the rotations: A + D, its polar factor U, (tr(H) I - H)^-1 (H = U^T B)
     mat3 U;
     mat3 G;
 };
 
-// finish's centring and the solve's normalisation: A (diagonal a, off-diagonal o) and D in
-// units of trace(A), and p*, e*
-void mls3_moments(MLS3Accum b, out vec3 a, out vec3 o, out mat3 D, out vec3 pst, out vec3 est) {
-    vec3 dp = b.P / b.W;
-    vec3 de = b.E / b.W;
-    pst = b.op + dp;
-    est = b.oe + de;
-    a = b.Ad - b.P * dp;
-    o = b.Ao - b.P.xxy * dp.yzz;
-    D = b.D - outerProduct(b.P, de);
-    float inv = 1.0 / (a.x + a.y + a.z);
-    a *= inv;
-    o *= inv;
-    D *= inv;
-}
-
-// (U: B's polar factor where mls3_solve took it for the same moments, mls3_solve_polar; the
-// plain branch here lies within that one)
+// The centre's moments as mls3_solve takes them, and whether it took their plain branch,
+// where f is the plain closed form about v (the ridge 0): J is its derivative. U: B's polar
+// factor where mls3_solve took that branch for the same moments (mls3_solve_polar), else 0.
 MLS3Centre mls3_centre(MLS3Accum b, mat3 U) {
-    vec3 a, o, pst, est;
-    mat3 D;
-    mls3_moments(b, a, o, D, pst, est);
     MLS3Centre c;
+    c.W = b.W;
+    c.P = b.P;
+    c.dp = b.P / b.W;
+    c.de = b.E / b.W;
+    c.pst = b.op + c.dp;
+    // mls3_finish's centring, and the solve's normalisation
+    vec3 a = b.Ad - b.P * c.dp;
+    vec3 o = b.Ao - b.P.xxy * c.dp.yzz;
+    c.inv = 1.0 / (a.x + a.y + a.z);
+    a *= c.inv;
+    o *= c.inv;
+    c.D = (b.D - outerProduct(b.P, c.de)) * c.inv;
+    c.A = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z));
     float tr = a.x + a.y + a.z;
     float c2 = a.x * a.y + a.x * a.z + a.y * a.z - dot(o, o);
-    float det = a.x * (a.y * a.z - o.z * o.z) - o.x * (o.x * a.z - o.z * o.y)
-              + o.y * (o.x * o.z - a.y * o.y);
-    mat3 A = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z));
-    c.B = A + D;
-#if MLS_TRANSFORM == 0
-    c.plain = b.W > 0.0 && c2 > 4.0 * MLS3_PLAIN_AFFINE * tr * tr;
-    c.plain = c.plain && det > 2.0 * MLS3_PLAIN_AFFINE * c2 * tr;
+    bool zero = c.D[0] == vec3(0.0) && c.D[1] == vec3(0.0) && c.D[2] == vec3(0.0);
+    c.B = c.A + c.D;
     c.U = mat3(1.0);
     c.G = mat3(1.0);
+    c.l0 = vec3(1.0);
+    c.l1 = vec3(0.0, 1.0, 0.0);
+    c.l2 = vec3(0.0, 0.0, 1.0);
+#if MLS_TRANSFORM == 0
+    // the solve's branch is mls3_solve_plain (mls3_eval_jacobian): A^-1 D by Cholesky, or in
+    // float64 where A's least eigenvalue is 1e-3 to 1e-2 of its trace (no ridge either way)
+    c.plain = b.W > 0.0;
+    c.l0 = vec3(sqrt(a.x), o.x, o.y);
+    c.l0.yz /= c.l0.x;
+    float l11 = sqrt(a.y - c.l0.y * c.l0.y);
+    c.l1 = vec3(0.0, l11, (o.z - c.l0.z * c.l0.y) / l11);
+    c.l2 = vec3(0.0, 0.0, sqrt(a.z - c.l0.z * c.l0.z - c.l1.z * c.l1.z));
+    c.plain = c.plain && l11 > 0.0 && c.l2.z > 0.0;
+    c.N = mat3(mls3_cholesky_apply(c.l0, c.l1, c.l2, c.D[0]),
+               mls3_cholesky_apply(c.l0, c.l1, c.l2, c.D[1]),
+               mls3_cholesky_apply(c.l0, c.l1, c.l2, c.D[2]));
 #else
     float nb2 = dot(c.B[0], c.B[0]) + dot(c.B[1], c.B[1]) + dot(c.B[2], c.B[2]);
-    c.plain = b.W > 0.0 && c2 > 4.0 * MLS3_DEGENERATE_SHARE * tr * tr;
-    c.plain = c.plain && determinant(c.B) > 2.0 * MLS3_POLAR_DET * nb2 * sqrt(nb2);
+    // U = 0: the solve took another branch (mls3_finish), a ridge or Horn's rotation of a B
+    // that reflects; else f is U's closed form (mls3_solve, or mls3_solve_full where B is
+    // near singular), and its derivative needs tr(H) I - H invertible (B of rank 2 or more)
+    c.plain = b.W > 0.0 && determinant(U) > 0.5 && c2 > 0.0 && nb2 > 0.0;
     c.U = U;
     mat3 H = transpose(c.U) * c.B;
     H = 0.5 * (H + transpose(H));
     c.G = inverse((H[0][0] + H[1][1] + H[2][2]) * mat3(1.0) - H);
+    mat3 NR = c.U - mat3(1.0);
+#if MLS_TRANSFORM == 2
+    c.N = NR;
+#else
+    float gain = c.D[0][0] + c.D[1][1] + c.D[2][2]
+               + dot(NR[0], c.B[0]) + dot(NR[1], c.B[1]) + dot(NR[2], c.B[2]);
+    c.N = ((tr + gain) / tr) * NR + (gain / tr) * mat3(1.0);
 #endif
+#endif
+    c.N = zero ? mat3(0.0) : c.N;
     return c;
 }
 
-// ``plain`` becomes false where a probe (moments b, f - v = d by the short solve) is not in
-// the plain branch of mls3_solve itself: its moments, the centre's moved by O(h), can leave
-// it where h is not small against the handles' spread about p* (a cluster of handles a few
-// h away), and Cholesky took the root of a negative pivot there (NaN in J)
-void mls3_check_probe(inout bool plain, MLS3Accum b, vec3 d, float Wmean) {
-    vec3 a, o, pst, est;
-    mat3 D;
-    mls3_moments(b, a, o, D, pst, est);
-    // the moments stand for the probes' mean, off by O(h^2); W is exact: their mismatch,
-    // magnified by the handles' spread about o against that about p*, moves A
-    float spread_o = b.Ad.x + b.Ad.y + b.Ad.z;
-    float spread_c = spread_o - dot(b.P, b.P) / b.W;
-    float mismatch = abs(b.W - Wmean) / b.W * spread_o / max(spread_c, 1e-30);
-    plain = plain && mismatch < 1e-3;
-    float tr = a.x + a.y + a.z;
-    float c2 = a.x * a.y + a.x * a.z + a.y * a.z - dot(o, o);
-#if MLS_TRANSFORM == 0
-    float det = a.x * (a.y * a.z - o.z * o.z) - o.x * (o.x * a.z - o.z * o.y)
-              + o.y * (o.x * o.z - a.y * o.y);
-    bool ok = c2 > 2.0 * MLS3_PLAIN_AFFINE * tr * tr && det > MLS3_PLAIN_AFFINE * c2 * tr;
+// dw/d(d2) of handle i at p, as mls3_weight_at weighs it: 0 where that gives no weight, and
+// where MLS_WEIGHT_NEXT's least distance near2 holds the weight flat. Near d = R a radius
+// weight's slope, unlike the weight itself, is no difference of nearly equal numbers: float32
+// keeps it.
+float mls3_slope_at(MLS3Accum a, vec3 p, bool use) {
+    vec3 dp = p - a.v;
+    float d2 = dot(dp, dp);
+#if MLS_WEIGHT_NEXT
+    float seen = max(d2, a.near2);
 #else
-    bool ok = c2 > 2.0 * MLS3_DEGENERATE_SHARE * tr * tr;
-    mat3 A = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z));
-    mat3 B = A + D;
-    float nb2 = dot(B[0], B[0]) + dot(B[1], B[1]) + dot(B[2], B[2]);
-    ok = ok && determinant(B) > MLS3_POLAR_DET * nb2 * sqrt(nb2);
+    float seen = d2;
 #endif
-    plain = plain && ok && !any(isnan(d)) && !any(isinf(d));
+    bool none = !use || (u_snap && d2 <= u_hit2) || seen > d2;
+#if MLS_REACH_GAUSSIAN
+    // from the excess about the nearest handle, as mls3_weight_at
+    vec3 P = p - a.op;
+    float x = dot(P, P - a.twice_u) - a.g_o;
+    float raw = mls_gaussian_excess(x);
+    float slope = mls_gaussian_excess_slope(x, raw);
+#else
+    float raw = MLS_WEIGHT_FUNCTION(seen, a.g, a.inv_m, a.sigma);
+    float slope = MLS_SLOPE_FUNCTION(seen, raw, a.g, a.inv_m, a.sigma);
+#endif
+    slope = mls_interpolated_slope(raw, slope, seen, a.inv_m);
+    return none ? 0.0 : slope;
 }
 
-// f - v at a probe (moments b) by the short solve
-vec3 mls3_probe_d(MLS3Accum b, MLS3Centre c) {
-    vec3 a, o, pst, est;
-    mat3 D;
-    mls3_moments(b, a, o, D, pst, est);
-    bool zero = D[0] == vec3(0.0) && D[1] == vec3(0.0) && D[2] == vec3(0.0);
-    float tr = a.x + a.y + a.z;
+// Handle i's terms of the moments' derivative along ``axis`` (d2 = |p - v|^2 moves by
+// -2 (p_a - v_a) per unit of v_a)
+void mls3_slope_accumulate(inout MLS3Accum s, MLS3Accum a, int axis, int i, bool use) {
+    vec3 p = mls3_p(i);
+    float wdot = mls3_slope_at(a, p, use) * (-2.0 * (p[axis] - a.v[axis]));
+    mls3_add(s, wdot, p - a.op, mls3_e(i) - a.oe, 0.0);
+}
+#define MLS3_SLOPE_ACC(i, use) mls3_slope_accumulate(s, a, axis, i, use);
+
+// Row ``axis`` of J, e_a + d(f - v)/dv_a, from the centre c and the moments' derivative s
+vec3 mls3_derivative_row(MLS3Centre c, MLS3Accum s, vec3 v, int axis) {
+    vec3 unit = vec3(equal(ivec3(axis), ivec3(0, 1, 2)));
+    float invW = 1.0 / c.W;
+    vec3 dp1 = (s.P - c.dp * s.W) * invW;   // d(p*)/dv_a
+    vec3 de1 = (s.E - c.de * s.W) * invW;   // d(e*)/dv_a
+    // the centred moments' derivatives (P dp^T = P P^T / W and P de^T = P E^T / W, by parts)
+    vec3 a1 = (s.Ad - (s.P * c.dp + c.P * dp1)) * c.inv;
+    vec3 o1 = (s.Ao - (s.P.xxy * c.dp.yzz + c.P.xxy * dp1.yzz)) * c.inv;
+    mat3 D1 = (s.D - outerProduct(s.P, c.de) - outerProduct(c.P, de1)) * c.inv;
+    mat3 A1 = mat3(vec3(a1.x, o1.x, o1.y), vec3(o1.x, a1.y, o1.z), vec3(o1.y, o1.z, a1.z));
 #if MLS_TRANSFORM == 0
-    vec3 l0 = vec3(sqrt(a.x), o.x, o.y);
-    l0.yz /= l0.x;
-    float l11 = sqrt(a.y - l0.y * l0.y);
-    vec3 l1 = vec3(0.0, l11, (o.z - l0.z * l0.y) / l11);
-    vec3 l2 = vec3(0.0, 0.0, sqrt(a.z - l0.z * l0.z - l1.z * l1.z));
-    mat3 N = mat3(mls3_cholesky_apply(l0, l1, l2, D[0]), mls3_cholesky_apply(l0, l1, l2, D[1]),
-                  mls3_cholesky_apply(l0, l1, l2, D[2]));
+    mat3 R = D1 - A1 * c.N;
+    mat3 N1 = mat3(mls3_cholesky_apply(c.l0, c.l1, c.l2, R[0]),
+                   mls3_cholesky_apply(c.l0, c.l1, c.l2, R[1]),
+                   mls3_cholesky_apply(c.l0, c.l1, c.l2, R[2]));
 #else
-    mat3 A = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z));
-    mat3 B = A + D;
-    mat3 K = transpose(c.U) * (B - c.B);
+    mat3 B1 = A1 + D1;
+    mat3 K = transpose(c.U) * B1;
     K -= transpose(K);
     vec3 w = c.G * vec3(K[1][2], K[2][0], K[0][1]);
-    mat3 NR = (c.U - mat3(1.0)) + c.U * mls3_cross_matrix(w);
-    float gain = D[0][0] + D[1][1] + D[2][2]
-               + dot(NR[0], B[0]) + dot(NR[1], B[1]) + dot(NR[2], B[2]);
-    float along = tr + gain;
+    mat3 U1 = c.U * mls3_cross_matrix(w);
 #if MLS_TRANSFORM == 2
-    mat3 N = along > 1e-6 * tr ? NR : mat3(0.0);
+    mat3 N1 = U1;
 #else
-    mat3 N = (along / tr) * NR + (gain / tr) * mat3(1.0);
+    // N = (along / tr) (U - I) + (gain / tr) I, along = tr + gain, gain = tr(D) + <U - I, B>
+    mat3 NR = c.U - mat3(1.0);
+    float tr = c.A[0][0] + c.A[1][1] + c.A[2][2];
+    float tr1 = a1.x + a1.y + a1.z;
+    float gain = c.D[0][0] + c.D[1][1] + c.D[2][2]
+               + dot(NR[0], c.B[0]) + dot(NR[1], c.B[1]) + dot(NR[2], c.B[2]);
+    float gain1 = D1[0][0] + D1[1][1] + D1[2][2]
+                + dot(U1[0], c.B[0]) + dot(U1[1], c.B[1]) + dot(U1[2], c.B[2])
+                + dot(NR[0], B1[0]) + dot(NR[1], B1[1]) + dot(NR[2], B1[2]);
+    float along = tr + gain;
+    float along1 = tr1 + gain1;
+    mat3 N1 = ((along1 * tr - along * tr1) / (tr * tr)) * NR + (along / tr) * U1
+            + ((gain1 * tr - gain * tr1) / (tr * tr)) * mat3(1.0);
 #endif
 #endif
-    N = zero ? mat3(0.0) : N;
-    return est + (b.v - pst) * N;
+    bool still = D1[0] == vec3(0.0) && D1[1] == vec3(0.0) && D1[2] == vec3(0.0);
+    bool zero = c.D[0] == vec3(0.0) && c.D[1] == vec3(0.0) && c.D[2] == vec3(0.0);
+    N1 = zero && still ? mat3(0.0) : N1;   // every displacement equal: N = 0 about v
+    return unit + de1 + (unit - dp1) * c.N + (v - c.pst) * N1;
 }
 
-// One axis a of mls3_eval_jacobian: Delta_a and the probes' W, then both probes' f - v into
-// sums (a constant at each call: every coordinate index below is).
-void mls3_probe_axis(inout mat3 sums, inout bool together, inout MLS3Probes s, MLS3Accum a,
-                     MLS3Accum zero, MLS3Centre c, float lambda, vec3 v, float h, int axis) {
+// One axis of mls3_eval_jacobian: the moments' derivative, then J's row (``axis`` a
+// constant at each call, as every coordinate index below)
+vec3 mls3_slope_axis(MLS3Accum a, MLS3Accum zero, MLS3Centre c, vec3 v, int axis) {
     int n = u_mls3_count;
-    s.axis = axis;
-    s.up = v[axis] + h;
-    s.down = v[axis] - h;
-    s.Wup = 0.0;
-    s.Wdown = 0.0;
-    s.delta = zero;
-    MLS3_EACH(MLS3_PROBE_ACC)
-    together = together && s.Wup > 0.0 && s.Wdown > 0.0;
-    int k = 2 * axis + 1;
-    MLS3Accum up = mls3_probe(a, s.delta, s.Wup, lambda, 1.0, mls3_stencil_point(v, k, h));
-    MLS3Accum down = mls3_probe(a, s.delta, s.Wdown, lambda, -1.0,
-                                mls3_stencil_point(v, k + 1, h));
-    vec3 dup = mls3_probe_d(up, c);
-    vec3 ddown = mls3_probe_d(down, c);
-    mls3_check_probe(together, up, dup, lambda * a.W + s.delta.W);
-    mls3_check_probe(together, down, ddown, lambda * a.W - s.delta.W);
-    mls3_stencil_add(sums, k, dup);
-    mls3_stencil_add(sums, k + 1, ddown);
+    MLS3Accum s = zero;
+    MLS3_EACH(MLS3_SLOPE_ACC)
+    return mls3_derivative_row(c, s, v, axis);
 }
 
 // MLS3_JACOBIAN_LATER: where J needs mls3_jacobian's six evaluations of f, J is left I and
@@ -651,35 +613,25 @@ MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
     MLS3Accum zero = a;   // no moments yet
     MLS3_EACH(MLS3_ACC)
     MLS3Result r = mls3_finish(a);
-    MLS3Probes s;
-    float reach = sqrt(a.m) - 1.1 * h;   // a bound on every probe's distance to a handle
-    s.m = max(reach, 0.0) * max(reach, 0.0);
-    s.inv_m = 1.0 / s.m;
-    s.sigma = mls_sigma(s.m);
-#if MLS_REACH_GAUSSIAN
-    s.h = h;
-    s.twice_u = a.twice_u;
-    s.g_o = a.g_o - (a.g - s.m);
-#endif
-    // the factor from the centre's weights (offset a.g) to the probes' (s.m), the same for
-    // every handle unless the gaussian's cap (mls/weights.glsl) bounds the nearest's
-    float lambda = mls_weight(a.m, s.m, s.inv_m, s.sigma) / mls_weight(a.m, a.g, a.inv_m, a.sigma);
     MLS3Centre c = mls3_centre(a, mls3_solve_polar);
     bool uncapped = mls_radius_ratio(a.g - a.m) < MLS_GAUSSIAN_CAP;
-    bool together = !a.hit && c.plain && s.m > u_hit2 && lambda > 1e-30 && lambda < 1e30;
-    together = together && uncapped;
-    // no handle within reach of any probe (radius weights): f - v = 0 at each, J = I
-    bool alone = !a.hit && !(a.W > 0.0) && reach > u_radius;
-    mat3 sums = mat3(0.0);
-    mls3_probe_axis(sums, together, s, a, zero, c, lambda, v, h, 0);
-    mls3_probe_axis(sums, together, s, a, zero, c, lambda, v, h, 1);
-    mls3_probe_axis(sums, together, s, a, zero, c, lambda, v, h, 2);
-    // together: each probe's short solve is affine's Cholesky (mls3_check_probe)
-    mls3_jacobian_plain = together && MLS_TRANSFORM == 0;
+    bool exact = !a.hit && c.plain && uncapped && (MLS_TRANSFORM != 0 || mls3_solve_plain);
+    // no handle within reach (radius weights, the nearest at least R away): f = v about v
+    bool alone = !a.hit && !(a.W > 0.0) && a.m >= u_radius * u_radius;
+    mat3 rows = mat3(1.0);
+    if (exact) {
+        rows[0] = mls3_slope_axis(a, zero, c, v, 0);
+        rows[1] = mls3_slope_axis(a, zero, c, v, 1);
+        rows[2] = mls3_slope_axis(a, zero, c, v, 2);
+        exact = !any(isnan(rows[0])) && !any(isinf(rows[0])) && !any(isnan(rows[1]))
+              && !any(isinf(rows[1])) && !any(isnan(rows[2])) && !any(isinf(rows[2]));
+    }
+    // exact: affine's plain solve at the centre (mls3_solve_plain)
+    mls3_jacobian_plain = exact && MLS_TRANSFORM == 0;
     if (alone) {
         J = mat3(1.0);
-    } else if (together) {
-        J = mls3_stencil_jacobian(v, h, sums);
+    } else if (exact) {
+        J = transpose(rows);
     } else {
 #if MLS3_JACOBIAN_LATER
         J = mat3(1.0);

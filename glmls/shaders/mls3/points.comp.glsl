@@ -6,7 +6,8 @@
 //     offset in float64), 3 floats per point;
 //   a lattice: f(v) in voxels, 3 floats per point;
 //   MLS3_WRITE_MATRIX: M row by row (the mathematical M[i][j] at 9 i + 3 r + c), 9 floats;
-//   MLS3_WRITE_JACOBIAN: J = df/dv by central differences of step mls3_jacobian_step(v) (scaled),
+//   MLS3_WRITE_JACOBIAN: J = df/dv (mls3_eval_jacobian: the closed form's derivative, or
+//     central differences of step mls3_jacobian_step(v), scaled, near degenerate sets),
 //     J[r][c] = d f_c / d v_r (row vectors: df = dv J), 9 floats;
 //   MLS3_MESH (a mesh's vertices, mls3/mesh.glsl's table, with MLS3_WRITE_JACOBIAN): one
 //     record of MESH3_RECORD floats per mesh vertex instead (mls3/mesh.glsl): the deformed
@@ -14,8 +15,9 @@
 //     1 the mesh's own, 3 floats per vertex; 2 later: the vertex, for the passes over
 //     faces, mls3/mesh_normals.comp.glsl writing the normal over it), f - v, J, det J.
 //   MLS3_MESH_FLAT (a mesh, affine with every target on one plane): one uint per vertex, 1
-//     where J took affine's plain solve at each of its probes (mls3_jacobian_plain: f maps
-//     them into the plane, and det J is 0 but for float32's rounding), else 0.
+//     where J is the derivative of affine's plain solve, or took that solve at each of its
+//     probes (mls3_jacobian_plain: f maps them into the plane, and det J is 0 but for
+//     float32's rounding), else 0.
 // J: mls3_eval_jacobian (mls3/core.glsl), f and J sharing the passes over the handles.
 // MLS3_STAGE 1 and 2 are two passes (glmls.gl.dispatch.SecondPass): the first takes only the
 // solve's plain branch (MLS3_SOLVE_LATER) and J's shared passes (MLS3_JACOBIAN_LATER) and

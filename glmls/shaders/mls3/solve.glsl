@@ -29,9 +29,10 @@ bool mls3_solve_later = false;
 // and f maps into that plane (mls3/core.glsl's mls3_jacobian_plain); false for every other
 // branch (a ridge, a translation, the identity).
 bool mls3_solve_plain = false;
-// The rotations' last solve: B's orthogonal polar factor where it took that branch, else I
-// (mls3_eval_jacobian's short solves of the probes start from it).
-mat3 mls3_solve_polar = mat3(1.0);
+// The rotations' last solve: B's orthogonal polar factor where it took that branch (or
+// mls3_solve_full found it, no ridge), else 0 (mls3_finish resets it; mls3_eval_jacobian
+// differentiates it).
+mat3 mls3_solve_polar = mat3(0.0);
 
 // glmls.reference.DEGENERATE_SHARE
 const float MLS3_DEGENERATE_SHARE = 1e-3;

@@ -221,10 +221,16 @@ dmat3 mls3_solve_full(dvec3 a, dvec3 o, dmat3 D, double spread) {
     // their line is free; the same rule with B B^T's middle eigenvalue and principal axis
     dvec3 axis_b;
     double share_b, btr;
-    if (mls3_full_targets_on_a_line(B, axis_b, share_b, btr)) {
+    bool line = mls3_full_targets_on_a_line(B, axis_b, share_b, btr);
+    if (line) {
         S2 += (share_b * sqrt(btr)) * mls3_full_least_rotation(axis_b, axis_b * B);
     }
     dmat3 NR = mls3_full_quaternion_minus_identity(mls3_full_horn(a, o, S2));
+    // no ridge, the targets off a line and det B > 0: R is B's own polar factor, whose
+    // derivative J takes (mls3/core.glsl, mls3_centre)
+    if (share_mid == 0.0lf && !line && determinant(B) > 0.0lf) {
+        mls3_solve_polar = mat3(NR + dmat3(1.0lf));
+    }
     // trace(R^T B) - trace(A) = trace(D) + <R - I, B>, without cancellation
     double gain = D[0][0] + D[1][1] + D[2][2]
                 + dot(NR[0], B[0]) + dot(NR[1], B[1]) + dot(NR[2], B[2]);
