@@ -41,9 +41,10 @@ BOUNDED_MEDIAN, BOUNDED_MAX = 1e-4, 0.15
 RIDGE_MEDIAN, RIDGE_MAX = 1e-3, 1e-3
 
 
-def _reference_jacobian(src, dst, points, **options):
-    """d f_c / d v_r by float64 central differences of step 1e-3 voxel, (K, 3, 3)."""
-    h = 1e-3
+def _reference_jacobian(src, dst, points, *, h=1e-3, **options):
+    """d f_c / d v_r by float64 central differences of step ``h`` voxel, (K, 3, 3). With
+    h = 1e-5 (:data:`DERIVATIVE_STEP`), f's derivative to ~1e-10 (f's curvature over the
+    step, float64's rounding over it)."""
     rows = [
         reference.mls(src, dst, points + h * e, **options)[0]
         - reference.mls(src, dst, points - h * e, **options)[0]
@@ -200,24 +201,21 @@ def test_the_jacobians_second_stage_walks_its_list_with_few_work_groups(gl, monk
     np.testing.assert_array_equal(mesh2.normals, mesh.normals)
 
     # the central differences of f itself at those points agree with J
-    def f64(x):
-        return reference.mls(src, dst, x, transform="rigid")[0]
-
-    h = 1e-3
-    numeric = np.stack([(f64(near + h * e) - f64(near - h * e)) / (2 * h) for e in np.eye(3)], 1)
+    numeric = _reference_jacobian(src, dst, near, transform="rigid")
     np.testing.assert_allclose(jacobian[500 : 500 + len(near)], numeric, atol=2e-2)
 
 
-def _derivative(src, dst, points, **options):
-    """d f_c / d v_r by float64 central differences of step 1e-5 voxel: f's derivative to
-    ~1e-10 (f's curvature over the step, float64's rounding over it)."""
-    h = 1e-5
-    rows = [
-        reference.mls(src, dst, points + h * e, **options)[0]
-        - reference.mls(src, dst, points - h * e, **options)[0]
-        for e in np.eye(3)
-    ]
-    return np.stack(rows, axis=1) / (2 * h)
+#: The reference's step where J is compared as f's derivative (voxels)
+DERIVATIVE_STEP = 1e-5
+
+
+def _relative_error(src, dst, points, **options):
+    """(K,) the largest error of the GPU's J against f's derivative at each point, relative
+    to the derivative's largest entry (at least 1)."""
+    jacobian = _jacobian(src, dst, points, **options)
+    expected = _reference_jacobian(src, dst, points, h=DERIVATIVE_STEP, **options)
+    scale = np.maximum(np.abs(expected).max(axis=(1, 2)), 1.0)
+    return np.abs(jacobian - expected).max(axis=(1, 2)) / scale
 
 
 DERIVATIVE_OPTIONS = [
@@ -250,10 +248,7 @@ def test_j_is_the_derivative_of_f(gl, options):
         # J jumps where a handle's weight reaches 0 (at d = R)
         d = np.linalg.norm(points[:, None] - src[None], axis=2)
         points = points[np.abs(d - options["radius"]).min(axis=1) > 0.01]
-    jacobian = _jacobian(src, dst, points, **options)
-    expected = _derivative(src, dst, points, **options)
-    scale = np.maximum(np.abs(expected).max(axis=(1, 2)), 1.0)
-    error = np.abs(jacobian - expected).max(axis=(1, 2)) / scale
+    error = _relative_error(src, dst, points, **options)
     assert np.median(error) < 1e-6
     assert np.percentile(error, 99) < 1e-4 and error.max() < 1e-3
 
@@ -272,8 +267,5 @@ def test_a_weight_without_its_slope(gl, monkeypatch):
     dst = src + rng.normal(0, 4, src.shape)
     points = np.concatenate([rng.uniform(0, 64, (300, 3)), _near(rng, src, 300, 0.3, 4.0)])
     options = {"transform": "affine", "alpha": 1.5}
-    jacobian = _jacobian(src, dst, points, **options)
-    expected = _derivative(src, dst, points, **options)
-    scale = np.maximum(np.abs(expected).max(axis=(1, 2)), 1.0)
-    error = np.abs(jacobian - expected).max(axis=(1, 2)) / scale
+    error = _relative_error(src, dst, points, **options)
     assert np.median(error) < 1e-5 and error.max() < 1e-4

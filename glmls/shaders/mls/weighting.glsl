@@ -107,9 +107,10 @@ float mls_weight(float d2, float m, float inv_m, float sigma) {
 #define MLS_SLOPE_FUNCTION mls_slope_numeric
 float mls_slope_numeric(float d2, float w, float m, float inv_m, float sigma) {
     float h = max(d2, 1e-30) * 0.00390625;
-    float up = MLS_WEIGHT_FUNCTION(d2 + h, m, inv_m, sigma);
-    float down = MLS_WEIGHT_FUNCTION(max(d2 - h, 0.0), m, inv_m, sigma);
-    return (up - down) / ((d2 + h) - max(d2 - h, 0.0));
+    float high = d2 + h;
+    float low = max(d2 - h, 0.0);
+    float up = MLS_WEIGHT_FUNCTION(high, m, inv_m, sigma);
+    return (up - MLS_WEIGHT_FUNCTION(low, m, inv_m, sigma)) / (high - low);
 }
 #endif
 

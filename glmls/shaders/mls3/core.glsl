@@ -162,18 +162,33 @@ void mls3_add(inout MLS3Accum a, float w, vec3 P, vec3 E, float d2) {
     mls_yardstick_add(a.yard, P != vec3(0.0), w, d2);
 }
 
+// The squared distance d2 of a handle as its weight sees it (at least MLS_WEIGHT_NEXT's
+// near2), and whether it gets no weight: an empty slot, and the snapped handle (and
+// duplicates of it: their weight is infinite and their p^ zero)
+float mls3_seen(MLS3Accum a, float d2, bool use, out bool none) {
+    none = !use || (u_snap && d2 <= u_hit2);
+#if MLS_WEIGHT_NEXT
+    return max(d2, a.near2);
+#else
+    return d2;
+#endif
+}
+
+#if MLS_REACH_GAUSSIAN
+// d2 - g of the handle at p about the nearest handle, as mls/core.glsl's mls_handle_weight
+// takes it
+float mls3_excess(MLS3Accum a, vec3 p) {
+    vec3 P = p - a.op;
+    return dot(P, P - a.twice_u) - a.g_o;
+}
+#endif
+
 // The weight of handle i at p (its squared distance to v in d2)
 float mls3_weight_at(MLS3Accum a, vec3 p, bool use, out float d2) {
     vec3 dp = p - a.v;
     d2 = dot(dp, dp);
-    // an empty slot, and the snapped handle (and duplicates of it: their weight is
-    // infinite and their p^ zero), get no weight
-#if MLS_WEIGHT_NEXT
-    float seen = max(d2, a.near2);
-#else
-    float seen = d2;
-#endif
-    bool none = !use || (u_snap && d2 <= u_hit2);
+    bool none;
+    float seen = mls3_seen(a, d2, use, none);
 #ifdef MLS_WEIGHT_FUNCTION64
     if (!none && mls_at_edge(d2)) {
         // near d = R: d2 exact in float64 (of float32 p and v), and the weight from it
@@ -182,9 +197,7 @@ float mls3_weight_at(MLS3Accum a, vec3 p, bool use, out float d2) {
     }
 #endif
 #if MLS_REACH_GAUSSIAN
-    // d2 - g about the nearest handle, as mls/core.glsl's mls_handle_weight takes it
-    vec3 P = p - a.op;
-    float w = mls_weight_excess(dot(P, P - a.twice_u) - a.g_o, seen, a.inv_m);
+    float w = mls_weight_excess(mls3_excess(a, p), seen, a.inv_m);
 #else
     float w = mls_weight(seen, a.g, a.inv_m, a.sigma);
 #endif
@@ -288,6 +301,17 @@ MLS3Result mls3_identity(vec3 v) {
     return r;
 }
 
+// The moments about p* = p_o + P / W and e* = e_o + E / W: dp = p* - p_o, de = e* - e_o,
+// A's diagonal ad and off-diagonal ao, and D
+void mls3_centred(MLS3Accum a, out vec3 dp, out vec3 de, out vec3 ad, out vec3 ao,
+                  out mat3 D) {
+    dp = a.P / a.W;
+    de = a.E / a.W;
+    ad = a.Ad - a.P * dp;
+    ao = a.Ao - a.P.xxy * dp.yzz;
+    D = a.D - outerProduct(a.P, de);
+}
+
 MLS3Result mls3_finish(MLS3Accum a) {
     mls3_solve_plain = false;
     mls3_solve_polar = mat3(0.0);
@@ -298,13 +322,10 @@ MLS3Result mls3_finish(MLS3Accum a) {
     vec3 est = a.oe;
     if (!a.hit) {
         // p* = p_o + sum w P / W, e* likewise, and the moments about them
-        vec3 dp = a.P / a.W;
-        vec3 de = a.E / a.W;
+        vec3 dp, de;
+        mls3_centred(a, dp, de, a.Ad, a.Ao, a.D);
         pst += dp;
         est += de;
-        a.Ad -= a.P * dp;
-        a.Ao -= a.P.xxy * dp.yzz;
-        a.D -= outerProduct(a.P, de);
     }
     // snapped: p* = p_o and q* = q_o exactly, and the moments about them are the sums
     mat3 N = mls3_solve(a.Ad, a.Ao, a.D, mls_yardstick(a.yard));
@@ -432,6 +453,7 @@ struct MLS3Centre {
     float inv;    // 1 / trace of the centred A: A, D and their derivatives in its units
     mat3 A;       // the centred moments, normalised
     mat3 D;
+    bool zero;    // D = 0: every displacement equal, N = 0
     mat3 N;       // the solve: f - v = e* + (v - p*) N
     vec3 l0;      // affine: A's Cholesky factor
     vec3 l1;
@@ -448,20 +470,18 @@ MLS3Centre mls3_centre(MLS3Accum b, mat3 U) {
     MLS3Centre c;
     c.W = b.W;
     c.P = b.P;
-    c.dp = b.P / b.W;
-    c.de = b.E / b.W;
-    c.pst = b.op + c.dp;
     // mls3_finish's centring, and the solve's normalisation
-    vec3 a = b.Ad - b.P * c.dp;
-    vec3 o = b.Ao - b.P.xxy * c.dp.yzz;
+    vec3 a, o;
+    mls3_centred(b, c.dp, c.de, a, o, c.D);
+    c.pst = b.op + c.dp;
     c.inv = 1.0 / (a.x + a.y + a.z);
     a *= c.inv;
     o *= c.inv;
-    c.D = (b.D - outerProduct(b.P, c.de)) * c.inv;
+    c.D *= c.inv;
     c.A = mat3(vec3(a.x, o.x, o.y), vec3(o.x, a.y, o.z), vec3(o.y, o.z, a.z));
     float tr = a.x + a.y + a.z;
     float c2 = a.x * a.y + a.x * a.z + a.y * a.z - dot(o, o);
-    bool zero = c.D[0] == vec3(0.0) && c.D[1] == vec3(0.0) && c.D[2] == vec3(0.0);
+    c.zero = c.D[0] == vec3(0.0) && c.D[1] == vec3(0.0) && c.D[2] == vec3(0.0);
     c.B = c.A + c.D;
     c.U = mat3(1.0);
     c.G = mat3(1.0);
@@ -500,7 +520,7 @@ MLS3Centre mls3_centre(MLS3Accum b, mat3 U) {
     c.N = ((tr + gain) / tr) * NR + (gain / tr) * mat3(1.0);
 #endif
 #endif
-    c.N = zero ? mat3(0.0) : c.N;
+    c.N = c.zero ? mat3(0.0) : c.N;
     return c;
 }
 
@@ -511,16 +531,11 @@ MLS3Centre mls3_centre(MLS3Accum b, mat3 U) {
 float mls3_slope_at(MLS3Accum a, vec3 p, bool use) {
     vec3 dp = p - a.v;
     float d2 = dot(dp, dp);
-#if MLS_WEIGHT_NEXT
-    float seen = max(d2, a.near2);
-#else
-    float seen = d2;
-#endif
-    bool none = !use || (u_snap && d2 <= u_hit2) || seen > d2;
+    bool none;
+    float seen = mls3_seen(a, d2, use, none);
+    none = none || seen > d2;
 #if MLS_REACH_GAUSSIAN
-    // from the excess about the nearest handle, as mls3_weight_at
-    vec3 P = p - a.op;
-    float x = dot(P, P - a.twice_u) - a.g_o;
+    float x = mls3_excess(a, p);
     float raw = mls_gaussian_excess(x);
     float slope = mls_gaussian_excess_slope(x, raw);
 #else
@@ -581,8 +596,7 @@ vec3 mls3_derivative_row(MLS3Centre c, MLS3Accum s, vec3 v, int axis) {
 #endif
 #endif
     bool still = D1[0] == vec3(0.0) && D1[1] == vec3(0.0) && D1[2] == vec3(0.0);
-    bool zero = c.D[0] == vec3(0.0) && c.D[1] == vec3(0.0) && c.D[2] == vec3(0.0);
-    N1 = zero && still ? mat3(0.0) : N1;   // every displacement equal: N = 0 about v
+    N1 = c.zero && still ? mat3(0.0) : N1;   // every displacement equal: N = 0 about v
     return unit + de1 + (unit - dp1) * c.N + (v - c.pst) * N1;
 }
 
