@@ -718,7 +718,11 @@ class InverseMLS3(InverseMLS):
     unit, or less where their box is smaller than 32 units
     (``glmls.engine.passes3.length_unit``).
     ``return_valid=True`` also returns the mask of the rows that have one. Where f folds, u
-    has several preimages and one of them is found.
+    has several preimages and one of them is found; so too where a radius weight's reach
+    ends (``cressman``, ``shepard``, ``linear``): f jumps there from the handles' transform
+    to the identity, so a point u = f(x) beyond every handle's reach is its own preimage as
+    well as x's image, and either may be found (the jump overlaps the map with itself
+    without det J <= 0 on either side).
 
     Parameters
     ----------

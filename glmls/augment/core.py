@@ -608,6 +608,12 @@ class Augment:
         options |= {k: v for k, v in self.warp_options.items() if k in _UNRECORDED}
         if src is None:
             src, dst = param_points(params, "src"), param_points(params, "dst")
+            for i, (p, q) in enumerate(zip(src, dst, strict=True)):
+                if len(p) != len(q):
+                    raise ValueError(
+                        f"params[{i}]['src'] and params[{i}]['dst'] hold {len(p)} and "
+                        f"{len(q)} points"
+                    )
         result = warp_batch(images, src, dst, keypoints=points, masks=masks, **options)
         if not isinstance(result, BatchResult):
             result = BatchResult(images=result)

@@ -235,7 +235,8 @@ def json_points(path: Path, data: dict, key: str, *, or_3d: bool = False) -> lis
 
 def csv_rows(path: Path) -> list[Row]:
     """(line number, fields) of the non-blank rows."""
-    reader = csv.reader(io.StringIO(read_text(path)))
+    # skipinitialspace: a quoted field after ", " (written by hand) is a quoted field
+    reader = csv.reader(io.StringIO(read_text(path)), skipinitialspace=True)
     try:
         return [(reader.line_num, [f.strip() for f in row]) for row in reader if any(row)]
     except csv.Error as error:  # e.g. a field over csv's limit of 131,072 characters

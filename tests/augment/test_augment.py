@@ -95,6 +95,9 @@ def test_replay_names_the_draw_it_cannot_use(gl, images):
         aug.replay(images[:2], broken)
     with pytest.raises(TypeError, match=r"params\[0\]\['shape'\] must be \[H, W\]"):
         aug.replay(images[:2], [params[0] | {"shape": "24x40"}, params[1]])
+    short = params[1] | {"dst": params[1]["dst"][:-1]}
+    with pytest.raises(ValueError, match=r"params\[1\]\['src'\] and params\[1\]\['dst'\] hold"):
+        aug.replay(images[:2], [params[0], short])
 
 
 def test_masks_keep_their_labels(gl, images, rng):

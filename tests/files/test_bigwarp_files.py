@@ -37,6 +37,16 @@ def test_a_bigwarp_2d_csv_is_2d_handles(tmp_path):
     assert_array_equal(handles.dst, [[11.0, 12.5], [3.0, 5.0]])
 
 
+def test_a_bigwarp_csv_written_by_hand_with_spaces_after_the_commas(tmp_path):
+    path = tmp_path / "landmarks.csv"
+    path.write_text(
+        '"Pt-0", "true", 1.0 , 2.0, 3.0, 1.5, 2.0, 3.0\n"a, b", "true", 4, 5, 6, 4, 5, 7\n'
+    )
+    src, dst = read_handles(path, ndim=3)
+    assert_array_equal(src, [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])
+    assert_array_equal(dst, [[1.5, 2.0, 3.0], [4.0, 5.0, 7.0]])
+
+
 @pytest.mark.parametrize("wrapped", [False, True])
 def test_bigwarp_json_with_an_unpaired_landmark(tmp_path, wrapped):
     """BigWarp's JSON serialises the missing point of an unpaired landmark as Infinity."""

@@ -141,7 +141,7 @@ float mls_atan_positive(float y, float x) {
 //   J0 = K dtheta / k,  J1 = K / 2 ln((k2 + x1^2) / (k2 + x0^2)),  J2 = K (x1 - x0 - k dtheta)
 // with dtheta = atan(x1 / k) - atan(x0 / k) in one atan (no cancellation), and series where
 // the segment is short against k (J1, J2 would cancel).
-vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
+vec3 mls_segment_integrals(MLSAccum a, MLSSegment seg, MLSSegmentView view) {
     float sigma = a.sigma * u_segment_sigma;
     // (a.sigma + 1), not (sigma + 1): a segment leaves a negligible s out of its weight, not
     // out of the factor the point handles' weights carry (mls_weight_idw's sigma + 1)
@@ -190,7 +190,7 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
     return K * u_length_unit * vec3(J0, J1, J2);
 }
 #else
-vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
+vec3 mls_segment_integrals(MLSAccum a, MLSSegment seg, MLSSegmentView view) {
     float x0 = view.x0, x1 = view.x1;
 #if MLS_SEGMENT_SUPPORT == 1
     float reach2 = (u_radius - view.h) * (u_radius + view.h);   // no cancellation at h ~ R
@@ -219,6 +219,14 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
     float xs = clamp(0.0, x0, x1);
     c = xs != 0.0 ? max(min(c, u_radius * u_radius / (2.0 * abs(xs))), sqrt(u_hit2_segments))
                   : c;
+    // the nodes' excess d^2 - g about the nearest handle o, as mls_handle_weight takes a
+    // point handle's: far from every handle d^2 and g are ~D^2, the weights that count differ
+    // by a few R^2 from g, and the rounding of h^2 + x^2 (~6e-8 D^2, different at every
+    // node and segment) moved f by up to 0.3 px 60 R out. A node's P = p(x) - p_o is the
+    // segment's start about o and its arc length from the start, xs - x0 (0, L or -x0: the
+    // near end, the far one, the foot) plus the node's dx.
+    vec2 start = seg.a - a.o.xy;
+    float from_start = x0 >= 0.0 ? 0.0 : (x1 <= 0.0 ? seg.L : -view.x0);
 #else
     const float xs = 0.0;
 #endif
@@ -246,9 +254,14 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
             float e = exp(mid + half_width * node);
             float dx = c * 0.5 * (e - 1.0 / e);   // c sinh(t), and c cosh(t) below
             float x = xs + dx;
-            float w = min(mls_weight(max(view.h2 + x * x, near2), a.g, a.inv_m, sigma),
-                          MLS_SEGMENT_WEIGHT_CAP) * gw * c * 0.5
-                    * (e + 1.0 / e);
+            float seen = max(view.h2 + x * x, near2);
+#if MLS_SEGMENT_SUPPORT == 2
+            vec2 P = start + (from_start + dx) * seg.u;
+            float raw = mls_weight_excess(dot(P, P - a.twice_u) - a.g_o, seen, a.inv_m);
+#else
+            float raw = mls_weight(seen, a.g, a.inv_m, sigma);
+#endif
+            float w = min(raw, MLS_SEGMENT_WEIGHT_CAP) * gw * c * 0.5 * (e + 1.0 / e);
             float y = (xs - view.xc) + dx;   // not x - xc: xs may be far from the foot
             J += w * vec3(1.0, y, y * y);
         }
@@ -263,7 +276,7 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegmentView view) {
 // J_k are about the segment's nearest point: P and E below are that point's.
 void mls_accumulate_segment(inout MLSAccum a, MLSSegment seg) {
     MLSSegmentView view = mls_segment_view(seg, a.v);
-    vec3 J = mls_segment_integrals(a, view);
+    vec3 J = mls_segment_integrals(a, seg, view);
     float d2 = view.h2 + view.xc * view.xc;
     bool snapped = u_snap_segments && d2 <= u_hit2_segments;
     float J0 = snapped ? 0.0 : J.x;
