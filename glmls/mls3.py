@@ -472,8 +472,9 @@ class MLS3(MLS):
 
         J is the derivative of the MLS's closed form at each point, to float32's rounding;
         where the solve takes a ridge (fewer than four handles in general position weigh
-        in: the degenerate sets' rules) or the point snaps to a handle, central differences
-        of f over 0.05 voxel (:doc:`the mathematics </mathematics>`).
+        in: the degenerate sets' rules), the derivative of that float64 solve, differenced
+        in the moments; where the point snaps to a handle, central differences of f over
+        0.05 voxel (:doc:`the mathematics </mathematics>`).
 
         Parameters
         ----------

@@ -106,8 +106,8 @@ def run_points3(
     """Run the points pass of ``output`` over the ``count`` points bound (and its outputs
     bound), in two stages: the first takes only the solve's plain branch (and, where it
     writes J, J's shared passes over the handles) and lists the points that need more (the
-    solve's branches for degenerate moments; J's central differences, six full evaluations
-    of f, where the solve left its plain branch: ``mls3_eval_jacobian``),
+    solve's branches for degenerate moments, and J through them; J's central differences,
+    six full evaluations of f, where a point snaps to a handle: ``mls3_eval_jacobian``),
     the second computes those again with everything, one invocation per listed point. So
     the other points do not wait for them: a GPU's warp, and a CPU renderer's vector
     whatever its lanes' mask, runs a branch for all its lanes where one takes it. ``flat``:
@@ -185,8 +185,9 @@ def evaluate_points3(
     """f at ``points`` ((K, 3) float64 voxels) as (K, 3) float64 (the kernel's
     :attr:`~glmls.engine.kernel3.MLSKernel3.offset` added in float64), with M (``output=
     "matrix"``) or the Jacobian J = df/dv (``"jacobian"``, the derivative of the solve's
-    closed form; central differences of :data:`JACOBIAN_STEP` voxels near degenerate handle
-    sets; J[r, c] = d f_c / d v_r) as (K, 3, 3) float64, else None.
+    closed form, or of the float64 solve near degenerate handle sets; central differences of
+    :data:`JACOBIAN_STEP` voxels where a point snaps to a handle; J[r, c] = d f_c / d v_r) as
+    (K, 3, 3) float64, else None.
     ``shape``: the volume whose diagonal is the default radius (None: the kernel's own).
     One dispatch per ``max_groups`` work groups (the GL limit by default), one read-back."""
     if output not in OUTPUTS:

@@ -3,12 +3,14 @@ records) against the float64 reference's central differences: every transform an
 points near (not on) handles, on them and within the snapping distance, and the degenerate
 handle sets; f from the same pass equals the plain evaluation bit for bit.
 
-Where the solve takes its plain branch the GPU's J is the derivative of its closed form,
-from the moments' derivatives (one pass over the handles per axis, each weight's slope
-dw/d(d^2); glmls/shaders/mls3/core.glsl, ``mls3_eval_jacobian``); elsewhere (the degenerate
-sets' rules, points that snap to a handle) central differences of step ``JACOBIAN_STEP``
-(0.05 voxel). The reference differences float64 f with a step of 1e-3 voxel, and of 1e-5
-voxel where J is compared as the derivative (its own error ~1e-10 there).
+J is the derivative of the solve's closed form, from the moments' derivatives (one pass over
+the handles per axis, each weight's slope dw/d(d^2); glmls/shaders/mls3/core.glsl,
+``mls3_eval_jacobian``): where the solve takes its plain branch, in closed form; elsewhere
+(the degenerate sets' rules, a ridge of 1e-3 of the moments fixing what fewer than four
+handles in reach leave free) through the float64 solve, differenced in the moments
+(``mls3_ridge_rows``). Points that snap to a handle take central differences of f of step
+``JACOBIAN_STEP`` (0.05 voxel). The reference differences float64 f with a step of 1e-3
+voxel, and of 1e-5 voxel where J is compared as the derivative (its own error ~1e-10 there).
 
 Tolerances: 1e-3 where at least four handles in general position are in reach and the
 weights are smooth (idw, gaussian); as the derivative, J's median error 1e-6 of |J| and its
@@ -16,11 +18,9 @@ weights are smooth (idw, gaussian); as the derivative, J's median error 1e-6 of 
 median there). The weights that reach 0 at d = R (cressman, shepard, linear) leave some
 points 3 handles in reach: J's median within 1e-4, its largest error within 0.15
 (shepard's f is a cone at a handle, which a stencil next to it straddles: not tested
-there). Where fewer than four handles are in reach, a ridge of 1e-3 of the moments fixes
-what they leave free; f there comes from float64 moments and solves, and J is within the
-same 1e-3 (float32's rounding of the moments, divided by the ridge, would move f by up to
-~3e-4 of the distance to p*, which the 0.1-voxel stencil would turn into errors of J up to
-~1)."""
+there). The degenerate sets: median within 1e-4, every point within 1e-3 (measured: affine
+median 2e-5, at most 2.7e-4, the float32 moments' derivatives' rounding magnified by the
+ridge, up to 1e3; similarity and rigid median 3e-6, at most 2.3e-5)."""
 
 from __future__ import annotations
 
@@ -36,9 +36,9 @@ SIZE = 128.0
 TOLERANCE = 1e-3
 #: The weights that reach 0 at R: J's median and largest error (see the module's docstring).
 BOUNDED_MEDIAN, BOUNDED_MAX = 1e-4, 0.15
-#: The ridge's sets (two, three, collinear handles; coplanar ones for affine): J's median
-#: and largest error (see the module's docstring).
-RIDGE_MEDIAN, RIDGE_MAX = 1e-3, 1e-3
+#: The degenerate sets (two, three, collinear, coplanar handles): J's median and largest
+#: error (see the module's docstring).
+RIDGE_MEDIAN, RIDGE_MAX = 1e-4, 1e-3
 
 
 def _reference_jacobian(src, dst, points, *, h=1e-3, **options):
@@ -129,10 +129,24 @@ def test_degenerate_sets(gl, transform, name):
     if name in ("one", "coincident"):
         # a translation: J = I exactly
         assert (jacobian == np.eye(3)).all()
-    elif name in ("two", "three", "collinear") or (name, transform) == ("coplanar", "affine"):
-        assert np.median(error) < RIDGE_MEDIAN and error.max() < RIDGE_MAX
     else:
-        assert error.max() < 5e-3  # coplanar: the rotation's ridge only
+        assert np.median(error) < RIDGE_MEDIAN and error.max() < RIDGE_MAX
+
+
+@pytest.mark.parametrize("transform", glmls.TRANSFORMS)
+def test_a_gaussian_tail_among_spread_handles(gl, transform):
+    # R = 4 among handles 15-25 voxels apart: most points see one or two handles (the ridge's
+    # rules) or one that outweighs the rest by e^60 and more (the weight's cap), and f turns
+    # within a few voxels. J from the moments' derivatives through the solve, measured:
+    # p99 6e-4 of max(|J|, 1), at most 8e-4 (affine; similarity and rigid 9e-5 and 2e-4);
+    # central differences over 0.05 voxel there erred by 1-3e-2 at the p99, up to 9e-2.
+    rng = np.random.default_rng(5)
+    src = rng.uniform(0, 64, (16, 3))
+    dst = src + rng.normal(0, 3, src.shape)
+    points = rng.uniform(0, 64, (600, 3))
+    options = {"transform": transform, "weight": "gaussian", "radius": 4.0}
+    error = _relative_error(src, dst, points, **options)
+    assert np.percentile(error, 99) < 2e-3 and error.max() < 5e-3
 
 
 @pytest.mark.parametrize("transform", glmls.TRANSFORMS)

@@ -248,9 +248,8 @@ void mls3_accumulate_full(inout MLS3Sums64 s, MLS3Accum a, int i, bool use) {
 }
 #define MLS3_ACC_FULL(i, use) mls3_accumulate_full(s, a, i, use);
 
-// f at a point that mls3_solve left: its moments summed again in float64 and every rule of
-// the solve (mls3_solve_full)
-MLS3Result mls3_finish_full(MLS3Accum a) {
+// a's moments summed again in float64 (mls3_accumulate_full)
+MLS3Sums64 mls3_sums64(MLS3Accum a) {
     int n = u_mls3_count;
     MLS3Sums64 s;
     s.W = 0.0lf;
@@ -273,16 +272,29 @@ MLS3Result mls3_finish_full(MLS3Accum a) {
         MLS_BLOCK4(MLS3_ACC_FULL, mls_block, n)
     }
 #endif
+    return s;
+}
+
+// s's moments about p* = p_o + dp and e* = e_o + de (mls3_centred's, in float64)
+void mls3_centred64(inout MLS3Sums64 s, out dvec3 dp, out dvec3 de) {
+    dp = s.P / s.W;
+    de = s.E / s.W;
+    s.Ad -= s.P * dp;
+    s.Ao -= s.P.xxy * dp.yzz;
+    s.D -= outerProduct(s.P, de);
+}
+
+// f at a point that mls3_solve left: its moments summed again in float64 and every rule of
+// the solve (mls3_solve_full)
+MLS3Result mls3_finish_full(MLS3Accum a) {
+    MLS3Sums64 s = mls3_sums64(a);
     dvec3 pst = dvec3(a.op);
     dvec3 est = dvec3(a.oe);
     if (!a.hit) {
-        dvec3 dp = s.P / s.W;
-        dvec3 de = s.E / s.W;
+        dvec3 dp, de;
+        mls3_centred64(s, dp, de);
         pst += dp;
         est += de;
-        s.Ad -= s.P * dp;
-        s.Ao -= s.P.xxy * dp.yzz;
-        s.D -= outerProduct(s.P, de);
     }
     dmat3 N = mls3_solve_full(s.Ad, s.Ao, s.D, double(mls_yardstick(a.yard)));
     MLS3Result r;
@@ -438,11 +450,13 @@ mat3 mls3_jacobian(vec3 v, float h) {
 // U [w]x with (tr(H) I - H) w = axial(U^T dB - dB^T U), and similarity's scale with
 // <U, dB> and tr(dA). So J carries float32's rounding, not a step's O(h^2) f''' (central
 // differences). A weight's normalisation, common to all handles at v (mls/weights.glsl), is
-// held fixed: MLS ignores a common factor, so its derivative drops out. Where the solve
-// did not take its plain branch (a degenerate set, the ridge's rules: mls3/solve_full.glsl),
-// where v snaps to a handle, where the gaussian's cap
-// holds the nearest weights, or where J would not be finite, J is mls3_jacobian's central
-// differences of step h; f is mls3_eval's, bit for bit.
+// held fixed: MLS ignores a common factor, so its derivative drops out; so is the gaussian's
+// cap on the nearest handle's weight (the only one it can hold: its P is 0, and its weight
+// enters p* and the centring at e^-60 of the others'). Where the solve did not take its
+// plain branch (a degenerate set, the ridge's rules: mls3/solve_full.glsl) the same
+// moments' derivatives go through that float64 solve (mls3_ridge_rows). Where v snaps to
+// a handle, or where J would not be finite, J is mls3_jacobian's central differences of
+// step h; f is mls3_eval's, bit for bit.
 struct MLS3Centre {
     bool plain;   // well inside the plain branch of mls3_solve
     float W;
@@ -600,14 +614,75 @@ vec3 mls3_derivative_row(MLS3Centre c, MLS3Accum s, vec3 v, int axis) {
     return unit + de1 + (unit - dp1) * c.N + (v - c.pst) * N1;
 }
 
-// One axis of mls3_eval_jacobian: the moments' derivative, then J's row (``axis`` a
-// constant at each call, as every coordinate index below)
-vec3 mls3_slope_axis(MLS3Accum a, MLS3Accum zero, MLS3Centre c, vec3 v, int axis) {
+// The moments' derivative along ``axis`` (a constant at each call, as every coordinate
+// index below): one pass over the handles, each weight replaced by its derivative
+MLS3Accum mls3_slope_sums(MLS3Accum a, MLS3Accum zero, int axis) {
     int n = u_mls3_count;
     MLS3Accum s = zero;
     MLS3_EACH(MLS3_SLOPE_ACC)
-    return mls3_derivative_row(c, s, v, axis);
+    return s;
 }
+
+#if !MLS3_SOLVE_LATER
+// J's rows (d f / dv_a) where f is not the plain branch's closed form (a degenerate set's ridges, Horn's
+// rotation where B is near singular or reflects: mls3_solve_full), from the same moments'
+// derivatives s[a] along each axis: the centring differentiated as in mls3_derivative_row,
+// in float64 about the float64 moments that f came from (mls3_finish_full), and the solve,
+// N = mls3_solve_full(A, D), by central differences in the moments, N' = (N(A + t A', D +
+// t D') - N(A - t A', D - t D')) / 2t, with t A' and t D' a millionth of trace A: the
+// rules' ridges are smooth in the moments (their (1 - e / share)^2 and (A + g)^-1 turn
+// within ~1e-3 of the trace, so the differences' O(t^2) error is ~1e-6 of N'; float64's
+// rounding over t, ~1e-10), where differences of f over a step h in v (mls3_jacobian) err
+// by h^2 f''', a few 1e-2 of J in a gaussian's tail (R = 4, handles 15-25 voxels apart).
+// One call site of the solve, in a loop (its code is most of a program's: one copy).
+mat3 mls3_ridge_rows(MLS3Accum a, MLS3Accum s[3], vec3 v) {
+    MLS3Sums64 m = mls3_sums64(a);
+    dvec3 dp, de;
+    mls3_centred64(m, dp, de);
+    double spread = double(mls_yardstick(a.yard));
+    double invW = 1.0lf / m.W;
+    dvec3 dp1[3], de1[3], a1[3], o1[3];
+    dmat3 D1[3];
+    double largest = 0.0lf;
+    for (int axis = 0; axis < 3; ++axis) {
+        double sW = double(s[axis].W);
+        dvec3 sP = dvec3(s[axis].P);
+        dp1[axis] = (sP - dp * sW) * invW;
+        de1[axis] = (dvec3(s[axis].E) - de * sW) * invW;
+        a1[axis] = dvec3(s[axis].Ad) - (sP * dp + m.P * dp1[axis]);
+        o1[axis] = dvec3(s[axis].Ao) - (sP.xxy * dp.yzz + m.P.xxy * dp1[axis].yzz);
+        D1[axis] = dmat3(s[axis].D) - outerProduct(sP, de) - outerProduct(m.P, de1[axis]);
+        dvec3 big = max(max(abs(a1[axis]), abs(o1[axis])),
+                        max(max(abs(D1[axis][0]), abs(D1[axis][1])), abs(D1[axis][2])));
+        largest = max(largest, max(big.x, max(big.y, big.z)));
+    }
+    double mu = m.Ad.x + m.Ad.y + m.Ad.z;
+    double t = largest > 0.0lf ? 1e-6lf * mu / largest : 1.0lf;
+    dmat3 N = dmat3(0.0lf);
+    dmat3 N1[3];
+    for (int k = 0; k < 7; ++k) {
+        // k = 0 the moments themselves; 2 a + 1 and 2 a + 2 along axis a, up and down
+        int axis = max(k - 1, 0) / 2;
+        double step = k == 0 ? 0.0lf : ((k & 1) == 1 ? t : -t);
+        dmat3 Nk = mls3_solve_full(m.Ad + step * a1[axis], m.Ao + step * o1[axis],
+                                   m.D + step * D1[axis], spread);
+        if (k == 0) {
+            N = Nk;
+        } else if ((k & 1) == 1) {
+            N1[axis] = Nk;
+        } else {
+            N1[axis] = (N1[axis] - Nk) / (2.0lf * t);
+        }
+    }
+    dvec3 far = dvec3(v) - (dvec3(a.op) + dp);   // v - p*
+    mat3 rows;
+    for (int axis = 0; axis < 3; ++axis) {
+        dvec3 unit = dvec3(equal(ivec3(axis), ivec3(0, 1, 2)));
+        rows[axis] = vec3(unit + de1[axis] + (unit - dp1[axis]) * N + far * N1[axis]);
+    }
+    return rows;
+}
+#endif
 
 // MLS3_JACOBIAN_LATER: where J needs mls3_jacobian's six evaluations of f, J is left I and
 // mls3_jacobian_later set, for the caller's second pass over those points alone (a GPU's
@@ -628,23 +703,38 @@ MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
     MLS3_EACH(MLS3_ACC)
     MLS3Result r = mls3_finish(a);
     MLS3Centre c = mls3_centre(a, mls3_solve_polar);
-    bool uncapped = mls_radius_ratio(a.g - a.m) < MLS_GAUSSIAN_CAP;
-    bool exact = !a.hit && c.plain && uncapped && (MLS_TRANSFORM != 0 || mls3_solve_plain);
+    bool plain_solve = mls3_solve_plain;   // mls3_ridge_rows's solves set it again
+    bool exact = !a.hit && c.plain && (MLS_TRANSFORM != 0 || plain_solve);
     // no handle within reach (radius weights, the nearest at least R away): f = v about v
     bool alone = !a.hit && !(a.W > 0.0) && a.m >= u_radius * u_radius;
+    // the other solves' derivative (mls3_ridge_rows), from the same moments' derivatives
+    bool ridge = !exact && !a.hit && a.W > 0.0 && !alone
+              && MLS3_JACOBIAN_LATER == 0 && MLS3_SOLVE_LATER == 0;
     mat3 rows = mat3(1.0);
-    if (exact) {
-        rows[0] = mls3_slope_axis(a, zero, c, v, 0);
-        rows[1] = mls3_slope_axis(a, zero, c, v, 1);
-        rows[2] = mls3_slope_axis(a, zero, c, v, 2);
-        exact = !any(isnan(rows[0])) && !any(isinf(rows[0])) && !any(isnan(rows[1]))
-              && !any(isinf(rows[1])) && !any(isnan(rows[2])) && !any(isinf(rows[2]));
+    if (exact || ridge) {
+        MLS3Accum s[3];
+        s[0] = mls3_slope_sums(a, zero, 0);
+        s[1] = mls3_slope_sums(a, zero, 1);
+        s[2] = mls3_slope_sums(a, zero, 2);
+        if (exact) {
+            rows[0] = mls3_derivative_row(c, s[0], v, 0);
+            rows[1] = mls3_derivative_row(c, s[1], v, 1);
+            rows[2] = mls3_derivative_row(c, s[2], v, 2);
+        } else {
+#if !MLS3_SOLVE_LATER
+            rows = mls3_ridge_rows(a, s, v);
+#endif
+        }
+        bool finite = !any(isnan(rows[0])) && !any(isinf(rows[0])) && !any(isnan(rows[1]))
+                    && !any(isinf(rows[1])) && !any(isnan(rows[2])) && !any(isinf(rows[2]));
+        exact = exact && finite;
+        ridge = ridge && finite;
     }
-    // exact: affine's plain solve at the centre (mls3_solve_plain)
-    mls3_jacobian_plain = exact && MLS_TRANSFORM == 0;
+    // affine's plain solve at the centre (mls3_solve_plain), which f and J took
+    mls3_jacobian_plain = (exact || (ridge && plain_solve)) && MLS_TRANSFORM == 0;
     if (alone) {
         J = mat3(1.0);
-    } else if (exact) {
+    } else if (exact || ridge) {
         J = transpose(rows);
     } else {
 #if MLS3_JACOBIAN_LATER

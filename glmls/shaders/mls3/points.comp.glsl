@@ -6,8 +6,8 @@
 //     offset in float64), 3 floats per point;
 //   a lattice: f(v) in voxels, 3 floats per point;
 //   MLS3_WRITE_MATRIX: M row by row (the mathematical M[i][j] at 9 i + 3 r + c), 9 floats;
-//   MLS3_WRITE_JACOBIAN: J = df/dv (mls3_eval_jacobian: the closed form's derivative, or
-//     central differences of step mls3_jacobian_step(v), scaled, near degenerate sets),
+//   MLS3_WRITE_JACOBIAN: J = df/dv (mls3_eval_jacobian: the solve's derivative, or central
+//     differences of step mls3_jacobian_step(v), scaled, where v snaps to a handle),
 //     J[r][c] = d f_c / d v_r (row vectors: df = dv J), 9 floats;
 //   MLS3_MESH (a mesh's vertices, mls3/mesh.glsl's table, with MLS3_WRITE_JACOBIAN): one
 //     record of MESH3_RECORD floats per mesh vertex instead (mls3/mesh.glsl): the deformed
