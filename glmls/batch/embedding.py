@@ -105,35 +105,68 @@ def fold_candidates(vertices, images: np.ndarray, points: np.ndarray) -> np.ndar
     meshes, place = np.unique(images, return_inverse=True)
     order = np.argsort(place, kind="stable")  # each mesh's points, one run after another
     ends = np.cumsum(np.bincount(place))
-    starts = ends - np.bincount(place)
     _, rows, columns, _ = vertices.shape
     block = max(1, _FOLD_BLOCK // (rows * columns))
     for first in range(0, len(meshes), block):
         v = np.asarray(vertices[meshes[first : first + block]], np.float64)
         star = star_shaped(v, boundary(v))
-        x, y = v[..., 0], v[..., 1]
-        corners = [(x[:, :-1, :-1], y[:, :-1, :-1]), (x[:, :-1, 1:], y[:, :-1, 1:])]
-        corners += [(x[:, 1:, 1:], y[:, 1:, 1:]), (x[:, 1:, :-1], y[:, 1:, :-1])]  # 11, 01
-        triangles = []
-        for area, ends_at in zip(triangle_areas(v), ((0, 1, 2), (0, 2, 3)), strict=True):
-            (ax, ay), (bx, by), (cx, cy) = (corners[k] for k in ends_at)
-            triangles.append((area <= EMBED_MARGIN, (ax, bx, cx), (ay, by, cy)))
-        for j in np.flatnonzero(star).tolist():
-            mine = order[starts[first + j] : ends[first + j]]
-            lows, highs = [], []
-            for low, xs, ys in triangles:
-                r, c = np.nonzero(low[j])
-                tx = np.stack([t[j, r, c] for t in xs])
-                ty = np.stack([t[j, r, c] for t in ys])
-                lows.append(np.stack([tx.min(axis=0), ty.min(axis=0)], axis=1))
-                highs.append(np.stack([tx.max(axis=0), ty.max(axis=0)], axis=1))
-            lo, hi = np.concatenate(lows) - _FOLD_PAD, np.concatenate(highs) + _FOLD_PAD
-            if len(mine) * len(lo) > _FOLD_PAIRS:
-                continue  # a mesh folded through and through: every point tested
-            px, py = points[mine, :1], points[mine, 1:]
-            near = (lo[:, 0] <= px) & (px <= hi[:, 0]) & (lo[:, 1] <= py) & (py <= hi[:, 1])
-            keep[mine] = near.any(axis=1)
+        lo, hi, owner = _fold_boxes(v, star)
+        # the points of this block's meshes, and the mesh (of the block) each is in
+        mine = order[(ends[first - 1] if first else 0) : ends[first + len(v) - 1]]
+        local = place[mine] - first
+        boxes = np.bincount(owner, minlength=len(v))
+        # a mesh folded through and through (more point-box pairs than _FOLD_PAIRS) keeps
+        # every point, as does one not shown star-shaped
+        pairs = np.bincount(local, minlength=len(v)) * boxes
+        tested = star[local] & (pairs[local] <= _FOLD_PAIRS)
+        mine, local = mine[tested], local[tested]
+        keep[mine] = _in_boxes(points[mine], local, lo, hi, boxes)
     return keep
+
+
+def _fold_boxes(v: np.ndarray, star: np.ndarray):
+    """The boxes (lo, hi: (T, 2), widened by :data:`_FOLD_PAD`) of the triangles of the
+    meshes ``v`` (M, rows, columns, 2) not positive by :data:`EMBED_MARGIN`, of the meshes
+    where ``star``, ordered by their mesh (``owner``, (T,) indices into ``v``)."""
+    x, y = v[..., 0], v[..., 1]
+    corners = [(x[:, :-1, :-1], y[:, :-1, :-1]), (x[:, :-1, 1:], y[:, :-1, 1:])]
+    corners += [(x[:, 1:, 1:], y[:, 1:, 1:]), (x[:, 1:, :-1], y[:, 1:, :-1])]  # 11, 01
+    lows, highs, owners = [], [], []
+    for area, ends_at in zip(triangle_areas(v), ((0, 1, 2), (0, 2, 3)), strict=True):
+        m, r, c = np.nonzero((area <= EMBED_MARGIN) & star[:, None, None])
+        tx = np.stack([corners[k][0][m, r, c] for k in ends_at])
+        ty = np.stack([corners[k][1][m, r, c] for k in ends_at])
+        lows.append(np.stack([tx.min(axis=0), ty.min(axis=0)], axis=1))
+        highs.append(np.stack([tx.max(axis=0), ty.max(axis=0)], axis=1))
+        owners.append(m)
+    owner = np.concatenate(owners)
+    by_mesh = np.argsort(owner, kind="stable")
+    lo = np.concatenate(lows)[by_mesh] - _FOLD_PAD
+    hi = np.concatenate(highs)[by_mesh] + _FOLD_PAD
+    return lo, hi, owner[by_mesh]
+
+
+def _in_boxes(points: np.ndarray, local: np.ndarray, lo, hi, boxes: np.ndarray) -> np.ndarray:
+    """(P,) bool: the ``points`` (P, 2) within one of the boxes (lo, hi) of their mesh
+    ``local`` (P,), the boxes ordered by mesh, ``boxes`` (M,) of each; every point against
+    its mesh's boxes, in pieces of at most about :data:`_FOLD_PAIRS` pairs."""
+    inside = np.zeros(len(points), bool)
+    counts = boxes[local]
+    first_box = (np.cumsum(boxes) - boxes)[local]
+    total = np.cumsum(counts)
+    start = 0
+    while start < len(points):
+        # whole points up to _FOLD_PAIRS pairs (one point at least)
+        done = total[start - 1] if start else 0
+        stop = max(int(np.searchsorted(total, done + _FOLD_PAIRS, side="right")), start + 1)
+        n = counts[start:stop]
+        point = np.repeat(np.arange(start, stop), n)
+        box = np.repeat(first_box[start:stop] - (np.cumsum(n) - n), n) + np.arange(n.sum())
+        px, py = points[point, 0], points[point, 1]
+        near = (lo[box, 0] <= px) & (px <= hi[box, 0]) & (lo[box, 1] <= py) & (py <= hi[box, 1])
+        inside[np.unique(point[near])] = True
+        start = stop
+    return inside
 
 
 #: The most edges of a boundary that :func:`simple_rings` tests pair by pair (as

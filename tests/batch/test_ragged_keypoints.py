@@ -101,3 +101,53 @@ def test_points_far_from_a_fold_are_not_tested_and_keep_their_flags(gl, monkeypa
     np.testing.assert_array_equal(valid, flags)
     inside = glmls.batch.labels.in_lattice(lattice, points)
     assert (inside & ~valid).sum() > 50
+
+
+def _candidates_one_by_one(meshes: np.ndarray, images: np.ndarray, points: np.ndarray):
+    """fold_candidates's rule, point by point: every point of a mesh not shown star-shaped;
+    else those within the box (widened by 1e-6 px) of one of its mesh's triangles whose
+    doubled area is at most EMBED_MARGIN. Also each mesh's count of such boxes."""
+    from glmls.batch import embedding
+
+    keep = np.ones(len(points), bool)
+    counts = np.zeros(len(meshes), int)
+    for k, mesh in enumerate(meshes.astype(np.float64)):
+        if not embedding.star_shaped(mesh[None], embedding.boundary(mesh[None]))[0]:
+            continue
+        lower, upper = (a[0] for a in embedding.triangle_areas(mesh[None]))
+        boxes = []
+        triangles = ((lower, ((0, 0), (0, 1), (1, 1))), (upper, ((0, 0), (1, 1), (1, 0))))
+        for area, corners in triangles:
+            for r, c in zip(*np.nonzero(area <= embedding.EMBED_MARGIN), strict=True):
+                tri = np.array([mesh[r + dr, c + dc] for dr, dc in corners])
+                boxes.append((tri.min(axis=0) - 1e-6, tri.max(axis=0) + 1e-6))
+        counts[k] = len(boxes)
+        for i in np.flatnonzero(images == k):
+            keep[i] = any(((lo <= points[i]) & (points[i] <= hi)).all() for lo, hi in boxes)
+    return keep, counts
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_fold_candidates_test_each_point_against_its_own_meshs_boxes(seed):
+    # meshes that fold by their own amounts, one of them reversed (not star-shaped),
+    # points on and around them: the candidates equal the rule applied point by point, in
+    # blocks of a few meshes and pieces of a few hundred point-box pairs too, where a mesh
+    # of more pairs than a piece keeps every point
+    rng = np.random.default_rng(seed)
+    _, meshes = folded_meshes(7)
+    meshes = np.concatenate([meshes, meshes[:1, ::-1]])
+    meshes = (meshes + rng.normal(0, 0.03 * seed, meshes.shape)).astype(np.float32)
+    points = rng.uniform(-2, 38, (600, 2))
+    images = rng.integers(0, len(meshes), len(points))
+    expected, boxes = _candidates_one_by_one(meshes, images, points)
+    assert expected.any() and not expected.all()
+    np.testing.assert_array_equal(fold_candidates(meshes, images, points), expected)
+    pairs = np.bincount(images, minlength=len(meshes)) * boxes
+    piece = int(np.median(pairs[pairs > 0]))
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(glmls.batch.embedding, "_FOLD_BLOCK", 3 * meshes[0].size // 2)
+        patch.setattr(glmls.batch.embedding, "_FOLD_PAIRS", piece)
+        found = fold_candidates(meshes, images, points)
+    whole = pairs[images] > piece
+    assert whole.any() and (~whole & (pairs[images] > 0)).any()
+    np.testing.assert_array_equal(found, expected | whole)
